@@ -1,0 +1,154 @@
+# rayd -- build, test, bench, deps, run.
+#
+#   make             build/librayd.a, build/rayd-render, build/rayd, build/rayd-client
+#   make test        every test; ends with "N passed, N failed"
+#   make test SANITIZE=1   the same suite built with ASan+UBSan into build/asan/
+#   make run         build and start rayd on 127.0.0.1:8080 with the preview
+#   make deps        install the Debian packages the build and the tests need
+#   make bench       benchmarks (never part of make test)
+#   make format      clang-format every C file;  make lint  cppcheck + clang-tidy
+
+# Debian packages: compiler and tools, the three given libraries, libcurl for
+# the client, curl/python3 for the integration tests, wrk for benchmarks.
+DEB_PKGS := gcc make pkg-config libc6-dev libpng-dev libcjson-dev libmicrohttpd-dev \
+            libcurl4-openssl-dev curl python3 wrk
+
+SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
+
+CC ?= cc
+ifeq ($(origin CC),default)
+CC := cc
+endif
+
+SANITIZE ?= 0
+NATIVE ?= 0
+
+ifeq ($(SANITIZE),1)
+BUILD ?= build/asan
+OPT := -O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=all
+LDSAN := -fsanitize=address,undefined
+else
+BUILD ?= build
+OPT := -O2 -g
+LDSAN :=
+endif
+ifeq ($(NATIVE),1)
+OPT += -march=native
+endif
+
+WARN := -Wall -Wextra -Werror -Wshadow -Wpointer-arith -Wstrict-prototypes \
+        -Wmissing-prototypes -Wvla -Wformat=2 -Wundef -Wcast-qual -Wnull-dereference
+CFLAGS_ALL := -std=c11 -D_POSIX_C_SOURCE=200809L $(OPT) $(WARN) -MMD -MP $(CFLAGS)
+LDFLAGS_ALL := $(LDSAN) $(LDFLAGS)
+LIBS_CORE := -lpng -lcjson -lpthread -lm
+
+CORE_SRC := $(wildcard core/*.c)
+CORE_OBJ := $(CORE_SRC:%.c=$(BUILD)/%.o)
+SERVER_SRC := $(wildcard server/*.c)
+SERVER_OBJ := $(SERVER_SRC:%.c=$(BUILD)/%.o)
+WEB_FILES := $(wildcard server/web/*)
+CLIENT_SRC := $(wildcard clients/*.c)
+UNIT_SRC := $(wildcard tests/unit/test_*.c)
+UNIT_BIN := $(UNIT_SRC:tests/unit/%.c=$(BUILD)/tests/%)
+
+PROGS := $(BUILD)/rayd-render
+ifneq ($(SERVER_SRC),)
+PROGS += $(BUILD)/rayd
+endif
+ifneq ($(CLIENT_SRC),)
+PROGS += $(BUILD)/rayd-client
+endif
+
+.PHONY: all deps test test-unit run bench format lint clean check-deps
+.DEFAULT_GOAL := all
+
+all: $(BUILD)/librayd.a $(PROGS)
+
+# --- dependencies ---------------------------------------------------------
+# `make deps` installs what is missing (apt-get update once, then only the
+# missing packages).  Every build runs the cheap check first.
+deps:
+	@missing=""; for p in $(DEB_PKGS); do \
+	  dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q '^install ok installed' || missing="$$missing $$p"; \
+	done; \
+	if [ -n "$$missing" ]; then \
+	  echo "make deps: installing$$missing"; \
+	  $(SUDO) apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; \
+	fi
+
+$(BUILD)/.deps-ok: Makefile
+	@$(MAKE) --no-print-directory deps
+	@mkdir -p $(BUILD) && touch $@
+
+# --- core -------------------------------------------------------------------
+$(BUILD)/%.o: %.c | $(BUILD)/.deps-ok
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS_ALL) -Iinclude -c $< -o $@
+
+# server/ and clients/ see only include/: the core's internals stay private.
+$(BUILD)/server/%.o: server/%.c | $(BUILD)/.deps-ok
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS_ALL) -D_DEFAULT_SOURCE -Iinclude -I$(BUILD)/server -c $< -o $@
+
+$(BUILD)/clients/%.o: clients/%.c | $(BUILD)/.deps-ok
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS_ALL) -D_DEFAULT_SOURCE -Iinclude -c $< -o $@
+
+$(BUILD)/core/%.o: core/%.c | $(BUILD)/.deps-ok
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS_ALL) -Iinclude -Icore -c $< -o $@
+
+$(BUILD)/librayd.a: $(CORE_OBJ)
+	@rm -f $@
+	ar rcs $@ $^
+
+$(BUILD)/rayd-render: $(BUILD)/cli/rayd-render.o $(BUILD)/librayd.a
+	$(CC) $(LDFLAGS_ALL) -o $@ $^ $(LIBS_CORE)
+
+# --- server -----------------------------------------------------------------
+# The preview's static files are compiled into the binary (web_assets.h).
+$(BUILD)/server/web_assets.h: $(WEB_FILES) tools/embed.sh | $(BUILD)/.deps-ok
+	@mkdir -p $(dir $@)
+	sh tools/embed.sh $@ $(WEB_FILES)
+
+$(SERVER_OBJ): $(BUILD)/server/web_assets.h
+
+$(BUILD)/rayd: $(SERVER_OBJ) $(BUILD)/librayd.a
+	$(CC) $(LDFLAGS_ALL) -o $@ $^ -lmicrohttpd $(LIBS_CORE)
+
+# --- clients ----------------------------------------------------------------
+$(BUILD)/rayd-client: $(CLIENT_SRC:%.c=$(BUILD)/%.o) $(BUILD)/librayd.a
+	$(CC) $(LDFLAGS_ALL) -o $@ $^ -lcurl $(LIBS_CORE)
+
+# --- tests ------------------------------------------------------------------
+# Unit tests may include the core's private headers.
+$(BUILD)/tests/%: tests/unit/%.c tests/unit/check.h $(BUILD)/librayd.a
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS_ALL) -Iinclude -Icore -Itests/unit $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
+
+test: all $(UNIT_BIN)
+	@bash tests/run.sh $(BUILD)
+
+test-unit: $(BUILD)/librayd.a $(UNIT_BIN)
+	@RAYD_ONLY=unit bash tests/run.sh $(BUILD)
+
+# --- run, bench, tooling ----------------------------------------------------
+run: all
+	$(BUILD)/rayd --bind 127.0.0.1 --port 8080
+
+bench: all
+	@bash bench/run.sh $(BUILD)
+
+format:
+	clang-format -i $(shell git ls-files '*.c' '*.h')
+
+lint:
+	cppcheck --quiet --error-exitcode=1 --enable=warning,performance,portability \
+	  --inline-suppr -Iinclude -Icore --std=c11 core cli server clients
+	clang-tidy --quiet $(CORE_SRC) -- -std=c11 -D_POSIX_C_SOURCE=200809L -Iinclude -Icore
+
+clean:
+	rm -rf build
+
+-include $(shell find build -name '*.d' 2>/dev/null)

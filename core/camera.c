@@ -1,0 +1,47 @@
+/* camera.c -- the camera basis and field of view.
+ *
+ * Formulas are the reference paper's: w points from the eye to look_at,
+ * u = w x up is the image's right, v = u x w its up.  Rays leave the eye
+ * through pixel centres (cam_dir in camera.h is inline because it runs once
+ * per primary ray).  A degenerate setup -- look_at on the eye, or up parallel
+ * to the view direction -- has no basis and is refused with the JSON Pointer
+ * of the value to change.
+ */
+#include "camera.h"
+
+#include "error.h"
+
+#define DEG2RAD (3.14159265358979323846 / 180.0)
+
+enum rayd_status cam_init(struct camera *cam, vec3 pos, vec3 look_at, vec3 up, double fov_x_deg,
+                          double fov_y_deg, int n, int m, struct rayd_error *err) {
+    vec3 fwd = v3_sub(look_at, pos);
+    double flen = v3_len(fwd);
+    if (!(flen > 1e-12 * (1.0 + v3_maxabs(pos))))
+        return err_set(err, RAYD_E_INVALID, "/camera/look_at", "must differ from /camera/position");
+    vec3 w = v3_scale(fwd, 1.0 / flen);
+    double ulen = v3_len(up);
+    if (!(ulen > 0))
+        return err_set(err, RAYD_E_INVALID, "/camera/up", "must not be a zero-length vector");
+    vec3 side = v3_cross(w, v3_scale(up, 1.0 / ulen));
+    if (!(v3_len(side) > 1e-9))
+        return err_set(err, RAYD_E_INVALID, "/camera/up",
+                       "must not be parallel to the view direction (look_at - position)");
+    cam->pos = pos;
+    cam->w = w;
+    cam->u = v3_norm(side);
+    cam->v = v3_cross(cam->u, w);
+    cam->n = n;
+    cam->m = m;
+    if (fov_x_deg > 0 && fov_y_deg > 0) {
+        cam->tan_x = tan(fov_x_deg * 0.5 * DEG2RAD);
+        cam->tan_y = tan(fov_y_deg * 0.5 * DEG2RAD);
+    } else if (fov_y_deg > 0) {
+        cam->tan_y = tan(fov_y_deg * 0.5 * DEG2RAD);
+        cam->tan_x = cam->tan_y * n / m;
+    } else {
+        cam->tan_x = tan((fov_x_deg > 0 ? fov_x_deg : 60.0) * 0.5 * DEG2RAD);
+        cam->tan_y = cam->tan_x * m / n;
+    }
+    return RAYD_OK;
+}

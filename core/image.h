@@ -1,0 +1,14 @@
+/* image.h -- internal view of rayd_image. */
+#ifndef IMAGE_H
+#define IMAGE_H
+
+#include <stdint.h>
+
+#include "rayd/rayd.h"
+
+struct rayd_image {
+    int w, h;
+    uint8_t *px; /* w * h * 3 bytes */
+};
+
+#endif

@@ -1,0 +1,34 @@
+/* material.c -- material defaults and the Fresnel equations.
+ *
+ * The shading model is Whitted's: ambient + Lambert + Blinn-Phong for the
+ * local part, plus mirror reflection and Snell refraction whose split is
+ * decided by the exact (unpolarised) Fresnel equations rather than Schlick's
+ * approximation, so total internal reflection falls out of the same formula.
+ */
+#include "material.h"
+
+struct material material_default(void) {
+    struct material m = {
+        .color = {0.8, 0.8, 0.8},
+        .emission = {0, 0, 0},
+        .ambient = 0.1,
+        .diffuse = 0.9,
+        .specular = 0,
+        .shininess = 32,
+        .reflectivity = 0,
+        .transparency = 0,
+        .ior = 1.5,
+    };
+    return m;
+}
+
+double material_fresnel(double n1, double n2, double cos_i, double *cos_t) {
+    double eta = n1 / n2;
+    double sin2_t = eta * eta * (1.0 - cos_i * cos_i);
+    if (sin2_t >= 1.0) return 1.0;
+    double ct = sqrt(1.0 - sin2_t);
+    *cos_t = ct;
+    double rs = (n1 * cos_i - n2 * ct) / (n1 * cos_i + n2 * ct);
+    double rp = (n1 * ct - n2 * cos_i) / (n1 * ct + n2 * cos_i);
+    return 0.5 * (rs * rs + rp * rp);
+}

@@ -1,0 +1,27 @@
+/* material.h -- surface description and the optics the tracer needs. */
+#ifndef MATERIAL_H
+#define MATERIAL_H
+
+#include "vec.h"
+
+struct material {
+    vec3 color;          /* base colour, linear RGB */
+    vec3 emission;       /* added as is */
+    double ambient;      /* times color: the ambient term */
+    double diffuse;      /* Lambert weight */
+    double specular;     /* Blinn-Phong highlight weight */
+    double shininess;    /* Blinn-Phong exponent */
+    double reflectivity; /* mirror weight */
+    double transparency; /* refracted weight, tinted by color */
+    double ior;          /* index of refraction */
+};
+
+/* The documented defaults (docs/scene-format.md). */
+struct material material_default(void);
+
+/* Unpolarised Fresnel reflectance for a ray going from index n1 into n2 with
+ * cos_i = cos of the incidence angle (> 0).  1 under total internal
+ * reflection; *cos_t gets the cosine of the refracted angle otherwise. */
+double material_fresnel(double n1, double n2, double cos_i, double *cos_t);
+
+#endif

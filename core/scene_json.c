@@ -1,0 +1,631 @@
+/* scene_json.c -- scene format v1: JSON text to a frozen rayd_scene.
+ *
+ * The only file that includes cJSON.  Loading is three passes:
+ *
+ *   1. A byte scan before cJSON sees the text: size limit, valid UTF-8 and
+ *      nesting depth, each reported with a line and column.  cJSON parses
+ *      recursively, so the depth is bounded here, not by its stack.
+ *   2. cJSON parse; a syntax error becomes RAYD_E_PARSE with the line and
+ *      column of the offending byte.  cJSON writes a global error slot on
+ *      every parse, so parses are serialised by one mutex -- the only lock
+ *      in the core, and cheap next to building the scene.
+ *   3. A strict walk of the tree.  Every object accepts a fixed set of keys;
+ *      unknown and duplicate keys, wrong types, non-finite or out-of-range
+ *      numbers and zero-length vectors are refused with the JSON Pointer of
+ *      the value ("/objects/1/radius") and what is wrong ("must be > 0").
+ *      Omitted keys take the defaults in docs/scene-format.md.
+ *
+ * The walk fills a rayd_scene and freezes it (scene.c builds the BVH).
+ */
+#include <pthread.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cjson/cJSON.h>
+
+#include "error.h"
+#include "scene.h"
+
+#define DEG2RAD (3.14159265358979323846 / 180.0)
+#define NUM_MAX 1e9 /* coordinates and sizes: generous but far from overflow */
+
+void rayd_limits_default(struct rayd_limits *lim) {
+    lim->max_width = 16384;
+    lim->max_height = 16384;
+    lim->max_pixels = 40L * 1000 * 1000;
+    lim->max_samples = 1024;
+    lim->max_depth = 32;
+    lim->max_objects = 1000000;
+    lim->max_lights = 1024;
+    lim->max_materials = 10000;
+    lim->max_nesting = 64;
+    lim->max_bytes = 256u << 20;
+}
+
+/* ---- JSON Pointers ----------------------------------------------------- */
+
+struct jp {
+    char s[256];
+};
+
+static struct jp jp_key(const struct jp *parent, const char *key) {
+    struct jp r;
+    size_t n = (size_t)snprintf(r.s, sizeof r.s, "%.200s/", parent->s);
+    for (const char *k = key; *k && n + 3 < sizeof r.s; k++) {
+        if (*k == '~' || *k == '/') { /* RFC 6901 escapes */
+            r.s[n++] = '~';
+            r.s[n++] = *k == '~' ? '0' : '1';
+        } else {
+            r.s[n++] = *k;
+        }
+    }
+    r.s[n < sizeof r.s ? n : sizeof r.s - 1] = '\0';
+    return r;
+}
+
+static struct jp jp_index(const struct jp *parent, int i) {
+    struct jp r;
+    snprintf(r.s, sizeof r.s, "%.200s/%d", parent->s, i);
+    return r;
+}
+
+/* ---- the loader ---------------------------------------------------------- */
+
+struct loader {
+    const struct rayd_limits *lim;
+    rayd_scene *s;
+    struct rayd_error *err;
+    const cJSON *materials; /* the /materials object, for names */
+    int mat_cap, light_cap;
+    int32_t obj_cap;
+};
+
+static const char *type_name(const cJSON *v) {
+    if (cJSON_IsNumber(v)) return "a number";
+    if (cJSON_IsString(v)) return "a string";
+    if (cJSON_IsBool(v)) return "a boolean";
+    if (cJSON_IsNull(v)) return "null";
+    if (cJSON_IsArray(v)) return "an array";
+    return "an object";
+}
+
+static enum rayd_status fail(struct loader *ld, enum rayd_status code, const struct jp *at,
+                             const char *fmt, ...) __attribute__((format(printf, 4, 5)));
+static enum rayd_status fail(struct loader *ld, enum rayd_status code, const struct jp *at,
+                             const char *fmt, ...) {
+    char msg[256];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    return err_set(ld->err, code, at->s, "%s", msg);
+}
+
+static int cmp_names(const void *a, const void *b) {
+    return strcmp(*(const char *const *)a, *(const char *const *)b);
+}
+
+/* Every key of obj must be in allowed (NULL-terminated; NULL = any key) and
+ * appear once. */
+static enum rayd_status check_keys(struct loader *ld, const cJSON *obj, const struct jp *at,
+                                   const char *const *allowed) {
+    if (!cJSON_IsObject(obj))
+        return fail(ld, RAYD_E_INVALID, at, "must be an object, not %s", type_name(obj));
+    int n = 0;
+    for (const cJSON *c = obj->child; c; c = c->next) {
+        n++;
+        if (!allowed) continue;
+        const char *const *a = allowed;
+        while (*a && strcmp(*a, c->string) != 0) a++;
+        if (*a) continue;
+        char list[200] = "";
+        for (a = allowed; *a; a++) {
+            strncat(list, *a, sizeof list - strlen(list) - 1);
+            if (a[1]) strncat(list, ", ", sizeof list - strlen(list) - 1);
+        }
+        struct jp p = jp_key(at, c->string);
+        return fail(ld, RAYD_E_INVALID, &p, "unknown key (allowed here: %s)", list);
+    }
+    if (n < 2) return RAYD_OK;
+    const char **names = malloc(sizeof *names * (size_t)n);
+    if (!names) return err_set(ld->err, RAYD_E_NOMEM, at->s, "out of memory");
+    int i = 0;
+    for (const cJSON *c = obj->child; c; c = c->next) names[i++] = c->string;
+    qsort(names, (size_t)n, sizeof *names, cmp_names);
+    for (i = 1; i < n && strcmp(names[i - 1], names[i]) != 0; i++) continue;
+    enum rayd_status st = RAYD_OK;
+    if (i < n) {
+        struct jp p = jp_key(at, names[i]);
+        st = fail(ld, RAYD_E_INVALID, &p, "duplicate key");
+    }
+    free(names);
+    return st;
+}
+
+/* A number in [lo, hi] (lo excluded when lo_open). */
+static enum rayd_status get_num(struct loader *ld, const cJSON *obj, const struct jp *at,
+                                const char *key, double def, double lo, bool lo_open, double hi,
+                                double *out) {
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, key);
+    if (!v) {
+        *out = def;
+        return RAYD_OK;
+    }
+    struct jp p = jp_key(at, key);
+    if (!cJSON_IsNumber(v))
+        return fail(ld, RAYD_E_INVALID, &p, "must be a number, not %s", type_name(v));
+    double x = v->valuedouble;
+    if (!isfinite(x)) return fail(ld, RAYD_E_INVALID, &p, "must be a finite number");
+    if (lo_open && !(x > lo)) return fail(ld, RAYD_E_INVALID, &p, "must be > %g", lo);
+    if (!lo_open && x < lo) return fail(ld, RAYD_E_INVALID, &p, "must be >= %g", lo);
+    if (x > hi) return fail(ld, RAYD_E_INVALID, &p, "must be <= %g", hi);
+    *out = x;
+    return RAYD_OK;
+}
+
+/* A whole number in [lo, hi]; above hi is a limit (RAYD_E_LIMIT) when
+ * hi_is_limit, else invalid. */
+static enum rayd_status get_int(struct loader *ld, const cJSON *obj, const struct jp *at,
+                                const char *key, long def, long lo, long hi, bool hi_is_limit,
+                                long *out) {
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, key);
+    if (!v) {
+        *out = def;
+        return RAYD_OK;
+    }
+    struct jp p = jp_key(at, key);
+    if (!cJSON_IsNumber(v))
+        return fail(ld, RAYD_E_INVALID, &p, "must be an integer, not %s", type_name(v));
+    double x = v->valuedouble;
+    if (!isfinite(x) || floor(x) != x)
+        return fail(ld, RAYD_E_INVALID, &p, "must be an integer");
+    if (x < (double)lo) return fail(ld, RAYD_E_INVALID, &p, "must be >= %ld", lo);
+    if (x > (double)hi)
+        return fail(ld, hi_is_limit ? RAYD_E_LIMIT : RAYD_E_INVALID, &p,
+                    hi_is_limit ? "must be <= %ld (the server's limit)" : "must be <= %ld", hi);
+    *out = (long)x;
+    return RAYD_OK;
+}
+
+enum vec_rule { VEC_ANY, VEC_NONZERO, VEC_COLOR };
+
+static enum rayd_status get_vec(struct loader *ld, const cJSON *obj, const struct jp *at,
+                                const char *key, vec3 def, enum vec_rule rule, vec3 *out) {
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, key);
+    if (!v) {
+        *out = def;
+        return RAYD_OK;
+    }
+    struct jp p = jp_key(at, key);
+    if (!cJSON_IsArray(v) || cJSON_GetArraySize(v) != 3)
+        return fail(ld, RAYD_E_INVALID, &p, "must be an array of 3 numbers");
+    double c[3];
+    int i = 0;
+    for (const cJSON *e = v->child; e; e = e->next, i++) {
+        struct jp pe = jp_index(&p, i);
+        if (!cJSON_IsNumber(e))
+            return fail(ld, RAYD_E_INVALID, &pe, "must be a number, not %s", type_name(e));
+        c[i] = e->valuedouble;
+        if (!isfinite(c[i])) return fail(ld, RAYD_E_INVALID, &pe, "must be a finite number");
+        if (fabs(c[i]) > NUM_MAX) return fail(ld, RAYD_E_INVALID, &pe, "must be in [-1e9, 1e9]");
+        if (rule == VEC_COLOR && c[i] < 0) return fail(ld, RAYD_E_INVALID, &pe, "must be >= 0");
+    }
+    *out = v3(c[0], c[1], c[2]);
+    if (rule == VEC_NONZERO && !(v3_len(*out) > 0))
+        return fail(ld, RAYD_E_INVALID, &p, "must not be a zero-length vector");
+    return RAYD_OK;
+}
+
+#define TRY(expr)                                                                        \
+    do {                                                                                 \
+        enum rayd_status st_ = (expr);                                                   \
+        if (st_ != RAYD_OK) return st_;                                                  \
+    } while (0)
+
+/* ---- camera and render --------------------------------------------------- */
+
+static enum rayd_status load_render(struct loader *ld, const cJSON *root) {
+    static const char *const keys[] = {"width",      "height", "samples", "max_depth",
+                                       "background", "seed",   NULL};
+    struct jp at = {"/render"};
+    const cJSON *r = cJSON_GetObjectItemCaseSensitive(root, "render");
+    cJSON empty = {0};
+    empty.type = cJSON_Object;
+    if (!r) r = &empty;
+    TRY(check_keys(ld, r, &at, keys));
+    const struct rayd_limits *lim = ld->lim;
+    struct render_settings *rs = &ld->s->rs;
+    long w, h, spp, depth, seed;
+    TRY(get_int(ld, r, &at, "width", 640, 1, lim->max_width, true, &w));
+    TRY(get_int(ld, r, &at, "height", 480, 1, lim->max_height, true, &h));
+    if (w * h > lim->max_pixels)
+        return fail(ld, RAYD_E_LIMIT, &at,
+                    "width x height = %ld pixels is over the limit of %ld pixels", w * h,
+                    lim->max_pixels);
+    TRY(get_int(ld, r, &at, "samples", 1, 1, lim->max_samples, true, &spp));
+    TRY(get_int(ld, r, &at, "max_depth", 5, 0, lim->max_depth, true, &depth));
+    TRY(get_int(ld, r, &at, "seed", 0, 0, 9007199254740991L, false, &seed));
+    TRY(get_vec(ld, r, &at, "background", v3(0, 0, 0), VEC_COLOR, &rs->background));
+    rs->width = (int)w;
+    rs->height = (int)h;
+    rs->samples = (int)spp;
+    rs->max_depth = (int)depth;
+    rs->seed = (uint64_t)seed;
+    return RAYD_OK;
+}
+
+static enum rayd_status load_camera(struct loader *ld, const cJSON *root) {
+    static const char *const keys[] = {"position", "look_at", "up", "fov_x", "fov_y", NULL};
+    struct jp at = {"/camera"};
+    const cJSON *c = cJSON_GetObjectItemCaseSensitive(root, "camera");
+    cJSON empty = {0};
+    empty.type = cJSON_Object;
+    if (!c) c = &empty;
+    TRY(check_keys(ld, c, &at, keys));
+    vec3 pos, look, up;
+    double fx, fy;
+    TRY(get_vec(ld, c, &at, "position", v3(0, 0, 0), VEC_ANY, &pos));
+    TRY(get_vec(ld, c, &at, "look_at", v3(0, 0, -1), VEC_ANY, &look));
+    TRY(get_vec(ld, c, &at, "up", v3(0, 1, 0), VEC_NONZERO, &up));
+    TRY(get_num(ld, c, &at, "fov_x", 0, 0, true, 179, &fx));
+    TRY(get_num(ld, c, &at, "fov_y", 0, 0, true, 179, &fy));
+    const struct render_settings *rs = &ld->s->rs;
+    return cam_init(&ld->s->cam, pos, look, up, fx, fy, rs->width, rs->height, ld->err);
+}
+
+/* ---- materials ------------------------------------------------------------ */
+
+static enum rayd_status parse_material(struct loader *ld, const cJSON *m, const struct jp *at,
+                                       struct material *out) {
+    static const char *const keys[] = {"color",        "ambient",      "diffuse",
+                                       "specular",     "shininess",    "reflectivity",
+                                       "transparency", "ior",          "emission",
+                                       NULL};
+    TRY(check_keys(ld, m, at, keys));
+    struct material d = material_default();
+    TRY(get_vec(ld, m, at, "color", d.color, VEC_COLOR, &out->color));
+    TRY(get_vec(ld, m, at, "emission", d.emission, VEC_COLOR, &out->emission));
+    TRY(get_num(ld, m, at, "ambient", d.ambient, 0, false, 1, &out->ambient));
+    TRY(get_num(ld, m, at, "diffuse", d.diffuse, 0, false, 1, &out->diffuse));
+    TRY(get_num(ld, m, at, "specular", d.specular, 0, false, 1, &out->specular));
+    TRY(get_num(ld, m, at, "shininess", d.shininess, 0, false, 10000, &out->shininess));
+    TRY(get_num(ld, m, at, "reflectivity", d.reflectivity, 0, false, 1, &out->reflectivity));
+    TRY(get_num(ld, m, at, "transparency", d.transparency, 0, false, 1, &out->transparency));
+    TRY(get_num(ld, m, at, "ior", d.ior, 0, true, 10, &out->ior));
+    return RAYD_OK;
+}
+
+static enum rayd_status add_material(struct loader *ld, const struct material *m, int *index) {
+    rayd_scene *s = ld->s;
+    if (s->nmats == ld->mat_cap) {
+        int cap = ld->mat_cap ? ld->mat_cap * 2 : 16;
+        struct material *p = realloc(s->mats, sizeof *p * (size_t)cap);
+        if (!p) return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
+        s->mats = p;
+        ld->mat_cap = cap;
+    }
+    s->mats[s->nmats] = *m;
+    *index = s->nmats++;
+    return RAYD_OK;
+}
+
+/* Named materials take indices 1..n in the order of /materials; index 0 is
+ * the default material. */
+static enum rayd_status load_materials(struct loader *ld, const cJSON *root) {
+    struct material def = material_default();
+    int idx;
+    TRY(add_material(ld, &def, &idx));
+    const cJSON *ms = cJSON_GetObjectItemCaseSensitive(root, "materials");
+    if (!ms) return RAYD_OK;
+    struct jp at = {"/materials"};
+    TRY(check_keys(ld, ms, &at, NULL));
+    if (cJSON_GetArraySize(ms) > ld->lim->max_materials)
+        return fail(ld, RAYD_E_LIMIT, &at, "has %d materials; the limit is %d",
+                    cJSON_GetArraySize(ms), ld->lim->max_materials);
+    for (const cJSON *m = ms->child; m; m = m->next) {
+        struct jp p = jp_key(&at, m->string);
+        if (m->string[0] == '\0') return fail(ld, RAYD_E_INVALID, &p, "a material name may not be empty");
+        struct material mat;
+        TRY(parse_material(ld, m, &p, &mat));
+        TRY(add_material(ld, &mat, &idx));
+    }
+    ld->materials = ms;
+    return RAYD_OK;
+}
+
+/* The "material" key of an object: absent (default), a name, or inline. */
+static enum rayd_status object_material(struct loader *ld, const cJSON *obj, const struct jp *at,
+                                        int *index) {
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, "material");
+    *index = 0;
+    if (!v) return RAYD_OK;
+    struct jp p = jp_key(at, "material");
+    if (cJSON_IsObject(v)) {
+        struct material mat;
+        TRY(parse_material(ld, v, &p, &mat));
+        return add_material(ld, &mat, index);
+    }
+    if (!cJSON_IsString(v))
+        return fail(ld, RAYD_E_INVALID, &p,
+                    "must be a material name or a material object, not %s", type_name(v));
+    int i = 1;
+    for (const cJSON *m = ld->materials ? ld->materials->child : NULL; m; m = m->next, i++) {
+        if (strcmp(m->string, v->valuestring) == 0) {
+            *index = i;
+            return RAYD_OK;
+        }
+    }
+    return fail(ld, RAYD_E_INVALID, &p, "unknown material \"%.80s\" (not a key of /materials)",
+                v->valuestring);
+}
+
+/* ---- lights ----------------------------------------------------------------- */
+
+static enum rayd_status get_type(struct loader *ld, const cJSON *obj, const struct jp *at,
+                                 const char *const *types, int *out) {
+    const cJSON *t = cJSON_GetObjectItemCaseSensitive(obj, "type");
+    struct jp p = jp_key(at, "type");
+    if (!t) return fail(ld, RAYD_E_INVALID, &p, "is required");
+    if (!cJSON_IsString(t))
+        return fail(ld, RAYD_E_INVALID, &p, "must be a string, not %s", type_name(t));
+    char list[160] = "";
+    for (int i = 0; types[i]; i++) {
+        if (strcmp(types[i], t->valuestring) == 0) {
+            *out = i;
+            return RAYD_OK;
+        }
+        strncat(list, types[i], sizeof list - strlen(list) - 1);
+        if (types[i + 1]) strncat(list, ", ", sizeof list - strlen(list) - 1);
+    }
+    return fail(ld, RAYD_E_INVALID, &p, "unknown type \"%.60s\" (supported: %s)", t->valuestring,
+                list);
+}
+
+static enum rayd_status load_light(struct loader *ld, const cJSON *lj, const struct jp *at,
+                                   struct light *l) {
+    static const char *const types[] = {"point", "directional", "spot", NULL};
+    static const char *const point_keys[] = {"type", "position", "color", "intensity", NULL};
+    static const char *const dir_keys[] = {"type", "direction", "color", "intensity", NULL};
+    static const char *const spot_keys[] = {"type",      "position", "direction", "color",
+                                            "intensity", "angle",    "falloff",   NULL};
+    static const char *const *const keys[] = {point_keys, dir_keys, spot_keys};
+    if (!cJSON_IsObject(lj))
+        return fail(ld, RAYD_E_INVALID, at, "must be an object, not %s", type_name(lj));
+    int kind;
+    TRY(get_type(ld, lj, at, types, &kind));
+    TRY(check_keys(ld, lj, at, keys[kind]));
+    l->kind = (enum light_kind)kind;
+    TRY(get_vec(ld, lj, at, "color", v3(1, 1, 1), VEC_COLOR, &l->color));
+    TRY(get_num(ld, lj, at, "intensity", 1, 0, false, 1e6, &l->intensity));
+    TRY(get_vec(ld, lj, at, "position", v3(0, 10, 0), VEC_ANY, &l->position));
+    vec3 dir;
+    TRY(get_vec(ld, lj, at, "direction", v3(0, -1, 0), VEC_NONZERO, &dir));
+    l->direction = v3_norm(dir);
+    double angle, falloff;
+    TRY(get_num(ld, lj, at, "angle", 30, 0, true, 90, &angle));
+    TRY(get_num(ld, lj, at, "falloff", 5, 0, false, angle, &falloff));
+    l->cos_outer = cos(angle * DEG2RAD);
+    l->cos_inner = cos((angle - falloff) * DEG2RAD);
+    if (l->cos_inner <= l->cos_outer) l->cos_inner = nextafter(l->cos_outer, 2.0);
+    return RAYD_OK;
+}
+
+static enum rayd_status load_lights(struct loader *ld, const cJSON *root) {
+    const cJSON *ls = cJSON_GetObjectItemCaseSensitive(root, "lights");
+    if (!ls) return RAYD_OK;
+    struct jp at = {"/lights"};
+    if (!cJSON_IsArray(ls)) return fail(ld, RAYD_E_INVALID, &at, "must be an array, not %s", type_name(ls));
+    int n = cJSON_GetArraySize(ls);
+    if (n > ld->lim->max_lights)
+        return fail(ld, RAYD_E_LIMIT, &at, "has %d lights; the limit is %d", n, ld->lim->max_lights);
+    if (n == 0) return RAYD_OK;
+    ld->s->lights = calloc((size_t)n, sizeof *ld->s->lights);
+    if (!ld->s->lights) return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
+    int i = 0;
+    for (const cJSON *l = ls->child; l; l = l->next, i++) {
+        struct jp p = jp_index(&at, i);
+        TRY(load_light(ld, l, &p, &ld->s->lights[i]));
+        ld->s->nlights = i + 1;
+    }
+    return RAYD_OK;
+}
+
+/* ---- objects ----------------------------------------------------------------- */
+
+static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const struct jp *at,
+                                    struct object *o) {
+    static const char *const types[] = {"sphere", "plane", NULL};
+    static const char *const sphere_keys[] = {"type", "name", "material", "center", "radius", NULL};
+    static const char *const plane_keys[] = {"type", "name", "material", "point", "normal", NULL};
+    static const char *const *const keys[] = {sphere_keys, plane_keys};
+    if (!cJSON_IsObject(oj))
+        return fail(ld, RAYD_E_INVALID, at, "must be an object, not %s", type_name(oj));
+    int kind;
+    TRY(get_type(ld, oj, at, types, &kind));
+    TRY(check_keys(ld, oj, at, keys[kind]));
+    const cJSON *name = cJSON_GetObjectItemCaseSensitive(oj, "name");
+    if (name && !cJSON_IsString(name)) {
+        struct jp p = jp_key(at, "name");
+        return fail(ld, RAYD_E_INVALID, &p, "must be a string, not %s", type_name(name));
+    }
+    memset(o, 0, sizeof *o);
+    TRY(object_material(ld, oj, at, &o->material));
+    if (kind == 0) {
+        o->kind = SHAPE_SPHERE;
+        TRY(get_vec(ld, oj, at, "center", v3(0, 0, 0), VEC_ANY, &o->u.sphere.center));
+        TRY(get_num(ld, oj, at, "radius", 1, 0, true, NUM_MAX, &o->u.sphere.radius));
+    } else {
+        o->kind = SHAPE_PLANE;
+        vec3 n;
+        TRY(get_vec(ld, oj, at, "point", v3(0, 0, 0), VEC_ANY, &o->u.plane.point));
+        TRY(get_vec(ld, oj, at, "normal", v3(0, 1, 0), VEC_NONZERO, &n));
+        o->u.plane.normal = v3_norm(n);
+    }
+    return RAYD_OK;
+}
+
+static enum rayd_status load_objects(struct loader *ld, const cJSON *root) {
+    const cJSON *os = cJSON_GetObjectItemCaseSensitive(root, "objects");
+    if (!os) return RAYD_OK;
+    struct jp at = {"/objects"};
+    if (!cJSON_IsArray(os)) return fail(ld, RAYD_E_INVALID, &at, "must be an array, not %s", type_name(os));
+    int n = cJSON_GetArraySize(os);
+    if (n > ld->lim->max_objects)
+        return fail(ld, RAYD_E_LIMIT, &at, "has %d objects; the limit is %ld", n, ld->lim->max_objects);
+    if (n == 0) return RAYD_OK;
+    ld->s->objs = calloc((size_t)n, sizeof *ld->s->objs);
+    if (!ld->s->objs) return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
+    int i = 0;
+    for (const cJSON *o = os->child; o; o = o->next, i++) {
+        struct jp p = jp_index(&at, i);
+        TRY(load_object(ld, o, &p, &ld->s->objs[i]));
+        ld->s->nobjs = i + 1;
+    }
+    return RAYD_OK;
+}
+
+/* ---- text checks and parse ----------------------------------------------------- */
+
+static void position_of(const char *json, size_t off, int *line, int *col) {
+    int l = 1, c = 1;
+    for (size_t i = 0; i < off; i++) {
+        if (json[i] == '\n') {
+            l++;
+            c = 1;
+        } else if (((unsigned char)json[i] & 0xC0) != 0x80) {
+            c++; /* count characters, not UTF-8 continuation bytes */
+        }
+    }
+    *line = l;
+    *col = c;
+}
+
+static enum rayd_status text_error(struct rayd_error *err, enum rayd_status code,
+                                   const char *json, size_t off, const char *msg) {
+    err_set(err, code, NULL, "%s", msg);
+    if (err) position_of(json, off, &err->line, &err->column);
+    return code;
+}
+
+/* Length of the UTF-8 sequence at p (0 if invalid): rejects overlongs,
+ * surrogates and code points past U+10FFFF. */
+static size_t utf8_len(const unsigned char *p, size_t avail) {
+    unsigned c = p[0];
+    size_t n;
+    unsigned min;
+    if (c < 0x80) return 1;
+    if ((c & 0xE0) == 0xC0) n = 2, min = 0x80, c &= 0x1F;
+    else if ((c & 0xF0) == 0xE0) n = 3, min = 0x800, c &= 0x0F;
+    else if ((c & 0xF8) == 0xF0) n = 4, min = 0x10000, c &= 0x07;
+    else return 0;
+    if (n > avail) return 0;
+    for (size_t i = 1; i < n; i++) {
+        if ((p[i] & 0xC0) != 0x80) return 0;
+        c = (c << 6) | (p[i] & 0x3F);
+    }
+    if (c < min || c > 0x10FFFF || (c >= 0xD800 && c <= 0xDFFF)) return 0;
+    return n;
+}
+
+static enum rayd_status scan_text(const char *json, size_t len, const struct rayd_limits *lim,
+                                  struct rayd_error *err) {
+    const unsigned char *p = (const unsigned char *)json;
+    int depth = 0;
+    bool in_str = false;
+    for (size_t i = 0; i < len;) {
+        size_t n = utf8_len(p + i, len - i);
+        if (n == 0) return text_error(err, RAYD_E_PARSE, json, i, "invalid UTF-8");
+        if (p[i] == 0) return text_error(err, RAYD_E_PARSE, json, i, "NUL byte in the text");
+        if (in_str) {
+            if (p[i] == '\\') n = (i + 1 < len) ? 2 : 1;
+            else if (p[i] == '"') in_str = false;
+        } else if (p[i] == '"') {
+            in_str = true;
+        } else if (p[i] == '[' || p[i] == '{') {
+            if (++depth > lim->max_nesting) {
+                char msg[96];
+                snprintf(msg, sizeof msg, "nesting deeper than %d levels", lim->max_nesting);
+                return text_error(err, RAYD_E_PARSE, json, i, msg);
+            }
+        } else if (p[i] == ']' || p[i] == '}') {
+            depth--;
+        }
+        i += n;
+    }
+    return RAYD_OK;
+}
+
+static pthread_mutex_t cjson_lock = PTHREAD_MUTEX_INITIALIZER;
+
+static enum rayd_status parse_json(const char *json, size_t len, cJSON **out,
+                                   struct rayd_error *err) {
+    const char *end = NULL;
+    pthread_mutex_lock(&cjson_lock);
+    cJSON *root = cJSON_ParseWithLengthOpts(json, len, &end, 0);
+    pthread_mutex_unlock(&cjson_lock);
+    if (!root) {
+        size_t off = end && end >= json && end <= json + len ? (size_t)(end - json) : 0;
+        char msg[96];
+        if (len == 0 || off >= len)
+            snprintf(msg, sizeof msg, "malformed JSON: unexpected end of input");
+        else if (json[off] >= 0x21 && json[off] <= 0x7e)
+            snprintf(msg, sizeof msg, "malformed JSON: unexpected '%c'", json[off]);
+        else
+            snprintf(msg, sizeof msg, "malformed JSON: unexpected byte 0x%02x",
+                     (unsigned char)json[off]);
+        return text_error(err, RAYD_E_PARSE, json, off, msg);
+    }
+    size_t off = (size_t)(end - json);
+    while (off < len && strchr(" \t\r\n", json[off])) off++;
+    if (off < len) {
+        cJSON_Delete(root);
+        return text_error(err, RAYD_E_PARSE, json, off, "malformed JSON: data after the scene");
+    }
+    *out = root;
+    return RAYD_OK;
+}
+
+static enum rayd_status load_root(struct loader *ld, const cJSON *root) {
+    static const char *const keys[] = {"version", "camera", "render", "materials",
+                                       "lights",  "objects", NULL};
+    struct jp at = {""};
+    if (!cJSON_IsObject(root))
+        return err_set(ld->err, RAYD_E_INVALID, "", "the scene must be a JSON object, not %s",
+                       type_name(root));
+    TRY(check_keys(ld, root, &at, keys));
+    long version;
+    TRY(get_int(ld, root, &at, "version", 1, 1, 1, false, &version));
+    TRY(load_render(ld, root));
+    TRY(load_camera(ld, root));
+    TRY(load_materials(ld, root));
+    TRY(load_lights(ld, root));
+    return load_objects(ld, root);
+}
+
+enum rayd_status rayd_scene_parse(const char *json, size_t len, const struct rayd_limits *lim,
+                                  rayd_scene **out, struct rayd_error *err) {
+    struct rayd_limits deflim;
+    if (!lim) {
+        rayd_limits_default(&deflim);
+        lim = &deflim;
+    }
+    if (len > lim->max_bytes)
+        return err_set(err, RAYD_E_LIMIT, NULL, "the scene is %zu bytes; the limit is %zu", len,
+                       lim->max_bytes);
+    TRY(scan_text(json, len, lim, err));
+    cJSON *root;
+    TRY(parse_json(json, len, &root, err));
+    rayd_scene *s;
+    enum rayd_status st = scene_alloc(&s, err);
+    if (st == RAYD_OK) {
+        struct loader ld = {.lim = lim, .s = s, .err = err};
+        st = load_root(&ld, root);
+        if (st == RAYD_OK) st = scene_freeze(s, err);
+        if (st != RAYD_OK) rayd_scene_free(s);
+    }
+    cJSON_Delete(root);
+    if (st == RAYD_OK) *out = s;
+    return st;
+}

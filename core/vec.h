@@ -1,0 +1,53 @@
+/* vec.h -- three-component vector math, all static inline.
+ *
+ * The core works in double precision: the paper's camera and the quadric
+ * solvers are exact formulas, and doubles keep far-away and huge objects
+ * from cracking.  Colours reuse the same type (x, y, z = r, g, b).
+ */
+#ifndef VEC_H
+#define VEC_H
+
+#include <math.h>
+
+typedef struct {
+    double x, y, z;
+} vec3;
+
+static inline vec3 v3(double x, double y, double z) {
+    vec3 r = {x, y, z};
+    return r;
+}
+static inline vec3 v3_add(vec3 a, vec3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
+static inline vec3 v3_sub(vec3 a, vec3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
+static inline vec3 v3_mul(vec3 a, vec3 b) { return v3(a.x * b.x, a.y * b.y, a.z * b.z); }
+static inline vec3 v3_scale(vec3 a, double s) { return v3(a.x * s, a.y * s, a.z * s); }
+static inline vec3 v3_neg(vec3 a) { return v3(-a.x, -a.y, -a.z); }
+static inline double v3_dot(vec3 a, vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+static inline vec3 v3_cross(vec3 a, vec3 b) {
+    return v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+static inline double v3_len(vec3 a) { return sqrt(v3_dot(a, a)); }
+static inline vec3 v3_norm(vec3 a) { return v3_scale(a, 1.0 / v3_len(a)); }
+/* a + b * s */
+static inline vec3 v3_madd(vec3 a, vec3 b, double s) {
+    return v3(a.x + b.x * s, a.y + b.y * s, a.z + b.z * s);
+}
+static inline vec3 v3_min(vec3 a, vec3 b) {
+    return v3(fmin(a.x, b.x), fmin(a.y, b.y), fmin(a.z, b.z));
+}
+static inline vec3 v3_max(vec3 a, vec3 b) {
+    return v3(fmax(a.x, b.x), fmax(a.y, b.y), fmax(a.z, b.z));
+}
+static inline double v3_axis(vec3 a, int axis) { return axis == 0 ? a.x : axis == 1 ? a.y : a.z; }
+static inline double v3_maxabs(vec3 a) { return fmax(fabs(a.x), fmax(fabs(a.y), fabs(a.z))); }
+/* Mirror d about the normal n. */
+static inline vec3 v3_reflect(vec3 d, vec3 n) { return v3_madd(d, n, -2.0 * v3_dot(d, n)); }
+
+typedef struct {
+    vec3 o; /* origin */
+    vec3 d; /* unit direction */
+} ray;
+
+static inline vec3 ray_at(const ray *r, double t) { return v3_madd(r->o, r->d, t); }
+
+#endif

@@ -1,0 +1,184 @@
+/* rayd.h -- the public C API of the rayd ray-tracing core (librayd.a).
+ *
+ * This is the only header the server, the clients and the command-line
+ * renderer include. Everything behind it is private to core/.
+ *
+ * Shape of the API
+ * ----------------
+ * - Handles are opaque: rayd_scene (a parsed, validated and frozen scene with
+ *   its acceleration structure built) and rayd_image (8-bit sRGB RGB pixels).
+ * - Every fallible call returns an enum rayd_status and fills an optional
+ *   struct rayd_error (code, message, JSON Pointer path, line/column).  The
+ *   error struct holds fixed-size buffers: it never allocates and can be
+ *   copied between threads.  Out-parameters are written only on success.
+ * - A frozen scene is immutable.  Any number of threads may render regions of
+ *   one scene at once through a const pointer.
+ * - Every *_free accepts NULL.
+ *
+ * Determinism: every pixel is a pure function of the scene bytes and the
+ * pixel's coordinates.  A region render equals the same crop of the full
+ * render byte for byte, whatever the tiling or thread count.
+ */
+#ifndef RAYD_H
+#define RAYD_H
+
+#include <stdatomic.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define RAYD_VERSION "0.1.0"
+
+enum rayd_status {
+    RAYD_OK = 0,
+    RAYD_E_PARSE,    /* malformed JSON (line and column set) */
+    RAYD_E_INVALID,  /* well-formed JSON but not a valid scene (path set) */
+    RAYD_E_LIMIT,    /* a value or size over a configured limit (path set) */
+    RAYD_E_ARG,      /* bad argument from the caller, e.g. a region outside the image */
+    RAYD_E_NOMEM,    /* allocation failed */
+    RAYD_E_IO,       /* reading or writing a file failed */
+    RAYD_E_CANCELED, /* the cancel flag was raised */
+    RAYD_E_INTERNAL  /* a bug in rayd; never caused by input */
+};
+
+struct rayd_error {
+    enum rayd_status code;
+    char message[256]; /* what is wrong, e.g. "must be > 0" */
+    char path[256];    /* JSON Pointer of the offending value, "" if none */
+    int line, column;  /* 1-based position in the input for RAYD_E_PARSE, else 0 */
+};
+
+/* A short stable name for a status: "ok", "invalid_json", "invalid_scene",
+ * "too_large", "bad_argument", "out_of_memory", "io_error", "canceled",
+ * "internal". */
+const char *rayd_status_name(enum rayd_status s);
+
+/* Formats an error the way the command-line tools print it:
+ * "/objects/1/radius: must be > 0" or "line 3, column 7: expected ','".
+ * Returns buf. */
+char *rayd_error_format(const struct rayd_error *err, char *buf, size_t size);
+
+/* ---- limits ------------------------------------------------------------ */
+
+/* Upper bounds on everything a scene author controls.  A scene over any of
+ * them is refused with RAYD_E_LIMIT and the path of the offending value. */
+struct rayd_limits {
+    int max_width;     /* pixels per row */
+    int max_height;    /* rows */
+    long max_pixels;   /* width * height */
+    int max_samples;   /* render.samples */
+    int max_depth;     /* render.max_depth */
+    long max_objects;  /* entries of /objects */
+    int max_lights;    /* entries of /lights */
+    int max_materials; /* entries of /materials */
+    int max_nesting;   /* JSON nesting depth */
+    size_t max_bytes;  /* scene text size */
+};
+
+/* Fills lim with the documented defaults (docs/scene-format.md). */
+void rayd_limits_default(struct rayd_limits *lim);
+
+/* ---- scenes -------------------------------------------------------------- */
+
+typedef struct rayd_scene rayd_scene;
+typedef struct rayd_image rayd_image;
+
+/* Parses, validates and freezes a scene from JSON text (need not be
+ * NUL-terminated).  lim may be NULL for the defaults.  On success *out owns a
+ * new scene; free it with rayd_scene_free. */
+enum rayd_status rayd_scene_parse(const char *json, size_t len, const struct rayd_limits *lim,
+                                  rayd_scene **out, struct rayd_error *err);
+
+void rayd_scene_free(rayd_scene *scene);
+
+struct rayd_scene_info {
+    int width, height; /* image size in pixels */
+    int samples;       /* rays per pixel */
+    int max_depth;     /* recursion limit */
+    long objects;      /* primitives in the scene */
+    int lights;
+    size_t bytes;      /* memory held by the frozen scene */
+};
+
+void rayd_scene_info(const rayd_scene *scene, struct rayd_scene_info *info);
+
+/* ---- rendering ----------------------------------------------------------- */
+
+struct rayd_region {
+    int x, y; /* top-left pixel, column and row from the top */
+    int w, h; /* size; w == 0 && h == 0 means the whole image */
+};
+
+struct rayd_render_stats {
+    uint64_t rays;     /* all rays cast: primary, shadow, reflected, refracted */
+    double seconds;    /* wall time of the render call */
+};
+
+/* Called from rendering threads, possibly several at once, after each
+ * finished tile: done and total count pixels.  Must be thread-safe. */
+typedef void (*rayd_progress_fn)(void *user, long done, long total);
+
+struct rayd_render_opts {
+    struct rayd_region region;     /* what to render; zero = whole image */
+    int threads;                   /* worker threads; <= 0 means 1 */
+    int tile;                      /* tile edge in pixels; <= 0 means 32 */
+    rayd_progress_fn progress;     /* may be NULL */
+    void *progress_user;
+    const atomic_int *cancel;      /* may be NULL; non-zero stops the render */
+    struct rayd_render_stats *stats; /* may be NULL; filled on return */
+};
+
+/* Checks a region against the scene's image size: RAYD_OK or RAYD_E_ARG
+ * with a message naming the bad field. */
+enum rayd_status rayd_region_check(const rayd_scene *scene, const struct rayd_region *region,
+                                   struct rayd_error *err);
+
+/* Renders opts->region (or the whole image) into a new image of the region's
+ * size.  Safe to call from many threads at once on one scene. */
+enum rayd_status rayd_render(const rayd_scene *scene, const struct rayd_render_opts *opts,
+                             rayd_image **out, struct rayd_error *err);
+
+/* Renders region into an existing image with its top-left pixel at
+ * (dst_x, dst_y) of dst, on the calling thread only.  Calls on disjoint
+ * destination rectangles may run in parallel.  rays, if not NULL, is
+ * increased by the rays cast. */
+enum rayd_status rayd_render_into(const rayd_scene *scene, const struct rayd_region *region,
+                                  rayd_image *dst, int dst_x, int dst_y, const atomic_int *cancel,
+                                  uint64_t *rays, struct rayd_error *err);
+
+/* ---- images -------------------------------------------------------------- */
+
+/* A new black w x h image; *out owns it. */
+enum rayd_status rayd_image_new(int w, int h, rayd_image **out, struct rayd_error *err);
+void rayd_image_free(rayd_image *img);
+int rayd_image_width(const rayd_image *img);
+int rayd_image_height(const rayd_image *img);
+/* Row-major RGB, 3 bytes a pixel, rows packed (stride = 3 * width). */
+uint8_t *rayd_image_pixels(rayd_image *img);
+const uint8_t *rayd_image_pixels_const(const rayd_image *img);
+
+/* Copies the whole of src into dst with its top-left at (x, y); src must fit. */
+enum rayd_status rayd_image_blit(rayd_image *dst, const rayd_image *src, int x, int y,
+                                 struct rayd_error *err);
+
+/* PNG encoding to memory: *buf (malloc'd, free with rayd_free) holds *len
+ * bytes of an 8-bit RGB PNG.  level is the zlib level 0-9, -1 default. */
+enum rayd_status rayd_png_encode(const rayd_image *img, int level, void **buf, size_t *len,
+                                 struct rayd_error *err);
+enum rayd_status rayd_png_write_file(const rayd_image *img, const char *path,
+                                     struct rayd_error *err);
+/* Decodes any PNG libpng reads into 8-bit RGB; refuses images over max_pixels
+ * (<= 0: the default limit). */
+enum rayd_status rayd_png_decode(const void *buf, size_t len, long max_pixels, rayd_image **out,
+                                 struct rayd_error *err);
+
+/* Frees memory the core handed out (PNG buffers). */
+void rayd_free(void *p);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* RAYD_H */

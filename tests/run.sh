@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# tests/run.sh BUILD -- runs every test and prints the closing line
+# "N passed, N failed".
+#
+# Unit tests are the binaries in BUILD/tests/; integration tests are the
+# scripts tests/integration/*.sh (and tests/browser/*.sh).  Every test prints
+# one line per case, "PASS name" or "FAIL name: why"; this script counts them.
+# A program that dies without printing FAIL counts as one failure, so a crash
+# is never a pass.  RAYD_ONLY=unit|integration limits the run.
+set -u
+cd "$(dirname "$0")/.."
+BUILD=$(cd "${1:-build}" && pwd)
+export RAYD_BUILD="$BUILD"
+export RAYD_ROOT="$PWD"
+only=${RAYD_ONLY:-all}
+pass=0
+fail=0
+failed_names=()
+
+run_one() { # name, command...
+    local name=$1; shift
+    local out; out=$(mktemp)
+    timeout 900 "$@" >"$out" 2>&1
+    local rc=$?
+    local p f
+    p=$(grep -c '^PASS ' "$out")
+    f=$(grep -c '^FAIL ' "$out")
+    if [ "$rc" -ne 0 ] && [ "$f" -eq 0 ]; then
+        echo "FAIL $name: exited with status $rc" >>"$out"
+        f=1
+    fi
+    if [ "$f" -gt 0 ]; then
+        echo "--- $name: $p passed, $f failed"
+        grep -v '^PASS ' "$out" | tail -n 60
+        failed_names+=("$name")
+    else
+        echo "--- $name: $p passed"
+    fi
+    pass=$((pass + p))
+    fail=$((fail + f))
+    rm -f "$out"
+}
+
+if [ "$only" = all ] || [ "$only" = unit ]; then
+    for t in "$BUILD"/tests/test_*; do
+        [ -x "$t" ] || continue
+        run_one "unit/$(basename "$t")" "$t"
+    done
+fi
+if [ "$only" = all ] || [ "$only" = integration ]; then
+    for t in tests/integration/*.sh tests/browser/*.sh; do
+        [ -f "$t" ] || continue
+        run_one "$t" bash "$t"
+    done
+fi
+
+[ "${#failed_names[@]}" -gt 0 ] && echo "failed: ${failed_names[*]}"
+echo "$pass passed, $fail failed"
+[ "$fail" -eq 0 ] && [ "$pass" -gt 0 ]
