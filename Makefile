@@ -59,7 +59,7 @@ ifneq ($(CLIENT_SRC),)
 PROGS += $(BUILD)/rayd-client
 endif
 
-.PHONY: all deps test test-unit run bench format lint clean check-deps
+.PHONY: all deps test test-unit golden run bench format lint clean
 .DEFAULT_GOAL := all
 
 all: $(BUILD)/librayd.a $(PROGS)
@@ -123,7 +123,7 @@ $(BUILD)/rayd-client: $(CLIENT_SRC:%.c=$(BUILD)/%.o) $(BUILD)/librayd.a
 
 # --- tests ------------------------------------------------------------------
 # Unit tests may include the core's private headers.
-$(BUILD)/tests/%: tests/unit/%.c tests/unit/check.h $(BUILD)/librayd.a
+$(BUILD)/tests/%: tests/unit/%.c $(wildcard tests/unit/*.h) $(BUILD)/librayd.a
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -Iinclude -Icore -Itests/unit $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
 
@@ -132,6 +132,11 @@ test: all $(UNIT_BIN)
 
 test-unit: $(BUILD)/librayd.a $(UNIT_BIN)
 	@RAYD_ONLY=unit bash tests/run.sh $(BUILD)
+
+# Rewrites tests/golden/ from tests/scenes/ (after an intended change only).
+golden: $(BUILD)/rayd-render
+	@for f in tests/scenes/*.json; do n=$$(basename $$f .json); \
+	  $(BUILD)/rayd-render $$f -o tests/golden/$$n.png && echo "tests/golden/$$n.png"; done
 
 # --- run, bench, tooling ----------------------------------------------------
 run: all

@@ -73,8 +73,7 @@ vec3 whitted_radiance(const rayd_scene *s, const ray *r, int depth, uint64_t *ra
     } else {
         double n1 = inside ? m->ior : 1.0, n2 = inside ? 1.0 : m->ior;
         fr = material_fresnel(n1, n2, cos_i, &cos_t);
-        double eta = n1 / n2;
-        tdir = v3_norm(v3_madd(v3_scale(r->d, eta), nf, eta * cos_i - cos_t));
+        tdir = material_refract(r->d, nf, n1 / n2, cos_i, cos_t);
     }
     c = v3_scale(c, 1.0 - kt);
     double wr = kr + kt * fr;

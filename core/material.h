@@ -24,4 +24,11 @@ struct material material_default(void);
  * reflection; *cos_t gets the cosine of the refracted angle otherwise. */
 double material_fresnel(double n1, double n2, double cos_i, double *cos_t);
 
+/* Snell's law: the refracted unit direction for the unit direction d
+ * arriving at a surface with unit normal nf facing it, eta = n1 / n2,
+ * cos_i = -d.nf and cos_t from material_fresnel. */
+static inline vec3 material_refract(vec3 d, vec3 nf, double eta, double cos_i, double cos_t) {
+    return v3_norm(v3_madd(v3_scale(d, eta), nf, eta * cos_i - cos_t));
+}
+
 #endif

@@ -2,13 +2,13 @@
  *
  * The only file that includes cJSON.  Loading is three passes:
  *
- *   1. A byte scan before cJSON sees the text: size limit, valid UTF-8 and
- *      nesting depth, each reported with a line and column.  cJSON parses
- *      recursively, so the depth is bounded here, not by its stack.
- *   2. cJSON parse; a syntax error becomes RAYD_E_PARSE with the line and
- *      column of the offending byte.  cJSON writes a global error slot on
- *      every parse, so parses are serialised by one mutex -- the only lock
- *      in the core, and cheap next to building the scene.
+ *   1. json_check.c walks the bytes once before cJSON sees them: syntax,
+ *      UTF-8 and nesting depth, each failure with a line, a column and what
+ *      was expected.  cJSON parses recursively, so the depth is bounded
+ *      there, not by its stack.
+ *   2. cJSON parse.  cJSON writes a global error slot on every parse, so
+ *      parses are serialised by one mutex -- the only lock in the core, and
+ *      cheap next to building the scene.
  *   3. A strict walk of the tree.  Every object accepts a fixed set of keys;
  *      unknown and duplicate keys, wrong types, non-finite or out-of-range
  *      numbers and zero-length vectors are refused with the JSON Pointer of
@@ -26,6 +26,7 @@
 #include <cjson/cJSON.h>
 
 #include "error.h"
+#include "json_check.h"
 #include "scene.h"
 
 #define DEG2RAD (3.14159265358979323846 / 180.0)
@@ -488,101 +489,16 @@ static enum rayd_status load_objects(struct loader *ld, const cJSON *root) {
 
 /* ---- text checks and parse ----------------------------------------------------- */
 
-static void position_of(const char *json, size_t off, int *line, int *col) {
-    int l = 1, c = 1;
-    for (size_t i = 0; i < off; i++) {
-        if (json[i] == '\n') {
-            l++;
-            c = 1;
-        } else if (((unsigned char)json[i] & 0xC0) != 0x80) {
-            c++; /* count characters, not UTF-8 continuation bytes */
-        }
-    }
-    *line = l;
-    *col = c;
-}
-
-static enum rayd_status text_error(struct rayd_error *err, enum rayd_status code,
-                                   const char *json, size_t off, const char *msg) {
-    err_set(err, code, NULL, "%s", msg);
-    if (err) position_of(json, off, &err->line, &err->column);
-    return code;
-}
-
-/* Length of the UTF-8 sequence at p (0 if invalid): rejects overlongs,
- * surrogates and code points past U+10FFFF. */
-static size_t utf8_len(const unsigned char *p, size_t avail) {
-    unsigned c = p[0];
-    size_t n;
-    unsigned min;
-    if (c < 0x80) return 1;
-    if ((c & 0xE0) == 0xC0) n = 2, min = 0x80, c &= 0x1F;
-    else if ((c & 0xF0) == 0xE0) n = 3, min = 0x800, c &= 0x0F;
-    else if ((c & 0xF8) == 0xF0) n = 4, min = 0x10000, c &= 0x07;
-    else return 0;
-    if (n > avail) return 0;
-    for (size_t i = 1; i < n; i++) {
-        if ((p[i] & 0xC0) != 0x80) return 0;
-        c = (c << 6) | (p[i] & 0x3F);
-    }
-    if (c < min || c > 0x10FFFF || (c >= 0xD800 && c <= 0xDFFF)) return 0;
-    return n;
-}
-
-static enum rayd_status scan_text(const char *json, size_t len, const struct rayd_limits *lim,
-                                  struct rayd_error *err) {
-    const unsigned char *p = (const unsigned char *)json;
-    int depth = 0;
-    bool in_str = false;
-    for (size_t i = 0; i < len;) {
-        size_t n = utf8_len(p + i, len - i);
-        if (n == 0) return text_error(err, RAYD_E_PARSE, json, i, "invalid UTF-8");
-        if (p[i] == 0) return text_error(err, RAYD_E_PARSE, json, i, "NUL byte in the text");
-        if (in_str) {
-            if (p[i] == '\\') n = (i + 1 < len) ? 2 : 1;
-            else if (p[i] == '"') in_str = false;
-        } else if (p[i] == '"') {
-            in_str = true;
-        } else if (p[i] == '[' || p[i] == '{') {
-            if (++depth > lim->max_nesting) {
-                char msg[96];
-                snprintf(msg, sizeof msg, "nesting deeper than %d levels", lim->max_nesting);
-                return text_error(err, RAYD_E_PARSE, json, i, msg);
-            }
-        } else if (p[i] == ']' || p[i] == '}') {
-            depth--;
-        }
-        i += n;
-    }
-    return RAYD_OK;
-}
-
+/* cJSON writes a global error slot on every parse, so parses are serialised;
+ * the text has passed json_check, so a failure here is out of memory. */
 static pthread_mutex_t cjson_lock = PTHREAD_MUTEX_INITIALIZER;
 
 static enum rayd_status parse_json(const char *json, size_t len, cJSON **out,
                                    struct rayd_error *err) {
-    const char *end = NULL;
     pthread_mutex_lock(&cjson_lock);
-    cJSON *root = cJSON_ParseWithLengthOpts(json, len, &end, 0);
+    cJSON *root = cJSON_ParseWithLength(json, len);
     pthread_mutex_unlock(&cjson_lock);
-    if (!root) {
-        size_t off = end && end >= json && end <= json + len ? (size_t)(end - json) : 0;
-        char msg[96];
-        if (len == 0 || off >= len)
-            snprintf(msg, sizeof msg, "malformed JSON: unexpected end of input");
-        else if (json[off] >= 0x21 && json[off] <= 0x7e)
-            snprintf(msg, sizeof msg, "malformed JSON: unexpected '%c'", json[off]);
-        else
-            snprintf(msg, sizeof msg, "malformed JSON: unexpected byte 0x%02x",
-                     (unsigned char)json[off]);
-        return text_error(err, RAYD_E_PARSE, json, off, msg);
-    }
-    size_t off = (size_t)(end - json);
-    while (off < len && strchr(" \t\r\n", json[off])) off++;
-    if (off < len) {
-        cJSON_Delete(root);
-        return text_error(err, RAYD_E_PARSE, json, off, "malformed JSON: data after the scene");
-    }
+    if (!root) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory parsing the scene");
     *out = root;
     return RAYD_OK;
 }
@@ -614,8 +530,8 @@ enum rayd_status rayd_scene_parse(const char *json, size_t len, const struct ray
     if (len > lim->max_bytes)
         return err_set(err, RAYD_E_LIMIT, NULL, "the scene is %zu bytes; the limit is %zu", len,
                        lim->max_bytes);
-    TRY(scan_text(json, len, lim, err));
-    cJSON *root;
+    TRY(json_check(json, len, lim->max_nesting, err));
+    cJSON *root = NULL;
     TRY(parse_json(json, len, &root, err));
     rayd_scene *s;
     enum rayd_status st = scene_alloc(&s, err);

@@ -11,6 +11,10 @@
 #include <math.h>
 #include <stdio.h>
 
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
 static int check_failures_;
 
 #define CHECK(cond, ...)                                                                \

@@ -1,0 +1,214 @@
+/* test_render.c -- regions, tiles, threads, PNG, cancel and progress,
+ * through the public API only.  The determinism rule: a region equals the
+ * same crop of the full render byte for byte, whatever the thread count or
+ * tile size. */
+#include <stdatomic.h>
+#include <stdlib.h>
+
+#include "check.h"
+#include "scene_util.h"
+
+static char *read_file(const char *path, size_t *len) {
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    char *buf = malloc((size_t)n + 1);
+    if (buf && fread(buf, 1, (size_t)n, f) != (size_t)n) {
+        free(buf);
+        buf = NULL;
+    }
+    fclose(f);
+    *len = (size_t)n;
+    return buf;
+}
+
+/* The Whitted example at a small size with several samples: reflection,
+ * refraction, two lights and anti-aliasing all take part. */
+static rayd_scene *small_whitted(void) {
+    size_t len;
+    char *text = read_file("scenes/whitted.json", &len);
+    CHECK(text != NULL, "scenes/whitted.json readable (run from the repository root)");
+    if (!text) return NULL;
+    char *w = strstr(text, "\"width\": 640"), *h = strstr(text, "\"height\": 480");
+    CHECK(w && h, "size keys present");
+    if (!w || !h) {
+        free(text);
+        return NULL;
+    }
+    memcpy(w, "\"width\":  97", 12);
+    memcpy(h, "\"height\":  61", 13);
+    rayd_scene *s = NULL;
+    struct rayd_error err;
+    CHECK(rayd_scene_parse(text, len, NULL, &s, &err) == RAYD_OK, "parse: %s", err.message);
+    free(text);
+    return s;
+}
+
+static int same_crop(const rayd_image *full, const rayd_image *crop, int x, int y) {
+    int fw = rayd_image_width(full), cw = rayd_image_width(crop), ch = rayd_image_height(crop);
+    for (int row = 0; row < ch; row++)
+        if (memcmp(rayd_image_pixels_const(full) + ((size_t)(y + row) * fw + x) * 3,
+                   rayd_image_pixels_const(crop) + (size_t)row * cw * 3, (size_t)cw * 3) != 0)
+            return 0;
+    return 1;
+}
+
+static void test_threads_and_tiles_give_same_bytes(void) {
+    rayd_scene *s = small_whitted();
+    if (!s) return;
+    rayd_image *a = NULL, *b = NULL, *c = NULL;
+    struct rayd_render_opts o1 = {.threads = 1};
+    struct rayd_render_opts o2 = {.threads = 2, .tile = 7};
+    struct rayd_render_opts o3 = {.threads = 5, .tile = 1000};
+    CHECK(rayd_render(s, &o1, &a, NULL) == RAYD_OK, "1 thread");
+    CHECK(rayd_render(s, &o2, &b, NULL) == RAYD_OK, "2 threads");
+    CHECK(rayd_render(s, &o3, &c, NULL) == RAYD_OK, "5 threads");
+    CHECK(a && b && c && same_crop(a, b, 0, 0) && same_crop(a, c, 0, 0),
+          "identical bytes for 1, 2 and 5 threads");
+    rayd_image_free(a);
+    rayd_image_free(b);
+    rayd_image_free(c);
+    rayd_scene_free(s);
+}
+
+static void test_region_equals_crop_of_full(void) {
+    rayd_scene *s = small_whitted();
+    if (!s) return;
+    rayd_image *full = render_all(s, 2);
+    CHECK(full != NULL, "full render");
+    struct rayd_region regions[] = {{13, 9, 37, 29}, {0, 0, 1, 1}, {96, 60, 1, 1}, {50, 0, 47, 61}};
+    for (int i = 0; full && i < 4; i++) {
+        struct rayd_render_opts o = {.region = regions[i], .threads = 2, .tile = 8};
+        rayd_image *crop = NULL;
+        CHECK(rayd_render(s, &o, &crop, NULL) == RAYD_OK, "region %d", i);
+        CHECK(crop && rayd_image_width(crop) == regions[i].w &&
+                  rayd_image_height(crop) == regions[i].h,
+              "region %d size", i);
+        CHECK(crop && same_crop(full, crop, regions[i].x, regions[i].y), "region %d bytes", i);
+        rayd_image_free(crop);
+    }
+    /* rayd_render_into: tiles assembled by hand equal the full render too. */
+    rayd_image *asm_img = NULL;
+    CHECK(rayd_image_new(97, 61, &asm_img, NULL) == RAYD_OK, "new image");
+    for (int y = 0; asm_img && y < 61; y += 20)
+        for (int x = 0; x < 97; x += 30) {
+            struct rayd_region r = {x, y, x + 30 > 97 ? 97 - x : 30, y + 20 > 61 ? 61 - y : 20};
+            CHECK(rayd_render_into(s, &r, asm_img, x, y, NULL, NULL, NULL) == RAYD_OK, "tile");
+        }
+    CHECK(full && asm_img && same_crop(full, asm_img, 0, 0), "hand-tiled image equals full");
+    rayd_image_free(asm_img);
+    rayd_image_free(full);
+    rayd_scene_free(s);
+}
+
+static void test_bad_regions_are_refused(void) {
+    rayd_scene *s = scene_from("{\"render\": {\"width\": 20, \"height\": 10}}");
+    if (!s) return;
+    struct rayd_region bad[] = {{-1, 0, 5, 5}, {20, 0, 1, 1}, {0, 10, 1, 1},
+                                {15, 0, 6, 1}, {0, 5, 1, 6}, {0, 0, 0, 5}};
+    const char *field[] = {"x", "x", "y", "w", "h", "w"};
+    for (int i = 0; i < 6; i++) {
+        struct rayd_error err;
+        struct rayd_render_opts o = {.region = bad[i]};
+        rayd_image *img = NULL;
+        CHECK(rayd_render(s, &o, &img, &err) == RAYD_E_ARG, "region %d refused", i);
+        CHECK(img == NULL, "no image on error");
+        CHECK(strcmp(err.path, field[i]) == 0, "region %d names %s, got %s", i, field[i], err.path);
+    }
+    rayd_scene_free(s);
+}
+
+static void test_png_round_trip(void) {
+    rayd_scene *s = small_whitted();
+    if (!s) return;
+    rayd_image *img = render_all(s, 2), *back = NULL;
+    void *buf = NULL;
+    size_t len = 0;
+    CHECK(rayd_png_encode(img, -1, &buf, &len, NULL) == RAYD_OK, "encode");
+    CHECK(len > 8 && memcmp(buf, "\x89PNG\r\n\x1a\n", 8) == 0, "PNG signature");
+    CHECK(rayd_png_decode(buf, len, 0, &back, NULL) == RAYD_OK, "decode");
+    CHECK(back && same_crop(img, back, 0, 0), "pixels survive the round trip");
+    struct rayd_error err;
+    rayd_image *none = NULL;
+    CHECK(rayd_png_decode(buf, len, 100, &none, &err) == RAYD_E_LIMIT, "pixel limit on decode");
+    CHECK(rayd_png_decode(buf, len / 2, 0, &none, &err) != RAYD_OK, "truncated PNG refused");
+    CHECK(none == NULL, "no image from a bad PNG");
+    rayd_free(buf);
+    rayd_image_free(back);
+    rayd_image_free(img);
+    rayd_scene_free(s);
+}
+
+struct progress {
+    atomic_long last;
+    atomic_int calls;
+    long total;
+};
+
+static void on_progress(void *user, long done, long total) {
+    struct progress *p = user;
+    long prev = atomic_load(&p->last);
+    while (done > prev && !atomic_compare_exchange_weak(&p->last, &prev, done)) continue;
+    p->total = total;
+    atomic_fetch_add(&p->calls, 1);
+}
+
+static void test_progress_and_cancel(void) {
+    rayd_scene *s = small_whitted();
+    if (!s) return;
+    struct progress p = {0};
+    struct rayd_render_stats st = {0};
+    struct rayd_render_opts o = {
+        .threads = 2, .tile = 16, .progress = on_progress, .progress_user = &p, .stats = &st};
+    rayd_image *img = NULL;
+    CHECK(rayd_render(s, &o, &img, NULL) == RAYD_OK, "render");
+    CHECK(atomic_load(&p.calls) == 7 * 4, "one call per tile: %d", atomic_load(&p.calls));
+    CHECK(atomic_load(&p.last) == 97 * 61 && p.total == 97 * 61, "progress reaches the total");
+    CHECK(st.rays >= 97 * 61 * 4, "rays counted: %llu", (unsigned long long)st.rays);
+    rayd_image_free(img);
+
+    atomic_int cancel = 1;
+    struct rayd_render_opts oc = {.threads = 2, .cancel = &cancel};
+    struct rayd_error err;
+    img = NULL;
+    CHECK(rayd_render(s, &oc, &img, &err) == RAYD_E_CANCELED, "canceled");
+    CHECK(img == NULL, "no image when canceled");
+    rayd_scene_free(s);
+}
+
+static void test_seed_changes_samples_only(void) {
+    const char *a = "{\"render\": {\"width\": 16, \"height\": 16, \"samples\": 8, \"seed\": 1},"
+                    " \"objects\": [{\"type\": \"sphere\", \"center\": [0,0,-3],"
+                    " \"material\": {\"emission\": [1,1,1]}}]}";
+    const char *b = "{\"render\": {\"width\": 16, \"height\": 16, \"samples\": 8, \"seed\": 2},"
+                    " \"objects\": [{\"type\": \"sphere\", \"center\": [0,0,-3],"
+                    " \"material\": {\"emission\": [1,1,1]}}]}";
+    rayd_scene *sa = scene_from(a), *sb = scene_from(b), *sa2 = scene_from(a);
+    if (!sa || !sb || !sa2) return;
+    rayd_image *ia = render_all(sa, 1), *ib = render_all(sb, 2), *ia2 = render_all(sa2, 2);
+    CHECK(same_crop(ia, ia2, 0, 0), "same seed, same bytes");
+    CHECK(!same_crop(ia, ib, 0, 0), "another seed moves the edge samples");
+    /* anti-aliasing: edge pixels take intermediate values */
+    int mid = 0;
+    const uint8_t *px = rayd_image_pixels_const(ia);
+    for (int k = 0; k < 16 * 16; k++) mid += px[3 * k] > 0 && px[3 * k] < 255;
+    CHECK(mid > 4, "%d anti-aliased edge pixels", mid);
+    rayd_image_free(ia);
+    rayd_image_free(ib);
+    rayd_image_free(ia2);
+    rayd_scene_free(sa);
+    rayd_scene_free(sb);
+    rayd_scene_free(sa2);
+}
+
+int main(void) {
+    RUN(test_threads_and_tiles_give_same_bytes);
+    RUN(test_region_equals_crop_of_full);
+    RUN(test_bad_regions_are_refused);
+    RUN(test_png_round_trip);
+    RUN(test_progress_and_cancel);
+    RUN(test_seed_changes_samples_only);
+    CHECK_EXIT();
+}
