@@ -127,7 +127,14 @@ $(BUILD)/tests/%: tests/unit/%.c $(wildcard tests/unit/*.h) $(BUILD)/librayd.a
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -Iinclude -Icore -Itests/unit $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
 
-test: all $(UNIT_BIN)
+# Small programs the shell tests use (not tests themselves).
+$(BUILD)/tests/tools/%: tests/tools/%.c $(BUILD)/librayd.a
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS_ALL) -Iinclude $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
+
+TEST_TOOLS := $(patsubst tests/tools/%.c,$(BUILD)/tests/tools/%,$(wildcard tests/tools/*.c))
+
+test: all $(UNIT_BIN) $(TEST_TOOLS)
 	@bash tests/run.sh $(BUILD)
 
 test-unit: $(BUILD)/librayd.a $(UNIT_BIN)

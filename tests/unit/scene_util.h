@@ -4,6 +4,7 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "rayd/rayd.h"
@@ -33,6 +34,23 @@ static inline rayd_image *render_all(const rayd_scene *s, int threads) {
     rayd_image *img = NULL;
     if (rayd_render(s, &o, &img, NULL) != RAYD_OK) return NULL;
     return img;
+}
+
+/* Reads a whole file into a malloc'd buffer; NULL if it cannot. */
+static inline char *read_file(const char *path, size_t *len) {
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    char *buf = n >= 0 ? malloc((size_t)n + 1) : NULL;
+    if (buf && fread(buf, 1, (size_t)n, f) != (size_t)n) {
+        free(buf);
+        buf = NULL;
+    }
+    fclose(f);
+    *len = (size_t)n;
+    return buf;
 }
 
 #endif

@@ -14,30 +14,14 @@
 #include "check.h"
 #include "scene_util.h"
 
-static char *slurp(const char *path, size_t *len) {
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *buf = malloc((size_t)n + 1);
-    if (buf && fread(buf, 1, (size_t)n, f) != (size_t)n) {
-        free(buf);
-        buf = NULL;
-    }
-    fclose(f);
-    *len = (size_t)n;
-    return buf;
-}
-
 static int compare(const char *name) {
     char path[512];
     size_t len = 0;
     snprintf(path, sizeof path, "tests/scenes/%s.json", name);
-    char *text = slurp(path, &len);
+    char *text = read_file(path, &len);
     snprintf(path, sizeof path, "tests/golden/%s.png", name);
     size_t plen = 0;
-    char *png = slurp(path, &plen);
+    char *png = read_file(path, &plen);
     int ok = 0;
     rayd_scene *s = NULL;
     rayd_image *got = NULL, *want = NULL;

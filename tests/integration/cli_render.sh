@@ -1,0 +1,72 @@
+#!/usr/bin/env bash
+# rayd-render end to end: regions equal crops of the full render, thread
+# counts give identical bytes, stdin input, --stats, usage errors.
+set -u
+cd "$RAYD_ROOT"
+R="$RAYD_BUILD/rayd-render"
+CMP="$RAYD_BUILD/tests/tools/pngcmp"
+T=$(mktemp -d)
+trap 'rm -rf "$T"' EXIT
+ok() { echo "PASS $1"; }
+bad() { echo "FAIL $1: $2"; }
+
+scene=tests/scenes/whitted.json
+"$R" "$scene" -o "$T/full1.png" --threads 1 && "$R" "$scene" -o "$T/full2.png" --threads 2 &&
+    "$R" "$scene" -o "$T/full7.png" --threads 7
+if cmp -s "$T/full1.png" "$T/full2.png" && cmp -s "$T/full1.png" "$T/full7.png"; then
+    ok cli-threads-identical-bytes
+else
+    bad cli-threads-identical-bytes "PNG bytes differ between 1, 2 and 7 threads"
+fi
+
+all_ok=1
+for region in 0,0,160,120 10,20,33,17 159,119,1,1 0,60,160,60; do
+    IFS=, read -r x y w h <<<"$region"
+    if ! "$R" "$scene" -o "$T/r.png" --region "$region" 2>"$T/err"; then
+        bad "cli-region-$region" "exit $(cat "$T/err")"; all_ok=0; continue
+    fi
+    if ! "$CMP" "$T/full1.png" "$T/r.png" "$x" "$y" 2>"$T/err"; then
+        bad "cli-region-$region" "$(cat "$T/err")"; all_ok=0
+    fi
+    # The crop PNG itself is W x H: its IHDR holds the size.
+    dims=$(python3 -c "import struct,sys;d=open(sys.argv[1],'rb').read();print(*struct.unpack('>II',d[16:24]))" "$T/r.png")
+    [ "$dims" = "$w $h" ] || { bad "cli-region-$region" "size $dims, want $w $h"; all_ok=0; }
+done
+[ $all_ok = 1 ] && ok cli-region-equals-crop
+
+if "$R" - -o "$T/stdin.png" --threads 2 <"$scene" && cmp -s "$T/stdin.png" "$T/full1.png"; then
+    ok cli-stdin
+else
+    bad cli-stdin "rendering from stdin differs or failed"
+fi
+
+out=$("$R" "$scene" -o "$T/s.png" --stats 2>&1)
+rays=$(awk '/^rays:/ {print $2}' <<<"$out")
+if [ -n "$rays" ] && [ "$rays" -ge $((160 * 120 * 4)) ] && grep -q '^rays/s: [0-9]' <<<"$out" &&
+    grep -q '^wall: [0-9.]* s' <<<"$out"; then
+    ok cli-stats
+else
+    bad cli-stats "unexpected --stats output: $out"
+fi
+
+check_usage() { # name, expected stderr substring, args...
+    local name=$1 want=$2; shift 2
+    "$R" "$@" >"$T/out" 2>"$T/err"
+    local rc=$?
+    if [ $rc -eq 2 ] && grep -qF -- "$want" "$T/err"; then ok "$name"; else bad "$name" "exit $rc: $(head -c 300 "$T/err")"; fi
+}
+check_usage cli-no-output "no output given" "$scene"
+check_usage cli-no-scene "no scene given" -o "$T/x.png"
+check_usage cli-bad-threads "--threads takes an integer" "$scene" -o "$T/x.png" --threads zero
+check_usage cli-bad-region-syntax "--region takes X,Y,W,H" "$scene" -o "$T/x.png" --region 1,2,3
+check_usage cli-region-outside "error: --region w: must be in 1..10" "$scene" -o "$T/x.png" --region 150,0,20,20
+check_usage cli-unknown-option "unknown option --fast" "$scene" -o "$T/x.png" --fast
+if [ ! -e "$T/x.png" ]; then ok cli-no-file-on-error; else bad cli-no-file-on-error "a PNG was written"; fi
+
+"$R" "$T/missing.json" -o "$T/x.png" 2>"$T/err"
+rc=$?
+if [ $rc -eq 1 ] && grep -q "cannot open" "$T/err"; then ok cli-missing-file; else bad cli-missing-file "exit $rc"; fi
+
+"$R" "$scene" -o /nonexistent-dir/x.png 2>"$T/err"
+rc=$?
+if [ $rc -eq 1 ] && grep -q "cannot write" "$T/err"; then ok cli-unwritable-output; else bad cli-unwritable-output "exit $rc: $(cat "$T/err")"; fi
