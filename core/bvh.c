@@ -1,249 +1,316 @@
-/* bvh.c -- build and traverse the bounding volume hierarchy.
+/* bvh.c -- building the 4-wide BVH.
  *
- * Build: top-down, binned surface-area heuristic (16 bins on the axis where
- * the object centroids spread most).  A node becomes a leaf when it holds
- * few objects and splitting would not be cheaper by the SAH, or when all
- * centroids coincide.  Past a depth of 40 the split falls back to the
- * median, which bounds the depth (and so the traversal stack) by
- * 40 + log2(n) whatever the input.  Nodes are stored depth-first in one
- * array: the left child of node i is i + 1, the right one is node.index.
+ * Two steps.  First a binary tree, top-down with the binned surface-area
+ * heuristic: 16 bins along the axis where the primitive centroids spread
+ * most; a node becomes a leaf when splitting is no cheaper by the SAH and
+ * it holds at most BVH_MAX_LEAF primitives, or when all its centroids
+ * coincide.  Past depth 48 the split falls back to the median, which bounds
+ * the depth (and so the traversal stack) whatever the input.  The two
+ * halves of the top levels are built by separate threads when asked; binary
+ * nodes come from one atomically bumped array, so threads never lock.
  *
- * Traversal: a small fixed stack, slab tests with the precomputed inverse
- * direction, the nearer child first.  No allocation per ray.
+ * Then the binary tree is collapsed into 4-wide nodes: each wide node takes
+ * the binary node's two children and keeps opening the largest inner child
+ * until it has four.  Wide nodes are laid out depth-first in one array, in
+ * float, four child boxes side by side for the SIMD test in bvh.h.  The
+ * binary tree is freed; only the wide one is kept (bytes per primitive are
+ * what the benchmark reports).
  */
 #include "bvh.h"
 
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stdlib.h>
-#include <string.h>
 
 #include "error.h"
 
-#define BVH_BINS 16
-#define BVH_MAX_LEAF 4
-#define BVH_STACK 128
-#define BVH_MEDIAN_DEPTH 40
+#define BINS 16
+#define MEDIAN_DEPTH 48
+#define PARALLEL_MIN 50000 /* primitives below which a thread is not worth it */
 
-static struct aabb box_empty(void) {
-    struct aabb b = {v3(INFINITY, INFINITY, INFINITY), v3(-INFINITY, -INFINITY, -INFINITY)};
-    return b;
-}
-static struct aabb box_join(struct aabb a, struct aabb b) {
-    struct aabb r = {v3_min(a.lo, b.lo), v3_max(a.hi, b.hi)};
-    return r;
-}
-static struct aabb box_grow(struct aabb a, vec3 p) {
-    struct aabb r = {v3_min(a.lo, p), v3_max(a.hi, p)};
-    return r;
-}
-static double box_area(struct aabb b) {
-    vec3 d = v3_sub(b.hi, b.lo);
-    if (d.x < 0) return 0;
-    return 2.0 * (d.x * d.y + d.y * d.z + d.z * d.x);
-}
-static vec3 centroid(const struct object *o) {
-    struct aabb b = shape_bounds(o);
-    return v3_scale(v3_add(b.lo, b.hi), 0.5);
-}
-
-struct build {
-    struct object *objs;
-    struct bvh_node *nodes;
-    int32_t used;
-    int sort_axis;
+struct bnode {
+    struct bbox box;
+    uint32_t a, b; /* inner: left and right node; leaf: first, count */
+    bool leaf;
 };
 
-static int cmp_axis(const void *a, const void *b, int axis) {
-    double ca = v3_axis(centroid(a), axis), cb = v3_axis(centroid(b), axis);
-    return (ca > cb) - (ca < cb);
-}
-static int cmp_x(const void *a, const void *b) { return cmp_axis(a, b, 0); }
-static int cmp_y(const void *a, const void *b) { return cmp_axis(a, b, 1); }
-static int cmp_z(const void *a, const void *b) { return cmp_axis(a, b, 2); }
+struct build {
+    const struct bbox *boxes;
+    float (*cent)[3];   /* centroid of each primitive (times 2) */
+    uint32_t *ids;      /* primitive order, partitioned in place */
+    struct bnode *nodes;
+    atomic_uint used;
+};
 
-static int32_t split_median(struct object *objs, int32_t n, int axis) {
-    int (*cmp[3])(const void *, const void *) = {cmp_x, cmp_y, cmp_z};
-    qsort(objs, (size_t)n, sizeof *objs, cmp[axis]);
-    return n / 2;
+static struct bbox bb_empty(void) {
+    struct bbox b = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+    return b;
 }
 
-/* Binned SAH: returns the split position in objs (objects reordered), or 0
- * when a leaf is cheaper. */
-static int32_t split_sah(struct object *objs, int32_t n, int axis, struct aabb cb) {
-    double lo = v3_axis(cb.lo, axis), ext = v3_axis(cb.hi, axis) - lo;
-    double scale = BVH_BINS / ext * (1 - 1e-9);
-    int count[BVH_BINS] = {0};
-    struct aabb bin[BVH_BINS];
-    for (int i = 0; i < BVH_BINS; i++) bin[i] = box_empty();
-    for (int32_t i = 0; i < n; i++) {
-        int k = (int)((v3_axis(centroid(&objs[i]), axis) - lo) * scale);
-        k = k < 0 ? 0 : k >= BVH_BINS ? BVH_BINS - 1 : k;
-        count[k]++;
-        bin[k] = box_join(bin[k], shape_bounds(&objs[i]));
+static void bb_grow(struct bbox *b, const struct bbox *o) {
+    for (int k = 0; k < 3; k++) {
+        b->lo[k] = o->lo[k] < b->lo[k] ? o->lo[k] : b->lo[k];
+        b->hi[k] = o->hi[k] > b->hi[k] ? o->hi[k] : b->hi[k];
     }
-    double left_area[BVH_BINS], best = INFINITY;
-    int left_n[BVH_BINS], best_k = -1;
-    struct aabb acc = box_empty();
-    int acc_n = 0;
-    for (int k = 0; k < BVH_BINS - 1; k++) {
-        acc = box_join(acc, bin[k]);
+}
+
+static float bb_area(const struct bbox *b) {
+    float dx = b->hi[0] - b->lo[0], dy = b->hi[1] - b->lo[1], dz = b->hi[2] - b->lo[2];
+    if (!(dx >= 0)) return 0;
+    return 2 * (dx * dy + dy * dz + dz * dx);
+}
+
+struct bbox bbox_from(vec3 lo, vec3 hi) {
+    double l[3] = {lo.x, lo.y, lo.z}, h[3] = {hi.x, hi.y, hi.z};
+    struct bbox b;
+    for (int k = 0; k < 3; k++) {
+        b.lo[k] = (float)l[k];
+        if ((double)b.lo[k] > l[k]) b.lo[k] = nextafterf(b.lo[k], -INFINITY);
+        b.hi[k] = (float)h[k];
+        if ((double)b.hi[k] < h[k]) b.hi[k] = nextafterf(b.hi[k], INFINITY);
+    }
+    return b;
+}
+
+static int bin_of(float c, float lo, float scale) {
+    int k = (int)((c - lo) * scale);
+    return k < 0 ? 0 : k >= BINS ? BINS - 1 : k;
+}
+
+/* Binned SAH split of ids[0..n) on axis; returns the number going left, or
+ * 0 when a leaf is cheaper. */
+static uint32_t split_sah(struct build *b, uint32_t *ids, uint32_t n, int axis, float clo,
+                          float chi, const struct bbox *box) {
+    float scale = BINS / (chi - clo) * 0.99999f;
+    uint32_t count[BINS] = {0};
+    struct bbox bin[BINS];
+    for (int i = 0; i < BINS; i++) bin[i] = bb_empty();
+    for (uint32_t i = 0; i < n; i++) {
+        int k = bin_of(b->cent[ids[i]][axis], clo, scale);
+        count[k]++;
+        bb_grow(&bin[k], &b->boxes[ids[i]]);
+    }
+    float left_area[BINS];
+    uint32_t left_n[BINS];
+    struct bbox acc = bb_empty();
+    uint32_t acc_n = 0;
+    for (int k = 0; k < BINS - 1; k++) {
+        bb_grow(&acc, &bin[k]);
         acc_n += count[k];
-        left_area[k] = box_area(acc);
+        left_area[k] = bb_area(&acc);
         left_n[k] = acc_n;
     }
-    acc = box_empty();
+    float best = INFINITY;
+    int best_k = -1;
+    acc = bb_empty();
     acc_n = 0;
-    for (int k = BVH_BINS - 1; k > 0; k--) {
-        acc = box_join(acc, bin[k]);
+    for (int k = BINS - 1; k > 0; k--) {
+        bb_grow(&acc, &bin[k]);
         acc_n += count[k];
-        double cost = left_area[k - 1] * left_n[k - 1] + box_area(acc) * acc_n;
+        float cost = left_area[k - 1] * (float)left_n[k - 1] + bb_area(&acc) * (float)acc_n;
         if (left_n[k - 1] > 0 && acc_n > 0 && cost < best) {
             best = cost;
             best_k = k;
         }
     }
-    struct aabb all = box_empty();
-    for (int k = 0; k < BVH_BINS; k++) all = box_join(all, bin[k]);
-    /* Leaf cost n * area (intersection cost 1, traversal cost 1 in area units). */
-    if (best_k < 0 || (n <= BVH_MAX_LEAF && best + box_area(all) >= n * box_area(all))) return 0;
-    int32_t i = 0, j = n - 1;
-    while (i <= j) {
-        int k = (int)((v3_axis(centroid(&objs[i]), axis) - lo) * scale);
-        k = k < 0 ? 0 : k >= BVH_BINS ? BVH_BINS - 1 : k;
-        if (k < best_k) {
+    /* Costs in units of the parent's area: traversal 1, primitive 1. */
+    float parent = bb_area(box);
+    if (best_k < 0) return 0;
+    if (n <= BVH_MAX_LEAF && best + parent >= (float)n * parent) return 0;
+    uint32_t i = 0, j = n;
+    while (i < j) {
+        if (bin_of(b->cent[ids[i]][axis], clo, scale) < best_k) {
             i++;
         } else {
-            struct object t = objs[i];
-            objs[i] = objs[j];
-            objs[j--] = t;
+            uint32_t t = ids[i];
+            ids[i] = ids[--j];
+            ids[j] = t;
         }
     }
     return i;
 }
 
-static void build_node(struct build *b, int32_t first, int32_t n, int depth) {
-    int32_t self = b->used++;
-    struct bvh_node *node = &b->nodes[self];
-    struct aabb box = box_empty(), cb = box_empty();
-    for (int32_t i = first; i < first + n; i++) {
-        box = box_join(box, shape_bounds(&b->objs[i]));
-        cb = box_grow(cb, centroid(&b->objs[i]));
+/* nth_element by centroid on axis (quickselect): the median split. */
+static void select_nth(struct build *b, uint32_t *ids, uint32_t n, uint32_t nth, int axis) {
+    uint32_t lo = 0, hi = n - 1;
+    while (lo < hi) {
+        uint32_t m = lo + (hi - lo) / 2, t = ids[m];
+        ids[m] = ids[hi];
+        ids[hi] = t;
+        float pivot = b->cent[ids[hi]][axis];
+        uint32_t s = lo;
+        for (uint32_t i = lo; i < hi; i++) {
+            if (b->cent[ids[i]][axis] < pivot) {
+                t = ids[i];
+                ids[i] = ids[s];
+                ids[s++] = t;
+            }
+        }
+        t = ids[s];
+        ids[s] = ids[hi];
+        ids[hi] = t;
+        if (s == nth) return;
+        if (nth < s) hi = s - 1;
+        else lo = s + 1;
     }
-    node->box = box;
-    vec3 ext = v3_sub(cb.hi, cb.lo);
-    int axis = (ext.x >= ext.y && ext.x >= ext.z) ? 0 : (ext.y >= ext.z ? 1 : 2);
-    int32_t mid = 0;
-    if (n > 1 && v3_axis(ext, axis) > 0) {
-        mid = depth >= BVH_MEDIAN_DEPTH ? split_median(b->objs + first, n, axis)
-                                        : split_sah(b->objs + first, n, axis, cb);
-    }
-    if (mid <= 0 || mid >= n) {
-        node->index = first;
-        node->count = n;
-        return;
-    }
-    node->count = 0;
-    build_node(b, first, mid, depth + 1);
-    b->nodes[self].index = b->used;
-    build_node(b, first + mid, n - mid, depth + 1);
 }
 
-enum rayd_status bvh_build(struct bvh *bvh, struct object *objs, int32_t n, struct rayd_error *err) {
-    bvh->nodes = NULL;
-    bvh->nnodes = 0;
-    if (n <= 0) return RAYD_OK;
-    /* A binary tree with n leaves at most has 2n - 1 nodes. */
-    struct bvh_node *nodes = malloc(sizeof *nodes * (size_t)(2 * n - 1));
-    if (!nodes) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory building the BVH");
-    struct build b = {objs, nodes, 0, 0};
-    build_node(&b, 0, n, 0);
-    struct bvh_node *fit = realloc(nodes, sizeof *nodes * (size_t)b.used);
-    bvh->nodes = fit ? fit : nodes;
-    bvh->nnodes = b.used;
+struct task {
+    struct build *b;
+    uint32_t node, first, n;
+    int depth, threads;
+};
+
+static void build_node(struct build *b, uint32_t self, uint32_t first, uint32_t n, int depth,
+                       int threads);
+
+static void *build_task(void *arg) {
+    struct task *t = arg;
+    build_node(t->b, t->node, t->first, t->n, t->depth, t->threads);
+    return NULL;
+}
+
+static void build_node(struct build *b, uint32_t self, uint32_t first, uint32_t n, int depth,
+                       int threads) {
+    uint32_t *ids = b->ids + first;
+    struct bbox box = bb_empty(), cb = bb_empty();
+    for (uint32_t i = 0; i < n; i++) {
+        bb_grow(&box, &b->boxes[ids[i]]);
+        struct bbox c = {{b->cent[ids[i]][0], b->cent[ids[i]][1], b->cent[ids[i]][2]},
+                         {b->cent[ids[i]][0], b->cent[ids[i]][1], b->cent[ids[i]][2]}};
+        bb_grow(&cb, &c);
+    }
+    struct bnode *nd = &b->nodes[self];
+    nd->box = box;
+    float ext[3] = {cb.hi[0] - cb.lo[0], cb.hi[1] - cb.lo[1], cb.hi[2] - cb.lo[2]};
+    int axis = ext[0] >= ext[1] && ext[0] >= ext[2] ? 0 : ext[1] >= ext[2] ? 1 : 2;
+    uint32_t mid = 0;
+    if (n > 1 && ext[axis] > 0) {
+        if (depth < MEDIAN_DEPTH) mid = split_sah(b, ids, n, axis, cb.lo[axis], cb.hi[axis], &box);
+        else select_nth(b, ids, n, mid = n / 2, axis);
+    }
+    if ((mid == 0 || mid >= n) && n > BVH_MAX_LEAF) {
+        mid = n / 2; /* coincident centroids, or too many for one leaf: split by count */
+    }
+    if (mid == 0 || mid >= n) {
+        nd->leaf = true;
+        nd->a = first;
+        nd->b = n;
+        return;
+    }
+    uint32_t left = atomic_fetch_add(&b->used, 2);
+    nd->leaf = false;
+    nd->a = left;
+    nd->b = left + 1;
+    if (threads > 1 && n >= PARALLEL_MIN) {
+        pthread_t th;
+        struct task t = {b, left, first, mid, depth + 1, threads / 2};
+        if (pthread_create(&th, NULL, build_task, &t) == 0) {
+            build_node(b, left + 1, first + mid, n - mid, depth + 1, threads - threads / 2);
+            pthread_join(th, NULL);
+            return;
+        }
+    }
+    build_node(b, left, first, mid, depth + 1, 1);
+    build_node(b, left + 1, first + mid, n - mid, depth + 1, 1);
+}
+
+/* ---- collapse to 4-wide --------------------------------------------------- */
+
+struct collapse {
+    const struct bnode *bn;
+    struct bvh4_node *out;
+    uint32_t used;
+};
+
+static uint32_t collapse_node(struct collapse *c, uint32_t bi) {
+    uint32_t kids[4] = {c->bn[bi].a, c->bn[bi].b, 0, 0};
+    int nk = 2;
+    while (nk < 4) { /* open the inner child with the largest area */
+        int best = -1;
+        float area = -1;
+        for (int i = 0; i < nk; i++) {
+            const struct bnode *k = &c->bn[kids[i]];
+            if (!k->leaf && bb_area(&k->box) > area) {
+                area = bb_area(&k->box);
+                best = i;
+            }
+        }
+        if (best < 0) break;
+        uint32_t open = kids[best];
+        kids[best] = c->bn[open].a;
+        kids[nk++] = c->bn[open].b;
+    }
+    uint32_t self = c->used++;
+    struct bvh4_node nd;
+    memset(&nd, 0, sizeof nd);
+    for (int i = 0; i < 4; i++) {
+        struct bbox box = i < nk ? c->bn[kids[i]].box : bb_empty();
+        for (int k = 0; k < 3; k++) {
+            nd.lo[k][i] = box.lo[k];
+            nd.hi[k][i] = box.hi[k];
+        }
+    }
+    for (int i = 0; i < nk; i++) {
+        const struct bnode *k = &c->bn[kids[i]];
+        if (k->leaf) {
+            nd.child[i] = k->a;
+            nd.count[i] = (uint8_t)k->b;
+        } else {
+            nd.child[i] = collapse_node(c, kids[i]);
+        }
+    }
+    c->out[self] = nd;
+    return self;
+}
+
+enum rayd_status bvh_build(struct bvh4 *bvh, const struct bbox *boxes, uint32_t n,
+                           uint32_t *order, int threads, struct rayd_error *err) {
+    memset(bvh, 0, sizeof *bvh);
+    bvh->bounds = bb_empty();
+    if (n == 0) return RAYD_OK;
+    struct build b = {.boxes = boxes, .ids = order};
+    b.cent = malloc(sizeof *b.cent * n);
+    b.nodes = malloc(sizeof *b.nodes * (2 * (size_t)n));
+    struct bvh4_node *wide = malloc(sizeof *wide * ((size_t)n + 1));
+    if (!b.cent || !b.nodes || !wide) {
+        free(b.cent);
+        free(b.nodes);
+        free(wide);
+        return err_set(err, RAYD_E_NOMEM, NULL, "out of memory building the BVH");
+    }
+    for (uint32_t i = 0; i < n; i++) {
+        order[i] = i;
+        for (int k = 0; k < 3; k++) b.cent[i][k] = boxes[i].lo[k] + boxes[i].hi[k];
+    }
+    atomic_init(&b.used, 1);
+    build_node(&b, 0, 0, n, 0, threads);
+    bvh->bounds = b.nodes[0].box;
+    struct collapse c = {b.nodes, wide, 0};
+    if (b.nodes[0].leaf) { /* one leaf: a wide root with one child */
+        memset(wide, 0, sizeof *wide);
+        for (int i = 0; i < 4; i++)
+            for (int k = 0; k < 3; k++) {
+                wide->lo[k][i] = i ? INFINITY : b.nodes[0].box.lo[k];
+                wide->hi[k][i] = i ? -INFINITY : b.nodes[0].box.hi[k];
+            }
+        wide->child[0] = 0;
+        wide->count[0] = (uint8_t)n;
+        c.used = 1;
+    } else {
+        collapse_node(&c, 0);
+    }
+    free(b.cent);
+    free(b.nodes);
+    struct bvh4_node *fit = realloc(wide, sizeof *wide * c.used);
+    bvh->nodes = fit ? fit : wide;
+    bvh->nnodes = c.used;
     return RAYD_OK;
 }
 
-void bvh_free(struct bvh *bvh) {
+void bvh_free(struct bvh4 *bvh) {
     if (!bvh) return;
     free(bvh->nodes);
     bvh->nodes = NULL;
     bvh->nnodes = 0;
-}
-
-/* Slab test: does the ray enter the box before tmax?  *tnear gets the entry. */
-static inline bool box_hit(const struct aabb *b, vec3 o, vec3 inv, double tmin, double tmax,
-                           double *tnear) {
-    double t1 = (b->lo.x - o.x) * inv.x, t2 = (b->hi.x - o.x) * inv.x;
-    double lo = fmin(t1, t2), hi = fmax(t1, t2);
-    t1 = (b->lo.y - o.y) * inv.y;
-    t2 = (b->hi.y - o.y) * inv.y;
-    lo = fmax(lo, fmin(t1, t2));
-    hi = fmin(hi, fmax(t1, t2));
-    t1 = (b->lo.z - o.z) * inv.z;
-    t2 = (b->hi.z - o.z) * inv.z;
-    lo = fmax(lo, fmin(t1, t2));
-    hi = fmin(hi, fmax(t1, t2));
-    lo = fmax(lo, tmin);
-    hi = fmin(hi, tmax);
-    *tnear = lo;
-    return lo <= hi;
-}
-
-int32_t bvh_nearest(const struct bvh *bvh, const struct object *objs, const ray *r, double tmin,
-                    double *tmax) {
-    if (bvh->nnodes == 0) return -1;
-    vec3 inv = v3(1.0 / r->d.x, 1.0 / r->d.y, 1.0 / r->d.z);
-    int32_t stack[BVH_STACK], sp = 0, best = -1;
-    stack[sp++] = 0;
-    while (sp > 0) {
-        const struct bvh_node *node = &bvh->nodes[stack[--sp]];
-        double tn;
-        if (!box_hit(&node->box, r->o, inv, tmin, *tmax, &tn)) continue;
-        if (node->count > 0) {
-            for (int32_t i = node->index; i < node->index + node->count; i++) {
-                double t;
-                if (shape_hit(&objs[i], r, tmin, *tmax, &t)) {
-                    *tmax = t;
-                    best = i;
-                }
-            }
-            continue;
-        }
-        int32_t left = (int32_t)(node - bvh->nodes) + 1, right = node->index;
-        double tl, tr;
-        bool hl = box_hit(&bvh->nodes[left].box, r->o, inv, tmin, *tmax, &tl);
-        bool hr = box_hit(&bvh->nodes[right].box, r->o, inv, tmin, *tmax, &tr);
-        if (hl && hr) {
-            /* Push the farther child first so the nearer one is popped next. */
-            stack[sp++] = tl <= tr ? right : left;
-            stack[sp++] = tl <= tr ? left : right;
-        } else if (hl) {
-            stack[sp++] = left;
-        } else if (hr) {
-            stack[sp++] = right;
-        }
-    }
-    return best;
-}
-
-bool bvh_each_hit(const struct bvh *bvh, const struct object *objs, const ray *r, double tmin,
-                  double tmax, bvh_visit_fn visit, void *ctx) {
-    if (bvh->nnodes == 0) return true;
-    vec3 inv = v3(1.0 / r->d.x, 1.0 / r->d.y, 1.0 / r->d.z);
-    int32_t stack[BVH_STACK], sp = 0;
-    stack[sp++] = 0;
-    while (sp > 0) {
-        const struct bvh_node *node = &bvh->nodes[stack[--sp]];
-        double tn;
-        if (!box_hit(&node->box, r->o, inv, tmin, tmax, &tn)) continue;
-        if (node->count > 0) {
-            for (int32_t i = node->index; i < node->index + node->count; i++) {
-                double t;
-                if (shape_hit(&objs[i], r, tmin, tmax, &t) && !visit(ctx, i, t)) return false;
-            }
-            continue;
-        }
-        stack[sp++] = node->index;
-        stack[sp++] = (int32_t)(node - bvh->nodes) + 1;
-    }
-    return true;
 }

@@ -13,11 +13,12 @@
  */
 #include "integrate.h"
 
-static vec3 shade_local(const rayd_scene *s, const struct material *m, vec3 p, vec3 nf, vec3 d,
-                        uint64_t *rays) {
+/* nf: shading normal facing the viewer; origin: the point lifted off the
+ * surface on the viewer's side, where shadow rays start. */
+static vec3 shade_local(const rayd_scene *s, const struct material *m, vec3 p, vec3 nf,
+                        vec3 origin, vec3 d, uint64_t *rays) {
     vec3 c = m->emission;
     if (s->nlights > 0) c = v3_add(c, v3_scale(m->color, m->ambient));
-    vec3 origin = v3_madd(p, nf, integrate_offset(p));
     for (int i = 0; i < s->nlights; i++) {
         vec3 to_l, rad;
         double dist;
@@ -47,27 +48,29 @@ static vec3 trace_from(const rayd_scene *s, vec3 o, vec3 d, int depth, uint64_t 
 vec3 whitted_radiance(const rayd_scene *s, const ray *r, int depth, uint64_t *rays) {
     (*rays)++;
     struct hit h;
-    if (!scene_intersect(s, r, 0, INFINITY, &h)) return s->rs.background;
-    const struct object *obj = scene_object(s, &h);
-    const struct material *m = &s->mats[obj->material];
-    vec3 p = ray_at(r, h.t);
-    vec3 n = shape_normal(obj, p);
-    bool inside = v3_dot(n, r->d) > 0;
-    vec3 nf = inside ? v3_neg(n) : n; /* faces the incoming ray */
-    vec3 c = shade_local(s, m, p, nf, r->d, rays);
+    if (!scene_intersect(s, r, INFINITY, &h)) return s->rs.background;
+    struct surface sf;
+    scene_surface(s, r, &h, &sf);
+    const struct material *m = sf.m;
+    bool inside = v3_dot(sf.ng, r->d) > 0;
+    vec3 ngf = inside ? v3_neg(sf.ng) : sf.ng; /* faces the incoming ray */
+    vec3 nf = inside ? v3_neg(sf.n) : sf.n;
+    if (v3_dot(nf, ngf) < 0) nf = ngf; /* an interpolated normal past the silhouette */
+    double off = integrate_offset(sf.p, sf.float_geom);
+    vec3 above = v3_madd(sf.p, ngf, off), below = v3_madd(sf.p, ngf, -off);
+    vec3 c = shade_local(s, m, sf.p, nf, above, r->d, rays);
     if (depth >= s->rs.max_depth) return c;
 
-    double off = integrate_offset(p), kr = m->reflectivity, kt = m->transparency;
+    double kr = m->reflectivity, kt = m->transparency;
+    vec3 refl_dir = v3_reflect(r->d, nf);
+    if (v3_dot(refl_dir, ngf) <= 0) refl_dir = v3_reflect(r->d, ngf);
     if (kt <= 0) {
-        if (kr > 0) {
-            vec3 refl = trace_from(s, v3_madd(p, nf, off), v3_reflect(r->d, nf), depth + 1, rays);
-            c = v3_madd(c, refl, kr);
-        }
+        if (kr > 0) c = v3_madd(c, trace_from(s, above, refl_dir, depth + 1, rays), kr);
         return c;
     }
     double cos_i = -v3_dot(r->d, nf), cos_t = 0, fr;
     vec3 tdir;
-    if (obj->kind == SHAPE_PLANE) { /* thin surface: no bending, no Fresnel split */
+    if (sf.thin) { /* thin surface: no bending, no Fresnel split */
         fr = 0;
         tdir = r->d;
     } else {
@@ -77,12 +80,9 @@ vec3 whitted_radiance(const rayd_scene *s, const ray *r, int depth, uint64_t *ra
     }
     c = v3_scale(c, 1.0 - kt);
     double wr = kr + kt * fr;
-    if (wr > 0) {
-        vec3 refl = trace_from(s, v3_madd(p, nf, off), v3_reflect(r->d, nf), depth + 1, rays);
-        c = v3_madd(c, refl, wr);
-    }
+    if (wr > 0) c = v3_madd(c, trace_from(s, above, refl_dir, depth + 1, rays), wr);
     if (fr < 1) {
-        vec3 refr = trace_from(s, v3_madd(p, nf, -off), tdir, depth + 1, rays);
+        vec3 refr = trace_from(s, below, tdir, depth + 1, rays);
         c = v3_add(c, v3_mul(refr, v3_scale(m->color, kt * (1 - fr))));
     }
     return c;

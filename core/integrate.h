@@ -12,7 +12,11 @@ vec3 whitted_radiance(const rayd_scene *s, const ray *r, int depth, uint64_t *ra
 
 /* How far to lift a secondary ray's origin off the surface at p so that it
  * cannot hit the surface it leaves (no shadow acne): relative to the size of
- * the coordinates, because that is what rounding error scales with. */
-static inline double integrate_offset(vec3 p) { return 1e-9 * (1.0 + v3_maxabs(p)); }
+ * the coordinates, because that is what rounding error scales with.  Float
+ * geometry (meshes, tested in single precision) needs about 2^8 float ulps,
+ * as in Wachter and Binder (Ray Tracing Gems, ch. 6). */
+static inline double integrate_offset(vec3 p, bool float_geom) {
+    return float_geom ? 1.5e-5 * v3_maxabs(p) + 1e-6 : 1e-9 * (1.0 + v3_maxabs(p));
+}
 
 #endif

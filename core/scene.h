@@ -8,7 +8,9 @@
 #include "camera.h"
 #include "light.h"
 #include "material.h"
+#include "mesh.h"
 #include "shape.h"
+#include "xform.h"
 
 struct render_settings {
     int width, height;
@@ -25,34 +27,49 @@ struct rayd_scene {
     int nmats;
     struct light *lights;
     int nlights;
-    struct object *objs;   /* bounded objects, in BVH order */
+    struct object *objs;   /* bounded objects, in top-level BVH order */
     int32_t nobjs;
     struct object *planes; /* unbounded objects, tested one by one */
     int32_t nplanes;
-    struct bvh bvh;
+    struct mesh *meshes;   /* geometry that objects refer to */
+    uint32_t nmeshes;
+    struct xform *xforms;  /* placements that objects refer to */
+    int32_t nxforms;
+    struct bvh4 tlas;      /* over objs */
+    bool brute;            /* tests only: every query tests every primitive */
 };
 
 struct hit {
     double t;
-    int32_t obj;      /* index into objs, or into planes when plane is set */
+    int32_t obj;        /* index into objs, or into planes when plane is set */
     bool plane;
+    struct mesh_hit mh; /* set for meshes */
+};
+
+/* What the shader needs to know about a hit. */
+struct surface {
+    vec3 p;           /* world-space point */
+    vec3 n;           /* unit shading normal, outward */
+    vec3 ng;          /* unit geometric normal, outward */
+    const struct material *m;
+    bool thin;        /* no inside: what passes through goes straight on */
+    bool float_geom;  /* float geometry: larger offsets for secondary rays */
 };
 
 /* A scene under construction: objects are appended, then scene_freeze
- * splits bounded from unbounded objects and builds the BVH.  The scene owns
- * all its arrays. */
+ * splits bounded from unbounded objects and builds the top-level BVH.  The
+ * scene owns all its arrays. */
 enum rayd_status scene_alloc(rayd_scene **out, struct rayd_error *err);
 enum rayd_status scene_freeze(rayd_scene *s, struct rayd_error *err);
 
-/* Nearest hit in (tmin, tmax); false when the ray escapes. */
-bool scene_intersect(const rayd_scene *s, const ray *r, double tmin, double tmax, struct hit *h);
+/* Nearest hit with t in (0, tmax); false when the ray escapes. */
+bool scene_intersect(const rayd_scene *s, const ray *r, double tmax, struct hit *h);
 
 /* Fraction of light that passes from the ray's origin to distance tmax:
  * 0 behind an opaque object, (transparency * color) per transparent one. */
 vec3 scene_transmittance(const rayd_scene *s, const ray *r, double tmax);
 
-static inline const struct object *scene_object(const rayd_scene *s, const struct hit *h) {
-    return h->plane ? &s->planes[h->obj] : &s->objs[h->obj];
-}
+/* Point, normals and material of a hit of ray r. */
+void scene_surface(const rayd_scene *s, const ray *r, const struct hit *h, struct surface *sf);
 
 #endif

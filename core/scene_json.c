@@ -22,6 +22,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include <cjson/cJSON.h>
 
@@ -43,6 +44,8 @@ void rayd_limits_default(struct rayd_limits *lim) {
     lim->max_materials = 10000;
     lim->max_nesting = 64;
     lim->max_bytes = 256u << 20;
+    lim->max_triangles = 5000000;
+    lim->max_vertices = 5000000;
 }
 
 /* ---- JSON Pointers ----------------------------------------------------- */
@@ -79,8 +82,10 @@ struct loader {
     rayd_scene *s;
     struct rayd_error *err;
     const cJSON *materials; /* the /materials object, for names */
-    int mat_cap, light_cap;
-    int32_t obj_cap;
+    int mat_cap;
+    uint32_t mesh_cap;
+    int32_t xform_cap;
+    long triangles, vertices; /* totals so far, against the limits */
 };
 
 static const char *type_name(const cJSON *v) {
@@ -435,12 +440,258 @@ static enum rayd_status load_lights(struct loader *ld, const cJSON *root) {
 
 /* ---- objects ----------------------------------------------------------------- */
 
+/* ---- transforms --------------------------------------------------------------- */
+
+static enum rayd_status transform_step(struct loader *ld, const cJSON *t, const struct jp *at,
+                                       struct xform *out) {
+    static const char *const keys[] = {"translate", "rotate", "scale", "matrix", NULL};
+    TRY(check_keys(ld, t, at, keys));
+    struct xform x = xform_identity();
+    const cJSON *mj = cJSON_GetObjectItemCaseSensitive(t, "matrix");
+    if (mj) {
+        struct jp p = jp_key(at, "matrix");
+        if (cJSON_GetArraySize(t) > 1)
+            return fail(ld, RAYD_E_INVALID, &p, "cannot be combined with translate, rotate or scale");
+        double rows[16];
+        if (!cJSON_IsArray(mj) || cJSON_GetArraySize(mj) != 16)
+            return fail(ld, RAYD_E_INVALID, &p, "must be an array of 16 numbers (a 4x4 matrix, row by row)");
+        int i = 0;
+        for (const cJSON *e = mj->child; e; e = e->next, i++) {
+            struct jp pe = jp_index(&p, i);
+            if (!cJSON_IsNumber(e) || !isfinite(e->valuedouble))
+                return fail(ld, RAYD_E_INVALID, &pe, "must be a finite number");
+            rows[i] = e->valuedouble;
+        }
+        if (!xform_from_matrix(rows, out))
+            return fail(ld, RAYD_E_INVALID, &p, "must be invertible with last row [0, 0, 0, 1]");
+        return RAYD_OK;
+    }
+    const cJSON *sc = cJSON_GetObjectItemCaseSensitive(t, "scale");
+    if (sc) {
+        vec3 v;
+        struct jp p = jp_key(at, "scale");
+        if (cJSON_IsNumber(sc)) {
+            double k;
+            TRY(get_num(ld, t, at, "scale", 1, -NUM_MAX, false, NUM_MAX, &k));
+            v = v3(k, k, k);
+        } else {
+            TRY(get_vec(ld, t, at, "scale", v3(1, 1, 1), VEC_ANY, &v));
+        }
+        if (fabs(v.x) < 1e-9 || fabs(v.y) < 1e-9 || fabs(v.z) < 1e-9)
+            return fail(ld, RAYD_E_INVALID, &p, "must not be zero (or smaller than 1e-9) in any axis");
+        struct xform k = xform_scale(v);
+        x = xform_then(&x, &k);
+    }
+    const cJSON *ro = cJSON_GetObjectItemCaseSensitive(t, "rotate");
+    if (ro) {
+        struct jp p = jp_key(at, "rotate");
+        struct xform k;
+        if (cJSON_IsObject(ro)) {
+            static const char *const rkeys[] = {"axis", "angle", NULL};
+            TRY(check_keys(ld, ro, &p, rkeys));
+            vec3 axis;
+            double angle;
+            TRY(get_vec(ld, ro, &p, "axis", v3(0, 1, 0), VEC_NONZERO, &axis));
+            TRY(get_num(ld, ro, &p, "angle", 0, -1e6, false, 1e6, &angle));
+            k = xform_rotate_axis(axis, angle);
+        } else {
+            vec3 e;
+            TRY(get_vec(ld, t, at, "rotate", v3(0, 0, 0), VEC_ANY, &e));
+            k = xform_rotate_euler(e);
+        }
+        x = xform_then(&x, &k);
+    }
+    vec3 tr;
+    TRY(get_vec(ld, t, at, "translate", v3(0, 0, 0), VEC_ANY, &tr));
+    struct xform k = xform_translate(tr);
+    *out = xform_then(&x, &k);
+    return RAYD_OK;
+}
+
+/* "transform": one step {scale, rotate, translate} applied in that order,
+ * or an array of steps applied first to last. */
+static enum rayd_status load_transform(struct loader *ld, const cJSON *obj, const struct jp *at,
+                                       int32_t *index) {
+    *index = -1;
+    const cJSON *t = cJSON_GetObjectItemCaseSensitive(obj, "transform");
+    if (!t) return RAYD_OK;
+    struct jp p = jp_key(at, "transform");
+    struct xform x = xform_identity();
+    if (cJSON_IsArray(t)) {
+        int i = 0;
+        for (const cJSON *e = t->child; e; e = e->next, i++) {
+            struct jp pe = jp_index(&p, i);
+            struct xform step;
+            TRY(transform_step(ld, e, &pe, &step));
+            x = xform_then(&x, &step);
+        }
+    } else {
+        TRY(transform_step(ld, t, &p, &x));
+    }
+    rayd_scene *s = ld->s;
+    if (s->nxforms == ld->xform_cap) {
+        int32_t cap = ld->xform_cap ? ld->xform_cap * 2 : 16;
+        struct xform *n = realloc(s->xforms, sizeof *n * (size_t)cap);
+        if (!n) return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
+        s->xforms = n;
+        ld->xform_cap = cap;
+    }
+    s->xforms[s->nxforms] = x;
+    *index = s->nxforms++;
+    return RAYD_OK;
+}
+
+/* ---- meshes ------------------------------------------------------------------- */
+
+/* A flat array of numbers, count a multiple of per (and at least min). */
+static enum rayd_status get_flat(struct loader *ld, const cJSON *obj, const struct jp *at,
+                                 const char *key, int per, long min, float **out, long *count) {
+    const cJSON *a = cJSON_GetObjectItemCaseSensitive(obj, key);
+    *out = NULL;
+    *count = 0;
+    if (!a) return RAYD_OK;
+    struct jp p = jp_key(at, key);
+    if (!cJSON_IsArray(a)) return fail(ld, RAYD_E_INVALID, &p, "must be an array of numbers, not %s", type_name(a));
+    long n = 0;
+    for (const cJSON *e = a->child; e; e = e->next) n++;
+    if (n % per != 0 || n < min)
+        return fail(ld, RAYD_E_INVALID, &p, "must hold a multiple of %d numbers (at least %ld); it has %ld", per, min, n);
+    if (n / per > ld->lim->max_vertices)
+        return fail(ld, RAYD_E_LIMIT, &p, "has %ld vertices; the limit is %ld", n / per, ld->lim->max_vertices);
+    float *v = malloc(sizeof *v * (size_t)(n ? n : 1));
+    if (!v) return err_set(ld->err, RAYD_E_NOMEM, p.s, "out of memory");
+    long i = 0;
+    for (const cJSON *e = a->child; e; e = e->next, i++) {
+        if (!cJSON_IsNumber(e) || !isfinite(e->valuedouble) || fabs(e->valuedouble) > 1e30) {
+            free(v);
+            struct jp pe = jp_index(&p, (int)i);
+            return fail(ld, RAYD_E_INVALID, &pe, "must be a finite number");
+        }
+        v[i] = (float)e->valuedouble;
+    }
+    *out = v;
+    *count = n / per;
+    return RAYD_OK;
+}
+
+static enum rayd_status get_indices(struct loader *ld, const cJSON *obj, const struct jp *at,
+                                    long nverts, uint32_t **out, long *ntris) {
+    const cJSON *a = cJSON_GetObjectItemCaseSensitive(obj, "indices");
+    struct jp p = jp_key(at, "indices");
+    if (!a) return fail(ld, RAYD_E_INVALID, &p, "is required (3 vertex indices per triangle)");
+    if (!cJSON_IsArray(a)) return fail(ld, RAYD_E_INVALID, &p, "must be an array of integers, not %s", type_name(a));
+    long n = 0;
+    for (const cJSON *e = a->child; e; e = e->next) n++;
+    if (n % 3 != 0 || n == 0)
+        return fail(ld, RAYD_E_INVALID, &p, "must hold a multiple of 3 indices (at least 3); it has %ld", n);
+    if (ld->triangles + n / 3 > ld->lim->max_triangles)
+        return fail(ld, RAYD_E_LIMIT, &p, "brings the scene to %ld triangles; the limit is %ld", ld->triangles + n / 3, ld->lim->max_triangles);
+    uint32_t *ix = malloc(sizeof *ix * (size_t)n);
+    if (!ix) return err_set(ld->err, RAYD_E_NOMEM, p.s, "out of memory");
+    long i = 0;
+    for (const cJSON *e = a->child; e; e = e->next, i++) {
+        double v = cJSON_IsNumber(e) ? e->valuedouble : -1;
+        if (!(v >= 0 && v < (double)nverts && floor(v) == v)) {
+            free(ix);
+            struct jp pe = jp_index(&p, (int)i);
+            return fail(ld, RAYD_E_INVALID, &pe, "must be an integer in 0..%ld (a vertex index)", nverts - 1);
+        }
+        ix[i] = (uint32_t)v;
+    }
+    *out = ix;
+    *ntris = n / 3;
+    return RAYD_OK;
+}
+
+static enum rayd_status add_mesh(struct loader *ld, uint32_t *id) {
+    rayd_scene *s = ld->s;
+    if (s->nmeshes == ld->mesh_cap) {
+        uint32_t cap = ld->mesh_cap ? ld->mesh_cap * 2 : 8;
+        struct mesh *n = realloc(s->meshes, sizeof *n * cap);
+        if (!n) return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
+        s->meshes = n;
+        ld->mesh_cap = cap;
+    }
+    memset(&s->meshes[s->nmeshes], 0, sizeof s->meshes[0]);
+    *id = s->nmeshes++;
+    return RAYD_OK;
+}
+
+static int cpu_count(void) {
+    long n = sysconf(_SC_NPROCESSORS_ONLN);
+    return n > 0 ? (int)n : 1;
+}
+
+static enum rayd_status load_mesh(struct loader *ld, const cJSON *oj, const struct jp *at,
+                                  uint32_t *id) {
+    float *pos = NULL, *nrm = NULL, *uv = NULL;
+    uint32_t *ix = NULL;
+    long nv = 0, nn = 0, nuv = 0, nt = 0;
+    bool smooth = true;
+    const cJSON *sm = cJSON_GetObjectItemCaseSensitive(oj, "smooth");
+    struct jp p;
+    enum rayd_status st = RAYD_OK;
+    if (sm && !cJSON_IsBool(sm)) {
+        p = jp_key(at, "smooth");
+        return fail(ld, RAYD_E_INVALID, &p, "must be true or false, not %s", type_name(sm));
+    }
+    if (sm) smooth = cJSON_IsTrue(sm);
+    if ((st = get_flat(ld, oj, at, "vertices", 3, 3, &pos, &nv)) != RAYD_OK) goto out;
+    if (!pos) {
+        p = jp_key(at, "vertices");
+        st = fail(ld, RAYD_E_INVALID, &p, "is required (x, y, z of each vertex, flat)");
+        goto out;
+    }
+    if (ld->vertices + nv > ld->lim->max_vertices) {
+        p = jp_key(at, "vertices");
+        st = fail(ld, RAYD_E_LIMIT, &p, "brings the scene to %ld vertices; the limit is %ld", ld->vertices + nv, ld->lim->max_vertices);
+        goto out;
+    }
+    if ((st = get_indices(ld, oj, at, nv, &ix, &nt)) != RAYD_OK) goto out;
+    if ((st = get_flat(ld, oj, at, "normals", 3, 0, &nrm, &nn)) != RAYD_OK) goto out;
+    if ((st = get_flat(ld, oj, at, "uvs", 2, 0, &uv, &nuv)) != RAYD_OK) goto out;
+    if ((nrm && nn != nv) || (uv && nuv != nv)) {
+        p = jp_key(at, nrm && nn != nv ? "normals" : "uvs");
+        st = fail(ld, RAYD_E_INVALID, &p, "must have one entry per vertex (%ld)", nv);
+        goto out;
+    }
+    for (long i = 0; nrm && i < nn; i++) {
+        float *n = nrm + 3 * i;
+        double len = sqrt((double)n[0] * n[0] + (double)n[1] * n[1] + (double)n[2] * n[2]);
+        if (!(len > 0)) {
+            p = jp_key(at, "normals");
+            struct jp pe = jp_index(&p, (int)(3 * i));
+            st = fail(ld, RAYD_E_INVALID, &pe, "normal %ld must not be a zero-length vector", i);
+            goto out;
+        }
+        for (int k = 0; k < 3; k++) n[k] = (float)(n[k] / len);
+    }
+    if ((st = add_mesh(ld, id)) != RAYD_OK) goto out;
+    ld->vertices += nv;
+    ld->triangles += nt;
+    st = mesh_build(&ld->s->meshes[*id], pos, (uint32_t)nv, ix, (uint32_t)nt, nrm, uv, smooth,
+                    nt >= 50000 ? cpu_count() : 1, ld->err);
+    return st; /* the mesh owns the arrays now, even on failure */
+out:
+    free(pos);
+    free(nrm);
+    free(uv);
+    free(ix);
+    return st;
+}
+
+/* ---- objects ---------------------------------------------------------------- */
+
 static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const struct jp *at,
                                     struct object *o) {
-    static const char *const types[] = {"sphere", "plane", NULL};
-    static const char *const sphere_keys[] = {"type", "name", "material", "center", "radius", NULL};
-    static const char *const plane_keys[] = {"type", "name", "material", "point", "normal", NULL};
-    static const char *const *const keys[] = {sphere_keys, plane_keys};
+    static const char *const types[] = {"sphere", "plane", "mesh", NULL};
+    static const char *const sphere_keys[] = {"type", "name", "material", "transform",
+                                              "center", "radius", NULL};
+    static const char *const plane_keys[] = {"type", "name", "material", "transform",
+                                             "point", "normal", NULL};
+    static const char *const mesh_keys[] = {"type",    "name",  "material", "transform", "vertices",
+                                            "indices", "normals", "uvs",    "smooth",    NULL};
+    static const char *const *const keys[] = {sphere_keys, plane_keys, mesh_keys};
     if (!cJSON_IsObject(oj))
         return fail(ld, RAYD_E_INVALID, at, "must be an object, not %s", type_name(oj));
     int kind;
@@ -453,16 +704,20 @@ static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const st
     }
     memset(o, 0, sizeof *o);
     TRY(object_material(ld, oj, at, &o->material));
+    TRY(load_transform(ld, oj, at, &o->xform));
     if (kind == 0) {
         o->kind = SHAPE_SPHERE;
         TRY(get_vec(ld, oj, at, "center", v3(0, 0, 0), VEC_ANY, &o->u.sphere.center));
         TRY(get_num(ld, oj, at, "radius", 1, 0, true, NUM_MAX, &o->u.sphere.radius));
-    } else {
+    } else if (kind == 1) {
         o->kind = SHAPE_PLANE;
         vec3 n;
         TRY(get_vec(ld, oj, at, "point", v3(0, 0, 0), VEC_ANY, &o->u.plane.point));
         TRY(get_vec(ld, oj, at, "normal", v3(0, 1, 0), VEC_NONZERO, &n));
         o->u.plane.normal = v3_norm(n);
+    } else {
+        o->kind = SHAPE_MESH;
+        TRY(load_mesh(ld, oj, at, &o->u.mesh.id));
     }
     return RAYD_OK;
 }

@@ -10,10 +10,11 @@
 #define SHAPE_H
 
 #include <stdbool.h>
+#include <stdint.h>
 
 #include "vec.h"
 
-enum shape_kind { SHAPE_SPHERE, SHAPE_PLANE };
+enum shape_kind { SHAPE_SPHERE, SHAPE_PLANE, SHAPE_MESH };
 
 struct aabb {
     vec3 lo, hi;
@@ -21,7 +22,8 @@ struct aabb {
 
 struct object {
     enum shape_kind kind;
-    int material; /* index into the scene's materials */
+    int material;  /* index into the scene's materials */
+    int32_t xform; /* index into the scene's transforms, -1 for none */
     union {
         struct {
             vec3 center;
@@ -31,6 +33,9 @@ struct object {
             vec3 point;  /* Q */
             vec3 normal; /* unit n */
         } plane;
+        struct {
+            uint32_t id; /* index into the scene's meshes */
+        } mesh;
     } u;
 };
 
@@ -43,25 +48,6 @@ vec3 sphere_normal(const struct object *o, vec3 p);
 
 struct aabb sphere_bounds(const struct object *o);
 
-static inline bool shape_hit(const struct object *o, const ray *r, double tmin, double tmax,
-                             double *t) {
-    switch (o->kind) {
-    case SHAPE_SPHERE: return sphere_hit(o, r, tmin, tmax, t);
-    case SHAPE_PLANE: return plane_hit(o, r, tmin, tmax, t);
-    }
-    return false;
-}
-
-static inline vec3 shape_normal(const struct object *o, vec3 p) {
-    switch (o->kind) {
-    case SHAPE_SPHERE: return sphere_normal(o, p);
-    case SHAPE_PLANE: return o->u.plane.normal;
-    }
-    return v3(0, 1, 0);
-}
-
 static inline bool shape_bounded(const struct object *o) { return o->kind != SHAPE_PLANE; }
-
-static inline struct aabb shape_bounds(const struct object *o) { return sphere_bounds(o); }
 
 #endif

@@ -76,6 +76,8 @@ struct rayd_limits {
     int max_materials; /* entries of /materials */
     int max_nesting;   /* JSON nesting depth */
     size_t max_bytes;  /* scene text size */
+    long max_triangles; /* all meshes together */
+    long max_vertices;  /* all meshes together */
 };
 
 /* Fills lim with the documented defaults (docs/scene-format.md). */

@@ -1,0 +1,51 @@
+/* mesh.h -- triangle meshes: shared geometry with its own BVH. */
+#ifndef MESH_H
+#define MESH_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "bvh.h"
+#include "vec.h"
+
+struct mesh {
+    float *pos;       /* 3 per vertex, object space */
+    float *normal;    /* 3 per vertex (unit), or NULL: flat shading */
+    float *uv;        /* 2 per vertex, or NULL */
+    uint32_t *index;  /* 3 per triangle, in BVH leaf order */
+    uint32_t nverts, ntris;
+    struct bvh4 bvh;
+    vec3 lo, hi;      /* bounds */
+};
+
+struct mesh_hit {
+    float t;
+    float u, v;       /* barycentric weights of the 2nd and 3rd vertex */
+    uint32_t tri;
+};
+
+/* Takes over pos, normal, uv and index (malloc'd; freed by mesh_free even
+ * on failure), validates nothing (the loader did), builds the BVH.  With
+ * smooth and no normals given, computes area-weighted vertex normals. */
+enum rayd_status mesh_build(struct mesh *m, float *pos, uint32_t nverts, uint32_t *index,
+                            uint32_t ntris, float *normal, float *uv, bool smooth, int threads,
+                            struct rayd_error *err);
+void mesh_free(struct mesh *m);
+
+/* Nearest hit along r (object space, unit direction) with t in (0, tmax). */
+bool mesh_intersect(const struct mesh *m, const ray *r, double tmax, struct mesh_hit *h);
+/* Any hit with t in (0, tmax). */
+bool mesh_occluded(const struct mesh *m, const ray *r, double tmax);
+/* The same queries testing every triangle: the reference for tests. */
+bool mesh_intersect_brute(const struct mesh *m, const ray *r, double tmax, struct mesh_hit *h);
+
+/* The hit point from barycentrics, in double: it lies on the triangle's
+ * plane to double precision, whatever the float error of t. */
+vec3 mesh_point(const struct mesh *m, const struct mesh_hit *h);
+vec3 mesh_geometric_normal(const struct mesh *m, uint32_t tri); /* unit, by winding */
+vec3 mesh_shading_normal(const struct mesh *m, const struct mesh_hit *h);
+
+/* Memory held by the mesh, for the scene's size and bytes per triangle. */
+size_t mesh_bytes(const struct mesh *m);
+
+#endif

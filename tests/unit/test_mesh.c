@@ -1,0 +1,270 @@
+/* test_mesh.c -- triangle meshes, the two-level BVH and transforms:
+ * watertightness, BVH == brute force, exact projections under transforms. */
+#include <stdlib.h>
+
+#include "check.h"
+#include "scene.h"
+#include "scene_util.h"
+
+/* Appends printf output to a growing buffer. */
+struct buf {
+    char *s;
+    size_t len, cap;
+};
+
+static void put(struct buf *b, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+#include <stdarg.h>
+static void put(struct buf *b, const char *fmt, ...) {
+    va_list ap;
+    for (;;) {
+        va_start(ap, fmt);
+        int n = vsnprintf(b->s + b->len, b->cap - b->len, fmt, ap);
+        va_end(ap);
+        if (b->len + (size_t)n < b->cap) {
+            b->len += (size_t)n;
+            return;
+        }
+        b->cap = b->cap * 2 + (size_t)n + 1024;
+        b->s = realloc(b->s, b->cap);
+    }
+}
+
+/* A UV sphere mesh of radius r at c, as an objects entry. */
+static void uv_sphere(struct buf *b, double cx, double cy, double cz, double r, int nu, int nv,
+                      const char *extra) {
+    put(b, "{\"type\": \"mesh\", %s \"vertices\": [", extra);
+    for (int j = 0; j <= nv; j++)
+        for (int i = 0; i <= nu; i++) {
+            double th = M_PI * j / nv, ph = 2 * M_PI * i / nu;
+            put(b, "%s%.9g,%.9g,%.9g", (i || j) ? "," : "", cx + r * sin(th) * cos(ph),
+                cy + r * cos(th), cz + r * sin(th) * sin(ph));
+        }
+    put(b, "], \"indices\": [");
+    int first = 1;
+    for (int j = 0; j < nv; j++)
+        for (int i = 0; i < nu; i++) {
+            int a = j * (nu + 1) + i, c = a + nu + 1;
+            put(b, "%s%d,%d,%d,%d,%d,%d", first ? "" : ",", a, a + 1, c, a + 1, c + 1, c);
+            first = 0;
+        }
+    put(b, "]}");
+}
+
+static rayd_scene *mesh_scene(int brute) {
+    struct buf b = {0};
+    put(&b, "{\"camera\": {\"position\": [0, 1.5, 6], \"look_at\": [0, 0.8, 0]},"
+            " \"render\": {\"width\": 96, \"height\": 72, \"samples\": 2, \"max_depth\": 3},"
+            " \"lights\": [{\"type\": \"point\", \"position\": [4, 6, 5]}],"
+            " \"objects\": [{\"type\": \"plane\", \"material\": {\"reflectivity\": 0.3}},");
+    uv_sphere(&b, -1.2, 1, 0, 1, 24, 12, "\"material\": {\"color\": [0.9,0.3,0.2], \"specular\": 0.5},");
+    put(&b, ",");
+    uv_sphere(&b, 0, 0, 0, 0.6, 16, 8,
+              "\"smooth\": false, \"transform\": {\"scale\": [1, 2, 1], \"rotate\": [0, 0, 20], \"translate\": [1.4, 1.2, 0.5]},"
+              " \"material\": {\"transparency\": 0.8, \"ior\": 1.3},");
+    put(&b, ", {\"type\": \"sphere\", \"center\": [0, 0.4, 1.5], \"radius\": 0.4,"
+            "   \"transform\": [{\"scale\": [2, 1, 1]}, {\"rotate\": {\"axis\": [0, 1, 0], \"angle\": 30}}]}");
+    for (int i = 0; i < 40; i++)
+        put(&b, ", {\"type\": \"sphere\", \"center\": [%g, 0.15, %g], \"radius\": 0.15}",
+            -3 + 0.37 * (i % 16), -2 + 0.5 * (i / 16));
+    put(&b, "]}");
+    rayd_scene *s = scene_from(b.s);
+    free(b.s);
+    if (s) s->brute = brute;
+    return s;
+}
+
+static void test_bvh_equals_brute_force(void) {
+    rayd_scene *fast = mesh_scene(0), *slow = mesh_scene(1);
+    CHECK(fast && slow, "scenes parse");
+    if (!fast || !slow) return;
+    rayd_image *a = render_all(fast, 2), *b = render_all(slow, 2);
+    CHECK(a && b && memcmp(rayd_image_pixels_const(a), rayd_image_pixels_const(b), 96 * 72 * 3) == 0,
+          "the BVH and brute force give the same image");
+    /* and the image is not empty: the meshes are there */
+    int lit = 0;
+    for (int k = 0; a && k < 96 * 72; k++) lit += rayd_image_pixels_const(a)[3 * k] > 100;
+    CHECK(lit > 500, "%d bright pixels", lit);
+    rayd_image_free(a);
+    rayd_image_free(b);
+    rayd_scene_free(fast);
+    rayd_scene_free(slow);
+}
+
+static void test_examples_bvh_equals_brute_force(void) {
+    const char *names[] = {"tests/scenes/spheres.json", "tests/scenes/whitted.json"};
+    for (int i = 0; i < 2; i++) {
+        size_t len;
+        char *text = read_file(names[i], &len);
+        CHECK(text != NULL, "%s readable", names[i]);
+        if (!text) continue;
+        rayd_scene *f = NULL, *g = NULL;
+        rayd_scene_parse(text, len, NULL, &f, NULL);
+        rayd_scene_parse(text, len, NULL, &g, NULL);
+        free(text);
+        CHECK(f && g, "parse %s", names[i]);
+        if (!f || !g) continue;
+        g->brute = true;
+        rayd_image *a = render_all(f, 2), *b = render_all(g, 2);
+        size_t n = (size_t)rayd_image_width(a) * rayd_image_height(a) * 3;
+        CHECK(memcmp(rayd_image_pixels_const(a), rayd_image_pixels_const(b), n) == 0,
+              "%s: BVH image equals brute force", names[i]);
+        rayd_image_free(a);
+        rayd_image_free(b);
+        rayd_scene_free(f);
+        rayd_scene_free(g);
+    }
+}
+
+static void test_watertight_edges_and_vertices(void) {
+    /* A closed octahedron: rays aimed exactly at every vertex and at every
+     * edge's midpoint, from many directions, must all hit. */
+    const char *json =
+        "{\"objects\": [{\"type\": \"mesh\", \"smooth\": false,"
+        " \"vertices\": [1,0,0, -1,0,0, 0,1,0, 0,-1,0, 0,0,1, 0,0,-1],"
+        " \"indices\": [0,2,4, 2,1,4, 1,3,4, 3,0,4, 2,0,5, 1,2,5, 3,1,5, 0,3,5]}]}";
+    rayd_scene *s = scene_from(json);
+    CHECK(s != NULL, "parse");
+    if (!s) return;
+    const struct mesh *m = &s->meshes[0];
+    vec3 targets[18];
+    int nt = 0;
+    double vx[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    for (int i = 0; i < 6; i++) targets[nt++] = v3(vx[i][0], vx[i][1], vx[i][2]);
+    for (int i = 0; i < 6; i++)
+        for (int j = i + 1; j < 6; j++)
+            if (vx[i][0] != -vx[j][0] || vx[i][1] != -vx[j][1] || vx[i][2] != -vx[j][2])
+                if (nt < 18)
+                    targets[nt++] = v3((vx[i][0] + vx[j][0]) / 2, (vx[i][1] + vx[j][1]) / 2,
+                                       (vx[i][2] + vx[j][2]) / 2);
+    int misses = 0, total = 0;
+    for (int k = 0; k < nt; k++) {
+        for (int a = 0; a < 200; a++) {
+            /* from a point on a big sphere around, through the target, toward the inside */
+            double th = 0.05 + 3.0 * a / 200.0, ph = 0.7 * a;
+            vec3 from = v3(5 * sin(th) * cos(ph), 5 * cos(th), 5 * sin(th) * sin(ph));
+            vec3 d = v3_sub(targets[k], from);
+            if (v3_dot(d, v3_sub(v3(0, 0, 0), from)) <= 0) continue;
+            ray r = {from, v3_norm(d)};
+            struct mesh_hit h;
+            /* only rays that enter the solid |x| + |y| + |z| <= 1 at the target */
+            vec3 in = v3_madd(targets[k], r.d, 1e-3);
+            if (fabs(in.x) + fabs(in.y) + fabs(in.z) >= 1 - 1e-6) continue;
+            total++;
+            misses += !mesh_intersect(m, &r, INFINITY, &h);
+        }
+    }
+    CHECK(total > 500, "%d rays", total);
+    CHECK(misses == 0, "%d of %d rays through edges and vertices slipped through", misses, total);
+    rayd_scene_free(s);
+}
+
+static void test_transformed_sphere_exact_projection(void) {
+    /* A unit sphere scaled to an ellipsoid with semi-axes (2, 1, 1) at
+     * z = -8, emissive, no lights: the pixels covered are exactly those
+     * whose centre ray meets x^2/4 + y^2 + (z+8)^2 = 1. */
+    const char *json =
+        "{\"camera\": {\"position\": [0,0,0], \"look_at\": [0,0,-1], \"fov_x\": 60},"
+        " \"render\": {\"width\": 81, \"height\": 41},"
+        " \"objects\": [{\"type\": \"sphere\", \"transform\": {\"scale\": [2, 1, 1], \"translate\": [0.3, 0, -8]},"
+        "   \"material\": {\"emission\": [1, 1, 1]}}]}";
+    rayd_scene *s = scene_from(json);
+    CHECK(s != NULL, "parse");
+    if (!s) return;
+    rayd_image *img = render_all(s, 2);
+    const uint8_t *px = rayd_image_pixels_const(img);
+    double tx = tan(M_PI / 6), ty = tx * 41 / 81;
+    int bad = 0, inside = 0;
+    for (int j = 0; j < 41; j++)
+        for (int i = 0; i < 81; i++) {
+            double a = tx * ((i + 0.5) - 40.5) / 40.5, b = ty * (20.5 - (j + 0.5)) / 20.5;
+            /* ray (a, b, -1) t; ellipsoid ((x-0.3)/2)^2 + y^2 + (z+8)^2 = 1 */
+            double A = a * a / 4 + b * b + 1, B = 2 * (-0.3 * a / 4 - 8), C = 0.09 / 4 + 64 - 1;
+            double disc = B * B - 4 * A * C;
+            if (fabs(disc) < 1e-9) continue;
+            int hit = disc > 0;
+            inside += hit;
+            bad += (px[(j * 81 + i) * 3] == 255) != hit;
+        }
+    CHECK(inside > 100, "covers %d pixels", inside);
+    CHECK(bad == 0, "%d pixels differ from the exact ellipse", bad);
+    /* The normal of the ellipsoid is the gradient (x/4, y, z+8), not the
+     * scaled sphere normal. */
+    struct hit h;
+    ray r = {v3(0, 0, 0), v3_norm(v3(0.9, 0.3, -8))};
+    CHECK(scene_intersect(s, &r, INFINITY, &h), "hit");
+    struct surface sf;
+    scene_surface(s, &r, &h, &sf);
+    vec3 g = v3_norm(v3((sf.p.x - 0.3) / 4, sf.p.y, sf.p.z + 8));
+    CHECK_NEAR(v3_dot(sf.n, g), 1, 1e-9);
+    CHECK_NEAR((sf.p.x - 0.3) * (sf.p.x - 0.3) / 4 + sf.p.y * sf.p.y + (sf.p.z + 8) * (sf.p.z + 8), 1, 1e-9);
+    rayd_image_free(img);
+    rayd_scene_free(s);
+}
+
+static void test_smooth_normals_follow_the_sphere(void) {
+    struct buf b = {0};
+    put(&b, "{\"objects\": [");
+    uv_sphere(&b, 0, 0, -5, 1, 64, 32, "");
+    put(&b, "]}");
+    rayd_scene *s = scene_from(b.s);
+    free(b.s);
+    CHECK(s != NULL, "parse");
+    if (!s) return;
+    double worst = 1;
+    for (int k = 0; k < 50; k++) {
+        ray r = {v3(0, 0, 0), v3_norm(v3(0.15 * sin(k), 0.15 * cos(k * 1.3), -1))};
+        struct hit h;
+        if (!scene_intersect(s, &r, INFINITY, &h)) continue;
+        struct surface sf;
+        scene_surface(s, &r, &h, &sf);
+        vec3 exact = v3_norm(v3_sub(sf.p, v3(0, 0, -5)));
+        double c = v3_dot(sf.n, exact);
+        worst = c < worst ? c : worst;
+        CHECK(v3_dot(sf.ng, exact) > 0.99, "geometric normal faces out");
+    }
+    CHECK(worst > 0.9999, "interpolated normals within 1 degree: cos %g", worst);
+    rayd_scene_free(s);
+}
+
+static void test_mesh_errors(void) {
+    struct rayd_error err;
+    rayd_scene *s = NULL;
+    const char *bad_index = "{\"objects\": [{\"type\": \"mesh\", \"vertices\": [0,0,0, 1,0,0, 0,1,0], \"indices\": [0, 1, 3]}]}";
+    CHECK(rayd_scene_parse(bad_index, strlen(bad_index), NULL, &s, &err) == RAYD_E_INVALID &&
+              strcmp(err.path, "/objects/0/indices/2") == 0 && strstr(err.message, "0..2"),
+          "%s: %s", err.path, err.message);
+    const char *short_v = "{\"objects\": [{\"type\": \"mesh\", \"vertices\": [0,0,0, 1,0], \"indices\": [0, 1, 2]}]}";
+    CHECK(rayd_scene_parse(short_v, strlen(short_v), NULL, &s, &err) == RAYD_E_INVALID &&
+              strcmp(err.path, "/objects/0/vertices") == 0 && strstr(err.message, "multiple of 3"),
+          "%s: %s", err.path, err.message);
+    const char *bad_n = "{\"objects\": [{\"type\": \"mesh\", \"vertices\": [0,0,0, 1,0,0, 0,1,0], \"indices\": [0, 1, 2], \"normals\": [0,0,1]}]}";
+    CHECK(rayd_scene_parse(bad_n, strlen(bad_n), NULL, &s, &err) == RAYD_E_INVALID &&
+              strcmp(err.path, "/objects/0/normals") == 0,
+          "%s: %s", err.path, err.message);
+    const char *sing = "{\"objects\": [{\"type\": \"sphere\", \"transform\": {\"scale\": [1, 0, 1]}}]}";
+    CHECK(rayd_scene_parse(sing, strlen(sing), NULL, &s, &err) == RAYD_E_INVALID &&
+              strcmp(err.path, "/objects/0/transform/scale") == 0,
+          "%s: %s", err.path, err.message);
+    const char *mat = "{\"objects\": [{\"type\": \"sphere\", \"transform\": {\"matrix\": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,1,1]}}]}";
+    CHECK(rayd_scene_parse(mat, strlen(mat), NULL, &s, &err) == RAYD_E_INVALID &&
+              strcmp(err.path, "/objects/0/transform/matrix") == 0,
+          "%s: %s", err.path, err.message);
+    struct rayd_limits lim;
+    rayd_limits_default(&lim);
+    lim.max_triangles = 1;
+    const char *two = "{\"objects\": [{\"type\": \"mesh\", \"vertices\": [0,0,0, 1,0,0, 0,1,0], \"indices\": [0,1,2, 0,2,1]}]}";
+    CHECK(rayd_scene_parse(two, strlen(two), &lim, &s, &err) == RAYD_E_LIMIT &&
+              strcmp(err.path, "/objects/0/indices") == 0,
+          "%s: %s", err.path, err.message);
+    CHECK(s == NULL, "no scene");
+}
+
+int main(void) {
+    RUN(test_bvh_equals_brute_force);
+    RUN(test_examples_bvh_equals_brute_force);
+    RUN(test_watertight_edges_and_vertices);
+    RUN(test_transformed_sphere_exact_projection);
+    RUN(test_smooth_normals_follow_the_sphere);
+    RUN(test_mesh_errors);
+    CHECK_EXIT();
+}
