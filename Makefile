@@ -6,6 +6,7 @@
 #   make run         build and start rayd on 127.0.0.1:8080 with the preview
 #   make deps        install the Debian packages the build and the tests need
 #   make bench       benchmarks (never part of make test)
+#   make bench-peers the same meshes and sphere scene with Embree and POV-Ray (make bench-deps)
 #   make format      clang-format every C file;  make lint  cppcheck + clang-tidy
 
 # Debian packages: compiler and tools, the three given libraries, libcurl for
@@ -59,7 +60,7 @@ ifneq ($(CLIENT_SRC),)
 PROGS += $(BUILD)/rayd-client
 endif
 
-.PHONY: all deps test test-unit golden run bench format lint clean
+.PHONY: all deps test test-unit golden run bench bench-deps bench-peers format lint clean
 .DEFAULT_GOAL := all
 
 all: $(BUILD)/librayd.a $(PROGS)
@@ -149,8 +150,52 @@ golden: $(BUILD)/rayd-render
 run: all
 	$(BUILD)/rayd --bind 127.0.0.1 --port 8080
 
-bench: all
+# Benchmark programs: raybench links the core's internals, like unit tests.
+# Bench-only Debian packages (Embree and POV-Ray for `make bench-peers`):
+# never runtime dependencies, never installed by `make deps`.
+BENCH_PKGS := libembree-dev povray
+BENCH_DIR := $(BUILD)/bench
+# genmesh levels: 20 * 4^L triangles, 5,120 (L=4) .. 1,310,720 (L=8).
+BENCH_LEVELS := 4 5 6 7 8
+BENCH_SCENES := $(BENCH_LEVELS:%=$(BENCH_DIR)/mesh-%.json)
+
+$(BUILD)/bench/raybench: bench/raybench.c $(BUILD)/librayd.a
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS_ALL) -Iinclude -Icore $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
+
+$(BUILD)/bench/genmesh: bench/genmesh.c | $(BUILD)/.deps-ok
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS_ALL) $< -o $@ $(LDFLAGS_ALL) -lm
+
+# Deterministic meshes (same level, same bytes) and a scene framing each.
+$(BENCH_DIR)/mesh-%.ply: $(BUILD)/bench/genmesh
+	$< $* $@
+
+$(BENCH_DIR)/mesh-%.json: $(BENCH_DIR)/mesh-%.ply bench/mkscene.py
+	python3 bench/mkscene.py $< $@
+
+.PRECIOUS: $(BENCH_DIR)/mesh-%.ply $(BENCH_DIR)/mesh-%.json
+
+# The Embree side of bench-peers: reuses the core's PLY reader (mesh_io.h).
+$(BUILD)/bench/embree_bench: bench/peers/embree_bench.c $(BUILD)/librayd.a | bench-deps
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS_ALL) -Iinclude -Icore $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a -lembree3 $(LIBS_CORE)
+
+bench-deps:
+	@missing=""; for p in $(BENCH_PKGS); do \
+	  dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q '^install ok installed' || missing="$$missing $$p"; \
+	done; \
+	if [ -n "$$missing" ]; then \
+	  echo "make bench-deps: installing$$missing"; \
+	  $(SUDO) apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; \
+	fi
+
+bench: all $(BUILD)/bench/raybench $(BUILD)/bench/genmesh $(BENCH_SCENES)
 	@bash bench/run.sh $(BUILD)
+
+bench-peers: all bench-deps $(BUILD)/bench/raybench $(BUILD)/bench/embree_bench $(BENCH_SCENES)
+	@bash bench/peers.sh $(BUILD)
 
 format:
 	clang-format -i $(shell git ls-files '*.c' '*.h')

@@ -152,9 +152,21 @@ int main(int argc, char **argv) {
     size_t len;
     char *text = load_scene_text(a.scene, &len);
     if (!text) return 1;
+    /* Mesh "file" paths resolve against the scene's folder (the working
+     * folder for stdin); the command line trusts its own scene's paths. */
+    char dir[4096];
+    const char *slash = strrchr(a.scene, '/');
+    if (strcmp(a.scene, "-") == 0 || !slash)
+        snprintf(dir, sizeof dir, ".");
+    else
+        snprintf(dir, sizeof dir, "%.*s", (int)(slash - a.scene), a.scene);
+    struct rayd_limits lim;
+    rayd_limits_default(&lim);
+    lim.asset_dir = dir[0] ? dir : "/";
+    lim.asset_confine = 0;
     struct rayd_error err = {0};
     rayd_scene *scene = NULL;
-    enum rayd_status st = rayd_scene_parse(text, len, NULL, &scene, &err);
+    enum rayd_status st = rayd_scene_parse(text, len, &lim, &scene, &err);
     free(text);
     if (st != RAYD_OK) return fail("", &err);
 

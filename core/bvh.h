@@ -43,7 +43,7 @@ struct bvh4 {
     struct bbox bounds;
 };
 
-#define BVH_MAX_LEAF 8
+#define BVH_MAX_LEAF 4
 #define BVH_STACK 256
 
 /* Builds the hierarchy over n boxes.  order[0..n) receives the primitive
@@ -118,23 +118,25 @@ struct bvh_entry {
 };
 
 /* Pushes the children in mask onto stack, farthest first, so the nearest
- * is visited next.  Returns the new stack size. */
+ * is visited next.  Returns the new stack size.  Insertion into the stack
+ * itself: most masks have one or two bits. */
 static inline int bvh4_push_sorted(const struct bvh4_node *nd, int mask, const float tnear[4],
                                    struct bvh_entry *stack, int sp) {
-    struct bvh_entry e[4];
-    int n = 0;
-    for (int i = 0; i < 4; i++) {
-        if (!(mask & (1 << i))) continue;
-        struct bvh_entry x = {nd->child[i], nd->count[i], tnear[i]};
-        int j = n++;
-        while (j > 0 && e[j - 1].tnear < x.tnear) { /* descending by distance */
-            e[j] = e[j - 1];
+    int base = sp;
+    while (mask) {
+        int i = __builtin_ctz((unsigned)mask);
+        mask &= mask - 1;
+        float t = tnear[i];
+        int j = sp++;
+        while (j > base && stack[j - 1].tnear < t) { /* keep descending order */
+            stack[j] = stack[j - 1];
             j--;
         }
-        e[j] = x;
+        stack[j].node = nd->child[i];
+        stack[j].count = nd->count[i];
+        stack[j].tnear = t;
     }
-    memcpy(stack + sp, e, sizeof e[0] * (size_t)n);
-    return sp + n;
+    return sp;
 }
 
 #endif

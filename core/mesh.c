@@ -46,37 +46,124 @@ static void tri_ray_init(struct tri_ray *tr, const ray *r) {
     tr->sz = (float)(1.0 / d[kz]);
 }
 
-/* Watertight test of triangle tri; on a hit closer than *tmax, updates
- * *tmax and h. */
-static inline bool tri_hit(const struct mesh *m, uint32_t tri, const struct tri_ray *tr,
-                           float *tmax, struct mesh_hit *h) {
-    const uint32_t *ix = m->index + 3 * (size_t)tri;
-    const float *pa = m->pos + 3 * (size_t)ix[0], *pb = m->pos + 3 * (size_t)ix[1],
-                *pc = m->pos + 3 * (size_t)ix[2];
+/* Exactly Woop et al.'s edge functions for one lane, in double: used when
+ * a float one comes out zero (the ray passes through an edge or vertex). */
+static void tri_edges_double(float ax, float ay, float bx, float by, float cx, float cy,
+                             float *u, float *v, float *w) {
+    *u = (float)((double)cx * by - (double)cy * bx);
+    *v = (float)((double)ax * cy - (double)ay * cx);
+    *w = (float)((double)bx * ay - (double)by * ax);
+}
+
+/* Tests the first n lanes of block b.  A lane hits when 0 < t <= tmax;
+ * returns the mask of hits with t, u, v in out.  The SIMD and the scalar
+ * code do the same float operations in the same order, so both give the
+ * same bits. */
+static inline int tri4_test(const struct tri4 *b, int n, const struct tri_ray *tr, float tmax,
+                            float t_out[4], float u_out[4], float v_out[4]) {
     int kx = tr->kx, ky = tr->ky, kz = tr->kz;
-    float az = pa[kz] - tr->org[kz], bz = pb[kz] - tr->org[kz], cz = pc[kz] - tr->org[kz];
-    float ax = pa[kx] - tr->org[kx] - tr->sx * az, ay = pa[ky] - tr->org[ky] - tr->sy * az;
-    float bx = pb[kx] - tr->org[kx] - tr->sx * bz, by = pb[ky] - tr->org[ky] - tr->sy * bz;
-    float cx = pc[kx] - tr->org[kx] - tr->sx * cz, cy = pc[ky] - tr->org[ky] - tr->sy * cz;
-    float u = cx * by - cy * bx, v = ax * cy - ay * cx, w = bx * ay - by * ax;
-    if (u == 0 || v == 0 || w == 0) { /* on an edge: decide in double */
-        u = (float)((double)cx * by - (double)cy * bx);
-        v = (float)((double)ax * cy - (double)ay * cx);
-        w = (float)((double)bx * ay - (double)by * ax);
+    float U[4], V[4], W[4], AZ[4], BZ[4], CZ[4], AX[4], AY[4], BX[4], BY[4], CX[4], CY[4];
+#ifdef BVH_SSE
+    __m128 ox = _mm_set1_ps(tr->org[kx]), oy = _mm_set1_ps(tr->org[ky]),
+           oz = _mm_set1_ps(tr->org[kz]), sx = _mm_set1_ps(tr->sx), sy = _mm_set1_ps(tr->sy);
+    __m128 az = _mm_sub_ps(_mm_loadu_ps(b->v[0][kz]), oz);
+    __m128 bz = _mm_sub_ps(_mm_loadu_ps(b->v[1][kz]), oz);
+    __m128 cz = _mm_sub_ps(_mm_loadu_ps(b->v[2][kz]), oz);
+    __m128 ax = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[0][kx]), ox), _mm_mul_ps(sx, az));
+    __m128 ay = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[0][ky]), oy), _mm_mul_ps(sy, az));
+    __m128 bx = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[1][kx]), ox), _mm_mul_ps(sx, bz));
+    __m128 by = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[1][ky]), oy), _mm_mul_ps(sy, bz));
+    __m128 cx = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[2][kx]), ox), _mm_mul_ps(sx, cz));
+    __m128 cy = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[2][ky]), oy), _mm_mul_ps(sy, cz));
+    __m128 u = _mm_sub_ps(_mm_mul_ps(cx, by), _mm_mul_ps(cy, bx));
+    __m128 v = _mm_sub_ps(_mm_mul_ps(ax, cy), _mm_mul_ps(ay, cx));
+    __m128 w = _mm_sub_ps(_mm_mul_ps(bx, ay), _mm_mul_ps(by, ax));
+    __m128 zero = _mm_setzero_ps();
+    int lanes = (1 << n) - 1;
+    int on_edge = _mm_movemask_ps(_mm_or_ps(_mm_or_ps(_mm_cmpeq_ps(u, zero), _mm_cmpeq_ps(v, zero)),
+                                            _mm_cmpeq_ps(w, zero))) & lanes;
+    if (on_edge) {
+        _mm_storeu_ps(U, u), _mm_storeu_ps(V, v), _mm_storeu_ps(W, w);
+        _mm_storeu_ps(AX, ax), _mm_storeu_ps(AY, ay), _mm_storeu_ps(BX, bx);
+        _mm_storeu_ps(BY, by), _mm_storeu_ps(CX, cx), _mm_storeu_ps(CY, cy);
+        for (int i = 0; i < 4; i++)
+            if (on_edge & (1 << i))
+                tri_edges_double(AX[i], AY[i], BX[i], BY[i], CX[i], CY[i], &U[i], &V[i], &W[i]);
+        u = _mm_loadu_ps(U), v = _mm_loadu_ps(V), w = _mm_loadu_ps(W);
     }
-    if ((u < 0 || v < 0 || w < 0) && (u > 0 || v > 0 || w > 0)) return false;
-    float det = u + v + w;
-    if (det == 0) return false;
-    float t = u * tr->sz * az + v * tr->sz * bz + w * tr->sz * cz;
-    /* t / det in (0, tmax), without dividing yet */
-    if (det > 0 ? (t <= 0 || t >= *tmax * det) : (t >= 0 || t <= *tmax * det)) return false;
-    float rcp = 1.0f / det;
-    *tmax = t * rcp;
-    h->t = *tmax;
-    h->u = v * rcp;
-    h->v = w * rcp;
-    h->tri = tri;
-    return true;
+    __m128 neg = _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(u, zero), _mm_cmplt_ps(v, zero)), _mm_cmplt_ps(w, zero));
+    __m128 pos = _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)), _mm_cmpgt_ps(w, zero));
+    __m128 det = _mm_add_ps(_mm_add_ps(u, v), w);
+    __m128 sz = _mm_set1_ps(tr->sz);
+    __m128 t = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_mul_ps(u, sz), az), _mm_mul_ps(_mm_mul_ps(v, sz), bz)),
+                          _mm_mul_ps(_mm_mul_ps(w, sz), cz));
+    /* t / det in (0, tmax]: compare with the signs folded into det's */
+    __m128 sign = _mm_and_ps(det, _mm_set1_ps(-0.0f));
+    __m128 ts = _mm_xor_ps(t, sign), ds = _mm_xor_ps(det, sign);
+    __m128 ok = _mm_andnot_ps(_mm_and_ps(neg, pos), _mm_cmpneq_ps(det, zero));
+    ok = _mm_and_ps(ok, _mm_cmpgt_ps(ts, zero));
+    ok = _mm_and_ps(ok, _mm_cmple_ps(ts, _mm_mul_ps(_mm_set1_ps(tmax), ds)));
+    int mask = _mm_movemask_ps(ok) & lanes;
+    if (!mask) return 0;
+    __m128 rcp = _mm_div_ps(_mm_set1_ps(1.0f), det);
+    _mm_storeu_ps(t_out, _mm_mul_ps(t, rcp));
+    _mm_storeu_ps(u_out, _mm_mul_ps(v, rcp));
+    _mm_storeu_ps(v_out, _mm_mul_ps(w, rcp));
+    (void)AZ, (void)BZ, (void)CZ;
+    return mask;
+#else
+    int mask = 0;
+    for (int i = 0; i < n; i++) {
+        AZ[i] = b->v[0][kz][i] - tr->org[kz];
+        BZ[i] = b->v[1][kz][i] - tr->org[kz];
+        CZ[i] = b->v[2][kz][i] - tr->org[kz];
+        AX[i] = (b->v[0][kx][i] - tr->org[kx]) - tr->sx * AZ[i];
+        AY[i] = (b->v[0][ky][i] - tr->org[ky]) - tr->sy * AZ[i];
+        BX[i] = (b->v[1][kx][i] - tr->org[kx]) - tr->sx * BZ[i];
+        BY[i] = (b->v[1][ky][i] - tr->org[ky]) - tr->sy * BZ[i];
+        CX[i] = (b->v[2][kx][i] - tr->org[kx]) - tr->sx * CZ[i];
+        CY[i] = (b->v[2][ky][i] - tr->org[ky]) - tr->sy * CZ[i];
+        U[i] = CX[i] * BY[i] - CY[i] * BX[i];
+        V[i] = AX[i] * CY[i] - AY[i] * CX[i];
+        W[i] = BX[i] * AY[i] - BY[i] * AX[i];
+        if (U[i] == 0 || V[i] == 0 || W[i] == 0)
+            tri_edges_double(AX[i], AY[i], BX[i], BY[i], CX[i], CY[i], &U[i], &V[i], &W[i]);
+        if ((U[i] < 0 || V[i] < 0 || W[i] < 0) && (U[i] > 0 || V[i] > 0 || W[i] > 0)) continue;
+        float det = (U[i] + V[i]) + W[i];
+        if (det == 0) continue;
+        float t = ((U[i] * tr->sz) * AZ[i] + (V[i] * tr->sz) * BZ[i]) + (W[i] * tr->sz) * CZ[i];
+        float ts = det < 0 ? -t : t, ds = det < 0 ? -det : det;
+        if (!(ts > 0 && ts <= tmax * ds)) continue;
+        float rcp = 1.0f / det;
+        t_out[i] = t * rcp;
+        u_out[i] = V[i] * rcp;
+        v_out[i] = W[i] * rcp;
+        mask |= 1 << i;
+    }
+    return mask;
+#endif
+}
+
+/* Keeps the nearest of the lanes in mask; on equal t the lower triangle
+ * id wins, so the result does not depend on the order blocks are visited
+ * (BVH or brute force, any tiling). */
+static inline bool tri4_take(const struct tri4 *b, int mask, const float t[4], const float u[4],
+                             const float v[4], float *tmax, struct mesh_hit *h, bool *found) {
+    bool took = false;
+    while (mask) {
+        int i = __builtin_ctz((unsigned)mask);
+        mask &= mask - 1;
+        if (t[i] > *tmax || (*found && t[i] == *tmax && b->id[i] > h->tri)) continue;
+        if (*found && t[i] == *tmax && b->id[i] == h->tri) continue;
+        *tmax = t[i];
+        h->t = t[i];
+        h->u = u[i];
+        h->v = v[i];
+        h->tri = b->id[i];
+        *found = true;
+        took = true;
+    }
+    return took;
 }
 
 static bool mesh_walk(const struct mesh *m, const ray *r, double tmax, struct mesh_hit *h,
@@ -86,7 +173,7 @@ static bool mesh_walk(const struct mesh *m, const ray *r, double tmax, struct me
     struct tri_ray tr;
     bvh_ray_init(&br, r->o, r->d);
     tri_ray_init(&tr, r);
-    float tm = tmax > 3e38 ? 3e38f : (float)tmax;
+    float tm = tmax > 3e38 ? 3e38f : nextafterf((float)tmax, 0);
     bool found = false;
     struct bvh_entry stack[BVH_STACK];
     int sp = 1;
@@ -97,11 +184,11 @@ static bool mesh_walk(const struct mesh *m, const ray *r, double tmax, struct me
         struct bvh_entry e = stack[--sp];
         if (e.tnear > tm) continue;
         if (e.count) {
-            for (uint32_t i = e.node; i < e.node + e.count; i++) {
-                if (tri_hit(m, i, &tr, &tm, h)) {
-                    found = true;
-                    if (any) return true;
-                }
+            float t[4], u[4], v[4];
+            const struct tri4 *b = &m->blocks[e.node];
+            int mask = tri4_test(b, e.count, &tr, tm, t, u, v);
+            if (mask && (any || tri4_take(b, mask, t, u, v, &tm, h, &found))) {
+                if (any) return true;
             }
             continue;
         }
@@ -125,9 +212,16 @@ bool mesh_occluded(const struct mesh *m, const ray *r, double tmax) {
 bool mesh_intersect_brute(const struct mesh *m, const ray *r, double tmax, struct mesh_hit *h) {
     struct tri_ray tr;
     tri_ray_init(&tr, r);
-    float tm = tmax > 3e38 ? 3e38f : (float)tmax;
+    float tm = tmax > 3e38 ? 3e38f : nextafterf((float)tmax, 0);
     bool found = false;
-    for (uint32_t i = 0; i < m->ntris; i++) found |= tri_hit(m, i, &tr, &tm, h);
+    for (uint32_t i = 0; i < m->nblocks; i++) {
+        float t[4], u[4], v[4];
+        const struct tri4 *b = &m->blocks[i];
+        int n = 0;
+        while (n < 4 && b->id[n] != UINT32_MAX) n++;
+        int mask = tri4_test(b, n, &tr, tm, t, u, v);
+        if (mask) tri4_take(b, mask, t, u, v, &tm, h, &found);
+    }
     return found;
 }
 
@@ -205,6 +299,32 @@ static struct bbox tri_box(const float *pos, const uint32_t *ix) {
     return b;
 }
 
+/* Packs every leaf's triangles into one tri4 block and points the leaf at
+ * it; unused lanes have id UINT32_MAX and are masked off by the count. */
+static enum rayd_status make_blocks(struct mesh *m, struct rayd_error *err) {
+    uint32_t leaves = 0;
+    for (uint32_t n = 0; n < m->bvh.nnodes; n++)
+        for (int i = 0; i < 4; i++) leaves += m->bvh.nodes[n].count[i] > 0;
+    m->blocks = calloc(leaves ? leaves : 1, sizeof *m->blocks);
+    if (!m->blocks) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for mesh leaves");
+    for (uint32_t n = 0; n < m->bvh.nnodes; n++) {
+        struct bvh4_node *nd = &m->bvh.nodes[n];
+        for (int i = 0; i < 4; i++) {
+            if (!nd->count[i]) continue;
+            struct tri4 *b = &m->blocks[m->nblocks];
+            for (int lane = 0; lane < 4; lane++) {
+                b->id[lane] = lane < nd->count[i] ? nd->child[i] + (uint32_t)lane : UINT32_MAX;
+                if (b->id[lane] == UINT32_MAX) continue;
+                const uint32_t *ix = m->index + 3 * (size_t)b->id[lane];
+                for (int k = 0; k < 3; k++)
+                    for (int j = 0; j < 3; j++) b->v[k][j][lane] = m->pos[3 * (size_t)ix[k] + j];
+            }
+            nd->child[i] = m->nblocks++;
+        }
+    }
+    return RAYD_OK;
+}
+
 enum rayd_status mesh_build(struct mesh *m, float *pos, uint32_t nverts, uint32_t *index,
                             uint32_t ntris, float *normal, float *uv, bool smooth, int threads,
                             struct rayd_error *err) {
@@ -240,6 +360,7 @@ enum rayd_status mesh_build(struct mesh *m, float *pos, uint32_t nverts, uint32_
         const struct bbox *b = &m->bvh.bounds;
         m->lo = v3(b->lo[0], b->lo[1], b->lo[2]);
         m->hi = v3(b->hi[0], b->hi[1], b->hi[2]);
+        st = make_blocks(m, err);
     }
     free(boxes);
     free(order);
@@ -253,13 +374,15 @@ void mesh_free(struct mesh *m) {
     free(m->normal);
     free(m->uv);
     free(m->index);
+    free(m->blocks);
     bvh_free(&m->bvh);
     memset(m, 0, sizeof *m);
 }
 
 size_t mesh_bytes(const struct mesh *m) {
     size_t b = (size_t)m->nverts * 3 * sizeof(float) + (size_t)m->ntris * 3 * sizeof(uint32_t) +
-               (size_t)m->bvh.nnodes * sizeof(struct bvh4_node);
+               (size_t)m->bvh.nnodes * sizeof(struct bvh4_node) +
+               (size_t)m->nblocks * sizeof(struct tri4);
     if (m->normal) b += (size_t)m->nverts * 3 * sizeof(float);
     if (m->uv) b += (size_t)m->nverts * 2 * sizeof(float);
     return b;

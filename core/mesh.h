@@ -8,7 +8,16 @@
 #include "bvh.h"
 #include "vec.h"
 
+/* Four triangles side by side for the SIMD test: vertex k's axis j of
+ * lane i is v[k][j][i]; id[i] is the triangle's index in mesh.index. */
+struct tri4 {
+    float v[3][3][4];
+    uint32_t id[4];
+};
+
 struct mesh {
+    struct tri4 *blocks; /* the BVH's leaves point here, one block a leaf */
+    uint32_t nblocks;
     float *pos;       /* 3 per vertex, object space */
     float *normal;    /* 3 per vertex (unit), or NULL: flat shading */
     float *uv;        /* 2 per vertex, or NULL */

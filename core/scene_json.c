@@ -17,17 +17,21 @@
  *
  * The walk fills a rayd_scene and freezes it (scene.c builds the BVH).
  */
+#include <errno.h>
 #include <pthread.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <unistd.h>
 
 #include <cjson/cJSON.h>
 
 #include "error.h"
+#include "base64.h"
 #include "json_check.h"
+#include "mesh_io.h"
 #include "scene.h"
 
 #define DEG2RAD (3.14159265358979323846 / 180.0)
@@ -46,6 +50,8 @@ void rayd_limits_default(struct rayd_limits *lim) {
     lim->max_bytes = 256u << 20;
     lim->max_triangles = 5000000;
     lim->max_vertices = 5000000;
+    lim->asset_dir = NULL;
+    lim->asset_confine = 1;
 }
 
 /* ---- JSON Pointers ----------------------------------------------------- */
@@ -369,10 +375,11 @@ static enum rayd_status object_material(struct loader *ld, const cJSON *obj, con
 
 /* ---- lights ----------------------------------------------------------------- */
 
-static enum rayd_status get_type(struct loader *ld, const cJSON *obj, const struct jp *at,
-                                 const char *const *types, int *out) {
-    const cJSON *t = cJSON_GetObjectItemCaseSensitive(obj, "type");
-    struct jp p = jp_key(at, "type");
+/* A string key that must be one of the names in types: *out its index. */
+static enum rayd_status get_type_key(struct loader *ld, const cJSON *obj, const struct jp *at,
+                                     const char *key, const char *const *types, int *out) {
+    const cJSON *t = cJSON_GetObjectItemCaseSensitive(obj, key);
+    struct jp p = jp_key(at, key);
     if (!t) return fail(ld, RAYD_E_INVALID, &p, "is required");
     if (!cJSON_IsString(t))
         return fail(ld, RAYD_E_INVALID, &p, "must be a string, not %s", type_name(t));
@@ -385,8 +392,13 @@ static enum rayd_status get_type(struct loader *ld, const cJSON *obj, const stru
         strncat(list, types[i], sizeof list - strlen(list) - 1);
         if (types[i + 1]) strncat(list, ", ", sizeof list - strlen(list) - 1);
     }
-    return fail(ld, RAYD_E_INVALID, &p, "unknown type \"%.60s\" (supported: %s)", t->valuestring,
-                list);
+    return fail(ld, RAYD_E_INVALID, &p, "unknown %s \"%.60s\" (supported: %s)",
+                strcmp(key, "type") == 0 ? "type" : "value", t->valuestring, list);
+}
+
+static enum rayd_status get_type(struct loader *ld, const cJSON *obj, const struct jp *at,
+                                 const char *const *types, int *out) {
+    return get_type_key(ld, obj, at, "type", types, out);
 }
 
 static enum rayd_status load_light(struct loader *ld, const cJSON *lj, const struct jp *at,
@@ -617,6 +629,105 @@ static enum rayd_status add_mesh(struct loader *ld, uint32_t *id) {
     return RAYD_OK;
 }
 
+/* Reads a file named by a scene, under the limits' asset rules. */
+static enum rayd_status read_asset(struct loader *ld, const cJSON *f, const struct jp *at,
+                                   char **out, size_t *len) {
+    const struct rayd_limits *lim = ld->lim;
+    if (!cJSON_IsString(f)) return fail(ld, RAYD_E_INVALID, at, "must be a string, not %s", type_name(f));
+    const char *name = f->valuestring;
+    if (!lim->asset_dir)
+        return fail(ld, RAYD_E_INVALID, at, "files are not allowed here (embed the data as \"text\" or \"base64\"; rayd reads files only with --asset-dir)");
+    if (lim->asset_confine && (name[0] == '/' || strstr(name, "..") || name[0] == '\0'))
+        return fail(ld, RAYD_E_INVALID, at, "must be a relative path inside the asset directory, without '..'");
+    char path[4096];
+    if (name[0] == '/')
+        snprintf(path, sizeof path, "%s", name);
+    else if ((size_t)snprintf(path, sizeof path, "%s/%s", lim->asset_dir, name) >= sizeof path)
+        return fail(ld, RAYD_E_INVALID, at, "path is too long");
+    FILE *fp = fopen(path, "rb");
+    if (!fp) return fail(ld, RAYD_E_INVALID, at, "cannot open \"%.200s\": %s", name, strerror(errno));
+    size_t cap = 1 << 16, n = 0;
+    char *buf = malloc(cap);
+    while (buf) {
+        n += fread(buf + n, 1, cap - n, fp);
+        if (n < cap) break;
+        if (cap > lim->max_bytes) {
+            free(buf);
+            fclose(fp);
+            return fail(ld, RAYD_E_LIMIT, at, "file is over the limit of %zu bytes", lim->max_bytes);
+        }
+        char *nb = realloc(buf, cap * 2);
+        if (!nb) free(buf);
+        buf = nb;
+        cap *= 2;
+    }
+    bool bad = ferror(fp);
+    fclose(fp);
+    if (!buf) return err_set(ld->err, RAYD_E_NOMEM, at->s, "out of memory reading a file");
+    if (bad) {
+        free(buf);
+        return fail(ld, RAYD_E_INVALID, at, "cannot read \"%.200s\"", name);
+    }
+    *out = buf;
+    *len = n;
+    return RAYD_OK;
+}
+
+/* "source": {"format": "obj"|"ply", and one of "text", "base64", "file"}. */
+static enum rayd_status load_source(struct loader *ld, const cJSON *src, const struct jp *at,
+                                    struct mesh_data *md) {
+    static const char *const keys[] = {"format", "text", "base64", "file", NULL};
+    static const char *const formats[] = {"obj", "ply", NULL};
+    TRY(check_keys(ld, src, at, keys));
+    const cJSON *text = cJSON_GetObjectItemCaseSensitive(src, "text");
+    const cJSON *b64 = cJSON_GetObjectItemCaseSensitive(src, "base64");
+    const cJSON *file = cJSON_GetObjectItemCaseSensitive(src, "file");
+    if (!!text + !!b64 + !!file != 1)
+        return fail(ld, RAYD_E_INVALID, at, "needs exactly one of \"text\", \"base64\" or \"file\"");
+    const cJSON *fmt = cJSON_GetObjectItemCaseSensitive(src, "format");
+    int format = -1;
+    if (fmt) {
+        TRY(get_type_key(ld, src, at, "format", formats, &format));
+    } else if (file && cJSON_IsString(file)) {
+        size_t n = strlen(file->valuestring);
+        if (n > 4 && !strcasecmp(file->valuestring + n - 4, ".obj")) format = 0;
+        if (n > 4 && !strcasecmp(file->valuestring + n - 4, ".ply")) format = 1;
+    }
+    struct jp pf = jp_key(at, "format");
+    if (format < 0) return fail(ld, RAYD_E_INVALID, &pf, "is required (\"obj\" or \"ply\")");
+    const cJSON *v = text ? text : b64 ? b64 : file;
+    struct jp pv = jp_key(at, text ? "text" : b64 ? "base64" : "file");
+    char *data = NULL;
+    size_t len = 0;
+    if (file) {
+        TRY(read_asset(ld, file, &pv, &data, &len));
+    } else if (!cJSON_IsString(v)) {
+        return fail(ld, RAYD_E_INVALID, &pv, "must be a string, not %s", type_name(v));
+    } else if (b64) {
+        unsigned char *bytes;
+        enum rayd_status st = base64_decode(v->valuestring, strlen(v->valuestring), &bytes, &len, ld->err);
+        if (st != RAYD_OK) {
+            snprintf(ld->err->path, sizeof ld->err->path, "%s", pv.s);
+            return st;
+        }
+        data = (char *)bytes;
+    }
+    struct mesh_limits ml = {
+        (uint32_t)(ld->lim->max_vertices - ld->vertices > UINT32_MAX ? UINT32_MAX : ld->lim->max_vertices - ld->vertices),
+        (uint32_t)(ld->lim->max_triangles - ld->triangles > UINT32_MAX ? UINT32_MAX : ld->lim->max_triangles - ld->triangles)};
+    const char *bytes = data ? data : v->valuestring;
+    size_t nbytes = data ? len : strlen(v->valuestring);
+    enum rayd_status st = format == 0 ? mesh_parse_obj(bytes, nbytes, &ml, md, ld->err)
+                                      : mesh_parse_ply(bytes, nbytes, &ml, md, ld->err);
+    free(data);
+    if (st != RAYD_OK && ld->err) snprintf(ld->err->path, sizeof ld->err->path, "%s", pv.s);
+    if (st == RAYD_OK && md->ntris == 0) {
+        mesh_data_free(md);
+        return fail(ld, RAYD_E_INVALID, &pv, "holds no triangles");
+    }
+    return st;
+}
+
 static int cpu_count(void) {
     long n = sysconf(_SC_NPROCESSORS_ONLN);
     return n > 0 ? (int)n : 1;
@@ -636,6 +747,25 @@ static enum rayd_status load_mesh(struct loader *ld, const cJSON *oj, const stru
         return fail(ld, RAYD_E_INVALID, &p, "must be true or false, not %s", type_name(sm));
     }
     if (sm) smooth = cJSON_IsTrue(sm);
+    const cJSON *src = cJSON_GetObjectItemCaseSensitive(oj, "source");
+    if (src) {
+        static const char *const inline_keys[] = {"vertices", "indices", "normals", "uvs"};
+        for (int k = 0; k < 4; k++) {
+            if (!cJSON_GetObjectItemCaseSensitive(oj, inline_keys[k])) continue;
+            p = jp_key(at, inline_keys[k]);
+            return fail(ld, RAYD_E_INVALID, &p, "cannot be combined with \"source\"");
+        }
+        struct mesh_data md = {0};
+        p = jp_key(at, "source");
+        TRY(load_source(ld, src, &p, &md));
+        pos = md.pos;
+        nrm = md.normal;
+        uv = md.uv;
+        ix = md.index;
+        nv = md.nverts;
+        nt = md.ntris;
+        goto build;
+    }
     if ((st = get_flat(ld, oj, at, "vertices", 3, 3, &pos, &nv)) != RAYD_OK) goto out;
     if (!pos) {
         p = jp_key(at, "vertices");
@@ -666,6 +796,7 @@ static enum rayd_status load_mesh(struct loader *ld, const cJSON *oj, const stru
         }
         for (int k = 0; k < 3; k++) n[k] = (float)(n[k] / len);
     }
+build:
     if ((st = add_mesh(ld, id)) != RAYD_OK) goto out;
     ld->vertices += nv;
     ld->triangles += nt;
@@ -689,8 +820,9 @@ static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const st
                                               "center", "radius", NULL};
     static const char *const plane_keys[] = {"type", "name", "material", "transform",
                                              "point", "normal", NULL};
-    static const char *const mesh_keys[] = {"type",    "name",  "material", "transform", "vertices",
-                                            "indices", "normals", "uvs",    "smooth",    NULL};
+    static const char *const mesh_keys[] = {"type",    "name",    "material", "transform",
+                                            "source",  "vertices", "indices", "normals",
+                                            "uvs",     "smooth",   NULL};
     static const char *const *const keys[] = {sphere_keys, plane_keys, mesh_keys};
     if (!cJSON_IsObject(oj))
         return fail(ld, RAYD_E_INVALID, at, "must be an object, not %s", type_name(oj));

@@ -1,0 +1,240 @@
+/* raybench -- ray throughput of the core on one scene.
+ *
+ *   raybench SCENE.json [--width W] [--height H] [--runs N] [--threads-max T]
+ *
+ * Loads the scene (timing parse + BVH build), then casts, RUNS times each,
+ * and reports the median:
+ *   - primary rays: one through every pixel centre of a W x H image (the
+ *     scene's camera), nearest hit only, no shading;
+ *   - shadow rays: from every primary hit toward the first light (or
+ *     straight up when the scene has none), any hit only;
+ * on 1 thread and on T threads (default 2); and one end-to-end image
+ * (rayd_render, shading and PNG-ready pixels) on T threads.
+ * Output is one "key value" line each, for bench/ scripts to read.
+ *
+ * It links the core's internals (like the unit tests), because it measures
+ * the queries under the integrator, not only whole images.
+ */
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "integrate.h"
+#include "scene.h"
+
+static double now(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+static char *read_all(const char *path, size_t *len) {
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    char *buf = n >= 0 ? malloc((size_t)n + 1) : NULL;
+    if (buf && fread(buf, 1, (size_t)n, f) != (size_t)n) {
+        free(buf);
+        buf = NULL;
+    }
+    fclose(f);
+    *len = (size_t)n;
+    return buf;
+}
+
+struct work {
+    const rayd_scene *s;
+    struct camera cam;
+    int w, h;
+    bool shadow;
+    atomic_int next_row;
+    atomic_long hits;
+};
+
+static vec3 light_dir(const rayd_scene *s, vec3 p, double *dist) {
+    if (s->nlights == 0) {
+        *dist = INFINITY;
+        return v3(0, 1, 0);
+    }
+    vec3 to, rad;
+    if (!light_at(&s->lights[0], p, &to, dist, &rad)) {
+        to = v3_norm(v3_sub(s->lights[0].position, p));
+        *dist = v3_len(v3_sub(s->lights[0].position, p));
+    }
+    return to;
+}
+
+static void *worker(void *arg) {
+    struct work *wk = arg;
+    long hits = 0;
+    for (;;) {
+        int j = atomic_fetch_add(&wk->next_row, 1);
+        if (j >= wk->h) break;
+        for (int i = 0; i < wk->w; i++) {
+            ray r = {wk->cam.pos, cam_dir(&wk->cam, i + 0.5, j + 0.5)};
+            struct hit hit;
+            if (!scene_intersect(wk->s, &r, INFINITY, &hit)) continue;
+            if (!wk->shadow) {
+                hits++;
+                continue;
+            }
+            struct surface sf;
+            scene_surface(wk->s, &r, &hit, &sf);
+            vec3 n = v3_dot(sf.ng, r.d) > 0 ? v3_neg(sf.ng) : sf.ng;
+            vec3 o = v3_madd(sf.p, n, integrate_offset(sf.p, sf.float_geom));
+            double dist;
+            ray sr = {o, light_dir(wk->s, o, &dist)};
+            vec3 t = scene_transmittance(wk->s, &sr, dist);
+            hits += t.x == 0 && t.y == 0 && t.z == 0;
+        }
+    }
+    atomic_fetch_add(&wk->hits, hits);
+    return NULL;
+}
+
+/* Seconds to cast the rays on `threads` threads; *count gets the rays cast. */
+static double cast(const rayd_scene *s, const struct camera *cam, int w, int h, bool shadow,
+                   int threads, long *count, long *hits) {
+    struct work wk = {.s = s, .cam = *cam, .w = w, .h = h, .shadow = shadow};
+    atomic_init(&wk.next_row, 0);
+    atomic_init(&wk.hits, 0);
+    pthread_t th[64];
+    double t0 = now();
+    for (int i = 1; i < threads; i++) pthread_create(&th[i], NULL, worker, &wk);
+    worker(&wk);
+    for (int i = 1; i < threads; i++) pthread_join(th[i], NULL);
+    double dt = now() - t0;
+    *count = (long)w * h;
+    *hits = atomic_load(&wk.hits);
+    return dt;
+}
+
+static int cmp_double(const void *a, const void *b) {
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static double median(double *v, int n) {
+    qsort(v, (size_t)n, sizeof *v, cmp_double);
+    return v[n / 2];
+}
+
+int main(int argc, char **argv) {
+    const char *path = NULL;
+    int w = 1920, h = 1080, runs = 3, tmax = 2;
+    for (int i = 1; i < argc; i++) {
+        if (!strcmp(argv[i], "--width") && i + 1 < argc) w = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--height") && i + 1 < argc) h = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--runs") && i + 1 < argc) runs = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--threads-max") && i + 1 < argc) tmax = atoi(argv[++i]);
+        else path = argv[i];
+    }
+    if (!path || w <= 0 || h <= 0 || runs <= 0 || runs > 99 || tmax < 1 || tmax > 64) {
+        fprintf(stderr, "usage: raybench SCENE.json [--width W] [--height H] [--runs N] [--threads-max T]\n");
+        return 2;
+    }
+    size_t len;
+    char *text = read_all(path, &len);
+    if (!text) {
+        fprintf(stderr, "raybench: cannot read %s\n", path);
+        return 1;
+    }
+    char dir[4096];
+    const char *slash = strrchr(path, '/');
+    snprintf(dir, sizeof dir, "%.*s", slash ? (int)(slash - path) : 1, slash ? path : ".");
+    struct rayd_limits lim;
+    rayd_limits_default(&lim);
+    lim.asset_dir = dir;
+    lim.asset_confine = 0;
+    lim.max_bytes = (size_t)1 << 31;
+    struct rayd_error err = {0};
+    rayd_scene *s = NULL;
+    double t0 = now();
+    if (rayd_scene_parse(text, len, &lim, &s, &err) != RAYD_OK) {
+        char msg[600];
+        fprintf(stderr, "raybench: %s\n", rayd_error_format(&err, msg, sizeof msg));
+        return 1;
+    }
+    double load = now() - t0;
+    free(text);
+
+    long tris = 0;
+    size_t mesh_bytes_total = 0;
+    for (uint32_t i = 0; i < s->nmeshes; i++) {
+        tris += s->meshes[i].ntris;
+        mesh_bytes_total += mesh_bytes(&s->meshes[i]);
+    }
+    /* BVH build alone: rebuild the largest mesh's hierarchy. */
+    double build = 0;
+    uint32_t big = 0;
+    for (uint32_t i = 1; i < s->nmeshes; i++)
+        if (s->meshes[i].ntris > s->meshes[big].ntris) big = i;
+    if (s->nmeshes) {
+        const struct mesh *m = &s->meshes[big];
+        struct bbox *boxes = malloc(sizeof *boxes * m->ntris);
+        uint32_t *order = malloc(sizeof *order * m->ntris);
+        for (uint32_t t = 0; t < m->ntris; t++) {
+            const uint32_t *ix = m->index + 3 * (size_t)t;
+            for (int k = 0; k < 3; k++) {
+                float a = m->pos[3 * ix[0] + k], b = m->pos[3 * ix[1] + k], c = m->pos[3 * ix[2] + k];
+                boxes[t].lo[k] = fminf(a, fminf(b, c));
+                boxes[t].hi[k] = fmaxf(a, fmaxf(b, c));
+            }
+        }
+        double bt[99];
+        for (int r = 0; r < runs; r++) {
+            struct bvh4 bvh;
+            double b0 = now();
+            bvh_build(&bvh, boxes, m->ntris, order, tmax, NULL);
+            bt[r] = now() - b0;
+            bvh_free(&bvh);
+        }
+        build = median(bt, runs);
+        free(boxes);
+        free(order);
+    }
+    struct camera cam;
+    cam_init(&cam, s->cam.pos, v3_add(s->cam.pos, s->cam.w), s->cam.v, 0, 0, w, h, NULL);
+    cam.tan_x = s->cam.tan_x;
+    cam.tan_y = s->cam.tan_x * h / w;
+
+    printf("scene %s\n", path);
+    printf("triangles %ld\n", tris);
+    printf("objects %ld\n", (long)s->nobjs + s->nplanes);
+    printf("load_s %.4f\n", load);
+    printf("bvh_build_s %.4f\n", build);
+    if (tris) printf("bytes_per_triangle %.1f\n", (double)mesh_bytes_total / (double)tris);
+    int thread_counts[2] = {1, tmax};
+    for (int ti = 0; ti < (tmax > 1 ? 2 : 1); ti++) {
+        for (int shadow = 0; shadow <= 1; shadow++) {
+            double rate[99];
+            long count = 0, hits = 0;
+            for (int r = 0; r < runs; r++) {
+                double dt = cast(s, &cam, w, h, shadow, thread_counts[ti], &count, &hits);
+                rate[r] = count / dt / 1e6;
+            }
+            printf("%s_mrays_%dt %.2f\n", shadow ? "shadow" : "primary", thread_counts[ti],
+                   median(rate, runs));
+            if (ti == 0) printf("%s_hits %ld\n", shadow ? "shadow" : "primary", hits);
+        }
+    }
+    /* End to end: the whole image, shaded, on tmax threads. */
+    double it[99];
+    struct rayd_render_stats st = {0};
+    for (int r = 0; r < runs; r++) {
+        struct rayd_render_opts o = {.threads = tmax, .stats = &st};
+        rayd_image *img = NULL;
+        double i0 = now();
+        rayd_render(s, &o, &img, NULL);
+        it[r] = now() - i0;
+        rayd_image_free(img);
+    }
+    printf("image_s_%dt %.4f\n", tmax, median(it, runs));
+    rayd_scene_free(s);
+    return 0;
+}
