@@ -47,7 +47,8 @@ static enum rayd_status b64_padding(const char *in, size_t len, size_t at, size_
     for (size_t i = at; i < len; i++) {
         int v = b64_value((unsigned char)in[i]);
         if (v == -1) continue;
-        if (v != -2) return b64_bad_char(err, (unsigned char)in[i], i, "character after the padding");
+        if (v != -2)
+            return b64_bad_char(err, (unsigned char)in[i], i, "character after the padding");
         if (++pads > need) return b64_bad_char(err, '=', i, "unexpected padding");
     }
     if (pads != need)

@@ -15,10 +15,10 @@
 
 /* nf: shading normal facing the viewer; origin: the point lifted off the
  * surface on the viewer's side, where shadow rays start. */
-static vec3 shade_local(const rayd_scene *s, const struct material *m, vec3 p, vec3 nf,
-                        vec3 origin, vec3 d, uint64_t *rays) {
+static vec3 shade_local(const rayd_scene *s, const struct material *m, vec3 color, vec3 p,
+                        vec3 nf, vec3 origin, vec3 d, uint64_t *rays) {
     vec3 c = m->emission;
-    if (s->nlights > 0) c = v3_add(c, v3_scale(m->color, m->ambient));
+    if (s->nlights > 0) c = v3_add(c, v3_scale(color, m->ambient));
     for (int i = 0; i < s->nlights; i++) {
         vec3 to_l, rad;
         double dist;
@@ -30,7 +30,7 @@ static vec3 shade_local(const rayd_scene *s, const struct material *m, vec3 p, v
         vec3 tr = scene_transmittance(s, &sr, dist);
         if (tr.x <= 0 && tr.y <= 0 && tr.z <= 0) continue;
         rad = v3_mul(rad, tr);
-        c = v3_add(c, v3_mul(rad, v3_scale(m->color, m->diffuse * ndl)));
+        c = v3_add(c, v3_mul(rad, v3_scale(color, m->diffuse * ndl)));
         if (m->specular > 0) {
             vec3 h = v3_norm(v3_sub(to_l, d));
             double ndh = v3_dot(nf, h);
@@ -58,7 +58,7 @@ vec3 whitted_radiance(const rayd_scene *s, const ray *r, int depth, uint64_t *ra
     if (v3_dot(nf, ngf) < 0) nf = ngf; /* an interpolated normal past the silhouette */
     double off = integrate_offset(sf.p, sf.float_geom);
     vec3 above = v3_madd(sf.p, ngf, off), below = v3_madd(sf.p, ngf, -off);
-    vec3 c = shade_local(s, m, sf.p, nf, above, r->d, rays);
+    vec3 c = shade_local(s, m, sf.color, sf.p, nf, above, r->d, rays);
     if (depth >= s->rs.max_depth) return c;
 
     double kr = m->reflectivity, kt = m->transparency;
@@ -83,7 +83,7 @@ vec3 whitted_radiance(const rayd_scene *s, const ray *r, int depth, uint64_t *ra
     if (wr > 0) c = v3_madd(c, trace_from(s, above, refl_dir, depth + 1, rays), wr);
     if (fr < 1) {
         vec3 refr = trace_from(s, below, tdir, depth + 1, rays);
-        c = v3_add(c, v3_mul(refr, v3_scale(m->color, kt * (1 - fr))));
+        c = v3_add(c, v3_mul(refr, v3_scale(sf.color, kt * (1 - fr))));
     }
     return c;
 }

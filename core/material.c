@@ -18,6 +18,9 @@ struct material material_default(void) {
         .reflectivity = 0,
         .transparency = 0,
         .ior = 1.5,
+        .roughness = 0,
+        .metallic = 0,
+        .texture = -1,
     };
     return m;
 }

@@ -14,6 +14,9 @@ struct material {
     double reflectivity; /* mirror weight */
     double transparency; /* refracted weight, tinted by color */
     double ior;          /* index of refraction */
+    double roughness;    /* path tracer: 0 smooth mirror .. 1 rough (GGX alpha = roughness^2) */
+    double metallic;     /* path tracer: 0 dielectric/diffuse base, 1 conductor tinted by color */
+    int texture;         /* index into the scene's textures for color, -1 none */
 };
 
 /* The documented defaults (docs/scene-format.md). */

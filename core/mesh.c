@@ -260,6 +260,17 @@ vec3 mesh_shading_normal(const struct mesh *m, const struct mesh_hit *h) {
     return len > 0 ? v3_scale(n, 1.0 / len) : mesh_geometric_normal(m, h->tri);
 }
 
+void mesh_uv(const struct mesh *m, const struct mesh_hit *h, double *u, double *v) {
+    *u = *v = 0;
+    if (!m->uv) return;
+    const uint32_t *ix = m->index + 3 * (size_t)h->tri;
+    const double w[3] = {1.0 - h->u - h->v, h->u, h->v};
+    for (int k = 0; k < 3; k++) {
+        *u += w[k] * m->uv[2 * (size_t)ix[k]];
+        *v += w[k] * m->uv[2 * (size_t)ix[k] + 1];
+    }
+}
+
 /* Area-weighted vertex normals (the cross product's length is twice the
  * area, so summing unnormalised face normals weights by area). */
 static float *smooth_normals(const float *pos, uint32_t nverts, const uint32_t *index,

@@ -54,6 +54,9 @@ vec3 mesh_point(const struct mesh *m, const struct mesh_hit *h);
 vec3 mesh_geometric_normal(const struct mesh *m, uint32_t tri); /* unit, by winding */
 vec3 mesh_shading_normal(const struct mesh *m, const struct mesh_hit *h);
 
+/* Interpolated texture coordinates (0, 0 without uvs). */
+void mesh_uv(const struct mesh *m, const struct mesh_hit *h, double *u, double *v);
+
 /* Memory held by the mesh, for the scene's size and bytes per triangle. */
 size_t mesh_bytes(const struct mesh *m);
 

@@ -7,6 +7,7 @@
  *     the same way on every path;
  *   - mesh_grow, amortised (doubling) array growth with overflow checks, so
  *     a million-triangle file costs O(log n) reallocations;
+ *   - mesh_quote, so a token quoted in a message is printable ASCII;
  *   - mesh_parse_number, a decimal parser over a bounded token.  strtod
  *     needs a NUL after the number and is slow; the common case (at most 19
  *     significant digits, |exponent| <= 22, mantissa exact in a double) is
@@ -56,6 +57,17 @@ uint32_t mesh_max_vertices(const struct mesh_limits *lim) {
 
 uint32_t mesh_max_triangles(const struct mesh_limits *lim) {
     return lim && lim->max_triangles < UINT32_MAX ? lim->max_triangles : UINT32_MAX - 1;
+}
+
+const char *mesh_quote(char *buf, const char *s, size_t n) {
+    size_t max = MESH_QUOTE_SIZE - 8, k = 0; /* room for "..." and the NUL */
+    for (; k < n && k < max; k++) buf[k] = s[k] >= 0x20 && s[k] <= 0x7e ? s[k] : '?';
+    if (k < n) {
+        memcpy(buf + k, "...", 3);
+        k += 3;
+    }
+    buf[k] = '\0';
+    return buf;
 }
 
 #define MESH_NUM_MAX 512 /* longest token handed to strtod */

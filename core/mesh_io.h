@@ -54,6 +54,12 @@ bool mesh_grow(void **arr, size_t *cap, size_t need, size_t elem);
  * part of the number.  Never reads s[n]. */
 bool mesh_parse_number(const char *s, size_t n, double *out);
 
+/* Copies s[0..n) into buf (MESH_QUOTE_SIZE bytes) for an error message:
+ * bytes outside printable ASCII become '?' (messages end up in JSON), and
+ * a long token is cut with "...".  Returns buf. */
+#define MESH_QUOTE_SIZE 48
+const char *mesh_quote(char *buf, const char *s, size_t n);
+
 /* lim's bounds, capped at (and for a NULL lim equal to) UINT32_MAX - 1. */
 uint32_t mesh_max_vertices(const struct mesh_limits *lim);
 uint32_t mesh_max_triangles(const struct mesh_limits *lim);

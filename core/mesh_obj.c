@@ -114,18 +114,20 @@ static bool obj_token(const char **p, const char *end, const char **tok, size_t 
  * line into vals; *count gets how many. */
 static enum rayd_status obj_numbers(struct obj *o, const char *what, const char *p,
                                     const char *end, int min, int max, float *vals, int *count) {
+    char q[MESH_QUOTE_SIZE];
     const char *tok;
     size_t n;
     int k = 0;
     while (obj_token(&p, end, &tok, &n)) {
         double d;
-        if (k == max) return obj_fail(o, RAYD_E_INVALID, "'%s' takes at most %d numbers", what, max);
+        if (k == max)
+            return obj_fail(o, RAYD_E_INVALID, "'%s' takes at most %d numbers", what, max);
         if (!mesh_parse_number(tok, n, &d))
-            return obj_fail(o, RAYD_E_INVALID, "bad number '%.*s' in '%s'", n > 40 ? 40 : (int)n,
-                            tok, what);
+            return obj_fail(o, RAYD_E_INVALID, "bad number '%s' in '%s'",
+                            mesh_quote(q, tok, n), what);
         if (!isfinite(d) || fabs(d) > FLT_MAX)
-            return obj_fail(o, RAYD_E_INVALID, "number '%.*s' in '%s' is not a finite float",
-                            n > 40 ? 40 : (int)n, tok, what);
+            return obj_fail(o, RAYD_E_INVALID, "number '%s' in '%s' is not a finite float",
+                            mesh_quote(q, tok, n), what);
         vals[k++] = (float)d;
     }
     if (k < min)
@@ -174,6 +176,7 @@ static enum rayd_status obj_vn(struct obj *o, const char *p, const char *end) {
  * elements defined so far; 0 in *out for an empty field. */
 static enum rayd_status obj_index(struct obj *o, const char *what, const char *s, size_t n,
                                   size_t count, uint32_t *out) {
+    char q[MESH_QUOTE_SIZE];
     *out = 0;
     if (n == 0) return RAYD_OK;
     size_t i = s[0] == '-' ? 1 : 0;
@@ -181,15 +184,18 @@ static enum rayd_status obj_index(struct obj *o, const char *what, const char *s
     if (i == n) return obj_fail(o, RAYD_E_INVALID, "bad %s index '-'", what);
     for (; i < n; i++) {
         if (s[i] < '0' || s[i] > '9')
-            return obj_fail(o, RAYD_E_INVALID, "bad %s index '%.*s'", what, n > 40 ? 40 : (int)n, s);
+            return obj_fail(o, RAYD_E_INVALID, "bad %s index '%s'", what, mesh_quote(q, s, n));
         if (v < 10000000000LL) v = v * 10 + (s[i] - '0');
     }
     if (s[0] == '-') v = -v;
-    if (v == 0) return obj_fail(o, RAYD_E_INVALID, "%s index 0 is invalid (OBJ counts from 1)", what);
+    if (v == 0)
+        return obj_fail(o, RAYD_E_INVALID, "%s index 0 is invalid (OBJ counts from 1)", what);
     if (count == 0)
-        return obj_fail(o, RAYD_E_INVALID, "%s index %lld is out of range (none defined yet)", what, v);
+        return obj_fail(o, RAYD_E_INVALID, "%s index %lld is out of range (none defined yet)",
+                        what, v);
     long long c = (long long)count;
-    if (v > c) return obj_fail(o, RAYD_E_INVALID, "%s index %lld is out of range (1..%lld)", what, v, c);
+    if (v > c)
+        return obj_fail(o, RAYD_E_INVALID, "%s index %lld is out of range (1..%lld)", what, v, c);
     if (v < -c)
         return obj_fail(o, RAYD_E_INVALID, "%s index %lld is out of range (-%lld..-1)", what, v, c);
     *out = (uint32_t)(v > 0 ? v : c + v + 1);
@@ -198,21 +204,22 @@ static enum rayd_status obj_index(struct obj *o, const char *what, const char *s
 
 /* Splits a corner "v", "v/vt", "v//vn" or "v/vt/vn" and resolves it. */
 static enum rayd_status obj_corner(struct obj *o, const char *s, size_t n, struct obj_key *k) {
+    char q[MESH_QUOTE_SIZE];
     const char *part[3] = {s, NULL, NULL};
     size_t plen[3] = {n, 0, 0};
     int parts = 1;
     for (size_t i = 0; i < n; i++) {
         if (s[i] != '/') continue;
         if (parts == 3)
-            return obj_fail(o, RAYD_E_INVALID, "bad face vertex '%.*s'", n > 40 ? 40 : (int)n, s);
+            return obj_fail(o, RAYD_E_INVALID, "bad face vertex '%s'", mesh_quote(q, s, n));
         plen[parts - 1] = (size_t)(s + i - part[parts - 1]);
         part[parts] = s + i + 1;
         plen[parts] = (size_t)(s + n - part[parts]);
         parts++;
     }
     if (plen[0] == 0)
-        return obj_fail(o, RAYD_E_INVALID, "bad face vertex '%.*s' (no position index)",
-                        n > 40 ? 40 : (int)n, s);
+        return obj_fail(o, RAYD_E_INVALID, "bad face vertex '%s' (no position index)",
+                        mesh_quote(q, s, n));
     enum rayd_status st = obj_index(o, "face", part[0], plen[0], o->nv, &k->v);
     if (st == RAYD_OK) st = obj_index(o, "texture", part[1], plen[1], o->nt, &k->t);
     if (st == RAYD_OK) st = obj_index(o, "normal", part[2], plen[2], o->nn, &k->n);
@@ -294,7 +301,7 @@ static enum rayd_status obj_f(struct obj *o, const char *p, const char *end) {
     uint32_t first = 0, prev = 0;
     int corners = 0;
     while (obj_token(&p, end, &tok, &n)) {
-        struct obj_key k;
+        struct obj_key k = {0, 0, 0};
         uint32_t idx = 0;
         enum rayd_status st = obj_corner(o, tok, n, &k);
         if (st == RAYD_OK) st = obj_vertex(o, k, &idx);
@@ -370,8 +377,9 @@ static enum rayd_status obj_finish(struct obj *o, struct mesh_data *out) {
         if (m.normal) memcpy(m.normal + j * 3, o->vn + (size_t)(k.n - 1) * 3, 3 * sizeof *m.pos);
         if (m.uv) memcpy(m.uv + j * 2, o->vt + (size_t)(k.t - 1) * 2, 2 * sizeof *m.pos);
     }
-    uint32_t *tri = realloc(o->tri, o->ntri * 3 * sizeof *tri);
-    m.index = tri ? tri : o->tri;
+    uint32_t *tri = realloc(o->tri, o->ntri * 3 * sizeof *tri); /* shrink; may fail */
+    if (tri) o->tri = tri;
+    m.index = o->tri;
     o->tri = NULL;
     m.nverts = (uint32_t)nv;
     m.ntris = (uint32_t)o->ntri;

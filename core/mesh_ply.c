@@ -86,33 +86,31 @@ struct ply {
 
 /* ---- errors ------------------------------------------------------------- */
 
-static enum rayd_status ply_vfail(struct ply *P, enum rayd_status code, bool body, const char *fmt,
-                                  va_list ap) __attribute__((format(printf, 4, 0)));
-
-static enum rayd_status ply_vfail(struct ply *P, enum rayd_status code, bool body, const char *fmt,
-                                  va_list ap) {
-    char msg[200];
-    vsnprintf(msg, sizeof msg, fmt, ap);
+/* Sets err to msg, prefixed with where: the record being read (body) or
+ * the header line (P->line, or the header as a whole when it is 0). */
+static enum rayd_status ply_fail_at(struct ply *P, enum rayd_status code, bool body,
+                                    const char *msg) {
     if (body) {
-        int n = P->cur->name_len > 32 ? 32 : (int)P->cur->name_len;
-        return err_set(P->err, code, NULL, "PLY %.*s %llu: %s", n, P->cur->name,
-                       (unsigned long long)P->rec, msg);
+        char q[MESH_QUOTE_SIZE];
+        return err_set(P->err, code, NULL, "PLY %s %llu: %s",
+                       mesh_quote(q, P->cur->name, P->cur->name_len), (unsigned long long)P->rec,
+                       msg);
     }
     if (P->line) return err_set(P->err, code, NULL, "PLY header line %zu: %s", P->line, msg);
     return err_set(P->err, code, NULL, "PLY header: %s", msg);
 }
 
-/* An error in the header: at line P->line, or about the header as a whole
- * when P->line is 0. */
+/* An error in the header. */
 static enum rayd_status ply_hfail(struct ply *P, enum rayd_status code, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
 
 static enum rayd_status ply_hfail(struct ply *P, enum rayd_status code, const char *fmt, ...) {
+    char msg[200];
     va_list ap;
     va_start(ap, fmt);
-    enum rayd_status st = ply_vfail(P, code, false, fmt, ap);
+    vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
-    return st;
+    return ply_fail_at(P, code, false, msg);
 }
 
 /* An error in record P->rec of element P->cur. */
@@ -120,11 +118,12 @@ static enum rayd_status ply_bfail(struct ply *P, enum rayd_status code, const ch
     __attribute__((format(printf, 3, 4)));
 
 static enum rayd_status ply_bfail(struct ply *P, enum rayd_status code, const char *fmt, ...) {
+    char msg[200];
     va_list ap;
     va_start(ap, fmt);
-    enum rayd_status st = ply_vfail(P, code, true, fmt, ap);
+    vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
-    return st;
+    return ply_fail_at(P, code, true, msg);
 }
 
 static enum rayd_status ply_truncated(struct ply *P) {
@@ -168,9 +167,9 @@ static bool ply_is(struct ply_tok t, const char *word) {
     return strlen(word) == t.n && memcmp(t.s, word, t.n) == 0;
 }
 
-/* Shortens a token for a message. */
-static int ply_w(struct ply_tok t) {
-    return t.n > 40 ? 40 : (int)t.n;
+/* A token quoted for a message (buf has MESH_QUOTE_SIZE bytes). */
+static const char *ply_q(char *buf, struct ply_tok t) {
+    return mesh_quote(buf, t.s, t.n);
 }
 
 static enum ply_type ply_type_of(struct ply_tok t) {
@@ -201,6 +200,7 @@ static enum ply_role ply_role_of(enum ply_kind kind, bool list, struct ply_tok n
 }
 
 static enum rayd_status ply_format_line(struct ply *P, const char *p, const char *end) {
+    char q[MESH_QUOTE_SIZE];
     struct ply_tok f, v, extra;
     if (P->format) return ply_hfail(P, RAYD_E_INVALID, "a second 'format' line");
     if (!ply_token(&p, end, &f) || !ply_token(&p, end, &v) || ply_token(&p, end, &extra))
@@ -208,10 +208,10 @@ static enum rayd_status ply_format_line(struct ply *P, const char *p, const char
     if (ply_is(f, "ascii")) P->format = PLY_ASCII;
     else if (ply_is(f, "binary_little_endian")) P->format = PLY_LE;
     else if (ply_is(f, "binary_big_endian")) P->format = PLY_BE;
-    else return ply_hfail(P, RAYD_E_INVALID, "unknown format '%.*s'", ply_w(f), f.s);
+    else return ply_hfail(P, RAYD_E_INVALID, "unknown format '%s'", ply_q(q, f));
     if (!ply_is(v, "1.0"))
-        return ply_hfail(P, RAYD_E_INVALID, "unsupported version '%.*s' (expected 1.0)", ply_w(v),
-                         v.s);
+        return ply_hfail(P, RAYD_E_INVALID, "unsupported version '%s' (expected 1.0)",
+                         ply_q(q, v));
     return RAYD_OK;
 }
 
@@ -227,18 +227,19 @@ static bool ply_uint(struct ply_tok t, uint64_t *out) {
 }
 
 static enum rayd_status ply_element_line(struct ply *P, const char *p, const char *end) {
+    char q[MESH_QUOTE_SIZE];
     struct ply_tok name, count, extra;
     uint64_t n;
     if (!ply_token(&p, end, &name) || !ply_token(&p, end, &count) || ply_token(&p, end, &extra))
         return ply_hfail(P, RAYD_E_INVALID, "expected 'element NAME COUNT'");
     if (!ply_uint(count, &n))
-        return ply_hfail(P, RAYD_E_INVALID, "bad element count '%.*s'", ply_w(count), count.s);
+        return ply_hfail(P, RAYD_E_INVALID, "bad element count '%s'", ply_q(q, count));
     enum ply_kind kind = ply_is(name, "vertex") ? PLY_ELEM_VERTEX
                          : ply_is(name, "face") ? PLY_ELEM_FACE
                                                 : PLY_ELEM_OTHER;
     size_t *slot = kind == PLY_ELEM_VERTEX ? &P->vertex : kind == PLY_ELEM_FACE ? &P->face : NULL;
     if (slot && *slot)
-        return ply_hfail(P, RAYD_E_INVALID, "a second '%.*s' element", ply_w(name), name.s);
+        return ply_hfail(P, RAYD_E_INVALID, "a second '%s' element", ply_q(q, name));
     if (!mesh_grow((void **)&P->elems, &P->cap_elems, P->nelems + 1, sizeof *P->elems))
         return ply_hfail(P, RAYD_E_NOMEM, "out of memory");
     struct ply_elem *e = &P->elems[P->nelems++];
@@ -253,10 +254,12 @@ static enum rayd_status ply_element_line(struct ply *P, const char *p, const cha
 }
 
 static enum rayd_status ply_property_line(struct ply *P, const char *p, const char *end) {
+    char q[MESH_QUOTE_SIZE];
     struct ply_tok t, name, extra, ct = {NULL, 0};
     if (P->nelems == 0) return ply_hfail(P, RAYD_E_INVALID, "'property' before any 'element'");
     struct ply_elem *e = &P->elems[P->nelems - 1];
-    if (!ply_token(&p, end, &t)) return ply_hfail(P, RAYD_E_INVALID, "expected 'property TYPE NAME'");
+    if (!ply_token(&p, end, &t))
+        return ply_hfail(P, RAYD_E_INVALID, "expected 'property TYPE NAME'");
     bool list = ply_is(t, "list");
     if (list && (!ply_token(&p, end, &ct) || !ply_token(&p, end, &t)))
         return ply_hfail(P, RAYD_E_INVALID, "expected 'property list COUNTTYPE ITEMTYPE NAME'");
@@ -265,10 +268,10 @@ static enum rayd_status ply_property_line(struct ply *P, const char *p, const ch
                          list ? "list COUNTTYPE " : "");
     struct ply_prop prop = {ply_type_of(t), list ? ply_type_of(ct) : PLY_NONE, PLY_OTHER};
     if (list && (prop.count_type == PLY_NONE || prop.count_type >= PLY_F32))
-        return ply_hfail(P, RAYD_E_INVALID, "bad list count type '%.*s' (an integer type needed)",
-                         ply_w(ct), ct.s);
+        return ply_hfail(P, RAYD_E_INVALID, "bad list count type '%s' (an integer type needed)",
+                         ply_q(q, ct));
     if (prop.type == PLY_NONE)
-        return ply_hfail(P, RAYD_E_INVALID, "unknown property type '%.*s'", ply_w(t), t.s);
+        return ply_hfail(P, RAYD_E_INVALID, "unknown property type '%s'", ply_q(q, t));
     prop.role = ply_role_of(e->kind, list, name);
     if (e->role_seen[prop.role]) prop.role = PLY_OTHER; /* e.g. both u and s: the first wins */
     e->role_seen[prop.role] = true;
@@ -280,6 +283,7 @@ static enum rayd_status ply_property_line(struct ply *P, const char *p, const ch
 
 /* One header line [p, end); *done at end_header. */
 static enum rayd_status ply_header_line(struct ply *P, const char *p, const char *end, bool *done) {
+    char q[MESH_QUOTE_SIZE];
     struct ply_tok kw;
     if (!ply_token(&p, end, &kw)) return RAYD_OK;
     if (ply_is(kw, "format")) return ply_format_line(P, p, end);
@@ -290,7 +294,7 @@ static enum rayd_status ply_header_line(struct ply *P, const char *p, const char
         *done = true;
         return RAYD_OK;
     }
-    return ply_hfail(P, RAYD_E_INVALID, "unknown keyword '%.*s'", ply_w(kw), kw.s);
+    return ply_hfail(P, RAYD_E_INVALID, "unknown keyword '%s'", ply_q(q, kw));
 }
 
 /* Reads the header lines; on success P->at is the first byte of the body. */
@@ -341,6 +345,7 @@ static uint64_t ply_min_record(const struct ply *P, const struct ply_elem *e) {
 
 /* Fails fast when the declared counts cannot fit in the body. */
 static enum rayd_status ply_check_sizes(struct ply *P) {
+    char q[MESH_QUOTE_SIZE];
     uint64_t avail = P->len - P->at, used = 0;
     if (P->format == PLY_ASCII) avail++; /* the last value needs no separator */
     for (size_t i = 0; i < P->nelems; i++) {
@@ -349,8 +354,8 @@ static enum rayd_status ply_check_sizes(struct ply *P) {
         if (rec && (e->count > (avail - used) / rec)) {
             P->line = e->line;
             return ply_hfail(P, RAYD_E_INVALID,
-                             "element '%.*s' claims %llu records but the body has only %llu bytes",
-                             e->name_len > 32 ? 32 : (int)e->name_len, e->name,
+                             "element '%s' claims %llu records but the body has only %llu bytes",
+                             mesh_quote(q, e->name, e->name_len),
                              (unsigned long long)e->count, (unsigned long long)(P->len - P->at));
         }
         used += e->count * rec;
@@ -366,7 +371,8 @@ static enum rayd_status ply_check_header(struct ply *P) {
     if (st == RAYD_OK) st = ply_need_role(P, v, PLY_Y);
     if (st == RAYD_OK) st = ply_need_role(P, v, PLY_Z);
     if (st != RAYD_OK) return st;
-    if (!P->face) return ply_hfail(P, RAYD_E_INVALID, "no 'face' element (a point cloud, not a mesh)");
+    if (!P->face)
+        return ply_hfail(P, RAYD_E_INVALID, "no 'face' element (a point cloud, not a mesh)");
     const struct ply_elem *f = &P->elems[P->face - 1];
     if (!f->role_seen[PLY_INDICES])
         return ply_hfail(P, RAYD_E_INVALID, "element 'face' has no list 'vertex_indices'");
@@ -413,13 +419,14 @@ static enum rayd_status ply_binary(struct ply *P, enum ply_type t, double *out) 
 }
 
 static enum rayd_status ply_ascii(struct ply *P, double *out) {
+    char q[MESH_QUOTE_SIZE];
     const char *s = (const char *)P->p + P->at, *end = (const char *)P->p + P->len;
     struct ply_tok t;
     bool any = ply_token(&s, end, &t);
     P->at = (size_t)(s - (const char *)P->p);
     if (!any) return ply_truncated(P);
     if (!mesh_parse_number(t.s, t.n, out))
-        return ply_bfail(P, RAYD_E_INVALID, "bad number '%.*s'", ply_w(t), t.s);
+        return ply_bfail(P, RAYD_E_INVALID, "bad number '%s'", ply_q(q, t));
     return RAYD_OK;
 }
 
@@ -480,7 +487,7 @@ static enum rayd_status ply_vertex(struct ply *P, const struct ply_elem *e, uint
 }
 
 static enum rayd_status ply_index(struct ply *P, enum ply_type t, uint32_t *out) {
-    double d;
+    double d = 0;
     enum rayd_status st = ply_value(P, t, &d);
     if (st != RAYD_OK) return st;
     if (d != floor(d)) return ply_bfail(P, RAYD_E_INVALID, "vertex index %g is not an integer", d);
@@ -488,8 +495,10 @@ static enum rayd_status ply_index(struct ply *P, enum ply_type t, uint32_t *out)
         *out = (uint32_t)d;
         return RAYD_OK;
     }
-    if (P->nverts == 0) return ply_bfail(P, RAYD_E_INVALID, "vertex index %g but there are no vertices", d);
-    return ply_bfail(P, RAYD_E_INVALID, "vertex index %g is out of range (0..%u)", d, P->nverts - 1);
+    if (P->nverts == 0)
+        return ply_bfail(P, RAYD_E_INVALID, "vertex index %g but there are no vertices", d);
+    return ply_bfail(P, RAYD_E_INVALID, "vertex index %g is out of range (0..%u)", d,
+                     P->nverts - 1);
 }
 
 static enum rayd_status ply_triangle(struct ply *P, uint32_t a, uint32_t b, uint32_t c) {
@@ -508,10 +517,11 @@ static enum rayd_status ply_triangle(struct ply *P, uint32_t a, uint32_t b, uint
 
 /* Reads one polygon and adds its fan of triangles. */
 static enum rayd_status ply_polygon(struct ply *P, const struct ply_prop *q) {
-    uint32_t n, first = 0, prev = 0, idx = 0;
+    uint32_t n = 0, first = 0, prev = 0, idx = 0;
     enum rayd_status st = ply_count(P, q->count_type, &n);
     if (st != RAYD_OK) return st;
-    if (n < 3) return ply_bfail(P, RAYD_E_INVALID, "polygon has %u vertices (at least 3 needed)", n);
+    if (n < 3)
+        return ply_bfail(P, RAYD_E_INVALID, "polygon has %u vertices (at least 3 needed)", n);
     if (P->format != PLY_ASCII && (P->len - P->at) / ply_size[q->type] < n) return ply_truncated(P);
     for (uint32_t k = 0; k < n; k++) {
         st = ply_index(P, q->type, &idx);
@@ -564,7 +574,8 @@ static enum rayd_status ply_body(struct ply *P) {
             st = ply_other(P, e);
         } else {
             for (P->rec = 0; st == RAYD_OK && P->rec < e->count; P->rec++)
-                st = e->kind == PLY_ELEM_VERTEX ? ply_vertex(P, e, (uint32_t)P->rec) : ply_face(P, e);
+                st = e->kind == PLY_ELEM_VERTEX ? ply_vertex(P, e, (uint32_t)P->rec)
+                                                : ply_face(P, e);
         }
         if (st != RAYD_OK) return st;
     }
@@ -603,13 +614,15 @@ enum rayd_status mesh_parse_ply(const void *data, size_t len, const struct mesh_
     if (st == RAYD_OK) st = ply_check_header(&P);
     if (st == RAYD_OK) st = ply_alloc(&P);
     if (st == RAYD_OK) st = ply_body(&P);
-    if (st == RAYD_OK && P.ntri == 0) st = err_set(err, RAYD_E_INVALID, NULL, "PLY file has no faces");
+    if (st == RAYD_OK && P.ntri == 0)
+        st = err_set(err, RAYD_E_INVALID, NULL, "PLY file has no faces");
     if (st == RAYD_OK) {
-        uint32_t *tri = realloc(P.tri, P.ntri * 3 * sizeof *tri);
+        uint32_t *tri = realloc(P.tri, P.ntri * 3 * sizeof *tri); /* shrink; may fail */
+        if (tri) P.tri = tri;
         *out = (struct mesh_data){.pos = P.pos,
                                   .normal = P.normal,
                                   .uv = P.uv,
-                                  .index = tri ? tri : P.tri,
+                                  .index = P.tri,
                                   .nverts = P.nverts,
                                   .ntris = (uint32_t)P.ntri};
         P.pos = P.normal = P.uv = NULL;

@@ -1,12 +1,18 @@
 /* scene.c -- the frozen scene and the queries the tracer makes of it.
  *
- * Two levels, like Embree's and OptiX's: a top-level BVH over objects
- * (spheres, mesh instances, ...) and, inside each mesh, a BVH over its
- * triangles.  An object may carry a transform; a ray meets it in object
- * space (origin and direction by the inverse transform, the direction
- * renormalised and t rescaled), so a mesh drawn a thousand times is stored
- * once.  Planes have no bounds and are tested one by one beside the BVH,
- * their transform applied once at load time.
+ * Levels, like Embree's and OptiX's: a top-level BVH over objects (spheres,
+ * boxes, tori, mesh references, CSG trees, instances of groups) and, inside
+ * each mesh and each group, a BVH of its own.  An object may carry a
+ * transform; a ray meets it in object space (origin and direction by the
+ * inverse transform, the direction renormalised and t rescaled), so a mesh
+ * or a group drawn a thousand times is stored once.  Unbounded objects
+ * (planes, quadrics) are tested one by one beside the BVH.
+ *
+ * CSG follows Roth (1982): every operand's crossings with the ray's line
+ * are merged in order, and the tree's point-in-solid test, evaluated
+ * between consecutive crossings, tells which of them are surfaces of the
+ * result and whether the ray enters or leaves it there.  Transforms inside
+ * a CSG tree are composed down to its leaves at load time.
  *
  * The loader (scene_json.c) fills a rayd_scene and freezes it once; after
  * that it is immutable and shared by every rendering thread through a const
@@ -18,6 +24,9 @@
 #include <string.h>
 
 #include "error.h"
+#include "texture.h"
+
+#define CSG_MAX_XINGS 128
 
 enum rayd_status scene_alloc(rayd_scene **out, struct rayd_error *err) {
     rayd_scene *s = calloc(1, sizeof *s);
@@ -29,6 +38,14 @@ enum rayd_status scene_alloc(rayd_scene **out, struct rayd_error *err) {
 void rayd_scene_free(rayd_scene *s) {
     if (!s) return;
     for (uint32_t i = 0; i < s->nmeshes; i++) mesh_free(&s->meshes[i]);
+    for (int32_t i = 0; i < s->ngroups; i++) {
+        free(s->groups[i].objs);
+        bvh_free(&s->groups[i].bvh);
+    }
+    for (int i = 0; i < s->ntextures; i++) texture_free(&s->textures[i]);
+    free(s->textures);
+    free(s->groups);
+    free(s->parts);
     free(s->meshes);
     free(s->xforms);
     free(s->mats);
@@ -56,19 +73,11 @@ static inline ray to_object(const rayd_scene *s, const struct object *o, const r
     return lr;
 }
 
-static struct aabb object_bounds(const rayd_scene *s, const struct object *o) {
-    struct aabb b;
-    if (o->kind == SHAPE_MESH) {
-        b.lo = s->meshes[o->u.mesh.id].lo;
-        b.hi = s->meshes[o->u.mesh.id].hi;
-    } else {
-        b = sphere_bounds(o);
-    }
-    if (o->xform < 0) return b;
-    const struct xform *x = &s->xforms[o->xform];
+static struct aabb box_xform(const struct aabb *b, const struct xform *x) {
+    if (!x) return *b;
     struct aabb w = {v3(INFINITY, INFINITY, INFINITY), v3(-INFINITY, -INFINITY, -INFINITY)};
     for (int c = 0; c < 8; c++) { /* the box around the transformed corners */
-        vec3 p = v3(c & 1 ? b.hi.x : b.lo.x, c & 2 ? b.hi.y : b.lo.y, c & 4 ? b.hi.z : b.lo.z);
+        vec3 p = v3(c & 1 ? b->hi.x : b->lo.x, c & 2 ? b->hi.y : b->lo.y, c & 4 ? b->hi.z : b->lo.z);
         p = xform_point(x, p);
         w.lo = v3_min(w.lo, p);
         w.hi = v3_max(w.hi, p);
@@ -76,123 +85,159 @@ static struct aabb object_bounds(const rayd_scene *s, const struct object *o) {
     return w;
 }
 
-/* Nearest hit of one object closer than *tmax: updates *tmax and h. */
-static inline bool object_hit(const rayd_scene *s, int32_t i, const ray *r, double *tmax,
-                              struct hit *h) {
-    const struct object *o = &s->objs[i];
-    double scale;
-    ray lr = to_object(s, o, r, &scale);
-    double t;
-    if (o->kind == SHAPE_MESH) {
-        struct mesh_hit mh;
-        const struct mesh *m = &s->meshes[o->u.mesh.id];
-        bool hit = s->brute ? mesh_intersect_brute(m, &lr, *tmax * scale, &mh)
-                            : mesh_intersect(m, &lr, *tmax * scale, &mh);
-        if (!hit) return false;
-        h->mh = mh;
-        t = mh.t;
-    } else if (!sphere_hit(o, &lr, 0, *tmax * scale, &t)) {
-        return false;
+/* World bounds of o; false when it is unbounded. */
+static bool object_bounds(const rayd_scene *s, const struct object *o, struct aabb *out) {
+    struct aabb b, l, r;
+    switch (o->kind) {
+    case SHAPE_MESH:
+        b.lo = s->meshes[o->u.mesh.id].lo;
+        b.hi = s->meshes[o->u.mesh.id].hi;
+        break;
+    case SHAPE_INSTANCE: b = s->groups[o->u.inst.group].bounds; break;
+    case SHAPE_CSG: {
+        bool bl = object_bounds(s, &s->parts[o->u.csg.left], &l);
+        bool br = object_bounds(s, &s->parts[o->u.csg.right], &r);
+        if (o->u.csg.op == CSG_DIFFERENCE) {
+            if (!bl) return false;
+            b = l;
+        } else if (o->u.csg.op == CSG_UNION) {
+            if (!bl || !br) return false;
+            b.lo = v3_min(l.lo, r.lo);
+            b.hi = v3_max(l.hi, r.hi);
+        } else {
+            if (!bl && !br) return false;
+            b = !bl ? r : !br ? l : (struct aabb){v3_max(l.lo, r.lo), v3_min(l.hi, r.hi)};
+            b.hi = v3_max(b.hi, b.lo); /* empty intersections stay valid boxes */
+        }
+        break;
     }
-    *tmax = t / scale;
-    h->t = *tmax;
-    h->obj = i;
-    h->plane = false;
+    default:
+        if (!shape_ops[o->kind]->bounds) return false;
+        b = shape_ops[o->kind]->bounds(o);
+    }
+    *out = box_xform(&b, o->xform >= 0 ? &s->xforms[o->xform] : NULL);
     return true;
 }
 
-/* Any hit of one object closer than tmax. */
-static bool object_any_hit(const rayd_scene *s, int32_t i, const ray *r, double tmax) {
-    const struct object *o = &s->objs[i];
+/* ---- CSG ----------------------------------------------------------------------- */
+
+struct cx {
+    double t;
+    const struct object *leaf;
+    int part;
+};
+
+static bool csg_inside(const rayd_scene *s, const struct object *o, vec3 p) {
+    if (o->kind == SHAPE_CSG) {
+        bool a = csg_inside(s, &s->parts[o->u.csg.left], p);
+        if (o->u.csg.op == CSG_UNION && a) return true;
+        if (o->u.csg.op != CSG_UNION && !a) return false;
+        bool b = csg_inside(s, &s->parts[o->u.csg.right], p);
+        return o->u.csg.op == CSG_DIFFERENCE ? !b : b;
+    }
+    vec3 q = o->xform >= 0 ? xform_inv_point(&s->xforms[o->xform], p) : p;
+    return shape_ops[o->kind]->inside(o, q);
+}
+
+static int csg_collect(const rayd_scene *s, const struct object *o, const ray *r, struct cx *out,
+                       int n) {
+    if (o->kind == SHAPE_CSG) {
+        n = csg_collect(s, &s->parts[o->u.csg.left], r, out, n);
+        return csg_collect(s, &s->parts[o->u.csg.right], r, out, n);
+    }
+    double scale;
+    ray lr = to_object(s, o, r, &scale);
+    struct xing x[SHAPE_MAX_XINGS];
+    int k = shape_ops[o->kind]->crossings(o, &lr, x);
+    for (int i = 0; i < k && n < CSG_MAX_XINGS; i++) out[n++] = (struct cx){x[i].t / scale, o, x[i].part};
+    return n;
+}
+
+static int cmp_cx(const void *a, const void *b) {
+    double x = ((const struct cx *)a)->t, y = ((const struct cx *)b)->t;
+    return (x > y) - (x < y);
+}
+
+static bool csg_hit(const rayd_scene *s, const struct object *o, const ray *r, double *tmax,
+                    struct hit *h) {
+    struct cx x[CSG_MAX_XINGS];
+    int n = csg_collect(s, o, r, x, 0);
+    if (n == 0) return false;
+    qsort(x, (size_t)n, sizeof *x, cmp_cx);
+    bool before = csg_inside(s, o, ray_at(r, x[0].t - (1 + fabs(x[0].t))));
+    for (int i = 0; i < n && x[i].t < *tmax; i++) {
+        double ta = i + 1 < n ? 0.5 * (x[i].t + x[i + 1].t) : x[i].t + (1 + fabs(x[i].t));
+        bool after = csg_inside(s, o, ray_at(r, ta));
+        if (after != before && x[i].t > 0) {
+            *tmax = x[i].t;
+            h->t = x[i].t;
+            h->leaf = x[i].leaf;
+            h->part = x[i].part;
+            h->orient = after ? 1 : -1;
+            return true;
+        }
+        before = after;
+    }
+    return false;
+}
+
+/* ---- hits ---------------------------------------------------------------------- */
+
+static bool objects_hit(const rayd_scene *s, const struct object *objs, int32_t nobjs,
+                        const struct bvh4 *bvh, const struct xform *outer, const ray *r,
+                        double *tmax, struct hit *h);
+
+/* Nearest hit of one object closer than *tmax: updates *tmax and h. */
+static bool object_hit(const rayd_scene *s, const struct object *o, const struct xform *outer,
+                       const ray *r, double *tmax, struct hit *h) {
     double scale, t;
     ray lr = to_object(s, o, r, &scale);
-    if (o->kind == SHAPE_MESH) {
+    double lmax = *tmax * scale;
+    switch (o->kind) {
+    case SHAPE_MESH: {
         struct mesh_hit mh;
         const struct mesh *m = &s->meshes[o->u.mesh.id];
-        return s->brute ? mesh_intersect_brute(m, &lr, tmax * scale, &mh)
-                        : mesh_occluded(m, &lr, tmax * scale);
+        bool hit = s->brute ? mesh_intersect_brute(m, &lr, lmax, &mh)
+                            : mesh_intersect(m, &lr, lmax, &mh);
+        if (!hit) return false;
+        h->mh = mh;
+        h->part = 0;
+        t = mh.t;
+        break;
     }
-    return sphere_hit(o, &lr, 0, tmax * scale, &t);
+    case SHAPE_CSG:
+        if (!csg_hit(s, o, &lr, &lmax, h)) return false;
+        *tmax = lmax / scale;
+        h->t = *tmax;
+        h->outer = outer;
+        return true;
+    case SHAPE_INSTANCE: {
+        const struct group *g = &s->groups[o->u.inst.group];
+        if (!objects_hit(s, g->objs, g->nobjs, &g->bvh, &s->xforms[o->xform], &lr, &lmax, h))
+            return false;
+        *tmax = lmax / scale;
+        h->t = *tmax;
+        return true;
+    }
+    default:
+        if (!shape_hit(o, &lr, 0, lmax, &t, &h->part)) return false;
+    }
+    *tmax = t / scale;
+    h->t = *tmax;
+    h->leaf = o;
+    h->outer = outer;
+    h->orient = 0;
+    return true;
 }
 
-/* ---- freeze ----------------------------------------------------------------- */
-
-static enum rayd_status split_planes(rayd_scene *s, struct rayd_error *err) {
-    int32_t nb = 0, np = 0;
-    for (int32_t i = 0; i < s->nobjs; i++) np += !shape_bounded(&s->objs[i]);
-    if (np == 0) return RAYD_OK;
-    s->planes = malloc(sizeof *s->planes * (size_t)np);
-    if (!s->planes) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory");
-    np = 0;
-    for (int32_t i = 0; i < s->nobjs; i++) {
-        struct object o = s->objs[i];
-        if (shape_bounded(&o)) {
-            s->objs[nb++] = o;
-            continue;
-        }
-        if (o.xform >= 0) { /* bake the placement into the plane */
-            const struct xform *x = &s->xforms[o.xform];
-            o.u.plane.point = xform_point(x, o.u.plane.point);
-            o.u.plane.normal = xform_normal(x, o.u.plane.normal);
-            o.xform = -1;
-        }
-        s->planes[np++] = o;
-    }
-    s->nobjs = nb;
-    s->nplanes = np;
-    return RAYD_OK;
-}
-
-enum rayd_status scene_freeze(rayd_scene *s, struct rayd_error *err) {
-    enum rayd_status st = split_planes(s, err);
-    if (st != RAYD_OK || s->nobjs == 0) return st;
-    size_t n = (size_t)s->nobjs;
-    struct bbox *boxes = malloc(sizeof *boxes * n);
-    uint32_t *order = malloc(sizeof *order * n);
-    struct object *sorted = malloc(sizeof *sorted * n);
-    if (!boxes || !order || !sorted) {
-        st = err_set(err, RAYD_E_NOMEM, NULL, "out of memory building the scene");
-    } else {
-        for (size_t i = 0; i < n; i++) {
-            struct aabb b = object_bounds(s, &s->objs[i]);
-            boxes[i] = bbox_from(b.lo, b.hi);
-        }
-        st = bvh_build(&s->tlas, boxes, (uint32_t)n, order, 1, err);
-    }
-    if (st == RAYD_OK) {
-        for (size_t i = 0; i < n; i++) sorted[i] = s->objs[order[i]];
-        free(s->objs);
-        s->objs = sorted;
-        sorted = NULL;
-    }
-    free(boxes);
-    free(order);
-    free(sorted);
-    return st;
-}
-
-/* ---- queries ---------------------------------------------------------------- */
-
-static bool planes_hit(const rayd_scene *s, const ray *r, double *tmax, struct hit *h) {
+/* Nearest hit among objs (with their BVH) closer than *tmax. */
+static bool objects_hit(const rayd_scene *s, const struct object *objs, int32_t nobjs,
+                        const struct bvh4 *bvh, const struct xform *outer, const ray *r,
+                        double *tmax, struct hit *h) {
     bool found = false;
-    for (int32_t i = 0; i < s->nplanes; i++) {
-        double t;
-        if (plane_hit(&s->planes[i], r, 0, *tmax, &t)) {
-            *tmax = t;
-            h->t = t;
-            h->obj = i;
-            h->plane = true;
-            found = true;
-        }
-    }
-    return found;
-}
-
-bool scene_intersect(const rayd_scene *s, const ray *r, double tmax, struct hit *h) {
-    bool found = planes_hit(s, r, &tmax, h);
-    if (s->nobjs == 0) return found;
+    if (nobjs == 0) return false;
     if (s->brute) {
-        for (int32_t i = 0; i < s->nobjs; i++) found |= object_hit(s, i, r, &tmax, h);
+        for (int32_t i = 0; i < nobjs; i++) found |= object_hit(s, &objs[i], outer, r, tmax, h);
         return found;
     }
     struct bvh_ray br;
@@ -204,23 +249,29 @@ bool scene_intersect(const rayd_scene *s, const ray *r, double tmax, struct hit 
     stack[0].tnear = 0;
     while (sp > 0) {
         struct bvh_entry e = stack[--sp];
-        if (e.tnear > tmax * 1.0000004) continue;
+        if (e.tnear > *tmax * 1.0000004) continue;
         if (e.count) {
             for (uint32_t i = e.node; i < e.node + e.count; i++)
-                found |= object_hit(s, (int32_t)i, r, &tmax, h);
+                found |= object_hit(s, &objs[i], outer, r, tmax, h);
             continue;
         }
-        const struct bvh4_node *nd = &s->tlas.nodes[e.node];
+        const struct bvh4_node *nd = &bvh->nodes[e.node];
         float tn[4];
-        float tm = tmax > 3e38 ? 3e38f : (float)tmax;
+        float tm = *tmax > 3e38 ? 3e38f : (float)*tmax;
         int mask = bvh4_test(nd, &br, 0, tm, tn);
         sp = bvh4_push_sorted(nd, mask, tn, stack, sp);
     }
     return found;
 }
 
-/* Multiplies *trans by what object material m lets through; false (stop)
- * when nothing passes any more. */
+bool scene_intersect(const rayd_scene *s, const ray *r, double tmax, struct hit *h) {
+    bool found = false;
+    for (int32_t i = 0; i < s->nplanes; i++) found |= object_hit(s, &s->planes[i], NULL, r, &tmax, h);
+    return objects_hit(s, s->objs, s->nobjs, &s->tlas, NULL, r, &tmax, h) || found;
+}
+
+/* Multiplies *trans by what material m lets through; false (stop) when
+ * nothing passes any more. */
 static bool filter_light(const rayd_scene *s, int material, vec3 *trans) {
     const struct material *m = &s->mats[material];
     if (m->transparency <= 0) {
@@ -231,15 +282,31 @@ static bool filter_light(const rayd_scene *s, int material, vec3 *trans) {
     return v3_maxabs(*trans) > 0;
 }
 
+/* Any hit of object o closer than tmax, through its material's filter. */
+static bool object_filter(const rayd_scene *s, const struct object *o, const ray *r, double tmax,
+                          vec3 *trans) {
+    struct hit h;
+    double t = tmax;
+    if (o->kind == SHAPE_MESH && !s->brute) {
+        double scale;
+        ray lr = to_object(s, o, r, &scale);
+        if (!mesh_occluded(&s->meshes[o->u.mesh.id], &lr, tmax * scale)) return true;
+        return filter_light(s, o->material, trans);
+    }
+    if (!object_hit(s, o, NULL, r, &t, &h)) return true;
+    return filter_light(s, h.leaf->material, trans);
+}
+
 vec3 scene_transmittance(const rayd_scene *s, const ray *r, double tmax) {
     vec3 trans = v3(1, 1, 1);
-    for (int32_t i = 0; i < s->nplanes; i++) {
-        double t;
-        if (plane_hit(&s->planes[i], r, 0, tmax, &t) &&
-            !filter_light(s, s->planes[i].material, &trans))
-            return trans;
-    }
+    for (int32_t i = 0; i < s->nplanes; i++)
+        if (!object_filter(s, &s->planes[i], r, tmax, &trans)) return trans;
     if (s->nobjs == 0) return trans;
+    if (s->brute) {
+        for (int32_t i = 0; i < s->nobjs; i++)
+            if (!object_filter(s, &s->objs[i], r, tmax, &trans)) return trans;
+        return trans;
+    }
     struct bvh_ray br;
     bvh_ray_init(&br, r->o, r->d);
     struct bvh_entry stack[BVH_STACK];
@@ -251,9 +318,7 @@ vec3 scene_transmittance(const rayd_scene *s, const ray *r, double tmax) {
         struct bvh_entry e = stack[--sp];
         if (e.count) {
             for (uint32_t i = e.node; i < e.node + e.count; i++)
-                if (object_any_hit(s, (int32_t)i, r, tmax) &&
-                    !filter_light(s, s->objs[i].material, &trans))
-                    return trans;
+                if (!object_filter(s, &s->objs[i], r, tmax, &trans)) return trans;
             continue;
         }
         const struct bvh4_node *nd = &s->tlas.nodes[e.node];
@@ -269,35 +334,118 @@ vec3 scene_transmittance(const rayd_scene *s, const ray *r, double tmax) {
     return trans;
 }
 
+/* ---- surfaces ------------------------------------------------------------------ */
+
 void scene_surface(const rayd_scene *s, const ray *r, const struct hit *h, struct surface *sf) {
-    const struct object *o = h->plane ? &s->planes[h->obj] : &s->objs[h->obj];
-    sf->m = &s->mats[o->material];
-    sf->thin = o->kind == SHAPE_PLANE;
-    sf->float_geom = o->kind == SHAPE_MESH;
-    if (o->kind == SHAPE_PLANE) {
-        sf->p = ray_at(r, h->t);
-        sf->n = sf->ng = o->u.plane.normal;
-        return;
-    }
-    vec3 p, n, ng;
+    const struct object *o = h->leaf;
     const struct xform *x = o->xform >= 0 ? &s->xforms[o->xform] : NULL;
+    sf->m = &s->mats[o->material];
+    sf->thin = o->kind == SHAPE_PLANE || (!shape_is_solid(o) && o->kind != SHAPE_MESH);
+    sf->float_geom = o->kind == SHAPE_MESH;
+    vec3 pw = ray_at(r, h->t);
+    /* back to the leaf's own space: through the instance, then the leaf */
+    vec3 p = h->outer ? xform_inv_point(h->outer, pw) : pw;
+    if (x) p = xform_inv_point(x, p);
+    vec3 n, ng;
+    double u = 0, v = 0;
     if (o->kind == SHAPE_MESH) {
         const struct mesh *m = &s->meshes[o->u.mesh.id];
         p = mesh_point(m, &h->mh);
         ng = mesh_geometric_normal(m, h->mh.tri);
         n = mesh_shading_normal(m, &h->mh);
+        mesh_uv(m, &h->mh, &u, &v);
     } else {
-        p = x ? xform_inv_point(x, ray_at(r, h->t)) : ray_at(r, h->t);
-        n = ng = sphere_normal(o, p);
+        n = ng = shape_ops[o->kind]->normal(o, p, h->part);
+        shape_ops[o->kind]->uv(o, p, h->part, &u, &v);
     }
+    vec3 po = p; /* object space, for object-space textures */
     if (x) {
         p = xform_point(x, p);
         n = xform_normal(x, n);
         ng = xform_normal(x, ng);
     }
-    sf->p = p;
+    if (h->outer) {
+        p = xform_point(h->outer, p);
+        n = xform_normal(h->outer, n);
+        ng = xform_normal(h->outer, ng);
+    }
+    if (h->orient && (v3_dot(ng, r->d) < 0) != (h->orient > 0)) { /* CSG: point out of the result */
+        n = v3_neg(n);
+        ng = v3_neg(ng);
+    }
+    sf->p = o->kind == SHAPE_MESH ? p : pw;
     sf->n = n;
     sf->ng = ng;
+    sf->color = sf->m->texture >= 0 ? texture_color(&s->textures[sf->m->texture], po, sf->p, u, v)
+                                    : sf->m->color;
+}
+
+/* ---- freeze ---------------------------------------------------------------------- */
+
+/* Splits out unbounded objects; plane placements are baked in. */
+static enum rayd_status split_unbounded(rayd_scene *s, struct rayd_error *err) {
+    int32_t nb = 0, np = 0;
+    struct aabb b;
+    for (int32_t i = 0; i < s->nobjs; i++) np += !object_bounds(s, &s->objs[i], &b);
+    if (np == 0) return RAYD_OK;
+    s->planes = malloc(sizeof *s->planes * (size_t)np);
+    if (!s->planes) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory");
+    np = 0;
+    for (int32_t i = 0; i < s->nobjs; i++) {
+        struct object o = s->objs[i];
+        if (object_bounds(s, &o, &b)) {
+            s->objs[nb++] = o;
+            continue;
+        }
+        if (o.kind == SHAPE_PLANE && o.xform >= 0) {
+            const struct xform *x = &s->xforms[o.xform];
+            o.u.plane.point = xform_point(x, o.u.plane.point);
+            o.u.plane.normal = xform_normal(x, o.u.plane.normal);
+            o.xform = -1;
+        }
+        s->planes[np++] = o;
+    }
+    s->nobjs = nb;
+    s->nplanes = np;
+    return RAYD_OK;
+}
+
+enum rayd_status scene_build_bvh(const rayd_scene *s, struct object **objs, int32_t n,
+                                 struct bvh4 *bvh, struct aabb *bounds, struct rayd_error *err) {
+    struct bbox *boxes = malloc(sizeof *boxes * ((size_t)n + 1));
+    uint32_t *order = malloc(sizeof *order * ((size_t)n + 1));
+    struct object *sorted = malloc(sizeof *sorted * ((size_t)n + 1));
+    enum rayd_status st = RAYD_OK;
+    struct aabb all = {v3(INFINITY, INFINITY, INFINITY), v3(-INFINITY, -INFINITY, -INFINITY)};
+    if (!boxes || !order || !sorted) {
+        st = err_set(err, RAYD_E_NOMEM, NULL, "out of memory building the scene");
+    } else {
+        for (int32_t i = 0; i < n; i++) {
+            struct aabb b;
+            object_bounds(s, &(*objs)[i], &b);
+            boxes[i] = bbox_from(b.lo, b.hi);
+            all.lo = v3_min(all.lo, b.lo);
+            all.hi = v3_max(all.hi, b.hi);
+        }
+        st = bvh_build(bvh, boxes, (uint32_t)n, order, 1, err);
+    }
+    if (st == RAYD_OK) {
+        for (int32_t i = 0; i < n; i++) sorted[i] = (*objs)[order[i]];
+        free(*objs);
+        *objs = sorted;
+        sorted = NULL;
+        if (bounds) *bounds = all;
+    }
+    free(boxes);
+    free(order);
+    free(sorted);
+    return st;
+}
+
+enum rayd_status scene_freeze(rayd_scene *s, struct rayd_error *err) {
+    enum rayd_status st = split_unbounded(s, err);
+    if (st != RAYD_OK || s->nobjs == 0) return st;
+    return scene_build_bvh(s, &s->objs, s->nobjs, &s->tlas, NULL, err);
 }
 
 void rayd_scene_info(const rayd_scene *s, struct rayd_scene_info *info) {
@@ -309,9 +457,13 @@ void rayd_scene_info(const rayd_scene *s, struct rayd_scene_info *info) {
     info->lights = s->nlights;
     size_t bytes = sizeof *s + sizeof *s->mats * (size_t)s->nmats +
                    sizeof *s->lights * (size_t)s->nlights +
-                   sizeof *s->objs * (size_t)(s->nobjs + s->nplanes) +
+                   sizeof *s->objs * (size_t)(s->nobjs + s->nplanes + s->nparts) +
                    sizeof *s->xforms * (size_t)s->nxforms +
                    sizeof *s->tlas.nodes * (size_t)s->tlas.nnodes;
     for (uint32_t i = 0; i < s->nmeshes; i++) bytes += mesh_bytes(&s->meshes[i]);
+    for (int32_t i = 0; i < s->ngroups; i++)
+        bytes += sizeof *s->objs * (size_t)s->groups[i].nobjs +
+                 sizeof *s->tlas.nodes * (size_t)s->groups[i].bvh.nnodes;
+    for (int i = 0; i < s->ntextures; i++) bytes += texture_bytes(&s->textures[i]);
     info->bytes = bytes;
 }

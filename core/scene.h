@@ -20,6 +20,16 @@ struct render_settings {
     uint64_t seed;
 };
 
+/* Objects drawn together and placed as a whole by instances. */
+struct group {
+    struct object *objs; /* in BVH order */
+    int32_t nobjs;
+    struct bvh4 bvh;
+    struct aabb bounds;
+};
+
+struct texture;
+
 struct rayd_scene {
     struct camera cam;
     struct render_settings rs;
@@ -29,8 +39,14 @@ struct rayd_scene {
     int nlights;
     struct object *objs;   /* bounded objects, in top-level BVH order */
     int32_t nobjs;
-    struct object *planes; /* unbounded objects, tested one by one */
+    struct object *planes; /* unbounded objects (planes, quadrics), tested one by one */
     int32_t nplanes;
+    struct object *parts;  /* CSG operands: referred to by CSG nodes, not in any BVH */
+    int32_t nparts;
+    struct group *groups;  /* referred to by instances */
+    int32_t ngroups;
+    struct texture *textures;
+    int ntextures;
     struct mesh *meshes;   /* geometry that objects refer to */
     uint32_t nmeshes;
     struct xform *xforms;  /* placements that objects refer to */
@@ -41,14 +57,17 @@ struct rayd_scene {
 
 struct hit {
     double t;
-    int32_t obj;        /* index into objs, or into planes when plane is set */
-    bool plane;
-    struct mesh_hit mh; /* set for meshes */
+    const struct object *leaf;  /* the primitive hit (for CSG, the operand) */
+    const struct xform *outer;  /* the instance's placement, or NULL */
+    int part;                   /* which part of the primitive */
+    int orient;                 /* CSG: +1 the ray enters the result, -1 leaves it */
+    struct mesh_hit mh;         /* set for meshes */
 };
 
 /* What the shader needs to know about a hit. */
 struct surface {
     vec3 p;           /* world-space point */
+    vec3 color;       /* the material's colour, or its texture's at p */
     vec3 n;           /* unit shading normal, outward */
     vec3 ng;          /* unit geometric normal, outward */
     const struct material *m;
@@ -61,6 +80,10 @@ struct surface {
  * scene owns all its arrays. */
 enum rayd_status scene_alloc(rayd_scene **out, struct rayd_error *err);
 enum rayd_status scene_freeze(rayd_scene *s, struct rayd_error *err);
+
+/* Builds a BVH over objs[0..n) (reordering them); bounds gets their union. */
+enum rayd_status scene_build_bvh(const rayd_scene *s, struct object **objs, int32_t n,
+                                 struct bvh4 *bvh, struct aabb *bounds, struct rayd_error *err);
 
 /* Nearest hit with t in (0, tmax); false when the ray escapes. */
 bool scene_intersect(const rayd_scene *s, const ray *r, double tmax, struct hit *h);

@@ -297,6 +297,7 @@ static enum rayd_status parse_material(struct loader *ld, const cJSON *m, const 
                                        NULL};
     TRY(check_keys(ld, m, at, keys));
     struct material d = material_default();
+    *out = d;
     TRY(get_vec(ld, m, at, "color", d.color, VEC_COLOR, &out->color));
     TRY(get_vec(ld, m, at, "emission", d.emission, VEC_COLOR, &out->emission));
     TRY(get_num(ld, m, at, "ambient", d.ambient, 0, false, 1, &out->ambient));

@@ -11,39 +11,55 @@
  */
 #include "shape.h"
 
-bool sphere_hit(const struct object *o, const ray *r, double tmin, double tmax, double *t) {
+static int sphere_crossings(const struct object *o, const ray *r, struct xing out[4]) {
     vec3 oc = v3_sub(r->o, o->u.sphere.center);
     double rad = o->u.sphere.radius;
     double b = v3_dot(oc, r->d);
     double c = v3_dot(oc, oc) - rad * rad;
     vec3 h = v3_madd(oc, r->d, -b);
     double disc = rad * rad - v3_dot(h, h);
-    if (disc < 0) return false;
+    if (disc < 0) return 0;
     double q = -b - copysign(sqrt(disc), b);
     double t0 = q, t1 = (q != 0) ? c / q : q;
-    if (t0 > t1) {
-        double s = t0;
-        t0 = t1;
-        t1 = s;
-    }
-    if (t0 > tmin && t0 < tmax) {
-        *t = t0;
-        return true;
-    }
-    if (t1 > tmin && t1 < tmax) {
-        *t = t1;
-        return true;
-    }
-    return false;
+    out[0].t = fmin(t0, t1);
+    out[1].t = fmax(t0, t1);
+    out[0].part = out[1].part = 0;
+    return 2;
+}
+
+bool sphere_hit(const struct object *o, const ray *r, double tmin, double tmax, double *t) {
+    int part;
+    return shape_hit(o, r, tmin, tmax, t, &part);
 }
 
 vec3 sphere_normal(const struct object *o, vec3 p) {
     return v3_scale(v3_sub(p, o->u.sphere.center), 1.0 / o->u.sphere.radius);
 }
 
-struct aabb sphere_bounds(const struct object *o) {
+static vec3 sphere_normal_part(const struct object *o, vec3 p, int part) {
+    (void)part;
+    return v3_norm(v3_sub(p, o->u.sphere.center));
+}
+
+static struct aabb sphere_bounds(const struct object *o) {
     vec3 c = o->u.sphere.center;
     double r = o->u.sphere.radius;
     struct aabb b = {v3(c.x - r, c.y - r, c.z - r), v3(c.x + r, c.y + r, c.z + r)};
     return b;
 }
+
+static bool sphere_inside(const struct object *o, vec3 p) {
+    vec3 d = v3_sub(p, o->u.sphere.center);
+    return v3_dot(d, d) < o->u.sphere.radius * o->u.sphere.radius;
+}
+
+/* Longitude u from +x toward -z (0..1), latitude v from the south pole. */
+static void sphere_uv(const struct object *o, vec3 p, int part, double *u, double *v) {
+    (void)part;
+    vec3 d = v3_norm(v3_sub(p, o->u.sphere.center));
+    *u = 0.5 + atan2(-d.z, d.x) / (2 * 3.14159265358979323846);
+    *v = 1 - acos(fmax(-1, fmin(1, d.y))) / 3.14159265358979323846;
+}
+
+const struct shape_ops sphere_ops = {"sphere", sphere_crossings, sphere_normal_part, sphere_bounds,
+                                     sphere_inside, sphere_uv};

@@ -1,0 +1,9 @@
+/* poly.h -- real roots of polynomials on an interval. */
+#ifndef POLY_H
+#define POLY_H
+
+/* Real roots of c[0] + c[1] t + ... + c[deg] t^deg in [a, b], sorted;
+ * deg <= 4.  Returns how many (at most deg). */
+int poly_roots(const double *c, int deg, double a, double b, double *roots);
+
+#endif
