@@ -33,6 +33,9 @@ enum rayd_status cam_init(struct camera *cam, vec3 pos, vec3 look_at, vec3 up, d
     cam->v = v3_cross(cam->u, w);
     cam->n = n;
     cam->m = m;
+    cam->ortho = false;
+    cam->aperture = 0;
+    cam->focus = flen;
     if (fov_x_deg > 0 && fov_y_deg > 0) {
         cam->tan_x = tan(fov_x_deg * 0.5 * DEG2RAD);
         cam->tan_y = tan(fov_y_deg * 0.5 * DEG2RAD);
@@ -44,4 +47,24 @@ enum rayd_status cam_init(struct camera *cam, vec3 pos, vec3 look_at, vec3 up, d
         cam->tan_y = cam->tan_x * m / n;
     }
     return RAYD_OK;
+}
+
+ray cam_ray(const struct camera *cam, double px, double py, double lu, double lv) {
+    ray r;
+    if (cam->ortho) {
+        double hn = cam->n * 0.5, hm = cam->m * 0.5;
+        double a = cam->tan_x * (px - hn) / hn, b = cam->tan_y * (hm - py) / hm;
+        r.o = v3_madd(v3_madd(cam->pos, cam->u, a), cam->v, b);
+        r.d = cam->w;
+        return r;
+    }
+    r.o = cam->pos;
+    r.d = cam_dir(cam, px, py);
+    if (cam->aperture <= 0) return r;
+    /* the focus plane is perpendicular to w at distance focus */
+    vec3 f = v3_madd(cam->pos, r.d, cam->focus / v3_dot(r.d, cam->w));
+    double rad = cam->aperture * sqrt(lu), phi = 2 * 3.14159265358979323846 * lv;
+    r.o = v3_madd(v3_madd(cam->pos, cam->u, rad * cos(phi)), cam->v, rad * sin(phi));
+    r.d = v3_norm(v3_sub(f, r.o));
+    return r;
 }

@@ -2,6 +2,8 @@
 #ifndef CAMERA_H
 #define CAMERA_H
 
+#include <stdbool.h>
+
 #include "rayd/rayd.h"
 #include "vec.h"
 
@@ -11,6 +13,9 @@ struct camera {
     double tan_x;      /* tan(fov_x / 2) */
     double tan_y;      /* tan(fov_y / 2) */
     int n, m;          /* image width and height in pixels */
+    bool ortho;        /* orthographic: parallel rays, tan_x/tan_y hold half the view size */
+    double aperture;   /* thin lens radius; 0 is the paper's pinhole */
+    double focus;      /* distance along w that is sharp */
 };
 
 /* Builds the basis w = normalize(look_at - pos), u = normalize(w x up),
@@ -31,5 +36,12 @@ static inline vec3 cam_dir(const struct camera *cam, double px, double py) {
     vec3 d = v3_madd(v3_madd(cam->w, cam->u, alpha), cam->v, beta);
     return v3_norm(d);
 }
+
+/* The primary ray through image point (px, py), with lens sample (lu, lv)
+ * in [0, 1)^2 used only when the aperture is open.  Pinhole: the paper's
+ * ray from the eye.  Orthographic: parallel rays along w from the image
+ * plane.  Thin lens: from a point on the lens disc through the point of
+ * the pinhole ray at the focus distance. */
+ray cam_ray(const struct camera *cam, double px, double py, double lu, double lv);
 
 #endif

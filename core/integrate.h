@@ -6,9 +6,28 @@
 
 #include "scene.h"
 
+#include "rng.h"
+
 /* Whitted ray tracing: the radiance arriving along r after `depth` bounces
- * so far.  Adds every ray it casts (this one included) to *rays. */
-vec3 whitted_radiance(const rayd_scene *s, const ray *r, int depth, uint64_t *rays);
+ * so far.  key names the pixel sample (area lights draw from it).  Adds
+ * every ray it casts (this one included) to *rays. */
+vec3 whitted_radiance(const rayd_scene *s, const ray *r, int depth, const struct rng_key *key,
+                      uint64_t *rays);
+
+/* Path tracing (integrate_path.c): an unbiased estimate of the radiance
+ * arriving along r. */
+vec3 path_radiance(const rayd_scene *s, const ray *r, const struct rng_key *key, uint64_t *rays);
+
+/* The shadow ray test from origin toward a light: what gets through. */
+vec3 integrate_visible(const rayd_scene *s, vec3 origin, vec3 to_light, double dist,
+                       uint64_t *rays);
+
+/* Radiance arriving at p (shading normal nf facing the viewer, shadow rays
+ * from origin) from light l: one sample (su, sv) for area lights.  False
+ * when none arrives; *wi the direction toward it. */
+bool integrate_light_sample(const rayd_scene *s, const struct light *l, vec3 p, vec3 nf,
+                            vec3 origin, double su, double sv, vec3 *wi, vec3 *radiance,
+                            uint64_t *rays);
 
 /* How far to lift a secondary ray's origin off the surface at p so that it
  * cannot hit the surface it leaves (no shadow acne): relative to the size of

@@ -9,7 +9,8 @@
  * Samples inside a pixel follow the R2 low-discrepancy sequence (Roberts'
  * generalised golden ratio) shifted by a per-pixel random offset
  * (Cranley-Patterson rotation): well stratified for any sample count, not
- * only squares.  One sample goes through the pixel centre, as in the paper.
+ * only squares; lens positions for depth of field likewise.  One sample
+ * goes through the pixel centre, as in the paper.
  *
  * rayd_render splits the region into tiles handed out through an atomic
  * counter to `threads` pthreads; each thread keeps its own ray count, so the
@@ -24,6 +25,7 @@
 #include "error.h"
 #include "image.h"
 #include "integrate.h"
+#include "render.h"
 #include "rng.h"
 #include "scene.h"
 
@@ -37,21 +39,31 @@ static uint8_t srgb8(double c) {
     return (uint8_t)(e * 255.0 + 0.5);
 }
 
-static vec3 render_pixel(const rayd_scene *s, int i, int j, uint64_t *rays) {
+static vec3 trace(const rayd_scene *s, const ray *r, const struct rng_key *key, uint64_t *rays) {
+    return s->rs.integrator == INTEGRATOR_PATH ? path_radiance(s, r, key, rays)
+                                               : whitted_radiance(s, r, 0, key, rays);
+}
+
+vec3 render_pixel(const rayd_scene *s, int i, int j, uint64_t *rays) {
     int n = s->rs.samples;
-    if (n == 1) {
-        ray r = {s->cam.pos, cam_dir(&s->cam, i + 0.5, j + 0.5)};
-        return whitted_radiance(s, &r, 0, rays);
-    }
     struct rng_key key = {s->rs.seed, (uint32_t)i, (uint32_t)j, 0};
-    double ox = rng_uniform(&key, 0xffff, 0), oy = rng_uniform(&key, 0xffff, 1);
+    if (n == 1 && s->cam.aperture <= 0 && s->rs.integrator == INTEGRATOR_WHITTED) {
+        ray r = cam_ray(&s->cam, i + 0.5, j + 0.5, 0, 0);
+        return trace(s, &r, &key, rays);
+    }
+    double ox = rng_uniform(&key, RNG_CAMERA, 0), oy = rng_uniform(&key, RNG_CAMERA, 1);
+    double lx = rng_uniform(&key, RNG_CAMERA, 2), ly = rng_uniform(&key, RNG_CAMERA, 3);
     vec3 acc = v3(0, 0, 0);
     for (int k = 0; k < n; k++) {
-        double sx = ox + k * R2_A1, sy = oy + k * R2_A2;
+        double sx = n == 1 ? 0.5 : ox + k * R2_A1, sy = n == 1 ? 0.5 : oy + k * R2_A2;
+        double lu = lx + k * R2_A1, lv = ly + k * R2_A2;
         sx -= floor(sx);
         sy -= floor(sy);
-        ray r = {s->cam.pos, cam_dir(&s->cam, i + sx, j + sy)};
-        acc = v3_add(acc, whitted_radiance(s, &r, 0, rays));
+        lu -= floor(lu);
+        lv -= floor(lv);
+        key.sample = (uint32_t)k;
+        ray r = cam_ray(&s->cam, i + sx, j + sy, lu, lv);
+        acc = v3_add(acc, trace(s, &r, &key, rays));
     }
     return v3_scale(acc, 1.0 / n);
 }

@@ -23,11 +23,16 @@ struct rng_key {
     uint32_t sample;   /* sample index inside the pixel */
 };
 
-/* A uniform double in [0, 1) for (key, bounce, dim). */
+/* A uniform double in [0, 1) for (key, bounce, dim).  Dimensions in use:
+ * bounce RNG_CAMERA: 0-1 position in the pixel, 2-3 lens; path bounces:
+ * see integrate_path.c; Whitted area lights: RNG_AREA_DIM(light, sample). */
+#define RNG_CAMERA 0xffffu
+#define RNG_AREA_DIM(light, k) (0x10000u + ((uint32_t)(light) << 11) + 2u * (uint32_t)(k))
 static inline double rng_uniform(const struct rng_key *k, uint32_t bounce, uint32_t dim) {
     uint64_t h = rng_mix(k->seed ^ 0x9e3779b97f4a7c15ULL);
     h = rng_mix(h ^ (((uint64_t)k->px << 32) | k->py));
-    h = rng_mix(h ^ (((uint64_t)k->sample << 32) | ((uint64_t)bounce << 16) | dim));
+    h = rng_mix(h ^ (((uint64_t)k->sample << 32) | bounce));
+    h = rng_mix(h ^ dim);
     return (double)(h >> 11) * (1.0 / 9007199254740992.0);
 }
 

@@ -52,6 +52,7 @@ void rayd_scene_free(rayd_scene *s) {
     free(s->lights);
     free(s->objs);
     free(s->planes);
+    free(s->emitters);
     bvh_free(&s->tlas);
     free(s);
 }
@@ -86,7 +87,7 @@ static struct aabb box_xform(const struct aabb *b, const struct xform *x) {
 }
 
 /* World bounds of o; false when it is unbounded. */
-static bool object_bounds(const rayd_scene *s, const struct object *o, struct aabb *out) {
+bool scene_object_bounds(const rayd_scene *s, const struct object *o, struct aabb *out) {
     struct aabb b, l, r;
     switch (o->kind) {
     case SHAPE_MESH:
@@ -95,8 +96,8 @@ static bool object_bounds(const rayd_scene *s, const struct object *o, struct aa
         break;
     case SHAPE_INSTANCE: b = s->groups[o->u.inst.group].bounds; break;
     case SHAPE_CSG: {
-        bool bl = object_bounds(s, &s->parts[o->u.csg.left], &l);
-        bool br = object_bounds(s, &s->parts[o->u.csg.right], &r);
+        bool bl = scene_object_bounds(s, &s->parts[o->u.csg.left], &l);
+        bool br = scene_object_bounds(s, &s->parts[o->u.csg.right], &r);
         if (o->u.csg.op == CSG_DIFFERENCE) {
             if (!bl) return false;
             b = l;
@@ -386,14 +387,14 @@ void scene_surface(const rayd_scene *s, const ray *r, const struct hit *h, struc
 static enum rayd_status split_unbounded(rayd_scene *s, struct rayd_error *err) {
     int32_t nb = 0, np = 0;
     struct aabb b;
-    for (int32_t i = 0; i < s->nobjs; i++) np += !object_bounds(s, &s->objs[i], &b);
+    for (int32_t i = 0; i < s->nobjs; i++) np += !scene_object_bounds(s, &s->objs[i], &b);
     if (np == 0) return RAYD_OK;
     s->planes = malloc(sizeof *s->planes * (size_t)np);
     if (!s->planes) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory");
     np = 0;
     for (int32_t i = 0; i < s->nobjs; i++) {
         struct object o = s->objs[i];
-        if (object_bounds(s, &o, &b)) {
+        if (scene_object_bounds(s, &o, &b)) {
             s->objs[nb++] = o;
             continue;
         }
@@ -422,7 +423,7 @@ enum rayd_status scene_build_bvh(const rayd_scene *s, struct object **objs, int3
     } else {
         for (int32_t i = 0; i < n; i++) {
             struct aabb b;
-            object_bounds(s, &(*objs)[i], &b);
+            scene_object_bounds(s, &(*objs)[i], &b);
             boxes[i] = bbox_from(b.lo, b.hi);
             all.lo = v3_min(all.lo, b.lo);
             all.hi = v3_max(all.hi, b.hi);
@@ -442,10 +443,32 @@ enum rayd_status scene_build_bvh(const rayd_scene *s, struct object **objs, int3
     return st;
 }
 
+/* Emissive spheres, discs and quads without transforms: the path
+ * tracer samples them directly. */
+static enum rayd_status find_emitters(rayd_scene *s, struct rayd_error *err) {
+    int n = 0;
+    for (int pass = 0; pass < 2; pass++) {
+        n = 0;
+        for (int32_t i = 0; i < s->nobjs; i++) {
+            const struct object *o = &s->objs[i];
+            if (o->xform >= 0 || v3_maxabs(s->mats[o->material].emission) <= 0) continue;
+            if (o->kind != SHAPE_SPHERE && o->kind != SHAPE_DISC && o->kind != SHAPE_QUAD) continue;
+            if (pass) s->emitters[n] = i;
+            n++;
+        }
+        if (pass == 0 && n > 0 && !(s->emitters = malloc(sizeof *s->emitters * (size_t)n)))
+            return err_set(err, RAYD_E_NOMEM, NULL, "out of memory");
+        if (n == 0) break;
+    }
+    s->nemitters = n;
+    return RAYD_OK;
+}
+
 enum rayd_status scene_freeze(rayd_scene *s, struct rayd_error *err) {
     enum rayd_status st = split_unbounded(s, err);
     if (st != RAYD_OK || s->nobjs == 0) return st;
-    return scene_build_bvh(s, &s->objs, s->nobjs, &s->tlas, NULL, err);
+    st = scene_build_bvh(s, &s->objs, s->nobjs, &s->tlas, NULL, err);
+    return st == RAYD_OK ? find_emitters(s, err) : st;
 }
 
 void rayd_scene_info(const rayd_scene *s, struct rayd_scene_info *info) {

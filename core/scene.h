@@ -12,7 +12,10 @@
 #include "shape.h"
 #include "xform.h"
 
+enum integrator { INTEGRATOR_WHITTED, INTEGRATOR_PATH };
+
 struct render_settings {
+    enum integrator integrator;
     int width, height;
     int samples;   /* rays per pixel */
     int max_depth; /* secondary bounces allowed */
@@ -52,6 +55,8 @@ struct rayd_scene {
     struct xform *xforms;  /* placements that objects refer to */
     int32_t nxforms;
     struct bvh4 tlas;      /* over objs */
+    int32_t *emitters;     /* path tracer: emissive spheres, discs, quads of objs to sample */
+    int nemitters;
     bool brute;            /* tests only: every query tests every primitive */
 };
 
@@ -80,6 +85,9 @@ struct surface {
  * scene owns all its arrays. */
 enum rayd_status scene_alloc(rayd_scene **out, struct rayd_error *err);
 enum rayd_status scene_freeze(rayd_scene *s, struct rayd_error *err);
+
+/* World bounds of object o; false when it is unbounded. */
+bool scene_object_bounds(const rayd_scene *s, const struct object *o, struct aabb *out);
 
 /* Builds a BVH over objs[0..n) (reordering them); bounds gets their union. */
 enum rayd_status scene_build_bvh(const rayd_scene *s, struct object **objs, int32_t n,

@@ -1,0 +1,104 @@
+/* scene_json.h -- the scene loader's shared parts (internal to the
+ * scene_json*.c files, the only ones that include cJSON).
+ *
+ *   scene_json.c          the entry point, render, camera, materials, lights
+ *   scene_json_objects.c  objects: shapes, CSG, groups and instances, transforms
+ *   scene_json_mesh.c     meshes: inline arrays, OBJ/PLY sources, files
+ *   scene_json_util.c     JSON Pointers and the typed getters every part uses
+ *
+ * Every getter checks one value and, when it is wrong, fills the error with
+ * the value's JSON Pointer and what is wrong, and returns the status; TRY
+ * returns it up the call chain.
+ */
+#ifndef SCENE_JSON_H
+#define SCENE_JSON_H
+
+#include <stdbool.h>
+
+#include <cjson/cJSON.h>
+
+#include "error.h"
+#include "scene.h"
+
+#define DEG2RAD (3.14159265358979323846 / 180.0)
+#define NUM_MAX 1e9 /* coordinates and sizes: generous but far from overflow */
+
+
+/* ---- JSON Pointers ----------------------------------------------------- */
+
+struct jp {
+    char s[256];
+};
+
+/* ---- the loader ---------------------------------------------------------- */
+
+struct loader {
+    const struct rayd_limits *lim;
+    rayd_scene *s;
+    struct rayd_error *err;
+    const cJSON *materials; /* the /materials object, for names */
+    const cJSON *groups;    /* the /groups object, for names */
+    int mat_cap, tex_cap;
+    uint32_t mesh_cap;
+    int32_t xform_cap, part_cap;
+    long objects;             /* objects, operands and group members so far */
+    long triangles, vertices; /* totals so far, against the limits */
+};
+
+enum vec_rule { VEC_ANY, VEC_NONZERO, VEC_COLOR };
+
+#define TRY(expr)                                                                        \
+    do {                                                                                 \
+        enum rayd_status st_ = (expr);                                                   \
+        if (st_ != RAYD_OK) return st_;                                                  \
+    } while (0)
+
+struct jp sj_key(const struct jp *parent, const char *key);
+struct jp sj_index(const struct jp *parent, int i);
+const char *sj_type_name(const cJSON *v);
+enum rayd_status sj_fail(struct loader *ld, enum rayd_status code, const struct jp *at,
+                         const char *fmt, ...) __attribute__((format(printf, 4, 5)));
+/* Every key of obj must be in allowed (NULL-terminated; NULL = any) and
+ * appear once. */
+enum rayd_status sj_check_keys(struct loader *ld, const cJSON *obj, const struct jp *at,
+                               const char *const *allowed);
+/* A number in [lo, hi] (lo excluded when lo_open); def when absent. */
+enum rayd_status sj_num(struct loader *ld, const cJSON *obj, const struct jp *at, const char *key,
+                        double def, double lo, bool lo_open, double hi, double *out);
+/* A whole number in [lo, hi]; over hi is RAYD_E_LIMIT when hi_is_limit. */
+enum rayd_status sj_int(struct loader *ld, const cJSON *obj, const struct jp *at, const char *key,
+                        long def, long lo, long hi, bool hi_is_limit, long *out);
+/* An array of 3 numbers (v itself, named p). */
+enum rayd_status sj_vec_value(struct loader *ld, const cJSON *v, const struct jp *p,
+                              enum vec_rule rule, vec3 *out);
+enum rayd_status sj_vec(struct loader *ld, const cJSON *obj, const struct jp *at, const char *key,
+                        vec3 def, enum vec_rule rule, vec3 *out);
+/* A string that must be one of names (NULL-terminated): *out its index;
+ * -1 and no error when absent and def_absent. */
+enum rayd_status sj_enum(struct loader *ld, const cJSON *obj, const struct jp *at,
+                         const char *key, const char *const *names, int *out);
+enum rayd_status sj_type(struct loader *ld, const cJSON *obj, const struct jp *at,
+                         const char *const *types, int *out);
+enum rayd_status sj_bool(struct loader *ld, const cJSON *obj, const struct jp *at, const char *key,
+                         bool def, bool *out);
+
+enum rayd_status sj_material(struct loader *ld, const cJSON *m, const struct jp *at,
+                             struct material *out);
+enum rayd_status sj_add_material(struct loader *ld, const struct material *m, int *index);
+/* The "material" key of an object: absent (inherit), a name, or inline. */
+enum rayd_status sj_object_material(struct loader *ld, const cJSON *obj, const struct jp *at,
+                                    int inherit, int *index);
+enum rayd_status sj_transform(struct loader *ld, const cJSON *obj, const struct jp *at,
+                              struct xform *out, bool *present);
+enum rayd_status sj_add_xform(struct loader *ld, const struct xform *x, int32_t *index);
+enum rayd_status sj_mesh(struct loader *ld, const cJSON *oj, const struct jp *at, uint32_t *id);
+enum rayd_status sj_groups(struct loader *ld, const cJSON *root);
+enum rayd_status sj_objects(struct loader *ld, const cJSON *root);
+/* Reads a file a scene names, under the limits' asset rules. */
+enum rayd_status sj_read_asset(struct loader *ld, const cJSON *f, const struct jp *at, char **out,
+                               size_t *len);
+int sj_cpu_count(void);
+/* "texture": a pattern or image; *index into the scene's textures. */
+enum rayd_status sj_texture(struct loader *ld, const cJSON *t, const struct jp *at, int *index);
+
+#endif

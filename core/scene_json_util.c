@@ -1,0 +1,212 @@
+/* scene_json_util.c -- JSON Pointers and the typed getters of the scene
+ * loader.  Each getter reads one key, checks its type and range, and on
+ * failure names the value by its JSON Pointer (RFC 6901: "~" and "/" in keys
+ * are escaped) with a message that says what is wrong.
+ */
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "scene_json.h"
+
+struct jp sj_key(const struct jp *parent, const char *key) {
+    struct jp r;
+    size_t n = (size_t)snprintf(r.s, sizeof r.s, "%.200s/", parent->s);
+    for (const char *k = key; *k && n + 3 < sizeof r.s; k++) {
+        if (*k == '~' || *k == '/') { /* RFC 6901 escapes */
+            r.s[n++] = '~';
+            r.s[n++] = *k == '~' ? '0' : '1';
+        } else {
+            r.s[n++] = *k;
+        }
+    }
+    r.s[n < sizeof r.s ? n : sizeof r.s - 1] = '\0';
+    return r;
+}
+
+struct jp sj_index(const struct jp *parent, int i) {
+    struct jp r;
+    snprintf(r.s, sizeof r.s, "%.200s/%d", parent->s, i);
+    return r;
+}
+
+const char *sj_type_name(const cJSON *v) {
+    if (cJSON_IsNumber(v)) return "a number";
+    if (cJSON_IsString(v)) return "a string";
+    if (cJSON_IsBool(v)) return "a boolean";
+    if (cJSON_IsNull(v)) return "null";
+    if (cJSON_IsArray(v)) return "an array";
+    return "an object";
+}
+
+enum rayd_status sj_fail(struct loader *ld, enum rayd_status code, const struct jp *at,
+                             const char *fmt, ...) {
+    char msg[256];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    return err_set(ld->err, code, at->s, "%s", msg);
+}
+
+static int cmp_names(const void *a, const void *b) {
+    return strcmp(*(const char *const *)a, *(const char *const *)b);
+}
+
+/* Every key of obj must be in allowed (NULL-terminated; NULL = any key) and
+ * appear once. */
+enum rayd_status sj_check_keys(struct loader *ld, const cJSON *obj, const struct jp *at,
+                                   const char *const *allowed) {
+    if (!cJSON_IsObject(obj))
+        return sj_fail(ld, RAYD_E_INVALID, at, "must be an object, not %s", sj_type_name(obj));
+    int n = 0;
+    for (const cJSON *c = obj->child; c; c = c->next) {
+        n++;
+        if (!allowed) continue;
+        const char *const *a = allowed;
+        while (*a && strcmp(*a, c->string) != 0) a++;
+        if (*a) continue;
+        char list[200] = "";
+        for (a = allowed; *a; a++) {
+            strncat(list, *a, sizeof list - strlen(list) - 1);
+            if (a[1]) strncat(list, ", ", sizeof list - strlen(list) - 1);
+        }
+        struct jp p = sj_key(at, c->string);
+        return sj_fail(ld, RAYD_E_INVALID, &p, "unknown key (allowed here: %s)", list);
+    }
+    if (n < 2) return RAYD_OK;
+    const char **names = malloc(sizeof *names * (size_t)n);
+    if (!names) return err_set(ld->err, RAYD_E_NOMEM, at->s, "out of memory");
+    int i = 0;
+    for (const cJSON *c = obj->child; c; c = c->next) names[i++] = c->string;
+    qsort(names, (size_t)n, sizeof *names, cmp_names);
+    for (i = 1; i < n && strcmp(names[i - 1], names[i]) != 0; i++) continue;
+    enum rayd_status st = RAYD_OK;
+    if (i < n) {
+        struct jp p = sj_key(at, names[i]);
+        st = sj_fail(ld, RAYD_E_INVALID, &p, "duplicate key");
+    }
+    free(names);
+    return st;
+}
+
+/* A number in [lo, hi] (lo excluded when lo_open). */
+enum rayd_status sj_num(struct loader *ld, const cJSON *obj, const struct jp *at,
+                                const char *key, double def, double lo, bool lo_open, double hi,
+                                double *out) {
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, key);
+    if (!v) {
+        *out = def;
+        return RAYD_OK;
+    }
+    struct jp p = sj_key(at, key);
+    if (!cJSON_IsNumber(v))
+        return sj_fail(ld, RAYD_E_INVALID, &p, "must be a number, not %s", sj_type_name(v));
+    double x = v->valuedouble;
+    if (!isfinite(x)) return sj_fail(ld, RAYD_E_INVALID, &p, "must be a finite number");
+    if (lo_open && !(x > lo)) return sj_fail(ld, RAYD_E_INVALID, &p, "must be > %g", lo);
+    if (!lo_open && x < lo) return sj_fail(ld, RAYD_E_INVALID, &p, "must be >= %g", lo);
+    if (x > hi) return sj_fail(ld, RAYD_E_INVALID, &p, "must be <= %g", hi);
+    *out = x;
+    return RAYD_OK;
+}
+
+/* A whole number in [lo, hi]; above hi is a limit (RAYD_E_LIMIT) when
+ * hi_is_limit, else invalid. */
+enum rayd_status sj_int(struct loader *ld, const cJSON *obj, const struct jp *at,
+                                const char *key, long def, long lo, long hi, bool hi_is_limit,
+                                long *out) {
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, key);
+    if (!v) {
+        *out = def;
+        return RAYD_OK;
+    }
+    struct jp p = sj_key(at, key);
+    if (!cJSON_IsNumber(v))
+        return sj_fail(ld, RAYD_E_INVALID, &p, "must be an integer, not %s", sj_type_name(v));
+    double x = v->valuedouble;
+    if (!isfinite(x) || floor(x) != x)
+        return sj_fail(ld, RAYD_E_INVALID, &p, "must be an integer");
+    if (x < (double)lo) return sj_fail(ld, RAYD_E_INVALID, &p, "must be >= %ld", lo);
+    if (x > (double)hi)
+        return sj_fail(ld, hi_is_limit ? RAYD_E_LIMIT : RAYD_E_INVALID, &p,
+                    hi_is_limit ? "must be <= %ld (the server's limit)" : "must be <= %ld", hi);
+    *out = (long)x;
+    return RAYD_OK;
+}
+
+enum rayd_status sj_vec_value(struct loader *ld, const cJSON *v, const struct jp *p,
+                              enum vec_rule rule, vec3 *out) {
+    if (!cJSON_IsArray(v) || cJSON_GetArraySize(v) != 3)
+        return sj_fail(ld, RAYD_E_INVALID, p, "must be an array of 3 numbers");
+    double c[3];
+    int i = 0;
+    for (const cJSON *e = v->child; e; e = e->next, i++) {
+        struct jp pe = sj_index(p, i);
+        if (!cJSON_IsNumber(e))
+            return sj_fail(ld, RAYD_E_INVALID, &pe, "must be a number, not %s", sj_type_name(e));
+        c[i] = e->valuedouble;
+        if (!isfinite(c[i])) return sj_fail(ld, RAYD_E_INVALID, &pe, "must be a finite number");
+        if (fabs(c[i]) > NUM_MAX) return sj_fail(ld, RAYD_E_INVALID, &pe, "must be in [-1e9, 1e9]");
+        if (rule == VEC_COLOR && c[i] < 0) return sj_fail(ld, RAYD_E_INVALID, &pe, "must be >= 0");
+    }
+    *out = v3(c[0], c[1], c[2]);
+    if (rule == VEC_NONZERO && !(v3_len(*out) > 0))
+        return sj_fail(ld, RAYD_E_INVALID, p, "must not be a zero-length vector");
+    return RAYD_OK;
+}
+
+enum rayd_status sj_vec(struct loader *ld, const cJSON *obj, const struct jp *at,
+                        const char *key, vec3 def, enum vec_rule rule, vec3 *out) {
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, key);
+    if (!v) {
+        *out = def;
+        return RAYD_OK;
+    }
+    struct jp p = sj_key(at, key);
+    return sj_vec_value(ld, v, &p, rule, out);
+}
+
+/* ---- lights ----------------------------------------------------------------- */
+
+/* A string key that must be one of the names in types: *out its index. */
+enum rayd_status sj_enum(struct loader *ld, const cJSON *obj, const struct jp *at,
+                                     const char *key, const char *const *types, int *out) {
+    const cJSON *t = cJSON_GetObjectItemCaseSensitive(obj, key);
+    struct jp p = sj_key(at, key);
+    *out = -1;
+    if (!t) return RAYD_OK;
+    if (!cJSON_IsString(t))
+        return sj_fail(ld, RAYD_E_INVALID, &p, "must be a string, not %s", sj_type_name(t));
+    char list[160] = "";
+    for (int i = 0; types[i]; i++) {
+        if (strcmp(types[i], t->valuestring) == 0) {
+            *out = i;
+            return RAYD_OK;
+        }
+        strncat(list, types[i], sizeof list - strlen(list) - 1);
+        if (types[i + 1]) strncat(list, ", ", sizeof list - strlen(list) - 1);
+    }
+    return sj_fail(ld, RAYD_E_INVALID, &p, "unknown %s \"%.60s\" (supported: %s)",
+                strcmp(key, "type") == 0 ? "type" : "value", t->valuestring, list);
+}
+
+enum rayd_status sj_type(struct loader *ld, const cJSON *obj, const struct jp *at,
+                         const char *const *types, int *out) {
+    TRY(sj_enum(ld, obj, at, "type", types, out));
+    struct jp p = sj_key(at, "type");
+    if (*out < 0) return sj_fail(ld, RAYD_E_INVALID, &p, "is required");
+    return RAYD_OK;
+}
+
+enum rayd_status sj_bool(struct loader *ld, const cJSON *obj, const struct jp *at, const char *key,
+                         bool def, bool *out) {
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, key);
+    *out = def;
+    if (!v) return RAYD_OK;
+    struct jp p = sj_key(at, key);
+    if (!cJSON_IsBool(v)) return sj_fail(ld, RAYD_E_INVALID, &p, "must be true or false, not %s", sj_type_name(v));
+    *out = cJSON_IsTrue(v);
+    return RAYD_OK;
+}
