@@ -131,7 +131,7 @@ enum rayd_status sj_int(struct loader *ld, const cJSON *obj, const struct jp *at
     if (x < (double)lo) return sj_fail(ld, RAYD_E_INVALID, &p, "must be >= %ld", lo);
     if (x > (double)hi)
         return sj_fail(ld, hi_is_limit ? RAYD_E_LIMIT : RAYD_E_INVALID, &p,
-                    hi_is_limit ? "must be <= %ld (the server's limit)" : "must be <= %ld", hi);
+                    hi_is_limit ? "must be <= %ld (the limit)" : "must be <= %ld", hi);
     *out = (long)x;
     return RAYD_OK;
 }
