@@ -135,7 +135,7 @@ $(BUILD)/tests/tools/%: tests/tools/%.c $(BUILD)/librayd.a
 
 TEST_TOOLS := $(patsubst tests/tools/%.c,$(BUILD)/tests/tools/%,$(wildcard tests/tools/*.c))
 
-test: all $(UNIT_BIN) $(TEST_TOOLS)
+test: all $(UNIT_BIN) $(TEST_TOOLS) $(FUZZ_REPLAY)
 	@bash tests/run.sh $(BUILD)
 
 test-unit: $(BUILD)/librayd.a $(UNIT_BIN)
@@ -145,6 +145,44 @@ test-unit: $(BUILD)/librayd.a $(UNIT_BIN)
 golden: $(BUILD)/rayd-render
 	@for f in tests/scenes/*.json; do n=$$(basename $$f .json); \
 	  $(BUILD)/rayd-render $$f -o tests/golden/$$n.png && echo "tests/golden/$$n.png"; done
+
+# --- fuzzing ----------------------------------------------------------------
+# Each tests/fuzz/fuzz_X.c is a libFuzzer target.  `make fuzz` builds them
+# with clang (fuzzer + ASan + UBSan) into build/fuzz/ and runs each for
+# FUZZ_SECONDS on a working copy of its seed corpus tests/fuzz/corpus/X;
+# a crash stops with the input saved in build/fuzz/ -- copy it into
+# tests/fuzz/regressions/X/ so `make test` replays it forever after.
+FUZZ_SECONDS ?= 30
+FUZZ_TARGETS := $(patsubst tests/fuzz/fuzz_%.c,%,$(wildcard tests/fuzz/fuzz_*.c))
+FUZZ_CFLAGS := -std=c11 -D_POSIX_C_SOURCE=200809L -O1 -g -fsanitize=fuzzer-no-link,address,undefined \
+               -fno-sanitize-recover=undefined -Iinclude -Icore
+FUZZ_CORE_OBJ := $(CORE_SRC:core/%.c=build/fuzz/core/%.o)
+.SECONDARY: $(FUZZ_CORE_OBJ)
+
+build/fuzz/core/%.o: core/%.c | $(BUILD)/.deps-ok
+	@mkdir -p $(dir $@)
+	clang $(FUZZ_CFLAGS) -c $< -o $@
+
+build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c $(FUZZ_CORE_OBJ)
+	clang $(FUZZ_CFLAGS) -fsanitize=fuzzer $^ -o $@ -lpng -lcjson -lpthread -lm
+
+fuzz: $(FUZZ_TARGETS:%=build/fuzz/fuzz_%)
+	@for t in $(FUZZ_TARGETS); do \
+	  rm -rf build/fuzz/corpus-$$t && mkdir -p build/fuzz/corpus-$$t && \
+	  cp tests/fuzz/corpus/$$t/* build/fuzz/corpus-$$t/ && \
+	  echo "== fuzz_$$t for $(FUZZ_SECONDS) s" && \
+	  build/fuzz/fuzz_$$t -max_total_time=$(FUZZ_SECONDS) -max_len=65536 -rss_limit_mb=2048 \
+	    $$( [ -f tests/fuzz/$$t.dict ] && echo -dict=tests/fuzz/$$t.dict ) \
+	    -artifact_prefix=build/fuzz/crash-$$t- -print_final_stats=1 build/fuzz/corpus-$$t 2>&1 | \
+	    grep -E "^(stat::number_of_executed_units|stat::peak_rss_mb|==.*ERROR|SUMMARY)|Done [0-9]+ runs" || exit 1; \
+	done
+
+# The same targets without libFuzzer, replaying corpus and regressions.
+$(BUILD)/tests/fuzz/replay_%: tests/fuzz/fuzz_%.c tests/fuzz/replay.c $(BUILD)/librayd.a
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS_ALL) -Iinclude -Icore $(filter %.c,$^) -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
+
+FUZZ_REPLAY := $(FUZZ_TARGETS:%=$(BUILD)/tests/fuzz/replay_%)
 
 # --- run, bench, tooling ----------------------------------------------------
 run: all
@@ -181,6 +219,10 @@ $(BUILD)/bench/embree_bench: bench/peers/embree_bench.c $(BUILD)/librayd.a | ben
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -Iinclude -Icore $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a -lembree3 $(LIBS_CORE)
 
+$(BUILD)/bench/imgdiff: bench/peers/imgdiff.c $(BUILD)/librayd.a
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS_ALL) -Iinclude $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
+
 bench-deps:
 	@missing=""; for p in $(BENCH_PKGS); do \
 	  dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q '^install ok installed' || missing="$$missing $$p"; \
@@ -194,7 +236,8 @@ bench-deps:
 bench: all $(BUILD)/bench/raybench $(BUILD)/bench/genmesh $(BENCH_SCENES)
 	@bash bench/run.sh $(BUILD)
 
-bench-peers: all bench-deps $(BUILD)/bench/raybench $(BUILD)/bench/embree_bench $(BENCH_SCENES)
+bench-peers: all bench-deps $(BUILD)/bench/raybench $(BUILD)/bench/embree_bench $(BUILD)/bench/imgdiff \
+             $(BENCH_SCENES)
 	@bash bench/peers.sh $(BUILD)
 
 format:
