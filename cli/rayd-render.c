@@ -31,13 +31,14 @@ static void usage(FILE *f) {
             "  -h, --help        this text\n");
 }
 
-/* Reads all of f into a malloc'd buffer; NULL on failure. */
-static char *read_all(FILE *f, size_t *len) {
+/* Reads all of f into a malloc'd buffer; NULL on failure.  Stops a little
+ * past max bytes (the loader then reports the size limit). */
+static char *read_all(FILE *f, size_t max, size_t *len) {
     size_t cap = 1 << 16, n = 0;
     char *buf = malloc(cap);
     while (buf) {
         n += fread(buf + n, 1, cap - n, f);
-        if (n < cap) break;
+        if (n < cap || n > max) break;
         char *p = cap < (SIZE_MAX >> 1) ? realloc(buf, cap * 2) : NULL;
         if (!p) {
             free(buf);
@@ -63,13 +64,23 @@ static int parse_int(const char *s, long lo, long hi, long *out) {
     return 0;
 }
 
+/* X,Y,W,H: four integers in int range (the core checks them against the
+ * image). */
 static int parse_region(const char *s, struct rayd_region *r) {
-    int x, y, w, h, n = 0;
-    if (sscanf(s, "%d,%d,%d,%d%n", &x, &y, &w, &h, &n) != 4 || s[n] != '\0') return -1;
-    r->x = x;
-    r->y = y;
-    r->w = w;
-    r->h = h;
+    int v[4];
+    for (int i = 0; i < 4; i++) {
+        char *end;
+        errno = 0;
+        long x = strtol(s, &end, 10);
+        if (errno || end == s || x < -1000000000L || x > 1000000000L) return -1;
+        if (*end != (i < 3 ? ',' : '\0')) return -1;
+        v[i] = (int)x;
+        s = end + 1;
+    }
+    r->x = v[0];
+    r->y = v[1];
+    r->w = v[2];
+    r->h = v[3];
     return 0;
 }
 
@@ -119,13 +130,13 @@ static int parse_args(int argc, char **argv, struct args *a) {
     return 0;
 }
 
-static char *load_scene_text(const char *name, size_t *len) {
+static char *load_scene_text(const char *name, size_t max, size_t *len) {
     FILE *f = strcmp(name, "-") == 0 ? stdin : fopen(name, "rb");
     if (!f) {
         fprintf(stderr, "rayd-render: cannot open %s: %s\n", name, strerror(errno));
         return NULL;
     }
-    char *text = read_all(f, len);
+    char *text = read_all(f, max, len);
     if (f != stdin) fclose(f);
     if (!text) fprintf(stderr, "rayd-render: cannot read %s\n", name);
     return text;
@@ -149,8 +160,10 @@ int main(int argc, char **argv) {
         usage(stderr);
         return 2;
     }
+    struct rayd_limits lim;
+    rayd_limits_default(&lim);
     size_t len;
-    char *text = load_scene_text(a.scene, &len);
+    char *text = load_scene_text(a.scene, lim.max_bytes, &len);
     if (!text) return 1;
     /* Mesh "file" paths resolve against the scene's folder (the working
      * folder for stdin); the command line trusts its own scene's paths. */
@@ -160,8 +173,6 @@ int main(int argc, char **argv) {
         snprintf(dir, sizeof dir, ".");
     else
         snprintf(dir, sizeof dir, "%.*s", (int)(slash - a.scene), a.scene);
-    struct rayd_limits lim;
-    rayd_limits_default(&lim);
     lim.asset_dir = dir[0] ? dir : "/";
     lim.asset_confine = 0;
     struct rayd_error err = {0};

@@ -8,7 +8,10 @@
  *   - any syntax error, including truncated input and data after the value;
  *   - invalid UTF-8 (overlong forms, surrogates, past U+10FFFF), NUL bytes,
  *     raw control characters in strings, bad escapes and lone \u surrogates;
- *   - nesting deeper than the limit, before recursing into it.
+ *   - nesting deeper than the limit, before recursing into it;
+ *   - more values than cJSON could hold in reasonable memory (it spends
+ *     ~60 bytes on each, ~40 times the text), and \u0000, which cJSON would
+ *     silently take as the end of the string.
  * The walk is recursive, bounded by that limit.  Text that passes is parsed
  * by cJSON, whose own failure can then only be running out of memory.
  */
@@ -19,10 +22,15 @@
 
 #include "error.h"
 
+/* cJSON spends ~60 bytes a value: 10M values is ~600 MB, the most a scene
+ * may cost before validation even starts. */
+#define JC_MAX_VALUES 10000000L
+
 struct jc {
     const unsigned char *p;
     size_t len, i;
     int max_depth;
+    long values;
     const char *msg; /* set on failure; i is where */
 };
 
@@ -88,6 +96,10 @@ static bool jc_escape(struct jc *c) {
         c->i = at;
         return jc_fail(c, "\\u must be followed by 4 hex digits");
     }
+    if (u == 0) {
+        c->i = at;
+        return jc_fail(c, "\\u0000 (NUL) is not allowed in strings");
+    }
     if (u >= 0xDC00 && u <= 0xDFFF) {
         c->i = at;
         return jc_fail(c, "lone low surrogate in \\u escape");
@@ -150,8 +162,12 @@ static bool jc_number(struct jc *c) {
         if (c->i < c->len && (c->p[c->i] == '+' || c->p[c->i] == '-')) c->i++;
         if (!jc_digits(c)) return jc_fail(c, "invalid number: digits must follow the exponent");
     }
-    if (c->i < c->len && strchr("0123456789.eE+-", c->p[c->i]) && c->p[c->i])
-        return jc_fail(c, "invalid number (leading zeros are not allowed)");
+    if (c->i < c->len && strchr("0123456789.eE+-", c->p[c->i]) && c->p[c->i]) {
+        bool lead0 = c->p[start] == '0' || (c->p[start] == '-' && c->p[start + 1] == '0');
+        return jc_fail(c, lead0 && c->p[c->i] >= '0' && c->p[c->i] <= '9'
+                              ? "invalid number (leading zeros are not allowed)"
+                              : "invalid number");
+    }
     return true;
 }
 
@@ -202,6 +218,7 @@ static bool jc_container(struct jc *c, int depth, bool object) {
 static bool jc_value(struct jc *c, int depth) {
     jc_ws(c);
     if (c->i >= c->len) return jc_fail(c, "unexpected end of input");
+    if (++c->values > JC_MAX_VALUES) return jc_fail(c, "more than 10,000,000 values");
     switch (c->p[c->i]) {
     case '{': return jc_container(c, depth, true);
     case '[': return jc_container(c, depth, false);
@@ -230,7 +247,7 @@ void json_position(const char *text, size_t off, int *line, int *col) {
 }
 
 enum rayd_status json_check(const char *text, size_t len, int max_depth, struct rayd_error *err) {
-    struct jc c = {(const unsigned char *)text, len, 0, max_depth, NULL};
+    struct jc c = {(const unsigned char *)text, len, 0, max_depth, 0, NULL};
     if (jc_value(&c, 0)) {
         jc_ws(&c);
         if (c.i == len) return RAYD_OK;
@@ -238,13 +255,20 @@ enum rayd_status json_check(const char *text, size_t len, int max_depth, struct 
     }
     char msg[160];
     if (c.msg == NULL) c.msg = "malformed JSON";
+    unsigned char at = c.i < len ? c.p[c.i] : 0;
     if (strcmp(c.msg, "nesting deeper than the limit") == 0)
         snprintf(msg, sizeof msg, "malformed JSON: nesting deeper than %d levels", max_depth);
-    else if (c.i < len && c.p[c.i] >= 0x21 && c.p[c.i] <= 0x7e && strstr(c.msg, "expected"))
-        snprintf(msg, sizeof msg, "malformed JSON: %s, found '%c'", c.msg, c.p[c.i]);
+    else if (c.i == 0 && len >= 3 && memcmp(c.p, "\xEF\xBB\xBF", 3) == 0)
+        snprintf(msg, sizeof msg, "malformed JSON: a byte order mark (BOM) is not allowed; save the file as UTF-8 without BOM");
+    else if (c.i < len && at >= 0x21 && at <= 0x7e && strstr(c.msg, "expected"))
+        snprintf(msg, sizeof msg, "malformed JSON: %s, found '%c'", c.msg, at);
+    else if (c.i < len && at < 0x20 && strstr(c.msg, "expected"))
+        snprintf(msg, sizeof msg, "malformed JSON: %s, found byte 0x%02x%s", c.msg, at,
+                 at == 0 ? " (NUL)" : " (a control character)");
     else
         snprintf(msg, sizeof msg, "malformed JSON: %s", c.msg);
-    err_set(err, RAYD_E_PARSE, NULL, "%s", msg);
+    enum rayd_status code = strstr(c.msg, "10,000,000") ? RAYD_E_LIMIT : RAYD_E_PARSE;
+    err_set(err, code, NULL, "%s", msg);
     if (err) json_position(text, c.i, &err->line, &err->column);
-    return RAYD_E_PARSE;
+    return code;
 }

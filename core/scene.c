@@ -349,15 +349,16 @@ void scene_surface(const rayd_scene *s, const ray *r, const struct hit *h, struc
     if (x) p = xform_inv_point(x, p);
     vec3 n, ng;
     double u = 0, v = 0;
+    bool textured = sf->m->texture >= 0; /* uv costs trigonometry: only when used */
     if (o->kind == SHAPE_MESH) {
         const struct mesh *m = &s->meshes[o->u.mesh.id];
         p = mesh_point(m, &h->mh);
         ng = mesh_geometric_normal(m, h->mh.tri);
         n = mesh_shading_normal(m, &h->mh);
-        mesh_uv(m, &h->mh, &u, &v);
+        if (textured) mesh_uv(m, &h->mh, &u, &v);
     } else {
         n = ng = shape_ops[o->kind]->normal(o, p, h->part);
-        shape_ops[o->kind]->uv(o, p, h->part, &u, &v);
+        if (textured) shape_ops[o->kind]->uv(o, p, h->part, &u, &v);
     }
     vec3 po = p; /* object space, for object-space textures */
     if (x) {

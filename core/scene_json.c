@@ -167,6 +167,10 @@ enum rayd_status sj_add_material(struct loader *ld, const struct material *m, in
 
 /* Named materials take indices 1..n in the order of /materials; index 0 is
  * the default material. */
+static int cmp_named(const void *a, const void *b) {
+    return strcmp(((const struct named *)a)->name, ((const struct named *)b)->name);
+}
+
 static enum rayd_status load_materials(struct loader *ld, const cJSON *root) {
     struct material def = material_default();
     int idx;
@@ -186,6 +190,15 @@ static enum rayd_status load_materials(struct loader *ld, const cJSON *root) {
         TRY(sj_add_material(ld, &mat, &idx));
     }
     ld->materials = ms;
+    /* names sorted for lookup by binary search: a million objects naming
+     * ten thousand materials must not scan */
+    int n = cJSON_GetArraySize(ms), i = 1;
+    if (n == 0) return RAYD_OK;
+    ld->mat_names = malloc(sizeof *ld->mat_names * (size_t)n);
+    if (!ld->mat_names) return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
+    for (const cJSON *m = ms->child; m; m = m->next, i++) ld->mat_names[i - 1] = (struct named){m->string, i};
+    ld->nmat_names = n;
+    qsort(ld->mat_names, (size_t)n, sizeof *ld->mat_names, cmp_named);
     return RAYD_OK;
 }
 
@@ -198,21 +211,25 @@ enum rayd_status sj_object_material(struct loader *ld, const cJSON *obj, const s
     struct jp p = sj_key(at, "material");
     if (cJSON_IsObject(v)) {
         struct material mat;
+        if (ld->s->nmats > ld->lim->max_materials)
+            return sj_fail(ld, RAYD_E_LIMIT, &p, "is past the limit of %d materials (named and inline)", ld->lim->max_materials);
         TRY(sj_material(ld, v, &p, &mat));
         return sj_add_material(ld, &mat, index);
     }
     if (!cJSON_IsString(v))
         return sj_fail(ld, RAYD_E_INVALID, &p,
                     "must be a material name or a material object, not %s", sj_type_name(v));
-    int i = 1;
-    for (const cJSON *m = ld->materials ? ld->materials->child : NULL; m; m = m->next, i++) {
-        if (strcmp(m->string, v->valuestring) == 0) {
-            *index = i;
-            return RAYD_OK;
-        }
+    struct named key = {v->valuestring, 0};
+    const struct named *hit = ld->nmat_names ? bsearch(&key, ld->mat_names, (size_t)ld->nmat_names,
+                                                       sizeof key, cmp_named)
+                                             : NULL;
+    if (hit) {
+        *index = hit->index;
+        return RAYD_OK;
     }
-    return sj_fail(ld, RAYD_E_INVALID, &p, "unknown material \"%.80s\" (not a key of /materials)",
-                v->valuestring);
+    char q[96];
+    return sj_fail(ld, RAYD_E_INVALID, &p, "unknown material \"%s\" (not a key of /materials)",
+                   sj_quote(q, sizeof q, v->valuestring));
 }
 
 /* Area lights: "shape" rectangle (position = a corner, edge1, edge2), disc
@@ -267,7 +284,7 @@ static enum rayd_status load_light(struct loader *ld, const cJSON *lj, const str
     l->direction = v3_norm(dir);
     double angle, falloff;
     TRY(sj_num(ld, lj, at, "angle", 30, 0, true, 90, &angle));
-    TRY(sj_num(ld, lj, at, "falloff", 5, 0, false, angle, &falloff));
+    TRY(sj_num(ld, lj, at, "falloff", fmin(5, angle / 2), 0, false, angle, &falloff));
     l->cos_outer = cos(angle * DEG2RAD);
     l->cos_inner = cos((angle - falloff) * DEG2RAD);
     if (l->cos_inner <= l->cos_outer) l->cos_inner = nextafter(l->cos_outer, 2.0);
@@ -346,6 +363,7 @@ enum rayd_status rayd_scene_parse(const char *json, size_t len, const struct ray
     if (st == RAYD_OK) {
         struct loader ld = {.lim = lim, .s = s, .err = err};
         st = load_root(&ld, root);
+        free(ld.mat_names);
         if (st == RAYD_OK) st = scene_freeze(s, err);
         if (st != RAYD_OK) rayd_scene_free(s);
     }

@@ -32,12 +32,19 @@ struct jp {
 
 /* ---- the loader ---------------------------------------------------------- */
 
+struct named {
+    const char *name;
+    int index;
+};
+
 struct loader {
     const struct rayd_limits *lim;
     rayd_scene *s;
     struct rayd_error *err;
     const cJSON *materials; /* the /materials object, for names */
     const cJSON *groups;    /* the /groups object, for names */
+    struct named *mat_names; /* /materials keys, sorted */
+    int nmat_names;
     int mat_cap, tex_cap;
     uint32_t mesh_cap;
     int32_t xform_cap, part_cap;
@@ -53,6 +60,9 @@ enum vec_rule { VEC_ANY, VEC_NONZERO, VEC_COLOR };
         if (st_ != RAYD_OK) return st_;                                                  \
     } while (0)
 
+/* User text fit for a one-line message: control characters, quotes and
+ * backslashes escaped, cut at a character boundary with "..." to fit cap. */
+const char *sj_quote(char *dst, size_t cap, const char *src);
 struct jp sj_key(const struct jp *parent, const char *key);
 struct jp sj_index(const struct jp *parent, int i);
 const char *sj_type_name(const cJSON *v);

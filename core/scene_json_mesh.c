@@ -5,7 +5,9 @@
  * Totals of vertices and triangles are checked against the limits before
  * anything large is allocated.
  */
+#define _XOPEN_SOURCE 700 /* realpath */
 #include <errno.h>
+#include <sys/stat.h>
 #include <strings.h>
 #include <unistd.h>
 #include <stdio.h>
@@ -40,7 +42,10 @@ static enum rayd_status get_flat(struct loader *ld, const cJSON *obj, const stru
         if (!cJSON_IsNumber(e) || !isfinite(e->valuedouble) || fabs(e->valuedouble) > 1e30) {
             free(v);
             struct jp pe = sj_index(&p, (int)i);
-            return sj_fail(ld, RAYD_E_INVALID, &pe, "must be a finite number");
+            if (!cJSON_IsNumber(e))
+                return sj_fail(ld, RAYD_E_INVALID, &pe, "must be a number, not %s", sj_type_name(e));
+            if (!isfinite(e->valuedouble)) return sj_fail(ld, RAYD_E_INVALID, &pe, "must be a finite number");
+            return sj_fail(ld, RAYD_E_INVALID, &pe, "must be in [-1e30, 1e30]");
         }
         v[i] = (float)e->valuedouble;
     }
@@ -92,6 +97,23 @@ static enum rayd_status add_mesh(struct loader *ld, uint32_t *id) {
     return RAYD_OK;
 }
 
+/* A ".." path component anywhere. */
+static bool has_dotdot(const char *p) {
+    for (const char *c = p; (c = strstr(c, "..")) != NULL; c += 2)
+        if ((c == p || c[-1] == '/') && (c[2] == '/' || c[2] == '\0')) return true;
+    return false;
+}
+
+/* path resolves (symbolic links followed) to somewhere under dir. */
+static bool inside_dir(const char *dir, const char *path) {
+    char *rd = realpath(dir, NULL), *rp = realpath(path, NULL);
+    size_t n = rd ? strlen(rd) : 0;
+    bool ok = rd && rp && strncmp(rd, rp, n) == 0 && (rp[n] == '/' || (n == 1 && rd[0] == '/'));
+    free(rd);
+    free(rp);
+    return ok;
+}
+
 /* Reads a file named by a scene, under the limits' asset rules. */
 enum rayd_status sj_read_asset(struct loader *ld, const cJSON *f, const struct jp *at,
                                    char **out, size_t *len) {
@@ -100,15 +122,23 @@ enum rayd_status sj_read_asset(struct loader *ld, const cJSON *f, const struct j
     const char *name = f->valuestring;
     if (!lim->asset_dir)
         return sj_fail(ld, RAYD_E_INVALID, at, "files are not allowed here (embed the data as \"text\" or \"base64\"; rayd reads files only with --asset-dir)");
-    if (lim->asset_confine && (name[0] == '/' || strstr(name, "..") || name[0] == '\0'))
+    if (name[0] == '\0') return sj_fail(ld, RAYD_E_INVALID, at, "must not be empty");
+    if (lim->asset_confine && (name[0] == '/' || has_dotdot(name)))
         return sj_fail(ld, RAYD_E_INVALID, at, "must be a relative path inside the asset directory, without '..'");
-    char path[4096];
+    char path[4096], q[96];
     if (name[0] == '/')
         snprintf(path, sizeof path, "%s", name);
     else if ((size_t)snprintf(path, sizeof path, "%s/%s", lim->asset_dir, name) >= sizeof path)
         return sj_fail(ld, RAYD_E_INVALID, at, "path is too long");
+    if (lim->asset_confine && !inside_dir(lim->asset_dir, path))
+        return sj_fail(ld, RAYD_E_INVALID, at, "\"%s\" is not a file inside the asset directory", sj_quote(q, sizeof q, name));
     FILE *fp = fopen(path, "rb");
-    if (!fp) return sj_fail(ld, RAYD_E_INVALID, at, "cannot open \"%.200s\": %s", name, strerror(errno));
+    struct stat st;
+    if (fp && (fstat(fileno(fp), &st) != 0 || !S_ISREG(st.st_mode))) {
+        fclose(fp);
+        return sj_fail(ld, RAYD_E_INVALID, at, "\"%s\" is not a regular file", sj_quote(q, sizeof q, name));
+    }
+    if (!fp) return sj_fail(ld, RAYD_E_INVALID, at, "cannot open \"%s\": %s", sj_quote(q, sizeof q, name), strerror(errno));
     size_t cap = 1 << 16, n = 0;
     char *buf = malloc(cap);
     while (buf) {
@@ -129,7 +159,7 @@ enum rayd_status sj_read_asset(struct loader *ld, const cJSON *f, const struct j
     if (!buf) return err_set(ld->err, RAYD_E_NOMEM, at->s, "out of memory reading a file");
     if (bad) {
         free(buf);
-        return sj_fail(ld, RAYD_E_INVALID, at, "cannot read \"%.200s\"", name);
+        return sj_fail(ld, RAYD_E_INVALID, at, "cannot read \"%s\"", sj_quote(q, sizeof q, name));
     }
     *out = buf;
     *len = n;

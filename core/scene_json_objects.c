@@ -43,8 +43,10 @@ static enum rayd_status transform_step(struct loader *ld, const cJSON *t, const 
         int i = 0;
         for (const cJSON *e = mj->child; e; e = e->next, i++) {
             struct jp pe = sj_index(&p, i);
-            if (!cJSON_IsNumber(e) || !isfinite(e->valuedouble))
-                return sj_fail(ld, RAYD_E_INVALID, &pe, "must be a finite number");
+            if (!cJSON_IsNumber(e))
+                return sj_fail(ld, RAYD_E_INVALID, &pe, "must be a number, not %s", sj_type_name(e));
+            if (!isfinite(e->valuedouble) || fabs(e->valuedouble) > NUM_MAX)
+                return sj_fail(ld, RAYD_E_INVALID, &pe, "must be a finite number in [-1e9, 1e9]");
             rows[i] = e->valuedouble;
         }
         if (!xform_from_matrix(rows, out))
@@ -116,6 +118,8 @@ enum rayd_status sj_transform(struct loader *ld, const cJSON *obj, const struct 
     } else {
         TRY(transform_step(ld, t, &p, out));
     }
+    if (!xform_sane(out))
+        return sj_fail(ld, RAYD_E_INVALID, &p, "must not scale the object by more than 1e9 or less than 1e-9 (all steps together)");
     *present = true;
     return RAYD_OK;
 }
@@ -333,7 +337,9 @@ static enum rayd_status load_instance(struct loader *ld, const cJSON *oj, const 
             return RAYD_OK;
         }
     }
-    return sj_fail(ld, RAYD_E_INVALID, &p, "unknown group \"%.80s\" (not a key of /groups)", g->valuestring);
+    char q[96];
+    return sj_fail(ld, RAYD_E_INVALID, &p, "unknown group \"%s\" (not a key of /groups)",
+                   sj_quote(q, sizeof q, g->valuestring));
 }
 
 /* ---- objects ----------------------------------------------------------------------- */
@@ -361,7 +367,7 @@ static const char *const *const kind_keys[] = {
     (const char *const[]){COMMON, "coefficients", NULL},
     (const char *const[]){COMMON, "source", "vertices", "indices", "normals", "uvs", "smooth", NULL},
     (const char *const[]){COMMON, "op", "operands", NULL},
-    (const char *const[]){COMMON, "group", NULL},
+    (const char *const[]){"type", "name", "transform", "group", NULL},
 };
 
 static enum rayd_status load_shape(struct loader *ld, const cJSON *oj, const struct jp *at,
@@ -428,6 +434,9 @@ static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const st
     if (kind == K_INSTANCE && !has_x) x = xform_identity(), has_x = true;
     /* inside CSG every transform is composed down to the leaves */
     struct xform acc = cx->acc ? xform_then(&x, cx->acc) : x;
+    struct jp ptr = sj_key(at, "transform");
+    if (cx->acc && !xform_sane(&acc))
+        return sj_fail(ld, RAYD_E_INVALID, &ptr, "must not scale the object by more than 1e9 or less than 1e-9 (with the CSG nodes above it)");
     struct ctx sub = *cx;
     sub.acc = (cx->in_csg || kind == K_CSG) ? &acc : NULL;
     TRY(load_shape(ld, oj, at, kind, &sub, o));

@@ -10,24 +10,67 @@
 
 #include "scene_json.h"
 
+/* Appends the UTF-8 character at *src to dst (capacity cap, length *n)
+ * with control characters (and, with quotes, '"' and '\\') escaped as in
+ * JSON, so a message stays one line of valid UTF-8.  False (nothing written) when it does not
+ * fit. */
+static bool put_char(char *dst, size_t cap, size_t *n, const char **src, bool quotes) {
+    unsigned char c = (unsigned char)**src;
+    char esc[8];
+    size_t len = 1;
+    const char *from = *src;
+    if (c < 0x20 || c == 0x7f) {
+        snprintf(esc, sizeof esc, "\\u%04x", c);
+        from = esc;
+        len = 6;
+    } else if (quotes && (c == '"' || c == '\\')) {
+        esc[0] = '\\';
+        esc[1] = (char)c;
+        from = esc;
+        len = 2;
+    } else if (c >= 0x80) {
+        while ((((unsigned char)(*src)[len]) & 0xC0) == 0x80) len++;
+    }
+    if (*n + len + 4 >= cap) return false; /* keep room for "..." and NUL */
+    memcpy(dst + *n, from, len);
+    *n += len;
+    *src += c >= 0x80 ? len : 1;
+    return true;
+}
+
+const char *sj_quote(char *dst, size_t cap, const char *src) {
+    size_t n = 0;
+    while (*src && put_char(dst, cap, &n, &src, true)) continue;
+    if (*src) memcpy(dst + n, "...", 3), n += 3;
+    dst[n] = '\0';
+    return dst;
+}
+
 struct jp sj_key(const struct jp *parent, const char *key) {
     struct jp r;
-    size_t n = (size_t)snprintf(r.s, sizeof r.s, "%.200s/", parent->s);
-    for (const char *k = key; *k && n + 3 < sizeof r.s; k++) {
+    size_t n = strlen(parent->s);
+    memcpy(r.s, parent->s, n);
+    r.s[n++] = '/';
+    const char *k = key;
+    while (*k) {
         if (*k == '~' || *k == '/') { /* RFC 6901 escapes */
+            if (n + 6 >= sizeof r.s) break;
             r.s[n++] = '~';
-            r.s[n++] = *k == '~' ? '0' : '1';
-        } else {
-            r.s[n++] = *k;
+            r.s[n++] = *k++ == '~' ? '0' : '1';
+        } else if (!put_char(r.s, sizeof r.s, &n, &k, false)) {
+            break;
         }
     }
-    r.s[n < sizeof r.s ? n : sizeof r.s - 1] = '\0';
+    if (*k) memcpy(r.s + n, "...", 3), n += 3;
+    r.s[n] = '\0';
     return r;
 }
 
 struct jp sj_index(const struct jp *parent, int i) {
     struct jp r;
-    snprintf(r.s, sizeof r.s, "%.200s/%d", parent->s, i);
+    size_t n = strlen(parent->s);
+    if (n > sizeof r.s - 16) n = sizeof r.s - 16; /* a parent this long ends in "..." already */
+    snprintf(r.s, sizeof r.s, "%.*s/%d", (int)n, parent->s, i);
     return r;
 }
 
@@ -188,8 +231,9 @@ enum rayd_status sj_enum(struct loader *ld, const cJSON *obj, const struct jp *a
         strncat(list, types[i], sizeof list - strlen(list) - 1);
         if (types[i + 1]) strncat(list, ", ", sizeof list - strlen(list) - 1);
     }
-    return sj_fail(ld, RAYD_E_INVALID, &p, "unknown %s \"%.60s\" (supported: %s)",
-                strcmp(key, "type") == 0 ? "type" : "value", t->valuestring, list);
+    char q[96];
+    return sj_fail(ld, RAYD_E_INVALID, &p, "unknown %s \"%s\" (supported: %s)",
+                   strcmp(key, "type") == 0 ? "type" : "value", sj_quote(q, sizeof q, t->valuestring), list);
 }
 
 enum rayd_status sj_type(struct loader *ld, const cJSON *obj, const struct jp *at,

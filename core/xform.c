@@ -108,3 +108,14 @@ bool xform_from_matrix(const double rows[16], struct xform *out) {
         for (int j = 0; j < 4; j++) out->m[i][j] = rows[i * 4 + j];
     return mat_inverse(out->m, out->inv);
 }
+
+bool xform_sane(const struct xform *x) {
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 4; j++)
+            if (!isfinite(x->m[i][j]) || !isfinite(x->inv[i][j])) return false;
+    const double(*m)[4] = x->m;
+    double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+                 m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                 m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    return fabs(det) >= 1e-27 && fabs(det) <= 1e27;
+}

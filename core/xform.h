@@ -27,6 +27,10 @@ struct xform xform_rotate_euler(vec3 deg);          /* about x, then y, then z *
  * singular or not affine. */
 bool xform_from_matrix(const double rows[16], struct xform *out);
 
+/* Every entry finite and the scale within [1e-9, 1e9] (|det| within
+ * [1e-27, 1e27]): objects stay representable. */
+bool xform_sane(const struct xform *x);
+
 static inline vec3 xf_apply(const double m[3][4], vec3 p, double w) {
     return v3(m[0][0] * p.x + m[0][1] * p.y + m[0][2] * p.z + m[0][3] * w,
               m[1][0] * p.x + m[1][1] * p.y + m[1][2] * p.z + m[1][3] * w,
