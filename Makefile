@@ -9,10 +9,11 @@
 #   make bench-peers the same meshes and sphere scene with Embree and POV-Ray (make bench-deps)
 #   make format      clang-format every C file;  make lint  cppcheck + clang-tidy
 
-# Debian packages: compiler and tools, the three given libraries, libcurl for
-# the client, curl/python3 for the integration tests, wrk for benchmarks.
+# Debian packages: compiler and tools, the three given libraries, libcurl and
+# libssl (SHA-256 of scene ids) for the client, curl/python3/nginx for the
+# integration tests (nginx balances the scale-out test), wrk for benchmarks.
 DEB_PKGS := gcc make pkg-config libc6-dev libpng-dev libcjson-dev libmicrohttpd-dev \
-            libcurl4-openssl-dev curl python3 wrk
+            libcurl4-openssl-dev libssl-dev curl python3 nginx wrk
 
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 
@@ -30,7 +31,7 @@ OPT := -O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize
 LDSAN := -fsanitize=address,undefined
 else
 BUILD ?= build
-OPT := -O2 -g
+OPT := -O2 -g -fno-math-errno
 LDSAN :=
 endif
 ifeq ($(NATIVE),1)
@@ -120,7 +121,7 @@ $(BUILD)/rayd: $(SERVER_OBJ) $(BUILD)/librayd.a
 
 # --- clients ----------------------------------------------------------------
 $(BUILD)/rayd-client: $(CLIENT_SRC:%.c=$(BUILD)/%.o) $(BUILD)/librayd.a
-	$(CC) $(LDFLAGS_ALL) -o $@ $^ -lcurl $(LIBS_CORE)
+	$(CC) $(LDFLAGS_ALL) -o $@ $^ -lcurl -lcrypto $(LIBS_CORE)
 
 # --- tests ------------------------------------------------------------------
 # Unit tests may include the core's private headers.

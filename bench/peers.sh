@@ -1,0 +1,127 @@
+#!/usr/bin/env bash
+# bench/peers.sh BUILD -- rayd side by side with Embree and POV-Ray, in one
+# run on one machine, and rayd's ratios to them; `make bench-peers` runs it
+# (after `make bench-deps` put libembree-dev and povray on the machine).
+#
+#   meshes   the ~1M-triangle genmesh mesh (mesh-8), the 5k one (mesh-4) and
+#            the Stanford bunny when bench/bunny.sh could fetch it: raybench
+#            vs embree_bench, the same 1920x1080 rays (primary and shadow,
+#            one thread; BVH build on 2 threads each), median of RUNS runs
+#   spheres  bench/scenes/spheres10.json by rayd-render --threads 1 (its
+#            --stats wall time: the render, not the parse) vs
+#            bench/peers/spheres10.pov by povray +WT1 -A (its reported
+#            trace time, not parse or bounding), median of RUNS runs
+#
+# Every ratio is rayd's speed over the peer's (> 1: rayd is faster); the
+# targets are issue 4's.  The machine is shared: quote ratios from one run.
+set -eu
+cd "$(dirname "$0")/.."
+BUILD=${1:-build}
+RUNS=${RUNS:-3}
+D=$BUILD/bench
+R=$D/results
+mkdir -p "$R"
+for p in "$D/raybench" "$D/embree_bench" "$D/imgdiff" "$BUILD/rayd-render"; do
+    [ -x "$p" ] || { echo "bench-peers: $p is missing (run make bench-peers)"; exit 1; }
+done
+command -v povray >/dev/null || { echo "bench-peers: povray is missing (make bench-deps)"; exit 1; }
+
+bash bench/bunny.sh "$BUILD"
+kv() { awk -v k="$2" '$1 == k {print $2; f=1} END {if (!f) print "-"}' "$1"; }
+med() { sort -g | awk '{a[NR]=$1} END {print a[int((NR+1)/2)]}'; }
+
+# --- meshes: raybench and embree_bench on the same scene, interleaved ------
+# One run of each, RUNS times over, so a burst of load from elsewhere on the
+# machine hits both; each figure is then the median over the runs.
+meshes=(mesh-8 mesh-4)
+[ -s "$D/bunny.json" ] && meshes+=(bunny)
+for m in "${meshes[@]}"; do
+    for r in $(seq "$RUNS"); do
+        "$D/raybench" "$D/$m.json" --runs 1 --threads-max 2 >"$R/$m.raybench.$r" 2>"$R/$m.raybench.err" ||
+            { echo "bench-peers: raybench $m failed: $(tail -1 "$R/$m.raybench.err")"; exit 1; }
+        "$D/embree_bench" "$D/$m.json" --runs 1 >"$R/$m.embree.$r" 2>"$R/$m.embree.err" ||
+            { echo "bench-peers: embree_bench $m failed: $(tail -1 "$R/$m.embree.err")"; exit 1; }
+    done
+    for t in raybench embree; do # key -> median over the runs, in the same "key value" form
+        cat "$R/$m.$t".[0-9]* | awk '{n[$1]++; v[$1, n[$1]] = $2; if (!($1 in o)) {o[$1] = ++k; key[k] = $1}}
+            END {for (i = 1; i <= k; i++) {c = key[i]; m = n[c];
+                for (a = 1; a <= m; a++) x[a] = v[c, a];
+                for (a = 1; a <= m; a++) for (b = a + 1; b <= m; b++)
+                    if (x[b] + 0 < x[a] + 0) {y = x[a]; x[a] = x[b]; x[b] = y}
+                print c, x[int((m + 1) / 2)]}}' >"$R/$m.$t"
+    done
+done
+
+# --- spheres: rayd-render and povray, one thread --------------------------
+pov=$(mktemp -d)
+trap 'rm -rf "$pov"' EXIT
+cp bench/peers/spheres10.pov "$pov/"
+rayd_t=() pov_t=()
+for _ in $(seq "$RUNS"); do
+    out=$("$BUILD/rayd-render" bench/scenes/spheres10.json -o "$R/spheres10-rayd.png" \
+        --threads 1 --stats 2>&1)
+    rayd_t+=("$(awk '/^wall:/ {print $2}' <<<"$out")")
+    (cd "$pov" && povray +Ispheres10.pov +Ospheres10-pov.png +W1920 +H1080 -A +WT1 -D +FN \
+        >povray.log 2>&1) || { echo "bench-peers: povray failed:"; tail -5 "$pov/povray.log"; exit 1; }
+    pov_t+=("$(sed -n 's/.*Trace Time:.*(\([0-9.]*\) seconds).*/\1/p' "$pov/povray.log" | head -1)")
+done
+cp "$pov/spheres10-pov.png" "$pov/povray.log" "$R/"
+rayd_s=$(printf '%s\n' "${rayd_t[@]}" | med)
+pov_s=$(printf '%s\n' "${pov_t[@]}" | med)
+"$D/imgdiff" "$R/spheres10-rayd.png" "$R/spheres10-pov.png" >"$R/spheres10.imgdiff" || true
+
+# --- absolute figures ------------------------------------------------------
+echo "Absolute figures (1920x1080, one thread unless noted, medians of $RUNS runs)"
+printf '%-7s %8s | %-28s | %-42s\n' "" "" "rayd (raybench)" "Embree $(awk '$1=="peer" {print $3}' "$R/mesh-8.embree.1") (embree_bench)"
+printf '%-7s %8s | %7s %6s %6s %6s | %7s %6s %6s %6s %6s %6s\n' mesh tris \
+    "build s" "B/tri" prim shadow "build s" "B/tri" prim1 prim16 shad1 shad16
+for m in "${meshes[@]}"; do
+    a=$R/$m.raybench e=$R/$m.embree
+    printf '%-7s %8s | %7s %6s %6s %6s | %7s %6s %6s %6s %6s %6s\n' "$m" "$(kv "$a" triangles)" \
+        "$(kv "$a" bvh_build_s)" "$(kv "$a" bytes_per_triangle)" "$(kv "$a" primary_mrays_1t)" \
+        "$(kv "$a" shadow_mrays_1t)" "$(kv "$e" bvh_build_s)" "$(kv "$e" bytes_per_triangle)" \
+        "$(kv "$e" primary_mrays_1t_single)" "$(kv "$e" primary_mrays_1t_packet16)" \
+        "$(kv "$e" shadow_mrays_1t_single)" "$(kv "$e" shadow_mrays_1t_packet16)"
+    ah=$(kv "$a" primary_hits) eh=$(kv "$e" primary_mrays_1t_single_hits)
+    awk -v a="$ah" -v e="$eh" -v m="$m" 'BEGIN {d = a - e; if (d < 0) d = -d;
+        if (d > 0.001 * e) printf "  warning: %s primary hits differ: rayd %d, Embree %d\n", m, a, e}'
+done
+echo "  (build: 2 threads each, BVH only; B/tri: mesh data + BVH, each;"
+echo "   shadow: pixels/s (M) for a primary ray plus a shadow ray from each hit)"
+printf 'spheres10 (100 spheres, max_depth 5): rayd-render --threads 1 wall %s s (runs: %s);\n' \
+    "$rayd_s" "${rayd_t[*]}"
+printf '  povray +WT1 -A trace %s s (runs: %s); images: mean |diff| %s/255, %s%% of pixels differ\n' \
+    "$pov_s" "${pov_t[*]}" "$(kv "$R/spheres10.imgdiff" mean_abs_diff)" \
+    "$(kv "$R/spheres10.imgdiff" pixels_differ_pct)"
+
+# --- ratios ------------------------------------------------------------------
+echo
+echo "rayd / peer (speed ratios from this run; > 1: rayd faster)"
+printf '%-40s %8s %8s  %s\n' comparison ratio target verdict
+row() { # label rayd peer target(or -) [inverse: 1 when figures are times]
+    awk -v l="$1" -v a="$2" -v p="$3" -v t="$4" -v inv="${5:-0}" 'BEGIN {
+        if (a == "-" || p == "-" || a + 0 <= 0 || p + 0 <= 0) { printf "%-40s %8s\n", l, "n/a"; exit }
+        r = inv ? p / a : a / p
+        v = t == "-" ? "" : (r >= t ? "met" : "NOT met")
+        printf "%-40s %8.2f %8s  %s\n", l, r, t == "-" ? "" : ">= " t, v }'
+}
+name_of() { case $1 in mesh-8) echo "1.3M mesh";; mesh-4) echo "5k mesh";; bunny) echo "bunny";; esac; }
+for m in "${meshes[@]}"; do
+    a=$R/$m.raybench e=$R/$m.embree n=$(name_of "$m")
+    row "primary, $n / Embree single" "$(kv "$a" primary_mrays_1t)" "$(kv "$e" primary_mrays_1t_single)" -
+    row "primary, $n / Embree packet16" "$(kv "$a" primary_mrays_1t)" \
+        "$(kv "$e" primary_mrays_1t_packet16)" 0.5
+done
+for m in "${meshes[@]}"; do
+    a=$R/$m.raybench e=$R/$m.embree n=$(name_of "$m")
+    row "shadow, $n / Embree single" "$(kv "$a" shadow_mrays_1t)" "$(kv "$e" shadow_mrays_1t_single)" -
+    row "shadow, $n / Embree packet16" "$(kv "$a" shadow_mrays_1t)" "$(kv "$e" shadow_mrays_1t_packet16)" -
+done
+row "BVH build, 1.3M mesh / Embree medium" "$(kv "$R/mesh-8.raybench" bvh_build_s)" \
+    "$(kv "$R/mesh-8.embree" bvh_build_s)" 1 1
+row "spheres10, 1 thread / POV-Ray trace" "$rayd_s" "$pov_s" 10 1
+row "scaling: rayd primary 1.3M / 5k mesh" "$(kv "$R/mesh-8.raybench" primary_mrays_1t)" \
+    "$(kv "$R/mesh-4.raybench" primary_mrays_1t)" 0.6
+row "  (Embree packet16 1.3M / 5k, reference)" "$(kv "$R/mesh-8.embree" primary_mrays_1t_packet16)" \
+    "$(kv "$R/mesh-4.embree" primary_mrays_1t_packet16)" -
+echo "(raw figures and both sphere images in $R/)"

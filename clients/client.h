@@ -1,0 +1,129 @@
+/* client.h -- the internal interfaces of rayd-client.
+ *
+ * rayd-client is a few files, one idea each, and every public name starts
+ * with its file's name, as in the server:
+ *
+ *   rayd-client.c  the command line: options, the render / job / health
+ *                  commands, exit codes
+ *   scenefile.c    reads a scene, inlines the mesh and texture files it
+ *                  names, validates it with the core, hashes it (scene id)
+ *   net.c          libcurl glue shared by the commands: response buffers,
+ *                  headers, the API's JSON errors, Retry-After
+ *   tiles.c        the tile scheduler: one frame as tiles over many servers
+ *                  with libcurl's multi interface, retries, stitching
+ *   progress.c     the progress bar (terminal) or plain progress lines
+ *   job.c          the asynchronous job API with its Server-Sent Events
+ *
+ * Only include/rayd/rayd.h crosses from the core; libcurl and cJSON types
+ * stay in the files that need them.
+ */
+#ifndef RAYD_CLIENT_H
+#define RAYD_CLIENT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#define CLIENT_MAX_SERVERS 64
+
+/* ---- rayd-client.c: the options every command shares ------------------- */
+
+struct client_opts {
+    const char *servers[CLIENT_MAX_SERVERS]; /* base URLs, no trailing '/' */
+    int nservers;
+    const char *out;   /* -o */
+    int tile;          /* tile edge in pixels */
+    int parallel;      /* transfers in flight at once, all servers together */
+    int retries;       /* further attempts of a failed tile */
+    double timeout;    /* seconds per request */
+    char *token;       /* from --token-file, trimmed; NULL = none */
+    int quiet;         /* no progress at all */
+};
+
+/* ---- scenefile.c ---------------------------------------------------------- */
+
+struct scenefile {
+    char *bytes;   /* exactly what is sent (malloc'd) */
+    size_t len;
+    char id[65];   /* lowercase hex SHA-256 of bytes: the server's scene id */
+    int width, height;
+    int samples;
+    int bundled;   /* files inlined */
+};
+
+/* Reads path, inlines "file" references (mesh sources and image textures,
+ * relative to the scene's folder) as base64, validates the result with the
+ * core and hashes it.  Returns 0, or -1 after printing why on stderr. */
+int scenefile_load(const char *path, struct scenefile *sf);
+void scenefile_free(struct scenefile *sf);
+/* Standard base64 with padding; malloc'd NUL-terminated string or NULL. */
+char *scenefile_base64(const unsigned char *data, size_t len);
+
+/* ---- net.c ---------------------------------------------------------------- */
+
+/* A growing response body, capped at max bytes (0 = 64 MiB). */
+struct net_buf {
+    char *data;
+    size_t len, cap, max;
+    int overflow;
+};
+
+void net_buf_reset(struct net_buf *b);
+void net_buf_free(struct net_buf *b);
+size_t net_buf_write(char *ptr, size_t size, size_t n, void *user);
+
+void net_global_init(void);
+void net_global_cleanup(void);
+/* A new easy handle for url writing into body, with the options shared by
+ * every request (timeouts, keep-alive, token, user agent).  json_body, when
+ * not NULL, makes it a POST of those bytes as application/json.  *hdrs
+ * receives the header list to free with curl_slist_free_all after the
+ * transfer.  The handle is a CURL * (void here to keep curl out). */
+void *net_easy(const struct client_opts *o, const char *url, struct net_buf *body,
+               const char *json_body, size_t json_len, void **hdrs);
+/* Describes an answer that is not a success: "HTTP 422 invalid_scene at
+ * /objects/1/radius: must be > 0" from the API's JSON error, or the first
+ * bytes of the body.  Returns buf. */
+char *net_describe(long status, const struct net_buf *body, char *buf, size_t size);
+/* The API error code of a JSON error body ("scene_unknown"), into buf; "" if
+ * none. */
+char *net_error_code(const struct net_buf *body, char *buf, size_t size);
+/* Retry-After of the last answer of handle h in seconds (>= 0), or def. */
+double net_retry_after(void *h, double def);
+/* Monotonic seconds. */
+double net_now(void);
+/* "host:port" of a URL, for labels. */
+void net_label(const char *url, char *buf, size_t size);
+
+/* ---- progress.c ----------------------------------------------------------- */
+
+struct progress {
+    int tty, quiet;
+    int total;
+    double t0, last_draw, last_line;
+    int last_pct;
+    int width; /* drawn width, to clear */
+};
+
+void progress_init(struct progress *p, int total, int quiet);
+/* Draws at most a few times a second (always when force).  per_server[i]
+ * tiles done by labels[i]; rays_per_s < 0 when unknown. */
+void progress_update(struct progress *p, int done, int failed, int nservers,
+                     const long *per_server, char labels[][40], double rays_per_s, int force);
+/* Ends the bar's line. */
+void progress_end(struct progress *p);
+
+/* ---- tiles.c -------------------------------------------------------------- */
+
+/* Renders sf as tiles over o->servers and writes o->out.  Returns 0 on a
+ * complete image, 1 when the scene was refused, 2 when tiles are missing
+ * (nothing is written then). */
+int tiles_render(const struct client_opts *o, const struct scenefile *sf);
+
+/* ---- job.c ---------------------------------------------------------------- */
+
+/* The asynchronous API on o->servers[0]: POST /v1/jobs, follow the events,
+ * fetch the PNG into o->out.  Returns 0, 1 when refused or failed, 2 on a
+ * transport error. */
+int job_run(const struct client_opts *o, const struct scenefile *sf);
+
+#endif

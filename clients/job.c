@@ -1,0 +1,332 @@
+/* job.c -- `rayd-client job`: one asynchronous render on one server.
+ *
+ * POST /v1/jobs answers at once with the job id; the render then runs on
+ * the server whether or not anyone watches.  We follow
+ * GET /v1/jobs/{id}/events, a Server-Sent Events stream that replays what
+ * already happened and then sends one "tile" and one "progress" event per
+ * finished 64 x 64 tile and a final "done".  The stream is parsed as it
+ * arrives (lines, "event:" and "data:" fields, a blank line ends an event)
+ * and drives the same progress display as the tile client.  If the stream
+ * breaks before "done" (a proxy timeout, a restart), we fall back to polling
+ * GET /v1/jobs/{id} once a second.  Then GET /v1/jobs/{id}/image.png gives
+ * the PNG, written unchanged (it equals rayd-render's bytes), or 409 with
+ * the job's error, printed as the server sent it.
+ *
+ * Ctrl-C cancels the job on the server (DELETE /v1/jobs/{id}) before
+ * exiting, so an abandoned render does not keep the workers busy.
+ */
+#include "client.h"
+
+#include <cjson/cJSON.h>
+#include <curl/curl.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include <rayd/rayd.h>
+
+static volatile sig_atomic_t job_interrupted;
+
+static void job_on_signal(int sig)
+{
+    (void)sig;
+    job_interrupted = 1;
+}
+
+struct job_sse {
+    char line[4096];
+    size_t len;
+    char event[32];
+    char data[4096];
+    int done;
+    char final_state[32];
+    struct progress *prog;
+    char (*label)[40];
+};
+
+static void job_sse_dispatch(struct job_sse *j)
+{
+    cJSON *d = cJSON_Parse(j->data);
+    if (!strcmp(j->event, "progress")) {
+        const cJSON *done = cJSON_GetObjectItemCaseSensitive(d, "done");
+        const cJSON *total = cJSON_GetObjectItemCaseSensitive(d, "total");
+        if (cJSON_IsNumber(done) && cJSON_IsNumber(total)) {
+            long per = done->valueint;
+            j->prog->total = total->valueint;
+            progress_update(j->prog, done->valueint, 0, 1, &per, j->label, -1, 0);
+        }
+    } else if (!strcmp(j->event, "done")) {
+        const cJSON *st = cJSON_GetObjectItemCaseSensitive(d, "state");
+        snprintf(j->final_state, sizeof j->final_state, "%s",
+                 cJSON_IsString(st) ? st->valuestring : "unknown");
+        j->done = 1;
+    }
+    cJSON_Delete(d);
+    j->event[0] = j->data[0] = '\0';
+}
+
+static void job_sse_line(struct job_sse *j)
+{
+    char *l = j->line;
+    if (!*l) {
+        if (j->event[0] || j->data[0])
+            job_sse_dispatch(j);
+        return;
+    }
+    if (*l == ':')
+        return; /* a comment: keep-alive */
+    char *v = strchr(l, ':');
+    if (v) {
+        *v++ = '\0';
+        if (*v == ' ')
+            v++;
+    } else {
+        v = l + strlen(l);
+    }
+    if (!strcmp(l, "event")) {
+        snprintf(j->event, sizeof j->event, "%s", v);
+    } else if (!strcmp(l, "data")) {
+        size_t n = strlen(j->data);
+        snprintf(j->data + n, sizeof j->data - n, "%s%s", n ? "\n" : "", v);
+    }
+}
+
+static size_t job_sse_write(char *ptr, size_t size, size_t n, void *user)
+{
+    struct job_sse *j = user;
+    size_t all = size * n;
+    for (size_t i = 0; i < all; i++) {
+        char c = ptr[i];
+        if (c == '\n') {
+            if (j->len && j->line[j->len - 1] == '\r')
+                j->len--;
+            j->line[j->len] = '\0';
+            job_sse_line(j);
+            j->len = 0;
+        } else if (j->len + 1 < sizeof j->line) {
+            j->line[j->len++] = c;
+        }
+    }
+    return all;
+}
+
+static int job_xferinfo(void *u, curl_off_t a, curl_off_t b, curl_off_t c, curl_off_t d)
+{
+    (void)u, (void)a, (void)b, (void)c, (void)d;
+    return job_interrupted ? 1 : 0;
+}
+
+/* One blocking request; returns the status (0 on a transport error, with
+ * why set). */
+static long job_request(const struct client_opts *o, const char *method, const char *url,
+                        const struct scenefile *sf, struct net_buf *body, char *why, size_t size)
+{
+    void *hdrs = NULL;
+    CURL *h = net_easy(o, url, body, sf ? sf->bytes : NULL, sf ? sf->len : 0, &hdrs);
+    if (!h) {
+        snprintf(why, size, "out of memory");
+        return 0;
+    }
+    if (strcmp(method, "GET") && strcmp(method, "POST"))
+        curl_easy_setopt(h, CURLOPT_CUSTOMREQUEST, method);
+    curl_easy_setopt(h, CURLOPT_NOPROGRESS, 0L);
+    curl_easy_setopt(h, CURLOPT_XFERINFOFUNCTION, job_xferinfo);
+    CURLcode cc = curl_easy_perform(h);
+    long status = 0;
+    if (cc == CURLE_OK)
+        curl_easy_getinfo(h, CURLINFO_RESPONSE_CODE, &status);
+    else
+        snprintf(why, size, "%s: %s", url, curl_easy_strerror(cc));
+    curl_easy_cleanup(h);
+    curl_slist_free_all(hdrs);
+    return status;
+}
+
+static const char *job_str(const cJSON *o, const char *k)
+{
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, k);
+    return cJSON_IsString(v) ? v->valuestring : NULL;
+}
+
+/* Follows the event stream; returns 1 when "done" arrived. */
+static int job_follow(const struct client_opts *o, const char *base, const char *id,
+                      struct progress *prog, char (*label)[40])
+{
+    char url[1024];
+    snprintf(url, sizeof url, "%s/v1/jobs/%s/events", base, id);
+    struct job_sse j;
+    memset(&j, 0, sizeof j);
+    j.prog = prog;
+    j.label = label;
+    struct net_buf unused = {0};
+    void *hdrs = NULL;
+    CURL *h = net_easy(o, url, &unused, NULL, 0, &hdrs);
+    if (!h)
+        return 0;
+    curl_easy_setopt(h, CURLOPT_WRITEFUNCTION, job_sse_write);
+    curl_easy_setopt(h, CURLOPT_WRITEDATA, &j);
+    curl_easy_setopt(h, CURLOPT_TIMEOUT_MS, 0L); /* a render may take long */
+    curl_easy_setopt(h, CURLOPT_LOW_SPEED_LIMIT, 1L);
+    curl_easy_setopt(h, CURLOPT_LOW_SPEED_TIME, 60L); /* keep-alives come sooner */
+    curl_easy_setopt(h, CURLOPT_NOPROGRESS, 0L);
+    curl_easy_setopt(h, CURLOPT_XFERINFOFUNCTION, job_xferinfo);
+    curl_easy_perform(h);
+    curl_easy_cleanup(h);
+    curl_slist_free_all(hdrs);
+    net_buf_free(&unused);
+    return j.done;
+}
+
+/* Polls GET /v1/jobs/{id} until the job is finished; 0, or -1. */
+static int job_poll(const struct client_opts *o, const char *base, const char *id,
+                    struct progress *prog, char (*label)[40])
+{
+    char url[1024], why[600];
+    snprintf(url, sizeof url, "%s/v1/jobs/%s", base, id);
+    struct net_buf b = {0};
+    int rc = -1;
+    for (int tries = 0; !job_interrupted; tries++) {
+        net_buf_reset(&b);
+        long st = job_request(o, "GET", url, NULL, &b, why, sizeof why);
+        if (st != 200) {
+            if (st)
+                net_describe(st, &b, why, sizeof why);
+            fprintf(stderr, "rayd-client: job %s: %s\n", id, why);
+            break;
+        }
+        cJSON *j = cJSON_ParseWithLength(b.data, b.len);
+        const char *state = job_str(j, "state");
+        const cJSON *d = cJSON_GetObjectItemCaseSensitive(j, "tiles_done");
+        const cJSON *t = cJSON_GetObjectItemCaseSensitive(j, "tiles_total");
+        if (cJSON_IsNumber(d) && cJSON_IsNumber(t)) {
+            long per = d->valueint;
+            prog->total = t->valueint;
+            progress_update(prog, d->valueint, 0, 1, &per, label, -1, 0);
+        }
+        int fin = state && (!strcmp(state, "succeeded") || !strcmp(state, "failed") ||
+                            !strcmp(state, "canceled"));
+        cJSON_Delete(j);
+        if (fin) {
+            rc = 0;
+            break;
+        }
+        struct timespec ts = {1, 0};
+        nanosleep(&ts, NULL);
+    }
+    net_buf_free(&b);
+    return rc;
+}
+
+static int job_write(const char *path, const struct net_buf *b)
+{
+    rayd_image *img = NULL;
+    struct rayd_error err = {0};
+    if (rayd_png_decode(b->data, b->len, 0, &img, &err) != RAYD_OK) {
+        fprintf(stderr, "rayd-client: the job's image is not a PNG: %s\n", err.message);
+        return -1;
+    }
+    rayd_image_free(img);
+    size_t n = strlen(path) + 8;
+    char *tmp = malloc(n);
+    if (!tmp)
+        return -1;
+    snprintf(tmp, n, "%s.part", path);
+    FILE *f = fopen(tmp, "wb");
+    int ok = f && fwrite(b->data, 1, b->len, f) == b->len;
+    if (f && fclose(f) != 0)
+        ok = 0;
+    if (!ok || rename(tmp, path) != 0) {
+        fprintf(stderr, "rayd-client: cannot write %s\n", path);
+        remove(tmp);
+        free(tmp);
+        return -1;
+    }
+    free(tmp);
+    return 0;
+}
+
+int job_run(const struct client_opts *o, const struct scenefile *sf)
+{
+    const char *base = o->servers[0];
+    char url[1024], why[600] = "";
+    struct net_buf b = {0};
+    int rc = 2;
+    struct sigaction sa, old_int, old_term;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = job_on_signal;
+    sigaction(SIGINT, &sa, &old_int);
+    sigaction(SIGTERM, &sa, &old_term);
+
+    snprintf(url, sizeof url, "%s/v1/jobs", base);
+    long st = job_request(o, "POST", url, sf, &b, why, sizeof why);
+    if (st != 202) {
+        if (st) {
+            net_describe(st, &b, why, sizeof why);
+            rc = 1;
+        }
+        fprintf(stderr, "rayd-client: %s refused the job: %s\n", base, why);
+        goto out;
+    }
+    cJSON *j = cJSON_ParseWithLength(b.data, b.len);
+    char id[64] = "";
+    const char *jid = job_str(j, "id");
+    if (jid && strlen(jid) < sizeof id && strspn(jid, "0123456789abcdef") == strlen(jid))
+        snprintf(id, sizeof id, "%s", jid);
+    cJSON_Delete(j);
+    if (!id[0]) {
+        fprintf(stderr, "rayd-client: %s: no job id in the answer\n", base);
+        goto out;
+    }
+    if (!o->quiet)
+        fprintf(stderr, "rayd-client: job %s on %s (%dx%d)\n", id, base, sf->width, sf->height);
+
+    struct progress prog;
+    char label[1][40];
+    net_label(base, label[0], sizeof label[0]);
+    progress_init(&prog, 1, o->quiet);
+    int done = job_follow(o, base, id, &prog, label);
+    if (!done && !job_interrupted && job_poll(o, base, id, &prog, label) != 0)
+        goto cancel;
+    if (job_interrupted)
+        goto cancel;
+    progress_update(&prog, prog.total, 0, 1, (long[]){prog.total}, label, -1, 1);
+    progress_end(&prog);
+
+    snprintf(url, sizeof url, "%s/v1/jobs/%s/image.png", base, id);
+    for (int tries = 0; tries < 600 && !job_interrupted; tries++) {
+        net_buf_reset(&b);
+        st = job_request(o, "GET", url, NULL, &b, why, sizeof why);
+        if (st != 202)
+            break;
+        struct timespec ts = {0, 200 * 1000 * 1000}; /* encoding the PNG */
+        nanosleep(&ts, NULL);
+    }
+    if (st == 200) {
+        rc = job_write(o->out, &b) == 0 ? 0 : 2;
+        if (rc == 0 && !o->quiet)
+            fprintf(stderr, "rayd-client: wrote %s\n", o->out);
+    } else {
+        if (st)
+            net_describe(st, &b, why, sizeof why);
+        fprintf(stderr, "rayd-client: job %s: %s\n", id, why);
+        rc = st == 409 ? 1 : 2;
+    }
+    goto out;
+cancel:
+    progress_end(&prog);
+    if (job_interrupted) {
+        job_interrupted = 0; /* let the DELETE through */
+        snprintf(url, sizeof url, "%s/v1/jobs/%s", base, id);
+        net_buf_reset(&b);
+        job_request(o, "DELETE", url, NULL, &b, why, sizeof why);
+        fprintf(stderr, "rayd-client: interrupted; job %s cancelled\n", id);
+        rc = 130;
+    }
+out:
+    sigaction(SIGINT, &old_int, NULL);
+    sigaction(SIGTERM, &old_term, NULL);
+    net_buf_free(&b);
+    return rc;
+}

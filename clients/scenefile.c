@@ -1,0 +1,247 @@
+/* scenefile.c -- the scene as rayd-client sends it.
+ *
+ * A server cannot read the client's files (it refuses "file" references
+ * unless it was given an asset folder), so before anything is sent every
+ * file the scene names is inlined: a mesh "source": {"file": "m.ply"}
+ * becomes {"format": "ply", "base64": "..."}, an image texture's "file"
+ * becomes "png_base64".  Relative names resolve against the scene's folder,
+ * as rayd-render does.  A scene without file references is sent byte for
+ * byte as it is on disk, so its id equals `sha256sum scene.json`.
+ *
+ * The bytes to send are then parsed by the core exactly as a server will
+ * parse them (rayd_scene_parse with the default limits): a bad scene is
+ * reported here with its JSON Pointer, before any network traffic, and the
+ * image size for the tiling comes from rayd_scene_info.  The scene id is the
+ * SHA-256 of those bytes (OpenSSL's EVP), the same hash every node computes.
+ */
+#include "client.h"
+
+#include <cjson/cJSON.h>
+#include <errno.h>
+#include <openssl/evp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+#include <rayd/rayd.h>
+
+static char *scenefile_read(const char *path, size_t *len)
+{
+    FILE *f = strcmp(path, "-") ? fopen(path, "rb") : stdin;
+    if (!f)
+        return NULL;
+    size_t cap = 1 << 16, n = 0;
+    char *buf = malloc(cap);
+    while (buf) {
+        if (n == cap) {
+            char *b = realloc(buf, cap * 2);
+            if (!b) {
+                free(buf);
+                buf = NULL;
+                break;
+            }
+            buf = b;
+            cap *= 2;
+        }
+        size_t k = fread(buf + n, 1, cap - n, f);
+        n += k;
+        if (k == 0)
+            break;
+    }
+    int bad = ferror(f);
+    if (f != stdin)
+        fclose(f);
+    if (bad) {
+        free(buf);
+        return NULL;
+    }
+    *len = n;
+    return buf;
+}
+
+char *scenefile_base64(const unsigned char *data, size_t len)
+{
+    static const char tab[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    char *out = malloc((len + 2) / 3 * 4 + 1);
+    if (!out)
+        return NULL;
+    size_t o = 0, i = 0;
+    for (; i + 2 < len; i += 3) {
+        uint32_t v = (uint32_t)data[i] << 16 | (uint32_t)data[i + 1] << 8 | data[i + 2];
+        out[o++] = tab[v >> 18];
+        out[o++] = tab[(v >> 12) & 63];
+        out[o++] = tab[(v >> 6) & 63];
+        out[o++] = tab[v & 63];
+    }
+    if (i < len) {
+        uint32_t v = (uint32_t)data[i] << 16 | (i + 1 < len ? (uint32_t)data[i + 1] << 8 : 0);
+        out[o++] = tab[v >> 18];
+        out[o++] = tab[(v >> 12) & 63];
+        out[o++] = i + 1 < len ? tab[(v >> 6) & 63] : '=';
+        out[o++] = '=';
+    }
+    out[o] = '\0';
+    return out;
+}
+
+struct scenefile_walk {
+    const char *dir; /* the scene's folder with a trailing '/', "" for the cwd */
+    int count;
+    int failed;
+};
+
+/* Replaces obj[key] (a file name) by obj[newkey] (its bytes in base64). */
+static void scenefile_inline(struct scenefile_walk *w, cJSON *obj, const char *key,
+                             const char *newkey, const char *where)
+{
+    cJSON *f = cJSON_GetObjectItemCaseSensitive(obj, key);
+    if (!cJSON_IsString(f))
+        return; /* the core reports the wrong type with its path */
+    const char *name = f->valuestring;
+    size_t n = strlen(w->dir) + strlen(name) + 1;
+    char *path = malloc(n);
+    if (!path) {
+        w->failed = 1;
+        return;
+    }
+    snprintf(path, n, "%s%s", name[0] == '/' ? "" : w->dir, name);
+    size_t len = 0;
+    char *data = scenefile_read(path, &len);
+    if (!data) {
+        fprintf(stderr, "rayd-client: %s: cannot read \"%s\": %s\n", where, path,
+                strerror(errno ? errno : EIO));
+        w->failed = 1;
+        free(path);
+        return;
+    }
+    free(path);
+    char *b64 = scenefile_base64((const unsigned char *)data, len);
+    free(data);
+    if (!b64) {
+        w->failed = 1;
+        return;
+    }
+    /* a mesh without "format" took it from the file name: keep it explicit */
+    if (!strcmp(newkey, "base64") && !cJSON_GetObjectItemCaseSensitive(obj, "format")) {
+        size_t k = strlen(name);
+        if (k > 4 && !strcasecmp(name + k - 4, ".obj"))
+            cJSON_AddStringToObject(obj, "format", "obj");
+        else if (k > 4 && !strcasecmp(name + k - 4, ".ply"))
+            cJSON_AddStringToObject(obj, "format", "ply");
+    }
+    cJSON_DeleteItemFromObjectCaseSensitive(obj, key);
+    if (!cJSON_AddStringToObject(obj, newkey, b64))
+        w->failed = 1;
+    free(b64);
+    w->count++;
+}
+
+/* Visits every object of the tree: mesh sources hold "file" beside
+ * "format"/"text"/"base64" under a "source" key; image textures are objects
+ * with "type": "image". */
+static void scenefile_walk(struct scenefile_walk *w, cJSON *node, const char *key, char *ptr,
+                           size_t ptrlen)
+{
+    if (cJSON_IsObject(node)) {
+        const cJSON *type = cJSON_GetObjectItemCaseSensitive(node, "type");
+        if (key && !strcmp(key, "source") && cJSON_GetObjectItemCaseSensitive(node, "file"))
+            scenefile_inline(w, node, "file", "base64", ptr);
+        else if (cJSON_IsString(type) && !strcmp(type->valuestring, "image") &&
+                 cJSON_GetObjectItemCaseSensitive(node, "file"))
+            scenefile_inline(w, node, "file", "png_base64", ptr);
+    }
+    if (!cJSON_IsObject(node) && !cJSON_IsArray(node))
+        return;
+    int i = 0;
+    for (cJSON *c = node->child; c; c = c->next, i++) {
+        size_t len = strlen(ptr);
+        if (c->string)
+            snprintf(ptr + len, ptrlen - len, "/%s", c->string);
+        else
+            snprintf(ptr + len, ptrlen - len, "/%d", i);
+        scenefile_walk(w, c, c->string, ptr, ptrlen);
+        ptr[len] = '\0';
+    }
+}
+
+/* Inlines the files of sf->bytes; on a change sf->bytes is re-serialised. */
+static int scenefile_bundle(const char *path, struct scenefile *sf)
+{
+    cJSON *root = cJSON_ParseWithLength(sf->bytes, sf->len);
+    if (!root)
+        return 0; /* malformed: the core's parse reports line and column */
+    char dir[4096] = "";
+    const char *slash = strrchr(path, '/');
+    if (slash && (size_t)(slash - path) + 2 < sizeof dir)
+        snprintf(dir, sizeof dir, "%.*s/", (int)(slash - path), path);
+    struct scenefile_walk w = {dir, 0, 0};
+    char ptr[1024] = "";
+    scenefile_walk(&w, root, NULL, ptr, sizeof ptr);
+    int rc = 0;
+    if (w.failed) {
+        rc = -1;
+    } else if (w.count) {
+        char *s = cJSON_PrintUnformatted(root);
+        if (!s) {
+            rc = -1;
+        } else {
+            free(sf->bytes);
+            sf->bytes = s;
+            sf->len = strlen(s);
+            sf->bundled = w.count;
+        }
+    }
+    cJSON_Delete(root);
+    return rc;
+}
+
+int scenefile_load(const char *path, struct scenefile *sf)
+{
+    memset(sf, 0, sizeof *sf);
+    errno = 0;
+    sf->bytes = scenefile_read(path, &sf->len);
+    if (!sf->bytes) {
+        fprintf(stderr, "rayd-client: cannot read %s: %s\n", path, strerror(errno ? errno : EIO));
+        return -1;
+    }
+    if (scenefile_bundle(path, sf) != 0) {
+        fprintf(stderr, "rayd-client: %s: could not inline the files the scene names\n", path);
+        scenefile_free(sf);
+        return -1;
+    }
+    rayd_scene *scene = NULL;
+    struct rayd_error err = {0};
+    if (rayd_scene_parse(sf->bytes, sf->len, NULL, &scene, &err) != RAYD_OK) {
+        char msg[600];
+        fprintf(stderr, "rayd-client: %s: %s: %s\n", path, rayd_status_name(err.code),
+                rayd_error_format(&err, msg, sizeof msg));
+        scenefile_free(sf);
+        return -1;
+    }
+    struct rayd_scene_info info;
+    rayd_scene_info(scene, &info);
+    rayd_scene_free(scene);
+    sf->width = info.width;
+    sf->height = info.height;
+    sf->samples = info.samples;
+    unsigned char md[EVP_MAX_MD_SIZE];
+    unsigned int mdlen = 0;
+    if (!EVP_Digest(sf->bytes, sf->len, md, &mdlen, EVP_sha256(), NULL) || mdlen != 32) {
+        fprintf(stderr, "rayd-client: SHA-256 failed\n");
+        scenefile_free(sf);
+        return -1;
+    }
+    for (unsigned i = 0; i < 32; i++)
+        snprintf(sf->id + 2 * i, 3, "%02x", md[i]);
+    return 0;
+}
+
+void scenefile_free(struct scenefile *sf)
+{
+    if (!sf)
+        return;
+    free(sf->bytes);
+    sf->bytes = NULL;
+    sf->len = 0;
+}

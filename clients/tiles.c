@@ -1,0 +1,558 @@
+/* tiles.c -- one frame rendered as tiles over many rayd servers.
+ *
+ * The frame is cut into a grid of tiles (--tile, 128 pixels by default; the
+ * last row and column are smaller).  Every tile is an independent HTTP
+ * request, and every server can render every tile, because rendering is a
+ * pure function of the scene bytes and the pixel: the stitched frame equals
+ * a single-machine render byte for byte.  Distribution, retries and
+ * stitching are all here; there is no cluster protocol.
+ *
+ * Requests.  A server first learns the scene once: POST /v1/scenes with the
+ * body (the compiled scene is cached there under its SHA-256).  Tiles are
+ * then cheap, cacheable GETs of /v1/scenes/{id}/image.png?x=&y=&w=&h=.  When
+ * a GET answers 404 scene_unknown (the node evicted the scene, restarted, or
+ * the URL is a balancer and the GET reached a node that never saw it), that
+ * tile is sent again at once to the same URL as POST /v1/render?x=&y=&w=&h=
+ * with the body; the node that renders it compiles and caches the scene, so
+ * later GETs find it.  Behind a balancer a node may thus be taught by a few
+ * tiles racing at the start; with a list of servers each learns exactly once.
+ *
+ * Scheduling.  One libcurl multi handle drives every transfer; its
+ * connection cache keeps one keep-alive connection per concurrent request
+ * and server.  At most --parallel tile requests are in flight; a pending
+ * tile goes to the ready server with the fewest requests in flight (not the
+ * server that just failed it, if another is ready).
+ *
+ * Failures.  A transport error, a timeout, a 5xx other than 503, or a
+ * response that is not the expected PNG counts against the tile (--retries
+ * further attempts) and against the server, which then rests for an
+ * exponential back-off (0.5 s doubling to 10 s) so its tiles move to the
+ * other servers.  A 503 (queue full, draining) is back-pressure, not a
+ * fault: the server rests for its Retry-After and the tile is free to go
+ * elsewhere at once.  A 4xx other than scene_unknown means the scene or the
+ * request is refused; every server would say the same, so the run stops and
+ * prints the server's JSON error.  When every server has failed more than
+ * --retries times in a row, the remaining tiles are given up.  An image with
+ * a missing tile is never written: the exit status is 2 and the message
+ * names the missing tiles.
+ *
+ * Rays per second for the progress bar come from polling each server's
+ * /metrics (rayd_rays_total) once a second; it counts all the work of those
+ * servers, not only this frame's.
+ */
+#include "client.h"
+
+#include <curl/curl.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <rayd/rayd.h>
+
+enum tiles_state { TS_PENDING, TS_RUNNING, TS_DONE, TS_FAILED };
+enum tiles_scene { SS_UNKNOWN, SS_LEARNING, SS_KNOWN };
+enum tiles_kind { X_LEARN, X_GET, X_POST, X_METRICS };
+
+struct tiles_tile {
+    int x, y, w, h;
+    enum tiles_state st;
+    int attempts;   /* failures counted against --retries */
+    int busy;       /* 503 answers */
+    int last_server;
+    double not_before;
+    char err[240];
+};
+
+struct tiles_server {
+    const char *url;
+    char label[40];
+    enum tiles_scene scene;
+    int inflight;         /* learn + tile requests */
+    long done;            /* tiles rendered */
+    long uploads;         /* times the scene body was sent */
+    int fails_row;        /* consecutive failures */
+    double down_until;    /* resting until then */
+    int metrics_busy;
+    double metrics_next, rays_t, rps;
+    double rays_last;
+};
+
+struct tiles_xfer {
+    CURL *h;
+    struct curl_slist *hdrs;
+    struct net_buf body;
+    enum tiles_kind kind;
+    int tile, server;
+    struct tiles_xfer *prev, *next; /* every transfer in flight */
+};
+
+struct tiles {
+    const struct client_opts *o;
+    const struct scenefile *sf;
+    struct tiles_tile *t;
+    int n;
+    struct tiles_server *s;
+    int ns;
+    CURLM *multi;
+    int running; /* tile requests in flight */
+    int done, failed;
+    int fatal;
+    rayd_image *img;
+    struct progress prog;
+    char last_err[400];
+    long *per_server;
+    char (*labels)[40];
+    int busy_limit;
+    struct tiles_xfer *xfers;
+};
+
+/* ---- starting requests ------------------------------------------------------ */
+
+static int tiles_start(struct tiles *T, enum tiles_kind kind, int ti, int si)
+{
+    struct tiles_server *s = &T->s[si];
+    char url[1024];
+    const char *body = NULL;
+    size_t blen = 0;
+    const struct tiles_tile *t = ti >= 0 ? &T->t[ti] : NULL;
+    switch (kind) {
+    case X_LEARN:
+        snprintf(url, sizeof url, "%s/v1/scenes", s->url);
+        body = T->sf->bytes, blen = T->sf->len;
+        break;
+    case X_GET:
+        snprintf(url, sizeof url, "%s/v1/scenes/%s/image.png?x=%d&y=%d&w=%d&h=%d", s->url,
+                 T->sf->id, t->x, t->y, t->w, t->h);
+        break;
+    case X_POST:
+        snprintf(url, sizeof url, "%s/v1/render?x=%d&y=%d&w=%d&h=%d", s->url, t->x, t->y, t->w,
+                 t->h);
+        body = T->sf->bytes, blen = T->sf->len;
+        break;
+    case X_METRICS:
+        snprintf(url, sizeof url, "%s/metrics", s->url);
+        break;
+    }
+    struct tiles_xfer *x = calloc(1, sizeof *x);
+    if (!x)
+        return -1;
+    x->kind = kind, x->tile = ti, x->server = si;
+    void *hdrs = NULL;
+    x->h = net_easy(T->o, url, &x->body, body, blen, &hdrs);
+    x->hdrs = hdrs;
+    if (!x->h) {
+        free(x);
+        return -1;
+    }
+    if (kind == X_METRICS)
+        curl_easy_setopt(x->h, CURLOPT_TIMEOUT_MS, 2000L);
+    curl_easy_setopt(x->h, CURLOPT_PRIVATE, (void *)x);
+    if (curl_multi_add_handle(T->multi, x->h) != CURLM_OK) {
+        curl_easy_cleanup(x->h);
+        curl_slist_free_all(x->hdrs);
+        free(x);
+        return -1;
+    }
+    x->next = T->xfers;
+    if (x->next)
+        x->next->prev = x;
+    T->xfers = x;
+    if (kind == X_METRICS) {
+        s->metrics_busy = 1;
+    } else {
+        s->inflight++;
+        if (body)
+            s->uploads++;
+    }
+    if (t) {
+        T->t[ti].st = TS_RUNNING;
+        if (kind == X_GET || kind == X_POST)
+            T->running++;
+    }
+    return 0;
+}
+
+static void tiles_xfer_free(struct tiles *T, struct tiles_xfer *x)
+{
+    if (x->prev)
+        x->prev->next = x->next;
+    else
+        T->xfers = x->next;
+    if (x->next)
+        x->next->prev = x->prev;
+    curl_multi_remove_handle(T->multi, x->h);
+    curl_easy_cleanup(x->h);
+    curl_slist_free_all(x->hdrs);
+    net_buf_free(&x->body);
+    free(x);
+}
+
+/* ---- outcomes --------------------------------------------------------------- */
+
+static void tiles_server_failed(struct tiles *T, int si, const char *why, double now)
+{
+    struct tiles_server *s = &T->s[si];
+    s->fails_row++;
+    double backoff = 0.5;
+    for (int i = 1; i < s->fails_row && backoff < 10; i++)
+        backoff *= 2;
+    s->down_until = now + (backoff > 10 ? 10 : backoff);
+    if (s->scene == SS_LEARNING)
+        s->scene = SS_UNKNOWN;
+    snprintf(T->last_err, sizeof T->last_err, "%.150s: %.240s", s->url, why);
+}
+
+static void tiles_tile_failed(struct tiles *T, int ti, int si, const char *why, double now)
+{
+    struct tiles_tile *t = &T->t[ti];
+    snprintf(t->err, sizeof t->err, "%s: %s", T->s[si].url, why);
+    t->last_server = si;
+    if (++t->attempts > T->o->retries) {
+        t->st = TS_FAILED;
+        T->failed++;
+    } else {
+        t->st = TS_PENDING;
+        t->not_before = now;
+    }
+}
+
+static void tiles_fatal(struct tiles *T, int si, long status, const struct net_buf *b)
+{
+    char why[600];
+    net_describe(status, b, why, sizeof why);
+    fprintf(stderr, "%srayd-client: %s refused the scene: %s\n", T->prog.tty ? "\n" : "",
+            T->s[si].url, why);
+    T->fatal = 1;
+}
+
+/* A tile PNG: decode, check its size, blit.  0 or -1 with why set. */
+static int tiles_stitch(struct tiles *T, struct tiles_tile *t, const struct net_buf *b, char *why,
+                        size_t size)
+{
+    rayd_image *img = NULL;
+    struct rayd_error err = {0};
+    if (rayd_png_decode(b->data, b->len, (long)t->w * t->h, &img, &err) != RAYD_OK) {
+        snprintf(why, size, "answer is not a PNG tile: %s", err.message);
+        return -1;
+    }
+    int rc = 0;
+    if (rayd_image_width(img) != t->w || rayd_image_height(img) != t->h) {
+        snprintf(why, size, "tile is %dx%d, expected %dx%d", rayd_image_width(img),
+                 rayd_image_height(img), t->w, t->h);
+        rc = -1;
+    } else if (rayd_image_blit(T->img, img, t->x, t->y, &err) != RAYD_OK) {
+        snprintf(why, size, "stitching failed: %s", err.message);
+        rc = -1;
+    }
+    rayd_image_free(img);
+    return rc;
+}
+
+static void tiles_metrics_done(struct tiles *T, struct tiles_xfer *x, long status, double now)
+{
+    struct tiles_server *s = &T->s[x->server];
+    s->metrics_busy = 0;
+    s->metrics_next = now + 1;
+    if (status != 200 || !x->body.data)
+        return;
+    const char *p = strstr(x->body.data, "\nrayd_rays_total ");
+    if (!p)
+        return;
+    double v = strtod(p + 17, NULL);
+    if (s->rays_t > 0 && v >= s->rays_last && now > s->rays_t)
+        s->rps = (v - s->rays_last) / (now - s->rays_t);
+    s->rays_last = v;
+    s->rays_t = now;
+}
+
+static void tiles_finish(struct tiles *T, struct tiles_xfer *x, CURLcode cc, double now)
+{
+    long status = 0;
+    curl_easy_getinfo(x->h, CURLINFO_RESPONSE_CODE, &status);
+    struct tiles_server *s = &T->s[x->server];
+    if (x->kind == X_METRICS) {
+        tiles_metrics_done(T, x, cc == CURLE_OK ? status : 0, now);
+        return;
+    }
+    s->inflight--;
+    struct tiles_tile *t = x->tile >= 0 ? &T->t[x->tile] : NULL;
+    if (x->kind == X_GET || x->kind == X_POST)
+        T->running--;
+    char why[600];
+    if (cc != CURLE_OK) {
+        if (x->body.overflow)
+            snprintf(why, sizeof why, "answer too large");
+        else if (cc == CURLE_OPERATION_TIMEDOUT)
+            snprintf(why, sizeof why, "timed out after %.0f s (%s)", T->o->timeout,
+                     curl_easy_strerror(cc));
+        else
+            snprintf(why, sizeof why, "%s", curl_easy_strerror(cc));
+        status = 0;
+    } else if (status == 503 || status == 429) {
+        double ra = net_retry_after(x->h, 1);
+        s->down_until = now + ra;
+        if (s->scene == SS_LEARNING)
+            s->scene = SS_UNKNOWN;
+        if (t) {
+            t->st = TS_PENDING;
+            t->not_before = now;
+            t->last_server = x->server;
+            if (++t->busy > T->busy_limit) {
+                net_describe(status, &x->body, why, sizeof why);
+                snprintf(t->err, sizeof t->err, "%.80s: busy %d times, last: %.120s", s->url, t->busy,
+                         why);
+                t->st = TS_FAILED;
+                T->failed++;
+            }
+        }
+        return;
+    } else if (status >= 400 && status < 500 && status != 408) {
+        char code[64];
+        net_error_code(&x->body, code, sizeof code);
+        if (x->kind == X_GET && status == 404 && !strcmp(code, "scene_unknown")) {
+            /* this node lacks the scene: the same tile with the body teaches it */
+            s->scene = SS_KNOWN;
+            if (tiles_start(T, X_POST, x->tile, x->server) != 0)
+                tiles_tile_failed(T, x->tile, x->server, "out of memory", now);
+            return;
+        }
+        tiles_fatal(T, x->server, status, &x->body);
+        return;
+    } else if (x->kind == X_LEARN) {
+        if (status == 200 || status == 201) {
+            s->scene = SS_KNOWN;
+            s->fails_row = 0;
+            return;
+        }
+        net_describe(status, &x->body, why, sizeof why);
+    } else if (status == 200) {
+        if (tiles_stitch(T, t, &x->body, why, sizeof why) == 0) {
+            t->st = TS_DONE;
+            T->done++;
+            s->done++;
+            s->fails_row = 0;
+            return;
+        }
+    } else {
+        net_describe(status, &x->body, why, sizeof why);
+    }
+    tiles_server_failed(T, x->server, why, now);
+    if (t)
+        tiles_tile_failed(T, x->tile, x->server, why, now);
+}
+
+/* ---- the loop ------------------------------------------------------------------ */
+
+static int tiles_pick(struct tiles *T, const struct tiles_tile *t, double now)
+{
+    int best = -1, score = 0;
+    for (int i = 0; i < T->ns; i++) {
+        const struct tiles_server *s = &T->s[i];
+        if (s->scene != SS_KNOWN || s->down_until > now)
+            continue;
+        int sc = s->inflight + (i == t->last_server && T->ns > 1 ? 1000 : 0);
+        if (best < 0 || sc < score)
+            best = i, score = sc;
+    }
+    return best;
+}
+
+static void tiles_dispatch(struct tiles *T, double now)
+{
+    int pending = T->n - T->done - T->failed - T->running;
+    for (int i = 0; i < T->ns && pending > 0; i++) {
+        struct tiles_server *s = &T->s[i];
+        if (s->scene == SS_UNKNOWN && s->down_until <= now) {
+            if (tiles_start(T, X_LEARN, -1, i) == 0)
+                s->scene = SS_LEARNING;
+        }
+    }
+    for (int i = 0; i < T->n && T->running < T->o->parallel; i++) {
+        struct tiles_tile *t = &T->t[i];
+        if (t->st != TS_PENDING || t->not_before > now)
+            continue;
+        int si = tiles_pick(T, t, now);
+        if (si < 0)
+            break;
+        if (tiles_start(T, X_GET, i, si) != 0)
+            break;
+    }
+    if (!T->prog.quiet)
+        for (int i = 0; i < T->ns; i++) {
+            struct tiles_server *s = &T->s[i];
+            if (!s->metrics_busy && s->metrics_next <= now && s->down_until <= now)
+                tiles_start(T, X_METRICS, -1, i);
+        }
+}
+
+/* Every server failed more than --retries times in a row: give up. */
+static int tiles_all_dead(const struct tiles *T)
+{
+    for (int i = 0; i < T->ns; i++)
+        if (T->s[i].fails_row <= T->o->retries)
+            return 0;
+    return 1;
+}
+
+static double tiles_rps(const struct tiles *T)
+{
+    double sum = 0;
+    int any = 0;
+    for (int i = 0; i < T->ns; i++)
+        if (T->s[i].rays_t > 0 && T->s[i].rps > 0)
+            sum += T->s[i].rps, any = 1;
+    return any ? sum : -1;
+}
+
+static void tiles_draw(struct tiles *T, int force)
+{
+    for (int i = 0; i < T->ns; i++)
+        T->per_server[i] = T->s[i].done;
+    progress_update(&T->prog, T->done, T->failed, T->ns, T->per_server, T->labels, tiles_rps(T),
+                    force);
+}
+
+static void tiles_report_missing(struct tiles *T)
+{
+    int missing = T->n - T->done;
+    fprintf(stderr, "rayd-client: incomplete image, nothing written to %s: %d of %d tiles missing:",
+            T->o->out, missing, T->n);
+    int shown = 0;
+    for (int i = 0; i < T->n; i++) {
+        if (T->t[i].st == TS_DONE)
+            continue;
+        if (shown == 12) {
+            fprintf(stderr, " ... and %d more", missing - shown);
+            break;
+        }
+        fprintf(stderr, "%s x=%d y=%d w=%d h=%d", shown ? "," : "", T->t[i].x, T->t[i].y,
+                T->t[i].w, T->t[i].h);
+        shown++;
+    }
+    fputc('\n', stderr);
+    const char *why = T->last_err;
+    for (int i = 0; i < T->n && !*why; i++)
+        if (T->t[i].err[0])
+            why = T->t[i].err;
+    if (*why)
+        fprintf(stderr, "rayd-client: last error: %s\n", why);
+}
+
+int tiles_render(const struct client_opts *o, const struct scenefile *sf)
+{
+    struct tiles T;
+    memset(&T, 0, sizeof T);
+    T.o = o, T.sf = sf, T.ns = o->nservers;
+    T.busy_limit = 20 + 10 * o->retries;
+    int tile = o->tile;
+    int cols = (sf->width + tile - 1) / tile, rows = (sf->height + tile - 1) / tile;
+    T.n = cols * rows;
+    T.t = calloc((size_t)T.n, sizeof *T.t);
+    T.s = calloc((size_t)T.ns, sizeof *T.s);
+    T.per_server = calloc((size_t)T.ns, sizeof *T.per_server);
+    T.labels = calloc((size_t)T.ns, sizeof *T.labels);
+    T.multi = curl_multi_init();
+    struct rayd_error err = {0};
+    int rc = 2;
+    if (!T.t || !T.s || !T.per_server || !T.labels || !T.multi ||
+        rayd_image_new(sf->width, sf->height, &T.img, &err) != RAYD_OK) {
+        fprintf(stderr, "rayd-client: out of memory\n");
+        goto out;
+    }
+    for (int r = 0, k = 0; r < rows; r++)
+        for (int c = 0; c < cols; c++, k++) {
+            struct tiles_tile *t = &T.t[k];
+            t->x = c * tile, t->y = r * tile;
+            t->w = t->x + tile > sf->width ? sf->width - t->x : tile;
+            t->h = t->y + tile > sf->height ? sf->height - t->y : tile;
+            t->last_server = -1;
+        }
+    for (int i = 0; i < T.ns; i++) {
+        T.s[i].url = o->servers[i];
+        net_label(o->servers[i], T.s[i].label, sizeof T.s[i].label);
+        memcpy(T.labels[i], T.s[i].label, sizeof T.labels[i]);
+    }
+    /* one keep-alive connection per request in flight, a few spare */
+    curl_multi_setopt(T.multi, CURLMOPT_MAXCONNECTS, (long)(o->parallel + 2 * T.ns + 4));
+    progress_init(&T.prog, T.n, o->quiet);
+    if (!o->quiet && !T.prog.tty)
+        fprintf(stderr, "rayd-client: %dx%d frame, %d tiles of %d px over %d server%s, scene %.12s\n",
+                sf->width, sf->height, T.n, tile, T.ns, T.ns > 1 ? "s" : "", sf->id);
+    double t0 = net_now();
+    while (T.done + T.failed < T.n && !T.fatal) {
+        double now = net_now();
+        tiles_dispatch(&T, now);
+        int still = 0;
+        curl_multi_perform(T.multi, &still);
+        CURLMsg *m;
+        int left;
+        while ((m = curl_multi_info_read(T.multi, &left))) {
+            if (m->msg != CURLMSG_DONE)
+                continue;
+            struct tiles_xfer *x = NULL;
+            curl_easy_getinfo(m->easy_handle, CURLINFO_PRIVATE, (char **)&x);
+            CURLcode cc = m->data.result;
+            tiles_finish(&T, x, cc, net_now());
+            tiles_xfer_free(&T, x);
+        }
+        if (tiles_all_dead(&T)) {
+            for (int i = 0; i < T.n; i++)
+                if (T.t[i].st == TS_PENDING) {
+                    T.t[i].st = TS_FAILED;
+                    T.failed++;
+                }
+            if (T.done + T.failed == T.n)
+                break;
+        }
+        tiles_draw(&T, 0);
+        if (T.done + T.failed < T.n && !T.fatal)
+            curl_multi_poll(T.multi, NULL, 0, 50, NULL);
+    }
+    double secs = net_now() - t0;
+    tiles_draw(&T, 1);
+    progress_end(&T.prog);
+    if (T.fatal) {
+        rc = 1;
+    } else if (T.done < T.n) {
+        tiles_report_missing(&T);
+    } else {
+        size_t n = strlen(o->out) + 8;
+        char *tmp = malloc(n);
+        if (!tmp) {
+            fprintf(stderr, "rayd-client: out of memory\n");
+        } else {
+            snprintf(tmp, n, "%s.part", o->out);
+            if (rayd_png_write_file(T.img, tmp, &err) != RAYD_OK || rename(tmp, o->out) != 0) {
+                fprintf(stderr, "rayd-client: cannot write %s: %s\n", o->out,
+                        err.message[0] ? err.message : "rename failed");
+                remove(tmp);
+            } else {
+                rc = 0;
+            }
+            free(tmp);
+        }
+        if (rc == 0 && !o->quiet) {
+            long uploads = 0;
+            for (int i = 0; i < T.ns; i++)
+                uploads += T.s[i].uploads;
+            fprintf(stderr,
+                    "rayd-client: wrote %s (%dx%d) from %d tiles in %.2f s (%.1f tiles/s), "
+                    "scene sent %ld time%s\n",
+                    o->out, sf->width, sf->height, T.n, secs, secs > 0 ? T.n / secs : 0.0,
+                    uploads, uploads == 1 ? "" : "s");
+        }
+    }
+out:
+    if (T.multi) {
+        /* abandon what is still in flight (a fatal error or given-up tiles) */
+        while (T.xfers)
+            tiles_xfer_free(&T, T.xfers);
+        curl_multi_cleanup(T.multi);
+    }
+    rayd_image_free(T.img);
+    free(T.t);
+    free(T.s);
+    free(T.per_server);
+    free(T.labels);
+    return rc;
+}

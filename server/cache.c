@@ -1,0 +1,154 @@
+/* cache.c -- an LRU of compiled scenes keyed by the SHA-256 of their bytes.
+ *
+ * Parsing a scene and building its acceleration structure is the costly
+ * part of a small render, and tile clients send the same scene many times,
+ * so each distinct body is compiled once and kept while it is used.  The
+ * budget is --cache-mb, counted with rayd_scene_info().bytes.  Entries are
+ * reference counted: a render in progress holds its scene, so an eviction
+ * only unlinks the entry (it can no longer be found) and the last release
+ * frees it.  A scene larger than the whole budget is used and never kept.
+ *
+ * The cache has no lock of its own: every call is made by jobq.c under the
+ * job queue's mutex, the one lock of the server.  Lookup is a chained hash
+ * table on the id; recency is a doubly linked list, most recent first.
+ */
+#include "server.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#define CACHE_BUCKETS 1024
+
+struct cache_entry {
+    char id[65];
+    rayd_scene *scene;
+    size_t bytes;
+    int refs;       /* holders, the cache itself counting one while linked */
+    bool linked;
+    struct cache_entry *hnext;        /* hash chain */
+    struct cache_entry *prev, *next;  /* LRU list */
+};
+
+static struct cache_entry *cache_table[CACHE_BUCKETS];
+static struct cache_entry *cache_head, *cache_tail;
+static size_t cache_budget, cache_bytes, cache_count;
+
+void cache_init(size_t budget_bytes) { cache_budget = budget_bytes; }
+
+static unsigned cache_bucket(const char *id)
+{
+    unsigned h = 2166136261u;
+    for (; *id; id++)
+        h = (h ^ (unsigned char)*id) * 16777619u;
+    return h % CACHE_BUCKETS;
+}
+
+static void cache_lru_unlink(struct cache_entry *e)
+{
+    if (e->prev)
+        e->prev->next = e->next;
+    else
+        cache_head = e->next;
+    if (e->next)
+        e->next->prev = e->prev;
+    else
+        cache_tail = e->prev;
+    e->prev = e->next = NULL;
+}
+
+static void cache_lru_front(struct cache_entry *e)
+{
+    e->next = cache_head;
+    e->prev = NULL;
+    if (cache_head)
+        cache_head->prev = e;
+    cache_head = e;
+    if (!cache_tail)
+        cache_tail = e;
+}
+
+static void cache_unlink(struct cache_entry *e)
+{
+    struct cache_entry **pp = &cache_table[cache_bucket(e->id)];
+    while (*pp && *pp != e)
+        pp = &(*pp)->hnext;
+    if (*pp)
+        *pp = e->hnext;
+    cache_lru_unlink(e);
+    e->linked = false;
+    cache_bytes -= e->bytes;
+    cache_count--;
+    cache_release(e); /* the cache's own reference */
+}
+
+struct cache_entry *cache_get(const char *id)
+{
+    for (struct cache_entry *e = cache_table[cache_bucket(id)]; e; e = e->hnext)
+        if (!strcmp(e->id, id)) {
+            cache_lru_unlink(e);
+            cache_lru_front(e);
+            e->refs++;
+            return e;
+        }
+    return NULL;
+}
+
+struct cache_entry *cache_put(const char *id, rayd_scene *scene)
+{
+    struct cache_entry *e = cache_get(id);
+    if (e) {
+        rayd_scene_free(scene);
+        return e;
+    }
+    e = calloc(1, sizeof *e);
+    if (!e)
+        return NULL;
+    snprintf(e->id, sizeof e->id, "%s", id);
+    e->scene = scene;
+    struct rayd_scene_info info;
+    rayd_scene_info(scene, &info);
+    e->bytes = info.bytes + sizeof *e;
+    e->refs = 1; /* the caller's */
+    if (e->bytes > cache_budget)
+        return e; /* too big to keep: used once, freed on release */
+    while (cache_tail && cache_bytes + e->bytes > cache_budget)
+        cache_unlink(cache_tail);
+    unsigned b = cache_bucket(id);
+    e->hnext = cache_table[b];
+    cache_table[b] = e;
+    cache_lru_front(e);
+    e->linked = true;
+    e->refs++;
+    cache_bytes += e->bytes;
+    cache_count++;
+    return e;
+}
+
+struct cache_entry *cache_ref(struct cache_entry *e)
+{
+    e->refs++;
+    return e;
+}
+
+void cache_release(struct cache_entry *e)
+{
+    if (!e || --e->refs > 0)
+        return;
+    rayd_scene_free(e->scene);
+    free(e);
+}
+
+const rayd_scene *cache_scene(const struct cache_entry *e) { return e->scene; }
+const char *cache_id(const struct cache_entry *e) { return e->id; }
+
+void cache_stats(size_t *bytes, size_t *entries)
+{
+    *bytes = cache_bytes;
+    *entries = cache_count;
+}
+
+void cache_free_all(void)
+{
+    while (cache_head)
+        cache_unlink(cache_head);
+}

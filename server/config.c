@@ -1,0 +1,213 @@
+/* config.c -- every option of rayd in one table.
+ *
+ * Each row names a long flag, its environment variable, its type, default,
+ * range and one line of help.  Defaults are applied first, then the
+ * environment (RAYD_PORT=0 ...), then the command line, so a flag always
+ * wins.  `rayd --help` prints the table itself, so the help can never drift
+ * from what the parser accepts (the shape of Redis's config.c standardConfig
+ * table, much smaller).
+ *
+ * Numbers are parsed strictly (the whole string, in range); a bad value is a
+ * start-up error naming the option, never a silent default.
+ */
+#include "server.h"
+
+#include <errno.h>
+#include <limits.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+struct config config;
+
+enum config_type { CT_LONG, CT_STRING };
+
+struct config_option {
+    const char *name; /* flag without the dashes */
+    const char *env;
+    enum config_type type;
+    void *ptr;
+    const char *def;
+    long min, max;
+    const char *help;
+};
+
+static const struct config_option config_table[] = {
+    {"bind", "RAYD_BIND", CT_STRING, &config.bind, "127.0.0.1", 0, 0,
+     "address to listen on (IPv4 or IPv6 literal)"},
+    {"port", "RAYD_PORT", CT_LONG, &config.port, "8080", 0, 65535,
+     "TCP port; 0 picks a free one (printed on the first line)"},
+    {"threads", "RAYD_THREADS", CT_LONG, &config.threads, "0", 0, 1024,
+     "render worker threads; 0 = number of cores"},
+    {"http-threads", "RAYD_HTTP_THREADS", CT_LONG, &config.http_threads, "2", 1, 256,
+     "libmicrohttpd threads (parse, validate, I/O; they never render)"},
+    {"queue", "RAYD_QUEUE", CT_LONG, &config.queue, "64", 1, 1000000,
+     "render tasks waiting for a worker before 503 queue_full"},
+    {"max-body", "RAYD_MAX_BODY", CT_LONG, &config.max_body, "4194304", 1, LONG_MAX,
+     "largest request body in bytes (413 before reading it)"},
+    {"max-pixels", "RAYD_MAX_PIXELS", CT_LONG, &config.max_pixels, "16777216", 1, LONG_MAX,
+     "largest image (width * height) a scene may ask for (413)"},
+    {"token-file", "RAYD_TOKEN_FILE", CT_STRING, &config.token_file, NULL, 0, 0,
+     "file holding a bearer token; then every route but /healthz and /readyz needs it"},
+    {"cache-mb", "RAYD_CACHE_MB", CT_LONG, &config.cache_mb, "256", 0, 1048576,
+     "memory budget of the compiled-scene cache in MiB"},
+    {"result-cache-mb", "RAYD_RESULT_CACHE_MB", CT_LONG, &config.result_cache_mb, "64", 0, 1048576,
+     "memory for finished PNGs served again without rendering (0 = off)"},
+    {"log-format", "RAYD_LOG_FORMAT", CT_STRING, &config.log_format, "text", 0, 0,
+     "access log format on stderr: text or json"},
+    {"drain-seconds", "RAYD_DRAIN_SECONDS", CT_LONG, &config.drain_seconds, "30", 0, 86400,
+     "on SIGTERM/SIGINT, time running renders get before they are cancelled"},
+    {"cors-origin", "RAYD_CORS_ORIGIN", CT_STRING, &config.cors_origin, NULL, 0, 0,
+     "comma-separated origins allowed by CORS, or * (default: none)"},
+    {"timeout", "RAYD_TIMEOUT", CT_LONG, &config.timeout, "30", 1, 86400,
+     "seconds an idle or stalled connection is kept (slow uploads are dropped)"},
+    {"max-jobs", "RAYD_MAX_JOBS", CT_LONG, &config.max_jobs, "1024", 1, 1000000,
+     "asynchronous jobs remembered; the oldest finished ones are forgotten first"},
+    {"job-ttl", "RAYD_JOB_TTL", CT_LONG, &config.job_ttl, "600", 1, 31536000,
+     "seconds a finished job (and its PNG) is kept after it was created"},
+    {"png-level", "RAYD_PNG_LEVEL", CT_LONG, &config.png_level, "-1", -1, 9,
+     "zlib level of the PNGs (-1 = default, same as rayd-render)"},
+};
+
+#define CONFIG_N (sizeof config_table / sizeof config_table[0])
+
+static int config_set(const struct config_option *o, const char *val, const char *from)
+{
+    if (o->type == CT_STRING) {
+        char **p = o->ptr;
+        free(*p);
+        *p = val ? strdup(val) : NULL;
+        return 0;
+    }
+    char *end;
+    errno = 0;
+    long v = strtol(val, &end, 10);
+    if (errno || end == val || *end || v < o->min || v > o->max) {
+        fprintf(stderr, "rayd: %s: bad value '%s' for %s (an integer in %ld..%ld)\n", from, val,
+                o->name, o->min, o->max);
+        return -1;
+    }
+    *(long *)o->ptr = v;
+    return 0;
+}
+
+void config_usage(FILE *f)
+{
+    fprintf(f, "usage: rayd [options]\n\n"
+               "The rayd render server: POST a JSON scene, get a PNG (HTTP API v1, docs/api.md).\n"
+               "Every option can also be set from the environment variable shown;\n"
+               "a flag wins over the environment.\n\n");
+    for (size_t i = 0; i < CONFIG_N; i++) {
+        const struct config_option *o = &config_table[i];
+        char flag[64];
+        snprintf(flag, sizeof flag, "--%s %s", o->name, o->type == CT_LONG ? "N" : "VALUE");
+        fprintf(f, "  %-22s %s\n  %-22s env %s, default %s\n", flag, o->help, "", o->env,
+                o->def ? o->def : "(none)");
+    }
+    fprintf(f, "  %-22s this help\n  %-22s print the version\n\n", "--help", "--version");
+    fprintf(f, "Signals: SIGTERM or SIGINT drain (readyz 503, new work refused, running\n"
+               "renders finish or are cancelled after --drain-seconds) and exit 0.\n"
+               "The first line on stdout is 'rayd listening on http://HOST:PORT'.\n");
+}
+
+static const struct config_option *config_find(const char *name, size_t n)
+{
+    for (size_t i = 0; i < CONFIG_N; i++)
+        if (strlen(config_table[i].name) == n && !strncmp(config_table[i].name, name, n))
+            return &config_table[i];
+    return NULL;
+}
+
+static int config_read_token(void)
+{
+    FILE *f = fopen(config.token_file, "rb");
+    if (!f) {
+        fprintf(stderr, "rayd: --token-file %s: %s\n", config.token_file, strerror(errno));
+        return -1;
+    }
+    char buf[4096];
+    size_t n = fread(buf, 1, sizeof buf - 1, f);
+    fclose(f);
+    while (n > 0 && (buf[n - 1] == '\n' || buf[n - 1] == '\r' || buf[n - 1] == ' ' ||
+                     buf[n - 1] == '\t'))
+        n--;
+    if (n == 0) {
+        fprintf(stderr, "rayd: --token-file %s is empty\n", config.token_file);
+        return -1;
+    }
+    buf[n] = 0;
+    config.token = strdup(buf);
+    config.token_len = n;
+    return 0;
+}
+
+int config_load(int argc, char **argv)
+{
+    for (size_t i = 0; i < CONFIG_N; i++)
+        if (config_table[i].def && config_set(&config_table[i], config_table[i].def, "default"))
+            return -1;
+    for (size_t i = 0; i < CONFIG_N; i++) {
+        const char *v = getenv(config_table[i].env);
+        if (v && config_set(&config_table[i], v, config_table[i].env))
+            return -1;
+    }
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
+            config_usage(stdout);
+            return 1;
+        }
+        if (!strcmp(a, "--version")) {
+            printf("rayd %s\n", RAYD_VERSION);
+            return 1;
+        }
+        if (strncmp(a, "--", 2)) {
+            fprintf(stderr, "rayd: unexpected argument '%s' (see --help)\n", a);
+            return -1;
+        }
+        a += 2;
+        const char *eq = strchr(a, '=');
+        const struct config_option *o = config_find(a, eq ? (size_t)(eq - a) : strlen(a));
+        if (!o) {
+            fprintf(stderr, "rayd: unknown option '%s' (see --help)\n", argv[i]);
+            return -1;
+        }
+        const char *val = eq ? eq + 1 : NULL;
+        if (!val) {
+            if (i + 1 >= argc) {
+                fprintf(stderr, "rayd: option --%s needs a value\n", o->name);
+                return -1;
+            }
+            val = argv[++i];
+        }
+        if (config_set(o, val, "command line"))
+            return -1;
+    }
+    if (strcmp(config.log_format, "text") && strcmp(config.log_format, "json")) {
+        fprintf(stderr, "rayd: --log-format must be text or json\n");
+        return -1;
+    }
+    config.log_json = !strcmp(config.log_format, "json");
+    if (config.threads == 0) {
+        long n = sysconf(_SC_NPROCESSORS_ONLN);
+        config.threads = n > 0 ? n : 1;
+    }
+    if (config.token_file && *config.token_file && config_read_token())
+        return -1;
+    return 0;
+}
+
+void config_free(void)
+{
+    for (size_t i = 0; i < CONFIG_N; i++)
+        if (config_table[i].type == CT_STRING) {
+            char **p = config_table[i].ptr;
+            free(*p);
+            *p = NULL;
+        }
+    if (config.token) {
+        memset(config.token, 0, config.token_len);
+        free(config.token);
+        config.token = NULL;
+    }
+}

@@ -1,0 +1,122 @@
+/* main.c -- rayd: start, serve, drain, stop.
+ *
+ * Start-up order: options (config.c), the worker pool (jobq.c), then the
+ * listener (http.c); only when the socket is bound is the line
+ * "rayd listening on http://HOST:PORT" printed and flushed, as the first and
+ * only line on stdout, so scripts can start `rayd --port 0` and read the
+ * port.  Logs go to stderr.
+ *
+ * Signals are blocked in every thread and taken synchronously by the main
+ * thread with sigtimedwait, so no work happens in a signal handler.  On the
+ * first SIGTERM or SIGINT the server drains:
+ *   1. /readyz turns 503 and new work is refused with 503 "draining";
+ *   2. running and queued renders get --drain-seconds to finish (a second
+ *      signal cuts that short);
+ *   3. whatever is left is cancelled (it stops within one tile) and every
+ *      suspended connection is answered;
+ *   4. the listener stops -- never with a suspended connection -- the pool
+ *      is joined, everything is freed, and the exit status is 0.
+ */
+#include "server.h"
+
+#include <pthread.h>
+#include <signal.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+static bool main_loopback(const char *addr)
+{
+    return !strncmp(addr, "127.", 4) || !strcmp(addr, "::1") || !strcmp(addr, "localhost");
+}
+
+/* Waits up to seconds for cond(); returns early on a signal (sets *sig). */
+static bool main_wait(bool (*cond)(void), double seconds, const sigset_t *set, bool *sig)
+{
+    double end = log_now() + seconds;
+    while (!cond()) {
+        if (log_now() >= end)
+            return false;
+        struct timespec ts = {0, 20 * 1000000L};
+        if (sigtimedwait(set, NULL, &ts) > 0 && sig) {
+            *sig = true;
+            return false;
+        }
+    }
+    return true;
+}
+
+static bool main_no_suspended(void) { return http_suspended() == 0; }
+static bool main_no_requests(void) { return http_in_flight() == 0; }
+
+int main(int argc, char **argv)
+{
+    int rc = config_load(argc, argv);
+    if (rc != 0) {
+        config_free();
+        return rc > 0 ? 0 : 2;
+    }
+    sigset_t set;
+    sigemptyset(&set);
+    sigaddset(&set, SIGTERM);
+    sigaddset(&set, SIGINT);
+    pthread_sigmask(SIG_BLOCK, &set, NULL);
+    signal(SIGPIPE, SIG_IGN);
+
+    if (jobq_start((int)config.threads, (int)config.queue, (int)config.max_jobs)) {
+        fprintf(stderr, "rayd: cannot start the worker pool\n");
+        return 1;
+    }
+    if (http_start()) {
+        jobq_stop();
+        config_free();
+        return 1;
+    }
+    if (!main_loopback(config.bind) && !config.token) {
+        fprintf(stderr,
+                "\n"
+                "************************************************************************\n"
+                "* WARNING: rayd listens on %s without --token-file.\n"
+                "* Anyone who can reach this address can make it render.\n"
+                "* Use --token-file FILE, or bind to 127.0.0.1 behind a proxy.\n"
+                "************************************************************************\n\n",
+                config.bind);
+    }
+    const char *host = strchr(config.bind, ':') ? NULL : config.bind;
+    if (host)
+        printf("rayd listening on http://%s:%d\n", host, http_port());
+    else
+        printf("rayd listening on http://[%s]:%d\n", config.bind, http_port());
+    fflush(stdout);
+    log_info("rayd %s: %ld workers, queue %ld, max body %ld, max pixels %ld, cache %ld MiB%s",
+             RAYD_VERSION, config.threads, config.queue, config.max_body, config.max_pixels,
+             config.cache_mb, config.token ? ", token required" : "");
+
+    int sig = 0;
+    while (sig != SIGTERM && sig != SIGINT)
+        sig = sigwaitinfo(&set, NULL);
+
+    log_info("signal %d: draining (up to %ld s)", sig, config.drain_seconds);
+    http_set_draining();
+    jobq_drain();
+    bool again = false;
+    if (!main_wait(jobq_idle, (double)config.drain_seconds, &set, &again))
+        log_info("drain: %s, cancelling what is left", again ? "second signal" : "deadline");
+    jobq_cancel_all();
+    main_wait(jobq_idle, 30, &set, NULL);
+    main_wait(main_no_suspended, 10, &set, NULL);
+    main_wait(main_no_requests, 2, &set, NULL);
+    if (http_suspended() > 0) {
+        /* never stop libmicrohttpd with suspended connections */
+        log_warn("drain: %ld connections still suspended; exiting without cleanup",
+                 http_suspended());
+        fflush(stderr);
+        _exit(1);
+    }
+    http_stop();
+    jobq_stop();
+    log_info("stopped");
+    config_free();
+    return 0;
+}

@@ -1,0 +1,209 @@
+/* metrics.c -- counters and histograms, exposed as Prometheus text.
+ *
+ * Every number is a C11 atomic, bumped by whichever thread sees the event,
+ * so metrics take no lock and cost a few nanoseconds.  Requests are counted
+ * by route (the router's table index) and status (a fixed set of the codes
+ * rayd sends).  Queue wait and render time are separate histograms with the
+ * same buckets, so a slow response can be told apart as "waited" or
+ * "rendered".  Gauges (queue depth, busy workers, cache size) are read from
+ * their owners when /metrics is scraped.
+ */
+#include "server.h"
+
+#include <stdarg.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define METRICS_ROUTES 32
+
+static const int metrics_codes[] = {200, 201, 202, 204, 304, 400, 401, 404, 405, 409,
+                                    413, 415, 422, 499, 500, 503, 0 /* other */};
+#define METRICS_NCODES (sizeof metrics_codes / sizeof metrics_codes[0])
+
+static const double metrics_buckets[] = {0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1,
+                                         0.25,  0.5,    1,     2.5,  5,     10,   30};
+#define METRICS_NB (sizeof metrics_buckets / sizeof metrics_buckets[0])
+
+struct metrics_hist {
+    atomic_ulong bucket[METRICS_NB + 1]; /* last = +Inf */
+    atomic_ulong count;
+    atomic_ulong sum_us;
+};
+
+static atomic_ulong metrics_req[METRICS_ROUTES + 1][METRICS_NCODES];
+static struct metrics_hist metrics_wait, metrics_rend;
+static atomic_ulong metrics_hits, metrics_misses, metrics_rhits, metrics_rmisses, metrics_rays_n, metrics_coalesced_n;
+static atomic_ulong metrics_rejects[MR__COUNT], metrics_cancels[MC__COUNT];
+
+static const char *const metrics_reject_names[MR__COUNT] = {"queue_full", "draining",
+                                                            "body_too_large", "unauthorized"};
+static const char *const metrics_cancel_names[MC__COUNT] = {"client_gone", "delete", "drain"};
+
+void metrics_request(int route, int status)
+{
+    if (route < 0 || route >= METRICS_ROUTES)
+        route = METRICS_ROUTES;
+    size_t i = 0;
+    while (i < METRICS_NCODES - 1 && metrics_codes[i] != status)
+        i++;
+    atomic_fetch_add_explicit(&metrics_req[route][i], 1, memory_order_relaxed);
+}
+
+static void metrics_observe(struct metrics_hist *h, double s)
+{
+    size_t i = 0;
+    while (i < METRICS_NB && s > metrics_buckets[i])
+        i++;
+    atomic_fetch_add_explicit(&h->bucket[i], 1, memory_order_relaxed);
+    atomic_fetch_add_explicit(&h->count, 1, memory_order_relaxed);
+    atomic_fetch_add_explicit(&h->sum_us, (unsigned long)(s * 1e6), memory_order_relaxed);
+}
+
+void metrics_queue_wait(double s) { metrics_observe(&metrics_wait, s); }
+void metrics_render(double s) { metrics_observe(&metrics_rend, s); }
+void metrics_cache(bool hit) { atomic_fetch_add(hit ? &metrics_hits : &metrics_misses, 1); }
+void metrics_result_cache(bool hit)
+{
+    atomic_fetch_add(hit ? &metrics_rhits : &metrics_rmisses, 1);
+}
+void metrics_reject(enum metrics_reject why) { atomic_fetch_add(&metrics_rejects[why], 1); }
+void metrics_cancel(enum metrics_cancel why) { atomic_fetch_add(&metrics_cancels[why], 1); }
+void metrics_rays(uint64_t n) { atomic_fetch_add(&metrics_rays_n, (unsigned long)n); }
+void metrics_coalesced(void) { atomic_fetch_add(&metrics_coalesced_n, 1); }
+
+/* A growable string for the exposition. */
+struct metrics_buf {
+    char *p;
+    size_t len, cap;
+};
+
+static void metrics_printf(struct metrics_buf *b, const char *fmt, ...)
+    __attribute__((format(printf, 2, 3)));
+
+static void metrics_printf(struct metrics_buf *b, const char *fmt, ...)
+{
+    for (;;) {
+        va_list ap;
+        va_start(ap, fmt);
+        int n = b->p ? vsnprintf(b->p + b->len, b->cap - b->len, fmt, ap) : -1;
+        va_end(ap);
+        if (n >= 0 && (size_t)n < b->cap - b->len) {
+            b->len += (size_t)n;
+            return;
+        }
+        size_t cap = b->cap ? b->cap * 2 : 8192;
+        char *q = realloc(b->p, cap);
+        if (!q)
+            return;
+        b->p = q;
+        b->cap = cap;
+    }
+}
+
+static void metrics_hist_text(struct metrics_buf *b, const char *name, const char *help,
+                              struct metrics_hist *h)
+{
+    metrics_printf(b, "# HELP %s %s\n# TYPE %s histogram\n", name, help, name);
+    unsigned long cum = 0;
+    for (size_t i = 0; i <= METRICS_NB; i++) {
+        cum += atomic_load(&h->bucket[i]);
+        if (i < METRICS_NB)
+            metrics_printf(b, "%s_bucket{le=\"%g\"} %lu\n", name, metrics_buckets[i], cum);
+        else
+            metrics_printf(b, "%s_bucket{le=\"+Inf\"} %lu\n", name, cum);
+    }
+    metrics_printf(b, "%s_sum %.6f\n%s_count %lu\n", name,
+                   (double)atomic_load(&h->sum_us) / 1e6, name, atomic_load(&h->count));
+}
+
+char *metrics_text(size_t *len)
+{
+    struct metrics_buf b = {0};
+    metrics_printf(&b, "# HELP rayd_requests_total HTTP requests answered, by route and status.\n"
+                       "# TYPE rayd_requests_total counter\n");
+    int nr = router_count();
+    for (int r = 0; r <= METRICS_ROUTES; r++) {
+        if (r < METRICS_ROUTES && r >= nr)
+            continue;
+        for (size_t c = 0; c < METRICS_NCODES; c++) {
+            unsigned long v = atomic_load(&metrics_req[r][c]);
+            if (!v)
+                continue;
+            char code[16];
+            if (metrics_codes[c])
+                snprintf(code, sizeof code, "%d", metrics_codes[c]);
+            else
+                snprintf(code, sizeof code, "other");
+            metrics_printf(&b, "rayd_requests_total{route=\"%s\",status=\"%s\"} %lu\n",
+                           r < METRICS_ROUTES ? router_name(r) : "none", code, v);
+        }
+    }
+    struct jobq_stats st;
+    jobq_stats(&st);
+    metrics_printf(&b,
+                   "# HELP rayd_queue_depth Render tasks waiting for a worker.\n"
+                   "# TYPE rayd_queue_depth gauge\nrayd_queue_depth %ld\n"
+                   "# HELP rayd_queue_capacity Tasks the queue holds before 503.\n"
+                   "# TYPE rayd_queue_capacity gauge\nrayd_queue_capacity %ld\n"
+                   "# HELP rayd_tasks_running Render tasks with at least one tile started.\n"
+                   "# TYPE rayd_tasks_running gauge\nrayd_tasks_running %ld\n"
+                   "# HELP rayd_workers_busy Workers rendering a tile right now.\n"
+                   "# TYPE rayd_workers_busy gauge\nrayd_workers_busy %ld\n"
+                   "# HELP rayd_workers Render worker threads.\n"
+                   "# TYPE rayd_workers gauge\nrayd_workers %ld\n"
+                   "# HELP rayd_jobs Asynchronous jobs remembered.\n"
+                   "# TYPE rayd_jobs gauge\nrayd_jobs %ld\n",
+                   st.queued, st.queue_cap, st.running_tasks, st.busy_workers, st.workers,
+                   st.jobs);
+    metrics_printf(&b,
+                   "# HELP rayd_http_suspended Connections waiting for a render.\n"
+                   "# TYPE rayd_http_suspended gauge\nrayd_http_suspended %ld\n"
+                   "# HELP rayd_draining 1 while the server drains after SIGTERM.\n"
+                   "# TYPE rayd_draining gauge\nrayd_draining %d\n",
+                   http_suspended(), http_is_draining() ? 1 : 0);
+    metrics_hist_text(&b, "rayd_queue_wait_seconds",
+                      "Time from enqueue to the first tile starting.", &metrics_wait);
+    metrics_hist_text(&b, "rayd_render_seconds",
+                      "Time from the first tile starting to the PNG encoded.", &metrics_rend);
+    metrics_printf(&b,
+                   "# HELP rayd_cache_hits_total Scene bodies found compiled in the cache.\n"
+                   "# TYPE rayd_cache_hits_total counter\nrayd_cache_hits_total %lu\n"
+                   "# HELP rayd_cache_misses_total Scene bodies parsed and compiled.\n"
+                   "# TYPE rayd_cache_misses_total counter\nrayd_cache_misses_total %lu\n"
+                   "# HELP rayd_cache_bytes Memory held by cached compiled scenes.\n"
+                   "# TYPE rayd_cache_bytes gauge\nrayd_cache_bytes %zu\n"
+                   "# HELP rayd_cache_entries Compiled scenes in the cache.\n"
+                   "# TYPE rayd_cache_entries gauge\nrayd_cache_entries %zu\n",
+                   atomic_load(&metrics_hits), atomic_load(&metrics_misses), st.cache_bytes,
+                   st.cache_entries);
+    metrics_printf(&b,
+                   "# HELP rayd_result_cache_hits_total Renders answered from finished PNGs.\n"
+                   "# TYPE rayd_result_cache_hits_total counter\nrayd_result_cache_hits_total %lu\n"
+                   "# HELP rayd_result_cache_misses_total Renders not found finished.\n"
+                   "# TYPE rayd_result_cache_misses_total counter\n"
+                   "rayd_result_cache_misses_total %lu\n"
+                   "# HELP rayd_result_cache_bytes Memory held by finished PNGs.\n"
+                   "# TYPE rayd_result_cache_bytes gauge\nrayd_result_cache_bytes %zu\n"
+                   "# HELP rayd_result_cache_entries Finished PNGs kept.\n"
+                   "# TYPE rayd_result_cache_entries gauge\nrayd_result_cache_entries %zu\n",
+                   atomic_load(&metrics_rhits), atomic_load(&metrics_rmisses), st.result_bytes,
+                   st.result_entries);
+    metrics_printf(&b, "# HELP rayd_rejections_total Requests refused before any work.\n"
+                       "# TYPE rayd_rejections_total counter\n");
+    for (int i = 0; i < MR__COUNT; i++)
+        metrics_printf(&b, "rayd_rejections_total{reason=\"%s\"} %lu\n", metrics_reject_names[i],
+                       atomic_load(&metrics_rejects[i]));
+    metrics_printf(&b, "# HELP rayd_canceled_total Renders cancelled, by cause.\n"
+                       "# TYPE rayd_canceled_total counter\n");
+    for (int i = 0; i < MC__COUNT; i++)
+        metrics_printf(&b, "rayd_canceled_total{reason=\"%s\"} %lu\n", metrics_cancel_names[i],
+                       atomic_load(&metrics_cancels[i]));
+    metrics_printf(&b,
+                   "# HELP rayd_coalesced_total Requests answered by an identical in-flight "
+                   "render.\n# TYPE rayd_coalesced_total counter\nrayd_coalesced_total %lu\n"
+                   "# HELP rayd_rays_total Rays cast by the renderer.\n"
+                   "# TYPE rayd_rays_total counter\nrayd_rays_total %lu\n",
+                   atomic_load(&metrics_coalesced_n), atomic_load(&metrics_rays_n));
+    *len = b.len;
+    return b.p;
+}

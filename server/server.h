@@ -1,0 +1,306 @@
+/* server.h -- the internal interfaces of the rayd daemon.
+ *
+ * One header for the whole server, as Redis has server.h: every file of
+ * server/ is one idea and its public names start with the file's name
+ * (config_, http_, router_, jobq_, cache_, metrics_, log_, sha256_, api_).
+ * Only include/rayd/rayd.h crosses from the core; nothing here knows about
+ * the core's internals, and only http.c, api_*.c and main.c know about
+ * libmicrohttpd.
+ */
+#ifndef RAYD_SERVER_H
+#define RAYD_SERVER_H
+
+/* rayd.h uses rayd_image before declaring it; a repeated identical typedef
+ * is valid C11, so declaring it first keeps the server building either way. */
+typedef struct rayd_image rayd_image;
+#include <rayd/rayd.h>
+
+#include <stdatomic.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <sys/types.h>
+
+/* ---- config.c ---------------------------------------------------------- */
+
+struct config {
+    char *bind;          /* address to listen on */
+    long port;           /* 0 picks a free port */
+    long threads;        /* render workers; 0 = number of cores */
+    long http_threads;   /* libmicrohttpd threads (validation, I/O) */
+    long queue;          /* pending render tasks before 503 */
+    long max_body;       /* bytes of a request body */
+    long max_pixels;     /* width * height of a scene */
+    char *token_file;    /* bearer token file, NULL = no auth */
+    long cache_mb;       /* compiled scene cache budget */
+    long result_cache_mb; /* finished PNG cache budget */
+    char *log_format;    /* text | json */
+    long drain_seconds;  /* grace period on SIGTERM */
+    char *cors_origin;   /* comma-separated allow-list, "*" = any */
+    long timeout;        /* connection idle timeout, seconds */
+    long max_jobs;       /* jobs kept for GET /v1/jobs/{id} */
+    long job_ttl;        /* seconds a finished job is kept */
+    long png_level;      /* zlib level of the PNGs, -1 default */
+    /* derived */
+    char *token;         /* contents of token_file, trimmed */
+    size_t token_len;
+    bool log_json;
+};
+
+extern struct config config;
+
+/* Parses environment then argv into config.  Returns 0 to run, 1 when the
+ * program should exit 0 (--help, --version), -1 on a bad option (the message
+ * is printed). */
+int config_load(int argc, char **argv);
+void config_usage(FILE *f);
+void config_free(void);
+
+/* ---- log.c --------------------------------------------------------------- */
+
+struct log_access {
+    const char *method, *path;
+    int status;
+    size_t bytes;
+    double queue_ms, render_ms, total_ms;
+    const char *note; /* "client_gone", ... or NULL */
+};
+
+void log_access(const struct log_access *a);
+void log_info(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+void log_warn(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+double log_now(void); /* monotonic seconds */
+
+/* ---- sha256.c ------------------------------------------------------------ */
+
+void sha256(const void *data, size_t len, uint8_t out[32]);
+void sha256_hex(const void *data, size_t len, char out[65]);
+
+/* ---- metrics.c ----------------------------------------------------------- */
+
+enum metrics_reject { MR_QUEUE_FULL, MR_DRAINING, MR_BODY_TOO_LARGE, MR_UNAUTHORIZED, MR__COUNT };
+enum metrics_cancel { MC_CLIENT_GONE, MC_DELETE, MC_DRAIN, MC__COUNT };
+
+void metrics_request(int route, int status);
+void metrics_queue_wait(double seconds);
+void metrics_render(double seconds);
+void metrics_cache(bool hit);
+void metrics_result_cache(bool hit);
+void metrics_reject(enum metrics_reject why);
+void metrics_cancel(enum metrics_cancel why);
+void metrics_rays(uint64_t n);
+void metrics_coalesced(void);
+/* The Prometheus text exposition; malloc'd, *len set. */
+char *metrics_text(size_t *len);
+
+/* ---- cache.c (not thread-safe: jobq.c calls it under its lock) ----------- */
+
+struct cache_entry; /* a compiled scene and its id */
+
+void cache_init(size_t budget_bytes);
+struct cache_entry *cache_get(const char *id); /* refs the entry, bumps LRU */
+/* Inserts (or returns the existing entry for id, freeing scene); refs it. */
+struct cache_entry *cache_put(const char *id, rayd_scene *scene);
+struct cache_entry *cache_ref(struct cache_entry *e);
+void cache_release(struct cache_entry *e); /* drops a ref; frees when evicted */
+const rayd_scene *cache_scene(const struct cache_entry *e);
+const char *cache_id(const struct cache_entry *e);
+void cache_stats(size_t *bytes, size_t *entries);
+void cache_free_all(void);
+
+/* ---- rcache.c (finished PNGs; not thread-safe: called under jobq's lock) --- */
+
+struct blob;
+void rcache_init(size_t budget_bytes);
+struct blob *rcache_get(const char *key); /* refs the PNG */
+void rcache_put(const char *key, struct blob *png);
+void rcache_stats(size_t *bytes, size_t *entries);
+void rcache_free_all(void);
+
+/* ---- jobq.c -------------------------------------------------------------- */
+
+/* A refcounted PNG shared by every request answered with it. */
+struct blob {
+    atomic_int refs;
+    void *data;
+    size_t len;
+};
+void blob_unref(struct blob *b);
+
+struct jobq_result {
+    enum rayd_status status; /* RAYD_OK and png, or an error */
+    struct rayd_error err;
+    struct blob *png;        /* owned by the waiter: unref it */
+    bool gone;               /* the client disconnected */
+    double queue_ms, render_ms;
+};
+
+/* Something waiting on a task or a job's events: a suspended connection.
+ * jobq calls done() exactly once, from a worker or the watcher thread, after
+ * removing the waiter from every list. */
+struct jobq_waiter {
+    void (*done)(struct jobq_waiter *w, struct jobq_result *res);
+    int fd;                   /* socket polled for a client hang-up, -1 none */
+    struct jobq_waiter *next;
+};
+
+enum jobq_submit { JOBQ_OK = 0, JOBQ_FULL, JOBQ_DRAINING, JOBQ_NOMEM, JOBQ_TOO_MANY_JOBS };
+
+int jobq_start(int workers, int queue_cap, int max_jobs);
+void jobq_stop(void);
+
+/* Scenes: the compiled-scene cache, under the queue's lock.  get_or_parse
+ * hashes the body, looks it up, parses on a miss (outside the lock). */
+enum rayd_status jobq_scene_parse(const char *body, size_t len, struct cache_entry **out,
+                                  bool *hit, struct rayd_error *err);
+struct cache_entry *jobq_scene_find(const char *id);
+void jobq_scene_release(struct cache_entry *e);
+
+/* Synchronous render: answers w->done once.  reg is absolute and checked.
+ * When accepted, suspend(w) runs under the lock before any worker can answer. */
+/* A finished PNG of (scene, reg) from the result cache, ref'd, or NULL. */
+struct blob *jobq_result_find(const struct cache_entry *scene, const struct rayd_region *reg);
+enum jobq_submit jobq_render(struct cache_entry *scene, const struct rayd_region *reg,
+                             struct jobq_waiter *w, void (*suspend)(struct jobq_waiter *w));
+
+/* Jobs (asynchronous renders). */
+enum jobq_state { JS_QUEUED, JS_RUNNING, JS_SUCCEEDED, JS_FAILED, JS_CANCELED };
+const char *jobq_state_name(enum jobq_state s);
+struct jobq_job_info {
+    enum jobq_state state;
+    double progress;
+    long tiles_done, tiles_total;
+    struct rayd_region region;
+    char scene_id[65];
+    double created_age, queue_ms, render_ms;
+    uint64_t rays;
+    struct rayd_error err; /* when failed */
+    struct blob *png;      /* when succeeded and asked for; unref it */
+};
+enum jobq_submit jobq_job_create(struct cache_entry *scene, const struct rayd_region *reg,
+                                 char id[33]);
+bool jobq_job_get(const char *id, struct jobq_job_info *info, bool want_png);
+bool jobq_job_cancel(const char *id);
+
+/* Server-Sent Events of a job: open, then read repeatedly.  read returns
+ * bytes written, 0 after registering w (the caller must suspend inside
+ * suspend(), which runs under the lock), -1 at the end of the stream. */
+struct jobq_sse;
+struct jobq_sse *jobq_sse_open(const char *id);
+ssize_t jobq_sse_read(struct jobq_sse *s, char *buf, size_t max, struct jobq_waiter *w,
+                      void (*suspend)(struct jobq_waiter *w));
+void jobq_sse_close(struct jobq_sse *s);
+
+/* Lifecycle and numbers. */
+void jobq_drain(void);         /* refuse new work from now on */
+void jobq_cancel_all(void);    /* cancel every task (drain deadline) */
+bool jobq_idle(void);          /* no task queued or running */
+bool jobq_draining(void);
+struct jobq_stats {
+    long queued, running_tasks, busy_workers, workers, jobs, queue_cap;
+    size_t cache_bytes, cache_entries, result_bytes, result_entries;
+};
+void jobq_stats(struct jobq_stats *st);
+
+/* ---- http.c -------------------------------------------------------------- */
+
+struct MHD_Connection;
+struct MHD_Response;
+
+/* One HTTP request from the first header to the last byte sent. */
+struct http_req {
+    struct MHD_Connection *conn;
+    const char *method, *url;
+    char *body;
+    size_t body_len, body_cap;
+    int route;                   /* router index for metrics, -1 none */
+    int status;                  /* the status sent */
+    size_t bytes;                /* response body size */
+    double t0, queue_ms, render_ms;
+    struct MHD_Response *pending; /* to queue when the handler runs again */
+    unsigned pending_status;
+    bool suspended, gone, replied, too_large;
+    struct jobq_waiter waiter;   /* while suspended on a render */
+    struct jobq_sse *sse;        /* for an event stream */
+    const char *note;
+    char etag[72];               /* set for immutable GETs */
+};
+
+int http_start(void);
+int http_port(void);
+void http_stop(void);
+long http_suspended(void);      /* connections suspended right now */
+long http_in_flight(void);      /* requests not yet completed */
+
+const char *http_header(struct http_req *r, const char *name);
+const char *http_query(struct http_req *r, const char *name);
+/* Calls fn for every query argument. */
+void http_query_each(struct http_req *r, void (*fn)(void *u, const char *k, const char *v),
+                     void *u);
+
+/* Replies.  Each takes ownership of nothing; the response goes out when the
+ * handler returns (or when a suspended request is resumed). */
+void http_reply(struct http_req *r, unsigned status, struct MHD_Response *resp);
+void http_reply_data(struct http_req *r, unsigned status, const char *ctype, const void *data,
+                     size_t len);
+void http_reply_json(struct http_req *r, unsigned status, const char *json);
+void http_reply_png(struct http_req *r, unsigned status, struct blob *png);
+/* The JSON error body of the API.  path NULL or "" leaves it out; line and
+ * column are written when line > 0; param names a bad query parameter. */
+void http_reply_error(struct http_req *r, unsigned status, const char *code, const char *message,
+                      const char *path, int line, int column, const char *param);
+/* The one place where a core status becomes an HTTP status and error code. */
+void http_reply_rayd_error(struct http_req *r, const struct rayd_error *err);
+unsigned http_status_of(enum rayd_status s);
+/* Adds a header to the response queued last (call right after a reply). */
+void http_add_header(struct http_req *r, const char *name, const char *value);
+
+void http_suspend(struct http_req *r);
+void http_resume(struct http_req *r);
+int http_conn_fd(struct http_req *r);
+/* ETag + immutable Cache-Control when r->etag is set, else no-store. */
+void http_cache_headers(struct http_req *r);
+/* Submits a render of reg for r: suspends r until a worker answers (the
+ * answer becomes the reply), or replies 503 when refused. */
+void http_render(struct http_req *r, struct cache_entry *scene, const struct rayd_region *reg);
+/* Reply for a refused submission (queue full, draining, ...). */
+void http_reply_refused(struct http_req *r, enum jobq_submit why);
+/* Body is JSON?  Otherwise replies 415 and returns false. */
+bool http_require_json(struct http_req *r);
+/* JSON string escaping into buf; returns buf. */
+char *http_json_escape(const char *s, char *buf, size_t size);
+bool http_is_draining(void);
+void http_set_draining(void);
+
+/* ---- router.c ------------------------------------------------------------ */
+
+typedef void (*router_handler)(struct http_req *r, const char *id);
+void router_dispatch(struct http_req *r);
+const char *router_name(int route);
+int router_count(void);
+/* Allowed methods for a path ("GET, DELETE"), NULL when no route matches. */
+const char *router_allow(const char *path, char *buf, size_t size);
+
+/* ---- api_*.c ------------------------------------------------------------- */
+
+/* Parses ?x=&y=&w=&h= strictly against scene; on error replies 400 and
+ * returns false.  No parameters: the whole image. */
+bool api_region(struct http_req *r, const rayd_scene *scene, struct rayd_region *out);
+
+void api_render_post(struct http_req *r, const char *id);
+void api_scenes_post(struct http_req *r, const char *id);
+void api_scenes_image(struct http_req *r, const char *id);
+void api_jobs_post(struct http_req *r, const char *id);
+void api_jobs_get(struct http_req *r, const char *id);
+void api_jobs_image(struct http_req *r, const char *id);
+void api_jobs_events(struct http_req *r, const char *id);
+void api_jobs_delete(struct http_req *r, const char *id);
+void api_health_live(struct http_req *r, const char *id);
+void api_health_ready(struct http_req *r, const char *id);
+void api_health_metrics(struct http_req *r, const char *id);
+void api_web_index(struct http_req *r, const char *id);
+void api_web_asset(struct http_req *r, const char *id);
+bool api_web_exists(const char *name);
+
+#endif

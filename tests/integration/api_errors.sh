@@ -1,0 +1,164 @@
+#!/usr/bin/env bash
+# api_errors.sh -- every error code of the API with its JSON body: 400
+# invalid_json (line, column), 422 invalid_scene (JSON Pointer path), 413
+# body and image limits, 415, 404 (not_found, scene_unknown, job_unknown), 405
+# with Allow, 400 bad_region naming the parameter; and garbage never gives a
+# 500 or kills the server.
+source "$(dirname "$0")/lib/common.sh"
+
+start_rayd --threads 2 --max-body 100000 --max-pixels 1000000
+scene "$T/small.json" 160 120 1 spheres
+
+# --- 400 invalid_json with line and column --------------------------------------
+printf '{\n  "camera": {"position": [0, 1, 6],,\n}\n' >"$T/bad.json"
+code=$(post_json /v1/render "$T/bad.json")
+check invalid_json_400 "status $code $(cat "$T/body")" err_is "$T/body" 400 invalid_json
+check invalid_json_line_column "$(cat "$T/body")" \
+    bash -c "[ \"\$(python3 -c 'import json,sys; e=json.load(open(sys.argv[1]))[\"error\"]; print(e[\"line\"], e[\"column\"] > 0)' '$T/body')\" = '2 True' ]"
+printf '' >"$T/empty.json"
+code=$(post_json /v1/render "$T/empty.json")
+check empty_body_400 "status $code $(cat "$T/body")" err_is "$T/body" 400 invalid_json
+
+# --- 422 invalid_scene with the JSON Pointer path --------------------------------
+python3 - "$T/small.json" "$T/inv.json" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1]))
+i = next(k for k, o in enumerate(s["objects"]) if o["type"] == "sphere")
+s["objects"][i]["radius"] = -1
+open(sys.argv[2], "w").write(json.dumps(s))
+print(i, file=open(sys.argv[2] + ".idx", "w"))
+PY
+idx=$(cat "$T/inv.json.idx")
+code=$(post_json /v1/render "$T/inv.json")
+check invalid_scene_422 "status $code $(cat "$T/body")" err_is "$T/body" 422 invalid_scene "/objects/$idx/radius"
+code=$(post_json /v1/scenes "$T/inv.json")
+check invalid_scene_on_scenes_422 "status $code" err_is "$T/body" 422 invalid_scene "/objects/$idx/radius"
+code=$(post_json /v1/jobs "$T/inv.json")
+check invalid_scene_on_jobs_422 "status $code" err_is "$T/body" 422 invalid_scene "/objects/$idx/radius"
+python3 -c 'import json,sys; s=json.load(open(sys.argv[1])); s["render"]["bogus"]=1; open(sys.argv[2],"w").write(json.dumps(s))' "$T/small.json" "$T/unk.json"
+code=$(post_json /v1/render "$T/unk.json")
+check unknown_key_422 "status $code $(cat "$T/body")" err_is "$T/body" 422 invalid_scene /render/bogus
+
+# --- 413: body over --max-body (refused before the body is read), image over --max-pixels
+head -c 200000 /dev/zero | tr '\0' ' ' >"$T/big.json"
+code=$(post_json /v1/render "$T/big.json")
+check body_too_large_413 "status $code $(cat "$T/body")" err_is "$T/body" 413 body_too_large
+# a client that announces a huge body but never sends it still gets 413 at once
+start=$(date +%s%N)
+code=$(curl -s -m 5 -o "$T/body" -w '%{http_code}' -X POST -H 'Content-Type: application/json' \
+    -H 'Content-Length: 999999999' -H 'Expect:' --data-binary @"$T/small.json" "$URL/v1/render")
+ms=$(( ($(date +%s%N) - start) / 1000000 ))
+check body_too_large_before_read "status $code after ${ms} ms" bash -c "[ $code = 413 ] && [ $ms -lt 3000 ]"
+# chunked upload without Content-Length that grows too big
+code=$(head -c 300000 /dev/zero | tr '\0' ' ' | curl -s -m 10 -o "$T/body" -w '%{http_code}' -X POST \
+    -H 'Content-Type: application/json' -H 'Transfer-Encoding: chunked' --data-binary @- "$URL/v1/render")
+check chunked_too_large_413 "status $code" err_is "$T/body" 413 body_too_large
+scene "$T/huge.json" 2000 1000 1 spheres
+code=$(post_json /v1/render "$T/huge.json")
+check image_too_large_413 "status $code $(cat "$T/body")" bash -c "[ $code = 413 ] && python3 -c 'import json,sys; e=json.load(open(sys.argv[1]))[\"error\"]; sys.exit(0 if e[\"status\"]==413 and e[\"path\"].startswith(\"/render\") else 1)' '$T/body'"
+
+# --- 415 ---------------------------------------------------------------------------
+code=$(req POST /v1/render --data-binary @"$T/small.json")
+check no_content_type_415 "status $code" err_is "$T/body" 415 unsupported_media_type
+code=$(req POST /v1/render -H 'Content-Type: text/plain' --data-binary @"$T/small.json")
+check text_plain_415 "status $code" err_is "$T/body" 415 unsupported_media_type
+code=$(req POST /v1/render -H 'Content-Type: application/json; charset=utf-8' --data-binary @"$T/small.json")
+check json_charset_ok "status $code" [ "$code" = 200 ]
+
+# --- 404 -----------------------------------------------------------------------------
+code=$(req GET /nope)
+check not_found_404 "status $code" err_is "$T/body" 404 not_found
+code=$(req GET /v1/render/extra)
+check not_found_deeper_404 "status $code" err_is "$T/body" 404 not_found
+code=$(req GET "/v1/scenes/$(printf '0%.0s' {1..64})/image.png")
+check scene_unknown_404 "status $code" err_is "$T/body" 404 scene_unknown
+code=$(req GET "/v1/scenes/not-hex/image.png")
+check scene_bad_id_404 "status $code" err_is "$T/body" 404 scene_unknown
+code=$(req GET "/v1/jobs/0123456789abcdef0123456789abcdef")
+check job_unknown_404 "status $code" err_is "$T/body" 404 job_unknown
+for p in /image.png /events; do
+    code=$(req GET "/v1/jobs/0123456789abcdef0123456789abcdef$p")
+    check "job_unknown${p//[\/.]/_}_404" "status $code" err_is "$T/body" 404 job_unknown
+done
+code=$(req DELETE "/v1/jobs/0123456789abcdef0123456789abcdef")
+check job_unknown_delete_404 "status $code" err_is "$T/body" 404 job_unknown
+
+# --- 405 with Allow --------------------------------------------------------------------
+code=$(req GET /v1/render)
+check method_not_allowed_405 "status $code" err_is "$T/body" 405 method_not_allowed
+check method_not_allowed_allow "Allow: $(header Allow)" bash -c "[[ '$(header Allow)' == *POST* ]]"
+code=$(req DELETE /healthz)
+check delete_healthz_405 "status $code" err_is "$T/body" 405 method_not_allowed
+code=$(req PUT /v1/jobs)
+check put_jobs_405 "status $code, Allow $(header Allow)" bash -c "[ $code = 405 ] && [[ '$(header Allow)' == *POST* ]]"
+
+# --- 400 bad_region, naming the parameter -------------------------------------------------
+bad_region() { # name query param
+    local code
+    code=$(post_json "/v1/render?$2" "$T/small.json")
+    check "$1" "status $code $(cat "$T/body")" python3 -c '
+import json, sys
+e = json.load(open(sys.argv[1]))["error"]
+sys.exit(0 if e["status"] == 400 and e["code"] == "bad_region" and e["parameter"] == sys.argv[2] and sys.argv[2] in e["message"] else 1)' "$T/body" "$3"
+}
+bad_region region_missing_h "x=0&y=0&w=10" h
+bad_region region_missing_x "y=0&w=10&h=10" x
+bad_region region_not_int "x=1.5&y=0&w=10&h=10" x
+bad_region region_empty "x=0&y=&w=10&h=10" y
+bad_region region_hex "x=0&y=0&w=0x10&h=10" w
+bad_region region_negative "x=-1&y=0&w=10&h=10" x
+bad_region region_x_outside "x=160&y=0&w=1&h=1" x
+bad_region region_y_outside "x=0&y=120&w=1&h=1" y
+bad_region region_w_zero "x=0&y=0&w=0&h=10" w
+bad_region region_w_overflow "x=100&y=0&w=61&h=10" w
+bad_region region_h_overflow "x=0&y=100&w=10&h=21" h
+bad_region region_huge "x=0&y=0&w=99999999999999&h=1" w
+bad_region region_repeated "x=0&x=1&y=0&w=10&h=10" x
+code=$(post_json "/v1/render?x=0&y=0&w=1&h=1&zoom=2" "$T/small.json")
+check unknown_query_param_400 "status $code" bash -c "[ $code = 400 ] && grep -q zoom '$T/body'"
+code=$(post_json /v1/scenes "$T/small.json")
+id=$(json "$T/body" 'j["id"]')
+code=$(req GET "/v1/scenes/$id/image.png?x=0&y=0&w=500&h=1")
+check scene_region_400 "status $code" err_is "$T/body" 400 bad_region
+
+# --- garbage never crashes, hangs or 500s ------------------------------------------------
+ok=1
+for body in '[' '{"camera": 1}' 'null' '"x"' '{"objects": [{"type": "cube"}]}' \
+    '{"render": {"width": -5}}' '{"render": {"width": 1e400}}' "$(printf '\xff\xfe')" \
+    deep '{"a":' '{"render":{"width":100000,"height":100000}}'; do
+    printf '%s' "$body" >"$T/g.json"
+    [ "$body" = deep ] && python3 -c 'print("["*100000)' >"$T/g.json"
+    code=$(post_json /v1/render "$T/g.json")
+    case $code in 400|413|422) ;; *) ok=0; echo "body ${body:0:40}: $code $(head -c 200 "$T/body")" ;; esac
+    python3 -c 'import json,sys; json.load(open(sys.argv[1]))["error"]["code"]' "$T/body" || ok=0
+done
+check garbage_bodies_4xx "a garbage body got a non-4xx answer" [ $ok = 1 ]
+code=$(curl -s -m 5 -o /dev/null -w '%{http_code}' --path-as-is "$URL/../../etc/passwd")
+check path_traversal_404 "status $code" [ "$code" = 404 ]
+code=$(curl -s -m 5 -o /dev/null -w '%{http_code}' -X BREW "$URL/v1/render")
+check odd_method_405 "status $code" [ "$code" = 405 ]
+# a stalled upload is dropped by the connection timeout, not kept forever
+check still_alive "healthz after the garbage" [ "$(req GET /healthz)" = 200 ]
+check no_500_counted "a 500 was counted" bash -c "! curl -s '$URL/metrics' | grep -q 'status=\"500\"'"
+stop_rayd TERM
+check exit_0 "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
+
+# --- a stalled upload is dropped after --timeout ------------------------------------------
+start_rayd --timeout 1
+python3 - "$PORT" >"$T/stall.txt" <<'PY' &
+import socket, sys, time
+s = socket.create_connection(("127.0.0.1", int(sys.argv[1])))
+s.sendall(b"POST /v1/render HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nContent-Length: 1000\r\n\r\n{\"camera\"")
+s.settimeout(6)
+t = time.time()
+try:
+    d = s.recv(100)
+    print("closed" if d == b"" or d.startswith(b"HTTP/1.1 4") else "data", round(time.time() - t, 1))
+except Exception as e:
+    print("timeout", e)
+PY
+sp=$!
+PIDS+=($sp)
+wait $sp
+check stalled_upload_dropped "$(cat "$T/stall.txt")" grep -q '^closed' "$T/stall.txt"
+stop_rayd TERM

@@ -1,0 +1,158 @@
+#!/usr/bin/env bash
+# jobs.sh -- asynchronous renders: POST /v1/jobs (202 + Location), polling
+# GET /v1/jobs/{id} through queued/running to succeeded with progress, the
+# image (202 + Retry-After before, 200 and equal to rayd-render after),
+# Server-Sent Events (state, tile, progress, done), DELETE cancelling within
+# a tile's time, and the bound on kept jobs.
+source "$(dirname "$0")/lib/common.sh"
+
+start_rayd --threads 2 --max-jobs 4
+scene "$T/mid.json" 640 480 4 spheres
+"$RENDER" "$T/mid.json" -o "$T/ref.png" 2>/dev/null
+
+# --- create, poll, fetch ------------------------------------------------------------
+code=$(post_json /v1/jobs "$T/mid.json")
+id=$(jfield "$T/body" id)
+check job_post_202 "status $code" [ "$code" = 202 ]
+check job_id_form "id '$id'" bash -c "[[ '$id' =~ ^[0-9a-f]{32}$ ]]"
+check job_location "$(header Location)" [ "$(header Location)" = "/v1/jobs/$id" ]
+c2=$(req GET "/v1/jobs/$id/image.png")
+[ "$c2" = 202 ] && retry=$(header Retry-After)
+check job_image_202_body "$(head -c 200 "$T/body")" bash -c "[[ '$(jfield "$T/body" state)' =~ ^(queued|running)$ ]]"
+states=
+progress_seen=0
+for i in $(seq 1 600); do
+    req GET "/v1/jobs/$id" >/dev/null
+    st=$(jfield "$T/body" state)
+    pr=$(jfield "$T/body" progress)
+    [ "${states##* }" = "$st" ] || states="$states $st"
+    case $pr in 0.0000|1.0000|'') ;; 0.*) progress_seen=1 ;; esac
+    case $st in succeeded|failed|canceled) break ;; esac
+    sleep 0.02
+done
+check job_succeeds "states:$states" [ "${states##* }" = succeeded ]
+check job_progress_between "never saw 0 < progress < 1 (states:$states)" [ "$progress_seen" = 1 ]
+check job_final_progress_1 "$(cat "$T/body")" [ "$(jfield "$T/body" progress)" = 1.0000 ]
+check job_image_202_while_running "Retry-After '${retry:-}'" [ -n "${retry:-}" ]
+code=$(req GET "/v1/jobs/$id/image.png")
+check job_image_200 "status $code" [ "$code" = 200 ]
+check job_image_equals_cli "differs from rayd-render" cmp -s "$T/body" "$T/ref.png"
+
+# --- Server-Sent Events -----------------------------------------------------------------
+scene "$T/sse.json" 320 240 2 spheres 1
+code=$(post_json /v1/jobs "$T/sse.json")
+id2=$(jfield "$T/body" id)
+curl -s -N -m 60 -D "$T/sse.h" "$URL/v1/jobs/$id2/events" >"$T/sse.txt"
+check sse_content_type "$(grep -i content-type "$T/sse.h")" grep -qi '^content-type: text/event-stream' "$T/sse.h"
+check sse_events "bad stream: $(head -c 300 "$T/sse.txt")" python3 - "$T/sse.txt" <<'PY'
+import json, sys
+events, cur = [], {}
+for line in open(sys.argv[1]):
+    line = line.rstrip("\n")
+    if not line:
+        if cur: events.append(cur); cur = {}
+        continue
+    k, _, v = line.partition(": ")
+    cur[k] = v
+names = [e.get("event") for e in events]
+assert names[0] == "state", names[:3]
+tiles = [json.loads(e["data"]) for e in events if e.get("event") == "tile"]
+prog = [json.loads(e["data"])["progress"] for e in events if e.get("event") == "progress"]
+done = [json.loads(e["data"]) for e in events if e.get("event") == "done"]
+assert len(tiles) == 20, len(tiles)                 # 320x240 in 64-pixel tiles: 5 x 4
+assert sum(t["w"] * t["h"] for t in tiles) == 320 * 240
+assert prog == sorted(prog) and abs(prog[-1] - 1) < 1e-9, prog
+assert len(done) == 1 and done[0]["state"] == "succeeded" and names[-1] == "done"
+PY
+# the stream of a finished job replays everything and ends at once
+curl -s -N -m 10 "$URL/v1/jobs/$id2/events" >"$T/sse2.txt"
+check sse_replay_finished "$(tail -c 200 "$T/sse2.txt")" bash -c "grep -q '^event: done' '$T/sse2.txt' && [ \$(grep -c '^event: tile' '$T/sse2.txt') = 20 ]"
+
+# --- DELETE cancels within a tile's time --------------------------------------------------
+scene "$T/slow.json" 1280 960 16 spheres
+code=$(post_json /v1/jobs "$T/slow.json")
+id3=$(jfield "$T/body" id)
+curl -s -N -m 60 "$URL/v1/jobs/$id3/events" >"$T/sse3.txt" &
+ssepid=$!
+PIDS+=($ssepid)
+for i in $(seq 1 200); do
+    req GET "/v1/jobs/$id3" >/dev/null
+    [ "$(jfield "$T/body" state)" = running ] && break
+    sleep 0.02
+done
+check job_running "state $(json "$T/body" 'j["state"]')" [ "$(json "$T/body" 'j["state"]')" = running ]
+c0=$(metric 'rayd_canceled_total{reason="delete"}')
+code=$(req DELETE "/v1/jobs/$id3")
+t0=$(date +%s%N)
+check job_delete_200 "status $code" [ "$code" = 200 ]
+check job_delete_state "$(cat "$T/body")" [ "$(json "$T/body" 'j["state"]')" = canceled ]
+busy=1
+for i in $(seq 1 100); do
+    busy=$(metric rayd_workers_busy)
+    [ "$busy" = 0 ] && break
+    sleep 0.02
+done
+ms=$(( ($(date +%s%N) - t0) / 1000000 ))
+check job_cancel_stops_workers "workers still busy after ${ms} ms" bash -c "[ $busy = 0 ] && [ $ms -lt 2000 ]"
+check job_cancel_counted "canceled_total{delete} $c0 -> $(metric 'rayd_canceled_total{reason="delete"}')" \
+    [ "$(metric 'rayd_canceled_total{reason="delete"}')" = $((c0 + 1)) ]
+code=$(req GET "/v1/jobs/$id3/image.png")
+check job_canceled_image_409 "status $code" err_is "$T/body" 409 job_canceled
+wait $ssepid
+check sse_done_canceled "$(tail -c 200 "$T/sse3.txt")" bash -c "grep -A1 '^event: done' '$T/sse3.txt' | grep -q canceled"
+code=$(req DELETE "/v1/jobs/$id3")
+check job_delete_twice "status $code" [ "$code" = 200 ]
+
+# --- a client leaving an event stream frees its connection; the job goes on -----------
+scene "$T/sse4.json" 640 480 16 spheres 4
+post_json /v1/jobs "$T/sse4.json" >/dev/null
+id5=$(jfield "$T/body" id)
+curl -s -N -m 0.4 "$URL/v1/jobs/$id5/events" >/dev/null
+sus=1
+for i in $(seq 1 40); do
+    sus=$(metric rayd_http_suspended)
+    [ "$sus" = 0 ] && break
+    sleep 0.05
+done
+check sse_disconnect_resumed "rayd_http_suspended = $sus" [ "$sus" = 0 ]
+req GET "/v1/jobs/$id5" >/dev/null
+check sse_disconnect_job_goes_on "state $(jfield "$T/body" state)" bash -c "[[ '$(jfield "$T/body" state)' =~ ^(running|succeeded)$ ]]"
+req DELETE "/v1/jobs/$id5" >/dev/null
+
+# --- jobs with a region ------------------------------------------------------------------------
+code=$(post_json "/v1/jobs?x=10&y=20&w=100&h=50" "$T/mid.json")
+id4=$(jfield "$T/body" id)
+for i in $(seq 1 300); do
+    [ "$(req GET "/v1/jobs/$id4/image.png")" = 200 ] && break
+    sleep 0.02
+done
+"$RENDER" "$T/mid.json" -o "$T/ref_r.png" --region 10,20,100,50 2>/dev/null
+check job_region_equals_cli "differs" cmp -s "$T/body" "$T/ref_r.png"
+
+# --- only --max-jobs are kept: the oldest finished one is forgotten --------------------------------
+for k in 1 2 3 4; do
+    scene "$T/k$k.json" 32 32 1 spheres "$k"
+    post_json /v1/jobs "$T/k$k.json" >/dev/null
+    last=$(json "$T/body" 'j["id"]')
+    sleep 0.2
+done
+check jobs_bounded "rayd_jobs = $(metric rayd_jobs)" [ "$(metric rayd_jobs)" = 4 ]
+check oldest_job_forgotten "first job still known" [ "$(req GET "/v1/jobs/$id")" = 404 ]
+check newest_job_kept "last job unknown" [ "$(req GET "/v1/jobs/$last")" = 200 ]
+stop_rayd TERM
+check exit_0 "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
+
+# --- finished jobs are forgotten after --job-ttl ----------------------------------------------
+start_rayd --job-ttl 1
+scene "$T/ttl.json" 32 32 1 spheres 5
+post_json /v1/jobs "$T/ttl.json" >/dev/null
+idt=$(jfield "$T/body" id)
+sleep 0.3
+check ttl_job_kept_first "status $(req GET "/v1/jobs/$idt")" [ "$(req GET "/v1/jobs/$idt")" = 200 ]
+gone=
+for i in $(seq 1 40); do
+    [ "$(req GET "/v1/jobs/$idt")" = 404 ] && { gone=1; break; }
+    sleep 0.1
+done
+check ttl_job_forgotten "still known after 4 s" [ -n "$gone" ]
+stop_rayd TERM

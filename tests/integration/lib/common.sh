@@ -1,0 +1,145 @@
+# tests/integration/lib/common.sh -- helpers shared by the integration tests.
+# Sourced, never run by tests/run.sh (it only runs tests/integration/*.sh).
+#
+# Each test script starts its own rayd on 127.0.0.1 with --port 0, reads the
+# port from the first stdout line, talks to it with curl, and prints one line
+# per case: "PASS name" or "FAIL name: why".  Every process it starts is
+# stopped by PID in the EXIT trap.
+set -u
+
+RAYD_ROOT=${RAYD_ROOT:-$(cd "$(dirname "${BASH_SOURCE[0]}")/../../.." && pwd)}
+RAYD_BUILD=${RAYD_BUILD:-$RAYD_ROOT/build}
+RAYD=$RAYD_BUILD/rayd
+RENDER=$RAYD_BUILD/rayd-render
+T=$(mktemp -d "${TMPDIR:-/tmp}/rayd-it.XXXXXX")
+RAYD_PID=
+PORT=
+URL=
+PIDS=()
+NFAIL=0
+
+cleanup() {
+    local p
+    for p in "${PIDS[@]}" $RAYD_PID; do
+        kill -KILL "$p" 2>/dev/null
+    done
+    wait 2>/dev/null
+    rm -rf "$T"
+}
+trap cleanup EXIT
+
+pass() { echo "PASS $1"; }
+fail() { echo "FAIL $1: $2"; NFAIL=$((NFAIL + 1)); }
+# check NAME WHY-IF-FALSE COMMAND...: PASS when the command succeeds.
+check() {
+    local name=$1 why=$2; shift 2
+    if "$@"; then pass "$name"; else fail "$name" "$why"; fi
+}
+
+# start_rayd [ARGS...]: starts rayd --port 0 on 127.0.0.1 with ARGS; sets
+# RAYD_PID, PORT, URL; its stdout/stderr go to $T/rayd.out / $T/rayd.err.
+start_rayd() {
+    : >"$T/rayd.out"
+    : >"$T/rayd.err"
+    "$RAYD" --bind 127.0.0.1 --port 0 "$@" >"$T/rayd.out" 2>"$T/rayd.err" &
+    RAYD_PID=$!
+    local i line=
+    for i in $(seq 1 200); do
+        line=$(head -n 1 "$T/rayd.out" 2>/dev/null)
+        [ -n "$line" ] && break
+        kill -0 "$RAYD_PID" 2>/dev/null || break
+        sleep 0.05
+    done
+    if ! [[ $line =~ ^rayd\ listening\ on\ http://127\.0\.0\.1:([0-9]+)$ ]]; then
+        echo "FAIL start_rayd: first line was '$line'"
+        cat "$T/rayd.err" >&2
+        exit 1
+    fi
+    PORT=${BASH_REMATCH[1]}
+    URL="http://127.0.0.1:$PORT"
+}
+
+# stop_rayd [SIGNAL]: signals rayd and waits (10 s at most); sets RAYD_RC.
+stop_rayd() {
+    local sig=${1:-TERM} i
+    RAYD_RC=
+    [ -n "$RAYD_PID" ] || return 0
+    kill -"$sig" "$RAYD_PID" 2>/dev/null
+    for i in $(seq 1 200); do
+        kill -0 "$RAYD_PID" 2>/dev/null || break
+        sleep 0.05
+    done
+    if kill -0 "$RAYD_PID" 2>/dev/null; then
+        kill -KILL "$RAYD_PID" 2>/dev/null
+        RAYD_RC=hung
+    fi
+    wait "$RAYD_PID" 2>/dev/null
+    local rc=$?
+    [ -n "$RAYD_RC" ] || RAYD_RC=$rc
+    # under SANITIZE=1 a report (leak, overflow, UB) fails the script
+    if grep -Eq 'ERROR: (Address|Leak)Sanitizer|runtime error:|WARNING: ThreadSanitizer' "$T/rayd.err"; then
+        fail sanitizer_report "$(grep -Em 3 'Sanitizer|runtime error' "$T/rayd.err")"
+    fi
+    RAYD_PID=
+}
+
+# req METHOD PATH [CURL ARGS...]: prints the status code; body in $T/body,
+# headers in $T/headers.
+req() {
+    local method=$1 path=$2; shift 2
+    rm -f "$T/body" "$T/headers"
+    curl -s -m 60 -X "$method" -o "$T/body" -D "$T/headers" -w '%{http_code}' "$@" "$URL$path"
+}
+# post_json PATH FILE [CURL ARGS...]
+post_json() {
+    local path=$1 file=$2; shift 2
+    req POST "$path" -H 'Content-Type: application/json' --data-binary @"$file" "$@"
+}
+header() { # header NAME: value of a response header in $T/headers
+    grep -i "^$1:" "$T/headers" | head -n 1 | sed 's/^[^:]*: *//; s/\r$//'
+}
+# json FILE EXPR: evaluates a python expression on the parsed JSON (as j)
+json() {
+    python3 -c 'import json,sys; j=json.load(open(sys.argv[1])); print(eval(sys.argv[2]))' "$1" "$2" 2>/dev/null
+}
+# jfield FILE KEY: a top-level string or number field, without python (fast)
+jfield() {
+    sed -n 's/.*"'"$2"'":"\{0,1\}\([^",}]*\).*/\1/p' "$1" | head -n 1
+}
+# err_is FILE STATUS CODE [PATH]: the body is the API's JSON error with them
+err_is() {
+    python3 - "$@" <<'PY' 2>/dev/null
+import json, sys
+f, status, code = sys.argv[1], int(sys.argv[2]), sys.argv[3]
+e = json.load(open(f))["error"]
+ok = e["status"] == status and e["code"] == code and isinstance(e.get("message"), str) and e["message"]
+if len(sys.argv) > 4:
+    ok = ok and e.get("path") == sys.argv[4]
+sys.exit(0 if ok else 1)
+PY
+}
+is_png() { [ "$(head -c 8 "$1" | od -An -tx1 | tr -d ' \n')" = 89504e470d0a1a0a ]; }
+png_size() { # png_size FILE: "WxH" from the IHDR
+    python3 -c 'import struct,sys; d=open(sys.argv[1],"rb").read(24); print("%dx%d" % struct.unpack(">II", d[16:24]))' "$1"
+}
+metric() { # metric NAME_WITH_LABELS: current value from /metrics
+    curl -s -m 10 "$URL/metrics" "${AUTH[@]}" | awk -v k="$1" '$1 == k {print $2}'
+}
+AUTH=()
+
+# scene OUT WIDTH HEIGHT [SAMPLES] [BASE] [TAG]: a variant of a stock scene;
+# TAG changes the bytes (and so the id) without changing the picture.
+scene() {
+    python3 - "$@" <<'PY'
+import json, sys
+out, w, h = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+samples = int(sys.argv[4]) if len(sys.argv) > 4 else 1
+base = sys.argv[5] if len(sys.argv) > 5 else "spheres"
+tag = sys.argv[6] if len(sys.argv) > 6 else ""
+import os
+root = os.environ.get("RAYD_ROOT", ".")
+s = json.load(open(os.path.join(root, "tests/scenes", base + ".json")))
+s["render"]["width"], s["render"]["height"], s["render"]["samples"] = w, h, samples
+open(out, "w").write(json.dumps(s, indent=1) + " " * (int(tag) if tag.isdigit() else 0) + "\n")
+PY
+}

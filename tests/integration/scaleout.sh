@@ -1,0 +1,240 @@
+#!/usr/bin/env bash
+# scaleout.sh -- one frame over three rayd nodes, directly and behind nginx.
+#
+# Starts three `rayd --port 0` on 127.0.0.1 and Debian's nginx on a free
+# loopback port with docker/nginx.conf itself (its "# @node" and "# @listen"
+# lines and its paths rewritten for a temporary folder), then checks that
+# rayd-client's stitched frames equal rayd-render's pixels through nginx and
+# with the servers as a list, that tiles spread over every node (from each
+# node's /metrics), that a node learns a scene once, that nginx caches the
+# immutable tiles, that a node killed with SIGKILL mid-frame costs nothing
+# but time, and that with every node down the client fails loudly without
+# writing an image.  Also: job through nginx, health, a refused scene's JSON
+# error, mesh files inlined, clients/rayd-curl.sh.  Every process is stopped
+# by its PID; everything stays on loopback.
+source "$(dirname "$0")/lib/common.sh"
+
+CLIENT=$RAYD_BUILD/rayd-client
+PNGCMP=$RAYD_BUILD/tests/tools/pngcmp
+NGINX=$(command -v nginx || echo /usr/sbin/nginx)
+[ -x "$CLIENT" ] || { echo "FAIL setup: $CLIENT missing"; exit 1; }
+[ -x "$PNGCMP" ] || { echo "FAIL setup: $PNGCMP missing (make test builds it)"; exit 1; }
+[ -x "$NGINX" ] || { echo "FAIL setup: nginx missing (make deps installs it)"; exit 1; }
+
+# --- three nodes ---------------------------------------------------------------
+NODE_PID=() NODE_URL=()
+start_node() { # start_node I
+    local i=$1 out=$T/node$1.out line= k
+    "$RAYD" --bind 127.0.0.1 --port 0 --threads 2 >"$out" 2>"$T/node$i.err" &
+    NODE_PID[$i]=$!
+    PIDS+=("${NODE_PID[$i]}")
+    for k in $(seq 1 200); do
+        line=$(head -n 1 "$out" 2>/dev/null)
+        [ -n "$line" ] && break
+        sleep 0.05
+    done
+    [[ $line =~ ^rayd\ listening\ on\ (http://127\.0\.0\.1:[0-9]+)$ ]] ||
+        { echo "FAIL setup: node $i said '$line'"; exit 1; }
+    NODE_URL[$i]=${BASH_REMATCH[1]}
+}
+for i in 1 2 3; do start_node $i; done
+
+# node_count I ROUTE STATUS: rayd_requests_total of node I (0 if absent)
+node_count() {
+    local v
+    v=$(curl -s -m 5 "${NODE_URL[$1]}/metrics" |
+        awk -v k="rayd_requests_total{route=\"$2\",status=\"$3\"} " 'index($0, k) == 1 {print $NF}')
+    echo "${v:-0}"
+}
+node_tiles() { # tiles answered by node I: GET image 200 + POST render 200
+    echo $(($(node_count "$1" "GET /v1/scenes/{id}/image.png" 200) + $(node_count "$1" "POST /v1/render" 200)))
+}
+
+# --- nginx with docker/nginx.conf ------------------------------------------------
+NG=$T/nginx
+mkdir -p "$NG/cache" "$NG/log"
+NGPORT=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
+nodes_conf=""
+for i in 1 2 3; do
+    nodes_conf+="        server ${NODE_URL[$i]#http://} max_fails=1 fail_timeout=5s;\n"
+done
+awk -v nodes="$nodes_conf" -v port="$NGPORT" '
+    /^ *server .*# @node/ { if (!innode) printf "%s", nodes; innode = 1; next }
+                { innode = 0 }
+    /^ *listen .*# @listen/ { print "        listen 127.0.0.1:" port ";"; next }
+                { print }' "$RAYD_ROOT/docker/nginx.conf" |
+    sed -e "s#/var/cache/nginx#$NG/cache#g" -e "s#/var/log/nginx#$NG/log#g" \
+        -e "s#/var/run/nginx.pid#$NG/nginx.pid#g" >"$NG/nginx.conf"
+ngopts="daemon off;"
+[ "$(id -u)" = 0 ] && ngopts+=" user root;"
+if ! "$NGINX" -t -q -p "$NG" -c "$NG/nginx.conf" -e "$NG/log/error.log" -g "$ngopts" 2>"$T/nginx-t.err"; then
+    echo "FAIL nginx_conf_valid: $(head -c 400 "$T/nginx-t.err")"
+    exit 1
+fi
+echo "PASS nginx_conf_valid"
+"$NGINX" -p "$NG" -c "$NG/nginx.conf" -e "$NG/log/error.log" -g "$ngopts" 2>"$T/nginx.err" &
+NGINX_PID=$!
+PIDS+=("$NGINX_PID")
+LB=http://127.0.0.1:$NGPORT
+for k in $(seq 1 100); do
+    [ "$(curl -s -o /dev/null -w '%{http_code}' "$LB/healthz")" = 200 ] && break
+    sleep 0.05
+done
+check nginx_up "nginx does not answer /healthz on $LB" [ "$(curl -s -o /dev/null -w '%{http_code}' "$LB/healthz")" = 200 ]
+
+# client NAME ARGS...: runs rayd-client, stderr in $T/NAME.err, sets RC; a
+# sanitizer report (SANITIZE=1 builds) fails the case
+client() {
+    local name=$1; shift
+    timeout 100 "$CLIENT" "$@" 2>"$T/$name.err" >"$T/$name.out"
+    RC=$?
+    if grep -Eq 'ERROR: (Address|Leak)Sanitizer|runtime error:' "$T/$name.err"; then
+        fail "${name}_sanitizer" "$(grep -Em 3 'Sanitizer|runtime error' "$T/$name.err")"
+    fi
+}
+same() { "$PNGCMP" "$1" "$2" 2>>"$T/pngcmp.err"; }
+
+# --- through nginx: identical pixels, spread, learned, cached ---------------------
+scene "$T/a.json" 400 300 2 whitted 1
+"$RENDER" "$T/a.json" -o "$T/a_ref.png" 2>/dev/null
+declare -A before
+for i in 1 2 3; do before[$i]=$(node_tiles $i); done
+client nginx_render render "$T/a.json" -o "$T/a.png" --server "$LB" --tile 64 --parallel 6
+check nginx_render_exit "exit $RC: $(tail -n 3 "$T/nginx_render.err")" [ "$RC" = 0 ]
+check nginx_render_identical "differs from rayd-render" same "$T/a_ref.png" "$T/a.png"
+spread=1 per=""
+for i in 1 2 3; do
+    n=$(($(node_tiles $i) - before[$i])); per+=" node$i=$n"
+    [ "$n" -gt 0 ] || spread=0
+done
+check nginx_tiles_spread "tiles per node:$per" [ $spread = 1 ]
+check nginx_progress_lines "no plain progress lines on a non-tty stderr" \
+    grep -q '^rayd-client: 35/35 tiles (100%)' "$T/nginx_render.err"
+
+# the same frame again: every tile is an immutable GET served by nginx's cache
+for i in 1 2 3; do before[$i]=$(node_tiles $i); done
+hits0=$(grep -c 'cache=HIT' "$NG/log/access.log")
+client nginx_cached render "$T/a.json" -o "$T/a2.png" --server "$LB" --tile 64 --parallel 6
+hits=$(($(grep -c 'cache=HIT' "$NG/log/access.log") - hits0))
+node_work=0
+for i in 1 2 3; do node_work=$((node_work + $(node_tiles $i) - before[$i])); done
+# (tiles the first run got through POST /v1/render were not cached: 404 first)
+check nginx_cache_hits "exit $RC, $hits cache hits, $node_work tiles rendered by nodes" \
+    [ "$RC" = 0 -a "$hits" -ge 20 -a $((hits + node_work)) = 35 ]
+check nginx_cached_identical "differs" same "$T/a_ref.png" "$T/a2.png"
+
+# --- the servers as a list, no nginx -------------------------------------------
+scene "$T/b.json" 400 300 2 whitted 2
+"$RENDER" "$T/b.json" -o "$T/b_ref.png" 2>/dev/null
+for i in 1 2 3; do before[$i]=$(node_tiles $i); done
+declare -A learn0 post0
+for i in 1 2 3; do
+    learn0[$i]=$(node_count $i "POST /v1/scenes" 201)
+    post0[$i]=$(node_count $i "POST /v1/render" 200)
+done
+client list_render render "$T/b.json" -o "$T/b.png" --tile 64 \
+    --server "${NODE_URL[1]}" --server "${NODE_URL[2]}/" --server "${NODE_URL[3]}"
+check list_render_exit "exit $RC: $(tail -n 3 "$T/list_render.err")" [ "$RC" = 0 ]
+check list_render_identical "differs from rayd-render" same "$T/b_ref.png" "$T/b.png"
+spread=1 once=1 per="" learned=""
+for i in 1 2 3; do
+    n=$(($(node_tiles $i) - before[$i])); per+=" node$i=$n"
+    [ "$n" -ge 5 ] || spread=0
+    l=$(($(node_count $i "POST /v1/scenes" 201) - learn0[$i]))
+    p=$(($(node_count $i "POST /v1/render" 200) - post0[$i]))
+    learned+=" node$i: scenes=$l render=$p"
+    [ "$l" = 1 -a "$p" = 0 ] || once=0
+done
+check list_tiles_spread "tiles per node:$per" [ $spread = 1 ]
+check list_scene_learned_once "$learned" [ $once = 1 ]
+
+# --- a scene a node refuses: the server's JSON error --------------------------------
+scene "$T/huge.json" 5000 4000 1 spheres
+client refused render "$T/huge.json" -o "$T/huge.png" --server "$LB"
+check refused_exit_1 "exit $RC" [ "$RC" = 1 ]
+check refused_json_error "stderr: $(head -c 300 "$T/refused.err")" \
+    grep -q 'HTTP 413 too_large at /render: ' "$T/refused.err"
+check refused_no_file "an image was written" [ ! -e "$T/huge.png" ]
+
+# --- job through nginx (sticky upstream), health, mesh files, rayd-curl.sh ----------
+scene "$T/j.json" 200 150 2 instances 3
+"$RENDER" "$T/j.json" -o "$T/j_ref.png" 2>/dev/null
+client job job "$T/j.json" -o "$T/j.png" --server "$LB"
+check job_through_nginx "exit $RC: $(tail -n 2 "$T/job.err")" bash -c "[ $RC = 0 ] && cmp -s '$T/j.png' '$T/j_ref.png'"
+check job_progress_events "no progress from the event stream" grep -q 'tiles (100%)' "$T/job.err"
+
+client health health --server "${NODE_URL[1]}" --server "${NODE_URL[2]}" --server "$LB"
+check health_ok "exit $RC: $(cat "$T/health.out")" bash -c "[ $RC = 0 ] && [ \$(grep -c ': live, ready' '$T/health.out') = 3 ]"
+
+mkdir -p "$T/models"
+printf 'v -1 0 0\nv 1 0 0\nv 0 1.5 0\nv 0 0.5 1\nf 1 2 3\nf 1 2 4\nf 2 3 4\nf 3 1 4\n' >"$T/models/tet.obj"
+python3 - "$RAYD_ROOT/tests/scenes/spheres.json" "$T/mesh.json" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1]))
+s["render"]["width"], s["render"]["height"] = 160, 120
+s["objects"].append({"type": "mesh", "source": {"file": "models/tet.obj"}, "material": {"color": [0.9, 0.6, 0.1]}})
+json.dump(s, open(sys.argv[2], "w"))
+PY
+"$RENDER" "$T/mesh.json" -o "$T/mesh_ref.png" 2>/dev/null
+client mesh render "$T/mesh.json" -o "$T/mesh.png" --server "${NODE_URL[1]}" --server "${NODE_URL[2]}" --tile 32
+check mesh_file_inlined "exit $RC: $(tail -n 2 "$T/mesh.err")" bash -c "[ $RC = 0 ] && '$PNGCMP' '$T/mesh_ref.png' '$T/mesh.png'"
+
+sh "$RAYD_ROOT/clients/rayd-curl.sh" "$T/j.json" "$T/curl.png" "$LB" 2>"$T/curl.err"
+check rayd_curl_through_nginx "exit $?: $(head -c 200 "$T/curl.err")" cmp -s "$T/curl.png" "$T/j_ref.png"
+sh "$RAYD_ROOT/clients/rayd-curl.sh" "$T/huge.json" "$T/curl2.png" "$LB" 2>"$T/curl2.err"
+check rayd_curl_error "exit $? or no JSON error: $(head -c 200 "$T/curl2.err")" \
+    bash -c "grep -q too_large '$T/curl2.err' && [ ! -e '$T/curl2.png' ]"
+
+# --- SIGKILL of a node mid-frame -----------------------------------------------------
+# kill_mid_frame NAME NODE SCENE SERVERS...: renders in the background, kills
+# NODE once it has answered a few tiles, and expects the identical frame.
+kill_mid_frame() {
+    local name=$1 node=$2 sc=$3; shift 3
+    "$RENDER" "$sc" -o "$T/$name.ref.png" 2>/dev/null
+    local base k; base=$(node_tiles "$node")
+    timeout 100 "$CLIENT" render "$sc" -o "$T/$name.png" --tile 48 "$@" 2>"$T/$name.err" &
+    local cpid=$!
+    for k in $(seq 1 400); do
+        [ $(($(node_tiles "$node") - base)) -ge 3 ] && break
+        kill -0 $cpid 2>/dev/null || break
+        sleep 0.02
+    done
+    local alive=no
+    kill -0 $cpid 2>/dev/null && alive=yes
+    kill -KILL "${NODE_PID[$node]}"
+    wait "${NODE_PID[$node]}" 2>/dev/null
+    wait $cpid
+    RC=$?
+    check "${name}_killed_mid_frame" "the client had finished before the kill" [ $alive = yes ]
+    check "${name}_completes" "exit $RC: $(tail -n 3 "$T/$name.err")" [ "$RC" = 0 ]
+    check "${name}_identical" "differs from rayd-render" same "$T/$name.ref.png" "$T/$name.png"
+}
+scene "$T/k1.json" 480 360 8 whitted 4
+kill_mid_frame kill_list 3 "$T/k1.json" --server "${NODE_URL[1]}" --server "${NODE_URL[2]}" --server "${NODE_URL[3]}"
+scene "$T/k2.json" 480 360 8 whitted 5
+kill_mid_frame kill_nginx 2 "$T/k2.json" --server "$LB" --parallel 6
+
+# --- every node down ----------------------------------------------------------------
+kill -KILL "${NODE_PID[1]}"
+wait "${NODE_PID[1]}" 2>/dev/null
+scene "$T/d.json" 200 150 1 spheres 6
+t0=$(date +%s)
+client down_list render "$T/d.json" -o "$T/d.png" --server "${NODE_URL[1]}" --server "${NODE_URL[2]}" --server "${NODE_URL[3]}"
+t1=$(date +%s)
+check down_list_exit "exit $RC" [ "$RC" = 2 ]
+check down_list_message "stderr: $(tail -n 2 "$T/down_list.err" | head -c 300)" \
+    bash -c "grep -q 'incomplete image, nothing written to .*: 4 of 4 tiles missing: x=0 y=0 w=128 h=128' '$T/down_list.err' && grep -q 'last error: .*onnect' '$T/down_list.err'"
+check down_list_no_file "an image was written" [ ! -e "$T/d.png" -a ! -e "$T/d.png.part" ]
+check down_list_quick "took $((t1 - t0)) s" [ $((t1 - t0)) -le 20 ]
+client down_nginx render "$T/d.json" -o "$T/d.png" --server "$LB"
+check down_nginx_exit "exit $RC: $(tail -n 2 "$T/down_nginx.err" | head -c 300)" \
+    bash -c "[ $RC = 2 ] && grep -q 'tiles missing' '$T/down_nginx.err' && [ ! -e '$T/d.png' ]"
+
+# --- stop nginx; sanitizer reports of the nodes (SANITIZE=1) ----------------------------
+kill -QUIT "$NGINX_PID" 2>/dev/null
+wait "$NGINX_PID" 2>/dev/null
+for i in 1 2 3; do
+    if grep -Eq 'ERROR: (Address|Leak)Sanitizer|runtime error:' "$T/node$i.err"; then
+        fail "node${i}_sanitizer" "$(grep -Em 3 'Sanitizer|runtime error' "$T/node$i.err")"
+    fi
+done

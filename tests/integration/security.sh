@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# security.sh -- --token-file (401 without or with a wrong bearer token on
+# every route but /healthz and /readyz), and the --cors-origin allow-list
+# with OPTIONS preflight.
+source "$(dirname "$0")/lib/common.sh"
+
+scene "$T/s.json" 64 48 1 spheres
+
+# --- without a token everything is open ------------------------------------------------
+start_rayd
+check open_without_token "status" [ "$(post_json /v1/render "$T/s.json")" = 200 ]
+check no_cors_by_default "ACAO sent" bash -c "! curl -s -D - -o /dev/null -H 'Origin: http://a.example' '$URL/healthz' | grep -qi access-control-allow-origin"
+check loopback_no_warning "warned on 127.0.0.1" bash -c "! grep -q WARNING '$T/rayd.err'"
+stop_rayd TERM
+
+# --- with a token -------------------------------------------------------------------------
+printf 's3cret-token\n' >"$T/token"
+start_rayd --token-file "$T/token" --cors-origin "http://a.example, http://b.example"
+code=$(post_json /v1/render "$T/s.json")
+check auth_missing_401 "status $code" err_is "$T/body" 401 unauthorized
+check auth_www_authenticate "$(header WWW-Authenticate)" bash -c "[[ '$(header WWW-Authenticate)' == Bearer* ]]"
+code=$(post_json /v1/render "$T/s.json" -H 'Authorization: Bearer wrong')
+check auth_wrong_401 "status $code" err_is "$T/body" 401 unauthorized
+code=$(post_json /v1/render "$T/s.json" -H 'Authorization: Bearer s3cret-token-and-more')
+check auth_prefix_401 "status $code" err_is "$T/body" 401 unauthorized
+code=$(post_json /v1/render "$T/s.json" -H 'Authorization: Bearer s3cret-toke')
+check auth_short_401 "status $code" err_is "$T/body" 401 unauthorized
+code=$(post_json /v1/render "$T/s.json" -H 'Authorization: Bearer s3cret-token')
+check auth_right_200 "status $code" bash -c "[ $code = 200 ] && head -c 4 '$T/body' | grep -q PNG"
+for p in /metrics / /v1/jobs/0123456789abcdef0123456789abcdef /nope; do
+    code=$(req GET "$p")
+    check "auth_required_${p//[\/]/_}" "status $code" [ "$code" = 401 ]
+done
+check auth_healthz_open "status" [ "$(req GET /healthz)" = 200 ]
+check auth_readyz_open "status" [ "$(req GET /readyz)" = 200 ]
+AUTH=(-H 'Authorization: Bearer s3cret-token')
+check auth_metrics_with_token "no metrics" [ -n "$(metric rayd_workers)" ]
+check auth_rejections_counted "rejections{unauthorized} $(metric 'rayd_rejections_total{reason="unauthorized"}')" \
+    [ "$(metric 'rayd_rejections_total{reason="unauthorized"}')" -ge 7 ]
+
+# --- CORS -------------------------------------------------------------------------------------
+code=$(req OPTIONS /v1/render -H 'Origin: http://b.example' -H 'Access-Control-Request-Method: POST' \
+    -H 'Access-Control-Request-Headers: content-type, authorization')
+check cors_preflight_204 "status $code" [ "$code" = 204 ]
+check cors_preflight_origin "$(header Access-Control-Allow-Origin)" [ "$(header Access-Control-Allow-Origin)" = http://b.example ]
+check cors_preflight_methods "$(header Access-Control-Allow-Methods)" bash -c "[[ '$(header Access-Control-Allow-Methods)' == *POST* ]]"
+check cors_preflight_headers "$(header Access-Control-Allow-Headers)" bash -c "[[ '$(header Access-Control-Allow-Headers)' == *Authorization* ]]"
+code=$(req OPTIONS /v1/render -H 'Origin: http://evil.example' -H 'Access-Control-Request-Method: POST')
+check cors_other_origin_refused "ACAO '$(header Access-Control-Allow-Origin)'" [ -z "$(header Access-Control-Allow-Origin)" ]
+code=$(post_json /v1/render "$T/s.json" -H 'Authorization: Bearer s3cret-token' -H 'Origin: http://a.example')
+check cors_actual_request "status $code, ACAO '$(header Access-Control-Allow-Origin)'" \
+    bash -c "[ $code = 200 ] && [ '$(header Access-Control-Allow-Origin)' = http://a.example ]"
+code=$(req OPTIONS /nope -H 'Origin: http://a.example')
+check options_unknown_404 "status $code" [ "$code" = 404 ]
+stop_rayd TERM
+check exit_0 "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
+
+"$RAYD" --token-file "$T/missing-file" --port 0 >/dev/null 2>&1
+check missing_token_file_fails "rayd started without its token file" [ $? -ne 0 ]
