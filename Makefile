@@ -132,11 +132,11 @@ $(BUILD)/tests/%: tests/unit/%.c $(wildcard tests/unit/*.h) $(BUILD)/librayd.a
 # Small programs the shell tests use (not tests themselves).
 $(BUILD)/tests/tools/%: tests/tools/%.c $(BUILD)/librayd.a
 	@mkdir -p $(dir $@)
-	$(CC) $(CFLAGS_ALL) -Iinclude $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
+	$(CC) $(CFLAGS_ALL) -Iinclude -Icore $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
 
 TEST_TOOLS := $(patsubst tests/tools/%.c,$(BUILD)/tests/tools/%,$(wildcard tests/tools/*.c))
 
-test: all $(UNIT_BIN) $(TEST_TOOLS) $(FUZZ_REPLAY)
+test: all $(UNIT_BIN) $(TEST_TOOLS) $(FUZZ_REPLAY) $(BUILD)/bench/genmesh
 	@bash tests/run.sh $(BUILD)
 
 test-unit: $(BUILD)/librayd.a $(UNIT_BIN)
