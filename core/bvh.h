@@ -139,4 +139,27 @@ static inline int bvh4_push_sorted(const struct bvh4_node *nd, int mask, const f
     return sp;
 }
 
+/* One step down from inner node *e: tests its children, pushes all but the
+ * nearest hit onto the stack (farthest deepest) and makes *e the nearest.
+ * False when no child is hit (the caller pops the next entry).  A single
+ * hit child -- the common case -- never touches the stack. */
+static inline bool bvh4_descend(const struct bvh4_node *nodes, struct bvh_entry *e,
+                                const struct bvh_ray *br, float tmax, struct bvh_entry *stack,
+                                int *sp) {
+    const struct bvh4_node *nd = &nodes[e->node];
+    float tn[4];
+    int mask = bvh4_test(nd, br, 0, tmax, tn);
+    if (!mask) return false;
+    int i = __builtin_ctz((unsigned)mask);
+    if (!(mask & (mask - 1))) {
+        e->node = nd->child[i];
+        e->count = nd->count[i];
+        e->tnear = tn[i];
+        return true;
+    }
+    *sp = bvh4_push_sorted(nd, mask, tn, stack, *sp);
+    *e = stack[--*sp];
+    return true;
+}
+
 #endif

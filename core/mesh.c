@@ -175,29 +175,25 @@ static bool mesh_walk(const struct mesh *m, const ray *r, double tmax, struct me
     tri_ray_init(&tr, r);
     float tm = tmax > 3e38 ? 3e38f : nextafterf((float)tmax, 0);
     bool found = false;
-    struct bvh_entry stack[BVH_STACK];
-    int sp = 1;
-    stack[0].node = 0;
-    stack[0].count = 0;
-    stack[0].tnear = 0;
-    while (sp > 0) {
-        struct bvh_entry e = stack[--sp];
-        if (e.tnear > tm) continue;
-        if (e.count) {
+    struct bvh_entry stack[BVH_STACK], e = {0, 0, 0};
+    int sp = 0;
+    for (;;) {
+        if (e.count == 0) {
+            if (bvh4_descend(m->bvh.nodes, &e, &br, tm, stack, &sp)) continue;
+        } else {
             float t[4], u[4], v[4];
             const struct tri4 *b = &m->blocks[e.node];
             int mask = tri4_test(b, e.count, &tr, tm, t, u, v);
-            if (mask && (any || tri4_take(b, mask, t, u, v, &tm, h, &found))) {
+            if (mask) {
                 if (any) return true;
+                tri4_take(b, mask, t, u, v, &tm, h, &found);
             }
-            continue;
         }
-        const struct bvh4_node *nd = &m->bvh.nodes[e.node];
-        float tn[4];
-        int mask = bvh4_test(nd, &br, 0, tm, tn);
-        sp = bvh4_push_sorted(nd, mask, tn, stack, sp);
+        do { /* pop the nearest entry still in reach */
+            if (sp == 0) return found;
+            e = stack[--sp];
+        } while (e.tnear > tm);
     }
-    return found;
 }
 
 bool mesh_intersect(const struct mesh *m, const ray *r, double tmax, struct mesh_hit *h) {

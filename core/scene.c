@@ -237,7 +237,7 @@ static bool objects_hit(const rayd_scene *s, const struct object *objs, int32_t 
                         double *tmax, struct hit *h) {
     bool found = false;
     if (nobjs == 0) return false;
-    if (s->brute) {
+    if (s->brute || nobjs == 1) { /* one object: its own test is the whole walk */
         for (int32_t i = 0; i < nobjs; i++) found |= object_hit(s, &objs[i], outer, r, tmax, h);
         return found;
     }
