@@ -1,12 +1,11 @@
-/* mesh_io.c -- what the mesh decoders share: freeing, growing, numbers.
+/* mesh_io.c -- what the mesh decoders share: freeing, quoting, numbers.
  *
  * mesh_obj.c and mesh_ply.c each turn a file's bytes into a struct
- * mesh_data in one pass over a buffer that is not NUL-terminated.  Three
- * things they both need live here:
+ * mesh_data in one pass over a buffer that is not NUL-terminated (growing
+ * their arrays by doubling, array.c, so a million-triangle file costs
+ * O(log n) reallocations).  Three things they both need live here:
  *   - mesh_data_free, so a half-built mesh and a finished one are released
  *     the same way on every path;
- *   - mesh_grow, amortised (doubling) array growth with overflow checks, so
- *     a million-triangle file costs O(log n) reallocations;
  *   - mesh_quote, so a token quoted in a message is printable ASCII;
  *   - mesh_parse_number, a decimal parser over a bounded token.  strtod
  *     needs a NUL after the number and is slow; the common case (at most 19
@@ -32,23 +31,6 @@ void mesh_data_free(struct mesh_data *m) {
     memset(m, 0, sizeof *m);
 }
 
-bool mesh_grow(void **arr, size_t *cap, size_t need, size_t elem) {
-    if (need <= *cap) return true;
-    size_t n = *cap ? *cap : 64;
-    while (n < need) {
-        if (n > SIZE_MAX / 2) {
-            n = need;
-            break;
-        }
-        n *= 2;
-    }
-    if (elem == 0 || n > SIZE_MAX / elem) return false;
-    void *p = realloc(*arr, n * elem);
-    if (!p) return false;
-    *arr = p;
-    *cap = n;
-    return true;
-}
 
 /* UINT32_MAX - 1 at most, so a count + 1 still fits a uint32_t. */
 uint32_t mesh_max_vertices(const struct mesh_limits *lim) {

@@ -6,6 +6,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "array.h"
 #include "rayd/rayd.h"
 
 /* An indexed triangle mesh.  Every array is malloc'd and owned by the
@@ -43,10 +44,6 @@ enum rayd_status mesh_parse_ply(const void *data, size_t len, const struct mesh_
 
 /* ---- helpers shared by mesh_obj.c and mesh_ply.c ------------------------ */
 
-/* Makes *arr hold at least need elements of elem bytes, growing the
- * capacity *cap geometrically.  False (and *arr untouched) when out of
- * memory or when the size overflows. */
-bool mesh_grow(void **arr, size_t *cap, size_t need, size_t elem);
 
 /* Parses the whole of s[0..n) as a decimal number (sign, digits, point,
  * exponent; strtod's forms such as "nan" and "inf" too, so the caller can

@@ -142,7 +142,7 @@ static enum rayd_status obj_push(struct obj *o, const char *what, float **arr, s
     if (*n >= o->max_verts)
         return obj_fail(o, RAYD_E_LIMIT, "%zu '%s' lines exceed the limit of %u vertices",
                         *n + 1, what, o->max_verts);
-    if (!mesh_grow((void **)arr, cap, (*n + 1) * width, sizeof **arr)) return obj_nomem(o);
+    if (!array_grow((void **)arr, cap, (*n + 1) * width, sizeof **arr)) return obj_nomem(o);
     memcpy(*arr + *n * width, vals, width * sizeof *vals);
     (*n)++;
     return RAYD_OK;
@@ -272,7 +272,7 @@ static enum rayd_status obj_vertex(struct obj *o, struct obj_key k, uint32_t *ou
     if (o->nkeys >= o->max_verts)
         return obj_fail(o, RAYD_E_LIMIT, "%zu vertices exceed the limit of %u", o->nkeys + 1,
                         o->max_verts);
-    if (!mesh_grow((void **)&o->keys, &o->cap_keys, o->nkeys + 1, sizeof *o->keys))
+    if (!array_grow((void **)&o->keys, &o->cap_keys, o->nkeys + 1, sizeof *o->keys))
         return obj_nomem(o);
     o->keys[o->nkeys] = k;
     o->table[i] = (struct obj_entry){k, (uint32_t)(o->nkeys + 1)};
@@ -285,7 +285,7 @@ static enum rayd_status obj_triangle(struct obj *o, uint32_t a, uint32_t b, uint
     if (o->ntri >= o->max_tris)
         return obj_fail(o, RAYD_E_LIMIT, "%zu triangles exceed the limit of %u", o->ntri + 1,
                         o->max_tris);
-    if (!mesh_grow((void **)&o->tri, &o->cap_tri, (o->ntri + 1) * 3, sizeof *o->tri))
+    if (!array_grow((void **)&o->tri, &o->cap_tri, (o->ntri + 1) * 3, sizeof *o->tri))
         return obj_nomem(o);
     uint32_t *t = o->tri + o->ntri * 3;
     t[0] = a;

@@ -240,7 +240,7 @@ static enum rayd_status ply_element_line(struct ply *P, const char *p, const cha
     size_t *slot = kind == PLY_ELEM_VERTEX ? &P->vertex : kind == PLY_ELEM_FACE ? &P->face : NULL;
     if (slot && *slot)
         return ply_hfail(P, RAYD_E_INVALID, "a second '%s' element", ply_q(q, name));
-    if (!mesh_grow((void **)&P->elems, &P->cap_elems, P->nelems + 1, sizeof *P->elems))
+    if (!array_grow((void **)&P->elems, &P->cap_elems, P->nelems + 1, sizeof *P->elems))
         return ply_hfail(P, RAYD_E_NOMEM, "out of memory");
     struct ply_elem *e = &P->elems[P->nelems++];
     memset(e, 0, sizeof *e);
@@ -275,7 +275,7 @@ static enum rayd_status ply_property_line(struct ply *P, const char *p, const ch
     prop.role = ply_role_of(e->kind, list, name);
     if (e->role_seen[prop.role]) prop.role = PLY_OTHER; /* e.g. both u and s: the first wins */
     e->role_seen[prop.role] = true;
-    if (!mesh_grow((void **)&e->props, &e->cap_props, e->nprops + 1, sizeof *e->props))
+    if (!array_grow((void **)&e->props, &e->cap_props, e->nprops + 1, sizeof *e->props))
         return ply_hfail(P, RAYD_E_NOMEM, "out of memory");
     e->props[e->nprops++] = prop;
     return RAYD_OK;
@@ -505,7 +505,7 @@ static enum rayd_status ply_triangle(struct ply *P, uint32_t a, uint32_t b, uint
     if (P->ntri >= P->max_tris)
         return ply_bfail(P, RAYD_E_LIMIT, "%zu triangles exceed the limit of %u", P->ntri + 1,
                          P->max_tris);
-    if (!mesh_grow((void **)&P->tri, &P->cap_tri, (P->ntri + 1) * 3, sizeof *P->tri))
+    if (!array_grow((void **)&P->tri, &P->cap_tri, (P->ntri + 1) * 3, sizeof *P->tri))
         return ply_bfail(P, RAYD_E_NOMEM, "out of memory");
     uint32_t *t = P->tri + P->ntri * 3;
     t[0] = a;
@@ -599,7 +599,7 @@ static enum rayd_status ply_alloc(struct ply *P) {
      * be as short as two bytes, so the count alone is a weak bound. */
     size_t guess = f->count < (1u << 20) ? (size_t)f->count + 1 : (size_t)1 << 20;
     bool ok = P->pos && (!normals || P->normal) && (!uvs || P->uv) &&
-              mesh_grow((void **)&P->tri, &P->cap_tri, guess * 3, sizeof *P->tri);
+              array_grow((void **)&P->tri, &P->cap_tri, guess * 3, sizeof *P->tri);
     return ok ? RAYD_OK : ply_hfail(P, RAYD_E_NOMEM, "out of memory for %u vertices", P->nverts);
 }
 

@@ -231,38 +231,59 @@ static bool object_hit(const rayd_scene *s, const struct object *o, const struct
     return true;
 }
 
+/* Calls visit for every object of objs whose BVH box the ray enters before
+ * *tmax, nearest boxes first, until visit returns false.  visit may shrink
+ * *tmax (a nearest-hit search) and so prune the rest of the walk.  With
+ * brute (tests) or a single object, every object is visited in order. */
+typedef bool (*visit_fn)(void *ctx, const struct object *o, double *tmax);
+
+static void objects_walk(const struct object *objs, int32_t n, const struct bvh4 *bvh, bool brute,
+                         const ray *r, double *tmax, visit_fn visit, void *ctx) {
+    if (brute || n <= 1) {
+        for (int32_t i = 0; i < n; i++)
+            if (!visit(ctx, &objs[i], tmax)) return;
+        return;
+    }
+    struct bvh_ray br;
+    bvh_ray_init(&br, r->o, r->d);
+    struct bvh_entry stack[BVH_STACK], e = {0, 0, 0};
+    int sp = 0;
+    for (;;) {
+        float tm = *tmax > 3e38 ? 3e38f : (float)*tmax;
+        if (e.count == 0) {
+            if (bvh4_descend(bvh->nodes, &e, &br, tm, stack, &sp)) continue;
+        } else {
+            for (uint32_t i = e.node; i < e.node + e.count; i++)
+                if (!visit(ctx, &objs[i], tmax)) return;
+        }
+        do { /* pop the nearest entry still in reach */
+            if (sp == 0) return;
+            e = stack[--sp];
+        } while (e.tnear > *tmax * 1.0000004);
+    }
+}
+
+struct nearest {
+    const rayd_scene *s;
+    const struct xform *outer;
+    const ray *r;
+    struct hit *h;
+    bool found;
+};
+
+static bool visit_nearest(void *ctx, const struct object *o, double *tmax) {
+    struct nearest *c = ctx;
+    c->found |= object_hit(c->s, o, c->outer, c->r, tmax, c->h);
+    return true;
+}
+
 /* Nearest hit among objs (with their BVH) closer than *tmax. */
 static bool objects_hit(const rayd_scene *s, const struct object *objs, int32_t nobjs,
                         const struct bvh4 *bvh, const struct xform *outer, const ray *r,
                         double *tmax, struct hit *h) {
-    bool found = false;
-    if (nobjs == 0) return false;
-    if (s->brute || nobjs == 1) { /* one object: its own test is the whole walk */
-        for (int32_t i = 0; i < nobjs; i++) found |= object_hit(s, &objs[i], outer, r, tmax, h);
-        return found;
-    }
-    struct bvh_ray br;
-    bvh_ray_init(&br, r->o, r->d);
-    struct bvh_entry stack[BVH_STACK];
-    int sp = 1;
-    stack[0].node = 0;
-    stack[0].count = 0;
-    stack[0].tnear = 0;
-    while (sp > 0) {
-        struct bvh_entry e = stack[--sp];
-        if (e.tnear > *tmax * 1.0000004) continue;
-        if (e.count) {
-            for (uint32_t i = e.node; i < e.node + e.count; i++)
-                found |= object_hit(s, &objs[i], outer, r, tmax, h);
-            continue;
-        }
-        const struct bvh4_node *nd = &bvh->nodes[e.node];
-        float tn[4];
-        float tm = *tmax > 3e38 ? 3e38f : (float)*tmax;
-        int mask = bvh4_test(nd, &br, 0, tm, tn);
-        sp = bvh4_push_sorted(nd, mask, tn, stack, sp);
-    }
-    return found;
+    struct nearest c = {s, outer, r, h, false};
+    objects_walk(objs, nobjs, bvh, s->brute, r, tmax, visit_nearest, &c);
+    return c.found;
 }
 
 bool scene_intersect(const rayd_scene *s, const ray *r, double tmax, struct hit *h) {
@@ -298,41 +319,23 @@ static bool object_filter(const rayd_scene *s, const struct object *o, const ray
     return filter_light(s, h.leaf->material, trans);
 }
 
+struct filter {
+    const rayd_scene *s;
+    const ray *r;
+    vec3 trans;
+};
+
+static bool visit_filter(void *ctx, const struct object *o, double *tmax) {
+    struct filter *c = ctx;
+    return object_filter(c->s, o, c->r, *tmax, &c->trans);
+}
+
 vec3 scene_transmittance(const rayd_scene *s, const ray *r, double tmax) {
-    vec3 trans = v3(1, 1, 1);
+    struct filter c = {s, r, v3(1, 1, 1)};
     for (int32_t i = 0; i < s->nplanes; i++)
-        if (!object_filter(s, &s->planes[i], r, tmax, &trans)) return trans;
-    if (s->nobjs == 0) return trans;
-    if (s->brute) {
-        for (int32_t i = 0; i < s->nobjs; i++)
-            if (!object_filter(s, &s->objs[i], r, tmax, &trans)) return trans;
-        return trans;
-    }
-    struct bvh_ray br;
-    bvh_ray_init(&br, r->o, r->d);
-    struct bvh_entry stack[BVH_STACK];
-    int sp = 1;
-    stack[0].node = 0;
-    stack[0].count = 0;
-    float tm = tmax > 3e38 ? 3e38f : (float)tmax;
-    while (sp > 0) {
-        struct bvh_entry e = stack[--sp];
-        if (e.count) {
-            for (uint32_t i = e.node; i < e.node + e.count; i++)
-                if (!object_filter(s, &s->objs[i], r, tmax, &trans)) return trans;
-            continue;
-        }
-        const struct bvh4_node *nd = &s->tlas.nodes[e.node];
-        float tn[4];
-        int mask = bvh4_test(nd, &br, 0, tm, tn);
-        for (int k = 0; k < 4; k++) {
-            if (!(mask & (1 << k))) continue;
-            stack[sp].node = nd->child[k];
-            stack[sp].count = nd->count[k];
-            sp++;
-        }
-    }
-    return trans;
+        if (!object_filter(s, &s->planes[i], r, tmax, &c.trans)) return c.trans;
+    objects_walk(s->objs, s->nobjs, &s->tlas, s->brute, r, &tmax, visit_filter, &c);
+    return c.trans;
 }
 
 /* ---- surfaces ------------------------------------------------------------------ */

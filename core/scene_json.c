@@ -153,13 +153,8 @@ enum rayd_status sj_material(struct loader *ld, const cJSON *m, const struct jp 
 
 enum rayd_status sj_add_material(struct loader *ld, const struct material *m, int *index) {
     rayd_scene *s = ld->s;
-    if (s->nmats == ld->mat_cap) {
-        int cap = ld->mat_cap ? ld->mat_cap * 2 : 16;
-        struct material *p = realloc(s->mats, sizeof *p * (size_t)cap);
-        if (!p) return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
-        s->mats = p;
-        ld->mat_cap = cap;
-    }
+    if (!array_grow((void **)&s->mats, &ld->mat_cap, (size_t)s->nmats + 1, sizeof *s->mats))
+        return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
     s->mats[s->nmats] = *m;
     *index = s->nmats++;
     return RAYD_OK;

@@ -17,6 +17,7 @@
 
 #include <cjson/cJSON.h>
 
+#include "array.h"
 #include "error.h"
 #include "scene.h"
 
@@ -45,9 +46,7 @@ struct loader {
     const cJSON *groups;    /* the /groups object, for names */
     struct named *mat_names; /* /materials keys, sorted */
     int nmat_names;
-    int mat_cap, tex_cap;
-    uint32_t mesh_cap;
-    int32_t xform_cap, part_cap;
+    size_t mat_cap, tex_cap, mesh_cap, xform_cap, part_cap; /* array capacities */
     long objects;             /* objects, operands and group members so far */
     long triangles, vertices; /* totals so far, against the limits */
 };

@@ -85,13 +85,8 @@ static enum rayd_status get_indices(struct loader *ld, const cJSON *obj, const s
 
 static enum rayd_status add_mesh(struct loader *ld, uint32_t *id) {
     rayd_scene *s = ld->s;
-    if (s->nmeshes == ld->mesh_cap) {
-        uint32_t cap = ld->mesh_cap ? ld->mesh_cap * 2 : 8;
-        struct mesh *n = realloc(s->meshes, sizeof *n * cap);
-        if (!n) return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
-        s->meshes = n;
-        ld->mesh_cap = cap;
-    }
+    if (!array_grow((void **)&s->meshes, &ld->mesh_cap, (size_t)s->nmeshes + 1, sizeof *s->meshes))
+        return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
     memset(&s->meshes[s->nmeshes], 0, sizeof s->meshes[0]);
     *id = s->nmeshes++;
     return RAYD_OK;

@@ -126,13 +126,8 @@ enum rayd_status sj_transform(struct loader *ld, const cJSON *obj, const struct 
 
 enum rayd_status sj_add_xform(struct loader *ld, const struct xform *x, int32_t *index) {
     rayd_scene *s = ld->s;
-    if (s->nxforms == ld->xform_cap) {
-        int32_t cap = ld->xform_cap ? ld->xform_cap * 2 : 16;
-        struct xform *n = realloc(s->xforms, sizeof *n * (size_t)cap);
-        if (!n) return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
-        s->xforms = n;
-        ld->xform_cap = cap;
-    }
+    if (!array_grow((void **)&s->xforms, &ld->xform_cap, (size_t)s->nxforms + 1, sizeof *s->xforms))
+        return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
     s->xforms[s->nxforms] = *x;
     *index = s->nxforms++;
     return RAYD_OK;
@@ -267,13 +262,8 @@ static enum rayd_status load_quadric(struct loader *ld, const cJSON *oj, const s
 
 static enum rayd_status add_part(struct loader *ld, const struct object *o, int32_t *index) {
     rayd_scene *s = ld->s;
-    if (s->nparts == ld->part_cap) {
-        int32_t cap = ld->part_cap ? ld->part_cap * 2 : 16;
-        struct object *n = realloc(s->parts, sizeof *n * (size_t)cap);
-        if (!n) return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
-        s->parts = n;
-        ld->part_cap = cap;
-    }
+    if (!array_grow((void **)&s->parts, &ld->part_cap, (size_t)s->nparts + 1, sizeof *s->parts))
+        return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
     s->parts[s->nparts] = *o;
     *index = s->nparts++;
     return RAYD_OK;

@@ -20,13 +20,8 @@
 
 static enum rayd_status add_texture(struct loader *ld, const struct texture *t, int *index) {
     rayd_scene *s = ld->s;
-    if (s->ntextures == ld->tex_cap) {
-        int cap = ld->tex_cap ? ld->tex_cap * 2 : 4;
-        struct texture *n = realloc(s->textures, sizeof *n * (size_t)cap);
-        if (!n) return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
-        s->textures = n;
-        ld->tex_cap = cap;
-    }
+    if (!array_grow((void **)&s->textures, &ld->tex_cap, (size_t)s->ntextures + 1, sizeof *s->textures))
+        return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
     s->textures[s->ntextures] = *t;
     *index = s->ntextures++;
     return RAYD_OK;
