@@ -13,9 +13,14 @@
 # figure is the median of RUNS runs (default 3).
 #
 # All nodes share this machine's cores, so more nodes cannot go faster here:
-# the table reports overhead (wall time over the baseline, minus 1) and
-# efficiency (baseline / wall time), not speed-up.  docs/operations.md
-# explains what the figures mean for a real cluster.
+# the table reports overhead and efficiency, not speed-up.  Two measures:
+#   wall   wall time over the baseline's, minus 1 (sensitive to whatever else
+#          runs on the machine);
+#   cpu    CPU seconds spent by the client, every node and nginx's workers
+#          (from /proc) over rayd-render's CPU seconds, minus 1: the work the
+#          distribution adds, which is what a cluster pays, whatever the load.
+# efficiency = baseline CPU / CPU spent.  docs/operations.md explains what
+# the figures mean for a real cluster.
 set -eu
 cd "$(dirname "$0")/.."
 BUILD=$(cd "${1:-build}" && pwd)
@@ -33,10 +38,12 @@ cleanup() {
 }
 trap cleanup EXIT
 
-seq_no=0
-# mkscene OUT: the frame with a fresh id
+echo 0 >"$tmp/seq"
+# mkscene OUT: the frame with a fresh id (the counter is a file: callers run
+# in subshells)
 mkscene() {
-    seq_no=$((seq_no + 1))
+    local seq_no=$(($(cat "$tmp/seq") + 1))
+    echo "$seq_no" >"$tmp/seq"
     python3 - "$1" "$SPP" "$seq_no" <<'PY'
 import json, sys
 d = json.load(open("scenes/whitted.json"))
@@ -47,10 +54,10 @@ PY
 now() { date +%s.%N; }
 median() { sort -n | awk '{a[NR]=$1} END {print a[int((NR+1)/2)]}'; }
 
-urls=()
+urls=() nodes=()
 for i in 1 2 3; do
     "$BUILD/rayd" --bind 127.0.0.1 --port 0 --threads 2 >"$tmp/node$i.out" 2>/dev/null &
-    pids+=($!)
+    pids+=($!) nodes+=($!)
     for _ in $(seq 1 200); do [ -s "$tmp/node$i.out" ] && break; sleep 0.05; done
     urls+=("$(sed -n 's/^rayd listening on //p' "$tmp/node$i.out")")
 done
@@ -77,53 +84,78 @@ ngstart() { # ngstart N: nginx over the first N nodes; sets LB
     for _ in $(seq 1 100); do curl -s -o /dev/null "$LB/healthz" && break; sleep 0.05; done
 }
 
-# time_client ARGS...: median wall seconds of rayd-client render
+# cpu_ticks PID...: utime + stime of the processes, in clock ticks
+cpu_ticks() {
+    local sum=0 p f
+    for p in "$@"; do
+        [ -r "/proc/$p/stat" ] || continue
+        f=$(sed 's/.*) //' "/proc/$p/stat")
+        set -- $f
+        sum=$((sum + ${12} + ${13}))
+    done
+    echo "$sum"
+}
+HZ=$(getconf CLK_TCK)
+servers_cpu() { # CPU ticks of the nodes and of nginx's workers
+    local w=""
+    [ -n "${NGPID:-}" ] && w=$(pgrep -P "$NGPID" -x nginx)
+    cpu_ticks "${nodes[@]}" $w
+}
+
+# time_client ARGS...: "wall cpu" medians of rayd-client render (seconds)
 time_client() {
-    local t=() k t0 t1
+    local w=() c=() k c0 c1
     for k in $(seq "$RUNS"); do
         mkscene "$tmp/s.json"
-        t0=$(now)
-        "$BUILD/rayd-client" render "$tmp/s.json" -o "$tmp/out.png" --quiet "$@" ||
+        c0=$(servers_cpu)
+        /usr/bin/time -f '%e %U %S' -o "$tmp/time" \
+            "$BUILD/rayd-client" render "$tmp/s.json" -o "$tmp/out.png" --quiet "$@" ||
             { echo "rayd-client failed" >&2; exit 1; }
-        t1=$(now)
-        t+=("$(echo "$t1 - $t0" | bc -l)")
+        c1=$(servers_cpu)
+        read -r e u sy <"$tmp/time"
+        w+=("$e")
+        c+=("$(echo "$u + $sy + ($c1 - $c0) / $HZ" | bc -l)")
     done
-    printf '%s\n' "${t[@]}" | median
+    echo "$(printf '%s\n' "${w[@]}" | median) $(printf '%s\n' "${c[@]}" | median)"
 }
 
 tiles_of() { # tiles_of TILE
     echo $(( ((1920 + $1 - 1) / $1) * ((1080 + $1 - 1) / $1) ))
 }
 
-# baseline
-b=()
+# baseline: rayd-render of the whole frame
+bw=() bc=()
 for _ in $(seq "$RUNS"); do
     mkscene "$tmp/s.json"
-    t0=$(now)
-    "$BUILD/rayd-render" "$tmp/s.json" -o "$tmp/ref.png" --threads 2
-    t1=$(now)
-    b+=("$(echo "$t1 - $t0" | bc -l)")
+    /usr/bin/time -f '%e %U %S' -o "$tmp/time" "$BUILD/rayd-render" "$tmp/s.json" -o "$tmp/ref.png" --threads 2
+    read -r e u sy <"$tmp/time"
+    bw+=("$e") bc+=("$(echo "$u + $sy" | bc -l)")
 done
-base=$(printf '%s\n' "${b[@]}" | median)
+base=$(printf '%s\n' "${bw[@]}" | median)
+bcpu=$(printf '%s\n' "${bc[@]}" | median)
 
-row() { # row LABEL NODES TILE SECONDS
+row() { # row LABEL NODES TILE "WALL CPU"
     local tiles; tiles=$(tiles_of "$3")
-    awk -v l="$1" -v n="$2" -v tl="$3" -v tiles="$tiles" -v s="$4" -v b="$base" 'BEGIN {
-        printf "%-8s %5s %6s %6d %8.3f %8.1f %+9.1f%% %8.0f%%\n", l, n, tl, tiles, s, tiles / s,
-               (s / b - 1) * 100, b / s * 100 }'
+    set -- "$1" "$2" "$3" $4
+    awk -v l="$1" -v n="$2" -v tl="$3" -v tiles="$tiles" -v s="$4" -v c="$5" -v b="$base" -v bc="$bcpu" 'BEGIN {
+        printf "%-7s %5s %5s %6d %7.2f %8.1f %+8.1f%% %7.2f %+8.1f%% %7.0f%%\n", l, n, tl, tiles, s,
+               tiles / s, (s / b - 1) * 100, c, (c / bc - 1) * 100, bc / c * 100 }'
 }
 
-echo "1920x1080 whitted, $SPP spp; rayd-render --threads 2: $(printf '%.3f' "$base") s (median of $RUNS); 2 cores shared by every node"
-printf '%-8s %5s %6s %6s %8s %8s %10s %9s\n' mode nodes tile tiles "wall s" "tiles/s" overhead efficiency
+echo "1920x1080 scenes/whitted.json, $SPP spp, median of $RUNS runs; all nodes share $(nproc) cores; load average $(cut -d' ' -f1-3 /proc/loadavg)"
+printf 'baseline rayd-render --threads 2: %.2f s wall, %.2f s CPU\n' "$base" "$bcpu"
+printf '%-7s %5s %5s %6s %7s %8s %9s %7s %9s %8s\n' mode nodes tile tiles wall_s tiles/s wall_ovh cpu_s cpu_ovh cpu_eff
 for n in 1 2 3; do
     args=()
     for ((i = 0; i < n; i++)); do args+=(--server "${urls[$i]}"); done
+    NGPID=
     row direct "$n" "$TILE" "$(time_client "${args[@]}" --tile "$TILE")"
     ngstart "$n"
     row nginx "$n" "$TILE" "$(time_client --server "$LB" --tile "$TILE" --parallel $((4 * n)))"
     kill -QUIT "$NGPID" 2>/dev/null; wait "$NGPID" 2>/dev/null || true
+    NGPID=
 done
 echo "tile size, 1 node direct (tiling cost against one request for the whole frame):"
-for tl in 64 128 256 1920; do
+for tl in 32 64 128 256 1920; do
     row direct 1 "$tl" "$(time_client --server "${urls[0]}" --tile "$tl")"
 done

@@ -31,30 +31,6 @@ static void usage(FILE *f) {
             "  -h, --help        this text\n");
 }
 
-/* Reads all of f into a malloc'd buffer; NULL on failure.  Stops a little
- * past max bytes (the loader then reports the size limit). */
-static char *read_all(FILE *f, size_t max, size_t *len) {
-    size_t cap = 1 << 16, n = 0;
-    char *buf = malloc(cap);
-    while (buf) {
-        n += fread(buf + n, 1, cap - n, f);
-        if (n < cap || n > max) break;
-        char *p = cap < (SIZE_MAX >> 1) ? realloc(buf, cap * 2) : NULL;
-        if (!p) {
-            free(buf);
-            return NULL;
-        }
-        buf = p;
-        cap *= 2;
-    }
-    if (buf && ferror(f)) {
-        free(buf);
-        return NULL;
-    }
-    *len = n;
-    return buf;
-}
-
 static int parse_int(const char *s, long lo, long hi, long *out) {
     char *end;
     errno = 0;
@@ -130,18 +106,6 @@ static int parse_args(int argc, char **argv, struct args *a) {
     return 0;
 }
 
-static char *load_scene_text(const char *name, size_t max, size_t *len) {
-    FILE *f = strcmp(name, "-") == 0 ? stdin : fopen(name, "rb");
-    if (!f) {
-        fprintf(stderr, "rayd-render: cannot open %s: %s\n", name, strerror(errno));
-        return NULL;
-    }
-    char *text = read_all(f, max, len);
-    if (f != stdin) fclose(f);
-    if (!text) fprintf(stderr, "rayd-render: cannot read %s\n", name);
-    return text;
-}
-
 static int fail(const char *what, const struct rayd_error *err) {
     char msg[600];
     fprintf(stderr, "error: %s%s\n", what, rayd_error_format(err, msg, sizeof msg));
@@ -163,8 +127,9 @@ int main(int argc, char **argv) {
     struct rayd_limits lim;
     rayd_limits_default(&lim);
     size_t len;
-    char *text = load_scene_text(a.scene, lim.max_bytes, &len);
-    if (!text) return 1;
+    char *text = NULL;
+    struct rayd_error err = {0};
+    if (rayd_read_file(a.scene, lim.max_bytes, &text, &len, &err) != RAYD_OK) return fail("", &err);
     /* Mesh "file" paths resolve against the scene's folder (the working
      * folder for stdin); the command line trusts its own scene's paths. */
     char dir[4096];
@@ -175,7 +140,6 @@ int main(int argc, char **argv) {
         snprintf(dir, sizeof dir, "%.*s", (int)(slash - a.scene), a.scene);
     lim.asset_dir = dir[0] ? dir : "/";
     lim.asset_confine = 0;
-    struct rayd_error err = {0};
     rayd_scene *scene = NULL;
     enum rayd_status st = rayd_scene_parse(text, len, &lim, &scene, &err);
     free(text);

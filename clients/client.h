@@ -100,7 +100,7 @@ struct progress {
     int tty, quiet;
     int total;
     double t0, last_draw, last_line;
-    int last_pct;
+    int last_pct, last_done;
     int width; /* drawn width, to clear */
 };
 

@@ -58,9 +58,11 @@ void progress_update(struct progress *p, int done, int failed, int nservers,
     if (p->tty) {
         if (!force && now - p->last_draw < 0.2)
             return;
-    } else if (!force && pct / 10 == p->last_pct / 10 && now - p->last_line < 5) {
-        return;
+    } else if (force ? done == p->last_done && p->last_pct >= 0
+                     : pct / 10 == p->last_pct / 10 && now - p->last_line < 5) {
+        return; /* plain lines: nothing new to say */
     }
+    p->last_done = done;
     p->last_draw = p->last_line = now;
     p->last_pct = pct;
     char eta[32], rays[48], servers[600] = "";

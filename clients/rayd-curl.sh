@@ -4,16 +4,20 @@
 #   clients/rayd-curl.sh scenes/paper.json paper.png http://127.0.0.1:8080
 #
 # On success writes OUT.png; on a refused scene prints the server's JSON
-# error (code, message, JSON Pointer path) and exits 1.  RAYD_TOKEN, if
-# set, is sent as the bearer token.
+# error (code, message, JSON Pointer path) and exits 1.  SERVER defaults to
+# $RAYD_SERVER or http://127.0.0.1:8080.  A bearer token is read from
+# $RAYD_TOKEN_FILE or taken from $RAYD_TOKEN, and passed to curl on its
+# standard input, never on its command line (visible in ps).
 set -eu
 [ $# -ge 2 ] || { echo "usage: $0 SCENE.json OUT.png [SERVER]" >&2; exit 2; }
 server=${3:-${RAYD_SERVER:-http://127.0.0.1:8080}}
+token=${RAYD_TOKEN:-}
+[ -n "${RAYD_TOKEN_FILE:-}" ] && token=$(cat "$RAYD_TOKEN_FILE")
 tmp="$2.part"
-status=$(curl -sS -o "$tmp" -w '%{http_code}' --data-binary @"$1" \
-    -H 'Content-Type: application/json' ${RAYD_TOKEN:+-H "Authorization: Bearer $RAYD_TOKEN"} \
-    "$server/v1/render")
+status=$(printf '%s\n' ${token:+"Authorization: Bearer $token"} |
+    curl -sS -o "$tmp" -w '%{http_code}' --data-binary @"$1" \
+        -H 'Content-Type: application/json' -H @- "$server/v1/render") || status=000
 if [ "$status" = 200 ]; then mv "$tmp" "$2"; exit 0; fi
-echo "rayd-curl: HTTP $status: $(cat "$tmp")" >&2
+echo "rayd-curl: HTTP $status: $(cat "$tmp" 2>/dev/null)" >&2
 rm -f "$tmp"
 exit 1

@@ -509,7 +509,8 @@ int tiles_render(const struct client_opts *o, const struct scenefile *sf)
             curl_multi_poll(T.multi, NULL, 0, 50, NULL);
     }
     double secs = net_now() - t0;
-    tiles_draw(&T, 1);
+    if (!T.fatal)
+        tiles_draw(&T, 1);
     progress_end(&T.prog);
     if (T.fatal) {
         rc = 1;

@@ -32,6 +32,7 @@
 #include <arpa/inet.h>
 #include <microhttpd.h>
 #include <netinet/in.h>
+#include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -541,6 +542,20 @@ static void http_completed(void *cls, struct MHD_Connection *c, void **con_cls,
     atomic_fetch_sub(&http_ninflight, 1);
 }
 
+/* libmicrohttpd's own messages (malformed requests, ...) go through log.c so
+ * --log-format json keeps every stderr line JSON. */
+static void http_mhd_log(void *cls, const char *fmt, va_list ap) __attribute__((format(printf, 2, 0)));
+static void http_mhd_log(void *cls, const char *fmt, va_list ap)
+{
+    (void)cls;
+    char msg[512];
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    size_t n = strlen(msg);
+    while (n > 0 && (msg[n - 1] == '\n' || msg[n - 1] == '\r'))
+        msg[--n] = 0;
+    log_warn("http: %s", msg);
+}
+
 /* ---- start / stop --------------------------------------------------------------- */
 
 int http_start(void)
@@ -563,7 +578,8 @@ int http_start(void)
         return -1;
     }
     http_daemon = MHD_start_daemon(
-        flags, (uint16_t)config.port, NULL, NULL, http_access, NULL, MHD_OPTION_SOCK_ADDR,
+        flags, (uint16_t)config.port, NULL, NULL, http_access, NULL, MHD_OPTION_EXTERNAL_LOGGER,
+        http_mhd_log, NULL, MHD_OPTION_SOCK_ADDR,
         (struct sockaddr *)&ss, MHD_OPTION_THREAD_POOL_SIZE, (unsigned)config.http_threads,
         MHD_OPTION_CONNECTION_TIMEOUT, (unsigned)config.timeout, MHD_OPTION_NOTIFY_COMPLETED,
         http_completed, NULL, MHD_OPTION_CONNECTION_LIMIT, 4096u, MHD_OPTION_LISTEN_BACKLOG_SIZE,

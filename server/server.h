@@ -10,9 +10,6 @@
 #ifndef RAYD_SERVER_H
 #define RAYD_SERVER_H
 
-/* rayd.h uses rayd_image before declaring it; a repeated identical typedef
- * is valid C11, so declaring it first keeps the server building either way. */
-typedef struct rayd_image rayd_image;
 #include <rayd/rayd.h>
 
 #include <stdatomic.h>

@@ -183,7 +183,14 @@ enum rayd_status rayd_png_write_file(const rayd_image *img, const char *path,
 enum rayd_status rayd_png_decode(const void *buf, size_t len, long max_pixels, rayd_image **out,
                                  struct rayd_error *err);
 
-/* Frees memory the core handed out (PNG buffers). */
+/* Reads a whole file ("-" for standard input) into *out (NUL-terminated
+ * for convenience; free with rayd_free), *len bytes.  Over max bytes:
+ * RAYD_E_LIMIT, read no further.  Not a regular file, or unreadable:
+ * RAYD_E_IO with the reason. */
+enum rayd_status rayd_read_file(const char *path, size_t max, char **out, size_t *len,
+                                struct rayd_error *err);
+
+/* Frees memory the core handed out (PNG buffers, files). */
 void rayd_free(void *p);
 
 #ifdef __cplusplus

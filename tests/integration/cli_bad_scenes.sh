@@ -217,7 +217,7 @@ fi
 rm -f "$T/x.png"
 "$R" "$T/no-such-scene.json" -o "$T/x.png" 2>"$T/stderr"
 rc=$?
-want="rayd-render: cannot open $T/no-such-scene.json: No such file or directory"
+want="error: cannot open $T/no-such-scene.json: No such file or directory"
 if [ $rc -eq 1 ] && grep -qxF -- "$want" "$T/stderr" && [ ! -e "$T/x.png" ]; then
     echo "PASS cli-missing-scene-file"
 else

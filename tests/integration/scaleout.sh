@@ -108,6 +108,11 @@ for i in 1 2 3; do
     [ "$n" -gt 0 ] || spread=0
 done
 check nginx_tiles_spread "tiles per node:$per" [ $spread = 1 ]
+sent=$(sed -n 's/.*scene sent \([0-9]*\) time.*/\1/p' "$T/nginx_render.err")
+# one POST /v1/scenes, plus at most one POST /v1/render per tile racing at the
+# start on a node that did not know the scene yet (--parallel 6)
+check nginx_scene_uploads_bounded "scene sent '$sent' times" [ "${sent:-99}" -le 7 ]
+echo "# through nginx the scene was sent $sent times for 35 tiles"
 check nginx_progress_lines "no plain progress lines on a non-tty stderr" \
     grep -q '^rayd-client: 35/35 tiles (100%)' "$T/nginx_render.err"
 
@@ -184,6 +189,26 @@ check rayd_curl_through_nginx "exit $?: $(head -c 200 "$T/curl.err")" cmp -s "$T
 sh "$RAYD_ROOT/clients/rayd-curl.sh" "$T/huge.json" "$T/curl2.png" "$LB" 2>"$T/curl2.err"
 check rayd_curl_error "exit $? or no JSON error: $(head -c 200 "$T/curl2.err")" \
     bash -c "grep -q too_large '$T/curl2.err' && [ ! -e '$T/curl2.png' ]"
+
+# --- a node with a token ------------------------------------------------------------
+printf 'tok-%s\n' "$RANDOM$RANDOM" >"$T/token"
+"$RAYD" --bind 127.0.0.1 --port 0 --threads 1 --token-file "$T/token" >"$T/tok.out" 2>"$T/tok.err" &
+TOK_PID=$!
+PIDS+=("$TOK_PID")
+for k in $(seq 1 200); do [ -s "$T/tok.out" ] && break; sleep 0.05; done
+TOK_URL=$(sed -n 's/^rayd listening on //p' "$T/tok.out")
+client token render "$T/j.json" -o "$T/tok.png" --server "$TOK_URL" --token-file "$T/token"
+check token_render "exit $RC: $(tail -n 2 "$T/token.err")" bash -c "[ $RC = 0 ] && cmp -s '$T/tok.png' '$T/j_ref.png'"
+client notoken render "$T/j.json" -o "$T/notok.png" --server "$TOK_URL"
+check token_missing_refused "exit $RC: $(tail -n 1 "$T/notoken.err")" \
+    bash -c "[ $RC = 1 ] && grep -q 'HTTP 401 unauthorized' '$T/notoken.err' && [ ! -e '$T/notok.png' ]"
+RAYD_TOKEN_FILE=$T/token sh "$RAYD_ROOT/clients/rayd-curl.sh" "$T/j.json" "$T/curl3.png" "$TOK_URL" 2>"$T/curl3.err"
+check rayd_curl_token "exit $?: $(head -c 200 "$T/curl3.err")" cmp -s "$T/curl3.png" "$T/j_ref.png"
+kill -TERM "$TOK_PID"
+wait "$TOK_PID" 2>/dev/null
+if grep -Eq 'ERROR: (Address|Leak)Sanitizer|runtime error:' "$T/tok.err"; then
+    fail token_node_sanitizer "$(grep -Em 3 'Sanitizer|runtime error' "$T/tok.err")"
+fi
 
 # --- SIGKILL of a node mid-frame -----------------------------------------------------
 # kill_mid_frame NAME NODE SCENE SERVERS...: renders in the background, kills

@@ -1,0 +1,462 @@
+// app.js -- the preview page: wires the editor, the renderer and the camera.
+//
+// States (body[data-state], read by the tests too): loading, rendering,
+// orbit (low-resolution frames while the camera moves), done, error.  Each
+// finished full render bumps body[data-renders].  window.rayd exposes the
+// measurements (stats) the browser tests and the README's figures use.
+
+import { examples } from "./examples.js";
+import { parse, pointerOffset, lineOf, replaceAt, fmtVector, format, JsonSyntaxError } from "./json.js";
+import { Api, ApiError, Renderer, isAbort, sizeOf } from "./render.js";
+import { cameraOf, orbit, dolly } from "./camera.js";
+import { Editor } from "./editor.js";
+import { linkFor, fromHash } from "./share.js";
+
+const $ = (id) => document.getElementById(id);
+const DEFAULT_EXAMPLE = "whitted";
+
+const editor = new Editor($("editor"));
+const canvas = $("canvas");
+const tokenInput = $("token");
+tokenInput.value = localStorage.getItem("rayd.token") || "";
+tokenInput.addEventListener("change", () => localStorage.setItem("rayd.token", tokenInput.value.trim()));
+const api = new Api(() => tokenInput.value.trim());
+const renderer = new Renderer(canvas, api);
+
+const stats = {
+  renders: 0, // full renders finished
+  lastFullMs: 0, // from the click (or page start) to the last tile drawn
+  lastPreviewMs: 0, // to the quick pass
+  previewFrames: 0, // low-resolution frames drawn while moving the camera
+  previewMs: [], // time of each of them
+  raysPerSec: 0,
+};
+window.rayd = { stats, editor, render: () => render() };
+
+// ---- parsed state of the text ---------------------------------------------------
+let doc = { text: null, root: null, error: null };
+function parsed() {
+  const text = editor.value;
+  if (doc.text !== text) {
+    try {
+      doc = { text, root: parse(text), error: null };
+    } catch (e) {
+      doc = { text, root: null, error: e instanceof JsonSyntaxError ? e : new JsonSyntaxError(String(e), 0) };
+    }
+  }
+  return doc;
+}
+
+function describe() {
+  const d = parsed();
+  const size = d.root ? sizeOf(d.root.value) : null;
+  const r = (d.root && d.root.value.render) || {};
+  const lines = d.text.split("\n").length;
+  $("docinfo").textContent = `${lines} lines` + (d.error ? " · malformed JSON" : "");
+  $("imginfo").textContent = size ? `${size[0]} × ${size[1]} · ${r.samples || 1} spp` : "";
+}
+
+// ---- status ----------------------------------------------------------------------
+let timer = 0;
+let t0 = 0;
+let lastProgress = { done: 0, total: 0 };
+let raysAtStart = null;
+let raysNow = null;
+
+function setState(s) {
+  document.body.dataset.state = s;
+}
+const fmtMs = (ms) => (ms < 1000 ? `${Math.round(ms)} ms` : `${(ms / 1000).toFixed(2)} s`);
+const fmtRate = (r) =>
+  r >= 1e9 ? `${(r / 1e9).toFixed(2)} G` : r >= 1e6 ? `${(r / 1e6).toFixed(1)} M` : r >= 1e3 ? `${(r / 1e3).toFixed(0)} k` : `${Math.round(r)} `;
+
+function status(text) {
+  $("status").textContent = text;
+}
+function bar(frac) {
+  $("bar").style.width = `${Math.max(0, Math.min(1, frac)) * 100}%`;
+}
+function progressText(final) {
+  const ms = performance.now() - t0;
+  const parts = [];
+  if (lastProgress.total) parts.push(`${lastProgress.done}/${lastProgress.total} tiles`);
+  else parts.push("quick pass");
+  if (raysAtStart !== null && raysNow !== null && raysNow > raysAtStart) {
+    stats.raysPerSec = ((raysNow - raysAtStart) * 1000) / ms;
+    parts.push(`${fmtRate(stats.raysPerSec)}rays/s`);
+  } else if (final && raysNow !== null && raysNow === raysAtStart) parts.push("from cache");
+  parts.push(fmtMs(ms));
+  return parts.join(" · ");
+}
+
+function startClock(signalGen) {
+  stopClock();
+  t0 = performance.now();
+  lastProgress = { done: 0, total: 0 };
+  raysAtStart = raysNow = null;
+  api.raysTotal().then((r) => {
+    if (gen === signalGen) raysAtStart = raysNow = r;
+  });
+  let polls = 0;
+  timer = setInterval(() => {
+    if (gen !== signalGen) return;
+    status("Rendering · " + progressText(false));
+    if (++polls % 5 === 0 && raysAtStart !== null)
+      api.raysTotal().then((r) => {
+        if (gen === signalGen && r !== null) raysNow = r;
+      });
+  }, 100);
+}
+function stopClock() {
+  clearInterval(timer);
+  timer = 0;
+}
+
+// ---- errors ----------------------------------------------------------------------
+let retryAction = null;
+let gotoOffset = -1;
+
+function clearError() {
+  $("error").hidden = true;
+  editor.markError(0);
+}
+
+function showError(title, message, { line = 0, offset = -1, retry = null } = {}) {
+  stopClock();
+  setState("error");
+  $("error").hidden = false;
+  $("error").querySelector(".error-title").textContent = title;
+  $("error").querySelector(".error-msg").textContent = message;
+  retryAction = retry;
+  $("retry").hidden = !retry;
+  gotoOffset = offset;
+  $("goto").hidden = offset < 0;
+  editor.markError(line);
+  status(title);
+  bar(1);
+}
+
+function reportError(e, text) {
+  if (!(e instanceof ApiError)) {
+    showError("Error", String((e && e.message) || e), { retry: () => render() });
+    return;
+  }
+  if (e.network) {
+    showError("Cannot reach the server", `${e.message}\nIs rayd still running at ${location.origin}?`, {
+      retry: () => render(),
+    });
+    return;
+  }
+  if (e.status === 503) {
+    showError(
+      `Server busy (${e.status} ${e.code})`,
+      `${e.message}\nrayd is ${e.code === "draining" ? "shutting down" : "full"}; try again in a moment.`,
+      { retry: () => render() }
+    );
+    return;
+  }
+  if (e.status === 401) {
+    showError("Unauthorized (401)", `${e.message}\nThis rayd needs a token: enter it in the Token field above.`, {
+      retry: () => render(),
+    });
+    tokenInput.focus();
+    return;
+  }
+  // a scene error: find its line
+  let line = 0,
+    offset = -1,
+    where = "";
+  if (e.line) {
+    line = e.line;
+    offset = offsetOf(text, e.line, e.column || 1);
+    where = `line ${e.line}, column ${e.column}`;
+  } else if (e.path !== undefined && e.path !== null) {
+    const d = parsed();
+    if (d.root && d.text === text) {
+      offset = pointerOffset(d.root, e.path);
+      line = lineOf(text, offset);
+    }
+    where = `${e.path || "/"}${line ? ` (line ${line})` : ""}`;
+  }
+  showError(`${e.status} ${e.code}`, (where ? where + ": " : "") + e.message, { line, offset });
+}
+
+function offsetOf(text, line, col) {
+  let off = 0;
+  for (let l = 1; l < line; l++) {
+    const nl = text.indexOf("\n", off);
+    if (nl < 0) return text.length;
+    off = nl + 1;
+  }
+  return Math.min(text.length, off + col - 1);
+}
+
+$("retry").addEventListener("click", () => retryAction && retryAction());
+$("goto").addEventListener("click", () => gotoOffset >= 0 && editor.reveal(gotoOffset));
+
+// ---- rendering -------------------------------------------------------------------
+let gen = 0;
+let lastRendered = null; // {id, text} of the last finished render
+const pageStart = 0; // performance.now() at navigation start
+
+async function render({ fromStart = false } = {}) {
+  const my = ++gen;
+  const text = editor.value;
+  const d = parsed();
+  clearError();
+  setState("rendering");
+  $("dl-png").disabled = true;
+  bar(0);
+  startClock(my);
+  const started = fromStart ? pageStart : performance.now();
+  try {
+    const info = await renderer.full(text, d.root ? d.root.value : null, (p) => {
+      if (gen !== my) return;
+      if (p.phase === "preview") {
+        stats.lastPreviewMs = performance.now() - started;
+        if (!lastProgress.total) bar(0.04);
+      } else {
+        lastProgress = { done: p.done, total: p.total };
+        bar(0.04 + (0.96 * p.done) / p.total);
+      }
+    });
+    if (gen !== my) return;
+    stats.lastFullMs = performance.now() - started;
+    raysNow = (await api.raysTotal()) ?? raysNow;
+    if (gen !== my) return;
+    stopClock();
+    stats.renders++;
+    lastRendered = { id: info.id, text };
+    status(`Done · ${progressText(true)}`);
+    $("dl-png").disabled = false;
+    $("link").hidden = false;
+    $("link").textContent = `#${info.id.slice(0, 10)}`;
+    $("link").href = await linkFor(info.id, text);
+    if (gen !== my) return;
+    document.body.dataset.renders = String(stats.renders);
+    setState("done");
+  } catch (e) {
+    if (gen !== my || isAbort(e)) return;
+    reportError(e, text);
+  }
+}
+
+// ---- camera: orbit by drag, dolly by wheel ------------------------------------------
+let drag = null;
+let previewing = false;
+let previewWanted = false;
+let fullTimer = 0;
+
+function moveCamera(fn) {
+  const d = parsed();
+  if (!d.root) return false;
+  const cam = cameraOf(d.root.value);
+  if (!cam) return false;
+  const pos = fn(cam);
+  let text;
+  try {
+    text = replaceAt(d.text, d.root, ["camera", "position"], fmtVector(pos));
+  } catch (_) {
+    return false;
+  }
+  editor.set(text, true);
+  describe();
+  return true;
+}
+
+async function previewLoop() {
+  if (previewing) {
+    previewWanted = true;
+    return;
+  }
+  previewing = true;
+  gen++; // a full render in flight is superseded
+  stopClock();
+  clearError();
+  setState("orbit");
+  try {
+    do {
+      previewWanted = false;
+      const d = parsed();
+      if (!d.root) break;
+      const size = sizeOf(d.root.value);
+      if (!size) break;
+      const t = performance.now();
+      await renderer.preview(d.root.value, size);
+      const ms = performance.now() - t;
+      stats.previewFrames++;
+      stats.previewMs.push(ms);
+      if (stats.previewMs.length > 2000) stats.previewMs.shift();
+      status(`Moving camera · preview ${fmtMs(ms)} (${(1000 / ms).toFixed(0)} fps)`);
+    } while (previewWanted);
+  } catch (e) {
+    if (!isAbort(e)) reportError(e, editor.value);
+  } finally {
+    previewing = false;
+  }
+}
+
+function scheduleFull(ms) {
+  clearTimeout(fullTimer);
+  fullTimer = setTimeout(() => {
+    if (drag) return;
+    render();
+  }, ms);
+}
+
+canvas.addEventListener("pointerdown", (e) => {
+  if (e.button !== 0) return;
+  const d = parsed();
+  const cam = d.root && cameraOf(d.root.value);
+  if (!cam) return;
+  drag = { x: e.clientX, y: e.clientY, cam, moved: false, id: e.pointerId };
+  canvas.setPointerCapture(e.pointerId);
+  canvas.classList.add("dragging");
+  e.preventDefault();
+});
+canvas.addEventListener("pointermove", (e) => {
+  if (!drag || e.pointerId !== drag.id) return;
+  const scale = Math.PI / Math.max(200, canvas.clientWidth); // a full width turns 180 degrees
+  const dx = (e.clientX - drag.x) * scale;
+  const dy = (e.clientY - drag.y) * scale;
+  if (!drag.moved && Math.abs(e.clientX - drag.x) + Math.abs(e.clientY - drag.y) < 2) return;
+  drag.moved = true;
+  const start = drag.cam;
+  if (moveCamera(() => orbit(start, dx, dy))) previewLoop();
+});
+function endDrag(e) {
+  if (!drag || e.pointerId !== drag.id) return;
+  const moved = drag.moved;
+  drag = null;
+  canvas.classList.remove("dragging");
+  if (moved) scheduleFull(0);
+}
+canvas.addEventListener("pointerup", endDrag);
+canvas.addEventListener("pointercancel", endDrag);
+canvas.addEventListener(
+  "wheel",
+  (e) => {
+    e.preventDefault();
+    const dy = e.deltaMode === 1 ? e.deltaY * 16 : e.deltaY;
+    if (moveCamera((cam) => dolly(cam, Math.exp(dy * 0.0015)))) {
+      previewLoop();
+      scheduleFull(350);
+    }
+  },
+  { passive: false }
+);
+canvas.addEventListener("keydown", (e) => {
+  const step = Math.PI / 36;
+  const moves = { ArrowLeft: [-step, 0], ArrowRight: [step, 0], ArrowUp: [0, -step], ArrowDown: [0, step] };
+  let ok = false;
+  if (moves[e.key]) ok = moveCamera((cam) => orbit(cam, ...moves[e.key]));
+  else if (e.key === "+" || e.key === "=") ok = moveCamera((cam) => dolly(cam, 0.9));
+  else if (e.key === "-") ok = moveCamera((cam) => dolly(cam, 1 / 0.9));
+  else return;
+  e.preventDefault();
+  if (ok) {
+    previewLoop();
+    scheduleFull(350);
+  }
+});
+
+// ---- editing, examples, keys ---------------------------------------------------------
+let autoTimer = 0;
+$("scene").addEventListener("input", () => {
+  describe();
+  if ($("auto").checked) {
+    clearTimeout(autoTimer);
+    autoTimer = setTimeout(() => render(), 700);
+  }
+});
+$("auto").checked = localStorage.getItem("rayd.auto") === "1";
+$("auto").addEventListener("change", () => localStorage.setItem("rayd.auto", $("auto").checked ? "1" : "0"));
+$("render").addEventListener("click", () => render());
+document.addEventListener("keydown", (e) => {
+  if (e.key === "Enter" && (e.ctrlKey || e.metaKey)) {
+    e.preventDefault();
+    render();
+  }
+});
+
+// Generated examples with one value per line (spheres, cornell ...) are
+// reflowed so that the editor shows them the way people write scenes.
+function exampleText(ex) {
+  const lines = ex.text.split("\n");
+  const bare = lines.filter((l) => /^\s*[-+.\deE]+,?\s*$/.test(l)).length;
+  if (bare < lines.length / 5) return ex.text;
+  try {
+    return format(JSON.parse(ex.text));
+  } catch (_) {
+    return ex.text;
+  }
+}
+
+const select = $("example");
+for (const ex of examples) {
+  const o = document.createElement("option");
+  o.value = ex.name;
+  o.textContent = ex.name;
+  select.appendChild(o);
+}
+const custom = document.createElement("option");
+custom.value = "";
+custom.textContent = "(from link)";
+custom.hidden = true;
+select.appendChild(custom);
+
+function loadExample(name) {
+  const ex = examples.find((x) => x.name === name) || examples[0];
+  select.value = ex.name;
+  editor.set(exampleText(ex));
+  describe();
+}
+select.addEventListener("change", () => {
+  if (!select.value) return;
+  loadExample(select.value);
+  if (location.hash) history.replaceState(null, "", location.pathname + location.search);
+  render();
+});
+
+// ---- downloads -----------------------------------------------------------------------
+function download(blob, name) {
+  const a = document.createElement("a");
+  a.href = URL.createObjectURL(blob);
+  a.download = name;
+  document.body.appendChild(a);
+  a.click();
+  a.remove();
+  setTimeout(() => URL.revokeObjectURL(a.href), 10000);
+}
+const baseName = () => select.value || (lastRendered ? "scene-" + lastRendered.id.slice(0, 12) : "scene");
+$("dl-png").addEventListener("click", () => canvas.toBlob((b) => b && download(b, baseName() + ".png"), "image/png"));
+$("dl-json").addEventListener("click", () =>
+  download(new Blob([editor.value], { type: "application/json" }), baseName() + ".json")
+);
+
+// ---- start: a scene from the link, or the default example ----------------------------------
+async function openHash() {
+  let got = null;
+  try {
+    got = await fromHash(location.hash);
+  } catch (e) {
+    showError("Bad link", "the scene in this link could not be decoded: " + (e.message || e));
+    return false;
+  }
+  if (!got) return false;
+  if (got.text !== editor.value) {
+    select.value = "";
+    editor.set(got.text);
+    describe();
+  }
+  return true;
+}
+window.addEventListener("hashchange", async () => {
+  const before = editor.value;
+  if ((await openHash()) && editor.value !== before) render();
+});
+
+(async () => {
+  if (!(await openHash())) loadExample(DEFAULT_EXAMPLE);
+  render({ fromStart: true });
+})();

@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# preview.sh -- the browser preview (GET /) in Debian's Chromium, headless,
+# against a real rayd started here on 127.0.0.1 (--port 0) and stopped by its
+# PID.  preview.mjs (playwright-core from npm, installed by `make test` into
+# tests/browser/node_modules) drives the page and prints PASS/FAIL lines.
+# Without chromium, node or playwright-core this FAILs, never passes.
+#
+#   bash tests/browser/preview.sh            (tests/run.sh sets RAYD_BUILD)
+#   MEASURE=1 bash tests/browser/preview.sh  also prints the timing figures
+source "$(dirname "$0")/../integration/lib/common.sh"
+HERE=$RAYD_ROOT/tests/browser
+CHROMIUM=${CHROMIUM:-/usr/bin/chromium}
+
+missing=
+[ -x "$CHROMIUM" ] || missing="$missing chromium ($CHROMIUM; make deps installs Debian's chromium)"
+command -v node >/dev/null 2>&1 || missing="$missing node (Node.js)"
+[ -f "$HERE/node_modules/playwright-core/package.json" ] ||
+    missing="$missing playwright-core (make test runs npm ci in tests/browser)"
+[ -x "$RAYD_BUILD/tests/tools/pngcmp" ] || missing="$missing $RAYD_BUILD/tests/tools/pngcmp (make test builds it)"
+if [ -n "$missing" ]; then
+    fail browser_setup "missing:$missing"
+    exit 1
+fi
+
+# two workers, as on a small machine; the test scenes are small
+start_rayd --threads 2
+# the screenshot is saved beside the binaries (build/preview.png)
+OUT_DIR=$RAYD_BUILD PNGCMP=$RAYD_BUILD/tests/tools/pngcmp CHROMIUM=$CHROMIUM WORK=$T \
+    timeout 170 node "$HERE/preview.mjs" "$URL"
+rc=$?
+[ "$rc" -eq 0 ] || [ "$NFAIL" -gt 0 ] || echo "FAIL preview_driver: node exited with status $rc"
+stop_rayd
+[ "$RAYD_RC" = 0 ] || fail rayd_exit "rayd exited with $RAYD_RC"
+exit 0
