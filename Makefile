@@ -14,7 +14,8 @@
 # integration tests (nginx balances the scale-out test), wrk for benchmarks,
 # chromium (and a font) for the browser tests of the preview page.
 DEB_PKGS := gcc make pkg-config libc6-dev libpng-dev libcjson-dev libmicrohttpd-dev \
-            libcurl4-openssl-dev libssl-dev curl python3 nginx wrk chromium fonts-dejavu-core
+            libcurl4-openssl-dev libssl-dev curl python3 nginx wrk chromium fonts-dejavu-core \
+            clang libclang-rt-14-dev
 
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 
