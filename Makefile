@@ -20,7 +20,7 @@ DEB_PKGS := gcc make pkg-config libc6-dev libpng-dev libcjson-dev libmicrohttpd-
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 
 # Build on every core unless told otherwise (tests themselves run one by one).
-ifeq ($(filter -j%,$(MAKEFLAGS)),)
+ifeq ($(MAKELEVEL)$(filter -j%,$(MAKEFLAGS)),0)
 MAKEFLAGS += -j$(shell nproc 2>/dev/null || echo 2)
 endif
 
