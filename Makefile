@@ -9,8 +9,8 @@
 #   make bench-peers the same meshes and sphere scene with Embree and POV-Ray (make bench-deps)
 #   make format      clang-format every C file;  make lint  cppcheck + clang-tidy
 
-# Debian packages: compiler and tools, the three given libraries, libcurl and
-# libssl (SHA-256 of scene ids) for the client, curl/python3/nginx for the
+# Debian packages: compiler and tools, the three given libraries, libcurl for
+# the client, libssl (libcrypto's SHA-256 of scene ids, server and client), curl/python3/nginx for the
 # integration tests (nginx balances the scale-out test), wrk for benchmarks,
 # chromium (and a font) for the browser tests of the preview page.
 DEB_PKGS := gcc make pkg-config libc6-dev libpng-dev libcjson-dev libmicrohttpd-dev \
@@ -59,6 +59,8 @@ WEB_FILES := $(wildcard server/web/*)
 CLIENT_SRC := $(wildcard clients/*.c)
 UNIT_SRC := $(wildcard tests/unit/test_*.c)
 UNIT_BIN := $(UNIT_SRC:tests/unit/%.c=$(BUILD)/tests/%)
+FUZZ_TARGETS := $(patsubst tests/fuzz/fuzz_%.c,%,$(wildcard tests/fuzz/fuzz_*.c))
+FUZZ_REPLAY := $(FUZZ_TARGETS:%=$(BUILD)/tests/fuzz/replay_%)
 
 PROGS := $(BUILD)/rayd-render
 ifneq ($(SERVER_SRC),)
@@ -139,7 +141,7 @@ $(BUILD)/server/web_assets.h: $(WEB_FILES) $(WEB_EXAMPLES) tools/embed.sh | $(BU
 $(SERVER_OBJ): $(BUILD)/server/web_assets.h
 
 $(BUILD)/rayd: $(SERVER_OBJ) $(BUILD)/librayd.a
-	$(CC) $(LDFLAGS_ALL) -o $@ $^ -lmicrohttpd $(LIBS_CORE)
+	$(CC) $(LDFLAGS_ALL) -o $@ $^ -lmicrohttpd -lcrypto $(LIBS_CORE)
 
 # --- clients ----------------------------------------------------------------
 $(BUILD)/rayd-client: $(CLIENT_SRC:%.c=$(BUILD)/%.o) $(BUILD)/librayd.a
@@ -176,7 +178,6 @@ golden: $(BUILD)/rayd-render
 # a crash stops with the input saved in build/fuzz/ -- copy it into
 # tests/fuzz/regressions/X/ so `make test` replays it forever after.
 FUZZ_SECONDS ?= 30
-FUZZ_TARGETS := $(patsubst tests/fuzz/fuzz_%.c,%,$(wildcard tests/fuzz/fuzz_*.c))
 FUZZ_CFLAGS := -std=c11 -D_POSIX_C_SOURCE=200809L -O1 -g -fsanitize=fuzzer-no-link,address,undefined \
                -fno-sanitize-recover=undefined -Iinclude -Icore
 FUZZ_CORE_OBJ := $(CORE_SRC:core/%.c=build/fuzz/core/%.o)
@@ -205,7 +206,6 @@ $(BUILD)/tests/fuzz/replay_%: tests/fuzz/fuzz_%.c tests/fuzz/replay.c $(BUILD)/l
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -Iinclude -Icore $(filter %.c,$^) -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
 
-FUZZ_REPLAY := $(FUZZ_TARGETS:%=$(BUILD)/tests/fuzz/replay_%)
 
 # --- run, bench, tooling ----------------------------------------------------
 run: all
