@@ -23,6 +23,8 @@
  * unbiased.  Every random number comes from the counter-based RNG, keyed by
  * pixel, sample, bounce and the dimension below, so tiles stay exact.
  */
+#include <stdint.h>
+
 #include "integrate.h"
 
 #define PI 3.14159265358979323846
@@ -99,7 +101,8 @@ static double mis(double a, double b) { return a * a / (a * a + b * b); }
 
 static bool is_emitter(const rayd_scene *s, const struct hit *h) {
     const struct object *o = h->leaf;
-    return !h->outer && h->orient == 0 && o->xform < 0 && o >= s->objs && o < s->objs + s->nobjs &&
+    uintptr_t at = (uintptr_t)o, lo = (uintptr_t)s->objs, hi = (uintptr_t)(s->objs + s->nobjs);
+    return !h->outer && h->orient == 0 && o->xform < 0 && at >= lo && at < hi && /* top level */
            (o->kind == SHAPE_SPHERE || o->kind == SHAPE_DISC || o->kind == SHAPE_QUAD) &&
            v3_maxabs(s->mats[o->material].emission) > 0;
 }
