@@ -1,6 +1,6 @@
 /* raybench -- ray throughput of the core on one scene.
  *
- *   raybench SCENE.json [--width W] [--height H] [--runs N] [--threads-max T]
+ *   raybench SCENE.json [--width W] [--height H] [--runs N] [--threads-max T] [--cpu-time]
  *
  * Loads the scene (timing parse + BVH build), then casts, RUNS times each,
  * and reports the median:
@@ -11,6 +11,10 @@
  * on 1 thread and on T threads (default 2); and one end-to-end image
  * (rayd_render, shading and PNG-ready pixels) on T threads.
  * Output is one "key value" line each, for bench/ scripts to read.
+ * --cpu-time times what runs on one thread (the 1-thread casts, and the
+ * image when T is 1) in CPU seconds of the process instead of wall
+ * seconds: same keys, but a machine shared with other work then slows the
+ * figures far less (bench/peers.sh uses it beside the wall-clock figures).
  *
  * It links the core's internals (like the unit tests), because it measures
  * the queries under the integrator, not only whole images.
@@ -28,6 +32,17 @@
 static double now(void) {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+/* The clock of single-threaded measurements: wall, or with --cpu-time the
+ * process's CPU time (the only busy thread's, then). */
+static bool use_cpu_time;
+
+static double now_1t(void) {
+    if (!use_cpu_time) return now();
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
     return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
 }
 
@@ -104,11 +119,12 @@ static double cast(const rayd_scene *s, const struct camera *cam, int w, int h, 
     atomic_init(&wk.next_row, 0);
     atomic_init(&wk.hits, 0);
     pthread_t th[64];
-    double t0 = now();
+    double (*tick)(void) = threads == 1 ? now_1t : now;
+    double t0 = tick();
     for (int i = 1; i < threads; i++) pthread_create(&th[i], NULL, worker, &wk);
     worker(&wk);
     for (int i = 1; i < threads; i++) pthread_join(th[i], NULL);
-    double dt = now() - t0;
+    double dt = tick() - t0;
     *count = (long)w * h;
     *hits = atomic_load(&wk.hits);
     return dt;
@@ -132,10 +148,12 @@ int main(int argc, char **argv) {
         else if (!strcmp(argv[i], "--height") && i + 1 < argc) h = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--runs") && i + 1 < argc) runs = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--threads-max") && i + 1 < argc) tmax = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--cpu-time")) use_cpu_time = true;
         else path = argv[i];
     }
     if (!path || w <= 0 || h <= 0 || runs <= 0 || runs > 99 || tmax < 1 || tmax > 64) {
-        fprintf(stderr, "usage: raybench SCENE.json [--width W] [--height H] [--runs N] [--threads-max T]\n");
+        fprintf(stderr, "usage: raybench SCENE.json [--width W] [--height H] [--runs N] [--threads-max T]"
+                        " [--cpu-time]\n");
         return 2;
     }
     size_t len;
@@ -229,9 +247,10 @@ int main(int argc, char **argv) {
     for (int r = 0; r < runs; r++) {
         struct rayd_render_opts o = {.threads = tmax, .stats = &st};
         rayd_image *img = NULL;
-        double i0 = now();
+        double (*tick)(void) = tmax == 1 ? now_1t : now;
+        double i0 = tick();
         rayd_render(s, &o, &img, NULL);
-        it[r] = now() - i0;
+        it[r] = tick() - i0;
         rayd_image_free(img);
     }
     printf("image_s_%dt %.4f\n", tmax, median(it, runs));

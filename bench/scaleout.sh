@@ -3,11 +3,13 @@
 # several rayd nodes, directly and behind nginx (docker/nginx.conf).
 #
 # A 1920x1080 frame (scenes/whitted.json, SPP samples, default 1) is rendered
-#   - once by rayd-render on 2 threads (the baseline: no HTTP, no tiles);
-#   - by rayd-client over 1, 2 and 3 local nodes (each --threads 2), with the
-#     servers as a list ("direct") and through nginx ("nginx");
-#   - by rayd-client over 1 node with tiles of 64, 128, 256 and one tile for
-#     the whole frame, to separate the cost of tiling from the cost of HTTP.
+#   - by rayd-render on 2 threads (the baseline: no HTTP, no tiles), once
+#     before every client run (paired, see below);
+#   - by rayd-client over 1, 2 and 3 local nodes (each --threads
+#     NODE_THREADS, default 2), with the servers as a list ("direct") and
+#     through nginx ("nginx"), tiles of TILE pixels (default 128);
+#   - by rayd-client over 1 node with tiles of 32, 64, 128, 256 and one tile
+#     for the whole frame, to separate the cost of tiling from that of HTTP.
 # Every run uses a fresh scene id (trailing spaces change the bytes, not the
 # picture) so no node's result cache or nginx's tile cache answers.  Each
 # figure is the median of RUNS runs (default 3).
@@ -18,22 +20,31 @@
 #          runs on the machine);
 #   cpu    CPU seconds spent by the client, every node and nginx's workers
 #          (from /proc) over rayd-render's CPU seconds, minus 1: the work the
-#          distribution adds, which is what a cluster pays, whatever the load.
-# efficiency = baseline CPU / CPU spent.  docs/operations.md explains what
+#          distribution adds, which is what a cluster pays.
+# Every client run is paired with a baseline run just before it and the
+# ratios are taken per pair, so a load that drifts over minutes cancels out.
+# efficiency = baseline CPU / CPU spent; "client" is rayd-client's own CPU
+# (scene check, PNG decode, stitch, PNG encode).  docs/operations.md explains what
 # the figures mean for a real cluster.
 set -eu
 cd "$(dirname "$0")/.."
 BUILD=$(cd "${1:-build}" && pwd)
 RUNS=${RUNS:-3}
 SPP=${SPP:-1}
+NODE_THREADS=${NODE_THREADS:-2}
 TILE=${TILE:-128}
 NGINX=$(command -v nginx || echo /usr/sbin/nginx)
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/rayd-scaleout.XXXXXX")
 pids=()
+NGPID=
 cleanup() {
     local p
-    for p in "${pids[@]}"; do kill -KILL "$p" 2>/dev/null; done
-    wait 2>/dev/null
+    # TERM first: nginx's master then stops its workers (KILL orphans them)
+    if [ -n "$NGPID" ]; then kill -TERM "$NGPID" 2>/dev/null || true; wait "$NGPID" 2>/dev/null || true; fi
+    # || true: under set -e a pid that already exited would abort the trap
+    # (and make the script exit 1 after a full, good run).
+    for p in "${pids[@]}"; do kill -KILL "$p" 2>/dev/null || true; done
+    wait 2>/dev/null || true
     rm -rf "$tmp"
 }
 trap cleanup EXIT
@@ -56,7 +67,7 @@ median() { sort -n | awk '{a[NR]=$1} END {print a[int((NR+1)/2)]}'; }
 
 urls=() nodes=()
 for i in 1 2 3; do
-    "$BUILD/rayd" --bind 127.0.0.1 --port 0 --threads 2 >"$tmp/node$i.out" 2>/dev/null &
+    "$BUILD/rayd" --bind 127.0.0.1 --port 0 --threads "$NODE_THREADS" >"$tmp/node$i.out" 2>/dev/null &
     pids+=($!) nodes+=($!)
     for _ in $(seq 1 200); do [ -s "$tmp/node$i.out" ] && break; sleep 0.05; done
     urls+=("$(sed -n 's/^rayd listening on //p' "$tmp/node$i.out")")
@@ -102,11 +113,20 @@ servers_cpu() { # CPU ticks of the nodes and of nginx's workers
     cpu_ticks "${nodes[@]}" $w
 }
 
-# time_client ARGS...: "wall cpu" medians of rayd-client render (seconds)
+# time_client ARGS...: one row's medians: "wall cpu client wall_ratio
+# cpu_ratio".  Each run is paired with a rayd-render of the same frame just
+# before it, and the ratios are taken per pair: the load other programs put
+# on the machine drifts by tens of percent within minutes, a pair sees the
+# same load.
 time_client() {
-    local w=() c=() k c0 c1
+    local w=() c=() cl=() rw=() rc=() k c0 c1 bw bcpu
     for k in $(seq "$RUNS"); do
         mkscene "$tmp/s.json"
+        /usr/bin/time -f '%e %U %S' -o "$tmp/time" \
+            "$BUILD/rayd-render" "$tmp/s.json" -o "$tmp/ref.png" --threads 2
+        read -r e u sy <"$tmp/time"
+        bw=$e bcpu=$(echo "$u + $sy" | bc -l)
+        echo "$bw $bcpu" >>"$tmp/baselines"
         c0=$(servers_cpu)
         /usr/bin/time -f '%e %U %S' -o "$tmp/time" \
             "$BUILD/rayd-client" render "$tmp/s.json" -o "$tmp/out.png" --quiet "$@" ||
@@ -115,36 +135,34 @@ time_client() {
         read -r e u sy <"$tmp/time"
         w+=("$e")
         c+=("$(echo "$u + $sy + ($c1 - $c0) / $HZ" | bc -l)")
+        cl+=("$(echo "$u + $sy" | bc -l)")
+        rw+=("$(echo "$e / $bw" | bc -l)")
+        rc+=("$(echo "(${c[-1]}) / $bcpu" | bc -l)")
     done
-    echo "$(printf '%s\n' "${w[@]}" | median) $(printf '%s\n' "${c[@]}" | median)"
+    local m=()
+    for v in w c cl rw rc; do
+        local -n arr=$v
+        m+=("$(printf '%s\n' "${arr[@]}" | median)")
+    done
+    echo "${m[*]}"
 }
 
 tiles_of() { # tiles_of TILE
     echo $(( ((1920 + $1 - 1) / $1) * ((1080 + $1 - 1) / $1) ))
 }
 
-# baseline: rayd-render of the whole frame
-bw=() bc=()
-for _ in $(seq "$RUNS"); do
-    mkscene "$tmp/s.json"
-    /usr/bin/time -f '%e %U %S' -o "$tmp/time" "$BUILD/rayd-render" "$tmp/s.json" -o "$tmp/ref.png" --threads 2
-    read -r e u sy <"$tmp/time"
-    bw+=("$e") bc+=("$(echo "$u + $sy" | bc -l)")
-done
-base=$(printf '%s\n' "${bw[@]}" | median)
-bcpu=$(printf '%s\n' "${bc[@]}" | median)
-
-row() { # row LABEL NODES TILE "WALL CPU"
+row() { # row LABEL NODES TILE "WALL CPU CLIENT WALL_RATIO CPU_RATIO"
     local tiles; tiles=$(tiles_of "$3")
     set -- "$1" "$2" "$3" $4
-    awk -v l="$1" -v n="$2" -v tl="$3" -v tiles="$tiles" -v s="$4" -v c="$5" -v b="$base" -v bc="$bcpu" 'BEGIN {
-        printf "%-7s %5s %5s %6d %7.2f %8.1f %+8.1f%% %7.2f %+8.1f%% %7.0f%%\n", l, n, tl, tiles, s,
-               tiles / s, (s / b - 1) * 100, c, (c / bc - 1) * 100, bc / c * 100 }'
+    awk -v l="$1" -v n="$2" -v tl="$3" -v tiles="$tiles" -v s="$4" -v c="$5" -v cl="$6" \
+        -v rw="$7" -v rc="$8" 'BEGIN {
+        printf "%-7s %5s %5s %6d %7.2f %8.1f %+8.1f%% %7.2f %6.2f %+8.1f%% %7.0f%%\n", l, n, tl, tiles, s,
+               tiles / s, (rw - 1) * 100, c, cl, (rc - 1) * 100, 100 / rc }'
 }
 
-echo "1920x1080 scenes/whitted.json, $SPP spp, median of $RUNS runs; all nodes share $(nproc) cores; load average $(cut -d' ' -f1-3 /proc/loadavg)"
-printf 'baseline rayd-render --threads 2: %.2f s wall, %.2f s CPU\n' "$base" "$bcpu"
-printf '%-7s %5s %5s %6s %7s %8s %9s %7s %9s %8s\n' mode nodes tile tiles wall_s tiles/s wall_ovh cpu_s cpu_ovh cpu_eff
+: >"$tmp/baselines"
+echo "1920x1080 scenes/whitted.json, $SPP spp, median of $RUNS paired runs; nodes --threads $NODE_THREADS, all sharing $(nproc) cores; load average $(cut -d' ' -f1-3 /proc/loadavg)"
+printf '%-7s %5s %5s %6s %7s %8s %9s %7s %6s %9s %8s\n' mode nodes tile tiles wall_s tiles/s wall_ovh cpu_s client cpu_ovh cpu_eff
 for n in 1 2 3; do
     args=()
     for ((i = 0; i < n; i++)); do args+=(--server "${urls[$i]}"); done
@@ -159,3 +177,6 @@ echo "tile size, 1 node direct (tiling cost against one request for the whole fr
 for tl in 32 64 128 256 1920; do
     row direct 1 "$tl" "$(time_client --server "${urls[0]}" --tile "$tl")"
 done
+printf 'baseline rayd-render --threads 2 (median of the %d paired runs): %.2f s wall, %.2f s CPU; load average now %s\n' \
+    "$(wc -l <"$tmp/baselines")" "$(cut -d' ' -f1 "$tmp/baselines" | median)" \
+    "$(cut -d' ' -f2 "$tmp/baselines" | median)" "$(cut -d' ' -f1-3 /proc/loadavg)"

@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # bench/scenes.sh BUILD -- render time of every example scene at 1920x1080
-# with SPP samples per pixel (default "1 8"; SPP="1 16" for the old figures)
-# on 2 threads; median of RUNS runs (default 3).  8 rather than 16 keeps the
-# whole `make bench` within about 5 minutes on a busy 2-core machine.
+# with SPP samples per pixel (default 1; SPP="1 16" adds 16 samples, several
+# minutes more) on 2 threads; median of RUNS runs (default 3).  One sample
+# keeps the whole `make bench` within about 5 minutes on a busy 2-core
+# machine however many example scenes there are.
 set -eu
 BUILD=${1:-build}
 RUNS=${RUNS:-3}
-SPP=${SPP:-1 8}
+SPP=${SPP:-1}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 printf '%-10s %7s %10s %12s %14s\n' scene samples "median s" "Mrays/s" "runs (s)"
