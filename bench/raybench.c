@@ -196,12 +196,15 @@ int main(int argc, char **argv) {
         const struct mesh *m = &s->meshes[big];
         struct bbox *boxes = malloc(sizeof *boxes * m->ntris);
         uint32_t *order = malloc(sizeof *order * m->ntris);
-        for (uint32_t t = 0; t < m->ntris; t++) {
-            const uint32_t *ix = m->index + 3 * (size_t)t;
-            for (int k = 0; k < 3; k++) {
-                float a = m->pos[3 * ix[0] + k], b = m->pos[3 * ix[1] + k], c = m->pos[3 * ix[2] + k];
-                boxes[t].lo[k] = fminf(a, fminf(b, c));
-                boxes[t].hi[k] = fmaxf(a, fmaxf(b, c));
+        uint32_t t = 0; /* the triangles' boxes, from the leaf blocks */
+        for (uint32_t bi = 0; bi < m->nblocks; bi++) {
+            const struct tri4 *blk = &m->blocks[bi];
+            for (int lane = 0; lane < 4 && blk->id[lane] != UINT32_MAX; lane++, t++) {
+                for (int k = 0; k < 3; k++) {
+                    float a = blk->v[0][k][lane], b = blk->v[1][k][lane], c = blk->v[2][k][lane];
+                    boxes[t].lo[k] = fminf(a, fminf(b, c));
+                    boxes[t].hi[k] = fmaxf(a, fmaxf(b, c));
+                }
             }
         }
         double bt[99];

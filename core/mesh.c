@@ -147,8 +147,9 @@ static inline int tri4_test(const struct tri4 *b, int n, const struct tri_ray *t
 /* Keeps the nearest of the lanes in mask; on equal t the lower triangle
  * id wins, so the result does not depend on the order blocks are visited
  * (BVH or brute force, any tiling). */
-static inline bool tri4_take(const struct tri4 *b, int mask, const float t[4], const float u[4],
-                             const float v[4], float *tmax, struct mesh_hit *h, bool *found) {
+static inline bool tri4_take(const struct mesh *m, const struct tri4 *b, int mask, const float t[4],
+                             const float u[4], const float v[4], float *tmax, struct mesh_hit *h,
+                             bool *found) {
     bool took = false;
     while (mask) {
         int i = __builtin_ctz((unsigned)mask);
@@ -160,6 +161,8 @@ static inline bool tri4_take(const struct tri4 *b, int mask, const float t[4], c
         h->u = u[i];
         h->v = v[i];
         h->tri = b->id[i];
+        h->blk = (uint32_t)(b - m->blocks);
+        h->lane = (uint32_t)i;
         *found = true;
         took = true;
     }
@@ -186,7 +189,7 @@ static bool mesh_walk(const struct mesh *m, const ray *r, double tmax, struct me
             int mask = tri4_test(b, e.count, &tr, tm, t, u, v);
             if (mask) {
                 if (any) return true;
-                tri4_take(b, mask, t, u, v, &tm, h, &found);
+                tri4_take(m, b, mask, t, u, v, &tm, h, &found);
             }
         }
         do { /* pop the nearest entry still in reach */
@@ -216,34 +219,33 @@ bool mesh_intersect_brute(const struct mesh *m, const ray *r, double tmax, struc
         int n = 0;
         while (n < 4 && b->id[n] != UINT32_MAX) n++;
         int mask = tri4_test(b, n, &tr, tm, t, u, v);
-        if (mask) tri4_take(b, mask, t, u, v, &tm, h, &found);
+        if (mask) tri4_take(m, b, mask, t, u, v, &tm, h, &found);
     }
     return found;
 }
 
-static vec3 vtx(const struct mesh *m, uint32_t i) {
-    const float *p = m->pos + 3 * (size_t)i;
-    return v3(p[0], p[1], p[2]);
+/* Vertex k of the hit triangle, from its block. */
+static vec3 corner(const struct mesh *m, const struct mesh_hit *h, int k) {
+    const struct tri4 *b = &m->blocks[h->blk];
+    return v3(b->v[k][0][h->lane], b->v[k][1][h->lane], b->v[k][2][h->lane]);
 }
 
 vec3 mesh_point(const struct mesh *m, const struct mesh_hit *h) {
-    const uint32_t *ix = m->index + 3 * (size_t)h->tri;
     double u = h->u, v = h->v;
-    vec3 p = v3_scale(vtx(m, ix[0]), 1.0 - u - v);
-    p = v3_madd(p, vtx(m, ix[1]), u);
-    return v3_madd(p, vtx(m, ix[2]), v);
+    vec3 p = v3_scale(corner(m, h, 0), 1.0 - u - v);
+    p = v3_madd(p, corner(m, h, 1), u);
+    return v3_madd(p, corner(m, h, 2), v);
 }
 
-vec3 mesh_geometric_normal(const struct mesh *m, uint32_t tri) {
-    const uint32_t *ix = m->index + 3 * (size_t)tri;
-    vec3 a = vtx(m, ix[0]);
-    vec3 n = v3_cross(v3_sub(vtx(m, ix[1]), a), v3_sub(vtx(m, ix[2]), a));
+vec3 mesh_geometric_normal(const struct mesh *m, const struct mesh_hit *h) {
+    vec3 a = corner(m, h, 0);
+    vec3 n = v3_cross(v3_sub(corner(m, h, 1), a), v3_sub(corner(m, h, 2), a));
     double len = v3_len(n);
     return len > 0 ? v3_scale(n, 1.0 / len) : v3(0, 1, 0);
 }
 
 vec3 mesh_shading_normal(const struct mesh *m, const struct mesh_hit *h) {
-    if (!m->normal) return mesh_geometric_normal(m, h->tri);
+    if (!m->normal) return mesh_geometric_normal(m, h);
     const uint32_t *ix = m->index + 3 * (size_t)h->tri;
     double u = h->u, v = h->v;
     vec3 n = v3(0, 0, 0);
@@ -253,7 +255,7 @@ vec3 mesh_shading_normal(const struct mesh *m, const struct mesh_hit *h) {
         n = v3_madd(n, v3(nn[0], nn[1], nn[2]), wgt[k]);
     }
     double len = v3_len(n);
-    return len > 0 ? v3_scale(n, 1.0 / len) : mesh_geometric_normal(m, h->tri);
+    return len > 0 ? v3_scale(n, 1.0 / len) : mesh_geometric_normal(m, h);
 }
 
 void mesh_uv(const struct mesh *m, const struct mesh_hit *h, double *u, double *v) {
@@ -369,6 +371,12 @@ enum rayd_status mesh_build(struct mesh *m, float *pos, uint32_t nverts, uint32_
         m->hi = v3(b->hi[0], b->hi[1], b->hi[2]);
         st = make_blocks(m, err);
     }
+    if (st == RAYD_OK && !m->normal && !m->uv) { /* the blocks hold all a flat mesh needs */
+        free(m->pos);
+        free(m->index);
+        m->pos = NULL;
+        m->index = NULL;
+    }
     free(boxes);
     free(order);
     free(sorted);
@@ -387,9 +395,10 @@ void mesh_free(struct mesh *m) {
 }
 
 size_t mesh_bytes(const struct mesh *m) {
-    size_t b = (size_t)m->nverts * 3 * sizeof(float) + (size_t)m->ntris * 3 * sizeof(uint32_t) +
-               (size_t)m->bvh.nnodes * sizeof(struct bvh4_node) +
+    size_t b = (size_t)m->bvh.nnodes * sizeof(struct bvh4_node) +
                (size_t)m->nblocks * sizeof(struct tri4);
+    if (m->pos) b += (size_t)m->nverts * 3 * sizeof(float);
+    if (m->index) b += (size_t)m->ntris * 3 * sizeof(uint32_t);
     if (m->normal) b += (size_t)m->nverts * 3 * sizeof(float);
     if (m->uv) b += (size_t)m->nverts * 2 * sizeof(float);
     return b;

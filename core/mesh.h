@@ -18,6 +18,9 @@ struct tri4 {
 struct mesh {
     struct tri4 *blocks; /* the BVH's leaves point here, one block a leaf */
     uint32_t nblocks;
+    /* Vertex data, kept only for smooth normals and texture coordinates:
+     * a flat mesh without uvs needs nothing but its blocks (pos and index
+     * are then freed after the build and NULL). */
     float *pos;       /* 3 per vertex, object space */
     float *normal;    /* 3 per vertex (unit), or NULL: flat shading */
     float *uv;        /* 2 per vertex, or NULL */
@@ -30,7 +33,9 @@ struct mesh {
 struct mesh_hit {
     float t;
     float u, v;       /* barycentric weights of the 2nd and 3rd vertex */
-    uint32_t tri;
+    uint32_t tri;     /* triangle, in leaf order */
+    uint32_t blk;     /* its block and lane: where its vertices are */
+    uint32_t lane;
 };
 
 /* Takes over pos, normal, uv and index (malloc'd; freed by mesh_free even
@@ -51,7 +56,7 @@ bool mesh_intersect_brute(const struct mesh *m, const ray *r, double tmax, struc
 /* The hit point from barycentrics, in double: it lies on the triangle's
  * plane to double precision, whatever the float error of t. */
 vec3 mesh_point(const struct mesh *m, const struct mesh_hit *h);
-vec3 mesh_geometric_normal(const struct mesh *m, uint32_t tri); /* unit, by winding */
+vec3 mesh_geometric_normal(const struct mesh *m, const struct mesh_hit *h); /* unit, by winding */
 vec3 mesh_shading_normal(const struct mesh *m, const struct mesh_hit *h);
 
 /* Interpolated texture coordinates (0, 0 without uvs). */

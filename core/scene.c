@@ -356,7 +356,7 @@ void scene_surface(const rayd_scene *s, const ray *r, const struct hit *h, struc
     if (o->kind == SHAPE_MESH) {
         const struct mesh *m = &s->meshes[o->u.mesh.id];
         p = mesh_point(m, &h->mh);
-        ng = mesh_geometric_normal(m, h->mh.tri);
+        ng = mesh_geometric_normal(m, &h->mh);
         n = mesh_shading_normal(m, &h->mh);
         if (textured) mesh_uv(m, &h->mh, &u, &v);
     } else {
