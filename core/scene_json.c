@@ -48,15 +48,23 @@ void rayd_limits_default(struct rayd_limits *lim) {
 }
 /* ---- camera and render --------------------------------------------------- */
 
+/* The top-level object named key, or *empty (an empty object) when the
+ * scene leaves it out, so defaults apply through the same getters. */
+static const cJSON *section(const cJSON *root, const char *key, cJSON *empty) {
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(root, key);
+    if (v) return v;
+    memset(empty, 0, sizeof *empty);
+    empty->type = cJSON_Object;
+    return empty;
+}
+
 static enum rayd_status load_render(struct loader *ld, const cJSON *root) {
     static const char *const keys[] = {"width", "height", "samples",    "max_depth",
                                        "background", "seed", "integrator", NULL};
     static const char *const integrators[] = {"whitted", "path", NULL};
     struct jp at = {"/render"};
-    const cJSON *r = cJSON_GetObjectItemCaseSensitive(root, "render");
-    cJSON empty = {0};
-    empty.type = cJSON_Object;
-    if (!r) r = &empty;
+    cJSON empty;
+    const cJSON *r = section(root, "render", &empty);
     TRY(sj_check_keys(ld, r, &at, keys));
     const struct rayd_limits *lim = ld->lim;
     struct render_settings *rs = &ld->s->rs;
@@ -88,10 +96,8 @@ static enum rayd_status load_camera(struct loader *ld, const cJSON *root) {
                                        "focus_distance", NULL};
     static const char *const projections[] = {"perspective", "orthographic", NULL};
     struct jp at = {"/camera"};
-    const cJSON *c = cJSON_GetObjectItemCaseSensitive(root, "camera");
-    cJSON empty = {0};
-    empty.type = cJSON_Object;
-    if (!c) c = &empty;
+    cJSON empty;
+    const cJSON *c = section(root, "camera", &empty);
     TRY(sj_check_keys(ld, c, &at, keys));
     vec3 pos, look, up;
     double fx, fy;
