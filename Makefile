@@ -3,6 +3,8 @@
 #   make             build/librayd.a, build/rayd-render, build/rayd, build/rayd-client
 #   make test        every test; ends with "N passed, N failed"
 #   make test SANITIZE=1   the same suite built with ASan+UBSan into build/asan/
+#   make test-tsan   server + job queue integration tests under ThreadSanitizer (build/tsan/)
+#   make test-valgrind  two server integration tests with rayd under valgrind memcheck
 #   make run         build and start rayd on 127.0.0.1:8080 with the preview
 #   make deps        install the Debian packages the build and the tests need
 #   make bench       benchmarks (never part of make test)
@@ -12,10 +14,11 @@
 # Debian packages: compiler and tools, the three given libraries, libcurl for
 # the client, libssl (libcrypto's SHA-256 of scene ids, server and client), curl/python3/nginx for the
 # integration tests (nginx balances the scale-out test), wrk for benchmarks,
-# chromium (and a font) for the browser tests of the preview page.
+# chromium (and a font) for the browser tests of the preview page, valgrind
+# (make test-valgrind) and openssl (a test certificate for the TLS test).
 DEB_PKGS := gcc make pkg-config libc6-dev libpng-dev libcjson-dev libmicrohttpd-dev \
             libcurl4-openssl-dev libssl-dev curl python3 nginx wrk chromium fonts-dejavu-core \
-            clang libclang-rt-14-dev
+            clang libclang-rt-14-dev valgrind openssl
 
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 
@@ -30,12 +33,17 @@ CC := cc
 endif
 
 SANITIZE ?= 0
+TSAN ?= 0
 NATIVE ?= 0
 
 ifeq ($(SANITIZE),1)
 BUILD ?= build/asan
 OPT := -O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=all
 LDSAN := -fsanitize=address,undefined
+else ifeq ($(TSAN),1)
+BUILD ?= build/tsan
+OPT := -O1 -g -fno-omit-frame-pointer -fsanitize=thread
+LDSAN := -fsanitize=thread
 else
 BUILD ?= build
 OPT := -O2 -g -fno-math-errno
@@ -70,7 +78,7 @@ ifneq ($(CLIENT_SRC),)
 PROGS += $(BUILD)/rayd-client
 endif
 
-.PHONY: all deps test test-unit golden run bench bench-deps bench-peers format lint clean
+.PHONY: all deps test test-unit test-tsan test-valgrind golden run bench bench-deps bench-peers format lint clean
 .DEFAULT_GOAL := all
 
 all: $(BUILD)/librayd.a $(PROGS)
@@ -160,7 +168,18 @@ $(BUILD)/tests/tools/%: tests/tools/%.c $(BUILD)/librayd.a
 
 TEST_TOOLS := $(patsubst tests/tools/%.c,$(BUILD)/tests/tools/%,$(wildcard tests/tools/*.c))
 
-test: all $(UNIT_BIN) $(TEST_TOOLS) $(FUZZ_REPLAY) $(BUILD)/bench/genmesh
+# The browser tests drive Debian's chromium with playwright-core from npm,
+# installed into tests/browser/node_modules when its lock file changes.  No
+# npm (or no registry) is not fatal here: tests/browser/preview.sh then FAILs.
+BROWSER_NODE := tests/browser/node_modules/.package-lock.json
+
+$(BROWSER_NODE): tests/browser/package.json tests/browser/package-lock.json
+	@if command -v npm >/dev/null 2>&1; then \
+	  (cd tests/browser && npm ci --no-audit --no-fund --loglevel=error) || \
+	  echo "npm ci in tests/browser failed: the browser tests will fail"; \
+	else echo "npm not found: the browser tests will fail (install Node.js and npm)"; fi
+
+test: all $(UNIT_BIN) $(TEST_TOOLS) $(FUZZ_REPLAY) $(BUILD)/bench/genmesh $(BROWSER_NODE)
 	@bash tests/run.sh $(BUILD)
 
 test-unit: $(BUILD)/librayd.a $(UNIT_BIN)
@@ -190,6 +209,22 @@ build/fuzz/core/%.o: core/%.c | $(BUILD)/.deps-ok
 build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c $(FUZZ_CORE_OBJ)
 	clang $(FUZZ_CFLAGS) -fsanitize=fuzzer $^ -o $@ -lpng -lcjson -lpthread -lm
 
+# The server's targets (fuzz_http*, fuzz_query*) drive the request flow and
+# the handlers without sockets: they link the server's objects but main.o,
+# built the same way, and libmicrohttpd (responses) and libcrypto (ids).
+FUZZ_SERVER_TARGETS := $(filter http% query%,$(FUZZ_TARGETS))
+FUZZ_SERVER_OBJ := $(patsubst server/%.c,build/fuzz/server/%.o,$(filter-out server/main.c,$(SERVER_SRC)))
+.SECONDARY: $(FUZZ_SERVER_OBJ)
+
+build/fuzz/server/%.o: server/%.c server/server.h build/server/web_assets.h | $(BUILD)/.deps-ok
+	@mkdir -p $(dir $@)
+	clang $(FUZZ_CFLAGS) -D_DEFAULT_SOURCE -Ibuild/server -c $< -o $@
+
+$(FUZZ_SERVER_TARGETS:%=build/fuzz/fuzz_%): build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c \
+    tests/fuzz/fuzz_http_common.h $(FUZZ_SERVER_OBJ) $(FUZZ_CORE_OBJ)
+	clang $(FUZZ_CFLAGS) -D_DEFAULT_SOURCE -fsanitize=fuzzer $(filter %.c %.o,$^) -o $@ \
+	  -lmicrohttpd -lcrypto -lpng -lcjson -lpthread -lm
+
 fuzz: $(FUZZ_TARGETS:%=build/fuzz/fuzz_%)
 	@for t in $(FUZZ_TARGETS); do \
 	  rm -rf build/fuzz/corpus-$$t && mkdir -p build/fuzz/corpus-$$t && \
@@ -205,6 +240,32 @@ fuzz: $(FUZZ_TARGETS:%=build/fuzz/fuzz_%)
 $(BUILD)/tests/fuzz/replay_%: tests/fuzz/fuzz_%.c tests/fuzz/replay.c $(BUILD)/librayd.a
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -Iinclude -Icore $(filter %.c,$^) -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
+
+SERVER_LIB_OBJ := $(filter-out $(BUILD)/server/main.o,$(SERVER_OBJ))
+$(FUZZ_SERVER_TARGETS:%=$(BUILD)/tests/fuzz/replay_%): $(BUILD)/tests/fuzz/replay_%: \
+    tests/fuzz/fuzz_%.c tests/fuzz/replay.c tests/fuzz/fuzz_http_common.h $(SERVER_LIB_OBJ) $(BUILD)/librayd.a
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS_ALL) -D_DEFAULT_SOURCE -Iinclude -I$(BUILD)/server $(filter %.c,$^) -o $@ \
+	  $(LDFLAGS_ALL) $(SERVER_LIB_OBJ) $(BUILD)/librayd.a -lmicrohttpd -lcrypto $(LIBS_CORE)
+
+# --- TSan and valgrind ------------------------------------------------------
+# `make test-tsan`: the server built with ThreadSanitizer into build/tsan/,
+# the job-queue and server integration tests against it (a TSan report in
+# rayd's stderr fails the script that started it).  `make test-valgrind`:
+# two integration scripts with rayd under valgrind memcheck (exit 99 on any
+# error or definite leak).  Both print "N passed, N failed".
+TSAN_TESTS := jobs lifecycle api_basic load slow_clients faults
+VALGRIND_TESTS := security api_errors
+
+test-tsan:
+	@$(MAKE) --no-print-directory TSAN=1 build/tsan/rayd build/tsan/rayd-render build/tsan/bench/genmesh
+	@TSAN_OPTIONS="halt_on_error=0 second_deadlock_stack=1 $${TSAN_OPTIONS:-}" \
+	  RAYD_BUILD=$$PWD/build/tsan bash tests/integration/lib/run_some.sh $(TSAN_TESTS)
+
+test-valgrind: all
+	@RAYD_WRAP="valgrind -q --error-exitcode=99 --leak-check=full --errors-for-leak-kinds=definite \
+	  --show-leak-kinds=definite" RAYD_START_TRIES=600 \
+	  RAYD_BUILD=$$PWD/build bash tests/integration/lib/run_some.sh $(VALGRIND_TESTS)
 
 
 # --- run, bench, tooling ----------------------------------------------------
@@ -246,7 +307,8 @@ $(BUILD)/bench/imgdiff: bench/peers/imgdiff.c $(BUILD)/librayd.a
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -Iinclude $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
 
-bench-deps:
+# After `make deps` (never two apt-gets at once under -j).
+bench-deps: | $(BUILD)/.deps-ok
 	@missing=""; for p in $(BENCH_PKGS); do \
 	  dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q '^install ok installed' || missing="$$missing $$p"; \
 	done; \

@@ -33,12 +33,12 @@ static char *scenefile_read(const char *path, size_t *len)
         return NULL;
     size_t cap = 1 << 16, n = 0;
     char *buf = malloc(cap);
-    while (buf) {
+    int nomem = !buf;
+    while (!nomem) {
         if (n == cap) {
             char *b = realloc(buf, cap * 2);
             if (!b) {
-                free(buf);
-                buf = NULL;
+                nomem = 1;
                 break;
             }
             buf = b;
@@ -49,10 +49,12 @@ static char *scenefile_read(const char *path, size_t *len)
         if (k == 0)
             break;
     }
-    int bad = ferror(f);
+    int bad = nomem || ferror(f);
     if (f != stdin)
         fclose(f);
     if (bad) {
+        if (nomem)
+            errno = ENOMEM;
         free(buf);
         return NULL;
     }
@@ -107,6 +109,7 @@ static void scenefile_inline(struct scenefile_walk *w, cJSON *obj, const char *k
     }
     snprintf(path, n, "%s%s", name[0] == '/' ? "" : w->dir, name);
     size_t len = 0;
+    errno = 0;
     char *data = scenefile_read(path, &len);
     if (!data) {
         fprintf(stderr, "rayd-client: %s: cannot read \"%s\": %s\n", where, path,

@@ -38,7 +38,10 @@
  *
  * Rays per second for the progress bar come from polling each server's
  * /metrics (rayd_rays_total) once a second; it counts all the work of those
- * servers, not only this frame's.
+ * servers, not only this frame's.  Behind a balancer each poll may reach
+ * another node: docker/nginx.conf names the node in an X-Upstream header,
+ * and the rate is kept per node so counters of different nodes are never
+ * subtracted from each other.
  */
 #include "client.h"
 
@@ -73,8 +76,11 @@ struct tiles_server {
     int fails_row;        /* consecutive failures */
     double down_until;    /* resting until then */
     int metrics_busy;
-    double metrics_next, rays_t, rps;
-    double rays_last;
+    double metrics_next;
+    struct tiles_rays {   /* per node behind this address (X-Upstream) */
+        char node[64];
+        double t, last, rps;
+    } rays[8];
 };
 
 struct tiles_xfer {
@@ -259,10 +265,26 @@ static void tiles_metrics_done(struct tiles *T, struct tiles_xfer *x, long statu
     if (!p)
         return;
     double v = strtod(p + 17, NULL);
-    if (s->rays_t > 0 && v >= s->rays_last && now > s->rays_t)
-        s->rps = (v - s->rays_last) / (now - s->rays_t);
-    s->rays_last = v;
-    s->rays_t = now;
+    char node[64] = "";
+    struct curl_header *hd = NULL;
+    if (curl_easy_header(x->h, "X-Upstream", 0, CURLH_HEADER, -1, &hd) == CURLHE_OK && hd)
+        snprintf(node, sizeof node, "%s", hd->value);
+    struct tiles_rays *r = NULL, *oldest = &s->rays[0];
+    for (int i = 0; i < 8 && !r; i++) {
+        if (s->rays[i].t > 0 && !strcmp(s->rays[i].node, node))
+            r = &s->rays[i];
+        else if (s->rays[i].t < oldest->t)
+            oldest = &s->rays[i];
+    }
+    if (!r) {
+        r = oldest;
+        memset(r, 0, sizeof *r);
+        snprintf(r->node, sizeof r->node, "%s", node);
+    } else if (v >= r->last && now > r->t) {
+        r->rps = (v - r->last) / (now - r->t);
+    }
+    r->last = v;
+    r->t = now;
 }
 
 static void tiles_finish(struct tiles *T, struct tiles_xfer *x, CURLcode cc, double now)
@@ -394,13 +416,17 @@ static int tiles_all_dead(const struct tiles *T)
     return 1;
 }
 
+/* The sum of the nodes' rates measured in the last 5 s; -1 if none. */
 static double tiles_rps(const struct tiles *T)
 {
-    double sum = 0;
+    double sum = 0, now = net_now();
     int any = 0;
     for (int i = 0; i < T->ns; i++)
-        if (T->s[i].rays_t > 0 && T->s[i].rps > 0)
-            sum += T->s[i].rps, any = 1;
+        for (int k = 0; k < 8; k++) {
+            const struct tiles_rays *r = &T->s[i].rays[k];
+            if (r->t > 0 && now - r->t < 5 && r->rps > 0)
+                sum += r->rps, any = 1;
+        }
     return any ? sum : -1;
 }
 

@@ -219,8 +219,8 @@ void api_scenes_image(struct http_req *r, const char *id)
     }
     char key[160], hex[65];
     snprintf(key, sizeof key, "%s@%d,%d,%d,%d", id, reg.x, reg.y, reg.w, reg.h);
-    sha256_hex(key, strlen(key), hex);
-    snprintf(r->etag, sizeof r->etag, "\"%s\"", hex);
+    if (cache_hash(key, strlen(key), hex))
+        snprintf(r->etag, sizeof r->etag, "\"%s\"", hex);
     const char *inm = http_header(r, "If-None-Match");
     if (inm && api_etag_match(inm, r->etag)) {
         http_reply_data(r, 304, NULL, "", 0);

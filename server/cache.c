@@ -9,11 +9,17 @@
  * frees it.  A scene larger than the whole budget is used and never kept.
  *
  * The cache has no lock of its own: every call is made by jobq.c under the
- * job queue's mutex, the one lock of the server.  Lookup is a chained hash
- * table on the id; recency is a doubly linked list, most recent first.
+ * job queue's mutex, the one lock of the server (cache_hash() alone is a
+ * pure function any thread may call).  Lookup is a chained hash table on
+ * the id; recency is a doubly linked list, most recent first.
+ *
+ * The ids themselves are computed by OpenSSL's libcrypto (EVP_Digest with
+ * EVP_sha256), a maintained and audited implementation, rather than by
+ * hand-written code; `sha256sum` of a body gives the same id.
  */
 #include "server.h"
 
+#include <openssl/evp.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -34,6 +40,23 @@ static struct cache_entry *cache_head, *cache_tail;
 static size_t cache_budget, cache_bytes, cache_count;
 
 void cache_init(size_t budget_bytes) { cache_budget = budget_bytes; }
+
+bool cache_hash(const void *data, size_t len, char out[65])
+{
+    static const char hex[] = "0123456789abcdef";
+    unsigned char d[EVP_MAX_MD_SIZE];
+    unsigned int n = 0;
+    if (!EVP_Digest(data, len, d, &n, EVP_sha256(), NULL) || n != 32) {
+        out[0] = 0;
+        return false;
+    }
+    for (unsigned i = 0; i < 32; i++) {
+        out[2 * i] = hex[d[i] >> 4];
+        out[2 * i + 1] = hex[d[i] & 15];
+    }
+    out[64] = 0;
+    return true;
+}
 
 static unsigned cache_bucket(const char *id)
 {

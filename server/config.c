@@ -67,6 +67,19 @@ static const struct config_option config_table[] = {
      "seconds a finished job (and its PNG) is kept after it was created"},
     {"png-level", "RAYD_PNG_LEVEL", CT_LONG, &config.png_level, "-1", -1, 9,
      "zlib level of the PNGs (-1 = default, same as rayd-render)"},
+    {"max-conns", "RAYD_MAX_CONNS", CT_LONG, &config.max_conns, "4096", 1, 1000000,
+     "open connections in all; more are closed at accept (file limit raised to fit)"},
+    {"max-conns-per-ip", "RAYD_MAX_CONNS_PER_IP", CT_LONG, &config.max_conns_per_ip, "0", 0,
+     1000000, "open connections from one client address; more are closed at accept (0 = no limit)"},
+    {"max-header-bytes", "RAYD_MAX_HEADER_BYTES", CT_LONG, &config.max_header_bytes, "32768",
+     4096, 16777216,
+     "memory per connection for the request line and headers (larger: 431 or 414)"},
+    {"max-url", "RAYD_MAX_URL", CT_LONG, &config.max_url, "8192", 64, 16777216,
+     "longest request target, path and query (414 uri_too_long)"},
+    {"tls-cert", "RAYD_TLS_CERT", CT_STRING, &config.tls_cert, NULL, 0, 0,
+     "PEM certificate (chain): serve HTTPS with libmicrohttpd's TLS (needs --tls-key)"},
+    {"tls-key", "RAYD_TLS_KEY", CT_STRING, &config.tls_key, NULL, 0, 0,
+     "PEM private key for --tls-cert"},
 };
 
 #define CONFIG_N (sizeof config_table / sizeof config_table[0])
@@ -194,6 +207,10 @@ int config_load(int argc, char **argv)
     }
     if (config.token_file && *config.token_file && config_read_token())
         return -1;
+    if (!config.tls_cert != !config.tls_key) {
+        fprintf(stderr, "rayd: --tls-cert and --tls-key go together\n");
+        return -1;
+    }
     return 0;
 }
 

@@ -30,11 +30,13 @@
 #include "server.h"
 
 #include <arpa/inet.h>
+#include <errno.h>
 #include <microhttpd.h>
 #include <netinet/in.h>
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 
 #define HTTP_CONTAINER(w) ((struct http_req *)((char *)(w) - offsetof(struct http_req, waiter)))
 
@@ -51,33 +53,31 @@ int http_port(void) { return http_bound_port; }
 
 const char *http_header(struct http_req *r, const char *name)
 {
-    return MHD_lookup_connection_value(r->conn, MHD_HEADER_KIND, name);
+    return r->io->header(r, name);
+}
+
+struct http_first {
+    const char *name, *value;
+};
+
+static void http_first_cb(void *u, const char *k, const char *v)
+{
+    struct http_first *f = u;
+    if (!f->value && !strcmp(k, f->name))
+        f->value = v;
 }
 
 const char *http_query(struct http_req *r, const char *name)
 {
-    return MHD_lookup_connection_value(r->conn, MHD_GET_ARGUMENT_KIND, name);
-}
-
-struct http_each {
-    void (*fn)(void *u, const char *k, const char *v);
-    void *u;
-};
-
-static enum MHD_Result http_each_cb(void *cls, enum MHD_ValueKind kind, const char *key,
-                                    const char *value)
-{
-    (void)kind;
-    struct http_each *e = cls;
-    e->fn(e->u, key, value ? value : "");
-    return MHD_YES;
+    struct http_first f = {name, NULL};
+    r->io->query_each(r, http_first_cb, &f);
+    return f.value;
 }
 
 void http_query_each(struct http_req *r, void (*fn)(void *u, const char *k, const char *v),
                      void *u)
 {
-    struct http_each e = {fn, u};
-    MHD_get_connection_values(r->conn, MHD_GET_ARGUMENT_KIND, http_each_cb, &e);
+    r->io->query_each(r, fn, u);
 }
 
 char *http_json_escape(const char *s, char *buf, size_t size)
@@ -212,6 +212,7 @@ void http_reply_error(struct http_req *r, unsigned status, const char *code, con
              "{\"error\":{\"status\":%u,\"code\":\"%s\",\"message\":\"%s\"%s}}\n", status, code,
              msg, extra);
     http_reply_data(r, status, "application/json", json, strlen(json));
+    r->err_code = code;
     http_add_header(r, "Cache-Control", "no-store");
     if (status == 503)
         http_add_header(r, MHD_HTTP_HEADER_RETRY_AFTER, "1");
@@ -292,26 +293,26 @@ bool http_require_json(struct http_req *r)
 
 /* ---- suspension ------------------------------------------------------------ */
 
+/* r->parked is written and read only by the thread running the handler:
+ * once a request is suspended and queued, a worker may answer and resume it
+ * at any moment, so that thread must not look at anything else in r until
+ * libmicrohttpd calls it again. */
 void http_suspend(struct http_req *r)
 {
+    r->parked = true;
     r->suspended = true;
     atomic_fetch_add(&http_nsuspended, 1);
-    MHD_suspend_connection(r->conn);
+    r->io->suspend(r);
 }
 
 void http_resume(struct http_req *r)
 {
     r->suspended = false;
-    MHD_resume_connection(r->conn);
+    r->io->resume(r); /* for the harness, r may be gone after this */
     atomic_fetch_sub(&http_nsuspended, 1);
 }
 
-int http_conn_fd(struct http_req *r)
-{
-    const union MHD_ConnectionInfo *ci =
-        MHD_get_connection_info(r->conn, MHD_CONNECTION_INFO_CONNECTION_FD);
-    return ci ? ci->connect_fd : -1;
-}
+int http_conn_fd(struct http_req *r) { return r->io->fd(r); }
 
 void http_cache_headers(struct http_req *r)
 {
@@ -363,17 +364,7 @@ void http_render(struct http_req *r, struct cache_entry *scene, const struct ray
         http_reply_refused(r, s);
 }
 
-/* ---- the access handler ------------------------------------------------------ */
-
-static enum MHD_Result http_flush(struct http_req *r)
-{
-    if (r->gone || !r->pending)
-        return MHD_NO;
-    enum MHD_Result ret = MHD_queue_response(r->conn, r->pending_status, r->pending);
-    MHD_destroy_response(r->pending);
-    r->pending = NULL;
-    return ret;
-}
+/* ---- the request flow (any transport) ------------------------------------------ */
 
 /* Constant-time check of "Authorization: Bearer <token>". */
 static bool http_authorized(struct http_req *r)
@@ -416,118 +407,179 @@ static void http_options(struct http_req *r)
     }
 }
 
-static enum MHD_Result http_access(void *cls, struct MHD_Connection *c, const char *url,
-                                   const char *method, const char *version, const char *upload,
-                                   size_t *upload_size, void **con_cls)
+struct http_req *http_req_new(const struct http_io *io, void *io_ctx, const char *method,
+                              const char *url, size_t target_len)
 {
-    (void)cls;
-    (void)version;
-    struct http_req *r = *con_cls;
-    if (!r) {
-        r = calloc(1, sizeof *r);
-        if (!r)
-            return MHD_NO;
-        r->conn = c;
-        r->method = method;
-        r->url = url;
-        r->t0 = log_now();
-        r->route = -1;
-        r->waiter.fd = -1;
-        *con_cls = r;
-        atomic_fetch_add(&http_ninflight, 1);
-        const char *cl = MHD_lookup_connection_value(c, MHD_HEADER_KIND,
-                                                     MHD_HTTP_HEADER_CONTENT_LENGTH);
-        if (cl) {
-            char *end;
-            unsigned long long n = strtoull(cl, &end, 10);
-            if (end != cl && n > (unsigned long long)config.max_body) {
-                metrics_reject(MR_BODY_TOO_LARGE);
-                char msg[128];
-                snprintf(msg, sizeof msg, "the body is over the limit of %ld bytes (--max-body)",
-                         config.max_body);
-                http_reply_error(r, 413, "body_too_large", msg, NULL, 0, 0, NULL);
-                return http_flush(r);
-            }
-        }
-        return MHD_YES;
+    struct http_req *r = calloc(1, sizeof *r);
+    if (!r)
+        return NULL;
+    r->io = io;
+    r->io_ctx = io_ctx;
+    r->method = method;
+    r->url = url;
+    r->target_len = target_len;
+    r->t0 = log_now();
+    r->route = -1;
+    r->waiter.fd = -1;
+    atomic_fetch_add(&http_ninflight, 1);
+    return r;
+}
+
+/* Content-Length: digits only.  -1 absent, -2 malformed. */
+static long long http_length_value(const char *cl)
+{
+    while (*cl == ' ' || *cl == '\t')
+        cl++;
+    unsigned long long n = 0;
+    const char *p = cl;
+    for (; *p >= '0' && *p <= '9'; p++)
+        if (n <= 1000000000000000ULL)
+            n = n * 10 + (unsigned)(*p - '0'); /* past 10^15 it is over any limit anyway */
+    while (*p == ' ' || *p == '\t')
+        p++;
+    if (p == cl || *p)
+        return -2;
+    return (long long)n;
+}
+
+struct http_framing {
+    int nlength, nte;
+    long long length; /* the first Content-Length, -2 malformed */
+    bool differ;      /* two Content-Length headers that disagree */
+};
+
+static void http_framing_cb(void *u, const char *k, const char *v)
+{
+    struct http_framing *f = u;
+    if (!strcasecmp(k, MHD_HTTP_HEADER_CONTENT_LENGTH)) {
+        long long n = http_length_value(v);
+        if (f->nlength++ == 0)
+            f->length = n;
+        else if (n != f->length)
+            f->differ = true;
+    } else if (!strcasecmp(k, MHD_HTTP_HEADER_TRANSFER_ENCODING)) {
+        f->nte++;
     }
-    if (r->gone)
-        return MHD_NO;
-    if (r->pending) /* resumed with an answer, or replied during the upload */
-        return http_flush(r);
-    if (r->replied)
-        return MHD_YES;
-    if (*upload_size) {
-        size_t n = *upload_size;
-        *upload_size = 0;
-        if (r->too_large) {
-            r->body_len += n; /* counted, not kept */
-            return r->body_len > 4 * (size_t)config.max_body ? MHD_NO : MHD_YES;
-        }
-        if (r->body_len + n > (size_t)config.max_body) {
-            r->too_large = true;
+}
+
+bool http_req_begin(struct http_req *r)
+{
+    if (r->target_len > (size_t)config.max_url) {
+        char msg[128];
+        snprintf(msg, sizeof msg, "the request target is over the limit of %ld bytes (--max-url)",
+                 config.max_url);
+        http_reply_error(r, 414, "uri_too_long", msg, NULL, 0, 0, NULL);
+        return false;
+    }
+    /* an ambiguous body length is how requests are smuggled past proxies:
+     * refuse it rather than guess (RFC 9112 section 6.3) */
+    struct http_framing f = {0, 0, -1, false};
+    r->io->header_each(r, http_framing_cb, &f);
+    if (f.differ || f.length == -2 || (f.nlength && f.nte) || f.nte > 1) {
+        http_reply_error(r, 400, "bad_request",
+                         f.nte && f.nlength ? "both Transfer-Encoding and Content-Length"
+                         : f.nte > 1        ? "more than one Transfer-Encoding header"
+                                            : "malformed or conflicting Content-Length",
+                         NULL, 0, 0, NULL);
+        http_add_header(r, MHD_HTTP_HEADER_CONNECTION, "close");
+        return false;
+    }
+    if (f.nlength && f.length > config.max_body) {
+        metrics_reject(MR_BODY_TOO_LARGE);
+        char msg[128];
+        snprintf(msg, sizeof msg, "the body is over the limit of %ld bytes (--max-body)",
+                 config.max_body);
+        http_reply_error(r, 413, "body_too_large", msg, NULL, 0, 0, NULL);
+        return false;
+    }
+    return true;
+}
+
+bool http_req_body(struct http_req *r, const char *data, size_t n)
+{
+    if (r->too_large || r->no_memory) {
+        r->body_len += n; /* counted, not kept */
+        return r->body_len <= 4 * (size_t)config.max_body;
+    }
+    if (r->body_len + n > (size_t)config.max_body) {
+        r->too_large = true;
+        free(r->body);
+        r->body = NULL;
+        r->body_cap = 0;
+        r->body_len += n;
+        return true;
+    }
+    if (r->body_len + n + 1 > r->body_cap) {
+        size_t cap = r->body_cap ? r->body_cap : 4096;
+        while (cap < r->body_len + n + 1)
+            cap *= 2;
+        char *b = realloc(r->body, cap);
+        if (!b) {
+            /* read the rest without keeping it, then answer 503 */
+            r->no_memory = true;
             free(r->body);
             r->body = NULL;
+            r->body_cap = 0;
             r->body_len += n;
-            return MHD_YES;
+            return true;
         }
-        if (r->body_len + n + 1 > r->body_cap) {
-            size_t cap = r->body_cap ? r->body_cap : 4096;
-            while (cap < r->body_len + n + 1)
-                cap *= 2;
-            char *b = realloc(r->body, cap);
-            if (!b)
-                return MHD_NO;
-            r->body = b;
-            r->body_cap = cap;
-        }
-        memcpy(r->body + r->body_len, upload, n);
-        r->body_len += n;
-        r->body[r->body_len] = 0;
-        return MHD_YES;
+        r->body = b;
+        r->body_cap = cap;
     }
-    /* the whole request is here */
+    memcpy(r->body + r->body_len, data, n);
+    r->body_len += n;
+    r->body[r->body_len] = 0;
+    return true;
+}
+
+void http_req_handle(struct http_req *r)
+{
     if (r->too_large) {
         metrics_reject(MR_BODY_TOO_LARGE);
         http_reply_error(r, 413, "body_too_large", "the body is over the limit (--max-body)", NULL,
                          0, 0, NULL);
-        return http_flush(r);
+        return;
     }
-    if (!strcmp(method, "OPTIONS")) {
+    if (r->no_memory) {
+        http_reply_error(r, 503, "out_of_memory", "out of memory reading the body", NULL, 0, 0,
+                         NULL);
+        return;
+    }
+    if (!strcmp(r->method, "OPTIONS")) {
         http_options(r);
-    } else if (!http_public_path(url) && !http_authorized(r)) {
+    } else if (!http_public_path(r->url) && !http_authorized(r)) {
         metrics_reject(MR_UNAUTHORIZED);
         http_reply_error(r, 401, "unauthorized", "missing or wrong bearer token", NULL, 0, 0,
                          NULL);
     } else {
+        r->parked = false;
         router_dispatch(r);
+        if (r->parked)
+            return; /* r now belongs to the worker until it resumes */
     }
-    if (r->suspended)
-        return MHD_YES;
     if (!r->pending && !r->gone)
         http_reply_error(r, 500, "internal", "the handler gave no answer", NULL, 0, 0, NULL);
-    return http_flush(r);
 }
 
-static void http_completed(void *cls, struct MHD_Connection *c, void **con_cls,
-                           enum MHD_RequestTerminationCode toe)
+void http_req_end(struct http_req *r, const char *note)
 {
-    (void)cls;
-    (void)c;
-    struct http_req *r = *con_cls;
-    if (!r)
+    if (!r->method) {
+        /* refused by libmicrohttpd before the handler saw it (bad headers,
+         * headers over --max-header-bytes): it answered by itself */
+        struct log_access a = {"-", "-", 0, 0, 0, 0, (log_now() - r->t0) * 1e3,
+                               "refused_by_http_parser"};
+        log_access(&a);
+        free(r);
+        atomic_fetch_sub(&http_ninflight, 1);
         return;
-    *con_cls = NULL;
+    }
     int status = r->status;
-    const char *note = r->note;
+    if (r->note)
+        note = r->note;
     if (r->gone || !r->replied) {
         status = 499;
         if (!note)
             note = "client_gone";
-    } else if (toe != MHD_REQUEST_TERMINATED_COMPLETED_OK && !note) {
-        note = toe == MHD_REQUEST_TERMINATED_TIMEOUT_REACHED ? "timeout"
-               : toe == MHD_REQUEST_TERMINATED_DAEMON_SHUTDOWN ? "shutdown"
-                                                                : "aborted";
     }
     metrics_request(r->route, status);
     struct log_access a = {r->method, r->url, status, r->bytes, r->queue_ms, r->render_ms,
@@ -540,6 +592,143 @@ static void http_completed(void *cls, struct MHD_Connection *c, void **con_cls,
     free(r->body);
     free(r);
     atomic_fetch_sub(&http_ninflight, 1);
+}
+
+/* ---- libmicrohttpd as the transport ---------------------------------------------- */
+
+static const char *http_mhd_header(struct http_req *r, const char *name)
+{
+    return MHD_lookup_connection_value(r->io_ctx, MHD_HEADER_KIND, name);
+}
+
+struct http_each {
+    void (*fn)(void *u, const char *k, const char *v);
+    void *u;
+};
+
+static enum MHD_Result http_each_cb(void *cls, enum MHD_ValueKind kind, const char *key,
+                                    const char *value)
+{
+    (void)kind;
+    struct http_each *e = cls;
+    e->fn(e->u, key, value ? value : "");
+    return MHD_YES;
+}
+
+/* Query arguments arrive percent-decoded, so "x=1%00junk" would read as "1"
+ * through a C string: a key or value with a NUL byte inside is passed as the
+ * text "\\0", which no parameter name or number matches. */
+static enum MHD_Result http_each_n_cb(void *cls, enum MHD_ValueKind kind, const char *key,
+                                      size_t key_size, const char *value, size_t value_size)
+{
+    (void)kind;
+    struct http_each *e = cls;
+    if (!value)
+        value = "";
+    if (strlen(key) != key_size)
+        key = "\\0";
+    if (strlen(value) != value_size)
+        value = "\\0";
+    e->fn(e->u, key, value);
+    return MHD_YES;
+}
+
+static void http_mhd_query_each(struct http_req *r,
+                                void (*fn)(void *u, const char *k, const char *v), void *u)
+{
+    struct http_each e = {fn, u};
+    MHD_get_connection_values_n(r->io_ctx, MHD_GET_ARGUMENT_KIND, http_each_n_cb, &e);
+}
+
+static void http_mhd_header_each(struct http_req *r,
+                                 void (*fn)(void *u, const char *k, const char *v), void *u)
+{
+    struct http_each e = {fn, u};
+    MHD_get_connection_values(r->io_ctx, MHD_HEADER_KIND, http_each_cb, &e);
+}
+
+static void http_mhd_suspend(struct http_req *r) { MHD_suspend_connection(r->io_ctx); }
+static void http_mhd_resume(struct http_req *r) { MHD_resume_connection(r->io_ctx); }
+
+static int http_mhd_fd(struct http_req *r)
+{
+    const union MHD_ConnectionInfo *ci =
+        MHD_get_connection_info(r->io_ctx, MHD_CONNECTION_INFO_CONNECTION_FD);
+    return ci ? ci->connect_fd : -1;
+}
+
+static const struct http_io http_mhd_io = {http_mhd_header,  http_mhd_header_each,
+                                           http_mhd_query_each, http_mhd_suspend,
+                                           http_mhd_resume, http_mhd_fd};
+
+static enum MHD_Result http_flush(struct http_req *r)
+{
+    if (r->gone || !r->pending)
+        return MHD_NO;
+    enum MHD_Result ret = MHD_queue_response(r->io_ctx, r->pending_status, r->pending);
+    MHD_destroy_response(r->pending);
+    r->pending = NULL;
+    return ret;
+}
+
+/* Called by libmicrohttpd with the raw request-target before it is parsed;
+ * the request is born here (so its length is known: --max-url), and from
+ * then on libmicrohttpd promises the completion callback, which frees it. */
+static void *http_uri_log(void *cls, const char *uri, struct MHD_Connection *c)
+{
+    (void)cls;
+    return http_req_new(&http_mhd_io, c, NULL, NULL, uri ? strlen(uri) : 0);
+}
+
+static enum MHD_Result http_access(void *cls, struct MHD_Connection *c, const char *url,
+                                   const char *method, const char *version, const char *upload,
+                                   size_t *upload_size, void **con_cls)
+{
+    (void)cls;
+    (void)c;
+    (void)version;
+    struct http_req *r = *con_cls;
+    if (!r) /* out of memory in http_uri_log */
+        return MHD_NO;
+    if (!r->method) {
+        /* first call: headers only */
+        r->method = method;
+        r->url = url;
+        return http_req_begin(r) ? MHD_YES : http_flush(r);
+    }
+    if (r->gone)
+        return MHD_NO;
+    if (r->pending) /* resumed with an answer, or replied during the upload */
+        return http_flush(r);
+    if (r->replied)
+        return MHD_YES;
+    if (*upload_size) {
+        size_t n = *upload_size;
+        *upload_size = 0;
+        return http_req_body(r, upload, n) ? MHD_YES : MHD_NO;
+    }
+    /* the whole request is here */
+    http_req_handle(r);
+    if (r->parked)
+        return MHD_YES;
+    return http_flush(r);
+}
+
+static void http_completed(void *cls, struct MHD_Connection *c, void **con_cls,
+                           enum MHD_RequestTerminationCode toe)
+{
+    (void)cls;
+    (void)c;
+    struct http_req *r = *con_cls;
+    *con_cls = NULL;
+    if (!r)
+        return;
+    const char *note = NULL;
+    if (toe != MHD_REQUEST_TERMINATED_COMPLETED_OK)
+        note = toe == MHD_REQUEST_TERMINATED_TIMEOUT_REACHED ? "timeout"
+               : toe == MHD_REQUEST_TERMINATED_DAEMON_SHUTDOWN ? "shutdown"
+                                                                : "aborted";
+    http_req_end(r, note);
 }
 
 /* libmicrohttpd's own messages (malformed requests, ...) go through log.c so
@@ -557,6 +746,50 @@ static void http_mhd_log(void *cls, const char *fmt, va_list ap)
 }
 
 /* ---- start / stop --------------------------------------------------------------- */
+
+/* Reads a whole (small) file: the TLS key and certificate. */
+static char *http_read_pem(const char *path)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        fprintf(stderr, "rayd: %s: %s\n", path, strerror(errno));
+        return NULL;
+    }
+    size_t cap = 1 << 20, n;
+    char *buf = malloc(cap + 1);
+    if (!buf) {
+        fclose(f);
+        return NULL;
+    }
+    n = fread(buf, 1, cap, f);
+    fclose(f);
+    buf[n] = 0;
+    if (n == 0 || n == cap) {
+        fprintf(stderr, "rayd: %s: empty or over 1 MiB\n", path);
+        free(buf);
+        return NULL;
+    }
+    return buf;
+}
+
+static char *http_tls_cert, *http_tls_key;
+
+bool http_tls(void) { return http_tls_cert != NULL; }
+
+/* The number of open files allowed, raised to the hard limit: every
+ * connection is a descriptor, and --max-conns is capped to what fits. */
+static long http_fd_budget(void)
+{
+    struct rlimit rl;
+    if (getrlimit(RLIMIT_NOFILE, &rl))
+        return 1024;
+    if (rl.rlim_cur < rl.rlim_max) {
+        struct rlimit want = {rl.rlim_max, rl.rlim_max};
+        if (!setrlimit(RLIMIT_NOFILE, &want))
+            rl.rlim_cur = rl.rlim_max;
+    }
+    return rl.rlim_cur == RLIM_INFINITY || rl.rlim_cur > 100000000 ? 100000000 : (long)rl.rlim_cur;
+}
 
 int http_start(void)
 {
@@ -577,15 +810,55 @@ int http_start(void)
         fprintf(stderr, "rayd: --bind %s: not an IPv4 or IPv6 address\n", config.bind);
         return -1;
     }
-    http_daemon = MHD_start_daemon(
-        flags, (uint16_t)config.port, NULL, NULL, http_access, NULL, MHD_OPTION_EXTERNAL_LOGGER,
-        http_mhd_log, NULL, MHD_OPTION_SOCK_ADDR,
-        (struct sockaddr *)&ss, MHD_OPTION_THREAD_POOL_SIZE, (unsigned)config.http_threads,
-        MHD_OPTION_CONNECTION_TIMEOUT, (unsigned)config.timeout, MHD_OPTION_NOTIFY_COMPLETED,
-        http_completed, NULL, MHD_OPTION_CONNECTION_LIMIT, 4096u, MHD_OPTION_LISTEN_BACKLOG_SIZE,
-        1024u, MHD_OPTION_END);
+    /* descriptors: the connections, plus the listener, epoll sets, inter-thread
+     * channels, stdio and the odd file -- 64 is plenty */
+    long fds = http_fd_budget();
+    long conns = config.max_conns;
+    if (conns > fds - 64) {
+        conns = fds - 64 > 16 ? fds - 64 : 16;
+        log_warn("--max-conns %ld lowered to %ld: the open-file limit is %ld (ulimit -n)",
+                 config.max_conns, conns, fds);
+    }
+    struct MHD_OptionItem opts[24];
+    int n = 0;
+#define HTTP_OPT(o, v, p) opts[n++] = (struct MHD_OptionItem){(o), (intptr_t)(v), (p)}
+    HTTP_OPT(MHD_OPTION_EXTERNAL_LOGGER, (intptr_t)http_mhd_log, NULL);
+    HTTP_OPT(MHD_OPTION_SOCK_ADDR, 0, &ss);
+    HTTP_OPT(MHD_OPTION_THREAD_POOL_SIZE, config.http_threads, NULL);
+    HTTP_OPT(MHD_OPTION_CONNECTION_TIMEOUT, config.timeout, NULL);
+    HTTP_OPT(MHD_OPTION_NOTIFY_COMPLETED, (intptr_t)http_completed, NULL);
+    HTTP_OPT(MHD_OPTION_URI_LOG_CALLBACK, (intptr_t)http_uri_log, NULL);
+    HTTP_OPT(MHD_OPTION_CONNECTION_LIMIT, conns, NULL);
+    HTTP_OPT(MHD_OPTION_PER_IP_CONNECTION_LIMIT, config.max_conns_per_ip, NULL);
+    HTTP_OPT(MHD_OPTION_CONNECTION_MEMORY_LIMIT, config.max_header_bytes, NULL);
+    HTTP_OPT(MHD_OPTION_LISTEN_BACKLOG_SIZE, 1024, NULL);
+    /* strict parsing: HTTP/1.1 needs Host, no spaces inside the target, no
+     * whitespace before a header's colon (RFC 9112) */
+    HTTP_OPT(MHD_OPTION_STRICT_FOR_CLIENT, 1, NULL);
+    if (config.tls_cert) {
+        if (MHD_is_feature_supported(MHD_FEATURE_TLS) != MHD_YES) {
+            fprintf(stderr, "rayd: this libmicrohttpd has no TLS support (--tls-cert)\n");
+            return -1;
+        }
+        http_tls_cert = http_read_pem(config.tls_cert);
+        http_tls_key = http_tls_cert ? http_read_pem(config.tls_key) : NULL;
+        if (!http_tls_key) {
+            free(http_tls_cert);
+            http_tls_cert = NULL;
+            return -1;
+        }
+        flags |= MHD_USE_TLS;
+        HTTP_OPT(MHD_OPTION_HTTPS_MEM_CERT, 0, http_tls_cert);
+        HTTP_OPT(MHD_OPTION_HTTPS_MEM_KEY, 0, http_tls_key);
+    }
+    HTTP_OPT(MHD_OPTION_END, 0, NULL);
+#undef HTTP_OPT
+    http_daemon = MHD_start_daemon(flags, (uint16_t)config.port, NULL, NULL, http_access, NULL,
+                                   MHD_OPTION_ARRAY, opts, MHD_OPTION_END);
     if (!http_daemon) {
-        fprintf(stderr, "rayd: cannot listen on %s port %ld\n", config.bind, config.port);
+        fprintf(stderr, "rayd: cannot listen on %s port %ld%s\n", config.bind, config.port,
+                config.tls_cert ? " (or the TLS key/certificate was refused)" : "");
+        http_stop();
         return -1;
     }
     const union MHD_DaemonInfo *di = MHD_get_daemon_info(http_daemon, MHD_DAEMON_INFO_BIND_PORT);
@@ -598,4 +871,9 @@ void http_stop(void)
     if (http_daemon)
         MHD_stop_daemon(http_daemon);
     http_daemon = NULL;
+    if (http_tls_key)
+        memset(http_tls_key, 0, strlen(http_tls_key));
+    free(http_tls_key);
+    free(http_tls_cert);
+    http_tls_key = http_tls_cert = NULL;
 }

@@ -531,11 +531,30 @@ void jobq_stop(void)
 
 /* ---- scenes ---------------------------------------------------------------- */
 
+/* The scene limits: the core's defaults with --max-pixels and --max-body,
+ * unless set here (the fuzz harness lowers them so it explores errors rather
+ * than rendering big scenes). */
+static struct rayd_limits jobq_limits;
+static bool jobq_limits_set;
+
+void jobq_set_limits(const struct rayd_limits *lim)
+{
+    jobq_limits = *lim;
+    jobq_limits_set = true;
+}
+
 enum rayd_status jobq_scene_parse(const char *body, size_t len, struct cache_entry **out,
                                   bool *hit, struct rayd_error *err)
 {
     char id[65];
-    sha256_hex(body, len, id);
+    if (!cache_hash(body, len, id)) {
+        if (err) {
+            memset(err, 0, sizeof *err);
+            err->code = RAYD_E_NOMEM;
+            snprintf(err->message, sizeof err->message, "cannot hash the scene (libcrypto)");
+        }
+        return RAYD_E_NOMEM;
+    }
     pthread_mutex_lock(&jobq_lock);
     struct cache_entry *e = cache_get(id);
     pthread_mutex_unlock(&jobq_lock);
@@ -546,10 +565,14 @@ enum rayd_status jobq_scene_parse(const char *body, size_t len, struct cache_ent
         return RAYD_OK;
     }
     struct rayd_limits lim;
-    rayd_limits_default(&lim);
-    lim.max_pixels = config.max_pixels;
-    if (lim.max_bytes < (size_t)config.max_body)
-        lim.max_bytes = (size_t)config.max_body;
+    if (jobq_limits_set) {
+        lim = jobq_limits;
+    } else {
+        rayd_limits_default(&lim);
+        lim.max_pixels = config.max_pixels;
+        if (lim.max_bytes < (size_t)config.max_body)
+            lim.max_bytes = (size_t)config.max_body;
+    }
     rayd_scene *scene = NULL;
     enum rayd_status st = rayd_scene_parse(body, len, &lim, &scene, err);
     if (st != RAYD_OK)

@@ -31,8 +31,12 @@ static void log_stamp(char *buf, size_t size)
     snprintf(buf + n, size - n, ".%03ldZ", ts.tv_nsec / 1000000);
 }
 
+bool log_quiet;
+
 void log_access(const struct log_access *a)
 {
+    if (log_quiet)
+        return;
     char ts[40], path[512];
     log_stamp(ts, sizeof ts);
     if (config.log_json) {
@@ -58,6 +62,8 @@ void log_access(const struct log_access *a)
 
 static void log_msg(const char *level, const char *fmt, va_list ap)
 {
+    if (log_quiet)
+        return;
     char ts[40], msg[1024];
     log_stamp(ts, sizeof ts);
     vsnprintf(msg, sizeof msg, fmt, ap);

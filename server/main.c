@@ -23,6 +23,8 @@
 #include <signal.h>
 #include <stdlib.h>
 #include <string.h>
+#include <errno.h>
+#include <fcntl.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -50,8 +52,26 @@ static bool main_wait(bool (*cond)(void), double seconds, const sigset_t *set, b
 static bool main_no_suspended(void) { return http_suspended() == 0; }
 static bool main_no_requests(void) { return http_in_flight() == 0; }
 
+/* A process started with stdin, stdout or stderr closed would hand those
+ * numbers to its first sockets, and a log line would go to a client: point
+ * any closed one at /dev/null first. */
+static void main_std_fds(void)
+{
+    for (int fd = 0; fd <= 2; fd++)
+        if (fcntl(fd, F_GETFD) < 0 && errno == EBADF) {
+            int n = open("/dev/null", fd == 0 ? O_RDONLY : O_WRONLY);
+            if (n >= 0 && n != fd) {
+                dup2(n, fd);
+                close(n);
+            }
+        }
+}
+
 int main(int argc, char **argv)
 {
+    main_std_fds();
+    /* a write to a closed pipe or socket is an error return, never a signal */
+    signal(SIGPIPE, SIG_IGN);
     int rc = config_load(argc, argv);
     if (rc != 0) {
         config_free();
@@ -62,7 +82,6 @@ int main(int argc, char **argv)
     sigaddset(&set, SIGTERM);
     sigaddset(&set, SIGINT);
     pthread_sigmask(SIG_BLOCK, &set, NULL);
-    signal(SIGPIPE, SIG_IGN);
 
     if (jobq_start((int)config.threads, (int)config.queue, (int)config.max_jobs)) {
         fprintf(stderr, "rayd: cannot start the worker pool\n");
@@ -84,11 +103,14 @@ int main(int argc, char **argv)
                 config.bind);
     }
     const char *host = strchr(config.bind, ':') ? NULL : config.bind;
+    const char *scheme = http_tls() ? "https" : "http";
+    int w;
     if (host)
-        printf("rayd listening on http://%s:%d\n", host, http_port());
+        w = printf("rayd listening on %s://%s:%d\n", scheme, host, http_port());
     else
-        printf("rayd listening on http://[%s]:%d\n", config.bind, http_port());
-    fflush(stdout);
+        w = printf("rayd listening on %s://[%s]:%d\n", scheme, config.bind, http_port());
+    if (w < 0 || fflush(stdout) != 0) /* stdout closed or full: keep serving */
+        log_warn("cannot write the listening line to stdout: %s", strerror(errno));
     log_info("rayd %s: %ld workers, queue %ld, max body %ld, max pixels %ld, cache %ld MiB%s",
              RAYD_VERSION, config.threads, config.queue, config.max_body, config.max_pixels,
              config.cache_mb, config.token ? ", token required" : "");

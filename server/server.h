@@ -2,7 +2,7 @@
  *
  * One header for the whole server, as Redis has server.h: every file of
  * server/ is one idea and its public names start with the file's name
- * (config_, http_, router_, jobq_, cache_, metrics_, log_, sha256_, api_).
+ * (config_, http_, router_, jobq_, cache_, metrics_, log_, api_).
  * Only include/rayd/rayd.h crosses from the core; nothing here knows about
  * the core's internals, and only http.c, api_*.c and main.c know about
  * libmicrohttpd.
@@ -39,6 +39,11 @@ struct config {
     long max_jobs;       /* jobs kept for GET /v1/jobs/{id} */
     long job_ttl;        /* seconds a finished job is kept */
     long png_level;      /* zlib level of the PNGs, -1 default */
+    long max_conns;      /* open connections in all */
+    long max_conns_per_ip; /* open connections from one address, 0 = no limit */
+    long max_header_bytes; /* per-connection memory for request line + headers */
+    long max_url;        /* bytes of the request-target (path + query) */
+    char *tls_cert, *tls_key; /* PEM files: serve HTTPS with libmicrohttpd's TLS */
     /* derived */
     char *token;         /* contents of token_file, trimmed */
     size_t token_len;
@@ -64,15 +69,11 @@ struct log_access {
     const char *note; /* "client_gone", ... or NULL */
 };
 
+extern bool log_quiet; /* no output at all (the fuzz harness) */
 void log_access(const struct log_access *a);
 void log_info(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 void log_warn(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 double log_now(void); /* monotonic seconds */
-
-/* ---- sha256.c ------------------------------------------------------------ */
-
-void sha256(const void *data, size_t len, uint8_t out[32]);
-void sha256_hex(const void *data, size_t len, char out[65]);
 
 /* ---- metrics.c ----------------------------------------------------------- */
 
@@ -96,6 +97,9 @@ char *metrics_text(size_t *len);
 struct cache_entry; /* a compiled scene and its id */
 
 void cache_init(size_t budget_bytes);
+/* SHA-256 of data as 64 lowercase hex digits (a scene id, an ETag); false
+ * (and out = "") only if libcrypto fails.  Thread-safe. */
+bool cache_hash(const void *data, size_t len, char out[65]);
 struct cache_entry *cache_get(const char *id); /* refs the entry, bumps LRU */
 /* Inserts (or returns the existing entry for id, freeing scene); refs it. */
 struct cache_entry *cache_put(const char *id, rayd_scene *scene);
@@ -152,6 +156,8 @@ void jobq_stop(void);
 enum rayd_status jobq_scene_parse(const char *body, size_t len, struct cache_entry **out,
                                   bool *hit, struct rayd_error *err);
 struct cache_entry *jobq_scene_find(const char *id);
+/* Replaces the scene limits derived from the options (before any request). */
+void jobq_set_limits(const struct rayd_limits *lim);
 void jobq_scene_release(struct cache_entry *e);
 
 /* Synchronous render: answers w->done once.  reg is absolute and checked.
@@ -204,11 +210,29 @@ void jobq_stats(struct jobq_stats *st);
 
 struct MHD_Connection;
 struct MHD_Response;
+struct http_req;
+
+/* Where a request comes from: libmicrohttpd (http.c) or a test harness
+ * (tests/fuzz/fuzz_http.c) -- the request flow and every handler reach the
+ * connection only through these. */
+struct http_io {
+    const char *(*header)(struct http_req *r, const char *name); /* first match, any case */
+    void (*header_each)(struct http_req *r, void (*fn)(void *u, const char *k, const char *v),
+                        void *u);
+    void (*query_each)(struct http_req *r, void (*fn)(void *u, const char *k, const char *v),
+                       void *u);
+    void (*suspend)(struct http_req *r);
+    void (*resume)(struct http_req *r);
+    int (*fd)(struct http_req *r); /* socket to watch for a hang-up, -1 none */
+};
 
 /* One HTTP request from the first header to the last byte sent. */
 struct http_req {
-    struct MHD_Connection *conn;
+    const struct http_io *io;
+    void *io_ctx;                /* the transport's own (an MHD_Connection) */
     const char *method, *url;
+    size_t target_len;           /* bytes of the request-target, query included */
+    const char *err_code;        /* code of the error reply sent, NULL for none */
     char *body;
     size_t body_len, body_cap;
     int route;                   /* router index for metrics, -1 none */
@@ -217,14 +241,35 @@ struct http_req {
     double t0, queue_ms, render_ms;
     struct MHD_Response *pending; /* to queue when the handler runs again */
     unsigned pending_status;
-    bool suspended, gone, replied, too_large;
+    bool suspended, gone, replied, too_large, no_memory;
+    bool parked;                 /* suspended by the handler now running (its thread only) */
     struct jobq_waiter waiter;   /* while suspended on a render */
     struct jobq_sse *sse;        /* for an event stream */
     const char *note;
     char etag[72];               /* set for immutable GETs */
 };
 
+/* The request flow, independent of the transport (http.c drives it from
+ * libmicrohttpd's callbacks; the fuzz harness calls it directly):
+ *   http_req_new    a request with its method and path (strings kept by the caller);
+ *   http_req_begin  headers only: refuses early (400 for an ambiguous body length,
+ *                   413 by Content-Length, 414 over --max-url);
+ *                   false when a reply is already pending;
+ *   http_req_body   appends a body chunk (counted, not kept, past --max-body);
+ *                   false when the transport should drop the connection;
+ *   http_req_handle the whole request is here: auth, CORS, routing; the handler
+ *                   replies (r->pending) or suspends (then r->parked is set and
+ *                   r belongs to the worker until it resumes the request);
+ *   http_req_end    access log, metrics, free. */
+struct http_req *http_req_new(const struct http_io *io, void *io_ctx, const char *method,
+                              const char *url, size_t target_len);
+bool http_req_begin(struct http_req *r);
+bool http_req_body(struct http_req *r, const char *data, size_t n);
+void http_req_handle(struct http_req *r);
+void http_req_end(struct http_req *r, const char *note);
+
 int http_start(void);
+bool http_tls(void);            /* serving HTTPS */
 int http_port(void);
 void http_stop(void);
 long http_suspended(void);      /* connections suspended right now */

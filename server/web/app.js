@@ -6,7 +6,7 @@
 // measurements (stats) the browser tests and the README's figures use.
 
 import { examples } from "./examples.js";
-import { parse, pointerOffset, lineOf, replaceAt, fmtVector, format, JsonSyntaxError } from "./json.js";
+import { parse, pointerOffset, lineOf, offsetOfLine, replaceAt, fmtVector, format, JsonSyntaxError } from "./json.js";
 import { Api, ApiError, Renderer, isAbort, sizeOf } from "./render.js";
 import { cameraOf, orbit, dolly } from "./camera.js";
 import { Editor } from "./editor.js";
@@ -22,6 +22,19 @@ tokenInput.value = localStorage.getItem("rayd.token") || "";
 tokenInput.addEventListener("change", () => localStorage.setItem("rayd.token", tokenInput.value.trim()));
 const api = new Api(() => tokenInput.value.trim());
 const renderer = new Renderer(canvas, api);
+
+// The canvas holds the image at its own size; CSS scales it to fit the stage.
+const stage = $("stage");
+function fit() {
+  const cs = getComputedStyle(stage);
+  const w = stage.clientWidth - parseFloat(cs.paddingLeft) - parseFloat(cs.paddingRight);
+  const h = stage.clientHeight - parseFloat(cs.paddingTop) - parseFloat(cs.paddingBottom);
+  const k = Math.max(0.05, Math.min(w / canvas.width, h / canvas.height));
+  canvas.style.width = `${Math.floor(canvas.width * k)}px`;
+  canvas.style.height = `${Math.floor(canvas.height * k)}px`;
+}
+new ResizeObserver(fit).observe(stage);
+renderer.onResize = fit;
 
 const stats = {
   renders: 0, // full renders finished
@@ -76,8 +89,9 @@ function status(text) {
 function bar(frac) {
   $("bar").style.width = `${Math.max(0, Math.min(1, frac)) * 100}%`;
 }
+let doneAt = 0;
 function progressText(final) {
-  const ms = performance.now() - t0;
+  const ms = (final && doneAt ? doneAt : performance.now()) - t0;
   const parts = [];
   if (lastProgress.total) parts.push(`${lastProgress.done}/${lastProgress.total} tiles`);
   else parts.push("quick pass");
@@ -168,7 +182,7 @@ function reportError(e, text) {
     where = "";
   if (e.line) {
     line = e.line;
-    offset = offsetOf(text, e.line, e.column || 1);
+    offset = offsetOfLine(text, e.line, e.column || 1);
     where = `line ${e.line}, column ${e.column}`;
   } else if (e.path !== undefined && e.path !== null) {
     const d = parsed();
@@ -179,16 +193,6 @@ function reportError(e, text) {
     where = `${e.path || "/"}${line ? ` (line ${line})` : ""}`;
   }
   showError(`${e.status} ${e.code}`, (where ? where + ": " : "") + e.message, { line, offset });
-}
-
-function offsetOf(text, line, col) {
-  let off = 0;
-  for (let l = 1; l < line; l++) {
-    const nl = text.indexOf("\n", off);
-    if (nl < 0) return text.length;
-    off = nl + 1;
-  }
-  return Math.min(text.length, off + col - 1);
 }
 
 $("retry").addEventListener("click", () => retryAction && retryAction());
@@ -206,6 +210,7 @@ async function render({ fromStart = false } = {}) {
   clearError();
   setState("rendering");
   $("dl-png").disabled = true;
+  $("link").hidden = true;
   bar(0);
   startClock(my);
   const started = fromStart ? pageStart : performance.now();
@@ -221,7 +226,8 @@ async function render({ fromStart = false } = {}) {
       }
     });
     if (gen !== my) return;
-    stats.lastFullMs = performance.now() - started;
+    doneAt = performance.now();
+    stats.lastFullMs = doneAt - started;
     raysNow = (await api.raysTotal()) ?? raysNow;
     if (gen !== my) return;
     stopClock();
@@ -270,13 +276,16 @@ async function previewLoop() {
     return;
   }
   previewing = true;
-  gen++; // a full render in flight is superseded
+  const my = ++gen; // a full render in flight is superseded
+  $("dl-png").disabled = true;
+  $("link").hidden = true;
   stopClock();
   clearError();
   setState("orbit");
   try {
     do {
       previewWanted = false;
+      if (gen !== my) break; // a full render started (release): it wins
       const d = parsed();
       if (!d.root) break;
       const size = sizeOf(d.root.value);

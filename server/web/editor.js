@@ -86,6 +86,16 @@ export class Editor {
     this.errorLine = line || 0;
     this.root.dataset.errorLine = String(this.errorLine);
     this.refresh();
+    if (this.errorLine) {
+      // scroll the marked line into view (without taking the focus)
+      const lh = this.lineHeight();
+      const top = (this.errorLine - 1) * lh;
+      const st = this.ta.scrollTop;
+      if (top < st || top + 2 * lh > st + this.ta.clientHeight) {
+        this.ta.scrollTop = Math.max(0, top - this.ta.clientHeight / 3);
+        this.sync();
+      }
+    }
   }
 
   // Moves the caret to an offset and scrolls it into the middle of the view.

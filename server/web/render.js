@@ -137,6 +137,7 @@ export class Renderer {
     this.canvas.height = h;
     this.ctx.fillStyle = "#0d0f13";
     this.ctx.fillRect(0, 0, w, h);
+    if (this.onResize) this.onResize();
   }
 
   async bitmap(res) {
@@ -182,8 +183,13 @@ export class Renderer {
         },
         () => false // its error (if any) is the scene's, reported below
       );
-    const res = await this.api.call("POST", "v1/scenes", { body: text, signal });
-    const info = await res.json();
+    let info;
+    try {
+      info = await (await this.api.call("POST", "v1/scenes", { body: text, signal })).json();
+    } catch (e) {
+      ctrl.abort(); // the quick pass too
+      throw e;
+    }
     if (signal.aborted) throw Object.assign(new Error("aborted"), { name: "AbortError" });
     if (!size || size[0] !== info.width || size[1] !== info.height) this.setSize(info.width, info.height);
     const tsize = info.width * info.height > 1024 * 768 ? 128 : 64;

@@ -22,13 +22,28 @@ if [ -n "$missing" ]; then
     exit 1
 fi
 
+# the page's JSON and camera helpers in Node first (no browser needed)
+node "$HERE/json_unit.mjs" "$RAYD_BUILD/server/web/examples.js" || fail json_unit "node exited with $?"
+
+# a second rayd that wants a bearer token, for the page's Token field
+printf 'preview-test-token\n' >"$T/token"
+start_rayd --threads 1 --token-file "$T/token"
+TOKEN_URL=$URL
+TOKEN_PID=$RAYD_PID
+PIDS+=("$TOKEN_PID")
+cp "$T/rayd.err" "$T/rayd-token.err"
+
 # two workers, as on a small machine; the test scenes are small
 start_rayd --threads 2
 # the screenshot is saved beside the binaries (build/preview.png)
 OUT_DIR=$RAYD_BUILD PNGCMP=$RAYD_BUILD/tests/tools/pngcmp CHROMIUM=$CHROMIUM WORK=$T \
+    TOKEN_URL=$TOKEN_URL TOKEN=preview-test-token \
     timeout 170 node "$HERE/preview.mjs" "$URL"
 rc=$?
-[ "$rc" -eq 0 ] || [ "$NFAIL" -gt 0 ] || echo "FAIL preview_driver: node exited with status $rc"
+[ "$rc" -eq 0 ] || fail preview_driver "node exited with status $rc"
 stop_rayd
 [ "$RAYD_RC" = 0 ] || fail rayd_exit "rayd exited with $RAYD_RC"
+RAYD_PID=$TOKEN_PID
+stop_rayd
+[ "$RAYD_RC" = 0 ] || fail rayd_token_exit "rayd (token) exited with $RAYD_RC"
 exit 0

@@ -74,7 +74,13 @@ fi
 echo "PASS nginx_conf_valid"
 "$NGINX" -p "$NG" -c "$NG/nginx.conf" -e "$NG/log/error.log" -g "$ngopts" 2>"$T/nginx.err" &
 NGINX_PID=$!
-PIDS+=("$NGINX_PID")
+# nginx's workers outlive a SIGKILLed master: stop it with TERM (the master
+# then stops its workers) before common.sh's cleanup kills the rest
+scaleout_cleanup() {
+    kill -TERM "$NGINX_PID" 2>/dev/null && wait "$NGINX_PID" 2>/dev/null
+    cleanup
+}
+trap scaleout_cleanup EXIT
 LB=http://127.0.0.1:$NGPORT
 for k in $(seq 1 100); do
     [ "$(curl -s -o /dev/null -w '%{http_code}' "$LB/healthz")" = 200 ] && break

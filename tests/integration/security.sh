@@ -57,3 +57,27 @@ check exit_0 "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
 
 "$RAYD" --token-file "$T/missing-file" --port 0 >/dev/null 2>&1
 check missing_token_file_fails "rayd started without its token file" [ $? -ne 0 ]
+
+# --- HTTPS with libmicrohttpd's TLS ---------------------------------------------------------
+if command -v openssl >/dev/null; then
+    openssl req -x509 -newkey rsa:2048 -nodes -days 2 -subj /CN=127.0.0.1 \
+        -addext subjectAltName=IP:127.0.0.1 -keyout "$T/key.pem" -out "$T/cert.pem" >/dev/null 2>&1
+    start_rayd --tls-cert "$T/cert.pem" --tls-key "$T/key.pem"
+    check tls_listening_https "URL $URL" bash -c "[[ '$URL' == https://* ]]"
+    code=$(req GET /healthz --cacert "$T/cert.pem")
+    check tls_healthz "status $code" [ "$code" = 200 ]
+    code=$(post_json /v1/render "$T/s.json" --cacert "$T/cert.pem")
+    check tls_render "status $code" bash -c "[ $code = 200 ] && head -c 4 '$T/body' | grep -q PNG"
+    code=$(curl -s -m 5 -o /dev/null -w '%{http_code}' "http://127.0.0.1:$PORT/healthz")
+    check tls_plain_http_refused "status $code" [ "$code" != 200 ]
+    code=$(req GET /healthz --cacert "$T/cert.pem")
+    check tls_alive_after_plain "status $code" [ "$code" = 200 ]
+    stop_rayd TERM
+    check tls_exit_0 "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
+    "$RAYD" --port 0 --tls-cert "$T/cert.pem" >/dev/null 2>&1
+    check tls_cert_without_key_fails "rayd started" [ $? -ne 0 ]
+    "$RAYD" --port 0 --tls-cert "$T/missing.pem" --tls-key "$T/key.pem" >/dev/null 2>&1
+    check tls_missing_cert_fails "rayd started" [ $? -ne 0 ]
+else
+    echo "SKIP tls: no openssl command"
+fi

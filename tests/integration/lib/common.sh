@@ -38,25 +38,30 @@ check() {
 
 # start_rayd [ARGS...]: starts rayd --port 0 on 127.0.0.1 with ARGS; sets
 # RAYD_PID, PORT, URL; its stdout/stderr go to $T/rayd.out / $T/rayd.err.
+# RAYD_WRAP (e.g. "valgrind --error-exitcode=99") runs it under a tool;
+# RAYD_ULIMIT_V limits its address space (KiB, ulimit -v).
 start_rayd() {
     : >"$T/rayd.out"
     : >"$T/rayd.err"
-    "$RAYD" --bind 127.0.0.1 --port 0 "$@" >"$T/rayd.out" 2>"$T/rayd.err" &
+    (
+        [ -n "${RAYD_ULIMIT_V:-}" ] && ulimit -v "$RAYD_ULIMIT_V"
+        exec ${RAYD_WRAP:-} "$RAYD" --bind 127.0.0.1 --port 0 "$@"
+    ) >"$T/rayd.out" 2>"$T/rayd.err" &
     RAYD_PID=$!
     local i line=
-    for i in $(seq 1 200); do
+    for i in $(seq 1 ${RAYD_START_TRIES:-200}); do
         line=$(head -n 1 "$T/rayd.out" 2>/dev/null)
         [ -n "$line" ] && break
         kill -0 "$RAYD_PID" 2>/dev/null || break
         sleep 0.05
     done
-    if ! [[ $line =~ ^rayd\ listening\ on\ http://127\.0\.0\.1:([0-9]+)$ ]]; then
+    if ! [[ $line =~ ^rayd\ listening\ on\ (https?)://127\.0\.0\.1:([0-9]+)$ ]]; then
         echo "FAIL start_rayd: first line was '$line'"
         cat "$T/rayd.err" >&2
         exit 1
     fi
-    PORT=${BASH_REMATCH[1]}
-    URL="http://127.0.0.1:$PORT"
+    PORT=${BASH_REMATCH[2]}
+    URL="${BASH_REMATCH[1]}://127.0.0.1:$PORT"
 }
 
 # stop_rayd [SIGNAL]: signals rayd and waits (10 s at most); sets RAYD_RC.

@@ -1,0 +1,439 @@
+// preview.mjs URL -- drives the preview page of the rayd at URL in Debian's
+// Chromium (headless, a fresh profile) and prints one "PASS name" or
+// "FAIL name: why" line per case.  Run by preview.sh, which starts rayd.
+//
+// Pixels are compared exactly: the canvas (read back as a lossless PNG) and
+// the PNG of POST /v1/render for the editor's text are decoded by pngcmp
+// (libpng, through the core's rayd_png_decode) and must be equal.
+import { chromium } from "playwright-core";
+import { execFileSync } from "node:child_process";
+import { mkdtempSync, rmSync, writeFileSync, mkdirSync, copyFileSync } from "node:fs";
+import { tmpdir } from "node:os";
+import { join } from "node:path";
+
+const URL = process.argv[2];
+const OUT_DIR = process.env.OUT_DIR || "build";
+const PNGCMP = process.env.PNGCMP;
+const WORK = process.env.WORK || mkdtempSync(join(tmpdir(), "rayd-browser-"));
+const MEASURE = process.env.MEASURE === "1";
+let failures = 0;
+
+const pass = (name) => console.log(`PASS ${name}`);
+const fail = (name, why) => {
+  failures++;
+  console.log(`FAIL ${name}: ${String(why).replace(/\s+/g, " ").slice(0, 400)}`);
+};
+async function check(name, fn) {
+  try {
+    const r = await fn();
+    if (r === true || r === undefined) pass(name);
+    else fail(name, r);
+  } catch (e) {
+    fail(name, e && e.message ? e.message : e);
+  }
+}
+
+async function post(path, body) {
+  const res = await fetch(URL + path, { method: "POST", headers: { "Content-Type": "application/json" }, body });
+  return { status: res.status, bytes: Buffer.from(await res.arrayBuffer()) };
+}
+async function metric(name) {
+  const t = await (await fetch(URL + "/metrics")).text();
+  const line = t.split("\n").find((l) => l.startsWith(name + " "));
+  return line ? Number(line.split(" ")[1]) : NaN;
+}
+
+// The canvas as a PNG file, and the server's PNG of the editor's text.
+let seq = 0;
+async function canvasPng(page) {
+  const url = await page.evaluate(() => document.getElementById("canvas").toDataURL("image/png"));
+  const f = join(WORK, `canvas-${++seq}.png`);
+  writeFileSync(f, Buffer.from(url.split(",")[1], "base64"));
+  return f;
+}
+async function serverPng(text) {
+  const r = await post("/v1/render", text);
+  if (r.status !== 200) throw new Error(`POST /v1/render answered ${r.status}: ${r.bytes.toString().slice(0, 200)}`);
+  const f = join(WORK, `server-${++seq}.png`);
+  writeFileSync(f, r.bytes);
+  return f;
+}
+function samePixels(a, b) {
+  try {
+    execFileSync(PNGCMP, [a, b], { stdio: ["ignore", "ignore", "pipe"] });
+    return true;
+  } catch (e) {
+    return (e.stderr && e.stderr.toString().trim()) || `pngcmp exit ${e.status}`;
+  }
+}
+async function canvasEqualsServer(page) {
+  const text = await page.evaluate(() => window.rayd.editor.value);
+  return samePixels(await serverPng(text), await canvasPng(page));
+}
+
+const renders = (page) => page.evaluate(() => Number(document.body.dataset.renders || 0));
+async function waitDone(page, after, timeout = 30000) {
+  await page.waitForFunction(
+    (n) => document.body.dataset.state === "done" && Number(document.body.dataset.renders || 0) > n,
+    after,
+    { timeout }
+  );
+}
+async function waitState(page, state, timeout = 15000) {
+  await page.waitForFunction((s) => document.body.dataset.state === s, state, { timeout });
+}
+const setText = (page, text) =>
+  page.evaluate((t) => {
+    window.rayd.editor.set(t);
+    document.getElementById("scene").dispatchEvent(new Event("input"));
+  }, text);
+
+// the first line of text containing needle (1-based)
+const lineWith = (text, needle) => text.split("\n").findIndex((l) => l.includes(needle)) + 1;
+
+const profile = mkdtempSync(join(tmpdir(), "rayd-chromium-"));
+let context;
+try {
+  context = await chromium.launchPersistentContext(profile, {
+    executablePath: process.env.CHROMIUM || "/usr/bin/chromium",
+    headless: true,
+    args: [
+      "--headless",
+      "--no-sandbox",
+      "--disable-gpu",
+      "--disable-background-networking",
+      "--disable-component-update",
+      "--disable-sync",
+      "--no-first-run",
+    ],
+    viewport: { width: 1440, height: 860 },
+    deviceScaleFactor: 1,
+    acceptDownloads: true,
+  });
+} catch (e) {
+  fail("chromium_launch", e.message);
+  process.exit(0);
+}
+
+try {
+  const page = context.pages()[0] || (await context.newPage());
+  const consoleErrors = [];
+  page.on("console", (m) => {
+    if (m.type() === "error" || m.type() === "warning") consoleErrors.push(`${m.type()}: ${m.text()}`);
+  });
+  page.on("pageerror", (e) => consoleErrors.push("pageerror: " + e.message));
+
+  // --- the page opens and renders its example with no click ---------------------------
+  const t0 = Date.now();
+  await page.goto(URL + "/", { waitUntil: "load" });
+  let opened = false;
+  await check("renders_on_open", async () => {
+    await page.waitForFunction(() => window.rayd && window.rayd.stats, null, { timeout: 15000 });
+    await waitDone(page, 0, 60000);
+    opened = true;
+  });
+  if (!opened) {
+    // nothing else can work: say why and stop, rather than time out case after case
+    fail("page_broken", consoleErrors.join(" | ") || "no error in the console");
+    throw new Error("the page did not render its example; the other cases were not run");
+  }
+  const openMs = Date.now() - t0;
+  await check("no_console_errors", () => (consoleErrors.length ? consoleErrors.join(" | ") : true));
+  await check("example_menu", async () => {
+    const opts = await page.$$eval("#example option:not([hidden])", (o) => o.map((x) => x.value));
+    for (const n of ["paper", "whitted", "spheres", "cornell"]) if (!opts.includes(n)) return `no ${n} in ${opts}`;
+    const v = await page.$eval("#example", (s) => s.value);
+    return v === "whitted" || `selected ${v}`;
+  });
+  await check("example_pixels_equal_post_render", () => canvasEqualsServer(page));
+  await check("quick_pass_then_tiles", async () => {
+    const s = await page.evaluate(() => ({ ...window.rayd.stats, status: document.getElementById("status").textContent }));
+    if (!(s.lastPreviewMs > 0)) return "no quick pass drawn";
+    if (!(s.lastPreviewMs <= s.lastFullMs)) return `quick pass at ${s.lastPreviewMs} ms after the full at ${s.lastFullMs}`;
+    return /^Done · \d+\/\d+ tiles · .*(rays\/s|from cache) · [\d.]+ m?s$/.test(s.status) || `status "${s.status}"`;
+  });
+  await check("screenshot", async () => {
+    await page.mouse.move(5, 5);
+    const f = join(OUT_DIR, "preview.png");
+    mkdirSync(OUT_DIR, { recursive: true });
+    await page.screenshot({ path: f });
+  });
+
+  // --- another example from the menu, by Ctrl+Enter too ---------------------------------
+  await check("menu_paper_pixels_equal", async () => {
+    const n = await renders(page);
+    await page.selectOption("#example", "paper");
+    await waitDone(page, n);
+    const text = await page.evaluate(() => window.rayd.editor.value);
+    if (!text.includes('"position": [0, 1.5, 6]')) return "editor does not hold paper.json";
+    return canvasEqualsServer(page);
+  });
+  await check("ctrl_enter_renders", async () => {
+    const n = await renders(page);
+    await page.focus("#scene");
+    await page.keyboard.press("Control+Enter");
+    await waitDone(page, n);
+  });
+
+  await check("auto_render_after_edit", async () => {
+    const n = await renders(page);
+    await page.check("#auto");
+    await page.focus("#scene");
+    await page.keyboard.type(" "); // at the caret (the start): still the same scene
+    await waitDone(page, n, 15000);
+    await page.uncheck("#auto");
+  });
+
+  // --- a scene error at its line, malformed JSON at its line ----------------------------------
+  const paper = await page.evaluate(() => window.rayd.editor.value);
+  await check("scene_error_line", async () => {
+    const bad = paper.replace('"radius": 0.7', '"radius": -0.7');
+    if (bad === paper) return "could not make the bad scene";
+    await setText(page, bad);
+    await page.click("#render");
+    await waitState(page, "error");
+    const want = lineWith(bad, '"radius": -0.7');
+    const got = await page.$eval("#editor", (e) => Number(e.dataset.errorLine));
+    const msg = await page.$eval("#error", (e) => (e.hidden ? "" : e.textContent));
+    const gutter = await page.$eval(".gutter .err", (e) => Number(e.textContent));
+    if (!msg.includes("/objects/2/radius")) return `message "${msg}"`;
+    if (!msg.includes(`line ${want}`)) return `message "${msg}" does not name line ${want}`;
+    return (got === want && gutter === want) || `highlighted line ${got} (gutter ${gutter}), want ${want}`;
+  });
+  await check("malformed_json_line", async () => {
+    const lines = paper.split("\n");
+    const k = lineWith(paper, '"lights"'); // drop the comma at the end of the line before
+    lines[k - 2] = lines[k - 2].replace(/,\s*$/, "");
+    await setText(page, lines.join("\n"));
+    await page.click("#render");
+    await waitState(page, "error");
+    const got = await page.$eval("#editor", (e) => Number(e.dataset.errorLine));
+    const msg = await page.$eval("#error .error-msg", (e) => e.textContent);
+    return (got === k && msg.includes(`line ${k}`)) || `highlighted line ${got}, message "${msg}", want line ${k}`;
+  });
+  await check("error_cleared_by_good_render", async () => {
+    const n = await renders(page);
+    await setText(page, paper);
+    await page.click("#render");
+    await waitDone(page, n);
+    const hidden = await page.$eval("#error", (e) => e.hidden);
+    const line = await page.$eval("#editor", (e) => e.dataset.errorLine);
+    return (hidden && line === "0") || `error still shown (line ${line})`;
+  });
+
+  // --- 503 and network errors, with a retry --------------------------------------------
+  await check("busy_503_retry", async () => {
+    await page.route("**/v1/scenes", (r) =>
+      r.fulfill({
+        status: 503,
+        headers: { "Retry-After": "1" },
+        contentType: "application/json",
+        body: '{"error":{"status":503,"code":"queue_full","message":"render queue is full"}}',
+      })
+    );
+    await page.click("#render");
+    await waitState(page, "error");
+    const msg = await page.$eval("#error", (e) => e.textContent);
+    const retry = await page.$eval("#retry", (e) => !e.hidden);
+    if (!msg.includes("queue_full") || !retry) return `message "${msg}", retry shown: ${retry}`;
+    await page.unroute("**/v1/scenes");
+    const n = await renders(page);
+    await page.click("#retry");
+    await waitDone(page, n);
+  });
+  await check("network_error_retry", async () => {
+    await page.route("**/v1/**", (r) => r.abort("connectionrefused"));
+    await page.click("#render");
+    await waitState(page, "error");
+    const msg = await page.$eval("#error", (e) => e.textContent);
+    const retry = await page.$eval("#retry", (e) => !e.hidden);
+    await page.unroute("**/v1/**");
+    if (!/cannot reach the server/i.test(msg) || !retry) return `message "${msg}", retry shown: ${retry}`;
+    const n = await renders(page);
+    await page.click("#retry");
+    await waitDone(page, n);
+  });
+
+  // --- orbit by drag: the camera in the text and the image change ---------------------------------
+  await check("orbit_drag", async () => {
+    const before = JSON.parse(await page.evaluate(() => window.rayd.editor.value));
+    const imgBefore = await canvasPng(page);
+    const box = await page.$eval("#canvas", (c) => {
+      const r = c.getBoundingClientRect();
+      return { x: r.x, y: r.y, w: r.width, h: r.height };
+    });
+    const frames0 = await page.evaluate(() => window.rayd.stats.previewFrames);
+    const n = await renders(page);
+    const cx = box.x + box.w / 2,
+      cy = box.y + box.h / 2;
+    await page.mouse.move(cx, cy);
+    await page.mouse.down();
+    for (let k = 1; k <= 12; k++) {
+      await page.mouse.move(cx + k * 12, cy + k * 3);
+      await page.waitForTimeout(25);
+    }
+    await page.waitForFunction((f) => window.rayd.stats.previewFrames > f, frames0, { timeout: 10000 });
+    const during = await page.evaluate(() => document.body.dataset.state);
+    await page.mouse.up();
+    await waitDone(page, n);
+    const after = JSON.parse(await page.evaluate(() => window.rayd.editor.value));
+    const p0 = before.camera.position,
+      p1 = after.camera.position,
+      f = before.camera.look_at;
+    const dist = (a, b) => Math.hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]);
+    if (during !== "orbit") return `state while dragging was ${during}`;
+    if (dist(p0, p1) < 0.1) return `camera did not move: ${p0} -> ${p1}`;
+    if (dist(after.camera.look_at, f) > 1e-9) return "look_at moved";
+    if (Math.abs(dist(p0, f) - dist(p1, f)) > 1e-3) return `distance to look_at changed ${dist(p0, f)} -> ${dist(p1, f)}`;
+    if (JSON.stringify({ ...after, camera: null }) !== JSON.stringify({ ...before, camera: null }))
+      return "something else than the camera changed";
+    const imgAfter = await canvasPng(page);
+    if (samePixels(imgBefore, imgAfter) === true) return "the image did not change";
+    return canvasEqualsServer(page);
+  });
+  await check("wheel_dolly", async () => {
+    const before = JSON.parse(await page.evaluate(() => window.rayd.editor.value)).camera;
+    const n = await renders(page);
+    const box = await page.$eval("#canvas", (c) => c.getBoundingClientRect().toJSON());
+    await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
+    await page.mouse.wheel(0, -200);
+    await waitDone(page, n);
+    const after = JSON.parse(await page.evaluate(() => window.rayd.editor.value)).camera;
+    const dist = (a, b) => Math.hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]);
+    const d0 = dist(before.position, before.look_at),
+      d1 = dist(after.position, after.look_at);
+    return (d1 < d0 * 0.9 && d1 > d0 * 0.5) || `distance ${d0} -> ${d1}`;
+  });
+
+  // --- a new render cancels the one in flight, on the server too -------------------------------
+  await check("new_render_cancels", async () => {
+    const slow = JSON.parse(paper);
+    slow.render = { ...slow.render, width: 1280, height: 720, samples: 64 };
+    const gone0 = await metric('rayd_canceled_total{reason="client_gone"}');
+    await setText(page, JSON.stringify(slow, null, 2));
+    await page.click("#render");
+    await page.waitForFunction(() => /[1-9]\d*\/\d+ tiles|0\/\d+ tiles/.test(document.getElementById("status").textContent), null, {
+      timeout: 20000,
+    });
+    await page.waitForTimeout(300);
+    const n = await renders(page);
+    await setText(page, paper);
+    await page.click("#render");
+    await waitDone(page, n);
+    let gone1 = gone0;
+    for (let k = 0; k < 40 && gone1 <= gone0; k++) {
+      await new Promise((r) => setTimeout(r, 100));
+      gone1 = await metric('rayd_canceled_total{reason="client_gone"}');
+    }
+    return gone1 > gone0 || `rayd_canceled_total{reason="client_gone"} stayed ${gone0}`;
+  });
+
+  // --- downloads and the link that reopens the scene ---------------------------------------
+  await check("download_png_and_json", async () => {
+    const [dp] = await Promise.all([page.waitForEvent("download"), page.click("#dl-png")]);
+    const fpng = join(WORK, "download.png");
+    await dp.saveAs(fpng);
+    const [dj] = await Promise.all([page.waitForEvent("download"), page.click("#dl-json")]);
+    const fjson = join(WORK, "download.json");
+    await dj.saveAs(fjson);
+    const text = await page.evaluate(() => window.rayd.editor.value);
+    const { readFileSync } = await import("node:fs");
+    if (readFileSync(fjson, "utf8") !== text) return "the JSON download is not the editor's text";
+    return samePixels(await serverPng(text), fpng);
+  });
+  await check("link_reopens_scene", async () => {
+    const text = await page.evaluate(() => window.rayd.editor.value);
+    const href = await page.$eval("#link", (a) => a.href);
+    const id = (await post("/v1/scenes", text)).bytes.toString().match(/"id":"([0-9a-f]{64})"/);
+    if (!id || !href.includes("#scene=" + id[1])) return `link ${href.slice(0, 120)} does not carry the id ${id && id[1]}`;
+    const p2 = await context.newPage();
+    await p2.goto(href);
+    await waitDone(p2, 0);
+    const text2 = await p2.evaluate(() => window.rayd.editor.value);
+    const r = text2 === text || "reopened text differs";
+    await p2.close();
+    return r;
+  });
+
+  // --- a rayd with --token-file: the Token field authorizes the page's requests -----------------
+  if (process.env.TOKEN_URL)
+    await check("token_field", async () => {
+      const p = await context.newPage();
+      const TURL = process.env.TOKEN_URL;
+      // rayd asks a token for the page itself too: a proxy in front would add it; so does this route
+      await p.route(
+        (u) => u.href.startsWith(TURL) && !/^\/(v1\/|metrics)/.test(u.pathname),
+        (r) => r.continue({ headers: { ...r.request().headers(), authorization: "Bearer " + process.env.TOKEN } })
+      );
+      await p.goto(TURL + "/");
+      await waitState(p, "error", 30000);
+      const msg = await p.$eval("#error", (e) => e.textContent);
+      if (!/401/.test(msg) || !/token/i.test(msg)) return `without a token: "${msg}"`;
+      await p.fill("#token", process.env.TOKEN);
+      await p.dispatchEvent("#token", "change");
+      await p.click("#retry");
+      await waitDone(p, 0, 30000);
+      const status = await p.$eval("#status", (e) => e.textContent);
+      await p.close();
+      return /rays\/s|from cache/.test(status) || `status "${status}" (no /metrics with the token?)`;
+    });
+
+  // --- figures (MEASURE=1): first full image at 1280x720, orbit preview frame rate ----------------
+  if (MEASURE) {
+    const { examples } = await import(join(OUT_DIR, "server/web/examples.js"));
+    const base = JSON.parse(examples.find((e) => e.name === "whitted").text);
+    base.render.width = 1280;
+    base.render.height = 720;
+    const cold = join(WORK, "m.json");
+    for (let run = 0; run < 3; run++) {
+      base.render.seed = 100 + run; // other bytes, so no cache helps; whitted's image does not depend on it
+      writeFileSync(cold, JSON.stringify(base, null, 2));
+      const link = await page.evaluate(async (t) => {
+        const { linkFor } = await import("./share.js");
+        return linkFor("", t);
+      }, JSON.stringify(base, null, 2));
+      const p = await context.newPage();
+      const t = Date.now();
+      await p.goto(URL + "/" + link);
+      await waitDone(p, 0, 120000);
+      const s = await p.evaluate(() => window.rayd.stats);
+      console.log(
+        `INFO first_full_1280x720 run ${run + 1}: quick pass ${s.lastPreviewMs.toFixed(0)} ms, full image ${s.lastFullMs.toFixed(0)} ms after navigation start (wall ${Date.now() - t} ms), ${(s.raysPerSec / 1e6).toFixed(1)} M rays/s`
+      );
+      base.render.seed = 200 + run; // the same picture in one POST /v1/render, for comparison
+      const tq = Date.now();
+      const whole = await post("/v1/render", JSON.stringify(base, null, 2));
+      console.log(`INFO same_scene_one_post_render run ${run + 1}: ${Date.now() - tq} ms (status ${whole.status})`);
+      // the orbit preview: 3 s of dragging, a mouse event every 16 ms
+      const box = await p.$eval("#canvas", (c) => c.getBoundingClientRect().toJSON());
+      const f0 = await p.evaluate(() => window.rayd.stats.previewFrames);
+      const cx = box.x + box.width / 2,
+        cy = box.y + box.height / 2;
+      await p.mouse.move(cx, cy);
+      await p.mouse.down();
+      const start = Date.now();
+      let k = 0;
+      while (Date.now() - start < 3000) {
+        k++;
+        await p.mouse.move(cx + 150 * Math.sin(k / 20), cy + 40 * Math.sin(k / 33));
+        await p.waitForTimeout(16);
+      }
+      const secs = (Date.now() - start) / 1000;
+      const f1 = await p.evaluate(() => window.rayd.stats.previewFrames);
+      const ms = await p.evaluate((n) => window.rayd.stats.previewMs.slice(-n), f1 - f0);
+      await p.mouse.up();
+      ms.sort((a, b) => a - b);
+      console.log(
+        `INFO orbit_preview_320x180 run ${run + 1}: ${f1 - f0} frames in ${secs.toFixed(1)} s = ${((f1 - f0) / secs).toFixed(1)} fps (frame round trip median ${ms[ms.length >> 1]?.toFixed(0)} ms)`
+      );
+      await p.close();
+    }
+    console.log(`INFO page_open_to_first_render_640x480 ${openMs} ms`);
+  }
+} catch (e) {
+  fail("driver", e.stack || e);
+} finally {
+  await context.close().catch(() => {});
+  rmSync(profile, { recursive: true, force: true });
+}
+process.exit(0);

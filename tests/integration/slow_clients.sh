@@ -1,0 +1,145 @@
+#!/usr/bin/env bash
+# slow_clients.sh -- hostile and slow clients: 1,000 connections that stay
+# idle or upload a body a byte at a time do not stop rayd from answering
+# others (GET /healthz and a small render within a few seconds while they
+# hang); --max-conns-per-ip and --max-conns close connections over the limit
+# at accept and the server serves again once they are gone; the open-file
+# limit was raised at start-up to hold them.
+source "$(dirname "$0")/lib/common.sh"
+
+scene "$T/small.json" 64 48 1 spheres
+
+# hold.py PORT N SECONDS READYFILE: opens N connections (half idle, half
+# sending a POST body one byte every 0.5 s), writes READYFILE with the number
+# held, keeps them for at most SECONDS, then reports how many the server closed.
+cat >"$T/hold.py" <<'PY'
+import resource, socket, sys, time
+port, n, secs, ready = int(sys.argv[1]), int(sys.argv[2]), float(sys.argv[3]), sys.argv[4]
+soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+resource.setrlimit(resource.RLIMIT_NOFILE, (hard, hard))
+conns, slow, failed = [], [], 0
+for i in range(n):
+    try:
+        s = socket.create_connection(("127.0.0.1", port), timeout=5)
+    except OSError:
+        failed += 1
+        continue
+    s.setblocking(False)
+    if i % 2:
+        s.send(b"POST /v1/render HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+               b"Content-Length: 100000\r\n\r\n{")
+        slow.append(s)
+    conns.append(s)
+open(ready, "w").write("%d %d\n" % (len(conns), failed))
+end = time.time() + secs
+closed = 0
+while time.time() < end:
+    for s in slow:
+        try:
+            s.send(b" ")
+        except OSError:
+            pass
+    time.sleep(0.5)
+    try:
+        open(ready + ".stop").close()
+        break
+    except OSError:
+        pass
+for s in conns:
+    try:
+        if s.recv(1) == b"":
+            closed += 1
+    except BlockingIOError:
+        pass
+    except OSError:
+        closed += 1
+    s.close()
+print("held %d failed %d closed_by_server %d" % (len(conns), failed, closed))
+PY
+
+# --- 1,000 idle and slowly-uploading connections ------------------------------------------
+start_rayd --threads 2 --timeout 20
+limit=$(awk '/Max open files/ {print $4}' "/proc/$RAYD_PID/limits")
+hard=$(awk '/Max open files/ {print $5}' "/proc/$RAYD_PID/limits")
+check fd_limit_raised "soft $limit, hard $hard" [ "$limit" = "$hard" ]
+python3 "$T/hold.py" "$PORT" 1000 30 "$T/ready" >"$T/hold.out" 2>&1 &
+hp=$!
+PIDS+=($hp)
+for i in $(seq 1 200); do [ -s "$T/ready" ] && break; sleep 0.1; done
+read -r held failed <"$T/ready" || held=0
+check thousand_connections_open "held $held, failed $failed" [ "${held:-0}" -ge 1000 ]
+sleep 1
+fds=$(ls "/proc/$RAYD_PID/fd" | wc -l)
+check server_holds_them "rayd has $fds descriptors open" [ "$fds" -ge 1000 ]
+t0=$(date +%s%N)
+code=$(curl -s -m 10 -o /dev/null -w '%{http_code}' "$URL/healthz")
+ms=$(( ($(date +%s%N) - t0) / 1000000 ))
+check healthz_while_held "status $code in ${ms} ms" bash -c "[ $code = 200 ] && [ $ms -lt 3000 ]"
+t0=$(date +%s%N)
+code=$(post_json /v1/render "$T/small.json")
+ms=$(( ($(date +%s%N) - t0) / 1000000 ))
+check render_while_held "status $code in ${ms} ms" bash -c "[ $code = 200 ] && [ $ms -lt 5000 ] && head -c 4 '$T/body' | grep -q PNG"
+code=$(req GET /readyz)
+check readyz_while_held "status $code" [ "$code" = 200 ]
+touch "$T/ready.stop"
+wait "$hp"
+check holder_done "$(cat "$T/hold.out")" grep -q '^held 1000' "$T/hold.out"
+sleep 0.5
+check alive_after_release "healthz" [ "$(req GET /healthz)" = 200 ]
+stop_rayd TERM
+check exit_0_after_thousand "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
+
+# --- --max-conns-per-ip -------------------------------------------------------------------------
+# conns.py PORT N: opens N idle connections one after another, then probes
+# each: "answered" when a request on it gets a response within 1 s, else
+# "refused": closed at accept (per-IP limit) or left unaccepted in the
+# listen backlog (total limit).
+cat >"$T/conns.py" <<'PY'
+import socket, sys, time
+port, n = int(sys.argv[1]), int(sys.argv[2])
+cs = []
+for i in range(n):
+    cs.append(socket.create_connection(("127.0.0.1", port), timeout=1))
+    time.sleep(0.02)
+time.sleep(0.3)
+answered = closed = 0
+for s in cs:
+    try:
+        s.sendall(b"GET /healthz HTTP/1.1\r\nHost: x\r\n\r\n")
+        d = s.recv(100)
+    except OSError:
+        d = b""
+    if d.startswith(b"HTTP/1.1 200"):
+        answered += 1
+    else:
+        closed += 1
+print(answered, closed)
+for s in cs:
+    s.close()
+PY
+start_rayd --max-conns-per-ip 8
+read -r answered closed < <(python3 "$T/conns.py" "$PORT" 12)
+check per_ip_limit "answered $answered, refused $closed of 12 (limit 8)" bash -c "[ $answered = 8 ] && [ $closed = 4 ]"
+sleep 0.5
+check per_ip_recovers "healthz after the flood" [ "$(req GET /healthz)" = 200 ]
+check per_ip_logged "no connection-limit line" grep -qi 'limit' "$T/rayd.err"
+stop_rayd TERM
+
+start_rayd --max-conns 6
+read -r answered closed < <(python3 "$T/conns.py" "$PORT" 10)
+check total_conn_limit "answered $answered, refused $closed of 10 (limit 6)" bash -c "[ $answered = 6 ] && [ $closed = 4 ]"
+sleep 0.5
+check total_limit_recovers "healthz after the flood" [ "$(req GET /healthz)" = 200 ]
+stop_rayd TERM
+check exit_0 "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
+
+# --- a URL over --max-url and headers over --max-header-bytes ----------------------------------
+start_rayd --max-url 1024 --max-header-bytes 8192
+code=$(req GET "/healthz?$(head -c 2000 /dev/zero | tr '\0' a)")
+check max_url_414 "status $code" err_is "$T/body" 414 uri_too_long
+code=$(curl -s -m 5 -o /dev/null -w '%{http_code}' -H "X-Big: $(head -c 10000 /dev/zero | tr '\0' a)" "$URL/healthz")
+check max_header_bytes_431 "status $code" [ "$code" = 431 ]
+code=$(curl -s -m 5 -o /dev/null -w '%{http_code}' -H "X-Ok: $(head -c 2000 /dev/zero | tr '\0' a)" "$URL/healthz")
+check header_under_limit_ok "status $code" [ "$code" = 200 ]
+stop_rayd TERM
+check exit_0_limits "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
