@@ -4,7 +4,7 @@
 #   make test        every test; ends with "N passed, N failed"
 #   make test SANITIZE=1   the same suite built with ASan+UBSan into build/asan/
 #   make test-tsan   server + job queue integration tests under ThreadSanitizer (build/tsan/)
-#   make test-valgrind  two server integration tests with rayd under valgrind memcheck
+#   make test-valgrind  three server integration tests with rayd under valgrind memcheck
 #   make run         build and start rayd on 127.0.0.1:8080 with the preview
 #   make deps        install the Debian packages the build and the tests need
 #   make bench       benchmarks (never part of make test)
@@ -204,7 +204,7 @@ FUZZ_CORE_OBJ := $(CORE_SRC:core/%.c=build/fuzz/core/%.o)
 
 build/fuzz/core/%.o: core/%.c | $(BUILD)/.deps-ok
 	@mkdir -p $(dir $@)
-	clang $(FUZZ_CFLAGS) -c $< -o $@
+	clang $(FUZZ_CFLAGS) -MMD -MP -c $< -o $@
 
 build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c $(FUZZ_CORE_OBJ)
 	clang $(FUZZ_CFLAGS) -fsanitize=fuzzer $^ -o $@ -lpng -lcjson -lpthread -lm
@@ -218,22 +218,28 @@ FUZZ_SERVER_OBJ := $(patsubst server/%.c,build/fuzz/server/%.o,$(filter-out serv
 
 build/fuzz/server/%.o: server/%.c server/server.h build/server/web_assets.h | $(BUILD)/.deps-ok
 	@mkdir -p $(dir $@)
-	clang $(FUZZ_CFLAGS) -D_DEFAULT_SOURCE -Ibuild/server -c $< -o $@
+	clang $(FUZZ_CFLAGS) -MMD -MP -D_DEFAULT_SOURCE -Ibuild/server -c $< -o $@
 
 $(FUZZ_SERVER_TARGETS:%=build/fuzz/fuzz_%): build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c \
-    tests/fuzz/fuzz_http_common.h $(FUZZ_SERVER_OBJ) $(FUZZ_CORE_OBJ)
+    tests/fuzz/fuzz_http_common.h server/server.h $(FUZZ_SERVER_OBJ) $(FUZZ_CORE_OBJ)
 	clang $(FUZZ_CFLAGS) -D_DEFAULT_SOURCE -fsanitize=fuzzer $(filter %.c %.o,$^) -o $@ \
 	  -lmicrohttpd -lcrypto -lpng -lcjson -lpthread -lm
 
+# A crash, leak, timeout or out-of-memory fails the run (the artifact stays
+# in build/fuzz/crash-TARGET-*).  Object files track their headers (-MMD).
 fuzz: $(FUZZ_TARGETS:%=build/fuzz/fuzz_%)
 	@for t in $(FUZZ_TARGETS); do \
-	  rm -rf build/fuzz/corpus-$$t && mkdir -p build/fuzz/corpus-$$t && \
+	  rm -rf build/fuzz/corpus-$$t build/fuzz/crash-$$t-* && mkdir -p build/fuzz/corpus-$$t && \
 	  cp tests/fuzz/corpus/$$t/* build/fuzz/corpus-$$t/ && \
 	  echo "== fuzz_$$t for $(FUZZ_SECONDS) s" && \
-	  build/fuzz/fuzz_$$t -max_total_time=$(FUZZ_SECONDS) -max_len=65536 -rss_limit_mb=2048 \
+	  { build/fuzz/fuzz_$$t -max_total_time=$(FUZZ_SECONDS) -max_len=65536 -rss_limit_mb=2048 -timeout=30 \
 	    $$( [ -f tests/fuzz/$$t.dict ] && echo -dict=tests/fuzz/$$t.dict ) \
-	    -artifact_prefix=build/fuzz/crash-$$t- -print_final_stats=1 build/fuzz/corpus-$$t 2>&1 | \
-	    grep -E "^(stat::number_of_executed_units|stat::peak_rss_mb|==.*ERROR|SUMMARY)|Done [0-9]+ runs" || exit 1; \
+	    -artifact_prefix=build/fuzz/crash-$$t- -print_final_stats=1 build/fuzz/corpus-$$t 2>&1; \
+	    echo "exit status $$?"; } | \
+	    grep -E "^(stat::number_of_executed_units|stat::peak_rss_mb|==.*ERROR|SUMMARY|exit status)|Done [0-9]+ runs"; \
+	  if ls build/fuzz/crash-$$t-* >/dev/null 2>&1; then \
+	    echo "fuzz_$$t FAILED: $$(ls build/fuzz/crash-$$t-*) (add it to tests/fuzz/regressions/$$t/ once fixed)"; \
+	    exit 1; fi; \
 	done
 
 # The same targets without libFuzzer, replaying corpus and regressions.
@@ -243,7 +249,8 @@ $(BUILD)/tests/fuzz/replay_%: tests/fuzz/fuzz_%.c tests/fuzz/replay.c $(BUILD)/l
 
 SERVER_LIB_OBJ := $(filter-out $(BUILD)/server/main.o,$(SERVER_OBJ))
 $(FUZZ_SERVER_TARGETS:%=$(BUILD)/tests/fuzz/replay_%): $(BUILD)/tests/fuzz/replay_%: \
-    tests/fuzz/fuzz_%.c tests/fuzz/replay.c tests/fuzz/fuzz_http_common.h $(SERVER_LIB_OBJ) $(BUILD)/librayd.a
+    tests/fuzz/fuzz_%.c tests/fuzz/replay.c tests/fuzz/fuzz_http_common.h server/server.h \
+    $(SERVER_LIB_OBJ) $(BUILD)/librayd.a
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -D_DEFAULT_SOURCE -Iinclude -I$(BUILD)/server $(filter %.c,$^) -o $@ \
 	  $(LDFLAGS_ALL) $(SERVER_LIB_OBJ) $(BUILD)/librayd.a -lmicrohttpd -lcrypto $(LIBS_CORE)
@@ -252,10 +259,10 @@ $(FUZZ_SERVER_TARGETS:%=$(BUILD)/tests/fuzz/replay_%): $(BUILD)/tests/fuzz/repla
 # `make test-tsan`: the server built with ThreadSanitizer into build/tsan/,
 # the job-queue and server integration tests against it (a TSan report in
 # rayd's stderr fails the script that started it).  `make test-valgrind`:
-# two integration scripts with rayd under valgrind memcheck (exit 99 on any
+# three integration scripts with rayd under valgrind memcheck (exit 99 on any
 # error or definite leak).  Both print "N passed, N failed".
 TSAN_TESTS := jobs lifecycle api_basic load slow_clients faults
-VALGRIND_TESTS := security api_errors
+VALGRIND_TESTS := security api_errors bad_requests
 
 test-tsan:
 	@$(MAKE) --no-print-directory TSAN=1 build/tsan/rayd build/tsan/rayd-render build/tsan/bench/genmesh

@@ -2,9 +2,10 @@
 # bench/http.sh BUILD -- HTTP load on a real rayd over loopback with wrk
 # (Debian), run by bench/run.sh (`make bench`).
 #
-#   1. 256 connections for HTTP_BENCH_SECONDS (60) POSTing 64x64 tiles of a
-#      small scene (256x256, the spheres test scene, 1 sample), with the
-#      result cache off so every answer is a render: requests/s, p50/p99
+#   1. 256 connections for HTTP_BENCH_SECONDS (60) POSTing 64x64 regions at
+#      random pixel offsets of a small scene (256x256, the spheres test scene,
+#      1 sample), with the result cache off, so nearly every request is a
+#      distinct render and the queue fills: requests/s, p50/p99
 #      latency, every status counted; the only failures allowed are 503 with
 #      Retry-After (the queue is full: back-pressure); RSS sampled from
 #      /proc/PID/status during the run (max VmRSS) and VmHWM at the end.
@@ -43,10 +44,10 @@ stop() { kill -TERM "$RPID"; wait "$RPID" || true; RPID=; }
 mb() { awk -v k="$1" 'BEGIN {print k / 1024}'; }
 rss_kb() { awk -v k="$2:" '$1 == k {print $2}' "/proc/$1/status"; }
 
-run() { # NAME CONNS SECONDS TILE
-    local name=$1 conns=$2 secs=$3 tile=$4 idle peak=0 r hwm line
+run() { # NAME CONNS SECONDS TILE [any]
+    local name=$1 conns=$2 secs=$3 tile=$4 where=${5:-grid} idle peak=0 r hwm line
     idle=$(rss_kb "$RPID" VmRSS)
-    wrk -t2 -c"$conns" -d"${secs}s" --timeout 30s -s bench/http.lua "$URL" -- "$T/scene.json" "$tile" 256 256 \
+    wrk -t2 -c"$conns" -d"${secs}s" --timeout 30s -s bench/http.lua "$URL" -- "$T/scene.json" "$tile" 256 256 "$where" \
         >"$T/wrk.out" 2>&1 &
     local wp=$!
     while kill -0 "$wp" 2>/dev/null; do
@@ -70,7 +71,7 @@ sys.exit(1 if bad or int(kv.get("s200", 0)) == 0 else 0)' || { echo "  FAILED: r
 
 FAILED=0
 start --result-cache-mb 0
-run "256conns-tiles-nocache" 256 "$SECS" 64
+run "256conns-any64-nocache" 256 "$SECS" 64 any
 stop
 start --result-cache-mb 0
 run "16conns-64px-tiles-nocache" 16 "$TSECS" 64

@@ -68,7 +68,7 @@ static const struct config_option config_table[] = {
     {"png-level", "RAYD_PNG_LEVEL", CT_LONG, &config.png_level, "-1", -1, 9,
      "zlib level of the PNGs (-1 = default, same as rayd-render)"},
     {"max-conns", "RAYD_MAX_CONNS", CT_LONG, &config.max_conns, "4096", 1, 1000000,
-     "open connections in all; more are closed at accept (file limit raised to fit)"},
+     "open connections in all; more wait unaccepted (open-file limit raised to fit)"},
     {"max-conns-per-ip", "RAYD_MAX_CONNS_PER_IP", CT_LONG, &config.max_conns_per_ip, "0", 0,
      1000000, "open connections from one client address; more are closed at accept (0 = no limit)"},
     {"max-header-bytes", "RAYD_MAX_HEADER_BYTES", CT_LONG, &config.max_header_bytes, "32768",

@@ -74,10 +74,12 @@ check server_holds_them "rayd has $fds descriptors open" [ "$fds" -ge 1000 ]
 t0=$(date +%s%N)
 code=$(curl -s -m 10 -o /dev/null -w '%{http_code}' "$URL/healthz")
 ms=$(( ($(date +%s%N) - t0) / 1000000 ))
+echo "healthz while 1,000 connections hang: $code in ${ms} ms"
 check healthz_while_held "status $code in ${ms} ms" bash -c "[ $code = 200 ] && [ $ms -lt 3000 ]"
 t0=$(date +%s%N)
 code=$(post_json /v1/render "$T/small.json")
 ms=$(( ($(date +%s%N) - t0) / 1000000 ))
+echo "64x48 render while 1,000 connections hang: $code in ${ms} ms"
 check render_while_held "status $code in ${ms} ms" bash -c "[ $code = 200 ] && [ $ms -lt 5000 ] && head -c 4 '$T/body' | grep -q PNG"
 code=$(req GET /readyz)
 check readyz_while_held "status $code" [ "$code" = 200 ]
