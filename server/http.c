@@ -384,9 +384,16 @@ static bool http_authorized(struct http_req *r)
     return diff == 0;
 }
 
-static bool http_public_path(const char *url)
+/* Routes open without a token: the probes, and the preview's own static
+ * files (a browser cannot send a bearer token to open a page; the page then
+ * sends the token it is given with every API call). */
+static bool http_public_path(const char *method, const char *url)
 {
-    return !strcmp(url, "/healthz") || !strcmp(url, "/readyz");
+    if (!strcmp(url, "/healthz") || !strcmp(url, "/readyz"))
+        return true;
+    if (strcmp(method, "GET") && strcmp(method, "HEAD"))
+        return false;
+    return !strcmp(url, "/") || (url[0] == '/' && !strchr(url + 1, '/') && api_web_exists(url + 1));
 }
 
 /* OPTIONS: CORS preflight or a plain Allow listing. */
@@ -547,7 +554,7 @@ void http_req_handle(struct http_req *r)
     }
     if (!strcmp(r->method, "OPTIONS")) {
         http_options(r);
-    } else if (!http_public_path(r->url) && !http_authorized(r)) {
+    } else if (!http_public_path(r->method, r->url) && !http_authorized(r)) {
         metrics_reject(MR_UNAUTHORIZED);
         http_reply_error(r, 401, "unauthorized", "missing or wrong bearer token", NULL, 0, 0,
                          NULL);

@@ -27,10 +27,14 @@ code=$(post_json /v1/render "$T/s.json" -H 'Authorization: Bearer s3cret-toke')
 check auth_short_401 "status $code" err_is "$T/body" 401 unauthorized
 code=$(post_json /v1/render "$T/s.json" -H 'Authorization: Bearer s3cret-token')
 check auth_right_200 "status $code" bash -c "[ $code = 200 ] && head -c 4 '$T/body' | grep -q PNG"
-for p in /metrics / /v1/jobs/0123456789abcdef0123456789abcdef /nope; do
+for p in /metrics /v1/scenes/0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef/image.png /v1/jobs/0123456789abcdef0123456789abcdef /nope; do
     code=$(req GET "$p")
     check "auth_required_${p//[\/]/_}" "status $code" [ "$code" = 401 ]
 done
+# the preview's static files open without a token (the page then sends the token it is given)
+check auth_page_open "status" [ "$(req GET /)" = 200 ]
+check auth_page_asset_open "status" [ "$(req GET /app.js)" = 200 ]
+check auth_page_post_closed "status" [ "$(req POST /)" = 401 ]
 check auth_healthz_open "status" [ "$(req GET /healthz)" = 200 ]
 check auth_readyz_open "status" [ "$(req GET /readyz)" = 200 ]
 AUTH=(-H 'Authorization: Bearer s3cret-token')
