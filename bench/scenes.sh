@@ -3,7 +3,8 @@
 # with SPP samples per pixel (default 1; SPP="1 16" adds 16 samples, several
 # minutes more) on 2 threads; median of RUNS runs (default 3).  One sample
 # keeps the whole `make bench` within about 5 minutes on a busy 2-core
-# machine however many example scenes there are.
+# machine however many example scenes there are.  SCENES="a.json b.json"
+# picks the scenes (default: every scenes/*.json).
 set -eu
 BUILD=${1:-build}
 RUNS=${RUNS:-3}
@@ -11,7 +12,7 @@ SPP=${SPP:-1}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 printf '%-10s %7s %10s %12s %14s\n' scene samples "median s" "Mrays/s" "runs (s)"
-for scene in scenes/*.json; do
+for scene in ${SCENES:-scenes/*.json}; do
     name=$(basename "$scene" .json)
     for spp in $SPP; do
         python3 - "$scene" "$tmp/$name-$spp.json" "$spp" <<'PY'
