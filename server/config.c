@@ -76,6 +76,8 @@ static const struct config_option config_table[] = {
      "memory per connection for the request line and headers (larger: 431 or 414)"},
     {"max-url", "RAYD_MAX_URL", CT_LONG, &config.max_url, "8192", 64, 16777216,
      "longest request target, path and query (414 uri_too_long)"},
+    {"upload-seconds", "RAYD_UPLOAD_SECONDS", CT_LONG, &config.upload_seconds, "120", 0, 86400,
+     "longest time a request body may take to arrive; slower uploads are dropped (0 = no limit)"},
     {"tls-cert", "RAYD_TLS_CERT", CT_STRING, &config.tls_cert, NULL, 0, 0,
      "PEM certificate (chain): serve HTTPS with libmicrohttpd's TLS (needs --tls-key)"},
     {"tls-key", "RAYD_TLS_KEY", CT_STRING, &config.tls_key, NULL, 0, 0,

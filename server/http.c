@@ -504,6 +504,12 @@ bool http_req_begin(struct http_req *r)
 
 bool http_req_body(struct http_req *r, const char *data, size_t n)
 {
+    /* --timeout drops an idle connection, but a client that sends a byte now
+     * and then is never idle: the whole body gets --upload-seconds */
+    if (config.upload_seconds > 0 && log_now() - r->t0 > (double)config.upload_seconds) {
+        r->note = "upload_too_slow";
+        return false;
+    }
     if (r->too_large || r->no_memory) {
         r->body_len += n; /* counted, not kept */
         return r->body_len <= 4 * (size_t)config.max_body;

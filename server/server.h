@@ -43,6 +43,7 @@ struct config {
     long max_conns_per_ip; /* open connections from one address, 0 = no limit */
     long max_header_bytes; /* per-connection memory for request line + headers */
     long max_url;        /* bytes of the request-target (path + query) */
+    long upload_seconds; /* longest time from the headers to the body's last byte, 0 = none */
     char *tls_cert, *tls_key; /* PEM files: serve HTTPS with libmicrohttpd's TLS */
     /* derived */
     char *token;         /* contents of token_file, trimmed */

@@ -4,7 +4,8 @@
 # others (GET /healthz and a small render within a few seconds while they
 # hang); --max-conns-per-ip and --max-conns close connections over the limit
 # at accept and the server serves again once they are gone; the open-file
-# limit was raised at start-up to hold them.
+# limit was raised at start-up to hold them; a trickling upload that is
+# never idle is dropped after --upload-seconds.
 source "$(dirname "$0")/lib/common.sh"
 
 scene "$T/small.json" 64 48 1 spheres
@@ -145,3 +146,37 @@ code=$(curl -s -m 5 -o /dev/null -w '%{http_code}' -H "X-Ok: $(head -c 2000 /dev
 check header_under_limit_ok "status $code" [ "$code" = 200 ]
 stop_rayd TERM
 check exit_0_limits "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
+
+# --- a trickling upload is dropped after --upload-seconds, though never idle -------------------
+start_rayd --upload-seconds 2 --timeout 30
+python3 - "$PORT" >"$T/trickle.txt" <<'PY'
+import socket, sys, time
+s = socket.create_connection(("127.0.0.1", int(sys.argv[1])), timeout=10)
+s.sendall(b"POST /v1/render HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+          b"Content-Length: 100000\r\n\r\n{")
+t0 = time.time()
+closed = None
+while time.time() - t0 < 10:
+    try:
+        s.send(b" ")
+        s.settimeout(0.3)
+        if s.recv(100) == b"":
+            closed = time.time() - t0
+            break
+    except socket.timeout:
+        continue
+    except OSError:
+        closed = time.time() - t0
+        break
+print("closed_after %.1f" % closed if closed is not None else "still_open")
+PY
+echo "trickling upload: $(cat "$T/trickle.txt") s"
+check trickle_dropped "$(cat "$T/trickle.txt")" python3 -c '
+import sys
+w = open(sys.argv[1]).read().split()
+sys.exit(0 if w[0] == "closed_after" and 1.5 <= float(w[1]) <= 6 else 1)' "$T/trickle.txt"
+sleep 0.2
+check trickle_logged "no upload_too_slow line" grep -q 'note=upload_too_slow' "$T/rayd.err"
+check normal_upload_ok "status" [ "$(post_json /v1/render "$T/small.json")" = 200 ]
+stop_rayd TERM
+check exit_0_trickle "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
