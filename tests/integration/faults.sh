@@ -2,7 +2,8 @@
 # faults.sh -- faults with nothing lost and nothing crashed:
 #   * SIGTERM during load: every request the server accepted is answered (a
 #     PNG or a 503 with Retry-After), every job reports done; sent = answered
-#     + refused at connect, none silently lost;
+#     + refused at connect or while sending (closed before the request was
+#     read), none silently lost;
 #   * allocation failure in the core: a mesh scene too large for the memory
 #     rayd may use (ulimit -v; under ASan its allocator returns NULL past a
 #     size) fails cleanly with 503 out_of_memory, and the server goes on;
@@ -39,9 +40,16 @@ def worker(i):
         except OSError:
             add("refused")
             return
-        add("sent")
         try:
             c.request("POST", "/v1/render" + q, body=scene, headers={"Content-Type": "application/json"})
+        except OSError:
+            # the server closed the connection before it read the request
+            # (it is shutting down): never accepted, and the client knows
+            c.close()
+            add("refused")
+            return
+        add("sent")
+        try:
             r = c.getresponse()
             body = r.read()
         except Exception as e:
