@@ -46,21 +46,6 @@ static double now_1t(void) {
     return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
 }
 
-static char *read_all(const char *path, size_t *len) {
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *buf = n >= 0 ? malloc((size_t)n + 1) : NULL;
-    if (buf && fread(buf, 1, (size_t)n, f) != (size_t)n) {
-        free(buf);
-        buf = NULL;
-    }
-    fclose(f);
-    *len = (size_t)n;
-    return buf;
-}
 
 struct work {
     const rayd_scene *s;
@@ -157,7 +142,8 @@ int main(int argc, char **argv) {
         return 2;
     }
     size_t len;
-    char *text = read_all(path, &len);
+    char *text = NULL;
+    if (rayd_read_file(path, (size_t)1 << 31, &text, &len, NULL) != RAYD_OK) text = NULL;
     if (!text) {
         fprintf(stderr, "raybench: cannot read %s\n", path);
         return 1;

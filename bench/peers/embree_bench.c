@@ -55,22 +55,6 @@ static double now_1t(void) {
     return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
 }
 
-static char *read_all(const char *path, size_t *len) {
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *buf = n >= 0 ? malloc((size_t)n + 1) : NULL;
-    if (buf && fread(buf, 1, (size_t)n, f) != (size_t)n) {
-        free(buf);
-        buf = NULL;
-    }
-    fclose(f);
-    if (buf) buf[n] = 0;
-    *len = (size_t)n;
-    return buf;
-}
 
 static int cmp_double(const void *a, const void *b) {
     double x = *(const double *)a, y = *(const double *)b;
@@ -329,7 +313,8 @@ int main(int argc, char **argv) {
         return 2;
     }
     size_t len;
-    char *text = read_all(path, &len);
+    char *text = NULL;
+    if (rayd_read_file(path, (size_t)1 << 31, &text, &len, NULL) != RAYD_OK) text = NULL;
     if (!text) die("cannot read the scene");
     cJSON *root = cJSON_Parse(text);
     free(text);
@@ -384,7 +369,8 @@ int main(int argc, char **argv) {
     const char *slash = strrchr(path, '/');
     snprintf(ply, sizeof ply, "%.*s%s", slash ? (int)(slash - path + 1) : 0, path,
              file->valuestring);
-    char *data = read_all(ply, &len);
+    char *data = NULL;
+    if (rayd_read_file(ply, (size_t)1 << 31, &data, &len, NULL) != RAYD_OK) data = NULL;
     if (!data) die("cannot read the mesh file");
     struct mesh_data m;
     struct rayd_error err = {0};

@@ -14,21 +14,6 @@
 
 #include "scene.h"
 
-static char *slurp(const char *path, size_t *len) {
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *b = n >= 0 ? malloc((size_t)n + 1) : NULL;
-    if (b && fread(b, 1, (size_t)n, f) != (size_t)n) {
-        free(b);
-        b = NULL;
-    }
-    fclose(f);
-    *len = (size_t)n;
-    return b;
-}
 
 static rayd_scene *load(const char *path, const char *text, size_t len, int w, int h) {
     char dir[4096];
@@ -61,7 +46,8 @@ int main(int argc, char **argv) {
     }
     int w = argc == 4 ? atoi(argv[2]) : 96, h = argc == 4 ? atoi(argv[3]) : 64;
     size_t len;
-    char *text = slurp(argv[1], &len);
+    char *text = NULL;
+    if (rayd_read_file(argv[1], (size_t)1 << 30, &text, &len, NULL) != RAYD_OK) text = NULL;
     if (!text) {
         printf("FAIL bvh-equals-brute %s: cannot read\n", argv[1]);
         return 1;

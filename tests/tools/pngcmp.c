@@ -14,19 +14,14 @@
 #include "rayd/rayd.h"
 
 static rayd_image *load(const char *path) {
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *buf = n > 0 ? malloc((size_t)n) : NULL;
+    char *buf = NULL;
+    size_t n = 0;
     rayd_image *img = NULL;
     struct rayd_error err;
-    if (buf && fread(buf, 1, (size_t)n, f) == (size_t)n &&
-        rayd_png_decode(buf, (size_t)n, 0, &img, &err) != RAYD_OK)
-        fprintf(stderr, "pngcmp: %s: %s\n", path, err.message);
-    free(buf);
-    fclose(f);
+    if (rayd_read_file(path, (size_t)1 << 30, &buf, &n, &err) != RAYD_OK ||
+        rayd_png_decode(buf, n, 0, &img, &err) != RAYD_OK)
+        fprintf(stderr, "%s: %s: %s\n", "pngcmp", path, err.message);
+    rayd_free(buf);
     return img;
 }
 

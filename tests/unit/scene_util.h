@@ -36,21 +36,10 @@ static inline rayd_image *render_all(const rayd_scene *s, int threads) {
     return img;
 }
 
-/* Reads a whole file into a malloc'd buffer; NULL if it cannot. */
+/* Reads a whole file (rayd_read_file); NULL if it cannot. */
 static inline char *read_file(const char *path, size_t *len) {
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *buf = n >= 0 ? malloc((size_t)n + 1) : NULL;
-    if (buf && fread(buf, 1, (size_t)n, f) != (size_t)n) {
-        free(buf);
-        buf = NULL;
-    }
-    fclose(f);
-    *len = (size_t)n;
-    return buf;
+    char *buf = NULL;
+    return rayd_read_file(path, (size_t)1 << 30, &buf, len, NULL) == RAYD_OK ? buf : NULL;
 }
 
 #endif
