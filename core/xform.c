@@ -51,7 +51,7 @@ struct xform xform_identity(void) {
 }
 
 struct xform xform_then(const struct xform *a, const struct xform *b) {
-    struct xform r;
+    struct xform r = xform_identity(); /* every entry is overwritten */
     mat_mul(b->m, a->m, r.m);
     mat_mul(a->inv, b->inv, r.inv);
     return r;
