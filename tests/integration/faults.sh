@@ -100,7 +100,7 @@ echo "sigterm under load: $summary"
 check sigterm_load_none_lost "$summary" python3 -c '
 import json, sys
 t = json.load(open(sys.argv[1]))["tally"]
-sys.exit(0 if t["lost"] == 0 and t["other"] == 0 and t["sent"] == t["ok"] + t["busy"] + t["draining"] and t["ok"] > 0 and t["draining"] > 0 else 1)' "$T/tally.json"
+sys.exit(0 if t["lost"] == 0 and t["other"] == 0 and t["sent"] == t["ok"] + t["busy"] + t["draining"] and t["ok"] > 0 and (t["draining"] > 0 or t["refused"] > 0) else 1)' "$T/tally.json"
 check sigterm_jobs_reported "$(tail -n 3 "$T"/sse*.txt | tr '\n' ' ' | head -c 400)" bash -c "
 for k in 1 2 3; do grep -A1 '^event: done' '$T/sse'\$k.txt | grep -Eq '\"state\":\"(succeeded|canceled)\"' || exit 1; done"
 
