@@ -11,7 +11,7 @@
  * The cache has no lock of its own: every call is made by jobq.c under the
  * job queue's mutex, the one lock of the server (cache_hash() alone is a
  * pure function any thread may call).  Lookup is a chained hash table on
- * the id; recency is a doubly linked list, most recent first.
+ * the id, recency a doubly linked list: the shared index in lru.c.
  *
  * The ids themselves are computed by OpenSSL's libcrypto (EVP_Digest with
  * EVP_sha256), a maintained and audited implementation, rather than by
@@ -26,20 +26,27 @@
 #define CACHE_BUCKETS 1024
 
 struct cache_entry {
+    struct lru_node node; /* first: the index finds entries through it */
     char id[65];
     rayd_scene *scene;
-    size_t bytes;
-    int refs;       /* holders, the cache itself counting one while linked */
+    int refs;    /* holders, the cache itself counting one while linked */
     bool linked;
-    struct cache_entry *hnext;        /* hash chain */
-    struct cache_entry *prev, *next;  /* LRU list */
 };
 
-static struct cache_entry *cache_table[CACHE_BUCKETS];
-static struct cache_entry *cache_head, *cache_tail;
-static size_t cache_budget, cache_bytes, cache_count;
+static struct lru_node *cache_table[CACHE_BUCKETS];
+static struct lru cache_lru;
 
-void cache_init(size_t budget_bytes) { cache_budget = budget_bytes; }
+static void cache_evicted(struct lru_node *n)
+{
+    struct cache_entry *e = (struct cache_entry *)n;
+    e->linked = false;
+    cache_release(e); /* the cache's own reference */
+}
+
+void cache_init(size_t budget_bytes)
+{
+    lru_init(&cache_lru, cache_table, CACHE_BUCKETS, budget_bytes, cache_evicted);
+}
 
 bool cache_hash(const void *data, size_t len, char out[65])
 {
@@ -58,62 +65,12 @@ bool cache_hash(const void *data, size_t len, char out[65])
     return true;
 }
 
-static unsigned cache_bucket(const char *id)
-{
-    unsigned h = 2166136261u;
-    for (; *id; id++)
-        h = (h ^ (unsigned char)*id) * 16777619u;
-    return h % CACHE_BUCKETS;
-}
-
-static void cache_lru_unlink(struct cache_entry *e)
-{
-    if (e->prev)
-        e->prev->next = e->next;
-    else
-        cache_head = e->next;
-    if (e->next)
-        e->next->prev = e->prev;
-    else
-        cache_tail = e->prev;
-    e->prev = e->next = NULL;
-}
-
-static void cache_lru_front(struct cache_entry *e)
-{
-    e->next = cache_head;
-    e->prev = NULL;
-    if (cache_head)
-        cache_head->prev = e;
-    cache_head = e;
-    if (!cache_tail)
-        cache_tail = e;
-}
-
-static void cache_unlink(struct cache_entry *e)
-{
-    struct cache_entry **pp = &cache_table[cache_bucket(e->id)];
-    while (*pp && *pp != e)
-        pp = &(*pp)->hnext;
-    if (*pp)
-        *pp = e->hnext;
-    cache_lru_unlink(e);
-    e->linked = false;
-    cache_bytes -= e->bytes;
-    cache_count--;
-    cache_release(e); /* the cache's own reference */
-}
-
 struct cache_entry *cache_get(const char *id)
 {
-    for (struct cache_entry *e = cache_table[cache_bucket(id)]; e; e = e->hnext)
-        if (!strcmp(e->id, id)) {
-            cache_lru_unlink(e);
-            cache_lru_front(e);
-            e->refs++;
-            return e;
-        }
-    return NULL;
+    struct cache_entry *e = (struct cache_entry *)lru_find(&cache_lru, id);
+    if (e)
+        e->refs++;
+    return e;
 }
 
 struct cache_entry *cache_put(const char *id, rayd_scene *scene)
@@ -127,23 +84,16 @@ struct cache_entry *cache_put(const char *id, rayd_scene *scene)
     if (!e)
         return NULL;
     snprintf(e->id, sizeof e->id, "%s", id);
+    e->node.key = e->id;
     e->scene = scene;
     struct rayd_scene_info info;
     rayd_scene_info(scene, &info);
-    e->bytes = info.bytes + sizeof *e;
+    e->node.bytes = info.bytes + sizeof *e;
     e->refs = 1; /* the caller's */
-    if (e->bytes > cache_budget)
+    if (!lru_insert(&cache_lru, &e->node))
         return e; /* too big to keep: used once, freed on release */
-    while (cache_tail && cache_bytes + e->bytes > cache_budget)
-        cache_unlink(cache_tail);
-    unsigned b = cache_bucket(id);
-    e->hnext = cache_table[b];
-    cache_table[b] = e;
-    cache_lru_front(e);
     e->linked = true;
     e->refs++;
-    cache_bytes += e->bytes;
-    cache_count++;
     return e;
 }
 
@@ -166,12 +116,8 @@ const char *cache_id(const struct cache_entry *e) { return e->id; }
 
 void cache_stats(size_t *bytes, size_t *entries)
 {
-    *bytes = cache_bytes;
-    *entries = cache_count;
+    *bytes = cache_lru.bytes;
+    *entries = cache_lru.count;
 }
 
-void cache_free_all(void)
-{
-    while (cache_head)
-        cache_unlink(cache_head);
-}
+void cache_free_all(void) { lru_clear(&cache_lru); }

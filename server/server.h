@@ -95,6 +95,26 @@ char *metrics_text(size_t *len);
 
 /* ---- cache.c (not thread-safe: jobq.c calls it under its lock) ----------- */
 
+/* lru.c: the index under both caches; entries embed a struct lru_node. */
+struct lru_node {
+    const char *key;
+    size_t bytes; /* counted against the budget */
+    struct lru_node *hnext, *prev, *next;
+};
+struct lru {
+    struct lru_node **table;
+    unsigned nbuckets;
+    struct lru_node *head, *tail; /* most recent first */
+    size_t budget, bytes, count;
+    void (*evict)(struct lru_node *n); /* the owner lets go of an evicted entry */
+};
+void lru_init(struct lru *l, struct lru_node **table, unsigned nbuckets, size_t budget,
+              void (*evict)(struct lru_node *n));
+struct lru_node *lru_find(struct lru *l, const char *key); /* and makes it the most recent */
+bool lru_insert(struct lru *l, struct lru_node *n);        /* false: bigger than the budget */
+void lru_remove(struct lru *l, struct lru_node *n);
+void lru_clear(struct lru *l); /* evicts everything */
+
 struct cache_entry; /* a compiled scene and its id */
 
 void cache_init(size_t budget_bytes);
