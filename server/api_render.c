@@ -182,23 +182,15 @@ static bool api_is_hex(const char *s, size_t n)
 /* If-None-Match: a list of entity tags or "*"; weak comparison. */
 static bool api_etag_match(const char *inm, const char *etag)
 {
-    size_t el = strlen(etag);
-    for (const char *p = inm; p && *p;) {
-        while (*p == ' ' || *p == ',')
-            p++;
-        if (*p == '*')
+    size_t el = strlen(etag), n;
+    const char *p = inm, *item;
+    while (p && http_list_next(&p, &item, &n)) {
+        if (item[0] == '*')
             return true;
-        if (!strncmp(p, "W/", 2))
-            p += 2;
-        const char *e = p;
-        while (*e && *e != ',')
-            e++;
-        const char *end = e;
-        while (end > p && end[-1] == ' ')
-            end--;
-        if ((size_t)(end - p) == el && !memcmp(p, etag, el))
+        if (n >= 2 && !strncmp(item, "W/", 2))
+            item += 2, n -= 2;
+        if (n == el && !memcmp(item, etag, el))
             return true;
-        p = e;
     }
     return false;
 }

@@ -100,6 +100,25 @@ char *http_json_escape(const char *s, char *buf, size_t size)
 
 /* ---- replies ------------------------------------------------------------- */
 
+bool http_list_next(const char **p, const char **item, size_t *len)
+{
+    const char *s = *p;
+    while (*s == ' ' || *s == ',')
+        s++;
+    if (!*s)
+        return false;
+    const char *e = s;
+    while (*e && *e != ',')
+        e++;
+    const char *end = e;
+    while (end > s && end[-1] == ' ')
+        end--;
+    *item = s;
+    *len = (size_t)(end - s);
+    *p = e;
+    return true;
+}
+
 /* Origin allowed by --cors-origin?  Returns the value for the header. */
 static const char *http_cors_allowed(struct http_req *r)
 {
@@ -110,20 +129,11 @@ static const char *http_cors_allowed(struct http_req *r)
         return NULL;
     if (!strcmp(config.cors_origin, "*"))
         return "*";
-    size_t ol = strlen(origin);
-    for (const char *p = config.cors_origin; *p;) {
-        while (*p == ' ' || *p == ',')
-            p++;
-        const char *e = p;
-        while (*e && *e != ',')
-            e++;
-        const char *end = e;
-        while (end > p && end[-1] == ' ')
-            end--;
-        if ((size_t)(end - p) == ol && ol && !memcmp(p, origin, ol))
+    size_t ol = strlen(origin), n;
+    const char *p = config.cors_origin, *item;
+    while (http_list_next(&p, &item, &n))
+        if (n == ol && ol && !memcmp(item, origin, ol))
             return origin;
-        p = e;
-    }
     return NULL;
 }
 

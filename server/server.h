@@ -324,6 +324,9 @@ void http_resume(struct http_req *r);
 int http_conn_fd(struct http_req *r);
 /* ETag + immutable Cache-Control when r->etag is set, else no-store. */
 void http_cache_headers(struct http_req *r);
+/* The next item of a comma-separated header value (spaces trimmed): false
+ * at the end; *p advances past it. */
+bool http_list_next(const char **p, const char **item, size_t *len);
 /* Submits a render of reg for r: suspends r until a worker answers (the
  * answer becomes the reply), or replies 503 when refused. */
 void http_render(struct http_req *r, struct cache_entry *scene, const struct rayd_region *reg);
