@@ -127,3 +127,13 @@ enum rayd_status rayd_png_decode(const void *buf, size_t len, long max_pixels, r
     *out = img;
     return RAYD_OK;
 }
+
+enum rayd_status rayd_png_read_file(const char *path, long max_pixels, rayd_image **out,
+                                    struct rayd_error *err) {
+    char *buf = NULL;
+    size_t len = 0;
+    enum rayd_status st = rayd_read_file(path, (size_t)1 << 30, &buf, &len, err);
+    if (st == RAYD_OK) st = rayd_png_decode(buf, len, max_pixels, out, err);
+    free(buf);
+    return st;
+}

@@ -182,6 +182,9 @@ enum rayd_status rayd_png_write_file(const rayd_image *img, const char *path,
  * (<= 0: the default limit). */
 enum rayd_status rayd_png_decode(const void *buf, size_t len, long max_pixels, rayd_image **out,
                                  struct rayd_error *err);
+/* rayd_read_file then rayd_png_decode: a PNG file ("-" for stdin) to an image. */
+enum rayd_status rayd_png_read_file(const char *path, long max_pixels, rayd_image **out,
+                                    struct rayd_error *err);
 
 /* Reads a whole file ("-" for standard input) into *out (NUL-terminated
  * for convenience; free with rayd_free), *len bytes.  Over max bytes:

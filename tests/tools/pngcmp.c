@@ -14,14 +14,10 @@
 #include "rayd/rayd.h"
 
 static rayd_image *load(const char *path) {
-    char *buf = NULL;
-    size_t n = 0;
     rayd_image *img = NULL;
     struct rayd_error err;
-    if (rayd_read_file(path, (size_t)1 << 30, &buf, &n, &err) != RAYD_OK ||
-        rayd_png_decode(buf, n, 0, &img, &err) != RAYD_OK)
-        fprintf(stderr, "%s: %s: %s\n", "pngcmp", path, err.message);
-    rayd_free(buf);
+    if (rayd_png_read_file(path, 0, &img, &err) != RAYD_OK)
+        fprintf(stderr, "pngcmp: %s: %s\n", path, err.message);
     return img;
 }
 
