@@ -17,7 +17,6 @@
 #include "client.h"
 
 #include <cjson/cJSON.h>
-#include <errno.h>
 #include <openssl/evp.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -26,40 +25,11 @@
 
 #include <rayd/rayd.h>
 
-static char *scenefile_read(const char *path, size_t *len)
+/* The bytes of a file ("-" for stdin), or NULL with the reason in err. */
+static char *scenefile_read(const char *path, size_t *len, struct rayd_error *err)
 {
-    FILE *f = strcmp(path, "-") ? fopen(path, "rb") : stdin;
-    if (!f)
-        return NULL;
-    size_t cap = 1 << 16, n = 0;
-    char *buf = malloc(cap);
-    int nomem = !buf;
-    while (!nomem) {
-        if (n == cap) {
-            char *b = realloc(buf, cap * 2);
-            if (!b) {
-                nomem = 1;
-                break;
-            }
-            buf = b;
-            cap *= 2;
-        }
-        size_t k = fread(buf + n, 1, cap - n, f);
-        n += k;
-        if (k == 0)
-            break;
-    }
-    int bad = nomem || ferror(f);
-    if (f != stdin)
-        fclose(f);
-    if (bad) {
-        if (nomem)
-            errno = ENOMEM;
-        free(buf);
-        return NULL;
-    }
-    *len = n;
-    return buf;
+    char *buf = NULL;
+    return rayd_read_file(path, (size_t)1 << 30, &buf, len, err) == RAYD_OK ? buf : NULL;
 }
 
 char *scenefile_base64(const unsigned char *data, size_t len)
@@ -109,11 +79,10 @@ static void scenefile_inline(struct scenefile_walk *w, cJSON *obj, const char *k
     }
     snprintf(path, n, "%s%s", name[0] == '/' ? "" : w->dir, name);
     size_t len = 0;
-    errno = 0;
-    char *data = scenefile_read(path, &len);
+    struct rayd_error err;
+    char *data = scenefile_read(path, &len, &err);
     if (!data) {
-        fprintf(stderr, "rayd-client: %s: cannot read \"%s\": %s\n", where, path,
-                strerror(errno ? errno : EIO));
+        fprintf(stderr, "rayd-client: %s: %s\n", where, err.message);
         w->failed = 1;
         free(path);
         return;
@@ -202,10 +171,10 @@ static int scenefile_bundle(const char *path, struct scenefile *sf)
 int scenefile_load(const char *path, struct scenefile *sf)
 {
     memset(sf, 0, sizeof *sf);
-    errno = 0;
-    sf->bytes = scenefile_read(path, &sf->len);
+    struct rayd_error err = {0};
+    sf->bytes = scenefile_read(path, &sf->len, &err);
     if (!sf->bytes) {
-        fprintf(stderr, "rayd-client: cannot read %s: %s\n", path, strerror(errno ? errno : EIO));
+        fprintf(stderr, "rayd-client: %s\n", err.message);
         return -1;
     }
     if (scenefile_bundle(path, sf) != 0) {
@@ -214,7 +183,6 @@ int scenefile_load(const char *path, struct scenefile *sf)
         return -1;
     }
     rayd_scene *scene = NULL;
-    struct rayd_error err = {0};
     if (rayd_scene_parse(sf->bytes, sf->len, NULL, &scene, &err) != RAYD_OK) {
         char msg[600];
         fprintf(stderr, "rayd-client: %s: %s: %s\n", path, rayd_status_name(err.code),
