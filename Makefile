@@ -267,12 +267,12 @@ VALGRIND_TESTS := security api_errors bad_requests
 test-tsan:
 	@$(MAKE) --no-print-directory TSAN=1 build/tsan/rayd build/tsan/rayd-render build/tsan/bench/genmesh
 	@TSAN_OPTIONS="halt_on_error=0 second_deadlock_stack=1 $${TSAN_OPTIONS:-}" \
-	  RAYD_BUILD=$$PWD/build/tsan bash tests/integration/lib/run_some.sh $(TSAN_TESTS)
+	  RAYD_TIMEOUT=1800 RAYD_TESTS="$(TSAN_TESTS)" bash tests/run.sh build/tsan
 
 test-valgrind: all
 	@RAYD_WRAP="valgrind -q --error-exitcode=99 --leak-check=full --errors-for-leak-kinds=definite \
 	  --show-leak-kinds=definite" RAYD_START_TRIES=600 \
-	  RAYD_BUILD=$$PWD/build bash tests/integration/lib/run_some.sh $(VALGRIND_TESTS)
+	  RAYD_TIMEOUT=1800 RAYD_TESTS="$(VALGRIND_TESTS)" bash tests/run.sh build
 
 
 # --- run, bench, tooling ----------------------------------------------------

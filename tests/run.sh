@@ -6,7 +6,9 @@
 # scripts tests/integration/*.sh (and tests/browser/*.sh).  Every test prints
 # one line per case, "PASS name" or "FAIL name: why"; this script counts them.
 # A program that dies without printing FAIL counts as one failure, so a crash
-# is never a pass.  RAYD_ONLY=unit|integration limits the run.
+# is never a pass.  RAYD_ONLY=unit|integration limits the run;
+# RAYD_TESTS="jobs lifecycle" runs only those tests/integration/NAME.sh
+# (make test-tsan and make test-valgrind use it).  SKIP lines are shown.
 set -u
 cd "$(dirname "$0")/.."
 BUILD=$(cd "${1:-build}" && pwd)
@@ -20,7 +22,7 @@ failed_names=()
 run_one() { # name, command...
     local name=$1; shift
     local out; out=$(mktemp)
-    timeout 900 "$@" >"$out" 2>&1
+    timeout "${RAYD_TIMEOUT:-900}" "$@" >"$out" 2>&1
     local rc=$?
     local p f
     p=$(grep -c '^PASS ' "$out")
@@ -36,11 +38,18 @@ run_one() { # name, command...
     else
         echo "--- $name: $p passed"
     fi
+    grep '^SKIP ' "$out"
     pass=$((pass + p))
     fail=$((fail + f))
     rm -f "$out"
 }
 
+if [ -n "${RAYD_TESTS:-}" ]; then
+    only=none
+    for name in $RAYD_TESTS; do
+        run_one "$name" bash "tests/integration/$name.sh"
+    done
+fi
 if [ "$only" = all ] || [ "$only" = unit ]; then
     for t in "$BUILD"/tests/test_*; do
         [ -x "$t" ] || continue
