@@ -8,6 +8,9 @@
  *     scene's camera), nearest hit only, no shading;
  *   - shadow rays: from every primary hit toward the first light (or
  *     straight up when the scene has none), any hit only;
+ *   - both again as packets of 4x4 pixels (scene_intersect16 and
+ *     scene_transmittance16; keys with _packet), their hit counts printed
+ *     beside the one-ray ones, which they must equal;
  * on 1 thread and on T threads (default 2); and one end-to-end image
  * (rayd_render, shading and PNG-ready pixels) on T threads.
  * Output is one "key value" line each, for bench/ scripts to read.
@@ -52,6 +55,7 @@ struct work {
     struct camera cam;
     int w, h;
     bool shadow;
+    bool packets; /* 4x4 pixels a packet (scene_intersect16) */
     atomic_int next_row;
     atomic_long hits;
 };
@@ -69,8 +73,18 @@ static vec3 light_dir(const rayd_scene *s, vec3 p, double *dist) {
     return to;
 }
 
-static void *worker(void *arg) {
-    struct work *wk = arg;
+/* The shadow ray from primary hit h of ray r: origin, direction, length. */
+static void shadow_ray(const rayd_scene *s, const ray *r, const struct hit *h, ray *sr,
+                       double *dist) {
+    struct surface sf;
+    scene_surface(s, r, h, &sf);
+    vec3 n = v3_dot(sf.ng, r->d) > 0 ? v3_neg(sf.ng) : sf.ng;
+    sr->o = v3_madd(sf.p, n, integrate_offset(sf.p, sf.float_geom));
+    sr->d = light_dir(s, sr->o, dist);
+}
+
+/* One ray at a time, a row of pixels per work item. */
+static long cast_rows(struct work *wk) {
     long hits = 0;
     for (;;) {
         int j = atomic_fetch_add(&wk->next_row, 1);
@@ -83,24 +97,65 @@ static void *worker(void *arg) {
                 hits++;
                 continue;
             }
-            struct surface sf;
-            scene_surface(wk->s, &r, &hit, &sf);
-            vec3 n = v3_dot(sf.ng, r.d) > 0 ? v3_neg(sf.ng) : sf.ng;
-            vec3 o = v3_madd(sf.p, n, integrate_offset(sf.p, sf.float_geom));
+            ray sr;
             double dist;
-            ray sr = {o, light_dir(wk->s, o, &dist)};
+            shadow_ray(wk->s, &r, &hit, &sr, &dist);
             vec3 t = scene_transmittance(wk->s, &sr, dist);
             hits += t.x == 0 && t.y == 0 && t.z == 0;
         }
     }
-    atomic_fetch_add(&wk->hits, hits);
+    return hits;
+}
+
+/* Packets of 4x4 pixels, a row of packets per work item. */
+static long cast_packets(struct work *wk) {
+    long hits = 0;
+    for (;;) {
+        int j0 = 4 * atomic_fetch_add(&wk->next_row, 1);
+        if (j0 >= wk->h) break;
+        for (int i0 = 0; i0 < wk->w; i0 += 4) {
+            ray r[16];
+            double tmax[16];
+            uint32_t active = 0;
+            for (int k = 0; k < 16; k++) {
+                int i = i0 + k % 4, j = j0 + k / 4;
+                tmax[k] = INFINITY;
+                if (i >= wk->w || j >= wk->h) continue;
+                r[k] = (ray){wk->cam.pos, cam_dir(&wk->cam, i + 0.5, j + 0.5)};
+                active |= 1u << k;
+            }
+            struct hit h[16];
+            uint32_t hit = scene_intersect16(wk->s, r, tmax, active, h);
+            if (!wk->shadow) {
+                hits += __builtin_popcount(hit);
+                continue;
+            }
+            ray sr[16];
+            vec3 t[16];
+            for (uint32_t m = hit; m; m &= m - 1) {
+                int k = __builtin_ctz(m);
+                shadow_ray(wk->s, &r[k], &h[k], &sr[k], &tmax[k]);
+            }
+            scene_transmittance16(wk->s, sr, tmax, hit, t);
+            for (uint32_t m = hit; m; m &= m - 1) {
+                int k = __builtin_ctz(m);
+                hits += t[k].x == 0 && t[k].y == 0 && t[k].z == 0;
+            }
+        }
+    }
+    return hits;
+}
+
+static void *worker(void *arg) {
+    struct work *wk = arg;
+    atomic_fetch_add(&wk->hits, wk->packets ? cast_packets(wk) : cast_rows(wk));
     return NULL;
 }
 
 /* Seconds to cast the rays on `threads` threads; *count gets the rays cast. */
 static double cast(const rayd_scene *s, const struct camera *cam, int w, int h, bool shadow,
-                   int threads, long *count, long *hits) {
-    struct work wk = {.s = s, .cam = *cam, .w = w, .h = h, .shadow = shadow};
+                   bool packets, int threads, long *count, long *hits) {
+    struct work wk = {.s = s, .cam = *cam, .w = w, .h = h, .shadow = shadow, .packets = packets};
     atomic_init(&wk.next_row, 0);
     atomic_init(&wk.hits, 0);
     pthread_t th[64];
@@ -218,16 +273,19 @@ int main(int argc, char **argv) {
     if (tris) printf("bytes_per_triangle %.1f\n", (double)mesh_bytes_total / (double)tris);
     int thread_counts[2] = {1, tmax};
     for (int ti = 0; ti < (tmax > 1 ? 2 : 1); ti++) {
-        for (int shadow = 0; shadow <= 1; shadow++) {
-            double rate[99];
-            long count = 0, hits = 0;
-            for (int r = 0; r < runs; r++) {
-                double dt = cast(s, &cam, w, h, shadow, thread_counts[ti], &count, &hits);
-                rate[r] = count / dt / 1e6;
+        for (int packets = 0; packets <= 1; packets++) {
+            for (int shadow = 0; shadow <= 1; shadow++) {
+                double rate[99];
+                long count = 0, hits = 0;
+                for (int r = 0; r < runs; r++) {
+                    double dt = cast(s, &cam, w, h, shadow, packets, thread_counts[ti], &count, &hits);
+                    rate[r] = count / dt / 1e6;
+                }
+                const char *kind = shadow ? "shadow" : "primary";
+                printf("%s%s_mrays_%dt %.2f\n", kind, packets ? "_packet" : "",
+                       thread_counts[ti], median(rate, runs));
+                if (ti == 0) printf("%s%s_hits %ld\n", kind, packets ? "_packet" : "", hits);
             }
-            printf("%s_mrays_%dt %.2f\n", shadow ? "shadow" : "primary", thread_counts[ti],
-                   median(rate, runs));
-            if (ti == 0) printf("%s_hits %ld\n", shadow ? "shadow" : "primary", hits);
         }
     }
     /* End to end: the whole image, shaded, on tmax threads. */

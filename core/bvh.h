@@ -46,6 +46,12 @@ struct bvh4 {
 #define BVH_MAX_LEAF 4
 #define BVH_STACK 256
 
+/* Traversal visits a box while its entry distance is within this factor of
+ * the best hit so far: the box and primitive tests round differently, and
+ * a box holding a hit exactly as near as the best must still be visited so
+ * that ties are settled by rule, not by visiting order. */
+#define BVH_SLACK 1.000004f
+
 /* Builds the hierarchy over n boxes.  order[0..n) receives the primitive
  * order the leaves refer to.  threads > 1 builds the top subtrees in
  * parallel (worth it from ~100k primitives).  n == 0 gives an empty tree. */

@@ -18,42 +18,7 @@
 #include <string.h>
 
 #include "error.h"
-
-struct tri_ray {
-    float org[3];
-    int kx, ky, kz;
-    float sx, sy, sz;
-};
-
-static void tri_ray_init(struct tri_ray *tr, const ray *r) {
-    double d[3] = {r->d.x, r->d.y, r->d.z};
-    tr->org[0] = (float)r->o.x;
-    tr->org[1] = (float)r->o.y;
-    tr->org[2] = (float)r->o.z;
-    int kz = fabs(d[0]) > fabs(d[1]) ? (fabs(d[0]) > fabs(d[2]) ? 0 : 2)
-                                     : (fabs(d[1]) > fabs(d[2]) ? 1 : 2);
-    int kx = (kz + 1) % 3, ky = (kx + 1) % 3;
-    if (d[kz] < 0) {
-        int t = kx;
-        kx = ky;
-        ky = t;
-    }
-    tr->kx = kx;
-    tr->ky = ky;
-    tr->kz = kz;
-    tr->sx = (float)(d[kx] / d[kz]);
-    tr->sy = (float)(d[ky] / d[kz]);
-    tr->sz = (float)(1.0 / d[kz]);
-}
-
-/* Exactly Woop et al.'s edge functions for one lane, in double: used when
- * a float one comes out zero (the ray passes through an edge or vertex). */
-static void tri_edges_double(float ax, float ay, float bx, float by, float cx, float cy,
-                             float *u, float *v, float *w) {
-    *u = (float)((double)cx * by - (double)cy * bx);
-    *v = (float)((double)ax * cy - (double)ay * cx);
-    *w = (float)((double)bx * ay - (double)by * ax);
-}
+#include "mesh_ray.h"
 
 /* Tests the first n lanes of block b.  A lane hits when 0 < t <= tmax;
  * returns the mask of hits with t, u, v in out.  The SIMD and the scalar
@@ -102,7 +67,7 @@ static inline int tri4_test(const struct tri4 *b, int n, const struct tri_ray *t
     __m128 ts = _mm_xor_ps(t, sign), ds = _mm_xor_ps(det, sign);
     __m128 ok = _mm_andnot_ps(_mm_and_ps(neg, pos), _mm_cmpneq_ps(det, zero));
     ok = _mm_and_ps(ok, _mm_cmpgt_ps(ts, zero));
-    ok = _mm_and_ps(ok, _mm_cmple_ps(ts, _mm_mul_ps(_mm_set1_ps(tmax), ds)));
+    ok = _mm_and_ps(ok, _mm_cmple_ps(ts, _mm_mul_ps(_mm_set1_ps(tmax * TRI_SLACK), ds)));
     int mask = _mm_movemask_ps(ok) & lanes;
     if (!mask) return 0;
     __m128 rcp = _mm_div_ps(_mm_set1_ps(1.0f), det);
@@ -133,7 +98,7 @@ static inline int tri4_test(const struct tri4 *b, int n, const struct tri_ray *t
         if (det == 0) continue;
         float t = ((U[i] * tr->sz) * AZ[i] + (V[i] * tr->sz) * BZ[i]) + (W[i] * tr->sz) * CZ[i];
         float ts = det < 0 ? -t : t, ds = det < 0 ? -det : det;
-        if (!(ts > 0 && ts <= tmax * ds)) continue;
+        if (!(ts > 0 && ts <= (tmax * TRI_SLACK) * ds)) continue;
         float rcp = 1.0f / det;
         t_out[i] = t * rcp;
         u_out[i] = V[i] * rcp;
@@ -176,13 +141,13 @@ static bool mesh_walk(const struct mesh *m, const ray *r, double tmax, struct me
     struct tri_ray tr;
     bvh_ray_init(&br, r->o, r->d);
     tri_ray_init(&tr, r);
-    float tm = tmax > 3e38 ? 3e38f : nextafterf((float)tmax, 0);
+    float tm = any ? tri_tmax_any(tmax) : tri_tmax_nearest(tmax);
     bool found = false;
     struct bvh_entry stack[BVH_STACK], e = {0, 0, 0};
     int sp = 0;
     for (;;) {
         if (e.count == 0) {
-            if (bvh4_descend(m->bvh.nodes, &e, &br, tm, stack, &sp)) continue;
+            if (bvh4_descend(m->bvh.nodes, &e, &br, tm * BVH_SLACK, stack, &sp)) continue;
         } else {
             float t[4], u[4], v[4];
             const struct tri4 *b = &m->blocks[e.node];
@@ -193,9 +158,9 @@ static bool mesh_walk(const struct mesh *m, const ray *r, double tmax, struct me
             }
         }
         do { /* pop the nearest entry still in reach */
-            if (sp == 0) return found;
+            if (sp == 0) return found && (double)h->t < tmax;
             e = stack[--sp];
-        } while (e.tnear > tm);
+        } while (e.tnear > tm * BVH_SLACK);
     }
 }
 
@@ -211,7 +176,7 @@ bool mesh_occluded(const struct mesh *m, const ray *r, double tmax) {
 bool mesh_intersect_brute(const struct mesh *m, const ray *r, double tmax, struct mesh_hit *h) {
     struct tri_ray tr;
     tri_ray_init(&tr, r);
-    float tm = tmax > 3e38 ? 3e38f : nextafterf((float)tmax, 0);
+    float tm = tri_tmax_nearest(tmax);
     bool found = false;
     for (uint32_t i = 0; i < m->nblocks; i++) {
         float t[4], u[4], v[4];
@@ -221,7 +186,7 @@ bool mesh_intersect_brute(const struct mesh *m, const ray *r, double tmax, struc
         int mask = tri4_test(b, n, &tr, tm, t, u, v);
         if (mask) tri4_take(m, b, mask, t, u, v, &tm, h, &found);
     }
-    return found;
+    return found && (double)h->t < tmax;
 }
 
 /* Vertex k of the hit triangle, from its block. */

@@ -50,6 +50,13 @@ void mesh_free(struct mesh *m);
 bool mesh_intersect(const struct mesh *m, const ray *r, double tmax, struct mesh_hit *h);
 /* Any hit with t in (0, tmax). */
 bool mesh_occluded(const struct mesh *m, const ray *r, double tmax);
+/* The same for the rays of r whose bit is set in active (at most 16), at
+ * once: bit i of the result says ray i hit (is blocked), exactly as the
+ * one-ray query would say.  In mesh_packet.c. */
+uint32_t mesh_intersect16(const struct mesh *m, const ray r[16], const double tmax[16],
+                          uint32_t active, struct mesh_hit h[16]);
+uint32_t mesh_occluded16(const struct mesh *m, const ray r[16], const double tmax[16],
+                         uint32_t active);
 /* The same queries testing every triangle: the reference for tests. */
 bool mesh_intersect_brute(const struct mesh *m, const ray *r, double tmax, struct mesh_hit *h);
 

@@ -19,6 +19,7 @@
  * pointer.
  */
 #include "scene.h"
+#include "scene_query.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -59,8 +60,7 @@ void rayd_scene_free(rayd_scene *s) {
 
 /* ---- object space ---------------------------------------------------------- */
 
-/* The ray in object space; *scale converts distances: t_obj = t * scale. */
-static inline ray to_object(const rayd_scene *s, const struct object *o, const ray *r,
+ray object_ray(const rayd_scene *s, const struct object *o, const ray *r,
                             double *scale) {
     if (o->xform < 0) {
         *scale = 1;
@@ -147,7 +147,7 @@ static int csg_collect(const rayd_scene *s, const struct object *o, const ray *r
         return csg_collect(s, &s->parts[o->u.csg.right], r, out, n);
     }
     double scale;
-    ray lr = to_object(s, o, r, &scale);
+    ray lr = object_ray(s, o, r, &scale);
     struct xing x[SHAPE_MAX_XINGS];
     int k = shape_ops[o->kind]->crossings(o, &lr, x);
     for (int i = 0; i < k && n < CSG_MAX_XINGS; i++) out[n++] = (struct cx){x[i].t / scale, o, x[i].part};
@@ -188,11 +188,22 @@ static bool objects_hit(const rayd_scene *s, const struct object *objs, int32_t 
                         const struct bvh4 *bvh, const struct xform *outer, const ray *r,
                         double *tmax, struct hit *h);
 
+void object_mesh_hit(const struct object *o, const struct xform *outer,
+                     const struct mesh_hit *mh, double scale, double *tmax, struct hit *h) {
+    h->mh = *mh;
+    h->part = 0;
+    *tmax = mh->t / scale;
+    h->t = *tmax;
+    h->leaf = o;
+    h->outer = outer;
+    h->orient = 0;
+}
+
 /* Nearest hit of one object closer than *tmax: updates *tmax and h. */
 static bool object_hit(const rayd_scene *s, const struct object *o, const struct xform *outer,
                        const ray *r, double *tmax, struct hit *h) {
     double scale, t;
-    ray lr = to_object(s, o, r, &scale);
+    ray lr = object_ray(s, o, r, &scale);
     double lmax = *tmax * scale;
     switch (o->kind) {
     case SHAPE_MESH: {
@@ -201,10 +212,8 @@ static bool object_hit(const rayd_scene *s, const struct object *o, const struct
         bool hit = s->brute ? mesh_intersect_brute(m, &lr, lmax, &mh)
                             : mesh_intersect(m, &lr, lmax, &mh);
         if (!hit) return false;
-        h->mh = mh;
-        h->part = 0;
-        t = mh.t;
-        break;
+        object_mesh_hit(o, outer, &mh, scale, tmax, h);
+        return true;
     }
     case SHAPE_CSG:
         if (!csg_hit(s, o, &lr, &lmax, h)) return false;
@@ -249,7 +258,7 @@ static void objects_walk(const struct object *objs, int32_t n, const struct bvh4
     struct bvh_entry stack[BVH_STACK], e = {0, 0, 0};
     int sp = 0;
     for (;;) {
-        float tm = *tmax > 3e38 ? 3e38f : (float)*tmax;
+        float tm = *tmax > 3e38 ? 3e38f : (float)*tmax * BVH_SLACK;
         if (e.count == 0) {
             if (bvh4_descend(bvh->nodes, &e, &br, tm, stack, &sp)) continue;
         } else {
@@ -259,21 +268,39 @@ static void objects_walk(const struct object *objs, int32_t n, const struct bvh4
         do { /* pop the nearest entry still in reach */
             if (sp == 0) return;
             e = stack[--sp];
-        } while (e.tnear > *tmax * 1.0000004);
+        } while (e.tnear > *tmax * BVH_SLACK);
     }
 }
 
-struct nearest {
-    const rayd_scene *s;
-    const struct xform *outer;
-    const ray *r;
-    struct hit *h;
-    bool found;
-};
+/* The next double above a non-negative t (t itself if infinite): the bound
+ * that lets an object tie the best hit so far. */
+static inline double next_up(double t) {
+    if (!(t >= 0) || t == INFINITY) return t;
+    uint64_t u;
+    memcpy(&u, &t, sizeof u);
+    u++;
+    memcpy(&t, &u, sizeof t);
+    return t;
+}
 
-static bool visit_nearest(void *ctx, const struct object *o, double *tmax) {
+double nearest_bound(const struct nearest *c, const struct object *o, double tmax) {
+    long rank = c->rank0 + (long)(o - c->base);
+    return c->best >= 0 && rank < c->best ? next_up(tmax) : tmax;
+}
+
+void nearest_take(struct nearest *c, const struct object *o, double t, const struct hit *h,
+                  double *tmax) {
+    if (t > *tmax) return;
+    *tmax = t;
+    *c->h = *h;
+    c->best = c->rank0 + (long)(o - c->base);
+}
+
+bool nearest_visit(void *ctx, const struct object *o, double *tmax) {
     struct nearest *c = ctx;
-    c->found |= object_hit(c->s, o, c->outer, c->r, tmax, c->h);
+    double t = nearest_bound(c, o, *tmax);
+    struct hit h;
+    if (object_hit(c->s, o, c->outer, c->r, &t, &h)) nearest_take(c, o, t, &h, tmax);
     return true;
 }
 
@@ -281,15 +308,18 @@ static bool visit_nearest(void *ctx, const struct object *o, double *tmax) {
 static bool objects_hit(const rayd_scene *s, const struct object *objs, int32_t nobjs,
                         const struct bvh4 *bvh, const struct xform *outer, const ray *r,
                         double *tmax, struct hit *h) {
-    struct nearest c = {s, outer, r, h, false};
-    objects_walk(objs, nobjs, bvh, s->brute, r, tmax, visit_nearest, &c);
-    return c.found;
+    struct nearest c = {s, outer, r, h, objs, 0, -1};
+    objects_walk(objs, nobjs, bvh, s->brute, r, tmax, nearest_visit, &c);
+    return c.best >= 0;
 }
 
 bool scene_intersect(const rayd_scene *s, const ray *r, double tmax, struct hit *h) {
-    bool found = false;
-    for (int32_t i = 0; i < s->nplanes; i++) found |= object_hit(s, &s->planes[i], NULL, r, &tmax, h);
-    return objects_hit(s, s->objs, s->nobjs, &s->tlas, NULL, r, &tmax, h) || found;
+    struct nearest c = {s, NULL, r, h, s->planes, 0, -1};
+    for (int32_t i = 0; i < s->nplanes; i++) nearest_visit(&c, &s->planes[i], &tmax);
+    c.base = s->objs;
+    c.rank0 = s->nplanes;
+    objects_walk(s->objs, s->nobjs, &s->tlas, s->brute, r, &tmax, nearest_visit, &c);
+    return c.best >= 0;
 }
 
 /* Multiplies *trans by what material m lets through; false (stop) when
@@ -305,13 +335,13 @@ static bool filter_light(const rayd_scene *s, int material, vec3 *trans) {
 }
 
 /* Any hit of object o closer than tmax, through its material's filter. */
-static bool object_filter(const rayd_scene *s, const struct object *o, const ray *r, double tmax,
+bool object_filter(const rayd_scene *s, const struct object *o, const ray *r, double tmax,
                           vec3 *trans) {
     struct hit h;
     double t = tmax;
     if (o->kind == SHAPE_MESH && !s->brute) {
         double scale;
-        ray lr = to_object(s, o, r, &scale);
+        ray lr = object_ray(s, o, r, &scale);
         if (!mesh_occluded(&s->meshes[o->u.mesh.id], &lr, tmax * scale)) return true;
         return filter_light(s, o->material, trans);
     }
@@ -469,6 +499,8 @@ static enum rayd_status find_emitters(rayd_scene *s, struct rayd_error *err) {
 }
 
 enum rayd_status scene_freeze(rayd_scene *s, struct rayd_error *err) {
+    s->opaque = true;
+    for (int i = 0; i < s->nmats; i++) s->opaque &= !(s->mats[i].transparency > 0);
     enum rayd_status st = split_unbounded(s, err);
     if (st != RAYD_OK || s->nobjs == 0) return st;
     st = scene_build_bvh(s, &s->objs, s->nobjs, &s->tlas, NULL, err);

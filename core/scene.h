@@ -57,6 +57,7 @@ struct rayd_scene {
     struct bvh4 tlas;      /* over objs */
     int32_t *emitters;     /* path tracer: emissive spheres, discs, quads of objs to sample */
     int nemitters;
+    bool opaque;           /* no material lets light through: shadows are 0 or 1 */
     bool brute;            /* tests only: every query tests every primitive */
 };
 
@@ -99,6 +100,14 @@ bool scene_intersect(const rayd_scene *s, const ray *r, double tmax, struct hit 
 /* Fraction of light that passes from the ray's origin to distance tmax:
  * 0 behind an opaque object, (transparency * color) per transparent one. */
 vec3 scene_transmittance(const rayd_scene *s, const ray *r, double tmax);
+
+/* The same two queries for the rays r[i] whose bit i is set in active, as
+ * a packet (scene_packet.c): ray i gets exactly what it would get alone.
+ * scene_intersect16 returns the mask of rays that hit. */
+uint32_t scene_intersect16(const rayd_scene *s, const ray r[16], const double tmax[16],
+                           uint32_t active, struct hit h[16]);
+void scene_transmittance16(const rayd_scene *s, const ray r[16], const double tmax[16],
+                           uint32_t active, vec3 out[16]);
 
 /* Point, normals and material of a hit of ray r. */
 void scene_surface(const rayd_scene *s, const ray *r, const struct hit *h, struct surface *sf);

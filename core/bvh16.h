@@ -1,0 +1,157 @@
+/* bvh16.h -- walking a bvh4 with 16 rays at once (AVX-512).
+ *
+ * The packet walk of Wald et al. (2001) on a 4-wide tree: every node is
+ * tested against all 16 rays of the packet at once, one child at a time,
+ * and the packet goes down into each child that at least one of its rays
+ * enters, carrying the mask of those rays.  Children are taken nearest
+ * first (by the nearest entry over the packet); a stack entry keeps each
+ * ray's entry distance, so a ray that found a nearer hit meanwhile drops out
+ * of it when it is popped.  For coherent rays (a 4x4 block of pixels, the
+ * shadow rays from it to a light) the node data is loaded once for 16 rays.
+ *
+ * Only the AVX-512 code lives here, compiled for that target whatever the
+ * build's -march (functions carry a target attribute), and used when the
+ * CPU has it (bvh16_available).  The leaf test is the caller's: it comes
+ * in as an always-inlined function, so each walk is specialised.
+ */
+#ifndef BVH16_H
+#define BVH16_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "bvh.h"
+
+/* True when the packet code runs with AVX-512 (built in, the CPU and OS
+ * have it, and not forced off); else packets loop over their rays. */
+bool bvh16_available(void);
+/* Tests: trace packets one ray at a time even where AVX-512 runs. */
+void packet_force_scalar(bool on);
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(RAYD_NO_SIMD)
+#define BVH16 1
+#include <immintrin.h>
+
+#define BVH16_FN __attribute__((target("avx512f"))) static inline
+#define BVH16_INLINE __attribute__((target("avx512f"), always_inline)) static inline
+
+/* 16 rays, one per lane, for the node test: the same floats as each ray's
+ * struct bvh_ray. */
+struct bvh16_ray {
+    __m512 org[3], inv[3];
+    __mmask16 neg[3];
+};
+
+BVH16_FN void bvh16_ray_init(struct bvh16_ray *p, const struct bvh_ray br[16]) {
+    float o[3][16], v[3][16];
+    for (int k = 0; k < 3; k++) {
+        unsigned neg = 0;
+        for (int i = 0; i < 16; i++) {
+            o[k][i] = br[i].org[k];
+            v[k][i] = br[i].inv[k];
+            neg |= (unsigned)br[i].neg[k] << i;
+        }
+        p->org[k] = _mm512_loadu_ps(o[k]);
+        p->inv[k] = _mm512_loadu_ps(v[k]);
+        p->neg[k] = (__mmask16)neg;
+    }
+}
+
+struct bvh16_entry {
+    __m512 tnear; /* each ray's entry distance */
+    uint32_t node;
+    uint8_t count; /* as in bvh4_node: 0 inner node, else a leaf */
+    __mmask16 lanes;
+};
+
+/* Child c of nd against the rays in lanes, for t in [0, tmax]: the mask of
+ * rays that enter it and their entry distances.  The same float operations
+ * as bvh4_test, lane by lane. */
+BVH16_FN __mmask16 bvh16_child(const struct bvh4_node *nd, int c, const struct bvh16_ray *r,
+                               __m512 tmax, __mmask16 lanes, __m512 *tnear) {
+    __m512 tn = _mm512_setzero_ps(), tf = tmax;
+    for (int k = 0; k < 3; k++) {
+        __m512 lo = _mm512_set1_ps(nd->lo[k][c]), hi = _mm512_set1_ps(nd->hi[k][c]);
+        __m512 near = _mm512_mask_blend_ps(r->neg[k], lo, hi);
+        __m512 far = _mm512_mask_blend_ps(r->neg[k], hi, lo);
+        tn = _mm512_max_ps(tn, _mm512_mul_ps(_mm512_sub_ps(near, r->org[k]), r->inv[k]));
+        tf = _mm512_min_ps(tf, _mm512_mul_ps(_mm512_sub_ps(far, r->org[k]), r->inv[k]));
+    }
+    tf = _mm512_mul_ps(tf, _mm512_set1_ps(1.0000004f));
+    *tnear = tn;
+    return _mm512_mask_cmp_ps_mask(lanes, tn, tf, _CMP_LE_OQ);
+}
+
+/* The leaf test: rays in lanes against leaf (first, count).  A nearest-hit
+ * leaf lowers the rays' bounds in *tm and returns 0; an any-hit leaf
+ * returns the rays it found blocked, which then leave the walk. */
+typedef __mmask16 (*bvh16_leaf_fn)(void *ctx, uint32_t first, uint32_t count, __mmask16 lanes,
+                                   __m512 *tm);
+
+/* Pushes inner node nd's children that rays in lanes enter (bounds tm)
+ * onto the stack, farthest first, and pops the nearest into *cur.  False
+ * when no ray enters any child. */
+BVH16_INLINE bool bvh16_descend(const struct bvh4_node *nd, const struct bvh16_ray *r, __m512 tm,
+                                struct bvh16_entry *cur, struct bvh16_entry *stack, int *sp) {
+    __m512 tmax = _mm512_mul_ps(tm, _mm512_set1_ps(BVH_SLACK));
+    int order[4], n = 0;
+    float key[4];
+    __m512 tn[4];
+    __mmask16 m[4];
+    for (int c = 0; c < 4; c++) {
+        if (nd->lo[0][c] > nd->hi[0][c]) continue; /* an empty slot */
+        m[c] = bvh16_child(nd, c, r, tmax, cur->lanes, &tn[c]);
+        if (!m[c]) continue;
+        float k = _mm512_mask_reduce_min_ps(m[c], tn[c]);
+        int j = n++;
+        while (j > 0 && key[j - 1] < k) { /* descending: the nearest last */
+            key[j] = key[j - 1];
+            order[j] = order[j - 1];
+            j--;
+        }
+        key[j] = k;
+        order[j] = c;
+    }
+    if (n == 0) return false;
+    for (int j = 0; j < n; j++) {
+        int c = order[j];
+        struct bvh16_entry *e = j == n - 1 ? cur : &stack[(*sp)++];
+        e->tnear = tn[c];
+        e->node = nd->child[c];
+        e->count = nd->count[c];
+        e->lanes = m[c];
+    }
+    return true;
+}
+
+/* Walks the tree with the rays in lanes; *tm holds their bounds (lowered
+ * by a nearest-hit leaf).  Returns the rays an any-hit leaf blocked. */
+BVH16_INLINE __mmask16 bvh16_walk(const struct bvh4 *bvh, const struct bvh16_ray *r, __m512 *tm,
+                                  __mmask16 lanes, bvh16_leaf_fn leaf, void *ctx) {
+    struct bvh16_entry stack[BVH_STACK], cur;
+    int sp = 0;
+    __mmask16 blocked = 0;
+    cur.node = 0;
+    cur.count = 0;
+    cur.lanes = lanes;
+    cur.tnear = _mm512_setzero_ps();
+    for (;;) {
+        if (cur.count == 0) {
+            if (bvh16_descend(&bvh->nodes[cur.node], r, *tm, &cur, stack, &sp)) continue;
+        } else {
+            blocked |= leaf(ctx, cur.node, cur.count, cur.lanes, tm);
+            lanes &= (__mmask16)~blocked;
+            if (!lanes) return blocked;
+        }
+        for (;;) { /* pop an entry some ray still needs */
+            if (sp == 0) return blocked;
+            cur = stack[--sp];
+            __m512 reach = _mm512_mul_ps(*tm, _mm512_set1_ps(BVH_SLACK));
+            cur.lanes = _mm512_mask_cmp_ps_mask(cur.lanes & lanes, cur.tnear, reach, _CMP_LE_OQ);
+            if (cur.lanes) break;
+        }
+    }
+}
+
+#endif /* BVH16 */
+#endif

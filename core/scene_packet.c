@@ -1,0 +1,198 @@
+/* scene_packet.c -- the scene's queries for 16 rays at once.
+ *
+ * A packet walks the top-level BVH with bvh16.h; at a leaf, mesh objects
+ * take the packet into their own BVH (mesh_packet.c) and every other
+ * object is asked ray by ray.  Each ray's search keeps its own state (the
+ * struct nearest of scene_query.h, its bound), so the order-free rules
+ * there give every ray the same hit as scene_intersect: the packet only
+ * shares the memory traffic and the node tests.
+ *
+ * Shadows go by packet when the scene is opaque (a ray is then either
+ * blocked or not, whichever blocker is met first); otherwise the product of
+ * the filters met would depend on their order, so those rays go one by
+ * one.  Without AVX-512 everything goes one by one.
+ */
+#include "bvh16.h"
+#include "scene.h"
+#include "scene_query.h"
+
+static uint32_t intersect_each(const rayd_scene *s, const ray r[16], const double tmax[16],
+                               uint32_t active, struct hit h[16]) {
+    uint32_t hit = 0;
+    for (int i = 0; i < 16; i++)
+        if (active >> i & 1 && scene_intersect(s, &r[i], tmax[i], &h[i])) hit |= 1u << i;
+    return hit;
+}
+
+static void transmittance_each(const rayd_scene *s, const ray r[16], const double tmax[16],
+                               uint32_t active, vec3 out[16]) {
+    for (int i = 0; i < 16; i++)
+        if (active >> i & 1) out[i] = scene_transmittance(s, &r[i], tmax[i]);
+}
+
+#ifdef BVH16
+
+struct scene16 {
+    const rayd_scene *s;
+    const ray *r;
+    double tmax[16];
+    struct nearest c[16];
+};
+
+/* Object o for the rays in lanes, nearest hit: meshes as a packet. */
+static void visit_nearest16(struct scene16 *q, const struct object *o, uint32_t lanes) {
+    if (o->kind != SHAPE_MESH) {
+        for (; lanes; lanes &= lanes - 1) {
+            int i = __builtin_ctz(lanes);
+            nearest_visit(&q->c[i], o, &q->tmax[i]);
+        }
+        return;
+    }
+    ray lr[16];
+    double bound[16], scale[16], lmax[16];
+    for (uint32_t m = lanes; m; m &= m - 1) {
+        int i = __builtin_ctz(m);
+        bound[i] = nearest_bound(&q->c[i], o, q->tmax[i]);
+        lr[i] = object_ray(q->s, o, &q->r[i], &scale[i]);
+        lmax[i] = bound[i] * scale[i];
+    }
+    struct mesh_hit mh[16];
+    uint32_t hit = mesh_intersect16(&q->s->meshes[o->u.mesh.id], lr, lmax, lanes, mh);
+    for (; hit; hit &= hit - 1) {
+        int i = __builtin_ctz(hit);
+        struct hit h;
+        double t = bound[i];
+        object_mesh_hit(o, NULL, &mh[i], scale[i], &t, &h);
+        nearest_take(&q->c[i], o, t, &h, &q->tmax[i]);
+    }
+}
+
+/* Object o for the rays in lanes, any hit: the rays it blocks (the scene
+ * is opaque). */
+static uint32_t visit_any16(const struct scene16 *q, const struct object *o, uint32_t lanes) {
+    uint32_t blocked = 0;
+    if (o->kind == SHAPE_MESH) {
+        ray lr[16];
+        double lmax[16];
+        for (uint32_t m = lanes; m; m &= m - 1) {
+            int i = __builtin_ctz(m);
+            double scale;
+            lr[i] = object_ray(q->s, o, &q->r[i], &scale);
+            lmax[i] = q->tmax[i] * scale;
+        }
+        return mesh_occluded16(&q->s->meshes[o->u.mesh.id], lr, lmax, lanes);
+    }
+    for (; lanes; lanes &= lanes - 1) {
+        int i = __builtin_ctz(lanes);
+        vec3 trans = v3(1, 1, 1);
+        if (!object_filter(q->s, o, &q->r[i], q->tmax[i], &trans)) blocked |= 1u << i;
+    }
+    return blocked;
+}
+
+/* Each ray's float bound for the node tests, as objects_walk has it. */
+BVH16_FN __m512 bounds16(const double tmax[16]) {
+    float f[16];
+    for (int i = 0; i < 16; i++) f[i] = tmax[i] > 3e38 ? 3e38f : (float)tmax[i];
+    return _mm512_loadu_ps(f);
+}
+
+BVH16_FN __mmask16 tlas_nearest(void *ctx, uint32_t first, uint32_t count, __mmask16 lanes,
+                                __m512 *tm) {
+    struct scene16 *q = ctx;
+    for (uint32_t k = first; k < first + count; k++) visit_nearest16(q, &q->s->objs[k], lanes);
+    *tm = bounds16(q->tmax);
+    return 0;
+}
+
+BVH16_FN __mmask16 tlas_any(void *ctx, uint32_t first, uint32_t count, __mmask16 lanes,
+                            __m512 *tm) {
+    const struct scene16 *q = ctx;
+    (void)tm;
+    __mmask16 blocked = 0;
+    for (uint32_t k = first; k < first + count && blocked != lanes; k++)
+        blocked |= (__mmask16)visit_any16(q, &q->s->objs[k], lanes & (__mmask16)~blocked);
+    return blocked;
+}
+
+/* The packet's rays for the node test (inactive lanes copy an active one). */
+BVH16_FN void rays16(const ray r[16], uint32_t active, struct bvh16_ray *p) {
+    struct bvh_ray br[16];
+    int first = __builtin_ctz(active);
+    for (int i = 0; i < 16; i++) {
+        const ray *ri = &r[active >> i & 1 ? i : first];
+        bvh_ray_init(&br[i], ri->o, ri->d);
+    }
+    bvh16_ray_init(p, br);
+}
+
+BVH16_FN uint32_t intersect16(const rayd_scene *s, const ray r[16], const double tmax[16],
+                              uint32_t active, struct hit h[16]) {
+    struct scene16 q = {.s = s, .r = r};
+    for (int i = 0; i < 16; i++) {
+        q.tmax[i] = tmax[i];
+        q.c[i] = (struct nearest){s, NULL, &r[i], &h[i], s->planes, 0, -1};
+    }
+    for (int32_t k = 0; k < s->nplanes; k++)
+        for (uint32_t m = active; m; m &= m - 1) {
+            int i = __builtin_ctz(m);
+            nearest_visit(&q.c[i], &s->planes[k], &q.tmax[i]);
+        }
+    for (int i = 0; i < 16; i++) {
+        q.c[i].base = s->objs;
+        q.c[i].rank0 = s->nplanes;
+    }
+    if (s->nobjs == 1) {
+        visit_nearest16(&q, &s->objs[0], active);
+    } else if (s->nobjs > 1) {
+        struct bvh16_ray br;
+        rays16(r, active, &br);
+        __m512 tm = bounds16(q.tmax);
+        bvh16_walk(&s->tlas, &br, &tm, (__mmask16)active, tlas_nearest, &q);
+    }
+    uint32_t hit = 0;
+    for (int i = 0; i < 16; i++)
+        if (active >> i & 1 && q.c[i].best >= 0) hit |= 1u << i;
+    return hit;
+}
+
+BVH16_FN void transmittance16(const rayd_scene *s, const ray r[16], const double tmax[16],
+                              uint32_t active, vec3 out[16]) {
+    struct scene16 q = {.s = s, .r = r};
+    for (int i = 0; i < 16; i++) q.tmax[i] = tmax[i];
+    uint32_t open = active;
+    for (int32_t k = 0; k < s->nplanes && open; k++) open &= ~visit_any16(&q, &s->planes[k], open);
+    if (open && s->nobjs == 1) {
+        open &= ~visit_any16(&q, &s->objs[0], open);
+    } else if (open && s->nobjs > 1) {
+        struct bvh16_ray br;
+        rays16(r, open, &br);
+        __m512 tm = bounds16(q.tmax);
+        open &= ~(uint32_t)bvh16_walk(&s->tlas, &br, &tm, (__mmask16)open, tlas_any, &q);
+    }
+    for (int i = 0; i < 16; i++)
+        if (active >> i & 1) out[i] = open >> i & 1 ? v3(1, 1, 1) : v3(0, 0, 0);
+}
+
+#endif
+
+uint32_t scene_intersect16(const rayd_scene *s, const ray r[16], const double tmax[16],
+                           uint32_t active, struct hit h[16]) {
+    if (!active) return 0;
+#ifdef BVH16
+    if (!s->brute && bvh16_available()) return intersect16(s, r, tmax, active, h);
+#endif
+    return intersect_each(s, r, tmax, active, h);
+}
+
+void scene_transmittance16(const rayd_scene *s, const ray r[16], const double tmax[16],
+                           uint32_t active, vec3 out[16]) {
+    if (!active) return;
+#ifdef BVH16
+    if (!s->brute && s->opaque && bvh16_available()) {
+        transmittance16(s, r, tmax, active, out);
+        return;
+    }
+#endif
+    transmittance_each(s, r, tmax, active, out);
+}

@@ -1,0 +1,45 @@
+/* scene_query.h -- what the one-ray queries of scene.c share with the
+ * 16-ray packets of scene_packet.c.
+ *
+ * A packet must give every ray exactly the answer the ray would get alone,
+ * though it visits objects in another order.  So the nearest-hit search is
+ * order-free: among hits at exactly equal t the object of lower rank wins
+ * (rank: its place in the scene's arrays, planes first), and its steps are
+ * here for the packet code to apply lane by lane.
+ */
+#ifndef SCENE_QUERY_H
+#define SCENE_QUERY_H
+
+#include "scene.h"
+
+struct nearest {
+    const rayd_scene *s;
+    const struct xform *outer;
+    const ray *r;
+    struct hit *h;
+    const struct object *base; /* rank of o: rank0 + (o - base) */
+    long rank0, best;          /* best: rank of the hit so far, -1 none */
+};
+
+/* The bound to search object o up to: *tmax, or just past it when o would
+ * win a tie with the best hit so far. */
+double nearest_bound(const struct nearest *c, const struct object *o, double tmax);
+/* Keeps object o's hit h at t unless the best so far is nearer. */
+void nearest_take(struct nearest *c, const struct object *o, double t, const struct hit *h,
+                  double *tmax);
+/* Both around object o's own query: an objects_walk visitor. */
+bool nearest_visit(void *ctx, const struct object *o, double *tmax);
+
+/* The ray in object o's space; *scale converts distances: t_obj = t * scale. */
+ray object_ray(const rayd_scene *s, const struct object *o, const ray *r, double *scale);
+
+/* Fills h (and *tmax, in world units) from mesh object o's hit mh. */
+void object_mesh_hit(const struct object *o, const struct xform *outer,
+                     const struct mesh_hit *mh, double scale, double *tmax, struct hit *h);
+
+/* Any hit of object o closer than tmax, through its material's filter:
+ * false when no light passes any more. */
+bool object_filter(const rayd_scene *s, const struct object *o, const ray *r, double tmax,
+                   vec3 *trans);
+
+#endif
