@@ -4,7 +4,7 @@
  * tested against all 16 rays of the packet at once, one child at a time,
  * and the packet goes down into each child that at least one of its rays
  * enters, carrying the mask of those rays.  Children are taken nearest
- * first (by the nearest entry over the packet); a stack entry keeps each
+ * first (by the entry distance of the packet's first ray in them); a stack entry keeps each
  * ray's entry distance, so a ray that found a nearer hit meanwhile drops out
  * of it when it is popped.  For coherent rays (a 4x4 block of pixels, the
  * shadow rays from it to a light) the node data is loaded once for 16 rays.
@@ -35,24 +35,51 @@ void packet_force_scalar(bool on);
 #define BVH16_FN __attribute__((target("avx512f"))) static inline
 #define BVH16_INLINE __attribute__((target("avx512f"), always_inline)) static inline
 
-/* 16 rays, one per lane, for the node test: the same floats as each ray's
- * struct bvh_ray. */
+/* 16 double rays as structure of arrays, 8 lanes to a register half;
+ * lanes not in the packet copy its first ray (they are masked off). */
+struct ray16d {
+    double o[3][16], d[3][16];
+};
+
+BVH16_FN void ray16d_load(struct ray16d *q, const ray r[16], uint32_t active) {
+    int first = __builtin_ctz(active);
+    for (int i = 0; i < 16; i++) {
+        const ray *ri = &r[active >> i & 1 ? i : first];
+        q->o[0][i] = ri->o.x, q->o[1][i] = ri->o.y, q->o[2][i] = ri->o.z;
+        q->d[0][i] = ri->d.x, q->d[1][i] = ri->d.y, q->d[2][i] = ri->d.z;
+    }
+}
+
+/* Two halves of 8 floats as one register of 16. */
+BVH16_FN __m512 join16(__m256 lo, __m256 hi) {
+    return _mm512_castpd_ps(
+        _mm512_insertf64x4(_mm512_castps_pd(_mm512_castps256_ps512(lo)), _mm256_castps_pd(hi), 1));
+}
+
+/* 16 rays, one per lane, for the node test: each lane the same floats as
+ * bvh_ray_init gives its ray (the same double operations, 8 at a time). */
 struct bvh16_ray {
     __m512 org[3], inv[3];
     __mmask16 neg[3];
 };
 
-BVH16_FN void bvh16_ray_init(struct bvh16_ray *p, const struct bvh_ray br[16]) {
-    float o[3][16], v[3][16];
+BVH16_FN void bvh16_ray_init(struct bvh16_ray *p, const struct ray16d *q) {
     for (int k = 0; k < 3; k++) {
+        __m256 org[2], inv[2];
         unsigned neg = 0;
-        for (int i = 0; i < 16; i++) {
-            o[k][i] = br[i].org[k];
-            v[k][i] = br[i].inv[k];
-            neg |= (unsigned)br[i].neg[k] << i;
+        for (int h = 0; h < 2; h++) {
+            __m512d d = _mm512_loadu_pd(q->d[k] + 8 * h);
+            __mmask8 tiny = _mm512_cmp_pd_mask(_mm512_abs_pd(d), _mm512_set1_pd(1e-30), _CMP_LT_OQ);
+            __m512i sign = _mm512_and_si512(_mm512_castpd_si512(d), _mm512_set1_epi64(INT64_MIN));
+            __m512d tiny_d = _mm512_castsi512_pd(
+                _mm512_or_si512(sign, _mm512_castpd_si512(_mm512_set1_pd(1e-30))));
+            __m512d c = _mm512_mask_blend_pd(tiny, d, tiny_d); /* copysign(1e-30, d) */
+            inv[h] = _mm512_cvtpd_ps(_mm512_div_pd(_mm512_set1_pd(1.0), c));
+            org[h] = _mm512_cvtpd_ps(_mm512_loadu_pd(q->o[k] + 8 * h));
+            neg |= (unsigned)_mm512_cmp_pd_mask(c, _mm512_setzero_pd(), _CMP_LT_OQ) << 8 * h;
         }
-        p->org[k] = _mm512_loadu_ps(o[k]);
-        p->inv[k] = _mm512_loadu_ps(v[k]);
+        p->org[k] = join16(org[0], org[1]);
+        p->inv[k] = join16(inv[0], inv[1]);
         p->neg[k] = (__mmask16)neg;
     }
 }

@@ -36,6 +36,7 @@ struct mesh16 {
     struct bvh16_ray br;
     __m512 org[3], sx, sy, sz;
     __mmask16 kx0, kx1, ky0, ky1, kz0, kz1; /* k == 0, k == 1, per lane */
+    int kx, ky, kz;                         /* >= 0: the same axes in every lane */
     __m512 t, u, v;                         /* the nearest hit so far */
     __m512i id, blk, lane;
     __mmask16 found;
@@ -57,14 +58,23 @@ BVH16_FN __mmask16 tri16(const struct mesh16 *q, const struct tri4 *b, int j, __
     __m512 d[3][3];
     for (int k = 0; k < 3; k++)
         for (int a = 0; a < 3; a++) d[k][a] = _mm512_sub_ps(_mm512_set1_ps(b->v[k][a][j]), q->org[a]);
-    __m512 az = pick(q->kz0, q->kz1, d[0]), bz = pick(q->kz0, q->kz1, d[1]),
-           cz = pick(q->kz0, q->kz1, d[2]);
-    __m512 ax = _mm512_sub_ps(pick(q->kx0, q->kx1, d[0]), _mm512_mul_ps(q->sx, az));
-    __m512 ay = _mm512_sub_ps(pick(q->ky0, q->ky1, d[0]), _mm512_mul_ps(q->sy, az));
-    __m512 bx = _mm512_sub_ps(pick(q->kx0, q->kx1, d[1]), _mm512_mul_ps(q->sx, bz));
-    __m512 by = _mm512_sub_ps(pick(q->ky0, q->ky1, d[1]), _mm512_mul_ps(q->sy, bz));
-    __m512 cx = _mm512_sub_ps(pick(q->kx0, q->kx1, d[2]), _mm512_mul_ps(q->sx, cz));
-    __m512 cy = _mm512_sub_ps(pick(q->ky0, q->ky1, d[2]), _mm512_mul_ps(q->sy, cz));
+    __m512 a[3][3]; /* vertex k's coordinates in each lane's frame: x, y, z */
+    for (int k = 0; k < 3; k++) {
+        if (q->kz >= 0) { /* the common case: one frame for the whole packet */
+            a[k][0] = d[k][q->kx], a[k][1] = d[k][q->ky], a[k][2] = d[k][q->kz];
+        } else {
+            a[k][0] = pick(q->kx0, q->kx1, d[k]);
+            a[k][1] = pick(q->ky0, q->ky1, d[k]);
+            a[k][2] = pick(q->kz0, q->kz1, d[k]);
+        }
+    }
+    __m512 az = a[0][2], bz = a[1][2], cz = a[2][2];
+    __m512 ax = _mm512_sub_ps(a[0][0], _mm512_mul_ps(q->sx, az));
+    __m512 ay = _mm512_sub_ps(a[0][1], _mm512_mul_ps(q->sy, az));
+    __m512 bx = _mm512_sub_ps(a[1][0], _mm512_mul_ps(q->sx, bz));
+    __m512 by = _mm512_sub_ps(a[1][1], _mm512_mul_ps(q->sy, bz));
+    __m512 cx = _mm512_sub_ps(a[2][0], _mm512_mul_ps(q->sx, cz));
+    __m512 cy = _mm512_sub_ps(a[2][1], _mm512_mul_ps(q->sy, cz));
     __m512 u = _mm512_sub_ps(_mm512_mul_ps(cx, by), _mm512_mul_ps(cy, bx));
     __m512 v = _mm512_sub_ps(_mm512_mul_ps(ax, cy), _mm512_mul_ps(ay, cx));
     __m512 w = _mm512_sub_ps(_mm512_mul_ps(bx, ay), _mm512_mul_ps(by, ax));
@@ -139,33 +149,68 @@ BVH16_FN __mmask16 leaf_any(void *ctx, uint32_t first, uint32_t count, __mmask16
     return hit;
 }
 
-/* Loads the packet: each lane's rays set up as the one-ray code does;
- * inactive lanes copy an active one (they are masked off throughout). */
+/* tri_ray_init for 8 lanes of q from lane 8h on, in double as it does:
+ * the dominant axis kz, kx and ky after it (swapped when d[kz] < 0), the
+ * shear.  m[a][v]: the lanes whose axis a (x, y, z) is v (0, 1). */
+BVH16_FN void shear8(const struct ray16d *q, int h, __m256 s[3], unsigned m[3][2]) {
+    __m512d d[3], ad[3];
+    for (int k = 0; k < 3; k++) {
+        d[k] = _mm512_loadu_pd(q->d[k] + 8 * h);
+        ad[k] = _mm512_abs_pd(d[k]);
+    }
+    __mmask8 xy = _mm512_cmp_pd_mask(ad[0], ad[1], _CMP_GT_OQ);
+    __mmask8 xz = _mm512_cmp_pd_mask(ad[0], ad[2], _CMP_GT_OQ);
+    __mmask8 yz = _mm512_cmp_pd_mask(ad[1], ad[2], _CMP_GT_OQ);
+    __mmask8 z0 = xy & xz, z1 = (__mmask8)(~xy & yz), z2 = (__mmask8) ~(z0 | z1);
+    __m512d dz = _mm512_mask_blend_pd(z0, _mm512_mask_blend_pd(z1, d[2], d[1]), d[0]);
+    __mmask8 sw = _mm512_cmp_pd_mask(dz, _mm512_setzero_pd(), _CMP_LT_OQ); /* swap kx, ky */
+    __mmask8 ns = (__mmask8)~sw;
+    /* without the swap kz 0, 1, 2 has kx 1, 2, 0 and ky 2, 0, 1 */
+    __mmask8 x0 = (z2 & ns) | (z1 & sw), x1 = (z0 & ns) | (z2 & sw);
+    __mmask8 y0 = (z1 & ns) | (z2 & sw), y1 = (z2 & ns) | (z0 & sw);
+    __m512d dx = _mm512_mask_blend_pd(x0, _mm512_mask_blend_pd(x1, d[2], d[1]), d[0]);
+    __m512d dy = _mm512_mask_blend_pd(y0, _mm512_mask_blend_pd(y1, d[2], d[1]), d[0]);
+    s[0] = _mm512_cvtpd_ps(_mm512_div_pd(dx, dz));
+    s[1] = _mm512_cvtpd_ps(_mm512_div_pd(dy, dz));
+    s[2] = _mm512_cvtpd_ps(_mm512_div_pd(_mm512_set1_pd(1.0), dz));
+    const __mmask8 w[3][2] = {{x0, x1}, {y0, y1}, {z0, z1}};
+    for (int a = 0; a < 3; a++)
+        for (int v = 0; v < 2; v++) m[a][v] |= (unsigned)w[a][v] << 8 * h;
+}
+
+/* Loads the packet: each lane's ray set up as the one-ray code does. */
 BVH16_FN void mesh16_init(struct mesh16 *q, const struct mesh *m, const ray r[16],
                           const double tmax[16], uint32_t active, bool any, __m512 *tm) {
-    struct bvh_ray br[16];
-    float org[3][16], sx[16], sy[16], sz[16], tb[16];
+    struct ray16d rd;
+    ray16d_load(&rd, r, active);
+    bvh16_ray_init(&q->br, &rd);
+    __m256 sh[2][3];
     unsigned kmask[3][2] = {{0, 0}, {0, 0}, {0, 0}};
+    shear8(&rd, 0, sh[0], kmask);
+    shear8(&rd, 1, sh[1], kmask);
+    q->sx = join16(sh[0][0], sh[1][0]);
+    q->sy = join16(sh[0][1], sh[1][1]);
+    q->sz = join16(sh[0][2], sh[1][2]);
+    for (int k = 0; k < 3; k++) q->org[k] = q->br.org[k]; /* the same (float) origin */
+    float tb[16];
     int first = __builtin_ctz(active);
     for (int i = 0; i < 16; i++) {
-        int l = active >> i & 1 ? i : first;
-        struct tri_ray tr;
-        bvh_ray_init(&br[i], r[l].o, r[l].d);
-        tri_ray_init(&tr, &r[l]);
-        for (int k = 0; k < 3; k++) org[k][i] = tr.org[k];
-        sx[i] = tr.sx, sy[i] = tr.sy, sz[i] = tr.sz;
-        int ks[3] = {tr.kx, tr.ky, tr.kz};
-        for (int a = 0; a < 3; a++)
-            for (int v = 0; v < 2; v++) kmask[a][v] |= (unsigned)(ks[a] == v) << i;
-        tb[i] = any ? tri_tmax_any(tmax[l]) : tri_tmax_nearest(tmax[l]);
+        double t = tmax[active >> i & 1 ? i : first];
+        tb[i] = any ? tri_tmax_any(t) : tri_tmax_nearest(t);
     }
     q->m = m;
-    bvh16_ray_init(&q->br, br);
-    for (int k = 0; k < 3; k++) q->org[k] = _mm512_loadu_ps(org[k]);
-    q->sx = _mm512_loadu_ps(sx), q->sy = _mm512_loadu_ps(sy), q->sz = _mm512_loadu_ps(sz);
     q->kx0 = (__mmask16)kmask[0][0], q->kx1 = (__mmask16)kmask[0][1];
     q->ky0 = (__mmask16)kmask[1][0], q->ky1 = (__mmask16)kmask[1][1];
     q->kz0 = (__mmask16)kmask[2][0], q->kz1 = (__mmask16)kmask[2][1];
+    q->kx = q->ky = q->kz = -1;
+    bool same = true;
+    int axis[3];
+    for (int k = 0; k < 3; k++) {
+        unsigned m0 = kmask[k][0], m1 = kmask[k][1];
+        same &= (m0 == 0 || m0 == 0xffffu) && (m1 == 0 || m1 == 0xffffu);
+        axis[k] = m0 ? 0 : m1 ? 1 : 2;
+    }
+    if (same) q->kx = axis[0], q->ky = axis[1], q->kz = axis[2];
     *tm = _mm512_loadu_ps(tb);
     q->t = q->u = q->v = _mm512_setzero_ps();
     q->id = q->blk = q->lane = _mm512_setzero_si512();

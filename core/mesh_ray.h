@@ -8,6 +8,9 @@
 #ifndef MESH_RAY_H
 #define MESH_RAY_H
 
+#include <stdint.h>
+#include <string.h>
+
 #include "vec.h"
 
 /* Slack on the acceptance test t <= tmax before the division (1 + 2^-20):
@@ -62,11 +65,27 @@ static inline void tri_edges_double(float ax, float ay, float bx, float by, floa
  * search started from; an any-hit query rounds down (a blocker within a
  * float step of the light is no blocker). */
 static inline float tri_tmax_nearest(double tmax) {
-    return tmax > 3e38 ? 3e38f : nextafterf((float)tmax, INFINITY);
+    if (tmax > 3e38) return 3e38f;
+    float f = (float)tmax; /* then nextafterf(f, INFINITY), without a call */
+    if (f != f) return f;
+    if (f == 0) return 0x1p-149f;
+    uint32_t u;
+    memcpy(&u, &f, sizeof u);
+    u += f > 0 ? 1 : (uint32_t)-1;
+    memcpy(&f, &u, sizeof f);
+    return f;
 }
 
 static inline float tri_tmax_any(double tmax) {
-    return tmax > 3e38 ? 3e38f : nextafterf((float)tmax, 0);
+    if (tmax > 3e38) return 3e38f;
+    float f = (float)tmax; /* then nextafterf(f, 0) */
+    if (f != f) return f;
+    if (f == 0) return 0;
+    uint32_t u;
+    memcpy(&u, &f, sizeof u);
+    u--;
+    memcpy(&f, &u, sizeof f);
+    return f;
 }
 
 #endif

@@ -115,15 +115,11 @@ BVH16_FN __mmask16 tlas_any(void *ctx, uint32_t first, uint32_t count, __mmask16
     return blocked;
 }
 
-/* The packet's rays for the node test (inactive lanes copy an active one). */
+/* The packet's rays for the node test. */
 BVH16_FN void rays16(const ray r[16], uint32_t active, struct bvh16_ray *p) {
-    struct bvh_ray br[16];
-    int first = __builtin_ctz(active);
-    for (int i = 0; i < 16; i++) {
-        const ray *ri = &r[active >> i & 1 ? i : first];
-        bvh_ray_init(&br[i], ri->o, ri->d);
-    }
-    bvh16_ray_init(p, br);
+    struct ray16d rd;
+    ray16d_load(&rd, r, active);
+    bvh16_ray_init(p, &rd);
 }
 
 BVH16_FN uint32_t intersect16(const rayd_scene *s, const ray r[16], const double tmax[16],
