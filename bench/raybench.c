@@ -1,6 +1,7 @@
 /* raybench -- ray throughput of the core on one scene.
  *
  *   raybench SCENE.json [--width W] [--height H] [--runs N] [--threads-max T] [--cpu-time]
+ *            [--packets-only]
  *
  * Loads the scene (timing parse + BVH build), then casts, RUNS times each,
  * and reports the median:
@@ -182,18 +183,19 @@ static double median(double *v, int n) {
 
 int main(int argc, char **argv) {
     const char *path = NULL;
-    int w = 1920, h = 1080, runs = 3, tmax = 2;
+    int w = 1920, h = 1080, runs = 3, tmax = 2, packets_only = 0;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--width") && i + 1 < argc) w = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--height") && i + 1 < argc) h = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--runs") && i + 1 < argc) runs = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--threads-max") && i + 1 < argc) tmax = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--cpu-time")) use_cpu_time = true;
+        else if (!strcmp(argv[i], "--packets-only")) packets_only = 1;
         else path = argv[i];
     }
     if (!path || w <= 0 || h <= 0 || runs <= 0 || runs > 99 || tmax < 1 || tmax > 64) {
         fprintf(stderr, "usage: raybench SCENE.json [--width W] [--height H] [--runs N] [--threads-max T]"
-                        " [--cpu-time]\n");
+                        " [--cpu-time] [--packets-only]\n");
         return 2;
     }
     size_t len;
@@ -273,7 +275,7 @@ int main(int argc, char **argv) {
     if (tris) printf("bytes_per_triangle %.1f\n", (double)mesh_bytes_total / (double)tris);
     int thread_counts[2] = {1, tmax};
     for (int ti = 0; ti < (tmax > 1 ? 2 : 1); ti++) {
-        for (int packets = 0; packets <= 1; packets++) {
+        for (int packets = packets_only; packets <= 1; packets++) {
             for (int shadow = 0; shadow <= 1; shadow++) {
                 double rate[99];
                 long count = 0, hits = 0;

@@ -32,8 +32,11 @@ void packet_force_scalar(bool on);
 #define BVH16 1
 #include <immintrin.h>
 
-#define BVH16_FN __attribute__((target("avx512f"))) static inline
-#define BVH16_INLINE __attribute__((target("avx512f"), always_inline)) static inline
+/* Skylake-server's set: AVX-512 F, DQ, BW, VL with the AVX2 generation
+ * beside it (BMI, popcount), all checked at run time by bvh16_available. */
+#define BVH16_TARGET "avx512f,avx512dq,avx512bw,avx512vl,avx2,bmi,bmi2,popcnt"
+#define BVH16_FN __attribute__((target(BVH16_TARGET))) static inline
+#define BVH16_INLINE __attribute__((target(BVH16_TARGET), always_inline)) static inline
 
 /* 16 double rays as structure of arrays, 8 lanes to a register half;
  * lanes not in the packet copy its first ray (they are masked off). */
@@ -57,30 +60,27 @@ BVH16_FN __m512 join16(__m256 lo, __m256 hi) {
 }
 
 /* 16 rays, one per lane, for the node test: each lane the same floats as
- * bvh_ray_init gives its ray (the same double operations, 8 at a time). */
+ * bvh_ray_init gives its ray (the same operations). */
 struct bvh16_ray {
     __m512 org[3], inv[3];
     __mmask16 neg[3];
+    int sign[3]; /* 1 every ray's direction negative on the axis, 0 none, -1 mixed */
 };
 
 BVH16_FN void bvh16_ray_init(struct bvh16_ray *p, const struct ray16d *q) {
     for (int k = 0; k < 3; k++) {
-        __m256 org[2], inv[2];
-        unsigned neg = 0;
-        for (int h = 0; h < 2; h++) {
-            __m512d d = _mm512_loadu_pd(q->d[k] + 8 * h);
-            __mmask8 tiny = _mm512_cmp_pd_mask(_mm512_abs_pd(d), _mm512_set1_pd(1e-30), _CMP_LT_OQ);
-            __m512i sign = _mm512_and_si512(_mm512_castpd_si512(d), _mm512_set1_epi64(INT64_MIN));
-            __m512d tiny_d = _mm512_castsi512_pd(
-                _mm512_or_si512(sign, _mm512_castpd_si512(_mm512_set1_pd(1e-30))));
-            __m512d c = _mm512_mask_blend_pd(tiny, d, tiny_d); /* copysign(1e-30, d) */
-            inv[h] = _mm512_cvtpd_ps(_mm512_div_pd(_mm512_set1_pd(1.0), c));
-            org[h] = _mm512_cvtpd_ps(_mm512_loadu_pd(q->o[k] + 8 * h));
-            neg |= (unsigned)_mm512_cmp_pd_mask(c, _mm512_setzero_pd(), _CMP_LT_OQ) << 8 * h;
-        }
-        p->org[k] = join16(org[0], org[1]);
-        p->inv[k] = join16(inv[0], inv[1]);
-        p->neg[k] = (__mmask16)neg;
+        __m512 c = join16(_mm512_cvtpd_ps(_mm512_loadu_pd(q->d[k])),
+                          _mm512_cvtpd_ps(_mm512_loadu_pd(q->d[k] + 8)));
+        __mmask16 tiny = _mm512_cmp_ps_mask(_mm512_abs_ps(c), _mm512_set1_ps(1e-30f), _CMP_LT_OQ);
+        __m512i sign = _mm512_and_si512(_mm512_castps_si512(c), _mm512_set1_epi32(INT32_MIN));
+        __m512 tiny_c = _mm512_castsi512_ps(
+            _mm512_or_si512(sign, _mm512_castps_si512(_mm512_set1_ps(1e-30f))));
+        c = _mm512_mask_blend_ps(tiny, c, tiny_c); /* copysignf(1e-30f, c) */
+        p->inv[k] = _mm512_div_ps(_mm512_set1_ps(1.0f), c);
+        p->org[k] = join16(_mm512_cvtpd_ps(_mm512_loadu_pd(q->o[k])),
+                           _mm512_cvtpd_ps(_mm512_loadu_pd(q->o[k] + 8)));
+        p->neg[k] = _mm512_cmp_ps_mask(c, _mm512_setzero_ps(), _CMP_LT_OQ);
+        p->sign[k] = p->neg[k] == 0xffff ? 1 : p->neg[k] == 0 ? 0 : -1;
     }
 }
 
@@ -98,9 +98,15 @@ BVH16_FN __mmask16 bvh16_child(const struct bvh4_node *nd, int c, const struct b
                                __m512 tmax, __mmask16 lanes, __m512 *tnear) {
     __m512 tn = _mm512_setzero_ps(), tf = tmax;
     for (int k = 0; k < 3; k++) {
-        __m512 lo = _mm512_set1_ps(nd->lo[k][c]), hi = _mm512_set1_ps(nd->hi[k][c]);
-        __m512 near = _mm512_mask_blend_ps(r->neg[k], lo, hi);
-        __m512 far = _mm512_mask_blend_ps(r->neg[k], hi, lo);
+        __m512 near, far;
+        if (r->sign[k] >= 0) { /* the common case: one sign for the whole packet */
+            near = _mm512_set1_ps(r->sign[k] ? nd->hi[k][c] : nd->lo[k][c]);
+            far = _mm512_set1_ps(r->sign[k] ? nd->lo[k][c] : nd->hi[k][c]);
+        } else {
+            __m512 lo = _mm512_set1_ps(nd->lo[k][c]), hi = _mm512_set1_ps(nd->hi[k][c]);
+            near = _mm512_mask_blend_ps(r->neg[k], lo, hi);
+            far = _mm512_mask_blend_ps(r->neg[k], hi, lo);
+        }
         tn = _mm512_max_ps(tn, _mm512_mul_ps(_mm512_sub_ps(near, r->org[k]), r->inv[k]));
         tf = _mm512_min_ps(tf, _mm512_mul_ps(_mm512_sub_ps(far, r->org[k]), r->inv[k]));
     }

@@ -28,7 +28,10 @@ void packet_force_scalar(bool on) {
 
 bool bvh16_available(void) {
     return !atomic_load_explicit(&force_scalar, memory_order_relaxed) &&
-           __builtin_cpu_supports("avx512f");
+           __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
+           __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512vl") &&
+           __builtin_cpu_supports("avx2") && __builtin_cpu_supports("bmi") &&
+           __builtin_cpu_supports("bmi2") && __builtin_cpu_supports("popcnt");
 }
 
 struct mesh16 {
@@ -150,8 +153,9 @@ BVH16_FN __mmask16 leaf_any(void *ctx, uint32_t first, uint32_t count, __mmask16
 }
 
 /* tri_ray_init for 8 lanes of q from lane 8h on, in double as it does:
- * the dominant axis kz, kx and ky after it (swapped when d[kz] < 0), the
- * shear.  m[a][v]: the lanes whose axis a (x, y, z) is v (0, 1). */
+ * the dominant axis kz, kx and ky after it (swapped when d[kz] < 0), and
+ * the shear s (x, y, z).  m[a][v]: the lanes whose axis a (x, y, z) is v
+ * (0, 1). */
 BVH16_FN void shear8(const struct ray16d *q, int h, __m256 s[3], unsigned m[3][2]) {
     __m512d d[3], ad[3];
     for (int k = 0; k < 3; k++) {
