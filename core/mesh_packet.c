@@ -182,6 +182,26 @@ BVH16_FN void shear8(const struct ray16d *q, int h, __m256 s[3], unsigned m[3][2
         for (int v = 0; v < 2; v++) m[a][v] |= (unsigned)w[a][v] << 8 * h;
 }
 
+/* tri_tmax_nearest (any: tri_tmax_any) of each lane's tmax, 16 at once. */
+BVH16_FN __m512 bounds16(const double tmax[16], uint32_t active, bool any) {
+    double t[16];
+    int first = __builtin_ctz(active);
+    for (int i = 0; i < 16; i++) t[i] = tmax[active >> i & 1 ? i : first];
+    __m512d lo = _mm512_loadu_pd(t), hi = _mm512_loadu_pd(t + 8);
+    __m512 f = join16(_mm512_cvtpd_ps(lo), _mm512_cvtpd_ps(hi));
+    __mmask16 big = (__mmask16)(_mm512_cmp_pd_mask(lo, _mm512_set1_pd(3e38), _CMP_GT_OQ) |
+                                (unsigned)_mm512_cmp_pd_mask(hi, _mm512_set1_pd(3e38), _CMP_GT_OQ) << 8);
+    __m512 zero = _mm512_setzero_ps();
+    __mmask16 nan = _mm512_cmp_ps_mask(f, f, _CMP_UNORD_Q), is0 = _mm512_cmp_ps_mask(f, zero, _CMP_EQ_OQ);
+    __mmask16 down = any ? 0xffff : _mm512_cmp_ps_mask(f, zero, _CMP_LT_OQ); /* bits - 1 */
+    __m512i bits = _mm512_castps_si512(f), one = _mm512_set1_epi32(1);
+    bits = _mm512_mask_sub_epi32(_mm512_add_epi32(bits, one), down, bits, one);
+    __m512 r = _mm512_castsi512_ps(bits);
+    r = _mm512_mask_mov_ps(r, is0, any ? zero : _mm512_set1_ps(0x1p-149f));
+    r = _mm512_mask_mov_ps(r, nan, f);
+    return _mm512_mask_mov_ps(r, big, _mm512_set1_ps(3e38f));
+}
+
 /* Loads the packet: each lane's ray set up as the one-ray code does. */
 BVH16_FN void mesh16_init(struct mesh16 *q, const struct mesh *m, const ray r[16],
                           const double tmax[16], uint32_t active, bool any, __m512 *tm) {
@@ -196,12 +216,7 @@ BVH16_FN void mesh16_init(struct mesh16 *q, const struct mesh *m, const ray r[16
     q->sy = join16(sh[0][1], sh[1][1]);
     q->sz = join16(sh[0][2], sh[1][2]);
     for (int k = 0; k < 3; k++) q->org[k] = q->br.org[k]; /* the same (float) origin */
-    float tb[16];
-    int first = __builtin_ctz(active);
-    for (int i = 0; i < 16; i++) {
-        double t = tmax[active >> i & 1 ? i : first];
-        tb[i] = any ? tri_tmax_any(t) : tri_tmax_nearest(t);
-    }
+    *tm = bounds16(tmax, active, any);
     q->m = m;
     q->kx0 = (__mmask16)kmask[0][0], q->kx1 = (__mmask16)kmask[0][1];
     q->ky0 = (__mmask16)kmask[1][0], q->ky1 = (__mmask16)kmask[1][1];
@@ -215,7 +230,6 @@ BVH16_FN void mesh16_init(struct mesh16 *q, const struct mesh *m, const ray r[16
         axis[k] = m0 ? 0 : m1 ? 1 : 2;
     }
     if (same) q->kx = axis[0], q->ky = axis[1], q->kz = axis[2];
-    *tm = _mm512_loadu_ps(tb);
     q->t = q->u = q->v = _mm512_setzero_ps();
     q->id = q->blk = q->lane = _mm512_setzero_si512();
     q->found = 0;

@@ -60,12 +60,7 @@ void rayd_scene_free(rayd_scene *s) {
 
 /* ---- object space ---------------------------------------------------------- */
 
-ray object_ray(const rayd_scene *s, const struct object *o, const ray *r,
-                            double *scale) {
-    if (o->xform < 0) {
-        *scale = 1;
-        return *r;
-    }
+ray object_ray_xform(const rayd_scene *s, const struct object *o, const ray *r, double *scale) {
     const struct xform *x = &s->xforms[o->xform];
     vec3 d = xform_inv_dir(x, r->d);
     double len = v3_len(d);
@@ -272,28 +267,12 @@ static void objects_walk(const struct object *objs, int32_t n, const struct bvh4
     }
 }
 
-/* The next double above a non-negative t (t itself if infinite): the bound
- * that lets an object tie the best hit so far. */
-static inline double next_up(double t) {
-    if (!(t >= 0) || t == INFINITY) return t;
-    uint64_t u;
-    memcpy(&u, &t, sizeof u);
-    u++;
-    memcpy(&t, &u, sizeof t);
-    return t;
-}
-
-double nearest_bound(const struct nearest *c, const struct object *o, double tmax) {
-    long rank = c->rank0 + (long)(o - c->base);
-    return c->best >= 0 && rank < c->best ? next_up(tmax) : tmax;
-}
-
 void nearest_take(struct nearest *c, const struct object *o, double t, const struct hit *h,
                   double *tmax) {
     if (t > *tmax) return;
     *tmax = t;
     *c->h = *h;
-    c->best = c->rank0 + (long)(o - c->base);
+    c->best = nearest_rank(c, o);
 }
 
 bool nearest_visit(void *ctx, const struct object *o, double *tmax) {

@@ -50,20 +50,21 @@ static void visit_nearest16(struct scene16 *q, const struct object *o, uint32_t 
     }
     ray lr[16];
     double bound[16], scale[16], lmax[16];
+    bool moved = o->xform >= 0; /* else the rays are already in object space */
     for (uint32_t m = lanes; m; m &= m - 1) {
         int i = __builtin_ctz(m);
         bound[i] = nearest_bound(&q->c[i], o, q->tmax[i]);
-        lr[i] = object_ray(q->s, o, &q->r[i], &scale[i]);
+        scale[i] = 1;
+        if (moved) lr[i] = object_ray_xform(q->s, o, &q->r[i], &scale[i]);
         lmax[i] = bound[i] * scale[i];
     }
     struct mesh_hit mh[16];
-    uint32_t hit = mesh_intersect16(&q->s->meshes[o->u.mesh.id], lr, lmax, lanes, mh);
-    for (; hit; hit &= hit - 1) {
+    uint32_t hit = mesh_intersect16(&q->s->meshes[o->u.mesh.id], moved ? lr : q->r, lmax, lanes, mh);
+    for (; hit; hit &= hit - 1) { /* nearest_take, writing in place */
         int i = __builtin_ctz(hit);
-        struct hit h;
-        double t = bound[i];
-        object_mesh_hit(o, NULL, &mh[i], scale[i], &t, &h);
-        nearest_take(&q->c[i], o, t, &h, &q->tmax[i]);
+        if (mh[i].t / scale[i] > q->tmax[i]) continue;
+        object_mesh_hit(o, NULL, &mh[i], scale[i], &q->tmax[i], q->c[i].h);
+        q->c[i].best = nearest_rank(&q->c[i], o);
     }
 }
 

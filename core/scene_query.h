@@ -10,6 +10,8 @@
 #ifndef SCENE_QUERY_H
 #define SCENE_QUERY_H
 
+#include <string.h>
+
 #include "scene.h"
 
 struct nearest {
@@ -21,9 +23,25 @@ struct nearest {
     long rank0, best;          /* best: rank of the hit so far, -1 none */
 };
 
-/* The bound to search object o up to: *tmax, or just past it when o would
+static inline long nearest_rank(const struct nearest *c, const struct object *o) {
+    return c->rank0 + (long)(o - c->base);
+}
+
+/* The next double above a non-negative t (t itself if infinite). */
+static inline double next_up(double t) {
+    if (!(t >= 0) || t == INFINITY) return t;
+    uint64_t u;
+    memcpy(&u, &t, sizeof u);
+    u++;
+    memcpy(&t, &u, sizeof t);
+    return t;
+}
+
+/* The bound to search object o up to: tmax, or just past it when o would
  * win a tie with the best hit so far. */
-double nearest_bound(const struct nearest *c, const struct object *o, double tmax);
+static inline double nearest_bound(const struct nearest *c, const struct object *o, double tmax) {
+    return c->best >= 0 && nearest_rank(c, o) < c->best ? next_up(tmax) : tmax;
+}
 /* Keeps object o's hit h at t unless the best so far is nearer. */
 void nearest_take(struct nearest *c, const struct object *o, double t, const struct hit *h,
                   double *tmax);
@@ -31,7 +49,14 @@ void nearest_take(struct nearest *c, const struct object *o, double t, const str
 bool nearest_visit(void *ctx, const struct object *o, double *tmax);
 
 /* The ray in object o's space; *scale converts distances: t_obj = t * scale. */
-ray object_ray(const rayd_scene *s, const struct object *o, const ray *r, double *scale);
+ray object_ray_xform(const rayd_scene *s, const struct object *o, const ray *r, double *scale);
+
+static inline ray object_ray(const rayd_scene *s, const struct object *o, const ray *r,
+                             double *scale) {
+    if (o->xform >= 0) return object_ray_xform(s, o, r, scale);
+    *scale = 1;
+    return *r;
+}
 
 /* Fills h (and *tmax, in world units) from mesh object o's hit mh. */
 void object_mesh_hit(const struct object *o, const struct xform *outer,
