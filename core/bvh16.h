@@ -127,27 +127,29 @@ typedef __mmask16 (*bvh16_leaf_fn)(void *ctx, uint32_t first, uint32_t count, __
 BVH16_INLINE bool bvh16_descend(const struct bvh4_node *nd, const struct bvh16_ray *r, __m512 tm,
                                 struct bvh16_entry *cur, struct bvh16_entry *stack, int *sp) {
     __m512 tmax = _mm512_mul_ps(tm, _mm512_set1_ps(BVH_SLACK));
-    int order[4], n = 0;
-    float key[4];
+    int hit[4], n = 0;
     __m512 tn[4];
     __mmask16 m[4];
     for (int c = 0; c < 4; c++) {
         if (nd->lo[0][c] > nd->hi[0][c]) continue; /* an empty slot */
         m[c] = bvh16_child(nd, c, r, tmax, cur->lanes, &tn[c]);
-        if (!m[c]) continue;
-        float k = _mm512_mask_reduce_min_ps(m[c], tn[c]);
-        int j = n++;
-        while (j > 0 && key[j - 1] < k) { /* descending: the nearest last */
-            key[j] = key[j - 1];
-            order[j] = order[j - 1];
-            j--;
-        }
-        key[j] = k;
-        order[j] = c;
+        if (m[c]) hit[n++] = c;
     }
     if (n == 0) return false;
+    if (n > 1) { /* nearest last, by the packet's nearest entry */
+        float key[4];
+        for (int j = 0; j < n; j++) /* the first ray's entry: cheaper than the packet's nearest */
+            key[j] = _mm512_cvtss_f32(_mm512_maskz_compress_ps(m[hit[j]], tn[hit[j]]));
+        for (int j = 1; j < n; j++)
+            for (int i = j; i > 0 && key[i - 1] < key[i]; i--) {
+                float kt = key[i];
+                key[i] = key[i - 1], key[i - 1] = kt;
+                int ht = hit[i];
+                hit[i] = hit[i - 1], hit[i - 1] = ht;
+            }
+    }
     for (int j = 0; j < n; j++) {
-        int c = order[j];
+        int c = hit[j];
         struct bvh16_entry *e = j == n - 1 ? cur : &stack[(*sp)++];
         e->tnear = tn[c];
         e->node = nd->child[c];
