@@ -33,10 +33,23 @@ struct bnode {
     bool leaf;
 };
 
+/* A primitive's box with its id, 32 bytes: the builder moves these (not
+ * indices into the caller's boxes), so every pass reads memory in order. */
+struct prim {
+    float lo[3];
+    uint32_t id;
+    float hi[3];
+    int32_t bin; /* set by the binning pass, read by the partition after it */
+};
+
+/* A box of primitives and the box of their centroids (times 2), which the
+ * partition that made a node measured on the way. */
+struct span {
+    struct bbox box, cent;
+};
+
 struct build {
-    const struct bbox *boxes;
-    float (*cent)[3];   /* centroid of each primitive (times 2) */
-    uint32_t *ids;      /* primitive order, partitioned in place */
+    struct prim *prims;
     struct bnode *nodes;
     atomic_uint used;
 };
@@ -46,11 +59,17 @@ static struct bbox bb_empty(void) {
     return b;
 }
 
-static void bb_grow(struct bbox *b, const struct bbox *o) {
+static inline void bb_grow(struct bbox *b, const float lo[3], const float hi[3]) {
     for (int k = 0; k < 3; k++) {
-        b->lo[k] = o->lo[k] < b->lo[k] ? o->lo[k] : b->lo[k];
-        b->hi[k] = o->hi[k] > b->hi[k] ? o->hi[k] : b->hi[k];
+        b->lo[k] = lo[k] < b->lo[k] ? lo[k] : b->lo[k];
+        b->hi[k] = hi[k] > b->hi[k] ? hi[k] : b->hi[k];
     }
+}
+
+static inline void span_add(struct span *s, const struct prim *p) {
+    float c[3] = {p->lo[0] + p->hi[0], p->lo[1] + p->hi[1], p->lo[2] + p->hi[2]};
+    bb_grow(&s->box, p->lo, p->hi);
+    bb_grow(&s->cent, c, c);
 }
 
 static float bb_area(const struct bbox *b) {
@@ -71,31 +90,171 @@ struct bbox bbox_from(vec3 lo, vec3 hi) {
     return b;
 }
 
-static int bin_of(float c, float lo, float scale) {
-    int k = (int)((c - lo) * scale);
+static inline int bin_of(const struct prim *p, int axis, float lo, float scale) {
+    int k = (int)((p->lo[axis] + p->hi[axis] - lo) * scale);
     return k < 0 ? 0 : k >= BINS ? BINS - 1 : k;
 }
 
-/* Binned SAH split of ids[0..n) on axis; returns the number going left, or
- * 0 when a leaf is cheaper. */
-static uint32_t split_sah(struct build *b, uint32_t *ids, uint32_t n, int axis, float clo,
-                          float chi, const struct bbox *box) {
-    float scale = BINS / (chi - clo) * 0.99999f;
-    uint32_t count[BINS] = {0};
-    struct bbox bin[BINS];
-    for (int i = 0; i < BINS; i++) bin[i] = bb_empty();
-    for (uint32_t i = 0; i < n; i++) {
-        int k = bin_of(b->cent[ids[i]][axis], clo, scale);
-        count[k]++;
-        bb_grow(&bin[k], &b->boxes[ids[i]]);
+/* Moves the primitives of bin < plane (the bins sah_plane left in them)
+ * to the front; returns their number. */
+static uint32_t partition(struct prim *p, uint32_t n, int plane) {
+    uint32_t i = 0, j = n;
+    while (i < j) {
+        if (p[i].bin < plane) {
+            i++;
+        } else {
+            struct prim t = p[i];
+            p[i] = p[--j];
+            p[j] = t;
+        }
     }
+    return i;
+}
+
+#ifdef BVH_SSE
+/* Binning and spans with SSE: a primitive's lo and hi are one load each
+ * (lane 3, the id and the bin, masked off where it is summed); binning
+ * rotates over four sets of bins so that neighbours falling in the same
+ * bin (a mesh's triangles come in spatial order) do not wait on each
+ * other. */
+static inline __m128 xyz(__m128 v) {
+    return _mm_and_ps(v, _mm_castsi128_ps(_mm_set_epi32(0, -1, -1, -1)));
+}
+
+struct acc4 {
+    __m128 lo, hi, clo, chi;
+};
+
+static inline void acc4_init(struct acc4 *a) {
+    a->lo = a->clo = _mm_set1_ps(INFINITY);
+    a->hi = a->chi = _mm_set1_ps(-INFINITY);
+}
+
+static inline void acc4_grow(struct acc4 *a, __m128 lo, __m128 hi) {
+    __m128 c = _mm_add_ps(xyz(lo), xyz(hi));
+    a->lo = _mm_min_ps(a->lo, lo), a->hi = _mm_max_ps(a->hi, hi);
+    a->clo = _mm_min_ps(a->clo, c), a->chi = _mm_max_ps(a->chi, c);
+}
+
+static inline void acc4_add(struct acc4 *a, const struct prim *p) {
+    acc4_grow(a, _mm_loadu_ps(p->lo), _mm_loadu_ps(p->hi));
+}
+
+static inline void acc4_merge(struct acc4 *a, const struct acc4 *b) {
+    a->lo = _mm_min_ps(a->lo, b->lo), a->hi = _mm_max_ps(a->hi, b->hi);
+    a->clo = _mm_min_ps(a->clo, b->clo), a->chi = _mm_max_ps(a->chi, b->chi);
+}
+
+static inline void acc4_store(const struct acc4 *a, struct span *s) {
+    float v[4][4];
+    _mm_storeu_ps(v[0], a->lo), _mm_storeu_ps(v[1], a->hi);
+    _mm_storeu_ps(v[2], a->clo), _mm_storeu_ps(v[3], a->chi);
+    memcpy(s->box.lo, v[0], sizeof s->box.lo), memcpy(s->box.hi, v[1], sizeof s->box.hi);
+    memcpy(s->cent.lo, v[2], sizeof s->cent.lo), memcpy(s->cent.hi, v[3], sizeof s->cent.hi);
+}
+
+/* Half the surface area of box [lo, hi] (only the order of costs matters). */
+static inline float area4(__m128 lo, __m128 hi) {
+    __m128 d = _mm_sub_ps(hi, lo);
+    __m128 r = _mm_shuffle_ps(d, d, _MM_SHUFFLE(3, 0, 2, 1)); /* dy dz dx */
+    __m128 m = _mm_mul_ps(d, r);                              /* dx*dy dy*dz dz*dx */
+    float v[4];
+    _mm_storeu_ps(v, m);
+    return v[0] + v[1] + v[2];
+}
+
+/* sah_best on SSE bins (the same costs, in the same order). */
+static int sah_best4(const struct acc4 bin[BINS], const uint32_t count[BINS], struct span *left,
+                     struct span *right) {
+    float left_area[BINS];
+    uint32_t left_n[BINS], acc_n = 0;
+    struct acc4 a;
+    acc4_init(&a);
+    for (int k = 0; k < BINS - 1; k++) {
+        acc4_merge(&a, &bin[k]);
+        acc_n += count[k];
+        left_area[k] = area4(a.lo, a.hi);
+        left_n[k] = acc_n;
+    }
+    float best = INFINITY;
+    int best_k = -1;
+    acc4_init(&a);
+    acc_n = 0;
+    for (int k = BINS - 1; k > 0; k--) {
+        acc4_merge(&a, &bin[k]);
+        acc_n += count[k];
+        float cost = left_area[k - 1] * (float)left_n[k - 1] + area4(a.lo, a.hi) * (float)acc_n;
+        if (left_n[k - 1] > 0 && acc_n > 0 && cost < best) {
+            best = cost;
+            best_k = k;
+        }
+    }
+    if (best_k < 0) return -1;
+    struct acc4 l, r;
+    acc4_init(&l);
+    acc4_init(&r);
+    for (int k = 0; k < BINS; k++) acc4_merge(k < best_k ? &l : &r, &bin[k]);
+    acc4_store(&l, left);
+    acc4_store(&r, right);
+    return best_k;
+}
+
+/* The best binned-SAH plane on axis (sah_best), with the two sides' spans. */
+static int sah_plane(struct prim *p, uint32_t n, int axis, float clo, float scale,
+                     struct span *left, struct span *right) {
+    enum { SETS = 4 };
+    uint32_t cnt[SETS][BINS], sets = n >= 256 ? SETS : 1; /* small nodes: one set is enough */
+    struct acc4 acc[SETS][BINS];
+    for (uint32_t h = 0; h < sets; h++)
+        for (int k = 0; k < BINS; k++) {
+            acc4_init(&acc[h][k]);
+            cnt[h][k] = 0;
+        }
+    for (uint32_t i = 0; i < n; i++) {
+        /* load before storing the bin: a store into the 16 bytes about to
+         * be loaded would stall the load until the store is done */
+        __m128 lo = _mm_loadu_ps(p[i].lo), hi = _mm_loadu_ps(p[i].hi);
+        uint32_t h = i & (sets - 1);
+        int k = bin_of(&p[i], axis, clo, scale);
+        cnt[h][k]++;
+        acc4_grow(&acc[h][k], lo, hi);
+        p[i].bin = k;
+    }
+    uint32_t count[BINS];
+    for (int k = 0; k < BINS; k++) {
+        count[k] = cnt[0][k];
+        for (uint32_t h = 1; h < sets; h++) {
+            acc4_merge(&acc[0][k], &acc[h][k]);
+            count[k] += cnt[h][k];
+        }
+    }
+    return sah_best4(acc[0], count, left, right);
+}
+
+static void span_of(const struct prim *p, uint32_t n, struct span *s) {
+    struct acc4 a;
+    acc4_init(&a);
+    for (uint32_t i = 0; i < n; i++) acc4_add(&a, &p[i]);
+    acc4_store(&a, s);
+}
+#else
+/* One bin of the SAH sweep: its primitives' box, their centroids' box. */
+struct bin {
+    struct span sp;
+    uint32_t n;
+};
+
+/* The best binned-SAH plane over the bins: the first bin of the right
+ * side, or -1 when no plane separates anything.  left and right get the
+ * two sides' spans, the unions of their bins. */
+static int sah_best(const struct bin bin[BINS], struct span *left, struct span *right) {
     float left_area[BINS];
     uint32_t left_n[BINS];
     struct bbox acc = bb_empty();
     uint32_t acc_n = 0;
     for (int k = 0; k < BINS - 1; k++) {
-        bb_grow(&acc, &bin[k]);
-        acc_n += count[k];
+        bb_grow(&acc, bin[k].sp.box.lo, bin[k].sp.box.hi);
+        acc_n += bin[k].n;
         left_area[k] = bb_area(&acc);
         left_n[k] = acc_n;
     }
@@ -104,93 +263,113 @@ static uint32_t split_sah(struct build *b, uint32_t *ids, uint32_t n, int axis, 
     acc = bb_empty();
     acc_n = 0;
     for (int k = BINS - 1; k > 0; k--) {
-        bb_grow(&acc, &bin[k]);
-        acc_n += count[k];
+        bb_grow(&acc, bin[k].sp.box.lo, bin[k].sp.box.hi);
+        acc_n += bin[k].n;
         float cost = left_area[k - 1] * (float)left_n[k - 1] + bb_area(&acc) * (float)acc_n;
         if (left_n[k - 1] > 0 && acc_n > 0 && cost < best) {
             best = cost;
             best_k = k;
         }
     }
-    /* Costs in units of the parent's area: traversal 1, primitive 1. */
-    float parent = bb_area(box);
-    (void)parent;
-    if (best_k < 0 || n <= BVH_MAX_LEAF) return 0; /* a leaf's 4 primitives cost one SIMD test */
-    uint32_t i = 0, j = n;
-    while (i < j) {
-        if (bin_of(b->cent[ids[i]][axis], clo, scale) < best_k) {
-            i++;
-        } else {
-            uint32_t t = ids[i];
-            ids[i] = ids[--j];
-            ids[j] = t;
-        }
+    *left = *right = (struct span){bb_empty(), bb_empty()};
+    for (int k = 0; k < BINS && best_k > 0; k++) {
+        struct span *side = k < best_k ? left : right;
+        bb_grow(&side->box, bin[k].sp.box.lo, bin[k].sp.box.hi);
+        bb_grow(&side->cent, bin[k].sp.cent.lo, bin[k].sp.cent.hi);
     }
-    return i;
+    return best_k;
 }
 
+/* The best binned-SAH plane on axis (sah_best), with the two sides' spans. */
+static int sah_plane(struct prim *p, uint32_t n, int axis, float clo, float scale,
+                     struct span *left, struct span *right) {
+    struct bin bin[BINS];
+    for (int k = 0; k < BINS; k++) bin[k] = (struct bin){{bb_empty(), bb_empty()}, 0};
+    for (uint32_t i = 0; i < n; i++) {
+        int k = p[i].bin = bin_of(&p[i], axis, clo, scale);
+        bin[k].n++;
+        span_add(&bin[k].sp, &p[i]);
+    }
+    return sah_best(bin, left, right);
+}
+
+static void span_of(const struct prim *p, uint32_t n, struct span *s) {
+    s->box = s->cent = bb_empty();
+    for (uint32_t i = 0; i < n; i++) span_add(s, &p[i]);
+}
+#endif
+
 /* nth_element by centroid on axis (quickselect): the median split. */
-static void select_nth(struct build *b, uint32_t *ids, uint32_t n, uint32_t nth, int axis) {
+static void select_nth(struct prim *p, uint32_t n, uint32_t nth, int axis) {
     uint32_t lo = 0, hi = n - 1;
     while (lo < hi) {
-        uint32_t m = lo + (hi - lo) / 2, t = ids[m];
-        ids[m] = ids[hi];
-        ids[hi] = t;
-        float pivot = b->cent[ids[hi]][axis];
-        uint32_t s = lo;
+        uint32_t m = lo + (hi - lo) / 2, s = lo;
+        struct prim t = p[m];
+        p[m] = p[hi];
+        p[hi] = t;
+        float pivot = p[hi].lo[axis] + p[hi].hi[axis];
         for (uint32_t i = lo; i < hi; i++) {
-            if (b->cent[ids[i]][axis] < pivot) {
-                t = ids[i];
-                ids[i] = ids[s];
-                ids[s++] = t;
+            if (p[i].lo[axis] + p[i].hi[axis] < pivot) {
+                t = p[i];
+                p[i] = p[s];
+                p[s++] = t;
             }
         }
-        t = ids[s];
-        ids[s] = ids[hi];
-        ids[hi] = t;
+        t = p[s];
+        p[s] = p[hi];
+        p[hi] = t;
         if (s == nth) return;
         if (nth < s) hi = s - 1;
         else lo = s + 1;
     }
 }
 
+/* Splits node prims p[0..n) (measured by sp) into left and right: binned
+ * SAH, the median past MEDIAN_DEPTH, halves by count when the centroids
+ * coincide.  Returns the left count; 0 makes a leaf. */
+static uint32_t split(struct prim *p, uint32_t n, const struct span *sp, int depth,
+                      struct span *left, struct span *right) {
+    const struct bbox *cb = &sp->cent;
+    float ext[3] = {cb->hi[0] - cb->lo[0], cb->hi[1] - cb->lo[1], cb->hi[2] - cb->lo[2]};
+    int axis = ext[0] >= ext[1] && ext[0] >= ext[2] ? 0 : ext[1] >= ext[2] ? 1 : 2;
+    *left = *right = (struct span){bb_empty(), bb_empty()};
+    uint32_t mid = 0;
+    if (n > BVH_MAX_LEAF && ext[axis] > 0 && depth < MEDIAN_DEPTH) {
+        float scale = BINS / ext[axis] * 0.99999f;
+        int plane = sah_plane(p, n, axis, cb->lo[axis], scale, left, right);
+        if (plane > 0) return partition(p, n, plane);
+    } else if (n > BVH_MAX_LEAF && ext[axis] > 0) {
+        select_nth(p, n, mid = n / 2, axis);
+    }
+    if (n <= BVH_MAX_LEAF) return 0;
+    if (mid == 0) mid = n / 2; /* coincident centroids: split by count */
+    span_of(p, mid, left);
+    span_of(p + mid, n - mid, right);
+    return mid;
+}
+
 struct task {
     struct build *b;
     uint32_t node, first, n;
+    struct span sp;
     int depth, threads;
 };
 
-static void build_node(struct build *b, uint32_t self, uint32_t first, uint32_t n, int depth,
-                       int threads);
+static void build_node(struct build *b, uint32_t self, uint32_t first, uint32_t n,
+                       const struct span *sp, int depth, int threads);
 
 static void *build_task(void *arg) {
     struct task *t = arg;
-    build_node(t->b, t->node, t->first, t->n, t->depth, t->threads);
+    build_node(t->b, t->node, t->first, t->n, &t->sp, t->depth, t->threads);
     return NULL;
 }
 
-static void build_node(struct build *b, uint32_t self, uint32_t first, uint32_t n, int depth,
-                       int threads) {
-    uint32_t *ids = b->ids + first;
-    struct bbox box = bb_empty(), cb = bb_empty();
-    for (uint32_t i = 0; i < n; i++) {
-        bb_grow(&box, &b->boxes[ids[i]]);
-        struct bbox c = {{b->cent[ids[i]][0], b->cent[ids[i]][1], b->cent[ids[i]][2]},
-                         {b->cent[ids[i]][0], b->cent[ids[i]][1], b->cent[ids[i]][2]}};
-        bb_grow(&cb, &c);
-    }
+static void build_node(struct build *b, uint32_t self, uint32_t first, uint32_t n,
+                       const struct span *sp, int depth, int threads) {
     struct bnode *nd = &b->nodes[self];
-    nd->box = box;
-    float ext[3] = {cb.hi[0] - cb.lo[0], cb.hi[1] - cb.lo[1], cb.hi[2] - cb.lo[2]};
-    int axis = ext[0] >= ext[1] && ext[0] >= ext[2] ? 0 : ext[1] >= ext[2] ? 1 : 2;
-    uint32_t mid = 0;
-    if (n > 1 && ext[axis] > 0) {
-        if (depth < MEDIAN_DEPTH) mid = split_sah(b, ids, n, axis, cb.lo[axis], cb.hi[axis], &box);
-        else select_nth(b, ids, n, mid = n / 2, axis);
-    }
-    if ((mid == 0 || mid >= n) && n > BVH_MAX_LEAF) {
-        mid = n / 2; /* coincident centroids, or too many for one leaf: split by count */
-    }
+    nd->box = sp->box;
+    struct span ls, rs;
+    uint32_t mid = split(b->prims + first, n, sp, depth, &ls, &rs);
     if (mid == 0 || mid >= n) {
         nd->leaf = true;
         nd->a = first;
@@ -202,16 +381,18 @@ static void build_node(struct build *b, uint32_t self, uint32_t first, uint32_t 
     nd->a = left;
     nd->b = left + 1;
     if (threads > 1 && n >= PARALLEL_MIN) {
+        /* threads counts subtrees still to hand out: four per thread asked
+         * for, so that an uneven split leaves no core idle for long */
         pthread_t th;
-        struct task t = {b, left, first, mid, depth + 1, threads / 2};
+        struct task t = {b, left, first, mid, ls, depth + 1, threads / 2};
         if (pthread_create(&th, NULL, build_task, &t) == 0) {
-            build_node(b, left + 1, first + mid, n - mid, depth + 1, threads - threads / 2);
+            build_node(b, left + 1, first + mid, n - mid, &rs, depth + 1, threads - threads / 2);
             pthread_join(th, NULL);
             return;
         }
     }
-    build_node(b, left, first, mid, depth + 1, 1);
-    build_node(b, left + 1, first + mid, n - mid, depth + 1, 1);
+    build_node(b, left, first, mid, &ls, depth + 1, 1);
+    build_node(b, left + 1, first + mid, n - mid, &rs, depth + 1, 1);
 }
 
 /* ---- collapse to 4-wide --------------------------------------------------- */
@@ -268,22 +449,28 @@ enum rayd_status bvh_build(struct bvh4 *bvh, const struct bbox *boxes, uint32_t 
     memset(bvh, 0, sizeof *bvh);
     bvh->bounds = bb_empty();
     if (n == 0) return RAYD_OK;
-    struct build b = {.boxes = boxes, .ids = order};
-    b.cent = malloc(sizeof *b.cent * n);
+    struct build b = {0};
+    b.prims = malloc(sizeof *b.prims * n);
     b.nodes = malloc(sizeof *b.nodes * (2 * (size_t)n));
     struct bvh4_node *wide = malloc(sizeof *wide * ((size_t)n + 1));
-    if (!b.cent || !b.nodes || !wide) {
-        free(b.cent);
+    if (!b.prims || !b.nodes || !wide) {
+        free(b.prims);
         free(b.nodes);
         free(wide);
         return err_set(err, RAYD_E_NOMEM, NULL, "out of memory building the BVH");
     }
+    struct span all;
     for (uint32_t i = 0; i < n; i++) {
-        order[i] = i;
-        for (int k = 0; k < 3; k++) b.cent[i][k] = boxes[i].lo[k] + boxes[i].hi[k];
+        struct prim *p = &b.prims[i];
+        memcpy(p->lo, boxes[i].lo, sizeof p->lo);
+        memcpy(p->hi, boxes[i].hi, sizeof p->hi);
+        p->id = i;
+        p->bin = 0;
     }
+    span_of(b.prims, n, &all);
     atomic_init(&b.used, 1);
-    build_node(&b, 0, 0, n, 0, threads);
+    build_node(&b, 0, 0, n, &all, 0, threads > 1 ? 4 * threads : 1);
+    for (uint32_t i = 0; i < n; i++) order[i] = b.prims[i].id;
     bvh->bounds = b.nodes[0].box;
     struct collapse c = {b.nodes, wide, 0};
     if (b.nodes[0].leaf) { /* one leaf: a wide root with one child */
@@ -299,7 +486,7 @@ enum rayd_status bvh_build(struct bvh4 *bvh, const struct bbox *boxes, uint32_t 
     } else {
         collapse_node(&c, 0);
     }
-    free(b.cent);
+    free(b.prims);
     free(b.nodes);
     struct bvh4_node *fit = realloc(wide, sizeof *wide * c.used);
     bvh->nodes = fit ? fit : wide;
