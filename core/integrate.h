@@ -14,6 +14,11 @@
 vec3 whitted_radiance(const rayd_scene *s, const ray *r, int depth, const struct rng_key *key,
                       uint64_t *rays);
 
+/* The same for 16 camera rays r[i] (bit i of active set) at once, as
+ * packets: out[i] is exactly whitted_radiance(s, &r[i], 0, &key[i], ..). */
+void whitted_radiance16(const rayd_scene *s, const ray r[16], uint32_t active,
+                        const struct rng_key key[16], vec3 out[16], uint64_t *rays);
+
 /* Path tracing (integrate_path.c): an unbiased estimate of the radiance
  * arriving along r. */
 vec3 path_radiance(const rayd_scene *s, const ray *r, const struct rng_key *key, uint64_t *rays);
@@ -21,6 +26,12 @@ vec3 path_radiance(const rayd_scene *s, const ray *r, const struct rng_key *key,
 /* The shadow ray test from origin toward a light: what gets through. */
 vec3 integrate_visible(const rayd_scene *s, vec3 origin, vec3 to_light, double dist,
                        uint64_t *rays);
+
+/* The first half of integrate_light_sample, before the shadow ray: the
+ * direction wi toward sample (su, sv) of light l, its distance from origin
+ * and what it sends; false when it sends nothing or is behind nf. */
+bool integrate_light_aim(const struct light *l, vec3 p, vec3 nf, double su, double sv, vec3 origin,
+                         vec3 *wi, vec3 *radiance, double *dist);
 
 /* Radiance arriving at p (shading normal nf facing the viewer, shadow rays
  * from origin) from light l: one sample (su, sv) for area lights.  False

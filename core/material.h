@@ -17,7 +17,13 @@ struct material {
     double roughness;    /* path tracer: 0 smooth mirror .. 1 rough (GGX alpha = roughness^2) */
     double metallic;     /* path tracer: 0 dielectric/diffuse base, 1 conductor tinted by color */
     int texture;         /* index into the scene's textures for color, -1 none */
+    /* Derived (material_finish): the highlight is skipped where cos(n, h)
+     * <= spec_cut, because there specular * cos^shininess < 2^-24. */
+    double spec_cut;
 };
+
+/* Fills the derived fields from the others. */
+void material_finish(struct material *m);
 
 /* The documented defaults (docs/scene-format.md). */
 struct material material_default(void);

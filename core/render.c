@@ -44,43 +44,86 @@ static vec3 trace(const rayd_scene *s, const ray *r, const struct rng_key *key, 
                                                : whitted_radiance(s, r, 0, key, rays);
 }
 
+/* Pixel (i, j)'s sample k of n: its ray, and *key set to name it. */
+static ray sample_ray(const rayd_scene *s, int i, int j, int k, int n, struct rng_key *key) {
+    *key = (struct rng_key){s->rs.seed, (uint32_t)i, (uint32_t)j, 0};
+    if (n == 1 && s->cam.aperture <= 0) return cam_ray(&s->cam, i + 0.5, j + 0.5, 0, 0);
+    double ox = rng_uniform(key, RNG_CAMERA, 0), oy = rng_uniform(key, RNG_CAMERA, 1);
+    double lx = rng_uniform(key, RNG_CAMERA, 2), ly = rng_uniform(key, RNG_CAMERA, 3);
+    double sx = n == 1 ? 0.5 : ox + k * R2_A1, sy = n == 1 ? 0.5 : oy + k * R2_A2;
+    double lu = lx + k * R2_A1, lv = ly + k * R2_A2;
+    sx -= floor(sx);
+    sy -= floor(sy);
+    lu -= floor(lu);
+    lv -= floor(lv);
+    key->sample = (uint32_t)k;
+    return cam_ray(&s->cam, i + sx, j + sy, lu, lv);
+}
+
 vec3 render_pixel(const rayd_scene *s, int i, int j, uint64_t *rays) {
     int n = s->rs.samples;
-    struct rng_key key = {s->rs.seed, (uint32_t)i, (uint32_t)j, 0};
-    if (n == 1 && s->cam.aperture <= 0 && s->rs.integrator == INTEGRATOR_WHITTED) {
-        ray r = cam_ray(&s->cam, i + 0.5, j + 0.5, 0, 0);
-        return trace(s, &r, &key, rays);
-    }
-    double ox = rng_uniform(&key, RNG_CAMERA, 0), oy = rng_uniform(&key, RNG_CAMERA, 1);
-    double lx = rng_uniform(&key, RNG_CAMERA, 2), ly = rng_uniform(&key, RNG_CAMERA, 3);
     vec3 acc = v3(0, 0, 0);
     for (int k = 0; k < n; k++) {
-        double sx = n == 1 ? 0.5 : ox + k * R2_A1, sy = n == 1 ? 0.5 : oy + k * R2_A2;
-        double lu = lx + k * R2_A1, lv = ly + k * R2_A2;
-        sx -= floor(sx);
-        sy -= floor(sy);
-        lu -= floor(lu);
-        lv -= floor(lv);
-        key.sample = (uint32_t)k;
-        ray r = cam_ray(&s->cam, i + sx, j + sy, lu, lv);
+        struct rng_key key;
+        ray r = sample_ray(s, i, j, k, n, &key);
         acc = v3_add(acc, trace(s, &r, &key, rays));
     }
     return v3_scale(acc, 1.0 / n);
 }
 
-/* Renders the w x h rectangle at (x, y) of the image into dst at (dx, dy). */
+static void put_pixel(uint8_t *out, vec3 c) {
+    out[0] = srgb8(c.x);
+    out[1] = srgb8(c.y);
+    out[2] = srgb8(c.z);
+}
+
+/* The w x h (at most 4 x 4) block at (x, y) with the Whitted integrator:
+ * each sample's 16 camera rays traced as packets (whitted_radiance16), the
+ * same radiance per pixel as render_pixel, summed in the same order. */
+static void render_block(const rayd_scene *s, int x, int y, int w, int h, rayd_image *dst, int dx,
+                         int dy, uint64_t *rays) {
+    int n = s->rs.samples;
+    vec3 acc[16], c[16];
+    ray r[16];
+    struct rng_key key[16];
+    uint32_t active = 0;
+    for (int q = 0; q < 16; q++)
+        if (q % 4 < w && q / 4 < h) active |= 1u << q;
+    for (int k = 0; k < n; k++) {
+        for (uint32_t m = active; m; m &= m - 1) {
+            int q = __builtin_ctz(m);
+            r[q] = sample_ray(s, x + q % 4, y + q / 4, k, n, &key[q]);
+        }
+        whitted_radiance16(s, r, active, key, c, rays);
+        for (uint32_t m = active; m; m &= m - 1) {
+            int q = __builtin_ctz(m);
+            acc[q] = k ? v3_add(acc[q], c[q]) : v3_add(v3(0, 0, 0), c[q]);
+        }
+    }
+    for (uint32_t m = active; m; m &= m - 1) {
+        int q = __builtin_ctz(m);
+        size_t at = ((size_t)(dy + q / 4) * (size_t)dst->w + (size_t)(dx + q % 4)) * 3;
+        put_pixel(dst->px + at, v3_scale(acc[q], 1.0 / n));
+    }
+}
+
+/* Renders the w x h rectangle at (x, y) of the image into dst at (dx, dy):
+ * by 4 x 4 blocks of packets with the Whitted integrator, else pixel by
+ * pixel.  The cancel flag is polled once per row (of blocks). */
 static enum rayd_status render_rect(const rayd_scene *s, int x, int y, int w, int h,
                                     rayd_image *dst, int dx, int dy, const atomic_int *cancel,
                                     uint64_t *rays) {
-    for (int row = 0; row < h; row++) {
+    bool blocks = s->rs.integrator == INTEGRATOR_WHITTED;
+    for (int row = 0; row < h; row += blocks ? 4 : 1) {
         if (cancel && atomic_load_explicit(cancel, memory_order_relaxed)) return RAYD_E_CANCELED;
-        uint8_t *out = dst->px + ((size_t)(dy + row) * (size_t)dst->w + (size_t)dx) * 3;
-        for (int col = 0; col < w; col++) {
-            vec3 c = render_pixel(s, x + col, y + row, rays);
-            out[0] = srgb8(c.x);
-            out[1] = srgb8(c.y);
-            out[2] = srgb8(c.z);
-            out += 3;
+        for (int col = 0; col < w; col += blocks ? 4 : 1) {
+            if (blocks) {
+                int bw = w - col < 4 ? w - col : 4, bh = h - row < 4 ? h - row : 4;
+                render_block(s, x + col, y + row, bw, bh, dst, dx + col, dy + row, rays);
+            } else {
+                size_t at = ((size_t)(dy + row) * (size_t)dst->w + (size_t)(dx + col)) * 3;
+                put_pixel(dst->px + at, render_pixel(s, x + col, y + row, rays));
+            }
         }
     }
     return RAYD_OK;

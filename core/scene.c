@@ -224,6 +224,14 @@ static bool object_hit(const rayd_scene *s, const struct object *o, const struct
         h->t = *tmax;
         return true;
     }
+    case SHAPE_SPHERE: /* the commonest kinds without the crossing list */
+        if (!sphere_nearest(o, &lr, lmax, &t)) return false;
+        h->part = 0;
+        break;
+    case SHAPE_PLANE:
+        if (!plane_nearest(o, &lr, lmax, &t)) return false;
+        h->part = 0;
+        break;
     default:
         if (!shape_hit(o, &lr, 0, lmax, &t, &h->part)) return false;
     }

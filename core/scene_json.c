@@ -162,6 +162,7 @@ enum rayd_status sj_add_material(struct loader *ld, const struct material *m, in
     if (!array_grow((void **)&s->mats, &ld->mat_cap, (size_t)s->nmats + 1, sizeof *s->mats))
         return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
     s->mats[s->nmats] = *m;
+    material_finish(&s->mats[s->nmats]);
     *index = s->nmats++;
     return RAYD_OK;
 }

@@ -136,6 +136,40 @@ static inline bool shape_bounded(const struct object *o) {
 /* A solid (usable as a CSG operand): encloses a volume. */
 bool shape_is_solid(const struct object *o);
 
+/* The sphere's two crossings with the ray's line, sorted (shape_sphere.c
+ * explains the formula); false when the line misses.  Inline: the hot
+ * path of sphere scenes. */
+static inline bool sphere_roots(const struct object *o, const ray *r, double *t0, double *t1) {
+    vec3 oc = v3_sub(r->o, o->u.sphere.center);
+    double rad = o->u.sphere.radius;
+    double b = v3_dot(oc, r->d);
+    double c = v3_dot(oc, oc) - rad * rad;
+    vec3 h = v3_madd(oc, r->d, -b);
+    double disc = rad * rad - v3_dot(h, h);
+    if (disc < 0) return false;
+    double q = -b - copysign(sqrt(disc), b);
+    double a0 = q, a1 = (q != 0) ? c / q : q;
+    *t0 = fmin(a0, a1);
+    *t1 = fmax(a0, a1);
+    return true;
+}
+
+/* shape_hit for a sphere and for a plane with tmin = 0, without the
+ * crossing list. */
+static inline bool sphere_nearest(const struct object *o, const ray *r, double tmax, double *t) {
+    double t0, t1;
+    if (!sphere_roots(o, r, &t0, &t1)) return false;
+    *t = t0 > 0 && t0 < tmax ? t0 : t1;
+    return *t > 0 && *t < tmax;
+}
+
+static inline bool plane_nearest(const struct object *o, const ray *r, double tmax, double *t) {
+    double denom = v3_dot(o->u.plane.normal, r->d);
+    if (denom == 0) return false;
+    *t = v3_dot(o->u.plane.normal, v3_sub(o->u.plane.point, r->o)) / denom;
+    return *t > 0 && *t < tmax;
+}
+
 /* Shape-specific entry points the tests and the fast paths use. */
 bool sphere_hit(const struct object *o, const ray *r, double tmin, double tmax, double *t);
 bool plane_hit(const struct object *o, const ray *r, double tmin, double tmax, double *t);

@@ -12,17 +12,7 @@
 #include "shape.h"
 
 static int sphere_crossings(const struct object *o, const ray *r, struct xing out[4]) {
-    vec3 oc = v3_sub(r->o, o->u.sphere.center);
-    double rad = o->u.sphere.radius;
-    double b = v3_dot(oc, r->d);
-    double c = v3_dot(oc, oc) - rad * rad;
-    vec3 h = v3_madd(oc, r->d, -b);
-    double disc = rad * rad - v3_dot(h, h);
-    if (disc < 0) return 0;
-    double q = -b - copysign(sqrt(disc), b);
-    double t0 = q, t1 = (q != 0) ? c / q : q;
-    out[0].t = fmin(t0, t1);
-    out[1].t = fmax(t0, t1);
+    if (!sphere_roots(o, r, &out[0].t, &out[1].t)) return 0;
     out[0].part = out[1].part = 0;
     return 2;
 }
