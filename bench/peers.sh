@@ -6,7 +6,9 @@
 #   meshes   the ~1M-triangle genmesh mesh (mesh-8), the 5k one (mesh-4) and
 #            the Stanford bunny when bench/bunny.sh could fetch it: raybench
 #            vs embree_bench, the same 1920x1080 rays (primary and shadow,
-#            one thread; BVH build on 2 threads each), median of RUNS runs
+#            one thread, one ray at a time and as packets of 4x4 pixels --
+#            rayd's scene_intersect16 against Embree's rtcIntersect16; BVH
+#            build on 2 threads each), median of RUNS runs
 #   spheres  bench/scenes/spheres10.json by rayd-render --threads 1 (its
 #            --stats wall time: the render, not the parse) vs
 #            bench/peers/spheres10.pov by povray +WT1 -A (its reported
@@ -95,22 +97,25 @@ rayd_cpu=$(kv "$R/spheres10.raybench-cpu" image_s_1t)
 
 # --- absolute figures ------------------------------------------------------
 echo "Absolute figures (1920x1080, one thread unless noted, medians of $RUNS runs)"
-printf '%-7s %8s | %-28s | %-42s\n' "" "" "rayd (raybench)" "Embree $(awk '$1=="peer" {print $3}' "$R/mesh-8.embree.1") (embree_bench)"
-printf '%-7s %8s | %7s %6s %6s %6s | %7s %6s %6s %6s %6s %6s\n' mesh tris \
-    "build s" "B/tri" prim shadow "build s" "B/tri" prim1 prim16 shad1 shad16
+printf '%-7s %8s | %-42s | %-42s\n' "" "" "rayd (raybench)" "Embree $(awk '$1=="peer" {print $3}' "$R/mesh-8.embree.1") (embree_bench)"
+printf '%-7s %8s | %7s %6s %6s %6s %6s %6s | %7s %6s %6s %6s %6s %6s\n' mesh tris \
+    "build s" "B/tri" prim1 prim16 shad1 shad16 "build s" "B/tri" prim1 prim16 shad1 shad16
 for m in "${meshes[@]}"; do
     a=$R/$m.raybench e=$R/$m.embree
-    printf '%-7s %8s | %7s %6s %6s %6s | %7s %6s %6s %6s %6s %6s\n' "$m" "$(kv "$a" triangles)" \
-        "$(kv "$a" bvh_build_s)" "$(kv "$a" bytes_per_triangle)" "$(kv "$a" primary_mrays_1t)" \
-        "$(kv "$a" shadow_mrays_1t)" "$(kv "$e" bvh_build_s)" "$(kv "$e" bytes_per_triangle)" \
+    printf '%-7s %8s | %7s %6s %6s %6s %6s %6s | %7s %6s %6s %6s %6s %6s\n' "$m" \
+        "$(kv "$a" triangles)" "$(kv "$a" bvh_build_s)" "$(kv "$a" bytes_per_triangle)" \
+        "$(kv "$a" primary_mrays_1t)" "$(kv "$a" primary_packet_mrays_1t)" \
+        "$(kv "$a" shadow_mrays_1t)" "$(kv "$a" shadow_packet_mrays_1t)" \
+        "$(kv "$e" bvh_build_s)" "$(kv "$e" bytes_per_triangle)" \
         "$(kv "$e" primary_mrays_1t_single)" "$(kv "$e" primary_mrays_1t_packet16)" \
         "$(kv "$e" shadow_mrays_1t_single)" "$(kv "$e" shadow_mrays_1t_packet16)"
     ah=$(kv "$a" primary_hits) eh=$(kv "$e" primary_mrays_1t_single_hits)
     awk -v a="$ah" -v e="$eh" -v m="$m" 'BEGIN {d = a - e; if (d < 0) d = -d;
         if (d > 0.001 * e) printf "  warning: %s primary hits differ: rayd %d, Embree %d\n", m, a, e}'
 done
-echo "  (build: 2 threads each, BVH only; B/tri: mesh data + BVH, each;"
-echo "   shadow: pixels/s (M) for a primary ray plus a shadow ray from each hit)"
+echo "  (Mrays/s; 1: one ray at a time, 16: packets of 4x4 pixels; build: 2 threads each,"
+echo "   BVH only; B/tri: mesh data + BVH, each; shadow: pixels/s (M) for a primary ray"
+echo "   plus a shadow ray from each hit)"
 printf 'spheres10 (100 spheres, max_depth 5): rayd-render --threads 1 wall %s s (runs: %s);\n' \
     "$rayd_s" "${rayd_t[*]}"
 printf '  povray +WT1 -A trace %s s (runs: %s); images: mean |diff| %s/255, %s%% of pixels differ\n' \
@@ -140,17 +145,22 @@ for kind in primary shadow; do
         a=$R/$m.raybench e=$R/$m.embree ac=$R/$m.raybench-cpu ec=$R/$m.embree-cpu n=$(name_of "$m")
         t=-
         [ "$kind" = primary ] && t=0.5
-        row "$kind, $n / Embree single" "$(kv "$a" ${kind}_mrays_1t)" "$(kv "$e" ${kind}_mrays_1t_single)" \
-            "$(kv "$ac" ${kind}_mrays_1t)" "$(kv "$ec" ${kind}_mrays_1t_single)" -
-        row "$kind, $n / Embree packet16" "$(kv "$a" ${kind}_mrays_1t)" \
-            "$(kv "$e" ${kind}_mrays_1t_packet16)" "$(kv "$ac" ${kind}_mrays_1t)" \
+        row "$kind, $n: single / single" "$(kv "$a" ${kind}_mrays_1t)" \
+            "$(kv "$e" ${kind}_mrays_1t_single)" "$(kv "$ac" ${kind}_mrays_1t)" \
+            "$(kv "$ec" ${kind}_mrays_1t_single)" -
+        row "$kind, $n: packets / packet16" "$(kv "$a" ${kind}_packet_mrays_1t)" \
+            "$(kv "$e" ${kind}_mrays_1t_packet16)" "$(kv "$ac" ${kind}_packet_mrays_1t)" \
             "$(kv "$ec" ${kind}_mrays_1t_packet16)" "$t"
     done
 done
 row "BVH build, 1.3M mesh / Embree medium" "$(kv "$R/mesh-8.raybench" bvh_build_s)" \
     "$(kv "$R/mesh-8.embree" bvh_build_s)" - - 1 1
 row "spheres10, 1 thread / POV-Ray trace" "$rayd_s" "$pov_s" "$rayd_cpu" "$pov_cpu" 10 1
-row "scaling: rayd primary 1.3M / 5k mesh" "$(kv "$R/mesh-8.raybench" primary_mrays_1t)" \
+row "scaling: rayd packets 1.3M / 5k mesh" "$(kv "$R/mesh-8.raybench" primary_packet_mrays_1t)" \
+    "$(kv "$R/mesh-4.raybench" primary_packet_mrays_1t)" \
+    "$(kv "$R/mesh-8.raybench-cpu" primary_packet_mrays_1t)" \
+    "$(kv "$R/mesh-4.raybench-cpu" primary_packet_mrays_1t)" 0.6
+row "scaling: rayd single 1.3M / 5k mesh" "$(kv "$R/mesh-8.raybench" primary_mrays_1t)" \
     "$(kv "$R/mesh-4.raybench" primary_mrays_1t)" "$(kv "$R/mesh-8.raybench-cpu" primary_mrays_1t)" \
     "$(kv "$R/mesh-4.raybench-cpu" primary_mrays_1t)" 0.6
 row "  (Embree packet16 1.3M / 5k, reference)" "$(kv "$R/mesh-8.embree" primary_mrays_1t_packet16)" \

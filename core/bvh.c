@@ -3,10 +3,18 @@
  * Two steps.  First a binary tree, top-down with the binned surface-area
  * heuristic: 16 bins along the axis where the primitive centroids spread
  * most; a node of at most BVH_MAX_LEAF (4) primitives is a leaf, because
- * the four are tested at once by one SIMD test.  Past depth 48 the split falls back to the median, which bounds
- * the depth (and so the traversal stack) whatever the input.  The two
- * halves of the top levels are built by separate threads when asked; binary
- * nodes come from one atomically bumped array, so threads never lock.
+ * the four are tested at once by one SIMD test.  Past depth 48 the split
+ * falls back to the median, which bounds the depth (and so the traversal
+ * stack) whatever the input.
+ *
+ * The builder works on its own copy of the boxes, 32-byte records it
+ * partitions in place, so every pass over a node reads memory in order
+ * (not through an index).  A node costs two passes: binning, which also
+ * gives both children's boxes and centroid boxes (the unions of their
+ * bins), and the partition.  The subtrees of the top levels are built by
+ * separate threads -- four per thread asked for, so that a lopsided split
+ * leaves no core idle; binary nodes come from one atomically bumped array,
+ * so threads never lock.
  *
  * Then the binary tree is collapsed into 4-wide nodes: each wide node takes
  * the binary node's two children and keeps opening the largest inner child
@@ -57,19 +65,6 @@ struct build {
 static struct bbox bb_empty(void) {
     struct bbox b = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
     return b;
-}
-
-static inline void bb_grow(struct bbox *b, const float lo[3], const float hi[3]) {
-    for (int k = 0; k < 3; k++) {
-        b->lo[k] = lo[k] < b->lo[k] ? lo[k] : b->lo[k];
-        b->hi[k] = hi[k] > b->hi[k] ? hi[k] : b->hi[k];
-    }
-}
-
-static inline void span_add(struct span *s, const struct prim *p) {
-    float c[3] = {p->lo[0] + p->hi[0], p->lo[1] + p->hi[1], p->lo[2] + p->hi[2]};
-    bb_grow(&s->box, p->lo, p->hi);
-    bb_grow(&s->cent, c, c);
 }
 
 static float bb_area(const struct bbox *b) {
@@ -238,6 +233,19 @@ static void span_of(const struct prim *p, uint32_t n, struct span *s) {
     acc4_store(&a, s);
 }
 #else
+static inline void bb_grow(struct bbox *b, const float lo[3], const float hi[3]) {
+    for (int k = 0; k < 3; k++) {
+        b->lo[k] = lo[k] < b->lo[k] ? lo[k] : b->lo[k];
+        b->hi[k] = hi[k] > b->hi[k] ? hi[k] : b->hi[k];
+    }
+}
+
+static inline void span_add(struct span *s, const struct prim *p) {
+    float c[3] = {p->lo[0] + p->hi[0], p->lo[1] + p->hi[1], p->lo[2] + p->hi[2]};
+    bb_grow(&s->box, p->lo, p->hi);
+    bb_grow(&s->cent, c, c);
+}
+
 /* One bin of the SAH sweep: its primitives' box, their centroids' box. */
 struct bin {
     struct span sp;

@@ -50,17 +50,14 @@ BVH16_FN __m512 pick(__mmask16 m0, __mmask16 m1, const __m512 d[3]) {
     return _mm512_mask_blend_ps(m0, _mm512_mask_blend_ps(m1, d[2], d[1]), d[0]);
 }
 
-BVH16_FN __mmask16 cmp(__m512 a, __m512 b, int op) {
-    return _mm512_cmp_ps_mask(a, b, op);
-}
-
 /* Lane j of block b against the rays in lanes with bounds tm: tri4_test's
  * operations, 16 rays wide.  Returns the rays that hit, with t, u, v. */
 BVH16_FN __mmask16 tri16(const struct mesh16 *q, const struct tri4 *b, int j, __mmask16 lanes,
                          __m512 tm, __m512 *t_out, __m512 *u_out, __m512 *v_out) {
     __m512 d[3][3];
     for (int k = 0; k < 3; k++)
-        for (int a = 0; a < 3; a++) d[k][a] = _mm512_sub_ps(_mm512_set1_ps(b->v[k][a][j]), q->org[a]);
+        for (int a = 0; a < 3; a++)
+            d[k][a] = _mm512_sub_ps(_mm512_set1_ps(b->v[k][a][j]), q->org[a]);
     __m512 a[3][3]; /* vertex k's coordinates in each lane's frame: x, y, z */
     for (int k = 0; k < 3; k++) {
         if (q->kz >= 0) { /* the common case: one frame for the whole packet */
@@ -82,7 +79,9 @@ BVH16_FN __mmask16 tri16(const struct mesh16 *q, const struct tri4 *b, int j, __
     __m512 v = _mm512_sub_ps(_mm512_mul_ps(ax, cy), _mm512_mul_ps(ay, cx));
     __m512 w = _mm512_sub_ps(_mm512_mul_ps(bx, ay), _mm512_mul_ps(by, ax));
     __m512 zero = _mm512_setzero_ps();
-    __mmask16 edge = (cmp(u, zero, _CMP_EQ_OQ) | cmp(v, zero, _CMP_EQ_OQ) | cmp(w, zero, _CMP_EQ_OQ)) & lanes;
+    __mmask16 edge = (_mm512_cmp_ps_mask(u, zero, _CMP_EQ_OQ) |
+                      _mm512_cmp_ps_mask(v, zero, _CMP_EQ_OQ) |
+                      _mm512_cmp_ps_mask(w, zero, _CMP_EQ_OQ)) & lanes;
     if (edge) { /* through an edge or a vertex: those lanes in double */
         float U[16], V[16], W[16], AX[16], AY[16], BX[16], BY[16], CX[16], CY[16];
         _mm512_storeu_ps(U, u), _mm512_storeu_ps(V, v), _mm512_storeu_ps(W, w);
@@ -93,8 +92,12 @@ BVH16_FN __mmask16 tri16(const struct mesh16 *q, const struct tri4 *b, int j, __
                 tri_edges_double(AX[i], AY[i], BX[i], BY[i], CX[i], CY[i], &U[i], &V[i], &W[i]);
         u = _mm512_loadu_ps(U), v = _mm512_loadu_ps(V), w = _mm512_loadu_ps(W);
     }
-    __mmask16 neg = cmp(u, zero, _CMP_LT_OQ) | cmp(v, zero, _CMP_LT_OQ) | cmp(w, zero, _CMP_LT_OQ);
-    __mmask16 pos = cmp(u, zero, _CMP_GT_OQ) | cmp(v, zero, _CMP_GT_OQ) | cmp(w, zero, _CMP_GT_OQ);
+    __mmask16 neg = _mm512_cmp_ps_mask(u, zero, _CMP_LT_OQ) |
+                    _mm512_cmp_ps_mask(v, zero, _CMP_LT_OQ) |
+                    _mm512_cmp_ps_mask(w, zero, _CMP_LT_OQ);
+    __mmask16 pos = _mm512_cmp_ps_mask(u, zero, _CMP_GT_OQ) |
+                    _mm512_cmp_ps_mask(v, zero, _CMP_GT_OQ) |
+                    _mm512_cmp_ps_mask(w, zero, _CMP_GT_OQ);
     __m512 det = _mm512_add_ps(_mm512_add_ps(u, v), w);
     __m512 t = _mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(_mm512_mul_ps(u, q->sz), az),
                                            _mm512_mul_ps(_mm512_mul_ps(v, q->sz), bz)),
@@ -102,9 +105,10 @@ BVH16_FN __mmask16 tri16(const struct mesh16 *q, const struct tri4 *b, int j, __
     __m512i sign = _mm512_and_si512(_mm512_castps_si512(det), _mm512_set1_epi32(INT32_MIN));
     __m512 ts = _mm512_castsi512_ps(_mm512_xor_si512(_mm512_castps_si512(t), sign));
     __m512 ds = _mm512_castsi512_ps(_mm512_xor_si512(_mm512_castps_si512(det), sign));
-    __mmask16 ok = lanes & (__mmask16) ~(neg & pos) & cmp(det, zero, _CMP_NEQ_UQ) &
-                   cmp(ts, zero, _CMP_GT_OQ) &
-                   cmp(ts, _mm512_mul_ps(_mm512_mul_ps(tm, _mm512_set1_ps(TRI_SLACK)), ds), _CMP_LE_OQ);
+    __mmask16 ok = lanes & (__mmask16) ~(neg & pos) & _mm512_cmp_ps_mask(det, zero, _CMP_NEQ_UQ) &
+                   _mm512_cmp_ps_mask(ts, zero, _CMP_GT_OQ) &
+                   _mm512_cmp_ps_mask(
+                       ts, _mm512_mul_ps(_mm512_mul_ps(tm, _mm512_set1_ps(TRI_SLACK)), ds), _CMP_LE_OQ);
     if (!ok) return 0;
     __m512 rcp = _mm512_div_ps(_mm512_set1_ps(1.0f), det);
     *t_out = _mm512_mul_ps(t, rcp);
@@ -121,13 +125,14 @@ BVH16_FN __mmask16 leaf_nearest(void *ctx, uint32_t first, uint32_t count, __mma
     const struct tri4 *b = &q->m->blocks[first];
     __m512 T[4], U[4], V[4];
     __mmask16 ok[4];
-    for (uint32_t j = 0; j < count; j++) ok[j] = tri16(q, b, (int)j, lanes, *tm, &T[j], &U[j], &V[j]);
+    for (uint32_t j = 0; j < count; j++)
+        ok[j] = tri16(q, b, (int)j, lanes, *tm, &T[j], &U[j], &V[j]);
     for (uint32_t j = 0; j < count; j++) {
         if (!ok[j]) continue;
         __m512i id = _mm512_set1_epi32((int)b->id[j]);
         __mmask16 tie = _mm512_mask_cmp_ps_mask(q->found, T[j], *tm, _CMP_EQ_OQ) &
                         _mm512_cmp_epu32_mask(id, q->id, _MM_CMPINT_NLT);
-        __mmask16 take = ok[j] & (__mmask16) ~(cmp(T[j], *tm, _CMP_GT_OQ) | tie);
+        __mmask16 take = ok[j] & (__mmask16) ~(_mm512_cmp_ps_mask(T[j], *tm, _CMP_GT_OQ) | tie);
         if (!take) continue;
         q->t = *tm = _mm512_mask_mov_ps(*tm, take, T[j]);
         q->u = _mm512_mask_mov_ps(q->u, take, U[j]);
@@ -141,7 +146,8 @@ BVH16_FN __mmask16 leaf_nearest(void *ctx, uint32_t first, uint32_t count, __mma
 }
 
 /* A leaf for the any-hit walk: the rays that hit any of its triangles. */
-BVH16_FN __mmask16 leaf_any(void *ctx, uint32_t first, uint32_t count, __mmask16 lanes, __m512 *tm) {
+BVH16_FN __mmask16 leaf_any(void *ctx, uint32_t first, uint32_t count, __mmask16 lanes,
+                            __m512 *tm) {
     const struct mesh16 *q = ctx;
     const struct tri4 *b = &q->m->blocks[first];
     __mmask16 hit = 0;
@@ -189,10 +195,12 @@ BVH16_FN __m512 bounds16(const double tmax[16], uint32_t active, bool any) {
     for (int i = 0; i < 16; i++) t[i] = tmax[active >> i & 1 ? i : first];
     __m512d lo = _mm512_loadu_pd(t), hi = _mm512_loadu_pd(t + 8);
     __m512 f = join16(_mm512_cvtpd_ps(lo), _mm512_cvtpd_ps(hi));
-    __mmask16 big = (__mmask16)(_mm512_cmp_pd_mask(lo, _mm512_set1_pd(3e38), _CMP_GT_OQ) |
-                                (unsigned)_mm512_cmp_pd_mask(hi, _mm512_set1_pd(3e38), _CMP_GT_OQ) << 8);
+    __m512d cap = _mm512_set1_pd(3e38);
+    __mmask16 big = (__mmask16)(_mm512_cmp_pd_mask(lo, cap, _CMP_GT_OQ) |
+                                (unsigned)_mm512_cmp_pd_mask(hi, cap, _CMP_GT_OQ) << 8);
     __m512 zero = _mm512_setzero_ps();
-    __mmask16 nan = _mm512_cmp_ps_mask(f, f, _CMP_UNORD_Q), is0 = _mm512_cmp_ps_mask(f, zero, _CMP_EQ_OQ);
+    __mmask16 nan = _mm512_cmp_ps_mask(f, f, _CMP_UNORD_Q);
+    __mmask16 is0 = _mm512_cmp_ps_mask(f, zero, _CMP_EQ_OQ);
     __mmask16 down = any ? 0xffff : _mm512_cmp_ps_mask(f, zero, _CMP_LT_OQ); /* bits - 1 */
     __m512i bits = _mm512_castps_si512(f), one = _mm512_set1_epi32(1);
     bits = _mm512_mask_sub_epi32(_mm512_add_epi32(bits, one), down, bits, one);

@@ -59,7 +59,8 @@ static void visit_nearest16(struct scene16 *q, const struct object *o, uint32_t 
         lmax[i] = bound[i] * scale[i];
     }
     struct mesh_hit mh[16];
-    uint32_t hit = mesh_intersect16(&q->s->meshes[o->u.mesh.id], moved ? lr : q->r, lmax, lanes, mh);
+    const struct mesh *msh = &q->s->meshes[o->u.mesh.id];
+    uint32_t hit = mesh_intersect16(msh, moved ? lr : q->r, lmax, lanes, mh);
     for (; hit; hit &= hit - 1) { /* nearest_take, writing in place */
         int i = __builtin_ctz(hit);
         if (mh[i].t / scale[i] > q->tmax[i]) continue;

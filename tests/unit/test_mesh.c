@@ -2,6 +2,7 @@
  * watertightness, BVH == brute force, exact projections under transforms. */
 #include <stdlib.h>
 
+#include "bvh16.h"
 #include "check.h"
 #include "scene.h"
 #include "scene_util.h"
@@ -158,6 +159,60 @@ static void test_watertight_edges_and_vertices(void) {
     rayd_scene_free(s);
 }
 
+/* Packets of 16 mesh rays give every ray exactly its one-ray answer:
+ * rays through the octahedron's vertices and edges from all sides (so the
+ * lanes of a packet have different sheared frames), odd bounds (0, < 0,
+ * NaN, tiny, huge) and partial masks. */
+static void test_packets_equal_single_rays(void) {
+    const char *json =
+        "{\"objects\": [{\"type\": \"mesh\", \"smooth\": false,"
+        " \"vertices\": [1,0,0, -1,0,0, 0,1,0, 0,-1,0, 0,0,1, 0,0,-1],"
+        " \"indices\": [0,2,4, 2,1,4, 1,3,4, 3,0,4, 2,0,5, 1,2,5, 3,1,5, 0,3,5]}]}";
+    rayd_scene *s = scene_from(json);
+    CHECK(s != NULL, "parse");
+    if (!s) return;
+    const struct mesh *m = &s->meshes[0];
+    const double bounds[8] = {INFINITY, 0, -1, NAN, 1e-3, 4.0, 3.1e38, 5.0};
+    int differ = 0, total = 0, hits = 0;
+    for (int p = 0; p < 400; p++) {
+        ray r[16];
+        double tmax[16];
+        for (int i = 0; i < 16; i++) {
+            int a = p * 16 + i;
+            double th = 0.05 + 3.0 * (a % 211) / 211.0, ph = 0.7 * a;
+            vec3 from = v3(5 * sin(th) * cos(ph), 5 * cos(th), 5 * sin(th) * sin(ph));
+            vec3 target = a % 3 ? v3(a % 2 ? 0.5 : 0, 0.5, a % 5 ? 0 : -0.5) : v3(0, 0, a % 2 ? 1 : -1);
+            r[i] = (ray){from, v3_norm(v3_sub(target, from))};
+            tmax[i] = p % 4 == 3 ? bounds[(a / 7) % 8] : INFINITY;
+        }
+        uint32_t active = p % 5 == 4 ? 0x9f35u ^ (uint32_t)p : 0xffffu;
+        for (int scalar = 0; scalar <= 1; scalar++) {
+            packet_force_scalar(scalar);
+            struct mesh_hit h[16];
+            uint32_t hit = mesh_intersect16(m, r, tmax, active, h);
+            uint32_t blocked = mesh_occluded16(m, r, tmax, active);
+            for (int i = 0; i < 16; i++) {
+                struct mesh_hit one;
+                bool got = active >> i & 1 && mesh_intersect(m, &r[i], tmax[i], &one);
+                bool occ = active >> i & 1 && mesh_occluded(m, &r[i], tmax[i]);
+                total++;
+                hits += got;
+                bool same = got == (bool)(hit >> i & 1) && occ == (bool)(blocked >> i & 1);
+                if (same && got)
+                    same = one.t == h[i].t && one.u == h[i].u && one.v == h[i].v &&
+                           one.tri == h[i].tri && one.blk == h[i].blk && one.lane == h[i].lane;
+                differ += !same;
+            }
+        }
+    }
+    packet_force_scalar(false);
+    printf("  %d rays (%d hits), packets %s\n", total, hits,
+           bvh16_available() ? "with AVX-512" : "one ray at a time (no AVX-512 here)");
+    CHECK(hits > total / 3, "%d hits of %d", hits, total);
+    CHECK(differ == 0, "%d of %d packet answers differ from the one-ray ones", differ, total);
+    rayd_scene_free(s);
+}
+
 static void test_transformed_sphere_exact_projection(void) {
     /* A unit sphere scaled to an ellipsoid with semi-axes (2, 1, 1) at
      * z = -8, emissive, no lights: the pixels covered are exactly those
@@ -263,6 +318,7 @@ int main(void) {
     RUN(test_bvh_equals_brute_force);
     RUN(test_examples_bvh_equals_brute_force);
     RUN(test_watertight_edges_and_vertices);
+    RUN(test_packets_equal_single_rays);
     RUN(test_transformed_sphere_exact_projection);
     RUN(test_smooth_normals_follow_the_sphere);
     RUN(test_mesh_errors);
