@@ -35,12 +35,87 @@ static void transmittance_each(const rayd_scene *s, const ray r[16], const doubl
 struct scene16 {
     const rayd_scene *s;
     const ray *r;
+    struct ray16d rd; /* the same rays as structure of arrays */
     double tmax[16];
     struct nearest c[16];
 };
 
+/* sphere_nearest of untransformed sphere o for the rays in lanes, 16 at
+ * once: the same double operations lane by lane (sphere_roots's formula,
+ * IEEE square root and division).  Returns the rays that hit before their
+ * bound, with t; rays whose roots came out NaN (a NaN or infinite input)
+ * are left in *odd for the one-ray code, whose fmin treats NaN its own way. */
+BVH16_FN uint32_t sphere16(const struct ray16d *rd, const struct object *o, const double bound[16],
+                           uint32_t lanes, double t_out[16], uint32_t *odd) {
+    const double *cen = &o->u.sphere.center.x;
+    double rad = o->u.sphere.radius;
+    __m512d r2 = _mm512_set1_pd(rad * rad), zero = _mm512_setzero_pd();
+    __m512i sign = _mm512_set1_epi64(INT64_MIN);
+    uint32_t hit = 0;
+    *odd = 0;
+    for (int h = 0; h < 2; h++) {
+        __mmask8 lm = (__mmask8)(lanes >> 8 * h);
+        if (!lm) continue;
+        __m512d oc[3], d[3];
+        for (int k = 0; k < 3; k++) {
+            oc[k] = _mm512_sub_pd(_mm512_loadu_pd(rd->o[k] + 8 * h), _mm512_set1_pd(cen[k]));
+            d[k] = _mm512_loadu_pd(rd->d[k] + 8 * h);
+        }
+        __m512d b = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(oc[0], d[0]), _mm512_mul_pd(oc[1], d[1])),
+                                  _mm512_mul_pd(oc[2], d[2]));
+        __m512d c = _mm512_sub_pd(
+            _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(oc[0], oc[0]), _mm512_mul_pd(oc[1], oc[1])),
+                          _mm512_mul_pd(oc[2], oc[2])),
+            r2);
+        __m512d nb = _mm512_castsi512_pd(_mm512_xor_si512(_mm512_castpd_si512(b), sign)); /* -b */
+        __m512d hv[3];
+        for (int k = 0; k < 3; k++) hv[k] = _mm512_add_pd(oc[k], _mm512_mul_pd(d[k], nb));
+        __m512d disc = _mm512_sub_pd(
+            r2, _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(hv[0], hv[0]), _mm512_mul_pd(hv[1], hv[1])),
+                              _mm512_mul_pd(hv[2], hv[2])));
+        __mmask8 in = lm & _mm512_cmp_pd_mask(disc, zero, _CMP_NLT_UQ); /* !(disc < 0) */
+        if (!in) continue;
+        __m512i sq = _mm512_castpd_si512(_mm512_sqrt_pd(disc));
+        __m512d cs = _mm512_castsi512_pd(_mm512_or_si512(_mm512_andnot_si512(sign, sq),
+                                                         _mm512_and_si512(sign, _mm512_castpd_si512(b))));
+        __m512d q = _mm512_sub_pd(nb, cs);
+        __m512d a1 = _mm512_mask_div_pd(q, _mm512_cmp_pd_mask(q, zero, _CMP_NEQ_UQ), c, q);
+        __mmask8 nan = in & _mm512_cmp_pd_mask(q, a1, _CMP_UNORD_Q);
+        __m512d t0 = _mm512_min_pd(q, a1), t1 = _mm512_max_pd(q, a1);
+        __m512d bnd = _mm512_loadu_pd(bound + 8 * h);
+        __mmask8 first = _mm512_cmp_pd_mask(t0, zero, _CMP_GT_OQ) & _mm512_cmp_pd_mask(t0, bnd, _CMP_LT_OQ);
+        __m512d t = _mm512_mask_blend_pd(first, t1, t0);
+        __mmask8 ok = in & (__mmask8)~nan & _mm512_cmp_pd_mask(t, zero, _CMP_GT_OQ) &
+                      _mm512_cmp_pd_mask(t, bnd, _CMP_LT_OQ);
+        _mm512_storeu_pd(t_out + 8 * h, t);
+        hit |= (uint32_t)ok << 8 * h;
+        *odd |= (uint32_t)nan << 8 * h;
+    }
+    return hit;
+}
+
 /* Object o for the rays in lanes, nearest hit: meshes as a packet. */
 static void visit_nearest16(struct scene16 *q, const struct object *o, uint32_t lanes) {
+    if (o->kind == SHAPE_SPHERE && o->xform < 0) { /* object_hit and nearest_take, 16 wide */
+        double bound[16], t[16];
+        for (uint32_t m = lanes; m; m &= m - 1) {
+            int i = __builtin_ctz(m);
+            bound[i] = nearest_bound(&q->c[i], o, q->tmax[i]);
+        }
+        uint32_t odd, hit = sphere16(&q->rd, o, bound, lanes, t, &odd);
+        for (; odd; odd &= odd - 1) {
+            int i = __builtin_ctz(odd);
+            nearest_visit(&q->c[i], o, &q->tmax[i]);
+        }
+        for (; hit; hit &= hit - 1) {
+            int i = __builtin_ctz(hit);
+            if (t[i] > q->tmax[i]) continue;
+            q->tmax[i] = t[i];
+            *q->c[i].h = (struct hit){.t = t[i], .leaf = o, .outer = NULL, .part = 0, .orient = 0};
+            q->c[i].best = nearest_rank(&q->c[i], o);
+        }
+        return;
+    }
     if (o->kind != SHAPE_MESH) {
         for (; lanes; lanes &= lanes - 1) {
             int i = __builtin_ctz(lanes);
@@ -73,6 +148,12 @@ static void visit_nearest16(struct scene16 *q, const struct object *o, uint32_t 
  * is opaque). */
 static uint32_t visit_any16(const struct scene16 *q, const struct object *o, uint32_t lanes) {
     uint32_t blocked = 0;
+    if (o->kind == SHAPE_SPHERE && o->xform < 0) { /* object_filter, 16 wide */
+        double t[16];
+        uint32_t odd;
+        blocked = sphere16(&q->rd, o, q->tmax, lanes, t, &odd);
+        lanes = odd; /* left to the one-ray code below */
+    }
     if (o->kind == SHAPE_MESH) {
         ray lr[16];
         double lmax[16];
@@ -117,16 +198,10 @@ BVH16_FN __mmask16 tlas_any(void *ctx, uint32_t first, uint32_t count, __mmask16
     return blocked;
 }
 
-/* The packet's rays for the node test. */
-BVH16_FN void rays16(const ray r[16], uint32_t active, struct bvh16_ray *p) {
-    struct ray16d rd;
-    ray16d_load(&rd, r, active);
-    bvh16_ray_init(p, &rd);
-}
-
 BVH16_FN uint32_t intersect16(const rayd_scene *s, const ray r[16], const double tmax[16],
                               uint32_t active, struct hit h[16]) {
     struct scene16 q = {.s = s, .r = r};
+    ray16d_load(&q.rd, r, active);
     for (int i = 0; i < 16; i++) {
         q.tmax[i] = tmax[i];
         q.c[i] = (struct nearest){s, NULL, &r[i], &h[i], s->planes, 0, -1};
@@ -144,7 +219,7 @@ BVH16_FN uint32_t intersect16(const rayd_scene *s, const ray r[16], const double
         visit_nearest16(&q, &s->objs[0], active);
     } else if (s->nobjs > 1) {
         struct bvh16_ray br;
-        rays16(r, active, &br);
+        bvh16_ray_init(&br, &q.rd);
         __m512 tm = bounds16(q.tmax);
         bvh16_walk(&s->tlas, &br, &tm, (__mmask16)active, tlas_nearest, &q);
     }
@@ -157,6 +232,7 @@ BVH16_FN uint32_t intersect16(const rayd_scene *s, const ray r[16], const double
 BVH16_FN void transmittance16(const rayd_scene *s, const ray r[16], const double tmax[16],
                               uint32_t active, vec3 out[16]) {
     struct scene16 q = {.s = s, .r = r};
+    ray16d_load(&q.rd, r, active);
     for (int i = 0; i < 16; i++) q.tmax[i] = tmax[i];
     uint32_t open = active;
     for (int32_t k = 0; k < s->nplanes && open; k++) open &= ~visit_any16(&q, &s->planes[k], open);
@@ -164,7 +240,7 @@ BVH16_FN void transmittance16(const rayd_scene *s, const ray r[16], const double
         open &= ~visit_any16(&q, &s->objs[0], open);
     } else if (open && s->nobjs > 1) {
         struct bvh16_ray br;
-        rays16(r, open, &br);
+        bvh16_ray_init(&br, &q.rd);
         __m512 tm = bounds16(q.tmax);
         open &= ~(uint32_t)bvh16_walk(&s->tlas, &br, &tm, (__mmask16)open, tlas_any, &q);
     }
