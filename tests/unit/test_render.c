@@ -6,6 +6,7 @@
 #include <stdlib.h>
 
 #include "check.h"
+#include "render.h"
 #include "scene_util.h"
 
 /* The Whitted example at a small size with several samples: reflection,
@@ -187,6 +188,32 @@ static void test_seed_changes_samples_only(void) {
     rayd_scene_free(sa2);
 }
 
+/* The table-driven sRGB encoding equals the formula (srgb_ref) everywhere:
+ * a sweep, random values, and both sides of every step between bytes. */
+static void test_srgb_bytes_equal_the_formula(void) {
+    int bad = 0, n = 0;
+    for (int i = -10; i <= 1100000; i++, n++) bad += render_srgb8(i / 1e6) != srgb_ref(i / 1e6);
+    unsigned long long x = 88172645463325252ull;
+    for (int i = 0; i < 1000000; i++, n++) {
+        x ^= x << 13, x ^= x >> 7, x ^= x << 17;
+        double c = ldexp((double)(x >> 11), -53) * (i % 3 ? 1.0 : 0.01);
+        bad += render_srgb8(c) != srgb_ref(c);
+    }
+    for (int k = 1; k < 256; k++) { /* find the step into k by bisection on the formula */
+        double lo = 0, hi = 1;
+        for (int it = 0; it < 200 && nextafter(lo, 2) < hi; it++) {
+            double mid = lo + (hi - lo) / 2;
+            if (srgb_ref(mid) >= k) hi = mid;
+            else lo = mid;
+        }
+        double around[4] = {nextafter(lo, 0), lo, hi, nextafter(hi, 2)};
+        for (int j = 0; j < 4; j++, n++) bad += render_srgb8(around[j]) != srgb_ref(around[j]);
+    }
+    double odd[5] = {NAN, -INFINITY, INFINITY, -0.0, 1.0};
+    for (int j = 0; j < 5; j++, n++) bad += render_srgb8(odd[j]) != (odd[j] >= 1 ? 255 : 0);
+    CHECK(bad == 0, "%d of %d values encode differently", bad, n);
+}
+
 int main(void) {
     RUN(test_threads_and_tiles_give_same_bytes);
     RUN(test_region_equals_crop_of_full);
@@ -194,5 +221,6 @@ int main(void) {
     RUN(test_png_round_trip);
     RUN(test_progress_and_cancel);
     RUN(test_seed_changes_samples_only);
+    RUN(test_srgb_bytes_equal_the_formula);
     CHECK_EXIT();
 }
