@@ -94,15 +94,57 @@ BVH16_FN uint32_t sphere16(const struct ray16d *rd, const struct object *o, cons
     return hit;
 }
 
+/* plane_nearest of untransformed plane o for the rays in lanes, 16 at
+ * once, the same double operations; as sphere16 (no ray is odd here: a NaN
+ * t fails t > 0 both ways). */
+BVH16_FN uint32_t plane16(const struct ray16d *rd, const struct object *o, const double bound[16],
+                          uint32_t lanes, double t_out[16], uint32_t *odd) {
+    const double *n = &o->u.plane.normal.x, *pt = &o->u.plane.point.x;
+    __m512d zero = _mm512_setzero_pd();
+    uint32_t hit = 0;
+    *odd = 0;
+    for (int h = 0; h < 2; h++) {
+        __mmask8 lm = (__mmask8)(lanes >> 8 * h);
+        if (!lm) continue;
+        __m512d dn = zero, pn = zero;
+        for (int k = 0; k < 3; k++) { /* v3_dot's order: (x + y) + z */
+            __m512d nk = _mm512_set1_pd(n[k]);
+            __m512d d = _mm512_loadu_pd(rd->d[k] + 8 * h), o_ = _mm512_loadu_pd(rd->o[k] + 8 * h);
+            __m512d po = _mm512_sub_pd(_mm512_set1_pd(pt[k]), o_);
+            dn = k ? _mm512_add_pd(dn, _mm512_mul_pd(nk, d)) : _mm512_mul_pd(nk, d);
+            pn = k ? _mm512_add_pd(pn, _mm512_mul_pd(nk, po)) : _mm512_mul_pd(nk, po);
+        }
+        __mmask8 in = lm & _mm512_cmp_pd_mask(dn, zero, _CMP_NEQ_UQ);
+        __m512d t = _mm512_div_pd(pn, dn);
+        __m512d bnd = _mm512_loadu_pd(bound + 8 * h);
+        __mmask8 ok = in & _mm512_cmp_pd_mask(t, zero, _CMP_GT_OQ) &
+                      _mm512_cmp_pd_mask(t, bnd, _CMP_LT_OQ);
+        _mm512_storeu_pd(t_out + 8 * h, t);
+        hit |= (uint32_t)ok << 8 * h;
+    }
+    return hit;
+}
+
+/* The kinds tested 16 wide, when untransformed. */
+static bool simple16(const struct object *o) {
+    return (o->kind == SHAPE_SPHERE || o->kind == SHAPE_PLANE) && o->xform < 0;
+}
+
+static uint32_t simple16_hit(const struct scene16 *q, const struct object *o,
+                             const double bound[16], uint32_t lanes, double t[16], uint32_t *odd) {
+    return o->kind == SHAPE_SPHERE ? sphere16(&q->rd, o, bound, lanes, t, odd)
+                                   : plane16(&q->rd, o, bound, lanes, t, odd);
+}
+
 /* Object o for the rays in lanes, nearest hit: meshes as a packet. */
 static void visit_nearest16(struct scene16 *q, const struct object *o, uint32_t lanes) {
-    if (o->kind == SHAPE_SPHERE && o->xform < 0) { /* object_hit and nearest_take, 16 wide */
+    if (simple16(o)) { /* object_hit and nearest_take, 16 wide */
         double bound[16], t[16];
         for (uint32_t m = lanes; m; m &= m - 1) {
             int i = __builtin_ctz(m);
             bound[i] = nearest_bound(&q->c[i], o, q->tmax[i]);
         }
-        uint32_t odd, hit = sphere16(&q->rd, o, bound, lanes, t, &odd);
+        uint32_t odd, hit = simple16_hit(q, o, bound, lanes, t, &odd);
         for (; odd; odd &= odd - 1) {
             int i = __builtin_ctz(odd);
             nearest_visit(&q->c[i], o, &q->tmax[i]);
@@ -148,10 +190,10 @@ static void visit_nearest16(struct scene16 *q, const struct object *o, uint32_t 
  * is opaque). */
 static uint32_t visit_any16(const struct scene16 *q, const struct object *o, uint32_t lanes) {
     uint32_t blocked = 0;
-    if (o->kind == SHAPE_SPHERE && o->xform < 0) { /* object_filter, 16 wide */
+    if (simple16(o)) { /* object_filter, 16 wide */
         double t[16];
         uint32_t odd;
-        blocked = sphere16(&q->rd, o, q->tmax, lanes, t, &odd);
+        blocked = simple16_hit(q, o, q->tmax, lanes, t, &odd);
         lanes = odd; /* left to the one-ray code below */
     }
     if (o->kind == SHAPE_MESH) {
@@ -206,11 +248,7 @@ BVH16_FN uint32_t intersect16(const rayd_scene *s, const ray r[16], const double
         q.tmax[i] = tmax[i];
         q.c[i] = (struct nearest){s, NULL, &r[i], &h[i], s->planes, 0, -1};
     }
-    for (int32_t k = 0; k < s->nplanes; k++)
-        for (uint32_t m = active; m; m &= m - 1) {
-            int i = __builtin_ctz(m);
-            nearest_visit(&q.c[i], &s->planes[k], &q.tmax[i]);
-        }
+    for (int32_t k = 0; k < s->nplanes; k++) visit_nearest16(&q, &s->planes[k], active);
     for (int i = 0; i < 16; i++) {
         q.c[i].base = s->objs;
         q.c[i].rank0 = s->nplanes;
