@@ -63,14 +63,19 @@ static void srgb_init(void) {
     }
 }
 
-uint8_t render_srgb8(double c) {
-    pthread_once(&srgb_once, srgb_init);
+/* After srgb_init. */
+static inline uint8_t srgb8(double c) {
     if (!(c > 0)) return 0;
     if (c >= 1) return 255;
     int k = 0;
     for (int step = 128; step; step >>= 1)
         if (k + step <= 255 && c >= srgb_edge[k + step]) k += step;
     return (uint8_t)k;
+}
+
+uint8_t render_srgb8(double c) {
+    pthread_once(&srgb_once, srgb_init);
+    return srgb8(c);
 }
 
 static vec3 trace(const rayd_scene *s, const ray *r, const struct rng_key *key, uint64_t *rays) {
@@ -106,9 +111,9 @@ vec3 render_pixel(const rayd_scene *s, int i, int j, uint64_t *rays) {
 }
 
 static void put_pixel(uint8_t *out, vec3 c) {
-    out[0] = render_srgb8(c.x);
-    out[1] = render_srgb8(c.y);
-    out[2] = render_srgb8(c.z);
+    out[0] = srgb8(c.x);
+    out[1] = srgb8(c.y);
+    out[2] = srgb8(c.z);
 }
 
 /* The w x h (at most 4 x 4) block at (x, y) with the Whitted integrator:
@@ -148,6 +153,7 @@ static enum rayd_status render_rect(const rayd_scene *s, int x, int y, int w, in
                                     rayd_image *dst, int dx, int dy, const atomic_int *cancel,
                                     uint64_t *rays) {
     bool blocks = s->rs.integrator == INTEGRATOR_WHITTED;
+    pthread_once(&srgb_once, srgb_init);
     for (int row = 0; row < h; row += blocks ? 4 : 1) {
         if (cancel && atomic_load_explicit(cancel, memory_order_relaxed)) return RAYD_E_CANCELED;
         for (int col = 0; col < w; col += blocks ? 4 : 1) {
