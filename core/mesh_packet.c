@@ -9,10 +9,12 @@
  * The rays of a packet need not share their dominant axis: the sheared
  * frame is picked per lane with mask blends.
  *
- * Without AVX-512 (another CPU, a build without SIMD, valgrind's CPU) the
- * same entry points loop over the rays one at a time.
+ * Without AVX-512 (another CPU, a build without SIMD, valgrind's CPU, or
+ * RAYD_NO_AVX512 in the environment) the same entry points loop over the
+ * rays one at a time.
  */
 #include <stdatomic.h>
+#include <stdlib.h>
 
 #include "bvh16.h"
 #include "mesh.h"
@@ -26,12 +28,21 @@ void packet_force_scalar(bool on) {
 
 #ifdef BVH16
 
+/* The CPU's answer, and RAYD_NO_AVX512 set in the environment (to compare
+ * or to rule the SIMD code out), read once. */
+static atomic_int cpu_ok = -1;
+
 bool bvh16_available(void) {
-    return !atomic_load_explicit(&force_scalar, memory_order_relaxed) &&
-           __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
-           __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512vl") &&
-           __builtin_cpu_supports("avx2") && __builtin_cpu_supports("bmi") &&
-           __builtin_cpu_supports("bmi2") && __builtin_cpu_supports("popcnt");
+    int ok = atomic_load_explicit(&cpu_ok, memory_order_relaxed);
+    if (ok < 0) {
+        ok = !getenv("RAYD_NO_AVX512") && __builtin_cpu_supports("avx512f") &&
+             __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512bw") &&
+             __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx2") &&
+             __builtin_cpu_supports("bmi") && __builtin_cpu_supports("bmi2") &&
+             __builtin_cpu_supports("popcnt");
+        atomic_store_explicit(&cpu_ok, ok, memory_order_relaxed);
+    }
+    return ok && !atomic_load_explicit(&force_scalar, memory_order_relaxed);
 }
 
 struct mesh16 {
