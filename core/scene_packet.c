@@ -1,8 +1,10 @@
 /* scene_packet.c -- the scene's queries for 16 rays at once.
  *
  * A packet walks the top-level BVH with bvh16.h; at a leaf, mesh objects
- * take the packet into their own BVH (mesh_packet.c) and every other
- * object is asked ray by ray.  Each ray's search keeps its own state (the
+ * take the packet into their own BVH (mesh_packet.c), untransformed
+ * spheres and planes are tested 16 rays at once (the one-ray code's double
+ * operations, lane by lane), and every other object is asked ray by ray.
+ * Each ray's search keeps its own state (the
  * struct nearest of scene_query.h, its bound), so the order-free rules
  * there give every ray the same hit as scene_intersect: the packet only
  * shares the memory traffic and the node tests.
@@ -140,10 +142,8 @@ static uint32_t simple16_hit(const struct scene16 *q, const struct object *o,
 static void visit_nearest16(struct scene16 *q, const struct object *o, uint32_t lanes) {
     if (simple16(o)) { /* object_hit and nearest_take, 16 wide */
         double bound[16], t[16];
-        for (uint32_t m = lanes; m; m &= m - 1) {
-            int i = __builtin_ctz(m);
-            bound[i] = nearest_bound(&q->c[i], o, q->tmax[i]);
-        }
+        for (int i = 0; i < 16; i++) /* every lane set: read 8 at once */
+            bound[i] = lanes >> i & 1 ? nearest_bound(&q->c[i], o, q->tmax[i]) : 0;
         uint32_t odd, hit = simple16_hit(q, o, bound, lanes, t, &odd);
         for (; odd; odd &= odd - 1) {
             int i = __builtin_ctz(odd);
@@ -244,8 +244,9 @@ BVH16_FN uint32_t intersect16(const rayd_scene *s, const ray r[16], const double
                               uint32_t active, struct hit h[16]) {
     struct scene16 q = {.s = s, .r = r};
     ray16d_load(&q.rd, r, active);
+    int first = __builtin_ctz(active);
     for (int i = 0; i < 16; i++) {
-        q.tmax[i] = tmax[i];
+        q.tmax[i] = tmax[active >> i & 1 ? i : first]; /* every lane set: read 16 at once */
         q.c[i] = (struct nearest){s, NULL, &r[i], &h[i], s->planes, 0, -1};
     }
     for (int32_t k = 0; k < s->nplanes; k++) visit_nearest16(&q, &s->planes[k], active);
@@ -271,7 +272,8 @@ BVH16_FN void transmittance16(const rayd_scene *s, const ray r[16], const double
                               uint32_t active, vec3 out[16]) {
     struct scene16 q = {.s = s, .r = r};
     ray16d_load(&q.rd, r, active);
-    for (int i = 0; i < 16; i++) q.tmax[i] = tmax[i];
+    int first = __builtin_ctz(active);
+    for (int i = 0; i < 16; i++) q.tmax[i] = tmax[active >> i & 1 ? i : first];
     uint32_t open = active;
     for (int32_t k = 0; k < s->nplanes && open; k++) open &= ~visit_any16(&q, &s->planes[k], open);
     if (open && s->nobjs == 1) {
