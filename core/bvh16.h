@@ -121,11 +121,14 @@ BVH16_FN __mmask16 bvh16_child(const struct bvh4_node *nd, int c, const struct b
 typedef __mmask16 (*bvh16_leaf_fn)(void *ctx, uint32_t first, uint32_t count, __mmask16 lanes,
                                    __m512 *tm);
 
-/* Pushes inner node nd's children that rays in lanes enter (bounds tm)
- * onto the stack, farthest first, and pops the nearest into *cur.  False
- * when no ray enters any child. */
-BVH16_INLINE bool bvh16_descend(const struct bvh4_node *nd, const struct bvh16_ray *r, __m512 tm,
+/* Pushes the children of inner node cur that rays in lanes enter (bounds
+ * tm) onto the stack, farthest first, and pops the nearest into *cur,
+ * prefetching each (see bvh16_walk for leaves).  False when no ray enters
+ * any child. */
+BVH16_INLINE bool bvh16_descend(const struct bvh4_node *nodes, const char *leaves,
+                                size_t leaf_size, const struct bvh16_ray *r, __m512 tm,
                                 struct bvh16_entry *cur, struct bvh16_entry *stack, int *sp) {
+    const struct bvh4_node *nd = &nodes[cur->node];
     __m512 tmax = _mm512_mul_ps(tm, _mm512_set1_ps(BVH_SLACK));
     int hit[4], n = 0;
     __m512 tn[4];
@@ -150,6 +153,12 @@ BVH16_INLINE bool bvh16_descend(const struct bvh4_node *nd, const struct bvh16_r
     }
     for (int j = 0; j < n; j++) {
         int c = hit[j];
+        /* start loading what comes next: an inner node, or a leaf's data */
+        const char *next = !nd->count[c] ? (const char *)(nodes + nd->child[c])
+                           : leaves      ? leaves + leaf_size * nd->child[c]
+                                         : NULL;
+        for (size_t at = 0; next && at < (nd->count[c] ? leaf_size : sizeof *nodes); at += 64)
+            _mm_prefetch(next + at, _MM_HINT_T0);
         struct bvh16_entry *e = j == n - 1 ? cur : &stack[(*sp)++];
         e->tnear = tn[c];
         e->node = nd->child[c];
@@ -160,9 +169,12 @@ BVH16_INLINE bool bvh16_descend(const struct bvh4_node *nd, const struct bvh16_r
 }
 
 /* Walks the tree with the rays in lanes; *tm holds their bounds (lowered
- * by a nearest-hit leaf).  Returns the rays an any-hit leaf blocked. */
-BVH16_INLINE __mmask16 bvh16_walk(const struct bvh4 *bvh, const struct bvh16_ray *r, __m512 *tm,
-                                  __mmask16 lanes, bvh16_leaf_fn leaf, void *ctx) {
+ * by a nearest-hit leaf).  Returns the rays an any-hit leaf blocked.
+ * leaves (records of leaf_size bytes, a leaf's first index into them) is
+ * only prefetched from; NULL when the leaves are not such an array. */
+BVH16_INLINE __mmask16 bvh16_walk(const struct bvh4 *bvh, const char *leaves, size_t leaf_size,
+                                  const struct bvh16_ray *r, __m512 *tm, __mmask16 lanes,
+                                  bvh16_leaf_fn leaf, void *ctx) {
     struct bvh16_entry stack[BVH_STACK], cur;
     int sp = 0;
     __mmask16 blocked = 0;
@@ -172,7 +184,7 @@ BVH16_INLINE __mmask16 bvh16_walk(const struct bvh4 *bvh, const struct bvh16_ray
     cur.tnear = _mm512_setzero_ps();
     for (;;) {
         if (cur.count == 0) {
-            if (bvh16_descend(&bvh->nodes[cur.node], r, *tm, &cur, stack, &sp)) continue;
+            if (bvh16_descend(bvh->nodes, leaves, leaf_size, r, *tm, &cur, stack, &sp)) continue;
         } else {
             blocked |= leaf(ctx, cur.node, cur.count, cur.lanes, tm);
             lanes &= (__mmask16)~blocked;

@@ -260,7 +260,8 @@ BVH16_FN uint32_t mesh_intersect16_avx512(const struct mesh *m, const ray r[16],
     struct mesh16 q;
     __m512 tm;
     mesh16_init(&q, m, r, tmax, active, false, &tm);
-    bvh16_walk(&m->bvh, &q.br, &tm, (__mmask16)active, leaf_nearest, &q);
+    bvh16_walk(&m->bvh, (const char *)m->blocks, sizeof *m->blocks, &q.br, &tm,
+               (__mmask16)active, leaf_nearest, &q);
     float t[16], u[16], v[16];
     uint32_t id[16], blk[16], lane[16], hit = 0;
     _mm512_storeu_ps(t, q.t), _mm512_storeu_ps(u, q.u), _mm512_storeu_ps(v, q.v);
@@ -279,7 +280,8 @@ BVH16_FN uint32_t mesh_occluded16_avx512(const struct mesh *m, const ray r[16],
     struct mesh16 q;
     __m512 tm;
     mesh16_init(&q, m, r, tmax, active, true, &tm);
-    return bvh16_walk(&m->bvh, &q.br, &tm, (__mmask16)active, leaf_any, &q);
+    return bvh16_walk(&m->bvh, (const char *)m->blocks, sizeof *m->blocks, &q.br, &tm,
+                      (__mmask16)active, leaf_any, &q);
 }
 
 #else

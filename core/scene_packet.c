@@ -260,7 +260,7 @@ BVH16_FN uint32_t intersect16(const rayd_scene *s, const ray r[16], const double
         struct bvh16_ray br;
         bvh16_ray_init(&br, &q.rd);
         __m512 tm = bounds16(q.tmax);
-        bvh16_walk(&s->tlas, &br, &tm, (__mmask16)active, tlas_nearest, &q);
+        bvh16_walk(&s->tlas, NULL, 0, &br, &tm, (__mmask16)active, tlas_nearest, &q);
     }
     uint32_t hit = 0;
     for (int i = 0; i < 16; i++)
@@ -282,7 +282,7 @@ BVH16_FN void transmittance16(const rayd_scene *s, const ray r[16], const double
         struct bvh16_ray br;
         bvh16_ray_init(&br, &q.rd);
         __m512 tm = bounds16(q.tmax);
-        open &= ~(uint32_t)bvh16_walk(&s->tlas, &br, &tm, (__mmask16)open, tlas_any, &q);
+        open &= ~(uint32_t)bvh16_walk(&s->tlas, NULL, 0, &br, &tm, (__mmask16)open, tlas_any, &q);
     }
     for (int i = 0; i < 16; i++)
         if (active >> i & 1) out[i] = open >> i & 1 ? v3(1, 1, 1) : v3(0, 0, 0);
