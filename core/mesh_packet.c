@@ -163,7 +163,7 @@ BVH16_FN __mmask16 leaf_any(void *ctx, uint32_t first, uint32_t count, __mmask16
     const struct tri4 *b = &q->m->blocks[first];
     __mmask16 hit = 0;
     for (uint32_t j = 0; j < count && hit != lanes; j++) {
-        __m512 t, u, v;
+        __m512 t = _mm512_setzero_ps(), u = t, v = t; /* unused here */
         hit |= tri16(q, b, (int)j, lanes & (__mmask16)~hit, *tm, &t, &u, &v);
     }
     return hit;

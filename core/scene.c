@@ -301,6 +301,8 @@ static bool objects_hit(const rayd_scene *s, const struct object *objs, int32_t 
 }
 
 bool scene_intersect(const rayd_scene *s, const ray *r, double tmax, struct hit *h) {
+    /* h is written, never read, by the search: */
+    // cppcheck-suppress ctuuninitvar
     struct nearest c = {s, NULL, r, h, s->planes, 0, -1};
     for (int32_t i = 0; i < s->nplanes; i++) nearest_visit(&c, &s->planes[i], &tmax);
     c.base = s->objs;

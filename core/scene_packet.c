@@ -49,7 +49,8 @@ struct scene16 {
  * are left in *odd for the one-ray code, whose fmin treats NaN its own way. */
 BVH16_FN uint32_t sphere16(const struct ray16d *rd, const struct object *o, const double bound[16],
                            uint32_t lanes, double t_out[16], uint32_t *odd) {
-    const double *cen = &o->u.sphere.center.x;
+    const vec3 c3 = o->u.sphere.center;
+    const double cen[3] = {c3.x, c3.y, c3.z};
     double rad = o->u.sphere.radius;
     __m512d r2 = _mm512_set1_pd(rad * rad), zero = _mm512_setzero_pd();
     __m512i sign = _mm512_set1_epi64(INT64_MIN);
@@ -101,7 +102,8 @@ BVH16_FN uint32_t sphere16(const struct ray16d *rd, const struct object *o, cons
  * t fails t > 0 both ways). */
 BVH16_FN uint32_t plane16(const struct ray16d *rd, const struct object *o, const double bound[16],
                           uint32_t lanes, double t_out[16], uint32_t *odd) {
-    const double *n = &o->u.plane.normal.x, *pt = &o->u.plane.point.x;
+    const vec3 n3 = o->u.plane.normal, p3 = o->u.plane.point;
+    const double n[3] = {n3.x, n3.y, n3.z}, pt[3] = {p3.x, p3.y, p3.z};
     __m512d zero = _mm512_setzero_pd();
     uint32_t hit = 0;
     *odd = 0;
