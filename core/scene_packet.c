@@ -244,7 +244,9 @@ BVH16_FN __mmask16 tlas_any(void *ctx, uint32_t first, uint32_t count, __mmask16
 
 BVH16_FN uint32_t intersect16(const rayd_scene *s, const ray r[16], const double tmax[16],
                               uint32_t active, struct hit h[16]) {
-    struct scene16 q = {.s = s, .r = r};
+    struct scene16 q; /* every field set below: no zeroing of its 2 KB */
+    q.s = s;
+    q.r = r;
     ray16d_load(&q.rd, r, active);
     int first = __builtin_ctz(active);
     for (int i = 0; i < 16; i++) {
@@ -272,7 +274,9 @@ BVH16_FN uint32_t intersect16(const rayd_scene *s, const ray r[16], const double
 
 BVH16_FN void transmittance16(const rayd_scene *s, const ray r[16], const double tmax[16],
                               uint32_t active, vec3 out[16]) {
-    struct scene16 q = {.s = s, .r = r};
+    struct scene16 q; /* every field set below: no zeroing of its 2 KB */
+    q.s = s;
+    q.r = r;
     ray16d_load(&q.rd, r, active);
     int first = __builtin_ctz(active);
     for (int i = 0; i < 16; i++) q.tmax[i] = tmax[active >> i & 1 ? i : first];
