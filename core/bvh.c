@@ -7,6 +7,9 @@
  * falls back to the median, which bounds the depth (and so the traversal
  * stack) whatever the input.
  *
+ * Nodes of 5..8 primitives skip the bins: an exact SAH over the few cuts
+ * that make two leaves.
+ *
  * The builder works on its own copy of the boxes, 32-byte records it
  * partitions in place, so every pass over a node reads memory in order
  * (not through an index).  A node costs two passes: binning, which also
@@ -335,6 +338,38 @@ static void select_nth(struct prim *p, uint32_t n, uint32_t nth, int axis) {
 /* Splits node prims p[0..n) (measured by sp) into left and right: binned
  * SAH, the median past MEDIAN_DEPTH, halves by count when the centroids
  * coincide.  Returns the left count; 0 makes a leaf. */
+/* Half the surface area of a box. */
+static float half_area(const struct bbox *b) {
+    float dx = b->hi[0] - b->lo[0], dy = b->hi[1] - b->lo[1], dz = b->hi[2] - b->lo[2];
+    return dx * dy + dy * dz + dz * dx;
+}
+
+/* A node of 5..8 primitives becomes two leaves: sorted by centroid on
+ * axis, the exact SAH picks among the cuts that leave at most 4 a side.
+ * Cheaper than binning (whose fixed cost dominates at this size) and
+ * better. */
+static uint32_t split_small(struct prim *p, uint32_t n, int axis, struct span *left,
+                            struct span *right) {
+    for (uint32_t i = 1; i < n; i++) { /* insertion sort of <= 8 records */
+        struct prim t = p[i];
+        float c = t.lo[axis] + t.hi[axis];
+        uint32_t j = i;
+        for (; j > 0 && p[j - 1].lo[axis] + p[j - 1].hi[axis] > c; j--) p[j] = p[j - 1];
+        p[j] = t;
+    }
+    uint32_t best_k = n / 2;
+    float best = INFINITY;
+    for (uint32_t k = n - BVH_MAX_LEAF; k <= BVH_MAX_LEAF; k++) {
+        span_of(p, k, left);
+        span_of(p + k, n - k, right);
+        float cost = half_area(&left->box) * (float)k + half_area(&right->box) * (float)(n - k);
+        if (cost < best) best = cost, best_k = k;
+    }
+    span_of(p, best_k, left);
+    span_of(p + best_k, n - best_k, right);
+    return best_k;
+}
+
 static uint32_t split(struct prim *p, uint32_t n, const struct span *sp, int depth,
                       struct span *left, struct span *right) {
     const struct bbox *cb = &sp->cent;
@@ -342,6 +377,7 @@ static uint32_t split(struct prim *p, uint32_t n, const struct span *sp, int dep
     int axis = ext[0] >= ext[1] && ext[0] >= ext[2] ? 0 : ext[1] >= ext[2] ? 1 : 2;
     *left = *right = (struct span){bb_empty(), bb_empty()};
     uint32_t mid = 0;
+    if (n > BVH_MAX_LEAF && n <= 2 * BVH_MAX_LEAF) return split_small(p, n, axis, left, right);
     if (n > BVH_MAX_LEAF && ext[axis] > 0 && depth < MEDIAN_DEPTH) {
         float scale = BINS / ext[axis] * 0.99999f;
         int plane = sah_plane(p, n, axis, cb->lo[axis], scale, left, right);
