@@ -116,15 +116,20 @@ static void test_examples_bvh_equals_brute_force(void) {
     }
 }
 
-static void test_watertight_edges_and_vertices(void) {
-    /* A closed octahedron: rays aimed exactly at every vertex and at every
-     * edge's midpoint, from many directions, must all hit. */
-    const char *json =
+/* A closed octahedron |x| + |y| + |z| <= 1, flat, as a scene. */
+static rayd_scene *octahedron(void) {
+    rayd_scene *s = scene_from(
         "{\"objects\": [{\"type\": \"mesh\", \"smooth\": false,"
         " \"vertices\": [1,0,0, -1,0,0, 0,1,0, 0,-1,0, 0,0,1, 0,0,-1],"
-        " \"indices\": [0,2,4, 2,1,4, 1,3,4, 3,0,4, 2,0,5, 1,2,5, 3,1,5, 0,3,5]}]}";
-    rayd_scene *s = scene_from(json);
+        " \"indices\": [0,2,4, 2,1,4, 1,3,4, 3,0,4, 2,0,5, 1,2,5, 3,1,5, 0,3,5]}]}");
     CHECK(s != NULL, "parse");
+    return s;
+}
+
+static void test_watertight_edges_and_vertices(void) {
+    /* Rays aimed exactly at every vertex and at every edge's midpoint of the
+     * octahedron, from many directions, must all hit. */
+    rayd_scene *s = octahedron();
     if (!s) return;
     const struct mesh *m = &s->meshes[0];
     vec3 targets[18];
@@ -164,12 +169,7 @@ static void test_watertight_edges_and_vertices(void) {
  * lanes of a packet have different sheared frames), odd bounds (0, < 0,
  * NaN, tiny, huge) and partial masks. */
 static void test_packets_equal_single_rays(void) {
-    const char *json =
-        "{\"objects\": [{\"type\": \"mesh\", \"smooth\": false,"
-        " \"vertices\": [1,0,0, -1,0,0, 0,1,0, 0,-1,0, 0,0,1, 0,0,-1],"
-        " \"indices\": [0,2,4, 2,1,4, 1,3,4, 3,0,4, 2,0,5, 1,2,5, 3,1,5, 0,3,5]}]}";
-    rayd_scene *s = scene_from(json);
-    CHECK(s != NULL, "parse");
+    rayd_scene *s = octahedron();
     if (!s) return;
     const struct mesh *m = &s->meshes[0];
     const double bounds[8] = {INFINITY, 0, -1, NAN, 1e-3, 4.0, 3.1e38, 5.0};
