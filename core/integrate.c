@@ -147,6 +147,13 @@ static vec3 trace_from(const rayd_scene *s, vec3 o, vec3 d, int depth, const str
     return whitted_radiance(s, &r, depth, key, rays);
 }
 
+/* The mirror direction a hit sends a reflected ray in: about the shading normal, unless
+ * that would go below the surface. */
+static vec3 mirror_dir(const ray *r, const struct frame *f) {
+    vec3 d = v3_reflect(r->d, f->nf);
+    return v3_dot(d, f->ngf) <= 0 ? v3_reflect(r->d, f->ngf) : d;
+}
+
 /* c (the direct light) plus the mirror and refracted rays, while depth <
  * render.max_depth. */
 static vec3 shade_secondary(const rayd_scene *s, const ray *r, const struct frame *f, vec3 c,
@@ -154,8 +161,7 @@ static vec3 shade_secondary(const rayd_scene *s, const ray *r, const struct fram
     if (depth >= s->rs.max_depth) return c;
     const struct material *m = f->sf.m;
     double kr = m->reflectivity, kt = m->transparency;
-    vec3 refl_dir = v3_reflect(r->d, f->nf);
-    if (v3_dot(refl_dir, f->ngf) <= 0) refl_dir = v3_reflect(r->d, f->ngf);
+    vec3 refl_dir = mirror_dir(r, f);
     if (kt <= 0) {
         if (kr > 0) c = v3_madd(c, trace_from(s, f->above, refl_dir, depth + 1, key, rays), kr);
         return c;
@@ -196,8 +202,8 @@ vec3 whitted_radiance(const rayd_scene *s, const ray *r, int depth, const struct
 /* shade_local for the hits in `hit`, each light sample's 16 shadow rays as
  * one packet: the same operations in the same order for every ray. */
 static void shade_local16(const rayd_scene *s, const ray r[16], uint32_t hit,
-                          const struct frame f[16], const struct rng_key key[16], vec3 c[16],
-                          uint64_t *rays) {
+                          const struct frame f[16], int depth, const struct rng_key key[16],
+                          vec3 c[16], uint64_t *rays) {
     for (uint32_t m = hit; m; m &= m - 1) c[__builtin_ctz(m)] = shade_base(s, &f[__builtin_ctz(m)]);
     for (int i = 0; i < s->nlights; i++) {
         const struct light *l = &s->lights[i];
@@ -211,7 +217,7 @@ static void shade_local16(const rayd_scene *s, const ray r[16], uint32_t hit,
             for (uint32_t m = hit; m; m &= m - 1) {
                 int j = __builtin_ctz(m);
                 double su, sv;
-                light_uv(l, i, k, gx, gy, 0, &key[j], &su, &sv);
+                light_uv(l, i, k, gx, gy, depth, &key[j], &su, &sv);
                 if (!integrate_light_aim(l, f[j].sf.p, f[j].nf, su, sv, f[j].above, &wi[j], &rad[j],
                                          &dist[j]))
                     continue;
@@ -234,8 +240,12 @@ static void shade_local16(const rayd_scene *s, const ray r[16], uint32_t hit,
     }
 }
 
-void whitted_radiance16(const rayd_scene *s, const ray r[16], uint32_t active,
-                        const struct rng_key key[16], vec3 out[16], uint64_t *rays) {
+/* whitted_radiance of the rays in active after `depth` bounces, as packets.
+ * The mirror rays of opaque mirrors go on as a packet of their own when at
+ * least a quarter of the lanes have one (fewer are not worth a packet);
+ * everything else takes shade_secondary, ray by ray. */
+static void whitted16(const rayd_scene *s, const ray r[16], uint32_t active, int depth,
+                      const struct rng_key key[16], vec3 out[16], uint64_t *rays) {
     *rays += (uint64_t)__builtin_popcount(active);
     double tmax[16];
     for (int i = 0; i < 16; i++) tmax[i] = INFINITY;
@@ -247,9 +257,34 @@ void whitted_radiance16(const rayd_scene *s, const ray r[16], uint32_t active,
         int i = __builtin_ctz(m);
         hit_frame(s, &r[i], &h[i], &f[i]);
     }
-    shade_local16(s, r, hit, f, key, out, rays);
+    shade_local16(s, r, hit, f, depth, key, out, rays);
+    uint32_t mirror = 0;
     for (uint32_t m = hit; m; m &= m - 1) {
         int i = __builtin_ctz(m);
-        out[i] = shade_secondary(s, &r[i], &f[i], out[i], 0, &key[i], rays);
+        const struct material *mt = f[i].sf.m;
+        if (depth < s->rs.max_depth && mt->transparency <= 0 && mt->reflectivity > 0)
+            mirror |= 1u << i;
     }
+    if (__builtin_popcount(mirror) < 4) mirror = 0;
+    for (uint32_t m = hit & ~mirror; m; m &= m - 1) {
+        int i = __builtin_ctz(m);
+        out[i] = shade_secondary(s, &r[i], &f[i], out[i], depth, &key[i], rays);
+    }
+    if (!mirror) return;
+    ray rr[16];
+    vec3 rc[16];
+    for (uint32_t m = mirror; m; m &= m - 1) {
+        int i = __builtin_ctz(m);
+        rr[i] = (ray){f[i].above, mirror_dir(&r[i], &f[i])};
+    }
+    whitted16(s, rr, mirror, depth + 1, key, rc, rays);
+    for (uint32_t m = mirror; m; m &= m - 1) {
+        int i = __builtin_ctz(m);
+        out[i] = v3_madd(out[i], rc[i], f[i].sf.m->reflectivity);
+    }
+}
+
+void whitted_radiance16(const rayd_scene *s, const ray r[16], uint32_t active,
+                        const struct rng_key key[16], vec3 out[16], uint64_t *rays) {
+    whitted16(s, r, active, 0, key, out, rays);
 }

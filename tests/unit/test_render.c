@@ -188,6 +188,43 @@ static void test_seed_changes_samples_only(void) {
     rayd_scene_free(sa2);
 }
 
+/* Whitted images are rendered in 4x4 blocks of packets (camera rays, their
+ * shadow rays, mirror rays); every pixel must equal render_pixel's, the
+ * one-ray integrator's.  A region of the 10x10-sphere scene (a third of
+ * its spheres are mirrors) at its own size, and the small Whitted example
+ * (glass, several samples). */
+static void test_blocks_equal_one_ray_pixels(void) {
+    size_t len;
+    char *text = read_file("bench/scenes/spheres10.json", &len);
+    CHECK(text != NULL, "bench/scenes/spheres10.json readable");
+    rayd_scene *scenes[2] = {NULL, small_whitted()};
+    struct rayd_error err;
+    if (text) CHECK(rayd_scene_parse(text, len, NULL, &scenes[0], &err) == RAYD_OK, "parse");
+    free(text);
+    const struct rayd_region regions[2] = {{900, 560, 90, 70}, {0, 0, 0, 0}};
+    for (int k = 0; k < 2; k++) {
+        rayd_scene *sc = scenes[k];
+        if (!sc) continue;
+        struct rayd_render_opts o = {.threads = 2, .region = regions[k]};
+        rayd_image *img = NULL;
+        CHECK(rayd_render(sc, &o, &img, NULL) == RAYD_OK, "render");
+        if (!img) continue;
+        int w = rayd_image_width(img), h = rayd_image_height(img), differ = 0;
+        const uint8_t *px = rayd_image_pixels_const(img);
+        for (int y = 0; y < h; y++)
+            for (int x = 0; x < w; x++) {
+                uint64_t rays = 0;
+                vec3 c = render_pixel(sc, regions[k].x + x, regions[k].y + y, &rays);
+                const uint8_t *p = px + ((size_t)y * w + x) * 3;
+                differ += p[0] != render_srgb8(c.x) || p[1] != render_srgb8(c.y) ||
+                          p[2] != render_srgb8(c.z);
+            }
+        CHECK(differ == 0, "scene %d: %d of %d pixels differ from render_pixel", k, differ, w * h);
+        rayd_image_free(img);
+        rayd_scene_free(sc);
+    }
+}
+
 /* The table-driven sRGB encoding equals the formula (srgb_ref) everywhere:
  * a sweep, random values, and both sides of every step between bytes. */
 static void test_srgb_bytes_equal_the_formula(void) {
@@ -222,5 +259,6 @@ int main(void) {
     RUN(test_progress_and_cancel);
     RUN(test_seed_changes_samples_only);
     RUN(test_srgb_bytes_equal_the_formula);
+    RUN(test_blocks_equal_one_ray_pixels);
     CHECK_EXIT();
 }
