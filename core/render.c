@@ -42,9 +42,14 @@ static uint8_t srgb8_exact(double c) {
 
 /* srgb_edge[k]: the least linear value whose byte is k (k = 1..255),
  * found once by bisection over the doubles in (0, 1) -- ordered like their
- * bit patterns -- against srgb8_exact.  A pixel's bytes then take a binary
- * search instead of three calls of pow, with the very same results. */
-static double srgb_edge[256];
+ * bit patterns -- against srgb8_exact.  srgb_start[] then gives the byte
+ * at the low end of each of 256 slices of every binade from 2^-13 (below,
+ * every byte is 0), so a value's byte is its slice's start, moved past the
+ * edges inside the slice (none or one: a slice is narrower than a step).
+ * The very same bytes as the formula, without three calls of pow a pixel. */
+#define SRGB_BINADES 13
+static double srgb_edge[257];
+static uint8_t srgb_start[SRGB_BINADES * 256];
 static pthread_once_t srgb_once = PTHREAD_ONCE_INIT;
 
 static void srgb_init(void) {
@@ -61,15 +66,24 @@ static void srgb_init(void) {
         }
         memcpy(&srgb_edge[k], &hi, sizeof hi);
     }
+    srgb_edge[256] = INFINITY; /* a sentinel: no byte past 255 */
+    for (int i = 0; i < SRGB_BINADES * 256; i++) {
+        double c = ldexp(1.0 + (i % 256) / 256.0, i / 256 - SRGB_BINADES); /* slice's low end */
+        int k = 0;
+        while (k < 255 && c >= srgb_edge[k + 1]) k++;
+        srgb_start[i] = (uint8_t)k;
+    }
 }
 
 /* After srgb_init. */
 static inline uint8_t srgb8(double c) {
-    if (!(c > 0)) return 0;
+    if (!(c >= 0x1p-13)) return 0; /* also NaN and below 0 */
     if (c >= 1) return 255;
-    int k = 0;
-    for (int step = 128; step; step >>= 1)
-        if (k + step <= 255 && c >= srgb_edge[k + step]) k += step;
+    uint64_t bits;
+    memcpy(&bits, &c, sizeof bits);
+    int binade = (int)(bits >> 52) - 1023 + SRGB_BINADES; /* 0 for [2^-13, 2^-12) */
+    int k = srgb_start[binade * 256 + (int)(bits >> 44 & 255)];
+    while (c >= srgb_edge[k + 1]) k++;
     return (uint8_t)k;
 }
 
