@@ -513,7 +513,8 @@ enum rayd_status bvh_build(struct bvh4 *bvh, const struct bbox *boxes, uint32_t 
     }
     span_of(b.prims, n, &all);
     atomic_init(&b.used, 1);
-    build_node(&b, 0, 0, n, &all, 0, threads > 1 ? 4 * threads : 1);
+    int tasks = threads > 1 ? 4 * threads : 1; /* at most 4 subtrees a thread, 64 threads */
+    build_node(&b, 0, 0, n, &all, 0, tasks > 64 ? 64 : tasks);
     for (uint32_t i = 0; i < n; i++) order[i] = b.prims[i].id;
     bvh->bounds = b.nodes[0].box;
     struct collapse c = {b.nodes, wide, 0};

@@ -194,7 +194,8 @@ BVH16_INLINE __mmask16 bvh16_walk(const struct bvh4 *bvh, const char *leaves, si
             if (sp == 0) return blocked;
             cur = stack[--sp];
             __m512 reach = _mm512_mul_ps(*tm, _mm512_set1_ps(BVH_SLACK));
-            cur.lanes = _mm512_mask_cmp_ps_mask(cur.lanes & lanes, cur.tnear, reach, _CMP_LE_OQ);
+            /* !(tnear > reach), as the one-ray walk has it (NaN included) */
+            cur.lanes = _mm512_mask_cmp_ps_mask(cur.lanes & lanes, cur.tnear, reach, _CMP_NGT_UQ);
             if (cur.lanes) break;
         }
     }

@@ -62,15 +62,16 @@ static inline double phong_pow(double x, double e) {
 }
 
 /* Lambert + Blinn-Phong from one light direction.  A highlight below
- * 2^-24 of the light (the material's spec_cut, see material.h) is not
- * computed: it could not change an 8-bit pixel, and the power is the
+ * 2^-24 (the material's spec_cut, see material.h, for radiance up to 1) is
+ * not computed: it could not change an 8-bit pixel, and the power is the
  * costliest step of the shader. */
 static vec3 shade_one(const struct material *m, vec3 color, vec3 nf, vec3 d, vec3 wi, vec3 rad) {
     vec3 c = v3_mul(rad, v3_scale(color, m->diffuse * v3_dot(nf, wi)));
     if (m->specular > 0) {
         vec3 h = v3_norm(v3_sub(wi, d));
         double ndh = v3_dot(nf, h);
-        if (ndh > m->spec_cut) c = v3_add(c, v3_scale(rad, m->specular * phong_pow(ndh, m->shininess)));
+        if (ndh > m->spec_cut || v3_maxabs(rad) > 1) /* spec_cut holds for lights up to 1 */
+            c = v3_add(c, v3_scale(rad, m->specular * phong_pow(ndh, m->shininess)));
     }
     return c;
 }

@@ -194,33 +194,40 @@ void object_mesh_hit(const struct object *o, const struct xform *outer,
     h->orient = 0;
 }
 
+/* Object space hit t_obj back in world units: kept if nearer than *tmax. */
+static bool world_take(double t_obj, double scale, double *tmax) {
+    double t = t_obj / scale;
+    if (!(t < *tmax)) return false;
+    *tmax = t;
+    return true;
+}
+
 /* Nearest hit of one object closer than *tmax: updates *tmax and h. */
 static bool object_hit(const rayd_scene *s, const struct object *o, const struct xform *outer,
                        const ray *r, double *tmax, struct hit *h) {
     double scale, t;
     ray lr = object_ray(s, o, r, &scale);
-    double lmax = *tmax * scale;
+    double lmax = object_space_bound(*tmax, scale);
     switch (o->kind) {
     case SHAPE_MESH: {
         struct mesh_hit mh;
         const struct mesh *m = &s->meshes[o->u.mesh.id];
         bool hit = s->brute ? mesh_intersect_brute(m, &lr, lmax, &mh)
                             : mesh_intersect(m, &lr, lmax, &mh);
-        if (!hit) return false;
+        if (!hit || !((double)mh.t / scale < *tmax)) return false;
         object_mesh_hit(o, outer, &mh, scale, tmax, h);
         return true;
     }
     case SHAPE_CSG:
-        if (!csg_hit(s, o, &lr, &lmax, h)) return false;
-        *tmax = lmax / scale;
+        if (!csg_hit(s, o, &lr, &lmax, h) || !world_take(lmax, scale, tmax)) return false;
         h->t = *tmax;
         h->outer = outer;
         return true;
     case SHAPE_INSTANCE: {
         const struct group *g = &s->groups[o->u.inst.group];
-        if (!objects_hit(s, g->objs, g->nobjs, &g->bvh, &s->xforms[o->xform], &lr, &lmax, h))
+        if (!objects_hit(s, g->objs, g->nobjs, &g->bvh, &s->xforms[o->xform], &lr, &lmax, h) ||
+            !world_take(lmax, scale, tmax))
             return false;
-        *tmax = lmax / scale;
         h->t = *tmax;
         return true;
     }
@@ -235,7 +242,7 @@ static bool object_hit(const rayd_scene *s, const struct object *o, const struct
     default:
         if (!shape_hit(o, &lr, 0, lmax, &t, &h->part)) return false;
     }
-    *tmax = t / scale;
+    if (!world_take(t, scale, tmax)) return false;
     h->t = *tmax;
     h->leaf = o;
     h->outer = outer;

@@ -175,14 +175,15 @@ static void visit_nearest16(struct scene16 *q, const struct object *o, uint32_t 
         bound[i] = nearest_bound(&q->c[i], o, q->tmax[i]);
         scale[i] = 1;
         if (moved) lr[i] = object_ray_xform(q->s, o, &q->r[i], &scale[i]);
-        lmax[i] = bound[i] * scale[i];
+        lmax[i] = object_space_bound(bound[i], scale[i]);
     }
     struct mesh_hit mh[16];
     const struct mesh *msh = &q->s->meshes[o->u.mesh.id];
     uint32_t hit = mesh_intersect16(msh, moved ? lr : q->r, lmax, lanes, mh);
-    for (; hit; hit &= hit - 1) { /* nearest_take, writing in place */
+    for (; hit; hit &= hit - 1) { /* object_hit's test, then nearest_take's, in place */
         int i = __builtin_ctz(hit);
-        if (mh[i].t / scale[i] > q->tmax[i]) continue;
+        double t = (double)mh[i].t / scale[i];
+        if (!(t < bound[i]) || t > q->tmax[i]) continue;
         object_mesh_hit(o, NULL, &mh[i], scale[i], &q->tmax[i], q->c[i].h);
         q->c[i].best = nearest_rank(&q->c[i], o);
     }

@@ -58,6 +58,16 @@ static inline ray object_ray(const rayd_scene *s, const struct object *o, const 
     return *r;
 }
 
+/* The bound to search a transformed object's own space up to, for the
+ * world bound tmax: a few ulps past tmax * scale, so that a hit at or
+ * just below tmax is found whatever rounding the two conversions do; the
+ * hit is then kept or not by comparing in world units (t_obj / scale <
+ * tmax).  So which of two nearly equal hits wins does not depend on which
+ * object set tmax first. */
+static inline double object_space_bound(double tmax, double scale) {
+    return scale == 1 ? tmax : tmax * scale * (1 + 0x1p-50);
+}
+
 /* Fills h (and *tmax, in world units) from mesh object o's hit mh. */
 void object_mesh_hit(const struct object *o, const struct xform *outer,
                      const struct mesh_hit *mh, double scale, double *tmax, struct hit *h);
