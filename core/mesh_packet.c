@@ -191,9 +191,10 @@ BVH16_FN void shear8(const struct ray16d *q, int h, __m256 s[3], unsigned m[3][2
     __mmask8 y0 = (z1 & ns) | (z2 & sw), y1 = (z2 & ns) | (z0 & sw);
     __m512d dx = _mm512_mask_blend_pd(x0, _mm512_mask_blend_pd(x1, d[2], d[1]), d[0]);
     __m512d dy = _mm512_mask_blend_pd(y0, _mm512_mask_blend_pd(y1, d[2], d[1]), d[0]);
-    s[0] = _mm512_cvtpd_ps(_mm512_div_pd(dx, dz));
-    s[1] = _mm512_cvtpd_ps(_mm512_div_pd(dy, dz));
-    s[2] = _mm512_cvtpd_ps(_mm512_div_pd(_mm512_set1_pd(1.0), dz));
+    __m512d inv = _mm512_div_pd(_mm512_set1_pd(1.0), dz);
+    s[0] = _mm512_cvtpd_ps(_mm512_mul_pd(dx, inv));
+    s[1] = _mm512_cvtpd_ps(_mm512_mul_pd(dy, inv));
+    s[2] = _mm512_cvtpd_ps(inv);
     const __mmask8 w[3][2] = {{x0, x1}, {y0, y1}, {z0, z1}};
     for (int a = 0; a < 3; a++)
         for (int v = 0; v < 2; v++) m[a][v] |= (unsigned)w[a][v] << 8 * h;
