@@ -21,6 +21,7 @@
 #include <stdint.h>
 
 #include "bvh.h"
+#include "mesh.h"
 
 /* True when the packet code runs with AVX-512 (built in, the CPU and OS
  * have it, and not forced off); else packets loop over their rays. */
@@ -35,6 +36,7 @@ void packet_force_scalar(bool on);
 /* Skylake-server's set: AVX-512 F, DQ, BW, VL with the AVX2 generation
  * beside it (BMI, popcount), all checked at run time by bvh16_available. */
 #define BVH16_TARGET "avx512f,avx512dq,avx512bw,avx512vl,avx2,bmi,bmi2,popcnt"
+#define BVH16_EXTERN __attribute__((target(BVH16_TARGET)))
 #define BVH16_FN __attribute__((target(BVH16_TARGET))) static inline
 #define BVH16_INLINE __attribute__((target(BVH16_TARGET), always_inline)) static inline
 
@@ -52,6 +54,14 @@ BVH16_FN void ray16d_load(struct ray16d *q, const ray r[16], uint32_t active) {
         q->d[0][i] = ri->d.x, q->d[1][i] = ri->d.y, q->d[2][i] = ri->d.z;
     }
 }
+
+/* mesh_intersect16 and mesh_occluded16 (mesh.h) for rays already loaded
+ * as structure of arrays, with AVX-512: the caller checked bvh16_available
+ * (mesh_packet.c). */
+uint32_t mesh16_intersect(const struct mesh *m, const struct ray16d *rd, const double tmax[16],
+                          uint32_t active, struct mesh_hit h[16]);
+uint32_t mesh16_occluded(const struct mesh *m, const struct ray16d *rd, const double tmax[16],
+                         uint32_t active);
 
 /* Two halves of 8 floats as one register of 16. */
 BVH16_FN __m512 join16(__m256 lo, __m256 hi) {

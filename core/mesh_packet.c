@@ -223,15 +223,13 @@ BVH16_FN __m512 bounds16(const double tmax[16], uint32_t active, bool any) {
 }
 
 /* Loads the packet: each lane's ray set up as the one-ray code does. */
-BVH16_FN void mesh16_init(struct mesh16 *q, const struct mesh *m, const ray r[16],
+BVH16_FN void mesh16_init(struct mesh16 *q, const struct mesh *m, const struct ray16d *rd,
                           const double tmax[16], uint32_t active, bool any, __m512 *tm) {
-    struct ray16d rd;
-    ray16d_load(&rd, r, active);
-    bvh16_ray_init(&q->br, &rd);
+    bvh16_ray_init(&q->br, rd);
     __m256 sh[2][3];
     unsigned kmask[3][2] = {{0, 0}, {0, 0}, {0, 0}};
-    shear8(&rd, 0, sh[0], kmask);
-    shear8(&rd, 1, sh[1], kmask);
+    shear8(rd, 0, sh[0], kmask);
+    shear8(rd, 1, sh[1], kmask);
     q->sx = join16(sh[0][0], sh[1][0]);
     q->sy = join16(sh[0][1], sh[1][1]);
     q->sz = join16(sh[0][2], sh[1][2]);
@@ -255,12 +253,13 @@ BVH16_FN void mesh16_init(struct mesh16 *q, const struct mesh *m, const ray r[16
     q->found = 0;
 }
 
-BVH16_FN uint32_t mesh_intersect16_avx512(const struct mesh *m, const ray r[16],
-                                          const double tmax[16], uint32_t active,
-                                          struct mesh_hit h[16]) {
+BVH16_EXTERN uint32_t mesh16_intersect(const struct mesh *m, const struct ray16d *rd,
+                                       const double tmax[16], uint32_t active,
+                                       struct mesh_hit h[16]) {
+    if (!active || m->bvh.nnodes == 0) return 0;
     struct mesh16 q;
     __m512 tm;
-    mesh16_init(&q, m, r, tmax, active, false, &tm);
+    mesh16_init(&q, m, rd, tmax, active, false, &tm);
     bvh16_walk(&m->bvh, (const char *)m->blocks, sizeof *m->blocks, &q.br, &tm,
                (__mmask16)active, leaf_nearest, &q);
     float t[16], u[16], v[16];
@@ -276,11 +275,12 @@ BVH16_FN uint32_t mesh_intersect16_avx512(const struct mesh *m, const ray r[16],
     return hit;
 }
 
-BVH16_FN uint32_t mesh_occluded16_avx512(const struct mesh *m, const ray r[16],
-                                         const double tmax[16], uint32_t active) {
+BVH16_EXTERN uint32_t mesh16_occluded(const struct mesh *m, const struct ray16d *rd,
+                                      const double tmax[16], uint32_t active) {
+    if (!active || m->bvh.nnodes == 0) return 0;
     struct mesh16 q;
     __m512 tm;
-    mesh16_init(&q, m, r, tmax, active, true, &tm);
+    mesh16_init(&q, m, rd, tmax, active, true, &tm);
     return bvh16_walk(&m->bvh, (const char *)m->blocks, sizeof *m->blocks, &q.br, &tm,
                       (__mmask16)active, leaf_any, &q);
 }
@@ -297,7 +297,11 @@ uint32_t mesh_intersect16(const struct mesh *m, const ray r[16], const double tm
                           uint32_t active, struct mesh_hit h[16]) {
     if (!active || m->bvh.nnodes == 0) return 0;
 #ifdef BVH16
-    if (bvh16_available()) return mesh_intersect16_avx512(m, r, tmax, active, h);
+    if (bvh16_available()) {
+        struct ray16d rd;
+        ray16d_load(&rd, r, active);
+        return mesh16_intersect(m, &rd, tmax, active, h);
+    }
 #endif
     uint32_t hit = 0;
     for (int i = 0; i < 16; i++)
@@ -309,7 +313,11 @@ uint32_t mesh_occluded16(const struct mesh *m, const ray r[16], const double tma
                          uint32_t active) {
     if (!active || m->bvh.nnodes == 0) return 0;
 #ifdef BVH16
-    if (bvh16_available()) return mesh_occluded16_avx512(m, r, tmax, active);
+    if (bvh16_available()) {
+        struct ray16d rd;
+        ray16d_load(&rd, r, active);
+        return mesh16_occluded(m, &rd, tmax, active);
+    }
 #endif
     uint32_t hit = 0;
     for (int i = 0; i < 16; i++)

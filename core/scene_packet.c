@@ -179,7 +179,9 @@ static void visit_nearest16(struct scene16 *q, const struct object *o, uint32_t 
     }
     struct mesh_hit mh[16];
     const struct mesh *msh = &q->s->meshes[o->u.mesh.id];
-    uint32_t hit = mesh_intersect16(msh, moved ? lr : q->r, lmax, lanes, mh);
+    struct ray16d lrd;
+    if (moved) ray16d_load(&lrd, lr, lanes);
+    uint32_t hit = mesh16_intersect(msh, moved ? &lrd : &q->rd, lmax, lanes, mh);
     for (; hit; hit &= hit - 1) { /* object_hit's test, then nearest_take's, in place */
         int i = __builtin_ctz(hit);
         double t = (double)mh[i].t / scale[i];
@@ -208,7 +210,10 @@ static uint32_t visit_any16(const struct scene16 *q, const struct object *o, uin
             lr[i] = object_ray(q->s, o, &q->r[i], &scale);
             lmax[i] = q->tmax[i] * scale;
         }
-        return mesh_occluded16(&q->s->meshes[o->u.mesh.id], lr, lmax, lanes);
+        struct ray16d lrd;
+        if (o->xform >= 0) ray16d_load(&lrd, lr, lanes);
+        return mesh16_occluded(&q->s->meshes[o->u.mesh.id], o->xform >= 0 ? &lrd : &q->rd, lmax,
+                               lanes);
     }
     for (; lanes; lanes &= lanes - 1) {
         int i = __builtin_ctz(lanes);
