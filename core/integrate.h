@@ -22,6 +22,10 @@ void whitted_radiance16(const rayd_scene *s, const ray r[16], uint32_t active,
 /* Path tracing (integrate_path.c): an unbiased estimate of the radiance
  * arriving along r. */
 vec3 path_radiance(const rayd_scene *s, const ray *r, const struct rng_key *key, uint64_t *rays);
+/* The same with r's nearest hit already found: *h when hit, else r escapes
+ * (a camera ray of a packet, scene_intersect16). */
+vec3 path_radiance_from(const rayd_scene *s, const ray *r, const struct hit *h, bool hit,
+                        const struct rng_key *key, uint64_t *rays);
 
 /* The shadow ray test from origin toward a light: what gets through. */
 vec3 integrate_visible(const rayd_scene *s, vec3 origin, vec3 to_light, double dist,

@@ -222,7 +222,10 @@ static bool sample_bsdf(const struct lobes *lb, const struct vertex *x, vec3 col
     return true;
 }
 
-vec3 path_radiance(const rayd_scene *s, const ray *r0, const struct rng_key *key, uint64_t *rays) {
+/* The path from r0; first, when not NULL, is r0's nearest hit already
+ * found (first_hit says whether *first is a hit or r0 escapes). */
+static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *first, bool first_hit,
+                       const struct rng_key *key, uint64_t *rays) {
     vec3 L = v3(0, 0, 0), beta = v3(1, 1, 1);
     ray r = *r0;
     bool prev_delta = true;
@@ -231,7 +234,9 @@ vec3 path_radiance(const rayd_scene *s, const ray *r0, const struct rng_key *key
     for (uint32_t b = 0;; b++) {
         struct hit h;
         (*rays)++;
-        if (!scene_intersect(s, &r, INFINITY, &h)) return v3_add(L, v3_mul(beta, s->rs.background));
+        bool found = b == 0 && first ? first_hit : scene_intersect(s, &r, INFINITY, &h);
+        if (b == 0 && first && first_hit) h = *first;
+        if (!found) return v3_add(L, v3_mul(beta, s->rs.background));
         struct surface sf;
         scene_surface(s, &r, &h, &sf);
         const struct material *m = sf.m;
@@ -276,4 +281,13 @@ vec3 path_radiance(const rayd_scene *s, const ray *r0, const struct rng_key *key
         r.d = wi;
     }
     return L;
+}
+
+vec3 path_radiance(const rayd_scene *s, const ray *r, const struct rng_key *key, uint64_t *rays) {
+    return path_trace(s, r, NULL, false, key, rays);
+}
+
+vec3 path_radiance_from(const rayd_scene *s, const ray *r, const struct hit *h, bool hit,
+                        const struct rng_key *key, uint64_t *rays) {
+    return path_trace(s, r, h, hit, key, rays);
 }

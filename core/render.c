@@ -130,9 +130,10 @@ static void put_pixel(uint8_t *out, vec3 c) {
     out[2] = srgb8(c.z);
 }
 
-/* The w x h (at most 4 x 4) block at (x, y) with the Whitted integrator:
- * each sample's 16 camera rays traced as packets (whitted_radiance16), the
- * same radiance per pixel as render_pixel, summed in the same order. */
+/* The w x h (at most 4 x 4) block at (x, y): each sample's 16 camera rays
+ * traced as packets (whitted_radiance16; for the path tracer the camera
+ * rays' hits, scene_intersect16), the same radiance per pixel as
+ * render_pixel, summed in the same order. */
 static void render_block(const rayd_scene *s, int x, int y, int w, int h, rayd_image *dst, int dx,
                          int dy, uint64_t *rays) {
     int n = s->rs.samples;
@@ -147,7 +148,18 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h, rayd_i
             int q = __builtin_ctz(m);
             r[q] = sample_ray(s, x + q % 4, y + q / 4, k, n, &key[q]);
         }
-        whitted_radiance16(s, r, active, key, c, rays);
+        if (s->rs.integrator == INTEGRATOR_WHITTED) {
+            whitted_radiance16(s, r, active, key, c, rays);
+        } else { /* the camera rays as a packet, the paths on one by one */
+            double tmax[16];
+            struct hit first[16];
+            for (int q = 0; q < 16; q++) tmax[q] = INFINITY;
+            uint32_t hit = scene_intersect16(s, r, tmax, active, first);
+            for (uint32_t m = active; m; m &= m - 1) {
+                int q = __builtin_ctz(m);
+                c[q] = path_radiance_from(s, &r[q], &first[q], hit >> q & 1, &key[q], rays);
+            }
+        }
         for (uint32_t m = active; m; m &= m - 1) {
             int q = __builtin_ctz(m);
             acc[q] = k ? v3_add(acc[q], c[q]) : v3_add(v3(0, 0, 0), c[q]);
@@ -160,24 +172,18 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h, rayd_i
     }
 }
 
-/* Renders the w x h rectangle at (x, y) of the image into dst at (dx, dy):
- * by 4 x 4 blocks of packets with the Whitted integrator, else pixel by
- * pixel.  The cancel flag is polled once per row (of blocks). */
+/* Renders the w x h rectangle at (x, y) of the image into dst at (dx, dy)
+ * by 4 x 4 blocks of packets.  The cancel flag is polled once per row of
+ * blocks. */
 static enum rayd_status render_rect(const rayd_scene *s, int x, int y, int w, int h,
                                     rayd_image *dst, int dx, int dy, const atomic_int *cancel,
                                     uint64_t *rays) {
-    bool blocks = s->rs.integrator == INTEGRATOR_WHITTED;
     pthread_once(&srgb_once, srgb_init);
-    for (int row = 0; row < h; row += blocks ? 4 : 1) {
+    for (int row = 0; row < h; row += 4) {
         if (cancel && atomic_load_explicit(cancel, memory_order_relaxed)) return RAYD_E_CANCELED;
-        for (int col = 0; col < w; col += blocks ? 4 : 1) {
-            if (blocks) {
-                int bw = w - col < 4 ? w - col : 4, bh = h - row < 4 ? h - row : 4;
-                render_block(s, x + col, y + row, bw, bh, dst, dx + col, dy + row, rays);
-            } else {
-                size_t at = ((size_t)(dy + row) * (size_t)dst->w + (size_t)(dx + col)) * 3;
-                put_pixel(dst->px + at, render_pixel(s, x + col, y + row, rays));
-            }
+        for (int col = 0; col < w; col += 4) {
+            int bw = w - col < 4 ? w - col : 4, bh = h - row < 4 ? h - row : 4;
+            render_block(s, x + col, y + row, bw, bh, dst, dx + col, dy + row, rays);
         }
     }
     return RAYD_OK;

@@ -188,21 +188,26 @@ static void test_seed_changes_samples_only(void) {
     rayd_scene_free(sa2);
 }
 
-/* Whitted images are rendered in 4x4 blocks of packets (camera rays, their
- * shadow rays, mirror rays); every pixel must equal render_pixel's, the
- * one-ray integrator's.  A region of the 10x10-sphere scene (a third of
- * its spheres are mirrors) at its own size, and the small Whitted example
- * (glass, several samples). */
+/* Images are rendered in 4x4 blocks of packets (camera rays; with Whitted
+ * also their shadow rays and mirror rays); every pixel must equal
+ * render_pixel's, the one-ray integrators'.  A region of the 10x10-sphere
+ * scene (a third of its spheres are mirrors) at its own size, the small
+ * Whitted example (glass, several samples), and a corner of the Cornell
+ * box (path tracing, 128 samples). */
 static void test_blocks_equal_one_ray_pixels(void) {
     size_t len;
     char *text = read_file("bench/scenes/spheres10.json", &len);
     CHECK(text != NULL, "bench/scenes/spheres10.json readable");
-    rayd_scene *scenes[2] = {NULL, small_whitted()};
+    rayd_scene *scenes[3] = {NULL, small_whitted(), NULL};
     struct rayd_error err;
     if (text) CHECK(rayd_scene_parse(text, len, NULL, &scenes[0], &err) == RAYD_OK, "parse");
     free(text);
-    const struct rayd_region regions[2] = {{900, 560, 90, 70}, {0, 0, 0, 0}};
-    for (int k = 0; k < 2; k++) {
+    text = read_file("scenes/cornell.json", &len); /* the path tracer: its camera rays too */
+    CHECK(text != NULL, "scenes/cornell.json readable");
+    if (text) CHECK(rayd_scene_parse(text, len, NULL, &scenes[2], &err) == RAYD_OK, "parse");
+    free(text);
+    const struct rayd_region regions[3] = {{900, 560, 90, 70}, {0, 0, 0, 0}, {150, 120, 10, 7}};
+    for (int k = 0; k < 3; k++) {
         rayd_scene *sc = scenes[k];
         if (!sc) continue;
         struct rayd_render_opts o = {.threads = 2, .region = regions[k]};
