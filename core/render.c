@@ -14,7 +14,10 @@
  *
  * rayd_render splits the region into tiles handed out through an atomic
  * counter to `threads` pthreads; each thread keeps its own ray count, so the
- * hot loop shares nothing.  The cancel flag is polled once per row.
+ * hot loop shares nothing.  A tile is traced in blocks of 4x4 pixels, each
+ * sample's 16 camera rays as one packet (scene_packet.c); since a packet
+ * gives every ray exactly its one-ray answer, the blocks change nothing
+ * in the bytes.  The cancel flag is polled once per row of blocks.
  */
 #include <pthread.h>
 #include <stdatomic.h>
