@@ -4,10 +4,16 @@
  * tested against all 16 rays of the packet at once, one child at a time,
  * and the packet goes down into each child that at least one of its rays
  * enters, carrying the mask of those rays.  Children are taken nearest
- * first (by the entry distance of the packet's first ray in them); a stack entry keeps each
- * ray's entry distance, so a ray that found a nearer hit meanwhile drops out
- * of it when it is popped.  For coherent rays (a 4x4 block of pixels, the
- * shadow rays from it to a light) the node data is loaded once for 16 rays.
+ * first (by the entry distance of the first ray entering each); a stack
+ * entry keeps each ray's entry distance, so a ray that found a nearer hit
+ * meanwhile drops out of it when it is popped.  The nodes and leaves about
+ * to be visited are prefetched.  For coherent rays (a 4x4 block of
+ * pixels, the shadow rays from it to a light) the node data is loaded once
+ * for 16 rays.
+ *
+ * The walk visits nodes in another order than the one-ray walk of bvh.h,
+ * and culls with the same slack (BVH_SLACK), so with order-free leaf rules
+ * (mesh_ray.h, scene_query.h) every ray finds exactly its one-ray hit.
  *
  * Only the AVX-512 code lives here, compiled for that target whatever the
  * build's -march (functions carry a target attribute), and used when the
