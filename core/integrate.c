@@ -10,6 +10,11 @@
  * refracted ray (transparency) split by the Fresnel equations; total
  * internal reflection sends everything to the mirror ray.  Planes are thin
  * surfaces: what passes through them goes straight on.
+ *
+ * whitted_radiance16 does the same for 16 camera rays at once: the hits,
+ * each light sample's shadow rays and the opaque mirrors' rays as packets,
+ * the rest ray by ray, every step the one-ray code's own function, so each
+ * ray's colour is exactly whitted_radiance's.
  */
 #include "integrate.h"
 
