@@ -338,12 +338,6 @@ static void select_nth(struct prim *p, uint32_t n, uint32_t nth, int axis) {
 /* Splits node prims p[0..n) (measured by sp) into left and right: binned
  * SAH, the median past MEDIAN_DEPTH, halves by count when the centroids
  * coincide.  Returns the left count; 0 makes a leaf. */
-/* Half the surface area of a box. */
-static float half_area(const struct bbox *b) {
-    float dx = b->hi[0] - b->lo[0], dy = b->hi[1] - b->lo[1], dz = b->hi[2] - b->lo[2];
-    return dx * dy + dy * dz + dz * dx;
-}
-
 /* A node of 5..8 primitives becomes two leaves: sorted by centroid on
  * axis, the exact SAH picks among the cuts that leave at most 4 a side.
  * Cheaper than binning (whose fixed cost dominates at this size) and
@@ -362,7 +356,7 @@ static uint32_t split_small(struct prim *p, uint32_t n, int axis, struct span *l
     for (uint32_t k = n - BVH_MAX_LEAF; k <= BVH_MAX_LEAF; k++) {
         span_of(p, k, left);
         span_of(p + k, n - k, right);
-        float cost = half_area(&left->box) * (float)k + half_area(&right->box) * (float)(n - k);
+        float cost = bb_area(&left->box) * (float)k + bb_area(&right->box) * (float)(n - k);
         if (cost < best) best = cost, best_k = k;
     }
     span_of(p, best_k, left);

@@ -144,8 +144,10 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h, rayd_i
     ray r[16];
     struct rng_key key[16];
     uint32_t active = 0;
-    for (int q = 0; q < 16; q++)
+    for (int q = 0; q < 16; q++) {
+        acc[q] = v3(0, 0, 0);
         if (q % 4 < w && q / 4 < h) active |= 1u << q;
+    }
     for (int k = 0; k < n; k++) {
         for (uint32_t m = active; m; m &= m - 1) {
             int q = __builtin_ctz(m);
@@ -165,7 +167,7 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h, rayd_i
         }
         for (uint32_t m = active; m; m &= m - 1) {
             int q = __builtin_ctz(m);
-            acc[q] = k ? v3_add(acc[q], c[q]) : v3_add(v3(0, 0, 0), c[q]);
+            acc[q] = v3_add(acc[q], c[q]);
         }
     }
     for (uint32_t m = active; m; m &= m - 1) {

@@ -183,8 +183,9 @@ static bool objects_hit(const rayd_scene *s, const struct object *objs, int32_t 
                         const struct bvh4 *bvh, const struct xform *outer, const ray *r,
                         double *tmax, struct hit *h);
 
-void object_mesh_hit(const struct object *o, const struct xform *outer,
+bool object_mesh_hit(const struct object *o, const struct xform *outer,
                      const struct mesh_hit *mh, double scale, double *tmax, struct hit *h) {
+    if (!((double)mh->t / scale < *tmax)) return false;
     h->mh = *mh;
     h->part = 0;
     *tmax = mh->t / scale;
@@ -192,6 +193,7 @@ void object_mesh_hit(const struct object *o, const struct xform *outer,
     h->leaf = o;
     h->outer = outer;
     h->orient = 0;
+    return true;
 }
 
 /* Object space hit t_obj back in world units: kept if nearer than *tmax. */
@@ -214,9 +216,7 @@ static bool object_hit(const rayd_scene *s, const struct object *o, const struct
         const struct mesh *m = &s->meshes[o->u.mesh.id];
         bool hit = s->brute ? mesh_intersect_brute(m, &lr, lmax, &mh)
                             : mesh_intersect(m, &lr, lmax, &mh);
-        if (!hit || !((double)mh.t / scale < *tmax)) return false;
-        object_mesh_hit(o, outer, &mh, scale, tmax, h);
-        return true;
+        return hit && object_mesh_hit(o, outer, &mh, scale, tmax, h);
     }
     case SHAPE_CSG:
         if (!csg_hit(s, o, &lr, &lmax, h) || !world_take(lmax, scale, tmax)) return false;

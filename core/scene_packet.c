@@ -151,12 +151,10 @@ static void visit_nearest16(struct scene16 *q, const struct object *o, uint32_t 
             int i = __builtin_ctz(odd);
             nearest_visit(&q->c[i], o, &q->tmax[i]);
         }
-        for (; hit; hit &= hit - 1) {
+        for (; hit; hit &= hit - 1) { /* t < bound already: object_hit's tail */
             int i = __builtin_ctz(hit);
-            if (t[i] > q->tmax[i]) continue;
-            q->tmax[i] = t[i];
-            *q->c[i].h = (struct hit){.t = t[i], .leaf = o, .outer = NULL, .part = 0, .orient = 0};
-            q->c[i].best = nearest_rank(&q->c[i], o);
+            struct hit h = {.t = t[i], .leaf = o, .outer = NULL, .part = 0, .orient = 0};
+            nearest_take(&q->c[i], o, t[i], &h, &q->tmax[i]);
         }
         return;
     }
@@ -182,12 +180,11 @@ static void visit_nearest16(struct scene16 *q, const struct object *o, uint32_t 
     struct ray16d lrd;
     if (moved) ray16d_load(&lrd, lr, lanes);
     uint32_t hit = mesh16_intersect(msh, moved ? &lrd : &q->rd, lmax, lanes, mh);
-    for (; hit; hit &= hit - 1) { /* object_hit's test, then nearest_take's, in place */
+    for (; hit; hit &= hit - 1) { /* the rest of object_hit, then nearest_take */
         int i = __builtin_ctz(hit);
-        double t = (double)mh[i].t / scale[i];
-        if (!(t < bound[i]) || t > q->tmax[i]) continue;
-        object_mesh_hit(o, NULL, &mh[i], scale[i], &q->tmax[i], q->c[i].h);
-        q->c[i].best = nearest_rank(&q->c[i], o);
+        struct hit h;
+        if (object_mesh_hit(o, NULL, &mh[i], scale[i], &bound[i], &h))
+            nearest_take(&q->c[i], o, bound[i], &h, &q->tmax[i]);
     }
 }
 
@@ -224,7 +221,7 @@ static uint32_t visit_any16(const struct scene16 *q, const struct object *o, uin
 }
 
 /* Each ray's float bound for the node tests, as objects_walk has it. */
-BVH16_FN __m512 bounds16(const double tmax[16]) {
+BVH16_FN __m512 node_bounds16(const double tmax[16]) {
     float f[16];
     for (int i = 0; i < 16; i++) f[i] = tmax[i] > 3e38 ? 3e38f : (float)tmax[i];
     return _mm512_loadu_ps(f);
@@ -234,7 +231,7 @@ BVH16_FN __mmask16 tlas_nearest(void *ctx, uint32_t first, uint32_t count, __mma
                                 __m512 *tm) {
     struct scene16 *q = ctx;
     for (uint32_t k = first; k < first + count; k++) visit_nearest16(q, &q->s->objs[k], lanes);
-    *tm = bounds16(q->tmax);
+    *tm = node_bounds16(q->tmax);
     return 0;
 }
 
@@ -269,7 +266,7 @@ BVH16_FN uint32_t intersect16(const rayd_scene *s, const ray r[16], const double
     } else if (s->nobjs > 1) {
         struct bvh16_ray br;
         bvh16_ray_init(&br, &q.rd);
-        __m512 tm = bounds16(q.tmax);
+        __m512 tm = node_bounds16(q.tmax);
         bvh16_walk(&s->tlas, NULL, 0, &br, &tm, (__mmask16)active, tlas_nearest, &q);
     }
     uint32_t hit = 0;
@@ -293,7 +290,7 @@ BVH16_FN void transmittance16(const rayd_scene *s, const ray r[16], const double
     } else if (open && s->nobjs > 1) {
         struct bvh16_ray br;
         bvh16_ray_init(&br, &q.rd);
-        __m512 tm = bounds16(q.tmax);
+        __m512 tm = node_bounds16(q.tmax);
         open &= ~(uint32_t)bvh16_walk(&s->tlas, NULL, 0, &br, &tm, (__mmask16)open, tlas_any, &q);
     }
     for (int i = 0; i < 16; i++)

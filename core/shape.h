@@ -163,11 +163,17 @@ static inline bool sphere_nearest(const struct object *o, const ray *r, double t
     return *t > 0 && *t < tmax;
 }
 
-static inline bool plane_nearest(const struct object *o, const ray *r, double tmax, double *t) {
+/* The plane's crossing with the ray's line (the paper's formula, see
+ * shape_plane.c); false when the ray runs parallel to it. */
+static inline bool plane_cross(const struct object *o, const ray *r, double *t) {
     double denom = v3_dot(o->u.plane.normal, r->d);
     if (denom == 0) return false;
     *t = v3_dot(o->u.plane.normal, v3_sub(o->u.plane.point, r->o)) / denom;
-    return *t > 0 && *t < tmax;
+    return true;
+}
+
+static inline bool plane_nearest(const struct object *o, const ray *r, double tmax, double *t) {
+    return plane_cross(o, r, t) && *t > 0 && *t < tmax;
 }
 
 /* Shape-specific entry points the tests and the fast paths use. */

@@ -10,9 +10,7 @@
 #include "shape.h"
 
 static int plane_crossings(const struct object *o, const ray *r, struct xing out[4]) {
-    double denom = v3_dot(o->u.plane.normal, r->d);
-    if (denom == 0) return 0;
-    out[0].t = v3_dot(o->u.plane.normal, v3_sub(o->u.plane.point, r->o)) / denom;
+    if (!plane_cross(o, r, &out[0].t)) return 0;
     out[0].part = 0;
     return 1;
 }
