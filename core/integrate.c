@@ -18,6 +18,8 @@
  */
 #include "integrate.h"
 
+#include "integrate_wide.h"
+
 vec3 integrate_visible(const rayd_scene *s, vec3 origin, vec3 to_light, double dist,
                        uint64_t *rays) {
     ray sr = {origin, to_light};
@@ -55,13 +57,13 @@ bool integrate_light_sample(const rayd_scene *s, const struct light *l, vec3 p, 
     return light_pass(integrate_visible(s, origin, *wi, dist, rays), radiance);
 }
 
-/* x^e for the Blinn-Phong exponent: by squaring when e is a whole number
- * up to 1024 (the common case: a few multiplications, within a few ulps of
- * pow), else pow. */
-static inline double phong_pow(double x, double e) {
-    if (!(e >= 0 && e <= 1024 && e == (double)(int)e)) return pow(x, e);
+/* x^e for m's Blinn-Phong exponent e: by squaring when e is a whole
+ * number up to 1024 (the common case: a few multiplications, within a few
+ * ulps of pow), else pow. */
+static inline double phong_pow(double x, const struct material *m) {
+    if (m->shine_whole < 0) return pow(x, m->shininess);
     double r = 1;
-    for (unsigned n = (unsigned)e; n; n >>= 1, x *= x)
+    for (unsigned n = (unsigned)m->shine_whole; n; n >>= 1, x *= x)
         if (n & 1) r *= x;
     return r;
 }
@@ -76,7 +78,7 @@ static vec3 shade_one(const struct material *m, vec3 color, vec3 nf, vec3 d, vec
         vec3 h = v3_norm(v3_sub(wi, d));
         double ndh = v3_dot(nf, h);
         if (ndh > m->spec_cut || v3_maxabs(rad) > 1) /* spec_cut holds for lights up to 1 */
-            c = v3_add(c, v3_scale(rad, m->specular * phong_pow(ndh, m->shininess)));
+            c = v3_add(c, v3_scale(rad, m->specular * phong_pow(ndh, m)));
     }
     return c;
 }
@@ -247,46 +249,51 @@ static void shade_local16(const rayd_scene *s, const ray r[16], uint32_t hit,
 }
 
 /* whitted_radiance of the rays in active after `depth` bounces, as packets.
- * The mirror rays of opaque mirrors go on as a packet of their own when at
- * least a quarter of the lanes have one (fewer are not worth a packet);
- * everything else takes shade_secondary, ray by ray. */
+ * The common hits are shaded 16 wide (integrate_wide.c), the others lane by
+ * lane with their shadow rays as a packet.  The mirror rays of opaque
+ * mirrors go on as a packet of their own when at least a quarter of the
+ * lanes have one (fewer are not worth a packet); everything else takes
+ * shade_secondary, ray by ray. */
 static void whitted16(const rayd_scene *s, const ray r[16], uint32_t active, int depth,
                       const struct rng_key key[16], vec3 out[16], uint64_t *rays) {
     *rays += (uint64_t)__builtin_popcount(active);
-    double tmax[16];
+    double tmax[16], kr[16];
     for (int i = 0; i < 16; i++) tmax[i] = INFINITY;
     struct hit h[16];
     uint32_t hit = scene_intersect16(s, r, tmax, active, h);
     for (uint32_t m = active & ~hit; m; m &= m - 1) out[__builtin_ctz(m)] = s->rs.background;
+    ray rr[16];
+    uint32_t wide = whitted_wide_lanes(s, h, hit), rest = hit & ~wide;
+    uint32_t mirror = whitted_wide(s, r, h, wide, depth, out, rr, kr, rays);
     struct frame f[16];
-    for (uint32_t m = hit; m; m &= m - 1) {
+    for (uint32_t m = rest; m; m &= m - 1) {
         int i = __builtin_ctz(m);
         hit_frame(s, &r[i], &h[i], &f[i]);
     }
-    shade_local16(s, r, hit, f, depth, key, out, rays);
-    uint32_t mirror = 0;
-    for (uint32_t m = hit; m; m &= m - 1) {
+    shade_local16(s, r, rest, f, depth, key, out, rays);
+    for (uint32_t m = rest; m; m &= m - 1) {
         int i = __builtin_ctz(m);
         const struct material *mt = f[i].sf.m;
-        if (depth < s->rs.max_depth && mt->transparency <= 0 && mt->reflectivity > 0)
+        if (depth < s->rs.max_depth && mt->transparency <= 0 && mt->reflectivity > 0) {
             mirror |= 1u << i;
+            rr[i] = (ray){f[i].above, mirror_dir(&r[i], &f[i])};
+            kr[i] = mt->reflectivity;
+        } else {
+            out[i] = shade_secondary(s, &r[i], &f[i], out[i], depth, &key[i], rays);
+        }
     }
-    if (__builtin_popcount(mirror) < 4) mirror = 0;
-    for (uint32_t m = hit & ~mirror; m; m &= m - 1) {
-        int i = __builtin_ctz(m);
-        out[i] = shade_secondary(s, &r[i], &f[i], out[i], depth, &key[i], rays);
+    if (__builtin_popcount(mirror) < 4) { /* c + kr * the mirror ray, as shade_secondary */
+        for (uint32_t m = mirror; m; m &= m - 1) {
+            int i = __builtin_ctz(m);
+            out[i] = v3_madd(out[i], whitted_radiance(s, &rr[i], depth + 1, &key[i], rays), kr[i]);
+        }
+        return;
     }
-    if (!mirror) return;
-    ray rr[16];
     vec3 rc[16];
-    for (uint32_t m = mirror; m; m &= m - 1) {
-        int i = __builtin_ctz(m);
-        rr[i] = (ray){f[i].above, mirror_dir(&r[i], &f[i])};
-    }
     whitted16(s, rr, mirror, depth + 1, key, rc, rays);
     for (uint32_t m = mirror; m; m &= m - 1) {
         int i = __builtin_ctz(m);
-        out[i] = v3_madd(out[i], rc[i], f[i].sf.m->reflectivity);
+        out[i] = v3_madd(out[i], rc[i], kr[i]);
     }
 }
 

@@ -222,9 +222,12 @@ static uint32_t visit_any16(const struct scene16 *q, const struct object *o, uin
 
 /* Each ray's float bound for the node tests, as objects_walk has it. */
 BVH16_FN __m512 node_bounds16(const double tmax[16]) {
-    float f[16];
-    for (int i = 0; i < 16; i++) f[i] = tmax[i] > 3e38 ? 3e38f : (float)tmax[i];
-    return _mm512_loadu_ps(f);
+    __m512d big = _mm512_set1_pd(3e38);
+    __m512d lo = _mm512_loadu_pd(tmax), hi = _mm512_loadu_pd(tmax + 8);
+    /* tmax > 3e38 ? 3e38f : (float)tmax, the rounding to nearest of a cast */
+    lo = _mm512_mask_blend_pd(_mm512_cmp_pd_mask(lo, big, _CMP_GT_OQ), lo, big);
+    hi = _mm512_mask_blend_pd(_mm512_cmp_pd_mask(hi, big, _CMP_GT_OQ), hi, big);
+    return _mm512_insertf32x8(_mm512_castps256_ps512(_mm512_cvtpd_ps(lo)), _mm512_cvtpd_ps(hi), 1);
 }
 
 BVH16_FN __mmask16 tlas_nearest(void *ctx, uint32_t first, uint32_t count, __mmask16 lanes,

@@ -3,7 +3,9 @@
  * reflection, Fresnel and Snell. */
 #include <stdlib.h>
 
+#include "bvh16.h"
 #include "check.h"
+#include "integrate.h"
 #include "material.h"
 #include "scene_util.h"
 
@@ -210,6 +212,96 @@ static void test_fresnel_and_snell(void) {
     CHECK(t.y < 0, "goes through the surface");
 }
 
+/* A scene for the packet shading test: every kind of hit integrate_wide.c
+ * shades (spheres and a plane, whole and fractional exponents, no
+ * highlight, emission, mirrors, lights brighter than 1) beside hits it
+ * leaves to the one-ray code (glass, a texture, a transformed sphere).
+ * LIGHTS is spliced in. */
+#define WIDE_SCENE(LIGHTS)                                                                        \
+    "{\"camera\": {\"position\": [0,2,6], \"look_at\": [0,0.5,0]},"                               \
+    " \"render\": {\"width\": 32, \"height\": 32, \"max_depth\": 4, \"background\": [0.1,0.2,0.3]}," \
+    " \"lights\": [" LIGHTS "],"                                                                  \
+    " \"materials\": {\"m\": {\"color\": [0.9,0.9,0.9], \"specular\": 0.8, \"shininess\": 200,"  \
+    "   \"reflectivity\": 0.8, \"ambient\": 0.05, \"diffuse\": 0.1}},"                            \
+    " \"objects\": ["                                                                             \
+    "  {\"type\": \"plane\", \"point\": [0,0,0], \"normal\": [0,1,0],"                          \
+    "   \"material\": {\"color\": [0.7,0.7,0.6], \"reflectivity\": 0.3}},"                        \
+    "  {\"type\": \"sphere\", \"center\": [-1.5,0.5,0], \"radius\": 0.5, \"material\": \"m\"},"  \
+    "  {\"type\": \"sphere\", \"center\": [0,0.5,0], \"radius\": 0.5, \"material\": \"m\"},"     \
+    "  {\"type\": \"sphere\", \"center\": [1.5,0.5,0], \"radius\": 0.5,"                         \
+    "   \"material\": {\"color\": [0.8,0.2,0.1], \"specular\": 0.5, \"shininess\": 33.5}},"      \
+    "  {\"type\": \"sphere\", \"center\": [0,0.5,-1.5], \"radius\": 0.5,"                        \
+    "   \"material\": {\"color\": [0.2,0.8,0.1], \"emission\": [0.2,0,0.1]}},"                   \
+    "  {\"type\": \"sphere\", \"center\": [-1.5,0.5,-1.5], \"radius\": 0.5,"                     \
+    "   \"material\": {\"color\": [0.9,0.9,1], \"transparency\": 0.9, \"ior\": 1.5}},"           \
+    "  {\"type\": \"sphere\", \"center\": [1.5,0.5,-1.5], \"radius\": 0.5, \"material\": "       \
+    "   {\"texture\": {\"type\": \"checker\", \"colors\": [[0.9,0.9,0.9],[0.1,0.1,0.1]]}}},"     \
+    "  {\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 0.5, \"material\": \"m\","        \
+    "   \"transform\": {\"scale\": [1,0.6,1], \"translate\": [0,0.3,1.5]}}]}"
+
+/* Splits the unit interval's [0, 1) bits for the test's random numbers. */
+static double unit_rand(uint64_t *x) {
+    *x = *x * 6364136223846793005ULL + 1442695040888963407ULL;
+    return (double)(*x >> 11) * 0x1p-53;
+}
+
+/* 16 rays: from one point in coherent or scattered directions, or from
+ * scattered points (some inside spheres, some below the floor). */
+static void wide_rays(uint64_t *x, int kind, ray r[16]) {
+    vec3 o = v3(6 * unit_rand(x) - 3, 4 * unit_rand(x) - 0.5, 4 * unit_rand(x) - 1);
+    vec3 d0 = v3_norm(v3(2 * unit_rand(x) - 1, 2 * unit_rand(x) - 1, 2 * unit_rand(x) - 1));
+    for (int i = 0; i < 16; i++) {
+        vec3 jit = v3(unit_rand(x) - 0.5, unit_rand(x) - 0.5, unit_rand(x) - 0.5);
+        r[i].o = kind == 2 ? v3_add(o, v3_scale(jit, 3)) : o;
+        r[i].d = v3_norm(kind == 0 ? v3_add(d0, v3_scale(jit, 0.2)) : jit);
+    }
+}
+
+/* whitted_radiance16 shades the common hits 16 at a time
+ * (integrate_wide.c): each lane must still be bit for bit the one-ray
+ * colour, with the same number of rays cast, with and without AVX-512,
+ * for every mix of lights and of hits. */
+static void test_packets_shade_as_one_ray(void) {
+    static const char *lights[] = {
+        "{\"type\": \"point\", \"position\": [-3,5,4], \"intensity\": 0.7},"
+        "{\"type\": \"directional\", \"direction\": [1,-2,-1], \"intensity\": 0.4}",
+        "{\"type\": \"point\", \"position\": [2,4,3], \"intensity\": 3}",
+        "", /* no lights: emission only */
+        "{\"type\": \"spot\", \"position\": [0,5,0], \"direction\": [0,-1,0], \"angle\": 40}"};
+    char json[4096];
+    for (int l = 0; l < 4; l++) {
+        snprintf(json, sizeof json, WIDE_SCENE("%s"), lights[l]);
+        rayd_scene *s = scene_from(json);
+        CHECK(s != NULL, "scene %d parses", l);
+        if (!s) continue;
+        int differ = 0, count_differ = 0;
+        uint64_t x = 12345 + (uint64_t)l;
+        for (int scalar = 0; scalar < 2; scalar++) {
+            packet_force_scalar(scalar);
+            for (int n = 0; n < 300; n++) {
+                ray r[16];
+                struct rng_key key[16];
+                vec3 out[16];
+                wide_rays(&x, n % 3, r);
+                uint32_t active = n % 5 ? 0xffffu : (uint32_t)(unit_rand(&x) * 65535) + 1;
+                for (int i = 0; i < 16; i++) key[i] = (struct rng_key){1, (uint32_t)n, (uint32_t)i, 0};
+                uint64_t rays16 = 0, rays1 = 0;
+                whitted_radiance16(s, r, active, key, out, &rays16);
+                for (int i = 0; i < 16; i++) {
+                    if (!(active >> i & 1)) continue;
+                    vec3 c = whitted_radiance(s, &r[i], 0, &key[i], &rays1);
+                    differ += memcmp(&c, &out[i], sizeof c) != 0;
+                }
+                count_differ += rays16 != rays1;
+            }
+        }
+        packet_force_scalar(false);
+        CHECK(differ == 0, "lights %d: %d packet colours differ from the one-ray colour", l, differ);
+        CHECK(count_differ == 0, "lights %d: %d packets counted other rays", l, count_differ);
+        rayd_scene_free(s);
+    }
+}
+
 int main(void) {
     RUN(test_emissive_sphere_exact_projection);
     RUN(test_no_shadow_acne);
@@ -217,5 +309,6 @@ int main(void) {
     RUN(test_mirror_reflection_depth);
     RUN(test_clear_glass_shows_background);
     RUN(test_fresnel_and_snell);
+    RUN(test_packets_shade_as_one_ray);
     CHECK_EXIT();
 }

@@ -1,0 +1,78 @@
+/* integrate_wide.c -- Whitted shading of 16 hits at once.
+ *
+ * The packet version of the integrator (integrate.c, whitted16) finds 16
+ * hits at once, but shading them lane by lane through the one-ray
+ * functions costs more than finding them: every vec3 is shuffled in and
+ * out of registers, every step is a call.  The common hits -- an
+ * untransformed sphere or plane, an untextured opaque material, point and
+ * directional lights -- are shaded here instead, 16 at a time in
+ * structure-of-arrays form (integrate_wide_body.h), by plain loops the
+ * compiler vectorises.  Each lane does exactly the one-ray code's double
+ * operations in its order, so the colour is the same to the bit; the
+ * AVX-512 copy of the code is used where bvh16_available says so, the
+ * build's own otherwise, and both give the same bytes.
+ */
+#include "integrate_wide.h"
+
+#include "bvh16.h"
+
+/* One packet's hits as structure of arrays (flags as 0 or 1 doubles, the
+ * vectoriser's favourite shape); lanes outside the packet copy its first
+ * lane. */
+struct wide {
+    double ox[16], oy[16], oz[16], dx[16], dy[16], dz[16], t[16]; /* the rays, the hits */
+    double gx[16], gy[16], gz[16]; /* a sphere's centre, a plane's normal */
+    double sphere[16];
+    double colx[16], coly[16], colz[16], emx[16], emy[16], emz[16]; /* the materials */
+    double amb[16], dif[16], spec[16], cut[16], kr[16], shin[16];
+    int64_t shine[16]; /* phong_whole(shininess) */
+    int64_t top;       /* the bits of all whole exponents */
+    double px[16], py[16], pz[16], nx[16], ny[16], nz[16]; /* point, normal facing the ray */
+    double upx[16], upy[16], upz[16];                       /* the point lifted off */
+    double wix[16], wiy[16], wiz[16];                       /* toward the light being shaded */
+    double cx[16], cy[16], cz[16];                          /* the colour so far */
+};
+
+#define WIDE(f) f##_base
+#define WIDE_FN static inline
+#include "integrate_wide_body.h"
+#undef WIDE
+#undef WIDE_FN
+
+#ifdef BVH16
+#define WIDE(f) f##_avx512
+#define WIDE_FN BVH16_FN
+#include "integrate_wide_body.h"
+#undef WIDE
+#undef WIDE_FN
+#endif
+
+/* The light kinds shaded here. */
+static bool wide_lights(const rayd_scene *s) {
+    for (int i = 0; i < s->nlights; i++)
+        if (s->lights[i].kind != LIGHT_POINT && s->lights[i].kind != LIGHT_DIRECTIONAL) return false;
+    return true;
+}
+
+uint32_t whitted_wide_lanes(const rayd_scene *s, const struct hit h[16], uint32_t hit) {
+    if (!hit || !wide_lights(s)) return 0;
+    uint32_t wide = 0;
+    for (uint32_t m = hit; m; m &= m - 1) {
+        int j = __builtin_ctz(m);
+        const struct object *o = h[j].leaf;
+        const struct material *mt = &s->mats[o->material];
+        bool shape = (o->kind == SHAPE_SPHERE || o->kind == SHAPE_PLANE) && o->xform < 0 &&
+                     !h[j].outer && !h[j].orient;
+        if (shape && mt->texture < 0 && mt->transparency <= 0) wide |= 1u << j;
+    }
+    return wide;
+}
+
+uint32_t whitted_wide(const rayd_scene *s, const ray r[16], const struct hit h[16], uint32_t lanes,
+                      int depth, vec3 out[16], ray rr[16], double kr[16], uint64_t *rays) {
+    if (!lanes) return 0;
+#ifdef BVH16
+    if (bvh16_available()) return whitted_wide_avx512(s, r, h, lanes, depth, out, rr, kr, rays);
+#endif
+    return whitted_wide_base(s, r, h, lanes, depth, out, rr, kr, rays);
+}

@@ -1,0 +1,22 @@
+/* integrate_wide.h -- Whitted shading of 16 hits at once (integrate_wide.c). */
+#ifndef INTEGRATE_WIDE_H
+#define INTEGRATE_WIDE_H
+
+#include <stdint.h>
+
+#include "integrate.h"
+
+/* Of the lanes in hit (h[i] their nearest hits), those whitted_wide shades:
+ * an untransformed sphere or plane with an untextured opaque material, in a
+ * scene whose lights are all point or directional lights. */
+uint32_t whitted_wide_lanes(const rayd_scene *s, const struct hit h[16], uint32_t hit);
+
+/* The local shading of those lanes after `depth` bounces, shadow rays
+ * included, exactly as whitted_radiance computes it: out[i] gets the colour
+ * before the mirror ray.  Returns the lanes that need one (depth below
+ * render.max_depth, reflectivity above 0), with the ray in rr[i] and its
+ * weight in kr[i]. */
+uint32_t whitted_wide(const rayd_scene *s, const ray r[16], const struct hit h[16], uint32_t lanes,
+                      int depth, vec3 out[16], ray rr[16], double kr[16], uint64_t *rays);
+
+#endif

@@ -1,0 +1,182 @@
+/* integrate_wide_body.h -- the body of integrate_wide.c, compiled twice.
+ *
+ * integrate_wide.c includes this file once for the build's own target and
+ * once for AVX-512, with WIDE(name) giving each copy its own names and
+ * WIDE_FN its target.  The loops over the 16 lanes are straight-line code
+ * on arrays of doubles (flags are doubles too, 0 or 1), the shape the
+ * vectoriser turns into vector instructions; each lane does the one-ray
+ * code's operations in the one-ray code's order (integrate.c, scene.c,
+ * light.c, shape_sphere.c), so the colours are the same bits however wide
+ * the registers are.
+ */
+
+/* fmax of two non-negative numbers, NaN as fmax has it (the other one). */
+WIDE_FN double WIDE(fmax_nn)(double a, double b) { return a > b ? a : b != b ? a : b; }
+
+/* The lanes' rays, hits and materials; lanes outside the packet copy its
+ * first lane, so every loop may run over all 16. */
+WIDE_FN void WIDE(gather)(const rayd_scene *s, const ray r[16], const struct hit h[16],
+                          uint32_t lanes, struct wide *w) {
+    int first = __builtin_ctz(lanes);
+    w->top = 0;
+    for (int j = 0; j < 16; j++) {
+        int i = lanes >> j & 1 ? j : first;
+        const struct object *o = h[i].leaf;
+        const struct material *m = &s->mats[o->material];
+        bool sphere = o->kind == SHAPE_SPHERE;
+        vec3 g = sphere ? o->u.sphere.center : o->u.plane.normal;
+        w->ox[j] = r[i].o.x, w->oy[j] = r[i].o.y, w->oz[j] = r[i].o.z;
+        w->dx[j] = r[i].d.x, w->dy[j] = r[i].d.y, w->dz[j] = r[i].d.z;
+        w->gx[j] = g.x, w->gy[j] = g.y, w->gz[j] = g.z;
+        w->sphere[j] = sphere;
+        w->t[j] = h[i].t;
+        w->colx[j] = m->color.x, w->coly[j] = m->color.y, w->colz[j] = m->color.z;
+        w->emx[j] = m->emission.x, w->emy[j] = m->emission.y, w->emz[j] = m->emission.z;
+        w->amb[j] = m->ambient, w->dif[j] = m->diffuse, w->spec[j] = m->specular;
+        w->cut[j] = m->spec_cut, w->kr[j] = m->reflectivity, w->shin[j] = m->shininess;
+        w->shine[j] = m->shine_whole;
+        w->top |= w->shine[j] > 0 ? w->shine[j] : 0;
+    }
+}
+
+/* hit_frame: the point, the normal facing the ray (for these shapes the
+ * shading normal is the geometric one), the point lifted off the surface
+ * (integrate_offset); then shade_base: emission, plus ambient when the
+ * scene has lights (lit). */
+WIDE_FN void WIDE(frame)(struct wide *w, double lit) {
+    for (int j = 0; j < 16; j++) {
+        double px = w->ox[j] + w->dx[j] * w->t[j], py = w->oy[j] + w->dy[j] * w->t[j];
+        double pz = w->oz[j] + w->dz[j] * w->t[j];
+        double ex = px - w->gx[j], ey = py - w->gy[j], ez = pz - w->gz[j];
+        double inv = 1.0 / sqrt(ex * ex + ey * ey + ez * ez); /* v3_norm */
+        double nx = w->sphere[j] != 0 ? ex * inv : w->gx[j];
+        double ny = w->sphere[j] != 0 ? ey * inv : w->gy[j];
+        double nz = w->sphere[j] != 0 ? ez * inv : w->gz[j];
+        double in = nx * w->dx[j] + ny * w->dy[j] + nz * w->dz[j]; /* > 0: inside */
+        nx = in > 0 ? -nx : nx, ny = in > 0 ? -ny : ny, nz = in > 0 ? -nz : nz;
+        double off = 1e-9 * (1.0 + WIDE(fmax_nn)(fabs(px), WIDE(fmax_nn)(fabs(py), fabs(pz))));
+        w->px[j] = px, w->py[j] = py, w->pz[j] = pz;
+        w->nx[j] = nx, w->ny[j] = ny, w->nz[j] = nz;
+        w->upx[j] = px + nx * off, w->upy[j] = py + ny * off, w->upz[j] = pz + nz * off;
+        w->cx[j] = lit != 0 ? w->emx[j] + w->colx[j] * w->amb[j] : w->emx[j];
+        w->cy[j] = lit != 0 ? w->emy[j] + w->coly[j] * w->amb[j] : w->emy[j];
+        w->cz[j] = lit != 0 ? w->emz[j] + w->colz[j] * w->amb[j] : w->emz[j];
+    }
+}
+
+/* light_at for a point (point != 0) or directional light, and
+ * integrate_light_aim's test: the unit vector toward it, its distance, and
+ * in ok whether it reaches the lane from the front. */
+WIDE_FN void WIDE(aim)(const struct light *l, struct wide *w, double dist[16], double ok[16]) {
+    double lx = l->position.x, ly = l->position.y, lz = l->position.z;
+    double dx = -l->direction.x, dy = -l->direction.y, dz = -l->direction.z;
+    double point = l->kind == LIGHT_POINT;
+    for (int j = 0; j < 16; j++) {
+        double vx = lx - w->px[j], vy = ly - w->py[j], vz = lz - w->pz[j];
+        double len = sqrt(vx * vx + vy * vy + vz * vz), inv = 1.0 / len;
+        double wx = point != 0 ? vx * inv : dx, wy = point != 0 ? vy * inv : dy;
+        double wz = point != 0 ? vz * inv : dz;
+        w->wix[j] = wx, w->wiy[j] = wy, w->wiz[j] = wz;
+        dist[j] = point != 0 ? len : INFINITY;
+        double reach = point != 0 ? (len > 0 ? 1.0 : 0.0) : 1.0;
+        ok[j] = w->nx[j] * wx + w->ny[j] * wy + w->nz[j] * wz <= 0 ? 0.0 : reach;
+    }
+}
+
+/* Lambert + Blinn-Phong for one light (shade_one): adds to c what each
+ * lane receives, pass being 1 where it arrives and r what arrives
+ * (light_pass). */
+WIDE_FN void WIDE(shade)(struct wide *w, const double pass[16], const double rx[16],
+                         const double ry[16], const double rz[16]) {
+    double ax[16], ay[16], az[16], ndh[16], want[16], x[16], pw[16];
+    for (int j = 0; j < 16; j++) {
+        double dl = w->dif[j] * (w->nx[j] * w->wix[j] + w->ny[j] * w->wiy[j] + w->nz[j] * w->wiz[j]);
+        ax[j] = rx[j] * (w->colx[j] * dl), ay[j] = ry[j] * (w->coly[j] * dl);
+        az[j] = rz[j] * (w->colz[j] * dl);
+        double hx = w->wix[j] - w->dx[j], hy = w->wiy[j] - w->dy[j], hz = w->wiz[j] - w->dz[j];
+        double inv = 1.0 / sqrt(hx * hx + hy * hy + hz * hz);
+        double d = w->nx[j] * (hx * inv) + w->ny[j] * (hy * inv) + w->nz[j] * (hz * inv);
+        double hl = fabs(rx[j]) > 1 ? 1.0 : fabs(ry[j]) > 1 ? 1.0 : fabs(rz[j]) > 1 ? 1.0 : 0.0;
+        hl = d > w->cut[j] ? 1.0 : hl;
+        hl = w->spec[j] > 0 ? hl : 0.0;
+        want[j] = pass[j] != 0 ? hl : 0.0;
+        ndh[j] = d, x[j] = d, pw[j] = 1;
+    }
+    bool any = false;
+    for (int j = 0; j < 16; j++) any |= want[j] != 0;
+    for (int b = 0; any && w->top >> b > 0; b++) /* phong_pow by squaring, each lane's exponent */
+        for (int j = 0; j < 16; j++) {
+            pw[j] = w->shine[j] >> b & 1 ? pw[j] * x[j] : pw[j];
+            x[j] *= x[j];
+        }
+    for (int j = 0; j < 16; j++) /* exponents that are not whole */
+        if (want[j] != 0 && w->shine[j] < 0) pw[j] = pow(ndh[j], w->shin[j]);
+    for (int j = 0; j < 16; j++) {
+        double k = w->spec[j] * pw[j];
+        double sx = want[j] != 0 ? ax[j] + rx[j] * k : ax[j];
+        double sy = want[j] != 0 ? ay[j] + ry[j] * k : ay[j];
+        double sz = want[j] != 0 ? az[j] + rz[j] * k : az[j];
+        sx = pass[j] != 0 ? 0.0 + sx : 0.0, sy = pass[j] != 0 ? 0.0 + sy : 0.0;
+        sz = pass[j] != 0 ? 0.0 + sz : 0.0;
+        /* v3_madd(c, sum, 1.0 / n), n = 1 */
+        w->cx[j] = w->cx[j] + sx * 1.0, w->cy[j] = w->cy[j] + sy * 1.0;
+        w->cz[j] = w->cz[j] + sz * 1.0;
+    }
+}
+
+/* The shadow rays of the lanes in aim toward light l as a packet, then
+ * its light on the lanes. */
+WIDE_FN void WIDE(light)(const rayd_scene *s, const struct light *l, struct wide *w,
+                         uint32_t lanes, uint64_t *rays) {
+    double dist[16], ok[16], pass[16], rx[16], ry[16], rz[16];
+    WIDE(aim)(l, w, dist, ok);
+    uint32_t aim = 0;
+    ray sr[16];
+    for (int j = 0; j < 16; j++) {
+        aim |= (uint32_t)(ok[j] != 0) << j;
+        sr[j] = (ray){v3(w->upx[j], w->upy[j], w->upz[j]), v3(w->wix[j], w->wiy[j], w->wiz[j])};
+    }
+    aim &= lanes;
+    *rays += (uint64_t)__builtin_popcount(aim);
+    vec3 tr[16];
+    scene_transmittance16(s, sr, dist, aim, tr);
+    vec3 lc = v3_scale(l->color, l->intensity);
+    for (int j = 0; j < 16; j++) { /* light_pass */
+        vec3 t = aim >> j & 1 ? tr[j] : v3(0, 0, 0);
+        pass[j] = !(t.x <= 0 && t.y <= 0 && t.z <= 0);
+        rx[j] = lc.x * t.x, ry[j] = lc.y * t.y, rz[j] = lc.z * t.z;
+    }
+    WIDE(shade)(w, pass, rx, ry, rz);
+}
+
+/* The mirror rays (mirror_dir about the normal) of the lanes in mirror. */
+WIDE_FN void WIDE(mirror)(const struct wide *w, uint32_t mirror, ray rr[16]) {
+    double mx[16], my[16], mz[16];
+    for (int j = 0; j < 16; j++) {
+        double a = -2.0 * (w->dx[j] * w->nx[j] + w->dy[j] * w->ny[j] + w->dz[j] * w->nz[j]);
+        mx[j] = w->dx[j] + w->nx[j] * a, my[j] = w->dy[j] + w->ny[j] * a;
+        mz[j] = w->dz[j] + w->nz[j] * a;
+    }
+    for (uint32_t m = mirror; m; m &= m - 1) {
+        int j = __builtin_ctz(m);
+        rr[j] = (ray){v3(w->upx[j], w->upy[j], w->upz[j]), v3(mx[j], my[j], mz[j])};
+    }
+}
+
+WIDE_FN uint32_t WIDE(whitted_wide)(const rayd_scene *s, const ray r[16], const struct hit h[16],
+                                    uint32_t lanes, int depth, vec3 out[16], ray rr[16],
+                                    double kr[16], uint64_t *rays) {
+    struct wide w;
+    WIDE(gather)(s, r, h, lanes, &w);
+    WIDE(frame)(&w, s->nlights > 0);
+    for (int i = 0; i < s->nlights; i++) WIDE(light)(s, &s->lights[i], &w, lanes, rays);
+    uint32_t mirror = 0;
+    for (uint32_t m = lanes; m; m &= m - 1) {
+        int j = __builtin_ctz(m);
+        out[j] = v3(w.cx[j], w.cy[j], w.cz[j]);
+        kr[j] = w.kr[j];
+        if (depth < s->rs.max_depth && w.kr[j] > 0) mirror |= 1u << j;
+    }
+    WIDE(mirror)(&w, mirror, rr);
+    return mirror;
+}
