@@ -120,9 +120,10 @@ $(BUILD)/core/%.o: core/%.c | $(BUILD)/.deps-ok
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) $(CFLAGS_VEC) -Iinclude -Icore -c $< -o $@
 
-# integrate_wide.c's loops over a packet's lanes are written for the
-# vectoriser, which -O2 runs only on the cheapest loops.
-$(BUILD)/core/integrate_wide.o: CFLAGS_VEC := -ftree-vectorize -fvect-cost-model=dynamic
+# Loops over a packet's lanes (integrate_wide.c, camera.c) are written for
+# the vectoriser, which -O2 runs only on the cheapest loops.
+$(BUILD)/core/integrate_wide.o $(BUILD)/core/camera.o: CFLAGS_VEC := -ftree-vectorize \
+    -fvect-cost-model=dynamic
 
 $(BUILD)/librayd.a: $(CORE_OBJ)
 	@rm -f $@

@@ -68,3 +68,20 @@ ray cam_ray(const struct camera *cam, double px, double py, double lu, double lv
     r.d = v3_norm(v3_sub(f, r.o));
     return r;
 }
+
+/* Plain loops over the 16 lanes, which the vectoriser takes (camera.o is
+ * built with CFLAGS_VEC): the 4x4 blocks' camera rays are a tenth of a
+ * simple scene's time when made one at a time. */
+void cam_block_dirs(const struct camera *cam, int x, int y, vec3 d[16]) {
+    double hn = cam->n * 0.5, hm = cam->m * 0.5, dx[16], dy[16], dz[16];
+    for (int q = 0; q < 16; q++) {
+        double alpha = cam->tan_x * ((x + q % 4) + 0.5 - hn) / hn;
+        double beta = cam->tan_y * (hm - ((y + q / 4) + 0.5)) / hm;
+        double ax = cam->w.x + cam->u.x * alpha, ay = cam->w.y + cam->u.y * alpha;
+        double az = cam->w.z + cam->u.z * alpha;
+        double bx = ax + cam->v.x * beta, by = ay + cam->v.y * beta, bz = az + cam->v.z * beta;
+        double inv = 1.0 / sqrt(bx * bx + by * by + bz * bz);
+        dx[q] = bx * inv, dy[q] = by * inv, dz[q] = bz * inv;
+    }
+    for (int q = 0; q < 16; q++) d[q] = v3(dx[q], dy[q], dz[q]);
+}

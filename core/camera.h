@@ -37,6 +37,10 @@ static inline vec3 cam_dir(const struct camera *cam, double px, double py) {
     return v3_norm(d);
 }
 
+/* cam_dir through the centres of the 4x4 pixels whose top-left one is
+ * (x, y), 16 at once: d[q] for pixel (x + q % 4, y + q / 4), the same bits. */
+void cam_block_dirs(const struct camera *cam, int x, int y, vec3 d[16]);
+
 /* The primary ray through image point (px, py), with lens sample (lu, lv)
  * in [0, 1)^2 used only when the aperture is open.  Pinhole: the paper's
  * ray from the eye.  Orthographic: parallel rays along w from the image

@@ -148,10 +148,18 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h, rayd_i
         acc[q] = v3(0, 0, 0);
         if (q % 4 < w && q / 4 < h) active |= 1u << q;
     }
+    bool centres = n == 1 && s->cam.aperture <= 0 && !s->cam.ortho; /* pinhole, pixel centres */
     for (int k = 0; k < n; k++) {
+        vec3 d[16];
+        if (centres) cam_block_dirs(&s->cam, x, y, d);
         for (uint32_t m = active; m; m &= m - 1) {
             int q = __builtin_ctz(m);
-            r[q] = sample_ray(s, x + q % 4, y + q / 4, k, n, &key[q]);
+            if (!centres) {
+                r[q] = sample_ray(s, x + q % 4, y + q / 4, k, n, &key[q]);
+                continue;
+            }
+            key[q] = (struct rng_key){s->rs.seed, (uint32_t)(x + q % 4), (uint32_t)(y + q / 4), 0};
+            r[q] = (ray){s->cam.pos, d[q]};
         }
         if (s->rs.integrator == INTEGRATOR_WHITTED) {
             whitted_radiance16(s, r, active, key, c, rays);

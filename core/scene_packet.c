@@ -34,13 +34,34 @@ static void transmittance_each(const rayd_scene *s, const ray r[16], const doubl
 
 #ifdef BVH16
 
+/* A packet's nearest-hit search: struct nearest of scene_query.h for 16
+ * rays as structure of arrays.  The untransformed spheres and planes keep
+ * their hits here (leaf, tmax), written out to h at the end; the other
+ * objects write h themselves, through a struct nearest made for the ray. */
 struct scene16 {
     const rayd_scene *s;
     const ray *r;
+    struct hit *h;
     struct ray16d rd; /* the same rays as structure of arrays */
     double tmax[16];
-    struct nearest c[16];
+    int64_t best[16];              /* the rank of each ray's hit so far, -1 none */
+    const struct object *leaf[16]; /* ... its object, when that hit is in tmax only */
+    uint32_t kept;                 /* the rays whose hit is in leaf and tmax, not h */
+    const struct object *base;     /* ranks: rank0 + (o - base) */
+    long rank0;
 };
+
+/* Ray i's struct nearest, to ask the one-ray code. */
+static struct nearest lane_nearest(const struct scene16 *q, int i) {
+    return (struct nearest){q->s, NULL, &q->r[i], &q->h[i], q->base, q->rank0, q->best[i]};
+}
+
+/* After the one-ray code took a hit for ray i (c.best changed): it is in h. */
+static void lane_taken(struct scene16 *q, int i, const struct nearest *c) {
+    if (c->best == q->best[i]) return;
+    q->best[i] = c->best;
+    q->kept &= ~(1u << i);
+}
 
 /* sphere_nearest of untransformed sphere o for the rays in lanes, 16 at
  * once: the same double operations lane by lane (sphere_roots's formula,
@@ -140,28 +161,58 @@ static uint32_t simple16_hit(const struct scene16 *q, const struct object *o,
                                    : plane16(&q->rd, o, bound, lanes, t, odd);
 }
 
+/* nearest_bound for untransformed object o (rank) and the 16 rays: just
+ * past tmax (the next double up) where o would win a tie with the best hit
+ * so far. */
+BVH16_FN void simple_bounds16(const struct scene16 *q, long rank, double bound[16]) {
+    __m512i rk = _mm512_set1_epi64(rank), one = _mm512_set1_epi64(1);
+    __m512d zero = _mm512_setzero_pd(), inf = _mm512_set1_pd(INFINITY);
+    for (int k = 0; k < 16; k += 8) {
+        __m512d tm = _mm512_loadu_pd(q->tmax + k);
+        __mmask8 tie = _mm512_cmpgt_epi64_mask(_mm512_loadu_si512(q->best + k), rk);
+        tie &= _mm512_cmp_pd_mask(tm, zero, _CMP_GE_OQ) & _mm512_cmp_pd_mask(tm, inf, _CMP_NEQ_OQ);
+        __m512i up = _mm512_mask_add_epi64(_mm512_castpd_si512(tm), tie, _mm512_castpd_si512(tm), one);
+        _mm512_storeu_pd(bound + k, _mm512_castsi512_pd(up));
+    }
+}
+
+/* nearest_take of untransformed object o's hits t (the rays in hit): kept
+ * in tmax, best and leaf. */
+BVH16_FN void simple_take16(struct scene16 *q, const struct object *o, long rank,
+                            const double t[16], uint32_t hit) {
+    __m512i rk = _mm512_set1_epi64(rank), leaf = _mm512_set1_epi64((int64_t)(intptr_t)o);
+    for (int k = 0; k < 16; k += 8) {
+        __m512d tt = _mm512_loadu_pd(t + k), tm = _mm512_loadu_pd(q->tmax + k);
+        __mmask8 take = (__mmask8)(hit >> k) & _mm512_cmp_pd_mask(tt, tm, _CMP_NGT_UQ);
+        _mm512_mask_storeu_pd(q->tmax + k, take, tt);
+        _mm512_mask_storeu_epi64(q->best + k, take, rk);
+        _mm512_mask_storeu_epi64((void *)(q->leaf + k), take, leaf);
+        q->kept |= (uint32_t)take << k;
+    }
+}
+
 /* Object o for the rays in lanes, nearest hit: meshes as a packet. */
 static void visit_nearest16(struct scene16 *q, const struct object *o, uint32_t lanes) {
     if (simple16(o)) { /* object_hit and nearest_take, 16 wide */
+        long rank = q->rank0 + (long)(o - q->base);
         double bound[16], t[16];
-        for (int i = 0; i < 16; i++) /* every lane set: read 8 at once */
-            bound[i] = lanes >> i & 1 ? nearest_bound(&q->c[i], o, q->tmax[i]) : 0;
+        simple_bounds16(q, rank, bound);
         uint32_t odd, hit = simple16_hit(q, o, bound, lanes, t, &odd);
         for (; odd; odd &= odd - 1) {
             int i = __builtin_ctz(odd);
-            nearest_visit(&q->c[i], o, &q->tmax[i]);
+            struct nearest c = lane_nearest(q, i);
+            nearest_visit(&c, o, &q->tmax[i]);
+            lane_taken(q, i, &c);
         }
-        for (; hit; hit &= hit - 1) { /* t < bound already: object_hit's tail */
-            int i = __builtin_ctz(hit);
-            struct hit h = {.t = t[i], .leaf = o, .outer = NULL, .part = 0, .orient = 0};
-            nearest_take(&q->c[i], o, t[i], &h, &q->tmax[i]);
-        }
+        simple_take16(q, o, rank, t, hit); /* t < bound already: object_hit's tail */
         return;
     }
     if (o->kind != SHAPE_MESH) {
         for (; lanes; lanes &= lanes - 1) {
             int i = __builtin_ctz(lanes);
-            nearest_visit(&q->c[i], o, &q->tmax[i]);
+            struct nearest c = lane_nearest(q, i);
+            nearest_visit(&c, o, &q->tmax[i]);
+            lane_taken(q, i, &c);
         }
         return;
     }
@@ -170,7 +221,8 @@ static void visit_nearest16(struct scene16 *q, const struct object *o, uint32_t 
     bool moved = o->xform >= 0; /* else the rays are already in object space */
     for (uint32_t m = lanes; m; m &= m - 1) {
         int i = __builtin_ctz(m);
-        bound[i] = nearest_bound(&q->c[i], o, q->tmax[i]);
+        struct nearest c = lane_nearest(q, i);
+        bound[i] = nearest_bound(&c, o, q->tmax[i]);
         scale[i] = 1;
         if (moved) lr[i] = object_ray_xform(q->s, o, &q->r[i], &scale[i]);
         lmax[i] = object_space_bound(bound[i], scale[i]);
@@ -183,8 +235,10 @@ static void visit_nearest16(struct scene16 *q, const struct object *o, uint32_t 
     for (; hit; hit &= hit - 1) { /* the rest of object_hit, then nearest_take */
         int i = __builtin_ctz(hit);
         struct hit h;
-        if (object_mesh_hit(o, NULL, &mh[i], scale[i], &bound[i], &h))
-            nearest_take(&q->c[i], o, bound[i], &h, &q->tmax[i]);
+        if (!object_mesh_hit(o, NULL, &mh[i], scale[i], &bound[i], &h)) continue;
+        struct nearest c = lane_nearest(q, i);
+        nearest_take(&c, o, bound[i], &h, &q->tmax[i]);
+        lane_taken(q, i, &c);
     }
 }
 
@@ -250,20 +304,20 @@ BVH16_FN __mmask16 tlas_any(void *ctx, uint32_t first, uint32_t count, __mmask16
 
 BVH16_FN uint32_t intersect16(const rayd_scene *s, const ray r[16], const double tmax[16],
                               uint32_t active, struct hit h[16]) {
-    struct scene16 q; /* every field set below: no zeroing of its 2 KB */
+    struct scene16 q; /* every field used is set below: no zeroing of its 2 KB */
     q.s = s;
     q.r = r;
+    q.h = h;
     ray16d_load(&q.rd, r, active);
     int first = __builtin_ctz(active);
     for (int i = 0; i < 16; i++) {
         q.tmax[i] = tmax[active >> i & 1 ? i : first]; /* every lane set: read 16 at once */
-        q.c[i] = (struct nearest){s, NULL, &r[i], &h[i], s->planes, 0, -1};
+        q.best[i] = -1;
     }
+    q.kept = 0;
+    q.base = s->planes, q.rank0 = 0;
     for (int32_t k = 0; k < s->nplanes; k++) visit_nearest16(&q, &s->planes[k], active);
-    for (int i = 0; i < 16; i++) {
-        q.c[i].base = s->objs;
-        q.c[i].rank0 = s->nplanes;
-    }
+    q.base = s->objs, q.rank0 = s->nplanes;
     if (s->nobjs == 1) {
         visit_nearest16(&q, &s->objs[0], active);
     } else if (s->nobjs > 1) {
@@ -272,9 +326,13 @@ BVH16_FN uint32_t intersect16(const rayd_scene *s, const ray r[16], const double
         __m512 tm = node_bounds16(q.tmax);
         bvh16_walk(&s->tlas, NULL, 0, &br, &tm, (__mmask16)active, tlas_nearest, &q);
     }
+    for (uint32_t m = q.kept & active; m; m &= m - 1) { /* as nearest_take would have */
+        int i = __builtin_ctz(m);
+        h[i] = (struct hit){.t = q.tmax[i], .leaf = q.leaf[i], .outer = NULL, .part = 0, .orient = 0};
+    }
     uint32_t hit = 0;
     for (int i = 0; i < 16; i++)
-        if (active >> i & 1 && q.c[i].best >= 0) hit |= 1u << i;
+        if (active >> i & 1 && q.best[i] >= 0) hit |= 1u << i;
     return hit;
 }
 
