@@ -61,6 +61,20 @@ BVH16_FN void ray16d_load(struct ray16d *q, const ray r[16], uint32_t active) {
     }
 }
 
+/* The same from rays already in structure of arrays (o[k][i], d[k][i]),
+ * whatever the lanes outside active hold. */
+BVH16_FN void ray16d_load_soa(struct ray16d *q, const double o[3][16], const double d[3][16],
+                              uint32_t active) {
+    int first = __builtin_ctz(active);
+    for (int k = 0; k < 3; k++)
+        for (int h = 0; h < 16; h += 8) {
+            __mmask8 in = (__mmask8)(active >> h);
+            __m512d os = _mm512_set1_pd(o[k][first]), ds = _mm512_set1_pd(d[k][first]);
+            _mm512_storeu_pd(q->o[k] + h, _mm512_mask_blend_pd(in, os, _mm512_loadu_pd(o[k] + h)));
+            _mm512_storeu_pd(q->d[k] + h, _mm512_mask_blend_pd(in, ds, _mm512_loadu_pd(d[k] + h)));
+        }
+}
+
 /* mesh_intersect16 and mesh_occluded16 (mesh.h) for rays already loaded
  * as structure of arrays, with AVX-512: the caller checked bvh16_available
  * (mesh_packet.c). */

@@ -28,8 +28,8 @@ struct wide {
     int64_t shine[16]; /* phong_whole(shininess) */
     int64_t top;       /* the bits of all whole exponents */
     double px[16], py[16], pz[16], nx[16], ny[16], nz[16]; /* point, normal facing the ray */
-    double upx[16], upy[16], upz[16];                       /* the point lifted off */
-    double wix[16], wiy[16], wiz[16];                       /* toward the light being shaded */
+    double up[3][16]; /* the point lifted off the surface: x, y, z */
+    double wi[3][16]; /* toward the light being shaded */
     double cx[16], cy[16], cz[16];                          /* the colour so far */
 };
 
@@ -50,7 +50,8 @@ struct wide {
 /* The light kinds shaded here. */
 static bool wide_lights(const rayd_scene *s) {
     for (int i = 0; i < s->nlights; i++)
-        if (s->lights[i].kind != LIGHT_POINT && s->lights[i].kind != LIGHT_DIRECTIONAL) return false;
+        if (s->lights[i].kind != LIGHT_POINT && s->lights[i].kind != LIGHT_DIRECTIONAL)
+            return false;
     return true;
 }
 

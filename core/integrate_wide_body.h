@@ -57,7 +57,7 @@ WIDE_FN void WIDE(frame)(struct wide *w, double lit) {
         double off = 1e-9 * (1.0 + WIDE(fmax_nn)(fabs(px), WIDE(fmax_nn)(fabs(py), fabs(pz))));
         w->px[j] = px, w->py[j] = py, w->pz[j] = pz;
         w->nx[j] = nx, w->ny[j] = ny, w->nz[j] = nz;
-        w->upx[j] = px + nx * off, w->upy[j] = py + ny * off, w->upz[j] = pz + nz * off;
+        w->up[0][j] = px + nx * off, w->up[1][j] = py + ny * off, w->up[2][j] = pz + nz * off;
         w->cx[j] = lit != 0 ? w->emx[j] + w->colx[j] * w->amb[j] : w->emx[j];
         w->cy[j] = lit != 0 ? w->emy[j] + w->coly[j] * w->amb[j] : w->emy[j];
         w->cz[j] = lit != 0 ? w->emz[j] + w->colz[j] * w->amb[j] : w->emz[j];
@@ -76,7 +76,7 @@ WIDE_FN void WIDE(aim)(const struct light *l, struct wide *w, double dist[16], d
         double len = sqrt(vx * vx + vy * vy + vz * vz), inv = 1.0 / len;
         double wx = point != 0 ? vx * inv : dx, wy = point != 0 ? vy * inv : dy;
         double wz = point != 0 ? vz * inv : dz;
-        w->wix[j] = wx, w->wiy[j] = wy, w->wiz[j] = wz;
+        w->wi[0][j] = wx, w->wi[1][j] = wy, w->wi[2][j] = wz;
         dist[j] = point != 0 ? len : INFINITY;
         double reach = point != 0 ? (len > 0 ? 1.0 : 0.0) : 1.0;
         ok[j] = w->nx[j] * wx + w->ny[j] * wy + w->nz[j] * wz <= 0 ? 0.0 : reach;
@@ -90,10 +90,12 @@ WIDE_FN void WIDE(shade)(struct wide *w, const double pass[16], const double rx[
                          const double ry[16], const double rz[16]) {
     double ax[16], ay[16], az[16], ndh[16], want[16], x[16], pw[16];
     for (int j = 0; j < 16; j++) {
-        double dl = w->dif[j] * (w->nx[j] * w->wix[j] + w->ny[j] * w->wiy[j] + w->nz[j] * w->wiz[j]);
+        double ndl = w->nx[j] * w->wi[0][j] + w->ny[j] * w->wi[1][j] + w->nz[j] * w->wi[2][j];
+        double dl = w->dif[j] * ndl;
         ax[j] = rx[j] * (w->colx[j] * dl), ay[j] = ry[j] * (w->coly[j] * dl);
         az[j] = rz[j] * (w->colz[j] * dl);
-        double hx = w->wix[j] - w->dx[j], hy = w->wiy[j] - w->dy[j], hz = w->wiz[j] - w->dz[j];
+        double hx = w->wi[0][j] - w->dx[j], hy = w->wi[1][j] - w->dy[j];
+        double hz = w->wi[2][j] - w->dz[j];
         double inv = 1.0 / sqrt(hx * hx + hy * hy + hz * hz);
         double d = w->nx[j] * (hx * inv) + w->ny[j] * (hy * inv) + w->nz[j] * (hz * inv);
         double hl = fabs(rx[j]) > 1 ? 1.0 : fabs(ry[j]) > 1 ? 1.0 : fabs(rz[j]) > 1 ? 1.0 : 0.0;
@@ -131,15 +133,12 @@ WIDE_FN void WIDE(light)(const rayd_scene *s, const struct light *l, struct wide
     double dist[16], ok[16], pass[16], rx[16], ry[16], rz[16];
     WIDE(aim)(l, w, dist, ok);
     uint32_t aim = 0;
-    ray sr[16];
-    for (int j = 0; j < 16; j++) {
-        aim |= (uint32_t)(ok[j] != 0) << j;
-        sr[j] = (ray){v3(w->upx[j], w->upy[j], w->upz[j]), v3(w->wix[j], w->wiy[j], w->wiz[j])};
-    }
+    for (int j = 0; j < 16; j++) aim |= (uint32_t)(ok[j] != 0) << j;
     aim &= lanes;
     *rays += (uint64_t)__builtin_popcount(aim);
     vec3 tr[16];
-    scene_transmittance16(s, sr, dist, aim, tr);
+    scene_transmittance16_soa(s, (const double(*)[16])w->up, (const double(*)[16])w->wi, dist, aim,
+                              tr);
     vec3 lc = v3_scale(l->color, l->intensity);
     for (int j = 0; j < 16; j++) { /* light_pass */
         vec3 t = aim >> j & 1 ? tr[j] : v3(0, 0, 0);
@@ -159,7 +158,7 @@ WIDE_FN void WIDE(mirror)(const struct wide *w, uint32_t mirror, ray rr[16]) {
     }
     for (uint32_t m = mirror; m; m &= m - 1) {
         int j = __builtin_ctz(m);
-        rr[j] = (ray){v3(w->upx[j], w->upy[j], w->upz[j]), v3(mx[j], my[j], mz[j])};
+        rr[j] = (ray){v3(w->up[0][j], w->up[1][j], w->up[2][j]), v3(mx[j], my[j], mz[j])};
     }
 }
 

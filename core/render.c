@@ -86,8 +86,7 @@ static inline uint8_t srgb8(double c) {
     memcpy(&bits, &c, sizeof bits);
     int binade = (int)(bits >> 52) - 1023 + SRGB_BINADES; /* 0 for [2^-13, 2^-12) */
     int k = srgb_start[binade * 256 + (int)(bits >> 44 & 255)];
-    while (c >= srgb_edge[k + 1]) k++;
-    return (uint8_t)k;
+    return (uint8_t)(k + (c >= srgb_edge[k + 1])); /* at most one edge: no branch */
 }
 
 uint8_t render_srgb8(double c) {

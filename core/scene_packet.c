@@ -40,7 +40,8 @@ static void transmittance_each(const rayd_scene *s, const ray r[16], const doubl
  * objects write h themselves, through a struct nearest made for the ray. */
 struct scene16 {
     const rayd_scene *s;
-    const ray *r;
+    const ray *r; /* the rays one by one when given so, else NULL until lane_rays */
+    ray rbuf[16];
     struct hit *h;
     struct ray16d rd; /* the same rays as structure of arrays */
     double tmax[16];
@@ -50,6 +51,17 @@ struct scene16 {
     const struct object *base;     /* ranks: rank0 + (o - base) */
     long rank0;
 };
+
+/* The rays one by one, for the one-ray code: made from rd when the packet
+ * came as structure of arrays. */
+static const ray *lane_rays(struct scene16 *q) {
+    if (q->r) return q->r;
+    for (int i = 0; i < 16; i++) {
+        q->rbuf[i].o = v3(q->rd.o[0][i], q->rd.o[1][i], q->rd.o[2][i]);
+        q->rbuf[i].d = v3(q->rd.d[0][i], q->rd.d[1][i], q->rd.d[2][i]);
+    }
+    return q->r = q->rbuf;
+}
 
 /* Ray i's struct nearest, to ask the one-ray code. */
 static struct nearest lane_nearest(const struct scene16 *q, int i) {
@@ -171,7 +183,7 @@ BVH16_FN void simple_bounds16(const struct scene16 *q, long rank, double bound[1
         __m512d tm = _mm512_loadu_pd(q->tmax + k);
         __mmask8 tie = _mm512_cmpgt_epi64_mask(_mm512_loadu_si512(q->best + k), rk);
         tie &= _mm512_cmp_pd_mask(tm, zero, _CMP_GE_OQ) & _mm512_cmp_pd_mask(tm, inf, _CMP_NEQ_OQ);
-        __m512i up = _mm512_mask_add_epi64(_mm512_castpd_si512(tm), tie, _mm512_castpd_si512(tm), one);
+        __m512i bits = _mm512_castpd_si512(tm), up = _mm512_mask_add_epi64(bits, tie, bits, one);
         _mm512_storeu_pd(bound + k, _mm512_castsi512_pd(up));
     }
 }
@@ -244,7 +256,7 @@ static void visit_nearest16(struct scene16 *q, const struct object *o, uint32_t 
 
 /* Object o for the rays in lanes, any hit: the rays it blocks (the scene
  * is opaque). */
-static uint32_t visit_any16(const struct scene16 *q, const struct object *o, uint32_t lanes) {
+static uint32_t visit_any16(struct scene16 *q, const struct object *o, uint32_t lanes) {
     uint32_t blocked = 0;
     if (simple16(o)) { /* object_filter, 16 wide */
         double t[16];
@@ -258,7 +270,7 @@ static uint32_t visit_any16(const struct scene16 *q, const struct object *o, uin
         for (uint32_t m = lanes; m; m &= m - 1) {
             int i = __builtin_ctz(m);
             double scale;
-            lr[i] = object_ray(q->s, o, &q->r[i], &scale);
+            lr[i] = object_ray(q->s, o, &lane_rays(q)[i], &scale);
             lmax[i] = q->tmax[i] * scale;
         }
         struct ray16d lrd;
@@ -269,7 +281,7 @@ static uint32_t visit_any16(const struct scene16 *q, const struct object *o, uin
     for (; lanes; lanes &= lanes - 1) {
         int i = __builtin_ctz(lanes);
         vec3 trans = v3(1, 1, 1);
-        if (!object_filter(q->s, o, &q->r[i], q->tmax[i], &trans)) blocked |= 1u << i;
+        if (!object_filter(q->s, o, &lane_rays(q)[i], q->tmax[i], &trans)) blocked |= 1u << i;
     }
     return blocked;
 }
@@ -294,7 +306,7 @@ BVH16_FN __mmask16 tlas_nearest(void *ctx, uint32_t first, uint32_t count, __mma
 
 BVH16_FN __mmask16 tlas_any(void *ctx, uint32_t first, uint32_t count, __mmask16 lanes,
                             __m512 *tm) {
-    const struct scene16 *q = ctx;
+    struct scene16 *q = ctx;
     (void)tm;
     __mmask16 blocked = 0;
     for (uint32_t k = first; k < first + count && blocked != lanes; k++)
@@ -328,7 +340,7 @@ BVH16_FN uint32_t intersect16(const rayd_scene *s, const ray r[16], const double
     }
     for (uint32_t m = q.kept & active; m; m &= m - 1) { /* as nearest_take would have */
         int i = __builtin_ctz(m);
-        h[i] = (struct hit){.t = q.tmax[i], .leaf = q.leaf[i], .outer = NULL, .part = 0, .orient = 0};
+        h[i] = (struct hit){.t = q.tmax[i], .leaf = q.leaf[i], .outer = NULL};
     }
     uint32_t hit = 0;
     for (int i = 0; i < 16; i++)
@@ -336,26 +348,43 @@ BVH16_FN uint32_t intersect16(const rayd_scene *s, const ray r[16], const double
     return hit;
 }
 
-BVH16_FN void transmittance16(const rayd_scene *s, const ray r[16], const double tmax[16],
-                              uint32_t active, vec3 out[16]) {
-    struct scene16 q; /* every field set below: no zeroing of its 2 KB */
-    q.s = s;
-    q.r = r;
-    ray16d_load(&q.rd, r, active);
+/* The shadow rays in q->rd: which get through. */
+BVH16_FN void transmittance16(struct scene16 *q, const double tmax[16], uint32_t active,
+                              vec3 out[16]) {
+    const rayd_scene *s = q->s;
     int first = __builtin_ctz(active);
-    for (int i = 0; i < 16; i++) q.tmax[i] = tmax[active >> i & 1 ? i : first];
+    for (int i = 0; i < 16; i++) q->tmax[i] = tmax[active >> i & 1 ? i : first];
     uint32_t open = active;
-    for (int32_t k = 0; k < s->nplanes && open; k++) open &= ~visit_any16(&q, &s->planes[k], open);
+    for (int32_t k = 0; k < s->nplanes && open; k++) open &= ~visit_any16(q, &s->planes[k], open);
     if (open && s->nobjs == 1) {
-        open &= ~visit_any16(&q, &s->objs[0], open);
+        open &= ~visit_any16(q, &s->objs[0], open);
     } else if (open && s->nobjs > 1) {
         struct bvh16_ray br;
-        bvh16_ray_init(&br, &q.rd);
-        __m512 tm = node_bounds16(q.tmax);
-        open &= ~(uint32_t)bvh16_walk(&s->tlas, NULL, 0, &br, &tm, (__mmask16)open, tlas_any, &q);
+        bvh16_ray_init(&br, &q->rd);
+        __m512 tm = node_bounds16(q->tmax);
+        open &= ~(uint32_t)bvh16_walk(&s->tlas, NULL, 0, &br, &tm, (__mmask16)open, tlas_any, q);
     }
     for (int i = 0; i < 16; i++)
         if (active >> i & 1) out[i] = open >> i & 1 ? v3(1, 1, 1) : v3(0, 0, 0);
+}
+
+BVH16_FN void transmittance16_aos(const rayd_scene *s, const ray r[16], const double tmax[16],
+                                  uint32_t active, vec3 out[16]) {
+    struct scene16 q; /* every field used is set: no zeroing of its 3 KB */
+    q.s = s;
+    q.r = r;
+    ray16d_load(&q.rd, r, active);
+    transmittance16(&q, tmax, active, out);
+}
+
+BVH16_FN void transmittance16_soa(const rayd_scene *s, const double o[3][16],
+                                  const double d[3][16], const double tmax[16], uint32_t active,
+                                  vec3 out[16]) {
+    struct scene16 q;
+    q.s = s;
+    q.r = NULL;
+    ray16d_load_soa(&q.rd, o, d, active);
+    transmittance16(&q, tmax, active, out);
 }
 
 #endif
@@ -374,9 +403,26 @@ void scene_transmittance16(const rayd_scene *s, const ray r[16], const double tm
     if (!active) return;
 #ifdef BVH16
     if (!s->brute && s->opaque && bvh16_available()) {
-        transmittance16(s, r, tmax, active, out);
+        transmittance16_aos(s, r, tmax, active, out);
         return;
     }
 #endif
+    transmittance_each(s, r, tmax, active, out);
+}
+
+void scene_transmittance16_soa(const rayd_scene *s, const double o[3][16], const double d[3][16],
+                               const double tmax[16], uint32_t active, vec3 out[16]) {
+    if (!active) return;
+#ifdef BVH16
+    if (!s->brute && s->opaque && bvh16_available()) {
+        transmittance16_soa(s, o, d, tmax, active, out);
+        return;
+    }
+#endif
+    ray r[16];
+    for (uint32_t m = active; m; m &= m - 1) {
+        int i = __builtin_ctz(m);
+        r[i] = (ray){v3(o[0][i], o[1][i], o[2][i]), v3(d[0][i], d[1][i], d[2][i])};
+    }
     transmittance_each(s, r, tmax, active, out);
 }
