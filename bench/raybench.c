@@ -254,7 +254,7 @@ int main(int argc, char **argv) {
         for (int r = 0; r < runs; r++) {
             struct bvh4 bvh;
             double b0 = now();
-            bvh_build(&bvh, boxes, m->ntris, order, tmax, NULL);
+            bvh_build(&bvh, boxes, m->ntris, BVH_MAX_LEAF, order, tmax, NULL);
             bt[r] = now() - b0;
             bvh_free(&bvh);
         }

@@ -2,8 +2,9 @@
  *
  * Two steps.  First a binary tree, top-down with the binned surface-area
  * heuristic: 16 bins along the axis where the primitive centroids spread
- * most; a node of at most BVH_MAX_LEAF (4) primitives is a leaf, because
- * the four are tested at once by one SIMD test.  Past depth 48 the split
+ * most; a node of at most max_leaf primitives is a leaf: 4 (BVH_MAX_LEAF)
+ * for triangles, which one SIMD test takes at once, 1 for the scene's
+ * objects, whose tests cost more than a node's.  Past depth 48 the split
  * falls back to the median, which bounds the depth (and so the traversal
  * stack) whatever the input.
  *
@@ -63,6 +64,7 @@ struct build {
     struct prim *prims;
     struct bnode *nodes;
     atomic_uint used;
+    uint32_t max_leaf; /* primitives a leaf may hold, 1..BVH_MAX_LEAF */
 };
 
 static struct bbox bb_empty(void) {
@@ -338,11 +340,12 @@ static void select_nth(struct prim *p, uint32_t n, uint32_t nth, int axis) {
 /* Splits node prims p[0..n) (measured by sp) into left and right: binned
  * SAH, the median past MEDIAN_DEPTH, halves by count when the centroids
  * coincide.  Returns the left count; 0 makes a leaf. */
-/* A node of 5..8 primitives becomes two leaves: sorted by centroid on
- * axis, the exact SAH picks among the cuts that leave at most 4 a side.
+/* A node of up to twice L = max_leaf primitives becomes two leaves: sorted
+ * by centroid on axis, the exact SAH picks among the cuts that leave at
+ * most L a side.
  * Cheaper than binning (whose fixed cost dominates at this size) and
  * better. */
-static uint32_t split_small(struct prim *p, uint32_t n, int axis, struct span *left,
+static uint32_t split_small(struct prim *p, uint32_t n, uint32_t L, int axis, struct span *left,
                             struct span *right) {
     for (uint32_t i = 1; i < n; i++) { /* insertion sort of <= 8 records */
         struct prim t = p[i];
@@ -353,7 +356,7 @@ static uint32_t split_small(struct prim *p, uint32_t n, int axis, struct span *l
     }
     uint32_t best_k = n / 2;
     float best = INFINITY;
-    for (uint32_t k = n - BVH_MAX_LEAF; k <= BVH_MAX_LEAF; k++) {
+    for (uint32_t k = n - L; k <= L; k++) {
         span_of(p, k, left);
         span_of(p + k, n - k, right);
         float cost = bb_area(&left->box) * (float)k + bb_area(&right->box) * (float)(n - k);
@@ -364,22 +367,22 @@ static uint32_t split_small(struct prim *p, uint32_t n, int axis, struct span *l
     return best_k;
 }
 
-static uint32_t split(struct prim *p, uint32_t n, const struct span *sp, int depth,
+static uint32_t split(struct prim *p, uint32_t n, uint32_t L, const struct span *sp, int depth,
                       struct span *left, struct span *right) {
     const struct bbox *cb = &sp->cent;
     float ext[3] = {cb->hi[0] - cb->lo[0], cb->hi[1] - cb->lo[1], cb->hi[2] - cb->lo[2]};
     int axis = ext[0] >= ext[1] && ext[0] >= ext[2] ? 0 : ext[1] >= ext[2] ? 1 : 2;
     *left = *right = (struct span){bb_empty(), bb_empty()};
     uint32_t mid = 0;
-    if (n > BVH_MAX_LEAF && n <= 2 * BVH_MAX_LEAF) return split_small(p, n, axis, left, right);
-    if (n > BVH_MAX_LEAF && ext[axis] > 0 && depth < MEDIAN_DEPTH) {
+    if (n > L && n <= 2 * L) return split_small(p, n, L, axis, left, right);
+    if (n > L && ext[axis] > 0 && depth < MEDIAN_DEPTH) {
         float scale = BINS / ext[axis] * 0.99999f;
         int plane = sah_plane(p, n, axis, cb->lo[axis], scale, left, right);
         if (plane > 0) return partition(p, n, plane);
-    } else if (n > BVH_MAX_LEAF && ext[axis] > 0) {
+    } else if (n > L && ext[axis] > 0) {
         select_nth(p, n, mid = n / 2, axis);
     }
-    if (n <= BVH_MAX_LEAF) return 0;
+    if (n <= L) return 0;
     if (mid == 0) mid = n / 2; /* coincident centroids: split by count */
     span_of(p, mid, left);
     span_of(p + mid, n - mid, right);
@@ -407,7 +410,7 @@ static void build_node(struct build *b, uint32_t self, uint32_t first, uint32_t 
     struct bnode *nd = &b->nodes[self];
     nd->box = sp->box;
     struct span ls, rs;
-    uint32_t mid = split(b->prims + first, n, sp, depth, &ls, &rs);
+    uint32_t mid = split(b->prims + first, n, b->max_leaf, sp, depth, &ls, &rs);
     if (mid == 0 || mid >= n) {
         nd->leaf = true;
         nd->a = first;
@@ -483,11 +486,13 @@ static uint32_t collapse_node(struct collapse *c, uint32_t bi) {
 }
 
 enum rayd_status bvh_build(struct bvh4 *bvh, const struct bbox *boxes, uint32_t n,
-                           uint32_t *order, int threads, struct rayd_error *err) {
+                           uint32_t max_leaf, uint32_t *order, int threads,
+                           struct rayd_error *err) {
     memset(bvh, 0, sizeof *bvh);
     bvh->bounds = bb_empty();
     if (n == 0) return RAYD_OK;
     struct build b = {0};
+    b.max_leaf = max_leaf < 1 ? 1 : max_leaf > BVH_MAX_LEAF ? BVH_MAX_LEAF : max_leaf;
     b.prims = malloc(sizeof *b.prims * n);
     b.nodes = malloc(sizeof *b.nodes * (2 * (size_t)n));
     struct bvh4_node *wide = malloc(sizeof *wide * ((size_t)n + 1));

@@ -52,11 +52,13 @@ struct bvh4 {
  * that ties are settled by rule, not by visiting order. */
 #define BVH_SLACK 1.000004f
 
-/* Builds the hierarchy over n boxes.  order[0..n) receives the primitive
- * order the leaves refer to.  threads > 1 builds the top subtrees in
+/* Builds the hierarchy over n boxes, leaves of at most max_leaf (1 to
+ * BVH_MAX_LEAF) of them.  order[0..n) receives the primitive order the
+ * leaves refer to.  threads > 1 builds the top subtrees in
  * parallel (worth it from ~100k primitives).  n == 0 gives an empty tree. */
 enum rayd_status bvh_build(struct bvh4 *bvh, const struct bbox *boxes, uint32_t n,
-                           uint32_t *order, int threads, struct rayd_error *err);
+                           uint32_t max_leaf, uint32_t *order, int threads,
+                           struct rayd_error *err);
 void bvh_free(struct bvh4 *bvh);
 
 /* A box that surely contains the double-precision box [lo, hi]. */

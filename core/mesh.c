@@ -324,7 +324,7 @@ enum rayd_status mesh_build(struct mesh *m, float *pos, uint32_t nverts, uint32_
                      ntris);
     } else {
         for (uint32_t t = 0; t < ntris; t++) boxes[t] = tri_box(pos, index + 3 * (size_t)t);
-        st = bvh_build(&m->bvh, boxes, ntris, order, threads, err);
+        st = bvh_build(&m->bvh, boxes, ntris, BVH_MAX_LEAF, order, threads, err);
     }
     if (st == RAYD_OK) { /* triangles in leaf order: leaves index them directly */
         for (uint32_t t = 0; t < ntris; t++) memcpy(sorted + 3 * (size_t)t, index + 3 * (size_t)order[t], sizeof *sorted * 3);

@@ -458,7 +458,7 @@ enum rayd_status scene_build_bvh(const rayd_scene *s, struct object **objs, int3
             all.lo = v3_min(all.lo, b.lo);
             all.hi = v3_max(all.hi, b.hi);
         }
-        st = bvh_build(bvh, boxes, (uint32_t)n, order, 1, err);
+        st = bvh_build(bvh, boxes, (uint32_t)n, 1, order, 1, err); /* an object a leaf */
     }
     if (st == RAYD_OK) {
         for (int32_t i = 0; i < n; i++) sorted[i] = (*objs)[order[i]];
