@@ -27,6 +27,7 @@ struct wide {
     double amb[16], dif[16], spec[16], cut[16], kr[16], shin[16];
     int64_t shine[16]; /* phong_whole(shininess) */
     int64_t top;       /* the bits of all whole exponents */
+    bool frac;         /* some exponent is not whole */
     double px[16], py[16], pz[16], nx[16], ny[16], nz[16]; /* point, normal facing the ray */
     double up[3][16]; /* the point lifted off the surface: x, y, z */
     double wi[3][16]; /* toward the light being shaded */

@@ -13,29 +13,46 @@
 /* fmax of two non-negative numbers, NaN as fmax has it (the other one). */
 WIDE_FN double WIDE(fmax_nn)(double a, double b) { return a > b ? a : b != b ? a : b; }
 
+/* Lane j's object o and its material. */
+WIDE_FN void WIDE(put_object)(struct wide *w, int j, const struct object *o,
+                              const struct material *m) {
+    bool sphere = o->kind == SHAPE_SPHERE;
+    vec3 g = sphere ? o->u.sphere.center : o->u.plane.normal;
+    w->gx[j] = g.x, w->gy[j] = g.y, w->gz[j] = g.z;
+    w->sphere[j] = sphere;
+    w->colx[j] = m->color.x, w->coly[j] = m->color.y, w->colz[j] = m->color.z;
+    w->emx[j] = m->emission.x, w->emy[j] = m->emission.y, w->emz[j] = m->emission.z;
+    w->amb[j] = m->ambient, w->dif[j] = m->diffuse, w->spec[j] = m->specular;
+    w->cut[j] = m->spec_cut, w->kr[j] = m->reflectivity, w->shin[j] = m->shininess;
+    w->shine[j] = m->shine_whole;
+}
+
 /* The lanes' rays, hits and materials; lanes outside the packet copy its
- * first lane, so every loop may run over all 16. */
+ * first lane, so every loop may run over all 16.  Most packets hit one
+ * object: that one is read once. */
 WIDE_FN void WIDE(gather)(const rayd_scene *s, const ray r[16], const struct hit h[16],
                           uint32_t lanes, struct wide *w) {
     int first = __builtin_ctz(lanes);
-    w->top = 0;
+    const struct object *obj[16];
+    bool one = true;
     for (int j = 0; j < 16; j++) {
         int i = lanes >> j & 1 ? j : first;
-        const struct object *o = h[i].leaf;
-        const struct material *m = &s->mats[o->material];
-        bool sphere = o->kind == SHAPE_SPHERE;
-        vec3 g = sphere ? o->u.sphere.center : o->u.plane.normal;
         w->ox[j] = r[i].o.x, w->oy[j] = r[i].o.y, w->oz[j] = r[i].o.z;
         w->dx[j] = r[i].d.x, w->dy[j] = r[i].d.y, w->dz[j] = r[i].d.z;
-        w->gx[j] = g.x, w->gy[j] = g.y, w->gz[j] = g.z;
-        w->sphere[j] = sphere;
         w->t[j] = h[i].t;
-        w->colx[j] = m->color.x, w->coly[j] = m->color.y, w->colz[j] = m->color.z;
-        w->emx[j] = m->emission.x, w->emy[j] = m->emission.y, w->emz[j] = m->emission.z;
-        w->amb[j] = m->ambient, w->dif[j] = m->diffuse, w->spec[j] = m->specular;
-        w->cut[j] = m->spec_cut, w->kr[j] = m->reflectivity, w->shin[j] = m->shininess;
-        w->shine[j] = m->shine_whole;
+        obj[j] = h[i].leaf;
+        one &= obj[j] == obj[0];
+    }
+    if (one) {
+        const struct material *m = &s->mats[obj[0]->material];
+        for (int j = 0; j < 16; j++) WIDE(put_object)(w, j, obj[0], m);
+    } else {
+        for (int j = 0; j < 16; j++) WIDE(put_object)(w, j, obj[j], &s->mats[obj[j]->material]);
+    }
+    w->top = 0, w->frac = false;
+    for (int j = 0; j < 16; j++) {
         w->top |= w->shine[j] > 0 ? w->shine[j] : 0;
+        w->frac |= w->shine[j] < 0;
     }
 }
 
@@ -104,14 +121,12 @@ WIDE_FN void WIDE(shade)(struct wide *w, const double pass[16], const double rx[
         want[j] = pass[j] != 0 ? hl : 0.0;
         ndh[j] = d, x[j] = d, pw[j] = 1;
     }
-    bool any = false;
-    for (int j = 0; j < 16; j++) any |= want[j] != 0;
-    for (int b = 0; any && w->top >> b > 0; b++) /* phong_pow by squaring, each lane's exponent */
+    for (int b = 0; w->top >> b > 0; b++) /* phong_pow by squaring, each lane's exponent */
         for (int j = 0; j < 16; j++) {
             pw[j] = w->shine[j] >> b & 1 ? pw[j] * x[j] : pw[j];
             x[j] *= x[j];
         }
-    for (int j = 0; j < 16; j++) /* exponents that are not whole */
+    for (int j = 0; w->frac && j < 16; j++) /* exponents that are not whole */
         if (want[j] != 0 && w->shine[j] < 0) pw[j] = pow(ndh[j], w->shin[j]);
     for (int j = 0; j < 16; j++) {
         double k = w->spec[j] * pw[j];
@@ -136,14 +151,14 @@ WIDE_FN void WIDE(light)(const rayd_scene *s, const struct light *l, struct wide
     for (int j = 0; j < 16; j++) aim |= (uint32_t)(ok[j] != 0) << j;
     aim &= lanes;
     *rays += (uint64_t)__builtin_popcount(aim);
-    vec3 tr[16];
+    double tr[3][16]; /* 0 outside aim */
     scene_transmittance16_soa(s, (const double(*)[16])w->up, (const double(*)[16])w->wi, dist, aim,
                               tr);
     vec3 lc = v3_scale(l->color, l->intensity);
     for (int j = 0; j < 16; j++) { /* light_pass */
-        vec3 t = aim >> j & 1 ? tr[j] : v3(0, 0, 0);
-        pass[j] = !(t.x <= 0 && t.y <= 0 && t.z <= 0);
-        rx[j] = lc.x * t.x, ry[j] = lc.y * t.y, rz[j] = lc.z * t.z;
+        double tx = tr[0][j], ty = tr[1][j], tz = tr[2][j];
+        pass[j] = tx <= 0 ? ty <= 0 ? tz <= 0 ? 0.0 : 1.0 : 1.0 : 1.0;
+        rx[j] = lc.x * tx, ry[j] = lc.y * ty, rz[j] = lc.z * tz;
     }
     WIDE(shade)(w, pass, rx, ry, rz);
 }

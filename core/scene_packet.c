@@ -348,9 +348,8 @@ BVH16_FN uint32_t intersect16(const rayd_scene *s, const ray r[16], const double
     return hit;
 }
 
-/* The shadow rays in q->rd: which get through. */
-BVH16_FN void transmittance16(struct scene16 *q, const double tmax[16], uint32_t active,
-                              vec3 out[16]) {
+/* The shadow rays in q->rd: the mask of those that get through. */
+BVH16_FN uint32_t transmittance16(struct scene16 *q, const double tmax[16], uint32_t active) {
     const rayd_scene *s = q->s;
     int first = __builtin_ctz(active);
     for (int i = 0; i < 16; i++) q->tmax[i] = tmax[active >> i & 1 ? i : first];
@@ -364,8 +363,7 @@ BVH16_FN void transmittance16(struct scene16 *q, const double tmax[16], uint32_t
         __m512 tm = node_bounds16(q->tmax);
         open &= ~(uint32_t)bvh16_walk(&s->tlas, NULL, 0, &br, &tm, (__mmask16)open, tlas_any, q);
     }
-    for (int i = 0; i < 16; i++)
-        if (active >> i & 1) out[i] = open >> i & 1 ? v3(1, 1, 1) : v3(0, 0, 0);
+    return open;
 }
 
 BVH16_FN void transmittance16_aos(const rayd_scene *s, const ray r[16], const double tmax[16],
@@ -374,17 +372,24 @@ BVH16_FN void transmittance16_aos(const rayd_scene *s, const ray r[16], const do
     q.s = s;
     q.r = r;
     ray16d_load(&q.rd, r, active);
-    transmittance16(&q, tmax, active, out);
+    uint32_t open = transmittance16(&q, tmax, active);
+    for (int i = 0; i < 16; i++)
+        if (active >> i & 1) out[i] = open >> i & 1 ? v3(1, 1, 1) : v3(0, 0, 0);
 }
 
 BVH16_FN void transmittance16_soa(const rayd_scene *s, const double o[3][16],
                                   const double d[3][16], const double tmax[16], uint32_t active,
-                                  vec3 out[16]) {
+                                  double out[3][16]) {
     struct scene16 q;
     q.s = s;
     q.r = NULL;
     ray16d_load_soa(&q.rd, o, d, active);
-    transmittance16(&q, tmax, active, out);
+    __mmask8 open[2];
+    uint32_t got = transmittance16(&q, tmax, active);
+    open[0] = (__mmask8)got, open[1] = (__mmask8)(got >> 8);
+    for (int k = 0; k < 3; k++)
+        for (int h = 0; h < 2; h++)
+            _mm512_storeu_pd(out[k] + 8 * h, _mm512_maskz_mov_pd(open[h], _mm512_set1_pd(1)));
 }
 
 #endif
@@ -411,18 +416,19 @@ void scene_transmittance16(const rayd_scene *s, const ray r[16], const double tm
 }
 
 void scene_transmittance16_soa(const rayd_scene *s, const double o[3][16], const double d[3][16],
-                               const double tmax[16], uint32_t active, vec3 out[16]) {
-    if (!active) return;
+                               const double tmax[16], uint32_t active, double out[3][16]) {
 #ifdef BVH16
-    if (!s->brute && s->opaque && bvh16_available()) {
+    if (active && !s->brute && s->opaque && bvh16_available()) {
         transmittance16_soa(s, o, d, tmax, active, out);
         return;
     }
 #endif
-    ray r[16];
-    for (uint32_t m = active; m; m &= m - 1) {
-        int i = __builtin_ctz(m);
-        r[i] = (ray){v3(o[0][i], o[1][i], o[2][i]), v3(d[0][i], d[1][i], d[2][i])};
+    for (int i = 0; i < 16; i++) {
+        vec3 t = v3(0, 0, 0);
+        if (active >> i & 1) {
+            ray r = {v3(o[0][i], o[1][i], o[2][i]), v3(d[0][i], d[1][i], d[2][i])};
+            t = scene_transmittance(s, &r, tmax[i]);
+        }
+        out[0][i] = t.x, out[1][i] = t.y, out[2][i] = t.z;
     }
-    transmittance_each(s, r, tmax, active, out);
 }
