@@ -28,6 +28,8 @@ struct wide {
     int64_t shine[16]; /* phong_whole(shininess) */
     int64_t top;       /* the bits of all whole exponents */
     bool frac;         /* some exponent is not whole */
+    bool gloss;        /* some lane has a highlight (specular > 0) */
+    bool spheres;      /* some lane hit a sphere */
     double px[16], py[16], pz[16], nx[16], ny[16], nz[16]; /* point, normal facing the ray */
     double up[3][16]; /* the point lifted off the surface: x, y, z */
     double wi[3][16]; /* toward the light being shaded */

@@ -43,16 +43,19 @@ WIDE_FN void WIDE(gather)(const rayd_scene *s, const ray r[16], const struct hit
         obj[j] = h[i].leaf;
         one &= obj[j] == obj[0];
     }
-    if (one) {
-        const struct material *m = &s->mats[obj[0]->material];
-        for (int j = 0; j < 16; j++) WIDE(put_object)(w, j, obj[0], m);
+    if (one) { /* copies: no store to w can change them, so they load once */
+        const struct object o = *obj[0];
+        const struct material m = s->mats[o.material];
+        for (int j = 0; j < 16; j++) WIDE(put_object)(w, j, &o, &m);
     } else {
         for (int j = 0; j < 16; j++) WIDE(put_object)(w, j, obj[j], &s->mats[obj[j]->material]);
     }
-    w->top = 0, w->frac = false;
+    w->top = 0, w->frac = w->gloss = w->spheres = false;
     for (int j = 0; j < 16; j++) {
         w->top |= w->shine[j] > 0 ? w->shine[j] : 0;
         w->frac |= w->shine[j] < 0;
+        w->gloss |= w->spec[j] > 0;
+        w->spheres |= w->sphere[j] != 0;
     }
 }
 
@@ -62,17 +65,22 @@ WIDE_FN void WIDE(gather)(const rayd_scene *s, const ray r[16], const struct hit
  * scene has lights (lit). */
 WIDE_FN void WIDE(frame)(struct wide *w, double lit) {
     for (int j = 0; j < 16; j++) {
-        double px = w->ox[j] + w->dx[j] * w->t[j], py = w->oy[j] + w->dy[j] * w->t[j];
-        double pz = w->oz[j] + w->dz[j] * w->t[j];
-        double ex = px - w->gx[j], ey = py - w->gy[j], ez = pz - w->gz[j];
-        double inv = 1.0 / sqrt(ex * ex + ey * ey + ez * ez); /* v3_norm */
-        double nx = w->sphere[j] != 0 ? ex * inv : w->gx[j];
-        double ny = w->sphere[j] != 0 ? ey * inv : w->gy[j];
-        double nz = w->sphere[j] != 0 ? ez * inv : w->gz[j];
+        w->px[j] = w->ox[j] + w->dx[j] * w->t[j], w->py[j] = w->oy[j] + w->dy[j] * w->t[j];
+        w->pz[j] = w->oz[j] + w->dz[j] * w->t[j];
+    }
+    for (int j = 0; w->spheres && j < 16; j++) { /* sphere_normal_part: v3_norm(p - centre) */
+        double ex = w->px[j] - w->gx[j], ey = w->py[j] - w->gy[j], ez = w->pz[j] - w->gz[j];
+        double inv = 1.0 / sqrt(ex * ex + ey * ey + ez * ez);
+        w->nx[j] = ex * inv, w->ny[j] = ey * inv, w->nz[j] = ez * inv;
+    }
+    for (int j = 0; j < 16; j++) {
+        double px = w->px[j], py = w->py[j], pz = w->pz[j];
+        double nx = w->sphere[j] != 0 ? w->nx[j] : w->gx[j];
+        double ny = w->sphere[j] != 0 ? w->ny[j] : w->gy[j];
+        double nz = w->sphere[j] != 0 ? w->nz[j] : w->gz[j];
         double in = nx * w->dx[j] + ny * w->dy[j] + nz * w->dz[j]; /* > 0: inside */
         nx = in > 0 ? -nx : nx, ny = in > 0 ? -ny : ny, nz = in > 0 ? -nz : nz;
         double off = 1e-9 * (1.0 + WIDE(fmax_nn)(fabs(px), WIDE(fmax_nn)(fabs(py), fabs(pz))));
-        w->px[j] = px, w->py[j] = py, w->pz[j] = pz;
         w->nx[j] = nx, w->ny[j] = ny, w->nz[j] = nz;
         w->up[0][j] = px + nx * off, w->up[1][j] = py + ny * off, w->up[2][j] = pz + nz * off;
         w->cx[j] = lit != 0 ? w->emx[j] + w->colx[j] * w->amb[j] : w->emx[j];
@@ -111,6 +119,9 @@ WIDE_FN void WIDE(shade)(struct wide *w, const double pass[16], const double rx[
         double dl = w->dif[j] * ndl;
         ax[j] = rx[j] * (w->colx[j] * dl), ay[j] = ry[j] * (w->coly[j] * dl);
         az[j] = rz[j] * (w->colz[j] * dl);
+        want[j] = 0, pw[j] = 1;
+    }
+    for (int j = 0; w->gloss && j < 16; j++) { /* the highlight, where some lane has one */
         double hx = w->wi[0][j] - w->dx[j], hy = w->wi[1][j] - w->dy[j];
         double hz = w->wi[2][j] - w->dz[j];
         double inv = 1.0 / sqrt(hx * hx + hy * hy + hz * hz);
@@ -119,14 +130,14 @@ WIDE_FN void WIDE(shade)(struct wide *w, const double pass[16], const double rx[
         hl = d > w->cut[j] ? 1.0 : hl;
         hl = w->spec[j] > 0 ? hl : 0.0;
         want[j] = pass[j] != 0 ? hl : 0.0;
-        ndh[j] = d, x[j] = d, pw[j] = 1;
+        ndh[j] = d, x[j] = d;
     }
-    for (int b = 0; w->top >> b > 0; b++) /* phong_pow by squaring, each lane's exponent */
+    for (int b = 0; w->gloss && w->top >> b > 0; b++) /* phong_pow by squaring, lane by lane */
         for (int j = 0; j < 16; j++) {
             pw[j] = w->shine[j] >> b & 1 ? pw[j] * x[j] : pw[j];
             x[j] *= x[j];
         }
-    for (int j = 0; w->frac && j < 16; j++) /* exponents that are not whole */
+    for (int j = 0; w->gloss && w->frac && j < 16; j++) /* exponents that are not whole */
         if (want[j] != 0 && w->shine[j] < 0) pw[j] = pow(ndh[j], w->shin[j]);
     for (int j = 0; j < 16; j++) {
         double k = w->spec[j] * pw[j];
