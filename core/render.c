@@ -49,10 +49,11 @@ static uint8_t srgb8_exact(double c) {
  * at the low end of each of 256 slices of every binade from 2^-13 (below,
  * every byte is 0), so a value's byte is its slice's start, moved past the
  * edges inside the slice (none or one: a slice is narrower than a step).
- * The very same bytes as the formula, without three calls of pow a pixel. */
+ * One more slice, for 1, holds 255.  The very same bytes as the formula,
+ * without three calls of pow a pixel, and without a branch. */
 #define SRGB_BINADES 13
 static double srgb_edge[257];
-static uint8_t srgb_start[SRGB_BINADES * 256];
+static uint8_t srgb_start[SRGB_BINADES * 256 + 1];
 static pthread_once_t srgb_once = PTHREAD_ONCE_INIT;
 
 static void srgb_init(void) {
@@ -69,8 +70,8 @@ static void srgb_init(void) {
         }
         memcpy(&srgb_edge[k], &hi, sizeof hi);
     }
-    srgb_edge[256] = INFINITY; /* a sentinel: no byte past 255 */
-    for (int i = 0; i < SRGB_BINADES * 256; i++) {
+    srgb_edge[256] = NAN; /* a sentinel: nothing is >= NaN, no byte past 255 */
+    for (int i = 0; i <= SRGB_BINADES * 256; i++) {
         double c = ldexp(1.0 + (i % 256) / 256.0, i / 256 - SRGB_BINADES); /* slice's low end */
         int k = 0;
         while (k < 255 && c >= srgb_edge[k + 1]) k++;
@@ -78,15 +79,17 @@ static void srgb_init(void) {
     }
 }
 
-/* After srgb_init. */
+/* After srgb_init.  The bits of a double, as a signed integer, order the
+ * doubles from -NaN to +NaN; clamped to [2^-13, 1], their top 20 bits
+ * (exponent and 8 bits of mantissa) count the slices from 2^-13. */
 static inline uint8_t srgb8(double c) {
-    if (!(c >= 0x1p-13)) return 0; /* also NaN and below 0 */
-    if (c >= 1) return 255;
-    uint64_t bits;
+    const int64_t lo = (int64_t)(1023 - SRGB_BINADES) << 52, one = (int64_t)1023 << 52;
+    int64_t bits;
     memcpy(&bits, &c, sizeof bits);
-    int binade = (int)(bits >> 52) - 1023 + SRGB_BINADES; /* 0 for [2^-13, 2^-12) */
-    int k = srgb_start[binade * 256 + (int)(bits >> 44 & 255)];
-    return (uint8_t)(k + (c >= srgb_edge[k + 1])); /* at most one edge: no branch */
+    bits = bits < lo ? lo : bits > one ? one : bits;
+    int k = srgb_start[(bits >> 44) - (lo >> 44)];
+    k += c >= srgb_edge[k + 1]; /* below 2^-13 (and -0, -NaN) no edge is passed */
+    return c != c ? 0 : (uint8_t)k;
 }
 
 uint8_t render_srgb8(double c) {

@@ -251,8 +251,10 @@ static void test_srgb_bytes_equal_the_formula(void) {
         double around[4] = {nextafter(lo, 0), lo, hi, nextafter(hi, 2)};
         for (int j = 0; j < 4; j++, n++) bad += render_srgb8(around[j]) != srgb_ref(around[j]);
     }
-    double odd[5] = {NAN, -INFINITY, INFINITY, -0.0, 1.0};
-    for (int j = 0; j < 5; j++, n++) bad += render_srgb8(odd[j]) != (odd[j] >= 1 ? 255 : 0);
+    double odd[8] = {NAN, -NAN, -INFINITY, INFINITY, -0.0, 1.0, 0x1p-1074, 1.7e308};
+    for (int j = 0; j < 8; j++, n++) bad += render_srgb8(odd[j]) != (odd[j] >= 1 ? 255 : 0);
+    double edges[4] = {0x1p-13, nextafter(0x1p-13, 0), nextafter(1.0, 0), -1e-300};
+    for (int j = 0; j < 4; j++, n++) bad += render_srgb8(edges[j]) != srgb_ref(edges[j]);
     CHECK(bad == 0, "%d of %d values encode differently", bad, n);
 }
 
