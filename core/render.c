@@ -43,20 +43,27 @@ static uint8_t srgb8_exact(double c) {
     return (uint8_t)(e * 255.0 + 0.5);
 }
 
-/* srgb_edge[k]: the least linear value whose byte is k (k = 1..255),
- * found once by bisection over the doubles in (0, 1) -- ordered like their
- * bit patterns -- against srgb8_exact.  srgb_start[] then gives the byte
- * at the low end of each of 256 slices of every binade from 2^-13 (below,
- * every byte is 0), so a value's byte is its slice's start, moved past the
- * edges inside the slice (none or one: a slice is narrower than a step).
- * One more slice, for 1, holds 255.  The very same bytes as the formula,
- * without three calls of pow a pixel, and without a branch. */
+/* The sRGB byte by table.  srgb_edge[k], the least linear value whose
+ * byte is k (k = 1..255), is found once by bisection over the doubles in
+ * (0, 1) -- ordered like their bit patterns -- against srgb8_exact.  The
+ * doubles from 2^-13 (below it every byte is 0) to 1 are cut into 128
+ * slices a binade, a slice being the values that share their top 19 bits
+ * (exponent and 7 bits of mantissa).  A slice is narrower than a step
+ * between bytes, so it holds at most one edge: its entry packs the byte at
+ * its low end (bits 48..55) and the low 45 bits of the edge inside it (or
+ * 2^45: none).  A value's byte is then one load and one compare away.  One
+ * more slice, for 1 and above, holds 255.  The very same bytes as the
+ * formula, without three calls of pow a pixel, and without a branch. */
 #define SRGB_BINADES 13
-static double srgb_edge[257];
-static uint8_t srgb_start[SRGB_BINADES * 256 + 1];
+#define SRGB_LOW 45 /* the bits below a slice's */
+static uint64_t srgb_slice[SRGB_BINADES * 128 + 1];
 static pthread_once_t srgb_once = PTHREAD_ONCE_INIT;
 
+static const int64_t srgb_lo = (int64_t)(1023 - SRGB_BINADES) << 52; /* 2^-13 */
+static const int64_t srgb_one = (int64_t)1023 << 52;                 /* 1.0 */
+
 static void srgb_init(void) {
+    uint64_t edge[257];
     for (int k = 1; k < 256; k++) {
         double one = 1.0;
         uint64_t lo = 0, hi; /* srgb8_exact(lo) < k <= srgb8_exact(hi) */
@@ -68,27 +75,29 @@ static void srgb_init(void) {
             if (srgb8_exact(c) >= k) hi = mid;
             else lo = mid;
         }
-        memcpy(&srgb_edge[k], &hi, sizeof hi);
+        edge[k] = hi;
     }
-    srgb_edge[256] = NAN; /* a sentinel: nothing is >= NaN, no byte past 255 */
-    for (int i = 0; i <= SRGB_BINADES * 256; i++) {
-        double c = ldexp(1.0 + (i % 256) / 256.0, i / 256 - SRGB_BINADES); /* slice's low end */
-        int k = 0;
-        while (k < 255 && c >= srgb_edge[k + 1]) k++;
-        srgb_start[i] = (uint8_t)k;
+    edge[256] = UINT64_MAX; /* no byte past 255 */
+    const uint64_t none = (uint64_t)1 << SRGB_LOW;
+    int k = 0;
+    for (int i = 0; i <= SRGB_BINADES * 128; i++) {
+        uint64_t start = (uint64_t)srgb_lo + ((uint64_t)i << SRGB_LOW), end = start + none;
+        while (edge[k + 1] <= start) k++; /* the byte at the slice's low end */
+        bool has = i < SRGB_BINADES * 128 && edge[k + 1] < end;
+        uint64_t inside = has ? edge[k + 1] & (none - 1) : none;
+        srgb_slice[i] = (uint64_t)k << 48 | inside;
     }
 }
 
 /* After srgb_init.  The bits of a double, as a signed integer, order the
- * doubles from -NaN to +NaN; clamped to [2^-13, 1], their top 20 bits
- * (exponent and 8 bits of mantissa) count the slices from 2^-13. */
+ * doubles from -NaN to +NaN; clamped to [2^-13, 1] they find the slice. */
 static inline uint8_t srgb8(double c) {
-    const int64_t lo = (int64_t)(1023 - SRGB_BINADES) << 52, one = (int64_t)1023 << 52;
     int64_t bits;
     memcpy(&bits, &c, sizeof bits);
-    bits = bits < lo ? lo : bits > one ? one : bits;
-    int k = srgb_start[(bits >> 44) - (lo >> 44)];
-    k += c >= srgb_edge[k + 1]; /* below 2^-13 (and -0, -NaN) no edge is passed */
+    bits = bits < srgb_lo ? srgb_lo : bits > srgb_one ? srgb_one : bits;
+    uint64_t e = srgb_slice[(bits - srgb_lo) >> SRGB_LOW];
+    uint64_t low = (uint64_t)bits & (((uint64_t)1 << SRGB_LOW) - 1);
+    int k = (int)(e >> 48) + (low >= (e & (((uint64_t)1 << 48) - 1)));
     return c != c ? 0 : (uint8_t)k;
 }
 

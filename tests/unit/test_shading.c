@@ -219,7 +219,8 @@ static void test_fresnel_and_snell(void) {
  * LIGHTS is spliced in. */
 #define WIDE_SCENE(LIGHTS)                                                                        \
     "{\"camera\": {\"position\": [0,2,6], \"look_at\": [0,0.5,0]},"                               \
-    " \"render\": {\"width\": 32, \"height\": 32, \"max_depth\": 4, \"background\": [0.1,0.2,0.3]}," \
+    " \"render\": {\"width\": 32, \"height\": 32, \"max_depth\": 4,"                          \
+    "  \"background\": [0.1,0.2,0.3]},"                                                        \
     " \"lights\": [" LIGHTS "],"                                                                  \
     " \"materials\": {\"m\": {\"color\": [0.9,0.9,0.9], \"specular\": 0.8, \"shininess\": 200,"  \
     "   \"reflectivity\": 0.8, \"ambient\": 0.05, \"diffuse\": 0.1}},"                            \
@@ -284,7 +285,8 @@ static void test_packets_shade_as_one_ray(void) {
                 vec3 out[16];
                 wide_rays(&x, n % 3, r);
                 uint32_t active = n % 5 ? 0xffffu : (uint32_t)(unit_rand(&x) * 65535) + 1;
-                for (int i = 0; i < 16; i++) key[i] = (struct rng_key){1, (uint32_t)n, (uint32_t)i, 0};
+                for (int i = 0; i < 16; i++)
+                    key[i] = (struct rng_key){1, (uint32_t)n, (uint32_t)i, 0};
                 uint64_t rays16 = 0, rays1 = 0;
                 whitted_radiance16(s, r, active, key, out, &rays16);
                 for (int i = 0; i < 16; i++) {
@@ -296,7 +298,8 @@ static void test_packets_shade_as_one_ray(void) {
             }
         }
         packet_force_scalar(false);
-        CHECK(differ == 0, "lights %d: %d packet colours differ from the one-ray colour", l, differ);
+        CHECK(differ == 0, "lights %d: %d packet colours differ from the one-ray colour", l,
+              differ);
         CHECK(count_differ == 0, "lights %d: %d packets counted other rays", l, count_differ);
         rayd_scene_free(s);
     }
