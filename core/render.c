@@ -25,6 +25,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "bvh16.h"
 #include "error.h"
 #include "image.h"
 #include "integrate.h"
@@ -101,6 +102,50 @@ static inline uint8_t srgb8(double c) {
     return c != c ? 0 : (uint8_t)k;
 }
 
+#ifdef BVH16
+/* srgb8 of the 48 values v[0..48), 8 at a time, the same integer steps
+ * (the table read by gathers) into out[0..48). */
+BVH16_FN void srgb8_48(const double v[48], uint8_t out[48]) {
+    const __m512i lo = _mm512_set1_epi64(srgb_lo), one = _mm512_set1_epi64(srgb_one);
+    const __m512i low = _mm512_set1_epi64(((int64_t)1 << SRGB_LOW) - 1);
+    const __m512i entry = _mm512_set1_epi64(((int64_t)1 << 48) - 1);
+    for (int k = 0; k < 48; k += 8) {
+        __m512d c = _mm512_loadu_pd(v + k);
+        __m512i bits = _mm512_min_epi64(_mm512_max_epi64(_mm512_castpd_si512(c), lo), one);
+        __m512i idx = _mm512_srli_epi64(_mm512_sub_epi64(bits, lo), SRGB_LOW);
+        __m512i e = _mm512_i64gather_epi64(idx, (const void *)srgb_slice, 8);
+        __mmask8 past = _mm512_cmpge_epu64_mask(_mm512_and_si512(bits, low),
+                                                _mm512_and_si512(e, entry));
+        __m512i byte = _mm512_mask_add_epi64(_mm512_srli_epi64(e, 48), past,
+                                             _mm512_srli_epi64(e, 48), _mm512_set1_epi64(1));
+        byte = _mm512_maskz_mov_epi64(_mm512_cmp_pd_mask(c, c, _CMP_ORD_Q), byte); /* NaN: 0 */
+        _mm_storel_epi64((__m128i *)(out + k), _mm512_cvtepi64_epi8(byte));
+    }
+}
+#endif
+
+/* The bytes of the 4x4 block of colours c (inactive lanes 0) into its
+ * w x h pixels at dst. */
+void render_srgb48(const double v[48], uint8_t out[48]) {
+    pthread_once(&srgb_once, srgb_init);
+#ifdef BVH16
+    if (bvh16_available()) {
+        srgb8_48(v, out);
+        return;
+    }
+#endif
+    for (int k = 0; k < 48; k++) out[k] = srgb8(v[k]);
+}
+
+static void put_block(uint8_t *dst, size_t stride, const vec3 c[16], int w, int h) {
+    _Static_assert(sizeof(vec3) == 3 * sizeof(double), "vec3 is three doubles");
+    double v[48];
+    uint8_t b[48];
+    memcpy(v, c, sizeof v);
+    render_srgb48(v, b);
+    for (int row = 0; row < h; row++) memcpy(dst + (size_t)row * stride, b + 12 * row, (size_t)w * 3);
+}
+
 uint8_t render_srgb8(double c) {
     pthread_once(&srgb_once, srgb_init);
     return srgb8(c);
@@ -138,12 +183,6 @@ vec3 render_pixel(const rayd_scene *s, int i, int j, uint64_t *rays) {
     return v3_scale(acc, 1.0 / n);
 }
 
-static void put_pixel(uint8_t *out, vec3 c) {
-    out[0] = srgb8(c.x);
-    out[1] = srgb8(c.y);
-    out[2] = srgb8(c.z);
-}
-
 /* The w x h (at most 4 x 4) block at (x, y): each sample's 16 camera rays
  * traced as packets (whitted_radiance16; for the path tracer the camera
  * rays' hits, scene_intersect16), the same radiance per pixel as
@@ -157,7 +196,7 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h, rayd_i
     uint32_t active = 0;
     for (int q = 0; q < 16; q++) {
         acc[q] = v3(0, 0, 0);
-        if (q % 4 < w && q / 4 < h) active |= 1u << q;
+        active |= (uint32_t)(q % 4 < w && q / 4 < h) << q;
     }
     bool centres = n == 1 && s->cam.aperture <= 0 && !s->cam.ortho; /* pinhole, pixel centres */
     for (int k = 0; k < n; k++) {
@@ -184,16 +223,14 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h, rayd_i
                 c[q] = path_radiance_from(s, &r[q], &first[q], hit >> q & 1, &key[q], rays);
             }
         }
-        for (uint32_t m = active; m; m &= m - 1) {
+        for (uint32_t m = active; n > 1 && m; m &= m - 1) {
             int q = __builtin_ctz(m);
             acc[q] = v3_add(acc[q], c[q]);
         }
     }
-    for (uint32_t m = active; m; m &= m - 1) {
-        int q = __builtin_ctz(m);
-        size_t at = ((size_t)(dy + q / 4) * (size_t)dst->w + (size_t)(dx + q % 4)) * 3;
-        put_pixel(dst->px + at, v3_scale(acc[q], 1.0 / n));
-    }
+    for (int q = 0; q < 16; q++) /* one sample: (0 + c) / 1 would give the same bytes */
+        c[q] = !(active >> q & 1) ? v3(0, 0, 0) : n > 1 ? v3_scale(acc[q], 1.0 / n) : c[q];
+    put_block(dst->px + ((size_t)dy * (size_t)dst->w + (size_t)dx) * 3, (size_t)dst->w * 3, c, w, h);
 }
 
 /* Renders the w x h rectangle at (x, y) of the image into dst at (dx, dy)

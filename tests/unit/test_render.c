@@ -5,6 +5,7 @@
 #include <stdatomic.h>
 #include <stdlib.h>
 
+#include "bvh16.h"
 #include "check.h"
 #include "render.h"
 #include "scene_util.h"
@@ -258,6 +259,43 @@ static void test_srgb_bytes_equal_the_formula(void) {
     CHECK(bad == 0, "%d of %d values encode differently", bad, n);
 }
 
+/* The block encoder (48 values at once, with AVX-512 where it runs) gives
+ * render_srgb8's bytes: odd values, values either side of every step, and
+ * random ones, in both modes. */
+static void test_srgb_blocks_equal_one_value(void) {
+    double v[48 * 64];
+    int n = 0;
+    const double odd[12] = {NAN,  -NAN,      -INFINITY, INFINITY, -0.0, 0.0,
+                            1.0,  0x1p-1074, 1.7e308,   0x1p-13,  -0.5, nextafter(1.0, 0)};
+    for (int j = 0; j < 12; j++) v[n++] = odd[j];
+    unsigned long long x = 0x9e3779b97f4a7c15ull;
+    for (int k = 1; k < 256; k++) { /* each step's neighbourhood, from the scalar encoder */
+        double lo = 0, hi = 1;
+        for (int it = 0; it < 200 && nextafter(lo, 2) < hi; it++) {
+            double mid = lo + (hi - lo) / 2;
+            if (render_srgb8(mid) >= k) hi = mid;
+            else lo = mid;
+        }
+        v[n++] = lo, v[n++] = hi;
+    }
+    while (n < 48 * 64) {
+        x ^= x << 13, x ^= x >> 7, x ^= x << 17;
+        v[n] = ldexp((double)(x >> 11), -53) * (n % 3 ? 1.2 : 0.01);
+        n++;
+    }
+    int bad = 0;
+    for (int scalar = 0; scalar < 2; scalar++) {
+        packet_force_scalar(scalar);
+        for (int b = 0; b < 64; b++) {
+            uint8_t out[48];
+            render_srgb48(v + 48 * b, out);
+            for (int k = 0; k < 48; k++) bad += out[k] != render_srgb8(v[48 * b + k]);
+        }
+    }
+    packet_force_scalar(false);
+    CHECK(bad == 0, "%d of %d block bytes differ from render_srgb8", bad, 2 * 48 * 64);
+}
+
 int main(void) {
     RUN(test_threads_and_tiles_give_same_bytes);
     RUN(test_region_equals_crop_of_full);
@@ -266,6 +304,7 @@ int main(void) {
     RUN(test_progress_and_cancel);
     RUN(test_seed_changes_samples_only);
     RUN(test_srgb_bytes_equal_the_formula);
+    RUN(test_srgb_blocks_equal_one_value);
     RUN(test_blocks_equal_one_ray_pixels);
     CHECK_EXIT();
 }
