@@ -13,6 +13,14 @@
 /* fmax of two non-negative numbers, NaN as fmax has it (the other one). */
 WIDE_FN double WIDE(fmax_nn)(double a, double b) { return a > b ? a : b != b ? a : b; }
 
+/* The packet's flags for a lane hitting object o of material m. */
+WIDE_FN void WIDE(flags)(struct wide *w, const struct object *o, const struct material *m) {
+    w->top |= m->shine_whole > 0 ? m->shine_whole : 0;
+    w->frac |= m->shine_whole < 0;
+    w->gloss |= m->specular > 0;
+    w->spheres |= o->kind == SHAPE_SPHERE;
+}
+
 /* Lane j's object o and its material. */
 WIDE_FN void WIDE(put_object)(struct wide *w, int j, const struct object *o,
                               const struct material *m) {
@@ -43,19 +51,18 @@ WIDE_FN void WIDE(gather)(const rayd_scene *s, const ray r[16], const struct hit
         obj[j] = h[i].leaf;
         one &= obj[j] == obj[0];
     }
+    w->top = 0, w->frac = w->gloss = w->spheres = false;
     if (one) { /* copies: no store to w can change them, so they load once */
         const struct object o = *obj[0];
         const struct material m = s->mats[o.material];
+        WIDE(flags)(w, &o, &m);
         for (int j = 0; j < 16; j++) WIDE(put_object)(w, j, &o, &m);
-    } else {
-        for (int j = 0; j < 16; j++) WIDE(put_object)(w, j, obj[j], &s->mats[obj[j]->material]);
+        return;
     }
-    w->top = 0, w->frac = w->gloss = w->spheres = false;
     for (int j = 0; j < 16; j++) {
-        w->top |= w->shine[j] > 0 ? w->shine[j] : 0;
-        w->frac |= w->shine[j] < 0;
-        w->gloss |= w->spec[j] > 0;
-        w->spheres |= w->sphere[j] != 0;
+        const struct material *m = &s->mats[obj[j]->material];
+        WIDE(flags)(w, obj[j], m);
+        WIDE(put_object)(w, j, obj[j], m);
     }
 }
 
@@ -202,6 +209,6 @@ WIDE_FN uint32_t WIDE(whitted_wide)(const rayd_scene *s, const ray r[16], const 
         kr[j] = w.kr[j];
         if (depth < s->rs.max_depth && w.kr[j] > 0) mirror |= 1u << j;
     }
-    WIDE(mirror)(&w, mirror, rr);
+    if (mirror) WIDE(mirror)(&w, mirror, rr);
     return mirror;
 }
