@@ -50,24 +50,15 @@ struct wide {
 #undef WIDE_FN
 #endif
 
-/* The light kinds shaded here. */
-static bool wide_lights(const rayd_scene *s) {
-    for (int i = 0; i < s->nlights; i++)
-        if (s->lights[i].kind != LIGHT_POINT && s->lights[i].kind != LIGHT_DIRECTIONAL)
-            return false;
-    return true;
-}
-
 uint32_t whitted_wide_lanes(const rayd_scene *s, const struct hit h[16], uint32_t hit) {
-    if (!hit || !wide_lights(s)) return 0;
+    if (!hit || !s->simple_lights) return 0;
     uint32_t wide = 0;
-    for (uint32_t m = hit; m; m &= m - 1) {
+    for (uint32_t m = hit; m; m &= m - 1) { /* no branch a lane: they would mispredict */
         int j = __builtin_ctz(m);
         const struct object *o = h[j].leaf;
-        const struct material *mt = &s->mats[o->material];
-        bool shape = (o->kind == SHAPE_SPHERE || o->kind == SHAPE_PLANE) && o->xform < 0 &&
-                     !h[j].outer && !h[j].orient;
-        if (shape && mt->texture < 0 && mt->transparency <= 0) wide |= 1u << j;
+        bool shape = (o->kind == SHAPE_SPHERE) | (o->kind == SHAPE_PLANE);
+        bool ok = shape & (o->xform < 0) & !h[j].outer & !h[j].orient & s->mats[o->material].plain;
+        wide |= (uint32_t)ok << j;
     }
     return wide;
 }

@@ -9,6 +9,7 @@
 
 void material_finish(struct material *m) {
     m->shine_whole = phong_whole(m->shininess);
+    m->plain = m->texture < 0 && m->transparency <= 0;
     m->spec_cut = 0;
     if (m->specular > 0 && m->shininess > 0) /* a hair low, so nothing above 2^-24 is cut */
         m->spec_cut = pow(0x1p-24 / m->specular, 1 / m->shininess) * (1 - 1e-9);

@@ -2,6 +2,8 @@
 #ifndef MATERIAL_H
 #define MATERIAL_H
 
+#include <stdbool.h>
+
 #include "vec.h"
 
 struct material {
@@ -21,6 +23,7 @@ struct material {
      * <= spec_cut, because there specular * cos^shininess < 2^-24. */
     double spec_cut;
     int shine_whole; /* phong_whole(shininess) */
+    bool plain;      /* untextured and opaque: integrate_wide.c shades it */
 };
 
 /* The Blinn-Phong exponent e as a whole number up to 1024, which the

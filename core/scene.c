@@ -497,6 +497,11 @@ static enum rayd_status find_emitters(rayd_scene *s, struct rayd_error *err) {
 enum rayd_status scene_freeze(rayd_scene *s, struct rayd_error *err) {
     s->opaque = true;
     for (int i = 0; i < s->nmats; i++) s->opaque &= !(s->mats[i].transparency > 0);
+    s->simple_lights = true;
+    for (int i = 0; i < s->nlights; i++) {
+        enum light_kind k = s->lights[i].kind;
+        s->simple_lights &= k == LIGHT_POINT || k == LIGHT_DIRECTIONAL;
+    }
     enum rayd_status st = split_unbounded(s, err);
     if (st != RAYD_OK || s->nobjs == 0) return st;
     st = scene_build_bvh(s, &s->objs, s->nobjs, &s->tlas, NULL, err);

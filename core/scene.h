@@ -58,6 +58,7 @@ struct rayd_scene {
     int32_t *emitters;     /* path tracer: emissive spheres, discs, quads of objs to sample */
     int nemitters;
     bool opaque;           /* no material lets light through: shadows are 0 or 1 */
+    bool simple_lights;    /* only point and directional lights (integrate_wide.c) */
     bool brute;            /* tests only: every query tests every primitive */
 };
 
