@@ -286,6 +286,14 @@ static uint32_t visit_any16(struct scene16 *q, const struct object *o, uint32_t 
     return blocked;
 }
 
+/* The rays' bounds, lanes outside active copying the first one in it (every
+ * lane then holds a number the walk may read). */
+BVH16_FN void bounds16_load(double out[16], const double tmax[16], uint32_t active) {
+    __m512d first = _mm512_set1_pd(tmax[__builtin_ctz(active)]);
+    for (int k = 0; k < 16; k += 8)
+        _mm512_storeu_pd(out + k, _mm512_mask_loadu_pd(first, (__mmask8)(active >> k), tmax + k));
+}
+
 /* Each ray's float bound for the node tests, as objects_walk has it. */
 BVH16_FN __m512 node_bounds16(const double tmax[16]) {
     __m512d big = _mm512_set1_pd(3e38);
@@ -321,11 +329,8 @@ BVH16_FN uint32_t intersect16(const rayd_scene *s, const ray r[16], const double
     q.r = r;
     q.h = h;
     ray16d_load(&q.rd, r, active);
-    int first = __builtin_ctz(active);
-    for (int i = 0; i < 16; i++) {
-        q.tmax[i] = tmax[active >> i & 1 ? i : first]; /* every lane set: read 16 at once */
-        q.best[i] = -1;
-    }
+    bounds16_load(q.tmax, tmax, active);
+    for (int k = 0; k < 16; k += 8) _mm512_storeu_si512(q.best + k, _mm512_set1_epi64(-1));
     q.kept = 0;
     q.base = s->planes, q.rank0 = 0;
     for (int32_t k = 0; k < s->nplanes; k++) visit_nearest16(&q, &s->planes[k], active);
@@ -339,8 +344,9 @@ BVH16_FN uint32_t intersect16(const rayd_scene *s, const ray r[16], const double
         bvh16_walk(&s->tlas, NULL, 0, &br, &tm, (__mmask16)active, tlas_nearest, &q);
     }
     for (uint32_t m = q.kept & active; m; m &= m - 1) { /* as nearest_take would have */
-        int i = __builtin_ctz(m);
-        h[i] = (struct hit){.t = q.tmax[i], .leaf = q.leaf[i], .outer = NULL};
+        int i = __builtin_ctz(m);                       /* (a sphere's or plane's: no mh) */
+        h[i].t = q.tmax[i], h[i].leaf = q.leaf[i], h[i].outer = NULL;
+        h[i].part = h[i].orient = 0;
     }
     uint32_t hit = 0;
     for (int i = 0; i < 16; i++)
@@ -351,8 +357,7 @@ BVH16_FN uint32_t intersect16(const rayd_scene *s, const ray r[16], const double
 /* The shadow rays in q->rd: the mask of those that get through. */
 BVH16_FN uint32_t transmittance16(struct scene16 *q, const double tmax[16], uint32_t active) {
     const rayd_scene *s = q->s;
-    int first = __builtin_ctz(active);
-    for (int i = 0; i < 16; i++) q->tmax[i] = tmax[active >> i & 1 ? i : first];
+    bounds16_load(q->tmax, tmax, active);
     uint32_t open = active;
     for (int32_t k = 0; k < s->nplanes && open; k++) open &= ~visit_any16(q, &s->planes[k], open);
     if (open && s->nobjs == 1) {
