@@ -77,21 +77,20 @@ ray cam_ray(const struct camera *cam, double px, double py, double lu, double lv
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(RAYD_NO_SIMD)
 __attribute__((target_clones("avx512f", "default")))
 #endif
-void cam_block_dirs(const struct camera *cam, int x, int y, vec3 d[16]) {
-    double hn = cam->n * 0.5, hm = cam->m * 0.5, dx[16], dy[16], dz[16], a[16], b[16];
+void cam_block_dirs(const struct camera *cam, int x, int y, double d[3][16]) {
+    const struct camera c = *cam; /* a copy: the stores to d cannot change it */
+    double hn = c.n * 0.5, hm = c.m * 0.5, a[16], b[16];
     for (int k = 0; k < 4; k++) {
-        a[k] = cam->tan_x * ((x + k) + 0.5 - hn) / hn;
-        b[4 * k] = cam->tan_y * (hm - ((y + k) + 0.5)) / hm;
+        a[k] = c.tan_x * ((x + k) + 0.5 - hn) / hn;
+        b[4 * k] = c.tan_y * (hm - ((y + k) + 0.5)) / hm;
     }
     for (int q = 4; q < 16; q++) a[q] = a[q % 4];
     for (int q = 0; q < 16; q++) b[q] = b[q & ~3];
     for (int q = 0; q < 16; q++) {
         double alpha = a[q], beta = b[q];
-        double ax = cam->w.x + cam->u.x * alpha, ay = cam->w.y + cam->u.y * alpha;
-        double az = cam->w.z + cam->u.z * alpha;
-        double bx = ax + cam->v.x * beta, by = ay + cam->v.y * beta, bz = az + cam->v.z * beta;
+        double ax = c.w.x + c.u.x * alpha, ay = c.w.y + c.u.y * alpha, az = c.w.z + c.u.z * alpha;
+        double bx = ax + c.v.x * beta, by = ay + c.v.y * beta, bz = az + c.v.z * beta;
         double inv = 1.0 / sqrt(bx * bx + by * by + bz * bz);
-        dx[q] = bx * inv, dy[q] = by * inv, dz[q] = bz * inv;
+        d[0][q] = bx * inv, d[1][q] = by * inv, d[2][q] = bz * inv;
     }
-    for (int q = 0; q < 16; q++) d[q] = v3(dx[q], dy[q], dz[q]);
 }

@@ -38,8 +38,9 @@ static inline vec3 cam_dir(const struct camera *cam, double px, double py) {
 }
 
 /* cam_dir through the centres of the 4x4 pixels whose top-left one is
- * (x, y), 16 at once: d[q] for pixel (x + q % 4, y + q / 4), the same bits. */
-void cam_block_dirs(const struct camera *cam, int x, int y, vec3 d[16]);
+ * (x, y), 16 at once, the same bits: d[k][q], coordinate k of pixel
+ * (x + q % 4, y + q / 4)'s (the layout of struct ray16). */
+void cam_block_dirs(const struct camera *cam, int x, int y, double d[3][16]);
 
 /* The primary ray through image point (px, py), with lens sample (lu, lv)
  * in [0, 1)^2 used only when the aperture is open.  Pinhole: the paper's

@@ -254,50 +254,53 @@ static void shade_local16(const rayd_scene *s, const ray r[16], uint32_t hit,
  * mirrors go on as a packet of their own when at least a quarter of the
  * lanes have one (fewer are not worth a packet); everything else takes
  * shade_secondary, ray by ray. */
-static void whitted16(const rayd_scene *s, const ray r[16], uint32_t active, int depth,
+static void whitted16(const rayd_scene *s, const struct ray16 *r, uint32_t active, int depth,
                       const struct rng_key key[16], vec3 out[16], uint64_t *rays) {
     *rays += (uint64_t)__builtin_popcount(active);
     double tmax[16], kr[16];
     for (int i = 0; i < 16; i++) tmax[i] = INFINITY;
     struct hit h[16];
-    uint32_t hit = scene_intersect16(s, r, tmax, active, h);
+    uint32_t hit = scene_intersect16_soa(s, r, tmax, active, h);
     for (uint32_t m = active & ~hit; m; m &= m - 1) out[__builtin_ctz(m)] = s->rs.background;
-    ray rr[16];
+    struct ray16 rr;
     uint32_t wide = whitted_wide_lanes(s, h, hit), rest = hit & ~wide;
-    uint32_t mirror = whitted_wide(s, r, h, wide, depth, out, rr, kr, rays);
+    uint32_t mirror = whitted_wide(s, r, h, wide, depth, out, &rr, kr, rays);
     struct frame f[16];
+    ray ri[16]; /* the other lanes' rays, one by one */
     for (uint32_t m = rest; m; m &= m - 1) {
         int i = __builtin_ctz(m);
-        hit_frame(s, &r[i], &h[i], &f[i]);
+        ri[i] = ray16_get(r, i);
+        hit_frame(s, &ri[i], &h[i], &f[i]);
     }
-    shade_local16(s, r, rest, f, depth, key, out, rays);
+    shade_local16(s, ri, rest, f, depth, key, out, rays);
     for (uint32_t m = rest; m; m &= m - 1) {
         int i = __builtin_ctz(m);
         const struct material *mt = f[i].sf.m;
         if (depth < s->rs.max_depth && mt->transparency <= 0 && mt->reflectivity > 0) {
             mirror |= 1u << i;
-            rr[i] = (ray){f[i].above, mirror_dir(&r[i], &f[i])};
+            ray16_set(&rr, i, (ray){f[i].above, mirror_dir(&ri[i], &f[i])});
             kr[i] = mt->reflectivity;
         } else {
-            out[i] = shade_secondary(s, &r[i], &f[i], out[i], depth, &key[i], rays);
+            out[i] = shade_secondary(s, &ri[i], &f[i], out[i], depth, &key[i], rays);
         }
     }
     if (__builtin_popcount(mirror) < 4) { /* c + kr * the mirror ray, as shade_secondary */
         for (uint32_t m = mirror; m; m &= m - 1) {
             int i = __builtin_ctz(m);
-            out[i] = v3_madd(out[i], whitted_radiance(s, &rr[i], depth + 1, &key[i], rays), kr[i]);
+            ray mr = ray16_get(&rr, i);
+            out[i] = v3_madd(out[i], whitted_radiance(s, &mr, depth + 1, &key[i], rays), kr[i]);
         }
         return;
     }
     vec3 rc[16];
-    whitted16(s, rr, mirror, depth + 1, key, rc, rays);
+    whitted16(s, &rr, mirror, depth + 1, key, rc, rays);
     for (uint32_t m = mirror; m; m &= m - 1) {
         int i = __builtin_ctz(m);
         out[i] = v3_madd(out[i], rc[i], kr[i]);
     }
 }
 
-void whitted_radiance16(const rayd_scene *s, const ray r[16], uint32_t active,
+void whitted_radiance16(const rayd_scene *s, const struct ray16 *r, uint32_t active,
                         const struct rng_key key[16], vec3 out[16], uint64_t *rays) {
     whitted16(s, r, active, 0, key, out, rays);
 }

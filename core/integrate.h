@@ -14,9 +14,9 @@
 vec3 whitted_radiance(const rayd_scene *s, const ray *r, int depth, const struct rng_key *key,
                       uint64_t *rays);
 
-/* The same for 16 camera rays r[i] (bit i of active set) at once, as
- * packets: out[i] is exactly whitted_radiance(s, &r[i], 0, &key[i], ..). */
-void whitted_radiance16(const rayd_scene *s, const ray r[16], uint32_t active,
+/* The same for 16 camera rays (ray i, bit i of active set) at once, as
+ * packets: out[i] is exactly whitted_radiance(s, &ray i, 0, &key[i], ..). */
+void whitted_radiance16(const rayd_scene *s, const struct ray16 *r, uint32_t active,
                         const struct rng_key key[16], vec3 out[16], uint64_t *rays);
 
 /* Path tracing (integrate_path.c): an unbiased estimate of the radiance

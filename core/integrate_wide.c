@@ -63,8 +63,9 @@ uint32_t whitted_wide_lanes(const rayd_scene *s, const struct hit h[16], uint32_
     return wide;
 }
 
-uint32_t whitted_wide(const rayd_scene *s, const ray r[16], const struct hit h[16], uint32_t lanes,
-                      int depth, vec3 out[16], ray rr[16], double kr[16], uint64_t *rays) {
+uint32_t whitted_wide(const rayd_scene *s, const struct ray16 *r, const struct hit h[16],
+                      uint32_t lanes, int depth, vec3 out[16], struct ray16 *rr, double kr[16],
+                      uint64_t *rays) {
     if (!lanes) return 0;
 #ifdef BVH16
     if (bvh16_available()) return whitted_wide_avx512(s, r, h, lanes, depth, out, rr, kr, rays);

@@ -38,15 +38,15 @@ WIDE_FN void WIDE(put_object)(struct wide *w, int j, const struct object *o,
 /* The lanes' rays, hits and materials; lanes outside the packet copy its
  * first lane, so every loop may run over all 16.  Most packets hit one
  * object: that one is read once. */
-WIDE_FN void WIDE(gather)(const rayd_scene *s, const ray r[16], const struct hit h[16],
+WIDE_FN void WIDE(gather)(const rayd_scene *s, const struct ray16 *r, const struct hit h[16],
                           uint32_t lanes, struct wide *w) {
     int first = __builtin_ctz(lanes);
     const struct object *obj[16];
     bool one = true;
     for (int j = 0; j < 16; j++) {
         int i = lanes >> j & 1 ? j : first;
-        w->ox[j] = r[i].o.x, w->oy[j] = r[i].o.y, w->oz[j] = r[i].o.z;
-        w->dx[j] = r[i].d.x, w->dy[j] = r[i].d.y, w->dz[j] = r[i].d.z;
+        w->ox[j] = r->o[0][i], w->oy[j] = r->o[1][i], w->oz[j] = r->o[2][i];
+        w->dx[j] = r->d[0][i], w->dy[j] = r->d[1][i], w->dz[j] = r->d[2][i];
         w->t[j] = h[i].t;
         obj[j] = h[i].leaf;
         one &= obj[j] == obj[0];
@@ -181,23 +181,20 @@ WIDE_FN void WIDE(light)(const rayd_scene *s, const struct light *l, struct wide
     WIDE(shade)(w, pass, rx, ry, rz);
 }
 
-/* The mirror rays (mirror_dir about the normal) of the lanes in mirror. */
-WIDE_FN void WIDE(mirror)(const struct wide *w, uint32_t mirror, ray rr[16]) {
-    double mx[16], my[16], mz[16];
+/* The mirror rays (mirror_dir about the normal), every lane's. */
+WIDE_FN void WIDE(mirror)(const struct wide *w, struct ray16 *rr) {
     for (int j = 0; j < 16; j++) {
         double a = -2.0 * (w->dx[j] * w->nx[j] + w->dy[j] * w->ny[j] + w->dz[j] * w->nz[j]);
-        mx[j] = w->dx[j] + w->nx[j] * a, my[j] = w->dy[j] + w->ny[j] * a;
-        mz[j] = w->dz[j] + w->nz[j] * a;
-    }
-    for (uint32_t m = mirror; m; m &= m - 1) {
-        int j = __builtin_ctz(m);
-        rr[j] = (ray){v3(w->up[0][j], w->up[1][j], w->up[2][j]), v3(mx[j], my[j], mz[j])};
+        rr->d[0][j] = w->dx[j] + w->nx[j] * a, rr->d[1][j] = w->dy[j] + w->ny[j] * a;
+        rr->d[2][j] = w->dz[j] + w->nz[j] * a;
+        rr->o[0][j] = w->up[0][j], rr->o[1][j] = w->up[1][j], rr->o[2][j] = w->up[2][j];
     }
 }
 
-WIDE_FN uint32_t WIDE(whitted_wide)(const rayd_scene *s, const ray r[16], const struct hit h[16],
-                                    uint32_t lanes, int depth, vec3 out[16], ray rr[16],
-                                    double kr[16], uint64_t *rays) {
+WIDE_FN uint32_t WIDE(whitted_wide)(const rayd_scene *s, const struct ray16 *r,
+                                    const struct hit h[16], uint32_t lanes, int depth,
+                                    vec3 out[16], struct ray16 *rr, double kr[16],
+                                    uint64_t *rays) {
     struct wide w;
     WIDE(gather)(s, r, h, lanes, &w);
     WIDE(frame)(&w, s->nlights > 0);
@@ -209,6 +206,6 @@ WIDE_FN uint32_t WIDE(whitted_wide)(const rayd_scene *s, const ray r[16], const 
         kr[j] = w.kr[j];
         if (depth < s->rs.max_depth && w.kr[j] > 0) mirror |= 1u << j;
     }
-    if (mirror) WIDE(mirror)(&w, mirror, rr);
+    if (mirror) WIDE(mirror)(&w, rr);
     return mirror;
 }

@@ -143,7 +143,8 @@ static void put_block(uint8_t *dst, size_t stride, const vec3 c[16], int w, int 
     uint8_t b[48];
     memcpy(v, c, sizeof v);
     render_srgb48(v, b);
-    for (int row = 0; row < h; row++) memcpy(dst + (size_t)row * stride, b + 12 * row, (size_t)w * 3);
+    for (int row = 0; row < h; row++)
+        memcpy(dst + (size_t)row * stride, b + 12 * row, (size_t)w * 3);
 }
 
 uint8_t render_srgb8(double c) {
@@ -156,9 +157,14 @@ static vec3 trace(const rayd_scene *s, const ray *r, const struct rng_key *key, 
                                                : whitted_radiance(s, r, 0, key, rays);
 }
 
+/* The random numbers of pixel (i, j)'s first sample. */
+static struct rng_key pixel_key(const rayd_scene *s, int i, int j) {
+    return (struct rng_key){s->rs.seed, (uint32_t)i, (uint32_t)j, 0};
+}
+
 /* Pixel (i, j)'s sample k of n: its ray, and *key set to name it. */
 static ray sample_ray(const rayd_scene *s, int i, int j, int k, int n, struct rng_key *key) {
-    *key = (struct rng_key){s->rs.seed, (uint32_t)i, (uint32_t)j, 0};
+    *key = pixel_key(s, i, j);
     if (n == 1 && s->cam.aperture <= 0) return cam_ray(&s->cam, i + 0.5, j + 0.5, 0, 0);
     double ox = rng_uniform(key, RNG_CAMERA, 0), oy = rng_uniform(key, RNG_CAMERA, 1);
     double lx = rng_uniform(key, RNG_CAMERA, 2), ly = rng_uniform(key, RNG_CAMERA, 3);
@@ -191,7 +197,7 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h, rayd_i
                          int dy, uint64_t *rays) {
     int n = s->rs.samples;
     vec3 acc[16], c[16];
-    ray r[16];
+    struct ray16 r;
     struct rng_key key[16];
     uint32_t active = 0;
     for (int q = 0; q < 16; q++) {
@@ -200,27 +206,29 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h, rayd_i
     }
     bool centres = n == 1 && s->cam.aperture <= 0 && !s->cam.ortho; /* pinhole, pixel centres */
     for (int k = 0; k < n; k++) {
-        vec3 d[16];
-        if (centres) cam_block_dirs(&s->cam, x, y, d);
+        if (centres) {
+            cam_block_dirs(&s->cam, x, y, r.d);
+            const double pos[3] = {s->cam.pos.x, s->cam.pos.y, s->cam.pos.z};
+            for (int q = 0; q < 16; q++) r.o[0][q] = pos[0], r.o[1][q] = pos[1], r.o[2][q] = pos[2];
+        }
         for (uint32_t m = active; m; m &= m - 1) {
             int q = __builtin_ctz(m);
-            if (!centres) {
-                r[q] = sample_ray(s, x + q % 4, y + q / 4, k, n, &key[q]);
-                continue;
-            }
-            key[q] = (struct rng_key){s->rs.seed, (uint32_t)(x + q % 4), (uint32_t)(y + q / 4), 0};
-            r[q] = (ray){s->cam.pos, d[q]};
+            if (centres)
+                key[q] = pixel_key(s, x + q % 4, y + q / 4);
+            else
+                ray16_set(&r, q, sample_ray(s, x + q % 4, y + q / 4, k, n, &key[q]));
         }
         if (s->rs.integrator == INTEGRATOR_WHITTED) {
-            whitted_radiance16(s, r, active, key, c, rays);
+            whitted_radiance16(s, &r, active, key, c, rays);
         } else { /* the camera rays as a packet, the paths on one by one */
             double tmax[16];
             struct hit first[16];
             for (int q = 0; q < 16; q++) tmax[q] = INFINITY;
-            uint32_t hit = scene_intersect16(s, r, tmax, active, first);
+            uint32_t hit = scene_intersect16_soa(s, &r, tmax, active, first);
             for (uint32_t m = active; m; m &= m - 1) {
                 int q = __builtin_ctz(m);
-                c[q] = path_radiance_from(s, &r[q], &first[q], hit >> q & 1, &key[q], rays);
+                ray rq = ray16_get(&r, q);
+                c[q] = path_radiance_from(s, &rq, &first[q], hit >> q & 1, &key[q], rays);
             }
         }
         for (uint32_t m = active; n > 1 && m; m &= m - 1) {
@@ -230,7 +238,8 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h, rayd_i
     }
     for (int q = 0; q < 16; q++) /* one sample: (0 + c) / 1 would give the same bytes */
         c[q] = !(active >> q & 1) ? v3(0, 0, 0) : n > 1 ? v3_scale(acc[q], 1.0 / n) : c[q];
-    put_block(dst->px + ((size_t)dy * (size_t)dst->w + (size_t)dx) * 3, (size_t)dst->w * 3, c, w, h);
+    size_t stride = (size_t)dst->w * 3;
+    put_block(dst->px + (size_t)dy * stride + (size_t)dx * 3, stride, c, w, h);
 }
 
 /* Renders the w x h rectangle at (x, y) of the image into dst at (dx, dy)

@@ -109,6 +109,9 @@ uint32_t scene_intersect16(const rayd_scene *s, const ray r[16], const double tm
                            uint32_t active, struct hit h[16]);
 void scene_transmittance16(const rayd_scene *s, const ray r[16], const double tmax[16],
                            uint32_t active, vec3 out[16]);
+/* scene_intersect16 for rays as structure of arrays. */
+uint32_t scene_intersect16_soa(const rayd_scene *s, const struct ray16 *r, const double tmax[16],
+                               uint32_t active, struct hit h[16]);
 /* scene_transmittance16 with the rays and the answers as structure of
  * arrays: ray i from (o[0][i], o[1][i], o[2][i]) along (d[0][i], d[1][i],
  * d[2][i]) lets through (out[0][i], out[1][i], out[2][i]); 0 for the rays

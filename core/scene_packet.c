@@ -64,8 +64,8 @@ static const ray *lane_rays(struct scene16 *q) {
 }
 
 /* Ray i's struct nearest, to ask the one-ray code. */
-static struct nearest lane_nearest(const struct scene16 *q, int i) {
-    return (struct nearest){q->s, NULL, &q->r[i], &q->h[i], q->base, q->rank0, q->best[i]};
+static struct nearest lane_nearest(struct scene16 *q, int i) {
+    return (struct nearest){q->s, NULL, &lane_rays(q)[i], &q->h[i], q->base, q->rank0, q->best[i]};
 }
 
 /* After the one-ray code took a hit for ray i (c.best changed): it is in h. */
@@ -236,7 +236,7 @@ static void visit_nearest16(struct scene16 *q, const struct object *o, uint32_t 
         struct nearest c = lane_nearest(q, i);
         bound[i] = nearest_bound(&c, o, q->tmax[i]);
         scale[i] = 1;
-        if (moved) lr[i] = object_ray_xform(q->s, o, &q->r[i], &scale[i]);
+        if (moved) lr[i] = object_ray_xform(q->s, o, &lane_rays(q)[i], &scale[i]);
         lmax[i] = object_space_bound(bound[i], scale[i]);
     }
     struct mesh_hit mh[16];
@@ -322,36 +322,52 @@ BVH16_FN __mmask16 tlas_any(void *ctx, uint32_t first, uint32_t count, __mmask16
     return blocked;
 }
 
-BVH16_FN uint32_t intersect16(const rayd_scene *s, const ray r[16], const double tmax[16],
-                              uint32_t active, struct hit h[16]) {
-    struct scene16 q; /* every field used is set below: no zeroing of its 2 KB */
-    q.s = s;
-    q.r = r;
-    q.h = h;
-    ray16d_load(&q.rd, r, active);
-    bounds16_load(q.tmax, tmax, active);
-    for (int k = 0; k < 16; k += 8) _mm512_storeu_si512(q.best + k, _mm512_set1_epi64(-1));
-    q.kept = 0;
-    q.base = s->planes, q.rank0 = 0;
-    for (int32_t k = 0; k < s->nplanes; k++) visit_nearest16(&q, &s->planes[k], active);
-    q.base = s->objs, q.rank0 = s->nplanes;
+/* The nearest hits of the rays in q->rd. */
+BVH16_FN uint32_t intersect16(struct scene16 *q, const double tmax[16], uint32_t active,
+                              struct hit h[16]) {
+    const rayd_scene *s = q->s;
+    q->h = h;
+    bounds16_load(q->tmax, tmax, active);
+    for (int k = 0; k < 16; k += 8) _mm512_storeu_si512(q->best + k, _mm512_set1_epi64(-1));
+    q->kept = 0;
+    q->base = s->planes, q->rank0 = 0;
+    for (int32_t k = 0; k < s->nplanes; k++) visit_nearest16(q, &s->planes[k], active);
+    q->base = s->objs, q->rank0 = s->nplanes;
     if (s->nobjs == 1) {
-        visit_nearest16(&q, &s->objs[0], active);
+        visit_nearest16(q, &s->objs[0], active);
     } else if (s->nobjs > 1) {
         struct bvh16_ray br;
-        bvh16_ray_init(&br, &q.rd);
-        __m512 tm = node_bounds16(q.tmax);
-        bvh16_walk(&s->tlas, NULL, 0, &br, &tm, (__mmask16)active, tlas_nearest, &q);
+        bvh16_ray_init(&br, &q->rd);
+        __m512 tm = node_bounds16(q->tmax);
+        bvh16_walk(&s->tlas, NULL, 0, &br, &tm, (__mmask16)active, tlas_nearest, q);
     }
-    for (uint32_t m = q.kept & active; m; m &= m - 1) { /* as nearest_take would have */
-        int i = __builtin_ctz(m);                       /* (a sphere's or plane's: no mh) */
-        h[i].t = q.tmax[i], h[i].leaf = q.leaf[i], h[i].outer = NULL;
+    for (uint32_t m = q->kept & active; m; m &= m - 1) { /* as nearest_take would have */
+        int i = __builtin_ctz(m);                        /* (a sphere's or plane's: no mh) */
+        h[i].t = q->tmax[i], h[i].leaf = q->leaf[i], h[i].outer = NULL;
         h[i].part = h[i].orient = 0;
     }
     uint32_t hit = 0;
     for (int i = 0; i < 16; i++)
-        if (active >> i & 1 && q.best[i] >= 0) hit |= 1u << i;
+        if (active >> i & 1 && q->best[i] >= 0) hit |= 1u << i;
     return hit;
+}
+
+BVH16_FN uint32_t intersect16_aos(const rayd_scene *s, const ray r[16], const double tmax[16],
+                                  uint32_t active, struct hit h[16]) {
+    struct scene16 q; /* every field used is set: no zeroing of its 3 KB */
+    q.s = s;
+    q.r = r;
+    ray16d_load(&q.rd, r, active);
+    return intersect16(&q, tmax, active, h);
+}
+
+BVH16_FN uint32_t intersect16_soa(const rayd_scene *s, const struct ray16 *r,
+                                  const double tmax[16], uint32_t active, struct hit h[16]) {
+    struct scene16 q;
+    q.s = s;
+    q.r = NULL;
+    ray16d_load_soa(&q.rd, r->o, r->d, active);
+    return intersect16(&q, tmax, active, h);
 }
 
 /* The shadow rays in q->rd: the mask of those that get through. */
@@ -403,9 +419,21 @@ uint32_t scene_intersect16(const rayd_scene *s, const ray r[16], const double tm
                            uint32_t active, struct hit h[16]) {
     if (!active) return 0;
 #ifdef BVH16
-    if (!s->brute && bvh16_available()) return intersect16(s, r, tmax, active, h);
+    if (!s->brute && bvh16_available()) return intersect16_aos(s, r, tmax, active, h);
 #endif
     return intersect_each(s, r, tmax, active, h);
+}
+
+uint32_t scene_intersect16_soa(const rayd_scene *s, const struct ray16 *r, const double tmax[16],
+                               uint32_t active, struct hit h[16]) {
+    if (!active) return 0;
+#ifdef BVH16
+    if (!s->brute && bvh16_available()) return intersect16_soa(s, r, tmax, active, h);
+#endif
+    ray each[16];
+    for (int i = 0; i < 16; i++)
+        if (active >> i & 1) each[i] = ray16_get(r, i);
+    return intersect_each(s, each, tmax, active, h);
 }
 
 void scene_transmittance16(const rayd_scene *s, const ray r[16], const double tmax[16],

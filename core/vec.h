@@ -50,4 +50,20 @@ typedef struct {
 
 static inline vec3 ray_at(const ray *r, double t) { return v3_madd(r->o, r->d, t); }
 
+/* 16 rays as structure of arrays, the packets' own form: coordinate k
+ * (x, y, z) of ray i's origin is o[k][i]. */
+struct ray16 {
+    double o[3][16], d[3][16];
+};
+
+static inline ray ray16_get(const struct ray16 *p, int i) {
+    ray r = {{p->o[0][i], p->o[1][i], p->o[2][i]}, {p->d[0][i], p->d[1][i], p->d[2][i]}};
+    return r;
+}
+
+static inline void ray16_set(struct ray16 *p, int i, ray r) {
+    p->o[0][i] = r.o.x, p->o[1][i] = r.o.y, p->o[2][i] = r.o.z;
+    p->d[0][i] = r.d.x, p->d[1][i] = r.d.y, p->d[2][i] = r.d.z;
+}
+
 #endif

@@ -288,7 +288,9 @@ static void test_packets_shade_as_one_ray(void) {
                 for (int i = 0; i < 16; i++)
                     key[i] = (struct rng_key){1, (uint32_t)n, (uint32_t)i, 0};
                 uint64_t rays16 = 0, rays1 = 0;
-                whitted_radiance16(s, r, active, key, out, &rays16);
+                struct ray16 rs;
+                for (int i = 0; i < 16; i++) ray16_set(&rs, i, r[i]);
+                whitted_radiance16(s, &rs, active, key, out, &rays16);
                 for (int i = 0; i < 16; i++) {
                     if (!(active >> i & 1)) continue;
                     vec3 c = whitted_radiance(s, &r[i], 0, &key[i], &rays1);
