@@ -60,17 +60,27 @@ static bool same_hit(const struct hit *a, const struct hit *b) {
  * first difference. */
 static bool packet_ok(const rayd_scene *s, const char *name, const char *what, const ray r[16],
                       const double tmax[16], uint32_t active) {
-    struct hit h[16];
+    struct hit h[16], hs[16];
     vec3 tr[16];
+    double trs[3][16];
+    struct ray16 rs; /* the same rays as structure of arrays, the other entry points */
+    for (int i = 0; i < 16; i++)
+        if (active >> i & 1) ray16_set(&rs, i, r[i]);
     uint32_t hit = scene_intersect16(s, r, tmax, active, h);
+    uint32_t hit_soa = scene_intersect16_soa(s, &rs, tmax, active, hs);
     scene_transmittance16(s, r, tmax, active, tr);
+    scene_transmittance16_soa(s, (const double(*)[16])rs.o, (const double(*)[16])rs.d, tmax, active,
+                              trs);
     for (int i = 0; i < 16; i++) {
         if (!(active >> i & 1)) continue;
         struct hit one;
         bool got = scene_intersect(s, &r[i], tmax[i], &one);
         vec3 t1 = scene_transmittance(s, &r[i], tmax[i]);
-        bool hit_ok = got == (bool)(hit >> i & 1) && (!got || same_hit(&one, &h[i]));
-        if (!hit_ok || t1.x != tr[i].x || t1.y != tr[i].y || t1.z != tr[i].z) {
+        bool hit_ok = got == (bool)(hit >> i & 1) && (!got || same_hit(&one, &h[i])) &&
+                      got == (bool)(hit_soa >> i & 1) && (!got || same_hit(&one, &hs[i]));
+        bool tr_ok = t1.x == tr[i].x && t1.y == tr[i].y && t1.z == tr[i].z && t1.x == trs[0][i] &&
+                     t1.y == trs[1][i] && t1.z == trs[2][i];
+        if (!hit_ok || !tr_ok) {
             printf("FAIL packet-equals-ray %s: %s ray %d (o %.17g %.17g %.17g, d %.17g %.17g %.17g):"
                    " %s differs\n", name, what, i, r[i].o.x, r[i].o.y, r[i].o.z, r[i].d.x, r[i].d.y,
                    r[i].d.z, hit_ok ? "transmittance" : "nearest hit");
