@@ -14,6 +14,8 @@
  */
 #include "integrate_wide.h"
 
+#include <string.h>
+
 #include "bvh16.h"
 
 /* One packet's hits as structure of arrays (flags as 0 or 1 doubles, the

@@ -45,11 +45,20 @@ WIDE_FN void WIDE(gather)(const rayd_scene *s, const struct ray16 *r, const stru
     bool one = true;
     for (int j = 0; j < 16; j++) {
         int i = lanes >> j & 1 ? j : first;
-        w->ox[j] = r->o[0][i], w->oy[j] = r->o[1][i], w->oz[j] = r->o[2][i];
-        w->dx[j] = r->d[0][i], w->dy[j] = r->d[1][i], w->dz[j] = r->d[2][i];
         w->t[j] = h[i].t;
         obj[j] = h[i].leaf;
         one &= obj[j] == obj[0];
+    }
+    if (lanes == 0xffff) { /* the common case: straight copies */
+        memcpy(w->ox, r->o[0], sizeof w->ox), memcpy(w->oy, r->o[1], sizeof w->oy);
+        memcpy(w->oz, r->o[2], sizeof w->oz), memcpy(w->dx, r->d[0], sizeof w->dx);
+        memcpy(w->dy, r->d[1], sizeof w->dy), memcpy(w->dz, r->d[2], sizeof w->dz);
+    } else {
+        for (int j = 0; j < 16; j++) {
+            int i = lanes >> j & 1 ? j : first;
+            w->ox[j] = r->o[0][i], w->oy[j] = r->o[1][i], w->oz[j] = r->o[2][i];
+            w->dx[j] = r->d[0][i], w->dy[j] = r->d[1][i], w->dz[j] = r->d[2][i];
+        }
     }
     w->top = 0, w->frac = w->gloss = w->spheres = false;
     if (one) { /* copies: no store to w can change them, so they load once */

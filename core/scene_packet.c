@@ -152,6 +152,13 @@ BVH16_FN uint32_t plane16(const struct ray16d *rd, const struct object *o, const
             pn = k ? _mm512_add_pd(pn, _mm512_mul_pd(nk, po)) : _mm512_mul_pd(nk, po);
         }
         __mmask8 in = lm & _mm512_cmp_pd_mask(dn, zero, _CMP_NEQ_UQ);
+        /* t = pn / dn > 0 needs pn and dn of one sign (a shadow ray leaving
+         * the floor has not): else no division */
+        __mmask8 pos = _mm512_cmp_pd_mask(pn, zero, _CMP_GT_OQ) &
+                       _mm512_cmp_pd_mask(dn, zero, _CMP_GT_OQ);
+        __mmask8 neg = _mm512_cmp_pd_mask(pn, zero, _CMP_LT_OQ) &
+                       _mm512_cmp_pd_mask(dn, zero, _CMP_LT_OQ);
+        if (!(in & (pos | neg))) continue;
         __m512d t = _mm512_div_pd(pn, dn);
         __m512d bnd = _mm512_loadu_pd(bound + 8 * h);
         __mmask8 ok = in & _mm512_cmp_pd_mask(t, zero, _CMP_GT_OQ) &
