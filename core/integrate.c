@@ -12,9 +12,11 @@
  * surfaces: what passes through them goes straight on.
  *
  * whitted_radiance16 does the same for 16 camera rays at once: the hits,
- * each light sample's shadow rays and the opaque mirrors' rays as packets,
- * the rest ray by ray, every step the one-ray code's own function, so each
- * ray's colour is exactly whitted_radiance's.
+ * each light sample's shadow rays and the opaque mirrors' rays as packets.
+ * The common hits are shaded 16 at a time by integrate_wide.c, which
+ * repeats this file's operations lane by lane; the others take this file's
+ * own functions, ray by ray.  So each ray's colour is exactly
+ * whitted_radiance's.
  */
 #include "integrate.h"
 

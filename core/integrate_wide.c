@@ -11,6 +11,11 @@
  * operations in its order, so the colour is the same to the bit; the
  * AVX-512 copy of the code is used where bvh16_available says so, the
  * build's own otherwise, and both give the same bytes.
+ *
+ * So a change to the one-ray shading (hit_frame, shade_base, light_at,
+ * shade_one, mirror_dir) must be made here too: test_shading's
+ * test_packets_shade_as_one_ray compares the two bit for bit on random
+ * packets and fails on any drift.
  */
 #include "integrate_wide.h"
 

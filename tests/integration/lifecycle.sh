@@ -7,8 +7,9 @@ source "$(dirname "$0")/lib/common.sh"
 
 # --- renders in flight finish ---------------------------------------------------------
 start_rayd --threads 2 --drain-seconds 30
+# long enough to be in flight through the checks below (a second or more);
 # under ThreadSanitizer (make test-tsan) renders are ~10x slower: a smaller one
-if ldd "$RAYD" 2>/dev/null | grep -q libtsan; then med=(640 480 4); else med=(1280 960 8); fi
+if ldd "$RAYD" 2>/dev/null | grep -q libtsan; then med=(960 720 4); else med=(1920 1440 16); fi
 scene "$T/med.json" "${med[@]}" spheres
 scene "$T/other.json" 64 64 1 spheres
 curl -s -m 60 -o "$T/inflight.png" -w '%{http_code}' -X POST -H 'Content-Type: application/json' \
@@ -34,8 +35,8 @@ check drain_logged "no drain line" grep -q 'draining' "$T/rayd.err"
 
 # --- past --drain-seconds the rest is cancelled, every client answered ----------------------
 start_rayd --threads 1 --drain-seconds 1
-scene "$T/slow.json" 1280 960 16 spheres
-scene "$T/slow2.json" 1280 960 16 spheres 2
+scene "$T/slow.json" 1920 1440 16 spheres # seconds on one thread: cut by the deadline
+scene "$T/slow2.json" 1920 1440 16 spheres 2
 curl -s -m 60 -o "$T/c.body" -w '%{http_code}' -X POST -H 'Content-Type: application/json' \
     --data-binary @"$T/slow.json" "$URL/v1/render" >"$T/c.code" &
 cp2=$!
