@@ -174,8 +174,9 @@ static bool simple16(const struct object *o) {
     return (o->kind == SHAPE_SPHERE || o->kind == SHAPE_PLANE) && o->xform < 0;
 }
 
-static uint32_t simple16_hit(const struct scene16 *q, const struct object *o,
-                             const double bound[16], uint32_t lanes, double t[16], uint32_t *odd) {
+BVH16_FN uint32_t simple16_hit(const struct scene16 *q, const struct object *o,
+                               const double bound[16], uint32_t lanes, double t[16],
+                               uint32_t *odd) {
     return o->kind == SHAPE_SPHERE ? sphere16(&q->rd, o, bound, lanes, t, odd)
                                    : plane16(&q->rd, o, bound, lanes, t, odd);
 }
@@ -211,7 +212,7 @@ BVH16_FN void simple_take16(struct scene16 *q, const struct object *o, long rank
 }
 
 /* Object o for the rays in lanes, nearest hit: meshes as a packet. */
-static void visit_nearest16(struct scene16 *q, const struct object *o, uint32_t lanes) {
+BVH16_FN void visit_nearest16(struct scene16 *q, const struct object *o, uint32_t lanes) {
     if (simple16(o)) { /* object_hit and nearest_take, 16 wide */
         long rank = q->rank0 + (long)(o - q->base);
         double bound[16], t[16];
@@ -263,7 +264,7 @@ static void visit_nearest16(struct scene16 *q, const struct object *o, uint32_t 
 
 /* Object o for the rays in lanes, any hit: the rays it blocks (the scene
  * is opaque). */
-static uint32_t visit_any16(struct scene16 *q, const struct object *o, uint32_t lanes) {
+BVH16_FN uint32_t visit_any16(struct scene16 *q, const struct object *o, uint32_t lanes) {
     uint32_t blocked = 0;
     if (simple16(o)) { /* object_filter, 16 wide */
         double t[16];
