@@ -354,10 +354,10 @@ BVH16_FN uint32_t intersect16(struct scene16 *q, const double tmax[16], uint32_t
         h[i].t = q->tmax[i], h[i].leaf = q->leaf[i], h[i].outer = NULL;
         h[i].part = h[i].orient = 0;
     }
-    uint32_t hit = 0;
-    for (int i = 0; i < 16; i++)
-        if (active >> i & 1 && q->best[i] >= 0) hit |= 1u << i;
-    return hit;
+    __m512i none = _mm512_set1_epi64(-1);
+    uint32_t hit = _mm512_cmpgt_epi64_mask(_mm512_loadu_si512(q->best), none) |
+                   (uint32_t)_mm512_cmpgt_epi64_mask(_mm512_loadu_si512(q->best + 8), none) << 8;
+    return hit & active;
 }
 
 BVH16_FN uint32_t intersect16_aos(const rayd_scene *s, const ray r[16], const double tmax[16],
