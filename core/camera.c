@@ -77,7 +77,7 @@ ray cam_ray(const struct camera *cam, double px, double py, double lu, double lv
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(RAYD_NO_SIMD)
 __attribute__((target_clones("avx512f", "default")))
 #endif
-void cam_block_dirs(const struct camera *cam, int x, int y, double d[3][16]) {
+void cam_block_rays(const struct camera *cam, int x, int y, struct ray16 *r) {
     const struct camera c = *cam; /* a copy: the stores to d cannot change it */
     double hn = c.n * 0.5, hm = c.m * 0.5, a[16], b[16];
     for (int k = 0; k < 4; k++) {
@@ -91,6 +91,7 @@ void cam_block_dirs(const struct camera *cam, int x, int y, double d[3][16]) {
         double ax = c.w.x + c.u.x * alpha, ay = c.w.y + c.u.y * alpha, az = c.w.z + c.u.z * alpha;
         double bx = ax + c.v.x * beta, by = ay + c.v.y * beta, bz = az + c.v.z * beta;
         double inv = 1.0 / sqrt(bx * bx + by * by + bz * bz);
-        d[0][q] = bx * inv, d[1][q] = by * inv, d[2][q] = bz * inv;
+        r->d[0][q] = bx * inv, r->d[1][q] = by * inv, r->d[2][q] = bz * inv;
+        r->o[0][q] = c.pos.x, r->o[1][q] = c.pos.y, r->o[2][q] = c.pos.z;
     }
 }

@@ -37,10 +37,10 @@ static inline vec3 cam_dir(const struct camera *cam, double px, double py) {
     return v3_norm(d);
 }
 
-/* cam_dir through the centres of the 4x4 pixels whose top-left one is
- * (x, y), 16 at once, the same bits: d[k][q], coordinate k of pixel
- * (x + q % 4, y + q / 4)'s (the layout of struct ray16). */
-void cam_block_dirs(const struct camera *cam, int x, int y, double d[3][16]);
+/* The pinhole camera's rays through the centres of the 4x4 pixels whose
+ * top-left one is (x, y), 16 at once: ray q for pixel (x + q % 4,
+ * y + q / 4), from the eye along cam_dir, the same bits. */
+void cam_block_rays(const struct camera *cam, int x, int y, struct ray16 *r);
 
 /* The primary ray through image point (px, py), with lens sample (lu, lv)
  * in [0, 1)^2 used only when the aperture is open.  Pinhole: the paper's

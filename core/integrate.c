@@ -259,10 +259,9 @@ static void shade_local16(const rayd_scene *s, const ray r[16], uint32_t hit,
 static void whitted16(const rayd_scene *s, const struct ray16 *r, uint32_t active, int depth,
                       const struct rng_key key[16], vec3 out[16], uint64_t *rays) {
     *rays += (uint64_t)__builtin_popcount(active);
-    double tmax[16], kr[16];
-    for (int i = 0; i < 16; i++) tmax[i] = INFINITY;
+    double kr[16];
     struct hit h[16];
-    uint32_t hit = scene_intersect16_soa(s, r, tmax, active, h);
+    uint32_t hit = scene_intersect16_soa(s, r, scene_unbounded16, active, h);
     for (uint32_t m = active & ~hit; m; m &= m - 1) out[__builtin_ctz(m)] = s->rs.background;
     struct ray16 rr;
     uint32_t wide = whitted_wide_lanes(s, h, hit), rest = hit & ~wide;

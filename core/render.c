@@ -206,11 +206,7 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h, rayd_i
     }
     bool centres = n == 1 && s->cam.aperture <= 0 && !s->cam.ortho; /* pinhole, pixel centres */
     for (int k = 0; k < n; k++) {
-        if (centres) {
-            cam_block_dirs(&s->cam, x, y, r.d);
-            const double pos[3] = {s->cam.pos.x, s->cam.pos.y, s->cam.pos.z};
-            for (int q = 0; q < 16; q++) r.o[0][q] = pos[0], r.o[1][q] = pos[1], r.o[2][q] = pos[2];
-        }
+        if (centres) cam_block_rays(&s->cam, x, y, &r);
         for (uint32_t m = active; m; m &= m - 1) {
             int q = __builtin_ctz(m);
             if (centres)
@@ -221,10 +217,8 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h, rayd_i
         if (s->rs.integrator == INTEGRATOR_WHITTED) {
             whitted_radiance16(s, &r, active, key, c, rays);
         } else { /* the camera rays as a packet, the paths on one by one */
-            double tmax[16];
             struct hit first[16];
-            for (int q = 0; q < 16; q++) tmax[q] = INFINITY;
-            uint32_t hit = scene_intersect16_soa(s, &r, tmax, active, first);
+            uint32_t hit = scene_intersect16_soa(s, &r, scene_unbounded16, active, first);
             for (uint32_t m = active; m; m &= m - 1) {
                 int q = __builtin_ctz(m);
                 ray rq = ray16_get(&r, q);

@@ -109,6 +109,10 @@ uint32_t scene_intersect16(const rayd_scene *s, const ray r[16], const double tm
                            uint32_t active, struct hit h[16]);
 void scene_transmittance16(const rayd_scene *s, const ray r[16], const double tmax[16],
                            uint32_t active, vec3 out[16]);
+/* 16 times INFINITY: no bound.  (A constant: the packet code reads it 8 at
+ * a time, which a just-written array of doubles would stall.) */
+extern const double scene_unbounded16[16];
+
 /* scene_intersect16 for rays as structure of arrays. */
 uint32_t scene_intersect16_soa(const rayd_scene *s, const struct ray16 *r, const double tmax[16],
                                uint32_t active, struct hit h[16]);

@@ -13,10 +13,18 @@
  * blocked or not, whichever blocker is met first); otherwise the product of
  * the filters met would depend on their order, so those rays go one by
  * one.  Without AVX-512 everything goes one by one.
+ *
+ * The rays come as an array of rays or, from the renderer, as structure of
+ * arrays (struct ray16, the packet's own form: no transposition); then the
+ * one-ray fallbacks get their rays made only when one is needed.
  */
 #include "bvh16.h"
 #include "scene.h"
 #include "scene_query.h"
+
+const double scene_unbounded16[16] = {INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY,
+                                      INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY,
+                                      INFINITY, INFINITY, INFINITY, INFINITY};
 
 static uint32_t intersect_each(const rayd_scene *s, const ray r[16], const double tmax[16],
                                uint32_t active, struct hit h[16]) {
@@ -201,12 +209,15 @@ BVH16_FN void simple_bounds16(const struct scene16 *q, long rank, double bound[1
 BVH16_FN void simple_take16(struct scene16 *q, const struct object *o, long rank,
                             const double t[16], uint32_t hit) {
     __m512i rk = _mm512_set1_epi64(rank), leaf = _mm512_set1_epi64((int64_t)(intptr_t)o);
-    for (int k = 0; k < 16; k += 8) {
+    /* blends and whole stores, not masked stores: a later load of these
+     * could not be forwarded from a masked store and would wait for it */
+    for (int k = 0; hit && k < 16; k += 8) {
         __m512d tt = _mm512_loadu_pd(t + k), tm = _mm512_loadu_pd(q->tmax + k);
         __mmask8 take = (__mmask8)(hit >> k) & _mm512_cmp_pd_mask(tt, tm, _CMP_NGT_UQ);
-        _mm512_mask_storeu_pd(q->tmax + k, take, tt);
-        _mm512_mask_storeu_epi64(q->best + k, take, rk);
-        _mm512_mask_storeu_epi64((void *)(q->leaf + k), take, leaf);
+        __m512i best = _mm512_loadu_si512(q->best + k), lf = _mm512_loadu_si512(q->leaf + k);
+        _mm512_storeu_pd(q->tmax + k, _mm512_mask_blend_pd(take, tm, tt));
+        _mm512_storeu_si512(q->best + k, _mm512_mask_blend_epi64(take, best, rk));
+        _mm512_storeu_si512((void *)(q->leaf + k), _mm512_mask_blend_epi64(take, lf, leaf));
         q->kept |= (uint32_t)take << k;
     }
 }
@@ -336,7 +347,10 @@ BVH16_FN uint32_t intersect16(struct scene16 *q, const double tmax[16], uint32_t
     const rayd_scene *s = q->s;
     q->h = h;
     bounds16_load(q->tmax, tmax, active);
-    for (int k = 0; k < 16; k += 8) _mm512_storeu_si512(q->best + k, _mm512_set1_epi64(-1));
+    for (int k = 0; k < 16; k += 8) {
+        _mm512_storeu_si512(q->best + k, _mm512_set1_epi64(-1));
+        _mm512_storeu_si512((void *)(q->leaf + k), _mm512_setzero_si512());
+    }
     q->kept = 0;
     q->base = s->planes, q->rank0 = 0;
     for (int32_t k = 0; k < s->nplanes; k++) visit_nearest16(q, &s->planes[k], active);
