@@ -9,6 +9,8 @@
  */
 #include "camera.h"
 
+#include "bvh16.h" /* the AVX-512 target and its run-time check */
+
 #include "error.h"
 
 #define DEG2RAD (3.14159265358979323846 / 180.0)
@@ -70,15 +72,13 @@ ray cam_ray(const struct camera *cam, double px, double py, double lu, double lv
 }
 
 /* Plain loops over the 16 lanes, which the vectoriser takes (camera.o is
- * built with CFLAGS_VEC), in an AVX-512 copy too where GCC can make one
- * (chosen at load time; both give the same bits): the 4x4 blocks' camera
- * rays are a tenth of a simple scene's time when made one at a time.  A
- * block has four columns and four rows: four alphas and four betas. */
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(RAYD_NO_SIMD)
-__attribute__((target_clones("avx512f", "default")))
-#endif
-void cam_block_rays(const struct camera *cam, int x, int y, struct ray16 *r) {
-    const struct camera c = *cam; /* a copy: the stores to d cannot change it */
+ * built with CFLAGS_VEC), in an AVX-512 copy too where the packets run
+ * with AVX-512 (both give the same bits): the 4x4 blocks' camera rays are
+ * a tenth of a simple scene's time when made one at a time.  A block has
+ * four columns and four rows: four alphas and four betas. */
+__attribute__((always_inline)) static inline void block_rays(const struct camera *cam, int x, int y,
+                                                             struct ray16 *r) {
+    const struct camera c = *cam; /* a copy: the stores to r cannot change it */
     double hn = c.n * 0.5, hm = c.m * 0.5, a[16], b[16];
     for (int k = 0; k < 4; k++) {
         a[k] = c.tan_x * ((x + k) + 0.5 - hn) / hn;
@@ -94,4 +94,20 @@ void cam_block_rays(const struct camera *cam, int x, int y, struct ray16 *r) {
         r->d[0][q] = bx * inv, r->d[1][q] = by * inv, r->d[2][q] = bz * inv;
         r->o[0][q] = c.pos.x, r->o[1][q] = c.pos.y, r->o[2][q] = c.pos.z;
     }
+}
+
+#ifdef BVH16
+BVH16_FN void block_rays_avx512(const struct camera *cam, int x, int y, struct ray16 *r) {
+    block_rays(cam, x, y, r); /* inlined, so compiled and vectorised for AVX-512 */
+}
+#endif
+
+void cam_block_rays(const struct camera *cam, int x, int y, struct ray16 *r) {
+#ifdef BVH16
+    if (bvh16_available()) {
+        block_rays_avx512(cam, x, y, r);
+        return;
+    }
+#endif
+    block_rays(cam, x, y, r);
 }
