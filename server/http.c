@@ -47,6 +47,9 @@ static int http_bound_port;
 
 long http_suspended(void) { return atomic_load(&http_nsuspended); }
 long http_in_flight(void) { return atomic_load(&http_ninflight); }
+
+static atomic_long http_last_ms; /* when the latest request came, log_now() in ms */
+double http_last_request(void) { return (double)atomic_load(&http_last_ms) / 1000.0; }
 bool http_is_draining(void) { return atomic_load(&http_drain_flag); }
 void http_set_draining(void) { atomic_store(&http_drain_flag, true); }
 int http_port(void) { return http_bound_port; }
@@ -439,6 +442,7 @@ struct http_req *http_req_new(const struct http_io *io, void *io_ctx, const char
     r->route = -1;
     r->waiter.fd = -1;
     atomic_fetch_add(&http_ninflight, 1);
+    atomic_store(&http_last_ms, (long)(r->t0 * 1000.0));
     return r;
 }
 

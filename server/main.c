@@ -14,7 +14,11 @@
  *      signal cuts that short);
  *   3. whatever is left is cancelled (it stops within one tile) and every
  *      suspended connection is answered;
- *   4. the listener stops -- never with a suspended connection -- the pool
+ *   4. the listener stays up, answering "draining", until no request has
+ *      come for 0.2 s (2 s at most): a client that raced the shutdown -- a
+ *      retry after "busy", a connection the kernel had already queued --
+ *      gets an answer rather than a reset;
+ *   5. the listener stops -- never with a suspended connection -- the pool
  *      is joined, everything is freed, and the exit status is 0.
  */
 #include "server.h"
@@ -51,6 +55,10 @@ static bool main_wait(bool (*cond)(void), double seconds, const sigset_t *set, b
 
 static bool main_no_suspended(void) { return http_suspended() == 0; }
 static bool main_no_requests(void) { return http_in_flight() == 0; }
+static bool main_quiet(void)
+{
+    return http_in_flight() == 0 && log_now() - http_last_request() >= 0.2;
+}
 
 /* A process started with stdin, stdout or stderr closed would hand those
  * numbers to its first sockets, and a log line would go to a client: point
@@ -129,6 +137,7 @@ int main(int argc, char **argv)
     main_wait(jobq_idle, 30, &set, NULL);
     main_wait(main_no_suspended, 10, &set, NULL);
     main_wait(main_no_requests, 2, &set, NULL);
+    main_wait(main_quiet, 2, &set, NULL);
     if (http_suspended() > 0) {
         /* never stop libmicrohttpd with suspended connections */
         log_warn("drain: %ld connections still suspended; exiting without cleanup",

@@ -295,6 +295,7 @@ int http_port(void);
 void http_stop(void);
 long http_suspended(void);      /* connections suspended right now */
 long http_in_flight(void);      /* requests not yet completed */
+double http_last_request(void); /* when the latest request came (log_now() time) */
 
 const char *http_header(struct http_req *r, const char *name);
 const char *http_query(struct http_req *r, const char *name);

@@ -7,9 +7,12 @@ source "$(dirname "$0")/lib/common.sh"
 
 # --- renders in flight finish ---------------------------------------------------------
 start_rayd --threads 2 --drain-seconds 30
-# long enough to be in flight through the checks below (a second or more);
-# under ThreadSanitizer (make test-tsan) renders are ~10x slower: a smaller one
-if ldd "$RAYD" 2>/dev/null | grep -q libtsan; then med=(960 720 4); else med=(1920 1440 16); fi
+# long enough to be in flight through the checks below (a second or more)
+# and short enough to finish within --drain-seconds: under ThreadSanitizer
+# (make test-tsan) renders are ~10x slower, under ASan (SANITIZE=1) ~4x
+med=(1920 1440 16)
+if ldd "$RAYD" 2>/dev/null | grep -q libtsan; then med=(960 720 4); fi
+if ldd "$RAYD" 2>/dev/null | grep -q libasan; then med=(1280 960 8); fi
 scene "$T/med.json" "${med[@]}" spheres
 scene "$T/other.json" 64 64 1 spheres
 curl -s -m 60 -o "$T/inflight.png" -w '%{http_code}' -X POST -H 'Content-Type: application/json' \
