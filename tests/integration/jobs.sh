@@ -7,7 +7,8 @@
 source "$(dirname "$0")/lib/common.sh"
 
 start_rayd --threads 2 --max-jobs 4
-scene "$T/mid.json" 640 480 4 spheres
+# long enough to be seen running between polls 20 ms apart
+if sanitized; then scene "$T/mid.json" 640 480 4 spheres; else scene "$T/mid.json" 1280 960 4 spheres; fi
 "$RENDER" "$T/mid.json" -o "$T/ref.png" 2>/dev/null
 
 # --- create, poll, fetch ------------------------------------------------------------

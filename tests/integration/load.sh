@@ -8,8 +8,10 @@ source "$(dirname "$0")/lib/common.sh"
 # --- queue full -----------------------------------------------------------------------
 start_rayd --threads 1 --queue 1
 bg=()
+size=(1280 960 8) # a second or more each: the queue is still full 0.3 s on
+sanitized && size=(640 480 8)
 for k in 1 2 3 4 5 6; do
-    scene "$T/b$k.json" 640 480 8 spheres "$k"
+    scene "$T/b$k.json" "${size[@]}" spheres "$k"
 done
 for k in 1 2 3 4 5 6; do
     ( code=$(curl -s -m 60 -o "$T/r$k.body" -D "$T/r$k.h" -w '%{http_code}' -X POST \
@@ -39,7 +41,7 @@ stop_rayd TERM
 
 # --- identical requests in flight are rendered once -------------------------------------
 start_rayd --threads 2
-scene "$T/same.json" 640 480 4 spheres
+if sanitized; then scene "$T/same.json" 640 480 4 spheres; else scene "$T/same.json" 1280 960 4 spheres; fi
 bg=()
 for k in 1 2 3 4; do
     curl -s -m 60 -o "$T/s$k.png" -X POST -H 'Content-Type: application/json' \

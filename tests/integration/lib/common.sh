@@ -123,6 +123,10 @@ if len(sys.argv) > 4:
 sys.exit(0 if ok else 1)
 PY
 }
+# True for a sanitizer build of rayd (ASan or TSan), which renders several
+# times slower: tests that need a render to last pick their sizes by it.
+sanitized() { ldd "$RAYD" 2>/dev/null | grep -Eq 'lib(a|t)san'; }
+
 is_png() { [ "$(head -c 8 "$1" | od -An -tx1 | tr -d ' \n')" = 89504e470d0a1a0a ]; }
 png_size() { # png_size FILE: "WxH" from the IHDR
     python3 -c 'import struct,sys; d=open(sys.argv[1],"rb").read(24); print("%dx%d" % struct.unpack(">II", d[16:24]))' "$1"
