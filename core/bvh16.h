@@ -46,13 +46,10 @@ void packet_force_scalar(bool on);
 #define BVH16_FN __attribute__((target(BVH16_TARGET))) static inline
 #define BVH16_INLINE __attribute__((target(BVH16_TARGET), always_inline)) static inline
 
-/* 16 double rays as structure of arrays, 8 lanes to a register half;
- * lanes not in the packet copy its first ray (they are masked off). */
-struct ray16d {
-    double o[3][16], d[3][16];
-};
-
-BVH16_FN void ray16d_load(struct ray16d *q, const ray r[16], uint32_t active) {
+/* A packet's rays as struct ray16 (vec.h), 8 lanes to a register half,
+ * from an array of rays; lanes not in the packet copy its first ray (they
+ * are masked off). */
+BVH16_FN void ray16_from_rays(struct ray16 *q, const ray r[16], uint32_t active) {
     int first = __builtin_ctz(active);
     for (int i = 0; i < 16; i++) {
         const ray *ri = &r[active >> i & 1 ? i : first];
@@ -63,8 +60,8 @@ BVH16_FN void ray16d_load(struct ray16d *q, const ray r[16], uint32_t active) {
 
 /* The same from rays already in structure of arrays (o[k][i], d[k][i]),
  * whatever the lanes outside active hold. */
-BVH16_FN void ray16d_load_soa(struct ray16d *q, const double o[3][16], const double d[3][16],
-                              uint32_t active) {
+BVH16_FN void ray16_from_arrays(struct ray16 *q, const double o[3][16], const double d[3][16],
+                                uint32_t active) {
     int first = __builtin_ctz(active);
     for (int k = 0; k < 3; k++)
         for (int h = 0; h < 16; h += 8) {
@@ -78,9 +75,9 @@ BVH16_FN void ray16d_load_soa(struct ray16d *q, const double o[3][16], const dou
 /* mesh_intersect16 and mesh_occluded16 (mesh.h) for rays already loaded
  * as structure of arrays, with AVX-512: the caller checked bvh16_available
  * (mesh_packet.c). */
-uint32_t mesh16_intersect(const struct mesh *m, const struct ray16d *rd, const double tmax[16],
+uint32_t mesh16_intersect(const struct mesh *m, const struct ray16 *rd, const double tmax[16],
                           uint32_t active, struct mesh_hit h[16]);
-uint32_t mesh16_occluded(const struct mesh *m, const struct ray16d *rd, const double tmax[16],
+uint32_t mesh16_occluded(const struct mesh *m, const struct ray16 *rd, const double tmax[16],
                          uint32_t active);
 
 /* Two halves of 8 floats as one register of 16. */
@@ -97,7 +94,7 @@ struct bvh16_ray {
     int sign[3]; /* 1 every ray's direction negative on the axis, 0 none, -1 mixed */
 };
 
-BVH16_FN void bvh16_ray_init(struct bvh16_ray *p, const struct ray16d *q) {
+BVH16_FN void bvh16_ray_init(struct bvh16_ray *p, const struct ray16 *q) {
     for (int k = 0; k < 3; k++) {
         __m512 c = join16(_mm512_cvtpd_ps(_mm512_loadu_pd(q->d[k])),
                           _mm512_cvtpd_ps(_mm512_loadu_pd(q->d[k] + 8)));

@@ -32,7 +32,7 @@ struct wide {
     double sphere[16];
     double colx[16], coly[16], colz[16], emx[16], emy[16], emz[16]; /* the materials */
     double amb[16], dif[16], spec[16], cut[16], kr[16], shin[16];
-    int64_t shine[16]; /* phong_whole(shininess) */
+    int64_t shine[16]; /* the material's shine_whole */
     int64_t top;       /* the bits of all whole exponents */
     bool frac;         /* some exponent is not whole */
     bool gloss;        /* some lane has a highlight (specular > 0) */

@@ -8,7 +8,8 @@
 #include "material.h"
 
 void material_finish(struct material *m) {
-    m->shine_whole = phong_whole(m->shininess);
+    double e = m->shininess;
+    m->shine_whole = e >= 0 && e <= 1024 && e == (double)(int)e ? (int)e : -1;
     m->plain = m->texture < 0 && m->transparency <= 0;
     m->spec_cut = 0;
     if (m->specular > 0 && m->shininess > 0) /* a hair low, so nothing above 2^-24 is cut */

@@ -22,15 +22,10 @@ struct material {
     /* Derived (material_finish): the highlight is skipped where cos(n, h)
      * <= spec_cut, because there specular * cos^shininess < 2^-24. */
     double spec_cut;
-    int shine_whole; /* phong_whole(shininess) */
+    int shine_whole; /* shininess as a whole number up to 1024, which the shaders
+                      * raise to by squaring; -1 when it is not one (they call pow) */
     bool plain;      /* untextured and opaque: integrate_wide.c shades it */
 };
-
-/* The Blinn-Phong exponent e as a whole number up to 1024, which the
- * shaders raise to by squaring; -1 when it is not one (they call pow). */
-static inline int phong_whole(double e) {
-    return e >= 0 && e <= 1024 && e == (double)(int)e ? (int)e : -1;
-}
 
 /* Fills the derived fields from the others. */
 void material_finish(struct material *m);

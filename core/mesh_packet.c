@@ -173,7 +173,7 @@ BVH16_FN __mmask16 leaf_any(void *ctx, uint32_t first, uint32_t count, __mmask16
  * the dominant axis kz, kx and ky after it (swapped when d[kz] < 0), and
  * the shear s (x, y, z).  m[a][v]: the lanes whose axis a (x, y, z) is v
  * (0, 1). */
-BVH16_FN void shear8(const struct ray16d *q, int h, __m256 s[3], unsigned m[3][2]) {
+BVH16_FN void shear8(const struct ray16 *q, int h, __m256 s[3], unsigned m[3][2]) {
     __m512d d[3], ad[3];
     for (int k = 0; k < 3; k++) {
         d[k] = _mm512_loadu_pd(q->d[k] + 8 * h);
@@ -223,7 +223,7 @@ BVH16_FN __m512 bounds16(const double tmax[16], uint32_t active, bool any) {
 }
 
 /* Loads the packet: each lane's ray set up as the one-ray code does. */
-BVH16_FN void mesh16_init(struct mesh16 *q, const struct mesh *m, const struct ray16d *rd,
+BVH16_FN void mesh16_init(struct mesh16 *q, const struct mesh *m, const struct ray16 *rd,
                           const double tmax[16], uint32_t active, bool any, __m512 *tm) {
     bvh16_ray_init(&q->br, rd);
     __m256 sh[2][3];
@@ -253,7 +253,7 @@ BVH16_FN void mesh16_init(struct mesh16 *q, const struct mesh *m, const struct r
     q->found = 0;
 }
 
-BVH16_EXTERN uint32_t mesh16_intersect(const struct mesh *m, const struct ray16d *rd,
+BVH16_EXTERN uint32_t mesh16_intersect(const struct mesh *m, const struct ray16 *rd,
                                        const double tmax[16], uint32_t active,
                                        struct mesh_hit h[16]) {
     if (!active || m->bvh.nnodes == 0) return 0;
@@ -275,7 +275,7 @@ BVH16_EXTERN uint32_t mesh16_intersect(const struct mesh *m, const struct ray16d
     return hit;
 }
 
-BVH16_EXTERN uint32_t mesh16_occluded(const struct mesh *m, const struct ray16d *rd,
+BVH16_EXTERN uint32_t mesh16_occluded(const struct mesh *m, const struct ray16 *rd,
                                       const double tmax[16], uint32_t active) {
     if (!active || m->bvh.nnodes == 0) return 0;
     struct mesh16 q;
@@ -298,8 +298,8 @@ uint32_t mesh_intersect16(const struct mesh *m, const ray r[16], const double tm
     if (!active || m->bvh.nnodes == 0) return 0;
 #ifdef BVH16
     if (bvh16_available()) {
-        struct ray16d rd;
-        ray16d_load(&rd, r, active);
+        struct ray16 rd;
+        ray16_from_rays(&rd, r, active);
         return mesh16_intersect(m, &rd, tmax, active, h);
     }
 #endif
@@ -314,8 +314,8 @@ uint32_t mesh_occluded16(const struct mesh *m, const ray r[16], const double tma
     if (!active || m->bvh.nnodes == 0) return 0;
 #ifdef BVH16
     if (bvh16_available()) {
-        struct ray16d rd;
-        ray16d_load(&rd, r, active);
+        struct ray16 rd;
+        ray16_from_rays(&rd, r, active);
         return mesh16_occluded(m, &rd, tmax, active);
     }
 #endif

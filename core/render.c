@@ -124,8 +124,6 @@ BVH16_FN void srgb8_48(const double v[48], uint8_t out[48]) {
 }
 #endif
 
-/* The bytes of the 4x4 block of colours c (inactive lanes 0) into its
- * w x h pixels at dst. */
 void render_srgb48(const double v[48], uint8_t out[48]) {
     pthread_once(&srgb_once, srgb_init);
 #ifdef BVH16
@@ -137,6 +135,8 @@ void render_srgb48(const double v[48], uint8_t out[48]) {
     for (int k = 0; k < 48; k++) out[k] = srgb8(v[k]);
 }
 
+/* The bytes of the 4x4 block of colours c (inactive lanes 0) into its
+ * w x h pixels at dst, rows stride bytes apart. */
 static void put_block(uint8_t *dst, size_t stride, const vec3 c[16], int w, int h) {
     _Static_assert(sizeof(vec3) == 3 * sizeof(double), "vec3 is three doubles");
     double v[48];
@@ -196,12 +196,12 @@ vec3 render_pixel(const rayd_scene *s, int i, int j, uint64_t *rays) {
 static void render_block(const rayd_scene *s, int x, int y, int w, int h, rayd_image *dst, int dx,
                          int dy, uint64_t *rays) {
     int n = s->rs.samples;
-    vec3 acc[16], c[16];
+    vec3 acc[16], c[16]; /* c: the lanes outside the block stay 0 */
     struct ray16 r;
     struct rng_key key[16];
     uint32_t active = 0;
     for (int q = 0; q < 16; q++) {
-        acc[q] = v3(0, 0, 0);
+        acc[q] = c[q] = v3(0, 0, 0);
         active |= (uint32_t)(q % 4 < w && q / 4 < h) << q;
     }
     bool centres = n == 1 && s->cam.aperture <= 0 && !s->cam.ortho; /* pinhole, pixel centres */
@@ -230,8 +230,10 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h, rayd_i
             acc[q] = v3_add(acc[q], c[q]);
         }
     }
-    for (int q = 0; q < 16; q++) /* one sample: (0 + c) / 1 would give the same bytes */
-        c[q] = !(active >> q & 1) ? v3(0, 0, 0) : n > 1 ? v3_scale(acc[q], 1.0 / n) : c[q];
+    for (uint32_t m = n > 1 ? active : 0; m; m &= m - 1) { /* one sample: c, as (0 + c) / 1 */
+        int q = __builtin_ctz(m);
+        c[q] = v3_scale(acc[q], 1.0 / n);
+    }
     size_t stride = (size_t)dst->w * 3;
     put_block(dst->px + (size_t)dy * stride + (size_t)dx * 3, stride, c, w, h);
 }

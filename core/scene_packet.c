@@ -51,7 +51,7 @@ struct scene16 {
     const ray *r; /* the rays one by one when given so, else NULL until lane_rays */
     ray rbuf[16];
     struct hit *h;
-    struct ray16d rd; /* the same rays as structure of arrays */
+    struct ray16 rd; /* the same rays as structure of arrays */
     double tmax[16];
     int64_t best[16];              /* the rank of each ray's hit so far, -1 none */
     const struct object *leaf[16]; /* ... its object, when that hit is in tmax only */
@@ -64,10 +64,7 @@ struct scene16 {
  * came as structure of arrays. */
 static const ray *lane_rays(struct scene16 *q) {
     if (q->r) return q->r;
-    for (int i = 0; i < 16; i++) {
-        q->rbuf[i].o = v3(q->rd.o[0][i], q->rd.o[1][i], q->rd.o[2][i]);
-        q->rbuf[i].d = v3(q->rd.d[0][i], q->rd.d[1][i], q->rd.d[2][i]);
-    }
+    for (int i = 0; i < 16; i++) q->rbuf[i] = ray16_get(&q->rd, i);
     return q->r = q->rbuf;
 }
 
@@ -88,7 +85,7 @@ static void lane_taken(struct scene16 *q, int i, const struct nearest *c) {
  * IEEE square root and division).  Returns the rays that hit before their
  * bound, with t; rays whose roots came out NaN (a NaN or infinite input)
  * are left in *odd for the one-ray code, whose fmin treats NaN its own way. */
-BVH16_FN uint32_t sphere16(const struct ray16d *rd, const struct object *o, const double bound[16],
+BVH16_FN uint32_t sphere16(const struct ray16 *rd, const struct object *o, const double bound[16],
                            uint32_t lanes, double t_out[16], uint32_t *odd) {
     const vec3 c3 = o->u.sphere.center;
     const double cen[3] = {c3.x, c3.y, c3.z};
@@ -141,7 +138,7 @@ BVH16_FN uint32_t sphere16(const struct ray16d *rd, const struct object *o, cons
 /* plane_nearest of untransformed plane o for the rays in lanes, 16 at
  * once, the same double operations; as sphere16 (no ray is odd here: a NaN
  * t fails t > 0 both ways). */
-BVH16_FN uint32_t plane16(const struct ray16d *rd, const struct object *o, const double bound[16],
+BVH16_FN uint32_t plane16(const struct ray16 *rd, const struct object *o, const double bound[16],
                           uint32_t lanes, double t_out[16], uint32_t *odd) {
     const vec3 n3 = o->u.plane.normal, p3 = o->u.plane.point;
     const double n[3] = {n3.x, n3.y, n3.z}, pt[3] = {p3.x, p3.y, p3.z};
@@ -260,8 +257,8 @@ BVH16_FN void visit_nearest16(struct scene16 *q, const struct object *o, uint32_
     }
     struct mesh_hit mh[16];
     const struct mesh *msh = &q->s->meshes[o->u.mesh.id];
-    struct ray16d lrd;
-    if (moved) ray16d_load(&lrd, lr, lanes);
+    struct ray16 lrd;
+    if (moved) ray16_from_rays(&lrd, lr, lanes);
     uint32_t hit = mesh16_intersect(msh, moved ? &lrd : &q->rd, lmax, lanes, mh);
     for (; hit; hit &= hit - 1) { /* the rest of object_hit, then nearest_take */
         int i = __builtin_ctz(hit);
@@ -292,8 +289,8 @@ BVH16_FN uint32_t visit_any16(struct scene16 *q, const struct object *o, uint32_
             lr[i] = object_ray(q->s, o, &lane_rays(q)[i], &scale);
             lmax[i] = q->tmax[i] * scale;
         }
-        struct ray16d lrd;
-        if (o->xform >= 0) ray16d_load(&lrd, lr, lanes);
+        struct ray16 lrd;
+        if (o->xform >= 0) ray16_from_rays(&lrd, lr, lanes);
         return mesh16_occluded(&q->s->meshes[o->u.mesh.id], o->xform >= 0 ? &lrd : &q->rd, lmax,
                                lanes);
     }
@@ -344,6 +341,9 @@ BVH16_FN __mmask16 tlas_any(void *ctx, uint32_t first, uint32_t count, __mmask16
 /* The nearest hits of the rays in q->rd. */
 BVH16_FN uint32_t intersect16(struct scene16 *q, const double tmax[16], uint32_t active,
                               struct hit h[16]) {
+    /* q comes with s, r and rd set; the rest is set here before it is read
+     * (the 3 KB are not zeroed on purpose): */
+    // cppcheck-suppress ctuuninitvar
     const rayd_scene *s = q->s;
     q->h = h;
     bounds16_load(q->tmax, tmax, active);
@@ -379,7 +379,7 @@ BVH16_FN uint32_t intersect16_aos(const rayd_scene *s, const ray r[16], const do
     struct scene16 q; /* every field used is set: no zeroing of its 3 KB */
     q.s = s;
     q.r = r;
-    ray16d_load(&q.rd, r, active);
+    ray16_from_rays(&q.rd, r, active);
     return intersect16(&q, tmax, active, h);
 }
 
@@ -388,12 +388,14 @@ BVH16_FN uint32_t intersect16_soa(const rayd_scene *s, const struct ray16 *r,
     struct scene16 q;
     q.s = s;
     q.r = NULL;
-    ray16d_load_soa(&q.rd, r->o, r->d, active);
+    ray16_from_arrays(&q.rd, r->o, r->d, active);
     return intersect16(&q, tmax, active, h);
 }
 
 /* The shadow rays in q->rd: the mask of those that get through. */
 BVH16_FN uint32_t transmittance16(struct scene16 *q, const double tmax[16], uint32_t active) {
+    /* as in intersect16: */
+    // cppcheck-suppress ctuuninitvar
     const rayd_scene *s = q->s;
     bounds16_load(q->tmax, tmax, active);
     uint32_t open = active;
@@ -414,7 +416,7 @@ BVH16_FN void transmittance16_aos(const rayd_scene *s, const ray r[16], const do
     struct scene16 q; /* every field used is set: no zeroing of its 3 KB */
     q.s = s;
     q.r = r;
-    ray16d_load(&q.rd, r, active);
+    ray16_from_rays(&q.rd, r, active);
     uint32_t open = transmittance16(&q, tmax, active);
     for (int i = 0; i < 16; i++)
         if (active >> i & 1) out[i] = open >> i & 1 ? v3(1, 1, 1) : v3(0, 0, 0);
@@ -426,7 +428,7 @@ BVH16_FN void transmittance16_soa(const rayd_scene *s, const double o[3][16],
     struct scene16 q;
     q.s = s;
     q.r = NULL;
-    ray16d_load_soa(&q.rd, o, d, active);
+    ray16_from_arrays(&q.rd, o, d, active);
     __mmask8 open[2];
     uint32_t got = transmittance16(&q, tmax, active);
     open[0] = (__mmask8)got, open[1] = (__mmask8)(got >> 8);
