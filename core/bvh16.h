@@ -24,6 +24,7 @@
 #define BVH16_H
 
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdint.h>
 
 #include "bvh.h"
@@ -92,6 +93,8 @@ struct bvh16_ray {
     __m512 org[3], inv[3];
     __mmask16 neg[3];
     int sign[3]; /* 1 every ray's direction negative on the axis, 0 none, -1 mixed */
+    bool uniform; /* no axis mixed: each axis's near side is one for the packet */
+    uint8_t near[3], far[3]; /* then the byte offsets in a node of those sides' floats */
 };
 
 BVH16_FN void bvh16_ray_init(struct bvh16_ray *p, const struct ray16 *q) {
@@ -108,7 +111,11 @@ BVH16_FN void bvh16_ray_init(struct bvh16_ray *p, const struct ray16 *q) {
                            _mm512_cvtpd_ps(_mm512_loadu_pd(q->o[k] + 8)));
         p->neg[k] = _mm512_cmp_ps_mask(c, _mm512_setzero_ps(), _CMP_LT_OQ);
         p->sign[k] = p->neg[k] == 0xffff ? 1 : p->neg[k] == 0 ? 0 : -1;
+        size_t lo = offsetof(struct bvh4_node, lo[k]), hi = offsetof(struct bvh4_node, hi[k]);
+        p->near[k] = (uint8_t)(p->sign[k] == 1 ? hi : lo);
+        p->far[k] = (uint8_t)(p->sign[k] == 1 ? lo : hi);
     }
+    p->uniform = p->sign[0] >= 0 && p->sign[1] >= 0 && p->sign[2] >= 0;
 }
 
 struct bvh16_entry {
@@ -121,14 +128,15 @@ struct bvh16_entry {
 /* Child c of nd against the rays in lanes, for t in [0, tmax]: the mask of
  * rays that enter it and their entry distances.  The same float operations
  * as bvh4_test, lane by lane. */
-BVH16_FN __mmask16 bvh16_child(const struct bvh4_node *nd, int c, const struct bvh16_ray *r,
-                               __m512 tmax, __mmask16 lanes, __m512 *tnear) {
+BVH16_INLINE __mmask16 bvh16_child(const struct bvh4_node *nd, int c, const struct bvh16_ray *r,
+                                   __m512 tmax, __mmask16 lanes, __m512 *tnear) {
     __m512 tn = _mm512_setzero_ps(), tf = tmax;
+    const char *at = (const char *)nd + sizeof(float) * (size_t)c;
     for (int k = 0; k < 3; k++) {
         __m512 near, far;
-        if (r->sign[k] >= 0) { /* the common case: one sign for the whole packet */
-            near = _mm512_set1_ps(r->sign[k] ? nd->hi[k][c] : nd->lo[k][c]);
-            far = _mm512_set1_ps(r->sign[k] ? nd->lo[k][c] : nd->hi[k][c]);
+        if (r->uniform) { /* the common case: each axis one sign for the whole packet */
+            near = _mm512_set1_ps(*(const float *)(at + r->near[k]));
+            far = _mm512_set1_ps(*(const float *)(at + r->far[k]));
         } else {
             __m512 lo = _mm512_set1_ps(nd->lo[k][c]), hi = _mm512_set1_ps(nd->hi[k][c]);
             near = _mm512_mask_blend_ps(r->neg[k], lo, hi);
@@ -149,12 +157,14 @@ typedef __mmask16 (*bvh16_leaf_fn)(void *ctx, uint32_t first, uint32_t count, __
                                    __m512 *tm);
 
 /* Pushes the children of inner node cur that rays in lanes enter (bounds
- * tm) onto the stack, farthest first, and pops the nearest into *cur,
+ * tm) onto the stack, farthest first when ordered (else as they come: an
+ * any-hit walk needs no order), and pops the nearest into *cur,
  * prefetching each (see bvh16_walk for leaves).  False when no ray enters
  * any child. */
 BVH16_INLINE bool bvh16_descend(const struct bvh4_node *nodes, const char *leaves,
                                 size_t leaf_size, const struct bvh16_ray *r, __m512 tm,
-                                struct bvh16_entry *cur, struct bvh16_entry *stack, int *sp) {
+                                struct bvh16_entry *cur, struct bvh16_entry *stack, int *sp,
+                                bool ordered) {
     const struct bvh4_node *nd = &nodes[cur->node];
     __m512 tmax = _mm512_mul_ps(tm, _mm512_set1_ps(BVH_SLACK));
     int hit[4], n = 0;
@@ -166,7 +176,7 @@ BVH16_INLINE bool bvh16_descend(const struct bvh4_node *nodes, const char *leave
         if (m[c]) hit[n++] = c;
     }
     if (n == 0) return false;
-    if (n > 1) { /* nearest last, by the packet's nearest entry */
+    if (ordered && n > 1) { /* nearest last, by the packet's nearest entry */
         float key[4];
         for (int j = 0; j < n; j++) /* the first ray's entry: cheaper than the packet's nearest */
             key[j] = _mm512_cvtss_f32(_mm512_maskz_compress_ps(m[hit[j]], tn[hit[j]]));
@@ -196,12 +206,14 @@ BVH16_INLINE bool bvh16_descend(const struct bvh4_node *nodes, const char *leave
 }
 
 /* Walks the tree with the rays in lanes; *tm holds their bounds (lowered
- * by a nearest-hit leaf).  Returns the rays an any-hit leaf blocked.
+ * by a nearest-hit leaf), and ordered asks for the nearest child first (a
+ * nearest-hit walk; an any-hit one can do without).  Returns the rays an
+ * any-hit leaf blocked.
  * leaves (records of leaf_size bytes, a leaf's first index into them) is
  * only prefetched from; NULL when the leaves are not such an array. */
 BVH16_INLINE __mmask16 bvh16_walk(const struct bvh4 *bvh, const char *leaves, size_t leaf_size,
                                   const struct bvh16_ray *r, __m512 *tm, __mmask16 lanes,
-                                  bvh16_leaf_fn leaf, void *ctx) {
+                                  bvh16_leaf_fn leaf, void *ctx, bool ordered) {
     struct bvh16_entry stack[BVH_STACK], cur;
     int sp = 0;
     __mmask16 blocked = 0;
@@ -211,7 +223,8 @@ BVH16_INLINE __mmask16 bvh16_walk(const struct bvh4 *bvh, const char *leaves, si
     cur.tnear = _mm512_setzero_ps();
     for (;;) {
         if (cur.count == 0) {
-            if (bvh16_descend(bvh->nodes, leaves, leaf_size, r, *tm, &cur, stack, &sp)) continue;
+            if (bvh16_descend(bvh->nodes, leaves, leaf_size, r, *tm, &cur, stack, &sp, ordered))
+                continue;
         } else {
             blocked |= leaf(ctx, cur.node, cur.count, cur.lanes, tm);
             lanes &= (__mmask16)~blocked;

@@ -261,11 +261,16 @@ static void whitted16(const rayd_scene *s, const struct ray16 *r, uint32_t activ
     *rays += (uint64_t)__builtin_popcount(active);
     double kr[16];
     struct hit h[16];
-    uint32_t hit = scene_intersect16_soa(s, r, scene_unbounded16, active, h);
+    struct hit16 hs; /* the hits on spheres and planes, most of them: the wide shader's */
+    uint32_t hit = scene_intersect16_soa(s, r, scene_unbounded16, active, h, &hs);
     for (uint32_t m = active & ~hit; m; m &= m - 1) out[__builtin_ctz(m)] = s->rs.background;
     struct ray16 rr;
-    uint32_t wide = whitted_wide_lanes(s, h, hit), rest = hit & ~wide;
-    uint32_t mirror = whitted_wide(s, r, h, wide, depth, out, &rr, kr, rays);
+    uint32_t wide = whitted_wide_lanes(s, &hs), rest = hit & ~wide;
+    for (uint32_t m = rest & hs.lanes; m; m &= m - 1) {
+        int i = __builtin_ctz(m);
+        h[i] = hit16_get(&hs, i);
+    }
+    uint32_t mirror = whitted_wide(s, r, &hs, wide, depth, out, &rr, kr, rays);
     struct frame f[16];
     ray ri[16]; /* the other lanes' rays, one by one */
     for (uint32_t m = rest; m; m &= m - 1) {

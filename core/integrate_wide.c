@@ -57,25 +57,27 @@ struct wide {
 #undef WIDE_FN
 #endif
 
-uint32_t whitted_wide_lanes(const rayd_scene *s, const struct hit h[16], uint32_t hit) {
-    if (!hit || !s->simple_lights) return 0;
+uint32_t whitted_wide_lanes(const rayd_scene *s, const struct hit16 *hs) {
+    uint32_t lanes = hs->lanes;
+    if (!lanes || !s->simple_lights) return 0;
+    const struct object *first = hs->leaf[__builtin_ctz(lanes)];
+    uint32_t same = 0; /* most packets hit one object: one material to look at */
+    for (int j = 0; j < 16; j++) same |= (uint32_t)(hs->leaf[j] == first) << j;
+    if ((lanes & same) == lanes) return s->mats[first->material].plain ? lanes : 0;
     uint32_t wide = 0;
-    for (uint32_t m = hit; m; m &= m - 1) { /* no branch a lane: they would mispredict */
+    for (uint32_t m = lanes; m; m &= m - 1) { /* no branch a lane: they would mispredict */
         int j = __builtin_ctz(m);
-        const struct object *o = h[j].leaf;
-        bool shape = (o->kind == SHAPE_SPHERE) | (o->kind == SHAPE_PLANE);
-        bool ok = shape & (o->xform < 0) & !h[j].outer & !h[j].orient & s->mats[o->material].plain;
-        wide |= (uint32_t)ok << j;
+        wide |= (uint32_t)s->mats[hs->leaf[j]->material].plain << j;
     }
     return wide;
 }
 
-uint32_t whitted_wide(const rayd_scene *s, const struct ray16 *r, const struct hit h[16],
+uint32_t whitted_wide(const rayd_scene *s, const struct ray16 *r, const struct hit16 *hs,
                       uint32_t lanes, int depth, vec3 out[16], struct ray16 *rr, double kr[16],
                       uint64_t *rays) {
     if (!lanes) return 0;
 #ifdef BVH16
-    if (bvh16_available()) return whitted_wide_avx512(s, r, h, lanes, depth, out, rr, kr, rays);
+    if (bvh16_available()) return whitted_wide_avx512(s, r, hs, lanes, depth, out, rr, kr, rays);
 #endif
-    return whitted_wide_base(s, r, h, lanes, depth, out, rr, kr, rays);
+    return whitted_wide_base(s, r, hs, lanes, depth, out, rr, kr, rays);
 }

@@ -38,28 +38,25 @@ WIDE_FN void WIDE(put_object)(struct wide *w, int j, const struct object *o,
 /* The lanes' rays, hits and materials; lanes outside the packet copy its
  * first lane, so every loop may run over all 16.  Most packets hit one
  * object: that one is read once. */
-WIDE_FN void WIDE(gather)(const rayd_scene *s, const struct ray16 *r, const struct hit h[16],
+WIDE_FN void WIDE(gather)(const rayd_scene *s, const struct ray16 *r, const struct hit16 *hs,
                           uint32_t lanes, struct wide *w) {
     int first = __builtin_ctz(lanes);
     const struct object *obj[16];
     bool one = true;
-    for (int j = 0; j < 16; j++) {
-        int i = lanes >> j & 1 ? j : first;
-        w->t[j] = h[i].t;
-        obj[j] = h[i].leaf;
-        one &= obj[j] == obj[0];
-    }
     if (lanes == 0xffff) { /* the common case: straight copies */
+        memcpy(w->t, hs->t, sizeof w->t), memcpy(obj, hs->leaf, sizeof obj);
         memcpy(w->ox, r->o[0], sizeof w->ox), memcpy(w->oy, r->o[1], sizeof w->oy);
         memcpy(w->oz, r->o[2], sizeof w->oz), memcpy(w->dx, r->d[0], sizeof w->dx);
         memcpy(w->dy, r->d[1], sizeof w->dy), memcpy(w->dz, r->d[2], sizeof w->dz);
     } else {
         for (int j = 0; j < 16; j++) {
             int i = lanes >> j & 1 ? j : first;
+            w->t[j] = hs->t[i], obj[j] = hs->leaf[i];
             w->ox[j] = r->o[0][i], w->oy[j] = r->o[1][i], w->oz[j] = r->o[2][i];
             w->dx[j] = r->d[0][i], w->dy[j] = r->d[1][i], w->dz[j] = r->d[2][i];
         }
     }
+    for (int j = 0; j < 16; j++) one &= obj[j] == obj[0];
     w->top = 0, w->frac = w->gloss = w->spheres = false;
     if (one) { /* copies: no store to w can change them, so they load once */
         const struct object o = *obj[0];
@@ -201,11 +198,11 @@ WIDE_FN void WIDE(mirror)(const struct wide *w, struct ray16 *rr) {
 }
 
 WIDE_FN uint32_t WIDE(whitted_wide)(const rayd_scene *s, const struct ray16 *r,
-                                    const struct hit h[16], uint32_t lanes, int depth,
+                                    const struct hit16 *hs, uint32_t lanes, int depth,
                                     vec3 out[16], struct ray16 *rr, double kr[16],
                                     uint64_t *rays) {
     struct wide w;
-    WIDE(gather)(s, r, h, lanes, &w);
+    WIDE(gather)(s, r, hs, lanes, &w);
     WIDE(frame)(&w, s->nlights > 0);
     for (int i = 0; i < s->nlights; i++) WIDE(light)(s, &s->lights[i], &w, lanes, rays);
     uint32_t mirror = 0;

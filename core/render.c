@@ -135,14 +135,23 @@ void render_srgb48(const double v[48], uint8_t out[48]) {
     for (int k = 0; k < 48; k++) out[k] = srgb8(v[k]);
 }
 
+/* A block's colours: 16 vec3 for the integrators, read as 48 doubles for
+ * the bytes (a union, so no copy between the two). */
+union block_colours {
+    vec3 v[16];
+    double d[48];
+};
+_Static_assert(sizeof(vec3) == 3 * sizeof(double), "vec3 is three doubles");
+
 /* The bytes of the 4x4 block of colours c (inactive lanes 0) into its
  * w x h pixels at dst, rows stride bytes apart. */
-static void put_block(uint8_t *dst, size_t stride, const vec3 c[16], int w, int h) {
-    _Static_assert(sizeof(vec3) == 3 * sizeof(double), "vec3 is three doubles");
-    double v[48];
+static void put_block(uint8_t *dst, size_t stride, const union block_colours *c, int w, int h) {
     uint8_t b[48];
-    memcpy(v, c, sizeof v);
-    render_srgb48(v, b);
+#ifdef BVH16
+    if (bvh16_available()) srgb8_48(c->d, b);
+    else
+#endif
+        for (int k = 0; k < 48; k++) b[k] = srgb8(c->d[k]);
     for (int row = 0; row < h; row++)
         memcpy(dst + (size_t)row * stride, b + 12 * row, (size_t)w * 3);
 }
@@ -196,14 +205,14 @@ vec3 render_pixel(const rayd_scene *s, int i, int j, uint64_t *rays) {
 static void render_block(const rayd_scene *s, int x, int y, int w, int h, rayd_image *dst, int dx,
                          int dy, uint64_t *rays) {
     int n = s->rs.samples;
-    vec3 acc[16], c[16]; /* c: the lanes outside the block stay 0 */
+    vec3 acc[16];
+    union block_colours c; /* the lanes outside the block stay 0 */
     struct ray16 r;
     struct rng_key key[16];
     uint32_t active = 0;
-    for (int q = 0; q < 16; q++) {
-        acc[q] = c[q] = v3(0, 0, 0);
-        active |= (uint32_t)(q % 4 < w && q / 4 < h) << q;
-    }
+    for (int q = 0; q < 16; q++) active |= (uint32_t)(q % 4 < w && q / 4 < h) << q;
+    if (active != 0xffff) memset(&c, 0, sizeof c);
+    if (n > 1) memset(acc, 0, sizeof acc);
     bool centres = n == 1 && s->cam.aperture <= 0 && !s->cam.ortho; /* pinhole, pixel centres */
     for (int k = 0; k < n; k++) {
         if (centres) cam_block_rays(&s->cam, x, y, &r);
@@ -215,27 +224,27 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h, rayd_i
                 ray16_set(&r, q, sample_ray(s, x + q % 4, y + q / 4, k, n, &key[q]));
         }
         if (s->rs.integrator == INTEGRATOR_WHITTED) {
-            whitted_radiance16(s, &r, active, key, c, rays);
+            whitted_radiance16(s, &r, active, key, c.v, rays);
         } else { /* the camera rays as a packet, the paths on one by one */
             struct hit first[16];
-            uint32_t hit = scene_intersect16_soa(s, &r, scene_unbounded16, active, first);
+            uint32_t hit = scene_intersect16_soa(s, &r, scene_unbounded16, active, first, NULL);
             for (uint32_t m = active; m; m &= m - 1) {
                 int q = __builtin_ctz(m);
                 ray rq = ray16_get(&r, q);
-                c[q] = path_radiance_from(s, &rq, &first[q], hit >> q & 1, &key[q], rays);
+                c.v[q] = path_radiance_from(s, &rq, &first[q], hit >> q & 1, &key[q], rays);
             }
         }
         for (uint32_t m = active; n > 1 && m; m &= m - 1) {
             int q = __builtin_ctz(m);
-            acc[q] = v3_add(acc[q], c[q]);
+            acc[q] = v3_add(acc[q], c.v[q]);
         }
     }
     for (uint32_t m = n > 1 ? active : 0; m; m &= m - 1) { /* one sample: c, as (0 + c) / 1 */
         int q = __builtin_ctz(m);
-        c[q] = v3_scale(acc[q], 1.0 / n);
+        c.v[q] = v3_scale(acc[q], 1.0 / n);
     }
     size_t stride = (size_t)dst->w * 3;
-    put_block(dst->px + (size_t)dy * stride + (size_t)dx * 3, stride, c, w, h);
+    put_block(dst->px + (size_t)dy * stride + (size_t)dx * 3, stride, &c, w, h);
 }
 
 /* Renders the w x h rectangle at (x, y) of the image into dst at (dx, dy)

@@ -113,9 +113,24 @@ void scene_transmittance16(const rayd_scene *s, const ray r[16], const double tm
  * a time, which a just-written array of doubles would stall.) */
 extern const double scene_unbounded16[16];
 
-/* scene_intersect16 for rays as structure of arrays. */
+/* A packet's hits on untransformed spheres and planes as structure of
+ * arrays: ray i in lanes hit leaf[i] at t[i], with no instance, part or
+ * orientation (hit16_get gives the struct hit). */
+struct hit16 {
+    double t[16];
+    const struct object *leaf[16];
+    uint32_t lanes;
+};
+
+static inline struct hit hit16_get(const struct hit16 *hs, int i) {
+    return (struct hit){.t = hs->t[i], .leaf = hs->leaf[i]};
+}
+
+/* scene_intersect16 for rays as structure of arrays.  With simple (else
+ * NULL), the hits on untransformed spheres and planes go there instead of
+ * to h: the wide shader takes them so, without the struct hits. */
 uint32_t scene_intersect16_soa(const rayd_scene *s, const struct ray16 *r, const double tmax[16],
-                               uint32_t active, struct hit h[16]);
+                               uint32_t active, struct hit h[16], struct hit16 *simple);
 /* scene_transmittance16 with the rays and the answers as structure of
  * arrays: ray i from (o[0][i], o[1][i], o[2][i]) along (d[0][i], d[1][i],
  * d[2][i]) lets through (out[0][i], out[1][i], out[2][i]); 0 for the rays

@@ -18,6 +18,8 @@
  * arrays (struct ray16, the packet's own form: no transposition); then the
  * one-ray fallbacks get their rays made only when one is needed.
  */
+#include <string.h>
+
 #include "bvh16.h"
 #include "scene.h"
 #include "scene_query.h"
@@ -338,9 +340,10 @@ BVH16_FN __mmask16 tlas_any(void *ctx, uint32_t first, uint32_t count, __mmask16
     return blocked;
 }
 
-/* The nearest hits of the rays in q->rd. */
+/* The nearest hits of the rays in q->rd: into h, or for the untransformed
+ * spheres and planes into simple when given. */
 BVH16_FN uint32_t intersect16(struct scene16 *q, const double tmax[16], uint32_t active,
-                              struct hit h[16]) {
+                              struct hit h[16], struct hit16 *simple) {
     /* q comes with s, r and rd set; the rest is set here before it is read
      * (the 3 KB are not zeroed on purpose): */
     // cppcheck-suppress ctuuninitvar
@@ -361,12 +364,19 @@ BVH16_FN uint32_t intersect16(struct scene16 *q, const double tmax[16], uint32_t
         struct bvh16_ray br;
         bvh16_ray_init(&br, &q->rd);
         __m512 tm = node_bounds16(q->tmax);
-        bvh16_walk(&s->tlas, NULL, 0, &br, &tm, (__mmask16)active, tlas_nearest, q);
+        bvh16_walk(&s->tlas, NULL, 0, &br, &tm, (__mmask16)active, tlas_nearest, q, true);
     }
-    for (uint32_t m = q->kept & active; m; m &= m - 1) { /* as nearest_take would have */
-        int i = __builtin_ctz(m);                        /* (a sphere's or plane's: no mh) */
-        h[i].t = q->tmax[i], h[i].leaf = q->leaf[i], h[i].outer = NULL;
-        h[i].part = h[i].orient = 0;
+    uint32_t kept = q->kept & active;
+    if (simple) {
+        memcpy(simple->t, q->tmax, sizeof simple->t);
+        memcpy(simple->leaf, q->leaf, sizeof simple->leaf);
+        simple->lanes = kept;
+    } else {
+        for (uint32_t m = kept; m; m &= m - 1) { /* as nearest_take would have */
+            int i = __builtin_ctz(m);           /* (a sphere's or plane's: no mh) */
+            h[i].t = q->tmax[i], h[i].leaf = q->leaf[i], h[i].outer = NULL;
+            h[i].part = h[i].orient = 0;
+        }
     }
     __m512i none = _mm512_set1_epi64(-1);
     uint32_t hit = _mm512_cmpgt_epi64_mask(_mm512_loadu_si512(q->best), none) |
@@ -380,16 +390,17 @@ BVH16_FN uint32_t intersect16_aos(const rayd_scene *s, const ray r[16], const do
     q.s = s;
     q.r = r;
     ray16_from_rays(&q.rd, r, active);
-    return intersect16(&q, tmax, active, h);
+    return intersect16(&q, tmax, active, h, NULL);
 }
 
 BVH16_FN uint32_t intersect16_soa(const rayd_scene *s, const struct ray16 *r,
-                                  const double tmax[16], uint32_t active, struct hit h[16]) {
+                                  const double tmax[16], uint32_t active, struct hit h[16],
+                                  struct hit16 *simple) {
     struct scene16 q;
     q.s = s;
     q.r = NULL;
     ray16_from_arrays(&q.rd, r->o, r->d, active);
-    return intersect16(&q, tmax, active, h);
+    return intersect16(&q, tmax, active, h, simple);
 }
 
 /* The shadow rays in q->rd: the mask of those that get through. */
@@ -406,7 +417,8 @@ BVH16_FN uint32_t transmittance16(struct scene16 *q, const double tmax[16], uint
         struct bvh16_ray br;
         bvh16_ray_init(&br, &q->rd);
         __m512 tm = node_bounds16(q->tmax);
-        open &= ~(uint32_t)bvh16_walk(&s->tlas, NULL, 0, &br, &tm, (__mmask16)open, tlas_any, q);
+        open &= ~(uint32_t)bvh16_walk(&s->tlas, NULL, 0, &br, &tm, (__mmask16)open, tlas_any, q,
+                                       false);
     }
     return open;
 }
@@ -449,10 +461,11 @@ uint32_t scene_intersect16(const rayd_scene *s, const ray r[16], const double tm
 }
 
 uint32_t scene_intersect16_soa(const rayd_scene *s, const struct ray16 *r, const double tmax[16],
-                               uint32_t active, struct hit h[16]) {
+                               uint32_t active, struct hit h[16], struct hit16 *simple) {
+    if (simple) simple->lanes = 0;
     if (!active) return 0;
 #ifdef BVH16
-    if (!s->brute && bvh16_available()) return intersect16_soa(s, r, tmax, active, h);
+    if (!s->brute && bvh16_available()) return intersect16_soa(s, r, tmax, active, h, simple);
 #endif
     ray each[16];
     for (int i = 0; i < 16; i++)

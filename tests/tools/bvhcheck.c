@@ -60,14 +60,20 @@ static bool same_hit(const struct hit *a, const struct hit *b) {
  * first difference. */
 static bool packet_ok(const rayd_scene *s, const char *name, const char *what, const ray r[16],
                       const double tmax[16], uint32_t active) {
-    struct hit h[16], hs[16];
+    struct hit h[16], hs[16], hw[16];
+    struct hit16 simple; /* the wide shader's form of the hits on spheres and planes */
     vec3 tr[16];
     double trs[3][16];
     struct ray16 rs; /* the same rays as structure of arrays, the other entry points */
     for (int i = 0; i < 16; i++)
         if (active >> i & 1) ray16_set(&rs, i, r[i]);
     uint32_t hit = scene_intersect16(s, r, tmax, active, h);
-    uint32_t hit_soa = scene_intersect16_soa(s, &rs, tmax, active, hs);
+    uint32_t hit_soa = scene_intersect16_soa(s, &rs, tmax, active, hs, NULL);
+    uint32_t hit_wide = scene_intersect16_soa(s, &rs, tmax, active, hw, &simple);
+    for (uint32_t m = simple.lanes; m; m &= m - 1) {
+        int i = __builtin_ctz(m);
+        hw[i] = hit16_get(&simple, i);
+    }
     scene_transmittance16(s, r, tmax, active, tr);
     scene_transmittance16_soa(s, (const double(*)[16])rs.o, (const double(*)[16])rs.d, tmax, active,
                               trs);
@@ -77,7 +83,8 @@ static bool packet_ok(const rayd_scene *s, const char *name, const char *what, c
         bool got = scene_intersect(s, &r[i], tmax[i], &one);
         vec3 t1 = scene_transmittance(s, &r[i], tmax[i]);
         bool hit_ok = got == (bool)(hit >> i & 1) && (!got || same_hit(&one, &h[i])) &&
-                      got == (bool)(hit_soa >> i & 1) && (!got || same_hit(&one, &hs[i]));
+                      got == (bool)(hit_soa >> i & 1) && (!got || same_hit(&one, &hs[i])) &&
+                      got == (bool)(hit_wide >> i & 1) && (!got || same_hit(&one, &hw[i]));
         bool tr_ok = t1.x == tr[i].x && t1.y == tr[i].y && t1.z == tr[i].z && t1.x == trs[0][i] &&
                      t1.y == trs[1][i] && t1.z == trs[2][i];
         if (!hit_ok || !tr_ok) {
