@@ -27,7 +27,8 @@
  * vectoriser's favourite shape); lanes outside the packet copy its first
  * lane. */
 struct wide {
-    double ox[16], oy[16], oz[16], dx[16], dy[16], dz[16], t[16]; /* the rays, the hits */
+    LANES_ALIGN double ox[16];
+    double oy[16], oz[16], dx[16], dy[16], dz[16], t[16]; /* the rays, the hits */
     double gx[16], gy[16], gz[16]; /* a sphere's centre, a plane's normal */
     double sphere[16];
     double colx[16], coly[16], colz[16], emx[16], emy[16], emz[16]; /* the materials */
@@ -37,7 +38,8 @@ struct wide {
     bool frac;         /* some exponent is not whole */
     bool gloss;        /* some lane has a highlight (specular > 0) */
     bool spheres;      /* some lane hit a sphere */
-    double px[16], py[16], pz[16], nx[16], ny[16], nz[16]; /* point, normal facing the ray */
+    LANES_ALIGN double px[16];
+    double py[16], pz[16], nx[16], ny[16], nz[16]; /* point, normal facing the ray */
     double up[3][16]; /* the point lifted off the surface: x, y, z */
     double wi[3][16]; /* toward the light being shaded */
     double cx[16], cy[16], cz[16];                          /* the colour so far */

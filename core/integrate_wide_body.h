@@ -126,7 +126,7 @@ WIDE_FN void WIDE(aim)(const struct light *l, struct wide *w, double dist[16], d
  * (light_pass). */
 WIDE_FN void WIDE(shade)(struct wide *w, const double pass[16], const double rx[16],
                          const double ry[16], const double rz[16]) {
-    double ax[16], ay[16], az[16], ndh[16], want[16], x[16], pw[16];
+    LANES_ALIGN double ax[16], ay[16], az[16], ndh[16], want[16], x[16], pw[16];
     for (int j = 0; j < 16; j++) {
         double ndl = w->nx[j] * w->wi[0][j] + w->ny[j] * w->wi[1][j] + w->nz[j] * w->wi[2][j];
         double dl = w->dif[j] * ndl;
@@ -169,15 +169,15 @@ WIDE_FN void WIDE(shade)(struct wide *w, const double pass[16], const double rx[
  * its light on the lanes. */
 WIDE_FN void WIDE(light)(const rayd_scene *s, const struct light *l, struct wide *w,
                          uint32_t lanes, uint64_t *rays) {
-    double dist[16], ok[16], pass[16], rx[16], ry[16], rz[16];
+    LANES_ALIGN double dist[16], ok[16], pass[16], rx[16], ry[16], rz[16];
     WIDE(aim)(l, w, dist, ok);
     uint32_t aim = 0;
     for (int j = 0; j < 16; j++) aim |= (uint32_t)(ok[j] != 0) << j;
     aim &= lanes;
     *rays += (uint64_t)__builtin_popcount(aim);
-    double tr[3][16]; /* 0 outside aim */
-    scene_transmittance16_soa(s, (const double(*)[16])w->up, (const double(*)[16])w->wi, dist, aim,
-                              tr);
+    LANES_ALIGN double tr[3][16]; /* 0 outside aim */
+    scene_transmittance16_soa(s, (int)(l - s->lights), (const double(*)[16])w->up,
+                              (const double(*)[16])w->wi, dist, aim, tr);
     vec3 lc = v3_scale(l->color, l->intensity);
     for (int j = 0; j < 16; j++) { /* light_pass */
         double tx = tr[0][j], ty = tr[1][j], tz = tr[2][j];

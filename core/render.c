@@ -139,7 +139,7 @@ void render_srgb48(const double v[48], uint8_t out[48]) {
  * the bytes (a union, so no copy between the two). */
 union block_colours {
     vec3 v[16];
-    double d[48];
+    LANES_ALIGN double d[48];
 };
 _Static_assert(sizeof(vec3) == 3 * sizeof(double), "vec3 is three doubles");
 

@@ -25,6 +25,7 @@
 #include <string.h>
 
 #include "error.h"
+#include "light_buffer.h"
 #include "texture.h"
 
 #define CSG_MAX_XINGS 128
@@ -55,6 +56,7 @@ void rayd_scene_free(rayd_scene *s) {
     free(s->planes);
     free(s->emitters);
     bvh_free(&s->tlas);
+    light_buffers_free(s);
     free(s);
 }
 
@@ -505,6 +507,7 @@ enum rayd_status scene_freeze(rayd_scene *s, struct rayd_error *err) {
     enum rayd_status st = split_unbounded(s, err);
     if (st != RAYD_OK || s->nobjs == 0) return st;
     st = scene_build_bvh(s, &s->objs, s->nobjs, &s->tlas, NULL, err);
+    if (st == RAYD_OK) st = light_buffers_build(s, err);
     return st == RAYD_OK ? find_emitters(s, err) : st;
 }
 
@@ -525,5 +528,5 @@ void rayd_scene_info(const rayd_scene *s, struct rayd_scene_info *info) {
         bytes += sizeof *s->objs * (size_t)s->groups[i].nobjs +
                  sizeof *s->tlas.nodes * (size_t)s->groups[i].bvh.nnodes;
     for (int i = 0; i < s->ntextures; i++) bytes += texture_bytes(&s->textures[i]);
-    info->bytes = bytes;
+    info->bytes = bytes + light_buffers_bytes(s);
 }

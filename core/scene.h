@@ -55,6 +55,7 @@ struct rayd_scene {
     struct xform *xforms;  /* placements that objects refer to */
     int32_t nxforms;
     struct bvh4 tlas;      /* over objs */
+    struct light_buffer *light_buffers; /* per light, objs by direction (light_buffer.c) */
     int32_t *emitters;     /* path tracer: emissive spheres, discs, quads of objs to sample */
     int nemitters;
     bool opaque;           /* no material lets light through: shadows are 0 or 1 */
@@ -117,7 +118,7 @@ extern const double scene_unbounded16[16];
  * arrays: ray i in lanes hit leaf[i] at t[i], with no instance, part or
  * orientation (hit16_get gives the struct hit). */
 struct hit16 {
-    double t[16];
+    LANES_ALIGN double t[16];
     const struct object *leaf[16];
     uint32_t lanes;
 };
@@ -134,9 +135,13 @@ uint32_t scene_intersect16_soa(const rayd_scene *s, const struct ray16 *r, const
 /* scene_transmittance16 with the rays and the answers as structure of
  * arrays: ray i from (o[0][i], o[1][i], o[2][i]) along (d[0][i], d[1][i],
  * d[2][i]) lets through (out[0][i], out[1][i], out[2][i]); 0 for the rays
- * outside active. */
-void scene_transmittance16_soa(const rayd_scene *s, const double o[3][16], const double d[3][16],
-                               const double tmax[16], uint32_t active, double out[3][16]);
+ * outside active.  light is the index of the light the rays are shadow rays
+ * of -- from just off a surface point p, along the unit vector from p to
+ * the light, for p's distance to it -- or -1 for other rays; given, the
+ * light's buffer (light_buffer.c) may stand in for the BVH walk. */
+void scene_transmittance16_soa(const rayd_scene *s, int light, const double o[3][16],
+                               const double d[3][16], const double tmax[16], uint32_t active,
+                               double out[3][16]);
 
 /* Point, normals and material of a hit of ray r. */
 void scene_surface(const rayd_scene *s, const ray *r, const struct hit *h, struct surface *sf);

@@ -21,10 +21,11 @@
 #include <string.h>
 
 #include "bvh16.h"
+#include "light_buffer.h"
 #include "scene.h"
 #include "scene_query.h"
 
-const double scene_unbounded16[16] = {INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY,
+LANES_ALIGN const double scene_unbounded16[16] = {INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY,
                                       INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY,
                                       INFINITY, INFINITY, INFINITY, INFINITY};
 
@@ -54,9 +55,9 @@ struct scene16 {
     ray rbuf[16];
     struct hit *h;
     struct ray16 rd; /* the same rays as structure of arrays */
-    double tmax[16];
-    int64_t best[16];              /* the rank of each ray's hit so far, -1 none */
-    const struct object *leaf[16]; /* ... its object, when that hit is in tmax only */
+    LANES_ALIGN double tmax[16];
+    LANES_ALIGN int64_t best[16];              /* the rank of each ray's hit so far, -1 none */
+    LANES_ALIGN const struct object *leaf[16]; /* ... its object, when that hit is in tmax only */
     uint32_t kept;                 /* the rays whose hit is in leaf and tmax, not h */
     const struct object *base;     /* ranks: rank0 + (o - base) */
     long rank0;
@@ -133,6 +134,58 @@ BVH16_FN uint32_t sphere16(const struct ray16 *rd, const struct object *o, const
         _mm512_storeu_pd(t_out + 8 * h, t);
         hit |= (uint32_t)ok << 8 * h;
         *odd |= (uint32_t)nan << 8 * h;
+    }
+    return hit;
+}
+
+/* What sphere16 would say of the rays in lanes against untransformed
+ * sphere o (bound the rays' bounds), where that needs no square root: the
+ * rays it would find a hit for, and in *rest those it must be asked about.
+ * For an origin outside (c > 0), the roots share the sign of -b: b > 0 is a
+ * miss; for b < 0 the nearer root, c / q with q = -b + sqrt(disc) >= -b, is
+ * positive and at most c / -b, so a hit when that is well below the bound
+ * (the factors stand far above the rounding of the division it spares). */
+BVH16_FN uint32_t sphere16_any(const struct ray16 *rd, const struct object *o,
+                               const double bound[16], uint32_t lanes, uint32_t *rest) {
+    const vec3 c3 = o->u.sphere.center;
+    const double cen[3] = {c3.x, c3.y, c3.z};
+    double rad = o->u.sphere.radius;
+    __m512d r2 = _mm512_set1_pd(rad * rad), zero = _mm512_setzero_pd();
+    uint32_t hit = 0;
+    *rest = 0;
+    for (int h = 0; h < 2; h++) {
+        __mmask8 lm = (__mmask8)(lanes >> 8 * h);
+        if (!lm) continue;
+        __m512d oc[3], d[3];
+        for (int k = 0; k < 3; k++) {
+            oc[k] = _mm512_sub_pd(_mm512_loadu_pd(rd->o[k] + 8 * h), _mm512_set1_pd(cen[k]));
+            d[k] = _mm512_loadu_pd(rd->d[k] + 8 * h);
+        }
+        __m512d b = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(oc[0], d[0]), _mm512_mul_pd(oc[1], d[1])),
+                                  _mm512_mul_pd(oc[2], d[2]));
+        __m512d c = _mm512_sub_pd(
+            _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(oc[0], oc[0]), _mm512_mul_pd(oc[1], oc[1])),
+                          _mm512_mul_pd(oc[2], oc[2])),
+            r2);
+        __m512d nb = _mm512_sub_pd(zero, b);
+        __m512d hv[3];
+        for (int k = 0; k < 3; k++) hv[k] = _mm512_add_pd(oc[k], _mm512_mul_pd(d[k], nb));
+        __m512d disc = _mm512_sub_pd(
+            r2, _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(hv[0], hv[0]), _mm512_mul_pd(hv[1], hv[1])),
+                              _mm512_mul_pd(hv[2], hv[2])));
+        __mmask8 in = lm & _mm512_cmp_pd_mask(disc, zero, _CMP_NLT_UQ); /* !(disc < 0) */
+        __mmask8 outside = _mm512_cmp_pd_mask(c, _mm512_set1_pd(1e-100), _CMP_GT_OQ) &
+                           _mm512_cmp_pd_mask(c, _mm512_set1_pd(1e100), _CMP_LT_OQ);
+        __mmask8 away = outside & _mm512_cmp_pd_mask(b, zero, _CMP_GT_OQ);
+        __m512d bnd = _mm512_loadu_pd(bound + 8 * h);
+        __mmask8 sure = in & outside & _mm512_cmp_pd_mask(nb, _mm512_set1_pd(1e-100), _CMP_GT_OQ) &
+                        _mm512_cmp_pd_mask(nb, _mm512_set1_pd(1e100), _CMP_LT_OQ) &
+                        _mm512_cmp_pd_mask(_mm512_mul_pd(c, _mm512_set1_pd(1.000000001)),
+                                           _mm512_mul_pd(_mm512_mul_pd(bnd, nb),
+                                                         _mm512_set1_pd(0.999999999)),
+                                           _CMP_LT_OQ);
+        hit |= (uint32_t)sure << 8 * h;
+        *rest |= (uint32_t)(in & (__mmask8)~away & (__mmask8)~sure) << 8 * h;
     }
     return hit;
 }
@@ -225,7 +278,8 @@ BVH16_FN void simple_take16(struct scene16 *q, const struct object *o, long rank
 BVH16_FN void visit_nearest16(struct scene16 *q, const struct object *o, uint32_t lanes) {
     if (simple16(o)) { /* object_hit and nearest_take, 16 wide */
         long rank = q->rank0 + (long)(o - q->base);
-        double bound[16], t[16];
+        LANES_ALIGN double bound[16];
+        LANES_ALIGN double t[16];
         simple_bounds16(q, rank, bound);
         uint32_t odd, hit = simple16_hit(q, o, bound, lanes, t, &odd);
         for (; odd; odd &= odd - 1) {
@@ -277,10 +331,15 @@ BVH16_FN void visit_nearest16(struct scene16 *q, const struct object *o, uint32_
 BVH16_FN uint32_t visit_any16(struct scene16 *q, const struct object *o, uint32_t lanes) {
     uint32_t blocked = 0;
     if (simple16(o)) { /* object_filter, 16 wide */
-        double t[16];
+        LANES_ALIGN double t[16];
         uint32_t odd;
-        blocked = simple16_hit(q, o, q->tmax, lanes, t, &odd);
-        lanes = odd; /* left to the one-ray code below */
+        if (o->kind == SHAPE_SPHERE) { /* most rays settled without a square root */
+            blocked = sphere16_any(&q->rd, o, q->tmax, lanes, &lanes);
+            if (lanes) blocked |= sphere16(&q->rd, o, q->tmax, lanes, t, &odd);
+        } else {
+            blocked = plane16(&q->rd, o, q->tmax, lanes, t, &odd);
+        }
+        lanes = lanes ? odd : 0; /* left to the one-ray code below */
     }
     if (o->kind == SHAPE_MESH) {
         ray lr[16];
@@ -403,16 +462,97 @@ BVH16_FN uint32_t intersect16_soa(const rayd_scene *s, const struct ray16 *r,
     return intersect16(&q, tmax, active, h, simple);
 }
 
-/* The shadow rays in q->rd: the mask of those that get through. */
-BVH16_FN uint32_t transmittance16(struct scene16 *q, const double tmax[16], uint32_t active) {
+/* The cells [*i0, *i0 + 1] along one face coordinate w (cells at w0 + i /
+ * sw for i in [0, nw)) nearest w, as the stretch [*lo, *hi) of w they
+ * cover: infinite on the side of cells beyond the rectangle. */
+static inline void lb_span(double w, double w0, double sw, int32_t nw, int32_t *i0, double *lo,
+                           double *hi) {
+    double fw = (w - w0) * sw, fi = floor(fw);
+    fi = fw - fi < 0.5 ? fi - 1 : fi; /* the cell and its neighbour nearer w */
+    fi = fi < -2 ? -2 : fi > nw ? nw : fi;
+    *i0 = (int32_t)fi;
+    *lo = fi + 1 < 0 ? -INFINITY : fi >= nw ? w0 + nw / sw : w0 + fi / sw;
+    *hi = fi + 1 < 0 ? w0 : fi >= nw ? INFINITY : w0 + (fi + 2) / sw;
+}
+
+/* The objects of light buffer b (light_buffer.h) that can stop the shadow
+ * rays in lanes open of rd, into ids[0..*n) (at most LB_MAX_TEST): those
+ * of the 2 x 2 cells around the first ray's (or the stretch beyond the
+ * rectangle, which holds none) when all the rays' origins, seen from the
+ * light through one face, fall in them, and the rays leave from within the
+ * buffer's reach.  False otherwise: then the BVH must be walked.  The rays
+ * are checked against the cells' edges by multiplying, not dividing: a few
+ * roundings off at an edge, which LB_MARGIN covers. */
+#define LB_MAX_TEST 16
+BVH16_FN bool shadow_candidates(const struct light_buffer *b, const struct ray16 *rd,
+                                uint32_t open, uint32_t ids[LB_MAX_TEST], int *n) {
+    int i0 = __builtin_ctz(open);
+    const double at[3] = {b->at.x, b->at.y, b->at.z};
+    double r0[3], m0[3];
+    for (int k = 0; k < 3; k++) r0[k] = rd->o[k][i0] - at[k], m0[k] = fabs(r0[k]);
+    int a = m0[0] >= m0[1] && m0[0] >= m0[2] ? 0 : m0[1] >= m0[2] ? 1 : 2;
+    int bx = (a + 1) % 3, cx = (a + 2) % 3;
+    double sg = r0[a] < 0 ? -1.0 : 1.0, ca0 = r0[a] * sg;
+    const struct light_face *f = &b->face[2 * a + (r0[a] < 0)];
+    double ulo = -INFINITY, uhi = INFINITY, vlo = -INFINITY, vhi = INFINITY;
+    int32_t ci = 0, cj = 0;
+    if (!(ca0 > 0)) return false;
+    if (f->nu) {
+        lb_span(r0[bx] / ca0, f->u0, f->su, f->nu, &ci, &ulo, &uhi);
+        lb_span(r0[cx] / ca0, f->v0, f->sv, f->nv, &cj, &vlo, &vhi);
+    }
+    __m512d zero = _mm512_setzero_pd(), reach = _mm512_set1_pd(b->reach);
+    for (int h = 0; h < 16; h += 8) {
+        __mmask8 lm = (__mmask8)(open >> h);
+        if (!lm) continue;
+        __m512d r[3];
+        __mmask8 ok = lm;
+        for (int k = 0; k < 3; k++) {
+            __m512d o = _mm512_loadu_pd(rd->o[k] + h);
+            ok &= _mm512_cmp_pd_mask(_mm512_abs_pd(o), reach, _CMP_LE_OQ);
+            r[k] = _mm512_sub_pd(o, _mm512_set1_pd(at[k]));
+        }
+        __m512d ca = _mm512_mul_pd(r[a], _mm512_set1_pd(sg));
+        ok &= _mm512_cmp_pd_mask(ca, zero, _CMP_GT_OQ) &
+              _mm512_cmp_pd_mask(ca, _mm512_abs_pd(r[bx]), _CMP_GE_OQ) &
+              _mm512_cmp_pd_mask(ca, _mm512_abs_pd(r[cx]), _CMP_GE_OQ) &
+              _mm512_cmp_pd_mask(r[bx], _mm512_mul_pd(_mm512_set1_pd(ulo), ca), _CMP_GE_OQ) &
+              _mm512_cmp_pd_mask(r[bx], _mm512_mul_pd(_mm512_set1_pd(uhi), ca), _CMP_LT_OQ) &
+              _mm512_cmp_pd_mask(r[cx], _mm512_mul_pd(_mm512_set1_pd(vlo), ca), _CMP_GE_OQ) &
+              _mm512_cmp_pd_mask(r[cx], _mm512_mul_pd(_mm512_set1_pd(vhi), ca), _CMP_LT_OQ);
+        if (ok != lm) return false;
+    }
+    *n = 0;
+    for (int32_t j = cj < 0 ? 0 : cj; f->nu && j <= cj + 1 && j < f->nv; j++)
+        for (int32_t i = ci < 0 ? 0 : ci; i <= ci + 1 && i < f->nu; i++) {
+            int32_t cell = j * f->nu + i;
+            for (uint32_t k = f->start[cell]; k < f->start[cell + 1]; k++) {
+                int seen = 0;
+                while (seen < *n && ids[seen] != b->ids[k]) seen++;
+                if (seen < *n) continue;
+                if (*n == LB_MAX_TEST) return false;
+                ids[(*n)++] = b->ids[k];
+            }
+        }
+    return true;
+}
+
+/* The shadow rays in q->rd: the mask of those that get through.  With
+ * light buffer b (else NULL), the objects it names for them stand in for
+ * the walk where it can name them. */
+BVH16_FN uint32_t transmittance16(struct scene16 *q, const double tmax[16], uint32_t active,
+                                  const struct light_buffer *b) {
     /* as in intersect16: */
     // cppcheck-suppress ctuuninitvar
     const rayd_scene *s = q->s;
     bounds16_load(q->tmax, tmax, active);
-    uint32_t open = active;
+    uint32_t open = active, ids[LB_MAX_TEST];
+    int n;
     for (int32_t k = 0; k < s->nplanes && open; k++) open &= ~visit_any16(q, &s->planes[k], open);
     if (open && s->nobjs == 1) {
         open &= ~visit_any16(q, &s->objs[0], open);
+    } else if (open && b && b->ok && shadow_candidates(b, &q->rd, open, ids, &n)) {
+        for (int k = 0; k < n && open; k++) open &= ~visit_any16(q, &s->objs[ids[k]], open);
     } else if (open && s->nobjs > 1) {
         struct bvh16_ray br;
         bvh16_ray_init(&br, &q->rd);
@@ -429,20 +569,20 @@ BVH16_FN void transmittance16_aos(const rayd_scene *s, const ray r[16], const do
     q.s = s;
     q.r = r;
     ray16_from_rays(&q.rd, r, active);
-    uint32_t open = transmittance16(&q, tmax, active);
+    uint32_t open = transmittance16(&q, tmax, active, NULL);
     for (int i = 0; i < 16; i++)
         if (active >> i & 1) out[i] = open >> i & 1 ? v3(1, 1, 1) : v3(0, 0, 0);
 }
 
-BVH16_FN void transmittance16_soa(const rayd_scene *s, const double o[3][16],
-                                  const double d[3][16], const double tmax[16], uint32_t active,
-                                  double out[3][16]) {
+BVH16_FN void transmittance16_soa(const rayd_scene *s, const struct light_buffer *b,
+                                  const double o[3][16], const double d[3][16],
+                                  const double tmax[16], uint32_t active, double out[3][16]) {
     struct scene16 q;
     q.s = s;
     q.r = NULL;
     ray16_from_arrays(&q.rd, o, d, active);
     __mmask8 open[2];
-    uint32_t got = transmittance16(&q, tmax, active);
+    uint32_t got = transmittance16(&q, tmax, active, b);
     open[0] = (__mmask8)got, open[1] = (__mmask8)(got >> 8);
     for (int k = 0; k < 3; k++)
         for (int h = 0; h < 2; h++)
@@ -485,11 +625,14 @@ void scene_transmittance16(const rayd_scene *s, const ray r[16], const double tm
     transmittance_each(s, r, tmax, active, out);
 }
 
-void scene_transmittance16_soa(const rayd_scene *s, const double o[3][16], const double d[3][16],
-                               const double tmax[16], uint32_t active, double out[3][16]) {
+void scene_transmittance16_soa(const rayd_scene *s, int light, const double o[3][16],
+                               const double d[3][16], const double tmax[16], uint32_t active,
+                               double out[3][16]) {
 #ifdef BVH16
     if (active && !s->brute && s->opaque && bvh16_available()) {
-        transmittance16_soa(s, o, d, tmax, active, out);
+        const struct light_buffer *b = light >= 0 && s->light_buffers ? &s->light_buffers[light]
+                                                                      : NULL;
+        transmittance16_soa(s, b, o, d, tmax, active, out);
         return;
     }
 #endif

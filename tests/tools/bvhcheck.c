@@ -75,8 +75,8 @@ static bool packet_ok(const rayd_scene *s, const char *name, const char *what, c
         hw[i] = hit16_get(&simple, i);
     }
     scene_transmittance16(s, r, tmax, active, tr);
-    scene_transmittance16_soa(s, (const double(*)[16])rs.o, (const double(*)[16])rs.d, tmax, active,
-                              trs);
+    scene_transmittance16_soa(s, -1, (const double(*)[16])rs.o, (const double(*)[16])rs.d, tmax,
+                              active, trs);
     for (int i = 0; i < 16; i++) {
         if (!(active >> i & 1)) continue;
         struct hit one;

@@ -1,0 +1,226 @@
+/* light_buffer.c -- which objects can shadow which directions from a point
+ * light: the light buffer of Haines and Greenberg (1986), as POV-Ray has it.
+ *
+ * A cube around the light is cut into cells; each cell lists the objects
+ * whose bounding boxes, seen from the light, cover some of its directions.
+ * A shadow ray runs from a surface point toward the light, so every point
+ * of it lies, seen from the light, in the direction of its origin: only the
+ * objects of that cell can stop it.  A packet of shadow rays whose origins
+ * fall in one cell (or a few) tests those objects and nothing else -- most
+ * fall in cells with none -- instead of walking the top-level BVH.
+ *
+ * The answer must be the walk's answer to the bit, so the buffer only ever
+ * leaves out objects that cannot be met:
+ *   - an object's directions come from its box's corners, widened by
+ *     LB_MARGIN in face coordinates, far more than rounding moves them;
+ *   - a shadow ray starts a little off the surface and its direction was
+ *     computed from the surface point, so its points stray from the line
+ *     through the light and the origin by about 1e-9 of the origin's size;
+ *     seen from the light, at an object at least `near` away, that is an
+ *     angle LB_MARGIN covers while the origin lies within `reach`
+ *     (light_buffer_reach); packets from farther out walk the BVH;
+ *   - a light with an object's box around it or next to it gets no buffer.
+ * Each face covers only the rectangle its objects cover, in up to LB_CELLS
+ * x LB_CELLS cells; lanes outside it meet no object.
+ */
+#include "light_buffer.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "error.h"
+#include "scene.h"
+
+#define LB_MARGIN (1.0 / 1024) /* the widening of every object's directions */
+#define LB_CELLS 64            /* cells on a side of a face's rectangle */
+#define LB_MAX_OBJS 65536      /* beyond this the BVH walk does better */
+#define LB_MAX_IDS (1u << 22)  /* entries in all cells of one light */
+
+/* An object's rectangle of directions on one face, or none. */
+struct lb_rect {
+    double u0, u1, v0, v1;
+    bool on;
+};
+
+/* Box b (relative to the light) seen on face f, widened by LB_MARGIN and
+ * cut to the face. */
+static struct lb_rect face_rect(int f, vec3 lo, vec3 hi) {
+    int a = f / 2, b = (a + 1) % 3, c = (a + 2) % 3;
+    double sg = f % 2 ? -1 : 1;
+    double l[3] = {lo.x, lo.y, lo.z}, h[3] = {hi.x, hi.y, hi.z};
+    double ca0 = sg > 0 ? l[a] : -h[a], ca1 = sg > 0 ? h[a] : -l[a];
+    struct lb_rect r = {-1, 1, -1, 1, false};
+    if (!(ca1 > 0)) return r;
+    if (ca0 > 0) { /* u = r[b] / ca is extreme at the corners */
+        double ub[2] = {l[b] / ca0, l[b] / ca1}, uh[2] = {h[b] / ca0, h[b] / ca1};
+        double vb[2] = {l[c] / ca0, l[c] / ca1}, vh[2] = {h[c] / ca0, h[c] / ca1};
+        r.u0 = fmin(fmin(ub[0], ub[1]), fmin(uh[0], uh[1])) - LB_MARGIN;
+        r.u1 = fmax(fmax(ub[0], ub[1]), fmax(uh[0], uh[1])) + LB_MARGIN;
+        r.v0 = fmin(fmin(vb[0], vb[1]), fmin(vh[0], vh[1])) - LB_MARGIN;
+        r.v1 = fmax(fmax(vb[0], vb[1]), fmax(vh[0], vh[1])) + LB_MARGIN;
+        if (r.u1 < -1 || r.u0 > 1 || r.v1 < -1 || r.v0 > 1) return r;
+        r.u0 = fmax(r.u0, -1), r.u1 = fmin(r.u1, 1);
+        r.v0 = fmax(r.v0, -1), r.v1 = fmin(r.v1, 1);
+    } /* else the box reaches the light's plane: the whole face */
+    r.on = true;
+    return r;
+}
+
+/* The cells [i0, i1] x [j0, j1] of face f that rectangle r covers. */
+static void face_cells(const struct light_face *f, const struct lb_rect *r, int32_t *i0,
+                       int32_t *i1, int32_t *j0, int32_t *j1) {
+    double a = floor((r->u0 - f->u0) * f->su), b = floor((r->u1 - f->u0) * f->su);
+    double c = floor((r->v0 - f->v0) * f->sv), d = floor((r->v1 - f->v0) * f->sv);
+    *i0 = a < 0 ? 0 : (int32_t)a, *i1 = b >= f->nu ? f->nu - 1 : (int32_t)b;
+    *j0 = c < 0 ? 0 : (int32_t)c, *j1 = d >= f->nv ? f->nv - 1 : (int32_t)d;
+}
+
+static bool box_finite(const struct aabb *b) {
+    return isfinite(b->lo.x) && isfinite(b->lo.y) && isfinite(b->lo.z) && isfinite(b->hi.x) &&
+           isfinite(b->hi.y) && isfinite(b->hi.z);
+}
+
+/* The distance from the origin to box [lo, hi]. */
+static double box_distance(vec3 lo, vec3 hi) {
+    vec3 out = v3_max(v3_max(lo, v3(0, 0, 0)), v3_scale(hi, -1));
+    return v3_len(out);
+}
+
+/* Face f's rectangle, cells and their counts (start[k + 1] = objects in
+ * cell k) over the objects' boxes rel[] (relative to the light). */
+static bool face_count(struct light_face *f, int fi, const struct aabb *rel, int32_t n,
+                       size_t *total) {
+    double u0 = INFINITY, u1 = -INFINITY, v0 = INFINITY, v1 = -INFINITY;
+    for (int32_t k = 0; k < n; k++) {
+        struct lb_rect r = face_rect(fi, rel[k].lo, rel[k].hi);
+        if (!r.on) continue;
+        u0 = fmin(u0, r.u0), u1 = fmax(u1, r.u1), v0 = fmin(v0, r.v0), v1 = fmax(v1, r.v1);
+    }
+    if (!(u0 < u1 && v0 < v1)) return true; /* no object on this face */
+    f->nu = f->nv = LB_CELLS;
+    f->u0 = u0, f->v0 = v0;
+    f->su = LB_CELLS / (u1 - u0), f->sv = LB_CELLS / (v1 - v0);
+    f->start = calloc((size_t)LB_CELLS * LB_CELLS + 1, sizeof *f->start);
+    if (!f->start) return false;
+    for (int32_t k = 0; k < n; k++) {
+        struct lb_rect r = face_rect(fi, rel[k].lo, rel[k].hi);
+        if (!r.on) continue;
+        int32_t i0, i1, j0, j1;
+        face_cells(f, &r, &i0, &i1, &j0, &j1);
+        for (int32_t j = j0; j <= j1; j++)
+            for (int32_t i = i0; i <= i1; i++) f->start[j * f->nu + i + 1]++;
+        *total += (size_t)(i1 - i0 + 1) * (size_t)(j1 - j0 + 1);
+    }
+    for (int32_t k = 0; k < f->nu * f->nv; k++) f->start[k + 1] += f->start[k];
+    return true;
+}
+
+/* Face f's lists into ids, from base on (start[] becomes absolute). */
+static void face_fill(struct light_face *f, int fi, const struct aabb *rel, int32_t n,
+                      uint32_t *ids, uint32_t base, uint32_t *fill) {
+    int32_t cells = f->nu * f->nv;
+    for (int32_t k = 0; k <= cells; k++) f->start[k] += base;
+    memcpy(fill, f->start, sizeof *fill * (size_t)cells);
+    for (int32_t k = 0; k < n; k++) {
+        struct lb_rect r = face_rect(fi, rel[k].lo, rel[k].hi);
+        if (!r.on) continue;
+        int32_t i0, i1, j0, j1;
+        face_cells(f, &r, &i0, &i1, &j0, &j1);
+        for (int32_t j = j0; j <= j1; j++)
+            for (int32_t i = i0; i <= i1; i++) ids[fill[j * f->nu + i]++] = (uint32_t)k;
+    }
+}
+
+static void buffer_free(struct light_buffer *b) {
+    for (int f = 0; f < 6; f++) free(b->face[f].start);
+    free(b->ids);
+    memset(b, 0, sizeof *b);
+}
+
+/* The buffer of the point light at p over the scene's objects (boxes rel,
+ * relative to p); false when out of memory.  Leaves b->ok false where the
+ * buffer would not be sound or not pay. */
+static bool buffer_build(struct light_buffer *b, vec3 p, const struct aabb *rel, int32_t n) {
+    double near = INFINITY;
+    for (int32_t k = 0; k < n; k++) {
+        if (!box_finite(&rel[k])) return true;
+        near = fmin(near, box_distance(rel[k].lo, rel[k].hi));
+    }
+    /* light_buffer.h's reach: within it a shadow ray strays from its line by
+     * far less than LB_MARGIN sees at distance near */
+    double reach = near * 1e3 - 1 - 1e-5 * v3_maxabs(p);
+    if (!(reach > 0) || !(near > 1e-6 * (1 + v3_maxabs(p)))) return true;
+    size_t total = 0;
+    for (int f = 0; f < 6; f++)
+        if (!face_count(&b->face[f], f, rel, n, &total)) return false;
+    if (total > LB_MAX_IDS) {
+        buffer_free(b);
+        return true;
+    }
+    uint32_t *fill = malloc(sizeof *fill * (size_t)LB_CELLS * LB_CELLS);
+    b->ids = malloc(sizeof *b->ids * (total + 1));
+    if (!fill || !b->ids) {
+        free(fill);
+        return false;
+    }
+    uint32_t base = 0;
+    for (int f = 0; f < 6; f++) {
+        struct light_face *fc = &b->face[f];
+        if (!fc->nu) continue;
+        uint32_t count = fc->start[fc->nu * fc->nv];
+        face_fill(fc, f, rel, n, b->ids, base, fill);
+        base += count;
+    }
+    free(fill);
+    b->at = p;
+    b->reach = reach;
+    b->ok = true;
+    return true;
+}
+
+enum rayd_status light_buffers_build(rayd_scene *s, struct rayd_error *err) {
+    bool point = false;
+    for (int i = 0; i < s->nlights; i++) point |= s->lights[i].kind == LIGHT_POINT;
+    if (!point || s->nobjs < 2 || s->nobjs > LB_MAX_OBJS) return RAYD_OK;
+    s->light_buffers = calloc((size_t)s->nlights, sizeof *s->light_buffers);
+    struct aabb *box = malloc(sizeof *box * (size_t)s->nobjs);
+    struct aabb *rel = malloc(sizeof *rel * (size_t)s->nobjs);
+    bool ok = s->light_buffers && box && rel;
+    for (int32_t k = 0; ok && k < s->nobjs; k++) /* an object without bounds: every direction */
+        if (!scene_object_bounds(s, &s->objs[k], &box[k]))
+            box[k] = (struct aabb){v3(-INFINITY, -INFINITY, -INFINITY), v3(INFINITY, INFINITY, INFINITY)};
+    for (int i = 0; ok && i < s->nlights; i++) {
+        if (s->lights[i].kind != LIGHT_POINT) continue;
+        vec3 p = s->lights[i].position;
+        for (int32_t k = 0; k < s->nobjs; k++)
+            rel[k] = (struct aabb){v3_sub(box[k].lo, p), v3_sub(box[k].hi, p)};
+        ok = buffer_build(&s->light_buffers[i], p, rel, s->nobjs);
+    }
+    free(box);
+    free(rel);
+    if (ok) return RAYD_OK;
+    light_buffers_free(s);
+    return err_set(err, RAYD_E_NOMEM, NULL, "out of memory building the light buffers");
+}
+
+size_t light_buffers_bytes(const rayd_scene *s) {
+    size_t bytes = 0;
+    for (int i = 0; s->light_buffers && i < s->nlights; i++) {
+        const struct light_buffer *b = &s->light_buffers[i];
+        bytes += sizeof *b;
+        for (int f = 0; b->ok && f < 6; f++) {
+            size_t cells = (size_t)b->face[f].nu * (size_t)b->face[f].nv;
+            bytes += cells ? sizeof *b->face[f].start * (cells + 1) : 0;
+            if (cells) bytes += sizeof *b->ids * (b->face[f].start[cells] - b->face[f].start[0]);
+        }
+    }
+    return bytes;
+}
+
+void light_buffers_free(rayd_scene *s) {
+    if (!s->light_buffers) return;
+    for (int i = 0; i < s->nlights; i++) buffer_free(&s->light_buffers[i]);
+    free(s->light_buffers);
+    s->light_buffers = NULL;
+}

@@ -1,0 +1,42 @@
+/* light_buffer.h -- which objects can shadow which directions from a point
+ * light (light_buffer.c). */
+#ifndef LIGHT_BUFFER_H
+#define LIGHT_BUFFER_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "rayd/rayd.h"
+#include "vec.h"
+
+/* One face of the cube around the light: the directions r (from the light)
+ * whose largest component is r[axis], of sign `sign`, at face coordinates
+ * u = r[b] / |r[axis]|, v = r[c] / |r[axis]| (b, c the next two axes).  The
+ * rectangle the objects cover is cut into nu x nv cells; cell (i, j) lists
+ * ids[start[j * nu + i] .. start[j * nu + i + 1]). */
+struct light_face {
+    double u0, v0; /* the rectangle's low corner */
+    double su, sv; /* cells per unit of u and v */
+    int32_t nu, nv; /* 0 x 0: no object shows on this face */
+    uint32_t *start;
+};
+
+struct light_buffer {
+    bool ok;          /* built: a point light no object's box comes near */
+    vec3 at;          /* the light's position */
+    double reach;     /* valid for shadow rays leaving points within this box
+                         around the origin (max |coordinate|) */
+    struct light_face face[6]; /* 2 * axis + (sign < 0) */
+    uint32_t *ids;    /* indices into the scene's objs */
+};
+
+/* Builds the buffers of the scene's point lights into s->light_buffers
+ * (one per light; ok false for other lights, or where not worth it).
+ * Fails only when out of memory. */
+enum rayd_status light_buffers_build(rayd_scene *s, struct rayd_error *err);
+void light_buffers_free(rayd_scene *s);
+/* The memory they take. */
+size_t light_buffers_bytes(const rayd_scene *s);
+
+#endif
