@@ -41,9 +41,19 @@ struct wide {
     LANES_ALIGN double px[16];
     double py[16], pz[16], nx[16], ny[16], nz[16]; /* point, normal facing the ray */
     double up[3][16]; /* the point lifted off the surface: x, y, z */
-    double wi[3][16]; /* toward the light being shaded */
     double cx[16], cy[16], cz[16];                          /* the colour so far */
 };
+
+/* A light as the lanes see it: the unit vector toward it, its distance,
+ * and whether it reaches each lane from the front (1) or not (0). */
+struct aimed {
+    LANES_ALIGN double wi[3][16];
+    double dist[16], ok[16];
+};
+
+/* The lights aimed at before any is shaded: their square roots and
+ * divisions then overlap instead of waiting one on the other. */
+#define WIDE_AHEAD 4
 
 #define WIDE(f) f##_base
 #define WIDE_FN static inline

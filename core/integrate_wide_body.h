@@ -105,7 +105,7 @@ WIDE_FN void WIDE(frame)(struct wide *w, double lit) {
 /* light_at for a point (point != 0) or directional light, and
  * integrate_light_aim's test: the unit vector toward it, its distance, and
  * in ok whether it reaches the lane from the front. */
-WIDE_FN void WIDE(aim)(const struct light *l, struct wide *w, double dist[16], double ok[16]) {
+WIDE_FN void WIDE(aim)(const struct light *l, const struct wide *w, struct aimed *a) {
     double lx = l->position.x, ly = l->position.y, lz = l->position.z;
     double dx = -l->direction.x, dy = -l->direction.y, dz = -l->direction.z;
     double point = l->kind == LIGHT_POINT;
@@ -114,29 +114,29 @@ WIDE_FN void WIDE(aim)(const struct light *l, struct wide *w, double dist[16], d
         double len = sqrt(vx * vx + vy * vy + vz * vz), inv = 1.0 / len;
         double wx = point != 0 ? vx * inv : dx, wy = point != 0 ? vy * inv : dy;
         double wz = point != 0 ? vz * inv : dz;
-        w->wi[0][j] = wx, w->wi[1][j] = wy, w->wi[2][j] = wz;
-        dist[j] = point != 0 ? len : INFINITY;
+        a->wi[0][j] = wx, a->wi[1][j] = wy, a->wi[2][j] = wz;
+        a->dist[j] = point != 0 ? len : INFINITY;
         double reach = point != 0 ? (len > 0 ? 1.0 : 0.0) : 1.0;
-        ok[j] = w->nx[j] * wx + w->ny[j] * wy + w->nz[j] * wz <= 0 ? 0.0 : reach;
+        a->ok[j] = w->nx[j] * wx + w->ny[j] * wy + w->nz[j] * wz <= 0 ? 0.0 : reach;
     }
 }
 
-/* Lambert + Blinn-Phong for one light (shade_one): adds to c what each
- * lane receives, pass being 1 where it arrives and r what arrives
- * (light_pass). */
-WIDE_FN void WIDE(shade)(struct wide *w, const double pass[16], const double rx[16],
-                         const double ry[16], const double rz[16]) {
+/* Lambert + Blinn-Phong for one light (shade_one), wi toward it: adds to
+ * c what each lane receives, pass being 1 where it arrives and r what
+ * arrives (light_pass). */
+WIDE_FN void WIDE(shade)(struct wide *w, const double wi[3][16], const double pass[16],
+                         const double rx[16], const double ry[16], const double rz[16]) {
     LANES_ALIGN double ax[16], ay[16], az[16], ndh[16], want[16], x[16], pw[16];
     for (int j = 0; j < 16; j++) {
-        double ndl = w->nx[j] * w->wi[0][j] + w->ny[j] * w->wi[1][j] + w->nz[j] * w->wi[2][j];
+        double ndl = w->nx[j] * wi[0][j] + w->ny[j] * wi[1][j] + w->nz[j] * wi[2][j];
         double dl = w->dif[j] * ndl;
         ax[j] = rx[j] * (w->colx[j] * dl), ay[j] = ry[j] * (w->coly[j] * dl);
         az[j] = rz[j] * (w->colz[j] * dl);
         want[j] = 0, pw[j] = 1;
     }
     for (int j = 0; w->gloss && j < 16; j++) { /* the highlight, where some lane has one */
-        double hx = w->wi[0][j] - w->dx[j], hy = w->wi[1][j] - w->dy[j];
-        double hz = w->wi[2][j] - w->dz[j];
+        double hx = wi[0][j] - w->dx[j], hy = wi[1][j] - w->dy[j];
+        double hz = wi[2][j] - w->dz[j];
         double inv = 1.0 / sqrt(hx * hx + hy * hy + hz * hz);
         double d = w->nx[j] * (hx * inv) + w->ny[j] * (hy * inv) + w->nz[j] * (hz * inv);
         double hl = fabs(rx[j]) > 1 ? 1.0 : fabs(ry[j]) > 1 ? 1.0 : fabs(rz[j]) > 1 ? 1.0 : 0.0;
@@ -165,26 +165,25 @@ WIDE_FN void WIDE(shade)(struct wide *w, const double pass[16], const double rx[
     }
 }
 
-/* The shadow rays of the lanes in aim toward light l as a packet, then
- * its light on the lanes. */
-WIDE_FN void WIDE(light)(const rayd_scene *s, const struct light *l, struct wide *w,
-                         uint32_t lanes, uint64_t *rays) {
-    LANES_ALIGN double dist[16], ok[16], pass[16], rx[16], ry[16], rz[16];
-    WIDE(aim)(l, w, dist, ok);
+/* The shadow rays of the lanes in aim toward light l (aimed at by a) as a
+ * packet, then its light on the lanes. */
+WIDE_FN void WIDE(light)(const rayd_scene *s, const struct light *l, const struct aimed *a,
+                         struct wide *w, uint32_t lanes, uint64_t *rays) {
+    LANES_ALIGN double pass[16], rx[16], ry[16], rz[16];
     uint32_t aim = 0;
-    for (int j = 0; j < 16; j++) aim |= (uint32_t)(ok[j] != 0) << j;
+    for (int j = 0; j < 16; j++) aim |= (uint32_t)(a->ok[j] != 0) << j;
     aim &= lanes;
     *rays += (uint64_t)__builtin_popcount(aim);
     LANES_ALIGN double tr[3][16]; /* 0 outside aim */
-    scene_transmittance16_soa(s, (int)(l - s->lights), (const double(*)[16])w->up,
-                              (const double(*)[16])w->wi, dist, aim, tr);
+    scene_transmittance16_soa(s, (int)(l - s->lights), (const double(*)[16])w->up, a->wi, a->dist,
+                              aim, tr);
     vec3 lc = v3_scale(l->color, l->intensity);
     for (int j = 0; j < 16; j++) { /* light_pass */
         double tx = tr[0][j], ty = tr[1][j], tz = tr[2][j];
         pass[j] = tx <= 0 ? ty <= 0 ? tz <= 0 ? 0.0 : 1.0 : 1.0 : 1.0;
         rx[j] = lc.x * tx, ry[j] = lc.y * ty, rz[j] = lc.z * tz;
     }
-    WIDE(shade)(w, pass, rx, ry, rz);
+    WIDE(shade)(w, a->wi, pass, rx, ry, rz);
 }
 
 /* The mirror rays (mirror_dir about the normal), every lane's. */
@@ -204,7 +203,12 @@ WIDE_FN uint32_t WIDE(whitted_wide)(const rayd_scene *s, const struct ray16 *r,
     struct wide w;
     WIDE(gather)(s, r, hs, lanes, &w);
     WIDE(frame)(&w, s->nlights > 0);
-    for (int i = 0; i < s->nlights; i++) WIDE(light)(s, &s->lights[i], &w, lanes, rays);
+    struct aimed a[WIDE_AHEAD];
+    for (int i0 = 0; i0 < s->nlights; i0 += WIDE_AHEAD) { /* the aims first: nothing waits */
+        int n = s->nlights - i0 < WIDE_AHEAD ? s->nlights - i0 : WIDE_AHEAD; /* on them */
+        for (int k = 0; k < n; k++) WIDE(aim)(&s->lights[i0 + k], &w, &a[k]);
+        for (int k = 0; k < n; k++) WIDE(light)(s, &s->lights[i0 + k], &a[k], &w, lanes, rays);
+    }
     uint32_t mirror = 0;
     for (uint32_t m = lanes; m; m &= m - 1) {
         int j = __builtin_ctz(m);

@@ -201,36 +201,34 @@ vec3 render_pixel(const rayd_scene *s, int i, int j, uint64_t *rays) {
 /* The w x h (at most 4 x 4) block at (x, y): each sample's 16 camera rays
  * traced as packets (whitted_radiance16; for the path tracer the camera
  * rays' hits, scene_intersect16), the same radiance per pixel as
- * render_pixel, summed in the same order. */
-static void render_block(const rayd_scene *s, int x, int y, int w, int h, rayd_image *dst, int dx,
-                         int dy, uint64_t *rays) {
+ * render_pixel, summed in the same order.  centre, when not NULL, holds
+ * the block's rays through the pixel centres (the one sample of a pinhole
+ * camera). */
+static void render_block(const rayd_scene *s, int x, int y, int w, int h, const struct ray16 *centre,
+                         rayd_image *dst, int dx, int dy, uint64_t *rays) {
     int n = s->rs.samples;
     vec3 acc[16];
     union block_colours c; /* the lanes outside the block stay 0 */
-    struct ray16 r;
+    struct ray16 rs;
+    const struct ray16 *r = centre ? centre : &rs;
     struct rng_key key[16];
-    uint32_t active = 0;
-    for (int q = 0; q < 16; q++) active |= (uint32_t)(q % 4 < w && q / 4 < h) << q;
+    uint32_t active = ((1u << w) - 1) * (0x1111u & ((1u << 4 * h) - 1)); /* w lanes of h rows */
     if (active != 0xffff) memset(&c, 0, sizeof c);
     if (n > 1) memset(acc, 0, sizeof acc);
-    bool centres = n == 1 && s->cam.aperture <= 0 && !s->cam.ortho; /* pinhole, pixel centres */
     for (int k = 0; k < n; k++) {
-        if (centres) cam_block_rays(&s->cam, x, y, &r);
-        for (uint32_t m = active; m; m &= m - 1) {
+        for (int q = 0; centre && q < 16; q++) key[q] = pixel_key(s, x + q % 4, y + q / 4);
+        for (uint32_t m = centre ? 0 : active; m; m &= m - 1) {
             int q = __builtin_ctz(m);
-            if (centres)
-                key[q] = pixel_key(s, x + q % 4, y + q / 4);
-            else
-                ray16_set(&r, q, sample_ray(s, x + q % 4, y + q / 4, k, n, &key[q]));
+            ray16_set(&rs, q, sample_ray(s, x + q % 4, y + q / 4, k, n, &key[q]));
         }
         if (s->rs.integrator == INTEGRATOR_WHITTED) {
-            whitted_radiance16(s, &r, active, key, c.v, rays);
+            whitted_radiance16(s, r, active, key, c.v, rays);
         } else { /* the camera rays as a packet, the paths on one by one */
             struct hit first[16];
-            uint32_t hit = scene_intersect16_soa(s, &r, scene_unbounded16, active, first, NULL);
+            uint32_t hit = scene_intersect16_soa(s, r, scene_unbounded16, active, first, NULL);
             for (uint32_t m = active; m; m &= m - 1) {
                 int q = __builtin_ctz(m);
-                ray rq = ray16_get(&r, q);
+                ray rq = ray16_get(r, q);
                 c.v[q] = path_radiance_from(s, &rq, &first[q], hit >> q & 1, &key[q], rays);
             }
         }
@@ -249,16 +247,26 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h, rayd_i
 
 /* Renders the w x h rectangle at (x, y) of the image into dst at (dx, dy)
  * by 4 x 4 blocks of packets.  The cancel flag is polled once per row of
- * blocks. */
+ * blocks.  With a pinhole camera and one sample, the next block's camera
+ * rays are made before the block is traced: nothing waits for them, so
+ * their square roots and divisions run while the block's work does. */
 static enum rayd_status render_rect(const rayd_scene *s, int x, int y, int w, int h,
                                     rayd_image *dst, int dx, int dy, const atomic_int *cancel,
                                     uint64_t *rays) {
     pthread_once(&srgb_once, srgb_init);
+    bool centres = s->rs.samples == 1 && s->cam.aperture <= 0 && !s->cam.ortho;
+    struct ray16 ahead[2];
+    int now = 0;
+    if (centres) cam_block_rays(&s->cam, x, y, &ahead[0]);
     for (int row = 0; row < h; row += 4) {
         if (cancel && atomic_load_explicit(cancel, memory_order_relaxed)) return RAYD_E_CANCELED;
         for (int col = 0; col < w; col += 4) {
             int bw = w - col < 4 ? w - col : 4, bh = h - row < 4 ? h - row : 4;
-            render_block(s, x + col, y + row, bw, bh, dst, dx + col, dy + row, rays);
+            int ncol = col + 4 < w ? col + 4 : 0, nrow = col + 4 < w ? row : row + 4;
+            if (centres && nrow < h) cam_block_rays(&s->cam, x + ncol, y + nrow, &ahead[!now]);
+            render_block(s, x + col, y + row, bw, bh, centres ? &ahead[now] : NULL, dst, dx + col,
+                         dy + row, rays);
+            now = !now;
         }
     }
     return RAYD_OK;
