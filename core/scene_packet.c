@@ -462,17 +462,23 @@ BVH16_FN uint32_t intersect16_soa(const rayd_scene *s, const struct ray16 *r,
     return intersect16(&q, tmax, active, h, simple);
 }
 
-/* The cells [*i0, *i0 + 1] along one face coordinate w (cells at w0 + i /
- * sw for i in [0, nw)) nearest w, as the stretch [*lo, *hi) of w they
- * cover: infinite on the side of cells beyond the rectangle. */
-static inline void lb_span(double w, double w0, double sw, int32_t nw, int32_t *i0, double *lo,
-                           double *hi) {
-    double fw = (w - w0) * sw, fi = floor(fw);
-    fi = fw - fi < 0.5 ? fi - 1 : fi; /* the cell and its neighbour nearer w */
-    fi = fi < -2 ? -2 : fi > nw ? nw : fi;
-    *i0 = (int32_t)fi;
-    *lo = fi + 1 < 0 ? -INFINITY : fi >= nw ? w0 + nw / sw : w0 + fi / sw;
-    *hi = fi + 1 < 0 ? w0 : fi >= nw ? INFINITY : w0 + (fi + 2) / sw;
+/* For face coordinates (u, v) = w of face f: the 2 x 2 cells nearest w,
+ * from cell ij[0], ij[1] on, and the stretch [lo, hi) of u and of v they
+ * cover -- unbounded on the side of cells beyond the rectangle.  Without
+ * a branch: which cells is as good as a coin toss. */
+BVH16_FN void lb_span(const struct light_face *f, __m128d w, int32_t ij[2], __m128d *lo,
+                      __m128d *hi) {
+    __m128d w0 = _mm_set_pd(f->v0, f->u0), sw = _mm_set_pd(f->sv, f->su);
+    __m128d n = _mm_set_pd(f->nv, f->nu), two = _mm_set1_pd(2);
+    /* the cell w is in, less one if w is in its lower half */
+    __m128d c = _mm_floor_pd(_mm_sub_pd(_mm_mul_pd(_mm_sub_pd(w, w0), sw), _mm_set1_pd(0.5)));
+    c = _mm_min_pd(_mm_max_pd(c, _mm_set1_pd(-2)), n);
+    __m128d at_lo = _mm_add_pd(w0, _mm_div_pd(c, sw));
+    __m128d at_hi = _mm_add_pd(w0, _mm_div_pd(_mm_add_pd(c, two), sw));
+    *lo = _mm_blendv_pd(at_lo, _mm_set1_pd(-INFINITY), _mm_cmplt_pd(c, _mm_setzero_pd()));
+    *hi = _mm_blendv_pd(at_hi, _mm_set1_pd(INFINITY), _mm_cmpgt_pd(_mm_add_pd(c, two), n));
+    __m128i k = _mm_cvttpd_epi32(c);
+    ij[0] = _mm_cvtsi128_si32(k), ij[1] = _mm_cvtsi128_si32(_mm_srli_si128(k, 4));
 }
 
 /* The objects of light buffer b (light_buffer.h) that can stop the shadow
@@ -494,13 +500,13 @@ BVH16_FN bool shadow_candidates(const struct light_buffer *b, const struct ray16
     int bx = (a + 1) % 3, cx = (a + 2) % 3;
     double sg = r0[a] < 0 ? -1.0 : 1.0, ca0 = r0[a] * sg;
     const struct light_face *f = &b->face[2 * a + (r0[a] < 0)];
-    double ulo = -INFINITY, uhi = INFINITY, vlo = -INFINITY, vhi = INFINITY;
-    int32_t ci = 0, cj = 0;
     if (!(ca0 > 0)) return false;
-    if (f->nu) {
-        lb_span(r0[bx] / ca0, f->u0, f->su, f->nu, &ci, &ulo, &uhi);
-        lb_span(r0[cx] / ca0, f->v0, f->sv, f->nv, &cj, &vlo, &vhi);
-    }
+    __m128d lo = _mm_set1_pd(-INFINITY), hi = _mm_set1_pd(INFINITY);
+    int32_t ij[2] = {0, 0};
+    if (f->nu) lb_span(f, _mm_mul_pd(_mm_set_pd(r0[cx], r0[bx]), _mm_set1_pd(1 / ca0)), ij, &lo, &hi);
+    double ulo = _mm_cvtsd_f64(lo), uhi = _mm_cvtsd_f64(hi);
+    double vlo = _mm_cvtsd_f64(_mm_unpackhi_pd(lo, lo)), vhi = _mm_cvtsd_f64(_mm_unpackhi_pd(hi, hi));
+    int32_t ci = ij[0], cj = ij[1];
     __m512d zero = _mm512_setzero_pd(), reach = _mm512_set1_pd(b->reach);
     for (int h = 0; h < 16; h += 8) {
         __mmask8 lm = (__mmask8)(open >> h);
