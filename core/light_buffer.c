@@ -43,6 +43,14 @@ struct lb_rect {
     bool on;
 };
 
+/* The range of w / ca over w in [lo, hi] and ca in (ca0, ca1] (ca1 > 0;
+ * ca0 <= 0: the box reaches the light's plane, and near it w / ca runs off
+ * to the infinity of w's sign). */
+static void ratio_range(double lo, double hi, double ca0, double ca1, double *r0, double *r1) {
+    *r0 = lo >= 0 ? lo / ca1 : ca0 > 0 ? lo / ca0 : -INFINITY;
+    *r1 = hi <= 0 ? hi / ca1 : ca0 > 0 ? hi / ca0 : INFINITY;
+}
+
 /* Box b (relative to the light) seen on face f, widened by LB_MARGIN and
  * cut to the face. */
 static struct lb_rect face_rect(int f, vec3 lo, vec3 hi) {
@@ -52,17 +60,12 @@ static struct lb_rect face_rect(int f, vec3 lo, vec3 hi) {
     double ca0 = sg > 0 ? l[a] : -h[a], ca1 = sg > 0 ? h[a] : -l[a];
     struct lb_rect r = {-1, 1, -1, 1, false};
     if (!(ca1 > 0)) return r;
-    if (ca0 > 0) { /* u = r[b] / ca is extreme at the corners */
-        double ub[2] = {l[b] / ca0, l[b] / ca1}, uh[2] = {h[b] / ca0, h[b] / ca1};
-        double vb[2] = {l[c] / ca0, l[c] / ca1}, vh[2] = {h[c] / ca0, h[c] / ca1};
-        r.u0 = fmin(fmin(ub[0], ub[1]), fmin(uh[0], uh[1])) - LB_MARGIN;
-        r.u1 = fmax(fmax(ub[0], ub[1]), fmax(uh[0], uh[1])) + LB_MARGIN;
-        r.v0 = fmin(fmin(vb[0], vb[1]), fmin(vh[0], vh[1])) - LB_MARGIN;
-        r.v1 = fmax(fmax(vb[0], vb[1]), fmax(vh[0], vh[1])) + LB_MARGIN;
-        if (r.u1 < -1 || r.u0 > 1 || r.v1 < -1 || r.v0 > 1) return r;
-        r.u0 = fmax(r.u0, -1), r.u1 = fmin(r.u1, 1);
-        r.v0 = fmax(r.v0, -1), r.v1 = fmin(r.v1, 1);
-    } /* else the box reaches the light's plane: the whole face */
+    ratio_range(l[b], h[b], ca0, ca1, &r.u0, &r.u1);
+    ratio_range(l[c], h[c], ca0, ca1, &r.v0, &r.v1);
+    r.u0 -= LB_MARGIN, r.u1 += LB_MARGIN, r.v0 -= LB_MARGIN, r.v1 += LB_MARGIN;
+    if (r.u1 < -1 || r.u0 > 1 || r.v1 < -1 || r.v0 > 1) return r;
+    r.u0 = fmax(r.u0, -1), r.u1 = fmin(r.u1, 1);
+    r.v0 = fmax(r.v0, -1), r.v1 = fmin(r.v1, 1);
     r.on = true;
     return r;
 }

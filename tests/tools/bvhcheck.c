@@ -57,9 +57,10 @@ static bool same_hit(const struct hit *a, const struct hit *b) {
 }
 
 /* One packet against its rays one by one; false (and a FAIL line) on the
- * first difference. */
+ * first difference.  light: the light the rays are shadow rays of (its
+ * light buffer may answer them), or -1. */
 static bool packet_ok(const rayd_scene *s, const char *name, const char *what, const ray r[16],
-                      const double tmax[16], uint32_t active) {
+                      const double tmax[16], uint32_t active, int light) {
     struct hit h[16], hs[16], hw[16];
     struct hit16 simple; /* the wide shader's form of the hits on spheres and planes */
     vec3 tr[16];
@@ -75,7 +76,7 @@ static bool packet_ok(const rayd_scene *s, const char *name, const char *what, c
         hw[i] = hit16_get(&simple, i);
     }
     scene_transmittance16(s, r, tmax, active, tr);
-    scene_transmittance16_soa(s, -1, (const double(*)[16])rs.o, (const double(*)[16])rs.d, tmax,
+    scene_transmittance16_soa(s, light, (const double(*)[16])rs.o, (const double(*)[16])rs.d, tmax,
                               active, trs);
     for (int i = 0; i < 16; i++) {
         if (!(active >> i & 1)) continue;
@@ -116,8 +117,8 @@ static long check_packets(const rayd_scene *s, const char *name, int w, int h) {
                 active |= 1u << k;
             }
             uint32_t some = active & (0x5a5au ^ (uint32_t)(x * 7 + y));
-            if (!packet_ok(s, name, "primary", r, tmax, active) ||
-                !packet_ok(s, name, "primary (some lanes)", r, tmax, some))
+            if (!packet_ok(s, name, "primary", r, tmax, active, -1) ||
+                !packet_ok(s, name, "primary (some lanes)", r, tmax, some, -1))
                 return -1;
             n += __builtin_popcount(active);
             struct hit hit[16];
@@ -134,7 +135,7 @@ static long check_packets(const rayd_scene *s, const char *name, int w, int h) {
                     sr[k].o = v3_madd(sf.p, nf, integrate_offset(sf.p, sf.float_geom));
                     if (light_at(&s->lights[l], sr[k].o, &sr[k].d, &dist[k], &rad)) lit |= 1u << k;
                 }
-                if (!packet_ok(s, name, "shadow", sr, dist, lit)) return -1;
+                if (!packet_ok(s, name, "shadow", sr, dist, lit, l)) return -1;
                 n += __builtin_popcount(lit);
             }
         }
@@ -157,7 +158,7 @@ static long check_packets(const rayd_scene *s, const char *name, int w, int h) {
             r[k].d = v3(q * cos(a), q * sin(a), z);
             tmax[k] = k % 3 ? INFINITY : 0.5 + k;
         }
-        if (!packet_ok(s, name, "incoherent", r, tmax, 0xffffu)) return -1;
+        if (!packet_ok(s, name, "incoherent", r, tmax, 0xffffu, -1)) return -1;
         n += 16;
     }
     return n;
