@@ -45,14 +45,17 @@ struct wide {
 };
 
 /* A light as the lanes see it: the unit vector toward it, its distance,
- * and whether it reaches each lane from the front (1) or not (0). */
+ * whether it reaches each lane from the front (1) or not (0), and what the
+ * shadow rays toward it let through. */
 struct aimed {
     LANES_ALIGN double wi[3][16];
     double dist[16], ok[16];
+    double tr[3][16]; /* 0 outside the lanes it reaches */
 };
 
-/* The lights aimed at before any is shaded: their square roots and
- * divisions then overlap instead of waiting one on the other. */
+/* The lights aimed at, and their shadow rays traced, before any is shaded:
+ * their square roots, divisions and walks then overlap instead of waiting
+ * one on the other. */
 #define WIDE_AHEAD 4
 
 #define WIDE(f) f##_base

@@ -166,20 +166,23 @@ WIDE_FN void WIDE(shade)(struct wide *w, const double wi[3][16], const double pa
 }
 
 /* The shadow rays of the lanes in aim toward light l (aimed at by a) as a
- * packet, then its light on the lanes. */
-WIDE_FN void WIDE(light)(const rayd_scene *s, const struct light *l, const struct aimed *a,
-                         struct wide *w, uint32_t lanes, uint64_t *rays) {
-    LANES_ALIGN double pass[16], rx[16], ry[16], rz[16];
+ * packet: what each lets through into a->tr. */
+WIDE_FN void WIDE(shadow)(const rayd_scene *s, const struct light *l, struct aimed *a,
+                          const struct wide *w, uint32_t lanes, uint64_t *rays) {
     uint32_t aim = 0;
     for (int j = 0; j < 16; j++) aim |= (uint32_t)(a->ok[j] != 0) << j;
     aim &= lanes;
     *rays += (uint64_t)__builtin_popcount(aim);
-    LANES_ALIGN double tr[3][16]; /* 0 outside aim */
     scene_transmittance16_soa(s, (int)(l - s->lights), (const double(*)[16])w->up, a->wi, a->dist,
-                              aim, tr);
+                              aim, a->tr);
+}
+
+/* Light l's light on the lanes, through its shadow rays' a->tr. */
+WIDE_FN void WIDE(light)(const struct light *l, const struct aimed *a, struct wide *w) {
+    LANES_ALIGN double pass[16], rx[16], ry[16], rz[16];
     vec3 lc = v3_scale(l->color, l->intensity);
     for (int j = 0; j < 16; j++) { /* light_pass */
-        double tx = tr[0][j], ty = tr[1][j], tz = tr[2][j];
+        double tx = a->tr[0][j], ty = a->tr[1][j], tz = a->tr[2][j];
         pass[j] = tx <= 0 ? ty <= 0 ? tz <= 0 ? 0.0 : 1.0 : 1.0 : 1.0;
         rx[j] = lc.x * tx, ry[j] = lc.y * ty, rz[j] = lc.z * tz;
     }
@@ -204,10 +207,12 @@ WIDE_FN uint32_t WIDE(whitted_wide)(const rayd_scene *s, const struct ray16 *r,
     WIDE(gather)(s, r, hs, lanes, &w);
     WIDE(frame)(&w, s->nlights > 0);
     struct aimed a[WIDE_AHEAD];
-    for (int i0 = 0; i0 < s->nlights; i0 += WIDE_AHEAD) { /* the aims first: nothing waits */
-        int n = s->nlights - i0 < WIDE_AHEAD ? s->nlights - i0 : WIDE_AHEAD; /* on them */
-        for (int k = 0; k < n; k++) WIDE(aim)(&s->lights[i0 + k], &w, &a[k]);
-        for (int k = 0; k < n; k++) WIDE(light)(s, &s->lights[i0 + k], &a[k], &w, lanes, rays);
+    for (int i0 = 0; i0 < s->nlights; i0 += WIDE_AHEAD) { /* the aims, then the shadows */
+        int n = s->nlights - i0 < WIDE_AHEAD ? s->nlights - i0 : WIDE_AHEAD; /* first: nothing */
+        const struct light *l = &s->lights[i0];                              /* waits on them */
+        for (int k = 0; k < n; k++) WIDE(aim)(&l[k], &w, &a[k]);
+        for (int k = 0; k < n; k++) WIDE(shadow)(s, &l[k], &a[k], &w, lanes, rays);
+        for (int k = 0; k < n; k++) WIDE(light)(&l[k], &a[k], &w);
     }
     uint32_t mirror = 0;
     for (uint32_t m = lanes; m; m &= m - 1) {

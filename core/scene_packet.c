@@ -12,7 +12,10 @@
  * Shadows go by packet when the scene is opaque (a ray is then either
  * blocked or not, whichever blocker is met first); otherwise the product of
  * the filters met would depend on their order, so those rays go one by
- * one.  Without AVX-512 everything goes one by one.
+ * one.  The shadow rays of a point light ask its light buffer
+ * (light_buffer.c) first: when their origins share a few cells of it, the
+ * objects listed there are all they can meet, and the walk is skipped.
+ * Without AVX-512 everything goes one by one.
  *
  * The rays come as an array of rays or, from the renderer, as structure of
  * arrays (struct ray16, the packet's own form: no transposition); then the
