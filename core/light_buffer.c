@@ -104,6 +104,7 @@ static bool face_count(struct light_face *f, int fi, const struct aabb *rel, int
     f->nu = f->nv = LB_CELLS;
     f->u0 = u0, f->v0 = v0;
     f->su = LB_CELLS / (u1 - u0), f->sv = LB_CELLS / (v1 - v0);
+    f->cu = 1 / f->su, f->cv = 1 / f->sv;
     f->start = calloc((size_t)LB_CELLS * LB_CELLS + 1, sizeof *f->start);
     if (!f->start) return false;
     for (int32_t k = 0; k < n; k++) {

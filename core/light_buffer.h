@@ -18,6 +18,7 @@
 struct light_face {
     double u0, v0; /* the rectangle's low corner */
     double su, sv; /* cells per unit of u and v */
+    double cu, cv; /* and a cell's width in u and v, 1 / su and 1 / sv */
     int32_t nu, nv; /* 0 x 0: no object shows on this face */
     uint32_t *start;
 };

@@ -472,12 +472,12 @@ BVH16_FN uint32_t intersect16_soa(const rayd_scene *s, const struct ray16 *r,
 BVH16_FN void lb_span(const struct light_face *f, __m128d w, int32_t ij[2], __m128d *lo,
                       __m128d *hi) {
     __m128d w0 = _mm_set_pd(f->v0, f->u0), sw = _mm_set_pd(f->sv, f->su);
-    __m128d n = _mm_set_pd(f->nv, f->nu), two = _mm_set1_pd(2);
+    __m128d cw = _mm_set_pd(f->cv, f->cu), n = _mm_set_pd(f->nv, f->nu), two = _mm_set1_pd(2);
     /* the cell w is in, less one if w is in its lower half */
     __m128d c = _mm_floor_pd(_mm_sub_pd(_mm_mul_pd(_mm_sub_pd(w, w0), sw), _mm_set1_pd(0.5)));
     c = _mm_min_pd(_mm_max_pd(c, _mm_set1_pd(-2)), n);
-    __m128d at_lo = _mm_add_pd(w0, _mm_div_pd(c, sw));
-    __m128d at_hi = _mm_add_pd(w0, _mm_div_pd(_mm_add_pd(c, two), sw));
+    __m128d at_lo = _mm_add_pd(w0, _mm_mul_pd(c, cw));
+    __m128d at_hi = _mm_add_pd(w0, _mm_mul_pd(_mm_add_pd(c, two), cw));
     *lo = _mm_blendv_pd(at_lo, _mm_set1_pd(-INFINITY), _mm_cmplt_pd(c, _mm_setzero_pd()));
     *hi = _mm_blendv_pd(at_hi, _mm_set1_pd(INFINITY), _mm_cmpgt_pd(_mm_add_pd(c, two), n));
     __m128i k = _mm_cvttpd_epi32(c);
