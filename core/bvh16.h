@@ -93,7 +93,7 @@ struct bvh16_ray {
     __m512 org[3], inv[3];
     __mmask16 neg[3];
     int sign[3]; /* 1 every ray's direction negative on the axis, 0 none, -1 mixed */
-    bool uniform; /* no axis mixed: each axis's near side is one for the packet */
+    bool uniform;            /* no axis mixed: each axis's near side is one for the packet */
     uint8_t near[3], far[3]; /* then the byte offsets in a node of those sides' floats */
 };
 
@@ -161,10 +161,9 @@ typedef __mmask16 (*bvh16_leaf_fn)(void *ctx, uint32_t first, uint32_t count, __
  * any-hit walk needs no order), and pops the nearest into *cur,
  * prefetching each (see bvh16_walk for leaves).  False when no ray enters
  * any child. */
-BVH16_INLINE bool bvh16_descend(const struct bvh4_node *nodes, const char *leaves,
-                                size_t leaf_size, const struct bvh16_ray *r, __m512 tm,
-                                struct bvh16_entry *cur, struct bvh16_entry *stack, int *sp,
-                                bool ordered) {
+BVH16_INLINE bool bvh16_descend(const struct bvh4_node *nodes, const char *leaves, size_t leaf_size,
+                                const struct bvh16_ray *r, __m512 tm, struct bvh16_entry *cur,
+                                struct bvh16_entry *stack, int *sp, bool ordered) {
     const struct bvh4_node *nd = &nodes[cur->node];
     __m512 tmax = _mm512_mul_ps(tm, _mm512_set1_ps(BVH_SLACK));
     int hit[4], n = 0;

@@ -40,7 +40,7 @@ struct wide {
     bool spheres;      /* some lane hit a sphere */
     LANES_ALIGN double px[16];
     double py[16], pz[16], nx[16], ny[16], nz[16]; /* point, normal facing the ray */
-    double up[3][16]; /* the point lifted off the surface: x, y, z */
+    double up[3][16];                              /* the point lifted off the surface: x, y, z */
     double cx[16], cy[16], cz[16];                          /* the colour so far */
 };
 

@@ -200,9 +200,8 @@ WIDE_FN void WIDE(mirror)(const struct wide *w, struct ray16 *rr) {
 }
 
 WIDE_FN uint32_t WIDE(whitted_wide)(const rayd_scene *s, const struct ray16 *r,
-                                    const struct hit16 *hs, uint32_t lanes, int depth,
-                                    vec3 out[16], struct ray16 *rr, double kr[16],
-                                    uint64_t *rays) {
+                                    const struct hit16 *hs, uint32_t lanes, int depth, vec3 out[16],
+                                    struct ray16 *rr, double kr[16], uint64_t *rays) {
     struct wide w;
     WIDE(gather)(s, r, hs, lanes, &w);
     WIDE(frame)(&w, s->nlights > 0);

@@ -35,7 +35,9 @@
 #define LB_MARGIN (1.0 / 1024) /* the widening of every object's directions */
 #define LB_CELLS 64            /* cells on a side of a face's rectangle */
 #define LB_MAX_OBJS 65536      /* beyond this the BVH walk does better */
-#define LB_MAX_IDS (1u << 22)  /* entries in all cells of one light */
+#define LB_MAX_LIGHTS 32       /* lights with a buffer; the others walk */
+#define LB_MAX_PAIRS (1 << 21) /* lights x objects: bounds the time to build */
+#define LB_MAX_IDS (1u << 22)  /* entries in all the cells of all the lights */
 
 /* An object's rectangle of directions on one face, or none. */
 struct lb_rect {
@@ -91,9 +93,11 @@ static double box_distance(vec3 lo, vec3 hi) {
 }
 
 /* Face f's rectangle, cells and their counts (start[k + 1] = objects in
- * cell k) over the objects' boxes rel[] (relative to the light). */
+ * cell k) over the objects' boxes rel[] (relative to the light), adding
+ * the entries to *total; false when out of memory or when *total passes
+ * budget (then it stops counting). */
 static bool face_count(struct light_face *f, int fi, const struct aabb *rel, int32_t n,
-                       size_t *total) {
+                       size_t *total, size_t budget) {
     double u0 = INFINITY, u1 = -INFINITY, v0 = INFINITY, v1 = -INFINITY;
     for (int32_t k = 0; k < n; k++) {
         struct lb_rect r = face_rect(fi, rel[k].lo, rel[k].hi);
@@ -112,9 +116,10 @@ static bool face_count(struct light_face *f, int fi, const struct aabb *rel, int
         if (!r.on) continue;
         int32_t i0, i1, j0, j1;
         face_cells(f, &r, &i0, &i1, &j0, &j1);
+        *total += (size_t)(i1 - i0 + 1) * (size_t)(j1 - j0 + 1);
+        if (*total > budget) return false;
         for (int32_t j = j0; j <= j1; j++)
             for (int32_t i = i0; i <= i1; i++) f->start[j * f->nu + i + 1]++;
-        *total += (size_t)(i1 - i0 + 1) * (size_t)(j1 - j0 + 1);
     }
     for (int32_t k = 0; k < f->nu * f->nv; k++) f->start[k + 1] += f->start[k];
     return true;
@@ -143,9 +148,11 @@ static void buffer_free(struct light_buffer *b) {
 }
 
 /* The buffer of the point light at p over the scene's objects (boxes rel,
- * relative to p); false when out of memory.  Leaves b->ok false where the
- * buffer would not be sound or not pay. */
-static bool buffer_build(struct light_buffer *b, vec3 p, const struct aabb *rel, int32_t n) {
+ * relative to p), with at most *budget entries (less those it takes);
+ * false when out of memory.  Leaves b->ok false where the buffer would not
+ * be sound, or not fit. */
+static bool buffer_build(struct light_buffer *b, vec3 p, const struct aabb *rel, int32_t n,
+                         size_t *budget) {
     double near = INFINITY;
     for (int32_t k = 0; k < n; k++) {
         if (!box_finite(&rel[k])) return true;
@@ -156,12 +163,13 @@ static bool buffer_build(struct light_buffer *b, vec3 p, const struct aabb *rel,
     double reach = near * 1e3 - 1 - 1e-5 * v3_maxabs(p);
     if (!(reach > 0) || !(near > 1e-6 * (1 + v3_maxabs(p)))) return true;
     size_t total = 0;
-    for (int f = 0; f < 6; f++)
-        if (!face_count(&b->face[f], f, rel, n, &total)) return false;
-    if (total > LB_MAX_IDS) {
+    for (int f = 0; f < 6; f++) {
+        if (face_count(&b->face[f], f, rel, n, &total, *budget)) continue;
+        bool nomem = total <= *budget;
         buffer_free(b);
-        return true;
+        return !nomem;
     }
+    *budget -= total;
     uint32_t *fill = malloc(sizeof *fill * (size_t)LB_CELLS * LB_CELLS);
     b->ids = malloc(sizeof *b->ids * (total + 1));
     if (!fill || !b->ids) {
@@ -193,13 +201,18 @@ enum rayd_status light_buffers_build(rayd_scene *s, struct rayd_error *err) {
     bool ok = s->light_buffers && box && rel;
     for (int32_t k = 0; ok && k < s->nobjs; k++) /* an object without bounds: every direction */
         if (!scene_object_bounds(s, &s->objs[k], &box[k]))
-            box[k] = (struct aabb){v3(-INFINITY, -INFINITY, -INFINITY), v3(INFINITY, INFINITY, INFINITY)};
-    for (int i = 0; ok && i < s->nlights; i++) {
+            box[k] = (struct aabb){v3(-INFINITY, -INFINITY, -INFINITY),
+                                   v3(INFINITY, INFINITY, INFINITY)};
+    size_t ids = LB_MAX_IDS;
+    int built = 0,
+        most = LB_MAX_PAIRS / s->nobjs < LB_MAX_LIGHTS ? LB_MAX_PAIRS / s->nobjs : LB_MAX_LIGHTS;
+    for (int i = 0; ok && i < s->nlights && built < most; i++) {
         if (s->lights[i].kind != LIGHT_POINT) continue;
         vec3 p = s->lights[i].position;
         for (int32_t k = 0; k < s->nobjs; k++)
             rel[k] = (struct aabb){v3_sub(box[k].lo, p), v3_sub(box[k].hi, p)};
-        ok = buffer_build(&s->light_buffers[i], p, rel, s->nobjs);
+        ok = buffer_build(&s->light_buffers[i], p, rel, s->nobjs, &ids);
+        built++;
     }
     free(box);
     free(rel);

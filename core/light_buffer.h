@@ -16,20 +16,20 @@
  * rectangle the objects cover is cut into nu x nv cells; cell (i, j) lists
  * ids[start[j * nu + i] .. start[j * nu + i + 1]). */
 struct light_face {
-    double u0, v0; /* the rectangle's low corner */
-    double su, sv; /* cells per unit of u and v */
-    double cu, cv; /* and a cell's width in u and v, 1 / su and 1 / sv */
+    double u0, v0;  /* the rectangle's low corner */
+    double su, sv;  /* cells per unit of u and v */
+    double cu, cv;  /* and a cell's width in u and v, 1 / su and 1 / sv */
     int32_t nu, nv; /* 0 x 0: no object shows on this face */
     uint32_t *start;
 };
 
 struct light_buffer {
-    bool ok;          /* built: a point light no object's box comes near */
-    vec3 at;          /* the light's position */
-    double reach;     /* valid for shadow rays leaving points within this box
-                         around the origin (max |coordinate|) */
+    bool ok;                   /* built: a point light no object's box comes near */
+    vec3 at;                   /* the light's position */
+    double reach;              /* valid for shadow rays leaving points within this box
+                                  around the origin (max |coordinate|) */
     struct light_face face[6]; /* 2 * axis + (sign < 0) */
-    uint32_t *ids;    /* indices into the scene's objs */
+    uint32_t *ids;             /* indices into the scene's objs */
 };
 
 /* Builds the buffers of the scene's point lights into s->light_buffers

@@ -260,8 +260,8 @@ BVH16_EXTERN uint32_t mesh16_intersect(const struct mesh *m, const struct ray16 
     struct mesh16 q;
     __m512 tm;
     mesh16_init(&q, m, rd, tmax, active, false, &tm);
-    bvh16_walk(&m->bvh, (const char *)m->blocks, sizeof *m->blocks, &q.br, &tm,
-               (__mmask16)active, leaf_nearest, &q, true);
+    bvh16_walk(&m->bvh, (const char *)m->blocks, sizeof *m->blocks, &q.br, &tm, (__mmask16)active,
+               leaf_nearest, &q, true);
     float t[16], u[16], v[16];
     uint32_t id[16], blk[16], lane[16], hit = 0;
     _mm512_storeu_ps(t, q.t), _mm512_storeu_ps(u, q.u), _mm512_storeu_ps(v, q.v);

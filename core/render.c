@@ -148,10 +148,12 @@ _Static_assert(sizeof(vec3) == 3 * sizeof(double), "vec3 is three doubles");
 static void put_block(uint8_t *dst, size_t stride, const union block_colours *c, int w, int h) {
     uint8_t b[48];
 #ifdef BVH16
-    if (bvh16_available()) srgb8_48(c->d, b);
+    if (bvh16_available())
+        srgb8_48(c->d, b);
     else
 #endif
-        for (int k = 0; k < 48; k++) b[k] = srgb8(c->d[k]);
+        for (int k = 0; k < 48; k++) /* every lane set: by the integrator or to 0 */
+            b[k] = srgb8(c->d[k]); // NOLINT(clang-analyzer-core.CallAndMessage)
     for (int row = 0; row < h; row++)
         memcpy(dst + (size_t)row * stride, b + 12 * row, (size_t)w * 3);
 }
@@ -204,12 +206,14 @@ vec3 render_pixel(const rayd_scene *s, int i, int j, uint64_t *rays) {
  * render_pixel, summed in the same order.  centre, when not NULL, holds
  * the block's rays through the pixel centres (the one sample of a pinhole
  * camera). */
-static void render_block(const rayd_scene *s, int x, int y, int w, int h, const struct ray16 *centre,
-                         rayd_image *dst, int dx, int dy, uint64_t *rays) {
+static void render_block(const rayd_scene *s, int x, int y, int w, int h,
+                         const struct ray16 *centre, rayd_image *dst, int dx, int dy,
+                         uint64_t *rays) {
     int n = s->rs.samples;
     vec3 acc[16];
     union block_colours c; /* the lanes outside the block stay 0 */
-    struct ray16 rs;
+    struct ray16 rs; /* the sample rays, when not through the centres: set below */
+    // cppcheck-suppress uninitvar
     const struct ray16 *r = centre ? centre : &rs;
     struct rng_key key[16];
     uint32_t active = ((1u << w) - 1) * (0x1111u & ((1u << 4 * h) - 1)); /* w lanes of h rows */

@@ -28,9 +28,9 @@
 #include "scene.h"
 #include "scene_query.h"
 
-LANES_ALIGN const double scene_unbounded16[16] = {INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY,
-                                      INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY,
-                                      INFINITY, INFINITY, INFINITY, INFINITY};
+LANES_ALIGN const double scene_unbounded16[16] = {
+    INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY,
+    INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY, INFINITY};
 
 static uint32_t intersect_each(const rayd_scene *s, const ray r[16], const double tmax[16],
                                uint32_t active, struct hit h[16]) {
@@ -53,17 +53,17 @@ static void transmittance_each(const rayd_scene *s, const ray r[16], const doubl
  * their hits here (leaf, tmax), written out to h at the end; the other
  * objects write h themselves, through a struct nearest made for the ray. */
 struct scene16 {
-    const rayd_scene *s;
-    const ray *r; /* the rays one by one when given so, else NULL until lane_rays */
-    ray rbuf[16];
-    struct hit *h;
-    struct ray16 rd; /* the same rays as structure of arrays */
+    struct ray16 rd; /* the rays as structure of arrays (the arrays first: cache lines) */
     LANES_ALIGN double tmax[16];
-    LANES_ALIGN int64_t best[16];              /* the rank of each ray's hit so far, -1 none */
-    LANES_ALIGN const struct object *leaf[16]; /* ... its object, when that hit is in tmax only */
-    uint32_t kept;                 /* the rays whose hit is in leaf and tmax, not h */
-    const struct object *base;     /* ranks: rank0 + (o - base) */
+    int64_t best[16];              /* the rank of each ray's hit so far, -1 none */
+    const struct object *leaf[16]; /* ... its object, when that hit is in tmax only */
+    const rayd_scene *s;
+    const ray *r; /* the same rays one by one when given so, else NULL until lane_rays */
+    struct hit *h;
+    const struct object *base; /* ranks: rank0 + (o - base) */
     long rank0;
+    uint32_t kept; /* the rays whose hit is in leaf and tmax, not h */
+    ray rbuf[16];
 };
 
 /* The rays one by one, for the one-ray code: made from rd when the packet
@@ -164,8 +164,9 @@ BVH16_FN uint32_t sphere16_any(const struct ray16 *rd, const struct object *o,
             oc[k] = _mm512_sub_pd(_mm512_loadu_pd(rd->o[k] + 8 * h), _mm512_set1_pd(cen[k]));
             d[k] = _mm512_loadu_pd(rd->d[k] + 8 * h);
         }
-        __m512d b = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(oc[0], d[0]), _mm512_mul_pd(oc[1], d[1])),
-                                  _mm512_mul_pd(oc[2], d[2]));
+        __m512d b =
+            _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(oc[0], d[0]), _mm512_mul_pd(oc[1], d[1])),
+                          _mm512_mul_pd(oc[2], d[2]));
         __m512d c = _mm512_sub_pd(
             _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(oc[0], oc[0]), _mm512_mul_pd(oc[1], oc[1])),
                           _mm512_mul_pd(oc[2], oc[2])),
@@ -173,20 +174,20 @@ BVH16_FN uint32_t sphere16_any(const struct ray16 *rd, const struct object *o,
         __m512d nb = _mm512_sub_pd(zero, b);
         __m512d hv[3];
         for (int k = 0; k < 3; k++) hv[k] = _mm512_add_pd(oc[k], _mm512_mul_pd(d[k], nb));
-        __m512d disc = _mm512_sub_pd(
-            r2, _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(hv[0], hv[0]), _mm512_mul_pd(hv[1], hv[1])),
-                              _mm512_mul_pd(hv[2], hv[2])));
+        __m512d disc = _mm512_sub_pd(r2, _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(hv[0], hv[0]),
+                                                                     _mm512_mul_pd(hv[1], hv[1])),
+                                                       _mm512_mul_pd(hv[2], hv[2])));
         __mmask8 in = lm & _mm512_cmp_pd_mask(disc, zero, _CMP_NLT_UQ); /* !(disc < 0) */
         __mmask8 outside = _mm512_cmp_pd_mask(c, _mm512_set1_pd(1e-100), _CMP_GT_OQ) &
                            _mm512_cmp_pd_mask(c, _mm512_set1_pd(1e100), _CMP_LT_OQ);
         __mmask8 away = outside & _mm512_cmp_pd_mask(b, zero, _CMP_GT_OQ);
         __m512d bnd = _mm512_loadu_pd(bound + 8 * h);
-        __mmask8 sure = in & outside & _mm512_cmp_pd_mask(nb, _mm512_set1_pd(1e-100), _CMP_GT_OQ) &
-                        _mm512_cmp_pd_mask(nb, _mm512_set1_pd(1e100), _CMP_LT_OQ) &
-                        _mm512_cmp_pd_mask(_mm512_mul_pd(c, _mm512_set1_pd(1.000000001)),
-                                           _mm512_mul_pd(_mm512_mul_pd(bnd, nb),
-                                                         _mm512_set1_pd(0.999999999)),
-                                           _CMP_LT_OQ);
+        __mmask8 sure =
+            in & outside & _mm512_cmp_pd_mask(nb, _mm512_set1_pd(1e-100), _CMP_GT_OQ) &
+            _mm512_cmp_pd_mask(nb, _mm512_set1_pd(1e100), _CMP_LT_OQ) &
+            _mm512_cmp_pd_mask(_mm512_mul_pd(c, _mm512_set1_pd(1.000000001)),
+                               _mm512_mul_pd(_mm512_mul_pd(bnd, nb), _mm512_set1_pd(0.999999999)),
+                               _CMP_LT_OQ);
         hit |= (uint32_t)sure << 8 * h;
         *rest |= (uint32_t)(in & (__mmask8)~away & (__mmask8)~sure) << 8 * h;
     }
@@ -435,7 +436,7 @@ BVH16_FN uint32_t intersect16(struct scene16 *q, const double tmax[16], uint32_t
         simple->lanes = kept;
     } else {
         for (uint32_t m = kept; m; m &= m - 1) { /* as nearest_take would have */
-            int i = __builtin_ctz(m);           /* (a sphere's or plane's: no mh) */
+            int i = __builtin_ctz(m);            /* (a sphere's or plane's: no mh) */
             h[i].t = q->tmax[i], h[i].leaf = q->leaf[i], h[i].outer = NULL;
             h[i].part = h[i].orient = 0;
         }
@@ -455,9 +456,8 @@ BVH16_FN uint32_t intersect16_aos(const rayd_scene *s, const ray r[16], const do
     return intersect16(&q, tmax, active, h, NULL);
 }
 
-BVH16_FN uint32_t intersect16_soa(const rayd_scene *s, const struct ray16 *r,
-                                  const double tmax[16], uint32_t active, struct hit h[16],
-                                  struct hit16 *simple) {
+BVH16_FN uint32_t intersect16_soa(const rayd_scene *s, const struct ray16 *r, const double tmax[16],
+                                  uint32_t active, struct hit h[16], struct hit16 *simple) {
     struct scene16 q;
     q.s = s;
     q.r = NULL;
@@ -493,8 +493,8 @@ BVH16_FN void lb_span(const struct light_face *f, __m128d w, int32_t ij[2], __m1
  * are checked against the cells' edges by multiplying, not dividing: a few
  * roundings off at an edge, which LB_MARGIN covers. */
 #define LB_MAX_TEST 16
-BVH16_FN bool shadow_candidates(const struct light_buffer *b, const struct ray16 *rd,
-                                uint32_t open, uint32_t ids[LB_MAX_TEST], int *n) {
+BVH16_FN bool shadow_candidates(const struct light_buffer *b, const struct ray16 *rd, uint32_t open,
+                                uint32_t ids[LB_MAX_TEST], int *n) {
     int i0 = __builtin_ctz(open);
     const double at[3] = {b->at.x, b->at.y, b->at.z};
     double r0[3], m0[3];
@@ -506,9 +506,11 @@ BVH16_FN bool shadow_candidates(const struct light_buffer *b, const struct ray16
     if (!(ca0 > 0)) return false;
     __m128d lo = _mm_set1_pd(-INFINITY), hi = _mm_set1_pd(INFINITY);
     int32_t ij[2] = {0, 0};
-    if (f->nu) lb_span(f, _mm_mul_pd(_mm_set_pd(r0[cx], r0[bx]), _mm_set1_pd(1 / ca0)), ij, &lo, &hi);
+    if (f->nu)
+        lb_span(f, _mm_mul_pd(_mm_set_pd(r0[cx], r0[bx]), _mm_set1_pd(1 / ca0)), ij, &lo, &hi);
     double ulo = _mm_cvtsd_f64(lo), uhi = _mm_cvtsd_f64(hi);
-    double vlo = _mm_cvtsd_f64(_mm_unpackhi_pd(lo, lo)), vhi = _mm_cvtsd_f64(_mm_unpackhi_pd(hi, hi));
+    double vlo = _mm_cvtsd_f64(_mm_unpackhi_pd(lo, lo)),
+           vhi = _mm_cvtsd_f64(_mm_unpackhi_pd(hi, hi));
     int32_t ci = ij[0], cj = ij[1];
     __m512d zero = _mm512_setzero_pd(), reach = _mm512_set1_pd(b->reach);
     for (int h = 0; h < 16; h += 8) {
@@ -566,8 +568,8 @@ BVH16_FN uint32_t transmittance16(struct scene16 *q, const double tmax[16], uint
         struct bvh16_ray br;
         bvh16_ray_init(&br, &q->rd);
         __m512 tm = node_bounds16(q->tmax);
-        open &= ~(uint32_t)bvh16_walk(&s->tlas, NULL, 0, &br, &tm, (__mmask16)open, tlas_any, q,
-                                       false);
+        open &=
+            ~(uint32_t)bvh16_walk(&s->tlas, NULL, 0, &br, &tm, (__mmask16)open, tlas_any, q, false);
     }
     return open;
 }
@@ -639,8 +641,8 @@ void scene_transmittance16_soa(const rayd_scene *s, int light, const double o[3]
                                double out[3][16]) {
 #ifdef BVH16
     if (active && !s->brute && s->opaque && bvh16_available()) {
-        const struct light_buffer *b = light >= 0 && s->light_buffers ? &s->light_buffers[light]
-                                                                      : NULL;
+        const struct light_buffer *b =
+            light >= 0 && s->light_buffers ? &s->light_buffers[light] : NULL;
         transmittance16_soa(s, b, o, d, tmax, active, out);
         return;
     }

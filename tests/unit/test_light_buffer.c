@@ -154,8 +154,33 @@ static void test_buffer_built_where_sound(void) {
     rayd_scene_free(s);
 }
 
+/* Buffers are bounded: at most 32 lights get one (the rest walk the BVH,
+ * with the same answers). */
+static void test_buffers_bounded(void) {
+    static char lights[1 << 12], json[1 << 16];
+    size_t at = 0;
+    for (int i = 0; i < 40; i++)
+        at += (size_t)snprintf(
+            lights + at, sizeof lights - at,
+            "%s{\"type\": \"point\", \"position\": [%d,20,%d], \"intensity\": 0.02}", i ? "," : "",
+            i - 20, 20 - i);
+    cloud_scene(json, sizeof json, 30, lights);
+    rayd_scene *s = scene_from(json);
+    CHECK(s != NULL, "scene parses");
+    if (!s) return;
+    int ok = 0;
+    for (int i = 0; s->light_buffers && i < s->nlights; i++) ok += s->light_buffers[i].ok;
+    CHECK(ok == 32, "%d of 40 lights have a buffer", ok);
+    uint64_t x = 3;
+    int differ = 0, blocked = 0;
+    for (int l = 30; l < 40; l += 9) differ += packets_differ(s, l, 300, 0.01, &x, &blocked);
+    CHECK(differ == 0, "%d shadow rays differ from the one-ray answer", differ);
+    rayd_scene_free(s);
+}
+
 int main(void) {
     RUN(test_shadow_packets_match_one_ray);
     RUN(test_buffer_built_where_sound);
+    RUN(test_buffers_bounded);
     CHECK_EXIT();
 }
