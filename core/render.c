@@ -153,7 +153,7 @@ static void put_block(uint8_t *dst, size_t stride, const union block_colours *c,
     else
 #endif
         for (int k = 0; k < 48; k++) /* every lane set: by the integrator or to 0 */
-            b[k] = srgb8(c->d[k]); // NOLINT(clang-analyzer-core.CallAndMessage)
+            b[k] = srgb8(c->d[k]);   // NOLINT(clang-analyzer-core.CallAndMessage)
     for (int row = 0; row < h; row++)
         memcpy(dst + (size_t)row * stride, b + 12 * row, (size_t)w * 3);
 }
@@ -212,7 +212,7 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h,
     int n = s->rs.samples;
     vec3 acc[16];
     union block_colours c; /* the lanes outside the block stay 0 */
-    struct ray16 rs; /* the sample rays, when not through the centres: set below */
+    struct ray16 rs;       /* the sample rays, when not through the centres: set below */
     // cppcheck-suppress uninitvar
     const struct ray16 *r = centre ? centre : &rs;
     struct rng_key key[16];

@@ -86,6 +86,34 @@ static void lane_taken(struct scene16 *q, int i, const struct nearest *c) {
     q->kept &= ~(1u << i);
 }
 
+/* sphere_roots's terms for rays 8h..8h+7 of rd against untransformed
+ * sphere o, the one-ray code's double operations: oc = o - centre, b =
+ * oc . d, c = oc . oc - r2 (r2 the squared radius), nb = -b and the
+ * discriminant r2 - |oc - b d|^2 (d is a unit vector). */
+BVH16_INLINE void sphere16_terms(const struct ray16 *rd, const struct object *o, int h, __m512d *b,
+                                 __m512d *c, __m512d *nb, __m512d *disc) {
+    const vec3 c3 = o->u.sphere.center;
+    const double cen[3] = {c3.x, c3.y, c3.z}, rad = o->u.sphere.radius;
+    __m512d oc[3], d[3], hv[3];
+    __m512d r2 = _mm512_set1_pd(rad * rad);
+    for (int k = 0; k < 3; k++) {
+        oc[k] = _mm512_sub_pd(_mm512_loadu_pd(rd->o[k] + 8 * h), _mm512_set1_pd(cen[k]));
+        d[k] = _mm512_loadu_pd(rd->d[k] + 8 * h);
+    }
+    *b = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(oc[0], d[0]), _mm512_mul_pd(oc[1], d[1])),
+                       _mm512_mul_pd(oc[2], d[2]));
+    *c = _mm512_sub_pd(
+        _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(oc[0], oc[0]), _mm512_mul_pd(oc[1], oc[1])),
+                      _mm512_mul_pd(oc[2], oc[2])),
+        r2);
+    *nb = _mm512_castsi512_pd(
+        _mm512_xor_si512(_mm512_castpd_si512(*b), _mm512_set1_epi64(INT64_MIN))); /* -b */
+    for (int k = 0; k < 3; k++) hv[k] = _mm512_add_pd(oc[k], _mm512_mul_pd(d[k], *nb));
+    *disc = _mm512_sub_pd(
+        r2, _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(hv[0], hv[0]), _mm512_mul_pd(hv[1], hv[1])),
+                          _mm512_mul_pd(hv[2], hv[2])));
+}
+
 /* sphere_nearest of untransformed sphere o for the rays in lanes, 16 at
  * once: the same double operations lane by lane (sphere_roots's formula,
  * IEEE square root and division).  Returns the rays that hit before their
@@ -93,33 +121,15 @@ static void lane_taken(struct scene16 *q, int i, const struct nearest *c) {
  * are left in *odd for the one-ray code, whose fmin treats NaN its own way. */
 BVH16_FN uint32_t sphere16(const struct ray16 *rd, const struct object *o, const double bound[16],
                            uint32_t lanes, double t_out[16], uint32_t *odd) {
-    const vec3 c3 = o->u.sphere.center;
-    const double cen[3] = {c3.x, c3.y, c3.z};
-    double rad = o->u.sphere.radius;
-    __m512d r2 = _mm512_set1_pd(rad * rad), zero = _mm512_setzero_pd();
+    __m512d zero = _mm512_setzero_pd();
     __m512i sign = _mm512_set1_epi64(INT64_MIN);
     uint32_t hit = 0;
     *odd = 0;
     for (int h = 0; h < 2; h++) {
         __mmask8 lm = (__mmask8)(lanes >> 8 * h);
         if (!lm) continue;
-        __m512d oc[3], d[3];
-        for (int k = 0; k < 3; k++) {
-            oc[k] = _mm512_sub_pd(_mm512_loadu_pd(rd->o[k] + 8 * h), _mm512_set1_pd(cen[k]));
-            d[k] = _mm512_loadu_pd(rd->d[k] + 8 * h);
-        }
-        __m512d b = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(oc[0], d[0]), _mm512_mul_pd(oc[1], d[1])),
-                                  _mm512_mul_pd(oc[2], d[2]));
-        __m512d c = _mm512_sub_pd(
-            _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(oc[0], oc[0]), _mm512_mul_pd(oc[1], oc[1])),
-                          _mm512_mul_pd(oc[2], oc[2])),
-            r2);
-        __m512d nb = _mm512_castsi512_pd(_mm512_xor_si512(_mm512_castpd_si512(b), sign)); /* -b */
-        __m512d hv[3];
-        for (int k = 0; k < 3; k++) hv[k] = _mm512_add_pd(oc[k], _mm512_mul_pd(d[k], nb));
-        __m512d disc = _mm512_sub_pd(
-            r2, _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(hv[0], hv[0]), _mm512_mul_pd(hv[1], hv[1])),
-                              _mm512_mul_pd(hv[2], hv[2])));
+        __m512d b, c, nb, disc;
+        sphere16_terms(rd, o, h, &b, &c, &nb, &disc);
         __mmask8 in = lm & _mm512_cmp_pd_mask(disc, zero, _CMP_NLT_UQ); /* !(disc < 0) */
         if (!in) continue;
         __m512i sq = _mm512_castpd_si512(_mm512_sqrt_pd(disc));
@@ -150,33 +160,14 @@ BVH16_FN uint32_t sphere16(const struct ray16 *rd, const struct object *o, const
  * (the factors stand far above the rounding of the division it spares). */
 BVH16_FN uint32_t sphere16_any(const struct ray16 *rd, const struct object *o,
                                const double bound[16], uint32_t lanes, uint32_t *rest) {
-    const vec3 c3 = o->u.sphere.center;
-    const double cen[3] = {c3.x, c3.y, c3.z};
-    double rad = o->u.sphere.radius;
-    __m512d r2 = _mm512_set1_pd(rad * rad), zero = _mm512_setzero_pd();
+    __m512d zero = _mm512_setzero_pd();
     uint32_t hit = 0;
     *rest = 0;
     for (int h = 0; h < 2; h++) {
         __mmask8 lm = (__mmask8)(lanes >> 8 * h);
         if (!lm) continue;
-        __m512d oc[3], d[3];
-        for (int k = 0; k < 3; k++) {
-            oc[k] = _mm512_sub_pd(_mm512_loadu_pd(rd->o[k] + 8 * h), _mm512_set1_pd(cen[k]));
-            d[k] = _mm512_loadu_pd(rd->d[k] + 8 * h);
-        }
-        __m512d b =
-            _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(oc[0], d[0]), _mm512_mul_pd(oc[1], d[1])),
-                          _mm512_mul_pd(oc[2], d[2]));
-        __m512d c = _mm512_sub_pd(
-            _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(oc[0], oc[0]), _mm512_mul_pd(oc[1], oc[1])),
-                          _mm512_mul_pd(oc[2], oc[2])),
-            r2);
-        __m512d nb = _mm512_sub_pd(zero, b);
-        __m512d hv[3];
-        for (int k = 0; k < 3; k++) hv[k] = _mm512_add_pd(oc[k], _mm512_mul_pd(d[k], nb));
-        __m512d disc = _mm512_sub_pd(r2, _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(hv[0], hv[0]),
-                                                                     _mm512_mul_pd(hv[1], hv[1])),
-                                                       _mm512_mul_pd(hv[2], hv[2])));
+        __m512d b, c, nb, disc;
+        sphere16_terms(rd, o, h, &b, &c, &nb, &disc);
         __mmask8 in = lm & _mm512_cmp_pd_mask(disc, zero, _CMP_NLT_UQ); /* !(disc < 0) */
         __mmask8 outside = _mm512_cmp_pd_mask(c, _mm512_set1_pd(1e-100), _CMP_GT_OQ) &
                            _mm512_cmp_pd_mask(c, _mm512_set1_pd(1e100), _CMP_LT_OQ);
