@@ -152,9 +152,10 @@ static void face_sort(struct light_face *f, uint32_t *ids, const double *dist) {
     for (int32_t c = 0; c < f->nu * f->nv; c++)
         for (uint32_t k = f->start[c] + 1; k < f->start[c + 1]; k++)
             for (uint32_t j = k; j > f->start[c]; j--) {
-                uint32_t a = ids[j - 1], b = ids[j];
-                if (dist[a] < dist[b] || (dist[a] == dist[b] && a < b)) break;
-                ids[j - 1] = b, ids[j] = a;
+                uint32_t prev = ids[j - 1], cur = ids[j];
+                double dp = dist[prev], dc = dist[cur];
+                if (dp < dc || (dp == dc && prev < cur)) break;
+                ids[j - 1] = cur, ids[j] = prev;
             }
 }
 
