@@ -18,17 +18,10 @@
  *     through the light and the origin by about 1e-9 of the origin's size;
  *     seen from the light, at an object at least `near` away, that is an
  *     angle LB_MARGIN covers while the origin lies within `reach`
- *     (set in buffer_build); packets from farther out walk the BVH;
+ *     (light_buffer_reach); packets from farther out walk the BVH;
  *   - a light with an object's box around it or next to it gets no buffer.
  * Each face covers only the rectangle its objects cover, in up to LB_CELLS
  * x LB_CELLS cells; lanes outside it meet no object.
- *
- * The camera of a perspective view is such a point too (POV-Ray's vista
- * buffer): every camera ray leaves it, so the cell of its direction names
- * all the objects it can meet, and a block of camera rays that sees only
- * the floor tests no object at all.  A cell lists its objects nearest the
- * point first, with each object's distance: a box farther than every
- * ray's hit so far cannot hold a nearer one.
  */
 #include "light_buffer.h"
 
@@ -148,23 +141,9 @@ static void face_fill(struct light_face *f, int fi, const struct aabb *rel, int3
     }
 }
 
-/* Each cell's objects nearest the point first (by index on a tie), so a
- * walk down a list can stop where its rays' hits are nearer still. */
-static void face_sort(struct light_face *f, uint32_t *ids, const double *dist) {
-    for (int32_t c = 0; c < f->nu * f->nv; c++)
-        for (uint32_t k = f->start[c] + 1; k < f->start[c + 1]; k++)
-            for (uint32_t j = k; j > f->start[c]; j--) {
-                uint32_t prev = ids[j - 1], cur = ids[j];
-                double dp = dist[prev], dc = dist[cur];
-                if (dp < dc || (dp == dc && prev < cur)) break;
-                ids[j - 1] = cur, ids[j] = prev;
-            }
-}
-
 static void buffer_free(struct light_buffer *b) {
     for (int f = 0; f < 6; f++) free(b->face[f].start);
     free(b->ids);
-    free(b->dist);
     memset(b, 0, sizeof *b);
 }
 
@@ -175,22 +154,14 @@ static void buffer_free(struct light_buffer *b) {
 static bool buffer_build(struct light_buffer *b, vec3 p, const struct aabb *rel, int32_t n,
                          size_t *budget) {
     double near = INFINITY;
-    if (!(b->dist = malloc(sizeof *b->dist * (size_t)n))) return false;
     for (int32_t k = 0; k < n; k++) {
-        if (!box_finite(&rel[k])) {
-            buffer_free(b);
-            return true;
-        }
-        b->dist[k] = box_distance(rel[k].lo, rel[k].hi);
-        near = fmin(near, b->dist[k]);
+        if (!box_finite(&rel[k])) return true;
+        near = fmin(near, box_distance(rel[k].lo, rel[k].hi));
     }
     /* light_buffer.h's reach: within it a shadow ray strays from its line by
      * far less than LB_MARGIN sees at distance near */
     double reach = near * 1e3 - 1 - 1e-5 * v3_maxabs(p);
-    if (!(reach > 0) || !(near > 1e-6 * (1 + v3_maxabs(p)))) {
-        buffer_free(b);
-        return true;
-    }
+    if (!(reach > 0) || !(near > 1e-6 * (1 + v3_maxabs(p)))) return true;
     size_t total = 0;
     for (int f = 0; f < 6; f++) {
         if (face_count(&b->face[f], f, rel, n, &total, *budget)) continue;
@@ -211,7 +182,6 @@ static bool buffer_build(struct light_buffer *b, vec3 p, const struct aabb *rel,
         if (!fc->nu) continue;
         uint32_t count = fc->start[fc->nu * fc->nv];
         face_fill(fc, f, rel, n, b->ids, base, fill);
-        face_sort(fc, b->ids, b->dist);
         base += count;
     }
     free(fill);
@@ -221,18 +191,11 @@ static bool buffer_build(struct light_buffer *b, vec3 p, const struct aabb *rel,
     return true;
 }
 
-/* The buffer of a point at p over the objects' boxes box[] (rel[] is
- * room for them relative to p). */
-static bool buffer_at(struct light_buffer *b, vec3 p, const struct aabb *box, struct aabb *rel,
-                      int32_t n, size_t *ids) {
-    for (int32_t k = 0; k < n; k++)
-        rel[k] = (struct aabb){v3_sub(box[k].lo, p), v3_sub(box[k].hi, p)};
-    return buffer_build(b, p, rel, n, ids);
-}
-
 enum rayd_status light_buffers_build(rayd_scene *s, struct rayd_error *err) {
-    if (s->nobjs < 2 || s->nobjs > LB_MAX_OBJS) return RAYD_OK;
-    s->light_buffers = calloc((size_t)s->nlights + 1, sizeof *s->light_buffers);
+    bool point = false;
+    for (int i = 0; i < s->nlights; i++) point |= s->lights[i].kind == LIGHT_POINT;
+    if (!point || s->nobjs < 2 || s->nobjs > LB_MAX_OBJS) return RAYD_OK;
+    s->light_buffers = calloc((size_t)s->nlights, sizeof *s->light_buffers);
     struct aabb *box = malloc(sizeof *box * (size_t)s->nobjs);
     struct aabb *rel = malloc(sizeof *rel * (size_t)s->nobjs);
     bool ok = s->light_buffers && box && rel;
@@ -241,13 +204,14 @@ enum rayd_status light_buffers_build(rayd_scene *s, struct rayd_error *err) {
             box[k] = (struct aabb){v3(-INFINITY, -INFINITY, -INFINITY),
                                    v3(INFINITY, INFINITY, INFINITY)};
     size_t ids = LB_MAX_IDS;
-    if (ok && !s->cam.ortho) /* the eye's, for the camera rays, first */
-        ok = buffer_at(&s->light_buffers[s->nlights], s->cam.pos, box, rel, s->nobjs, &ids);
     int built = 0,
         most = LB_MAX_PAIRS / s->nobjs < LB_MAX_LIGHTS ? LB_MAX_PAIRS / s->nobjs : LB_MAX_LIGHTS;
     for (int i = 0; ok && i < s->nlights && built < most; i++) {
         if (s->lights[i].kind != LIGHT_POINT) continue;
-        ok = buffer_at(&s->light_buffers[i], s->lights[i].position, box, rel, s->nobjs, &ids);
+        vec3 p = s->lights[i].position;
+        for (int32_t k = 0; k < s->nobjs; k++)
+            rel[k] = (struct aabb){v3_sub(box[k].lo, p), v3_sub(box[k].hi, p)};
+        ok = buffer_build(&s->light_buffers[i], p, rel, s->nobjs, &ids);
         built++;
     }
     free(box);
@@ -259,7 +223,7 @@ enum rayd_status light_buffers_build(rayd_scene *s, struct rayd_error *err) {
 
 size_t light_buffers_bytes(const rayd_scene *s) {
     size_t bytes = 0;
-    for (int i = 0; s->light_buffers && i <= s->nlights; i++) {
+    for (int i = 0; s->light_buffers && i < s->nlights; i++) {
         const struct light_buffer *b = &s->light_buffers[i];
         bytes += sizeof *b;
         for (int f = 0; b->ok && f < 6; f++) {
@@ -267,14 +231,13 @@ size_t light_buffers_bytes(const rayd_scene *s) {
             bytes += cells ? sizeof *b->face[f].start * (cells + 1) : 0;
             if (cells) bytes += sizeof *b->ids * (b->face[f].start[cells] - b->face[f].start[0]);
         }
-        bytes += b->ok ? sizeof *b->dist * (size_t)s->nobjs : 0;
     }
     return bytes;
 }
 
 void light_buffers_free(rayd_scene *s) {
     if (!s->light_buffers) return;
-    for (int i = 0; i <= s->nlights; i++) buffer_free(&s->light_buffers[i]);
+    for (int i = 0; i < s->nlights; i++) buffer_free(&s->light_buffers[i]);
     free(s->light_buffers);
     s->light_buffers = NULL;
 }

@@ -29,14 +29,11 @@ struct light_buffer {
     double reach;              /* valid for shadow rays leaving points within this box
                                   around the origin (max |coordinate|) */
     struct light_face face[6]; /* 2 * axis + (sign < 0) */
-    uint32_t *ids;             /* indices into the scene's objs, each cell's nearest first */
-    double *dist;              /* each object's box's distance from the point */
+    uint32_t *ids;             /* indices into the scene's objs */
 };
 
 /* Builds the buffers of the scene's point lights into s->light_buffers
- * (one per light; ok false for other lights, or where not sound or over
- * the bounds), and at s->light_buffers[nlights] the eye's: the camera's
- * position as the point, for the camera rays (a perspective camera).
+ * (one per light; ok false for other lights, or where not worth it).
  * Fails only when out of memory. */
 enum rayd_status light_buffers_build(rayd_scene *s, struct rayd_error *err);
 void light_buffers_free(rayd_scene *s);

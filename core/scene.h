@@ -55,8 +55,7 @@ struct rayd_scene {
     struct xform *xforms;  /* placements that objects refer to */
     int32_t nxforms;
     struct bvh4 tlas;      /* over objs */
-    struct light_buffer *light_buffers; /* per light and the eye: objs by direction
-                                           (light_buffer.c) */
+    struct light_buffer *light_buffers; /* per light, objs by direction (light_buffer.c) */
     int32_t *emitters;     /* path tracer: emissive spheres, discs, quads of objs to sample */
     int nemitters;
     bool opaque;           /* no material lets light through: shadows are 0 or 1 */

@@ -15,7 +15,6 @@
  * one.  The shadow rays of a point light ask its light buffer
  * (light_buffer.c) first: when their origins share a few cells of it, the
  * objects listed there are all they can meet, and the walk is skipped.
- * Camera rays ask the eye's buffer the same way, by their directions.
  * Without AVX-512 everything goes one by one.
  *
  * The rays come as an array of rays or, from the renderer, as structure of
@@ -395,107 +394,6 @@ BVH16_FN __mmask16 tlas_any(void *ctx, uint32_t first, uint32_t count, __mmask16
     return blocked;
 }
 
-/* For face coordinates (u, v) = w of face f: the 2 x 2 cells nearest w,
- * from cell ij[0], ij[1] on, and the stretch [lo, hi) of u and of v they
- * cover -- unbounded on the side of cells beyond the rectangle.  Without
- * a branch: which cells is as good as a coin toss. */
-BVH16_FN void lb_span(const struct light_face *f, __m128d w, int32_t ij[2], __m128d *lo,
-                      __m128d *hi) {
-    __m128d w0 = _mm_set_pd(f->v0, f->u0), sw = _mm_set_pd(f->sv, f->su);
-    __m128d cw = _mm_set_pd(f->cv, f->cu), n = _mm_set_pd(f->nv, f->nu), two = _mm_set1_pd(2);
-    /* the cell w is in, less one if w is in its lower half */
-    __m128d c = _mm_floor_pd(_mm_sub_pd(_mm_mul_pd(_mm_sub_pd(w, w0), sw), _mm_set1_pd(0.5)));
-    c = _mm_min_pd(_mm_max_pd(c, _mm_set1_pd(-2)), n);
-    __m128d at_lo = _mm_add_pd(w0, _mm_mul_pd(c, cw));
-    __m128d at_hi = _mm_add_pd(w0, _mm_mul_pd(_mm_add_pd(c, two), cw));
-    *lo = _mm_blendv_pd(at_lo, _mm_set1_pd(-INFINITY), _mm_cmplt_pd(c, _mm_setzero_pd()));
-    *hi = _mm_blendv_pd(at_hi, _mm_set1_pd(INFINITY), _mm_cmpgt_pd(_mm_add_pd(c, two), n));
-    __m128i k = _mm_cvttpd_epi32(c);
-    ij[0] = _mm_cvtsi128_si32(k), ij[1] = _mm_cvtsi128_si32(_mm_srli_si128(k, 4));
-}
-
-/* The objects of buffer b (light_buffer.h) that the rays in lanes open of
- * rd can meet, into ids[0..*n) (at most LB_MAX_TEST): those of the 2 x 2
- * cells around the first ray's (or the stretch beyond the rectangle, which
- * holds none) when all the rays' directions seen from b's point fall in
- * them through one face.  Shadow rays (eye false) are seen by their
- * origins, and must leave from within the buffer's reach; rays from the
- * point itself (eye true: camera rays) by their directions.  False
- * otherwise: then the BVH must be walked.  The rays are checked against the
- * cells' edges by multiplying, not dividing: a few roundings off at an
- * edge, which LB_MARGIN covers. */
-#define LB_MAX_TEST 16
-BVH16_FN bool buffer_candidates(const struct light_buffer *b, const struct ray16 *rd, uint32_t open,
-                                bool eye, uint32_t ids[LB_MAX_TEST], int *n) {
-    int i0 = __builtin_ctz(open);
-    const double at[3] = {b->at.x, b->at.y, b->at.z};
-    double r0[3], m0[3];
-    for (int k = 0; k < 3; k++) {
-        r0[k] = eye ? rd->d[k][i0] : rd->o[k][i0] - at[k];
-        m0[k] = fabs(r0[k]);
-    }
-    int a = m0[0] >= m0[1] && m0[0] >= m0[2] ? 0 : m0[1] >= m0[2] ? 1 : 2;
-    int bx = (a + 1) % 3, cx = (a + 2) % 3;
-    double sg = r0[a] < 0 ? -1.0 : 1.0, ca0 = r0[a] * sg;
-    const struct light_face *f = &b->face[2 * a + (r0[a] < 0)];
-    if (!(ca0 > 0)) return false;
-    __m128d lo = _mm_set1_pd(-INFINITY), hi = _mm_set1_pd(INFINITY);
-    int32_t ij[2] = {0, 0};
-    if (f->nu)
-        lb_span(f, _mm_mul_pd(_mm_set_pd(r0[cx], r0[bx]), _mm_set1_pd(1 / ca0)), ij, &lo, &hi);
-    double ulo = _mm_cvtsd_f64(lo), uhi = _mm_cvtsd_f64(hi);
-    double vlo = _mm_cvtsd_f64(_mm_unpackhi_pd(lo, lo)),
-           vhi = _mm_cvtsd_f64(_mm_unpackhi_pd(hi, hi));
-    int32_t ci = ij[0], cj = ij[1];
-    __m512d zero = _mm512_setzero_pd(), reach = _mm512_set1_pd(b->reach);
-    for (int h = 0; h < 16; h += 8) {
-        __mmask8 lm = (__mmask8)(open >> h);
-        if (!lm) continue;
-        __m512d r[3];
-        __mmask8 ok = lm;
-        for (int k = 0; k < 3; k++) {
-            __m512d o = _mm512_loadu_pd(rd->o[k] + h), p = _mm512_set1_pd(at[k]);
-            if (eye) {
-                ok &= _mm512_cmp_pd_mask(o, p, _CMP_EQ_OQ);
-                r[k] = _mm512_loadu_pd(rd->d[k] + h);
-            } else {
-                ok &= _mm512_cmp_pd_mask(_mm512_abs_pd(o), reach, _CMP_LE_OQ);
-                r[k] = _mm512_sub_pd(o, p);
-            }
-        }
-        __m512d ca = _mm512_mul_pd(r[a], _mm512_set1_pd(sg));
-        ok &= _mm512_cmp_pd_mask(ca, zero, _CMP_GT_OQ) &
-              _mm512_cmp_pd_mask(ca, _mm512_abs_pd(r[bx]), _CMP_GE_OQ) &
-              _mm512_cmp_pd_mask(ca, _mm512_abs_pd(r[cx]), _CMP_GE_OQ) &
-              _mm512_cmp_pd_mask(r[bx], _mm512_mul_pd(_mm512_set1_pd(ulo), ca), _CMP_GE_OQ) &
-              _mm512_cmp_pd_mask(r[bx], _mm512_mul_pd(_mm512_set1_pd(uhi), ca), _CMP_LT_OQ) &
-              _mm512_cmp_pd_mask(r[cx], _mm512_mul_pd(_mm512_set1_pd(vlo), ca), _CMP_GE_OQ) &
-              _mm512_cmp_pd_mask(r[cx], _mm512_mul_pd(_mm512_set1_pd(vhi), ca), _CMP_LT_OQ);
-        if (ok != lm) return false;
-    }
-    *n = 0;
-    for (int32_t j = cj < 0 ? 0 : cj; f->nu && j <= cj + 1 && j < f->nv; j++)
-        for (int32_t i = ci < 0 ? 0 : ci; i <= ci + 1 && i < f->nu; i++) {
-            int32_t cell = j * f->nu + i;
-            for (uint32_t k = f->start[cell]; k < f->start[cell + 1]; k++) {
-                int seen = 0;
-                while (seen < *n && ids[seen] != b->ids[k]) seen++;
-                if (seen < *n) continue;
-                if (*n == LB_MAX_TEST) return false;
-                ids[(*n)++] = b->ids[k];
-            }
-        }
-    return true;
-}
-
-/* How far a ray of a packet from the eye may still find a hit: past the
- * farthest bound by more than the rounding of a hit's t (the rays are unit
- * vectors, so a box at distance D is met at t >= D). */
-BVH16_FN double farthest16(const double tmax[16]) {
-    __m512d m = _mm512_max_pd(_mm512_loadu_pd(tmax), _mm512_loadu_pd(tmax + 8));
-    return _mm512_reduce_max_pd(m) * (1 + 1e-9);
-}
-
 /* The nearest hits of the rays in q->rd: into h, or for the untransformed
  * spheres and planes into simple when given. */
 BVH16_FN uint32_t intersect16(struct scene16 *q, const double tmax[16], uint32_t active,
@@ -514,15 +412,8 @@ BVH16_FN uint32_t intersect16(struct scene16 *q, const double tmax[16], uint32_t
     q->base = s->planes, q->rank0 = 0;
     for (int32_t k = 0; k < s->nplanes; k++) visit_nearest16(q, &s->planes[k], active);
     q->base = s->objs, q->rank0 = s->nplanes;
-    const struct light_buffer *eye = s->light_buffers ? &s->light_buffers[s->nlights] : NULL;
-    uint32_t ids[LB_MAX_TEST];
-    int n;
     if (s->nobjs == 1) {
         visit_nearest16(q, &s->objs[0], active);
-    } else if (eye && eye->ok && buffer_candidates(eye, &q->rd, active, true, ids, &n)) {
-        for (int k = 0; k < n; k++) /* each cell's nearest first: the later ones are */
-            if (eye->dist[ids[k]] <= farthest16(q->tmax)) /* mostly behind the first hits */
-                visit_nearest16(q, &s->objs[ids[k]], active);
     } else if (s->nobjs > 1) {
         struct bvh16_ray br;
         bvh16_ray_init(&br, &q->rd);
@@ -565,6 +456,89 @@ BVH16_FN uint32_t intersect16_soa(const rayd_scene *s, const struct ray16 *r, co
     return intersect16(&q, tmax, active, h, simple);
 }
 
+/* For face coordinates (u, v) = w of face f: the 2 x 2 cells nearest w,
+ * from cell ij[0], ij[1] on, and the stretch [lo, hi) of u and of v they
+ * cover -- unbounded on the side of cells beyond the rectangle.  Without
+ * a branch: which cells is as good as a coin toss. */
+BVH16_FN void lb_span(const struct light_face *f, __m128d w, int32_t ij[2], __m128d *lo,
+                      __m128d *hi) {
+    __m128d w0 = _mm_set_pd(f->v0, f->u0), sw = _mm_set_pd(f->sv, f->su);
+    __m128d cw = _mm_set_pd(f->cv, f->cu), n = _mm_set_pd(f->nv, f->nu), two = _mm_set1_pd(2);
+    /* the cell w is in, less one if w is in its lower half */
+    __m128d c = _mm_floor_pd(_mm_sub_pd(_mm_mul_pd(_mm_sub_pd(w, w0), sw), _mm_set1_pd(0.5)));
+    c = _mm_min_pd(_mm_max_pd(c, _mm_set1_pd(-2)), n);
+    __m128d at_lo = _mm_add_pd(w0, _mm_mul_pd(c, cw));
+    __m128d at_hi = _mm_add_pd(w0, _mm_mul_pd(_mm_add_pd(c, two), cw));
+    *lo = _mm_blendv_pd(at_lo, _mm_set1_pd(-INFINITY), _mm_cmplt_pd(c, _mm_setzero_pd()));
+    *hi = _mm_blendv_pd(at_hi, _mm_set1_pd(INFINITY), _mm_cmpgt_pd(_mm_add_pd(c, two), n));
+    __m128i k = _mm_cvttpd_epi32(c);
+    ij[0] = _mm_cvtsi128_si32(k), ij[1] = _mm_cvtsi128_si32(_mm_srli_si128(k, 4));
+}
+
+/* The objects of light buffer b (light_buffer.h) that can stop the shadow
+ * rays in lanes open of rd, into ids[0..*n) (at most LB_MAX_TEST): those
+ * of the 2 x 2 cells around the first ray's (or the stretch beyond the
+ * rectangle, which holds none) when all the rays' origins, seen from the
+ * light through one face, fall in them, and the rays leave from within the
+ * buffer's reach.  False otherwise: then the BVH must be walked.  The rays
+ * are checked against the cells' edges by multiplying, not dividing: a few
+ * roundings off at an edge, which LB_MARGIN covers. */
+#define LB_MAX_TEST 16
+BVH16_FN bool shadow_candidates(const struct light_buffer *b, const struct ray16 *rd, uint32_t open,
+                                uint32_t ids[LB_MAX_TEST], int *n) {
+    int i0 = __builtin_ctz(open);
+    const double at[3] = {b->at.x, b->at.y, b->at.z};
+    double r0[3], m0[3];
+    for (int k = 0; k < 3; k++) r0[k] = rd->o[k][i0] - at[k], m0[k] = fabs(r0[k]);
+    int a = m0[0] >= m0[1] && m0[0] >= m0[2] ? 0 : m0[1] >= m0[2] ? 1 : 2;
+    int bx = (a + 1) % 3, cx = (a + 2) % 3;
+    double sg = r0[a] < 0 ? -1.0 : 1.0, ca0 = r0[a] * sg;
+    const struct light_face *f = &b->face[2 * a + (r0[a] < 0)];
+    if (!(ca0 > 0)) return false;
+    __m128d lo = _mm_set1_pd(-INFINITY), hi = _mm_set1_pd(INFINITY);
+    int32_t ij[2] = {0, 0};
+    if (f->nu)
+        lb_span(f, _mm_mul_pd(_mm_set_pd(r0[cx], r0[bx]), _mm_set1_pd(1 / ca0)), ij, &lo, &hi);
+    double ulo = _mm_cvtsd_f64(lo), uhi = _mm_cvtsd_f64(hi);
+    double vlo = _mm_cvtsd_f64(_mm_unpackhi_pd(lo, lo)),
+           vhi = _mm_cvtsd_f64(_mm_unpackhi_pd(hi, hi));
+    int32_t ci = ij[0], cj = ij[1];
+    __m512d zero = _mm512_setzero_pd(), reach = _mm512_set1_pd(b->reach);
+    for (int h = 0; h < 16; h += 8) {
+        __mmask8 lm = (__mmask8)(open >> h);
+        if (!lm) continue;
+        __m512d r[3];
+        __mmask8 ok = lm;
+        for (int k = 0; k < 3; k++) {
+            __m512d o = _mm512_loadu_pd(rd->o[k] + h);
+            ok &= _mm512_cmp_pd_mask(_mm512_abs_pd(o), reach, _CMP_LE_OQ);
+            r[k] = _mm512_sub_pd(o, _mm512_set1_pd(at[k]));
+        }
+        __m512d ca = _mm512_mul_pd(r[a], _mm512_set1_pd(sg));
+        ok &= _mm512_cmp_pd_mask(ca, zero, _CMP_GT_OQ) &
+              _mm512_cmp_pd_mask(ca, _mm512_abs_pd(r[bx]), _CMP_GE_OQ) &
+              _mm512_cmp_pd_mask(ca, _mm512_abs_pd(r[cx]), _CMP_GE_OQ) &
+              _mm512_cmp_pd_mask(r[bx], _mm512_mul_pd(_mm512_set1_pd(ulo), ca), _CMP_GE_OQ) &
+              _mm512_cmp_pd_mask(r[bx], _mm512_mul_pd(_mm512_set1_pd(uhi), ca), _CMP_LT_OQ) &
+              _mm512_cmp_pd_mask(r[cx], _mm512_mul_pd(_mm512_set1_pd(vlo), ca), _CMP_GE_OQ) &
+              _mm512_cmp_pd_mask(r[cx], _mm512_mul_pd(_mm512_set1_pd(vhi), ca), _CMP_LT_OQ);
+        if (ok != lm) return false;
+    }
+    *n = 0;
+    for (int32_t j = cj < 0 ? 0 : cj; f->nu && j <= cj + 1 && j < f->nv; j++)
+        for (int32_t i = ci < 0 ? 0 : ci; i <= ci + 1 && i < f->nu; i++) {
+            int32_t cell = j * f->nu + i;
+            for (uint32_t k = f->start[cell]; k < f->start[cell + 1]; k++) {
+                int seen = 0;
+                while (seen < *n && ids[seen] != b->ids[k]) seen++;
+                if (seen < *n) continue;
+                if (*n == LB_MAX_TEST) return false;
+                ids[(*n)++] = b->ids[k];
+            }
+        }
+    return true;
+}
+
 /* The shadow rays in q->rd: the mask of those that get through.  With
  * light buffer b (else NULL), the objects it names for them stand in for
  * the walk where it can name them. */
@@ -579,7 +553,7 @@ BVH16_FN uint32_t transmittance16(struct scene16 *q, const double tmax[16], uint
     for (int32_t k = 0; k < s->nplanes && open; k++) open &= ~visit_any16(q, &s->planes[k], open);
     if (open && s->nobjs == 1) {
         open &= ~visit_any16(q, &s->objs[0], open);
-    } else if (open && b && b->ok && buffer_candidates(b, &q->rd, open, false, ids, &n)) {
+    } else if (open && b && b->ok && shadow_candidates(b, &q->rd, open, ids, &n)) {
         for (int k = 0; k < n && open; k++) open &= ~visit_any16(q, &s->objs[ids[k]], open);
     } else if (open && s->nobjs > 1) {
         struct bvh16_ray br;

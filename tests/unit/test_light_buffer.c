@@ -6,7 +6,6 @@
 #include <stdlib.h>
 
 #include "bvh16.h"
-#include "camera.h"
 #include "check.h"
 #include "integrate.h"
 #include "light_buffer.h"
@@ -155,42 +154,6 @@ static void test_buffer_built_where_sound(void) {
     rayd_scene_free(s);
 }
 
-/* The eye's buffer stands in for the walk of camera rays: every hit of
- * every pixel's ray, packet against one ray, in a cloud that hides objects
- * behind objects. */
-static void test_camera_packets_match_one_ray(void) {
-    static char json[1 << 16];
-    cloud_scene(json, sizeof json, 120, "{\"type\": \"point\", \"position\": [0,30,0]}");
-    rayd_scene *s = scene_from(json);
-    CHECK(s != NULL, "scene parses");
-    if (!s) return;
-    CHECK(s->light_buffers && s->light_buffers[s->nlights].ok, "the eye has a buffer");
-    int differ = 0, hits = 0, w = 320, h = 240;
-    s->cam.n = w, s->cam.m = h, s->cam.tan_y = s->cam.tan_x * h / w;
-    for (int y = 0; y < h; y += 4)
-        for (int x = 0; x < w; x += 4) {
-            struct ray16 r;
-            struct hit hp[16];
-            struct hit16 hs;
-            cam_block_rays(&s->cam, x, y, &r);
-            uint32_t active = (x + y) % 24 ? 0xffffu : 0x0ff0u;
-            uint32_t got = scene_intersect16_soa(s, &r, scene_unbounded16, active, hp, &hs);
-            for (int i = 0; i < 16; i++) {
-                if (!(active >> i & 1)) continue;
-                ray ri = ray16_get(&r, i);
-                struct hit one;
-                bool hit = scene_intersect(s, &ri, INFINITY, &one);
-                struct hit p = hs.lanes >> i & 1 ? hit16_get(&hs, i) : hp[i];
-                differ +=
-                    hit != (bool)(got >> i & 1) || (hit && (one.t != p.t || one.leaf != p.leaf));
-                hits += hit;
-            }
-        }
-    CHECK(differ == 0, "%d camera rays differ from the one-ray hit", differ);
-    CHECK(hits > 2000, "only %d hits", hits);
-    rayd_scene_free(s);
-}
-
 /* Buffers are bounded: at most 32 lights get one (the rest walk the BVH,
  * with the same answers). */
 static void test_buffers_bounded(void) {
@@ -218,7 +181,6 @@ static void test_buffers_bounded(void) {
 int main(void) {
     RUN(test_shadow_packets_match_one_ray);
     RUN(test_buffer_built_where_sound);
-    RUN(test_camera_packets_match_one_ray);
     RUN(test_buffers_bounded);
     CHECK_EXIT();
 }
