@@ -18,7 +18,7 @@
  *     through the light and the origin by about 1e-9 of the origin's size;
  *     seen from the light, at an object at least `near` away, that is an
  *     angle LB_MARGIN covers while the origin lies within `reach`
- *     (light_buffer_reach); packets from farther out walk the BVH;
+ *     (set in buffer_build); packets from farther out walk the BVH;
  *   - a light with an object's box around it or next to it gets no buffer.
  * Each face covers only the rectangle its objects cover, in up to LB_CELLS
  * x LB_CELLS cells; lanes outside it meet no object.
