@@ -92,15 +92,22 @@ static double box_distance(vec3 lo, vec3 hi) {
     return v3_len(out);
 }
 
-/* Face f's rectangle, cells and their counts (start[k + 1] = objects in
- * cell k) over the objects' boxes rel[] (relative to the light), adding
- * the entries to *total; false when out of memory or when *total passes
- * budget (then it stops counting). */
-static bool face_count(struct light_face *f, int fi, const struct aabb *rel, int32_t n,
-                       size_t *total, size_t budget) {
+/* Room the build reuses from face to face and light to light: each
+ * object's rectangle on the face at hand, and a cursor per cell. */
+struct lb_scratch {
+    struct lb_rect *rect;
+    uint32_t *fill;
+};
+
+/* Face f's rectangle, cells and lists over the objects' boxes rel[]
+ * (relative to the light), taking their entries from *budget.  False when
+ * out of memory (*nomem set) or over the budget; either way the face may
+ * hold memory for buffer_free. */
+static bool face_build(struct light_face *f, int fi, const struct aabb *rel, int32_t n,
+                       struct lb_scratch *sc, size_t *budget, bool *nomem) {
     double u0 = INFINITY, u1 = -INFINITY, v0 = INFINITY, v1 = -INFINITY;
     for (int32_t k = 0; k < n; k++) {
-        struct lb_rect r = face_rect(fi, rel[k].lo, rel[k].hi);
+        struct lb_rect r = sc->rect[k] = face_rect(fi, rel[k].lo, rel[k].hi);
         if (!r.on) continue;
         u0 = fmin(u0, r.u0), u1 = fmax(u1, r.u1), v0 = fmin(v0, r.v0), v1 = fmax(v1, r.v1);
     }
@@ -109,41 +116,35 @@ static bool face_count(struct light_face *f, int fi, const struct aabb *rel, int
     f->u0 = u0, f->v0 = v0;
     f->su = LB_CELLS / (u1 - u0), f->sv = LB_CELLS / (v1 - v0);
     f->cu = 1 / f->su, f->cv = 1 / f->sv;
-    f->start = calloc((size_t)LB_CELLS * LB_CELLS + 1, sizeof *f->start);
-    if (!f->start) return false;
+    int32_t cells = f->nu * f->nv;
+    f->start = calloc((size_t)cells + 1, sizeof *f->start);
+    if (!f->start) return !(*nomem = true);
+    size_t total = 0; /* the counts, then the lists */
     for (int32_t k = 0; k < n; k++) {
-        struct lb_rect r = face_rect(fi, rel[k].lo, rel[k].hi);
-        if (!r.on) continue;
+        if (!sc->rect[k].on) continue;
         int32_t i0, i1, j0, j1;
-        face_cells(f, &r, &i0, &i1, &j0, &j1);
-        *total += (size_t)(i1 - i0 + 1) * (size_t)(j1 - j0 + 1);
-        if (*total > budget) return false;
+        face_cells(f, &sc->rect[k], &i0, &i1, &j0, &j1);
+        total += (size_t)(i1 - i0 + 1) * (size_t)(j1 - j0 + 1);
+        if (total > *budget) return false;
         for (int32_t j = j0; j <= j1; j++)
             for (int32_t i = i0; i <= i1; i++) f->start[j * f->nu + i + 1]++;
     }
-    for (int32_t k = 0; k < f->nu * f->nv; k++) f->start[k + 1] += f->start[k];
+    *budget -= total;
+    for (int32_t c = 0; c < cells; c++) f->start[c + 1] += f->start[c];
+    if (!(f->ids = malloc(sizeof *f->ids * (total + 1)))) return !(*nomem = true);
+    memcpy(sc->fill, f->start, sizeof *sc->fill * (size_t)cells);
+    for (int32_t k = 0; k < n; k++) {
+        if (!sc->rect[k].on) continue;
+        int32_t i0, i1, j0, j1;
+        face_cells(f, &sc->rect[k], &i0, &i1, &j0, &j1);
+        for (int32_t j = j0; j <= j1; j++)
+            for (int32_t i = i0; i <= i1; i++) f->ids[sc->fill[j * f->nu + i]++] = (uint32_t)k;
+    }
     return true;
 }
 
-/* Face f's lists into ids, from base on (start[] becomes absolute). */
-static void face_fill(struct light_face *f, int fi, const struct aabb *rel, int32_t n,
-                      uint32_t *ids, uint32_t base, uint32_t *fill) {
-    int32_t cells = f->nu * f->nv;
-    for (int32_t k = 0; k <= cells; k++) f->start[k] += base;
-    memcpy(fill, f->start, sizeof *fill * (size_t)cells);
-    for (int32_t k = 0; k < n; k++) {
-        struct lb_rect r = face_rect(fi, rel[k].lo, rel[k].hi);
-        if (!r.on) continue;
-        int32_t i0, i1, j0, j1;
-        face_cells(f, &r, &i0, &i1, &j0, &j1);
-        for (int32_t j = j0; j <= j1; j++)
-            for (int32_t i = i0; i <= i1; i++) ids[fill[j * f->nu + i]++] = (uint32_t)k;
-    }
-}
-
 static void buffer_free(struct light_buffer *b) {
-    for (int f = 0; f < 6; f++) free(b->face[f].start);
-    free(b->ids);
+    for (int f = 0; f < 6; f++) free(b->face[f].start), free(b->face[f].ids);
     memset(b, 0, sizeof *b);
 }
 
@@ -152,7 +153,7 @@ static void buffer_free(struct light_buffer *b) {
  * false when out of memory.  Leaves b->ok false where the buffer would not
  * be sound, or not fit. */
 static bool buffer_build(struct light_buffer *b, vec3 p, const struct aabb *rel, int32_t n,
-                         size_t *budget) {
+                         struct lb_scratch *sc, size_t *budget) {
     double near = INFINITY;
     for (int32_t k = 0; k < n; k++) {
         if (!box_finite(&rel[k])) return true;
@@ -162,29 +163,14 @@ static bool buffer_build(struct light_buffer *b, vec3 p, const struct aabb *rel,
      * far less than LB_MARGIN sees at distance near */
     double reach = near * 1e3 - 1 - 1e-5 * v3_maxabs(p);
     if (!(reach > 0) || !(near > 1e-6 * (1 + v3_maxabs(p)))) return true;
-    size_t total = 0;
+    size_t left = *budget;
+    bool nomem = false;
     for (int f = 0; f < 6; f++) {
-        if (face_count(&b->face[f], f, rel, n, &total, *budget)) continue;
-        bool nomem = total <= *budget;
+        if (face_build(&b->face[f], f, rel, n, sc, &left, &nomem)) continue;
         buffer_free(b);
         return !nomem;
     }
-    *budget -= total;
-    uint32_t *fill = malloc(sizeof *fill * (size_t)LB_CELLS * LB_CELLS);
-    b->ids = malloc(sizeof *b->ids * (total + 1));
-    if (!fill || !b->ids) {
-        free(fill);
-        return false;
-    }
-    uint32_t base = 0;
-    for (int f = 0; f < 6; f++) {
-        struct light_face *fc = &b->face[f];
-        if (!fc->nu) continue;
-        uint32_t count = fc->start[fc->nu * fc->nv];
-        face_fill(fc, f, rel, n, b->ids, base, fill);
-        base += count;
-    }
-    free(fill);
+    *budget = left;
     b->at = p;
     b->reach = reach;
     b->ok = true;
@@ -198,7 +184,9 @@ enum rayd_status light_buffers_build(rayd_scene *s, struct rayd_error *err) {
     s->light_buffers = calloc((size_t)s->nlights, sizeof *s->light_buffers);
     struct aabb *box = malloc(sizeof *box * (size_t)s->nobjs);
     struct aabb *rel = malloc(sizeof *rel * (size_t)s->nobjs);
-    bool ok = s->light_buffers && box && rel;
+    struct lb_scratch sc = {malloc(sizeof *sc.rect * (size_t)s->nobjs),
+                            malloc(sizeof *sc.fill * (size_t)LB_CELLS * LB_CELLS)};
+    bool ok = s->light_buffers && box && rel && sc.rect && sc.fill;
     for (int32_t k = 0; ok && k < s->nobjs; k++) /* an object without bounds: every direction */
         if (!scene_object_bounds(s, &s->objs[k], &box[k]))
             box[k] = (struct aabb){v3(-INFINITY, -INFINITY, -INFINITY),
@@ -211,11 +199,13 @@ enum rayd_status light_buffers_build(rayd_scene *s, struct rayd_error *err) {
         vec3 p = s->lights[i].position;
         for (int32_t k = 0; k < s->nobjs; k++)
             rel[k] = (struct aabb){v3_sub(box[k].lo, p), v3_sub(box[k].hi, p)};
-        ok = buffer_build(&s->light_buffers[i], p, rel, s->nobjs, &ids);
+        ok = buffer_build(&s->light_buffers[i], p, rel, s->nobjs, &sc, &ids);
         built++;
     }
     free(box);
     free(rel);
+    free(sc.rect);
+    free(sc.fill);
     if (ok) return RAYD_OK;
     light_buffers_free(s);
     return err_set(err, RAYD_E_NOMEM, NULL, "out of memory building the light buffers");
@@ -228,8 +218,9 @@ size_t light_buffers_bytes(const rayd_scene *s) {
         bytes += sizeof *b;
         for (int f = 0; b->ok && f < 6; f++) {
             size_t cells = (size_t)b->face[f].nu * (size_t)b->face[f].nv;
-            bytes += cells ? sizeof *b->face[f].start * (cells + 1) : 0;
-            if (cells) bytes += sizeof *b->ids * (b->face[f].start[cells] - b->face[f].start[0]);
+            if (cells)
+                bytes += sizeof *b->face[f].start * (cells + 1) +
+                         sizeof *b->face[f].ids * b->face[f].start[cells];
         }
     }
     return bytes;

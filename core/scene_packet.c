@@ -530,10 +530,10 @@ BVH16_FN bool shadow_candidates(const struct light_buffer *b, const struct ray16
             int32_t cell = j * f->nu + i;
             for (uint32_t k = f->start[cell]; k < f->start[cell + 1]; k++) {
                 int seen = 0;
-                while (seen < *n && ids[seen] != b->ids[k]) seen++;
+                while (seen < *n && ids[seen] != f->ids[k]) seen++;
                 if (seen < *n) continue;
                 if (*n == LB_MAX_TEST) return false;
-                ids[(*n)++] = b->ids[k];
+                ids[(*n)++] = f->ids[k];
             }
         }
     return true;
