@@ -92,12 +92,12 @@ BVH16_FN __m512 join16(__m256 lo, __m256 hi) {
 struct bvh16_ray {
     __m512 org[3], inv[3];
     __mmask16 neg[3];
-    int sign[3]; /* 1 every ray's direction negative on the axis, 0 none, -1 mixed */
-    bool uniform;            /* no axis mixed: each axis's near side is one for the packet */
+    bool uniform;            /* each axis's sign one for the packet: its near side is one too */
     uint8_t near[3], far[3]; /* then the byte offsets in a node of those sides' floats */
 };
 
 BVH16_FN void bvh16_ray_init(struct bvh16_ray *p, const struct ray16 *q) {
+    p->uniform = true;
     for (int k = 0; k < 3; k++) {
         __m512 c = join16(_mm512_cvtpd_ps(_mm512_loadu_pd(q->d[k])),
                           _mm512_cvtpd_ps(_mm512_loadu_pd(q->d[k] + 8)));
@@ -110,12 +110,12 @@ BVH16_FN void bvh16_ray_init(struct bvh16_ray *p, const struct ray16 *q) {
         p->org[k] = join16(_mm512_cvtpd_ps(_mm512_loadu_pd(q->o[k])),
                            _mm512_cvtpd_ps(_mm512_loadu_pd(q->o[k] + 8)));
         p->neg[k] = _mm512_cmp_ps_mask(c, _mm512_setzero_ps(), _CMP_LT_OQ);
-        p->sign[k] = p->neg[k] == 0xffff ? 1 : p->neg[k] == 0 ? 0 : -1;
+        bool neg = p->neg[k] == 0xffff; /* every ray's direction negative on the axis */
         size_t lo = offsetof(struct bvh4_node, lo[k]), hi = offsetof(struct bvh4_node, hi[k]);
-        p->near[k] = (uint8_t)(p->sign[k] == 1 ? hi : lo);
-        p->far[k] = (uint8_t)(p->sign[k] == 1 ? lo : hi);
+        p->near[k] = (uint8_t)(neg ? hi : lo);
+        p->far[k] = (uint8_t)(neg ? lo : hi);
+        p->uniform &= neg || p->neg[k] == 0;
     }
-    p->uniform = p->sign[0] >= 0 && p->sign[1] >= 0 && p->sign[2] >= 0;
 }
 
 struct bvh16_entry {

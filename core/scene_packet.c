@@ -327,14 +327,14 @@ BVH16_FN uint32_t visit_any16(struct scene16 *q, const struct object *o, uint32_
     uint32_t blocked = 0;
     if (simple16(o)) { /* object_filter, 16 wide */
         LANES_ALIGN double t[16];
-        uint32_t odd;
+        uint32_t odd = 0;
         if (o->kind == SHAPE_SPHERE) { /* most rays settled without a square root */
             blocked = sphere16_any(&q->rd, o, q->tmax, lanes, &lanes);
             if (lanes) blocked |= sphere16(&q->rd, o, q->tmax, lanes, t, &odd);
         } else {
             blocked = plane16(&q->rd, o, q->tmax, lanes, t, &odd);
         }
-        lanes = lanes ? odd : 0; /* left to the one-ray code below */
+        lanes = odd; /* left to the one-ray code below */
     }
     if (o->kind == SHAPE_MESH) {
         ray lr[16];

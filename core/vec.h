@@ -50,12 +50,12 @@ typedef struct {
 
 static inline vec3 ray_at(const ray *r, double t) { return v3_madd(r->o, r->d, t); }
 
-/* 16 rays as structure of arrays, the packets' own form: coordinate k
- * (x, y, z) of ray i's origin is o[k][i]. */
 /* Arrays of 16 lanes start on a cache line: an AVX-512 access to one
  * that does not is split in two, and a split store forwards to no load. */
 #define LANES_ALIGN _Alignas(64)
 
+/* 16 rays as structure of arrays, the packets' own form: coordinate k
+ * (x, y, z) of ray i's origin is o[k][i]. */
 struct ray16 {
     LANES_ALIGN double o[3][16];
     double d[3][16];
