@@ -154,16 +154,26 @@ void api_jobs_image(struct http_req *r, const char *id)
 
 static void api_sse_suspend(struct jobq_waiter *w) { http_suspend(API_CONTAINER(w)); }
 
+/* Woken by news of the job, or by the watcher when the client hung up: then
+ * the stream ends at once (the reader's next call), rather than waiting,
+ * suspended, for an event that may be long in coming -- a queued job's. */
 static void api_sse_wake(struct jobq_waiter *w, struct jobq_result *res)
 {
+    struct http_req *r = API_CONTAINER(w);
+    if (res->gone) {
+        r->gone = true;
+        r->note = "client_gone";
+    }
     blob_unref(res->png);
-    http_resume(API_CONTAINER(w));
+    http_resume(r);
 }
 
 static ssize_t api_sse_reader(void *cls, uint64_t pos, char *buf, size_t max)
 {
     (void)pos;
     struct http_req *r = cls;
+    if (r->gone)
+        return MHD_CONTENT_READER_END_WITH_ERROR;
     ssize_t n = jobq_sse_read(r->sse, buf, max, &r->waiter, api_sse_suspend);
     if (n < 0)
         return MHD_CONTENT_READER_END_OF_STREAM;

@@ -82,6 +82,8 @@ static const struct config_option config_table[] = {
      "PEM certificate (chain): serve HTTPS with libmicrohttpd's TLS (needs --tls-key)"},
     {"tls-key", "RAYD_TLS_KEY", CT_STRING, &config.tls_key, NULL, 0, 0,
      "PEM private key for --tls-cert"},
+    {"test-gate", "RAYD_TEST_GATE", CT_STRING, &config.test_gate, NULL, 0, 0,
+     "tests only: workers start tiles only as POST /v1/test/gate allows (N tiles, or open)"},
 };
 
 #define CONFIG_N (sizeof config_table / sizeof config_table[0])
@@ -156,6 +158,37 @@ static int config_read_token(void)
     return 0;
 }
 
+bool config_loopback(const char *addr)
+{
+    return !strncmp(addr, "127.", 4) || !strcmp(addr, "::1") || !strcmp(addr, "localhost");
+}
+
+/* --test-gate lets any client hold every worker, so it is refused unless
+ * rayd listens on loopback only. */
+static int config_test_gate(void)
+{
+    config.test_gate_tiles = -2;
+    if (!config.test_gate)
+        return 0;
+    char *end;
+    errno = 0;
+    long n = strtol(config.test_gate, &end, 10);
+    if (!strcmp(config.test_gate, "open")) {
+        n = -1;
+    } else if (errno || end == config.test_gate || *end || n < 0) {
+        fprintf(stderr, "rayd: --test-gate must be 'open' or a number of tiles >= 0, not '%s'\n",
+                config.test_gate);
+        return -1;
+    }
+    if (!config_loopback(config.bind)) {
+        fprintf(stderr, "rayd: --test-gate is for tests and needs a loopback --bind (not %s)\n",
+                config.bind);
+        return -1;
+    }
+    config.test_gate_tiles = n;
+    return 0;
+}
+
 int config_load(int argc, char **argv)
 {
     for (size_t i = 0; i < CONFIG_N; i++)
@@ -208,6 +241,8 @@ int config_load(int argc, char **argv)
         config.threads = n > 0 ? n : 1;
     }
     if (config.token_file && *config.token_file && config_read_token())
+        return -1;
+    if (config_test_gate())
         return -1;
     if (!config.tls_cert != !config.tls_key) {
         fprintf(stderr, "rayd: --tls-cert and --tls-key go together\n");

@@ -259,7 +259,81 @@ static struct task *task_find(const char *key)
     return NULL;
 }
 
+/* ---- the test gate (--test-gate) ------------------------------------------ */
+
+/* Tests that need work in flight (a render running while they cancel it,
+ * drain the server or fill the queue) must not hope that a render is slow
+ * enough: on a fast idle machine it is not.  With --test-gate a worker stops
+ * at a tile boundary until the test lets tiles through (POST /v1/test/gate),
+ * so "in flight" is a state the test sets, not a race it runs.  Off unless
+ * the option is given; the gate's counters are under jobq_lock. */
+static bool jobq_gate_on;
+static long jobq_gate_tiles = -1; /* tiles that may still start, -1 = open */
+static long jobq_gate_started, jobq_gate_held;
+
+/* May a worker start a tile now?  Takes one from the allowance. */
+static bool jobq_gate_pass(void)
+{
+    if (!jobq_gate_on || jobq_gate_tiles < 0)
+        return true;
+    if (jobq_gate_tiles == 0)
+        return false;
+    jobq_gate_tiles--;
+    return true;
+}
+
+void jobq_gate_enable(long tiles)
+{
+    pthread_mutex_lock(&jobq_lock);
+    jobq_gate_on = true;
+    jobq_gate_tiles = tiles;
+    pthread_cond_broadcast(&jobq_cond);
+    pthread_mutex_unlock(&jobq_lock);
+}
+
+bool jobq_gate_set(long tiles)
+{
+    pthread_mutex_lock(&jobq_lock);
+    bool on = jobq_gate_on;
+    if (on) {
+        jobq_gate_tiles = tiles;
+        pthread_cond_broadcast(&jobq_cond);
+    }
+    pthread_mutex_unlock(&jobq_lock);
+    return on;
+}
+
+bool jobq_gate_get(struct jobq_gate *g)
+{
+    pthread_mutex_lock(&jobq_lock);
+    g->tiles = jobq_gate_tiles;
+    g->started = jobq_gate_started;
+    g->held = jobq_gate_held;
+    g->queued = jobq_queued;
+    bool on = jobq_gate_on;
+    pthread_mutex_unlock(&jobq_lock);
+    return on;
+}
+
 /* ---- workers ------------------------------------------------------------- */
+
+/* The next task a worker should take a tile of, lock held; waits for one.
+ * NULL when the pool stops.  A worker held by the test gate counts as held
+ * while it waits. */
+static struct task *jobq_next_task(void)
+{
+    while (!jobq_stopping) {
+        struct task *t = task_pick();
+        if (t && jobq_gate_pass()) {
+            jobq_gate_started++;
+            return t;
+        }
+        jobq_gate_held += t != NULL;
+        pthread_cond_wait(&jobq_cond, &jobq_lock);
+        jobq_gate_held -= t != NULL;
+    }
+    return NULL;
+}
 
 static void jobq_encode(struct task *t)
 {
@@ -292,10 +366,8 @@ static void *jobq_worker(void *arg)
     (void)arg;
     pthread_mutex_lock(&jobq_lock);
     for (;;) {
-        struct task *t = NULL;
-        while (!jobq_stopping && !(t = task_pick()))
-            pthread_cond_wait(&jobq_cond, &jobq_lock);
-        if (jobq_stopping)
+        struct task *t = jobq_next_task();
+        if (!t)
             break;
         int tile = t->next_tile++;
         if (tile == 0) {

@@ -32,11 +32,6 @@
 #include <time.h>
 #include <unistd.h>
 
-static bool main_loopback(const char *addr)
-{
-    return !strncmp(addr, "127.", 4) || !strcmp(addr, "::1") || !strcmp(addr, "localhost");
-}
-
 /* Waits up to seconds for cond(); returns early on a signal (sets *sig). */
 static bool main_wait(bool (*cond)(void), double seconds, const sigset_t *set, bool *sig)
 {
@@ -95,12 +90,16 @@ int main(int argc, char **argv)
         fprintf(stderr, "rayd: cannot start the worker pool\n");
         return 1;
     }
+    if (config.test_gate_tiles >= -1) {
+        jobq_gate_enable(config.test_gate_tiles);
+        log_warn("--test-gate: workers start tiles only as POST /v1/test/gate allows");
+    }
     if (http_start()) {
         jobq_stop();
         config_free();
         return 1;
     }
-    if (!main_loopback(config.bind) && !config.token) {
+    if (!config_loopback(config.bind) && !config.token) {
         fprintf(stderr,
                 "\n"
                 "************************************************************************\n"

@@ -32,6 +32,8 @@ static const struct route router_table[] = {
     {"GET", "/healthz", api_health_live, "GET /healthz"},
     {"GET", "/readyz", api_health_ready, "GET /readyz"},
     {"GET", "/metrics", api_health_metrics, "GET /metrics"},
+    {"GET", "/v1/test/gate", api_test_gate_get, "GET /v1/test/gate"},
+    {"POST", "/v1/test/gate", api_test_gate_post, "POST /v1/test/gate"},
     {"GET", "/", api_web_index, "GET /"},
     {"GET", "/{id}", api_web_asset, "GET /{asset}"},
 };

@@ -45,10 +45,12 @@ struct config {
     long max_url;        /* bytes of the request-target (path + query) */
     long upload_seconds; /* longest time from the headers to the body's last byte, 0 = none */
     char *tls_cert, *tls_key; /* PEM files: serve HTTPS with libmicrohttpd's TLS */
+    char *test_gate;     /* tests only: "open" or tiles allowed; NULL = off */
     /* derived */
     char *token;         /* contents of token_file, trimmed */
     size_t token_len;
     bool log_json;
+    long test_gate_tiles; /* parsed --test-gate: -1 open, -2 off */
 };
 
 extern struct config config;
@@ -58,6 +60,7 @@ extern struct config config;
  * is printed). */
 int config_load(int argc, char **argv);
 void config_usage(FILE *f);
+bool config_loopback(const char *addr); /* 127.x, ::1 or localhost */
 void config_free(void);
 
 /* ---- log.c --------------------------------------------------------------- */
@@ -216,6 +219,15 @@ ssize_t jobq_sse_read(struct jobq_sse *s, char *buf, size_t max, struct jobq_wai
                       void (*suspend)(struct jobq_waiter *w));
 void jobq_sse_close(struct jobq_sse *s);
 
+/* The test gate (--test-gate): workers start a tile only while the gate
+ * lets one through.  tiles: how many more may start, -1 = open. */
+struct jobq_gate {
+    long tiles, started, held, queued;
+};
+void jobq_gate_enable(long tiles);
+bool jobq_gate_set(long tiles);          /* false when the gate is off */
+bool jobq_gate_get(struct jobq_gate *g); /* false when the gate is off */
+
 /* Lifecycle and numbers. */
 void jobq_drain(void);         /* refuse new work from now on */
 void jobq_cancel_all(void);    /* cancel every task (drain deadline) */
@@ -366,6 +378,8 @@ void api_jobs_delete(struct http_req *r, const char *id);
 void api_health_live(struct http_req *r, const char *id);
 void api_health_ready(struct http_req *r, const char *id);
 void api_health_metrics(struct http_req *r, const char *id);
+void api_test_gate_get(struct http_req *r, const char *id);
+void api_test_gate_post(struct http_req *r, const char *id);
 void api_web_index(struct http_req *r, const char *id);
 void api_web_asset(struct http_req *r, const char *id);
 bool api_web_exists(const char *name);

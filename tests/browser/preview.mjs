@@ -37,6 +37,23 @@ async function post(path, body) {
   const res = await fetch(URL + path, { method: "POST", headers: { "Content-Type": "application/json" }, body });
   return { status: res.status, bytes: Buffer.from(await res.arrayBuffer()) };
 }
+// rayd runs with --test-gate: the test decides when held work may go on
+async function gate(tiles) {
+  return (await fetch(URL + "/v1/test/gate?tiles=" + tiles, { method: "POST" })).json();
+}
+async function gateState() {
+  return (await fetch(URL + "/v1/test/gate")).json();
+}
+// polls cond() every 50 ms until it holds; false after ms (a bound that only
+// ends a hung case)
+async function until(cond, ms) {
+  const end = Date.now() + ms;
+  while (!(await cond())) {
+    if (Date.now() > end) return false;
+    await new Promise((r) => setTimeout(r, 50));
+  }
+  return true;
+}
 async function metric(name) {
   const t = await (await fetch(URL + "/metrics")).text();
   const line = t.split("\n").find((l) => l.startsWith(name + " "));
@@ -306,26 +323,31 @@ try {
   });
 
   // --- a new render cancels the one in flight, on the server too -------------------------------
+  // The gate holds the first render's tiles, so it is still in flight when
+  // the second one replaces it, however fast the machine.
   await check("new_render_cancels", async () => {
     const slow = JSON.parse(paper);
-    slow.render = { ...slow.render, width: 1280, height: 720, samples: 64 };
+    slow.render = { ...slow.render, width: 1280, height: 720, samples: 4 };
     const gone0 = await metric('rayd_canceled_total{reason="client_gone"}');
-    await setText(page, JSON.stringify(slow, null, 2));
-    await page.click("#render");
-    await page.waitForFunction(() => /[1-9]\d*\/\d+ tiles|0\/\d+ tiles/.test(document.getElementById("status").textContent), null, {
-      timeout: 20000,
-    });
-    await page.waitForTimeout(300);
-    const n = await renders(page);
-    await setText(page, paper);
-    await page.click("#render");
-    await waitDone(page, n);
-    let gone1 = gone0;
-    for (let k = 0; k < 40 && gone1 <= gone0; k++) {
-      await new Promise((r) => setTimeout(r, 100));
-      gone1 = await metric('rayd_canceled_total{reason="client_gone"}');
+    await gate(0);
+    try {
+      await setText(page, JSON.stringify(slow, null, 2));
+      await page.click("#render");
+      await page.waitForFunction(() => /0\/\d+ tiles/.test(document.getElementById("status").textContent), null, {
+        timeout: 60000,
+      });
+      if (!(await until(async () => (await gateState()).queued > 0, 60000))) return "the render never reached the server";
+      const n = await renders(page);
+      await setText(page, paper);
+      await page.click("#render");
+      let gone1 = gone0;
+      await until(async () => (gone1 = await metric('rayd_canceled_total{reason="client_gone"}')) > gone0, 60000);
+      await gate("open");
+      await waitDone(page, n);
+      return gone1 > gone0 || `rayd_canceled_total{reason="client_gone"} stayed ${gone0}`;
+    } finally {
+      await gate("open");
     }
-    return gone1 > gone0 || `rayd_canceled_total{reason="client_gone"} stayed ${gone0}`;
   });
 
   // --- downloads and the link that reopens the scene ---------------------------------------

@@ -34,7 +34,7 @@ PIDS+=("$TOKEN_PID")
 cp "$T/rayd.err" "$T/rayd-token.err"
 
 # two workers, as on a small machine; the test scenes are small
-start_rayd --threads 2
+start_rayd --threads 2 --test-gate open
 # the screenshot is saved beside the binaries (build/preview.png)
 OUT_DIR=$RAYD_BUILD PNGCMP=$RAYD_BUILD/tests/tools/pngcmp CHROMIUM=$CHROMIUM WORK=$T \
     TOKEN_URL=$TOKEN_URL TOKEN=preview-test-token \

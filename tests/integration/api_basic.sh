@@ -101,6 +101,8 @@ check result_cache_hit "renders $r0 -> $r1, hits $x0 -> $x1" bash -c "[ $r1 = $(
 check result_cache_same_bytes "cached answer differs" cmp -s "$T/body" "$T/rc1.png"
 
 # --- access log -----------------------------------------------------------------
+# (a line is written once its response has gone out: wait for it)
+wait_until 30 grep -Eq 'POST /v1/render 200 [0-9]+ queue_ms=' "$T/rayd.err"
 check access_log_line "no access line for POST /v1/render 200" \
     grep -Eq 'POST /v1/render 200 [0-9]+ queue_ms=[0-9.]+ render_ms=[0-9.]+' "$T/rayd.err"
 check metrics_by_route "no POST /v1/render 200 counter" \
@@ -113,7 +115,7 @@ check stdout_one_line "stdout has $(wc -l <"$T/rayd.out") lines" [ "$(wc -l <"$T
 # --- json log format ---------------------------------------------------------------
 start_rayd --log-format json
 req GET /healthz >/dev/null
-sleep 0.2
+wait_until 30 grep -q '"/healthz"' "$T/rayd.err"
 check log_json "no JSON access line, or a line that is not JSON" python3 -c '
 import json, sys
 found = False

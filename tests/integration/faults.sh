@@ -59,6 +59,8 @@ def worker(i):
             c.close()
         if r.status == 200 and body[:4] == b"\x89PNG":
             add("ok")
+            if tally["ok"] == 10:
+                open(out + ".served", "w").close()
         elif r.status == 503 and r.getheader("Retry-After"):
             code = json.loads(body)["error"]["code"]
             if code == "draining":
@@ -89,8 +91,9 @@ done
 python3 "$T/load.py" "$PORT" "$T/load.json" 12 "$T/tally.json" &
 lp=$!
 PIDS+=($lp)
-for i in $(seq 1 100); do [ -e "$T/tally.json.started" ] && break; sleep 0.05; done
-sleep 1.5
+# TERM once the server is busy serving the load (ten PNGs out), however
+# long that takes on this machine
+wait_until 120 test -e "$T/tally.json.served"
 stop_rayd TERM
 check sigterm_load_exit_0 "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
 wait "$lp"
@@ -183,14 +186,7 @@ check cut_exit_0 "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
 
 # --- the access log on a full disk; stdout or stderr closed --------------------------------------
 freeport() { python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'; }
-wait_up() { # port: waits until /healthz answers
-    local i
-    for i in $(seq 1 100); do
-        curl -s -m 1 -o /dev/null "http://127.0.0.1:$1/healthz" && return 0
-        sleep 0.1
-    done
-    return 1
-}
+wait_up() { wait_until 60 curl -s -m 5 -o /dev/null "http://127.0.0.1:$1/healthz"; } # port
 io_case() { # name, redirections as a string
     local name=$1 redir=$2 port code ok=1 k
     port=$(freeport)

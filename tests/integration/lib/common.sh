@@ -49,7 +49,7 @@ start_rayd() {
     ) >"$T/rayd.out" 2>"$T/rayd.err" &
     RAYD_PID=$!
     local i line=
-    for i in $(seq 1 ${RAYD_START_TRIES:-200}); do
+    for i in $(seq 1 ${RAYD_START_TRIES:-600}); do
         line=$(head -n 1 "$T/rayd.out" 2>/dev/null)
         [ -n "$line" ] && break
         kill -0 "$RAYD_PID" 2>/dev/null || break
@@ -64,16 +64,16 @@ start_rayd() {
     URL="${BASH_REMATCH[1]}://127.0.0.1:$PORT"
 }
 
-# stop_rayd [SIGNAL]: signals rayd and waits (10 s at most); sets RAYD_RC.
+rayd_gone() { ! kill -0 "$RAYD_PID" 2>/dev/null; }
+# stop_rayd [SIGNAL]: signals rayd and waits for it to exit; sets RAYD_RC
+# ("hung" when it was still there after RAYD_STOP_SECONDS, 60 by default: a
+# bound that only ends a hung test, never a measure of speed).
 stop_rayd() {
-    local sig=${1:-TERM} i
+    local sig=${1:-TERM}
     RAYD_RC=
     [ -n "$RAYD_PID" ] || return 0
     kill -"$sig" "$RAYD_PID" 2>/dev/null
-    for i in $(seq 1 200); do
-        kill -0 "$RAYD_PID" 2>/dev/null || break
-        sleep 0.05
-    done
+    wait_until "${RAYD_STOP_SECONDS:-60}" rayd_gone
     if kill -0 "$RAYD_PID" 2>/dev/null; then
         kill -KILL "$RAYD_PID" 2>/dev/null
         RAYD_RC=hung
@@ -87,6 +87,41 @@ stop_rayd() {
     fi
     RAYD_PID=
 }
+
+# wait_until SECONDS COMMAND...: runs COMMAND every 50 ms until it succeeds
+# (status 0) or SECONDS have passed (status 1).  Tests wait for a state they
+# can observe, never for a time; SECONDS only ends a test that would hang.
+wait_until() {
+    local end=$(($(date +%s%N) + ${1%.*} * 1000000000)); shift
+    until "$@"; do
+        [ "$(date +%s%N)" -lt "$end" ] || return 1
+        sleep 0.05
+    done
+}
+
+# The test gate (rayd --test-gate, docs/api.md): workers start a tile only
+# when the gate lets one through, so a test holds work in flight for as long
+# as it needs, on any machine.
+# gate TILES: lets TILES more tiles start (a number, or "open"); the gate's
+# state is then in $T/gate.json.
+gate() {
+    curl -s -m 30 -X POST -o "$T/gate.json" "${AUTH[@]}" "$URL/v1/test/gate?tiles=$1" >/dev/null
+}
+# gate_is KEY VALUE: the gate's KEY (tiles, started, held, queued) is VALUE now
+gate_is() {
+    curl -s -m 30 -o "$T/gate.json" "${AUTH[@]}" "$URL/v1/test/gate" >/dev/null &&
+        [ "$(jfield "$T/gate.json" "$1")" = "$2" ]
+}
+# gate_at_least KEY N: the gate's KEY is N or more
+gate_at_least() {
+    curl -s -m 30 -o "$T/gate.json" "${AUTH[@]}" "$URL/v1/test/gate" >/dev/null &&
+        [ "$(jfield "$T/gate.json" "$1")" -ge "$2" ] 2>/dev/null
+}
+# metric_is NAME VALUE: /metrics has NAME at VALUE (for wait_until)
+metric_is() { [ "$(metric "$1")" = "$2" ]; }
+# job_is ID KEY VALUE: GET /v1/jobs/ID has KEY at VALUE (body left in $T/body)
+job_is() { req GET "/v1/jobs/$1" >/dev/null && [ "$(jfield "$T/body" "$2")" = "$3" ]; }
+job_state_is() { job_is "$1" state "$2"; }
 
 # req METHOD PATH [CURL ARGS...]: prints the status code; body in $T/body,
 # headers in $T/headers.

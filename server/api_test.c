@@ -1,0 +1,83 @@
+/* api_test.c -- GET and POST /v1/test/gate: the test gate, for tests only.
+ *
+ * A test that needs work in flight -- a render to cancel, to drain, to fill
+ * the queue with, to join -- starts rayd with --test-gate (on loopback only)
+ * and sets how many more tiles the workers may start:
+ *
+ *   POST /v1/test/gate?tiles=N     N more tiles, then the workers wait
+ *   POST /v1/test/gate?tiles=open  no limit (the gate stays, open)
+ *   GET  /v1/test/gate             the gate as it is
+ *
+ * Both answer {"tiles": N or "open", "started": tiles let through so far,
+ * "held": workers waiting at the gate with a tile to start, "queued": tasks
+ * waiting for a worker}.  Without --test-gate the route is a 404 like any
+ * unknown path.  The gate itself is in jobq.c, where workers take tiles.
+ */
+#include "server.h"
+
+#include <cjson/cJSON.h>
+#include <errno.h>
+#include <stdlib.h>
+#include <string.h>
+
+static void api_test_gate_reply(struct http_req *r, const struct jobq_gate *g)
+{
+    cJSON *o = cJSON_CreateObject();
+    if (g->tiles < 0)
+        cJSON_AddStringToObject(o, "tiles", "open");
+    else
+        cJSON_AddNumberToObject(o, "tiles", (double)g->tiles);
+    cJSON_AddNumberToObject(o, "started", (double)g->started);
+    cJSON_AddNumberToObject(o, "held", (double)g->held);
+    cJSON_AddNumberToObject(o, "queued", (double)g->queued);
+    char *text = o ? cJSON_PrintUnformatted(o) : NULL;
+    cJSON_Delete(o);
+    if (!text) {
+        http_reply_error(r, 503, "out_of_memory", "out of memory", NULL, 0, 0, NULL);
+        return;
+    }
+    http_reply_data(r, 200, "application/json", text, strlen(text));
+    http_add_header(r, "Cache-Control", "no-store");
+    cJSON_free(text);
+}
+
+static void api_test_gate_off(struct http_req *r)
+{
+    http_reply_error(r, 404, "not_found", "no such resource (rayd runs without --test-gate)",
+                     NULL, 0, 0, NULL);
+}
+
+void api_test_gate_get(struct http_req *r, const char *id)
+{
+    (void)id;
+    struct jobq_gate g;
+    if (!jobq_gate_get(&g)) {
+        api_test_gate_off(r);
+        return;
+    }
+    api_test_gate_reply(r, &g);
+}
+
+void api_test_gate_post(struct http_req *r, const char *id)
+{
+    (void)id;
+    struct jobq_gate g;
+    if (!jobq_gate_get(&g)) {
+        api_test_gate_off(r);
+        return;
+    }
+    const char *v = http_query(r, "tiles");
+    char *end = NULL;
+    errno = 0;
+    long n = v ? strtol(v, &end, 10) : 0;
+    if (v && !strcmp(v, "open")) {
+        n = -1;
+    } else if (!v || errno || end == v || *end || n < 0 || n > 1000000000L) {
+        http_reply_error(r, 400, "bad_parameter", "tiles must be 'open' or an integer >= 0",
+                         NULL, 0, 0, "tiles");
+        return;
+    }
+    jobq_gate_set(n);
+    jobq_gate_get(&g);
+    api_test_gate_reply(r, &g);
+}
