@@ -5,6 +5,7 @@
 #   make test SANITIZE=1   the same suite built with ASan+UBSan into build/asan/
 #   make test-tsan   server + job queue integration tests under ThreadSanitizer (build/tsan/)
 #   make test-valgrind  three server integration tests with rayd under valgrind memcheck
+#   make test-stress the integration tests loaded, on one core, and twice idle
 #   make run         build and start rayd on 127.0.0.1:8080 with the preview
 #   make deps        install the Debian packages the build and the tests need
 #   make bench       benchmarks (never part of make test)
@@ -80,7 +81,7 @@ ifneq ($(CLIENT_SRC),)
 PROGS += $(BUILD)/rayd-client
 endif
 
-.PHONY: all deps test test-unit test-tsan test-valgrind golden run bench bench-deps bench-peers format lint clean
+.PHONY: all deps test test-unit test-stress test-tsan test-valgrind golden run bench bench-deps bench-peers format lint clean
 .DEFAULT_GOAL := all
 
 all: $(BUILD)/librayd.a $(PROGS)
@@ -188,6 +189,11 @@ $(BROWSER_NODE): tests/browser/package.json tests/browser/package-lock.json
 
 test: all $(UNIT_BIN) $(TEST_TOOLS) $(FUZZ_REPLAY) $(BUILD)/bench/genmesh $(BROWSER_NODE)
 	@bash tests/run.sh $(BUILD)
+
+# The integration tests with every core busy, pinned to one core, and twice
+# idle (tests/stress.sh): none may depend on how long a render takes.
+test-stress: all $(TEST_TOOLS) $(FUZZ_REPLAY) $(BUILD)/bench/genmesh $(BROWSER_NODE)
+	@bash tests/stress.sh $(BUILD)
 
 test-unit: $(BUILD)/librayd.a $(UNIT_BIN)
 	@RAYD_ONLY=unit bash tests/run.sh $(BUILD)

@@ -89,14 +89,14 @@ async function canvasEqualsServer(page) {
 }
 
 const renders = (page) => page.evaluate(() => Number(document.body.dataset.renders || 0));
-async function waitDone(page, after, timeout = 30000) {
+async function waitDone(page, after, timeout = 120000) {
   await page.waitForFunction(
     (n) => document.body.dataset.state === "done" && Number(document.body.dataset.renders || 0) > n,
     after,
     { timeout }
   );
 }
-async function waitState(page, state, timeout = 15000) {
+async function waitState(page, state, timeout = 60000) {
   await page.waitForFunction((s) => document.body.dataset.state === s, state, { timeout });
 }
 const setText = (page, text) =>
@@ -289,7 +289,7 @@ try {
       await page.mouse.move(cx + k * 12, cy + k * 3);
       await page.waitForTimeout(25);
     }
-    await page.waitForFunction((f) => window.rayd.stats.previewFrames > f, frames0, { timeout: 10000 });
+    await page.waitForFunction((f) => window.rayd.stats.previewFrames > f, frames0, { timeout: 60000 });
     const during = await page.evaluate(() => document.body.dataset.state);
     await page.mouse.up();
     await waitDone(page, n);

@@ -38,7 +38,7 @@ start_rayd --threads 2 --test-gate open
 # the screenshot is saved beside the binaries (build/preview.png)
 OUT_DIR=$RAYD_BUILD PNGCMP=$RAYD_BUILD/tests/tools/pngcmp CHROMIUM=$CHROMIUM WORK=$T \
     TOKEN_URL=$TOKEN_URL TOKEN=preview-test-token \
-    timeout 170 node "$HERE/preview.mjs" "$URL"
+    timeout 600 node "$HERE/preview.mjs" "$URL"
 rc=$?
 [ "$rc" -eq 0 ] || fail preview_driver "node exited with status $rc"
 stop_rayd

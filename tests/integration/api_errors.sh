@@ -174,7 +174,7 @@ python3 - "$PORT" >"$T/stall.txt" <<'PY' &
 import socket, sys, time
 s = socket.create_connection(("127.0.0.1", int(sys.argv[1])))
 s.sendall(b"POST /v1/render HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nContent-Length: 1000\r\n\r\n{\"camera\"")
-s.settimeout(6)
+s.settimeout(60)  # only ends a hung case: --timeout is 1 s
 t = time.time()
 try:
     d = s.recv(100)

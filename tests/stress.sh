@@ -1,0 +1,63 @@
+#!/usr/bin/env bash
+# tests/stress.sh BUILD -- `make test-stress`: the integration tests (and the
+# browser test) on a machine in three states, every run to pass with 0 failed:
+#   loaded   every core busy with an unrelated CPU hog (one busy loop per
+#            core, started here and stopped by PID);
+#   one-core the tests and every rayd they start pinned to core 0 (taskset);
+#   idle     twice in a row, nothing else running.
+# A test that depends on how long a render takes fails one of these.  Ends
+# with the sum of the runs: "N passed, N failed".
+set -u
+cd "$(dirname "$0")/.."
+BUILD=${1:-build}
+HOGS=()
+stop_hogs() {
+    local p
+    for p in "${HOGS[@]}"; do kill -KILL "$p" 2>/dev/null; done
+    for p in "${HOGS[@]}"; do wait "$p" 2>/dev/null; done
+    HOGS=()
+}
+trap stop_hogs EXIT
+
+pass=0 fail=0 summary=()
+run() { # name, command prefix...
+    local name=$1; shift
+    local log t0 line p f
+    log=$(mktemp)
+    t0=$(date +%s)
+    echo "=== test-stress: $name"
+    RAYD_ONLY=integration "$@" bash tests/run.sh "$BUILD" >"$log" 2>&1
+    line=$(tail -n 1 "$log")
+    grep -E '^(--- |FAIL |failed: )' "$log" | grep -v ' passed$'
+    if [[ $line =~ ^([0-9]+)\ passed,\ ([0-9]+)\ failed$ ]]; then
+        p=${BASH_REMATCH[1]} f=${BASH_REMATCH[2]}
+    else
+        p=0 f=1
+        echo "FAIL stress_$name: no closing line: $line"
+    fi
+    pass=$((pass + p)) fail=$((fail + f))
+    summary+=("$name: $p passed, $f failed in $(($(date +%s) - t0)) s")
+    echo "${summary[-1]}"
+    rm -f "$log"
+}
+
+cores=$(nproc 2>/dev/null || echo 2)
+for _ in $(seq 1 "$cores"); do
+    sh -c 'while :; do :; done' &
+    HOGS+=($!)
+done
+run loaded env
+stop_hogs
+
+if command -v taskset >/dev/null; then
+    run one-core taskset -c 0
+else
+    echo "FAIL stress_one_core: taskset missing (util-linux)"
+    fail=$((fail + 1))
+fi
+run idle-1 env
+run idle-2 env
+
+printf '%s\n' "${summary[@]}"
+echo "$pass passed, $fail failed"
+[ "$fail" -eq 0 ]
