@@ -16,9 +16,11 @@
 # the client, libssl (libcrypto's SHA-256 of scene ids, server and client), curl/python3/nginx for the
 # integration tests (nginx balances the scale-out test), wrk for benchmarks,
 # chromium (and a font) for the browser tests of the preview page, valgrind
-# (make test-valgrind) and openssl (a test certificate for the TLS test).
-DEB_PKGS := gcc make pkg-config libc6-dev libpng-dev libcjson-dev libmicrohttpd-dev \
-            libcurl4-openssl-dev libssl-dev curl python3 nginx wrk chromium fonts-dejavu-core \
+# (make test-valgrind), openssl (a test certificate for the TLS test), zlib
+# (the PNG encoder's deflate, core/png_encode.c) and pngcheck (the tests
+# check the encoder's files with it).
+DEB_PKGS := gcc make pkg-config libc6-dev libpng-dev zlib1g-dev libcjson-dev libmicrohttpd-dev \
+            libcurl4-openssl-dev libssl-dev curl python3 nginx wrk chromium fonts-dejavu-core pngcheck \
             clang libclang-rt-14-dev valgrind openssl
 
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
@@ -60,7 +62,7 @@ WARN := -Wall -Wextra -Werror -Wshadow -Wpointer-arith -Wstrict-prototypes \
 # default), so the one-ray code and the packets do the same roundings.
 CFLAGS_ALL := -std=c11 -D_POSIX_C_SOURCE=200809L -ffp-contract=off $(OPT) $(WARN) -MMD -MP $(CFLAGS)
 LDFLAGS_ALL := $(LDSAN) $(LDFLAGS)
-LIBS_CORE := -lpng -lcjson -lpthread -lm
+LIBS_CORE := -lpng -lz -lcjson -lpthread -lm
 
 CORE_SRC := $(wildcard core/*.c)
 CORE_OBJ := $(CORE_SRC:%.c=$(BUILD)/%.o)
@@ -121,9 +123,10 @@ $(BUILD)/core/%.o: core/%.c | $(BUILD)/.deps-ok
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) $(CFLAGS_VEC) -Iinclude -Icore -c $< -o $@
 
-# Loops over a packet's lanes (integrate_wide.c, camera.c) are written for
-# the vectoriser, which -O2 runs only on the cheapest loops.
-$(BUILD)/core/integrate_wide.o $(BUILD)/core/camera.o: CFLAGS_VEC := -ftree-vectorize \
+# Loops over a packet's lanes (integrate_wide.c, camera.c) and the PNG row
+# filters (png_encode.c) are written for the vectoriser, which -O2 runs only
+# on the cheapest loops.
+$(BUILD)/core/integrate_wide.o $(BUILD)/core/camera.o $(BUILD)/core/png_encode.o: CFLAGS_VEC := -ftree-vectorize \
     -fvect-cost-model=dynamic
 
 $(BUILD)/librayd.a: $(CORE_OBJ)
@@ -220,7 +223,7 @@ build/fuzz/core/%.o: core/%.c | $(BUILD)/.deps-ok
 	clang $(FUZZ_CFLAGS) -MMD -MP -c $< -o $@
 
 build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c $(FUZZ_CORE_OBJ)
-	clang $(FUZZ_CFLAGS) -fsanitize=fuzzer $^ -o $@ -lpng -lcjson -lpthread -lm
+	clang $(FUZZ_CFLAGS) -fsanitize=fuzzer $^ -o $@ -lpng -lz -lcjson -lpthread -lm
 
 # The server's targets (fuzz_http*, fuzz_query*) drive the request flow and
 # the handlers without sockets: they link the server's objects but main.o,
@@ -236,7 +239,7 @@ build/fuzz/server/%.o: server/%.c server/server.h build/server/web_assets.h | $(
 $(FUZZ_SERVER_TARGETS:%=build/fuzz/fuzz_%): build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c \
     tests/fuzz/fuzz_http_common.h server/server.h $(FUZZ_SERVER_OBJ) $(FUZZ_CORE_OBJ)
 	clang $(FUZZ_CFLAGS) -D_DEFAULT_SOURCE -fsanitize=fuzzer $(filter %.c %.o,$^) -o $@ \
-	  -lmicrohttpd -lcrypto -lpng -lcjson -lpthread -lm
+	  -lmicrohttpd -lcrypto -lpng -lz -lcjson -lpthread -lm
 
 # A crash, leak, timeout or out-of-memory fails the run (the artifact stays
 # in build/fuzz/crash-TARGET-*).  Object files track their headers (-MMD).

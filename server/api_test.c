@@ -43,8 +43,8 @@ static void api_test_gate_reply(struct http_req *r, const struct jobq_gate *g)
 
 static void api_test_gate_off(struct http_req *r)
 {
-    http_reply_error(r, 404, "not_found", "no such resource (rayd runs without --test-gate)",
-                     NULL, 0, 0, NULL);
+    http_reply_error(r, 404, "not_found", "no such resource (rayd runs without --test-gate)", NULL,
+                     0, 0, NULL);
 }
 
 void api_test_gate_get(struct http_req *r, const char *id)
@@ -73,8 +73,8 @@ void api_test_gate_post(struct http_req *r, const char *id)
     if (v && !strcmp(v, "open")) {
         n = -1;
     } else if (!v || errno || end == v || *end || n < 0 || n > 1000000000L) {
-        http_reply_error(r, 400, "bad_parameter", "tiles must be 'open' or an integer >= 0",
-                         NULL, 0, 0, "tiles");
+        http_reply_error(r, 400, "bad_parameter", "tiles must be 'open' or an integer >= 0", NULL,
+                         0, 0, "tiles");
         return;
     }
     jobq_gate_set(n);

@@ -176,6 +176,11 @@ enum rayd_status rayd_image_blit(rayd_image *dst, const rayd_image *src, int x, 
  * bytes of an 8-bit RGB PNG.  level is the zlib level 0-9, -1 default. */
 enum rayd_status rayd_png_encode(const rayd_image *img, int level, void **buf, size_t *len,
                                  struct rayd_error *err);
+/* rayd_png_encode on threads threads (<= 0: every core).  The image is
+ * deflated in bands of rows set by its width alone, so the bytes are the
+ * same for every thread count. */
+enum rayd_status rayd_png_encode_threads(const rayd_image *img, int level, int threads,
+                                         void **buf, size_t *len, struct rayd_error *err);
 enum rayd_status rayd_png_write_file(const rayd_image *img, const char *path,
                                      struct rayd_error *err);
 /* Decodes any PNG libpng reads into 8-bit RGB; refuses images over max_pixels

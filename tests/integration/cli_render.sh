@@ -43,7 +43,8 @@ fi
 out=$("$R" "$scene" -o "$T/s.png" --stats 2>&1)
 rays=$(awk '/^rays:/ {print $2}' <<<"$out")
 if [ -n "$rays" ] && [ "$rays" -ge $((160 * 120 * 4)) ] && grep -q '^rays/s: [0-9]' <<<"$out" &&
-    grep -q '^wall: [0-9.]* s' <<<"$out"; then
+    grep -q '^wall: [0-9.]* s' <<<"$out" &&
+    [ "$(grep -cE '^time (read|parse|render|encode|write|total): [0-9.]+ s$' <<<"$out")" = 6 ]; then
     ok cli-stats
 else
     bad cli-stats "unexpected --stats output: $out"
@@ -55,12 +56,30 @@ check_usage() { # name, expected stderr substring, args...
     local rc=$?
     if [ $rc -eq 2 ] && grep -qF -- "$want" "$T/err"; then ok "$name"; else bad "$name" "exit $rc: $(head -c 300 "$T/err")"; fi
 }
+# the PNG encoder: a file pngcheck (a third-party checker) accepts, at the
+# default level and every --png-level, the same pixels at each level
+all_ok=1
+for lv in default 0 1 6 9; do
+    opt=()
+    [ $lv = default ] || opt=(--png-level "$lv")
+    "$R" "$scene" -o "$T/lv$lv.png" "${opt[@]}" 2>"$T/err" || { all_ok=0; bad "cli-png-level-$lv" "$(cat "$T/err")"; }
+    if command -v pngcheck >/dev/null; then
+        pngcheck -q "$T/lv$lv.png" >"$T/err" 2>&1 || { all_ok=0; bad "cli-pngcheck-$lv" "$(cat "$T/err")"; }
+    fi
+    "$CMP" "$T/full1.png" "$T/lv$lv.png" 2>"$T/err" || { all_ok=0; bad "cli-png-level-$lv-pixels" "$(cat "$T/err")"; }
+done
+command -v pngcheck >/dev/null || { all_ok=0; bad cli-pngcheck "pngcheck missing (make deps installs it)"; }
+[ $all_ok = 1 ] && ok cli-png-levels-valid
+s0=$(stat -c %s "$T/lv0.png") s9=$(stat -c %s "$T/lv9.png")
+if [ "$s9" -lt "$s0" ]; then ok cli-png-level-honoured; else bad cli-png-level-honoured "level 9 $s9 bytes, level 0 $s0"; fi
+
 check_usage cli-no-output "no output given" "$scene"
 check_usage cli-no-scene "no scene given" -o "$T/x.png"
 check_usage cli-bad-threads "--threads takes an integer" "$scene" -o "$T/x.png" --threads zero
 check_usage cli-bad-region-syntax "--region takes X,Y,W,H" "$scene" -o "$T/x.png" --region 1,2,3
 check_usage cli-region-outside "error: --region w: must be in 1..10" "$scene" -o "$T/x.png" --region 150,0,20,20
 check_usage cli-unknown-option "unknown option --fast" "$scene" -o "$T/x.png" --fast
+check_usage cli-bad-png-level "--png-level takes an integer in 0..9" "$scene" -o "$T/x.png" --png-level 10
 if [ ! -e "$T/x.png" ]; then ok cli-no-file-on-error; else bad cli-no-file-on-error "a PNG was written"; fi
 
 "$R" "$T/missing.json" -o "$T/x.png" 2>"$T/err"

@@ -1,0 +1,143 @@
+/* test_png.c -- the band encoder (png_encode.c): what it writes, libpng reads
+ * back to the same pixels, for odd sizes and many bands; the bytes are the
+ * same for every thread count; every zlib level gives a valid stream; the
+ * chunks and their CRCs are well formed. */
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#include <zlib.h>
+
+#include "check.h"
+#include "image.h"
+#include "rayd/rayd.h"
+
+/* A w x h image with smooth gradients, hard edges and noise, so every PNG
+ * filter wins somewhere. */
+static rayd_image *pattern(int w, int h, unsigned seed) {
+    rayd_image *img = NULL;
+    if (rayd_image_new(w, h, &img, NULL) != RAYD_OK) return NULL;
+    uint32_t s = seed * 2654435761u + 1;
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            uint8_t *p = img->px + ((size_t)y * (size_t)w + (size_t)x) * 3;
+            s = s * 1664525u + 1013904223u;
+            p[0] = (uint8_t)(x * 255 / (w > 1 ? w - 1 : 1));
+            p[1] = (uint8_t)((x / 7 + y / 5) % 2 ? 200 : 30);
+            p[2] = (uint8_t)(y % 64 < 32 ? (s >> 24) : (uint32_t)(x + y));
+        }
+    return img;
+}
+
+/* Encodes on threads threads at level and checks libpng reads back img. */
+static void *roundtrip(const rayd_image *img, int level, int threads, size_t *len) {
+    void *buf = NULL;
+    struct rayd_error err;
+    enum rayd_status st = rayd_png_encode_threads(img, level, threads, &buf, len, &err);
+    CHECK(st == RAYD_OK, "%dx%d level %d threads %d: %s", img->w, img->h, level, threads,
+          err.message);
+    if (st != RAYD_OK) return NULL;
+    rayd_image *back = NULL;
+    st = rayd_png_decode(buf, *len, 0, &back, &err);
+    CHECK(st == RAYD_OK, "%dx%d level %d threads %d: libpng: %s", img->w, img->h, level,
+          threads, err.message);
+    if (st == RAYD_OK) {
+        CHECK(back->w == img->w && back->h == img->h, "size %dx%d", back->w, back->h);
+        CHECK(!memcmp(back->px, img->px, (size_t)img->w * (size_t)img->h * 3),
+              "%dx%d level %d threads %d: pixels differ", img->w, img->h, level, threads);
+        rayd_image_free(back);
+    }
+    return buf;
+}
+
+static void test_odd_sizes_every_thread_count(void) {
+    static const int sizes[][2] = {{1, 1}, {1, 10000}, {4097, 3}, {10000, 1}, {3, 4097},
+                                   {1000, 1000}, {641, 479}};
+    static const int threads[] = {1, 2, 3, 7, 64, 0};
+    for (size_t s = 0; s < sizeof sizes / sizeof sizes[0]; s++) {
+        rayd_image *img = pattern(sizes[s][0], sizes[s][1], (unsigned)s);
+        CHECK(img != NULL, "no image");
+        if (!img) continue;
+        size_t len0 = 0;
+        void *first = roundtrip(img, -1, 1, &len0);
+        for (size_t t = 1; t < sizeof threads / sizeof threads[0]; t++) {
+            size_t len = 0;
+            void *buf = roundtrip(img, -1, threads[t], &len);
+            CHECK(first && buf && len == len0 && !memcmp(buf, first, len),
+                  "%dx%d: %d threads give other bytes than 1", img->w, img->h, threads[t]);
+            rayd_free(buf);
+        }
+        rayd_free(first);
+        rayd_image_free(img);
+    }
+}
+
+static void test_every_level(void) {
+    rayd_image *img = pattern(700, 900, 7); /* 8 bands */
+    CHECK(img != NULL, "no image");
+    if (!img) return;
+    size_t prev = 0;
+    for (int level = -1; level <= 9; level++) {
+        size_t len = 0;
+        void *buf = roundtrip(img, level, 2, &len);
+        if (level == 0) CHECK(len > (size_t)700 * 900 * 3, "level 0 stores: %zu bytes", len);
+        if (level == 9) CHECK(len <= prev, "level 9 (%zu) larger than level 8 (%zu)", len, prev);
+        prev = len;
+        rayd_free(buf);
+    }
+    rayd_image_free(img);
+}
+
+static uint32_t be32(const unsigned char *p) {
+    return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
+}
+
+/* Walks the chunks: signature, IHDR first, IEND last, every CRC right, the
+ * IDATs together one zlib stream that inflates to the filtered rows. */
+static void test_chunks_well_formed(void) {
+    rayd_image *img = pattern(1500, 400, 3);
+    size_t len = 0;
+    unsigned char *buf = NULL;
+    if (!img || rayd_png_encode_threads(img, -1, 2, (void **)&buf, &len, NULL) != RAYD_OK) {
+        CHECK(0, "encode failed");
+        rayd_image_free(img);
+        return;
+    }
+    static const unsigned char sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    CHECK(len > 8 && !memcmp(buf, sig, 8), "no PNG signature");
+    size_t at = 8, zlen = 0;
+    unsigned char *z = malloc(len);
+    char first[5] = "", last[5] = "";
+    while (z && at + 12 <= len) {
+        uint32_t n = be32(buf + at);
+        CHECK(at + 12 + n <= len, "chunk at %zu runs past the end", at);
+        if (at + 12 + n > len) break;
+        uint32_t crc = (uint32_t)crc32(0, buf + at + 4, n + 4);
+        CHECK(crc == be32(buf + at + 8 + n), "bad CRC of chunk %.4s", (const char *)buf + at + 4);
+        if (!first[0]) memcpy(first, buf + at + 4, 4);
+        memcpy(last, buf + at + 4, 4);
+        if (!memcmp(buf + at + 4, "IDAT", 4)) {
+            memcpy(z + zlen, buf + at + 8, n);
+            zlen += n;
+        }
+        at += 12 + n;
+    }
+    CHECK(at == len, "trailing bytes after IEND");
+    CHECK(!strcmp(first, "IHDR") && !strcmp(last, "IEND"), "first %s, last %s", first, last);
+    size_t raw = (size_t)400 * (1500 * 3 + 1);
+    unsigned char *out = malloc(raw + 1);
+    uLongf outlen = (uLongf)raw + 1;
+    int rc = z && out ? uncompress(out, &outlen, z, (uLong)zlen) : Z_MEM_ERROR;
+    CHECK(rc == Z_OK && outlen == raw, "zlib: %d, %lu bytes of %zu", rc, (unsigned long)outlen,
+          raw);
+    free(out);
+    free(z);
+    rayd_free(buf);
+    rayd_image_free(img);
+}
+
+int main(void) {
+    RUN(test_odd_sizes_every_thread_count);
+    RUN(test_every_level);
+    RUN(test_chunks_well_formed);
+    CHECK_EXIT();
+}
