@@ -91,11 +91,12 @@ static void api_job_json(const char *id, const struct jobq_job_info *in, char *j
     snprintf(json, size,
              "{\"id\":\"%s\",\"state\":\"%s\",\"progress\":%.4f,\"tiles_done\":%ld,"
              "\"tiles_total\":%ld,\"scene_id\":\"%s\",\"region\":{\"x\":%d,\"y\":%d,\"w\":%d,"
-             "\"h\":%d},\"age_s\":%.3f,\"queue_ms\":%.3f,\"render_ms\":%.3f,\"rays\":%llu%s%s}\n",
+             "\"h\":%d},\"age_s\":%.3f,\"queue_ms\":%.3f,\"render_ms\":%.3f,"
+             "\"encode_ms\":%.3f,\"rays\":%llu%s%s}\n",
              id, jobq_state_name(in->state), in->progress, in->tiles_done, in->tiles_total,
              in->scene_id, in->region.x, in->region.y, in->region.w, in->region.h,
-             in->created_age, in->queue_ms, in->render_ms, (unsigned long long)in->rays, img,
-             err);
+             in->created_age, in->queue_ms, in->render_ms, in->encode_ms,
+             (unsigned long long)in->rays, img, err);
 }
 
 void api_jobs_get(struct http_req *r, const char *id)

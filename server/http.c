@@ -203,6 +203,7 @@ void http_reply_png(struct http_req *r, unsigned status, struct blob *png)
     }
     MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, "image/png");
     r->bytes = png->len;
+    r->is_png = true;
     http_reply(r, status, resp);
 }
 
@@ -343,6 +344,7 @@ static void http_render_done(struct jobq_waiter *w, struct jobq_result *res)
     struct http_req *r = HTTP_CONTAINER(w);
     r->queue_ms = res->queue_ms;
     r->render_ms = res->render_ms;
+    r->encode_ms = res->encode_ms;
     if (res->gone) {
         r->gone = true;
         r->note = "client_gone";
@@ -561,6 +563,8 @@ bool http_req_body(struct http_req *r, const char *data, size_t n)
 
 void http_req_handle(struct http_req *r)
 {
+    if (r->body_len > 0)
+        metrics_stage(MS_UPLOAD, log_now() - r->t0);
     if (r->too_large) {
         metrics_reject(MR_BODY_TOO_LARGE);
         http_reply_error(r, 413, "body_too_large", "the body is over the limit (--max-body)", NULL,
@@ -593,7 +597,7 @@ void http_req_end(struct http_req *r, const char *note)
     if (!r->method) {
         /* refused by libmicrohttpd before the handler saw it (bad headers,
          * headers over --max-header-bytes): it answered by itself */
-        struct log_access a = {"-", "-", 0, 0, 0, 0, (log_now() - r->t0) * 1e3,
+        struct log_access a = {"-", "-", 0, 0, 0, 0, 0, (log_now() - r->t0) * 1e3,
                                "refused_by_http_parser"};
         log_access(&a);
         free(r);
@@ -609,8 +613,11 @@ void http_req_end(struct http_req *r, const char *note)
             note = "client_gone";
     }
     metrics_request(r->route, status);
-    struct log_access a = {r->method, r->url, status, r->bytes, r->queue_ms, r->render_ms,
-                           (log_now() - r->t0) * 1e3, note};
+    if (r->is_png && r->t_sent > 0 && status == 200)
+        metrics_stage(MS_SEND, log_now() - r->t_sent);
+    struct log_access a = {r->method,    r->url,       status,
+                           r->bytes,     r->queue_ms,  r->render_ms,
+                           r->encode_ms, (log_now() - r->t0) * 1e3, note};
     log_access(&a);
     if (r->sse)
         jobq_sse_close(r->sse);
@@ -692,6 +699,7 @@ static enum MHD_Result http_flush(struct http_req *r)
 {
     if (r->gone || !r->pending)
         return MHD_NO;
+    r->t_sent = log_now();
     enum MHD_Result ret = MHD_queue_response(r->io_ctx, r->pending_status, r->pending);
     MHD_destroy_response(r->pending);
     r->pending = NULL;

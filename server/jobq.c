@@ -79,6 +79,7 @@ struct task {
     atomic_int cancel;
     bool interactive, queued, finalizing, finished;
     double t_enq, t_start, t_end;
+    double encode_s; /* of t_end - t_start, the PNG's encoding */
     enum rayd_status status;
     struct rayd_error err;
     struct blob *png;
@@ -188,6 +189,7 @@ static void task_result(const struct task *t, struct jobq_result *res)
     }
     res->queue_ms = t->t_start > 0 ? (t->t_start - t->t_enq) * 1e3 : 0;
     res->render_ms = t->t_start > 0 && t->t_end > 0 ? (t->t_end - t->t_start) * 1e3 : 0;
+    res->encode_ms = t->encode_s * 1e3;
 }
 
 /* Finishes t: unlinks it, fills res for its waiters (moved to n). */
@@ -335,13 +337,21 @@ static struct task *jobq_next_task(void)
     return NULL;
 }
 
+/* Encodes t's PNG (every core: png_encode.c's bands), lock released;
+ * returns with the lock held.  The tiles' and the encoding's times go to
+ * the stage metrics. */
 static void jobq_encode(struct task *t)
 {
     void *buf = NULL;
     size_t len = 0;
     struct rayd_error err = {0};
+    double t0 = log_now();
+    metrics_stage(MS_RENDER, t0 - t->t_start);
     enum rayd_status st = rayd_png_encode(t->img, (int)config.png_level, &buf, &len, &err);
+    double enc = log_now() - t0;
+    metrics_stage(MS_ENCODE, enc);
     pthread_mutex_lock(&jobq_lock);
+    t->encode_s = enc;
     if (st == RAYD_OK) {
         struct blob *b = malloc(sizeof *b);
         if (b) {
@@ -373,6 +383,7 @@ static void *jobq_worker(void *arg)
         if (tile == 0) {
             t->t_start = log_now();
             metrics_queue_wait(t->t_start - t->t_enq);
+            metrics_stage(MS_QUEUE, t->t_start - t->t_enq);
         }
         if (t->next_tile == t->ntiles)
             task_unqueue(t);
@@ -646,7 +657,9 @@ enum rayd_status jobq_scene_parse(const char *body, size_t len, struct cache_ent
             lim.max_bytes = (size_t)config.max_body;
     }
     rayd_scene *scene = NULL;
+    double t0 = log_now();
     enum rayd_status st = rayd_scene_parse(body, len, &lim, &scene, err);
+    metrics_stage(MS_PARSE, log_now() - t0);
     if (st != RAYD_OK)
         return st;
     pthread_mutex_lock(&jobq_lock);
@@ -889,6 +902,7 @@ bool jobq_job_get(const char *id, struct jobq_job_info *info, bool want_png)
         info->created_age = now - j->created;
         info->queue_ms = t->t_start > 0 ? (t->t_start - t->t_enq) * 1e3 : (now - t->t_enq) * 1e3;
         info->render_ms = t->t_start > 0 ? ((t->finished ? t->t_end : now) - t->t_start) * 1e3 : 0;
+        info->encode_ms = t->encode_s * 1e3;
         info->rays = t->rays;
         if (info->state == JS_FAILED)
             info->err = t->err;

@@ -31,7 +31,9 @@ struct metrics_hist {
 };
 
 static atomic_ulong metrics_req[METRICS_ROUTES + 1][METRICS_NCODES];
-static struct metrics_hist metrics_wait, metrics_rend;
+static struct metrics_hist metrics_wait, metrics_rend, metrics_stages[MS__COUNT];
+static const char *const metrics_stage_names[MS__COUNT] = {"upload", "parse",  "queue",
+                                                           "render", "encode", "send"};
 static atomic_ulong metrics_hits, metrics_misses, metrics_rhits, metrics_rmisses, metrics_rays_n, metrics_coalesced_n;
 static atomic_ulong metrics_rejects[MR__COUNT], metrics_cancels[MC__COUNT];
 
@@ -61,6 +63,7 @@ static void metrics_observe(struct metrics_hist *h, double s)
 
 void metrics_queue_wait(double s) { metrics_observe(&metrics_wait, s); }
 void metrics_render(double s) { metrics_observe(&metrics_rend, s); }
+void metrics_stage(enum metrics_stage stage, double s) { metrics_observe(&metrics_stages[stage], s); }
 void metrics_cache(bool hit) { atomic_fetch_add(hit ? &metrics_hits : &metrics_misses, 1); }
 void metrics_result_cache(bool hit)
 {
@@ -100,20 +103,44 @@ static void metrics_printf(struct metrics_buf *b, const char *fmt, ...)
     }
 }
 
-static void metrics_hist_text(struct metrics_buf *b, const char *name, const char *help,
-                              struct metrics_hist *h)
+/* One histogram's series; label is "" or a label pair and a comma
+ * ("stage=\"parse\","). */
+static void metrics_hist_series(struct metrics_buf *b, const char *name, const char *label,
+                                struct metrics_hist *h)
 {
-    metrics_printf(b, "# HELP %s %s\n# TYPE %s histogram\n", name, help, name);
     unsigned long cum = 0;
     for (size_t i = 0; i <= METRICS_NB; i++) {
         cum += atomic_load(&h->bucket[i]);
         if (i < METRICS_NB)
-            metrics_printf(b, "%s_bucket{le=\"%g\"} %lu\n", name, metrics_buckets[i], cum);
+            metrics_printf(b, "%s_bucket{%sle=\"%g\"} %lu\n", name, label, metrics_buckets[i],
+                           cum);
         else
-            metrics_printf(b, "%s_bucket{le=\"+Inf\"} %lu\n", name, cum);
+            metrics_printf(b, "%s_bucket{%sle=\"+Inf\"} %lu\n", name, label, cum);
     }
-    metrics_printf(b, "%s_sum %.6f\n%s_count %lu\n", name,
-                   (double)atomic_load(&h->sum_us) / 1e6, name, atomic_load(&h->count));
+    size_t n = strlen(label);
+    metrics_printf(b, "%s_sum%s%.*s%s %.6f\n%s_count%s%.*s%s %lu\n", name, n ? "{" : "",
+                   n ? (int)n - 1 : 0, label, n ? "}" : "", (double)atomic_load(&h->sum_us) / 1e6,
+                   name, n ? "{" : "", n ? (int)n - 1 : 0, label, n ? "}" : "",
+                   atomic_load(&h->count));
+}
+
+static void metrics_hist_text(struct metrics_buf *b, const char *name, const char *help,
+                              struct metrics_hist *h)
+{
+    metrics_printf(b, "# HELP %s %s\n# TYPE %s histogram\n", name, help, name);
+    metrics_hist_series(b, name, "", h);
+}
+
+static void metrics_stage_text(struct metrics_buf *b)
+{
+    metrics_printf(b, "# HELP rayd_stage_seconds Time of each stage of a request's wait: upload "
+                      "(the body), parse (scene, meshes, BVH), queue, render (the tiles), encode "
+                      "(the PNG), send (the reply).\n# TYPE rayd_stage_seconds histogram\n");
+    for (int s = 0; s < MS__COUNT; s++) {
+        char label[32];
+        snprintf(label, sizeof label, "stage=\"%s\",", metrics_stage_names[s]);
+        metrics_hist_series(b, "rayd_stage_seconds", label, &metrics_stages[s]);
+    }
 }
 
 char *metrics_text(size_t *len)
@@ -165,6 +192,7 @@ char *metrics_text(size_t *len)
                       "Time from enqueue to the first tile starting.", &metrics_wait);
     metrics_hist_text(&b, "rayd_render_seconds",
                       "Time from the first tile starting to the PNG encoded.", &metrics_rend);
+    metrics_stage_text(&b);
     metrics_printf(&b,
                    "# HELP rayd_cache_hits_total Scene bodies found compiled in the cache.\n"
                    "# TYPE rayd_cache_hits_total counter\nrayd_cache_hits_total %lu\n"

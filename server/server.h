@@ -69,7 +69,7 @@ struct log_access {
     const char *method, *path;
     int status;
     size_t bytes;
-    double queue_ms, render_ms, total_ms;
+    double queue_ms, render_ms, encode_ms, total_ms;
     const char *note; /* "client_gone", ... or NULL */
 };
 
@@ -83,10 +83,15 @@ double log_now(void); /* monotonic seconds */
 
 enum metrics_reject { MR_QUEUE_FULL, MR_DRAINING, MR_BODY_TOO_LARGE, MR_UNAUTHORIZED, MR__COUNT };
 enum metrics_cancel { MC_CLIENT_GONE, MC_DELETE, MC_DRAIN, MC__COUNT };
+/* The stages of a request's wait, end to end: the body arriving, the scene
+ * parsed and built (a cache miss), the queue, the tiles, the PNG, the reply
+ * going out.  One histogram, rayd_stage_seconds{stage=...}. */
+enum metrics_stage { MS_UPLOAD, MS_PARSE, MS_QUEUE, MS_RENDER, MS_ENCODE, MS_SEND, MS__COUNT };
 
 void metrics_request(int route, int status);
 void metrics_queue_wait(double seconds);
 void metrics_render(double seconds);
+void metrics_stage(enum metrics_stage stage, double seconds);
 void metrics_cache(bool hit);
 void metrics_result_cache(bool hit);
 void metrics_reject(enum metrics_reject why);
@@ -158,7 +163,7 @@ struct jobq_result {
     struct rayd_error err;
     struct blob *png;        /* owned by the waiter: unref it */
     bool gone;               /* the client disconnected */
-    double queue_ms, render_ms;
+    double queue_ms, render_ms, encode_ms;
 };
 
 /* Something waiting on a task or a job's events: a suspended connection.
@@ -200,7 +205,7 @@ struct jobq_job_info {
     long tiles_done, tiles_total;
     struct rayd_region region;
     char scene_id[65];
-    double created_age, queue_ms, render_ms;
+    double created_age, queue_ms, render_ms, encode_ms;
     uint64_t rays;
     struct rayd_error err; /* when failed */
     struct blob *png;      /* when succeeded and asked for; unref it */
@@ -271,7 +276,9 @@ struct http_req {
     int route;                   /* router index for metrics, -1 none */
     int status;                  /* the status sent */
     size_t bytes;                /* response body size */
-    double t0, queue_ms, render_ms;
+    double t0, queue_ms, render_ms, encode_ms;
+    double t_sent;               /* when the response was handed to libmicrohttpd */
+    bool is_png;                 /* the response is an image (its send is a stage) */
     struct MHD_Response *pending; /* to queue when the handler runs again */
     unsigned pending_status;
     bool suspended, gone, replied, too_large, no_memory;

@@ -107,6 +107,15 @@ check access_log_line "no access line for POST /v1/render 200" \
     grep -Eq 'POST /v1/render 200 [0-9]+ queue_ms=[0-9.]+ render_ms=[0-9.]+' "$T/rayd.err"
 check metrics_by_route "no POST /v1/render 200 counter" \
     bash -c "curl -s '$URL/metrics' | grep -q 'rayd_requests_total{route=\"POST /v1/render\",status=\"200\"}'"
+# every stage of a request's wait has its histogram, each counted by now
+stages_ok=1
+for st in upload parse queue render encode send; do
+    n=$(metric "rayd_stage_seconds_count{stage=\"$st\"}")
+    [ "${n:-0}" -ge 1 ] || { stages_ok=0; echo "stage $st counted '${n}'"; }
+done
+check metrics_stage_histograms "a stage not counted" [ $stages_ok = 1 ]
+check access_log_encode_ms "no encode_ms in the access line" \
+    grep -Eq 'POST /v1/render 200 [0-9]+ queue_ms=[0-9.]+ render_ms=[0-9.]+ encode_ms=[0-9.]+' "$T/rayd.err"
 
 stop_rayd TERM
 check exit_0_on_term "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]

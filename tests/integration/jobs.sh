@@ -34,6 +34,7 @@ gate open
 wait_until 120 job_state_is "$id" succeeded
 check job_succeeds "state $(jfield "$T/body" state)" [ "$(jfield "$T/body" state)" = succeeded ]
 check job_final_progress_1 "$(cat "$T/body")" [ "$(jfield "$T/body" progress)" = 1.0000 ]
+check job_encode_ms "$(cat "$T/body")" python3 -c 'import json,sys; j=json.load(open(sys.argv[1])); sys.exit(0 if 0 < j["encode_ms"] <= j["render_ms"] else 1)' "$T/body"
 code=$(req GET "/v1/jobs/$id/image.png")
 check job_image_200 "status $code" [ "$code" = 200 ]
 check job_image_equals_cli "differs from rayd-render" cmp -s "$T/body" "$T/ref.png"
