@@ -319,7 +319,16 @@ $(BENCH_DIR)/mesh-%.ply: $(BUILD)/bench/genmesh
 $(BENCH_DIR)/mesh-%.json: $(BENCH_DIR)/mesh-%.ply bench/mkscene.py
 	python3 bench/mkscene.py $< $@
 
-.PRECIOUS: $(BENCH_DIR)/mesh-%.ply $(BENCH_DIR)/mesh-%.json
+# The same meshes as OBJ files, and scenes that load them (bench/scenes.sh
+# times the whole path of both formats).
+$(BENCH_DIR)/mesh-%.obj $(BENCH_DIR)/mesh-%-obj.json: $(BENCH_DIR)/mesh-%.ply $(BENCH_DIR)/mesh-%.json bench/ply2obj.py
+	python3 bench/ply2obj.py $< $(BENCH_DIR)/mesh-$*.obj $(BENCH_DIR)/mesh-$*.json $(BENCH_DIR)/mesh-$*-obj.json
+
+$(BUILD)/bench/pngbench: bench/pngbench.c $(BUILD)/librayd.a
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS_ALL) -Iinclude $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
+
+.PRECIOUS: $(BENCH_DIR)/mesh-%.ply $(BENCH_DIR)/mesh-%.json $(BENCH_DIR)/mesh-%.obj $(BENCH_DIR)/mesh-%-obj.json
 
 # The Embree side of bench-peers: reuses the core's PLY reader (mesh_io.h).
 $(BUILD)/bench/embree_bench: bench/peers/embree_bench.c $(BUILD)/librayd.a | bench-deps
@@ -341,7 +350,8 @@ bench-deps: | $(BUILD)/.deps-ok
 	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; \
 	fi
 
-bench: all $(BUILD)/bench/raybench $(BUILD)/bench/genmesh $(BENCH_SCENES)
+bench: all $(BUILD)/bench/raybench $(BUILD)/bench/genmesh $(BUILD)/bench/pngbench $(BENCH_SCENES) \
+       $(BENCH_DIR)/mesh-8-obj.json
 	@bash bench/run.sh $(BUILD)
 
 bench-peers: all bench-deps $(BUILD)/bench/raybench $(BUILD)/bench/embree_bench $(BUILD)/bench/imgdiff \
