@@ -19,6 +19,9 @@
 
 #include "error.h"
 #include "mesh_ray.h"
+#include "parallel.h"
+
+#define MESH_CHUNK 16384 /* triangles a thread at least: fewer stay on one thread */
 
 /* Tests the first n lanes of block b.  A lane hits when 0 < t <= tmax;
  * returns the mask of hits with t, u, v in out.  The SIMD and the scalar
@@ -273,29 +276,71 @@ static struct bbox tri_box(const float *pos, const uint32_t *ix) {
     return b;
 }
 
+/* The steps of mesh_build that touch every triangle run as parallel_for
+ * bodies over triangles or nodes; each writes only its own indices, so the
+ * mesh is the same for any thread count. */
+struct mesh_job {
+    struct mesh *m;
+    const float *pos;
+    const uint32_t *index, *order;
+    struct bbox *boxes;
+    uint32_t *sorted, *first_block; /* a node's first block number */
+};
+
+static void boxes_body(void *ctx, size_t lo, size_t hi) {
+    struct mesh_job *j = ctx;
+    for (size_t t = lo; t < hi; t++) j->boxes[t] = tri_box(j->pos, j->index + 3 * t);
+}
+
+static void sort_body(void *ctx, size_t lo, size_t hi) {
+    struct mesh_job *j = ctx;
+    for (size_t t = lo; t < hi; t++)
+        memcpy(j->sorted + 3 * t, j->index + 3 * (size_t)j->order[t], sizeof *j->sorted * 3);
+}
+
 /* Packs every leaf's triangles into one tri4 block and points the leaf at
  * it; unused lanes have id UINT32_MAX and are masked off by the count. */
-static enum rayd_status make_blocks(struct mesh *m, struct rayd_error *err) {
-    uint32_t leaves = 0;
-    for (uint32_t n = 0; n < m->bvh.nnodes; n++)
-        for (int i = 0; i < 4; i++) leaves += m->bvh.nodes[n].count[i] > 0;
-    m->blocks = calloc(leaves ? leaves : 1, sizeof *m->blocks);
-    if (!m->blocks) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for mesh leaves");
-    for (uint32_t n = 0; n < m->bvh.nnodes; n++) {
+static void blocks_body(void *ctx, size_t lo, size_t hi) {
+    struct mesh_job *j = ctx;
+    struct mesh *m = j->m;
+    for (size_t n = lo; n < hi; n++) {
         struct bvh4_node *nd = &m->bvh.nodes[n];
+        uint32_t next = j->first_block[n];
         for (int i = 0; i < 4; i++) {
             if (!nd->count[i]) continue;
-            struct tri4 *b = &m->blocks[m->nblocks];
+            struct tri4 *b = &m->blocks[next];
             for (int lane = 0; lane < 4; lane++) {
                 b->id[lane] = lane < nd->count[i] ? nd->child[i] + (uint32_t)lane : UINT32_MAX;
                 if (b->id[lane] == UINT32_MAX) continue;
                 const uint32_t *ix = m->index + 3 * (size_t)b->id[lane];
                 for (int k = 0; k < 3; k++)
-                    for (int j = 0; j < 3; j++) b->v[k][j][lane] = m->pos[3 * (size_t)ix[k] + j];
+                    for (int jj = 0; jj < 3; jj++)
+                        b->v[k][jj][lane] = m->pos[3 * (size_t)ix[k] + jj];
             }
-            nd->child[i] = m->nblocks++;
+            nd->child[i] = next++;
         }
     }
+}
+
+/* Numbers the leaves in node order (a prefix sum over the nodes), then
+ * fills the blocks on every thread. */
+static enum rayd_status make_blocks(struct mesh *m, int threads, struct rayd_error *err) {
+    uint32_t leaves = 0, nn = m->bvh.nnodes;
+    uint32_t *first = malloc(sizeof *first * ((size_t)nn + 1));
+    if (!first) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for mesh leaves");
+    for (uint32_t n = 0; n < nn; n++) {
+        first[n] = leaves;
+        for (int i = 0; i < 4; i++) leaves += m->bvh.nodes[n].count[i] > 0;
+    }
+    m->blocks = calloc(leaves ? leaves : 1, sizeof *m->blocks);
+    if (!m->blocks) {
+        free(first);
+        return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for mesh leaves");
+    }
+    struct mesh_job j = {.m = m, .first_block = first};
+    parallel_for(nn, threads, MESH_CHUNK / 4, blocks_body, &j);
+    m->nblocks = leaves;
+    free(first);
     return RAYD_OK;
 }
 
@@ -323,18 +368,20 @@ enum rayd_status mesh_build(struct mesh *m, float *pos, uint32_t nverts, uint32_
         st = err_set(err, RAYD_E_NOMEM, NULL, "out of memory building a mesh of %u triangles",
                      ntris);
     } else {
-        for (uint32_t t = 0; t < ntris; t++) boxes[t] = tri_box(pos, index + 3 * (size_t)t);
+        struct mesh_job j = {.pos = pos, .index = index, .boxes = boxes};
+        parallel_for(ntris, threads, MESH_CHUNK, boxes_body, &j);
         st = bvh_build(&m->bvh, boxes, ntris, BVH_MAX_LEAF, order, threads, err);
     }
     if (st == RAYD_OK) { /* triangles in leaf order: leaves index them directly */
-        for (uint32_t t = 0; t < ntris; t++) memcpy(sorted + 3 * (size_t)t, index + 3 * (size_t)order[t], sizeof *sorted * 3);
+        struct mesh_job j = {.index = index, .order = order, .sorted = sorted};
+        parallel_for(ntris, threads, MESH_CHUNK, sort_body, &j);
         free(m->index);
         m->index = sorted;
         sorted = NULL;
         const struct bbox *b = &m->bvh.bounds;
         m->lo = v3(b->lo[0], b->lo[1], b->lo[2]);
         m->hi = v3(b->hi[0], b->hi[1], b->hi[2]);
-        st = make_blocks(m, err);
+        st = make_blocks(m, threads, err);
     }
     if (st == RAYD_OK && !m->normal && !m->uv) { /* the blocks hold all a flat mesh needs */
         free(m->pos);

@@ -1,9 +1,11 @@
 /* test_mesh.c -- triangle meshes, the two-level BVH and transforms:
  * watertightness, BVH == brute force, exact projections under transforms. */
 #include <stdlib.h>
+#include <string.h>
 
 #include "bvh16.h"
 #include "check.h"
+#include "mesh.h"
 #include "scene.h"
 #include "scene_util.h"
 
@@ -314,7 +316,59 @@ static void test_mesh_errors(void) {
     CHECK(s == NULL, "no scene");
 }
 
+/* A soup of n small random triangles (a fixed generator), pos and index
+ * malloc'd for mesh_build to own. */
+static void soup(uint32_t n, float **pos, uint32_t **index) {
+    *pos = malloc(sizeof **pos * 9 * n);
+    *index = malloc(sizeof **index * 3 * n);
+    uint32_t s = 12345;
+    for (uint32_t t = 0; t < n; t++) {
+        float c[3];
+        for (int k = 0; k < 3; k++) {
+            s = s * 1664525u + 1013904223u;
+            c[k] = (float)(s >> 8) / 16777216.0f * 10.0f;
+        }
+        for (int v = 0; v < 3; v++) {
+            for (int k = 0; k < 3; k++) {
+                s = s * 1664525u + 1013904223u;
+                (*pos)[9 * t + 3 * v + k] = c[k] + (float)(s >> 8) / 16777216.0f * 0.1f;
+            }
+            (*index)[3 * t + v] = 3 * t + (uint32_t)v;
+        }
+    }
+}
+
+/* mesh_build's steps run on every thread (parallel_for, the BVH's
+ * subtrees): the nodes and blocks must be the same bytes for any count. */
+static void test_mesh_build_same_for_any_thread_count(void) {
+    const uint32_t n = 200000;
+    struct mesh ref;
+    float *pos;
+    uint32_t *index;
+    soup(n, &pos, &index);
+    CHECK(mesh_build(&ref, pos, 3 * n, index, n, NULL, NULL, false, 1, NULL) == RAYD_OK, "build");
+    static const int threads[] = {2, 3, 8};
+    for (size_t k = 0; k < sizeof threads / sizeof threads[0]; k++) {
+        struct mesh m;
+        soup(n, &pos, &index);
+        CHECK(mesh_build(&m, pos, 3 * n, index, n, NULL, NULL, false, threads[k], NULL) == RAYD_OK,
+              "build on %d threads", threads[k]);
+        CHECK(m.bvh.nnodes == ref.bvh.nnodes && m.nblocks == ref.nblocks,
+              "%d threads: %u nodes, %u blocks; 1 thread: %u, %u", threads[k], m.bvh.nnodes,
+              m.nblocks, ref.bvh.nnodes, ref.nblocks);
+        if (m.bvh.nnodes == ref.bvh.nnodes && m.nblocks == ref.nblocks) {
+            CHECK(!memcmp(m.bvh.nodes, ref.bvh.nodes, sizeof *m.bvh.nodes * m.bvh.nnodes),
+                  "%d threads: other nodes", threads[k]);
+            CHECK(!memcmp(m.blocks, ref.blocks, sizeof *m.blocks * m.nblocks),
+                  "%d threads: other blocks", threads[k]);
+        }
+        mesh_free(&m);
+    }
+    mesh_free(&ref);
+}
+
 int main(void) {
+    RUN(test_mesh_build_same_for_any_thread_count);
     RUN(test_bvh_equals_brute_force);
     RUN(test_examples_bvh_equals_brute_force);
     RUN(test_watertight_edges_and_vertices);
