@@ -2,6 +2,8 @@
  * by the mesh decoders and the scene loader. */
 #include "array.h"
 
+#include "hugemem.h"
+
 #include <stdint.h>
 #include <stdlib.h>
 
@@ -16,7 +18,7 @@ bool array_grow(void **arr, size_t *cap, size_t need, size_t elem) {
         n *= 2;
     }
     if (elem == 0 || n > SIZE_MAX / elem) return false;
-    void *p = realloc(*arr, n * elem);
+    void *p = *arr ? realloc(*arr, n * elem) : huge_alloc(n * elem); /* a big first block: huge pages */
     if (!p) return false;
     *arr = p;
     *cap = n;

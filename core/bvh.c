@@ -27,6 +27,7 @@
  * binary tree is freed; only the wide one is kept (bytes per primitive are
  * what the benchmark reports).
  */
+#include "hugemem.h"
 #include "bvh.h"
 
 #include <pthread.h>
@@ -493,9 +494,9 @@ enum rayd_status bvh_build(struct bvh4 *bvh, const struct bbox *boxes, uint32_t 
     if (n == 0) return RAYD_OK;
     struct build b = {0};
     b.max_leaf = max_leaf < 1 ? 1 : max_leaf > BVH_MAX_LEAF ? BVH_MAX_LEAF : max_leaf;
-    b.prims = malloc(sizeof *b.prims * n);
-    b.nodes = malloc(sizeof *b.nodes * (2 * (size_t)n));
-    struct bvh4_node *wide = malloc(sizeof *wide * ((size_t)n + 1));
+    b.prims = huge_alloc(sizeof *b.prims * n);
+    b.nodes = huge_alloc(sizeof *b.nodes * (2 * (size_t)n));
+    struct bvh4_node *wide = huge_alloc(sizeof *wide * ((size_t)n + 1));
     if (!b.prims || !b.nodes || !wide) {
         free(b.prims);
         free(b.nodes);

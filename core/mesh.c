@@ -12,6 +12,7 @@
  * one is exactly zero.  A ray through a shared edge or vertex hits at least
  * one of the triangles meeting there: no cracks.
  */
+#include "hugemem.h"
 #include "mesh.h"
 
 #include <stdlib.h>
@@ -241,7 +242,7 @@ void mesh_uv(const struct mesh *m, const struct mesh_hit *h, double *u, double *
  * area, so summing unnormalised face normals weights by area). */
 static float *smooth_normals(const float *pos, uint32_t nverts, const uint32_t *index,
                              uint32_t ntris) {
-    float *n = calloc((size_t)nverts * 3, sizeof *n);
+    float *n = huge_calloc((size_t)nverts * 3, sizeof *n);
     if (!n) return NULL;
     for (uint32_t t = 0; t < ntris; t++) {
         const uint32_t *ix = index + 3 * (size_t)t;
@@ -326,13 +327,13 @@ static void blocks_body(void *ctx, size_t lo, size_t hi) {
  * fills the blocks on every thread. */
 static enum rayd_status make_blocks(struct mesh *m, int threads, struct rayd_error *err) {
     uint32_t leaves = 0, nn = m->bvh.nnodes;
-    uint32_t *first = malloc(sizeof *first * ((size_t)nn + 1));
+    uint32_t *first = huge_alloc(sizeof *first * ((size_t)nn + 1));
     if (!first) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for mesh leaves");
     for (uint32_t n = 0; n < nn; n++) {
         first[n] = leaves;
         for (int i = 0; i < 4; i++) leaves += m->bvh.nodes[n].count[i] > 0;
     }
-    m->blocks = calloc(leaves ? leaves : 1, sizeof *m->blocks);
+    m->blocks = huge_calloc(leaves ? leaves : 1, sizeof *m->blocks);
     if (!m->blocks) {
         free(first);
         return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for mesh leaves");
@@ -360,9 +361,9 @@ enum rayd_status mesh_build(struct mesh *m, float *pos, uint32_t nverts, uint32_
         free(m->normal);
         m->normal = NULL;
     }
-    struct bbox *boxes = malloc(sizeof *boxes * ((size_t)ntris + 1));
-    uint32_t *order = malloc(sizeof *order * ((size_t)ntris + 1));
-    uint32_t *sorted = malloc(sizeof *sorted * 3 * ((size_t)ntris + 1));
+    struct bbox *boxes = huge_alloc(sizeof *boxes * ((size_t)ntris + 1));
+    uint32_t *order = huge_alloc(sizeof *order * ((size_t)ntris + 1));
+    uint32_t *sorted = huge_alloc(sizeof *sorted * 3 * ((size_t)ntris + 1));
     enum rayd_status st = RAYD_OK;
     if (!boxes || !order || !sorted) {
         st = err_set(err, RAYD_E_NOMEM, NULL, "out of memory building a mesh of %u triangles",

@@ -28,6 +28,7 @@
  * positions, uvs and normals each against max_vertices, output vertices
  * against max_vertices, triangles against max_triangles.
  */
+#include "hugemem.h"
 #include "mesh_io.h"
 
 #include <float.h>
@@ -364,8 +365,8 @@ static enum rayd_status obj_finish(struct obj *o, struct mesh_data *out) {
     if (st != RAYD_OK) return st;
     size_t nv = o->nkeys;
     struct mesh_data m = {0};
-    m.pos = malloc(nv * 3 * sizeof *m.pos);
-    if (o->all_n) m.normal = malloc(nv * 3 * sizeof *m.normal);
+    m.pos = huge_alloc(nv * 3 * sizeof *m.pos);
+    if (o->all_n) m.normal = huge_alloc(nv * 3 * sizeof *m.normal);
     if (o->all_t) m.uv = malloc(nv * 2 * sizeof *m.uv);
     if (!m.pos || (o->all_n && !m.normal) || (o->all_t && !m.uv)) {
         mesh_data_free(&m);

@@ -29,6 +29,7 @@
  * record number in the body ("PLY vertex 17: ..."), 0-based like the
  * indices that refer to those records.
  */
+#include "hugemem.h"
 #include "mesh_io.h"
 
 #include <float.h>
@@ -590,10 +591,10 @@ static enum rayd_status ply_alloc(struct ply *P) {
     const struct ply_elem *f = &P->elems[P->face - 1];
     size_t n = (size_t)v->count ? (size_t)v->count : 1;
     P->nverts = (uint32_t)v->count;
-    P->pos = malloc(n * 3 * sizeof *P->pos);
+    P->pos = huge_alloc(n * 3 * sizeof *P->pos);
     bool normals = v->role_seen[PLY_NX] && v->role_seen[PLY_NY] && v->role_seen[PLY_NZ];
     bool uvs = v->role_seen[PLY_U] && v->role_seen[PLY_V];
-    if (normals) P->normal = malloc(n * 3 * sizeof *P->normal);
+    if (normals) P->normal = huge_alloc(n * 3 * sizeof *P->normal);
     if (uvs) P->uv = malloc(n * 2 * sizeof *P->uv);
     /* Room for one triangle per face, up to a million: a face record can
      * be as short as two bytes, so the count alone is a weak bound. */
