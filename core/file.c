@@ -8,12 +8,14 @@
  */
 #include <errno.h>
 #include <stdbool.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 
 #include "error.h"
+#include "hugemem.h"
 
 enum rayd_status rayd_read_file(const char *path, size_t max, char **out, size_t *len,
                                 struct rayd_error *err) {
@@ -25,8 +27,12 @@ enum rayd_status rayd_read_file(const char *path, size_t max, char **out, size_t
         fclose(f);
         return err_set(err, RAYD_E_IO, NULL, "%s is not a regular file", path);
     }
+    /* a regular file's size is known: one block, on huge pages when big
+     * (hugemem.c), read in one go; a stream grows by doubling */
     size_t cap = 1 << 16, n = 0;
-    char *buf = malloc(cap + 1);
+    if (!in && (uintmax_t)st.st_size < (uintmax_t)max && (size_t)st.st_size + 1 > cap)
+        cap = (size_t)st.st_size + 1;
+    char *buf = huge_alloc(cap + 1);
     enum rayd_status rc = RAYD_OK;
     while (buf) {
         n += fread(buf + n, 1, cap - n, f);

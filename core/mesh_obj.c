@@ -58,7 +58,9 @@ struct obj {
     struct obj_key *keys; /* output vertex -> its triple */
     size_t nkeys, cap_keys;
     struct obj_entry *table; /* open addressing, size a power of two */
-    size_t table_size;
+    size_t table_size, hashed; /* keys with a vt or vn (the table's) */
+    uint32_t *vmap; /* position-only corners: v -> output vertex + 1, 0 = none yet */
+    size_t cap_vmap;
     uint32_t *tri; /* 3 output vertices per triangle */
     size_t ntri, cap_tri;
     bool all_t, all_n;
@@ -87,6 +89,7 @@ static void obj_release(struct obj *o) {
     free(o->vn);
     free(o->keys);
     free(o->table);
+    free(o->vmap);
     free(o->tri);
 }
 
@@ -247,8 +250,8 @@ static size_t obj_slot(const struct obj *o, struct obj_key k) {
     return i;
 }
 
-/* Makes the table at least twice the size of `entries`, rehashing the
- * first `entries` keys. */
+/* Makes the table at least twice the size of `entries`, rehashing the keys
+ * it holds (those with a vt or vn). */
 static bool obj_table_fit(struct obj *o, size_t entries) {
     if (entries * 2 < o->table_size) return true;
     size_t size = o->table_size ? o->table_size * 2 : 1024;
@@ -258,27 +261,56 @@ static bool obj_table_fit(struct obj *o, size_t entries) {
     free(o->table);
     o->table = t;
     o->table_size = size;
-    for (size_t j = 0; j < entries; j++)
-        o->table[obj_slot(o, o->keys[j])] = (struct obj_entry){o->keys[j], (uint32_t)(j + 1)};
+    for (size_t j = 0; j < o->nkeys; j++)
+        if (o->keys[j].t || o->keys[j].n)
+            o->table[obj_slot(o, o->keys[j])] = (struct obj_entry){o->keys[j], (uint32_t)(j + 1)};
     return true;
 }
 
-/* The output vertex of triple k, added if new. */
-static enum rayd_status obj_vertex(struct obj *o, struct obj_key k, uint32_t *out) {
-    size_t i = obj_slot(o, k);
-    if (o->table[i].out) {
-        *out = o->table[i].out - 1;
-        return RAYD_OK;
-    }
+/* A new output vertex for triple k (limit checked), numbered in order of
+ * first appearance whichever way it was found. */
+static enum rayd_status obj_new_vertex(struct obj *o, struct obj_key k, uint32_t *out) {
     if (o->nkeys >= o->max_verts)
         return obj_fail(o, RAYD_E_LIMIT, "%zu vertices exceed the limit of %u", o->nkeys + 1,
                         o->max_verts);
     if (!array_grow((void **)&o->keys, &o->cap_keys, o->nkeys + 1, sizeof *o->keys))
         return obj_nomem(o);
     o->keys[o->nkeys] = k;
-    o->table[i] = (struct obj_entry){k, (uint32_t)(o->nkeys + 1)};
     *out = (uint32_t)o->nkeys++;
-    if (!obj_table_fit(o, o->nkeys)) return obj_nomem(o);
+    return RAYD_OK;
+}
+
+/* A corner with a position alone ("f 1 2 3", as most scanned meshes are):
+ * its output vertex is kept by position index, no hashing. */
+static enum rayd_status obj_vertex_pos(struct obj *o, struct obj_key k, uint32_t *out) {
+    if (k.v >= o->cap_vmap) {
+        size_t old = o->cap_vmap, need = k.v + 1 > o->nv + 1 ? (size_t)k.v + 1 : o->nv + 1;
+        if (!array_grow((void **)&o->vmap, &o->cap_vmap, need, sizeof *o->vmap))
+            return obj_nomem(o);
+        memset(o->vmap + old, 0, (o->cap_vmap - old) * sizeof *o->vmap);
+    }
+    if (o->vmap[k.v]) {
+        *out = o->vmap[k.v] - 1;
+        return RAYD_OK;
+    }
+    enum rayd_status st = obj_new_vertex(o, k, out);
+    if (st == RAYD_OK) o->vmap[k.v] = *out + 1;
+    return st;
+}
+
+/* The output vertex of triple k, added if new. */
+static enum rayd_status obj_vertex(struct obj *o, struct obj_key k, uint32_t *out) {
+    if (!k.t && !k.n) return obj_vertex_pos(o, k, out);
+    if (!obj_table_fit(o, o->hashed + 1)) return obj_nomem(o);
+    size_t i = obj_slot(o, k);
+    if (o->table[i].out) {
+        *out = o->table[i].out - 1;
+        return RAYD_OK;
+    }
+    enum rayd_status st = obj_new_vertex(o, k, out);
+    if (st != RAYD_OK) return st;
+    o->table[i] = (struct obj_entry){k, *out + 1};
+    o->hashed++;
     return RAYD_OK;
 }
 
