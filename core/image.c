@@ -10,13 +10,14 @@
 #include <string.h>
 
 #include "error.h"
+#include "hugemem.h"
 
 enum rayd_status rayd_image_new(int w, int h, rayd_image **out, struct rayd_error *err) {
     if (w <= 0 || h <= 0) return err_set(err, RAYD_E_ARG, NULL, "image size must be > 0");
     if ((size_t)w > SIZE_MAX / 3 / (size_t)h)
         return err_set(err, RAYD_E_LIMIT, NULL, "image of %d x %d pixels is too large", w, h);
     rayd_image *img = malloc(sizeof *img);
-    uint8_t *px = calloc((size_t)w * (size_t)h, 3);
+    uint8_t *px = huge_calloc((size_t)w * (size_t)h, 3); /* a big frame: huge pages */
     if (!img || !px) {
         free(img);
         free(px);
