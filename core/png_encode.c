@@ -24,7 +24,7 @@
  * but up to 23% larger (primitives.json); level 1, up to 39% larger.
  *
  * The chunks are those libpng wrote before: IHDR, sRGB, gAMA and cHRM for
- * sRGB, the IDATs (1 MiB each at most), IEND.
+ * sRGB, the IDATs (one a band: no copy of the whole stream), IEND.
  */
 #include <pthread.h>
 #include <stdint.h>
@@ -37,7 +37,6 @@
 #include "image.h"
 
 #define PNG_BAND_BYTES (256u * 1024u) /* raw bytes of a band, about */
-#define PNG_IDAT_MAX (1u << 20)       /* bytes of one IDAT chunk at most */
 #define PNG_MAX_THREADS 64
 #define PNG_LEVEL_DEFAULT 4 /* zlib level when none is asked for (measured) */
 
@@ -58,8 +57,7 @@ struct png_job {
     int next; /* the next band nobody has taken */
 };
 
-/* ---- filtering --------------------------------------------------------------
- */
+/* ---- filtering ---------------------------------------------------------- */
 
 /* Each filter has its own loop (the compiler vectorises all but Paeth);
  * a = the byte one pixel left, b = above, c = above-left. */
@@ -111,18 +109,21 @@ static unsigned long filter_row(int f, const unsigned char *cur, const unsigned 
  * out (1 + n bytes); tmp is scratch of the same size. */
 static void filter_best(const unsigned char *cur, const unsigned char *prev, size_t n,
                         unsigned char *out, unsigned char *tmp) {
-    unsigned long best = filter_row(0, cur, prev, n, out);
+    unsigned char *best = out, *spare = tmp; /* the better of the two so far, and the other */
+    unsigned long least = filter_row(0, cur, prev, n, best);
     for (int f = 1; f <= 4; f++) {
-        unsigned long c = filter_row(f, cur, prev, n, tmp);
-        if (c < best) {
-            best = c;
-            memcpy(out, tmp, n + 1);
+        unsigned long c = filter_row(f, cur, prev, n, spare);
+        if (c < least) {
+            least = c;
+            unsigned char *t = best;
+            best = spare;
+            spare = t;
         }
     }
+    if (best != out) memcpy(out, best, n + 1);
 }
 
-/* ---- one band
- * ----------------------------------------------------------------- */
+/* ---- one band ----------------------------------------------------------- */
 
 static void band_encode(const rayd_image *img, int level, struct png_band *b, int last) {
     size_t n = (size_t)img->w * 3, rowb = n + 1;
@@ -175,8 +176,7 @@ static void *band_worker(void *arg) {
     }
 }
 
-/* ---- the file
- * ------------------------------------------------------------------- */
+/* ---- the file ----------------------------------------------------------- */
 
 struct out {
     unsigned char *p;
@@ -190,15 +190,26 @@ static void put32(struct out *o, uint32_t v) {
     o->p[o->len++] = (unsigned char)v;
 }
 
-/* A chunk: length, type, data, CRC of type and data. */
-static void put_chunk(struct out *o, const char *type, const unsigned char *data, size_t n) {
-    put32(o, (uint32_t)n);
+/* A chunk whose data is up to three pieces: length, type, data, the CRC of
+ * type and data. */
+static void put_chunk3(struct out *o, const char *type, const unsigned char *const piece[3],
+                       const size_t len[3]) {
+    put32(o, (uint32_t)(len[0] + len[1] + len[2]));
     size_t start = o->len;
     memcpy(o->p + o->len, type, 4);
     o->len += 4;
-    if (n) memcpy(o->p + o->len, data, n);
-    o->len += n;
-    put32(o, (uint32_t)crc32_z(0, o->p + start, n + 4));
+    for (int i = 0; i < 3; i++)
+        if (len[i]) {
+            memcpy(o->p + o->len, piece[i], len[i]);
+            o->len += len[i];
+        }
+    put32(o, (uint32_t)crc32_z(0, o->p + start, o->len - start));
+}
+
+static void put_chunk(struct out *o, const char *type, const unsigned char *data, size_t n) {
+    const unsigned char *piece[3] = {data, NULL, NULL};
+    const size_t len[3] = {n, 0, 0};
+    put_chunk3(o, type, piece, len);
 }
 
 static void put_header(struct out *o, const rayd_image *img) {
@@ -223,23 +234,22 @@ static void put_header(struct out *o, const rayd_image *img) {
     put_chunk(o, "cHRM", buf, 32);
 }
 
-/* The zlib stream (header, the bands, Adler-32) as IDAT chunks. */
-static void put_idats(struct out *o, int level, const struct png_band *bands, int nbands,
-                      unsigned char *zbuf) {
+/* The zlib stream as one IDAT chunk a band: the first begins with the zlib
+ * header, the last ends with the Adler-32 of the whole. */
+static void put_idats(struct out *o, int level, const struct png_band *bands, int nbands) {
     static const unsigned char flg[4] = {0x01, 0x5e, 0x9c, 0xda}; /* by FLEVEL, as zlib */
     int flevel = level < 2 ? 0 : level <= 5 ? 1 : level == 6 ? 2 : 3;
-    size_t n = 0;
-    zbuf[n++] = 0x78;
-    zbuf[n++] = flg[flevel];
+    const unsigned char head[2] = {0x78, flg[flevel]};
     uLong adler = adler32_z(0, NULL, 0);
-    for (int i = 0; i < nbands; i++) {
-        memcpy(zbuf + n, bands[i].out, bands[i].len);
-        n += bands[i].len;
+    for (int i = 0; i < nbands; i++)
         adler = adler32_combine(adler, bands[i].adler, (z_off_t)bands[i].raw);
+    unsigned char tail[4];
+    for (int k = 0; k < 4; k++) tail[k] = (unsigned char)(adler >> (24 - 8 * k));
+    for (int i = 0; i < nbands; i++) {
+        const unsigned char *piece[3] = {head, bands[i].out, tail};
+        const size_t len[3] = {i == 0 ? 2 : 0, bands[i].len, i == nbands - 1 ? 4 : 0};
+        put_chunk3(o, "IDAT", piece, len);
     }
-    for (int k = 0; k < 4; k++) zbuf[n++] = (unsigned char)(adler >> (24 - 8 * k));
-    for (size_t at = 0; at < n; at += PNG_IDAT_MAX)
-        put_chunk(o, "IDAT", zbuf + at, n - at < PNG_IDAT_MAX ? n - at : PNG_IDAT_MAX);
     put_chunk(o, "IEND", NULL, 0);
 }
 
@@ -284,15 +294,13 @@ enum rayd_status rayd_png_encode_threads(const rayd_image *img, int level, int t
     size_t zlen = 6;
     for (int i = 0; i < j.nbands; i++) zlen += j.bands[i].len;
     /* header chunks 8 + 25 + 13 + 16 + 44, 12 per IDAT, IEND 12 */
-    size_t cap = 8 + 25 + 13 + 16 + 44 + zlen + 12 * (zlen / PNG_IDAT_MAX + 1) + 12;
+    size_t cap = 8 + 25 + 13 + 16 + 44 + zlen + 12 * (size_t)j.nbands + 12;
     struct out o = {failed ? NULL : malloc(cap), 0};
-    unsigned char *zbuf = failed ? NULL : malloc(zlen);
-    int ok = o.p && zbuf;
+    int ok = o.p != NULL;
     if (ok) {
         put_header(&o, img);
-        put_idats(&o, level, j.bands, j.nbands, zbuf);
+        put_idats(&o, level, j.bands, j.nbands);
     }
-    free(zbuf);
     for (int i = 0; i < j.nbands; i++) free(j.bands[i].out);
     free(j.bands);
     if (!ok) {
