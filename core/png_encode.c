@@ -17,11 +17,13 @@
  *
  * Filters: per row, the one of the five PNG filters whose output has the
  * smallest sum of absolute values (as signed bytes), libpng's own
- * heuristic.  With no level asked for (-1), zlib level 4, chosen by
- * measurement (bench/pngbench.c, on 2 threads): on the 1080p sphere scene
- * 4.4x faster than libpng at level 6 for 10.7% more bytes, and 4-15% more
- * on the example scenes.  Zlib's run-length strategy was 1.7x faster again
- * but up to 23% larger (primitives.json); level 1, up to 39% larger.
+ * heuristic; deflate with zlib's filtered strategy, as libpng does.  With
+ * no level asked for (-1), zlib level 4, chosen by measurement
+ * (bench/pngbench.c, 2 threads): on the 1080p sphere scene 6x faster than
+ * libpng at level 6 for 8.6% more bytes, and 0-11% more on the example
+ * scenes.  The default strategy at level 4 was as fast but up to 15%
+ * larger; level 5, 1.4x slower; zlib's run-length strategy 1.5x faster but
+ * up to 23% larger.
  *
  * The chunks are those libpng wrote before: IHDR, sRGB, gAMA and cHRM for
  * sRGB, the IDATs (one a band: no copy of the whole stream), IEND.
@@ -132,7 +134,7 @@ static void band_encode(const rayd_image *img, int level, struct png_band *b, in
     z_stream z;
     memset(&z, 0, sizeof z);
     if (!filt || !tmp || !zero ||
-        deflateInit2(&z, level, Z_DEFLATED, -15, 8, Z_DEFAULT_STRATEGY) != Z_OK) {
+        deflateInit2(&z, level, Z_DEFLATED, -15, 8, Z_FILTERED) != Z_OK) {
         free(filt);
         free(tmp);
         free(zero);
