@@ -30,6 +30,7 @@
 #include "image.h"
 #include "integrate.h"
 #include "render.h"
+#include "clock.h"
 #include "rng.h"
 #include "scene.h"
 
@@ -354,17 +355,11 @@ static void *render_worker(void *arg) {
     return NULL;
 }
 
-static double now_seconds(void) {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
-}
-
 enum rayd_status rayd_render(const rayd_scene *s, const struct rayd_render_opts *opts,
                              rayd_image **out, struct rayd_error *err) {
     static const struct rayd_render_opts none;
     if (!opts) opts = &none;
-    double t0 = now_seconds();
+    double t0 = clock_now();
     enum rayd_status st = rayd_region_check(s, &opts->region, err);
     if (st != RAYD_OK) return st;
     struct job jb = {.s = s, .opts = opts, .tile = opts->tile > 0 ? opts->tile : 32};
@@ -390,7 +385,7 @@ enum rayd_status rayd_render(const rayd_scene *s, const struct rayd_render_opts 
 
     if (opts->stats) {
         opts->stats->rays = atomic_load(&jb.rays);
-        opts->stats->seconds = now_seconds() - t0;
+        opts->stats->seconds = clock_now() - t0;
     }
     if (atomic_load(&jb.canceled)) {
         rayd_image_free(jb.img);

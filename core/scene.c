@@ -24,6 +24,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "clock.h"
 #include "error.h"
 #include "light_buffer.h"
 #include "texture.h"
@@ -506,8 +507,10 @@ enum rayd_status scene_freeze(rayd_scene *s, struct rayd_error *err) {
     }
     enum rayd_status st = split_unbounded(s, err);
     if (st != RAYD_OK || s->nobjs == 0) return st;
+    double t0 = clock_now();
     st = scene_build_bvh(s, &s->objs, s->nobjs, &s->tlas, NULL, err);
     if (st == RAYD_OK) st = light_buffers_build(s, err);
+    s->build_s += clock_now() - t0;
     return st == RAYD_OK ? find_emitters(s, err) : st;
 }
 
@@ -518,6 +521,8 @@ void rayd_scene_info(const rayd_scene *s, struct rayd_scene_info *info) {
     info->max_depth = s->rs.max_depth;
     info->objects = (long)s->nobjs + s->nplanes;
     info->lights = s->nlights;
+    info->decode_seconds = s->decode_s;
+    info->build_seconds = s->build_s;
     size_t bytes = sizeof *s + sizeof *s->mats * (size_t)s->nmats +
                    sizeof *s->lights * (size_t)s->nlights +
                    sizeof *s->objs * (size_t)(s->nobjs + s->nplanes + s->nparts) +

@@ -34,6 +34,7 @@ struct group {
 struct texture;
 
 struct rayd_scene {
+    double decode_s, build_s; /* loading: mesh files decoded, BVHs and light buffers built */
     struct camera cam;
     struct render_settings rs;
     struct material *mats;

@@ -16,6 +16,7 @@
 
 #include "scene_json.h"
 #include "base64.h"
+#include "clock.h"
 #include "mesh_io.h"
 
 /* ---- meshes ------------------------------------------------------------------- */
@@ -187,6 +188,7 @@ static enum rayd_status load_source(struct loader *ld, const cJSON *src, const s
     struct jp pv = sj_key(at, text ? "text" : b64 ? "base64" : "file");
     char *data = NULL;
     size_t len = 0;
+    double t0 = clock_now(); /* decode: reading the file or base64 too */
     if (file) {
         TRY(sj_read_asset(ld, file, &pv, &data, &len));
     } else if (!cJSON_IsString(v)) {
@@ -207,6 +209,7 @@ static enum rayd_status load_source(struct loader *ld, const cJSON *src, const s
     size_t nbytes = data ? len : strlen(v->valuestring);
     enum rayd_status st = format == 0 ? mesh_parse_obj(bytes, nbytes, &ml, md, ld->err)
                                       : mesh_parse_ply(bytes, nbytes, &ml, md, ld->err);
+    ld->s->decode_s += clock_now() - t0;
     free(data);
     if (st != RAYD_OK && ld->err) snprintf(ld->err->path, sizeof ld->err->path, "%s", pv.s);
     if (st == RAYD_OK && md->ntris == 0) {
@@ -288,8 +291,10 @@ build:
     if ((st = add_mesh(ld, id)) != RAYD_OK) goto out;
     ld->vertices += nv;
     ld->triangles += nt;
+    double t0 = clock_now();
     st = mesh_build(&ld->s->meshes[*id], pos, (uint32_t)nv, ix, (uint32_t)nt, nrm, uv, smooth,
                     nt >= 50000 ? sj_cpu_count() : 1, ld->err);
+    ld->s->build_s += clock_now() - t0;
     return st; /* the mesh owns the arrays now, even on failure */
 out:
     free(pos);

@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "scene_json.h"
+#include "clock.h"
 
 /* Where an object is being loaded and what it inherits. */
 struct ctx {
@@ -483,7 +484,10 @@ enum rayd_status sj_groups(struct loader *ld, const cJSON *root) {
             if (!scene_object_bounds(s, &gr->objs[i], &b))
                 return sj_fail(ld, RAYD_E_INVALID, &pi, "unbounded objects (planes, quadrics) cannot be in a group");
         }
-        TRY(scene_build_bvh(s, &gr->objs, gr->nobjs, &gr->bvh, &gr->bounds, ld->err));
+        double t0 = clock_now();
+        enum rayd_status st = scene_build_bvh(s, &gr->objs, gr->nobjs, &gr->bvh, &gr->bounds, ld->err);
+        s->build_s += clock_now() - t0;
+        TRY(st);
     }
     return RAYD_OK;
 }

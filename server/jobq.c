@@ -659,9 +659,16 @@ enum rayd_status jobq_scene_parse(const char *body, size_t len, struct cache_ent
     rayd_scene *scene = NULL;
     double t0 = log_now();
     enum rayd_status st = rayd_scene_parse(body, len, &lim, &scene, err);
-    metrics_stage(MS_PARSE, log_now() - t0);
-    if (st != RAYD_OK)
+    double parsed = log_now() - t0;
+    if (st != RAYD_OK) {
+        metrics_stage(MS_PARSE, parsed);
         return st;
+    }
+    struct rayd_scene_info info;
+    rayd_scene_info(scene, &info);
+    metrics_stage(MS_PARSE, parsed - info.decode_seconds - info.build_seconds);
+    metrics_stage(MS_DECODE, info.decode_seconds);
+    metrics_stage(MS_BUILD, info.build_seconds);
     pthread_mutex_lock(&jobq_lock);
     e = cache_put(id, scene);
     pthread_mutex_unlock(&jobq_lock);

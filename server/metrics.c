@@ -32,8 +32,8 @@ struct metrics_hist {
 
 static atomic_ulong metrics_req[METRICS_ROUTES + 1][METRICS_NCODES];
 static struct metrics_hist metrics_wait, metrics_rend, metrics_stages[MS__COUNT];
-static const char *const metrics_stage_names[MS__COUNT] = {"upload", "parse",  "queue",
-                                                           "render", "encode", "send"};
+static const char *const metrics_stage_names[MS__COUNT] = {
+    "upload", "parse", "decode", "build", "queue", "render", "encode", "send"};
 static atomic_ulong metrics_hits, metrics_misses, metrics_rhits, metrics_rmisses, metrics_rays_n, metrics_coalesced_n;
 static atomic_ulong metrics_rejects[MR__COUNT], metrics_cancels[MC__COUNT];
 
@@ -134,8 +134,9 @@ static void metrics_hist_text(struct metrics_buf *b, const char *name, const cha
 static void metrics_stage_text(struct metrics_buf *b)
 {
     metrics_printf(b, "# HELP rayd_stage_seconds Time of each stage of a request's wait: upload "
-                      "(the body), parse (scene, meshes, BVH), queue, render (the tiles), encode "
-                      "(the PNG), send (the reply).\n# TYPE rayd_stage_seconds histogram\n");
+                      "(the body), parse (the JSON), decode (mesh files), build (BVHs), queue, "
+                      "render (the tiles), encode (the PNG), send (the reply).\n"
+                      "# TYPE rayd_stage_seconds histogram\n");
     for (int s = 0; s < MS__COUNT; s++) {
         char label[32];
         snprintf(label, sizeof label, "stage=\"%s\",", metrics_stage_names[s]);

@@ -84,9 +84,20 @@ double log_now(void); /* monotonic seconds */
 enum metrics_reject { MR_QUEUE_FULL, MR_DRAINING, MR_BODY_TOO_LARGE, MR_UNAUTHORIZED, MR__COUNT };
 enum metrics_cancel { MC_CLIENT_GONE, MC_DELETE, MC_DRAIN, MC__COUNT };
 /* The stages of a request's wait, end to end: the body arriving, the scene
- * parsed and built (a cache miss), the queue, the tiles, the PNG, the reply
- * going out.  One histogram, rayd_stage_seconds{stage=...}. */
-enum metrics_stage { MS_UPLOAD, MS_PARSE, MS_QUEUE, MS_RENDER, MS_ENCODE, MS_SEND, MS__COUNT };
+ * parsed, its mesh files decoded and its BVHs built (a cache miss), the
+ * queue, the tiles, the PNG, the reply going out.  One histogram,
+ * rayd_stage_seconds{stage=...}. */
+enum metrics_stage {
+    MS_UPLOAD,
+    MS_PARSE,
+    MS_DECODE,
+    MS_BUILD,
+    MS_QUEUE,
+    MS_RENDER,
+    MS_ENCODE,
+    MS_SEND,
+    MS__COUNT
+};
 
 void metrics_request(int route, int status);
 void metrics_queue_wait(double seconds);

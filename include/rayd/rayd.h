@@ -109,6 +109,10 @@ struct rayd_scene_info {
     long objects;      /* primitives in the scene */
     int lights;
     size_t bytes;      /* memory held by the frozen scene */
+    /* Of rayd_scene_parse's time: mesh files read and decoded (OBJ, PLY,
+     * base64), and the BVHs (meshes, groups, the scene's) and light buffers
+     * built. */
+    double decode_seconds, build_seconds;
 };
 
 void rayd_scene_info(const rayd_scene *scene, struct rayd_scene_info *info);

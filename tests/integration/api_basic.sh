@@ -109,7 +109,7 @@ check metrics_by_route "no POST /v1/render 200 counter" \
     bash -c "curl -s '$URL/metrics' | grep -q 'rayd_requests_total{route=\"POST /v1/render\",status=\"200\"}'"
 # every stage of a request's wait has its histogram, each counted by now
 stages_ok=1
-for st in upload parse queue render encode send; do
+for st in upload parse decode build queue render encode send; do
     n=$(metric "rayd_stage_seconds_count{stage=\"$st\"}")
     [ "${n:-0}" -ge 1 ] || { stages_ok=0; echo "stage $st counted '${n}'"; }
 done

@@ -44,11 +44,24 @@ out=$("$R" "$scene" -o "$T/s.png" --stats 2>&1)
 rays=$(awk '/^rays:/ {print $2}' <<<"$out")
 if [ -n "$rays" ] && [ "$rays" -ge $((160 * 120 * 4)) ] && grep -q '^rays/s: [0-9]' <<<"$out" &&
     grep -q '^wall: [0-9.]* s' <<<"$out" &&
-    [ "$(grep -cE '^time (read|parse|render|encode|write|total): [0-9.]+ s$' <<<"$out")" = 6 ]; then
+    [ "$(grep -cE '^time (read|parse|decode|build|render|encode|write|total): [0-9.]+ s$' <<<"$out")" = 8 ]; then
     ok cli-stats
 else
     bad cli-stats "unexpected --stats output: $out"
 fi
+
+# a mesh file's stages: decoding and building take time, and the stages add
+# up to no more than the total
+"$RAYD_BUILD/bench/genmesh" 5 "$T/m.ply" >/dev/null 2>&1
+printf '{"render": {"width": 32, "height": 24}, "objects": [{"type": "mesh", "source": {"file": "m.ply"}}]}' >"$T/m.json"
+out=$("$R" "$T/m.json" -o "$T/m.png" --stats 2>&1)
+if python3 - "$out" <<'PY'; then ok cli-stats-mesh-stages; else bad cli-stats-mesh-stages "$out"; fi
+import re, sys
+t = dict(re.findall(r"^time (\w+): ([0-9.]+) s$", sys.argv[1], re.M))
+t = {k: float(v) for k, v in t.items()}
+parts = sum(v for k, v in t.items() if k != "total")
+sys.exit(0 if t["decode"] > 0 and t["build"] > 0 and parts <= t["total"] + 1e-3 else 1)
+PY
 
 check_usage() { # name, expected stderr substring, args...
     local name=$1 want=$2; shift 2
