@@ -355,7 +355,7 @@ bench: all $(BUILD)/bench/raybench $(BUILD)/bench/genmesh $(BUILD)/bench/pngbenc
 	@bash bench/run.sh $(BUILD)
 
 bench-peers: all bench-deps $(BUILD)/bench/raybench $(BUILD)/bench/embree_bench $(BUILD)/bench/imgdiff \
-             $(BENCH_SCENES)
+             $(BENCH_SCENES) $(BENCH_DIR)/mesh-8-obj.json
 	@bash bench/peers.sh $(BUILD)
 
 format:

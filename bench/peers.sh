@@ -14,6 +14,11 @@
 #            mean of FRAMES renders, about one POV-Ray trace long) vs
 #            bench/peers/spheres10.pov by povray +WT1 -A (its reported
 #            trace time, not parse or bounding), median of RUNS runs
+#   whole    what a user waits for: the whole rayd-render process on 2
+#            threads (start to PNG written) for spheres10 against POV-Ray's
+#            trace on 2 threads, and for the 1.3M mesh (binary PLY, OBJ)
+#            against Embree's load + medium build + 16-wide primary and
+#            shadow rays (see the section below for how each side is timed)
 #
 # Every ratio is rayd's speed over the peer's (> 1: rayd is faster); the
 # targets are issue 4's and the verdict is on the wall-clock ratio.  Beside
@@ -106,6 +111,37 @@ medianize "$R/spheres10.raybench-cpu".[0-9]* >"$R/spheres10.raybench-cpu"
 rayd_cpu=$(kv "$R/spheres10.raybench-cpu" image_s_1t)
 "$D/imgdiff" "$R/spheres10-rayd.png" "$R/spheres10-pov.png" >"$R/spheres10.imgdiff" || true
 
+# --- end to end: the whole rayd-render process, as a user waits -------------
+# spheres10 on 2 threads: rayd-render's whole process (start to PNG written)
+# against POV-Ray's reported trace time on 2 threads (+WT2; its parse and
+# bounding not counted: generous to POV-Ray).  The 1.3M mesh as binary PLY
+# and as OBJ: the whole process against Embree's load (the core's PLY reader,
+# timed by embree_bench), medium build and 16-wide primary + shadow rays of
+# every pixel, their one-thread time halved for 2 threads (ideal scaling:
+# generous to Embree).
+whole() { # SCENE -> the median of RUNS whole rayd-render processes, seconds
+    local k t0 ts=()
+    for k in $(seq "$RUNS"); do
+        t0=$(date +%s%N)
+        "$BUILD/rayd-render" "$1" -o "$R/whole.png" --threads 2 2>>"$R/stderr.log"
+        ts+=("$(( ($(date +%s%N) - t0) / 1000 ))")
+    done
+    printf '%s\n' "${ts[@]}" | med | awk '{printf "%.4f", $1 / 1e6}'
+}
+pov2_t=()
+for r in $(seq "$RUNS"); do
+    (cd "$pov" && povray +Ispheres10.pov +Ospheres10-pov2.png +W1920 +H1080 -A +WT2 -D +FN \
+        >povray2.log 2>&1) || { echo "bench-peers: povray +WT2 failed"; exit 1; }
+    pov2_t+=("$(sed -n 's/.*Trace Time:.*(\([0-9.]*\) seconds).*/\1/p' "$pov/povray2.log" | head -1)")
+done
+pov2_s=$(printf '%s\n' "${pov2_t[@]}" | med)
+whole_spheres=$(whole bench/scenes/spheres10.json)
+whole_ply=$(whole "$D/mesh-8.json")
+whole_obj=$(whole "$D/mesh-8-obj.json")
+em8=$R/mesh-8.embree
+embree_e2e=$(awk -v p="$(kv "$em8" parse_s)" -v b="$(kv "$em8" bvh_build_s)" \
+    -v r="$(kv "$em8" shadow_mrays_1t_packet16)" 'BEGIN {printf "%.4f", p + b + 1920 * 1080 / (r * 1e6) / 2}')
+
 # --- absolute figures ------------------------------------------------------
 echo "Absolute figures (1920x1080, one thread unless noted, medians of $RUNS runs)"
 printf '%-7s %8s | %-42s | %-42s\n' "" "" "rayd (raybench)" "Embree $(awk '$1=="peer" {print $3}' "$R/mesh-8.embree.1") (embree_bench)"
@@ -179,5 +215,12 @@ row "  (Embree packet16 1.3M / 5k, reference)" "$(kv "$R/mesh-8.embree" primary_
     "$(kv "$R/mesh-4.embree" primary_mrays_1t_packet16)" \
     "$(kv "$R/mesh-8.embree-cpu" primary_mrays_1t_packet16)" \
     "$(kv "$R/mesh-4.embree-cpu" primary_mrays_1t_packet16)" -
+row "whole: spheres10 2t / POV-Ray trace 2t" "$whole_spheres" "$pov2_s" - - 10 1
+row "whole: 1.3M PLY / Embree load+build+rays" "$whole_ply" "$embree_e2e" - - 1 1
+row "whole: 1.3M OBJ / Embree load+build+rays" "$whole_obj" "$embree_e2e" - - 1 1
+printf '(whole: rayd-render start to PNG written, 2 threads: spheres10 %s s, 1.3M PLY %s s, OBJ %s s;\n' \
+    "$whole_spheres" "$whole_ply" "$whole_obj"
+printf ' POV-Ray +WT2 trace %s s; Embree PLY load %s s + medium build %s s + rays %s Mpixels/s 1t)\n' \
+    "$pov2_s" "$(kv "$em8" parse_s)" "$(kv "$em8" bvh_build_s)" "$(kv "$em8" shadow_mrays_1t_packet16)"
 echo "(BVH build: wall only, both builds use 2 threads)"
 echo "(raw figures and both sphere images in $R/)"
