@@ -82,7 +82,7 @@ PIDS+=($ssepid)
 wait_until 60 job_is "$id3" tiles_done 2
 check job_running "state $(json "$T/body" 'j["state"]')" job_state_is "$id3" running
 c0=$(metric 'rayd_canceled_total{reason="delete"}')
-gate_is started 0 >/dev/null
+gate_read
 started0=$(jfield "$T/gate.json" started)
 code=$(req DELETE "/v1/jobs/$id3")
 check job_delete_200 "status $code" [ "$code" = 200 ]
@@ -92,7 +92,7 @@ wait_until 30 metric_is rayd_workers_busy 0
 check job_cancel_stops_workers "rayd_workers_busy $(metric rayd_workers_busy)" metric_is rayd_workers_busy 0
 req GET "/v1/jobs/$id3" >/dev/null
 done1=$(jfield "$T/body" tiles_done)
-gate_is started 0 >/dev/null
+gate_read
 started1=$(jfield "$T/gate.json" started)
 check job_cancel_no_more_tiles "tiles done $done1 (2 at the DELETE), tiles started $started0 -> $started1" \
     bash -c "[ '$done1' = 2 ] && [ '$started1' = '$started0' ]"

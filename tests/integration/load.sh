@@ -98,7 +98,7 @@ curl -s -m 1 -o /dev/null -X POST -H 'Content-Type: application/json' \
 wait_until 60 metric_is 'rayd_canceled_total{reason="client_gone"}' $((c0 + 1))
 c1=$(metric 'rayd_canceled_total{reason="client_gone"}')
 check disconnect_cancels "canceled{client_gone} $c0 -> $c1" [ "$c1" = $((c0 + 1)) ]
-gate_is started 0 >/dev/null
+gate_read
 s0=$(jfield "$T/gate.json" started)
 gate open
 wait_until 60 gate_is queued 0

@@ -107,16 +107,10 @@ wait_until() {
 gate() {
     curl -s -m 30 -X POST -o "$T/gate.json" "${AUTH[@]}" "$URL/v1/test/gate?tiles=$1" >/dev/null
 }
-# gate_is KEY VALUE: the gate's KEY (tiles, started, held, queued) is VALUE now
-gate_is() {
-    curl -s -m 30 -o "$T/gate.json" "${AUTH[@]}" "$URL/v1/test/gate" >/dev/null &&
-        [ "$(jfield "$T/gate.json" "$1")" = "$2" ]
-}
-# gate_at_least KEY N: the gate's KEY is N or more
-gate_at_least() {
-    curl -s -m 30 -o "$T/gate.json" "${AUTH[@]}" "$URL/v1/test/gate" >/dev/null &&
-        [ "$(jfield "$T/gate.json" "$1")" -ge "$2" ] 2>/dev/null
-}
+# gate_read: the gate's state into $T/gate.json (tiles, started, held, queued)
+gate_read() { curl -s -m 30 -o "$T/gate.json" "${AUTH[@]}" "$URL/v1/test/gate" >/dev/null; }
+# gate_is KEY VALUE: the gate's KEY is VALUE now
+gate_is() { gate_read && [ "$(jfield "$T/gate.json" "$1")" = "$2" ]; }
 # metric_is NAME VALUE: /metrics has NAME at VALUE (for wait_until)
 metric_is() { [ "$(metric "$1")" = "$2" ]; }
 # job_is ID KEY VALUE: GET /v1/jobs/ID has KEY at VALUE (body left in $T/body)
