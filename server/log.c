@@ -43,11 +43,12 @@ void log_access(const struct log_access *a)
         char method[64];
         fprintf(stderr,
                 "{\"time\":\"%s\",\"method\":\"%s\",\"path\":\"%s\",\"status\":%d,\"bytes\":%zu,"
-                "\"queue_ms\":%.3f,\"render_ms\":%.3f,\"encode_ms\":%.3f,\"total_ms\":%.3f%s%s%s}\n",
+                "\"queue_ms\":%.3f,\"render_ms\":%.3f,\"encode_ms\":%.3f,\"total_ms\":%.3f"
+                "%s%s%s}\n",
                 ts, http_json_escape(a->method, method, sizeof method),
                 http_json_escape(a->path, path, sizeof path), a->status, a->bytes, a->queue_ms,
-                a->render_ms, a->encode_ms, a->total_ms, a->note ? ",\"note\":\"" : "", a->note ? a->note : "",
-                a->note ? "\"" : "");
+                a->render_ms, a->encode_ms, a->total_ms, a->note ? ",\"note\":\"" : "",
+                a->note ? a->note : "", a->note ? "\"" : "");
     } else {
         /* keep the line one line whatever the client sent */
         snprintf(path, sizeof path, "%s", a->path);
@@ -57,8 +58,7 @@ void log_access(const struct log_access *a)
         fprintf(stderr,
                 "%s %s %s %d %zu queue_ms=%.3f render_ms=%.3f encode_ms=%.3f total_ms=%.3f%s%s\n",
                 ts, a->method, path, a->status, a->bytes, a->queue_ms, a->render_ms, a->encode_ms,
-                a->total_ms,
-                a->note ? " note=" : "", a->note ? a->note : "");
+                a->total_ms, a->note ? " note=" : "", a->note ? a->note : "");
     }
 }
 

@@ -63,7 +63,10 @@ static void metrics_observe(struct metrics_hist *h, double s)
 
 void metrics_queue_wait(double s) { metrics_observe(&metrics_wait, s); }
 void metrics_render(double s) { metrics_observe(&metrics_rend, s); }
-void metrics_stage(enum metrics_stage stage, double s) { metrics_observe(&metrics_stages[stage], s); }
+void metrics_stage(enum metrics_stage stage, double s)
+{
+    metrics_observe(&metrics_stages[stage], s);
+}
 void metrics_cache(bool hit) { atomic_fetch_add(hit ? &metrics_hits : &metrics_misses, 1); }
 void metrics_result_cache(bool hit)
 {
