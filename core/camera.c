@@ -13,7 +13,6 @@
 
 #include "error.h"
 
-#define DEG2RAD (3.14159265358979323846 / 180.0)
 
 enum rayd_status cam_init(struct camera *cam, vec3 pos, vec3 look_at, vec3 up, double fov_x_deg,
                           double fov_y_deg, int n, int m, struct rayd_error *err) {

@@ -30,7 +30,6 @@
 #include <string.h>
 
 #include "error.h"
-#include "scene.h"
 
 #define LB_MARGIN (1.0 / 1024) /* the widening of every object's directions */
 #define LB_CELLS 64            /* cells on a side of a face's rectangle */
@@ -148,7 +147,7 @@ static void buffer_free(struct light_buffer *b) {
     memset(b, 0, sizeof *b);
 }
 
-/* The buffer of the point light at p over the scene's objects (boxes rel,
+/* The buffer of the point light at p over the objects (boxes rel,
  * relative to p), with at most *budget entries (less those it takes);
  * false when out of memory.  Leaves b->ok false where the buffer would not
  * be sound, or not fit. */
@@ -177,44 +176,43 @@ static bool buffer_build(struct light_buffer *b, vec3 p, const struct aabb *rel,
     return true;
 }
 
-enum rayd_status light_buffers_build(rayd_scene *s, struct rayd_error *err) {
+enum rayd_status light_buffers_build(const struct aabb *box, int32_t nobjs,
+                                     const struct light_buffer_light *lights, int nlights,
+                                     struct light_buffer **out, struct rayd_error *err) {
+    *out = NULL;
     bool point = false;
-    for (int i = 0; i < s->nlights; i++) point |= s->lights[i].kind == LIGHT_POINT;
-    if (!point || s->nobjs < 2 || s->nobjs > LB_MAX_OBJS) return RAYD_OK;
-    s->light_buffers = calloc((size_t)s->nlights, sizeof *s->light_buffers);
-    struct aabb *box = malloc(sizeof *box * (size_t)s->nobjs);
-    struct aabb *rel = malloc(sizeof *rel * (size_t)s->nobjs);
-    struct lb_scratch sc = {malloc(sizeof *sc.rect * (size_t)s->nobjs),
+    for (int i = 0; i < nlights; i++) point |= lights[i].point;
+    if (!point || nobjs < 2 || nobjs > LB_MAX_OBJS) return RAYD_OK;
+    struct light_buffer *bufs = calloc((size_t)nlights, sizeof *bufs);
+    struct aabb *rel = malloc(sizeof *rel * (size_t)nobjs);
+    struct lb_scratch sc = {malloc(sizeof *sc.rect * (size_t)nobjs),
                             malloc(sizeof *sc.fill * (size_t)LB_CELLS * LB_CELLS)};
-    bool ok = s->light_buffers && box && rel && sc.rect && sc.fill;
-    for (int32_t k = 0; ok && k < s->nobjs; k++) /* an object without bounds: every direction */
-        if (!scene_object_bounds(s, &s->objs[k], &box[k]))
-            box[k] = (struct aabb){v3(-INFINITY, -INFINITY, -INFINITY),
-                                   v3(INFINITY, INFINITY, INFINITY)};
+    bool ok = bufs && rel && sc.rect && sc.fill;
     size_t ids = LB_MAX_IDS;
-    int built = 0,
-        most = LB_MAX_PAIRS / s->nobjs < LB_MAX_LIGHTS ? LB_MAX_PAIRS / s->nobjs : LB_MAX_LIGHTS;
-    for (int i = 0; ok && i < s->nlights && built < most; i++) {
-        if (s->lights[i].kind != LIGHT_POINT) continue;
-        vec3 p = s->lights[i].position;
-        for (int32_t k = 0; k < s->nobjs; k++)
+    int built = 0, most = LB_MAX_PAIRS / nobjs < LB_MAX_LIGHTS ? LB_MAX_PAIRS / nobjs : LB_MAX_LIGHTS;
+    for (int i = 0; ok && i < nlights && built < most; i++) {
+        if (!lights[i].point) continue;
+        vec3 p = lights[i].at;
+        for (int32_t k = 0; k < nobjs; k++)
             rel[k] = (struct aabb){v3_sub(box[k].lo, p), v3_sub(box[k].hi, p)};
-        ok = buffer_build(&s->light_buffers[i], p, rel, s->nobjs, &sc, &ids);
+        ok = buffer_build(&bufs[i], p, rel, nobjs, &sc, &ids);
         built++;
     }
-    free(box);
     free(rel);
     free(sc.rect);
     free(sc.fill);
-    if (ok) return RAYD_OK;
-    light_buffers_free(s);
+    if (ok) {
+        *out = bufs;
+        return RAYD_OK;
+    }
+    light_buffers_free(bufs, nlights);
     return err_set(err, RAYD_E_NOMEM, NULL, "out of memory building the light buffers");
 }
 
-size_t light_buffers_bytes(const rayd_scene *s) {
+size_t light_buffers_bytes(const struct light_buffer *bufs, int nlights) {
     size_t bytes = 0;
-    for (int i = 0; s->light_buffers && i < s->nlights; i++) {
-        const struct light_buffer *b = &s->light_buffers[i];
+    for (int i = 0; bufs && i < nlights; i++) {
+        const struct light_buffer *b = &bufs[i];
         bytes += sizeof *b;
         for (int f = 0; b->ok && f < 6; f++) {
             size_t cells = (size_t)b->face[f].nu * (size_t)b->face[f].nv;
@@ -226,9 +224,8 @@ size_t light_buffers_bytes(const rayd_scene *s) {
     return bytes;
 }
 
-void light_buffers_free(rayd_scene *s) {
-    if (!s->light_buffers) return;
-    for (int i = 0; i < s->nlights; i++) buffer_free(&s->light_buffers[i]);
-    free(s->light_buffers);
-    s->light_buffers = NULL;
+void light_buffers_free(struct light_buffer *bufs, int nlights) {
+    if (!bufs) return;
+    for (int i = 0; i < nlights; i++) buffer_free(&bufs[i]);
+    free(bufs);
 }

@@ -14,8 +14,8 @@
  * whose largest component is r[axis], of sign `sign`, at face coordinates
  * u = r[b] / |r[axis]|, v = r[c] / |r[axis]| (b, c the next two axes).  The
  * rectangle the objects cover is cut into nu x nv cells; cell (i, j) lists
- * ids[start[j * nu + i] .. start[j * nu + i + 1]), indices into the scene's
- * objs. */
+ * ids[start[j * nu + i] .. start[j * nu + i + 1]), indices into the boxes
+ * the buffers were built over. */
 struct light_face {
     double u0, v0;  /* the rectangle's low corner */
     double su, sv;  /* cells per unit of u and v */
@@ -32,12 +32,22 @@ struct light_buffer {
     struct light_face face[6]; /* 2 * axis + (sign < 0) */
 };
 
-/* Builds the buffers of the scene's point lights into s->light_buffers
- * (one per light; ok false for other lights, and where a buffer would not
- * be sound or passes the bounds).  Fails only when out of memory. */
-enum rayd_status light_buffers_build(rayd_scene *s, struct rayd_error *err);
-void light_buffers_free(rayd_scene *s);
+/* A light as the buffers see it: where it is, and whether it is a point
+ * light (only those get a buffer). */
+struct light_buffer_light {
+    vec3 at;
+    bool point;
+};
+
+/* Builds one buffer per light over the objects' boxes (an object without
+ * bounds comes as an infinite box): ok false for lights that are not
+ * points, and where a buffer would not be sound or passes the bounds.
+ * *out NULL when no light gets one.  Fails only when out of memory. */
+enum rayd_status light_buffers_build(const struct aabb *box, int32_t nobjs,
+                                     const struct light_buffer_light *lights, int nlights,
+                                     struct light_buffer **out, struct rayd_error *err);
+void light_buffers_free(struct light_buffer *bufs, int nlights);
 /* The memory they take. */
-size_t light_buffers_bytes(const rayd_scene *s);
+size_t light_buffers_bytes(const struct light_buffer *bufs, int nlights);
 
 #endif

@@ -57,7 +57,7 @@ void rayd_scene_free(rayd_scene *s) {
     free(s->planes);
     free(s->emitters);
     bvh_free(&s->tlas);
-    light_buffers_free(s);
+    light_buffers_free(s->light_buffers, s->nlights);
     free(s);
 }
 
@@ -497,6 +497,29 @@ static enum rayd_status find_emitters(rayd_scene *s, struct rayd_error *err) {
     return RAYD_OK;
 }
 
+/* The point lights' buffers (light_buffer.c) over the top-level objects'
+ * boxes; an object without bounds shows in every direction. */
+static enum rayd_status build_light_buffers(rayd_scene *s, struct rayd_error *err) {
+    struct aabb *box = malloc(sizeof *box * (size_t)s->nobjs);
+    struct light_buffer_light *lights = malloc(sizeof *lights * (size_t)(s->nlights + 1));
+    if (!box || !lights) {
+        free(box), free(lights);
+        return err_set(err, RAYD_E_NOMEM, NULL, "out of memory building the light buffers");
+    }
+    for (int32_t k = 0; k < s->nobjs; k++)
+        if (!scene_object_bounds(s, &s->objs[k], &box[k]))
+            box[k] = (struct aabb){v3(-INFINITY, -INFINITY, -INFINITY),
+                                   v3(INFINITY, INFINITY, INFINITY)};
+    for (int i = 0; i < s->nlights; i++)
+        lights[i] = (struct light_buffer_light){s->lights[i].position,
+                                                s->lights[i].kind == LIGHT_POINT};
+    enum rayd_status st =
+        light_buffers_build(box, s->nobjs, lights, s->nlights, &s->light_buffers, err);
+    free(box);
+    free(lights);
+    return st;
+}
+
 enum rayd_status scene_freeze(rayd_scene *s, struct rayd_error *err) {
     s->opaque = true;
     for (int i = 0; i < s->nmats; i++) s->opaque &= !(s->mats[i].transparency > 0);
@@ -509,7 +532,7 @@ enum rayd_status scene_freeze(rayd_scene *s, struct rayd_error *err) {
     if (st != RAYD_OK || s->nobjs == 0) return st;
     double t0 = clock_now();
     st = scene_build_bvh(s, &s->objs, s->nobjs, &s->tlas, NULL, err);
-    if (st == RAYD_OK) st = light_buffers_build(s, err);
+    if (st == RAYD_OK) st = build_light_buffers(s, err);
     s->build_s += clock_now() - t0;
     return st == RAYD_OK ? find_emitters(s, err) : st;
 }
@@ -533,5 +556,5 @@ void rayd_scene_info(const rayd_scene *s, struct rayd_scene_info *info) {
         bytes += sizeof *s->objs * (size_t)s->groups[i].nobjs +
                  sizeof *s->tlas.nodes * (size_t)s->groups[i].bvh.nnodes;
     for (int i = 0; i < s->ntextures; i++) bytes += texture_bytes(&s->textures[i]);
-    info->bytes = bytes + light_buffers_bytes(s);
+    info->bytes = bytes + light_buffers_bytes(s->light_buffers, s->nlights);
 }

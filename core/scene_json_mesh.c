@@ -14,10 +14,12 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "scene_json.h"
+#include "scene_json_mesh.h"
+
 #include "base64.h"
 #include "clock.h"
 #include "mesh_io.h"
+#include "parallel.h"
 
 /* ---- meshes ------------------------------------------------------------------- */
 
@@ -93,75 +95,6 @@ static enum rayd_status add_mesh(struct loader *ld, uint32_t *id) {
     return RAYD_OK;
 }
 
-/* A ".." path component anywhere. */
-static bool has_dotdot(const char *p) {
-    for (const char *c = p; (c = strstr(c, "..")) != NULL; c += 2)
-        if ((c == p || c[-1] == '/') && (c[2] == '/' || c[2] == '\0')) return true;
-    return false;
-}
-
-/* path resolves (symbolic links followed) to somewhere under dir. */
-static bool inside_dir(const char *dir, const char *path) {
-    char *rd = realpath(dir, NULL), *rp = realpath(path, NULL);
-    size_t n = rd ? strlen(rd) : 0;
-    bool ok = rd && rp && strncmp(rd, rp, n) == 0 && (rp[n] == '/' || (n == 1 && rd[0] == '/'));
-    free(rd);
-    free(rp);
-    return ok;
-}
-
-/* Reads a file named by a scene, under the limits' asset rules. */
-enum rayd_status sj_read_asset(struct loader *ld, const cJSON *f, const struct jp *at,
-                                   char **out, size_t *len) {
-    const struct rayd_limits *lim = ld->lim;
-    if (!cJSON_IsString(f)) return sj_fail(ld, RAYD_E_INVALID, at, "must be a string, not %s", sj_type_name(f));
-    const char *name = f->valuestring;
-    if (!lim->asset_dir)
-        return sj_fail(ld, RAYD_E_INVALID, at, "files are not allowed here (embed the data as \"text\" or \"base64\"; rayd reads files only with --asset-dir)");
-    if (name[0] == '\0') return sj_fail(ld, RAYD_E_INVALID, at, "must not be empty");
-    if (lim->asset_confine && (name[0] == '/' || has_dotdot(name)))
-        return sj_fail(ld, RAYD_E_INVALID, at, "must be a relative path inside the asset directory, without '..'");
-    char path[4096], q[96];
-    if (name[0] == '/')
-        snprintf(path, sizeof path, "%s", name);
-    else if ((size_t)snprintf(path, sizeof path, "%s/%s", lim->asset_dir, name) >= sizeof path)
-        return sj_fail(ld, RAYD_E_INVALID, at, "path is too long");
-    if (lim->asset_confine && !inside_dir(lim->asset_dir, path))
-        return sj_fail(ld, RAYD_E_INVALID, at, "\"%s\" is not a file inside the asset directory", sj_quote(q, sizeof q, name));
-    FILE *fp = fopen(path, "rb");
-    struct stat st;
-    if (fp && (fstat(fileno(fp), &st) != 0 || !S_ISREG(st.st_mode))) {
-        fclose(fp);
-        return sj_fail(ld, RAYD_E_INVALID, at, "\"%s\" is not a regular file", sj_quote(q, sizeof q, name));
-    }
-    if (!fp) return sj_fail(ld, RAYD_E_INVALID, at, "cannot open \"%s\": %s", sj_quote(q, sizeof q, name), strerror(errno));
-    size_t cap = 1 << 16, n = 0;
-    char *buf = malloc(cap);
-    while (buf) {
-        n += fread(buf + n, 1, cap - n, fp);
-        if (n < cap) break;
-        if (cap > lim->max_bytes) {
-            free(buf);
-            fclose(fp);
-            return sj_fail(ld, RAYD_E_LIMIT, at, "file is over the limit of %zu bytes", lim->max_bytes);
-        }
-        char *nb = realloc(buf, cap * 2);
-        if (!nb) free(buf);
-        buf = nb;
-        cap *= 2;
-    }
-    bool bad = ferror(fp);
-    fclose(fp);
-    if (!buf) return err_set(ld->err, RAYD_E_NOMEM, at->s, "out of memory reading a file");
-    if (bad) {
-        free(buf);
-        return sj_fail(ld, RAYD_E_INVALID, at, "cannot read \"%s\"", sj_quote(q, sizeof q, name));
-    }
-    *out = buf;
-    *len = n;
-    return RAYD_OK;
-}
-
 /* "source": {"format": "obj"|"ply", and one of "text", "base64", "file"}. */
 static enum rayd_status load_source(struct loader *ld, const cJSON *src, const struct jp *at,
                                     struct mesh_data *md) {
@@ -217,11 +150,6 @@ static enum rayd_status load_source(struct loader *ld, const cJSON *src, const s
         return sj_fail(ld, RAYD_E_INVALID, &pv, "holds no triangles");
     }
     return st;
-}
-
-int sj_cpu_count(void) {
-    long n = sysconf(_SC_NPROCESSORS_ONLN);
-    return n > 0 ? (int)n : 1;
 }
 
 enum rayd_status sj_mesh(struct loader *ld, const cJSON *oj, const struct jp *at,
@@ -293,7 +221,7 @@ build:
     ld->triangles += nt;
     double t0 = clock_now();
     st = mesh_build(&ld->s->meshes[*id], pos, (uint32_t)nv, ix, (uint32_t)nt, nrm, uv, smooth,
-                    nt >= 50000 ? sj_cpu_count() : 1, ld->err);
+                    nt >= 50000 ? parallel_cores() : 1, ld->err);
     ld->s->build_s += clock_now() - t0;
     return st; /* the mesh owns the arrays now, even on failure */
 out:

@@ -12,8 +12,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "scene_json.h"
+#include "scene_json_objects.h"
+
 #include "clock.h"
+#include "scene_json_material.h"
+#include "scene_json_mesh.h"
 
 /* Where an object is being loaded and what it inherits. */
 struct ctx {
@@ -101,7 +104,7 @@ static enum rayd_status transform_step(struct loader *ld, const cJSON *t, const 
 /* "transform": one step {scale, rotate, translate} applied in that order,
  * or an array of steps applied first to last.  *present is false (and *out
  * the identity) without one. */
-enum rayd_status sj_transform(struct loader *ld, const cJSON *obj, const struct jp *at,
+static enum rayd_status load_transform(struct loader *ld, const cJSON *obj, const struct jp *at,
                               struct xform *out, bool *present) {
     *out = xform_identity();
     *present = false;
@@ -125,7 +128,7 @@ enum rayd_status sj_transform(struct loader *ld, const cJSON *obj, const struct 
     return RAYD_OK;
 }
 
-enum rayd_status sj_add_xform(struct loader *ld, const struct xform *x, int32_t *index) {
+static enum rayd_status add_xform(struct loader *ld, const struct xform *x, int32_t *index) {
     rayd_scene *s = ld->s;
     if (!array_grow((void **)&s->xforms, &ld->xform_cap, (size_t)s->nxforms + 1, sizeof *s->xforms))
         return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
@@ -421,7 +424,7 @@ static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const st
     TRY(sj_object_material(ld, oj, at, cx->material, &o->material));
     struct xform x;
     bool has_x;
-    TRY(sj_transform(ld, oj, at, &x, &has_x));
+    TRY(load_transform(ld, oj, at, &x, &has_x));
     if (kind == K_INSTANCE && !has_x) x = xform_identity(), has_x = true;
     /* inside CSG every transform is composed down to the leaves */
     struct xform acc = cx->acc ? xform_then(&x, cx->acc) : x;
@@ -437,7 +440,7 @@ static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const st
                        kind_names[kind]);
     if (o->kind != SHAPE_CSG && (has_x || cx->acc)) {
         struct xform leaf = cx->acc && cx->in_csg ? acc : x;
-        TRY(sj_add_xform(ld, &leaf, &o->xform));
+        TRY(add_xform(ld, &leaf, &o->xform));
     }
     return RAYD_OK;
 }

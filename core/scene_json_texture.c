@@ -11,9 +11,10 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "scene_json_texture.h"
+
 #include "base64.h"
 #include "image.h"
-#include "scene_json.h"
 #include "texture.h"
 
 #define TEXTURE_MAX_PIXELS (4096L * 4096L)

@@ -3,12 +3,15 @@
  * failure names the value by its JSON Pointer (RFC 6901: "~" and "/" in keys
  * are escaped) with a message that says what is wrong.
  */
+#define _XOPEN_SOURCE 700 /* realpath */
+#include <errno.h>
 #include <stdarg.h>
+#include <sys/stat.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "scene_json.h"
+#include "scene_json_util.h"
 
 /* Appends the UTF-8 character at *src to dst (capacity cap, length *n)
  * with control characters (and, with quotes, '"' and '\\') escaped as in
@@ -252,5 +255,76 @@ enum rayd_status sj_bool(struct loader *ld, const cJSON *obj, const struct jp *a
     struct jp p = sj_key(at, key);
     if (!cJSON_IsBool(v)) return sj_fail(ld, RAYD_E_INVALID, &p, "must be true or false, not %s", sj_type_name(v));
     *out = cJSON_IsTrue(v);
+    return RAYD_OK;
+}
+
+/* ---- files a scene names -------------------------------------------------- */
+
+/* A ".." path component anywhere. */
+static bool has_dotdot(const char *p) {
+    for (const char *c = p; (c = strstr(c, "..")) != NULL; c += 2)
+        if ((c == p || c[-1] == '/') && (c[2] == '/' || c[2] == '\0')) return true;
+    return false;
+}
+
+/* path resolves (symbolic links followed) to somewhere under dir. */
+static bool inside_dir(const char *dir, const char *path) {
+    char *rd = realpath(dir, NULL), *rp = realpath(path, NULL);
+    size_t n = rd ? strlen(rd) : 0;
+    bool ok = rd && rp && strncmp(rd, rp, n) == 0 && (rp[n] == '/' || (n == 1 && rd[0] == '/'));
+    free(rd);
+    free(rp);
+    return ok;
+}
+
+/* Reads a file named by a scene, under the limits' asset rules. */
+enum rayd_status sj_read_asset(struct loader *ld, const cJSON *f, const struct jp *at,
+                                   char **out, size_t *len) {
+    const struct rayd_limits *lim = ld->lim;
+    if (!cJSON_IsString(f)) return sj_fail(ld, RAYD_E_INVALID, at, "must be a string, not %s", sj_type_name(f));
+    const char *name = f->valuestring;
+    if (!lim->asset_dir)
+        return sj_fail(ld, RAYD_E_INVALID, at, "files are not allowed here (embed the data as \"text\" or \"base64\"; rayd reads files only with --asset-dir)");
+    if (name[0] == '\0') return sj_fail(ld, RAYD_E_INVALID, at, "must not be empty");
+    if (lim->asset_confine && (name[0] == '/' || has_dotdot(name)))
+        return sj_fail(ld, RAYD_E_INVALID, at, "must be a relative path inside the asset directory, without '..'");
+    char path[4096], q[96];
+    if (name[0] == '/')
+        snprintf(path, sizeof path, "%s", name);
+    else if ((size_t)snprintf(path, sizeof path, "%s/%s", lim->asset_dir, name) >= sizeof path)
+        return sj_fail(ld, RAYD_E_INVALID, at, "path is too long");
+    if (lim->asset_confine && !inside_dir(lim->asset_dir, path))
+        return sj_fail(ld, RAYD_E_INVALID, at, "\"%s\" is not a file inside the asset directory", sj_quote(q, sizeof q, name));
+    FILE *fp = fopen(path, "rb");
+    struct stat st;
+    if (fp && (fstat(fileno(fp), &st) != 0 || !S_ISREG(st.st_mode))) {
+        fclose(fp);
+        return sj_fail(ld, RAYD_E_INVALID, at, "\"%s\" is not a regular file", sj_quote(q, sizeof q, name));
+    }
+    if (!fp) return sj_fail(ld, RAYD_E_INVALID, at, "cannot open \"%s\": %s", sj_quote(q, sizeof q, name), strerror(errno));
+    size_t cap = 1 << 16, n = 0;
+    char *buf = malloc(cap);
+    while (buf) {
+        n += fread(buf + n, 1, cap - n, fp);
+        if (n < cap) break;
+        if (cap > lim->max_bytes) {
+            free(buf);
+            fclose(fp);
+            return sj_fail(ld, RAYD_E_LIMIT, at, "file is over the limit of %zu bytes", lim->max_bytes);
+        }
+        char *nb = realloc(buf, cap * 2);
+        if (!nb) free(buf);
+        buf = nb;
+        cap *= 2;
+    }
+    bool bad = ferror(fp);
+    fclose(fp);
+    if (!buf) return err_set(ld->err, RAYD_E_NOMEM, at->s, "out of memory reading a file");
+    if (bad) {
+        free(buf);
+        return sj_fail(ld, RAYD_E_INVALID, at, "cannot read \"%s\"", sj_quote(q, sizeof q, name));
+    }
+    *out = buf;
+    *len = n;
     return RAYD_OK;
 }

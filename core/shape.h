@@ -39,10 +39,6 @@ enum shape_kind {
 
 enum csg_op { CSG_UNION, CSG_INTERSECTION, CSG_DIFFERENCE };
 
-struct aabb {
-    vec3 lo, hi;
-};
-
 struct object {
     enum shape_kind kind;
     int material;  /* index into the scene's materials */

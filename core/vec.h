@@ -13,6 +13,13 @@ typedef struct {
     double x, y, z;
 } vec3;
 
+#define DEG2RAD (3.14159265358979323846 / 180.0)
+
+/* An axis-aligned box. */
+struct aabb {
+    vec3 lo, hi;
+};
+
 static inline vec3 v3(double x, double y, double z) {
     vec3 r = {x, y, z};
     return r;

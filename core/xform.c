@@ -11,7 +11,6 @@
 
 #include <string.h>
 
-#define DEG2RAD (3.14159265358979323846 / 180.0)
 
 static void mat_mul(const double a[3][4], const double b[3][4], double out[3][4]) {
     /* out = a * b for affine 3x4 matrices (implicit last row 0 0 0 1) */

@@ -1,17 +1,21 @@
-/* scene_json.h -- the scene loader's shared parts (internal to the
- * scene_json*.c files, the only ones that include cJSON).
+/* scene_json_util.h -- the scene loader's state and the typed getters
+ * every part of it uses (scene_json_util.c owns them).  Private to the
+ * scene_json*.c files, the only ones that include cJSON.  The loader's
+ * files call one way, each only those below it:
  *
- *   scene_json.c          the entry point, render, camera, materials, lights
- *   scene_json_objects.c  objects: shapes, CSG, groups and instances, transforms
- *   scene_json_mesh.c     meshes: inline arrays, OBJ/PLY sources, files
- *   scene_json_util.c     JSON Pointers and the typed getters every part uses
+ *   scene_json.c           the entry point: render, camera, lights, the order
+ *   scene_json_objects.c   objects: shapes, CSG, groups and instances, transforms
+ *   scene_json_material.c  named and inline materials
+ *   scene_json_texture.c   material textures
+ *   scene_json_mesh.c      meshes: inline arrays, OBJ/PLY sources
+ *   scene_json_util.c      JSON Pointers, the typed getters, files a scene names
  *
  * Every getter checks one value and, when it is wrong, fills the error with
  * the value's JSON Pointer and what is wrong, and returns the status; TRY
  * returns it up the call chain.
  */
-#ifndef SCENE_JSON_H
-#define SCENE_JSON_H
+#ifndef SCENE_JSON_UTIL_H
+#define SCENE_JSON_UTIL_H
 
 #include <stdbool.h>
 
@@ -21,7 +25,6 @@
 #include "error.h"
 #include "scene.h"
 
-#define DEG2RAD (3.14159265358979323846 / 180.0)
 #define NUM_MAX 1e9 /* coordinates and sizes: generous but far from overflow */
 
 
@@ -42,7 +45,6 @@ struct loader {
     const struct rayd_limits *lim;
     rayd_scene *s;
     struct rayd_error *err;
-    const cJSON *materials; /* the /materials object, for names */
     const cJSON *groups;    /* the /groups object, for names */
     struct named *mat_names; /* /materials keys, sorted */
     int nmat_names;
@@ -91,23 +93,8 @@ enum rayd_status sj_type(struct loader *ld, const cJSON *obj, const struct jp *a
 enum rayd_status sj_bool(struct loader *ld, const cJSON *obj, const struct jp *at, const char *key,
                          bool def, bool *out);
 
-enum rayd_status sj_material(struct loader *ld, const cJSON *m, const struct jp *at,
-                             struct material *out);
-enum rayd_status sj_add_material(struct loader *ld, const struct material *m, int *index);
-/* The "material" key of an object: absent (inherit), a name, or inline. */
-enum rayd_status sj_object_material(struct loader *ld, const cJSON *obj, const struct jp *at,
-                                    int inherit, int *index);
-enum rayd_status sj_transform(struct loader *ld, const cJSON *obj, const struct jp *at,
-                              struct xform *out, bool *present);
-enum rayd_status sj_add_xform(struct loader *ld, const struct xform *x, int32_t *index);
-enum rayd_status sj_mesh(struct loader *ld, const cJSON *oj, const struct jp *at, uint32_t *id);
-enum rayd_status sj_groups(struct loader *ld, const cJSON *root);
-enum rayd_status sj_objects(struct loader *ld, const cJSON *root);
 /* Reads a file a scene names, under the limits' asset rules. */
 enum rayd_status sj_read_asset(struct loader *ld, const cJSON *f, const struct jp *at, char **out,
                                size_t *len);
-int sj_cpu_count(void);
-/* "texture": a pattern or image; *index into the scene's textures. */
-enum rayd_status sj_texture(struct loader *ld, const cJSON *t, const struct jp *at, int *index);
 
 #endif
