@@ -17,7 +17,7 @@
 # integration tests (nginx balances the scale-out test), wrk for benchmarks,
 # chromium (and a font) for the browser tests of the preview page, valgrind
 # (make test-valgrind), openssl (a test certificate for the TLS test), zlib
-# (the PNG encoder's deflate, core/png_encode.c) and pngcheck (the tests
+# (the PNG encoder's deflate, core/io/png_encode.c) and pngcheck (the tests
 # check the encoder's files with it).
 DEB_PKGS := gcc make pkg-config libc6-dev libpng-dev zlib1g-dev libcjson-dev libmicrohttpd-dev \
             libcurl4-openssl-dev libssl-dev curl python3 nginx wrk chromium fonts-dejavu-core pngcheck \
@@ -64,7 +64,7 @@ CFLAGS_ALL := -std=c11 -D_POSIX_C_SOURCE=200809L -ffp-contract=off $(OPT) $(WARN
 LDFLAGS_ALL := $(LDSAN) $(LDFLAGS)
 LIBS_CORE := -lpng -lz -lcjson -lpthread -lm
 
-CORE_SRC := $(wildcard core/*.c)
+CORE_SRC := $(wildcard core/*/*.c)
 CORE_OBJ := $(CORE_SRC:%.c=$(BUILD)/%.o)
 SERVER_SRC := $(wildcard server/*.c)
 SERVER_OBJ := $(SERVER_SRC:%.c=$(BUILD)/%.o)
@@ -126,7 +126,7 @@ $(BUILD)/core/%.o: core/%.c | $(BUILD)/.deps-ok
 # Loops over a packet's lanes (integrate_wide.c, camera.c) and the PNG row
 # filters (png_encode.c) are written for the vectoriser, which -O2 runs only
 # on the cheapest loops.
-$(BUILD)/core/integrate_wide.o $(BUILD)/core/camera.o $(BUILD)/core/png_encode.o: CFLAGS_VEC := -ftree-vectorize \
+$(BUILD)/core/render/integrate_wide.o $(BUILD)/core/geom/camera.o $(BUILD)/core/io/png_encode.o: CFLAGS_VEC := -ftree-vectorize \
     -fvect-cost-model=dynamic
 
 $(BUILD)/librayd.a: $(CORE_OBJ)

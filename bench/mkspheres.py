@@ -7,7 +7,7 @@ changing either (python3 bench/mkspheres.py from the repository root).
 100 spheres (radius 0.4, 1 apart) in a grid on a plane, every third one a
 mirror, two point lights, max_depth 5, 1 sample, 1920x1080.
 
-How the models line up (docs/scene-format.md, core/integrate.c):
+How the models line up (docs/scene-format.md, core/render/integrate.c):
   rayd ambient * color           POV  finish ambient (ambient_light 1)
   rayd diffuse * color * N.L     POV  finish diffuse (brilliance 1)
   rayd specular * (N.H)^shininess POV finish specular, roughness 1/shininess

@@ -30,8 +30,8 @@
 #include <string.h>
 #include <time.h>
 
-#include "integrate.h"
-#include "scene.h"
+#include "render/integrate.h"
+#include "scene/scene.h"
 
 static double now(void) {
     struct timespec ts;

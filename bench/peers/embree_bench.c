@@ -15,10 +15,10 @@
  *     (bvh_bytes_per_triangle) and with the vertex and index buffers
  *     (bytes_per_triangle, comparable to raybench's mesh + BVH figure);
  *   - primary rays through every pixel centre of the W x H image, the
- *     camera formula of core/camera.h in double precision, nearest hit:
+ *     camera formula of core/geom/camera.h in double precision, nearest hit:
  *     rtcIntersect1 row by row, and rtcIntersect16 on 4x4 pixel blocks;
  *   - shadow rays as raybench counts them: for every pixel the primary ray
- *     and, from each hit lifted off the surface as core/integrate.h does,
+ *     and, from each hit lifted off the surface as core/render/integrate.h does,
  *     an any-hit ray toward the first light (rtcOccluded1 / rtcOccluded16),
  *     reported as pixels per second;
  * all on the calling thread (timed in wall seconds, or with --cpu-time in
@@ -37,7 +37,7 @@
 #include <string.h>
 #include <time.h>
 
-#include "mesh_io.h"
+#include "io/mesh_io.h"
 
 static double now(void) {
     struct timespec ts;
@@ -106,7 +106,7 @@ struct setup {
     d3 light;            /* position, or direction toward the light */
 };
 
-/* core/camera.h cam_dir: d = normalize(w + alpha u + beta v). */
+/* core/geom/camera.h cam_dir: d = normalize(w + alpha u + beta v). */
 static d3 pixel_dir(const struct setup *s, int i, int j) {
     double hn = s->width * 0.5, hm = s->height * 0.5;
     double alpha = s->tan_x * ((i + 0.5) - hn) / hn;
@@ -117,7 +117,7 @@ static d3 pixel_dir(const struct setup *s, int i, int j) {
 }
 
 /* The shadow ray from a hit: origin lifted along the geometric normal
- * turned toward the viewer by core/integrate.h's float offset; direction
+ * turned toward the viewer by core/render/integrate.h's float offset; direction
  * toward the light; tfar = its distance. */
 static void shadow_ray(const struct setup *s, const float org[3], const float dir[3], float t,
                        const float ng[3], float o[3], float d[3], float *tfar) {

@@ -18,10 +18,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "bvh16.h"
-#include "integrate.h"
-#include "rng.h"
-#include "scene.h"
+#include "accel/bvh16.h"
+#include "render/integrate.h"
+#include "math/rng.h"
+#include "scene/scene.h"
 
 
 static rayd_scene *load(const char *path, const char *text, size_t len, int w, int h) {

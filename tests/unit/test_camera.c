@@ -1,7 +1,7 @@
 /* test_camera.c -- the paper's camera formulas (1)-(5), checked numerically. */
 #include <string.h>
 
-#include "camera.h"
+#include "geom/camera.h"
 #include "check.h"
 
 static void check_basis(const struct camera *c) {

@@ -6,8 +6,8 @@
 #include <stdlib.h>
 
 #include "check.h"
-#include "render.h"
-#include "scene.h"
+#include "render/render.h"
+#include "scene/scene.h"
 #include "scene_util.h"
 
 static const uint8_t *px_at(const rayd_image *img, int i, int j) {

@@ -5,10 +5,10 @@
 #include <stdint.h>
 #include <stdlib.h>
 
-#include "bvh16.h"
+#include "accel/bvh16.h"
 #include "check.h"
-#include "integrate.h"
-#include "light_buffer.h"
+#include "render/integrate.h"
+#include "accel/light_buffer.h"
 #include "scene_util.h"
 
 static double unit_rand(uint64_t *x) {

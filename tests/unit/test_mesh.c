@@ -3,10 +3,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "bvh16.h"
+#include "accel/bvh16.h"
 #include "check.h"
-#include "mesh.h"
-#include "scene.h"
+#include "geom/mesh.h"
+#include "scene/scene.h"
 #include "scene_util.h"
 
 /* Appends printf output to a growing buffer. */

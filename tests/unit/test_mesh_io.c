@@ -8,9 +8,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "base64.h"
+#include "io/base64.h"
 #include "check.h"
-#include "mesh_io.h"
+#include "io/mesh_io.h"
 
 /* ---- helpers ----------------------------------------------------------- */
 

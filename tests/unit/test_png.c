@@ -8,7 +8,7 @@
 #include <zlib.h>
 
 #include "check.h"
-#include "image.h"
+#include "render/image.h"
 #include "rayd/rayd.h"
 
 /* A w x h image with smooth gradients, hard edges and noise, so every PNG

@@ -1,7 +1,7 @@
 /* test_primitives.c -- the exact primitives: hit, miss, tangent, inside,
  * grazing and numerically hard cases, with analytic normals. */
 #include "check.h"
-#include "shape.h"
+#include "geom/shape.h"
 
 static ray mk(vec3 o, vec3 d) {
     ray r = {o, v3_norm(d)};

@@ -5,9 +5,9 @@
 #include <stdatomic.h>
 #include <stdlib.h>
 
-#include "bvh16.h"
+#include "accel/bvh16.h"
 #include "check.h"
-#include "render.h"
+#include "render/render.h"
 #include "scene_util.h"
 
 /* The Whitted example at a small size with several samples: reflection,

@@ -3,7 +3,7 @@
 #include <stdlib.h>
 
 #include "check.h"
-#include "scene.h"
+#include "scene/scene.h"
 #include "scene_util.h"
 
 static enum rayd_status parse(const char *json, struct rayd_error *err) {

@@ -3,10 +3,10 @@
  * reflection, Fresnel and Snell. */
 #include <stdlib.h>
 
-#include "bvh16.h"
+#include "accel/bvh16.h"
 #include "check.h"
-#include "integrate.h"
-#include "material.h"
+#include "render/integrate.h"
+#include "shade/material.h"
 #include "scene_util.h"
 
 /* Camera at the origin looking down -z, fov_x 60, fov_y from the aspect. */

@@ -1,6 +1,6 @@
 /* test_shapes.c -- plane (paper (7)-(8)) and sphere intersection. */
 #include "check.h"
-#include "shape.h"
+#include "geom/shape.h"
 
 static struct object plane(vec3 q, vec3 n) {
     struct object o = {.kind = SHAPE_PLANE};

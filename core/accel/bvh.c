@@ -1,0 +1,547 @@
+/* bvh.c -- building the 4-wide BVH.
+ *
+ * Two steps.  First a binary tree, top-down with the binned surface-area
+ * heuristic: 16 bins along the axis where the primitive centroids spread
+ * most; a node of at most max_leaf primitives is a leaf: 4 (BVH_MAX_LEAF)
+ * for triangles, which one SIMD test takes at once, 1 for the scene's
+ * objects, whose tests cost more than a node's.  Past depth 48 the split
+ * falls back to the median, which bounds the depth (and so the traversal
+ * stack) whatever the input.
+ *
+ * Nodes of 5..8 primitives skip the bins: an exact SAH over the few cuts
+ * that make two leaves.
+ *
+ * The builder works on its own copy of the boxes, 32-byte records it
+ * partitions in place, so every pass over a node reads memory in order
+ * (not through an index).  A node costs two passes: binning, which also
+ * gives both children's boxes and centroid boxes (the unions of their
+ * bins), and the partition.  The subtrees of the top levels are built by
+ * separate threads -- four per thread asked for, so that a lopsided split
+ * leaves no core idle; binary nodes come from one atomically bumped array,
+ * so threads never lock.
+ *
+ * Then the binary tree is collapsed into 4-wide nodes: each wide node takes
+ * the binary node's two children and keeps opening the largest inner child
+ * until it has four.  Wide nodes are laid out depth-first in one array, in
+ * float, four child boxes side by side for the SIMD test in bvh.h.  The
+ * binary tree is freed; only the wide one is kept (bytes per primitive are
+ * what the benchmark reports).
+ */
+#include "base/hugemem.h"
+#include "accel/bvh.h"
+
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdlib.h>
+
+#include "base/error.h"
+
+#define BINS 16
+#define MEDIAN_DEPTH 48
+#define PARALLEL_MIN 50000 /* primitives below which a thread is not worth it */
+
+struct bnode {
+    struct bbox box;
+    uint32_t a, b; /* inner: left and right node; leaf: first, count */
+    bool leaf;
+};
+
+/* A primitive's box with its id, 32 bytes: the builder moves these (not
+ * indices into the caller's boxes), so every pass reads memory in order. */
+struct prim {
+    float lo[3];
+    uint32_t id;
+    float hi[3];
+    int32_t bin; /* set by the binning pass, read by the partition after it */
+};
+
+/* A box of primitives and the box of their centroids (times 2), which the
+ * partition that made a node measured on the way. */
+struct span {
+    struct bbox box, cent;
+};
+
+struct build {
+    struct prim *prims;
+    struct bnode *nodes;
+    atomic_uint used;
+    uint32_t max_leaf; /* primitives a leaf may hold, 1..BVH_MAX_LEAF */
+};
+
+static struct bbox bb_empty(void) {
+    struct bbox b = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+    return b;
+}
+
+static float bb_area(const struct bbox *b) {
+    float dx = b->hi[0] - b->lo[0], dy = b->hi[1] - b->lo[1], dz = b->hi[2] - b->lo[2];
+    if (!(dx >= 0)) return 0;
+    return 2 * (dx * dy + dy * dz + dz * dx);
+}
+
+struct bbox bbox_from(vec3 lo, vec3 hi) {
+    double l[3] = {lo.x, lo.y, lo.z}, h[3] = {hi.x, hi.y, hi.z};
+    struct bbox b;
+    for (int k = 0; k < 3; k++) {
+        b.lo[k] = (float)l[k];
+        if ((double)b.lo[k] > l[k]) b.lo[k] = nextafterf(b.lo[k], -INFINITY);
+        b.hi[k] = (float)h[k];
+        if ((double)b.hi[k] < h[k]) b.hi[k] = nextafterf(b.hi[k], INFINITY);
+    }
+    return b;
+}
+
+static inline int bin_of(const struct prim *p, int axis, float lo, float scale) {
+    int k = (int)((p->lo[axis] + p->hi[axis] - lo) * scale);
+    return k < 0 ? 0 : k >= BINS ? BINS - 1 : k;
+}
+
+/* Moves the primitives of bin < plane (the bins sah_plane left in them)
+ * to the front; returns their number. */
+static uint32_t partition(struct prim *p, uint32_t n, int plane) {
+    uint32_t i = 0, j = n;
+    while (i < j) {
+        if (p[i].bin < plane) {
+            i++;
+        } else {
+            struct prim t = p[i];
+            p[i] = p[--j];
+            p[j] = t;
+        }
+    }
+    return i;
+}
+
+#ifdef BVH_SSE
+/* Binning and spans with SSE: a primitive's lo and hi are one load each
+ * (lane 3, the id and the bin, masked off where it is summed); binning
+ * rotates over four sets of bins so that neighbours falling in the same
+ * bin (a mesh's triangles come in spatial order) do not wait on each
+ * other. */
+static inline __m128 xyz(__m128 v) {
+    return _mm_and_ps(v, _mm_castsi128_ps(_mm_set_epi32(0, -1, -1, -1)));
+}
+
+struct acc4 {
+    __m128 lo, hi, clo, chi;
+};
+
+static inline void acc4_init(struct acc4 *a) {
+    a->lo = a->clo = _mm_set1_ps(INFINITY);
+    a->hi = a->chi = _mm_set1_ps(-INFINITY);
+}
+
+static inline void acc4_grow(struct acc4 *a, __m128 lo, __m128 hi) {
+    __m128 c = _mm_add_ps(xyz(lo), xyz(hi));
+    a->lo = _mm_min_ps(a->lo, lo), a->hi = _mm_max_ps(a->hi, hi);
+    a->clo = _mm_min_ps(a->clo, c), a->chi = _mm_max_ps(a->chi, c);
+}
+
+static inline void acc4_add(struct acc4 *a, const struct prim *p) {
+    acc4_grow(a, _mm_loadu_ps(p->lo), _mm_loadu_ps(p->hi));
+}
+
+static inline void acc4_merge(struct acc4 *a, const struct acc4 *b) {
+    a->lo = _mm_min_ps(a->lo, b->lo), a->hi = _mm_max_ps(a->hi, b->hi);
+    a->clo = _mm_min_ps(a->clo, b->clo), a->chi = _mm_max_ps(a->chi, b->chi);
+}
+
+static inline void acc4_store(const struct acc4 *a, struct span *s) {
+    float v[4][4];
+    _mm_storeu_ps(v[0], a->lo), _mm_storeu_ps(v[1], a->hi);
+    _mm_storeu_ps(v[2], a->clo), _mm_storeu_ps(v[3], a->chi);
+    memcpy(s->box.lo, v[0], sizeof s->box.lo), memcpy(s->box.hi, v[1], sizeof s->box.hi);
+    memcpy(s->cent.lo, v[2], sizeof s->cent.lo), memcpy(s->cent.hi, v[3], sizeof s->cent.hi);
+}
+
+/* Half the surface area of box [lo, hi] (only the order of costs matters). */
+static inline float area4(__m128 lo, __m128 hi) {
+    __m128 d = _mm_sub_ps(hi, lo);
+    __m128 r = _mm_shuffle_ps(d, d, _MM_SHUFFLE(3, 0, 2, 1)); /* dy dz dx */
+    __m128 m = _mm_mul_ps(d, r);                              /* dx*dy dy*dz dz*dx */
+    float v[4];
+    _mm_storeu_ps(v, m);
+    return v[0] + v[1] + v[2];
+}
+
+/* sah_best on SSE bins (the same costs, in the same order). */
+static int sah_best4(const struct acc4 bin[BINS], const uint32_t count[BINS], struct span *left,
+                     struct span *right) {
+    float left_area[BINS];
+    uint32_t left_n[BINS], acc_n = 0;
+    struct acc4 a;
+    acc4_init(&a);
+    for (int k = 0; k < BINS - 1; k++) {
+        acc4_merge(&a, &bin[k]);
+        acc_n += count[k];
+        left_area[k] = area4(a.lo, a.hi);
+        left_n[k] = acc_n;
+    }
+    float best = INFINITY;
+    int best_k = -1;
+    acc4_init(&a);
+    acc_n = 0;
+    for (int k = BINS - 1; k > 0; k--) {
+        acc4_merge(&a, &bin[k]);
+        acc_n += count[k];
+        float cost = left_area[k - 1] * (float)left_n[k - 1] + area4(a.lo, a.hi) * (float)acc_n;
+        if (left_n[k - 1] > 0 && acc_n > 0 && cost < best) {
+            best = cost;
+            best_k = k;
+        }
+    }
+    if (best_k < 0) return -1;
+    struct acc4 l, r;
+    acc4_init(&l);
+    acc4_init(&r);
+    for (int k = 0; k < BINS; k++) acc4_merge(k < best_k ? &l : &r, &bin[k]);
+    acc4_store(&l, left);
+    acc4_store(&r, right);
+    return best_k;
+}
+
+/* The best binned-SAH plane on axis (sah_best), with the two sides' spans. */
+static int sah_plane(struct prim *p, uint32_t n, int axis, float clo, float scale,
+                     struct span *left, struct span *right) {
+    enum { SETS = 4 };
+    uint32_t cnt[SETS][BINS], sets = n >= 256 ? SETS : 1; /* small nodes: one set is enough */
+    struct acc4 acc[SETS][BINS];
+    for (uint32_t h = 0; h < sets; h++)
+        for (int k = 0; k < BINS; k++) {
+            acc4_init(&acc[h][k]);
+            cnt[h][k] = 0;
+        }
+    for (uint32_t i = 0; i < n; i++) {
+        /* load before storing the bin: a store into the 16 bytes about to
+         * be loaded would stall the load until the store is done */
+        __m128 lo = _mm_loadu_ps(p[i].lo), hi = _mm_loadu_ps(p[i].hi);
+        uint32_t h = i & (sets - 1);
+        int k = bin_of(&p[i], axis, clo, scale);
+        cnt[h][k]++;
+        acc4_grow(&acc[h][k], lo, hi);
+        p[i].bin = k;
+    }
+    uint32_t count[BINS];
+    for (int k = 0; k < BINS; k++) {
+        count[k] = cnt[0][k];
+        for (uint32_t h = 1; h < sets; h++) {
+            acc4_merge(&acc[0][k], &acc[h][k]);
+            count[k] += cnt[h][k];
+        }
+    }
+    return sah_best4(acc[0], count, left, right);
+}
+
+static void span_of(const struct prim *p, uint32_t n, struct span *s) {
+    struct acc4 a;
+    acc4_init(&a);
+    for (uint32_t i = 0; i < n; i++) acc4_add(&a, &p[i]);
+    acc4_store(&a, s);
+}
+#else
+static inline void bb_grow(struct bbox *b, const float lo[3], const float hi[3]) {
+    for (int k = 0; k < 3; k++) {
+        b->lo[k] = lo[k] < b->lo[k] ? lo[k] : b->lo[k];
+        b->hi[k] = hi[k] > b->hi[k] ? hi[k] : b->hi[k];
+    }
+}
+
+static inline void span_add(struct span *s, const struct prim *p) {
+    float c[3] = {p->lo[0] + p->hi[0], p->lo[1] + p->hi[1], p->lo[2] + p->hi[2]};
+    bb_grow(&s->box, p->lo, p->hi);
+    bb_grow(&s->cent, c, c);
+}
+
+/* One bin of the SAH sweep: its primitives' box, their centroids' box. */
+struct bin {
+    struct span sp;
+    uint32_t n;
+};
+
+/* The best binned-SAH plane over the bins: the first bin of the right
+ * side, or -1 when no plane separates anything.  left and right get the
+ * two sides' spans, the unions of their bins. */
+static int sah_best(const struct bin bin[BINS], struct span *left, struct span *right) {
+    float left_area[BINS];
+    uint32_t left_n[BINS];
+    struct bbox acc = bb_empty();
+    uint32_t acc_n = 0;
+    for (int k = 0; k < BINS - 1; k++) {
+        bb_grow(&acc, bin[k].sp.box.lo, bin[k].sp.box.hi);
+        acc_n += bin[k].n;
+        left_area[k] = bb_area(&acc);
+        left_n[k] = acc_n;
+    }
+    float best = INFINITY;
+    int best_k = -1;
+    acc = bb_empty();
+    acc_n = 0;
+    for (int k = BINS - 1; k > 0; k--) {
+        bb_grow(&acc, bin[k].sp.box.lo, bin[k].sp.box.hi);
+        acc_n += bin[k].n;
+        float cost = left_area[k - 1] * (float)left_n[k - 1] + bb_area(&acc) * (float)acc_n;
+        if (left_n[k - 1] > 0 && acc_n > 0 && cost < best) {
+            best = cost;
+            best_k = k;
+        }
+    }
+    *left = *right = (struct span){bb_empty(), bb_empty()};
+    for (int k = 0; k < BINS && best_k > 0; k++) {
+        struct span *side = k < best_k ? left : right;
+        bb_grow(&side->box, bin[k].sp.box.lo, bin[k].sp.box.hi);
+        bb_grow(&side->cent, bin[k].sp.cent.lo, bin[k].sp.cent.hi);
+    }
+    return best_k;
+}
+
+/* The best binned-SAH plane on axis (sah_best), with the two sides' spans. */
+static int sah_plane(struct prim *p, uint32_t n, int axis, float clo, float scale,
+                     struct span *left, struct span *right) {
+    struct bin bin[BINS];
+    for (int k = 0; k < BINS; k++) bin[k] = (struct bin){{bb_empty(), bb_empty()}, 0};
+    for (uint32_t i = 0; i < n; i++) {
+        int k = p[i].bin = bin_of(&p[i], axis, clo, scale);
+        bin[k].n++;
+        span_add(&bin[k].sp, &p[i]);
+    }
+    return sah_best(bin, left, right);
+}
+
+static void span_of(const struct prim *p, uint32_t n, struct span *s) {
+    s->box = s->cent = bb_empty();
+    for (uint32_t i = 0; i < n; i++) span_add(s, &p[i]);
+}
+#endif
+
+/* nth_element by centroid on axis (quickselect): the median split. */
+static void select_nth(struct prim *p, uint32_t n, uint32_t nth, int axis) {
+    uint32_t lo = 0, hi = n - 1;
+    while (lo < hi) {
+        uint32_t m = lo + (hi - lo) / 2, s = lo;
+        struct prim t = p[m];
+        p[m] = p[hi];
+        p[hi] = t;
+        float pivot = p[hi].lo[axis] + p[hi].hi[axis];
+        for (uint32_t i = lo; i < hi; i++) {
+            if (p[i].lo[axis] + p[i].hi[axis] < pivot) {
+                t = p[i];
+                p[i] = p[s];
+                p[s++] = t;
+            }
+        }
+        t = p[s];
+        p[s] = p[hi];
+        p[hi] = t;
+        if (s == nth) return;
+        if (nth < s) hi = s - 1;
+        else lo = s + 1;
+    }
+}
+
+/* Splits node prims p[0..n) (measured by sp) into left and right: binned
+ * SAH, the median past MEDIAN_DEPTH, halves by count when the centroids
+ * coincide.  Returns the left count; 0 makes a leaf. */
+/* A node of up to twice L = max_leaf primitives becomes two leaves: sorted
+ * by centroid on axis, the exact SAH picks among the cuts that leave at
+ * most L a side.
+ * Cheaper than binning (whose fixed cost dominates at this size) and
+ * better. */
+static uint32_t split_small(struct prim *p, uint32_t n, uint32_t L, int axis, struct span *left,
+                            struct span *right) {
+    for (uint32_t i = 1; i < n; i++) { /* insertion sort of <= 8 records */
+        struct prim t = p[i];
+        float c = t.lo[axis] + t.hi[axis];
+        uint32_t j = i;
+        for (; j > 0 && p[j - 1].lo[axis] + p[j - 1].hi[axis] > c; j--) p[j] = p[j - 1];
+        p[j] = t;
+    }
+    uint32_t best_k = n / 2;
+    float best = INFINITY;
+    for (uint32_t k = n - L; k <= L; k++) {
+        span_of(p, k, left);
+        span_of(p + k, n - k, right);
+        float cost = bb_area(&left->box) * (float)k + bb_area(&right->box) * (float)(n - k);
+        if (cost < best) best = cost, best_k = k;
+    }
+    span_of(p, best_k, left);
+    span_of(p + best_k, n - best_k, right);
+    return best_k;
+}
+
+static uint32_t split(struct prim *p, uint32_t n, uint32_t L, const struct span *sp, int depth,
+                      struct span *left, struct span *right) {
+    const struct bbox *cb = &sp->cent;
+    float ext[3] = {cb->hi[0] - cb->lo[0], cb->hi[1] - cb->lo[1], cb->hi[2] - cb->lo[2]};
+    int axis = ext[0] >= ext[1] && ext[0] >= ext[2] ? 0 : ext[1] >= ext[2] ? 1 : 2;
+    *left = *right = (struct span){bb_empty(), bb_empty()};
+    uint32_t mid = 0;
+    if (n > L && n <= 2 * L) return split_small(p, n, L, axis, left, right);
+    if (n > L && ext[axis] > 0 && depth < MEDIAN_DEPTH) {
+        float scale = BINS / ext[axis] * 0.99999f;
+        int plane = sah_plane(p, n, axis, cb->lo[axis], scale, left, right);
+        if (plane > 0) return partition(p, n, plane);
+    } else if (n > L && ext[axis] > 0) {
+        select_nth(p, n, mid = n / 2, axis);
+    }
+    if (n <= L) return 0;
+    if (mid == 0) mid = n / 2; /* coincident centroids: split by count */
+    span_of(p, mid, left);
+    span_of(p + mid, n - mid, right);
+    return mid;
+}
+
+struct task {
+    struct build *b;
+    uint32_t node, first, n;
+    struct span sp;
+    int depth, threads;
+};
+
+static void build_node(struct build *b, uint32_t self, uint32_t first, uint32_t n,
+                       const struct span *sp, int depth, int threads);
+
+static void *build_task(void *arg) {
+    struct task *t = arg;
+    build_node(t->b, t->node, t->first, t->n, &t->sp, t->depth, t->threads);
+    return NULL;
+}
+
+static void build_node(struct build *b, uint32_t self, uint32_t first, uint32_t n,
+                       const struct span *sp, int depth, int threads) {
+    struct bnode *nd = &b->nodes[self];
+    nd->box = sp->box;
+    struct span ls, rs;
+    uint32_t mid = split(b->prims + first, n, b->max_leaf, sp, depth, &ls, &rs);
+    if (mid == 0 || mid >= n) {
+        nd->leaf = true;
+        nd->a = first;
+        nd->b = n;
+        return;
+    }
+    uint32_t left = atomic_fetch_add(&b->used, 2);
+    nd->leaf = false;
+    nd->a = left;
+    nd->b = left + 1;
+    if (threads > 1 && n >= PARALLEL_MIN) {
+        /* threads counts subtrees still to hand out: four per thread asked
+         * for, so that an uneven split leaves no core idle for long */
+        pthread_t th;
+        struct task t = {b, left, first, mid, ls, depth + 1, threads / 2};
+        if (pthread_create(&th, NULL, build_task, &t) == 0) {
+            build_node(b, left + 1, first + mid, n - mid, &rs, depth + 1, threads - threads / 2);
+            pthread_join(th, NULL);
+            return;
+        }
+    }
+    build_node(b, left, first, mid, &ls, depth + 1, 1);
+    build_node(b, left + 1, first + mid, n - mid, &rs, depth + 1, 1);
+}
+
+/* ---- collapse to 4-wide --------------------------------------------------- */
+
+struct collapse {
+    const struct bnode *bn;
+    struct bvh4_node *out;
+    uint32_t used;
+};
+
+static uint32_t collapse_node(struct collapse *c, uint32_t bi) {
+    uint32_t kids[4] = {c->bn[bi].a, c->bn[bi].b, 0, 0};
+    int nk = 2;
+    while (nk < 4) { /* open the inner child with the largest area */
+        int best = -1;
+        float area = -1;
+        for (int i = 0; i < nk; i++) {
+            const struct bnode *k = &c->bn[kids[i]];
+            if (!k->leaf && bb_area(&k->box) > area) {
+                area = bb_area(&k->box);
+                best = i;
+            }
+        }
+        if (best < 0) break;
+        uint32_t open = kids[best];
+        kids[best] = c->bn[open].a;
+        kids[nk++] = c->bn[open].b;
+    }
+    uint32_t self = c->used++;
+    struct bvh4_node nd;
+    memset(&nd, 0, sizeof nd);
+    for (int i = 0; i < 4; i++) {
+        struct bbox box = i < nk ? c->bn[kids[i]].box : bb_empty();
+        for (int k = 0; k < 3; k++) {
+            nd.lo[k][i] = box.lo[k];
+            nd.hi[k][i] = box.hi[k];
+        }
+    }
+    for (int i = 0; i < nk; i++) {
+        const struct bnode *k = &c->bn[kids[i]];
+        if (k->leaf) {
+            nd.child[i] = k->a;
+            nd.count[i] = (uint8_t)k->b;
+        } else {
+            nd.child[i] = collapse_node(c, kids[i]);
+        }
+    }
+    c->out[self] = nd;
+    return self;
+}
+
+enum rayd_status bvh_build(struct bvh4 *bvh, const struct bbox *boxes, uint32_t n,
+                           uint32_t max_leaf, uint32_t *order, int threads,
+                           struct rayd_error *err) {
+    memset(bvh, 0, sizeof *bvh);
+    bvh->bounds = bb_empty();
+    if (n == 0) return RAYD_OK;
+    struct build b = {0};
+    b.max_leaf = max_leaf < 1 ? 1 : max_leaf > BVH_MAX_LEAF ? BVH_MAX_LEAF : max_leaf;
+    b.prims = huge_alloc(sizeof *b.prims * n);
+    b.nodes = huge_alloc(sizeof *b.nodes * (2 * (size_t)n));
+    struct bvh4_node *wide = huge_alloc(sizeof *wide * ((size_t)n + 1));
+    if (!b.prims || !b.nodes || !wide) {
+        free(b.prims);
+        free(b.nodes);
+        free(wide);
+        return err_set(err, RAYD_E_NOMEM, NULL, "out of memory building the BVH");
+    }
+    struct span all;
+    for (uint32_t i = 0; i < n; i++) {
+        struct prim *p = &b.prims[i];
+        memcpy(p->lo, boxes[i].lo, sizeof p->lo);
+        memcpy(p->hi, boxes[i].hi, sizeof p->hi);
+        p->id = i;
+        p->bin = 0;
+    }
+    span_of(b.prims, n, &all);
+    atomic_init(&b.used, 1);
+    int tasks = threads > 1 ? 4 * threads : 1; /* at most 4 subtrees a thread, 64 threads */
+    build_node(&b, 0, 0, n, &all, 0, tasks > 64 ? 64 : tasks);
+    for (uint32_t i = 0; i < n; i++) order[i] = b.prims[i].id;
+    bvh->bounds = b.nodes[0].box;
+    struct collapse c = {b.nodes, wide, 0};
+    if (b.nodes[0].leaf) { /* one leaf: a wide root with one child */
+        memset(wide, 0, sizeof *wide);
+        for (int i = 0; i < 4; i++)
+            for (int k = 0; k < 3; k++) {
+                wide->lo[k][i] = i ? INFINITY : b.nodes[0].box.lo[k];
+                wide->hi[k][i] = i ? -INFINITY : b.nodes[0].box.hi[k];
+            }
+        wide->child[0] = 0;
+        wide->count[0] = (uint8_t)n;
+        c.used = 1;
+    } else {
+        collapse_node(&c, 0);
+    }
+    free(b.prims);
+    free(b.nodes);
+    struct bvh4_node *fit = realloc(wide, sizeof *wide * c.used);
+    bvh->nodes = fit ? fit : wide;
+    bvh->nnodes = c.used;
+    return RAYD_OK;
+}
+
+void bvh_free(struct bvh4 *bvh) {
+    if (!bvh) return;
+    free(bvh->nodes);
+    bvh->nodes = NULL;
+    bvh->nnodes = 0;
+}

@@ -1,0 +1,235 @@
+/* bvh16.h -- walking a bvh4 with 16 rays at once (AVX-512).
+ *
+ * The packet walk of Wald et al. (2001) on a 4-wide tree: every node is
+ * tested against all 16 rays of the packet at once, one child at a time,
+ * and the packet goes down into each child that at least one of its rays
+ * enters, carrying the mask of those rays.  Children are taken nearest
+ * first (by the entry distance of the first ray entering each); a stack
+ * entry keeps each ray's entry distance, so a ray that found a nearer hit
+ * meanwhile drops out of it when it is popped.  The nodes and leaves about
+ * to be visited are prefetched.  For coherent rays (a 4x4 block of
+ * pixels, the shadow rays from it to a light) the node data is loaded once
+ * for 16 rays.
+ *
+ * The walk visits nodes in another order than the one-ray walk of bvh.h,
+ * and culls with the same slack (BVH_SLACK), so with order-free leaf rules
+ * (mesh_ray.h, scene_query.h) every ray finds exactly its one-ray hit.
+ *
+ * Only the AVX-512 code lives here, compiled for that target whatever the
+ * build's -march (functions carry a target attribute), and used when the
+ * CPU has it (bvh16_available).  The leaf test is the caller's: it comes
+ * in as an always-inlined function, so each walk is specialised.
+ */
+#ifndef BVH16_H
+#define BVH16_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "accel/bvh.h"
+
+/* True when the packet code runs with AVX-512 (built in, the CPU and OS
+ * have it, and not forced off); else packets loop over their rays. */
+bool bvh16_available(void);
+/* Tests: trace packets one ray at a time even where AVX-512 runs. */
+void packet_force_scalar(bool on);
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(RAYD_NO_SIMD)
+#define BVH16 1
+#include <immintrin.h>
+
+/* Skylake-server's set: AVX-512 F, DQ, BW, VL with the AVX2 generation
+ * beside it (BMI, popcount), all checked at run time by bvh16_available. */
+#define BVH16_TARGET "avx512f,avx512dq,avx512bw,avx512vl,avx2,bmi,bmi2,popcnt"
+#define BVH16_EXTERN __attribute__((target(BVH16_TARGET)))
+#define BVH16_FN __attribute__((target(BVH16_TARGET))) static inline
+#define BVH16_INLINE __attribute__((target(BVH16_TARGET), always_inline)) static inline
+
+/* A packet's rays as struct ray16 (vec.h), 8 lanes to a register half,
+ * from an array of rays; lanes not in the packet copy its first ray (they
+ * are masked off). */
+BVH16_FN void ray16_from_rays(struct ray16 *q, const ray r[16], uint32_t active) {
+    int first = __builtin_ctz(active);
+    for (int i = 0; i < 16; i++) {
+        const ray *ri = &r[active >> i & 1 ? i : first];
+        q->o[0][i] = ri->o.x, q->o[1][i] = ri->o.y, q->o[2][i] = ri->o.z;
+        q->d[0][i] = ri->d.x, q->d[1][i] = ri->d.y, q->d[2][i] = ri->d.z;
+    }
+}
+
+/* The same from rays already in structure of arrays (o[k][i], d[k][i]),
+ * whatever the lanes outside active hold. */
+BVH16_FN void ray16_from_arrays(struct ray16 *q, const double o[3][16], const double d[3][16],
+                                uint32_t active) {
+    int first = __builtin_ctz(active);
+    for (int k = 0; k < 3; k++)
+        for (int h = 0; h < 16; h += 8) {
+            __mmask8 in = (__mmask8)(active >> h);
+            __m512d os = _mm512_set1_pd(o[k][first]), ds = _mm512_set1_pd(d[k][first]);
+            _mm512_storeu_pd(q->o[k] + h, _mm512_mask_blend_pd(in, os, _mm512_loadu_pd(o[k] + h)));
+            _mm512_storeu_pd(q->d[k] + h, _mm512_mask_blend_pd(in, ds, _mm512_loadu_pd(d[k] + h)));
+        }
+}
+
+/* Two halves of 8 floats as one register of 16. */
+BVH16_FN __m512 join16(__m256 lo, __m256 hi) {
+    return _mm512_castpd_ps(
+        _mm512_insertf64x4(_mm512_castps_pd(_mm512_castps256_ps512(lo)), _mm256_castps_pd(hi), 1));
+}
+
+/* 16 rays, one per lane, for the node test: each lane the same floats as
+ * bvh_ray_init gives its ray (the same operations). */
+struct bvh16_ray {
+    __m512 org[3], inv[3];
+    __mmask16 neg[3];
+    bool uniform;            /* each axis's sign one for the packet: its near side is one too */
+    uint8_t near[3], far[3]; /* then the byte offsets in a node of those sides' floats */
+};
+
+BVH16_FN void bvh16_ray_init(struct bvh16_ray *p, const struct ray16 *q) {
+    p->uniform = true;
+    for (int k = 0; k < 3; k++) {
+        __m512 c = join16(_mm512_cvtpd_ps(_mm512_loadu_pd(q->d[k])),
+                          _mm512_cvtpd_ps(_mm512_loadu_pd(q->d[k] + 8)));
+        __mmask16 tiny = _mm512_cmp_ps_mask(_mm512_abs_ps(c), _mm512_set1_ps(1e-30f), _CMP_LT_OQ);
+        __m512i sign = _mm512_and_si512(_mm512_castps_si512(c), _mm512_set1_epi32(INT32_MIN));
+        __m512 tiny_c = _mm512_castsi512_ps(
+            _mm512_or_si512(sign, _mm512_castps_si512(_mm512_set1_ps(1e-30f))));
+        c = _mm512_mask_blend_ps(tiny, c, tiny_c); /* copysignf(1e-30f, c) */
+        p->inv[k] = _mm512_div_ps(_mm512_set1_ps(1.0f), c);
+        p->org[k] = join16(_mm512_cvtpd_ps(_mm512_loadu_pd(q->o[k])),
+                           _mm512_cvtpd_ps(_mm512_loadu_pd(q->o[k] + 8)));
+        p->neg[k] = _mm512_cmp_ps_mask(c, _mm512_setzero_ps(), _CMP_LT_OQ);
+        bool neg = p->neg[k] == 0xffff; /* every ray's direction negative on the axis */
+        size_t lo = offsetof(struct bvh4_node, lo[k]), hi = offsetof(struct bvh4_node, hi[k]);
+        p->near[k] = (uint8_t)(neg ? hi : lo);
+        p->far[k] = (uint8_t)(neg ? lo : hi);
+        p->uniform &= neg || p->neg[k] == 0;
+    }
+}
+
+struct bvh16_entry {
+    __m512 tnear; /* each ray's entry distance */
+    uint32_t node;
+    uint8_t count; /* as in bvh4_node: 0 inner node, else a leaf */
+    __mmask16 lanes;
+};
+
+/* Child c of nd against the rays in lanes, for t in [0, tmax]: the mask of
+ * rays that enter it and their entry distances.  The same float operations
+ * as bvh4_test, lane by lane. */
+BVH16_INLINE __mmask16 bvh16_child(const struct bvh4_node *nd, int c, const struct bvh16_ray *r,
+                                   __m512 tmax, __mmask16 lanes, __m512 *tnear) {
+    __m512 tn = _mm512_setzero_ps(), tf = tmax;
+    const char *at = (const char *)nd + sizeof(float) * (size_t)c;
+    for (int k = 0; k < 3; k++) {
+        __m512 near, far;
+        if (r->uniform) { /* the common case: each axis one sign for the whole packet */
+            near = _mm512_set1_ps(*(const float *)(at + r->near[k]));
+            far = _mm512_set1_ps(*(const float *)(at + r->far[k]));
+        } else {
+            __m512 lo = _mm512_set1_ps(nd->lo[k][c]), hi = _mm512_set1_ps(nd->hi[k][c]);
+            near = _mm512_mask_blend_ps(r->neg[k], lo, hi);
+            far = _mm512_mask_blend_ps(r->neg[k], hi, lo);
+        }
+        tn = _mm512_max_ps(tn, _mm512_mul_ps(_mm512_sub_ps(near, r->org[k]), r->inv[k]));
+        tf = _mm512_min_ps(tf, _mm512_mul_ps(_mm512_sub_ps(far, r->org[k]), r->inv[k]));
+    }
+    tf = _mm512_mul_ps(tf, _mm512_set1_ps(1.0000004f));
+    *tnear = tn;
+    return _mm512_mask_cmp_ps_mask(lanes, tn, tf, _CMP_LE_OQ);
+}
+
+/* The leaf test: rays in lanes against leaf (first, count).  A nearest-hit
+ * leaf lowers the rays' bounds in *tm and returns 0; an any-hit leaf
+ * returns the rays it found blocked, which then leave the walk. */
+typedef __mmask16 (*bvh16_leaf_fn)(void *ctx, uint32_t first, uint32_t count, __mmask16 lanes,
+                                   __m512 *tm);
+
+/* Pushes the children of inner node cur that rays in lanes enter (bounds
+ * tm) onto the stack, farthest first when ordered (else as they come: an
+ * any-hit walk needs no order), and pops the nearest into *cur,
+ * prefetching each (see bvh16_walk for leaves).  False when no ray enters
+ * any child. */
+BVH16_INLINE bool bvh16_descend(const struct bvh4_node *nodes, const char *leaves, size_t leaf_size,
+                                const struct bvh16_ray *r, __m512 tm, struct bvh16_entry *cur,
+                                struct bvh16_entry *stack, int *sp, bool ordered) {
+    const struct bvh4_node *nd = &nodes[cur->node];
+    __m512 tmax = _mm512_mul_ps(tm, _mm512_set1_ps(BVH_SLACK));
+    int hit[4], n = 0;
+    __m512 tn[4];
+    __mmask16 m[4];
+    for (int c = 0; c < 4; c++) {
+        if (nd->lo[0][c] > nd->hi[0][c]) continue; /* an empty slot */
+        m[c] = bvh16_child(nd, c, r, tmax, cur->lanes, &tn[c]);
+        if (m[c]) hit[n++] = c;
+    }
+    if (n == 0) return false;
+    if (ordered && n > 1) { /* nearest last, by the packet's nearest entry */
+        float key[4];
+        for (int j = 0; j < n; j++) /* the first ray's entry: cheaper than the packet's nearest */
+            key[j] = _mm512_cvtss_f32(_mm512_maskz_compress_ps(m[hit[j]], tn[hit[j]]));
+        for (int j = 1; j < n; j++)
+            for (int i = j; i > 0 && key[i - 1] < key[i]; i--) {
+                float kt = key[i];
+                key[i] = key[i - 1], key[i - 1] = kt;
+                int ht = hit[i];
+                hit[i] = hit[i - 1], hit[i - 1] = ht;
+            }
+    }
+    for (int j = 0; j < n; j++) {
+        int c = hit[j];
+        /* start loading what comes next: an inner node, or a leaf's data */
+        const char *next = !nd->count[c] ? (const char *)(nodes + nd->child[c])
+                           : leaves      ? leaves + leaf_size * nd->child[c]
+                                         : NULL;
+        for (size_t at = 0; next && at < (nd->count[c] ? leaf_size : sizeof *nodes); at += 64)
+            _mm_prefetch(next + at, _MM_HINT_T0);
+        struct bvh16_entry *e = j == n - 1 ? cur : &stack[(*sp)++];
+        e->tnear = tn[c];
+        e->node = nd->child[c];
+        e->count = nd->count[c];
+        e->lanes = m[c];
+    }
+    return true;
+}
+
+/* Walks the tree with the rays in lanes; *tm holds their bounds (lowered
+ * by a nearest-hit leaf), and ordered asks for the nearest child first (a
+ * nearest-hit walk; an any-hit one can do without).  Returns the rays an
+ * any-hit leaf blocked.
+ * leaves (records of leaf_size bytes, a leaf's first index into them) is
+ * only prefetched from; NULL when the leaves are not such an array. */
+BVH16_INLINE __mmask16 bvh16_walk(const struct bvh4 *bvh, const char *leaves, size_t leaf_size,
+                                  const struct bvh16_ray *r, __m512 *tm, __mmask16 lanes,
+                                  bvh16_leaf_fn leaf, void *ctx, bool ordered) {
+    struct bvh16_entry stack[BVH_STACK], cur;
+    int sp = 0;
+    __mmask16 blocked = 0;
+    cur.node = 0;
+    cur.count = 0;
+    cur.lanes = lanes;
+    cur.tnear = _mm512_setzero_ps();
+    for (;;) {
+        if (cur.count == 0) {
+            if (bvh16_descend(bvh->nodes, leaves, leaf_size, r, *tm, &cur, stack, &sp, ordered))
+                continue;
+        } else {
+            blocked |= leaf(ctx, cur.node, cur.count, cur.lanes, tm);
+            lanes &= (__mmask16)~blocked;
+            if (!lanes) return blocked;
+        }
+        for (;;) { /* pop an entry some ray still needs */
+            if (sp == 0) return blocked;
+            cur = stack[--sp];
+            __m512 reach = _mm512_mul_ps(*tm, _mm512_set1_ps(BVH_SLACK));
+            /* !(tnear > reach), as the one-ray walk has it (NaN included) */
+            cur.lanes = _mm512_mask_cmp_ps_mask(cur.lanes & lanes, cur.tnear, reach, _CMP_NGT_UQ);
+            if (cur.lanes) break;
+        }
+    }
+}
+
+#endif /* BVH16 */
+#endif

@@ -1,0 +1,418 @@
+/* mesh.c -- triangle meshes: build, and the ray queries.
+ *
+ * A mesh is geometry only: material and placement belong to the objects
+ * that refer to it, so one mesh can be drawn many times (instances) for
+ * the memory of one.  Vertices are float, like every fast ray tracer's,
+ * and triangles are stored as vertex indices in BVH leaf order: 12 bytes a
+ * triangle plus ~6 for vertices plus the BVH, no per-triangle copies.
+ *
+ * The ray/triangle test is the watertight one of Woop, Benthin and Wald
+ * (JCGT 2013): the ray is sheared so it points along +z, and the three edge
+ * functions are evaluated in that 2-D frame, falling back to double when
+ * one is exactly zero.  A ray through a shared edge or vertex hits at least
+ * one of the triangles meeting there: no cracks.
+ */
+#include "base/hugemem.h"
+#include "geom/mesh.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "base/error.h"
+#include "geom/mesh_ray.h"
+#include "base/parallel.h"
+
+#define MESH_CHUNK 16384 /* triangles a thread at least: fewer stay on one thread */
+
+/* Tests the first n lanes of block b.  A lane hits when 0 < t <= tmax;
+ * returns the mask of hits with t, u, v in out.  The SIMD and the scalar
+ * code do the same float operations in the same order, so both give the
+ * same bits. */
+static inline int tri4_test(const struct tri4 *b, int n, const struct tri_ray *tr, float tmax,
+                            float t_out[4], float u_out[4], float v_out[4]) {
+    int kx = tr->kx, ky = tr->ky, kz = tr->kz;
+    float U[4], V[4], W[4], AZ[4], BZ[4], CZ[4], AX[4], AY[4], BX[4], BY[4], CX[4], CY[4];
+#ifdef BVH_SSE
+    __m128 ox = _mm_set1_ps(tr->org[kx]), oy = _mm_set1_ps(tr->org[ky]),
+           oz = _mm_set1_ps(tr->org[kz]), sx = _mm_set1_ps(tr->sx), sy = _mm_set1_ps(tr->sy);
+    __m128 az = _mm_sub_ps(_mm_loadu_ps(b->v[0][kz]), oz);
+    __m128 bz = _mm_sub_ps(_mm_loadu_ps(b->v[1][kz]), oz);
+    __m128 cz = _mm_sub_ps(_mm_loadu_ps(b->v[2][kz]), oz);
+    __m128 ax = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[0][kx]), ox), _mm_mul_ps(sx, az));
+    __m128 ay = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[0][ky]), oy), _mm_mul_ps(sy, az));
+    __m128 bx = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[1][kx]), ox), _mm_mul_ps(sx, bz));
+    __m128 by = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[1][ky]), oy), _mm_mul_ps(sy, bz));
+    __m128 cx = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[2][kx]), ox), _mm_mul_ps(sx, cz));
+    __m128 cy = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[2][ky]), oy), _mm_mul_ps(sy, cz));
+    __m128 u = _mm_sub_ps(_mm_mul_ps(cx, by), _mm_mul_ps(cy, bx));
+    __m128 v = _mm_sub_ps(_mm_mul_ps(ax, cy), _mm_mul_ps(ay, cx));
+    __m128 w = _mm_sub_ps(_mm_mul_ps(bx, ay), _mm_mul_ps(by, ax));
+    __m128 zero = _mm_setzero_ps();
+    int lanes = (1 << n) - 1;
+    int on_edge = _mm_movemask_ps(_mm_or_ps(_mm_or_ps(_mm_cmpeq_ps(u, zero), _mm_cmpeq_ps(v, zero)),
+                                            _mm_cmpeq_ps(w, zero))) & lanes;
+    if (on_edge) {
+        _mm_storeu_ps(U, u), _mm_storeu_ps(V, v), _mm_storeu_ps(W, w);
+        _mm_storeu_ps(AX, ax), _mm_storeu_ps(AY, ay), _mm_storeu_ps(BX, bx);
+        _mm_storeu_ps(BY, by), _mm_storeu_ps(CX, cx), _mm_storeu_ps(CY, cy);
+        for (int i = 0; i < 4; i++)
+            if (on_edge & (1 << i))
+                tri_edges_double(AX[i], AY[i], BX[i], BY[i], CX[i], CY[i], &U[i], &V[i], &W[i]);
+        u = _mm_loadu_ps(U), v = _mm_loadu_ps(V), w = _mm_loadu_ps(W);
+    }
+    __m128 neg = _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(u, zero), _mm_cmplt_ps(v, zero)), _mm_cmplt_ps(w, zero));
+    __m128 pos = _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)), _mm_cmpgt_ps(w, zero));
+    __m128 det = _mm_add_ps(_mm_add_ps(u, v), w);
+    __m128 sz = _mm_set1_ps(tr->sz);
+    __m128 t = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_mul_ps(u, sz), az), _mm_mul_ps(_mm_mul_ps(v, sz), bz)),
+                          _mm_mul_ps(_mm_mul_ps(w, sz), cz));
+    /* t / det in (0, tmax]: compare with the signs folded into det's */
+    __m128 sign = _mm_and_ps(det, _mm_set1_ps(-0.0f));
+    __m128 ts = _mm_xor_ps(t, sign), ds = _mm_xor_ps(det, sign);
+    __m128 ok = _mm_andnot_ps(_mm_and_ps(neg, pos), _mm_cmpneq_ps(det, zero));
+    ok = _mm_and_ps(ok, _mm_cmpgt_ps(ts, zero));
+    ok = _mm_and_ps(ok, _mm_cmple_ps(ts, _mm_mul_ps(_mm_set1_ps(tmax * TRI_SLACK), ds)));
+    int mask = _mm_movemask_ps(ok) & lanes;
+    if (!mask) return 0;
+    __m128 rcp = _mm_div_ps(_mm_set1_ps(1.0f), det);
+    _mm_storeu_ps(t_out, _mm_mul_ps(t, rcp));
+    _mm_storeu_ps(u_out, _mm_mul_ps(v, rcp));
+    _mm_storeu_ps(v_out, _mm_mul_ps(w, rcp));
+    (void)AZ, (void)BZ, (void)CZ;
+    return mask;
+#else
+    int mask = 0;
+    for (int i = 0; i < n; i++) {
+        AZ[i] = b->v[0][kz][i] - tr->org[kz];
+        BZ[i] = b->v[1][kz][i] - tr->org[kz];
+        CZ[i] = b->v[2][kz][i] - tr->org[kz];
+        AX[i] = (b->v[0][kx][i] - tr->org[kx]) - tr->sx * AZ[i];
+        AY[i] = (b->v[0][ky][i] - tr->org[ky]) - tr->sy * AZ[i];
+        BX[i] = (b->v[1][kx][i] - tr->org[kx]) - tr->sx * BZ[i];
+        BY[i] = (b->v[1][ky][i] - tr->org[ky]) - tr->sy * BZ[i];
+        CX[i] = (b->v[2][kx][i] - tr->org[kx]) - tr->sx * CZ[i];
+        CY[i] = (b->v[2][ky][i] - tr->org[ky]) - tr->sy * CZ[i];
+        U[i] = CX[i] * BY[i] - CY[i] * BX[i];
+        V[i] = AX[i] * CY[i] - AY[i] * CX[i];
+        W[i] = BX[i] * AY[i] - BY[i] * AX[i];
+        if (U[i] == 0 || V[i] == 0 || W[i] == 0)
+            tri_edges_double(AX[i], AY[i], BX[i], BY[i], CX[i], CY[i], &U[i], &V[i], &W[i]);
+        if ((U[i] < 0 || V[i] < 0 || W[i] < 0) && (U[i] > 0 || V[i] > 0 || W[i] > 0)) continue;
+        float det = (U[i] + V[i]) + W[i];
+        if (det == 0) continue;
+        float t = ((U[i] * tr->sz) * AZ[i] + (V[i] * tr->sz) * BZ[i]) + (W[i] * tr->sz) * CZ[i];
+        float ts = det < 0 ? -t : t, ds = det < 0 ? -det : det;
+        if (!(ts > 0 && ts <= (tmax * TRI_SLACK) * ds)) continue;
+        float rcp = 1.0f / det;
+        t_out[i] = t * rcp;
+        u_out[i] = V[i] * rcp;
+        v_out[i] = W[i] * rcp;
+        mask |= 1 << i;
+    }
+    return mask;
+#endif
+}
+
+/* Keeps the nearest of the lanes in mask; on equal t the lower triangle
+ * id wins, so the result does not depend on the order blocks are visited
+ * (BVH or brute force, any tiling). */
+static inline bool tri4_take(const struct mesh *m, const struct tri4 *b, int mask, const float t[4],
+                             const float u[4], const float v[4], float *tmax, struct mesh_hit *h,
+                             bool *found) {
+    bool took = false;
+    while (mask) {
+        int i = __builtin_ctz((unsigned)mask);
+        mask &= mask - 1;
+        if (t[i] > *tmax || (*found && t[i] == *tmax && b->id[i] > h->tri)) continue;
+        if (*found && t[i] == *tmax && b->id[i] == h->tri) continue;
+        *tmax = t[i];
+        h->t = t[i];
+        h->u = u[i];
+        h->v = v[i];
+        h->tri = b->id[i];
+        h->blk = (uint32_t)(b - m->blocks);
+        h->lane = (uint32_t)i;
+        *found = true;
+        took = true;
+    }
+    return took;
+}
+
+static bool mesh_walk(const struct mesh *m, const ray *r, double tmax, struct mesh_hit *h,
+                      bool any) {
+    if (m->bvh.nnodes == 0) return false;
+    struct bvh_ray br;
+    struct tri_ray tr;
+    bvh_ray_init(&br, r->o, r->d);
+    tri_ray_init(&tr, r);
+    float tm = any ? tri_tmax_any(tmax) : tri_tmax_nearest(tmax);
+    bool found = false;
+    struct bvh_entry stack[BVH_STACK], e = {0, 0, 0};
+    int sp = 0;
+    for (;;) {
+        if (e.count == 0) {
+            if (bvh4_descend(m->bvh.nodes, &e, &br, tm * BVH_SLACK, stack, &sp)) continue;
+        } else {
+            float t[4], u[4], v[4];
+            const struct tri4 *b = &m->blocks[e.node];
+            int mask = tri4_test(b, e.count, &tr, tm, t, u, v);
+            if (mask) {
+                if (any) return true;
+                tri4_take(m, b, mask, t, u, v, &tm, h, &found);
+            }
+        }
+        do { /* pop the nearest entry still in reach */
+            if (sp == 0) return found && (double)h->t < tmax;
+            e = stack[--sp];
+        } while (e.tnear > tm * BVH_SLACK);
+    }
+}
+
+bool mesh_intersect(const struct mesh *m, const ray *r, double tmax, struct mesh_hit *h) {
+    return mesh_walk(m, r, tmax, h, false);
+}
+
+bool mesh_occluded(const struct mesh *m, const ray *r, double tmax) {
+    struct mesh_hit h;
+    return mesh_walk(m, r, tmax, &h, true);
+}
+
+bool mesh_intersect_brute(const struct mesh *m, const ray *r, double tmax, struct mesh_hit *h) {
+    struct tri_ray tr;
+    tri_ray_init(&tr, r);
+    float tm = tri_tmax_nearest(tmax);
+    bool found = false;
+    for (uint32_t i = 0; i < m->nblocks; i++) {
+        float t[4], u[4], v[4];
+        const struct tri4 *b = &m->blocks[i];
+        int n = 0;
+        while (n < 4 && b->id[n] != UINT32_MAX) n++;
+        int mask = tri4_test(b, n, &tr, tm, t, u, v);
+        if (mask) tri4_take(m, b, mask, t, u, v, &tm, h, &found);
+    }
+    return found && (double)h->t < tmax;
+}
+
+/* Vertex k of the hit triangle, from its block. */
+static vec3 corner(const struct mesh *m, const struct mesh_hit *h, int k) {
+    const struct tri4 *b = &m->blocks[h->blk];
+    return v3(b->v[k][0][h->lane], b->v[k][1][h->lane], b->v[k][2][h->lane]);
+}
+
+vec3 mesh_point(const struct mesh *m, const struct mesh_hit *h) {
+    double u = h->u, v = h->v;
+    vec3 p = v3_scale(corner(m, h, 0), 1.0 - u - v);
+    p = v3_madd(p, corner(m, h, 1), u);
+    return v3_madd(p, corner(m, h, 2), v);
+}
+
+vec3 mesh_geometric_normal(const struct mesh *m, const struct mesh_hit *h) {
+    vec3 a = corner(m, h, 0);
+    vec3 n = v3_cross(v3_sub(corner(m, h, 1), a), v3_sub(corner(m, h, 2), a));
+    double len = v3_len(n);
+    return len > 0 ? v3_scale(n, 1.0 / len) : v3(0, 1, 0);
+}
+
+vec3 mesh_shading_normal(const struct mesh *m, const struct mesh_hit *h) {
+    if (!m->normal) return mesh_geometric_normal(m, h);
+    const uint32_t *ix = m->index + 3 * (size_t)h->tri;
+    double u = h->u, v = h->v;
+    vec3 n = v3(0, 0, 0);
+    const double wgt[3] = {1.0 - u - v, u, v};
+    for (int k = 0; k < 3; k++) {
+        const float *nn = m->normal + 3 * (size_t)ix[k];
+        n = v3_madd(n, v3(nn[0], nn[1], nn[2]), wgt[k]);
+    }
+    double len = v3_len(n);
+    return len > 0 ? v3_scale(n, 1.0 / len) : mesh_geometric_normal(m, h);
+}
+
+void mesh_uv(const struct mesh *m, const struct mesh_hit *h, double *u, double *v) {
+    *u = *v = 0;
+    if (!m->uv) return;
+    const uint32_t *ix = m->index + 3 * (size_t)h->tri;
+    const double w[3] = {1.0 - h->u - h->v, h->u, h->v};
+    for (int k = 0; k < 3; k++) {
+        *u += w[k] * m->uv[2 * (size_t)ix[k]];
+        *v += w[k] * m->uv[2 * (size_t)ix[k] + 1];
+    }
+}
+
+/* Area-weighted vertex normals (the cross product's length is twice the
+ * area, so summing unnormalised face normals weights by area). */
+static float *smooth_normals(const float *pos, uint32_t nverts, const uint32_t *index,
+                             uint32_t ntris) {
+    float *n = huge_calloc((size_t)nverts * 3, sizeof *n);
+    if (!n) return NULL;
+    for (uint32_t t = 0; t < ntris; t++) {
+        const uint32_t *ix = index + 3 * (size_t)t;
+        const float *a = pos + 3 * (size_t)ix[0], *b = pos + 3 * (size_t)ix[1],
+                    *c = pos + 3 * (size_t)ix[2];
+        vec3 fn = v3_cross(v3(b[0] - a[0], b[1] - a[1], b[2] - a[2]),
+                           v3(c[0] - a[0], c[1] - a[1], c[2] - a[2]));
+        for (int k = 0; k < 3; k++) {
+            float *d = n + 3 * (size_t)ix[k];
+            d[0] += (float)fn.x;
+            d[1] += (float)fn.y;
+            d[2] += (float)fn.z;
+        }
+    }
+    for (uint32_t i = 0; i < nverts; i++) {
+        float *d = n + 3 * (size_t)i;
+        double len = sqrt((double)d[0] * d[0] + (double)d[1] * d[1] + (double)d[2] * d[2]);
+        if (len > 0)
+            for (int k = 0; k < 3; k++) d[k] = (float)(d[k] / len);
+    }
+    return n;
+}
+
+static struct bbox tri_box(const float *pos, const uint32_t *ix) {
+    struct bbox b;
+    for (int k = 0; k < 3; k++) {
+        float a = pos[3 * (size_t)ix[0] + k], c = pos[3 * (size_t)ix[1] + k],
+              d = pos[3 * (size_t)ix[2] + k];
+        b.lo[k] = fminf(a, fminf(c, d));
+        b.hi[k] = fmaxf(a, fmaxf(c, d));
+    }
+    return b;
+}
+
+/* The steps of mesh_build that touch every triangle run as parallel_for
+ * bodies over triangles or nodes; each writes only its own indices, so the
+ * mesh is the same for any thread count. */
+struct mesh_job {
+    struct mesh *m;
+    const float *pos;
+    const uint32_t *index, *order;
+    struct bbox *boxes;
+    uint32_t *sorted, *first_block; /* a node's first block number */
+};
+
+static void boxes_body(void *ctx, size_t lo, size_t hi) {
+    struct mesh_job *j = ctx;
+    for (size_t t = lo; t < hi; t++) j->boxes[t] = tri_box(j->pos, j->index + 3 * t);
+}
+
+static void sort_body(void *ctx, size_t lo, size_t hi) {
+    struct mesh_job *j = ctx;
+    for (size_t t = lo; t < hi; t++)
+        memcpy(j->sorted + 3 * t, j->index + 3 * (size_t)j->order[t], sizeof *j->sorted * 3);
+}
+
+/* Packs every leaf's triangles into one tri4 block and points the leaf at
+ * it; unused lanes have id UINT32_MAX and are masked off by the count. */
+static void blocks_body(void *ctx, size_t lo, size_t hi) {
+    struct mesh_job *j = ctx;
+    struct mesh *m = j->m;
+    for (size_t n = lo; n < hi; n++) {
+        struct bvh4_node *nd = &m->bvh.nodes[n];
+        uint32_t next = j->first_block[n];
+        for (int i = 0; i < 4; i++) {
+            if (!nd->count[i]) continue;
+            struct tri4 *b = &m->blocks[next];
+            for (int lane = 0; lane < 4; lane++) {
+                b->id[lane] = lane < nd->count[i] ? nd->child[i] + (uint32_t)lane : UINT32_MAX;
+                if (b->id[lane] == UINT32_MAX) continue;
+                const uint32_t *ix = m->index + 3 * (size_t)b->id[lane];
+                for (int k = 0; k < 3; k++)
+                    for (int jj = 0; jj < 3; jj++)
+                        b->v[k][jj][lane] = m->pos[3 * (size_t)ix[k] + jj];
+            }
+            nd->child[i] = next++;
+        }
+    }
+}
+
+/* Numbers the leaves in node order (a prefix sum over the nodes), then
+ * fills the blocks on every thread. */
+static enum rayd_status make_blocks(struct mesh *m, int threads, struct rayd_error *err) {
+    uint32_t leaves = 0, nn = m->bvh.nnodes;
+    uint32_t *first = huge_alloc(sizeof *first * ((size_t)nn + 1));
+    if (!first) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for mesh leaves");
+    for (uint32_t n = 0; n < nn; n++) {
+        first[n] = leaves;
+        for (int i = 0; i < 4; i++) leaves += m->bvh.nodes[n].count[i] > 0;
+    }
+    m->blocks = huge_calloc(leaves ? leaves : 1, sizeof *m->blocks);
+    if (!m->blocks) {
+        free(first);
+        return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for mesh leaves");
+    }
+    struct mesh_job j = {.m = m, .first_block = first};
+    parallel_for(nn, threads, MESH_CHUNK / 4, blocks_body, &j);
+    m->nblocks = leaves;
+    free(first);
+    return RAYD_OK;
+}
+
+enum rayd_status mesh_build(struct mesh *m, float *pos, uint32_t nverts, uint32_t *index,
+                            uint32_t ntris, float *normal, float *uv, bool smooth, int threads,
+                            struct rayd_error *err) {
+    memset(m, 0, sizeof *m);
+    m->pos = pos;
+    m->nverts = nverts;
+    m->index = index;
+    m->ntris = ntris;
+    m->normal = normal;
+    m->uv = uv;
+    if (smooth && !normal && !(m->normal = smooth_normals(pos, nverts, index, ntris)))
+        return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for mesh normals");
+    if (!smooth && normal) {
+        free(m->normal);
+        m->normal = NULL;
+    }
+    struct bbox *boxes = huge_alloc(sizeof *boxes * ((size_t)ntris + 1));
+    uint32_t *order = huge_alloc(sizeof *order * ((size_t)ntris + 1));
+    uint32_t *sorted = huge_alloc(sizeof *sorted * 3 * ((size_t)ntris + 1));
+    enum rayd_status st = RAYD_OK;
+    if (!boxes || !order || !sorted) {
+        st = err_set(err, RAYD_E_NOMEM, NULL, "out of memory building a mesh of %u triangles",
+                     ntris);
+    } else {
+        struct mesh_job j = {.pos = pos, .index = index, .boxes = boxes};
+        parallel_for(ntris, threads, MESH_CHUNK, boxes_body, &j);
+        st = bvh_build(&m->bvh, boxes, ntris, BVH_MAX_LEAF, order, threads, err);
+    }
+    if (st == RAYD_OK) { /* triangles in leaf order: leaves index them directly */
+        struct mesh_job j = {.index = index, .order = order, .sorted = sorted};
+        parallel_for(ntris, threads, MESH_CHUNK, sort_body, &j);
+        free(m->index);
+        m->index = sorted;
+        sorted = NULL;
+        const struct bbox *b = &m->bvh.bounds;
+        m->lo = v3(b->lo[0], b->lo[1], b->lo[2]);
+        m->hi = v3(b->hi[0], b->hi[1], b->hi[2]);
+        st = make_blocks(m, threads, err);
+    }
+    if (st == RAYD_OK && !m->normal && !m->uv) { /* the blocks hold all a flat mesh needs */
+        free(m->pos);
+        free(m->index);
+        m->pos = NULL;
+        m->index = NULL;
+    }
+    free(boxes);
+    free(order);
+    free(sorted);
+    return st;
+}
+
+void mesh_free(struct mesh *m) {
+    if (!m) return;
+    free(m->pos);
+    free(m->normal);
+    free(m->uv);
+    free(m->index);
+    free(m->blocks);
+    bvh_free(&m->bvh);
+    memset(m, 0, sizeof *m);
+}
+
+size_t mesh_bytes(const struct mesh *m) {
+    size_t b = (size_t)m->bvh.nnodes * sizeof(struct bvh4_node) +
+               (size_t)m->nblocks * sizeof(struct tri4);
+    if (m->pos) b += (size_t)m->nverts * 3 * sizeof(float);
+    if (m->index) b += (size_t)m->ntris * 3 * sizeof(uint32_t);
+    if (m->normal) b += (size_t)m->nverts * 3 * sizeof(float);
+    if (m->uv) b += (size_t)m->nverts * 2 * sizeof(float);
+    return b;
+}

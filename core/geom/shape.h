@@ -1,0 +1,187 @@
+/* shape.h -- the primitives the scene is made of.
+ *
+ * One struct for every kind, tagged by `kind`, so objects sit in one flat
+ * array that the BVH reorders.  Each analytic kind lives in its own
+ * shape_<kind>.c and fills one row of shape_ops: all its crossings with a
+ * ray's line (sorted, each with the part of the surface it is on, so caps
+ * and sides get their own normals), the outward normal, the bounds, a
+ * point-in-solid test for CSG, and texture coordinates.  The nearest hit is
+ * the first crossing inside (tmin, tmax); CSG combines the crossing lists.
+ *
+ * Meshes, CSG nodes and instances refer to data held by the scene and are
+ * dispatched in scene.c.  Unbounded kinds (planes, quadrics) are kept out of
+ * the BVH and tested one by one.
+ */
+#ifndef SHAPE_H
+#define SHAPE_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "math/vec.h"
+
+enum shape_kind {
+    SHAPE_SPHERE,
+    SHAPE_PLANE,
+    SHAPE_BOX,
+    SHAPE_CYLINDER, /* also cones: a cylinder whose two radii differ */
+    SHAPE_DISC,
+    SHAPE_TORUS,
+    SHAPE_TRIANGLE,
+    SHAPE_QUAD,
+    SHAPE_QUADRIC,
+    SHAPE_MESH,
+    SHAPE_CSG,
+    SHAPE_INSTANCE,
+    SHAPE_KINDS
+};
+
+enum csg_op { CSG_UNION, CSG_INTERSECTION, CSG_DIFFERENCE };
+
+struct object {
+    enum shape_kind kind;
+    int material;  /* index into the scene's materials */
+    int32_t xform; /* index into the scene's transforms, -1 for none */
+    union {
+        struct {
+            vec3 center;
+            double radius;
+        } sphere;
+        struct {
+            vec3 point;  /* Q */
+            vec3 normal; /* unit n */
+        } plane;
+        struct {
+            vec3 lo, hi;
+        } box;
+        struct {
+            vec3 base;     /* centre of the base disc */
+            vec3 axis;     /* unit, base to top */
+            double height; /* along axis */
+            double r0, r1; /* radius at base and at top */
+            bool capped;
+        } cyl;
+        struct {
+            vec3 center, normal; /* normal unit */
+            double radius, inner;
+        } disc;
+        struct {
+            vec3 center;
+            vec3 u, v, w; /* frame: w is the axis */
+            double major, minor;
+        } torus;
+        struct {
+            vec3 a, b, c;
+        } tri;
+        struct {
+            vec3 corner, e1, e2; /* points corner + s e1 + t e2, s, t in [0, 1] */
+        } quad;
+        struct {
+            /* a x^2 + b y^2 + c z^2 + d xy + e xz + f yz + g x + h y + i z + j = 0 */
+            double k[10];
+        } quadric;
+        struct {
+            uint32_t id; /* index into the scene's meshes */
+        } mesh;
+        struct {
+            enum csg_op op;
+            int32_t left, right; /* indices into the scene's parts */
+        } csg;
+        struct {
+            int32_t group; /* index into the scene's groups */
+        } inst;
+    } u;
+};
+
+/* A crossing of a ray's line with a surface: its t and which part. */
+struct xing {
+    double t;
+    int part;
+};
+
+#define SHAPE_MAX_XINGS 4
+
+struct shape_ops {
+    const char *name;
+    /* All crossings with the whole line o + t d (t of any sign), sorted. */
+    int (*crossings)(const struct object *o, const ray *r, struct xing out[SHAPE_MAX_XINGS]);
+    /* Outward unit normal at surface point p on part. */
+    vec3 (*normal)(const struct object *o, vec3 p, int part);
+    /* Bounds; NULL for unbounded kinds. */
+    struct aabb (*bounds)(const struct object *o);
+    /* Point-in-solid; NULL for surfaces that enclose nothing. */
+    bool (*inside)(const struct object *o, vec3 p);
+    /* Texture coordinates of surface point p. */
+    void (*uv)(const struct object *o, vec3 p, int part, double *u, double *v);
+};
+
+/* One row per analytic kind (NULL for meshes, CSG and instances). */
+extern const struct shape_ops *const shape_ops[SHAPE_KINDS];
+extern const struct shape_ops sphere_ops, plane_ops, box_ops, cylinder_ops, disc_ops, torus_ops,
+    triangle_ops, quad_ops, quadric_ops;
+
+/* The nearest crossing with t in (tmin, tmax). */
+bool shape_hit(const struct object *o, const ray *r, double tmin, double tmax, double *t,
+               int *part);
+
+static inline bool shape_bounded(const struct object *o) {
+    return o->kind >= SHAPE_MESH || shape_ops[o->kind]->bounds != NULL;
+}
+
+/* A solid (usable as a CSG operand): encloses a volume. */
+bool shape_is_solid(const struct object *o);
+
+/* The sphere's two crossings with the ray's line, sorted (shape_sphere.c
+ * explains the formula); false when the line misses.  Inline: the hot
+ * path of sphere scenes. */
+static inline bool sphere_roots(const struct object *o, const ray *r, double *t0, double *t1) {
+    vec3 oc = v3_sub(r->o, o->u.sphere.center);
+    double rad = o->u.sphere.radius;
+    double b = v3_dot(oc, r->d);
+    double c = v3_dot(oc, oc) - rad * rad;
+    vec3 h = v3_madd(oc, r->d, -b);
+    double disc = rad * rad - v3_dot(h, h);
+    if (disc < 0) return false;
+    double q = -b - copysign(sqrt(disc), b);
+    double a0 = q, a1 = (q != 0) ? c / q : q;
+    *t0 = fmin(a0, a1);
+    *t1 = fmax(a0, a1);
+    return true;
+}
+
+/* shape_hit for a sphere and for a plane with tmin = 0, without the
+ * crossing list. */
+static inline bool sphere_nearest(const struct object *o, const ray *r, double tmax, double *t) {
+    double t0, t1;
+    if (!sphere_roots(o, r, &t0, &t1)) return false;
+    *t = t0 > 0 && t0 < tmax ? t0 : t1;
+    return *t > 0 && *t < tmax;
+}
+
+/* The plane's crossing with the ray's line (the paper's formula, see
+ * shape_plane.c); false when the ray runs parallel to it. */
+static inline bool plane_cross(const struct object *o, const ray *r, double *t) {
+    double denom = v3_dot(o->u.plane.normal, r->d);
+    if (denom == 0) return false;
+    *t = v3_dot(o->u.plane.normal, v3_sub(o->u.plane.point, r->o)) / denom;
+    return true;
+}
+
+static inline bool plane_nearest(const struct object *o, const ray *r, double tmax, double *t) {
+    return plane_cross(o, r, t) && *t > 0 && *t < tmax;
+}
+
+/* Shape-specific entry points the tests and the fast paths use. */
+bool sphere_hit(const struct object *o, const ray *r, double tmin, double tmax, double *t);
+bool plane_hit(const struct object *o, const ray *r, double tmin, double tmax, double *t);
+vec3 sphere_normal(const struct object *o, vec3 p);
+
+/* Roots of the quadratic a t^2 + b t + c, stable (Citardauq); returns the
+ * count (0..2), sorted.  a == 0 degrades to the linear case. */
+int shape_quadratic(double a, double b, double c, double t[2]);
+
+/* An orthonormal frame around unit w. */
+void shape_frame(vec3 w, vec3 *u, vec3 *v);
+
+#endif

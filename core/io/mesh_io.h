@@ -1,0 +1,64 @@
+/* mesh_io.h -- triangle meshes decoded from OBJ and PLY bytes (internal). */
+#ifndef MESH_IO_H
+#define MESH_IO_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "base/array.h"
+#include "rayd/rayd.h"
+
+/* An indexed triangle mesh.  Every array is malloc'd and owned by the
+ * struct; free them all with mesh_data_free. */
+struct mesh_data {
+    float *pos;      /* 3 floats per vertex */
+    float *normal;   /* 3 per vertex, or NULL */
+    float *uv;       /* 2 per vertex, or NULL */
+    uint32_t *index; /* 3 per triangle, each < nverts */
+    uint32_t nverts, ntris;
+};
+
+/* Upper bounds on a decoded mesh, taken literally (0 allows nothing).  A
+ * NULL limits pointer means "no limit beyond what a uint32_t index holds". */
+struct mesh_limits {
+    uint32_t max_vertices;
+    uint32_t max_triangles;
+};
+
+/* Frees the arrays and zeroes the struct; m may be NULL. */
+void mesh_data_free(struct mesh_data *m);
+
+/* Decodes Wavefront OBJ text text[0..len) (need not be NUL-terminated).
+ * On RAYD_OK *out owns a new mesh with at least one triangle (free it with
+ * mesh_data_free); otherwise *out is untouched and err says which line is
+ * wrong: RAYD_E_INVALID for bad data, RAYD_E_LIMIT over lim, RAYD_E_NOMEM. */
+enum rayd_status mesh_parse_obj(const char *text, size_t len, const struct mesh_limits *lim,
+                                struct mesh_data *out, struct rayd_error *err);
+
+/* Decodes a PLY file (ascii, binary_little_endian or binary_big_endian
+ * 1.0) from data[0..len).  Same contract as mesh_parse_obj; messages name
+ * the header line or the element record (0-based, as PLY indices are). */
+enum rayd_status mesh_parse_ply(const void *data, size_t len, const struct mesh_limits *lim,
+                                struct mesh_data *out, struct rayd_error *err);
+
+/* ---- helpers shared by mesh_obj.c and mesh_ply.c ------------------------ */
+
+
+/* Parses the whole of s[0..n) as a decimal number (sign, digits, point,
+ * exponent; strtod's forms such as "nan" and "inf" too, so the caller can
+ * say "not finite" rather than "not a number").  False unless every byte is
+ * part of the number.  Never reads s[n]. */
+bool mesh_parse_number(const char *s, size_t n, double *out);
+
+/* Copies s[0..n) into buf (MESH_QUOTE_SIZE bytes) for an error message:
+ * bytes outside printable ASCII become '?' (messages end up in JSON), and
+ * a long token is cut with "...".  Returns buf. */
+#define MESH_QUOTE_SIZE 48
+const char *mesh_quote(char *buf, const char *s, size_t n);
+
+/* lim's bounds, capped at (and for a NULL lim equal to) UINT32_MAX - 1. */
+uint32_t mesh_max_vertices(const struct mesh_limits *lim);
+uint32_t mesh_max_triangles(const struct mesh_limits *lim);
+
+#endif

@@ -1,0 +1,444 @@
+/* mesh_obj.c -- Wavefront OBJ text to an indexed triangle mesh.
+ *
+ * One pass over the buffer, a line at a time (lines end at '\n'; a '\r'
+ * before it is whitespace, so CRLF files read the same).  Lines are never
+ * copied: tokens are (pointer, length) slices of the caller's buffer, which
+ * need not be NUL-terminated, so a line of any length is read whole.
+ *
+ * Statements used: `v x y z [w]` (up to 7 numbers, so the common "v x y z r
+ * g b" colour extension reads too; only x y z are kept), `vt u [v [w]]`,
+ * `vn x y z` and `f` with corners `v`, `v/vt`, `v//vn` or `v/vt/vn`.
+ * Indices are 1-based; negative ones count back from the last element
+ * defined so far, and both are resolved on the spot against what the file
+ * has defined up to that line.  Faces with more than three corners become a
+ * fan (0,1,2), (0,2,3), ...  Every other statement (o g s usemtl mtllib l p,
+ * unknown ones) and `#` comments are ignored.  Numbers must be finite and
+ * fit a float.
+ *
+ * OBJ indexes positions, texture coordinates and normals separately; a
+ * renderer wants one index per corner.  Each distinct (v, vt, vn) triple
+ * becomes one output vertex, found through an open-addressing hash table
+ * keyed by the triple (linear probing, kept at most half full), so the
+ * cost is linear in the number of corners.  The uv and normal arrays are
+ * emitted only if every face corner has them; when some corner lacks one,
+ * that attribute is dropped and the triples that then coincide are merged
+ * again by a second, in-place pass over the distinct triples.
+ *
+ * Errors name the 1-based line.  Limits are checked as the counts grow:
+ * positions, uvs and normals each against max_vertices, output vertices
+ * against max_vertices, triangles against max_triangles.
+ */
+#include "base/hugemem.h"
+#include "io/mesh_io.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "base/error.h"
+
+struct obj_key {
+    uint32_t v, t, n; /* 1-based into the file's v, vt, vn lists; 0 = absent */
+};
+
+/* A hash table slot: the triple itself, so a probe touches one cache line. */
+struct obj_entry {
+    struct obj_key k;
+    uint32_t out; /* output vertex + 1, or 0 for an empty slot */
+};
+
+struct obj {
+    size_t line; /* 1-based, of the statement being read */
+    uint32_t max_verts, max_tris;
+    float *v, *vt, *vn; /* 3, 2 and 3 floats per element */
+    size_t nv, nt, nn, cap_v, cap_vt, cap_vn;
+    struct obj_key *keys; /* output vertex -> its triple */
+    size_t nkeys, cap_keys;
+    struct obj_entry *table; /* open addressing, size a power of two */
+    size_t table_size, hashed; /* keys with a vt or vn (the table's) */
+    uint32_t *vmap; /* position-only corners: v -> output vertex + 1, 0 = none yet */
+    size_t cap_vmap;
+    uint32_t *tri; /* 3 output vertices per triangle */
+    size_t ntri, cap_tri;
+    bool all_t, all_n;
+    struct rayd_error *err;
+};
+
+static enum rayd_status obj_fail(struct obj *o, enum rayd_status code, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+
+static enum rayd_status obj_fail(struct obj *o, enum rayd_status code, const char *fmt, ...) {
+    char msg[224];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    return err_set(o->err, code, NULL, "OBJ line %zu: %s", o->line, msg);
+}
+
+static enum rayd_status obj_nomem(struct obj *o) {
+    return obj_fail(o, RAYD_E_NOMEM, "out of memory");
+}
+
+static void obj_release(struct obj *o) {
+    free(o->v);
+    free(o->vt);
+    free(o->vn);
+    free(o->keys);
+    free(o->table);
+    free(o->vmap);
+    free(o->tri);
+}
+
+static bool obj_space(char c) {
+    return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f';
+}
+
+/* The next token of [*p, end) into (*tok, *n); false at the end of the
+ * line or at a '#' comment. */
+static bool obj_token(const char **p, const char *end, const char **tok, size_t *n) {
+    const char *s = *p;
+    while (s < end && obj_space(*s)) s++;
+    if (s == end || *s == '#') {
+        *p = end;
+        return false;
+    }
+    const char *e = s;
+    while (e < end && !obj_space(*e)) e++;
+    *tok = s;
+    *n = (size_t)(e - s);
+    *p = e;
+    return true;
+}
+
+/* Reads between min and max finite float numbers up to the end of the
+ * line into vals; *count gets how many. */
+static enum rayd_status obj_numbers(struct obj *o, const char *what, const char *p,
+                                    const char *end, int min, int max, float *vals, int *count) {
+    char q[MESH_QUOTE_SIZE];
+    const char *tok;
+    size_t n;
+    int k = 0;
+    while (obj_token(&p, end, &tok, &n)) {
+        double d;
+        if (k == max)
+            return obj_fail(o, RAYD_E_INVALID, "'%s' takes at most %d numbers", what, max);
+        if (!mesh_parse_number(tok, n, &d))
+            return obj_fail(o, RAYD_E_INVALID, "bad number '%s' in '%s'",
+                            mesh_quote(q, tok, n), what);
+        if (!isfinite(d) || fabs(d) > FLT_MAX)
+            return obj_fail(o, RAYD_E_INVALID, "number '%s' in '%s' is not a finite float",
+                            mesh_quote(q, tok, n), what);
+        vals[k++] = (float)d;
+    }
+    if (k < min)
+        return obj_fail(o, RAYD_E_INVALID, "'%s' needs %d numbers, found %d", what, min, k);
+    *count = k;
+    return RAYD_OK;
+}
+
+/* Appends one element of `width` floats to a list, checking the limit. */
+static enum rayd_status obj_push(struct obj *o, const char *what, float **arr, size_t *n,
+                                 size_t *cap, const float *vals, size_t width) {
+    if (*n >= o->max_verts)
+        return obj_fail(o, RAYD_E_LIMIT, "%zu '%s' lines exceed the limit of %u vertices",
+                        *n + 1, what, o->max_verts);
+    if (!array_grow((void **)arr, cap, (*n + 1) * width, sizeof **arr)) return obj_nomem(o);
+    memcpy(*arr + *n * width, vals, width * sizeof *vals);
+    (*n)++;
+    return RAYD_OK;
+}
+
+static enum rayd_status obj_v(struct obj *o, const char *p, const char *end) {
+    float vals[7];
+    int k;
+    enum rayd_status st = obj_numbers(o, "v", p, end, 3, 7, vals, &k);
+    if (st != RAYD_OK) return st;
+    return obj_push(o, "v", &o->v, &o->nv, &o->cap_v, vals, 3);
+}
+
+static enum rayd_status obj_vt(struct obj *o, const char *p, const char *end) {
+    float vals[3] = {0, 0, 0};
+    int k;
+    enum rayd_status st = obj_numbers(o, "vt", p, end, 1, 3, vals, &k);
+    if (st != RAYD_OK) return st;
+    return obj_push(o, "vt", &o->vt, &o->nt, &o->cap_vt, vals, 2);
+}
+
+static enum rayd_status obj_vn(struct obj *o, const char *p, const char *end) {
+    float vals[3];
+    int k;
+    enum rayd_status st = obj_numbers(o, "vn", p, end, 3, 3, vals, &k);
+    if (st != RAYD_OK) return st;
+    return obj_push(o, "vn", &o->vn, &o->nn, &o->cap_vn, vals, 3);
+}
+
+/* Resolves one index field s[0..n) (1-based or negative) against count
+ * elements defined so far; 0 in *out for an empty field. */
+static enum rayd_status obj_index(struct obj *o, const char *what, const char *s, size_t n,
+                                  size_t count, uint32_t *out) {
+    char q[MESH_QUOTE_SIZE];
+    *out = 0;
+    if (n == 0) return RAYD_OK;
+    size_t i = s[0] == '-' ? 1 : 0;
+    long long v = 0;
+    if (i == n) return obj_fail(o, RAYD_E_INVALID, "bad %s index '-'", what);
+    for (; i < n; i++) {
+        if (s[i] < '0' || s[i] > '9')
+            return obj_fail(o, RAYD_E_INVALID, "bad %s index '%s'", what, mesh_quote(q, s, n));
+        if (v < 10000000000LL) v = v * 10 + (s[i] - '0');
+    }
+    if (s[0] == '-') v = -v;
+    if (v == 0)
+        return obj_fail(o, RAYD_E_INVALID, "%s index 0 is invalid (OBJ counts from 1)", what);
+    if (count == 0)
+        return obj_fail(o, RAYD_E_INVALID, "%s index %lld is out of range (none defined yet)",
+                        what, v);
+    long long c = (long long)count;
+    if (v > c)
+        return obj_fail(o, RAYD_E_INVALID, "%s index %lld is out of range (1..%lld)", what, v, c);
+    if (v < -c)
+        return obj_fail(o, RAYD_E_INVALID, "%s index %lld is out of range (-%lld..-1)", what, v, c);
+    *out = (uint32_t)(v > 0 ? v : c + v + 1);
+    return RAYD_OK;
+}
+
+/* Splits a corner "v", "v/vt", "v//vn" or "v/vt/vn" and resolves it. */
+static enum rayd_status obj_corner(struct obj *o, const char *s, size_t n, struct obj_key *k) {
+    char q[MESH_QUOTE_SIZE];
+    const char *part[3] = {s, NULL, NULL};
+    size_t plen[3] = {n, 0, 0};
+    int parts = 1;
+    for (size_t i = 0; i < n; i++) {
+        if (s[i] != '/') continue;
+        if (parts == 3)
+            return obj_fail(o, RAYD_E_INVALID, "bad face vertex '%s'", mesh_quote(q, s, n));
+        plen[parts - 1] = (size_t)(s + i - part[parts - 1]);
+        part[parts] = s + i + 1;
+        plen[parts] = (size_t)(s + n - part[parts]);
+        parts++;
+    }
+    if (plen[0] == 0)
+        return obj_fail(o, RAYD_E_INVALID, "bad face vertex '%s' (no position index)",
+                        mesh_quote(q, s, n));
+    enum rayd_status st = obj_index(o, "face", part[0], plen[0], o->nv, &k->v);
+    if (st == RAYD_OK) st = obj_index(o, "texture", part[1], plen[1], o->nt, &k->t);
+    if (st == RAYD_OK) st = obj_index(o, "normal", part[2], plen[2], o->nn, &k->n);
+    return st;
+}
+
+static size_t obj_hash(struct obj_key k, size_t mask) {
+    uint64_t h = k.v * UINT64_C(0x9E3779B97F4A7C15) ^ k.t * UINT64_C(0xC2B2AE3D27D4EB4F) ^
+                 k.n * UINT64_C(0x165667B19E3779F9);
+    h ^= h >> 31;
+    h *= UINT64_C(0xBF58476D1CE4E5B9);
+    h ^= h >> 29;
+    return (size_t)h & mask;
+}
+
+static bool obj_same(struct obj_key a, struct obj_key b) {
+    return a.v == b.v && a.t == b.t && a.n == b.n;
+}
+
+/* The slot holding k, or the empty slot where it belongs. */
+static size_t obj_slot(const struct obj *o, struct obj_key k) {
+    size_t mask = o->table_size - 1, i = obj_hash(k, mask);
+    while (o->table[i].out && !obj_same(o->table[i].k, k)) i = (i + 1) & mask;
+    return i;
+}
+
+/* Makes the table at least twice the size of `entries`, rehashing the keys
+ * it holds (those with a vt or vn). */
+static bool obj_table_fit(struct obj *o, size_t entries) {
+    if (entries * 2 < o->table_size) return true;
+    size_t size = o->table_size ? o->table_size * 2 : 1024;
+    while (entries * 2 >= size) size *= 2;
+    struct obj_entry *t = calloc(size, sizeof *t);
+    if (!t) return false;
+    free(o->table);
+    o->table = t;
+    o->table_size = size;
+    for (size_t j = 0; j < o->nkeys; j++)
+        if (o->keys[j].t || o->keys[j].n)
+            o->table[obj_slot(o, o->keys[j])] = (struct obj_entry){o->keys[j], (uint32_t)(j + 1)};
+    return true;
+}
+
+/* A new output vertex for triple k (limit checked), numbered in order of
+ * first appearance whichever way it was found. */
+static enum rayd_status obj_new_vertex(struct obj *o, struct obj_key k, uint32_t *out) {
+    if (o->nkeys >= o->max_verts)
+        return obj_fail(o, RAYD_E_LIMIT, "%zu vertices exceed the limit of %u", o->nkeys + 1,
+                        o->max_verts);
+    if (!array_grow((void **)&o->keys, &o->cap_keys, o->nkeys + 1, sizeof *o->keys))
+        return obj_nomem(o);
+    o->keys[o->nkeys] = k;
+    *out = (uint32_t)o->nkeys++;
+    return RAYD_OK;
+}
+
+/* A corner with a position alone ("f 1 2 3", as most scanned meshes are):
+ * its output vertex is kept by position index, no hashing. */
+static enum rayd_status obj_vertex_pos(struct obj *o, struct obj_key k, uint32_t *out) {
+    if (k.v >= o->cap_vmap) {
+        size_t old = o->cap_vmap, need = k.v + 1 > o->nv + 1 ? (size_t)k.v + 1 : o->nv + 1;
+        if (!array_grow((void **)&o->vmap, &o->cap_vmap, need, sizeof *o->vmap))
+            return obj_nomem(o);
+        memset(o->vmap + old, 0, (o->cap_vmap - old) * sizeof *o->vmap);
+    }
+    if (o->vmap[k.v]) {
+        *out = o->vmap[k.v] - 1;
+        return RAYD_OK;
+    }
+    enum rayd_status st = obj_new_vertex(o, k, out);
+    if (st == RAYD_OK) o->vmap[k.v] = *out + 1;
+    return st;
+}
+
+/* The output vertex of triple k, added if new. */
+static enum rayd_status obj_vertex(struct obj *o, struct obj_key k, uint32_t *out) {
+    if (!k.t && !k.n) return obj_vertex_pos(o, k, out);
+    if (!obj_table_fit(o, o->hashed + 1)) return obj_nomem(o);
+    size_t i = obj_slot(o, k);
+    if (o->table[i].out) {
+        *out = o->table[i].out - 1;
+        return RAYD_OK;
+    }
+    enum rayd_status st = obj_new_vertex(o, k, out);
+    if (st != RAYD_OK) return st;
+    o->table[i] = (struct obj_entry){k, *out + 1};
+    o->hashed++;
+    return RAYD_OK;
+}
+
+static enum rayd_status obj_triangle(struct obj *o, uint32_t a, uint32_t b, uint32_t c) {
+    if (o->ntri >= o->max_tris)
+        return obj_fail(o, RAYD_E_LIMIT, "%zu triangles exceed the limit of %u", o->ntri + 1,
+                        o->max_tris);
+    if (!array_grow((void **)&o->tri, &o->cap_tri, (o->ntri + 1) * 3, sizeof *o->tri))
+        return obj_nomem(o);
+    uint32_t *t = o->tri + o->ntri * 3;
+    t[0] = a;
+    t[1] = b;
+    t[2] = c;
+    o->ntri++;
+    return RAYD_OK;
+}
+
+static enum rayd_status obj_f(struct obj *o, const char *p, const char *end) {
+    const char *tok;
+    size_t n;
+    uint32_t first = 0, prev = 0;
+    int corners = 0;
+    while (obj_token(&p, end, &tok, &n)) {
+        struct obj_key k = {0, 0, 0};
+        uint32_t idx = 0;
+        enum rayd_status st = obj_corner(o, tok, n, &k);
+        if (st == RAYD_OK) st = obj_vertex(o, k, &idx);
+        if (st == RAYD_OK && corners >= 2) st = obj_triangle(o, first, prev, idx);
+        if (st != RAYD_OK) return st;
+        o->all_t = o->all_t && k.t;
+        o->all_n = o->all_n && k.n;
+        if (corners++ == 0) first = idx;
+        prev = idx;
+    }
+    if (corners < 3)
+        return obj_fail(o, RAYD_E_INVALID, "face has %d vertices (at least 3 needed)", corners);
+    return RAYD_OK;
+}
+
+static enum rayd_status obj_statement(struct obj *o, const char *p, const char *end) {
+    const char *tok;
+    size_t n;
+    if (!obj_token(&p, end, &tok, &n) || n > 2) return RAYD_OK;
+    if (tok[0] == 'v' && n == 1) return obj_v(o, p, end);
+    if (tok[0] == 'v' && tok[1] == 't') return obj_vt(o, p, end);
+    if (tok[0] == 'v' && tok[1] == 'n') return obj_vn(o, p, end);
+    if (tok[0] == 'f' && n == 1) return obj_f(o, p, end);
+    return RAYD_OK; /* o g s usemtl mtllib l p and anything unknown */
+}
+
+/* Drops the uv or normal part of every triple when some corner lacked it,
+ * merges the triples that become equal (in place: the merged list is a
+ * prefix of the old one) and renumbers the triangles. */
+static enum rayd_status obj_merge(struct obj *o) {
+    bool changed = false;
+    for (size_t j = 0; j < o->nkeys; j++) {
+        if (!o->all_t && o->keys[j].t) changed = true, o->keys[j].t = 0;
+        if (!o->all_n && o->keys[j].n) changed = true, o->keys[j].n = 0;
+    }
+    if (!changed) return RAYD_OK;
+    uint32_t *remap = malloc(o->nkeys * sizeof *remap);
+    if (!remap) return obj_nomem(o);
+    memset(o->table, 0, o->table_size * sizeof *o->table);
+    size_t m = 0;
+    for (size_t j = 0; j < o->nkeys; j++) {
+        size_t i = obj_slot(o, o->keys[j]);
+        if (!o->table[i].out) {
+            o->keys[m] = o->keys[j];
+            o->table[i] = (struct obj_entry){o->keys[j], (uint32_t)++m};
+        }
+        remap[j] = o->table[i].out - 1;
+    }
+    for (size_t j = 0; j < o->ntri * 3; j++) o->tri[j] = remap[o->tri[j]];
+    free(remap);
+    o->nkeys = m;
+    return RAYD_OK;
+}
+
+/* Gathers per-vertex arrays from the triples into *out. */
+static enum rayd_status obj_finish(struct obj *o, struct mesh_data *out) {
+    if (o->ntri == 0)
+        return err_set(o->err, RAYD_E_INVALID, NULL, "OBJ has no faces ('f' lines)");
+    enum rayd_status st = obj_merge(o);
+    if (st != RAYD_OK) return st;
+    size_t nv = o->nkeys;
+    struct mesh_data m = {0};
+    m.pos = huge_alloc(nv * 3 * sizeof *m.pos);
+    if (o->all_n) m.normal = huge_alloc(nv * 3 * sizeof *m.normal);
+    if (o->all_t) m.uv = malloc(nv * 2 * sizeof *m.uv);
+    if (!m.pos || (o->all_n && !m.normal) || (o->all_t && !m.uv)) {
+        mesh_data_free(&m);
+        return obj_nomem(o);
+    }
+    for (size_t j = 0; j < nv; j++) {
+        struct obj_key k = o->keys[j];
+        memcpy(m.pos + j * 3, o->v + (size_t)(k.v - 1) * 3, 3 * sizeof *m.pos);
+        if (m.normal) memcpy(m.normal + j * 3, o->vn + (size_t)(k.n - 1) * 3, 3 * sizeof *m.pos);
+        if (m.uv) memcpy(m.uv + j * 2, o->vt + (size_t)(k.t - 1) * 2, 2 * sizeof *m.pos);
+    }
+    uint32_t *tri = realloc(o->tri, o->ntri * 3 * sizeof *tri); /* shrink; may fail */
+    if (tri) o->tri = tri;
+    m.index = o->tri;
+    o->tri = NULL;
+    m.nverts = (uint32_t)nv;
+    m.ntris = (uint32_t)o->ntri;
+    *out = m;
+    return RAYD_OK;
+}
+
+enum rayd_status mesh_parse_obj(const char *text, size_t len, const struct mesh_limits *lim,
+                                struct mesh_data *out, struct rayd_error *err) {
+    struct obj o = {.max_verts = mesh_max_vertices(lim),
+                    .max_tris = mesh_max_triangles(lim),
+                    .all_t = true,
+                    .all_n = true,
+                    .err = err};
+    enum rayd_status st = RAYD_OK;
+    if (!obj_table_fit(&o, 0)) st = obj_nomem(&o);
+    size_t at = 0;
+    while (st == RAYD_OK && at < len) {
+        const char *line = text + at;
+        const char *nl = memchr(line, '\n', len - at);
+        const char *end = nl ? nl : text + len;
+        o.line++;
+        st = obj_statement(&o, line, end);
+        at = (size_t)(end - text) + 1;
+    }
+    if (st == RAYD_OK) st = obj_finish(&o, out);
+    obj_release(&o);
+    return st;
+}

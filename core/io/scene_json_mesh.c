@@ -1,0 +1,233 @@
+/* scene_json_mesh.c -- mesh objects: flat inline arrays ("vertices",
+ * "indices", "normals", "uvs") or a "source" in OBJ or PLY, given as text,
+ * base64 or a file.  Files are read only when the limits name an asset
+ * folder (rayd-render: the scene's folder; rayd: --asset-dir, confined).
+ * Totals of vertices and triangles are checked against the limits before
+ * anything large is allocated.
+ */
+#define _XOPEN_SOURCE 700 /* realpath */
+#include <errno.h>
+#include <sys/stat.h>
+#include <strings.h>
+#include <unistd.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "io/scene_json_mesh.h"
+
+#include "io/base64.h"
+#include "base/clock.h"
+#include "io/mesh_io.h"
+#include "base/parallel.h"
+
+/* ---- meshes ------------------------------------------------------------------- */
+
+/* A flat array of numbers, count a multiple of per (and at least min). */
+static enum rayd_status get_flat(struct loader *ld, const cJSON *obj, const struct jp *at,
+                                 const char *key, int per, long min, float **out, long *count) {
+    const cJSON *a = cJSON_GetObjectItemCaseSensitive(obj, key);
+    *out = NULL;
+    *count = 0;
+    if (!a) return RAYD_OK;
+    struct jp p = sj_key(at, key);
+    if (!cJSON_IsArray(a)) return sj_fail(ld, RAYD_E_INVALID, &p, "must be an array of numbers, not %s", sj_type_name(a));
+    long n = 0;
+    for (const cJSON *e = a->child; e; e = e->next) n++;
+    if (n % per != 0 || n < min)
+        return sj_fail(ld, RAYD_E_INVALID, &p, "must hold a multiple of %d numbers (at least %ld); it has %ld", per, min, n);
+    if (n / per > ld->lim->max_vertices)
+        return sj_fail(ld, RAYD_E_LIMIT, &p, "has %ld vertices; the limit is %ld", n / per, ld->lim->max_vertices);
+    float *v = malloc(sizeof *v * (size_t)(n ? n : 1));
+    if (!v) return err_set(ld->err, RAYD_E_NOMEM, p.s, "out of memory");
+    long i = 0;
+    for (const cJSON *e = a->child; e; e = e->next, i++) {
+        if (!cJSON_IsNumber(e) || !isfinite(e->valuedouble) || fabs(e->valuedouble) > 1e30) {
+            free(v);
+            struct jp pe = sj_index(&p, (int)i);
+            if (!cJSON_IsNumber(e))
+                return sj_fail(ld, RAYD_E_INVALID, &pe, "must be a number, not %s", sj_type_name(e));
+            if (!isfinite(e->valuedouble)) return sj_fail(ld, RAYD_E_INVALID, &pe, "must be a finite number");
+            return sj_fail(ld, RAYD_E_INVALID, &pe, "must be in [-1e30, 1e30]");
+        }
+        v[i] = (float)e->valuedouble;
+    }
+    *out = v;
+    *count = n / per;
+    return RAYD_OK;
+}
+
+static enum rayd_status get_indices(struct loader *ld, const cJSON *obj, const struct jp *at,
+                                    long nverts, uint32_t **out, long *ntris) {
+    const cJSON *a = cJSON_GetObjectItemCaseSensitive(obj, "indices");
+    struct jp p = sj_key(at, "indices");
+    if (!a) return sj_fail(ld, RAYD_E_INVALID, &p, "is required (3 vertex indices per triangle)");
+    if (!cJSON_IsArray(a)) return sj_fail(ld, RAYD_E_INVALID, &p, "must be an array of integers, not %s", sj_type_name(a));
+    long n = 0;
+    for (const cJSON *e = a->child; e; e = e->next) n++;
+    if (n % 3 != 0 || n == 0)
+        return sj_fail(ld, RAYD_E_INVALID, &p, "must hold a multiple of 3 indices (at least 3); it has %ld", n);
+    if (ld->triangles + n / 3 > ld->lim->max_triangles)
+        return sj_fail(ld, RAYD_E_LIMIT, &p, "brings the scene to %ld triangles; the limit is %ld", ld->triangles + n / 3, ld->lim->max_triangles);
+    uint32_t *ix = malloc(sizeof *ix * (size_t)n);
+    if (!ix) return err_set(ld->err, RAYD_E_NOMEM, p.s, "out of memory");
+    long i = 0;
+    for (const cJSON *e = a->child; e; e = e->next, i++) {
+        double v = cJSON_IsNumber(e) ? e->valuedouble : -1;
+        if (!(v >= 0 && v < (double)nverts && floor(v) == v)) {
+            free(ix);
+            struct jp pe = sj_index(&p, (int)i);
+            return sj_fail(ld, RAYD_E_INVALID, &pe, "must be an integer in 0..%ld (a vertex index)", nverts - 1);
+        }
+        ix[i] = (uint32_t)v;
+    }
+    *out = ix;
+    *ntris = n / 3;
+    return RAYD_OK;
+}
+
+static enum rayd_status add_mesh(struct loader *ld, uint32_t *id) {
+    rayd_scene *s = ld->s;
+    if (!array_grow((void **)&s->meshes, &ld->mesh_cap, (size_t)s->nmeshes + 1, sizeof *s->meshes))
+        return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
+    memset(&s->meshes[s->nmeshes], 0, sizeof s->meshes[0]);
+    *id = s->nmeshes++;
+    return RAYD_OK;
+}
+
+/* "source": {"format": "obj"|"ply", and one of "text", "base64", "file"}. */
+static enum rayd_status load_source(struct loader *ld, const cJSON *src, const struct jp *at,
+                                    struct mesh_data *md) {
+    static const char *const keys[] = {"format", "text", "base64", "file", NULL};
+    static const char *const formats[] = {"obj", "ply", NULL};
+    TRY(sj_check_keys(ld, src, at, keys));
+    const cJSON *text = cJSON_GetObjectItemCaseSensitive(src, "text");
+    const cJSON *b64 = cJSON_GetObjectItemCaseSensitive(src, "base64");
+    const cJSON *file = cJSON_GetObjectItemCaseSensitive(src, "file");
+    if (!!text + !!b64 + !!file != 1)
+        return sj_fail(ld, RAYD_E_INVALID, at, "needs exactly one of \"text\", \"base64\" or \"file\"");
+    const cJSON *fmt = cJSON_GetObjectItemCaseSensitive(src, "format");
+    int format = -1;
+    if (fmt) {
+        TRY(sj_enum(ld, src, at, "format", formats, &format));
+    } else if (file && cJSON_IsString(file)) {
+        size_t n = strlen(file->valuestring);
+        if (n > 4 && !strcasecmp(file->valuestring + n - 4, ".obj")) format = 0;
+        if (n > 4 && !strcasecmp(file->valuestring + n - 4, ".ply")) format = 1;
+    }
+    struct jp pf = sj_key(at, "format");
+    if (format < 0) return sj_fail(ld, RAYD_E_INVALID, &pf, "is required (\"obj\" or \"ply\")");
+    const cJSON *v = text ? text : b64 ? b64 : file;
+    struct jp pv = sj_key(at, text ? "text" : b64 ? "base64" : "file");
+    char *data = NULL;
+    size_t len = 0;
+    double t0 = clock_now(); /* decode: reading the file or base64 too */
+    if (file) {
+        TRY(sj_read_asset(ld, file, &pv, &data, &len));
+    } else if (!cJSON_IsString(v)) {
+        return sj_fail(ld, RAYD_E_INVALID, &pv, "must be a string, not %s", sj_type_name(v));
+    } else if (b64) {
+        unsigned char *bytes;
+        enum rayd_status st = base64_decode(v->valuestring, strlen(v->valuestring), &bytes, &len, ld->err);
+        if (st != RAYD_OK) {
+            snprintf(ld->err->path, sizeof ld->err->path, "%s", pv.s);
+            return st;
+        }
+        data = (char *)bytes;
+    }
+    struct mesh_limits ml = {
+        (uint32_t)(ld->lim->max_vertices - ld->vertices > UINT32_MAX ? UINT32_MAX : ld->lim->max_vertices - ld->vertices),
+        (uint32_t)(ld->lim->max_triangles - ld->triangles > UINT32_MAX ? UINT32_MAX : ld->lim->max_triangles - ld->triangles)};
+    const char *bytes = data ? data : v->valuestring;
+    size_t nbytes = data ? len : strlen(v->valuestring);
+    enum rayd_status st = format == 0 ? mesh_parse_obj(bytes, nbytes, &ml, md, ld->err)
+                                      : mesh_parse_ply(bytes, nbytes, &ml, md, ld->err);
+    ld->s->decode_s += clock_now() - t0;
+    free(data);
+    if (st != RAYD_OK && ld->err) snprintf(ld->err->path, sizeof ld->err->path, "%s", pv.s);
+    if (st == RAYD_OK && md->ntris == 0) {
+        mesh_data_free(md);
+        return sj_fail(ld, RAYD_E_INVALID, &pv, "holds no triangles");
+    }
+    return st;
+}
+
+enum rayd_status sj_mesh(struct loader *ld, const cJSON *oj, const struct jp *at,
+                                  uint32_t *id) {
+    float *pos = NULL, *nrm = NULL, *uv = NULL;
+    uint32_t *ix = NULL;
+    long nv = 0, nn = 0, nuv = 0, nt = 0;
+    bool smooth = true;
+    const cJSON *sm = cJSON_GetObjectItemCaseSensitive(oj, "smooth");
+    struct jp p;
+    enum rayd_status st = RAYD_OK;
+    if (sm && !cJSON_IsBool(sm)) {
+        p = sj_key(at, "smooth");
+        return sj_fail(ld, RAYD_E_INVALID, &p, "must be true or false, not %s", sj_type_name(sm));
+    }
+    if (sm) smooth = cJSON_IsTrue(sm);
+    const cJSON *src = cJSON_GetObjectItemCaseSensitive(oj, "source");
+    if (src) {
+        static const char *const inline_keys[] = {"vertices", "indices", "normals", "uvs"};
+        for (int k = 0; k < 4; k++) {
+            if (!cJSON_GetObjectItemCaseSensitive(oj, inline_keys[k])) continue;
+            p = sj_key(at, inline_keys[k]);
+            return sj_fail(ld, RAYD_E_INVALID, &p, "cannot be combined with \"source\"");
+        }
+        struct mesh_data md = {0};
+        p = sj_key(at, "source");
+        TRY(load_source(ld, src, &p, &md));
+        pos = md.pos;
+        nrm = md.normal;
+        uv = md.uv;
+        ix = md.index;
+        nv = md.nverts;
+        nt = md.ntris;
+        goto build;
+    }
+    if ((st = get_flat(ld, oj, at, "vertices", 3, 3, &pos, &nv)) != RAYD_OK) goto out;
+    if (!pos) {
+        p = sj_key(at, "vertices");
+        st = sj_fail(ld, RAYD_E_INVALID, &p, "is required (x, y, z of each vertex, flat)");
+        goto out;
+    }
+    if (ld->vertices + nv > ld->lim->max_vertices) {
+        p = sj_key(at, "vertices");
+        st = sj_fail(ld, RAYD_E_LIMIT, &p, "brings the scene to %ld vertices; the limit is %ld", ld->vertices + nv, ld->lim->max_vertices);
+        goto out;
+    }
+    if ((st = get_indices(ld, oj, at, nv, &ix, &nt)) != RAYD_OK) goto out;
+    if ((st = get_flat(ld, oj, at, "normals", 3, 0, &nrm, &nn)) != RAYD_OK) goto out;
+    if ((st = get_flat(ld, oj, at, "uvs", 2, 0, &uv, &nuv)) != RAYD_OK) goto out;
+    if ((nrm && nn != nv) || (uv && nuv != nv)) {
+        p = sj_key(at, nrm && nn != nv ? "normals" : "uvs");
+        st = sj_fail(ld, RAYD_E_INVALID, &p, "must have one entry per vertex (%ld)", nv);
+        goto out;
+    }
+    for (long i = 0; nrm && i < nn; i++) {
+        float *n = nrm + 3 * i;
+        double len = sqrt((double)n[0] * n[0] + (double)n[1] * n[1] + (double)n[2] * n[2]);
+        if (!(len > 0)) {
+            p = sj_key(at, "normals");
+            struct jp pe = sj_index(&p, (int)(3 * i));
+            st = sj_fail(ld, RAYD_E_INVALID, &pe, "normal %ld must not be a zero-length vector", i);
+            goto out;
+        }
+        for (int k = 0; k < 3; k++) n[k] = (float)(n[k] / len);
+    }
+build:
+    if ((st = add_mesh(ld, id)) != RAYD_OK) goto out;
+    ld->vertices += nv;
+    ld->triangles += nt;
+    double t0 = clock_now();
+    st = mesh_build(&ld->s->meshes[*id], pos, (uint32_t)nv, ix, (uint32_t)nt, nrm, uv, smooth,
+                    nt >= 50000 ? parallel_cores() : 1, ld->err);
+    ld->s->build_s += clock_now() - t0;
+    return st; /* the mesh owns the arrays now, even on failure */
+out:
+    free(pos);
+    free(nrm);
+    free(uv);
+    free(ix);
+    return st;
+}

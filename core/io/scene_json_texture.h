@@ -1,0 +1,10 @@
+/* scene_json_texture.h -- material textures (scene_json_texture.c). */
+#ifndef SCENE_JSON_TEXTURE_H
+#define SCENE_JSON_TEXTURE_H
+
+#include "io/scene_json_util.h"
+
+/* "texture": a pattern or image; *index into the scene's textures. */
+enum rayd_status sj_texture(struct loader *ld, const cJSON *t, const struct jp *at, int *index);
+
+#endif

@@ -1,0 +1,56 @@
+/* integrate.h -- turning a ray into a colour. */
+#ifndef INTEGRATE_H
+#define INTEGRATE_H
+
+#include <stdint.h>
+
+#include "scene/scene.h"
+
+#include "math/rng.h"
+
+/* Whitted ray tracing: the radiance arriving along r after `depth` bounces
+ * so far.  key names the pixel sample (area lights draw from it).  Adds
+ * every ray it casts (this one included) to *rays. */
+vec3 whitted_radiance(const rayd_scene *s, const ray *r, int depth, const struct rng_key *key,
+                      uint64_t *rays);
+
+/* The same for 16 camera rays (ray i, bit i of active set) at once, as
+ * packets: out[i] is exactly whitted_radiance(s, &ray i, 0, &key[i], ..). */
+void whitted_radiance16(const rayd_scene *s, const struct ray16 *r, uint32_t active,
+                        const struct rng_key key[16], vec3 out[16], uint64_t *rays);
+
+/* Path tracing (integrate_path.c): an unbiased estimate of the radiance
+ * arriving along r. */
+vec3 path_radiance(const rayd_scene *s, const ray *r, const struct rng_key *key, uint64_t *rays);
+/* The same with r's nearest hit already found: *h when hit, else r escapes
+ * (a camera ray of a packet, scene_intersect16). */
+vec3 path_radiance_from(const rayd_scene *s, const ray *r, const struct hit *h, bool hit,
+                        const struct rng_key *key, uint64_t *rays);
+
+/* The shadow ray test from origin toward a light: what gets through. */
+vec3 integrate_visible(const rayd_scene *s, vec3 origin, vec3 to_light, double dist,
+                       uint64_t *rays);
+
+/* The first half of integrate_light_sample, before the shadow ray: the
+ * direction wi toward sample (su, sv) of light l, its distance from origin
+ * and what it sends; false when it sends nothing or is behind nf. */
+bool integrate_light_aim(const struct light *l, vec3 p, vec3 nf, double su, double sv, vec3 origin,
+                         vec3 *wi, vec3 *radiance, double *dist);
+
+/* Radiance arriving at p (shading normal nf facing the viewer, shadow rays
+ * from origin) from light l: one sample (su, sv) for area lights.  False
+ * when none arrives; *wi the direction toward it. */
+bool integrate_light_sample(const rayd_scene *s, const struct light *l, vec3 p, vec3 nf,
+                            vec3 origin, double su, double sv, vec3 *wi, vec3 *radiance,
+                            uint64_t *rays);
+
+/* How far to lift a secondary ray's origin off the surface at p so that it
+ * cannot hit the surface it leaves (no shadow acne): relative to the size of
+ * the coordinates, because that is what rounding error scales with.  Float
+ * geometry (meshes, tested in single precision) needs about 2^8 float ulps,
+ * as in Wachter and Binder (Ray Tracing Gems, ch. 6). */
+static inline double integrate_offset(vec3 p, bool float_geom) {
+    return float_geom ? 1.5e-5 * v3_maxabs(p) + 1e-6 : 1e-9 * (1.0 + v3_maxabs(p));
+}
+
+#endif

@@ -1,0 +1,293 @@
+/* integrate_path.c -- unbiased path tracing ("render.integrator": "path").
+ *
+ * At every vertex the material is a mixture of four lobes whose weights
+ * sum to one, and the same weights pick the lobe to sample:
+ *   diffuse     Lambert, albedo = color * diffuse       weight (1-t)(1-m)(1-r)
+ *   metal       GGX microfacets, Fresnel-Schlick with F0 = color,
+ *               alpha = roughness^2 (a delta mirror at 0)  weight (1-t) m
+ *   mirror      perfect, untinted                        weight (1-t)(1-m) r
+ *   glass       smooth dielectric: Fresnel picks reflection or refraction,
+ *               refraction tinted by color               weight t
+ * with t = transparency, m = metallic, r = reflectivity.  Sampling a
+ * non-delta lobe is weighed against the mixture's whole non-delta pdf
+ * (one-sample MIS over lobes).
+ *
+ * Light: next-event estimation at every non-delta vertex -- every light of
+ * /lights once (point, directional and spot lights exactly as the Whitted
+ * integrator sees them; area lights at one point of their area), and one
+ * emissive sphere, disc or quad of the top level picked uniformly, its
+ * point sampled by area.  Emissive objects are also found by BSDF
+ * sampling; the two strategies are combined by the power heuristic.
+ * Escaped rays see the background as a uniform environment.  Russian
+ * roulette from the fourth bounce keeps long paths cheap and the estimate
+ * unbiased.  Every random number comes from the counter-based RNG, keyed by
+ * pixel, sample, bounce and the dimension below, so tiles stay exact.
+ */
+#include <stdint.h>
+
+#include "render/integrate.h"
+
+#define PI 3.14159265358979323846
+
+enum { D_LOBE, D_DIR1, D_DIR2, D_RR, D_FRESNEL, D_PICK, D_EPT1, D_EPT2, D_LIGHT0 };
+
+struct lobes {
+    double w_diff, w_metal, w_mirror, w_glass;
+    vec3 albedo; /* diffuse */
+    vec3 f0;     /* metal Fresnel at normal incidence */
+    double alpha;
+};
+
+static struct lobes lobes_of(const struct material *m, vec3 color) {
+    double t = m->transparency, mt = m->metallic, r = m->reflectivity;
+    struct lobes l = {(1 - t) * (1 - mt) * (1 - r), (1 - t) * mt, (1 - t) * (1 - mt) * r, t,
+                      v3_scale(color, m->diffuse), color, m->roughness * m->roughness};
+    if (l.alpha < 1e-3) { /* a smooth metal is a tinted mirror: treated as delta below */
+        l.alpha = 0;
+    }
+    return l;
+}
+
+static double ggx_d(double alpha, double cos_h) {
+    double a2 = alpha * alpha, c2 = cos_h * cos_h, k = c2 * (a2 - 1) + 1;
+    return a2 / (PI * k * k);
+}
+
+static double ggx_g1(double alpha, double cos_v) {
+    double c2 = cos_v * cos_v, t2 = (1 - c2) / fmax(c2, 1e-12);
+    return 2 / (1 + sqrt(1 + alpha * alpha * t2));
+}
+
+static vec3 schlick(vec3 f0, double c) {
+    double k = pow(1 - fmax(0, fmin(1, c)), 5);
+    return v3_add(f0, v3_scale(v3_sub(v3(1, 1, 1), f0), k));
+}
+
+/* The non-delta part of the BSDF (times cos_i) and its sampling pdf, for
+ * wo (toward the viewer) and wi (toward the light) about normal n. */
+static vec3 eval_nondelta(const struct lobes *l, vec3 n, vec3 wo, vec3 wi, double *pdf) {
+    double ci = v3_dot(n, wi), co = v3_dot(n, wo);
+    *pdf = 0;
+    if (ci <= 0 || co <= 0) return v3(0, 0, 0);
+    vec3 f = v3(0, 0, 0);
+    if (l->w_diff > 0) {
+        f = v3_scale(l->albedo, l->w_diff * ci / PI);
+        *pdf += l->w_diff * ci / PI;
+    }
+    if (l->w_metal > 0 && l->alpha > 0) {
+        vec3 h = v3_norm(v3_add(wo, wi));
+        double ch = v3_dot(n, h), oh = v3_dot(wo, h);
+        double d = ggx_d(l->alpha, ch), g = ggx_g1(l->alpha, co) * ggx_g1(l->alpha, ci);
+        vec3 fr = schlick(l->f0, oh);
+        f = v3_madd(f, fr, l->w_metal * d * g / (4 * co)); /* (D G F / 4 co ci) * ci */
+        *pdf += l->w_metal * d * ch / (4 * fabs(oh));
+    }
+    return f;
+}
+
+static vec3 frame_dir(vec3 n, double x, double y, double z) {
+    vec3 u, v;
+    shape_frame(n, &u, &v);
+    return v3_add(v3_add(v3_scale(u, x), v3_scale(v, y)), v3_scale(n, z));
+}
+
+struct vertex {
+    vec3 p, n, ng, above, below;
+    bool inside, thin;
+};
+
+/* Power heuristic for two strategies. */
+static double mis(double a, double b) { return a * a / (a * a + b * b); }
+
+static bool is_emitter(const rayd_scene *s, const struct hit *h) {
+    const struct object *o = h->leaf;
+    uintptr_t at = (uintptr_t)o, lo = (uintptr_t)s->objs, hi = (uintptr_t)(s->objs + s->nobjs);
+    return !h->outer && h->orient == 0 && o->xform < 0 && at >= lo && at < hi && /* top level */
+           (o->kind == SHAPE_SPHERE || o->kind == SHAPE_DISC || o->kind == SHAPE_QUAD) &&
+           v3_maxabs(s->mats[o->material].emission) > 0;
+}
+
+static double emitter_area(const struct object *o) {
+    switch (o->kind) {
+    case SHAPE_SPHERE: return 4 * PI * o->u.sphere.radius * o->u.sphere.radius;
+    case SHAPE_DISC:
+        return PI * (o->u.disc.radius * o->u.disc.radius - o->u.disc.inner * o->u.disc.inner);
+    default: return v3_len(v3_cross(o->u.quad.e1, o->u.quad.e2));
+    }
+}
+
+static vec3 emitter_point(const struct object *o, double a, double b, vec3 *n) {
+    switch (o->kind) {
+    case SHAPE_SPHERE: {
+        double z = 1 - 2 * a, r = sqrt(fmax(0, 1 - z * z)), phi = 2 * PI * b;
+        *n = v3(r * cos(phi), r * sin(phi), z);
+        return v3_madd(o->u.sphere.center, *n, o->u.sphere.radius);
+    }
+    case SHAPE_DISC: {
+        double r2 = o->u.disc.inner * o->u.disc.inner, R2 = o->u.disc.radius * o->u.disc.radius;
+        double r = sqrt(r2 + a * (R2 - r2)), phi = 2 * PI * b;
+        vec3 u, v;
+        shape_frame(o->u.disc.normal, &u, &v);
+        *n = o->u.disc.normal;
+        return v3_madd(v3_madd(o->u.disc.center, u, r * cos(phi)), v, r * sin(phi));
+    }
+    default:
+        *n = v3_norm(v3_cross(o->u.quad.e1, o->u.quad.e2));
+        return v3_madd(v3_madd(o->u.quad.corner, o->u.quad.e1, a), o->u.quad.e2, b);
+    }
+}
+
+/* Light arriving at vertex x through the lights and one emitter (NEE). */
+static vec3 next_event(const rayd_scene *s, const struct lobes *lb, const struct vertex *x,
+                       vec3 wo, const struct rng_key *key, uint32_t b, uint64_t *rays) {
+    vec3 sum = v3(0, 0, 0);
+    for (int i = 0; i < s->nlights; i++) {
+        vec3 wi, rad;
+        double pdf;
+        double su = rng_uniform(key, b, D_LIGHT0 + 2 * (uint32_t)i);
+        double sv = rng_uniform(key, b, D_LIGHT0 + 2 * (uint32_t)i + 1);
+        if (!integrate_light_sample(s, &s->lights[i], x->p, x->n, x->above, su, sv, &wi, &rad, rays))
+            continue;
+        sum = v3_add(sum, v3_mul(rad, eval_nondelta(lb, x->n, wo, wi, &pdf)));
+    }
+    int ne = s->nemitters;
+    if (ne == 0) return sum;
+    int k = (int)(rng_uniform(key, b, D_PICK) * ne);
+    const struct object *e = &s->objs[s->emitters[k < ne ? k : ne - 1]];
+    vec3 ln, q = emitter_point(e, rng_uniform(key, b, D_EPT1), rng_uniform(key, b, D_EPT2), &ln);
+    vec3 d = v3_sub(q, x->above);
+    double dist = v3_len(d);
+    if (!(dist > 0)) return sum;
+    vec3 wi = v3_scale(d, 1 / dist);
+    double cl = -v3_dot(ln, wi);
+    if (e->kind != SHAPE_SPHERE) cl = fabs(cl); /* flat emitters shine both ways */
+    if (cl <= 0 || v3_dot(x->n, wi) <= 0) return sum;
+    double pdf_b;
+    vec3 f = eval_nondelta(lb, x->n, wo, wi, &pdf_b);
+    if (v3_maxabs(f) == 0) return sum;
+    vec3 tr = integrate_visible(s, x->above, wi, dist * (1 - 1e-7), rays);
+    if (v3_maxabs(tr) == 0) return sum;
+    double pdf_l = dist * dist / (cl * emitter_area(e)) / ne;
+    vec3 le = s->mats[e->material].emission;
+    return v3_add(sum, v3_scale(v3_mul(v3_mul(le, tr), f), mis(pdf_l, pdf_b) / pdf_l));
+}
+
+/* Samples the next direction; returns false when the path ends.  Updates
+ * *beta and says whether the lobe was a delta one and its pdf. */
+static bool sample_bsdf(const struct lobes *lb, const struct vertex *x, vec3 color, const struct material *m,
+                        vec3 wo, const struct rng_key *key, uint32_t b, vec3 *wi, vec3 *beta,
+                        bool *delta, double *pdf, bool *through) {
+    double u = rng_uniform(key, b, D_LOBE), u1 = rng_uniform(key, b, D_DIR1),
+           u2 = rng_uniform(key, b, D_DIR2);
+    *through = false;
+    *delta = true;
+    if (u < lb->w_glass) {
+        double cos_i = v3_dot(wo, x->n), cos_t = 0, fr = 0;
+        vec3 d = v3_neg(wo);
+        double n1 = x->inside ? m->ior : 1.0, n2 = x->inside ? 1.0 : m->ior;
+        if (!x->thin) fr = material_fresnel(n1, n2, cos_i, &cos_t);
+        if (rng_uniform(key, b, D_FRESNEL) < fr) {
+            *wi = v3_reflect(d, x->n);
+        } else {
+            *wi = x->thin ? d : material_refract(d, x->n, n1 / n2, cos_i, cos_t);
+            *beta = v3_mul(*beta, color);
+            *through = true;
+        }
+        return true;
+    }
+    u -= lb->w_glass;
+    if (u < lb->w_mirror) {
+        *wi = v3_reflect(v3_neg(wo), x->n);
+        return true;
+    }
+    u -= lb->w_mirror;
+    if (u < lb->w_metal && lb->alpha == 0) {
+        *wi = v3_reflect(v3_neg(wo), x->n);
+        *beta = v3_mul(*beta, schlick(lb->f0, v3_dot(wo, x->n)));
+        return true;
+    }
+    *delta = false;
+    if (u < lb->w_metal) { /* GGX: sample the half vector by D(h) cos */
+        double a2 = lb->alpha * lb->alpha;
+        double ct = sqrt((1 - u1) / (1 + (a2 - 1) * u1)), st = sqrt(fmax(0, 1 - ct * ct));
+        vec3 h = frame_dir(x->n, st * cos(2 * PI * u2), st * sin(2 * PI * u2), ct);
+        *wi = v3_reflect(v3_neg(wo), h);
+    } else { /* cosine-weighted hemisphere */
+        double r = sqrt(u1), phi = 2 * PI * u2;
+        *wi = frame_dir(x->n, r * cos(phi), r * sin(phi), sqrt(fmax(0, 1 - u1)));
+    }
+    vec3 f = eval_nondelta(lb, x->n, wo, *wi, pdf);
+    if (!(*pdf > 0) || v3_dot(*wi, x->ng) <= 0) return false;
+    *beta = v3_mul(*beta, v3_scale(f, 1 / *pdf));
+    return true;
+}
+
+/* The path from r0; first, when not NULL, is r0's nearest hit already
+ * found (first_hit says whether *first is a hit or r0 escapes). */
+static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *first, bool first_hit,
+                       const struct rng_key *key, uint64_t *rays) {
+    vec3 L = v3(0, 0, 0), beta = v3(1, 1, 1);
+    ray r = *r0;
+    bool prev_delta = true;
+    double prev_pdf = 0;
+    vec3 prev_p = r.o;
+    for (uint32_t b = 0;; b++) {
+        struct hit h;
+        (*rays)++;
+        bool found = b == 0 && first ? first_hit : scene_intersect(s, &r, INFINITY, &h);
+        if (b == 0 && first && first_hit) h = *first;
+        if (!found) return v3_add(L, v3_mul(beta, s->rs.background));
+        struct surface sf;
+        scene_surface(s, &r, &h, &sf);
+        const struct material *m = sf.m;
+        if (v3_maxabs(m->emission) > 0) {
+            double w = 1;
+            if (!prev_delta && is_emitter(s, &h)) {
+                vec3 d = v3_sub(sf.p, prev_p);
+                double dist2 = v3_dot(d, d), cl = fabs(v3_dot(sf.ng, r.d));
+                double pdf_l = dist2 / (cl * emitter_area(h.leaf)) / s->nemitters;
+                w = mis(prev_pdf, pdf_l);
+            }
+            L = v3_add(L, v3_scale(v3_mul(beta, m->emission), w));
+        }
+        if ((int)b >= s->rs.max_depth) break;
+        struct vertex x;
+        x.inside = v3_dot(sf.ng, r.d) > 0;
+        x.ng = x.inside ? v3_neg(sf.ng) : sf.ng;
+        x.n = x.inside ? v3_neg(sf.n) : sf.n;
+        if (v3_dot(x.n, x.ng) < 0) x.n = x.ng;
+        x.p = sf.p;
+        x.thin = sf.thin;
+        double off = integrate_offset(sf.p, sf.float_geom);
+        x.above = v3_madd(sf.p, x.ng, off);
+        x.below = v3_madd(sf.p, x.ng, -off);
+        vec3 wo = v3_neg(r.d);
+        struct lobes lb = lobes_of(m, sf.color);
+        if (lb.w_diff > 0 || (lb.w_metal > 0 && lb.alpha > 0))
+            L = v3_add(L, v3_mul(beta, next_event(s, &lb, &x, wo, key, b, rays)));
+        vec3 wi;
+        bool delta, through;
+        double pdf = 0;
+        if (!sample_bsdf(&lb, &x, sf.color, m, wo, key, b, &wi, &beta, &delta, &pdf, &through)) break;
+        if (b >= 3) { /* Russian roulette */
+            double q = fmin(0.95, fmax(0.05, v3_maxabs(beta)));
+            if (rng_uniform(key, b, D_RR) >= q) break;
+            beta = v3_scale(beta, 1 / q);
+        }
+        prev_delta = delta;
+        prev_pdf = pdf;
+        prev_p = sf.p;
+        r.o = through ? x.below : x.above;
+        r.d = wi;
+    }
+    return L;
+}
+
+vec3 path_radiance(const rayd_scene *s, const ray *r, const struct rng_key *key, uint64_t *rays) {
+    return path_trace(s, r, NULL, false, key, rays);
+}
+
+vec3 path_radiance_from(const rayd_scene *s, const ray *r, const struct hit *h, bool hit,
+                        const struct rng_key *key, uint64_t *rays) {
+    return path_trace(s, r, h, hit, key, rays);
+}

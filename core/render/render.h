@@ -1,0 +1,18 @@
+/* render.h -- internal entry points of render.c, for tests and benches. */
+#ifndef RENDER_H
+#define RENDER_H
+
+#include <stdint.h>
+
+#include "scene/scene.h"
+
+/* The pixel's linear radiance, averaged over its samples. */
+vec3 render_pixel(const rayd_scene *s, int i, int j, uint64_t *rays);
+
+/* The sRGB byte of a linear value (0 for NaN and below 0, 255 from 1). */
+uint8_t render_srgb8(double c);
+/* The same for 48 values at once (a 4x4 block's channels), 8 at a time
+ * with AVX-512 where it runs: out[k] = render_srgb8(v[k]). */
+void render_srgb48(const double v[48], uint8_t out[48]);
+
+#endif

@@ -1,0 +1,150 @@
+/* scene.h -- the frozen scene (internal view of rayd_scene). */
+#ifndef SCENE_H
+#define SCENE_H
+
+#include <stdint.h>
+
+#include "accel/bvh.h"
+#include "geom/camera.h"
+#include "shade/light.h"
+#include "shade/material.h"
+#include "geom/mesh.h"
+#include "geom/shape.h"
+#include "math/xform.h"
+
+enum integrator { INTEGRATOR_WHITTED, INTEGRATOR_PATH };
+
+struct render_settings {
+    enum integrator integrator;
+    int width, height;
+    int samples;   /* rays per pixel */
+    int max_depth; /* secondary bounces allowed */
+    vec3 background;
+    uint64_t seed;
+};
+
+/* Objects drawn together and placed as a whole by instances. */
+struct group {
+    struct object *objs; /* in BVH order */
+    int32_t nobjs;
+    struct bvh4 bvh;
+    struct aabb bounds;
+};
+
+struct texture;
+
+struct rayd_scene {
+    double decode_s, build_s; /* loading: mesh files decoded, BVHs and light buffers built */
+    struct camera cam;
+    struct render_settings rs;
+    struct material *mats;
+    int nmats;
+    struct light *lights;
+    int nlights;
+    struct object *objs;   /* bounded objects, in top-level BVH order */
+    int32_t nobjs;
+    struct object *planes; /* unbounded objects (planes, quadrics), tested one by one */
+    int32_t nplanes;
+    struct object *parts;  /* CSG operands: referred to by CSG nodes, not in any BVH */
+    int32_t nparts;
+    struct group *groups;  /* referred to by instances */
+    int32_t ngroups;
+    struct texture *textures;
+    int ntextures;
+    struct mesh *meshes;   /* geometry that objects refer to */
+    uint32_t nmeshes;
+    struct xform *xforms;  /* placements that objects refer to */
+    int32_t nxforms;
+    struct bvh4 tlas;      /* over objs */
+    struct light_buffer *light_buffers; /* per light, objs by direction (light_buffer.c) */
+    int32_t *emitters;     /* path tracer: emissive spheres, discs, quads of objs to sample */
+    int nemitters;
+    bool opaque;           /* no material lets light through: shadows are 0 or 1 */
+    bool simple_lights;    /* only point and directional lights (integrate_wide.c) */
+    bool brute;            /* tests only: every query tests every primitive */
+};
+
+struct hit {
+    double t;
+    const struct object *leaf;  /* the primitive hit (for CSG, the operand) */
+    const struct xform *outer;  /* the instance's placement, or NULL */
+    int part;                   /* which part of the primitive */
+    int orient;                 /* CSG: +1 the ray enters the result, -1 leaves it */
+    struct mesh_hit mh;         /* set for meshes */
+};
+
+/* What the shader needs to know about a hit. */
+struct surface {
+    vec3 p;           /* world-space point */
+    vec3 color;       /* the material's colour, or its texture's at p */
+    vec3 n;           /* unit shading normal, outward */
+    vec3 ng;          /* unit geometric normal, outward */
+    const struct material *m;
+    bool thin;        /* no inside: what passes through goes straight on */
+    bool float_geom;  /* float geometry: larger offsets for secondary rays */
+};
+
+/* A scene under construction: objects are appended, then scene_freeze
+ * splits bounded from unbounded objects and builds the top-level BVH.  The
+ * scene owns all its arrays. */
+enum rayd_status scene_alloc(rayd_scene **out, struct rayd_error *err);
+enum rayd_status scene_freeze(rayd_scene *s, struct rayd_error *err);
+
+/* World bounds of object o; false when it is unbounded. */
+bool scene_object_bounds(const rayd_scene *s, const struct object *o, struct aabb *out);
+
+/* Builds a BVH over objs[0..n) (reordering them); bounds gets their union. */
+enum rayd_status scene_build_bvh(const rayd_scene *s, struct object **objs, int32_t n,
+                                 struct bvh4 *bvh, struct aabb *bounds, struct rayd_error *err);
+
+/* Nearest hit with t in (0, tmax); false when the ray escapes. */
+bool scene_intersect(const rayd_scene *s, const ray *r, double tmax, struct hit *h);
+
+/* Fraction of light that passes from the ray's origin to distance tmax:
+ * 0 behind an opaque object, (transparency * color) per transparent one. */
+vec3 scene_transmittance(const rayd_scene *s, const ray *r, double tmax);
+
+/* The same two queries for the rays r[i] whose bit i is set in active, as
+ * a packet (scene_packet.c): ray i gets exactly what it would get alone.
+ * scene_intersect16 returns the mask of rays that hit. */
+uint32_t scene_intersect16(const rayd_scene *s, const ray r[16], const double tmax[16],
+                           uint32_t active, struct hit h[16]);
+void scene_transmittance16(const rayd_scene *s, const ray r[16], const double tmax[16],
+                           uint32_t active, vec3 out[16]);
+/* 16 times INFINITY: no bound.  (A constant: the packet code reads it 8 at
+ * a time, which a just-written array of doubles would stall.) */
+extern const double scene_unbounded16[16];
+
+/* A packet's hits on untransformed spheres and planes as structure of
+ * arrays: ray i in lanes hit leaf[i] at t[i], with no instance, part or
+ * orientation (hit16_get gives the struct hit). */
+struct hit16 {
+    LANES_ALIGN double t[16];
+    const struct object *leaf[16];
+    uint32_t lanes;
+};
+
+static inline struct hit hit16_get(const struct hit16 *hs, int i) {
+    return (struct hit){.t = hs->t[i], .leaf = hs->leaf[i]};
+}
+
+/* scene_intersect16 for rays as structure of arrays.  With simple (else
+ * NULL), the hits on untransformed spheres and planes go there instead of
+ * to h: the wide shader takes them so, without the struct hits. */
+uint32_t scene_intersect16_soa(const rayd_scene *s, const struct ray16 *r, const double tmax[16],
+                               uint32_t active, struct hit h[16], struct hit16 *simple);
+/* scene_transmittance16 with the rays and the answers as structure of
+ * arrays: ray i from (o[0][i], o[1][i], o[2][i]) along (d[0][i], d[1][i],
+ * d[2][i]) lets through (out[0][i], out[1][i], out[2][i]); 0 for the rays
+ * outside active.  light is the index of the light the rays are shadow rays
+ * of -- from just off a surface point p, along the unit vector from p to
+ * the light, for p's distance to it -- or -1 for other rays; given, the
+ * light's buffer (light_buffer.c) may stand in for the BVH walk. */
+void scene_transmittance16_soa(const rayd_scene *s, int light, const double o[3][16],
+                               const double d[3][16], const double tmax[16], uint32_t active,
+                               double out[3][16]);
+
+/* Point, normals and material of a hit of ray r. */
+void scene_surface(const rayd_scene *s, const ray *r, const struct hit *h, struct surface *sf);
+
+#endif

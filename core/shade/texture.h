@@ -1,0 +1,31 @@
+/* texture.h -- colours that vary over a surface. */
+#ifndef TEXTURE_H
+#define TEXTURE_H
+
+#include <stddef.h>
+
+#include "math/vec.h"
+
+enum texture_kind { TEX_CHECKER, TEX_STRIPES, TEX_GRADIENT, TEX_IMAGE };
+enum texture_space { TEX_OBJECT, TEX_WORLD, TEX_UV };
+
+struct texture {
+    enum texture_kind kind;
+    enum texture_space space;
+    vec3 a, b;      /* the two colours (linear RGB) */
+    double scale;   /* pattern cells per scene unit (per uv unit for TEX_UV) */
+    vec3 axis;      /* stripes and gradient: unit direction */
+    int w, h;       /* image size */
+    float *rgb;     /* image pixels, linear RGB, rows from the top */
+};
+
+/* Colour at a point: object-space po, world-space pw, surface (u, v). */
+vec3 texture_color(const struct texture *t, vec3 po, vec3 pw, double u, double v);
+
+/* Linear float RGB from 8-bit sRGB pixels (malloc'd), for image textures. */
+float *texture_linear_from_srgb8(const unsigned char *px, int w, int h);
+
+void texture_free(struct texture *t);
+size_t texture_bytes(const struct texture *t);
+
+#endif
