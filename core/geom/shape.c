@@ -1,5 +1,7 @@
 /* shape.c -- what all analytic shapes share: the table of their
- * operations, the nearest-hit rule, the stable quadratic and frames.
+ * operations and the nearest-hit rule.  The shapes' own files
+ * (shape_*.c) sit below it: they take the stable quadratic (poly.h) and
+ * frames (vec.h) from math/, never from here.
  */
 #include "geom/shape.h"
 
@@ -29,25 +31,4 @@ bool shape_is_solid(const struct object *o) {
     if (o->kind >= SHAPE_MESH) return o->kind == SHAPE_CSG;
     if (o->kind == SHAPE_CYLINDER) return o->u.cyl.capped;
     return shape_ops[o->kind]->inside != NULL;
-}
-
-int shape_quadratic(double a, double b, double c, double t[2]) {
-    if (a == 0) {
-        if (b == 0) return 0;
-        t[0] = -c / b;
-        return 1;
-    }
-    double disc = b * b - 4 * a * c;
-    if (disc < 0) return 0;
-    double q = -0.5 * (b + copysign(sqrt(disc), b));
-    double t0 = q / a, t1 = q != 0 ? c / q : t0;
-    t[0] = fmin(t0, t1);
-    t[1] = fmax(t0, t1);
-    return 2;
-}
-
-void shape_frame(vec3 w, vec3 *u, vec3 *v) {
-    vec3 a = fabs(w.x) > 0.9 ? v3(0, 1, 0) : v3(1, 0, 0);
-    *u = v3_norm(v3_cross(a, w));
-    *v = v3_cross(w, *u);
 }

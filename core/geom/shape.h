@@ -177,11 +177,5 @@ bool sphere_hit(const struct object *o, const ray *r, double tmin, double tmax, 
 bool plane_hit(const struct object *o, const ray *r, double tmin, double tmax, double *t);
 vec3 sphere_normal(const struct object *o, vec3 p);
 
-/* Roots of the quadratic a t^2 + b t + c, stable (Citardauq); returns the
- * count (0..2), sorted.  a == 0 degrades to the linear case. */
-int shape_quadratic(double a, double b, double c, double t[2]);
-
-/* An orthonormal frame around unit w. */
-void shape_frame(vec3 w, vec3 *u, vec3 *v);
 
 #endif

@@ -10,6 +10,7 @@
  * Parts: 0 side, 1 base cap, 2 top cap.
  */
 #include "geom/shape.h"
+#include "math/poly.h"
 
 static void sort_xings(struct xing *x, int n) {
     for (int i = 1; i < n; i++)
@@ -30,7 +31,7 @@ static int cyl_crossings(const struct object *o, const ray *r, struct xing out[4
     double B = 2 * (v3_dot(op, dp) - k * ro * dh);
     double C = v3_dot(op, op) - ro * ro;
     double t[2];
-    int n = 0, m = shape_quadratic(A, B, C, t);
+    int n = 0, m = poly_quadratic(A, B, C, t);
     for (int i = 0; i < m; i++) {
         double h = oh + t[i] * dh;
         if (h >= 0 && h <= H && r0 + k * h >= 0) out[n++] = (struct xing){t[i], 0};
@@ -83,7 +84,7 @@ static bool cyl_inside(const struct object *o, vec3 p) {
 /* u around the axis, v along it (caps: v is 0 or 1). */
 static void cyl_uv(const struct object *o, vec3 p, int part, double *u, double *v) {
     vec3 a, b, w = o->u.cyl.axis;
-    shape_frame(w, &a, &b);
+    v3_frame(w, &a, &b);
     vec3 q = v3_sub(p, o->u.cyl.base);
     *u = 0.5 + atan2(v3_dot(q, b), v3_dot(q, a)) / (2 * 3.14159265358979323846);
     *v = part == 1 ? 0 : part == 2 ? 1 : v3_dot(q, w) / o->u.cyl.height;

@@ -35,7 +35,7 @@ static struct aabb disc_bounds(const struct object *o) {
 static void disc_uv(const struct object *o, vec3 p, int part, double *u, double *v) {
     (void)part;
     vec3 a, b;
-    shape_frame(o->u.disc.normal, &a, &b);
+    v3_frame(o->u.disc.normal, &a, &b);
     vec3 q = v3_sub(p, o->u.disc.center);
     *u = 0.5 + 0.5 * v3_dot(q, a) / o->u.disc.radius;
     *v = 0.5 + 0.5 * v3_dot(q, b) / o->u.disc.radius;

@@ -35,7 +35,7 @@ static bool plane_inside(const struct object *o, vec3 p) {
 static void plane_uv(const struct object *o, vec3 p, int part, double *u, double *v) {
     (void)part;
     vec3 a, b;
-    shape_frame(o->u.plane.normal, &a, &b);
+    v3_frame(o->u.plane.normal, &a, &b);
     vec3 d = v3_sub(p, o->u.plane.point);
     *u = v3_dot(d, a);
     *v = v3_dot(d, b);

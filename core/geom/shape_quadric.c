@@ -5,6 +5,7 @@
  * gradient; the solid is f < 0.  Unbounded, so tested beside the BVH.
  */
 #include "geom/shape.h"
+#include "math/poly.h"
 
 static double qf(const double *k, vec3 p) {
     return k[0] * p.x * p.x + k[1] * p.y * p.y + k[2] * p.z * p.z + k[3] * p.x * p.y +
@@ -21,7 +22,7 @@ static int quadric_crossings(const struct object *o, const ray *r, struct xing o
                k[5] * (p.y * d.z + p.z * d.y) + k[6] * d.x + k[7] * d.y + k[8] * d.z;
     double C = qf(k, p);
     double t[2];
-    int n = shape_quadratic(A, B, C, t);
+    int n = poly_quadratic(A, B, C, t);
     for (int i = 0; i < n; i++) out[i] = (struct xing){t[i], 0};
     return n;
 }

@@ -17,9 +17,13 @@ static int sphere_crossings(const struct object *o, const ray *r, struct xing ou
     return 2;
 }
 
+/* shape_hit's rule (the first crossing inside (tmin, tmax)) on the two
+ * roots, without a call back up through the table of shapes. */
 bool sphere_hit(const struct object *o, const ray *r, double tmin, double tmax, double *t) {
-    int part;
-    return shape_hit(o, r, tmin, tmax, t, &part);
+    double t0, t1;
+    if (!sphere_roots(o, r, &t0, &t1)) return false;
+    *t = t0 > tmin && t0 < tmax ? t0 : t1;
+    return *t > tmin && *t < tmax;
 }
 
 vec3 sphere_normal(const struct object *o, vec3 p) {

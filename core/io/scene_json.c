@@ -152,7 +152,7 @@ static enum rayd_status load_area_light(struct loader *ld, const cJSON *lj, cons
         return sj_fail(ld, RAYD_E_INVALID, &p, "must not be parallel to edge1");
     if (l->shape == AREA_DISC) {
         l->direction = v3_norm(n);
-        shape_frame(l->direction, &l->e1, &l->e2);
+        v3_frame(l->direction, &l->e1, &l->e2);
     }
     return RAYD_OK;
 }

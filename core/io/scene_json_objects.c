@@ -206,7 +206,7 @@ static enum rayd_status load_torus(struct loader *ld, const cJSON *oj, const str
     if (o->u.torus.minor > o->u.torus.major)
         return sj_fail(ld, RAYD_E_INVALID, &p, "must be <= major_radius");
     o->u.torus.w = v3_norm(axis);
-    shape_frame(o->u.torus.w, &o->u.torus.u, &o->u.torus.v);
+    v3_frame(o->u.torus.w, &o->u.torus.u, &o->u.torus.v);
     return RAYD_OK;
 }
 

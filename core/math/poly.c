@@ -73,3 +73,18 @@ int poly_roots(const double *c, int deg, double a, double b, double *roots) {
     }
     return n;
 }
+
+int poly_quadratic(double a, double b, double c, double t[2]) {
+    if (a == 0) {
+        if (b == 0) return 0;
+        t[0] = -c / b;
+        return 1;
+    }
+    double disc = b * b - 4 * a * c;
+    if (disc < 0) return 0;
+    double q = -0.5 * (b + copysign(sqrt(disc), b));
+    double t0 = q / a, t1 = q != 0 ? c / q : t0;
+    t[0] = fmin(t0, t1);
+    t[1] = fmax(t0, t1);
+    return 2;
+}

@@ -78,4 +78,11 @@ static inline void ray16_set(struct ray16 *p, int i, ray r) {
     p->d[0][i] = r.d.x, p->d[1][i] = r.d.y, p->d[2][i] = r.d.z;
 }
 
+/* An orthonormal frame (u, v, w) around unit w. */
+static inline void v3_frame(vec3 w, vec3 *u, vec3 *v) {
+    vec3 a = fabs(w.x) > 0.9 ? v3(0, 1, 0) : v3(1, 0, 0);
+    *u = v3_norm(v3_cross(a, w));
+    *v = v3_cross(w, *u);
+}
+
 #endif

@@ -87,7 +87,7 @@ static vec3 eval_nondelta(const struct lobes *l, vec3 n, vec3 wo, vec3 wi, doubl
 
 static vec3 frame_dir(vec3 n, double x, double y, double z) {
     vec3 u, v;
-    shape_frame(n, &u, &v);
+    v3_frame(n, &u, &v);
     return v3_add(v3_add(v3_scale(u, x), v3_scale(v, y)), v3_scale(n, z));
 }
 
@@ -127,7 +127,7 @@ static vec3 emitter_point(const struct object *o, double a, double b, vec3 *n) {
         double r2 = o->u.disc.inner * o->u.disc.inner, R2 = o->u.disc.radius * o->u.disc.radius;
         double r = sqrt(r2 + a * (R2 - r2)), phi = 2 * PI * b;
         vec3 u, v;
-        shape_frame(o->u.disc.normal, &u, &v);
+        v3_frame(o->u.disc.normal, &u, &v);
         *n = o->u.disc.normal;
         return v3_madd(v3_madd(o->u.disc.center, u, r * cos(phi)), v, r * sin(phi));
     }

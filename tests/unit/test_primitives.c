@@ -94,7 +94,7 @@ static struct object torus(double R, double r) {
     struct object o = {.kind = SHAPE_TORUS};
     o.u.torus.center = v3(0, 0, 0);
     o.u.torus.w = v3(0, 1, 0);
-    shape_frame(o.u.torus.w, &o.u.torus.u, &o.u.torus.v);
+    v3_frame(o.u.torus.w, &o.u.torus.u, &o.u.torus.v);
     o.u.torus.major = R;
     o.u.torus.minor = r;
     return o;

@@ -1,0 +1,349 @@
+#!/usr/bin/env python3
+"""check_layers.py -- the build keeps rayd's layers one way and without circles.
+
+rayd is built in layers (docs/architecture.md): the core's folders from
+core/base up to core/io, then the programs (cli/, clients/, server/) on top
+of the core's public header include/rayd/rayd.h, and inside server/ its own
+layers from the base modules up to the transport.  A file may use its own
+layer and the layers below it, never one above; and no group of files may
+use each other in a circle, even inside one layer.
+
+Two kinds of use are read, and both must obey:
+  - includes: every `#include "..."` of every .c and .h, by grep;
+  - calls and data: every undefined symbol of every object file, matched
+    with the object that defines it, by `nm`, so a call through a header
+    that was not included, or an `extern` written by hand, is seen too.
+
+A circle is a set of files that use each other: .c files whose functions
+call each other round, or headers that include each other round.  A header
+is an interface: a file that takes types from scene.h does not depend on
+scene.c, so a dispatcher (shape.c) may call the files that include its
+header (shape_box.c); only a call back would close a circle.  The programs may
+reach the core only through include/rayd/: no include of a core header, and
+no core symbol that is not a rayd_ name of the public header.
+
+Usage: check_layers.py BUILD [ROOT]   (ROOT defaults to the current folder)
+Prints "PASS name" or "FAIL name: why" lines, as the tests do, and exits 1
+when any check fails.  `--self-test` builds small trees that break each rule
+and checks that every break is reported.
+"""
+import os
+import re
+import subprocess
+import sys
+import tempfile
+
+# The layers, bottom to top.  A layer is a list of path prefixes or files;
+# the first layer whose prefix matches a file owns it.  Keep this table in
+# step with docs/architecture.md.
+CORE_LAYERS = [
+    ("core/base", ["core/base/"]),
+    ("core/math", ["core/math/"]),
+    ("core/accel", ["core/accel/"]),
+    ("core/geom", ["core/geom/"]),
+    ("core/shade", ["core/shade/"]),
+    ("core/scene", ["core/scene/"]),
+    ("core/render", ["core/render/"]),
+    ("core/io", ["core/io/"]),
+]
+SERVER_LAYERS = [
+    ("server/base", ["server/config.", "server/log.", "server/metrics.", "server/lru.",
+                     "server/base.h"]),
+    ("server/work", ["server/work", "server/sched.", "server/jobs.", "server/events.",
+                     "server/watch.", "server/cache.", "server/rcache.", "server/jobq."]),
+    ("server/handlers", ["server/api_"]),
+    ("server/router", ["server/router."]),
+    ("server/transport", ["server/http.", "server/transport", "server/server.h"]),
+    ("server/main", ["server/main.c"]),
+]
+# Programs above the core: each its own layer, side by side.
+PROGRAMS = ["cli/", "clients/", "server/"]
+PUBLIC = "include/rayd/"
+
+INCLUDE_RE = re.compile(r'^\s*#\s*include\s+[<"]([^">]+)[">]', re.M)
+
+
+def rank_of(path, layers):
+    for i, (name, prefixes) in enumerate(layers):
+        if any(path == p or path.startswith(p) for p in prefixes):
+            return i, name
+    return None, None
+
+
+def source_files(root):
+    out = []
+    for top in ["core", "server", "clients", "cli"]:
+        for dirpath, _, names in os.walk(os.path.join(root, top)):
+            if "/web" in dirpath:
+                continue
+            for n in sorted(names):
+                if n.endswith((".c", ".h")):
+                    out.append(os.path.relpath(os.path.join(dirpath, n), root))
+    return sorted(out)
+
+
+def resolve_include(root, src, inc):
+    """The repository path an include names, or None for system headers."""
+    cands = [os.path.join(os.path.dirname(src), inc), os.path.join("core", inc),
+             os.path.join("include", inc)]
+    for c in cands:
+        c = os.path.normpath(c)
+        if os.path.isfile(os.path.join(root, c)):
+            return c
+    return None
+
+
+class Report:
+    def __init__(self):
+        self.failed = 0
+
+    def check(self, name, problems):
+        if problems:
+            self.failed += 1
+            shown = problems[:20]
+            more = f" (and {len(problems) - 20} more)" if len(problems) > 20 else ""
+            print(f"FAIL {name}: " + "; ".join(shown) + more)
+        else:
+            print(f"PASS {name}")
+
+
+def include_edges(root, files):
+    edges = []  # (from file, to file)
+    for f in files:
+        with open(os.path.join(root, f), encoding="utf-8", errors="replace") as fh:
+            text = fh.read()
+        for inc in INCLUDE_RE.findall(text):
+            to = resolve_include(root, f, inc)
+            if to:
+                edges.append((f, to))
+    return edges
+
+
+def nm_symbols(obj):
+    """(defined, undefined) global symbols of an object file."""
+    out = subprocess.run(["nm", obj], capture_output=True, text=True, check=True).stdout
+    defined, undefined = set(), set()
+    for line in out.splitlines():
+        parts = line.split()
+        if len(parts) == 2 and parts[0] == "U":
+            undefined.add(parts[1])
+        elif len(parts) == 3 and parts[1] in "TDBRCGSV":
+            defined.add(parts[2])
+    return defined, undefined
+
+
+def symbol_edges(root, build, files):
+    """(from source, to source) for every symbol one object takes from another."""
+    objs = {}
+    for f in files:
+        if f.endswith(".c"):
+            o = os.path.join(build, os.path.splitext(f)[0] + ".o")
+            if os.path.isfile(o):
+                objs[f] = nm_symbols(o)
+    definer = {}
+    for f, (defined, _) in objs.items():
+        for s in defined:
+            definer.setdefault(s, []).append(f)
+    edges = []
+    for f, (_, undefined) in objs.items():
+        for s in undefined:
+            for d in definer.get(s, []):
+                if not same_program(f, d) and not d.startswith("core/"):
+                    continue  # programs are linked apart: cli/ never links server/
+                edges.append((f, d, s))
+    return edges, objs
+
+
+def program_of(path):
+    for p in PROGRAMS:
+        if path.startswith(p):
+            return p
+    return "core/" if path.startswith("core/") else None
+
+
+def same_program(a, b):
+    return program_of(a) == program_of(b)
+
+
+def layer_problems(edges, layers, scope):
+    problems = []
+    for e in edges:
+        a, b = e[0], e[1]
+        if not (a.startswith(scope) and b.startswith(scope)):
+            continue
+        ra, na = rank_of(a, layers)
+        rb, nb = rank_of(b, layers)
+        if ra is None:
+            problems.append(f"{a} belongs to no layer (add it to tools/check_layers.py)")
+            continue
+        if rb is not None and rb > ra:
+            how = f"calls {e[2]}" if len(e) > 2 else "includes"
+            problems.append(f"{a} ({na}) {how} {b} ({nb}), a higher layer")
+    return sorted(set(problems))
+
+
+def public_problems(inc_edges, sym_edges):
+    problems = []
+    for a, b in inc_edges:
+        if program_of(a) in PROGRAMS and b.startswith("core/"):
+            problems.append(f"{a} includes the core's private {b} (use {PUBLIC}rayd.h)")
+    for a, b, s in sym_edges:
+        if program_of(a) in PROGRAMS and b.startswith("core/") and not s.startswith("rayd_"):
+            problems.append(f"{a} calls the core's private {s} ({b})")
+    return sorted(set(problems))
+
+
+def circles(edges):
+    """Groups of files that use each other in a circle (Tarjan's SCC)."""
+    graph = {}
+    for e in edges:
+        a, b = e[0], e[1]
+        if a != b:
+            graph.setdefault(a, set()).add(b)
+            graph.setdefault(b, set())
+    index, low, stack, on, out = {}, {}, [], set(), []
+    counter = [0]
+
+    def visit(v):
+        work = [(v, iter(sorted(graph[v])))]
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on.add(v)
+        while work:
+            node, it = work[-1]
+            nxt = next(it, None)
+            if nxt is None:
+                work.pop()
+                if work:
+                    low[work[-1][0]] = min(low[work[-1][0]], low[node])
+                if low[node] == index[node]:
+                    comp = []
+                    while True:
+                        w = stack.pop()
+                        on.discard(w)
+                        comp.append(w)
+                        if w == node:
+                            break
+                    if len(comp) > 1:
+                        out.append(sorted(comp))
+            elif nxt not in index:
+                index[nxt] = low[nxt] = counter[0]
+                counter[0] += 1
+                stack.append(nxt)
+                on.add(nxt)
+                work.append((nxt, iter(sorted(graph[nxt]))))
+            elif nxt in on:
+                low[node] = min(low[node], index[nxt])
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return sorted(out)
+
+
+def run(build, root):
+    files = source_files(root)
+    inc = include_edges(root, files)
+    sym, objs = symbol_edges(root, build, files)
+    rep = Report()
+    missing = [f for f in files if f.endswith(".c") and f not in objs]
+    rep.check("layers: every source file has its object in " + build,
+              [f"{f} has no object (build first)" for f in missing])
+    rep.check("layers: core/ includes only its own and lower layers",
+              layer_problems(inc, CORE_LAYERS, "core/"))
+    rep.check("layers: core/ calls only its own and lower layers",
+              layer_problems(sym, CORE_LAYERS, "core/"))
+    rep.check("layers: server/ includes only its own and lower layers",
+              layer_problems(inc, SERVER_LAYERS, "server/"))
+    rep.check("layers: server/ calls only its own and lower layers",
+              layer_problems(sym, SERVER_LAYERS, "server/"))
+    rep.check("layers: cli/, clients/ and server/ reach the core only through include/rayd/",
+              public_problems(inc, sym))
+    rep.check("layers: no circle of includes or calls between files",
+              ["circle: " + " <-> ".join(c) for c in circles(inc + sym)])
+    return rep.failed
+
+
+# ---- self-test: each rule must catch its break ------------------------------
+
+def write(root, path, text):
+    full = os.path.join(root, path)
+    os.makedirs(os.path.dirname(full), exist_ok=True)
+    with open(full, "w", encoding="utf-8") as fh:
+        fh.write(text)
+
+
+def compile_tree(root, build):
+    for f in source_files(root):
+        if f.endswith(".c"):
+            o = os.path.join(build, os.path.splitext(f)[0] + ".o")
+            os.makedirs(os.path.dirname(o), exist_ok=True)
+            subprocess.run(["cc", "-c", "-I" + os.path.join(root, "include"),
+                            "-I" + os.path.join(root, "core"), os.path.join(root, f), "-o", o],
+                           check=True)
+
+
+def self_test():
+    """Trees with one break each; the run must fail exactly the named check."""
+    base = {
+        "include/rayd/rayd.h": "int rayd_api(void);\n",
+        "core/base/b.h": "int b_fn(void);\n",
+        "core/base/b.c": '#include "base/b.h"\nint b_fn(void) { return 1; }\n',
+        "core/io/api.c": '#include "base/b.h"\n#include "rayd/rayd.h"\n'
+                         "int rayd_api(void) { return b_fn(); }\n",
+        "cli/main.c": '#include <rayd/rayd.h>\nint main(void) { return rayd_api(); }\n',
+    }
+    breaks = {
+        "includes a higher layer": ("core/ includes", {
+            "core/base/b.c": '#include "base/b.h"\n#include "io/x.h"\nint b_fn(void) { return 1; }\n',
+            "core/io/x.h": "int x_fn(void);\n"}),
+        "calls a higher layer": ("core/ calls", {
+            "core/base/b.c": "int rayd_api(void);\nint b_fn(void) { return rayd_api(); }\n"}),
+        "a circle inside one layer": ("no circle", {
+            "core/base/c.h": "int c_fn(void);\n",
+            "core/base/c.c": '#include "base/b.h"\nint c_fn(void) { return b_fn(); }\n',
+            "core/base/b.c": '#include "base/b.h"\n#include "base/c.h"\n'
+                             "int b_fn(void) { return c_fn() + 1; }\n"}),
+        "a program includes a private header": ("through include/rayd/", {
+            "cli/main.c": '#include "base/b.h"\nint main(void) { return b_fn(); }\n'}),
+    }
+    failed = 0
+    for what, (expect, change) in breaks.items():
+        with tempfile.TemporaryDirectory() as tmp:
+            for p, t in {**base, **change}.items():
+                write(tmp, p, t)
+            build = os.path.join(tmp, "build")
+            compile_tree(tmp, build)
+            out = subprocess.run([sys.executable, __file__, build, tmp], capture_output=True,
+                                 text=True).stdout
+            fails = [l for l in out.splitlines() if l.startswith("FAIL")]
+            ok = any(expect in l for l in fails)
+            print(("PASS" if ok else "FAIL") + f" layers self-test: {what} is caught"
+                  + ("" if ok else f": got {fails or 'no FAIL'}"))
+            failed += not ok
+    with tempfile.TemporaryDirectory() as tmp:
+        for p, t in base.items():
+            write(tmp, p, t)
+        compile_tree(tmp, os.path.join(tmp, "build"))
+        out = subprocess.run([sys.executable, __file__, os.path.join(tmp, "build"), tmp],
+                             capture_output=True, text=True).stdout
+        ok = "FAIL" not in out and out.count("PASS") >= 7
+        print(("PASS" if ok else "FAIL") + " layers self-test: a sound tree passes"
+              + ("" if ok else ": " + out.replace("\n", " | ")))
+        failed += not ok
+    return failed
+
+
+def main():
+    if sys.argv[1:] == ["--self-test"]:
+        sys.exit(1 if self_test() else 0)
+    if len(sys.argv) not in (2, 3):
+        sys.exit("usage: check_layers.py BUILD [ROOT] | --self-test")
+    build = sys.argv[1]
+    root = sys.argv[2] if len(sys.argv) == 3 else "."
+    sys.exit(1 if run(build, root) else 0)
+
+
+if __name__ == "__main__":
+    main()
