@@ -10,6 +10,8 @@
 #   make deps        install the Debian packages the build and the tests need
 #   make bench       benchmarks (never part of make test)
 #   make bench-peers the same meshes and sphere scene with Embree and POV-Ray (make bench-deps)
+#   make check-layers  includes and calls one way down the layers, no circles
+#                    (tools/check_layers.py; part of make test)
 #   make format      clang-format every C file;  make lint  cppcheck + clang-tidy
 
 # Debian packages: compiler and tools, the three given libraries, libcurl for
@@ -83,7 +85,7 @@ ifneq ($(CLIENT_SRC),)
 PROGS += $(BUILD)/rayd-client
 endif
 
-.PHONY: all deps test test-unit test-stress test-tsan test-valgrind golden run bench bench-deps bench-peers format lint clean
+.PHONY: all deps check-layers test test-unit test-stress test-tsan test-valgrind golden run bench bench-deps bench-peers format lint clean
 .DEFAULT_GOAL := all
 
 all: $(BUILD)/librayd.a $(PROGS)
@@ -198,7 +200,12 @@ test: all $(UNIT_BIN) $(TEST_TOOLS) $(FUZZ_REPLAY) $(BUILD)/bench/genmesh $(BROW
 test-stress: all $(TEST_TOOLS) $(FUZZ_REPLAY) $(BUILD)/bench/genmesh $(BROWSER_NODE)
 	@bash tests/stress.sh $(BUILD)
 
-test-unit: $(BUILD)/librayd.a $(UNIT_BIN)
+# The layers of docs/architecture.md, read from the includes and from the
+# objects' symbols (nm): a use of a higher layer or a circle fails.
+check-layers: all
+	@python3 tools/check_layers.py $(BUILD) && python3 tools/check_layers.py --self-test
+
+test-unit: all $(UNIT_BIN)
 	@RAYD_ONLY=unit bash tests/run.sh $(BUILD)
 
 # Rewrites tests/golden/ from tests/scenes/ (after an intended change only).

@@ -6,7 +6,8 @@
 # scripts tests/integration/*.sh (and tests/browser/*.sh).  Every test prints
 # one line per case, "PASS name" or "FAIL name: why"; this script counts them.
 # A program that dies without printing FAIL counts as one failure, so a crash
-# is never a pass.  RAYD_ONLY=unit|integration limits the run;
+# is never a pass.  The layer check (tools/check_layers.py) runs with the
+# unit tests.  RAYD_ONLY=unit|integration limits the run;
 # RAYD_TESTS="jobs lifecycle" runs only those tests/integration/NAME.sh
 # (make test-tsan and make test-valgrind use it).  SKIP lines are shown.
 set -u
@@ -51,6 +52,10 @@ if [ -n "${RAYD_TESTS:-}" ]; then
     done
 fi
 if [ "$only" = all ] || [ "$only" = unit ]; then
+    # The layers (docs/architecture.md): includes and calls one way down,
+    # no circles; and the checker's own rules each caught when broken.
+    run_one "layers" python3 tools/check_layers.py "$BUILD"
+    run_one "layers self-test" python3 tools/check_layers.py --self-test
     for t in "$BUILD"/tests/test_*; do
         [ -x "$t" ] || continue
         run_one "unit/$(basename "$t")" "$t"
