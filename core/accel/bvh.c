@@ -20,12 +20,25 @@
  * leaves no core idle; binary nodes come from one atomically bumped array,
  * so threads never lock.
  *
+ * The top splits themselves would leave all but one core idle (the root's
+ * two passes touch every record), so nodes of LARGE primitives and more
+ * split by blocks of BLOCK records on several threads: each block is
+ * binned apart and the bins merged (minima, maxima, counts: the same in
+ * any order), then a stable partition through a second array of records
+ * sends each block's two sides to offsets known from the blocks' counts.
+ * Whether a node splits this way depends on its size alone, and the
+ * blocks, never the threads, cut the work: the tree is the same bytes on
+ * any number of threads, which the unit tests check.
+ *
  * Then the binary tree is collapsed into 4-wide nodes: each wide node takes
  * the binary node's two children and keeps opening the largest inner child
  * until it has four.  Wide nodes are laid out depth-first in one array, in
- * float, four child boxes side by side for the SIMD test in bvh.h.  The
- * binary tree is freed; only the wide one is kept (bytes per primitive are
- * what the benchmark reports).
+ * float, four child boxes side by side for the SIMD test in bvh.h.  Each
+ * binary node counts, as it is built, the wide nodes its subtree becomes,
+ * so every wide subtree's place is known before it is written and large
+ * ones are written by threads of their own.  The binary tree is freed;
+ * only the wide one is kept (bytes per primitive are what the benchmark
+ * reports).
  */
 #include "base/hugemem.h"
 #include "accel/bvh.h"
@@ -35,14 +48,19 @@
 #include <stdlib.h>
 
 #include "base/error.h"
+#include "base/parallel.h"
 
 #define BINS 16
 #define MEDIAN_DEPTH 48
 #define PARALLEL_MIN 50000 /* primitives below which a thread is not worth it */
+#define LARGE (1u << 18)   /* nodes this large split by blocks, on several threads */
+#define BLOCK (1u << 14)   /* primitives a block */
+#define COLLAPSE_MIN 4096  /* 4-wide nodes below which a collapse thread is not worth it */
 
 struct bnode {
     struct bbox box;
     uint32_t a, b; /* inner: left and right node; leaf: first, count */
+    uint32_t wide; /* 4-wide nodes its subtree collapses to (0 for a leaf) */
     bool leaf;
 };
 
@@ -63,8 +81,10 @@ struct span {
 
 struct build {
     struct prim *prims;
+    struct prim *tmp; /* as many records as prims: large nodes partition through it */
     struct bnode *nodes;
     atomic_uint used;
+    atomic_bool failed; /* out of memory on the way: the tree is whole but bvh_build fails */
     uint32_t max_leaf; /* primitives a leaf may hold, 1..BVH_MAX_LEAF */
 };
 
@@ -200,9 +220,15 @@ static int sah_best4(const struct acc4 bin[BINS], const uint32_t count[BINS], st
     return best_k;
 }
 
-/* The best binned-SAH plane on axis (sah_best), with the two sides' spans. */
-static int sah_plane(struct prim *p, uint32_t n, int axis, float clo, float scale,
-                     struct span *left, struct span *right) {
+/* The bins of one node, or of one block of a large node's primitives. */
+struct bins {
+    struct acc4 acc[BINS];
+    uint32_t count[BINS];
+};
+
+/* Bins p[0..n) on axis into *b, leaving each primitive's bin in it. */
+static void bins_fill(struct bins *b, struct prim *p, uint32_t n, int axis, float clo,
+                      float scale) {
     enum { SETS = 4 };
     uint32_t cnt[SETS][BINS], sets = n >= 256 ? SETS : 1; /* small nodes: one set is enough */
     struct acc4 acc[SETS][BINS];
@@ -221,15 +247,31 @@ static int sah_plane(struct prim *p, uint32_t n, int axis, float clo, float scal
         acc4_grow(&acc[h][k], lo, hi);
         p[i].bin = k;
     }
-    uint32_t count[BINS];
     for (int k = 0; k < BINS; k++) {
-        count[k] = cnt[0][k];
+        b->acc[k] = acc[0][k];
+        b->count[k] = cnt[0][k];
         for (uint32_t h = 1; h < sets; h++) {
-            acc4_merge(&acc[0][k], &acc[h][k]);
-            count[k] += cnt[h][k];
+            acc4_merge(&b->acc[k], &acc[h][k]);
+            b->count[k] += cnt[h][k];
         }
     }
-    return sah_best4(acc[0], count, left, right);
+}
+
+static void bins_merge(struct bins *a, const struct bins *b) {
+    for (int k = 0; k < BINS; k++) {
+        acc4_merge(&a->acc[k], &b->acc[k]);
+        a->count[k] += b->count[k];
+    }
+}
+
+static uint32_t bins_below(const struct bins *b, int plane) {
+    uint32_t n = 0;
+    for (int k = 0; k < plane; k++) n += b->count[k];
+    return n;
+}
+
+static int bins_best(const struct bins *b, struct span *left, struct span *right) {
+    return sah_best4(b->acc, b->count, left, right);
 }
 
 static void span_of(const struct prim *p, uint32_t n, struct span *s) {
@@ -294,17 +336,39 @@ static int sah_best(const struct bin bin[BINS], struct span *left, struct span *
     return best_k;
 }
 
-/* The best binned-SAH plane on axis (sah_best), with the two sides' spans. */
-static int sah_plane(struct prim *p, uint32_t n, int axis, float clo, float scale,
-                     struct span *left, struct span *right) {
+/* The bins of one node, or of one block of a large node's primitives. */
+struct bins {
     struct bin bin[BINS];
-    for (int k = 0; k < BINS; k++) bin[k] = (struct bin){{bb_empty(), bb_empty()}, 0};
+};
+
+/* Bins p[0..n) on axis into *b, leaving each primitive's bin in it. */
+static void bins_fill(struct bins *b, struct prim *p, uint32_t n, int axis, float clo,
+                      float scale) {
+    for (int k = 0; k < BINS; k++) b->bin[k] = (struct bin){{bb_empty(), bb_empty()}, 0};
     for (uint32_t i = 0; i < n; i++) {
         int k = p[i].bin = bin_of(&p[i], axis, clo, scale);
-        bin[k].n++;
-        span_add(&bin[k].sp, &p[i]);
+        b->bin[k].n++;
+        span_add(&b->bin[k].sp, &p[i]);
     }
-    return sah_best(bin, left, right);
+}
+
+static void bins_merge(struct bins *a, const struct bins *b) {
+    for (int k = 0; k < BINS; k++) {
+        struct bin *x = &a->bin[k];
+        bb_grow(&x->sp.box, b->bin[k].sp.box.lo, b->bin[k].sp.box.hi);
+        bb_grow(&x->sp.cent, b->bin[k].sp.cent.lo, b->bin[k].sp.cent.hi);
+        x->n += b->bin[k].n;
+    }
+}
+
+static uint32_t bins_below(const struct bins *b, int plane) {
+    uint32_t n = 0;
+    for (int k = 0; k < plane; k++) n += b->bin[k].n;
+    return n;
+}
+
+static int bins_best(const struct bins *b, struct span *left, struct span *right) {
+    return sah_best(b->bin, left, right);
 }
 
 static void span_of(const struct prim *p, uint32_t n, struct span *s) {
@@ -312,6 +376,14 @@ static void span_of(const struct prim *p, uint32_t n, struct span *s) {
     for (uint32_t i = 0; i < n; i++) span_add(s, &p[i]);
 }
 #endif
+
+/* The best binned-SAH plane on axis (bins_best), with the two sides' spans. */
+static int sah_plane(struct prim *p, uint32_t n, int axis, float clo, float scale,
+                     struct span *left, struct span *right) {
+    struct bins b;
+    bins_fill(&b, p, n, axis, clo, scale);
+    return bins_best(&b, left, right);
+}
 
 /* nth_element by centroid on axis (quickselect): the median split. */
 static void select_nth(struct prim *p, uint32_t n, uint32_t nth, int axis) {
@@ -338,9 +410,6 @@ static void select_nth(struct prim *p, uint32_t n, uint32_t nth, int axis) {
     }
 }
 
-/* Splits node prims p[0..n) (measured by sp) into left and right: binned
- * SAH, the median past MEDIAN_DEPTH, halves by count when the centroids
- * coincide.  Returns the left count; 0 makes a leaf. */
 /* A node of up to twice L = max_leaf primitives becomes two leaves: sorted
  * by centroid on axis, the exact SAH picks among the cuts that leave at
  * most L a side.
@@ -368,15 +437,98 @@ static uint32_t split_small(struct prim *p, uint32_t n, uint32_t L, int axis, st
     return best_k;
 }
 
-static uint32_t split(struct prim *p, uint32_t n, uint32_t L, const struct span *sp, int depth,
-                      struct span *left, struct span *right) {
+/* A large node's split, block by block (BLOCK primitives each, the last
+ * fewer): the blocks, never the threads, decide how the work is cut, so
+ * the split is the same on any number of threads. */
+struct large {
+    struct prim *p, *tmp; /* the node's records, and as many in b->tmp */
+    uint32_t n;
+    int axis, plane;
+    float clo, scale;
+    struct bins *bins;            /* one a block */
+    uint32_t *left_at, *right_at; /* where each block's two sides go */
+};
+
+static uint32_t block_len(uint32_t n, size_t k) {
+    uint32_t first = (uint32_t)k * BLOCK;
+    return n - first < BLOCK ? n - first : BLOCK;
+}
+
+static void large_bin_body(void *ctx, size_t lo, size_t hi) {
+    struct large *j = ctx;
+    for (size_t k = lo; k < hi; k++)
+        bins_fill(&j->bins[k], j->p + k * BLOCK, block_len(j->n, k), j->axis, j->clo, j->scale);
+}
+
+/* A stable partition into tmp: each block's left records go to its
+ * left_at, the right ones to its right_at. */
+static void large_scatter_body(void *ctx, size_t lo, size_t hi) {
+    struct large *j = ctx;
+    for (size_t k = lo; k < hi; k++) {
+        const struct prim *p = j->p + k * BLOCK;
+        uint32_t l = j->left_at[k], r = j->right_at[k], n = block_len(j->n, k);
+        for (uint32_t i = 0; i < n; i++) j->tmp[p[i].bin < j->plane ? l++ : r++] = p[i];
+    }
+}
+
+static void large_copy_body(void *ctx, size_t lo, size_t hi) {
+    struct large *j = ctx;
+    size_t first = lo * BLOCK, end = hi * BLOCK < j->n ? hi * BLOCK : j->n;
+    memcpy(j->p + first, j->tmp + first, sizeof *j->p * (end - first));
+}
+
+/* Binned SAH over a node of at least LARGE primitives on `width` threads:
+ * the blocks are binned apart and their bins merged (minima, maxima and
+ * counts, the same in any order), then partitioned stably through b->tmp.
+ * Returns the left count, 0 when no plane separates anything. */
+static uint32_t split_large(struct build *b, struct prim *p, uint32_t n, int axis, float clo,
+                            float scale, int width, struct span *left, struct span *right) {
+    size_t nb = (n + (size_t)BLOCK - 1) / BLOCK;
+    struct large j = {p, b->tmp + (p - b->prims), n, axis, 0, clo, scale,
+                      malloc(sizeof *j.bins * nb), malloc(sizeof *j.left_at * 2 * nb), NULL};
+    uint32_t mid = 0;
+    if (!j.bins || !j.left_at) {
+        atomic_store(&b->failed, true);
+        goto out;
+    }
+    j.right_at = j.left_at + nb;
+    parallel_for(nb, width, 1, large_bin_body, &j);
+    struct bins all = j.bins[0];
+    for (size_t k = 1; k < nb; k++) bins_merge(&all, &j.bins[k]);
+    j.plane = bins_best(&all, left, right);
+    if (j.plane <= 0) goto out;
+    uint32_t l = 0, r = mid = bins_below(&all, j.plane);
+    for (size_t k = 0; k < nb; k++) {
+        uint32_t below = bins_below(&j.bins[k], j.plane);
+        j.left_at[k] = l, j.right_at[k] = r;
+        l += below, r += block_len(n, k) - below;
+    }
+    parallel_for(nb, width, 1, large_scatter_body, &j);
+    parallel_for(nb, width, 1, large_copy_body, &j);
+out:
+    free(j.bins);
+    free(j.left_at);
+    return mid;
+}
+
+/* Splits node prims p[0..n) (measured by sp) into left and right: binned
+ * SAH (split_large for large nodes), the median past MEDIAN_DEPTH, halves
+ * by count when the centroids coincide.  Returns the left count; 0 makes a
+ * leaf.  width: the threads this node's own split may use. */
+static uint32_t split(struct build *b, struct prim *p, uint32_t n, const struct span *sp,
+                      int depth, int width, struct span *left, struct span *right) {
+    uint32_t L = b->max_leaf;
     const struct bbox *cb = &sp->cent;
     float ext[3] = {cb->hi[0] - cb->lo[0], cb->hi[1] - cb->lo[1], cb->hi[2] - cb->lo[2]};
     int axis = ext[0] >= ext[1] && ext[0] >= ext[2] ? 0 : ext[1] >= ext[2] ? 1 : 2;
     *left = *right = (struct span){bb_empty(), bb_empty()};
     uint32_t mid = 0;
     if (n > L && n <= 2 * L) return split_small(p, n, L, axis, left, right);
-    if (n > L && ext[axis] > 0 && depth < MEDIAN_DEPTH) {
+    if (n >= LARGE && ext[axis] > 0 && depth < MEDIAN_DEPTH) {
+        float scale = BINS / ext[axis] * 0.99999f;
+        mid = split_large(b, p, n, axis, cb->lo[axis], scale, width, left, right);
+        if (mid > 0) return mid;
+    } else if (n > L && ext[axis] > 0 && depth < MEDIAN_DEPTH) {
         float scale = BINS / ext[axis] * 0.99999f;
         int plane = sah_plane(p, n, axis, cb->lo[axis], scale, left, right);
         if (plane > 0) return partition(p, n, plane);
@@ -399,6 +551,7 @@ struct task {
 
 static void build_node(struct build *b, uint32_t self, uint32_t first, uint32_t n,
                        const struct span *sp, int depth, int threads);
+static uint32_t wide_count(const struct bnode *bn, uint32_t bi);
 
 static void *build_task(void *arg) {
     struct task *t = arg;
@@ -411,11 +564,13 @@ static void build_node(struct build *b, uint32_t self, uint32_t first, uint32_t 
     struct bnode *nd = &b->nodes[self];
     nd->box = sp->box;
     struct span ls, rs;
-    uint32_t mid = split(b->prims + first, n, b->max_leaf, sp, depth, &ls, &rs);
+    int width = (threads + 3) / 4; /* threads counts four subtrees a thread */
+    uint32_t mid = split(b, b->prims + first, n, sp, depth, width, &ls, &rs);
     if (mid == 0 || mid >= n) {
         nd->leaf = true;
         nd->a = first;
         nd->b = n;
+        nd->wide = 0;
         return;
     }
     uint32_t left = atomic_fetch_add(&b->used, 2);
@@ -430,29 +585,28 @@ static void build_node(struct build *b, uint32_t self, uint32_t first, uint32_t 
         if (pthread_create(&th, NULL, build_task, &t) == 0) {
             build_node(b, left + 1, first + mid, n - mid, &rs, depth + 1, threads - threads / 2);
             pthread_join(th, NULL);
+            nd->wide = wide_count(b->nodes, self);
             return;
         }
     }
     build_node(b, left, first, mid, &ls, depth + 1, 1);
     build_node(b, left + 1, first + mid, n - mid, &rs, depth + 1, 1);
+    nd->wide = wide_count(b->nodes, self);
 }
 
 /* ---- collapse to 4-wide --------------------------------------------------- */
 
-struct collapse {
-    const struct bnode *bn;
-    struct bvh4_node *out;
-    uint32_t used;
-};
-
-static uint32_t collapse_node(struct collapse *c, uint32_t bi) {
-    uint32_t kids[4] = {c->bn[bi].a, c->bn[bi].b, 0, 0};
+/* The children of the 4-wide node made from inner binary node bi: its two
+ * children, then the inner child with the largest area opened until there
+ * are four.  Returns how many. */
+static int collapse_kids(const struct bnode *bn, uint32_t bi, uint32_t kids[4]) {
+    kids[0] = bn[bi].a, kids[1] = bn[bi].b;
     int nk = 2;
-    while (nk < 4) { /* open the inner child with the largest area */
+    while (nk < 4) {
         int best = -1;
         float area = -1;
         for (int i = 0; i < nk; i++) {
-            const struct bnode *k = &c->bn[kids[i]];
+            const struct bnode *k = &bn[kids[i]];
             if (!k->leaf && bb_area(&k->box) > area) {
                 area = bb_area(&k->box);
                 best = i;
@@ -460,10 +614,48 @@ static uint32_t collapse_node(struct collapse *c, uint32_t bi) {
         }
         if (best < 0) break;
         uint32_t open = kids[best];
-        kids[best] = c->bn[open].a;
-        kids[nk++] = c->bn[open].b;
+        kids[best] = bn[open].a;
+        kids[nk++] = bn[open].b;
     }
-    uint32_t self = c->used++;
+    return nk;
+}
+
+/* The 4-wide nodes inner node bi collapses to, from its wide children's
+ * counts (built already): what lets the collapse place every subtree
+ * before it is written, and so write subtrees on several threads. */
+static uint32_t wide_count(const struct bnode *bn, uint32_t bi) {
+    uint32_t kids[4], w = 1;
+    int nk = collapse_kids(bn, bi, kids);
+    for (int i = 0; i < nk; i++) w += bn[kids[i]].wide;
+    return w;
+}
+
+struct collapse {
+    const struct bnode *bn;
+    struct bvh4_node *out;
+};
+
+struct collapse_task {
+    const struct collapse *c;
+    uint32_t bi, self;
+    int tasks;
+};
+
+static void collapse_node(const struct collapse *c, uint32_t bi, uint32_t self, int tasks);
+
+static void *collapse_run(void *arg) {
+    struct collapse_task *t = arg;
+    collapse_node(t->c, t->bi, t->self, t->tasks);
+    return NULL;
+}
+
+/* Writes the wide node of binary node bi at out[self], its subtrees
+ * depth-first after it (each child at self + 1 + the sizes of the children
+ * before it).  tasks > 1: large subtrees are written by threads of their
+ * own, each with a share of tasks. */
+static void collapse_node(const struct collapse *c, uint32_t bi, uint32_t self, int tasks) {
+    uint32_t kids[4], next = self + 1;
+    int nk = collapse_kids(c->bn, bi, kids);
     struct bvh4_node nd;
     memset(&nd, 0, sizeof nd);
     for (int i = 0; i < 4; i++) {
@@ -475,15 +667,99 @@ static uint32_t collapse_node(struct collapse *c, uint32_t bi) {
     }
     for (int i = 0; i < nk; i++) {
         const struct bnode *k = &c->bn[kids[i]];
-        if (k->leaf) {
-            nd.child[i] = k->a;
-            nd.count[i] = (uint8_t)k->b;
-        } else {
-            nd.child[i] = collapse_node(c, kids[i]);
-        }
+        nd.child[i] = k->leaf ? k->a : next;
+        nd.count[i] = k->leaf ? (uint8_t)k->b : 0;
+        next += k->wide;
     }
     c->out[self] = nd;
-    return self;
+    struct collapse_task t[4];
+    pthread_t th[4];
+    bool started[4] = {false};
+    for (int i = 0; i < nk; i++) {
+        const struct bnode *k = &c->bn[kids[i]];
+        if (k->leaf) continue;
+        t[i] = (struct collapse_task){c, kids[i], nd.child[i], tasks / nk};
+        if (tasks > 1 && k->wide >= COLLAPSE_MIN)
+            started[i] = pthread_create(&th[i], NULL, collapse_run, &t[i]) == 0;
+        if (!started[i]) collapse_node(c, kids[i], nd.child[i], 1);
+    }
+    for (int i = 0; i < nk; i++)
+        if (started[i]) pthread_join(th[i], NULL);
+}
+
+/* The primitives copied into the builder's records, block by block, with
+ * each block's span. */
+struct fill {
+    const struct bbox *boxes;
+    struct prim *prims;
+    struct span *spans; /* one a block */
+    uint32_t *order;
+    uint32_t n;
+};
+
+static void fill_body(void *ctx, size_t lo, size_t hi) {
+    struct fill *f = ctx;
+    for (size_t k = lo; k < hi; k++) {
+        uint32_t first = (uint32_t)k * BLOCK, n = block_len(f->n, k);
+        for (uint32_t i = first; i < first + n; i++) {
+            struct prim *p = &f->prims[i];
+            memcpy(p->lo, f->boxes[i].lo, sizeof p->lo);
+            memcpy(p->hi, f->boxes[i].hi, sizeof p->hi);
+            p->id = i;
+            p->bin = 0;
+        }
+        span_of(f->prims + first, n, &f->spans[k]);
+    }
+}
+
+static void order_body(void *ctx, size_t lo, size_t hi) {
+    struct fill *f = ctx;
+    for (size_t i = lo; i < hi; i++) f->order[i] = f->prims[i].id;
+}
+
+static void bb_merge(struct bbox *a, const struct bbox *b) {
+    for (int k = 0; k < 3; k++) {
+        a->lo[k] = b->lo[k] < a->lo[k] ? b->lo[k] : a->lo[k];
+        a->hi[k] = b->hi[k] > a->hi[k] ? b->hi[k] : a->hi[k];
+    }
+}
+
+/* Fills b->prims from boxes on every thread; *all gets their span (the
+ * blocks' spans merged in order). */
+static bool fill_prims(struct build *b, const struct bbox *boxes, uint32_t n, int threads,
+                       struct span *all) {
+    size_t nb = (n + (size_t)BLOCK - 1) / BLOCK;
+    struct fill f = {boxes, b->prims, malloc(sizeof *f.spans * nb), NULL, n};
+    if (!f.spans) return false;
+    parallel_for(nb, threads, 1, fill_body, &f);
+    *all = f.spans[0];
+    for (size_t k = 1; k < nb; k++) {
+        bb_merge(&all->box, &f.spans[k].box);
+        bb_merge(&all->cent, &f.spans[k].cent);
+    }
+    free(f.spans);
+    return true;
+}
+
+/* The binary tree of b->nodes as 4-wide nodes into wide (room for n + 1);
+ * returns how many. */
+static uint32_t collapse_all(const struct build *b, struct bvh4_node *wide, uint32_t n,
+                             int tasks) {
+    const struct bnode *root = &b->nodes[0];
+    if (!root->leaf) {
+        struct collapse c = {b->nodes, wide};
+        collapse_node(&c, 0, 0, tasks);
+        return root->wide;
+    }
+    memset(wide, 0, sizeof *wide); /* one leaf: a wide root with one child */
+    for (int i = 0; i < 4; i++)
+        for (int k = 0; k < 3; k++) {
+            wide->lo[k][i] = i ? INFINITY : root->box.lo[k];
+            wide->hi[k][i] = i ? -INFINITY : root->box.hi[k];
+        }
+    wide->child[0] = 0;
+    wide->count[0] = (uint8_t)n;
+    return 1;
 }
 
 enum rayd_status bvh_build(struct bvh4 *bvh, const struct bbox *boxes, uint32_t n,
@@ -495,47 +771,39 @@ enum rayd_status bvh_build(struct bvh4 *bvh, const struct bbox *boxes, uint32_t 
     struct build b = {0};
     b.max_leaf = max_leaf < 1 ? 1 : max_leaf > BVH_MAX_LEAF ? BVH_MAX_LEAF : max_leaf;
     b.prims = huge_alloc(sizeof *b.prims * n);
+    b.tmp = n >= LARGE ? huge_alloc(sizeof *b.tmp * n) : NULL;
     b.nodes = huge_alloc(sizeof *b.nodes * (2 * (size_t)n));
     struct bvh4_node *wide = huge_alloc(sizeof *wide * ((size_t)n + 1));
-    if (!b.prims || !b.nodes || !wide) {
-        free(b.prims);
-        free(b.nodes);
-        free(wide);
-        return err_set(err, RAYD_E_NOMEM, NULL, "out of memory building the BVH");
-    }
     struct span all;
-    for (uint32_t i = 0; i < n; i++) {
-        struct prim *p = &b.prims[i];
-        memcpy(p->lo, boxes[i].lo, sizeof p->lo);
-        memcpy(p->hi, boxes[i].hi, sizeof p->hi);
-        p->id = i;
-        p->bin = 0;
-    }
-    span_of(b.prims, n, &all);
-    atomic_init(&b.used, 1);
     int tasks = threads > 1 ? 4 * threads : 1; /* at most 4 subtrees a thread, 64 threads */
-    build_node(&b, 0, 0, n, &all, 0, tasks > 64 ? 64 : tasks);
-    for (uint32_t i = 0; i < n; i++) order[i] = b.prims[i].id;
-    bvh->bounds = b.nodes[0].box;
-    struct collapse c = {b.nodes, wide, 0};
-    if (b.nodes[0].leaf) { /* one leaf: a wide root with one child */
-        memset(wide, 0, sizeof *wide);
-        for (int i = 0; i < 4; i++)
-            for (int k = 0; k < 3; k++) {
-                wide->lo[k][i] = i ? INFINITY : b.nodes[0].box.lo[k];
-                wide->hi[k][i] = i ? -INFINITY : b.nodes[0].box.hi[k];
-            }
-        wide->child[0] = 0;
-        wide->count[0] = (uint8_t)n;
-        c.used = 1;
-    } else {
-        collapse_node(&c, 0);
+    tasks = tasks > 64 ? 64 : tasks;
+    bool ok = b.prims && (b.tmp || n < LARGE) && b.nodes && wide &&
+              fill_prims(&b, boxes, n, threads, &all);
+    uint32_t used = 0;
+    if (ok) {
+        atomic_init(&b.used, 1);
+        atomic_init(&b.failed, false);
+        build_node(&b, 0, 0, n, &all, 0, tasks);
+        ok = !atomic_load(&b.failed);
+    }
+    if (ok) {
+        struct fill f = {.prims = b.prims, .order = order};
+        parallel_for(n, threads, BLOCK, order_body, &f);
+        bvh->bounds = b.nodes[0].box;
+        used = collapse_all(&b, wide, n, tasks);
     }
     free(b.prims);
+    free(b.tmp);
     free(b.nodes);
-    struct bvh4_node *fit = realloc(wide, sizeof *wide * c.used);
+    if (!ok) {
+        free(wide);
+        memset(bvh, 0, sizeof *bvh);
+        bvh->bounds = bb_empty();
+        return err_set(err, RAYD_E_NOMEM, NULL, "out of memory building the BVH");
+    }
+    struct bvh4_node *fit = realloc(wide, sizeof *wide * used);
     bvh->nodes = fit ? fit : wide;
-    bvh->nnodes = c.used;
+    bvh->nnodes = used;
     return RAYD_OK;
 }
 

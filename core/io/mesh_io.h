@@ -42,7 +42,22 @@ enum rayd_status mesh_parse_obj(const char *text, size_t len, const struct mesh_
 enum rayd_status mesh_parse_ply(const void *data, size_t len, const struct mesh_limits *lim,
                                 struct mesh_data *out, struct rayd_error *err);
 
+/* The same decoders on several threads: threads > 0 exactly that many
+ * (1: one pass in order, as above), <= 0 every core for inputs large
+ * enough to gain from them.  The mesh, and on failure the error, are the
+ * same whatever the count. */
+enum rayd_status mesh_parse_obj_threads(const char *text, size_t len,
+                                        const struct mesh_limits *lim, int threads,
+                                        struct mesh_data *out, struct rayd_error *err);
+enum rayd_status mesh_parse_ply_threads(const void *data, size_t len,
+                                        const struct mesh_limits *lim, int threads,
+                                        struct mesh_data *out, struct rayd_error *err);
+
 /* ---- helpers shared by mesh_obj.c and mesh_ply.c ------------------------ */
+
+/* Records (PLY) or lines (OBJ) a thread at least when the decoders pick
+ * the thread count themselves. */
+#define MESH_IO_CHUNK 8192
 
 
 /* Parses the whole of s[0..n) as a decimal number (sign, digits, point,

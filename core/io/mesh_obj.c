@@ -27,6 +27,10 @@
  * Errors name the 1-based line.  Limits are checked as the counts grow:
  * positions, uvs and normals each against max_vertices, output vertices
  * against max_vertices, triangles against max_triangles.
+ *
+ * mesh_parse_obj_threads reads chunks of lines on several threads (see
+ * "several threads" below) and gives the same mesh, or, by reading again
+ * in order, the same error.
  */
 #include "base/hugemem.h"
 #include "io/mesh_io.h"
@@ -39,6 +43,9 @@
 #include <string.h>
 
 #include "base/error.h"
+#include "base/parallel.h"
+
+#define OBJ_PARALLEL_BYTES (1u << 20) /* text below which threads are not worth it */
 
 struct obj_key {
     uint32_t v, t, n; /* 1-based into the file's v, vt, vn lists; 0 = absent */
@@ -64,7 +71,18 @@ struct obj {
     uint32_t *tri; /* 3 output vertices per triangle */
     size_t ntri, cap_tri;
     bool all_t, all_n;
+    struct obj_chunk *defer; /* a chunk read on its own thread: faces kept as triples */
     struct rayd_error *err;
+};
+
+/* A run of whole lines read by one thread (mesh_parse_obj_threads). */
+struct obj_chunk {
+    const char *text;
+    size_t len;
+    size_t nv, nt, nn;       /* its v, vt, vn statements; then those before it */
+    struct obj_key *corners; /* 3 a triangle, resolved, in file order */
+    size_t ncorners, cap_corners;
+    bool all_t, all_n, failed;
 };
 
 static enum rayd_status obj_fail(struct obj *o, enum rayd_status code, const char *fmt, ...)
@@ -328,37 +346,65 @@ static enum rayd_status obj_triangle(struct obj *o, uint32_t a, uint32_t b, uint
     return RAYD_OK;
 }
 
+/* A chunk's triangle as its three triples, numbered later in file order. */
+static enum rayd_status obj_defer(struct obj *o, struct obj_key a, struct obj_key b,
+                                  struct obj_key c) {
+    struct obj_chunk *ch = o->defer;
+    if (!array_grow((void **)&ch->corners, &ch->cap_corners, ch->ncorners + 3,
+                    sizeof *ch->corners))
+        return obj_nomem(o);
+    ch->corners[ch->ncorners++] = a;
+    ch->corners[ch->ncorners++] = b;
+    ch->corners[ch->ncorners++] = c;
+    return RAYD_OK;
+}
+
 static enum rayd_status obj_f(struct obj *o, const char *p, const char *end) {
     const char *tok;
     size_t n;
     uint32_t first = 0, prev = 0;
+    struct obj_key first_k = {0, 0, 0}, prev_k = {0, 0, 0};
     int corners = 0;
     while (obj_token(&p, end, &tok, &n)) {
         struct obj_key k = {0, 0, 0};
         uint32_t idx = 0;
         enum rayd_status st = obj_corner(o, tok, n, &k);
-        if (st == RAYD_OK) st = obj_vertex(o, k, &idx);
-        if (st == RAYD_OK && corners >= 2) st = obj_triangle(o, first, prev, idx);
+        if (st == RAYD_OK && !o->defer) st = obj_vertex(o, k, &idx);
+        if (st == RAYD_OK && corners >= 2)
+            st = o->defer ? obj_defer(o, first_k, prev_k, k) : obj_triangle(o, first, prev, idx);
         if (st != RAYD_OK) return st;
         o->all_t = o->all_t && k.t;
         o->all_n = o->all_n && k.n;
-        if (corners++ == 0) first = idx;
-        prev = idx;
+        if (corners++ == 0) first = idx, first_k = k;
+        prev = idx, prev_k = k;
     }
     if (corners < 3)
         return obj_fail(o, RAYD_E_INVALID, "face has %d vertices (at least 3 needed)", corners);
     return RAYD_OK;
 }
 
-static enum rayd_status obj_statement(struct obj *o, const char *p, const char *end) {
+enum obj_kind { OBJ_OTHER, OBJ_V, OBJ_VT, OBJ_VN, OBJ_F };
+
+/* What line [*p, end) states; *p is left after the keyword. */
+static enum obj_kind obj_kind(const char **p, const char *end) {
     const char *tok;
     size_t n;
-    if (!obj_token(&p, end, &tok, &n) || n > 2) return RAYD_OK;
-    if (tok[0] == 'v' && n == 1) return obj_v(o, p, end);
-    if (tok[0] == 'v' && tok[1] == 't') return obj_vt(o, p, end);
-    if (tok[0] == 'v' && tok[1] == 'n') return obj_vn(o, p, end);
-    if (tok[0] == 'f' && n == 1) return obj_f(o, p, end);
-    return RAYD_OK; /* o g s usemtl mtllib l p and anything unknown */
+    if (!obj_token(p, end, &tok, &n) || n > 2) return OBJ_OTHER;
+    if (tok[0] == 'v' && n == 1) return OBJ_V;
+    if (tok[0] == 'v' && tok[1] == 't') return OBJ_VT;
+    if (tok[0] == 'v' && tok[1] == 'n') return OBJ_VN;
+    if (tok[0] == 'f' && n == 1) return OBJ_F;
+    return OBJ_OTHER; /* o g s usemtl mtllib l p and anything unknown */
+}
+
+static enum rayd_status obj_statement(struct obj *o, const char *p, const char *end) {
+    switch (obj_kind(&p, end)) {
+    case OBJ_V: return obj_v(o, p, end);
+    case OBJ_VT: return obj_vt(o, p, end);
+    case OBJ_VN: return obj_vn(o, p, end);
+    case OBJ_F: return obj_f(o, p, end);
+    default: return RAYD_OK;
+    }
 }
 
 /* Drops the uv or normal part of every triple when some corner lacked it,
@@ -420,8 +466,10 @@ static enum rayd_status obj_finish(struct obj *o, struct mesh_data *out) {
     return RAYD_OK;
 }
 
-enum rayd_status mesh_parse_obj(const char *text, size_t len, const struct mesh_limits *lim,
-                                struct mesh_data *out, struct rayd_error *err) {
+/* Reads text[0..len) line by line in order: the decoder itself, and the
+ * one that finds and words every error. */
+static enum rayd_status obj_serial(const char *text, size_t len, const struct mesh_limits *lim,
+                                   struct mesh_data *out, struct rayd_error *err) {
     struct obj o = {.max_verts = mesh_max_vertices(lim),
                     .max_tris = mesh_max_triangles(lim),
                     .all_t = true,
@@ -441,4 +489,152 @@ enum rayd_status mesh_parse_obj(const char *text, size_t len, const struct mesh_
     if (st == RAYD_OK) st = obj_finish(&o, out);
     obj_release(&o);
     return st;
+}
+
+/* ---- several threads ---------------------------------------------------------
+ *
+ * The text is cut at line ends into chunks.  A first pass counts each
+ * chunk's v, vt and vn statements; their prefix sums tell each chunk how
+ * many of each the file defines before it, so a second pass reads every
+ * chunk on its own with indices resolved exactly as reading in order would
+ * (positions straight into the shared arrays, each chunk at its offset).
+ * Faces are kept as triples; numbering the output vertices by first
+ * appearance is a last pass in file order, on one thread.  Any error, or
+ * any limit reached, and the whole text is read again in order, so
+ * messages and their line numbers are those of obj_serial. */
+
+struct obj_par {
+    struct obj_chunk *chunks;
+    size_t nchunks;
+    struct obj shared; /* the v, vt, vn arrays, and the limits */
+};
+
+/* Both passes work on a copy of their chunk, written back at the end:
+ * neighbouring chunks share cache lines, which the threads would
+ * otherwise pass back and forth at every line. */
+static void obj_count_body(void *ctx, size_t lo, size_t hi) {
+    struct obj_par *j = ctx;
+    for (size_t c = lo; c < hi; c++) {
+        struct obj_chunk ch = j->chunks[c];
+        const char *p = ch.text, *stop = ch.text + ch.len;
+        size_t nf = 0;
+        while (p < stop) {
+            const char *nl = memchr(p, '\n', (size_t)(stop - p)), *end = nl ? nl : stop, *q = p;
+            enum obj_kind k = obj_kind(&q, end);
+            ch.nv += k == OBJ_V, ch.nt += k == OBJ_VT, ch.nn += k == OBJ_VN, nf += k == OBJ_F;
+            p = end + 1;
+        }
+        ch.cap_corners = 3 * nf; /* room for triangles; polygons grow it */
+        j->chunks[c] = ch;
+    }
+}
+
+static void obj_read_body(void *ctx, size_t lo, size_t hi) {
+    struct obj_par *j = ctx;
+    for (size_t c = lo; c < hi; c++) {
+        struct obj_chunk ch = j->chunks[c];
+        struct obj o = j->shared;
+        o.nv = ch.nv, o.nt = ch.nt, o.nn = ch.nn;
+        o.all_t = o.all_n = true;
+        o.defer = &ch;
+        ch.corners = huge_alloc(sizeof *ch.corners * (ch.cap_corners ? ch.cap_corners : 1));
+        ch.failed = !ch.corners;
+        const char *p = ch.text, *stop = ch.text + ch.len;
+        while (p < stop && !ch.failed) {
+            const char *nl = memchr(p, '\n', (size_t)(stop - p)), *end = nl ? nl : stop;
+            ch.failed = obj_statement(&o, p, end) != RAYD_OK;
+            p = end + 1;
+        }
+        ch.all_t = o.all_t, ch.all_n = o.all_n;
+        j->chunks[c] = ch;
+    }
+}
+
+/* Cuts text into n chunks of whole lines. */
+static void obj_cut(struct obj_par *j, const char *text, size_t len) {
+    size_t at = 0;
+    for (size_t c = 0; c < j->nchunks; c++) {
+        size_t end = c + 1 == j->nchunks ? len : len / j->nchunks * (c + 1);
+        if (end < at) end = at;
+        const char *nl = end < len ? memchr(text + end, '\n', len - end) : NULL;
+        end = nl ? (size_t)(nl - text) + 1 : len;
+        j->chunks[c] = (struct obj_chunk){.text = text + at, .len = end - at};
+        at = end;
+    }
+}
+
+/* The shared v, vt, vn arrays, each chunk told what comes before it. */
+static bool obj_bases(struct obj_par *j) {
+    struct obj *o = &j->shared;
+    for (size_t c = 0; c < j->nchunks; c++) {
+        struct obj_chunk *ch = &j->chunks[c];
+        size_t v = ch->nv, t = ch->nt, n = ch->nn;
+        ch->nv = o->nv, ch->nt = o->nt, ch->nn = o->nn;
+        o->nv += v, o->nt += t, o->nn += n;
+    }
+    if (o->nv > o->max_verts || o->nt > o->max_verts || o->nn > o->max_verts) return false;
+    o->cap_v = o->nv * 3 + 3, o->cap_vt = o->nt * 2 + 2, o->cap_vn = o->nn * 3 + 3;
+    o->v = huge_alloc(o->cap_v * sizeof *o->v);
+    o->vt = malloc(o->cap_vt * sizeof *o->vt);
+    o->vn = malloc(o->cap_vn * sizeof *o->vn);
+    return o->v && o->vt && o->vn;
+}
+
+/* Numbers the output vertices and makes the triangles, in file order. */
+static bool obj_number(struct obj_par *j) {
+    struct obj *o = &j->shared;
+    size_t tris = 0;
+    for (size_t c = 0; c < j->nchunks; c++) tris += j->chunks[c].ncorners / 3;
+    o->cap_tri = tris * 3 + 3;
+    o->tri = huge_alloc(o->cap_tri * sizeof *o->tri);
+    if (tris > o->max_tris || !obj_table_fit(o, 0) || !o->tri) return false;
+    for (size_t c = 0; c < j->nchunks; c++) {
+        const struct obj_chunk *ch = &j->chunks[c];
+        o->all_t = o->all_t && ch->all_t, o->all_n = o->all_n && ch->all_n;
+        for (size_t i = 0; i < ch->ncorners; i += 3) {
+            uint32_t x[3];
+            for (int k = 0; k < 3; k++)
+                if (obj_vertex(o, ch->corners[i + (size_t)k], &x[k]) != RAYD_OK) return false;
+            if (obj_triangle(o, x[0], x[1], x[2]) != RAYD_OK) return false;
+        }
+    }
+    return true;
+}
+
+/* The threaded decoder; false when it gives up (the caller then reads in
+ * order, which finds the error, or decodes what this could not). */
+static bool obj_parallel(const char *text, size_t len, const struct mesh_limits *lim,
+                         int threads, struct mesh_data *out) {
+    struct obj_par j = {.nchunks = 4 * (size_t)threads};
+    j.shared = (struct obj){.max_verts = mesh_max_vertices(lim),
+                            .max_tris = mesh_max_triangles(lim),
+                            .all_t = true,
+                            .all_n = true};
+    j.chunks = calloc(j.nchunks, sizeof *j.chunks);
+    bool ok = j.chunks != NULL;
+    if (ok) {
+        obj_cut(&j, text, len);
+        parallel_for(j.nchunks, threads, 1, obj_count_body, &j);
+        ok = obj_bases(&j);
+    }
+    if (ok) parallel_for(j.nchunks, threads, 1, obj_read_body, &j);
+    for (size_t c = 0; ok && c < j.nchunks; c++) ok = !j.chunks[c].failed;
+    ok = ok && obj_number(&j) && obj_finish(&j.shared, out) == RAYD_OK;
+    for (size_t c = 0; j.chunks && c < j.nchunks; c++) free(j.chunks[c].corners);
+    free(j.chunks);
+    obj_release(&j.shared);
+    return ok;
+}
+
+enum rayd_status mesh_parse_obj_threads(const char *text, size_t len,
+                                        const struct mesh_limits *lim, int threads,
+                                        struct mesh_data *out, struct rayd_error *err) {
+    if (threads <= 0) threads = len >= OBJ_PARALLEL_BYTES ? parallel_cores() : 1;
+    if (threads > 1 && obj_parallel(text, len, lim, threads, out)) return RAYD_OK;
+    return obj_serial(text, len, lim, out, err);
+}
+
+enum rayd_status mesh_parse_obj(const char *text, size_t len, const struct mesh_limits *lim,
+                                struct mesh_data *out, struct rayd_error *err) {
+    return obj_serial(text, len, lim, out, err);
 }

@@ -28,6 +28,15 @@
  * Errors name the 1-based header line, or the element and its 0-based
  * record number in the body ("PLY vertex 17: ..."), 0-based like the
  * indices that refer to those records.
+ *
+ * On several threads (mesh_parse_ply_threads), a binary vertex or face
+ * element whose records all have one size -- no lists, but for the faces'
+ * index list when every face is a triangle -- is cut into ranges of
+ * records read at once, each by a copy of the reader placed on its first
+ * record; every face's count is checked to be 3 before it is read.  Any
+ * failure (a polygon, a bad value) and the element is read again in order,
+ * so the message is the one-thread reader's.  Ascii records need not be
+ * one a line, so ascii bodies stay in one pass.
  */
 #include "base/hugemem.h"
 #include "io/mesh_io.h"
@@ -35,11 +44,13 @@
 #include <float.h>
 #include <math.h>
 #include <stdarg.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "base/error.h"
+#include "base/parallel.h"
 
 enum ply_type { PLY_NONE, PLY_I8, PLY_U8, PLY_I16, PLY_U16, PLY_I32, PLY_U32, PLY_F32, PLY_F64 };
 enum ply_format { PLY_ASCII = 1, PLY_LE, PLY_BE };
@@ -82,6 +93,8 @@ struct ply {
     float *pos, *normal, *uv;
     uint32_t *tri;
     size_t ntri, cap_tri;
+    int threads; /* for the binary records (ply_records); 1: one pass, in order */
+    size_t min_chunk; /* records a thread at least */
     struct rayd_error *err;
 };
 
@@ -566,6 +579,77 @@ static enum rayd_status ply_other(struct ply *P, const struct ply_elem *e) {
     return RAYD_OK;
 }
 
+/* ---- binary records on several threads -------------------------------- */
+
+/* The bytes every record of e takes if its faces are all triangles, or 0
+ * when records can differ in size (lists other than the face's indices).
+ * *list_at gets where in a record the index list's count is. */
+static size_t ply_fixed_record(const struct ply_elem *e, size_t *list_at) {
+    size_t n = 0;
+    *list_at = SIZE_MAX;
+    for (size_t k = 0; k < e->nprops; k++) {
+        const struct ply_prop *q = &e->props[k];
+        if (q->count_type && q->role != PLY_INDICES) return 0;
+        if (q->count_type) *list_at = n;
+        n += q->count_type ? ply_size[q->count_type] + 3 * ply_size[q->type] : ply_size[q->type];
+    }
+    return e->kind == PLY_ELEM_FACE && *list_at == SIZE_MAX ? 0 : n;
+}
+
+/* Records [lo, hi) of the element at `at`, each `rec` bytes, read by a
+ * copy of the reader positioned on each (err NULL: a failure only sets
+ * `failed`, and the caller reads the element again in order for the
+ * message).  A face must be a triangle, so that it makes triangle r. */
+struct ply_job {
+    const struct ply *P;
+    const struct ply_elem *e;
+    size_t at, rec, list_at;
+    atomic_bool failed;
+};
+
+static bool ply_record(struct ply *c, const struct ply_job *j, size_t r) {
+    uint32_t n = 0;
+    if (j->e->kind == PLY_ELEM_VERTEX) return ply_vertex(c, j->e, (uint32_t)r) == RAYD_OK;
+    const struct ply_prop *q = j->e->props;
+    while (!q->count_type) q++;
+    c->at = j->at + r * j->rec + j->list_at;
+    if (ply_count(c, q->count_type, &n) != RAYD_OK || n != 3) return false;
+    c->at = j->at + r * j->rec;
+    c->ntri = r;
+    return ply_face(c, j->e) == RAYD_OK;
+}
+
+static void ply_records_body(void *ctx, size_t lo, size_t hi) {
+    struct ply_job *j = ctx;
+    struct ply c = *j->P;
+    c.err = NULL;
+    c.cur = j->e;
+    for (size_t r = lo; r < hi && !atomic_load_explicit(&j->failed, memory_order_relaxed); r++) {
+        c.at = j->at + r * j->rec;
+        if (!ply_record(&c, j, r)) atomic_store(&j->failed, true);
+    }
+}
+
+/* Reads the vertex or face records of e on P->threads threads when the
+ * format allows (binary, every record the same size); true when done,
+ * false to read them in order instead (any error among them, the serial
+ * reader then finds the first and says where it is). */
+static bool ply_records(struct ply *P, const struct ply_elem *e) {
+    struct ply_job j = {.P = P, .e = e, .at = P->at};
+    if (P->format == PLY_ASCII || P->threads == 1 || e->count < 2) return false;
+    j.rec = ply_fixed_record(e, &j.list_at);
+    if (!j.rec || (P->len - P->at) / j.rec < e->count) return false;
+    if (e->kind == PLY_ELEM_FACE &&
+        !array_grow((void **)&P->tri, &P->cap_tri, (size_t)e->count * 3, sizeof *P->tri))
+        return false;
+    atomic_init(&j.failed, false);
+    parallel_for((size_t)e->count, P->threads, P->min_chunk, ply_records_body, &j);
+    if (atomic_load(&j.failed)) return false;
+    P->at += (size_t)e->count * j.rec;
+    if (e->kind == PLY_ELEM_FACE) P->ntri = (size_t)e->count;
+    return true;
+}
+
 static enum rayd_status ply_body(struct ply *P) {
     for (size_t i = 0; i < P->nelems; i++) {
         const struct ply_elem *e = &P->elems[i];
@@ -573,7 +657,7 @@ static enum rayd_status ply_body(struct ply *P) {
         P->cur = e;
         if (e->kind == PLY_ELEM_OTHER) {
             st = ply_other(P, e);
-        } else {
+        } else if (!ply_records(P, e)) {
             for (P->rec = 0; st == RAYD_OK && P->rec < e->count; P->rec++)
                 st = e->kind == PLY_ELEM_VERTEX ? ply_vertex(P, e, (uint32_t)P->rec)
                                                 : ply_face(P, e);
@@ -606,10 +690,18 @@ static enum rayd_status ply_alloc(struct ply *P) {
 
 enum rayd_status mesh_parse_ply(const void *data, size_t len, const struct mesh_limits *lim,
                                 struct mesh_data *out, struct rayd_error *err) {
+    return mesh_parse_ply_threads(data, len, lim, 1, out, err);
+}
+
+enum rayd_status mesh_parse_ply_threads(const void *data, size_t len,
+                                        const struct mesh_limits *lim, int threads,
+                                        struct mesh_data *out, struct rayd_error *err) {
     struct ply P = {.p = data,
                     .len = len,
                     .max_verts = mesh_max_vertices(lim),
                     .max_tris = mesh_max_triangles(lim),
+                    .threads = threads,
+                    .min_chunk = threads > 0 ? 1 : MESH_IO_CHUNK,
                     .err = err};
     enum rayd_status st = ply_header(&P);
     if (st == RAYD_OK) st = ply_check_header(&P);

@@ -140,8 +140,8 @@ static enum rayd_status load_source(struct loader *ld, const cJSON *src, const s
         (uint32_t)(ld->lim->max_triangles - ld->triangles > UINT32_MAX ? UINT32_MAX : ld->lim->max_triangles - ld->triangles)};
     const char *bytes = data ? data : v->valuestring;
     size_t nbytes = data ? len : strlen(v->valuestring);
-    enum rayd_status st = format == 0 ? mesh_parse_obj(bytes, nbytes, &ml, md, ld->err)
-                                      : mesh_parse_ply(bytes, nbytes, &ml, md, ld->err);
+    enum rayd_status st = format == 0 ? mesh_parse_obj_threads(bytes, nbytes, &ml, 0, md, ld->err)
+                                      : mesh_parse_ply_threads(bytes, nbytes, &ml, 0, md, ld->err);
     ld->s->decode_s += clock_now() - t0;
     free(data);
     if (st != RAYD_OK && ld->err) snprintf(ld->err->path, sizeof ld->err->path, "%s", pv.s);

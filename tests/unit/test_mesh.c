@@ -1,5 +1,6 @@
 /* test_mesh.c -- triangle meshes, the two-level BVH and transforms:
  * watertightness, BVH == brute force, exact projections under transforms. */
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -367,8 +368,64 @@ static void test_mesh_build_same_for_any_thread_count(void) {
     mesh_free(&ref);
 }
 
+/* The BVH alone on more boxes: the top levels split by blocks on several
+ * threads (bvh.c's LARGE nodes, the two top levels here), so the
+ * order and the nodes must be the same bytes for 1, 2, 3 and 8 threads;
+ * and every primitive in exactly one leaf, inside its leaf's box. */
+static void test_bvh_same_for_any_thread_count(void) {
+    const uint32_t n = 700000;
+    float *pos;
+    uint32_t *index;
+    soup(n, &pos, &index);
+    struct bbox *boxes = malloc(sizeof *boxes * n);
+    uint32_t *order[4], *seen = calloc(n, sizeof *seen);
+    for (uint32_t t = 0; t < n; t++)
+        for (int k = 0; k < 3; k++) {
+            const float *v = pos + 9 * (size_t)t + k;
+            boxes[t].lo[k] = fminf(v[0], fminf(v[3], v[6]));
+            boxes[t].hi[k] = fmaxf(v[0], fmaxf(v[3], v[6]));
+        }
+    static const int threads[] = {1, 2, 3, 8};
+    struct bvh4 bvh[4];
+    for (int k = 0; k < 4; k++) {
+        order[k] = malloc(sizeof *order[k] * n);
+        CHECK(bvh_build(&bvh[k], boxes, n, BVH_MAX_LEAF, order[k], threads[k], NULL) == RAYD_OK,
+              "build on %d threads", threads[k]);
+    }
+    for (int k = 1; k < 4; k++) {
+        CHECK(!memcmp(order[k], order[0], sizeof *order[0] * n), "%d threads: other order",
+              threads[k]);
+        CHECK(bvh[k].nnodes == bvh[0].nnodes &&
+                  !memcmp(bvh[k].nodes, bvh[0].nodes, sizeof *bvh[0].nodes * bvh[0].nnodes),
+              "%d threads: other nodes (%u, 1 thread %u)", threads[k], bvh[k].nnodes,
+              bvh[0].nnodes);
+    }
+    uint32_t bad = 0;
+    for (uint32_t i = 0; i < bvh[0].nnodes; i++) {
+        const struct bvh4_node *nd = &bvh[0].nodes[i];
+        for (int c = 0; c < 4; c++)
+            for (uint32_t j = 0; j < nd->count[c]; j++) {
+                uint32_t id = order[0][nd->child[c] + j];
+                seen[id]++;
+                for (int a = 0; a < 3; a++)
+                    bad += boxes[id].lo[a] < nd->lo[a][c] || boxes[id].hi[a] > nd->hi[a][c];
+            }
+    }
+    for (uint32_t t = 0; t < n; t++) bad += seen[t] != 1;
+    CHECK(bad == 0, "%u primitives not in exactly one leaf inside its box", bad);
+    for (int k = 0; k < 4; k++) {
+        bvh_free(&bvh[k]);
+        free(order[k]);
+    }
+    free(boxes);
+    free(seen);
+    free(pos);
+    free(index);
+}
+
 int main(void) {
     RUN(test_mesh_build_same_for_any_thread_count);
+    RUN(test_bvh_same_for_any_thread_count);
     RUN(test_bvh_equals_brute_force);
     RUN(test_examples_bvh_equals_brute_force);
     RUN(test_watertight_edges_and_vertices);

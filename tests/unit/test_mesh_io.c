@@ -14,11 +14,43 @@
 
 /* ---- helpers ----------------------------------------------------------- */
 
+static bool same_floats(const float *a, const float *b, size_t n) {
+    return (!a && !b) || (a && b && !memcmp(a, b, n * sizeof *a));
+}
+
+/* Decodes data with 2, 3 and 8 threads too and checks that every count
+ * gives what one thread gave: the same status and message, or the same
+ * mesh (the threaded decoders must be invisible). */
+static void same_on_threads(bool is_obj, const void *data, size_t len,
+                            const struct mesh_limits *lim, enum rayd_status st,
+                            const struct mesh_data *m, const struct rayd_error *e) {
+    static const int threads[] = {2, 3, 8};
+    for (size_t k = 0; k < sizeof threads / sizeof threads[0]; k++) {
+        struct mesh_data t = {0};
+        struct rayd_error te = {0};
+        enum rayd_status ts = is_obj ? mesh_parse_obj_threads(data, len, lim, threads[k], &t, &te)
+                                     : mesh_parse_ply_threads(data, len, lim, threads[k], &t, &te);
+        bool same = ts == st;
+        if (same && st != RAYD_OK) same = e && !strcmp(te.message, e->message);
+        if (same && st == RAYD_OK)
+            same = t.nverts == m->nverts && t.ntris == m->ntris &&
+                   same_floats(t.pos, m->pos, 3 * (size_t)m->nverts) &&
+                   same_floats(t.normal, m->normal, 3 * (size_t)m->nverts) &&
+                   same_floats(t.uv, m->uv, 2 * (size_t)m->nverts) &&
+                   !memcmp(t.index, m->index, sizeof *t.index * 3 * m->ntris);
+        CHECK(same, "%s on %d threads: status %d '%s', one thread: %d '%s'",
+              is_obj ? "OBJ" : "PLY", threads[k], (int)ts, te.message, (int)st,
+              e ? e->message : "");
+        if (ts == RAYD_OK) mesh_data_free(&t);
+    }
+}
+
 static enum rayd_status obj_n(const char *text, size_t len, const struct mesh_limits *lim,
                               struct mesh_data *m, struct rayd_error *e) {
     char *copy = malloc(len ? len : 1);
     memcpy(copy, text, len);
     enum rayd_status st = mesh_parse_obj(copy, len, lim, m, e);
+    same_on_threads(true, copy, len, lim, st, m, e);
     free(copy);
     return st;
 }
@@ -32,6 +64,7 @@ static enum rayd_status ply_n(const void *data, size_t len, const struct mesh_li
     void *copy = malloc(len ? len : 1);
     memcpy(copy, data, len);
     enum rayd_status st = mesh_parse_ply(copy, len, lim, m, e);
+    same_on_threads(false, copy, len, lim, st, m, e);
     free(copy);
     return st;
 }
@@ -846,6 +879,115 @@ static void test_base64_errors(void) {
           "%s", e.message);
 }
 
+/* ---- large inputs: the threaded decoders' own paths ---------------------- */
+
+/* A binary PLY of nv vertices (x y z float, a uchar tag) and nf triangles
+ * (uchar count, int indices); face `quad` (if < nf) has four corners and
+ * face `bad` (if < nf) an index out of range. */
+static unsigned char *big_ply(bool be, uint32_t nv, uint32_t nf, uint32_t quad, uint32_t bad,
+                              size_t *len) {
+    char head[256];
+    int h = snprintf(head, sizeof head,
+                     "ply\nformat %s 1.0\nelement vertex %u\nproperty float x\nproperty float y\n"
+                     "property float z\nproperty uchar tag\nelement face %u\n"
+                     "property list uchar int vertex_indices\nend_header\n",
+                     be ? "binary_big_endian" : "binary_little_endian", nv, nf);
+    struct bb *w = malloc(sizeof *w); /* one record at a time */
+    unsigned char *out = malloc((size_t)h + 13 * (size_t)nv + 17 * (size_t)nf + 4);
+    memcpy(out, head, (size_t)h);
+    size_t n = (size_t)h;
+    for (uint32_t i = 0; i < nv + nf; i++) {
+        w->n = 0;
+        w->be = be;
+        if (i < nv) {
+            for (int k = 0; k < 3; k++) bb_f32(w, (float)((i * (k + 3)) % 101) * 0.25f);
+            bb_raw(w, i & 0xff, 1);
+        } else {
+            uint32_t f = i - nv, c = f == quad ? 4 : 3;
+            bb_raw(w, c, 1);
+            for (uint32_t k = 0; k < c; k++) bb_raw(w, f == bad ? nv + k : (f + k * 7) % nv, 4);
+        }
+        memcpy(out + n, w->b, w->n);
+        n += w->n;
+    }
+    free(w);
+    *len = n;
+    return out;
+}
+
+static void test_ply_binary_large_on_threads(void) {
+    const uint32_t nv = 20000, nf = 30000, none = UINT32_MAX;
+    for (int be = 0; be <= 1; be++) {
+        size_t len;
+        struct mesh_data m = {0};
+        struct rayd_error e = {0};
+        unsigned char *b = big_ply(be, nv, nf, none, none, &len);
+        CHECK(ply_n(b, len, NULL, &m, &e) == RAYD_OK && m.ntris == nf, "%s", e.message);
+        mesh_data_free(&m);
+        free(b);
+        b = big_ply(be, nv, nf, 17777, none, &len); /* a quad: read in order */
+        CHECK(ply_n(b, len, NULL, &m, &e) == RAYD_OK && m.ntris == nf + 1, "%s", e.message);
+        mesh_data_free(&m);
+        free(b);
+        b = big_ply(be, nv, nf, none, 23456, &len);
+        CHECK(ply_n(b, len, NULL, &m, &e) == RAYD_E_INVALID &&
+                  strstr(e.message, "PLY face 23456: vertex index 20000 is out of range"),
+              "%s", e.message);
+        free(b);
+        b = big_ply(be, nv, nf, 23456, 23000, &len); /* the first error wins */
+        CHECK(ply_n(b, len, NULL, &m, &e) == RAYD_E_INVALID && strstr(e.message, "face 23000:"),
+              "%s", e.message);
+        free(b);
+    }
+}
+
+/* OBJ text of n faces over positions, uvs and normals, every form of
+ * corner and negative indices, with the statement `inject` put in near line
+ * inject_at (0: none); obj_n checks the threads' message, line included,
+ * against the one of a single thread. */
+static char *big_obj(uint32_t n, const char *inject, uint32_t inject_at, size_t *len) {
+    size_t cap = (size_t)n * 160 + 256, at = 0;
+    char *s = malloc(cap);
+    uint32_t line = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        if (++line == inject_at) at += (size_t)sprintf(s + at, "%s\n", inject);
+        at += (size_t)sprintf(s + at, "v %u.5 %u -%u\nvt 0.%u 0.5\nvn 0 %u 1\n# c\n", i % 97,
+                              i % 13, i % 7, i % 10, i % 3);
+        line += 4;
+        if (i < 2) continue;
+        switch (i % 4) {
+        case 0: at += (size_t)sprintf(s + at, "f %u %u %u\n", i + 1, i, i - 1); break;
+        case 1: at += (size_t)sprintf(s + at, "f -1/-1 -2/-2 -3/-3 %u/1\n", i / 2 + 1); break;
+        case 2: at += (size_t)sprintf(s + at, "f %u//%u -2//-1 1//1\n", i % 50 + 1, i); break;
+        default: at += (size_t)sprintf(s + at, "g x\r\nf %u/%u/%u -2/-2/-2 -3/1/-1\n", i, i, i);
+        }
+    }
+    *len = at;
+    return s;
+}
+
+static void test_obj_large_on_threads(void) {
+    size_t len;
+    struct mesh_data m = {0};
+    struct rayd_error e = {0};
+    char *s = big_obj(6000, NULL, 0, &len);
+    CHECK(obj_n(s, len, NULL, &m, &e) == RAYD_OK && m.ntris > 6000, "%s", e.message);
+    mesh_data_free(&m);
+    free(s);
+    s = big_obj(6000, "f 1 2 999999", 15001, &len);
+    CHECK(obj_n(s, len, NULL, &m, &e) == RAYD_E_INVALID && strstr(e.message, "face index 999999 is out"),
+          "%s", e.message);
+    free(s);
+    s = big_obj(6000, "v 1 2 nan", 20001, &len);
+    CHECK(obj_n(s, len, NULL, &m, &e) == RAYD_E_INVALID && strstr(e.message, "number 'nan' in 'v'"),
+          "%s", e.message);
+    free(s);
+    struct mesh_limits lim = {100000, 5000};
+    s = big_obj(6000, NULL, 0, &len);
+    CHECK(obj_n(s, len, &lim, &m, &e) == RAYD_E_LIMIT, "%s", e.message);
+    free(s);
+}
+
 /* ---- fuzz-style: truncate and corrupt at every offset ------------------- */
 
 static int fuzz_run(int kind, const unsigned char *buf, size_t n) {
@@ -930,6 +1072,8 @@ int main(void) {
     RUN(test_ply_binary_int_counts_and_big_list);
     RUN(test_ply_errors);
     RUN(test_ply_limits);
+    RUN(test_ply_binary_large_on_threads);
+    RUN(test_obj_large_on_threads);
     RUN(test_base64_round_trip);
     RUN(test_base64_padding_and_whitespace);
     RUN(test_base64_errors);
