@@ -148,12 +148,12 @@ enum work_submit jobs_create(struct cache_entry *scene, const struct rayd_region
     pthread_mutex_lock(&work_lock);
     enum work_submit r = WORK_OK;
     struct task *t = NULL;
-    if (sched_draining())
+    if (task_draining())
         r = WORK_DRAINING;
     else if (jobs_n == jobs_max && !jobs_evict())
         r = WORK_TOO_MANY_JOBS;
     else
-        r = task_submit(scene, reg, sched_queue_cap(), &fresh, &t);
+        r = task_submit(scene, reg, &fresh, &t);
     if (r == WORK_OK) {
         j->task = t;
         t->refs++;

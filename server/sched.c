@@ -14,23 +14,21 @@
  * and a finished identical render is answered from the result cache
  * (rcache.c) without a task at all.
  *
- * Drain: the flag refuses new work while what is queued finishes; the
- * deadline cancels the rest (sched_cancel_all).  The flag is an atomic so
- * the handlers may ask without the lock; it is set under the lock so no
- * submission slips past it.
+ * Drain: task.c's flag refuses new work while what is queued finishes; the
+ * deadline cancels the rest (sched_cancel_all).
+ *
+ * This file is the top of the work layer: it starts and stops the others
+ * (caches, jobs, the watcher) and no other work file calls it.
  */
 #include "work_private.h"
 
 #include <stdlib.h>
 #include <string.h>
 
-pthread_mutex_t work_lock = PTHREAD_MUTEX_INITIALIZER;
-pthread_cond_t work_cond = PTHREAD_COND_INITIALIZER;
-bool sched_stopping;
 
 static pthread_t *sched_threads;
-static int sched_nworkers, sched_cap, sched_busy;
-static atomic_bool sched_drain_flag;
+static int sched_nworkers, sched_busy;
+static bool sched_stopping; /* lock held: the workers end */
 
 /* ---- workers --------------------------------------------------------------- */
 
@@ -164,7 +162,7 @@ static long sched_gauge_queued(void)
     return x;
 }
 
-static long sched_gauge_cap(void) { return sched_cap; }
+static long sched_gauge_cap(void) { return task_queue_cap; }
 static long sched_gauge_workers(void) { return sched_nworkers; }
 static long sched_gauge_draining(void) { return sched_draining(); }
 
@@ -200,7 +198,7 @@ static void sched_register_gauges(void)
 
 int sched_start(int workers, int queue_cap, int max_jobs)
 {
-    sched_cap = queue_cap;
+    task_queue_cap = queue_cap;
     sched_threads = calloc((size_t)workers, sizeof *sched_threads);
     if (!sched_threads || jobs_start(max_jobs))
         return -1;
@@ -264,8 +262,7 @@ enum work_submit sched_render(struct cache_entry *scene, const struct rayd_regio
         return WORK_NOMEM;
     pthread_mutex_lock(&work_lock);
     struct task *t = NULL;
-    enum work_submit r = sched_draining() ? WORK_DRAINING
-                                          : task_submit(scene, reg, sched_cap, &fresh, &t);
+    enum work_submit r = task_submit(scene, reg, &fresh, &t);
     if (r == WORK_OK) {
         w->suspend(w);
         w->next = t->waiters;
@@ -277,19 +274,11 @@ enum work_submit sched_render(struct cache_entry *scene, const struct rayd_regio
     return r;
 }
 
-/* jobs.c submits through the same queue. */
-int sched_queue_cap(void) { return sched_cap; }
 
 /* ---- lifecycle ------------------------------------------------------------------ */
 
-void sched_drain(void)
-{
-    pthread_mutex_lock(&work_lock);
-    atomic_store(&sched_drain_flag, true);
-    pthread_mutex_unlock(&work_lock);
-}
-
-bool sched_draining(void) { return atomic_load(&sched_drain_flag); }
+void sched_drain(void) { task_drain(); }
+bool sched_draining(void) { return task_draining(); }
 
 void sched_cancel_all(void)
 {
@@ -322,7 +311,7 @@ void sched_stats(struct sched_stats *st)
 {
     pthread_mutex_lock(&work_lock);
     st->queued = task_queued;
-    st->queue_cap = sched_cap;
+    st->queue_cap = task_queue_cap;
     st->workers = sched_nworkers;
     st->busy_workers = sched_busy;
     pthread_mutex_unlock(&work_lock);

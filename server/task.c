@@ -14,8 +14,13 @@
  * the last tile is done or cancelled.  The waiters are answered by
  * task_notify_run after the lock is released (work_private.h's rule).
  *
- * Every function here but task_new and task_notify_run runs with work_lock
- * held; this file owns the active list and the queued count.
+ * Back-pressure and drain are decided here too, at the one place work is
+ * admitted (task_submit): at most --queue tasks may wait for a worker, and
+ * nothing new is admitted once the drain began.
+ *
+ * Every function here but task_new, task_drain(ing) and task_notify_run runs
+ * with work_lock held; this file owns the active list, the queued count, the
+ * capacity and the drain flag.
  */
 #include "work_private.h"
 
@@ -24,6 +29,18 @@
 
 struct task *task_active;
 long task_queued;
+int task_queue_cap;
+static atomic_bool task_drain_flag;
+
+/* Set under the lock, so no submission slips past it; read without. */
+void task_drain(void)
+{
+    pthread_mutex_lock(&work_lock);
+    atomic_store(&task_drain_flag, true);
+    pthread_mutex_unlock(&work_lock);
+}
+
+bool task_draining(void) { return atomic_load(&task_drain_flag); }
 
 void task_key(char *key, size_t size, const char *id, const struct rayd_region *reg)
 {
@@ -102,8 +119,10 @@ struct task *task_pick(void)
 }
 
 enum work_submit task_submit(struct cache_entry *scene, const struct rayd_region *reg,
-                             int queue_cap, struct task **fresh, struct task **out)
+                             struct task **fresh, struct task **out)
 {
+    if (task_draining())
+        return WORK_DRAINING;
     char key[160];
     task_key(key, sizeof key, cache_id(scene), reg);
     struct task *t = task_find(key);
@@ -112,7 +131,7 @@ enum work_submit task_submit(struct cache_entry *scene, const struct rayd_region
         *out = t;
         return WORK_OK;
     }
-    if (task_queued >= queue_cap)
+    if (task_queued >= task_queue_cap)
         return WORK_FULL;
     t = *fresh;
     *fresh = NULL;

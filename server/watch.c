@@ -22,6 +22,7 @@
 
 static pthread_t watch_thread;
 static bool watch_started;
+static bool watch_stopping; /* lock held */
 
 /* The sockets to poll, lock held. */
 struct watch_set {
@@ -136,7 +137,7 @@ static void *watch_main(void *arg)
     struct watch_set s = {0};
     double last_ping = log_now(), last_expire = log_now();
     pthread_mutex_lock(&work_lock);
-    while (!sched_stopping) {
+    while (!watch_stopping) {
         watch_collect(&s);
         if (log_now() - last_expire >= 1.0) {
             last_expire = log_now();
@@ -166,6 +167,10 @@ int watch_start(void)
 
 void watch_stop(void)
 {
+    pthread_mutex_lock(&work_lock);
+    watch_stopping = true;
+    pthread_cond_broadcast(&work_cond);
+    pthread_mutex_unlock(&work_lock);
     if (watch_started)
         pthread_join(watch_thread, NULL);
     watch_started = false;

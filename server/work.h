@@ -1,7 +1,7 @@
 /* work.h -- the work layer as the handlers see it: compiled scenes, renders
  * queued and answered, asynchronous jobs and their event streams.
  *
- * Layer: work (lru.c, cache.c, rcache.c, scenes.c, task.c, gate.c, sched.c,
+ * Layer: work (work.c, lru.c, cache.c, rcache.c, scenes.c, task.c, gate.c, sched.c,
  * jobs.c, events.c, watch.c).  May include: base.h and <rayd/rayd.h> --
  * never an HTTP header, never libmicrohttpd.  Included by the handlers
  * (api_*.c) and main.c.

@@ -1,7 +1,7 @@
 /* work_private.h -- what the files of the work layer share, and its one rule.
  *
  * Layer: work, private.  Included only by the work layer's own files
- * (lru.c, cache.c, rcache.c, scenes.c, task.c, gate.c, sched.c, jobs.c,
+ * (work.c, lru.c, cache.c, rcache.c, scenes.c, task.c, gate.c, sched.c, jobs.c,
  * events.c, watch.c); the layers above see work.h alone.
  * May include: work.h (and through it base.h, <rayd/rayd.h>).
  *
@@ -19,6 +19,9 @@
  *     linked, so a done() can never overtake its suspend();
  *   - work_cond (with work_lock) wakes workers (new tiles, the gate, stop)
  *     and the watcher's periodic wait.
+ * Calls inside the layer go one way too, in this order (a file calls only
+ * files before it): work (the lock), lru, cache, rcache, scenes, task, gate,
+ * jobs, events, watch, sched.
  * Ownership: a task is referenced by the active list and by each job of it
  * (task.refs, lock held); it holds its scene until it finishes.  A job is
  * referenced by the table and by each open event stream (job.refs).
@@ -35,7 +38,7 @@
 #define TASK_AGING 2.0                /* seconds an interactive task counts as older */
 #define EVENTS_PING 15.0              /* seconds of silence before a keep-alive */
 
-extern pthread_mutex_t work_lock;
+extern pthread_mutex_t work_lock; /* work.c */
 extern pthread_cond_t work_cond;
 
 /* ---- lru.c: the index under both caches; entries embed a struct lru_node -- */
@@ -116,6 +119,9 @@ struct task_notify {
 
 extern struct task *task_active; /* every unfinished task */
 extern long task_queued;         /* tasks with tiles nobody has started */
+extern int task_queue_cap;       /* --queue, set once before the workers start */
+void task_drain(void);           /* takes the lock */
+bool task_draining(void);        /* lock-free */
 
 void task_key(char *key, size_t size, const char *id, const struct rayd_region *reg);
 /* A new task for (scene, reg) with its image; NULL on no memory.  Any lock. */
@@ -124,9 +130,10 @@ void task_unref(struct task *t);
 void task_unqueue(struct task *t);
 struct task *task_find(const char *key); /* an unfinished, uncancelled task */
 struct task *task_pick(void);            /* the task whose next tile comes first */
-/* Joins the task for (scene, reg) or activates *fresh (then NULL). */
+/* Joins the task for (scene, reg) or activates *fresh (then NULL);
+ * WORK_DRAINING or WORK_FULL when it cannot. */
 enum work_submit task_submit(struct cache_entry *scene, const struct rayd_region *reg,
-                             int queue_cap, struct task **fresh, struct task **out);
+                             struct task **fresh, struct task **out);
 /* The tile's absolute rectangle. */
 struct rayd_region task_tile(const struct task *t, int tile);
 void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse);
@@ -156,14 +163,9 @@ enum jobs_state jobs_state(const struct job *j);
 void jobs_unref(struct job *j);
 void jobs_expire(double now); /* forgets finished jobs past --job-ttl */
 
-/* ---- sched.c -------------------------------------------------------------------- */
-
-extern bool sched_stopping; /* lock held: the workers and the watcher end */
-int sched_queue_cap(void);  /* --queue, fixed at start */
-
 /* ---- watch.c ------------------------------------------------------------------- */
 
 int watch_start(void);
-void watch_stop(void); /* joins it, after sched_stopping was raised */
+void watch_stop(void); /* stops and joins the thread */
 
 #endif
