@@ -76,11 +76,21 @@ void http_reply_data(struct http_req *r, unsigned status, const char *ctype, con
     http_reply(r, status, resp);
 }
 
-/* The text of o (deleted) as the body, libmicrohttpd freeing it. */
+/* The text of o (deleted) as the body.  Printed into a stack buffer and
+ * copied once by libmicrohttpd, as any small body: an error reply under load
+ * (503 queue_full) costs no more than the hand-written one did. */
 static void http_reply_text(struct http_req *r, unsigned status, cJSON *o)
 {
+    char buf[4096];
+    if (json_print_into(o, buf, sizeof buf - 1)) {
+        cJSON_Delete(o);
+        size_t len = strlen(buf);
+        buf[len++] = '\n';
+        http_reply_data(r, status, "application/json", buf, len);
+        return;
+    }
     size_t len = 0;
-    char *text = json_print(o, true, &len);
+    char *text = json_print(o, true, &len); /* deletes o */
     struct MHD_Response *resp =
         text ? MHD_create_response_from_buffer_with_free_callback(len, text, free) : NULL;
     if (!resp) {
