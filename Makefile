@@ -70,6 +70,7 @@ CORE_SRC := $(wildcard core/*/*.c)
 CORE_OBJ := $(CORE_SRC:%.c=$(BUILD)/%.o)
 SERVER_SRC := $(wildcard server/*.c)
 SERVER_OBJ := $(SERVER_SRC:%.c=$(BUILD)/%.o)
+SERVER_HDR := $(wildcard server/*.h)
 WEB_FILES := $(wildcard server/web/*)
 CLIENT_SRC := $(wildcard clients/*.c)
 UNIT_SRC := $(wildcard tests/unit/test_*.c)
@@ -239,12 +240,12 @@ FUZZ_SERVER_TARGETS := $(filter http% query%,$(FUZZ_TARGETS))
 FUZZ_SERVER_OBJ := $(patsubst server/%.c,build/fuzz/server/%.o,$(filter-out server/main.c,$(SERVER_SRC)))
 .SECONDARY: $(FUZZ_SERVER_OBJ)
 
-build/fuzz/server/%.o: server/%.c server/server.h build/server/web_assets.h | $(BUILD)/.deps-ok
+build/fuzz/server/%.o: server/%.c $(SERVER_HDR) build/server/web_assets.h | $(BUILD)/.deps-ok
 	@mkdir -p $(dir $@)
 	clang $(FUZZ_CFLAGS) -MMD -MP -D_DEFAULT_SOURCE -Ibuild/server -c $< -o $@
 
 $(FUZZ_SERVER_TARGETS:%=build/fuzz/fuzz_%): build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c \
-    tests/fuzz/fuzz_http_common.h server/server.h $(FUZZ_SERVER_OBJ) $(FUZZ_CORE_OBJ)
+    tests/fuzz/fuzz_http_common.h $(SERVER_HDR) $(FUZZ_SERVER_OBJ) $(FUZZ_CORE_OBJ)
 	clang $(FUZZ_CFLAGS) -D_DEFAULT_SOURCE -fsanitize=fuzzer $(filter %.c %.o,$^) -o $@ \
 	  -lmicrohttpd -lcrypto -lpng -lz -lcjson -lpthread -lm
 
@@ -272,7 +273,7 @@ $(BUILD)/tests/fuzz/replay_%: tests/fuzz/fuzz_%.c tests/fuzz/replay.c $(BUILD)/l
 
 SERVER_LIB_OBJ := $(filter-out $(BUILD)/server/main.o,$(SERVER_OBJ))
 $(FUZZ_SERVER_TARGETS:%=$(BUILD)/tests/fuzz/replay_%): $(BUILD)/tests/fuzz/replay_%: \
-    tests/fuzz/fuzz_%.c tests/fuzz/replay.c tests/fuzz/fuzz_http_common.h server/server.h \
+    tests/fuzz/fuzz_%.c tests/fuzz/replay.c tests/fuzz/fuzz_http_common.h $(SERVER_HDR) \
     $(SERVER_LIB_OBJ) $(BUILD)/librayd.a
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -D_DEFAULT_SOURCE -Iinclude -I$(BUILD)/server $(filter %.c,$^) -o $@ \

@@ -6,22 +6,25 @@
  * otherwise.  Both stay open without a token so probes need no secret.
  * /metrics is the Prometheus text of metrics.c.
  */
-#include "server.h"
+#include "api.h"
 
+#include <cjson/cJSON.h>
 #include <stdlib.h>
 
 void api_health_live(struct http_req *r, const char *id)
 {
     (void)id;
-    http_reply_json(r, 200, "{\"status\":\"ok\"}\n");
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddStringToObject(o, "status", "ok");
+    http_reply_json(r, 200, o);
 }
 
 void api_health_ready(struct http_req *r, const char *id)
 {
     (void)id;
-    struct jobq_stats st;
-    jobq_stats(&st);
-    if (http_is_draining()) {
+    struct sched_stats st;
+    sched_stats(&st);
+    if (sched_draining()) {
         http_reply_error(r, 503, "draining", "the server is shutting down", NULL, 0, 0, NULL);
         return;
     }
@@ -29,12 +32,13 @@ void api_health_ready(struct http_req *r, const char *id)
         http_reply_error(r, 503, "queue_full", "the render queue is full", NULL, 0, 0, NULL);
         return;
     }
-    char json[200];
-    snprintf(json, sizeof json,
-             "{\"status\":\"ready\",\"queued\":%ld,\"capacity\":%ld,\"workers\":%ld,"
-             "\"busy\":%ld}\n",
-             st.queued, st.queue_cap, st.workers, st.busy_workers);
-    http_reply_json(r, 200, json);
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddStringToObject(o, "status", "ready");
+    cJSON_AddNumberToObject(o, "queued", (double)st.queued);
+    cJSON_AddNumberToObject(o, "capacity", (double)st.queue_cap);
+    cJSON_AddNumberToObject(o, "workers", (double)st.workers);
+    cJSON_AddNumberToObject(o, "busy", (double)st.busy_workers);
+    http_reply_json(r, 200, o);
 }
 
 void api_health_metrics(struct http_req *r, const char *id)
@@ -47,6 +51,6 @@ void api_health_metrics(struct http_req *r, const char *id)
         return;
     }
     http_reply_data(r, 200, "text/plain; version=0.0.4; charset=utf-8", text, len);
-    http_add_header(r, "Cache-Control", "no-store");
+    http_reply_header(r, "Cache-Control", "no-store");
     free(text);
 }

@@ -3,22 +3,26 @@
  *
  * A job is a render nobody waits on: POST answers 202 with the job id at
  * once, the client polls the job or follows its Server-Sent Events, then
- * fetches the PNG.  The jobs themselves (table, states, progress, events)
- * live in jobq.c under its lock; this file only speaks HTTP.
+ * fetches the PNG.  The jobs themselves (table, states, progress, the event
+ * cursor) live in the work layer (jobs.c, events.c); this file turns them
+ * into HTTP and JSON.
  *
- * The event stream is a libmicrohttpd callback response.  When the reader
- * callback has nothing new to send it registers the connection with the job
- * and suspends it (inside jobq's lock, so a tile that finishes meanwhile
- * cannot be missed); the worker that finishes the next tile resumes it.  So
- * an open stream costs no thread and no polling.
+ * The event stream is a libmicrohttpd callback response.  The reader asks
+ * events.c for news; when there is none, events.c links the stream's waiter
+ * to the job's task and calls its suspend callback (inside the work lock,
+ * so a tile that finishes meanwhile cannot be missed), and the worker that
+ * finishes the next tile calls its done callback, which resumes the
+ * connection.  So an open stream costs no thread and no polling.  The
+ * records are written as SSE here, each data line by cJSON; text that does
+ * not fit libmicrohttpd's buffer waits in the stream's carry for the next
+ * call.
  */
-#include "server.h"
+#include "api.h"
 
+#include <cjson/cJSON.h>
 #include <microhttpd.h>
 #include <stdlib.h>
 #include <string.h>
-
-#define API_CONTAINER(w) ((struct http_req *)((char *)(w) - offsetof(struct http_req, waiter)))
 
 static bool api_job_id_ok(const char *id)
 {
@@ -36,103 +40,107 @@ static void api_job_unknown(struct http_req *r)
                      NULL, 0, 0, NULL);
 }
 
+static void api_job_url(char *buf, size_t size, const char *id, const char *tail)
+{
+    snprintf(buf, size, "/v1/jobs/%s%s", id, tail);
+}
+
 void api_jobs_post(struct http_req *r, const char *unused)
 {
     (void)unused;
-    if (http_is_draining()) {
-        http_reply_refused(r, JOBQ_DRAINING);
-        return;
-    }
-    if (!http_require_json(r))
-        return;
     struct cache_entry *e;
     bool hit;
-    struct rayd_error err = {0};
-    enum rayd_status st = jobq_scene_parse(r->body ? r->body : "", r->body_len, &e, &hit, &err);
-    if (st != RAYD_OK) {
-        err.code = st;
-        http_reply_rayd_error(r, &err);
+    if (!api_scene(r, &e, &hit))
         return;
-    }
     struct rayd_region reg;
-    if (api_region(r, cache_scene(e), &reg)) {
-        char id[33];
-        enum jobq_submit s = jobq_job_create(e, &reg, id);
-        if (s != JOBQ_OK) {
-            http_reply_refused(r, s);
-        } else {
-            char json[700], loc[80];
-            snprintf(json, sizeof json,
-                     "{\"id\":\"%s\",\"state\":\"queued\",\"scene_id\":\"%s\","
-                     "\"status_url\":\"/v1/jobs/%s\",\"image_url\":\"/v1/jobs/%s/image.png\","
-                     "\"events_url\":\"/v1/jobs/%s/events\"}\n",
-                     id, cache_id(e), id, id, id);
-            snprintf(loc, sizeof loc, "/v1/jobs/%s", id);
-            http_reply_json(r, 202, json);
-            http_add_header(r, "Location", loc);
-        }
+    char id[33], url[80];
+    enum work_submit s;
+    if (!api_region(r, cache_scene(e), &reg)) {
+        /* replied */
+    } else if ((s = jobs_create(e, &reg, id)) != WORK_OK) {
+        api_refused(r, s);
+    } else {
+        cJSON *o = cJSON_CreateObject();
+        cJSON_AddStringToObject(o, "id", id);
+        cJSON_AddStringToObject(o, "state", "queued");
+        cJSON_AddStringToObject(o, "scene_id", cache_id(e));
+        api_job_url(url, sizeof url, id, "");
+        cJSON_AddStringToObject(o, "status_url", url);
+        api_job_url(url, sizeof url, id, "/image.png");
+        cJSON_AddStringToObject(o, "image_url", url);
+        api_job_url(url, sizeof url, id, "/events");
+        cJSON_AddStringToObject(o, "events_url", url);
+        http_reply_json(r, 202, o);
+        api_job_url(url, sizeof url, id, "");
+        http_reply_header(r, "Location", url);
     }
-    jobq_scene_release(e);
+    scenes_release(e);
 }
 
-static void api_job_json(const char *id, const struct jobq_job_info *in, char *json, size_t size)
+/* The job's status document (docs/api.md: key order and decimals). */
+static cJSON *api_job_json(const char *id, const struct jobs_info *in)
 {
-    char err[900] = "";
-    if (in->state == JS_FAILED) {
-        char msg[560], path[560];
-        snprintf(err, sizeof err, ",\"error\":{\"code\":\"%s\",\"message\":\"%s\",\"path\":\"%s\"}",
-                 rayd_status_name(in->err.code),
-                 http_json_escape(in->err.message, msg, sizeof msg),
-                 http_json_escape(in->err.path, path, sizeof path));
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddStringToObject(o, "id", id);
+    cJSON_AddStringToObject(o, "state", jobs_state_name(in->state));
+    json_add_fixed(o, "progress", in->progress, 4);
+    cJSON_AddNumberToObject(o, "tiles_done", (double)in->tiles_done);
+    cJSON_AddNumberToObject(o, "tiles_total", (double)in->tiles_total);
+    cJSON_AddStringToObject(o, "scene_id", in->scene_id);
+    cJSON *reg = cJSON_AddObjectToObject(o, "region");
+    cJSON_AddNumberToObject(reg, "x", in->region.x);
+    cJSON_AddNumberToObject(reg, "y", in->region.y);
+    cJSON_AddNumberToObject(reg, "w", in->region.w);
+    cJSON_AddNumberToObject(reg, "h", in->region.h);
+    json_add_fixed(o, "age_s", in->created_age, 3);
+    json_add_fixed(o, "queue_ms", in->queue_ms, 3);
+    json_add_fixed(o, "render_ms", in->render_ms, 3);
+    json_add_fixed(o, "encode_ms", in->encode_ms, 3);
+    json_add_u64(o, "rays", in->rays);
+    if (in->state == JS_SUCCEEDED) {
+        char url[80];
+        api_job_url(url, sizeof url, id, "/image.png");
+        cJSON_AddStringToObject(o, "image_url", url);
     }
-    char img[100] = "";
-    if (in->state == JS_SUCCEEDED)
-        snprintf(img, sizeof img, ",\"image_url\":\"/v1/jobs/%s/image.png\"", id);
-    snprintf(json, size,
-             "{\"id\":\"%s\",\"state\":\"%s\",\"progress\":%.4f,\"tiles_done\":%ld,"
-             "\"tiles_total\":%ld,\"scene_id\":\"%s\",\"region\":{\"x\":%d,\"y\":%d,\"w\":%d,"
-             "\"h\":%d},\"age_s\":%.3f,\"queue_ms\":%.3f,\"render_ms\":%.3f,"
-             "\"encode_ms\":%.3f,\"rays\":%llu%s%s}\n",
-             id, jobq_state_name(in->state), in->progress, in->tiles_done, in->tiles_total,
-             in->scene_id, in->region.x, in->region.y, in->region.w, in->region.h,
-             in->created_age, in->queue_ms, in->render_ms, in->encode_ms,
-             (unsigned long long)in->rays, img, err);
+    if (in->state == JS_FAILED) {
+        cJSON *err = cJSON_AddObjectToObject(o, "error");
+        cJSON_AddStringToObject(err, "code", rayd_status_name(in->err.code));
+        cJSON_AddStringToObject(err, "message", in->err.message);
+        cJSON_AddStringToObject(err, "path", in->err.path);
+    }
+    return o;
 }
 
 void api_jobs_get(struct http_req *r, const char *id)
 {
-    struct jobq_job_info info;
-    if (!api_job_id_ok(id) || !jobq_job_get(id, &info, false)) {
+    struct jobs_info info;
+    if (!api_job_id_ok(id) || !jobs_get(id, &info, false)) {
         api_job_unknown(r);
         return;
     }
-    char json[2000];
-    api_job_json(id, &info, json, sizeof json);
-    http_reply_json(r, 200, json);
+    http_reply_json(r, 200, api_job_json(id, &info));
 }
 
 void api_jobs_delete(struct http_req *r, const char *id)
 {
-    struct jobq_job_info info;
-    if (!api_job_id_ok(id) || !jobq_job_cancel(id) || !jobq_job_get(id, &info, false)) {
+    struct jobs_info info;
+    if (!api_job_id_ok(id) || !jobs_cancel(id) || !jobs_get(id, &info, false)) {
         api_job_unknown(r);
         return;
     }
-    char json[2000];
-    api_job_json(id, &info, json, sizeof json);
-    http_reply_json(r, 200, json);
+    http_reply_json(r, 200, api_job_json(id, &info));
 }
 
 void api_jobs_image(struct http_req *r, const char *id)
 {
-    struct jobq_job_info info;
-    if (!api_job_id_ok(id) || !jobq_job_get(id, &info, true)) {
+    struct jobs_info info;
+    if (!api_job_id_ok(id) || !jobs_get(id, &info, true)) {
         api_job_unknown(r);
         return;
     }
     if (info.state == JS_SUCCEEDED && info.png) {
         http_reply_png(r, 200, info.png);
-        http_add_header(r, "Cache-Control", "private, max-age=3600");
+        http_reply_header(r, "Cache-Control", "private, max-age=3600");
         blob_unref(info.png);
         return;
     }
@@ -144,58 +152,185 @@ void api_jobs_image(struct http_req *r, const char *id)
     } else if (info.state == JS_CANCELED) {
         http_reply_error(r, 409, "job_canceled", "the job was cancelled", NULL, 0, 0, NULL);
     } else {
-        char json[2000];
-        api_job_json(id, &info, json, sizeof json);
-        http_reply_json(r, 202, json);
-        http_add_header(r, MHD_HTTP_HEADER_RETRY_AFTER, "1");
+        http_reply_json(r, 202, api_job_json(id, &info));
+        http_reply_header(r, MHD_HTTP_HEADER_RETRY_AFTER, "1");
     }
 }
 
 /* ---- Server-Sent Events ---------------------------------------------------------- */
 
-static void api_sse_suspend(struct jobq_waiter *w) { http_suspend(API_CONTAINER(w)); }
+#define API_SSE_ITEMS 32
+
+/* One open stream: freed with its response (libmicrohttpd's free callback). */
+struct api_sse {
+    struct work_waiter w; /* first: the callbacks get it back */
+    struct http_req *r;
+    struct events_stream *s;
+    char id[33];
+    char *carry; /* text formatted but not yet sent */
+    size_t carry_len, carry_off;
+};
+
+static void api_sse_suspend(struct work_waiter *w)
+{
+    http_req_suspend(((struct api_sse *)w)->r);
+}
 
 /* Woken by news of the job, or by the watcher when the client hung up: then
  * the stream ends at once (the reader's next call), rather than waiting,
  * suspended, for an event that may be long in coming -- a queued job's. */
-static void api_sse_wake(struct jobq_waiter *w, struct jobq_result *res)
+static void api_sse_wake(struct work_waiter *w, struct work_result *res)
 {
-    struct http_req *r = API_CONTAINER(w);
+    struct http_req *r = ((struct api_sse *)w)->r;
     if (res->gone) {
         r->gone = true;
         r->note = "client_gone";
     }
     blob_unref(res->png);
-    http_resume(r);
+    http_req_resume(r);
+}
+
+/* "event: NAME\ndata: JSON\n\n" appended to out (o deleted). */
+static size_t api_sse_event(char *out, size_t size, const char *name, cJSON *o)
+{
+    char data[2048];
+    bool ok = json_print_into(o, data, sizeof data);
+    cJSON_Delete(o);
+    int n = snprintf(out, size, "event: %s\ndata: %s\n\n", name, ok ? data : "{}");
+    return n < 0 || (size_t)n >= size ? 0 : (size_t)n;
+}
+
+/* One item as SSE text into out (2.5 KiB is enough for any). */
+static size_t api_sse_format(struct api_sse *a, const struct events_item *it,
+                             const struct rayd_error *err, char *out, size_t size)
+{
+    cJSON *o = cJSON_CreateObject();
+    size_t n = 0;
+    switch (it->kind) {
+    case EVENTS_STATE:
+        n = (size_t)snprintf(out, size, "retry: 1000\n");
+        cJSON_AddStringToObject(o, "id", a->id);
+        cJSON_AddStringToObject(o, "state", jobs_state_name(it->state));
+        return n + api_sse_event(out + n, size - n, "state", o);
+    case EVENTS_TILE:
+        cJSON_AddNumberToObject(o, "x", it->tile.x);
+        cJSON_AddNumberToObject(o, "y", it->tile.y);
+        cJSON_AddNumberToObject(o, "w", it->tile.w);
+        cJSON_AddNumberToObject(o, "h", it->tile.h);
+        n = api_sse_event(out, size, "tile", o);
+        o = cJSON_CreateObject();
+        json_add_fixed(o, "progress", it->progress, 4);
+        cJSON_AddNumberToObject(o, "done", it->done);
+        cJSON_AddNumberToObject(o, "total", it->total);
+        return n + api_sse_event(out + n, size - n, "progress", o);
+    case EVENTS_DONE:
+        cJSON_AddStringToObject(o, "state", jobs_state_name(it->state));
+        json_add_fixed(o, "progress", it->progress, 4);
+        if (it->state == JS_FAILED)
+            cJSON_AddStringToObject(o, "error", err->message);
+        return api_sse_event(out, size, "done", o);
+    case EVENTS_PING:
+    default:
+        cJSON_Delete(o);
+        return (size_t)snprintf(out, size, ": keep-alive\n\n");
+    }
+}
+
+/* Copies what fits of text to buf; the rest goes to the carry.  false when
+ * the carry cannot be had (out of memory). */
+static bool api_sse_put(struct api_sse *a, char *buf, size_t max, size_t *used, const char *text,
+                        size_t len)
+{
+    size_t k = len < max - *used ? len : max - *used;
+    memcpy(buf + *used, text, k);
+    *used += k;
+    if (k == len)
+        return true;
+    char *c = realloc(a->carry, a->carry_len + len - k);
+    if (!c)
+        return false;
+    memcpy(c + a->carry_len, text + k, len - k);
+    a->carry = c;
+    a->carry_len += len - k;
+    return true;
+}
+
+/* Sends what is left of the carry; true when it is empty. */
+static bool api_sse_flush(struct api_sse *a, char *buf, size_t max, size_t *used)
+{
+    size_t left = a->carry_len - a->carry_off;
+    size_t k = left < max - *used ? left : max - *used;
+    memcpy(buf + *used, a->carry + a->carry_off, k);
+    *used += k;
+    a->carry_off += k;
+    if (a->carry_off < a->carry_len)
+        return false;
+    free(a->carry);
+    a->carry = NULL;
+    a->carry_len = a->carry_off = 0;
+    return true;
 }
 
 static ssize_t api_sse_reader(void *cls, uint64_t pos, char *buf, size_t max)
 {
     (void)pos;
-    struct http_req *r = cls;
+    struct api_sse *a = cls;
+    struct http_req *r = a->r;
     if (r->gone)
         return MHD_CONTENT_READER_END_WITH_ERROR;
-    ssize_t n = jobq_sse_read(r->sse, buf, max, &r->waiter, api_sse_suspend);
+    size_t used = 0;
+    if (a->carry && !api_sse_flush(a, buf, max, &used))
+        goto out;
+    struct events_item items[API_SSE_ITEMS];
+    struct rayd_error err = {0};
+    int n = used ? 0 : events_read(a->s, items, API_SSE_ITEMS, &err, &a->w);
     if (n < 0)
         return MHD_CONTENT_READER_END_OF_STREAM;
-    r->bytes += (size_t)n;
-    return n;
+    for (int i = 0; i < n; i++) {
+        char text[2560];
+        size_t len = api_sse_format(a, &items[i], &err, text, sizeof text);
+        if (!api_sse_put(a, buf, max, &used, text, len))
+            return MHD_CONTENT_READER_END_WITH_ERROR;
+    }
+out:
+    r->bytes += used;
+    return (ssize_t)used;
+}
+
+static void api_sse_free(void *cls)
+{
+    struct api_sse *a = cls;
+    events_close(a->s);
+    free(a->carry);
+    free(a);
 }
 
 void api_jobs_events(struct http_req *r, const char *id)
 {
-    if (!api_job_id_ok(id) || !(r->sse = jobq_sse_open(id))) {
+    struct api_sse *a = calloc(1, sizeof *a);
+    if (!a) {
+        api_refused(r, WORK_NOMEM);
+        return;
+    }
+    if (!api_job_id_ok(id) || !(a->s = events_open(id))) {
+        free(a);
         api_job_unknown(r);
         return;
     }
-    r->waiter.done = api_sse_wake;
-    r->waiter.fd = http_conn_fd(r);
+    a->r = r;
+    snprintf(a->id, sizeof a->id, "%s", id);
+    a->w.done = api_sse_wake;
+    a->w.suspend = api_sse_suspend;
+    a->w.fd = http_req_fd(r);
     struct MHD_Response *resp =
-        MHD_create_response_from_callback(MHD_SIZE_UNKNOWN, 4096, api_sse_reader, r, NULL);
-    if (resp) {
-        MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, "text/event-stream");
-        MHD_add_response_header(resp, MHD_HTTP_HEADER_CACHE_CONTROL, "no-store");
-        MHD_add_response_header(resp, "X-Accel-Buffering", "no");
+        MHD_create_response_from_callback(MHD_SIZE_UNKNOWN, 4096, api_sse_reader, a, api_sse_free);
+    if (!resp) {
+        api_sse_free(a);
+        r->gone = true;
+        return;
     }
+    MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, "text/event-stream");
+    MHD_add_response_header(resp, MHD_HTTP_HEADER_CACHE_CONTROL, "no-store");
+    MHD_add_response_header(resp, "X-Accel-Buffering", "no");
     http_reply(r, 200, resp);
 }

@@ -1,140 +1,87 @@
-/* api_render.c -- POST /v1/render and the region query shared by the
- * image routes.
+/* api_render.c -- synchronous renders: POST /v1/render, POST /v1/scenes
+ * and GET /v1/scenes/{id}/image.png.
  *
  * POST /v1/render takes a JSON scene and answers the PNG of the whole image
  * or of the region ?x=&y=&w=&h=.  The scene is looked up in the compiled
  * cache by the SHA-256 of the body (parsed and built only on a miss), the
- * render is queued, and the connection waits suspended; the bytes equal
+ * render is submitted, and the connection waits suspended; the bytes equal
  * `rayd-render scene.json --region X,Y,W,H` because both encode with
- * rayd_png_encode at the same level.
+ * rayd_png_encode at the same level.  POST /v1/scenes compiles and keeps a
+ * scene; its image URL is immutable (strong ETag, 304 on If-None-Match).
  *
- * The region query is strict: all four parameters or none, decimal
- * integers only, inside the image, no unknown or repeated parameters.  Each
- * error names the offending parameter.
+ * The wait: a small struct ties the work layer's waiter to the request.
+ * Its suspend callback suspends the connection (called by the work layer
+ * under its lock, before any worker can answer); its done callback turns
+ * the result into the reply and resumes the connection.  So the work layer
+ * answers a connection without knowing what one is, and the request flows
+ * one way: handler -> work, then back only through those two callbacks.
  */
-#include "server.h"
+#include "api.h"
 
-#include <errno.h>
+#include <cjson/cJSON.h>
 #include <stdlib.h>
 #include <string.h>
 
-struct api_q {
-    const char *val[4];
-    int count[4];
-    char unknown[64];
+struct api_render_wait {
+    struct work_waiter w; /* first: the callbacks get it back */
+    struct http_req *r;
 };
 
-static const char *const api_q_names[4] = {"x", "y", "w", "h"};
-
-static void api_q_each(void *u, const char *k, const char *v)
+/* The worker's answer (or the watcher's "gone"): the reply, then resume. */
+static void api_render_done(struct work_waiter *w, struct work_result *res)
 {
-    struct api_q *q = u;
-    for (int i = 0; i < 4; i++)
-        if (!strcmp(k, api_q_names[i])) {
-            q->val[i] = v;
-            q->count[i]++;
-            return;
-        }
-    if (!q->unknown[0])
-        snprintf(q->unknown, sizeof q->unknown, "%s", k);
+    struct http_req *r = ((struct api_render_wait *)w)->r;
+    free(w);
+    r->queue_ms = res->queue_ms;
+    r->render_ms = res->render_ms;
+    r->encode_ms = res->encode_ms;
+    if (res->gone) {
+        r->gone = true;
+        r->note = "client_gone";
+    } else if (res->status == RAYD_OK && res->png) {
+        http_reply_png(r, 200, res->png);
+        http_reply_cache_headers(r);
+    } else {
+        struct rayd_error e = res->err;
+        e.code = res->status;
+        api_reply_rayd_error(r, &e);
+    }
+    blob_unref(res->png);
+    http_req_resume(r);
 }
 
-static bool api_int(const char *s, long *out)
+static void api_render_suspend(struct work_waiter *w)
 {
-    const char *p = s;
-    if (*p == '-')
-        p++;
-    if (!*p || strlen(p) > 9)
-        return false;
-    for (; *p; p++)
-        if (*p < '0' || *p > '9')
-            return false;
-    *out = strtol(s, NULL, 10);
-    return true;
+    http_req_suspend(((struct api_render_wait *)w)->r);
 }
 
-bool api_region(struct http_req *r, const rayd_scene *scene, struct rayd_region *out)
+/* Renders reg of scene for r: answered at once from the result cache, or
+ * suspended until a worker answers, or refused with a 503. */
+static void api_render_submit(struct http_req *r, struct cache_entry *scene,
+                              const struct rayd_region *reg)
 {
-    struct rayd_scene_info info;
-    rayd_scene_info(scene, &info);
-    struct api_q q = {0};
-    http_query_each(r, api_q_each, &q);
-    char msg[200];
-    if (q.unknown[0]) {
-        snprintf(msg, sizeof msg, "unknown query parameter '%s' (only x, y, w, h)", q.unknown);
-        http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, q.unknown);
-        return false;
+    struct api_render_wait *a = calloc(1, sizeof *a);
+    if (!a) {
+        api_refused(r, WORK_NOMEM);
+        return;
     }
-    int present = 0;
-    for (int i = 0; i < 4; i++) {
-        if (q.count[i] > 1) {
-            snprintf(msg, sizeof msg, "%s: given more than once", api_q_names[i]);
-            http_reply_error(r, 400, "bad_region", msg, NULL, 0, 0, api_q_names[i]);
-            return false;
-        }
-        present += q.count[i];
+    a->r = r;
+    a->w.done = api_render_done;
+    a->w.suspend = api_render_suspend;
+    a->w.fd = http_req_fd(r);
+    struct blob *png = NULL;
+    enum work_submit s = sched_render(scene, reg, &a->w, &png);
+    if (s == WORK_OK)
+        return; /* a belongs to the work layer until done() */
+    free(a);
+    if (s == WORK_CACHED) {
+        http_reply_png(r, 200, png);
+        http_reply_cache_headers(r);
+        blob_unref(png);
+        r->note = "result_cache";
+    } else {
+        api_refused(r, s);
     }
-    if (present == 0) {
-        *out = (struct rayd_region){0, 0, info.width, info.height};
-        return true;
-    }
-    long v[4];
-    for (int i = 0; i < 4; i++) {
-        if (!q.count[i]) {
-            snprintf(msg, sizeof msg, "%s: missing (a region needs all of x, y, w, h)",
-                     api_q_names[i]);
-            http_reply_error(r, 400, "bad_region", msg, NULL, 0, 0, api_q_names[i]);
-            return false;
-        }
-        if (!api_int(q.val[i], &v[i])) {
-            snprintf(msg, sizeof msg, "%s: must be a decimal integer", api_q_names[i]);
-            http_reply_error(r, 400, "bad_region", msg, NULL, 0, 0, api_q_names[i]);
-            return false;
-        }
-    }
-    const char *bad = NULL;
-    const char *why = "";
-    if (v[0] < 0 || v[0] >= info.width)
-        bad = "x", why = "must be in 0..width-1";
-    else if (v[1] < 0 || v[1] >= info.height)
-        bad = "y", why = "must be in 0..height-1";
-    else if (v[2] < 1 || v[0] + v[2] > info.width)
-        bad = "w", why = "must be >= 1 with x + w <= width";
-    else if (v[3] < 1 || v[1] + v[3] > info.height)
-        bad = "h", why = "must be >= 1 with y + h <= height";
-    if (bad) {
-        snprintf(msg, sizeof msg, "%s: %s (the image is %dx%d)", bad, why, info.width,
-                 info.height);
-        http_reply_error(r, 400, "bad_region", msg, NULL, 0, 0, bad);
-        return false;
-    }
-    *out = (struct rayd_region){(int)v[0], (int)v[1], (int)v[2], (int)v[3]};
-    struct rayd_error err = {0};
-    if (rayd_region_check(scene, out, &err) != RAYD_OK) {
-        err.code = RAYD_E_ARG;
-        http_reply_rayd_error(r, &err);
-        return false;
-    }
-    return true;
-}
-
-/* Parses the body as a scene: false after replying with the error. */
-static bool api_render_scene(struct http_req *r, struct cache_entry **out, bool *hit)
-{
-    if (http_is_draining()) {
-        http_reply_refused(r, JOBQ_DRAINING);
-        return false;
-    }
-    if (!http_require_json(r))
-        return false;
-    struct rayd_error err = {0};
-    enum rayd_status st = jobq_scene_parse(r->body ? r->body : "", r->body_len, out, hit, &err);
-    if (st != RAYD_OK) {
-        err.code = st;
-        http_reply_rayd_error(r, &err);
-        return false;
-    }
-    return true;
 }
 
 void api_render_post(struct http_req *r, const char *id)
@@ -142,12 +89,12 @@ void api_render_post(struct http_req *r, const char *id)
     (void)id;
     struct cache_entry *e;
     bool hit;
-    if (!api_render_scene(r, &e, &hit))
+    if (!api_scene(r, &e, &hit))
         return;
     struct rayd_region reg;
     if (api_region(r, cache_scene(e), &reg))
-        http_render(r, e, &reg);
-    jobq_scene_release(e);
+        api_render_submit(r, e, &reg);
+    scenes_release(e);
 }
 
 void api_scenes_post(struct http_req *r, const char *id)
@@ -155,18 +102,21 @@ void api_scenes_post(struct http_req *r, const char *id)
     (void)id;
     struct cache_entry *e;
     bool hit;
-    if (!api_render_scene(r, &e, &hit))
+    if (!api_scene(r, &e, &hit))
         return;
     struct rayd_scene_info info;
     rayd_scene_info(cache_scene(e), &info);
-    char json[256], loc[128];
-    snprintf(json, sizeof json,
-             "{\"id\":\"%s\",\"width\":%d,\"height\":%d,\"objects\":%ld,\"cached\":%s}\n",
-             cache_id(e), info.width, info.height, info.objects, hit ? "true" : "false");
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddStringToObject(o, "id", cache_id(e));
+    cJSON_AddNumberToObject(o, "width", info.width);
+    cJSON_AddNumberToObject(o, "height", info.height);
+    cJSON_AddNumberToObject(o, "objects", (double)info.objects);
+    cJSON_AddBoolToObject(o, "cached", hit);
+    char loc[128];
     snprintf(loc, sizeof loc, "/v1/scenes/%s", cache_id(e));
-    http_reply_json(r, 201, json);
-    http_add_header(r, "Location", loc);
-    jobq_scene_release(e);
+    http_reply_json(r, 201, o);
+    http_reply_header(r, "Location", loc);
+    scenes_release(e);
 }
 
 static bool api_is_hex(const char *s, size_t n)
@@ -184,7 +134,7 @@ static bool api_etag_match(const char *inm, const char *etag)
 {
     size_t el = strlen(etag), n;
     const char *p = inm, *item;
-    while (p && http_list_next(&p, &item, &n)) {
+    while (p && http_req_list_next(&p, &item, &n)) {
         if (item[0] == '*')
             return true;
         if (n >= 2 && !strncmp(item, "W/", 2))
@@ -197,7 +147,7 @@ static bool api_etag_match(const char *inm, const char *etag)
 
 void api_scenes_image(struct http_req *r, const char *id)
 {
-    struct cache_entry *e = api_is_hex(id, 64) ? jobq_scene_find(id) : NULL;
+    struct cache_entry *e = api_is_hex(id, 64) ? scenes_find(id) : NULL;
     if (!e) {
         http_reply_error(r, 404, "scene_unknown",
                          "this server does not hold that scene; POST it to /v1/scenes", NULL, 0, 0,
@@ -206,21 +156,21 @@ void api_scenes_image(struct http_req *r, const char *id)
     }
     struct rayd_region reg;
     if (!api_region(r, cache_scene(e), &reg)) {
-        jobq_scene_release(e);
+        scenes_release(e);
         return;
     }
     char key[160], hex[65];
     snprintf(key, sizeof key, "%s@%d,%d,%d,%d", id, reg.x, reg.y, reg.w, reg.h);
     if (cache_hash(key, strlen(key), hex))
         snprintf(r->etag, sizeof r->etag, "\"%s\"", hex);
-    const char *inm = http_header(r, "If-None-Match");
+    const char *inm = http_req_header(r, "If-None-Match");
     if (inm && api_etag_match(inm, r->etag)) {
         http_reply_data(r, 304, NULL, "", 0);
-        http_cache_headers(r);
-    } else if (http_is_draining()) {
-        http_reply_refused(r, JOBQ_DRAINING);
+        http_reply_cache_headers(r);
+    } else if (sched_draining()) {
+        api_refused(r, WORK_DRAINING);
     } else {
-        http_render(r, e, &reg);
+        api_render_submit(r, e, &reg);
     }
-    jobq_scene_release(e);
+    scenes_release(e);
 }

@@ -11,16 +11,16 @@
  * Both answer {"tiles": N or "open", "started": tiles let through so far,
  * "held": workers waiting at the gate with a tile to start, "queued": tasks
  * waiting for a worker}.  Without --test-gate the route is a 404 like any
- * unknown path.  The gate itself is in jobq.c, where workers take tiles.
+ * unknown path.  The gate itself is in gate.c, asked by the workers (sched.c).
  */
-#include "server.h"
+#include "api.h"
 
 #include <cjson/cJSON.h>
 #include <errno.h>
 #include <stdlib.h>
 #include <string.h>
 
-static void api_test_gate_reply(struct http_req *r, const struct jobq_gate *g)
+static void api_test_gate_reply(struct http_req *r, const struct gate_state *g)
 {
     cJSON *o = cJSON_CreateObject();
     if (g->tiles < 0)
@@ -30,15 +30,7 @@ static void api_test_gate_reply(struct http_req *r, const struct jobq_gate *g)
     cJSON_AddNumberToObject(o, "started", (double)g->started);
     cJSON_AddNumberToObject(o, "held", (double)g->held);
     cJSON_AddNumberToObject(o, "queued", (double)g->queued);
-    char *text = o ? cJSON_PrintUnformatted(o) : NULL;
-    cJSON_Delete(o);
-    if (!text) {
-        http_reply_error(r, 503, "out_of_memory", "out of memory", NULL, 0, 0, NULL);
-        return;
-    }
-    http_reply_data(r, 200, "application/json", text, strlen(text));
-    http_add_header(r, "Cache-Control", "no-store");
-    cJSON_free(text);
+    http_reply_json(r, 200, o);
 }
 
 static void api_test_gate_off(struct http_req *r)
@@ -50,8 +42,8 @@ static void api_test_gate_off(struct http_req *r)
 void api_test_gate_get(struct http_req *r, const char *id)
 {
     (void)id;
-    struct jobq_gate g;
-    if (!jobq_gate_get(&g)) {
+    struct gate_state g;
+    if (!gate_get(&g)) {
         api_test_gate_off(r);
         return;
     }
@@ -61,12 +53,12 @@ void api_test_gate_get(struct http_req *r, const char *id)
 void api_test_gate_post(struct http_req *r, const char *id)
 {
     (void)id;
-    struct jobq_gate g;
-    if (!jobq_gate_get(&g)) {
+    struct gate_state g;
+    if (!gate_get(&g)) {
         api_test_gate_off(r);
         return;
     }
-    const char *v = http_query(r, "tiles");
+    const char *v = http_req_query(r, "tiles");
     char *end = NULL;
     errno = 0;
     long n = v ? strtol(v, &end, 10) : 0;
@@ -77,7 +69,7 @@ void api_test_gate_post(struct http_req *r, const char *id)
                          0, 0, "tiles");
         return;
     }
-    jobq_gate_set(n);
-    jobq_gate_get(&g);
+    gate_set(n);
+    gate_get(&g);
     api_test_gate_reply(r, &g);
 }

@@ -5,7 +5,7 @@
  * disk.  GET / is index.html; GET /NAME serves another embedded file.  The
  * content type follows the file extension.
  */
-#include "server.h"
+#include "api.h"
 
 #include <string.h>
 
@@ -51,7 +51,7 @@ static void api_web_send(struct http_req *r, const char *name)
         return;
     }
     http_reply_data(r, 200, api_web_type(name), a->data, a->len);
-    http_add_header(r, "Cache-Control", "no-cache");
+    http_reply_header(r, "Cache-Control", "no-cache");
 }
 
 void api_web_index(struct http_req *r, const char *id)

@@ -8,16 +8,17 @@
  * only unlinks the entry (it can no longer be found) and the last release
  * frees it.  A scene larger than the whole budget is used and never kept.
  *
- * The cache has no lock of its own: every call is made by jobq.c under the
- * job queue's mutex, the one lock of the server (cache_hash() alone is a
- * pure function any thread may call).  Lookup is a chained hash table on
+ * The cache has no lock of its own: every call is made under work_lock, the
+ * one lock of the server (work_private.h); scenes.c and task.c are the
+ * callers.  cache_hash() is a pure function and cache_scene()/cache_id()
+ * read what never changes, so any thread may call those three.  Lookup is a chained hash table on
  * the id, recency a doubly linked list: the shared index in lru.c.
  *
  * The ids themselves are computed by OpenSSL's libcrypto (EVP_Digest with
  * EVP_sha256), a maintained and audited implementation, rather than by
  * hand-written code; `sha256sum` of a body gives the same id.
  */
-#include "server.h"
+#include "work_private.h"
 
 #include <openssl/evp.h>
 #include <stdlib.h>

@@ -10,7 +10,7 @@
  * Numbers are parsed strictly (the whole string, in range); a bad value is a
  * start-up error naming the option, never a silent default.
  */
-#include "server.h"
+#include "base.h"
 
 #include <errno.h>
 #include <limits.h>

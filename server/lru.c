@@ -6,9 +6,9 @@
  * list for recency (most recent first), and a byte budget; inserting past
  * the budget evicts from the tail through the owner's callback.  Entries
  * embed a struct lru_node and the owner frees them, so this file never
- * allocates.  No lock: both callers run under the job queue's mutex.
+ * allocates.  No lock: both callers run under work_lock.
  */
-#include "server.h"
+#include "work_private.h"
 
 #include <string.h>
 

@@ -1,7 +1,8 @@
 /* main.c -- rayd: start, serve, drain, stop.
  *
- * Start-up order: options (config.c), the worker pool (jobq.c), then the
- * listener (http.c); only when the socket is bound is the line
+ * Start-up order: options (config.c), the work layer (sched.c: caches, jobs,
+ * workers, watcher), the route labels (router.c), then the listener
+ * (http.c); each registers its gauges with metrics.c as it starts.  Only when the socket is bound is the line
  * "rayd listening on http://HOST:PORT" printed and flushed, as the first and
  * only line on stdout, so scripts can start `rayd --port 0` and read the
  * port.  Logs go to stderr.
@@ -20,8 +21,13 @@
  *      gets an answer rather than a reset;
  *   5. the listener stops -- never with a suspended connection -- the pool
  *      is joined, everything is freed, and the exit status is 0.
+ *
+ * Layer: main, above everything; the only file that starts and stops the
+ * layers, so none of them needs to know another's life cycle.
  */
-#include "server.h"
+#include "router.h"
+#include "transport.h"
+#include "work.h"
 
 #include <pthread.h>
 #include <signal.h>
@@ -48,11 +54,11 @@ static bool main_wait(bool (*cond)(void), double seconds, const sigset_t *set, b
     return true;
 }
 
-static bool main_no_suspended(void) { return http_suspended() == 0; }
-static bool main_no_requests(void) { return http_in_flight() == 0; }
+static bool main_no_suspended(void) { return http_req_suspended() == 0; }
+static bool main_no_requests(void) { return http_req_in_flight() == 0; }
 static bool main_quiet(void)
 {
-    return http_in_flight() == 0 && log_now() - http_last_request() >= 0.2;
+    return http_req_in_flight() == 0 && log_now() - http_req_last() >= 0.2;
 }
 
 /* A process started with stdin, stdout or stderr closed would hand those
@@ -86,16 +92,17 @@ int main(int argc, char **argv)
     sigaddset(&set, SIGINT);
     pthread_sigmask(SIG_BLOCK, &set, NULL);
 
-    if (jobq_start((int)config.threads, (int)config.queue, (int)config.max_jobs)) {
+    if (sched_start((int)config.threads, (int)config.queue, (int)config.max_jobs)) {
         fprintf(stderr, "rayd: cannot start the worker pool\n");
         return 1;
     }
     if (config.test_gate_tiles >= -1) {
-        jobq_gate_enable(config.test_gate_tiles);
+        gate_enable(config.test_gate_tiles);
         log_warn("--test-gate: workers start tiles only as POST /v1/test/gate allows");
     }
+    router_start();
     if (http_start()) {
-        jobq_stop();
+        sched_stop();
         config_free();
         return 1;
     }
@@ -127,25 +134,24 @@ int main(int argc, char **argv)
         sig = sigwaitinfo(&set, NULL);
 
     log_info("signal %d: draining (up to %ld s)", sig, config.drain_seconds);
-    http_set_draining();
-    jobq_drain();
+    sched_drain();
     bool again = false;
-    if (!main_wait(jobq_idle, (double)config.drain_seconds, &set, &again))
+    if (!main_wait(sched_idle, (double)config.drain_seconds, &set, &again))
         log_info("drain: %s, cancelling what is left", again ? "second signal" : "deadline");
-    jobq_cancel_all();
-    main_wait(jobq_idle, 30, &set, NULL);
+    sched_cancel_all();
+    main_wait(sched_idle, 30, &set, NULL);
     main_wait(main_no_suspended, 10, &set, NULL);
     main_wait(main_no_requests, 2, &set, NULL);
     main_wait(main_quiet, 2, &set, NULL);
-    if (http_suspended() > 0) {
+    if (http_req_suspended() > 0) {
         /* never stop libmicrohttpd with suspended connections */
         log_warn("drain: %ld connections still suspended; exiting without cleanup",
-                 http_suspended());
+                 http_req_suspended());
         fflush(stderr);
         _exit(1);
     }
     http_stop();
-    jobq_stop();
+    sched_stop();
     log_info("stopped");
     config_free();
     return 0;

@@ -5,10 +5,16 @@
  * by route (the router's table index) and status (a fixed set of the codes
  * rayd sends).  Queue wait and render time are separate histograms with the
  * same buckets, so a slow response can be told apart as "waited" or
- * "rendered".  Gauges (queue depth, busy workers, cache size) are read from
- * their owners when /metrics is scraped.
+ * "rendered".
+ *
+ * Layer: base.  Counters are pushed here by the layer that sees the event;
+ * gauges (queue depth, busy workers, cache size, suspended connections) and
+ * the routes' labels belong to the layers above, which register a reader
+ * function or a name at start-up (metrics_gauge, metrics_route_name).  So
+ * metrics.c names no function of any other server file, and a scrape reads
+ * each gauge through the pointer its owner handed in.
  */
-#include "server.h"
+#include "base.h"
 
 #include <stdarg.h>
 #include <stdlib.h>
@@ -40,6 +46,23 @@ static atomic_ulong metrics_rejects[MR__COUNT], metrics_cancels[MC__COUNT];
 static const char *const metrics_reject_names[MR__COUNT] = {"queue_full", "draining",
                                                             "body_too_large", "unauthorized"};
 static const char *const metrics_cancel_names[MC__COUNT] = {"client_gone", "delete", "drain"};
+
+/* Written once at start-up (before the listener), read by scrapes. */
+static long (*metrics_gauges[MG__COUNT])(void);
+static const char *metrics_routes[METRICS_ROUTES];
+
+void metrics_gauge(enum metrics_gauge g, long (*read)(void)) { metrics_gauges[g] = read; }
+
+void metrics_route_name(int route, const char *name)
+{
+    if (route >= 0 && route < METRICS_ROUTES)
+        metrics_routes[route] = name;
+}
+
+static long metrics_read(enum metrics_gauge g)
+{
+    return metrics_gauges[g] ? metrics_gauges[g]() : 0;
+}
 
 void metrics_request(int route, int status)
 {
@@ -152,9 +175,8 @@ char *metrics_text(size_t *len)
     struct metrics_buf b = {0};
     metrics_printf(&b, "# HELP rayd_requests_total HTTP requests answered, by route and status.\n"
                        "# TYPE rayd_requests_total counter\n");
-    int nr = router_count();
     for (int r = 0; r <= METRICS_ROUTES; r++) {
-        if (r < METRICS_ROUTES && r >= nr)
+        if (r < METRICS_ROUTES && !metrics_routes[r])
             continue;
         for (size_t c = 0; c < METRICS_NCODES; c++) {
             unsigned long v = atomic_load(&metrics_req[r][c]);
@@ -166,11 +188,9 @@ char *metrics_text(size_t *len)
             else
                 snprintf(code, sizeof code, "other");
             metrics_printf(&b, "rayd_requests_total{route=\"%s\",status=\"%s\"} %lu\n",
-                           r < METRICS_ROUTES ? router_name(r) : "none", code, v);
+                           r < METRICS_ROUTES ? metrics_routes[r] : "none", code, v);
         }
     }
-    struct jobq_stats st;
-    jobq_stats(&st);
     metrics_printf(&b,
                    "# HELP rayd_queue_depth Render tasks waiting for a worker.\n"
                    "# TYPE rayd_queue_depth gauge\nrayd_queue_depth %ld\n"
@@ -184,14 +204,15 @@ char *metrics_text(size_t *len)
                    "# TYPE rayd_workers gauge\nrayd_workers %ld\n"
                    "# HELP rayd_jobs Asynchronous jobs remembered.\n"
                    "# TYPE rayd_jobs gauge\nrayd_jobs %ld\n",
-                   st.queued, st.queue_cap, st.running_tasks, st.busy_workers, st.workers,
-                   st.jobs);
+                   metrics_read(MG_QUEUE_DEPTH), metrics_read(MG_QUEUE_CAPACITY),
+                   metrics_read(MG_TASKS_RUNNING), metrics_read(MG_WORKERS_BUSY),
+                   metrics_read(MG_WORKERS), metrics_read(MG_JOBS));
     metrics_printf(&b,
                    "# HELP rayd_http_suspended Connections waiting for a render.\n"
                    "# TYPE rayd_http_suspended gauge\nrayd_http_suspended %ld\n"
                    "# HELP rayd_draining 1 while the server drains after SIGTERM.\n"
-                   "# TYPE rayd_draining gauge\nrayd_draining %d\n",
-                   http_suspended(), http_is_draining() ? 1 : 0);
+                   "# TYPE rayd_draining gauge\nrayd_draining %ld\n",
+                   metrics_read(MG_HTTP_SUSPENDED), metrics_read(MG_DRAINING));
     metrics_hist_text(&b, "rayd_queue_wait_seconds",
                       "Time from enqueue to the first tile starting.", &metrics_wait);
     metrics_hist_text(&b, "rayd_render_seconds",
@@ -203,11 +224,11 @@ char *metrics_text(size_t *len)
                    "# HELP rayd_cache_misses_total Scene bodies parsed and compiled.\n"
                    "# TYPE rayd_cache_misses_total counter\nrayd_cache_misses_total %lu\n"
                    "# HELP rayd_cache_bytes Memory held by cached compiled scenes.\n"
-                   "# TYPE rayd_cache_bytes gauge\nrayd_cache_bytes %zu\n"
+                   "# TYPE rayd_cache_bytes gauge\nrayd_cache_bytes %ld\n"
                    "# HELP rayd_cache_entries Compiled scenes in the cache.\n"
-                   "# TYPE rayd_cache_entries gauge\nrayd_cache_entries %zu\n",
-                   atomic_load(&metrics_hits), atomic_load(&metrics_misses), st.cache_bytes,
-                   st.cache_entries);
+                   "# TYPE rayd_cache_entries gauge\nrayd_cache_entries %ld\n",
+                   atomic_load(&metrics_hits), atomic_load(&metrics_misses),
+                   metrics_read(MG_CACHE_BYTES), metrics_read(MG_CACHE_ENTRIES));
     metrics_printf(&b,
                    "# HELP rayd_result_cache_hits_total Renders answered from finished PNGs.\n"
                    "# TYPE rayd_result_cache_hits_total counter\nrayd_result_cache_hits_total %lu\n"
@@ -215,11 +236,11 @@ char *metrics_text(size_t *len)
                    "# TYPE rayd_result_cache_misses_total counter\n"
                    "rayd_result_cache_misses_total %lu\n"
                    "# HELP rayd_result_cache_bytes Memory held by finished PNGs.\n"
-                   "# TYPE rayd_result_cache_bytes gauge\nrayd_result_cache_bytes %zu\n"
+                   "# TYPE rayd_result_cache_bytes gauge\nrayd_result_cache_bytes %ld\n"
                    "# HELP rayd_result_cache_entries Finished PNGs kept.\n"
-                   "# TYPE rayd_result_cache_entries gauge\nrayd_result_cache_entries %zu\n",
-                   atomic_load(&metrics_rhits), atomic_load(&metrics_rmisses), st.result_bytes,
-                   st.result_entries);
+                   "# TYPE rayd_result_cache_entries gauge\nrayd_result_cache_entries %ld\n",
+                   atomic_load(&metrics_rhits), atomic_load(&metrics_rmisses),
+                   metrics_read(MG_RESULT_CACHE_BYTES), metrics_read(MG_RESULT_CACHE_ENTRIES));
     metrics_printf(&b, "# HELP rayd_rejections_total Requests refused before any work.\n"
                        "# TYPE rayd_rejections_total counter\n");
     for (int i = 0; i < MR__COUNT; i++)

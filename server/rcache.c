@@ -8,10 +8,10 @@
  * are dropped first.  PNGs are shared blobs with an atomic reference count,
  * so a PNG being sent while it is evicted stays alive until sent.
  *
- * Like cache.c, this file has no lock: jobq.c calls it under its mutex; the
+ * Like cache.c, this file has no lock: it is called under work_lock; the
  * hash table, recency list and budget are the shared index of lru.c.
  */
-#include "server.h"
+#include "work_private.h"
 
 #include <stdlib.h>
 #include <string.h>

@@ -7,11 +7,19 @@
  * and whose method matches the request wins.  A path matched only under
  * other methods is a 405 with an Allow header listing them; a path matched
  * by no row is a 404.  HEAD is served as GET (libmicrohttpd drops the body).
- * The row index doubles as the route label of the request metrics.
+ * The row index doubles as the route label of the request metrics; the
+ * labels are handed to metrics.c once at start-up (router_start), so the
+ * metrics module never reads this table.
+ *
+ * Which paths are open without a token is routing knowledge too
+ * (router_public): the transport asks before it checks the token.
  */
-#include "server.h"
+#include "router.h"
+#include "api.h"
 
 #include <string.h>
+
+typedef void (*router_handler)(struct http_req *r, const char *id);
 
 struct route {
     const char *method;
@@ -40,11 +48,22 @@ static const struct route router_table[] = {
 
 #define ROUTER_N ((int)(sizeof router_table / sizeof router_table[0]))
 
-int router_count(void) { return ROUTER_N; }
-
-const char *router_name(int route)
+void router_start(void)
 {
-    return route >= 0 && route < ROUTER_N ? router_table[route].name : "none";
+    for (int i = 0; i < ROUTER_N; i++)
+        metrics_route_name(i, router_table[i].name);
+}
+
+/* The probes, and the preview's own static files (a browser cannot send a
+ * bearer token to open a page; the page then sends the token it is given
+ * with every API call). */
+bool router_public(const char *method, const char *url)
+{
+    if (!strcmp(url, "/healthz") || !strcmp(url, "/readyz"))
+        return true;
+    if (strcmp(method, "GET") && strcmp(method, "HEAD"))
+        return false;
+    return !strcmp(url, "/") || (url[0] == '/' && !strchr(url + 1, '/') && api_web_exists(url + 1));
 }
 
 /* Matches path against pattern; the {id} segment is copied to id. */
@@ -117,7 +136,7 @@ void router_dispatch(struct http_req *r)
         router_allow(r->url, allow, sizeof allow);
         snprintf(msg, sizeof msg, "method %s not allowed here; allowed: %s", r->method, allow);
         http_reply_error(r, 405, "method_not_allowed", msg, NULL, 0, 0, NULL);
-        http_add_header(r, "Allow", allow);
+        http_reply_header(r, "Allow", allow);
         return;
     }
     http_reply_error(r, 404, "not_found", "no such resource", NULL, 0, 0, NULL);

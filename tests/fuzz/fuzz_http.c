@@ -47,8 +47,9 @@ static void fh_init(void)
     lim.max_samples = 4;
     lim.max_depth = 4;
     lim.max_bytes = 65536;
-    jobq_set_limits(&lim);
-    if (jobq_start(1, (int)config.queue, (int)config.max_jobs))
+    scenes_set_limits(&lim);
+    router_start();
+    if (sched_start(1, (int)config.queue, (int)config.max_jobs))
         abort();
 }
 
@@ -117,15 +118,15 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (!r)
         abort();
     bool drop = false;
-    if (http_req_begin(r)) {
+    if (http_flow_begin(r)) {
         /* the body in pieces, as libmicrohttpd delivers it */
         for (size_t off = 0; off < blen && !drop;) {
             size_t n = blen - off < 1000 ? blen - off : 1000;
-            drop = !http_req_body(r, body + off, n);
+            drop = !http_flow_body(r, body + off, n);
             off += n;
         }
         if (!drop) {
-            http_req_handle(r);
+            http_flow_handle(r);
             if (r->parked) {
                 pthread_mutex_lock(&q.mu);
                 while (!q.resumed)
@@ -148,7 +149,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (getenv("FUZZ_HTTP_VERBOSE"))
         fprintf(stderr, "%s %s -> %d %s\n", r->method, r->url, r->status,
                 r->err_code ? r->err_code : "");
-    http_req_end(r, drop ? "aborted" : NULL);
+    http_flow_end(r, drop ? "aborted" : NULL);
     fh_free(&q);
     pthread_mutex_destroy(&q.mu);
     pthread_cond_destroy(&q.cv);

@@ -65,7 +65,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 r->err_code ? r->err_code : "(none)");
         abort();
     }
-    http_req_end(r, NULL);
+    http_flow_end(r, NULL);
     fh_free(&q);
     return 0;
 }

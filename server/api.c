@@ -1,0 +1,203 @@
+/* api.c -- what every handler shares: the region query, the JSON body
+ * check, and the mapping of failures to HTTP.
+ *
+ * A core status becomes an HTTP status and error code in one place,
+ * api_status_of, and a refusal of the work layer (queue full, draining, out
+ * of memory) becomes its 503 in one place, api_refused; the handlers never
+ * pick those numbers themselves, so one failure always reads the same.
+ *
+ * The region query is strict: all four parameters or none, decimal
+ * integers only, inside the image, no unknown or repeated parameters.  Each
+ * error names the offending parameter.
+ */
+#include "api.h"
+
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+struct api_q {
+    const char *val[4];
+    int count[4];
+    char unknown[64];
+};
+
+static const char *const api_q_names[4] = {"x", "y", "w", "h"};
+
+static void api_q_each(void *u, const char *k, const char *v)
+{
+    struct api_q *q = u;
+    for (int i = 0; i < 4; i++)
+        if (!strcmp(k, api_q_names[i])) {
+            q->val[i] = v;
+            q->count[i]++;
+            return;
+        }
+    if (!q->unknown[0])
+        snprintf(q->unknown, sizeof q->unknown, "%s", k);
+}
+
+static bool api_int(const char *s, long *out)
+{
+    const char *p = s;
+    if (*p == '-')
+        p++;
+    if (!*p || strlen(p) > 9)
+        return false;
+    for (; *p; p++)
+        if (*p < '0' || *p > '9')
+            return false;
+    *out = strtol(s, NULL, 10);
+    return true;
+}
+
+bool api_region(struct http_req *r, const rayd_scene *scene, struct rayd_region *out)
+{
+    struct rayd_scene_info info;
+    rayd_scene_info(scene, &info);
+    struct api_q q = {0};
+    http_req_query_each(r, api_q_each, &q);
+    char msg[200];
+    if (q.unknown[0]) {
+        snprintf(msg, sizeof msg, "unknown query parameter '%s' (only x, y, w, h)", q.unknown);
+        http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, q.unknown);
+        return false;
+    }
+    int present = 0;
+    for (int i = 0; i < 4; i++) {
+        if (q.count[i] > 1) {
+            snprintf(msg, sizeof msg, "%s: given more than once", api_q_names[i]);
+            http_reply_error(r, 400, "bad_region", msg, NULL, 0, 0, api_q_names[i]);
+            return false;
+        }
+        present += q.count[i];
+    }
+    if (present == 0) {
+        *out = (struct rayd_region){0, 0, info.width, info.height};
+        return true;
+    }
+    long v[4];
+    for (int i = 0; i < 4; i++) {
+        if (!q.count[i]) {
+            snprintf(msg, sizeof msg, "%s: missing (a region needs all of x, y, w, h)",
+                     api_q_names[i]);
+            http_reply_error(r, 400, "bad_region", msg, NULL, 0, 0, api_q_names[i]);
+            return false;
+        }
+        if (!api_int(q.val[i], &v[i])) {
+            snprintf(msg, sizeof msg, "%s: must be a decimal integer", api_q_names[i]);
+            http_reply_error(r, 400, "bad_region", msg, NULL, 0, 0, api_q_names[i]);
+            return false;
+        }
+    }
+    const char *bad = NULL;
+    const char *why = "";
+    if (v[0] < 0 || v[0] >= info.width)
+        bad = "x", why = "must be in 0..width-1";
+    else if (v[1] < 0 || v[1] >= info.height)
+        bad = "y", why = "must be in 0..height-1";
+    else if (v[2] < 1 || v[0] + v[2] > info.width)
+        bad = "w", why = "must be >= 1 with x + w <= width";
+    else if (v[3] < 1 || v[1] + v[3] > info.height)
+        bad = "h", why = "must be >= 1 with y + h <= height";
+    if (bad) {
+        snprintf(msg, sizeof msg, "%s: %s (the image is %dx%d)", bad, why, info.width,
+                 info.height);
+        http_reply_error(r, 400, "bad_region", msg, NULL, 0, 0, bad);
+        return false;
+    }
+    *out = (struct rayd_region){(int)v[0], (int)v[1], (int)v[2], (int)v[3]};
+    struct rayd_error err = {0};
+    if (rayd_region_check(scene, out, &err) != RAYD_OK) {
+        err.code = RAYD_E_ARG;
+        api_reply_rayd_error(r, &err);
+        return false;
+    }
+    return true;
+}
+
+bool api_require_json(struct http_req *r)
+{
+    const char *ct = http_req_header(r, "Content-Type");
+    if (ct) {
+        while (*ct == ' ')
+            ct++;
+        size_t n = strlen("application/json");
+        if (!strncasecmp(ct, "application/json", n) &&
+            (ct[n] == 0 || ct[n] == ';' || ct[n] == ' '))
+            return true;
+    }
+    http_reply_error(r, 415, "unsupported_media_type",
+                     "the body must be a JSON scene sent with Content-Type: application/json",
+                     NULL, 0, 0, NULL);
+    return false;
+}
+
+unsigned api_status_of(enum rayd_status s)
+{
+    switch (s) {
+    case RAYD_OK: return 200;
+    case RAYD_E_PARSE: return 400;
+    case RAYD_E_INVALID: return 422;
+    case RAYD_E_LIMIT: return 413;
+    case RAYD_E_ARG: return 400;
+    case RAYD_E_NOMEM: return 503;
+    case RAYD_E_CANCELED: return 503;
+    case RAYD_E_IO:
+    case RAYD_E_INTERNAL:
+    default: return 500;
+    }
+}
+
+void api_reply_rayd_error(struct http_req *r, const struct rayd_error *err)
+{
+    unsigned st = api_status_of(err->code);
+    const char *code = err->code == RAYD_E_CANCELED && sched_draining()
+                           ? "draining"
+                           : rayd_status_name(err->code);
+    http_reply_error(r, st, code, err->message[0] ? err->message : code, err->path,
+                     err->code == RAYD_E_PARSE ? (err->line > 0 ? err->line : 1) : 0,
+                     err->column, NULL);
+}
+
+void api_refused(struct http_req *r, enum work_submit why)
+{
+    switch (why) {
+    case WORK_FULL:
+        metrics_reject(MR_QUEUE_FULL);
+        http_reply_error(r, 503, "queue_full", "the render queue is full, retry later", NULL, 0, 0,
+                         NULL);
+        break;
+    case WORK_DRAINING:
+        metrics_reject(MR_DRAINING);
+        http_reply_error(r, 503, "draining", "the server is shutting down", NULL, 0, 0, NULL);
+        break;
+    case WORK_TOO_MANY_JOBS:
+        metrics_reject(MR_QUEUE_FULL);
+        http_reply_error(r, 503, "queue_full", "too many unfinished jobs, retry later", NULL, 0,
+                         0, NULL);
+        break;
+    case WORK_NOMEM:
+    default:
+        http_reply_error(r, 503, "out_of_memory", "out of memory", NULL, 0, 0, NULL);
+        break;
+    }
+}
+
+bool api_scene(struct http_req *r, struct cache_entry **out, bool *hit)
+{
+    if (sched_draining()) {
+        api_refused(r, WORK_DRAINING);
+        return false;
+    }
+    if (!api_require_json(r))
+        return false;
+    struct rayd_error err = {0};
+    enum rayd_status st = scenes_parse(r->body ? r->body : "", r->body_len, out, hit, &err);
+    if (st != RAYD_OK) {
+        err.code = st;
+        api_reply_rayd_error(r, &err);
+        return false;
+    }
+    return true;
+}

@@ -1,0 +1,51 @@
+/* api.h -- the handlers: one function per route, and what they share.
+ *
+ * Layer: handlers (api.c, api_render.c, api_jobs.c, api_health.c,
+ * api_test.c, api_web.c).  A handler validates the request, submits work
+ * and shapes the reply; it never renders and never blocks.
+ * May include: request.h (read the request, reply), work.h (scenes,
+ * renders, jobs, events), base.h, cJSON and libmicrohttpd's response API.
+ * Included by router.c (the table) and the fuzz harnesses.
+ */
+#ifndef RAYD_SERVER_API_H
+#define RAYD_SERVER_API_H
+
+#include "request.h"
+#include "work.h"
+
+/* ---- api.c: helpers of every handler ----------------------------------------- */
+
+/* Parses ?x=&y=&w=&h= strictly against scene; on error replies 400 and
+ * returns false.  No parameters: the whole image. */
+bool api_region(struct http_req *r, const rayd_scene *scene, struct rayd_region *out);
+/* Body is JSON?  Otherwise replies 415 and returns false. */
+bool api_require_json(struct http_req *r);
+/* The one place where a core status becomes an HTTP status and code. */
+unsigned api_status_of(enum rayd_status s);
+void api_reply_rayd_error(struct http_req *r, const struct rayd_error *err);
+/* Reply for a refused submission (queue full, draining, ...). */
+void api_refused(struct http_req *r, enum work_submit why);
+/* Parses r's body as a scene (refusing while draining): false after
+ * replying with the error; *out to scenes_release. */
+bool api_scene(struct http_req *r, struct cache_entry **out, bool *hit);
+
+/* ---- the routes ----------------------------------------------------------------- */
+
+void api_render_post(struct http_req *r, const char *id);
+void api_scenes_post(struct http_req *r, const char *id);
+void api_scenes_image(struct http_req *r, const char *id);
+void api_jobs_post(struct http_req *r, const char *id);
+void api_jobs_get(struct http_req *r, const char *id);
+void api_jobs_image(struct http_req *r, const char *id);
+void api_jobs_events(struct http_req *r, const char *id);
+void api_jobs_delete(struct http_req *r, const char *id);
+void api_health_live(struct http_req *r, const char *id);
+void api_health_ready(struct http_req *r, const char *id);
+void api_health_metrics(struct http_req *r, const char *id);
+void api_test_gate_get(struct http_req *r, const char *id);
+void api_test_gate_post(struct http_req *r, const char *id);
+void api_web_index(struct http_req *r, const char *id);
+void api_web_asset(struct http_req *r, const char *id);
+bool api_web_exists(const char *name);
+
+#endif

@@ -1,0 +1,172 @@
+/* base.h -- the bottom layer of the daemon: options, logging, metrics, the
+ * shared PNG blob and the few JSON helpers every upper layer writes with.
+ *
+ * Layer: base (config.c, log.c, metrics.c, blob.c, json.c).
+ * May include: the C library, <rayd/rayd.h> and cJSON -- nothing of
+ * server/.  Everything above (work, the HTTP request and reply, handlers,
+ * router, transport, main) may include this header.  A base file never
+ * calls a function of an upper layer by name: what metrics.c reports about
+ * the layers above, it reads through callbacks they registered at start-up.
+ *
+ * Every file of server/ is one idea and its public names start with the
+ * file's name (config_, log_, metrics_, blob_, json_).  The server's layers,
+ * bottom to top, are listed in LAYERS-server.txt beside the Makefile.
+ */
+#ifndef RAYD_SERVER_BASE_H
+#define RAYD_SERVER_BASE_H
+
+#include <rayd/rayd.h>
+
+#include <stdatomic.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <sys/types.h>
+
+/* ---- config.c ---------------------------------------------------------- */
+
+struct config {
+    char *bind;          /* address to listen on */
+    long port;           /* 0 picks a free port */
+    long threads;        /* render workers; 0 = number of cores */
+    long http_threads;   /* libmicrohttpd threads (validation, I/O) */
+    long queue;          /* pending render tasks before 503 */
+    long max_body;       /* bytes of a request body */
+    long max_pixels;     /* width * height of a scene */
+    char *token_file;    /* bearer token file, NULL = no auth */
+    long cache_mb;       /* compiled scene cache budget */
+    long result_cache_mb; /* finished PNG cache budget */
+    char *log_format;    /* text | json */
+    long drain_seconds;  /* grace period on SIGTERM */
+    char *cors_origin;   /* comma-separated allow-list, "*" = any */
+    long timeout;        /* connection idle timeout, seconds */
+    long max_jobs;       /* jobs kept for GET /v1/jobs/{id} */
+    long job_ttl;        /* seconds a finished job is kept */
+    long png_level;      /* zlib level of the PNGs, -1 default */
+    long max_conns;      /* open connections in all */
+    long max_conns_per_ip; /* open connections from one address, 0 = no limit */
+    long max_header_bytes; /* per-connection memory for request line + headers */
+    long max_url;        /* bytes of the request-target (path + query) */
+    long upload_seconds; /* longest time from the headers to the body's last byte, 0 = none */
+    char *tls_cert, *tls_key; /* PEM files: serve HTTPS with libmicrohttpd's TLS */
+    char *test_gate;     /* tests only: "open" or tiles allowed; NULL = off */
+    /* derived */
+    char *token;         /* contents of token_file, trimmed */
+    size_t token_len;
+    bool log_json;
+    long test_gate_tiles; /* parsed --test-gate: -1 open, -2 off */
+};
+
+extern struct config config;
+
+/* Parses environment then argv into config.  Returns 0 to run, 1 when the
+ * program should exit 0 (--help, --version), -1 on a bad option (the message
+ * is printed). */
+int config_load(int argc, char **argv);
+void config_usage(FILE *f);
+bool config_loopback(const char *addr); /* 127.x, ::1 or localhost */
+void config_free(void);
+
+/* ---- log.c --------------------------------------------------------------- */
+
+struct log_access {
+    const char *method, *path;
+    int status;
+    size_t bytes;
+    double queue_ms, render_ms, encode_ms, total_ms;
+    const char *note; /* "client_gone", ... or NULL */
+};
+
+extern bool log_quiet; /* no output at all (the fuzz harness) */
+void log_access(const struct log_access *a);
+void log_info(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+void log_warn(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+double log_now(void); /* monotonic seconds */
+
+/* ---- metrics.c ----------------------------------------------------------- */
+
+enum metrics_reject { MR_QUEUE_FULL, MR_DRAINING, MR_BODY_TOO_LARGE, MR_UNAUTHORIZED, MR__COUNT };
+enum metrics_cancel { MC_CLIENT_GONE, MC_DELETE, MC_DRAIN, MC__COUNT };
+/* The stages of a request's wait, end to end: the body arriving, the scene
+ * parsed, its mesh files decoded and its BVHs built (a cache miss), the
+ * queue, the tiles, the PNG, the reply going out.  One histogram,
+ * rayd_stage_seconds{stage=...}. */
+enum metrics_stage {
+    MS_UPLOAD,
+    MS_PARSE,
+    MS_DECODE,
+    MS_BUILD,
+    MS_QUEUE,
+    MS_RENDER,
+    MS_ENCODE,
+    MS_SEND,
+    MS__COUNT
+};
+/* Gauges: values owned by a layer above, read when /metrics is scraped
+ * through the function that layer registered (metrics_gauge) at start-up.
+ * A gauge nobody registered reads 0. */
+enum metrics_gauge {
+    MG_QUEUE_DEPTH,
+    MG_QUEUE_CAPACITY,
+    MG_TASKS_RUNNING,
+    MG_WORKERS_BUSY,
+    MG_WORKERS,
+    MG_JOBS,
+    MG_HTTP_SUSPENDED,
+    MG_DRAINING,
+    MG_CACHE_BYTES,
+    MG_CACHE_ENTRIES,
+    MG_RESULT_CACHE_BYTES,
+    MG_RESULT_CACHE_ENTRIES,
+    MG__COUNT
+};
+
+/* Counters and histograms: pushed by the layer that sees the event. */
+void metrics_request(int route, int status);
+void metrics_queue_wait(double seconds);
+void metrics_render(double seconds);
+void metrics_stage(enum metrics_stage stage, double seconds);
+void metrics_cache(bool hit);
+void metrics_result_cache(bool hit);
+void metrics_reject(enum metrics_reject why);
+void metrics_cancel(enum metrics_cancel why);
+void metrics_rays(uint64_t n);
+void metrics_coalesced(void);
+/* Registration, once at start-up, before the first scrape. */
+void metrics_gauge(enum metrics_gauge g, long (*read)(void));
+void metrics_route_name(int route, const char *name); /* label of a route index */
+/* The Prometheus text exposition; malloc'd, *len set. */
+char *metrics_text(size_t *len);
+
+/* ---- blob.c -------------------------------------------------------------- */
+
+/* A refcounted PNG shared by every request answered with it: the workers
+ * make it, the caches keep it, the transport sends it. */
+struct blob {
+    atomic_int refs;
+    void *data; /* rayd_free()d with the last reference */
+    size_t len;
+};
+/* A blob owning data (from the core's allocator), one reference; NULL on no
+ * memory (data is then left to the caller). */
+struct blob *blob_new(void *data, size_t len);
+struct blob *blob_ref(struct blob *b); /* returns b; NULL allowed */
+void blob_unref(struct blob *b);       /* NULL allowed */
+
+/* ---- json.c -------------------------------------------------------------- */
+
+/* cJSON writes every JSON document of the server; these keep the number
+ * formats docs/api.md shows (progress 0.4167, milliseconds 380.100). */
+typedef struct cJSON cJSON;
+/* Adds key: v with exactly decimals digits after the point. */
+void json_add_fixed(cJSON *o, const char *key, double v, int decimals);
+void json_add_u64(cJSON *o, const char *key, uint64_t v);
+/* o unformatted, with a final newline when nl; malloc'd (free()), NULL on no
+ * memory.  Deletes o (NULL allowed: then NULL). */
+char *json_print(cJSON *o, bool nl, size_t *len);
+/* o unformatted into buf (a line for a log or an event); false when it does
+ * not fit.  Does not delete o. */
+bool json_print_into(cJSON *o, char *buf, size_t size);
+
+#endif

@@ -1,0 +1,239 @@
+/* http_flow.c -- a request's life from its first header to its last byte,
+ * whatever the transport.
+ *
+ *   begin   headers only.  A request-target over --max-url is 414, an
+ *           ambiguous body length 400 (how requests are smuggled past
+ *           proxies), a Content-Length over --max-body 413 -- all before a
+ *           byte of the body is read.
+ *   body    chunks appended up to --max-body; past it they are counted, not
+ *           kept, and the request is answered 413; the whole upload gets
+ *           --upload-seconds.
+ *   handle  authentication (--token-file), the CORS preflight (OPTIONS), then
+ *           the router.  Decided here, before routing, so no handler can
+ *           forget them.  The handler replies, or suspends the request.
+ *   end     the access log line and the request metrics, then free.
+ *
+ * libmicrohttpd (http.c) and the fuzz harness drive the same four calls, so
+ * the fuzzer exercises exactly the code that serves.  Handlers are reached
+ * only through the router: this file is the transport's top half.
+ */
+#include "transport.h"
+#include "router.h"
+
+#include <microhttpd.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+/* Constant-time check of "Authorization: Bearer <token>". */
+static bool http_flow_authorized(struct http_req *r)
+{
+    if (!config.token)
+        return true;
+    const char *h = http_req_header(r, MHD_HTTP_HEADER_AUTHORIZATION);
+    if (!h || strncasecmp(h, "Bearer ", 7))
+        return false;
+    h += 7;
+    while (*h == ' ')
+        h++;
+    size_t hl = strlen(h);
+    unsigned char diff = hl != config.token_len;
+    for (size_t i = 0; i < config.token_len; i++)
+        diff |= (unsigned char)(config.token[i] ^ (i < hl ? h[i] : 0));
+    return diff == 0;
+}
+
+/* OPTIONS: CORS preflight or a plain Allow listing. */
+static void http_flow_options(struct http_req *r)
+{
+    char allow[128];
+    if (!router_allow(r->url, allow, sizeof allow)) {
+        http_reply_error(r, 404, "not_found", "no such resource", NULL, 0, 0, NULL);
+        return;
+    }
+    struct MHD_Response *resp = MHD_create_response_from_buffer(0, NULL, MHD_RESPMEM_PERSISTENT);
+    http_reply(r, 204, resp);
+    http_reply_header(r, MHD_HTTP_HEADER_ALLOW, allow);
+    if (http_reply_cors_origin(r)) {
+        http_reply_header(r, "Access-Control-Allow-Methods", allow);
+        http_reply_header(r, "Access-Control-Allow-Headers",
+                          "Authorization, Content-Type, If-None-Match");
+        http_reply_header(r, "Access-Control-Max-Age", "600");
+    }
+}
+
+/* Content-Length: digits only.  -1 absent, -2 malformed. */
+static long long http_flow_length(const char *cl)
+{
+    while (*cl == ' ' || *cl == '\t')
+        cl++;
+    unsigned long long n = 0;
+    const char *p = cl;
+    for (; *p >= '0' && *p <= '9'; p++)
+        if (n <= 1000000000000000ULL)
+            n = n * 10 + (unsigned)(*p - '0'); /* past 10^15 it is over any limit anyway */
+    while (*p == ' ' || *p == '\t')
+        p++;
+    if (p == cl || *p)
+        return -2;
+    return (long long)n;
+}
+
+struct http_flow_framing {
+    int nlength, nte;
+    long long length; /* the first Content-Length, -2 malformed */
+    bool differ;      /* two Content-Length headers that disagree */
+};
+
+static void http_flow_framing_cb(void *u, const char *k, const char *v)
+{
+    struct http_flow_framing *f = u;
+    if (!strcasecmp(k, MHD_HTTP_HEADER_CONTENT_LENGTH)) {
+        long long n = http_flow_length(v);
+        if (f->nlength++ == 0)
+            f->length = n;
+        else if (n != f->length)
+            f->differ = true;
+    } else if (!strcasecmp(k, MHD_HTTP_HEADER_TRANSFER_ENCODING)) {
+        f->nte++;
+    }
+}
+
+bool http_flow_begin(struct http_req *r)
+{
+    if (r->target_len > (size_t)config.max_url) {
+        char msg[128];
+        snprintf(msg, sizeof msg, "the request target is over the limit of %ld bytes (--max-url)",
+                 config.max_url);
+        http_reply_error(r, 414, "uri_too_long", msg, NULL, 0, 0, NULL);
+        return false;
+    }
+    /* an ambiguous body length is how requests are smuggled past proxies:
+     * refuse it rather than guess (RFC 9112 section 6.3) */
+    struct http_flow_framing f = {0, 0, -1, false};
+    r->io->header_each(r, http_flow_framing_cb, &f);
+    if (f.differ || f.length == -2 || (f.nlength && f.nte) || f.nte > 1) {
+        http_reply_error(r, 400, "bad_request",
+                         f.nte && f.nlength ? "both Transfer-Encoding and Content-Length"
+                         : f.nte > 1        ? "more than one Transfer-Encoding header"
+                                            : "malformed or conflicting Content-Length",
+                         NULL, 0, 0, NULL);
+        http_reply_header(r, MHD_HTTP_HEADER_CONNECTION, "close");
+        return false;
+    }
+    if (f.nlength && f.length > config.max_body) {
+        metrics_reject(MR_BODY_TOO_LARGE);
+        char msg[128];
+        snprintf(msg, sizeof msg, "the body is over the limit of %ld bytes (--max-body)",
+                 config.max_body);
+        http_reply_error(r, 413, "body_too_large", msg, NULL, 0, 0, NULL);
+        return false;
+    }
+    return true;
+}
+
+/* Forgets the body kept so far; the rest is counted only. */
+static void http_flow_drop_body(struct http_req *r, size_t n)
+{
+    free(r->body);
+    r->body = NULL;
+    r->body_cap = 0;
+    r->body_len += n;
+}
+
+bool http_flow_body(struct http_req *r, const char *data, size_t n)
+{
+    /* --timeout drops an idle connection, but a client that sends a byte now
+     * and then is never idle: the whole body gets --upload-seconds */
+    if (config.upload_seconds > 0 && log_now() - r->t0 > (double)config.upload_seconds) {
+        r->note = "upload_too_slow";
+        return false;
+    }
+    if (r->too_large || r->no_memory) {
+        r->body_len += n; /* counted, not kept */
+        return r->body_len <= 4 * (size_t)config.max_body;
+    }
+    if (r->body_len + n > (size_t)config.max_body) {
+        r->too_large = true;
+        http_flow_drop_body(r, n);
+        return true;
+    }
+    if (r->body_len + n + 1 > r->body_cap) {
+        size_t cap = r->body_cap ? r->body_cap : 4096;
+        while (cap < r->body_len + n + 1)
+            cap *= 2;
+        char *b = realloc(r->body, cap);
+        if (!b) {
+            /* read the rest without keeping it, then answer 503 */
+            r->no_memory = true;
+            http_flow_drop_body(r, n);
+            return true;
+        }
+        r->body = b;
+        r->body_cap = cap;
+    }
+    memcpy(r->body + r->body_len, data, n);
+    r->body_len += n;
+    r->body[r->body_len] = 0;
+    return true;
+}
+
+void http_flow_handle(struct http_req *r)
+{
+    if (r->body_len > 0)
+        metrics_stage(MS_UPLOAD, log_now() - r->t0);
+    if (r->too_large) {
+        metrics_reject(MR_BODY_TOO_LARGE);
+        http_reply_error(r, 413, "body_too_large", "the body is over the limit (--max-body)", NULL,
+                         0, 0, NULL);
+        return;
+    }
+    if (r->no_memory) {
+        http_reply_error(r, 503, "out_of_memory", "out of memory reading the body", NULL, 0, 0,
+                         NULL);
+        return;
+    }
+    if (!strcmp(r->method, "OPTIONS")) {
+        http_flow_options(r);
+    } else if (!router_public(r->method, r->url) && !http_flow_authorized(r)) {
+        metrics_reject(MR_UNAUTHORIZED);
+        http_reply_error(r, 401, "unauthorized", "missing or wrong bearer token", NULL, 0, 0,
+                         NULL);
+    } else {
+        r->parked = false;
+        router_dispatch(r);
+        if (r->parked)
+            return; /* r now belongs to the worker until it resumes */
+    }
+    if (!r->pending && !r->gone)
+        http_reply_error(r, 500, "internal", "the handler gave no answer", NULL, 0, 0, NULL);
+}
+
+void http_flow_end(struct http_req *r, const char *note)
+{
+    if (!r->method) {
+        /* refused by libmicrohttpd before the handler saw it (bad headers,
+         * headers over --max-header-bytes): it answered by itself */
+        struct log_access a = {"-", "-", 0, 0, 0, 0, 0, (log_now() - r->t0) * 1e3,
+                               "refused_by_http_parser"};
+        log_access(&a);
+        http_req_free(r);
+        return;
+    }
+    int status = r->status;
+    if (r->note)
+        note = r->note;
+    if (r->gone || !r->replied) {
+        status = 499;
+        if (!note)
+            note = "client_gone";
+    }
+    metrics_request(r->route, status);
+    if (r->is_png && r->t_sent > 0 && status == 200)
+        metrics_stage(MS_SEND, log_now() - r->t_sent);
+    struct log_access a = {r->method,    r->url,       status,
+                           r->bytes,     r->queue_ms,  r->render_ms,
+                           r->encode_ms, (log_now() - r->t0) * 1e3, note};
+    log_access(&a);
+    http_req_free(r);
+}

@@ -1,0 +1,167 @@
+/* http_reply.c -- the replies a handler can give, and what every reply
+ * carries.
+ *
+ * A reply is built as a libmicrohttpd response and parked on the request
+ * (r->pending); the transport queues it when the handler returns or when a
+ * suspended request is resumed, so a worker thread never touches the
+ * connection itself.  Headers every reply needs -- CORS for an allowed
+ * Origin, nosniff -- are added here, once, so no handler can forget them.
+ * Every error body of the API comes from http_reply_error, written by cJSON:
+ * {"error": {"status", "code", "message", "path"?, "line"?, "column"?,
+ * "parameter"?}}.  PNGs are sent from the shared blob without a copy; the
+ * response holds a reference, dropped by libmicrohttpd when it is done.
+ */
+#include "request.h"
+
+#include <cjson/cJSON.h>
+#include <microhttpd.h>
+#include <stdlib.h>
+#include <string.h>
+
+const char *http_reply_cors_origin(struct http_req *r)
+{
+    if (!config.cors_origin || !*config.cors_origin)
+        return NULL;
+    const char *origin = http_req_header(r, "Origin");
+    if (!origin)
+        return NULL;
+    if (!strcmp(config.cors_origin, "*"))
+        return "*";
+    size_t ol = strlen(origin), n;
+    const char *p = config.cors_origin, *item;
+    while (http_req_list_next(&p, &item, &n))
+        if (n == ol && ol && !memcmp(item, origin, ol))
+            return origin;
+    return NULL;
+}
+
+void http_reply(struct http_req *r, unsigned status, struct MHD_Response *resp)
+{
+    if (!resp) {
+        /* out of memory building a response: give up on the connection */
+        r->gone = true;
+        return;
+    }
+    if (r->pending)
+        MHD_destroy_response(r->pending);
+    const char *origin = http_reply_cors_origin(r);
+    if (origin) {
+        MHD_add_response_header(resp, "Access-Control-Allow-Origin", origin);
+        MHD_add_response_header(resp, "Access-Control-Expose-Headers",
+                                "ETag, Location, Retry-After, Content-Length");
+        if (strcmp(origin, "*"))
+            MHD_add_response_header(resp, "Vary", "Origin");
+    }
+    MHD_add_response_header(resp, "X-Content-Type-Options", "nosniff");
+    r->pending = resp;
+    r->pending_status = status;
+    r->status = (int)status;
+    r->replied = true;
+}
+
+void http_reply_header(struct http_req *r, const char *name, const char *value)
+{
+    if (r->pending)
+        MHD_add_response_header(r->pending, name, value);
+}
+
+void http_reply_data(struct http_req *r, unsigned status, const char *ctype, const void *data,
+                     size_t len)
+{
+    struct MHD_Response *resp =
+        MHD_create_response_from_buffer(len, (void *)(uintptr_t)data, MHD_RESPMEM_MUST_COPY);
+    if (resp && ctype)
+        MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, ctype);
+    r->bytes = len;
+    http_reply(r, status, resp);
+}
+
+/* The text of o (deleted) as the body.  Printed into a stack buffer and
+ * copied once by libmicrohttpd, as any small body: an error reply under load
+ * (503 queue_full) costs no more than the hand-written one did. */
+static void http_reply_text(struct http_req *r, unsigned status, cJSON *o)
+{
+    char buf[4096];
+    if (json_print_into(o, buf, sizeof buf - 1)) {
+        cJSON_Delete(o);
+        size_t len = strlen(buf);
+        buf[len++] = '\n';
+        http_reply_data(r, status, "application/json", buf, len);
+        return;
+    }
+    size_t len = 0;
+    char *text = json_print(o, true, &len); /* deletes o */
+    struct MHD_Response *resp =
+        text ? MHD_create_response_from_buffer_with_free_callback(len, text, free) : NULL;
+    if (!resp) {
+        free(text);
+        r->gone = true;
+        return;
+    }
+    MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, "application/json");
+    r->bytes = len;
+    http_reply(r, status, resp);
+}
+
+void http_reply_json(struct http_req *r, unsigned status, cJSON *o)
+{
+    http_reply_text(r, status, o);
+    if (status < 300)
+        http_reply_header(r, "Cache-Control", "no-store");
+}
+
+static void http_reply_blob_free(void *cls) { blob_unref(cls); }
+
+void http_reply_png(struct http_req *r, unsigned status, struct blob *png)
+{
+    /* the response holds one reference to the blob, dropped by libmicrohttpd */
+    blob_ref(png);
+    struct MHD_Response *resp = MHD_create_response_from_buffer_with_free_callback_cls(
+        png->len, png->data, http_reply_blob_free, png);
+    if (!resp) {
+        blob_unref(png);
+        r->gone = true;
+        return;
+    }
+    MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, "image/png");
+    r->bytes = png->len;
+    r->is_png = true;
+    http_reply(r, status, resp);
+}
+
+void http_reply_error(struct http_req *r, unsigned status, const char *code, const char *message,
+                      const char *path, int line, int column, const char *param)
+{
+    cJSON *o = cJSON_CreateObject();
+    cJSON *e = cJSON_AddObjectToObject(o, "error");
+    cJSON_AddNumberToObject(e, "status", status);
+    cJSON_AddStringToObject(e, "code", code);
+    cJSON_AddStringToObject(e, "message", message ? message : "");
+    if (path && *path)
+        cJSON_AddStringToObject(e, "path", path);
+    if (line > 0) {
+        cJSON_AddNumberToObject(e, "line", line);
+        cJSON_AddNumberToObject(e, "column", column);
+    }
+    if (param && *param)
+        cJSON_AddStringToObject(e, "parameter", param);
+    http_reply_text(r, status, o);
+    r->err_code = code;
+    http_reply_header(r, "Cache-Control", "no-store");
+    if (status == 503)
+        http_reply_header(r, MHD_HTTP_HEADER_RETRY_AFTER, "1");
+    if (status == 401)
+        http_reply_header(r, MHD_HTTP_HEADER_WWW_AUTHENTICATE, "Bearer realm=\"rayd\"");
+    if (status == 413 && !r->body && r->body_len == 0)
+        http_reply_header(r, MHD_HTTP_HEADER_CONNECTION, "close");
+}
+
+void http_reply_cache_headers(struct http_req *r)
+{
+    if (r->etag[0]) {
+        http_reply_header(r, MHD_HTTP_HEADER_ETAG, r->etag);
+        http_reply_header(r, MHD_HTTP_HEADER_CACHE_CONTROL, "public, max-age=31536000, immutable");
+    } else {
+        http_reply_header(r, MHD_HTTP_HEADER_CACHE_CONTROL, "no-store");
+    }
+}

@@ -1,0 +1,223 @@
+/* jobs.c -- asynchronous renders: a table of jobs, each following a task.
+ *
+ * A job is a render nobody waits on: created at once with a random id, it
+ * follows a task (possibly shared with synchronous requests and other jobs)
+ * and outlives it, keeping the finished task -- its state, its timings, its
+ * PNG -- for GET /v1/jobs/{id} and the image.  The table is bounded:
+ * --max-jobs jobs at most, the oldest finished one making room for a new
+ * one, and the watcher (watch.c) forgets finished jobs past --job-ttl.
+ * Cancelling a job (DELETE) cancels its task only when nobody else -- no
+ * other job, no waiting connection -- still wants it.
+ *
+ * All under work_lock; a job's memory is held by the table and by each open
+ * event stream (events.c), so a stream outlives the job's eviction.
+ */
+#include "work_private.h"
+
+#include <stdlib.h>
+#include <string.h>
+#include <sys/random.h>
+
+static struct job **jobs_table;
+static int jobs_n, jobs_max;
+
+static long jobs_gauge(void)
+{
+    pthread_mutex_lock(&work_lock);
+    long n = jobs_n;
+    pthread_mutex_unlock(&work_lock);
+    return n;
+}
+
+int jobs_start(int max_jobs)
+{
+    jobs_max = max_jobs;
+    jobs_table = calloc((size_t)max_jobs, sizeof *jobs_table);
+    metrics_gauge(MG_JOBS, jobs_gauge);
+    return jobs_table ? 0 : -1;
+}
+
+void jobs_stop(void)
+{
+    for (int i = 0; i < jobs_n; i++)
+        jobs_unref(jobs_table[i]);
+    jobs_n = 0;
+    free(jobs_table);
+    jobs_table = NULL;
+}
+
+const char *jobs_state_name(enum jobs_state s)
+{
+    static const char *const names[] = {"queued", "running", "succeeded", "failed", "canceled"};
+    return names[s];
+}
+
+enum jobs_state jobs_state(const struct job *j)
+{
+    const struct task *t = j->task;
+    if (j->canceled)
+        return JS_CANCELED;
+    if (t->finished)
+        return t->status == RAYD_OK            ? JS_SUCCEEDED
+               : t->status == RAYD_E_CANCELED ? JS_CANCELED
+                                               : JS_FAILED;
+    return t->next_tile == 0 && !t->finalizing ? JS_QUEUED : JS_RUNNING;
+}
+
+static bool jobs_final(const struct job *j)
+{
+    enum jobs_state s = jobs_state(j);
+    return s == JS_SUCCEEDED || s == JS_FAILED || s == JS_CANCELED;
+}
+
+struct job *jobs_find(const char *id)
+{
+    for (int i = 0; i < jobs_n; i++)
+        if (!strcmp(jobs_table[i]->id, id))
+            return jobs_table[i];
+    return NULL;
+}
+
+void jobs_unref(struct job *j)
+{
+    if (--j->refs > 0)
+        return;
+    if (j->task)
+        task_unref(j->task);
+    free(j);
+}
+
+static void jobs_forget(int i)
+{
+    struct job *j = jobs_table[i];
+    jobs_table[i] = jobs_table[--jobs_n];
+    jobs_unref(j);
+}
+
+void jobs_expire(double now)
+{
+    for (int i = 0; i < jobs_n;) {
+        const struct job *j = jobs_table[i];
+        if (jobs_final(j) && now - j->created > (double)config.job_ttl)
+            jobs_forget(i);
+        else
+            i++;
+    }
+}
+
+/* Makes room in the table by forgetting the oldest finished job. */
+static bool jobs_evict(void)
+{
+    int victim = -1;
+    for (int i = 0; i < jobs_n; i++)
+        if (jobs_final(jobs_table[i]) &&
+            (victim < 0 || jobs_table[i]->created < jobs_table[victim]->created))
+            victim = i;
+    if (victim < 0)
+        return false;
+    jobs_forget(victim);
+    return true;
+}
+
+static bool jobs_new_id(char id[33])
+{
+    uint8_t rnd[16];
+    if (getrandom(rnd, sizeof rnd, 0) != (ssize_t)sizeof rnd)
+        return false;
+    for (int i = 0; i < 16; i++)
+        snprintf(id + 2 * i, 3, "%02x", rnd[i]);
+    return true;
+}
+
+enum work_submit jobs_create(struct cache_entry *scene, const struct rayd_region *reg,
+                             char id[33])
+{
+    if (!jobs_new_id(id))
+        return WORK_NOMEM;
+    struct job *j = calloc(1, sizeof *j);
+    struct task *fresh = task_new(scene, reg);
+    if (!j || !fresh) {
+        free(j);
+        if (fresh)
+            task_unref(fresh);
+        return WORK_NOMEM;
+    }
+    snprintf(j->id, sizeof j->id, "%s", id);
+    j->created = log_now();
+    j->refs = 1;
+    pthread_mutex_lock(&work_lock);
+    enum work_submit r = WORK_OK;
+    struct task *t = NULL;
+    if (task_draining())
+        r = WORK_DRAINING;
+    else if (jobs_n == jobs_max && !jobs_evict())
+        r = WORK_TOO_MANY_JOBS;
+    else
+        r = task_submit(scene, reg, &fresh, &t);
+    if (r == WORK_OK) {
+        j->task = t;
+        t->refs++;
+        t->njobs++;
+        jobs_table[jobs_n++] = j;
+        j = NULL;
+    }
+    pthread_mutex_unlock(&work_lock);
+    free(j);
+    if (fresh)
+        task_unref(fresh);
+    return r;
+}
+
+/* The job's numbers, lock held. */
+static void jobs_info_of(const struct job *j, struct jobs_info *info, bool want_png)
+{
+    const struct task *t = j->task;
+    info->state = jobs_state(j);
+    info->tiles_done = t->done;
+    info->tiles_total = t->ntiles;
+    info->progress = t->ntiles ? (double)t->done / t->ntiles : 0;
+    if (info->state == JS_SUCCEEDED)
+        info->progress = 1;
+    info->region = t->reg;
+    snprintf(info->scene_id, sizeof info->scene_id, "%s", t->scene_id);
+    double now = log_now();
+    info->created_age = now - j->created;
+    info->queue_ms = t->t_start > 0 ? (t->t_start - t->t_enq) * 1e3 : (now - t->t_enq) * 1e3;
+    info->render_ms = t->t_start > 0 ? ((t->finished ? t->t_end : now) - t->t_start) * 1e3 : 0;
+    info->encode_ms = t->encode_s * 1e3;
+    info->rays = t->rays;
+    if (info->state == JS_FAILED)
+        info->err = t->err;
+    if (want_png && info->state == JS_SUCCEEDED && t->png)
+        info->png = blob_ref(t->png);
+}
+
+bool jobs_get(const char *id, struct jobs_info *info, bool want_png)
+{
+    memset(info, 0, sizeof *info);
+    pthread_mutex_lock(&work_lock);
+    struct job *j = jobs_find(id);
+    if (j)
+        jobs_info_of(j, info, want_png);
+    pthread_mutex_unlock(&work_lock);
+    return j != NULL;
+}
+
+bool jobs_cancel(const char *id)
+{
+    struct task_notify n = {0}, sse = {0};
+    pthread_mutex_lock(&work_lock);
+    struct job *j = jobs_find(id);
+    if (j && !j->canceled && !j->task->finished) {
+        struct task *t = j->task;
+        j->canceled = true;
+        t->njobs--;
+        if (t->njobs == 0 && !t->waiters)
+            task_cancel(t, MC_DELETE, &n, &sse);
+        task_notify_add(&sse, &t->sse_waiters);
+    }
+    pthread_mutex_unlock(&work_lock);
+    task_notify_run(&n);
+    task_notify_run(&sse);
+    return j != NULL;
+}

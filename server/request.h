@@ -1,0 +1,106 @@
+/* request.h -- one HTTP request as the router and the handlers see it: its
+ * method, path, headers and query, and the replies they can give.
+ *
+ * Layer: request (http_req.c, http_reply.c) -- the lower half of the
+ * transport.  It sits below the handlers so that they can read a request and
+ * shape a reply without calling up into the libmicrohttpd glue: the glue
+ * (http.c) and the request flow (http_flow.c) are above the router and
+ * reach a request through struct http_io, the table of functions the
+ * transport fills in (libmicrohttpd, or the fuzz harness's own).
+ * May include: base.h, libmicrohttpd's response type (opaque here) -- never
+ * work.h: a reply carries a PNG as a struct blob (base), not a task.
+ * Included by http_req.c, http_reply.c, api_*.c, router.c, http_flow.c,
+ * http.c and the fuzz harnesses.
+ */
+#ifndef RAYD_SERVER_REQUEST_H
+#define RAYD_SERVER_REQUEST_H
+
+#include "base.h"
+
+struct MHD_Response;
+struct http_req;
+
+/* Where a request comes from: libmicrohttpd (http.c) or a test harness
+ * (tests/fuzz/fuzz_http_common.h).  Everything reaches the connection only
+ * through these. */
+struct http_io {
+    const char *(*header)(struct http_req *r, const char *name); /* first match, any case */
+    void (*header_each)(struct http_req *r, void (*fn)(void *u, const char *k, const char *v),
+                        void *u);
+    void (*query_each)(struct http_req *r, void (*fn)(void *u, const char *k, const char *v),
+                       void *u);
+    void (*suspend)(struct http_req *r);
+    void (*resume)(struct http_req *r);
+    int (*fd)(struct http_req *r); /* socket to watch for a hang-up, -1 none */
+};
+
+/* One HTTP request from the first header to the last byte sent. */
+struct http_req {
+    const struct http_io *io;
+    void *io_ctx;                /* the transport's own (an MHD_Connection) */
+    const char *method, *url;
+    size_t target_len;           /* bytes of the request-target, query included */
+    const char *err_code;        /* code of the error reply sent, NULL for none */
+    char *body;
+    size_t body_len, body_cap;
+    int route;                   /* router index for metrics, -1 none */
+    int status;                  /* the status sent */
+    size_t bytes;                /* response body size */
+    double t0, queue_ms, render_ms, encode_ms; /* the handler fills the last three */
+    double t_sent;               /* when the response was handed to libmicrohttpd */
+    bool is_png;                 /* the response is an image (its send is a stage) */
+    struct MHD_Response *pending; /* to queue when the handler runs again */
+    unsigned pending_status;
+    bool suspended, gone, replied, too_large, no_memory;
+    bool parked;                 /* suspended by the handler now running (its thread only) */
+    const char *note;            /* for the access log */
+    char etag[72];               /* set for immutable GETs */
+};
+
+/* ---- http_req.c: the request ------------------------------------------------ */
+
+/* A request with its method and path (strings kept by the caller); freed by
+ * http_req_free.  NULL on no memory. */
+struct http_req *http_req_new(const struct http_io *io, void *io_ctx, const char *method,
+                              const char *url, size_t target_len);
+void http_req_free(struct http_req *r); /* the pending response too */
+long http_req_in_flight(void);          /* requests not yet freed */
+long http_req_suspended(void);          /* requests suspended right now */
+double http_req_last(void);             /* when the latest came (log_now() time) */
+
+const char *http_req_header(struct http_req *r, const char *name);
+const char *http_req_query(struct http_req *r, const char *name);
+void http_req_query_each(struct http_req *r, void (*fn)(void *u, const char *k, const char *v),
+                         void *u);
+int http_req_fd(struct http_req *r);
+/* Suspends r: from now on only whoever resumes it may touch it (r->parked
+ * tells the thread that ran the handler). */
+void http_req_suspend(struct http_req *r);
+void http_req_resume(struct http_req *r); /* r may be gone after this */
+/* The next item of a comma-separated header value (spaces trimmed): false
+ * at the end; *p advances past it. */
+bool http_req_list_next(const char **p, const char **item, size_t *len);
+
+/* ---- http_reply.c: the reply ------------------------------------------------- */
+
+/* Each takes ownership of nothing (but resp); the response goes out when the
+ * handler returns, or when a suspended request is resumed.  CORS and
+ * nosniff headers are added to every reply here. */
+void http_reply(struct http_req *r, unsigned status, struct MHD_Response *resp);
+void http_reply_data(struct http_req *r, unsigned status, const char *ctype, const void *data,
+                     size_t len);
+/* o as the JSON body, deleted; Cache-Control: no-store on a success. */
+void http_reply_json(struct http_req *r, unsigned status, cJSON *o);
+void http_reply_png(struct http_req *r, unsigned status, struct blob *png); /* refs png */
+/* The JSON error body of the API.  path NULL or "" leaves it out; line and
+ * column are written when line > 0; param names a bad query parameter. */
+void http_reply_error(struct http_req *r, unsigned status, const char *code, const char *message,
+                      const char *path, int line, int column, const char *param);
+/* Adds a header to the response queued last (call right after a reply). */
+void http_reply_header(struct http_req *r, const char *name, const char *value);
+/* ETag + immutable Cache-Control when r->etag is set, else no-store. */
+void http_reply_cache_headers(struct http_req *r);
+/* The Access-Control-Allow-Origin value for r under --cors-origin, or NULL. */
+const char *http_reply_cors_origin(struct http_req *r);
+
+#endif

@@ -1,0 +1,23 @@
+/* router.h -- method + path -> handler, and what the transport asks of the
+ * route table.
+ *
+ * Layer: router (router.c), between the transport above and the handlers
+ * below.  May include: request.h (and base.h through it); router.c itself
+ * includes api.h, the handlers it dispatches to.  Included by http_flow.c
+ * and main.c.
+ */
+#ifndef RAYD_SERVER_ROUTER_H
+#define RAYD_SERVER_ROUTER_H
+
+#include "request.h"
+
+/* Registers the routes' metric labels (metrics_route_name), at start-up. */
+void router_start(void);
+/* Runs the handler of r's method and path, or replies 404 / 405. */
+void router_dispatch(struct http_req *r);
+/* Allowed methods for a path ("GET, DELETE"), NULL when no route matches. */
+const char *router_allow(const char *path, char *buf, size_t size);
+/* Routes open without a token: the probes and the preview's own files. */
+bool router_public(const char *method, const char *url);
+
+#endif

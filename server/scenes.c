@@ -1,0 +1,143 @@
+/* scenes.c -- compiled scenes by content: the scene cache behind the lock.
+ *
+ * Tile clients send the same scene many times, and parsing a scene and
+ * building its BVHs is the costly part of a small render, so every body is
+ * looked up by its SHA-256 first and compiled only on a miss.  Hashing and
+ * compiling run outside work_lock (they take milliseconds to seconds); the
+ * lookup and the insertion take it, because cache.c and rcache.c have no
+ * lock of their own.  Two requests compiling the same new scene at once
+ * both compile it; cache_put keeps the first and frees the second, which is
+ * cheaper than making the second wait on a per-entry lock.
+ *
+ * The parse stages (parse, decode mesh files, build BVHs) of a miss are
+ * timed here for rayd_stage_seconds.
+ */
+#include "work_private.h"
+
+#include <string.h>
+
+/* The scene limits: the core's defaults with --max-pixels and --max-body,
+ * unless set here (the fuzz harness lowers them so it explores errors rather
+ * than rendering big scenes). */
+static struct rayd_limits scenes_limits;
+static bool scenes_limits_set;
+
+void scenes_set_limits(const struct rayd_limits *lim)
+{
+    scenes_limits = *lim;
+    scenes_limits_set = true;
+}
+
+static void scenes_nomem(struct rayd_error *err, const char *msg)
+{
+    if (!err)
+        return;
+    memset(err, 0, sizeof *err);
+    err->code = RAYD_E_NOMEM;
+    snprintf(err->message, sizeof err->message, "%s", msg);
+}
+
+/* Parses and builds body outside the lock, timing each stage. */
+static enum rayd_status scenes_compile(const char *body, size_t len, rayd_scene **scene,
+                                       struct rayd_error *err)
+{
+    struct rayd_limits lim;
+    if (scenes_limits_set) {
+        lim = scenes_limits;
+    } else {
+        rayd_limits_default(&lim);
+        lim.max_pixels = config.max_pixels;
+        if (lim.max_bytes < (size_t)config.max_body)
+            lim.max_bytes = (size_t)config.max_body;
+    }
+    double t0 = log_now();
+    enum rayd_status st = rayd_scene_parse(body, len, &lim, scene, err);
+    double parsed = log_now() - t0;
+    if (st != RAYD_OK) {
+        metrics_stage(MS_PARSE, parsed);
+        return st;
+    }
+    struct rayd_scene_info info;
+    rayd_scene_info(*scene, &info);
+    metrics_stage(MS_PARSE, parsed - info.decode_seconds - info.build_seconds);
+    metrics_stage(MS_DECODE, info.decode_seconds);
+    metrics_stage(MS_BUILD, info.build_seconds);
+    return RAYD_OK;
+}
+
+enum rayd_status scenes_parse(const char *body, size_t len, struct cache_entry **out, bool *hit,
+                              struct rayd_error *err)
+{
+    char id[65];
+    if (!cache_hash(body, len, id)) {
+        scenes_nomem(err, "cannot hash the scene (libcrypto)");
+        return RAYD_E_NOMEM;
+    }
+    struct cache_entry *e = scenes_find(id);
+    metrics_cache(e != NULL);
+    *hit = e != NULL;
+    if (e) {
+        *out = e;
+        return RAYD_OK;
+    }
+    rayd_scene *scene = NULL;
+    enum rayd_status st = scenes_compile(body, len, &scene, err);
+    if (st != RAYD_OK)
+        return st;
+    pthread_mutex_lock(&work_lock);
+    e = cache_put(id, scene);
+    pthread_mutex_unlock(&work_lock);
+    if (!e) {
+        rayd_scene_free(scene);
+        scenes_nomem(err, "out of memory");
+        return RAYD_E_NOMEM;
+    }
+    *out = e;
+    return RAYD_OK;
+}
+
+struct cache_entry *scenes_find(const char *id)
+{
+    pthread_mutex_lock(&work_lock);
+    struct cache_entry *e = cache_get(id);
+    pthread_mutex_unlock(&work_lock);
+    return e;
+}
+
+void scenes_release(struct cache_entry *e)
+{
+    if (!e)
+        return;
+    pthread_mutex_lock(&work_lock);
+    cache_release(e);
+    pthread_mutex_unlock(&work_lock);
+}
+
+/* ---- the caches' gauges, registered with metrics.c ----------------------- */
+
+static long scenes_read(bool result, bool bytes)
+{
+    size_t b, n;
+    pthread_mutex_lock(&work_lock);
+    if (result)
+        rcache_stats(&b, &n);
+    else
+        cache_stats(&b, &n);
+    pthread_mutex_unlock(&work_lock);
+    return (long)(bytes ? b : n);
+}
+
+static long scenes_gauge_bytes(void) { return scenes_read(false, true); }
+static long scenes_gauge_entries(void) { return scenes_read(false, false); }
+static long scenes_gauge_rbytes(void) { return scenes_read(true, true); }
+static long scenes_gauge_rentries(void) { return scenes_read(true, false); }
+
+void scenes_start(void)
+{
+    cache_init((size_t)config.cache_mb * 1024 * 1024);
+    rcache_init((size_t)config.result_cache_mb * 1024 * 1024);
+    metrics_gauge(MG_CACHE_BYTES, scenes_gauge_bytes);
+    metrics_gauge(MG_CACHE_ENTRIES, scenes_gauge_entries);
+    metrics_gauge(MG_RESULT_CACHE_BYTES, scenes_gauge_rbytes);
+    metrics_gauge(MG_RESULT_CACHE_ENTRIES, scenes_gauge_rentries);
+}

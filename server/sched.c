@@ -1,0 +1,318 @@
+/* sched.c -- the worker pool: who renders which tile next, and the pool's
+ * life from start to drain to stop.
+ *
+ * Scheduling is per tile, not per task: each time a worker is free it takes
+ * the next tile of the task task_pick() puts first (task.c explains the
+ * order), so a small interactive request overtakes a big frame at the next
+ * tile boundary.  The worker that finishes a task's last tile encodes its
+ * PNG -- with the lock released, like the tiles -- and answers everyone
+ * interested in it.
+ *
+ * Back-pressure: at most queue_cap tasks may wait for a worker (have tiles
+ * nobody has started); beyond that a submission is refused with WORK_FULL and
+ * the handler answers 503 + Retry-After.  Joining an identical task is free,
+ * and a finished identical render is answered from the result cache
+ * (rcache.c) without a task at all.
+ *
+ * Drain: task.c's flag refuses new work while what is queued finishes; the
+ * deadline cancels the rest (sched_cancel_all).
+ *
+ * This file is the top of the work layer: it starts and stops the others
+ * (caches, jobs, the watcher) and no other work file calls it.
+ */
+#include "work_private.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+
+static pthread_t *sched_threads;
+static int sched_nworkers, sched_busy;
+static bool sched_stopping; /* lock held: the workers end */
+
+/* ---- workers --------------------------------------------------------------- */
+
+/* The next task a worker should take a tile of, lock held; waits for one.
+ * NULL when the pool stops.  A worker held by the test gate counts as held
+ * while it waits. */
+static struct task *sched_next_task(void)
+{
+    while (!sched_stopping) {
+        struct task *t = task_pick();
+        if (t && gate_pass()) {
+            gate_count(1, 0);
+            return t;
+        }
+        gate_count(0, t != NULL);
+        pthread_cond_wait(&work_cond, &work_lock);
+        gate_count(0, -(long)(t != NULL));
+    }
+    return NULL;
+}
+
+/* Encodes t's PNG (every core: png_encode.c's bands), lock released;
+ * returns with the lock held.  The tiles' and the encoding's times go to
+ * the stage metrics. */
+static void sched_encode(struct task *t)
+{
+    void *buf = NULL;
+    size_t len = 0;
+    struct rayd_error err = {0};
+    double t0 = log_now();
+    metrics_stage(MS_RENDER, t0 - t->t_start);
+    enum rayd_status st = rayd_png_encode(t->img, (int)config.png_level, &buf, &len, &err);
+    double enc = log_now() - t0;
+    metrics_stage(MS_ENCODE, enc);
+    pthread_mutex_lock(&work_lock);
+    t->encode_s = enc;
+    if (st == RAYD_OK && !(t->png = blob_new(buf, len))) {
+        rayd_free(buf);
+        st = RAYD_E_NOMEM;
+    }
+    if (st != RAYD_OK) {
+        t->status = st;
+        t->err = err;
+        t->err.code = st;
+    }
+}
+
+/* Takes tile number `tile` of t, lock held. */
+static void sched_take(struct task *t, int tile)
+{
+    if (tile == 0) {
+        t->t_start = log_now();
+        metrics_queue_wait(t->t_start - t->t_enq);
+        metrics_stage(MS_QUEUE, t->t_start - t->t_enq);
+    }
+    if (t->next_tile == t->ntiles)
+        task_unqueue(t);
+    t->running++;
+    sched_busy++;
+}
+
+/* Books a rendered (or failed) tile, lock held; finishes the task when it
+ * was the last one in flight.  Returns with the lock held. */
+static void sched_done(struct task *t, int tile, enum rayd_status st,
+                       const struct rayd_error *err, uint64_t rays, struct task_notify *n,
+                       struct task_notify *sse)
+{
+    sched_busy--;
+    t->running--;
+    t->rays += rays;
+    if (st == RAYD_OK) {
+        t->order[t->done++] = tile;
+        task_notify_add(sse, &t->sse_waiters);
+    } else if (st != RAYD_E_CANCELED && t->status == RAYD_OK) {
+        t->status = st;
+        t->err = *err;
+        t->err.code = st;
+        atomic_store(&t->cancel, 1);
+        task_unqueue(t);
+    }
+    if (t->running > 0 || t->finalizing)
+        return;
+    if (t->done == t->ntiles && t->status == RAYD_OK) {
+        t->finalizing = true;
+        pthread_mutex_unlock(&work_lock);
+        sched_encode(t); /* returns with the lock held */
+        task_finish(t, n, sse);
+    } else if (atomic_load(&t->cancel) || t->status != RAYD_OK) {
+        task_finish(t, n, sse);
+    }
+}
+
+static void *sched_worker(void *arg)
+{
+    (void)arg;
+    pthread_mutex_lock(&work_lock);
+    for (;;) {
+        struct task *t = sched_next_task();
+        if (!t)
+            break;
+        int tile = t->next_tile++;
+        sched_take(t, tile);
+        pthread_mutex_unlock(&work_lock);
+
+        struct rayd_region tr = task_tile(t, tile);
+        uint64_t rays = 0;
+        struct rayd_error err = {0};
+        enum rayd_status st = rayd_render_into(cache_scene(t->scene), &tr, t->img, tr.x - t->reg.x,
+                                               tr.y - t->reg.y, &t->cancel, &rays, &err);
+        metrics_rays(rays);
+
+        struct task_notify n = {0}, sse = {0};
+        pthread_mutex_lock(&work_lock);
+        sched_done(t, tile, st, &err, rays, &n, &sse);
+        pthread_mutex_unlock(&work_lock);
+        task_notify_run(&n);
+        task_notify_run(&sse);
+        pthread_mutex_lock(&work_lock);
+    }
+    pthread_mutex_unlock(&work_lock);
+    return NULL;
+}
+
+/* ---- gauges (registered with metrics.c at start-up) ------------------------ */
+
+static long sched_gauge_queued(void)
+{
+    pthread_mutex_lock(&work_lock);
+    long x = task_queued;
+    pthread_mutex_unlock(&work_lock);
+    return x;
+}
+
+static long sched_gauge_cap(void) { return task_queue_cap; }
+static long sched_gauge_workers(void) { return sched_nworkers; }
+static long sched_gauge_draining(void) { return sched_draining(); }
+
+static long sched_gauge_busy(void)
+{
+    pthread_mutex_lock(&work_lock);
+    long x = sched_busy;
+    pthread_mutex_unlock(&work_lock);
+    return x;
+}
+
+static long sched_gauge_running(void)
+{
+    long n = 0;
+    pthread_mutex_lock(&work_lock);
+    for (struct task *t = task_active; t; t = t->next)
+        n += t->next_tile > 0;
+    pthread_mutex_unlock(&work_lock);
+    return n;
+}
+
+static void sched_register_gauges(void)
+{
+    metrics_gauge(MG_QUEUE_DEPTH, sched_gauge_queued);
+    metrics_gauge(MG_QUEUE_CAPACITY, sched_gauge_cap);
+    metrics_gauge(MG_TASKS_RUNNING, sched_gauge_running);
+    metrics_gauge(MG_WORKERS_BUSY, sched_gauge_busy);
+    metrics_gauge(MG_WORKERS, sched_gauge_workers);
+    metrics_gauge(MG_DRAINING, sched_gauge_draining);
+}
+
+/* ---- start / stop ---------------------------------------------------------- */
+
+int sched_start(int workers, int queue_cap, int max_jobs)
+{
+    task_queue_cap = queue_cap;
+    sched_threads = calloc((size_t)workers, sizeof *sched_threads);
+    if (!sched_threads || jobs_start(max_jobs))
+        return -1;
+    scenes_start();
+    sched_register_gauges();
+    for (int i = 0; i < workers; i++) {
+        if (pthread_create(&sched_threads[i], NULL, sched_worker, NULL))
+            return -1;
+        sched_nworkers++;
+    }
+    return watch_start();
+}
+
+void sched_stop(void)
+{
+    pthread_mutex_lock(&work_lock);
+    sched_stopping = true;
+    pthread_cond_broadcast(&work_cond);
+    pthread_mutex_unlock(&work_lock);
+    for (int i = 0; i < sched_nworkers; i++)
+        pthread_join(sched_threads[i], NULL);
+    watch_stop();
+    free(sched_threads);
+    sched_threads = NULL;
+    /* Anything left was cancelled by the drain; answer and free it. */
+    struct task_notify n = {0}, sse = {0};
+    while (task_active) {
+        struct task *t = task_active;
+        atomic_store(&t->cancel, 1);
+        task_finish(t, &n, &sse);
+        task_notify_run(&n);
+        task_notify_run(&sse);
+    }
+    jobs_stop();
+    cache_free_all();
+    rcache_free_all();
+}
+
+/* ---- synchronous renders ------------------------------------------------------ */
+
+/* The finished PNG of (scene, reg) from the result cache, referenced, or NULL. */
+static struct blob *sched_result_find(const struct cache_entry *scene,
+                                      const struct rayd_region *reg)
+{
+    char key[160];
+    task_key(key, sizeof key, cache_id(scene), reg);
+    pthread_mutex_lock(&work_lock);
+    struct blob *b = rcache_get(key);
+    pthread_mutex_unlock(&work_lock);
+    metrics_result_cache(b != NULL);
+    return b;
+}
+
+enum work_submit sched_render(struct cache_entry *scene, const struct rayd_region *reg,
+                              struct work_waiter *w, struct blob **png)
+{
+    if ((*png = sched_result_find(scene, reg)))
+        return WORK_CACHED;
+    struct task *fresh = task_new(scene, reg);
+    if (!fresh)
+        return WORK_NOMEM;
+    pthread_mutex_lock(&work_lock);
+    struct task *t = NULL;
+    enum work_submit r = task_submit(scene, reg, &fresh, &t);
+    if (r == WORK_OK) {
+        w->suspend(w);
+        w->next = t->waiters;
+        t->waiters = w;
+    }
+    pthread_mutex_unlock(&work_lock);
+    if (fresh)
+        task_unref(fresh);
+    return r;
+}
+
+
+/* ---- lifecycle ------------------------------------------------------------------ */
+
+void sched_drain(void) { task_drain(); }
+bool sched_draining(void) { return task_draining(); }
+
+void sched_cancel_all(void)
+{
+    pthread_mutex_lock(&work_lock);
+    for (;;) {
+        struct task *t = task_active;
+        while (t && (atomic_load(&t->cancel) || t->finished))
+            t = t->next;
+        if (!t)
+            break;
+        struct task_notify n = {0}, sse = {0};
+        task_cancel(t, MC_DRAIN, &n, &sse);
+        pthread_mutex_unlock(&work_lock);
+        task_notify_run(&n);
+        task_notify_run(&sse);
+        pthread_mutex_lock(&work_lock);
+    }
+    pthread_mutex_unlock(&work_lock);
+}
+
+bool sched_idle(void)
+{
+    pthread_mutex_lock(&work_lock);
+    bool idle = task_active == NULL;
+    pthread_mutex_unlock(&work_lock);
+    return idle;
+}
+
+void sched_stats(struct sched_stats *st)
+{
+    pthread_mutex_lock(&work_lock);
+    st->queued = task_queued;
+    st->queue_cap = task_queue_cap;
+    st->workers = sched_nworkers;
+    st->busy_workers = sched_busy;
+    pthread_mutex_unlock(&work_lock);
+}

@@ -1,0 +1,245 @@
+/* task.c -- one render: a compiled scene, a region, its tiles and who waits.
+ *
+ * A task is split into tiles of TASK_TILE x TASK_TILE pixels rendered
+ * straight into one shared rayd_image: tiles are disjoint rectangles, so any
+ * number of workers may fill tiles of one task at once without a lock on the
+ * pixels.  Identical requests in flight -- same scene id, same region --
+ * join the same task (its key), so a burst of equal tile requests renders
+ * once and is answered together; joining costs no queue slot.
+ *
+ * Who waits: synchronous requests (t->waiters), event streams wanting news
+ * (t->sse_waiters) and jobs (t->njobs, counted).  A task is cancelled when
+ * its last interested party goes away, and finished -- unlinked, its PNG
+ * handed to the result cache, its waiters collected on a task_notify -- when
+ * the last tile is done or cancelled.  The waiters are answered by
+ * task_notify_run after the lock is released (work_private.h's rule).
+ *
+ * Back-pressure and drain are decided here too, at the one place work is
+ * admitted (task_submit): at most --queue tasks may wait for a worker, and
+ * nothing new is admitted once the drain began.
+ *
+ * Every function here but task_new, task_drain(ing) and task_notify_run runs
+ * with work_lock held; this file owns the active list, the queued count, the
+ * capacity and the drain flag.
+ */
+#include "work_private.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+struct task *task_active;
+long task_queued;
+int task_queue_cap;
+static atomic_bool task_drain_flag;
+
+/* Set under the lock, so no submission slips past it; read without. */
+void task_drain(void)
+{
+    pthread_mutex_lock(&work_lock);
+    atomic_store(&task_drain_flag, true);
+    pthread_mutex_unlock(&work_lock);
+}
+
+bool task_draining(void) { return atomic_load(&task_drain_flag); }
+
+void task_key(char *key, size_t size, const char *id, const struct rayd_region *reg)
+{
+    snprintf(key, size, "%s@%d,%d,%d,%d", id, reg->x, reg->y, reg->w, reg->h);
+}
+
+struct task *task_new(struct cache_entry *scene, const struct rayd_region *reg)
+{
+    struct task *t = calloc(1, sizeof *t);
+    if (!t)
+        return NULL;
+    t->reg = *reg;
+    t->ntx = (reg->w + TASK_TILE - 1) / TASK_TILE;
+    t->nty = (reg->h + TASK_TILE - 1) / TASK_TILE;
+    t->ntiles = t->ntx * t->nty;
+    t->order = calloc((size_t)t->ntiles, sizeof *t->order);
+    if (!t->order || rayd_image_new(reg->w, reg->h, &t->img, NULL) != RAYD_OK) {
+        free(t->order);
+        free(t);
+        return NULL;
+    }
+    snprintf(t->scene_id, sizeof t->scene_id, "%s", cache_id(scene));
+    task_key(t->key, sizeof t->key, t->scene_id, reg);
+    atomic_init(&t->cancel, 0);
+    t->interactive = (long)reg->w * reg->h <= TASK_INTERACTIVE;
+    t->status = RAYD_OK;
+    t->refs = 1;
+    return t;
+}
+
+void task_unref(struct task *t)
+{
+    if (--t->refs > 0)
+        return;
+    blob_unref(t->png);
+    rayd_image_free(t->img);
+    cache_release(t->scene);
+    free(t->order);
+    free(t);
+}
+
+void task_unqueue(struct task *t)
+{
+    if (t->queued) {
+        t->queued = false;
+        task_queued--;
+    }
+}
+
+struct task *task_find(const char *key)
+{
+    for (struct task *t = task_active; t; t = t->next)
+        if (!t->finalizing && !atomic_load(&t->cancel) && !strcmp(t->key, key))
+            return t;
+    return NULL;
+}
+
+/* "First" is the smallest enqueue time, where an interactive task counts as
+ * TASK_AGING seconds older than it is: a small request overtakes a large
+ * frame at the next tile boundary, while a bulk task that has waited longer
+ * than TASK_AGING is served before newer small ones, so nothing starves. */
+struct task *task_pick(void)
+{
+    struct task *best = NULL;
+    double best_score = 0;
+    for (struct task *t = task_active; t; t = t->next) {
+        if (t->next_tile >= t->ntiles || atomic_load(&t->cancel) || t->finalizing)
+            continue;
+        double score = t->t_enq - (t->interactive ? TASK_AGING : 0);
+        if (!best || score < best_score) {
+            best = t;
+            best_score = score;
+        }
+    }
+    return best;
+}
+
+enum work_submit task_submit(struct cache_entry *scene, const struct rayd_region *reg,
+                             struct task **fresh, struct task **out)
+{
+    if (task_draining())
+        return WORK_DRAINING;
+    char key[160];
+    task_key(key, sizeof key, cache_id(scene), reg);
+    struct task *t = task_find(key);
+    if (t) {
+        metrics_coalesced();
+        *out = t;
+        return WORK_OK;
+    }
+    if (task_queued >= task_queue_cap)
+        return WORK_FULL;
+    t = *fresh;
+    *fresh = NULL;
+    t->scene = cache_ref(scene);
+    t->t_enq = log_now();
+    t->queued = true;
+    task_queued++;
+    t->next = task_active;
+    task_active = t;
+    pthread_cond_broadcast(&work_cond);
+    *out = t;
+    return WORK_OK;
+}
+
+struct rayd_region task_tile(const struct task *t, int tile)
+{
+    int tx = tile % t->ntx, ty = tile / t->ntx;
+    struct rayd_region r = {t->reg.x + tx * TASK_TILE, t->reg.y + ty * TASK_TILE, TASK_TILE,
+                            TASK_TILE};
+    if (r.x + r.w > t->reg.x + t->reg.w)
+        r.w = t->reg.x + t->reg.w - r.x;
+    if (r.y + r.h > t->reg.y + t->reg.h)
+        r.h = t->reg.y + t->reg.h - r.y;
+    return r;
+}
+
+/* ---- answering ------------------------------------------------------------- */
+
+void task_notify_add(struct task_notify *n, struct work_waiter **from)
+{
+    while (*from) {
+        struct work_waiter *w = *from;
+        *from = w->next;
+        w->next = n->list;
+        n->list = w;
+    }
+}
+
+void task_notify_run(struct task_notify *n)
+{
+    struct work_waiter *w = n->list;
+    n->list = NULL;
+    while (w) {
+        struct work_waiter *next = w->next;
+        struct work_result r = n->res;
+        blob_ref(r.png);
+        w->next = NULL;
+        w->done(w, &r);
+        w = next;
+    }
+    blob_unref(n->res.png);
+    n->res.png = NULL;
+}
+
+static void task_result(const struct task *t, struct work_result *res)
+{
+    memset(res, 0, sizeof *res);
+    res->status = t->status;
+    res->err = t->err;
+    if (t->status == RAYD_OK && t->png)
+        res->png = blob_ref(t->png);
+    res->queue_ms = t->t_start > 0 ? (t->t_start - t->t_enq) * 1e3 : 0;
+    res->render_ms = t->t_start > 0 && t->t_end > 0 ? (t->t_end - t->t_start) * 1e3 : 0;
+    res->encode_ms = t->encode_s * 1e3;
+}
+
+void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
+{
+    t->finished = true;
+    t->t_end = log_now();
+    if (t->status == RAYD_OK && !t->png)
+        t->status = RAYD_E_CANCELED;
+    if (t->status == RAYD_E_CANCELED && !t->err.message[0]) {
+        t->err.code = RAYD_E_CANCELED;
+        snprintf(t->err.message, sizeof t->err.message, "the render was cancelled");
+    }
+    if (t->status == RAYD_OK && t->t_start > 0)
+        metrics_render(t->t_end - t->t_start);
+    if (t->status == RAYD_OK && t->png)
+        rcache_put(t->key, t->png);
+    task_unqueue(t);
+    rayd_image_free(t->img);
+    t->img = NULL;
+    cache_release(t->scene);
+    t->scene = NULL;
+    task_result(t, &n->res);
+    task_notify_add(n, &t->waiters);
+    task_notify_add(sse, &t->sse_waiters);
+    for (struct task **pp = &task_active; *pp; pp = &(*pp)->next)
+        if (*pp == t) {
+            *pp = t->next;
+            break;
+        }
+    task_unref(t);
+}
+
+/* Raises the atomic flag rayd_render_into() checks, so a cancelled task
+ * stops within one tile; finishes it now if no worker is inside it. */
+void task_cancel(struct task *t, enum metrics_cancel why, struct task_notify *n,
+                 struct task_notify *sse)
+{
+    if (t->finished || atomic_load(&t->cancel))
+        return;
+    atomic_store(&t->cancel, 1);
+    metrics_cancel(why);
+    log_info("render %s cancelled (%s)", t->key,
+             why == MC_CLIENT_GONE ? "client gone" : why == MC_DELETE ? "job deleted" : "drain");
+    task_unqueue(t);
+    if (t->running == 0 && !t->finalizing)
+        task_finish(t, n, sse);
+}

@@ -1,0 +1,137 @@
+/* work.h -- the work layer as the handlers see it: compiled scenes, renders
+ * queued and answered, asynchronous jobs and their event streams.
+ *
+ * Layer: work (work.c, lru.c, cache.c, rcache.c, scenes.c, task.c, gate.c, sched.c,
+ * jobs.c, events.c, watch.c).  May include: base.h and <rayd/rayd.h> --
+ * never an HTTP header, never libmicrohttpd.  Included by the handlers
+ * (api_*.c) and main.c.
+ *
+ * The work layer knows nothing about connections.  Whoever waits on a render
+ * or on a job's events hands in a struct work_waiter: a done() callback, the
+ * socket to watch for a hang-up, and a suspend() callback run under the lock
+ * just before the waiter is linked, so the wake-up can never overtake the
+ * suspension.  That is the only way work talks back up.
+ */
+#ifndef RAYD_SERVER_WORK_H
+#define RAYD_SERVER_WORK_H
+
+#include "base.h"
+
+/* ---- what a waiter is told --------------------------------------------- */
+
+struct work_result {
+    enum rayd_status status; /* RAYD_OK and png, or an error */
+    struct rayd_error err;
+    struct blob *png;        /* a reference owned by the waiter: unref it */
+    bool gone;               /* the client disconnected */
+    double queue_ms, render_ms, encode_ms;
+};
+
+/* Something waiting on a task or a job's events.  done() is called exactly
+ * once per registration, from a worker or the watcher thread, after the
+ * waiter is removed from every list and with no lock held. */
+struct work_waiter {
+    void (*done)(struct work_waiter *w, struct work_result *res);
+    void (*suspend)(struct work_waiter *w); /* under the lock, before linking */
+    int fd;                                 /* socket polled for a hang-up, -1 none */
+    struct work_waiter *next;               /* the work layer's list link */
+};
+
+enum work_submit {
+    WORK_OK = 0,
+    WORK_CACHED, /* answered at once from the result cache */
+    WORK_FULL,
+    WORK_DRAINING,
+    WORK_NOMEM,
+    WORK_TOO_MANY_JOBS
+};
+
+/* ---- cache.c: the parts any thread may call ----------------------------- */
+
+struct cache_entry; /* a compiled scene and its id, reference counted */
+/* SHA-256 of data as 64 lowercase hex digits (a scene id, an ETag); false
+ * (and out = "") only if libcrypto fails. */
+bool cache_hash(const void *data, size_t len, char out[65]);
+const rayd_scene *cache_scene(const struct cache_entry *e); /* immutable */
+const char *cache_id(const struct cache_entry *e);          /* immutable */
+
+/* ---- scenes.c: the compiled-scene cache behind the lock ------------------- */
+
+/* Hashes the body, finds it compiled or parses and builds it (outside the
+ * lock); *out holds a reference: scenes_release it. */
+enum rayd_status scenes_parse(const char *body, size_t len, struct cache_entry **out, bool *hit,
+                              struct rayd_error *err);
+struct cache_entry *scenes_find(const char *id); /* referenced, or NULL */
+void scenes_release(struct cache_entry *e);      /* NULL allowed */
+/* Replaces the scene limits derived from the options (before any request). */
+void scenes_set_limits(const struct rayd_limits *lim);
+
+/* ---- sched.c: the pool, synchronous renders, lifecycle ------------------- */
+
+int sched_start(int workers, int queue_cap, int max_jobs);
+void sched_stop(void);
+/* Renders reg (absolute, checked) of scene for w.  WORK_CACHED: *png is the
+ * finished PNG (a reference), w is not used.  WORK_OK: w->suspend(w) ran and
+ * w->done will be called once.  Anything else: refused, w not used. */
+enum work_submit sched_render(struct cache_entry *scene, const struct rayd_region *reg,
+                              struct work_waiter *w, struct blob **png);
+void sched_drain(void);      /* refuse new work from now on */
+bool sched_draining(void);   /* lock-free */
+void sched_cancel_all(void); /* cancel every task (drain deadline) */
+bool sched_idle(void);       /* no task queued or running */
+struct sched_stats {
+    long queued, queue_cap, workers, busy_workers;
+};
+void sched_stats(struct sched_stats *st);
+
+/* ---- jobs.c: asynchronous renders ------------------------------------------ */
+
+enum jobs_state { JS_QUEUED, JS_RUNNING, JS_SUCCEEDED, JS_FAILED, JS_CANCELED };
+const char *jobs_state_name(enum jobs_state s);
+struct jobs_info {
+    enum jobs_state state;
+    double progress;
+    long tiles_done, tiles_total;
+    struct rayd_region region;
+    char scene_id[65];
+    double created_age, queue_ms, render_ms, encode_ms;
+    uint64_t rays;
+    struct rayd_error err; /* when failed */
+    struct blob *png;      /* when succeeded and asked for; unref it */
+};
+enum work_submit jobs_create(struct cache_entry *scene, const struct rayd_region *reg,
+                             char id[33]);
+bool jobs_get(const char *id, struct jobs_info *info, bool want_png);
+bool jobs_cancel(const char *id);
+
+/* ---- events.c: a job's progress as a stream ------------------------------- */
+
+enum events_kind { EVENTS_STATE, EVENTS_TILE, EVENTS_DONE, EVENTS_PING };
+struct events_item {
+    enum events_kind kind;
+    enum jobs_state state;   /* STATE, DONE */
+    struct rayd_region tile; /* TILE */
+    int done, total;         /* TILE: tiles reported with this one, of total */
+    double progress;         /* TILE, DONE */
+};
+struct events_stream;
+struct events_stream *events_open(const char *id); /* NULL: no such job */
+/* Up to n items: returns how many; 0 after registering w (its suspend ran),
+ * -1 at the end of the stream.  A failed job's error is copied to *err with
+ * its DONE item. */
+int events_read(struct events_stream *s, struct events_item *items, int n,
+                struct rayd_error *err, struct work_waiter *w);
+void events_close(struct events_stream *s); /* NULL allowed */
+
+/* ---- gate.c: the test gate (--test-gate) ----------------------------------- */
+
+/* Workers start a tile only while the gate lets one through.  tiles: how
+ * many more may start, -1 = open. */
+struct gate_state {
+    long tiles, started, held, queued;
+};
+void gate_enable(long tiles);
+bool gate_set(long tiles);                /* false when the gate is off */
+bool gate_get(struct gate_state *g);      /* false when the gate is off */
+
+#endif

@@ -1,0 +1,171 @@
+/* work_private.h -- what the files of the work layer share, and its one rule.
+ *
+ * Layer: work, private.  Included only by the work layer's own files
+ * (work.c, lru.c, cache.c, rcache.c, scenes.c, task.c, gate.c, sched.c, jobs.c,
+ * events.c, watch.c); the layers above see work.h alone.
+ * May include: work.h (and through it base.h, <rayd/rayd.h>).
+ *
+ * THE ONE LOCK.  work_lock is the only mutex of the server.  It guards every
+ * task, the active list and queue counters, the jobs table, every event
+ * stream's cursor, the test gate, the compiled-scene cache (cache.c) and the
+ * result cache (rcache.c) -- those two have no lock of their own.  Rules:
+ *   - a function whose comment says "lock held" is called with it held, any
+ *     other public function of the layer takes it itself;
+ *   - rendering, PNG encoding, scene parsing and hashing run without it;
+ *   - a waiter's done() is never called with it held: waiters are unlinked
+ *     onto a struct task_notify under the lock and answered after releasing
+ *     it (task_notify_run);
+ *   - a waiter's suspend() is called with it held, before the waiter is
+ *     linked, so a done() can never overtake its suspend();
+ *   - work_cond (with work_lock) wakes workers (new tiles, the gate, stop)
+ *     and the watcher's periodic wait.
+ * Calls inside the layer go one way too, in this order (a file calls only
+ * files before it): work (the lock), lru, cache, rcache, scenes, task, gate,
+ * jobs, events, watch, sched.
+ * Ownership: a task is referenced by the active list and by each job of it
+ * (task.refs, lock held); it holds its scene until it finishes.  A job is
+ * referenced by the table and by each open event stream (job.refs).
+ */
+#ifndef RAYD_SERVER_WORK_PRIVATE_H
+#define RAYD_SERVER_WORK_PRIVATE_H
+
+#include "work.h"
+
+#include <pthread.h>
+
+#define TASK_TILE 64                  /* tiles are TASK_TILE x TASK_TILE pixels */
+#define TASK_INTERACTIVE (256L * 256L) /* pixels of a preview or a tile */
+#define TASK_AGING 2.0                /* seconds an interactive task counts as older */
+#define EVENTS_PING 15.0              /* seconds of silence before a keep-alive */
+
+extern pthread_mutex_t work_lock; /* work.c */
+extern pthread_cond_t work_cond;
+
+/* ---- lru.c: the index under both caches; entries embed a struct lru_node -- */
+
+struct lru_node {
+    const char *key;
+    size_t bytes; /* counted against the budget */
+    struct lru_node *hnext, *prev, *next;
+};
+struct lru {
+    struct lru_node **table;
+    unsigned nbuckets;
+    struct lru_node *head, *tail; /* most recent first */
+    size_t budget, bytes, count;
+    void (*evict)(struct lru_node *n); /* the owner lets go of an evicted entry */
+};
+void lru_init(struct lru *l, struct lru_node **table, unsigned nbuckets, size_t budget,
+              void (*evict)(struct lru_node *n));
+struct lru_node *lru_find(struct lru *l, const char *key); /* and makes it the most recent */
+bool lru_insert(struct lru *l, struct lru_node *n);        /* false: bigger than the budget */
+void lru_remove(struct lru *l, struct lru_node *n);
+void lru_clear(struct lru *l); /* evicts everything */
+
+/* ---- cache.c (lock held) ----------------------------------------------------- */
+
+void cache_init(size_t budget_bytes);
+struct cache_entry *cache_get(const char *id); /* refs the entry, bumps LRU */
+/* Inserts (or returns the existing entry for id, freeing scene); refs it. */
+struct cache_entry *cache_put(const char *id, rayd_scene *scene);
+struct cache_entry *cache_ref(struct cache_entry *e);
+void cache_release(struct cache_entry *e); /* drops a ref; frees when evicted */
+void cache_stats(size_t *bytes, size_t *entries);
+void cache_free_all(void);
+
+/* ---- rcache.c (lock held) ------------------------------------------------------ */
+
+void rcache_init(size_t budget_bytes);
+struct blob *rcache_get(const char *key); /* refs the PNG */
+void rcache_put(const char *key, struct blob *png);
+void rcache_stats(size_t *bytes, size_t *entries);
+void rcache_free_all(void);
+
+/* ---- scenes.c ---------------------------------------------------------------- */
+
+void scenes_start(void); /* registers the cache gauges */
+
+/* ---- task.c: one render, its tiles and its waiters (lock held) --------------- */
+
+struct task {
+    struct task *next; /* active list */
+    char key[160];     /* scene id + region: identical requests share a task */
+    char scene_id[65];
+    struct cache_entry *scene; /* held until the task finishes */
+    struct rayd_region reg;    /* absolute */
+    int ntx, nty, ntiles;
+    int next_tile, running, done;
+    int *order; /* tiles in completion order, for event streams */
+    rayd_image *img;
+    atomic_int cancel;
+    bool interactive, queued, finalizing, finished;
+    double t_enq, t_start, t_end;
+    double encode_s; /* of t_end - t_start, the PNG's encoding */
+    enum rayd_status status;
+    struct rayd_error err;
+    struct blob *png;
+    uint64_t rays;
+    struct work_waiter *waiters;     /* synchronous requests */
+    struct work_waiter *sse_waiters; /* event streams waiting for news */
+    int njobs;                       /* jobs still interested */
+    int refs;                        /* active list + jobs */
+};
+
+/* Waiters to answer once the lock is released. */
+struct task_notify {
+    struct work_waiter *list;
+    struct work_result res;
+};
+
+extern struct task *task_active; /* every unfinished task */
+extern long task_queued;         /* tasks with tiles nobody has started */
+extern int task_queue_cap;       /* --queue, set once before the workers start */
+void task_drain(void);           /* takes the lock */
+bool task_draining(void);        /* lock-free */
+
+void task_key(char *key, size_t size, const char *id, const struct rayd_region *reg);
+/* A new task for (scene, reg) with its image; NULL on no memory.  Any lock. */
+struct task *task_new(struct cache_entry *scene, const struct rayd_region *reg);
+void task_unref(struct task *t);
+void task_unqueue(struct task *t);
+struct task *task_find(const char *key); /* an unfinished, uncancelled task */
+struct task *task_pick(void);            /* the task whose next tile comes first */
+/* Joins the task for (scene, reg) or activates *fresh (then NULL);
+ * WORK_DRAINING or WORK_FULL when it cannot. */
+enum work_submit task_submit(struct cache_entry *scene, const struct rayd_region *reg,
+                             struct task **fresh, struct task **out);
+/* The tile's absolute rectangle. */
+struct rayd_region task_tile(const struct task *t, int tile);
+void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse);
+void task_cancel(struct task *t, enum metrics_cancel why, struct task_notify *n,
+                 struct task_notify *sse);
+void task_notify_add(struct task_notify *n, struct work_waiter **from);
+void task_notify_run(struct task_notify *n); /* lock NOT held */
+
+/* ---- gate.c (lock held) -------------------------------------------------------- */
+
+bool gate_pass(void);     /* may a worker start a tile now? takes one */
+void gate_count(long started, long held); /* adds to the started / held counters */
+
+/* ---- jobs.c (lock held) -------------------------------------------------------- */
+
+struct job {
+    char id[33];
+    struct task *task;
+    bool canceled;
+    double created;
+    int refs; /* the table + open event streams */
+};
+int jobs_start(int max_jobs); /* any lock */
+void jobs_stop(void);         /* after the workers and the watcher have stopped */
+struct job *jobs_find(const char *id);
+enum jobs_state jobs_state(const struct job *j);
+void jobs_unref(struct job *j);
+void jobs_expire(double now); /* forgets finished jobs past --job-ttl */
+
+/* ---- watch.c ------------------------------------------------------------------- */
+
+int watch_start(void);
+void watch_stop(void); /* stops and joins the thread */
+
+#endif
