@@ -47,13 +47,26 @@ CORE_LAYERS = [
     ("core/io", ["core/io/"]),
 ]
 SERVER_LAYERS = [
-    ("server/base", ["server/config.", "server/log.", "server/metrics.", "server/lru.",
-                     "server/base.h"]),
-    ("server/work", ["server/work", "server/sched.", "server/jobs.", "server/events.",
-                     "server/watch.", "server/cache.", "server/rcache.", "server/jobq."]),
+    ("server/base", ["server/base.h", "server/config.", "server/log.", "server/metrics.",
+                     "server/blob.", "server/json."]),
+    # the work layer, its files in call order: each calls only those before it
+    ("server/work: lock", ["server/work.h", "server/work_private.h", "server/work.c"]),
+    ("server/work: lru", ["server/lru."]),
+    ("server/work: caches", ["server/cache.", "server/rcache."]),
+    ("server/work: scenes", ["server/scenes."]),
+    ("server/work: task", ["server/task."]),
+    ("server/work: gate", ["server/gate."]),
+    ("server/work: jobs", ["server/jobs."]),
+    ("server/work: events", ["server/events."]),
+    ("server/work: watch", ["server/watch."]),
+    ("server/work: sched", ["server/sched."]),
+    ("server/request", ["server/request.h", "server/http_req."]),
+    ("server/request: replies", ["server/http_reply."]),
+    ("server/handlers: shared", ["server/api.h", "server/api.c"]),
     ("server/handlers", ["server/api_"]),
     ("server/router", ["server/router."]),
-    ("server/transport", ["server/http.", "server/transport", "server/server.h"]),
+    ("server/transport: flow", ["server/transport.h", "server/http_flow."]),
+    ("server/transport", ["server/http."]),
     ("server/main", ["server/main.c"]),
 ]
 # Programs above the core: each its own layer, side by side.
