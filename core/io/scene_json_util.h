@@ -51,6 +51,7 @@ struct loader {
     size_t mat_cap, tex_cap, mesh_cap, xform_cap, part_cap; /* array capacities */
     long objects;             /* objects, operands and group members so far */
     long triangles, vertices; /* totals so far, against the limits */
+    const struct sj_inline *inl; /* inline mesh arrays left out of the tree */
 };
 
 enum vec_rule { VEC_ANY, VEC_NONZERO, VEC_COLOR };
