@@ -8,6 +8,7 @@
  *   scene_json_material.c  named and inline materials
  *   scene_json_texture.c   material textures
  *   scene_json_mesh.c      meshes: inline arrays, OBJ/PLY sources
+ *   scene_json_inline.c    large inline arrays kept out of cJSON's tree
  *   scene_json_util.c      JSON Pointers, the typed getters, files a scene names
  *
  * Every getter checks one value and, when it is wrong, fills the error with
