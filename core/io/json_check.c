@@ -14,10 +14,24 @@
  *     silently take as the end of the string.
  * The walk is recursive, bounded by that limit.  Text that passes is parsed
  * by cJSON, whose own failure can then only be running out of memory.
+ *
+ * The same walk notes the large inline mesh arrays (json_check_spans): the
+ * value of "vertices", "indices", "normals" or "uvs" in an object that is an
+ * array element with "type": "mesh", when it is an array of at least
+ * min_count plain numbers.  cJSON would spend a node (~60 bytes and a
+ * malloc) on each number; the loader instead hands cJSON the text without
+ * those numbers and reads them from here (io/scene_json_inline.c).  Such an
+ * array is walked by one flat loop; anything else at those keys, and any
+ * error inside, is walked again by the general path, so the verdict and the
+ * message are the same either way.  Keys and "mesh" are compared as raw
+ * bytes: an escaped spelling only misses the fast path.  Numbers longer than
+ * 63 characters are left to cJSON too, which reads at most 63 (1.7.15).
  */
 #include "io/json_check.h"
 
+#include <limits.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "base/error.h"
@@ -32,7 +46,10 @@ struct jc {
     int max_depth;
     long values;
     const char *msg; /* set on failure; i is where */
+    struct json_spans *spans; /* NULL: not noting mesh arrays */
+    long arrays;              /* arrays opened so far, in document order */
 };
+
 
 static bool jc_fail(struct jc *c, const char *msg) {
     c->msg = msg;
@@ -40,7 +57,11 @@ static bool jc_fail(struct jc *c, const char *msg) {
 }
 
 static void jc_ws(struct jc *c) {
-    while (c->i < c->len && strchr(" \t\r\n", c->p[c->i]) && c->p[c->i]) c->i++;
+    while (c->i < c->len) {
+        unsigned char ch = c->p[c->i];
+        if (ch != ' ' && ch != '\t' && ch != '\r' && ch != '\n') return;
+        c->i++;
+    }
 }
 
 static int hexval(unsigned char h) {
@@ -178,11 +199,103 @@ static bool jc_literal(struct jc *c, const char *word) {
     return true;
 }
 
-static bool jc_value(struct jc *c, int depth);
+static bool jc_value(struct jc *c, int depth, bool elem);
 
-static bool jc_container(struct jc *c, int depth, bool object) {
+/* Which mesh key the raw key bytes are: 1..4, or 0 for "type", or -1. */
+static int mesh_key(const unsigned char *k, size_t n) {
+    static const char *const names[] = {"type", "vertices", "indices", "normals", "uvs"};
+    for (int i = 0; i < 5; i++)
+        if (strlen(names[i]) == n && memcmp(k, names[i], n) == 0) return i;
+    return -1;
+}
+
+static void note_span(struct jc *c, struct json_span sp) {
+    struct json_spans *ss = c->spans;
+    if (ss->n == ss->cap) {
+        size_t cap = ss->cap ? 2 * ss->cap : 16;
+        struct json_span *v = realloc(ss->v, cap * sizeof *v);
+        if (!v) { /* note nothing then: every array goes through cJSON */
+            free(ss->v);
+            ss->v = NULL;
+            ss->n = ss->cap = 0;
+            ss->min_count = LONG_MAX;
+            return;
+        }
+        ss->v = v;
+        ss->cap = cap;
+    }
+    ss->v[ss->n++] = sp;
+}
+
+/* An array of plain numbers at c->i, walked flat and noted when large;
+ * false on anything else or any error (the caller walks it again). */
+static bool jc_numbers(struct jc *c, size_t owner) {
+    struct json_span sp = {c->i, 0, 0, c->arrays++, owner};
+    size_t longest = 0;
+    if (++c->values > JC_MAX_VALUES) return false;
+    c->i++;
+    for (;;) {
+        jc_ws(c);
+        if (c->i >= c->len || (c->p[c->i] != '-' && (c->p[c->i] < '0' || c->p[c->i] > '9')))
+            return false;
+        size_t n0 = c->i;
+        if (++c->values > JC_MAX_VALUES || !jc_number(c)) return false;
+        if (c->i - n0 > longest) longest = c->i - n0;
+        sp.count++;
+        jc_ws(c);
+        if (c->i >= c->len || (c->p[c->i] != ',' && c->p[c->i] != ']')) return false;
+        if (c->p[c->i++] == ']') break;
+    }
+    sp.close = c->i - 1;
+    if (sp.count >= c->spans->min_count && longest <= 63) note_span(c, sp);
+    return true;
+}
+
+/* The value of a mesh key in an array element's object. */
+static bool jc_mesh_value(struct jc *c, int depth, size_t owner) {
+    size_t at = c->i;
+    long values = c->values, arrays = c->arrays;
+    if (at < c->len && c->p[at] == '[' && depth < c->max_depth && jc_numbers(c, owner)) return true;
+    c->i = at;
+    c->values = values;
+    c->arrays = arrays;
+    c->msg = NULL;
+    return jc_value(c, depth, false);
+}
+
+/* Drops the spans an object noted for its own keys: it is not a mesh. */
+static void drop_spans(struct json_spans *ss, size_t first, size_t owner) {
+    size_t k = first;
+    for (size_t i = first; i < ss->n; i++)
+        if (ss->v[i].owner != owner) ss->v[k++] = ss->v[i];
+    ss->n = k;
+}
+
+/* One "key": value of an object; *kind is the key's mesh_key. */
+static bool jc_member(struct jc *c, int depth, bool elem, size_t open, bool *mesh) {
+    if (c->i >= c->len || c->p[c->i] != '"')
+        return jc_fail(c, c->i >= c->len ? "unexpected end of input" : "expected a string key in quotes");
+    size_t k0 = c->i;
+    if (!jc_string(c)) return false;
+    int kind = c->spans ? mesh_key(c->p + k0 + 1, c->i - k0 - 2) : -1;
+    jc_ws(c);
+    if (c->i >= c->len || c->p[c->i] != ':') return jc_fail(c, "expected ':' after the key");
+    c->i++;
+    jc_ws(c);
+    size_t v0 = c->i;
+    if (kind > 0 && elem) return jc_mesh_value(c, depth + 1, open);
+    if (!jc_value(c, depth + 1, false)) return false;
+    if (kind == 0 && c->i - v0 == 6 && memcmp(c->p + v0, "\"mesh\"", 6) == 0) *mesh = true;
+    return true;
+}
+
+/* An object or array at c->i; elem: it is an element of an array. */
+static bool jc_container(struct jc *c, int depth, bool object, bool elem) {
     unsigned char close = object ? '}' : ']';
+    size_t open = c->i, first = c->spans ? c->spans->n : 0;
+    bool mesh = false;
     if (depth >= c->max_depth) return jc_fail(c, "nesting deeper than the limit");
+    if (!object) c->arrays++;
     c->i++;
     jc_ws(c);
     if (c->i < c->len && c->p[c->i] == close) {
@@ -190,20 +303,13 @@ static bool jc_container(struct jc *c, int depth, bool object) {
         return true;
     }
     for (;;) {
-        if (object) {
-            if (c->i >= c->len || c->p[c->i] != '"')
-                return jc_fail(c, c->i >= c->len ? "unexpected end of input"
-                                                 : "expected a string key in quotes");
-            if (!jc_string(c)) return false;
-            jc_ws(c);
-            if (c->i >= c->len || c->p[c->i] != ':') return jc_fail(c, "expected ':' after the key");
-            c->i++;
-        }
-        if (!jc_value(c, depth + 1)) return false;
+        if (!(object ? jc_member(c, depth, elem, open, &mesh) : jc_value(c, depth + 1, true)))
+            return false;
         jc_ws(c);
         if (c->i >= c->len) return jc_fail(c, "unexpected end of input");
         if (c->p[c->i] == close) {
             c->i++;
+            if (object && c->spans && !mesh) drop_spans(c->spans, first, open);
             return true;
         }
         if (c->p[c->i] != ',')
@@ -215,13 +321,13 @@ static bool jc_container(struct jc *c, int depth, bool object) {
     }
 }
 
-static bool jc_value(struct jc *c, int depth) {
+static bool jc_value(struct jc *c, int depth, bool elem) {
     jc_ws(c);
     if (c->i >= c->len) return jc_fail(c, "unexpected end of input");
     if (++c->values > JC_MAX_VALUES) return jc_fail(c, "more than 10,000,000 values");
     switch (c->p[c->i]) {
-    case '{': return jc_container(c, depth, true);
-    case '[': return jc_container(c, depth, false);
+    case '{': return jc_container(c, depth, true, elem);
+    case '[': return jc_container(c, depth, false, elem);
     case '"': return jc_string(c);
     case 't': return jc_literal(c, "true");
     case 'f': return jc_literal(c, "false");
@@ -247,8 +353,13 @@ void json_position(const char *text, size_t off, int *line, int *col) {
 }
 
 enum rayd_status json_check(const char *text, size_t len, int max_depth, struct rayd_error *err) {
-    struct jc c = {(const unsigned char *)text, len, 0, max_depth, 0, NULL};
-    if (jc_value(&c, 0)) {
+    return json_check_spans(text, len, max_depth, NULL, err);
+}
+
+enum rayd_status json_check_spans(const char *text, size_t len, int max_depth,
+                                  struct json_spans *spans, struct rayd_error *err) {
+    struct jc c = {(const unsigned char *)text, len, 0, max_depth, 0, NULL, spans, 0};
+    if (jc_value(&c, 0, false)) {
         jc_ws(&c);
         if (c.i == len) return RAYD_OK;
         c.msg = c.p[c.i] == 0 ? "NUL byte after the value" : "unexpected data after the value";

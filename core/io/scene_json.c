@@ -17,6 +17,10 @@
  *      Omitted keys take the defaults in docs/scene-format.md.
  *
  * The walk fills a rayd_scene and freezes it (scene.c builds the BVH).
+ *
+ * Large inline mesh arrays skip cJSON: pass 1 notes where their numbers
+ * are, cJSON parses the text without them, and the mesh loader reads them
+ * from the text (scene_json_inline.c says how and why it is the same).
  */
 #include <errno.h>
 #include <pthread.h>
@@ -28,6 +32,8 @@
 #include <unistd.h>
 
 #include "io/json_check.h"
+#include "io/scene_json.h"
+#include "io/scene_json_inline.h"
 #include "io/scene_json_material.h"
 #include "io/scene_json_objects.h"
 
@@ -243,8 +249,22 @@ static enum rayd_status load_root(struct loader *ld, const cJSON *root) {
     return sj_objects(ld, root);
 }
 
-enum rayd_status rayd_scene_parse(const char *json, size_t len, const struct rayd_limits *lim,
-                                  rayd_scene **out, struct rayd_error *err) {
+/* Check, and note the large inline mesh arrays; parse the rest with cJSON. */
+static enum rayd_status check_and_parse(const char *json, size_t len, const struct rayd_limits *lim,
+                                        struct sj_inline *in, cJSON **root, struct rayd_error *err) {
+    struct json_spans *spans = in->spans.min_count > 0 ? &in->spans : NULL;
+    TRY(json_check_spans(json, len, lim->max_nesting, spans, err));
+    char *copy;
+    size_t copy_len = 0;
+    sj_inline_elide(in, json, len, &copy, &copy_len);
+    enum rayd_status st = parse_json(copy ? copy : json, copy ? copy_len : len, root, err);
+    free(copy);
+    if (st == RAYD_OK) st = sj_inline_match(in, *root, err);
+    return st;
+}
+
+enum rayd_status scene_json_parse(const char *json, size_t len, const struct rayd_limits *lim,
+                                  long inline_min, rayd_scene **out, struct rayd_error *err) {
     struct rayd_limits deflim;
     if (!lim) {
         rayd_limits_default(&deflim);
@@ -253,19 +273,25 @@ enum rayd_status rayd_scene_parse(const char *json, size_t len, const struct ray
     if (len > lim->max_bytes)
         return err_set(err, RAYD_E_LIMIT, NULL, "the scene is %zu bytes; the limit is %zu", len,
                        lim->max_bytes);
-    TRY(json_check(json, len, lim->max_nesting, err));
+    struct sj_inline in = {.spans.min_count = inline_min > 0 ? inline_min : 0};
     cJSON *root = NULL;
-    TRY(parse_json(json, len, &root, err));
-    rayd_scene *s;
-    enum rayd_status st = scene_alloc(&s, err);
+    rayd_scene *s = NULL;
+    enum rayd_status st = check_and_parse(json, len, lim, &in, &root, err);
+    if (st == RAYD_OK) st = scene_alloc(&s, err);
     if (st == RAYD_OK) {
-        struct loader ld = {.lim = lim, .s = s, .err = err};
+        struct loader ld = {.lim = lim, .s = s, .err = err, .inl = &in};
         st = load_root(&ld, root);
         free(ld.mat_names);
         if (st == RAYD_OK) st = scene_freeze(s, err);
         if (st != RAYD_OK) rayd_scene_free(s);
     }
     cJSON_Delete(root);
+    sj_inline_free(&in);
     if (st == RAYD_OK) *out = s;
     return st;
+}
+
+enum rayd_status rayd_scene_parse(const char *json, size_t len, const struct rayd_limits *lim,
+                                  rayd_scene **out, struct rayd_error *err) {
+    return scene_json_parse(json, len, lim, SJ_INLINE_MIN, out, err);
 }

@@ -3,7 +3,9 @@
  * base64 or a file.  Files are read only when the limits name an asset
  * folder (rayd-render: the scene's folder; rayd: --asset-dir, confined).
  * Totals of vertices and triangles are checked against the limits before
- * anything large is allocated.
+ * anything large is allocated.  Large inline arrays come not as cJSON items
+ * but as spans of the text (scene_json_inline.c), read by json_numbers.c
+ * with the same checks, values and messages.
  */
 #define _XOPEN_SOURCE 700 /* realpath */
 #include <errno.h>
@@ -17,11 +19,34 @@
 #include "io/scene_json_mesh.h"
 
 #include "io/base64.h"
+#include "io/json_numbers.h"
+#include "io/scene_json_inline.h"
 #include "base/clock.h"
 #include "io/mesh_io.h"
 #include "base/parallel.h"
 
 /* ---- meshes ------------------------------------------------------------------- */
+
+/* The numbers in array a: its items, or those of its span in the text. */
+static long count_items(const cJSON *a, const struct json_span *sp) {
+    long n = 0;
+    if (sp) return sp->count;
+    for (const cJSON *e = a->child; e; e = e->next) n++;
+    return n;
+}
+
+/* The numbers of an array left out of the tree, read from the text into v:
+ * the same checks and messages as the loop over cJSON's items in get_flat. */
+static enum rayd_status flat_text(struct loader *ld, const struct json_span *sp, const struct jp *p,
+                                  float *v) {
+    double bad = 0;
+    long i = json_floats(ld->inl->text, sp, 1e30, 0, v, &bad);
+    if (i == -1) return RAYD_OK;
+    if (i == JSON_NUMBERS_NOMEM) return err_set(ld->err, RAYD_E_NOMEM, p->s, "out of memory");
+    struct jp pe = sj_index(p, (int)i);
+    if (!isfinite(bad)) return sj_fail(ld, RAYD_E_INVALID, &pe, "must be a finite number");
+    return sj_fail(ld, RAYD_E_INVALID, &pe, "must be in [-1e30, 1e30]");
+}
 
 /* A flat array of numbers, count a multiple of per (and at least min). */
 static enum rayd_status get_flat(struct loader *ld, const cJSON *obj, const struct jp *at,
@@ -32,14 +57,24 @@ static enum rayd_status get_flat(struct loader *ld, const cJSON *obj, const stru
     if (!a) return RAYD_OK;
     struct jp p = sj_key(at, key);
     if (!cJSON_IsArray(a)) return sj_fail(ld, RAYD_E_INVALID, &p, "must be an array of numbers, not %s", sj_type_name(a));
-    long n = 0;
-    for (const cJSON *e = a->child; e; e = e->next) n++;
+    const struct json_span *sp = sj_inline_span(ld->inl, a);
+    long n = count_items(a, sp);
     if (n % per != 0 || n < min)
         return sj_fail(ld, RAYD_E_INVALID, &p, "must hold a multiple of %d numbers (at least %ld); it has %ld", per, min, n);
     if (n / per > ld->lim->max_vertices)
         return sj_fail(ld, RAYD_E_LIMIT, &p, "has %ld vertices; the limit is %ld", n / per, ld->lim->max_vertices);
     float *v = malloc(sizeof *v * (size_t)(n ? n : 1));
     if (!v) return err_set(ld->err, RAYD_E_NOMEM, p.s, "out of memory");
+    if (sp) {
+        enum rayd_status st = flat_text(ld, sp, &p, v);
+        if (st != RAYD_OK) {
+            free(v);
+            return st;
+        }
+        *out = v;
+        *count = n / per;
+        return RAYD_OK;
+    }
     long i = 0;
     for (const cJSON *e = a->child; e; e = e->next, i++) {
         if (!cJSON_IsNumber(e) || !isfinite(e->valuedouble) || fabs(e->valuedouble) > 1e30) {
@@ -63,16 +98,23 @@ static enum rayd_status get_indices(struct loader *ld, const cJSON *obj, const s
     struct jp p = sj_key(at, "indices");
     if (!a) return sj_fail(ld, RAYD_E_INVALID, &p, "is required (3 vertex indices per triangle)");
     if (!cJSON_IsArray(a)) return sj_fail(ld, RAYD_E_INVALID, &p, "must be an array of integers, not %s", sj_type_name(a));
-    long n = 0;
-    for (const cJSON *e = a->child; e; e = e->next) n++;
+    const struct json_span *sp = sj_inline_span(ld->inl, a);
+    long n = count_items(a, sp);
     if (n % 3 != 0 || n == 0)
         return sj_fail(ld, RAYD_E_INVALID, &p, "must hold a multiple of 3 indices (at least 3); it has %ld", n);
     if (ld->triangles + n / 3 > ld->lim->max_triangles)
         return sj_fail(ld, RAYD_E_LIMIT, &p, "brings the scene to %ld triangles; the limit is %ld", ld->triangles + n / 3, ld->lim->max_triangles);
     uint32_t *ix = malloc(sizeof *ix * (size_t)n);
     if (!ix) return err_set(ld->err, RAYD_E_NOMEM, p.s, "out of memory");
-    long i = 0;
-    for (const cJSON *e = a->child; e; e = e->next, i++) {
+    long i = sp ? json_indices(ld->inl->text, sp, nverts, 0, ix) : -1;
+    if (i != -1) {
+        free(ix);
+        if (i == JSON_NUMBERS_NOMEM) return err_set(ld->err, RAYD_E_NOMEM, p.s, "out of memory");
+        struct jp pe = sj_index(&p, (int)i);
+        return sj_fail(ld, RAYD_E_INVALID, &pe, "must be an integer in 0..%ld (a vertex index)", nverts - 1);
+    }
+    i = 0;
+    for (const cJSON *e = sp ? NULL : a->child; e; e = e->next, i++) {
         double v = cJSON_IsNumber(e) ? e->valuedouble : -1;
         if (!(v >= 0 && v < (double)nverts && floor(v) == v)) {
             free(ix);

@@ -8,6 +8,7 @@
  *   scene_json_material.c  named and inline materials
  *   scene_json_texture.c   material textures
  *   scene_json_mesh.c      meshes: inline arrays, OBJ/PLY sources
+ *   scene_json_inline.c    large inline arrays kept out of cJSON's tree
  *   scene_json_util.c      JSON Pointers, the typed getters, files a scene names
  *
  * Every getter checks one value and, when it is wrong, fills the error with
@@ -51,6 +52,7 @@ struct loader {
     size_t mat_cap, tex_cap, mesh_cap, xform_cap, part_cap; /* array capacities */
     long objects;             /* objects, operands and group members so far */
     long triangles, vertices; /* totals so far, against the limits */
+    const struct sj_inline *inl; /* inline mesh arrays left out of the tree */
 };
 
 enum vec_rule { VEC_ANY, VEC_NONZERO, VEC_COLOR };
