@@ -30,18 +30,15 @@
  * blocks, never the threads, cut the work: the tree is the same bytes on
  * any number of threads, which the unit tests check.
  *
- * Then the binary tree is collapsed into 4-wide nodes: each wide node takes
- * the binary node's two children and keeps opening the largest inner child
- * until it has four.  Wide nodes are laid out depth-first in one array, in
- * float, four child boxes side by side for the SIMD test in bvh.h.  Each
- * binary node counts, as it is built, the wide nodes its subtree becomes,
- * so every wide subtree's place is known before it is written and large
- * ones are written by threads of their own.  The binary tree is freed;
- * only the wide one is kept (bytes per primitive are what the benchmark
- * reports).
+ * Then bvh_collapse.c turns the binary tree into the 4-wide nodes the
+ * walk reads; each binary node counts, as it is built, the wide nodes its
+ * subtree becomes (bvh_wide_count), so the collapse can place subtrees
+ * before writing them.  The binary tree is freed; only the wide one is
+ * kept (bytes per primitive are what the benchmark reports).
  */
 #include "base/hugemem.h"
 #include "accel/bvh.h"
+#include "accel/bvh_collapse.h"
 
 #include <pthread.h>
 #include <stdatomic.h>
@@ -55,14 +52,6 @@
 #define PARALLEL_MIN 50000 /* primitives below which a thread is not worth it */
 #define LARGE (1u << 18)   /* nodes this large split by blocks, on several threads */
 #define BLOCK (1u << 14)   /* primitives a block */
-#define COLLAPSE_MIN 4096  /* 4-wide nodes below which a collapse thread is not worth it */
-
-struct bnode {
-    struct bbox box;
-    uint32_t a, b; /* inner: left and right node; leaf: first, count */
-    uint32_t wide; /* 4-wide nodes its subtree collapses to (0 for a leaf) */
-    bool leaf;
-};
 
 /* A primitive's box with its id, 32 bytes: the builder moves these (not
  * indices into the caller's boxes), so every pass reads memory in order. */
@@ -87,17 +76,6 @@ struct build {
     atomic_bool failed; /* out of memory on the way: the tree is whole but bvh_build fails */
     uint32_t max_leaf; /* primitives a leaf may hold, 1..BVH_MAX_LEAF */
 };
-
-static struct bbox bb_empty(void) {
-    struct bbox b = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
-    return b;
-}
-
-static float bb_area(const struct bbox *b) {
-    float dx = b->hi[0] - b->lo[0], dy = b->hi[1] - b->lo[1], dz = b->hi[2] - b->lo[2];
-    if (!(dx >= 0)) return 0;
-    return 2 * (dx * dy + dy * dz + dz * dx);
-}
 
 struct bbox bbox_from(vec3 lo, vec3 hi) {
     double l[3] = {lo.x, lo.y, lo.z}, h[3] = {hi.x, hi.y, hi.z};
@@ -551,7 +529,6 @@ struct task {
 
 static void build_node(struct build *b, uint32_t self, uint32_t first, uint32_t n,
                        const struct span *sp, int depth, int threads);
-static uint32_t wide_count(const struct bnode *bn, uint32_t bi);
 
 static void *build_task(void *arg) {
     struct task *t = arg;
@@ -585,106 +562,13 @@ static void build_node(struct build *b, uint32_t self, uint32_t first, uint32_t 
         if (pthread_create(&th, NULL, build_task, &t) == 0) {
             build_node(b, left + 1, first + mid, n - mid, &rs, depth + 1, threads - threads / 2);
             pthread_join(th, NULL);
-            nd->wide = wide_count(b->nodes, self);
+            nd->wide = bvh_wide_count(b->nodes, self);
             return;
         }
     }
     build_node(b, left, first, mid, &ls, depth + 1, 1);
     build_node(b, left + 1, first + mid, n - mid, &rs, depth + 1, 1);
-    nd->wide = wide_count(b->nodes, self);
-}
-
-/* ---- collapse to 4-wide --------------------------------------------------- */
-
-/* The children of the 4-wide node made from inner binary node bi: its two
- * children, then the inner child with the largest area opened until there
- * are four.  Returns how many. */
-static int collapse_kids(const struct bnode *bn, uint32_t bi, uint32_t kids[4]) {
-    kids[0] = bn[bi].a, kids[1] = bn[bi].b;
-    int nk = 2;
-    while (nk < 4) {
-        int best = -1;
-        float area = -1;
-        for (int i = 0; i < nk; i++) {
-            const struct bnode *k = &bn[kids[i]];
-            if (!k->leaf && bb_area(&k->box) > area) {
-                area = bb_area(&k->box);
-                best = i;
-            }
-        }
-        if (best < 0) break;
-        uint32_t open = kids[best];
-        kids[best] = bn[open].a;
-        kids[nk++] = bn[open].b;
-    }
-    return nk;
-}
-
-/* The 4-wide nodes inner node bi collapses to, from its wide children's
- * counts (built already): what lets the collapse place every subtree
- * before it is written, and so write subtrees on several threads. */
-static uint32_t wide_count(const struct bnode *bn, uint32_t bi) {
-    uint32_t kids[4], w = 1;
-    int nk = collapse_kids(bn, bi, kids);
-    for (int i = 0; i < nk; i++) w += bn[kids[i]].wide;
-    return w;
-}
-
-struct collapse {
-    const struct bnode *bn;
-    struct bvh4_node *out;
-};
-
-struct collapse_task {
-    const struct collapse *c;
-    uint32_t bi, self;
-    int tasks;
-};
-
-static void collapse_node(const struct collapse *c, uint32_t bi, uint32_t self, int tasks);
-
-static void *collapse_run(void *arg) {
-    struct collapse_task *t = arg;
-    collapse_node(t->c, t->bi, t->self, t->tasks);
-    return NULL;
-}
-
-/* Writes the wide node of binary node bi at out[self], its subtrees
- * depth-first after it (each child at self + 1 + the sizes of the children
- * before it).  tasks > 1: large subtrees are written by threads of their
- * own, each with a share of tasks. */
-static void collapse_node(const struct collapse *c, uint32_t bi, uint32_t self, int tasks) {
-    uint32_t kids[4], next = self + 1;
-    int nk = collapse_kids(c->bn, bi, kids);
-    struct bvh4_node nd;
-    memset(&nd, 0, sizeof nd);
-    for (int i = 0; i < 4; i++) {
-        struct bbox box = i < nk ? c->bn[kids[i]].box : bb_empty();
-        for (int k = 0; k < 3; k++) {
-            nd.lo[k][i] = box.lo[k];
-            nd.hi[k][i] = box.hi[k];
-        }
-    }
-    for (int i = 0; i < nk; i++) {
-        const struct bnode *k = &c->bn[kids[i]];
-        nd.child[i] = k->leaf ? k->a : next;
-        nd.count[i] = k->leaf ? (uint8_t)k->b : 0;
-        next += k->wide;
-    }
-    c->out[self] = nd;
-    struct collapse_task t[4];
-    pthread_t th[4];
-    bool started[4] = {false};
-    for (int i = 0; i < nk; i++) {
-        const struct bnode *k = &c->bn[kids[i]];
-        if (k->leaf) continue;
-        t[i] = (struct collapse_task){c, kids[i], nd.child[i], tasks / nk};
-        if (tasks > 1 && k->wide >= COLLAPSE_MIN)
-            started[i] = pthread_create(&th[i], NULL, collapse_run, &t[i]) == 0;
-        if (!started[i]) collapse_node(c, kids[i], nd.child[i], 1);
-    }
-    for (int i = 0; i < nk; i++)
-        if (started[i]) pthread_join(th[i], NULL);
+    nd->wide = bvh_wide_count(b->nodes, self);
 }
 
 /* The primitives copied into the builder's records, block by block, with
@@ -741,27 +625,6 @@ static bool fill_prims(struct build *b, const struct bbox *boxes, uint32_t n, in
     return true;
 }
 
-/* The binary tree of b->nodes as 4-wide nodes into wide (room for n + 1);
- * returns how many. */
-static uint32_t collapse_all(const struct build *b, struct bvh4_node *wide, uint32_t n,
-                             int tasks) {
-    const struct bnode *root = &b->nodes[0];
-    if (!root->leaf) {
-        struct collapse c = {b->nodes, wide};
-        collapse_node(&c, 0, 0, tasks);
-        return root->wide;
-    }
-    memset(wide, 0, sizeof *wide); /* one leaf: a wide root with one child */
-    for (int i = 0; i < 4; i++)
-        for (int k = 0; k < 3; k++) {
-            wide->lo[k][i] = i ? INFINITY : root->box.lo[k];
-            wide->hi[k][i] = i ? -INFINITY : root->box.hi[k];
-        }
-    wide->child[0] = 0;
-    wide->count[0] = (uint8_t)n;
-    return 1;
-}
-
 enum rayd_status bvh_build(struct bvh4 *bvh, const struct bbox *boxes, uint32_t n,
                            uint32_t max_leaf, uint32_t *order, int threads,
                            struct rayd_error *err) {
@@ -790,7 +653,7 @@ enum rayd_status bvh_build(struct bvh4 *bvh, const struct bbox *boxes, uint32_t 
         struct fill f = {.prims = b.prims, .order = order};
         parallel_for(n, threads, BLOCK, order_body, &f);
         bvh->bounds = b.nodes[0].box;
-        used = collapse_all(&b, wide, n, tasks);
+        used = bvh_collapse(b.nodes, wide, n, tasks);
     }
     free(b.prims);
     free(b.tmp);

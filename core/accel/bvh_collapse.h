@@ -1,0 +1,42 @@
+/* bvh_collapse.h -- what the BVH builder (bvh.c) shares with its collapse
+ * into 4-wide nodes (bvh_collapse.c): the binary nodes and two box helpers.
+ * Private to those two files.
+ */
+#ifndef BVH_COLLAPSE_H
+#define BVH_COLLAPSE_H
+
+#include <math.h>
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "accel/bvh.h"
+
+struct bnode {
+    struct bbox box;
+    uint32_t a, b; /* inner: left and right node; leaf: first, count */
+    uint32_t wide; /* 4-wide nodes its subtree collapses to (0 for a leaf) */
+    bool leaf;
+};
+
+static inline struct bbox bb_empty(void) {
+    struct bbox b = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+    return b;
+}
+
+static inline float bb_area(const struct bbox *b) {
+    float dx = b->hi[0] - b->lo[0], dy = b->hi[1] - b->lo[1], dz = b->hi[2] - b->lo[2];
+    if (!(dx >= 0)) return 0;
+    return 2 * (dx * dy + dy * dz + dz * dx);
+}
+
+/* The 4-wide nodes inner node bi collapses to, from its wide children's
+ * counts (built already): what lets the collapse place every subtree
+ * before it is written, and so write subtrees on several threads. */
+uint32_t bvh_wide_count(const struct bnode *bn, uint32_t bi);
+
+/* The binary tree nodes (root at 0, n primitives) as 4-wide nodes into
+ * wide (room for n + 1), large subtrees on up to tasks threads; returns
+ * how many. */
+uint32_t bvh_collapse(const struct bnode *nodes, struct bvh4_node *wide, uint32_t n, int tasks);
+
+#endif
