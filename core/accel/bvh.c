@@ -20,15 +20,14 @@
  * leaves no core idle; binary nodes come from one atomically bumped array,
  * so threads never lock.
  *
- * The top splits themselves would leave all but one core idle (the root's
- * two passes touch every record), so nodes of LARGE primitives and more
- * split by blocks of BLOCK records on several threads: each block is
- * binned apart and the bins merged (minima, maxima, counts: the same in
- * any order), then a stable partition through a second array of records
- * sends each block's two sides to offsets known from the blocks' counts.
- * Whether a node splits this way depends on its size alone, and the
- * blocks, never the threads, cut the work: the tree is the same bytes on
- * any number of threads, which the unit tests check.
+ * The top splits themselves run on one thread.  Splitting the largest
+ * nodes by blocks on several threads (bins merged, a stable partition
+ * through a second array) was tried and measured slower on 2 cores: the
+ * second array's fresh pages and the copy back cost more than the binning
+ * saved (the 1.3M mesh built in 0.455 s against 0.335 s).  The copy of the
+ * boxes in, the order array out and the collapse do run on every thread,
+ * in blocks fixed by the size alone: the tree is the same bytes on any
+ * number of threads, which the unit tests check.
  *
  * Then bvh_collapse.c turns the binary tree into the 4-wide nodes the
  * walk reads; each binary node counts, as it is built, the wide nodes its
@@ -50,7 +49,6 @@
 #define BINS 16
 #define MEDIAN_DEPTH 48
 #define PARALLEL_MIN 50000 /* primitives below which a thread is not worth it */
-#define LARGE (1u << 18)   /* nodes this large split by blocks, on several threads */
 #define BLOCK (1u << 14)   /* primitives a block */
 
 /* A primitive's box with its id, 32 bytes: the builder moves these (not
@@ -70,7 +68,6 @@ struct span {
 
 struct build {
     struct prim *prims;
-    struct prim *tmp; /* as many records as prims: large nodes partition through it */
     struct bnode *nodes;
     atomic_uint used;
     atomic_bool failed; /* out of memory on the way: the tree is whole but bvh_build fails */
@@ -198,7 +195,7 @@ static int sah_best4(const struct acc4 bin[BINS], const uint32_t count[BINS], st
     return best_k;
 }
 
-/* The bins of one node, or of one block of a large node's primitives. */
+/* The bins of one node. */
 struct bins {
     struct acc4 acc[BINS];
     uint32_t count[BINS];
@@ -233,19 +230,6 @@ static void bins_fill(struct bins *b, struct prim *p, uint32_t n, int axis, floa
             b->count[k] += cnt[h][k];
         }
     }
-}
-
-static void bins_merge(struct bins *a, const struct bins *b) {
-    for (int k = 0; k < BINS; k++) {
-        acc4_merge(&a->acc[k], &b->acc[k]);
-        a->count[k] += b->count[k];
-    }
-}
-
-static uint32_t bins_below(const struct bins *b, int plane) {
-    uint32_t n = 0;
-    for (int k = 0; k < plane; k++) n += b->count[k];
-    return n;
 }
 
 static int bins_best(const struct bins *b, struct span *left, struct span *right) {
@@ -314,7 +298,7 @@ static int sah_best(const struct bin bin[BINS], struct span *left, struct span *
     return best_k;
 }
 
-/* The bins of one node, or of one block of a large node's primitives. */
+/* The bins of one node. */
 struct bins {
     struct bin bin[BINS];
 };
@@ -328,21 +312,6 @@ static void bins_fill(struct bins *b, struct prim *p, uint32_t n, int axis, floa
         b->bin[k].n++;
         span_add(&b->bin[k].sp, &p[i]);
     }
-}
-
-static void bins_merge(struct bins *a, const struct bins *b) {
-    for (int k = 0; k < BINS; k++) {
-        struct bin *x = &a->bin[k];
-        bb_grow(&x->sp.box, b->bin[k].sp.box.lo, b->bin[k].sp.box.hi);
-        bb_grow(&x->sp.cent, b->bin[k].sp.cent.lo, b->bin[k].sp.cent.hi);
-        x->n += b->bin[k].n;
-    }
-}
-
-static uint32_t bins_below(const struct bins *b, int plane) {
-    uint32_t n = 0;
-    for (int k = 0; k < plane; k++) n += b->bin[k].n;
-    return n;
 }
 
 static int bins_best(const struct bins *b, struct span *left, struct span *right) {
@@ -415,86 +384,11 @@ static uint32_t split_small(struct prim *p, uint32_t n, uint32_t L, int axis, st
     return best_k;
 }
 
-/* A large node's split, block by block (BLOCK primitives each, the last
- * fewer): the blocks, never the threads, decide how the work is cut, so
- * the split is the same on any number of threads. */
-struct large {
-    struct prim *p, *tmp; /* the node's records, and as many in b->tmp */
-    uint32_t n;
-    int axis, plane;
-    float clo, scale;
-    struct bins *bins;            /* one a block */
-    uint32_t *left_at, *right_at; /* where each block's two sides go */
-};
-
-static uint32_t block_len(uint32_t n, size_t k) {
-    uint32_t first = (uint32_t)k * BLOCK;
-    return n - first < BLOCK ? n - first : BLOCK;
-}
-
-static void large_bin_body(void *ctx, size_t lo, size_t hi) {
-    struct large *j = ctx;
-    for (size_t k = lo; k < hi; k++)
-        bins_fill(&j->bins[k], j->p + k * BLOCK, block_len(j->n, k), j->axis, j->clo, j->scale);
-}
-
-/* A stable partition into tmp: each block's left records go to its
- * left_at, the right ones to its right_at. */
-static void large_scatter_body(void *ctx, size_t lo, size_t hi) {
-    struct large *j = ctx;
-    for (size_t k = lo; k < hi; k++) {
-        const struct prim *p = j->p + k * BLOCK;
-        uint32_t l = j->left_at[k], r = j->right_at[k], n = block_len(j->n, k);
-        for (uint32_t i = 0; i < n; i++) j->tmp[p[i].bin < j->plane ? l++ : r++] = p[i];
-    }
-}
-
-static void large_copy_body(void *ctx, size_t lo, size_t hi) {
-    struct large *j = ctx;
-    size_t first = lo * BLOCK, end = hi * BLOCK < j->n ? hi * BLOCK : j->n;
-    memcpy(j->p + first, j->tmp + first, sizeof *j->p * (end - first));
-}
-
-/* Binned SAH over a node of at least LARGE primitives on `width` threads:
- * the blocks are binned apart and their bins merged (minima, maxima and
- * counts, the same in any order), then partitioned stably through b->tmp.
- * Returns the left count, 0 when no plane separates anything. */
-static uint32_t split_large(struct build *b, struct prim *p, uint32_t n, int axis, float clo,
-                            float scale, int width, struct span *left, struct span *right) {
-    size_t nb = (n + (size_t)BLOCK - 1) / BLOCK;
-    struct large j = {p, b->tmp + (p - b->prims), n, axis, 0, clo, scale,
-                      malloc(sizeof *j.bins * nb), malloc(sizeof *j.left_at * 2 * nb), NULL};
-    uint32_t mid = 0;
-    if (!j.bins || !j.left_at) {
-        atomic_store(&b->failed, true);
-        goto out;
-    }
-    j.right_at = j.left_at + nb;
-    parallel_for(nb, width, 1, large_bin_body, &j);
-    struct bins all = j.bins[0];
-    for (size_t k = 1; k < nb; k++) bins_merge(&all, &j.bins[k]);
-    j.plane = bins_best(&all, left, right);
-    if (j.plane <= 0) goto out;
-    uint32_t l = 0, r = mid = bins_below(&all, j.plane);
-    for (size_t k = 0; k < nb; k++) {
-        uint32_t below = bins_below(&j.bins[k], j.plane);
-        j.left_at[k] = l, j.right_at[k] = r;
-        l += below, r += block_len(n, k) - below;
-    }
-    parallel_for(nb, width, 1, large_scatter_body, &j);
-    parallel_for(nb, width, 1, large_copy_body, &j);
-out:
-    free(j.bins);
-    free(j.left_at);
-    return mid;
-}
-
 /* Splits node prims p[0..n) (measured by sp) into left and right: binned
- * SAH (split_large for large nodes), the median past MEDIAN_DEPTH, halves
- * by count when the centroids coincide.  Returns the left count; 0 makes a
- * leaf.  width: the threads this node's own split may use. */
+ * SAH, the median past MEDIAN_DEPTH, halves by count when the centroids
+ * coincide.  Returns the left count; 0 makes a leaf. */
 static uint32_t split(struct build *b, struct prim *p, uint32_t n, const struct span *sp,
-                      int depth, int width, struct span *left, struct span *right) {
+                      int depth, struct span *left, struct span *right) {
     uint32_t L = b->max_leaf;
     const struct bbox *cb = &sp->cent;
     float ext[3] = {cb->hi[0] - cb->lo[0], cb->hi[1] - cb->lo[1], cb->hi[2] - cb->lo[2]};
@@ -502,11 +396,7 @@ static uint32_t split(struct build *b, struct prim *p, uint32_t n, const struct 
     *left = *right = (struct span){bb_empty(), bb_empty()};
     uint32_t mid = 0;
     if (n > L && n <= 2 * L) return split_small(p, n, L, axis, left, right);
-    if (n >= LARGE && ext[axis] > 0 && depth < MEDIAN_DEPTH) {
-        float scale = BINS / ext[axis] * 0.99999f;
-        mid = split_large(b, p, n, axis, cb->lo[axis], scale, width, left, right);
-        if (mid > 0) return mid;
-    } else if (n > L && ext[axis] > 0 && depth < MEDIAN_DEPTH) {
+    if (n > L && ext[axis] > 0 && depth < MEDIAN_DEPTH) {
         float scale = BINS / ext[axis] * 0.99999f;
         int plane = sah_plane(p, n, axis, cb->lo[axis], scale, left, right);
         if (plane > 0) return partition(p, n, plane);
@@ -541,8 +431,7 @@ static void build_node(struct build *b, uint32_t self, uint32_t first, uint32_t 
     struct bnode *nd = &b->nodes[self];
     nd->box = sp->box;
     struct span ls, rs;
-    int width = (threads + 3) / 4; /* threads counts four subtrees a thread */
-    uint32_t mid = split(b, b->prims + first, n, sp, depth, width, &ls, &rs);
+    uint32_t mid = split(b, b->prims + first, n, sp, depth, &ls, &rs);
     if (mid == 0 || mid >= n) {
         nd->leaf = true;
         nd->a = first;
@@ -569,6 +458,12 @@ static void build_node(struct build *b, uint32_t self, uint32_t first, uint32_t 
     build_node(b, left, first, mid, &ls, depth + 1, 1);
     build_node(b, left + 1, first + mid, n - mid, &rs, depth + 1, 1);
     nd->wide = bvh_wide_count(b->nodes, self);
+}
+
+/* Primitives in block k of n (BLOCK each, the last fewer). */
+static uint32_t block_len(uint32_t n, size_t k) {
+    uint32_t first = (uint32_t)k * BLOCK;
+    return n - first < BLOCK ? n - first : BLOCK;
 }
 
 /* The primitives copied into the builder's records, block by block, with
@@ -634,13 +529,12 @@ enum rayd_status bvh_build(struct bvh4 *bvh, const struct bbox *boxes, uint32_t 
     struct build b = {0};
     b.max_leaf = max_leaf < 1 ? 1 : max_leaf > BVH_MAX_LEAF ? BVH_MAX_LEAF : max_leaf;
     b.prims = huge_alloc(sizeof *b.prims * n);
-    b.tmp = n >= LARGE ? huge_alloc(sizeof *b.tmp * n) : NULL;
     b.nodes = huge_alloc(sizeof *b.nodes * (2 * (size_t)n));
     struct bvh4_node *wide = huge_alloc(sizeof *wide * ((size_t)n + 1));
     struct span all;
     int tasks = threads > 1 ? 4 * threads : 1; /* at most 4 subtrees a thread, 64 threads */
     tasks = tasks > 64 ? 64 : tasks;
-    bool ok = b.prims && (b.tmp || n < LARGE) && b.nodes && wide &&
+    bool ok = b.prims && b.nodes && wide &&
               fill_prims(&b, boxes, n, threads, &all);
     uint32_t used = 0;
     if (ok) {
@@ -656,7 +550,6 @@ enum rayd_status bvh_build(struct bvh4 *bvh, const struct bbox *boxes, uint32_t 
         used = bvh_collapse(b.nodes, wide, n, tasks);
     }
     free(b.prims);
-    free(b.tmp);
     free(b.nodes);
     if (!ok) {
         free(wide);
