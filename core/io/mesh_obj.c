@@ -350,6 +350,10 @@ static enum rayd_status obj_triangle(struct obj *o, uint32_t a, uint32_t b, uint
 static enum rayd_status obj_defer(struct obj *o, struct obj_key a, struct obj_key b,
                                   struct obj_key c) {
     struct obj_chunk *ch = o->defer;
+    /* a chunk alone past the limit: stop before its corners grow without
+     * bound (the reading in order then gives the message) */
+    if (ch->ncorners / 3 >= o->max_tris)
+        return obj_fail(o, RAYD_E_LIMIT, "triangles exceed the limit of %u", o->max_tris);
     if (!array_grow((void **)&ch->corners, &ch->cap_corners, ch->ncorners + 3,
                     sizeof *ch->corners))
         return obj_nomem(o);
@@ -417,8 +421,13 @@ static enum rayd_status obj_merge(struct obj *o) {
         if (!o->all_n && o->keys[j].n) changed = true, o->keys[j].n = 0;
     }
     if (!changed) return RAYD_OK;
+    /* every key goes into the table now, not only those that had a vt or
+     * vn: it must have room for all of them, or obj_slot finds no free slot */
     uint32_t *remap = malloc(o->nkeys * sizeof *remap);
-    if (!remap) return obj_nomem(o);
+    if (!remap || !obj_table_fit(o, o->nkeys)) {
+        free(remap);
+        return obj_nomem(o);
+    }
     memset(o->table, 0, o->table_size * sizeof *o->table);
     size_t m = 0;
     for (size_t j = 0; j < o->nkeys; j++) {
@@ -572,7 +581,11 @@ static bool obj_bases(struct obj_par *j) {
         ch->nv = o->nv, ch->nt = o->nt, ch->nn = o->nn;
         o->nv += v, o->nt += t, o->nn += n;
     }
-    if (o->nv > o->max_verts || o->nt > o->max_verts || o->nn > o->max_verts) return false;
+    size_t faces = 0; /* each face line makes a triangle at least */
+    for (size_t c = 0; c < j->nchunks; c++) faces += j->chunks[c].cap_corners / 3;
+    if (o->nv > o->max_verts || o->nt > o->max_verts || o->nn > o->max_verts ||
+        faces > o->max_tris)
+        return false;
     o->cap_v = o->nv * 3 + 3, o->cap_vt = o->nt * 2 + 2, o->cap_vn = o->nn * 3 + 3;
     o->v = huge_alloc(o->cap_v * sizeof *o->v);
     o->vt = malloc(o->cap_vt * sizeof *o->vt);

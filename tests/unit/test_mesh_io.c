@@ -312,6 +312,28 @@ static void test_obj_missing_attributes_dropped(void) {
     mesh_data_free(&m);
 }
 
+/* One corner with a uv among thousands with a position alone: dropping the
+ * uv puts every corner into the merge's hash table, which must grow for
+ * them (it was sized for the corners with a uv, and the merge looped
+ * forever looking for a free slot). */
+static void test_obj_merge_grows_the_table(void) {
+    enum { NV = 3000 };
+    size_t cap = NV * 48 + 64, len = 0;
+    char *text = malloc(cap);
+    struct mesh_data m = {0};
+    struct rayd_error e = {0};
+    for (int i = 0; i < NV; i++) len += (size_t)snprintf(text + len, cap - len, "v %d %d 0\n", i, i % 7);
+    len += (size_t)snprintf(text + len, cap - len, "vt 0 0\nf 1/1 2/1 3/1\n");
+    for (int i = 1; i + 2 <= NV; i++)
+        len += (size_t)snprintf(text + len, cap - len, "f %d %d %d\n", i, i + 1, i + 2);
+    CHECK(obj(text, &m, &e) == RAYD_OK, "%s", e.message);
+    CHECK(m.uv == NULL && m.nverts == NV && m.ntris == NV - 1, "%u verts, %u tris", m.nverts,
+          m.ntris);
+    check_indices_in_range(&m);
+    mesh_data_free(&m);
+    free(text);
+}
+
 static void test_obj_ignored_statements(void) {
     struct mesh_data m = {0};
     struct rayd_error e = {0};
@@ -1062,6 +1084,7 @@ int main(void) {
     RUN(test_obj_polygons_fan);
     RUN(test_obj_dedup);
     RUN(test_obj_missing_attributes_dropped);
+    RUN(test_obj_merge_grows_the_table);
     RUN(test_obj_ignored_statements);
     RUN(test_obj_errors);
     RUN(test_obj_limits);
