@@ -10,7 +10,8 @@
  *
  * Every file of server/ is one idea and its public names start with the
  * file's name (config_, log_, metrics_, blob_, json_).  The server's layers,
- * bottom to top, are listed in LAYERS-server.txt beside the Makefile.
+ * bottom to top, are drawn in docs/architecture.md and kept by
+ * tools/check_layers.py.
  */
 #ifndef RAYD_SERVER_BASE_H
 #define RAYD_SERVER_BASE_H

@@ -89,9 +89,9 @@ int events_read(struct events_stream *s, struct events_item *items, int n,
         k = -1;
     } else if (k == 0) {
         struct task *t = s->job->task;
+        w->suspend(w); /* before the waiter is linked (work_private.h) */
         w->next = t->sse_waiters;
         t->sse_waiters = w;
-        w->suspend(w);
     }
     pthread_mutex_unlock(&work_lock);
     return k;

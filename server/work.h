@@ -28,8 +28,9 @@ struct work_result {
 };
 
 /* Something waiting on a task or a job's events.  done() is called exactly
- * once per registration, from a worker or the watcher thread, after the
- * waiter is removed from every list and with no lock held. */
+ * once per registration -- from a worker, the watcher thread, a DELETE of
+ * the job or the drain's cancel of everything -- after the waiter is
+ * removed from every list and with no lock held. */
 struct work_waiter {
     void (*done)(struct work_waiter *w, struct work_result *res);
     void (*suspend)(struct work_waiter *w); /* under the lock, before linking */

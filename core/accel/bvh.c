@@ -70,7 +70,6 @@ struct build {
     struct prim *prims;
     struct bnode *nodes;
     atomic_uint used;
-    atomic_bool failed; /* out of memory on the way: the tree is whole but bvh_build fails */
     uint32_t max_leaf; /* primitives a leaf may hold, 1..BVH_MAX_LEAF */
 };
 
@@ -539,9 +538,7 @@ enum rayd_status bvh_build(struct bvh4 *bvh, const struct bbox *boxes, uint32_t 
     uint32_t used = 0;
     if (ok) {
         atomic_init(&b.used, 1);
-        atomic_init(&b.failed, false);
         build_node(&b, 0, 0, n, &all, 0, tasks);
-        ok = !atomic_load(&b.failed);
     }
     if (ok) {
         struct fill f = {.prims = b.prims, .order = order};

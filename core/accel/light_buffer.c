@@ -176,13 +176,17 @@ static bool buffer_build(struct light_buffer *b, vec3 p, const struct aabb *rel,
     return true;
 }
 
+bool light_buffers_worth(const struct light_buffer_light *lights, int nlights, int32_t nobjs) {
+    bool point = false;
+    for (int i = 0; i < nlights; i++) point |= lights[i].point;
+    return point && nobjs >= 2 && nobjs <= LB_MAX_OBJS;
+}
+
 enum rayd_status light_buffers_build(const struct aabb *box, int32_t nobjs,
                                      const struct light_buffer_light *lights, int nlights,
                                      struct light_buffer **out, struct rayd_error *err) {
     *out = NULL;
-    bool point = false;
-    for (int i = 0; i < nlights; i++) point |= lights[i].point;
-    if (!point || nobjs < 2 || nobjs > LB_MAX_OBJS) return RAYD_OK;
+    if (!light_buffers_worth(lights, nlights, nobjs)) return RAYD_OK;
     struct light_buffer *bufs = calloc((size_t)nlights, sizeof *bufs);
     struct aabb *rel = malloc(sizeof *rel * (size_t)nobjs);
     struct lb_scratch sc = {malloc(sizeof *sc.rect * (size_t)nobjs),

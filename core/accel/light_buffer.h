@@ -43,6 +43,9 @@ struct light_buffer_light {
  * bounds comes as an infinite box): ok false for lights that are not
  * points, and where a buffer would not be sound or passes the bounds.
  * *out NULL when no light gets one.  Fails only when out of memory. */
+/* Whether light_buffers_build could give any light a buffer: a point light
+ * among them, and an object count the buffers pay for. */
+bool light_buffers_worth(const struct light_buffer_light *lights, int nlights, int32_t nobjs);
 enum rayd_status light_buffers_build(const struct aabb *box, int32_t nobjs,
                                      const struct light_buffer_light *lights, int nlights,
                                      struct light_buffer **out, struct rayd_error *err);

@@ -500,21 +500,24 @@ static enum rayd_status find_emitters(rayd_scene *s, struct rayd_error *err) {
 /* The point lights' buffers (light_buffer.c) over the top-level objects'
  * boxes; an object without bounds shows in every direction. */
 static enum rayd_status build_light_buffers(rayd_scene *s, struct rayd_error *err) {
-    struct aabb *box = malloc(sizeof *box * (size_t)s->nobjs);
     struct light_buffer_light *lights = malloc(sizeof *lights * (size_t)(s->nlights + 1));
-    if (!box || !lights) {
-        free(box), free(lights);
-        return err_set(err, RAYD_E_NOMEM, NULL, "out of memory building the light buffers");
-    }
-    for (int32_t k = 0; k < s->nobjs; k++)
-        if (!scene_object_bounds(s, &s->objs[k], &box[k]))
-            box[k] = (struct aabb){v3(-INFINITY, -INFINITY, -INFINITY),
-                                   v3(INFINITY, INFINITY, INFINITY)};
+    if (!lights) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory building the light buffers");
     for (int i = 0; i < s->nlights; i++)
         lights[i] = (struct light_buffer_light){s->lights[i].position,
                                                 s->lights[i].kind == LIGHT_POINT};
-    enum rayd_status st =
-        light_buffers_build(box, s->nobjs, lights, s->nlights, &s->light_buffers, err);
+    /* the objects' boxes only where some light can have a buffer */
+    bool worth = light_buffers_worth(lights, s->nlights, s->nobjs);
+    struct aabb *box = worth ? malloc(sizeof *box * (size_t)s->nobjs) : NULL;
+    enum rayd_status st = RAYD_OK;
+    if (worth && !box) {
+        st = err_set(err, RAYD_E_NOMEM, NULL, "out of memory building the light buffers");
+    } else if (worth) {
+        for (int32_t k = 0; k < s->nobjs; k++)
+            if (!scene_object_bounds(s, &s->objs[k], &box[k]))
+                box[k] = (struct aabb){v3(-INFINITY, -INFINITY, -INFINITY),
+                                       v3(INFINITY, INFINITY, INFINITY)};
+        st = light_buffers_build(box, s->nobjs, lights, s->nlights, &s->light_buffers, err);
+    }
     free(box);
     free(lights);
     return st;

@@ -368,9 +368,9 @@ static void test_mesh_build_same_for_any_thread_count(void) {
     mesh_free(&ref);
 }
 
-/* The BVH alone on more boxes: the top levels split by blocks on several
- * threads (bvh.c's LARGE nodes, the two top levels here), so the
- * order and the nodes must be the same bytes for 1, 2, 3 and 8 threads;
+/* The BVH alone on more boxes: subtrees built, boxes copied in and the
+ * 4-wide collapse written on several threads, so the order and the
+ * nodes must be the same bytes for 1, 2, 3 and 8 threads;
  * and every primitive in exactly one leaf, inside its leaf's box. */
 static void test_bvh_same_for_any_thread_count(void) {
     const uint32_t n = 700000;
