@@ -161,6 +161,48 @@ enum rayd_status rayd_render_into(const rayd_scene *scene, const struct rayd_reg
                                   rayd_image *dst, int dst_x, int dst_y, const atomic_int *cancel,
                                   uint64_t *rays, struct rayd_error *err);
 
+/* ---- passes: progressive rendering --------------------------------------- */
+
+/* An accumulator holds, for every pixel of a region, the linear sums of its
+ * samples 0..n-1 in double, added in sample-index order, so that the image
+ * after a pass of n samples is byte for byte the plain render with
+ * "samples": n, for any tiling and thread count (docs/scene-format.md, the
+ * pass rule).  The one exception is the sample count 1: a one-sample render
+ * traces the pixel centre (the paper's ray), which is not sample 0 of a
+ * longer render; so a pass [0, 1) holds the centre image, and the next pass
+ * from 1 traces sample 0 again before going on.  Sample counts above
+ * render.samples of the scene are allowed. */
+typedef struct rayd_accum rayd_accum;
+
+/* A new accumulator, no samples yet, for region (NULL or zero: the whole
+ * image) of scene; *out owns it, free with rayd_accum_free. */
+enum rayd_status rayd_accum_new(const rayd_scene *scene, const struct rayd_region *region,
+                                rayd_accum **out, struct rayd_error *err);
+void rayd_accum_free(rayd_accum *acc);
+/* Samples summed so far per pixel (0 before the first pass). */
+int rayd_accum_samples(const rayd_accum *acc);
+/* The accumulator's region, resolved (never zero-sized). */
+struct rayd_region rayd_accum_region(const rayd_accum *acc);
+
+/* Adds samples samples_from..samples_to-1 of every pixel.  samples_from
+ * must be rayd_accum_samples(acc) and samples_to larger.  opts gives
+ * threads, tile, progress, cancel and stats; its region is not read (the
+ * accumulator's is rendered).  Canceled, the pass leaves the accumulator
+ * half added: it refuses further passes and resolves (RAYD_E_ARG), so take
+ * the previous pass's image before starting the next. */
+enum rayd_status rayd_render_pass(const rayd_scene *scene, const struct rayd_render_opts *opts,
+                                  rayd_accum *acc, int samples_from, int samples_to,
+                                  struct rayd_error *err);
+
+/* The 8-bit sRGB image of the sums so far: sum * (1 / n) per channel, then
+ * the same sRGB rounding as rayd_render.  *out owns a new image. */
+enum rayd_status rayd_accum_image(const rayd_accum *acc, rayd_image **out,
+                                  struct rayd_error *err);
+/* The linear radiance so far, unclamped, as float RGB: w * h * 3 floats,
+ * rows packed, into a new buffer *out (free with rayd_free); each value is
+ * (float)(sum * (1 / n)). */
+enum rayd_status rayd_accum_linear(const rayd_accum *acc, float **out, struct rayd_error *err);
+
 /* ---- images -------------------------------------------------------------- */
 
 /* A new black w x h image; *out owns it. */
