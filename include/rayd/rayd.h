@@ -237,6 +237,19 @@ enum rayd_status rayd_png_decode(const void *buf, size_t len, long max_pixels, r
 enum rayd_status rayd_png_read_file(const char *path, long max_pixels, rayd_image **out,
                                     struct rayd_error *err);
 
+/* HDR out, from linear float RGB (w * h * 3 floats, rows packed, e.g.
+ * rayd_accum_linear's).  *buf (malloc'd, free with rayd_free) holds *len
+ * bytes; the same pixels always give the same bytes.
+ *
+ * rayd_exr_encode: OpenEXR, one scanline part, R, G, B as 32-bit float,
+ * linear and unclamped, ZIP compression (written by OpenEXR's library). */
+enum rayd_status rayd_exr_encode(const float *rgb, int w, int h, void **buf, size_t *len,
+                                 struct rayd_error *err);
+/* rayd_png16_encode: a 16-bit RGB PNG, each value sRGB-encoded (clamped to
+ * [0, 1]) and rounded to 16 bits; level is zlib's, -1 default. */
+enum rayd_status rayd_png16_encode(const float *rgb, int w, int h, int level, void **buf,
+                                   size_t *len, struct rayd_error *err);
+
 /* Reads a whole file ("-" for standard input) into *out (NUL-terminated
  * for convenience; free with rayd_free), *len bytes.  Over max bytes:
  * RAYD_E_LIMIT, read no further.  Not a regular file, or unreadable:
