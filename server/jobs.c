@@ -135,7 +135,7 @@ enum work_submit jobs_create(struct cache_entry *scene, const struct rayd_region
     if (!jobs_new_id(id))
         return WORK_NOMEM;
     struct job *j = calloc(1, sizeof *j);
-    struct task *fresh = task_new(scene, reg);
+    struct task *fresh = task_new(scene, reg, WORK_PNG);
     if (!j || !fresh) {
         free(j);
         if (fresh)

@@ -125,3 +125,31 @@ enum rayd_status rayd_accum_linear(const rayd_accum *a, float **out, struct rayd
     *out = f;
     return RAYD_OK;
 }
+
+enum rayd_status rayd_render_linear_into(const rayd_scene *s, const struct rayd_region *region,
+                                         float *dst, int dst_w, int dst_x, int dst_y,
+                                         const atomic_int *cancel, uint64_t *rays,
+                                         struct rayd_error *err) {
+    rayd_accum *a = NULL;
+    enum rayd_status st = rayd_accum_new(s, region, &a, err);
+    if (st != RAYD_OK) return st;
+    struct rayd_region r = a->r;
+    if (dst_x < 0 || dst_y < 0 || dst_x > dst_w - r.w) {
+        rayd_accum_free(a);
+        return err_set(err, RAYD_E_ARG, NULL, "the region does not fit the destination image");
+    }
+    struct rayd_render_stats stats = {0};
+    struct rayd_render_opts o = {.threads = 1, .tile = r.w > r.h ? r.w : r.h, .cancel = cancel,
+                                 .stats = &stats};
+    int n = s->rs.samples;
+    st = rayd_render_pass(s, &o, a, 0, n, err); /* one pass: the plain render's sums */
+    if (rays) *rays += stats.rays;
+    double scale = 1.0 / n;
+    for (int row = 0; st == RAYD_OK && row < r.h; row++) {
+        float *out = dst + ((size_t)(dst_y + row) * (size_t)dst_w + (size_t)dst_x) * 3;
+        const double *in = a->sum + (size_t)row * (size_t)r.w * 3;
+        for (size_t k = 0; k < (size_t)r.w * 3; k++) out[k] = (float)(in[k] * scale);
+    }
+    rayd_accum_free(a);
+    return st;
+}

@@ -203,6 +203,15 @@ enum rayd_status rayd_accum_image(const rayd_accum *acc, rayd_image **out,
  * (float)(sum * (1 / n)). */
 enum rayd_status rayd_accum_linear(const rayd_accum *acc, float **out, struct rayd_error *err);
 
+/* rayd_render_into for linear float RGB: region's linear radiance (as
+ * rayd_accum_linear gives it after a pass of all render.samples) into dst,
+ * a float RGB image dst_w pixels wide, top-left at (dst_x, dst_y), on the
+ * calling thread.  For servers that render an HDR frame in tiles. */
+enum rayd_status rayd_render_linear_into(const rayd_scene *scene, const struct rayd_region *region,
+                                         float *dst, int dst_w, int dst_x, int dst_y,
+                                         const atomic_int *cancel, uint64_t *rays,
+                                         struct rayd_error *err);
+
 /* ---- images -------------------------------------------------------------- */
 
 /* A new black w x h image; *out owns it. */
