@@ -17,6 +17,7 @@
  * scene (the message names the JSON Pointer, or the line and column).
  */
 #include <errno.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -29,12 +30,16 @@ static void usage(FILE *f) {
     fprintf(f,
             "usage: rayd-render SCENE.json -o OUT.png [--format png|png16|exr]\n"
             "                   [--region X,Y,W,H] [--threads N] [--png-level N]\n"
-            "                   [--passes] [--pass-step K] [--pass-output PATTERN] [--stats]\n"
+            "                   [--passes] [--pass-step K] [--pass-output PATTERN]\n"
+            "                   [--exposure EV] [--tonemap clamp|reinhard] [--stats]\n"
             "\n"
             "  SCENE.json        scene file (format v1, docs/scene-format.md); '-' reads stdin\n"
             "  -o, --output F    file to write (required); F ending in .exr means --format exr\n"
             "  --format F        png (8-bit sRGB, the default), png16 (16-bit sRGB) or exr\n"
             "                    (OpenEXR, linear float RGB, unclamped)\n"
+            "  --exposure EV     scale the light by 2^EV before the 8-bit PNG (default 0)\n"
+            "  --tonemap C       the 8-bit PNG's curve: clamp (the default: above 1 clips)\n"
+            "                    or reinhard (v / (1 + v): highlights compressed)\n"
             "  --passes          render in passes of 1, 2, 4, ... samples up to the scene's,\n"
             "                    printing each pass's samples and times; writes the last\n"
             "  --pass-step K     passes of K, 2K, 3K, ... samples instead (implies --passes)\n"
@@ -89,6 +94,7 @@ struct args {
     int format; /* enum format; -1 until chosen */
     int passes, pass_step;
     const char *pass_output;
+    struct rayd_tone tone; /* the 8-bit PNG's exposure and curve */
 };
 
 /* "png", "png16" or "exr"; -1 for anything else. */
@@ -119,6 +125,24 @@ static int parse_pass_arg(int argc, char **argv, int *i, struct args *a) {
                                    "one %%d (the pass's samples) and no other %%\n"), -1;
         a->passes = 1;
         a->pass_output = val;
+        ++*i;
+        return 1;
+    }
+    if (!strcmp(arg, "--exposure")) {
+        char *end = NULL;
+        double ev = val ? strtod(val, &end) : 0;
+        if (!val || end == val || *end || !(ev >= -64 && ev <= 64))
+            return fprintf(stderr, "rayd-render: --exposure takes stops in -64..64\n"), -1;
+        a->tone.exposure = ev;
+        ++*i;
+        return 1;
+    }
+    if (!strcmp(arg, "--tonemap")) {
+        int clamp = val && !strcmp(val, "clamp"), reinhard = val && !strcmp(val, "reinhard");
+        if (!clamp && !reinhard)
+            return fprintf(stderr, "rayd-render: --tonemap takes clamp or reinhard, not '%s'\n",
+                           val ? val : ""), -1;
+        a->tone.curve = reinhard ? RAYD_TONE_REINHARD : RAYD_TONE_CLAMP;
         ++*i;
         return 1;
     }
@@ -276,7 +300,7 @@ static enum rayd_status encode_accum(const struct args *a, const rayd_accum *acc
     enum rayd_status st;
     if (a->format == FMT_PNG) {
         rayd_image *img = NULL;
-        st = rayd_accum_image(acc, &img, err);
+        st = rayd_accum_image_tone(acc, &a->tone, &img, err);
         if (st == RAYD_OK) st = rayd_png_encode_threads(img, a->png_level, a->threads, buf, len, err);
         rayd_image_free(img);
         return st;
@@ -400,8 +424,9 @@ int main(int argc, char **argv) {
     stage[ST_DECODE] = info.decode_seconds;
     stage[ST_BUILD] = info.build_seconds;
     stage[ST_PARSE] = now() - t - info.decode_seconds - info.build_seconds;
-    int rc = a.passes || a.format != FMT_PNG ? render_passes(&a, scene, stage, t0)
-                                             : render_and_write(&a, scene, stage, t0);
+    bool toned = a.tone.exposure != 0 || a.tone.curve != RAYD_TONE_CLAMP;
+    int rc = a.passes || a.format != FMT_PNG || toned ? render_passes(&a, scene, stage, t0)
+                                                      : render_and_write(&a, scene, stage, t0);
     rayd_scene_free(scene);
     return rc;
 }

@@ -6,7 +6,10 @@
  * cache by the SHA-256 of the body (parsed and built only on a miss), the
  * render is submitted, and the connection waits suspended; the bytes equal
  * `rayd-render scene.json --region X,Y,W,H` because both encode with
- * rayd_png_encode at the same level.  POST /v1/scenes compiles and keeps a
+ * rayd_png_encode at the same level.  ?format=png16|exr (or Accept:
+ * image/x-exr) answers a 16-bit PNG or an OpenEXR instead, equal to
+ * rayd-render --format's; only this route takes it, so the immutable image
+ * URL of a kept scene stays a PNG.  POST /v1/scenes compiles and keeps a
  * scene; its image URL is immutable (strong ETag, 304 on If-None-Match).
  *
  * The wait: a small struct ties the work layer's waiter to the request.

@@ -5,8 +5,8 @@
  * the next tile of the task task_pick() puts first (task.c explains the
  * order), so a small interactive request overtakes a big frame at the next
  * tile boundary.  The worker that finishes a task's last tile encodes its
- * PNG -- with the lock released, like the tiles -- and answers everyone
- * interested in it.
+ * PNG (or, for a 16-bit PNG or EXR task, its linear floats) -- with the
+ * lock released, like the tiles -- and answers everyone interested in it.
  *
  * Back-pressure: at most queue_cap tasks may wait for a worker (have tiles
  * nobody has started); beyond that a submission is refused with WORK_FULL and

@@ -1,7 +1,8 @@
 /* task.c -- one render: a compiled scene, a region, its tiles and who waits.
  *
  * A task is split into tiles of TASK_TILE x TASK_TILE pixels rendered
- * straight into one shared rayd_image: tiles are disjoint rectangles, so any
+ * straight into one shared rayd_image (or, for the HDR formats, one float
+ * RGB buffer): tiles are disjoint rectangles, so any
  * number of workers may fill tiles of one task at once without a lock on the
  * pixels.  Identical requests in flight -- same scene id, same region --
  * join the same task (its key), so a burst of equal tile requests renders

@@ -19,6 +19,7 @@
  * one-sample preview costs one extra sample of a whole progressive render.
  */
 #include <limits.h>
+#include <math.h>
 #include <stdbool.h>
 #include <stdlib.h>
 #include <string.h>
@@ -152,4 +153,32 @@ enum rayd_status rayd_render_linear_into(const rayd_scene *s, const struct rayd_
     }
     rayd_accum_free(a);
     return st;
+}
+
+/* The tone curve of one exposed linear value; clamp leaves it to srgb8. */
+static double tone_curve(double v, enum rayd_tone_curve curve) {
+    if (curve == RAYD_TONE_REINHARD) return v > 0 ? v / (1.0 + v) : v; /* [0, inf) -> [0, 1) */
+    return v;
+}
+
+enum rayd_status rayd_accum_image_tone(const rayd_accum *a, const struct rayd_tone *tone,
+                                       rayd_image **out, struct rayd_error *err) {
+    if (!tone || (tone->exposure == 0 && tone->curve == RAYD_TONE_CLAMP))
+        return rayd_accum_image(a, out, err); /* the default: today's bytes */
+    if (!(tone->exposure >= -64 && tone->exposure <= 64))
+        return err_set(err, RAYD_E_ARG, "exposure", "must be in -64..64 stops");
+    if (tone->curve != RAYD_TONE_CLAMP && tone->curve != RAYD_TONE_REINHARD)
+        return err_set(err, RAYD_E_ARG, "curve", "must be RAYD_TONE_CLAMP or RAYD_TONE_REINHARD");
+    enum rayd_status st = accum_usable(a, err);
+    if (st != RAYD_OK) return st;
+    if (a->n == 0) return err_set(err, RAYD_E_ARG, NULL, "the accumulator holds no samples yet");
+    rayd_image *img = NULL;
+    st = rayd_image_new(a->r.w, a->r.h, &img, err);
+    if (st != RAYD_OK) return st;
+    size_t count = (size_t)a->r.w * (size_t)a->r.h * 3;
+    double scale = 1.0 / a->n, gain = exp2(tone->exposure);
+    for (size_t i = 0; i < count; i++)
+        img->px[i] = render_srgb8(tone_curve(a->sum[i] * scale * gain, tone->curve));
+    *out = img;
+    return RAYD_OK;
 }

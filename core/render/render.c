@@ -18,6 +18,12 @@
  * sample's 16 camera rays as one packet (scene_packet.c); since a packet
  * gives every ray exactly its one-ray answer, the blocks change nothing
  * in the bytes.  The cancel flag is polled once per row of blocks.
+ *
+ * The same blocks serve progressive passes (accum.c): instead of bytes, a
+ * block then adds a range of samples k0..k1-1 to running per-pixel sums,
+ * in sample order, which is exactly what the plain render does before it
+ * scales and converts; so a pass of n samples resolves to the plain
+ * render's bytes.
  */
 #include <pthread.h>
 #include <stdatomic.h>

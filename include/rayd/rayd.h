@@ -6,7 +6,8 @@
  * Shape of the API
  * ----------------
  * - Handles are opaque: rayd_scene (a parsed, validated and frozen scene with
- *   its acceleration structure built) and rayd_image (8-bit sRGB RGB pixels).
+ *   its acceleration structure built), rayd_image (8-bit sRGB RGB pixels)
+ *   and rayd_accum (the linear per-pixel sums of progressive passes).
  * - Every fallible call returns an enum rayd_status and fills an optional
  *   struct rayd_error (code, message, JSON Pointer path, line/column).  The
  *   error struct holds fixed-size buffers: it never allocates and can be
@@ -198,6 +199,19 @@ enum rayd_status rayd_render_pass(const rayd_scene *scene, const struct rayd_ren
  * the same sRGB rounding as rayd_render.  *out owns a new image. */
 enum rayd_status rayd_accum_image(const rayd_accum *acc, rayd_image **out,
                                   struct rayd_error *err);
+/* Optional exposure and tone curve for the 8-bit image.  The value shown
+ * is curve(average * 2^exposure), then sRGB-encoded.  RAYD_TONE_CLAMP is
+ * no curve (values above 1 clip to 255): with exposure 0 it is exactly
+ * rayd_accum_image.  RAYD_TONE_REINHARD is v / (1 + v) per channel: no
+ * clipping, highlights compressed (1.0 shows as 0.5). */
+enum rayd_tone_curve { RAYD_TONE_CLAMP = 0, RAYD_TONE_REINHARD = 1 };
+struct rayd_tone {
+    double exposure; /* stops: each +1 doubles the light; -64..64 */
+    enum rayd_tone_curve curve;
+};
+/* rayd_accum_image through tone (NULL: none). */
+enum rayd_status rayd_accum_image_tone(const rayd_accum *acc, const struct rayd_tone *tone,
+                                       rayd_image **out, struct rayd_error *err);
 /* The linear radiance so far, unclamped, as float RGB: w * h * 3 floats,
  * rows packed, into a new buffer *out (free with rayd_free); each value is
  * (float)(sum * (1 / n)). */

@@ -82,6 +82,14 @@ done
     exrheader "$T/r.exr" | grep -q 'dataWindow.*(0 0) - (32 16)' && ok cli-exr-region ||
     bad cli-exr-region "$(exrheader "$T/r.exr" 2>&1 | grep dataWindow)"
 
+# Tone: exposure 0 and clamp are today's bytes; reinhard differs.
+"$R" tests/scenes/cornell.json -o "$T/t0.png" --exposure 0 --tonemap clamp --threads 2
+cmp -s "$T/t0.png" "$T/plain.png" && ok cli-tone-default-identical ||
+    bad cli-tone-default-identical "--exposure 0 --tonemap clamp changed the bytes"
+"$R" tests/scenes/cornell.json -o "$T/t1.png" --exposure 1 --tonemap reinhard --threads 2 &&
+    ! cmp -s "$T/t1.png" "$T/plain.png" && pngcheck -q "$T/t1.png" >/dev/null && ok cli-tone-reinhard ||
+    bad cli-tone-reinhard "failed or unchanged"
+
 # Bad options: exit 2, the message names the option.
 expect_usage() { # name, expected text, args...
     local name=$1 want=$2; shift 2
@@ -90,5 +98,7 @@ expect_usage() { # name, expected text, args...
     if [ $rc = 2 ] && grep -q -- "$want" "$T/err"; then ok "$name"; else bad "$name" "exit $rc: $(head -1 "$T/err")"; fi
 }
 expect_usage cli-bad-format "--format takes png, png16 or exr, not 'jpeg'" tests/scenes/cornell.json -o "$T/x" --format jpeg
+expect_usage cli-bad-tonemap "--tonemap takes clamp or reinhard, not 'aces'" tests/scenes/cornell.json -o "$T/x" --tonemap aces
+expect_usage cli-bad-exposure "--exposure takes stops" tests/scenes/cornell.json -o "$T/x" --exposure 1e9
 expect_usage cli-bad-pass-step "--pass-step takes an integer" tests/scenes/cornell.json -o "$T/x" --pass-step 0
 expect_usage cli-bad-pass-output "--pass-output takes a file name" tests/scenes/cornell.json -o "$T/x" --pass-output "a%s"

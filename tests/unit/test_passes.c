@@ -146,6 +146,50 @@ static void test_linear_matches_bytes(void) {
     rayd_scene_free(s);
 }
 
+/* The tone curve: none is today's image; exposure and Reinhard follow the
+ * documented formula on the linear values (within one step). */
+static void test_tone_curves(void) {
+    rayd_scene *s = scene_sized("scenes/cornell.json", 12, 12, 1);
+    if (!s) return;
+    rayd_accum *acc = NULL;
+    CHECK(rayd_accum_new(s, NULL, &acc, NULL) == RAYD_OK, "accumulator");
+    if (!acc) return;
+    CHECK(rayd_render_pass(s, NULL, acc, 0, 3, NULL) == RAYD_OK, "pass");
+    rayd_image *plain = NULL, *same = NULL, *up = NULL, *rh = NULL;
+    float *lin = NULL;
+    struct rayd_tone none = {0}, bright = {1.0, RAYD_TONE_CLAMP}, soft = {-0.5, RAYD_TONE_REINHARD};
+    rayd_accum_image(acc, &plain, NULL);
+    rayd_accum_image_tone(acc, &none, &same, NULL);
+    rayd_accum_image_tone(acc, &bright, &up, NULL);
+    rayd_accum_image_tone(acc, &soft, &rh, NULL);
+    rayd_accum_linear(acc, &lin, NULL);
+    CHECK(plain && same && up && rh && lin, "every image made");
+    if (plain && same && up && rh && lin) {
+        CHECK(!memcmp(rayd_image_pixels_const(plain), rayd_image_pixels_const(same), 12 * 12 * 3),
+              "no tone: the same bytes");
+        int worst = 0;
+        for (int i = 0; i < 12 * 12 * 3; i++) {
+            double v = lin[i], r = v * pow(2, -0.5);
+            int a = abs(srgb_ref(2 * v) - rayd_image_pixels_const(up)[i]);
+            int b = abs(srgb_ref(r > 0 ? r / (1 + r) : r) - rayd_image_pixels_const(rh)[i]);
+            worst = a > worst ? a : b > worst ? b : worst;
+        }
+        CHECK(worst <= 1, "exposure and Reinhard by the formula (worst %d)", worst);
+    }
+    struct rayd_tone bad = {100, RAYD_TONE_CLAMP};
+    struct rayd_error err = {0};
+    rayd_image *x = NULL;
+    CHECK(rayd_accum_image_tone(acc, &bad, &x, &err) == RAYD_E_ARG && !strcmp(err.path, "exposure"),
+          "exposure out of range refused");
+    rayd_free(lin);
+    rayd_image_free(plain);
+    rayd_image_free(same);
+    rayd_image_free(up);
+    rayd_image_free(rh);
+    rayd_accum_free(acc);
+    rayd_scene_free(s);
+}
+
 static void test_bad_passes_are_refused(void) {
     rayd_scene *s = scene_sized("scenes/cornell.json", 8, 8, 1);
     if (!s) return;
@@ -179,6 +223,7 @@ int main(void) {
     RUN(test_whitted_passes_are_prefixes);
     RUN(test_region_pass_is_a_crop);
     RUN(test_linear_matches_bytes);
+    RUN(test_tone_curves);
     RUN(test_bad_passes_are_refused);
     return check_failures_ != 0;
 }
