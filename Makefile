@@ -351,6 +351,10 @@ $(BUILD)/bench/pngbench: bench/pngbench.c $(BUILD)/librayd.a
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -Iinclude $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
 
+$(BUILD)/bench/hdrbench: bench/hdrbench.c $(BUILD)/librayd.a
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS_ALL) -Iinclude $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
+
 .PRECIOUS: $(BENCH_DIR)/mesh-%.ply $(BENCH_DIR)/mesh-%.json $(BENCH_DIR)/mesh-%.obj $(BENCH_DIR)/mesh-%-obj.json
 
 # The Embree side of bench-peers: reuses the core's PLY reader (mesh_io.h).
@@ -373,7 +377,7 @@ bench-deps: | $(BUILD)/.deps-ok
 	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; \
 	fi
 
-bench: all $(BUILD)/bench/raybench $(BUILD)/bench/genmesh $(BUILD)/bench/pngbench $(BENCH_SCENES) \
+bench: all $(BUILD)/bench/raybench $(BUILD)/bench/genmesh $(BUILD)/bench/pngbench $(BUILD)/bench/hdrbench $(BENCH_SCENES) \
        $(BENCH_DIR)/mesh-8-obj.json
 	@bash bench/run.sh $(BUILD)
 
