@@ -9,9 +9,11 @@
  *
  * Choices: one scanline part of three 32-bit float channels R, G, B (half
  * floats would round the radiance to 11 bits; float keeps what the render
- * computed, to the float rounding of the average); ZIP compression (zlib,
- * 16 rows a chunk), lossless and deterministic, so the same image gives the
- * same bytes; written to memory through the library's write callback, so
+ * computed, to the float rounding of the average); PIZ compression
+ * (wavelet + Huffman, 32 rows a chunk), lossless and deterministic, so the
+ * same image gives the same bytes -- measured on a 1080p frame
+ * (bench/hdrbench.c) against ZIP it was 1.5x faster and 10% smaller (463 ms,
+ * 15.9 MB against 676 ms, 17.6 MB; no compression: 79 ms, 24.9 MB); written to memory through the library's write callback, so
  * the server can send it and cache it like a PNG.  The library writes the
  * chunk offset table last, at an earlier offset, so the buffer takes
  * writes at any offset.
@@ -74,7 +76,7 @@ static exr_result_t exr_header(exr_context_t ctx, int w, int h) {
     int part = 0;
     exr_result_t rv = exr_add_part(ctx, "rgb", EXR_STORAGE_SCANLINE, &part);
     if (rv == EXR_ERR_SUCCESS)
-        rv = exr_initialize_required_attr_simple(ctx, part, w, h, EXR_COMPRESSION_ZIP);
+        rv = exr_initialize_required_attr_simple(ctx, part, w, h, EXR_COMPRESSION_PIZ);
     static const char *const names[3] = {"R", "G", "B"};
     for (int c = 0; c < 3 && rv == EXR_ERR_SUCCESS; c++)
         rv = exr_add_channel(ctx, part, names[c], EXR_PIXEL_FLOAT, EXR_PERCEPTUALLY_LOGARITHMIC, 1,

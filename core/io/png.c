@@ -81,7 +81,9 @@ enum rayd_status rayd_png_read_file(const char *path, long max_pixels, rayd_imag
  * rounded to 16 bits, so v16 / 257 is within one step of the 8-bit image's
  * byte.  Written by libpng (one thread, its adaptive filters) with the
  * sRGB, gAMA and cHRM chunks the 8-bit PNG has; fixed settings, so the same
- * image gives the same bytes.  Slower than the 8-bit band encoder, which
+ * image gives the same bytes.  zlib level 4 by default, as the 8-bit PNG:
+ * on a 1080p frame 415 ms against 705 ms at level 6, for 3% more bytes.
+ * Slower than the 8-bit band encoder (one thread, twice the bytes), which
  * is the everyday path; 16-bit is for the rarer export. */
 
 struct png_mem {
@@ -133,7 +135,7 @@ static int png16_write(png_structp png, png_infop info, const float *rgb, int w,
                        struct png_mem *m, unsigned char *row) {
     if (setjmp(png_jmpbuf(png))) return -1;
     png_set_write_fn(png, m, mem_write, mem_flush);
-    png_set_compression_level(png, level < 0 ? 6 : level);
+    png_set_compression_level(png, level < 0 ? 4 : level); /* 4: as the 8-bit default */
     png_set_IHDR(png, info, (png_uint_32)w, (png_uint_32)h, 16, PNG_COLOR_TYPE_RGB,
                  PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     png_set_sRGB_gAMA_and_cHRM(png, info, PNG_sRGB_INTENT_PERCEPTUAL);

@@ -265,11 +265,11 @@ enum rayd_status rayd_png_read_file(const char *path, long max_pixels, rayd_imag
  * bytes; the same pixels always give the same bytes.
  *
  * rayd_exr_encode: OpenEXR, one scanline part, R, G, B as 32-bit float,
- * linear and unclamped, ZIP compression (written by OpenEXR's library). */
+ * linear and unclamped, PIZ compression (lossless; written by OpenEXR's library). */
 enum rayd_status rayd_exr_encode(const float *rgb, int w, int h, void **buf, size_t *len,
                                  struct rayd_error *err);
 /* rayd_png16_encode: a 16-bit RGB PNG, each value sRGB-encoded (clamped to
- * [0, 1]) and rounded to 16 bits; level is zlib's, -1 default. */
+ * [0, 1]) and rounded to 16 bits; level is zlib's, -1 the default (4). */
 enum rayd_status rayd_png16_encode(const float *rgb, int w, int h, int level, void **buf,
                                    size_t *len, struct rayd_error *err);
 

@@ -62,7 +62,7 @@ for scene in tests/scenes/cornell.json tests/scenes/whitted.json; do
         bad "cli-exr-$base-deterministic" "EXR failed or differs between --format and .exr, threads"
     fi
     hdr=$(exrheader "$T/$base.exr" 2>&1)
-    if grep -q 'R, 32-bit floating-point' <<<"$hdr" && grep -q 'compression.*zip' <<<"$hdr"; then
+    if grep -q 'R, 32-bit floating-point' <<<"$hdr" && grep -q 'compression.*piz' <<<"$hdr"; then
         ok "cli-exr-$base-exrheader"
     else
         bad "cli-exr-$base-exrheader" "$hdr"

@@ -89,7 +89,7 @@ static void test_png16_values(void) {
 }
 
 static void test_exr_bytes(void) {
-    int w = 19, h = 40; /* more than one 16-row ZIP chunk, a short last one */
+    int w = 19, h = 70; /* more than one 32-row PIZ chunk, a short last one */
     float *f = ramp(w, h);
     void *a = NULL, *b = NULL;
     size_t alen = 0, blen = 0;
