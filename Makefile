@@ -300,11 +300,12 @@ $(FUZZ_SERVER_TARGETS:%=$(BUILD)/tests/fuzz/replay_%): $(BUILD)/tests/fuzz/repla
 # rayd's stderr fails the script that started it).  `make test-valgrind`:
 # three integration scripts with rayd under valgrind memcheck (exit 99 on any
 # error or definite leak).  Both print "N passed, N failed".
-TSAN_TESTS := jobs lifecycle api_basic load slow_clients faults
+TSAN_TESTS := jobs lifecycle api_basic api_hdr load slow_clients faults
 VALGRIND_TESTS := security api_errors bad_requests
 
 test-tsan:
-	@$(MAKE) --no-print-directory TSAN=1 build/tsan/rayd build/tsan/rayd-render build/tsan/bench/genmesh
+	@$(MAKE) --no-print-directory TSAN=1 build/tsan/rayd build/tsan/rayd-render build/tsan/bench/genmesh \
+	  build/tsan/tests/tools/hdrcheck
 	@TSAN_OPTIONS="halt_on_error=0 second_deadlock_stack=1 $${TSAN_OPTIONS:-}" \
 	  RAYD_TIMEOUT=1800 RAYD_TESTS="$(TSAN_TESTS)" bash tests/run.sh build/tsan
 
