@@ -153,7 +153,7 @@ enum work_submit jobs_create(struct cache_entry *scene, const struct rayd_region
     else if (jobs_n == jobs_max && !jobs_evict())
         r = WORK_TOO_MANY_JOBS;
     else
-        r = task_submit(scene, reg, &fresh, &t);
+        r = task_submit(scene, &fresh, &t);
     if (r == WORK_OK) {
         j->task = t;
         t->refs++;

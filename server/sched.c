@@ -278,7 +278,7 @@ enum work_submit sched_render(struct cache_entry *scene, const struct rayd_regio
         return WORK_NOMEM;
     pthread_mutex_lock(&work_lock);
     struct task *t = NULL;
-    enum work_submit r = task_submit(scene, reg, &fresh, &t);
+    enum work_submit r = task_submit(scene, &fresh, &t);
     if (r == WORK_OK) {
         w->suspend(w);
         w->next = t->waiters;

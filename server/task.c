@@ -135,13 +135,11 @@ struct task *task_pick(void)
     return best;
 }
 
-enum work_submit task_submit(struct cache_entry *scene, const struct rayd_region *reg,
-                             struct task **fresh, struct task **out)
+enum work_submit task_submit(struct cache_entry *scene, struct task **fresh, struct task **out)
 {
     if (task_draining())
         return WORK_DRAINING;
-    (void)reg; /* the fresh task's key names scene, region and format */
-    struct task *t = task_find((*fresh)->key);
+    struct task *t = task_find((*fresh)->key); /* scene, region and format */
     if (t) {
         metrics_coalesced();
         *out = t;
