@@ -20,10 +20,12 @@
 # chromium (and a font) for the browser tests of the preview page, valgrind
 # (make test-valgrind), openssl (a test certificate for the TLS test), zlib
 # (the PNG encoder's deflate, core/io/png_encode.c) and pngcheck (the tests
-# check the encoder's files with it).
+# check the encoder's files with it), libopenexr-dev (EXR out, core/io/exr.c)
+# and openexr (its exrheader; g++ builds the tests' EXR reader on OpenEXR's
+# C++ library).
 DEB_PKGS := gcc make pkg-config libc6-dev libpng-dev zlib1g-dev libcjson-dev libmicrohttpd-dev \
             libcurl4-openssl-dev libssl-dev curl python3 nginx wrk chromium fonts-dejavu-core pngcheck \
-            clang libclang-rt-14-dev valgrind openssl
+            clang libclang-rt-14-dev valgrind openssl libopenexr-dev openexr g++
 
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 
@@ -64,7 +66,11 @@ WARN := -Wall -Wextra -Werror -Wshadow -Wpointer-arith -Wstrict-prototypes \
 # default), so the one-ray code and the packets do the same roundings.
 CFLAGS_ALL := -std=c11 -D_POSIX_C_SOURCE=200809L -ffp-contract=off $(OPT) $(WARN) -MMD -MP $(CFLAGS)
 LDFLAGS_ALL := $(LDSAN) $(LDFLAGS)
-LIBS_CORE := -lpng -lz -lcjson -lpthread -lm
+# OpenEXR (core/io/exr.c only) through pkg-config; recursively expanded, so
+# pkg-config runs in recipes, after `make deps` has installed it.
+EXR_CFLAGS = $(patsubst -I%,-isystem %,$(shell pkg-config --cflags OpenEXR))
+EXR_LIBS = $(shell pkg-config --libs OpenEXR)
+LIBS_CORE = -lpng -lz -lcjson $(EXR_LIBS) -lpthread -lm
 
 CORE_SRC := $(wildcard core/*/*.c)
 CORE_OBJ := $(CORE_SRC:%.c=$(BUILD)/%.o)
@@ -132,6 +138,8 @@ $(BUILD)/core/%.o: core/%.c | $(BUILD)/.deps-ok
 $(BUILD)/core/render/integrate_wide.o $(BUILD)/core/geom/camera.o $(BUILD)/core/io/png_encode.o: CFLAGS_VEC := -ftree-vectorize \
     -fvect-cost-model=dynamic
 
+$(BUILD)/core/io/exr.o: CFLAGS_VEC = $(EXR_CFLAGS)
+
 $(BUILD)/librayd.a: $(CORE_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
@@ -180,7 +188,14 @@ $(BUILD)/tests/tools/%: tests/tools/%.c $(BUILD)/librayd.a
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -Iinclude -Icore $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
 
-TEST_TOOLS := $(patsubst tests/tools/%.c,$(BUILD)/tests/tools/%,$(wildcard tests/tools/*.c))
+# The tests' third-party reader of EXR files (OpenEXR's C++ library), not
+# built with the sanitizers: it checks rayd's output, it is not rayd.
+$(BUILD)/tests/tools/%: tests/tools/%.cc | $(BUILD)/.deps-ok
+	@mkdir -p $(dir $@)
+	$(CXX) -std=c++17 -O2 -Wall -Wextra -Werror $(EXR_CFLAGS) $< -o $@ $(EXR_LIBS) -lpng
+
+TEST_TOOLS := $(patsubst tests/tools/%.c,$(BUILD)/tests/tools/%,$(wildcard tests/tools/*.c)) \
+              $(patsubst tests/tools/%.cc,$(BUILD)/tests/tools/%,$(wildcard tests/tools/*.cc))
 
 # The browser tests drive Debian's chromium with playwright-core from npm,
 # installed into tests/browser/node_modules when its lock file changes.  No
@@ -285,11 +300,12 @@ $(FUZZ_SERVER_TARGETS:%=$(BUILD)/tests/fuzz/replay_%): $(BUILD)/tests/fuzz/repla
 # rayd's stderr fails the script that started it).  `make test-valgrind`:
 # three integration scripts with rayd under valgrind memcheck (exit 99 on any
 # error or definite leak).  Both print "N passed, N failed".
-TSAN_TESTS := jobs lifecycle api_basic load slow_clients faults
+TSAN_TESTS := jobs lifecycle api_basic api_hdr load slow_clients faults
 VALGRIND_TESTS := security api_errors bad_requests
 
 test-tsan:
-	@$(MAKE) --no-print-directory TSAN=1 build/tsan/rayd build/tsan/rayd-render build/tsan/bench/genmesh
+	@$(MAKE) --no-print-directory TSAN=1 build/tsan/rayd build/tsan/rayd-render build/tsan/bench/genmesh \
+	  build/tsan/tests/tools/hdrcheck
 	@TSAN_OPTIONS="halt_on_error=0 second_deadlock_stack=1 $${TSAN_OPTIONS:-}" \
 	  RAYD_TIMEOUT=1800 RAYD_TESTS="$(TSAN_TESTS)" bash tests/run.sh build/tsan
 
@@ -336,6 +352,10 @@ $(BUILD)/bench/pngbench: bench/pngbench.c $(BUILD)/librayd.a
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -Iinclude $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
 
+$(BUILD)/bench/hdrbench: bench/hdrbench.c $(BUILD)/librayd.a
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS_ALL) -Iinclude $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
+
 .PRECIOUS: $(BENCH_DIR)/mesh-%.ply $(BENCH_DIR)/mesh-%.json $(BENCH_DIR)/mesh-%.obj $(BENCH_DIR)/mesh-%-obj.json
 
 # The Embree side of bench-peers: reuses the core's PLY reader (mesh_io.h).
@@ -358,7 +378,7 @@ bench-deps: | $(BUILD)/.deps-ok
 	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; \
 	fi
 
-bench: all $(BUILD)/bench/raybench $(BUILD)/bench/genmesh $(BUILD)/bench/pngbench $(BENCH_SCENES) \
+bench: all $(BUILD)/bench/raybench $(BUILD)/bench/genmesh $(BUILD)/bench/pngbench $(BUILD)/bench/hdrbench $(BENCH_SCENES) \
        $(BENCH_DIR)/mesh-8-obj.json
 	@bash bench/run.sh $(BUILD)
 

@@ -20,6 +20,9 @@ struct api_q {
     const char *val[4];
     int count[4];
     char unknown[64];
+    bool allow_format; /* POST /v1/render: ?format= too */
+    const char *format;
+    int format_count;
 };
 
 static const char *const api_q_names[4] = {"x", "y", "w", "h"};
@@ -33,6 +36,11 @@ static void api_q_each(void *u, const char *k, const char *v)
             q->count[i]++;
             return;
         }
+    if (q->allow_format && !strcmp(k, "format")) {
+        q->format = v;
+        q->format_count++;
+        return;
+    }
     if (!q->unknown[0])
         snprintf(q->unknown, sizeof q->unknown, "%s", k);
 }
@@ -51,15 +59,18 @@ static bool api_int(const char *s, long *out)
     return true;
 }
 
-bool api_region(struct http_req *r, const rayd_scene *scene, struct rayd_region *out)
+static bool api_region_q(struct http_req *r, const rayd_scene *scene, struct rayd_region *out,
+                         struct api_q *qp)
 {
     struct rayd_scene_info info;
     rayd_scene_info(scene, &info);
-    struct api_q q = {0};
+    struct api_q q = *qp;
     http_req_query_each(r, api_q_each, &q);
+    *qp = q;
     char msg[200];
     if (q.unknown[0]) {
-        snprintf(msg, sizeof msg, "unknown query parameter '%s' (only x, y, w, h)", q.unknown);
+        snprintf(msg, sizeof msg, "unknown query parameter '%s' (only x, y, w, h%s)", q.unknown,
+                 q.allow_format ? ", format" : "");
         http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, q.unknown);
         return false;
     }
@@ -114,6 +125,50 @@ bool api_region(struct http_req *r, const rayd_scene *scene, struct rayd_region 
         return false;
     }
     return true;
+}
+
+bool api_region(struct http_req *r, const rayd_scene *scene, struct rayd_region *out)
+{
+    struct api_q q = {0};
+    return api_region_q(r, scene, out, &q);
+}
+
+/* ?format= first; else an Accept naming image/x-exr; else the PNG.  An
+ * Accept without either is not refused: PNG stays the answer, as before. */
+static bool api_format_of(struct http_req *r, const struct api_q *q, enum work_format *format)
+{
+    static const char *const names[] = {"png", "png16", "exr"};
+    char msg[200];
+    if (q->format_count > 1) {
+        http_reply_error(r, 400, "bad_parameter", "format: given more than once", NULL, 0, 0,
+                         "format");
+        return false;
+    }
+    if (q->format) {
+        for (int i = 0; i < 3; i++)
+            if (!strcmp(q->format, names[i])) {
+                *format = (enum work_format)i;
+                return true;
+            }
+        snprintf(msg, sizeof msg, "format: must be png, png16 or exr, not '%.40s'", q->format);
+        http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, "format");
+        return false;
+    }
+    const char *accept = http_req_header(r, "Accept");
+    *format = accept && strstr(accept, "image/x-exr") ? WORK_EXR : WORK_PNG;
+    return true;
+}
+
+bool api_region_format(struct http_req *r, const rayd_scene *scene, struct rayd_region *out,
+                       enum work_format *format)
+{
+    struct api_q q = {.allow_format = true};
+    return api_region_q(r, scene, out, &q) && api_format_of(r, &q, format);
+}
+
+const char *api_format_type(enum work_format format)
+{
+    return format == WORK_EXR ? "image/x-exr" : "image/png";
 }
 
 bool api_require_json(struct http_req *r)

@@ -18,6 +18,12 @@
 /* Parses ?x=&y=&w=&h= strictly against scene; on error replies 400 and
  * returns false.  No parameters: the whole image. */
 bool api_region(struct http_req *r, const rayd_scene *scene, struct rayd_region *out);
+/* api_region, also taking ?format=png|png16|exr (or Accept: image/x-exr)
+ * into *format; a bad format is answered 400 naming it. */
+bool api_region_format(struct http_req *r, const rayd_scene *scene, struct rayd_region *out,
+                       enum work_format *format);
+/* The Content-Type of a format's bytes. */
+const char *api_format_type(enum work_format format);
 /* Body is JSON?  Otherwise replies 415 and returns false. */
 bool api_require_json(struct http_req *r);
 /* The one place where a core status becomes an HTTP status and code. */

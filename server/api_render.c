@@ -6,7 +6,10 @@
  * cache by the SHA-256 of the body (parsed and built only on a miss), the
  * render is submitted, and the connection waits suspended; the bytes equal
  * `rayd-render scene.json --region X,Y,W,H` because both encode with
- * rayd_png_encode at the same level.  POST /v1/scenes compiles and keeps a
+ * rayd_png_encode at the same level.  ?format=png16|exr (or Accept:
+ * image/x-exr) answers a 16-bit PNG or an OpenEXR instead, equal to
+ * rayd-render --format's; only this route takes it, so the immutable image
+ * URL of a kept scene stays a PNG.  POST /v1/scenes compiles and keeps a
  * scene; its image URL is immutable (strong ETag, 304 on If-None-Match).
  *
  * The wait: a small struct ties the work layer's waiter to the request.
@@ -25,12 +28,25 @@
 struct api_render_wait {
     struct work_waiter w; /* first: the callbacks get it back */
     struct http_req *r;
+    enum work_format format;
 };
+
+/* The image reply: its type, the cache headers, and Vary: Accept where the
+ * Accept header can choose the format. */
+static void api_render_reply(struct http_req *r, struct blob *img, enum work_format format,
+                             bool negotiated)
+{
+    http_reply_image(r, 200, img, api_format_type(format));
+    http_reply_cache_headers(r);
+    if (negotiated)
+        http_reply_header(r, "Vary", "Accept");
+}
 
 /* The worker's answer (or the watcher's "gone"): the reply, then resume. */
 static void api_render_done(struct work_waiter *w, struct work_result *res)
 {
     struct http_req *r = ((struct api_render_wait *)w)->r;
+    enum work_format format = ((struct api_render_wait *)w)->format;
     free(w);
     r->queue_ms = res->queue_ms;
     r->render_ms = res->render_ms;
@@ -39,8 +55,7 @@ static void api_render_done(struct work_waiter *w, struct work_result *res)
         r->gone = true;
         r->note = "client_gone";
     } else if (res->status == RAYD_OK && res->png) {
-        http_reply_png(r, 200, res->png);
-        http_reply_cache_headers(r);
+        api_render_reply(r, res->png, format, r->route_negotiates);
     } else {
         struct rayd_error e = res->err;
         e.code = res->status;
@@ -58,7 +73,7 @@ static void api_render_suspend(struct work_waiter *w)
 /* Renders reg of scene for r: answered at once from the result cache, or
  * suspended until a worker answers, or refused with a 503. */
 static void api_render_submit(struct http_req *r, struct cache_entry *scene,
-                              const struct rayd_region *reg)
+                              const struct rayd_region *reg, enum work_format format)
 {
     struct api_render_wait *a = calloc(1, sizeof *a);
     if (!a) {
@@ -66,17 +81,17 @@ static void api_render_submit(struct http_req *r, struct cache_entry *scene,
         return;
     }
     a->r = r;
+    a->format = format;
     a->w.done = api_render_done;
     a->w.suspend = api_render_suspend;
     a->w.fd = http_req_fd(r);
     struct blob *png = NULL;
-    enum work_submit s = sched_render(scene, reg, &a->w, &png);
+    enum work_submit s = sched_render(scene, reg, format, &a->w, &png);
     if (s == WORK_OK)
         return; /* a belongs to the work layer until done() */
     free(a);
     if (s == WORK_CACHED) {
-        http_reply_png(r, 200, png);
-        http_reply_cache_headers(r);
+        api_render_reply(r, png, format, r->route_negotiates);
         blob_unref(png);
         r->note = "result_cache";
     } else {
@@ -92,8 +107,10 @@ void api_render_post(struct http_req *r, const char *id)
     if (!api_scene(r, &e, &hit))
         return;
     struct rayd_region reg;
-    if (api_region(r, cache_scene(e), &reg))
-        api_render_submit(r, e, &reg);
+    enum work_format format;
+    r->route_negotiates = true;
+    if (api_region_format(r, cache_scene(e), &reg, &format))
+        api_render_submit(r, e, &reg, format);
     scenes_release(e);
 }
 
@@ -170,7 +187,7 @@ void api_scenes_image(struct http_req *r, const char *id)
     } else if (sched_draining()) {
         api_refused(r, WORK_DRAINING);
     } else {
-        api_render_submit(r, e, &reg);
+        api_render_submit(r, e, &reg, WORK_PNG);
     }
     scenes_release(e);
 }

@@ -114,6 +114,11 @@ static void http_reply_blob_free(void *cls) { blob_unref(cls); }
 
 void http_reply_png(struct http_req *r, unsigned status, struct blob *png)
 {
+    http_reply_image(r, status, png, "image/png");
+}
+
+void http_reply_image(struct http_req *r, unsigned status, struct blob *png, const char *type)
+{
     /* the response holds one reference to the blob, dropped by libmicrohttpd */
     blob_ref(png);
     struct MHD_Response *resp = MHD_create_response_from_buffer_with_free_callback_cls(
@@ -123,7 +128,7 @@ void http_reply_png(struct http_req *r, unsigned status, struct blob *png)
         r->gone = true;
         return;
     }
-    MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, "image/png");
+    MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, type);
     r->bytes = png->len;
     r->is_png = true;
     http_reply(r, status, resp);

@@ -135,7 +135,7 @@ enum work_submit jobs_create(struct cache_entry *scene, const struct rayd_region
     if (!jobs_new_id(id))
         return WORK_NOMEM;
     struct job *j = calloc(1, sizeof *j);
-    struct task *fresh = task_new(scene, reg);
+    struct task *fresh = task_new(scene, reg, WORK_PNG);
     if (!j || !fresh) {
         free(j);
         if (fresh)
@@ -153,7 +153,7 @@ enum work_submit jobs_create(struct cache_entry *scene, const struct rayd_region
     else if (jobs_n == jobs_max && !jobs_evict())
         r = WORK_TOO_MANY_JOBS;
     else
-        r = task_submit(scene, reg, &fresh, &t);
+        r = task_submit(scene, &fresh, &t);
     if (r == WORK_OK) {
         j->task = t;
         t->refs++;

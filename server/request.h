@@ -49,6 +49,7 @@ struct http_req {
     double t0, queue_ms, render_ms, encode_ms; /* the handler fills the last three */
     double t_sent;               /* when the response was handed to libmicrohttpd */
     bool is_png;                 /* the response is an image (its send is a stage) */
+    bool route_negotiates;       /* POST /v1/render: Accept may pick the format (Vary) */
     struct MHD_Response *pending; /* to queue when the handler runs again */
     unsigned pending_status;
     bool suspended, gone, replied, too_large, no_memory;
@@ -92,6 +93,8 @@ void http_reply_data(struct http_req *r, unsigned status, const char *ctype, con
 /* o as the JSON body, deleted; Cache-Control: no-store on a success. */
 void http_reply_json(struct http_req *r, unsigned status, cJSON *o);
 void http_reply_png(struct http_req *r, unsigned status, struct blob *png); /* refs png */
+/* http_reply_png with another Content-Type (image/x-exr). */
+void http_reply_image(struct http_req *r, unsigned status, struct blob *img, const char *type);
 /* The JSON error body of the API.  path NULL or "" leaves it out; line and
  * column are written when line > 0; param names a bad query parameter. */
 void http_reply_error(struct http_req *r, unsigned status, const char *code, const char *message,

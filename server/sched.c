@@ -5,8 +5,8 @@
  * the next tile of the task task_pick() puts first (task.c explains the
  * order), so a small interactive request overtakes a big frame at the next
  * tile boundary.  The worker that finishes a task's last tile encodes its
- * PNG -- with the lock released, like the tiles -- and answers everyone
- * interested in it.
+ * PNG (or, for a 16-bit PNG or EXR task, its linear floats) -- with the
+ * lock released, like the tiles -- and answers everyone interested in it.
  *
  * Back-pressure: at most queue_cap tasks may wait for a worker (have tiles
  * nobody has started); beyond that a submission is refused with WORK_FULL and
@@ -50,6 +50,18 @@ static struct task *sched_next_task(void)
     return NULL;
 }
 
+/* t's pixels in its format into *buf. */
+static enum rayd_status sched_encode_as(const struct task *t, void **buf, size_t *len,
+                                        struct rayd_error *err)
+{
+    if (t->format == WORK_EXR)
+        return rayd_exr_encode(t->lin, t->reg.w, t->reg.h, buf, len, err);
+    if (t->format == WORK_PNG16)
+        return rayd_png16_encode(t->lin, t->reg.w, t->reg.h, (int)config.png_level, buf, len,
+                                 err);
+    return rayd_png_encode(t->img, (int)config.png_level, buf, len, err);
+}
+
 /* Encodes t's PNG (every core: png_encode.c's bands), lock released;
  * returns with the lock held.  The tiles' and the encoding's times go to
  * the stage metrics. */
@@ -60,7 +72,7 @@ static void sched_encode(struct task *t)
     struct rayd_error err = {0};
     double t0 = log_now();
     metrics_stage(MS_RENDER, t0 - t->t_start);
-    enum rayd_status st = rayd_png_encode(t->img, (int)config.png_level, &buf, &len, &err);
+    enum rayd_status st = sched_encode_as(t, &buf, &len, &err);
     double enc = log_now() - t0;
     metrics_stage(MS_ENCODE, enc);
     pthread_mutex_lock(&work_lock);
@@ -136,8 +148,12 @@ static void *sched_worker(void *arg)
         struct rayd_region tr = task_tile(t, tile);
         uint64_t rays = 0;
         struct rayd_error err = {0};
-        enum rayd_status st = rayd_render_into(cache_scene(t->scene), &tr, t->img, tr.x - t->reg.x,
-                                               tr.y - t->reg.y, &t->cancel, &rays, &err);
+        enum rayd_status st =
+            t->lin ? rayd_render_linear_into(cache_scene(t->scene), &tr, t->lin, t->reg.w,
+                                             tr.x - t->reg.x, tr.y - t->reg.y, &t->cancel, &rays,
+                                             &err)
+                   : rayd_render_into(cache_scene(t->scene), &tr, t->img, tr.x - t->reg.x,
+                                      tr.y - t->reg.y, &t->cancel, &rays, &err);
         metrics_rays(rays);
 
         struct task_notify n = {0}, sse = {0};
@@ -241,10 +257,10 @@ void sched_stop(void)
 
 /* The finished PNG of (scene, reg) from the result cache, referenced, or NULL. */
 static struct blob *sched_result_find(const struct cache_entry *scene,
-                                      const struct rayd_region *reg)
+                                      const struct rayd_region *reg, enum work_format format)
 {
     char key[160];
-    task_key(key, sizeof key, cache_id(scene), reg);
+    task_key(key, sizeof key, cache_id(scene), reg, format);
     pthread_mutex_lock(&work_lock);
     struct blob *b = rcache_get(key);
     pthread_mutex_unlock(&work_lock);
@@ -253,16 +269,16 @@ static struct blob *sched_result_find(const struct cache_entry *scene,
 }
 
 enum work_submit sched_render(struct cache_entry *scene, const struct rayd_region *reg,
-                              struct work_waiter *w, struct blob **png)
+                              enum work_format format, struct work_waiter *w, struct blob **png)
 {
-    if ((*png = sched_result_find(scene, reg)))
+    if ((*png = sched_result_find(scene, reg, format)))
         return WORK_CACHED;
-    struct task *fresh = task_new(scene, reg);
+    struct task *fresh = task_new(scene, reg, format);
     if (!fresh)
         return WORK_NOMEM;
     pthread_mutex_lock(&work_lock);
     struct task *t = NULL;
-    enum work_submit r = task_submit(scene, reg, &fresh, &t);
+    enum work_submit r = task_submit(scene, &fresh, &t);
     if (r == WORK_OK) {
         w->suspend(w);
         w->next = t->waiters;

@@ -1,7 +1,8 @@
 /* task.c -- one render: a compiled scene, a region, its tiles and who waits.
  *
  * A task is split into tiles of TASK_TILE x TASK_TILE pixels rendered
- * straight into one shared rayd_image: tiles are disjoint rectangles, so any
+ * straight into one shared rayd_image (or, for the HDR formats, one float
+ * RGB buffer): tiles are disjoint rectangles, so any
  * number of workers may fill tiles of one task at once without a lock on the
  * pixels.  Identical requests in flight -- same scene id, same region --
  * join the same task (its key), so a burst of equal tile requests renders
@@ -42,28 +43,43 @@ void task_drain(void)
 
 bool task_draining(void) { return atomic_load(&task_drain_flag); }
 
-void task_key(char *key, size_t size, const char *id, const struct rayd_region *reg)
+/* The PNG's key is the one it always had; the other formats add a suffix,
+ * so an EXR never answers a PNG request from the caches, nor the reverse. */
+void task_key(char *key, size_t size, const char *id, const struct rayd_region *reg,
+              enum work_format format)
 {
-    snprintf(key, size, "%s@%d,%d,%d,%d", id, reg->x, reg->y, reg->w, reg->h);
+    static const char *const suffix[] = {"", ".png16", ".exr"};
+    snprintf(key, size, "%s@%d,%d,%d,%d%s", id, reg->x, reg->y, reg->w, reg->h, suffix[format]);
 }
 
-struct task *task_new(struct cache_entry *scene, const struct rayd_region *reg)
+/* The task's pixel store: bytes for the PNG, linear floats for the rest. */
+static bool task_pixels(struct task *t)
+{
+    if (t->format == WORK_PNG)
+        return rayd_image_new(t->reg.w, t->reg.h, &t->img, NULL) == RAYD_OK;
+    t->lin = malloc((size_t)t->reg.w * (size_t)t->reg.h * 3 * sizeof *t->lin);
+    return t->lin != NULL;
+}
+
+struct task *task_new(struct cache_entry *scene, const struct rayd_region *reg,
+                      enum work_format format)
 {
     struct task *t = calloc(1, sizeof *t);
     if (!t)
         return NULL;
     t->reg = *reg;
+    t->format = format;
     t->ntx = (reg->w + TASK_TILE - 1) / TASK_TILE;
     t->nty = (reg->h + TASK_TILE - 1) / TASK_TILE;
     t->ntiles = t->ntx * t->nty;
     t->order = calloc((size_t)t->ntiles, sizeof *t->order);
-    if (!t->order || rayd_image_new(reg->w, reg->h, &t->img, NULL) != RAYD_OK) {
+    if (!t->order || !task_pixels(t)) {
         free(t->order);
         free(t);
         return NULL;
     }
     snprintf(t->scene_id, sizeof t->scene_id, "%s", cache_id(scene));
-    task_key(t->key, sizeof t->key, t->scene_id, reg);
+    task_key(t->key, sizeof t->key, t->scene_id, reg, format);
     atomic_init(&t->cancel, 0);
     t->interactive = (long)reg->w * reg->h <= TASK_INTERACTIVE;
     t->status = RAYD_OK;
@@ -77,6 +93,7 @@ void task_unref(struct task *t)
         return;
     blob_unref(t->png);
     rayd_image_free(t->img);
+    free(t->lin);
     cache_release(t->scene);
     free(t->order);
     free(t);
@@ -118,14 +135,11 @@ struct task *task_pick(void)
     return best;
 }
 
-enum work_submit task_submit(struct cache_entry *scene, const struct rayd_region *reg,
-                             struct task **fresh, struct task **out)
+enum work_submit task_submit(struct cache_entry *scene, struct task **fresh, struct task **out)
 {
     if (task_draining())
         return WORK_DRAINING;
-    char key[160];
-    task_key(key, sizeof key, cache_id(scene), reg);
-    struct task *t = task_find(key);
+    struct task *t = task_find((*fresh)->key); /* scene, region and format */
     if (t) {
         metrics_coalesced();
         *out = t;
@@ -215,6 +229,8 @@ void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
     task_unqueue(t);
     rayd_image_free(t->img);
     t->img = NULL;
+    free(t->lin);
+    t->lin = NULL;
     cache_release(t->scene);
     t->scene = NULL;
     task_result(t, &n->res);

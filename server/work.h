@@ -69,13 +69,19 @@ void scenes_set_limits(const struct rayd_limits *lim);
 
 /* ---- sched.c: the pool, synchronous renders, lifecycle ------------------- */
 
+/* What a render's bytes are: the 8-bit PNG (every route), or from the
+ * linear float image a 16-bit PNG or an OpenEXR (POST /v1/render's
+ * ?format= or Accept).  Part of the task and result-cache key. */
+enum work_format { WORK_PNG, WORK_PNG16, WORK_EXR };
+
 int sched_start(int workers, int queue_cap, int max_jobs);
 void sched_stop(void);
-/* Renders reg (absolute, checked) of scene for w.  WORK_CACHED: *png is the
- * finished PNG (a reference), w is not used.  WORK_OK: w->suspend(w) ran and
- * w->done will be called once.  Anything else: refused, w not used. */
+/* Renders reg (absolute, checked) of scene for w, encoded as format.
+ * WORK_CACHED: *png is the finished image (a reference), w is not used.
+ * WORK_OK: w->suspend(w) ran and w->done will be called once.  Anything
+ * else: refused, w not used. */
 enum work_submit sched_render(struct cache_entry *scene, const struct rayd_region *reg,
-                              struct work_waiter *w, struct blob **png);
+                              enum work_format format, struct work_waiter *w, struct blob **png);
 void sched_drain(void);      /* refuse new work from now on */
 bool sched_draining(void);   /* lock-free */
 void sched_cancel_all(void); /* cancel every task (drain deadline) */

@@ -96,7 +96,9 @@ struct task {
     int ntx, nty, ntiles;
     int next_tile, running, done;
     int *order; /* tiles in completion order, for event streams */
-    rayd_image *img;
+    rayd_image *img;           /* WORK_PNG: the tiles' bytes */
+    float *lin;                /* else: the tiles' linear RGB, reg.w * reg.h * 3 */
+    enum work_format format;
     atomic_int cancel;
     bool interactive, queued, finalizing, finished;
     double t_enq, t_start, t_end;
@@ -123,17 +125,19 @@ extern int task_queue_cap;       /* --queue, set once before the workers start *
 void task_drain(void);           /* takes the lock */
 bool task_draining(void);        /* lock-free */
 
-void task_key(char *key, size_t size, const char *id, const struct rayd_region *reg);
-/* A new task for (scene, reg) with its image; NULL on no memory.  Any lock. */
-struct task *task_new(struct cache_entry *scene, const struct rayd_region *reg);
+void task_key(char *key, size_t size, const char *id, const struct rayd_region *reg,
+              enum work_format format);
+/* A new task for (scene, reg) in format, with its pixels (an image, or
+ * linear floats for the HDR formats); NULL on no memory.  Any lock. */
+struct task *task_new(struct cache_entry *scene, const struct rayd_region *reg,
+                      enum work_format format);
 void task_unref(struct task *t);
 void task_unqueue(struct task *t);
 struct task *task_find(const char *key); /* an unfinished, uncancelled task */
 struct task *task_pick(void);            /* the task whose next tile comes first */
-/* Joins the task for (scene, reg) or activates *fresh (then NULL);
- * WORK_DRAINING or WORK_FULL when it cannot. */
-enum work_submit task_submit(struct cache_entry *scene, const struct rayd_region *reg,
-                             struct task **fresh, struct task **out);
+/* Joins the unfinished task with *fresh's key (scene, region, format) or
+ * activates *fresh (then NULL); WORK_DRAINING or WORK_FULL when it cannot. */
+enum work_submit task_submit(struct cache_entry *scene, struct task **fresh, struct task **out);
 /* The tile's absolute rectangle. */
 struct rayd_region task_tile(const struct task *t, int tile);
 void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse);

@@ -5,7 +5,9 @@
  * API, which converts any PNG to 8-bit RGB for us, and refuses images over
  * a pixel limit before allocating them.
  */
+#include <math.h>
 #include <png.h>
+#include <setjmp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -70,4 +72,99 @@ enum rayd_status rayd_png_read_file(const char *path, long max_pixels, rayd_imag
     if (st == RAYD_OK) st = rayd_png_decode(buf, len, max_pixels, out, err);
     free(buf);
     return st;
+}
+
+/* ---- 16-bit PNG of linear float RGB ----------------------------------------
+ *
+ * For a deeper sRGB image than 8 bits without leaving PNG: each linear
+ * value is sRGB-encoded by the formula (clamped to [0, 1]; NaN as 0) and
+ * rounded to 16 bits, so v16 / 257 is within one step of the 8-bit image's
+ * byte.  Written by libpng (one thread, its adaptive filters) with the
+ * sRGB, gAMA and cHRM chunks the 8-bit PNG has; fixed settings, so the same
+ * image gives the same bytes.  zlib level 4 by default, as the 8-bit PNG:
+ * on a 1080p frame 415 ms against 705 ms at level 6, for 3% more bytes.
+ * Slower than the 8-bit band encoder (one thread, twice the bytes), which
+ * is the everyday path; 16-bit is for the rarer export. */
+
+struct png_mem {
+    unsigned char *buf;
+    size_t len, cap;
+    int failed;
+};
+
+static void mem_write(png_structp png, png_bytep data, size_t n) {
+    struct png_mem *m = png_get_io_ptr(png);
+    if (m->len + n > m->cap) {
+        size_t cap = m->cap ? m->cap * 2 : 65536;
+        while (cap < m->len + n) cap *= 2;
+        unsigned char *p = realloc(m->buf, cap);
+        if (!p) {
+            m->failed = 1;
+            png_error(png, "out of memory");
+        }
+        m->buf = p;
+        m->cap = cap;
+    }
+    memcpy(m->buf + m->len, data, n);
+    m->len += n;
+}
+
+static void mem_flush(png_structp png) { (void)png; }
+
+static uint16_t srgb16(float v) {
+    double c = v;
+    if (!(c > 0)) return 0; /* also NaN */
+    if (c >= 1) return 65535;
+    double e = c <= 0.0031308 ? 12.92 * c : 1.055 * pow(c, 1.0 / 2.4) - 0.055;
+    return (uint16_t)(e * 65535.0 + 0.5);
+}
+
+/* Row y of rgb as big-endian 16-bit sRGB into row. */
+static void row16(const float *rgb, int w, int y, unsigned char *row) {
+    const float *p = rgb + (size_t)y * (size_t)w * 3;
+    for (size_t k = 0; k < (size_t)w * 3; k++) {
+        uint16_t v = srgb16(p[k]);
+        row[2 * k] = (unsigned char)(v >> 8);
+        row[2 * k + 1] = (unsigned char)(v & 0xff);
+    }
+}
+
+/* The libpng part, apart so that setjmp's longjmp leaves only m (through
+ * its pointer) and row to look at. */
+static int png16_write(png_structp png, png_infop info, const float *rgb, int w, int h, int level,
+                       struct png_mem *m, unsigned char *row) {
+    if (setjmp(png_jmpbuf(png))) return -1;
+    png_set_write_fn(png, m, mem_write, mem_flush);
+    png_set_compression_level(png, level < 0 ? 4 : level); /* 4: as the 8-bit default */
+    png_set_IHDR(png, info, (png_uint_32)w, (png_uint_32)h, 16, PNG_COLOR_TYPE_RGB,
+                 PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_set_sRGB_gAMA_and_cHRM(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
+    png_write_info(png, info);
+    for (int y = 0; y < h; y++) {
+        row16(rgb, w, y, row);
+        png_write_row(png, row);
+    }
+    png_write_end(png, NULL);
+    return 0;
+}
+
+enum rayd_status rayd_png16_encode(const float *rgb, int w, int h, int level, void **buf,
+                                   size_t *len, struct rayd_error *err) {
+    if (w <= 0 || h <= 0) return err_set(err, RAYD_E_ARG, NULL, "a PNG needs w, h > 0");
+    struct png_mem m = {0};
+    unsigned char *row = malloc((size_t)w * 6);
+    png_structp png = row ? png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL) : NULL;
+    png_infop info = png ? png_create_info_struct(png) : NULL;
+    int made = info != NULL; /* png_destroy_write_struct clears info */
+    int rc = made ? png16_write(png, info, rgb, w, h, level, &m, row) : -1;
+    png_destroy_write_struct(png ? &png : NULL, info ? &info : NULL);
+    free(row);
+    if (rc != 0 || m.failed || !made) {
+        free(m.buf);
+        return err_set(err, m.failed || !made ? RAYD_E_NOMEM : RAYD_E_INTERNAL, NULL,
+                       "16-bit PNG encoding failed");
+    }
+    *buf = m.buf;
+    *len = m.len;
+    return RAYD_OK;
 }

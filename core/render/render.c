@@ -18,6 +18,12 @@
  * sample's 16 camera rays as one packet (scene_packet.c); since a packet
  * gives every ray exactly its one-ray answer, the blocks change nothing
  * in the bytes.  The cancel flag is polled once per row of blocks.
+ *
+ * The same blocks serve progressive passes (accum.c): instead of bytes, a
+ * block then adds a range of samples k0..k1-1 to running per-pixel sums,
+ * in sample order, which is exactly what the plain render does before it
+ * scales and converts; so a pass of n samples resolves to the plain
+ * render's bytes.
  */
 #include <pthread.h>
 #include <stdatomic.h>
@@ -37,105 +43,6 @@
 #define R2_A1 0.7548776662466927 /* 1 / g, g the plastic number */
 #define R2_A2 0.5698402909980532 /* 1 / g^2 */
 
-/* The sRGB byte of a linear value, by the formula. */
-static uint8_t srgb8_exact(double c) {
-    if (!(c > 0)) return 0; /* also NaN */
-    if (c >= 1) return 255;
-    double e = c <= 0.0031308 ? 12.92 * c : 1.055 * pow(c, 1.0 / 2.4) - 0.055;
-    return (uint8_t)(e * 255.0 + 0.5);
-}
-
-/* The sRGB byte by table.  srgb_edge[k], the least linear value whose
- * byte is k (k = 1..255), is found once by bisection over the doubles in
- * (0, 1) -- ordered like their bit patterns -- against srgb8_exact.  The
- * doubles from 2^-13 (below it every byte is 0) to 1 are cut into 128
- * slices a binade, a slice being the values that share their top 19 bits
- * (exponent and 7 bits of mantissa).  A slice is narrower than a step
- * between bytes, so it holds at most one edge: its entry packs the byte at
- * its low end (bits 48..55) and the low 45 bits of the edge inside it (or
- * 2^45: none).  A value's byte is then one load and one compare away.  One
- * more slice, for 1 and above, holds 255.  The very same bytes as the
- * formula, without three calls of pow a pixel, and without a branch. */
-#define SRGB_BINADES 13
-#define SRGB_LOW 45 /* the bits below a slice's */
-static uint64_t srgb_slice[SRGB_BINADES * 128 + 1];
-static pthread_once_t srgb_once = PTHREAD_ONCE_INIT;
-
-static const int64_t srgb_lo = (int64_t)(1023 - SRGB_BINADES) << 52; /* 2^-13 */
-static const int64_t srgb_one = (int64_t)1023 << 52;                 /* 1.0 */
-
-static void srgb_init(void) {
-    uint64_t edge[257];
-    for (int k = 1; k < 256; k++) {
-        double one = 1.0;
-        uint64_t lo = 0, hi; /* srgb8_exact(lo) < k <= srgb8_exact(hi) */
-        memcpy(&hi, &one, sizeof hi);
-        while (hi - lo > 1) {
-            uint64_t mid = lo + (hi - lo) / 2;
-            double c;
-            memcpy(&c, &mid, sizeof c);
-            if (srgb8_exact(c) >= k) hi = mid;
-            else lo = mid;
-        }
-        edge[k] = hi;
-    }
-    edge[256] = UINT64_MAX; /* no byte past 255 */
-    const uint64_t none = (uint64_t)1 << SRGB_LOW;
-    int k = 0;
-    for (int i = 0; i <= SRGB_BINADES * 128; i++) {
-        uint64_t start = (uint64_t)srgb_lo + ((uint64_t)i << SRGB_LOW), end = start + none;
-        while (edge[k + 1] <= start) k++; /* the byte at the slice's low end */
-        bool has = i < SRGB_BINADES * 128 && edge[k + 1] < end;
-        uint64_t inside = has ? edge[k + 1] & (none - 1) : none;
-        srgb_slice[i] = (uint64_t)k << 48 | inside;
-    }
-}
-
-/* After srgb_init.  The bits of a double, as a signed integer, order the
- * doubles from -NaN to +NaN; clamped to [2^-13, 1] they find the slice. */
-static inline uint8_t srgb8(double c) {
-    int64_t bits;
-    memcpy(&bits, &c, sizeof bits);
-    bits = bits < srgb_lo ? srgb_lo : bits > srgb_one ? srgb_one : bits;
-    uint64_t e = srgb_slice[(bits - srgb_lo) >> SRGB_LOW];
-    uint64_t low = (uint64_t)bits & (((uint64_t)1 << SRGB_LOW) - 1);
-    int k = (int)(e >> 48) + (low >= (e & (((uint64_t)1 << 48) - 1)));
-    return c != c ? 0 : (uint8_t)k;
-}
-
-#ifdef BVH16
-/* srgb8 of the 48 values v[0..48), 8 at a time, the same integer steps
- * (the table read by gathers) into out[0..48). */
-BVH16_FN void srgb8_48(const double v[48], uint8_t out[48]) {
-    const __m512i lo = _mm512_set1_epi64(srgb_lo), one = _mm512_set1_epi64(srgb_one);
-    const __m512i low = _mm512_set1_epi64(((int64_t)1 << SRGB_LOW) - 1);
-    const __m512i entry = _mm512_set1_epi64(((int64_t)1 << 48) - 1);
-    for (int k = 0; k < 48; k += 8) {
-        __m512d c = _mm512_loadu_pd(v + k);
-        __m512i bits = _mm512_min_epi64(_mm512_max_epi64(_mm512_castpd_si512(c), lo), one);
-        __m512i idx = _mm512_srli_epi64(_mm512_sub_epi64(bits, lo), SRGB_LOW);
-        __m512i e = _mm512_i64gather_epi64(idx, (const void *)srgb_slice, 8);
-        __mmask8 past = _mm512_cmpge_epu64_mask(_mm512_and_si512(bits, low),
-                                                _mm512_and_si512(e, entry));
-        __m512i byte = _mm512_mask_add_epi64(_mm512_srli_epi64(e, 48), past,
-                                             _mm512_srli_epi64(e, 48), _mm512_set1_epi64(1));
-        byte = _mm512_maskz_mov_epi64(_mm512_cmp_pd_mask(c, c, _CMP_ORD_Q), byte); /* NaN: 0 */
-        _mm_storel_epi64((__m128i *)(out + k), _mm512_cvtepi64_epi8(byte));
-    }
-}
-#endif
-
-void render_srgb48(const double v[48], uint8_t out[48]) {
-    pthread_once(&srgb_once, srgb_init);
-#ifdef BVH16
-    if (bvh16_available()) {
-        srgb8_48(v, out);
-        return;
-    }
-#endif
-    for (int k = 0; k < 48; k++) out[k] = srgb8(v[k]);
-}
-
 /* A block's colours: 16 vec3 for the integrators, read as 48 doubles for
  * the bytes (a union, so no copy between the two). */
 union block_colours {
@@ -148,20 +55,9 @@ _Static_assert(sizeof(vec3) == 3 * sizeof(double), "vec3 is three doubles");
  * w x h pixels at dst, rows stride bytes apart. */
 static void put_block(uint8_t *dst, size_t stride, const union block_colours *c, int w, int h) {
     uint8_t b[48];
-#ifdef BVH16
-    if (bvh16_available())
-        srgb8_48(c->d, b);
-    else
-#endif
-        for (int k = 0; k < 48; k++) /* every lane set: by the integrator or to 0 */
-            b[k] = srgb8(c->d[k]);   // NOLINT(clang-analyzer-core.CallAndMessage)
+    render_srgb48(c->d, b);
     for (int row = 0; row < h; row++)
         memcpy(dst + (size_t)row * stride, b + 12 * row, (size_t)w * 3);
-}
-
-uint8_t render_srgb8(double c) {
-    pthread_once(&srgb_once, srgb_init);
-    return srgb8(c);
 }
 
 static vec3 trace(const rayd_scene *s, const ray *r, const struct rng_key *key, uint64_t *rays) {
@@ -201,53 +97,99 @@ vec3 render_pixel(const rayd_scene *s, int i, int j, uint64_t *rays) {
     return v3_scale(acc, 1.0 / n);
 }
 
-/* The w x h (at most 4 x 4) block at (x, y): each sample's 16 camera rays
- * traced as packets (whitted_radiance16; for the path tracer the camera
- * rays' hits, scene_intersect16), the same radiance per pixel as
- * render_pixel, summed in the same order.  centre, when not NULL, holds
- * the block's rays through the pixel centres (the one sample of a pinhole
- * camera). */
-static void render_block(const rayd_scene *s, int x, int y, int w, int h,
-                         const struct ray16 *centre, rayd_image *dst, int dx, int dy,
+/* Sample k of n of the block at (x, y) whose lanes are active: the
+ * radiance of each lane into c->v.  centre, when not NULL, holds the
+ * block's rays through the pixel centres (the one sample of a pinhole
+ * camera); else each lane's ray is sample_ray's. */
+static void block_sample(const rayd_scene *s, int x, int y, uint32_t active,
+                         const struct ray16 *centre, int k, int n, union block_colours *c,
                          uint64_t *rays) {
-    int n = s->rs.samples;
-    vec3 acc[16];
-    union block_colours c; /* the lanes outside the block stay 0 */
-    struct ray16 rs;       /* the sample rays, when not through the centres: set below */
+    struct ray16 rs; /* the sample rays, when not through the centres: set below */
     // cppcheck-suppress uninitvar
     const struct ray16 *r = centre ? centre : &rs;
     struct rng_key key[16];
+    for (int q = 0; centre && q < 16; q++) key[q] = pixel_key(s, x + q % 4, y + q / 4);
+    for (uint32_t m = centre ? 0 : active; m; m &= m - 1) {
+        int q = __builtin_ctz(m);
+        ray16_set(&rs, q, sample_ray(s, x + q % 4, y + q / 4, k, n, &key[q]));
+    }
+    if (s->rs.integrator == INTEGRATOR_WHITTED) {
+        whitted_radiance16(s, r, active, key, c->v, rays);
+        return;
+    } /* the path tracer: the camera rays as a packet, the paths on one by one */
+    struct hit first[16];
+    uint32_t hit = scene_intersect16_soa(s, r, scene_unbounded16, active, first, NULL);
+    for (uint32_t m = active; m; m &= m - 1) {
+        int q = __builtin_ctz(m);
+        ray rq = ray16_get(r, q);
+        c->v[q] = path_radiance_from(s, &rq, &first[q], hit >> q & 1, &key[q], rays);
+    }
+}
+
+/* Where the blocks of a rectangle go: its bytes into img at (dx, dy), or,
+ * for a pass, the radiance of samples k0..k1-1 added to sum (3 doubles a
+ * pixel, rows sum_w pixels long) at (dx, dy).  n is the plain render's
+ * sample count, or for a pass 1 (the centre sample) or 0 (any other). */
+struct rect_out {
+    rayd_image *img;
+    double *sum;
+    size_t sum_w;
+    int dx, dy, k0, k1, n;
+};
+
+/* The block's running sums from the pass's buffer (lanes in the block). */
+static void sums_load(const struct rect_out *o, int bx, int by, uint32_t active, vec3 acc[16]) {
+    for (uint32_t m = active; m; m &= m - 1) {
+        int q = __builtin_ctz(m);
+        const double *p = o->sum + ((size_t)(by + q / 4) * o->sum_w + (size_t)(bx + q % 4)) * 3;
+        acc[q] = v3(p[0], p[1], p[2]);
+    }
+}
+
+static void sums_store(const struct rect_out *o, int bx, int by, uint32_t active,
+                       const vec3 acc[16]) {
+    for (uint32_t m = active; m; m &= m - 1) {
+        int q = __builtin_ctz(m);
+        double *p = o->sum + ((size_t)(by + q / 4) * o->sum_w + (size_t)(bx + q % 4)) * 3;
+        p[0] = acc[q].x;
+        p[1] = acc[q].y;
+        p[2] = acc[q].z;
+    }
+}
+
+/* The w x h (at most 4 x 4) block at (x, y), going to o at (bx, by) past
+ * o's (dx, dy): each sample's 16 camera rays traced as packets, the same
+ * radiance per pixel as render_pixel, summed in the same order (sample
+ * index order, from 0 or from the pass's running sums). */
+static void render_block(const rayd_scene *s, int x, int y, int w, int h,
+                         const struct ray16 *centre, const struct rect_out *o, int bx, int by,
+                         uint64_t *rays) {
+    int n = o->n;
+    bool sum = o->sum || n > 1;
+    vec3 acc[16];
+    union block_colours c; /* the lanes outside the block stay 0 */
     uint32_t active = ((1u << w) - 1) * (0x1111u & ((1u << 4 * h) - 1)); /* w lanes of h rows */
     if (active != 0xffff) memset(&c, 0, sizeof c);
-    if (n > 1) memset(acc, 0, sizeof acc);
-    for (int k = 0; k < n; k++) {
-        for (int q = 0; centre && q < 16; q++) key[q] = pixel_key(s, x + q % 4, y + q / 4);
-        for (uint32_t m = centre ? 0 : active; m; m &= m - 1) {
-            int q = __builtin_ctz(m);
-            ray16_set(&rs, q, sample_ray(s, x + q % 4, y + q / 4, k, n, &key[q]));
-        }
-        if (s->rs.integrator == INTEGRATOR_WHITTED) {
-            whitted_radiance16(s, r, active, key, c.v, rays);
-        } else { /* the camera rays as a packet, the paths on one by one */
-            struct hit first[16];
-            uint32_t hit = scene_intersect16_soa(s, r, scene_unbounded16, active, first, NULL);
-            for (uint32_t m = active; m; m &= m - 1) {
-                int q = __builtin_ctz(m);
-                ray rq = ray16_get(r, q);
-                c.v[q] = path_radiance_from(s, &rq, &first[q], hit >> q & 1, &key[q], rays);
-            }
-        }
-        for (uint32_t m = active; n > 1 && m; m &= m - 1) {
+    if (o->sum) sums_load(o, o->dx + bx, o->dy + by, active, acc);
+    else if (n > 1) memset(acc, 0, sizeof acc);
+    for (int k = o->k0; k < o->k1; k++) {
+        block_sample(s, x, y, active, centre, k, n, &c, rays);
+        for (uint32_t m = sum ? active : 0; m; m &= m - 1) {
             int q = __builtin_ctz(m);
             acc[q] = v3_add(acc[q], c.v[q]);
         }
+    }
+    if (o->sum) {
+        sums_store(o, o->dx + bx, o->dy + by, active, acc);
+        return;
     }
     for (uint32_t m = n > 1 ? active : 0; m; m &= m - 1) { /* one sample: c, as (0 + c) / 1 */
         int q = __builtin_ctz(m);
         c.v[q] = v3_scale(acc[q], 1.0 / n);
     }
-    size_t stride = (size_t)dst->w * 3;
-    put_block(dst->px + (size_t)dy * stride + (size_t)dx * 3, stride, &c, w, h);
+    size_t stride = (size_t)o->img->w * 3;
+    put_block(o->img->px + (size_t)(o->dy + by) * stride + (size_t)(o->dx + bx) * 3, stride, &c,
+              w, h);
 }
 
 /* Renders the w x h rectangle at (x, y) of the image into dst at (dx, dy)
@@ -256,10 +198,9 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h,
  * rays are made before the block is traced: nothing waits for them, so
  * their square roots and divisions run while the block's work does. */
 static enum rayd_status render_rect(const rayd_scene *s, int x, int y, int w, int h,
-                                    rayd_image *dst, int dx, int dy, const atomic_int *cancel,
-                                    uint64_t *rays) {
-    pthread_once(&srgb_once, srgb_init);
-    bool centres = s->rs.samples == 1 && s->cam.aperture <= 0 && !s->cam.ortho;
+                                    const struct rect_out *o, int bx, int by,
+                                    const atomic_int *cancel, uint64_t *rays) {
+    bool centres = o->n == 1 && s->cam.aperture <= 0 && !s->cam.ortho;
     struct ray16 ahead[2];
     int now = 0;
     if (centres) cam_block_rays(&s->cam, x, y, &ahead[0]);
@@ -269,8 +210,8 @@ static enum rayd_status render_rect(const rayd_scene *s, int x, int y, int w, in
             int bw = w - col < 4 ? w - col : 4, bh = h - row < 4 ? h - row : 4;
             int ncol = col + 4 < w ? col + 4 : 0, nrow = col + 4 < w ? row : row + 4;
             if (centres && nrow < h) cam_block_rays(&s->cam, x + ncol, y + nrow, &ahead[!now]);
-            render_block(s, x + col, y + row, bw, bh, centres ? &ahead[now] : NULL, dst, dx + col,
-                         dy + row, rays);
+            render_block(s, x + col, y + row, bw, bh, centres ? &ahead[now] : NULL, o, bx + col,
+                         by + row, rays);
             now = !now;
         }
     }
@@ -315,7 +256,9 @@ enum rayd_status rayd_render_into(const rayd_scene *s, const struct rayd_region 
     if (dst_x < 0 || dst_y < 0 || dst_x > dst->w - r.w || dst_y > dst->h - r.h)
         return err_set(err, RAYD_E_ARG, NULL, "the region does not fit the destination image");
     uint64_t count = 0;
-    st = render_rect(s, r.x, r.y, r.w, r.h, dst, dst_x, dst_y, cancel, &count);
+    int n = s->rs.samples;
+    struct rect_out o = {.img = dst, .dx = dst_x, .dy = dst_y, .k0 = 0, .k1 = n, .n = n};
+    st = render_rect(s, r.x, r.y, r.w, r.h, &o, 0, 0, cancel, &count);
     if (rays) *rays += count;
     if (st == RAYD_E_CANCELED) return err_set(err, st, NULL, "render canceled");
     return st;
@@ -325,7 +268,7 @@ struct job {
     const rayd_scene *s;
     struct rayd_region r;
     const struct rayd_render_opts *opts;
-    rayd_image *img;
+    const struct rect_out *out;
     int tile, tiles_x, ntiles;
     atomic_int next;
     atomic_long done;
@@ -342,8 +285,8 @@ static void *render_worker(void *arg) {
         int tx = (t % jb->tiles_x) * jb->tile, ty = (t / jb->tiles_x) * jb->tile;
         int w = jb->r.w - tx < jb->tile ? jb->r.w - tx : jb->tile;
         int h = jb->r.h - ty < jb->tile ? jb->r.h - ty : jb->tile;
-        if (render_rect(jb->s, jb->r.x + tx, jb->r.y + ty, w, h, jb->img, tx, ty, jb->opts->cancel,
-                        &rays) != RAYD_OK) {
+        if (render_rect(jb->s, jb->r.x + tx, jb->r.y + ty, w, h, jb->out, tx, ty,
+                        jb->opts->cancel, &rays) != RAYD_OK) {
             atomic_store(&jb->canceled, 1);
             break;
         }
@@ -355,17 +298,14 @@ static void *render_worker(void *arg) {
     return NULL;
 }
 
-enum rayd_status rayd_render(const rayd_scene *s, const struct rayd_render_opts *opts,
-                             rayd_image **out, struct rayd_error *err) {
-    static const struct rayd_render_opts none;
-    if (!opts) opts = &none;
+/* Renders region r (checked) to out in tiles on opts->threads threads;
+ * fills opts->stats. */
+static enum rayd_status render_tiles(const rayd_scene *s, const struct rayd_render_opts *opts,
+                                     const struct rayd_region *r, const struct rect_out *out,
+                                     struct rayd_error *err) {
     double t0 = clock_now();
-    enum rayd_status st = rayd_region_check(s, &opts->region, err);
-    if (st != RAYD_OK) return st;
-    struct job jb = {.s = s, .opts = opts, .tile = opts->tile > 0 ? opts->tile : 32};
-    region_resolve(s, &opts->region, &jb.r);
-    st = rayd_image_new(jb.r.w, jb.r.h, &jb.img, err);
-    if (st != RAYD_OK) return st;
+    struct job jb = {.s = s, .r = *r, .opts = opts, .out = out};
+    jb.tile = opts->tile > 0 ? opts->tile : 32;
     jb.tiles_x = (jb.r.w + jb.tile - 1) / jb.tile;
     jb.ntiles = jb.tiles_x * ((jb.r.h + jb.tile - 1) / jb.tile);
     atomic_init(&jb.next, 0);
@@ -387,10 +327,35 @@ enum rayd_status rayd_render(const rayd_scene *s, const struct rayd_render_opts 
         opts->stats->rays = atomic_load(&jb.rays);
         opts->stats->seconds = clock_now() - t0;
     }
-    if (atomic_load(&jb.canceled)) {
-        rayd_image_free(jb.img);
-        return err_set(err, RAYD_E_CANCELED, NULL, "render canceled");
-    }
-    *out = jb.img;
+    if (atomic_load(&jb.canceled)) return err_set(err, RAYD_E_CANCELED, NULL, "render canceled");
     return RAYD_OK;
+}
+
+enum rayd_status rayd_render(const rayd_scene *s, const struct rayd_render_opts *opts,
+                             rayd_image **out, struct rayd_error *err) {
+    static const struct rayd_render_opts none;
+    if (!opts) opts = &none;
+    enum rayd_status st = rayd_region_check(s, &opts->region, err);
+    if (st != RAYD_OK) return st;
+    struct rayd_region r;
+    region_resolve(s, &opts->region, &r);
+    rayd_image *img = NULL;
+    st = rayd_image_new(r.w, r.h, &img, err);
+    if (st != RAYD_OK) return st;
+    int n = s->rs.samples;
+    struct rect_out o = {.img = img, .k0 = 0, .k1 = n, .n = n};
+    st = render_tiles(s, opts, &r, &o, err);
+    if (st != RAYD_OK) {
+        rayd_image_free(img);
+        return st;
+    }
+    *out = img;
+    return RAYD_OK;
+}
+
+enum rayd_status render_sums(const rayd_scene *s, const struct rayd_render_opts *opts,
+                             const struct rayd_region *r, double *sum, int k0, int k1, int n,
+                             struct rayd_error *err) {
+    struct rect_out o = {.sum = sum, .sum_w = (size_t)r->w, .k0 = k0, .k1 = k1, .n = n};
+    return render_tiles(s, opts, r, &o, err);
 }

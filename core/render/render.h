@@ -4,15 +4,19 @@
 
 #include <stdint.h>
 
+#include "render/srgb.h"
 #include "scene/scene.h"
 
 /* The pixel's linear radiance, averaged over its samples. */
 vec3 render_pixel(const rayd_scene *s, int i, int j, uint64_t *rays);
 
-/* The sRGB byte of a linear value (0 for NaN and below 0, 255 from 1). */
-uint8_t render_srgb8(double c);
-/* The same for 48 values at once (a 4x4 block's channels), 8 at a time
- * with AVX-512 where it runs: out[k] = render_srgb8(v[k]). */
-void render_srgb48(const double v[48], uint8_t out[48]);
+/* Adds the radiance of samples k0..k1-1 of every pixel of region r
+ * (checked by the caller) to sum, 3 doubles a pixel, rows r->w pixels,
+ * each pixel's samples in index order, in tiles on opts->threads threads.
+ * n is 1 for the pixel-centre sample of a one-sample render, else 0.
+ * On a cancel the sums are partly added. */
+enum rayd_status render_sums(const rayd_scene *s, const struct rayd_render_opts *opts,
+                             const struct rayd_region *r, double *sum, int k0, int k1, int n,
+                             struct rayd_error *err);
 
 #endif

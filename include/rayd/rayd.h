@@ -6,7 +6,8 @@
  * Shape of the API
  * ----------------
  * - Handles are opaque: rayd_scene (a parsed, validated and frozen scene with
- *   its acceleration structure built) and rayd_image (8-bit sRGB RGB pixels).
+ *   its acceleration structure built), rayd_image (8-bit sRGB RGB pixels)
+ *   and rayd_accum (the linear per-pixel sums of progressive passes).
  * - Every fallible call returns an enum rayd_status and fills an optional
  *   struct rayd_error (code, message, JSON Pointer path, line/column).  The
  *   error struct holds fixed-size buffers: it never allocates and can be
@@ -161,6 +162,70 @@ enum rayd_status rayd_render_into(const rayd_scene *scene, const struct rayd_reg
                                   rayd_image *dst, int dst_x, int dst_y, const atomic_int *cancel,
                                   uint64_t *rays, struct rayd_error *err);
 
+/* ---- passes: progressive rendering --------------------------------------- */
+
+/* An accumulator holds, for every pixel of a region, the linear sums of its
+ * samples 0..n-1 in double, added in sample-index order, so that the image
+ * after a pass of n samples is byte for byte the plain render with
+ * "samples": n, for any tiling and thread count (docs/scene-format.md, the
+ * pass rule).  The one exception is the sample count 1: a one-sample render
+ * traces the pixel centre (the paper's ray), which is not sample 0 of a
+ * longer render; so a pass [0, 1) holds the centre image, and the next pass
+ * from 1 traces sample 0 again before going on.  Sample counts above
+ * render.samples of the scene are allowed. */
+typedef struct rayd_accum rayd_accum;
+
+/* A new accumulator, no samples yet, for region (NULL or zero: the whole
+ * image) of scene; *out owns it, free with rayd_accum_free. */
+enum rayd_status rayd_accum_new(const rayd_scene *scene, const struct rayd_region *region,
+                                rayd_accum **out, struct rayd_error *err);
+void rayd_accum_free(rayd_accum *acc);
+/* Samples summed so far per pixel (0 before the first pass). */
+int rayd_accum_samples(const rayd_accum *acc);
+/* The accumulator's region, resolved (never zero-sized). */
+struct rayd_region rayd_accum_region(const rayd_accum *acc);
+
+/* Adds samples samples_from..samples_to-1 of every pixel.  samples_from
+ * must be rayd_accum_samples(acc) and samples_to larger.  opts gives
+ * threads, tile, progress, cancel and stats; its region is not read (the
+ * accumulator's is rendered).  Canceled, the pass leaves the accumulator
+ * half added: it refuses further passes and resolves (RAYD_E_ARG), so take
+ * the previous pass's image before starting the next. */
+enum rayd_status rayd_render_pass(const rayd_scene *scene, const struct rayd_render_opts *opts,
+                                  rayd_accum *acc, int samples_from, int samples_to,
+                                  struct rayd_error *err);
+
+/* The 8-bit sRGB image of the sums so far: sum * (1 / n) per channel, then
+ * the same sRGB rounding as rayd_render.  *out owns a new image. */
+enum rayd_status rayd_accum_image(const rayd_accum *acc, rayd_image **out,
+                                  struct rayd_error *err);
+/* Optional exposure and tone curve for the 8-bit image.  The value shown
+ * is curve(average * 2^exposure), then sRGB-encoded.  RAYD_TONE_CLAMP is
+ * no curve (values above 1 clip to 255): with exposure 0 it is exactly
+ * rayd_accum_image.  RAYD_TONE_REINHARD is v / (1 + v) per channel: no
+ * clipping, highlights compressed (1.0 shows as 0.5). */
+enum rayd_tone_curve { RAYD_TONE_CLAMP = 0, RAYD_TONE_REINHARD = 1 };
+struct rayd_tone {
+    double exposure; /* stops: each +1 doubles the light; -64..64 */
+    enum rayd_tone_curve curve;
+};
+/* rayd_accum_image through tone (NULL: none). */
+enum rayd_status rayd_accum_image_tone(const rayd_accum *acc, const struct rayd_tone *tone,
+                                       rayd_image **out, struct rayd_error *err);
+/* The linear radiance so far, unclamped, as float RGB: w * h * 3 floats,
+ * rows packed, into a new buffer *out (free with rayd_free); each value is
+ * (float)(sum * (1 / n)). */
+enum rayd_status rayd_accum_linear(const rayd_accum *acc, float **out, struct rayd_error *err);
+
+/* rayd_render_into for linear float RGB: region's linear radiance (as
+ * rayd_accum_linear gives it after a pass of all render.samples) into dst,
+ * a float RGB image dst_w pixels wide, top-left at (dst_x, dst_y), on the
+ * calling thread.  For servers that render an HDR frame in tiles. */
+enum rayd_status rayd_render_linear_into(const rayd_scene *scene, const struct rayd_region *region,
+                                         float *dst, int dst_w, int dst_x, int dst_y,
+                                         const atomic_int *cancel, uint64_t *rays,
+                                         struct rayd_error *err);
+
 /* ---- images -------------------------------------------------------------- */
 
 /* A new black w x h image; *out owns it. */
@@ -194,6 +259,19 @@ enum rayd_status rayd_png_decode(const void *buf, size_t len, long max_pixels, r
 /* rayd_read_file then rayd_png_decode: a PNG file ("-" for stdin) to an image. */
 enum rayd_status rayd_png_read_file(const char *path, long max_pixels, rayd_image **out,
                                     struct rayd_error *err);
+
+/* HDR out, from linear float RGB (w * h * 3 floats, rows packed, e.g.
+ * rayd_accum_linear's).  *buf (malloc'd, free with rayd_free) holds *len
+ * bytes; the same pixels always give the same bytes.
+ *
+ * rayd_exr_encode: OpenEXR, one scanline part, R, G, B as 32-bit float,
+ * linear and unclamped, PIZ compression (lossless; written by OpenEXR's library). */
+enum rayd_status rayd_exr_encode(const float *rgb, int w, int h, void **buf, size_t *len,
+                                 struct rayd_error *err);
+/* rayd_png16_encode: a 16-bit RGB PNG, each value sRGB-encoded (clamped to
+ * [0, 1]) and rounded to 16 bits; level is zlib's, -1 the default (4). */
+enum rayd_status rayd_png16_encode(const float *rgb, int w, int h, int level, void **buf,
+                                   size_t *len, struct rayd_error *err);
 
 /* Reads a whole file ("-" for standard input) into *out (NUL-terminated
  * for convenience; free with rayd_free), *len bytes.  Over max bytes:

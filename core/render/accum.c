@@ -1,0 +1,184 @@
+/* accum.c -- progressive passes whose images are exact prefixes.
+ *
+ * A render of N samples may run as passes (1, 2, 4, ... N samples, or every
+ * k), each showing the whole frame.  The promise is that the image after a
+ * pass of n samples is byte for byte the plain render with "samples": n.
+ * The plain render sums a pixel's samples in double, in index order,
+ * starting from 0, and scales by 1 / n; sample k's ray and random numbers
+ * depend on (seed, pixel, k) only, not on n.  So the accumulator keeps that
+ * very running sum per pixel (3 doubles): a pass adds samples from..to-1 in
+ * index order to it, which is the same sequence of additions whatever the
+ * passes, tiles or threads, and the resolve does the plain render's last
+ * step (scale, then sRGB).  Floats would not do: the sum must round as the
+ * plain render's double does.
+ *
+ * One sample is the exception, kept from the paper: a one-sample render's
+ * ray goes through the pixel centre, while sample 0 of a longer render is
+ * jittered.  A pass [0, 1) therefore traces the centre and marks the sums
+ * as such; the next pass throws them away and traces from sample 0.  The
+ * one-sample preview costs one extra sample of a whole progressive render.
+ */
+#include <limits.h>
+#include <math.h>
+#include <stdbool.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "base/error.h"
+#include "render/image.h"
+#include "render/render.h"
+#include "render/srgb.h"
+#include "scene/scene.h"
+
+struct rayd_accum {
+    struct rayd_region r;
+    int n;       /* samples summed; -1 after a canceled pass */
+    bool centre; /* the sums are the one-sample (pixel centre) image */
+    double *sum; /* r.w * r.h * 3, rows packed */
+};
+
+enum rayd_status rayd_accum_new(const rayd_scene *s, const struct rayd_region *region,
+                                rayd_accum **out, struct rayd_error *err) {
+    struct rayd_region r = {0, 0, s->rs.width, s->rs.height};
+    if (region && (region->w || region->h)) r = *region;
+    enum rayd_status st = rayd_region_check(s, &r, err);
+    if (st != RAYD_OK) return st;
+    rayd_accum *a = calloc(1, sizeof *a);
+    double *sum = calloc((size_t)r.w * (size_t)r.h * 3, sizeof *sum);
+    if (!a || !sum) {
+        free(a);
+        free(sum);
+        return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for a %dx%d accumulator", r.w, r.h);
+    }
+    a->r = r;
+    a->sum = sum;
+    *out = a;
+    return RAYD_OK;
+}
+
+void rayd_accum_free(rayd_accum *a) {
+    if (!a) return;
+    free(a->sum);
+    free(a);
+}
+
+int rayd_accum_samples(const rayd_accum *a) { return a->n < 0 ? 0 : a->n; }
+
+struct rayd_region rayd_accum_region(const rayd_accum *a) { return a->r; }
+
+static enum rayd_status accum_usable(const rayd_accum *a, struct rayd_error *err) {
+    if (a->n < 0)
+        return err_set(err, RAYD_E_ARG, NULL,
+                       "the accumulator's last pass was canceled; its sums are incomplete");
+    return RAYD_OK;
+}
+
+enum rayd_status rayd_render_pass(const rayd_scene *s, const struct rayd_render_opts *opts,
+                                  rayd_accum *a, int from, int to, struct rayd_error *err) {
+    static const struct rayd_render_opts none;
+    if (!opts) opts = &none;
+    enum rayd_status st = accum_usable(a, err);
+    if (st != RAYD_OK) return st;
+    if (from != a->n)
+        return err_set(err, RAYD_E_ARG, "samples_from",
+                       "must be %d (the samples summed so far), not %d", a->n, from);
+    if (to <= from)
+        return err_set(err, RAYD_E_ARG, "samples_to", "must be > samples_from (%d), not %d", from,
+                       to);
+    bool centre = to == 1; /* the paper's one ray through the pixel centre */
+    if (a->centre) { /* the centre sample is no prefix of longer renders */
+        memset(a->sum, 0, (size_t)a->r.w * (size_t)a->r.h * 3 * sizeof *a->sum);
+        from = 0;
+    }
+    st = render_sums(s, opts, &a->r, a->sum, from, to, centre ? 1 : 0, err);
+    if (st != RAYD_OK) {
+        a->n = -1;
+        return st;
+    }
+    a->n = to;
+    a->centre = centre;
+    return RAYD_OK;
+}
+
+enum rayd_status rayd_accum_image(const rayd_accum *a, rayd_image **out, struct rayd_error *err) {
+    enum rayd_status st = accum_usable(a, err);
+    if (st != RAYD_OK) return st;
+    if (a->n == 0) return err_set(err, RAYD_E_ARG, NULL, "the accumulator holds no samples yet");
+    rayd_image *img = NULL;
+    st = rayd_image_new(a->r.w, a->r.h, &img, err);
+    if (st != RAYD_OK) return st;
+    size_t count = (size_t)a->r.w * (size_t)a->r.h * 3;
+    double scale = 1.0 / a->n; /* as the plain render: v3_scale(acc, 1.0 / n) */
+    for (size_t i = 0; i < count; i++) img->px[i] = render_srgb8(a->sum[i] * scale);
+    *out = img;
+    return RAYD_OK;
+}
+
+enum rayd_status rayd_accum_linear(const rayd_accum *a, float **out, struct rayd_error *err) {
+    enum rayd_status st = accum_usable(a, err);
+    if (st != RAYD_OK) return st;
+    if (a->n == 0) return err_set(err, RAYD_E_ARG, NULL, "the accumulator holds no samples yet");
+    size_t count = (size_t)a->r.w * (size_t)a->r.h * 3;
+    float *f = malloc(count * sizeof *f);
+    if (!f) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for a linear image");
+    double scale = 1.0 / a->n;
+    for (size_t i = 0; i < count; i++) f[i] = (float)(a->sum[i] * scale);
+    *out = f;
+    return RAYD_OK;
+}
+
+enum rayd_status rayd_render_linear_into(const rayd_scene *s, const struct rayd_region *region,
+                                         float *dst, int dst_w, int dst_x, int dst_y,
+                                         const atomic_int *cancel, uint64_t *rays,
+                                         struct rayd_error *err) {
+    rayd_accum *a = NULL;
+    enum rayd_status st = rayd_accum_new(s, region, &a, err);
+    if (st != RAYD_OK) return st;
+    struct rayd_region r = a->r;
+    if (dst_x < 0 || dst_y < 0 || dst_x > dst_w - r.w) {
+        rayd_accum_free(a);
+        return err_set(err, RAYD_E_ARG, NULL, "the region does not fit the destination image");
+    }
+    struct rayd_render_stats stats = {0};
+    struct rayd_render_opts o = {.threads = 1, .tile = r.w > r.h ? r.w : r.h, .cancel = cancel,
+                                 .stats = &stats};
+    int n = s->rs.samples;
+    st = rayd_render_pass(s, &o, a, 0, n, err); /* one pass: the plain render's sums */
+    if (rays) *rays += stats.rays;
+    double scale = 1.0 / n;
+    for (int row = 0; st == RAYD_OK && row < r.h; row++) {
+        float *out = dst + ((size_t)(dst_y + row) * (size_t)dst_w + (size_t)dst_x) * 3;
+        const double *in = a->sum + (size_t)row * (size_t)r.w * 3;
+        for (size_t k = 0; k < (size_t)r.w * 3; k++) out[k] = (float)(in[k] * scale);
+    }
+    rayd_accum_free(a);
+    return st;
+}
+
+/* The tone curve of one exposed linear value; clamp leaves it to srgb8. */
+static double tone_curve(double v, enum rayd_tone_curve curve) {
+    if (curve == RAYD_TONE_REINHARD) return v > 0 ? v / (1.0 + v) : v; /* [0, inf) -> [0, 1) */
+    return v;
+}
+
+enum rayd_status rayd_accum_image_tone(const rayd_accum *a, const struct rayd_tone *tone,
+                                       rayd_image **out, struct rayd_error *err) {
+    if (!tone || (tone->exposure == 0 && tone->curve == RAYD_TONE_CLAMP))
+        return rayd_accum_image(a, out, err); /* the default: today's bytes */
+    if (!(tone->exposure >= -64 && tone->exposure <= 64))
+        return err_set(err, RAYD_E_ARG, "exposure", "must be in -64..64 stops");
+    if (tone->curve != RAYD_TONE_CLAMP && tone->curve != RAYD_TONE_REINHARD)
+        return err_set(err, RAYD_E_ARG, "curve", "must be RAYD_TONE_CLAMP or RAYD_TONE_REINHARD");
+    enum rayd_status st = accum_usable(a, err);
+    if (st != RAYD_OK) return st;
+    if (a->n == 0) return err_set(err, RAYD_E_ARG, NULL, "the accumulator holds no samples yet");
+    rayd_image *img = NULL;
+    st = rayd_image_new(a->r.w, a->r.h, &img, err);
+    if (st != RAYD_OK) return st;
+    size_t count = (size_t)a->r.w * (size_t)a->r.h * 3;
+    double scale = 1.0 / a->n, gain = exp2(tone->exposure);
+    for (size_t i = 0; i < count; i++)
+        img->px[i] = render_srgb8(tone_curve(a->sum[i] * scale * gain, tone->curve));
+    *out = img;
+    return RAYD_OK;
+}
