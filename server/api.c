@@ -256,3 +256,13 @@ bool api_scene(struct http_req *r, struct cache_entry **out, bool *hit)
     }
     return true;
 }
+
+bool api_is_hex(const char *s, size_t n)
+{
+    if (strlen(s) != n)
+        return false;
+    for (; *s; s++)
+        if (!((*s >= '0' && *s <= '9') || (*s >= 'a' && *s <= 'f')))
+            return false;
+    return true;
+}

@@ -26,6 +26,8 @@ bool api_region_format(struct http_req *r, const rayd_scene *scene, struct rayd_
 const char *api_format_type(enum work_format format);
 /* Body is JSON?  Otherwise replies 415 and returns false. */
 bool api_require_json(struct http_req *r);
+/* s is exactly n lowercase hex digits (a scene id is 64, a job id 32). */
+bool api_is_hex(const char *s, size_t n);
 /* The one place where a core status becomes an HTTP status and code. */
 unsigned api_status_of(enum rayd_status s);
 void api_reply_rayd_error(struct http_req *r, const struct rayd_error *err);

@@ -24,16 +24,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-static bool api_job_id_ok(const char *id)
-{
-    if (strlen(id) != 32)
-        return false;
-    for (; *id; id++)
-        if (!((*id >= '0' && *id <= '9') || (*id >= 'a' && *id <= 'f')))
-            return false;
-    return true;
-}
-
 static void api_job_unknown(struct http_req *r)
 {
     http_reply_error(r, 404, "job_unknown", "no such job on this server (or it was forgotten)",
@@ -114,7 +104,7 @@ static cJSON *api_job_json(const char *id, const struct jobs_info *in)
 void api_jobs_get(struct http_req *r, const char *id)
 {
     struct jobs_info info;
-    if (!api_job_id_ok(id) || !jobs_get(id, &info, false)) {
+    if (!api_is_hex(id, 32) || !jobs_get(id, &info, false)) {
         api_job_unknown(r);
         return;
     }
@@ -124,7 +114,7 @@ void api_jobs_get(struct http_req *r, const char *id)
 void api_jobs_delete(struct http_req *r, const char *id)
 {
     struct jobs_info info;
-    if (!api_job_id_ok(id) || !jobs_cancel(id) || !jobs_get(id, &info, false)) {
+    if (!api_is_hex(id, 32) || !jobs_cancel(id) || !jobs_get(id, &info, false)) {
         api_job_unknown(r);
         return;
     }
@@ -134,7 +124,7 @@ void api_jobs_delete(struct http_req *r, const char *id)
 void api_jobs_image(struct http_req *r, const char *id)
 {
     struct jobs_info info;
-    if (!api_job_id_ok(id) || !jobs_get(id, &info, true)) {
+    if (!api_is_hex(id, 32) || !jobs_get(id, &info, true)) {
         api_job_unknown(r);
         return;
     }
@@ -312,7 +302,7 @@ void api_jobs_events(struct http_req *r, const char *id)
         api_refused(r, WORK_NOMEM);
         return;
     }
-    if (!api_job_id_ok(id) || !(a->s = events_open(id))) {
+    if (!api_is_hex(id, 32) || !(a->s = events_open(id))) {
         free(a);
         api_job_unknown(r);
         return;

@@ -136,16 +136,6 @@ void api_scenes_post(struct http_req *r, const char *id)
     scenes_release(e);
 }
 
-static bool api_is_hex(const char *s, size_t n)
-{
-    if (strlen(s) != n)
-        return false;
-    for (; *s; s++)
-        if (!((*s >= '0' && *s <= '9') || (*s >= 'a' && *s <= 'f')))
-            return false;
-    return true;
-}
-
 /* If-None-Match: a list of entity tags or "*"; weak comparison. */
 static bool api_etag_match(const char *inm, const char *etag)
 {
