@@ -245,8 +245,10 @@ build/fuzz/core/%.o: core/%.c | $(BUILD)/.deps-ok
 	@mkdir -p $(dir $@)
 	clang $(FUZZ_CFLAGS) -MMD -MP -c $< -o $@
 
+build/fuzz/core/io/exr.o: FUZZ_CFLAGS += $(EXR_CFLAGS)
+
 build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c $(FUZZ_CORE_OBJ)
-	clang $(FUZZ_CFLAGS) -fsanitize=fuzzer $^ -o $@ -lpng -lz -lcjson -lpthread -lm
+	clang $(FUZZ_CFLAGS) -fsanitize=fuzzer $^ -o $@ $(LIBS_CORE)
 
 # The server's targets (fuzz_http*, fuzz_query*) drive the request flow and
 # the handlers without sockets: they link the server's objects but main.o,
@@ -262,7 +264,7 @@ build/fuzz/server/%.o: server/%.c $(SERVER_HDR) build/server/web_assets.h | $(BU
 $(FUZZ_SERVER_TARGETS:%=build/fuzz/fuzz_%): build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c \
     tests/fuzz/fuzz_http_common.h $(SERVER_HDR) $(FUZZ_SERVER_OBJ) $(FUZZ_CORE_OBJ)
 	clang $(FUZZ_CFLAGS) -D_DEFAULT_SOURCE -fsanitize=fuzzer $(filter %.c %.o,$^) -o $@ \
-	  -lmicrohttpd -lcrypto -lpng -lz -lcjson -lpthread -lm
+	  -lmicrohttpd -lcrypto $(LIBS_CORE)
 
 # A crash, leak, timeout or out-of-memory fails the run (the artifact stays
 # in build/fuzz/crash-TARGET-*).  Object files track their headers (-MMD).
