@@ -73,6 +73,14 @@ static enum rayd_status accum_usable(const rayd_accum *a, struct rayd_error *err
     return RAYD_OK;
 }
 
+/* Usable, and holding samples: what every resolve needs first. */
+static enum rayd_status accum_resolvable(const rayd_accum *a, struct rayd_error *err) {
+    enum rayd_status st = accum_usable(a, err);
+    if (st != RAYD_OK) return st;
+    if (a->n == 0) return err_set(err, RAYD_E_ARG, NULL, "the accumulator holds no samples yet");
+    return RAYD_OK;
+}
+
 enum rayd_status rayd_render_pass(const rayd_scene *s, const struct rayd_render_opts *opts,
                                   rayd_accum *a, int from, int to, struct rayd_error *err) {
     static const struct rayd_render_opts none;
@@ -101,9 +109,8 @@ enum rayd_status rayd_render_pass(const rayd_scene *s, const struct rayd_render_
 }
 
 enum rayd_status rayd_accum_image(const rayd_accum *a, rayd_image **out, struct rayd_error *err) {
-    enum rayd_status st = accum_usable(a, err);
+    enum rayd_status st = accum_resolvable(a, err);
     if (st != RAYD_OK) return st;
-    if (a->n == 0) return err_set(err, RAYD_E_ARG, NULL, "the accumulator holds no samples yet");
     rayd_image *img = NULL;
     st = rayd_image_new(a->r.w, a->r.h, &img, err);
     if (st != RAYD_OK) return st;
@@ -115,9 +122,8 @@ enum rayd_status rayd_accum_image(const rayd_accum *a, rayd_image **out, struct 
 }
 
 enum rayd_status rayd_accum_linear(const rayd_accum *a, float **out, struct rayd_error *err) {
-    enum rayd_status st = accum_usable(a, err);
+    enum rayd_status st = accum_resolvable(a, err);
     if (st != RAYD_OK) return st;
-    if (a->n == 0) return err_set(err, RAYD_E_ARG, NULL, "the accumulator holds no samples yet");
     size_t count = (size_t)a->r.w * (size_t)a->r.h * 3;
     float *f = malloc(count * sizeof *f);
     if (!f) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for a linear image");
@@ -169,9 +175,8 @@ enum rayd_status rayd_accum_image_tone(const rayd_accum *a, const struct rayd_to
         return err_set(err, RAYD_E_ARG, "exposure", "must be in -64..64 stops");
     if (tone->curve != RAYD_TONE_CLAMP && tone->curve != RAYD_TONE_REINHARD)
         return err_set(err, RAYD_E_ARG, "curve", "must be RAYD_TONE_CLAMP or RAYD_TONE_REINHARD");
-    enum rayd_status st = accum_usable(a, err);
+    enum rayd_status st = accum_resolvable(a, err);
     if (st != RAYD_OK) return st;
-    if (a->n == 0) return err_set(err, RAYD_E_ARG, NULL, "the accumulator holds no samples yet");
     rayd_image *img = NULL;
     st = rayd_image_new(a->r.w, a->r.h, &img, err);
     if (st != RAYD_OK) return st;
