@@ -21,6 +21,7 @@ struct api_q {
     int count[4];
     char unknown[64];
     bool allow_format; /* POST /v1/render: ?format= too */
+    const char *const *also; /* names another parser of the route reads, NULL-ended */
     const char *format;
     int format_count;
 };
@@ -41,6 +42,9 @@ static void api_q_each(void *u, const char *k, const char *v)
         q->format_count++;
         return;
     }
+    for (const char *const *a = q->also; a && *a; a++)
+        if (!strcmp(k, *a))
+            return;
     if (!q->unknown[0])
         snprintf(q->unknown, sizeof q->unknown, "%s", k);
 }
@@ -69,8 +73,12 @@ static bool api_region_q(struct http_req *r, const rayd_scene *scene, struct ray
     *qp = q;
     char msg[200];
     if (q.unknown[0]) {
-        snprintf(msg, sizeof msg, "unknown query parameter '%s' (only x, y, w, h%s)", q.unknown,
-                 q.allow_format ? ", format" : "");
+        char more[120] = "";
+        size_t used = 0;
+        for (const char *const *a = q.also; a && *a && used < sizeof more; a++)
+            used += (size_t)snprintf(more + used, sizeof more - used, ", %s", *a);
+        snprintf(msg, sizeof msg, "unknown query parameter '%s' (only x, y, w, h%s%s)", q.unknown,
+                 q.allow_format ? ", format" : "", more);
         http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, q.unknown);
         return false;
     }
@@ -130,6 +138,13 @@ static bool api_region_q(struct http_req *r, const rayd_scene *scene, struct ray
 bool api_region(struct http_req *r, const rayd_scene *scene, struct rayd_region *out)
 {
     struct api_q q = {0};
+    return api_region_q(r, scene, out, &q);
+}
+
+bool api_region_also(struct http_req *r, const rayd_scene *scene, struct rayd_region *out,
+                     const char *const *also)
+{
+    struct api_q q = {.also = also};
     return api_region_q(r, scene, out, &q);
 }
 

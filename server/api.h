@@ -18,6 +18,10 @@
 /* Parses ?x=&y=&w=&h= strictly against scene; on error replies 400 and
  * returns false.  No parameters: the whole image. */
 bool api_region(struct http_req *r, const rayd_scene *scene, struct rayd_region *out);
+/* api_region, letting the names in also (NULL-ended) through for the
+ * route's own parser. */
+bool api_region_also(struct http_req *r, const rayd_scene *scene, struct rayd_region *out,
+                     const char *const *also);
 /* api_region, also taking ?format=png|png16|exr (or Accept: image/x-exr)
  * into *format; a bad format is answered 400 naming it. */
 bool api_region_format(struct http_req *r, const rayd_scene *scene, struct rayd_region *out,
@@ -47,6 +51,7 @@ void api_jobs_get(struct http_req *r, const char *id);
 void api_jobs_image(struct http_req *r, const char *id);
 void api_jobs_events(struct http_req *r, const char *id);
 void api_jobs_delete(struct http_req *r, const char *id);
+void api_jobs_stop(struct http_req *r, const char *id);
 void api_health_live(struct http_req *r, const char *id);
 void api_health_ready(struct http_req *r, const char *id);
 void api_health_metrics(struct http_req *r, const char *id);

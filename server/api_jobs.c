@@ -35,19 +35,84 @@ static void api_job_url(char *buf, size_t size, const char *id, const char *tail
     snprintf(buf, size, "/v1/jobs/%s%s", id, tail);
 }
 
+/* ---- a progressive job's query ----------------------------------------------- */
+
+static const char *const api_plan_names[] = {"progressive", "pass_step", "time_budget",
+                                             "noise_target", NULL};
+
+static bool api_plan_bad(struct http_req *r, const char *name, const char *why)
+{
+    char msg[200];
+    snprintf(msg, sizeof msg, "%s: %s", name, why);
+    http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, name);
+    return false;
+}
+
+/* A decimal number in (0, max] from ?name=, if given. */
+static bool api_plan_number(struct http_req *r, const char *name, double max, double *out)
+{
+    const char *v = http_req_query(r, name);
+    if (!v)
+        return true;
+    char *end = NULL;
+    double x = strtod(v, &end);
+    if (!*v || *end || !(x > 0 && x <= max)) {
+        char why[80];
+        snprintf(why, sizeof why, "must be a number above 0 and at most %g", max);
+        return api_plan_bad(r, name, why);
+    }
+    *out = x;
+    return true;
+}
+
+/* ?progressive=1 and its options into *plan; *progressive false without
+ * it.  Replies 400 and returns false on a bad one. */
+static bool api_plan(struct http_req *r, const rayd_scene *scene, struct jobs_plan *plan,
+                     bool *progressive)
+{
+    memset(plan, 0, sizeof *plan);
+    const char *v = http_req_query(r, "progressive");
+    *progressive = v && (!strcmp(v, "1") || !strcmp(v, "true"));
+    if (v && !*progressive && strcmp(v, "0") && strcmp(v, "false"))
+        return api_plan_bad(r, "progressive", "must be 1, true, 0 or false");
+    for (int i = 1; api_plan_names[i]; i++)
+        if (!*progressive && http_req_query(r, api_plan_names[i]))
+            return api_plan_bad(r, api_plan_names[i], "needs progressive=1");
+    double step = 0;
+    if (!api_plan_number(r, "pass_step", 1e6, &step) ||
+        !api_plan_number(r, "time_budget", 86400, &plan->time_budget) ||
+        !api_plan_number(r, "noise_target", 1, &plan->noise_target))
+        return false;
+    if (step != (int)step)
+        return api_plan_bad(r, "pass_step", "must be a whole number of samples");
+    plan->step = (int)step;
+    struct rayd_scene_info info;
+    rayd_scene_info(scene, &info);
+    int samples[PASSES_MAX];
+    if (*progressive && passes_plan(plan, info.samples, samples) < 0) {
+        char why[120];
+        snprintf(why, sizeof why, "%d samples in steps of %d is more than %d passes",
+                 info.samples, plan->step, PASSES_MAX);
+        return api_plan_bad(r, "pass_step", why);
+    }
+    return true;
+}
+
 void api_jobs_post(struct http_req *r, const char *unused)
 {
     (void)unused;
     struct cache_entry *e;
-    bool hit;
+    bool hit, progressive = false;
     if (!api_scene(r, &e, &hit))
         return;
     struct rayd_region reg;
+    struct jobs_plan plan;
     char id[33], url[80];
     enum work_submit s;
-    if (!api_region(r, cache_scene(e), &reg)) {
+    if (!api_region_also(r, cache_scene(e), &reg, api_plan_names) ||
+        !api_plan(r, cache_scene(e), &plan, &progressive)) {
         /* replied */
-    } else if ((s = jobs_create(e, &reg, id)) != WORK_OK) {
+    } else if ((s = jobs_create(e, &reg, progressive ? &plan : NULL, id)) != WORK_OK) {
         api_refused(r, s);
     } else {
         cJSON *o = cJSON_CreateObject();
@@ -65,6 +130,32 @@ void api_jobs_post(struct http_req *r, const char *unused)
         http_reply_header(r, "Location", url);
     }
     scenes_release(e);
+}
+
+/* A progressive job's "passes" object. */
+static void api_job_passes(cJSON *o, const char *id, const struct jobs_passes *p)
+{
+    cJSON *x = cJSON_AddObjectToObject(o, "passes");
+    cJSON_AddNumberToObject(x, "done", p->done);
+    cJSON_AddNumberToObject(x, "total", p->total);
+    cJSON_AddNumberToObject(x, "samples", p->samples);
+    cJSON_AddNumberToObject(x, "samples_target", p->samples_target);
+    json_add_fixed(x, "time_s", p->time_s, 3);
+    if (p->noise >= 0)
+        json_add_fixed(x, "noise", p->noise, 6);
+    else
+        cJSON_AddNullToObject(x, "noise");
+    const char *why = passes_stop_name(p->stopped);
+    if (why)
+        cJSON_AddStringToObject(x, "stopped_by", why);
+    else
+        cJSON_AddNullToObject(x, "stopped_by");
+    if (p->done) {
+        char url[100], tail[40];
+        snprintf(tail, sizeof tail, "/image.png?pass=%d", p->done);
+        api_job_url(url, sizeof url, id, tail);
+        cJSON_AddStringToObject(x, "image_url", url);
+    }
 }
 
 /* The job's status document (docs/api.md: key order and decimals). */
@@ -87,6 +178,8 @@ static cJSON *api_job_json(const char *id, const struct jobs_info *in)
     json_add_fixed(o, "render_ms", in->render_ms, 3);
     json_add_fixed(o, "encode_ms", in->encode_ms, 3);
     json_add_u64(o, "rays", in->rays);
+    if (in->progressive)
+        api_job_passes(o, id, &in->passes);
     if (in->state == JS_SUCCEEDED) {
         char url[80];
         api_job_url(url, sizeof url, id, "/image.png");
@@ -121,16 +214,89 @@ void api_jobs_delete(struct http_req *r, const char *id)
     http_reply_json(r, 200, api_job_json(id, &info));
 }
 
-void api_jobs_image(struct http_req *r, const char *id)
+/* Which pass an image is: X-Rayd-Pass "k/total", X-Rayd-Samples n. */
+static void api_pass_headers(struct http_req *r, int pass, int total, int samples)
 {
+    char v[32];
+    snprintf(v, sizeof v, "%d/%d", pass, total);
+    http_reply_header(r, "X-Rayd-Pass", v);
+    snprintf(v, sizeof v, "%d", samples);
+    http_reply_header(r, "X-Rayd-Samples", v);
+}
+
+/* GET /v1/jobs/{id}/image.png?pass=K: that pass's image, while kept. */
+static void api_jobs_pass_image(struct http_req *r, const char *id, const char *q)
+{
+    char *end = NULL;
+    long k = strtol(q, &end, 10);
     struct jobs_info info;
-    if (!api_is_hex(id, 32) || !jobs_get(id, &info, true)) {
+    if (!jobs_get(id, &info, false)) {
         api_job_unknown(r);
         return;
     }
-    if (info.state == JS_SUCCEEDED && info.png) {
-        http_reply_png(r, 200, info.png);
+    if (!*q || *end || k < 1 || !info.progressive || k > info.passes.total) {
+        http_reply_error(r, 400, "bad_parameter",
+                         "pass: must be a pass number of this progressive job (1..passes)", NULL,
+                         0, 0, "pass");
+        return;
+    }
+    struct blob *png = NULL;
+    int samples = 0;
+    jobs_pass_png(id, (int)k, &png, &samples);
+    if (png) {
+        http_reply_png(r, 200, png);
         http_reply_header(r, "Cache-Control", "private, max-age=3600");
+        api_pass_headers(r, (int)k, info.passes.total, samples);
+        blob_unref(png);
+    } else if (k <= info.passes.done) {
+        http_reply_error(r, 410, "pass_gone",
+                         "that pass's image is no longer kept (only the latest passes are)",
+                         NULL, 0, 0, "pass");
+    } else {
+        http_reply_json(r, 202, api_job_json(id, &info));
+        http_reply_header(r, MHD_HTTP_HEADER_RETRY_AFTER, "1");
+    }
+}
+
+void api_jobs_stop(struct http_req *r, const char *id)
+{
+    struct jobs_info info;
+    bool progressive = false;
+    if (!api_is_hex(id, 32) || !jobs_end_early(id, &progressive) || !jobs_get(id, &info, false)) {
+        api_job_unknown(r);
+        return;
+    }
+    if (!progressive) {
+        http_reply_error(r, 409, "not_progressive",
+                         "only a progressive job can be stopped and kept; DELETE cancels a job",
+                         NULL, 0, 0, NULL);
+        return;
+    }
+    http_reply_json(r, 200, api_job_json(id, &info));
+}
+
+void api_jobs_image(struct http_req *r, const char *id)
+{
+    struct jobs_info info;
+    const char *pass = http_req_query(r, "pass");
+    if (!api_is_hex(id, 32)) {
+        api_job_unknown(r);
+        return;
+    }
+    if (pass) {
+        api_jobs_pass_image(r, id, pass);
+        return;
+    }
+    if (!jobs_get(id, &info, true)) {
+        api_job_unknown(r);
+        return;
+    }
+    if (info.png && (info.state == JS_SUCCEEDED || info.state == JS_RUNNING)) {
+        http_reply_png(r, 200, info.png);
+        http_reply_header(r, "Cache-Control",
+                          info.state == JS_SUCCEEDED ? "private, max-age=3600" : "no-store");
+        if (info.progressive)
+            api_pass_headers(r, info.passes.done, info.passes.total, info.passes.samples);
         blob_unref(info.png);
         return;
     }
@@ -190,6 +356,26 @@ static size_t api_sse_event(char *out, size_t size, const char *name, cJSON *o)
     return n < 0 || (size_t)n >= size ? 0 : (size_t)n;
 }
 
+/* "event: pass": a progressive job's pass is complete (o deleted). */
+static size_t api_sse_pass(struct api_sse *a, const struct events_item *it, cJSON *o, char *out,
+                           size_t size)
+{
+    char url[100], tail[40];
+    cJSON_AddNumberToObject(o, "pass", it->done);
+    cJSON_AddNumberToObject(o, "passes", it->total);
+    cJSON_AddNumberToObject(o, "samples", it->samples);
+    json_add_fixed(o, "time_s", it->time_s, 3);
+    if (it->noise >= 0)
+        json_add_fixed(o, "noise", it->noise, 6);
+    else
+        cJSON_AddNullToObject(o, "noise");
+    json_add_fixed(o, "progress", it->progress, 4);
+    snprintf(tail, sizeof tail, "/image.png?pass=%d", it->done);
+    api_job_url(url, sizeof url, a->id, tail);
+    cJSON_AddStringToObject(o, "image_url", url);
+    return api_sse_event(out, size, "pass", o);
+}
+
 /* One item as SSE text into out (2.5 KiB is enough for any). */
 static size_t api_sse_format(struct api_sse *a, const struct events_item *it,
                              const struct rayd_error *err, char *out, size_t size)
@@ -213,9 +399,13 @@ static size_t api_sse_format(struct api_sse *a, const struct events_item *it,
         cJSON_AddNumberToObject(o, "done", it->done);
         cJSON_AddNumberToObject(o, "total", it->total);
         return n + api_sse_event(out + n, size - n, "progress", o);
+    case EVENTS_PASS:
+        return api_sse_pass(a, it, o, out, size);
     case EVENTS_DONE:
         cJSON_AddStringToObject(o, "state", jobs_state_name(it->state));
         json_add_fixed(o, "progress", it->progress, 4);
+        if (it->samples > 0)
+            cJSON_AddNumberToObject(o, "samples", it->samples);
         if (it->state == JS_FAILED)
             cJSON_AddStringToObject(o, "error", err->message);
         return api_sse_event(out, size, "done", o);

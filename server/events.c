@@ -5,7 +5,8 @@
  * (task.order): each read hands out what happened since the last one -- the
  * job's state first, then one item per finished tile, then the final state
  * -- as plain records; the handler (api_jobs.c) writes them as Server-Sent
- * Events.  When there is nothing new, the reader's waiter is linked to the
+ * Events.  A progressive job's stream reports passes instead of tiles: one
+ * item per complete pass, in pass order.  When there is nothing new, the reader's waiter is linked to the
  * task and its suspend() runs, both under the lock, so a tile finishing in
  * between cannot be missed; the worker that finishes the next tile answers
  * the waiter (done), and the reader reads again.  An idle stream therefore
@@ -18,7 +19,7 @@
 
 struct events_stream {
     struct job *job; /* one reference */
-    int cursor;      /* tiles already reported */
+    int cursor;      /* tiles (passes, if progressive) already reported */
     bool started, sent_done;
     double last_write; /* for the keep-alive */
 };
@@ -53,7 +54,18 @@ static int events_news(struct events_stream *s, struct events_item *it, int n,
         it[k++] = (struct events_item){.kind = EVENTS_STATE, .state = jobs_state(j)};
         s->started = true;
     }
-    while (s->cursor < t->done && !j->canceled && k < n) {
+    const struct passes *p = t->passes;
+    while (p && s->cursor < p->done && !j->canceled && k < n) {
+        int c = s->cursor++;
+        it[k++] = (struct events_item){.kind = EVENTS_PASS,
+                                       .done = s->cursor,
+                                       .total = p->n,
+                                       .samples = p->samples[c],
+                                       .time_s = p->time_s[c],
+                                       .noise = p->noise[c],
+                                       .progress = passes_progress(p, s->cursor, 0)};
+    }
+    while (!p && s->cursor < t->done && !j->canceled && k < n) {
         s->cursor++;
         it[k++] = (struct events_item){.kind = EVENTS_TILE,
                                        .tile = task_tile(t, t->order[s->cursor - 1]),
@@ -67,6 +79,7 @@ static int events_news(struct events_stream *s, struct events_item *it, int n,
         it[k++] = (struct events_item){
             .kind = EVENTS_DONE,
             .state = st,
+            .samples = p && p->done ? p->samples[p->done - 1] : 0,
             .progress = st == JS_SUCCEEDED ? 1.0 : (double)t->done / t->ntiles};
         if (st == JS_FAILED && err)
             *err = t->err;

@@ -61,7 +61,7 @@ enum jobs_state jobs_state(const struct job *j)
         return t->status == RAYD_OK            ? JS_SUCCEEDED
                : t->status == RAYD_E_CANCELED ? JS_CANCELED
                                                : JS_FAILED;
-    return t->next_tile == 0 && !t->finalizing ? JS_QUEUED : JS_RUNNING;
+    return t->t_start == 0 && !t->finalizing ? JS_QUEUED : JS_RUNNING;
 }
 
 static bool jobs_final(const struct job *j)
@@ -129,13 +129,34 @@ static bool jobs_new_id(char id[33])
     return true;
 }
 
+/* A progressive job's task: its passes' sums, and a key of its own (the
+ * job id), since its passes, budgets and stop belong to this job alone. */
+static bool jobs_progressive(struct task *t, struct cache_entry *scene,
+                             const struct jobs_plan *plan, const char *id)
+{
+    struct rayd_region *tiles = calloc((size_t)t->ntiles, sizeof *tiles);
+    if (!tiles)
+        return false;
+    for (int i = 0; i < t->ntiles; i++)
+        tiles[i] = task_tile(t, i);
+    t->passes = passes_new(cache_scene(scene), plan, tiles, t->ntiles);
+    free(tiles);
+    size_t n = strlen(t->key);
+    snprintf(t->key + n, sizeof t->key - n, "~%s", id);
+    return t->passes != NULL;
+}
+
 enum work_submit jobs_create(struct cache_entry *scene, const struct rayd_region *reg,
-                             char id[33])
+                             const struct jobs_plan *plan, char id[33])
 {
     if (!jobs_new_id(id))
         return WORK_NOMEM;
     struct job *j = calloc(1, sizeof *j);
     struct task *fresh = task_new(scene, reg, WORK_PNG);
+    if (fresh && plan && !jobs_progressive(fresh, scene, plan, id)) {
+        task_unref(fresh);
+        fresh = NULL;
+    }
     if (!j || !fresh) {
         free(j);
         if (fresh)
@@ -176,6 +197,11 @@ static void jobs_info_of(const struct job *j, struct jobs_info *info, bool want_
     info->tiles_done = t->done;
     info->tiles_total = t->ntiles;
     info->progress = t->ntiles ? (double)t->done / t->ntiles : 0;
+    if (t->passes) {
+        info->progressive = true;
+        passes_info(t->passes, &info->passes);
+        info->progress = passes_progress(t->passes, t->passes->done, info->progress);
+    }
     if (info->state == JS_SUCCEEDED)
         info->progress = 1;
     info->region = t->reg;
@@ -190,6 +216,8 @@ static void jobs_info_of(const struct job *j, struct jobs_info *info, bool want_
         info->err = t->err;
     if (want_png && info->state == JS_SUCCEEDED && t->png)
         info->png = blob_ref(t->png);
+    else if (want_png && t->passes && !t->finished && t->passes->done)
+        info->png = blob_ref(passes_png(t->passes, t->passes->done));
 }
 
 bool jobs_get(const char *id, struct jobs_info *info, bool want_png)
@@ -216,6 +244,35 @@ bool jobs_cancel(const char *id)
             task_cancel(t, MC_DELETE, &n, &sse);
         task_notify_add(&sse, &t->sse_waiters);
     }
+    pthread_mutex_unlock(&work_lock);
+    task_notify_run(&n);
+    task_notify_run(&sse);
+    return j != NULL;
+}
+
+bool jobs_pass_png(const char *id, int pass, struct blob **png, int *samples)
+{
+    *png = NULL;
+    *samples = 0;
+    pthread_mutex_lock(&work_lock);
+    struct job *j = jobs_find(id);
+    const struct passes *p = j ? j->task->passes : NULL;
+    if (p && !j->canceled && pass >= 1 && pass <= p->done) {
+        *png = blob_ref(passes_png(p, pass));
+        *samples = p->samples[pass - 1];
+    }
+    pthread_mutex_unlock(&work_lock);
+    return j != NULL;
+}
+
+bool jobs_end_early(const char *id, bool *progressive)
+{
+    struct task_notify n = {0}, sse = {0};
+    pthread_mutex_lock(&work_lock);
+    struct job *j = jobs_find(id);
+    *progressive = j && j->task->passes;
+    if (*progressive && !j->canceled && task_end_early(j->task, PASSES_BY_CLIENT))
+        task_finish(j->task, &n, &sse);
     pthread_mutex_unlock(&work_lock);
     task_notify_run(&n);
     task_notify_run(&sse);

@@ -35,6 +35,7 @@ static const struct route router_table[] = {
     {"POST", "/v1/jobs", api_jobs_post, "POST /v1/jobs"},
     {"GET", "/v1/jobs/{id}", api_jobs_get, "GET /v1/jobs/{id}"},
     {"DELETE", "/v1/jobs/{id}", api_jobs_delete, "DELETE /v1/jobs/{id}"},
+    {"POST", "/v1/jobs/{id}/stop", api_jobs_stop, "POST /v1/jobs/{id}/stop"},
     {"GET", "/v1/jobs/{id}/image.png", api_jobs_image, "GET /v1/jobs/{id}/image.png"},
     {"GET", "/v1/jobs/{id}/events", api_jobs_events, "GET /v1/jobs/{id}/events"},
     {"GET", "/healthz", api_health_live, "GET /healthz"},

@@ -88,10 +88,72 @@ static void sched_encode(struct task *t)
     }
 }
 
-/* Takes tile number `tile` of t, lock held. */
-static void sched_take(struct task *t, int tile)
+/* Opens t's next pass, lock held: its tiles queue again.  img is the
+ * image the pass's tiles draw into. */
+static void sched_pass_open(struct task *t, rayd_image *img)
 {
-    if (tile == 0) {
+    t->img = img;
+    t->passes->pass++;
+    t->next_tile = 0;
+    t->done = 0;
+    t->finalizing = false;
+    if (!t->queued) {
+        t->queued = true;
+        task_queued++;
+    }
+    pthread_cond_broadcast(&work_cond);
+}
+
+/* The pass whose last tile just finished, lock released: its noise
+ * estimate and PNG, recorded (passes.c), the streams told; then the next
+ * pass opened, unless it was the last or a budget or stop ends the job.
+ * Returns with the lock held: true when the next pass is open. */
+static bool sched_pass_close(struct task *t, struct task_notify *sse)
+{
+    struct passes *p = t->passes;
+    double noise = passes_noise(p, t->img, p->pass);
+    rayd_image *spare = NULL;
+    if (!p->prev && p->pass + 1 < p->n)
+        rayd_image_new(t->reg.w, t->reg.h, &spare, NULL);
+    void *buf = NULL;
+    size_t len = 0;
+    struct rayd_error err = {0};
+    enum rayd_status st = rayd_png_encode(t->img, (int)config.png_level, &buf, &len, &err);
+    struct blob *png = st == RAYD_OK ? blob_new(buf, len) : NULL;
+    if (st == RAYD_OK && !png) {
+        rayd_free(buf);
+        st = RAYD_E_NOMEM;
+    }
+    pthread_mutex_lock(&work_lock);
+    if (st != RAYD_OK) {
+        t->status = st;
+        t->err = err;
+        t->err.code = st;
+        rayd_image_free(spare);
+        return false;
+    }
+    passes_complete(p, png, log_now() - t->t_start, noise);
+    task_notify_add(sse, &t->sse_waiters);
+    if (!passes_more(p, log_now() - t->t_start) || atomic_load(&t->cancel)) {
+        rayd_image_free(spare);
+        return false;
+    }
+    if (!p->prev && !spare) {
+        t->status = t->err.code = RAYD_E_NOMEM;
+        snprintf(t->err.message, sizeof t->err.message, "out of memory for the next pass");
+        return false;
+    }
+    rayd_image *next = passes_swap(p, t->img);
+    sched_pass_open(t, next ? next : spare);
+    if (next)
+        rayd_image_free(spare);
+    return true;
+}
+
+/* Takes a tile of t, lock held. */
+static void sched_take(struct task *t)
+{
+    if (t->t_start == 0) {
         t->t_start = log_now();
         metrics_queue_wait(t->t_start - t->t_enq);
         metrics_stage(MS_QUEUE, t->t_start - t->t_enq);
@@ -113,7 +175,11 @@ static void sched_done(struct task *t, int tile, enum rayd_status st,
     t->rays += rays;
     if (st == RAYD_OK) {
         t->order[t->done++] = tile;
-        task_notify_add(sse, &t->sse_waiters);
+        if (!t->passes) /* a progressive task's streams hear of passes only */
+            task_notify_add(sse, &t->sse_waiters);
+        if (t->passes && t->passes->plan.time_budget > 0 &&
+            log_now() - t->t_start >= t->passes->plan.time_budget)
+            task_end_early(t, PASSES_BY_TIME);
     } else if (st != RAYD_E_CANCELED && t->status == RAYD_OK) {
         t->status = st;
         t->err = *err;
@@ -126,11 +192,31 @@ static void sched_done(struct task *t, int tile, enum rayd_status st,
     if (t->done == t->ntiles && t->status == RAYD_OK) {
         t->finalizing = true;
         pthread_mutex_unlock(&work_lock);
-        sched_encode(t); /* returns with the lock held */
+        if (t->passes) {
+            if (sched_pass_close(t, sse)) /* returns with the lock held */
+                return;
+        } else {
+            sched_encode(t); /* returns with the lock held */
+        }
         task_finish(t, n, sse);
     } else if (atomic_load(&t->cancel) || t->status != RAYD_OK) {
         task_finish(t, n, sse);
     }
+}
+
+/* Renders tile `tile` of t (of pass `pass` if progressive), no lock. */
+static enum rayd_status sched_tile(struct task *t, int tile, int pass, uint64_t *rays,
+                                   struct rayd_error *err)
+{
+    struct rayd_region tr = task_tile(t, tile);
+    const rayd_scene *scene = cache_scene(t->scene);
+    int dx = tr.x - t->reg.x, dy = tr.y - t->reg.y;
+    if (t->passes)
+        return passes_tile(t->passes, scene, tile, pass, t->img, dx, dy, &t->cancel, rays, err);
+    if (t->lin)
+        return rayd_render_linear_into(scene, &tr, t->lin, t->reg.w, dx, dy, &t->cancel, rays,
+                                       err);
+    return rayd_render_into(scene, &tr, t->img, dx, dy, &t->cancel, rays, err);
 }
 
 static void *sched_worker(void *arg)
@@ -141,19 +227,13 @@ static void *sched_worker(void *arg)
         struct task *t = sched_next_task();
         if (!t)
             break;
-        int tile = t->next_tile++;
-        sched_take(t, tile);
+        int tile = t->next_tile++, pass = t->passes ? t->passes->pass : 0;
+        sched_take(t);
         pthread_mutex_unlock(&work_lock);
 
-        struct rayd_region tr = task_tile(t, tile);
         uint64_t rays = 0;
         struct rayd_error err = {0};
-        enum rayd_status st =
-            t->lin ? rayd_render_linear_into(cache_scene(t->scene), &tr, t->lin, t->reg.w,
-                                             tr.x - t->reg.x, tr.y - t->reg.y, &t->cancel, &rays,
-                                             &err)
-                   : rayd_render_into(cache_scene(t->scene), &tr, t->img, tr.x - t->reg.x,
-                                      tr.y - t->reg.y, &t->cancel, &rays, &err);
+        enum rayd_status st = sched_tile(t, tile, pass, &rays, &err);
         metrics_rays(rays);
 
         struct task_notify n = {0}, sse = {0};

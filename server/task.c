@@ -93,6 +93,7 @@ void task_unref(struct task *t)
         return;
     blob_unref(t->png);
     rayd_image_free(t->img);
+    passes_free(t->passes);
     free(t->lin);
     cache_release(t->scene);
     free(t->order);
@@ -212,10 +213,36 @@ static void task_result(const struct task *t, struct work_result *res)
     res->encode_ms = t->encode_s * 1e3;
 }
 
+/* A progressive task ends with its latest complete pass as its image: after
+ * its last pass, or stopped early (a budget, the client) once it has one. */
+static void task_keep_pass(struct task *t)
+{
+    const struct passes *p = t->passes;
+    if (!p || t->png || t->status != RAYD_OK || p->done == 0 ||
+        (p->done < p->n && p->stop == PASSES_GOING))
+        return;
+    t->png = blob_ref(passes_png(p, p->done));
+}
+
+bool task_end_early(struct task *t, enum passes_stop why)
+{
+    struct passes *p = t->passes;
+    if (!p || t->finished)
+        return false;
+    if (p->stop == PASSES_GOING)
+        p->stop = why;
+    if (p->done == 0) /* the first pass ends it */
+        return false;
+    atomic_store(&t->cancel, 1); /* the pass in flight stops within a tile */
+    task_unqueue(t);
+    return t->running == 0 && !t->finalizing;
+}
+
 void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
 {
     t->finished = true;
     t->t_end = log_now();
+    task_keep_pass(t);
     if (t->status == RAYD_OK && !t->png)
         t->status = RAYD_E_CANCELED;
     if (t->status == RAYD_E_CANCELED && !t->err.message[0]) {
@@ -224,7 +251,7 @@ void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
     }
     if (t->status == RAYD_OK && t->t_start > 0)
         metrics_render(t->t_end - t->t_start);
-    if (t->status == RAYD_OK && t->png)
+    if (t->status == RAYD_OK && t->png && !t->passes)
         rcache_put(t->key, t->png);
     task_unqueue(t);
     rayd_image_free(t->img);

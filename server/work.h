@@ -1,7 +1,7 @@
 /* work.h -- the work layer as the handlers see it: compiled scenes, renders
  * queued and answered, asynchronous jobs and their event streams.
  *
- * Layer: work (work.c, lru.c, cache.c, rcache.c, scenes.c, task.c, gate.c, sched.c,
+ * Layer: work (work.c, lru.c, cache.c, rcache.c, scenes.c, passes.c, task.c, gate.c, sched.c,
  * jobs.c, events.c, watch.c).  May include: base.h and <rayd/rayd.h> --
  * never an HTTP header, never libmicrohttpd.  Included by the handlers
  * (api_*.c) and main.c.
@@ -95,6 +95,32 @@ void sched_stats(struct sched_stats *st);
 
 enum jobs_state { JS_QUEUED, JS_RUNNING, JS_SUCCEEDED, JS_FAILED, JS_CANCELED };
 const char *jobs_state_name(enum jobs_state s);
+
+/* A progressive job (POST /v1/jobs?progressive=1): the frame in passes of
+ * growing sample counts, each pass's image kept as it completes
+ * (passes.c). */
+#define PASSES_MAX 64 /* passes a job may plan */
+#define PASSES_KEEP 4 /* the latest passes whose PNGs are kept */
+struct jobs_plan {
+    int step;            /* 0: passes of 1, 2, 4, 8, ... samples; k: k, 2k, 3k, ... */
+    double time_budget;  /* seconds after the first tile; 0: none */
+    double noise_target; /* stop once the noise estimate is at most this; 0: none */
+};
+/* The samples after each pass of plan for a scene of `samples` samples, the
+ * last pass always all of them: how many passes, or -1 if more than
+ * PASSES_MAX. */
+int passes_plan(const struct jobs_plan *plan, int samples, int out[PASSES_MAX]);
+/* Why a progressive job stopped before its last pass. */
+enum passes_stop { PASSES_GOING, PASSES_BY_TIME, PASSES_BY_NOISE, PASSES_BY_CLIENT };
+const char *passes_stop_name(enum passes_stop s); /* NULL for PASSES_GOING */
+struct jobs_passes {
+    int done, total;        /* passes complete, planned */
+    int samples;            /* samples of the latest complete pass (0: none yet) */
+    int samples_target;     /* of the last planned pass */
+    double time_s;          /* when the latest pass completed, after the first tile */
+    double noise;           /* its noise estimate (passes.c); < 0: none */
+    enum passes_stop stopped;
+};
 struct jobs_info {
     enum jobs_state state;
     double progress;
@@ -104,22 +130,35 @@ struct jobs_info {
     double created_age, queue_ms, render_ms, encode_ms;
     uint64_t rays;
     struct rayd_error err; /* when failed */
-    struct blob *png;      /* when succeeded and asked for; unref it */
+    struct blob *png;      /* when asked for: the image if succeeded, else a progressive
+                              job's latest pass (or NULL); unref it */
+    bool progressive;
+    struct jobs_passes passes; /* progressive only */
 };
+/* A job rendering reg of scene: plain with plan NULL, else progressive. */
 enum work_submit jobs_create(struct cache_entry *scene, const struct rayd_region *reg,
-                             char id[33]);
+                             const struct jobs_plan *plan, char id[33]);
 bool jobs_get(const char *id, struct jobs_info *info, bool want_png);
+/* Pass `pass` (1-based) of a progressive job, if still kept: *png
+ * referenced, *samples its count.  false: no such job. */
+bool jobs_pass_png(const char *id, int pass, struct blob **png, int *samples);
 bool jobs_cancel(const char *id);
+/* Ends a progressive job after the latest complete pass (or after the
+ * first, if none is complete yet), keeping it as the job's image.  false:
+ * no such job; *progressive false: the job is not progressive. */
+bool jobs_end_early(const char *id, bool *progressive);
 
 /* ---- events.c: a job's progress as a stream ------------------------------- */
 
-enum events_kind { EVENTS_STATE, EVENTS_TILE, EVENTS_DONE, EVENTS_PING };
+enum events_kind { EVENTS_STATE, EVENTS_TILE, EVENTS_PASS, EVENTS_DONE, EVENTS_PING };
 struct events_item {
     enum events_kind kind;
     enum jobs_state state;   /* STATE, DONE */
     struct rayd_region tile; /* TILE */
-    int done, total;         /* TILE: tiles reported with this one, of total */
-    double progress;         /* TILE, DONE */
+    int done, total;         /* TILE: tiles reported with this one, of total; PASS: passes */
+    double progress;         /* TILE, PASS, DONE */
+    int samples;             /* PASS: samples of the pass; DONE: of the image (progressive) */
+    double time_s, noise;    /* PASS: as struct jobs_passes */
 };
 struct events_stream;
 struct events_stream *events_open(const char *id); /* NULL: no such job */

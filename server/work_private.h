@@ -1,8 +1,8 @@
 /* work_private.h -- what the files of the work layer share, and its one rule.
  *
  * Layer: work, private.  Included only by the work layer's own files
- * (work.c, lru.c, cache.c, rcache.c, scenes.c, task.c, gate.c, sched.c, jobs.c,
- * events.c, watch.c); the layers above see work.h alone.
+ * (work.c, lru.c, cache.c, rcache.c, scenes.c, passes.c, task.c, gate.c, sched.c,
+ * jobs.c, events.c, watch.c); the layers above see work.h alone.
  * May include: work.h (and through it base.h, <rayd/rayd.h>).
  *
  * THE ONE LOCK.  work_lock is the only mutex of the server.  It guards every
@@ -20,8 +20,8 @@
  *   - work_cond (with work_lock) wakes workers (new tiles, the gate, stop)
  *     and the watcher's periodic wait.
  * Calls inside the layer go one way too, in this order (a file calls only
- * files before it): work (the lock), lru, cache, rcache, scenes, task, gate,
- * jobs, events, watch, sched.
+ * files before it): work (the lock), lru, cache, rcache, scenes, passes, task,
+ * gate, jobs, events, watch, sched.
  * Ownership: a task is referenced by the active list and by each job of it
  * (task.refs, lock held); it holds its scene until it finishes.  A job is
  * referenced by the table and by each open event stream (job.refs).
@@ -85,6 +85,41 @@ void rcache_free_all(void);
 
 void scenes_start(void); /* registers the cache gauges */
 
+/* ---- passes.c: a progressive task's passes ------------------------------------ */
+
+struct passes {
+    struct jobs_plan plan;
+    int n, samples[PASSES_MAX]; /* passes planned, samples after each */
+    int pass;                   /* the pass being rendered, 0-based (lock held) */
+    int done;                   /* passes complete (lock held) */
+    int ntiles;
+    rayd_accum **acc;              /* a tile's sums, one a task tile */
+    rayd_image *prev;              /* the latest complete pass's image */
+    struct blob *png[PASSES_KEEP]; /* pass k's PNG (1-based) at (k - 1) % PASSES_KEEP */
+    double time_s[PASSES_MAX], noise[PASSES_MAX];
+    enum passes_stop stop; /* asked (client, time) or decided (noise) */
+};
+/* Per-tile sums for tiles[0..ntiles-1] (absolute); NULL on no memory. */
+struct passes *passes_new(const rayd_scene *scene, const struct jobs_plan *plan,
+                          const struct rayd_region *tiles, int ntiles);
+void passes_free(struct passes *p); /* NULL allowed */
+/* Renders pass `pass` of tile `tile` (its sums) and puts the tile's image
+ * into dst at (dst_x, dst_y); no lock. */
+enum rayd_status passes_tile(struct passes *p, const rayd_scene *scene, int tile, int pass,
+                             rayd_image *dst, int dst_x, int dst_y, const atomic_int *cancel,
+                             uint64_t *rays, struct rayd_error *err);
+/* Pass `pass`'s noise estimate from its image (< 0: none); no lock. */
+double passes_noise(const struct passes *p, const rayd_image *img, int pass);
+void passes_complete(struct passes *p, struct blob *png, double time_s, double noise);
+/* Lock held: is there a next pass to render?  false also when a budget or
+ * a stop ended the job (p->stop says which). */
+bool passes_more(struct passes *p, double elapsed);
+/* img becomes the latest pass image; the one before it is returned for reuse. */
+rayd_image *passes_swap(struct passes *p, rayd_image *img);
+struct blob *passes_png(const struct passes *p, int pass); /* not referenced; NULL: gone */
+double passes_progress(const struct passes *p, int done, double frac);
+void passes_info(const struct passes *p, struct jobs_passes *out);
+
 /* ---- task.c: one render, its tiles and its waiters (lock held) --------------- */
 
 struct task {
@@ -96,6 +131,7 @@ struct task {
     int ntx, nty, ntiles;
     int next_tile, running, done;
     int *order; /* tiles in completion order, for event streams */
+    struct passes *passes;     /* a progressive job's task, else NULL */
     rayd_image *img;           /* WORK_PNG: the tiles' bytes */
     float *lin;                /* else: the tiles' linear RGB, reg.w * reg.h * 3 */
     enum work_format format;
@@ -141,6 +177,10 @@ enum work_submit task_submit(struct cache_entry *scene, struct task **fresh, str
 /* The tile's absolute rectangle. */
 struct rayd_region task_tile(const struct task *t, int tile);
 void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse);
+/* Ends a progressive task after its latest complete pass (or its first, if
+ * none is complete yet), why being the reason; true when nothing is in
+ * flight and the caller should task_finish it now. */
+bool task_end_early(struct task *t, enum passes_stop why);
 void task_cancel(struct task *t, enum metrics_cancel why, struct task_notify *n,
                  struct task_notify *sse);
 void task_notify_add(struct task_notify *n, struct work_waiter **from);

@@ -54,6 +54,7 @@ SERVER_LAYERS = [
     ("server/work: lru", ["server/lru."]),
     ("server/work: caches", ["server/cache.", "server/rcache."]),
     ("server/work: scenes", ["server/scenes."]),
+    ("server/work: passes", ["server/passes."]),
     ("server/work: task", ["server/task."]),
     ("server/work: gate", ["server/gate."]),
     ("server/work: jobs", ["server/jobs."]),
