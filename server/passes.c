@@ -37,166 +37,171 @@
 #include <stdlib.h>
 #include <string.h>
 
-int passes_plan(const struct jobs_plan *plan, int samples,
-                int out[PASSES_MAX]) {
-  int n = 0;
-  if (samples < 1)
-    samples = 1;
-  for (long s = plan->step > 0 ? plan->step : 1;
-       s<samples; s = plan->step> 0 ? s + plan->step : 2 * s) {
-    if (n == PASSES_MAX - 1)
-      return -1;
-    out[n++] = (int)s;
-  }
-  out[n++] = samples;
-  return n;
+int passes_plan(const struct jobs_plan *plan, int samples, int out[PASSES_MAX])
+{
+    int n = 0;
+    if (samples < 1)
+        samples = 1;
+    for (long s = plan->step > 0 ? plan->step : 1;
+         s<samples; s = plan->step> 0 ? s + plan->step : 2 * s) {
+        if (n == PASSES_MAX - 1)
+            return -1;
+        out[n++] = (int)s;
+    }
+    out[n++] = samples;
+    return n;
 }
 
-const char *passes_stop_name(enum passes_stop s) {
-  static const char *const names[] = {NULL, "time_budget", "noise_target",
-                                      "client"};
-  return names[s];
+const char *passes_stop_name(enum passes_stop s)
+{
+    static const char *const names[] = {NULL, "time_budget", "noise_target", "client"};
+    return names[s];
 }
 
 struct passes *passes_new(const rayd_scene *scene, const struct jobs_plan *plan,
-                          const struct rayd_region *tiles, int ntiles) {
-  struct passes *p = calloc(1, sizeof *p);
-  if (!p)
-    return NULL;
-  struct rayd_scene_info info;
-  rayd_scene_info(scene, &info);
-  p->plan = *plan;
-  p->n = passes_plan(plan, info.samples, p->samples);
-  p->ntiles = ntiles;
-  p->acc = calloc((size_t)ntiles, sizeof *p->acc);
-  if (p->n < 1 || !p->acc) {
-    passes_free(p);
-    return NULL;
-  }
-  for (int i = 0; i < ntiles; i++)
-    if (rayd_accum_new(scene, &tiles[i], &p->acc[i], NULL) != RAYD_OK) {
-      passes_free(p);
-      return NULL;
+                          const struct rayd_region *tiles, int ntiles)
+{
+    struct passes *p = calloc(1, sizeof *p);
+    if (!p)
+        return NULL;
+    struct rayd_scene_info info;
+    rayd_scene_info(scene, &info);
+    p->plan = *plan;
+    p->n = passes_plan(plan, info.samples, p->samples);
+    p->ntiles = ntiles;
+    p->acc = calloc((size_t)ntiles, sizeof *p->acc);
+    if (p->n < 1 || !p->acc) {
+        passes_free(p);
+        return NULL;
     }
-  return p;
+    for (int i = 0; i < ntiles; i++)
+        if (rayd_accum_new(scene, &tiles[i], &p->acc[i], NULL) != RAYD_OK) {
+            passes_free(p);
+            return NULL;
+        }
+    return p;
 }
 
-void passes_free(struct passes *p) {
-  if (!p)
-    return;
-  for (int i = 0; p->acc && i < p->ntiles; i++)
-    rayd_accum_free(p->acc[i]);
-  free(p->acc);
-  for (int i = 0; i < PASSES_KEEP; i++)
-    blob_unref(p->png[i]);
-  rayd_image_free(p->prev);
-  free(p);
+void passes_free(struct passes *p)
+{
+    if (!p)
+        return;
+    for (int i = 0; p->acc && i < p->ntiles; i++)
+        rayd_accum_free(p->acc[i]);
+    free(p->acc);
+    for (int i = 0; i < PASSES_KEEP; i++)
+        blob_unref(p->png[i]);
+    rayd_image_free(p->prev);
+    free(p);
 }
 
-enum rayd_status passes_tile(struct passes *p, const rayd_scene *scene,
-                             int tile, int pass, rayd_image *dst, int dst_x,
-                             int dst_y, const atomic_int *cancel,
-                             uint64_t *rays, struct rayd_error *err) {
-  rayd_accum *acc = p->acc[tile];
-  struct rayd_region r = rayd_accum_region(acc);
-  struct rayd_render_stats stats = {0};
-  struct rayd_render_opts o = {.threads = 1,
-                               .tile = r.w > r.h ? r.w : r.h,
-                               .cancel = cancel,
-                               .stats = &stats};
-  enum rayd_status st = rayd_render_pass(
-      scene, &o, acc, rayd_accum_samples(acc), p->samples[pass], err);
-  *rays += stats.rays;
-  rayd_image *img = NULL;
-  if (st == RAYD_OK)
-    st = rayd_accum_image(acc, &img, err);
-  if (st == RAYD_OK)
-    st = rayd_image_blit(dst, img, dst_x, dst_y, err);
-  rayd_image_free(img);
-  return st;
+enum rayd_status passes_tile(struct passes *p, const rayd_scene *scene, int tile, int pass,
+                             rayd_image *dst, int dst_x, int dst_y, const atomic_int *cancel,
+                             uint64_t *rays, struct rayd_error *err)
+{
+    rayd_accum *acc = p->acc[tile];
+    struct rayd_region r = rayd_accum_region(acc);
+    struct rayd_render_stats stats = {0};
+    struct rayd_render_opts o = {
+        .threads = 1, .tile = r.w > r.h ? r.w : r.h, .cancel = cancel, .stats = &stats};
+    enum rayd_status st =
+        rayd_render_pass(scene, &o, acc, rayd_accum_samples(acc), p->samples[pass], err);
+    *rays += stats.rays;
+    rayd_image *img = NULL;
+    if (st == RAYD_OK)
+        st = rayd_accum_image(acc, &img, err);
+    if (st == RAYD_OK)
+        st = rayd_image_blit(dst, img, dst_x, dst_y, err);
+    rayd_image_free(img);
+    return st;
 }
 
 /* The root mean square difference of two equal-sized images, in 0..1. */
-static double passes_rms(const rayd_image *a, const rayd_image *b) {
-  size_t n = (size_t)rayd_image_width(a) * (size_t)rayd_image_height(a) * 3;
-  const uint8_t *x = rayd_image_pixels_const(a),
-                *y = rayd_image_pixels_const(b);
-  double sum = 0;
-  for (size_t i = 0; i < n; i++) {
-    double d = (double)x[i] - (double)y[i];
-    sum += d * d;
-  }
-  return sqrt(sum / (double)n) / 255.0;
+static double passes_rms(const rayd_image *a, const rayd_image *b)
+{
+    size_t n = (size_t)rayd_image_width(a) * (size_t)rayd_image_height(a) * 3;
+    const uint8_t *x = rayd_image_pixels_const(a), *y = rayd_image_pixels_const(b);
+    double sum = 0;
+    for (size_t i = 0; i < n; i++) {
+        double d = (double)x[i] - (double)y[i];
+        sum += d * d;
+    }
+    return sqrt(sum / (double)n) / 255.0;
 }
 
-double passes_noise(const struct passes *p, const rayd_image *img, int pass) {
-  if (pass == 0 || !p->prev)
-    return -1;
-  double n = p->samples[pass], m = p->samples[pass - 1];
-  bool restarted = m == 1; /* the centre image is not sample 0 of the next */
-  return passes_rms(img, p->prev) * sqrt(m / (restarted ? n + m : n - m));
-}
-
-/* Lock held. */
-void passes_complete(struct passes *p, struct blob *png, double time_s,
-                     double noise) {
-  int k = p->done++;
-  blob_unref(p->png[k % PASSES_KEEP]);
-  p->png[k % PASSES_KEEP] = png;
-  p->time_s[k] = time_s;
-  p->noise[k] = noise;
+double passes_noise(const struct passes *p, const rayd_image *img, int pass)
+{
+    if (pass == 0 || !p->prev)
+        return -1;
+    double n = p->samples[pass], m = p->samples[pass - 1];
+    bool restarted = m == 1; /* the centre image is not sample 0 of the next */
+    return passes_rms(img, p->prev) * sqrt(m / (restarted ? n + m : n - m));
 }
 
 /* Lock held. */
-bool passes_more(struct passes *p, double elapsed) {
-  if (p->done >= p->n)
-    return false;
-  if (p->stop == PASSES_GOING && p->plan.time_budget > 0 &&
-      elapsed >= p->plan.time_budget)
-    p->stop = PASSES_BY_TIME;
-  double noise = p->noise[p->done - 1];
-  if (p->stop == PASSES_GOING && p->plan.noise_target > 0 && noise >= 0 &&
-      noise <= p->plan.noise_target)
-    p->stop = PASSES_BY_NOISE;
-  return p->stop == PASSES_GOING;
-}
-
-rayd_image *passes_swap(struct passes *p, rayd_image *img) {
-  rayd_image *old = p->prev;
-  p->prev = img;
-  return old;
+void passes_complete(struct passes *p, struct blob *png, double time_s, double noise)
+{
+    int k = p->done++;
+    blob_unref(p->png[k % PASSES_KEEP]);
+    p->png[k % PASSES_KEEP] = png;
+    p->time_s[k] = time_s;
+    p->noise[k] = noise;
 }
 
 /* Lock held. */
-struct blob *passes_png(const struct passes *p, int pass) {
-  if (pass < 1 || pass > p->done || pass <= p->done - PASSES_KEEP)
-    return NULL;
-  return p->png[(pass - 1) % PASSES_KEEP];
+bool passes_more(struct passes *p, double elapsed)
+{
+    if (p->done >= p->n)
+        return false;
+    if (p->stop == PASSES_GOING && p->plan.time_budget > 0 && elapsed >= p->plan.time_budget)
+        p->stop = PASSES_BY_TIME;
+    double noise = p->noise[p->done - 1];
+    if (p->stop == PASSES_GOING && p->plan.noise_target > 0 && noise >= 0 &&
+        noise <= p->plan.noise_target)
+        p->stop = PASSES_BY_NOISE;
+    return p->stop == PASSES_GOING;
+}
+
+rayd_image *passes_swap(struct passes *p, rayd_image *img)
+{
+    rayd_image *old = p->prev;
+    p->prev = img;
+    return old;
+}
+
+/* Lock held. */
+struct blob *passes_png(const struct passes *p, int pass)
+{
+    if (pass < 1 || pass > p->done || pass <= p->done - PASSES_KEEP)
+        return NULL;
+    return p->png[(pass - 1) % PASSES_KEEP];
 }
 
 /* The share of the samples' work done after `done` passes and frac of the
  * next pass's tiles (a pass's work: the samples it adds or restarts). */
-double passes_progress(const struct passes *p, int done, double frac) {
-  double total = 0, work = 0;
-  for (int k = 0; k < p->n; k++) {
-    int prev = k == 0 || p->samples[k - 1] == 1 ? 0 : p->samples[k - 1];
-    double cost = p->samples[k] - prev;
-    total += cost;
-    if (k < done)
-      work += cost;
-    else if (k == done)
-      work += cost * frac;
-  }
-  return total > 0 ? work / total : 0;
+double passes_progress(const struct passes *p, int done, double frac)
+{
+    double total = 0, work = 0;
+    for (int k = 0; k < p->n; k++) {
+        int prev = k == 0 || p->samples[k - 1] == 1 ? 0 : p->samples[k - 1];
+        double cost = p->samples[k] - prev;
+        total += cost;
+        if (k < done)
+            work += cost;
+        else if (k == done)
+            work += cost * frac;
+    }
+    return total > 0 ? work / total : 0;
 }
 
 /* Lock held. */
-void passes_info(const struct passes *p, struct jobs_passes *out) {
-  out->done = p->done;
-  out->total = p->n;
-  out->samples = p->done ? p->samples[p->done - 1] : 0;
-  out->samples_target = p->samples[p->n - 1];
-  out->time_s = p->done ? p->time_s[p->done - 1] : 0;
-  out->noise = p->done ? p->noise[p->done - 1] : -1;
-  out->stopped = p->stop;
+void passes_info(const struct passes *p, struct jobs_passes *out)
+{
+    out->done = p->done;
+    out->total = p->n;
+    out->samples = p->done ? p->samples[p->done - 1] : 0;
+    out->samples_target = p->samples[p->n - 1];
+    out->time_s = p->done ? p->time_s[p->done - 1] : 0;
+    out->noise = p->done ? p->noise[p->done - 1] : -1;
+    out->stopped = p->stop;
 }
