@@ -37,13 +37,15 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* The sample count of the pass after one of s samples. */
+static long passes_next(long s, int step) { return step > 0 ? s + step : 2 * s; }
+
 int passes_plan(const struct jobs_plan *plan, int samples, int out[PASSES_MAX])
 {
     int n = 0;
     if (samples < 1)
         samples = 1;
-    for (long s = plan->step > 0 ? plan->step : 1;
-         s<samples; s = plan->step> 0 ? s + plan->step : 2 * s) {
+    for (long s = plan->step > 0 ? plan->step : 1; s < samples; s = passes_next(s, plan->step)) {
         if (n == PASSES_MAX - 1)
             return -1;
         out[n++] = (int)s;
