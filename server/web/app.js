@@ -43,6 +43,8 @@ const stats = {
   previewFrames: 0, // low-resolution frames drawn while moving the camera
   previewMs: [], // time of each of them
   raysPerSec: 0,
+  passes: [], // a path-traced render's passes drawn: {samples, ms}
+  firstPassMs: 0, // to the first whole (noisy) frame of a path-traced render
 };
 window.rayd = { stats, editor, render: () => render() };
 
@@ -93,7 +95,8 @@ let doneAt = 0;
 function progressText(final) {
   const ms = (final && doneAt ? doneAt : performance.now()) - t0;
   const parts = [];
-  if (lastProgress.total) parts.push(`${lastProgress.done}/${lastProgress.total} tiles`);
+  if (lastProgress.samples) parts.push(`${lastProgress.samples} spp · pass ${lastProgress.done}/${lastProgress.total}`);
+  else if (lastProgress.total) parts.push(`${lastProgress.done}/${lastProgress.total} tiles`);
   else parts.push("quick pass");
   if (raysAtStart !== null && raysNow !== null && raysNow > raysAtStart) {
     stats.raysPerSec = ((raysNow - raysAtStart) * 1000) / ms;
@@ -114,7 +117,7 @@ function startClock(signalGen) {
   let polls = 0;
   timer = setInterval(() => {
     if (gen !== signalGen) return;
-    status("Rendering · " + progressText(false));
+    status((lastProgress.samples ? "Refining · " : "Rendering · ") + progressText(false));
     if (++polls % 5 === 0 && raysAtStart !== null)
       api.raysTotal().then((r) => {
         if (gen === signalGen && r !== null) raysNow = r;
@@ -213,6 +216,7 @@ async function render({ fromStart = false } = {}) {
   $("link").hidden = true;
   bar(0);
   startClock(my);
+  stats.passes = [];
   const started = fromStart ? pageStart : performance.now();
   try {
     const info = await renderer.full(text, d.root ? d.root.value : null, (p) => {
@@ -220,6 +224,12 @@ async function render({ fromStart = false } = {}) {
       if (p.phase === "preview") {
         stats.lastPreviewMs = performance.now() - started;
         if (!lastProgress.total) bar(0.04);
+      } else if (p.phase === "pass") {
+        if (!stats.passes.length) stats.firstPassMs = performance.now() - started;
+        stats.passes.push({ samples: p.samples, ms: performance.now() - started });
+        lastProgress = { done: p.done, total: p.total, samples: p.samples };
+        bar(p.done / p.total);
+        status("Refining · " + progressText(false));
       } else {
         lastProgress = { done: p.done, total: p.total };
         bar(0.04 + (0.96 * p.done) / p.total);

@@ -11,6 +11,11 @@
 //      max-age), so rendering the same scene again comes from the cache.  A
 //      node that does not hold the scene (behind a balancer) answers 404
 //      scene_unknown and the tile is POSTed with the scene instead.
+// A path-traced scene of more than one sample goes another way (3'): a
+// progressive job, POST v1/jobs?progressive=1, whose passes (1, 2, 4, ...
+// samples) are followed on its event stream and each drawn over the whole
+// canvas as it completes, so the frame is there, noisy, at once and refines
+// in place; each pass's pixels are exactly the plain render of its samples.
 // Every request of a render shares one AbortController: a new render aborts
 // the old one's fetches, and rayd cancels the work of a client that left.
 // The tiles are drawn 1:1 at integer positions from bitmaps decoded with no
@@ -82,6 +87,28 @@ export function lowresText(scene, div = 4) {
   r.samples = 1;
   s.render = r;
   return JSON.stringify(s);
+}
+
+// Path-traced with more than one sample: worth refining pass by pass.
+export function isProgressive(scene) {
+  const r = (scene && scene.render) || {};
+  return r.integrator === "path" && Number.isInteger(r.samples) && r.samples > 1;
+}
+
+// The events of a Server-Sent Events text, and what is left of it.
+export function sseEvents(buf) {
+  const events = [];
+  let k;
+  while ((k = buf.indexOf("\n\n")) >= 0) {
+    const ev = {};
+    for (const line of buf.slice(0, k).split("\n")) {
+      const i = line.indexOf(": ");
+      if (i > 0) ev[line.slice(0, i)] = line.slice(i + 2);
+    }
+    buf = buf.slice(k + 2);
+    if (ev.event && ev.data) events.push({ event: ev.event, data: JSON.parse(ev.data) });
+  }
+  return { events, rest: buf };
 }
 
 export function sizeOf(scene) {
@@ -166,8 +193,60 @@ export class Renderer {
     await this.lowres(text, ctrl.signal);
   }
 
-  // The quick pass, then every tile.  progress({done, total, phase}) is
-  // called as the picture fills in.  Resolves with {id, width, height}.
+  // Draws one pass's image over the whole canvas, 1:1.
+  async drawPass(url, signal) {
+    let res;
+    try {
+      res = await this.api.call("GET", url, { signal });
+    } catch (e) {
+      if (e instanceof ApiError && e.status === 410) return false; // a newer pass is coming
+      throw e;
+    }
+    const bmp = await this.bitmap(res);
+    if (signal.aborted) return false;
+    this.ctx.drawImage(bmp, 0, 0);
+    bmp.close();
+    return true;
+  }
+
+  // A progressive job: each pass drawn as it completes (only the newest of
+  // those that arrived together).  progress({phase: "pass", samples,
+  // target, done, total, id}) after each.  The stream is read with fetch,
+  // since EventSource cannot send the token.  Aborted (a new render, an
+  // orbit), the job is deleted, so the server stops at once.
+  async progressive(text, progress, lowDone, signal) {
+    const job = await (await this.api.call("POST", "v1/jobs?progressive=1", { body: text, signal })).json();
+    const drop = () => this.api.call("DELETE", `v1/jobs/${job.id}`).catch(() => {});
+    signal.addEventListener("abort", drop, { once: true });
+    try {
+      const res = await this.api.call("GET", `v1/jobs/${job.id}/events`, { signal });
+      const reader = res.body.getReader();
+      const dec = new TextDecoder();
+      let buf = "";
+      for (;;) {
+        const { value, done } = await reader.read();
+        if (done) throw new ApiError({ network: true, message: "the job's event stream ended early" });
+        const got = sseEvents(buf + dec.decode(value, { stream: true }));
+        buf = got.rest;
+        const passes = got.events.filter((e) => e.event === "pass");
+        const end = got.events.find((e) => e.event === "done");
+        if (passes.length) {
+          const p = passes[passes.length - 1].data;
+          await lowDone; // passes go over the quick pass, never under it
+          if ((await this.drawPass(p.image_url.replace(/^\//, ""), signal)) || end)
+            progress({ phase: "pass", samples: p.samples, done: p.pass, total: p.passes, id: job.scene_id });
+        }
+        if (end && end.data.state === "succeeded") return { id: job.scene_id, samples: end.data.samples };
+        if (end) throw new ApiError({ code: "job_" + end.data.state, message: end.data.error || "the render was cancelled" });
+      }
+    } finally {
+      signal.removeEventListener("abort", drop);
+    }
+  }
+
+  // The quick pass, then every tile (or, path-traced, every pass).
+  // progress({done, total, phase}) is called as the picture fills in.
+  // Resolves with {id, width, height}.
   async full(text, scene, progress) {
     const ctrl = this.fresh();
     const signal = ctrl.signal;
@@ -183,6 +262,16 @@ export class Renderer {
         },
         () => false // its error (if any) is the scene's, reported below
       );
+    if (size && isProgressive(scene)) {
+      try {
+        const r = await this.progressive(text, progress, lowDone, signal);
+        if (this.ctrl === ctrl) this.ctrl = null;
+        return { id: r.id, width: size[0], height: size[1], samples: r.samples };
+      } catch (e) {
+        ctrl.abort(); // the quick pass too
+        throw e;
+      }
+    }
     let info;
     try {
       info = await (await this.api.call("POST", "v1/scenes", { body: text, signal })).json();

@@ -350,6 +350,42 @@ try {
     }
   });
 
+  // --- a path-traced scene refines in place, each pass the plain render of its samples ------------
+  // The gate lets through the quick pass and the first pass only, so the
+  // page is seen between passes however fast the machine.
+  await check("path_refines_pass_by_pass", async () => {
+    const { examples } = await import(join(OUT_DIR, "server/web/examples.js"));
+    const sc = JSON.parse(examples.find((e) => e.name === "cornell").text);
+    sc.render = { ...sc.render, width: 96, height: 72, samples: 8 }; // 4 tiles a pass
+    const text = JSON.stringify(sc, null, 2);
+    const n = await renders(page);
+    await gate(0);
+    let first, status;
+    try {
+      await setText(page, text);
+      await page.click("#render");
+      // the quick pass's task and the first pass's, both waiting at the gate
+      if (!(await until(async () => (await gateState()).queued === 2, 60000))) return "the render never reached the server";
+      await gate(5);
+      await page.waitForFunction(() => window.rayd.stats.passes.length === 1, null, { timeout: 60000 });
+      status = await page.$eval("#status", (e) => e.textContent);
+      first = await canvasPng(page);
+    } finally {
+      await gate("open");
+    }
+    await waitDone(page, n);
+    if (!/^Refining · 1 spp · pass 1\/4/.test(status)) return `status after the first pass "${status}"`;
+    const one = JSON.parse(text);
+    one.render.samples = 1;
+    const r1 = samePixels(await serverPng(JSON.stringify(one)), first);
+    if (r1 !== true) return "first pass: " + r1;
+    const got = await page.evaluate(() => window.rayd.stats.passes.map((p) => p.samples).join(","));
+    if (!got.endsWith("8")) return `passes drawn: ${got}`;
+    const done = await page.$eval("#status", (e) => e.textContent);
+    if (!/^Done · 8 spp · pass 4\/4/.test(done)) return `status "${done}"`;
+    return canvasEqualsServer(page);
+  });
+
   // --- downloads and the link that reopens the scene ---------------------------------------
   await check("download_png_and_json", async () => {
     const [dp] = await Promise.all([page.waitForEvent("download"), page.click("#dl-png")]);
