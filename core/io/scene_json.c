@@ -36,6 +36,7 @@
 #include "io/scene_json_inline.h"
 #include "io/scene_json_material.h"
 #include "io/scene_json_objects.h"
+#include "render/render.h"
 
 void rayd_limits_default(struct rayd_limits *lim) {
     lim->max_width = 16384;
@@ -82,7 +83,8 @@ static enum rayd_status load_render(struct loader *ld, const cJSON *root) {
         return sj_fail(ld, RAYD_E_LIMIT, &at,
                     "width x height = %ld pixels is over the limit of %ld pixels", w * h,
                     lim->max_pixels);
-    TRY(sj_int(ld, r, &at, "samples", 1, 1, lim->max_samples, true, &spp));
+    int max_spp = lim->max_samples < RENDER_SUM_SAMPLES ? lim->max_samples : RENDER_SUM_SAMPLES;
+    TRY(sj_int(ld, r, &at, "samples", 1, 1, max_spp, true, &spp));
     TRY(sj_int(ld, r, &at, "max_depth", 5, 0, lim->max_depth, true, &depth));
     TRY(sj_int(ld, r, &at, "seed", 0, 0, 9007199254740991L, false, &seed));
     TRY(sj_vec(ld, r, &at, "background", v3(0, 0, 0), VEC_COLOR, &rs->background));

@@ -3,14 +3,13 @@
  * A render of N samples may run as passes (1, 2, 4, ... N samples, or every
  * k), each showing the whole frame.  The promise is that the image after a
  * pass of n samples is byte for byte the plain render with "samples": n.
- * The plain render sums a pixel's samples in double, in index order,
- * starting from 0, and scales by 1 / n; sample k's ray and random numbers
- * depend on (seed, pixel, k) only, not on n.  So the accumulator keeps that
- * very running sum per pixel (3 doubles): a pass adds samples from..to-1 in
- * index order to it, which is the same sequence of additions whatever the
- * passes, tiles or threads, and the resolve does the plain render's last
- * step (scale, then sRGB).  Floats would not do: the sum must round as the
- * plain render's double does.
+ * The plain render sums a pixel's samples in double and scales by 1 / n;
+ * sample k's ray and random numbers depend on (seed, pixel, k) only, not on
+ * n, and the sum is exact whatever its grouping (render.c: each term is
+ * rounded to a multiple of 2^-22 first).  So the accumulator keeps that
+ * very sum per pixel (3 doubles): a pass adds samples from..to-1 to it,
+ * and the resolve does the plain render's last step (scale, then sRGB).
+ * Floats would not do: 24 bits cannot hold the sum exactly.
  *
  * One sample is the exception, kept from the paper: a one-sample render's
  * ray goes through the pixel centre, while sample 0 of a longer render is
@@ -93,6 +92,9 @@ enum rayd_status rayd_render_pass(const rayd_scene *s, const struct rayd_render_
     if (to <= from)
         return err_set(err, RAYD_E_ARG, "samples_to", "must be > samples_from (%d), not %d", from,
                        to);
+    if (to > RENDER_SUM_SAMPLES)
+        return err_set(err, RAYD_E_ARG, "samples_to", "must be at most %d, not %d",
+                       RENDER_SUM_SAMPLES, to);
     bool centre = to == 1; /* the paper's one ray through the pixel centre */
     if (a->centre) { /* the centre sample is no prefix of longer renders */
         memset(a->sum, 0, (size_t)a->r.w * (size_t)a->r.h * 3 * sizeof *a->sum);
@@ -105,6 +107,44 @@ enum rayd_status rayd_render_pass(const rayd_scene *s, const struct rayd_render_
     }
     a->n = to;
     a->centre = centre;
+    return RAYD_OK;
+}
+
+/* ---- samples over many nodes --------------------------------------------- */
+
+enum rayd_status rayd_render_sample_range(const rayd_scene *s, const struct rayd_render_opts *opts,
+                                          rayd_accum *a, int k0, int k1, struct rayd_error *err) {
+    static const struct rayd_render_opts none;
+    if (!opts) opts = &none;
+    if (a->n != 0 || a->centre)
+        return err_set(err, RAYD_E_ARG, NULL, "a sample range needs a new accumulator");
+    if (k0 < 0 || k1 <= k0 || k1 > RENDER_SUM_SAMPLES)
+        return err_set(err, RAYD_E_ARG, "samples", "must be a range k0..k1 with 0 <= k0 < k1 <= %d",
+                       RENDER_SUM_SAMPLES);
+    /* The one-sample render's centre ray is its whole image, never a range. */
+    bool centre = k0 == 0 && k1 == 1 && s->rs.samples == 1;
+    enum rayd_status st = render_sums(s, opts, &a->r, a->sum, k0, k1, centre ? 1 : 0, err);
+    if (st != RAYD_OK) {
+        a->n = -1;
+        return st;
+    }
+    a->n = k1 - k0;
+    a->centre = centre;
+    return RAYD_OK;
+}
+
+const double *rayd_accum_sums(const rayd_accum *a) { return a->sum; }
+
+enum rayd_status rayd_accum_add_sums(rayd_accum *a, const double *sums, int samples,
+                                     struct rayd_error *err) {
+    enum rayd_status st = accum_usable(a, err);
+    if (st != RAYD_OK) return st;
+    if (samples < 1 || samples > RENDER_SUM_SAMPLES - a->n)
+        return err_set(err, RAYD_E_ARG, "samples", "must be 1..%d, not %d",
+                       RENDER_SUM_SAMPLES - a->n, samples);
+    size_t count = (size_t)a->r.w * (size_t)a->r.h * 3;
+    for (size_t i = 0; i < count; i++) a->sum[i] += sums[i]; /* exact: see render.c */
+    a->n += samples;
     return RAYD_OK;
 }
 

@@ -21,10 +21,23 @@
  *
  * The same blocks serve progressive passes (accum.c): instead of bytes, a
  * block then adds a range of samples k0..k1-1 to running per-pixel sums,
- * in sample order, which is exactly what the plain render does before it
- * scales and converts; so a pass of n samples resolves to the plain
- * render's bytes.
+ * which is exactly what the plain render does before it scales and
+ * converts; so a pass of n samples resolves to the plain render's bytes.
+ *
+ * Sums that do not depend on grouping.  A pixel's samples are summed in
+ * double, but first each sample's radiance is rounded to a multiple of
+ * 2^-22 and capped at RENDER_SUM_CAP (render_sum_term).  Every partial sum
+ * of at most RENDER_SUM_SAMPLES such terms is then an integer times 2^-22
+ * below 2^53 * 2^-22, which a double holds exactly, so no addition rounds:
+ * samples 0..k-1 summed on one machine plus k..n-1 summed on another give
+ * the very bits of 0..n-1 summed in order.  That is what lets one frame's
+ * samples be spread over many nodes (rayd_render_sample_sums) and still
+ * equal the single-node render byte for byte.  The rounding (at most
+ * 1.2e-7 a sample) is below a float's step at 1.0 and far below an 8-bit
+ * or 16-bit level; the cap (32768 times white) only touches fireflies.
+ * A one-sample render is no sum and is not rounded.
  */
+#include <math.h>
 #include <pthread.h>
 #include <stdatomic.h>
 #include <stdlib.h>
@@ -86,13 +99,25 @@ static ray sample_ray(const rayd_scene *s, int i, int j, int k, int n, struct rn
     return cam_ray(&s->cam, i + sx, j + sy, lu, lv);
 }
 
+/* One channel of a sample as a term of an exact sum (see the top). */
+static inline double render_sum_channel(double v) {
+    if (!(v > 0)) return 0; /* also NaN */
+    if (v > RENDER_SUM_CAP) v = RENDER_SUM_CAP;
+    return nearbyint(v * RENDER_SUM_SCALE) * (1.0 / RENDER_SUM_SCALE);
+}
+
+static inline vec3 render_sum_term(vec3 c) {
+    return v3(render_sum_channel(c.x), render_sum_channel(c.y), render_sum_channel(c.z));
+}
+
 vec3 render_pixel(const rayd_scene *s, int i, int j, uint64_t *rays) {
     int n = s->rs.samples;
     vec3 acc = v3(0, 0, 0);
     for (int k = 0; k < n; k++) {
         struct rng_key key;
         ray r = sample_ray(s, i, j, k, n, &key);
-        acc = v3_add(acc, trace(s, &r, &key, rays));
+        vec3 c = trace(s, &r, &key, rays);
+        acc = n > 1 ? v3_add(acc, render_sum_term(c)) : c;
     }
     return v3_scale(acc, 1.0 / n);
 }
@@ -176,7 +201,7 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h,
         block_sample(s, x, y, active, centre, k, n, &c, rays);
         for (uint32_t m = sum ? active : 0; m; m &= m - 1) {
             int q = __builtin_ctz(m);
-            acc[q] = v3_add(acc[q], c.v[q]);
+            acc[q] = v3_add(acc[q], render_sum_term(c.v[q]));
         }
     }
     if (o->sum) {

@@ -217,6 +217,40 @@ enum rayd_status rayd_accum_image_tone(const rayd_accum *acc, const struct rayd_
  * (float)(sum * (1 / n)). */
 enum rayd_status rayd_accum_linear(const rayd_accum *acc, float **out, struct rayd_error *err);
 
+/* ---- samples over many nodes ---------------------------------------------- */
+
+/* A pixel's sum is exact whatever its grouping (each sample's radiance is
+ * rounded to a multiple of 2^-22, capped at 32768, before it is added; at
+ * most 65536 samples): so the sums of disjoint sample ranges, rendered
+ * anywhere, added in any order, are bit for bit the sums of one render of
+ * all of them, and resolve to its very bytes (PNG and EXR). */
+
+/* Renders samples k0..k1-1 of every pixel of a new accumulator's region
+ * (0 <= k0 < k1 <= 65536); it then holds k1 - k0 samples.  [0, 1) of a
+ * one-sample scene is its centre image, as rayd_render_pass. */
+enum rayd_status rayd_render_sample_range(const rayd_scene *scene,
+                                          const struct rayd_render_opts *opts, rayd_accum *acc,
+                                          int k0, int k1, struct rayd_error *err);
+/* The accumulator's sums: w * h * 3 doubles, rows packed; read only. */
+const double *rayd_accum_sums(const rayd_accum *acc);
+/* Adds sums (w * h * 3 doubles of the accumulator's region) of `samples`
+ * more samples, another range's: the ranges must not overlap. */
+enum rayd_status rayd_accum_add_sums(rayd_accum *acc, const double *sums, int samples,
+                                     struct rayd_error *err);
+/* The sums of a sample range as bytes (application/x-rayd-sums): "RAYDSUM1",
+ * then width, height, k0, k1 as 32-bit little-endian integers, then each
+ * sum times 2^22 -- an exact integer -- as a 64-bit little-endian integer,
+ * rows packed, RGB.  *buf (free with rayd_free) holds *len bytes. */
+enum rayd_status rayd_sums_encode(int width, int height, int k0, int k1, const double *sums,
+                                  void **buf, size_t *len, struct rayd_error *err);
+struct rayd_sums_header {
+    int width, height, k0, k1;
+};
+/* Reads rayd_sums_encode's bytes: the header, and the sums into a new
+ * buffer *sums (free with rayd_free).  RAYD_E_PARSE names what is wrong. */
+enum rayd_status rayd_sums_decode(const void *buf, size_t len, struct rayd_sums_header *hdr,
+                                  double **sums, struct rayd_error *err);
+
 /* rayd_render_into for linear float RGB: region's linear radiance (as
  * rayd_accum_linear gives it after a pass of all render.samples) into dst,
  * a float RGB image dst_w pixels wide, top-left at (dst_x, dst_y), on the

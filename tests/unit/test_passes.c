@@ -218,6 +218,83 @@ static void test_bad_passes_are_refused(void) {
     rayd_scene_free(s);
 }
 
+/* Sample ranges rendered apart (threads and tiles differing), sent through
+ * their bytes, added in another order: the very image and linear values of
+ * one render of all the samples. */
+static void check_ranges(const char *path, int samples, const int *cuts, int ncuts) {
+    rayd_scene *s = scene_sized(path, 23, 19, samples);
+    rayd_accum *sum = NULL, *whole = NULL;
+    if (!s || rayd_accum_new(s, NULL, &sum, NULL) != RAYD_OK) return;
+    for (int i = ncuts - 2; i >= 0; i--) { /* last range first */
+        rayd_accum *part = NULL;
+        struct rayd_render_opts o = {.threads = 1 + i % 3, .tile = 3 + 4 * i};
+        struct rayd_error err = {0};
+        void *bytes = NULL;
+        size_t len = 0;
+        struct rayd_sums_header hdr;
+        double *back = NULL;
+        CHECK(rayd_accum_new(s, NULL, &part, NULL) == RAYD_OK &&
+                  rayd_render_sample_range(s, &o, part, cuts[i], cuts[i + 1], &err) == RAYD_OK &&
+                  rayd_sums_encode(23, 19, cuts[i], cuts[i + 1], rayd_accum_sums(part), &bytes,
+                                   &len, &err) == RAYD_OK &&
+                  rayd_sums_decode(bytes, len, &hdr, &back, &err) == RAYD_OK,
+              "range %d..%d rendered and sent: %s", cuts[i], cuts[i + 1], err.message);
+        CHECK(back && hdr.k0 == cuts[i] && hdr.k1 == cuts[i + 1] && hdr.width == 23 &&
+                  !memcmp(back, rayd_accum_sums(part), 23 * 19 * 3 * sizeof *back),
+              "the sums survive their bytes");
+        CHECK(back && rayd_accum_add_sums(sum, back, cuts[i + 1] - cuts[i], &err) == RAYD_OK,
+              "added: %s", err.message);
+        rayd_accum_free(part);
+        rayd_free(bytes);
+        rayd_free(back);
+    }
+    rayd_image *got = NULL, *want = render_all(s, 2);
+    CHECK(rayd_accum_image(sum, &got, NULL) == RAYD_OK && want && same_image(got, want),
+          "%s: ranges merged equal the one render of %d samples", path, samples);
+    float *lin_got = NULL, *lin_want = NULL;
+    CHECK(rayd_accum_new(s, NULL, &whole, NULL) == RAYD_OK &&
+              rayd_render_pass(s, NULL, whole, 0, samples, NULL) == RAYD_OK &&
+              rayd_accum_linear(whole, &lin_want, NULL) == RAYD_OK &&
+              rayd_accum_linear(sum, &lin_got, NULL) == RAYD_OK &&
+              !memcmp(lin_got, lin_want, 23 * 19 * 3 * sizeof(float)),
+          "%s: merged linear values equal the one render's (the EXR's)", path);
+    rayd_free(lin_got);
+    rayd_free(lin_want);
+    rayd_image_free(got);
+    rayd_image_free(want);
+    rayd_accum_free(sum);
+    rayd_accum_free(whole);
+    rayd_scene_free(s);
+}
+
+static void test_sample_ranges_merge_exactly(void) {
+    static const int three[] = {0, 3, 5, 8}, ones[] = {0, 1, 2, 3, 4}, odd[] = {0, 7, 13};
+    check_ranges("scenes/cornell.json", 8, three, 4);
+    check_ranges("scenes/cornell.json", 4, ones, 5);
+    check_ranges("scenes/whitted.json", 13, odd, 3);
+}
+
+static void test_bad_sums_are_refused(void) {
+    double sums[3] = {1.0, 0.5, 0.25};
+    void *b = NULL;
+    size_t len = 0;
+    struct rayd_sums_header hdr;
+    double *out = NULL;
+    struct rayd_error err = {0};
+    CHECK(rayd_sums_encode(1, 1, 0, 2, sums, &b, &len, NULL) == RAYD_OK && len == 48, "encoded");
+    if (!b) return;
+    CHECK(rayd_sums_decode(b, len - 1, &hdr, &out, &err) == RAYD_E_PARSE, "truncated refused");
+    unsigned char *p = b;
+    p[47] = 0x80; /* a negative sum */
+    CHECK(rayd_sums_decode(b, len, &hdr, &out, &err) == RAYD_E_PARSE &&
+              strstr(err.message, "out of range"),
+          "a negative sum refused: %s", err.message);
+    p[0] = 'X';
+    CHECK(rayd_sums_decode(b, len, &hdr, &out, &err) == RAYD_E_PARSE, "no magic refused");
+    CHECK(out == NULL, "nothing handed out");
+    rayd_free(b);
+}
+
 int main(void) {
     RUN(test_path_passes_are_prefixes);
     RUN(test_whitted_passes_are_prefixes);
@@ -225,5 +302,7 @@ int main(void) {
     RUN(test_linear_matches_bytes);
     RUN(test_tone_curves);
     RUN(test_bad_passes_are_refused);
+    RUN(test_sample_ranges_merge_exactly);
+    RUN(test_bad_sums_are_refused);
     return check_failures_ != 0;
 }
