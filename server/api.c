@@ -20,10 +20,10 @@ struct api_q {
     const char *val[4];
     int count[4];
     char unknown[64];
-    bool allow_format; /* POST /v1/render: ?format= too */
+    bool allow_format; /* POST /v1/render: ?format= and ?samples= too */
     const char *const *also; /* names another parser of the route reads, NULL-ended */
-    const char *format;
-    int format_count;
+    const char *format, *samples;
+    int format_count, samples_count;
 };
 
 static const char *const api_q_names[4] = {"x", "y", "w", "h"};
@@ -40,6 +40,11 @@ static void api_q_each(void *u, const char *k, const char *v)
     if (q->allow_format && !strcmp(k, "format")) {
         q->format = v;
         q->format_count++;
+        return;
+    }
+    if (q->allow_format && !strcmp(k, "samples")) {
+        q->samples = v;
+        q->samples_count++;
         return;
     }
     for (const char *const *a = q->also; a && *a; a++)
@@ -78,7 +83,7 @@ static bool api_region_q(struct http_req *r, const rayd_scene *scene, struct ray
         for (const char *const *a = q.also; a && *a && used < sizeof more; a++)
             used += (size_t)snprintf(more + used, sizeof more - used, ", %s", *a);
         snprintf(msg, sizeof msg, "unknown query parameter '%s' (only x, y, w, h%s%s)", q.unknown,
-                 q.allow_format ? ", format" : "", more);
+                 q.allow_format ? ", format, samples" : "", more);
         http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, q.unknown);
         return false;
     }
@@ -152,7 +157,7 @@ bool api_region_also(struct http_req *r, const rayd_scene *scene, struct rayd_re
  * Accept without either is not refused: PNG stays the answer, as before. */
 static bool api_format_of(struct http_req *r, const struct api_q *q, enum work_format *format)
 {
-    static const char *const names[] = {"png", "png16", "exr"};
+    static const char *const names[] = {"png", "png16", "exr", "sums"};
     char msg[200];
     if (q->format_count > 1) {
         http_reply_error(r, 400, "bad_parameter", "format: given more than once", NULL, 0, 0,
@@ -160,12 +165,13 @@ static bool api_format_of(struct http_req *r, const struct api_q *q, enum work_f
         return false;
     }
     if (q->format) {
-        for (int i = 0; i < 3; i++)
+        for (int i = 0; i < 4; i++)
             if (!strcmp(q->format, names[i])) {
                 *format = (enum work_format)i;
                 return true;
             }
-        snprintf(msg, sizeof msg, "format: must be png, png16 or exr, not '%.40s'", q->format);
+        snprintf(msg, sizeof msg, "format: must be png, png16, exr or sums, not '%.40s'",
+                 q->format);
         http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, "format");
         return false;
     }
@@ -174,16 +180,58 @@ static bool api_format_of(struct http_req *r, const struct api_q *q, enum work_f
     return true;
 }
 
-bool api_region_format(struct http_req *r, const rayd_scene *scene, struct rayd_region *out,
-                       enum work_format *format)
+/* ?samples=K0-K1 for format=sums: a range inside the scene's samples. */
+static bool api_samples_of(struct http_req *r, const rayd_scene *scene, const struct api_q *q,
+                           struct work_target *what)
+{
+    struct rayd_scene_info info;
+    rayd_scene_info(scene, &info);
+    char msg[200];
+    const char *why = NULL;
+    long k0 = -1, k1 = -1;
+    char a[16] = "", b[16] = "";
+    const char *dash = q->samples ? strchr(q->samples, '-') : NULL;
+    if (q->samples_count > 1)
+        why = "given more than once";
+    else if (what->format != WORK_SUMS && q->samples)
+        why = "only with format=sums";
+    else if (what->format == WORK_SUMS && !q->samples)
+        why = "format=sums needs a range samples=K0-K1";
+    else if (q->samples && (!dash || dash - q->samples >= 10 || strlen(dash + 1) >= 10))
+        why = "must be K0-K1, two decimal sample numbers";
+    if (!why && q->samples) {
+        snprintf(a, sizeof a, "%.*s", (int)(dash - q->samples), q->samples);
+        snprintf(b, sizeof b, "%s", dash + 1);
+        if (!api_int(a, &k0) || !api_int(b, &k1) || k0 < 0 || k1 <= k0 || k1 > info.samples) {
+            snprintf(msg, sizeof msg, "samples: must be K0-K1 with 0 <= K0 < K1 <= %d (render.samples)",
+                     info.samples);
+            http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, "samples");
+            return false;
+        }
+    }
+    if (why) {
+        snprintf(msg, sizeof msg, "samples: %s", why);
+        http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, "samples");
+        return false;
+    }
+    what->k0 = (int)k0;
+    what->k1 = (int)k1;
+    return true;
+}
+
+bool api_target(struct http_req *r, const rayd_scene *scene, struct work_target *what)
 {
     struct api_q q = {.allow_format = true};
-    return api_region_q(r, scene, out, &q) && api_format_of(r, &q, format);
+    memset(what, 0, sizeof *what);
+    return api_region_q(r, scene, &what->reg, &q) && api_format_of(r, &q, &what->format) &&
+           api_samples_of(r, scene, &q, what);
 }
 
 const char *api_format_type(enum work_format format)
 {
-    return format == WORK_EXR ? "image/x-exr" : "image/png";
+    return format == WORK_EXR    ? "image/x-exr"
+           : format == WORK_SUMS ? "application/x-rayd-sums"
+                                 : "image/png";
 }
 
 bool api_require_json(struct http_req *r)

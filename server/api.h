@@ -22,10 +22,10 @@ bool api_region(struct http_req *r, const rayd_scene *scene, struct rayd_region 
  * route's own parser. */
 bool api_region_also(struct http_req *r, const rayd_scene *scene, struct rayd_region *out,
                      const char *const *also);
-/* api_region, also taking ?format=png|png16|exr (or Accept: image/x-exr)
- * into *format; a bad format is answered 400 naming it. */
-bool api_region_format(struct http_req *r, const rayd_scene *scene, struct rayd_region *out,
-                       enum work_format *format);
+/* api_region, also taking ?format=png|png16|exr|sums (or Accept:
+ * image/x-exr) and, for sums, ?samples=K0-K1, into *what; a bad one is
+ * answered 400 naming it. */
+bool api_target(struct http_req *r, const rayd_scene *scene, struct work_target *what);
 /* The Content-Type of a format's bytes. */
 const char *api_format_type(enum work_format format);
 /* Body is JSON?  Otherwise replies 415 and returns false. */

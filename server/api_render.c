@@ -9,7 +9,9 @@
  * rayd_png_encode at the same level.  ?format=png16|exr (or Accept:
  * image/x-exr) answers a 16-bit PNG or an OpenEXR instead, equal to
  * rayd-render --format's; only this route takes it, so the immutable image
- * URL of a kept scene stays a PNG.  POST /v1/scenes compiles and keeps a
+ * URL of a kept scene stays a PNG.  ?format=sums&samples=K0-K1 answers the
+ * exact sums of that sample range (application/x-rayd-sums), for a client
+ * that spreads one frame's samples over many nodes and adds them up.  POST /v1/scenes compiles and keeps a
  * scene; its image URL is immutable (strong ETag, 304 on If-None-Match).
  *
  * The wait: a small struct ties the work layer's waiter to the request.
@@ -73,8 +75,9 @@ static void api_render_suspend(struct work_waiter *w)
 /* Renders reg of scene for r: answered at once from the result cache, or
  * suspended until a worker answers, or refused with a 503. */
 static void api_render_submit(struct http_req *r, struct cache_entry *scene,
-                              const struct rayd_region *reg, enum work_format format)
+                              const struct work_target *what)
 {
+    enum work_format format = what->format;
     struct api_render_wait *a = calloc(1, sizeof *a);
     if (!a) {
         api_refused(r, WORK_NOMEM);
@@ -86,7 +89,7 @@ static void api_render_submit(struct http_req *r, struct cache_entry *scene,
     a->w.suspend = api_render_suspend;
     a->w.fd = http_req_fd(r);
     struct blob *png = NULL;
-    enum work_submit s = sched_render(scene, reg, format, &a->w, &png);
+    enum work_submit s = sched_render(scene, what, &a->w, &png);
     if (s == WORK_OK)
         return; /* a belongs to the work layer until done() */
     free(a);
@@ -106,11 +109,10 @@ void api_render_post(struct http_req *r, const char *id)
     bool hit;
     if (!api_scene(r, &e, &hit))
         return;
-    struct rayd_region reg;
-    enum work_format format;
+    struct work_target what;
     r->route_negotiates = true;
-    if (api_region_format(r, cache_scene(e), &reg, &format))
-        api_render_submit(r, e, &reg, format);
+    if (api_target(r, cache_scene(e), &what))
+        api_render_submit(r, e, &what);
     scenes_release(e);
 }
 
@@ -177,7 +179,8 @@ void api_scenes_image(struct http_req *r, const char *id)
     } else if (sched_draining()) {
         api_refused(r, WORK_DRAINING);
     } else {
-        api_render_submit(r, e, &reg, WORK_PNG);
+        struct work_target what = {.reg = reg, .format = WORK_PNG};
+        api_render_submit(r, e, &what);
     }
     scenes_release(e);
 }

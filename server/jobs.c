@@ -152,7 +152,8 @@ enum work_submit jobs_create(struct cache_entry *scene, const struct rayd_region
     if (!jobs_new_id(id))
         return WORK_NOMEM;
     struct job *j = calloc(1, sizeof *j);
-    struct task *fresh = task_new(scene, reg, WORK_PNG);
+    struct work_target what = {.reg = *reg, .format = WORK_PNG};
+    struct task *fresh = task_new(scene, &what);
     if (fresh && plan && !jobs_progressive(fresh, scene, plan, id)) {
         task_unref(fresh);
         fresh = NULL;

@@ -54,6 +54,8 @@ static struct task *sched_next_task(void)
 static enum rayd_status sched_encode_as(const struct task *t, void **buf, size_t *len,
                                         struct rayd_error *err)
 {
+    if (t->format == WORK_SUMS)
+        return rayd_sums_encode(t->reg.w, t->reg.h, t->k0, t->k1, t->sums, buf, len, err);
     if (t->format == WORK_EXR)
         return rayd_exr_encode(t->lin, t->reg.w, t->reg.h, buf, len, err);
     if (t->format == WORK_PNG16)
@@ -204,6 +206,27 @@ static void sched_done(struct task *t, int tile, enum rayd_status st,
     }
 }
 
+/* A WORK_SUMS tile: its samples k0..k1-1 summed, into t's sums. */
+static enum rayd_status sched_sums_tile(struct task *t, const struct rayd_region *tr,
+                                        uint64_t *rays, struct rayd_error *err)
+{
+    rayd_accum *acc = NULL;
+    struct rayd_render_stats stats = {0};
+    struct rayd_render_opts o = {
+        .threads = 1, .tile = tr->w > tr->h ? tr->w : tr->h, .cancel = &t->cancel, .stats = &stats};
+    enum rayd_status st = rayd_accum_new(cache_scene(t->scene), tr, &acc, err);
+    if (st == RAYD_OK)
+        st = rayd_render_sample_range(cache_scene(t->scene), &o, acc, t->k0, t->k1, err);
+    *rays += stats.rays;
+    const double *in = st == RAYD_OK ? rayd_accum_sums(acc) : NULL;
+    for (int row = 0; in && row < tr->h; row++)
+        memcpy(t->sums + ((size_t)(tr->y - t->reg.y + row) * (size_t)t->reg.w +
+                          (size_t)(tr->x - t->reg.x)) * 3,
+               in + (size_t)row * (size_t)tr->w * 3, (size_t)tr->w * 3 * sizeof *in);
+    rayd_accum_free(acc);
+    return st;
+}
+
 /* Renders tile `tile` of t (of pass `pass` if progressive), no lock. */
 static enum rayd_status sched_tile(struct task *t, int tile, int pass, uint64_t *rays,
                                    struct rayd_error *err)
@@ -213,6 +236,8 @@ static enum rayd_status sched_tile(struct task *t, int tile, int pass, uint64_t 
     int dx = tr.x - t->reg.x, dy = tr.y - t->reg.y;
     if (t->passes)
         return passes_tile(t->passes, scene, tile, pass, t->img, dx, dy, &t->cancel, rays, err);
+    if (t->sums)
+        return sched_sums_tile(t, &tr, rays, err);
     if (t->lin)
         return rayd_render_linear_into(scene, &tr, t->lin, t->reg.w, dx, dy, &t->cancel, rays,
                                        err);
@@ -337,10 +362,10 @@ void sched_stop(void)
 
 /* The finished PNG of (scene, reg) from the result cache, referenced, or NULL. */
 static struct blob *sched_result_find(const struct cache_entry *scene,
-                                      const struct rayd_region *reg, enum work_format format)
+                                      const struct work_target *what)
 {
     char key[160];
-    task_key(key, sizeof key, cache_id(scene), reg, format);
+    task_key(key, sizeof key, cache_id(scene), what);
     pthread_mutex_lock(&work_lock);
     struct blob *b = rcache_get(key);
     pthread_mutex_unlock(&work_lock);
@@ -348,12 +373,12 @@ static struct blob *sched_result_find(const struct cache_entry *scene,
     return b;
 }
 
-enum work_submit sched_render(struct cache_entry *scene, const struct rayd_region *reg,
-                              enum work_format format, struct work_waiter *w, struct blob **png)
+enum work_submit sched_render(struct cache_entry *scene, const struct work_target *what,
+                              struct work_waiter *w, struct blob **png)
 {
-    if ((*png = sched_result_find(scene, reg, format)))
+    if ((*png = sched_result_find(scene, what)))
         return WORK_CACHED;
-    struct task *fresh = task_new(scene, reg, format);
+    struct task *fresh = task_new(scene, what);
     if (!fresh)
         return WORK_NOMEM;
     pthread_mutex_lock(&work_lock);

@@ -45,30 +45,39 @@ bool task_draining(void) { return atomic_load(&task_drain_flag); }
 
 /* The PNG's key is the one it always had; the other formats add a suffix,
  * so an EXR never answers a PNG request from the caches, nor the reverse. */
-void task_key(char *key, size_t size, const char *id, const struct rayd_region *reg,
-              enum work_format format)
+void task_key(char *key, size_t size, const char *id, const struct work_target *what)
 {
-    static const char *const suffix[] = {"", ".png16", ".exr"};
-    snprintf(key, size, "%s@%d,%d,%d,%d%s", id, reg->x, reg->y, reg->w, reg->h, suffix[format]);
+    static const char *const suffix[] = {"", ".png16", ".exr", ".sums"};
+    const struct rayd_region *reg = &what->reg;
+    int n = snprintf(key, size, "%s@%d,%d,%d,%d%s", id, reg->x, reg->y, reg->w, reg->h,
+                     suffix[what->format]);
+    if (what->format == WORK_SUMS && n > 0 && (size_t)n < size)
+        snprintf(key + n, size - (size_t)n, "%d-%d", what->k0, what->k1);
 }
 
-/* The task's pixel store: bytes for the PNG, linear floats for the rest. */
+/* The task's pixel store: bytes for the PNG, linear floats for the HDR
+ * formats, sums for WORK_SUMS. */
 static bool task_pixels(struct task *t)
 {
+    size_t values = (size_t)t->reg.w * (size_t)t->reg.h * 3;
     if (t->format == WORK_PNG)
         return rayd_image_new(t->reg.w, t->reg.h, &t->img, NULL) == RAYD_OK;
-    t->lin = malloc((size_t)t->reg.w * (size_t)t->reg.h * 3 * sizeof *t->lin);
+    if (t->format == WORK_SUMS)
+        return (t->sums = malloc(values * sizeof *t->sums)) != NULL;
+    t->lin = malloc(values * sizeof *t->lin);
     return t->lin != NULL;
 }
 
-struct task *task_new(struct cache_entry *scene, const struct rayd_region *reg,
-                      enum work_format format)
+struct task *task_new(struct cache_entry *scene, const struct work_target *what)
 {
     struct task *t = calloc(1, sizeof *t);
     if (!t)
         return NULL;
+    const struct rayd_region *reg = &what->reg;
     t->reg = *reg;
-    t->format = format;
+    t->format = what->format;
+    t->k0 = what->k0;
+    t->k1 = what->k1;
     t->ntx = (reg->w + TASK_TILE - 1) / TASK_TILE;
     t->nty = (reg->h + TASK_TILE - 1) / TASK_TILE;
     t->ntiles = t->ntx * t->nty;
@@ -79,7 +88,7 @@ struct task *task_new(struct cache_entry *scene, const struct rayd_region *reg,
         return NULL;
     }
     snprintf(t->scene_id, sizeof t->scene_id, "%s", cache_id(scene));
-    task_key(t->key, sizeof t->key, t->scene_id, reg, format);
+    task_key(t->key, sizeof t->key, t->scene_id, what);
     atomic_init(&t->cancel, 0);
     t->interactive = (long)reg->w * reg->h <= TASK_INTERACTIVE;
     t->status = RAYD_OK;
@@ -95,6 +104,7 @@ void task_unref(struct task *t)
     rayd_image_free(t->img);
     passes_free(t->passes);
     free(t->lin);
+    free(t->sums);
     cache_release(t->scene);
     free(t->order);
     free(t);
@@ -258,6 +268,8 @@ void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
     t->img = NULL;
     free(t->lin);
     t->lin = NULL;
+    free(t->sums);
+    t->sums = NULL;
     cache_release(t->scene);
     t->scene = NULL;
     task_result(t, &n->res);

@@ -72,16 +72,25 @@ void scenes_set_limits(const struct rayd_limits *lim);
 /* What a render's bytes are: the 8-bit PNG (every route), or from the
  * linear float image a 16-bit PNG or an OpenEXR (POST /v1/render's
  * ?format= or Accept).  Part of the task and result-cache key. */
-enum work_format { WORK_PNG, WORK_PNG16, WORK_EXR };
+enum work_format { WORK_PNG, WORK_PNG16, WORK_EXR, WORK_SUMS };
+
+/* What a render makes: a region, in a format; WORK_SUMS is the exact
+ * per-pixel sums of samples k0..k1-1 (rayd_sums_encode), a part of a frame
+ * whose samples are spread over many nodes. */
+struct work_target {
+    struct rayd_region reg; /* absolute, checked */
+    enum work_format format;
+    int k0, k1; /* WORK_SUMS only */
+};
 
 int sched_start(int workers, int queue_cap, int max_jobs);
 void sched_stop(void);
-/* Renders reg (absolute, checked) of scene for w, encoded as format.
+/* Renders what of scene for w.
  * WORK_CACHED: *png is the finished image (a reference), w is not used.
  * WORK_OK: w->suspend(w) ran and w->done will be called once.  Anything
  * else: refused, w not used. */
-enum work_submit sched_render(struct cache_entry *scene, const struct rayd_region *reg,
-                              enum work_format format, struct work_waiter *w, struct blob **png);
+enum work_submit sched_render(struct cache_entry *scene, const struct work_target *what,
+                              struct work_waiter *w, struct blob **png);
 void sched_drain(void);      /* refuse new work from now on */
 bool sched_draining(void);   /* lock-free */
 void sched_cancel_all(void); /* cancel every task (drain deadline) */

@@ -133,8 +133,10 @@ struct task {
     int *order; /* tiles in completion order, for event streams */
     struct passes *passes;     /* a progressive job's task, else NULL */
     rayd_image *img;           /* WORK_PNG: the tiles' bytes */
-    float *lin;                /* else: the tiles' linear RGB, reg.w * reg.h * 3 */
+    float *lin;                /* WORK_PNG16, WORK_EXR: the tiles' linear RGB, reg.w * reg.h * 3 */
+    double *sums;              /* WORK_SUMS: the tiles' sums of samples k0..k1-1 */
     enum work_format format;
+    int k0, k1;
     atomic_int cancel;
     bool interactive, queued, finalizing, finished;
     double t_enq, t_start, t_end;
@@ -161,12 +163,10 @@ extern int task_queue_cap;       /* --queue, set once before the workers start *
 void task_drain(void);           /* takes the lock */
 bool task_draining(void);        /* lock-free */
 
-void task_key(char *key, size_t size, const char *id, const struct rayd_region *reg,
-              enum work_format format);
+void task_key(char *key, size_t size, const char *id, const struct work_target *what);
 /* A new task for (scene, reg) in format, with its pixels (an image, or
  * linear floats for the HDR formats); NULL on no memory.  Any lock. */
-struct task *task_new(struct cache_entry *scene, const struct rayd_region *reg,
-                      enum work_format format);
+struct task *task_new(struct cache_entry *scene, const struct work_target *what);
 void task_unref(struct task *t);
 void task_unqueue(struct task *t);
 struct task *task_find(const char *key); /* an unfinished, uncancelled task */
