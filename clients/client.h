@@ -9,8 +9,9 @@
  *                  names, validates it with the core, hashes it (scene id)
  *   net.c          libcurl glue shared by the commands: response buffers,
  *                  headers, the API's JSON errors, Retry-After
- *   tiles.c        the tile scheduler: one frame as tiles over many servers
- *                  with libcurl's multi interface, retries, stitching
+ *   tiles.c        the tile scheduler: one frame as tiles (or sample ranges)
+ *                  over many servers with libcurl's multi interface,
+ *                  retries, stitching (or adding the ranges' sums)
  *   progress.c     the progress bar (terminal) or plain progress lines
  *   job.c          the asynchronous job API with its Server-Sent Events
  *
@@ -37,6 +38,7 @@ struct client_opts {
     double timeout;    /* seconds per request */
     char *token;       /* from --token-file, trimmed; NULL = none */
     int quiet;         /* no progress at all */
+    int ranges;        /* > 0: split the samples into this many ranges, not the pixels */
 };
 
 /* ---- scenefile.c ---------------------------------------------------------- */

@@ -1,13 +1,15 @@
 /* rayd-client.c -- the command line of rayd-client.
  *
  *   rayd-client render SCENE.json -o OUT.png --server URL [--server URL ...]
- *               [--tile 128] [--parallel N] [--retries N] [--timeout S]
+ *               [--tile 128 | --split-samples N] [--parallel N] [--retries N]
+ *               [--timeout S]
  *               [--token-file F] [--quiet]
  *   rayd-client job SCENE.json -o OUT.png --server URL [--token-file F]
  *   rayd-client health --server URL [--server URL ...]
  *
- * `render` splits one frame into tiles and spreads them over every server
- * given (rayd nodes, or one balancer in front of many: tiles.c); `job` uses
+ * `render` splits one frame into tiles (or, --split-samples, its samples
+ * into ranges) and spreads them over every server given (rayd nodes, or
+ * one balancer in front of many: tiles.c); `job` uses
  * the asynchronous job API of one server (job.c); `health` asks each
  * server's /healthz and /readyz.  The scene is read, its files inlined and
  * validated locally before anything is sent (scenefile.c).  RAYD_SERVER
@@ -34,15 +36,20 @@ static void client_usage(FILE *f)
 {
     fprintf(f,
             "usage: rayd-client render SCENE.json -o OUT.png --server URL [--server URL ...]\n"
-            "                          [--tile N] [--parallel N] [--retries N] [--timeout S]\n"
+            "                          [--tile N | --split-samples N] [--parallel N] [--retries N]\n"
+            "                          [--timeout S]\n"
             "                          [--token-file F] [--quiet]\n"
             "       rayd-client job SCENE.json -o OUT.png --server URL [--token-file F] [--quiet]\n"
             "       rayd-client health --server URL [--server URL ...] [--token-file F]\n"
             "\n"
             "  --server URL      a rayd node or a balancer in front of many (repeatable;\n"
             "                    default $RAYD_SERVER or http://127.0.0.1:8080)\n"
-            "  -o, --output F    the PNG to write (only when every tile arrived)\n"
+            "  -o, --output F    the PNG to write (only when every tile arrived); with\n"
+            "                    --split-samples, F.exr writes the linear OpenEXR\n"
             "  --tile N          tile edge in pixels (default 128)\n"
+            "  --split-samples N split the frame's samples, not its pixels, into N ranges:\n"
+            "                    each server returns its range's exact sums, added here\n"
+            "                    (the same bytes as one render)\n"
             "  --parallel N      requests in flight, all servers together\n"
             "                    (default 8 for one server, 4 per server for a list)\n"
             "  --retries N       further attempts of a failed tile, on another server (default 3)\n"
@@ -194,6 +201,10 @@ int main(int argc, char **argv)
             if (client_number(a, v, 8, 4096, &d))
                 return CLIENT_USAGE_EXIT;
             o.tile = (int)d, i++;
+        } else if (!strcmp(a, "--split-samples")) {
+            if (client_number(a, v, 1, 65536, &d))
+                return CLIENT_USAGE_EXIT;
+            o.ranges = (int)d, i++;
         } else if (!strcmp(a, "--parallel")) {
             if (client_number(a, v, 1, 1024, &d))
                 return CLIENT_USAGE_EXIT;

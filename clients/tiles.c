@@ -36,6 +36,15 @@
  * a missing tile is never written: the exit status is 2 and the message
  * names the missing tiles.
  *
+ * Sample ranges (--split-samples N).  The pieces may instead be N ranges
+ * of the frame's samples, each the whole image: a range is POST
+ * /v1/render?format=sums&samples=K0-K1 with the body, answered with the
+ * range's exact per-pixel sums (application/x-rayd-sums), which are added
+ * up here (rayd_accum_add_sums).  The sums are exact whatever their
+ * grouping (include/rayd/rayd.h), so the frame resolved from them is the
+ * single-node render byte for byte, as a PNG or, for an -o ending in .exr,
+ * an OpenEXR.  Scheduling, retries and failures are the tiles' own.
+ *
  * Rays per second for the progress bar come from polling each server's
  * /metrics (rayd_rays_total) once a second; it counts all the work of those
  * servers, not only this frame's.  Behind a balancer each poll may reach
@@ -58,6 +67,7 @@ enum tiles_kind { X_LEARN, X_GET, X_POST, X_METRICS };
 
 struct tiles_tile {
     int x, y, w, h;
+    int k0, k1;     /* a sample range's samples (--split-samples) */
     enum tiles_state st;
     int attempts;   /* failures counted against --retries */
     int busy;       /* 503 answers */
@@ -104,6 +114,7 @@ struct tiles {
     int done, failed;
     int fatal;
     rayd_image *img;
+    rayd_accum *acc; /* --split-samples: the ranges' sums added up */
     struct progress prog;
     char last_err[400];
     long *per_server;
@@ -131,8 +142,12 @@ static int tiles_start(struct tiles *T, enum tiles_kind kind, int ti, int si)
                  T->sf->id, t->x, t->y, t->w, t->h);
         break;
     case X_POST:
-        snprintf(url, sizeof url, "%s/v1/render?x=%d&y=%d&w=%d&h=%d", s->url, t->x, t->y, t->w,
-                 t->h);
+        if (T->acc)
+            snprintf(url, sizeof url, "%s/v1/render?format=sums&samples=%d-%d", s->url, t->k0,
+                     t->k1);
+        else
+            snprintf(url, sizeof url, "%s/v1/render?x=%d&y=%d&w=%d&h=%d", s->url, t->x, t->y,
+                     t->w, t->h);
         body = T->sf->bytes, blen = T->sf->len;
         break;
     case X_METRICS:
@@ -143,6 +158,8 @@ static int tiles_start(struct tiles *T, enum tiles_kind kind, int ti, int si)
     if (!x)
         return -1;
     x->kind = kind, x->tile = ti, x->server = si;
+    if (T->acc && t) /* a range's sums: 24 bytes a pixel */
+        x->body.max = 1024 + (size_t)t->w * (size_t)t->h * 24;
     void *hdrs = NULL;
     x->h = net_easy(T->o, url, &x->body, body, blen, &hdrs);
     x->hdrs = hdrs;
@@ -231,10 +248,37 @@ static void tiles_fatal(struct tiles *T, int si, long status, const struct net_b
     T->fatal = 1;
 }
 
+/* A range's sums: decode, check they are this range's, add.  0 or -1
+ * with why set. */
+static int tiles_add_sums(struct tiles *T, const struct tiles_tile *t, const struct net_buf *b,
+                          char *why, size_t size)
+{
+    struct rayd_sums_header hdr;
+    double *sums = NULL;
+    struct rayd_error err = {0};
+    if (rayd_sums_decode(b->data, b->len, &hdr, &sums, &err) != RAYD_OK) {
+        snprintf(why, size, "answer is not the range's sums: %s", err.message);
+        return -1;
+    }
+    int rc = 0;
+    if (hdr.width != t->w || hdr.height != t->h || hdr.k0 != t->k0 || hdr.k1 != t->k1) {
+        snprintf(why, size, "sums of %dx%d samples %d..%d, expected %dx%d samples %d..%d",
+                 hdr.width, hdr.height, hdr.k0, hdr.k1, t->w, t->h, t->k0, t->k1);
+        rc = -1;
+    } else if (rayd_accum_add_sums(T->acc, sums, t->k1 - t->k0, &err) != RAYD_OK) {
+        snprintf(why, size, "adding the sums failed: %s", err.message);
+        rc = -1;
+    }
+    rayd_free(sums);
+    return rc;
+}
+
 /* A tile PNG: decode, check its size, blit.  0 or -1 with why set. */
 static int tiles_stitch(struct tiles *T, struct tiles_tile *t, const struct net_buf *b, char *why,
                         size_t size)
 {
+    if (T->acc)
+        return tiles_add_sums(T, t, b, why, size);
     rayd_image *img = NULL;
     struct rayd_error err = {0};
     if (rayd_png_decode(b->data, b->len, (long)t->w * t->h, &img, &err) != RAYD_OK) {
@@ -370,7 +414,7 @@ static int tiles_pick(struct tiles *T, const struct tiles_tile *t, double now)
     int best = -1, score = 0;
     for (int i = 0; i < T->ns; i++) {
         const struct tiles_server *s = &T->s[i];
-        if (s->scene != SS_KNOWN || s->down_until > now)
+        if ((s->scene != SS_KNOWN && !T->acc) || s->down_until > now)
             continue;
         int sc = s->inflight + (i == t->last_server && T->ns > 1 ? 1000 : 0);
         if (best < 0 || sc < score)
@@ -382,7 +426,7 @@ static int tiles_pick(struct tiles *T, const struct tiles_tile *t, double now)
 static void tiles_dispatch(struct tiles *T, double now)
 {
     int pending = T->n - T->done - T->failed - T->running;
-    for (int i = 0; i < T->ns && pending > 0; i++) {
+    for (int i = 0; i < T->ns && pending > 0 && !T->acc; i++) { /* ranges carry the body */
         struct tiles_server *s = &T->s[i];
         if (s->scene == SS_UNKNOWN && s->down_until <= now) {
             if (tiles_start(T, X_LEARN, -1, i) == 0)
@@ -396,7 +440,7 @@ static void tiles_dispatch(struct tiles *T, double now)
         int si = tiles_pick(T, t, now);
         if (si < 0)
             break;
-        if (tiles_start(T, X_GET, i, si) != 0)
+        if (tiles_start(T, T->acc ? X_POST : X_GET, i, si) != 0)
             break;
     }
     if (!T->prog.quiet)
@@ -451,8 +495,11 @@ static void tiles_report_missing(struct tiles *T)
             fprintf(stderr, " ... and %d more", missing - shown);
             break;
         }
-        fprintf(stderr, "%s x=%d y=%d w=%d h=%d", shown ? "," : "", T->t[i].x, T->t[i].y,
-                T->t[i].w, T->t[i].h);
+        if (T->acc)
+            fprintf(stderr, "%s samples %d..%d", shown ? "," : "", T->t[i].k0, T->t[i].k1 - 1);
+        else
+            fprintf(stderr, "%s x=%d y=%d w=%d h=%d", shown ? "," : "", T->t[i].x, T->t[i].y,
+                    T->t[i].w, T->t[i].h);
         shown++;
     }
     fputc('\n', stderr);
@@ -464,6 +511,66 @@ static void tiles_report_missing(struct tiles *T)
         fprintf(stderr, "rayd-client: last error: %s\n", why);
 }
 
+/* The pieces: a grid of tiles, or --split-samples ranges of the whole
+ * image (as equal as can be; no more ranges than samples).  -1: no memory. */
+static int tiles_pieces(struct tiles *T, const struct client_opts *o, const struct scenefile *sf)
+{
+    int tile = o->tile, samples = sf->samples > 0 ? sf->samples : 1;
+    int cols = (sf->width + tile - 1) / tile, rows = (sf->height + tile - 1) / tile;
+    T->n = o->ranges > 0 ? (o->ranges < samples ? o->ranges : samples) : cols * rows;
+    T->t = calloc((size_t)T->n, sizeof *T->t);
+    if (!T->t)
+        return -1;
+    for (int k = 0; k < T->n; k++) {
+        struct tiles_tile *t = &T->t[k];
+        t->last_server = -1;
+        if (o->ranges > 0) {
+            *t = (struct tiles_tile){.w = sf->width, .h = sf->height, .last_server = -1};
+            t->k0 = (int)((long)samples * k / T->n);
+            t->k1 = (int)((long)samples * (k + 1) / T->n);
+            continue;
+        }
+        t->x = k % cols * tile, t->y = k / cols * tile;
+        t->w = t->x + tile > sf->width ? sf->width - t->x : tile;
+        t->h = t->y + tile > sf->height ? sf->height - t->y : tile;
+    }
+    return 0;
+}
+
+/* The frame into path: the stitched PNG, or the image of the summed
+ * ranges (an OpenEXR of their linear values when -o ends in .exr). */
+static enum rayd_status tiles_write(const struct tiles *T, const char *path,
+                                    struct rayd_error *err)
+{
+    if (!T->acc)
+        return rayd_png_write_file(T->img, path, err);
+    size_t n = strlen(T->o->out);
+    if (n < 4 || strcmp(T->o->out + n - 4, ".exr")) {
+        rayd_image *img = NULL;
+        enum rayd_status st = rayd_accum_image(T->acc, &img, err);
+        if (st == RAYD_OK)
+            st = rayd_png_write_file(img, path, err);
+        rayd_image_free(img);
+        return st;
+    }
+    float *lin = NULL;
+    void *buf = NULL;
+    size_t len = 0;
+    enum rayd_status st = rayd_accum_linear(T->acc, &lin, err);
+    if (st == RAYD_OK)
+        st = rayd_exr_encode(lin, T->sf->width, T->sf->height, &buf, &len, err);
+    FILE *f = st == RAYD_OK ? fopen(path, "wb") : NULL;
+    if (st == RAYD_OK && (!f || fwrite(buf, 1, len, f) != len)) {
+        snprintf(err->message, sizeof err->message, "cannot write %s", path);
+        st = RAYD_E_IO;
+    }
+    if (f && fclose(f) != 0 && st == RAYD_OK)
+        st = RAYD_E_IO;
+    rayd_free(lin);
+    rayd_free(buf);
+    return st;
+}
+
 int tiles_render(const struct client_opts *o, const struct scenefile *sf)
 {
     struct tiles T;
@@ -471,28 +578,18 @@ int tiles_render(const struct client_opts *o, const struct scenefile *sf)
     T.o = o, T.sf = sf, T.ns = o->nservers;
     T.busy_limit = 20 + 10 * o->retries;
     int tile = o->tile;
-    int cols = (sf->width + tile - 1) / tile, rows = (sf->height + tile - 1) / tile;
-    T.n = cols * rows;
-    T.t = calloc((size_t)T.n, sizeof *T.t);
     T.s = calloc((size_t)T.ns, sizeof *T.s);
     T.per_server = calloc((size_t)T.ns, sizeof *T.per_server);
     T.labels = calloc((size_t)T.ns, sizeof *T.labels);
     T.multi = curl_multi_init();
     struct rayd_error err = {0};
     int rc = 2;
-    if (!T.t || !T.s || !T.per_server || !T.labels || !T.multi ||
-        rayd_image_new(sf->width, sf->height, &T.img, &err) != RAYD_OK) {
+    if (!T.s || !T.per_server || !T.labels || !T.multi || tiles_pieces(&T, o, sf) != 0 ||
+        (o->ranges > 0 ? rayd_accum_new_sized(sf->width, sf->height, &T.acc, &err)
+                       : rayd_image_new(sf->width, sf->height, &T.img, &err)) != RAYD_OK) {
         fprintf(stderr, "rayd-client: out of memory\n");
         goto out;
     }
-    for (int r = 0, k = 0; r < rows; r++)
-        for (int c = 0; c < cols; c++, k++) {
-            struct tiles_tile *t = &T.t[k];
-            t->x = c * tile, t->y = r * tile;
-            t->w = t->x + tile > sf->width ? sf->width - t->x : tile;
-            t->h = t->y + tile > sf->height ? sf->height - t->y : tile;
-            t->last_server = -1;
-        }
     for (int i = 0; i < T.ns; i++) {
         T.s[i].url = o->servers[i];
         net_label(o->servers[i], T.s[i].label, sizeof T.s[i].label);
@@ -501,7 +598,10 @@ int tiles_render(const struct client_opts *o, const struct scenefile *sf)
     /* one keep-alive connection per request in flight, a few spare */
     curl_multi_setopt(T.multi, CURLMOPT_MAXCONNECTS, (long)(o->parallel + 2 * T.ns + 4));
     progress_init(&T.prog, T.n, o->quiet);
-    if (!o->quiet && !T.prog.tty)
+    if (!o->quiet && !T.prog.tty && T.acc)
+        fprintf(stderr, "rayd-client: %dx%d frame, %d samples in %d ranges over %d server%s, scene %.12s\n",
+                sf->width, sf->height, sf->samples, T.n, T.ns, T.ns > 1 ? "s" : "", sf->id);
+    else if (!o->quiet && !T.prog.tty)
         fprintf(stderr, "rayd-client: %dx%d frame, %d tiles of %d px over %d server%s, scene %.12s\n",
                 sf->width, sf->height, T.n, tile, T.ns, T.ns > 1 ? "s" : "", sf->id);
     double t0 = net_now();
@@ -549,7 +649,7 @@ int tiles_render(const struct client_opts *o, const struct scenefile *sf)
             fprintf(stderr, "rayd-client: out of memory\n");
         } else {
             snprintf(tmp, n, "%s.part", o->out);
-            if (rayd_png_write_file(T.img, tmp, &err) != RAYD_OK || rename(tmp, o->out) != 0) {
+            if (tiles_write(&T, tmp, &err) != RAYD_OK || rename(tmp, o->out) != 0) {
                 fprintf(stderr, "rayd-client: cannot write %s: %s\n", o->out,
                         err.message[0] ? err.message : "rename failed");
                 remove(tmp);
@@ -577,6 +677,7 @@ out:
         curl_multi_cleanup(T.multi);
     }
     rayd_image_free(T.img);
+    rayd_accum_free(T.acc);
     free(T.t);
     free(T.s);
     free(T.per_server);

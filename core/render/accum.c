@@ -55,6 +55,24 @@ enum rayd_status rayd_accum_new(const rayd_scene *s, const struct rayd_region *r
     return RAYD_OK;
 }
 
+enum rayd_status rayd_accum_new_sized(int width, int height, rayd_accum **out,
+                                      struct rayd_error *err) {
+    if (width < 1 || height < 1 || (long long)width * height > (1LL << 31) / 3)
+        return err_set(err, RAYD_E_ARG, NULL, "an accumulator of %dx%d pixels", width, height);
+    rayd_accum *a = calloc(1, sizeof *a);
+    double *sum = calloc((size_t)width * (size_t)height * 3, sizeof *sum);
+    if (!a || !sum) {
+        free(a);
+        free(sum);
+        return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for a %dx%d accumulator", width,
+                       height);
+    }
+    a->r = (struct rayd_region){0, 0, width, height};
+    a->sum = sum;
+    *out = a;
+    return RAYD_OK;
+}
+
 void rayd_accum_free(rayd_accum *a) {
     if (!a) return;
     free(a->sum);
@@ -85,6 +103,7 @@ enum rayd_status rayd_render_pass(const rayd_scene *s, const struct rayd_render_
     static const struct rayd_render_opts none;
     if (!opts) opts = &none;
     enum rayd_status st = accum_usable(a, err);
+    if (st == RAYD_OK) st = rayd_region_check(s, &a->r, err); /* a sized one may not fit */
     if (st != RAYD_OK) return st;
     if (from != a->n)
         return err_set(err, RAYD_E_ARG, "samples_from",
@@ -118,6 +137,8 @@ enum rayd_status rayd_render_sample_range(const rayd_scene *s, const struct rayd
     if (!opts) opts = &none;
     if (a->n != 0 || a->centre)
         return err_set(err, RAYD_E_ARG, NULL, "a sample range needs a new accumulator");
+    enum rayd_status fit = rayd_region_check(s, &a->r, err);
+    if (fit != RAYD_OK) return fit;
     if (k0 < 0 || k1 <= k0 || k1 > RENDER_SUM_SAMPLES)
         return err_set(err, RAYD_E_ARG, "samples", "must be a range k0..k1 with 0 <= k0 < k1 <= %d",
                        RENDER_SUM_SAMPLES);

@@ -231,6 +231,10 @@ enum rayd_status rayd_accum_linear(const rayd_accum *acc, float **out, struct ra
 enum rayd_status rayd_render_sample_range(const rayd_scene *scene,
                                           const struct rayd_render_opts *opts, rayd_accum *acc,
                                           int k0, int k1, struct rayd_error *err);
+/* An accumulator of a width x height image and no samples, made without the
+ * scene: for adding up the sums of ranges rendered elsewhere. */
+enum rayd_status rayd_accum_new_sized(int width, int height, rayd_accum **out,
+                                      struct rayd_error *err);
 /* The accumulator's sums: w * h * 3 doubles, rows packed; read only. */
 const double *rayd_accum_sums(const rayd_accum *acc);
 /* Adds sums (w * h * 3 doubles of the accumulator's region) of `samples`

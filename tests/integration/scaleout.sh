@@ -212,6 +212,33 @@ if grep -Eq 'ERROR: (Address|Leak)Sanitizer|runtime error:' "$T/tok.err"; then
     fail token_node_sanitizer "$(grep -Em 3 'Sanitizer|runtime error' "$T/tok.err")"
 fi
 
+# --- one frame's samples over the nodes (--split-samples) ---------------------------
+# Each node renders a range of the samples and answers its exact sums; the
+# client adds them up: the same PNG and EXR bytes as rayd-render.
+scene "$T/s.json" 160 120 12 cornell 1
+"$RENDER" "$T/s.json" -o "$T/s_ref.png" 2>/dev/null
+"$RENDER" "$T/s.json" -o "$T/s_ref.exr" 2>/dev/null
+client samples_nginx render "$T/s.json" -o "$T/s_lb.png" --split-samples 5 --server "$LB"
+check samples_nginx_identical "exit $RC: $(tail -n 2 "$T/samples_nginx.err")" \
+    bash -c "[ $RC = 0 ] && cmp -s '$T/s_lb.png' '$T/s_ref.png'"
+client samples_nginx_exr render "$T/s.json" -o "$T/s_lb.exr" --split-samples 4 --server "$LB"
+check samples_nginx_exr_identical "exit $RC: $(tail -n 2 "$T/samples_nginx_exr.err")" \
+    bash -c "[ $RC = 0 ] && cmp -s '$T/s_lb.exr' '$T/s_ref.exr'"
+before=()
+for i in 1 2 3; do before[$i]=$(node_count $i "POST /v1/render" 200); done
+client samples_list render "$T/s.json" -o "$T/s_list.png" --split-samples 6 \
+    --server "${NODE_URL[1]}" --server "${NODE_URL[2]}" --server "${NODE_URL[3]}"
+check samples_list_identical "exit $RC: $(tail -n 2 "$T/samples_list.err")" \
+    bash -c "[ $RC = 0 ] && cmp -s '$T/s_list.png' '$T/s_ref.png'"
+spread=1
+for i in 1 2 3; do [ "$(node_count $i "POST /v1/render" 200)" -gt "${before[$i]}" ] || spread=0; done
+check samples_list_spread "a node rendered no range" [ $spread = 1 ]
+client samples_list_exr render "$T/s.json" -o "$T/s_list.exr" --split-samples 12 \
+    --server "${NODE_URL[1]}" --server "${NODE_URL[2]}" --server "${NODE_URL[3]}"
+check samples_list_exr_identical "exit $RC" bash -c "[ $RC = 0 ] && cmp -s '$T/s_list.exr' '$T/s_ref.exr'"
+client samples_bad render "$T/s.json" -o "$T/s_bad.png" --split-samples 0 --server "$LB"
+check samples_bad_option "exit $RC: $(head -c 200 "$T/samples_bad.err")" [ "$RC" = 64 ]
+
 # --- SIGKILL of a node mid-frame -----------------------------------------------------
 # kill_mid_frame NAME NODE SCENE SERVERS...: renders in the background, kills
 # NODE once it has answered a few tiles, and expects the identical frame.
@@ -238,6 +265,29 @@ kill_mid_frame() {
 }
 scene "$T/k1.json" 480 360 8 whitted 4
 kill_mid_frame kill_list 3 "$T/k1.json" --server "${NODE_URL[1]}" --server "${NODE_URL[2]}" --server "${NODE_URL[3]}"
+
+# A node killed while it renders a sample range: the range is rendered
+# again elsewhere and the frame is still the one render's.  A fourth node
+# (node 3 is gone) lets 2 tiles of its range through and holds the rest.
+start_node 4
+curl -s -m 30 -o /dev/null -X POST "${NODE_URL[4]}/v1/test/gate?tiles=2"
+scene "$T/sk.json" 160 120 12 cornell 2
+"$RENDER" "$T/sk.json" -o "$T/sk_ref.png" 2>/dev/null
+timeout 200 "$CLIENT" render "$T/sk.json" -o "$T/sk.png" --split-samples 6 \
+    --server "${NODE_URL[1]}" --server "${NODE_URL[2]}" --server "${NODE_URL[4]}" 2>"$T/sk.err" &
+cpid=$!
+node4_held() { [ "$(curl -s -m 5 "${NODE_URL[4]}/v1/test/gate" | sed -n 's/.*"started":\([0-9]*\).*/\1/p')" = 2 ]; }
+wait_until 120 node4_held
+alive=no
+kill -0 $cpid 2>/dev/null && alive=yes
+kill -KILL "${NODE_PID[4]}"
+wait "${NODE_PID[4]}" 2>/dev/null
+wait $cpid
+RC=$?
+check samples_kill_mid_frame "the client had finished before the kill" [ $alive = yes ]
+check samples_kill_completes "exit $RC: $(tail -n 3 "$T/sk.err")" [ "$RC" = 0 ]
+check samples_kill_identical "differs from rayd-render" cmp -s "$T/sk_ref.png" "$T/sk.png"
+
 scene "$T/k2.json" 480 360 8 whitted 5
 kill_mid_frame kill_nginx 2 "$T/k2.json" --server "$LB" --parallel 6
 
