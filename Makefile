@@ -18,14 +18,14 @@
 # the client, libssl (libcrypto's SHA-256 of scene ids, server and client), curl/python3/nginx for the
 # integration tests (nginx balances the scale-out test), wrk for benchmarks,
 # chromium (and a font) for the browser tests of the preview page, valgrind
-# (make test-valgrind), openssl (a test certificate for the TLS test), zlib
-# (the PNG encoder's deflate, core/io/png_encode.c) and pngcheck (the tests
+# (make test-valgrind), openssl (a test certificate for the TLS test), libisal
+# and zlib (the PNG encoder's deflates, core/io/png_encode.c) and pngcheck (the tests
 # check the encoder's files with it), libopenexr-dev (EXR out, core/io/exr.c)
 # and openexr (its exrheader; g++ builds the tests' EXR reader on OpenEXR's
 # C++ library).
 DEB_PKGS := gcc make pkg-config libc6-dev libpng-dev zlib1g-dev libcjson-dev libmicrohttpd-dev \
             libcurl4-openssl-dev libssl-dev curl python3 nginx wrk chromium fonts-dejavu-core pngcheck \
-            clang libclang-rt-14-dev valgrind openssl libopenexr-dev openexr g++
+            clang libclang-rt-14-dev valgrind openssl libopenexr-dev openexr g++ libisal-dev
 
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 
@@ -70,7 +70,7 @@ LDFLAGS_ALL := $(LDSAN) $(LDFLAGS)
 # pkg-config runs in recipes, after `make deps` has installed it.
 EXR_CFLAGS = $(patsubst -I%,-isystem %,$(shell pkg-config --cflags OpenEXR))
 EXR_LIBS = $(shell pkg-config --libs OpenEXR)
-LIBS_CORE = -lpng -lz -lcjson $(EXR_LIBS) -lpthread -lm
+LIBS_CORE = -lpng -lz -lisal -lcjson $(EXR_LIBS) -lpthread -lm
 
 CORE_SRC := $(wildcard core/*/*.c)
 CORE_OBJ := $(CORE_SRC:%.c=$(BUILD)/%.o)
