@@ -23,22 +23,24 @@
  * paper, with either deflate; Paeth, the costliest filter, made the output
  * larger under this measure, so it is not tried.
  *
- * Deflate: with no level asked for (-1), Intel ISA-L (isal_deflate, level
- * 2, raw deflate with a sync flush or, for the last band, the final
- * block): on the 1080p sphere scene (bench/pngbench.c, 2 threads) 15x
- * faster than libpng at level 6 and 3.2x faster than zlib level 4 here,
- * the encode 0.33 of the render time instead of 0.74 (rayd-render --stats,
- * medians of 5).  Its price is size: +5% to +21% over libpng level 6 on
- * the example scenes (+18% on the sphere scene, +21% on paper, the two
- * over the issue's +15%): ISA-L matches greedily from one hash candidate,
- * so it misses the short repeats that zlib's lazy chains find in smooth
- * gradients.  ISA-L level 1, other token buffer sizes, a preset dictionary
- * from the band before and bigram or distinct-bigram filter measures came
- * within 1% of this and no lower; level 3 was 3% larger.  An explicit level 0-9 is zlib's,
- * honoured as asked (filtered strategy, as libpng): level 4 is +6.5% on
- * the sphere scene at 3.2x ISA-L's time, level 1 larger than ISA-L and
- * 2.3x slower.  The Adler-32 of a band is ISA-L's (4x zlib's), combined
- * across bands with zlib's adler32_combine.
+ * Deflate.  With no level asked for (-1), zlib level 4, filtered strategy
+ * (as libpng): -3% to +6.5% against libpng level 6 on the example scenes,
+ * inside the promise of at most +15% by default.  Level 1, the fastest,
+ * is Intel ISA-L (isal_deflate, level 2, raw deflate with a sync flush or,
+ * for the last band, the final block): on the 1080p sphere scene
+ * (bench/pngbench.c, 2 threads) 15x faster than libpng at level 6 and
+ * 3.2x faster than zlib level 4, the encode 0.33 of the render time
+ * instead of 0.74 (rayd-render --stats, medians of 5); zlib's own level 1
+ * was both larger and 2.3x slower, so ISA-L is what "fastest" means here.
+ * Its price is size: +5% to +21% over libpng level 6 (+18% on the sphere
+ * scene, +21% on paper), too much for the default: ISA-L matches greedily
+ * from one hash candidate and misses the short repeats that zlib's lazy
+ * chains find in smooth gradients.  ISA-L level 1, other token buffer
+ * sizes, a preset dictionary from the band before and bigram filter
+ * measures came within 1% of this and no lower; its level 3 was 3%
+ * larger.  Levels 0 and 2-9 are zlib's, as asked.  The Adler-32 of a band
+ * is ISA-L's (4x zlib's), combined across bands with zlib's
+ * adler32_combine.
  *
  * The chunks are those libpng wrote before: IHDR, sRGB, gAMA and cHRM for
  * sRGB, the IDATs (one a band: no copy of the whole stream), IEND.
@@ -57,7 +59,8 @@
 
 #define PNG_BAND_BYTES (256u * 1024u) /* raw bytes of a band, about */
 #define PNG_MAX_THREADS 64
-#define PNG_ISAL_LEVEL 2      /* ISA-L's level for the default (measured) */
+#define PNG_ISAL_LEVEL 2      /* ISA-L's level for --png-level 1 (measured) */
+#define PNG_LEVEL_DEFAULT 4   /* zlib's level when none is asked for (measured) */
 #define PNG_XLOGX_N 4096      /* counts below this have c log2 c in a table */
 
 struct png_band {
@@ -358,7 +361,8 @@ static int encode_bands(struct png_job *j, int threads) {
 
 enum rayd_status rayd_png_encode_threads(const rayd_image *img, int level, int threads, void **buf,
                                          size_t *len, struct rayd_error *err) {
-    if (level < 0 || level > 9) level = -1; /* ISA-L */
+    if (level < 0 || level > 9) level = PNG_LEVEL_DEFAULT;
+    if (level == 1) level = -1; /* the fastest: ISA-L (smaller and faster than zlib's 1) */
     size_t rowb = (size_t)img->w * 3 + 1;
     int band_rows = (int)(PNG_BAND_BYTES / rowb);
     if (band_rows < 1) band_rows = 1;

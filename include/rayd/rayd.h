@@ -280,8 +280,9 @@ enum rayd_status rayd_image_blit(rayd_image *dst, const rayd_image *src, int x, 
                                  struct rayd_error *err);
 
 /* PNG encoding to memory: *buf (malloc'd, free with rayd_free) holds *len
- * bytes of an 8-bit RGB PNG.  level is the zlib level 0-9, or -1 for the
- * default: ISA-L's faster deflate (see core/io/png_encode.c). */
+ * bytes of an 8-bit RGB PNG.  level is the deflate level 0-9 (1, the
+ * fastest, is ISA-L's; the others zlib's), or -1 for the default, zlib's 4
+ * (see core/io/png_encode.c). */
 enum rayd_status rayd_png_encode(const rayd_image *img, int level, void **buf, size_t *len,
                                  struct rayd_error *err);
 /* rayd_png_encode on threads threads (<= 0: every core).  The image is
