@@ -22,10 +22,12 @@
 # and zlib (the PNG encoder's deflates, core/io/png_encode.c) and pngcheck (the tests
 # check the encoder's files with it), libopenexr-dev (EXR out, core/io/exr.c)
 # and openexr (its exrheader; g++ builds the tests' EXR reader on OpenEXR's
-# C++ library).
+# C++ library), assimp-testmodels (real model files others made, read by
+# the tests).
 DEB_PKGS := gcc make pkg-config libc6-dev libpng-dev zlib1g-dev libcjson-dev libmicrohttpd-dev \
             libcurl4-openssl-dev libssl-dev curl python3 nginx wrk chromium fonts-dejavu-core pngcheck \
-            clang libclang-rt-14-dev valgrind openssl libopenexr-dev openexr g++ libisal-dev
+            clang libclang-rt-14-dev valgrind openssl libopenexr-dev openexr g++ libisal-dev \
+            assimp-testmodels
 
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 

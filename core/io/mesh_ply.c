@@ -11,7 +11,12 @@
  *   - element `vertex`: x y z (required), nx ny nz (all three, optional),
  *     u v / s t / texture_u texture_v / texture_s texture_t (optional);
  *   - element `face`: the list `vertex_indices` (or `vertex_index`), each
- *     polygon fan-triangulated (0,1,2), (0,2,3), ...
+ *     polygon fan-triangulated (0,1,2), (0,2,3), ...;
+ *   - element `tristrips` (several Stanford scans have it instead of
+ *     faces): the list `vertex_indices` holds triangle strips, -1 ending
+ *     one; strip a b c d e gives (a,b,c), (c,b,d), (c,d,e), ... -- every
+ *     other triangle turned so all keep the strip's winding -- and the
+ *     triangles that strips use to join (two equal corners) are dropped.
  * Every other element and property, lists included, is read past: a record
  * of fixed size in a binary file is skipped in one step, anything else value
  * by value.  All PLY scalar types (char/int8 ... double/float64) may hold
@@ -54,7 +59,7 @@
 
 enum ply_type { PLY_NONE, PLY_I8, PLY_U8, PLY_I16, PLY_U16, PLY_I32, PLY_U32, PLY_F32, PLY_F64 };
 enum ply_format { PLY_ASCII = 1, PLY_LE, PLY_BE };
-enum ply_kind { PLY_ELEM_OTHER, PLY_ELEM_VERTEX, PLY_ELEM_FACE };
+enum ply_kind { PLY_ELEM_OTHER, PLY_ELEM_VERTEX, PLY_ELEM_FACE, PLY_ELEM_STRIPS };
 enum ply_role { PLY_X, PLY_Y, PLY_Z, PLY_NX, PLY_NY, PLY_NZ, PLY_U, PLY_V, PLY_INDICES, PLY_OTHER };
 
 #define PLY_NROLES PLY_OTHER
@@ -86,7 +91,7 @@ struct ply {
     enum ply_format format;
     struct ply_elem *elems;
     size_t nelems, cap_elems;
-    size_t vertex, face; /* index in elems + 1, 0 if absent */
+    size_t vertex, face, strips; /* index in elems + 1, 0 if absent */
     uint32_t max_verts, max_tris, nverts;
     const struct ply_elem *cur; /* element being read, for messages */
     uint64_t rec;
@@ -204,7 +209,7 @@ static enum ply_role ply_role_of(enum ply_kind kind, bool list, struct ply_tok n
                   {"u", PLY_U},         {"v", PLY_V},         {"s", PLY_U},
                   {"t", PLY_V},         {"texture_u", PLY_U}, {"texture_v", PLY_V},
                   {"texture_s", PLY_U}, {"texture_t", PLY_V}};
-    if (kind == PLY_ELEM_FACE && list &&
+    if ((kind == PLY_ELEM_FACE || kind == PLY_ELEM_STRIPS) && list &&
         (ply_is(name, "vertex_indices") || ply_is(name, "vertex_index")))
         return PLY_INDICES;
     if (kind != PLY_ELEM_VERTEX || list) return PLY_OTHER;
@@ -248,10 +253,14 @@ static enum rayd_status ply_element_line(struct ply *P, const char *p, const cha
         return ply_hfail(P, RAYD_E_INVALID, "expected 'element NAME COUNT'");
     if (!ply_uint(count, &n))
         return ply_hfail(P, RAYD_E_INVALID, "bad element count '%s'", ply_q(q, count));
-    enum ply_kind kind = ply_is(name, "vertex") ? PLY_ELEM_VERTEX
-                         : ply_is(name, "face") ? PLY_ELEM_FACE
-                                                : PLY_ELEM_OTHER;
-    size_t *slot = kind == PLY_ELEM_VERTEX ? &P->vertex : kind == PLY_ELEM_FACE ? &P->face : NULL;
+    enum ply_kind kind = ply_is(name, "vertex")      ? PLY_ELEM_VERTEX
+                         : ply_is(name, "face")      ? PLY_ELEM_FACE
+                         : ply_is(name, "tristrips") ? PLY_ELEM_STRIPS
+                                                     : PLY_ELEM_OTHER;
+    size_t *slot = kind == PLY_ELEM_VERTEX   ? &P->vertex
+                   : kind == PLY_ELEM_FACE   ? &P->face
+                   : kind == PLY_ELEM_STRIPS ? &P->strips
+                                             : NULL;
     if (slot && *slot)
         return ply_hfail(P, RAYD_E_INVALID, "a second '%s' element", ply_q(q, name));
     if (!array_grow((void **)&P->elems, &P->cap_elems, P->nelems + 1, sizeof *P->elems))
@@ -308,6 +317,10 @@ static enum rayd_status ply_header_line(struct ply *P, const char *p, const char
         *done = true;
         return RAYD_OK;
     }
+    /* Blender 2.4x wrote a "Created by ..." line without "comment": a line
+     * of no known keyword before the first element is read as a comment;
+     * among the elements it is most likely a typo, and refused. */
+    if (P->nelems == 0) return RAYD_OK;
     return ply_hfail(P, RAYD_E_INVALID, "unknown keyword '%s'", ply_q(q, kw));
 }
 
@@ -385,19 +398,23 @@ static enum rayd_status ply_check_header(struct ply *P) {
     if (st == RAYD_OK) st = ply_need_role(P, v, PLY_Y);
     if (st == RAYD_OK) st = ply_need_role(P, v, PLY_Z);
     if (st != RAYD_OK) return st;
-    if (!P->face)
-        return ply_hfail(P, RAYD_E_INVALID, "no 'face' element (a point cloud, not a mesh)");
-    const struct ply_elem *f = &P->elems[P->face - 1];
-    if (!f->role_seen[PLY_INDICES])
-        return ply_hfail(P, RAYD_E_INVALID, "element 'face' has no list 'vertex_indices'");
+    if (!P->face && !P->strips)
+        return ply_hfail(P, RAYD_E_INVALID,
+                         "no 'face' or 'tristrips' element (a point cloud, not a mesh)");
+    for (int k = 0; k < 2; k++) {
+        size_t at = k ? P->strips : P->face;
+        if (at && !P->elems[at - 1].role_seen[PLY_INDICES])
+            return ply_hfail(P, RAYD_E_INVALID, "element '%s' has no list 'vertex_indices'",
+                             k ? "tristrips" : "face");
+    }
     st = ply_check_sizes(P);
     if (st != RAYD_OK) return st;
     if (v->count > P->max_verts)
         return ply_hfail(P, RAYD_E_LIMIT, "%llu vertices exceed the limit of %u",
                          (unsigned long long)v->count, P->max_verts);
-    if (f->count > P->max_tris)
+    if (P->face && P->elems[P->face - 1].count > P->max_tris)
         return ply_hfail(P, RAYD_E_LIMIT, "%llu faces exceed the limit of %u triangles",
-                         (unsigned long long)f->count, P->max_tris);
+                         (unsigned long long)P->elems[P->face - 1].count, P->max_tris);
     return RAYD_OK;
 }
 
@@ -547,12 +564,48 @@ static enum rayd_status ply_polygon(struct ply *P, const struct ply_prop *q) {
     return RAYD_OK;
 }
 
+/* One strip index: a vertex, or -1 (*restart) ending the strip. */
+static enum rayd_status ply_strip_index(struct ply *P, enum ply_type t, uint32_t *out,
+                                        bool *restart) {
+    size_t at = P->at;
+    double d = 0;
+    enum rayd_status st = ply_value(P, t, &d);
+    *restart = st == RAYD_OK && d == -1;
+    if (st != RAYD_OK || *restart) return st;
+    P->at = at; /* read again as an index, for its checks and messages */
+    return ply_index(P, t, out);
+}
+
+/* Reads one list of triangle strips and adds their triangles. */
+static enum rayd_status ply_strips(struct ply *P, const struct ply_prop *q) {
+    uint32_t n = 0, v[3] = {0, 0, 0}, idx = 0, k = 0; /* k: indices in the strip so far */
+    enum rayd_status st = ply_count(P, q->count_type, &n);
+    if (st != RAYD_OK) return st;
+    if (P->format != PLY_ASCII && (P->len - P->at) / ply_size[q->type] < n) return ply_truncated(P);
+    for (uint32_t i = 0; i < n; i++) {
+        bool restart = false;
+        st = ply_strip_index(P, q->type, &idx, &restart);
+        if (st != RAYD_OK) return st;
+        if (restart) {
+            k = 0;
+            continue;
+        }
+        v[0] = v[1], v[1] = v[2], v[2] = idx;
+        if (++k < 3 || v[0] == v[1] || v[1] == v[2] || v[0] == v[2]) continue;
+        st = k % 2 ? ply_triangle(P, v[0], v[1], v[2]) : ply_triangle(P, v[1], v[0], v[2]);
+        if (st != RAYD_OK) return st;
+    }
+    return RAYD_OK;
+}
+
 static enum rayd_status ply_face(struct ply *P, const struct ply_elem *e) {
     bool done = false;
     for (size_t k = 0; k < e->nprops; k++) {
         const struct ply_prop *q = &e->props[k];
         bool use = q->role == PLY_INDICES && !done;
-        enum rayd_status st = use ? ply_polygon(P, q) : ply_skip(P, q);
+        enum rayd_status st = !use                        ? ply_skip(P, q)
+                              : e->kind == PLY_ELEM_STRIPS ? ply_strips(P, q)
+                                                           : ply_polygon(P, q);
         if (st != RAYD_OK) return st;
         done = done || use;
     }
@@ -636,7 +689,9 @@ static void ply_records_body(void *ctx, size_t lo, size_t hi) {
  * reader then finds the first and says where it is). */
 static bool ply_records(struct ply *P, const struct ply_elem *e) {
     struct ply_job j = {.P = P, .e = e, .at = P->at};
-    if (P->format == PLY_ASCII || P->threads == 1 || e->count < 2) return false;
+    if (P->format == PLY_ASCII || P->threads == 1 || e->count < 2 || e->kind == PLY_ELEM_STRIPS ||
+        (e->kind == PLY_ELEM_FACE && P->ntri != 0)) /* record r makes triangle r */
+        return false;
     j.rec = ply_fixed_record(e, &j.list_at);
     if (!j.rec || (P->len - P->at) / j.rec < e->count) return false;
     if (e->kind == PLY_ELEM_FACE &&
@@ -672,7 +727,8 @@ static enum rayd_status ply_body(struct ply *P) {
 /* Allocates the vertex arrays and a first guess of the triangle array. */
 static enum rayd_status ply_alloc(struct ply *P) {
     const struct ply_elem *v = &P->elems[P->vertex - 1];
-    const struct ply_elem *f = &P->elems[P->face - 1];
+    /* strips: about two triangles a vertex, the usual ratio of a surface */
+    uint64_t faces = P->face ? P->elems[P->face - 1].count : 2 * v->count;
     size_t n = (size_t)v->count ? (size_t)v->count : 1;
     P->nverts = (uint32_t)v->count;
     P->pos = huge_alloc(n * 3 * sizeof *P->pos);
@@ -682,7 +738,7 @@ static enum rayd_status ply_alloc(struct ply *P) {
     if (uvs) P->uv = malloc(n * 2 * sizeof *P->uv);
     /* Room for one triangle per face, up to a million: a face record can
      * be as short as two bytes, so the count alone is a weak bound. */
-    size_t guess = f->count < (1u << 20) ? (size_t)f->count + 1 : (size_t)1 << 20;
+    size_t guess = faces < (1u << 20) ? (size_t)faces + 1 : (size_t)1 << 20;
     bool ok = P->pos && (!normals || P->normal) && (!uvs || P->uv) &&
               array_grow((void **)&P->tri, &P->cap_tri, guess * 3, sizeof *P->tri);
     return ok ? RAYD_OK : ply_hfail(P, RAYD_E_NOMEM, "out of memory for %u vertices", P->nverts);

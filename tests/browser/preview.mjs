@@ -443,7 +443,7 @@ try {
     const cornell = JSON.parse(examples.find((e) => e.name === "cornell").text);
     for (const [w, h] of [[320, 320], [1280, 720]])
       for (let run = 0; run < 3; run++) {
-        cornell.render = { ...cornell.render, width: w, height: h, samples: 128, seed: 300 + run };
+        cornell.render = { ...cornell.render, width: w, height: h, samples: w === 320 ? 128 : 32, seed: 300 + run };
         const text = JSON.stringify(cornell, null, 2);
         const link = await page.evaluate(async (t) => (await import("./share.js")).linkFor("", t), text);
         const p = await context.newPage();

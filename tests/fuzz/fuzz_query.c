@@ -1,10 +1,12 @@
 /* fuzz_query.c -- libFuzzer target: the region query parser (api_region)
  * of the image routes, on query strings as they arrive after "?".
  *
- * The first input byte picks the image size (1..64 x 1..48); the rest is the
- * raw query string, percent-decoded as libmicrohttpd does.  An accepted
- * region must lie inside the image with w, h >= 1; a refused one must be a
- * 400 bad_region or bad_parameter.  Anything else aborts.
+ * The first input byte picks the image size (1..64 x 1..48) and, with its
+ * high bit, POST /v1/render's parser (api_target: format and sample ranges
+ * too); the rest is the raw query string, percent-decoded as libmicrohttpd
+ * does.  An accepted region must lie inside the image with w, h >= 1, an
+ * accepted sample range inside the scene's samples; a refused one must be
+ * a 400 bad_region or bad_parameter.  Anything else aborts.
  */
 #include "fuzz_http_common.h"
 
@@ -28,7 +30,7 @@ static void fq_init(void)
         char json[400];
         snprintf(json, sizeof json,
                  "{\"camera\": {\"position\": [0, 0, 5], \"look_at\": [0, 0, 0], \"fov_x\": 40},"
-                 " \"render\": {\"width\": %d, \"height\": %d},"
+                 " \"render\": {\"width\": %d, \"height\": %d, \"samples\": 7},"
                  " \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, 0], \"radius\": 1}]}",
                  1 + i * 4 + (i == 15 ? 3 : 0), 1 + i * 3 + (i == 15 ? 2 : 0));
         if (rayd_scene_parse(json, strlen(json), NULL, &fq_scenes[i], NULL) != RAYD_OK)
@@ -51,7 +53,16 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (!r)
         abort();
     struct rayd_region reg = {-7, -7, -7, -7};
-    bool ok = api_region(r, scene, &reg);
+    struct work_target what = {.k0 = -7};
+    bool target = data[0] & 0x80;
+    bool ok = target ? api_target(r, scene, &what) : api_region(r, scene, &reg);
+    if (ok && target) {
+        reg = what.reg;
+        if (what.format == WORK_SUMS && (what.k0 < 0 || what.k1 <= what.k0 || what.k1 > 7)) {
+            fprintf(stderr, "fuzz_query: accepted samples %d-%d of 7\n", what.k0, what.k1);
+            abort();
+        }
+    }
     if (ok) {
         if (r->pending || reg.x < 0 || reg.y < 0 || reg.w < 1 || reg.h < 1 ||
             (long)reg.x + reg.w > info.width || (long)reg.y + reg.h > info.height) {

@@ -733,10 +733,53 @@ PLY_CASE(ply_bad_type, "ply\nformat ascii 1.0\nelement vertex 3\nproperty float 
 PLY_CASE(ply_float_count, "ply\nformat ascii 1.0\nelement vertex 3\n" PLY_XYZ
                           "element face 1\nproperty list float int vertex_indices\n")
 PLY_CASE(ply_orphan_prop, "ply\nformat ascii 1.0\nproperty float x\n")
-PLY_CASE(ply_unknown_kw, "ply\nformat ascii 1.0\nfoo bar\n")
+PLY_CASE(ply_unknown_kw, "ply\nformat ascii 1.0\nelement vertex 1\nfoo bar\n")
+PLY_CASE(ply_created_by, "ply\nformat ascii 1.0\nCreated by Blender3D 247\n")
 PLY_CASE(ply_no_format, "ply\nelement vertex 1\n" PLY_XYZ PLY_FACE "end_header\n")
 PLY_CASE(ply_fraction_index, "ply\nformat ascii 1.0\nelement vertex 3\n" PLY_XYZ PLY_FACE
                              "end_header\n0 0 0\n1 0 0\n1 1 0\n3 0 1.5 2\n")
+
+PLY_CASE(ply_strip_index_out, "ply\nformat ascii 1.0\nelement vertex 5\n" PLY_XYZ
+                              "element tristrips 1\nproperty list int int vertex_indices\n"
+                              "end_header\n0 0 0\n1 0 0\n0 1 0\n1 1 0\n2 1 0\n4 0 1 2 7\n")
+PLY_CASE(ply_strip_no_indices, "ply\nformat ascii 1.0\nelement vertex 1\n" PLY_XYZ
+                               "element tristrips 1\nproperty int vertex_indices\nend_header\n0 0 0\n3\n")
+
+/* Triangle strips (element tristrips, as in Stanford scans): alternate
+ * triangles turned to keep the winding, -1 ending a strip, the joining
+ * triangles (two equal corners) dropped; in ascii and binary alike. */
+static void test_ply_tristrips(void) {
+    /* 6 vertices: strip 0 1 2 3 (two triangles), -1, strip 3 2 4 4 5 (a
+     * repeated index: the degenerate ones dropped) */
+    static const char *text = "ply\nformat ascii 1.0\nelement vertex 6\n" PLY_XYZ
+                              "element tristrips 1\nproperty list int int vertex_indices\n"
+                              "end_header\n0 0 0\n1 0 0\n0 1 0\n1 1 0\n2 0 0\n2 1 0\n"
+                              "10 0 1 2 3 -1 3 2 4 4 5\n";
+    struct mesh_data m = {0};
+    struct rayd_error e = {0};
+    CHECK(ply(text, &m, &e) == RAYD_OK, "%s", e.message);
+    CHECK(m.ntris == 3 && tri_is(&m, 0, 0, 1, 2) && tri_is(&m, 1, 2, 1, 3) &&
+              tri_is(&m, 2, 3, 2, 4),
+          "strips: %u triangles", m.ntris);
+    mesh_data_free(&m);
+    static struct bb w;
+    w.n = 0;
+    w.be = false;
+    bb_text(&w, "ply\nformat binary_little_endian 1.0\nelement vertex 4\n" PLY_XYZ
+                "element tristrips 1\nproperty list int int vertex_indices\nend_header\n");
+    static const float V[4][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}};
+    for (int i = 0; i < 4; i++)
+        for (int k = 0; k < 3; k++) {
+            uint32_t u;
+            memcpy(&u, &V[i][k], 4);
+            bb_raw(&w, u, 4);
+        }
+    bb_raw(&w, 4, 4);
+    for (int k = 0; k < 4; k++) bb_raw(&w, (uint64_t)k, 4);
+    CHECK(ply_n(w.b, w.n, NULL, &m, &e) == RAYD_OK, "%s", e.message);
+    CHECK(m.ntris == 2 && tri_is(&m, 0, 0, 1, 2) && tri_is(&m, 1, 2, 1, 3), "binary strip");
+    mesh_data_free(&m);
+}
 
 static void test_ply_errors(void) {
     CHECK_FAILS(ply_bad_format, RAYD_E_INVALID, "PLY header line 2: unknown format 'binary_middle_endian'");
@@ -751,7 +794,12 @@ static void test_ply_errors(void) {
     CHECK_FAILS(ply_index_negative, RAYD_E_INVALID, "PLY face 0: vertex index -1 is out of range (0..2)");
     CHECK_FAILS(ply_fraction_index, RAYD_E_INVALID, "PLY face 0: vertex index 1.5 is not an integer");
     CHECK_FAILS(ply_no_z, RAYD_E_INVALID, "PLY header: element 'vertex' has no property 'z'");
-    CHECK_FAILS(ply_no_face, RAYD_E_INVALID, "PLY header: no 'face' element");
+    CHECK_FAILS(ply_no_face, RAYD_E_INVALID,
+                "PLY header: no 'face' or 'tristrips' element (a point cloud, not a mesh)");
+    CHECK_FAILS(ply_strip_index_out, RAYD_E_INVALID,
+                "PLY tristrips 0: vertex index 7 is out of range (0..4)");
+    CHECK_FAILS(ply_strip_no_indices, RAYD_E_INVALID,
+                "element 'tristrips' has no list 'vertex_indices'");
     CHECK_FAILS(ply_no_faces, RAYD_E_INVALID, "PLY file has no faces");
     CHECK_FAILS(ply_no_indices, RAYD_E_INVALID, "element 'face' has no list 'vertex_indices'");
     CHECK_FAILS(ply_two_corners, RAYD_E_INVALID, "PLY face 0: polygon has 2 vertices");
@@ -761,7 +809,9 @@ static void test_ply_errors(void) {
     CHECK_FAILS(ply_bad_type, RAYD_E_INVALID, "PLY header line 5: unknown property type 'half'");
     CHECK_FAILS(ply_float_count, RAYD_E_INVALID, "PLY header line 8: bad list count type 'float'");
     CHECK_FAILS(ply_orphan_prop, RAYD_E_INVALID, "PLY header line 3: 'property' before any 'element'");
-    CHECK_FAILS(ply_unknown_kw, RAYD_E_INVALID, "PLY header line 3: unknown keyword 'foo'");
+    CHECK_FAILS(ply_unknown_kw, RAYD_E_INVALID, "PLY header line 4: unknown keyword 'foo'");
+    /* before any element, a line of no keyword is a comment (Blender 2.4x) */
+    CHECK_FAILS(ply_created_by, RAYD_E_INVALID, "PLY header: no 'end_header' line");
     CHECK_FAILS(ply_no_format, RAYD_E_INVALID, "PLY header: no 'format' line");
 }
 
@@ -1093,6 +1143,7 @@ int main(void) {
     RUN(test_ply_binary_both_orders);
     RUN(test_ply_binary_truncated);
     RUN(test_ply_binary_int_counts_and_big_list);
+    RUN(test_ply_tristrips);
     RUN(test_ply_errors);
     RUN(test_ply_limits);
     RUN(test_ply_binary_large_on_threads);
