@@ -132,6 +132,24 @@ void api_jobs_post(struct http_req *r, const char *unused)
     scenes_release(e);
 }
 
+/* "noise": the estimate with 6 decimals, or null before there is one. */
+static void api_add_noise(cJSON *o, double noise)
+{
+    if (noise >= 0)
+        json_add_fixed(o, "noise", noise, 6);
+    else
+        cJSON_AddNullToObject(o, "noise");
+}
+
+/* "image_url" of pass k of job id. */
+static void api_add_pass_url(cJSON *o, const char *id, int k)
+{
+    char url[100], tail[40];
+    snprintf(tail, sizeof tail, "/image.png?pass=%d", k);
+    api_job_url(url, sizeof url, id, tail);
+    cJSON_AddStringToObject(o, "image_url", url);
+}
+
 /* A progressive job's "passes" object. */
 static void api_job_passes(cJSON *o, const char *id, const struct jobs_passes *p)
 {
@@ -141,21 +159,14 @@ static void api_job_passes(cJSON *o, const char *id, const struct jobs_passes *p
     cJSON_AddNumberToObject(x, "samples", p->samples);
     cJSON_AddNumberToObject(x, "samples_target", p->samples_target);
     json_add_fixed(x, "time_s", p->time_s, 3);
-    if (p->noise >= 0)
-        json_add_fixed(x, "noise", p->noise, 6);
-    else
-        cJSON_AddNullToObject(x, "noise");
+    api_add_noise(x, p->noise);
     const char *why = passes_stop_name(p->stopped);
     if (why)
         cJSON_AddStringToObject(x, "stopped_by", why);
     else
         cJSON_AddNullToObject(x, "stopped_by");
-    if (p->done) {
-        char url[100], tail[40];
-        snprintf(tail, sizeof tail, "/image.png?pass=%d", p->done);
-        api_job_url(url, sizeof url, id, tail);
-        cJSON_AddStringToObject(x, "image_url", url);
-    }
+    if (p->done)
+        api_add_pass_url(x, id, p->done);
 }
 
 /* The job's status document (docs/api.md: key order and decimals). */
@@ -360,19 +371,13 @@ static size_t api_sse_event(char *out, size_t size, const char *name, cJSON *o)
 static size_t api_sse_pass(struct api_sse *a, const struct events_item *it, cJSON *o, char *out,
                            size_t size)
 {
-    char url[100], tail[40];
     cJSON_AddNumberToObject(o, "pass", it->done);
     cJSON_AddNumberToObject(o, "passes", it->total);
     cJSON_AddNumberToObject(o, "samples", it->samples);
     json_add_fixed(o, "time_s", it->time_s, 3);
-    if (it->noise >= 0)
-        json_add_fixed(o, "noise", it->noise, 6);
-    else
-        cJSON_AddNullToObject(o, "noise");
+    api_add_noise(o, it->noise);
     json_add_fixed(o, "progress", it->progress, 4);
-    snprintf(tail, sizeof tail, "/image.png?pass=%d", it->done);
-    api_job_url(url, sizeof url, a->id, tail);
-    cJSON_AddStringToObject(o, "image_url", url);
+    api_add_pass_url(o, a->id, it->done);
     return api_sse_event(out, size, "pass", o);
 }
 
