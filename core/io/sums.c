@@ -3,11 +3,13 @@
  * When one frame's samples are spread over many nodes, each node answers
  * the exact sums of its range (render.c explains why they are exact) and
  * the client adds them up.  The bytes must carry those sums without a
- * single bit lost, on any machine: each sum is an integer multiple of
- * 2^-22 below 2^31, so it travels as that integer, 64-bit little-endian,
- * after a 24-byte header ("RAYDSUM1", width, height, k0, k1 as 32-bit
- * little-endian integers).  Decoding checks the header, the size and that
- * every value is a sum a render could give.
+ * single bit lost, on any machine: each travels as its IEEE 754 double,
+ * 64 bits little-endian, after a 24-byte header ("RAYDSUM1", width,
+ * height, k0, k1 as 32-bit little-endian integers).  (A sum of several
+ * samples is an exact multiple of 2^-22; the one-sample centre image is
+ * not rounded at all, so the bits themselves are sent.)  Decoding checks
+ * the header, the size and that every value is a sum a render could give:
+ * finite, not negative, at most the cap times the samples.
  */
 #include <stdint.h>
 #include <stdlib.h>
@@ -38,7 +40,8 @@ enum rayd_status rayd_sums_encode(int w, int h, int k0, int k1, const double *su
     put_u32(p + 16, (uint32_t)k0);
     put_u32(p + 20, (uint32_t)k1);
     for (size_t i = 0; i < count; i++) {
-        uint64_t v = (uint64_t)(int64_t)(sums[i] * RENDER_SUM_SCALE); /* exact */
+        uint64_t v;
+        memcpy(&v, &sums[i], 8);
         for (int b = 0; b < 8; b++) p[SUMS_HEADER + 8 * i + (size_t)b] = (unsigned char)(v >> (8 * b));
     }
     *buf = p;
@@ -71,15 +74,15 @@ enum rayd_status rayd_sums_decode(const void *buf, size_t len, struct rayd_sums_
     double *out = malloc(count * sizeof *out);
     if (!out) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for sums");
     /* the largest sum a render gives: every sample at the cap */
-    int64_t max = (int64_t)(RENDER_SUM_CAP * RENDER_SUM_SCALE) * (hdr->k1 - hdr->k0);
+    double max = RENDER_SUM_CAP * (hdr->k1 - hdr->k0);
     for (size_t i = 0; i < count; i++) {
         uint64_t v = 0;
         for (int b = 0; b < 8; b++) v |= (uint64_t)p[SUMS_HEADER + 8 * i + (size_t)b] << (8 * b);
-        if ((int64_t)v < 0 || (int64_t)v > max) {
+        memcpy(&out[i], &v, 8);
+        if (!(out[i] >= 0 && out[i] <= max)) { /* NaN fails too */
             free(out);
             return err_set(err, RAYD_E_PARSE, NULL, "sum %zu is out of range", i);
         }
-        out[i] = (double)(int64_t)v * (1.0 / RENDER_SUM_SCALE);
     }
     *sums = out;
     return RAYD_OK;

@@ -35,7 +35,8 @@
  * equal the single-node render byte for byte.  The rounding (at most
  * 1.2e-7 a sample) is below a float's step at 1.0 and far below an 8-bit
  * or 16-bit level; the cap (32768 times white) only touches fireflies.
- * A one-sample render is no sum and is not rounded.
+ * A one-sample render (the centre ray) is no sum and is not rounded, in a
+ * pass either.
  */
 #include <math.h>
 #include <pthread.h>
@@ -201,7 +202,7 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h,
         block_sample(s, x, y, active, centre, k, n, &c, rays);
         for (uint32_t m = sum ? active : 0; m; m &= m - 1) {
             int q = __builtin_ctz(m);
-            acc[q] = v3_add(acc[q], render_sum_term(c.v[q]));
+            acc[q] = v3_add(acc[q], n == 1 ? c.v[q] : render_sum_term(c.v[q])); /* centre: as is */
         }
     }
     if (o->sum) {

@@ -243,8 +243,7 @@ enum rayd_status rayd_accum_add_sums(rayd_accum *acc, const double *sums, int sa
                                      struct rayd_error *err);
 /* The sums of a sample range as bytes (application/x-rayd-sums): "RAYDSUM1",
  * then width, height, k0, k1 as 32-bit little-endian integers, then each
- * sum times 2^22 -- an exact integer -- as a 64-bit little-endian integer,
- * rows packed, RGB.  *buf (free with rayd_free) holds *len bytes. */
+ * sum as an IEEE 754 double, 64-bit little-endian, rows packed, RGB.  *buf (free with rayd_free) holds *len bytes. */
 enum rayd_status rayd_sums_encode(int width, int height, int k0, int k1, const double *sums,
                                   void **buf, size_t *len, struct rayd_error *err);
 struct rayd_sums_header {

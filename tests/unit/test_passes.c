@@ -267,6 +267,40 @@ static void check_ranges(const char *path, int samples, const int *cuts, int ncu
     rayd_scene_free(s);
 }
 
+/* The one-sample (centre) image is no rounded sum: as a pass and as a
+ * range sent through its bytes, it is the plain one-sample render. */
+static void test_centre_image_is_not_rounded(void) {
+    rayd_scene *s = scene_sized("scenes/cornell.json", 96, 72, 1);
+    rayd_accum *a = NULL, *b = NULL, *sum = NULL;
+    if (!s) return;
+    rayd_image *want = render_all(s, 2), *got = NULL, *got2 = NULL;
+    void *bytes = NULL;
+    size_t len = 0;
+    struct rayd_sums_header hdr;
+    double *back = NULL;
+    CHECK(rayd_accum_new(s, NULL, &a, NULL) == RAYD_OK &&
+              rayd_render_pass(s, NULL, a, 0, 1, NULL) == RAYD_OK &&
+              rayd_accum_image(a, &got, NULL) == RAYD_OK && same_image(got, want),
+          "a one-sample pass is the plain one-sample render");
+    CHECK(rayd_accum_new(s, NULL, &b, NULL) == RAYD_OK &&
+              rayd_render_sample_range(s, NULL, b, 0, 1, NULL) == RAYD_OK &&
+              rayd_sums_encode(96, 72, 0, 1, rayd_accum_sums(b), &bytes, &len, NULL) == RAYD_OK &&
+              rayd_sums_decode(bytes, len, &hdr, &back, NULL) == RAYD_OK &&
+              rayd_accum_new_sized(96, 72, &sum, NULL) == RAYD_OK &&
+              rayd_accum_add_sums(sum, back, 1, NULL) == RAYD_OK &&
+              rayd_accum_image(sum, &got2, NULL) == RAYD_OK && same_image(got2, want),
+          "the one-sample range through its bytes is the plain one-sample render");
+    rayd_image_free(want);
+    rayd_image_free(got);
+    rayd_image_free(got2);
+    rayd_accum_free(a);
+    rayd_accum_free(b);
+    rayd_accum_free(sum);
+    rayd_free(bytes);
+    rayd_free(back);
+    rayd_scene_free(s);
+}
+
 static void test_sample_ranges_merge_exactly(void) {
     static const int three[] = {0, 3, 5, 8}, ones[] = {0, 1, 2, 3, 4}, odd[] = {0, 7, 13};
     check_ranges("scenes/cornell.json", 8, three, 4);
@@ -303,6 +337,7 @@ int main(void) {
     RUN(test_tone_curves);
     RUN(test_bad_passes_are_refused);
     RUN(test_sample_ranges_merge_exactly);
+    RUN(test_centre_image_is_not_rounded);
     RUN(test_bad_sums_are_refused);
     return check_failures_ != 0;
 }
