@@ -52,7 +52,7 @@ check exr_from_result_cache "status $code, type $(header Content-Type), hits $be
 
 # Bad formats: 400, the parameter named.
 code=$(post_json "/v1/render?format=jpeg" "$T/path.json")
-check bad_format "status $code $(cat "$T/body")" bash -c "[ $code = 400 ] && grep -q 'must be png, png16 or exr' '$T/body'"
+check bad_format "status $code $(cat "$T/body")" bash -c "[ $code = 400 ] && grep -q 'must be png, png16, exr or sums' '$T/body'"
 # param_err: the body is the API's 400 bad_parameter naming parameter format
 param_err() { err_is "$T/body" 400 bad_parameter && [ "$(json "$T/body" 'j["error"]["parameter"]')" = format ]; }
 check bad_format_json "not the API error naming format: $(cat "$T/body")" param_err
