@@ -162,6 +162,7 @@ static void sched_take(struct task *t)
     }
     if (t->next_tile == t->ntiles)
         task_unqueue(t);
+    task_taken(t);
     t->running++;
     sched_busy++;
 }

@@ -126,24 +126,43 @@ struct task *task_find(const char *key)
     return NULL;
 }
 
-/* "First" is the smallest enqueue time, where an interactive task counts as
- * TASK_AGING seconds older than it is: a small request overtakes a large
- * frame at the next tile boundary, while a bulk task that has waited longer
- * than TASK_AGING is served before newer small ones, so nothing starves. */
+/* Two classes, each served oldest first: interactive tasks (previews,
+ * tiles, small regions) and bulk ones.  An interactive task gets the next
+ * free worker whatever the age of the bulk backlog -- so a small request
+ * waits at most one bulk tile -- except that when both classes wait, every
+ * TASK_BULK_EVERY-th tile goes to bulk work, so a stream of small requests
+ * cannot starve a frame either.  (An older rule let a bulk task queued
+ * 2 s before a small one win every tile until it finished,
+ * which with big path-traced jobs meant hours.) */
+static int task_interactive_streak; /* interactive tiles taken while bulk waited */
+
+static bool task_waiting(const struct task *t)
+{
+    return t->next_tile < t->ntiles && !atomic_load(&t->cancel) && !t->finalizing;
+}
+
 struct task *task_pick(void)
 {
-    struct task *best = NULL;
-    double best_score = 0;
+    struct task *oldest[2] = {NULL, NULL}; /* [interactive] */
     for (struct task *t = task_active; t; t = t->next) {
-        if (t->next_tile >= t->ntiles || atomic_load(&t->cancel) || t->finalizing)
-            continue;
-        double score = t->t_enq - (t->interactive ? TASK_AGING : 0);
-        if (!best || score < best_score) {
-            best = t;
-            best_score = score;
-        }
+        struct task **o = &oldest[t->interactive];
+        if (task_waiting(t) && (!*o || t->t_enq < (*o)->t_enq))
+            *o = t;
     }
-    return best;
+    if (oldest[1] && oldest[0] && task_interactive_streak >= TASK_BULK_EVERY - 1)
+        return oldest[0];
+    return oldest[1] ? oldest[1] : oldest[0];
+}
+
+void task_taken(const struct task *t)
+{
+    bool bulk_waits = false;
+    for (const struct task *u = task_active; u && !bulk_waits; u = u->next)
+        bulk_waits = !u->interactive && task_waiting(u);
+    if (!t->interactive || !bulk_waits)
+        task_interactive_streak = 0;
+    else
+        task_interactive_streak++;
 }
 
 enum work_submit task_submit(struct cache_entry *scene, struct task **fresh, struct task **out)

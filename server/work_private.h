@@ -35,7 +35,7 @@
 
 #define TASK_TILE 64                  /* tiles are TASK_TILE x TASK_TILE pixels */
 #define TASK_INTERACTIVE (256L * 256L) /* pixels of a preview or a tile */
-#define TASK_AGING 2.0                /* seconds an interactive task counts as older */
+#define TASK_BULK_EVERY 4             /* when both classes wait, bulk gets 1 tile in 4 */
 #define EVENTS_PING 15.0              /* seconds of silence before a keep-alive */
 
 extern pthread_mutex_t work_lock; /* work.c */
@@ -171,6 +171,7 @@ void task_unref(struct task *t);
 void task_unqueue(struct task *t);
 struct task *task_find(const char *key); /* an unfinished, uncancelled task */
 struct task *task_pick(void);            /* the task whose next tile comes first */
+void task_taken(const struct task *t);   /* a tile of t was taken (for the bulk share) */
 /* Joins the unfinished task with *fresh's key (scene, region, format) or
  * activates *fresh (then NULL); WORK_DRAINING or WORK_FULL when it cannot. */
 enum work_submit task_submit(struct cache_entry *scene, struct task **fresh, struct task **out);

@@ -87,6 +87,42 @@ check interactive_overtakes_bulk "tile status $code, bulk $st with $td tiles" \
     bash -c "[ '$code' = 200 ] && [ '$st' = running ] && [ '$td' = 1 ]"
 req DELETE "/v1/jobs/$bulk" >/dev/null
 
+# A bulk backlog of any age does not delay a small request: the bulk job
+# has waited more than 2 s (a lower bound: time only moves forward) when
+# the small render arrives, and the next tile is still the small one's.
+# While both wait, bulk still gets one tile in four.
+gate 0
+code=$(post_json /v1/jobs "$T/bulk.json")
+bulk=$(jfield "$T/body" id)
+gate 1
+wait_until 60 job_is "$bulk" tiles_done 1
+wait_until 60 gate_is held 1
+sleep 2.5
+scene "$T/tiles.json" 640 480 1 whitted 7 # four 64x64 regions, one request each
+for k in 0 1 2 3 4 5; do
+    curl -s -m 300 -o /dev/null -w '%{http_code}' -X POST -H 'Content-Type: application/json' \
+        --data-binary @"$T/tiles.json" "$URL/v1/render?x=$((64 * k))&y=0&w=64&h=64" >"$T/small$k.code" &
+    PIDS+=($!)
+done
+wait_until 60 gate_is queued 7
+gate 1
+small_done() { cat "$T"/small*.code 2>/dev/null | grep -o 200 | wc -l; } # answered so far
+one_small() { [ "$(small_done)" -ge 1 ]; }
+wait_until 60 one_small
+req GET "/v1/jobs/$bulk" >/dev/null
+check old_bulk_does_not_delay_small "bulk has $(jfield "$T/body" tiles_done) tiles done" job_is "$bulk" tiles_done 1
+# three more tiles: two small, then the bulk job's share (the fourth tile)
+gate 3
+bulk_done() { req GET "/v1/jobs/$bulk" >/dev/null; jfield "$T/body" tiles_done; }
+tiles_after() { [ $(($(small_done) + $(bulk_done))) -ge 5 ]; }
+wait_until 60 tiles_after
+check bulk_keeps_a_share "after 3 more tiles: $(small_done) small answered, bulk $(bulk_done) tiles" \
+    bash -c "[ $(small_done) = 3 ] && [ $(bulk_done) = 2 ]"
+gate open
+all_small() { [ "$(small_done)" = 6 ]; }
+wait_until 60 all_small
+req DELETE "/v1/jobs/$bulk" >/dev/null
+
 # a client that leaves: its render (held at the gate) is cancelled, and no
 # tile of it starts once the gate opens
 c0=$(metric 'rayd_canceled_total{reason="client_gone"}')
