@@ -44,6 +44,7 @@ struct config {
     long timeout;        /* connection idle timeout, seconds */
     long max_jobs;       /* jobs kept for GET /v1/jobs/{id} */
     long job_ttl;        /* seconds a finished job is kept */
+    long max_render_seconds; /* a render running longer is stopped; 0: no limit */
     long png_level;      /* zlib level of the PNGs, -1 default */
     long max_conns;      /* open connections in all */
     long max_conns_per_ip; /* open connections from one address, 0 = no limit */
@@ -88,7 +89,7 @@ double log_now(void); /* monotonic seconds */
 /* ---- metrics.c ----------------------------------------------------------- */
 
 enum metrics_reject { MR_QUEUE_FULL, MR_DRAINING, MR_BODY_TOO_LARGE, MR_UNAUTHORIZED, MR__COUNT };
-enum metrics_cancel { MC_CLIENT_GONE, MC_DELETE, MC_DRAIN, MC__COUNT };
+enum metrics_cancel { MC_CLIENT_GONE, MC_DELETE, MC_DRAIN, MC_DEADLINE, MC__COUNT };
 /* The stages of a request's wait, end to end: the body arriving, the scene
  * parsed, its mesh files decoded and its BVHs built (a cache miss), the
  * queue, the tiles, the PNG, the reply going out.  One histogram,

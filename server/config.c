@@ -63,6 +63,8 @@ static const struct config_option config_table[] = {
      "seconds an idle or stalled connection is kept (slow uploads are dropped)"},
     {"max-jobs", "RAYD_MAX_JOBS", CT_LONG, &config.max_jobs, "1024", 1, 1000000,
      "asynchronous jobs remembered; the oldest finished ones are forgotten first"},
+    {"max-render-seconds", "RAYD_MAX_RENDER_SECONDS", CT_LONG, &config.max_render_seconds, "3600", 0,
+     31536000, "a render running longer (from its first tile) is stopped and fails; 0 = no limit"},
     {"job-ttl", "RAYD_JOB_TTL", CT_LONG, &config.job_ttl, "600", 1, 31536000,
      "seconds a finished job (and its PNG) is kept after it was created"},
     {"png-level", "RAYD_PNG_LEVEL", CT_LONG, &config.png_level, "-1", -1, 9,

@@ -45,7 +45,8 @@ static atomic_ulong metrics_rejects[MR__COUNT], metrics_cancels[MC__COUNT];
 
 static const char *const metrics_reject_names[MR__COUNT] = {"queue_full", "draining",
                                                             "body_too_large", "unauthorized"};
-static const char *const metrics_cancel_names[MC__COUNT] = {"client_gone", "delete", "drain"};
+static const char *const metrics_cancel_names[MC__COUNT] = {"client_gone", "delete", "drain",
+                                                                        "deadline"};
 
 /* Written once at start-up (before the listener), read by scrapes. */
 static long (*metrics_gauges[MG__COUNT])(void);

@@ -267,6 +267,26 @@ bool task_end_early(struct task *t, enum passes_stop why)
     return t->running == 0 && !t->finalizing;
 }
 
+bool task_past_deadline(struct task *t, double now, long limit, struct task_notify *n,
+                        struct task_notify *sse)
+{
+    if (limit <= 0 || t->t_start <= 0 || t->finished || t->finalizing ||
+        atomic_load(&t->cancel) || now - t->t_start < (double)limit)
+        return false;
+    if (t->passes && t->passes->done > 0) { /* keep the latest pass, as a time budget */
+        if (task_end_early(t, PASSES_BY_TIME))
+            task_finish(t, n, sse);
+        return true;
+    }
+    t->status = t->err.code = RAYD_E_LIMIT;
+    snprintf(t->err.message, sizeof t->err.message,
+             "the render ran past the server's limit of %ld s (--max-render-seconds) and was "
+             "stopped; ask for fewer pixels or samples",
+             limit);
+    task_cancel(t, MC_DEADLINE, n, sse);
+    return true;
+}
+
 void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
 {
     t->finished = true;
@@ -311,8 +331,9 @@ void task_cancel(struct task *t, enum metrics_cancel why, struct task_notify *n,
         return;
     atomic_store(&t->cancel, 1);
     metrics_cancel(why);
-    log_info("render %s cancelled (%s)", t->key,
-             why == MC_CLIENT_GONE ? "client gone" : why == MC_DELETE ? "job deleted" : "drain");
+    static const char *const whys[MC__COUNT] = {"client gone", "job deleted", "drain",
+                                                "past --max-render-seconds"};
+    log_info("render %s cancelled (%s)", t->key, whys[why]);
     task_unqueue(t);
     if (t->running == 0 && !t->finalizing)
         task_finish(t, n, sse);

@@ -1,4 +1,5 @@
-/* watch.c -- the watcher thread: hung-up clients, expired jobs, idle streams.
+/* watch.c -- the watcher thread: hung-up clients, expired jobs, idle
+ * streams, renders past --max-render-seconds.
  *
  * libmicrohttpd does not watch a suspended connection, so a client that
  * gives up on a long render would otherwise keep a worker busy for nothing.
@@ -119,6 +120,24 @@ static bool watch_ping(void)
     return true;
 }
 
+/* Stops the renders past --max-render-seconds; true when one was (the
+ * lock was released meanwhile).  Lock held. */
+static bool watch_deadlines(void)
+{
+    struct task_notify n = {0}, sse = {0};
+    bool any = false;
+    double now = log_now();
+    for (struct task *t = task_active; t && !any; t = t->next)
+        any = task_past_deadline(t, now, config.max_render_seconds, &n, &sse);
+    if (!any)
+        return false;
+    pthread_mutex_unlock(&work_lock);
+    task_notify_run(&n);
+    task_notify_run(&sse);
+    pthread_mutex_lock(&work_lock);
+    return true;
+}
+
 static void watch_sleep(void)
 {
     struct timespec ts;
@@ -143,6 +162,8 @@ static void *watch_main(void *arg)
             last_expire = log_now();
             jobs_expire(last_expire);
         }
+        if (watch_deadlines())
+            continue;
         if (log_now() - last_ping >= EVENTS_PING) {
             last_ping = log_now();
             if (watch_ping())

@@ -182,6 +182,12 @@ void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
  * none is complete yet), why being the reason; true when nothing is in
  * flight and the caller should task_finish it now. */
 bool task_end_early(struct task *t, enum passes_stop why);
+/* Stops t when it has run (since its first tile) for limit seconds or more
+ * (--max-render-seconds; 0: never): it fails with a message naming the
+ * limit, or a progressive task ends with its latest pass.  true when it
+ * was stopped. */
+bool task_past_deadline(struct task *t, double now, long limit, struct task_notify *n,
+                        struct task_notify *sse);
 void task_cancel(struct task *t, enum metrics_cancel why, struct task_notify *n,
                  struct task_notify *sse);
 void task_notify_add(struct task_notify *n, struct work_waiter **from);

@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# deadline.sh -- --max-render-seconds: a render still running that long after
+# its first tile is stopped.  A job fails with a message naming the limit, a
+# synchronous render answers 413 with it, a progressive job ends with its
+# latest pass; rayd_canceled_total{reason="deadline"} counts them.  The test
+# gate holds each render after its first tiles, so it is still running when
+# the limit passes, however fast the machine.
+source "$(dirname "$0")/lib/common.sh"
+
+start_rayd --threads 1 --test-gate 0 --max-render-seconds 1
+scene "$T/big.json" 320 240 4 spheres
+scene "$T/p8.json" 128 64 8 cornell
+
+# --- an asynchronous job -----------------------------------------------------------
+code=$(post_json /v1/jobs "$T/big.json")
+id=$(jfield "$T/body" id)
+gate 1
+wait_until 60 job_state_is "$id" failed
+check deadline_job_fails "state $(jfield "$T/body" state): $(head -c 300 "$T/body")" \
+    bash -c "grep -q '\"state\":\"failed\"' '$T/body' && grep -q 'max-render-seconds' '$T/body'"
+check deadline_job_one_tile "$(jfield "$T/body" tiles_done) tiles done" job_is "$id" tiles_done 1
+check deadline_counted "$(metric 'rayd_canceled_total{reason="deadline"}')" \
+    metric_is 'rayd_canceled_total{reason="deadline"}' 1
+
+# --- a synchronous render: 413 naming the limit --------------------------------------
+gate 1
+code=$(post_json /v1/render "$T/big.json")
+check deadline_render_413 "status $code: $(head -c 300 "$T/body")" \
+    bash -c "[ $code = 413 ] && grep -q 'max-render-seconds' '$T/body'"
+
+# --- a progressive job keeps its latest pass -------------------------------------------
+code=$(post_json "/v1/jobs?progressive=1" "$T/p8.json")
+id=$(jfield "$T/body" id)
+gate 2 # the first pass's two tiles
+wait_until 60 job_state_is "$id" succeeded
+check deadline_progressive_keeps_pass "$(head -c 400 "$T/body")" bash -c \
+    "[ '$(jfield "$T/body" stopped_by)' = time_budget ] && [ '$(jfield "$T/body" samples)' = 1 ]"
+gate open
+
+stop_rayd
+check rayd_exit_0 "exit $RAYD_RC" [ "$RAYD_RC" = 0 ]
