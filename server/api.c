@@ -76,7 +76,7 @@ static bool api_region_q(struct http_req *r, const rayd_scene *scene, struct ray
     struct api_q q = *qp;
     http_req_query_each(r, api_q_each, &q);
     *qp = q;
-    char msg[200];
+    char msg[320];
     if (q.unknown[0]) {
         char more[120] = "";
         size_t used = 0;

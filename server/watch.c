@@ -127,8 +127,11 @@ static bool watch_deadlines(void)
     struct task_notify n = {0}, sse = {0};
     bool any = false;
     double now = log_now();
-    for (struct task *t = task_active; t && !any; t = t->next)
-        any = task_past_deadline(t, now, config.max_render_seconds, &n, &sse);
+    for (struct task *t = task_active; t; t = t->next)
+        if (task_past_deadline(t, now, config.max_render_seconds, &n, &sse)) {
+            any = true; /* t may be freed: no t->next now */
+            break;
+        }
     if (!any)
         return false;
     pthread_mutex_unlock(&work_lock);

@@ -37,5 +37,5 @@ check deadline_progressive_keeps_pass "$(head -c 400 "$T/body")" bash -c \
     "[ '$(jfield "$T/body" stopped_by)' = time_budget ] && [ '$(jfield "$T/body" samples)' = 1 ]"
 gate open
 
-stop_rayd
+stop_rayd; [ -n "${DEADLINE_ERR:-}" ] && cp "$T/rayd.err" "$DEADLINE_ERR"
 check rayd_exit_0 "exit $RAYD_RC" [ "$RAYD_RC" = 0 ]
