@@ -8,6 +8,9 @@
  * render of n samples (rayd_render_pass, docs/scene-format.md's pass rule);
  * here each task tile keeps its own rayd_accum, so tiles of one pass run on
  * any worker in any order and the result still does not depend on timing.
+ * A tile's sums (24 bytes a pixel) are made when the tile is first
+ * rendered, so a queued progressive job holds no more memory than a plain
+ * one.
  *
  * Passes follow one another with a barrier: the worker that completes a
  * pass's last tile encodes the pass (sched.c), records it here and only then
@@ -72,15 +75,12 @@ struct passes *passes_new(const rayd_scene *scene, const struct jobs_plan *plan,
     p->n = passes_plan(plan, info.samples, p->samples);
     p->ntiles = ntiles;
     p->acc = calloc((size_t)ntiles, sizeof *p->acc);
-    if (p->n < 1 || !p->acc) {
+    p->tiles = malloc((size_t)ntiles * sizeof *p->tiles);
+    if (p->n < 1 || !p->acc || !p->tiles) {
         passes_free(p);
         return NULL;
     }
-    for (int i = 0; i < ntiles; i++)
-        if (rayd_accum_new(scene, &tiles[i], &p->acc[i], NULL) != RAYD_OK) {
-            passes_free(p);
-            return NULL;
-        }
+    memcpy(p->tiles, tiles, (size_t)ntiles * sizeof *p->tiles);
     return p;
 }
 
@@ -91,6 +91,7 @@ void passes_free(struct passes *p)
     for (int i = 0; p->acc && i < p->ntiles; i++)
         rayd_accum_free(p->acc[i]);
     free(p->acc);
+    free(p->tiles);
     for (int i = 0; i < PASSES_KEEP; i++)
         blob_unref(p->png[i]);
     rayd_image_free(p->prev);
@@ -101,6 +102,11 @@ enum rayd_status passes_tile(struct passes *p, const rayd_scene *scene, int tile
                              rayd_image *dst, int dst_x, int dst_y, const atomic_int *cancel,
                              uint64_t *rays, struct rayd_error *err)
 {
+    if (!p->acc[tile]) { /* its first pass: only this worker holds the tile */
+        enum rayd_status st = rayd_accum_new(scene, &p->tiles[tile], &p->acc[tile], err);
+        if (st != RAYD_OK)
+            return st;
+    }
     rayd_accum *acc = p->acc[tile];
     struct rayd_region r = rayd_accum_region(acc);
     struct rayd_render_stats stats = {0};

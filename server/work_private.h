@@ -93,7 +93,8 @@ struct passes {
     int pass;                   /* the pass being rendered, 0-based (lock held) */
     int done;                   /* passes complete (lock held) */
     int ntiles;
-    rayd_accum **acc;              /* a tile's sums, one a task tile */
+    rayd_accum **acc;              /* a tile's sums, one a task tile, made at its first pass */
+    struct rayd_region *tiles;     /* the task tiles (absolute) */
     rayd_image *prev;              /* the latest complete pass's image */
     struct blob *png[PASSES_KEEP]; /* pass k's PNG (1-based) at (k - 1) % PASSES_KEEP */
     double time_s[PASSES_MAX], noise[PASSES_MAX];
