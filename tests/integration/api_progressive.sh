@@ -19,16 +19,10 @@ done
 
 # sse_passes FILE: "samples:url ..." of the pass events, then the done event's data
 sse_passes() {
-    python3 - "$1" <<'PY'
+    PYTHONPATH="$SSE_LIB" python3 - "$1" <<'PY'
 import json, sys
-ev, cur = [], {}
-for line in open(sys.argv[1]):
-    line = line.rstrip("\n")
-    if not line:
-        if cur: ev.append(cur); cur = {}
-        continue
-    k, _, v = line.partition(": ")
-    cur[k] = v
+import sse
+ev = sse.events(sys.argv[1])
 passes = [json.loads(e["data"]) for e in ev if e.get("event") == "pass"]
 done = [json.loads(e["data"]) for e in ev if e.get("event") == "done"]
 print(" ".join("%d:%s" % (p["samples"], p["image_url"]) for p in passes))

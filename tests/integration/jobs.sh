@@ -45,16 +45,10 @@ code=$(post_json /v1/jobs "$T/sse.json")
 id2=$(jfield "$T/body" id)
 curl -s -N -m 60 -D "$T/sse.h" "$URL/v1/jobs/$id2/events" >"$T/sse.txt"
 check sse_content_type "$(grep -i content-type "$T/sse.h")" grep -qi '^content-type: text/event-stream' "$T/sse.h"
-check sse_events "bad stream: $(head -c 300 "$T/sse.txt")" python3 - "$T/sse.txt" <<'PY'
+check sse_events "bad stream: $(head -c 300 "$T/sse.txt")" env PYTHONPATH="$SSE_LIB" python3 - "$T/sse.txt" <<'PY'
 import json, sys
-events, cur = [], {}
-for line in open(sys.argv[1]):
-    line = line.rstrip("\n")
-    if not line:
-        if cur: events.append(cur); cur = {}
-        continue
-    k, _, v = line.partition(": ")
-    cur[k] = v
+import sse
+events = sse.events(sys.argv[1])
 names = [e.get("event") for e in events]
 assert names[0] == "state", names[:3]
 tiles = [json.loads(e["data"]) for e in events if e.get("event") == "tile"]

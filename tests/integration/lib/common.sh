@@ -164,6 +164,8 @@ metric() { # metric NAME_WITH_LABELS: current value from /metrics
     curl -s -m 10 "$URL/metrics" "${AUTH[@]}" | awk -v k="$1" '$1 == k {print $2}'
 }
 AUTH=()
+# PYTHONPATH for the scripts' Python that reads event streams (sse.py)
+SSE_LIB=$RAYD_ROOT/tests/integration/lib
 
 # scene OUT WIDTH HEIGHT [SAMPLES] [BASE] [TAG]: a variant of a stock scene;
 # TAG changes the bytes (and so the id) without changing the picture.
