@@ -139,8 +139,7 @@ static bool jobs_progressive(struct task *t, struct cache_entry *scene,
         return false;
     for (int i = 0; i < t->ntiles; i++)
         tiles[i] = task_tile(t, i);
-    t->passes = passes_new(cache_scene(scene), plan, tiles, t->ntiles);
-    free(tiles);
+    t->passes = passes_new(cache_scene(scene), plan, tiles, t->ntiles); /* owns tiles */
     size_t n = strlen(t->key);
     snprintf(t->key + n, sizeof t->key - n, "~%s", id);
     return t->passes != NULL;

@@ -64,23 +64,24 @@ const char *passes_stop_name(enum passes_stop s)
 }
 
 struct passes *passes_new(const rayd_scene *scene, const struct jobs_plan *plan,
-                          const struct rayd_region *tiles, int ntiles)
+                          struct rayd_region *tiles, int ntiles)
 {
     struct passes *p = calloc(1, sizeof *p);
-    if (!p)
+    if (!p) {
+        free(tiles);
         return NULL;
+    }
     struct rayd_scene_info info;
     rayd_scene_info(scene, &info);
     p->plan = *plan;
     p->n = passes_plan(plan, info.samples, p->samples);
     p->ntiles = ntiles;
+    p->tiles = tiles;
     p->acc = calloc((size_t)ntiles, sizeof *p->acc);
-    p->tiles = malloc((size_t)ntiles * sizeof *p->tiles);
-    if (p->n < 1 || !p->acc || !p->tiles) {
+    if (p->n < 1 || !p->acc) {
         passes_free(p);
         return NULL;
     }
-    memcpy(p->tiles, tiles, (size_t)ntiles * sizeof *p->tiles);
     return p;
 }
 

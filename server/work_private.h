@@ -100,9 +100,11 @@ struct passes {
     double time_s[PASSES_MAX], noise[PASSES_MAX];
     enum passes_stop stop; /* asked (client, time) or decided (noise) */
 };
-/* Per-tile sums for tiles[0..ntiles-1] (absolute); NULL on no memory. */
+/* The passes of a task whose tiles are tiles[0..ntiles-1] (absolute; the
+ * malloc'd array is the passes' from now on, freed with them even on
+ * failure); NULL on no memory. */
 struct passes *passes_new(const rayd_scene *scene, const struct jobs_plan *plan,
-                          const struct rayd_region *tiles, int ntiles);
+                          struct rayd_region *tiles, int ntiles);
 void passes_free(struct passes *p); /* NULL allowed */
 /* Renders pass `pass` of tile `tile` (its sums) and puts the tile's image
  * into dst at (dst_x, dst_y); no lock. */
