@@ -232,11 +232,21 @@ enum stage { ST_READ, ST_PARSE, ST_DECODE, ST_BUILD, ST_RENDER, ST_ENCODE, ST_WR
 static const char *const stage_names[ST__COUNT] = {"read",   "parse",  "decode", "build",
                                                    "render", "encode", "write"};
 
-static void print_stats(const struct args *a, const struct rayd_render_stats *rs,
-                        const double *stage, double total) {
-    fprintf(stderr, "rays: %llu\nrays/s: %.0f\nwall: %.3f s\nthreads: %d\n",
-            (unsigned long long)rs->rays, rs->seconds > 0 ? (double)rs->rays / rs->seconds : 0.0,
-            rs->seconds, a->threads);
+/* The rays the scene's description says the render will cast (the
+ * estimate rayd's server admits and schedules by), beside those cast. */
+static double estimated_rays(const struct args *a, const rayd_scene *scene) {
+    struct rayd_scene_info info;
+    rayd_scene_info(scene, &info);
+    double pixels = a->region.w > 0 ? (double)a->region.w * a->region.h
+                                    : (double)info.width * info.height;
+    return pixels * info.samples * info.rays_per_sample;
+}
+
+static void print_stats(const struct args *a, const rayd_scene *scene,
+                        const struct rayd_render_stats *rs, const double *stage, double total) {
+    fprintf(stderr, "rays: %llu\nrays estimated: %.0f\nrays/s: %.0f\nwall: %.3f s\nthreads: %d\n",
+            (unsigned long long)rs->rays, estimated_rays(a, scene),
+            rs->seconds > 0 ? (double)rs->rays / rs->seconds : 0.0, rs->seconds, a->threads);
     for (int i = 0; i < ST__COUNT; i++)
         fprintf(stderr, "time %s: %.4f s\n", stage_names[i], stage[i]);
     fprintf(stderr, "time total: %.4f s\n", total);
@@ -290,7 +300,7 @@ static int render_and_write(const struct args *a, const rayd_scene *scene, doubl
     rayd_free(png);
     if (rc != 0) return rc;
     stage[ST_WRITE] = now() - t;
-    if (a->stats) print_stats(a, &stats, stage, now() - t0);
+    if (a->stats) print_stats(a, scene, &stats, stage, now() - t0);
     return 0;
 }
 
@@ -385,7 +395,7 @@ static int render_passes(const struct args *a, const rayd_scene *scene, double *
     if (rc == 0) rc = write_accum(a, acc, a->output);
     stage[ST_ENCODE] = now() - t; /* with the write: one call */
     rayd_accum_free(acc);
-    if (rc == 0 && a->stats) print_stats(a, &stats, stage, now() - t0);
+    if (rc == 0 && a->stats) print_stats(a, scene, &stats, stage, now() - t0);
     return rc;
 }
 

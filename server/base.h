@@ -46,6 +46,9 @@ struct config {
     long job_ttl;        /* seconds a finished job is kept */
     long max_render_seconds; /* a render running longer is stopped; 0: no limit */
     long png_level;      /* zlib level of the PNGs, -1 default */
+    long max_work;       /* largest render in estimated rays, 0 = no limit */
+    long max_backlog;    /* /readyz 503 past this many estimated seconds, 0 = never */
+    char *client_header; /* header naming the client for fair shares, NULL = peer address */
     long max_conns;      /* open connections in all */
     long max_conns_per_ip; /* open connections from one address, 0 = no limit */
     long max_header_bytes; /* per-connection memory for request line + headers */
@@ -88,7 +91,14 @@ double log_now(void); /* monotonic seconds */
 
 /* ---- metrics.c ----------------------------------------------------------- */
 
-enum metrics_reject { MR_QUEUE_FULL, MR_DRAINING, MR_BODY_TOO_LARGE, MR_UNAUTHORIZED, MR__COUNT };
+enum metrics_reject {
+    MR_QUEUE_FULL,
+    MR_DRAINING,
+    MR_BODY_TOO_LARGE,
+    MR_UNAUTHORIZED,
+    MR_OVER_BUDGET, /* --max-work */
+    MR__COUNT
+};
 enum metrics_cancel { MC_CLIENT_GONE, MC_DELETE, MC_DRAIN, MC_DEADLINE, MC__COUNT };
 /* The stages of a request's wait, end to end: the body arriving, the scene
  * parsed, its mesh files decoded and its BVHs built (a cache miss), the
@@ -121,12 +131,13 @@ enum metrics_gauge {
     MG_CACHE_ENTRIES,
     MG_RESULT_CACHE_BYTES,
     MG_RESULT_CACHE_ENTRIES,
+    MG_BACKLOG_MS, /* estimated work waiting or running, in milliseconds of the pool */
     MG__COUNT
 };
 
 /* Counters and histograms: pushed by the layer that sees the event. */
 void metrics_request(int route, int status);
-void metrics_queue_wait(double seconds);
+void metrics_queue_wait(bool interactive, double seconds); /* by class */
 void metrics_render(double seconds);
 void metrics_stage(enum metrics_stage stage, double seconds);
 void metrics_cache(bool hit);

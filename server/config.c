@@ -65,6 +65,14 @@ static const struct config_option config_table[] = {
      "asynchronous jobs remembered; the oldest finished ones are forgotten first"},
     {"max-render-seconds", "RAYD_MAX_RENDER_SECONDS", CT_LONG, &config.max_render_seconds, "3600", 0,
      31536000, "a render running longer (from its first tile) is stopped and fails; 0 = no limit"},
+    {"max-work", "RAYD_MAX_WORK", CT_LONG, &config.max_work, "0", 0, LONG_MAX,
+     "largest render in estimated rays (pixels x samples x rays a sample; 413 over_budget); "
+     "0 = no limit"},
+    {"max-backlog", "RAYD_MAX_BACKLOG", CT_LONG, &config.max_backlog, "300", 0, 31536000,
+     "/readyz answers 503 while the estimated work queued exceeds this many seconds; 0 = never"},
+    {"client-header", "RAYD_CLIENT_HEADER", CT_STRING, &config.client_header, NULL, 0, 0,
+     "request header naming the client for fair shares, set by a trusted balancer "
+     "(default: the peer address)"},
     {"job-ttl", "RAYD_JOB_TTL", CT_LONG, &config.job_ttl, "600", 1, 31536000,
      "seconds a finished job (and its PNG) is kept after it was created"},
     {"png-level", "RAYD_PNG_LEVEL", CT_LONG, &config.png_level, "-1", -1, 9,

@@ -153,8 +153,11 @@ void http_reply_error(struct http_req *r, unsigned status, const char *code, con
     http_reply_text(r, status, o);
     r->err_code = code;
     http_reply_header(r, "Cache-Control", "no-store");
-    if (status == 503)
-        http_reply_header(r, MHD_HTTP_HEADER_RETRY_AFTER, "1");
+    if (status == 503) {
+        char v[16];
+        snprintf(v, sizeof v, "%d", r->retry_after > 0 ? r->retry_after : 1);
+        http_reply_header(r, MHD_HTTP_HEADER_RETRY_AFTER, v);
+    }
     if (status == 401)
         http_reply_header(r, MHD_HTTP_HEADER_WWW_AUTHENTICATE, "Bearer realm=\"rayd\"");
     if (status == 413 && !r->body && r->body_len == 0)

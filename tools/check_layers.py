@@ -54,6 +54,8 @@ SERVER_LAYERS = [
     ("server/work: lru", ["server/lru."]),
     ("server/work: caches", ["server/cache.", "server/rcache."]),
     ("server/work: scenes", ["server/scenes."]),
+    ("server/work: cost", ["server/cost."]),
+    ("server/work: fair", ["server/fair."]),
     ("server/work: passes", ["server/passes."]),
     ("server/work: task", ["server/task."]),
     ("server/work: gate", ["server/gate."]),

@@ -110,6 +110,10 @@ struct rayd_scene_info {
     long objects;      /* primitives in the scene */
     int lights;
     size_t bytes;      /* memory held by the frozen scene */
+    /* Rays one camera sample is expected to cast (the integrator, depth,
+     * lights and materials; docs/scene-format.md "Cost"): a render of p
+     * pixels at s samples is about p * s * rays_per_sample rays. */
+    double rays_per_sample;
     /* Of rayd_scene_parse's time: mesh files read and decoded (OBJ, PLY,
      * base64), and the BVHs (meshes, groups, the scene's) and light buffers
      * built. */
