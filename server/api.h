@@ -1,7 +1,7 @@
 /* api.h -- the handlers: one function per route, and what they share.
  *
- * Layer: handlers (api.c, api_render.c, api_jobs.c, api_health.c,
- * api_test.c, api_web.c).  A handler validates the request, submits work
+ * Layer: handlers (api.c and api_cost.c, shared; api_render.c, api_jobs.c,
+ * api_health.c, api_test.c, api_web.c).  A handler validates the request, submits work
  * and shapes the reply; it never renders and never blocks.
  * May include: request.h (read the request, reply), work.h (scenes,
  * renders, jobs, events), base.h, cJSON and libmicrohttpd's response API.

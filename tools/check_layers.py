@@ -65,7 +65,7 @@ SERVER_LAYERS = [
     ("server/work: sched", ["server/sched."]),
     ("server/request", ["server/request.h", "server/http_req."]),
     ("server/request: replies", ["server/http_reply."]),
-    ("server/handlers: shared", ["server/api.h", "server/api.c"]),
+    ("server/handlers: shared", ["server/api.h", "server/api.c", "server/api_cost."]),
     ("server/handlers", ["server/api_"]),
     ("server/router", ["server/router."]),
     ("server/transport: flow", ["server/transport.h", "server/http_flow."]),
