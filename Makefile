@@ -74,6 +74,15 @@ EXR_CFLAGS = $(patsubst -I%,-isystem %,$(shell pkg-config --cflags OpenEXR))
 EXR_LIBS = $(shell pkg-config --libs OpenEXR)
 LIBS_CORE = -lpng -lz -lisal -lcjson $(EXR_LIBS) -lpthread -lm
 
+# --- version ----------------------------------------------------------------
+# The file VERSION holds the one version string.  Every compile sees it as
+# RAYD_VERSION (include/rayd/rayd.h), rayd.pc as its Version, the shared
+# library as its file name and, by the major number, its soname.  A new
+# VERSION recompiles every object.
+VERSION := $(shell cat VERSION)
+VERSION_MAJOR := $(firstword $(subst ., ,$(VERSION)))
+CFLAGS_ALL += -DRAYD_VERSION='"$(VERSION)"'
+
 CORE_SRC := $(wildcard core/*/*.c)
 CORE_OBJ := $(CORE_SRC:%.c=$(BUILD)/%.o)
 SERVER_SRC := $(wildcard server/*.c)
@@ -240,6 +249,7 @@ golden: $(BUILD)/rayd-render
 FUZZ_SECONDS ?= 30
 FUZZ_CFLAGS := -std=c11 -D_POSIX_C_SOURCE=200809L -ffp-contract=off -O1 -g -fsanitize=fuzzer-no-link,address,undefined \
                -fno-sanitize-recover=undefined -Iinclude -Icore
+FUZZ_CFLAGS += -DRAYD_VERSION='"$(VERSION)"'
 FUZZ_CORE_OBJ := $(CORE_SRC:core/%.c=build/fuzz/core/%.o)
 .SECONDARY: $(FUZZ_CORE_OBJ)
 
