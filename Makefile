@@ -7,29 +7,35 @@
 #   make test-valgrind  three server integration tests with rayd under valgrind memcheck
 #   make test-stress the integration tests loaded, on one core, and twice idle
 #   make run         build and start rayd on 127.0.0.1:8080 with the preview
-#   make deps        install the Debian packages the build and the tests need
+#   make deps        install the Debian packages the build needs (make does it)
+#   make test-deps   and those the tests need as well (make test does it)
+#   make install     PREFIX=/usr/local DESTDIR=: programs, librayd.a/.so, header,
+#                    rayd.pc, man pages, systemd unit;  make uninstall undoes it
 #   make bench       benchmarks (never part of make test)
 #   make bench-peers the same meshes and sphere scene with Embree and POV-Ray (make bench-deps)
 #   make check-layers  includes and calls one way down the layers, no circles
 #                    (tools/check_layers.py; part of make test)
 #   make format      clang-format every C file;  make lint  cppcheck + clang-tidy
 
-# Debian packages: compiler and tools, the three given libraries, libcurl for
-# the client, libssl (libcrypto's SHA-256 of scene ids, server and client), curl/python3/nginx for the
-# integration tests (nginx balances the scale-out test), wrk for benchmarks,
-# chromium (and a font) for the browser tests of the preview page, valgrind
-# (make test-valgrind), openssl (a test certificate for the TLS test), libisal
-# and zlib (the PNG encoder's deflates, core/io/png_encode.c) and pngcheck (the tests
-# check the encoder's files with it), libopenexr-dev (EXR out, core/io/exr.c)
-# and openexr (its exrheader; g++ builds the tests' EXR reader on OpenEXR's
-# C++ library), assimp-testmodels (real model files others made, read by
-# the tests).
-DEB_PKGS := gcc make pkg-config libc6-dev libpng-dev zlib1g-dev libcjson-dev libmicrohttpd-dev \
-            libcurl4-openssl-dev libssl-dev curl python3 nginx wrk chromium fonts-dejavu-core pngcheck \
-            clang libclang-rt-14-dev valgrind openssl libopenexr-dev openexr g++ libisal-dev \
-            assimp-testmodels
+# Debian packages, in lists by what needs them (README.md, "Dependencies",
+# says what each package is for).  BUILD_PKGS: compiler and tools, the three
+# given libraries (libpng, cJSON, libmicrohttpd), libcurl for the client,
+# libssl (libcrypto's SHA-256 of scene ids), libisal and zlib (the PNG
+# encoder's deflates), libopenexr-dev (EXR out, core/io/exr.c).  TEST_PKGS,
+# on top for `make test`: curl and python3 (the integration tests), nginx (the
+# scale-out test balances through it; installed, never started: tools/deps.sh),
+# wrk (the load test), chromium and a font (the preview's browser tests),
+# pngcheck, openexr and g++ (readers that check rayd's PNG and EXR files),
+# assimp-testmodels (real model files), clang and its runtime (make fuzz),
+# valgrind (make test-valgrind), openssl (a certificate for the TLS test),
+# man-db (the man pages rendered).  LINT_PKGS: make lint and make format.
+# BENCH_PKGS (below): make bench-peers only.
+BUILD_PKGS := gcc make pkg-config libc6-dev libpng-dev zlib1g-dev libisal-dev libcjson-dev \
+              libmicrohttpd-dev libcurl4-openssl-dev libssl-dev libopenexr-dev
+TEST_PKGS := curl python3 nginx wrk chromium fonts-dejavu-core pngcheck openexr g++ \
+             assimp-testmodels clang libclang-rt-14-dev valgrind openssl man-db
+LINT_PKGS := cppcheck clang-tidy clang-format
 
-SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 
 # Build on every core unless told otherwise (tests themselves run one by one).
 ifeq ($(MAKELEVEL)$(filter -j%,$(MAKEFLAGS)),0)
@@ -103,26 +109,33 @@ ifneq ($(CLIENT_SRC),)
 PROGS += $(BUILD)/rayd-client
 endif
 
-.PHONY: all deps check-layers test test-unit test-stress test-tsan test-valgrind golden run bench bench-deps bench-peers format lint clean
+.PHONY: all deps test-deps lint-deps check-layers test test-unit test-stress test-tsan test-valgrind golden run bench bench-deps bench-peers format lint clean
 .DEFAULT_GOAL := all
 
 all: $(BUILD)/librayd.a $(PROGS)
 
 # --- dependencies ---------------------------------------------------------
-# `make deps` installs what is missing (apt-get update once, then only the
-# missing packages).  Every build runs the cheap check first.
-deps:
-	@missing=""; for p in $(DEB_PKGS); do \
-	  dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q '^install ok installed' || missing="$$missing $$p"; \
-	done; \
-	if [ -n "$$missing" ]; then \
-	  echo "make deps: installing$$missing"; \
-	  $(SUDO) apt-get update -qq && \
-	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; \
-	fi
+# `make deps` installs the build's packages that are missing, `make test-deps`
+# the tests' as well (tools/deps.sh: apt-get update once, then only what is
+# missing).  Every build checks first through the stamp $(BUILD)/.deps-ok,
+# every test target through $(BUILD)/.test-deps-ok; both are redone when the
+# Makefile changes.  When a test target is among the goals, the first check
+# takes the tests' packages too, so a fresh machine runs apt-get once.
+TEST_GOALS := test test-unit test-stress test-tsan test-valgrind test-deps check-layers fuzz bench
+DEPS_PKGS := $(BUILD_PKGS) $(if $(filter $(TEST_GOALS),$(MAKECMDGOALS)),$(TEST_PKGS))
 
-$(BUILD)/.deps-ok: Makefile
-	@$(MAKE) --no-print-directory deps
+deps:
+	@sh tools/deps.sh "make deps" $(BUILD_PKGS)
+
+test-deps: | $(BUILD)/.deps-ok
+	@sh tools/deps.sh "make test-deps" $(BUILD_PKGS) $(TEST_PKGS)
+
+$(BUILD)/.deps-ok: Makefile tools/deps.sh
+	@sh tools/deps.sh "make deps" $(DEPS_PKGS)
+	@mkdir -p $(BUILD) && touch $@
+
+$(BUILD)/.test-deps-ok: Makefile tools/deps.sh | $(BUILD)/.deps-ok
+	@sh tools/deps.sh "make test-deps" $(BUILD_PKGS) $(TEST_PKGS)
 	@mkdir -p $(BUILD) && touch $@
 
 # --- core -------------------------------------------------------------------
@@ -201,7 +214,7 @@ $(BUILD)/tests/tools/%: tests/tools/%.c $(BUILD)/librayd.a
 
 # The tests' third-party reader of EXR files (OpenEXR's C++ library), not
 # built with the sanitizers: it checks rayd's output, it is not rayd.
-$(BUILD)/tests/tools/%: tests/tools/%.cc | $(BUILD)/.deps-ok
+$(BUILD)/tests/tools/%: tests/tools/%.cc | $(BUILD)/.test-deps-ok
 	@mkdir -p $(dir $@)
 	$(CXX) -std=c++17 -O2 -Wall -Wextra -Werror $(EXR_CFLAGS) $< -o $@ $(EXR_LIBS) -lpng
 
@@ -219,20 +232,22 @@ $(BROWSER_NODE): tests/browser/package.json tests/browser/package-lock.json
 	  echo "npm ci in tests/browser failed: the browser tests will fail"; \
 	else echo "npm not found: the browser tests will fail (install Node.js and npm)"; fi
 
-test: all $(UNIT_BIN) $(TEST_TOOLS) $(FUZZ_REPLAY) $(BUILD)/bench/genmesh $(BROWSER_NODE)
+test: all $(UNIT_BIN) $(TEST_TOOLS) $(FUZZ_REPLAY) $(BUILD)/bench/genmesh $(BROWSER_NODE) \
+      | $(BUILD)/.test-deps-ok
 	@bash tests/run.sh $(BUILD)
 
 # The integration tests with every core busy, pinned to one core, and twice
 # idle (tests/stress.sh): none may depend on how long a render takes.
-test-stress: all $(TEST_TOOLS) $(FUZZ_REPLAY) $(BUILD)/bench/genmesh $(BROWSER_NODE)
+test-stress: all $(TEST_TOOLS) $(FUZZ_REPLAY) $(BUILD)/bench/genmesh $(BROWSER_NODE) \
+             | $(BUILD)/.test-deps-ok
 	@bash tests/stress.sh $(BUILD)
 
 # The layers of docs/architecture.md, read from the includes and from the
 # objects' symbols (nm): a use of a higher layer or a circle fails.
-check-layers: all
+check-layers: all | $(BUILD)/.test-deps-ok
 	@python3 tools/check_layers.py $(BUILD) && python3 tools/check_layers.py --self-test
 
-test-unit: all $(UNIT_BIN)
+test-unit: all $(UNIT_BIN) | $(BUILD)/.test-deps-ok
 	@RAYD_ONLY=unit bash tests/run.sh $(BUILD)
 
 # Rewrites tests/golden/ from tests/scenes/ (after an intended change only).
@@ -253,7 +268,7 @@ FUZZ_CFLAGS += -DRAYD_VERSION='"$(VERSION)"'
 FUZZ_CORE_OBJ := $(CORE_SRC:core/%.c=build/fuzz/core/%.o)
 .SECONDARY: $(FUZZ_CORE_OBJ)
 
-build/fuzz/core/%.o: core/%.c | $(BUILD)/.deps-ok
+build/fuzz/core/%.o: core/%.c | $(BUILD)/.test-deps-ok
 	@mkdir -p $(dir $@)
 	clang $(FUZZ_CFLAGS) -MMD -MP -c $< -o $@
 
@@ -269,7 +284,7 @@ FUZZ_SERVER_TARGETS := $(filter http% query%,$(FUZZ_TARGETS))
 FUZZ_SERVER_OBJ := $(patsubst server/%.c,build/fuzz/server/%.o,$(filter-out server/main.c,$(SERVER_SRC)))
 .SECONDARY: $(FUZZ_SERVER_OBJ)
 
-build/fuzz/server/%.o: server/%.c $(SERVER_HDR) build/server/web_assets.h | $(BUILD)/.deps-ok
+build/fuzz/server/%.o: server/%.c $(SERVER_HDR) build/server/web_assets.h | $(BUILD)/.test-deps-ok
 	@mkdir -p $(dir $@)
 	clang $(FUZZ_CFLAGS) -MMD -MP -D_DEFAULT_SOURCE -Ibuild/server -c $< -o $@
 
@@ -317,13 +332,13 @@ $(FUZZ_SERVER_TARGETS:%=$(BUILD)/tests/fuzz/replay_%): $(BUILD)/tests/fuzz/repla
 TSAN_TESTS := jobs lifecycle api_basic api_hdr load slow_clients faults api_progressive deadline
 VALGRIND_TESTS := security api_errors bad_requests
 
-test-tsan:
+test-tsan: | $(BUILD)/.test-deps-ok
 	@$(MAKE) --no-print-directory TSAN=1 build/tsan/rayd build/tsan/rayd-render build/tsan/bench/genmesh \
 	  build/tsan/tests/tools/hdrcheck
 	@TSAN_OPTIONS="halt_on_error=0 second_deadlock_stack=1 $${TSAN_OPTIONS:-}" \
 	  RAYD_TIMEOUT=1800 RAYD_TESTS="$(TSAN_TESTS)" bash tests/run.sh build/tsan
 
-test-valgrind: all
+test-valgrind: all | $(BUILD)/.test-deps-ok
 	@RAYD_WRAP="valgrind -q --error-exitcode=99 --leak-check=full --errors-for-leak-kinds=definite \
 	  --show-leak-kinds=definite" RAYD_START_TRIES=600 \
 	  RAYD_TIMEOUT=1800 RAYD_TESTS="$(VALGRIND_TESTS)" bash tests/run.sh build
@@ -383,27 +398,23 @@ $(BUILD)/bench/imgdiff: bench/peers/imgdiff.c $(BUILD)/librayd.a
 
 # After `make deps` (never two apt-gets at once under -j).
 bench-deps: | $(BUILD)/.deps-ok
-	@missing=""; for p in $(BENCH_PKGS); do \
-	  dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q '^install ok installed' || missing="$$missing $$p"; \
-	done; \
-	if [ -n "$$missing" ]; then \
-	  echo "make bench-deps: installing$$missing"; \
-	  $(SUDO) apt-get update -qq && \
-	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; \
-	fi
+	@sh tools/deps.sh "make bench-deps" $(BENCH_PKGS)
 
 bench: all $(BUILD)/bench/raybench $(BUILD)/bench/genmesh $(BUILD)/bench/pngbench $(BUILD)/bench/hdrbench $(BENCH_SCENES) \
-       $(BENCH_DIR)/mesh-8-obj.json
+       $(BENCH_DIR)/mesh-8-obj.json | $(BUILD)/.test-deps-ok
 	@bash bench/run.sh $(BUILD)
 
 bench-peers: all bench-deps $(BUILD)/bench/raybench $(BUILD)/bench/embree_bench $(BUILD)/bench/imgdiff \
              $(BENCH_SCENES) $(BENCH_DIR)/mesh-8-obj.json
 	@bash bench/peers.sh $(BUILD)
 
-format:
+lint-deps:
+	@sh tools/deps.sh "make lint" $(LINT_PKGS)
+
+format: lint-deps
 	clang-format -i $(shell git ls-files '*.c' '*.h')
 
-lint:
+lint: lint-deps
 	cppcheck --quiet --error-exitcode=1 --enable=warning,performance,portability \
 	  --inline-suppr -Iinclude -Icore --std=c11 core cli server clients
 	clang-tidy --quiet $(CORE_SRC) -- -std=c11 -D_POSIX_C_SOURCE=200809L -Iinclude -Icore
