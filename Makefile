@@ -109,7 +109,7 @@ ifneq ($(CLIENT_SRC),)
 PROGS += $(BUILD)/rayd-client
 endif
 
-.PHONY: all deps test-deps lint-deps check-layers test test-unit test-stress test-tsan test-valgrind golden run bench bench-deps bench-peers format lint clean
+.PHONY: all deps test-deps lint-deps shared install uninstall check-layers test test-unit test-stress test-tsan test-valgrind golden run bench bench-deps bench-peers format lint clean
 .DEFAULT_GOAL := all
 
 all: $(BUILD)/librayd.a $(PROGS)
@@ -158,11 +158,12 @@ $(BUILD)/core/%.o: core/%.c | $(BUILD)/.deps-ok
 
 # Loops over a packet's lanes (integrate_wide.c, camera.c) and the PNG row
 # filters (png_encode.c) are written for the vectoriser, which -O2 runs only
-# on the cheapest loops.
-$(BUILD)/core/render/integrate_wide.o $(BUILD)/core/geom/camera.o $(BUILD)/core/io/png_encode.o: CFLAGS_VEC := -ftree-vectorize \
+# on the cheapest loops.  The same for their PIC copies (librayd.so).
+VEC_OBJ := core/render/integrate_wide.o core/geom/camera.o core/io/png_encode.o
+$(VEC_OBJ:%=$(BUILD)/%) $(VEC_OBJ:%=$(BUILD)/pic/%): CFLAGS_VEC := -ftree-vectorize \
     -fvect-cost-model=dynamic
 
-$(BUILD)/core/io/exr.o: CFLAGS_VEC = $(EXR_CFLAGS)
+$(BUILD)/core/io/exr.o $(BUILD)/pic/core/io/exr.o: CFLAGS_VEC = $(EXR_CFLAGS)
 
 $(BUILD)/librayd.a: $(CORE_OBJ)
 	@rm -f $@
@@ -201,6 +202,84 @@ $(BUILD)/rayd: $(SERVER_OBJ) $(BUILD)/librayd.a
 $(BUILD)/rayd-client: $(CLIENT_SRC:%.c=$(BUILD)/%.o) $(BUILD)/librayd.a
 	$(CC) $(LDFLAGS_ALL) -o $@ $^ -lcurl -lcrypto $(LIBS_CORE)
 
+# --- shared library ---------------------------------------------------------
+# librayd.so is the core compiled a second time, as position-independent code,
+# into $(BUILD)/pic/ (librayd.a and the programs stay as they are), linked
+# with the core's libraries and exporting the rayd_ calls of rayd.h alone
+# (packaging/librayd.map).  Its soname carries the major version, its file
+# name the whole one; `make shared` builds it, `make install` needs it.
+SO_NAME := librayd.so.$(VERSION_MAJOR)
+SO_FILE := librayd.so.$(VERSION)
+CORE_PIC_OBJ := $(CORE_SRC:%.c=$(BUILD)/pic/%.o)
+
+$(BUILD)/pic/core/%.o: core/%.c | $(BUILD)/.deps-ok
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS_ALL) $(CFLAGS_VEC) -fPIC -Iinclude -Icore -c $< -o $@
+
+$(BUILD)/$(SO_FILE): $(CORE_PIC_OBJ) packaging/librayd.map
+	$(CC) -shared -Wl,-soname,$(SO_NAME) -Wl,--version-script=packaging/librayd.map \
+	  -Wl,--no-undefined $(LDFLAGS_ALL) -o $@ $(CORE_PIC_OBJ) $(LIBS_CORE)
+	ln -sf $(SO_FILE) $(BUILD)/$(SO_NAME)
+	ln -sf $(SO_NAME) $(BUILD)/librayd.so
+
+shared: $(BUILD)/$(SO_FILE)
+
+# Every object sees RAYD_VERSION: a new VERSION compiles them again.
+$(CORE_OBJ) $(CORE_PIC_OBJ) $(SERVER_OBJ) $(CLIENT_SRC:%.c=$(BUILD)/%.o) $(BUILD)/cli/rayd-render.o: VERSION
+
+# --- install ----------------------------------------------------------------
+# `make install` copies what `make` and `make shared` built (it builds
+# nothing else) under DESTDIR + PREFIX: the programs, both libraries with the
+# soname links, the public header (with the version written in), rayd.pc, the
+# man pages, the systemd unit and its environment file, whose paths follow
+# PREFIX (packaging/).  SYSCONFDIR is /etc for PREFIX=/usr, else PREFIX/etc.
+# An environment file already there is kept, as an edited one may be.
+# `make uninstall` removes the same list, and the environment file only when
+# it is still the one shipped.
+PREFIX ?= /usr/local
+BINDIR ?= $(PREFIX)/bin
+LIBDIR ?= $(PREFIX)/lib
+INCLUDEDIR ?= $(PREFIX)/include
+MANDIR ?= $(PREFIX)/share/man
+UNITDIR ?= $(PREFIX)/lib/systemd/system
+SYSCONFDIR ?= $(if $(filter /usr,$(PREFIX)),/etc,$(PREFIX)/etc)
+MAN_PAGES := $(wildcard docs/man/*.1)
+PUBLIC_HEADERS := $(wildcard include/rayd/*.h)
+ENV_FILE := $(SYSCONFDIR)/default/rayd
+INSTALLED := $(PROGS:$(BUILD)/%=$(BINDIR)/%) \
+             $(LIBDIR)/librayd.a $(LIBDIR)/$(SO_FILE) $(LIBDIR)/$(SO_NAME) $(LIBDIR)/librayd.so \
+             $(PUBLIC_HEADERS:include/%=$(INCLUDEDIR)/%) $(LIBDIR)/pkgconfig/rayd.pc \
+             $(MAN_PAGES:docs/man/%=$(MANDIR)/man1/%) $(UNITDIR)/rayd.service
+D := $(DESTDIR)
+
+install: all $(BUILD)/$(SO_FILE)
+	install -d $(D)$(BINDIR) $(D)$(LIBDIR)/pkgconfig $(D)$(INCLUDEDIR)/rayd $(D)$(MANDIR)/man1 \
+	  $(D)$(UNITDIR) $(D)$(SYSCONFDIR)/default
+	install -m 755 $(PROGS) $(D)$(BINDIR)/
+	install -m 644 $(BUILD)/librayd.a $(D)$(LIBDIR)/
+	install -m 755 $(BUILD)/$(SO_FILE) $(D)$(LIBDIR)/
+	ln -sf $(SO_FILE) $(D)$(LIBDIR)/$(SO_NAME)
+	ln -sf $(SO_NAME) $(D)$(LIBDIR)/librayd.so
+	for h in $(PUBLIC_HEADERS); do \
+	  sed 's/^#define RAYD_VERSION "unknown"$$/#define RAYD_VERSION "$(VERSION)"/' $$h \
+	    >$(D)$(INCLUDEDIR)/rayd/$${h##*/} && chmod 644 $(D)$(INCLUDEDIR)/rayd/$${h##*/} || exit 1; \
+	done
+	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@LIBDIR@|$(LIBDIR)|' -e 's|@INCLUDEDIR@|$(INCLUDEDIR)|' \
+	  -e 's|@VERSION@|$(VERSION)|' packaging/rayd.pc.in >$(D)$(LIBDIR)/pkgconfig/rayd.pc
+	install -m 644 $(MAN_PAGES) $(D)$(MANDIR)/man1/
+	sed -e 's|/usr/local/bin/|$(BINDIR)/|' -e 's|/usr/local/etc/|$(SYSCONFDIR)/|' \
+	  packaging/rayd.service >$(D)$(UNITDIR)/rayd.service
+	@if [ -e $(D)$(ENV_FILE) ] && ! cmp -s packaging/rayd.default $(D)$(ENV_FILE); then \
+	  echo "make install: $(D)$(ENV_FILE) kept as it is (the shipped one: packaging/rayd.default)"; \
+	else install -m 644 packaging/rayd.default $(D)$(ENV_FILE); fi
+	@if [ -z "$(D)" ] && [ "$$(id -u)" = 0 ]; then ldconfig; fi
+
+uninstall:
+	rm -f $(addprefix $(D),$(INSTALLED))
+	@if cmp -s packaging/rayd.default $(D)$(ENV_FILE); then rm -f $(D)$(ENV_FILE); \
+	elif [ -e $(D)$(ENV_FILE) ]; then echo "make uninstall: $(D)$(ENV_FILE) was edited: kept"; fi
+	@rmdir $(D)$(INCLUDEDIR)/rayd 2>/dev/null || true
+
 # --- tests ------------------------------------------------------------------
 # Unit tests may include the core's private headers.
 $(BUILD)/tests/%: tests/unit/%.c $(wildcard tests/unit/*.h) $(BUILD)/librayd.a
@@ -233,12 +312,14 @@ $(BROWSER_NODE): tests/browser/package.json tests/browser/package-lock.json
 	else echo "npm not found: the browser tests will fail (install Node.js and npm)"; fi
 
 test: all $(UNIT_BIN) $(TEST_TOOLS) $(FUZZ_REPLAY) $(BUILD)/bench/genmesh $(BROWSER_NODE) \
+      $(BUILD)/$(SO_FILE) \
       | $(BUILD)/.test-deps-ok
 	@bash tests/run.sh $(BUILD)
 
 # The integration tests with every core busy, pinned to one core, and twice
 # idle (tests/stress.sh): none may depend on how long a render takes.
 test-stress: all $(TEST_TOOLS) $(FUZZ_REPLAY) $(BUILD)/bench/genmesh $(BROWSER_NODE) \
+             $(BUILD)/$(SO_FILE) \
              | $(BUILD)/.test-deps-ok
 	@bash tests/stress.sh $(BUILD)
 
