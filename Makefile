@@ -9,6 +9,7 @@
 #   make run         build and start rayd on 127.0.0.1:8080 with the preview
 #   make deps        install the Debian packages the build needs (make does it)
 #   make test-deps   and those the tests need as well (make test does it)
+#   make shared      build/librayd.so (the core as a shared library)
 #   make install     PREFIX=/usr/local DESTDIR=: programs, librayd.a/.so, header,
 #                    rayd.pc, man pages, systemd unit;  make uninstall undoes it
 #   make bench       benchmarks (never part of make test)
@@ -35,7 +36,6 @@ BUILD_PKGS := gcc make pkg-config libc6-dev libpng-dev zlib1g-dev libisal-dev li
 TEST_PKGS := curl python3 nginx wrk chromium fonts-dejavu-core pngcheck openexr g++ \
              assimp-testmodels clang libclang-rt-14-dev valgrind openssl man-db
 LINT_PKGS := cppcheck clang-tidy clang-format
-
 
 # Build on every core unless told otherwise (tests themselves run one by one).
 ifeq ($(MAKELEVEL)$(filter -j%,$(MAKEFLAGS)),0)
@@ -225,17 +225,18 @@ $(BUILD)/$(SO_FILE): $(CORE_PIC_OBJ) packaging/librayd.map
 shared: $(BUILD)/$(SO_FILE)
 
 # Every object sees RAYD_VERSION: a new VERSION compiles them again.
-$(CORE_OBJ) $(CORE_PIC_OBJ) $(SERVER_OBJ) $(CLIENT_SRC:%.c=$(BUILD)/%.o) $(BUILD)/cli/rayd-render.o: VERSION
+$(CORE_OBJ) $(CORE_PIC_OBJ) $(SERVER_OBJ) $(CLIENT_SRC:%.c=$(BUILD)/%.o) \
+    $(BUILD)/cli/rayd-render.o: VERSION
 
 # --- install ----------------------------------------------------------------
-# `make install` copies what `make` and `make shared` built (it builds
-# nothing else) under DESTDIR + PREFIX: the programs, both libraries with the
-# soname links, the public header (with the version written in), rayd.pc, the
-# man pages, the systemd unit and its environment file, whose paths follow
-# PREFIX (packaging/).  SYSCONFDIR is /etc for PREFIX=/usr, else PREFIX/etc.
-# An environment file already there is kept, as an edited one may be.
-# `make uninstall` removes the same list, and the environment file only when
-# it is still the one shipped.
+# `make install` copies what `make` and `make shared` build (building first
+# what is missing or stale, as they would) under DESTDIR + PREFIX: the
+# programs, both libraries with the soname links, the public header (with the
+# version written in), rayd.pc, the man pages, the systemd unit and its
+# environment file, whose paths follow PREFIX (packaging/).  SYSCONFDIR is
+# /etc for PREFIX=/usr, else PREFIX/etc.  An environment file already there
+# is kept, as an edited one may be.  `make uninstall` removes the same list,
+# and the environment file only when it is still the one shipped.
 PREFIX ?= /usr/local
 BINDIR ?= $(PREFIX)/bin
 LIBDIR ?= $(PREFIX)/lib
@@ -250,35 +251,36 @@ INSTALLED := $(PROGS:$(BUILD)/%=$(BINDIR)/%) \
              $(LIBDIR)/librayd.a $(LIBDIR)/$(SO_FILE) $(LIBDIR)/$(SO_NAME) $(LIBDIR)/librayd.so \
              $(PUBLIC_HEADERS:include/%=$(INCLUDEDIR)/%) $(LIBDIR)/pkgconfig/rayd.pc \
              $(MAN_PAGES:docs/man/%=$(MANDIR)/man1/%) $(UNITDIR)/rayd.service
-D := $(DESTDIR)
 
 install: all $(BUILD)/$(SO_FILE)
-	install -d $(D)$(BINDIR) $(D)$(LIBDIR)/pkgconfig $(D)$(INCLUDEDIR)/rayd $(D)$(MANDIR)/man1 \
-	  $(D)$(UNITDIR) $(D)$(SYSCONFDIR)/default
-	install -m 755 $(PROGS) $(D)$(BINDIR)/
-	install -m 644 $(BUILD)/librayd.a $(D)$(LIBDIR)/
-	install -m 755 $(BUILD)/$(SO_FILE) $(D)$(LIBDIR)/
-	ln -sf $(SO_FILE) $(D)$(LIBDIR)/$(SO_NAME)
-	ln -sf $(SO_NAME) $(D)$(LIBDIR)/librayd.so
+	install -d $(DESTDIR)$(BINDIR) $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(INCLUDEDIR)/rayd \
+	  $(DESTDIR)$(MANDIR)/man1 $(DESTDIR)$(UNITDIR) $(DESTDIR)$(SYSCONFDIR)/default
+	install -m 755 $(PROGS) $(DESTDIR)$(BINDIR)/
+	install -m 644 $(BUILD)/librayd.a $(DESTDIR)$(LIBDIR)/
+	install -m 755 $(BUILD)/$(SO_FILE) $(DESTDIR)$(LIBDIR)/
+	ln -sf $(SO_FILE) $(DESTDIR)$(LIBDIR)/$(SO_NAME)
+	ln -sf $(SO_NAME) $(DESTDIR)$(LIBDIR)/librayd.so
 	for h in $(PUBLIC_HEADERS); do \
 	  sed 's/^#define RAYD_VERSION "unknown"$$/#define RAYD_VERSION "$(VERSION)"/' $$h \
-	    >$(D)$(INCLUDEDIR)/rayd/$${h##*/} && chmod 644 $(D)$(INCLUDEDIR)/rayd/$${h##*/} || exit 1; \
+	    >$(DESTDIR)$(INCLUDEDIR)/rayd/$${h##*/} && \
+	  chmod 644 $(DESTDIR)$(INCLUDEDIR)/rayd/$${h##*/} || exit 1; \
 	done
 	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@LIBDIR@|$(LIBDIR)|' -e 's|@INCLUDEDIR@|$(INCLUDEDIR)|' \
-	  -e 's|@VERSION@|$(VERSION)|' packaging/rayd.pc.in >$(D)$(LIBDIR)/pkgconfig/rayd.pc
-	install -m 644 $(MAN_PAGES) $(D)$(MANDIR)/man1/
+	  -e 's|@VERSION@|$(VERSION)|' packaging/rayd.pc.in >$(DESTDIR)$(LIBDIR)/pkgconfig/rayd.pc
+	install -m 644 $(MAN_PAGES) $(DESTDIR)$(MANDIR)/man1/
 	sed -e 's|/usr/local/bin/|$(BINDIR)/|' -e 's|/usr/local/etc/|$(SYSCONFDIR)/|' \
-	  packaging/rayd.service >$(D)$(UNITDIR)/rayd.service
-	@if [ -e $(D)$(ENV_FILE) ] && ! cmp -s packaging/rayd.default $(D)$(ENV_FILE); then \
-	  echo "make install: $(D)$(ENV_FILE) kept as it is (the shipped one: packaging/rayd.default)"; \
-	else install -m 644 packaging/rayd.default $(D)$(ENV_FILE); fi
-	@if [ -z "$(D)" ] && [ "$$(id -u)" = 0 ]; then ldconfig; fi
+	  packaging/rayd.service >$(DESTDIR)$(UNITDIR)/rayd.service
+	@if [ -e $(DESTDIR)$(ENV_FILE) ] && ! cmp -s packaging/rayd.default $(DESTDIR)$(ENV_FILE); then \
+	  echo "make install: $(DESTDIR)$(ENV_FILE) kept (the shipped one: packaging/rayd.default)"; \
+	else install -m 644 packaging/rayd.default $(DESTDIR)$(ENV_FILE); fi
+	@if [ -z "$(DESTDIR)" ] && [ "$$(id -u)" = 0 ]; then ldconfig; fi
 
 uninstall:
-	rm -f $(addprefix $(D),$(INSTALLED))
-	@if cmp -s packaging/rayd.default $(D)$(ENV_FILE); then rm -f $(D)$(ENV_FILE); \
-	elif [ -e $(D)$(ENV_FILE) ]; then echo "make uninstall: $(D)$(ENV_FILE) was edited: kept"; fi
-	@rmdir $(D)$(INCLUDEDIR)/rayd 2>/dev/null || true
+	rm -f $(addprefix $(DESTDIR),$(INSTALLED))
+	@if cmp -s packaging/rayd.default $(DESTDIR)$(ENV_FILE); then rm -f $(DESTDIR)$(ENV_FILE); \
+	elif [ -e $(DESTDIR)$(ENV_FILE) ]; then \
+	  echo "make uninstall: $(DESTDIR)$(ENV_FILE) was edited: kept"; fi
+	@rmdir $(DESTDIR)$(INCLUDEDIR)/rayd 2>/dev/null || true
 
 # --- tests ------------------------------------------------------------------
 # Unit tests may include the core's private headers.
