@@ -1,4 +1,4 @@
-/* rayd.h -- the public C API of the rayd ray-tracing core (librayd.a).
+/* rayd.h -- the public C API of the rayd ray-tracing core (librayd.a, librayd.so).
  *
  * This is the only header the server, the clients and the command-line
  * renderer include. Everything behind it is private to core/.
@@ -31,7 +31,13 @@
 extern "C" {
 #endif
 
-#define RAYD_VERSION "0.1.0"
+/* The version, "MAJOR.MINOR.PATCH".  Its one source is the file VERSION at
+ * the top of the source tree: the Makefile passes it to every compile as
+ * -DRAYD_VERSION, and `make install` writes it into the installed copy of
+ * this header (the line below), so programs built on librayd see it too. */
+#ifndef RAYD_VERSION
+#define RAYD_VERSION "unknown"
+#endif
 
 enum rayd_status {
     RAYD_OK = 0,

@@ -81,7 +81,7 @@ for lv in default 0 1 6 9; do
     fi
     "$CMP" "$T/full1.png" "$T/lv$lv.png" 2>"$T/err" || { all_ok=0; bad "cli-png-level-$lv-pixels" "$(cat "$T/err")"; }
 done
-command -v pngcheck >/dev/null || { all_ok=0; bad cli-pngcheck "pngcheck missing (make deps installs it)"; }
+command -v pngcheck >/dev/null || { all_ok=0; bad cli-pngcheck "pngcheck missing (make test-deps installs it)"; }
 [ $all_ok = 1 ] && ok cli-png-levels-valid
 s0=$(stat -c %s "$T/lv0.png") s9=$(stat -c %s "$T/lv9.png")
 if [ "$s9" -lt "$s0" ]; then ok cli-png-level-honoured; else bad cli-png-level-honoured "level 9 $s9 bytes, level 0 $s0"; fi

@@ -19,7 +19,7 @@ PNGCMP=$RAYD_BUILD/tests/tools/pngcmp
 NGINX=$(command -v nginx || echo /usr/sbin/nginx)
 [ -x "$CLIENT" ] || { echo "FAIL setup: $CLIENT missing"; exit 1; }
 [ -x "$PNGCMP" ] || { echo "FAIL setup: $PNGCMP missing (make test builds it)"; exit 1; }
-[ -x "$NGINX" ] || { echo "FAIL setup: nginx missing (make deps installs it)"; exit 1; }
+[ -x "$NGINX" ] || { echo "FAIL setup: nginx missing (make test-deps installs it)"; exit 1; }
 
 # --- three nodes ---------------------------------------------------------------
 NODE_PID=() NODE_URL=()
