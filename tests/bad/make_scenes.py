@@ -21,6 +21,9 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 OUT = os.path.join(HERE, "scenes")
 
 CASES = []  # (file, bytes, expected line, bug?)
+# Every error line of the tools starts with the program's name (README: the
+# command-line conventions); the cases below are written without it.
+PREFIX = "rayd-render: "
 
 
 def case(name, text, expected, bug=False):
@@ -54,7 +57,7 @@ def end(text):
     return "line %d, column %d" % pos(data, len(data))
 
 
-E = "rayd-render: error: "
+E = "error: "
 
 # ---- malformed JSON ---------------------------------------------------------
 t = ""
@@ -717,7 +720,7 @@ def main():
         with open(os.path.join(OUT, name), "wb") as f:
             f.write(data)
         assert "\t" not in expected and "\n" not in expected
-        lines.append("\t".join([name, "1", expected] + (["bug"] if bug else [])))
+        lines.append("\t".join([name, "1", PREFIX + expected] + (["bug"] if bug else [])))
     for old in os.listdir(OUT):
         if old not in names:
             os.remove(os.path.join(OUT, old))
