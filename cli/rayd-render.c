@@ -1,20 +1,30 @@
 /* rayd-render -- the command-line renderer.
  *
- *   rayd-render SCENE.json -o OUT.png|OUT.exr [--format png|png16|exr]
- *               [--region X,Y,W,H] [--threads N] [--passes] [--stats]
+ *   rayd-render SCENE.json -o OUT.png|OUT.exr|- [--format png|png16|exr]
+ *               [--region X,Y,W,H] [--threads N] [--passes] [--stats] [--quiet]
  *
  * Reads a scene (SCENE may be "-" for standard input), renders it with the
- * core on N threads (default: the number of cores) and writes an 8-bit sRGB
- * PNG, a 16-bit PNG or a linear float OpenEXR (by --format, else by the
- * output's extension).  With --passes it renders progressively: passes of
- * 1, 2, 4, ... samples up to the scene's (or every K with --pass-step),
- * printing each pass's samples and time; each pass's image is the plain
- * render of that many samples, byte for byte (docs/scene-format.md).  A region writes only that crop; it is byte-identical to the same
- * crop of the full render.  It uses nothing but the public API in
+ * core on N threads (default, or 0: the number of cores) and writes an 8-bit
+ * sRGB PNG, a 16-bit PNG or a linear float OpenEXR (by --format, else by the
+ * output's extension) to a file, or to standard output for "-o -".  With
+ * --passes it renders progressively: passes of 1, 2, 4, ... samples up to
+ * the scene's (or every K with --pass-step), printing each pass's samples
+ * and time; each pass's image is the plain render of that many samples,
+ * byte for byte (docs/scene-format.md).  A region writes only that crop; it
+ * is byte-identical to the same crop of the full render.  On a terminal a
+ * progress line is drawn on stderr from the core's progress callback (see
+ * "the progress line" below).  It uses nothing but the public API in
  * include/rayd/rayd.h.
  *
- * Exit status: 0 success, 1 I/O or internal failure, 2 bad usage or a bad
- * scene (the message names the JSON Pointer, or the line and column).
+ * The command line follows the convention of the three tools (rayd,
+ * rayd-render, rayd-client; README "Command-line conventions"):
+ * getopt_long, so "--threads 2" and "--threads=2" are the same; -h/--help
+ * to stdout, --version; every error is one line "rayd-render: error: ..."
+ * on stderr, which keeps the JSON Pointer or the line and column.
+ *
+ * Exit status: 0 success; 1 a failure: a bad scene, I/O, an internal
+ * error; 2 a usage error: the command line is wrong (an unknown option, a
+ * bad value, a --region outside the image) and nothing was rendered.
  */
 #include <errno.h>
 #include <getopt.h>

@@ -2,7 +2,7 @@
  *
  *   rayd-client render SCENE.json -o OUT.png --server URL [--server URL ...]
  *               [--tile 128 | --split-samples N] [--parallel N] [--retries N]
- *               [--timeout S]
+ *               [--timeout S] [--threads N]
  *               [--token-file F] [--quiet]
  *   rayd-client job SCENE.json -o OUT.png --server URL [--token-file F]
  *   rayd-client health --server URL [--server URL ...]
