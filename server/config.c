@@ -156,18 +156,19 @@ static void config_longopts(struct option *lo)
     lo[CONFIG_N + 2] = (struct option){NULL, 0, NULL, 0};
 }
 
-/* getopt_long's '?' or ':' at arg (the word it stopped at): the message. */
-static int config_bad_option(int opt, int optopt_, const char *arg)
+/* getopt_long's '?' or ':' at arg (the word it stopped at), which its optopt
+ * (a short option, or the number of a long one): the message. */
+static int config_bad_option(int opt, int which, const char *arg)
 {
-    if (opt == ':' && optopt_ >= CONFIG_OPT0)
+    if (opt == ':' && which >= CONFIG_OPT0)
         fprintf(stderr, "rayd: error: option --%s needs a value\n",
-                config_table[optopt_ - CONFIG_OPT0].name);
-    else if (!strncmp(arg, "--", 2) && optopt_)
+                config_table[which - CONFIG_OPT0].name);
+    else if (!strncmp(arg, "--", 2) && which)
         fprintf(stderr, "rayd: error: option '%.*s' takes no value\n", (int)strcspn(arg, "="), arg);
-    else if (!strncmp(arg, "--", 2) || !optopt_)
+    else if (!strncmp(arg, "--", 2) || !which)
         fprintf(stderr, "rayd: error: unknown option '%s'\n", arg);
     else
-        fprintf(stderr, "rayd: error: unknown option '-%c'\n", optopt_);
+        fprintf(stderr, "rayd: error: unknown option '-%c'\n", which);
     return CONFIG_USAGE;
 }
 
