@@ -62,9 +62,15 @@ struct config {
 
 extern struct config config;
 
-/* Parses environment then argv into config.  Returns 0 to run, 1 when the
- * program should exit 0 (--help, --version), -1 on a bad option (the message
- * is printed). */
+/* What config_load found: run, or exit with the status in the comment (the
+ * three tools' convention; the message is printed). */
+enum config_result {
+    CONFIG_RUN = 0,
+    CONFIG_DONE = 1,    /* --help or --version printed: exit 0 */
+    CONFIG_FAILED = -2, /* a file an option names cannot be read: exit 1 */
+    CONFIG_USAGE = -1,  /* a bad option or value: exit 2 */
+};
+/* Parses environment then argv into config: an enum config_result. */
 int config_load(int argc, char **argv);
 void config_usage(FILE *f);
 bool config_loopback(const char *addr); /* 127.x, ::1 or localhost */

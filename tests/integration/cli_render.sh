@@ -91,7 +91,7 @@ check_usage cli-no-scene "no scene given" -o "$T/x.png"
 check_usage cli-bad-threads "--threads takes an integer" "$scene" -o "$T/x.png" --threads zero
 check_usage cli-bad-region-syntax "--region takes X,Y,W,H" "$scene" -o "$T/x.png" --region 1,2,3
 check_usage cli-region-outside "error: --region w: must be in 1..10" "$scene" -o "$T/x.png" --region 150,0,20,20
-check_usage cli-unknown-option "unknown option --fast" "$scene" -o "$T/x.png" --fast
+check_usage cli-unknown-option "rayd-render: error: unknown option '--fast'" "$scene" -o "$T/x.png" --fast
 check_usage cli-bad-png-level "--png-level takes an integer in 0..9" "$scene" -o "$T/x.png" --png-level 10
 if [ ! -e "$T/x.png" ]; then ok cli-no-file-on-error; else bad cli-no-file-on-error "a PNG was written"; fi
 

@@ -237,7 +237,7 @@ client samples_list_exr render "$T/s.json" -o "$T/s_list.exr" --split-samples 12
     --server "${NODE_URL[1]}" --server "${NODE_URL[2]}" --server "${NODE_URL[3]}"
 check samples_list_exr_identical "exit $RC" bash -c "[ $RC = 0 ] && cmp -s '$T/s_list.exr' '$T/s_ref.exr'"
 client samples_bad render "$T/s.json" -o "$T/s_bad.png" --split-samples 0 --server "$LB"
-check samples_bad_option "exit $RC: $(head -c 200 "$T/samples_bad.err")" [ "$RC" = 64 ]
+check samples_bad_option "exit $RC: $(head -c 200 "$T/samples_bad.err")" [ "$RC" = 2 ]
 
 # --- SIGKILL of a node mid-frame -----------------------------------------------------
 # kill_mid_frame NAME NODE SCENE SERVERS...: renders in the background, kills
@@ -298,7 +298,7 @@ scene "$T/d.json" 200 150 1 spheres 6
 t0=$(date +%s)
 client down_list render "$T/d.json" -o "$T/d.png" --server "${NODE_URL[1]}" --server "${NODE_URL[2]}" --server "${NODE_URL[3]}"
 t1=$(date +%s)
-check down_list_exit "exit $RC" [ "$RC" = 2 ]
+check down_list_exit "exit $RC" [ "$RC" = 1 ]
 check down_list_message "stderr: $(tail -n 2 "$T/down_list.err" | head -c 300)" \
     bash -c "grep -q 'incomplete image, nothing written to .*: 4 of 4 tiles missing: x=0 y=0 w=128 h=128' '$T/down_list.err' && grep -q 'last error: .*onnect' '$T/down_list.err'"
 check down_list_no_file "an image was written" [ ! -e "$T/d.png" -a ! -e "$T/d.png.part" ]
@@ -307,7 +307,7 @@ check down_list_no_file "an image was written" [ ! -e "$T/d.png" -a ! -e "$T/d.p
 check down_list_quick "took $((t1 - t0)) s" [ $((t1 - t0)) -le 90 ]
 client down_nginx render "$T/d.json" -o "$T/d.png" --server "$LB"
 check down_nginx_exit "exit $RC: $(tail -n 2 "$T/down_nginx.err" | head -c 300)" \
-    bash -c "[ $RC = 2 ] && grep -q 'tiles missing' '$T/down_nginx.err' && [ ! -e '$T/d.png' ]"
+    bash -c "[ $RC = 1 ] && grep -q 'tiles missing' '$T/down_nginx.err' && [ ! -e '$T/d.png' ]"
 
 # --- stop nginx; sanitizer reports of the nodes (SANITIZE=1) ----------------------------
 kill -QUIT "$NGINX_PID" 2>/dev/null
