@@ -26,9 +26,14 @@ page_text() {
     esac
 }
 
-# help_options PROGRAM: the long options its --help prints, one a line.
+# help_options PROGRAM: the long options its --help offers, one a line: those
+# of the usage lines ("[--format F]", "--server URL") and those that open an
+# option line ("  -o, --output F"), not the words of its prose
+# ("'--opt value' or '--opt=value'").
 help_options() {
-    "$RAYD_BUILD/$1" --help 2>&1 | grep -oE -- '--[a-z0-9][a-z0-9-]*' | sort -u
+    "$RAYD_BUILD/$1" --help 2>&1 |
+        sed -nE -e '/^ *(usage:|rayd)/,/^$/p' -e 's/^ +(-[a-zA-Z], )?(--[a-z0-9][a-z0-9-]*).*/\2/p' |
+        grep -oE -- '(^|[[ |])--[a-z0-9][a-z0-9-]*' | grep -oE -- '--[a-z0-9-]+' | sort -u
 }
 
 for prog in rayd rayd-render rayd-client; do
