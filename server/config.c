@@ -16,6 +16,7 @@
 #include <limits.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 struct config config;
@@ -84,6 +85,8 @@ static const struct config_option config_table[] = {
      "PEM certificate (chain): serve HTTPS with libmicrohttpd's TLS (needs --tls-key)"},
     {"tls-key", "RAYD_TLS_KEY", CT_STRING, &config.tls_key, NULL, 0, 0,
      "PEM private key for --tls-cert"},
+    {"asset-dir", "RAYD_ASSET_DIR", CT_STRING, &config.asset_dir, NULL, 0, 0,
+     "folder a scene's mesh and texture \"file\" names are read from (inside it only)"},
     {"test-gate", "RAYD_TEST_GATE", CT_STRING, &config.test_gate, NULL, 0, 0,
      "tests only: workers start tiles only as POST /v1/test/gate allows (N tiles, or open)"},
 };
@@ -165,6 +168,26 @@ bool config_loopback(const char *addr)
     return !strncmp(addr, "127.", 4) || !strcmp(addr, "::1") || !strcmp(addr, "localhost");
 }
 
+/* --asset-dir: an existing folder, kept as its real path, so the loader's
+ * confinement (openat2 RESOLVE_BENEATH, core/io/scene_json_util.c) starts
+ * from a fixed place.  Unset, a scene's "file" is refused. */
+static int config_asset_dir(void)
+{
+    if (!config.asset_dir)
+        return 0;
+    char *real = realpath(config.asset_dir, NULL);
+    struct stat st;
+    if (!real || stat(real, &st) != 0 || !S_ISDIR(st.st_mode)) {
+        fprintf(stderr, "rayd: --asset-dir %s: %s\n", config.asset_dir,
+                real ? "not a directory" : strerror(errno));
+        free(real);
+        return -1;
+    }
+    free(config.asset_dir);
+    config.asset_dir = real;
+    return 0;
+}
+
 /* --test-gate lets any client hold every worker, so it is refused unless
  * rayd listens on loopback only. */
 static int config_test_gate(void)
@@ -244,7 +267,7 @@ int config_load(int argc, char **argv)
     }
     if (config.token_file && *config.token_file && config_read_token())
         return -1;
-    if (config_test_gate())
+    if (config_test_gate() || config_asset_dir())
         return -1;
     if (!config.tls_cert != !config.tls_key) {
         fprintf(stderr, "rayd: --tls-cert and --tls-key go together\n");
