@@ -11,7 +11,9 @@ and options, its other lines (up to "-->") are the mode's inputs:
 
   <!-- docs-check -->            (mode "shell", the default) the block's shell
       commands run with bash in a scratch folder that sees the repository's
-      build/, scenes/, clients/, tests/ and docs/ (build/ is BUILD).  A block
+      build/, scenes/, clients/, tests/ and docs/ (build/ is BUILD; in
+      scenes/ the path-traced scenes are cut to 64 x 64 pixels, same
+      samples, so that they take seconds; scene.json is scenes/spheres.json).  A block
       of lines starting with "$ " is a session: each command (with "\"
       continuations) runs in turn and must exit 0, and the lines after it,
       up to the next "$ ", are its expected output (stdout and stderr).  A
@@ -26,7 +28,8 @@ and options, its other lines (up to "-->") are the mode's inputs:
       (the server's limits differ) only rayd-render is asked.  A scene line that starts with
       '"' is a JSON string holding the text (for newlines: "{\n ...").
   <!-- docs-check http           each further comment line is a request,
-      "METHOD TARGET [BODY]" (BODY: JSON text, sent as application/json);
+      "METHOD TARGET [BODY]" (BODY: JSON text, sent as application/json, or
+      a JSON string holding the text);
       the block's lines are, in order, the JSON bodies of the answers, and
       an error's "status" is the HTTP status.
 
@@ -39,8 +42,8 @@ that value (others are ignored), then the body.  A JSON body or JSON line
 matches when every key shown is there with a matching value (keys not shown
 are ignored); arrays must have the same length.
 
-The examples talk to one rayd the script starts on 127.0.0.1 --port 0, with
---asset-dir the scratch folder's assets/; "127.0.0.1:8080" and
+Each example talks to a rayd of its own, started for it on 127.0.0.1
+--port 0 with --asset-dir the scratch folder's assets/; "127.0.0.1:8080" and
 "localhost:8080" in an example become its address.  Each example prints one
 line, "PASS docs:FILE:LINE" or "FAIL docs:FILE:LINE: why".
 """
@@ -242,14 +245,20 @@ class Env:
     def __init__(self, root, build):
         self.root, self.build = root, build
         self.work = tempfile.mkdtemp(prefix="rayd-docs.")
-        for d in ("scenes", "clients", "tests", "docs"):
+        for d in ("clients", "tests", "docs"):
             os.symlink(os.path.join(root, d), os.path.join(self.work, d))
+        self.scenes(os.path.join(root, "scenes"), os.path.join(self.work, "scenes"))
         os.symlink(build, os.path.join(self.work, "build"))
         os.mkdir(os.path.join(self.work, "assets"))
         shutil.copy(os.path.join(root, "scenes/spheres.json"), os.path.join(self.work, "scene.json"))
+        self.rayd = None
+
+    def start(self):
+        """A fresh rayd for each example, so none depends on another's caches."""
+        self.stop()
         self.err = open(os.path.join(self.work, "rayd.err"), "w")
         self.rayd = subprocess.Popen(
-            [os.path.join(build, "rayd"), "--bind", "127.0.0.1", "--port", "0", "--asset-dir",
+            [os.path.join(self.build, "rayd"), "--bind", "127.0.0.1", "--port", "0", "--asset-dir",
              os.path.join(self.work, "assets")],
             stdout=subprocess.PIPE, stderr=self.err, text=True)
         first = self.rayd.stdout.readline().strip()
@@ -258,13 +267,35 @@ class Env:
             raise SystemExit("FAIL docs_check_server: first line was %r" % first)
         self.port = m.group(1)
 
-    def close(self):
+    @staticmethod
+    def scenes(src, dst):
+        """scenes/ as the repository's, but path-traced ones at 64 x 64 at
+        most (same samples, so the same passes): they render in seconds."""
+        os.mkdir(dst)
+        for f in sorted(os.listdir(src)):
+            s = json.load(open(os.path.join(src, f), encoding="utf-8"))
+            r = s.get("render", {})
+            if r.get("integrator") != "path":
+                os.symlink(os.path.join(src, f), os.path.join(dst, f))
+                continue
+            r["width"], r["height"] = min(r.get("width", 640), 64), min(r.get("height", 480), 64)
+            json.dump(s, open(os.path.join(dst, f), "w"))
+
+    def stop(self):
+        if not self.rayd:
+            return
         self.rayd.terminate()
         try:
             self.rayd.wait(60)
         except subprocess.TimeoutExpired:
             self.rayd.kill()
+            self.rayd.wait()
+        self.rayd.stdout.close()
         self.err.close()
+        self.rayd = None
+
+    def close(self):
+        self.stop()
         shutil.rmtree(self.work, ignore_errors=True)
 
     def local(self, text):
@@ -356,7 +387,10 @@ def check_http(env, ex):
         return "%d requests in the marker for %d lines" % (len(ex.inputs), len(block))
     for req, expected in zip(ex.inputs, block):
         parts = req.strip().split(None, 2)
-        code, text = env.http(parts[0], parts[1], parts[2].encode() if len(parts) > 2 else None)
+        body = None
+        if len(parts) > 2:
+            body = (json.loads(parts[2]) if parts[2].startswith('"') else parts[2]).encode()
+        code, text = env.http(parts[0], parts[1], body)
         why = lines_match([expected], text, ex.opts)
         if why:
             return "%s %s: %s" % (parts[0], parts[1], why)
@@ -425,6 +459,7 @@ def main():
             for ex in examples(f, rel):
                 n += 1
                 try:
+                    env.start()
                     why = checks[ex.mode](env, ex)
                 except subprocess.TimeoutExpired:
                     why = "no answer within %d s" % TIMEOUT
