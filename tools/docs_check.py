@@ -43,7 +43,8 @@ matches when every key shown is there with a matching value (keys not shown
 are ignored); arrays must have the same length.
 
 Each example talks to a rayd of its own, started for it on 127.0.0.1
---port 0 with --asset-dir the scratch folder's assets/; "127.0.0.1:8080" and
+--port 0 with --asset-dir the scratch folder's assets/ (and with the option
+"token", --token-file the scratch folder's token); "127.0.0.1:8080" and
 "localhost:8080" in an example become its address.  Each example prints one
 line, "PASS docs:FILE:LINE" or "FAIL docs:FILE:LINE: why".
 """
@@ -251,16 +252,19 @@ class Env:
         os.symlink(build, os.path.join(self.work, "build"))
         os.mkdir(os.path.join(self.work, "assets"))
         shutil.copy(os.path.join(root, "scenes/spheres.json"), os.path.join(self.work, "scene.json"))
+        with open(os.path.join(self.work, "token"), "w") as f:
+            f.write("docs-check-token\n")
         self.rayd = None
 
-    def start(self):
+    def start(self, opts):
         """A fresh rayd for each example, so none depends on another's caches."""
         self.stop()
         self.err = open(os.path.join(self.work, "rayd.err"), "w")
-        self.rayd = subprocess.Popen(
-            [os.path.join(self.build, "rayd"), "--bind", "127.0.0.1", "--port", "0", "--asset-dir",
-             os.path.join(self.work, "assets")],
-            stdout=subprocess.PIPE, stderr=self.err, text=True)
+        args = [os.path.join(self.build, "rayd"), "--bind", "127.0.0.1", "--port", "0",
+                "--asset-dir", os.path.join(self.work, "assets")]
+        if opts.get("token"):
+            args += ["--token-file", os.path.join(self.work, "token")]
+        self.rayd = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=self.err, text=True)
         first = self.rayd.stdout.readline().strip()
         m = re.match(r"^rayd listening on http://127\.0\.0\.1:(\d+)$", first)
         if not m:
@@ -459,7 +463,7 @@ def main():
             for ex in examples(f, rel):
                 n += 1
                 try:
-                    env.start()
+                    env.start(ex.opts)
                     why = checks[ex.mode](env, ex)
                 except subprocess.TimeoutExpired:
                     why = "no answer within %d s" % TIMEOUT
