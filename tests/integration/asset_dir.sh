@@ -2,9 +2,10 @@
 # asset_dir.sh -- rayd --asset-dir DIR: a scene's mesh (OBJ, PLY) and
 # texture "file" names are read from inside DIR only.  A file inside renders
 # the very bytes of the same mesh given inline; "..", an absolute path, a
-# symbolic link leading out, a missing file, a FIFO and a server without
-# --asset-dir are each refused with the file's JSON Pointer and a message
-# saying what is wrong (422 invalid_scene, as every invalid scene), and the
+# symbolic link leading out, a missing file, a FIFO, a file over the size
+# limit and a server without --asset-dir are each refused with the file's JSON Pointer and a message
+# saying what is wrong (422 invalid_scene, as every invalid scene; 413
+# too_large over the size limit), and the
 # server still answers afterwards.
 source "$(dirname "$0")/lib/common.sh"
 
@@ -121,6 +122,15 @@ for name, scene, path, part in cases:
     print("PASS %s_message" % name if ok else "FAIL %s_message: %r lacks %r" % (name, e.get("message"), part))
 PY
 [ $? = 0 ] || fail refusals "python exited with an error"
+
+# a file over the scene size limit (256 MiB; sparse, so it costs no disk) is
+# refused from its size, before a byte is read
+truncate -s 257M "$A/models/huge.obj"
+mesh_scene "$T/huge.json" '{"file": "models/huge.obj"}'
+code=$(post_json /v1/render "$T/huge.json")
+check huge_file_413 "status $code: $(head -c 300 "$T/body")" \
+    err_is "$T/body" 413 too_large /objects/0/source/file
+check huge_file_message "$(head -c 300 "$T/body")" grep -q 'over the limit of 268435456 bytes' "$T/body"
 
 check still_healthy "healthz" [ "$(req GET /healthz)" = 200 ]
 stop_rayd TERM
