@@ -2,11 +2,11 @@
 # asset_dir.sh -- rayd --asset-dir DIR: a scene's mesh (OBJ, PLY) and
 # texture "file" names are read from inside DIR only.  A file inside renders
 # the very bytes of the same mesh given inline; "..", an absolute path, a
-# symbolic link leading out, a missing file, a FIFO, a file over the size
-# limit and a server without --asset-dir are each refused with the file's JSON Pointer and a message
-# saying what is wrong (422 invalid_scene, as every invalid scene; 413
-# too_large over the size limit), and the
-# server still answers afterwards.
+# symbolic link leading out, a missing file, a directory, a FIFO and a
+# server without --asset-dir are each refused with the file's JSON Pointer
+# and a message saying what is wrong (422 invalid_scene, as every invalid
+# scene), a file over the size limit with 413 too_large, and the server
+# still answers afterwards.
 source "$(dirname "$0")/lib/common.sh"
 
 A=$T/assets
