@@ -344,7 +344,7 @@ static enum rayd_status asset_open(struct loader *ld, const char *name, const st
         *fd = open(name[0] == '/' ? name : path, O_RDONLY | O_CLOEXEC | O_NOCTTY | O_NONBLOCK);
     }
     if (*fd >= 0) return RAYD_OK;
-    if (errno == EXDEV || errno == ELOOP)
+    if (lim->asset_confine && errno == EXDEV) /* RESOLVE_BENEATH's (and the fallback's) refusal */
         return sj_fail(ld, RAYD_E_INVALID, at, "\"%s\" leads outside the asset directory (a symbolic link)", sj_quote(q, sizeof q, name));
     return sj_fail(ld, RAYD_E_INVALID, at, "cannot open \"%s\": %s", sj_quote(q, sizeof q, name), strerror(errno));
 }
