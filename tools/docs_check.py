@@ -43,9 +43,9 @@ matches when every key shown is there with a matching value (keys not shown
 are ignored); arrays must have the same length.
 
 Each example talks to a rayd of its own, started for it on 127.0.0.1
---port 0 with --asset-dir the scratch folder's assets/ (and with the option
+--port 0 with --threads 2 (the same answers on any machine), --asset-dir the scratch folder's assets/ (and with the option
 "token", --token-file the scratch folder's token); "127.0.0.1:8080" and
-"localhost:8080" in an example become its address.  Each example prints one
+"localhost:8080" in an example (and in its expected output) become its address.  Each example prints one
 line, "PASS docs:FILE:LINE" or "FAIL docs:FILE:LINE: why".
 """
 import json
@@ -261,7 +261,7 @@ class Env:
         self.stop()
         self.err = open(os.path.join(self.work, "rayd.err"), "w")
         args = [os.path.join(self.build, "rayd"), "--bind", "127.0.0.1", "--port", "0",
-                "--asset-dir", os.path.join(self.work, "assets")]
+                "--threads", "2", "--asset-dir", os.path.join(self.work, "assets")]
         if opts.get("token"):
             args += ["--token-file", os.path.join(self.work, "token")]
         self.rayd = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=self.err, text=True)
@@ -436,7 +436,7 @@ def check_shell(env, ex):
         if rc != want_rc:
             return "%r: exit status %d (expected %d): %s" % (cmd[:60], rc, want_rc, out.strip()[-300:])
         if any(l.strip() for l in expected):
-            why = lines_match(expected, out, ex.opts)
+            why = lines_match([env.local(l) for l in expected], out, ex.opts)
             if why:
                 return "%r: %s" % (cmd[:60], why)
     return None
