@@ -43,10 +43,12 @@ matches when every key shown is there with a matching value (keys not shown
 are ignored); arrays must have the same length.
 
 Each example talks to a rayd of its own, started for it on 127.0.0.1
---port 0 with --threads 2 (the same answers on any machine), --asset-dir the scratch folder's assets/ (and with the option
-"token", --token-file the scratch folder's token); "127.0.0.1:8080" and
-"localhost:8080" in an example (and in its expected output) become its address.  Each example prints one
-line, "PASS docs:FILE:LINE" or "FAIL docs:FILE:LINE: why".
+--port 0 with --threads 2 (the same answers on any machine) and
+--asset-dir the scratch folder's assets/ (with the option "token", also
+--token-file the scratch folder's token); "127.0.0.1:8080" and
+"localhost:8080" in an example and in its expected output become its
+address.  Each example prints one line, "PASS docs:FILE:LINE" or
+"FAIL docs:FILE:LINE: why".
 """
 import json
 import os
