@@ -55,6 +55,7 @@ struct config {
     long max_url;        /* bytes of the request-target (path + query) */
     long upload_seconds; /* longest time from the headers to the body's last byte, 0 = none */
     char *tls_cert, *tls_key; /* PEM files: serve HTTPS with libmicrohttpd's TLS */
+    char *asset_dir;     /* folder of scene "file" references (real path), NULL = refused */
     char *test_gate;     /* tests only: "open" or tiles allowed; NULL = off */
     /* derived */
     char *token;         /* contents of token_file, trimmed */

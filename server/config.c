@@ -24,6 +24,7 @@
 #include <limits.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 struct config config;
@@ -50,13 +51,13 @@ static const struct config_option config_table[] = {
     {"http-threads", "RAYD_HTTP_THREADS", CT_LONG, &config.http_threads, "2", 1, 256,
      "libmicrohttpd threads (parse, validate, I/O; they never render)"},
     {"queue", "RAYD_QUEUE", CT_LONG, &config.queue, "64", 1, 1000000,
-     "render tasks waiting for a worker before 503 queue_full"},
+     "renders not yet started (requests, jobs, next passes) before 503 queue_full"},
     {"max-body", "RAYD_MAX_BODY", CT_LONG, &config.max_body, "4194304", 1, LONG_MAX,
      "largest request body in bytes (413 before reading it)"},
     {"max-pixels", "RAYD_MAX_PIXELS", CT_LONG, &config.max_pixels, "16777216", 1, LONG_MAX,
      "largest image (width * height) a scene may ask for (413)"},
     {"token-file", "RAYD_TOKEN_FILE", CT_STRING, &config.token_file, NULL, 0, 0,
-     "file holding a bearer token; then every route but /healthz and /readyz needs it"},
+     "file holding a bearer token; then all but /healthz, /readyz, the preview page and OPTIONS need it"},
     {"cache-mb", "RAYD_CACHE_MB", CT_LONG, &config.cache_mb, "256", 0, 1048576,
      "memory budget of the compiled-scene cache in MiB"},
     {"result-cache-mb", "RAYD_RESULT_CACHE_MB", CT_LONG, &config.result_cache_mb, "64", 0, 1048576,
@@ -100,6 +101,8 @@ static const struct config_option config_table[] = {
      "PEM certificate (chain): serve HTTPS with libmicrohttpd's TLS (needs --tls-key)"},
     {"tls-key", "RAYD_TLS_KEY", CT_STRING, &config.tls_key, NULL, 0, 0,
      "PEM private key for --tls-cert"},
+    {"asset-dir", "RAYD_ASSET_DIR", CT_STRING, &config.asset_dir, NULL, 0, 0,
+     "folder a scene's mesh and texture \"file\" names are read from (inside it only)"},
     {"test-gate", "RAYD_TEST_GATE", CT_STRING, &config.test_gate, NULL, 0, 0,
      "tests only: workers start tiles only as POST /v1/test/gate allows (N tiles, or open)"},
 };
@@ -237,6 +240,26 @@ bool config_loopback(const char *addr)
     return !strncmp(addr, "127.", 4) || !strcmp(addr, "::1") || !strcmp(addr, "localhost");
 }
 
+/* --asset-dir: an existing folder, kept as its real path, so the loader's
+ * confinement (openat2 RESOLVE_BENEATH, core/io/scene_json_util.c) starts
+ * from a fixed place.  Unset, a scene's "file" is refused. */
+static int config_asset_dir(void)
+{
+    if (!config.asset_dir)
+        return 0;
+    char *real = realpath(config.asset_dir, NULL);
+    struct stat st;
+    if (!real || stat(real, &st) != 0 || !S_ISDIR(st.st_mode)) {
+        fprintf(stderr, "rayd: error: --asset-dir %s: %s\n", config.asset_dir,
+                real ? "not a directory" : strerror(errno));
+        free(real);
+        return -1;
+    }
+    free(config.asset_dir);
+    config.asset_dir = real;
+    return 0;
+}
+
 /* --test-gate lets any client hold every worker, so it is refused unless
  * rayd listens on loopback only. */
 static int config_test_gate(void)
@@ -291,6 +314,8 @@ int config_load(int argc, char **argv)
         return CONFIG_FAILED;
     if (config_test_gate())
         return CONFIG_USAGE;
+    if (config_asset_dir())
+        return CONFIG_FAILED;
     if (!config.tls_cert != !config.tls_key) {
         fprintf(stderr, "rayd: error: --tls-cert and --tls-key go together\n");
         return CONFIG_USAGE;

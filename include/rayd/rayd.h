@@ -85,10 +85,12 @@ struct rayd_limits {
     size_t max_bytes;  /* scene text size */
     long max_triangles; /* all meshes together */
     long max_vertices;  /* all meshes together */
-    /* Mesh "file" references: NULL (the default) refuses them; otherwise
-     * relative paths resolve against asset_dir.  With asset_confine set, a
-     * path must stay inside asset_dir (no absolute path, no ".."), as the
-     * server requires; rayd-render trusts its scene and does not confine. */
+    /* Mesh and texture "file" references: NULL (the default) refuses them;
+     * otherwise relative paths resolve against asset_dir.  With
+     * asset_confine set (rayd --asset-dir), a path must stay inside
+     * asset_dir: no absolute path, no "..", no symbolic link leading out
+     * (opened with openat2 RESOLVE_BENEATH); rayd-render trusts its scene
+     * and does not confine.  A file counts against max_bytes. */
     const char *asset_dir;
     int asset_confine;
 };
