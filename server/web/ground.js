@@ -7,10 +7,10 @@
 //
 // Heights are measured along the scene's up vector.  The ground is the
 // highest plane below look_at that faces up or down: a top-level "plane"
-// object with no transform whose normal is within 30 degrees of up (a tilted
-one counts at its height straight under look_at).  Planes
-// are infinite, so that is the one the eye would cross first on its way
-// down (a lower one is hidden under it).  A scene with no such plane has its
+// object with no transform whose normal is within 30 degrees of up (a
+// tilted one counts at its height straight under look_at).  Planes are
+// infinite, so that is the one the eye would cross first on its way down
+// (a lower one is hidden under it).  A scene with no such plane has its
 // ground at height 0 (y = 0 when up is +y), or at look_at's own height when
 // look_at is not above 0.  The eye keeps a margin of a thousandth of its
 // distance to look_at above the ground.
