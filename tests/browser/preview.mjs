@@ -587,7 +587,8 @@ try {
       const s2 = await size();
       if (!ok2) return `1:1 at ratio 2: ${s2.w} x ${s2.h} for ${s2.iw} x ${s2.ih}`;
     } finally {
-      await cdp.send("Emulation.clearDeviceMetricsOverride");
+      // back to the context's own viewport and ratio
+      await cdp.send("Emulation.setDeviceMetricsOverride", { width: 1440, height: 860, deviceScaleFactor: 1, mobile: false });
       await cdp.detach();
     }
     await page.waitForFunction(() => devicePixelRatio === 1, null, { timeout: 10000 });
