@@ -412,7 +412,7 @@ let autoTimer = 0;
 const rendersWhenUndone = new Set(["camera", "example", "link"]);
 editor.onChange(({ source, kind }) => {
   describe();
-  save(editor.value, editor.label);
+  save(editor.value, editor.label, !isExample(editor.value));
   hideNotice();
   if (source === "undo" || source === "redo") {
     select.value = editor.label;
@@ -567,9 +567,12 @@ window.addEventListener("hashchange", async () => {
 (async () => {
   const saved = loadSaved();
   const known = (name) => examples.some((x) => x.name === name);
-  if (saved) {
+  if (saved && (saved.edited || !known(saved.example))) {
     editor.label = known(saved.example) ? saved.example : "";
     editor.reset(saved.text);
+  } else if (saved) {
+    editor.label = saved.example;
+    editor.reset(exampleText(examples.find((x) => x.name === saved.example)));
   } else {
     editor.label = DEFAULT_EXAMPLE;
     editor.reset(exampleText(examples.find((x) => x.name === DEFAULT_EXAMPLE) || examples[0]));
