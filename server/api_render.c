@@ -41,7 +41,7 @@ static void api_render_reply(struct http_req *r, struct blob *img, enum work_for
     http_reply_image(r, 200, img, api_format_type(format));
     http_reply_cache_headers(r);
     if (negotiated)
-        http_reply_header(r, "Vary", "Accept");
+        http_reply_vary(r, "Accept");
 }
 
 /* The worker's answer (or the watcher's "gone"): the reply, then resume. */
