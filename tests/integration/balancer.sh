@@ -16,7 +16,7 @@
 # - the tile cache: a tile fetched with the token is cached and served
 #   again, a request without the token or with another gets 401 (never the
 #   cached tile), and no file of the cache holds the token;
-# - every node down: nginx answers JSON 503 + Retry-After, not HTML 502.
+# - every node down: nginx answers a JSON 502 with Retry-After, not HTML.
 # Every process is stopped by its PID; everything stays on loopback.
 source "$(dirname "$0")/lib/common.sh"
 source "$RAYD_ROOT/tests/integration/lib/nginx.sh"
@@ -200,12 +200,12 @@ check tile_in_cache "no cache file for the tile" [ "$nfiles" -ge 1 ]
 check tile_cache_no_token "the token is in $(grep -rl -- "$TOKEN" "$NG/cache" | head -n 2)" \
     bash -c "! grep -rqa -- '$TOKEN' '$NG/cache'"
 
-# --- every node down: nginx's own error is JSON 503 + Retry-After ---------------------
+# --- every node down: nginx's own error is JSON with Retry-After, not HTML -----------
 for i in 1 2 3; do kill -KILL "${NODE_PID[$i]}"; wait "${NODE_PID[$i]}" 2>/dev/null; done
 code=$(post_json /v1/render "$T/s1.json" "${AUTH[@]}")
-check down_json_503 "$code Retry-After='$(header Retry-After)' $(head -c 200 "$T/body")" \
-    bash -c "[ $code = 503 ] && [ -n '$(header Retry-After)' ] && grep -q '\"code\":\"unavailable\"' '$T/body' &&
-             python3 -c 'import json,sys; json.load(open(sys.argv[1]))' '$T/body'"
+check down_json_502 "$code Retry-After='$(header Retry-After)' $(head -c 200 "$T/body")" \
+    bash -c "[ $code = 502 ] && [ -n '$(header Retry-After)' ] &&
+             python3 -c 'import json,sys; e=json.load(open(sys.argv[1]))[\"error\"]; sys.exit(e[\"code\"] != \"unavailable\")' '$T/body'"
 
 kill -QUIT "$NGINX_PID" 2>/dev/null
 wait "$NGINX_PID" 2>/dev/null
