@@ -67,7 +67,6 @@ NGINX_PID=$!
 # nginx's workers outlive a SIGKILLed master: TERM it first (it stops them)
 balancer_cleanup() {
     kill -TERM "$NGINX_PID" 2>/dev/null && wait "$NGINX_PID" 2>/dev/null
-    [ -n "${BAL_DEBUG:-}" ] && cp -r "$T" "$BAL_DEBUG"
     cleanup
 }
 trap balancer_cleanup EXIT
