@@ -313,7 +313,18 @@ $(BROWSER_NODE): tests/browser/package.json tests/browser/package-lock.json
 	  echo "npm ci in tests/browser failed: the browser tests will fail"; \
 	else echo "npm not found: the browser tests will fail (install Node.js and npm)"; fi
 
-test: all $(UNIT_BIN) $(TEST_TOOLS) $(FUZZ_REPLAY) $(BUILD)/bench/genmesh $(BROWSER_NODE) \
+# docker/k8s/ is validated offline with kubernetes-models (the Kubernetes and
+# prometheus-operator schemas) from npm, installed into tests/k8s/node_modules
+# the same way; without it tests/integration/k8s_manifests.sh says SKIP.
+K8S_NODE := tests/k8s/node_modules/.package-lock.json
+
+$(K8S_NODE): tests/k8s/package.json tests/k8s/package-lock.json
+	@if command -v npm >/dev/null 2>&1; then \
+	  (cd tests/k8s && npm ci --no-audit --no-fund --loglevel=error) || \
+	  echo "npm ci in tests/k8s failed: the manifest test will SKIP"; \
+	else echo "npm not found: the manifest test will SKIP (install Node.js and npm)"; fi
+
+test: all $(UNIT_BIN) $(TEST_TOOLS) $(FUZZ_REPLAY) $(BUILD)/bench/genmesh $(BROWSER_NODE) $(K8S_NODE) \
       $(BUILD)/$(SO_FILE) \
       | $(BUILD)/.test-deps-ok
 	@bash tests/run.sh $(BUILD)

@@ -43,7 +43,7 @@ static void api_render_reply(struct http_req *r, struct blob *img, enum work_for
     http_reply_cache_headers(r);
     api_price_headers(r, price);
     if (r->route_negotiates)
-        http_reply_header(r, "Vary", "Accept");
+        http_reply_vary(r, "Accept");
 }
 
 /* The worker's answer (or the watcher's "gone"): the reply, then resume. */

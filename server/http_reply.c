@@ -49,11 +49,11 @@ void http_reply(struct http_req *r, unsigned status, struct MHD_Response *resp)
         MHD_add_response_header(resp, "Access-Control-Allow-Origin", origin);
         MHD_add_response_header(resp, "Access-Control-Expose-Headers",
                                 "ETag, Location, Retry-After, Content-Length");
-        if (strcmp(origin, "*"))
-            MHD_add_response_header(resp, "Vary", "Origin");
     }
     MHD_add_response_header(resp, "X-Content-Type-Options", "nosniff");
     r->pending = resp;
+    if (origin && strcmp(origin, "*"))
+        http_reply_vary(r, "Origin");
     r->pending_status = status;
     r->status = (int)status;
     r->replied = true;
@@ -164,11 +164,35 @@ void http_reply_error(struct http_req *r, unsigned status, const char *code, con
         http_reply_header(r, MHD_HTTP_HEADER_CONNECTION, "close");
 }
 
+/* One Vary line for the reply: nginx up to 1.22 reads only the last Vary
+ * header of an answer it caches, so every field goes into the same line. */
+void http_reply_vary(struct http_req *r, const char *field)
+{
+    if (!r->pending)
+        return;
+    const char *old = MHD_get_response_header(r->pending, "Vary");
+    if (!old) {
+        MHD_add_response_header(r->pending, "Vary", field);
+        return;
+    }
+    char both[256];
+    snprintf(both, sizeof both, "%s, %s", old, field);
+    MHD_del_response_header(r->pending, "Vary", old);
+    MHD_add_response_header(r->pending, "Vary", both);
+}
+
+/* With a token, a shared cache (nginx's proxy_cache) must keep the answer
+ * per Authorization value, or it would hand a tile fetched with the token to
+ * a request without it: Vary: Authorization says so, and nginx keys such an
+ * answer on a hash of the header, so the token is never written to its cache
+ * files in clear (docs/operations.md). */
 void http_reply_cache_headers(struct http_req *r)
 {
     if (r->etag[0]) {
         http_reply_header(r, MHD_HTTP_HEADER_ETAG, r->etag);
         http_reply_header(r, MHD_HTTP_HEADER_CACHE_CONTROL, "public, max-age=31536000, immutable");
+        if (config.token)
+            http_reply_vary(r, "Authorization");
     } else {
         http_reply_header(r, MHD_HTTP_HEADER_CACHE_CONTROL, "no-store");
     }

@@ -102,7 +102,10 @@ void http_reply_error(struct http_req *r, unsigned status, const char *code, con
                       const char *path, int line, int column, const char *param);
 /* Adds a header to the response queued last (call right after a reply). */
 void http_reply_header(struct http_req *r, const char *name, const char *value);
-/* ETag + immutable Cache-Control when r->etag is set, else no-store. */
+/* Adds field to the reply's one Vary header (Vary: Accept, Authorization). */
+void http_reply_vary(struct http_req *r, const char *field);
+/* ETag + immutable Cache-Control when r->etag is set (and Vary:
+ * Authorization with a token), else no-store. */
 void http_reply_cache_headers(struct http_req *r);
 /* The Access-Control-Allow-Origin value for r under --cors-origin, or NULL. */
 const char *http_reply_cors_origin(struct http_req *r);

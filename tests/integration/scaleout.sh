@@ -3,7 +3,9 @@
 #
 # Starts three `rayd --port 0` on 127.0.0.1 and Debian's nginx on a free
 # loopback port with docker/nginx.conf itself (its "# @node" and "# @listen"
-# lines and its paths rewritten for a temporary folder), then checks that
+# lines and its paths rewritten for a temporary folder by lib/nginx.sh;
+# tests/integration/balancer.sh checks busy nodes, jobs and the cache key
+# through it), then checks that
 # rayd-client's stitched frames equal rayd-render's pixels through nginx and
 # with the servers as a list, that tiles spread over every node (from each
 # node's /metrics), that a node learns a scene once, that nginx caches the
@@ -50,21 +52,10 @@ node_tiles() { # tiles answered by node I: GET image 200 + POST render 200
 
 # --- nginx with docker/nginx.conf ------------------------------------------------
 NG=$T/nginx
-mkdir -p "$NG/cache" "$NG/log"
 NGPORT=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
-nodes_conf=""
-for i in 1 2 3; do
-    nodes_conf+="        server ${NODE_URL[$i]#http://} max_fails=1 fail_timeout=5s;\n"
-done
-awk -v nodes="$nodes_conf" -v port="$NGPORT" '
-    /^ *server .*# @node/ { if (!innode) printf "%s", nodes; innode = 1; next }
-                { innode = 0 }
-    /^ *listen .*# @listen/ { print "        listen 127.0.0.1:" port ";"; next }
-                { print }' "$RAYD_ROOT/docker/nginx.conf" |
-    sed -e "s#/var/cache/nginx#$NG/cache#g" -e "s#/var/log/nginx#$NG/log#g" \
-        -e "s#/var/run/nginx.pid#$NG/nginx.pid#g" >"$NG/nginx.conf"
-ngopts="daemon off;"
-[ "$(id -u)" = 0 ] && ngopts+=" user root;"
+source "$RAYD_ROOT/tests/integration/lib/nginx.sh"
+nginx_conf "$RAYD_ROOT" "$NG" "$NGPORT" "${NODE_URL[1]#http://}" "${NODE_URL[2]#http://}" "${NODE_URL[3]#http://}"
+ngopts=$(nginx_opts)
 if ! "$NGINX" -t -q -p "$NG" -c "$NG/nginx.conf" -e "$NG/log/error.log" -g "$ngopts" 2>"$T/nginx-t.err"; then
     echo "FAIL nginx_conf_valid: $(head -c 400 "$T/nginx-t.err")"
     exit 1
