@@ -55,6 +55,8 @@ static const struct config_option config_table[] = {
      "memory for finished PNGs served again without rendering (0 = off)"},
     {"log-format", "RAYD_LOG_FORMAT", CT_STRING, &config.log_format, "text", 0, 0,
      "access log format on stderr: text or json"},
+    {"log-level", "RAYD_LOG_LEVEL", CT_STRING, &config.log_level, "info", 0, 0,
+     "least severe log line written: debug, info, warn or error (4xx is warn, 5xx error)"},
     {"drain-seconds", "RAYD_DRAIN_SECONDS", CT_LONG, &config.drain_seconds, "30", 0, 86400,
      "on SIGTERM/SIGINT, time running renders get before they are cancelled"},
     {"cors-origin", "RAYD_CORS_ORIGIN", CT_STRING, &config.cors_origin, NULL, 0, 0,
@@ -238,6 +240,11 @@ int config_load(int argc, char **argv)
         return -1;
     }
     config.log_json = !strcmp(config.log_format, "json");
+    config.log_min = log_level_parse(config.log_level);
+    if (config.log_min < 0) {
+        fprintf(stderr, "rayd: --log-level must be debug, info, warn or error\n");
+        return -1;
+    }
     if (config.threads == 0) {
         long n = sysconf(_SC_NPROCESSORS_ONLN);
         config.threads = n > 0 ? n : 1;

@@ -86,6 +86,7 @@ int main(int argc, char **argv)
         config_free();
         return rc > 0 ? 0 : 2;
     }
+    metrics_start(config.max_render_seconds);
     sigset_t set;
     sigemptyset(&set);
     sigaddset(&set, SIGTERM);
@@ -152,6 +153,7 @@ int main(int argc, char **argv)
     }
     http_stop();
     sched_stop();
+    metrics_free();
     log_info("stopped");
     config_free();
     return 0;
