@@ -95,8 +95,6 @@ extern bool log_quiet; /* no output at all (the fuzz harness) */
  * 499, and 0), error for 5xx. */
 enum log_level log_access_level(int status);
 void log_access(const struct log_access *a);
-/* Parses "debug", "info", "warn" or "error"; -1 for anything else. */
-int log_level_parse(const char *name);
 void log_debug(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 void log_info(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 void log_warn(const char *fmt, ...) __attribute__((format(printf, 1, 2)));

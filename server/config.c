@@ -193,6 +193,19 @@ static int config_test_gate(void)
     return 0;
 }
 
+/* --log-level as enum log_level (log.c writes the same words). */
+static int config_log_level(void)
+{
+    static const char *const names[] = {"debug", "info", "warn", "error"};
+    for (int i = 0; i <= LOG_ERROR; i++)
+        if (!strcmp(config.log_level, names[i])) {
+            config.log_min = i;
+            return 0;
+        }
+    fprintf(stderr, "rayd: --log-level must be debug, info, warn or error\n");
+    return -1;
+}
+
 int config_load(int argc, char **argv)
 {
     for (size_t i = 0; i < CONFIG_N; i++)
@@ -240,11 +253,8 @@ int config_load(int argc, char **argv)
         return -1;
     }
     config.log_json = !strcmp(config.log_format, "json");
-    config.log_min = log_level_parse(config.log_level);
-    if (config.log_min < 0) {
-        fprintf(stderr, "rayd: --log-level must be debug, info, warn or error\n");
+    if (config_log_level())
         return -1;
-    }
     if (config.threads == 0) {
         long n = sysconf(_SC_NPROCESSORS_ONLN);
         config.threads = n > 0 ? n : 1;

@@ -50,15 +50,8 @@ static void log_stamp(char *buf, size_t size)
 
 bool log_quiet;
 
+/* The words of --log-level (config.c parses them), in enum log_level order. */
 static const char *const log_names[] = {"debug", "info", "warn", "error"};
-
-int log_level_parse(const char *name)
-{
-    for (int i = 0; i <= LOG_ERROR; i++)
-        if (name && !strcmp(name, log_names[i]))
-            return i;
-    return -1;
-}
 
 /* config.log_min is set once before the first thread starts. */
 static bool log_on(enum log_level level)
