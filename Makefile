@@ -23,11 +23,12 @@
 # check the encoder's files with it), libopenexr-dev (EXR out, core/io/exr.c)
 # and openexr (its exrheader; g++ builds the tests' EXR reader on OpenEXR's
 # C++ library), assimp-testmodels (real model files others made, read by
-# the tests).
+# the tests), python3-prometheus-client (its parser reads /metrics in
+# tests/integration/observability.sh).
 DEB_PKGS := gcc make pkg-config libc6-dev libpng-dev zlib1g-dev libcjson-dev libmicrohttpd-dev \
             libcurl4-openssl-dev libssl-dev curl python3 nginx wrk chromium fonts-dejavu-core pngcheck \
             clang libclang-rt-14-dev valgrind openssl libopenexr-dev openexr g++ libisal-dev \
-            assimp-testmodels
+            assimp-testmodels python3-prometheus-client
 
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 
