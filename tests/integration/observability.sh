@@ -207,6 +207,7 @@ else
     fail exposition_parses "no python3 with prometheus_client (Debian python3-prometheus-client; make deps)"
 fi
 stop_rayd TERM
+cp "$T/rayd.err" "$T/rayd.err.info" # the default level rendered a tile
 
 # --- JSON lines: a hostile path is still one valid JSON object -----------------
 start_rayd --log-format json
@@ -276,8 +277,11 @@ check bad_log_level_refused "rayd --log-level loud: status $rc, $(cat "$T/bad.er
     bash -c "[ $rc -ne 0 ] && grep -q 'log-level' '$T/bad.err'"
 start_rayd --log-level debug
 req GET /healthz -H 'X-Request-Id: lvl-debug' >/dev/null
+post_json "/v1/render?x=0&y=0&w=8&h=8" "$T/s.json" >/dev/null
 stop_rayd TERM
 check level_debug_keeps_info "no info lines at debug" \
     bash -c "grep -q ' info rayd ' '$T/rayd.err' && grep -q 'request_id=lvl-debug' '$T/rayd.err'"
+check level_debug_lines "no debug line for the render" grep -q ' debug render .* finished: ok' "$T/rayd.err"
+check level_info_no_debug "a debug line at the default level" bash -c "! grep -q ' debug ' '$T/rayd.err.info'"
 
 exit 0
