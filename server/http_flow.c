@@ -60,7 +60,7 @@ static void http_flow_options(struct http_req *r)
     if (http_reply_cors_origin(r)) {
         http_reply_header(r, "Access-Control-Allow-Methods", allow);
         http_reply_header(r, "Access-Control-Allow-Headers",
-                          "Authorization, Content-Type, If-None-Match");
+                          "Authorization, Content-Type, If-None-Match, X-Request-Id");
         http_reply_header(r, "Access-Control-Max-Age", "600");
     }
 }
