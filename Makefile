@@ -7,30 +7,37 @@
 #   make test-valgrind  three server integration tests with rayd under valgrind memcheck
 #   make test-stress the integration tests loaded, on one core, and twice idle
 #   make run         build and start rayd on 127.0.0.1:8080 with the preview
-#   make deps        install the Debian packages the build and the tests need
+#   make deps        install the Debian packages the build needs (make does it)
+#   make test-deps   and those the tests need as well (make test does it)
+#   make shared      build/librayd.so (the core as a shared library)
+#   make install     PREFIX=/usr/local DESTDIR=: programs, librayd.a/.so, header,
+#                    rayd.pc, man pages, systemd unit;  make uninstall undoes it
 #   make bench       benchmarks (never part of make test)
 #   make bench-peers the same meshes and sphere scene with Embree and POV-Ray (make bench-deps)
 #   make check-layers  includes and calls one way down the layers, no circles
 #                    (tools/check_layers.py; part of make test)
 #   make format      clang-format every C file;  make lint  cppcheck + clang-tidy
 
-# Debian packages: compiler and tools, the three given libraries, libcurl for
-# the client, libssl (libcrypto's SHA-256 of scene ids, server and client), curl/python3/nginx for the
-# integration tests (nginx balances the scale-out test), wrk for benchmarks,
-# chromium (and a font) for the browser tests of the preview page, valgrind
-# (make test-valgrind), openssl (a test certificate for the TLS test), libisal
-# and zlib (the PNG encoder's deflates, core/io/png_encode.c) and pngcheck (the tests
-# check the encoder's files with it), libopenexr-dev (EXR out, core/io/exr.c)
-# and openexr (its exrheader; g++ builds the tests' EXR reader on OpenEXR's
-# C++ library), assimp-testmodels (real model files others made, read by
-# the tests), python3-prometheus-client (its parser reads /metrics in
-# tests/integration/observability.sh).
-DEB_PKGS := gcc make pkg-config libc6-dev libpng-dev zlib1g-dev libcjson-dev libmicrohttpd-dev \
-            libcurl4-openssl-dev libssl-dev curl python3 nginx wrk chromium fonts-dejavu-core pngcheck \
-            clang libclang-rt-14-dev valgrind openssl libopenexr-dev openexr g++ libisal-dev \
-            assimp-testmodels python3-prometheus-client
-
-SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
+# Debian packages, in lists by what needs them (README.md, "Dependencies",
+# says what each package is for).  BUILD_PKGS: compiler and tools, the three
+# given libraries (libpng, cJSON, libmicrohttpd), libcurl for the client,
+# libssl (libcrypto's SHA-256 of scene ids), libisal and zlib (the PNG
+# encoder's deflates), libopenexr-dev (EXR out, core/io/exr.c).  TEST_PKGS,
+# on top for `make test`: curl and python3 (the integration tests), nginx (the
+# scale-out test balances through it; installed, never started: tools/deps.sh),
+# wrk (the load test), chromium and a font (the preview's browser tests),
+# pngcheck, openexr and g++ (readers that check rayd's PNG and EXR files),
+# assimp-testmodels (real model files), clang and its runtime (make fuzz),
+# valgrind (make test-valgrind), openssl (a certificate for the TLS test),
+# man-db (the man pages rendered), python3-prometheus-client (its parser
+# reads /metrics in tests/integration/observability.sh).  LINT_PKGS: make lint and make format.
+# BENCH_PKGS (below): make bench-peers only.
+BUILD_PKGS := gcc make pkg-config libc6-dev libpng-dev zlib1g-dev libisal-dev libcjson-dev \
+              libmicrohttpd-dev libcurl4-openssl-dev libssl-dev libopenexr-dev
+TEST_PKGS := curl python3 nginx wrk chromium fonts-dejavu-core pngcheck openexr g++ \
+             assimp-testmodels clang libclang-rt-14-dev valgrind openssl man-db \
+             python3-prometheus-client
+LINT_PKGS := cppcheck clang-tidy clang-format
 
 # Build on every core unless told otherwise (tests themselves run one by one).
 ifeq ($(MAKELEVEL)$(filter -j%,$(MAKEFLAGS)),0)
@@ -75,6 +82,15 @@ EXR_CFLAGS = $(patsubst -I%,-isystem %,$(shell pkg-config --cflags OpenEXR))
 EXR_LIBS = $(shell pkg-config --libs OpenEXR)
 LIBS_CORE = -lpng -lz -lisal -lcjson $(EXR_LIBS) -lpthread -lm
 
+# --- version ----------------------------------------------------------------
+# The file VERSION holds the one version string.  Every compile sees it as
+# RAYD_VERSION (include/rayd/rayd.h), rayd.pc as its Version, the shared
+# library as its file name and, by the major number, its soname.  A new
+# VERSION recompiles every object.
+VERSION := $(shell cat VERSION)
+VERSION_MAJOR := $(firstword $(subst ., ,$(VERSION)))
+CFLAGS_ALL += -DRAYD_VERSION='"$(VERSION)"'
+
 CORE_SRC := $(wildcard core/*/*.c)
 CORE_OBJ := $(CORE_SRC:%.c=$(BUILD)/%.o)
 SERVER_SRC := $(wildcard server/*.c)
@@ -95,26 +111,33 @@ ifneq ($(CLIENT_SRC),)
 PROGS += $(BUILD)/rayd-client
 endif
 
-.PHONY: all deps check-layers test test-unit test-stress test-tsan test-valgrind golden run bench bench-deps bench-peers format lint clean
+.PHONY: all deps test-deps lint-deps shared install uninstall check-layers test test-unit test-stress test-tsan test-valgrind golden run bench bench-deps bench-peers format lint clean
 .DEFAULT_GOAL := all
 
 all: $(BUILD)/librayd.a $(PROGS)
 
 # --- dependencies ---------------------------------------------------------
-# `make deps` installs what is missing (apt-get update once, then only the
-# missing packages).  Every build runs the cheap check first.
-deps:
-	@missing=""; for p in $(DEB_PKGS); do \
-	  dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q '^install ok installed' || missing="$$missing $$p"; \
-	done; \
-	if [ -n "$$missing" ]; then \
-	  echo "make deps: installing$$missing"; \
-	  $(SUDO) apt-get update -qq && \
-	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; \
-	fi
+# `make deps` installs the build's packages that are missing, `make test-deps`
+# the tests' as well (tools/deps.sh: apt-get update once, then only what is
+# missing).  Every build checks first through the stamp $(BUILD)/.deps-ok,
+# every test target through $(BUILD)/.test-deps-ok; both are redone when the
+# Makefile changes.  When a test target is among the goals, the first check
+# takes the tests' packages too, so a fresh machine runs apt-get once.
+TEST_GOALS := test test-unit test-stress test-tsan test-valgrind test-deps check-layers fuzz bench
+DEPS_PKGS := $(BUILD_PKGS) $(if $(filter $(TEST_GOALS),$(MAKECMDGOALS)),$(TEST_PKGS))
 
-$(BUILD)/.deps-ok: Makefile
-	@$(MAKE) --no-print-directory deps
+deps:
+	@sh tools/deps.sh "make deps" $(BUILD_PKGS)
+
+test-deps: | $(BUILD)/.deps-ok
+	@sh tools/deps.sh "make test-deps" $(BUILD_PKGS) $(TEST_PKGS)
+
+$(BUILD)/.deps-ok: Makefile tools/deps.sh
+	@sh tools/deps.sh "make deps" $(DEPS_PKGS)
+	@mkdir -p $(BUILD) && touch $@
+
+$(BUILD)/.test-deps-ok: Makefile tools/deps.sh | $(BUILD)/.deps-ok
+	@sh tools/deps.sh "make test-deps" $(BUILD_PKGS) $(TEST_PKGS)
 	@mkdir -p $(BUILD) && touch $@
 
 # --- core -------------------------------------------------------------------
@@ -137,11 +160,12 @@ $(BUILD)/core/%.o: core/%.c | $(BUILD)/.deps-ok
 
 # Loops over a packet's lanes (integrate_wide.c, camera.c) and the PNG row
 # filters (png_encode.c) are written for the vectoriser, which -O2 runs only
-# on the cheapest loops.
-$(BUILD)/core/render/integrate_wide.o $(BUILD)/core/geom/camera.o $(BUILD)/core/io/png_encode.o: CFLAGS_VEC := -ftree-vectorize \
+# on the cheapest loops.  The same for their PIC copies (librayd.so).
+VEC_OBJ := core/render/integrate_wide.o core/geom/camera.o core/io/png_encode.o
+$(VEC_OBJ:%=$(BUILD)/%) $(VEC_OBJ:%=$(BUILD)/pic/%): CFLAGS_VEC := -ftree-vectorize \
     -fvect-cost-model=dynamic
 
-$(BUILD)/core/io/exr.o: CFLAGS_VEC = $(EXR_CFLAGS)
+$(BUILD)/core/io/exr.o $(BUILD)/pic/core/io/exr.o: CFLAGS_VEC = $(EXR_CFLAGS)
 
 $(BUILD)/librayd.a: $(CORE_OBJ)
 	@rm -f $@
@@ -180,6 +204,86 @@ $(BUILD)/rayd: $(SERVER_OBJ) $(BUILD)/librayd.a
 $(BUILD)/rayd-client: $(CLIENT_SRC:%.c=$(BUILD)/%.o) $(BUILD)/librayd.a
 	$(CC) $(LDFLAGS_ALL) -o $@ $^ -lcurl -lcrypto $(LIBS_CORE)
 
+# --- shared library ---------------------------------------------------------
+# librayd.so is the core compiled a second time, as position-independent code,
+# into $(BUILD)/pic/ (librayd.a and the programs stay as they are), linked
+# with the core's libraries and exporting the rayd_ calls of rayd.h alone
+# (packaging/librayd.map).  Its soname carries the major version, its file
+# name the whole one; `make shared` builds it, `make install` needs it.
+SO_NAME := librayd.so.$(VERSION_MAJOR)
+SO_FILE := librayd.so.$(VERSION)
+CORE_PIC_OBJ := $(CORE_SRC:%.c=$(BUILD)/pic/%.o)
+
+$(BUILD)/pic/core/%.o: core/%.c | $(BUILD)/.deps-ok
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS_ALL) $(CFLAGS_VEC) -fPIC -Iinclude -Icore -c $< -o $@
+
+$(BUILD)/$(SO_FILE): $(CORE_PIC_OBJ) packaging/librayd.map
+	$(CC) -shared -Wl,-soname,$(SO_NAME) -Wl,--version-script=packaging/librayd.map \
+	  -Wl,--no-undefined $(LDFLAGS_ALL) -o $@ $(CORE_PIC_OBJ) $(LIBS_CORE)
+	ln -sf $(SO_FILE) $(BUILD)/$(SO_NAME)
+	ln -sf $(SO_NAME) $(BUILD)/librayd.so
+
+shared: $(BUILD)/$(SO_FILE)
+
+# Every object sees RAYD_VERSION: a new VERSION compiles them again.
+$(CORE_OBJ) $(CORE_PIC_OBJ) $(SERVER_OBJ) $(CLIENT_SRC:%.c=$(BUILD)/%.o) \
+    $(BUILD)/cli/rayd-render.o: VERSION
+
+# --- install ----------------------------------------------------------------
+# `make install` copies what `make` and `make shared` build (building first
+# what is missing or stale, as they would) under DESTDIR + PREFIX: the
+# programs, both libraries with the soname links, the public header (with the
+# version written in), rayd.pc, the man pages, the systemd unit and its
+# environment file, whose paths follow PREFIX (packaging/).  SYSCONFDIR is
+# /etc for PREFIX=/usr, else PREFIX/etc.  An environment file already there
+# is kept, as an edited one may be.  `make uninstall` removes the same list,
+# and the environment file only when it is still the one shipped.
+PREFIX ?= /usr/local
+BINDIR ?= $(PREFIX)/bin
+LIBDIR ?= $(PREFIX)/lib
+INCLUDEDIR ?= $(PREFIX)/include
+MANDIR ?= $(PREFIX)/share/man
+UNITDIR ?= $(PREFIX)/lib/systemd/system
+SYSCONFDIR ?= $(if $(filter /usr,$(PREFIX)),/etc,$(PREFIX)/etc)
+MAN_PAGES := $(wildcard docs/man/*.1)
+PUBLIC_HEADERS := $(wildcard include/rayd/*.h)
+ENV_FILE := $(SYSCONFDIR)/default/rayd
+INSTALLED := $(PROGS:$(BUILD)/%=$(BINDIR)/%) \
+             $(LIBDIR)/librayd.a $(LIBDIR)/$(SO_FILE) $(LIBDIR)/$(SO_NAME) $(LIBDIR)/librayd.so \
+             $(PUBLIC_HEADERS:include/%=$(INCLUDEDIR)/%) $(LIBDIR)/pkgconfig/rayd.pc \
+             $(MAN_PAGES:docs/man/%=$(MANDIR)/man1/%) $(UNITDIR)/rayd.service
+
+install: all $(BUILD)/$(SO_FILE)
+	install -d $(DESTDIR)$(BINDIR) $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(INCLUDEDIR)/rayd \
+	  $(DESTDIR)$(MANDIR)/man1 $(DESTDIR)$(UNITDIR) $(DESTDIR)$(SYSCONFDIR)/default
+	install -m 755 $(PROGS) $(DESTDIR)$(BINDIR)/
+	install -m 644 $(BUILD)/librayd.a $(DESTDIR)$(LIBDIR)/
+	install -m 755 $(BUILD)/$(SO_FILE) $(DESTDIR)$(LIBDIR)/
+	ln -sf $(SO_FILE) $(DESTDIR)$(LIBDIR)/$(SO_NAME)
+	ln -sf $(SO_NAME) $(DESTDIR)$(LIBDIR)/librayd.so
+	for h in $(PUBLIC_HEADERS); do \
+	  sed 's/^#define RAYD_VERSION "unknown"$$/#define RAYD_VERSION "$(VERSION)"/' $$h \
+	    >$(DESTDIR)$(INCLUDEDIR)/rayd/$${h##*/} && \
+	  chmod 644 $(DESTDIR)$(INCLUDEDIR)/rayd/$${h##*/} || exit 1; \
+	done
+	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@LIBDIR@|$(LIBDIR)|' -e 's|@INCLUDEDIR@|$(INCLUDEDIR)|' \
+	  -e 's|@VERSION@|$(VERSION)|' packaging/rayd.pc.in >$(DESTDIR)$(LIBDIR)/pkgconfig/rayd.pc
+	install -m 644 $(MAN_PAGES) $(DESTDIR)$(MANDIR)/man1/
+	sed -e 's|/usr/local/bin/|$(BINDIR)/|' -e 's|/usr/local/etc/|$(SYSCONFDIR)/|' \
+	  packaging/rayd.service >$(DESTDIR)$(UNITDIR)/rayd.service
+	@if [ -e $(DESTDIR)$(ENV_FILE) ] && ! cmp -s packaging/rayd.default $(DESTDIR)$(ENV_FILE); then \
+	  echo "make install: $(DESTDIR)$(ENV_FILE) kept (the shipped one: packaging/rayd.default)"; \
+	else install -m 644 packaging/rayd.default $(DESTDIR)$(ENV_FILE); fi
+	@if [ -z "$(DESTDIR)" ] && [ "$$(id -u)" = 0 ]; then ldconfig; fi
+
+uninstall:
+	rm -f $(addprefix $(DESTDIR),$(INSTALLED))
+	@if cmp -s packaging/rayd.default $(DESTDIR)$(ENV_FILE); then rm -f $(DESTDIR)$(ENV_FILE); \
+	elif [ -e $(DESTDIR)$(ENV_FILE) ]; then \
+	  echo "make uninstall: $(DESTDIR)$(ENV_FILE) was edited: kept"; fi
+	@rmdir $(DESTDIR)$(INCLUDEDIR)/rayd 2>/dev/null || true
+
 # --- tests ------------------------------------------------------------------
 # Unit tests may include the core's private headers.
 $(BUILD)/tests/%: tests/unit/%.c $(wildcard tests/unit/*.h) $(BUILD)/librayd.a
@@ -193,7 +297,7 @@ $(BUILD)/tests/tools/%: tests/tools/%.c $(BUILD)/librayd.a
 
 # The tests' third-party reader of EXR files (OpenEXR's C++ library), not
 # built with the sanitizers: it checks rayd's output, it is not rayd.
-$(BUILD)/tests/tools/%: tests/tools/%.cc | $(BUILD)/.deps-ok
+$(BUILD)/tests/tools/%: tests/tools/%.cc | $(BUILD)/.test-deps-ok
 	@mkdir -p $(dir $@)
 	$(CXX) -std=c++17 -O2 -Wall -Wextra -Werror $(EXR_CFLAGS) $< -o $@ $(EXR_LIBS) -lpng
 
@@ -211,20 +315,35 @@ $(BROWSER_NODE): tests/browser/package.json tests/browser/package-lock.json
 	  echo "npm ci in tests/browser failed: the browser tests will fail"; \
 	else echo "npm not found: the browser tests will fail (install Node.js and npm)"; fi
 
-test: all $(UNIT_BIN) $(TEST_TOOLS) $(FUZZ_REPLAY) $(BUILD)/bench/genmesh $(BROWSER_NODE)
+# docker/k8s/ is validated offline with kubernetes-models (the Kubernetes and
+# prometheus-operator schemas) from npm, installed into tests/k8s/node_modules
+# the same way; without it tests/integration/k8s_manifests.sh says SKIP.
+K8S_NODE := tests/k8s/node_modules/.package-lock.json
+
+$(K8S_NODE): tests/k8s/package.json tests/k8s/package-lock.json
+	@if command -v npm >/dev/null 2>&1; then \
+	  (cd tests/k8s && npm ci --no-audit --no-fund --loglevel=error) || \
+	  echo "npm ci in tests/k8s failed: the manifest test will SKIP"; \
+	else echo "npm not found: the manifest test will SKIP (install Node.js and npm)"; fi
+
+test: all $(UNIT_BIN) $(TEST_TOOLS) $(FUZZ_REPLAY) $(BUILD)/bench/genmesh $(BROWSER_NODE) $(K8S_NODE) \
+      $(BUILD)/$(SO_FILE) \
+      | $(BUILD)/.test-deps-ok
 	@bash tests/run.sh $(BUILD)
 
 # The integration tests with every core busy, pinned to one core, and twice
 # idle (tests/stress.sh): none may depend on how long a render takes.
-test-stress: all $(TEST_TOOLS) $(FUZZ_REPLAY) $(BUILD)/bench/genmesh $(BROWSER_NODE)
+test-stress: all $(TEST_TOOLS) $(FUZZ_REPLAY) $(BUILD)/bench/genmesh $(BROWSER_NODE) \
+             $(BUILD)/$(SO_FILE) \
+             | $(BUILD)/.test-deps-ok
 	@bash tests/stress.sh $(BUILD)
 
 # The layers of docs/architecture.md, read from the includes and from the
 # objects' symbols (nm): a use of a higher layer or a circle fails.
-check-layers: all
+check-layers: all | $(BUILD)/.test-deps-ok
 	@python3 tools/check_layers.py $(BUILD) && python3 tools/check_layers.py --self-test
 
-test-unit: all $(UNIT_BIN)
+test-unit: all $(UNIT_BIN) | $(BUILD)/.test-deps-ok
 	@RAYD_ONLY=unit bash tests/run.sh $(BUILD)
 
 # Rewrites tests/golden/ from tests/scenes/ (after an intended change only).
@@ -241,10 +360,11 @@ golden: $(BUILD)/rayd-render
 FUZZ_SECONDS ?= 30
 FUZZ_CFLAGS := -std=c11 -D_POSIX_C_SOURCE=200809L -ffp-contract=off -O1 -g -fsanitize=fuzzer-no-link,address,undefined \
                -fno-sanitize-recover=undefined -Iinclude -Icore
+FUZZ_CFLAGS += -DRAYD_VERSION='"$(VERSION)"'
 FUZZ_CORE_OBJ := $(CORE_SRC:core/%.c=build/fuzz/core/%.o)
 .SECONDARY: $(FUZZ_CORE_OBJ)
 
-build/fuzz/core/%.o: core/%.c | $(BUILD)/.deps-ok
+build/fuzz/core/%.o: core/%.c | $(BUILD)/.test-deps-ok
 	@mkdir -p $(dir $@)
 	clang $(FUZZ_CFLAGS) -MMD -MP -c $< -o $@
 
@@ -260,7 +380,7 @@ FUZZ_SERVER_TARGETS := $(filter http% query%,$(FUZZ_TARGETS))
 FUZZ_SERVER_OBJ := $(patsubst server/%.c,build/fuzz/server/%.o,$(filter-out server/main.c,$(SERVER_SRC)))
 .SECONDARY: $(FUZZ_SERVER_OBJ)
 
-build/fuzz/server/%.o: server/%.c $(SERVER_HDR) build/server/web_assets.h | $(BUILD)/.deps-ok
+build/fuzz/server/%.o: server/%.c $(SERVER_HDR) build/server/web_assets.h | $(BUILD)/.test-deps-ok
 	@mkdir -p $(dir $@)
 	clang $(FUZZ_CFLAGS) -MMD -MP -D_DEFAULT_SOURCE -Ibuild/server -c $< -o $@
 
@@ -308,13 +428,13 @@ $(FUZZ_SERVER_TARGETS:%=$(BUILD)/tests/fuzz/replay_%): $(BUILD)/tests/fuzz/repla
 TSAN_TESTS := jobs lifecycle api_basic api_hdr load slow_clients faults api_progressive deadline
 VALGRIND_TESTS := security api_errors bad_requests
 
-test-tsan:
+test-tsan: | $(BUILD)/.test-deps-ok
 	@$(MAKE) --no-print-directory TSAN=1 build/tsan/rayd build/tsan/rayd-render build/tsan/bench/genmesh \
 	  build/tsan/tests/tools/hdrcheck
 	@TSAN_OPTIONS="halt_on_error=0 second_deadlock_stack=1 $${TSAN_OPTIONS:-}" \
 	  RAYD_TIMEOUT=1800 RAYD_TESTS="$(TSAN_TESTS)" bash tests/run.sh build/tsan
 
-test-valgrind: all
+test-valgrind: all | $(BUILD)/.test-deps-ok
 	@RAYD_WRAP="valgrind -q --error-exitcode=99 --leak-check=full --errors-for-leak-kinds=definite \
 	  --show-leak-kinds=definite" RAYD_START_TRIES=600 \
 	  RAYD_TIMEOUT=1800 RAYD_TESTS="$(VALGRIND_TESTS)" bash tests/run.sh build
@@ -374,27 +494,23 @@ $(BUILD)/bench/imgdiff: bench/peers/imgdiff.c $(BUILD)/librayd.a
 
 # After `make deps` (never two apt-gets at once under -j).
 bench-deps: | $(BUILD)/.deps-ok
-	@missing=""; for p in $(BENCH_PKGS); do \
-	  dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q '^install ok installed' || missing="$$missing $$p"; \
-	done; \
-	if [ -n "$$missing" ]; then \
-	  echo "make bench-deps: installing$$missing"; \
-	  $(SUDO) apt-get update -qq && \
-	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; \
-	fi
+	@sh tools/deps.sh "make bench-deps" $(BENCH_PKGS)
 
 bench: all $(BUILD)/bench/raybench $(BUILD)/bench/genmesh $(BUILD)/bench/pngbench $(BUILD)/bench/hdrbench $(BENCH_SCENES) \
-       $(BENCH_DIR)/mesh-8-obj.json
+       $(BENCH_DIR)/mesh-8-obj.json | $(BUILD)/.test-deps-ok
 	@bash bench/run.sh $(BUILD)
 
 bench-peers: all bench-deps $(BUILD)/bench/raybench $(BUILD)/bench/embree_bench $(BUILD)/bench/imgdiff \
              $(BENCH_SCENES) $(BENCH_DIR)/mesh-8-obj.json
 	@bash bench/peers.sh $(BUILD)
 
-format:
+lint-deps:
+	@sh tools/deps.sh "make lint" $(LINT_PKGS)
+
+format: lint-deps
 	clang-format -i $(shell git ls-files '*.c' '*.h')
 
-lint:
+lint: lint-deps
 	cppcheck --quiet --error-exitcode=1 --enable=warning,performance,portability \
 	  --inline-suppr -Iinclude -Icore --std=c11 core cli server clients
 	clang-tidy --quiet $(CORE_SRC) -- -std=c11 -D_POSIX_C_SOURCE=200809L -Iinclude -Icore

@@ -17,7 +17,7 @@ cd "$(dirname "$0")/.."
 BUILD=${1:-build}
 SECS=${HTTP_BENCH_SECONDS:-60}
 TSECS=${HTTP_BENCH_TILE_SECONDS:-20}
-command -v wrk >/dev/null || { echo "bench/http.sh: wrk not installed (make deps)"; exit 1; }
+command -v wrk >/dev/null || { echo "bench/http.sh: wrk not installed (make test-deps)"; exit 1; }
 T=$(mktemp -d)
 RPID=
 cleanup() { [ -n "$RPID" ] && kill "$RPID" 2>/dev/null; wait 2>/dev/null; rm -rf "$T"; }

@@ -73,21 +73,15 @@ for i in 1 2 3; do
     urls+=("$(sed -n 's/^rayd listening on //p' "$tmp/node$i.out")")
 done
 
-# nginx on loopback, one configuration per node count (same rewrite as the test)
+# nginx on loopback, one configuration per node count (the tests' rewrite)
+source tests/integration/lib/nginx.sh
 ngstart() { # ngstart N: nginx over the first N nodes; sets LB
-    local n=$1 d=$tmp/nginx$1 nodes="" i port
-    mkdir -p "$d/cache" "$d/log"
-    for ((i = 0; i < n; i++)); do nodes+="        server ${urls[$i]#http://} max_fails=1 fail_timeout=5s;\n"; done
+    local n=$1 d=$tmp/nginx$1 addrs=() i port
+    for ((i = 0; i < n; i++)); do addrs+=("${urls[$i]#http://}"); done
     port=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
-    awk -v nodes="$nodes" -v port="$port" '
-        /^ *server .*# @node/ { if (!innode) printf "%s", nodes; innode = 1; next }
-                              { innode = 0 }
-        /^ *listen .*# @listen/ { print "        listen 127.0.0.1:" port ";"; next }
-                              { print }' docker/nginx.conf |
-        sed -e "s#/var/cache/nginx#$d/cache#g" -e "s#/var/log/nginx#$d/log#g" \
-            -e "s#/var/run/nginx.pid#$d/nginx.pid#g" >"$d/nginx.conf"
-    local g="daemon off;"
-    [ "$(id -u)" = 0 ] && g+=" user root;"
+    nginx_conf "$PWD" "$d" "$port" "${addrs[@]}"
+    local g
+    g=$(nginx_opts)
     "$NGINX" -p "$d" -c "$d/nginx.conf" -e "$d/log/error.log" -g "$g" 2>/dev/null &
     NGPID=$!
     pids+=($NGPID)

@@ -1,22 +1,35 @@
 /* rayd-render -- the command-line renderer.
  *
- *   rayd-render SCENE.json -o OUT.png|OUT.exr [--format png|png16|exr]
- *               [--region X,Y,W,H] [--threads N] [--passes] [--stats]
+ *   rayd-render SCENE.json -o OUT.png|OUT.exr|- [--format png|png16|exr]
+ *               [--region X,Y,W,H] [--threads N] [--passes] [--stats] [--quiet]
  *
  * Reads a scene (SCENE may be "-" for standard input), renders it with the
- * core on N threads (default: the number of cores) and writes an 8-bit sRGB
- * PNG, a 16-bit PNG or a linear float OpenEXR (by --format, else by the
- * output's extension).  With --passes it renders progressively: passes of
- * 1, 2, 4, ... samples up to the scene's (or every K with --pass-step),
- * printing each pass's samples and time; each pass's image is the plain
- * render of that many samples, byte for byte (docs/scene-format.md).  A region writes only that crop; it is byte-identical to the same
- * crop of the full render.  It uses nothing but the public API in
+ * core on N threads (default, or 0: the number of cores) and writes an 8-bit
+ * sRGB PNG, a 16-bit PNG or a linear float OpenEXR (by --format, else by the
+ * output's extension) to a file, or to standard output for "-o -".  With
+ * --passes it renders progressively: passes of 1, 2, 4, ... samples up to
+ * the scene's (or every K with --pass-step), printing each pass's samples
+ * and time; each pass's image is the plain render of that many samples,
+ * byte for byte (docs/scene-format.md).  A region writes only that crop; it
+ * is byte-identical to the same crop of the full render.  On a terminal a
+ * progress line is drawn on stderr from the core's progress callback (see
+ * "the progress line" below).  It uses nothing but the public API in
  * include/rayd/rayd.h.
  *
- * Exit status: 0 success, 1 I/O or internal failure, 2 bad usage or a bad
- * scene (the message names the JSON Pointer, or the line and column).
+ * The command line follows the convention of the three tools (rayd,
+ * rayd-render, rayd-client; README "Command-line conventions"):
+ * getopt_long, so "--threads 2" and "--threads=2" are the same; -h/--help
+ * to stdout, --version; every error is one line "rayd-render: error: ..."
+ * on stderr, which keeps the JSON Pointer or the line and column.
+ *
+ * Exit status: 0 success; 1 a failure: a bad scene, I/O, an internal
+ * error; 2 a usage error: the command line is wrong (an unknown option, a
+ * bad value, a --region outside the image) and nothing was rendered.
  */
 #include <errno.h>
+#include <getopt.h>
+#include <stdarg.h>
+#include <stdatomic.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -31,10 +44,11 @@ static void usage(FILE *f) {
             "usage: rayd-render SCENE.json -o OUT.png [--format png|png16|exr]\n"
             "                   [--region X,Y,W,H] [--threads N] [--png-level N]\n"
             "                   [--passes] [--pass-step K] [--pass-output PATTERN]\n"
-            "                   [--exposure EV] [--tonemap clamp|reinhard] [--stats]\n"
+            "                   [--exposure EV] [--tonemap clamp|reinhard] [--stats] [--quiet]\n"
             "\n"
             "  SCENE.json        scene file (format v1, docs/scene-format.md); '-' reads stdin\n"
-            "  -o, --output F    file to write (required); F ending in .exr means --format exr\n"
+            "  -o, --output F    file to write (required); '-' writes standard output;\n"
+            "                    F ending in .exr means --format exr\n"
             "  --format F        png (8-bit sRGB, the default), png16 (16-bit sRGB) or exr\n"
             "                    (OpenEXR, linear float RGB, unclamped)\n"
             "  --exposure EV     scale the light by 2^EV before the 8-bit PNG (default 0)\n"
@@ -46,12 +60,30 @@ static void usage(FILE *f) {
             "  --pass-output P   also write each pass's image to P, where %%d in P becomes\n"
             "                    the pass's samples (implies --passes)\n"
             "  --region X,Y,W,H  render only the W x H crop whose top-left pixel is (X, Y)\n"
-            "  --threads N       rendering and PNG encoding threads (default: number of cores)\n"
+            "  --threads N       rendering and PNG encoding threads (default 0: every core)\n"
             "  --png-level N     deflate level of the PNG, 0-9 (default 4; 1: ISA-L, fastest)\n"
             "  --stats           print rays cast, rays per second, the render's wall time and\n"
             "                    the time of each stage (read, parse, decode, build, render,\n"
             "                    encode, write)\n"
-            "  -h, --help        this text\n");
+            "  -q, --quiet       no progress line and no pass lines on standard error (the\n"
+            "                    progress line is drawn only when stderr is a terminal)\n"
+            "  -h, --help        this text\n"
+            "  --version         print 'rayd-render VERSION'\n"
+            "\n"
+            "Options take their value as '--opt value' or '--opt=value'.\n"
+            "Errors are one line on stderr: 'rayd-render: error: ...'.\n"
+            "Exit status: 0 done, 1 failure (bad scene, I/O), 2 usage error (bad command line).\n");
+}
+
+/* A usage error: one line, and the caller exits 2 (nothing was tried). */
+__attribute__((format(printf, 1, 2))) static int bad_usage(const char *fmt, ...) {
+    va_list ap;
+    va_start(ap, fmt);
+    fprintf(stderr, "rayd-render: error: ");
+    vfprintf(stderr, fmt, ap);
+    fprintf(stderr, "\n");
+    va_end(ap);
+    return -1;
 }
 
 static int parse_int(const char *s, long lo, long hi, long *out) {
@@ -90,7 +122,7 @@ struct args {
     struct rayd_region region;
     int threads;
     int png_level;
-    int stats;
+    int stats, quiet;
     int format; /* enum format; -1 until chosen */
     int passes, pass_step;
     const char *pass_output;
@@ -102,121 +134,164 @@ static int format_named(const char *s) {
     return !strcmp(s, "png") ? FMT_PNG : !strcmp(s, "png16") ? FMT_PNG16 : !strcmp(s, "exr") ? FMT_EXR : -1;
 }
 
-/* Parses the pass options at argv[*i]; 1 if it was one, 0 if not, -1 bad. */
-static int parse_pass_arg(int argc, char **argv, int *i, struct args *a) {
-    const char *arg = argv[*i], *val = *i + 1 < argc ? argv[*i + 1] : NULL;
+/* The long options; those without a short letter are numbered from 256. */
+enum {
+    OPT_FORMAT = 256, OPT_REGION, OPT_THREADS, OPT_PNG_LEVEL, OPT_PASSES, OPT_PASS_STEP,
+    OPT_PASS_OUTPUT, OPT_EXPOSURE, OPT_TONEMAP, OPT_STATS, OPT_VERSION
+};
+static const struct option long_options[] = {
+    {"output", required_argument, NULL, 'o'},
+    {"format", required_argument, NULL, OPT_FORMAT},
+    {"region", required_argument, NULL, OPT_REGION},
+    {"threads", required_argument, NULL, OPT_THREADS},
+    {"png-level", required_argument, NULL, OPT_PNG_LEVEL},
+    {"passes", no_argument, NULL, OPT_PASSES},
+    {"pass-step", required_argument, NULL, OPT_PASS_STEP},
+    {"pass-output", required_argument, NULL, OPT_PASS_OUTPUT},
+    {"exposure", required_argument, NULL, OPT_EXPOSURE},
+    {"tonemap", required_argument, NULL, OPT_TONEMAP},
+    {"stats", no_argument, NULL, OPT_STATS},
+    {"quiet", no_argument, NULL, 'q'},
+    {"help", no_argument, NULL, 'h'},
+    {"version", no_argument, NULL, OPT_VERSION},
+    {NULL, 0, NULL, 0},
+};
+
+/* The pass and tone options: val is the option's value (NULL when it was
+ * missing).  0, or -1 after saying why. */
+static int set_pass_option(int opt, const char *val, struct args *a) {
     long n;
-    if (!strcmp(arg, "--passes")) {
+    switch (opt) {
+    case OPT_PASSES:
         a->passes = 1;
-        return 1;
-    }
-    if (!strcmp(arg, "--pass-step")) {
+        return 0;
+    case OPT_PASS_STEP:
         if (!val || parse_int(val, 1, 1 << 20, &n) != 0)
-            return fprintf(stderr, "rayd-render: --pass-step takes an integer in 1..1048576\n"), -1;
+            return bad_usage("--pass-step takes an integer in 1..1048576");
         a->passes = 1;
         a->pass_step = (int)n;
-        ++*i;
-        return 1;
-    }
-    if (!strcmp(arg, "--pass-output")) {
+        return 0;
+    case OPT_PASS_OUTPUT: {
         const char *pct = val ? strchr(val, '%') : NULL;
         if (!val || (pct && (pct[1] != 'd' || strchr(pct + 1, '%'))))
-            return fprintf(stderr, "rayd-render: --pass-output takes a file name with at most "
-                                   "one %%d (the pass's samples) and no other %%\n"), -1;
+            return bad_usage("--pass-output takes a file name with at most one %%d (the pass's "
+                             "samples) and no other %%");
+        if (!strcmp(val, "-"))
+            return bad_usage("--pass-output cannot be standard output (it writes one image a pass)");
         a->passes = 1;
         a->pass_output = val;
-        ++*i;
-        return 1;
+        return 0;
     }
-    if (!strcmp(arg, "--exposure")) {
+    case OPT_EXPOSURE: {
         char *end = NULL;
         double ev = val ? strtod(val, &end) : 0;
         if (!val || end == val || *end || !(ev >= -64 && ev <= 64))
-            return fprintf(stderr, "rayd-render: --exposure takes stops in -64..64\n"), -1;
+            return bad_usage("--exposure takes stops in -64..64");
         a->tone.exposure = ev;
-        ++*i;
-        return 1;
+        return 0;
     }
-    if (!strcmp(arg, "--tonemap")) {
+    case OPT_TONEMAP: {
         int clamp = val && !strcmp(val, "clamp"), reinhard = val && !strcmp(val, "reinhard");
         if (!clamp && !reinhard)
-            return fprintf(stderr, "rayd-render: --tonemap takes clamp or reinhard, not '%s'\n",
-                           val ? val : ""), -1;
+            return bad_usage("--tonemap takes clamp or reinhard, not '%s'", val ? val : "");
         a->tone.curve = reinhard ? RAYD_TONE_REINHARD : RAYD_TONE_CLAMP;
-        ++*i;
-        return 1;
+        return 0;
     }
-    if (!strcmp(arg, "--format")) {
-        if (!val || (a->format = format_named(val)) < 0)
-            return fprintf(stderr, "rayd-render: --format takes png, png16 or exr, not '%s'\n",
-                           val ? val : ""), -1;
-        ++*i;
-        return 1;
     }
-    return 0;
+    return bad_usage("unknown option");
 }
 
+/* One option: val is its value (NULL when it was missing).  0, 1 when the
+ * program is done (--help, --version), or -1 after saying why. */
+static int set_option(int opt, const char *val, struct args *a) {
+    long n;
+    switch (opt) {
+    case 'h':
+        usage(stdout);
+        return 1;
+    case OPT_VERSION:
+        printf("rayd-render %s\n", RAYD_VERSION);
+        return 1;
+    case 'o':
+        if (!val) return bad_usage("-o/--output needs a file name ('-': standard output)");
+        a->output = val;
+        return 0;
+    case 'q':
+        a->quiet = 1;
+        return 0;
+    case OPT_STATS:
+        a->stats = 1;
+        return 0;
+    case OPT_FORMAT:
+        if (!val || (a->format = format_named(val)) < 0)
+            return bad_usage("--format takes png, png16 or exr, not '%s'", val ? val : "");
+        return 0;
+    case OPT_REGION:
+        if (!val || parse_region(val, &a->region) != 0)
+            return bad_usage("--region takes X,Y,W,H (four integers)");
+        return 0;
+    case OPT_THREADS:
+        if (!val || parse_int(val, 0, 1024, &n) != 0)
+            return bad_usage("--threads takes an integer in 0..1024 (0: every core)");
+        a->threads = (int)n;
+        return 0;
+    case OPT_PNG_LEVEL:
+        if (!val || parse_int(val, 0, 9, &n) != 0)
+            return bad_usage("--png-level takes an integer in 0..9");
+        a->png_level = (int)n;
+        return 0;
+    }
+    return set_pass_option(opt, val, a);
+}
+
+/* getopt_long's '?': arg is the word it stopped at; opt the short option,
+ * or a long option's value when it was given one it does not take. */
+static int unknown_option(const char *arg, int opt) {
+    if (!strncmp(arg, "--", 2))
+        return opt ? bad_usage("option '%.*s' takes no value", (int)strcspn(arg, "="), arg)
+                   : bad_usage("unknown option '%s'", arg);
+    return bad_usage("unknown option '-%c'", opt);
+}
+
+/* The command line into a: 0, 1 when done (--help, --version), -1 on a
+ * usage error (said).  getopt_long takes "--opt value" and "--opt=value";
+ * a missing value goes to the option's own message. */
 static int parse_args(int argc, char **argv, struct args *a) {
-    long cores = sysconf(_SC_NPROCESSORS_ONLN);
-    a->threads = cores > 0 ? (int)cores : 1;
     a->png_level = -1;
     a->format = -1;
-    for (int i = 1; i < argc; i++) {
-        const char *arg = argv[i];
-        const char *val = i + 1 < argc ? argv[i + 1] : NULL;
-        long n;
-        int p = parse_pass_arg(argc, argv, &i, a);
-        if (p < 0) return -1;
-        if (p > 0) continue;
-        if (!strcmp(arg, "-h") || !strcmp(arg, "--help")) {
-            usage(stdout);
-            exit(0);
-        } else if (!strcmp(arg, "-o") || !strcmp(arg, "--output")) {
-            if (!val) return fprintf(stderr, "rayd-render: %s needs a file name\n", arg), -1;
-            a->output = argv[++i];
-        } else if (!strcmp(arg, "--region")) {
-            if (!val || parse_region(val, &a->region) != 0)
-                return fprintf(stderr, "rayd-render: --region takes X,Y,W,H (four integers)\n"), -1;
-            i++;
-        } else if (!strcmp(arg, "--threads")) {
-            if (!val || parse_int(val, 1, 1024, &n) != 0)
-                return fprintf(stderr, "rayd-render: --threads takes an integer in 1..1024\n"), -1;
-            a->threads = (int)n;
-            i++;
-        } else if (!strcmp(arg, "--png-level")) {
-            if (!val || parse_int(val, 0, 9, &n) != 0)
-                return fprintf(stderr, "rayd-render: --png-level takes an integer in 0..9\n"), -1;
-            a->png_level = (int)n;
-            i++;
-        } else if (!strcmp(arg, "--stats")) {
-            a->stats = 1;
-        } else if (arg[0] == '-' && arg[1] != '\0') {
-            return fprintf(stderr, "rayd-render: unknown option %s\n", arg), -1;
-        } else if (!a->scene) {
-            a->scene = arg;
-        } else {
-            return fprintf(stderr, "rayd-render: more than one scene given (%s)\n", arg), -1;
-        }
+    opterr = 0;
+    int opt, rc;
+    while ((opt = getopt_long(argc, argv, ":o:qh", long_options, NULL)) != -1) {
+        if (opt == '?') return unknown_option(argv[optind - 1], optopt);
+        rc = opt == ':' ? set_option(optopt, NULL, a) : set_option(opt, optarg, a);
+        if (rc != 0) return rc;
     }
-    if (!a->scene) return fprintf(stderr, "rayd-render: no scene given\n"), -1;
-    if (!a->output) return fprintf(stderr, "rayd-render: no output given (-o OUT.png)\n"), -1;
+    for (int i = optind; i < argc; i++) {
+        if (a->scene) return bad_usage("more than one scene given (%s)", argv[i]);
+        a->scene = argv[i];
+    }
+    if (a->threads == 0) {
+        long cores = sysconf(_SC_NPROCESSORS_ONLN);
+        a->threads = cores > 0 ? (int)cores : 1;
+    }
+    if (!a->scene) return bad_usage("no scene given");
+    if (!a->output) return bad_usage("no output given (-o OUT.png)");
+    if (!strcmp(a->output, "-") && isatty(STDOUT_FILENO))
+        return bad_usage("-o - writes the image to standard output, which is a terminal");
     if (a->region.w == 0 && a->region.h == 0 && (a->region.x || a->region.y))
-        return fprintf(stderr, "rayd-render: --region needs W and H > 0\n"), -1;
+        return bad_usage("--region needs W and H > 0");
     size_t olen = strlen(a->output);
     if (a->format < 0) a->format = olen >= 4 && !strcmp(a->output + olen - 4, ".exr") ? FMT_EXR : FMT_PNG;
     return 0;
 }
 
+/* A core error: "rayd-render: error: " and its message with the JSON Pointer
+ * or line and column.  A bad argument (a --region outside the image) is the
+ * command line's fault: 2; anything else (a bad scene, I/O) is 1. */
 static int fail(const char *what, const struct rayd_error *err) {
     char msg[600];
-    fprintf(stderr, "error: %s%s\n", what, rayd_error_format(err, msg, sizeof msg));
-    switch (err->code) {
-    case RAYD_E_PARSE:
-    case RAYD_E_INVALID:
-    case RAYD_E_LIMIT:
-    case RAYD_E_ARG: return 2;
-    default: return 1;
-    }
+    fprintf(stderr, "rayd-render: error: %s%s\n", what, rayd_error_format(err, msg, sizeof msg));
+    return err->code == RAYD_E_ARG ? 2 : 1;
 }
 
 static double now(void) {
@@ -232,18 +307,120 @@ enum stage { ST_READ, ST_PARSE, ST_DECODE, ST_BUILD, ST_RENDER, ST_ENCODE, ST_WR
 static const char *const stage_names[ST__COUNT] = {"read",   "parse",  "decode", "build",
                                                    "render", "encode", "write"};
 
-static void print_stats(const struct args *a, const struct rayd_render_stats *rs,
-                        const double *stage, double total) {
-    fprintf(stderr, "rays: %llu\nrays/s: %.0f\nwall: %.3f s\nthreads: %d\n",
-            (unsigned long long)rs->rays, rs->seconds > 0 ? (double)rs->rays / rs->seconds : 0.0,
-            rs->seconds, a->threads);
+/* The rays the scene's description says the render will cast (the
+ * estimate rayd's server admits and schedules by), beside those cast. */
+static double estimated_rays(const struct args *a, const rayd_scene *scene) {
+    struct rayd_scene_info info;
+    rayd_scene_info(scene, &info);
+    double pixels = a->region.w > 0 ? (double)a->region.w * a->region.h
+                                    : (double)info.width * info.height;
+    return pixels * info.samples * info.rays_per_sample;
+}
+
+static void print_stats(const struct args *a, const rayd_scene *scene,
+                        const struct rayd_render_stats *rs, const double *stage, double total) {
+    fprintf(stderr, "rays: %llu\nrays estimated: %.0f\nrays/s: %.0f\nwall: %.3f s\nthreads: %d\n",
+            (unsigned long long)rs->rays, estimated_rays(a, scene),
+            rs->seconds > 0 ? (double)rs->rays / rs->seconds : 0.0, rs->seconds, a->threads);
     for (int i = 0; i < ST__COUNT; i++)
         fprintf(stderr, "time %s: %.4f s\n", stage_names[i], stage[i]);
     fprintf(stderr, "time total: %.4f s\n", total);
 }
 
-/* Writes the whole buffer to path; 0 on success. */
+/* ---- the progress line -------------------------------------------------
+ *
+ * On a terminal (stderr, isatty) and without --quiet, a render shows one
+ * line that is redrawn in place: "\r  37%  412/1120 tiles  2.1 s  eta 3.6 s"
+ * (with --passes, "pass 3/8" too; the percentage and eta are of the whole
+ * run).  The core reports each finished tile through the progress callback
+ * of rayd_render_opts, from its rendering threads: a thread that finds the
+ * line free and 0.1 s passed since the last drawing (or none yet) redraws it, the others
+ * go on at once, so the line costs the render nothing.  The main thread
+ * clears it when the render call has returned (its threads are joined), so
+ * the pass lines and errors that follow start on a clean line.  Off the
+ * terminal nothing is drawn: a log gets no carriage returns. */
+
+#define TILE 32 /* the core's default tile edge, set so tiles can be counted */
+
+struct progress {
+    int on;
+    double t0;          /* start of the render (of every pass) */
+    long tiles;         /* tiles of one pass */
+    atomic_long done;   /* tiles finished in this pass */
+    atomic_int busy;    /* a thread is drawing */
+    _Atomic double last; /* when the line was drawn */
+    int width;          /* characters drawn, to clear; under busy */
+    int pass, passes;   /* passes 0: a plain render */
+    int from, to, samples; /* this pass's samples, of samples */
+};
+
+static void progress_start(struct progress *p, const struct args *a, struct rayd_region r,
+                           int passes, int samples) {
+    p->on = !a->quiet && isatty(STDERR_FILENO);
+    p->t0 = now();
+    atomic_init(&p->last, p->t0 - 1); /* the first tile draws: a short render shows it too */
+    p->tiles = (long)((r.w + TILE - 1) / TILE) * ((r.h + TILE - 1) / TILE);
+    atomic_init(&p->done, 0);
+    atomic_init(&p->busy, 0);
+    p->width = 0;
+    p->pass = p->passes = p->from = 0;
+    p->to = p->samples = samples;
+    p->passes = passes;
+}
+
+/* The next pass: samples from..to-1. */
+static void progress_pass(struct progress *p, int pass, int from, int to) {
+    p->pass = pass;
+    p->from = from;
+    p->to = to;
+    atomic_store(&p->done, 0);
+}
+
+/* Draws line, padded over what was there. */
+static void progress_draw(struct progress *p, const char *line) {
+    int n = (int)strlen(line);
+    fprintf(stderr, "\r%s%*s", line, p->width > n ? p->width - n : 0, "");
+    fflush(stderr);
+    if (n > p->width) p->width = n;
+}
+
+/* rayd_progress_fn: a tile finished; done and total count pixels. */
+static void progress_tile(void *user, long done, long total) {
+    struct progress *p = user;
+    long tiles = atomic_fetch_add(&p->done, 1) + 1;
+    double t = now();
+    if (!p->on || t - atomic_load(&p->last) < 0.1 || atomic_exchange(&p->busy, 1)) return;
+    double of_pass = total > 0 ? (double)done / (double)total : 1;
+    double f = (p->from + (p->to - p->from) * of_pass) / (p->samples > 0 ? p->samples : 1);
+    double secs = t - p->t0;
+    char line[160], pass[40] = "", eta[40] = "";
+    if (p->passes) snprintf(pass, sizeof pass, "  pass %d/%d", p->pass, p->passes);
+    if (f > 0) snprintf(eta, sizeof eta, "  eta %.1f s", secs * (1 - f) / f);
+    snprintf(line, sizeof line, "  %3.0f%%%s  %ld/%ld tiles  %.1f s%s", 100 * f, pass, tiles,
+             p->tiles, secs, eta);
+    progress_draw(p, line);
+    atomic_store(&p->last, t);
+    atomic_store(&p->busy, 0);
+}
+
+/* Clears the line; only when no render is running. */
+static void progress_clear(struct progress *p) {
+    if (!p->width) return;
+    fprintf(stderr, "\r%*s\r", p->width, "");
+    fflush(stderr);
+    p->width = 0;
+}
+
+/* opts reporting to p. */
+static void progress_opts(struct progress *p, struct rayd_render_opts *opts) {
+    opts->tile = TILE;
+    opts->progress = progress_tile;
+    opts->progress_user = p;
+}
+
+/* Writes the whole buffer to path ("-": standard output); 0 on success. */
 static int write_file(const char *path, const void *buf, size_t len) {
+    if (!strcmp(path, "-")) return fwrite(buf, 1, len, stdout) == len && fflush(stdout) == 0 ? 0 : -1;
     FILE *f = fopen(path, "wb");
     int ok = f && fwrite(buf, 1, len, f) == len;
     if (f && fclose(f) != 0) ok = 0;
@@ -263,7 +440,8 @@ static int fail_render(struct rayd_error *err) {
 
 static int write_or_say(const char *path, const void *buf, size_t len) {
     if (write_file(path, buf, len) == 0) return 0;
-    fprintf(stderr, "error: cannot write %s: %s\n", path, strerror(errno));
+    fprintf(stderr, "rayd-render: error: cannot write %s: %s\n",
+            strcmp(path, "-") ? path : "standard output", strerror(errno));
     return 1;
 }
 
@@ -274,9 +452,18 @@ static int render_and_write(const struct args *a, const rayd_scene *scene, doubl
     struct rayd_error err = {0};
     struct rayd_render_stats stats = {0};
     struct rayd_render_opts opts = {.region = a->region, .threads = a->threads, .stats = &stats};
+    struct rayd_scene_info info;
+    rayd_scene_info(scene, &info);
+    struct rayd_region r = a->region;
+    if (r.w == 0 && r.h == 0) r = (struct rayd_region){0, 0, info.width, info.height};
+    struct progress prog;
+    progress_start(&prog, a, r, 0, 1);
+    progress_opts(&prog, &opts);
     rayd_image *img = NULL;
     double t = now();
-    if (rayd_render(scene, &opts, &img, &err) != RAYD_OK) return fail_render(&err);
+    enum rayd_status rs = rayd_render(scene, &opts, &img, &err);
+    progress_clear(&prog);
+    if (rs != RAYD_OK) return fail_render(&err);
     stage[ST_RENDER] = now() - t;
     t = now();
     void *png = NULL;
@@ -290,7 +477,7 @@ static int render_and_write(const struct args *a, const rayd_scene *scene, doubl
     rayd_free(png);
     if (rc != 0) return rc;
     stage[ST_WRITE] = now() - t;
-    if (a->stats) print_stats(a, &stats, stage, now() - t0);
+    if (a->stats) print_stats(a, scene, &stats, stage, now() - t0);
     return 0;
 }
 
@@ -350,15 +537,24 @@ static int run_passes(const struct args *a, const rayd_scene *scene, rayd_accum 
     rayd_scene_info(scene, &info);
     struct rayd_render_stats one = {0};
     struct rayd_render_opts opts = {.threads = a->threads, .stats = &one};
+    int passes = 0;
+    for (int from = 0; from < info.samples; passes++)
+        from = a->passes ? next_end(a, from, info.samples) : info.samples;
+    struct progress prog;
+    progress_start(&prog, a, rayd_accum_region(acc), a->passes ? passes : 0, info.samples);
+    progress_opts(&prog, &opts);
     int count = 0;
     for (int from = 0; from < info.samples; count++) {
         int to = a->passes ? next_end(a, from, info.samples) : info.samples;
         struct rayd_error err = {0};
-        if (rayd_render_pass(scene, &opts, acc, from, to, &err) != RAYD_OK) return fail("", &err);
+        progress_pass(&prog, count + 1, from, to);
+        enum rayd_status st = rayd_render_pass(scene, &opts, acc, from, to, &err);
+        progress_clear(&prog);
+        if (st != RAYD_OK) return fail("", &err);
         stats->rays += one.rays;
         stats->seconds += one.seconds;
         from = to;
-        if (a->passes)
+        if (a->passes && !a->quiet)
             fprintf(stderr, "pass %d: %d samples, %.3f s, %.3f s since the first\n", count + 1,
                     to, one.seconds, stats->seconds);
         if (a->pass_output) {
@@ -385,15 +581,16 @@ static int render_passes(const struct args *a, const rayd_scene *scene, double *
     if (rc == 0) rc = write_accum(a, acc, a->output);
     stage[ST_ENCODE] = now() - t; /* with the write: one call */
     rayd_accum_free(acc);
-    if (rc == 0 && a->stats) print_stats(a, &stats, stage, now() - t0);
+    if (rc == 0 && a->stats) print_stats(a, scene, &stats, stage, now() - t0);
     return rc;
 }
 
 int main(int argc, char **argv) {
     struct args a = {0};
-    if (parse_args(argc, argv, &a) != 0) {
-        usage(stderr);
-        return 2;
+    int rc = parse_args(argc, argv, &a);
+    if (rc != 0) {
+        if (rc < 0) fprintf(stderr, "Try 'rayd-render --help'.\n");
+        return rc < 0 ? 2 : 0;
     }
     double stage[ST__COUNT] = {0}, t0 = now(), t = t0;
     struct rayd_limits lim;
@@ -425,7 +622,7 @@ int main(int argc, char **argv) {
     stage[ST_BUILD] = info.build_seconds;
     stage[ST_PARSE] = now() - t - info.decode_seconds - info.build_seconds;
     bool toned = a.tone.exposure != 0 || a.tone.curve != RAYD_TONE_CLAMP;
-    int rc = a.passes || a.format != FMT_PNG || toned ? render_passes(&a, scene, stage, t0)
+    rc = a.passes || a.format != FMT_PNG || toned ? render_passes(&a, scene, stage, t0)
                                                       : render_and_write(&a, scene, stage, t0);
     rayd_scene_free(scene);
     return rc;

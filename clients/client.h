@@ -14,6 +14,13 @@
  *                  retries, stitching (or adding the ranges' sums)
  *   progress.c     the progress bar (terminal) or plain progress lines
  *   job.c          the asynchronous job API with its Server-Sent Events
+ *   output.c       the finished image into -o: a file (via FILE.part), or
+ *                  standard output for "-"
+ *
+ * Exit status (rayd-client.c): 0 done, 1 failure (the scene or job was
+ * refused, a server is unhealthy, tiles are missing, a transport or write
+ * error), 2 usage error; 130 when interrupted.  Errors are printed as
+ * "rayd-client: error: ..." on stderr, status lines as "rayd-client: ...".
  *
  * Only include/rayd/rayd.h crosses from the core; libcurl and cJSON types
  * stay in the files that need them.
@@ -39,7 +46,16 @@ struct client_opts {
     char *token;       /* from --token-file, trimmed; NULL = none */
     int quiet;         /* no progress at all */
     int ranges;        /* > 0: split the samples into this many ranges, not the pixels */
+    int threads;       /* PNG encoding threads of the stitched frame; 0 = every core */
 };
+
+/* ---- output.c ------------------------------------------------------------- */
+
+/* Writes len bytes to path (through path.part and a rename), or to standard
+ * output when path is "-".  0, or -1 after printing why. */
+int output_write(const char *path, const void *buf, size_t len);
+/* path as a message names it: "standard output" for "-". */
+const char *output_name(const char *path);
 
 /* ---- scenefile.c ---------------------------------------------------------- */
 
@@ -117,15 +133,15 @@ void progress_end(struct progress *p);
 /* ---- tiles.c -------------------------------------------------------------- */
 
 /* Renders sf as tiles over o->servers and writes o->out.  Returns 0 on a
- * complete image, 1 when the scene was refused, 2 when tiles are missing
+ * complete image, 1 when the scene was refused or tiles are missing
  * (nothing is written then). */
 int tiles_render(const struct client_opts *o, const struct scenefile *sf);
 
 /* ---- job.c ---------------------------------------------------------------- */
 
 /* The asynchronous API on o->servers[0]: POST /v1/jobs, follow the events,
- * fetch the PNG into o->out.  Returns 0, 1 when refused or failed, 2 on a
- * transport error. */
+ * fetch the PNG into o->out.  Returns 0, 1 when refused, failed or on a
+ * transport error, 130 when interrupted (the job is cancelled). */
 int job_run(const struct client_opts *o, const struct scenefile *sf);
 
 #endif

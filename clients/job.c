@@ -193,7 +193,7 @@ static int job_poll(const struct client_opts *o, const char *base, const char *i
         if (st != 200) {
             if (st)
                 net_describe(st, &b, why, sizeof why);
-            fprintf(stderr, "rayd-client: job %s: %s\n", id, why);
+            fprintf(stderr, "rayd-client: error: job %s: %s\n", id, why);
             break;
         }
         cJSON *j = cJSON_ParseWithLength(b.data, b.len);
@@ -219,32 +219,17 @@ static int job_poll(const struct client_opts *o, const char *base, const char *i
     return rc;
 }
 
+/* The job's PNG (checked to be one) into path: 0, or -1 after saying why. */
 static int job_write(const char *path, const struct net_buf *b)
 {
     rayd_image *img = NULL;
     struct rayd_error err = {0};
     if (rayd_png_decode(b->data, b->len, 0, &img, &err) != RAYD_OK) {
-        fprintf(stderr, "rayd-client: the job's image is not a PNG: %s\n", err.message);
+        fprintf(stderr, "rayd-client: error: the job's image is not a PNG: %s\n", err.message);
         return -1;
     }
     rayd_image_free(img);
-    size_t n = strlen(path) + 8;
-    char *tmp = malloc(n);
-    if (!tmp)
-        return -1;
-    snprintf(tmp, n, "%s.part", path);
-    FILE *f = fopen(tmp, "wb");
-    int ok = f && fwrite(b->data, 1, b->len, f) == b->len;
-    if (f && fclose(f) != 0)
-        ok = 0;
-    if (!ok || rename(tmp, path) != 0) {
-        fprintf(stderr, "rayd-client: cannot write %s\n", path);
-        remove(tmp);
-        free(tmp);
-        return -1;
-    }
-    free(tmp);
-    return 0;
+    return output_write(path, b->data, b->len);
 }
 
 int job_run(const struct client_opts *o, const struct scenefile *sf)
@@ -252,7 +237,7 @@ int job_run(const struct client_opts *o, const struct scenefile *sf)
     const char *base = o->servers[0];
     char url[1024], why[600] = "";
     struct net_buf b = {0};
-    int rc = 2;
+    int rc = 1;
     struct sigaction sa, old_int, old_term;
     memset(&sa, 0, sizeof sa);
     sa.sa_handler = job_on_signal;
@@ -262,11 +247,9 @@ int job_run(const struct client_opts *o, const struct scenefile *sf)
     snprintf(url, sizeof url, "%s/v1/jobs", base);
     long st = job_request(o, "POST", url, sf, &b, why, sizeof why);
     if (st != 202) {
-        if (st) {
+        if (st)
             net_describe(st, &b, why, sizeof why);
-            rc = 1;
-        }
-        fprintf(stderr, "rayd-client: %s refused the job: %s\n", base, why);
+        fprintf(stderr, "rayd-client: error: %s refused the job: %s\n", base, why);
         goto out;
     }
     cJSON *j = cJSON_ParseWithLength(b.data, b.len);
@@ -276,7 +259,7 @@ int job_run(const struct client_opts *o, const struct scenefile *sf)
         snprintf(id, sizeof id, "%s", jid);
     cJSON_Delete(j);
     if (!id[0]) {
-        fprintf(stderr, "rayd-client: %s: no job id in the answer\n", base);
+        fprintf(stderr, "rayd-client: error: %s: no job id in the answer\n", base);
         goto out;
     }
     if (!o->quiet)
@@ -304,14 +287,13 @@ int job_run(const struct client_opts *o, const struct scenefile *sf)
         nanosleep(&ts, NULL);
     }
     if (st == 200) {
-        rc = job_write(o->out, &b) == 0 ? 0 : 2;
+        rc = job_write(o->out, &b) == 0 ? 0 : 1;
         if (rc == 0 && !o->quiet)
-            fprintf(stderr, "rayd-client: wrote %s\n", o->out);
+            fprintf(stderr, "rayd-client: wrote %s\n", output_name(o->out));
     } else {
         if (st)
             net_describe(st, &b, why, sizeof why);
-        fprintf(stderr, "rayd-client: job %s: %s\n", id, why);
-        rc = st == 409 ? 1 : 2;
+        fprintf(stderr, "rayd-client: error: job %s: %s\n", id, why);
     }
     goto out;
 cancel:

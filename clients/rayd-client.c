@@ -2,7 +2,7 @@
  *
  *   rayd-client render SCENE.json -o OUT.png --server URL [--server URL ...]
  *               [--tile 128 | --split-samples N] [--parallel N] [--retries N]
- *               [--timeout S]
+ *               [--timeout S] [--threads N]
  *               [--token-file F] [--quiet]
  *   rayd-client job SCENE.json -o OUT.png --server URL [--token-file F]
  *   rayd-client health --server URL [--server URL ...]
@@ -15,36 +15,47 @@
  * validated locally before anything is sent (scenefile.c).  RAYD_SERVER
  * gives a default server, RAYD_TOKEN_FILE a default token file.
  *
- * Exit status: 0 success; 1 the scene or job was refused (the server's JSON
- * error is printed), or a server is unhealthy; 2 an incomplete image or a
- * transport failure (nothing is written); 64 a usage error.
+ * The command line follows the convention of the three tools (rayd,
+ * rayd-render, rayd-client): getopt_long, so "--tile 64" and "--tile=64"
+ * are the same and options may come before or after the command; -h/--help
+ * to stdout, --version; "-o -" is standard output; errors are one line
+ * "rayd-client: error: ..." on stderr.
+ *
+ * Exit status: 0 success; 1 failure: the scene or job was refused (the
+ * server's JSON error is printed), a server is unhealthy, an incomplete
+ * image (nothing is written), a transport or write error; 2 a usage error;
+ * 130 interrupted.
  */
 #include "client.h"
 
 #include <cjson/cJSON.h>
 #include <curl/curl.h>
 #include <errno.h>
+#include <getopt.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include <rayd/rayd.h>
 
-#define CLIENT_USAGE_EXIT 64
+#define CLIENT_USAGE_EXIT 2
 
 static void client_usage(FILE *f)
 {
     fprintf(f,
             "usage: rayd-client render SCENE.json -o OUT.png --server URL [--server URL ...]\n"
             "                          [--tile N | --split-samples N] [--parallel N] [--retries N]\n"
-            "                          [--timeout S]\n"
+            "                          [--timeout S] [--threads N]\n"
             "                          [--token-file F] [--quiet]\n"
             "       rayd-client job SCENE.json -o OUT.png --server URL [--token-file F] [--quiet]\n"
             "       rayd-client health --server URL [--server URL ...] [--token-file F]\n"
             "\n"
             "  --server URL      a rayd node or a balancer in front of many (repeatable;\n"
             "                    default $RAYD_SERVER or http://127.0.0.1:8080)\n"
-            "  -o, --output F    the PNG to write (only when every tile arrived); with\n"
+            "  -o, --output F    the PNG to write (only when every tile arrived), '-' for\n"
+            "                    standard output; with\n"
             "                    --split-samples, F.exr writes the linear OpenEXR\n"
             "  --tile N          tile edge in pixels (default 128)\n"
             "  --split-samples N split the frame's samples, not its pixels, into N ranges:\n"
@@ -55,16 +66,23 @@ static void client_usage(FILE *f)
             "  --retries N       further attempts of a failed tile, on another server (default 3)\n"
             "  --timeout S       seconds per request (default 120)\n"
             "  --token-file F    bearer token file (default $RAYD_TOKEN_FILE)\n"
+            "  --threads N       threads encoding the stitched PNG (default 0: every core)\n"
             "  -q, --quiet       no progress output\n"
+            "  -h, --help        this text\n"
+            "  --version         print 'rayd-client VERSION'\n"
             "\n"
-            "exit: 0 ok, 1 refused or unhealthy, 2 incomplete image or transport error, 64 usage\n");
+            "-o - writes the image to standard output (status lines go to stderr).\n"
+            "Options take their value as '--opt value' or '--opt=value'.\n"
+            "Errors are one line on stderr: 'rayd-client: error: ...'.\n"
+            "Exit status: 0 done, 1 failure (refused, unhealthy, incomplete image,\n"
+            "transport or write error), 2 usage error, 130 interrupted.\n");
 }
 
 static char *client_read_token(const char *path)
 {
     FILE *f = fopen(path, "rb");
     if (!f) {
-        fprintf(stderr, "rayd-client: cannot read token file %s: %s\n", path, strerror(errno));
+        fprintf(stderr, "rayd-client: error: cannot read token file %s: %s\n", path, strerror(errno));
         return NULL;
     }
     char buf[4096];
@@ -75,7 +93,7 @@ static char *client_read_token(const char *path)
                  buf[n - 1] == '\t'))
         buf[--n] = '\0';
     if (!n || strpbrk(buf, "\r\n")) {
-        fprintf(stderr, "rayd-client: token file %s is empty or has several lines\n", path);
+        fprintf(stderr, "rayd-client: error: token file %s is empty or has several lines\n", path);
         return NULL;
     }
     return strdup(buf);
@@ -87,7 +105,7 @@ static int client_number(const char *opt, const char *v, double lo, double hi, d
     errno = 0;
     double d = v ? strtod(v, &end) : 0;
     if (!v || end == v || *end || errno || !(d >= lo && d <= hi)) {
-        fprintf(stderr, "rayd-client: %s needs a number in %g..%g, not '%s'\n", opt, lo, hi,
+        fprintf(stderr, "rayd-client: error: %s needs a number in %g..%g, not '%s'\n", opt, lo, hi,
                 v ? v : "");
         return -1;
     }
@@ -158,139 +176,231 @@ static int client_health(const struct client_opts *o)
     return bad;
 }
 
-/* ---- main ----------------------------------------------------------------------- */
+/* ---- the command line ------------------------------------------------------ */
+
+/* A usage error: one line; the caller exits 2. */
+__attribute__((format(printf, 1, 2))) static int client_bad(const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    fprintf(stderr, "rayd-client: error: ");
+    vfprintf(stderr, fmt, ap);
+    fprintf(stderr, "\n");
+    va_end(ap);
+    return -1;
+}
+
+/* The long options; those without a short letter are numbered from 256. */
+enum {
+    OPT_TILE = 256, OPT_SPLIT, OPT_PARALLEL, OPT_RETRIES, OPT_TIMEOUT, OPT_TOKEN_FILE,
+    OPT_THREADS, OPT_VERSION
+};
+static const struct option client_options[] = {
+    {"server", required_argument, NULL, 's'},
+    {"output", required_argument, NULL, 'o'},
+    {"tile", required_argument, NULL, OPT_TILE},
+    {"split-samples", required_argument, NULL, OPT_SPLIT},
+    {"parallel", required_argument, NULL, OPT_PARALLEL},
+    {"retries", required_argument, NULL, OPT_RETRIES},
+    {"timeout", required_argument, NULL, OPT_TIMEOUT},
+    {"token-file", required_argument, NULL, OPT_TOKEN_FILE},
+    {"threads", required_argument, NULL, OPT_THREADS},
+    {"quiet", no_argument, NULL, 'q'},
+    {"help", no_argument, NULL, 'h'},
+    {"version", no_argument, NULL, OPT_VERSION},
+    {NULL, 0, NULL, 0},
+};
+
+struct client_args {
+    struct client_opts o;
+    const char *cmd, *scene, *token_file;
+};
+
+/* A number option's value into *out; -1 after saying why. */
+static int client_int(int opt, const char *v, double lo, double hi, int *out)
+{
+    const char *name = opt == OPT_TILE       ? "--tile"
+                       : opt == OPT_SPLIT    ? "--split-samples"
+                       : opt == OPT_PARALLEL ? "--parallel"
+                       : opt == OPT_RETRIES  ? "--retries"
+                                             : "--threads";
+    double d;
+    if (client_number(name, v, lo, hi, &d))
+        return -1;
+    *out = (int)d;
+    return 0;
+}
+
+/* One option; v is its value (NULL when it was missing).  0, 1 when done
+ * (--help, --version), -1 after saying why. */
+static int client_option(int opt, const char *v, struct client_args *a)
+{
+    struct client_opts *o = &a->o;
+    switch (opt) {
+    case 'h':
+        client_usage(stdout);
+        return 1;
+    case OPT_VERSION:
+        printf("rayd-client %s\n", RAYD_VERSION);
+        return 1;
+    case 's':
+        if (!v || o->nservers == CLIENT_MAX_SERVERS)
+            return client_bad("--server needs a URL (at most %d)", CLIENT_MAX_SERVERS);
+        o->servers[o->nservers++] = v;
+        return 0;
+    case 'o':
+        if (!v)
+            return client_bad("-o/--output needs a file name ('-': standard output)");
+        o->out = v;
+        return 0;
+    case 'q':
+        o->quiet = 1;
+        return 0;
+    case OPT_TOKEN_FILE:
+        if (!v)
+            return client_bad("--token-file needs a file");
+        a->token_file = v;
+        return 0;
+    case OPT_TIMEOUT:
+        return client_number("--timeout", v, 0.1, 86400, &o->timeout);
+    case OPT_TILE:
+        return client_int(opt, v, 8, 4096, &o->tile);
+    case OPT_SPLIT:
+        return client_int(opt, v, 1, 65536, &o->ranges);
+    case OPT_PARALLEL:
+        return client_int(opt, v, 1, 1024, &o->parallel);
+    case OPT_RETRIES:
+        return client_int(opt, v, 0, 100, &o->retries);
+    case OPT_THREADS:
+        return client_int(opt, v, 0, 1024, &o->threads);
+    }
+    return client_bad("unknown option");
+}
+
+/* getopt_long's '?': arg is the word it stopped at; opt the short option,
+ * or a long option's value when it was given one it does not take. */
+static int client_unknown(const char *arg, int opt)
+{
+    if (!strncmp(arg, "--", 2))
+        return opt ? client_bad("option '%.*s' takes no value", (int)strcspn(arg, "="), arg)
+                   : client_bad("unknown option '%s'", arg);
+    return client_bad("unknown option '-%c'", opt);
+}
+
+/* The words that are not options: the command, then the scene. */
+static int client_words(int argc, char **argv, struct client_args *a)
+{
+    if (optind >= argc)
+        return client_bad("no command given (render, job or health)");
+    a->cmd = argv[optind++];
+    if (strcmp(a->cmd, "render") && strcmp(a->cmd, "job") && strcmp(a->cmd, "health"))
+        return client_bad("unknown command '%s' (render, job or health)", a->cmd);
+    if (optind < argc && strcmp(a->cmd, "health"))
+        a->scene = argv[optind++];
+    if (optind < argc)
+        return client_bad("unexpected argument '%s'", argv[optind]);
+    return 0;
+}
+
+/* The command line into a: 0, 1 when done (--help, --version), -1 on a
+ * usage error (said).  Options and words may come in any order. */
+static int client_parse(int argc, char **argv, struct client_args *a)
+{
+    opterr = 0;
+    int opt, rc;
+    while ((opt = getopt_long(argc, argv, ":s:o:qh", client_options, NULL)) != -1) {
+        if (opt == '?')
+            return client_unknown(argv[optind - 1], optopt);
+        rc = opt == ':' ? client_option(optopt, NULL, a) : client_option(opt, optarg, a);
+        if (rc != 0)
+            return rc;
+    }
+    if (client_words(argc, argv, a) != 0)
+        return -1;
+    if (strcmp(a->cmd, "health") && (!a->scene || !a->o.out))
+        return client_bad("%s needs SCENE.json and -o OUT.png", a->cmd);
+    if (!strcmp(a->cmd, "job") && a->o.nservers > 1)
+        return client_bad("job: give exactly one --server (jobs live on one node)");
+    return 0;
+}
+
+/* The defaults, then the command line. */
+static int client_args(int argc, char **argv, struct client_args *a)
+{
+    memset(a, 0, sizeof *a);
+    a->o.tile = 128, a->o.retries = 3, a->o.timeout = 120, a->o.parallel = 0;
+    a->token_file = getenv("RAYD_TOKEN_FILE");
+    int rc = client_parse(argc, argv, a);
+    if (rc != 0)
+        return rc;
+    struct client_opts *o = &a->o;
+    if (!o->nservers) {
+        const char *env = getenv("RAYD_SERVER");
+        o->servers[o->nservers++] = env && *env ? env : "http://127.0.0.1:8080";
+    }
+    if (!o->parallel)
+        o->parallel = o->nservers == 1 ? 8 : 4 * o->nservers;
+    return 0;
+}
+
+/* The server URLs are used as prefixes: copies without a trailing slash
+ * into urls (freed by the caller).  -1 on a URL that is none (said). */
+static int client_urls(struct client_opts *o, char **urls)
+{
+    for (int i = 0; i < o->nservers; i++) {
+        size_t n = strlen(o->servers[i]);
+        urls[i] = strdup(o->servers[i]);
+        if (!urls[i])
+            return client_bad("out of memory");
+        while (n > 0 && urls[i][n - 1] == '/')
+            urls[i][--n] = '\0';
+        if (!strstr(urls[i], "://"))
+            return client_bad("--server wants a URL such as http://host:8080, not '%s'", urls[i]);
+        o->servers[i] = urls[i];
+    }
+    return 0;
+}
+
+/* Runs the command: 0, 1 on a failure (said). */
+static int client_run(const struct client_args *a)
+{
+    if (!strcmp(a->cmd, "health"))
+        return client_health(&a->o);
+    struct scenefile sf;
+    if (scenefile_load(a->scene, &sf) != 0)
+        return 1;
+    int rc = !strcmp(a->cmd, "job") ? job_run(&a->o, &sf) : tiles_render(&a->o, &sf);
+    scenefile_free(&sf);
+    return rc;
+}
 
 int main(int argc, char **argv)
 {
-    if (argc < 2 || !strcmp(argv[1], "-h") || !strcmp(argv[1], "--help")) {
-        client_usage(argc < 2 ? stderr : stdout);
-        return argc < 2 ? CLIENT_USAGE_EXIT : 0;
+    struct client_args a;
+    int rc = client_args(argc, argv, &a);
+    if (rc != 0) {
+        if (rc < 0)
+            fprintf(stderr, "Try 'rayd-client --help'.\n");
+        return rc < 0 ? CLIENT_USAGE_EXIT : 0;
     }
-    if (!strcmp(argv[1], "--version")) {
-        printf("rayd-client %s\n", RAYD_VERSION);
-        return 0;
-    }
-    const char *cmd = argv[1];
-    if (strcmp(cmd, "render") && strcmp(cmd, "job") && strcmp(cmd, "health")) {
-        fprintf(stderr, "rayd-client: unknown command '%s'\n", cmd);
-        client_usage(stderr);
+    if (!strcmp(a.o.out ? a.o.out : "", "-") && isatty(STDOUT_FILENO)) {
+        client_bad("-o - writes the image to standard output, which is a terminal");
+        fprintf(stderr, "Try 'rayd-client --help'.\n");
         return CLIENT_USAGE_EXIT;
     }
-    struct client_opts o;
-    memset(&o, 0, sizeof o);
-    o.tile = 128, o.retries = 3, o.timeout = 120, o.parallel = 0;
-    const char *scene = NULL, *token_file = getenv("RAYD_TOKEN_FILE");
-    for (int i = 2; i < argc; i++) {
-        const char *a = argv[i];
-        const char *v = i + 1 < argc ? argv[i + 1] : NULL;
-        double d;
-        if (!strcmp(a, "--server") || !strcmp(a, "-s")) {
-            if (!v || o.nservers == CLIENT_MAX_SERVERS) {
-                fprintf(stderr, "rayd-client: --server needs a URL (at most %d)\n",
-                        CLIENT_MAX_SERVERS);
-                return CLIENT_USAGE_EXIT;
-            }
-            o.servers[o.nservers++] = v, i++;
-        } else if (!strcmp(a, "-o") || !strcmp(a, "--output")) {
-            if (!v) {
-                fprintf(stderr, "rayd-client: %s needs a file name\n", a);
-                return CLIENT_USAGE_EXIT;
-            }
-            o.out = v, i++;
-        } else if (!strcmp(a, "--tile")) {
-            if (client_number(a, v, 8, 4096, &d))
-                return CLIENT_USAGE_EXIT;
-            o.tile = (int)d, i++;
-        } else if (!strcmp(a, "--split-samples")) {
-            if (client_number(a, v, 1, 65536, &d))
-                return CLIENT_USAGE_EXIT;
-            o.ranges = (int)d, i++;
-        } else if (!strcmp(a, "--parallel")) {
-            if (client_number(a, v, 1, 1024, &d))
-                return CLIENT_USAGE_EXIT;
-            o.parallel = (int)d, i++;
-        } else if (!strcmp(a, "--retries")) {
-            if (client_number(a, v, 0, 100, &d))
-                return CLIENT_USAGE_EXIT;
-            o.retries = (int)d, i++;
-        } else if (!strcmp(a, "--timeout")) {
-            if (client_number(a, v, 0.1, 86400, &d))
-                return CLIENT_USAGE_EXIT;
-            o.timeout = d, i++;
-        } else if (!strcmp(a, "--token-file")) {
-            if (!v) {
-                fprintf(stderr, "rayd-client: --token-file needs a file\n");
-                return CLIENT_USAGE_EXIT;
-            }
-            token_file = v, i++;
-        } else if (!strcmp(a, "-q") || !strcmp(a, "--quiet")) {
-            o.quiet = 1;
-        } else if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
-            client_usage(stdout);
-            return 0;
-        } else if (a[0] == '-' && a[1]) {
-            fprintf(stderr, "rayd-client: unknown option '%s'\n", a);
-            return CLIENT_USAGE_EXIT;
-        } else if (!scene && strcmp(cmd, "health")) {
-            scene = a;
-        } else {
-            fprintf(stderr, "rayd-client: unexpected argument '%s'\n", a);
-            return CLIENT_USAGE_EXIT;
-        }
-    }
-    if (!o.nservers) {
-        const char *env = getenv("RAYD_SERVER");
-        o.servers[o.nservers++] = env && *env ? env : "http://127.0.0.1:8080";
-    }
-    /* the URLs are used as prefixes: strip one trailing slash (a copy) */
     char *urls[CLIENT_MAX_SERVERS] = {0};
-    for (int i = 0; i < o.nservers; i++) {
-        size_t n = strlen(o.servers[i]);
-        urls[i] = strdup(o.servers[i]);
-        if (!urls[i])
-            return 2;
-        while (n > 0 && urls[i][n - 1] == '/')
-            urls[i][--n] = '\0';
-        if (!strstr(urls[i], "://")) {
-            fprintf(stderr, "rayd-client: --server wants a URL such as http://host:8080, not '%s'\n",
-                    urls[i]);
-            for (int k = 0; k <= i; k++)
-                free(urls[k]);
-            return CLIENT_USAGE_EXIT;
-        }
-        o.servers[i] = urls[i];
-    }
-    if (!o.parallel)
-        o.parallel = o.nservers == 1 ? 8 : 4 * o.nservers;
-    int rc = CLIENT_USAGE_EXIT;
-    if (strcmp(cmd, "health") && (!scene || !o.out)) {
-        fprintf(stderr, "rayd-client %s: needs SCENE.json and -o OUT.png\n", cmd);
+    rc = CLIENT_USAGE_EXIT;
+    if (client_urls(&a.o, urls) != 0)
         goto out;
-    }
-    if (!strcmp(cmd, "job") && o.nservers != 1) {
-        fprintf(stderr, "rayd-client job: give exactly one --server (jobs live on one node)\n");
+    rc = 1;
+    if (a.token_file && *a.token_file && !(a.o.token = client_read_token(a.token_file)))
         goto out;
-    }
-    if (token_file && *token_file && !(o.token = client_read_token(token_file))) {
-        rc = 2;
-        goto out;
-    }
     net_global_init();
-    if (!strcmp(cmd, "health")) {
-        rc = client_health(&o);
-    } else {
-        struct scenefile sf;
-        if (scenefile_load(scene, &sf) != 0) {
-            rc = 1;
-        } else {
-            rc = !strcmp(cmd, "job") ? job_run(&o, &sf) : tiles_render(&o, &sf);
-            scenefile_free(&sf);
-        }
-    }
+    rc = client_run(&a);
     net_global_cleanup();
 out:
-    free(o.token);
-    for (int i = 0; i < o.nservers; i++)
+    free(a.o.token);
+    for (int i = 0; i < a.o.nservers; i++)
         free(urls[i]);
     return rc;
 }

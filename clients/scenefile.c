@@ -82,7 +82,7 @@ static void scenefile_inline(struct scenefile_walk *w, cJSON *obj, const char *k
     struct rayd_error err;
     char *data = scenefile_read(path, &len, &err);
     if (!data) {
-        fprintf(stderr, "rayd-client: %s: %s\n", where, err.message);
+        fprintf(stderr, "rayd-client: error: %s: %s\n", where, err.message);
         w->failed = 1;
         free(path);
         return;
@@ -174,18 +174,18 @@ int scenefile_load(const char *path, struct scenefile *sf)
     struct rayd_error err = {0};
     sf->bytes = scenefile_read(path, &sf->len, &err);
     if (!sf->bytes) {
-        fprintf(stderr, "rayd-client: %s\n", err.message);
+        fprintf(stderr, "rayd-client: error: %s\n", err.message);
         return -1;
     }
     if (scenefile_bundle(path, sf) != 0) {
-        fprintf(stderr, "rayd-client: %s: could not inline the files the scene names\n", path);
+        fprintf(stderr, "rayd-client: error: %s: could not inline the files the scene names\n", path);
         scenefile_free(sf);
         return -1;
     }
     rayd_scene *scene = NULL;
     if (rayd_scene_parse(sf->bytes, sf->len, NULL, &scene, &err) != RAYD_OK) {
         char msg[600];
-        fprintf(stderr, "rayd-client: %s: %s: %s\n", path, rayd_status_name(err.code),
+        fprintf(stderr, "rayd-client: error: %s: %s: %s\n", path, rayd_status_name(err.code),
                 rayd_error_format(&err, msg, sizeof msg));
         scenefile_free(sf);
         return -1;
@@ -199,7 +199,7 @@ int scenefile_load(const char *path, struct scenefile *sf)
     unsigned char md[EVP_MAX_MD_SIZE];
     unsigned int mdlen = 0;
     if (!EVP_Digest(sf->bytes, sf->len, md, &mdlen, EVP_sha256(), NULL) || mdlen != 32) {
-        fprintf(stderr, "rayd-client: SHA-256 failed\n");
+        fprintf(stderr, "rayd-client: error: SHA-256 failed\n");
         scenefile_free(sf);
         return -1;
     }

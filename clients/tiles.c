@@ -33,7 +33,7 @@
  * request is refused; every server would say the same, so the run stops and
  * prints the server's JSON error.  When every server has failed more than
  * --retries times in a row, the remaining tiles are given up.  An image with
- * a missing tile is never written: the exit status is 2 and the message
+ * a missing tile is never written: the exit status is 1 and the message
  * names the missing tiles.
  *
  * Sample ranges (--split-samples N).  The pieces may instead be N ranges
@@ -243,7 +243,7 @@ static void tiles_fatal(struct tiles *T, int si, long status, const struct net_b
 {
     char why[600];
     net_describe(status, b, why, sizeof why);
-    fprintf(stderr, "%srayd-client: %s refused the scene: %s\n", T->prog.tty ? "\n" : "",
+    fprintf(stderr, "%srayd-client: error: %s refused the scene: %s\n", T->prog.tty ? "\n" : "",
             T->s[si].url, why);
     T->fatal = 1;
 }
@@ -485,8 +485,8 @@ static void tiles_draw(struct tiles *T, int force)
 static void tiles_report_missing(struct tiles *T)
 {
     int missing = T->n - T->done;
-    fprintf(stderr, "rayd-client: incomplete image, nothing written to %s: %d of %d tiles missing:",
-            T->o->out, missing, T->n);
+    fprintf(stderr, "rayd-client: error: incomplete image, nothing written to %s: %d of %d tiles missing:",
+            output_name(T->o->out), missing, T->n);
     int shown = 0;
     for (int i = 0; i < T->n; i++) {
         if (T->t[i].st == TS_DONE)
@@ -537,38 +537,44 @@ static int tiles_pieces(struct tiles *T, const struct client_opts *o, const stru
     return 0;
 }
 
-/* The frame into path: the stitched PNG, or the image of the summed
- * ranges (an OpenEXR of their linear values when -o ends in .exr). */
-static enum rayd_status tiles_write(const struct tiles *T, const char *path,
-                                    struct rayd_error *err)
+/* The frame's bytes: the stitched PNG (on o->threads threads), or the image
+ * of the summed ranges (an OpenEXR of their linear values when -o ends in
+ * .exr).  *buf is freed with rayd_free. */
+static enum rayd_status tiles_encode(const struct tiles *T, void **buf, size_t *len,
+                                     struct rayd_error *err)
 {
     if (!T->acc)
-        return rayd_png_write_file(T->img, path, err);
+        return rayd_png_encode_threads(T->img, -1, T->o->threads, buf, len, err);
     size_t n = strlen(T->o->out);
     if (n < 4 || strcmp(T->o->out + n - 4, ".exr")) {
         rayd_image *img = NULL;
         enum rayd_status st = rayd_accum_image(T->acc, &img, err);
         if (st == RAYD_OK)
-            st = rayd_png_write_file(img, path, err);
+            st = rayd_png_encode_threads(img, -1, T->o->threads, buf, len, err);
         rayd_image_free(img);
         return st;
     }
     float *lin = NULL;
-    void *buf = NULL;
-    size_t len = 0;
     enum rayd_status st = rayd_accum_linear(T->acc, &lin, err);
     if (st == RAYD_OK)
-        st = rayd_exr_encode(lin, T->sf->width, T->sf->height, &buf, &len, err);
-    FILE *f = st == RAYD_OK ? fopen(path, "wb") : NULL;
-    if (st == RAYD_OK && (!f || fwrite(buf, 1, len, f) != len)) {
-        snprintf(err->message, sizeof err->message, "cannot write %s", path);
-        st = RAYD_E_IO;
-    }
-    if (f && fclose(f) != 0 && st == RAYD_OK)
-        st = RAYD_E_IO;
+        st = rayd_exr_encode(lin, T->sf->width, T->sf->height, buf, len, err);
     rayd_free(lin);
-    rayd_free(buf);
     return st;
+}
+
+/* Encodes the frame and writes it to o->out: 0, or -1 after saying why. */
+static int tiles_write(const struct tiles *T)
+{
+    struct rayd_error err = {0};
+    void *buf = NULL;
+    size_t len = 0;
+    if (tiles_encode(T, &buf, &len, &err) != RAYD_OK) {
+        fprintf(stderr, "rayd-client: error: cannot encode the image: %s\n", err.message);
+        return -1;
+    }
+    int rc = output_write(T->o->out, buf, len);
+    rayd_free(buf);
+    return rc;
 }
 
 int tiles_render(const struct client_opts *o, const struct scenefile *sf)
@@ -583,11 +589,11 @@ int tiles_render(const struct client_opts *o, const struct scenefile *sf)
     T.labels = calloc((size_t)T.ns, sizeof *T.labels);
     T.multi = curl_multi_init();
     struct rayd_error err = {0};
-    int rc = 2;
+    int rc = 1;
     if (!T.s || !T.per_server || !T.labels || !T.multi || tiles_pieces(&T, o, sf) != 0 ||
         (o->ranges > 0 ? rayd_accum_new_sized(sf->width, sf->height, &T.acc, &err)
                        : rayd_image_new(sf->width, sf->height, &T.img, &err)) != RAYD_OK) {
-        fprintf(stderr, "rayd-client: out of memory\n");
+        fprintf(stderr, "rayd-client: error: out of memory\n");
         goto out;
     }
     for (int i = 0; i < T.ns; i++) {
@@ -643,21 +649,7 @@ int tiles_render(const struct client_opts *o, const struct scenefile *sf)
     } else if (T.done < T.n) {
         tiles_report_missing(&T);
     } else {
-        size_t n = strlen(o->out) + 8;
-        char *tmp = malloc(n);
-        if (!tmp) {
-            fprintf(stderr, "rayd-client: out of memory\n");
-        } else {
-            snprintf(tmp, n, "%s.part", o->out);
-            if (tiles_write(&T, tmp, &err) != RAYD_OK || rename(tmp, o->out) != 0) {
-                fprintf(stderr, "rayd-client: cannot write %s: %s\n", o->out,
-                        err.message[0] ? err.message : "rename failed");
-                remove(tmp);
-            } else {
-                rc = 0;
-            }
-            free(tmp);
-        }
+        rc = tiles_write(&T) == 0 ? 0 : 1;
         if (rc == 0 && !o->quiet) {
             long uploads = 0;
             for (int i = 0; i < T.ns; i++)
@@ -665,7 +657,7 @@ int tiles_render(const struct client_opts *o, const struct scenefile *sf)
             fprintf(stderr,
                     "rayd-client: wrote %s (%dx%d) from %d tiles in %.2f s (%.1f tiles/s), "
                     "scene sent %ld time%s\n",
-                    o->out, sf->width, sf->height, T.n, secs, secs > 0 ? T.n / secs : 0.0,
+                    output_name(o->out), sf->width, sf->height, T.n, secs, secs > 0 ? T.n / secs : 0.0,
                     uploads, uploads == 1 ? "" : "s");
         }
     }

@@ -280,6 +280,12 @@ void api_reply_rayd_error(struct http_req *r, const struct rayd_error *err)
 
 void api_refused(struct http_req *r, enum work_submit why)
 {
+    struct sched_stats st;
+    sched_stats(&st);
+    /* A queue slot frees when a task ahead starts: about the backlog over
+     * the tasks in it; a drain, when this server is gone and another one
+     * answers. */
+    r->retry_after = api_retry_after(st.backlog_s / (double)(st.queued > 0 ? st.queued : 1));
     switch (why) {
     case WORK_FULL:
         metrics_reject(MR_QUEUE_FULL);

@@ -1,7 +1,7 @@
 /* api.h -- the handlers: one function per route, and what they share.
  *
- * Layer: handlers (api.c, api_render.c, api_jobs.c, api_health.c,
- * api_test.c, api_web.c).  A handler validates the request, submits work
+ * Layer: handlers (api.c and api_cost.c, shared; api_render.c, api_jobs.c,
+ * api_health.c, api_test.c, api_web.c).  A handler validates the request, submits work
  * and shapes the reply; it never renders and never blocks.
  * May include: request.h (read the request, reply), work.h (scenes,
  * renders, jobs, events), base.h, cJSON and libmicrohttpd's response API.
@@ -40,6 +40,23 @@ void api_refused(struct http_req *r, enum work_submit why);
 /* Parses r's body as a scene (refusing while draining): false after
  * replying with the error; *out to scenes_release. */
 bool api_scene(struct http_req *r, struct cache_entry **out, bool *hit);
+
+/* ---- api_cost.c: who asks, and what it costs ------------------------------------ */
+
+struct api_price {
+    double rays, seconds; /* estimated (cost.c) */
+};
+/* The client r comes from (--client-header, else the peer address), hashed. */
+uint64_t api_client(struct http_req *r);
+/* Sets what->client and prices what; false after replying 413 over_budget
+ * when over --max-work, or (unless progressive) far past
+ * --max-render-seconds. */
+bool api_admit(struct http_req *r, const rayd_scene *scene, struct work_target *what,
+               bool progressive, struct api_price *out);
+/* X-Rayd-Estimated-Rays and X-Rayd-Estimated-Seconds on r's reply. */
+void api_price_headers(struct http_req *r, const struct api_price *p);
+/* A Retry-After for a wait of about `seconds`: 1 to 600. */
+int api_retry_after(double seconds);
 
 /* ---- the routes ----------------------------------------------------------------- */
 

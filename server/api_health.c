@@ -1,14 +1,16 @@
 /* api_health.c -- /healthz, /readyz and /metrics.
  *
  * /healthz answers 200 while the process can answer at all (liveness).
- * /readyz answers 503 while draining or while the render queue is full, so a
- * load balancer stops sending work before requests are refused; 200
- * otherwise.  Both stay open without a token so probes need no secret.
+ * /readyz answers 503 while draining, while the render queue is full, or
+ * while the estimated backlog is over --max-backlog seconds (cost.c), so a
+ * load balancer stops sending work before requests are refused or wait for
+ * long; 200 otherwise, with the backlog.  Both stay open without a token so probes need no secret.
  * /metrics is the Prometheus text of metrics.c.
  */
 #include "api.h"
 
 #include <cjson/cJSON.h>
+#include <stdio.h>
 #include <stdlib.h>
 
 void api_health_live(struct http_req *r, const char *id)
@@ -29,7 +31,18 @@ void api_health_ready(struct http_req *r, const char *id)
         return;
     }
     if (st.queued >= st.queue_cap) {
+        r->retry_after = api_retry_after(st.backlog_s / (double)st.queued);
         http_reply_error(r, 503, "queue_full", "the render queue is full", NULL, 0, 0, NULL);
+        return;
+    }
+    if (config.max_backlog > 0 && st.backlog_s > (double)config.max_backlog) {
+        char msg[200];
+        snprintf(msg, sizeof msg,
+                 "about %.0f s of work is queued, more than --max-backlog %ld s; send new work "
+                 "elsewhere",
+                 st.backlog_s, config.max_backlog);
+        r->retry_after = api_retry_after(st.backlog_s - (double)config.max_backlog);
+        http_reply_error(r, 503, "backlog", msg, NULL, 0, 0, NULL);
         return;
     }
     cJSON *o = cJSON_CreateObject();
@@ -38,6 +51,7 @@ void api_health_ready(struct http_req *r, const char *id)
     cJSON_AddNumberToObject(o, "capacity", (double)st.queue_cap);
     cJSON_AddNumberToObject(o, "workers", (double)st.workers);
     cJSON_AddNumberToObject(o, "busy", (double)st.busy_workers);
+    json_add_fixed(o, "backlog_s", st.backlog_s, 3);
     http_reply_json(r, 200, o);
 }
 

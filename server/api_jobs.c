@@ -98,6 +98,14 @@ static bool api_plan(struct http_req *r, const rayd_scene *scene, struct jobs_pl
     return true;
 }
 
+/* "estimate": {"rays", "seconds"}: the job's price (api_cost.c). */
+static void api_add_estimate(cJSON *o, const struct api_price *p)
+{
+    cJSON *e = cJSON_AddObjectToObject(o, "estimate");
+    json_add_fixed(e, "rays", p->rays, 0);
+    json_add_fixed(e, "seconds", p->seconds, 3);
+}
+
 void api_jobs_post(struct http_req *r, const char *unused)
 {
     (void)unused;
@@ -105,14 +113,16 @@ void api_jobs_post(struct http_req *r, const char *unused)
     bool hit, progressive = false;
     if (!api_scene(r, &e, &hit))
         return;
-    struct rayd_region reg;
+    struct work_target what = {.format = WORK_PNG};
     struct jobs_plan plan;
+    struct api_price price;
     char id[33], url[80];
     enum work_submit s;
-    if (!api_region_also(r, cache_scene(e), &reg, api_plan_names) ||
-        !api_plan(r, cache_scene(e), &plan, &progressive)) {
+    if (!api_region_also(r, cache_scene(e), &what.reg, api_plan_names) ||
+        !api_plan(r, cache_scene(e), &plan, &progressive) ||
+        !api_admit(r, cache_scene(e), &what, progressive, &price)) {
         /* replied */
-    } else if ((s = jobs_create(e, &reg, progressive ? &plan : NULL, id)) != WORK_OK) {
+    } else if ((s = jobs_create(e, &what, progressive ? &plan : NULL, id)) != WORK_OK) {
         api_refused(r, s);
     } else {
         cJSON *o = cJSON_CreateObject();
@@ -125,9 +135,11 @@ void api_jobs_post(struct http_req *r, const char *unused)
         cJSON_AddStringToObject(o, "image_url", url);
         api_job_url(url, sizeof url, id, "/events");
         cJSON_AddStringToObject(o, "events_url", url);
+        api_add_estimate(o, &price);
         http_reply_json(r, 202, o);
         api_job_url(url, sizeof url, id, "");
         http_reply_header(r, "Location", url);
+        api_price_headers(r, &price);
     }
     scenes_release(e);
 }
@@ -189,6 +201,8 @@ static cJSON *api_job_json(const char *id, const struct jobs_info *in)
     json_add_fixed(o, "render_ms", in->render_ms, 3);
     json_add_fixed(o, "encode_ms", in->encode_ms, 3);
     json_add_u64(o, "rays", in->rays);
+    struct api_price price = {in->est_rays, sched_seconds(in->est_rays)};
+    api_add_estimate(o, &price);
     if (in->progressive)
         api_job_passes(o, id, &in->passes);
     if (in->state == JS_SUCCEEDED) {

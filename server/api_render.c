@@ -31,24 +31,26 @@ struct api_render_wait {
     struct work_waiter w; /* first: the callbacks get it back */
     struct http_req *r;
     enum work_format format;
+    struct api_price price;
 };
 
-/* The image reply: its type, the cache headers, and Vary: Accept where the
- * Accept header can choose the format. */
+/* The image reply: its type, the cache headers, the price, and Vary:
+ * Accept where the Accept header can choose the format. */
 static void api_render_reply(struct http_req *r, struct blob *img, enum work_format format,
-                             bool negotiated)
+                             const struct api_price *price)
 {
     http_reply_image(r, 200, img, api_format_type(format));
     http_reply_cache_headers(r);
-    if (negotiated)
-        http_reply_header(r, "Vary", "Accept");
+    api_price_headers(r, price);
+    if (r->route_negotiates)
+        http_reply_vary(r, "Accept");
 }
 
 /* The worker's answer (or the watcher's "gone"): the reply, then resume. */
 static void api_render_done(struct work_waiter *w, struct work_result *res)
 {
-    struct http_req *r = ((struct api_render_wait *)w)->r;
-    enum work_format format = ((struct api_render_wait *)w)->format;
+    struct api_render_wait a = *(struct api_render_wait *)w;
+    struct http_req *r = a.r;
     free(w);
     r->queue_ms = res->queue_ms;
     r->render_ms = res->render_ms;
@@ -57,7 +59,7 @@ static void api_render_done(struct work_waiter *w, struct work_result *res)
         r->gone = true;
         r->note = "client_gone";
     } else if (res->status == RAYD_OK && res->png) {
-        api_render_reply(r, res->png, format, r->route_negotiates);
+        api_render_reply(r, res->png, a.format, &a.price);
     } else {
         struct rayd_error e = res->err;
         e.code = res->status;
@@ -72,12 +74,16 @@ static void api_render_suspend(struct work_waiter *w)
     http_req_suspend(((struct api_render_wait *)w)->r);
 }
 
-/* Renders reg of scene for r: answered at once from the result cache, or
- * suspended until a worker answers, or refused with a 503. */
+/* Renders what of scene for r: priced (and refused if over budget),
+ * answered at once from the result cache, or suspended until a worker
+ * answers, or refused with a 503. */
 static void api_render_submit(struct http_req *r, struct cache_entry *scene,
-                              const struct work_target *what)
+                              struct work_target *what)
 {
     enum work_format format = what->format;
+    struct api_price price;
+    if (!api_admit(r, cache_scene(scene), what, false, &price))
+        return;
     struct api_render_wait *a = calloc(1, sizeof *a);
     if (!a) {
         api_refused(r, WORK_NOMEM);
@@ -85,6 +91,7 @@ static void api_render_submit(struct http_req *r, struct cache_entry *scene,
     }
     a->r = r;
     a->format = format;
+    a->price = price;
     a->w.done = api_render_done;
     a->w.suspend = api_render_suspend;
     a->w.fd = http_req_fd(r);
@@ -94,7 +101,7 @@ static void api_render_submit(struct http_req *r, struct cache_entry *scene,
         return; /* a belongs to the work layer until done() */
     free(a);
     if (s == WORK_CACHED) {
-        api_render_reply(r, png, format, r->route_negotiates);
+        api_render_reply(r, png, format, &price);
         blob_unref(png);
         r->note = "result_cache";
     } else {

@@ -47,12 +47,16 @@ struct config {
     long job_ttl;        /* seconds a finished job is kept */
     long max_render_seconds; /* a render running longer is stopped; 0: no limit */
     long png_level;      /* zlib level of the PNGs, -1 default */
+    long max_work;       /* largest render in estimated rays, 0 = no limit */
+    long max_backlog;    /* /readyz 503 past this many estimated seconds, 0 = never */
+    char *client_header; /* header naming the client for fair shares, NULL = peer address */
     long max_conns;      /* open connections in all */
     long max_conns_per_ip; /* open connections from one address, 0 = no limit */
     long max_header_bytes; /* per-connection memory for request line + headers */
     long max_url;        /* bytes of the request-target (path + query) */
     long upload_seconds; /* longest time from the headers to the body's last byte, 0 = none */
     char *tls_cert, *tls_key; /* PEM files: serve HTTPS with libmicrohttpd's TLS */
+    char *asset_dir;     /* folder of scene "file" references (real path), NULL = refused */
     char *test_gate;     /* tests only: "open" or tiles allowed; NULL = off */
     /* derived */
     char *token;         /* contents of token_file, trimmed */
@@ -64,9 +68,15 @@ struct config {
 
 extern struct config config;
 
-/* Parses environment then argv into config.  Returns 0 to run, 1 when the
- * program should exit 0 (--help, --version), -1 on a bad option (the message
- * is printed). */
+/* What config_load found: run, or exit with the status in the comment (the
+ * three tools' convention; the message is printed). */
+enum config_result {
+    CONFIG_RUN = 0,
+    CONFIG_DONE = 1,    /* --help or --version printed: exit 0 */
+    CONFIG_FAILED = -2, /* a file an option names cannot be read: exit 1 */
+    CONFIG_USAGE = -1,  /* a bad option or value: exit 2 */
+};
+/* Parses environment then argv into config: an enum config_result. */
 int config_load(int argc, char **argv);
 void config_usage(FILE *f);
 bool config_loopback(const char *addr); /* 127.x, ::1 or localhost */
@@ -103,7 +113,14 @@ double log_now(void); /* monotonic seconds */
 
 /* ---- metrics.c ----------------------------------------------------------- */
 
-enum metrics_reject { MR_QUEUE_FULL, MR_DRAINING, MR_BODY_TOO_LARGE, MR_UNAUTHORIZED, MR__COUNT };
+enum metrics_reject {
+    MR_QUEUE_FULL,
+    MR_DRAINING,
+    MR_BODY_TOO_LARGE,
+    MR_UNAUTHORIZED,
+    MR_OVER_BUDGET, /* --max-work */
+    MR__COUNT
+};
 enum metrics_cancel { MC_CLIENT_GONE, MC_DELETE, MC_DRAIN, MC_DEADLINE, MC__COUNT };
 /* The stages of a request's wait, end to end: the body arriving, the scene
  * parsed, its mesh files decoded and its BVHs built (a cache miss), the
@@ -136,6 +153,7 @@ enum metrics_gauge {
     MG_CACHE_ENTRIES,
     MG_RESULT_CACHE_BYTES,
     MG_RESULT_CACHE_ENTRIES,
+    MG_BACKLOG_MS, /* estimated work waiting or running, in milliseconds of the pool */
     MG__COUNT
 };
 
@@ -149,7 +167,7 @@ void metrics_free(void); /* at exit: the per-series histograms */
 /* A finished request: route label index (-1 none), its method as sent, the
  * status and the seconds from its first byte to its last. */
 void metrics_request(int route, const char *method, int status, double seconds);
-void metrics_queue_wait(double seconds);
+void metrics_queue_wait(bool interactive, double seconds); /* by class */
 void metrics_render(double seconds);
 void metrics_stage(enum metrics_stage stage, double seconds);
 void metrics_cache(bool hit);

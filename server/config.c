@@ -9,13 +9,22 @@
  *
  * Numbers are parsed strictly (the whole string, in range); a bad value is a
  * start-up error naming the option, never a silent default.
+ *
+ * The command line follows the convention of the three tools (rayd,
+ * rayd-render, rayd-client): getopt_long, so "--port 0" and "--port=0" are
+ * the same; -h/--help to stdout, --version; errors are one line
+ * "rayd: error: ..." on stderr; exit 0 done, 1 failure, 2 usage error.
+ * getopt_long's table is made from config_table at start-up: row i is the
+ * option numbered CONFIG_OPT0 + i, so a new row needs nothing else.
  */
 #include "base.h"
 
 #include <errno.h>
+#include <getopt.h>
 #include <limits.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 struct config config;
@@ -42,13 +51,13 @@ static const struct config_option config_table[] = {
     {"http-threads", "RAYD_HTTP_THREADS", CT_LONG, &config.http_threads, "2", 1, 256,
      "libmicrohttpd threads (parse, validate, I/O; they never render)"},
     {"queue", "RAYD_QUEUE", CT_LONG, &config.queue, "64", 1, 1000000,
-     "render tasks waiting for a worker before 503 queue_full"},
+     "renders not yet started (requests, jobs, next passes) before 503 queue_full"},
     {"max-body", "RAYD_MAX_BODY", CT_LONG, &config.max_body, "4194304", 1, LONG_MAX,
      "largest request body in bytes (413 before reading it)"},
     {"max-pixels", "RAYD_MAX_PIXELS", CT_LONG, &config.max_pixels, "16777216", 1, LONG_MAX,
      "largest image (width * height) a scene may ask for (413)"},
     {"token-file", "RAYD_TOKEN_FILE", CT_STRING, &config.token_file, NULL, 0, 0,
-     "file holding a bearer token; then every route but /healthz and /readyz needs it"},
+     "file holding a bearer token; then all but /healthz, /readyz, the preview page and OPTIONS need it"},
     {"cache-mb", "RAYD_CACHE_MB", CT_LONG, &config.cache_mb, "256", 0, 1048576,
      "memory budget of the compiled-scene cache in MiB"},
     {"result-cache-mb", "RAYD_RESULT_CACHE_MB", CT_LONG, &config.result_cache_mb, "64", 0, 1048576,
@@ -67,6 +76,14 @@ static const struct config_option config_table[] = {
      "asynchronous jobs remembered; the oldest finished ones are forgotten first"},
     {"max-render-seconds", "RAYD_MAX_RENDER_SECONDS", CT_LONG, &config.max_render_seconds, "3600", 0,
      31536000, "a render running longer (from its first tile) is stopped and fails; 0 = no limit"},
+    {"max-work", "RAYD_MAX_WORK", CT_LONG, &config.max_work, "0", 0, LONG_MAX,
+     "largest render in estimated rays (pixels x samples x rays a sample; 413 over_budget); "
+     "0 = no limit"},
+    {"max-backlog", "RAYD_MAX_BACKLOG", CT_LONG, &config.max_backlog, "300", 0, 31536000,
+     "/readyz answers 503 while the estimated work queued exceeds this many seconds; 0 = never"},
+    {"client-header", "RAYD_CLIENT_HEADER", CT_STRING, &config.client_header, NULL, 0, 0,
+     "request header naming the client for fair shares, set by a trusted balancer "
+     "(default: the peer address)"},
     {"job-ttl", "RAYD_JOB_TTL", CT_LONG, &config.job_ttl, "600", 1, 31536000,
      "seconds a finished job (and its PNG) is kept after it was created"},
     {"png-level", "RAYD_PNG_LEVEL", CT_LONG, &config.png_level, "-1", -1, 9,
@@ -86,6 +103,8 @@ static const struct config_option config_table[] = {
      "PEM certificate (chain): serve HTTPS with libmicrohttpd's TLS (needs --tls-key)"},
     {"tls-key", "RAYD_TLS_KEY", CT_STRING, &config.tls_key, NULL, 0, 0,
      "PEM private key for --tls-cert"},
+    {"asset-dir", "RAYD_ASSET_DIR", CT_STRING, &config.asset_dir, NULL, 0, 0,
+     "folder a scene's mesh and texture \"file\" names are read from (inside it only)"},
     {"test-gate", "RAYD_TEST_GATE", CT_STRING, &config.test_gate, NULL, 0, 0,
      "tests only: workers start tiles only as POST /v1/test/gate allows (N tiles, or open)"},
 };
@@ -104,7 +123,7 @@ static int config_set(const struct config_option *o, const char *val, const char
     errno = 0;
     long v = strtol(val, &end, 10);
     if (errno || end == val || *end || v < o->min || v > o->max) {
-        fprintf(stderr, "rayd: %s: bad value '%s' for %s (an integer in %ld..%ld)\n", from, val,
+        fprintf(stderr, "rayd: error: %s: bad value '%s' for %s (an integer in %ld..%ld)\n", from, val,
                 o->name, o->min, o->max);
         return -1;
     }
@@ -125,25 +144,81 @@ void config_usage(FILE *f)
         fprintf(f, "  %-22s %s\n  %-22s env %s, default %s\n", flag, o->help, "", o->env,
                 o->def ? o->def : "(none)");
     }
-    fprintf(f, "  %-22s this help\n  %-22s print the version\n\n", "--help", "--version");
+    fprintf(f, "  %-22s this help\n  %-22s print 'rayd VERSION'\n\n", "-h, --help", "--version");
     fprintf(f, "Signals: SIGTERM or SIGINT drain (readyz 503, new work refused, running\n"
                "renders finish or are cancelled after --drain-seconds) and exit 0.\n"
-               "The first line on stdout is 'rayd listening on http://HOST:PORT'.\n");
+               "The first line on stdout is 'rayd listening on http://HOST:PORT'.\n\n"
+               "Options take their value as '--opt value' or '--opt=value'.\n"
+               "Errors are one line on stderr: 'rayd: error: ...'.\n"
+               "Exit status: 0 stopped by a signal after draining (or --help, --version),\n"
+               "1 failure (cannot listen, a file an option names), 2 usage error.\n");
 }
 
-static const struct config_option *config_find(const char *name, size_t n)
+/* getopt_long's numbers: rows of config_table from CONFIG_OPT0, then the
+ * two options outside it. */
+enum { CONFIG_HELP = 'h', CONFIG_VERSION = 256, CONFIG_OPT0 = 257 };
+
+/* getopt_long's table for config_table, plus --help and --version. */
+static void config_longopts(struct option *lo)
 {
     for (size_t i = 0; i < CONFIG_N; i++)
-        if (strlen(config_table[i].name) == n && !strncmp(config_table[i].name, name, n))
-            return &config_table[i];
-    return NULL;
+        lo[i] = (struct option){config_table[i].name, required_argument, NULL,
+                                CONFIG_OPT0 + (int)i};
+    lo[CONFIG_N] = (struct option){"help", no_argument, NULL, CONFIG_HELP};
+    lo[CONFIG_N + 1] = (struct option){"version", no_argument, NULL, CONFIG_VERSION};
+    lo[CONFIG_N + 2] = (struct option){NULL, 0, NULL, 0};
+}
+
+/* getopt_long's '?' or ':' at arg (the word it stopped at), which its optopt
+ * (a short option, or the number of a long one): the message. */
+static int config_bad_option(int opt, int which, const char *arg)
+{
+    if (opt == ':' && which >= CONFIG_OPT0)
+        fprintf(stderr, "rayd: error: option --%s needs a value\n",
+                config_table[which - CONFIG_OPT0].name);
+    else if (!strncmp(arg, "--", 2) && which)
+        fprintf(stderr, "rayd: error: option '%.*s' takes no value\n", (int)strcspn(arg, "="), arg);
+    else if (!strncmp(arg, "--", 2) || !which)
+        fprintf(stderr, "rayd: error: unknown option '%s'\n", arg);
+    else
+        fprintf(stderr, "rayd: error: unknown option '-%c'\n", which);
+    return CONFIG_USAGE;
+}
+
+/* The command line over the defaults and the environment. */
+static int config_args(int argc, char **argv)
+{
+    struct option lo[CONFIG_N + 3];
+    config_longopts(lo);
+    opterr = 0;
+    optind = 1;
+    int opt;
+    while ((opt = getopt_long(argc, argv, ":h", lo, NULL)) != -1) {
+        if (opt == '?' || opt == ':')
+            return config_bad_option(opt, optopt, argv[optind - 1]);
+        if (opt == CONFIG_HELP) {
+            config_usage(stdout);
+            return CONFIG_DONE;
+        }
+        if (opt == CONFIG_VERSION) {
+            printf("rayd %s\n", RAYD_VERSION);
+            return CONFIG_DONE;
+        }
+        if (config_set(&config_table[opt - CONFIG_OPT0], optarg, "command line"))
+            return CONFIG_USAGE;
+    }
+    if (optind < argc) {
+        fprintf(stderr, "rayd: error: unexpected argument '%s'\n", argv[optind]);
+        return CONFIG_USAGE;
+    }
+    return CONFIG_RUN;
 }
 
 static int config_read_token(void)
 {
     FILE *f = fopen(config.token_file, "rb");
     if (!f) {
-        fprintf(stderr, "rayd: --token-file %s: %s\n", config.token_file, strerror(errno));
+        fprintf(stderr, "rayd: error: --token-file %s: %s\n", config.token_file, strerror(errno));
         return -1;
     }
     char buf[4096];
@@ -153,7 +228,7 @@ static int config_read_token(void)
                      buf[n - 1] == '\t'))
         n--;
     if (n == 0) {
-        fprintf(stderr, "rayd: --token-file %s is empty\n", config.token_file);
+        fprintf(stderr, "rayd: error: --token-file %s is empty\n", config.token_file);
         return -1;
     }
     buf[n] = 0;
@@ -165,6 +240,26 @@ static int config_read_token(void)
 bool config_loopback(const char *addr)
 {
     return !strncmp(addr, "127.", 4) || !strcmp(addr, "::1") || !strcmp(addr, "localhost");
+}
+
+/* --asset-dir: an existing folder, kept as its real path, so the loader's
+ * confinement (openat2 RESOLVE_BENEATH, core/io/scene_json_util.c) starts
+ * from a fixed place.  Unset, a scene's "file" is refused. */
+static int config_asset_dir(void)
+{
+    if (!config.asset_dir)
+        return 0;
+    char *real = realpath(config.asset_dir, NULL);
+    struct stat st;
+    if (!real || stat(real, &st) != 0 || !S_ISDIR(st.st_mode)) {
+        fprintf(stderr, "rayd: error: --asset-dir %s: %s\n", config.asset_dir,
+                real ? "not a directory" : strerror(errno));
+        free(real);
+        return -1;
+    }
+    free(config.asset_dir);
+    config.asset_dir = real;
+    return 0;
 }
 
 /* --test-gate lets any client hold every worker, so it is refused unless
@@ -180,12 +275,12 @@ static int config_test_gate(void)
     if (!strcmp(config.test_gate, "open")) {
         n = -1;
     } else if (errno || end == config.test_gate || *end || n < 0) {
-        fprintf(stderr, "rayd: --test-gate must be 'open' or a number of tiles >= 0, not '%s'\n",
+        fprintf(stderr, "rayd: error: --test-gate must be 'open' or a number of tiles >= 0, not '%s'\n",
                 config.test_gate);
         return -1;
     }
     if (!config_loopback(config.bind)) {
-        fprintf(stderr, "rayd: --test-gate is for tests and needs a loopback --bind (not %s)\n",
+        fprintf(stderr, "rayd: error: --test-gate is for tests and needs a loopback --bind (not %s)\n",
                 config.bind);
         return -1;
     }
@@ -202,72 +297,47 @@ static int config_log_level(void)
             config.log_min = i;
             return 0;
         }
-    fprintf(stderr, "rayd: --log-level must be debug, info, warn or error\n");
+    fprintf(stderr, "rayd: error: --log-level must be debug, info, warn or error\n");
     return -1;
 }
 
+/* Defaults, then the environment, then the command line (a flag wins);
+ * then the checks that need every option.  An enum config_result. */
 int config_load(int argc, char **argv)
 {
     for (size_t i = 0; i < CONFIG_N; i++)
         if (config_table[i].def && config_set(&config_table[i], config_table[i].def, "default"))
-            return -1;
+            return CONFIG_USAGE;
     for (size_t i = 0; i < CONFIG_N; i++) {
         const char *v = getenv(config_table[i].env);
         if (v && config_set(&config_table[i], v, config_table[i].env))
-            return -1;
+            return CONFIG_USAGE;
     }
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            config_usage(stdout);
-            return 1;
-        }
-        if (!strcmp(a, "--version")) {
-            printf("rayd %s\n", RAYD_VERSION);
-            return 1;
-        }
-        if (strncmp(a, "--", 2)) {
-            fprintf(stderr, "rayd: unexpected argument '%s' (see --help)\n", a);
-            return -1;
-        }
-        a += 2;
-        const char *eq = strchr(a, '=');
-        const struct config_option *o = config_find(a, eq ? (size_t)(eq - a) : strlen(a));
-        if (!o) {
-            fprintf(stderr, "rayd: unknown option '%s' (see --help)\n", argv[i]);
-            return -1;
-        }
-        const char *val = eq ? eq + 1 : NULL;
-        if (!val) {
-            if (i + 1 >= argc) {
-                fprintf(stderr, "rayd: option --%s needs a value\n", o->name);
-                return -1;
-            }
-            val = argv[++i];
-        }
-        if (config_set(o, val, "command line"))
-            return -1;
-    }
+    int rc = config_args(argc, argv);
+    if (rc != CONFIG_RUN)
+        return rc;
     if (strcmp(config.log_format, "text") && strcmp(config.log_format, "json")) {
-        fprintf(stderr, "rayd: --log-format must be text or json\n");
-        return -1;
+        fprintf(stderr, "rayd: error: --log-format must be text or json\n");
+        return CONFIG_USAGE;
     }
     config.log_json = !strcmp(config.log_format, "json");
     if (config_log_level())
-        return -1;
+        return CONFIG_USAGE;
     if (config.threads == 0) {
         long n = sysconf(_SC_NPROCESSORS_ONLN);
         config.threads = n > 0 ? n : 1;
     }
     if (config.token_file && *config.token_file && config_read_token())
-        return -1;
+        return CONFIG_FAILED;
     if (config_test_gate())
-        return -1;
+        return CONFIG_USAGE;
+    if (config_asset_dir())
+        return CONFIG_FAILED;
     if (!config.tls_cert != !config.tls_key) {
-        fprintf(stderr, "rayd: --tls-cert and --tls-key go together\n");
-        return -1;
+        fprintf(stderr, "rayd: error: --tls-cert and --tls-key go together\n");
+        return CONFIG_USAGE;
     }
-    return 0;
+    return CONFIG_RUN;
 }
 
 void config_free(void)

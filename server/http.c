@@ -209,7 +209,7 @@ static char *http_read_pem(const char *path)
 {
     FILE *f = fopen(path, "rb");
     if (!f) {
-        fprintf(stderr, "rayd: %s: %s\n", path, strerror(errno));
+        fprintf(stderr, "rayd: error: %s: %s\n", path, strerror(errno));
         return NULL;
     }
     size_t cap = 1 << 20, n;
@@ -222,7 +222,7 @@ static char *http_read_pem(const char *path)
     fclose(f);
     buf[n] = 0;
     if (n == 0 || n == cap) {
-        fprintf(stderr, "rayd: %s: empty or over 1 MiB\n", path);
+        fprintf(stderr, "rayd: error: %s: empty or over 1 MiB\n", path);
         free(buf);
         return NULL;
     }
@@ -265,7 +265,7 @@ int http_start(void)
         s6->sin6_port = htons((uint16_t)config.port);
         flags |= MHD_USE_IPv6;
     } else {
-        fprintf(stderr, "rayd: --bind %s: not an IPv4 or IPv6 address\n", config.bind);
+        fprintf(stderr, "rayd: error: --bind %s: not an IPv4 or IPv6 address\n", config.bind);
         return -1;
     }
     /* descriptors: the connections, plus the listener, epoll sets, inter-thread
@@ -295,7 +295,7 @@ int http_start(void)
     HTTP_OPT(MHD_OPTION_STRICT_FOR_CLIENT, 1, NULL);
     if (config.tls_cert) {
         if (MHD_is_feature_supported(MHD_FEATURE_TLS) != MHD_YES) {
-            fprintf(stderr, "rayd: this libmicrohttpd has no TLS support (--tls-cert)\n");
+            fprintf(stderr, "rayd: error: this libmicrohttpd has no TLS support (--tls-cert)\n");
             return -1;
         }
         http_tls_cert = http_read_pem(config.tls_cert);
@@ -314,7 +314,7 @@ int http_start(void)
     http_daemon = MHD_start_daemon(flags, (uint16_t)config.port, NULL, NULL, http_access, NULL,
                                    MHD_OPTION_ARRAY, opts, MHD_OPTION_END);
     if (!http_daemon) {
-        fprintf(stderr, "rayd: cannot listen on %s port %ld%s\n", config.bind, config.port,
+        fprintf(stderr, "rayd: error: cannot listen on %s port %ld%s\n", config.bind, config.port,
                 config.tls_cert ? " (or the TLS key/certificate was refused)" : "");
         http_stop();
         return -1;

@@ -61,13 +61,13 @@ void http_reply(struct http_req *r, unsigned status, struct MHD_Response *resp)
         MHD_add_response_header(resp, "Access-Control-Allow-Origin", origin);
         MHD_add_response_header(resp, "Access-Control-Expose-Headers",
                                 "ETag, Location, Retry-After, Content-Length, X-Request-Id");
-        if (strcmp(origin, "*"))
-            MHD_add_response_header(resp, "Vary", "Origin");
     }
     MHD_add_response_header(resp, "X-Content-Type-Options", "nosniff");
     if (r->request_id[0])
         MHD_add_response_header(resp, "X-Request-Id", r->request_id);
     r->pending = resp;
+    if (origin && strcmp(origin, "*"))
+        http_reply_vary(r, "Origin");
     r->pending_status = status;
     r->status = (int)status;
     r->replied = true;
@@ -167,8 +167,11 @@ void http_reply_error(struct http_req *r, unsigned status, const char *code, con
     http_reply_text(r, status, o);
     r->err_code = code;
     http_reply_header(r, "Cache-Control", "no-store");
-    if (status == 503)
-        http_reply_header(r, MHD_HTTP_HEADER_RETRY_AFTER, "1");
+    if (status == 503) {
+        char v[16];
+        snprintf(v, sizeof v, "%d", r->retry_after > 0 ? r->retry_after : 1);
+        http_reply_header(r, MHD_HTTP_HEADER_RETRY_AFTER, v);
+    }
     if (status == 401)
         http_reply_header(r, MHD_HTTP_HEADER_WWW_AUTHENTICATE, "Bearer realm=\"rayd\"");
     if (status == 413 && !r->body && r->body_len == 0)
@@ -199,11 +202,35 @@ void http_reply_not_modified(struct http_req *r)
     http_reply_cache_headers(r);
 }
 
+/* One Vary line for the reply: nginx up to 1.22 reads only the last Vary
+ * header of an answer it caches, so every field goes into the same line. */
+void http_reply_vary(struct http_req *r, const char *field)
+{
+    if (!r->pending)
+        return;
+    const char *old = MHD_get_response_header(r->pending, "Vary");
+    if (!old) {
+        MHD_add_response_header(r->pending, "Vary", field);
+        return;
+    }
+    char both[256];
+    snprintf(both, sizeof both, "%s, %s", old, field);
+    MHD_del_response_header(r->pending, "Vary", old);
+    MHD_add_response_header(r->pending, "Vary", both);
+}
+
+/* With a token, a shared cache (nginx's proxy_cache) must keep the answer
+ * per Authorization value, or it would hand a tile fetched with the token to
+ * a request without it: Vary: Authorization says so, and nginx keys such an
+ * answer on a hash of the header, so the token is never written to its cache
+ * files in clear (docs/operations.md). */
 void http_reply_cache_headers(struct http_req *r)
 {
     if (r->etag[0]) {
         http_reply_header(r, MHD_HTTP_HEADER_ETAG, r->etag);
         http_reply_header(r, MHD_HTTP_HEADER_CACHE_CONTROL, "public, max-age=31536000, immutable");
+        if (config.token)
+            http_reply_vary(r, "Authorization");
     } else {
         http_reply_header(r, MHD_HTTP_HEADER_CACHE_CONTROL, "no-store");
     }

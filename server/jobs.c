@@ -145,14 +145,13 @@ static bool jobs_progressive(struct task *t, struct cache_entry *scene,
     return t->passes != NULL;
 }
 
-enum work_submit jobs_create(struct cache_entry *scene, const struct rayd_region *reg,
+enum work_submit jobs_create(struct cache_entry *scene, const struct work_target *what,
                              const struct jobs_plan *plan, char id[33])
 {
     if (!jobs_new_id(id))
         return WORK_NOMEM;
     struct job *j = calloc(1, sizeof *j);
-    struct work_target what = {.reg = *reg, .format = WORK_PNG};
-    struct task *fresh = task_new(scene, &what);
+    struct task *fresh = task_new(scene, what);
     if (fresh && plan && !jobs_progressive(fresh, scene, plan, id)) {
         task_unref(fresh);
         fresh = NULL;
@@ -212,6 +211,7 @@ static void jobs_info_of(const struct job *j, struct jobs_info *info, bool want_
     info->render_ms = t->t_start > 0 ? ((t->finished ? t->t_end : now) - t->t_start) * 1e3 : 0;
     info->encode_ms = t->encode_s * 1e3;
     info->rays = t->rays;
+    info->est_rays = t->est_rays;
     if (info->state == JS_FAILED)
         info->err = t->err;
     if (want_png && info->state == JS_SUCCEEDED && t->png)

@@ -82,9 +82,11 @@ int main(int argc, char **argv)
     /* a write to a closed pipe or socket is an error return, never a signal */
     signal(SIGPIPE, SIG_IGN);
     int rc = config_load(argc, argv);
-    if (rc != 0) {
+    if (rc != CONFIG_RUN) {
+        if (rc == CONFIG_USAGE)
+            fprintf(stderr, "Try 'rayd --help'.\n");
         config_free();
-        return rc > 0 ? 0 : 2;
+        return rc == CONFIG_DONE ? 0 : rc == CONFIG_FAILED ? 1 : 2;
     }
     metrics_start(config.max_render_seconds);
     sigset_t set;
@@ -94,7 +96,7 @@ int main(int argc, char **argv)
     pthread_sigmask(SIG_BLOCK, &set, NULL);
 
     if (sched_start((int)config.threads, (int)config.queue, (int)config.max_jobs)) {
-        fprintf(stderr, "rayd: cannot start the worker pool\n");
+        fprintf(stderr, "rayd: error: cannot start the worker pool\n");
         return 1;
     }
     if (config.test_gate_tiles >= -1) {

@@ -67,14 +67,14 @@ struct metrics_hist {
 static _Atomic(struct metrics_hist *) metrics_http[METRICS_ROUTES + 1][METRICS_NMETHODS]
                                                   [METRICS_NCODES];
 static atomic_int metrics_codes[METRICS_NCODES - 1]; /* 0: a free slot */
-static struct metrics_hist metrics_wait, metrics_rend, metrics_stages[MS__COUNT];
+static struct metrics_hist metrics_wait[2], metrics_rend, metrics_stages[MS__COUNT]; /* wait: [interactive] */
 static const char *const metrics_stage_names[MS__COUNT] = {
     "upload", "parse", "decode", "build", "queue", "render", "encode", "send"};
 static atomic_ulong metrics_hits, metrics_misses, metrics_rhits, metrics_rmisses, metrics_rays_n, metrics_coalesced_n;
 static atomic_ulong metrics_rejects[MR__COUNT], metrics_cancels[MC__COUNT];
 
-static const char *const metrics_reject_names[MR__COUNT] = {"queue_full", "draining",
-                                                            "body_too_large", "unauthorized"};
+static const char *const metrics_reject_names[MR__COUNT] = {
+    "queue_full", "draining", "body_too_large", "unauthorized", "over_budget"};
 static const char *const metrics_cancel_names[MC__COUNT] = {"client_gone", "delete", "drain",
                                                                         "deadline"};
 
@@ -169,7 +169,7 @@ void metrics_free(void)
                 free(atomic_exchange(&metrics_http[r][m][c], NULL));
 }
 
-void metrics_queue_wait(double s) { metrics_observe(&metrics_wait, s); }
+void metrics_queue_wait(bool interactive, double s) { metrics_observe(&metrics_wait[interactive], s); }
 void metrics_render(double s) { metrics_observe(&metrics_rend, s); }
 void metrics_stage(enum metrics_stage stage, double s)
 {
@@ -397,8 +397,16 @@ char *metrics_text(size_t *len)
                    "# HELP rayd_draining 1 while the server drains after SIGTERM.\n"
                    "# TYPE rayd_draining gauge\nrayd_draining %ld\n",
                    metrics_read(MG_HTTP_SUSPENDED), metrics_read(MG_DRAINING));
-    metrics_hist_text(&b, "rayd_queue_wait_seconds",
-                      "Time from enqueue to the first tile starting.", &metrics_wait);
+    metrics_printf(&b, "# HELP rayd_queue_wait_seconds Time from enqueue to the first tile "
+                       "starting, by class (interactive: at most 256x256 pixels; bulk).\n"
+                       "# TYPE rayd_queue_wait_seconds histogram\n");
+    metrics_hist_series(&b, "rayd_queue_wait_seconds", "class=\"interactive\",", &metrics_wait[1]);
+    metrics_hist_series(&b, "rayd_queue_wait_seconds", "class=\"bulk\",", &metrics_wait[0]);
+    metrics_printf(&b,
+                   "# HELP rayd_backlog_seconds Estimated seconds of work queued or running, "
+                   "for the whole pool (the render estimates at this node's measured rate).\n"
+                   "# TYPE rayd_backlog_seconds gauge\nrayd_backlog_seconds %.3f\n",
+                   (double)metrics_read(MG_BACKLOG_MS) / 1e3);
     metrics_hist_text(&b, "rayd_render_seconds",
                       "Time from the first tile starting to the PNG encoded.", &metrics_rend);
     metrics_stage_text(&b);

@@ -59,6 +59,7 @@ struct http_req {
     bool suspended, gone, replied, too_large, no_memory;
     bool parked;                 /* suspended by the handler now running (its thread only) */
     const char *note;            /* for the access log */
+    int retry_after;             /* seconds in a 503's Retry-After; 0: 1 */
     char etag[72];               /* set for immutable GETs */
 };
 
@@ -114,7 +115,10 @@ void http_reply_header(struct http_req *r, const char *name, const char *value);
 /* 304 Not Modified: no body, no Content-Length, the cache headers of the
  * 200 (http_reply_cache_headers).  The connection closes after it. */
 void http_reply_not_modified(struct http_req *r);
-/* ETag + immutable Cache-Control when r->etag is set, else no-store. */
+/* Adds field to the reply's one Vary header (Vary: Accept, Authorization). */
+void http_reply_vary(struct http_req *r, const char *field);
+/* ETag + immutable Cache-Control when r->etag is set (and Vary:
+ * Authorization with a token), else no-store. */
 void http_reply_cache_headers(struct http_req *r);
 /* The Access-Control-Allow-Origin value for r under --cors-origin, or NULL. */
 const char *http_reply_cors_origin(struct http_req *r);

@@ -16,8 +16,8 @@
 
 #include <string.h>
 
-/* The scene limits: the core's defaults with --max-pixels and --max-body,
- * unless set here (the fuzz harness lowers them so it explores errors rather
+/* The scene limits: the core's defaults with --max-pixels, --max-body and
+ * --asset-dir (files read only inside it), unless set here (the fuzz harness lowers them so it explores errors rather
  * than rendering big scenes). */
 static struct rayd_limits scenes_limits;
 static bool scenes_limits_set;
@@ -49,6 +49,7 @@ static enum rayd_status scenes_compile(const char *body, size_t len, rayd_scene 
         lim.max_pixels = config.max_pixels;
         if (lim.max_bytes < (size_t)config.max_body)
             lim.max_bytes = (size_t)config.max_body;
+        lim.asset_dir = config.asset_dir; /* confined (asset_confine) */
     }
     double t0 = log_now();
     enum rayd_status st = rayd_scene_parse(body, len, &lim, scene, err);

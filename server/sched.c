@@ -157,7 +157,7 @@ static void sched_take(struct task *t)
 {
     if (t->t_start == 0) {
         t->t_start = log_now();
-        metrics_queue_wait(t->t_start - t->t_enq);
+        metrics_queue_wait(t->interactive, t->t_start - t->t_enq);
         metrics_stage(MS_QUEUE, t->t_start - t->t_enq);
     }
     if (t->next_tile == t->ntiles)
@@ -259,11 +259,17 @@ static void *sched_worker(void *arg)
 
         uint64_t rays = 0;
         struct rayd_error err = {0};
+        double t0 = log_now();
         enum rayd_status st = sched_tile(t, tile, pass, &rays, &err);
+        double took = log_now() - t0;
         metrics_rays(rays);
 
         struct task_notify n = {0}, sse = {0};
         pthread_mutex_lock(&work_lock);
+        if (st == RAYD_OK) {
+            struct rayd_region tr = task_tile(t, tile);
+            cost_observe(task_tile_rays(t, &tr, pass), took);
+        }
         sched_done(t, tile, st, &err, rays, &n, &sse);
         pthread_mutex_unlock(&work_lock);
         task_notify_run(&n);
@@ -306,8 +312,11 @@ static long sched_gauge_running(void)
     return n;
 }
 
+static long sched_gauge_backlog_ms(void) { return (long)(sched_backlog() * 1e3); }
+
 static void sched_register_gauges(void)
 {
+    metrics_gauge(MG_BACKLOG_MS, sched_gauge_backlog_ms);
     metrics_gauge(MG_QUEUE_DEPTH, sched_gauge_queued);
     metrics_gauge(MG_QUEUE_CAPACITY, sched_gauge_cap);
     metrics_gauge(MG_TASKS_RUNNING, sched_gauge_running);
@@ -321,6 +330,7 @@ static void sched_register_gauges(void)
 int sched_start(int workers, int queue_cap, int max_jobs)
 {
     task_queue_cap = queue_cap;
+    cost_set_workers(workers);
     sched_threads = calloc((size_t)workers, sizeof *sched_threads);
     if (!sched_threads || jobs_start(max_jobs))
         return -1;
@@ -429,9 +439,26 @@ bool sched_idle(void)
     return idle;
 }
 
+double sched_seconds(double rays)
+{
+    pthread_mutex_lock(&work_lock);
+    double s = cost_seconds(rays);
+    pthread_mutex_unlock(&work_lock);
+    return s;
+}
+
+double sched_backlog(void)
+{
+    pthread_mutex_lock(&work_lock);
+    double s = cost_seconds(task_backlog_rays());
+    pthread_mutex_unlock(&work_lock);
+    return s;
+}
+
 void sched_stats(struct sched_stats *st)
 {
     pthread_mutex_lock(&work_lock);
+    st->backlog_s = cost_seconds(task_backlog_rays());
     st->queued = task_queued;
     st->queue_cap = task_queue_cap;
     st->workers = sched_nworkers;

@@ -1,6 +1,7 @@
 /* task.c -- one render: a compiled scene, a region, its tiles and who waits.
  *
- * A task is split into tiles of TASK_TILE x TASK_TILE pixels rendered
+ * A task is split into square tiles (sized by cost.c: 64 pixels, fewer for
+ * costly scenes) rendered
  * straight into one shared rayd_image (or, for the HDR formats, one float
  * RGB buffer): tiles are disjoint rectangles, so any
  * number of workers may fill tiles of one task at once without a lock on the
@@ -78,8 +79,16 @@ struct task *task_new(struct cache_entry *scene, const struct work_target *what)
     t->format = what->format;
     t->k0 = what->k0;
     t->k1 = what->k1;
-    t->ntx = (reg->w + TASK_TILE - 1) / TASK_TILE;
-    t->nty = (reg->h + TASK_TILE - 1) / TASK_TILE;
+    const rayd_scene *rs = cache_scene(scene);
+    struct rayd_scene_info info;
+    rayd_scene_info(rs, &info);
+    int samples = what->format == WORK_SUMS ? what->k1 - what->k0 : info.samples;
+    t->rays_per_sample = info.rays_per_sample;
+    t->est_rays = cost_rays(rs, what);
+    t->tile = cost_tile(samples * info.rays_per_sample);
+    t->client = what->client;
+    t->ntx = (reg->w + t->tile - 1) / t->tile;
+    t->nty = (reg->h + t->tile - 1) / t->tile;
     t->ntiles = t->ntx * t->nty;
     t->order = calloc((size_t)t->ntiles, sizeof *t->order);
     if (!t->order || !task_pixels(t)) {
@@ -126,8 +135,9 @@ struct task *task_find(const char *key)
     return NULL;
 }
 
-/* Two classes, each served oldest first: interactive tasks (previews,
- * tiles, small regions) and bulk ones.  An interactive task gets the next
+/* Two classes, each served client by client (fair.c: the client served
+ * least recently first, then that client's oldest task): interactive
+ * tasks (previews, tiles, small regions) and bulk ones.  An interactive task gets the next
  * free worker whatever the age of the bulk backlog -- so a small request
  * waits at most one bulk tile -- except that when both classes wait, every
  * TASK_BULK_EVERY-th tile goes to bulk work, so a stream of small requests
@@ -141,21 +151,39 @@ static bool task_waiting(const struct task *t)
     return t->next_tile < t->ntiles && !atomic_load(&t->cancel) && !t->finalizing;
 }
 
+/* Does t's turn come before u's (u may be NULL)? */
+static bool task_before(const struct task *t, uint64_t t_last, const struct task *u,
+                        uint64_t u_last)
+{
+    if (!u)
+        return true;
+    if (t_last != u_last)
+        return t_last < u_last;
+    return t->t_enq < u->t_enq;
+}
+
 struct task *task_pick(void)
 {
-    struct task *oldest[2] = {NULL, NULL}; /* [interactive] */
+    struct task *first[2] = {NULL, NULL}; /* [interactive] */
+    uint64_t last[2] = {0, 0};
     for (struct task *t = task_active; t; t = t->next) {
-        struct task **o = &oldest[t->interactive];
-        if (task_waiting(t) && (!*o || t->t_enq < (*o)->t_enq))
-            *o = t;
+        if (!task_waiting(t))
+            continue;
+        uint64_t l = fair_last(t->client);
+        int c = t->interactive;
+        if (task_before(t, l, first[c], last[c])) {
+            first[c] = t;
+            last[c] = l;
+        }
     }
-    if (oldest[1] && oldest[0] && task_interactive_streak >= TASK_BULK_EVERY - 1)
-        return oldest[0];
-    return oldest[1] ? oldest[1] : oldest[0];
+    if (first[1] && first[0] && task_interactive_streak >= TASK_BULK_EVERY - 1)
+        return first[0];
+    return first[1] ? first[1] : first[0];
 }
 
 void task_taken(const struct task *t)
 {
+    fair_served(t->client);
     bool bulk_waits = false;
     for (const struct task *u = task_active; u && !bulk_waits; u = u->next)
         bulk_waits = !u->interactive && task_waiting(u);
@@ -193,13 +221,44 @@ enum work_submit task_submit(struct cache_entry *scene, struct task **fresh, str
 struct rayd_region task_tile(const struct task *t, int tile)
 {
     int tx = tile % t->ntx, ty = tile / t->ntx;
-    struct rayd_region r = {t->reg.x + tx * TASK_TILE, t->reg.y + ty * TASK_TILE, TASK_TILE,
-                            TASK_TILE};
+    struct rayd_region r = {t->reg.x + tx * t->tile, t->reg.y + ty * t->tile, t->tile, t->tile};
     if (r.x + r.w > t->reg.x + t->reg.w)
         r.w = t->reg.x + t->reg.w - r.x;
     if (r.y + r.h > t->reg.y + t->reg.h)
         r.h = t->reg.y + t->reg.h - r.y;
     return r;
+}
+
+double task_tile_rays(const struct task *t, const struct rayd_region *r, int pass)
+{
+    double samples = t->format == WORK_SUMS ? t->k1 - t->k0 : 0;
+    if (t->passes) {
+        const int *k = t->passes->samples;
+        samples = k[pass] - (pass == 0 || k[pass - 1] == 1 ? 0 : k[pass - 1]);
+    } else if (t->format != WORK_SUMS) {
+        double pixels = (double)t->reg.w * t->reg.h;
+        return pixels > 0 ? t->est_rays * ((double)r->w * r->h) / pixels : 0;
+    }
+    return (double)r->w * r->h * samples * t->rays_per_sample;
+}
+
+/* What is left of t, as a fraction of its estimate: its tiles not done;
+ * a progressive task's passes to come too. */
+static double task_left(const struct task *t)
+{
+    double frac = t->ntiles ? (double)t->done / t->ntiles : 1;
+    if (t->passes)
+        frac = passes_progress(t->passes, t->passes->done, frac);
+    return frac < 1 ? 1 - frac : 0;
+}
+
+double task_backlog_rays(void)
+{
+    double rays = 0;
+    for (const struct task *t = task_active; t; t = t->next)
+        if (!t->finished && !atomic_load(&t->cancel))
+            rays += t->est_rays * task_left(t);
+    return rays;
 }
 
 /* ---- answering ------------------------------------------------------------- */

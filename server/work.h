@@ -1,9 +1,10 @@
 /* work.h -- the work layer as the handlers see it: compiled scenes, renders
  * queued and answered, asynchronous jobs and their event streams.
  *
- * Layer: work (work.c, lru.c, cache.c, rcache.c, scenes.c, passes.c, task.c, gate.c, sched.c,
- * jobs.c, events.c, watch.c).  May include: base.h and <rayd/rayd.h> --
- * never an HTTP header, never libmicrohttpd.  Included by the handlers
+ * Layer: work (work.c, lru.c, cache.c, rcache.c, scenes.c, cost.c, fair.c,
+ * passes.c, task.c, gate.c, sched.c, jobs.c, events.c, watch.c).  May
+ * include: base.h and <rayd/rayd.h> -- never an HTTP header, never
+ * libmicrohttpd.  Included by the handlers
  * (api_*.c) and main.c.
  *
  * The work layer knows nothing about connections.  Whoever waits on a render
@@ -80,8 +81,21 @@ enum work_format { WORK_PNG, WORK_PNG16, WORK_EXR, WORK_SUMS };
 struct work_target {
     struct rayd_region reg; /* absolute, checked */
     enum work_format format;
-    int k0, k1; /* WORK_SUMS only */
+    int k0, k1;      /* WORK_SUMS only */
+    uint64_t client; /* who asks (fair.c's turns); not part of the key */
 };
+
+/* ---- cost.c: what a render costs, before it starts -------------------------- */
+
+/* Estimated rays of rendering what of scene (rayd_scene_info's
+ * rays_per_sample x pixels x samples); any thread. */
+double cost_rays(const rayd_scene *scene, const struct work_target *what);
+/* Those rays as seconds of the whole pool at this node's measured rate
+ * (sched.c). */
+double sched_seconds(double rays);
+/* Estimated seconds of the work queued and running, for the whole pool
+ * (sched.c). */
+double sched_backlog(void);
 
 int sched_start(int workers, int queue_cap, int max_jobs);
 void sched_stop(void);
@@ -97,6 +111,7 @@ void sched_cancel_all(void); /* cancel every task (drain deadline) */
 bool sched_idle(void);       /* no task queued or running */
 struct sched_stats {
     long queued, queue_cap, workers, busy_workers;
+    double backlog_s; /* sched_backlog() */
 };
 void sched_stats(struct sched_stats *st);
 
@@ -138,14 +153,16 @@ struct jobs_info {
     char scene_id[65];
     double created_age, queue_ms, render_ms, encode_ms;
     uint64_t rays;
+    double est_rays;       /* cost_rays at admission */
     struct rayd_error err; /* when failed */
     struct blob *png;      /* when asked for: the image if succeeded, else a progressive
                               job's latest pass (or NULL); unref it */
     bool progressive;
     struct jobs_passes passes; /* progressive only */
 };
-/* A job rendering reg of scene: plain with plan NULL, else progressive. */
-enum work_submit jobs_create(struct cache_entry *scene, const struct rayd_region *reg,
+/* A job rendering what->reg of scene (as a PNG) for what->client: plain
+ * with plan NULL, else progressive. */
+enum work_submit jobs_create(struct cache_entry *scene, const struct work_target *what,
                              const struct jobs_plan *plan, char id[33]);
 bool jobs_get(const char *id, struct jobs_info *info, bool want_png);
 /* Pass `pass` (1-based) of a progressive job, if still kept: *png

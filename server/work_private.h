@@ -1,8 +1,8 @@
 /* work_private.h -- what the files of the work layer share, and its one rule.
  *
  * Layer: work, private.  Included only by the work layer's own files
- * (work.c, lru.c, cache.c, rcache.c, scenes.c, passes.c, task.c, gate.c, sched.c,
- * jobs.c, events.c, watch.c); the layers above see work.h alone.
+ * (work.c, lru.c, cache.c, rcache.c, scenes.c, cost.c, fair.c, passes.c,
+ * task.c, gate.c, sched.c, jobs.c, events.c, watch.c); the layers above see work.h alone.
  * May include: work.h (and through it base.h, <rayd/rayd.h>).
  *
  * THE ONE LOCK.  work_lock is the only mutex of the server.  It guards every
@@ -20,8 +20,8 @@
  *   - work_cond (with work_lock) wakes workers (new tiles, the gate, stop)
  *     and the watcher's periodic wait.
  * Calls inside the layer go one way too, in this order (a file calls only
- * files before it): work (the lock), lru, cache, rcache, scenes, passes, task,
- * gate, jobs, events, watch, sched.
+ * files before it): work (the lock), lru, cache, rcache, scenes, cost, fair,
+ * passes, task, gate, jobs, events, watch, sched.
  * Ownership: a task is referenced by the active list and by each job of it
  * (task.refs, lock held); it holds its scene until it finishes.  A job is
  * referenced by the table and by each open event stream (job.refs).
@@ -33,7 +33,6 @@
 
 #include <pthread.h>
 
-#define TASK_TILE 64                  /* tiles are TASK_TILE x TASK_TILE pixels */
 #define TASK_INTERACTIVE (256L * 256L) /* pixels of a preview or a tile */
 #define TASK_BULK_EVERY 4             /* when both classes wait, bulk gets 1 tile in 4 */
 #define EVENTS_PING 15.0              /* seconds of silence before a keep-alive */
@@ -85,6 +84,21 @@ void rcache_free_all(void);
 
 void scenes_start(void); /* registers the cache gauges */
 
+/* ---- cost.c (lock held but for cost_rays, cost_tile) ------------------------ */
+
+/* The side of a square tile whose estimated rays stay under the tile
+ * budget, given a pixel's estimated rays. */
+int cost_tile(double rays_per_pixel);
+void cost_set_workers(int workers);          /* before the workers start */
+void cost_observe(double rays, double seconds); /* a tile's estimate and time */
+double cost_seconds(double rays);             /* of the whole pool */
+double cost_rate(void);                       /* estimated rays a worker casts a second */
+
+/* ---- fair.c (lock held) ------------------------------------------------------- */
+
+uint64_t fair_last(uint64_t client); /* the tick it was last served, 0: never */
+void fair_served(uint64_t client);
+
 /* ---- passes.c: a progressive task's passes ------------------------------------ */
 
 struct passes {
@@ -131,8 +145,12 @@ struct task {
     char scene_id[65];
     struct cache_entry *scene; /* held until the task finishes */
     struct rayd_region reg;    /* absolute */
+    int tile;          /* tiles are tile x tile pixels (cost.c sizes them) */
     int ntx, nty, ntiles;
     int next_tile, running, done;
+    uint64_t client;   /* who asked first (fair.c) */
+    double est_rays;   /* cost_rays of the whole task */
+    double rays_per_sample;
     int *order; /* tiles in completion order, for event streams */
     struct passes *passes;     /* a progressive job's task, else NULL */
     rayd_image *img;           /* WORK_PNG: the tiles' bytes */
@@ -180,6 +198,9 @@ void task_taken(const struct task *t);   /* a tile of t was taken (for the bulk 
 enum work_submit task_submit(struct cache_entry *scene, struct task **fresh, struct task **out);
 /* The tile's absolute rectangle. */
 struct rayd_region task_tile(const struct task *t, int tile);
+/* Estimated rays of tile r of t in pass `pass` (0 for a plain task). */
+double task_tile_rays(const struct task *t, const struct rayd_region *r, int pass);
+double task_backlog_rays(void); /* of every unfinished task, what is left */
 void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse);
 /* Ends a progressive task after its latest complete pass (or its first, if
  * none is complete yet), why being the reason; true when nothing is in

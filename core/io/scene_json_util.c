@@ -3,8 +3,13 @@
  * failure names the value by its JSON Pointer (RFC 6901: "~" and "/" in keys
  * are escaped) with a message that says what is wrong.
  */
-#define _XOPEN_SOURCE 700 /* realpath */
+#define _GNU_SOURCE /* realpath, syscall (openat2) */
 #include <errno.h>
+#include <fcntl.h>
+#include <linux/openat2.h>
+#include <stdint.h>
+#include <sys/syscall.h>
+#include <unistd.h>
 #include <stdarg.h>
 #include <sys/stat.h>
 #include <stdio.h>
@@ -260,6 +265,22 @@ enum rayd_status sj_bool(struct loader *ld, const cJSON *obj, const struct jp *a
 
 /* ---- files a scene names -------------------------------------------------- */
 
+/* rayd-render trusts its own scene: a name is a path, relative to the
+ * scene's folder.  The server reads only files inside --asset-dir
+ * (asset_confine), and the name comes from the network, so the checks are
+ * made where they cannot be raced: openat2(RESOLVE_BENEATH) resolves the
+ * name inside the directory in the kernel, refusing "..", absolute paths
+ * and any symbolic link that would leave it (an absolute link too, even
+ * one pointing back inside), in the same step that opens the file.  On a
+ * kernel without openat2 (before 5.6, or a seccomp filter answering ENOSYS)
+ * the name is resolved with realpath, the result must lie under the
+ * directory's own realpath, and that resolved path is opened with
+ * O_NOFOLLOW, so a link swapped in for the last component is refused; a
+ * folder on the way swapped between the check and the open is the window
+ * this fallback leaves, which is why openat2 comes first.  Every open is
+ * O_NONBLOCK so that a FIFO cannot hang the loader; only regular files are
+ * read, and no more than the scene's max_bytes. */
+
 /* A ".." path component anywhere. */
 static bool has_dotdot(const char *p) {
     for (const char *c = p; (c = strstr(c, "..")) != NULL; c += 2)
@@ -267,62 +288,114 @@ static bool has_dotdot(const char *p) {
     return false;
 }
 
-/* path resolves (symbolic links followed) to somewhere under dir. */
-static bool inside_dir(const char *dir, const char *path) {
+/* The fallback: realpath, prefix check, O_NOFOLLOW.  -1 with errno, EXDEV
+ * when the name leads outside dir. */
+static int open_beneath_realpath(const char *dir, const char *name) {
+    char path[4096];
+    if ((size_t)snprintf(path, sizeof path, "%s/%s", dir, name) >= sizeof path) {
+        errno = ENAMETOOLONG;
+        return -1;
+    }
     char *rd = realpath(dir, NULL), *rp = realpath(path, NULL);
+    int fd = -1, e = errno;
     size_t n = rd ? strlen(rd) : 0;
-    bool ok = rd && rp && strncmp(rd, rp, n) == 0 && (rp[n] == '/' || (n == 1 && rd[0] == '/'));
+    if (rd && rp && strncmp(rd, rp, n) == 0 && (rp[n] == '/' || (n == 1 && rd[0] == '/')))
+        fd = open(rp, O_RDONLY | O_CLOEXEC | O_NOCTTY | O_NONBLOCK | O_NOFOLLOW), e = errno;
+    else if (rd && rp)
+        e = EXDEV;
     free(rd);
     free(rp);
-    return ok;
+    errno = e;
+    return fd;
+}
+
+/* Opens name for reading inside dir, never outside it (see above). */
+static int open_beneath(const char *dir, const char *name) {
+    int dfd = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (dfd < 0) return -1;
+    struct open_how how = {.flags = O_RDONLY | O_CLOEXEC | O_NOCTTY | O_NONBLOCK,
+                           .resolve = RESOLVE_BENEATH | RESOLVE_NO_MAGICLINKS};
+    int fd = (int)syscall(SYS_openat2, dfd, name, &how, sizeof how);
+    int e = errno;
+    close(dfd);
+    if (fd < 0 && e == ENOSYS) return open_beneath_realpath(dir, name);
+    errno = e;
+    return fd;
+}
+
+/* The open file behind name, or an error at *at.  Checks the name first. */
+static enum rayd_status asset_open(struct loader *ld, const char *name, const struct jp *at,
+                                   int *fd) {
+    const struct rayd_limits *lim = ld->lim;
+    char q[96];
+    if (!lim->asset_dir)
+        return sj_fail(ld, RAYD_E_INVALID, at, "files are not read here: a server reads them only when started with --asset-dir; embed the data instead (a mesh: \"text\" or \"base64\", a texture: \"png_base64\")");
+    if (name[0] == '\0') return sj_fail(ld, RAYD_E_INVALID, at, "must not be empty");
+    if (lim->asset_confine && name[0] == '/')
+        return sj_fail(ld, RAYD_E_INVALID, at, "must be a path relative to the asset directory, not an absolute path");
+    if (lim->asset_confine && has_dotdot(name))
+        return sj_fail(ld, RAYD_E_INVALID, at, "must not contain a '..' component (files are read only inside the asset directory)");
+    char path[4096];
+    if (lim->asset_confine) {
+        *fd = open_beneath(lim->asset_dir, name);
+    } else if (name[0] != '/' && (size_t)snprintf(path, sizeof path, "%s/%s", lim->asset_dir, name) >= sizeof path) {
+        return sj_fail(ld, RAYD_E_INVALID, at, "path is too long");
+    } else {
+        *fd = open(name[0] == '/' ? name : path, O_RDONLY | O_CLOEXEC | O_NOCTTY | O_NONBLOCK);
+    }
+    if (*fd >= 0) return RAYD_OK;
+    if (lim->asset_confine && errno == EXDEV) /* RESOLVE_BENEATH's (and the fallback's) refusal */
+        return sj_fail(ld, RAYD_E_INVALID, at, "\"%s\" leads outside the asset directory (a symbolic link)", sj_quote(q, sizeof q, name));
+    return sj_fail(ld, RAYD_E_INVALID, at, "cannot open \"%s\": %s", sj_quote(q, sizeof q, name), strerror(errno));
 }
 
 /* Reads a file named by a scene, under the limits' asset rules. */
 enum rayd_status sj_read_asset(struct loader *ld, const cJSON *f, const struct jp *at,
                                    char **out, size_t *len) {
-    const struct rayd_limits *lim = ld->lim;
     if (!cJSON_IsString(f)) return sj_fail(ld, RAYD_E_INVALID, at, "must be a string, not %s", sj_type_name(f));
     const char *name = f->valuestring;
-    if (!lim->asset_dir)
-        return sj_fail(ld, RAYD_E_INVALID, at, "files are not allowed here (embed the data as \"text\" or \"base64\"; rayd reads files only with --asset-dir)");
-    if (name[0] == '\0') return sj_fail(ld, RAYD_E_INVALID, at, "must not be empty");
-    if (lim->asset_confine && (name[0] == '/' || has_dotdot(name)))
-        return sj_fail(ld, RAYD_E_INVALID, at, "must be a relative path inside the asset directory, without '..'");
-    char path[4096], q[96];
-    if (name[0] == '/')
-        snprintf(path, sizeof path, "%s", name);
-    else if ((size_t)snprintf(path, sizeof path, "%s/%s", lim->asset_dir, name) >= sizeof path)
-        return sj_fail(ld, RAYD_E_INVALID, at, "path is too long");
-    if (lim->asset_confine && !inside_dir(lim->asset_dir, path))
-        return sj_fail(ld, RAYD_E_INVALID, at, "\"%s\" is not a file inside the asset directory", sj_quote(q, sizeof q, name));
-    FILE *fp = fopen(path, "rb");
+    char q[96];
+    int fd;
+    TRY(asset_open(ld, name, at, &fd));
     struct stat st;
-    if (fp && (fstat(fileno(fp), &st) != 0 || !S_ISREG(st.st_mode))) {
-        fclose(fp);
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+        close(fd);
         return sj_fail(ld, RAYD_E_INVALID, at, "\"%s\" is not a regular file", sj_quote(q, sizeof q, name));
     }
-    if (!fp) return sj_fail(ld, RAYD_E_INVALID, at, "cannot open \"%s\": %s", sj_quote(q, sizeof q, name), strerror(errno));
-    size_t cap = 1 << 16, n = 0;
-    char *buf = malloc(cap);
-    while (buf) {
-        n += fread(buf + n, 1, cap - n, fp);
-        if (n < cap) break;
-        if (cap > lim->max_bytes) {
-            free(buf);
-            fclose(fp);
-            return sj_fail(ld, RAYD_E_LIMIT, at, "file is over the limit of %zu bytes", lim->max_bytes);
-        }
-        char *nb = realloc(buf, cap * 2);
-        if (!nb) free(buf);
-        buf = nb;
-        cap *= 2;
+    size_t max = ld->lim->max_bytes;
+    if ((uintmax_t)st.st_size > (uintmax_t)max) {
+        close(fd);
+        return sj_fail(ld, RAYD_E_LIMIT, at, "file is over the limit of %zu bytes", max);
     }
-    bool bad = ferror(fp);
-    fclose(fp);
+    /* the file may grow while it is read: stop past max + 1 bytes */
+    size_t cap = (size_t)st.st_size + 1, n = 0;
+    char *buf = malloc(cap);
+    ssize_t r = 0;
+    int rerr = 0;
+    while (buf && n <= max) {
+        if (n == cap) {
+            size_t nc = cap > max / 2 ? max + 1 : cap * 2;
+            char *nb = realloc(buf, nc);
+            if (!nb) free(buf);
+            buf = nb;
+            cap = nc;
+            continue;
+        }
+        r = read(fd, buf + n, cap - n);
+        if (r < 0 && errno == EINTR) continue;
+        rerr = errno;
+        if (r <= 0) break;
+        n += (size_t)r;
+    }
+    close(fd);
     if (!buf) return err_set(ld->err, RAYD_E_NOMEM, at->s, "out of memory reading a file");
-    if (bad) {
+    if (n > max) {
         free(buf);
-        return sj_fail(ld, RAYD_E_INVALID, at, "cannot read \"%s\"", sj_quote(q, sizeof q, name));
+        return sj_fail(ld, RAYD_E_LIMIT, at, "file is over the limit of %zu bytes", max);
+    }
+    if (r < 0) {
+        free(buf);
+        return sj_fail(ld, RAYD_E_INVALID, at, "cannot read \"%s\": %s", sj_quote(q, sizeof q, name), strerror(rerr));
     }
     *out = buf;
     *len = n;

@@ -147,4 +147,8 @@ void scene_transmittance16_soa(const rayd_scene *s, int light, const double o[3]
 /* Point, normals and material of a hit of ray r. */
 void scene_surface(const rayd_scene *s, const ray *r, const struct hit *h, struct surface *sf);
 
+/* scene_cost.c: the rays one camera sample is expected to cast (an
+ * estimate from the scene's description alone). */
+double scene_rays_per_sample(const struct rayd_scene *s);
+
 #endif

@@ -1,4 +1,4 @@
-/* rayd.h -- the public C API of the rayd ray-tracing core (librayd.a).
+/* rayd.h -- the public C API of the rayd ray-tracing core (librayd.a, librayd.so).
  *
  * This is the only header the server, the clients and the command-line
  * renderer include. Everything behind it is private to core/.
@@ -31,7 +31,13 @@
 extern "C" {
 #endif
 
-#define RAYD_VERSION "0.1.0"
+/* The version, "MAJOR.MINOR.PATCH".  Its one source is the file VERSION at
+ * the top of the source tree: the Makefile passes it to every compile as
+ * -DRAYD_VERSION, and `make install` writes it into the installed copy of
+ * this header (the line below), so programs built on librayd see it too. */
+#ifndef RAYD_VERSION
+#define RAYD_VERSION "unknown"
+#endif
 
 enum rayd_status {
     RAYD_OK = 0,
@@ -79,10 +85,12 @@ struct rayd_limits {
     size_t max_bytes;  /* scene text size */
     long max_triangles; /* all meshes together */
     long max_vertices;  /* all meshes together */
-    /* Mesh "file" references: NULL (the default) refuses them; otherwise
-     * relative paths resolve against asset_dir.  With asset_confine set, a
-     * path must stay inside asset_dir (no absolute path, no ".."), as the
-     * server requires; rayd-render trusts its scene and does not confine. */
+    /* Mesh and texture "file" references: NULL (the default) refuses them;
+     * otherwise relative paths resolve against asset_dir.  With
+     * asset_confine set (rayd --asset-dir), a path must stay inside
+     * asset_dir: no absolute path, no "..", no symbolic link leading out
+     * (opened with openat2 RESOLVE_BENEATH); rayd-render trusts its scene
+     * and does not confine.  A file counts against max_bytes. */
     const char *asset_dir;
     int asset_confine;
 };
@@ -110,6 +118,10 @@ struct rayd_scene_info {
     long objects;      /* primitives in the scene */
     int lights;
     size_t bytes;      /* memory held by the frozen scene */
+    /* Rays one camera sample is expected to cast (the integrator, depth,
+     * lights and materials; docs/scene-format.md "Cost"): a render of p
+     * pixels at s samples is about p * s * rays_per_sample rays. */
+    double rays_per_sample;
     /* Of rayd_scene_parse's time: mesh files read and decoded (OBJ, PLY,
      * base64), and the BVHs (meshes, groups, the scene's) and light buffers
      * built. */

@@ -1,16 +1,25 @@
 // app.js -- the preview page: wires the editor, the renderer and the camera.
 //
 // States (body[data-state], read by the tests too): loading, rendering,
-// orbit (low-resolution frames while the camera moves), done, error.  Each
-// finished full render bumps body[data-renders].  window.rayd exposes the
-// measurements (stats) the browser tests and the README's figures use.
+// orbit (low-resolution frames while the camera moves), done, error,
+// stopped (the Stop button or Esc).  Each finished full render bumps
+// body[data-renders].  window.rayd exposes the measurements (stats) the
+// browser tests and the README's figures use.
+//
+// The page keeps work: every change of the text, camera moves and examples
+// included, is a step of the editor's undo history (an undone camera move or
+// example renders again); the text is saved in local storage at each change
+// and comes back after a reload.
 
 import { examples } from "./examples.js";
 import { parse, pointerOffset, lineOf, offsetOfLine, replaceAt, fmtVector, format, JsonSyntaxError } from "./json.js";
 import { Api, ApiError, Renderer, isAbort, sizeOf } from "./render.js";
 import { cameraOf, orbit, dolly } from "./camera.js";
-import { Editor } from "./editor.js";
+import { eyeFloor } from "./ground.js";
+import { Editor, undoKey } from "./editor.js";
 import { linkFor, fromHash } from "./share.js";
+import { View } from "./view.js";
+import { loadSaved, save } from "./autosave.js";
 
 const $ = (id) => document.getElementById(id);
 const DEFAULT_EXAMPLE = "whitted";
@@ -23,18 +32,12 @@ tokenInput.addEventListener("change", () => localStorage.setItem("rayd.token", t
 const api = new Api(() => tokenInput.value.trim());
 const renderer = new Renderer(canvas, api);
 
-// The canvas holds the image at its own size; CSS scales it to fit the stage.
-const stage = $("stage");
-function fit() {
-  const cs = getComputedStyle(stage);
-  const w = stage.clientWidth - parseFloat(cs.paddingLeft) - parseFloat(cs.paddingRight);
-  const h = stage.clientHeight - parseFloat(cs.paddingTop) - parseFloat(cs.paddingBottom);
-  const k = Math.max(0.05, Math.min(w / canvas.width, h / canvas.height));
-  canvas.style.width = `${Math.floor(canvas.width * k)}px`;
-  canvas.style.height = `${Math.floor(canvas.height * k)}px`;
-}
-new ResizeObserver(fit).observe(stage);
-renderer.onResize = fit;
+// The canvas holds the image at its own size; CSS scales it to fit the
+// stage, or shows it 1:1 (the 1:1 button, or the key 1).
+const view = new View($("stage"), canvas);
+renderer.onResize = () => view.apply();
+view.onToggle = (on) => $("one").setAttribute("aria-pressed", String(on));
+$("one").addEventListener("click", () => view.toggle());
 
 const stats = {
   renders: 0, // full renders finished
@@ -46,7 +49,7 @@ const stats = {
   passes: [], // a path-traced render's passes drawn: {samples, ms}
   firstPassMs: 0, // to the first whole (noisy) frame of a path-traced render
 };
-window.rayd = { stats, editor, render: () => render() };
+window.rayd = { stats, editor, view, render: () => render() };
 
 // ---- parsed state of the text ---------------------------------------------------
 let doc = { text: null, root: null, error: null };
@@ -80,6 +83,7 @@ let raysNow = null;
 
 function setState(s) {
   document.body.dataset.state = s;
+  $("stop").disabled = !(s === "rendering" || s === "orbit");
 }
 const fmtMs = (ms) => (ms < 1000 ? `${Math.round(ms)} ms` : `${(ms / 1000).toFixed(2)} s`);
 const fmtRate = (r) =>
@@ -257,26 +261,44 @@ async function render({ fromStart = false } = {}) {
   }
 }
 
+// Stop: the render in flight (its fetches aborted, a progressive job
+// deleted, so rayd stops its work) and any full render still to come.
+function stop() {
+  if (!(document.body.dataset.state === "rendering" || document.body.dataset.state === "orbit")) return;
+  gen++;
+  clearTimeout(fullTimer);
+  clearTimeout(autoTimer);
+  renderer.cancel();
+  stopClock();
+  setState("stopped");
+  status("Stopped · " + progressText(false));
+}
+$("stop").addEventListener("click", () => stop());
+
 // ---- camera: orbit by drag, dolly by wheel ------------------------------------------
+// The moves of one drag, or of one burst of wheel turns or keys (until the
+// full render that follows them), are one step of the undo history.
 let drag = null;
 let previewing = false;
 let previewWanted = false;
 let fullTimer = 0;
+let moveRun = 0;
 
-function moveCamera(fn) {
+// fn(cam, floor) gives the new position; floor is the lowest height the eye
+// may reach (ground.js), -Infinity when going under is allowed.
+function moveCamera(fn, under = false) {
   const d = parsed();
   if (!d.root) return false;
   const cam = cameraOf(d.root.value);
   if (!cam) return false;
-  const pos = fn(cam);
+  const pos = fn(cam, under || $("under").checked ? -Infinity : eyeFloor(d.root.value, cam));
   let text;
   try {
     text = replaceAt(d.text, d.root, ["camera", "position"], fmtVector(pos));
   } catch (_) {
     return false;
   }
-  editor.set(text, true);
-  describe();
+  editor.set(text, { keep: true, kind: "camera", group: "move" + moveRun });
   return true;
 }
 
@@ -319,6 +341,7 @@ function scheduleFull(ms) {
   clearTimeout(fullTimer);
   fullTimer = setTimeout(() => {
     if (drag) return;
+    moveRun++;
     render();
   }, ms);
 }
@@ -328,7 +351,8 @@ canvas.addEventListener("pointerdown", (e) => {
   const d = parsed();
   const cam = d.root && cameraOf(d.root.value);
   if (!cam) return;
-  drag = { x: e.clientX, y: e.clientY, cam, moved: false, id: e.pointerId };
+  moveRun++;
+  drag = { x: e.clientX, y: e.clientY, cam, floor: eyeFloor(d.root.value, cam), moved: false, id: e.pointerId };
   canvas.setPointerCapture(e.pointerId);
   canvas.classList.add("dragging");
   e.preventDefault();
@@ -340,8 +364,9 @@ canvas.addEventListener("pointermove", (e) => {
   const dy = (e.clientY - drag.y) * scale;
   if (!drag.moved && Math.abs(e.clientX - drag.x) + Math.abs(e.clientY - drag.y) < 2) return;
   drag.moved = true;
-  const start = drag.cam;
-  if (moveCamera(() => orbit(start, dx, dy))) previewLoop();
+  const { cam, floor } = drag;
+  const under = e.shiftKey || $("under").checked;
+  if (moveCamera(() => orbit(cam, dx, dy, under ? -Infinity : floor), under)) previewLoop();
 });
 function endDrag(e) {
   if (!drag || e.pointerId !== drag.id) return;
@@ -357,7 +382,7 @@ canvas.addEventListener(
   (e) => {
     e.preventDefault();
     const dy = e.deltaMode === 1 ? e.deltaY * 16 : e.deltaY;
-    if (moveCamera((cam) => dolly(cam, Math.exp(dy * 0.0015)))) {
+    if (moveCamera((cam, floor) => dolly(cam, Math.exp(dy * 0.0015), floor), e.shiftKey)) {
       previewLoop();
       scheduleFull(350);
     }
@@ -368,9 +393,9 @@ canvas.addEventListener("keydown", (e) => {
   const step = Math.PI / 36;
   const moves = { ArrowLeft: [-step, 0], ArrowRight: [step, 0], ArrowUp: [0, -step], ArrowDown: [0, step] };
   let ok = false;
-  if (moves[e.key]) ok = moveCamera((cam) => orbit(cam, ...moves[e.key]));
-  else if (e.key === "+" || e.key === "=") ok = moveCamera((cam) => dolly(cam, 0.9));
-  else if (e.key === "-") ok = moveCamera((cam) => dolly(cam, 1 / 0.9));
+  if (moves[e.key]) ok = moveCamera((cam, floor) => orbit(cam, ...moves[e.key], floor), e.shiftKey);
+  else if (e.key === "+" || e.key === "=") ok = moveCamera((cam, floor) => dolly(cam, 0.9, floor));
+  else if (e.key === "-") ok = moveCamera((cam, floor) => dolly(cam, 1 / 0.9, floor));
   else return;
   e.preventDefault();
   if (ok) {
@@ -380,21 +405,64 @@ canvas.addEventListener("keydown", (e) => {
 });
 
 // ---- editing, examples, keys ---------------------------------------------------------
+// Every change of the text is described and saved.  Typed, it renders
+// 0.7 s later when auto is on; undone or redone, a camera move, an example
+// or a link renders at once (the image follows the text), typing as typed.
 let autoTimer = 0;
-$("scene").addEventListener("input", () => {
+const rendersWhenUndone = new Set(["camera", "example", "link"]);
+editor.onChange(({ source, kind }) => {
   describe();
-  if ($("auto").checked) {
+  save(editor.value, editor.label, !isExample(editor.value));
+  hideNotice();
+  if (source === "undo" || source === "redo") {
+    select.value = editor.label;
+    if (rendersWhenUndone.has(kind)) {
+      render();
+      return;
+    }
+  }
+  if (source !== "set" && $("auto").checked) {
     clearTimeout(autoTimer);
     autoTimer = setTimeout(() => render(), 700);
   }
 });
+
+// "Example loaded -- Ctrl+Z to get your scene back", with an Undo button;
+// gone at the next change.
+function showNotice(text) {
+  $("notice-text").textContent = text;
+  $("notice").hidden = false;
+}
+function hideNotice() {
+  $("notice").hidden = true;
+}
+$("notice-undo").addEventListener("click", () => editor.undo());
 $("auto").checked = localStorage.getItem("rayd.auto") === "1";
 $("auto").addEventListener("change", () => localStorage.setItem("rayd.auto", $("auto").checked ? "1" : "0"));
 $("render").addEventListener("click", () => render());
+// Keys of the whole page; outside the text fields, Ctrl+Z and Ctrl+Y undo
+// and redo the editor too (after a drag the focus is on the image), and 1
+// toggles the 1:1 view.
 document.addEventListener("keydown", (e) => {
   if (e.key === "Enter" && (e.ctrlKey || e.metaKey)) {
     e.preventDefault();
     render();
+    return;
+  }
+  if (e.key === "Escape") {
+    stop();
+    return;
+  }
+  const t = e.target;
+  if (e.defaultPrevented || t.isContentEditable || ["INPUT", "TEXTAREA", "SELECT"].includes(t.tagName)) return;
+  const step = undoKey(e);
+  if (step) {
+    e.preventDefault();
+    if (step === "undo") editor.undo();
+    else editor.redo();
+  } else if (e.key === "1" && !e.ctrlKey && !e.metaKey && !e.altKey) {
+    e.preventDefault();
+    view.toggle();
   }
 });
 
@@ -424,16 +492,34 @@ custom.textContent = "(from link)";
 custom.hidden = true;
 select.appendChild(custom);
 
+// Is text exactly one of the examples?  If not, it is someone's work, and
+// replacing it says how to get it back.
+const exampleTexts = new Set(examples.map(exampleText));
+const isExample = (text) => exampleTexts.has(text);
+
+// editor.label is the menu's example, kept with each step of the history
+// (an undo shows the example the text came from) and in the autosave.
 function loadExample(name) {
   const ex = examples.find((x) => x.name === name) || examples[0];
-  select.value = ex.name;
-  editor.set(exampleText(ex));
-  describe();
+  const edited = !isExample(editor.value);
+  select.value = editor.label = ex.name;
+  editor.set(exampleText(ex), { kind: "example" });
+  if (edited) showNotice("Example loaded — Ctrl+Z to get your scene back");
+}
+function forgetLink() {
+  if (location.hash) history.replaceState(null, "", location.pathname + location.search);
 }
 select.addEventListener("change", () => {
   if (!select.value) return;
   loadExample(select.value);
-  if (location.hash) history.replaceState(null, "", location.pathname + location.search);
+  forgetLink();
+  render();
+});
+// Reset: the example chosen in the menu as it was (the default one when the
+// text came from a link); one undoable step like choosing it.
+$("reset").addEventListener("click", () => {
+  loadExample(select.value || DEFAULT_EXAMPLE);
+  forgetLink();
   render();
 });
 
@@ -464,9 +550,10 @@ async function openHash() {
   }
   if (!got) return false;
   if (got.text !== editor.value) {
-    select.value = "";
-    editor.set(got.text);
-    describe();
+    const edited = !isExample(editor.value);
+    select.value = editor.label = "";
+    editor.set(got.text, { kind: "link" });
+    if (edited) showNotice("Link opened — Ctrl+Z to get your scene back");
   }
   return true;
 }
@@ -475,7 +562,23 @@ window.addEventListener("hashchange", async () => {
   if ((await openHash()) && editor.value !== before) render();
 });
 
+// The text of the last visit (autosave.js), or the default example; then
+// the link's scene over it, undoably, so a link never costs the saved work.
 (async () => {
-  if (!(await openHash())) loadExample(DEFAULT_EXAMPLE);
+  const saved = loadSaved();
+  const known = (name) => examples.some((x) => x.name === name);
+  if (saved && (saved.edited || !known(saved.example))) {
+    editor.label = known(saved.example) ? saved.example : "";
+    editor.reset(saved.text);
+  } else if (saved) {
+    editor.label = saved.example;
+    editor.reset(exampleText(examples.find((x) => x.name === saved.example)));
+  } else {
+    editor.label = DEFAULT_EXAMPLE;
+    editor.reset(exampleText(examples.find((x) => x.name === DEFAULT_EXAMPLE) || examples[0]));
+  }
+  select.value = editor.label;
+  describe();
+  await openHash();
   render({ fromStart: true });
 })();

@@ -4,8 +4,10 @@
 // the distance |C - F| and moves C on the sphere around F: a horizontal drag
 // turns it about the up axis, a vertical one tilts it towards or away from
 // up (stopping short of the pole, where the view would be parallel to up and
-// the scene invalid).  The wheel scales the distance.  Defaults are the
-// scene format's: position [0,0,0], look_at [0,0,-1], up [0,1,0].
+// the scene invalid).  The wheel scales the distance.  Both take a floor:
+// the lowest height along up the eye may reach (ground.js finds it); a
+// move stops there, but never lifts an eye that started below it.  Defaults
+// are the scene format's: position [0,0,0], look_at [0,0,-1], up [0,1,0].
 
 const sub = (a, b) => [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
 const add = (a, b) => [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
@@ -31,7 +33,7 @@ export function cameraOf(scene) {
 }
 
 // The new position after a drag of (dx, dy) radians.
-export function orbit(cam, dx, dy) {
+export function orbit(cam, dx, dy, floor = -Infinity) {
   const up = norm(cam.up);
   const off = sub(cam.position, cam.lookAt);
   const r = len(off);
@@ -43,16 +45,21 @@ export function orbit(cam, dx, dy) {
   let theta = Math.acos(Math.max(-1, Math.min(1, dot(off, up) / r))); // angle from up
   let phi = 0; // e1 is where the camera is now
   phi -= dx;
-  theta = Math.max(0.02, Math.min(Math.PI - 0.02, theta - dy));
+  let lowest = Math.PI - 0.02; // the largest angle from up
+  const c = (floor - dot(cam.lookAt, up)) / r; // cos of the angle where the eye meets the floor
+  if (c > -1) lowest = Math.min(lowest, Math.max(Math.acos(Math.min(1, c)), theta));
+  theta = Math.max(0.02, Math.min(lowest, theta - dy));
   const s = Math.sin(theta);
   const dir = add(add(mul(e1, s * Math.cos(phi)), mul(e2, s * Math.sin(phi))), mul(up, Math.cos(theta)));
   return add(cam.lookAt, mul(dir, r));
 }
 
 // The new position after scaling the distance to look_at by factor.
-export function dolly(cam, factor) {
+export function dolly(cam, factor, floor = -Infinity) {
   const off = sub(cam.position, cam.lookAt);
   const r = len(off);
-  const nr = Math.max(1e-3, Math.min(1e8, r * factor));
+  let nr = Math.max(1e-3, Math.min(1e8, r * factor));
+  const down = -dot(off, norm(cam.up)) / r; // > 0: the eye is below look_at
+  if (down > 0 && nr > r) nr = Math.min(nr, Math.max(r, (dot(cam.lookAt, norm(cam.up)) - floor) / down));
   return add(cam.lookAt, mul(off, nr / r));
 }

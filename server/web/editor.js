@@ -1,9 +1,18 @@
-// editor.js -- a textarea with line numbers and one highlighted error line.
+// editor.js -- a textarea with line numbers, one highlighted error line and
+// the page's own undo history.
 //
 // The textarea does not wrap, so line k of the text is line k on screen and
 // the gutter (a column of numbers) and the error band can be placed by
 // arithmetic: top = (k - 1) * line height - scrollTop.  Tab inserts two
-// spaces; everything else is the browser's own editing, undo included.
+// spaces.  Every change of the text -- typed, or set by the page (a camera
+// move, an example) -- goes into a TextHistory (history.js), and Ctrl+Z,
+// Ctrl+Shift+Z / Ctrl+Y and the menu's Undo walk it, so the page's changes
+// are undone like typing.  onChange(fn) hears of every change:
+// fn({source: "input" | "set" | "undo" | "redo", kind}).  label (the page's
+// name for where the text came from) is kept with each step and comes back
+// with it.
+
+import { TextHistory, changedRange } from "./history.js";
 
 export class Editor {
   constructor(root) {
@@ -13,12 +22,34 @@ export class Editor {
     this.band = root.querySelector(".errband");
     this.errorLine = 0;
     this.lines = 0;
-    this.ta.addEventListener("input", () => this.refresh());
+    this.label = "";
+    this.history = new TextHistory(this.ta.value);
+    this.listeners = [];
+    this.typingRun = 0; // typing is grouped by runs: a word, a run of deletes
+    this.typed = null; // {cls, caret} of the last typed change
+    this.before = null; // the selection before the change being typed
+    this.ta.addEventListener("beforeinput", (e) => {
+      if (e.inputType === "historyUndo" || e.inputType === "historyRedo") {
+        e.preventDefault();
+        if (e.inputType === "historyUndo") this.undo();
+        else this.redo();
+        return;
+      }
+      this.before = { start: this.ta.selectionStart, end: this.ta.selectionEnd };
+    });
+    this.ta.addEventListener("input", (e) => this.typedChange(e));
     this.ta.addEventListener("scroll", () => this.sync());
     this.ta.addEventListener("keydown", (e) => {
       if (e.key === "Tab" && !e.ctrlKey && !e.metaKey && !e.altKey && !e.shiftKey) {
         e.preventDefault();
         document.execCommand("insertText", false, "  ");
+        return;
+      }
+      const step = undoKey(e);
+      if (step) {
+        e.preventDefault();
+        if (step === "undo") this.undo();
+        else this.redo();
       }
     });
     new ResizeObserver(() => this.sync()).observe(this.ta);
@@ -29,9 +60,89 @@ export class Editor {
     return this.ta.value;
   }
 
-  // Replaces the text; keep=true keeps the caret and scroll (camera moves),
-  // and goes through execCommand so Ctrl+Z undoes it.
-  set(text, keep = false) {
+  onChange(fn) {
+    this.listeners.push(fn);
+  }
+
+  emit(info) {
+    for (const fn of this.listeners) fn(info);
+  }
+
+  // A change typed in the textarea: letters of one word (or one run of
+  // deletes at the caret) are one step; a space, a newline, a paste, a jump
+  // of the caret start another.
+  typedChange(e) {
+    const t = e.inputType || "";
+    const cls =
+      t === "insertText" && e.data && !/\s/.test(e.data)
+        ? "ins"
+        : t === "deleteContentBackward" || t === "deleteContentForward"
+          ? "del"
+          : null;
+    const b = this.before;
+    const joins = cls && this.typed && this.typed.cls === cls && b && b.start === b.end && b.start === this.typed.caret;
+    if (!joins) this.typingRun++;
+    this.history.record(this.ta.value, {
+      kind: "typing",
+      group: cls ? "typing" + this.typingRun : null,
+      label: this.label,
+    });
+    this.typed = cls ? { cls, caret: this.ta.selectionStart } : null;
+    this.before = null;
+    this.refresh();
+    this.emit({ source: "input", kind: "typing" });
+  }
+
+  // Replaces the text, as one step of the undo history.  keep=true keeps
+  // the caret and scroll (camera moves); kind says what the change is (the
+  // page renders again when a camera move or an example is undone); changes
+  // of the same group are one step (the moves of one drag).
+  set(text, { keep = false, kind = "set", group = null } = {}) {
+    this.show(text, keep);
+    this.typed = null;
+    this.history.record(text, { kind, group, label: this.label });
+    this.emit({ source: "set", kind });
+  }
+
+  // Replaces the text and forgets the history (the page's first text).
+  reset(text) {
+    this.show(text, false);
+    this.typed = null;
+    this.history.reset(text, this.label);
+  }
+
+  // Makes the next change a new step of the history.
+  seal() {
+    this.history.seal();
+  }
+
+  undo() {
+    return this.step(this.history.undo(), "undo");
+  }
+
+  redo() {
+    return this.step(this.history.redo(), "redo");
+  }
+
+  // Shows the text of an undo or redo, the caret at the end of what changed.
+  step(got, source) {
+    if (!got) return false;
+    const { start, end } = changedRange(this.ta.value, got.text);
+    this.show(got.text, true);
+    this.ta.setSelectionRange(end, end);
+    this.typed = null;
+    this.label = got.label;
+    const line = got.text.slice(0, start).split("\n").length;
+    const lh = this.lineHeight();
+    const top = (line - 1) * lh;
+    if (top < this.ta.scrollTop || top + lh > this.ta.scrollTop + this.ta.clientHeight)
+      this.ta.scrollTop = Math.max(0, top - this.ta.clientHeight / 3);
+    this.sync();
+    this.emit({ source, kind: got.kind });
+    return true;
+  }
+
+  show(text, keep) {
     if (keep) {
       const { selectionStart: a, scrollTop: st, scrollLeft: sl } = this.ta;
       this.ta.value = text;
@@ -108,4 +219,14 @@ export class Editor {
     this.ta.scrollTop = Math.max(0, (line - 1) * lh - this.ta.clientHeight / 2 + lh);
     this.sync();
   }
+}
+
+// "undo", "redo" or null for a key event: Ctrl+Z, Ctrl+Shift+Z, Ctrl+Y
+// (Cmd on a Mac).
+export function undoKey(e) {
+  if (!(e.ctrlKey || e.metaKey) || e.altKey) return null;
+  const k = e.key.toLowerCase();
+  if (k === "z") return e.shiftKey ? "redo" : "undo";
+  if (k === "y" && !e.shiftKey) return "redo";
+  return null;
 }

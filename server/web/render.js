@@ -213,10 +213,16 @@ export class Renderer {
   // those that arrived together).  progress({phase: "pass", samples,
   // target, done, total, id}) after each.  The stream is read with fetch,
   // since EventSource cannot send the token.  Aborted (a new render, an
-  // orbit), the job is deleted, so the server stops at once.
+  // orbit, Stop), the job is deleted, so the server stops at once.  The
+  // POST that makes the job is not aborted: its answer names the job to
+  // delete (rayd answers it as soon as the scene is read).
   async progressive(text, progress, lowDone, signal) {
-    const job = await (await this.api.call("POST", "v1/jobs?progressive=1", { body: text, signal })).json();
+    const job = await (await this.api.call("POST", "v1/jobs?progressive=1", { body: text })).json();
     const drop = () => this.api.call("DELETE", `v1/jobs/${job.id}`).catch(() => {});
+    if (signal.aborted) {
+      drop();
+      throw Object.assign(new Error("aborted"), { name: "AbortError" });
+    }
     signal.addEventListener("abort", drop, { once: true });
     try {
       const res = await this.api.call("GET", `v1/jobs/${job.id}/events`, { signal });

@@ -6,7 +6,7 @@ Run from anywhere:  python3 tests/bad/make_scenes.py
 Edit the CASES table below, not the generated files, then run it again.
 
 Every case is one small file with one thing wrong, and the exact line
-rayd-render must print on stderr for it (exit status 2, no PNG written).
+rayd-render must print on stderr for it (exit status 1, no PNG written).
 
 tsv columns: file, expected exit status, expected stderr line, and an
 optional 4th column `bug`: the loader gets this case wrong today (it accepts
@@ -21,6 +21,9 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 OUT = os.path.join(HERE, "scenes")
 
 CASES = []  # (file, bytes, expected line, bug?)
+# Every error line of the tools starts with the program's name (README: the
+# command-line conventions); the cases below are written without it.
+PREFIX = "rayd-render: "
 
 
 def case(name, text, expected, bug=False):
@@ -717,7 +720,7 @@ def main():
         with open(os.path.join(OUT, name), "wb") as f:
             f.write(data)
         assert "\t" not in expected and "\n" not in expected
-        lines.append("\t".join([name, "2", expected] + (["bug"] if bug else [])))
+        lines.append("\t".join([name, "1", PREFIX + expected] + (["bug"] if bug else [])))
     for old in os.listdir(OUT):
         if old not in names:
             os.remove(os.path.join(OUT, old))

@@ -1,8 +1,11 @@
 // json_unit.mjs EXAMPLES.js -- the preview's JSON helpers (server/web/json.js,
-// camera.js) in Node, without a browser: pointer -> line, in-place edits,
-// the formatter of the examples, orbit and dolly.  Prints PASS/FAIL lines.
+// camera.js, ground.js, history.js) in Node, without a browser: pointer ->
+// line, in-place edits, the formatter of the examples, orbit and dolly and
+// their stop at the ground, the undo history.  Prints PASS/FAIL lines.
 import { parse, pointerOffset, lineOf, replaceAt, format, fmtVector, JsonSyntaxError } from "../../server/web/json.js";
 import { cameraOf, orbit, dolly } from "../../server/web/camera.js";
+import { groundHeight, eyeFloor } from "../../server/web/ground.js";
+import { TextHistory, changedRange } from "../../server/web/history.js";
 import { isDeepStrictEqual } from "node:util";
 
 const { examples } = await import(process.argv[2]);
@@ -77,6 +80,75 @@ check("orbit_keeps_distance", () => {
   if (!(up < 1 && up > 0.99)) return `pole clamp: cos ${up}`;
   const q = dolly(cam, 0.5);
   return Math.abs(d(q, cam.lookAt) - d(cam.position, cam.lookAt) / 2) < 1e-9 || "dolly";
+});
+check("ground_of_scenes", () => {
+  const cam = cameraOf({ camera: { position: [0, 2, 7], look_at: [0, 1, 0] } });
+  const cases = [
+    [{ objects: [{ type: "plane", point: [0, -0.5, 0], normal: [0, 1, 0] }] }, -0.5],
+    [{ objects: [{ type: "plane" }] }, 0], // the defaults: y = 0, normal +y
+    [{ objects: [{ type: "plane", point: [0, -2, 0], normal: [0, -1, 0] }, { type: "plane", point: [0, -1, 0] }] }, -1],
+    [{ objects: [{ type: "plane", point: [0, 3, 0] }] }, 0], // above look_at: a ceiling, not the ground
+    [{ objects: [{ type: "plane", point: [0, -1, 0], normal: [1, 0, 0] }] }, 0], // a wall
+    [{ objects: [{ type: "plane", point: [0, -1, 0], transform: { translate: [0, 5, 0] } }] }, 0],
+    [{ objects: [] }, 0],
+  ];
+  for (const [scene, want] of cases) {
+    const got = groundHeight(scene, cam);
+    if (Math.abs(got - want) > 1e-12) return `${JSON.stringify(scene)}: ground ${got}, want ${want}`;
+  }
+  const low = cameraOf({ camera: { position: [0, -2, 7], look_at: [0, -3, 0] } });
+  if (groundHeight({}, low) !== -3) return `look_at below 0: ground ${groundHeight({}, low)}`;
+  const zup = cameraOf({ camera: { position: [7, 0, 2], look_at: [0, 0, 1], up: [0, 0, 1] } });
+  const g = groundHeight({ objects: [{ type: "plane", point: [0, 0, -1], normal: [0, 0, 1] }] }, zup);
+  return g === -1 || `z up: ground ${g}`;
+});
+check("orbit_stops_at_the_ground", () => {
+  const scene = { camera: { position: [0, 2, 7], look_at: [0, 1, 0] }, objects: [{ type: "plane" }] };
+  const cam = cameraOf(scene);
+  const floor = eyeFloor(scene, cam);
+  const d = (a, b) => Math.hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]);
+  const under = orbit(cam, 0, -3); // a drag up: the eye goes down and round
+  if (!(under[1] < 0)) return `without a floor the eye should go under: ${under}`;
+  const p = orbit(cam, 0, -3, floor);
+  if (!(p[1] >= floor - 1e-12 && p[1] < floor + 1e-6)) return `with the floor ${floor}: eye at ${p}`;
+  if (Math.abs(d(p, cam.lookAt) - d(cam.position, cam.lookAt)) > 1e-9) return "distance changed";
+  // an eye already under the ground is never lifted, only kept from going lower
+  const below = { ...cam, position: [0, -1, 7] };
+  const q = orbit(below, 0.3, -1, floor);
+  if (Math.abs(q[1] - -1) > 1e-9) return `an eye under the ground moved to ${q}`;
+  // the dolly away from look_at stops at the floor too, and never pushes
+  const low = { ...cam, position: [0, 0.5, 4] };
+  const far = dolly(low, 10, floor);
+  if (!(far[1] >= floor - 1e-12 && far[1] < floor + 1e-6)) return `dolly out: eye at ${far}`;
+  const near = dolly(low, 0.5, floor);
+  return Math.abs(d(near, low.lookAt) - d(low.position, low.lookAt) / 2) < 1e-9 || "dolly in changed";
+});
+check("history_undo_redo_groups", () => {
+  const h = new TextHistory("a");
+  h.record("ab", { kind: "typing", group: "t1" });
+  h.record("abc", { kind: "typing", group: "t1" }); // the same word: one step
+  h.record("abc!", { kind: "camera", group: "m1", label: "paper" });
+  h.record("abc!!", { kind: "camera", group: "m1", label: "paper" }); // the same drag: one step
+  if (h.states.length !== 3) return `${h.states.length} states, want 3`;
+  let u = h.undo();
+  if (u.text !== "abc" || u.kind !== "camera" || u.label !== "") return `undo: ${JSON.stringify(u)}`;
+  // after an undo, the same group makes a new step, never rewrites the one undone to
+  h.record("abcd", { kind: "typing", group: "t1" });
+  if (h.states.length !== 3 || h.canRedo()) return "a change after an undo should drop the redo states";
+  u = h.undo();
+  if (u.text !== "abc") return `second undo: ${u.text}`;
+  const r = h.redo();
+  if (r.text !== "abcd" || r.kind !== "typing") return `redo: ${JSON.stringify(r)}`;
+  if (h.record("abcd")) return "recording the same text is a step";
+  const small = new TextHistory("0", 3);
+  for (let k = 1; k <= 5; k++) small.record(String(k));
+  if (small.states.length !== 3 || small.undo().text !== "4" || small.undo().text !== "3" || small.undo() !== null)
+    return "the limit keeps the newest states";
+  return true;
+});
+check("changed_range", () => {
+  const r = changedRange('{"p": [0, 1, 6]}', '{"p": [0.5, 1, 6]}');
+  return (r.start === 8 && r.end === 10) || JSON.stringify(r);
 });
 check("vector_format", () => fmtVector([1 / 3, -0.00001, 2]) === "[0.3333, 0, 2]" || fmtVector([1 / 3, -0.00001, 2]));
 process.exit(0); // the FAIL lines count

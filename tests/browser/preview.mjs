@@ -413,6 +413,218 @@ try {
     return r;
   });
 
+  // --- the page keeps work: undo of camera moves and examples, autosave, reset -----------------
+  const { examples: EXAMPLES } = await import(join(OUT_DIR, "server/web/examples.js"));
+  const exampleOf = (name) => EXAMPLES.find((e) => e.name === name).text;
+  const editorText = () => page.evaluate(() => window.rayd.editor.value);
+  const canvasBox = () =>
+    page.$eval("#canvas", (c) => {
+      const r = c.getBoundingClientRect();
+      return { x: r.x, y: r.y, w: r.width, h: r.height };
+    });
+  // a drag on the image from (x0, y0) by (dx, dy) css pixels, in steps
+  async function drag(x0, y0, dx, dy, steps = 12) {
+    await page.mouse.move(x0, y0);
+    await page.mouse.down();
+    for (let k = 1; k <= steps; k++) await page.mouse.move(x0 + (dx * k) / steps, y0 + (dy * k) / steps);
+    await page.mouse.up();
+  }
+  async function showScene(text) {
+    const n = await renders(page);
+    await setText(page, text);
+    await page.click("#render");
+    await waitDone(page, n);
+  }
+
+  await check("undo_camera_move", async () => {
+    await showScene(exampleOf("whitted"));
+    const before = await editorText();
+    const box = await canvasBox();
+    let n = await renders(page);
+    await drag(box.x + box.w / 2, box.y + box.h / 2, 150, 40);
+    await waitDone(page, n);
+    const moved = await editorText();
+    if (moved === before) return "the drag did not move the camera";
+    // one Ctrl+Z in the editor undoes the whole drag, and the image follows
+    n = await renders(page);
+    await page.focus("#scene");
+    await page.keyboard.press("Control+z");
+    if ((await editorText()) !== before) return "Ctrl+Z did not restore the camera text of before the drag";
+    await waitDone(page, n);
+    const r = await canvasEqualsServer(page);
+    if (r !== true) return "after the undo: " + r;
+    // and with the focus on the image, Ctrl+Shift+Z redoes it
+    n = await renders(page);
+    await page.focus("#canvas");
+    await page.keyboard.press("Control+Shift+z");
+    if ((await editorText()) !== moved) return "Ctrl+Shift+Z on the image did not redo the move";
+    await waitDone(page, n);
+  });
+
+  const edited = exampleOf("paper").replace('"radius": 0.7', '"radius": 0.75');
+  await check("example_over_edit_is_undoable", async () => {
+    if (edited === exampleOf("paper")) return "could not edit paper.json";
+    await showScene(edited);
+    let n = await renders(page);
+    await page.selectOption("#example", "whitted");
+    await waitDone(page, n);
+    if ((await editorText()) !== exampleOf("whitted")) return "the example was not loaded";
+    const notice = await page.$eval("#notice", (e) => (e.hidden ? "" : e.textContent.replace(/\s+/g, " ").trim()));
+    if (!/Example loaded — Ctrl\+Z to get your scene back/.test(notice)) return `notice "${notice}"`;
+    n = await renders(page);
+    await page.focus("#scene");
+    await page.keyboard.press("Control+z");
+    if ((await editorText()) !== edited) return "Ctrl+Z did not bring the edited scene back";
+    await waitDone(page, n);
+    const menu = await page.$eval("#example", (s) => s.value);
+    const hidden = await page.$eval("#notice", (e) => e.hidden);
+    if (menu !== "paper" || !hidden) return `after the undo the menu shows ${menu}, notice hidden: ${hidden}`;
+    return canvasEqualsServer(page);
+  });
+
+  await check("autosave_restores_after_reload", async () => {
+    // typed, not set: the way people edit
+    await page.focus("#scene");
+    await page.keyboard.press("Control+End");
+    await page.keyboard.type("\n");
+    const text = await editorText();
+    if (text !== edited + "\n") return "typing did not reach the editor";
+    const saved = () => page.evaluate(() => JSON.parse(localStorage.getItem("rayd.scene") || "null"));
+    if (!(await until(async () => ((await saved()) || {}).text === text, 10000))) return "the text was not saved";
+    await page.reload();
+    await waitDone(page, 0);
+    const got = await editorText();
+    const menu = await page.$eval("#example", (s) => s.value);
+    if (got !== text) return "the reloaded page does not show the edited text";
+    return menu === "paper" || `menu shows ${menu}`;
+  });
+
+  await check("reset_to_example_is_undoable", async () => {
+    const text = await editorText();
+    let n = await renders(page);
+    await page.click("#reset");
+    await waitDone(page, n);
+    if ((await editorText()) !== exampleOf("paper")) return "Reset did not load paper.json as it was";
+    if (await page.$eval("#notice", (e) => e.hidden)) return "no notice after replacing edited text";
+    n = await renders(page);
+    await page.click("#notice-undo");
+    if ((await editorText()) !== text) return "the notice's Undo did not bring the edited text back";
+    await waitDone(page, n);
+  });
+
+  // --- Stop: the render in flight ends, on the server too -----------------------------------------
+  await check("stop_cancels_progressive_job", async () => {
+    await showScene(exampleOf("paper"));
+    if (!(await page.$eval("#stop", (b) => b.disabled))) return "Stop enabled with nothing rendering";
+    const sc = JSON.parse(exampleOf("cornell"));
+    sc.render = { ...sc.render, width: 96, height: 72, samples: 8 };
+    await gate(0);
+    try {
+      await setText(page, JSON.stringify(sc, null, 2));
+      const posted = page.waitForResponse((r) => /\/v1\/jobs\?progressive=1$/.test(r.url()), { timeout: 60000 });
+      await page.click("#render");
+      const job = await (await posted).json();
+      if (!(await until(async () => (await gateState()).queued > 0, 60000))) return "the render never reached the server";
+      if (await page.$eval("#stop", (b) => b.disabled)) return "Stop disabled while rendering";
+      await page.click("#stop");
+      let state = "";
+      const gone = await until(async () => {
+        const r = await fetch(`${URL}/v1/jobs/${job.id}`);
+        state = r.status === 404 ? "gone" : (await r.json()).state;
+        return state === "canceled" || state === "gone";
+      }, 60000);
+      if (!gone) return `the job is still ${state}`;
+      const page_ = await page.evaluate(() => [document.body.dataset.state, document.getElementById("stop").disabled]);
+      return (page_[0] === "stopped" && page_[1]) || `page state ${page_[0]}, Stop disabled: ${page_[1]}`;
+    } finally {
+      await gate("open");
+    }
+  });
+  await check("escape_stops_tiles", async () => {
+    const slow = JSON.parse(exampleOf("paper"));
+    slow.render = { ...slow.render, width: 1280, height: 720, samples: 4, seed: 7 };
+    const gone0 = await metric('rayd_canceled_total{reason="client_gone"}');
+    await gate(0);
+    try {
+      await setText(page, JSON.stringify(slow, null, 2));
+      await page.click("#render");
+      await page.waitForFunction(() => /0\/\d+ tiles/.test(document.getElementById("status").textContent), null, {
+        timeout: 60000,
+      });
+      if (!(await until(async () => (await gateState()).queued > 0, 60000))) return "the render never reached the server";
+      await page.focus("#canvas");
+      await page.keyboard.press("Escape");
+      let gone1 = gone0;
+      await until(async () => (gone1 = await metric('rayd_canceled_total{reason="client_gone"}')) > gone0, 60000);
+      if (!(gone1 > gone0)) return `rayd_canceled_total{reason="client_gone"} stayed ${gone0}`;
+      const st = await page.$eval("#status", (e) => e.textContent);
+      return (await page.evaluate(() => document.body.dataset.state)) === "stopped" || `status "${st}"`;
+    } finally {
+      await gate("open");
+    }
+  });
+
+  // --- 1:1: one image pixel per device pixel, at any devicePixelRatio --------------------------
+  await check("one_to_one_view", async () => {
+    await showScene(exampleOf("paper"));
+    const size = () =>
+      page.$eval("#canvas", (c) => {
+        const r = c.getBoundingClientRect();
+        return { w: r.width, h: r.height, iw: c.width, ih: c.height, dpr: devicePixelRatio };
+      });
+    const isOneToOne = (s) => Math.abs(s.w - s.iw / s.dpr) < 0.01 && Math.abs(s.h - s.ih / s.dpr) < 0.01;
+    const fitted = await size();
+    if (isOneToOne(fitted)) return "fitted already 1:1: the case proves nothing";
+    await page.click("#one");
+    const s1 = await size();
+    if (!isOneToOne(s1)) return `1:1 at ratio ${s1.dpr}: ${s1.w} x ${s1.h} for ${s1.iw} x ${s1.ih}`;
+    const cdp = await context.newCDPSession(page);
+    try {
+      // (headless Chromium tells the page of a new ratio only with a new size)
+      await cdp.send("Emulation.setDeviceMetricsOverride", { width: 1400, height: 860, deviceScaleFactor: 2, mobile: false });
+      await page.waitForFunction(() => devicePixelRatio === 2, null, { timeout: 10000 });
+      const ok2 = await until(async () => isOneToOne(await size()), 10000);
+      const s2 = await size();
+      if (!ok2) return `1:1 at ratio 2: ${s2.w} x ${s2.h} for ${s2.iw} x ${s2.ih}`;
+    } finally {
+      // back to the context's own viewport and ratio
+      await cdp.send("Emulation.setDeviceMetricsOverride", { width: 1440, height: 860, deviceScaleFactor: 1, mobile: false });
+      await cdp.detach();
+    }
+    await page.waitForFunction(() => devicePixelRatio === 1, null, { timeout: 10000 });
+    await page.focus("#canvas");
+    await page.keyboard.press("1");
+    const back = await size();
+    const pressed = await page.$eval("#one", (b) => b.getAttribute("aria-pressed"));
+    return (!isOneToOne(back) && pressed === "false") || `key 1 left ${back.w} x ${back.h}, aria-pressed ${pressed}`;
+  });
+
+  // --- the orbit stops at the ground unless asked ------------------------------------------------
+  // Dragging up tilts the eye down (theta grows); from the bottom of the
+  // image to the top is more than enough to reach the floor.
+  await check("orbit_stays_above_ground", async () => {
+    await showScene(exampleOf("whitted")); // a checker plane at y = 0 under look_at [0, 1, 0]
+    const camera = async () => JSON.parse(await editorText()).camera.position;
+    const box = await canvasBox();
+    let n = await renders(page);
+    await drag(box.x + box.w / 2, box.y + box.h - 4, 0, -(box.y + box.h - 8), 20);
+    await waitDone(page, n);
+    const p = await camera();
+    if (!(p[1] > 0)) return `the eye went under the ground: ${p}`;
+    if (!(p[1] < 0.05)) return `the drag did not bring the eye down to the ground: ${p}`;
+    // asked (the box ticked), the same drag goes under
+    await page.check("#under");
+    try {
+      n = await renders(page);
+      await drag(box.x + box.w / 2, box.y + box.h - 4, 0, -(box.y + box.h - 8), 20);
+      await waitDone(page, n);
+    } finally {
+      await page.uncheck("#under");
+    }
+    const q = await camera();
+    return q[1] < 0 || `with "under ground" ticked the eye stayed at ${q}`;
+  });
+
   // --- a rayd with --token-file: the Token field authorizes the page's requests -----------------
   if (process.env.TOKEN_URL)
     await check("token_field", async () => {

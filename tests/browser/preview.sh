@@ -12,7 +12,7 @@ HERE=$RAYD_ROOT/tests/browser
 CHROMIUM=${CHROMIUM:-/usr/bin/chromium}
 
 missing=
-[ -x "$CHROMIUM" ] || missing="$missing chromium ($CHROMIUM; make deps installs Debian's chromium)"
+[ -x "$CHROMIUM" ] || missing="$missing chromium ($CHROMIUM; make test-deps installs Debian's chromium)"
 command -v node >/dev/null 2>&1 || missing="$missing node (Node.js)"
 [ -f "$HERE/node_modules/playwright-core/package.json" ] ||
     missing="$missing playwright-core (make test runs npm ci in tests/browser)"

@@ -14,7 +14,8 @@
 #
 # Then: the stock scenes in scenes/ load and render (exit 0; a centred crop
 # of at most 64 x 64, so that a path-traced scene stays quick), a scene on stdin ("-") gives the same bytes as the file, --region
-# mistakes exit 2 with a clear message, and a missing scene file exits 1.
+# mistakes exit 2 (a usage error) with a clear message, and a missing scene
+# file exits 1.  A bad scene exits 1 (docs: the exit status of the tools).
 #
 # One line per case: "PASS name" or "FAIL name: why".  Every run has a time
 # limit, so a hang is a FAIL, not a stuck suite.
@@ -159,7 +160,7 @@ fi
 rm -f "$T/x.png"
 printf '{"objects": [{"type": "sphere", "radius": -1}]}' | "$R" - -o "$T/x.png" 2>"$T/stderr"
 rc=$?
-if [ $rc -eq 2 ] && grep -qxF "error: /objects/0/radius: must be > 0" "$T/stderr" && [ ! -e "$T/x.png" ]; then
+if [ $rc -eq 1 ] && grep -qxF "rayd-render: error: /objects/0/radius: must be > 0" "$T/stderr" && [ ! -e "$T/x.png" ]; then
     echo "PASS cli-bad-scene-from-stdin"
 else
     echo "FAIL cli-bad-scene-from-stdin: exit $rc; stderr: $(oneline "$T/stderr")"
@@ -178,15 +179,15 @@ region_err() {
         echo "FAIL $name: --region '$region': exit $rc, png $([ -e "$T/x.png" ] && echo written || echo none); stderr: $(oneline "$T/stderr"); want: $want"
     fi
 }
-SYNTAX="rayd-render: --region takes X,Y,W,H (four integers)"
-region_err cli-region-x-past-width 64,0,1,1 "error: --region x: must be in 0..63 (the image is 64 wide)"
-region_err cli-region-x-negative -1,0,8,8 "error: --region x: must be in 0..63 (the image is 64 wide)"
-region_err cli-region-y-past-height 0,48,1,1 "error: --region y: must be in 0..47 (the image is 48 high)"
-region_err cli-region-w-too-wide 60,0,8,8 "error: --region w: must be in 1..4 (x + w may not pass the width 64)"
-region_err cli-region-h-too-high 0,40,8,9 "error: --region h: must be in 1..8 (y + h may not pass the height 48)"
-region_err cli-region-w-zero 0,0,0,8 "error: --region w: must be in 1..64 (x + w may not pass the width 64)"
-region_err cli-region-w-negative 0,0,-8,8 "error: --region w: must be in 1..64 (x + w may not pass the width 64)"
-region_err cli-region-empty-at-offset 5,5,0,0 "rayd-render: --region needs W and H > 0"
+SYNTAX="rayd-render: error: --region takes X,Y,W,H (four integers)"
+region_err cli-region-x-past-width 64,0,1,1 "rayd-render: error: --region x: must be in 0..63 (the image is 64 wide)"
+region_err cli-region-x-negative -1,0,8,8 "rayd-render: error: --region x: must be in 0..63 (the image is 64 wide)"
+region_err cli-region-y-past-height 0,48,1,1 "rayd-render: error: --region y: must be in 0..47 (the image is 48 high)"
+region_err cli-region-w-too-wide 60,0,8,8 "rayd-render: error: --region w: must be in 1..4 (x + w may not pass the width 64)"
+region_err cli-region-h-too-high 0,40,8,9 "rayd-render: error: --region h: must be in 1..8 (y + h may not pass the height 48)"
+region_err cli-region-w-zero 0,0,0,8 "rayd-render: error: --region w: must be in 1..64 (x + w may not pass the width 64)"
+region_err cli-region-w-negative 0,0,-8,8 "rayd-render: error: --region w: must be in 1..64 (x + w may not pass the width 64)"
+region_err cli-region-empty-at-offset 5,5,0,0 "rayd-render: error: --region needs W and H > 0"
 region_err cli-region-three-numbers 1,2,3 "$SYNTAX"
 region_err cli-region-five-numbers 0,0,8,8,8 "$SYNTAX"
 region_err cli-region-letters a,b,c,d "$SYNTAX"
@@ -217,7 +218,7 @@ fi
 rm -f "$T/x.png"
 "$R" "$T/no-such-scene.json" -o "$T/x.png" 2>"$T/stderr"
 rc=$?
-want="error: cannot open $T/no-such-scene.json: No such file or directory"
+want="rayd-render: error: cannot open $T/no-such-scene.json: No such file or directory"
 if [ $rc -eq 1 ] && grep -qxF -- "$want" "$T/stderr" && [ ! -e "$T/x.png" ]; then
     echo "PASS cli-missing-scene-file"
 else

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # cli_real_meshes.sh -- mesh files others made, from Debian's
-# assimp-testmodels (make deps installs it): every PLY there is either a
+# assimp-testmodels (make test-deps installs it): every PLY there is either a
 # mesh rayd loads and shows (its render differs from the empty scene's) or
 # a point cloud refused as one, with the JSON Pointer of the file; Blender
 # 2.4x's header line without "comment" (Wuson.ply) is read as a comment.
@@ -8,7 +8,7 @@ source "$(dirname "$0")/lib/common.sh"
 DIR=/usr/share/assimp/models/PLY
 PNGCMP=$RAYD_BUILD/tests/tools/pngcmp
 if [ ! -d "$DIR" ]; then
-    fail assimp_testmodels "missing $DIR (make deps installs assimp-testmodels)"
+    fail assimp_testmodels "missing $DIR (make test-deps installs assimp-testmodels)"
     exit 1
 fi
 

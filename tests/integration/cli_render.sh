@@ -81,7 +81,7 @@ for lv in default 0 1 6 9; do
     fi
     "$CMP" "$T/full1.png" "$T/lv$lv.png" 2>"$T/err" || { all_ok=0; bad "cli-png-level-$lv-pixels" "$(cat "$T/err")"; }
 done
-command -v pngcheck >/dev/null || { all_ok=0; bad cli-pngcheck "pngcheck missing (make deps installs it)"; }
+command -v pngcheck >/dev/null || { all_ok=0; bad cli-pngcheck "pngcheck missing (make test-deps installs it)"; }
 [ $all_ok = 1 ] && ok cli-png-levels-valid
 s0=$(stat -c %s "$T/lv0.png") s9=$(stat -c %s "$T/lv9.png")
 if [ "$s9" -lt "$s0" ]; then ok cli-png-level-honoured; else bad cli-png-level-honoured "level 9 $s9 bytes, level 0 $s0"; fi
@@ -91,7 +91,7 @@ check_usage cli-no-scene "no scene given" -o "$T/x.png"
 check_usage cli-bad-threads "--threads takes an integer" "$scene" -o "$T/x.png" --threads zero
 check_usage cli-bad-region-syntax "--region takes X,Y,W,H" "$scene" -o "$T/x.png" --region 1,2,3
 check_usage cli-region-outside "error: --region w: must be in 1..10" "$scene" -o "$T/x.png" --region 150,0,20,20
-check_usage cli-unknown-option "unknown option --fast" "$scene" -o "$T/x.png" --fast
+check_usage cli-unknown-option "rayd-render: error: unknown option '--fast'" "$scene" -o "$T/x.png" --fast
 check_usage cli-bad-png-level "--png-level takes an integer in 0..9" "$scene" -o "$T/x.png" --png-level 10
 if [ ! -e "$T/x.png" ]; then ok cli-no-file-on-error; else bad cli-no-file-on-error "a PNG was written"; fi
 

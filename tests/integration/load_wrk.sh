@@ -6,7 +6,7 @@
 # same for 60 s and reports latency: bench/http.sh.)
 source "$(dirname "$0")/lib/common.sh"
 if ! command -v wrk >/dev/null; then
-    check wrk_installed "wrk is missing (make deps installs it)" false
+    check wrk_installed "wrk is missing (make test-deps installs it)" false
     exit 0
 fi
 python3 - "$T/scene.json" <<'PY'

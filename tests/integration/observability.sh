@@ -127,7 +127,7 @@ version=$("$RAYD" --version | awk '{print $2}')
 check build_info "no rayd_build_info for $version" \
     grep -Eq "^rayd_build_info\\{version=\"$version\",compiler=\"(gcc|clang) [^\"]+\"\\} 1\$" "$T/metrics.txt"
 check buckets_to_3600 "no le=\"3600\" on the render histogram" \
-    bash -c "grep -q '^rayd_render_seconds_bucket{le=\"3600\"}' '$T/metrics.txt' && grep -q '^rayd_queue_wait_seconds_bucket{le=\"3600\"}' '$T/metrics.txt'"
+    bash -c "grep -q '^rayd_render_seconds_bucket{le=\"3600\"}' '$T/metrics.txt' && grep -q '^rayd_queue_wait_seconds_bucket{class=\"bulk\",le=\"3600\"}' '$T/metrics.txt'"
 check process_metrics "implausible process_* values" python3 - "$T/metrics.txt" "$RAYD_PID" "$T_STARTED" "$now" \
     "$ticks_before" "$ticks_after" "$(getconf CLK_TCK)" <<'PY'
 import sys
@@ -263,7 +263,7 @@ check readyz_503_when_full "status $code" [ "$code" = 503 ]
 req GET /nope -H 'X-Request-Id: lvl-404' >/dev/null
 code=$(req GET /metrics)
 check buckets_past_3600 "no le=3600 then le=7200" \
-    bash -c "grep -q '^rayd_queue_wait_seconds_bucket{le=\"3600\"}' '$T/body' && grep -q '^rayd_queue_wait_seconds_bucket{le=\"7200\"}' '$T/body'"
+    bash -c "grep -q '^rayd_queue_wait_seconds_bucket{class=\"bulk\",le=\"3600\"}' '$T/body' && grep -q '^rayd_queue_wait_seconds_bucket{class=\"bulk\",le=\"7200\"}' '$T/body'"
 req DELETE "/v1/jobs/$job" >/dev/null
 gate open
 stop_rayd TERM

@@ -3,7 +3,9 @@
 #
 # Starts three `rayd --port 0` on 127.0.0.1 and Debian's nginx on a free
 # loopback port with docker/nginx.conf itself (its "# @node" and "# @listen"
-# lines and its paths rewritten for a temporary folder), then checks that
+# lines and its paths rewritten for a temporary folder by lib/nginx.sh;
+# tests/integration/balancer.sh checks busy nodes, jobs and the cache key
+# through it), then checks that
 # rayd-client's stitched frames equal rayd-render's pixels through nginx and
 # with the servers as a list, that tiles spread over every node (from each
 # node's /metrics), that a node learns a scene once, that nginx caches the
@@ -19,7 +21,7 @@ PNGCMP=$RAYD_BUILD/tests/tools/pngcmp
 NGINX=$(command -v nginx || echo /usr/sbin/nginx)
 [ -x "$CLIENT" ] || { echo "FAIL setup: $CLIENT missing"; exit 1; }
 [ -x "$PNGCMP" ] || { echo "FAIL setup: $PNGCMP missing (make test builds it)"; exit 1; }
-[ -x "$NGINX" ] || { echo "FAIL setup: nginx missing (make deps installs it)"; exit 1; }
+[ -x "$NGINX" ] || { echo "FAIL setup: nginx missing (make test-deps installs it)"; exit 1; }
 
 # --- three nodes ---------------------------------------------------------------
 NODE_PID=() NODE_URL=()
@@ -50,21 +52,10 @@ node_tiles() { # tiles answered by node I: GET image 200 + POST render 200
 
 # --- nginx with docker/nginx.conf ------------------------------------------------
 NG=$T/nginx
-mkdir -p "$NG/cache" "$NG/log"
 NGPORT=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
-nodes_conf=""
-for i in 1 2 3; do
-    nodes_conf+="        server ${NODE_URL[$i]#http://} max_fails=1 fail_timeout=5s;\n"
-done
-awk -v nodes="$nodes_conf" -v port="$NGPORT" '
-    /^ *server .*# @node/ { if (!innode) printf "%s", nodes; innode = 1; next }
-                { innode = 0 }
-    /^ *listen .*# @listen/ { print "        listen 127.0.0.1:" port ";"; next }
-                { print }' "$RAYD_ROOT/docker/nginx.conf" |
-    sed -e "s#/var/cache/nginx#$NG/cache#g" -e "s#/var/log/nginx#$NG/log#g" \
-        -e "s#/var/run/nginx.pid#$NG/nginx.pid#g" >"$NG/nginx.conf"
-ngopts="daemon off;"
-[ "$(id -u)" = 0 ] && ngopts+=" user root;"
+source "$RAYD_ROOT/tests/integration/lib/nginx.sh"
+nginx_conf "$RAYD_ROOT" "$NG" "$NGPORT" "${NODE_URL[1]#http://}" "${NODE_URL[2]#http://}" "${NODE_URL[3]#http://}"
+ngopts=$(nginx_opts)
 if ! "$NGINX" -t -q -p "$NG" -c "$NG/nginx.conf" -e "$NG/log/error.log" -g "$ngopts" 2>"$T/nginx-t.err"; then
     echo "FAIL nginx_conf_valid: $(head -c 400 "$T/nginx-t.err")"
     exit 1
@@ -237,7 +228,7 @@ client samples_list_exr render "$T/s.json" -o "$T/s_list.exr" --split-samples 12
     --server "${NODE_URL[1]}" --server "${NODE_URL[2]}" --server "${NODE_URL[3]}"
 check samples_list_exr_identical "exit $RC" bash -c "[ $RC = 0 ] && cmp -s '$T/s_list.exr' '$T/s_ref.exr'"
 client samples_bad render "$T/s.json" -o "$T/s_bad.png" --split-samples 0 --server "$LB"
-check samples_bad_option "exit $RC: $(head -c 200 "$T/samples_bad.err")" [ "$RC" = 64 ]
+check samples_bad_option "exit $RC: $(head -c 200 "$T/samples_bad.err")" [ "$RC" = 2 ]
 
 # --- SIGKILL of a node mid-frame -----------------------------------------------------
 # kill_mid_frame NAME NODE SCENE SERVERS...: renders in the background, kills
@@ -298,7 +289,7 @@ scene "$T/d.json" 200 150 1 spheres 6
 t0=$(date +%s)
 client down_list render "$T/d.json" -o "$T/d.png" --server "${NODE_URL[1]}" --server "${NODE_URL[2]}" --server "${NODE_URL[3]}"
 t1=$(date +%s)
-check down_list_exit "exit $RC" [ "$RC" = 2 ]
+check down_list_exit "exit $RC" [ "$RC" = 1 ]
 check down_list_message "stderr: $(tail -n 2 "$T/down_list.err" | head -c 300)" \
     bash -c "grep -q 'incomplete image, nothing written to .*: 4 of 4 tiles missing: x=0 y=0 w=128 h=128' '$T/down_list.err' && grep -q 'last error: .*onnect' '$T/down_list.err'"
 check down_list_no_file "an image was written" [ ! -e "$T/d.png" -a ! -e "$T/d.png.part" ]
@@ -307,7 +298,7 @@ check down_list_no_file "an image was written" [ ! -e "$T/d.png" -a ! -e "$T/d.p
 check down_list_quick "took $((t1 - t0)) s" [ $((t1 - t0)) -le 90 ]
 client down_nginx render "$T/d.json" -o "$T/d.png" --server "$LB"
 check down_nginx_exit "exit $RC: $(tail -n 2 "$T/down_nginx.err" | head -c 300)" \
-    bash -c "[ $RC = 2 ] && grep -q 'tiles missing' '$T/down_nginx.err' && [ ! -e '$T/d.png' ]"
+    bash -c "[ $RC = 1 ] && grep -q 'tiles missing' '$T/down_nginx.err' && [ ! -e '$T/d.png' ]"
 
 # --- stop nginx; sanitizer reports of the nodes (SANITIZE=1) ----------------------------
 kill -QUIT "$NGINX_PID" 2>/dev/null

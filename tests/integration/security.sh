@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # security.sh -- --token-file (401 without or with a wrong bearer token on
-# every route but /healthz and /readyz), and the --cors-origin allow-list
+# every route but /healthz, /readyz, the preview page and OPTIONS), and the --cors-origin allow-list
 # with OPTIONS preflight.
 source "$(dirname "$0")/lib/common.sh"
 

@@ -1,0 +1,186 @@
+#!/usr/bin/env bash
+# cli_conventions.sh -- the one command-line convention of rayd, rayd-render
+# and rayd-client (README: "Command-line conventions"):
+#
+#   - --help exits 0 and prints to stdout, ending with the exit statuses;
+#   - --version prints "PROGRAM VERSION";
+#   - "--opt=value" is "--opt value" (the same bytes, the same server);
+#   - an unknown option exits 2 with "PROGRAM: error: ..." on stderr, a
+#     runtime failure exits 1 with the same prefix (and the message keeps its
+#     JSON Pointer);
+#   - "-o -" writes the image to stdout, byte for byte the "-o FILE" image,
+#     and nothing else goes to stdout;
+#   - "--threads 0" means every core (rayd's /readyz shows the workers);
+#   - rayd-render's progress line is drawn on a terminal (a pseudo-terminal
+#     made by python3's pty), cleared at the end, and absent with --quiet or
+#     when stderr is not a terminal.
+source "$(dirname "$0")/lib/common.sh"
+
+CLIENT=$RAYD_BUILD/rayd-client
+CORES=$(getconf _NPROCESSORS_ONLN)
+scene "$T/s.json" 96 64 1 spheres # 3 x 2 tiles of 32 pixels
+"$RENDER" "$T/s.json" -o "$T/ref.png" --threads 2 2>"$T/ref.err" ||
+    fail setup "rayd-render: $(cat "$T/ref.err")"
+
+# run NAME PROGRAM ARGS...: stdout in $T/NAME.out, stderr in $T/NAME.err,
+# the exit status in RC.
+run() {
+    local name=$1; shift
+    timeout 120 "$@" >"$T/$name.out" 2>"$T/$name.err" </dev/null
+    RC=$?
+}
+first_err() { head -n 1 "$T/$1.err"; }
+
+# --- --help, --version, a bad option: the same for all three ------------------
+for prog in rayd rayd-render rayd-client; do
+    bin=$RAYD_BUILD/$prog
+    run help "$bin" --help
+    check "${prog}_help" "exit $RC, stderr '$(first_err help)'" bash -c \
+        "[ $RC = 0 ] && [ ! -s '$T/help.err' ] && grep -q '^usage: $prog' '$T/help.out' &&
+         tail -n 3 '$T/help.out' | tr '\\n' ' ' | grep -q 'Exit status: 0 .*2 usage error'"
+    check "${prog}_help_opt_equals" "--help does not say --opt=value" \
+        grep -qF "'--opt value' or '--opt=value'" "$T/help.out"
+    run version "$bin" --version
+    check "${prog}_version" "exit $RC: '$(cat "$T/version.out")'" bash -c \
+        "[ $RC = 0 ] && [ \$(wc -l <'$T/version.out') = 1 ] && grep -Eq '^$prog [0-9][0-9A-Za-z.+~-]*\$' '$T/version.out'"
+    run badopt "$bin" --no-such-option
+    want="$prog: error: unknown option '--no-such-option'"
+    check "${prog}_bad_option" "exit $RC, stderr '$(first_err badopt)'" bash -c \
+        '[ "$1" = 2 ] && [ "$(head -n 1 "$2")" = "$3" ] && [ ! -s "$4" ]' _ \
+        "$RC" "$T/badopt.err" "$want" "$T/badopt.out"
+    run badval "$bin" --threads=many
+    check "${prog}_bad_value_equals" "exit $RC, stderr '$(first_err badval)'" bash -c \
+        "[ $RC = 2 ] && grep -q '^$prog: error: .*threads' '$T/badval.err'"
+    run noval "$bin" --threads
+    check "${prog}_missing_value" "exit $RC, stderr '$(first_err noval)'" bash -c \
+        "[ $RC = 2 ] && grep -q '^$prog: error: .*threads' '$T/noval.err'"
+done
+
+# --- rayd-render --------------------------------------------------------------
+run r_eq "$RENDER" "$T/s.json" --output="$T/eq.png" --threads=0 --region=0,0,64,32 --png-level=6
+run r_sp "$RENDER" "$T/s.json" --output "$T/sp.png" --threads 0 --region 0,0,64,32 --png-level 6
+check render_opt_equals "exit $RC, $(first_err r_eq)" bash -c \
+    "[ $RC = 0 ] && [ -s '$T/eq.png' ] && cmp -s '$T/eq.png' '$T/sp.png'"
+run r_t0 "$RENDER" "$T/s.json" -o "$T/t0.png" --threads 0
+check render_threads_0 "exit $RC: $(first_err r_t0)" bash -c "[ $RC = 0 ] && cmp -s '$T/t0.png' '$T/ref.png'"
+run r_stdout "$RENDER" "$T/s.json" -o - --threads 2
+check render_stdout "exit $RC or stdout is not the -o FILE bytes" bash -c \
+    "[ $RC = 0 ] && cmp -s '$T/r_stdout.out' '$T/ref.png' && [ ! -e ./- ] && [ ! -s '$T/r_stdout.err' ]"
+run r_exr "$RENDER" "$T/s.json" -o - --format exr
+"$RENDER" "$T/s.json" -o "$T/ref.exr" 2>/dev/null
+check render_stdout_exr "exit $RC" bash -c "[ $RC = 0 ] && cmp -s '$T/r_exr.out' '$T/ref.exr'"
+printf '{"objects": [{"type": "sphere", "radius": -1}]}' >"$T/bad.json"
+run r_bad "$RENDER" "$T/bad.json" -o "$T/bad.png"
+check render_bad_scene_exit_1 "exit $RC, stderr '$(first_err r_bad)'" bash -c \
+    "[ $RC = 1 ] && [ '$(first_err r_bad)' = 'rayd-render: error: /objects/0/radius: must be > 0' ]"
+printf '{"render": {"width": 8,}}' >"$T/bad2.json"
+run r_bad2 "$RENDER" "$T/bad2.json" -o "$T/bad.png"
+check render_bad_json_line_column "exit $RC, stderr '$(first_err r_bad2)'" bash -c \
+    "[ $RC = 1 ] && grep -qx 'rayd-render: error: line 1, column 24: malformed JSON: .*' '$T/r_bad2.err'"
+run r_write "$RENDER" "$T/s.json" -o /nonexistent-dir/x.png
+check render_write_error_exit_1 "exit $RC, stderr '$(first_err r_write)'" bash -c \
+    "[ $RC = 1 ] && grep -q '^rayd-render: error: cannot write /nonexistent-dir/x.png' '$T/r_write.err'"
+
+# --- rayd: --opt=value, --threads 0 (every core), exit 1 when it cannot listen --
+# same_server NAME ARGS...: a rayd with ARGS refuses a 96 x 64 scene (413
+# too_large at --max-pixels 4096) and has one worker per core.
+same_server() {
+    local name=$1; shift
+    start_rayd "$@"
+    local code workers
+    code=$(post_json /v1/render "$T/s.json")
+    req GET /readyz >/dev/null
+    workers=$(jfield "$T/body" workers)
+    check "rayd_${name}" "status $code, workers $workers (cores $CORES)" \
+        bash -c "[ '$code' = 413 ] && [ '$workers' = '$CORES' ]"
+}
+same_server opt_equals --threads=0 --max-pixels=4096
+PORT_IN_USE=$PORT
+run busy "$RAYD" --bind 127.0.0.1 --port "$PORT_IN_USE"
+check rayd_cannot_listen_exit_1 "exit $RC, stderr '$(first_err busy)'" bash -c \
+    "[ $RC = 1 ] && grep -q '^rayd: error: cannot listen' '$T/busy.err'"
+stop_rayd
+same_server opt_space --threads 0 --max-pixels 4096
+run nofile "$RAYD" --port 0 --token-file "$T/no-such-token"
+check rayd_missing_file_exit_1 "exit $RC, stderr '$(first_err nofile)'" bash -c \
+    "[ $RC = 1 ] && grep -q '^rayd: error: --token-file' '$T/nofile.err'"
+stop_rayd
+
+# --- rayd-client ----------------------------------------------------------------
+start_rayd --threads 2
+run c_eq "$CLIENT" render "$T/s.json" --output="$T/c_eq.png" --server="$URL" --tile=32 --threads=0 -q
+check client_opt_equals_and_threads_0 "exit $RC: $(first_err c_eq)" bash -c \
+    "[ $RC = 0 ] && cmp -s '$T/c_eq.png' '$T/ref.png'"
+run c_sp "$CLIENT" --server "$URL" render --tile 32 --threads 0 "$T/s.json" -o "$T/c_sp.png" -q
+check client_opt_space_options_first "exit $RC: $(first_err c_sp)" bash -c \
+    "[ $RC = 0 ] && cmp -s '$T/c_sp.png' '$T/ref.png'"
+run c_out "$CLIENT" render "$T/s.json" -o - --server "$URL" --tile 32
+check client_stdout "exit $RC or stdout is not the image" bash -c \
+    "[ $RC = 0 ] && cmp -s '$T/c_out.out' '$T/ref.png' && [ ! -e ./- ] && grep -q '^rayd-client: wrote standard output' '$T/c_out.err'"
+run c_job "$CLIENT" job "$T/s.json" -o - --server "$URL"
+check client_job_stdout "exit $RC: $(first_err c_job)" bash -c "[ $RC = 0 ] && cmp -s '$T/c_job.out' '$T/ref.png'"
+run c_bad "$CLIENT" render "$T/bad.json" -o "$T/c_bad.png" --server "$URL"
+check client_bad_scene_exit_1 "exit $RC, stderr '$(first_err c_bad)'" bash -c \
+    "[ $RC = 1 ] && grep -q '^rayd-client: error: .*/objects/0/radius: must be > 0' '$T/c_bad.err' && [ ! -e '$T/c_bad.png' ]"
+stop_rayd
+run c_down "$CLIENT" render "$T/s.json" -o "$T/c_down.png" --server "http://127.0.0.1:$PORT" --retries 0 -q
+check client_unreachable_exit_1 "exit $RC, stderr '$(first_err c_down)'" bash -c \
+    "[ $RC = 1 ] && grep -q '^rayd-client: error: incomplete image' '$T/c_down.err' && [ ! -e '$T/c_down.png' ]"
+run c_nocmd "$CLIENT"
+check client_no_command_exit_2 "exit $RC, stderr '$(first_err c_nocmd)'" bash -c \
+    "[ $RC = 2 ] && [ '$(first_err c_nocmd)' = 'rayd-client: error: no command given (render, job or health)' ]"
+
+# --- rayd-render's progress line ---------------------------------------------------
+# on_tty NAME ARGS...: runs rayd-render with stdin, stdout and stderr on a
+# pseudo-terminal; what the terminal received in $T/NAME.tty, exit in RC.
+on_tty() {
+    local name=$1; shift
+    python3 - "$T/$name.tty" "$RENDER" "$@" <<'PY'
+import os, pty, subprocess, sys
+out, argv = sys.argv[1], sys.argv[2:]
+master, slave = pty.openpty()
+p = subprocess.Popen(argv, stdin=slave, stdout=slave, stderr=slave, close_fds=True)
+os.close(slave)
+data = b""
+while True:
+    try:
+        chunk = os.read(master, 65536)
+    except OSError:  # EIO: every writer closed the terminal
+        break
+    if not chunk:
+        break
+    data += chunk
+open(out, "wb").write(data)
+sys.exit(p.wait())
+PY
+    RC=$?
+}
+# A progress line "  N%  D/T tiles  S s[  eta E s]", then cleared: the
+# terminal's last bytes are a carriage return, spaces and a carriage return.
+progress_ok() {
+    python3 - "$1" "$2" <<'PY'
+import re, sys
+d = open(sys.argv[1], "rb").read().decode()
+tiles = sys.argv[2]
+lines = re.findall(r"\r  +\d+%(?:  pass \d+/\d+)?  \d+/" + tiles + r" tiles  [0-9.]+ s", d)
+sys.exit(0 if lines and re.search(r"\r +\r$", d) else 1)
+PY
+}
+on_tty tty "$T/s.json" -o "$T/tty.png" --threads 2
+check progress_on_tty "exit $RC" bash -c "[ $RC = 0 ] && cmp -s '$T/tty.png' '$T/ref.png'"
+check progress_line_drawn_and_cleared "terminal got: $(tr '\r' '|' <"$T/tty.tty" | head -c 300)" \
+    progress_ok "$T/tty.tty" 6
+on_tty ttyq "$T/s.json" -o "$T/ttyq.png" --threads 2 --quiet
+check progress_quiet "exit $RC, terminal got: $(tr '\r' '|' <"$T/ttyq.tty" | head -c 200)" bash -c \
+    "[ $RC = 0 ] && [ ! -s '$T/ttyq.tty' ] && cmp -s '$T/ttyq.png' '$T/ref.png'"
+run notty "$RENDER" "$T/s.json" -o "$T/notty.png" --threads 2
+check progress_not_on_a_pipe "exit $RC, stderr: $(tr '\r' '|' <"$T/notty.err" | head -c 200)" bash -c \
+    "[ $RC = 0 ] && [ ! -s '$T/notty.err' ]"
+# With passes, each pass line starts on a cleared line.
+on_tty ttyp "$T/s.json" -o "$T/ttyp.png" --threads 2 --pass-step 1
+check progress_with_passes "exit $RC, terminal got: $(tr '\r' '|' <"$T/ttyp.tty" | head -c 300)" bash -c \
+    "[ $RC = 0 ] && grep -q 'pass 1/1' '$T/ttyp.tty' && grep -aq \$'\r *\rpass 1: 1 samples' '$T/ttyp.tty'"
+on_tty ttyo "$T/s.json" -o -
+check render_refuses_terminal_stdout "exit $RC, terminal got: $(head -c 200 "$T/ttyo.tty")" bash -c \
+    "[ $RC = 2 ] && grep -aq 'rayd-render: error: -o - writes the image to standard output, which is a terminal' '$T/ttyo.tty'"
+exit 0

@@ -1,0 +1,42 @@
+# lib/nginx.sh -- docker/nginx.conf on loopback, for the tests and benches.
+#
+# nginx_conf ROOT DIR PORT ADDR...: writes DIR/nginx.conf, docker/nginx.conf
+# of ROOT with one "# @node" line per ADDR (host:port) in place of the
+# file's own (keeping that line's parameters, so max_fails and the like are
+# the ones docker/nginx.conf ships), "listen 127.0.0.1:PORT" in place of the
+# "# @listen" line, and DIR/cache, DIR/log and DIR/nginx.pid in place of
+# /var/cache/nginx, /var/log/nginx and /var/run/nginx.pid.  Makes DIR/cache
+# and DIR/log.  Only sourced (bash); no process is started here.
+nginx_conf() {
+    local root=$1 dir=$2 port=$3 addrs
+    shift 3
+    addrs="$*"
+    mkdir -p "$dir/cache" "$dir/log"
+    awk -v addrs="$addrs" -v port="$port" '
+        BEGIN { n = split(addrs, a, " ") }
+        /^ *server .*# @node/ {
+            if (!innode) {
+                line = $0
+                sub(/ *# @node.*$/, "", line)
+                for (i = 1; i <= n; i++) {
+                    l = line
+                    sub(/server [^ ;]+/, "server " a[i], l)
+                    print l " # @node"
+                }
+            }
+            innode = 1
+            next
+        }
+        { innode = 0 }
+        /^ *listen .*# @listen/ { print "        listen 127.0.0.1:" port "; # @listen"; next }
+        { print }' "$root/docker/nginx.conf" |
+        sed -e "s#/var/cache/nginx#$dir/cache#g" -e "s#/var/log/nginx#$dir/log#g" \
+            -e "s#/var/run/nginx.pid#$dir/nginx.pid#g" >"$dir/nginx.conf"
+}
+
+# nginx_opts: the -g directives for a foreground nginx run by this user
+nginx_opts() {
+    local g="daemon off;"
+    [ "$(id -u)" = 0 ] && g+=" user root;"
+    echo "$g"
+}
