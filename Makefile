@@ -29,12 +29,14 @@
 # pngcheck, openexr and g++ (readers that check rayd's PNG and EXR files),
 # assimp-testmodels (real model files), clang and its runtime (make fuzz),
 # valgrind (make test-valgrind), openssl (a certificate for the TLS test),
-# man-db (the man pages rendered).  LINT_PKGS: make lint and make format.
+# man-db (the man pages rendered), python3-prometheus-client (its parser
+# reads /metrics in tests/integration/observability.sh).  LINT_PKGS: make lint and make format.
 # BENCH_PKGS (below): make bench-peers only.
 BUILD_PKGS := gcc make pkg-config libc6-dev libpng-dev zlib1g-dev libisal-dev libcjson-dev \
               libmicrohttpd-dev libcurl4-openssl-dev libssl-dev libopenexr-dev
 TEST_PKGS := curl python3 nginx wrk chromium fonts-dejavu-core pngcheck openexr g++ \
-             assimp-testmodels clang libclang-rt-14-dev valgrind openssl man-db
+             assimp-testmodels clang libclang-rt-14-dev valgrind openssl man-db \
+             python3-prometheus-client
 LINT_PKGS := cppcheck clang-tidy clang-format
 
 # Build on every core unless told otherwise (tests themselves run one by one).

@@ -323,6 +323,7 @@ bool api_scene(struct http_req *r, struct cache_entry **out, bool *hit)
         api_reply_rayd_error(r, &err);
         return false;
     }
+    snprintf(r->scene, sizeof r->scene, "%s", cache_id(*out)); /* for the access log */
     return true;
 }
 

@@ -219,6 +219,12 @@ static cJSON *api_job_json(const char *id, const struct jobs_info *in)
     return o;
 }
 
+/* The job's scene, for the access log. */
+static void api_job_scene(struct http_req *r, const struct jobs_info *info)
+{
+    snprintf(r->scene, sizeof r->scene, "%s", info->scene_id);
+}
+
 void api_jobs_get(struct http_req *r, const char *id)
 {
     struct jobs_info info;
@@ -226,6 +232,7 @@ void api_jobs_get(struct http_req *r, const char *id)
         api_job_unknown(r);
         return;
     }
+    api_job_scene(r, &info);
     http_reply_json(r, 200, api_job_json(id, &info));
 }
 
@@ -236,6 +243,7 @@ void api_jobs_delete(struct http_req *r, const char *id)
         api_job_unknown(r);
         return;
     }
+    api_job_scene(r, &info);
     http_reply_json(r, 200, api_job_json(id, &info));
 }
 
@@ -259,6 +267,7 @@ static void api_jobs_pass_image(struct http_req *r, const char *id, const char *
         api_job_unknown(r);
         return;
     }
+    api_job_scene(r, &info);
     if (!*q || *end || k < 1 || !info.progressive || k > info.passes.total) {
         http_reply_error(r, 400, "bad_parameter",
                          "pass: must be a pass number of this progressive job (1..passes)", NULL,
@@ -291,6 +300,7 @@ void api_jobs_stop(struct http_req *r, const char *id)
         api_job_unknown(r);
         return;
     }
+    api_job_scene(r, &info);
     if (!progressive) {
         http_reply_error(r, 409, "not_progressive",
                          "only a progressive job can be stopped and kept; DELETE cancels a job",
@@ -316,6 +326,7 @@ void api_jobs_image(struct http_req *r, const char *id)
         api_job_unknown(r);
         return;
     }
+    api_job_scene(r, &info);
     if (info.png && (info.state == JS_SUCCEEDED || info.state == JS_RUNNING)) {
         http_reply_png(r, 200, info.png);
         http_reply_header(r, "Cache-Control",

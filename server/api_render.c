@@ -163,7 +163,10 @@ static bool api_etag_match(const char *inm, const char *etag)
 
 void api_scenes_image(struct http_req *r, const char *id)
 {
-    struct cache_entry *e = api_is_hex(id, 64) ? scenes_find(id) : NULL;
+    bool well_formed = api_is_hex(id, 64);
+    if (well_formed) /* for the access log, known to this node or not */
+        snprintf(r->scene, sizeof r->scene, "%s", id);
+    struct cache_entry *e = well_formed ? scenes_find(id) : NULL;
     if (!e) {
         http_reply_error(r, 404, "scene_unknown",
                          "this server does not hold that scene; POST it to /v1/scenes", NULL, 0, 0,
@@ -181,8 +184,7 @@ void api_scenes_image(struct http_req *r, const char *id)
         snprintf(r->etag, sizeof r->etag, "\"%s\"", hex);
     const char *inm = http_req_header(r, "If-None-Match");
     if (inm && api_etag_match(inm, r->etag)) {
-        http_reply_data(r, 304, NULL, "", 0);
-        http_reply_cache_headers(r);
+        http_reply_not_modified(r);
     } else if (sched_draining()) {
         api_refused(r, WORK_DRAINING);
     } else {

@@ -1,7 +1,7 @@
 /* base.h -- the bottom layer of the daemon: options, logging, metrics, the
  * shared PNG blob and the few JSON helpers every upper layer writes with.
  *
- * Layer: base (config.c, log.c, metrics.c, blob.c, json.c).
+ * Layer: base (config.c, log.c, metrics.c, procstat.c, blob.c, json.c).
  * May include: the C library, <rayd/rayd.h> and cJSON -- nothing of
  * server/.  Everything above (work, the HTTP request and reply, handlers,
  * router, transport, main) may include this header.  A base file never
@@ -39,6 +39,7 @@ struct config {
     long cache_mb;       /* compiled scene cache budget */
     long result_cache_mb; /* finished PNG cache budget */
     char *log_format;    /* text | json */
+    char *log_level;     /* debug | info | warn | error: the least severe line written */
     long drain_seconds;  /* grace period on SIGTERM */
     char *cors_origin;   /* comma-separated allow-list, "*" = any */
     long timeout;        /* connection idle timeout, seconds */
@@ -61,6 +62,7 @@ struct config {
     char *token;         /* contents of token_file, trimmed */
     size_t token_len;
     bool log_json;
+    int log_min;          /* enum log_level of --log-level */
     long test_gate_tiles; /* parsed --test-gate: -1 open, -2 off */
 };
 
@@ -82,18 +84,31 @@ void config_free(void);
 
 /* ---- log.c --------------------------------------------------------------- */
 
+enum log_level { LOG_DEBUG, LOG_INFO, LOG_WARN, LOG_ERROR };
+
+/* One finished request.  Strings may be NULL (written "-" or left out);
+ * path is the request-target as the client sent it, query included. */
 struct log_access {
-    const char *method, *path;
-    int status;
+    const char *client, *method, *path;
+    int status;       /* 0: refused by the HTTP parser before a status was known */
     size_t bytes;
-    double queue_ms, render_ms, encode_ms, total_ms;
-    const char *note; /* "client_gone", ... or NULL */
+    double total_ms;
+    bool rendered;    /* queue_ms, render_ms and encode_ms are meaningful */
+    double queue_ms, render_ms, encode_ms;
+    const char *scene;      /* the scene's id, or NULL */
+    const char *request_id; /* X-Request-Id sent back, or NULL */
+    const char *note;       /* "client_gone", ... or NULL */
 };
 
 extern bool log_quiet; /* no output at all (the fuzz harness) */
+/* The level of an access line: info for 1xx-3xx, warn for 4xx (and for
+ * 499, and 0), error for 5xx. */
+enum log_level log_access_level(int status);
 void log_access(const struct log_access *a);
+void log_debug(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 void log_info(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 void log_warn(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+void log_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 double log_now(void); /* monotonic seconds */
 
 /* ---- metrics.c ----------------------------------------------------------- */
@@ -142,8 +157,16 @@ enum metrics_gauge {
     MG__COUNT
 };
 
+/* Sets the duration buckets: the standard ladder from 1 ms, cut at the
+ * longest render allowed (--max-render-seconds; 0 = no limit, up to 3600 s)
+ * and ending exactly at it.  Called once before the first thread starts;
+ * without it the ladder ends at 3600 s. */
+void metrics_start(long max_render_seconds);
+void metrics_free(void); /* at exit: the per-series histograms */
 /* Counters and histograms: pushed by the layer that sees the event. */
-void metrics_request(int route, int status);
+/* A finished request: route label index (-1 none), its method as sent, the
+ * status and the seconds from its first byte to its last. */
+void metrics_request(int route, const char *method, int status, double seconds);
 void metrics_queue_wait(bool interactive, double seconds); /* by class */
 void metrics_render(double seconds);
 void metrics_stage(enum metrics_stage stage, double seconds);
@@ -158,6 +181,17 @@ void metrics_gauge(enum metrics_gauge g, long (*read)(void));
 void metrics_route_name(int route, const char *name); /* label of a route index */
 /* The Prometheus text exposition; malloc'd, *len set. */
 char *metrics_text(size_t *len);
+
+/* ---- procstat.c: the process_* metrics ------------------------------------ */
+
+struct procstat {
+    double cpu_seconds;    /* user + system */
+    double start_time;     /* seconds since the epoch */
+    double resident_bytes, virtual_bytes;
+    double open_fds, max_fds;
+};
+/* Reads /proc; false when some field could not be read (then it is 0). */
+bool procstat_read(struct procstat *p);
 
 /* ---- blob.c -------------------------------------------------------------- */
 

@@ -64,6 +64,8 @@ static const struct config_option config_table[] = {
      "memory for finished PNGs served again without rendering (0 = off)"},
     {"log-format", "RAYD_LOG_FORMAT", CT_STRING, &config.log_format, "text", 0, 0,
      "access log format on stderr: text or json"},
+    {"log-level", "RAYD_LOG_LEVEL", CT_STRING, &config.log_level, "info", 0, 0,
+     "least severe log line written: debug, info, warn or error (4xx is warn, 5xx error)"},
     {"drain-seconds", "RAYD_DRAIN_SECONDS", CT_LONG, &config.drain_seconds, "30", 0, 86400,
      "on SIGTERM/SIGINT, time running renders get before they are cancelled"},
     {"cors-origin", "RAYD_CORS_ORIGIN", CT_STRING, &config.cors_origin, NULL, 0, 0,
@@ -286,6 +288,19 @@ static int config_test_gate(void)
     return 0;
 }
 
+/* --log-level as enum log_level (log.c writes the same words). */
+static int config_log_level(void)
+{
+    static const char *const names[] = {"debug", "info", "warn", "error"};
+    for (int i = 0; i <= LOG_ERROR; i++)
+        if (!strcmp(config.log_level, names[i])) {
+            config.log_min = i;
+            return 0;
+        }
+    fprintf(stderr, "rayd: error: --log-level must be debug, info, warn or error\n");
+    return -1;
+}
+
 /* Defaults, then the environment, then the command line (a flag wins);
  * then the checks that need every option.  An enum config_result. */
 int config_load(int argc, char **argv)
@@ -306,6 +321,8 @@ int config_load(int argc, char **argv)
         return CONFIG_USAGE;
     }
     config.log_json = !strcmp(config.log_format, "json");
+    if (config_log_level())
+        return CONFIG_USAGE;
     if (config.threads == 0) {
         long n = sysconf(_SC_NPROCESSORS_ONLN);
         config.threads = n > 0 ? n : 1;

@@ -93,6 +93,21 @@ static int http_mhd_fd(struct http_req *r)
     return ci ? ci->connect_fd : -1;
 }
 
+/* The peer's address as text ("127.0.0.1", "::1"), for the access log. */
+static void http_client_address(struct MHD_Connection *c, char *buf, size_t size)
+{
+    const union MHD_ConnectionInfo *ci =
+        MHD_get_connection_info(c, MHD_CONNECTION_INFO_CLIENT_ADDRESS);
+    const struct sockaddr *sa = ci ? ci->client_addr : NULL;
+    buf[0] = 0;
+    if (sa && sa->sa_family == AF_INET)
+        inet_ntop(AF_INET, &((const struct sockaddr_in *)(const void *)sa)->sin_addr, buf,
+                  (socklen_t)size);
+    else if (sa && sa->sa_family == AF_INET6)
+        inet_ntop(AF_INET6, &((const struct sockaddr_in6 *)(const void *)sa)->sin6_addr, buf,
+                  (socklen_t)size);
+}
+
 static const struct http_io http_mhd_io = {http_mhd_header,  http_mhd_header_each,
                                            http_mhd_query_each, http_mhd_suspend,
                                            http_mhd_resume, http_mhd_fd};
@@ -114,7 +129,12 @@ static enum MHD_Result http_flush(struct http_req *r)
 static void *http_uri_log(void *cls, const char *uri, struct MHD_Connection *c)
 {
     (void)cls;
-    return http_req_new(&http_mhd_io, c, NULL, NULL, uri ? strlen(uri) : 0);
+    struct http_req *r = http_req_new(&http_mhd_io, c, NULL, NULL, uri ? strlen(uri) : 0);
+    if (r) {
+        http_req_set_target(r, uri);
+        http_client_address(c, r->client, sizeof r->client);
+    }
+    return r;
 }
 
 static enum MHD_Result http_access(void *cls, struct MHD_Connection *c, const char *url,

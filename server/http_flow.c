@@ -1,7 +1,8 @@
 /* http_flow.c -- a request's life from its first header to its last byte,
  * whatever the transport.
  *
- *   begin   headers only.  A request-target over --max-url is 414, an
+ *   begin   headers only.  The request gets its id (X-Request-Id) and its
+ *           route label for the metrics.  A request-target over --max-url is 414, an
  *           ambiguous body length 400 (how requests are smuggled past
  *           proxies), a Content-Length over --max-body 413 -- all before a
  *           byte of the body is read.
@@ -11,7 +12,9 @@
  *   handle  authentication (--token-file), the CORS preflight (OPTIONS), then
  *           the router.  Decided here, before routing, so no handler can
  *           forget them.  The handler replies, or suspends the request.
- *   end     the access log line and the request metrics, then free.
+ *   end     the access log line (client, method, target with its query,
+ *           status, bytes, times, scene, request id) and the request
+ *           metrics (route pattern, method, code, duration), then free.
  *
  * libmicrohttpd (http.c) and the fuzz harness drive the same four calls, so
  * the fuzzer exercises exactly the code that serves.  Handlers are reached
@@ -57,7 +60,7 @@ static void http_flow_options(struct http_req *r)
     if (http_reply_cors_origin(r)) {
         http_reply_header(r, "Access-Control-Allow-Methods", allow);
         http_reply_header(r, "Access-Control-Allow-Headers",
-                          "Authorization, Content-Type, If-None-Match");
+                          "Authorization, Content-Type, If-None-Match, X-Request-Id");
         http_reply_header(r, "Access-Control-Max-Age", "600");
     }
 }
@@ -101,6 +104,8 @@ static void http_flow_framing_cb(void *u, const char *k, const char *v)
 
 bool http_flow_begin(struct http_req *r)
 {
+    http_req_take_id(r);
+    r->route = router_find(r->url);
     if (r->target_len > (size_t)config.max_url) {
         char msg[128];
         snprintf(msg, sizeof msg, "the request target is over the limit of %ld bytes (--max-url)",
@@ -211,11 +216,12 @@ void http_flow_handle(struct http_req *r)
 
 void http_flow_end(struct http_req *r, const char *note)
 {
+    double total = log_now() - r->t0;
     if (!r->method) {
         /* refused by libmicrohttpd before the handler saw it (bad headers,
          * headers over --max-header-bytes): it answered by itself */
-        struct log_access a = {"-", "-", 0, 0, 0, 0, 0, (log_now() - r->t0) * 1e3,
-                               "refused_by_http_parser"};
+        struct log_access a = {.client = r->client, .path = r->target, .total_ms = total * 1e3,
+                               .note = "refused_by_http_parser"};
         log_access(&a);
         http_req_free(r);
         return;
@@ -228,12 +234,24 @@ void http_flow_end(struct http_req *r, const char *note)
         if (!note)
             note = "client_gone";
     }
-    metrics_request(r->route, status);
+    metrics_request(r->route, r->method, status, total);
     if (r->is_png && r->t_sent > 0 && status == 200)
         metrics_stage(MS_SEND, log_now() - r->t_sent);
-    struct log_access a = {r->method,    r->url,       status,
-                           r->bytes,     r->queue_ms,  r->render_ms,
-                           r->encode_ms, (log_now() - r->t0) * 1e3, note};
+    struct log_access a = {
+        .client = r->client,
+        .method = r->method,
+        .path = r->target ? r->target : r->url,
+        .status = status,
+        .bytes = strcmp(r->method, "HEAD") ? r->bytes : 0, /* no body goes out */
+        .total_ms = total * 1e3,
+        .rendered = r->queue_ms > 0 || r->render_ms > 0 || r->encode_ms > 0,
+        .queue_ms = r->queue_ms,
+        .render_ms = r->render_ms,
+        .encode_ms = r->encode_ms,
+        .scene = r->scene,
+        .request_id = r->request_id,
+        .note = note,
+    };
     log_access(&a);
     http_req_free(r);
 }

@@ -10,6 +10,18 @@
  * {"error": {"status", "code", "message", "path"?, "line"?, "column"?,
  * "parameter"?}}.  PNGs are sent from the shared blob without a copy; the
  * response holds a reference, dropped by libmicrohttpd when it is done.
+ * Every reply carries the request's X-Request-Id.
+ *
+ * A 304 has no body, and RFC 9110 (section 8.6) forbids a Content-Length
+ * other than the one the 200 would have had -- which rayd does not know
+ * without rendering.  libmicrohttpd (0.9.75 as in Debian 12, and later)
+ * writes "Content-Length: <size of the response's body>" on a 304, so an
+ * empty buffer would say 0, and a body of unknown size would say
+ * "Transfer-Encoding: chunked".  http_reply_not_modified therefore answers
+ * with a body of unknown size under MHD_RF_HTTP_1_0_COMPATIBLE_STRICT: no
+ * chunking, so neither header is written; the price is that libmicrohttpd
+ * then closes the connection after the 304 ("Connection: close"), one new
+ * connection per revalidation.
  */
 #include "request.h"
 
@@ -48,9 +60,11 @@ void http_reply(struct http_req *r, unsigned status, struct MHD_Response *resp)
     if (origin) {
         MHD_add_response_header(resp, "Access-Control-Allow-Origin", origin);
         MHD_add_response_header(resp, "Access-Control-Expose-Headers",
-                                "ETag, Location, Retry-After, Content-Length");
+                                "ETag, Location, Retry-After, Content-Length, X-Request-Id");
     }
     MHD_add_response_header(resp, "X-Content-Type-Options", "nosniff");
+    if (r->request_id[0])
+        MHD_add_response_header(resp, "X-Request-Id", r->request_id);
     r->pending = resp;
     if (origin && strcmp(origin, "*"))
         http_reply_vary(r, "Origin");
@@ -162,6 +176,30 @@ void http_reply_error(struct http_req *r, unsigned status, const char *code, con
         http_reply_header(r, MHD_HTTP_HEADER_WWW_AUTHENTICATE, "Bearer realm=\"rayd\"");
     if (status == 413 && !r->body && r->body_len == 0)
         http_reply_header(r, MHD_HTTP_HEADER_CONNECTION, "close");
+}
+
+/* The body of a 304: none (never called for a 304, which sends no body). */
+static ssize_t http_reply_no_body(void *cls, uint64_t pos, char *buf, size_t max)
+{
+    (void)cls;
+    (void)pos;
+    (void)buf;
+    (void)max;
+    return MHD_CONTENT_READER_END_OF_STREAM;
+}
+
+void http_reply_not_modified(struct http_req *r)
+{
+    struct MHD_Response *resp =
+        MHD_create_response_from_callback(MHD_SIZE_UNKNOWN, 64, http_reply_no_body, NULL, NULL);
+    if (resp &&
+        MHD_set_response_options(resp, MHD_RF_HTTP_1_0_COMPATIBLE_STRICT, MHD_RO_END) != MHD_YES) {
+        MHD_destroy_response(resp);
+        resp = NULL;
+    }
+    r->bytes = 0;
+    http_reply(r, 304, resp);
+    http_reply_cache_headers(r);
 }
 
 /* One Vary line for the reply: nginx up to 1.22 reads only the last Vary

@@ -12,12 +12,23 @@
  * at any time; r->parked tells the thread that ran the handler that r is no
  * longer its own.  The counts of requests in flight and suspended are what
  * main.c's drain waits on, and the suspended count is a gauge.
+ *
+ * Every request gets an id, sent back as X-Request-Id and written in its
+ * access line, so a client's report, a proxy's log and rayd's line can be
+ * matched.  A sane id the client (or a proxy in front) sent is kept; else
+ * one is made: a random 64-bit prefix drawn once per process, then a
+ * bijective mix of a counter, so no two requests of a process share an id
+ * and ids of two processes differ with overwhelming likelihood.
  */
 #include "request.h"
 
 #include <microhttpd.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/random.h>
+#include <time.h>
+#include <unistd.h>
 
 static atomic_long http_req_nsuspended, http_req_ninflight;
 static atomic_long http_req_last_ms; /* when the latest request came, log_now() in ms */
@@ -48,10 +59,70 @@ void http_req_free(struct http_req *r)
 {
     if (r->pending)
         MHD_destroy_response(r->pending);
+    free(r->target);
     free(r->body);
     free(r);
     atomic_fetch_sub(&http_req_ninflight, 1);
 }
+
+void http_req_set_target(struct http_req *r, const char *target)
+{
+    free(r->target);
+    r->target = target ? strndup(target, 2048) : NULL;
+}
+
+/* ---- request ids ---------------------------------------------------------- */
+
+static uint64_t http_req_seed[2];
+static pthread_once_t http_req_seed_once = PTHREAD_ONCE_INIT;
+static atomic_ullong http_req_counter;
+
+static void http_req_seed_init(void)
+{
+    if (getrandom(http_req_seed, sizeof http_req_seed, 0) != (ssize_t)sizeof http_req_seed) {
+        /* no entropy source: time and pid still tell processes apart */
+        struct timespec ts;
+        clock_gettime(CLOCK_REALTIME, &ts);
+        http_req_seed[0] = (uint64_t)ts.tv_sec * 1000000000u + (uint64_t)ts.tv_nsec;
+        http_req_seed[1] = (uint64_t)getpid() << 32 ^ http_req_seed[0];
+    }
+}
+
+/* splitmix64's finaliser: a bijection, so distinct counters give distinct ids. */
+static uint64_t http_req_mix(uint64_t z)
+{
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    return z ^ (z >> 31);
+}
+
+static bool http_req_id_sane(const char *id)
+{
+    size_t n = 0;
+    for (; id[n]; n++) {
+        char c = id[n];
+        if (n >= 64 || !((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
+                         (c >= '0' && c <= '9') || strchr("-_.:+/=@", c)))
+            return false;
+    }
+    return n > 0;
+}
+
+void http_req_take_id(struct http_req *r)
+{
+    const char *id = http_req_header(r, "X-Request-Id");
+    if (id && http_req_id_sane(id)) {
+        snprintf(r->request_id, sizeof r->request_id, "%s", id);
+        return;
+    }
+    pthread_once(&http_req_seed_once, http_req_seed_init);
+    uint64_t n = atomic_fetch_add(&http_req_counter, 1);
+    snprintf(r->request_id, sizeof r->request_id, "%016llx%016llx",
+             (unsigned long long)http_req_seed[0],
+             (unsigned long long)http_req_mix(http_req_seed[1] + n));
+}
+
+/* ---- headers and query ------------------------------------------------------ */
 
 const char *http_req_header(struct http_req *r, const char *name)
 {

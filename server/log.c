@@ -2,11 +2,23 @@
  *
  * Everything goes to stderr, one line per event, so stdout carries only the
  * "rayd listening on ..." line a supervisor or test reads.  An access line is
- * written when a request is complete: method, path, status, body bytes,
- * milliseconds waiting in the queue, rendering, encoding, in all.
- * --log-format json writes the same fields as one JSON object a line, built
- * by cJSON so a client's path can never break the line.  stdio's own
- * per-stream lock keeps lines whole; the server adds no lock of its own.
+ * written when a request is complete, with what an operator greps for:
+ *
+ *   time (RFC 3339, UTC, milliseconds), level, client address, method, the
+ *   request-target as sent (path and query: a tile's region is in it),
+ *   status, body bytes, [queue_ms render_ms encode_ms when it rendered],
+ *   total_ms, [scene=<id>], request_id=<X-Request-Id>, [note=<why>]
+ *
+ * The level follows the status: info up to 3xx, warn for 4xx (499, a client
+ * that left, included), error for 5xx, so --log-level warn keeps the
+ * refusals and failures and drops the traffic.  --log-format json writes
+ * the same fields as one JSON object a line, built by cJSON.  A client's
+ * bytes never break a line: in the path and the method, controls, spaces,
+ * DEL and every byte over 0x7e are written %XX (a request-target is ASCII
+ * by RFC 9112, so what a client sent right reads unchanged), which keeps a
+ * text line one line of space-separated fields and a JSON line valid UTF-8;
+ * cJSON escapes the quotes and backslashes.  stdio's own per-stream lock
+ * keeps lines whole; the server adds no lock of its own.
  *
  * Layer: base.  Every layer logs; log.c calls nothing above it (config is
  * base too), so it can never be part of a call cycle.
@@ -38,6 +50,53 @@ static void log_stamp(char *buf, size_t size)
 
 bool log_quiet;
 
+/* The words of --log-level (config.c parses them), in enum log_level order. */
+static const char *const log_names[] = {"debug", "info", "warn", "error"};
+
+/* config.log_min is set once before the first thread starts. */
+static bool log_on(enum log_level level)
+{
+    return !log_quiet && (int)level >= config.log_min;
+}
+
+enum log_level log_access_level(int status)
+{
+    if (status >= 500)
+        return LOG_ERROR;
+    if (status >= 400 || status < 100)
+        return LOG_WARN;
+    return LOG_INFO;
+}
+
+/* s as one field: controls, space, DEL and non-ASCII bytes as %XX; "-" for
+ * none; cut with "..." to fit size. */
+static const char *log_field(const char *s, char *buf, size_t size)
+{
+    static const char hex[] = "0123456789ABCDEF";
+    if (!s || !*s)
+        return "-";
+    size_t n = 0;
+    for (; *s; s++) {
+        unsigned char c = (unsigned char)*s;
+        bool plain = c > 0x20 && c < 0x7f;
+        if (n + (plain ? 1 : 3) + 4 > size) {
+            memcpy(buf + n, "...", 4);
+            return buf;
+        }
+        if (plain) {
+            buf[n++] = (char)c;
+        } else {
+            buf[n++] = '%';
+            buf[n++] = hex[c >> 4];
+            buf[n++] = hex[c & 15];
+        }
+    }
+    buf[n] = 0;
+    return buf;
+}
+
+static const char *log_or_dash(const char *s) { return s && *s ? s : "-"; }
+
 /* Writes o as one line and deletes it.  The line is printed into a stack
  * buffer first: no allocation for the text on the way out. */
 static void log_json_line(cJSON *o)
@@ -55,18 +114,26 @@ static void log_json_line(cJSON *o)
     cJSON_Delete(o);
 }
 
-static void log_access_json(const char *ts, const struct log_access *a)
+static void log_access_json(const char *ts, const struct log_access *a, const char *method,
+                            const char *path)
 {
     cJSON *o = cJSON_CreateObject();
     cJSON_AddStringToObject(o, "time", ts);
-    cJSON_AddStringToObject(o, "method", a->method);
-    cJSON_AddStringToObject(o, "path", a->path);
+    cJSON_AddStringToObject(o, "level", log_names[log_access_level(a->status)]);
+    cJSON_AddStringToObject(o, "client", log_or_dash(a->client));
+    cJSON_AddStringToObject(o, "method", method);
+    cJSON_AddStringToObject(o, "path", path);
     cJSON_AddNumberToObject(o, "status", a->status);
     json_add_u64(o, "bytes", a->bytes);
-    json_add_fixed(o, "queue_ms", a->queue_ms, 3);
-    json_add_fixed(o, "render_ms", a->render_ms, 3);
-    json_add_fixed(o, "encode_ms", a->encode_ms, 3);
+    if (a->rendered) {
+        json_add_fixed(o, "queue_ms", a->queue_ms, 3);
+        json_add_fixed(o, "render_ms", a->render_ms, 3);
+        json_add_fixed(o, "encode_ms", a->encode_ms, 3);
+    }
     json_add_fixed(o, "total_ms", a->total_ms, 3);
+    if (a->scene && *a->scene)
+        cJSON_AddStringToObject(o, "scene", a->scene);
+    cJSON_AddStringToObject(o, "request_id", log_or_dash(a->request_id));
     if (a->note)
         cJSON_AddStringToObject(o, "note", a->note);
     log_json_line(o);
@@ -74,28 +141,34 @@ static void log_access_json(const char *ts, const struct log_access *a)
 
 void log_access(const struct log_access *a)
 {
-    if (log_quiet)
+    enum log_level level = log_access_level(a->status);
+    if (!log_on(level))
         return;
-    char ts[40], path[512];
+    char ts[40], mbuf[64], pbuf[6144];
     log_stamp(ts, sizeof ts);
+    const char *method = log_field(a->method, mbuf, sizeof mbuf);
+    const char *path = log_field(a->path, pbuf, sizeof pbuf);
     if (config.log_json) {
-        log_access_json(ts, a);
+        log_access_json(ts, a, method, path);
         return;
     }
-    /* keep the line one line whatever the client sent */
-    snprintf(path, sizeof path, "%s", a->path);
-    for (char *p = path; *p; p++)
-        if ((unsigned char)*p < 0x20 || *p == ' ' || *p == 0x7f)
-            *p = '?';
-    fprintf(stderr,
-            "%s %s %s %d %zu queue_ms=%.3f render_ms=%.3f encode_ms=%.3f total_ms=%.3f%s%s\n", ts,
-            a->method, path, a->status, a->bytes, a->queue_ms, a->render_ms, a->encode_ms,
-            a->total_ms, a->note ? " note=" : "", a->note ? a->note : "");
+    char rendered[128] = "";
+    if (a->rendered)
+        snprintf(rendered, sizeof rendered, "queue_ms=%.3f render_ms=%.3f encode_ms=%.3f ",
+                 a->queue_ms, a->render_ms, a->encode_ms);
+    bool scene = a->scene && *a->scene;
+    fprintf(stderr, "%s %s %s %s %s %d %zu %stotal_ms=%.3f%s%s request_id=%s%s%s\n", ts,
+            log_names[level], log_or_dash(a->client), method, path, a->status, a->bytes,
+            rendered, a->total_ms, scene ? " scene=" : "", scene ? a->scene : "",
+            log_or_dash(a->request_id), a->note ? " note=" : "", a->note ? a->note : "");
 }
 
-static void log_msg(const char *level, const char *fmt, va_list ap)
+static void log_msg(enum log_level level, const char *fmt, va_list ap)
+    __attribute__((format(printf, 2, 0)));
+
+static void log_msg(enum log_level level, const char *fmt, va_list ap)
 {
-    if (log_quiet)
+    if (!log_on(level))
         return;
     char ts[40], msg[1024];
     log_stamp(ts, sizeof ts);
@@ -103,26 +176,23 @@ static void log_msg(const char *level, const char *fmt, va_list ap)
     if (config.log_json) {
         cJSON *o = cJSON_CreateObject();
         cJSON_AddStringToObject(o, "time", ts);
-        cJSON_AddStringToObject(o, "level", level);
+        cJSON_AddStringToObject(o, "level", log_names[level]);
         cJSON_AddStringToObject(o, "message", msg);
         log_json_line(o);
     } else {
-        fprintf(stderr, "%s %s %s\n", ts, level, msg);
+        fprintf(stderr, "%s %s %s\n", ts, log_names[level], msg);
     }
 }
 
-void log_info(const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    log_msg("info", fmt, ap);
-    va_end(ap);
-}
-
-void log_warn(const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    log_msg("warn", fmt, ap);
-    va_end(ap);
-}
+#define LOG_AT(name, level)                                                                        \
+    void name(const char *fmt, ...)                                                                \
+    {                                                                                              \
+        va_list ap;                                                                                \
+        va_start(ap, fmt);                                                                         \
+        log_msg(level, fmt, ap);                                                                   \
+        va_end(ap);                                                                                \
+    }
+LOG_AT(log_debug, LOG_DEBUG)
+LOG_AT(log_info, LOG_INFO)
+LOG_AT(log_warn, LOG_WARN)
+LOG_AT(log_error, LOG_ERROR)

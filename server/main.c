@@ -88,6 +88,7 @@ int main(int argc, char **argv)
         config_free();
         return rc == CONFIG_DONE ? 0 : rc == CONFIG_FAILED ? 1 : 2;
     }
+    metrics_start(config.max_render_seconds);
     sigset_t set;
     sigemptyset(&set);
     sigaddset(&set, SIGTERM);
@@ -154,6 +155,7 @@ int main(int argc, char **argv)
     }
     http_stop();
     sched_stop();
+    metrics_free();
     log_info("stopped");
     config_free();
     return 0;

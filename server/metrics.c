@@ -1,11 +1,31 @@
 /* metrics.c -- counters and histograms, exposed as Prometheus text.
  *
  * Every number is a C11 atomic, bumped by whichever thread sees the event,
- * so metrics take no lock and cost a few nanoseconds.  Requests are counted
- * by route (the router's table index) and status (a fixed set of the codes
- * rayd sends).  Queue wait and render time are separate histograms with the
- * same buckets, so a slow response can be told apart as "waited" or
- * "rendered".
+ * so metrics take no lock and cost a few nanoseconds.  The names follow
+ * Prometheus's conventions, so the usual dashboards and alerts apply:
+ *
+ *   rayd_http_requests_total{route,method,code} and
+ *   rayd_http_request_duration_seconds{route,method,code}: route is the
+ *     router's pattern ("/v1/scenes/{id}/image.png", or "none"), never a
+ *     path with its ids; method is the request's (or "other" past the seven
+ *     standard ones: a client cannot mint series); code the status sent
+ *     (499 when the client left first).  The counter is the histogram's
+ *     count, so the two never disagree.
+ *   rayd_build_info{version,compiler} 1, and the process_* family of every
+ *     client library (procstat.c).
+ *
+ * A (route, method, code) histogram is allocated the first time it is seen
+ * and published with a compare-and-swap, so a scrape prints only the series
+ * that happened.  Codes take one of 24 slots in the order they are first
+ * seen (rayd sends about 20); a 25th distinct code would be counted as
+ * code="other".
+ *
+ * Every duration histogram shares one ladder of buckets, 1 ms up to the
+ * longest render allowed (metrics_start): a queue wait, a render, an event
+ * stream may all last that long, and a histogram whose last bucket is below
+ * its slowest events cannot tell "slow" from "stuck".  Queue wait and render
+ * time are separate histograms, so a slow response can be told apart as
+ * "waited" or "rendered".
  *
  * Layer: base.  Counters are pushed here by the layer that sees the event;
  * gauges (queue depth, busy workers, cache size, suspended connections) and
@@ -22,21 +42,31 @@
 
 #define METRICS_ROUTES 32
 
-static const int metrics_codes[] = {200, 201, 202, 204, 304, 400, 401, 404, 405, 409,
-                                    413, 415, 422, 499, 500, 503, 0 /* other */};
-#define METRICS_NCODES (sizeof metrics_codes / sizeof metrics_codes[0])
+static const char *const metrics_methods[] = {"GET",    "HEAD",    "POST",  "PUT",
+                                              "DELETE", "OPTIONS", "PATCH", "other"};
+#define METRICS_NMETHODS (sizeof metrics_methods / sizeof metrics_methods[0])
+#define METRICS_NCODES 25 /* 24 codes as first seen, then "other" */
 
-static const double metrics_buckets[] = {0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1,
-                                         0.25,  0.5,    1,     2.5,  5,     10,   30};
-#define METRICS_NB (sizeof metrics_buckets / sizeof metrics_buckets[0])
+/* The standard ladder, cut and ended at --max-render-seconds. */
+#define METRICS_LADDER                                                                             \
+    0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1, 2.5, 5, 10, 30, 60, 120, 300, 600, \
+        1800, 3600
+static const double metrics_ladder[] = {METRICS_LADDER};
+#define METRICS_NLADDER (sizeof metrics_ladder / sizeof metrics_ladder[0])
+#define METRICS_NB_MAX (METRICS_NLADDER + 1)
+/* Written once by metrics_start before any other thread, then only read. */
+static double metrics_buckets[METRICS_NB_MAX] = {METRICS_LADDER};
+static size_t metrics_nb = METRICS_NLADDER;
 
 struct metrics_hist {
-    atomic_ulong bucket[METRICS_NB + 1]; /* last = +Inf */
+    atomic_ulong bucket[METRICS_NB_MAX + 1]; /* [metrics_nb] is +Inf */
     atomic_ulong count;
     atomic_ulong sum_us;
 };
 
-static atomic_ulong metrics_req[METRICS_ROUTES + 1][METRICS_NCODES];
+static _Atomic(struct metrics_hist *) metrics_http[METRICS_ROUTES + 1][METRICS_NMETHODS]
+                                                  [METRICS_NCODES];
+static atomic_int metrics_codes[METRICS_NCODES - 1]; /* 0: a free slot */
 static struct metrics_hist metrics_wait[2], metrics_rend, metrics_stages[MS__COUNT]; /* wait: [interactive] */
 static const char *const metrics_stage_names[MS__COUNT] = {
     "upload", "parse", "decode", "build", "queue", "render", "encode", "send"};
@@ -52,6 +82,18 @@ static const char *const metrics_cancel_names[MC__COUNT] = {"client_gone", "dele
 static long (*metrics_gauges[MG__COUNT])(void);
 static const char *metrics_routes[METRICS_ROUTES];
 
+void metrics_start(long max_render_seconds)
+{
+    size_t n = 0;
+    double max = (double)max_render_seconds;
+    for (size_t i = 0; i < METRICS_NLADDER; i++)
+        if (max <= 0 || metrics_ladder[i] < max)
+            metrics_buckets[n++] = metrics_ladder[i];
+    if (max > 0)
+        metrics_buckets[n++] = max;
+    metrics_nb = n;
+}
+
 void metrics_gauge(enum metrics_gauge g, long (*read)(void)) { metrics_gauges[g] = read; }
 
 void metrics_route_name(int route, const char *name)
@@ -65,24 +107,66 @@ static long metrics_read(enum metrics_gauge g)
     return metrics_gauges[g] ? metrics_gauges[g]() : 0;
 }
 
-void metrics_request(int route, int status)
+/* The slot of a status code: found, or taken on first sight. */
+static size_t metrics_code_slot(int status)
 {
-    if (route < 0 || route >= METRICS_ROUTES)
-        route = METRICS_ROUTES;
+    for (size_t i = 0; i < METRICS_NCODES - 1; i++) {
+        int c = atomic_load_explicit(&metrics_codes[i], memory_order_acquire);
+        if (c == 0) {
+            int free_slot = 0;
+            if (atomic_compare_exchange_strong(&metrics_codes[i], &free_slot, status))
+                return i;
+            c = free_slot; /* taken meanwhile by another thread: with which code? */
+        }
+        if (c == status)
+            return i;
+    }
+    return METRICS_NCODES - 1;
+}
+
+static size_t metrics_method_slot(const char *method)
+{
     size_t i = 0;
-    while (i < METRICS_NCODES - 1 && metrics_codes[i] != status)
+    while (i < METRICS_NMETHODS - 1 && (!method || strcmp(metrics_methods[i], method)))
         i++;
-    atomic_fetch_add_explicit(&metrics_req[route][i], 1, memory_order_relaxed);
+    return i;
 }
 
 static void metrics_observe(struct metrics_hist *h, double s)
 {
     size_t i = 0;
-    while (i < METRICS_NB && s > metrics_buckets[i])
+    while (i < metrics_nb && s > metrics_buckets[i])
         i++;
     atomic_fetch_add_explicit(&h->bucket[i], 1, memory_order_relaxed);
     atomic_fetch_add_explicit(&h->count, 1, memory_order_relaxed);
     atomic_fetch_add_explicit(&h->sum_us, (unsigned long)(s * 1e6), memory_order_relaxed);
+}
+
+void metrics_request(int route, const char *method, int status, double seconds)
+{
+    if (route < 0 || route >= METRICS_ROUTES)
+        route = METRICS_ROUTES;
+    _Atomic(struct metrics_hist *) *slot =
+        &metrics_http[route][metrics_method_slot(method)][metrics_code_slot(status)];
+    struct metrics_hist *h = atomic_load_explicit(slot, memory_order_acquire);
+    if (!h) {
+        struct metrics_hist *fresh = calloc(1, sizeof *fresh);
+        if (!fresh)
+            return; /* out of memory: this request goes uncounted */
+        if (atomic_compare_exchange_strong(slot, &h, fresh))
+            h = fresh;
+        else
+            free(fresh); /* h is now the one another thread published */
+    }
+    metrics_observe(h, seconds);
+}
+
+void metrics_free(void)
+{
+    for (size_t r = 0; r <= METRICS_ROUTES; r++)
+        for (size_t m = 0; m < METRICS_NMETHODS; m++)
+            for (size_t c = 0; c < METRICS_NCODES; c++)
+                free(atomic_exchange(&metrics_http[r][m][c], NULL));
 }
 
 void metrics_queue_wait(bool interactive, double s) { metrics_observe(&metrics_wait[interactive], s); }
@@ -136,10 +220,10 @@ static void metrics_hist_series(struct metrics_buf *b, const char *name, const c
                                 struct metrics_hist *h)
 {
     unsigned long cum = 0;
-    for (size_t i = 0; i <= METRICS_NB; i++) {
+    for (size_t i = 0; i <= metrics_nb; i++) {
         cum += atomic_load(&h->bucket[i]);
-        if (i < METRICS_NB)
-            metrics_printf(b, "%s_bucket{%sle=\"%g\"} %lu\n", name, label, metrics_buckets[i],
+        if (i < metrics_nb)
+            metrics_printf(b, "%s_bucket{%sle=\"%.15g\"} %lu\n", name, label, metrics_buckets[i],
                            cum);
         else
             metrics_printf(b, "%s_bucket{%sle=\"+Inf\"} %lu\n", name, label, cum);
@@ -171,27 +255,126 @@ static void metrics_stage_text(struct metrics_buf *b)
     }
 }
 
+/* The label pairs of a (route, method, code) series, with a final comma. */
+static void metrics_http_label(char *buf, size_t size, size_t r, size_t m, size_t c)
+{
+    int code = c < METRICS_NCODES - 1 ? atomic_load(&metrics_codes[c]) : 0;
+    char num[16] = "other";
+    if (code)
+        snprintf(num, sizeof num, "%d", code);
+    snprintf(buf, size, "route=\"%s\",method=\"%s\",code=\"%s\",",
+             r < METRICS_ROUTES ? metrics_routes[r] : "none", metrics_methods[m], num);
+}
+
+/* Calls fn for every (route, method, code) series that has happened. */
+static void metrics_http_each(struct metrics_buf *b,
+                              void (*fn)(struct metrics_buf *b, const char *label,
+                                         struct metrics_hist *h))
+{
+    for (size_t r = 0; r <= METRICS_ROUTES; r++) {
+        if (r < METRICS_ROUTES && !metrics_routes[r])
+            continue;
+        for (size_t m = 0; m < METRICS_NMETHODS; m++)
+            for (size_t c = 0; c < METRICS_NCODES; c++) {
+                struct metrics_hist *h = atomic_load_explicit(&metrics_http[r][m][c],
+                                                              memory_order_acquire);
+                if (!h)
+                    continue;
+                char label[160];
+                metrics_http_label(label, sizeof label, r, m, c);
+                fn(b, label, h);
+            }
+    }
+}
+
+static void metrics_http_count(struct metrics_buf *b, const char *label, struct metrics_hist *h)
+{
+    size_t n = strlen(label);
+    metrics_printf(b, "rayd_http_requests_total{%.*s} %lu\n", (int)n - 1, label,
+                   atomic_load(&h->count));
+}
+
+static void metrics_http_duration(struct metrics_buf *b, const char *label, struct metrics_hist *h)
+{
+    metrics_hist_series(b, "rayd_http_request_duration_seconds", label, h);
+}
+
+static void metrics_http_text(struct metrics_buf *b)
+{
+    metrics_printf(b, "# HELP rayd_http_requests_total HTTP requests answered, by route pattern, "
+                      "method and status code (499: the client left first).\n"
+                      "# TYPE rayd_http_requests_total counter\n");
+    metrics_http_each(b, metrics_http_count);
+    metrics_printf(b, "# HELP rayd_http_request_duration_seconds Time from a request's first "
+                      "byte to its last, by route pattern, method and status code.\n"
+                      "# TYPE rayd_http_request_duration_seconds histogram\n");
+    metrics_http_each(b, metrics_http_duration);
+}
+
+/* The compiler that built rayd, for rayd_build_info (no quotes inside). */
+static const char *metrics_compiler(void)
+{
+#if defined(__clang__)
+    return "clang " __clang_version__;
+#elif defined(__GNUC__)
+    return "gcc " __VERSION__;
+#else
+    return "unknown";
+#endif
+}
+
+/* A label value with \, " and newline escaped, trailing spaces cut. */
+static void metrics_label_value(char *buf, size_t size, const char *s)
+{
+    size_t n = 0;
+    for (; *s && n + 3 < size; s++) {
+        if (*s == '\\' || *s == '"' || *s == '\n')
+            buf[n++] = '\\';
+        buf[n++] = *s == '\n' ? 'n' : *s;
+    }
+    while (n > 0 && buf[n - 1] == ' ')
+        n--;
+    buf[n] = 0;
+}
+
+/* rayd_build_info and the process_* family of the Prometheus clients. */
+static void metrics_process_text(struct metrics_buf *b)
+{
+    char compiler[128];
+    metrics_label_value(compiler, sizeof compiler, metrics_compiler());
+    metrics_printf(b,
+                   "# HELP rayd_build_info The version of rayd and the compiler that built it; "
+                   "always 1.\n# TYPE rayd_build_info gauge\n"
+                   "rayd_build_info{version=\"%s\",compiler=\"%s\"} 1\n",
+                   RAYD_VERSION, compiler);
+    struct procstat p;
+    procstat_read(&p);
+    metrics_printf(b,
+                   "# HELP process_cpu_seconds_total Total user and system CPU time spent in "
+                   "seconds.\n# TYPE process_cpu_seconds_total counter\n"
+                   "process_cpu_seconds_total %.2f\n"
+                   "# HELP process_resident_memory_bytes Resident memory size in bytes.\n"
+                   "# TYPE process_resident_memory_bytes gauge\n"
+                   "process_resident_memory_bytes %.0f\n"
+                   "# HELP process_virtual_memory_bytes Virtual memory size in bytes.\n"
+                   "# TYPE process_virtual_memory_bytes gauge\n"
+                   "process_virtual_memory_bytes %.0f\n"
+                   "# HELP process_open_fds Number of open file descriptors.\n"
+                   "# TYPE process_open_fds gauge\nprocess_open_fds %.0f\n"
+                   "# HELP process_max_fds Maximum number of open file descriptors.\n"
+                   "# TYPE process_max_fds gauge\nprocess_max_fds %.0f\n"
+                   "# HELP process_start_time_seconds Start time of the process since unix "
+                   "epoch in seconds.\n# TYPE process_start_time_seconds gauge\n"
+                   "process_start_time_seconds %.2f\n",
+                   p.cpu_seconds, p.resident_bytes, p.virtual_bytes, p.open_fds, p.max_fds,
+                   p.start_time);
+}
+
 char *metrics_text(size_t *len)
 {
     struct metrics_buf b = {0};
-    metrics_printf(&b, "# HELP rayd_requests_total HTTP requests answered, by route and status.\n"
-                       "# TYPE rayd_requests_total counter\n");
-    for (int r = 0; r <= METRICS_ROUTES; r++) {
-        if (r < METRICS_ROUTES && !metrics_routes[r])
-            continue;
-        for (size_t c = 0; c < METRICS_NCODES; c++) {
-            unsigned long v = atomic_load(&metrics_req[r][c]);
-            if (!v)
-                continue;
-            char code[16];
-            if (metrics_codes[c])
-                snprintf(code, sizeof code, "%d", metrics_codes[c]);
-            else
-                snprintf(code, sizeof code, "other");
-            metrics_printf(&b, "rayd_requests_total{route=\"%s\",status=\"%s\"} %lu\n",
-                           r < METRICS_ROUTES ? metrics_routes[r] : "none", code, v);
-        }
-    }
+    metrics_http_text(&b);
+    metrics_process_text(&b);
     metrics_printf(&b,
                    "# HELP rayd_queue_depth Render tasks waiting for a worker.\n"
                    "# TYPE rayd_queue_depth gauge\nrayd_queue_depth %ld\n"

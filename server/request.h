@@ -40,6 +40,10 @@ struct http_req {
     void *io_ctx;                /* the transport's own (an MHD_Connection) */
     const char *method, *url;
     size_t target_len;           /* bytes of the request-target, query included */
+    char *target;                /* the request-target as sent (malloc'd, cut), or NULL */
+    char client[48];             /* the peer's address, "" when unknown */
+    char request_id[65];         /* X-Request-Id: the client's, or one made up */
+    char scene[65];              /* the scene's id when the request named or sent one */
     const char *err_code;        /* code of the error reply sent, NULL for none */
     char *body;
     size_t body_len, body_cap;
@@ -66,6 +70,12 @@ struct http_req {
 struct http_req *http_req_new(const struct http_io *io, void *io_ctx, const char *method,
                               const char *url, size_t target_len);
 void http_req_free(struct http_req *r); /* the pending response too */
+/* Keeps a copy of the raw request-target for the access log (the first
+ * 2 KiB: a log line is no place for a 16 MiB query). */
+void http_req_set_target(struct http_req *r, const char *target);
+/* Sets r->request_id: the client's X-Request-Id when it is 1-64 characters
+ * of [A-Za-z0-9._:+/=@-], else 32 hex digits unique to this request. */
+void http_req_take_id(struct http_req *r);
 long http_req_in_flight(void);          /* requests not yet freed */
 long http_req_suspended(void);          /* requests suspended right now */
 double http_req_last(void);             /* when the latest came (log_now() time) */
@@ -102,6 +112,9 @@ void http_reply_error(struct http_req *r, unsigned status, const char *code, con
                       const char *path, int line, int column, const char *param);
 /* Adds a header to the response queued last (call right after a reply). */
 void http_reply_header(struct http_req *r, const char *name, const char *value);
+/* 304 Not Modified: no body, no Content-Length, the cache headers of the
+ * 200 (http_reply_cache_headers).  The connection closes after it. */
+void http_reply_not_modified(struct http_req *r);
 /* Adds field to the reply's one Vary header (Vary: Accept, Authorization). */
 void http_reply_vary(struct http_req *r, const char *field);
 /* ETag + immutable Cache-Control when r->etag is set (and Vary:

@@ -7,9 +7,13 @@
  * and whose method matches the request wins.  A path matched only under
  * other methods is a 405 with an Allow header listing them; a path matched
  * by no row is a 404.  HEAD is served as GET (libmicrohttpd drops the body).
- * The row index doubles as the route label of the request metrics; the
- * labels are handed to metrics.c once at start-up (router_start), so the
- * metrics module never reads this table.
+ * The route label of the request metrics and the access log's route is the
+ * pattern ("/v1/scenes/{id}/image.png"), never the path with its ids, so
+ * the number of series stays fixed; the method is a label of its own.  A
+ * request is labelled by its first row with that pattern (router_find, also
+ * for the 401, 405, 413 and OPTIONS answers given before or instead of a
+ * handler), and the labels are handed to metrics.c once at start-up
+ * (router_start), so the metrics module never reads this table.
  *
  * Which paths are open without a token is routing knowledge too
  * (router_public): the transport asks before it checks the token.
@@ -29,30 +33,40 @@ struct route {
 };
 
 static const struct route router_table[] = {
-    {"POST", "/v1/render", api_render_post, "POST /v1/render"},
-    {"POST", "/v1/scenes", api_scenes_post, "POST /v1/scenes"},
-    {"GET", "/v1/scenes/{id}/image.png", api_scenes_image, "GET /v1/scenes/{id}/image.png"},
-    {"POST", "/v1/jobs", api_jobs_post, "POST /v1/jobs"},
-    {"GET", "/v1/jobs/{id}", api_jobs_get, "GET /v1/jobs/{id}"},
-    {"DELETE", "/v1/jobs/{id}", api_jobs_delete, "DELETE /v1/jobs/{id}"},
-    {"POST", "/v1/jobs/{id}/stop", api_jobs_stop, "POST /v1/jobs/{id}/stop"},
-    {"GET", "/v1/jobs/{id}/image.png", api_jobs_image, "GET /v1/jobs/{id}/image.png"},
-    {"GET", "/v1/jobs/{id}/events", api_jobs_events, "GET /v1/jobs/{id}/events"},
-    {"GET", "/healthz", api_health_live, "GET /healthz"},
-    {"GET", "/readyz", api_health_ready, "GET /readyz"},
-    {"GET", "/metrics", api_health_metrics, "GET /metrics"},
-    {"GET", "/v1/test/gate", api_test_gate_get, "GET /v1/test/gate"},
-    {"POST", "/v1/test/gate", api_test_gate_post, "POST /v1/test/gate"},
-    {"GET", "/", api_web_index, "GET /"},
-    {"GET", "/{id}", api_web_asset, "GET /{asset}"},
+    {"POST", "/v1/render", api_render_post, "/v1/render"},
+    {"POST", "/v1/scenes", api_scenes_post, "/v1/scenes"},
+    {"GET", "/v1/scenes/{id}/image.png", api_scenes_image, "/v1/scenes/{id}/image.png"},
+    {"POST", "/v1/jobs", api_jobs_post, "/v1/jobs"},
+    {"GET", "/v1/jobs/{id}", api_jobs_get, "/v1/jobs/{id}"},
+    {"DELETE", "/v1/jobs/{id}", api_jobs_delete, "/v1/jobs/{id}"},
+    {"POST", "/v1/jobs/{id}/stop", api_jobs_stop, "/v1/jobs/{id}/stop"},
+    {"GET", "/v1/jobs/{id}/image.png", api_jobs_image, "/v1/jobs/{id}/image.png"},
+    {"GET", "/v1/jobs/{id}/events", api_jobs_events, "/v1/jobs/{id}/events"},
+    {"GET", "/healthz", api_health_live, "/healthz"},
+    {"GET", "/readyz", api_health_ready, "/readyz"},
+    {"GET", "/metrics", api_health_metrics, "/metrics"},
+    {"GET", "/v1/test/gate", api_test_gate_get, "/v1/test/gate"},
+    {"POST", "/v1/test/gate", api_test_gate_post, "/v1/test/gate"},
+    {"GET", "/", api_web_index, "/"},
+    {"GET", "/{id}", api_web_asset, "/{asset}"},
 };
 
 #define ROUTER_N ((int)(sizeof router_table / sizeof router_table[0]))
 
+/* The label index of row i: the first row with the same pattern. */
+static int router_label(int i)
+{
+    for (int j = 0; j < i; j++)
+        if (!strcmp(router_table[j].pattern, router_table[i].pattern))
+            return j;
+    return i;
+}
+
 void router_start(void)
 {
     for (int i = 0; i < ROUTER_N; i++)
-        metrics_route_name(i, router_table[i].name);
+        if (router_label(i) == i)
+            metrics_route_name(i, router_table[i].name);
 }
 
 /* The probes, and the preview's own static files (a browser cannot send a
@@ -92,6 +106,22 @@ static bool router_match(const char *pattern, const char *path, char *id, size_t
     return *path == 0;
 }
 
+/* Whether row i serves path (a static file only if it exists). */
+static bool router_row_matches(int i, const char *path)
+{
+    char id[80];
+    return router_match(router_table[i].pattern, path, id, sizeof id) &&
+           (router_table[i].fn != api_web_asset || api_web_exists(id));
+}
+
+int router_find(const char *url)
+{
+    for (int i = 0; i < ROUTER_N; i++)
+        if (router_row_matches(i, url))
+            return router_label(i);
+    return -1;
+}
+
 const char *router_allow(const char *path, char *buf, size_t size)
 {
     char id[80];
@@ -124,12 +154,12 @@ void router_dispatch(struct http_req *r)
             (router_table[i].fn == api_web_asset && !api_web_exists(id)))
             continue;
         if (!strcmp(router_table[i].method, method)) {
-            r->route = i;
+            r->route = router_label(i);
             router_table[i].fn(r, id);
             return;
         }
         if (!path_known)
-            r->route = i;
+            r->route = router_label(i);
         path_known = true;
     }
     if (path_known) {

@@ -13,6 +13,9 @@
 
 /* Registers the routes' metric labels (metrics_route_name), at start-up. */
 void router_start(void);
+/* The route label index of a path (its pattern's first row), -1 for none;
+ * the request metrics count by it. */
+int router_find(const char *url);
 /* Runs the handler of r's method and path, or replies 404 / 405. */
 void router_dispatch(struct http_req *r);
 /* Allowed methods for a path ("GET, DELETE"), NULL when no route matches. */

@@ -359,6 +359,11 @@ void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
     }
     if (t->status == RAYD_OK && t->t_start > 0)
         metrics_render(t->t_end - t->t_start);
+    /* --log-level debug only: written under work_lock, so never on by default */
+    log_debug("render %s finished: %s, queued %.3f ms, rendered %.3f ms", t->key,
+              t->status == RAYD_OK ? "ok" : t->err.message,
+              t->t_start > 0 ? (t->t_start - t->t_enq) * 1e3 : 0,
+              t->t_start > 0 ? (t->t_end - t->t_start) * 1e3 : 0);
     if (t->status == RAYD_OK && t->png && !t->passes)
         rcache_put(t->key, t->png);
     task_unqueue(t);

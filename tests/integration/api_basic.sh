@@ -23,7 +23,7 @@ check preview_index_html "GET /index.html" [ "$(req GET /index.html)" = 200 ]
 
 help=$("$RAYD" --help)
 ok=1
-for opt in bind port threads queue max-body max-pixels token-file cache-mb log-format drain-seconds cors-origin; do
+for opt in bind port threads queue max-body max-pixels token-file cache-mb log-format log-level drain-seconds cors-origin; do
     grep -q -- "--$opt" <<<"$help" || { ok=0; echo "missing --$opt"; }
     env=RAYD_$(tr 'a-z-' 'A-Z_' <<<"$opt")
     grep -q -- "$env" <<<"$help" || { ok=0; echo "missing $env"; }
@@ -106,7 +106,7 @@ wait_until 30 grep -Eq 'POST /v1/render 200 [0-9]+ queue_ms=' "$T/rayd.err"
 check access_log_line "no access line for POST /v1/render 200" \
     grep -Eq 'POST /v1/render 200 [0-9]+ queue_ms=[0-9.]+ render_ms=[0-9.]+' "$T/rayd.err"
 check metrics_by_route "no POST /v1/render 200 counter" \
-    bash -c "curl -s '$URL/metrics' | grep -q 'rayd_requests_total{route=\"POST /v1/render\",status=\"200\"}'"
+    bash -c "curl -s '$URL/metrics' | grep -q 'rayd_http_requests_total{route=\"/v1/render\",method=\"POST\",code=\"200\"}'"
 # every stage of a request's wait has its histogram, each counted by now
 stages_ok=1
 for st in upload parse decode build queue render encode send; do
@@ -130,7 +130,7 @@ import json, sys
 found = False
 for l in open(sys.argv[1]):
     d = json.loads(l)  # every line of the log is JSON
-    if d.get("path") == "/healthz" and d.get("status") == 200 and "queue_ms" in d and "render_ms" in d and "bytes" in d: found = True
+    if d.get("path") == "/healthz" and d.get("status") == 200 and d.get("level") == "info" and "total_ms" in d and "bytes" in d and d.get("client") == "127.0.0.1" and d.get("request_id"): found = True
 sys.exit(0 if found else 1)' "$T/rayd.err"
 stop_rayd TERM
 # --- without the result cache, GET of a scene image renders ---------------------------

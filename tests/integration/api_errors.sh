@@ -164,7 +164,7 @@ PY
 check malformed_http_handled "$(grep -v '^ok' "$T/raw.txt" | head -3)" bash -c "[ \$(grep -c '^ok' '$T/raw.txt') = 7 ]"
 # a stalled upload is dropped by the connection timeout, not kept forever
 check still_alive "healthz after the garbage" [ "$(req GET /healthz)" = 200 ]
-check no_500_counted "a 500 was counted" bash -c "! curl -s '$URL/metrics' | grep -q 'status=\"500\"'"
+check no_500_counted "a 500 was counted" bash -c "! curl -s '$URL/metrics' | grep -q 'code=\"500\"'"
 stop_rayd TERM
 check exit_0 "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
 

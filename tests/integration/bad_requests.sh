@@ -104,7 +104,7 @@ PY
 
 count=$(grep -vc '^#' "$CORPUS/manifest.tsv")
 check bad_requests_corpus_size "only $count cases" [ "$count" -ge 100 ]
-check bad_requests_no_500 "a 500 was counted" bash -c "! curl -s -H 'Authorization: Bearer corpus-T0ken' '$URL/metrics' | grep -q 'status=\"500\"'"
+check bad_requests_no_500 "a 500 was counted" bash -c "! curl -s -H 'Authorization: Bearer corpus-T0ken' '$URL/metrics' | grep -q 'code=\"500\"'"
 check bad_requests_still_ready "readyz" [ "$(req GET /readyz)" = 200 ]
 stop_rayd TERM
 check bad_requests_exit_0 "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]

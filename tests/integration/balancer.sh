@@ -47,11 +47,11 @@ node_gate_is() {
     curl -s -m 30 -o "$T/g$1.json" "${AUTH[@]}" "${NODE_URL[$1]}/v1/test/gate" &&
         [ "$(jfield "$T/g$1.json" "$2")" = "$3" ]
 }
-# node_count I ROUTE STATUS: rayd_requests_total of node I (0 if absent)
+# node_count I "METHOD ROUTE" CODE: rayd_http_requests_total of node I (0 if absent)
 node_count() {
-    local v
+    local v method=${2%% *} route=${2#* }
     v=$(curl -s -m 5 "${AUTH[@]}" "${NODE_URL[$1]}/metrics" |
-        awk -v k="rayd_requests_total{route=\"$2\",status=\"$3\"} " 'index($0, k) == 1 {print $NF}')
+        awk -v k="rayd_http_requests_total{route=\"$route\",method=\"$method\",code=\"$3\"} " 'index($0, k) == 1 {print $NF}')
     echo "${v:-0}"
 }
 

@@ -39,11 +39,11 @@ start_node() { # start_node I
 }
 for i in 1 2 3; do start_node $i; done
 
-# node_count I ROUTE STATUS: rayd_requests_total of node I (0 if absent)
+# node_count I "METHOD ROUTE" CODE: rayd_http_requests_total of node I (0 if absent)
 node_count() {
-    local v
+    local v method=${2%% *} route=${2#* }
     v=$(curl -s -m 5 "${NODE_URL[$1]}/metrics" |
-        awk -v k="rayd_requests_total{route=\"$2\",status=\"$3\"} " 'index($0, k) == 1 {print $NF}')
+        awk -v k="rayd_http_requests_total{route=\"$route\",method=\"$method\",code=\"$3\"} " 'index($0, k) == 1 {print $NF}')
     echo "${v:-0}"
 }
 node_tiles() { # tiles answered by node I: GET image 200 + POST render 200
