@@ -425,7 +425,7 @@ $(FUZZ_SERVER_TARGETS:%=$(BUILD)/tests/fuzz/replay_%): $(BUILD)/tests/fuzz/repla
 # rayd's stderr fails the script that started it).  `make test-valgrind`:
 # three integration scripts with rayd under valgrind memcheck (exit 99 on any
 # error or definite leak).  Both print "N passed, N failed".
-TSAN_TESTS := jobs lifecycle api_basic api_hdr load slow_clients faults api_progressive deadline fair
+TSAN_TESTS := jobs lifecycle api_basic api_hdr load slow_clients faults api_progressive deadline fair observability
 VALGRIND_TESTS := security api_errors bad_requests
 
 test-tsan: | $(BUILD)/.test-deps-ok
