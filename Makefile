@@ -309,11 +309,17 @@ TEST_TOOLS := $(patsubst tests/tools/%.c,$(BUILD)/tests/tools/%,$(wildcard tests
 # npm (or no registry) is not fatal here: tests/browser/preview.sh then FAILs.
 BROWSER_NODE := tests/browser/node_modules/.package-lock.json
 
-$(BROWSER_NODE): tests/browser/package.json tests/browser/package-lock.json
+# npm_ci DIR,CONSEQUENCE: DIR's lock file installed into DIR/node_modules;
+# without npm (or the registry) the recipe says what follows, never fails.
+define npm_ci
 	@if command -v npm >/dev/null 2>&1; then \
-	  (cd tests/browser && npm ci --no-audit --no-fund --loglevel=error) || \
-	  echo "npm ci in tests/browser failed: the browser tests will fail"; \
-	else echo "npm not found: the browser tests will fail (install Node.js and npm)"; fi
+	  (cd $(1) && npm ci --no-audit --no-fund --loglevel=error) || \
+	  echo "npm ci in $(1) failed: $(2)"; \
+	else echo "npm not found: $(2) (install Node.js and npm)"; fi
+endef
+
+$(BROWSER_NODE): tests/browser/package.json tests/browser/package-lock.json
+	$(call npm_ci,tests/browser,the browser tests will fail)
 
 # docker/k8s/ is validated offline with kubernetes-models (the Kubernetes and
 # prometheus-operator schemas) from npm, installed into tests/k8s/node_modules
@@ -321,10 +327,7 @@ $(BROWSER_NODE): tests/browser/package.json tests/browser/package-lock.json
 K8S_NODE := tests/k8s/node_modules/.package-lock.json
 
 $(K8S_NODE): tests/k8s/package.json tests/k8s/package-lock.json
-	@if command -v npm >/dev/null 2>&1; then \
-	  (cd tests/k8s && npm ci --no-audit --no-fund --loglevel=error) || \
-	  echo "npm ci in tests/k8s failed: the manifest test will SKIP"; \
-	else echo "npm not found: the manifest test will SKIP (install Node.js and npm)"; fi
+	$(call npm_ci,tests/k8s,the manifest test will SKIP)
 
 test: all $(UNIT_BIN) $(TEST_TOOLS) $(FUZZ_REPLAY) $(BUILD)/bench/genmesh $(BROWSER_NODE) $(K8S_NODE) \
       $(BUILD)/$(SO_FILE) \

@@ -57,19 +57,7 @@ node_count() {
 
 NG=$T/nginx
 NGPORT=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
-nginx_conf "$RAYD_ROOT" "$NG" "$NGPORT" "${NODE_URL[1]#http://}" "${NODE_URL[2]#http://}" "${NODE_URL[3]#http://}"
-if ! "$NGINX" -t -q -p "$NG" -c "$NG/nginx.conf" -e "$NG/log/error.log" -g "$(nginx_opts)" 2>"$T/nginx-t.err"; then
-    echo "FAIL nginx_conf_valid: $(head -c 400 "$T/nginx-t.err")"
-    exit 1
-fi
-"$NGINX" -p "$NG" -c "$NG/nginx.conf" -e "$NG/log/error.log" -g "$(nginx_opts)" 2>"$T/nginx.err" &
-NGINX_PID=$!
-# nginx's workers outlive a SIGKILLed master: TERM it first (it stops them)
-balancer_cleanup() {
-    kill -TERM "$NGINX_PID" 2>/dev/null && wait "$NGINX_PID" 2>/dev/null
-    cleanup
-}
-trap balancer_cleanup EXIT
+nginx_start "$NG" "$NGPORT" "${NODE_URL[1]#http://}" "${NODE_URL[2]#http://}" "${NODE_URL[3]#http://}"
 URL=http://127.0.0.1:$NGPORT     # req, post_json: through nginx
 wait_until 60 bash -c "[ \"\$(curl -s -o /dev/null -w '%{http_code}' '$URL/healthz')\" = 200 ]"
 check nginx_up "nginx does not answer /healthz on $URL" \

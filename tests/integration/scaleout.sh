@@ -54,22 +54,7 @@ node_tiles() { # tiles answered by node I: GET image 200 + POST render 200
 NG=$T/nginx
 NGPORT=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
 source "$RAYD_ROOT/tests/integration/lib/nginx.sh"
-nginx_conf "$RAYD_ROOT" "$NG" "$NGPORT" "${NODE_URL[1]#http://}" "${NODE_URL[2]#http://}" "${NODE_URL[3]#http://}"
-ngopts=$(nginx_opts)
-if ! "$NGINX" -t -q -p "$NG" -c "$NG/nginx.conf" -e "$NG/log/error.log" -g "$ngopts" 2>"$T/nginx-t.err"; then
-    echo "FAIL nginx_conf_valid: $(head -c 400 "$T/nginx-t.err")"
-    exit 1
-fi
-echo "PASS nginx_conf_valid"
-"$NGINX" -p "$NG" -c "$NG/nginx.conf" -e "$NG/log/error.log" -g "$ngopts" 2>"$T/nginx.err" &
-NGINX_PID=$!
-# nginx's workers outlive a SIGKILLed master: stop it with TERM (the master
-# then stops its workers) before common.sh's cleanup kills the rest
-scaleout_cleanup() {
-    kill -TERM "$NGINX_PID" 2>/dev/null && wait "$NGINX_PID" 2>/dev/null
-    cleanup
-}
-trap scaleout_cleanup EXIT
+nginx_start "$NG" "$NGPORT" "${NODE_URL[1]#http://}" "${NODE_URL[2]#http://}" "${NODE_URL[3]#http://}"
 LB=http://127.0.0.1:$NGPORT
 wait_until 60 bash -c "[ \"\$(curl -s -o /dev/null -w '%{http_code}' '$LB/healthz')\" = 200 ]"
 check nginx_up "nginx does not answer /healthz on $LB" [ "$(curl -s -o /dev/null -w '%{http_code}' "$LB/healthz")" = 200 ]

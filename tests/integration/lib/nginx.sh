@@ -40,3 +40,28 @@ nginx_opts() {
     [ "$(id -u)" = 0 ] && g+=" user root;"
     echo "$g"
 }
+
+# nginx_start DIR PORT ADDR...: (tests only, after common.sh) writes DIR's
+# config with nginx_conf, checks it (a FAIL line and exit when nginx refuses
+# it), and starts $NGINX in the foreground: NGINX_PID.  The EXIT trap then
+# stops it with TERM before common.sh's cleanup, since nginx's workers
+# outlive a SIGKILLed master.
+nginx_start() {
+    local dir=$1 port=$2 opts
+    shift 2
+    nginx_conf "$RAYD_ROOT" "$dir" "$port" "$@"
+    opts=$(nginx_opts)
+    if ! "$NGINX" -t -q -p "$dir" -c "$dir/nginx.conf" -e "$dir/log/error.log" -g "$opts" \
+        2>"$T/nginx-t.err"; then
+        echo "FAIL nginx_conf_valid: $(head -c 400 "$T/nginx-t.err")"
+        exit 1
+    fi
+    echo "PASS nginx_conf_valid"
+    "$NGINX" -p "$dir" -c "$dir/nginx.conf" -e "$dir/log/error.log" -g "$opts" 2>"$T/nginx.err" &
+    NGINX_PID=$!
+    trap nginx_cleanup EXIT
+}
+nginx_cleanup() {
+    kill -TERM "$NGINX_PID" 2>/dev/null && wait "$NGINX_PID" 2>/dev/null
+    cleanup
+}
