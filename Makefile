@@ -22,7 +22,8 @@
 # says what each package is for).  BUILD_PKGS: compiler and tools, the three
 # given libraries (libpng, cJSON, libmicrohttpd), libcurl for the client,
 # libssl (libcrypto's SHA-256 of scene ids), libisal and zlib (the PNG
-# encoder's deflates), libopenexr-dev (EXR out, core/io/exr.c).  TEST_PKGS,
+# encoder's deflates), libopenexr-dev (EXR out, core/io/exr.c), libstb-dev
+# (stb_image: Radiance .hdr environments, core/io/scene_json_env.c).  TEST_PKGS,
 # on top for `make test`: curl and python3 (the integration tests), nginx (the
 # scale-out test balances through it; installed, never started: tools/deps.sh),
 # wrk (the load test), chromium and a font (the preview's browser tests),
@@ -32,7 +33,7 @@
 # man-db (the man pages rendered).  LINT_PKGS: make lint and make format.
 # BENCH_PKGS (below): make bench-peers only.
 BUILD_PKGS := gcc make pkg-config libc6-dev libpng-dev zlib1g-dev libisal-dev libcjson-dev \
-              libmicrohttpd-dev libcurl4-openssl-dev libssl-dev libopenexr-dev
+              libmicrohttpd-dev libcurl4-openssl-dev libssl-dev libopenexr-dev libstb-dev
 TEST_PKGS := curl python3 nginx wrk chromium fonts-dejavu-core pngcheck openexr g++ \
              assimp-testmodels clang libclang-rt-14-dev valgrind openssl man-db
 LINT_PKGS := cppcheck clang-tidy clang-format
@@ -78,7 +79,7 @@ LDFLAGS_ALL := $(LDSAN) $(LDFLAGS)
 # pkg-config runs in recipes, after `make deps` has installed it.
 EXR_CFLAGS = $(patsubst -I%,-isystem %,$(shell pkg-config --cflags OpenEXR))
 EXR_LIBS = $(shell pkg-config --libs OpenEXR)
-LIBS_CORE = -lpng -lz -lisal -lcjson $(EXR_LIBS) -lpthread -lm
+LIBS_CORE = -lpng -lz -lisal -lcjson -lstb $(EXR_LIBS) -lpthread -lm
 
 # --- version ----------------------------------------------------------------
 # The file VERSION holds the one version string.  Every compile sees it as

@@ -47,6 +47,7 @@ void rayd_scene_free(rayd_scene *s) {
     }
     for (int i = 0; i < s->ntextures; i++) texture_free(&s->textures[i]);
     free(s->textures);
+    env_free(&s->rs.env);
     free(s->groups);
     free(s->parts);
     free(s->meshes);
