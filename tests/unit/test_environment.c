@@ -265,7 +265,7 @@ static void test_sampling_the_sky_pays(void) {
     free(off_many);
 }
 
-static void test_same_bytes_any_threads(void) {
+static void test_same_bytes_any_threads_and_tiles(void) {
     char json[1024];
     snprintf(json, sizeof json, SUN_FMT, 4, 0);
     struct rayd_error err;
@@ -276,6 +276,16 @@ static void test_same_bytes_any_threads(void) {
           "1 and 2 threads differ");
     rayd_image_free(a);
     rayd_image_free(b);
+    /* a tile is the same pixels as the whole image's */
+    float *full = render_linear(s, 24, 24), tile[7 * 5 * 3];
+    struct rayd_region r = {9, 11, 7, 5};
+    uint64_t rays = 0;
+    CHECK(rayd_render_linear_into(s, &r, tile, 7, 0, 0, NULL, &rays, &err) == RAYD_OK, "tile");
+    int differ = 0;
+    for (int y = 0; y < 5 && full; y++)
+        differ += memcmp(tile + 3 * 7 * y, full + 3 * (24 * (11 + y) + 9), 7 * 3 * sizeof(float)) != 0;
+    CHECK(full && differ == 0, "%d rows of the tile differ from the whole image", differ);
+    free(full);
     rayd_scene_free(s);
 }
 
@@ -317,7 +327,7 @@ int main(void) {
     RUN(test_invisible_environment_shows_background);
     RUN(test_rotation_turns_the_map);
     RUN(test_sampling_the_sky_pays);
-    RUN(test_same_bytes_any_threads);
+    RUN(test_same_bytes_any_threads_and_tiles);
     RUN(test_bad_environments_refused);
     const char *files[] = {"ramp.hdr", "sun.hdr", "text.hdr", "huge.hdr"};
     for (int i = 0; i < 4; i++) {
