@@ -480,6 +480,11 @@ $(BUILD)/bench/hdrbench: bench/hdrbench.c $(BUILD)/librayd.a
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -Iinclude $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
 
+# The environment map's sampling against BSDF sampling alone (its switch is internal).
+$(BUILD)/bench/envbench: bench/envbench.c $(BUILD)/librayd.a
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS_ALL) -Iinclude -Icore $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
+
 .PRECIOUS: $(BENCH_DIR)/mesh-%.ply $(BENCH_DIR)/mesh-%.json $(BENCH_DIR)/mesh-%.obj $(BENCH_DIR)/mesh-%-obj.json
 
 # The Embree side of bench-peers: reuses the core's PLY reader (mesh_io.h).
