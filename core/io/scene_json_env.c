@@ -25,7 +25,7 @@
 #define DEG2RAD_ENV (3.14159265358979323846 / 180)
 
 /* The encoded bytes of "file" or "base64" (with "format"). */
-static enum rayd_status env_bytes(struct loader *ld, const cJSON *ej, const struct jp *at,
+static enum rayd_status env_encoded(struct loader *ld, const cJSON *ej, const struct jp *at,
                                   struct jp *p, char **data, size_t *len) {
     static const char *const formats[] = {"hdr", NULL};
     const cJSON *file = cJSON_GetObjectItemCaseSensitive(ej, "file");
@@ -101,7 +101,7 @@ enum rayd_status sj_environment(struct loader *ld, const cJSON *r, const struct 
         struct jp p;
         char *data = NULL;
         size_t len = 0;
-        TRY(env_bytes(ld, ej, &at, &p, &data, &len));
+        TRY(env_encoded(ld, ej, &at, &p, &data, &len));
         enum rayd_status st = env_decode(ld, data, len, &p, k, e);
         free(data);
         TRY(st);

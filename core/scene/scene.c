@@ -561,5 +561,6 @@ void rayd_scene_info(const rayd_scene *s, struct rayd_scene_info *info) {
         bytes += sizeof *s->objs * (size_t)s->groups[i].nobjs +
                  sizeof *s->tlas.nodes * (size_t)s->groups[i].bvh.nnodes;
     for (int i = 0; i < s->ntextures; i++) bytes += texture_bytes(&s->textures[i]);
+    bytes += env_bytes(&s->rs.env);
     info->bytes = bytes + light_buffers_bytes(s->light_buffers, s->nlights);
 }

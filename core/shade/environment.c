@@ -150,3 +150,9 @@ void env_free(struct environment *e) {
     e->rgb = NULL;
     e->row_cdf = e->col_cdf = NULL;
 }
+
+size_t env_bytes(const struct environment *e) {
+    if (e->kind != ENV_IMAGE) return 0;
+    size_t w = (size_t)e->w, h = (size_t)e->h;
+    return w * h * 3 * sizeof *e->rgb + (h + 1 + h * (w + 1)) * sizeof(double);
+}

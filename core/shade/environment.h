@@ -4,6 +4,7 @@
 #define ENVIRONMENT_H
 
 #include <stdbool.h>
+#include <stddef.h>
 
 #include "math/vec.h"
 
@@ -41,5 +42,7 @@ bool env_sample(const struct environment *e, double u1, double u2, vec3 *d, doub
 double env_pdf(const struct environment *e, vec3 d);
 
 void env_free(struct environment *e);
+/* The memory its pixels and tables take (the server's scene cache counts it). */
+size_t env_bytes(const struct environment *e);
 
 #endif
