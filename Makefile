@@ -22,7 +22,7 @@
 # says what each package is for).  BUILD_PKGS: compiler and tools, the three
 # given libraries (libpng, cJSON, libmicrohttpd), libcurl for the client,
 # libssl (libcrypto's SHA-256 of scene ids), libisal and zlib (the PNG
-# encoder's deflates), libopenexr-dev (EXR out, core/io/exr.c), libstb-dev
+# encoder's deflates), libopenexr-dev (EXR out and environment maps in, core/io/exr*.c), libstb-dev
 # (stb_image: Radiance .hdr environments, core/io/scene_json_env.c).  TEST_PKGS,
 # on top for `make test`: curl and python3 (the integration tests), nginx (the
 # scale-out test balances through it; installed, never started: tools/deps.sh),
@@ -75,7 +75,7 @@ WARN := -Wall -Wextra -Werror -Wshadow -Wpointer-arith -Wstrict-prototypes \
 # default), so the one-ray code and the packets do the same roundings.
 CFLAGS_ALL := -std=c11 -D_POSIX_C_SOURCE=200809L -ffp-contract=off $(OPT) $(WARN) -MMD -MP $(CFLAGS)
 LDFLAGS_ALL := $(LDSAN) $(LDFLAGS)
-# OpenEXR (core/io/exr.c only) through pkg-config; recursively expanded, so
+# OpenEXR (core/io/exr.c and exr_read.c only) through pkg-config; recursively expanded, so
 # pkg-config runs in recipes, after `make deps` has installed it.
 EXR_CFLAGS = $(patsubst -I%,-isystem %,$(shell pkg-config --cflags OpenEXR))
 EXR_LIBS = $(shell pkg-config --libs OpenEXR)
@@ -164,7 +164,7 @@ VEC_OBJ := core/render/integrate_wide.o core/geom/camera.o core/io/png_encode.o
 $(VEC_OBJ:%=$(BUILD)/%) $(VEC_OBJ:%=$(BUILD)/pic/%): CFLAGS_VEC := -ftree-vectorize \
     -fvect-cost-model=dynamic
 
-$(BUILD)/core/io/exr.o $(BUILD)/pic/core/io/exr.o: CFLAGS_VEC = $(EXR_CFLAGS)
+$(BUILD)/core/io/exr.o $(BUILD)/pic/core/io/exr.o $(BUILD)/core/io/exr_read.o $(BUILD)/pic/core/io/exr_read.o: CFLAGS_VEC = $(EXR_CFLAGS)
 
 $(BUILD)/librayd.a: $(CORE_OBJ)
 	@rm -f $@
@@ -367,7 +367,7 @@ build/fuzz/core/%.o: core/%.c | $(BUILD)/.test-deps-ok
 	@mkdir -p $(dir $@)
 	clang $(FUZZ_CFLAGS) -MMD -MP -c $< -o $@
 
-build/fuzz/core/io/exr.o: FUZZ_CFLAGS += $(EXR_CFLAGS)
+build/fuzz/core/io/exr.o build/fuzz/core/io/exr_read.o: FUZZ_CFLAGS += $(EXR_CFLAGS)
 
 build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c $(FUZZ_CORE_OBJ)
 	clang $(FUZZ_CFLAGS) -fsanitize=fuzzer $^ -o $@ $(LIBS_CORE)

@@ -197,6 +197,49 @@ out:
     rayd_scene_free(s90);
 }
 
+/* The same map as OpenEXR (rayd's own writer) gives the same radiance. */
+static void test_exr_equals_hdr(void) {
+    float rgb[8 * 4 * 3];
+    for (int k = 0; k < 32; k++) {
+        rgb[3 * k] = (float)(k % 8 + 1) / 8;
+        rgb[3 * k + 1] = (float)(k / 8 + 1) / 4;
+        rgb[3 * k + 2] = 0.5f;
+    }
+    void *buf = NULL;
+    size_t len = 0;
+    struct rayd_error err = {0};
+    CHECK(rayd_exr_encode(rgb, 8, 4, &buf, &len, &err) == RAYD_OK, "%s", err.message);
+    char path[128];
+    snprintf(path, sizeof path, "%s/ramp.exr", dir);
+    FILE *f = fopen(path, "wb");
+    if (f && buf) fwrite(buf, 1, len, f);
+    if (f) fclose(f);
+    snprintf(path, sizeof path, "%s/cut.exr", dir);
+    f = fopen(path, "wb");
+    if (f && buf) fwrite(buf, 1, len / 2, f);
+    if (f) fclose(f);
+    rayd_free(buf);
+    write_ramp();
+    rayd_scene *a = ramp_scene(30);
+    rayd_scene *b = parse("{\"render\": {\"environment\": {\"file\": \"ramp.exr\", \"rotation\": 30}}}", &err);
+    CHECK(b != NULL, "%s at %s", err.message, err.path);
+    rayd_scene *c = parse("{\"render\": {\"environment\": {\"file\": \"ramp.exr\", \"format\": \"exr\"}}}", &err);
+    CHECK(c != NULL, "%s at %s", err.message, err.path);
+    if (a && b) {
+        int bad = 0;
+        for (int j = 0; j < 4; j++)
+            for (int i = 0; i < 8; i++) {
+                vec3 d = texel_dir(i, j);
+                vec3 x = env_radiance(&a->rs.env, d), y = env_radiance(&b->rs.env, d);
+                bad += x.x != y.x || x.y != y.y || x.z != y.z;
+            }
+        CHECK(bad == 0, "%d of 32 texels differ between the .hdr and the .exr", bad);
+    }
+    rayd_scene_free(a);
+    rayd_scene_free(b);
+    rayd_scene_free(c);
+}
+
 /* ---- importance sampling ------------------------------------------------------------ */
 
 /* A dark sky with a small bright sun: 64 x 32, the sun 2 x 2 texels. */
@@ -309,7 +352,10 @@ static void test_bad_environments_refused(void) {
     refused("{\"file\": \"text.hdr\"}", "/render/environment/file", "not a Radiance .hdr");
     refused("{\"file\": \"huge.hdr\"}", "/render/environment/file", "limit");
     refused("{\"base64\": \"aGVsbG8=\", \"format\": \"hdr\"}", "/render/environment/base64", "not a Radiance");
-    refused("{\"base64\": \"aGVsbG8=\", \"format\": \"png\"}", "/render/environment/format", "hdr");
+    refused("{\"base64\": \"aGVsbG8=\", \"format\": \"png\"}", "/render/environment/format", "hdr, exr");
+    refused("{\"base64\": \"aGVsbG8=\", \"format\": \"exr\"}", "/render/environment/base64", "not an OpenEXR");
+    refused("{\"file\": \"cut.exr\"}", "/render/environment/file", "OpenEXR");
+    refused("{\"file\": \"ramp.hdr\", \"format\": \"exr\"}", "/render/environment/file", "not an OpenEXR");
     refused("{\"color\": [1,1,1], \"intensity\": -1}", "/render/environment/intensity", ">= 0");
     refused("{\"color\": [1,1,1], \"brightness\": 2}", "/render/environment/brightness", "unknown key");
     refused("{\"color\": [1,1,1], \"file\": \"a.hdr\"}", "/render/environment", "exactly one");
@@ -326,11 +372,12 @@ int main(void) {
     RUN(test_white_furnace_whitted_exact);
     RUN(test_invisible_environment_shows_background);
     RUN(test_rotation_turns_the_map);
+    RUN(test_exr_equals_hdr);
     RUN(test_sampling_the_sky_pays);
     RUN(test_same_bytes_any_threads_and_tiles);
     RUN(test_bad_environments_refused);
-    const char *files[] = {"ramp.hdr", "sun.hdr", "text.hdr", "huge.hdr"};
-    for (int i = 0; i < 4; i++) {
+    const char *files[] = {"ramp.hdr", "sun.hdr", "text.hdr", "huge.hdr", "ramp.exr", "cut.exr"};
+    for (int i = 0; i < 6; i++) {
         char p[128];
         snprintf(p, sizeof p, "%s/%s", dir, files[i]);
         unlink(p);
