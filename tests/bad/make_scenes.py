@@ -722,7 +722,7 @@ case("environment-missing-file.json", '{"render": {"environment": {"file": "no-s
 case("environment-not-hdr.json", '{"render": {"environment": {"file": "empty.json"}}}\n',
      E + '/render/environment/file: is not a Radiance .hdr image (it must start with "#?RADIANCE" or "#?RGBE")')
 case("environment-base64-png.json", '{"render": {"environment": {"base64": "iVBORw0KGgo=", "format": "png"}}}\n',
-     E + '/render/environment/format: unknown value "png" (supported: hdr)')
+     E + '/render/environment/format: unknown value "png" (supported: hdr, exr)')
 
 
 def main():
