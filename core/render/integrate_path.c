@@ -34,10 +34,10 @@
 #define PI 3.14159265358979323846
 
 enum { D_LOBE, D_DIR1, D_DIR2, D_RR, D_FRESNEL, D_PICK, D_EPT1, D_EPT2, D_LIGHT0 };
-/* The environment's light sample: far above D_LIGHT0 + 2 x the most lights,
- * below RNG_AREA_DIM's range. */
-#define D_ENV1 0xfff0u
-#define D_ENV2 0xfff1u
+/* The environment's light sample: at the top of the 32-bit range, past
+ * D_LIGHT0 + 2 x any number of lights a limit could allow. */
+#define D_ENV1 0xfffffff0u
+#define D_ENV2 0xfffffff1u
 
 struct lobes {
     double w_diff, w_metal, w_mirror, w_glass;
