@@ -23,8 +23,8 @@ struct exr_src {
     char message[200]; /* the library's last error, if any */
 };
 
-static int64_t src_read(exr_const_context_t ctx, void *user, void *buf, uint64_t sz, uint64_t offset,
-                        exr_stream_error_func_ptr_t error_cb) {
+static int64_t src_read(exr_const_context_t ctx, void *user, void *buf, uint64_t sz,
+                        uint64_t offset, exr_stream_error_func_ptr_t error_cb) {
     (void)ctx;
     (void)error_cb;
     const struct exr_src *s = user;
@@ -44,12 +44,16 @@ static void src_error(exr_const_context_t ctx, exr_result_t code, const char *ms
     void *user = NULL;
     if (exr_get_user_data(ctx, &user) != EXR_ERR_SUCCESS || !user) return;
     struct exr_src *s = user;
-    snprintf(s->message, sizeof s->message, "%s: %s", exr_get_error_code_as_string(code), msg ? msg : "");
+    snprintf(s->message, sizeof s->message, "%s: %s", exr_get_error_code_as_string(code),
+             msg ? msg : "");
 }
 
 /* The index 0-2 of an R, G or B channel name, or -1. */
 static int rgb_index(const char *name) {
-    return strcmp(name, "R") == 0 ? 0 : strcmp(name, "G") == 0 ? 1 : strcmp(name, "B") == 0 ? 2 : -1;
+    return strcmp(name, "R") == 0   ? 0
+           : strcmp(name, "G") == 0 ? 1
+           : strcmp(name, "B") == 0 ? 2
+                                    : -1;
 }
 
 /* Why the part cannot be read as RGB scanlines, or NULL when it can. */
@@ -80,12 +84,14 @@ static exr_result_t read_rows(exr_context_t ctx, float *rgb, int w, int y0, int 
         exr_chunk_info_t ci;
         rv = exr_read_scanline_chunk_info(ctx, 0, y, &ci);
         if (rv != EXR_ERR_SUCCESS) break;
-        rv = started ? exr_decoding_update(ctx, 0, &ci, &dec) : exr_decoding_initialize(ctx, 0, &ci, &dec);
+        rv = started ? exr_decoding_update(ctx, 0, &ci, &dec)
+                     : exr_decoding_initialize(ctx, 0, &ci, &dec);
         if (rv != EXR_ERR_SUCCESS) break;
         for (int c = 0; c < dec.channel_count; c++) {
             exr_coding_channel_info_t *ch = &dec.channels[c];
             int k = rgb_index(ch->channel_name);
-            ch->decode_to_ptr = k < 0 ? NULL : (uint8_t *)(rgb + (size_t)(ci.start_y - y0) * (size_t)w * 3 + k);
+            ch->decode_to_ptr =
+                k < 0 ? NULL : (uint8_t *)(rgb + (size_t)(ci.start_y - y0) * (size_t)w * 3 + k);
             ch->user_pixel_stride = 3 * (int32_t)sizeof(float);
             ch->user_line_stride = w * 3 * (int32_t)sizeof(float);
             ch->user_data_type = EXR_PIXEL_FLOAT;
@@ -108,7 +114,8 @@ enum rayd_status exr_read_rgb(const void *buf, size_t len, long max_pixels, floa
     init.error_handler_fn = src_error;
     exr_context_t ctx = NULL;
     if (len < 4 || memcmp(buf, "\x76\x2f\x31\x01", 4) != 0)
-        return err_set(err, RAYD_E_INVALID, NULL, "is not an OpenEXR image (no OpenEXR magic number)");
+        return err_set(err, RAYD_E_INVALID, NULL,
+                       "is not an OpenEXR image (no OpenEXR magic number)");
     exr_result_t rv = exr_start_read(&ctx, "memory", &init);
     exr_attr_box2i_t dw;
     if (rv == EXR_ERR_SUCCESS) rv = exr_get_data_window(ctx, 0, &dw);
@@ -120,12 +127,16 @@ enum rayd_status exr_read_rgb(const void *buf, size_t len, long max_pixels, floa
     const char *why = unsupported(ctx);
     long ww = (long)dw.max.x - dw.min.x + 1, hh = (long)dw.max.y - dw.min.y + 1;
     enum rayd_status st = RAYD_OK;
-    if (why) st = err_set(err, RAYD_E_INVALID, NULL, "%s", why);
-    else if (ww <= 0 || hh <= 0) st = err_set(err, RAYD_E_INVALID, NULL, "has an empty data window");
+    if (why)
+        st = err_set(err, RAYD_E_INVALID, NULL, "%s", why);
+    else if (ww <= 0 || hh <= 0)
+        st = err_set(err, RAYD_E_INVALID, NULL, "has an empty data window");
     else if (ww > max_pixels / hh)
-        st = err_set(err, RAYD_E_LIMIT, NULL, "the image is %ld x %ld pixels; the limit is %ld pixels", ww, hh, max_pixels);
+        st = err_set(err, RAYD_E_LIMIT, NULL,
+                     "the image is %ld x %ld pixels; the limit is %ld pixels", ww, hh, max_pixels);
     float *px = st == RAYD_OK ? calloc((size_t)ww * (size_t)hh * 3, sizeof *px) : NULL;
-    if (st == RAYD_OK && !px) st = err_set(err, RAYD_E_NOMEM, NULL, "out of memory for an OpenEXR image");
+    if (st == RAYD_OK && !px)
+        st = err_set(err, RAYD_E_NOMEM, NULL, "out of memory for an OpenEXR image");
     if (st == RAYD_OK) {
         rv = read_rows(ctx, px, (int)ww, dw.min.y, dw.max.y);
         if (rv != EXR_ERR_SUCCESS)

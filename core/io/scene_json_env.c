@@ -29,14 +29,16 @@
 
 /* The encoded bytes of "file" or "base64". */
 static enum rayd_status env_encoded(struct loader *ld, const cJSON *ej, const struct jp *at,
-                                  struct jp *p, char **data, size_t *len) {
+                                    struct jp *p, char **data, size_t *len) {
     const cJSON *file = cJSON_GetObjectItemCaseSensitive(ej, "file");
     const cJSON *b64 = cJSON_GetObjectItemCaseSensitive(ej, "base64");
     *p = sj_key(at, file ? "file" : "base64");
     if (file) return sj_read_asset(ld, file, p, data, len);
-    if (!cJSON_IsString(b64)) return sj_fail(ld, RAYD_E_INVALID, p, "must be a string, not %s", sj_type_name(b64));
+    if (!cJSON_IsString(b64))
+        return sj_fail(ld, RAYD_E_INVALID, p, "must be a string, not %s", sj_type_name(b64));
     unsigned char *bytes;
-    enum rayd_status st = base64_decode(b64->valuestring, strlen(b64->valuestring), &bytes, len, ld->err);
+    enum rayd_status st =
+        base64_decode(b64->valuestring, strlen(b64->valuestring), &bytes, len, ld->err);
     if (st != RAYD_OK) return sj_fail(ld, st, p, "%s", ld->err->message);
     *data = (char *)bytes;
     return RAYD_OK;
@@ -70,13 +72,19 @@ static enum rayd_status env_decode_hdr(struct loader *ld, const char *data, size
     const stbi_uc *b = (const stbi_uc *)data;
     int w, h, n;
     if (!stbi_is_hdr_from_memory(b, (int)len))
-        return sj_fail(ld, RAYD_E_INVALID, p, "is not a Radiance .hdr image (it must start with \"#?RADIANCE\" or \"#?RGBE\")");
+        return sj_fail(
+            ld, RAYD_E_INVALID, p,
+            "is not a Radiance .hdr image (it must start with \"#?RADIANCE\" or \"#?RGBE\")");
     if (!stbi_info_from_memory(b, (int)len, &w, &h, &n))
-        return sj_fail(ld, RAYD_E_INVALID, p, "is not a readable .hdr image: %s", stbi_failure_reason());
+        return sj_fail(ld, RAYD_E_INVALID, p, "is not a readable .hdr image: %s",
+                       stbi_failure_reason());
     if ((long)w * h > ENV_MAX_PIXELS)
-        return sj_fail(ld, RAYD_E_LIMIT, p, "the image is %d x %d pixels; the limit is %ld pixels", w, h, ENV_MAX_PIXELS);
+        return sj_fail(ld, RAYD_E_LIMIT, p, "the image is %d x %d pixels; the limit is %ld pixels",
+                       w, h, ENV_MAX_PIXELS);
     float *px = stbi_loadf_from_memory(b, (int)len, &w, &h, &n, 3);
-    if (!px) return sj_fail(ld, RAYD_E_INVALID, p, "cannot decode the .hdr image: %s", stbi_failure_reason());
+    if (!px)
+        return sj_fail(ld, RAYD_E_INVALID, p, "cannot decode the .hdr image: %s",
+                       stbi_failure_reason());
     size_t m = (size_t)w * (size_t)h * 3;
     float *own = malloc(m * sizeof *own); /* stb's allocator is its own: copy into ours */
     if (own) memcpy(own, px, m * sizeof *own);
@@ -86,18 +94,20 @@ static enum rayd_status env_decode_hdr(struct loader *ld, const char *data, size
 }
 
 enum rayd_status sj_environment(struct loader *ld, const cJSON *r, const struct jp *render_at) {
-    static const char *const keys[] = {"color", "file", "base64", "format", "rotation",
-                                       "intensity", "visible", NULL};
+    static const char *const keys[] = {"color",    "file",      "base64",  "format",
+                                       "rotation", "intensity", "visible", NULL};
     const cJSON *ej = cJSON_GetObjectItemCaseSensitive(r, "environment");
     if (!ej) return RAYD_OK;
     struct jp at = sj_key(render_at, "environment");
-    if (!cJSON_IsObject(ej)) return sj_fail(ld, RAYD_E_INVALID, &at, "must be an object, not %s", sj_type_name(ej));
+    if (!cJSON_IsObject(ej))
+        return sj_fail(ld, RAYD_E_INVALID, &at, "must be an object, not %s", sj_type_name(ej));
     TRY(sj_check_keys(ld, ej, &at, keys));
     const char *kinds[] = {"color", "file", "base64"};
     int given = 0;
     for (int i = 0; i < 3; i++) given += cJSON_GetObjectItemCaseSensitive(ej, kinds[i]) != NULL;
     if (given != 1)
-        return sj_fail(ld, RAYD_E_INVALID, &at, "needs exactly one of \"color\", \"file\" or \"base64\"");
+        return sj_fail(ld, RAYD_E_INVALID, &at,
+                       "needs exactly one of \"color\", \"file\" or \"base64\"");
     struct environment *e = &ld->s->rs.env;
     double rot, k;
     TRY(sj_num(ld, ej, &at, "rotation", 0, -NUM_MAX, false, NUM_MAX, &rot));
@@ -121,12 +131,15 @@ enum rayd_status sj_environment(struct loader *ld, const cJSON *r, const struct 
         char *data = NULL;
         size_t len = 0;
         TRY(env_encoded(ld, ej, &at, &p, &data, &len));
-        bool exr = format == 1 || (format < 0 && len >= 4 && memcmp(data, "\x76\x2f\x31\x01", 4) == 0);
-        enum rayd_status st = exr ? env_decode_exr(ld, data, len, &p, k, e) : env_decode_hdr(ld, data, len, &p, k, e);
+        bool exr =
+            format == 1 || (format < 0 && len >= 4 && memcmp(data, "\x76\x2f\x31\x01", 4) == 0);
+        enum rayd_status st =
+            exr ? env_decode_exr(ld, data, len, &p, k, e) : env_decode_hdr(ld, data, len, &p, k, e);
         free(data);
         TRY(st);
         e->kind = ENV_IMAGE;
     }
-    if (!env_prepare(e)) return err_set(ld->err, RAYD_E_NOMEM, at.s, "out of memory for the environment");
+    if (!env_prepare(e))
+        return err_set(ld->err, RAYD_E_NOMEM, at.s, "out of memory for the environment");
     return RAYD_OK;
 }

@@ -71,7 +71,8 @@ static bool build_tables(struct environment *e) {
     for (int j = 0; j < h; j++) {
         double *c = e->col_cdf + (size_t)j * (size_t)(w + 1), st = row_sin(e, j);
         c[0] = 0;
-        for (int i = 0; i < w; i++) c[i + 1] = c[i] + luminance(e->rgb + 3 * ((size_t)j * w + i)) * st;
+        for (int i = 0; i < w; i++)
+            c[i + 1] = c[i] + luminance(e->rgb + 3 * ((size_t)j * w + i)) * st;
         e->row_cdf[j + 1] = e->row_cdf[j] + c[w];
     }
     e->integral = e->row_cdf[h] / ((double)w * h);
@@ -107,8 +108,10 @@ static int find(const double *cdf, int n, double x) {
     int lo = 0, hi = n; /* cdf[lo] <= x < cdf[hi] */
     while (hi - lo > 1) {
         int mid = (lo + hi) / 2;
-        if (cdf[mid] <= x) lo = mid;
-        else hi = mid;
+        if (cdf[mid] <= x)
+            lo = mid;
+        else
+            hi = mid;
     }
     return lo;
 }

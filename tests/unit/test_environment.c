@@ -91,12 +91,12 @@ static float *render_linear(const rayd_scene *s, int w, int h) {
 
 /* Camera at the origin down -z, 40 degrees wide; sphere of radius 1 at z = -3
  * (19.5 degrees of angular radius). */
-#define FURNACE_FMT \
-    "{\"camera\": {\"position\": [0,0,0], \"look_at\": [0,0,-1], \"fov_x\": 60}," \
-    " \"render\": {\"width\": 32, \"height\": 32, \"samples\": %d, \"max_depth\": 8," \
-    "   \"integrator\": \"%s\", \"background\": [0.1, 0.2, 0.3]," \
-    "   \"environment\": {\"color\": [0.5, 0.5, 0.5], \"intensity\": 1.5, \"visible\": %s}}," \
-    " \"objects\": [{\"type\": \"sphere\", \"center\": [0,0,-3], \"radius\": 1," \
+#define FURNACE_FMT                                                                                \
+    "{\"camera\": {\"position\": [0,0,0], \"look_at\": [0,0,-1], \"fov_x\": 60},"                  \
+    " \"render\": {\"width\": 32, \"height\": 32, \"samples\": %d, \"max_depth\": 8,"              \
+    "   \"integrator\": \"%s\", \"background\": [0.1, 0.2, 0.3],"                                  \
+    "   \"environment\": {\"color\": [0.5, 0.5, 0.5], \"intensity\": 1.5, \"visible\": %s}},"      \
+    " \"objects\": [{\"type\": \"sphere\", \"center\": [0,0,-3], \"radius\": 1,"                   \
     "   \"material\": {\"color\": [0.6, 0.6, 0.6], \"diffuse\": 1}}]}"
 
 /* The angle between pixel (i, j)'s centre ray and -z, in degrees. */
@@ -130,7 +130,8 @@ static void furnace(const char *integrator, int samples, bool visible, double to
                 n++;
             } else if (ang > 23) {
                 bg++;
-                double d = fmax(fabs(p[0] - want[0]), fmax(fabs(p[1] - want[1]), fabs(p[2] - want[2])));
+                double d =
+                    fmax(fabs(p[0] - want[0]), fmax(fabs(p[1] - want[1]), fabs(p[2] - want[2])));
                 bg_bad += visible ? d != 0 : d > 1e-6; /* 0.1 x n / n is not exact in the sums */
             }
         }
@@ -162,7 +163,8 @@ static void write_ramp(void) {
 static rayd_scene *ramp_scene(double rotation) {
     char json[256];
     snprintf(json, sizeof json,
-             "{\"render\": {\"environment\": {\"file\": \"ramp.hdr\", \"rotation\": %g}}}", rotation);
+             "{\"render\": {\"environment\": {\"file\": \"ramp.hdr\", \"rotation\": %g}}}",
+             rotation);
     struct rayd_error err;
     rayd_scene *s = parse(json, &err);
     CHECK(s != NULL, "%s at %s", err.message, err.path);
@@ -221,9 +223,11 @@ static void test_exr_equals_hdr(void) {
     rayd_free(buf);
     write_ramp();
     rayd_scene *a = ramp_scene(30);
-    rayd_scene *b = parse("{\"render\": {\"environment\": {\"file\": \"ramp.exr\", \"rotation\": 30}}}", &err);
+    rayd_scene *b =
+        parse("{\"render\": {\"environment\": {\"file\": \"ramp.exr\", \"rotation\": 30}}}", &err);
     CHECK(b != NULL, "%s at %s", err.message, err.path);
-    rayd_scene *c = parse("{\"render\": {\"environment\": {\"file\": \"ramp.exr\", \"format\": \"exr\"}}}", &err);
+    rayd_scene *c = parse(
+        "{\"render\": {\"environment\": {\"file\": \"ramp.exr\", \"format\": \"exr\"}}}", &err);
     CHECK(c != NULL, "%s at %s", err.message, err.path);
     if (a && b) {
         int bad = 0;
@@ -256,13 +260,14 @@ static void write_sun(void) {
     write_hdr("sun.hdr", 64, 32, rgb);
 }
 
-#define SUN_FMT \
-    "{\"camera\": {\"position\": [0,2,4], \"look_at\": [0,0,0], \"fov_x\": 50}," \
-    " \"render\": {\"width\": 24, \"height\": 24, \"samples\": %d, \"max_depth\": 4, \"seed\": %d," \
-    "   \"integrator\": \"path\", \"environment\": {\"file\": \"sun.hdr\", \"rotation\": 30}}," \
-    " \"objects\": [{\"type\": \"sphere\", \"center\": [0,0.7,0], \"radius\": 0.7," \
-    "   \"material\": {\"color\": [0.8, 0.5, 0.3]}}," \
-    "  {\"type\": \"plane\", \"point\": [0,0,0], \"normal\": [0,1,0]," \
+#define SUN_FMT                                                                                    \
+    "{\"camera\": {\"position\": [0,2,4], \"look_at\": [0,0,0], \"fov_x\": 50},"                   \
+    " \"render\": {\"width\": 24, \"height\": 24, \"samples\": %d, \"max_depth\": 4, \"seed\": "   \
+    "%d,"                                                                                          \
+    "   \"integrator\": \"path\", \"environment\": {\"file\": \"sun.hdr\", \"rotation\": 30}},"    \
+    " \"objects\": [{\"type\": \"sphere\", \"center\": [0,0.7,0], \"radius\": 0.7,"                \
+    "   \"material\": {\"color\": [0.8, 0.5, 0.3]}},"                                              \
+    "  {\"type\": \"plane\", \"point\": [0,0,0], \"normal\": [0,1,0],"                             \
     "   \"material\": {\"color\": [0.7, 0.7, 0.7], \"metallic\": 0.3, \"roughness\": 0.5}}]}"
 
 static float *sun_render(int samples, int seed, bool sampled) {
@@ -296,8 +301,8 @@ static void test_sampling_the_sky_pays(void) {
     float *off = sun_render(16, 1, false), *off_many = sun_render(512, 3, false);
     if (ref && on && off && off_many) {
         double e_on = rmse(on, ref), e_off = rmse(off, ref), m = mean(ref);
-        printf("  16 samples: RMSE %.4f sampled, %.4f not; means %.4f %.4f, reference %.4f\n",
-               e_on, e_off, mean(on), mean(off), m);
+        printf("  16 samples: RMSE %.4f sampled, %.4f not; means %.4f %.4f, reference %.4f\n", e_on,
+               e_off, mean(on), mean(off), m);
         CHECK(e_on < 0.5 * e_off, "RMSE %g sampled against %g not", e_on, e_off);
         CHECK_NEAR(mean(on), m, 0.03 * m);
         CHECK_NEAR(mean(off_many), m, 0.05 * m); /* BSDF sampling alone agrees: no bias */
@@ -326,7 +331,8 @@ static void test_same_bytes_any_threads_and_tiles(void) {
     CHECK(rayd_render_linear_into(s, &r, tile, 7, 0, 0, NULL, &rays, &err) == RAYD_OK, "tile");
     int differ = 0;
     for (int y = 0; y < 5 && full; y++)
-        differ += memcmp(tile + 3 * 7 * y, full + 3 * (24 * (11 + y) + 9), 7 * 3 * sizeof(float)) != 0;
+        differ +=
+            memcmp(tile + 3 * 7 * y, full + 3 * (24 * (11 + y) + 9), 7 * 3 * sizeof(float)) != 0;
     CHECK(full && differ == 0, "%d rows of the tile differ from the whole image", differ);
     free(full);
     rayd_scene_free(s);
@@ -341,8 +347,10 @@ static void refused(const char *env, const char *path, const char *words) {
     rayd_scene *s = parse(json, &err);
     CHECK(s == NULL, "%s was accepted", env);
     rayd_scene_free(s);
-    CHECK(strcmp(err.path, path) == 0, "%s: pointer %s, not %s (%s)", env, err.path, path, err.message);
-    CHECK(strstr(err.message, words) != NULL, "%s: \"%s\" does not say \"%s\"", env, err.message, words);
+    CHECK(strcmp(err.path, path) == 0, "%s: pointer %s, not %s (%s)", env, err.path, path,
+          err.message);
+    CHECK(strstr(err.message, words) != NULL, "%s: \"%s\" does not say \"%s\"", env, err.message,
+          words);
 }
 
 static void test_bad_environments_refused(void) {
@@ -351,13 +359,18 @@ static void test_bad_environments_refused(void) {
     refused("{\"file\": \"nowhere.hdr\"}", "/render/environment/file", "nowhere.hdr");
     refused("{\"file\": \"text.hdr\"}", "/render/environment/file", "not a Radiance .hdr");
     refused("{\"file\": \"huge.hdr\"}", "/render/environment/file", "limit");
-    refused("{\"base64\": \"aGVsbG8=\", \"format\": \"hdr\"}", "/render/environment/base64", "not a Radiance");
-    refused("{\"base64\": \"aGVsbG8=\", \"format\": \"png\"}", "/render/environment/format", "hdr, exr");
-    refused("{\"base64\": \"aGVsbG8=\", \"format\": \"exr\"}", "/render/environment/base64", "not an OpenEXR");
+    refused("{\"base64\": \"aGVsbG8=\", \"format\": \"hdr\"}", "/render/environment/base64",
+            "not a Radiance");
+    refused("{\"base64\": \"aGVsbG8=\", \"format\": \"png\"}", "/render/environment/format",
+            "hdr, exr");
+    refused("{\"base64\": \"aGVsbG8=\", \"format\": \"exr\"}", "/render/environment/base64",
+            "not an OpenEXR");
     refused("{\"file\": \"cut.exr\"}", "/render/environment/file", "OpenEXR");
-    refused("{\"file\": \"ramp.hdr\", \"format\": \"exr\"}", "/render/environment/file", "not an OpenEXR");
+    refused("{\"file\": \"ramp.hdr\", \"format\": \"exr\"}", "/render/environment/file",
+            "not an OpenEXR");
     refused("{\"color\": [1,1,1], \"intensity\": -1}", "/render/environment/intensity", ">= 0");
-    refused("{\"color\": [1,1,1], \"brightness\": 2}", "/render/environment/brightness", "unknown key");
+    refused("{\"color\": [1,1,1], \"brightness\": 2}", "/render/environment/brightness",
+            "unknown key");
     refused("{\"color\": [1,1,1], \"file\": \"a.hdr\"}", "/render/environment", "exactly one");
     refused("{}", "/render/environment", "exactly one");
     refused("{\"color\": [1,-1,1]}", "/render/environment/color/1", "");
