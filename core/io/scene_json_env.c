@@ -23,8 +23,8 @@
 
 #include "io/base64.h"
 #include "io/exr_read.h"
+#include "shade/texture.h"
 
-#define ENV_MAX_PIXELS (4096L * 4096L) /* the image textures' limit */
 #define DEG2RAD_ENV (3.14159265358979323846 / 180)
 
 /* The encoded bytes of "file" or "base64". */
@@ -60,7 +60,7 @@ static enum rayd_status env_decode_exr(struct loader *ld, const char *data, size
     float *px;
     int w, h;
     struct rayd_error x = {0};
-    enum rayd_status st = exr_read_rgb(data, len, ENV_MAX_PIXELS, &px, &w, &h, &x);
+    enum rayd_status st = exr_read_rgb(data, len, TEXTURE_MAX_PIXELS, &px, &w, &h, &x);
     if (st != RAYD_OK) return sj_fail(ld, st, p, "%s", x.message);
     return env_take(px, w, h, k, e);
 }
@@ -78,9 +78,9 @@ static enum rayd_status env_decode_hdr(struct loader *ld, const char *data, size
     if (!stbi_info_from_memory(b, (int)len, &w, &h, &n))
         return sj_fail(ld, RAYD_E_INVALID, p, "is not a readable .hdr image: %s",
                        stbi_failure_reason());
-    if ((long)w * h > ENV_MAX_PIXELS)
+    if ((long)w * h > TEXTURE_MAX_PIXELS)
         return sj_fail(ld, RAYD_E_LIMIT, p, "the image is %d x %d pixels; the limit is %ld pixels",
-                       w, h, ENV_MAX_PIXELS);
+                       w, h, TEXTURE_MAX_PIXELS);
     float *px = stbi_loadf_from_memory(b, (int)len, &w, &h, &n, 3);
     if (!px)
         return sj_fail(ld, RAYD_E_INVALID, p, "cannot decode the .hdr image: %s",
