@@ -22,7 +22,8 @@
 # says what each package is for).  BUILD_PKGS: compiler and tools, the three
 # given libraries (libpng, cJSON, libmicrohttpd), libcurl for the client,
 # libssl (libcrypto's SHA-256 of scene ids), libisal and zlib (the PNG
-# encoder's deflates), libopenexr-dev (EXR out, core/io/exr.c).  TEST_PKGS,
+# encoder's deflates), libopenexr-dev (EXR out and environment maps in, core/io/exr*.c), libstb-dev
+# (stb_image: Radiance .hdr environments, core/io/scene_json_env.c).  TEST_PKGS,
 # on top for `make test`: curl and python3 (the integration tests), nginx (the
 # scale-out test balances through it; installed, never started: tools/deps.sh),
 # wrk (the load test), chromium and a font (the preview's browser tests),
@@ -33,7 +34,7 @@
 # reads /metrics in tests/integration/observability.sh).  LINT_PKGS: make lint and make format.
 # BENCH_PKGS (below): make bench-peers only.
 BUILD_PKGS := gcc make pkg-config libc6-dev libpng-dev zlib1g-dev libisal-dev libcjson-dev \
-              libmicrohttpd-dev libcurl4-openssl-dev libssl-dev libopenexr-dev
+              libmicrohttpd-dev libcurl4-openssl-dev libssl-dev libopenexr-dev libstb-dev
 TEST_PKGS := curl python3 nginx wrk chromium fonts-dejavu-core pngcheck openexr g++ \
              assimp-testmodels clang libclang-rt-14-dev valgrind openssl man-db \
              python3-prometheus-client
@@ -76,11 +77,11 @@ WARN := -Wall -Wextra -Werror -Wshadow -Wpointer-arith -Wstrict-prototypes \
 # default), so the one-ray code and the packets do the same roundings.
 CFLAGS_ALL := -std=c11 -D_POSIX_C_SOURCE=200809L -ffp-contract=off $(OPT) $(WARN) -MMD -MP $(CFLAGS)
 LDFLAGS_ALL := $(LDSAN) $(LDFLAGS)
-# OpenEXR (core/io/exr.c only) through pkg-config; recursively expanded, so
+# OpenEXR (core/io/exr.c and exr_read.c only) through pkg-config; recursively expanded, so
 # pkg-config runs in recipes, after `make deps` has installed it.
 EXR_CFLAGS = $(patsubst -I%,-isystem %,$(shell pkg-config --cflags OpenEXR))
 EXR_LIBS = $(shell pkg-config --libs OpenEXR)
-LIBS_CORE = -lpng -lz -lisal -lcjson $(EXR_LIBS) -lpthread -lm
+LIBS_CORE = -lpng -lz -lisal -lcjson -lstb $(EXR_LIBS) -lpthread -lm
 
 # --- version ----------------------------------------------------------------
 # The file VERSION holds the one version string.  Every compile sees it as
@@ -165,7 +166,7 @@ VEC_OBJ := core/render/integrate_wide.o core/geom/camera.o core/io/png_encode.o
 $(VEC_OBJ:%=$(BUILD)/%) $(VEC_OBJ:%=$(BUILD)/pic/%): CFLAGS_VEC := -ftree-vectorize \
     -fvect-cost-model=dynamic
 
-$(BUILD)/core/io/exr.o $(BUILD)/pic/core/io/exr.o: CFLAGS_VEC = $(EXR_CFLAGS)
+$(BUILD)/core/io/exr.o $(BUILD)/pic/core/io/exr.o $(BUILD)/core/io/exr_read.o $(BUILD)/pic/core/io/exr_read.o: CFLAGS_VEC = $(EXR_CFLAGS)
 
 $(BUILD)/librayd.a: $(CORE_OBJ)
 	@rm -f $@
@@ -371,7 +372,7 @@ build/fuzz/core/%.o: core/%.c | $(BUILD)/.test-deps-ok
 	@mkdir -p $(dir $@)
 	clang $(FUZZ_CFLAGS) -MMD -MP -c $< -o $@
 
-build/fuzz/core/io/exr.o: FUZZ_CFLAGS += $(EXR_CFLAGS)
+build/fuzz/core/io/exr.o build/fuzz/core/io/exr_read.o: FUZZ_CFLAGS += $(EXR_CFLAGS)
 
 build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c $(FUZZ_CORE_OBJ)
 	clang $(FUZZ_CFLAGS) -fsanitize=fuzzer $^ -o $@ $(LIBS_CORE)
@@ -483,6 +484,11 @@ $(BUILD)/bench/pngbench: bench/pngbench.c $(BUILD)/librayd.a
 $(BUILD)/bench/hdrbench: bench/hdrbench.c $(BUILD)/librayd.a
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -Iinclude $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
+
+# The environment map's sampling against BSDF sampling alone (its switch is internal).
+$(BUILD)/bench/envbench: bench/envbench.c $(BUILD)/librayd.a
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS_ALL) -Iinclude -Icore $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
 
 .PRECIOUS: $(BENCH_DIR)/mesh-%.ply $(BENCH_DIR)/mesh-%.json $(BENCH_DIR)/mesh-%.obj $(BENCH_DIR)/mesh-%-obj.json
 

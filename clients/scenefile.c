@@ -4,7 +4,8 @@
  * unless it was given an asset folder), so before anything is sent every
  * file the scene names is inlined: a mesh "source": {"file": "m.ply"}
  * becomes {"format": "ply", "base64": "..."}, an image texture's "file"
- * becomes "png_base64".  Relative names resolve against the scene's folder,
+ * becomes "png_base64", an environment map's "file" becomes "base64" (the
+ * core tells .hdr from OpenEXR by the bytes).  Relative names resolve against the scene's folder,
  * as rayd-render does.  A scene without file references is sent byte for
  * byte as it is on disk, so its id equals `sha256sum scene.json`.
  *
@@ -111,7 +112,7 @@ static void scenefile_inline(struct scenefile_walk *w, cJSON *obj, const char *k
 
 /* Visits every object of the tree: mesh sources hold "file" beside
  * "format"/"text"/"base64" under a "source" key; image textures are objects
- * with "type": "image". */
+ * with "type": "image"; the environment is the object at "environment". */
 static void scenefile_walk(struct scenefile_walk *w, cJSON *node, const char *key, char *ptr,
                            size_t ptrlen)
 {
@@ -122,6 +123,8 @@ static void scenefile_walk(struct scenefile_walk *w, cJSON *node, const char *ke
         else if (cJSON_IsString(type) && !strcmp(type->valuestring, "image") &&
                  cJSON_GetObjectItemCaseSensitive(node, "file"))
             scenefile_inline(w, node, "file", "png_base64", ptr);
+        else if (key && !strcmp(key, "environment") && cJSON_GetObjectItemCaseSensitive(node, "file"))
+            scenefile_inline(w, node, "file", "base64", ptr);
     }
     if (!cJSON_IsObject(node) && !cJSON_IsArray(node))
         return;

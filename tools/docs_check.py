@@ -276,9 +276,13 @@ class Env:
     @staticmethod
     def scenes(src, dst):
         """scenes/ as the repository's, but path-traced ones at 64 x 64 at
-        most (same samples, so the same passes): they render in seconds."""
+        most (same samples, so the same passes): they render in seconds.
+        Other files (sky.hdr) are linked as they are."""
         os.mkdir(dst)
         for f in sorted(os.listdir(src)):
+            if not f.endswith(".json"):
+                os.symlink(os.path.join(src, f), os.path.join(dst, f))
+                continue
             s = json.load(open(os.path.join(src, f), encoding="utf-8"))
             r = s.get("render", {})
             if r.get("integrator") != "path":

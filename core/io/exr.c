@@ -1,7 +1,8 @@
 /* exr.c -- linear float RGB out as OpenEXR, through OpenEXR's C library.
  *
- * The only file that includes OpenEXR.  Compositing wants the radiance
- * itself, linear and unclamped, which an 8-bit sRGB PNG cannot carry; EXR
+ * With exr_read.c (environment maps in), the only file that includes
+ * OpenEXR.  Compositing wants the radiance itself, linear and unclamped,
+ * which an 8-bit sRGB PNG cannot carry; EXR
  * is what every compositor reads.  The writer is OpenEXRCore (OpenEXR 3's
  * C API, Debian's libopenexr-dev), not a hand-made one: the format has
  * enough corners (offset tables, compressor framing) that a library its

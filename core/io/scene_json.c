@@ -32,6 +32,7 @@
 #include <unistd.h>
 
 #include "io/json_check.h"
+#include "io/scene_json_env.h"
 #include "io/scene_json.h"
 #include "io/scene_json_inline.h"
 #include "io/scene_json_material.h"
@@ -68,7 +69,8 @@ static const cJSON *section(const cJSON *root, const char *key, cJSON *empty) {
 
 static enum rayd_status load_render(struct loader *ld, const cJSON *root) {
     static const char *const keys[] = {"width", "height", "samples",    "max_depth",
-                                       "background", "seed", "integrator", NULL};
+                                       "background", "seed", "integrator", "environment",
+                                       NULL};
     static const char *const integrators[] = {"whitted", "path", NULL};
     struct jp at = {"/render"};
     cJSON empty;
@@ -96,7 +98,7 @@ static enum rayd_status load_render(struct loader *ld, const cJSON *root) {
     rs->samples = (int)spp;
     rs->max_depth = (int)depth;
     rs->seed = (uint64_t)seed;
-    return RAYD_OK;
+    return sj_environment(ld, r, &at);
 }
 
 static enum rayd_status load_camera(struct loader *ld, const cJSON *root) {

@@ -17,8 +17,6 @@
 #include "render/image.h"
 #include "shade/texture.h"
 
-#define TEXTURE_MAX_PIXELS (4096L * 4096L)
-
 static enum rayd_status add_texture(struct loader *ld, const struct texture *t, int *index) {
     rayd_scene *s = ld->s;
     if (!array_grow((void **)&s->textures, &ld->tex_cap, (size_t)s->ntextures + 1, sizeof *s->textures))

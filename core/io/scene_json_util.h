@@ -7,6 +7,7 @@
  *   scene_json_objects.c   objects: shapes, CSG, groups and instances, transforms
  *   scene_json_material.c  named and inline materials
  *   scene_json_texture.c   material textures
+ *   scene_json_env.c       render.environment: a colour or an .hdr image
  *   scene_json_mesh.c      meshes: inline arrays, OBJ/PLY sources
  *   scene_json_inline.c    large inline arrays kept out of cJSON's tree
  *   scene_json_util.c      JSON Pointers, the typed getters, files a scene names

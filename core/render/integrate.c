@@ -11,6 +11,13 @@
  * internal reflection sends everything to the mirror ray.  Planes are thin
  * surfaces: what passes through them goes straight on.
  *
+ * With render.environment, a ray that escapes sees the environment in its
+ * direction (a camera ray only when it is visible, else the background),
+ * and every hit gets the environment's ambient light: its mean radiance
+ * times colour times the material's diffuse weight -- what a Lambert
+ * surface would reflect under a uniform sky of that radiance, unshadowed,
+ * deterministic, and exact for a constant environment.
+ *
  * whitted_radiance16 does the same for 16 camera rays at once: the hits,
  * each light sample's shadow rays and the opaque mirrors' rays as packets.
  * The common hits are shaded 16 at a time by integrate_wide.c, which
@@ -123,10 +130,18 @@ static void hit_frame(const rayd_scene *s, const ray *r, const struct hit *h, st
     f->below = v3_madd(f->sf.p, f->ngf, -off);
 }
 
-/* Emission, plus ambient when the scene has lights. */
+vec3 integrate_escape(const rayd_scene *s, vec3 d, int depth) {
+    const struct environment *e = &s->rs.env;
+    if (e->kind == ENV_NONE || (depth == 0 && !e->visible)) return s->rs.background;
+    return env_radiance(e, d);
+}
+
+/* Emission, plus ambient when the scene has lights, plus the environment's. */
 static vec3 shade_base(const rayd_scene *s, const struct frame *f) {
     vec3 c = f->sf.m->emission;
     if (s->nlights > 0) c = v3_add(c, v3_scale(f->sf.color, f->sf.m->ambient));
+    if (s->rs.env.kind != ENV_NONE)
+        c = v3_add(c, v3_mul(s->rs.env.mean, v3_scale(f->sf.color, f->sf.m->diffuse)));
     return c;
 }
 
@@ -200,7 +215,7 @@ vec3 whitted_radiance(const rayd_scene *s, const ray *r, int depth, const struct
                       uint64_t *rays) {
     (*rays)++;
     struct hit h;
-    if (!scene_intersect(s, r, INFINITY, &h)) return s->rs.background;
+    if (!scene_intersect(s, r, INFINITY, &h)) return integrate_escape(s, r->d, depth);
     struct frame f;
     hit_frame(s, r, &h, &f);
     vec3 c = shade_local(s, &f, r->d, depth, key, rays);
@@ -263,7 +278,8 @@ static void whitted16(const rayd_scene *s, const struct ray16 *r, uint32_t activ
     struct hit h[16];
     struct hit16 hs; /* the hits on spheres and planes, most of them: the wide shader's */
     uint32_t hit = scene_intersect16_soa(s, r, scene_unbounded16, active, h, &hs);
-    for (uint32_t m = active & ~hit; m; m &= m - 1) out[__builtin_ctz(m)] = s->rs.background;
+    for (uint32_t m = active & ~hit; m; m &= m - 1)
+        out[__builtin_ctz(m)] = integrate_escape(s, ray16_get(r, __builtin_ctz(m)).d, depth);
     struct ray16 rr;
     uint32_t wide = whitted_wide_lanes(s, &hs), rest = hit & ~wide;
     for (uint32_t m = rest & hs.lanes; m; m &= m - 1) {

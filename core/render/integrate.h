@@ -27,6 +27,11 @@ vec3 path_radiance(const rayd_scene *s, const ray *r, const struct rng_key *key,
 vec3 path_radiance_from(const rayd_scene *s, const ray *r, const struct hit *h, bool hit,
                         const struct rng_key *key, uint64_t *rays);
 
+/* What a ray along d that escapes the scene after `depth` bounces sees:
+ * the environment, or the background (no environment, or a camera ray and
+ * the environment is not visible). */
+vec3 integrate_escape(const rayd_scene *s, vec3 d, int depth);
+
 /* The shadow ray test from origin toward a light: what gets through. */
 vec3 integrate_visible(const rayd_scene *s, vec3 origin, vec3 to_light, double dist,
                        uint64_t *rays);

@@ -18,7 +18,11 @@
  * emissive sphere, disc or quad of the top level picked uniformly, its
  * point sampled by area.  Emissive objects are also found by BSDF
  * sampling; the two strategies are combined by the power heuristic.
- * Escaped rays see the background as a uniform environment.  Russian
+ * Escaped rays see the background as a uniform environment, or
+ * render.environment (camera rays only when it is visible).  An image
+ * environment is also sampled at every non-delta vertex, by luminance x
+ * sin(theta) (environment.c), and that light sample and the BSDF's escaped
+ * ray are weighed by the power heuristic, as for emitters.  Russian
  * roulette from the fourth bounce keeps long paths cheap and the estimate
  * unbiased.  Every random number comes from the counter-based RNG, keyed by
  * pixel, sample, bounce and the dimension below, so tiles stay exact.
@@ -30,6 +34,10 @@
 #define PI 3.14159265358979323846
 
 enum { D_LOBE, D_DIR1, D_DIR2, D_RR, D_FRESNEL, D_PICK, D_EPT1, D_EPT2, D_LIGHT0 };
+/* The environment's light sample: at the top of the 32-bit range, past
+ * D_LIGHT0 + 2 x any number of lights a limit could allow. */
+#define D_ENV1 0xfffffff0u
+#define D_ENV2 0xfffffff1u
 
 struct lobes {
     double w_diff, w_metal, w_mirror, w_glass;
@@ -137,6 +145,30 @@ static vec3 emitter_point(const struct object *o, double a, double b, vec3 *n) {
     }
 }
 
+/* Light arriving at x from one direction drawn from the environment map. */
+static vec3 env_event(const rayd_scene *s, const struct lobes *lb, const struct vertex *x,
+                      vec3 wo, const struct rng_key *key, uint32_t b, uint64_t *rays) {
+    const struct environment *e = &s->rs.env;
+    vec3 wi;
+    double pdf_l, pdf_b;
+    if (!env_sample(e, rng_uniform(key, b, D_ENV1), rng_uniform(key, b, D_ENV2), &wi, &pdf_l))
+        return v3(0, 0, 0);
+    if (v3_dot(x->n, wi) <= 0 || v3_dot(x->ng, wi) <= 0) return v3(0, 0, 0);
+    vec3 f = eval_nondelta(lb, x->n, wo, wi, &pdf_b);
+    if (v3_maxabs(f) == 0) return v3(0, 0, 0);
+    vec3 tr = integrate_visible(s, x->above, wi, INFINITY, rays);
+    if (v3_maxabs(tr) == 0) return v3(0, 0, 0);
+    vec3 le = env_radiance(e, wi);
+    return v3_scale(v3_mul(v3_mul(le, tr), f), mis(pdf_l, pdf_b) / pdf_l);
+}
+
+/* What a path that escapes along d after bounce b adds (beta aside). */
+static vec3 escaped(const rayd_scene *s, vec3 d, uint32_t b, bool prev_delta, double prev_pdf) {
+    vec3 le = integrate_escape(s, d, (int)b);
+    if (b == 0 || prev_delta || !env_can_sample(&s->rs.env)) return le;
+    return v3_scale(le, mis(prev_pdf, env_pdf(&s->rs.env, d)));
+}
+
 /* Light arriving at vertex x through the lights and one emitter (NEE). */
 static vec3 next_event(const rayd_scene *s, const struct lobes *lb, const struct vertex *x,
                        vec3 wo, const struct rng_key *key, uint32_t b, uint64_t *rays) {
@@ -150,6 +182,7 @@ static vec3 next_event(const rayd_scene *s, const struct lobes *lb, const struct
             continue;
         sum = v3_add(sum, v3_mul(rad, eval_nondelta(lb, x->n, wo, wi, &pdf)));
     }
+    if (env_can_sample(&s->rs.env)) sum = v3_add(sum, env_event(s, lb, x, wo, key, b, rays));
     int ne = s->nemitters;
     if (ne == 0) return sum;
     int k = (int)(rng_uniform(key, b, D_PICK) * ne);
@@ -236,7 +269,7 @@ static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *fir
         (*rays)++;
         bool found = b == 0 && first ? first_hit : scene_intersect(s, &r, INFINITY, &h);
         if (b == 0 && first && first_hit) h = *first;
-        if (!found) return v3_add(L, v3_mul(beta, s->rs.background));
+        if (!found) return v3_add(L, v3_mul(beta, escaped(s, r.d, b, prev_delta, prev_pdf)));
         struct surface sf;
         scene_surface(s, &r, &h, &sf);
         const struct material *m = sf.m;

@@ -74,7 +74,7 @@ struct aimed {
 
 uint32_t whitted_wide_lanes(const rayd_scene *s, const struct hit16 *hs) {
     uint32_t lanes = hs->lanes;
-    if (!lanes || !s->simple_lights) return 0;
+    if (!lanes || !s->simple_lights || s->rs.env.kind != ENV_NONE) return 0; /* ambient: integrate.c */
     const struct object *first = hs->leaf[__builtin_ctz(lanes)];
     uint32_t same = 0; /* most packets hit one object: one material to look at */
     for (int j = 0; j < 16; j++) same |= (uint32_t)(hs->leaf[j] == first) << j;

@@ -47,6 +47,7 @@ void rayd_scene_free(rayd_scene *s) {
     }
     for (int i = 0; i < s->ntextures; i++) texture_free(&s->textures[i]);
     free(s->textures);
+    env_free(&s->rs.env);
     free(s->groups);
     free(s->parts);
     free(s->meshes);
@@ -560,5 +561,6 @@ void rayd_scene_info(const rayd_scene *s, struct rayd_scene_info *info) {
         bytes += sizeof *s->objs * (size_t)s->groups[i].nobjs +
                  sizeof *s->tlas.nodes * (size_t)s->groups[i].bvh.nnodes;
     for (int i = 0; i < s->ntextures; i++) bytes += texture_bytes(&s->textures[i]);
+    bytes += env_bytes(&s->rs.env);
     info->bytes = bytes + light_buffers_bytes(s->light_buffers, s->nlights);
 }

@@ -6,6 +6,7 @@
 
 #include "accel/bvh.h"
 #include "geom/camera.h"
+#include "shade/environment.h"
 #include "shade/light.h"
 #include "shade/material.h"
 #include "geom/mesh.h"
@@ -20,6 +21,7 @@ struct render_settings {
     int samples;   /* rays per pixel */
     int max_depth; /* secondary bounces allowed */
     vec3 background;
+    struct environment env; /* render.environment; kind ENV_NONE without one */
     uint64_t seed;
 };
 

@@ -6,6 +6,10 @@
 
 #include "math/vec.h"
 
+/* The most pixels an image a scene brings may have: image textures and
+ * environment maps. */
+#define TEXTURE_MAX_PIXELS (4096L * 4096L)
+
 enum texture_kind { TEX_CHECKER, TEX_STRIPES, TEX_GRADIENT, TEX_IMAGE };
 enum texture_space { TEX_OBJECT, TEX_WORLD, TEX_UV };
 

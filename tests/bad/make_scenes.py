@@ -175,7 +175,7 @@ case("version-string.json", '{"version": "1"}\n', E + "/version: must be an inte
 case("version-fraction.json", '{"version": 1.5}\n', E + "/version: must be an integer")
 
 # ---- render -------------------------------------------------------------------
-RENDER_KEYS = "width, height, samples, max_depth, background, seed, integrator"
+RENDER_KEYS = "width, height, samples, max_depth, background, seed, integrator, environment"
 case("render-array.json", '{"render": [640, 480]}\n', E + "/render: must be an object, not an array")
 case("render-null.json", '{"render": null}\n', E + "/render: must be an object, not null")
 case("render-unknown-key.json", '{"render": {"size": [640, 480]}}\n',
@@ -708,6 +708,21 @@ case("instance-material.json", '{"groups": {"g": [{"type": "sphere"}]}, "objects
 case("bom.json", b'\xef\xbb\xbf{}\n', E + "line 1, column 1: malformed JSON: a byte order mark (BOM) is not allowed; save the file as UTF-8 without BOM")
 case("number-two-dots.json", '{"render": {"width": 1.5.3}}\n', E + "line 1, column 25: malformed JSON: invalid number")
 case("mesh-file-empty-name.json", mesh('"source": {"format": "obj", "file": ""}'), E + "/objects/0/source/file: must not be empty")
+
+case("environment-array.json", '{"render": {"environment": [1, 1, 1]}}\n',
+     E + "/render/environment: must be an object, not an array")
+case("environment-two-sources.json", '{"render": {"environment": {"color": [1, 1, 1], "file": "sky.hdr"}}}\n',
+     E + '/render/environment: needs exactly one of "color", "file" or "base64"')
+case("environment-negative-intensity.json", '{"render": {"environment": {"color": [1, 1, 1], "intensity": -2}}}\n',
+     E + "/render/environment/intensity: must be >= 0")
+case("environment-unknown-key.json", '{"render": {"environment": {"color": [1, 1, 1], "exposure": 2}}}\n',
+     E + "/render/environment/exposure: unknown key (allowed here: color, file, base64, format, rotation, intensity, visible)")
+case("environment-missing-file.json", '{"render": {"environment": {"file": "no-such-sky.hdr"}}}\n',
+     E + '/render/environment/file: cannot open "no-such-sky.hdr": No such file or directory')
+case("environment-not-hdr.json", '{"render": {"environment": {"file": "empty.json"}}}\n',
+     E + '/render/environment/file: is not a Radiance .hdr image (it must start with "#?RADIANCE" or "#?RGBE")')
+case("environment-base64-png.json", '{"render": {"environment": {"base64": "iVBORw0KGgo=", "format": "png"}}}\n',
+     E + '/render/environment/format: unknown value "png" (supported: hdr, exr)')
 
 
 def main():

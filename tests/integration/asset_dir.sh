@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# asset_dir.sh -- rayd --asset-dir DIR: a scene's mesh (OBJ, PLY) and
-# texture "file" names are read from inside DIR only.  A file inside renders
+# asset_dir.sh -- rayd --asset-dir DIR: a scene's mesh (OBJ, PLY), texture
+# and environment map "file" names are read from inside DIR only.  A file inside renders
 # the very bytes of the same mesh given inline; "..", an absolute path, a
 # symbolic link leading out, a missing file, a directory, a FIFO and a
 # server without --asset-dir are each refused with the file's JSON Pointer
@@ -82,6 +82,24 @@ cp "$T/obj_file.json" "$A/scene.json"
 "$RENDER" "$A/scene.json" -o "$T/cli.png" 2>"$T/cli.err"
 check obj_file_equals_cli "rayd-render: $(cat "$T/cli.err")" cmp -s "$T/cli.png" "$T/obj_file.png"
 
+# an environment map by "file" under DIR renders the bytes of the same map embedded
+cp scenes/sky.hdr "$A/sky.hdr"
+env_scene() {
+    python3 - "$1" "$2" <<'PY'
+import json, sys
+s = {"render": {"width": 32, "height": 24, "samples": 4, "integrator": "path",
+                "environment": json.loads(sys.argv[2])},
+     "camera": {"position": [0, 1, 4], "look_at": [0, 0.5, 0]},
+     "objects": [{"type": "sphere", "center": [0, 0.5, 0], "radius": 0.5}]}
+open(sys.argv[1], "w").write(json.dumps(s))
+PY
+}
+env_scene "$T/env_file.json" '{"file": "sky.hdr", "rotation": 45}'
+env_scene "$T/env_b64.json" "{\"base64\": \"$(b64 "$A/sky.hdr")\", \"format\": \"hdr\", \"rotation\": 45}"
+check env_file_renders "not a 200 PNG" render_to "$T/env_file.json" "$T/env_file.png"
+check env_b64_renders "not a 200 PNG" render_to "$T/env_b64.json" "$T/env_b64.png"
+check env_file_equals_inline "the PNGs differ" cmp -s "$T/env_file.png" "$T/env_b64.png"
+
 # Each refusal: 422 invalid_scene at the file's JSON Pointer, the message
 # holding what is wrong (one Python for all: its start-up is slow on a busy
 # machine).
@@ -104,6 +122,10 @@ cases = [
     ("texture_dotdot", {"render": {"width": 8, "height": 8}, "objects": [{"type": "sphere",
      "material": {"texture": {"type": "image", "file": "../secret.png"}}}]},
      "/objects/0/material/texture/file", "'..'"),
+    ("environment_dotdot", {"render": {"width": 8, "height": 8, "environment": {"file": "../sky.hdr"}}},
+     "/render/environment/file", "'..'"),
+    ("environment_not_hdr", {"render": {"width": 8, "height": 8, "environment": {"file": "models/tet.obj"}}},
+     "/render/environment/file", "not a Radiance .hdr"),
 ]
 for name, scene, path, part in cases:
     req = urllib.request.Request(url, json.dumps(scene).encode(), {"Content-Type": "application/json"})

@@ -12,7 +12,7 @@
 # immutable tiles, that a node killed with SIGKILL mid-frame costs nothing
 # but time, and that with every node down the client fails loudly without
 # writing an image.  Also: job through nginx, health, a refused scene's JSON
-# error, mesh files inlined, clients/rayd-curl.sh.  Every process is stopped
+# error, mesh and environment files inlined, clients/rayd-curl.sh.  Every process is stopped
 # by its PID; everything stays on loopback.
 source "$(dirname "$0")/lib/common.sh"
 
@@ -161,6 +161,18 @@ PY
 "$RENDER" "$T/mesh.json" -o "$T/mesh_ref.png" 2>/dev/null
 client mesh render "$T/mesh.json" -o "$T/mesh.png" --server "${NODE_URL[1]}" --server "${NODE_URL[2]}" --tile 32
 check mesh_file_inlined "exit $RC: $(tail -n 2 "$T/mesh.err")" bash -c "[ $RC = 0 ] && '$PNGCMP' '$T/mesh_ref.png' '$T/mesh.png'"
+# an environment map's "file" is inlined too (as "base64")
+cp "$RAYD_ROOT/scenes/sky.hdr" "$T/models/sky.hdr"
+python3 - "$RAYD_ROOT/tests/scenes/spheres.json" "$T/env.json" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1]))
+s["render"]["width"], s["render"]["height"] = 96, 64
+s["render"]["environment"] = {"file": "models/sky.hdr", "intensity": 0.5, "rotation": 20}
+json.dump(s, open(sys.argv[2], "w"))
+PY
+"$RENDER" "$T/env.json" -o "$T/env_ref.png" 2>/dev/null
+client env render "$T/env.json" -o "$T/env.png" --server "${NODE_URL[1]}" --server "${NODE_URL[2]}" --tile 32
+check environment_file_inlined "exit $RC: $(tail -n 2 "$T/env.err")" bash -c "[ $RC = 0 ] && '$PNGCMP' '$T/env_ref.png' '$T/env.png'"
 
 sh "$RAYD_ROOT/clients/rayd-curl.sh" "$T/j.json" "$T/curl.png" "$LB" 2>"$T/curl.err"
 check rayd_curl_through_nginx "exit $?: $(head -c 200 "$T/curl.err")" cmp -s "$T/curl.png" "$T/j_ref.png"

@@ -1,0 +1,161 @@
+/* environment.c -- image-based lighting.
+ *
+ * The environment is either one constant radiance or an equirectangular
+ * image: column u covers the azimuth phi = 2 pi (u - 1/2) measured from -Z
+ * toward +X, row v the polar angle theta = pi v from +Y (row 0 is straight
+ * up).  So the image's centre is seen looking down -Z, rayd's default
+ * camera direction.  "rotation" turns the whole image about +Y; a lookup
+ * turns the direction back by the same angle.
+ *
+ * Lookups take the nearest texel: the radiance is then piecewise constant
+ * over exactly the cells the sampler draws from, so the sampling pdf is
+ * proportional to what it samples, and a lookup is a few operations with no
+ * filter to make the result depend on anything but the direction.
+ *
+ * The path tracer draws directions in proportion to luminance x sin(theta)
+ * (the sin is the area of a row on the sphere): a row by the marginal CDF,
+ * then a column by that row's conditional CDF, both by binary search, then a
+ * uniform point in the cell.  The solid-angle pdf of a direction is the
+ * cell's weight over the mean weight, divided by 2 pi^2 sin(theta).  A
+ * constant environment needs no table: the BSDF's own sampling is already
+ * the best one can do against a uniform light.
+ *
+ * The mean (solid-angle average) radiance is the Whitted integrator's
+ * ambient light: a uniform environment of that radiance lights a Lambert
+ * surface of albedo a to exactly a times it.
+ */
+#include <stdlib.h>
+
+#include "shade/environment.h"
+
+#define PI 3.14159265358979323846
+
+/* d turned by the rotation (sign +1) or back (-1) about +Y. */
+static vec3 turn(const struct environment *e, vec3 d, double sign) {
+    double c = e->cos_r, s = sign * e->sin_r;
+    return v3(c * d.x + s * d.z, d.y, -s * d.x + c * d.z);
+}
+
+/* The cell of a local direction, and sin(theta) there. */
+static int cell_of(const struct environment *e, vec3 l, int *col, int *row, double *sin_t) {
+    double y = fmax(-1, fmin(1, l.y));
+    double theta = acos(y), phi = atan2(l.x, -l.z);
+    double u = phi / (2 * PI) + 0.5, v = theta / PI;
+    int i = (int)(u * e->w), j = (int)(v * e->h);
+    *col = i < 0 ? 0 : i >= e->w ? e->w - 1 : i;
+    *row = j < 0 ? 0 : j >= e->h ? e->h - 1 : j;
+    *sin_t = sqrt(fmax(0, 1 - y * y));
+    return *row * e->w + *col;
+}
+
+vec3 env_radiance(const struct environment *e, vec3 d) {
+    if (e->kind == ENV_CONSTANT) return e->color;
+    if (e->kind != ENV_IMAGE) return v3(0, 0, 0);
+    int i, j;
+    double st;
+    const float *p = e->rgb + 3 * (size_t)cell_of(e, turn(e, d, -1), &i, &j, &st);
+    return v3(p[0], p[1], p[2]);
+}
+
+static double luminance(const float *p) { return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]; }
+
+static double row_sin(const struct environment *e, int j) { return sin(PI * (j + 0.5) / e->h); }
+
+/* The weights' CDFs; integral = the mean weight over all cells. */
+static bool build_tables(struct environment *e) {
+    int w = e->w, h = e->h;
+    e->row_cdf = malloc((size_t)(h + 1) * sizeof *e->row_cdf);
+    e->col_cdf = malloc((size_t)h * (size_t)(w + 1) * sizeof *e->col_cdf);
+    if (!e->row_cdf || !e->col_cdf) return false;
+    e->row_cdf[0] = 0;
+    for (int j = 0; j < h; j++) {
+        double *c = e->col_cdf + (size_t)j * (size_t)(w + 1), st = row_sin(e, j);
+        c[0] = 0;
+        for (int i = 0; i < w; i++)
+            c[i + 1] = c[i] + luminance(e->rgb + 3 * ((size_t)j * w + i)) * st;
+        e->row_cdf[j + 1] = e->row_cdf[j] + c[w];
+    }
+    e->integral = e->row_cdf[h] / ((double)w * h);
+    return true;
+}
+
+bool env_prepare(struct environment *e) {
+    e->sample = true;
+    if (e->kind != ENV_IMAGE) {
+        e->mean = e->color;
+        return true;
+    }
+    vec3 sum = v3(0, 0, 0);
+    double wsum = 0;
+    for (int j = 0; j < e->h; j++) {
+        double st = row_sin(e, j);
+        for (int i = 0; i < e->w; i++) {
+            const float *p = e->rgb + 3 * ((size_t)j * e->w + i);
+            sum = v3_madd(sum, v3(p[0], p[1], p[2]), st);
+        }
+        wsum += st * e->w;
+    }
+    e->mean = v3_scale(sum, 1 / wsum);
+    return build_tables(e);
+}
+
+bool env_can_sample(const struct environment *e) {
+    return e->kind == ENV_IMAGE && e->sample && e->integral > 0;
+}
+
+/* The index k in [0, n) with cdf[k] <= x < cdf[k + 1], skipping empty ones. */
+static int find(const double *cdf, int n, double x) {
+    int lo = 0, hi = n; /* cdf[lo] <= x < cdf[hi] */
+    while (hi - lo > 1) {
+        int mid = (lo + hi) / 2;
+        if (cdf[mid] <= x)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return lo;
+}
+
+bool env_sample(const struct environment *e, double u1, double u2, vec3 *d, double *pdf) {
+    int w = e->w, h = e->h;
+    double x = u1 * e->row_cdf[h];
+    int j = find(e->row_cdf, h, x);
+    double rw = e->row_cdf[j + 1] - e->row_cdf[j];
+    double fv = rw > 0 ? (x - e->row_cdf[j]) / rw : 0.5;
+    const double *c = e->col_cdf + (size_t)j * (size_t)(w + 1);
+    double y = u2 * c[w];
+    int i = find(c, w, y);
+    double cw = c[i + 1] - c[i];
+    double fu = cw > 0 ? (y - c[i]) / cw : 0.5;
+    double theta = PI * (j + fmin(fv, 1)) / h, phi = 2 * PI * ((i + fmin(fu, 1)) / w - 0.5);
+    double st = sin(theta);
+    if (!(st > 0) || !(cw > 0)) return false;
+    vec3 l = v3(st * sin(phi), cos(theta), -st * cos(phi));
+    *d = turn(e, l, 1);
+    /* the cell's share of all weight, spread evenly over its (u, v) area */
+    double f = luminance(e->rgb + 3 * ((size_t)j * w + i)) * row_sin(e, j);
+    *pdf = f / e->integral / (2 * PI * PI * st);
+    return *pdf > 0;
+}
+
+double env_pdf(const struct environment *e, vec3 d) {
+    int i, j;
+    double st;
+    int k = cell_of(e, turn(e, d, -1), &i, &j, &st);
+    if (!(st > 0) || !(e->integral > 0)) return 0;
+    return luminance(e->rgb + 3 * (size_t)k) * row_sin(e, j) / e->integral / (2 * PI * PI * st);
+}
+
+void env_free(struct environment *e) {
+    free(e->rgb);
+    free(e->row_cdf);
+    free(e->col_cdf);
+    e->rgb = NULL;
+    e->row_cdf = e->col_cdf = NULL;
+}
+
+size_t env_bytes(const struct environment *e) {
+    if (e->kind != ENV_IMAGE) return 0;
+    size_t w = (size_t)e->w, h = (size_t)e->h;
+    return w * h * 3 * sizeof *e->rgb + (h + 1 + h * (w + 1)) * sizeof(double);
+}
