@@ -65,7 +65,10 @@ check("format_examples_round_trip", () => {
     const v = JSON.parse(ex.text);
     const f = format(v);
     if (!isDeepStrictEqual(JSON.parse(f), v)) return `${ex.name} changes when formatted`;
-    if (f.split("\n").some((l) => l.length > 140) && ex.name !== "instances") return `${ex.name}: a line over 140`;
+    // a string (an embedded image's base64) cannot be broken; anything else can
+    const oneString = (l) => /^\s*("[^"]*": )?"[^"]*",?$/.test(l);
+    const long = f.split("\n").some((l) => l.length > 140 && !oneString(l));
+    if (long && ex.name !== "instances") return `${ex.name}: a line over 140`;
   }
   return true;
 });
