@@ -34,7 +34,9 @@
  * arithmetic from values checked to be integers in range), buffers that
  * together exceed max_bytes, non-finite positions, and more vertices or
  * triangles than the limits -- counted over every draw before the output
- * is allocated.  A file whose primitives are all points or lines has "no
+ * is allocated.  Each node is walked once, so the walk is as long as the
+ * file; a mesh's primitives drawn by many nodes multiply, so the primitives
+ * drawn (points and lines skipped) are bounded by the triangle limit too.  A file whose primitives are all points or lines has "no
  * triangles".
  *
  * Two passes: the first walks the node tree and checks every primitive it
@@ -77,11 +79,11 @@ struct gl_buf {
     bool owned;
 };
 
-/* One primitive drawn by one node, with the node's world matrix. */
+/* One primitive drawn by one node (whose world matrix is world[node]). */
 struct gl_draw {
     const cJSON *prim;
     int mesh, index; /* /meshes/mesh/primitives/index */
-    double m[16];    /* column-major, as glTF writes it */
+    int node;
 };
 
 /* An accessor's data: element i, component c is at p + i * stride + c * size. */
@@ -107,6 +109,7 @@ struct gl {
     struct gl_draw *draws;
     size_t ndraws, cap_draws;
     unsigned char *seen; /* per node: 1 on the walk's path, 2 done */
+    double *world;       /* per node: 16 numbers, column-major as glTF writes them */
     int nnodes;
     uint64_t nverts, ntris;
     bool normals;
@@ -541,7 +544,7 @@ static enum rayd_status gl_local(struct gl *G, const cJSON *n, const struct gp *
 }
 
 static enum rayd_status gl_add_draws(struct gl *G, const cJSON *n, const struct gp *pn,
-                                     const double *m) {
+                                     int node) {
     const cJSON *mj;
     int mid;
     if (!gl_get(n, "mesh")) return RAYD_OK;
@@ -554,11 +557,15 @@ static enum rayd_status gl_add_draws(struct gl *G, const cJSON *n, const struct 
     for (const cJSON *p = prims->child; p; p = p->next, i++) {
         struct gp pi = gp_index(&pp, i);
         if (!cJSON_IsObject(p)) return gl_fail(G, RAYD_E_INVALID, &pi, "must be an object");
+        const cJSON *mode = gl_get(p, "mode");
+        if (cJSON_IsNumber(mode) && mode->valuedouble >= 0 && mode->valuedouble < 4) continue;
+        /* a mesh's primitives times the nodes drawing it could be far more
+         * than the file's size: each counts as a triangle at least */
+        if (G->ndraws >= G->max_tris)
+            return gl_fail(G, RAYD_E_LIMIT, &pi, "the nodes draw more than %u triangle primitives (the triangle limit)", G->max_tris);
         if (!array_grow((void **)&G->draws, &G->cap_draws, G->ndraws + 1, sizeof *G->draws))
             return gl_fail(G, RAYD_E_NOMEM, pn, "out of memory");
-        struct gl_draw *d = &G->draws[G->ndraws++];
-        *d = (struct gl_draw){.prim = p, .mesh = mid, .index = i};
-        memcpy(d->m, m, sizeof d->m);
+        G->draws[G->ndraws++] = (struct gl_draw){.prim = p, .mesh = mid, .index = i, .node = node};
     }
     return RAYD_OK;
 }
@@ -574,10 +581,10 @@ static enum rayd_status gl_node(struct gl *G, int id, const struct gp *from, con
     if (depth > GL_MAX_DEPTH) return gl_fail(G, RAYD_E_LIMIT, from, "nodes nest more than %d deep", GL_MAX_DEPTH);
     if (!cJSON_IsObject(n)) return gl_fail(G, RAYD_E_INVALID, &pn, "must be an object");
     G->seen[id] = 1;
-    double local[16], m[16];
+    double local[16], *m = G->world + (size_t)id * 16;
     TRY_GL(gl_local(G, n, &pn, local));
     mat_mul(pm, local, m);
-    TRY_GL(gl_add_draws(G, n, &pn, m));
+    TRY_GL(gl_add_draws(G, n, &pn, id));
     const cJSON *kids = gl_get(n, "children");
     struct gp pc = gp_key(&pn, "children");
     if (kids && !cJSON_IsArray(kids)) return gl_fail(G, RAYD_E_INVALID, &pc, "must be an array of node indices");
@@ -601,7 +608,8 @@ static enum rayd_status gl_walk(struct gl *G) {
     if (scenes && !cJSON_IsArray(scenes)) return gl_fail(G, RAYD_E_INVALID, &pscenes, "must be an array");
     G->nnodes = nodes ? cJSON_GetArraySize(nodes) : 0;
     G->seen = calloc((size_t)G->nnodes + 1, 1);
-    if (!G->seen) return gl_fail(G, RAYD_E_NOMEM, &top, "out of memory");
+    G->world = malloc(((size_t)G->nnodes + 1) * 16 * sizeof *G->world);
+    if (!G->seen || !G->world) return gl_fail(G, RAYD_E_NOMEM, &top, "out of memory");
     if (scenes && cJSON_GetArraySize(scenes) > 0) {
         const cJSON *sj = cJSON_GetArrayItem(scenes, 0);
         int sid = 0;
@@ -677,8 +685,8 @@ static void mat_normal(const double *m, double *n) {
 
 static enum rayd_status gl_vertices(struct gl *G, const struct gl_draw *d, const struct gl_prim *P) {
     double nm[9];
-    mat_normal(d->m, nm);
-    const double *m = d->m;
+    const double *m = G->world + (size_t)d->node * 16;
+    mat_normal(m, nm);
     for (uint32_t i = 0; i < P->pos.count; i++) {
         double p[3] = {gl_value(&P->pos, i, 0), gl_value(&P->pos, i, 1), gl_value(&P->pos, i, 2)};
         float *o = G->pos + (size_t)(G->vat + i) * 3;
@@ -701,7 +709,7 @@ static enum rayd_status gl_vertices(struct gl *G, const struct gl_draw *d, const
 }
 
 static enum rayd_status gl_triangles(struct gl *G, const struct gl_draw *d, const struct gl_prim *P) {
-    bool flip = mat_det3(d->m) < 0;
+    bool flip = mat_det3(G->world + (size_t)d->node * 16) < 0;
     for (uint64_t t = 0; t < P->ntris; t++) {
         uint32_t v[3];
         for (int k = 0; k < 3; k++) {
@@ -748,6 +756,7 @@ static void gl_release(struct gl *G, cJSON *root) {
     free(G->bufs);
     free(G->draws);
     free(G->seen);
+    free(G->world);
     free(G->pos);
     free(G->nrm);
     free(G->idx);
