@@ -34,7 +34,7 @@ good() { # FILE: renders, and shows something
     name=$(echo "$f" | tr '/.' '__')
     done_files[$f]=1
     render "$DIR/$f" "$name"
-    check "gltf_renders_$name" "exit $rc, $lit lit pixels: $err" [ "$rc" = 0 ] && [ "$lit" -gt 0 ]
+    check "gltf_renders_$name" "exit $rc, $lit lit pixels: $err" bash -c "[ $rc = 0 ] && [ $lit -gt 0 ]"
 }
 bad() { # FILE MESSAGE: refused in one line with the pointer and message
     local f=$1 want=$2 name lines
@@ -69,6 +69,26 @@ bad draco/2CylinderEngine.gltf "/objects/0/source/gltf/extensionsRequired/0: KHR
 bad BoxTextured-glTF-techniqueWebGL/BoxTextured.gltf "/objects/0/source/gltf/extensionsRequired/0: required extension \"KHR_technique_webgl\" is not supported"
 bad wrongTypes/badArray.gltf "/objects/0/source/gltf/meshes/0/primitives: must be an array"
 for m in 00 01 02 03 07 08 09 10; do bad glTF-Asset-Generator/Mesh_PrimitiveMode/Mesh_PrimitiveMode_$m.gltf "/objects/0/source/gltf: no triangles"; done
+
+# The same files embedded in the scene: a .glb as base64, a .gltf as text.
+embed() { # FILE FORMAT KEY NAME
+    python3 - "$1" "$2" "$3" "$FRAME" >"$T/$4.json" <<'PY'
+import base64, json, subprocess, sys
+f, fmt, key, frame = sys.argv[1:]
+s = json.loads(subprocess.run(["python3", frame, "scene", f], capture_output=True, text=True).stdout)
+data = open(f, "rb").read()
+s["objects"][0]["source"] = {"format": fmt, key: base64.b64encode(data).decode() if key == "base64" else data.decode()}
+print(json.dumps(s))
+PY
+    timeout 60 "$RENDER" "$T/$4.json" -o "$T/$4.png" -q 2>"$T/$4.err"
+    rc=$?
+    lit=0
+    [ $rc = 0 ] && lit=$(python3 "$FRAME" lit "$T/$4.png")
+    check "gltf_embedded_$4" "exit $rc, $lit lit pixels: $(head -c 300 "$T/$4.err")" bash -c "[ $rc = 0 ] && [ $lit -gt 0 ]"
+}
+embed "$DIR/BoxTextured-glTF-Binary/BoxTextured.glb" glb base64 glb_base64
+embed "$DIR/BoxTextured-glTF-Embedded/BoxTextured.gltf" gltf text gltf_text
+embed "$DIR/BoxTextured-glTF-Embedded/BoxTextured.gltf" gltf base64 gltf_base64
 
 # Every other file: a render or a one-line refusal with exit 1, nothing worse.
 while IFS= read -r f; do
