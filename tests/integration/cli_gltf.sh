@@ -123,5 +123,12 @@ for f in box/BoxTextured.gltf escape.gltf; do
             bash -c "[ $code = 200 ] && [ \$(python3 '$FRAME' lit '$T/srv.out') -gt 0 ]"
     fi
 done
+# rayd-client inlines a .glb file source as base64 with its format.
+python3 "$FRAME" scene "$DIR/BoxTextured-glTF-Binary/BoxTextured.glb" >"$T/client.json"
+timeout 60 "$RAYD_BUILD/rayd-client" render "$T/client.json" -o "$T/client.png" --server "$URL" -q 2>"$T/client.err"
+rc=$?
+lit=0
+[ $rc = 0 ] && lit=$(python3 "$FRAME" lit "$T/client.png")
+check gltf_client_inlines_glb "exit $rc, $lit lit pixels: $(head -c 300 "$T/client.err")" bash -c "[ $rc = 0 ] && [ $lit -gt 0 ]"
 stop_rayd
 exit 0
