@@ -484,8 +484,7 @@ struct gl_prim {
 };
 
 static enum rayd_status gl_prim(struct gl *G, const struct gl_draw *d, struct gl_prim *P) {
-    struct gp pp = gp_index(&(struct gp){""}, 0);
-    snprintf(pp.s, sizeof pp.s, "/meshes/%d/primitives/%d", d->mesh, d->index);
+    struct gp pm = gp_item("meshes", d->mesh), pl = gp_key(&pm, "primitives"), pp = gp_index(&pl, d->index);
     double mode;
     memset(P, 0, sizeof *P);
     TRY_GL(gl_int(G, d->prim, &pp, "mode", 4, 0, 6, &mode));
@@ -657,8 +656,8 @@ static enum rayd_status gl_count(struct gl *G) {
         G->normals = G->normals && P.has_nrm;
         G->nverts += P.pos.count;
         G->ntris += P.ntris;
-        struct gp pp;
-        snprintf(pp.s, sizeof pp.s, "/meshes/%d/primitives/%d", G->draws[i].mesh, G->draws[i].index);
+        struct gp pm = gp_item("meshes", G->draws[i].mesh), pl = gp_key(&pm, "primitives");
+        struct gp pp = gp_index(&pl, G->draws[i].index);
         if (G->nverts > G->max_verts)
             return gl_fail(G, RAYD_E_LIMIT, &pp, "brings the mesh to %llu vertices; the limit is %u", (unsigned long long)G->nverts, G->max_verts);
         if (G->ntris > G->max_tris)
