@@ -102,6 +102,10 @@ static void scenefile_inline(struct scenefile_walk *w, cJSON *obj, const char *k
             cJSON_AddStringToObject(obj, "format", "obj");
         else if (k > 4 && !strcasecmp(name + k - 4, ".ply"))
             cJSON_AddStringToObject(obj, "format", "ply");
+        else if (k > 4 && !strcasecmp(name + k - 4, ".glb"))
+            cJSON_AddStringToObject(obj, "format", "glb");
+        else if (k > 5 && !strcasecmp(name + k - 5, ".gltf"))
+            cJSON_AddStringToObject(obj, "format", "gltf"); /* its .bin files are not inlined */
     }
     cJSON_DeleteItemFromObjectCaseSensitive(obj, key);
     if (!cJSON_AddStringToObject(obj, newkey, b64))

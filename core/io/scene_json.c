@@ -8,8 +8,8 @@
  *      was expected.  cJSON parses recursively, so the depth is bounded
  *      there, not by its stack.
  *   2. cJSON parse.  cJSON writes a global error slot on every parse, so
- *      parses are serialised by one mutex -- the only lock in the core, and
- *      cheap next to building the scene.
+ *      parses are serialised by one mutex (json_parse.c) -- the only lock
+ *      in the core, and cheap next to building the scene.
  *   3. A strict walk of the tree.  Every object accepts a fixed set of keys;
  *      unknown and duplicate keys, wrong types, non-finite or out-of-range
  *      numbers and zero-length vectors are refused with the JSON Pointer of
@@ -23,7 +23,6 @@
  * from the text (scene_json_inline.c says how and why it is the same).
  */
 #include <errno.h>
-#include <pthread.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -32,6 +31,7 @@
 #include <unistd.h>
 
 #include "io/json_check.h"
+#include "io/json_parse.h"
 #include "io/scene_json_env.h"
 #include "io/scene_json.h"
 #include "io/scene_json_inline.h"
@@ -221,15 +221,10 @@ static enum rayd_status load_lights(struct loader *ld, const cJSON *root) {
 
 /* ---- text checks and parse ----------------------------------------------------- */
 
-/* cJSON writes a global error slot on every parse, so parses are serialised;
- * the text has passed json_check, so a failure here is out of memory. */
-static pthread_mutex_t cjson_lock = PTHREAD_MUTEX_INITIALIZER;
-
+/* The text has passed json_check, so a failure here is out of memory. */
 static enum rayd_status parse_json(const char *json, size_t len, cJSON **out,
                                    struct rayd_error *err) {
-    pthread_mutex_lock(&cjson_lock);
-    cJSON *root = cJSON_ParseWithLength(json, len);
-    pthread_mutex_unlock(&cjson_lock);
+    cJSON *root = json_parse_locked(json, len);
     if (!root) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory parsing the scene");
     *out = root;
     return RAYD_OK;

@@ -1,5 +1,5 @@
 /* scene_json_mesh.c -- mesh objects: flat inline arrays ("vertices",
- * "indices", "normals", "uvs") or a "source" in OBJ or PLY, given as text,
+ * "indices", "normals", "uvs") or a "source" in OBJ, PLY or glTF, given as text,
  * base64 or a file.  Files are read only when the limits name an asset
  * folder (rayd-render: the scene's folder; rayd: --asset-dir, confined).
  * Totals of vertices and triangles are checked against the limits before
@@ -22,6 +22,7 @@
 #include "io/json_numbers.h"
 #include "io/scene_json_inline.h"
 #include "base/clock.h"
+#include "io/mesh_gltf.h"
 #include "io/mesh_io.h"
 #include "base/parallel.h"
 
@@ -137,11 +138,61 @@ static enum rayd_status add_mesh(struct loader *ld, uint32_t *id) {
     return RAYD_OK;
 }
 
-/* "source": {"format": "obj"|"ply", and one of "text", "base64", "file"}. */
+/* ---- glTF ------------------------------------------------------------------------ */
+
+/* The folder a .gltf's relative buffer files are read from: the source
+ * file's own folder (as a name under the asset rules), or the asset
+ * folder itself for text and base64. */
+struct gltf_files {
+    struct loader *ld;
+    char dir[1024];
+};
+
+static enum rayd_status gltf_open(void *ctx, const char *name, char **data, size_t *len,
+                                  struct rayd_error *err) {
+    struct gltf_files *f = ctx;
+    char path[2048];
+    (void)err; /* sj_read_asset fills the loader's error, the same one */
+    if ((size_t)snprintf(path, sizeof path, "%s%s", f->dir, name) >= sizeof path)
+        return sj_fail(f->ld, RAYD_E_INVALID, &(struct jp){""}, "path is too long");
+    cJSON v = {0};
+    v.type = cJSON_String;
+    v.valuestring = path;
+    struct jp at = {""};
+    return sj_read_asset(f->ld, &v, &at, data, len);
+}
+
+/* A glTF or GLB source; errors get the source's pointer, then "/gltf" and
+ * the pointer inside the glTF document. */
+static enum rayd_status load_gltf(struct loader *ld, const struct jp *at, const cJSON *file,
+                                  const char *bytes, size_t n, const struct mesh_limits *ml,
+                                  struct mesh_data *md) {
+    struct gltf_files f = {.ld = ld};
+    if (file) {
+        const char *name = file->valuestring, *slash = strrchr(name, '/');
+        size_t dn = slash ? (size_t)(slash - name) + 1 : 0;
+        if (dn >= sizeof f.dir) return sj_fail(ld, RAYD_E_INVALID, at, "file name is too long");
+        memcpy(f.dir, name, dn);
+        f.dir[dn] = '\0';
+    }
+    struct mesh_gltf_opts o = {.max_bytes = ld->lim->max_bytes, .max_nesting = ld->lim->max_nesting,
+                               .open = ld->lim->asset_dir ? gltf_open : NULL, .ctx = &f};
+    enum rayd_status st = mesh_parse_gltf(bytes, n, ml, &o, md, ld->err);
+    if (st != RAYD_OK && ld->err) {
+        char inner[sizeof ld->err->path];
+        snprintf(inner, sizeof inner, "%s", ld->err->path);
+        struct jp pg = sj_key(at, "gltf");
+        size_t n1 = strlen(pg.s) < 120 ? strlen(pg.s) : 120; /* both fit the 256 bytes */
+        snprintf(ld->err->path, sizeof ld->err->path, "%.*s%.*s", (int)n1, pg.s, 130, inner);
+    }
+    return st;
+}
+
+/* "source": {"format": "obj"|"ply"|"gltf"|"glb", and one of "text", "base64", "file"}. */
 static enum rayd_status load_source(struct loader *ld, const cJSON *src, const struct jp *at,
                                     struct mesh_data *md) {
     static const char *const keys[] = {"format", "text", "base64", "file", NULL};
-    static const char *const formats[] = {"obj", "ply", NULL};
+    static const char *const formats[] = {"obj", "ply", "gltf", "glb", NULL};
     TRY(sj_check_keys(ld, src, at, keys));
     const cJSON *text = cJSON_GetObjectItemCaseSensitive(src, "text");
     const cJSON *b64 = cJSON_GetObjectItemCaseSensitive(src, "base64");
@@ -156,9 +207,11 @@ static enum rayd_status load_source(struct loader *ld, const cJSON *src, const s
         size_t n = strlen(file->valuestring);
         if (n > 4 && !strcasecmp(file->valuestring + n - 4, ".obj")) format = 0;
         if (n > 4 && !strcasecmp(file->valuestring + n - 4, ".ply")) format = 1;
+        if (n > 5 && !strcasecmp(file->valuestring + n - 5, ".gltf")) format = 2;
+        if (n > 4 && !strcasecmp(file->valuestring + n - 4, ".glb")) format = 3;
     }
     struct jp pf = sj_key(at, "format");
-    if (format < 0) return sj_fail(ld, RAYD_E_INVALID, &pf, "is required (\"obj\" or \"ply\")");
+    if (format < 0) return sj_fail(ld, RAYD_E_INVALID, &pf, "is required (\"obj\", \"ply\", \"gltf\" or \"glb\")");
     const cJSON *v = text ? text : b64 ? b64 : file;
     struct jp pv = sj_key(at, text ? "text" : b64 ? "base64" : "file");
     char *data = NULL;
@@ -182,11 +235,12 @@ static enum rayd_status load_source(struct loader *ld, const cJSON *src, const s
         (uint32_t)(ld->lim->max_triangles - ld->triangles > UINT32_MAX ? UINT32_MAX : ld->lim->max_triangles - ld->triangles)};
     const char *bytes = data ? data : v->valuestring;
     size_t nbytes = data ? len : strlen(v->valuestring);
-    enum rayd_status st = format == 0 ? mesh_parse_obj_threads(bytes, nbytes, &ml, 0, md, ld->err)
-                                      : mesh_parse_ply_threads(bytes, nbytes, &ml, 0, md, ld->err);
+    enum rayd_status st = format == 0   ? mesh_parse_obj_threads(bytes, nbytes, &ml, 0, md, ld->err)
+                          : format == 1 ? mesh_parse_ply_threads(bytes, nbytes, &ml, 0, md, ld->err)
+                                        : load_gltf(ld, at, file, bytes, nbytes, &ml, md);
     ld->s->decode_s += clock_now() - t0;
     free(data);
-    if (st != RAYD_OK && ld->err) snprintf(ld->err->path, sizeof ld->err->path, "%s", pv.s);
+    if (st != RAYD_OK && ld->err && format < 2) snprintf(ld->err->path, sizeof ld->err->path, "%s", pv.s);
     if (st == RAYD_OK && md->ntris == 0) {
         mesh_data_free(md);
         return sj_fail(ld, RAYD_E_INVALID, &pv, "holds no triangles");

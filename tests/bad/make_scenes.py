@@ -462,11 +462,11 @@ case("mesh-source-unknown-key.json", src({"format": "obj", "text": OBJ, "unit": 
 case("mesh-source-two-inputs.json", src({"format": "obj", "text": OBJ, "base64": "AA=="}),
      E + SP + ': needs exactly one of "text", "base64" or "file"')
 case("mesh-source-no-input.json", src({"format": "obj"}), E + SP + ': needs exactly one of "text", "base64" or "file"')
-case("mesh-source-no-format.json", src({"text": OBJ}), E + SP + '/format: is required ("obj" or "ply")')
+case("mesh-source-no-format.json", src({"text": OBJ}), E + SP + '/format: is required ("obj", "ply", "gltf" or "glb")')
 case("mesh-source-unknown-format.json", src({"format": "stl", "text": "solid x"}),
-     E + SP + '/format: unknown value "stl" (supported: obj, ply)')
+     E + SP + '/format: unknown value "stl" (supported: obj, ply, gltf, glb)')
 case("mesh-source-format-uppercase.json", src({"format": "OBJ", "text": OBJ}),
-     E + SP + '/format: unknown value "OBJ" (supported: obj, ply)')
+     E + SP + '/format: unknown value "OBJ" (supported: obj, ply, gltf, glb)')
 case("mesh-source-text-number.json", src({"format": "obj", "text": 5}), E + SP + "/text: must be a string, not a number")
 case("mesh-source-with-vertices.json", src({"format": "obj", "text": OBJ}, vertices=[0, 0, 0]),
      E + '/objects/0/vertices: cannot be combined with "source"')
@@ -500,6 +500,37 @@ case("mesh-source-ply-huge-count.json", src({"format": "ply", "text": PLY_HEAD %
 case("mesh-source-ply-index-out-of-range.json",
      src({"format": "ply", "text": PLY_HEAD % "3" + "0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n"}),
      E + SP + "/text: PLY face 0: vertex index 5 is out of range (0..2)")
+
+# glTF: one triangle, its buffer a data: URI; each case breaks one thing.
+GLTF_BIN = "AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAABAAIAAAA="
+
+
+def gltf(edit=None):
+    d = {"asset": {"version": "2.0"},
+         "buffers": [{"byteLength": 44, "uri": "data:application/octet-stream;base64," + GLTF_BIN}],
+         "bufferViews": [{"buffer": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 6}],
+         "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"},
+                       {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}],
+         "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+         "nodes": [{"mesh": 0}]}
+    if edit:
+        edit(d)
+    return src({"format": "gltf", "text": json.dumps(d)})
+
+
+GP = SP + "/gltf"
+case("mesh-source-gltf-count.json", gltf(lambda d: d["accessors"][0].update(count=100)),
+     E + GP + "/accessors/0/count: exceeds the buffer view (offset 0 + 100 elements of stride 12 need 1200 bytes; bufferView 0 has 36)")
+case("mesh-source-gltf-cycle.json", gltf(lambda d: d.update(scenes=[{"nodes": [0, 1]}], nodes=[{"mesh": 0}, {"children": [2]}, {"children": [1]}])),
+     E + GP + "/nodes/2/children/0: node 1 is its own ancestor (the node hierarchy has a cycle)")
+case("mesh-source-gltf-draco.json", gltf(lambda d: d.update(extensionsRequired=["KHR_draco_mesh_compression"])),
+     E + GP + "/extensionsRequired/0: KHR_draco_mesh_compression: compressed meshes are not supported; export the file without compression")
+case("mesh-source-gltf-index.json", gltf(lambda d: d["accessors"][1].update(componentType=5126)),
+     E + GP + "/accessors/1/componentType: indices must be UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT (5121, 5123, 5125), not 5126")
+case("mesh-source-gltf-syntax.json", src({"format": "gltf", "text": '{"asset": {"version": "2.0"},\n "nodes": [}'}),
+     E + GP + ": glTF JSON line 2, column 12: malformed JSON: expected a value, found '}'")
+case("mesh-source-glb-short.json", src({"format": "glb", "base64": "Z2xURgIAAAA="}),
+     E + GP + ": GLB file ends early (8 bytes)")
 
 # ---- transforms -------------------------------------------------------------------
 def xf(t, kind="sphere"):
