@@ -62,7 +62,7 @@ static void api_over_budget(struct http_req *r, const struct api_price *p, const
 {
     char msg[320];
     snprintf(msg, sizeof msg,
-             "the render's estimated cost is %.3g rays (about %.0f s on this server), over %s; "
+             "the render's estimated cost is %.3g rays (about %.3g s on this server), over %s; "
              "ask for fewer pixels, samples, bounces or light samples",
              p->rays, p->seconds, limit);
     metrics_reject(MR_OVER_BUDGET);

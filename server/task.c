@@ -1,9 +1,8 @@
 /* task.c -- one render: a compiled scene, a region, its tiles and who waits.
  *
  * A task is split into square tiles (sized by cost.c: 64 pixels, fewer for
- * costly scenes) rendered
- * straight into one shared rayd_image (or, for the HDR formats, one float
- * RGB buffer): tiles are disjoint rectangles, so any
+ * costly scenes) rendered straight into one shared rayd_image (or, for the
+ * HDR formats, one float RGB buffer): tiles are disjoint rectangles, so any
  * number of workers may fill tiles of one task at once without a lock on the
  * pixels.  Identical requests in flight -- same scene id, same region --
  * join the same task (its key), so a burst of equal tile requests renders
@@ -137,13 +136,13 @@ struct task *task_find(const char *key)
 
 /* Two classes, each served client by client (fair.c: the client served
  * least recently first, then that client's oldest task): interactive
- * tasks (previews, tiles, small regions) and bulk ones.  An interactive task gets the next
- * free worker whatever the age of the bulk backlog -- so a small request
- * waits at most one bulk tile -- except that when both classes wait, every
- * TASK_BULK_EVERY-th tile goes to bulk work, so a stream of small requests
- * cannot starve a frame either.  (An older rule let a bulk task queued
- * 2 s before a small one win every tile until it finished,
- * which with big path-traced jobs meant hours.) */
+ * tasks (previews, tiles, small regions) and bulk ones.  An interactive
+ * task gets the next free worker whatever the age of the bulk backlog -- so
+ * a small request waits at most one bulk tile -- except that when both
+ * classes wait, every TASK_BULK_EVERY-th tile goes to bulk work, so a
+ * stream of small requests cannot starve a frame either.  (An older rule
+ * let a bulk task queued 2 s before a small one win every tile until it
+ * finished, which with big path-traced jobs meant hours.) */
 static int task_interactive_streak; /* interactive tiles taken while bulk waited */
 
 static bool task_waiting(const struct task *t)
