@@ -17,7 +17,7 @@
  * what it asked for.
  *
  * Who asks: fair.c serves clients in turn, and a client is named here, by
- * the peer's address, or by the header --client-header names when a
+ * the peer's address (an IPv6 peer by its /64), or by the header --client-header names when a
  * balancer in front of rayd sets it (X-Real-IP, or a tenant id); rayd
  * cannot tell a forged header, so only a trusted balancer should set it.
  * The name is hashed to 64 bits (FNV-1a): only equality matters.
@@ -53,8 +53,8 @@ uint64_t api_client(struct http_req *r)
         return 0;
     if (ss.ss_family == AF_INET)
         return api_fnv(&((struct sockaddr_in *)&ss)->sin_addr, sizeof(struct in_addr));
-    if (ss.ss_family == AF_INET6)
-        return api_fnv(&((struct sockaddr_in6 *)&ss)->sin6_addr, sizeof(struct in6_addr));
+    if (ss.ss_family == AF_INET6) /* a /64 is one host's: it could mint addresses */
+        return api_fnv(&((struct sockaddr_in6 *)&ss)->sin6_addr, 8);
     return 0;
 }
 

@@ -15,8 +15,11 @@
  * seconds.  The rate follows the machine (a loaded or slow node answers
  * with longer estimates) and absorbs the estimate's usual bias.  It is used
  * for what is reported (the job's estimated seconds, X-Rayd-Estimated-
- * Seconds), the backlog (/readyz, /metrics, Retry-After) -- never for a
- * decision a test must count on.
+ * Seconds), the backlog (/readyz, /metrics, Retry-After), and one refusal:
+ * a plain render estimated far past --max-render-seconds (api_cost.c, with
+ * a fourfold slack), which may then differ between a fast and a slow node.
+ * An operator who wants the same answer on every node sets --max-work, in
+ * rays.
  *
  * Tiles are sized by cost: the largest of 64, 32, 16 and 8 pixels square
  * whose estimated rays stay under COST_TILE_RAYS, about 100 ms of one

@@ -60,7 +60,8 @@ void http_reply(struct http_req *r, unsigned status, struct MHD_Response *resp)
     if (origin) {
         MHD_add_response_header(resp, "Access-Control-Allow-Origin", origin);
         MHD_add_response_header(resp, "Access-Control-Expose-Headers",
-                                "ETag, Location, Retry-After, Content-Length, X-Request-Id");
+                                "ETag, Location, Retry-After, Content-Length, X-Request-Id, "
+                                "X-Rayd-Estimated-Rays, X-Rayd-Estimated-Seconds");
     }
     MHD_add_response_header(resp, "X-Content-Type-Options", "nosniff");
     if (r->request_id[0])
@@ -174,7 +175,7 @@ void http_reply_error(struct http_req *r, unsigned status, const char *code, con
     }
     if (status == 401)
         http_reply_header(r, MHD_HTTP_HEADER_WWW_AUTHENTICATE, "Bearer realm=\"rayd\"");
-    if (status == 413 && !r->body && r->body_len == 0)
+    if (status == 413 && !r->body && r->body_len == 0 && !strcmp(code, "body_too_large"))
         http_reply_header(r, MHD_HTTP_HEADER_CONNECTION, "close");
 }
 

@@ -15,8 +15,9 @@
  *     refracted ray).  Deeper bounces are not counted: on the example
  *     scenes only a small part of the image sees them, and counting
  *     max_depth of them overestimated the rays sevenfold.
- *   Path: each bounce casts a continuation ray, one shadow ray per light
- *     and one toward an emitter (next-event estimation, integrate_path.c);
+ *   Path: each bounce casts a continuation ray, one shadow ray per light,
+ *     one toward an emitter and one toward a sampled environment map
+ *     (next-event estimation, integrate_path.c);
  *     Russian roulette ends most paths by the fourth or fifth bounce, so at
  *     most PATH_EXPECTED_BOUNCES count.
  * It counts rays, not seconds: the server turns rays into seconds with the
@@ -58,6 +59,6 @@ double scene_rays_per_sample(const struct rayd_scene *s)
     if (s->rs.integrator == INTEGRATOR_WHITTED)
         return whitted_points(s) * (1.0 + shadow_rays(s));
     int bounces = s->rs.max_depth < PATH_EXPECTED_BOUNCES ? s->rs.max_depth : PATH_EXPECTED_BOUNCES;
-    double nee = s->nlights + (s->nemitters > 0 ? 1 : 0);
+    double nee = s->nlights + (s->nemitters > 0 ? 1 : 0) + (env_can_sample(&s->rs.env) ? 1 : 0);
     return (1.0 + bounces) * (1.0 + nee);
 }
