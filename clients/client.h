@@ -14,6 +14,8 @@
  *                  retries, stitching (or adding the ranges' sums)
  *   progress.c     the progress bar (terminal) or plain progress lines
  *   job.c          the asynchronous job API with its Server-Sent Events
+ *   thumbnails.c   the thumbnails command: each model of a folder in a
+ *                  studio scene, framed, rendered by tiles.c
  *   output.c       the finished image into -o: a file (via FILE.part), or
  *                  standard output for "-"
  *
