@@ -14,6 +14,8 @@
  *                  retries, stitching (or adding the ranges' sums)
  *   progress.c     the progress bar (terminal) or plain progress lines
  *   job.c          the asynchronous job API with its Server-Sent Events
+ *   thumbnails.c   the thumbnails command: each model of a folder in a
+ *                  studio scene, framed, rendered by tiles.c
  *   output.c       the finished image into -o: a file (via FILE.part), or
  *                  standard output for "-"
  *
@@ -73,6 +75,9 @@ struct scenefile {
  * core and hashes it.  Returns 0, or -1 after printing why on stderr. */
 int scenefile_load(const char *path, struct scenefile *sf);
 void scenefile_free(struct scenefile *sf);
+/* With sf->bytes (malloc'd) and sf->len set: validates and hashes them as
+ * scenefile_load does.  0, or -1 after printing why (sf freed). */
+int scenefile_finish(const char *name, struct scenefile *sf);
 /* Standard base64 with padding; malloc'd NUL-terminated string or NULL. */
 char *scenefile_base64(const unsigned char *data, size_t len);
 
@@ -136,6 +141,16 @@ void progress_end(struct progress *p);
  * complete image, 1 when the scene was refused or tiles are missing
  * (nothing is written then). */
 int tiles_render(const struct client_opts *o, const struct scenefile *sf);
+
+/* ---- thumbnails.c ---------------------------------------------------------- */
+
+/* Renders every .ply/.obj/.glb/.gltf model in dir as a size x size PNG in
+ * outdir (NAME.png) over o->servers: the model in a studio scene framed
+ * with camera.frame = all from view ("three-quarter", "front", "side",
+ * "top").  One line a model on stderr; 0 when every model was written,
+ * 1 when any failed (the others are still written). */
+int thumbnails_run(const struct client_opts *o, const char *dir, const char *outdir, int size,
+                   const char *view);
 
 /* ---- job.c ---------------------------------------------------------------- */
 

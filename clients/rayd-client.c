@@ -6,12 +6,14 @@
  *               [--token-file F] [--quiet]
  *   rayd-client job SCENE.json -o OUT.png --server URL [--token-file F]
  *   rayd-client health --server URL [--server URL ...]
+ *   rayd-client thumbnails DIR [-o OUTDIR] [--size N] [--view V] --server URL ...
  *
  * `render` splits one frame into tiles (or, --split-samples, its samples
  * into ranges) and spreads them over every server given (rayd nodes, or
  * one balancer in front of many: tiles.c); `job` uses
  * the asynchronous job API of one server (job.c); `health` asks each
- * server's /healthz and /readyz.  The scene is read, its files inlined and
+ * server's /healthz and /readyz; `thumbnails` renders every model of a
+ * folder in a studio scene, each as a render (thumbnails.c).  The scene is read, its files inlined and
  * validated locally before anything is sent (scenefile.c).  RAYD_SERVER
  * gives a default server, RAYD_TOKEN_FILE a default token file.
  *
@@ -51,6 +53,7 @@ static void client_usage(FILE *f)
             "                          [--token-file F] [--quiet]\n"
             "       rayd-client job SCENE.json -o OUT.png --server URL [--token-file F] [--quiet]\n"
             "       rayd-client health --server URL [--server URL ...] [--token-file F]\n"
+            "       rayd-client thumbnails DIR [-o OUTDIR] [--size N] [--view V] --server URL ...\n"
             "\n"
             "  --server URL      a rayd node or a balancer in front of many (repeatable;\n"
             "                    default $RAYD_SERVER or http://127.0.0.1:8080)\n"
@@ -67,6 +70,9 @@ static void client_usage(FILE *f)
             "  --timeout S       seconds per request (default 120)\n"
             "  --token-file F    bearer token file (default $RAYD_TOKEN_FILE)\n"
             "  --threads N       threads encoding the stitched PNG (default 0: every core)\n"
+            "  --size N          thumbnails: the PNGs' width and height (default 256)\n"
+            "  --view V          thumbnails: three-quarter (default), front, side or top;\n"
+            "                    -o is the output folder (default .)\n"
             "  -q, --quiet       no progress output\n"
             "  -h, --help        this text\n"
             "  --version         print 'rayd-client VERSION'\n"
@@ -193,7 +199,7 @@ __attribute__((format(printf, 1, 2))) static int client_bad(const char *fmt, ...
 /* The long options; those without a short letter are numbered from 256. */
 enum {
     OPT_TILE = 256, OPT_SPLIT, OPT_PARALLEL, OPT_RETRIES, OPT_TIMEOUT, OPT_TOKEN_FILE,
-    OPT_THREADS, OPT_VERSION
+    OPT_THREADS, OPT_VERSION, OPT_SIZE, OPT_VIEW
 };
 static const struct option client_options[] = {
     {"server", required_argument, NULL, 's'},
@@ -205,6 +211,8 @@ static const struct option client_options[] = {
     {"timeout", required_argument, NULL, OPT_TIMEOUT},
     {"token-file", required_argument, NULL, OPT_TOKEN_FILE},
     {"threads", required_argument, NULL, OPT_THREADS},
+    {"size", required_argument, NULL, OPT_SIZE},
+    {"view", required_argument, NULL, OPT_VIEW},
     {"quiet", no_argument, NULL, 'q'},
     {"help", no_argument, NULL, 'h'},
     {"version", no_argument, NULL, OPT_VERSION},
@@ -214,6 +222,8 @@ static const struct option client_options[] = {
 struct client_args {
     struct client_opts o;
     const char *cmd, *scene, *token_file;
+    int size;         /* thumbnails: --size */
+    const char *view; /* thumbnails: --view */
 };
 
 /* A number option's value into *out; -1 after saying why. */
@@ -223,6 +233,7 @@ static int client_int(int opt, const char *v, double lo, double hi, int *out)
                        : opt == OPT_SPLIT    ? "--split-samples"
                        : opt == OPT_PARALLEL ? "--parallel"
                        : opt == OPT_RETRIES  ? "--retries"
+                       : opt == OPT_SIZE     ? "--size"
                                              : "--threads";
     double d;
     if (client_number(name, v, lo, hi, &d))
@@ -273,6 +284,15 @@ static int client_option(int opt, const char *v, struct client_args *a)
         return client_int(opt, v, 0, 100, &o->retries);
     case OPT_THREADS:
         return client_int(opt, v, 0, 1024, &o->threads);
+    case OPT_SIZE:
+        return client_int(opt, v, 8, 4096, &a->size);
+    case OPT_VIEW:
+        if (!v || (strcmp(v, "three-quarter") && strcmp(v, "front") && strcmp(v, "side") &&
+                   strcmp(v, "top")))
+            return client_bad("--view needs three-quarter, front, side or top, not '%s'",
+                              v ? v : "");
+        a->view = v;
+        return 0;
     }
     return client_bad("unknown option");
 }
@@ -291,10 +311,11 @@ static int client_unknown(const char *arg, int opt)
 static int client_words(int argc, char **argv, struct client_args *a)
 {
     if (optind >= argc)
-        return client_bad("no command given (render, job or health)");
+        return client_bad("no command given (render, job, health or thumbnails)");
     a->cmd = argv[optind++];
-    if (strcmp(a->cmd, "render") && strcmp(a->cmd, "job") && strcmp(a->cmd, "health"))
-        return client_bad("unknown command '%s' (render, job or health)", a->cmd);
+    if (strcmp(a->cmd, "render") && strcmp(a->cmd, "job") && strcmp(a->cmd, "health") &&
+        strcmp(a->cmd, "thumbnails"))
+        return client_bad("unknown command '%s' (render, job, health or thumbnails)", a->cmd);
     if (optind < argc && strcmp(a->cmd, "health"))
         a->scene = argv[optind++];
     if (optind < argc)
@@ -317,6 +338,8 @@ static int client_parse(int argc, char **argv, struct client_args *a)
     }
     if (client_words(argc, argv, a) != 0)
         return -1;
+    if (!strcmp(a->cmd, "thumbnails"))
+        return a->scene ? 0 : client_bad("thumbnails needs DIR, the folder of models");
     if (strcmp(a->cmd, "health") && (!a->scene || !a->o.out))
         return client_bad("%s needs SCENE.json and -o OUT.png", a->cmd);
     if (!strcmp(a->cmd, "job") && a->o.nservers > 1)
@@ -366,6 +389,9 @@ static int client_run(const struct client_args *a)
 {
     if (!strcmp(a->cmd, "health"))
         return client_health(&a->o);
+    if (!strcmp(a->cmd, "thumbnails"))
+        return thumbnails_run(&a->o, a->scene, a->o.out ? a->o.out : ".", a->size ? a->size : 256,
+                              a->view ? a->view : "three-quarter");
     struct scenefile sf;
     if (scenefile_load(a->scene, &sf) != 0)
         return 1;

@@ -175,24 +175,16 @@ static int scenefile_bundle(const char *path, struct scenefile *sf)
     return rc;
 }
 
-int scenefile_load(const char *path, struct scenefile *sf)
+/* Validates sf->bytes with the core, notes the size and samples, and
+ * hashes them; name is the scene as messages call it.  0, or -1 after
+ * printing why (sf is freed then). */
+int scenefile_finish(const char *name, struct scenefile *sf)
 {
-    memset(sf, 0, sizeof *sf);
     struct rayd_error err = {0};
-    sf->bytes = scenefile_read(path, &sf->len, &err);
-    if (!sf->bytes) {
-        fprintf(stderr, "rayd-client: error: %s\n", err.message);
-        return -1;
-    }
-    if (scenefile_bundle(path, sf) != 0) {
-        fprintf(stderr, "rayd-client: error: %s: could not inline the files the scene names\n", path);
-        scenefile_free(sf);
-        return -1;
-    }
     rayd_scene *scene = NULL;
     if (rayd_scene_parse(sf->bytes, sf->len, NULL, &scene, &err) != RAYD_OK) {
         char msg[600];
-        fprintf(stderr, "rayd-client: error: %s: %s: %s\n", path, rayd_status_name(err.code),
+        fprintf(stderr, "rayd-client: error: %s: %s: %s\n", name, rayd_status_name(err.code),
                 rayd_error_format(&err, msg, sizeof msg));
         scenefile_free(sf);
         return -1;
@@ -213,6 +205,23 @@ int scenefile_load(const char *path, struct scenefile *sf)
     for (unsigned i = 0; i < 32; i++)
         snprintf(sf->id + 2 * i, 3, "%02x", md[i]);
     return 0;
+}
+
+int scenefile_load(const char *path, struct scenefile *sf)
+{
+    memset(sf, 0, sizeof *sf);
+    struct rayd_error err = {0};
+    sf->bytes = scenefile_read(path, &sf->len, &err);
+    if (!sf->bytes) {
+        fprintf(stderr, "rayd-client: error: %s\n", err.message);
+        return -1;
+    }
+    if (scenefile_bundle(path, sf) != 0) {
+        fprintf(stderr, "rayd-client: error: %s: could not inline the files the scene names\n", path);
+        scenefile_free(sf);
+        return -1;
+    }
+    return scenefile_finish(path, sf);
 }
 
 void scenefile_free(struct scenefile *sf)

@@ -33,6 +33,7 @@
 #include "io/json_check.h"
 #include "io/json_parse.h"
 #include "io/scene_json_env.h"
+#include "io/scene_json_frame.h"
 #include "io/scene_json.h"
 #include "io/scene_json_inline.h"
 #include "io/scene_json_material.h"
@@ -104,7 +105,7 @@ static enum rayd_status load_render(struct loader *ld, const cJSON *root) {
 static enum rayd_status load_camera(struct loader *ld, const cJSON *root) {
     static const char *const keys[] = {"position",   "look_at",  "up",       "fov_x",
                                        "fov_y",      "projection", "view_width", "aperture",
-                                       "focus_distance", NULL};
+                                       "focus_distance", "frame", "view", NULL};
     static const char *const projections[] = {"perspective", "orthographic", NULL};
     struct jp at = {"/camera"};
     cJSON empty;
@@ -117,6 +118,10 @@ static enum rayd_status load_camera(struct loader *ld, const cJSON *root) {
     TRY(sj_vec(ld, c, &at, "up", v3(0, 1, 0), VEC_NONZERO, &up));
     TRY(sj_num(ld, c, &at, "fov_x", 0, 0, true, 179, &fx));
     TRY(sj_num(ld, c, &at, "fov_y", 0, 0, true, 179, &fy));
+    bool framed;
+    TRY(sj_frame_read(ld, c, &at, &framed));
+    ld->frame_fx = fx;
+    ld->frame_fy = fy;
     const struct render_settings *rs = &ld->s->rs;
     struct camera *cam = &ld->s->cam;
     TRY(cam_init(cam, pos, look, up, fx, fy, rs->width, rs->height, ld->err));
@@ -245,7 +250,8 @@ static enum rayd_status load_root(struct loader *ld, const cJSON *root) {
     TRY(sj_materials(ld, root));
     TRY(load_lights(ld, root));
     TRY(sj_groups(ld, root));
-    return sj_objects(ld, root);
+    TRY(sj_objects(ld, root));
+    return sj_frame_apply(ld); /* camera.frame needs the objects' bounds */
 }
 
 /* Check, and note the large inline mesh arrays; parse the rest with cJSON. */

@@ -25,6 +25,7 @@
 
 #include "base/array.h"
 #include "base/error.h"
+#include "geom/camera_frame.h"
 #include "scene/scene.h"
 
 #define NUM_MAX 1e9 /* coordinates and sizes: generous but far from overflow */
@@ -54,6 +55,10 @@ struct loader {
     long objects;             /* objects, operands and group members so far */
     long triangles, vertices; /* totals so far, against the limits */
     const struct sj_inline *inl; /* inline mesh arrays left out of the tree */
+    bool frame;                  /* camera.frame: placed after the objects load */
+    enum frame_view frame_view;
+    double frame_fx, frame_fy;   /* the camera's fov_x, fov_y as given (0 = absent) */
+    bool frame_focus;            /* focus_distance given: kept when framing */
 };
 
 enum vec_rule { VEC_ANY, VEC_NONZERO, VEC_COLOR };

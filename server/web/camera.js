@@ -24,6 +24,7 @@ const isVec = (v) => Array.isArray(v) && v.length === 3 && v.every((x) => typeof
 export function cameraOf(scene) {
   const cam = (scene && typeof scene === "object" && scene.camera) || {};
   if (typeof cam !== "object" || Array.isArray(cam)) return null;
+  if (cam.frame !== undefined) return null; // placed by the renderer ("frame": "all"): no orbit
   const position = cam.position === undefined ? [0, 0, 0] : cam.position;
   const lookAt = cam.look_at === undefined ? [0, 0, -1] : cam.look_at;
   const up = cam.up === undefined ? [0, 1, 0] : cam.up;

@@ -84,6 +84,10 @@ check("orbit_keeps_distance", () => {
   const q = dolly(cam, 0.5);
   return Math.abs(d(q, cam.lookAt) - d(cam.position, cam.lookAt) / 2) < 1e-9 || "dolly";
 });
+check("framed_camera_does_not_orbit", () => {
+  // "frame": "all" refuses a position beside it, so the preview must not write one
+  return cameraOf({ camera: { frame: "all", view: "front" } }) === null || "cameraOf gave a camera";
+});
 check("ground_of_scenes", () => {
   const cam = cameraOf({ camera: { position: [0, 2, 7], look_at: [0, 1, 0] } });
   const cases = [

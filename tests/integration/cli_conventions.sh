@@ -128,7 +128,7 @@ check client_unreachable_exit_1 "exit $RC, stderr '$(first_err c_down)'" bash -c
     "[ $RC = 1 ] && grep -q '^rayd-client: error: incomplete image' '$T/c_down.err' && [ ! -e '$T/c_down.png' ]"
 run c_nocmd "$CLIENT"
 check client_no_command_exit_2 "exit $RC, stderr '$(first_err c_nocmd)'" bash -c \
-    "[ $RC = 2 ] && [ '$(first_err c_nocmd)' = 'rayd-client: error: no command given (render, job or health)' ]"
+    "[ $RC = 2 ] && [ '$(first_err c_nocmd)' = 'rayd-client: error: no command given (render, job, health or thumbnails)' ]"
 
 # --- rayd-render's progress line ---------------------------------------------------
 # on_tty NAME ARGS...: runs rayd-render with stdin, stdout and stderr on a

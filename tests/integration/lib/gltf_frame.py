@@ -9,6 +9,9 @@
                              be read so gets the box -1..1
   gltf_frame.py lit PNG      prints how many pixels of an 8-bit PNG are not
                              the black background
+  gltf_frame.py unlike_corner PNG   prints how many pixels differ from the
+                             top-left one by more than 24 in a channel (an
+                             object against a plain background; thumbnails.sh)
 """
 import json
 import math
@@ -85,7 +88,8 @@ def scene(path):
         "objects": [{"type": "mesh", "source": {"file": path}}]}))
 
 
-def lit(path):
+def rows(path):
+    """The rows of an 8-bit PNG, unfiltered: (bytes per pixel, [bytearray])."""
     data = open(path, "rb").read()
     at, idat, w = 8, b"", 0
     while at < len(data):
@@ -97,7 +101,7 @@ def lit(path):
         elif kind == b"IDAT":
             idat += body
         at += 12 + n
-    raw, rows, prev, count = zlib.decompress(idat), [], bytearray(w * bpp), 0
+    raw, out, prev = zlib.decompress(idat), [], bytearray(w * bpp)
     stride = w * bpp + 1
     for y in range(h):
         f, line = raw[y * stride], bytearray(raw[y * stride + 1:(y + 1) * stride])
@@ -112,10 +116,26 @@ def lit(path):
                 p = a + b - c
                 pa, pb, pc = abs(p - a), abs(p - b), abs(p - c)
                 line[x] = (line[x] + (a if pa <= pb and pa <= pc else b if pb <= pc else c)) & 255
-        count += sum(1 for x in range(w) if max(line[x * bpp:x * bpp + min(bpp, 3)]) > 8)
+        out.append(line)
         prev = line
-    print(count)
+    return bpp, out
+
+
+def lit(path):
+    bpp, lines = rows(path)
+    w = len(lines[0]) // bpp if lines else 0
+    print(sum(1 for line in lines for x in range(w) if max(line[x * bpp:x * bpp + min(bpp, 3)]) > 8))
+
+
+def unlike_corner(path):
+    """Pixels that differ from the top-left one by more than 24 in a channel:
+    an object seen against a plain background."""
+    bpp, lines = rows(path)
+    w = len(lines[0]) // bpp if lines else 0
+    ref = lines[0][:3]
+    print(sum(1 for line in lines for x in range(w)
+              if max(abs(line[x * bpp + k] - ref[k]) for k in range(3)) > 24))
 
 
 if __name__ == "__main__":
-    {"scene": scene, "lit": lit}[sys.argv[1]](sys.argv[2])
+    {"scene": scene, "lit": lit, "unlike_corner": unlike_corner}[sys.argv[1]](sys.argv[2])
