@@ -78,10 +78,17 @@ static enum rayd_status env_decode_hdr(struct loader *ld, const char *data, size
     if (!stbi_info_from_memory(b, (int)len, &w, &h, &n))
         return sj_fail(ld, RAYD_E_INVALID, p, "is not a readable .hdr image: %s",
                        stbi_failure_reason());
+    if (w <= 0 || h <= 0) /* stb reads a header's missing size as 0 */
+        return sj_fail(ld, RAYD_E_INVALID, p, "the .hdr image is %d x %d pixels: it has none", w,
+                       h);
     if ((long)w * h > TEXTURE_MAX_PIXELS)
         return sj_fail(ld, RAYD_E_LIMIT, p, "the image is %d x %d pixels; the limit is %ld pixels",
                        w, h, TEXTURE_MAX_PIXELS);
     float *px = stbi_loadf_from_memory(b, (int)len, &w, &h, &n, 3);
+    if (px && (w <= 0 || h <= 0 || (long)w * h > TEXTURE_MAX_PIXELS)) { /* as stbi_info said */
+        stbi_image_free(px);
+        return sj_fail(ld, RAYD_E_INVALID, p, "the .hdr image's size changed while decoding");
+    }
     if (!px)
         return sj_fail(ld, RAYD_E_INVALID, p, "cannot decode the .hdr image: %s",
                        stbi_failure_reason());
