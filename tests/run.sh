@@ -9,7 +9,8 @@
 # is never a pass.  The layer check (tools/check_layers.py) runs with the
 # unit tests.  RAYD_ONLY=unit|integration limits the run;
 # RAYD_TESTS="jobs lifecycle" runs only those tests/integration/NAME.sh
-# (make test-tsan and make test-valgrind use it).  SKIP lines are shown.
+# (make test-tsan and make test-valgrind use it); RAYD_SKIP="a b" leaves
+# those integration tests out (tests/stress.sh uses it).  SKIP lines are shown.
 set -u
 cd "$(dirname "$0")/.."
 BUILD=$(cd "${1:-build}" && pwd)
@@ -64,6 +65,7 @@ fi
 if [ "$only" = all ] || [ "$only" = integration ]; then
     for t in tests/integration/*.sh tests/browser/*.sh; do
         [ -f "$t" ] || continue
+        [[ " ${RAYD_SKIP:-} " == *" $(basename "$t" .sh) "* ]] && continue
         run_one "$t" bash "$t"
     done
 fi

@@ -7,6 +7,13 @@
 #   idle     twice in a row, nothing else running.
 # A test that depends on how long a render takes fails one of these.  Ends
 # with the sum of the runs: "N passed, N failed".
+#
+# Left out (RAYD_SKIP): the tests of files and command lines that start no
+# server or only ask one thing of it -- installing, man pages, manifests,
+# the docs' examples, the bad-scene corpus, the mesh and glTF files, the
+# CLIs, the fuzz replays.  Nothing in them waits on a render, and run four
+# more times they would double the CI's time; make test runs them, and the
+# ASan run of .ci/run again.
 set -u
 cd "$(dirname "$0")/.."
 BUILD=${1:-build}
@@ -19,6 +26,9 @@ stop_hogs() {
 }
 trap stop_hogs EXIT
 
+STRESS_SKIP="install man_pages k8s_manifests docs_check cli_bad_scenes cli_gltf cli_real_meshes
+    cli_conventions cli_render cli_passes fuzz_replay simd_scalar bench_bvh asset_dir"
+STRESS_SKIP=$(echo $STRESS_SKIP)
 pass=0 fail=0 summary=()
 run() { # name, command prefix...
     local name=$1; shift
@@ -26,7 +36,7 @@ run() { # name, command prefix...
     log=$(mktemp)
     t0=$(date +%s)
     echo "=== test-stress: $name"
-    RAYD_ONLY=integration "$@" bash tests/run.sh "$BUILD" >"$log" 2>&1
+    RAYD_ONLY=integration RAYD_SKIP="$STRESS_SKIP" "$@" bash tests/run.sh "$BUILD" >"$log" 2>&1
     line=$(tail -n 1 "$log")
     grep -E '^(--- |FAIL |failed: )' "$log" | grep -v ' passed$'
     if [[ $line =~ ^([0-9]+)\ passed,\ ([0-9]+)\ failed$ ]]; then
