@@ -4,7 +4,8 @@
 #   loaded   every core busy with an unrelated CPU hog (one busy loop per
 #            core, started here and stopped by PID);
 #   one-core the tests and every rayd they start pinned to core 0 (taskset);
-#   idle     twice in a row, nothing else running.
+#   idle     nothing else running (make test and .ci/run's ASan run are
+#            two more runs of the whole suite).
 # A test that depends on how long a render takes fails one of these.  Ends
 # with the sum of the runs: "N passed, N failed".
 #
@@ -65,8 +66,7 @@ else
     echo "FAIL stress_one_core: taskset missing (util-linux)"
     fail=$((fail + 1))
 fi
-run idle-1 env
-run idle-2 env
+run idle env
 
 printf '%s\n' "${summary[@]}"
 echo "$pass passed, $fail failed"
