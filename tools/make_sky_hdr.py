@@ -25,9 +25,10 @@ W, H = 64, 32
 SUN_ELEVATION, SUN_AZIMUTH = 40.0, 35.0  # degrees; azimuth from -Z toward +X
 
 
-def direction(i, j):
-    theta = math.pi * (j + 0.5) / H
-    phi = 2 * math.pi * ((i + 0.5) / W - 0.5)
+def direction(i, j, w=W, h=H):
+    """The direction of texel (i, j) of a w x h map, as rayd's lookup reads it."""
+    theta = math.pi * (j + 0.5) / h
+    phi = 2 * math.pi * ((i + 0.5) / w - 0.5)
     return (math.sin(theta) * math.sin(phi), math.cos(theta), -math.sin(theta) * math.cos(phi))
 
 
@@ -58,6 +59,16 @@ def rgbe(c):
     return bytes([int(c[0] * scale), int(c[1] * scale), int(c[2] * scale), e + 128])
 
 
+def hdr_bytes(radiance_of, w=W, h=H):
+    """A Radiance .hdr (flat RGBE) of radiance_of(direction) over a w x h map;
+    tools/make_studio_hdr.py writes its map with it too."""
+    data = bytearray(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y %d +X %d\n" % (h, w))
+    for j in range(h):
+        for i in range(w):
+            data += rgbe(radiance_of(direction(i, j, w, h)))
+    return bytes(data)
+
+
 def embed(hdr, scene="scenes/environment.json"):
     with open(scene) as f:
         s = json.load(f)
@@ -69,14 +80,11 @@ def embed(hdr, scene="scenes/environment.json"):
 def main():
     args = [a for a in sys.argv[1:] if a != "--scene"]
     out = args[0] if args else "scenes/sky.hdr"
-    data = bytearray(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y %d +X %d\n" % (H, W))
-    for j in range(H):
-        for i in range(W):
-            data += rgbe(radiance(direction(i, j)))
+    data = hdr_bytes(radiance)
     with open(out, "wb") as f:
         f.write(data)
     if "--scene" in sys.argv[1:]:
-        embed(bytes(data))
+        embed(data)
 
 
 if __name__ == "__main__":

@@ -25,13 +25,9 @@ import json
 import math
 import sys
 
+from make_sky_hdr import hdr_bytes  # the same .hdr writer and texel directions
+
 W, H = 32, 16
-
-
-def direction(i, j):
-    theta = math.pi * (j + 0.5) / H
-    phi = 2 * math.pi * ((i + 0.5) / W - 0.5)
-    return (math.sin(theta) * math.sin(phi), math.cos(theta), -math.sin(theta) * math.cos(phi))
 
 
 def radiance(d):
@@ -46,21 +42,8 @@ def radiance(d):
     return (g, g, g)
 
 
-def rgbe(c):
-    v = max(c)
-    if v < 1e-32:
-        return bytes(4)
-    m, e = math.frexp(v)
-    scale = m * 256.0 / v
-    return bytes([int(c[0] * scale), int(c[1] * scale), int(c[2] * scale), e + 128])
-
-
 def hdr():
-    data = bytearray(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y %d +X %d\n" % (H, W))
-    for j in range(H):
-        for i in range(W):
-            data += rgbe(radiance(direction(i, j)))
-    return bytes(data)
+    return hdr_bytes(radiance, W, H)
 
 
 def vase_obj(segments=16):
