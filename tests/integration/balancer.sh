@@ -194,10 +194,4 @@ check down_json_502 "$code Retry-After='$(header Retry-After)' $(head -c 200 "$T
     bash -c "[ $code = 502 ] && [ -n '$(header Retry-After)' ] &&
              python3 -c 'import json,sys; e=json.load(open(sys.argv[1]))[\"error\"]; sys.exit(e[\"code\"] != \"unavailable\")' '$T/body'"
 
-kill -QUIT "$NGINX_PID" 2>/dev/null
-wait "$NGINX_PID" 2>/dev/null
-for i in 1 2 3; do
-    if grep -Eq 'ERROR: (Address|Leak)Sanitizer|runtime error:' "$T/node$i.err"; then
-        fail "node${i}_sanitizer" "$(grep -Em 3 'Sanitizer|runtime error' "$T/node$i.err")"
-    fi
-done
+nginx_stop_check_nodes 3

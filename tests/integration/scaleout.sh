@@ -298,10 +298,4 @@ check down_nginx_exit "exit $RC: $(tail -n 2 "$T/down_nginx.err" | head -c 300)"
     bash -c "[ $RC = 1 ] && grep -q 'tiles missing' '$T/down_nginx.err' && [ ! -e '$T/d.png' ]"
 
 # --- stop nginx; sanitizer reports of the nodes (SANITIZE=1) ----------------------------
-kill -QUIT "$NGINX_PID" 2>/dev/null
-wait "$NGINX_PID" 2>/dev/null
-for i in 1 2 3; do
-    if grep -Eq 'ERROR: (Address|Leak)Sanitizer|runtime error:' "$T/node$i.err"; then
-        fail "node${i}_sanitizer" "$(grep -Em 3 'Sanitizer|runtime error' "$T/node$i.err")"
-    fi
-done
+nginx_stop_check_nodes 3

@@ -65,3 +65,16 @@ nginx_cleanup() {
     kill -TERM "$NGINX_PID" 2>/dev/null && wait "$NGINX_PID" 2>/dev/null
     cleanup
 }
+
+# nginx_stop_check_nodes N: stops nginx gracefully, then FAILs for any
+# sanitizer report (SANITIZE=1 builds) in the logs $T/node1.err..$T/nodeN.err.
+nginx_stop_check_nodes() {
+    local i
+    kill -QUIT "$NGINX_PID" 2>/dev/null
+    wait "$NGINX_PID" 2>/dev/null
+    for i in $(seq 1 "$1"); do
+        if grep -Eq 'ERROR: (Address|Leak)Sanitizer|runtime error:' "$T/node$i.err"; then
+            fail "node${i}_sanitizer" "$(grep -Em 3 'Sanitizer|runtime error' "$T/node$i.err")"
+        fi
+    done
+}
