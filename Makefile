@@ -21,7 +21,7 @@
 # Debian packages, in lists by what needs them (README.md, "Dependencies",
 # says what each package is for).  BUILD_PKGS: compiler and tools, the three
 # given libraries (libpng, cJSON, libmicrohttpd), libcurl for the client,
-# libssl (libcrypto's SHA-256 of scene ids), libisal and zlib (the PNG
+# libssl (libcrypto's SHA-256 of scene ids), libdeflate, libisal and zlib (the PNG
 # encoder's deflates), libopenexr-dev (EXR out and environment maps in, core/io/exr*.c), libstb-dev
 # (stb_image: Radiance .hdr environments, core/io/scene_json_env.c).  TEST_PKGS,
 # on top for `make test`: curl and python3 (the integration tests), nginx (the
@@ -33,7 +33,7 @@
 # man-db (the man pages rendered), python3-prometheus-client (its parser
 # reads /metrics in tests/integration/observability.sh).  LINT_PKGS: make lint and make format.
 # BENCH_PKGS (below): make bench-peers only.
-BUILD_PKGS := gcc make pkg-config libc6-dev libpng-dev zlib1g-dev libisal-dev libcjson-dev \
+BUILD_PKGS := gcc make pkg-config libc6-dev libpng-dev zlib1g-dev libisal-dev libdeflate-dev libcjson-dev \
               libmicrohttpd-dev libcurl4-openssl-dev libssl-dev libopenexr-dev libstb-dev
 TEST_PKGS := curl python3 nginx wrk chromium fonts-dejavu-core pngcheck openexr g++ \
              assimp-testmodels clang libclang-rt-14-dev valgrind openssl man-db \
@@ -81,7 +81,7 @@ LDFLAGS_ALL := $(LDSAN) $(LDFLAGS)
 # pkg-config runs in recipes, after `make deps` has installed it.
 EXR_CFLAGS = $(patsubst -I%,-isystem %,$(shell pkg-config --cflags OpenEXR))
 EXR_LIBS = $(shell pkg-config --libs OpenEXR)
-LIBS_CORE = -lpng -lz -lisal -lcjson -lstb $(EXR_LIBS) -lpthread -lm
+LIBS_CORE = -lpng -lz -lisal -ldeflate -lcjson -lstb $(EXR_LIBS) -lpthread -lm
 
 # --- version ----------------------------------------------------------------
 # The file VERSION holds the one version string.  Every compile sees it as

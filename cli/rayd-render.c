@@ -61,7 +61,7 @@ static void usage(FILE *f) {
             "                    the pass's samples (implies --passes)\n"
             "  --region X,Y,W,H  render only the W x H crop whose top-left pixel is (X, Y)\n"
             "  --threads N       rendering and PNG encoding threads (default 0: every core)\n"
-            "  --png-level N     deflate level of the PNG, 0-9 (default 4; 1: ISA-L, fastest)\n"
+            "  --png-level N     deflate level of the PNG, 0-9 (default 2, libdeflate; 1: ISA-L, fastest)\n"
             "  --stats           print rays cast, rays per second, the render's wall time and\n"
             "                    the time of each stage (read, parse, decode, build, render,\n"
             "                    encode, write)\n"

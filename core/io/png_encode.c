@@ -2,13 +2,14 @@
  *
  * Encoding a 1080p frame with libpng (one thread, zlib level 6, adaptive
  * filters) took about twice as long as rendering it.  Here the image is cut
- * into bands of rows; each band is filtered and deflated on its own (ISA-L
- * or zlib, raw deflate) by whichever thread takes it, and the bands are
- * joined into one zlib stream: a band that is not the last ends with a sync flush (a
- * byte-aligned empty stored block, never a final block), so the deflate
- * streams simply follow one another, and the Adler-32 of the whole is
- * combined from the bands' (adler32_combine).  This is how pigz writes one
- * valid stream from parallel pieces.
+ * into bands of rows; each band is filtered and deflated on its own
+ * (libdeflate or ISA-L, raw deflate) by whichever thread takes it, and the
+ * bands are joined into one zlib stream: a band that is not the last ends
+ * with an empty stored block at a byte boundary and no final block (a sync
+ * flush, or libdeflate's whole stream rewritten so by deflate_chain.c), so
+ * the deflate streams simply follow one another, and the Adler-32 of the
+ * whole is combined from the bands' (adler32_combine).  This is how pigz
+ * writes one valid stream from parallel pieces.
  *
  * The bands depend on the image width alone (about 256 KiB of raw rows
  * each), never on the thread count, so the bytes are the same however many
@@ -20,32 +21,34 @@
  * choice and the size are the same as with every byte, at 16% less
  * time).  Against libpng's least sum of absolute values over all five
  * filters this gave 2% fewer bytes on the 1080p sphere scene and 6% on
- * paper, with either deflate; Paeth, the costliest filter, made the output
+ * paper, with either deflate (zlib or ISA-L); Paeth, the costliest filter, made the output
  * larger under this measure, so it is not tried.
  *
- * Deflate.  With no level asked for (-1), zlib level 4, filtered strategy
- * (as libpng): -3% to +6.5% against libpng level 6 on the example scenes,
- * inside the promise of at most +15% by default.  Level 1, the fastest,
- * is Intel ISA-L (isal_deflate, level 2, raw deflate with a sync flush or,
- * for the last band, the final block): on the 1080p sphere scene
- * (bench/pngbench.c, 2 threads) 15x faster than libpng at level 6 and
- * 3.2x faster than zlib level 4, the encode 0.33 of the render time
- * instead of 0.74 (rayd-render --stats, medians of 5); zlib's own level 1
- * was both larger and 2.3x slower, so ISA-L is what "fastest" means here.
- * Its price is size: +5% to +21% over libpng level 6 (+18% on the sphere
- * scene, +21% on paper), too much for the default: ISA-L matches greedily
- * from one hash candidate and misses the short repeats that zlib's lazy
- * chains find in smooth gradients.  ISA-L level 1, other token buffer
- * sizes, a preset dictionary from the band before and bigram filter
- * measures came within 1% of this and no lower; its level 3 was 3%
- * larger.  Levels 0 and 2-9 are zlib's, as asked.  The Adler-32 of a band
- * is ISA-L's (4x zlib's), combined across bands with zlib's
+ * Deflate.  With no level asked for (-1), libdeflate level 2.  On the 1080p
+ * sphere scene (bench/pngbench.c, 2 threads, Nov 25 2026) it encodes in
+ * 24 ms for +7.3% bytes against libpng level 6; zlib level 4 with the
+ * filtered strategy, the default before, took 50 ms for +6.5%.  On every
+ * example scene it is between -5.4% and +7.3%, inside the promise of at
+ * most +15% by default.  libdeflate's level 1 was no faster here and 2-3%
+ * larger.  libdeflate cannot end a stream without a final block, so each
+ * band but the last is walked once more by deflate_chain (a tenth of the
+ * deflate's time) to clear that bit and append the empty stored block.
+ * Levels 0 and 2-9 are libdeflate's, as asked.  Level 1, the fastest, is Intel ISA-L (isal_deflate, level 2,
+ * raw deflate with a sync flush or, for the last band, the final block):
+ * 1.5x faster than the default and 17x libpng level 6 on the sphere scene
+ * for +5% to +21% bytes (+18% there, +21% on paper): ISA-L matches greedily
+ * from one hash candidate and misses the short repeats that lazy matching
+ * finds in smooth gradients.  ISA-L level 1, other token buffer sizes, a
+ * preset dictionary from the band before and bigram filter measures came
+ * within 1% of this and no lower; its level 3 was 3% larger.  The Adler-32
+ * of a band is ISA-L's (4x zlib's), combined across bands with zlib's
  * adler32_combine.
  *
  * The chunks are those libpng wrote before: IHDR, sRGB, gAMA and cHRM for
  * sRGB, the IDATs (one a band: no copy of the whole stream), IEND.
  */
 #include <isa-l.h>
+#include <libdeflate.h>
 #include <math.h>
 #include <pthread.h>
 #include <stdint.h>
@@ -55,12 +58,13 @@
 #include <zlib.h>
 
 #include "base/error.h"
+#include "io/deflate_chain.h"
 #include "render/image.h"
 
 #define PNG_BAND_BYTES (256u * 1024u) /* raw bytes of a band, about */
 #define PNG_MAX_THREADS 64
 #define PNG_ISAL_LEVEL 2      /* ISA-L's level for --png-level 1 (measured) */
-#define PNG_LEVEL_DEFAULT 4   /* zlib's level when none is asked for (measured) */
+#define PNG_LEVEL_DEFAULT 2   /* libdeflate's level when none is asked for (measured) */
 #define PNG_XLOGX_N 4096      /* counts below this have c log2 c in a table */
 
 struct png_band {
@@ -165,61 +169,49 @@ static void filter_best(const unsigned char *cur, const unsigned char *prev, siz
 
 /* ---- one band ----------------------------------------------------------- */
 
-/* zlib, for an explicit level: raw deflate ending in a sync flush, or the
- * final block for the last band; 0 when done. */
-static int deflate_zlib(int level, unsigned char *in, size_t n, int last, struct png_band *b) {
-    z_stream z;
-    memset(&z, 0, sizeof z);
-    if (deflateInit2(&z, level, Z_DEFLATED, -15, 8, Z_FILTERED) != Z_OK) return -1;
-    size_t cap = deflateBound(&z, (uLong)n) + 16;
-    int rc = -1;
-    if ((b->out = malloc(cap))) {
-        z.next_in = in;
-        z.avail_in = (uInt)n;
-        z.next_out = b->out;
-        z.avail_out = (uInt)cap;
-        int zr = deflate(&z, last ? Z_FINISH : Z_SYNC_FLUSH);
-        if (last ? zr == Z_STREAM_END : zr == Z_OK && z.avail_in == 0) rc = 0;
-        b->len = cap - z.avail_out;
-    }
-    deflateEnd(&z);
-    return rc;
+/* libdeflate: one whole raw deflate stream, which deflate_chain makes into
+ * one that the next band may follow unless the band is the last; its length
+ * in out[0..cap), or 0 on failure. */
+static size_t deflate_libdeflate(struct libdeflate_compressor *c, const unsigned char *in, size_t n,
+                                 int last, unsigned char *out, size_t cap) {
+    size_t len = libdeflate_deflate_compress(c, in, n, out, cap - DEFLATE_CHAIN_EXTRA);
+    return len && !last ? deflate_chain(out, len, cap) : len;
 }
 
-/* ISA-L, the default: the same raw deflate (sync flush or final block), in
- * one call with room for stored blocks should the data not compress. */
-static int deflate_isal(unsigned char *in, size_t n, int last, unsigned char *lb, size_t lbsize,
-                        struct png_band *b) {
-    size_t cap = n + n / 8 + 1024;
-    b->out = malloc(cap);
-    int rc = -1;
-    if (b->out) {
-        struct isal_zstream s;
-        isal_deflate_init(&s);
-        s.level = PNG_ISAL_LEVEL;
-        s.level_buf = lb;
-        s.level_buf_size = (uint32_t)lbsize;
-        s.gzip_flag = IGZIP_DEFLATE;
-        s.flush = SYNC_FLUSH;
-        s.end_of_stream = (uint16_t)last;
-        s.next_in = in;
-        s.avail_in = (uint32_t)n;
-        s.next_out = b->out;
-        s.avail_out = (uint32_t)cap;
-        int done = last ? ZSTATE_END : ZSTATE_NEW_HDR;
-        if (isal_deflate(&s) == COMP_OK && s.avail_in == 0 && (int)s.internal_state.state == done)
-            rc = 0;
-        b->len = cap - s.avail_out;
-    }
-    return rc;
+/* ISA-L, the fastest (--png-level 1): a raw deflate ending in a sync flush
+ * or, for the last band, the final block; its length, or 0 on failure. */
+static size_t deflate_isal(unsigned char *in, size_t n, int last, unsigned char *lb, size_t lbsize,
+                           unsigned char *out, size_t cap) {
+    struct isal_zstream s;
+    isal_deflate_init(&s);
+    s.level = PNG_ISAL_LEVEL;
+    s.level_buf = lb;
+    s.level_buf_size = (uint32_t)lbsize;
+    s.gzip_flag = IGZIP_DEFLATE;
+    s.flush = SYNC_FLUSH;
+    s.end_of_stream = (uint16_t)last;
+    s.next_in = in;
+    s.avail_in = (uint32_t)n;
+    s.next_out = out;
+    s.avail_out = (uint32_t)cap;
+    int done = last ? ZSTATE_END : ZSTATE_NEW_HDR;
+    if (isal_deflate(&s) != COMP_OK || s.avail_in || (int)s.internal_state.state != done) return 0;
+    return cap - s.avail_out;
 }
 
-/* A worker's buffers, kept from band to band (fresh ones for each band cost
- * page faults, about 2% of the time). */
+/* A worker's buffers, kept from band to band: fresh ones for each band cost
+ * page faults (the deflate's output, allocated a band, was 7% of the whole
+ * process on the 1080p sphere scene). */
 struct png_scratch {
-    unsigned char *filt, *tmp, *zero, *lb; /* filtered rows, a row, zeros, ISA-L's */
-    size_t lbsize;
+    unsigned char *filt, *tmp, *zero; /* filtered rows, a row, zeros */
+    unsigned char *z, *lb;            /* the deflate's output (zcap bytes), ISA-L's state */
+    size_t zcap, lbsize;
+    struct libdeflate_compressor *ld; /* for every level but ISA-L's */
 };
+
+/* Room for a band of raw bytes deflated by either library, with stored
+ * blocks should it not compress, and the chain's empty block. */
+static size_t band_zcap(size_t raw) { return raw + raw / 8 + 1024 + DEFLATE_CHAIN_EXTRA; }
 
 static void band_encode(const rayd_image *img, int level, struct png_band *b, int last,
                         const struct png_scratch *w) {
@@ -231,18 +223,24 @@ static void band_encode(const rayd_image *img, int level, struct png_band *b, in
         filter_best(cur, y > 0 ? cur - n : w->zero, n, w->filt + (size_t)r * rowb, w->tmp);
     }
     b->adler = isal_adler32(1, w->filt, b->raw);
-    b->failed = level < 0 ? deflate_isal(w->filt, b->raw, last, w->lb, w->lbsize, b)
-                          : deflate_zlib(level, w->filt, b->raw, last, b);
+    size_t zcap = band_zcap(b->raw);
+    b->len = level < 0 ? deflate_isal(w->filt, b->raw, last, w->lb, w->lbsize, w->z, zcap)
+                       : deflate_libdeflate(w->ld, w->filt, b->raw, last, w->z, zcap);
+    b->out = b->len ? malloc(b->len) : NULL;
+    if (b->out) memcpy(b->out, w->z, b->len);
+    b->failed = !b->out;
 }
 
 static void *band_worker(void *arg) {
     struct png_job *j = arg;
     pthread_once(&png_xlogx_once, xlogx_init);
     size_t n = (size_t)j->img->w * 3;
-    struct png_scratch w = {malloc((n + 1) * (size_t)j->band_rows), malloc(n + 1), calloc(1, n),
-                            NULL, j->level < 0 ? ISAL_DEF_LVL2_DEFAULT : 0};
+    size_t raw = (n + 1) * (size_t)j->band_rows;
+    struct png_scratch w = {malloc(raw), malloc(n + 1), calloc(1, n), malloc(band_zcap(raw)), NULL,
+                            band_zcap(raw), j->level < 0 ? ISAL_DEF_LVL2_DEFAULT : 0,
+                            j->level >= 0 ? libdeflate_alloc_compressor(j->level) : NULL};
     w.lb = w.lbsize ? malloc(w.lbsize) : NULL;
-    int ok = w.filt && w.tmp && w.zero && (w.lb || !w.lbsize);
+    int ok = w.filt && w.tmp && w.zero && w.z && (j->level < 0 ? w.lb != NULL : w.ld != NULL);
     for (;;) {
         pthread_mutex_lock(&j->lock);
         int i = j->next < j->nbands ? j->next++ : -1;
@@ -256,7 +254,9 @@ static void *band_worker(void *arg) {
     free(w.filt);
     free(w.tmp);
     free(w.zero);
+    free(w.z);
     free(w.lb);
+    libdeflate_free_compressor(w.ld);
     return NULL;
 }
 
