@@ -137,7 +137,8 @@ static int dc_fixed(struct dc_bits *b, struct dc_huff *lit, struct dc_huff *dist
 
 /* A dynamic block's code lengths (RFC 1951 3.2.7), then its codes. */
 static int dc_dynamic(struct dc_bits *b, struct dc_huff *lit, struct dc_huff *dist) {
-    static const uint8_t order[19] = {16, 17, 18, 0, 8, 7, 9, 6, 10, 5, 11, 4, 12, 3, 13, 2, 14, 1, 15};
+    static const uint8_t order[19] = {16, 17, 18, 0, 8,  7, 9,  6, 10, 5,
+                                      11, 4,  12, 3, 13, 2, 14, 1, 15};
     int hlit = (int)dc_take(b, 5) + 257, hdist = (int)dc_take(b, 5) + 1;
     int hclen = (int)dc_take(b, 4) + 4;
     if (hlit > 286 || hdist > 30) return -1;
@@ -156,8 +157,9 @@ static int dc_dynamic(struct dc_bits *b, struct dc_huff *lit, struct dc_huff *di
         }
         if (s == 16 && n == 0) return -1;
         uint8_t val = s == 16 ? lens[n - 1] : 0;
-        int rep = s == 16 ? 3 + (int)dc_take(b, 2) : s == 17 ? 3 + (int)dc_take(b, 3)
-                                                             : 11 + (int)dc_take(b, 7);
+        int rep = s == 16   ? 3 + (int)dc_take(b, 2)
+                  : s == 17 ? 3 + (int)dc_take(b, 3)
+                            : 11 + (int)dc_take(b, 7);
         if (n + rep > total) return -1;
         while (rep--) lens[n++] = val;
     }
@@ -188,8 +190,10 @@ static int dc_walk(struct dc_bits *b, size_t *final, size_t *end) {
         size_t hdr = b->pos;
         if (hdr + 3 > b->len * 8) break;
         unsigned last = dc_take(b, 1), type = dc_take(b, 2);
-        int r = type == 0 ? dc_stored(b) : type == 1 ? dc_fixed(b, &lit, &dist)
-                                        : type == 2 ? dc_dynamic(b, &lit, &dist) : -1;
+        int r = type == 0   ? dc_stored(b)
+                : type == 1 ? dc_fixed(b, &lit, &dist)
+                : type == 2 ? dc_dynamic(b, &lit, &dist)
+                            : -1;
         if (r < 0 || b->pos > b->len * 8) break;
         if (last) {
             *final = hdr;
