@@ -7,6 +7,8 @@
  *                  commands, exit codes
  *   scenefile.c    reads a scene, inlines the mesh and texture files it
  *                  names, validates it with the core, hashes it (scene id)
+ *   gltf_bundle.c  a .gltf's buffer and image files as data: URIs, so that
+ *                  it travels alone
  *   net.c          libcurl glue shared by the commands: response buffers,
  *                  headers, the API's JSON errors, Retry-After
  *   tiles.c        the tile scheduler: one frame as tiles (or sample ranges)
@@ -80,6 +82,16 @@ void scenefile_free(struct scenefile *sf);
 int scenefile_finish(const char *name, struct scenefile *sf);
 /* Standard base64 with padding; malloc'd NUL-terminated string or NULL. */
 char *scenefile_base64(const unsigned char *data, size_t len);
+
+/* ---- gltf_bundle.c ------------------------------------------------------- */
+
+/* *json (malloc'd, *len bytes) is the .gltf at path: every buffer and image
+ * "uri" naming a file is replaced by a data: URI of that file's bytes, read
+ * from path's folder and confined to it.  *json is replaced when anything
+ * changed; bytes that are no JSON object (a .glb) are left as they are.
+ * The number of files inlined (0: *json unchanged), or -1 after printing
+ * why (naming path, the JSON Pointer and the file). */
+int gltf_bundle(const char *path, char **json, size_t *len);
 
 /* ---- net.c ---------------------------------------------------------------- */
 

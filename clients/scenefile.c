@@ -3,10 +3,11 @@
  * A server cannot read the client's files (it refuses "file" references
  * unless it was given an asset folder), so before anything is sent every
  * file the scene names is inlined: a mesh "source": {"file": "m.ply"}
- * becomes {"format": "ply", "base64": "..."}, an image texture's "file"
- * becomes "png_base64", an environment map's "file" becomes "base64" (the
- * core tells .hdr from OpenEXR by the bytes).  Relative names resolve against the scene's folder,
- * as rayd-render does.  A scene without file references is sent byte for
+ * becomes {"format": "ply", "base64": "..."} (a .gltf, its own .bin and
+ * image files inlined as data: URIs by gltf_bundle.c, becomes "text"), an
+ * image texture's "file" becomes "png_base64", an environment map's "file"
+ * becomes "base64" (the core tells .hdr from OpenEXR by the bytes).
+ * Relative names resolve against the scene's folder, as rayd-render does.  A scene without file references is sent byte for
  * byte as it is on disk, so its id equals `sha256sum scene.json`.
  *
  * The bytes to send are then parsed by the core exactly as a server will
@@ -64,53 +65,78 @@ struct scenefile_walk {
     int failed;
 };
 
-/* Replaces obj[key] (a file name) by obj[newkey] (its bytes in base64). */
+/* The mesh source format a file name implies ("obj", "ply", "glb", "gltf"),
+ * or NULL. */
+static const char *scenefile_format(const char *name)
+{
+    static const char *const ext[][2] = {
+        {".obj", "obj"}, {".ply", "ply"}, {".glb", "glb"}, {".gltf", "gltf"}};
+    size_t k = strlen(name);
+    for (size_t i = 0; i < sizeof ext / sizeof ext[0]; i++) {
+        size_t e = strlen(ext[i][0]);
+        if (k > e && !strcasecmp(name + k - e, ext[i][0]))
+            return ext[i][1];
+    }
+    return NULL;
+}
+
+/* The bytes of a "file" a scene names, relative to its folder; NULL after
+ * saying why.  *path receives the name as opened (malloc'd). */
+static char *scenefile_asset(struct scenefile_walk *w, const char *name, const char *where,
+                             char **path, size_t *len)
+{
+    size_t n = strlen(w->dir) + strlen(name) + 1;
+    *path = malloc(n);
+    if (!*path)
+        return NULL;
+    snprintf(*path, n, "%s%s", name[0] == '/' ? "" : w->dir, name);
+    struct rayd_error err;
+    char *data = scenefile_read(*path, len, &err);
+    if (!data)
+        fprintf(stderr, "rayd-client: error: %s: %s\n", where, err.message);
+    return data;
+}
+
+/* Replaces obj[key] (a file name) by obj[newkey] (its bytes in base64).  A
+ * mesh source's .gltf has its own files inlined first (gltf_bundle.c) and
+ * then, when that changed it, travels as "text". */
 static void scenefile_inline(struct scenefile_walk *w, cJSON *obj, const char *key,
-                             const char *newkey, const char *where)
+                             const char *newkey, const char *where, int mesh)
 {
     cJSON *f = cJSON_GetObjectItemCaseSensitive(obj, key);
     if (!cJSON_IsString(f))
         return; /* the core reports the wrong type with its path */
     const char *name = f->valuestring;
-    size_t n = strlen(w->dir) + strlen(name) + 1;
-    char *path = malloc(n);
-    if (!path) {
-        w->failed = 1;
-        return;
-    }
-    snprintf(path, n, "%s%s", name[0] == '/' ? "" : w->dir, name);
+    const char *format = scenefile_format(name);
+    const cJSON *given = cJSON_GetObjectItemCaseSensitive(obj, "format");
+    const char *as = cJSON_IsString(given) ? given->valuestring : format;
+    int gltf = mesh && as && !strcmp(as, "gltf");
+    char *path = NULL;
     size_t len = 0;
-    struct rayd_error err;
-    char *data = scenefile_read(path, &len, &err);
-    if (!data) {
-        fprintf(stderr, "rayd-client: error: %s: %s\n", where, err.message);
-        w->failed = 1;
+    char *data = scenefile_asset(w, name, where, &path, &len);
+    int files = data && gltf ? gltf_bundle(path, &data, &len) : 0;
+    if (!data || files < 0) {
         free(path);
+        free(data);
+        w->failed = 1;
         return;
     }
     free(path);
-    char *b64 = scenefile_base64((const unsigned char *)data, len);
-    free(data);
-    if (!b64) {
+    int text = files > 0;
+    char *enc = text ? data : scenefile_base64((const unsigned char *)data, len);
+    if (!text)
+        free(data);
+    if (!enc) {
         w->failed = 1;
         return;
     }
     /* a mesh without "format" took it from the file name: keep it explicit */
-    if (!strcmp(newkey, "base64") && !cJSON_GetObjectItemCaseSensitive(obj, "format")) {
-        size_t k = strlen(name);
-        if (k > 4 && !strcasecmp(name + k - 4, ".obj"))
-            cJSON_AddStringToObject(obj, "format", "obj");
-        else if (k > 4 && !strcasecmp(name + k - 4, ".ply"))
-            cJSON_AddStringToObject(obj, "format", "ply");
-        else if (k > 4 && !strcasecmp(name + k - 4, ".glb"))
-            cJSON_AddStringToObject(obj, "format", "glb");
-        else if (k > 5 && !strcasecmp(name + k - 5, ".gltf"))
-            cJSON_AddStringToObject(obj, "format", "gltf"); /* its .bin files are not inlined */
-    }
+    if (mesh && !given && format)
+        cJSON_AddStringToObject(obj, "format", format);
     cJSON_DeleteItemFromObjectCaseSensitive(obj, key);
-    if (!cJSON_AddStringToObject(obj, newkey, b64))
+    if (!cJSON_AddStringToObject(obj, text ? "text" : newkey, enc))
         w->failed = 1;
-    free(b64);
+    free(enc);
     w->count++;
 }
 
@@ -123,12 +149,12 @@ static void scenefile_walk(struct scenefile_walk *w, cJSON *node, const char *ke
     if (cJSON_IsObject(node)) {
         const cJSON *type = cJSON_GetObjectItemCaseSensitive(node, "type");
         if (key && !strcmp(key, "source") && cJSON_GetObjectItemCaseSensitive(node, "file"))
-            scenefile_inline(w, node, "file", "base64", ptr);
+            scenefile_inline(w, node, "file", "base64", ptr, 1);
         else if (cJSON_IsString(type) && !strcmp(type->valuestring, "image") &&
                  cJSON_GetObjectItemCaseSensitive(node, "file"))
-            scenefile_inline(w, node, "file", "png_base64", ptr);
+            scenefile_inline(w, node, "file", "png_base64", ptr, 0);
         else if (key && !strcmp(key, "environment") && cJSON_GetObjectItemCaseSensitive(node, "file"))
-            scenefile_inline(w, node, "file", "base64", ptr);
+            scenefile_inline(w, node, "file", "base64", ptr, 0);
     }
     if (!cJSON_IsObject(node) && !cJSON_IsArray(node))
         return;

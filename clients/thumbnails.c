@@ -12,8 +12,8 @@
  * servers, into OUTDIR/NAME.png, NAME being the file's name without its
  * extension.  One line a model on stderr, "rayd-client: thumbnail ..." or
  * "rayd-client: error: ..."; a model that fails does not stop the others.
- * A .gltf that names external .bin files cannot be embedded alone: give
- * .glb files or .gltf files with data: buffers.
+ * A .gltf's own files (.bin buffers, images) are inlined as data: URIs
+ * first (gltf_bundle.c) and it then travels as "text".
  */
 #include "client.h"
 
@@ -46,8 +46,10 @@ static const char *thumb_format(const char *name)
     return NULL;
 }
 
-/* The scene's JSON text for a model's bytes (malloc'd), or NULL. */
-static char *thumb_scene(const char *format, const char *b64, int size, const char *view)
+/* The scene's JSON text (malloc'd), or NULL, for a model given as key
+ * ("base64", or "text" for a .gltf whose files were inlined). */
+static char *thumb_scene(const char *format, const char *key, const char *model, int size,
+                         const char *view)
 {
     cJSON *root = cJSON_CreateObject();
     cJSON *cam = cJSON_AddObjectToObject(root, "camera");
@@ -71,7 +73,7 @@ static char *thumb_scene(const char *format, const char *b64, int size, const ch
     cJSON_AddItemToObject(mat, "color", cJSON_CreateDoubleArray(grey, 3));
     cJSON *src = cJSON_AddObjectToObject(mesh, "source");
     cJSON_AddStringToObject(src, "format", format);
-    cJSON_AddStringToObject(src, "base64", b64);
+    cJSON_AddStringToObject(src, key, model);
     char *text = cJSON_PrintUnformatted(root);
     cJSON_Delete(root);
     return text;
@@ -89,10 +91,16 @@ static int thumb_load(const char *path, const char *format, int size, const char
         fprintf(stderr, "rayd-client: error: %s\n", err.message);
         return -1;
     }
-    char *b64 = scenefile_base64((const unsigned char *)data, len);
-    free(data);
-    sf->bytes = b64 ? thumb_scene(format, b64, size, view) : NULL;
-    free(b64);
+    int files = strcmp(format, "gltf") ? 0 : gltf_bundle(path, &data, &len);
+    if (files < 0) {
+        free(data);
+        return -1;
+    }
+    char *enc = files ? data : scenefile_base64((const unsigned char *)data, len);
+    if (!files)
+        free(data);
+    sf->bytes = enc ? thumb_scene(format, files ? "text" : "base64", enc, size, view) : NULL;
+    free(enc);
     if (!sf->bytes) {
         fprintf(stderr, "rayd-client: error: %s: out of memory\n", path);
         return -1;
