@@ -159,10 +159,12 @@ int tiles_render(const struct client_opts *o, const struct scenefile *sf);
 /* Renders every .ply/.obj/.glb/.gltf model in dir as a size x size PNG in
  * outdir (NAME.png) over o->servers: the model in a studio scene framed
  * with camera.frame = all from view ("three-quarter", "front", "side",
- * "top").  One line a model on stderr; 0 when every model was written,
- * 1 when any failed (the others are still written). */
+ * "top").  turntable > 0 renders that many frames a model instead,
+ * NAME-000.png ..., the view turned about +Y in equal steps.  One line a
+ * PNG on stderr; 0 when every model was written, 1 when any failed (the
+ * others are still written). */
 int thumbnails_run(const struct client_opts *o, const char *dir, const char *outdir, int size,
-                   const char *view);
+                   const char *view, int turntable);
 
 /* ---- job.c ---------------------------------------------------------------- */
 

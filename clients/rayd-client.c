@@ -6,7 +6,8 @@
  *               [--token-file F] [--quiet]
  *   rayd-client job SCENE.json -o OUT.png --server URL [--token-file F]
  *   rayd-client health --server URL [--server URL ...]
- *   rayd-client thumbnails DIR [-o OUTDIR] [--size N] [--view V] --server URL ...
+ *   rayd-client thumbnails DIR [-o OUTDIR] [--size N] [--view V] [--turntable N]
+ *                          --server URL ...
  *
  * `render` splits one frame into tiles (or, --split-samples, its samples
  * into ranges) and spreads them over every server given (rayd nodes, or
@@ -53,7 +54,8 @@ static void client_usage(FILE *f)
             "                          [--token-file F] [--quiet]\n"
             "       rayd-client job SCENE.json -o OUT.png --server URL [--token-file F] [--quiet]\n"
             "       rayd-client health --server URL [--server URL ...] [--token-file F]\n"
-            "       rayd-client thumbnails DIR [-o OUTDIR] [--size N] [--view V] --server URL ...\n"
+            "       rayd-client thumbnails DIR [-o OUTDIR] [--size N] [--view V] [--turntable N]\n"
+            "                              --server URL ...\n"
             "\n"
             "  --server URL      a rayd node or a balancer in front of many (repeatable;\n"
             "                    default $RAYD_SERVER or http://127.0.0.1:8080)\n"
@@ -73,6 +75,8 @@ static void client_usage(FILE *f)
             "  --size N          thumbnails: the PNGs' width and height (default 256)\n"
             "  --view V          thumbnails: three-quarter (default), front, side or top;\n"
             "                    -o is the output folder (default .)\n"
+            "  --turntable N     thumbnails: N frames a model, NAME-000.png ..., the view\n"
+            "                    turned about the vertical in steps of 360/N degrees (1-360)\n"
             "  -q, --quiet       no progress output\n"
             "  -h, --help        this text\n"
             "  --version         print 'rayd-client VERSION'\n"
@@ -199,7 +203,7 @@ __attribute__((format(printf, 1, 2))) static int client_bad(const char *fmt, ...
 /* The long options; those without a short letter are numbered from 256. */
 enum {
     OPT_TILE = 256, OPT_SPLIT, OPT_PARALLEL, OPT_RETRIES, OPT_TIMEOUT, OPT_TOKEN_FILE,
-    OPT_THREADS, OPT_VERSION, OPT_SIZE, OPT_VIEW
+    OPT_THREADS, OPT_VERSION, OPT_SIZE, OPT_VIEW, OPT_TURNTABLE
 };
 static const struct option client_options[] = {
     {"server", required_argument, NULL, 's'},
@@ -213,6 +217,7 @@ static const struct option client_options[] = {
     {"threads", required_argument, NULL, OPT_THREADS},
     {"size", required_argument, NULL, OPT_SIZE},
     {"view", required_argument, NULL, OPT_VIEW},
+    {"turntable", required_argument, NULL, OPT_TURNTABLE},
     {"quiet", no_argument, NULL, 'q'},
     {"help", no_argument, NULL, 'h'},
     {"version", no_argument, NULL, OPT_VERSION},
@@ -224,9 +229,10 @@ struct client_args {
     const char *cmd, *scene, *token_file;
     int size;         /* thumbnails: --size */
     const char *view; /* thumbnails: --view */
+    int turntable;    /* thumbnails: --turntable, 0 = none */
 };
 
-/* A number option's value into *out; -1 after saying why. */
+/* A whole number option's value into *out; -1 after saying why. */
 static int client_int(int opt, const char *v, double lo, double hi, int *out)
 {
     const char *name = opt == OPT_TILE       ? "--tile"
@@ -234,10 +240,13 @@ static int client_int(int opt, const char *v, double lo, double hi, int *out)
                        : opt == OPT_PARALLEL ? "--parallel"
                        : opt == OPT_RETRIES  ? "--retries"
                        : opt == OPT_SIZE     ? "--size"
+                       : opt == OPT_TURNTABLE ? "--turntable"
                                              : "--threads";
     double d;
     if (client_number(name, v, lo, hi, &d))
         return -1;
+    if (d != (int)d)
+        return client_bad("%s needs a whole number, not '%s'", name, v);
     *out = (int)d;
     return 0;
 }
@@ -286,6 +295,8 @@ static int client_option(int opt, const char *v, struct client_args *a)
         return client_int(opt, v, 0, 1024, &o->threads);
     case OPT_SIZE:
         return client_int(opt, v, 8, 4096, &a->size);
+    case OPT_TURNTABLE:
+        return client_int(opt, v, 1, 360, &a->turntable);
     case OPT_VIEW:
         if (!v || (strcmp(v, "three-quarter") && strcmp(v, "front") && strcmp(v, "side") &&
                    strcmp(v, "top")))
@@ -391,7 +402,7 @@ static int client_run(const struct client_args *a)
         return client_health(&a->o);
     if (!strcmp(a->cmd, "thumbnails"))
         return thumbnails_run(&a->o, a->scene, a->o.out ? a->o.out : ".", a->size ? a->size : 256,
-                              a->view ? a->view : "three-quarter");
+                              a->view ? a->view : "three-quarter", a->turntable);
     struct scenefile sf;
     if (scenefile_load(a->scene, &sf) != 0)
         return 1;
