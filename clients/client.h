@@ -92,6 +92,9 @@ char *scenefile_base64(const unsigned char *data, size_t len);
  * The number of files inlined (0: *json unchanged), or -1 after printing
  * why (naming path, the JSON Pointer and the file). */
 int gltf_bundle(const char *path, char **json, size_t *len);
+/* The same for a .gltf whose files are in the folder dir ("" = the current
+ * one); messages call it name. */
+int gltf_bundle_in(const char *dir, const char *name, char **json, size_t *len);
 
 /* ---- net.c ---------------------------------------------------------------- */
 

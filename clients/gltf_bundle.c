@@ -19,6 +19,9 @@
  * default max_bytes.  An error names the .gltf, the JSON Pointer of the
  * "uri" (/buffers/0/uri) and the file.  JSON the client cannot parse is
  * left as it is: the core's parse then reports it with line and column.
+ * A .gltf given in the scene as "text" or "base64" names files relative to
+ * the scene's folder, as rayd-render reads them: the same rewriting, in
+ * that folder.
  */
 #include "client.h"
 
@@ -161,41 +164,28 @@ static int gltf_inline_all(struct gltf_bundle *b, cJSON *root, const char *key, 
     return 0;
 }
 
-/* The folder of path, as a real path, into dir: 0, or -1 (said). */
-static int gltf_dir(const char *path, char *dir) {
-    char tmp[PATH_MAX];
-    const char *slash = strrchr(path, '/');
-    if (!slash)
-        snprintf(tmp, sizeof tmp, ".");
-    else if (slash == path)
-        snprintf(tmp, sizeof tmp, "/");
-    else
-        snprintf(tmp, sizeof tmp, "%.*s", (int)(slash - path), path);
-    if (!realpath(tmp, dir)) {
-        fprintf(stderr, "rayd-client: error: %s: cannot resolve its folder: %s\n", path,
-                strerror(errno));
-        return -1;
-    }
-    return 0;
-}
-
-int gltf_bundle(const char *path, char **json, size_t *len) {
+int gltf_bundle_in(const char *dir, const char *name, char **json, size_t *len) {
     cJSON *root = cJSON_ParseWithLength(*json, *len);
     if (!cJSON_IsObject(root)) {
         cJSON_Delete(root);
         return 0; /* a .glb's bytes, or JSON the core will report */
     }
-    struct gltf_bundle b = {.gltf = path};
+    struct gltf_bundle b = {.gltf = name};
     struct rayd_limits lim;
     rayd_limits_default(&lim);
     b.max = lim.max_bytes;
-    int rc = gltf_dir(path, b.dir);
+    int rc = 0;
+    if (!realpath(dir[0] ? dir : ".", b.dir)) {
+        fprintf(stderr, "rayd-client: error: %s: cannot resolve the folder %s: %s\n", name,
+                dir[0] ? dir : ".", strerror(errno));
+        rc = -1;
+    }
     if (rc == 0) rc = gltf_inline_all(&b, root, "buffers", 0);
     if (rc == 0) rc = gltf_inline_all(&b, root, "images", 1);
     if (rc == 0 && b.count) {
         char *s = cJSON_PrintUnformatted(root);
         if (!s) {
-            fprintf(stderr, "rayd-client: error: %s: out of memory\n", path);
+            fprintf(stderr, "rayd-client: error: %s: out of memory\n", name);
             rc = -1;
         } else {
             free(*json);
@@ -205,4 +195,14 @@ int gltf_bundle(const char *path, char **json, size_t *len) {
     }
     cJSON_Delete(root);
     return rc < 0 ? -1 : b.count;
+}
+
+int gltf_bundle(const char *path, char **json, size_t *len) {
+    char dir[PATH_MAX];
+    const char *slash = strrchr(path, '/');
+    if (!slash)
+        snprintf(dir, sizeof dir, ".");
+    else
+        snprintf(dir, sizeof dir, "%.*s", slash == path ? 1 : (int)(slash - path), path);
+    return gltf_bundle_in(dir, path, json, len);
 }

@@ -60,7 +60,8 @@ char *scenefile_base64(const unsigned char *data, size_t len)
 }
 
 struct scenefile_walk {
-    const char *dir; /* the scene's folder with a trailing '/', "" for the cwd */
+    const char *scene; /* the scene's name, for messages */
+    const char *dir;   /* the scene's folder with a trailing '/', "" for the cwd */
     int count;
     int failed;
 };
@@ -140,6 +141,29 @@ static void scenefile_inline(struct scenefile_walk *w, cJSON *obj, const char *k
     w->count++;
 }
 
+/* A mesh source {"format": "gltf", "text": "..."}: a .gltf's JSON whose
+ * files are next to the scene (rayd-render reads them there), inlined as
+ * data: URIs in place.  Any other source is left alone. */
+static void scenefile_gltf_text(struct scenefile_walk *w, cJSON *obj, const char *where)
+{
+    const cJSON *format = cJSON_GetObjectItemCaseSensitive(obj, "format");
+    const cJSON *text = cJSON_GetObjectItemCaseSensitive(obj, "text");
+    if (!cJSON_IsString(format) || strcmp(format->valuestring, "gltf") || !cJSON_IsString(text))
+        return;
+    char name[1200];
+    snprintf(name, sizeof name, "%s: %s/text", w->scene, where);
+    size_t len = strlen(text->valuestring);
+    char *data = strdup(text->valuestring);
+    int files = data ? gltf_bundle_in(w->dir, name, &data, &len) : -1;
+    if (files > 0 && !cJSON_ReplaceItemInObjectCaseSensitive(obj, "text", cJSON_CreateString(data)))
+        files = -1;
+    free(data);
+    if (files < 0)
+        w->failed = 1;
+    else
+        w->count += files > 0;
+}
+
 /* Visits every object of the tree: mesh sources hold "file" beside
  * "format"/"text"/"base64" under a "source" key; image textures are objects
  * with "type": "image"; the environment is the object at "environment". */
@@ -150,6 +174,8 @@ static void scenefile_walk(struct scenefile_walk *w, cJSON *node, const char *ke
         const cJSON *type = cJSON_GetObjectItemCaseSensitive(node, "type");
         if (key && !strcmp(key, "source") && cJSON_GetObjectItemCaseSensitive(node, "file"))
             scenefile_inline(w, node, "file", "base64", ptr, 1);
+        else if (key && !strcmp(key, "source"))
+            scenefile_gltf_text(w, node, ptr);
         else if (cJSON_IsString(type) && !strcmp(type->valuestring, "image") &&
                  cJSON_GetObjectItemCaseSensitive(node, "file"))
             scenefile_inline(w, node, "file", "png_base64", ptr, 0);
@@ -180,7 +206,7 @@ static int scenefile_bundle(const char *path, struct scenefile *sf)
     const char *slash = strrchr(path, '/');
     if (slash && (size_t)(slash - path) + 2 < sizeof dir)
         snprintf(dir, sizeof dir, "%.*s/", (int)(slash - path), path);
-    struct scenefile_walk w = {dir, 0, 0};
+    struct scenefile_walk w = {path, dir, 0, 0};
     char ptr[1024] = "";
     scenefile_walk(&w, root, NULL, ptr, sizeof ptr);
     int rc = 0;

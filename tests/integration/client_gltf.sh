@@ -10,6 +10,7 @@
 # names that lead out of the .gltf's folder (.., %2e%2e, an absolute path,
 # a symbolic link), a URL and a missing file are refused before anything
 # is sent, in one line naming the .gltf, the JSON Pointer and the file.
+# A .gltf given as "text" in the scene has its files next to the scene.
 # `thumbnails` does the same with a folder holding a .gltf: its thumbnail
 # equals the one of the same model as a .glb.
 source "$(dirname "$0")/lib/common.sh"
@@ -56,6 +57,33 @@ check client_gltf_percent_decoded "$(cat "$dir/remote.err")" \
     bash -c "[ -s '$dir/local.png' ] && cmp -s '$dir/local.png' '$dir/remote.png'"
 cmp -s "$dir/local.png" "$T/BoxTextured/local.png"
 check client_gltf_percent_same_model "the renamed buffer drew another image" [ $? = 0 ]
+
+# a .gltf given as "text" in the scene: its files are next to the scene
+dir="$T/BoxTextured"
+python3 - "$dir" <<'EOF'
+import json, sys
+d = sys.argv[1]
+scene = json.load(open(d + "/scene.json"))
+text = open(d + "/BoxTextured.gltf").read()
+scene["objects"][0]["source"] = {"format": "gltf", "text": text}
+json.dump(scene, open(d + "/text.json", "w"))
+scene["objects"][0]["source"]["text"] = text.replace("BoxTextured0.bin", "gone.bin")
+json.dump(scene, open(d + "/text-gone.json", "w"))
+EOF
+"$RENDER" "$dir/text.json" -o "$dir/text-local.png" -q
+"$CLIENT" render "$dir/text.json" -o "$dir/text-remote.png" -s "$URL" -q 2>"$dir/text.err"
+check client_gltf_text_source_same_png "$(cat "$dir/text.err")" \
+    bash -c "[ -s '$dir/text-local.png' ] && cmp -s '$dir/text-local.png' '$dir/text-remote.png' &&
+        cmp -s '$dir/text-local.png' '$dir/local.png'"
+"$CLIENT" render "$dir/text-gone.json" -o "$dir/text-gone.png" -s "$URL" -q 2>"$dir/text-gone.err"
+rc=$?
+first=$(head -n 1 "$dir/text-gone.err")
+want="rayd-client: error: $dir/text-gone.json: /objects/0/source/text: /buffers/0/uri: cannot read \"gone.bin\": No such file or directory"
+if [ "$rc" = 1 ] && [ "$first" = "$want" ]; then
+    pass client_gltf_text_source_missing
+else
+    fail client_gltf_text_source_missing "exit $rc: $first"
+fi
 stop_rayd
 
 # What the client posts: a capture server keeps the first body and refuses it.
