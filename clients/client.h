@@ -9,6 +9,7 @@
  *                  names, validates it with the core, hashes it (scene id)
  *   gltf_bundle.c  a .gltf's buffer and image files as data: URIs, so that
  *                  it travels alone
+ *   base64enc.c    the base64 encoder of those embedded files
  *   net.c          libcurl glue shared by the commands: response buffers,
  *                  headers, the API's JSON errors, Retry-After
  *   tiles.c        the tile scheduler: one frame as tiles (or sample ranges)
@@ -80,8 +81,11 @@ void scenefile_free(struct scenefile *sf);
 /* With sf->bytes (malloc'd) and sf->len set: validates and hashes them as
  * scenefile_load does.  0, or -1 after printing why (sf freed). */
 int scenefile_finish(const char *name, struct scenefile *sf);
+
+/* ---- base64enc.c --------------------------------------------------------- */
+
 /* Standard base64 with padding; malloc'd NUL-terminated string or NULL. */
-char *scenefile_base64(const unsigned char *data, size_t len);
+char *base64enc(const unsigned char *data, size_t len);
 
 /* ---- gltf_bundle.c ------------------------------------------------------- */
 

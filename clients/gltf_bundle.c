@@ -134,7 +134,7 @@ static int gltf_inline(struct gltf_bundle *b, cJSON *item, const char *ptr, int 
     size_t len = 0;
     char *data = gltf_read(b, ptr, name, &len);
     if (!data) return -1;
-    char *b64 = scenefile_base64((const unsigned char *)data, len);
+    char *b64 = base64enc((const unsigned char *)data, len);
     free(data);
     const char *mime = gltf_mime(item, name, image);
     size_t n = b64 ? strlen("data:;base64,") + strlen(mime) + strlen(b64) + 1 : 0;

@@ -34,31 +34,6 @@ static char *scenefile_read(const char *path, size_t *len, struct rayd_error *er
     return rayd_read_file(path, (size_t)1 << 30, &buf, len, err) == RAYD_OK ? buf : NULL;
 }
 
-char *scenefile_base64(const unsigned char *data, size_t len)
-{
-    static const char tab[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    char *out = malloc((len + 2) / 3 * 4 + 1);
-    if (!out)
-        return NULL;
-    size_t o = 0, i = 0;
-    for (; i + 2 < len; i += 3) {
-        uint32_t v = (uint32_t)data[i] << 16 | (uint32_t)data[i + 1] << 8 | data[i + 2];
-        out[o++] = tab[v >> 18];
-        out[o++] = tab[(v >> 12) & 63];
-        out[o++] = tab[(v >> 6) & 63];
-        out[o++] = tab[v & 63];
-    }
-    if (i < len) {
-        uint32_t v = (uint32_t)data[i] << 16 | (i + 1 < len ? (uint32_t)data[i + 1] << 8 : 0);
-        out[o++] = tab[v >> 18];
-        out[o++] = tab[(v >> 12) & 63];
-        out[o++] = i + 1 < len ? tab[(v >> 6) & 63] : '=';
-        out[o++] = '=';
-    }
-    out[o] = '\0';
-    return out;
-}
-
 struct scenefile_walk {
     const char *scene; /* the scene's name, for messages */
     const char *dir;   /* the scene's folder with a trailing '/', "" for the cwd */
@@ -124,7 +99,7 @@ static void scenefile_inline(struct scenefile_walk *w, cJSON *obj, const char *k
     }
     free(path);
     int text = files > 0;
-    char *enc = text ? data : scenefile_base64((const unsigned char *)data, len);
+    char *enc = text ? data : base64enc((const unsigned char *)data, len);
     if (!text)
         free(data);
     if (!enc) {

@@ -126,7 +126,7 @@ static int thumb_read(const char *path, const char *format, struct thumb_model *
     }
     m->format = format;
     m->key = files ? "text" : "base64";
-    m->data = files ? data : scenefile_base64((const unsigned char *)data, len);
+    m->data = files ? data : base64enc((const unsigned char *)data, len);
     if (!files)
         free(data);
     if (!m->data) {
