@@ -116,8 +116,8 @@ static bool all_sphere(const rayd_scene *s, vec3 *c, double *r) {
 
 enum rayd_status sj_frame_apply(struct loader *ld) {
     if (!ld->frame) return RAYD_OK;
-    vec3 centre;
-    double radius;
+    vec3 centre = v3(0, 0, 0);
+    double radius = 0;
     struct jp at = {"/camera/frame"};
     if (!all_sphere(ld->s, &centre, &radius))
         return sj_fail(
