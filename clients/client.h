@@ -43,15 +43,15 @@
 struct client_opts {
     const char *servers[CLIENT_MAX_SERVERS]; /* base URLs, no trailing '/' */
     int nservers;
-    const char *out;   /* -o */
-    int tile;          /* tile edge in pixels */
-    int parallel;      /* transfers in flight at once, all servers together */
-    int retries;       /* further attempts of a failed tile */
-    double timeout;    /* seconds per request */
-    char *token;       /* from --token-file, trimmed; NULL = none */
-    int quiet;         /* no progress at all */
-    int ranges;        /* > 0: split the samples into this many ranges, not the pixels */
-    int threads;       /* PNG encoding threads of the stitched frame; 0 = every core */
+    const char *out; /* -o */
+    int tile;        /* tile edge in pixels */
+    int parallel;    /* transfers in flight at once, all servers together */
+    int retries;     /* further attempts of a failed tile */
+    double timeout;  /* seconds per request */
+    char *token;     /* from --token-file, trimmed; NULL = none */
+    int quiet;       /* no progress at all */
+    int ranges;      /* > 0: split the samples into this many ranges, not the pixels */
+    int threads;     /* PNG encoding threads of the stitched frame; 0 = every core */
 };
 
 /* ---- output.c ------------------------------------------------------------- */
@@ -65,12 +65,12 @@ const char *output_name(const char *path);
 /* ---- scenefile.c ---------------------------------------------------------- */
 
 struct scenefile {
-    char *bytes;   /* exactly what is sent (malloc'd) */
+    char *bytes; /* exactly what is sent (malloc'd) */
     size_t len;
-    char id[65];   /* lowercase hex SHA-256 of bytes: the server's scene id */
+    char id[65]; /* lowercase hex SHA-256 of bytes: the server's scene id */
     int width, height;
     int samples;
-    int bundled;   /* files inlined */
+    int bundled; /* files inlined */
 };
 
 /* Reads path, inlines "file" references (mesh sources and image textures,
@@ -149,8 +149,8 @@ struct progress {
 void progress_init(struct progress *p, int total, int quiet);
 /* Draws at most a few times a second (always when force).  per_server[i]
  * tiles done by labels[i]; rays_per_s < 0 when unknown. */
-void progress_update(struct progress *p, int done, int failed, int nservers,
-                     const long *per_server, char labels[][40], double rays_per_s, int force);
+void progress_update(struct progress *p, int done, int failed, int nservers, const long *per_server,
+                     char labels[][40], double rays_per_s, int force);
 /* Ends the bar's line. */
 void progress_end(struct progress *p);
 

@@ -7,8 +7,8 @@
  * image files inlined as data: URIs by gltf_bundle.c, becomes "text"), an
  * image texture's "file" becomes "png_base64", an environment map's "file"
  * becomes "base64" (the core tells .hdr from OpenEXR by the bytes).
- * Relative names resolve against the scene's folder, as rayd-render does.  A scene without file references is sent byte for
- * byte as it is on disk, so its id equals `sha256sum scene.json`.
+ * Relative names resolve against the scene's folder, as rayd-render does.  A scene without file
+ * references is sent byte for byte as it is on disk, so its id equals `sha256sum scene.json`.
  *
  * The bytes to send are then parsed by the core exactly as a server will
  * parse them (rayd_scene_parse with the default limits): a bad scene is
@@ -28,8 +28,7 @@
 #include <rayd/rayd.h>
 
 /* The bytes of a file ("-" for stdin), or NULL with the reason in err. */
-static char *scenefile_read(const char *path, size_t *len, struct rayd_error *err)
-{
+static char *scenefile_read(const char *path, size_t *len, struct rayd_error *err) {
     char *buf = NULL;
     return rayd_read_file(path, (size_t)1 << 30, &buf, len, err) == RAYD_OK ? buf : NULL;
 }
@@ -43,15 +42,13 @@ struct scenefile_walk {
 
 /* The mesh source format a file name implies ("obj", "ply", "glb", "gltf"),
  * or NULL. */
-static const char *scenefile_format(const char *name)
-{
+static const char *scenefile_format(const char *name) {
     static const char *const ext[][2] = {
         {".obj", "obj"}, {".ply", "ply"}, {".glb", "glb"}, {".gltf", "gltf"}};
     size_t k = strlen(name);
     for (size_t i = 0; i < sizeof ext / sizeof ext[0]; i++) {
         size_t e = strlen(ext[i][0]);
-        if (k > e && !strcasecmp(name + k - e, ext[i][0]))
-            return ext[i][1];
+        if (k > e && !strcasecmp(name + k - e, ext[i][0])) return ext[i][1];
     }
     return NULL;
 }
@@ -59,17 +56,14 @@ static const char *scenefile_format(const char *name)
 /* The bytes of a "file" a scene names, relative to its folder; NULL after
  * saying why.  *path receives the name as opened (malloc'd). */
 static char *scenefile_asset(struct scenefile_walk *w, const char *name, const char *where,
-                             char **path, size_t *len)
-{
+                             char **path, size_t *len) {
     size_t n = strlen(w->dir) + strlen(name) + 1;
     *path = malloc(n);
-    if (!*path)
-        return NULL;
+    if (!*path) return NULL;
     snprintf(*path, n, "%s%s", name[0] == '/' ? "" : w->dir, name);
     struct rayd_error err;
     char *data = scenefile_read(*path, len, &err);
-    if (!data)
-        fprintf(stderr, "rayd-client: error: %s: %s\n", where, err.message);
+    if (!data) fprintf(stderr, "rayd-client: error: %s: %s\n", where, err.message);
     return data;
 }
 
@@ -77,11 +71,9 @@ static char *scenefile_asset(struct scenefile_walk *w, const char *name, const c
  * mesh source's .gltf has its own files inlined first (gltf_bundle.c) and
  * then, when that changed it, travels as "text". */
 static void scenefile_inline(struct scenefile_walk *w, cJSON *obj, const char *key,
-                             const char *newkey, const char *where, int mesh)
-{
+                             const char *newkey, const char *where, int mesh) {
     cJSON *f = cJSON_GetObjectItemCaseSensitive(obj, key);
-    if (!cJSON_IsString(f))
-        return; /* the core reports the wrong type with its path */
+    if (!cJSON_IsString(f)) return; /* the core reports the wrong type with its path */
     const char *name = f->valuestring;
     const char *format = scenefile_format(name);
     const cJSON *given = cJSON_GetObjectItemCaseSensitive(obj, "format");
@@ -100,18 +92,15 @@ static void scenefile_inline(struct scenefile_walk *w, cJSON *obj, const char *k
     free(path);
     int text = files > 0;
     char *enc = text ? data : base64enc((const unsigned char *)data, len);
-    if (!text)
-        free(data);
+    if (!text) free(data);
     if (!enc) {
         w->failed = 1;
         return;
     }
     /* a mesh without "format" took it from the file name: keep it explicit */
-    if (mesh && !given && format)
-        cJSON_AddStringToObject(obj, "format", format);
+    if (mesh && !given && format) cJSON_AddStringToObject(obj, "format", format);
     cJSON_DeleteItemFromObjectCaseSensitive(obj, key);
-    if (!cJSON_AddStringToObject(obj, text ? "text" : newkey, enc))
-        w->failed = 1;
+    if (!cJSON_AddStringToObject(obj, text ? "text" : newkey, enc)) w->failed = 1;
     free(enc);
     w->count++;
 }
@@ -119,8 +108,7 @@ static void scenefile_inline(struct scenefile_walk *w, cJSON *obj, const char *k
 /* A mesh source {"format": "gltf", "text": "..."}: a .gltf's JSON whose
  * files are next to the scene (rayd-render reads them there), inlined as
  * data: URIs in place.  Any other source is left alone. */
-static void scenefile_gltf_text(struct scenefile_walk *w, cJSON *obj, const char *where)
-{
+static void scenefile_gltf_text(struct scenefile_walk *w, cJSON *obj, const char *where) {
     const cJSON *format = cJSON_GetObjectItemCaseSensitive(obj, "format");
     const cJSON *text = cJSON_GetObjectItemCaseSensitive(obj, "text");
     if (!cJSON_IsString(format) || strcmp(format->valuestring, "gltf") || !cJSON_IsString(text))
@@ -143,8 +131,7 @@ static void scenefile_gltf_text(struct scenefile_walk *w, cJSON *obj, const char
  * "format"/"text"/"base64" under a "source" key; image textures are objects
  * with "type": "image"; the environment is the object at "environment". */
 static void scenefile_walk(struct scenefile_walk *w, cJSON *node, const char *key, char *ptr,
-                           size_t ptrlen)
-{
+                           size_t ptrlen) {
     if (cJSON_IsObject(node)) {
         const cJSON *type = cJSON_GetObjectItemCaseSensitive(node, "type");
         if (key && !strcmp(key, "source") && cJSON_GetObjectItemCaseSensitive(node, "file"))
@@ -154,11 +141,11 @@ static void scenefile_walk(struct scenefile_walk *w, cJSON *node, const char *ke
         else if (cJSON_IsString(type) && !strcmp(type->valuestring, "image") &&
                  cJSON_GetObjectItemCaseSensitive(node, "file"))
             scenefile_inline(w, node, "file", "png_base64", ptr, 0);
-        else if (key && !strcmp(key, "environment") && cJSON_GetObjectItemCaseSensitive(node, "file"))
+        else if (key && !strcmp(key, "environment") &&
+                 cJSON_GetObjectItemCaseSensitive(node, "file"))
             scenefile_inline(w, node, "file", "base64", ptr, 0);
     }
-    if (!cJSON_IsObject(node) && !cJSON_IsArray(node))
-        return;
+    if (!cJSON_IsObject(node) && !cJSON_IsArray(node)) return;
     int i = 0;
     for (cJSON *c = node->child; c; c = c->next, i++) {
         size_t len = strlen(ptr);
@@ -172,11 +159,9 @@ static void scenefile_walk(struct scenefile_walk *w, cJSON *node, const char *ke
 }
 
 /* Inlines the files of sf->bytes; on a change sf->bytes is re-serialised. */
-static int scenefile_bundle(const char *path, struct scenefile *sf)
-{
+static int scenefile_bundle(const char *path, struct scenefile *sf) {
     cJSON *root = cJSON_ParseWithLength(sf->bytes, sf->len);
-    if (!root)
-        return 0; /* malformed: the core's parse reports line and column */
+    if (!root) return 0; /* malformed: the core's parse reports line and column */
     char dir[4096] = "";
     const char *slash = strrchr(path, '/');
     if (slash && (size_t)(slash - path) + 2 < sizeof dir)
@@ -205,8 +190,7 @@ static int scenefile_bundle(const char *path, struct scenefile *sf)
 /* Validates sf->bytes with the core, notes the size and samples, and
  * hashes them; name is the scene as messages call it.  0, or -1 after
  * printing why (sf is freed then). */
-int scenefile_finish(const char *name, struct scenefile *sf)
-{
+int scenefile_finish(const char *name, struct scenefile *sf) {
     struct rayd_error err = {0};
     rayd_scene *scene = NULL;
     if (rayd_scene_parse(sf->bytes, sf->len, NULL, &scene, &err) != RAYD_OK) {
@@ -229,13 +213,11 @@ int scenefile_finish(const char *name, struct scenefile *sf)
         scenefile_free(sf);
         return -1;
     }
-    for (unsigned i = 0; i < 32; i++)
-        snprintf(sf->id + 2 * i, 3, "%02x", md[i]);
+    for (unsigned i = 0; i < 32; i++) snprintf(sf->id + 2 * i, 3, "%02x", md[i]);
     return 0;
 }
 
-int scenefile_load(const char *path, struct scenefile *sf)
-{
+int scenefile_load(const char *path, struct scenefile *sf) {
     memset(sf, 0, sizeof *sf);
     struct rayd_error err = {0};
     sf->bytes = scenefile_read(path, &sf->len, &err);
@@ -244,17 +226,16 @@ int scenefile_load(const char *path, struct scenefile *sf)
         return -1;
     }
     if (scenefile_bundle(path, sf) != 0) {
-        fprintf(stderr, "rayd-client: error: %s: could not inline the files the scene names\n", path);
+        fprintf(stderr, "rayd-client: error: %s: could not inline the files the scene names\n",
+                path);
         scenefile_free(sf);
         return -1;
     }
     return scenefile_finish(path, sf);
 }
 
-void scenefile_free(struct scenefile *sf)
-{
-    if (!sf)
-        return;
+void scenefile_free(struct scenefile *sf) {
+    if (!sf) return;
     free(sf->bytes);
     sf->bytes = NULL;
     sf->len = 0;

@@ -55,36 +55,31 @@ struct thumb_model {
 };
 
 /* The mesh source format of a file name, or NULL when it is no model. */
-static const char *thumb_format(const char *name)
-{
+static const char *thumb_format(const char *name) {
     static const char *const ext[][2] = {
         {".ply", "ply"}, {".obj", "obj"}, {".glb", "glb"}, {".gltf", "gltf"}};
     size_t n = strlen(name);
     for (size_t i = 0; i < sizeof ext / sizeof ext[0]; i++) {
         size_t e = strlen(ext[i][0]);
-        if (n > e && !strcasecmp(name + n - e, ext[i][0]))
-            return ext[i][1];
+        if (n > e && !strcasecmp(name + n - e, ext[i][0])) return ext[i][1];
     }
     return NULL;
 }
 
 /* The view's own azimuth (camera_frame.c's table), where turntables start. */
-static double thumb_view_azimuth(const char *view)
-{
+static double thumb_view_azimuth(const char *view) {
     return !strcmp(view, "three-quarter") ? 45 : !strcmp(view, "side") ? 90 : 0;
 }
 
 /* The scene's JSON text (malloc'd), or NULL; azimuth is NAN for the view's
  * own. */
 static char *thumb_scene(const struct thumb_model *m, const struct thumb_look *look,
-                         double azimuth)
-{
+                         double azimuth) {
     cJSON *root = cJSON_CreateObject();
     cJSON *cam = cJSON_AddObjectToObject(root, "camera");
     cJSON_AddStringToObject(cam, "frame", "all");
     cJSON_AddStringToObject(cam, "view", look->view);
-    if (!isnan(azimuth))
-        cJSON_AddNumberToObject(cam, "azimuth", azimuth);
+    if (!isnan(azimuth)) cJSON_AddNumberToObject(cam, "azimuth", azimuth);
     cJSON_AddNumberToObject(cam, "fov_y", 35);
     cJSON *r = cJSON_AddObjectToObject(root, "render");
     cJSON_AddNumberToObject(r, "width", look->size);
@@ -110,8 +105,7 @@ static char *thumb_scene(const struct thumb_model *m, const struct thumb_look *l
 }
 
 /* The model at path into m: 0, or -1 after saying why. */
-static int thumb_read(const char *path, const char *format, struct thumb_model *m)
-{
+static int thumb_read(const char *path, const char *format, struct thumb_model *m) {
     struct rayd_error err = {0};
     char *data = NULL;
     size_t len = 0;
@@ -127,8 +121,7 @@ static int thumb_read(const char *path, const char *format, struct thumb_model *
     m->format = format;
     m->key = files ? "text" : "base64";
     m->data = files ? data : base64enc((const unsigned char *)data, len);
-    if (!files)
-        free(data);
+    if (!files) free(data);
     if (!m->data) {
         fprintf(stderr, "rayd-client: error: %s: out of memory\n", path);
         return -1;
@@ -138,8 +131,7 @@ static int thumb_read(const char *path, const char *format, struct thumb_model *
 
 /* One frame of model m into out: 0 when written, 1 when not (said). */
 static int thumb_frame(const struct client_opts *o, const char *path, const struct thumb_model *m,
-                       const struct thumb_look *look, double azimuth, const char *out)
-{
+                       const struct thumb_look *look, double azimuth, const char *out) {
     struct scenefile sf;
     memset(&sf, 0, sizeof sf);
     sf.bytes = thumb_scene(m, look, azimuth);
@@ -148,8 +140,7 @@ static int thumb_frame(const struct client_opts *o, const char *path, const stru
         return 1;
     }
     sf.len = strlen(sf.bytes);
-    if (scenefile_finish(path, &sf) != 0)
-        return 1;
+    if (scenefile_finish(path, &sf) != 0) return 1;
     struct client_opts one = *o;
     one.out = out;
     one.quiet = 1;
@@ -164,8 +155,7 @@ static int thumb_frame(const struct client_opts *o, const char *path, const stru
 
 /* Frame k of a turntable of n frames: the view's azimuth plus k / n of a
  * turn, kept within [0, 360). */
-static double thumb_azimuth(const char *view, int k, int n)
-{
+static double thumb_azimuth(const char *view, int k, int n) {
     double a = thumb_view_azimuth(view) + 360.0 * k / n;
     return a >= 360 ? a - 360 : a;
 }
@@ -173,8 +163,7 @@ static double thumb_azimuth(const char *view, int k, int n)
 /* One model: 0 when its PNG(s) were written, 1 when not (said).  A
  * turntable stops at the first frame that fails. */
 static int thumb_one(const struct client_opts *o, const char *dir, const char *name,
-                     const char *outdir, const struct thumb_look *look)
-{
+                     const char *outdir, const struct thumb_look *look) {
     const char *format = thumb_format(name);
     int n = (int)(strlen(name) - strlen(format) - 1);
     char path[4096], out[4096];
@@ -184,8 +173,7 @@ static int thumb_one(const struct client_opts *o, const char *dir, const char *n
         return 1;
     }
     struct thumb_model m;
-    if (thumb_read(path, format, &m) != 0)
-        return 1;
+    if (thumb_read(path, format, &m) != 0) return 1;
     int rc = 0;
     if (!look->turntable) {
         snprintf(out, sizeof out, "%s/%.*s.png", outdir, n, name);
@@ -199,14 +187,12 @@ static int thumb_one(const struct client_opts *o, const char *dir, const char *n
     return rc;
 }
 
-static int thumb_filter(const struct dirent *e)
-{
+static int thumb_filter(const struct dirent *e) {
     return e->d_name[0] != '.' && thumb_format(e->d_name) != NULL;
 }
 
 int thumbnails_run(const struct client_opts *o, const char *dir, const char *outdir, int size,
-                   const char *view, int turntable)
-{
+                   const char *view, int turntable) {
     struct thumb_look look = {size, view, turntable};
     struct dirent **list = NULL;
     int n = scandir(dir, &list, thumb_filter, alphasort);
@@ -215,9 +201,9 @@ int thumbnails_run(const struct client_opts *o, const char *dir, const char *out
         return 1;
     }
     if (mkdir(outdir, 0777) != 0 && errno != EEXIST) {
-        fprintf(stderr, "rayd-client: error: cannot make the folder %s: %s\n", outdir, strerror(errno));
-        for (int i = 0; i < n; i++)
-            free(list[i]);
+        fprintf(stderr, "rayd-client: error: cannot make the folder %s: %s\n", outdir,
+                strerror(errno));
+        for (int i = 0; i < n; i++) free(list[i]);
         free(list);
         return 1;
     }
