@@ -44,6 +44,23 @@ for model in BoxTextured-glTF/BoxTextured BoxTexcoords-glTF/boxTexcoords \
         bash -c "[ $rc = 0 ] && [ -s '$dir/local.png' ] && cmp -s '$dir/local.png' '$dir/remote.png'"
 done
 
+# 2CylinderEngine as a .gltf is Draco-compressed: bundled, it is refused by
+# the client's local check with rayd-render's own message and pointer
+dir="$T/draco"
+cp -r "$A/draco" "$dir"
+scene "$dir" 2CylinderEngine.gltf
+"$RENDER" "$dir/scene.json" -o "$dir/local.png" -q 2>"$dir/local.err"
+"$CLIENT" render "$dir/scene.json" -o "$dir/remote.png" -s http://127.0.0.1:9 --retries 0 -q \
+    2>"$dir/remote.err"
+rc=$?
+want=$(sed 's/^rayd-render: error: //' "$dir/local.err")
+got=$(sed "s|^rayd-client: error: $dir/scene.json: invalid_scene: ||" "$dir/remote.err")
+if [ $rc = 1 ] && [ -n "$want" ] && [ "$got" = "$want" ] && [[ $want == *KHR_draco* ]]; then
+    pass client_gltf_draco_same_error
+else
+    fail client_gltf_draco_same_error "exit $rc: '$got' against '$want'"
+fi
+
 # a buffer whose name has a space, written %20 in the URI
 dir="$T/space"
 mkdir "$dir"
