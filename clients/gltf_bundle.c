@@ -122,8 +122,8 @@ static char *gltf_read(struct gltf_bundle *b, const char *ptr, const char *name,
 /* item's "uri" as a data: URI when it names a file: 0, or -1 (said). */
 static int gltf_inline(struct gltf_bundle *b, cJSON *item, const char *ptr, int image) {
     cJSON *uri = cJSON_GetObjectItemCaseSensitive(item, "uri");
-    if (!cJSON_IsString(uri) || !strncasecmp(uri->valuestring, "data:", 5))
-        return 0; /* none, a data: URI, or a wrong type the core reports */
+    if (!cJSON_IsString(uri) || !strncmp(uri->valuestring, "data:", 5))
+        return 0; /* none, a data: URI (as the core tells one), or a wrong type the core reports */
     char name[1024];
     const char *bad = gltf_name(uri->valuestring, name, sizeof name);
     if (bad) {
