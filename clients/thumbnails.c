@@ -11,7 +11,7 @@
  * is validated locally (a model that does not load fails here, with the
  * core's message) and rendered by the tile machinery (tiles.c) over the
  * servers, into OUTDIR/NAME.png, NAME being the file's name without its
- * extension.  One line a model on stderr, "rayd-client: thumbnail ..." or
+ * extension.  One line a PNG on stderr, "rayd-client: thumbnail ..." or
  * "rayd-client: error: ..."; a model that fails does not stop the others.
  * A .gltf's own files (.bin buffers, images) are inlined as data: URIs
  * first (gltf_bundle.c) and it then travels as "text".
