@@ -112,7 +112,7 @@ ifneq ($(CLIENT_SRC),)
 PROGS += $(BUILD)/rayd-client
 endif
 
-.PHONY: all deps test-deps lint-deps shared install uninstall check-layers test test-unit test-stress test-tsan test-valgrind golden run bench bench-deps bench-peers format lint clean
+.PHONY: all deps test-deps lint-deps shared install uninstall check-layers test test-unit test-stress test-tsan test-valgrind golden readme-images run bench bench-deps bench-peers format lint clean
 .DEFAULT_GOAL := all
 
 all: $(BUILD)/librayd.a $(PROGS)
@@ -445,6 +445,11 @@ test-valgrind: all | $(BUILD)/.test-deps-ok
 
 
 # --- run, bench, tooling ----------------------------------------------------
+# Rewrites docs/images/model.png and model-turntable.png, the README's
+# pictures of a real model (needs assimp-testmodels).
+readme-images: $(BUILD)/rayd-render | $(BUILD)/.test-deps-ok
+	bash tools/readme_images.sh $(BUILD)
+
 run: all
 	$(BUILD)/rayd --bind 127.0.0.1 --port 8080
 

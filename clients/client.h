@@ -7,6 +7,9 @@
  *                  commands, exit codes
  *   scenefile.c    reads a scene, inlines the mesh and texture files it
  *                  names, validates it with the core, hashes it (scene id)
+ *   gltf_bundle.c  a .gltf's buffer and image files as data: URIs, so that
+ *                  it travels alone
+ *   base64enc.c    the base64 encoder of those embedded files
  *   net.c          libcurl glue shared by the commands: response buffers,
  *                  headers, the API's JSON errors, Retry-After
  *   tiles.c        the tile scheduler: one frame as tiles (or sample ranges)
@@ -40,15 +43,15 @@
 struct client_opts {
     const char *servers[CLIENT_MAX_SERVERS]; /* base URLs, no trailing '/' */
     int nservers;
-    const char *out;   /* -o */
-    int tile;          /* tile edge in pixels */
-    int parallel;      /* transfers in flight at once, all servers together */
-    int retries;       /* further attempts of a failed tile */
-    double timeout;    /* seconds per request */
-    char *token;       /* from --token-file, trimmed; NULL = none */
-    int quiet;         /* no progress at all */
-    int ranges;        /* > 0: split the samples into this many ranges, not the pixels */
-    int threads;       /* PNG encoding threads of the stitched frame; 0 = every core */
+    const char *out; /* -o */
+    int tile;        /* tile edge in pixels */
+    int parallel;    /* transfers in flight at once, all servers together */
+    int retries;     /* further attempts of a failed tile */
+    double timeout;  /* seconds per request */
+    char *token;     /* from --token-file, trimmed; NULL = none */
+    int quiet;       /* no progress at all */
+    int ranges;      /* > 0: split the samples into this many ranges, not the pixels */
+    int threads;     /* PNG encoding threads of the stitched frame; 0 = every core */
 };
 
 /* ---- output.c ------------------------------------------------------------- */
@@ -62,12 +65,12 @@ const char *output_name(const char *path);
 /* ---- scenefile.c ---------------------------------------------------------- */
 
 struct scenefile {
-    char *bytes;   /* exactly what is sent (malloc'd) */
+    char *bytes; /* exactly what is sent (malloc'd) */
     size_t len;
-    char id[65];   /* lowercase hex SHA-256 of bytes: the server's scene id */
+    char id[65]; /* lowercase hex SHA-256 of bytes: the server's scene id */
     int width, height;
     int samples;
-    int bundled;   /* files inlined */
+    int bundled; /* files inlined */
 };
 
 /* Reads path, inlines "file" references (mesh sources and image textures,
@@ -78,8 +81,24 @@ void scenefile_free(struct scenefile *sf);
 /* With sf->bytes (malloc'd) and sf->len set: validates and hashes them as
  * scenefile_load does.  0, or -1 after printing why (sf freed). */
 int scenefile_finish(const char *name, struct scenefile *sf);
+
+/* ---- base64enc.c --------------------------------------------------------- */
+
 /* Standard base64 with padding; malloc'd NUL-terminated string or NULL. */
-char *scenefile_base64(const unsigned char *data, size_t len);
+char *base64enc(const unsigned char *data, size_t len);
+
+/* ---- gltf_bundle.c ------------------------------------------------------- */
+
+/* *json (malloc'd, *len bytes) is the .gltf at path: every buffer and image
+ * "uri" naming a file is replaced by a data: URI of that file's bytes, read
+ * from path's folder and confined to it.  *json is replaced when anything
+ * changed; bytes that are no JSON object (a .glb) are left as they are.
+ * The number of files inlined (0: *json unchanged), or -1 after printing
+ * why (naming path, the JSON Pointer and the file). */
+int gltf_bundle(const char *path, char **json, size_t *len);
+/* The same for a .gltf whose files are in the folder dir ("" = the current
+ * one); messages call it name. */
+int gltf_bundle_in(const char *dir, const char *name, char **json, size_t *len);
 
 /* ---- net.c ---------------------------------------------------------------- */
 
@@ -130,8 +149,8 @@ struct progress {
 void progress_init(struct progress *p, int total, int quiet);
 /* Draws at most a few times a second (always when force).  per_server[i]
  * tiles done by labels[i]; rays_per_s < 0 when unknown. */
-void progress_update(struct progress *p, int done, int failed, int nservers,
-                     const long *per_server, char labels[][40], double rays_per_s, int force);
+void progress_update(struct progress *p, int done, int failed, int nservers, const long *per_server,
+                     char labels[][40], double rays_per_s, int force);
 /* Ends the bar's line. */
 void progress_end(struct progress *p);
 
@@ -147,10 +166,12 @@ int tiles_render(const struct client_opts *o, const struct scenefile *sf);
 /* Renders every .ply/.obj/.glb/.gltf model in dir as a size x size PNG in
  * outdir (NAME.png) over o->servers: the model in a studio scene framed
  * with camera.frame = all from view ("three-quarter", "front", "side",
- * "top").  One line a model on stderr; 0 when every model was written,
- * 1 when any failed (the others are still written). */
+ * "top").  turntable > 0 renders that many frames a model instead,
+ * NAME-000.png ..., the view turned about +Y in equal steps.  One line a
+ * PNG on stderr; 0 when every model was written, 1 when any failed (the
+ * others are still written). */
 int thumbnails_run(const struct client_opts *o, const char *dir, const char *outdir, int size,
-                   const char *view);
+                   const char *view, int turntable);
 
 /* ---- job.c ---------------------------------------------------------------- */
 

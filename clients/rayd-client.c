@@ -6,16 +6,17 @@
  *               [--token-file F] [--quiet]
  *   rayd-client job SCENE.json -o OUT.png --server URL [--token-file F]
  *   rayd-client health --server URL [--server URL ...]
- *   rayd-client thumbnails DIR [-o OUTDIR] [--size N] [--view V] --server URL ...
+ *   rayd-client thumbnails DIR [-o OUTDIR] [--size N] [--view V] [--turntable N]
+ *                          --server URL ...
  *
  * `render` splits one frame into tiles (or, --split-samples, its samples
  * into ranges) and spreads them over every server given (rayd nodes, or
  * one balancer in front of many: tiles.c); `job` uses
  * the asynchronous job API of one server (job.c); `health` asks each
  * server's /healthz and /readyz; `thumbnails` renders every model of a
- * folder in a studio scene, each as a render (thumbnails.c).  The scene is read, its files inlined and
- * validated locally before anything is sent (scenefile.c).  RAYD_SERVER
- * gives a default server, RAYD_TOKEN_FILE a default token file.
+ * folder in a studio scene, each as a render (thumbnails.c).  The scene is read, its files inlined
+ * and validated locally before anything is sent (scenefile.c).  RAYD_SERVER gives a default server,
+ * RAYD_TOKEN_FILE a default token file.
  *
  * The command line follows the convention of the three tools (rayd,
  * rayd-render, rayd-client): getopt_long, so "--tile 64" and "--tile=64"
@@ -44,59 +45,61 @@
 
 #define CLIENT_USAGE_EXIT 2
 
-static void client_usage(FILE *f)
-{
-    fprintf(f,
-            "usage: rayd-client render SCENE.json -o OUT.png --server URL [--server URL ...]\n"
-            "                          [--tile N | --split-samples N] [--parallel N] [--retries N]\n"
-            "                          [--timeout S] [--threads N]\n"
-            "                          [--token-file F] [--quiet]\n"
-            "       rayd-client job SCENE.json -o OUT.png --server URL [--token-file F] [--quiet]\n"
-            "       rayd-client health --server URL [--server URL ...] [--token-file F]\n"
-            "       rayd-client thumbnails DIR [-o OUTDIR] [--size N] [--view V] --server URL ...\n"
-            "\n"
-            "  --server URL      a rayd node or a balancer in front of many (repeatable;\n"
-            "                    default $RAYD_SERVER or http://127.0.0.1:8080)\n"
-            "  -o, --output F    the PNG to write (only when every tile arrived), '-' for\n"
-            "                    standard output; with\n"
-            "                    --split-samples, F.exr writes the linear OpenEXR\n"
-            "  --tile N          tile edge in pixels (default 128)\n"
-            "  --split-samples N split the frame's samples, not its pixels, into N ranges:\n"
-            "                    each server returns its range's exact sums, added here\n"
-            "                    (the same bytes as one render)\n"
-            "  --parallel N      requests in flight, all servers together\n"
-            "                    (default 8 for one server, 4 per server for a list)\n"
-            "  --retries N       further attempts of a failed tile, on another server (default 3)\n"
-            "  --timeout S       seconds per request (default 120)\n"
-            "  --token-file F    bearer token file (default $RAYD_TOKEN_FILE)\n"
-            "  --threads N       threads encoding the stitched PNG (default 0: every core)\n"
-            "  --size N          thumbnails: the PNGs' width and height (default 256)\n"
-            "  --view V          thumbnails: three-quarter (default), front, side or top;\n"
-            "                    -o is the output folder (default .)\n"
-            "  -q, --quiet       no progress output\n"
-            "  -h, --help        this text\n"
-            "  --version         print 'rayd-client VERSION'\n"
-            "\n"
-            "-o - writes the image to standard output (status lines go to stderr).\n"
-            "Options take their value as '--opt value' or '--opt=value'.\n"
-            "Errors are one line on stderr: 'rayd-client: error: ...'.\n"
-            "Exit status: 0 done, 1 failure (refused, unhealthy, incomplete image,\n"
-            "transport or write error), 2 usage error, 130 interrupted.\n");
+static void client_usage(FILE *f) {
+    fprintf(
+        f, "usage: rayd-client render SCENE.json -o OUT.png --server URL [--server URL ...]\n"
+           "                          [--tile N | --split-samples N] [--parallel N] [--retries N]\n"
+           "                          [--timeout S] [--threads N]\n"
+           "                          [--token-file F] [--quiet]\n"
+           "       rayd-client job SCENE.json -o OUT.png --server URL [--token-file F] [--quiet]\n"
+           "       rayd-client health --server URL [--server URL ...] [--token-file F]\n"
+           "       rayd-client thumbnails DIR [-o OUTDIR] [--size N] [--view V] [--turntable N]\n"
+           "                              --server URL ...\n"
+           "\n"
+           "  --server URL      a rayd node or a balancer in front of many (repeatable;\n"
+           "                    default $RAYD_SERVER or http://127.0.0.1:8080)\n"
+           "  -o, --output F    the PNG to write (only when every tile arrived), '-' for\n"
+           "                    standard output; with\n"
+           "                    --split-samples, F.exr writes the linear OpenEXR\n"
+           "  --tile N          tile edge in pixels (default 128)\n"
+           "  --split-samples N split the frame's samples, not its pixels, into N ranges:\n"
+           "                    each server returns its range's exact sums, added here\n"
+           "                    (the same bytes as one render)\n"
+           "  --parallel N      requests in flight, all servers together\n"
+           "                    (default 8 for one server, 4 per server for a list)\n"
+           "  --retries N       further attempts of a failed tile, on another server (default 3)\n"
+           "  --timeout S       seconds per request (default 120)\n"
+           "  --token-file F    bearer token file (default $RAYD_TOKEN_FILE)\n"
+           "  --threads N       threads encoding the stitched PNG (default 0: every core)\n"
+           "  --size N          thumbnails: the PNGs' width and height (default 256)\n"
+           "  --view V          thumbnails: three-quarter (default), front, side or top;\n"
+           "                    -o is the output folder (default .)\n"
+           "  --turntable N     thumbnails: N frames a model, NAME-000.png ..., the view\n"
+           "                    turned about the vertical in steps of 360/N degrees (1-360)\n"
+           "  -q, --quiet       no progress output\n"
+           "  -h, --help        this text\n"
+           "  --version         print 'rayd-client VERSION'\n"
+           "\n"
+           "-o - writes the image to standard output (status lines go to stderr).\n"
+           "Options take their value as '--opt value' or '--opt=value'.\n"
+           "Errors are one line on stderr: 'rayd-client: error: ...'.\n"
+           "Exit status: 0 done, 1 failure (refused, unhealthy, incomplete image,\n"
+           "transport or write error), 2 usage error, 130 interrupted.\n");
 }
 
-static char *client_read_token(const char *path)
-{
+static char *client_read_token(const char *path) {
     FILE *f = fopen(path, "rb");
     if (!f) {
-        fprintf(stderr, "rayd-client: error: cannot read token file %s: %s\n", path, strerror(errno));
+        fprintf(stderr, "rayd-client: error: cannot read token file %s: %s\n", path,
+                strerror(errno));
         return NULL;
     }
     char buf[4096];
     size_t n = fread(buf, 1, sizeof buf - 1, f);
     fclose(f);
     buf[n] = '\0';
-    while (n && (buf[n - 1] == '\n' || buf[n - 1] == '\r' || buf[n - 1] == ' ' ||
-                 buf[n - 1] == '\t'))
+    while (n &&
+           (buf[n - 1] == '\n' || buf[n - 1] == '\r' || buf[n - 1] == ' ' || buf[n - 1] == '\t'))
         buf[--n] = '\0';
     if (!n || strpbrk(buf, "\r\n")) {
         fprintf(stderr, "rayd-client: error: token file %s is empty or has several lines\n", path);
@@ -105,8 +108,7 @@ static char *client_read_token(const char *path)
     return strdup(buf);
 }
 
-static int client_number(const char *opt, const char *v, double lo, double hi, double *out)
-{
+static int client_number(const char *opt, const char *v, double lo, double hi, double *out) {
     char *end;
     errno = 0;
     double d = v ? strtod(v, &end) : 0;
@@ -122,8 +124,7 @@ static int client_number(const char *opt, const char *v, double lo, double hi, d
 /* ---- health ---------------------------------------------------------------- */
 
 static long client_get(const struct client_opts *o, const char *url, struct net_buf *b, char *why,
-                       size_t size)
-{
+                       size_t size) {
     void *hdrs = NULL;
     CURL *h = net_easy(o, url, b, NULL, 0, &hdrs);
     if (!h) {
@@ -141,8 +142,7 @@ static long client_get(const struct client_opts *o, const char *url, struct net_
     return st;
 }
 
-static int client_health(const struct client_opts *o)
-{
+static int client_health(const struct client_opts *o) {
     int bad = 0;
     for (int i = 0; i < o->nservers; i++) {
         char url[1024], why[600] = "";
@@ -150,8 +150,7 @@ static int client_health(const struct client_opts *o)
         snprintf(url, sizeof url, "%s/healthz", o->servers[i]);
         long live = client_get(o, url, &b, why, sizeof why);
         if (live != 200) {
-            if (live)
-                net_describe(live, &b, why, sizeof why);
+            if (live) net_describe(live, &b, why, sizeof why);
             printf("%s: down (%s)\n", o->servers[i], why);
             bad = 1;
             net_buf_free(&b);
@@ -172,8 +171,7 @@ static int client_health(const struct client_opts *o)
                    cJSON_IsNumber(w) ? w->valueint : -1);
             cJSON_Delete(j);
         } else {
-            if (ready)
-                net_describe(ready, &b, why, sizeof why);
+            if (ready) net_describe(ready, &b, why, sizeof why);
             printf("%s: live, not ready (%s)\n", o->servers[i], why);
             bad = 1;
         }
@@ -185,8 +183,7 @@ static int client_health(const struct client_opts *o)
 /* ---- the command line ------------------------------------------------------ */
 
 /* A usage error: one line; the caller exits 2. */
-__attribute__((format(printf, 1, 2))) static int client_bad(const char *fmt, ...)
-{
+__attribute__((format(printf, 1, 2))) static int client_bad(const char *fmt, ...) {
     va_list ap;
     va_start(ap, fmt);
     fprintf(stderr, "rayd-client: error: ");
@@ -198,8 +195,17 @@ __attribute__((format(printf, 1, 2))) static int client_bad(const char *fmt, ...
 
 /* The long options; those without a short letter are numbered from 256. */
 enum {
-    OPT_TILE = 256, OPT_SPLIT, OPT_PARALLEL, OPT_RETRIES, OPT_TIMEOUT, OPT_TOKEN_FILE,
-    OPT_THREADS, OPT_VERSION, OPT_SIZE, OPT_VIEW
+    OPT_TILE = 256,
+    OPT_SPLIT,
+    OPT_PARALLEL,
+    OPT_RETRIES,
+    OPT_TIMEOUT,
+    OPT_TOKEN_FILE,
+    OPT_THREADS,
+    OPT_VERSION,
+    OPT_SIZE,
+    OPT_VIEW,
+    OPT_TURNTABLE
 };
 static const struct option client_options[] = {
     {"server", required_argument, NULL, 's'},
@@ -213,6 +219,7 @@ static const struct option client_options[] = {
     {"threads", required_argument, NULL, OPT_THREADS},
     {"size", required_argument, NULL, OPT_SIZE},
     {"view", required_argument, NULL, OPT_VIEW},
+    {"turntable", required_argument, NULL, OPT_TURNTABLE},
     {"quiet", no_argument, NULL, 'q'},
     {"help", no_argument, NULL, 'h'},
     {"version", no_argument, NULL, OPT_VERSION},
@@ -224,28 +231,28 @@ struct client_args {
     const char *cmd, *scene, *token_file;
     int size;         /* thumbnails: --size */
     const char *view; /* thumbnails: --view */
+    int turntable;    /* thumbnails: --turntable, 0 = none */
 };
 
-/* A number option's value into *out; -1 after saying why. */
-static int client_int(int opt, const char *v, double lo, double hi, int *out)
-{
-    const char *name = opt == OPT_TILE       ? "--tile"
-                       : opt == OPT_SPLIT    ? "--split-samples"
-                       : opt == OPT_PARALLEL ? "--parallel"
-                       : opt == OPT_RETRIES  ? "--retries"
-                       : opt == OPT_SIZE     ? "--size"
-                                             : "--threads";
+/* A whole number option's value into *out; -1 after saying why. */
+static int client_int(int opt, const char *v, double lo, double hi, int *out) {
+    const char *name = opt == OPT_TILE        ? "--tile"
+                       : opt == OPT_SPLIT     ? "--split-samples"
+                       : opt == OPT_PARALLEL  ? "--parallel"
+                       : opt == OPT_RETRIES   ? "--retries"
+                       : opt == OPT_SIZE      ? "--size"
+                       : opt == OPT_TURNTABLE ? "--turntable"
+                                              : "--threads";
     double d;
-    if (client_number(name, v, lo, hi, &d))
-        return -1;
+    if (client_number(name, v, lo, hi, &d)) return -1;
+    if (d != (int)d) return client_bad("%s needs a whole number, not '%s'", name, v);
     *out = (int)d;
     return 0;
 }
 
 /* One option; v is its value (NULL when it was missing).  0, 1 when done
  * (--help, --version), -1 after saying why. */
-static int client_option(int opt, const char *v, struct client_args *a)
-{
+static int client_option(int opt, const char *v, struct client_args *a) {
     struct client_opts *o = &a->o;
     switch (opt) {
     case 'h':
@@ -260,16 +267,14 @@ static int client_option(int opt, const char *v, struct client_args *a)
         o->servers[o->nservers++] = v;
         return 0;
     case 'o':
-        if (!v)
-            return client_bad("-o/--output needs a file name ('-': standard output)");
+        if (!v) return client_bad("-o/--output needs a file name ('-': standard output)");
         o->out = v;
         return 0;
     case 'q':
         o->quiet = 1;
         return 0;
     case OPT_TOKEN_FILE:
-        if (!v)
-            return client_bad("--token-file needs a file");
+        if (!v) return client_bad("--token-file needs a file");
         a->token_file = v;
         return 0;
     case OPT_TIMEOUT:
@@ -286,6 +291,8 @@ static int client_option(int opt, const char *v, struct client_args *a)
         return client_int(opt, v, 0, 1024, &o->threads);
     case OPT_SIZE:
         return client_int(opt, v, 8, 4096, &a->size);
+    case OPT_TURNTABLE:
+        return client_int(opt, v, 1, 360, &a->turntable);
     case OPT_VIEW:
         if (!v || (strcmp(v, "three-quarter") && strcmp(v, "front") && strcmp(v, "side") &&
                    strcmp(v, "top")))
@@ -299,8 +306,7 @@ static int client_option(int opt, const char *v, struct client_args *a)
 
 /* getopt_long's '?': arg is the word it stopped at; opt the short option,
  * or a long option's value when it was given one it does not take. */
-static int client_unknown(const char *arg, int opt)
-{
+static int client_unknown(const char *arg, int opt) {
     if (!strncmp(arg, "--", 2))
         return opt ? client_bad("option '%.*s' takes no value", (int)strcspn(arg, "="), arg)
                    : client_bad("unknown option '%s'", arg);
@@ -308,36 +314,28 @@ static int client_unknown(const char *arg, int opt)
 }
 
 /* The words that are not options: the command, then the scene. */
-static int client_words(int argc, char **argv, struct client_args *a)
-{
-    if (optind >= argc)
-        return client_bad("no command given (render, job, health or thumbnails)");
+static int client_words(int argc, char **argv, struct client_args *a) {
+    if (optind >= argc) return client_bad("no command given (render, job, health or thumbnails)");
     a->cmd = argv[optind++];
     if (strcmp(a->cmd, "render") && strcmp(a->cmd, "job") && strcmp(a->cmd, "health") &&
         strcmp(a->cmd, "thumbnails"))
         return client_bad("unknown command '%s' (render, job, health or thumbnails)", a->cmd);
-    if (optind < argc && strcmp(a->cmd, "health"))
-        a->scene = argv[optind++];
-    if (optind < argc)
-        return client_bad("unexpected argument '%s'", argv[optind]);
+    if (optind < argc && strcmp(a->cmd, "health")) a->scene = argv[optind++];
+    if (optind < argc) return client_bad("unexpected argument '%s'", argv[optind]);
     return 0;
 }
 
 /* The command line into a: 0, 1 when done (--help, --version), -1 on a
  * usage error (said).  Options and words may come in any order. */
-static int client_parse(int argc, char **argv, struct client_args *a)
-{
+static int client_parse(int argc, char **argv, struct client_args *a) {
     opterr = 0;
     int opt, rc;
     while ((opt = getopt_long(argc, argv, ":s:o:qh", client_options, NULL)) != -1) {
-        if (opt == '?')
-            return client_unknown(argv[optind - 1], optopt);
+        if (opt == '?') return client_unknown(argv[optind - 1], optopt);
         rc = opt == ':' ? client_option(optopt, NULL, a) : client_option(opt, optarg, a);
-        if (rc != 0)
-            return rc;
+        if (rc != 0) return rc;
     }
-    if (client_words(argc, argv, a) != 0)
-        return -1;
+    if (client_words(argc, argv, a) != 0) return -1;
     if (!strcmp(a->cmd, "thumbnails"))
         return a->scene ? 0 : client_bad("thumbnails needs DIR, the folder of models");
     if (strcmp(a->cmd, "health") && (!a->scene || !a->o.out))
@@ -348,35 +346,29 @@ static int client_parse(int argc, char **argv, struct client_args *a)
 }
 
 /* The defaults, then the command line. */
-static int client_args(int argc, char **argv, struct client_args *a)
-{
+static int client_args(int argc, char **argv, struct client_args *a) {
     memset(a, 0, sizeof *a);
     a->o.tile = 128, a->o.retries = 3, a->o.timeout = 120, a->o.parallel = 0;
     a->token_file = getenv("RAYD_TOKEN_FILE");
     int rc = client_parse(argc, argv, a);
-    if (rc != 0)
-        return rc;
+    if (rc != 0) return rc;
     struct client_opts *o = &a->o;
     if (!o->nservers) {
         const char *env = getenv("RAYD_SERVER");
         o->servers[o->nservers++] = env && *env ? env : "http://127.0.0.1:8080";
     }
-    if (!o->parallel)
-        o->parallel = o->nservers == 1 ? 8 : 4 * o->nservers;
+    if (!o->parallel) o->parallel = o->nservers == 1 ? 8 : 4 * o->nservers;
     return 0;
 }
 
 /* The server URLs are used as prefixes: copies without a trailing slash
  * into urls (freed by the caller).  -1 on a URL that is none (said). */
-static int client_urls(struct client_opts *o, char **urls)
-{
+static int client_urls(struct client_opts *o, char **urls) {
     for (int i = 0; i < o->nservers; i++) {
         size_t n = strlen(o->servers[i]);
         urls[i] = strdup(o->servers[i]);
-        if (!urls[i])
-            return client_bad("out of memory");
-        while (n > 0 && urls[i][n - 1] == '/')
-            urls[i][--n] = '\0';
+        if (!urls[i]) return client_bad("out of memory");
+        while (n > 0 && urls[i][n - 1] == '/') urls[i][--n] = '\0';
         if (!strstr(urls[i], "://"))
             return client_bad("--server wants a URL such as http://host:8080, not '%s'", urls[i]);
         o->servers[i] = urls[i];
@@ -385,28 +377,23 @@ static int client_urls(struct client_opts *o, char **urls)
 }
 
 /* Runs the command: 0, 1 on a failure (said). */
-static int client_run(const struct client_args *a)
-{
-    if (!strcmp(a->cmd, "health"))
-        return client_health(&a->o);
+static int client_run(const struct client_args *a) {
+    if (!strcmp(a->cmd, "health")) return client_health(&a->o);
     if (!strcmp(a->cmd, "thumbnails"))
         return thumbnails_run(&a->o, a->scene, a->o.out ? a->o.out : ".", a->size ? a->size : 256,
-                              a->view ? a->view : "three-quarter");
+                              a->view ? a->view : "three-quarter", a->turntable);
     struct scenefile sf;
-    if (scenefile_load(a->scene, &sf) != 0)
-        return 1;
+    if (scenefile_load(a->scene, &sf) != 0) return 1;
     int rc = !strcmp(a->cmd, "job") ? job_run(&a->o, &sf) : tiles_render(&a->o, &sf);
     scenefile_free(&sf);
     return rc;
 }
 
-int main(int argc, char **argv)
-{
+int main(int argc, char **argv) {
     struct client_args a;
     int rc = client_args(argc, argv, &a);
     if (rc != 0) {
-        if (rc < 0)
-            fprintf(stderr, "Try 'rayd-client --help'.\n");
+        if (rc < 0) fprintf(stderr, "Try 'rayd-client --help'.\n");
         return rc < 0 ? CLIENT_USAGE_EXIT : 0;
     }
     if (!strcmp(a.o.out ? a.o.out : "", "-") && isatty(STDOUT_FILENO)) {
@@ -416,17 +403,14 @@ int main(int argc, char **argv)
     }
     char *urls[CLIENT_MAX_SERVERS] = {0};
     rc = CLIENT_USAGE_EXIT;
-    if (client_urls(&a.o, urls) != 0)
-        goto out;
+    if (client_urls(&a.o, urls) != 0) goto out;
     rc = 1;
-    if (a.token_file && *a.token_file && !(a.o.token = client_read_token(a.token_file)))
-        goto out;
+    if (a.token_file && *a.token_file && !(a.o.token = client_read_token(a.token_file))) goto out;
     net_global_init();
     rc = client_run(&a);
     net_global_cleanup();
 out:
     free(a.o.token);
-    for (int i = 0; i < a.o.nservers; i++)
-        free(urls[i]);
+    for (int i = 0; i < a.o.nservers; i++) free(urls[i]);
     return rc;
 }

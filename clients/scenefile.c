@@ -3,11 +3,12 @@
  * A server cannot read the client's files (it refuses "file" references
  * unless it was given an asset folder), so before anything is sent every
  * file the scene names is inlined: a mesh "source": {"file": "m.ply"}
- * becomes {"format": "ply", "base64": "..."}, an image texture's "file"
- * becomes "png_base64", an environment map's "file" becomes "base64" (the
- * core tells .hdr from OpenEXR by the bytes).  Relative names resolve against the scene's folder,
- * as rayd-render does.  A scene without file references is sent byte for
- * byte as it is on disk, so its id equals `sha256sum scene.json`.
+ * becomes {"format": "ply", "base64": "..."} (a .gltf, its own .bin and
+ * image files inlined as data: URIs by gltf_bundle.c, becomes "text"), an
+ * image texture's "file" becomes "png_base64", an environment map's "file"
+ * becomes "base64" (the core tells .hdr from OpenEXR by the bytes).
+ * Relative names resolve against the scene's folder, as rayd-render does.  A scene without file
+ * references is sent byte for byte as it is on disk, so its id equals `sha256sum scene.json`.
  *
  * The bytes to send are then parsed by the core exactly as a server will
  * parse them (rayd_scene_parse with the default limits): a bad scene is
@@ -27,111 +28,124 @@
 #include <rayd/rayd.h>
 
 /* The bytes of a file ("-" for stdin), or NULL with the reason in err. */
-static char *scenefile_read(const char *path, size_t *len, struct rayd_error *err)
-{
+static char *scenefile_read(const char *path, size_t *len, struct rayd_error *err) {
     char *buf = NULL;
     return rayd_read_file(path, (size_t)1 << 30, &buf, len, err) == RAYD_OK ? buf : NULL;
 }
 
-char *scenefile_base64(const unsigned char *data, size_t len)
-{
-    static const char tab[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    char *out = malloc((len + 2) / 3 * 4 + 1);
-    if (!out)
-        return NULL;
-    size_t o = 0, i = 0;
-    for (; i + 2 < len; i += 3) {
-        uint32_t v = (uint32_t)data[i] << 16 | (uint32_t)data[i + 1] << 8 | data[i + 2];
-        out[o++] = tab[v >> 18];
-        out[o++] = tab[(v >> 12) & 63];
-        out[o++] = tab[(v >> 6) & 63];
-        out[o++] = tab[v & 63];
-    }
-    if (i < len) {
-        uint32_t v = (uint32_t)data[i] << 16 | (i + 1 < len ? (uint32_t)data[i + 1] << 8 : 0);
-        out[o++] = tab[v >> 18];
-        out[o++] = tab[(v >> 12) & 63];
-        out[o++] = i + 1 < len ? tab[(v >> 6) & 63] : '=';
-        out[o++] = '=';
-    }
-    out[o] = '\0';
-    return out;
-}
-
 struct scenefile_walk {
-    const char *dir; /* the scene's folder with a trailing '/', "" for the cwd */
+    const char *scene; /* the scene's name, for messages */
+    const char *dir;   /* the scene's folder with a trailing '/', "" for the cwd */
     int count;
     int failed;
 };
 
-/* Replaces obj[key] (a file name) by obj[newkey] (its bytes in base64). */
-static void scenefile_inline(struct scenefile_walk *w, cJSON *obj, const char *key,
-                             const char *newkey, const char *where)
-{
-    cJSON *f = cJSON_GetObjectItemCaseSensitive(obj, key);
-    if (!cJSON_IsString(f))
-        return; /* the core reports the wrong type with its path */
-    const char *name = f->valuestring;
-    size_t n = strlen(w->dir) + strlen(name) + 1;
-    char *path = malloc(n);
-    if (!path) {
-        w->failed = 1;
-        return;
+/* The mesh source format a file name implies ("obj", "ply", "glb", "gltf"),
+ * or NULL. */
+static const char *scenefile_format(const char *name) {
+    static const char *const ext[][2] = {
+        {".obj", "obj"}, {".ply", "ply"}, {".glb", "glb"}, {".gltf", "gltf"}};
+    size_t k = strlen(name);
+    for (size_t i = 0; i < sizeof ext / sizeof ext[0]; i++) {
+        size_t e = strlen(ext[i][0]);
+        if (k > e && !strcasecmp(name + k - e, ext[i][0])) return ext[i][1];
     }
-    snprintf(path, n, "%s%s", name[0] == '/' ? "" : w->dir, name);
-    size_t len = 0;
+    return NULL;
+}
+
+/* The bytes of a "file" a scene names, relative to its folder; NULL after
+ * saying why.  *path receives the name as opened (malloc'd). */
+static char *scenefile_asset(struct scenefile_walk *w, const char *name, const char *where,
+                             char **path, size_t *len) {
+    size_t n = strlen(w->dir) + strlen(name) + 1;
+    *path = malloc(n);
+    if (!*path) return NULL;
+    snprintf(*path, n, "%s%s", name[0] == '/' ? "" : w->dir, name);
     struct rayd_error err;
-    char *data = scenefile_read(path, &len, &err);
-    if (!data) {
-        fprintf(stderr, "rayd-client: error: %s: %s\n", where, err.message);
-        w->failed = 1;
+    char *data = scenefile_read(*path, len, &err);
+    if (!data) fprintf(stderr, "rayd-client: error: %s: %s\n", where, err.message);
+    return data;
+}
+
+/* Replaces obj[key] (a file name) by obj[newkey] (its bytes in base64).  A
+ * mesh source's .gltf has its own files inlined first (gltf_bundle.c) and
+ * then, when that changed it, travels as "text". */
+static void scenefile_inline(struct scenefile_walk *w, cJSON *obj, const char *key,
+                             const char *newkey, const char *where, int mesh) {
+    cJSON *f = cJSON_GetObjectItemCaseSensitive(obj, key);
+    if (!cJSON_IsString(f)) return; /* the core reports the wrong type with its path */
+    const char *name = f->valuestring;
+    const char *format = scenefile_format(name);
+    const cJSON *given = cJSON_GetObjectItemCaseSensitive(obj, "format");
+    const char *as = cJSON_IsString(given) ? given->valuestring : format;
+    int gltf = mesh && as && !strcmp(as, "gltf");
+    char *path = NULL;
+    size_t len = 0;
+    char *data = scenefile_asset(w, name, where, &path, &len);
+    int files = data && gltf ? gltf_bundle(path, &data, &len) : 0;
+    if (!data || files < 0) {
         free(path);
+        free(data);
+        w->failed = 1;
         return;
     }
     free(path);
-    char *b64 = scenefile_base64((const unsigned char *)data, len);
-    free(data);
-    if (!b64) {
+    int text = files > 0;
+    char *enc = text ? data : base64enc((const unsigned char *)data, len);
+    if (!text) free(data);
+    if (!enc) {
         w->failed = 1;
         return;
     }
     /* a mesh without "format" took it from the file name: keep it explicit */
-    if (!strcmp(newkey, "base64") && !cJSON_GetObjectItemCaseSensitive(obj, "format")) {
-        size_t k = strlen(name);
-        if (k > 4 && !strcasecmp(name + k - 4, ".obj"))
-            cJSON_AddStringToObject(obj, "format", "obj");
-        else if (k > 4 && !strcasecmp(name + k - 4, ".ply"))
-            cJSON_AddStringToObject(obj, "format", "ply");
-        else if (k > 4 && !strcasecmp(name + k - 4, ".glb"))
-            cJSON_AddStringToObject(obj, "format", "glb");
-        else if (k > 5 && !strcasecmp(name + k - 5, ".gltf"))
-            cJSON_AddStringToObject(obj, "format", "gltf"); /* its .bin files are not inlined */
-    }
+    if (mesh && !given && format) cJSON_AddStringToObject(obj, "format", format);
     cJSON_DeleteItemFromObjectCaseSensitive(obj, key);
-    if (!cJSON_AddStringToObject(obj, newkey, b64))
-        w->failed = 1;
-    free(b64);
+    if (!cJSON_AddStringToObject(obj, text ? "text" : newkey, enc)) w->failed = 1;
+    free(enc);
     w->count++;
+}
+
+/* A mesh source {"format": "gltf", "text": "..."}: a .gltf's JSON whose
+ * files are next to the scene (rayd-render reads them there), inlined as
+ * data: URIs in place.  Any other source is left alone. */
+static void scenefile_gltf_text(struct scenefile_walk *w, cJSON *obj, const char *where) {
+    const cJSON *format = cJSON_GetObjectItemCaseSensitive(obj, "format");
+    const cJSON *text = cJSON_GetObjectItemCaseSensitive(obj, "text");
+    if (!cJSON_IsString(format) || strcmp(format->valuestring, "gltf") || !cJSON_IsString(text))
+        return;
+    char name[1200];
+    snprintf(name, sizeof name, "%s: %s/text", w->scene, where);
+    size_t len = strlen(text->valuestring);
+    char *data = strdup(text->valuestring);
+    int files = data ? gltf_bundle_in(w->dir, name, &data, &len) : -1;
+    if (files > 0 && !cJSON_ReplaceItemInObjectCaseSensitive(obj, "text", cJSON_CreateString(data)))
+        files = -1;
+    free(data);
+    if (files < 0)
+        w->failed = 1;
+    else
+        w->count += files > 0;
 }
 
 /* Visits every object of the tree: mesh sources hold "file" beside
  * "format"/"text"/"base64" under a "source" key; image textures are objects
  * with "type": "image"; the environment is the object at "environment". */
 static void scenefile_walk(struct scenefile_walk *w, cJSON *node, const char *key, char *ptr,
-                           size_t ptrlen)
-{
+                           size_t ptrlen) {
     if (cJSON_IsObject(node)) {
         const cJSON *type = cJSON_GetObjectItemCaseSensitive(node, "type");
         if (key && !strcmp(key, "source") && cJSON_GetObjectItemCaseSensitive(node, "file"))
-            scenefile_inline(w, node, "file", "base64", ptr);
+            scenefile_inline(w, node, "file", "base64", ptr, 1);
+        else if (key && !strcmp(key, "source"))
+            scenefile_gltf_text(w, node, ptr);
         else if (cJSON_IsString(type) && !strcmp(type->valuestring, "image") &&
                  cJSON_GetObjectItemCaseSensitive(node, "file"))
-            scenefile_inline(w, node, "file", "png_base64", ptr);
-        else if (key && !strcmp(key, "environment") && cJSON_GetObjectItemCaseSensitive(node, "file"))
-            scenefile_inline(w, node, "file", "base64", ptr);
+            scenefile_inline(w, node, "file", "png_base64", ptr, 0);
+        else if (key && !strcmp(key, "environment") &&
+                 cJSON_GetObjectItemCaseSensitive(node, "file"))
+            scenefile_inline(w, node, "file", "base64", ptr, 0);
     }
-    if (!cJSON_IsObject(node) && !cJSON_IsArray(node))
-        return;
+    if (!cJSON_IsObject(node) && !cJSON_IsArray(node)) return;
     int i = 0;
     for (cJSON *c = node->child; c; c = c->next, i++) {
         size_t len = strlen(ptr);
@@ -145,16 +159,14 @@ static void scenefile_walk(struct scenefile_walk *w, cJSON *node, const char *ke
 }
 
 /* Inlines the files of sf->bytes; on a change sf->bytes is re-serialised. */
-static int scenefile_bundle(const char *path, struct scenefile *sf)
-{
+static int scenefile_bundle(const char *path, struct scenefile *sf) {
     cJSON *root = cJSON_ParseWithLength(sf->bytes, sf->len);
-    if (!root)
-        return 0; /* malformed: the core's parse reports line and column */
+    if (!root) return 0; /* malformed: the core's parse reports line and column */
     char dir[4096] = "";
     const char *slash = strrchr(path, '/');
     if (slash && (size_t)(slash - path) + 2 < sizeof dir)
         snprintf(dir, sizeof dir, "%.*s/", (int)(slash - path), path);
-    struct scenefile_walk w = {dir, 0, 0};
+    struct scenefile_walk w = {path, dir, 0, 0};
     char ptr[1024] = "";
     scenefile_walk(&w, root, NULL, ptr, sizeof ptr);
     int rc = 0;
@@ -178,8 +190,7 @@ static int scenefile_bundle(const char *path, struct scenefile *sf)
 /* Validates sf->bytes with the core, notes the size and samples, and
  * hashes them; name is the scene as messages call it.  0, or -1 after
  * printing why (sf is freed then). */
-int scenefile_finish(const char *name, struct scenefile *sf)
-{
+int scenefile_finish(const char *name, struct scenefile *sf) {
     struct rayd_error err = {0};
     rayd_scene *scene = NULL;
     if (rayd_scene_parse(sf->bytes, sf->len, NULL, &scene, &err) != RAYD_OK) {
@@ -202,13 +213,11 @@ int scenefile_finish(const char *name, struct scenefile *sf)
         scenefile_free(sf);
         return -1;
     }
-    for (unsigned i = 0; i < 32; i++)
-        snprintf(sf->id + 2 * i, 3, "%02x", md[i]);
+    for (unsigned i = 0; i < 32; i++) snprintf(sf->id + 2 * i, 3, "%02x", md[i]);
     return 0;
 }
 
-int scenefile_load(const char *path, struct scenefile *sf)
-{
+int scenefile_load(const char *path, struct scenefile *sf) {
     memset(sf, 0, sizeof *sf);
     struct rayd_error err = {0};
     sf->bytes = scenefile_read(path, &sf->len, &err);
@@ -217,17 +226,16 @@ int scenefile_load(const char *path, struct scenefile *sf)
         return -1;
     }
     if (scenefile_bundle(path, sf) != 0) {
-        fprintf(stderr, "rayd-client: error: %s: could not inline the files the scene names\n", path);
+        fprintf(stderr, "rayd-client: error: %s: could not inline the files the scene names\n",
+                path);
         scenefile_free(sf);
         return -1;
     }
     return scenefile_finish(path, sf);
 }
 
-void scenefile_free(struct scenefile *sf)
-{
-    if (!sf)
-        return;
+void scenefile_free(struct scenefile *sf) {
+    if (!sf) return;
     free(sf->bytes);
     sf->bytes = NULL;
     sf->len = 0;

@@ -105,7 +105,8 @@ static enum rayd_status load_render(struct loader *ld, const cJSON *root) {
 static enum rayd_status load_camera(struct loader *ld, const cJSON *root) {
     static const char *const keys[] = {"position",   "look_at",  "up",       "fov_x",
                                        "fov_y",      "projection", "view_width", "aperture",
-                                       "focus_distance", "frame", "view", NULL};
+                                       "focus_distance", "frame", "view", "azimuth",
+                                       "elevation", NULL};
     static const char *const projections[] = {"perspective", "orthographic", NULL};
     struct jp at = {"/camera"};
     cJSON empty;

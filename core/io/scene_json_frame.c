@@ -4,7 +4,9 @@
  * the centre of a sphere around every bounded object (a sphere's own,
  * else the sphere through its box's corners; merged pairwise, in the
  * objects' order, each time into the smallest sphere holding both) from
- * the named view (camera_frame.c has the geometry).  The camera is read
+ * the named view, whose azimuth and elevation "azimuth" and "elevation"
+ * may replace one by one (a turntable is the same view at several
+ * azimuths; camera_frame.c has the geometry).  The camera is read
  * before the objects, so reading only notes the request in the loader;
  * sj_frame_apply runs once the objects are loaded and sets the camera.
  * "frame" leaves the eye and its orientation to the view, so position,
@@ -22,12 +24,25 @@ static enum rayd_status refuse_with_frame(struct loader *ld, const cJSON *c, con
     for (int i = 0; fixed[i]; i++) {
         if (!cJSON_GetObjectItemCaseSensitive(c, fixed[i])) continue;
         struct jp p = sj_key(at, fixed[i]);
-        return sj_fail(ld, RAYD_E_INVALID, &p, "must not be given with /camera/frame (the view sets it)");
+        return sj_fail(ld, RAYD_E_INVALID, &p,
+                       "must not be given with /camera/frame (the view sets it)");
     }
     const cJSON *proj = cJSON_GetObjectItemCaseSensitive(c, "projection");
     if (cJSON_IsString(proj) && strcmp(proj->valuestring, "orthographic") == 0) {
         struct jp p = sj_key(at, "projection");
         return sj_fail(ld, RAYD_E_INVALID, &p, "must be \"perspective\" with /camera/frame");
+    }
+    return RAYD_OK;
+}
+
+/* Without "frame", the keys that only mean something with it are refused. */
+static enum rayd_status refuse_without_frame(struct loader *ld, const cJSON *c,
+                                             const struct jp *at) {
+    static const char *const framing[] = {"view", "azimuth", "elevation", NULL};
+    for (int i = 0; framing[i]; i++) {
+        if (!cJSON_GetObjectItemCaseSensitive(c, framing[i])) continue;
+        struct jp p = sj_key(at, framing[i]);
+        return sj_fail(ld, RAYD_E_INVALID, &p, "needs /camera/frame");
     }
     return RAYD_OK;
 }
@@ -40,15 +55,14 @@ enum rayd_status sj_frame_read(struct loader *ld, const cJSON *c, const struct j
     *framed = false;
     TRY(sj_enum(ld, c, at, "frame", frames, &frame));
     TRY(sj_enum(ld, c, at, "view", views, &view));
-    if (frame < 0) {
-        if (view < 0) return RAYD_OK;
-        struct jp p = sj_key(at, "view");
-        return sj_fail(ld, RAYD_E_INVALID, &p, "needs /camera/frame");
-    }
+    if (frame < 0) return refuse_without_frame(ld, c, at);
     TRY(refuse_with_frame(ld, c, at));
+    double az, el;
+    cam_frame_view_angles(view < 0 ? VIEW_THREE_QUARTER : (enum frame_view)view, &az, &el);
+    TRY(sj_num(ld, c, at, "azimuth", az, -360, false, 360, &ld->frame_azimuth));
+    TRY(sj_num(ld, c, at, "elevation", el, -90, false, 90, &ld->frame_elevation));
     *framed = true;
     ld->frame = true;
-    ld->frame_view = view < 0 ? VIEW_THREE_QUARTER : (enum frame_view)view;
     ld->frame_focus = cJSON_GetObjectItemCaseSensitive(c, "focus_distance") != NULL;
     return RAYD_OK;
 }
@@ -69,8 +83,8 @@ static void object_sphere(const struct object *o, const struct aabb *b, vec3 *c,
 static void sphere_union(vec3 *c, double *r, vec3 c2, double r2) {
     vec3 d = v3_sub(c2, *c);
     double dist = v3_len(d);
-    if (dist + r2 <= *r) return;          /* the second is inside the first */
-    if (dist + *r <= r2) {                /* the first is inside the second */
+    if (dist + r2 <= *r) return; /* the second is inside the first */
+    if (dist + *r <= r2) {       /* the first is inside the second */
         *c = c2;
         *r = r2;
         return;
@@ -91,8 +105,10 @@ static bool all_sphere(const rayd_scene *s, vec3 *c, double *r) {
         vec3 oc;
         double orad;
         object_sphere(o, &b, &oc, &orad);
-        if (any) sphere_union(c, r, oc, orad);
-        else *c = oc, *r = orad;
+        if (any)
+            sphere_union(c, r, oc, orad);
+        else
+            *c = oc, *r = orad;
         any = true;
     }
     return any;
@@ -100,17 +116,18 @@ static bool all_sphere(const rayd_scene *s, vec3 *c, double *r) {
 
 enum rayd_status sj_frame_apply(struct loader *ld) {
     if (!ld->frame) return RAYD_OK;
-    vec3 centre;
-    double radius;
+    vec3 centre = v3(0, 0, 0);
+    double radius = 0;
     struct jp at = {"/camera/frame"};
     if (!all_sphere(ld->s, &centre, &radius))
-        return sj_fail(ld, RAYD_E_INVALID, &at,
-                       "the scene has no bounded object to frame (planes and quadrics have no bounds)");
+        return sj_fail(
+            ld, RAYD_E_INVALID, &at,
+            "the scene has no bounded object to frame (planes and quadrics have no bounds)");
     struct camera *cam = &ld->s->cam;
     const struct render_settings *rs = &ld->s->rs;
     double aperture = cam->aperture, focus = cam->focus;
-    TRY(cam_frame_sphere(cam, centre, radius, ld->frame_view, ld->frame_fx, ld->frame_fy,
-                         rs->width, rs->height, ld->err));
+    TRY(cam_frame_sphere(cam, centre, radius, ld->frame_azimuth, ld->frame_elevation, ld->frame_fx,
+                         ld->frame_fy, rs->width, rs->height, ld->err));
     cam->aperture = aperture;
     if (ld->frame_focus) cam->focus = focus;
     return RAYD_OK;

@@ -4,8 +4,9 @@
 
 #include "io/scene_json_util.h"
 
-/* Reads /camera/frame and /camera/view from c; *framed is false when the
- * camera has no "frame" (then nothing else is read or checked). */
+/* Reads /camera/frame, view, azimuth and elevation from c; *framed is
+ * false when the camera has no "frame" (then view, azimuth and elevation
+ * are refused). */
 enum rayd_status sj_frame_read(struct loader *ld, const cJSON *c, const struct jp *at,
                                bool *framed);
 

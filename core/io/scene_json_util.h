@@ -56,7 +56,8 @@ struct loader {
     long triangles, vertices; /* totals so far, against the limits */
     const struct sj_inline *inl; /* inline mesh arrays left out of the tree */
     bool frame;                  /* camera.frame: placed after the objects load */
-    enum frame_view frame_view;
+    double frame_azimuth;        /* degrees about +Y: the view's, or camera.azimuth */
+    double frame_elevation;      /* degrees above the horizon: the view's, or camera.elevation */
     double frame_fx, frame_fy;   /* the camera's fov_x, fov_y as given (0 = absent) */
     bool frame_focus;            /* focus_distance given: kept when framing */
 };

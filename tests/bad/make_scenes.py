@@ -226,7 +226,7 @@ case("background-huge.json", '{"render": {"background": [2e9, 0, 0]}}\n',
      E + "/render/background/0: must be in [-1e9, 1e9]")
 
 # ---- camera -------------------------------------------------------------------
-CAMERA_KEYS = "position, look_at, up, fov_x, fov_y, projection, view_width, aperture, focus_distance, frame, view"
+CAMERA_KEYS = "position, look_at, up, fov_x, fov_y, projection, view_width, aperture, focus_distance, frame, view, azimuth, elevation"
 case("camera-string.json", '{"camera": "front"}\n', E + "/camera: must be an object, not a string")
 case("camera-unknown-key.json", '{"camera": {"fov": 60}}\n',
      E + "/camera/fov: unknown key (allowed here: %s)" % CAMERA_KEYS)
@@ -585,6 +585,17 @@ case('frame-with-position.json',
      'error: /camera/position: must not be given with /camera/frame (the view sets it)')
 case('view-without-frame.json', '{"camera": {"view": "front"}}\n',
      'error: /camera/view: needs /camera/frame')
+case('azimuth-without-frame.json', '{"camera": {"azimuth": 90}}\n',
+     'error: /camera/azimuth: needs /camera/frame')
+case('frame-azimuth-range.json',
+     '{"camera": {"frame": "all", "azimuth": 400}, "objects": [{"type": "sphere"}]}\n',
+     'error: /camera/azimuth: must be <= 360')
+case('frame-elevation-range.json',
+     '{"camera": {"frame": "all", "elevation": -95}, "objects": [{"type": "sphere"}]}\n',
+     'error: /camera/elevation: must be >= -90')
+case('frame-elevation-type.json',
+     '{"camera": {"frame": "all", "elevation": "high"}, "objects": [{"type": "sphere"}]}\n',
+     'error: /camera/elevation: must be a number, not a string')
 case('aperture-orthographic.json', '{"camera": {"projection": "orthographic", "aperture": 0.1}}\n',
      'error: /camera/aperture: must be 0 with an orthographic projection')
 case('roughness-over-1.json', '{"materials": {"m": {"roughness": 1.5}}}\n',
@@ -721,7 +732,7 @@ case("nul-escape-in-material-ref.json",
      E + "line 1, column 75: malformed JSON: \\u0000 (NUL) is not allowed in strings")
 # An escaped newline in a key stays escaped: the message is one line.
 case("newline-in-unknown-key.json", '{"camera": {"a\\nb": 1}}\n',
-     E + "/camera/a\\u000ab: unknown key (allowed here: position, look_at, up, fov_x, fov_y, projection, view_width, aperture, focus_distance, frame, view)")
+     E + "/camera/a\\u000ab: unknown key (allowed here: position, look_at, up, fov_x, fov_y, projection, view_width, aperture, focus_distance, frame, view, azimuth, elevation)")
 # A NUL byte inside the text is named.
 d = b'{"render":\n  {"width": 6\x004}}\n'
 case("nul-byte.json", d, E + at(d, b"\x00") + ": malformed JSON: expected ',' or '}', found byte 0x00 (NUL)")

@@ -4,7 +4,9 @@
 # file, rendered over one rayd.  Each good model gives OUTDIR/NAME.png of
 # the asked size, showing the model (pixels unlike the plain studio
 # background at the corner); the broken one gives an error line naming it
-# and the exit status is 1 while the others are still written.
+# and the exit status is 1 while the others are still written.  Then
+# --turntable: N distinct frames, frame 0 the plain thumbnail, frame 1 of 4
+# from the front the side view; bad counts are usage errors.
 source "$(dirname "$0")/lib/common.sh"
 CLIENT=$RAYD_BUILD/rayd-client
 FRAME="$RAYD_ROOT/tests/integration/lib/gltf_frame.py"
@@ -56,5 +58,40 @@ check thumbnails_all_good_exit_0 "exit $rc, cube.png $size: $(cat "$T/top.err")"
 rc=$?
 check thumbnails_bad_view_usage "exit $rc: $(cat "$T/bad.err")" \
     bash -c "[ $rc = 2 ] && grep -q -- '--view needs' '$T/bad.err'"
+
+# --turntable N: N frames a model at azimuths the view's + 360 k / N.  From
+# the front (azimuth 0, elevation 0), frame 1 of 4 is azimuth 90: the side
+# view, byte for byte; frame 0 is always the plain thumbnail.
+mkdir -p "$T/turn"
+cp "$A/PLY/Wuson.ply" "$T/turn/"
+tt() { # tt OUTDIR ARGS...: thumbnails of $T/turn at 32 pixels; sets rc
+    local out=$1; shift
+    "$CLIENT" thumbnails "$T/turn" -o "$T/$out" --size 32 -s "$URL" "$@" 2>"$T/$out.err"
+    rc=$?
+}
+tt front --view front
+tt side --view side
+tt tq
+tt turn4 --view front --turntable 4
+check turntable_exit_0 "exit $rc: $(cat "$T/turn4.err")" [ "$rc" = 0 ]
+files=$(cd "$T/turn4" 2>/dev/null && ls | tr '\n' ' ')
+check turntable_writes_n_files "$files" [ "$files" = "Wuson-000.png Wuson-001.png Wuson-002.png Wuson-003.png " ]
+check turntable_frames_distinct "$(md5sum "$T"/turn4/*.png 2>&1)" [ "$(md5sum "$T"/turn4/Wuson-*.png | cut -d' ' -f1 | sort -u | wc -l)" = 4 ]
+check turntable_frame_0_is_the_view "differs from the front thumbnail" \
+    cmp -s "$T/turn4/Wuson-000.png" "$T/front/Wuson.png"
+check turntable_azimuth_90_is_side "differs from the side thumbnail" \
+    cmp -s "$T/turn4/Wuson-001.png" "$T/side/Wuson.png"
+nlines=$(wc -l <"$T/turn4.err")
+check turntable_one_line_a_frame "$(cat "$T/turn4.err")" [ "$nlines" = 4 ]
+tt turn3 --turntable 3
+check turntable_three_quarter_frame_0 "exit $rc: $(cat "$T/turn3.err")" \
+    bash -c "[ $rc = 0 ] && cmp -s '$T/turn3/Wuson-000.png' '$T/tq/Wuson.png' &&
+        [ -f '$T/turn3/Wuson-002.png' ] && [ ! -e '$T/turn3/Wuson-003.png' ]"
+for bad in 0 361 2.5 x -1 ''; do
+    tt "bad$bad" --turntable "$bad"
+    check "turntable_refuses_'$bad'" "exit $rc: $(cat "$T/bad$bad.err")" \
+        bash -c "[ $rc = 2 ] && grep -q -- '^rayd-client: error: --turntable needs' '$T/bad$bad.err' &&
+            [ ! -e '$T/bad$bad' ]"
+done
 stop_rayd
 exit $((NFAIL > 0))

@@ -31,13 +31,17 @@ static void test_front_distance_is_analytic(void) {
 static void test_cam_frame_sphere_views(void) {
     struct camera c;
     double d = 2 / sin(30 * M_PI / 180) * FRAME_MARGIN; /* fov_y 60 of a wide image */
-    CHECK(cam_frame_sphere(&c, v3(0, 0, 0), 2, VIEW_SIDE, 0, 60, 200, 100, NULL) == RAYD_OK, "side");
+    double az, el;
+    cam_frame_view_angles(VIEW_SIDE, &az, &el);
+    CHECK(cam_frame_sphere(&c, v3(0, 0, 0), 2, az, el, 0, 60, 200, 100, NULL) == RAYD_OK, "side");
     CHECK_NEAR(c.pos.x, d, 1e-9);
     CHECK_NEAR(c.pos.y, 0, 1e-12);
-    CHECK(cam_frame_sphere(&c, v3(0, 0, 0), 2, VIEW_TOP, 0, 60, 200, 100, NULL) == RAYD_OK, "top");
+    cam_frame_view_angles(VIEW_TOP, &az, &el);
+    CHECK(cam_frame_sphere(&c, v3(0, 0, 0), 2, az, el, 0, 60, 200, 100, NULL) == RAYD_OK, "top");
     CHECK_NEAR(c.pos.y, d, 1e-9);
     CHECK_NEAR(c.v.z, -1, 1e-12);
-    CHECK(cam_frame_sphere(&c, v3(0, 0, 0), 2, VIEW_THREE_QUARTER, 0, 60, 200, 100, NULL) == RAYD_OK,
+    cam_frame_view_angles(VIEW_THREE_QUARTER, &az, &el);
+    CHECK(cam_frame_sphere(&c, v3(0, 0, 0), 2, az, el, 0, 60, 200, 100, NULL) == RAYD_OK,
           "three-quarter");
     CHECK_NEAR(v3_len(c.pos), d, 1e-9);
     CHECK_NEAR(c.pos.y / d, 0.5, 1e-12); /* 30 degrees up */
@@ -95,6 +99,109 @@ static void test_rendered_sphere_fills_the_frame(void) {
     }
 }
 
+/* The named views' cameras are exactly those framing had before azimuth
+ * and elevation existed: the eye on the exact axis (or the 45/30 formula),
+ * the same basis to the bit and the sign of every zero (a -0 in a ray
+ * direction would flip an infinity in the box tests). */
+static void test_named_views_are_exact(void) {
+    double el = 30 * DEG2RAD, az = 45 * DEG2RAD;
+    const vec3 dirs[] = {v3(cos(el) * sin(az), sin(el), cos(el) * cos(az)), v3(0, 0, 1),
+                         v3(1, 0, 0), v3(0, 1, 0)};
+    const vec3 ups[] = {v3(0, 1, 0), v3(0, 1, 0), v3(0, 1, 0), v3(0, 0, -1)};
+    for (int run = 0; run < 8; run++) {
+        int view = run % 4;
+        vec3 centre = run < 4 ? v3(0, 0, 0) : v3(0.25, -3, 7);
+        double a, e;
+        cam_frame_view_angles((enum frame_view)view, &a, &e);
+        struct camera got, want;
+        CHECK(cam_frame_sphere(&got, centre, 2, a, e, 0, 50, 64, 48, NULL) == RAYD_OK, "view %d",
+              view);
+        double half = atan(fmin(got.tan_x, got.tan_y));
+        double d = 2 / sin(half) * FRAME_MARGIN;
+        CHECK(cam_init(&want, v3_madd(centre, dirs[view], d), centre, ups[view], 0, 50, 64, 48,
+                       NULL) == RAYD_OK,
+              "view %d: the reference camera", view);
+        const vec3 *g = &got.pos, *w = &want.pos;
+        for (int k = 0; k < 4; k++) {
+            const double *gd = &g[k].x, *wd = &w[k].x;
+            for (int i = 0; i < 3; i++)
+                CHECK(gd[i] == wd[i] && signbit(gd[i]) == signbit(wd[i]),
+                      "view %d, vector %d, component %d: %.17g, want %.17g", view, k, i, gd[i],
+                      wd[i]);
+        }
+    }
+}
+
+/* A scene of a few objects (a box and spheres, so that no view is
+ * symmetric) framed with the given camera keys, rendered; NULL when refused. */
+static rayd_image *render_framed(const char *camera_keys) {
+    char json[1024];
+    snprintf(json, sizeof json,
+             "{\"render\": {\"width\": 40, \"height\": 30, \"samples\": 2},"
+             " \"camera\": {\"frame\": \"all\", %s},"
+             " \"lights\": [{\"type\": \"point\", \"position\": [4, 6, 5]}],"
+             " \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, 0], \"radius\": 1},"
+             " {\"type\": \"sphere\", \"center\": [2, 0.5, 0], \"radius\": 0.5},"
+             " {\"type\": \"box\", \"min\": [-0.5, -1, 1], \"max\": [0.5, 0, 1.8]}]}",
+             camera_keys);
+    rayd_scene *s = scene_from(json);
+    if (!s) return NULL;
+    rayd_image *img = render_all(s, 1);
+    rayd_scene_free(s);
+    return img;
+}
+
+/* Whether two framings render to the same bytes. */
+static bool same_image(const char *a, const char *b) {
+    rayd_image *ia = render_framed(a), *ib = render_framed(b);
+    bool same = ia && ib && rayd_image_width(ia) == rayd_image_width(ib) &&
+                memcmp(rayd_image_pixels_const(ia), rayd_image_pixels_const(ib),
+                       (size_t)3 * rayd_image_width(ia) * rayd_image_height(ia)) == 0;
+    if (ia) rayd_image_free(ia);
+    if (ib) rayd_image_free(ib);
+    return same;
+}
+
+/* azimuth and elevation reproduce each named view bit for bit, replace
+ * the view's angles one at a time, and turn the eye. */
+static void test_angles_equal_the_named_views(void) {
+    CHECK(same_image("\"view\": \"front\"", "\"azimuth\": 0, \"elevation\": 0"), "front = 0, 0");
+    CHECK(same_image("\"view\": \"side\"", "\"azimuth\": 90, \"elevation\": 0"), "side = 90, 0");
+    CHECK(same_image("\"view\": \"side\"", "\"azimuth\": -270, \"elevation\": 0"),
+          "side = -270, 0");
+    CHECK(same_image("\"view\": \"top\"", "\"azimuth\": 0, \"elevation\": 90"), "top = 0, 90");
+    CHECK(same_image("\"view\": \"three-quarter\"", "\"azimuth\": 45"), "three-quarter = 45");
+    CHECK(same_image("\"view\": \"three-quarter\"", "\"elevation\": 30"), "three-quarter = el 30");
+    CHECK(same_image("\"view\": \"front\"", "\"view\": \"side\", \"azimuth\": 0"),
+          "side with azimuth 0 = front");
+    CHECK(same_image("\"view\": \"top\"", "\"view\": \"front\", \"elevation\": 90"),
+          "front with elevation 90 = top");
+    CHECK(!same_image("\"azimuth\": 0", "\"azimuth\": 90"), "azimuths 0 and 90 differ");
+    CHECK(!same_image("\"azimuth\": 10", "\"azimuth\": 10.5"), "azimuths 10 and 10.5 differ");
+    CHECK(!same_image("\"elevation\": 90", "\"elevation\": -90"), "above and below differ");
+}
+
+/* Every angle in range gives a camera, even at and next to the poles,
+ * where +Y is (nearly) the view direction; the eye is where the angles say. */
+static void test_angles_place_the_eye(void) {
+    const char *keys[] = {"\"elevation\": 90",         "\"elevation\": -90",
+                          "\"elevation\": 89.9999999", "\"elevation\": -89.5, \"azimuth\": 33",
+                          "\"azimuth\": 360",          "\"azimuth\": -360"};
+    for (int i = 0; i < 6; i++) {
+        rayd_image *img = render_framed(keys[i]);
+        CHECK(img != NULL, "%s: refused", keys[i]);
+        if (img) rayd_image_free(img);
+    }
+    struct camera c;
+    double d = 1 / sin(30 * M_PI / 180) * FRAME_MARGIN;
+    CHECK(cam_frame_sphere(&c, v3(0, 0, 0), 1, 180, 0, 0, 60, 200, 100, NULL) == RAYD_OK, "180");
+    CHECK_NEAR(c.pos.z, -d, 1e-9);
+    CHECK(cam_frame_sphere(&c, v3(0, 0, 0), 1, 270, -60, 0, 60, 200, 100, NULL) == RAYD_OK, "270");
+    CHECK_NEAR(c.pos.x, -d * 0.5, 1e-9);
+    CHECK_NEAR(c.pos.y, -d * sin(60 * M_PI / 180), 1e-9);
+    CHECK_NEAR(c.v.y, 0.5, 1e-9); /* the image's up still leans toward +Y */
+}
+
 static void expect_error(const char *json, const char *path) {
     rayd_scene *s = NULL;
     struct rayd_error err = {0};
@@ -112,6 +219,17 @@ static void test_errors_name_the_key(void) {
     expect_error("{\"camera\": {\"frame\": \"some\"}}", "/camera/frame");
     expect_error("{\"camera\": {\"frame\": \"all\", \"view\": \"back\"}}", "/camera/view");
     expect_error("{\"camera\": {\"view\": \"front\"}}", "/camera/view");
+    expect_error("{\"camera\": {\"azimuth\": 30}}", "/camera/azimuth");
+    expect_error("{\"camera\": {\"elevation\": 30}}", "/camera/elevation");
+    expect_error("{\"camera\": {\"frame\": \"all\", \"azimuth\": 360.5},"
+                 " \"objects\": [{\"type\": \"sphere\"}]}",
+                 "/camera/azimuth");
+    expect_error("{\"camera\": {\"frame\": \"all\", \"azimuth\": \"north\"},"
+                 " \"objects\": [{\"type\": \"sphere\"}]}",
+                 "/camera/azimuth");
+    expect_error("{\"camera\": {\"frame\": \"all\", \"elevation\": -91},"
+                 " \"objects\": [{\"type\": \"sphere\"}]}",
+                 "/camera/elevation");
     expect_error("{\"camera\": {\"frame\": \"all\", \"position\": [0, 0, 5]},"
                  " \"objects\": [{\"type\": \"sphere\"}]}",
                  "/camera/position");
@@ -124,6 +242,9 @@ int main(void) {
     RUN(test_front_distance_is_analytic);
     RUN(test_cam_frame_sphere_views);
     RUN(test_rendered_sphere_fills_the_frame);
+    RUN(test_named_views_are_exact);
+    RUN(test_angles_equal_the_named_views);
+    RUN(test_angles_place_the_eye);
     RUN(test_errors_name_the_key);
     CHECK_EXIT();
 }

@@ -1,0 +1,62 @@
+#!/usr/bin/env bash
+# readme_images.sh [BUILD] -- renders the README's model pictures into
+# docs/images/: model.png, a real model lit by the studio environment, and
+# model-turntable.png, the same model from six azimuths joined side by side.
+#
+# The model is Wuson.ply, a bison (Blender's "Wuson", 11184 vertices with
+# normals) from Debian's assimp-testmodels (/usr/share/assimp/models/PLY/,
+# BSD-3-clause, the ASSIMP Development Team; `make test-deps` installs it).
+# It stands on a floor plane at y = 0 (its feet are at y = -0.0006), is
+# placed by "camera": {"frame": "all"} with an azimuth and an elevation
+# (docs/scene-format.md, "Automatic framing"; the floor, unbounded, is not
+# framed), and is path-traced under scenes/studio.hdr.  The frames of the
+# turntable are the same scene at azimuths 60 degrees apart, joined by
+# tools/png_strip.py (python3's standard library only).  Rendering is
+# deterministic: the same build writes the same bytes.
+set -eu
+cd "$(dirname "$0")/.."
+BUILD=${1:-build}
+RENDER=$BUILD/rayd-render
+MODEL=/usr/share/assimp/models/PLY/Wuson.ply
+OUT=docs/images
+if [ ! -x "$RENDER" ]; then
+    echo "readme_images.sh: error: no $RENDER (run make first)" >&2
+    exit 1
+fi
+if [ ! -f "$MODEL" ]; then
+    echo "readme_images.sh: error: no $MODEL (make test-deps installs assimp-testmodels)" >&2
+    exit 1
+fi
+T=$(mktemp -d "${TMPDIR:-/tmp}/rayd-readme.XXXXXX")
+trap 'rm -rf "$T"' EXIT
+cp scenes/studio.hdr "$MODEL" "$T/"
+
+# scene AZIMUTH WIDTH HEIGHT SAMPLES: the scene on stdout
+scene() {
+    cat <<EOF
+{
+ "camera": {"frame": "all", "azimuth": $1, "elevation": 15, "fov_y": 30},
+ "render": {"width": $2, "height": $3, "samples": $4, "max_depth": 4, "integrator": "path",
+            "environment": {"file": "studio.hdr"}},
+ "materials": {
+  "terracotta": {"color": [0.6, 0.29, 0.15], "metallic": 0.3, "roughness": 0.35},
+  "floor": {"color": [0.5, 0.5, 0.52]}
+ },
+ "objects": [
+  {"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "material": "floor"},
+  {"type": "mesh", "source": {"file": "Wuson.ply"}, "smooth": true, "material": "terracotta"}
+ ]
+}
+EOF
+}
+
+scene -125 400 260 256 >"$T/model.json"
+"$RENDER" "$T/model.json" -o "$OUT/model.png" -q
+frames=()
+for k in 0 1 2 3 4 5; do
+    scene $((-125 + 60 * k)) 150 110 128 >"$T/turn-$k.json"
+    "$RENDER" "$T/turn-$k.json" -o "$T/turn-$k.png" -q
+    frames+=("$T/turn-$k.png")
+done
+python3 tools/png_strip.py "$OUT/model-turntable.png" "${frames[@]}"
+ls -l "$OUT/model.png" "$OUT/model-turntable.png"
