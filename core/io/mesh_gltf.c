@@ -436,7 +436,10 @@ static enum rayd_status gl_accessor(struct gl *G, const cJSON *o, const struct g
     a->ncomp = cJSON_IsString(type) ? gl_ncomp(type->valuestring) : 0;
     if (!gl_csize(a->ctype)) return gl_fail(G, RAYD_E_INVALID, &pct, "%d is not a glTF component type", a->ctype);
     if (a->ncomp != ncomp)
-        return gl_fail(G, RAYD_E_INVALID, &pt, "must be \"%s\" here", ncomp == 1 ? "SCALAR" : ncomp == 2 ? "VEC2" : "VEC3");
+        return gl_fail(G, RAYD_E_INVALID, &pt, "must be \"%s\" here",
+                       ncomp == 1   ? "SCALAR"
+                       : ncomp == 2 ? "VEC2"
+                                    : "VEC3");
     if (index && a->ctype != 5121 && a->ctype != 5123 && a->ctype != 5125)
         return gl_fail(G, RAYD_E_INVALID, &pct, "indices must be UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT (5121, 5123, 5125), not %d", a->ctype);
     if (!index && a->ctype == 5125) return gl_fail(G, RAYD_E_INVALID, &pct, "UNSIGNED_INT is not a vertex attribute type");
@@ -497,7 +500,8 @@ struct gl_prim {
 static enum rayd_status gl_prim_parts(struct gl *G, const struct gl_draw *d, const struct gp *pp,
                                       const cJSON *attr, const struct gp *pat, struct gl_prim *P) {
     const cJSON *mj;
-    if (gl_get(d->prim, "material")) TRY_GL(gl_ref(G, d->prim, pp, "material", "materials", &P->material, &mj));
+    if (gl_get(d->prim, "material"))
+        TRY_GL(gl_ref(G, d->prim, pp, "material", "materials", &P->material, &mj));
     int set = P->material >= 0 && P->material < G->nuv_set ? G->uv_set[P->material] : -1;
     char key[32];
     snprintf(key, sizeof key, "TEXCOORD_%d", set);
@@ -506,7 +510,8 @@ static enum rayd_status gl_prim_parts(struct gl *G, const struct gl_draw *d, con
     P->has_uv = true;
     struct gp pa = gp_item("accessors", P->uv.id);
     if (P->uv.count != P->pos.count)
-        return gl_fail(G, RAYD_E_INVALID, &pa, "%s has %u entries but POSITION has %u", key, P->uv.count, P->pos.count);
+        return gl_fail(G, RAYD_E_INVALID, &pa, "%s has %u entries but POSITION has %u", key,
+                       P->uv.count, P->pos.count);
     return RAYD_OK;
 }
 
@@ -639,11 +644,13 @@ static enum rayd_status gl_walk(struct gl *G, int scene) {
     G->world = malloc(((size_t)G->nnodes + 1) * 16 * sizeof *G->world);
     if (!G->seen || !G->world) return gl_fail(G, RAYD_E_NOMEM, &top, "out of memory");
     if (scene >= 0 && scene >= (scenes ? cJSON_GetArraySize(scenes) : 0))
-        return gl_fail(G, RAYD_E_INVALID, &pscenes, "scene %d does not exist (there are %d)", scene, scenes ? cJSON_GetArraySize(scenes) : 0);
+        return gl_fail(G, RAYD_E_INVALID, &pscenes, "scene %d does not exist (there are %d)", scene,
+                       scenes ? cJSON_GetArraySize(scenes) : 0);
     if (scenes && cJSON_GetArraySize(scenes) > 0) {
         const cJSON *sj = cJSON_GetArrayItem(scenes, scene >= 0 ? scene : 0);
         int sid = scene >= 0 ? scene : 0;
-        if (scene < 0 && gl_get(G->root, "scene")) TRY_GL(gl_ref(G, G->root, &top, "scene", "scenes", &sid, &sj));
+        if (scene < 0 && gl_get(G->root, "scene"))
+            TRY_GL(gl_ref(G, G->root, &top, "scene", "scenes", &sid, &sj));
         struct gp ps0 = gp_item("scenes", sid);
         if (!cJSON_IsObject(sj)) return gl_fail(G, RAYD_E_INVALID, &ps0, "must be an object");
         const cJSON *roots = gl_get(sj, "nodes");
@@ -788,7 +795,8 @@ static enum rayd_status gl_bake(struct gl *G) {
         G->tmat = malloc((size_t)G->ntris * sizeof *G->tmat);
         G->uv = G->nuv_set > 0 ? malloc((size_t)G->nverts * 2 * sizeof *G->uv) : NULL;
         if (!G->tmat || (G->nuv_set > 0 && !G->uv))
-            return gl_fail(G, RAYD_E_NOMEM, &top, "out of memory for %llu vertices", (unsigned long long)G->nverts);
+            return gl_fail(G, RAYD_E_NOMEM, &top, "out of memory for %llu vertices",
+                           (unsigned long long)G->nverts);
     }
     if (!G->pos || !G->idx || (G->normals && !G->nrm))
         return gl_fail(G, RAYD_E_NOMEM, &top, "out of memory for %llu vertices", (unsigned long long)G->nverts);
@@ -907,19 +915,24 @@ const double *gltf_doc_world(const struct gltf_doc *d, int node) {
     return d->G.world + (size_t)node * 16;
 }
 
-enum rayd_status gltf_doc_bake(struct gltf_doc *d, const int *uv_set,
-                               int nuv_set, struct mesh_data *out, int32_t **tri_mat) {
+enum rayd_status gltf_doc_bake(struct gltf_doc *d, const int *uv_set, int nuv_set,
+                               struct mesh_data *out, int32_t **tri_mat) {
     struct gl *G = &d->G;
     struct gp top = {""};
-    if (!d->walked || d->baked) return gl_fail(G, RAYD_E_INVALID, &top, "walk the scene once, then bake once");
+    if (!d->walked || d->baked)
+        return gl_fail(G, RAYD_E_INVALID, &top, "walk the scene once, then bake once");
     d->baked = true;
     G->want_parts = true;
     G->uv_set = uv_set;
     G->nuv_set = nuv_set;
     TRY_GL(gl_count(G));
     TRY_GL(gl_bake(G));
-    *out = (struct mesh_data){.pos = G->pos, .normal = G->nrm, .uv = G->uv, .index = G->idx,
-                              .nverts = (uint32_t)G->nverts, .ntris = (uint32_t)G->ntris};
+    *out = (struct mesh_data){.pos = G->pos,
+                              .normal = G->nrm,
+                              .uv = G->uv,
+                              .index = G->idx,
+                              .nverts = (uint32_t)G->nverts,
+                              .ntris = (uint32_t)G->ntris};
     *tri_mat = G->tmat;
     G->pos = G->nrm = G->uv = NULL;
     G->idx = NULL;
@@ -944,7 +957,9 @@ enum rayd_status gltf_doc_view(struct gltf_doc *d, const cJSON *o, const char *a
     TRY_GL(gl_buffer(G, bid, &b));
     struct gp pvl = gp_key(&pv, "byteLength");
     if (boff + blen > (double)b->len)
-        return gl_fail(G, RAYD_E_INVALID, &pvl, "runs past the end of buffer %d (offset %.0f + %.0f > %zu bytes)", bid, boff, blen, b->len);
+        return gl_fail(G, RAYD_E_INVALID, &pvl,
+                       "runs past the end of buffer %d (offset %.0f + %.0f > %zu bytes)", bid, boff,
+                       blen, b->len);
     *p = b->data + (size_t)boff;
     *len = (size_t)blen;
     return RAYD_OK;
@@ -963,7 +978,9 @@ enum rayd_status gltf_doc_uri(struct gltf_doc *d, const char *uri, const char *a
     }
     if ((G->loaded += b.len) > G->o->max_bytes) {
         free(b.data);
-        return gl_fail(G, RAYD_E_LIMIT, &pu, "the buffers and images come to %zu bytes; the limit is %zu", G->loaded, G->o->max_bytes);
+        return gl_fail(G, RAYD_E_LIMIT, &pu,
+                       "the buffers and images come to %zu bytes; the limit is %zu", G->loaded,
+                       G->o->max_bytes);
     }
     *p = b.data;
     *len = b.len;

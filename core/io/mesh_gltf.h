@@ -55,8 +55,8 @@ const double *gltf_doc_world(const struct gltf_doc *d, int node);
  * material; 0, 0 when the set is -1 or absent) with v flipped to rayd's
  * (v = 0 at the image's bottom), and *tri_mat (malloc'd) each triangle's
  * material index, -1 for a primitive without one. */
-enum rayd_status gltf_doc_bake(struct gltf_doc *d, const int *uv_set,
-                               int nuv_set, struct mesh_data *out, int32_t **tri_mat);
+enum rayd_status gltf_doc_bake(struct gltf_doc *d, const int *uv_set, int nuv_set,
+                               struct mesh_data *out, int32_t **tri_mat);
 /* The bytes of the bufferView o[key] (o at JSON Pointer at), in the doc's buffers. */
 enum rayd_status gltf_doc_view(struct gltf_doc *d, const cJSON *o, const char *at, const char *key,
                                const unsigned char **p, size_t *len);

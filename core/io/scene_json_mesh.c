@@ -165,8 +165,10 @@ enum rayd_status sj_gltf_opts(struct loader *ld, const struct jp *at, const cJSO
         memcpy(f->dir, name, dn);
         f->dir[dn] = '\0';
     }
-    *o = (struct mesh_gltf_opts){.max_bytes = ld->lim->max_bytes, .max_nesting = ld->lim->max_nesting,
-                                 .open = ld->lim->asset_dir ? gltf_open : NULL, .ctx = f};
+    *o = (struct mesh_gltf_opts){.max_bytes = ld->lim->max_bytes,
+                                 .max_nesting = ld->lim->max_nesting,
+                                 .open = ld->lim->asset_dir ? gltf_open : NULL,
+                                 .ctx = f};
     return RAYD_OK;
 }
 
@@ -252,9 +254,12 @@ static enum rayd_status load_source(struct loader *ld, const cJSON *src, const s
     size_t nbytes;
     double t0 = clock_now(); /* decode: reading the file or base64 too */
     TRY(sj_source_read(ld, src, at, &format, &data, &bytes, &nbytes));
-    struct mesh_limits ml = {
-        (uint32_t)(ld->lim->max_vertices - ld->vertices > UINT32_MAX ? UINT32_MAX : ld->lim->max_vertices - ld->vertices),
-        (uint32_t)(ld->lim->max_triangles - ld->triangles > UINT32_MAX ? UINT32_MAX : ld->lim->max_triangles - ld->triangles)};
+    struct mesh_limits ml = {(uint32_t)(ld->lim->max_vertices - ld->vertices > UINT32_MAX
+                                            ? UINT32_MAX
+                                            : ld->lim->max_vertices - ld->vertices),
+                             (uint32_t)(ld->lim->max_triangles - ld->triangles > UINT32_MAX
+                                            ? UINT32_MAX
+                                            : ld->lim->max_triangles - ld->triangles)};
     enum rayd_status st = format == 0   ? mesh_parse_obj_threads(bytes, nbytes, &ml, 0, md, ld->err)
                           : format == 1 ? mesh_parse_ply_threads(bytes, nbytes, &ml, 0, md, ld->err)
                                         : load_gltf(ld, at, file, bytes, nbytes, &ml, md);

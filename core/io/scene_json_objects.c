@@ -340,13 +340,25 @@ static enum rayd_status load_instance(struct loader *ld, const cJSON *oj, const 
 /* ---- objects ----------------------------------------------------------------------- */
 
 enum kind_index {
-    K_SPHERE, K_PLANE, K_BOX, K_CYLINDER, K_CONE, K_DISC, K_TORUS, K_TRIANGLE, K_QUAD,
-    K_QUADRIC, K_MESH, K_CSG, K_INSTANCE, K_GLTF
+    K_SPHERE,
+    K_PLANE,
+    K_BOX,
+    K_CYLINDER,
+    K_CONE,
+    K_DISC,
+    K_TORUS,
+    K_TRIANGLE,
+    K_QUAD,
+    K_QUADRIC,
+    K_MESH,
+    K_CSG,
+    K_INSTANCE,
+    K_GLTF
 };
 
-static const char *const kind_names[] = {"sphere", "plane",    "box",     "cylinder", "cone",
-                                         "disc",   "torus",    "triangle", "quad",    "quadric",
-                                         "mesh",   "csg",      "instance", "gltf", NULL};
+static const char *const kind_names[] = {"sphere", "plane", "box",      "cylinder", "cone",
+                                         "disc",   "torus", "triangle", "quad",     "quadric",
+                                         "mesh",   "csg",   "instance", "gltf",     NULL};
 
 #define COMMON "type", "name", "material", "transform"
 static const char *const *const kind_keys[] = {
@@ -360,7 +372,8 @@ static const char *const *const kind_keys[] = {
     (const char *const[]){COMMON, "vertices", NULL},
     (const char *const[]){COMMON, "corner", "edge1", "edge2", NULL},
     (const char *const[]){COMMON, "coefficients", NULL},
-    (const char *const[]){COMMON, "source", "vertices", "indices", "normals", "uvs", "smooth", NULL},
+    (const char *const[]){COMMON, "source", "vertices", "indices", "normals", "uvs", "smooth",
+                          NULL},
     (const char *const[]){COMMON, "op", "operands", NULL},
     (const char *const[]){"type", "name", "transform", "group", NULL},
     (const char *const[]){COMMON, "source", "scene", "lights", "light_scale", "camera", NULL},
@@ -422,7 +435,9 @@ static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const st
     if (kind == K_INSTANCE && cx->in_group)
         return sj_fail(ld, RAYD_E_INVALID, &pt, "an instance cannot be inside a group (groups do not nest)");
     if (kind == K_GLTF && (cx->in_group || cx->in_csg))
-        return sj_fail(ld, RAYD_E_INVALID, &pt, "a gltf object cannot be inside a group or a CSG object (its meshes are a group of their own)");
+        return sj_fail(ld, RAYD_E_INVALID, &pt,
+                       "a gltf object cannot be inside a group or a CSG object (its meshes are a "
+                       "group of their own)");
     memset(o, 0, sizeof *o);
     o->xform = -1;
     TRY(sj_object_material(ld, oj, at, cx->material, &o->material));
