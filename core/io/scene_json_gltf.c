@@ -333,10 +333,15 @@ static enum rayd_status load_lights(struct imp *im, double scale) {
         struct jp pk = sj_key(&pe, "KHR_lights_punctual"), pl = sj_key(&pk, "light");
         const cJSON *lv = get(ext, "light");
         if (!cJSON_IsNumber(lv) || !(lv->valuedouble >= 0 && lv->valuedouble < nl) ||
-            floor(lv->valuedouble) != lv->valuedouble)
+            floor(lv->valuedouble) != lv->valuedouble) {
+            if (nl == 0)
+                return sj_fail(im->ld, RAYD_E_INVALID, &pl,
+                               "names a light, but the file has no "
+                               "/extensions/KHR_lights_punctual/lights");
             return sj_fail(im->ld, RAYD_E_INVALID, &pl,
                            "must be an index in 0..%d of /extensions/KHR_lights_punctual/lights",
                            nl - 1);
+        }
         int li = (int)lv->valuedouble;
         struct jp pe2 = sj_key(&pg, "extensions"), pk2 = sj_key(&pe2, "KHR_lights_punctual");
         struct jp pls = sj_key(&pk2, "lights"), plj = sj_index(&pls, li);
