@@ -39,6 +39,13 @@
  * drawn (points and lines skipped) are bounded by the triangle limit too.  A file whose primitives are all points or lines has "no
  * triangles".
  *
+ * The "gltf" object (scene_json_gltf.c) takes the same reader in steps
+ * (gltf_doc_*): open, walk a chosen scene, then bake with each triangle's
+ * material index and the TEXCOORD_n its material's texture asks for (v
+ * flipped to rayd's), and read bufferViews and URIs for images.  Only that
+ * path looks at a primitive's "material" and texture coordinates, so a
+ * mesh source reads, refuses and bakes exactly as before.
+ *
  * Two passes: the first walks the node tree and checks every primitive it
  * draws (loading the buffers they use, and only those), summing vertices
  * and triangles; the second allocates the mesh once and fills it.
