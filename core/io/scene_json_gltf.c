@@ -91,40 +91,45 @@ static enum rayd_status item_ref(struct imp *im, const cJSON *oj, const struct j
 
 /* ---- meshes, one per material ------------------------------------------- */
 
-/* The triangles of material m (of md, tm) as a new mesh of the scene. */
-static enum rayd_status split_one(struct imp *im, const struct mesh_data *md, const int32_t *tm,
-                                  int32_t m, uint32_t ntris, uint32_t *remap, bool smooth,
-                                  uint32_t *id) {
+/* A vertex of md copied to slot w of pos, nrm, uv. */
+static void copy_vertex(const struct mesh_data *md, uint32_t v, uint32_t w, float *pos, float *nrm,
+                        float *uv) {
+    memcpy(pos + (size_t)w * 3, md->pos + (size_t)v * 3, 3 * sizeof *pos);
+    if (nrm) memcpy(nrm + (size_t)w * 3, md->normal + (size_t)v * 3, 3 * sizeof *nrm);
+    if (uv) memcpy(uv + (size_t)w * 2, md->uv + (size_t)v * 2, 2 * sizeof *uv);
+}
+
+/* Triangles tris[0..n) of md as a new mesh of the scene, their vertices
+ * renumbered in order of first use.  remap (one entry per vertex of md,
+ * all UINT32_MAX) is left as it was found, so each material costs its own
+ * triangles only. */
+static enum rayd_status split_one(struct imp *im, const struct mesh_data *md, const uint32_t *tris,
+                                  uint32_t n, uint32_t *remap, uint32_t *id) {
     struct loader *ld = im->ld;
-    uint32_t *ix = malloc((size_t)ntris * 3 * sizeof *ix), nv = 0;
-    if (!ix) return err_set(ld->err, RAYD_E_NOMEM, im->src.s, "out of memory");
-    memset(remap, 0xff, (size_t)md->nverts * sizeof *remap);
-    for (uint32_t t = 0, k = 0; t < md->ntris; t++) {
-        if (tm[t] != m) continue;
-        for (int c = 0; c < 3; c++, k++) {
-            uint32_t v = md->index[(size_t)t * 3 + (size_t)c];
-            if (remap[v] == UINT32_MAX) remap[v] = nv++;
-            ix[k] = remap[v];
-        }
-    }
-    float *pos = malloc((size_t)nv * 3 * sizeof *pos);
-    float *nrm = md->normal ? malloc((size_t)nv * 3 * sizeof *nrm) : NULL;
-    float *uv = md->uv ? malloc((size_t)nv * 2 * sizeof *uv) : NULL;
-    if (!pos || (md->normal && !nrm) || (md->uv && !uv)) {
+    size_t cap = (size_t)n * 3 < md->nverts ? (size_t)n * 3 : md->nverts;
+    uint32_t *ix = malloc((size_t)n * 3 * sizeof *ix), nv = 0;
+    float *pos = malloc(cap * 3 * sizeof *pos);
+    float *nrm = md->normal ? malloc(cap * 3 * sizeof *nrm) : NULL;
+    float *uv = md->uv ? malloc(cap * 2 * sizeof *uv) : NULL;
+    if (!ix || !pos || (md->normal && !nrm) || (md->uv && !uv)) {
         free(ix), free(pos), free(nrm), free(uv);
         return err_set(ld->err, RAYD_E_NOMEM, im->src.s, "out of memory");
     }
-    for (uint32_t v = 0; v < md->nverts; v++) {
-        uint32_t w = remap[v];
-        if (w == UINT32_MAX) continue;
-        memcpy(pos + (size_t)w * 3, md->pos + (size_t)v * 3, 3 * sizeof *pos);
-        if (nrm) memcpy(nrm + (size_t)w * 3, md->normal + (size_t)v * 3, 3 * sizeof *nrm);
-        if (uv) memcpy(uv + (size_t)w * 2, md->uv + (size_t)v * 2, 2 * sizeof *uv);
+    for (size_t k = 0; k < (size_t)n * 3; k++) {
+        uint32_t v = md->index[(size_t)tris[k / 3] * 3 + k % 3];
+        if (remap[v] == UINT32_MAX) copy_vertex(md, v, remap[v] = nv++, pos, nrm, uv);
+        ix[k] = remap[v];
     }
-    TRY(sj_add_mesh(ld, id));
+    for (size_t k = 0; k < (size_t)n * 3; k++)
+        remap[md->index[(size_t)tris[k / 3] * 3 + k % 3]] = UINT32_MAX;
+    enum rayd_status st = sj_add_mesh(ld, id);
+    if (st != RAYD_OK) {
+        free(ix), free(pos), free(nrm), free(uv);
+        return st;
+    }
     double t0 = clock_now();
-    enum rayd_status st = mesh_build(&ld->s->meshes[*id], pos, nv, ix, ntris, nrm, uv, smooth,
-                                     ntris >= 50000 ? parallel_cores() : 1, ld->err);
+    st = mesh_build(&ld->s->meshes[*id], pos, nv, ix, n, nrm, uv, true,
+                    n >= 50000 ? parallel_cores() : 1, ld->err);
     ld->s->build_s += clock_now() - t0;
     return st;
 }
@@ -148,23 +153,35 @@ static enum rayd_status use_material(struct imp *im, const struct gltf_mats *g, 
     return sj_add_material(ld, &mat, &map[m]);
 }
 
-/* md split by tm into one mesh object per material, in objs (n objects). */
+/* Triangle t's material slot: tm[t], or g->n (glTF's default material). */
+static int slot(const struct gltf_mats *g, int32_t m) { return m < 0 || m >= g->n ? g->n : m; }
+
+/* md split by tm into one mesh object per material, in objs (n objects):
+ * the triangles sorted by material (a counting sort), then each run a mesh. */
 static enum rayd_status split(struct imp *im, const struct mesh_data *md, const int32_t *tm,
                               const struct gltf_mats *g, int override, struct object **objs,
                               int32_t *n) {
     struct loader *ld = im->ld;
     int nm = g->n + 1;
-    uint32_t *count = calloc((size_t)nm, sizeof *count);
+    uint32_t *start = calloc((size_t)nm + 1, sizeof *start);
+    uint32_t *order = malloc(((size_t)md->ntris + 1) * sizeof *order);
     uint32_t *remap = malloc(((size_t)md->nverts + 1) * sizeof *remap);
     int *map = malloc((size_t)nm * sizeof *map);
     *objs = calloc((size_t)nm, sizeof **objs);
     enum rayd_status st = RAYD_OK;
-    if (!count || !remap || !map || !*objs)
-        st = err_set(ld->err, RAYD_E_NOMEM, im->src.s, "out of memory");
-    for (int m = 0; st == RAYD_OK && m < nm; m++) map[m] = -1;
-    for (uint32_t t = 0; st == RAYD_OK && t < md->ntris; t++) count[tm[t] < 0 ? g->n : tm[t]]++;
+    if (!start || !order || !remap || !map || !*objs) {
+        free(start), free(order), free(remap), free(map);
+        return err_set(ld->err, RAYD_E_NOMEM, im->src.s, "out of memory");
+    }
+    memset(remap, 0xff, ((size_t)md->nverts + 1) * sizeof *remap);
+    for (int m = 0; m < nm; m++) map[m] = -1;
+    for (uint32_t t = 0; t < md->ntris; t++) start[slot(g, tm[t]) + 1]++;
+    for (int m = 0; m < nm; m++) start[m + 1] += start[m];
+    for (uint32_t t = 0; t < md->ntris; t++) order[start[slot(g, tm[t])]++] = t;
+    for (int m = nm; m > 0; m--) start[m] = start[m - 1]; /* back to each run's start */
+    start[0] = 0;
     for (int m = 0; st == RAYD_OK && m < nm; m++) {
-        if (!count[m]) continue;
+        if (start[m + 1] == start[m]) continue;
         struct object *o = &(*objs)[*n];
         memset(o, 0, sizeof *o);
         o->kind = SHAPE_MESH;
@@ -173,10 +190,10 @@ static enum rayd_status split(struct imp *im, const struct mesh_data *md, const 
         if (override < 0) st = use_material(im, g, m, map);
         if (st == RAYD_OK && override < 0) o->material = map[m];
         if (st == RAYD_OK)
-            st = split_one(im, md, tm, m == g->n ? -1 : m, count[m], remap, true, &o->u.mesh.id);
+            st = split_one(im, md, order + start[m], start[m + 1] - start[m], remap, &o->u.mesh.id);
         if (st == RAYD_OK) (*n)++;
     }
-    free(count), free(remap), free(map);
+    free(start), free(order), free(remap), free(map);
     return st;
 }
 
