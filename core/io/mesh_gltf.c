@@ -36,8 +36,8 @@
  * triangles than the limits -- counted over every draw before the output
  * is allocated.  Each node is walked once, so the walk is as long as the
  * file; a mesh's primitives drawn by many nodes multiply, so the primitives
- * drawn (points and lines skipped) are bounded by the triangle limit too.  A file whose primitives are all points or lines has "no
- * triangles".
+ * drawn (points and lines skipped) are bounded by the triangle limit too.  A file whose primitives
+ * are all points or lines has "no triangles".
  *
  * The "gltf" object (scene_json_gltf.c) takes the same reader in steps
  * (gltf_doc_*): open, walk a chosen scene, then bake with each triangle's
