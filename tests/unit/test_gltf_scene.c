@@ -295,6 +295,48 @@ static void test_uvs_and_textures(void) {
     rayd_scene_free(s);
 }
 
+/* Item i of d's array a, or that item's member b. */
+static cJSON *at(cJSON *d, const char *a, int i, const char *b) {
+    cJSON *x = cJSON_GetArrayItem(cJSON_GetObjectItem(d, a), i);
+    return b ? cJSON_GetObjectItem(x, b) : x;
+}
+
+/* The JPEG material's mesh (2 triangles at z = -4) when its texture reads
+ * texCoord set `set` and its primitive has only TEXCOORD_<has>: the uvs of
+ * that set, or (0, 0) when the set is missing. */
+static void texcoord_case(int set, int has) {
+    cJSON *d = doc_tree();
+    cJSON *ti =
+        cJSON_GetObjectItem(at(d, "materials", 3, "pbrMetallicRoughness"), "baseColorTexture");
+    cJSON_AddNumberToObject(ti, "texCoord", set);
+    cJSON *attr = cJSON_GetObjectItem(at(d, "meshes", 2, "primitives")->child, "attributes");
+    char key[16];
+    snprintf(key, sizeof key, "TEXCOORD_%d", has);
+    cJSON_DeleteItemFromObject(attr, "TEXCOORD_0");
+    cJSON_AddNumberToObject(attr, key, 1);
+    struct rayd_error err;
+    rayd_scene *s = parse(d, "", "", &err);
+    CHECK(s, "parse: %s", err.message);
+    const struct group *gr = s ? the_group(s) : NULL;
+    const struct mesh *m = NULL;
+    for (int32_t i = 0; gr && i < gr->nobjs; i++) {
+        const struct mesh *x = &s->meshes[gr->objs[i].u.mesh.id];
+        if (x->pos && x->pos[2] == -4) m = x;
+    }
+    CHECK(m && m->uv, "the JPEG material's mesh, with uvs");
+    for (uint32_t i = 0; m && m->uv && i < m->nverts; i++) {
+        CHECK_NEAR(m->uv[2 * i], set == has ? m->pos[3 * i] : 0, 0);
+        CHECK_NEAR(m->uv[2 * i + 1], set == has ? 1 - m->pos[3 * i + 1] : 0, 0);
+    }
+    if (s) rayd_scene_free(s);
+}
+
+static void test_texcoord_sets(void) {
+    texcoord_case(1, 1);
+    texcoord_case(1, 0);
+    texcoord_case(0, 0);
+}
+
 static void test_pbr_mapping(void) {
     struct gltf_pbr mask = {{1, 1, 1, 0.3}, 0, 1, {0, 0, 0}, 1, 0.5, 1};
     struct material m = gltf_pbr_material(&mask);
@@ -406,11 +448,6 @@ static void expect(rayd_scene *s, const struct rayd_error *err, const char *path
     CHECK(strstr(err->message, words), "message \"%s\" lacks \"%s\"", err->message, words);
 }
 
-static cJSON *at(cJSON *d, const char *a, int i, const char *b) {
-    cJSON *x = cJSON_GetArrayItem(cJSON_GetObjectItem(d, a), i);
-    return b ? cJSON_GetObjectItem(x, b) : x;
-}
-
 static void test_errors(void) {
     struct rayd_error err;
     cJSON *d = doc_tree();
@@ -468,6 +505,7 @@ int main(void) {
     RUN(test_materials_and_groups);
     RUN(test_uvs_and_textures);
     RUN(test_pbr_mapping);
+    RUN(test_texcoord_sets);
     RUN(test_override_and_scene);
     RUN(test_lights);
     RUN(test_cameras);
