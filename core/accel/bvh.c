@@ -395,8 +395,9 @@ static uint32_t split(struct build *b, struct prim *p, uint32_t n, const struct 
     *left = *right = (struct span){bb_empty(), bb_empty()};
     uint32_t mid = 0;
     if (n > L && n <= 2 * L) return split_small(p, n, L, axis, left, right);
-    if (n > L && ext[axis] > 0 && depth < MEDIAN_DEPTH) {
-        float scale = BINS / ext[axis] * 0.99999f;
+    /* a subnormal extent would make the scale infinite: the median then */
+    float scale = ext[axis] > 0 ? BINS / ext[axis] * 0.99999f : 0;
+    if (n > L && ext[axis] > 0 && isfinite(scale) && depth < MEDIAN_DEPTH) {
         int plane = sah_plane(p, n, axis, cb->lo[axis], scale, left, right);
         if (plane > 0) return partition(p, n, plane);
     } else if (n > L && ext[axis] > 0) {

@@ -36,8 +36,15 @@
  * triangles than the limits -- counted over every draw before the output
  * is allocated.  Each node is walked once, so the walk is as long as the
  * file; a mesh's primitives drawn by many nodes multiply, so the primitives
- * drawn (points and lines skipped) are bounded by the triangle limit too.  A file whose primitives are all points or lines has "no
- * triangles".
+ * drawn (points and lines skipped) are bounded by the triangle limit too.  A file whose primitives
+ * are all points or lines has "no triangles".
+ *
+ * The "gltf" object (scene_json_gltf.c) takes the same reader in steps
+ * (gltf_doc_*): open, walk a chosen scene, then bake with each triangle's
+ * material index and the TEXCOORD_n its material's texture asks for (v
+ * flipped to rayd's), and read bufferViews and URIs for images.  Only that
+ * path looks at a primitive's "material" and texture coordinates, so a
+ * mesh source reads, refuses and bakes exactly as before.
  *
  * Two passes: the first walks the node tree and checks every primitive it
  * draws (loading the buffers they use, and only those), summing vertices
@@ -116,6 +123,14 @@ struct gl {
     float *pos, *nrm;
     uint32_t *idx;
     uint32_t vat, tat;
+    /* the whole-scene import (gltf_doc_bake): a material per triangle, and
+     * texture coordinates of the set uv_set[material] (-1 or past nuv_set:
+     * none, so 0) */
+    bool want_parts;
+    const int *uv_set;
+    int nuv_set;
+    int32_t *tmat;
+    float *uv;
 };
 
 /* ---- errors and pointers ----------------------------------------------- */
@@ -428,7 +443,10 @@ static enum rayd_status gl_accessor(struct gl *G, const cJSON *o, const struct g
     a->ncomp = cJSON_IsString(type) ? gl_ncomp(type->valuestring) : 0;
     if (!gl_csize(a->ctype)) return gl_fail(G, RAYD_E_INVALID, &pct, "%d is not a glTF component type", a->ctype);
     if (a->ncomp != ncomp)
-        return gl_fail(G, RAYD_E_INVALID, &pt, "must be \"%s\" here", ncomp == 1 ? "SCALAR" : "VEC3");
+        return gl_fail(G, RAYD_E_INVALID, &pt, "must be \"%s\" here",
+                       ncomp == 1   ? "SCALAR"
+                       : ncomp == 2 ? "VEC2"
+                                    : "VEC3");
     if (index && a->ctype != 5121 && a->ctype != 5123 && a->ctype != 5125)
         return gl_fail(G, RAYD_E_INVALID, &pct, "indices must be UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT (5121, 5123, 5125), not %d", a->ctype);
     if (!index && a->ctype == 5125) return gl_fail(G, RAYD_E_INVALID, &pct, "UNSIGNED_INT is not a vertex attribute type");
@@ -478,15 +496,37 @@ static uint32_t gl_corner(int mode, uint64_t t, int k) {
 
 struct gl_prim {
     int mode;
-    struct gl_acc pos, nrm, ix;
-    bool has_nrm, has_ix;
+    struct gl_acc pos, nrm, ix, uv;
+    bool has_nrm, has_ix, has_uv;
     uint64_t ntris;
+    int material; /* -1: none (glTF's default material) */
 };
+
+/* The whole-scene import's part of a primitive: its material and, when the
+ * material's texture wants one, its TEXCOORD_n. */
+static enum rayd_status gl_prim_parts(struct gl *G, const struct gl_draw *d, const struct gp *pp,
+                                      const cJSON *attr, const struct gp *pat, struct gl_prim *P) {
+    const cJSON *mj;
+    if (gl_get(d->prim, "material"))
+        TRY_GL(gl_ref(G, d->prim, pp, "material", "materials", &P->material, &mj));
+    int set = P->material >= 0 && P->material < G->nuv_set ? G->uv_set[P->material] : -1;
+    char key[32];
+    snprintf(key, sizeof key, "TEXCOORD_%d", set);
+    if (set < 0 || !gl_get(attr, key)) return RAYD_OK;
+    TRY_GL(gl_accessor(G, attr, pat, key, 2, false, &P->uv));
+    P->has_uv = true;
+    struct gp pa = gp_item("accessors", P->uv.id);
+    if (P->uv.count != P->pos.count)
+        return gl_fail(G, RAYD_E_INVALID, &pa, "%s has %u entries but POSITION has %u", key,
+                       P->uv.count, P->pos.count);
+    return RAYD_OK;
+}
 
 static enum rayd_status gl_prim(struct gl *G, const struct gl_draw *d, struct gl_prim *P) {
     struct gp pm = gp_item("meshes", d->mesh), pl = gp_key(&pm, "primitives"), pp = gp_index(&pl, d->index);
     double mode;
     memset(P, 0, sizeof *P);
+    P->material = -1;
     TRY_GL(gl_int(G, d->prim, &pp, "mode", 4, 0, 6, &mode));
     P->mode = (int)mode;
     if (mode < 4) return RAYD_OK; /* points and lines: nothing to draw */
@@ -502,7 +542,7 @@ static enum rayd_status gl_prim(struct gl *G, const struct gl_draw *d, struct gl
     P->has_ix = gl_get(d->prim, "indices") != NULL;
     if (P->has_ix) TRY_GL(gl_accessor(G, d->prim, &pp, "indices", 1, true, &P->ix));
     P->ntris = gl_tris(P->mode, P->has_ix ? P->ix.count : P->pos.count);
-    return RAYD_OK;
+    return G->want_parts ? gl_prim_parts(G, d, &pp, attr, &pat, P) : RAYD_OK;
 }
 
 /* ---- the node tree ------------------------------------------------------ */
@@ -598,8 +638,9 @@ static enum rayd_status gl_node(struct gl *G, int id, const struct gp *from, con
     return RAYD_OK;
 }
 
-/* The roots: scene "scene" (or 0), or, without scenes, every node no node names as a child. */
-static enum rayd_status gl_walk(struct gl *G) {
+/* The roots: scene `scene` when >= 0, else "scene" (or 0), or, without
+ * scenes, every node no node names as a child. */
+static enum rayd_status gl_walk(struct gl *G, int scene) {
     static const double id[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
     const cJSON *nodes = gl_get(G->root, "nodes"), *scenes = gl_get(G->root, "scenes");
     struct gp pnodes = {"/nodes"}, pscenes = {"/scenes"}, top = {""};
@@ -609,10 +650,14 @@ static enum rayd_status gl_walk(struct gl *G) {
     G->seen = calloc((size_t)G->nnodes + 1, 1);
     G->world = malloc(((size_t)G->nnodes + 1) * 16 * sizeof *G->world);
     if (!G->seen || !G->world) return gl_fail(G, RAYD_E_NOMEM, &top, "out of memory");
+    if (scene >= 0 && scene >= (scenes ? cJSON_GetArraySize(scenes) : 0))
+        return gl_fail(G, RAYD_E_INVALID, &pscenes, "scene %d does not exist (there are %d)", scene,
+                       scenes ? cJSON_GetArraySize(scenes) : 0);
     if (scenes && cJSON_GetArraySize(scenes) > 0) {
-        const cJSON *sj = cJSON_GetArrayItem(scenes, 0);
-        int sid = 0;
-        if (gl_get(G->root, "scene")) TRY_GL(gl_ref(G, G->root, &top, "scene", "scenes", &sid, &sj));
+        const cJSON *sj = cJSON_GetArrayItem(scenes, scene >= 0 ? scene : 0);
+        int sid = scene >= 0 ? scene : 0;
+        if (scene < 0 && gl_get(G->root, "scene"))
+            TRY_GL(gl_ref(G, G->root, &top, "scene", "scenes", &sid, &sj));
         struct gp ps0 = gp_item("scenes", sid);
         if (!cJSON_IsObject(sj)) return gl_fail(G, RAYD_E_INVALID, &ps0, "must be an object");
         const cJSON *roots = gl_get(sj, "nodes");
@@ -682,6 +727,22 @@ static void mat_normal(const double *m, double *n) {
     memcpy(n, r, sizeof r); /* n[row * 3 + col] */
 }
 
+/* Texture coordinates of vertex i: glTF's v = 0 is the image's top,
+ * rayd's its bottom, so v becomes 1 - v. */
+static enum rayd_status gl_uv(struct gl *G, const struct gl_prim *P, uint32_t i, float *o) {
+    if (!P->has_uv) {
+        o[0] = o[1] = 0;
+        return RAYD_OK;
+    }
+    double u = gl_value(&P->uv, i, 0), v = gl_value(&P->uv, i, 1);
+    struct gp pa = gp_item("accessors", P->uv.id);
+    if (!isfinite(u) || !isfinite(v) || fabs(u) > 1e6 || fabs(v) > 1e6)
+        return gl_fail(G, RAYD_E_INVALID, &pa, "TEXCOORD %u is not finite (or beyond 1e6)", i);
+    o[0] = (float)u;
+    o[1] = (float)(1 - v);
+    return RAYD_OK;
+}
+
 static enum rayd_status gl_vertices(struct gl *G, const struct gl_draw *d, const struct gl_prim *P) {
     double nm[9];
     const double *m = G->world + (size_t)d->node * 16;
@@ -697,6 +758,7 @@ static enum rayd_status gl_vertices(struct gl *G, const struct gl_draw *d, const
             }
             o[r] = (float)v;
         }
+        if (G->uv) TRY_GL(gl_uv(G, P, i, G->uv + (size_t)(G->vat + i) * 2));
         if (!G->normals) continue;
         double n[3] = {gl_value(&P->nrm, i, 0), gl_value(&P->nrm, i, 1), gl_value(&P->nrm, i, 2)}, w[3];
         for (int r = 0; r < 3; r++) w[r] = nm[r * 3] * n[0] + nm[r * 3 + 1] * n[1] + nm[r * 3 + 2] * n[2];
@@ -723,6 +785,7 @@ static enum rayd_status gl_triangles(struct gl *G, const struct gl_draw *d, cons
         o[0] = G->vat + v[0];
         o[1] = G->vat + v[flip ? 2 : 1];
         o[2] = G->vat + v[flip ? 1 : 2];
+        if (G->tmat) G->tmat[G->tat] = P->material;
         G->tat++;
     }
     G->vat += P->pos.count;
@@ -735,6 +798,13 @@ static enum rayd_status gl_bake(struct gl *G) {
     G->pos = huge_alloc((size_t)G->nverts * 3 * sizeof *G->pos);
     G->nrm = G->normals ? huge_alloc((size_t)G->nverts * 3 * sizeof *G->nrm) : NULL;
     G->idx = huge_alloc((size_t)G->ntris * 3 * sizeof *G->idx);
+    if (G->want_parts) {
+        G->tmat = malloc((size_t)G->ntris * sizeof *G->tmat);
+        G->uv = G->nuv_set > 0 ? malloc((size_t)G->nverts * 2 * sizeof *G->uv) : NULL;
+        if (!G->tmat || (G->nuv_set > 0 && !G->uv))
+            return gl_fail(G, RAYD_E_NOMEM, &top, "out of memory for %llu vertices",
+                           (unsigned long long)G->nverts);
+    }
     if (!G->pos || !G->idx || (G->normals && !G->nrm))
         return gl_fail(G, RAYD_E_NOMEM, &top, "out of memory for %llu vertices", (unsigned long long)G->nverts);
     for (size_t i = 0; i < G->ndraws; i++) {
@@ -759,10 +829,13 @@ static void gl_release(struct gl *G, cJSON *root) {
     free(G->pos);
     free(G->nrm);
     free(G->idx);
+    free(G->tmat);
+    free(G->uv);
     cJSON_Delete(root);
 }
 
-static enum rayd_status gl_read(struct gl *G, const unsigned char *b, size_t len, cJSON **root) {
+/* The container, the JSON, asset and extensions, and the buffer table. */
+static enum rayd_status gl_open(struct gl *G, const unsigned char *b, size_t len, cJSON **root) {
     const char *json = (const char *)b;
     size_t jlen = len;
     struct gp pb = {"/buffers"};
@@ -778,7 +851,12 @@ static enum rayd_status gl_read(struct gl *G, const unsigned char *b, size_t len
     G->nbufs = bufs ? cJSON_GetArraySize(bufs) : 0;
     G->bufs = calloc((size_t)G->nbufs + 1, sizeof *G->bufs);
     if (!G->bufs) return gl_fail(G, RAYD_E_NOMEM, &pb, "out of memory");
-    TRY_GL(gl_walk(G));
+    return RAYD_OK;
+}
+
+static enum rayd_status gl_read(struct gl *G, const unsigned char *b, size_t len, cJSON **root) {
+    TRY_GL(gl_open(G, b, len, root));
+    TRY_GL(gl_walk(G, -1));
     TRY_GL(gl_count(G));
     return gl_bake(G);
 }
@@ -801,4 +879,123 @@ enum rayd_status mesh_parse_gltf(const void *data, size_t len, const struct mesh
     }
     gl_release(&G, root);
     return st;
+}
+
+/* ---- the whole-scene import (scene_json_gltf.c) ------------------------- */
+
+struct gltf_doc {
+    struct gl G;
+    struct mesh_gltf_opts o;
+    cJSON *root;
+    bool walked, baked;
+};
+
+enum rayd_status gltf_doc_open(const void *data, size_t len, const struct mesh_gltf_opts *o,
+                               struct rayd_error *err, struct gltf_doc **out) {
+    struct gltf_doc *d = calloc(1, sizeof *d);
+    if (!d) return err_set(err, RAYD_E_NOMEM, "", "out of memory");
+    d->o = *o;
+    d->G.o = &d->o;
+    d->G.err = err;
+    enum rayd_status st = gl_open(&d->G, data, len, &d->root);
+    if (st != RAYD_OK) {
+        gltf_doc_free(d);
+        return st;
+    }
+    *out = d;
+    return RAYD_OK;
+}
+
+const cJSON *gltf_doc_root(const struct gltf_doc *d) { return d->root; }
+
+enum rayd_status gltf_doc_walk(struct gltf_doc *d, int scene, const struct mesh_limits *lim) {
+    struct gp top = {""};
+    if (d->walked) return gl_fail(&d->G, RAYD_E_INVALID, &top, "the scene is walked once");
+    d->walked = true;
+    d->G.max_verts = mesh_max_vertices(lim);
+    d->G.max_tris = mesh_max_triangles(lim);
+    return gl_walk(&d->G, scene);
+}
+
+const double *gltf_doc_world(const struct gltf_doc *d, int node) {
+    if (!d->walked || node < 0 || node >= d->G.nnodes || d->G.seen[node] != 2) return NULL;
+    return d->G.world + (size_t)node * 16;
+}
+
+enum rayd_status gltf_doc_bake(struct gltf_doc *d, const int *uv_set, int nuv_set,
+                               struct mesh_data *out, int32_t **tri_mat) {
+    struct gl *G = &d->G;
+    struct gp top = {""};
+    if (!d->walked || d->baked)
+        return gl_fail(G, RAYD_E_INVALID, &top, "walk the scene once, then bake once");
+    d->baked = true;
+    G->want_parts = true;
+    G->uv_set = uv_set;
+    G->nuv_set = nuv_set;
+    TRY_GL(gl_count(G));
+    TRY_GL(gl_bake(G));
+    *out = (struct mesh_data){.pos = G->pos,
+                              .normal = G->nrm,
+                              .uv = G->uv,
+                              .index = G->idx,
+                              .nverts = (uint32_t)G->nverts,
+                              .ntris = (uint32_t)G->ntris};
+    *tri_mat = G->tmat;
+    G->pos = G->nrm = G->uv = NULL;
+    G->idx = NULL;
+    G->tmat = NULL;
+    return RAYD_OK;
+}
+
+enum rayd_status gltf_doc_view(struct gltf_doc *d, const cJSON *o, const char *at, const char *key,
+                               const unsigned char **p, size_t *len) {
+    struct gl *G = &d->G;
+    struct gp pa;
+    snprintf(pa.s, sizeof pa.s, "%s", at);
+    const cJSON *vj, *bj;
+    int vid, bid;
+    double boff, blen;
+    TRY_GL(gl_ref(G, o, &pa, key, "bufferViews", &vid, &vj));
+    struct gp pv = gp_item("bufferViews", vid);
+    TRY_GL(gl_ref(G, vj, &pv, "buffer", "buffers", &bid, &bj));
+    TRY_GL(gl_int(G, vj, &pv, "byteOffset", 0, 0, 9007199254740991.0, &boff));
+    TRY_GL(gl_int(G, vj, &pv, "byteLength", -1, 1, 9007199254740991.0, &blen));
+    const struct gl_buf *b;
+    TRY_GL(gl_buffer(G, bid, &b));
+    struct gp pvl = gp_key(&pv, "byteLength");
+    if (boff + blen > (double)b->len)
+        return gl_fail(G, RAYD_E_INVALID, &pvl,
+                       "runs past the end of buffer %d (offset %.0f + %.0f > %zu bytes)", bid, boff,
+                       blen, b->len);
+    *p = b->data + (size_t)boff;
+    *len = (size_t)blen;
+    return RAYD_OK;
+}
+
+enum rayd_status gltf_doc_uri(struct gltf_doc *d, const char *uri, const char *at,
+                              unsigned char **p, size_t *len) {
+    struct gl *G = &d->G;
+    struct gp pu;
+    struct gl_buf b = {0};
+    snprintf(pu.s, sizeof pu.s, "%s", at);
+    if (!strncmp(uri, "data:", 5)) {
+        TRY_GL(gl_data_uri(G, uri, &pu, &b));
+    } else {
+        TRY_GL(gl_file_uri(G, uri, &pu, &b));
+    }
+    if ((G->loaded += b.len) > G->o->max_bytes) {
+        free(b.data);
+        return gl_fail(G, RAYD_E_LIMIT, &pu,
+                       "the buffers and images come to %zu bytes; the limit is %zu", G->loaded,
+                       G->o->max_bytes);
+    }
+    *p = b.data;
+    *len = b.len;
+    return RAYD_OK;
+}
+
+void gltf_doc_free(struct gltf_doc *d) {
+    if (!d) return;
+    gl_release(&d->G, d->root);
+    free(d);
 }

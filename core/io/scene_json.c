@@ -111,6 +111,7 @@ static enum rayd_status load_camera(struct loader *ld, const cJSON *root) {
     struct jp at = {"/camera"};
     cJSON empty;
     const cJSON *c = section(root, "camera", &empty);
+    ld->camera = cJSON_GetObjectItemCaseSensitive(root, "camera");
     TRY(sj_check_keys(ld, c, &at, keys));
     vec3 pos, look, up;
     double fx, fy;

@@ -40,7 +40,7 @@ static enum rayd_status material(struct loader *ld, const cJSON *m, const struct
     return RAYD_OK;
 }
 
-static enum rayd_status add_material(struct loader *ld, const struct material *m, int *index) {
+enum rayd_status sj_add_material(struct loader *ld, const struct material *m, int *index) {
     rayd_scene *s = ld->s;
     if (!array_grow((void **)&s->mats, &ld->mat_cap, (size_t)s->nmats + 1, sizeof *s->mats))
         return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
@@ -59,7 +59,7 @@ static int cmp_named(const void *a, const void *b) {
 enum rayd_status sj_materials(struct loader *ld, const cJSON *root) {
     struct material def = material_default();
     int idx;
-    TRY(add_material(ld, &def, &idx));
+    TRY(sj_add_material(ld, &def, &idx));
     const cJSON *ms = cJSON_GetObjectItemCaseSensitive(root, "materials");
     if (!ms) return RAYD_OK;
     struct jp at = {"/materials"};
@@ -72,7 +72,7 @@ enum rayd_status sj_materials(struct loader *ld, const cJSON *root) {
         if (m->string[0] == '\0') return sj_fail(ld, RAYD_E_INVALID, &p, "a material name may not be empty");
         struct material mat;
         TRY(material(ld, m, &p, &mat));
-        TRY(add_material(ld, &mat, &idx));
+        TRY(sj_add_material(ld, &mat, &idx));
     }
     /* names sorted for lookup by binary search: a million objects naming
      * ten thousand materials must not scan */
@@ -98,7 +98,7 @@ enum rayd_status sj_object_material(struct loader *ld, const cJSON *obj, const s
         if (ld->s->nmats > ld->lim->max_materials)
             return sj_fail(ld, RAYD_E_LIMIT, &p, "is past the limit of %d materials (named and inline)", ld->lim->max_materials);
         TRY(material(ld, v, &p, &mat));
-        return add_material(ld, &mat, index);
+        return sj_add_material(ld, &mat, index);
     }
     if (!cJSON_IsString(v))
         return sj_fail(ld, RAYD_E_INVALID, &p,

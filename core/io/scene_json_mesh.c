@@ -129,7 +129,7 @@ static enum rayd_status get_indices(struct loader *ld, const cJSON *obj, const s
     return RAYD_OK;
 }
 
-static enum rayd_status add_mesh(struct loader *ld, uint32_t *id) {
+enum rayd_status sj_add_mesh(struct loader *ld, uint32_t *id) {
     rayd_scene *s = ld->s;
     if (!array_grow((void **)&s->meshes, &ld->mesh_cap, (size_t)s->nmeshes + 1, sizeof *s->meshes))
         return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
@@ -139,14 +139,6 @@ static enum rayd_status add_mesh(struct loader *ld, uint32_t *id) {
 }
 
 /* ---- glTF ------------------------------------------------------------------------ */
-
-/* The folder a .gltf's relative buffer files are read from: the source
- * file's own folder (as a name under the asset rules), or the asset
- * folder itself for text and base64. */
-struct gltf_files {
-    struct loader *ld;
-    char dir[1024];
-};
 
 static enum rayd_status gltf_open(void *ctx, const char *name, char **data, size_t *len,
                                   struct rayd_error *err) {
@@ -162,22 +154,25 @@ static enum rayd_status gltf_open(void *ctx, const char *name, char **data, size
     return sj_read_asset(f->ld, &v, &at, data, len);
 }
 
-/* A glTF or GLB source; errors get the source's pointer, then "/gltf" and
- * the pointer inside the glTF document. */
-static enum rayd_status load_gltf(struct loader *ld, const struct jp *at, const cJSON *file,
-                                  const char *bytes, size_t n, const struct mesh_limits *ml,
-                                  struct mesh_data *md) {
-    struct gltf_files f = {.ld = ld};
+enum rayd_status sj_gltf_opts(struct loader *ld, const struct jp *at, const cJSON *file,
+                              struct gltf_files *f, struct mesh_gltf_opts *o) {
+    f->ld = ld;
+    f->dir[0] = '\0';
     if (file) {
         const char *name = file->valuestring, *slash = strrchr(name, '/');
         size_t dn = slash ? (size_t)(slash - name) + 1 : 0;
-        if (dn >= sizeof f.dir) return sj_fail(ld, RAYD_E_INVALID, at, "file name is too long");
-        memcpy(f.dir, name, dn);
-        f.dir[dn] = '\0';
+        if (dn >= sizeof f->dir) return sj_fail(ld, RAYD_E_INVALID, at, "file name is too long");
+        memcpy(f->dir, name, dn);
+        f->dir[dn] = '\0';
     }
-    struct mesh_gltf_opts o = {.max_bytes = ld->lim->max_bytes, .max_nesting = ld->lim->max_nesting,
-                               .open = ld->lim->asset_dir ? gltf_open : NULL, .ctx = &f};
-    enum rayd_status st = mesh_parse_gltf(bytes, n, ml, &o, md, ld->err);
+    *o = (struct mesh_gltf_opts){.max_bytes = ld->lim->max_bytes,
+                                 .max_nesting = ld->lim->max_nesting,
+                                 .open = ld->lim->asset_dir ? gltf_open : NULL,
+                                 .ctx = f};
+    return RAYD_OK;
+}
+
+enum rayd_status sj_gltf_error(struct loader *ld, const struct jp *at, enum rayd_status st) {
     if (st != RAYD_OK && ld->err) {
         char inner[sizeof ld->err->path];
         snprintf(inner, sizeof inner, "%s", ld->err->path);
@@ -188,9 +183,19 @@ static enum rayd_status load_gltf(struct loader *ld, const struct jp *at, const 
     return st;
 }
 
-/* "source": {"format": "obj"|"ply"|"gltf"|"glb", and one of "text", "base64", "file"}. */
-static enum rayd_status load_source(struct loader *ld, const cJSON *src, const struct jp *at,
-                                    struct mesh_data *md) {
+/* A glTF or GLB source; errors get the source's pointer, then "/gltf" and
+ * the pointer inside the glTF document. */
+static enum rayd_status load_gltf(struct loader *ld, const struct jp *at, const cJSON *file,
+                                  const char *bytes, size_t n, const struct mesh_limits *ml,
+                                  struct mesh_data *md) {
+    struct gltf_files f;
+    struct mesh_gltf_opts o;
+    TRY(sj_gltf_opts(ld, at, file, &f, &o));
+    return sj_gltf_error(ld, at, mesh_parse_gltf(bytes, n, ml, &o, md, ld->err));
+}
+
+enum rayd_status sj_source_read(struct loader *ld, const cJSON *src, const struct jp *at,
+                                int *fmt_out, char **owned, const char **out, size_t *nbytes) {
     static const char *const keys[] = {"format", "text", "base64", "file", NULL};
     static const char *const formats[] = {"obj", "ply", "gltf", "glb", NULL};
     TRY(sj_check_keys(ld, src, at, keys));
@@ -216,7 +221,7 @@ static enum rayd_status load_source(struct loader *ld, const cJSON *src, const s
     struct jp pv = sj_key(at, text ? "text" : b64 ? "base64" : "file");
     char *data = NULL;
     size_t len = 0;
-    double t0 = clock_now(); /* decode: reading the file or base64 too */
+    *fmt_out = format;
     if (file) {
         TRY(sj_read_asset(ld, file, &pv, &data, &len));
     } else if (!cJSON_IsString(v)) {
@@ -230,11 +235,31 @@ static enum rayd_status load_source(struct loader *ld, const cJSON *src, const s
         }
         data = (char *)bytes;
     }
-    struct mesh_limits ml = {
-        (uint32_t)(ld->lim->max_vertices - ld->vertices > UINT32_MAX ? UINT32_MAX : ld->lim->max_vertices - ld->vertices),
-        (uint32_t)(ld->lim->max_triangles - ld->triangles > UINT32_MAX ? UINT32_MAX : ld->lim->max_triangles - ld->triangles)};
-    const char *bytes = data ? data : v->valuestring;
-    size_t nbytes = data ? len : strlen(v->valuestring);
+    *owned = data;
+    *out = data ? data : v->valuestring;
+    *nbytes = data ? len : strlen(v->valuestring);
+    return RAYD_OK;
+}
+
+/* "source": {"format": "obj"|"ply"|"gltf"|"glb", and one of "text", "base64", "file"}. */
+static enum rayd_status load_source(struct loader *ld, const cJSON *src, const struct jp *at,
+                                    struct mesh_data *md) {
+    const cJSON *text = cJSON_GetObjectItemCaseSensitive(src, "text");
+    const cJSON *b64 = cJSON_GetObjectItemCaseSensitive(src, "base64");
+    const cJSON *file = cJSON_GetObjectItemCaseSensitive(src, "file");
+    struct jp pv = sj_key(at, text ? "text" : b64 ? "base64" : "file");
+    int format;
+    char *data;
+    const char *bytes;
+    size_t nbytes;
+    double t0 = clock_now(); /* decode: reading the file or base64 too */
+    TRY(sj_source_read(ld, src, at, &format, &data, &bytes, &nbytes));
+    struct mesh_limits ml = {(uint32_t)(ld->lim->max_vertices - ld->vertices > UINT32_MAX
+                                            ? UINT32_MAX
+                                            : ld->lim->max_vertices - ld->vertices),
+                             (uint32_t)(ld->lim->max_triangles - ld->triangles > UINT32_MAX
+                                            ? UINT32_MAX
+                                            : ld->lim->max_triangles - ld->triangles)};
     enum rayd_status st = format == 0   ? mesh_parse_obj_threads(bytes, nbytes, &ml, 0, md, ld->err)
                           : format == 1 ? mesh_parse_ply_threads(bytes, nbytes, &ml, 0, md, ld->err)
                                         : load_gltf(ld, at, file, bytes, nbytes, &ml, md);
@@ -312,7 +337,7 @@ enum rayd_status sj_mesh(struct loader *ld, const cJSON *oj, const struct jp *at
         for (int k = 0; k < 3; k++) n[k] = (float)(n[k] / len);
     }
 build:
-    if ((st = add_mesh(ld, id)) != RAYD_OK) goto out;
+    if ((st = sj_add_mesh(ld, id)) != RAYD_OK) goto out;
     ld->vertices += nv;
     ld->triangles += nt;
     double t0 = clock_now();

@@ -15,6 +15,7 @@
 #include "io/scene_json_objects.h"
 
 #include "base/clock.h"
+#include "io/scene_json_gltf.h"
 #include "io/scene_json_material.h"
 #include "io/scene_json_mesh.h"
 
@@ -339,13 +340,25 @@ static enum rayd_status load_instance(struct loader *ld, const cJSON *oj, const 
 /* ---- objects ----------------------------------------------------------------------- */
 
 enum kind_index {
-    K_SPHERE, K_PLANE, K_BOX, K_CYLINDER, K_CONE, K_DISC, K_TORUS, K_TRIANGLE, K_QUAD,
-    K_QUADRIC, K_MESH, K_CSG, K_INSTANCE
+    K_SPHERE,
+    K_PLANE,
+    K_BOX,
+    K_CYLINDER,
+    K_CONE,
+    K_DISC,
+    K_TORUS,
+    K_TRIANGLE,
+    K_QUAD,
+    K_QUADRIC,
+    K_MESH,
+    K_CSG,
+    K_INSTANCE,
+    K_GLTF
 };
 
-static const char *const kind_names[] = {"sphere", "plane",    "box",     "cylinder", "cone",
-                                         "disc",   "torus",    "triangle", "quad",    "quadric",
-                                         "mesh",   "csg",      "instance", NULL};
+static const char *const kind_names[] = {"sphere", "plane", "box",      "cylinder", "cone",
+                                         "disc",   "torus", "triangle", "quad",     "quadric",
+                                         "mesh",   "csg",   "instance", "gltf",     NULL};
 
 #define COMMON "type", "name", "material", "transform"
 static const char *const *const kind_keys[] = {
@@ -359,9 +372,11 @@ static const char *const *const kind_keys[] = {
     (const char *const[]){COMMON, "vertices", NULL},
     (const char *const[]){COMMON, "corner", "edge1", "edge2", NULL},
     (const char *const[]){COMMON, "coefficients", NULL},
-    (const char *const[]){COMMON, "source", "vertices", "indices", "normals", "uvs", "smooth", NULL},
+    (const char *const[]){COMMON, "source", "vertices", "indices", "normals", "uvs", "smooth",
+                          NULL},
     (const char *const[]){COMMON, "op", "operands", NULL},
     (const char *const[]){"type", "name", "transform", "group", NULL},
+    (const char *const[]){COMMON, "source", "scene", "lights", "light_scale", "camera", NULL},
 };
 
 static enum rayd_status load_shape(struct loader *ld, const cJSON *oj, const struct jp *at,
@@ -419,13 +434,17 @@ static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const st
     struct jp pt = sj_key(at, "type");
     if (kind == K_INSTANCE && cx->in_group)
         return sj_fail(ld, RAYD_E_INVALID, &pt, "an instance cannot be inside a group (groups do not nest)");
+    if (kind == K_GLTF && (cx->in_group || cx->in_csg))
+        return sj_fail(ld, RAYD_E_INVALID, &pt,
+                       "a gltf object cannot be inside a group or a CSG object (its meshes are a "
+                       "group of their own)");
     memset(o, 0, sizeof *o);
     o->xform = -1;
     TRY(sj_object_material(ld, oj, at, cx->material, &o->material));
     struct xform x;
     bool has_x;
     TRY(load_transform(ld, oj, at, &x, &has_x));
-    if (kind == K_INSTANCE && !has_x) x = xform_identity(), has_x = true;
+    if ((kind == K_INSTANCE || kind == K_GLTF) && !has_x) x = xform_identity(), has_x = true;
     /* inside CSG every transform is composed down to the leaves */
     struct xform acc = cx->acc ? xform_then(&x, cx->acc) : x;
     struct jp ptr = sj_key(at, "transform");
@@ -433,7 +452,11 @@ static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const st
         return sj_fail(ld, RAYD_E_INVALID, &ptr, "must not scale the object by more than 1e9 or less than 1e-9 (with the CSG nodes above it)");
     struct ctx sub = *cx;
     sub.acc = (cx->in_csg || kind == K_CSG) ? &acc : NULL;
-    TRY(load_shape(ld, oj, at, kind, &sub, o));
+    if (kind == K_GLTF) {
+        TRY(sj_gltf(ld, oj, at, &x, o));
+    } else {
+        TRY(load_shape(ld, oj, at, kind, &sub, o));
+    }
     if (cx->in_csg && !shape_is_solid(o))
         return sj_fail(ld, RAYD_E_INVALID, &pt,
                        "a %s cannot be a CSG operand: CSG needs closed solids (sphere, box, capped cylinder or cone, torus, plane, quadric, csg)",

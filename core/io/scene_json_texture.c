@@ -17,7 +17,7 @@
 #include "render/image.h"
 #include "shade/texture.h"
 
-static enum rayd_status add_texture(struct loader *ld, const struct texture *t, int *index) {
+enum rayd_status sj_add_texture(struct loader *ld, const struct texture *t, int *index) {
     rayd_scene *s = ld->s;
     if (!array_grow((void **)&s->textures, &ld->tex_cap, (size_t)s->ntextures + 1, sizeof *s->textures))
         return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
@@ -91,7 +91,7 @@ enum rayd_status sj_texture(struct loader *ld, const cJSON *tj, const struct jp 
     } else if (cJSON_GetObjectItemCaseSensitive(tj, "png_base64") || cJSON_GetObjectItemCaseSensitive(tj, "file")) {
         return sj_fail(ld, RAYD_E_INVALID, at, "png_base64 and file belong to image textures");
     }
-    enum rayd_status st = add_texture(ld, &t, index);
+    enum rayd_status st = sj_add_texture(ld, &t, index);
     if (st != RAYD_OK) free(t.rgb);
     return st;
 }

@@ -8,6 +8,7 @@
  *   scene_json_material.c  named and inline materials
  *   scene_json_texture.c   material textures
  *   scene_json_env.c       render.environment: a colour or an .hdr image
+ *   scene_json_gltf.c      gltf objects: a glTF file's meshes, materials, lights, camera
  *   scene_json_mesh.c      meshes: inline arrays, OBJ/PLY sources
  *   scene_json_inline.c    large inline arrays kept out of cJSON's tree
  *   scene_json_util.c      JSON Pointers, the typed getters, files a scene names
@@ -60,6 +61,8 @@ struct loader {
     double frame_elevation;      /* degrees above the horizon: the view's, or camera.elevation */
     double frame_fx, frame_fy;   /* the camera's fov_x, fov_y as given (0 = absent) */
     bool frame_focus;            /* focus_distance given: kept when framing */
+    const cJSON *camera;         /* /camera, or NULL */
+    bool gltf_camera;            /* a gltf object has set the camera */
 };
 
 enum vec_rule { VEC_ANY, VEC_NONZERO, VEC_COLOR };

@@ -353,9 +353,9 @@ case("object-missing-type.json", '{"objects": [{"center": [0, 0, -5], "radius": 
      E + "/objects/0/type: is required")
 case("object-type-null.json", '{"objects": [{"type": null}]}\n', E + "/objects/0/type: must be a string, not null")
 case("object-unknown-type.json", '{"objects": [{"type": "sphere"}, {"type": "cube"}]}\n',
-     E + '/objects/1/type: unknown type "cube" (supported: sphere, plane, box, cylinder, cone, disc, torus, triangle, quad, quadric, mesh, csg, instance)')
+     E + '/objects/1/type: unknown type "cube" (supported: sphere, plane, box, cylinder, cone, disc, torus, triangle, quad, quadric, mesh, csg, instance, gltf)')
 case("object-type-empty.json", '{"objects": [{"type": ""}]}\n',
-     E + '/objects/0/type: unknown type "" (supported: sphere, plane, box, cylinder, cone, disc, torus, triangle, quad, quadric, mesh, csg, instance)')
+     E + '/objects/0/type: unknown type "" (supported: sphere, plane, box, cylinder, cone, disc, torus, triangle, quad, quadric, mesh, csg, instance, gltf)')
 case("sphere-unknown-key.json", '{"objects": [{"type": "sphere", "normal": [0, 1, 0]}]}\n',
      E + "/objects/0/normal: unknown key (allowed here: %s)" % SPHERE_KEYS)
 case("plane-unknown-key.json", '{"objects": [{"type": "plane", "radius": 1}]}\n',
@@ -529,6 +529,32 @@ case("mesh-source-gltf-index.json", gltf(lambda d: d["accessors"][1].update(comp
      E + GP + "/accessors/1/componentType: indices must be UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT (5121, 5123, 5125), not 5126")
 case("mesh-source-gltf-syntax.json", src({"format": "gltf", "text": '{"asset": {"version": "2.0"},\n "nodes": [}'}),
      E + GP + ": glTF JSON line 2, column 12: malformed JSON: expected a value, found '}'")
+def gltf_object(edit=None, **extra):
+    """A "gltf" object (the file as a whole scene) of gltf()'s document."""
+    s = json.loads(gltf(edit))
+    s["objects"][0]["type"] = "gltf"
+    s["objects"][0].update(extra)
+    return json.dumps(s) + "\n"
+
+
+case("gltf-object-base-color.json",
+     gltf_object(lambda d: d.update(materials=[{"pbrMetallicRoughness": {"baseColorFactor": [1, 0.5, 2, 1]}}])),
+     E + GP + "/materials/0/pbrMetallicRoughness/baseColorFactor: must be numbers in [0, 1]")
+case("gltf-object-material-index.json",
+     gltf_object(lambda d: d["meshes"][0]["primitives"][0].update(material=3)),
+     E + GP + "/meshes/0/primitives/0/material: materials 3 does not exist (there are 0)")
+case("gltf-object-light-index.json",
+     gltf_object(lambda d: d["nodes"][0].update(extensions={"KHR_lights_punctual": {"light": 2}})),
+     E + GP + "/nodes/0/extensions/KHR_lights_punctual/light: names a light, but the file has no /extensions/KHR_lights_punctual/lights")
+case("gltf-object-camera-name.json", gltf_object(camera="front"),
+     E + "/objects/0/camera: the glTF has no cameras named \"front\"")
+case("gltf-object-camera-clash.json",
+     json.dumps(dict(json.loads(gltf_object(lambda d: d.update(cameras=[{"type": "perspective", "perspective": {"yfov": 0.7}}], nodes=[{"mesh": 0}, {"camera": 0, "translation": [0, 0, 3]}], scenes=[{"nodes": [0, 1]}]), camera=0)), camera={"position": [0, 0, 5]})) + "\n",
+     E + "/objects/0/camera: the glTF camera sets the scene's camera: /camera/position cannot be given too (only aperture and focus_distance can)")
+case("gltf-object-in-group.json",
+     json.dumps({"groups": {"g": [json.loads(gltf_object())["objects"][0]]}}) + "\n",
+     E + "/groups/g/0/type: a gltf object cannot be inside a group or a CSG object (its meshes are a group of their own)")
+
 case("mesh-source-glb-short.json", src({"format": "glb", "base64": "Z2xURgIAAAA="}),
      E + GP + ": GLB file ends early (8 bytes)")
 

@@ -1,0 +1,515 @@
+/* test_gltf_scene.c -- "gltf" objects: a glTF file as a whole scene
+ * (core/io/scene_json_gltf.c, gltf_material.c, mesh_gltf.c's gltf_doc_*).
+ *
+ * One glTF is built here as a cJSON tree: a unit quad (positions, uvs and
+ * indices in one data: URI buffer, which also holds a 2 x 1 PNG made with
+ * rayd's encoder), drawn by primitives in five materials (two primitives
+ * share one, one has none), a PNG texture from a bufferView and a JPEG
+ * (made with stb_image_write) from a data: URI, a spot and a directional
+ * light, a perspective and an orthographic camera.  The scene that comes
+ * out must hold the values worked out here by hand: materials, one mesh
+ * per material, uvs flipped to rayd's v, texels with the factor baked in,
+ * lights and cameras where their nodes and the object's transform put
+ * them.  Then hostile variants of the tree must be refused with the JSON
+ * Pointer into the glTF document.
+ */
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cjson/cJSON.h>
+#include <stb/stb_image_write.h>
+
+#include "check.h"
+#include "io/gltf_material.h"
+#include "render/image.h"
+#include "scene/scene.h"
+#include "shade/texture.h"
+
+/* ---- the bytes ---------------------------------------------------------------- */
+
+static unsigned char buf[4096];
+static size_t buf_len, png_len;
+static char *jpeg_uri;
+
+static char *base64(const unsigned char *b, size_t n, const char *prefix) {
+    static const char t[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    size_t pn = strlen(prefix);
+    char *o = malloc(pn + (n + 2) / 3 * 4 + 1), *p = o + pn;
+    memcpy(o, prefix, pn);
+    for (size_t i = 0; i < n; i += 3) {
+        uint32_t v = (uint32_t)b[i] << 16 | (i + 1 < n ? (uint32_t)b[i + 1] << 8 : 0) |
+                     (i + 2 < n ? b[i + 2] : 0);
+        *p++ = t[v >> 18 & 63];
+        *p++ = t[v >> 12 & 63];
+        *p++ = i + 1 < n ? t[v >> 6 & 63] : '=';
+        *p++ = i + 2 < n ? t[v & 63] : '=';
+    }
+    *p = '\0';
+    return o;
+}
+
+static void jpeg_out(void *ctx, void *data, int size) {
+    size_t *n = ctx;
+    memcpy(buf + 2048 + *n, data, (size_t)size);
+    *n += (size_t)size;
+}
+
+/* positions 0..47, uvs 48..79 (glTF's: u = x, v = y), u16 indices 80..91, PNG from 92 */
+static void make_bytes(void) {
+    static const float q[12] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
+    static const float uv[8] = {0, 0, 1, 0, 1, 1, 0, 1};
+    static const uint16_t ix[6] = {0, 1, 2, 0, 2, 3};
+    memcpy(buf, q, sizeof q);
+    memcpy(buf + 48, uv, sizeof uv);
+    memcpy(buf + 80, ix, sizeof ix);
+    unsigned char px[6] = {255, 0, 0, 0, 128, 255};
+    rayd_image img = {.w = 2, .h = 1, .px = px};
+    void *png;
+    rayd_png_encode(&img, 6, &png, &png_len, NULL);
+    memcpy(buf + 92, png, png_len);
+    free(png);
+    buf_len = 92 + png_len;
+    unsigned char solid[8 * 8 * 3];
+    for (int i = 0; i < 64; i++) solid[3 * i] = 200, solid[3 * i + 1] = 100, solid[3 * i + 2] = 50;
+    size_t jn = 0;
+    stbi_write_jpg_to_func(jpeg_out, &jn, 8, 8, 3, solid, 100);
+    jpeg_uri = base64(buf + 2048, jn, "data:image/jpeg;base64,");
+}
+
+/* ---- the document --------------------------------------------------------------- */
+
+static const char *doc_text =
+    "{\"asset\": {\"version\": \"2.0\"}, \"scene\": 0,"
+    " \"scenes\": [{\"name\": \"main\", \"nodes\": [0, 1, 2, 3, 4, 5, 6]},"
+    "              {\"name\": \"second\", \"nodes\": [1]}],"
+    " \"bufferViews\": [{\"buffer\": 0, \"byteLength\": 48}, {\"buffer\": 0, \"byteOffset\": 48, "
+    "\"byteLength\": 32},"
+    "                   {\"buffer\": 0, \"byteOffset\": 80, \"byteLength\": 12}],"
+    " \"accessors\": [{\"bufferView\": 0, \"componentType\": 5126, \"count\": 4, \"type\": "
+    "\"VEC3\"},"
+    "                 {\"bufferView\": 1, \"componentType\": 5126, \"count\": 4, \"type\": "
+    "\"VEC2\"},"
+    "                 {\"bufferView\": 2, \"componentType\": 5123, \"count\": 6, \"type\": "
+    "\"SCALAR\"}],"
+    " \"textures\": [{\"source\": 0, \"sampler\": 0}, {\"source\": 1}],"
+    " \"samplers\": [{\"wrapS\": 33071}],"
+    " \"materials\": ["
+    "   {\"pbrMetallicRoughness\": {\"baseColorFactor\": [0.5, 0.25, 1, 1], \"metallicFactor\": 1,"
+    "     \"roughnessFactor\": 0}},"
+    "   {\"pbrMetallicRoughness\": {\"baseColorFactor\": [1, 1, 1, 0.4], \"metallicFactor\": 0,"
+    "     \"roughnessFactor\": 0.5}, \"alphaMode\": \"BLEND\", \"emissiveFactor\": [1, 0.5, 0],"
+    "    \"extensions\": {\"KHR_materials_emissive_strength\": {\"emissiveStrength\": 2},"
+    "                   \"KHR_materials_ior\": {\"ior\": 1.33}}},"
+    "   {\"pbrMetallicRoughness\": {\"baseColorFactor\": [0.5, 1, 1, 1], \"baseColorTexture\": "
+    "{\"index\": 0}}},"
+    "   {\"pbrMetallicRoughness\": {\"baseColorTexture\": {\"index\": 1}}},"
+    "   {\"alphaMode\": \"MASK\"}],"
+    " \"meshes\": ["
+    "   {\"primitives\": [{\"attributes\": {\"POSITION\": 0}, \"indices\": 2, \"material\": 0},"
+    "                     {\"attributes\": {\"POSITION\": 0}, \"indices\": 2, \"material\": 1},"
+    "                     {\"attributes\": {\"POSITION\": 0}, \"indices\": 2, \"material\": 0},"
+    "                     {\"attributes\": {\"POSITION\": 0}, \"indices\": 2}]},"
+    "   {\"primitives\": [{\"attributes\": {\"POSITION\": 0, \"TEXCOORD_0\": 1}, \"indices\": 2, "
+    "\"material\": 2}]},"
+    "   {\"primitives\": [{\"attributes\": {\"POSITION\": 0, \"TEXCOORD_0\": 1}, \"indices\": 2, "
+    "\"material\": 3}]}],"
+    " \"nodes\": [{\"mesh\": 0}, {\"mesh\": 1, \"translation\": [0, 0, -2]},"
+    "   {\"mesh\": 2, \"translation\": [0, 0, -4]},"
+    "   {\"translation\": [1, 2, 3], \"rotation\": [0.7071067811865476, 0, 0, "
+    "0.7071067811865476],"
+    "    \"extensions\": {\"KHR_lights_punctual\": {\"light\": 0}}},"
+    "   {\"translation\": [0, 0, 5], \"camera\": 0},"
+    "   {\"translation\": [0, 1, 0], \"extensions\": {\"KHR_lights_punctual\": {\"light\": 1}}},"
+    "   {\"translation\": [0, 3, 7], \"camera\": 1}],"
+    " \"cameras\": [{\"type\": \"perspective\", \"perspective\": {\"yfov\": 0.5, \"znear\": 0.1}},"
+    "   {\"type\": \"orthographic\", \"name\": \"top\", \"orthographic\": {\"xmag\": 2, \"ymag\": "
+    "1.5, \"znear\": 0.1, \"zfar\": 10}}],"
+    " \"extensions\": {\"KHR_lights_punctual\": {\"lights\": ["
+    "   {\"type\": \"spot\", \"color\": [1, 0.5, 0.25], \"intensity\": 5,"
+    "    \"spot\": {\"innerConeAngle\": 0.2, \"outerConeAngle\": 0.5}},"
+    "   {\"type\": \"directional\", \"intensity\": 3}]}}}";
+
+/* The document as a tree, with its buffer and images filled in. */
+static cJSON *doc_tree(void) {
+    cJSON *d = cJSON_Parse(doc_text);
+    char *uri = base64(buf, buf_len, "data:application/octet-stream;base64,");
+    cJSON *b = cJSON_CreateObject();
+    cJSON_AddNumberToObject(b, "byteLength", (double)buf_len);
+    cJSON_AddStringToObject(b, "uri", uri);
+    cJSON *bufs = cJSON_AddArrayToObject(d, "buffers");
+    cJSON_AddItemToArray(bufs, b);
+    cJSON *v = cJSON_CreateObject();
+    cJSON_AddNumberToObject(v, "buffer", 0);
+    cJSON_AddNumberToObject(v, "byteOffset", 92);
+    cJSON_AddNumberToObject(v, "byteLength", (double)png_len);
+    cJSON_AddItemToArray(cJSON_GetObjectItem(d, "bufferViews"), v);
+    cJSON *imgs = cJSON_AddArrayToObject(d, "images"), *i0 = cJSON_CreateObject();
+    cJSON *i1 = cJSON_CreateObject();
+    cJSON_AddNumberToObject(i0, "bufferView", 3);
+    cJSON_AddStringToObject(i0, "mimeType", "image/png");
+    cJSON_AddStringToObject(i1, "uri", jpeg_uri);
+    cJSON_AddItemToArray(imgs, i0);
+    cJSON_AddItemToArray(imgs, i1);
+    free(uri);
+    return d;
+}
+
+/* A scene of one gltf object: the document d (consumed) and the object's
+ * extra keys (JSON members, may be ""), with a top-level head ("" or
+ * members ending in a comma). */
+static rayd_scene *parse(cJSON *d, const char *head, const char *extra, struct rayd_error *err) {
+    char *text = cJSON_PrintUnformatted(d);
+    cJSON_Delete(d);
+    cJSON *src = cJSON_CreateObject();
+    cJSON_AddStringToObject(src, "format", "gltf");
+    cJSON_AddStringToObject(src, "text", text);
+    char *stext = cJSON_PrintUnformatted(src);
+    cJSON_Delete(src);
+    size_t n = strlen(stext) + strlen(head) + strlen(extra) + 200;
+    char *json = malloc(n);
+    snprintf(json, n,
+             "{%s \"render\": {\"width\": 40, \"height\": 20},"
+             " \"objects\": [{\"type\": \"gltf\", \"source\": %s%s%s}]}",
+             head, stext, *extra ? ", " : "", extra);
+    rayd_scene *s = NULL;
+    memset(err, 0, sizeof *err);
+    if (rayd_scene_parse(json, strlen(json), NULL, &s, err) != RAYD_OK) s = NULL;
+    free(text), free(stext), free(json);
+    return s;
+}
+
+static const struct group *the_group(const rayd_scene *s) {
+    if (s->nobjs != 1 || s->objs[0].kind != SHAPE_INSTANCE) return NULL;
+    return &s->groups[s->objs[0].u.inst.group];
+}
+
+/* The member mesh object whose material has colour c (NULL: none). */
+static const struct object *by_color(const rayd_scene *s, double r, double g, double b) {
+    const struct group *gr = the_group(s);
+    for (int32_t i = 0; gr && i < gr->nobjs; i++) {
+        vec3 c = s->mats[gr->objs[i].material].color;
+        if (fabs(c.x - r) < 1e-12 && fabs(c.y - g) < 1e-12 && fabs(c.z - b) < 1e-12)
+            return &gr->objs[i];
+    }
+    return NULL;
+}
+
+static double lin(int c) {
+    double x = c / 255.0;
+    return x <= 0.04045 ? x / 12.92 : pow((x + 0.055) / 1.055, 2.4);
+}
+
+/* ---- materials, meshes, textures ------------------------------------------------ */
+
+static void test_materials_and_groups(void) {
+    struct rayd_error err;
+    rayd_scene *s = parse(doc_tree(), "", "", &err);
+    CHECK(s, "parse: %s at %s", err.message, err.path);
+    if (!s) return;
+    const struct group *gr = the_group(s);
+    CHECK(gr && gr->nobjs == 5, "one mesh per material drawn: %d", gr ? gr->nobjs : -1);
+    const struct object *m0 = by_color(s, 0.5, 0.25, 1), *m1 = by_color(s, 1, 1, 1);
+    CHECK(m0 && s->meshes[m0->u.mesh.id].ntris == 4, "material 0's two primitives: one mesh");
+    if (m0) {
+        const struct material *m = &s->mats[m0->material];
+        CHECK_NEAR(m->metallic, 1, 0);
+        CHECK_NEAR(m->roughness, 0, 0);
+        CHECK_NEAR(m->specular, 1, 1e-12);
+        CHECK_NEAR(m->shininess, 10000, 0);
+        CHECK_NEAR(m->reflectivity, 1, 1e-12);
+        CHECK_NEAR(m->diffuse, 0, 1e-12);
+        CHECK_NEAR(m->transparency, 0, 0);
+    }
+    /* material 1 (white, BLEND) and the default material (white, metallic 1,
+     * roughness 1) share a colour: told apart by transparency */
+    const struct object *blend = NULL, *dflt = NULL;
+    for (int32_t i = 0; gr && i < gr->nobjs; i++) {
+        const struct material *m = &s->mats[gr->objs[i].material];
+        if (m->transparency > 0) blend = &gr->objs[i];
+        if (m->metallic == 1 && m->roughness == 1) dflt = &gr->objs[i];
+    }
+    CHECK(m1 && blend && dflt, "the blended and the default material");
+    if (blend) {
+        const struct material *m = &s->mats[blend->material];
+        CHECK_NEAR(m->transparency, 0.6, 1e-12);
+        CHECK_NEAR(m->ior, 1.33, 1e-12);
+        CHECK_NEAR(m->emission.x, 2, 1e-12);
+        CHECK_NEAR(m->emission.y, 1, 1e-12);
+        CHECK_NEAR(m->emission.z, 0, 0);
+        CHECK_NEAR(m->roughness, 0.5, 0);
+        CHECK_NEAR(m->shininess, 30, 1e-9); /* 2 / 0.5^4 - 2 */
+        CHECK_NEAR(m->specular, 0.125, 1e-12);
+        CHECK_NEAR(m->reflectivity, 0, 0);
+    }
+    if (dflt) {
+        const struct material *m = &s->mats[dflt->material];
+        CHECK_NEAR(m->color.x, 1, 0);
+        CHECK_NEAR(m->specular, 0, 1e-12);
+        CHECK_NEAR(m->transparency, 0, 0);
+        CHECK_NEAR(s->meshes[dflt->u.mesh.id].ntris, 2, 0);
+    }
+    CHECK(s->nmats == 1 + 5, "the default rayd material and the five used: %d", s->nmats);
+    CHECK(s->ntextures == 2, "two textures: %d", s->ntextures);
+    rayd_scene_free(s);
+}
+
+static void test_uvs_and_textures(void) {
+    struct rayd_error err;
+    rayd_scene *s = parse(doc_tree(), "", "", &err);
+    CHECK(s, "parse: %s", err.message);
+    if (!s) return;
+    const struct object *o = by_color(s, 0.5, 1, 1);
+    CHECK(o, "the PNG-textured material");
+    if (o) {
+        const struct mesh *m = &s->meshes[o->u.mesh.id];
+        CHECK(m->uv && m->pos && m->nverts == 4, "uvs kept");
+        for (uint32_t i = 0; m->uv && m->pos && i < m->nverts; i++) {
+            CHECK_NEAR(m->uv[2 * i], m->pos[3 * i], 0);
+            CHECK_NEAR(m->uv[2 * i + 1], 1 - m->pos[3 * i + 1], 0); /* v flipped */
+            CHECK_NEAR(m->pos[3 * i + 2], -2, 0);
+        }
+        const struct material *mt = &s->mats[o->material];
+        CHECK(mt->texture >= 0, "textured");
+        if (mt->texture >= 0) {
+            const struct texture *t = &s->textures[mt->texture];
+            CHECK(t->kind == TEX_IMAGE && t->space == TEX_UV && t->w == 2 && t->h == 1, "2 x 1");
+            CHECK_NEAR(t->rgb[0], 0.5, 1e-6); /* 255 red times the factor's 0.5 */
+            CHECK_NEAR(t->rgb[1], 0, 0);
+            CHECK_NEAR(t->rgb[4], lin(128), 1e-6);
+            CHECK_NEAR(t->rgb[5], 1, 1e-6);
+        }
+    }
+    const struct object *j = NULL;
+    const struct group *gr = the_group(s);
+    for (int32_t i = 0; gr && i < gr->nobjs; i++)
+        if (s->mats[gr->objs[i].material].texture >= 0 && &gr->objs[i] != o) j = &gr->objs[i];
+    CHECK(j, "the JPEG-textured material");
+    if (j) {
+        const struct texture *t = &s->textures[s->mats[j->material].texture];
+        CHECK(t->w == 8 && t->h == 8, "8 x 8: %d x %d", t->w, t->h);
+        CHECK_NEAR(t->rgb[0], lin(200), 0.02);
+        CHECK_NEAR(t->rgb[1], lin(100), 0.02);
+        CHECK_NEAR(t->rgb[2], lin(50), 0.02);
+    }
+    rayd_scene_free(s);
+}
+
+/* Item i of d's array a, or that item's member b. */
+static cJSON *at(cJSON *d, const char *a, int i, const char *b) {
+    cJSON *x = cJSON_GetArrayItem(cJSON_GetObjectItem(d, a), i);
+    return b ? cJSON_GetObjectItem(x, b) : x;
+}
+
+/* The JPEG material's mesh (2 triangles at z = -4) when its texture reads
+ * texCoord set `set` and its primitive has only TEXCOORD_<has>: the uvs of
+ * that set, or (0, 0) when the set is missing. */
+static void texcoord_case(int set, int has) {
+    cJSON *d = doc_tree();
+    cJSON *ti =
+        cJSON_GetObjectItem(at(d, "materials", 3, "pbrMetallicRoughness"), "baseColorTexture");
+    cJSON_AddNumberToObject(ti, "texCoord", set);
+    cJSON *attr = cJSON_GetObjectItem(at(d, "meshes", 2, "primitives")->child, "attributes");
+    char key[16];
+    snprintf(key, sizeof key, "TEXCOORD_%d", has);
+    cJSON_DeleteItemFromObject(attr, "TEXCOORD_0");
+    cJSON_AddNumberToObject(attr, key, 1);
+    struct rayd_error err;
+    rayd_scene *s = parse(d, "", "", &err);
+    CHECK(s, "parse: %s", err.message);
+    const struct group *gr = s ? the_group(s) : NULL;
+    const struct mesh *m = NULL;
+    for (int32_t i = 0; gr && i < gr->nobjs; i++) {
+        const struct mesh *x = &s->meshes[gr->objs[i].u.mesh.id];
+        if (x->pos && x->pos[2] == -4) m = x;
+    }
+    CHECK(m && m->uv, "the JPEG material's mesh, with uvs");
+    for (uint32_t i = 0; m && m->uv && i < m->nverts; i++) {
+        CHECK_NEAR(m->uv[2 * i], set == has ? m->pos[3 * i] : 0, 0);
+        CHECK_NEAR(m->uv[2 * i + 1], set == has ? 1 - m->pos[3 * i + 1] : 0, 0);
+    }
+    if (s) rayd_scene_free(s);
+}
+
+static void test_texcoord_sets(void) {
+    texcoord_case(1, 1);
+    texcoord_case(1, 0);
+    texcoord_case(0, 0);
+}
+
+static void test_pbr_mapping(void) {
+    struct gltf_pbr mask = {{1, 1, 1, 0.3}, 0, 1, {0, 0, 0}, 1, 0.5, 1};
+    struct material m = gltf_pbr_material(&mask);
+    CHECK_NEAR(m.transparency, 1, 0); /* MASK below the cutoff: cut away */
+    CHECK_NEAR(m.ior, 1, 0);
+    mask.base[3] = 0.6;
+    m = gltf_pbr_material(&mask);
+    CHECK_NEAR(m.transparency, 0, 0);
+    struct gltf_pbr opaque = {{0.2, 0.3, 0.4, 0.1}, 0.5, 1, {0, 0, 0}, 0, 0.5, 1.5};
+    m = gltf_pbr_material(&opaque);
+    CHECK_NEAR(m.transparency, 0, 0); /* OPAQUE ignores alpha */
+    CHECK_NEAR(m.specular, 0, 1e-12);
+    CHECK_NEAR(m.shininess, 1, 0);
+    CHECK_NEAR(m.metallic, 0.5, 0);
+}
+
+static void test_override_and_scene(void) {
+    struct rayd_error err;
+    rayd_scene *s =
+        parse(doc_tree(), "", "\"material\": {\"color\": [1, 0, 0]}, \"lights\": false", &err);
+    CHECK(s, "parse: %s", err.message);
+    if (s) {
+        const struct group *gr = the_group(s);
+        CHECK(gr && gr->nobjs == 1, "one mesh under an override: %d", gr ? gr->nobjs : -1);
+        CHECK(gr && s->meshes[gr->objs[0].u.mesh.id].ntris == 12, "every triangle");
+        CHECK(gr && s->mats[gr->objs[0].material].color.y == 0, "the override's colour");
+        CHECK(s->nlights == 0 && s->ntextures == 0, "no lights, no textures");
+        rayd_scene_free(s);
+    }
+    s = parse(doc_tree(), "", "\"scene\": \"second\"", &err);
+    CHECK(s, "parse: %s", err.message);
+    if (s) {
+        const struct group *gr = the_group(s);
+        CHECK(gr && gr->nobjs == 1, "scene 1 draws one mesh: %d", gr ? gr->nobjs : -1);
+        CHECK(s->nlights == 0, "scene 1 has no lights");
+        rayd_scene_free(s);
+    }
+}
+
+/* ---- lights and cameras ------------------------------------------------------------ */
+
+static void test_lights(void) {
+    struct rayd_error err;
+    rayd_scene *s = parse(doc_tree(), "\"lights\": [{\"type\": \"point\"}],",
+                          "\"transform\": {\"translate\": [10, 0, 0]}, \"light_scale\": 2", &err);
+    CHECK(s, "parse: %s", err.message);
+    if (!s) return;
+    CHECK(s->nlights == 3, "the scene's light and the file's two: %d", s->nlights);
+    if (s->nlights == 3) {
+        const struct light *l = &s->lights[1];
+        CHECK(l->kind == LIGHT_SPOT, "spot");
+        CHECK_NEAR(l->position.x, 11, 1e-12);
+        CHECK_NEAR(l->position.y, 2, 1e-12);
+        CHECK_NEAR(l->position.z, 3, 1e-12);
+        CHECK_NEAR(l->direction.x, 0, 1e-12); /* -Z turned 90 degrees about X */
+        CHECK_NEAR(l->direction.y, 1, 1e-12);
+        CHECK_NEAR(l->direction.z, 0, 1e-12);
+        CHECK_NEAR(l->color.y, 0.5, 0);
+        CHECK_NEAR(l->intensity, 10, 1e-12);
+        CHECK_NEAR(l->cos_outer, cos(0.5), 1e-15);
+        CHECK_NEAR(l->cos_inner, cos(0.2), 1e-15);
+        const struct light *d = &s->lights[2];
+        CHECK(d->kind == LIGHT_DIRECTIONAL, "directional");
+        CHECK_NEAR(d->direction.z, -1, 1e-12);
+        CHECK_NEAR(d->intensity, 6, 1e-12);
+    }
+    rayd_scene_free(s);
+}
+
+static void test_cameras(void) {
+    struct rayd_error err;
+    rayd_scene *s = parse(doc_tree(), "\"camera\": {\"aperture\": 0.1, \"focus_distance\": 4},",
+                          "\"transform\": {\"translate\": [10, 0, 0]}, \"camera\": 0", &err);
+    CHECK(s, "parse: %s", err.message);
+    if (s) {
+        const struct camera *c = &s->cam;
+        CHECK_NEAR(c->pos.x, 10, 1e-12);
+        CHECK_NEAR(c->pos.z, 5, 1e-12);
+        CHECK_NEAR(c->w.z, -1, 1e-12);
+        CHECK_NEAR(c->v.y, 1, 1e-12);
+        CHECK_NEAR(c->u.x, 1, 1e-12);
+        CHECK_NEAR(c->tan_y, tan(0.25), 1e-12);
+        CHECK_NEAR(c->tan_x, 2 * tan(0.25), 1e-12); /* the image's aspect, 40 x 20 */
+        CHECK_NEAR(c->aperture, 0.05, 1e-12);
+        CHECK_NEAR(c->focus, 4, 0);
+        CHECK(!c->ortho, "perspective");
+        rayd_scene_free(s);
+    }
+    s = parse(doc_tree(), "", "\"transform\": {\"scale\": 2}, \"camera\": \"top\"", &err);
+    CHECK(s, "parse: %s", err.message);
+    if (s) {
+        const struct camera *c = &s->cam;
+        CHECK(c->ortho, "orthographic");
+        CHECK_NEAR(c->pos.y, 6, 1e-12);
+        CHECK_NEAR(c->pos.z, 14, 1e-12);
+        CHECK_NEAR(c->tan_y, 3, 1e-12); /* ymag 1.5, scaled by 2 */
+        CHECK_NEAR(c->tan_x, 6, 1e-12);
+        rayd_scene_free(s);
+    }
+}
+
+/* ---- errors ------------------------------------------------------------------------ */
+
+static void expect(rayd_scene *s, const struct rayd_error *err, const char *path,
+                   const char *words) {
+    CHECK(!s, "refused (%s)", path);
+    if (s) rayd_scene_free(s);
+    CHECK(!strcmp(err->path, path), "path %s, expected %s (%s)", err->path, path, err->message);
+    CHECK(strstr(err->message, words), "message \"%s\" lacks \"%s\"", err->message, words);
+}
+
+static void test_errors(void) {
+    struct rayd_error err;
+    cJSON *d = doc_tree();
+    cJSON_ReplaceItemInArray(at(d, "materials", 0, "pbrMetallicRoughness")->child, 0,
+                             cJSON_CreateNumber(2));
+    expect(parse(d, "", "", &err), &err,
+           "/objects/0/source/gltf/materials/0/pbrMetallicRoughness/baseColorFactor", "[0, 1]");
+    d = doc_tree();
+    cJSON_ReplaceItemInObject(at(d, "meshes", 0, "primitives")->child, "material",
+                              cJSON_CreateNumber(9));
+    expect(parse(d, "", "", &err), &err, "/objects/0/source/gltf/meshes/0/primitives/0/material",
+           "does not exist");
+    d = doc_tree();
+    cJSON_ReplaceItemInObject(at(d, "images", 1, NULL), "uri",
+                              cJSON_CreateString("data:image/png;base64,aGVsbG8="));
+    expect(parse(d, "", "", &err), &err, "/objects/0/source/gltf/images/1/uri",
+           "neither a PNG nor a JPEG");
+    d = doc_tree();
+    cJSON_ReplaceItemInObject(
+        cJSON_GetObjectItem(at(d, "nodes", 3, "extensions"), "KHR_lights_punctual"), "light",
+        cJSON_CreateNumber(7));
+    expect(parse(d, "", "", &err), &err,
+           "/objects/0/source/gltf/nodes/3/extensions/KHR_lights_punctual/light", "0..1");
+    d = doc_tree();
+    cJSON_ReplaceItemInObject(at(d, "cameras", 0, "perspective"), "yfov", cJSON_CreateNumber(-1));
+    expect(parse(d, "", "\"camera\": 0", &err), &err,
+           "/objects/0/source/gltf/cameras/0/perspective/yfov", "");
+    expect(parse(doc_tree(), "", "\"scene\": \"nope\"", &err), &err, "/objects/0/scene",
+           "no scenes named \"nope\"");
+    expect(parse(doc_tree(), "", "\"camera\": 5", &err), &err, "/objects/0/camera", "0..1");
+    expect(parse(doc_tree(), "\"camera\": {\"position\": [0, 0, 1]},", "\"camera\": 0", &err), &err,
+           "/objects/0/camera", "/camera/position");
+    d = doc_tree();
+    cJSON_AddItemToArray(cJSON_AddArrayToObject(d, "extensionsRequired"),
+                         cJSON_CreateString("KHR_materials_volume_x"));
+    cJSON_ReplaceItemInArray(cJSON_GetObjectItem(d, "extensionsRequired"), 0,
+                             cJSON_CreateString("EXT_unknown"));
+    expect(parse(d, "", "", &err), &err, "/objects/0/source/gltf/extensionsRequired/0",
+           "not supported");
+    const char *grouped = "{\"groups\": {\"g\": [{\"type\": \"gltf\", \"source\": {\"format\": "
+                          "\"gltf\", \"text\": \"{}\"}}]}}";
+    rayd_scene *s = NULL;
+    memset(&err, 0, sizeof err);
+    rayd_scene_parse(grouped, strlen(grouped), NULL, &s, &err);
+    expect(s, &err, "/groups/g/0/type", "cannot be inside a group");
+    const char *obj = "{\"objects\": [{\"type\": \"gltf\", \"source\": {\"format\": \"obj\", "
+                      "\"text\": \"v 0 0 0\"}}]}";
+    s = NULL;
+    rayd_scene_parse(obj, strlen(obj), NULL, &s, &err);
+    expect(s, &err, "/objects/0/source/format", "\"gltf\" or \"glb\"");
+}
+
+int main(void) {
+    make_bytes();
+    RUN(test_materials_and_groups);
+    RUN(test_uvs_and_textures);
+    RUN(test_pbr_mapping);
+    RUN(test_texcoord_sets);
+    RUN(test_override_and_scene);
+    RUN(test_lights);
+    RUN(test_cameras);
+    RUN(test_errors);
+    free(jpeg_uri);
+    CHECK_EXIT();
+}
