@@ -11,6 +11,7 @@
 # a symbolic link), a URL and a missing file are refused before anything
 # is sent, in one line naming the .gltf, the JSON Pointer and the file.
 # A .gltf given as "text" in the scene has its files next to the scene.
+# A whole-scene "gltf" object's source travels the same way.
 # `thumbnails` does the same with a folder holding a .gltf: its thumbnail
 # equals the one of the same model as a .glb.
 source "$(dirname "$0")/lib/common.sh"
@@ -43,6 +44,18 @@ for model in BoxTextured-glTF/BoxTextured BoxTexcoords-glTF/boxTexcoords \
         "exit $rc: $(head -c 400 "$dir/remote.err") $(head -c 200 "$dir/local.err")" \
         bash -c "[ $rc = 0 ] && [ -s '$dir/local.png' ] && cmp -s '$dir/local.png' '$dir/remote.png'"
 done
+
+# a whole-scene gltf object (materials and the texture from the file)
+# travels the same way: the textured box over rayd is rayd-render's bytes
+dir="$T/BoxTextured"
+sed 's/"type": "mesh"/"type": "gltf"/' "$dir/scene.json" >"$dir/object.json"
+"$RENDER" "$dir/object.json" -o "$dir/object-local.png" -q 2>"$dir/object-local.err"
+"$CLIENT" render "$dir/object.json" -o "$dir/object-remote.png" -s "$URL" -q 2>"$dir/object.err"
+rc=$?
+check client_gltf_object_same_png "exit $rc: $(head -c 400 "$dir/object.err") $(head -c 200 "$dir/object-local.err")" \
+    bash -c "[ $rc = 0 ] && [ -s '$dir/object-local.png' ] && cmp -s '$dir/object-local.png' '$dir/object-remote.png'"
+check client_gltf_object_textured "the gltf object drew the same image as the baked mesh" \
+    bash -c "! cmp -s '$dir/object-local.png' '$dir/local.png'"
 
 # 2CylinderEngine as a .gltf is Draco-compressed: bundled, it is refused by
 # the client's local check with rayd-render's own message and pointer
