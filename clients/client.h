@@ -77,6 +77,9 @@ struct scenefile {
  * relative to the scene's folder) as base64, validates the result with the
  * core and hashes it.  Returns 0, or -1 after printing why on stderr. */
 int scenefile_load(const char *path, struct scenefile *sf);
+/* The mesh source format a model file's name implies ("obj", "ply", "glb",
+ * "gltf", any case), or NULL when the name is no model's. */
+const char *scenefile_format(const char *name);
 void scenefile_free(struct scenefile *sf);
 /* With sf->bytes (malloc'd) and sf->len set: validates and hashes them as
  * scenefile_load does.  0, or -1 after printing why (sf freed). */

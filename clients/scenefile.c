@@ -40,9 +40,7 @@ struct scenefile_walk {
     int failed;
 };
 
-/* The mesh source format a file name implies ("obj", "ply", "glb", "gltf"),
- * or NULL. */
-static const char *scenefile_format(const char *name) {
+const char *scenefile_format(const char *name) {
     static const char *const ext[][2] = {
         {".obj", "obj"}, {".ply", "ply"}, {".glb", "glb"}, {".gltf", "gltf"}};
     size_t k = strlen(name);

@@ -54,18 +54,6 @@ struct thumb_model {
     char *data; /* NUL-terminated, malloc'd */
 };
 
-/* The mesh source format of a file name, or NULL when it is no model. */
-static const char *thumb_format(const char *name) {
-    static const char *const ext[][2] = {
-        {".ply", "ply"}, {".obj", "obj"}, {".glb", "glb"}, {".gltf", "gltf"}};
-    size_t n = strlen(name);
-    for (size_t i = 0; i < sizeof ext / sizeof ext[0]; i++) {
-        size_t e = strlen(ext[i][0]);
-        if (n > e && !strcasecmp(name + n - e, ext[i][0])) return ext[i][1];
-    }
-    return NULL;
-}
-
 /* The view's own azimuth (camera_frame.c's table), where turntables start. */
 static double thumb_view_azimuth(const char *view) {
     return !strcmp(view, "three-quarter") ? 45 : !strcmp(view, "side") ? 90 : 0;
@@ -164,7 +152,7 @@ static double thumb_azimuth(const char *view, int k, int n) {
  * turntable stops at the first frame that fails. */
 static int thumb_one(const struct client_opts *o, const char *dir, const char *name,
                      const char *outdir, const struct thumb_look *look) {
-    const char *format = thumb_format(name);
+    const char *format = scenefile_format(name);
     int n = (int)(strlen(name) - strlen(format) - 1);
     char path[4096], out[4096];
     if (snprintf(path, sizeof path, "%s/%s", dir, name) >= (int)sizeof path ||
@@ -188,7 +176,7 @@ static int thumb_one(const struct client_opts *o, const char *dir, const char *n
 }
 
 static int thumb_filter(const struct dirent *e) {
-    return e->d_name[0] != '.' && thumb_format(e->d_name) != NULL;
+    return e->d_name[0] != '.' && scenefile_format(e->d_name) != NULL;
 }
 
 int thumbnails_run(const struct client_opts *o, const char *dir, const char *outdir, int size,

@@ -456,12 +456,7 @@ static enum rayd_status load(struct imp *im, const cJSON *oj, const struct jp *a
     TRY(item_ref(im, oj, at, "scene", get(root, "scenes"), "scenes", &scene));
     TRY(sj_bool(ld, oj, at, "lights", true, &lights));
     TRY(sj_num(ld, oj, at, "light_scale", 1, 0, true, 1e6, &scale));
-    struct mesh_limits ml = {(uint32_t)(ld->lim->max_vertices - ld->vertices > UINT32_MAX
-                                            ? UINT32_MAX
-                                            : ld->lim->max_vertices - ld->vertices),
-                             (uint32_t)(ld->lim->max_triangles - ld->triangles > UINT32_MAX
-                                            ? UINT32_MAX
-                                            : ld->lim->max_triangles - ld->triangles)};
+    struct mesh_limits ml = sj_mesh_budget(ld);
     TRY(imp_fail(im, gltf_doc_walk(im->doc, scene, &ml)));
     TRY(load_meshes(im, override, o));
     if (lights) TRY(load_lights(im, scale));

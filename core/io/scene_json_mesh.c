@@ -242,6 +242,12 @@ enum rayd_status sj_source_read(struct loader *ld, const cJSON *src, const struc
 }
 
 /* "source": {"format": "obj"|"ply"|"gltf"|"glb", and one of "text", "base64", "file"}. */
+struct mesh_limits sj_mesh_budget(const struct loader *ld) {
+    long v = ld->lim->max_vertices - ld->vertices, t = ld->lim->max_triangles - ld->triangles;
+    return (struct mesh_limits){(uint32_t)(v > (long)UINT32_MAX ? UINT32_MAX : v < 0 ? 0 : v),
+                                (uint32_t)(t > (long)UINT32_MAX ? UINT32_MAX : t < 0 ? 0 : t)};
+}
+
 static enum rayd_status load_source(struct loader *ld, const cJSON *src, const struct jp *at,
                                     struct mesh_data *md) {
     const cJSON *text = cJSON_GetObjectItemCaseSensitive(src, "text");
@@ -254,12 +260,7 @@ static enum rayd_status load_source(struct loader *ld, const cJSON *src, const s
     size_t nbytes;
     double t0 = clock_now(); /* decode: reading the file or base64 too */
     TRY(sj_source_read(ld, src, at, &format, &data, &bytes, &nbytes));
-    struct mesh_limits ml = {(uint32_t)(ld->lim->max_vertices - ld->vertices > UINT32_MAX
-                                            ? UINT32_MAX
-                                            : ld->lim->max_vertices - ld->vertices),
-                             (uint32_t)(ld->lim->max_triangles - ld->triangles > UINT32_MAX
-                                            ? UINT32_MAX
-                                            : ld->lim->max_triangles - ld->triangles)};
+    struct mesh_limits ml = sj_mesh_budget(ld);
     enum rayd_status st = format == 0   ? mesh_parse_obj_threads(bytes, nbytes, &ml, 0, md, ld->err)
                           : format == 1 ? mesh_parse_ply_threads(bytes, nbytes, &ml, 0, md, ld->err)
                                         : load_gltf(ld, at, file, bytes, nbytes, &ml, md);

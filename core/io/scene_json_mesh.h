@@ -11,6 +11,10 @@ enum rayd_status sj_mesh(struct loader *ld, const cJSON *oj, const struct jp *at
 /* Appends an empty mesh to the scene's: *id. */
 enum rayd_status sj_add_mesh(struct loader *ld, uint32_t *id);
 
+/* What is left of the scene's vertex and triangle limits, for the next
+ * mesh a source decodes. */
+struct mesh_limits sj_mesh_budget(const struct loader *ld);
+
 /* A "source" object's bytes (text, base64 or a file): *format 0 obj, 1 ply,
  * 2 gltf, 3 glb; *out the bytes, *owned (malloc'd, for the caller to free)
  * when they are not the scene text's. */
