@@ -15,12 +15,11 @@
  * partitions in place, so every pass over a node reads memory in order
  * (not through an index).  The caller's function writes the boxes a run
  * at a time straight into those records (bvh_build_from): a mesh keeps no
- * array of boxes of its own, 24 bytes a triangle of fresh memory less.  A node costs two passes: binning, which also
- * gives both children's boxes and centroid boxes (the unions of their
- * bins), and the partition.  The subtrees of the top levels are built by
- * separate threads -- four per thread asked for, so that a lopsided split
- * leaves no core idle; binary nodes come from one atomically bumped array,
- * so threads never lock.
+ * array of boxes of its own, 24 bytes a triangle of fresh memory less.  A node costs two passes:
+ * binning, which also gives both children's boxes and centroid boxes (the unions of their bins),
+ * and the partition.  The subtrees of the top levels are built by separate threads -- four per
+ * thread asked for, so that a lopsided split leaves no core idle; binary nodes come from one
+ * atomically bumped array, so threads never lock.
  *
  * The top splits themselves run on one thread.  Splitting the largest
  * nodes by blocks on several threads (bins merged, a stable partition
@@ -101,19 +100,21 @@ static inline int bin_of(const struct prim *p, int axis, float lo, float scale) 
 }
 
 /* Moves the primitives of bin < plane (the bins sah_plane left in them)
- * to the front; returns their number. */
+ * to the front; returns their number.  Hoare's two scans: a record
+ * already on its side is not moved, and each swap puts two in place.
+ * (Swapping every right-side record to the back, as before, moved twice
+ * the records and took a branch miss on each: the 1.3M mesh's build on
+ * one thread 0.447 -> 0.426 s, best of 5.) */
 static uint32_t partition(struct prim *p, uint32_t n, int plane) {
     uint32_t i = 0, j = n;
-    while (i < j) {
-        if (p[i].bin < plane) {
-            i++;
-        } else {
-            struct prim t = p[i];
-            p[i] = p[--j];
-            p[j] = t;
-        }
+    for (;;) {
+        while (i < j && p[i].bin < plane) i++;
+        while (i < j && p[j - 1].bin >= plane) j--;
+        if (i >= j) return i;
+        struct prim t = p[i];
+        p[i++] = p[--j];
+        p[j] = t;
     }
-    return i;
 }
 
 #ifdef BVH_SSE
