@@ -57,8 +57,17 @@ struct bvh4 {
  * leaves refer to.  threads > 1 builds the top subtrees in
  * parallel (worth it from ~100k primitives).  n == 0 gives an empty tree. */
 enum rayd_status bvh_build(struct bvh4 *bvh, const struct bbox *boxes, uint32_t n,
-                           uint32_t max_leaf, uint32_t *order, int threads,
-                           struct rayd_error *err);
+                           uint32_t max_leaf, uint32_t *order, int threads, struct rayd_error *err);
+
+/* Writes the boxes of primitives [first, first + n) to out (n is at most
+ * a few hundred); called from several threads at once. */
+typedef void (*bvh_boxes_fn)(const void *ctx, uint32_t first, uint32_t n, struct bbox *out);
+
+/* bvh_build with the boxes made on the way in by fn, straight into the
+ * builder's records: no array of boxes for the caller to fill first. */
+enum rayd_status bvh_build_from(struct bvh4 *bvh, bvh_boxes_fn fn, const void *ctx, uint32_t n,
+                                uint32_t max_leaf, uint32_t *order, int threads,
+                                struct rayd_error *err);
 void bvh_free(struct bvh4 *bvh);
 
 /* A box that surely contains the double-precision box [lo, hi]. */

@@ -35,8 +35,8 @@ static inline float bb_area(const struct bbox *b) {
 uint32_t bvh_wide_count(const struct bnode *bn, uint32_t bi);
 
 /* The binary tree nodes (root at 0, n primitives) as 4-wide nodes into
- * wide (room for n + 1), large subtrees on up to tasks threads; returns
- * how many. */
+ * wide (room for the root's wide count, 1 for a leaf root), large subtrees on up to tasks threads;
+ * returns how many. */
 uint32_t bvh_collapse(const struct bnode *nodes, struct bvh4_node *wide, uint32_t n, int tasks);
 
 #endif

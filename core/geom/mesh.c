@@ -11,6 +11,12 @@
  * functions are evaluated in that 2-D frame, falling back to double when
  * one is exactly zero.  A ray through a shared edge or vertex hits at least
  * one of the triangles meeting there: no cracks.
+ *
+ * The build asks for as little fresh memory as it can (see bvh.c on why
+ * that counts): the triangles' boxes go straight into the builder, the
+ * blocks are read through the BVH's order from the index as loaded, and
+ * only a mesh that keeps its index (smooth normals, uvs) gets it sorted
+ * into leaf order, after the builder has given its memory back.
  */
 #include "base/hugemem.h"
 #include "geom/mesh.h"
@@ -50,7 +56,8 @@ static inline int tri4_test(const struct tri4 *b, int n, const struct tri_ray *t
     __m128 zero = _mm_setzero_ps();
     int lanes = (1 << n) - 1;
     int on_edge = _mm_movemask_ps(_mm_or_ps(_mm_or_ps(_mm_cmpeq_ps(u, zero), _mm_cmpeq_ps(v, zero)),
-                                            _mm_cmpeq_ps(w, zero))) & lanes;
+                                            _mm_cmpeq_ps(w, zero))) &
+                  lanes;
     if (on_edge) {
         _mm_storeu_ps(U, u), _mm_storeu_ps(V, v), _mm_storeu_ps(W, w);
         _mm_storeu_ps(AX, ax), _mm_storeu_ps(AY, ay), _mm_storeu_ps(BX, bx);
@@ -60,12 +67,15 @@ static inline int tri4_test(const struct tri4 *b, int n, const struct tri_ray *t
                 tri_edges_double(AX[i], AY[i], BX[i], BY[i], CX[i], CY[i], &U[i], &V[i], &W[i]);
         u = _mm_loadu_ps(U), v = _mm_loadu_ps(V), w = _mm_loadu_ps(W);
     }
-    __m128 neg = _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(u, zero), _mm_cmplt_ps(v, zero)), _mm_cmplt_ps(w, zero));
-    __m128 pos = _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)), _mm_cmpgt_ps(w, zero));
+    __m128 neg =
+        _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(u, zero), _mm_cmplt_ps(v, zero)), _mm_cmplt_ps(w, zero));
+    __m128 pos =
+        _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)), _mm_cmpgt_ps(w, zero));
     __m128 det = _mm_add_ps(_mm_add_ps(u, v), w);
     __m128 sz = _mm_set1_ps(tr->sz);
-    __m128 t = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_mul_ps(u, sz), az), _mm_mul_ps(_mm_mul_ps(v, sz), bz)),
-                          _mm_mul_ps(_mm_mul_ps(w, sz), cz));
+    __m128 t =
+        _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_mul_ps(u, sz), az), _mm_mul_ps(_mm_mul_ps(v, sz), bz)),
+                   _mm_mul_ps(_mm_mul_ps(w, sz), cz));
     /* t / det in (0, tmax]: compare with the signs folded into det's */
     __m128 sign = _mm_and_ps(det, _mm_set1_ps(-0.0f));
     __m128 ts = _mm_xor_ps(t, sign), ds = _mm_xor_ps(det, sign);
@@ -284,13 +294,13 @@ struct mesh_job {
     struct mesh *m;
     const float *pos;
     const uint32_t *index, *order;
-    struct bbox *boxes;
     uint32_t *sorted, *first_block; /* a node's first block number */
 };
 
-static void boxes_body(void *ctx, size_t lo, size_t hi) {
-    struct mesh_job *j = ctx;
-    for (size_t t = lo; t < hi; t++) j->boxes[t] = tri_box(j->pos, j->index + 3 * t);
+/* The triangles' boxes as the BVH builder asks for them (bvh_boxes_fn). */
+static void tri_boxes(const void *ctx, uint32_t first, uint32_t n, struct bbox *out) {
+    const struct mesh_job *j = ctx;
+    for (uint32_t i = 0; i < n; i++) out[i] = tri_box(j->pos, j->index + 3 * (size_t)(first + i));
 }
 
 static void sort_body(void *ctx, size_t lo, size_t hi) {
@@ -299,8 +309,18 @@ static void sort_body(void *ctx, size_t lo, size_t hi) {
         memcpy(j->sorted + 3 * t, j->index + 3 * (size_t)j->order[t], sizeof *j->sorted * 3);
 }
 
+/* Lane of block b: triangle id (leaf order), its corners read through
+ * order from the index as loaded; an unused lane is id UINT32_MAX and
+ * zeros (the blocks are not cleared beforehand). */
+static void block_lane(const struct mesh_job *j, struct tri4 *b, int lane, uint32_t id) {
+    b->id[lane] = id;
+    const uint32_t *ix = id == UINT32_MAX ? NULL : j->index + 3 * (size_t)j->order[id];
+    for (int k = 0; k < 3; k++)
+        for (int jj = 0; jj < 3; jj++) b->v[k][jj][lane] = ix ? j->pos[3 * (size_t)ix[k] + jj] : 0;
+}
+
 /* Packs every leaf's triangles into one tri4 block and points the leaf at
- * it; unused lanes have id UINT32_MAX and are masked off by the count. */
+ * it; unused lanes are masked off by the count. */
 static void blocks_body(void *ctx, size_t lo, size_t hi) {
     struct mesh_job *j = ctx;
     struct mesh *m = j->m;
@@ -310,14 +330,9 @@ static void blocks_body(void *ctx, size_t lo, size_t hi) {
         for (int i = 0; i < 4; i++) {
             if (!nd->count[i]) continue;
             struct tri4 *b = &m->blocks[next];
-            for (int lane = 0; lane < 4; lane++) {
-                b->id[lane] = lane < nd->count[i] ? nd->child[i] + (uint32_t)lane : UINT32_MAX;
-                if (b->id[lane] == UINT32_MAX) continue;
-                const uint32_t *ix = m->index + 3 * (size_t)b->id[lane];
-                for (int k = 0; k < 3; k++)
-                    for (int jj = 0; jj < 3; jj++)
-                        b->v[k][jj][lane] = m->pos[3 * (size_t)ix[k] + jj];
-            }
+            for (int lane = 0; lane < 4; lane++)
+                block_lane(j, b, lane,
+                           lane < nd->count[i] ? nd->child[i] + (uint32_t)lane : UINT32_MAX);
             nd->child[i] = next++;
         }
     }
@@ -325,7 +340,8 @@ static void blocks_body(void *ctx, size_t lo, size_t hi) {
 
 /* Numbers the leaves in node order (a prefix sum over the nodes), then
  * fills the blocks on every thread. */
-static enum rayd_status make_blocks(struct mesh *m, int threads, struct rayd_error *err) {
+static enum rayd_status make_blocks(struct mesh *m, const uint32_t *index, const uint32_t *order,
+                                    int threads, struct rayd_error *err) {
     uint32_t leaves = 0, nn = m->bvh.nnodes;
     uint32_t *first = huge_alloc(sizeof *first * ((size_t)nn + 1));
     if (!first) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for mesh leaves");
@@ -333,16 +349,62 @@ static enum rayd_status make_blocks(struct mesh *m, int threads, struct rayd_err
         first[n] = leaves;
         for (int i = 0; i < 4; i++) leaves += m->bvh.nodes[n].count[i] > 0;
     }
-    m->blocks = huge_calloc(leaves ? leaves : 1, sizeof *m->blocks);
+    m->blocks = huge_alloc(sizeof *m->blocks * (leaves ? leaves : 1));
     if (!m->blocks) {
         free(first);
         return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for mesh leaves");
     }
-    struct mesh_job j = {.m = m, .first_block = first};
+    struct mesh_job j = {
+        .m = m, .pos = m->pos, .index = index, .order = order, .first_block = first};
     parallel_for(nn, threads, MESH_CHUNK / 4, blocks_body, &j);
     m->nblocks = leaves;
     free(first);
     return RAYD_OK;
+}
+
+/* The index in leaf order, for the meshes that keep it (smooth normals,
+ * texture coordinates): made after the build, so its pages are ones the
+ * build's records gave back. */
+static enum rayd_status sort_index(struct mesh *m, const uint32_t *order, int threads,
+                                   struct rayd_error *err) {
+    uint32_t *sorted = huge_alloc(sizeof *sorted * 3 * ((size_t)m->ntris + 1));
+    if (!sorted)
+        return err_set(err, RAYD_E_NOMEM, NULL, "out of memory building a mesh of %u triangles",
+                       m->ntris);
+    struct mesh_job j = {.index = m->index, .order = order, .sorted = sorted};
+    parallel_for(m->ntris, threads, MESH_CHUNK, sort_body, &j);
+    free(m->index);
+    m->index = sorted;
+    return RAYD_OK;
+}
+
+/* The BVH over the triangles, then their blocks in leaf order; a flat mesh
+ * without uvs then drops its vertices and index (the blocks hold all it
+ * needs), the others get their index in leaf order. */
+static enum rayd_status mesh_accel(struct mesh *m, int threads, struct rayd_error *err) {
+    uint32_t *order = huge_alloc(sizeof *order * ((size_t)m->ntris + 1));
+    if (!order)
+        return err_set(err, RAYD_E_NOMEM, NULL, "out of memory building a mesh of %u triangles",
+                       m->ntris);
+    struct mesh_job j = {.pos = m->pos, .index = m->index};
+    enum rayd_status st =
+        bvh_build_from(&m->bvh, tri_boxes, &j, m->ntris, BVH_MAX_LEAF, order, threads, err);
+    if (st == RAYD_OK) {
+        const struct bbox *b = &m->bvh.bounds;
+        m->lo = v3(b->lo[0], b->lo[1], b->lo[2]);
+        m->hi = v3(b->hi[0], b->hi[1], b->hi[2]);
+        st = make_blocks(m, m->index, order, threads, err);
+    }
+    if (st == RAYD_OK && !m->normal && !m->uv) {
+        free(m->pos);
+        free(m->index);
+        m->pos = NULL;
+        m->index = NULL;
+    } else if (st == RAYD_OK) {
+        st = sort_index(m, order, threads, err);
+    }
+    free(order);
+    return st;
 }
 
 enum rayd_status mesh_build(struct mesh *m, float *pos, uint32_t nverts, uint32_t *index,
@@ -361,39 +423,7 @@ enum rayd_status mesh_build(struct mesh *m, float *pos, uint32_t nverts, uint32_
         free(m->normal);
         m->normal = NULL;
     }
-    struct bbox *boxes = huge_alloc(sizeof *boxes * ((size_t)ntris + 1));
-    uint32_t *order = huge_alloc(sizeof *order * ((size_t)ntris + 1));
-    uint32_t *sorted = huge_alloc(sizeof *sorted * 3 * ((size_t)ntris + 1));
-    enum rayd_status st = RAYD_OK;
-    if (!boxes || !order || !sorted) {
-        st = err_set(err, RAYD_E_NOMEM, NULL, "out of memory building a mesh of %u triangles",
-                     ntris);
-    } else {
-        struct mesh_job j = {.pos = pos, .index = index, .boxes = boxes};
-        parallel_for(ntris, threads, MESH_CHUNK, boxes_body, &j);
-        st = bvh_build(&m->bvh, boxes, ntris, BVH_MAX_LEAF, order, threads, err);
-    }
-    if (st == RAYD_OK) { /* triangles in leaf order: leaves index them directly */
-        struct mesh_job j = {.index = index, .order = order, .sorted = sorted};
-        parallel_for(ntris, threads, MESH_CHUNK, sort_body, &j);
-        free(m->index);
-        m->index = sorted;
-        sorted = NULL;
-        const struct bbox *b = &m->bvh.bounds;
-        m->lo = v3(b->lo[0], b->lo[1], b->lo[2]);
-        m->hi = v3(b->hi[0], b->hi[1], b->hi[2]);
-        st = make_blocks(m, threads, err);
-    }
-    if (st == RAYD_OK && !m->normal && !m->uv) { /* the blocks hold all a flat mesh needs */
-        free(m->pos);
-        free(m->index);
-        m->pos = NULL;
-        m->index = NULL;
-    }
-    free(boxes);
-    free(order);
-    free(sorted);
-    return st;
+    return mesh_accel(m, threads, err);
 }
 
 void mesh_free(struct mesh *m) {
@@ -408,8 +438,8 @@ void mesh_free(struct mesh *m) {
 }
 
 size_t mesh_bytes(const struct mesh *m) {
-    size_t b = (size_t)m->bvh.nnodes * sizeof(struct bvh4_node) +
-               (size_t)m->nblocks * sizeof(struct tri4);
+    size_t b =
+        (size_t)m->bvh.nnodes * sizeof(struct bvh4_node) + (size_t)m->nblocks * sizeof(struct tri4);
     if (m->pos) b += (size_t)m->nverts * 3 * sizeof(float);
     if (m->index) b += (size_t)m->ntris * 3 * sizeof(uint32_t);
     if (m->normal) b += (size_t)m->nverts * 3 * sizeof(float);

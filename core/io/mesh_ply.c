@@ -41,7 +41,10 @@
  * record; every face's count is checked to be 3 before it is read.  Any
  * failure (a polygon, a bad value) and the element is read again in order,
  * so the message is the one-thread reader's.  Ascii records need not be
- * one a line, so ascii bodies stay in one pass.
+ * one a line, so ascii bodies stay in one pass.  The two layouts nearly
+ * every binary mesh has (vertices of only float x y z, faces of a byte
+ * count and 32-bit indices), little-endian, skip the value-by-value
+ * reader in those ranges: a copy and the same checks (ply_fast_layout).
  */
 #include "base/hugemem.h"
 #include "io/mesh_io.h"
@@ -98,7 +101,7 @@ struct ply {
     float *pos, *normal, *uv;
     uint32_t *tri;
     size_t ntri, cap_tri;
-    int threads; /* for the binary records (ply_records); 1: one pass, in order */
+    int threads;      /* for the binary records (ply_records); 1: one pass, in order */
     size_t min_chunk; /* records a thread at least */
     struct rayd_error *err;
 };
@@ -187,14 +190,12 @@ static bool ply_is(struct ply_tok t, const char *word) {
 }
 
 /* A token quoted for a message (buf has MESH_QUOTE_SIZE bytes). */
-static const char *ply_q(char *buf, struct ply_tok t) {
-    return mesh_quote(buf, t.s, t.n);
-}
+static const char *ply_q(char *buf, struct ply_tok t) { return mesh_quote(buf, t.s, t.n); }
 
 static enum ply_type ply_type_of(struct ply_tok t) {
-    static const char *const names[] = {"char",  "int8",   "uchar",  "uint8",   "short", "int16",
-                                        "ushort", "uint16", "int",   "int32",   "uint",  "uint32",
-                                        "float", "float32", "double", "float64"};
+    static const char *const names[] = {"char",   "int8",    "uchar",  "uint8",  "short", "int16",
+                                        "ushort", "uint16",  "int",    "int32",  "uint",  "uint32",
+                                        "float",  "float32", "double", "float64"};
     for (size_t i = 0; i < sizeof names / sizeof names[0]; i++)
         if (ply_is(t, names[i])) return (enum ply_type)(PLY_I8 + i / 2);
     return PLY_NONE;
@@ -224,13 +225,16 @@ static enum rayd_status ply_format_line(struct ply *P, const char *p, const char
     if (P->format) return ply_hfail(P, RAYD_E_INVALID, "a second 'format' line");
     if (!ply_token(&p, end, &f) || !ply_token(&p, end, &v) || ply_token(&p, end, &extra))
         return ply_hfail(P, RAYD_E_INVALID, "expected 'format TYPE 1.0'");
-    if (ply_is(f, "ascii")) P->format = PLY_ASCII;
-    else if (ply_is(f, "binary_little_endian")) P->format = PLY_LE;
-    else if (ply_is(f, "binary_big_endian")) P->format = PLY_BE;
-    else return ply_hfail(P, RAYD_E_INVALID, "unknown format '%s'", ply_q(q, f));
+    if (ply_is(f, "ascii"))
+        P->format = PLY_ASCII;
+    else if (ply_is(f, "binary_little_endian"))
+        P->format = PLY_LE;
+    else if (ply_is(f, "binary_big_endian"))
+        P->format = PLY_BE;
+    else
+        return ply_hfail(P, RAYD_E_INVALID, "unknown format '%s'", ply_q(q, f));
     if (!ply_is(v, "1.0"))
-        return ply_hfail(P, RAYD_E_INVALID, "unsupported version '%s' (expected 1.0)",
-                         ply_q(q, v));
+        return ply_hfail(P, RAYD_E_INVALID, "unsupported version '%s' (expected 1.0)", ply_q(q, v));
     return RAYD_OK;
 }
 
@@ -261,8 +265,7 @@ static enum rayd_status ply_element_line(struct ply *P, const char *p, const cha
                    : kind == PLY_ELEM_FACE   ? &P->face
                    : kind == PLY_ELEM_STRIPS ? &P->strips
                                              : NULL;
-    if (slot && *slot)
-        return ply_hfail(P, RAYD_E_INVALID, "a second '%s' element", ply_q(q, name));
+    if (slot && *slot) return ply_hfail(P, RAYD_E_INVALID, "a second '%s' element", ply_q(q, name));
     if (!array_grow((void **)&P->elems, &P->cap_elems, P->nelems + 1, sizeof *P->elems))
         return ply_hfail(P, RAYD_E_NOMEM, "out of memory");
     struct ply_elem *e = &P->elems[P->nelems++];
@@ -364,8 +367,10 @@ static uint64_t ply_min_record(const struct ply *P, const struct ply_elem *e) {
     uint64_t n = 0;
     for (size_t i = 0; i < e->nprops; i++) {
         const struct ply_prop *q = &e->props[i];
-        if (P->format == PLY_ASCII) n += 2;
-        else n += ply_size[q->count_type ? q->count_type : q->type];
+        if (P->format == PLY_ASCII)
+            n += 2;
+        else
+            n += ply_size[q->count_type ? q->count_type : q->type];
     }
     return n;
 }
@@ -382,8 +387,8 @@ static enum rayd_status ply_check_sizes(struct ply *P) {
             P->line = e->line;
             return ply_hfail(P, RAYD_E_INVALID,
                              "element '%s' claims %llu records but the body has only %llu bytes",
-                             mesh_quote(q, e->name, e->name_len),
-                             (unsigned long long)e->count, (unsigned long long)(P->len - P->at));
+                             mesh_quote(q, e->name, e->name_len), (unsigned long long)e->count,
+                             (unsigned long long)(P->len - P->at));
         }
         used += e->count * rec;
     }
@@ -433,9 +438,15 @@ static enum rayd_status ply_binary(struct ply *P, enum ply_type t, double *out) 
     for (size_t k = 0; k < n; k++) u = u << 8 | b[P->format == PLY_LE ? n - 1 - k : k];
     P->at += n;
     switch (t) {
-    case PLY_I8: *out = ply_signed(u, 8); break;
-    case PLY_I16: *out = ply_signed(u, 16); break;
-    case PLY_I32: *out = ply_signed(u, 32); break;
+    case PLY_I8:
+        *out = ply_signed(u, 8);
+        break;
+    case PLY_I16:
+        *out = ply_signed(u, 16);
+        break;
+    case PLY_I32:
+        *out = ply_signed(u, 32);
+        break;
     case PLY_F32: {
         uint32_t w = (uint32_t)u;
         float f;
@@ -443,8 +454,12 @@ static enum rayd_status ply_binary(struct ply *P, enum ply_type t, double *out) 
         *out = f;
         break;
     }
-    case PLY_F64: memcpy(out, &u, sizeof *out); break;
-    default: *out = (double)u; break;
+    case PLY_F64:
+        memcpy(out, &u, sizeof *out);
+        break;
+    default:
+        *out = (double)u;
+        break;
     }
     return RAYD_OK;
 }
@@ -502,8 +517,8 @@ static enum rayd_status ply_vertex(struct ply *P, const struct ply_elem *e, uint
     double r[PLY_NROLES] = {0};
     for (size_t k = 0; k < e->nprops; k++) {
         const struct ply_prop *q = &e->props[k];
-        enum rayd_status st = q->role < PLY_NROLES ? ply_value(P, q->type, &r[q->role])
-                                                   : ply_skip(P, q);
+        enum rayd_status st =
+            q->role < PLY_NROLES ? ply_value(P, q->type, &r[q->role]) : ply_skip(P, q);
         if (st != RAYD_OK) return st;
     }
     for (int k = 0; k < PLY_NROLES; k++)
@@ -603,7 +618,7 @@ static enum rayd_status ply_face(struct ply *P, const struct ply_elem *e) {
     for (size_t k = 0; k < e->nprops; k++) {
         const struct ply_prop *q = &e->props[k];
         bool use = q->role == PLY_INDICES && !done;
-        enum rayd_status st = !use                        ? ply_skip(P, q)
+        enum rayd_status st = !use                         ? ply_skip(P, q)
                               : e->kind == PLY_ELEM_STRIPS ? ply_strips(P, q)
                                                            : ply_polygon(P, q);
         if (st != RAYD_OK) return st;
@@ -657,8 +672,64 @@ struct ply_job {
     const struct ply *P;
     const struct ply_elem *e;
     size_t at, rec, list_at;
+    int fast; /* PLY_FAST_*: the layout ply_fast_range reads */
     atomic_bool failed;
 };
+
+/* The layouts nearly every binary PLY mesh has, read without the general
+ * reader's value-by-value decoding: little-endian vertices of exactly
+ * float x, y, z, and faces of exactly a list of 8-bit count and 32-bit
+ * indices.  The same checks (finite values, three corners, indices in
+ * range, the triangle limit); any failure sends the element to the
+ * general reader, which gives the message. */
+enum { PLY_FAST_NONE, PLY_FAST_XYZ, PLY_FAST_TRI };
+
+static int ply_fast_layout(const struct ply *P, const struct ply_elem *e) {
+    const struct ply_prop *q = e->props;
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+    if (P->format != PLY_LE) return PLY_FAST_NONE;
+    if (e->kind == PLY_ELEM_VERTEX && e->nprops == 3) {
+        for (int k = 0; k < 3; k++)
+            if (q[k].type != PLY_F32 || q[k].count_type || q[k].role != (enum ply_role)(PLY_X + k))
+                return PLY_FAST_NONE;
+        return PLY_FAST_XYZ;
+    }
+    if (e->kind == PLY_ELEM_FACE && e->nprops == 1 && q->role == PLY_INDICES &&
+        (q->count_type == PLY_U8 || q->count_type == PLY_I8) &&
+        (q->type == PLY_U32 || (q->type == PLY_I32 && P->nverts <= INT32_MAX)))
+        return PLY_FAST_TRI;
+#else
+    (void)P, (void)e, (void)q;
+#endif
+    return PLY_FAST_NONE;
+}
+
+static bool ply_fast_xyz(const struct ply_job *j, size_t lo, size_t hi) {
+    const unsigned char *b = j->P->p + j->at;
+    float *pos = j->P->pos;
+    for (size_t r = lo; r < hi; r++) {
+        float v[3];
+        memcpy(v, b + r * j->rec, sizeof v);
+        if (!isfinite(v[0]) || !isfinite(v[1]) || !isfinite(v[2])) return false;
+        memcpy(pos + 3 * r, v, sizeof v);
+    }
+    return true;
+}
+
+static bool ply_fast_tri(const struct ply_job *j, size_t lo, size_t hi) {
+    const unsigned char *b = j->P->p + j->at;
+    uint32_t *tri = j->P->tri, nv = j->P->nverts;
+    if (hi > j->P->max_tris) return false;
+    for (size_t r = lo; r < hi; r++) {
+        uint32_t ix[3];
+        memcpy(ix, b + r * j->rec + 1, sizeof ix);
+        /* an int32 below zero is 2^31 or more as uint32: out of range too
+         * (int32 indices take this path only for up to 2^31 vertices) */
+        if (b[r * j->rec] != 3 || ix[0] >= nv || ix[1] >= nv || ix[2] >= nv) return false;
+        memcpy(tri + 3 * r, ix, sizeof ix);
+    }
+    return true;
+}
 
 static bool ply_record(struct ply *c, const struct ply_job *j, size_t r) {
     uint32_t n = 0;
@@ -674,6 +745,11 @@ static bool ply_record(struct ply *c, const struct ply_job *j, size_t r) {
 
 static void ply_records_body(void *ctx, size_t lo, size_t hi) {
     struct ply_job *j = ctx;
+    if (j->fast != PLY_FAST_NONE) {
+        bool ok = j->fast == PLY_FAST_XYZ ? ply_fast_xyz(j, lo, hi) : ply_fast_tri(j, lo, hi);
+        if (!ok) atomic_store(&j->failed, true);
+        return;
+    }
     struct ply c = *j->P;
     c.err = NULL;
     c.cur = j->e;
@@ -697,6 +773,7 @@ static bool ply_records(struct ply *P, const struct ply_elem *e) {
     if (e->kind == PLY_ELEM_FACE &&
         !array_grow((void **)&P->tri, &P->cap_tri, (size_t)e->count * 3, sizeof *P->tri))
         return false;
+    j.fast = ply_fast_layout(P, e);
     atomic_init(&j.failed, false);
     parallel_for((size_t)e->count, P->threads, P->min_chunk, ply_records_body, &j);
     if (atomic_load(&j.failed)) return false;
@@ -749,9 +826,9 @@ enum rayd_status mesh_parse_ply(const void *data, size_t len, const struct mesh_
     return mesh_parse_ply_threads(data, len, lim, 1, out, err);
 }
 
-enum rayd_status mesh_parse_ply_threads(const void *data, size_t len,
-                                        const struct mesh_limits *lim, int threads,
-                                        struct mesh_data *out, struct rayd_error *err) {
+enum rayd_status mesh_parse_ply_threads(const void *data, size_t len, const struct mesh_limits *lim,
+                                        int threads, struct mesh_data *out,
+                                        struct rayd_error *err) {
     struct ply P = {.p = data,
                     .len = len,
                     .max_verts = mesh_max_vertices(lim),

@@ -60,13 +60,16 @@ static rayd_scene *mesh_scene(int brute) {
             " \"render\": {\"width\": 96, \"height\": 72, \"samples\": 2, \"max_depth\": 3},"
             " \"lights\": [{\"type\": \"point\", \"position\": [4, 6, 5]}],"
             " \"objects\": [{\"type\": \"plane\", \"material\": {\"reflectivity\": 0.3}},");
-    uv_sphere(&b, -1.2, 1, 0, 1, 24, 12, "\"material\": {\"color\": [0.9,0.3,0.2], \"specular\": 0.5},");
+    uv_sphere(&b, -1.2, 1, 0, 1, 24, 12,
+              "\"material\": {\"color\": [0.9,0.3,0.2], \"specular\": 0.5},");
     put(&b, ",");
     uv_sphere(&b, 0, 0, 0, 0.6, 16, 8,
-              "\"smooth\": false, \"transform\": {\"scale\": [1, 2, 1], \"rotate\": [0, 0, 20], \"translate\": [1.4, 1.2, 0.5]},"
+              "\"smooth\": false, \"transform\": {\"scale\": [1, 2, 1], \"rotate\": [0, 0, 20], "
+              "\"translate\": [1.4, 1.2, 0.5]},"
               " \"material\": {\"transparency\": 0.8, \"ior\": 1.3},");
     put(&b, ", {\"type\": \"sphere\", \"center\": [0, 0.4, 1.5], \"radius\": 0.4,"
-            "   \"transform\": [{\"scale\": [2, 1, 1]}, {\"rotate\": {\"axis\": [0, 1, 0], \"angle\": 30}}]}");
+            "   \"transform\": [{\"scale\": [2, 1, 1]}, {\"rotate\": {\"axis\": [0, 1, 0], "
+            "\"angle\": 30}}]}");
     for (int i = 0; i < 40; i++)
         put(&b, ", {\"type\": \"sphere\", \"center\": [%g, 0.15, %g], \"radius\": 0.15}",
             -3 + 0.37 * (i % 16), -2 + 0.5 * (i / 16));
@@ -82,7 +85,8 @@ static void test_bvh_equals_brute_force(void) {
     CHECK(fast && slow, "scenes parse");
     if (!fast || !slow) return;
     rayd_image *a = render_all(fast, 2), *b = render_all(slow, 2);
-    CHECK(a && b && memcmp(rayd_image_pixels_const(a), rayd_image_pixels_const(b), 96 * 72 * 3) == 0,
+    CHECK(a && b &&
+              memcmp(rayd_image_pixels_const(a), rayd_image_pixels_const(b), 96 * 72 * 3) == 0,
           "the BVH and brute force give the same image");
     /* and the image is not empty: the meshes are there */
     int lit = 0;
@@ -121,10 +125,10 @@ static void test_examples_bvh_equals_brute_force(void) {
 
 /* A closed octahedron |x| + |y| + |z| <= 1, flat, as a scene. */
 static rayd_scene *octahedron(void) {
-    rayd_scene *s = scene_from(
-        "{\"objects\": [{\"type\": \"mesh\", \"smooth\": false,"
-        " \"vertices\": [1,0,0, -1,0,0, 0,1,0, 0,-1,0, 0,0,1, 0,0,-1],"
-        " \"indices\": [0,2,4, 2,1,4, 1,3,4, 3,0,4, 2,0,5, 1,2,5, 3,1,5, 0,3,5]}]}");
+    rayd_scene *s =
+        scene_from("{\"objects\": [{\"type\": \"mesh\", \"smooth\": false,"
+                   " \"vertices\": [1,0,0, -1,0,0, 0,1,0, 0,-1,0, 0,0,1, 0,0,-1],"
+                   " \"indices\": [0,2,4, 2,1,4, 1,3,4, 3,0,4, 2,0,5, 1,2,5, 3,1,5, 0,3,5]}]}");
     CHECK(s != NULL, "parse");
     return s;
 }
@@ -184,7 +188,8 @@ static void test_packets_equal_single_rays(void) {
             int a = p * 16 + i;
             double th = 0.05 + 3.0 * (a % 211) / 211.0, ph = 0.7 * a;
             vec3 from = v3(5 * sin(th) * cos(ph), 5 * cos(th), 5 * sin(th) * sin(ph));
-            vec3 target = a % 3 ? v3(a % 2 ? 0.5 : 0, 0.5, a % 5 ? 0 : -0.5) : v3(0, 0, a % 2 ? 1 : -1);
+            vec3 target =
+                a % 3 ? v3(a % 2 ? 0.5 : 0, 0.5, a % 5 ? 0 : -0.5) : v3(0, 0, a % 2 ? 1 : -1);
             r[i] = (ray){from, v3_norm(v3_sub(target, from))};
             tmax[i] = p % 4 == 3 ? bounds[(a / 7) % 8] : INFINITY;
         }
@@ -220,11 +225,11 @@ static void test_transformed_sphere_exact_projection(void) {
     /* A unit sphere scaled to an ellipsoid with semi-axes (2, 1, 1) at
      * z = -8, emissive, no lights: the pixels covered are exactly those
      * whose centre ray meets x^2/4 + y^2 + (z+8)^2 = 1. */
-    const char *json =
-        "{\"camera\": {\"position\": [0,0,0], \"look_at\": [0,0,-1], \"fov_x\": 60},"
-        " \"render\": {\"width\": 81, \"height\": 41},"
-        " \"objects\": [{\"type\": \"sphere\", \"transform\": {\"scale\": [2, 1, 1], \"translate\": [0.3, 0, -8]},"
-        "   \"material\": {\"emission\": [1, 1, 1]}}]}";
+    const char *json = "{\"camera\": {\"position\": [0,0,0], \"look_at\": [0,0,-1], \"fov_x\": 60},"
+                       " \"render\": {\"width\": 81, \"height\": 41},"
+                       " \"objects\": [{\"type\": \"sphere\", \"transform\": {\"scale\": [2, 1, "
+                       "1], \"translate\": [0.3, 0, -8]},"
+                       "   \"material\": {\"emission\": [1, 1, 1]}}]}";
     rayd_scene *s = scene_from(json);
     CHECK(s != NULL, "parse");
     if (!s) return;
@@ -254,7 +259,8 @@ static void test_transformed_sphere_exact_projection(void) {
     scene_surface(s, &r, &h, &sf);
     vec3 g = v3_norm(v3((sf.p.x - 0.3) / 4, sf.p.y, sf.p.z + 8));
     CHECK_NEAR(v3_dot(sf.n, g), 1, 1e-9);
-    CHECK_NEAR((sf.p.x - 0.3) * (sf.p.x - 0.3) / 4 + sf.p.y * sf.p.y + (sf.p.z + 8) * (sf.p.z + 8), 1, 1e-9);
+    CHECK_NEAR((sf.p.x - 0.3) * (sf.p.x - 0.3) / 4 + sf.p.y * sf.p.y + (sf.p.z + 8) * (sf.p.z + 8),
+               1, 1e-9);
     rayd_image_free(img);
     rayd_scene_free(s);
 }
@@ -287,30 +293,36 @@ static void test_smooth_normals_follow_the_sphere(void) {
 static void test_mesh_errors(void) {
     struct rayd_error err;
     rayd_scene *s = NULL;
-    const char *bad_index = "{\"objects\": [{\"type\": \"mesh\", \"vertices\": [0,0,0, 1,0,0, 0,1,0], \"indices\": [0, 1, 3]}]}";
+    const char *bad_index = "{\"objects\": [{\"type\": \"mesh\", \"vertices\": [0,0,0, 1,0,0, "
+                            "0,1,0], \"indices\": [0, 1, 3]}]}";
     CHECK(rayd_scene_parse(bad_index, strlen(bad_index), NULL, &s, &err) == RAYD_E_INVALID &&
               strcmp(err.path, "/objects/0/indices/2") == 0 && strstr(err.message, "0..2"),
           "%s: %s", err.path, err.message);
-    const char *short_v = "{\"objects\": [{\"type\": \"mesh\", \"vertices\": [0,0,0, 1,0], \"indices\": [0, 1, 2]}]}";
+    const char *short_v =
+        "{\"objects\": [{\"type\": \"mesh\", \"vertices\": [0,0,0, 1,0], \"indices\": [0, 1, 2]}]}";
     CHECK(rayd_scene_parse(short_v, strlen(short_v), NULL, &s, &err) == RAYD_E_INVALID &&
               strcmp(err.path, "/objects/0/vertices") == 0 && strstr(err.message, "multiple of 3"),
           "%s: %s", err.path, err.message);
-    const char *bad_n = "{\"objects\": [{\"type\": \"mesh\", \"vertices\": [0,0,0, 1,0,0, 0,1,0], \"indices\": [0, 1, 2], \"normals\": [0,0,1]}]}";
+    const char *bad_n = "{\"objects\": [{\"type\": \"mesh\", \"vertices\": [0,0,0, 1,0,0, 0,1,0], "
+                        "\"indices\": [0, 1, 2], \"normals\": [0,0,1]}]}";
     CHECK(rayd_scene_parse(bad_n, strlen(bad_n), NULL, &s, &err) == RAYD_E_INVALID &&
               strcmp(err.path, "/objects/0/normals") == 0,
           "%s: %s", err.path, err.message);
-    const char *sing = "{\"objects\": [{\"type\": \"sphere\", \"transform\": {\"scale\": [1, 0, 1]}}]}";
+    const char *sing =
+        "{\"objects\": [{\"type\": \"sphere\", \"transform\": {\"scale\": [1, 0, 1]}}]}";
     CHECK(rayd_scene_parse(sing, strlen(sing), NULL, &s, &err) == RAYD_E_INVALID &&
               strcmp(err.path, "/objects/0/transform/scale") == 0,
           "%s: %s", err.path, err.message);
-    const char *mat = "{\"objects\": [{\"type\": \"sphere\", \"transform\": {\"matrix\": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,1,1]}}]}";
+    const char *mat = "{\"objects\": [{\"type\": \"sphere\", \"transform\": {\"matrix\": [1,0,0,0, "
+                      "0,1,0,0, 0,0,1,0, 0,0,1,1]}}]}";
     CHECK(rayd_scene_parse(mat, strlen(mat), NULL, &s, &err) == RAYD_E_INVALID &&
               strcmp(err.path, "/objects/0/transform/matrix") == 0,
           "%s: %s", err.path, err.message);
     struct rayd_limits lim;
     rayd_limits_default(&lim);
     lim.max_triangles = 1;
-    const char *two = "{\"objects\": [{\"type\": \"mesh\", \"vertices\": [0,0,0, 1,0,0, 0,1,0], \"indices\": [0,1,2, 0,2,1]}]}";
+    const char *two = "{\"objects\": [{\"type\": \"mesh\", \"vertices\": [0,0,0, 1,0,0, 0,1,0], "
+                      "\"indices\": [0,1,2, 0,2,1]}]}";
     CHECK(rayd_scene_parse(two, strlen(two), &lim, &s, &err) == RAYD_E_LIMIT &&
               strcmp(err.path, "/objects/0/indices") == 0,
           "%s: %s", err.path, err.message);
@@ -423,7 +435,57 @@ static void test_bvh_same_for_any_thread_count(void) {
     free(index);
 }
 
+/* The mesh's triangles' boxes go straight into the builder
+ * (bvh_build_from), its blocks and its index in leaf order are read
+ * through the order: the same tree as bvh_build over the boxes, each
+ * block lane the corners of the triangle the order names, unused lanes
+ * zero, and the kept index (a smooth mesh) that order's. */
+static void test_mesh_tree_is_bvh_of_boxes(void) {
+    const uint32_t n = 100000;
+    float *pos, *pos0;
+    uint32_t *index, *index0, *order = malloc(sizeof *order * n);
+    struct bbox *boxes = malloc(sizeof *boxes * n);
+    soup(n, &pos0, &index0);
+    soup(n, &pos, &index);
+    for (uint32_t t = 0; t < n; t++)
+        for (int k = 0; k < 3; k++) {
+            const float *v = pos0 + 9 * (size_t)t + k;
+            boxes[t].lo[k] = fminf(v[0], fminf(v[3], v[6]));
+            boxes[t].hi[k] = fmaxf(v[0], fmaxf(v[3], v[6]));
+        }
+    struct bvh4 bvh;
+    struct mesh m;
+    CHECK(bvh_build(&bvh, boxes, n, BVH_MAX_LEAF, order, 2, NULL) == RAYD_OK, "bvh_build");
+    CHECK(mesh_build(&m, pos, 3 * n, index, n, NULL, NULL, true, 2, NULL) == RAYD_OK, "mesh");
+    CHECK(m.bvh.nnodes == bvh.nnodes, "%u nodes, bvh_build %u", m.bvh.nnodes, bvh.nnodes);
+    uint32_t bad = 0, lanes = 0;
+    for (uint32_t i = 0; i < bvh.nnodes && m.bvh.nnodes == bvh.nnodes; i++) {
+        const struct bvh4_node *a = &m.bvh.nodes[i], *b = &bvh.nodes[i];
+        bad += memcmp(a->lo, b->lo, sizeof a->lo) || memcmp(a->hi, b->hi, sizeof a->hi) ||
+               memcmp(a->count, b->count, sizeof a->count);
+    }
+    for (uint32_t t = 0; t < n; t++) bad += memcmp(m.index + 3 * t, index0 + 3 * order[t], 12) != 0;
+    for (uint32_t i = 0; i < m.nblocks; i++)
+        for (int lane = 0; lane < 4; lane++) {
+            uint32_t id = m.blocks[i].id[lane];
+            lanes += id != UINT32_MAX;
+            for (int k = 0; k < 3; k++)
+                for (int j = 0; j < 3; j++) {
+                    float want = id == UINT32_MAX ? 0 : pos0[3 * index0[3 * order[id] + k] + j];
+                    bad += memcmp(&m.blocks[i].v[k][j][lane], &want, sizeof want) != 0;
+                }
+        }
+    CHECK(bad == 0 && lanes == n, "%u differences, %u lanes of %u triangles", bad, lanes, n);
+    mesh_free(&m);
+    bvh_free(&bvh);
+    free(boxes);
+    free(order);
+    free(pos0);
+    free(index0);
+}
+
 int main(void) {
+    RUN(test_mesh_tree_is_bvh_of_boxes);
     RUN(test_mesh_build_same_for_any_thread_count);
     RUN(test_bvh_same_for_any_thread_count);
     RUN(test_bvh_equals_brute_force);

@@ -38,9 +38,8 @@ static void same_on_threads(bool is_obj, const void *data, size_t len,
                    same_floats(t.normal, m->normal, 3 * (size_t)m->nverts) &&
                    same_floats(t.uv, m->uv, 2 * (size_t)m->nverts) &&
                    !memcmp(t.index, m->index, sizeof *t.index * 3 * m->ntris);
-        CHECK(same, "%s on %d threads: status %d '%s', one thread: %d '%s'",
-              is_obj ? "OBJ" : "PLY", threads[k], (int)ts, te.message, (int)st,
-              e ? e->message : "");
+        CHECK(same, "%s on %d threads: status %d '%s', one thread: %d '%s'", is_obj ? "OBJ" : "PLY",
+              threads[k], (int)ts, te.message, (int)st, e ? e->message : "");
         if (ts == RAYD_OK) mesh_data_free(&t);
     }
 }
@@ -75,23 +74,25 @@ static enum rayd_status ply(const char *text, struct mesh_data *m, struct rayd_e
 
 /* Expects failure with `code` and a message containing `want`; checks
  * that *m was not written. */
-#define CHECK_FAILS(call, code, want)                                                   \
-    do {                                                                                \
-        struct mesh_data m_ = {0};                                                      \
-        struct rayd_error e_ = {0};                                                     \
-        enum rayd_status st_ = call(&m_, &e_);                                          \
-        CHECK(st_ == (code), "status %d, want %d (%s)", (int)st_, (int)(code), e_.message); \
-        CHECK(strstr(e_.message, want) != NULL, "message '%s' lacks '%s'", e_.message, want); \
-        CHECK(m_.pos == NULL && m_.index == NULL && m_.nverts == 0, "out written on error"); \
-        mesh_data_free(&m_);                                                            \
+#define CHECK_FAILS(call, code, want)                                                              \
+    do {                                                                                           \
+        struct mesh_data m_ = {0};                                                                 \
+        struct rayd_error e_ = {0};                                                                \
+        enum rayd_status st_ = call(&m_, &e_);                                                     \
+        CHECK(st_ == (code), "status %d, want %d (%s)", (int)st_, (int)(code), e_.message);        \
+        CHECK(strstr(e_.message, want) != NULL, "message '%s' lacks '%s'", e_.message, want);      \
+        CHECK(m_.pos == NULL && m_.index == NULL && m_.nverts == 0, "out written on error");       \
+        mesh_data_free(&m_);                                                                       \
     } while (0)
 
 static bool tri_is(const struct mesh_data *m, uint32_t t, uint32_t a, uint32_t b, uint32_t c) {
-    return m->index && t < m->ntris && m->index[t * 3] == a && m->index[t * 3 + 1] == b && m->index[t * 3 + 2] == c;
+    return m->index && t < m->ntris && m->index[t * 3] == a && m->index[t * 3 + 1] == b &&
+           m->index[t * 3 + 2] == c;
 }
 
 static bool pos_is(const struct mesh_data *m, uint32_t v, float x, float y, float z) {
-    return m->pos && v < m->nverts && m->pos[v * 3] == x && m->pos[v * 3 + 1] == y && m->pos[v * 3 + 2] == z;
+    return m->pos && v < m->nverts && m->pos[v * 3] == x && m->pos[v * 3 + 1] == y &&
+           m->pos[v * 3 + 2] == z;
 }
 
 /* The position of corner k of triangle t. */
@@ -116,20 +117,36 @@ static double num(const char *s, bool *ok) {
 }
 
 static void test_number_parser(void) {
-    static const char *good[] = {"0",     "-0",      "1",         "+7",       "0.1",
-                                 "-2.5",  ".5",      "5.",        "1e3",      "1E-3",
-                                 "-2.5E+2", "3.14159265358979", "123456789012345678901234",
-                                 "1e-300", "0.000000000000000000000000001", "1.7976931348623157e308",
-                                 "0x1p3", "nan",      "inf",      "-infinity"};
+    static const char *good[] = {"0",
+                                 "-0",
+                                 "1",
+                                 "+7",
+                                 "0.1",
+                                 "-2.5",
+                                 ".5",
+                                 "5.",
+                                 "1e3",
+                                 "1E-3",
+                                 "-2.5E+2",
+                                 "3.14159265358979",
+                                 "123456789012345678901234",
+                                 "1e-300",
+                                 "0.000000000000000000000000001",
+                                 "1.7976931348623157e308",
+                                 "0x1p3",
+                                 "nan",
+                                 "inf",
+                                 "-infinity"};
     for (size_t i = 0; i < sizeof good / sizeof good[0]; i++) {
         bool ok;
         double d = num(good[i], &ok);
         double want = strtod(good[i], NULL);
         CHECK(ok, "'%s' rejected", good[i]);
-        CHECK((isnan(d) && isnan(want)) || d == want, "'%s' -> %.17g, strtod %.17g", good[i], d, want);
+        CHECK((isnan(d) && isnan(want)) || d == want, "'%s' -> %.17g, strtod %.17g", good[i], d,
+              want);
     }
-    static const char *bad[] = {"", "-", "+", ".", "e5", "1e", "1e+", "1.2.3", "1x", "--1", " 1",
-                                "1 ", "1,5"};
+    static const char *bad[] = {"",      "-",  "+",   ".",  "e5", "1e", "1e+",
+                                "1.2.3", "1x", "--1", " 1", "1 ", "1,5"};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         bool ok;
         num(bad[i], &ok);
@@ -150,11 +167,10 @@ static void test_number_parser(void) {
 
 /* ---- OBJ --------------------------------------------------------------- */
 
-static const char *obj_square_v =
-    "v 0 0 0\n"
-    "v 1 0 0\n"
-    "v 1 1 0\n"
-    "v 0 1 0\n";
+static const char *obj_square_v = "v 0 0 0\n"
+                                  "v 1 0 0\n"
+                                  "v 1 1 0\n"
+                                  "v 0 1 0\n";
 
 static void test_obj_plain_faces(void) {
     struct mesh_data m = {0};
@@ -179,7 +195,8 @@ static void test_obj_face_forms(void) {
     /* v/vt */
     snprintf(text, sizeof text, "%svt 0 0\nvt 1 0\nvt 1 1\nf 1/1 2/2 3/3\n", obj_square_v);
     CHECK(obj(text, &m, &e) == RAYD_OK, "%s", e.message);
-    CHECK(m.uv && !m.normal && m.nverts == 3, "v/vt: uv %p normal %p", (void *)m.uv, (void *)m.normal);
+    CHECK(m.uv && !m.normal && m.nverts == 3, "v/vt: uv %p normal %p", (void *)m.uv,
+          (void *)m.normal);
     if (m.uv) CHECK(m.uv[2] == 1 && m.uv[3] == 0 && m.uv[4] == 1 && m.uv[5] == 1, "uv values");
     mesh_data_free(&m);
     /* v//vn */
@@ -236,8 +253,7 @@ static void test_obj_polygons_fan(void) {
     size_t cap = 2000 * 40;
     char *big = malloc(cap);
     size_t n = 0;
-    for (int i = 0; i < 2000; i++)
-        n += (size_t)snprintf(big + n, cap - n, "v %d %d 0\n", i, i % 7);
+    for (int i = 0; i < 2000; i++) n += (size_t)snprintf(big + n, cap - n, "v %d %d 0\n", i, i % 7);
     n += (size_t)snprintf(big + n, cap - n, "f");
     for (int i = 1; i <= 2000; i++) n += (size_t)snprintf(big + n, cap - n, " %d", i);
     CHECK(obj_n(big, n, NULL, &m, &e) == RAYD_OK, "%s", e.message); /* no final newline */
@@ -263,7 +279,8 @@ static void test_obj_dedup(void) {
     CHECK(obj(text, &m, &e) == RAYD_OK, "%s", e.message);
     CHECK(m.nverts == 6 && m.normal, "%u verts", m.nverts);
     if (m.normal && m.nverts == 6) {
-        CHECK(m.normal[m.index[0] * 3 + 2] == 1 && m.normal[m.index[3] * 3 + 2] == -1, "split normals");
+        CHECK(m.normal[m.index[0] * 3 + 2] == 1 && m.normal[m.index[3] * 3 + 2] == -1,
+              "split normals");
         CHECK(m.index[0] != m.index[3], "distinct vertices");
     }
     mesh_data_free(&m);
@@ -322,7 +339,8 @@ static void test_obj_merge_grows_the_table(void) {
     char *text = malloc(cap);
     struct mesh_data m = {0};
     struct rayd_error e = {0};
-    for (int i = 0; i < NV; i++) len += (size_t)snprintf(text + len, cap - len, "v %d %d 0\n", i, i % 7);
+    for (int i = 0; i < NV; i++)
+        len += (size_t)snprintf(text + len, cap - len, "v %d %d 0\n", i, i % 7);
     len += (size_t)snprintf(text + len, cap - len, "vt 0 0\nf 1/1 2/1 3/1\n");
     for (int i = 1; i + 2 <= NV; i++)
         len += (size_t)snprintf(text + len, cap - len, "f %d %d %d\n", i, i + 1, i + 2);
@@ -366,9 +384,9 @@ static enum rayd_status obj_bad_index(struct mesh_data *m, struct rayd_error *e)
     return obj(text, m, e);
 }
 
-#define OBJ_CASE(name, text)                                                             \
-    static enum rayd_status name(struct mesh_data *m, struct rayd_error *e) {           \
-        return obj(text, m, e);                                                           \
+#define OBJ_CASE(name, text)                                                                       \
+    static enum rayd_status name(struct mesh_data *m, struct rayd_error *e) {                      \
+        return obj(text, m, e);                                                                    \
     }
 
 OBJ_CASE(obj_index_zero, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n")
@@ -389,14 +407,19 @@ OBJ_CASE(obj_no_faces, "v 0 0 0\nv 1 0 0\nv 0 1 0\n")
 OBJ_CASE(obj_empty, "")
 OBJ_CASE(obj_vn_short, "vn 0 1\n")
 OBJ_CASE(obj_binary_token, "v 0 \xff\x01x 0\n")
-OBJ_CASE(obj_long_token, "v 0 0 0123456789012345678901234567890123456789012345678901234567890123456789z\n")
+OBJ_CASE(obj_long_token,
+         "v 0 0 0123456789012345678901234567890123456789012345678901234567890123456789z\n")
 
 static void test_obj_errors(void) {
-    CHECK_FAILS(obj_bad_index, RAYD_E_INVALID, "OBJ line 42: face index 40 is out of range (1..38)");
+    CHECK_FAILS(obj_bad_index, RAYD_E_INVALID,
+                "OBJ line 42: face index 40 is out of range (1..38)");
     CHECK_FAILS(obj_index_zero, RAYD_E_INVALID, "OBJ line 4: face index 0 is invalid");
-    CHECK_FAILS(obj_negative_out, RAYD_E_INVALID, "OBJ line 4: face index -4 is out of range (-3..-1)");
-    CHECK_FAILS(obj_forward_ref, RAYD_E_INVALID, "OBJ line 1: face index 1 is out of range (none defined yet)");
-    CHECK_FAILS(obj_texture_out, RAYD_E_INVALID, "OBJ line 5: texture index 2 is out of range (1..1)");
+    CHECK_FAILS(obj_negative_out, RAYD_E_INVALID,
+                "OBJ line 4: face index -4 is out of range (-3..-1)");
+    CHECK_FAILS(obj_forward_ref, RAYD_E_INVALID,
+                "OBJ line 1: face index 1 is out of range (none defined yet)");
+    CHECK_FAILS(obj_texture_out, RAYD_E_INVALID,
+                "OBJ line 5: texture index 2 is out of range (1..1)");
     CHECK_FAILS(obj_normal_out, RAYD_E_INVALID, "OBJ line 4: normal index 1 is out of range");
     CHECK_FAILS(obj_bad_corner, RAYD_E_INVALID, "OBJ line 4: bad face vertex '1/1/1/1'");
     CHECK_FAILS(obj_letters, RAYD_E_INVALID, "OBJ line 4: bad face index 'three'");
@@ -440,8 +463,10 @@ static enum rayd_status obj_over_output_verts(struct mesh_data *m, struct rayd_e
 
 static void test_obj_limits(void) {
     CHECK_FAILS(obj_over_tris, RAYD_E_LIMIT, "OBJ line 8: 4 triangles exceed the limit of 3");
-    CHECK_FAILS(obj_over_positions, RAYD_E_LIMIT, "OBJ line 6: 6 'v' lines exceed the limit of 5 vertices");
-    CHECK_FAILS(obj_over_output_verts, RAYD_E_LIMIT, "OBJ line 7: 6 vertices exceed the limit of 5");
+    CHECK_FAILS(obj_over_positions, RAYD_E_LIMIT,
+                "OBJ line 6: 6 'v' lines exceed the limit of 5 vertices");
+    CHECK_FAILS(obj_over_output_verts, RAYD_E_LIMIT,
+                "OBJ line 7: 6 vertices exceed the limit of 5");
     struct mesh_data m = {0};
     struct rayd_error e = {0};
     CHECK(obj_lim(obj_two_quads, 6, 4, &m, &e) == RAYD_OK, "exactly at the limits: %s", e.message);
@@ -450,38 +475,37 @@ static void test_obj_limits(void) {
 
 /* ---- PLY: ascii -------------------------------------------------------- */
 
-static const char *ply_ascii_cube =
-    "ply\r\n"
-    "format ascii 1.0\r\n"
-    "comment made by hand\r\n"
-    "obj_info nothing\r\n"
-    "element vertex 4\r\n"
-    "property float x\r\n"
-    "property float y\r\n"
-    "property float z\r\n"
-    "property uchar red\r\n"
-    "property list uchar int extra_list\r\n"
-    "property float nx\r\n"
-    "property float ny\r\n"
-    "property float nz\r\n"
-    "property float s\r\n"
-    "property float t\r\n"
-    "element edge 2\r\n"
-    "property int vertex1\r\n"
-    "property list int int stuff\r\n"
-    "element face 2\r\n"
-    "property uchar flags\r\n"
-    "property list uchar int vertex_indices\r\n"
-    "property list int float texcoord\r\n"
-    "end_header\r\n"
-    "0 0 0 255 2 7 8 0 0 1 0 0\r\n"
-    "1 0 0 128 0 0 0 1 1 0\r\n"
-    "1 1 0 0 1 -5 0 0 1 1 1\r\n"
-    "0 1 0 1 0 0 0 1 0 1\r\n"
-    "0 3 1 2 3\r\n"
-    "1 0\r\n"
-    "0 4 0 1 2 3 0\r\n"
-    "9 3 0 2 3 2 0.5 0.5\r\n";
+static const char *ply_ascii_cube = "ply\r\n"
+                                    "format ascii 1.0\r\n"
+                                    "comment made by hand\r\n"
+                                    "obj_info nothing\r\n"
+                                    "element vertex 4\r\n"
+                                    "property float x\r\n"
+                                    "property float y\r\n"
+                                    "property float z\r\n"
+                                    "property uchar red\r\n"
+                                    "property list uchar int extra_list\r\n"
+                                    "property float nx\r\n"
+                                    "property float ny\r\n"
+                                    "property float nz\r\n"
+                                    "property float s\r\n"
+                                    "property float t\r\n"
+                                    "element edge 2\r\n"
+                                    "property int vertex1\r\n"
+                                    "property list int int stuff\r\n"
+                                    "element face 2\r\n"
+                                    "property uchar flags\r\n"
+                                    "property list uchar int vertex_indices\r\n"
+                                    "property list int float texcoord\r\n"
+                                    "end_header\r\n"
+                                    "0 0 0 255 2 7 8 0 0 1 0 0\r\n"
+                                    "1 0 0 128 0 0 0 1 1 0\r\n"
+                                    "1 1 0 0 1 -5 0 0 1 1 1\r\n"
+                                    "0 1 0 1 0 0 0 1 0 1\r\n"
+                                    "0 3 1 2 3\r\n"
+                                    "1 0\r\n"
+                                    "0 4 0 1 2 3 0\r\n"
+                                    "9 3 0 2 3 2 0.5 0.5\r\n";
 
 static void test_ply_ascii(void) {
     struct mesh_data m = {0};
@@ -637,13 +661,16 @@ static void test_ply_binary_truncated(void) {
         struct rayd_error e = {0};
         if (ply_n(w.b, n, NULL, &m, &e) == RAYD_OK) ok++;
         mesh_data_free(&m);
-        if (n < header) in_header += strstr(e.message, "PLY header") != NULL;
-        else if (strstr(e.message, "claims")) in_header++;
+        if (n < header)
+            in_header += strstr(e.message, "PLY header") != NULL;
+        else if (strstr(e.message, "claims"))
+            in_header++;
         else if (!strncmp(e.message, "PLY vertex ", 11) && strstr(e.message, "file ends early"))
             in_vertex++;
         else if (!strncmp(e.message, "PLY face ", 9) && strstr(e.message, "file ends early"))
             in_face++;
-        else if (!strstr(e.message, "PLY tail 0: file ends early")) other++;
+        else if (!strstr(e.message, "PLY tail 0: file ends early"))
+            other++;
     }
     CHECK(ok == 0, "%d truncated files accepted", ok);
     CHECK(other == 0, "%d cuts with an unexpected message", other);
@@ -654,10 +681,12 @@ static void test_ply_binary_truncated(void) {
     struct mesh_data m = {0};
     struct rayd_error e = {0};
     CHECK(ply_n(w.b, header + 20, NULL, &m, &e) == RAYD_E_INVALID &&
-              strstr(e.message, "PLY header line 7: element 'vertex' claims 5 records but the body has only 20 bytes"),
+              strstr(e.message, "PLY header line 7: element 'vertex' claims 5 records but the body "
+                                "has only 20 bytes"),
           "%s", e.message);
     CHECK(ply_n(w.b, w.n - 2, NULL, &m, &e) == RAYD_E_INVALID, "cut in tail");
-    CHECK(strstr(e.message, "PLY tail 0: file ends early (truncated binary body)"), "%s", e.message);
+    CHECK(strstr(e.message, "PLY tail 0: file ends early (truncated binary body)"), "%s",
+          e.message);
 }
 
 static void test_ply_binary_int_counts_and_big_list(void) {
@@ -692,9 +721,9 @@ static void test_ply_binary_int_counts_and_big_list(void) {
 
 /* ---- PLY: errors -------------------------------------------------------- */
 
-#define PLY_CASE(name, text)                                                             \
-    static enum rayd_status name(struct mesh_data *m, struct rayd_error *e) {           \
-        return ply(text, m, e);                                                           \
+#define PLY_CASE(name, text)                                                                       \
+    static enum rayd_status name(struct mesh_data *m, struct rayd_error *e) {                      \
+        return ply(text, m, e);                                                                    \
     }
 
 #define PLY_XYZ "property float x\nproperty float y\nproperty float z\n"
@@ -704,21 +733,25 @@ PLY_CASE(ply_bad_format, "ply\nformat binary_middle_endian 1.0\nend_header\n")
 PLY_CASE(ply_bad_version, "ply\nformat ascii 2.0\nend_header\n")
 PLY_CASE(ply_not_ply, "plyx\nformat ascii 1.0\nend_header\n")
 PLY_CASE(ply_no_end, "ply\nformat ascii 1.0\nelement vertex 3\n" PLY_XYZ)
-PLY_CASE(ply_absurd, "ply\nformat binary_little_endian 1.0\nelement vertex 4294967295\n" PLY_XYZ
-                     PLY_FACE "end_header\n0123456789012345678901234567890123456789")
-PLY_CASE(ply_absurd_ascii, "ply\nformat ascii 1.0\nelement vertex 3\n" PLY_XYZ
-                           "element face 18446744073709551615\nproperty list uchar int vertex_indices\n"
-                           "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
+PLY_CASE(ply_absurd,
+         "ply\nformat binary_little_endian 1.0\nelement vertex 4294967295\n" PLY_XYZ PLY_FACE
+         "end_header\n0123456789012345678901234567890123456789")
+PLY_CASE(ply_absurd_ascii,
+         "ply\nformat ascii 1.0\nelement vertex 3\n" PLY_XYZ
+         "element face 18446744073709551615\nproperty list uchar int vertex_indices\n"
+         "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
 PLY_CASE(ply_count_overflow, "ply\nformat ascii 1.0\nelement vertex 99999999999999999999999\n")
 PLY_CASE(ply_index_out, "ply\nformat ascii 1.0\nelement vertex 4\n" PLY_XYZ PLY_FACE
                         "end_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 5\n")
 PLY_CASE(ply_index_negative, "ply\nformat ascii 1.0\nelement vertex 3\n" PLY_XYZ PLY_FACE
                              "end_header\n0 0 0\n1 0 0\n1 1 0\n3 0 -1 2\n")
-PLY_CASE(ply_no_z, "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-                   PLY_FACE "end_header\n")
+PLY_CASE(ply_no_z,
+         "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n" PLY_FACE
+         "end_header\n")
 PLY_CASE(ply_no_face, "ply\nformat ascii 1.0\nelement vertex 1\n" PLY_XYZ "end_header\n0 0 0\n")
-PLY_CASE(ply_no_faces, "ply\nformat ascii 1.0\nelement vertex 1\n" PLY_XYZ
-                       "element face 0\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n")
+PLY_CASE(ply_no_faces,
+         "ply\nformat ascii 1.0\nelement vertex 1\n" PLY_XYZ
+         "element face 0\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n")
 PLY_CASE(ply_no_indices, "ply\nformat ascii 1.0\nelement vertex 1\n" PLY_XYZ
                          "element face 1\nproperty int vertex_indices\nend_header\n0 0 0\n3\n")
 PLY_CASE(ply_two_corners, "ply\nformat ascii 1.0\nelement vertex 3\n" PLY_XYZ PLY_FACE
@@ -729,7 +762,8 @@ PLY_CASE(ply_bad_token, "ply\nformat ascii 1.0\nelement vertex 3\n" PLY_XYZ PLY_
                         "end_header\n0 0 0\n1 0 0\n1 1 zero\n3 0 1 2\n")
 PLY_CASE(ply_ascii_short, "ply\nformat ascii 1.0\nelement vertex 3\n" PLY_XYZ PLY_FACE
                           "end_header\n0 0 0\n1 0 0\n1 1 0\n3 0 1")
-PLY_CASE(ply_bad_type, "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty half y\n")
+PLY_CASE(ply_bad_type,
+         "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty half y\n")
 PLY_CASE(ply_float_count, "ply\nformat ascii 1.0\nelement vertex 3\n" PLY_XYZ
                           "element face 1\nproperty list float int vertex_indices\n")
 PLY_CASE(ply_orphan_prop, "ply\nformat ascii 1.0\nproperty float x\n")
@@ -742,8 +776,9 @@ PLY_CASE(ply_fraction_index, "ply\nformat ascii 1.0\nelement vertex 3\n" PLY_XYZ
 PLY_CASE(ply_strip_index_out, "ply\nformat ascii 1.0\nelement vertex 5\n" PLY_XYZ
                               "element tristrips 1\nproperty list int int vertex_indices\n"
                               "end_header\n0 0 0\n1 0 0\n0 1 0\n1 1 0\n2 1 0\n4 0 1 2 7\n")
-PLY_CASE(ply_strip_no_indices, "ply\nformat ascii 1.0\nelement vertex 1\n" PLY_XYZ
-                               "element tristrips 1\nproperty int vertex_indices\nend_header\n0 0 0\n3\n")
+PLY_CASE(ply_strip_no_indices,
+         "ply\nformat ascii 1.0\nelement vertex 1\n" PLY_XYZ
+         "element tristrips 1\nproperty int vertex_indices\nend_header\n0 0 0\n3\n")
 
 /* Triangle strips (element tristrips, as in Stanford scans): alternate
  * triangles turned to keep the winding, -1 ending a strip, the joining
@@ -782,17 +817,22 @@ static void test_ply_tristrips(void) {
 }
 
 static void test_ply_errors(void) {
-    CHECK_FAILS(ply_bad_format, RAYD_E_INVALID, "PLY header line 2: unknown format 'binary_middle_endian'");
+    CHECK_FAILS(ply_bad_format, RAYD_E_INVALID,
+                "PLY header line 2: unknown format 'binary_middle_endian'");
     CHECK_FAILS(ply_bad_version, RAYD_E_INVALID, "PLY header line 2: unsupported version '2.0'");
     CHECK_FAILS(ply_not_ply, RAYD_E_INVALID, "PLY header line 1: not a PLY file");
     CHECK_FAILS(ply_no_end, RAYD_E_INVALID, "PLY header: no 'end_header' line");
     CHECK_FAILS(ply_absurd, RAYD_E_INVALID,
-                "PLY header line 3: element 'vertex' claims 4294967295 records but the body has only 40 bytes");
-    CHECK_FAILS(ply_absurd_ascii, RAYD_E_INVALID, "element 'face' claims 18446744073709551615 records");
+                "PLY header line 3: element 'vertex' claims 4294967295 records but the body has "
+                "only 40 bytes");
+    CHECK_FAILS(ply_absurd_ascii, RAYD_E_INVALID,
+                "element 'face' claims 18446744073709551615 records");
     CHECK_FAILS(ply_count_overflow, RAYD_E_INVALID, "PLY header line 3: bad element count");
     CHECK_FAILS(ply_index_out, RAYD_E_INVALID, "PLY face 0: vertex index 5 is out of range (0..3)");
-    CHECK_FAILS(ply_index_negative, RAYD_E_INVALID, "PLY face 0: vertex index -1 is out of range (0..2)");
-    CHECK_FAILS(ply_fraction_index, RAYD_E_INVALID, "PLY face 0: vertex index 1.5 is not an integer");
+    CHECK_FAILS(ply_index_negative, RAYD_E_INVALID,
+                "PLY face 0: vertex index -1 is out of range (0..2)");
+    CHECK_FAILS(ply_fraction_index, RAYD_E_INVALID,
+                "PLY face 0: vertex index 1.5 is not an integer");
     CHECK_FAILS(ply_no_z, RAYD_E_INVALID, "PLY header: element 'vertex' has no property 'z'");
     CHECK_FAILS(ply_no_face, RAYD_E_INVALID,
                 "PLY header: no 'face' or 'tristrips' element (a point cloud, not a mesh)");
@@ -805,10 +845,12 @@ static void test_ply_errors(void) {
     CHECK_FAILS(ply_two_corners, RAYD_E_INVALID, "PLY face 0: polygon has 2 vertices");
     CHECK_FAILS(ply_nan, RAYD_E_INVALID, "PLY vertex 1: y is not a finite float");
     CHECK_FAILS(ply_bad_token, RAYD_E_INVALID, "PLY vertex 2: bad number 'zero'");
-    CHECK_FAILS(ply_ascii_short, RAYD_E_INVALID, "PLY face 0: file ends early (truncated ascii body)");
+    CHECK_FAILS(ply_ascii_short, RAYD_E_INVALID,
+                "PLY face 0: file ends early (truncated ascii body)");
     CHECK_FAILS(ply_bad_type, RAYD_E_INVALID, "PLY header line 5: unknown property type 'half'");
     CHECK_FAILS(ply_float_count, RAYD_E_INVALID, "PLY header line 8: bad list count type 'float'");
-    CHECK_FAILS(ply_orphan_prop, RAYD_E_INVALID, "PLY header line 3: 'property' before any 'element'");
+    CHECK_FAILS(ply_orphan_prop, RAYD_E_INVALID,
+                "PLY header line 3: 'property' before any 'element'");
     CHECK_FAILS(ply_unknown_kw, RAYD_E_INVALID, "PLY header line 4: unknown keyword 'foo'");
     /* before any element, a line of no keyword is a comment (Blender 2.4x) */
     CHECK_FAILS(ply_created_by, RAYD_E_INVALID, "PLY header: no 'end_header' line");
@@ -821,9 +863,10 @@ static enum rayd_status ply_lim(const char *text, uint32_t mv, uint32_t mt, stru
     return ply_n(text, strlen(text), &lim, m, e);
 }
 
-static const char *ply_quads = "ply\nformat ascii 1.0\nelement vertex 6\n" PLY_XYZ
-                               "element face 2\nproperty list uchar int vertex_indices\nend_header\n"
-                               "0 0 0\n1 0 0\n1 1 0\n0 1 0\n2 0 0\n2 1 0\n4 0 1 2 3\n4 1 4 5 2\n";
+static const char *ply_quads =
+    "ply\nformat ascii 1.0\nelement vertex 6\n" PLY_XYZ
+    "element face 2\nproperty list uchar int vertex_indices\nend_header\n"
+    "0 0 0\n1 0 0\n1 1 0\n0 1 0\n2 0 0\n2 1 0\n4 0 1 2 3\n4 1 4 5 2\n";
 
 static enum rayd_status ply_over_verts(struct mesh_data *m, struct rayd_error *e) {
     return ply_lim(ply_quads, 5, 100, m, e);
@@ -836,17 +879,20 @@ static enum rayd_status ply_over_tris(struct mesh_data *m, struct rayd_error *e)
 }
 static enum rayd_status ply_absurd_limited(struct mesh_data *m, struct rayd_error *e) {
     struct mesh_limits lim = {1000000, 2000000};
-    const char *t = "ply\nformat binary_little_endian 1.0\nelement vertex 4294967295\n" PLY_XYZ
-                    PLY_FACE "end_header\n0123456789";
+    const char *t =
+        "ply\nformat binary_little_endian 1.0\nelement vertex 4294967295\n" PLY_XYZ PLY_FACE
+        "end_header\n0123456789";
     return ply_n(t, strlen(t), &lim, m, e);
 }
 
 static void test_ply_limits(void) {
     CHECK_FAILS(ply_over_verts, RAYD_E_LIMIT, "PLY header: 6 vertices exceed the limit of 5");
-    CHECK_FAILS(ply_over_faces, RAYD_E_LIMIT, "PLY header: 2 faces exceed the limit of 1 triangles");
+    CHECK_FAILS(ply_over_faces, RAYD_E_LIMIT,
+                "PLY header: 2 faces exceed the limit of 1 triangles");
     CHECK_FAILS(ply_over_tris, RAYD_E_LIMIT, "PLY face 1: 4 triangles exceed the limit of 3");
     /* A corrupt header is reported as such even when it is also over the limits. */
-    CHECK_FAILS(ply_absurd_limited, RAYD_E_INVALID, "claims 4294967295 records but the body has only 10 bytes");
+    CHECK_FAILS(ply_absurd_limited, RAYD_E_INVALID,
+                "claims 4294967295 records but the body has only 10 bytes");
     struct mesh_data m = {0};
     struct rayd_error e = {0};
     CHECK(ply_lim(ply_quads, 6, 4, &m, &e) == RAYD_OK, "at the limits: %s", e.message);
@@ -865,10 +911,14 @@ static size_t b64_encode(const unsigned char *in, size_t n, char *out, bool pad)
         if (i + 2 < n) v |= in[i + 2];
         out[o++] = A[v >> 18 & 63];
         out[o++] = A[v >> 12 & 63];
-        if (i + 1 < n) out[o++] = A[v >> 6 & 63];
-        else if (pad) out[o++] = '=';
-        if (i + 2 < n) out[o++] = A[v & 63];
-        else if (pad) out[o++] = '=';
+        if (i + 1 < n)
+            out[o++] = A[v >> 6 & 63];
+        else if (pad)
+            out[o++] = '=';
+        if (i + 2 < n)
+            out[o++] = A[v & 63];
+        else if (pad)
+            out[o++] = '=';
     }
     return o;
 }
@@ -893,7 +943,8 @@ static void test_base64_round_trip(void) {
             size_t len = 99;
             struct rayd_error e = {0};
             CHECK(b64(text, tn, &out, &len, &e) == RAYD_OK, "n=%zu pad=%d: %s", n, pad, e.message);
-            CHECK(out != NULL && len == n && memcmp(out, all + 256 - n, n) == 0, "n=%zu pad=%d", n, pad);
+            CHECK(out != NULL && len == n && memcmp(out, all + 256 - n, n) == 0, "n=%zu pad=%d", n,
+                  pad);
             free(out);
         }
     size_t tn = b64_encode(all, 256, text, true);
@@ -903,17 +954,18 @@ static void test_base64_round_trip(void) {
 static void test_base64_padding_and_whitespace(void) {
     static const struct {
         const char *in, *out;
-    } ok[] = {{"TWFu", "Man"},       {"TWE=", "Ma"},          {"TWE", "Ma"},
-              {"TQ==", "M"},         {"TQ", "M"},             {"", ""},
-              {" \r\n\t", ""},       {"TW\nFu\r\n  ZA==\n", "Mand"}, {"T W E =", "Ma"},
-              {"TQ=\n=", "M"},       {"TWFuTWFu\n", "ManMan"}};
+    } ok[] = {
+        {"TWFu", "Man"},   {"TWE=", "Ma"},  {"TWE", "Ma"},           {"TQ==", "M"},
+        {"TQ", "M"},       {"", ""},        {" \r\n\t", ""},         {"TW\nFu\r\n  ZA==\n", "Mand"},
+        {"T W E =", "Ma"}, {"TQ=\n=", "M"}, {"TWFuTWFu\n", "ManMan"}};
     for (size_t i = 0; i < sizeof ok / sizeof ok[0]; i++) {
         unsigned char *out = NULL;
         size_t len = 99;
         struct rayd_error e = {0};
         CHECK(b64(ok[i].in, strlen(ok[i].in), &out, &len, &e) == RAYD_OK, "'%s': %s", ok[i].in,
               e.message);
-        CHECK(out && len == strlen(ok[i].out) && memcmp(out, ok[i].out, len) == 0, "'%s'", ok[i].in);
+        CHECK(out && len == strlen(ok[i].out) && memcmp(out, ok[i].out, len) == 0, "'%s'",
+              ok[i].in);
         free(out);
     }
 }
@@ -947,23 +999,30 @@ static void test_base64_errors(void) {
     unsigned char *out = NULL;
     size_t len = 0;
     struct rayd_error e = {0};
-    CHECK(b64("TW\0u", 4, &out, &len, &e) == RAYD_E_INVALID && strstr(e.message, "byte 0x00"),
-          "%s", e.message);
+    CHECK(b64("TW\0u", 4, &out, &len, &e) == RAYD_E_INVALID && strstr(e.message, "byte 0x00"), "%s",
+          e.message);
 }
 
 /* ---- large inputs: the threaded decoders' own paths ---------------------- */
 
-/* A binary PLY of nv vertices (x y z float, a uchar tag) and nf triangles
- * (uchar count, int indices); face `quad` (if < nf) has four corners and
- * face `bad` (if < nf) an index out of range. */
-static unsigned char *big_ply(bool be, uint32_t nv, uint32_t nf, uint32_t quad, uint32_t bad,
-                              size_t *len) {
+/* Odd records of big_ply: NONE for none. */
+struct ply_odd {
+    uint32_t quad, bad; /* face with four corners; face with an index out of range */
+    uint32_t nan, neg;  /* vertex whose y is NaN; face whose first index is -1 */
+};
+#define NONE UINT32_MAX
+
+/* A binary PLY of nv vertices (x y z float, then a uchar tag if tag) and
+ * nf triangles (uchar count, int indices), with the odd records of o. */
+static unsigned char *big_ply_odd(bool be, bool tag, uint32_t nv, uint32_t nf, struct ply_odd o,
+                                  size_t *len) {
     char head[256];
     int h = snprintf(head, sizeof head,
                      "ply\nformat %s 1.0\nelement vertex %u\nproperty float x\nproperty float y\n"
-                     "property float z\nproperty uchar tag\nelement face %u\n"
+                     "property float z\n%selement face %u\n"
                      "property list uchar int vertex_indices\nend_header\n",
-                     be ? "binary_big_endian" : "binary_little_endian", nv, nf);
+                     be ? "binary_big_endian" : "binary_little_endian", nv,
+                     tag ? "property uchar tag\n" : "", nf);
     struct bb *w = malloc(sizeof *w); /* one record at a time */
     unsigned char *out = malloc((size_t)h + 13 * (size_t)nv + 17 * (size_t)nf + 4);
     memcpy(out, head, (size_t)h);
@@ -972,12 +1031,18 @@ static unsigned char *big_ply(bool be, uint32_t nv, uint32_t nf, uint32_t quad, 
         w->n = 0;
         w->be = be;
         if (i < nv) {
-            for (int k = 0; k < 3; k++) bb_f32(w, (float)((i * (k + 3)) % 101) * 0.25f);
-            bb_raw(w, i & 0xff, 1);
+            for (int k = 0; k < 3; k++)
+                bb_f32(w, i == o.nan && k == 1 ? NAN : (float)((i * (k + 3)) % 101) * 0.25f);
+            if (tag) bb_raw(w, i & 0xff, 1);
         } else {
-            uint32_t f = i - nv, c = f == quad ? 4 : 3;
+            uint32_t f = i - nv, c = f == o.quad ? 4 : 3;
             bb_raw(w, c, 1);
-            for (uint32_t k = 0; k < c; k++) bb_raw(w, f == bad ? nv + k : (f + k * 7) % nv, 4);
+            for (uint32_t k = 0; k < c; k++)
+                bb_raw(w,
+                       f == o.neg && k == 0 ? 0xffffffffu
+                       : f == o.bad         ? nv + k
+                                            : (f + k * 7) % nv,
+                       4);
         }
         memcpy(out + n, w->b, w->n);
         n += w->n;
@@ -987,8 +1052,54 @@ static unsigned char *big_ply(bool be, uint32_t nv, uint32_t nf, uint32_t quad, 
     return out;
 }
 
+/* big_ply_odd with the tag, face quad with four corners, face bad out of
+ * range. */
+static unsigned char *big_ply(bool be, uint32_t nv, uint32_t nf, uint32_t quad, uint32_t bad,
+                              size_t *len) {
+    return big_ply_odd(be, true, nv, nf, (struct ply_odd){quad, bad, NONE, NONE}, len);
+}
+
+/* Vertices of only float x y z and faces of a uchar count and int indices
+ * take the threaded reader's fast path in little-endian files: the same
+ * mesh and, for each bad record, the same message as one thread's reader
+ * (ply_n compares them on 2, 3 and 8 threads). */
+static void test_ply_binary_fast_layout(void) {
+    const uint32_t nv = 20000, nf = 30000;
+    static const struct {
+        struct ply_odd o;
+        uint32_t max_tris;
+        const char *msg; /* NULL: decodes */
+    } cases[] = {
+        {{NONE, NONE, NONE, NONE}, 0, NULL},
+        {{17777, NONE, NONE, NONE}, 0, NULL},
+        {{NONE, 23456, NONE, NONE}, 0, "PLY face 23456: vertex index 20000 is out of range"},
+        {{NONE, NONE, 12345, NONE}, 0, "PLY vertex 12345: y is not a finite float"},
+        {{NONE, NONE, NONE, 20001}, 0, "PLY face 20001: vertex index -1 is out of range"},
+        {{17777, NONE, NONE, NONE}, 30000, "30001 triangles exceed the limit of 30000"},
+    };
+    for (int be = 0; be <= 1; be++)
+        for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+            size_t len;
+            struct mesh_data m = {0};
+            struct rayd_error e = {0};
+            struct mesh_limits lim = {UINT32_MAX,
+                                      cases[i].max_tris ? cases[i].max_tris : UINT32_MAX};
+            unsigned char *b = big_ply_odd(be, false, nv, nf, cases[i].o, &len);
+            enum rayd_status st = ply_n(b, len, &lim, &m, &e);
+            if (!cases[i].msg)
+                CHECK(st == RAYD_OK && m.ntris == nf + (cases[i].o.quad != NONE) &&
+                          m.pos[3 * 7 + 1] == (float)((7 * 4) % 101) * 0.25f,
+                      "case %zu: %s", i, e.message);
+            else
+                CHECK(st != RAYD_OK && strstr(e.message, cases[i].msg), "case %zu: '%s'", i,
+                      e.message);
+            if (st == RAYD_OK) mesh_data_free(&m);
+            free(b);
+        }
+}
+
 static void test_ply_binary_large_on_threads(void) {
-    const uint32_t nv = 20000, nf = 30000, none = UINT32_MAX;
+    const uint32_t nv = 20000, nf = 30000, none = NONE;
     for (int be = 0; be <= 1; be++) {
         size_t len;
         struct mesh_data m = {0};
@@ -1028,10 +1139,17 @@ static char *big_obj(uint32_t n, const char *inject, uint32_t inject_at, size_t 
         line += 4;
         if (i < 2) continue;
         switch (i % 4) {
-        case 0: at += (size_t)sprintf(s + at, "f %u %u %u\n", i + 1, i, i - 1); break;
-        case 1: at += (size_t)sprintf(s + at, "f -1/-1 -2/-2 -3/-3 %u/1\n", i / 2 + 1); break;
-        case 2: at += (size_t)sprintf(s + at, "f %u//%u -2//-1 1//1\n", i % 50 + 1, i); break;
-        default: at += (size_t)sprintf(s + at, "g x\r\nf %u/%u/%u -2/-2/-2 -3/1/-1\n", i, i, i);
+        case 0:
+            at += (size_t)sprintf(s + at, "f %u %u %u\n", i + 1, i, i - 1);
+            break;
+        case 1:
+            at += (size_t)sprintf(s + at, "f -1/-1 -2/-2 -3/-3 %u/1\n", i / 2 + 1);
+            break;
+        case 2:
+            at += (size_t)sprintf(s + at, "f %u//%u -2//-1 1//1\n", i % 50 + 1, i);
+            break;
+        default:
+            at += (size_t)sprintf(s + at, "g x\r\nf %u/%u/%u -2/-2/-2 -3/1/-1\n", i, i, i);
         }
     }
     *len = at;
@@ -1047,7 +1165,8 @@ static void test_obj_large_on_threads(void) {
     mesh_data_free(&m);
     free(s);
     s = big_obj(6000, "f 1 2 999999", 15001, &len);
-    CHECK(obj_n(s, len, NULL, &m, &e) == RAYD_E_INVALID && strstr(e.message, "face index 999999 is out"),
+    CHECK(obj_n(s, len, NULL, &m, &e) == RAYD_E_INVALID &&
+              strstr(e.message, "face index 999999 is out"),
           "%s", e.message);
     free(s);
     s = big_obj(6000, "v 1 2 nan", 20001, &len);
@@ -1147,6 +1266,7 @@ int main(void) {
     RUN(test_ply_errors);
     RUN(test_ply_limits);
     RUN(test_ply_binary_large_on_threads);
+    RUN(test_ply_binary_fast_layout);
     RUN(test_obj_large_on_threads);
     RUN(test_base64_round_trip);
     RUN(test_base64_padding_and_whitespace);
