@@ -563,6 +563,10 @@ case("gltf-object-light-index.json",
      E + GP + "/nodes/0/extensions/KHR_lights_punctual/light: names a light, but the file has no /extensions/KHR_lights_punctual/lights")
 case("gltf-object-camera-name.json", gltf_object(camera="front"),
      E + "/objects/0/camera: the glTF has no cameras named \"front\"")
+case("gltf-object-camera-none.json", gltf_object(camera=0),
+     E + "/objects/0/camera: the glTF has no cameras")
+case("gltf-object-scene-index.json", gltf_object(lambda d: d.update(scenes=[{"nodes": [0]}]), scene=1),
+     E + "/objects/0/scene: must be an index in 0..0 of the glTF's scenes")
 case("gltf-object-camera-clash.json",
      json.dumps(dict(json.loads(gltf_object(lambda d: d.update(cameras=[{"type": "perspective", "perspective": {"yfov": 0.7}}], nodes=[{"mesh": 0}, {"camera": 0, "translation": [0, 0, 3]}], scenes=[{"nodes": [0, 1]}]), camera=0)), camera={"position": [0, 0, 5]})) + "\n",
      E + "/objects/0/camera: the glTF camera sets the scene's camera: /camera/position cannot be given too (only aperture and focus_distance can)")
