@@ -28,7 +28,7 @@ stop_hogs() {
 trap stop_hogs EXIT
 
 STRESS_SKIP="install man_pages k8s_manifests docs_check cli_bad_scenes cli_gltf cli_gltf_scene cli_real_meshes
-    cli_conventions cli_render cli_passes fuzz_replay simd_scalar bench_bvh asset_dir"
+    cli_conventions cli_render cli_passes fuzz_replay simd_scalar bench_bvh asset_dir generated_files"
 STRESS_SKIP=$(echo $STRESS_SKIP)
 pass=0 fail=0 summary=()
 run() { # name, command prefix...

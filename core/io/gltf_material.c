@@ -189,11 +189,18 @@ static enum rayd_status gm_texture(struct gltf_doc *d, struct rayd_error *err, c
     int ntex = cJSON_IsArray(texs) ? cJSON_GetArraySize(texs) : 0;
     double index, set, source;
     if (!cJSON_IsObject(ti)) return err_set(err, RAYD_E_INVALID, p->s, "must be an object");
-    TRY_GM(gm_num(err, ti, p, "index", -1, 0, ntex - 1, &index));
-    TRY_GM(gm_num(err, ti, p, "texCoord", 0, 0, 7, &set));
-    struct gmp pi = gm_key(p, "index");
-    if (index < 0 || floor(index) != index || floor(set) != set)
+    /* any number first, then the range here: a message that names what an
+     * index must be, and says so when the file has no textures at all */
+    TRY_GM(gm_num(err, ti, p, "index", -1, -HUGE_VAL, HUGE_VAL, &index));
+    TRY_GM(gm_num(err, ti, p, "texCoord", 0, -HUGE_VAL, HUGE_VAL, &set));
+    struct gmp pi = gm_key(p, "index"), pc = gm_key(p, "texCoord");
+    if (ntex == 0)
+        return err_set(err, RAYD_E_INVALID, pi.s, "names a texture, but the file has no /textures");
+    if (index < 0 || index >= ntex || floor(index) != index)
         return err_set(err, RAYD_E_INVALID, pi.s, "must be a texture index in 0..%d", ntex - 1);
+    if (set < 0 || set > 7 || floor(set) != set)
+        return err_set(err, RAYD_E_INVALID, pc.s,
+                       "must be an integer in 0..7 (TEXCOORD_0 to TEXCOORD_7)");
     if (g->ntex >= GLTF_MAX_TEXTURES)
         return err_set(err, RAYD_E_LIMIT, p->s, "is past the limit of %d textured materials",
                        GLTF_MAX_TEXTURES);
@@ -201,9 +208,12 @@ static enum rayd_status gm_texture(struct gltf_doc *d, struct rayd_error *err, c
     struct gmp pt;
     snprintf(pt.s, sizeof pt.s, "/textures/%d", (int)index);
     int nimg = cJSON_GetArraySize(gm_get(gltf_doc_root(d), "images"));
-    TRY_GM(gm_num(err, tj, &pt, "source", -1, 0, nimg - 1, &source));
+    TRY_GM(gm_num(err, tj, &pt, "source", -1, -HUGE_VAL, HUGE_VAL, &source));
     struct gmp ps = gm_key(&pt, "source");
-    if (source < 0 || floor(source) != source)
+    if (nimg == 0)
+        return err_set(err, RAYD_E_INVALID, ps.s,
+                       "the file has no /images (images of other extensions are not read)");
+    if (source < 0 || source >= nimg || floor(source) != source)
         return err_set(err, RAYD_E_INVALID, ps.s,
                        "must be an image index in 0..%d (other image extensions are not read)",
                        nimg - 1);

@@ -68,8 +68,9 @@ static enum rayd_status item_ref(struct imp *im, const cJSON *oj, const struct j
     if (!v) return RAYD_OK;
     if (cJSON_IsNumber(v)) {
         if (!(v->valuedouble >= 0 && v->valuedouble < n && floor(v->valuedouble) == v->valuedouble))
-            return sj_fail(im->ld, RAYD_E_INVALID, &p, "must be an index in 0..%d of the glTF's %s",
-                           n - 1, top);
+            return n == 0 ? sj_fail(im->ld, RAYD_E_INVALID, &p, "the glTF has no %s", top)
+                          : sj_fail(im->ld, RAYD_E_INVALID, &p,
+                                    "must be an index in 0..%d of the glTF's %s", n - 1, top);
         *out = (int)v->valuedouble;
         return RAYD_OK;
     }

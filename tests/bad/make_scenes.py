@@ -543,11 +543,30 @@ case("gltf-object-base-color.json",
 case("gltf-object-material-index.json",
      gltf_object(lambda d: d["meshes"][0]["primitives"][0].update(material=3)),
      E + GP + "/meshes/0/primitives/0/material: materials 3 does not exist (there are 0)")
+case("gltf-object-texture-index.json",
+     gltf_object(lambda d: d.update(materials=[{"pbrMetallicRoughness": {"baseColorTexture": {"index": 1}}}],
+                                    textures=[{"source": 0}])),
+     E + GP + "/materials/0/pbrMetallicRoughness/baseColorTexture/index: must be a texture index in 0..0")
+case("gltf-object-no-textures.json",
+     gltf_object(lambda d: d.update(materials=[{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}])),
+     E + GP + "/materials/0/pbrMetallicRoughness/baseColorTexture/index: names a texture, but the file has no /textures")
+case("gltf-object-texcoord.json",
+     gltf_object(lambda d: d.update(materials=[{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0, "texCoord": 0.5}}}],
+                                    textures=[{"source": 0}])),
+     E + GP + "/materials/0/pbrMetallicRoughness/baseColorTexture/texCoord: must be an integer in 0..7 (TEXCOORD_0 to TEXCOORD_7)")
+case("gltf-object-no-images.json",
+     gltf_object(lambda d: d.update(materials=[{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+                                    textures=[{"source": 0}])),
+     E + GP + "/textures/0/source: the file has no /images (images of other extensions are not read)")
 case("gltf-object-light-index.json",
      gltf_object(lambda d: d["nodes"][0].update(extensions={"KHR_lights_punctual": {"light": 2}})),
      E + GP + "/nodes/0/extensions/KHR_lights_punctual/light: names a light, but the file has no /extensions/KHR_lights_punctual/lights")
 case("gltf-object-camera-name.json", gltf_object(camera="front"),
      E + "/objects/0/camera: the glTF has no cameras named \"front\"")
+case("gltf-object-camera-none.json", gltf_object(camera=0),
+     E + "/objects/0/camera: the glTF has no cameras")
+case("gltf-object-scene-index.json", gltf_object(lambda d: d.update(scenes=[{"nodes": [0]}]), scene=1),
+     E + "/objects/0/scene: must be an index in 0..0 of the glTF's scenes")
 case("gltf-object-camera-clash.json",
      json.dumps(dict(json.loads(gltf_object(lambda d: d.update(cameras=[{"type": "perspective", "perspective": {"yfov": 0.7}}], nodes=[{"mesh": 0}, {"camera": 0, "translation": [0, 0, 3]}], scenes=[{"nodes": [0, 1]}]), camera=0)), camera={"position": [0, 0, 5]})) + "\n",
      E + "/objects/0/camera: the glTF camera sets the scene's camera: /camera/position cannot be given too (only aperture and focus_distance can)")

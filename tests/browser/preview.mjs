@@ -158,7 +158,7 @@ try {
   await check("no_console_errors", () => (consoleErrors.length ? consoleErrors.join(" | ") : true));
   await check("example_menu", async () => {
     const opts = await page.$$eval("#example option:not([hidden])", (o) => o.map((x) => x.value));
-    for (const n of ["paper", "whitted", "spheres", "cornell"]) if (!opts.includes(n)) return `no ${n} in ${opts}`;
+    for (const n of ["paper", "whitted", "spheres", "cornell", "gltf"]) if (!opts.includes(n)) return `no ${n} in ${opts}`;
     const v = await page.$eval("#example", (s) => s.value);
     return v === "whitted" || `selected ${v}`;
   });
@@ -177,6 +177,16 @@ try {
   });
 
   // --- another example from the menu, by Ctrl+Enter too ---------------------------------
+  // the glTF example first: an embedded .glb, its own camera and lights, drawn by the page
+  // as the server draws it (paper, next, is the scene the later cases start from)
+  await check("menu_gltf_pixels_equal", async () => {
+    const n = await renders(page);
+    await page.selectOption("#example", "gltf");
+    await waitDone(page, n);
+    const text = await page.evaluate(() => window.rayd.editor.value);
+    if (!text.includes('"type": "gltf"')) return "editor does not hold gltf.json";
+    return canvasEqualsServer(page);
+  });
   await check("menu_paper_pixels_equal", async () => {
     const n = await renders(page);
     await page.selectOption("#example", "paper");
