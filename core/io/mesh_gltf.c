@@ -198,7 +198,7 @@ static enum rayd_status gl_ref(struct gl *G, const cJSON *o, const struct gp *at
     double v;
     TRY_GL(gl_int(G, o, at, key, -1, 0, 2147483647.0, &v));
     struct gp p = gp_key(at, key);
-    if (v >= n) return gl_fail(G, RAYD_E_INVALID, &p, "%s %.0f does not exist (there are %d)", top, v, n);
+    if (v >= n) return gl_fail(G, RAYD_E_INVALID, &p, "%.0f is not an index into /%s (the file has %d)", v, top, n);
     *id = (int)v;
     *item = cJSON_GetArrayItem(arr, *id);
     struct gp pi = gp_item(top, *id);
@@ -331,7 +331,7 @@ static enum rayd_status gl_file_uri(struct gl *G, const char *uri, const struct 
     char name[1024];
     if (!gl_uri_name(uri, name, sizeof name))
         return gl_fail(G, RAYD_E_INVALID, p, "only data: URIs and relative file names are read");
-    if (!G->o->open) return gl_fail(G, RAYD_E_INVALID, p, "names a file, but no files are read here; embed the buffer as a data: URI or use a .glb");
+    if (!G->o->open) return gl_fail(G, RAYD_E_INVALID, p, "names a file, but no files are read here; embed the file as a data: URI or use a .glb");
     char *data = NULL;
     enum rayd_status st = G->o->open(G->o->ctx, name, &data, &b->len, G->err);
     if (st != RAYD_OK) {

@@ -542,7 +542,7 @@ case("gltf-object-base-color.json",
      E + GP + "/materials/0/pbrMetallicRoughness/baseColorFactor: must be numbers in [0, 1]")
 case("gltf-object-material-index.json",
      gltf_object(lambda d: d["meshes"][0]["primitives"][0].update(material=3)),
-     E + GP + "/meshes/0/primitives/0/material: materials 3 does not exist (there are 0)")
+     E + GP + "/meshes/0/primitives/0/material: 3 is not an index into /materials (the file has 0)")
 case("gltf-object-texture-index.json",
      gltf_object(lambda d: d.update(materials=[{"pbrMetallicRoughness": {"baseColorTexture": {"index": 1}}}],
                                     textures=[{"source": 0}])),

@@ -332,7 +332,7 @@ static void test_hostile(void) {
         {"unknown_ext", v_unknown_ext, RAYD_E_INVALID, "/extensionsRequired/1", "\"EXT_future\" is not supported"},
         {"sparse", v_sparse, RAYD_E_INVALID, "/accessors/0/sparse", "not supported"},
         {"view_past", v_view_past, RAYD_E_INVALID, "/bufferViews/1/byteLength", "runs past the end of buffer 0"},
-        {"mesh_ref", v_mesh_ref, RAYD_E_INVALID, "/nodes/0/mesh", "meshes 99 does not exist"},
+        {"mesh_ref", v_mesh_ref, RAYD_E_INVALID, "/nodes/0/mesh", "99 is not an index into /meshes"},
         {"version", v_version, RAYD_E_INVALID, "/asset/version", "not supported"},
         {"file_missing", v_no_uri, RAYD_E_INVALID, "/buffers/0/uri", "cannot open \"../elsewhere.bin\""},
         {"http_uri", v_http_uri, RAYD_E_INVALID, "/buffers/0/uri", "only data: URIs"},

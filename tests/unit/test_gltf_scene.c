@@ -459,7 +459,7 @@ static void test_errors(void) {
     cJSON_ReplaceItemInObject(at(d, "meshes", 0, "primitives")->child, "material",
                               cJSON_CreateNumber(9));
     expect(parse(d, "", "", &err), &err, "/objects/0/source/gltf/meshes/0/primitives/0/material",
-           "does not exist");
+           "is not an index into /materials");
     d = doc_tree();
     cJSON_ReplaceItemInObject(at(d, "images", 1, NULL), "uri",
                               cJSON_CreateString("data:image/png;base64,aGVsbG8="));
