@@ -116,6 +116,10 @@ struct material gltf_pbr_material(const struct gltf_pbr *p) {
 static enum rayd_status gm_decode(struct rayd_error *err, const unsigned char *b, size_t len,
                                   const struct gmp *p, long budget, rayd_image **img) {
     struct rayd_error e = {0};
+    if (budget <= 0) /* and never 0 to the PNG decoder: there 0 means its own default */
+        return err_set(err, RAYD_E_LIMIT, p->s,
+                       "the file's textures together are over the limit of %ld pixels",
+                       (long)GLTF_MAX_TEXELS);
     long max = budget < TEXTURE_MAX_PIXELS ? budget : TEXTURE_MAX_PIXELS;
     if (len >= 8 && !memcmp(b, "\x89PNG", 4)) {
         enum rayd_status st = rayd_png_decode(b, len, max, img, &e);

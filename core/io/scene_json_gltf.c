@@ -415,6 +415,12 @@ static enum rayd_status set_camera(struct imp *im, const cJSON *cj, const struct
         cam_init(cam, pos, v3_add(pos, v3_norm(dir)), up, 0, type == 0 ? yfov * 180 / GLTF_PI : 60,
                  rs->width, rs->height, ld->err);
     if (st != RAYD_OK) return sj_fail(ld, st, pc, "%s", ld->err->message);
+    if (type == 1 && aperture > 0) { /* as a hand-written orthographic camera */
+        struct jp root = {""}, pa = sj_key(&root, "camera"), pap = sj_key(&pa, "aperture");
+        return sj_fail(
+            ld, RAYD_E_INVALID, &pap,
+            "must be 0 with the glTF's orthographic camera (a lens needs a perspective)");
+    }
     if (type == 1) { /* ymag is the half height in the file's units: scaled as up is */
         cam->ortho = true;
         cam->tan_y = ymag * v3_len(xform_dir(im->x, v3_norm(gworld(w, 0, 1, 0, 0))));

@@ -10,8 +10,9 @@
 #   - Cameras.gltf through its own camera 0 (perspective) and 1
 #     (orthographic) gives byte for byte the PNG of the same cameras written
 #     by hand in /camera;
-#   - a missing image file and a clash with /camera are refused in one line
-#     naming the JSON Pointer;
+#   - a missing image file, a clash with /camera, a lens on the file's
+#     orthographic camera and textures over the file's texel budget are
+#     refused in one line naming the JSON Pointer;
 #   - every other .gltf and .glb there renders or is refused in one line
 #     with exit 1: never a crash or a hang.
 source "$(dirname "$0")/lib/common.sh"
@@ -135,6 +136,33 @@ gscene "$T/noimg/BoxTextured.gltf" "$T/noimg.json"
 run noimg
 check gltf_scene_missing_image "exit $rc: $err" \
     bash -c "[ $rc = 1 ] && [ \$(wc -l <'$T/noimg.err') = 1 ] && grep -q '^rayd-render: error: /objects/0/source/gltf/images/0/uri: cannot open' '$T/noimg.err'"
+
+# The texels of a file's textures together: one 4096 x 4096 image uses
+# them all, so a small one after it is refused (the budget never reaches
+# the PNG decoder as 0, which there means its own, larger default); two
+# small ones render.
+for sizes in "4096 2" "64 64"; do
+    d="$T/texels-${sizes// /-}"
+    mkdir -p "$d"
+    python3 "$LIB/gltf_textures.py" "$d" $sizes
+    timeout 60 "$RENDER" "$d/scene.json" -o "$d/out.png" -q 2>"$d/err"
+    echo $? >"$d/rc"
+done
+check gltf_scene_texel_budget_refused "exit $(cat "$T/texels-4096-2/rc"): $(head -c 300 "$T/texels-4096-2/err")" \
+    bash -c "[ \$(cat '$T/texels-4096-2/rc') = 1 ] && grep -q '/objects/0/source/gltf/images/1.*over the limit of 16777216 pixels' '$T/texels-4096-2/err'"
+check gltf_scene_texel_budget_small "exit $(cat "$T/texels-64-64/rc"): $(head -c 300 "$T/texels-64-64/err")" \
+    bash -c "[ \$(cat '$T/texels-64-64/rc') = 0 ] && [ -s '$T/texels-64-64/out.png' ]"
+
+# A lens on the file's orthographic camera is refused, as on a hand-written one.
+mkdir -p "$T/orthoap"
+cp "$DIR"/cameras/* "$T/orthoap/"
+printf '{"camera": {"aperture": 0.5}, "render": {"width": 32, "height": 32},
+ "objects": [{"type": "gltf", "source": {"file": "Cameras.gltf"}, "camera": 1}]}' >"$T/orthoap.json"
+cp "$T/orthoap.json" "$T/orthoap/scene.json"
+timeout 60 "$RENDER" "$T/orthoap/scene.json" -o "$T/orthoap.png" -q 2>"$T/orthoap.err"
+rc=$?
+check gltf_scene_ortho_aperture "exit $rc: $(head -c 300 "$T/orthoap.err")" \
+    bash -c "[ $rc = 1 ] && grep -q '^rayd-render: error: /camera/aperture: must be 0' '$T/orthoap.err'"
 
 # Every file: a render or a one-line refusal with exit 1, nothing worse.
 while IFS= read -r f; do
