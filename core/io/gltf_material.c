@@ -118,8 +118,9 @@ static enum rayd_status gm_decode(struct rayd_error *err, const unsigned char *b
     struct rayd_error e = {0};
     if (budget <= 0) /* and never 0 to the PNG decoder: there 0 means its own default */
         return err_set(err, RAYD_E_LIMIT, p->s,
-                       "the file's textures together are over the limit of %ld pixels",
-                       (long)GLTF_MAX_TEXELS);
+                       "the textures together are over the limit (%ld pixels a glTF file, %ld "
+                       "a scene)",
+                       (long)GLTF_MAX_TEXELS, (long)TEXTURE_MAX_SCENE_PIXELS);
     long max = budget < TEXTURE_MAX_PIXELS ? budget : TEXTURE_MAX_PIXELS;
     if (len >= 8 && !memcmp(b, "\x89PNG", 4)) {
         enum rayd_status st = rayd_png_decode(b, len, max, img, &e);
@@ -222,7 +223,7 @@ static enum rayd_status gm_texture(struct gltf_doc *d, struct rayd_error *err, c
                        "must be an image index in 0..%d (other image extensions are not read)",
                        nimg - 1);
     rayd_image *img = NULL;
-    TRY_GM(gm_image(d, err, (int)source, GLTF_MAX_TEXELS - *texels, &img));
+    TRY_GM(gm_image(d, err, (int)source, g->budget - *texels, &img));
     struct texture t = {.kind = TEX_IMAGE, .space = TEX_UV, .scale = 1, .w = img->w, .h = img->h};
     t.rgb = texture_linear_from_srgb8(img->px, img->w, img->h);
     rayd_image_free(img);
@@ -281,7 +282,7 @@ static enum rayd_status gm_material(struct gltf_doc *d, struct rayd_error *err, 
     return gm_texture(d, err, ti, &pt, pbr.base, g, texels, &g->uv_set[i]);
 }
 
-enum rayd_status gltf_mats_read(struct gltf_doc *d, int max, struct gltf_mats *out,
+enum rayd_status gltf_mats_read(struct gltf_doc *d, int max, long texels, struct gltf_mats *out,
                                 struct rayd_error *err) {
     const cJSON *ms = gm_get(gltf_doc_root(d), "materials");
     struct gmp at = {"/materials"};
@@ -297,14 +298,14 @@ enum rayd_status gltf_mats_read(struct gltf_doc *d, int max, struct gltf_mats *o
     out->n = n;
     if (!out->m || !out->uv_set || !out->tex)
         return err_set(err, RAYD_E_NOMEM, at.s, "out of memory");
-    long texels = 0;
+    out->budget = texels < GLTF_MAX_TEXELS ? texels : GLTF_MAX_TEXELS;
     int i = 0;
     for (const cJSON *m = ms ? ms->child : NULL; m; m = m->next, i++) {
         struct gmp p;
         snprintf(p.s, sizeof p.s, "/materials/%d", i);
-        TRY_GM(gm_material(d, err, m, &p, out, i, &texels));
+        TRY_GM(gm_material(d, err, m, &p, out, i, &out->texels));
     }
-    return gm_material(d, err, NULL, &at, out, n, &texels);
+    return gm_material(d, err, NULL, &at, out, n, &out->texels);
 }
 
 void gltf_mats_free(struct gltf_mats *g) {

@@ -20,12 +20,15 @@ struct gltf_mats {
     int n;
     struct texture *tex;
     int ntex;
+    long texels; /* pixels of all the decoded textures */
+    long budget; /* the most pixels they may have (gltf_mats_read's texels) */
 };
 
 /* Reads /materials of the doc's file (at most max, and GLTF_MAX_MATERIALS)
  * and decodes their base colour images (PNG or JPEG) with the factor
- * baked in.  Errors name the JSON Pointer inside the glTF document. */
-enum rayd_status gltf_mats_read(struct gltf_doc *d, int max, struct gltf_mats *out,
+ * baked in, at most texels pixels of them in all (and GLTF_MAX_TEXELS).
+ * Errors name the JSON Pointer inside the glTF document. */
+enum rayd_status gltf_mats_read(struct gltf_doc *d, int max, long texels, struct gltf_mats *out,
                                 struct rayd_error *err);
 
 /* The mapping of one PBR material, without its texture: exposed for tests. */

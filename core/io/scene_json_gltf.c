@@ -240,8 +240,11 @@ static enum rayd_status load_meshes(struct imp *im, int override, struct object 
     int32_t *tm = NULL, n = 0;
     struct object *objs = NULL;
     long room = ld->lim->max_materials - ld->s->nmats;
-    enum rayd_status st =
-        override >= 0 ? RAYD_OK : gltf_mats_read(im->doc, (int)(room > 0 ? room : 0), &g, ld->err);
+    enum rayd_status st = override >= 0
+                              ? RAYD_OK
+                              : gltf_mats_read(im->doc, (int)(room > 0 ? room : 0),
+                                               TEXTURE_MAX_SCENE_PIXELS - ld->texels, &g, ld->err);
+    ld->texels += g.texels; /* the scene's image textures together */
     if (override >= 0 && !mats_none(&g))
         st = err_set(ld->err, RAYD_E_NOMEM, im->src.s, "out of memory");
     bool any_uv = false;

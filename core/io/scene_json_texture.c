@@ -19,7 +19,8 @@
 
 enum rayd_status sj_add_texture(struct loader *ld, const struct texture *t, int *index) {
     rayd_scene *s = ld->s;
-    if (!array_grow((void **)&s->textures, &ld->tex_cap, (size_t)s->ntextures + 1, sizeof *s->textures))
+    if (!array_grow((void **)&s->textures, &ld->tex_cap, (size_t)s->ntextures + 1,
+                    sizeof *s->textures))
         return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
     s->textures[s->ntextures] = *t;
     *index = s->ntextures++;
@@ -31,24 +32,36 @@ static enum rayd_status load_image(struct loader *ld, const cJSON *tj, const str
     const cJSON *b64 = cJSON_GetObjectItemCaseSensitive(tj, "png_base64");
     const cJSON *file = cJSON_GetObjectItemCaseSensitive(tj, "file");
     if (!!b64 + !!file != 1)
-        return sj_fail(ld, RAYD_E_INVALID, at, "an image texture needs exactly one of \"png_base64\" or \"file\"");
+        return sj_fail(ld, RAYD_E_INVALID, at,
+                       "an image texture needs exactly one of \"png_base64\" or \"file\"");
     struct jp p = sj_key(at, b64 ? "png_base64" : "file");
     char *data = NULL;
     size_t len = 0;
     if (file) {
         TRY(sj_read_asset(ld, file, &p, &data, &len));
     } else {
-        if (!cJSON_IsString(b64)) return sj_fail(ld, RAYD_E_INVALID, &p, "must be a string, not %s", sj_type_name(b64));
+        if (!cJSON_IsString(b64))
+            return sj_fail(ld, RAYD_E_INVALID, &p, "must be a string, not %s", sj_type_name(b64));
         unsigned char *bytes;
-        enum rayd_status st = base64_decode(b64->valuestring, strlen(b64->valuestring), &bytes, &len, ld->err);
+        enum rayd_status st =
+            base64_decode(b64->valuestring, strlen(b64->valuestring), &bytes, &len, ld->err);
         if (st != RAYD_OK) return sj_fail(ld, st, &p, "%s", ld->err->message);
         data = (char *)bytes;
     }
     rayd_image *img = NULL;
     struct rayd_error e = {0};
-    enum rayd_status st = rayd_png_decode(data, len, TEXTURE_MAX_PIXELS, &img, &e);
+    long room = TEXTURE_MAX_SCENE_PIXELS - ld->texels;
+    if (room <= 0) { /* never 0 to the decoder: there 0 means its own default */
+        free(data);
+        return sj_fail(ld, RAYD_E_LIMIT, &p,
+                       "the scene's image textures together are over the limit of %ld pixels",
+                       (long)TEXTURE_MAX_SCENE_PIXELS);
+    }
+    enum rayd_status st =
+        rayd_png_decode(data, len, room < TEXTURE_MAX_PIXELS ? room : TEXTURE_MAX_PIXELS, &img, &e);
     free(data);
     if (st != RAYD_OK) return sj_fail(ld, st, &p, "%s", e.message);
+    ld->texels += (long)img->w * img->h;
     t->w = img->w;
     t->h = img->h;
     t->rgb = texture_linear_from_srgb8(img->px, img->w, img->h);
@@ -60,9 +73,10 @@ static enum rayd_status load_image(struct loader *ld, const cJSON *tj, const str
 enum rayd_status sj_texture(struct loader *ld, const cJSON *tj, const struct jp *at, int *index) {
     static const char *const types[] = {"checker", "stripes", "gradient", "image", NULL};
     static const char *const spaces[] = {"object", "world", "uv", NULL};
-    static const char *const keys[] = {"type", "colors", "scale", "space", "axis", "png_base64",
-                                       "file", NULL};
-    if (!cJSON_IsObject(tj)) return sj_fail(ld, RAYD_E_INVALID, at, "must be an object, not %s", sj_type_name(tj));
+    static const char *const keys[] = {"type", "colors",     "scale", "space",
+                                       "axis", "png_base64", "file",  NULL};
+    if (!cJSON_IsObject(tj))
+        return sj_fail(ld, RAYD_E_INVALID, at, "must be an object, not %s", sj_type_name(tj));
     TRY(sj_check_keys(ld, tj, at, keys));
     struct texture t;
     memset(&t, 0, sizeof t);
@@ -88,7 +102,8 @@ enum rayd_status sj_texture(struct loader *ld, const cJSON *tj, const struct jp 
     }
     if (kind == TEX_IMAGE) {
         TRY(load_image(ld, tj, at, &t));
-    } else if (cJSON_GetObjectItemCaseSensitive(tj, "png_base64") || cJSON_GetObjectItemCaseSensitive(tj, "file")) {
+    } else if (cJSON_GetObjectItemCaseSensitive(tj, "png_base64") ||
+               cJSON_GetObjectItemCaseSensitive(tj, "file")) {
         return sj_fail(ld, RAYD_E_INVALID, at, "png_base64 and file belong to image textures");
     }
     enum rayd_status st = sj_add_texture(ld, &t, index);

@@ -55,6 +55,7 @@ struct loader {
     size_t mat_cap, tex_cap, mesh_cap, xform_cap, part_cap; /* array capacities */
     long objects;             /* objects, operands and group members so far */
     long triangles, vertices; /* totals so far, against the limits */
+    long texels;              /* pixels of the image textures so far (TEXTURE_MAX_SCENE_PIXELS) */
     const struct sj_inline *inl; /* inline mesh arrays left out of the tree */
     bool frame;                  /* camera.frame: placed after the objects load */
     double frame_azimuth;        /* degrees about +Y: the view's, or camera.azimuth */

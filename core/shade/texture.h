@@ -9,6 +9,10 @@
 /* The most pixels an image a scene brings may have: image textures and
  * environment maps. */
 #define TEXTURE_MAX_PIXELS (4096L * 4096L)
+/* The most pixels all of a scene's image textures may have together (as
+ * linear float RGB, 768 MiB): a client cannot multiply the per-image limit
+ * by naming many images. */
+#define TEXTURE_MAX_SCENE_PIXELS (4 * TEXTURE_MAX_PIXELS)
 
 enum texture_kind { TEX_CHECKER, TEX_STRIPES, TEX_GRADIENT, TEX_IMAGE };
 enum texture_space { TEX_OBJECT, TEX_WORLD, TEX_UV };

@@ -149,9 +149,24 @@ for sizes in "4096 2" "64 64"; do
     echo $? >"$d/rc"
 done
 check gltf_scene_texel_budget_refused "exit $(cat "$T/texels-4096-2/rc"): $(head -c 300 "$T/texels-4096-2/err")" \
-    bash -c "[ \$(cat '$T/texels-4096-2/rc') = 1 ] && grep -q '/objects/0/source/gltf/images/1.*over the limit of 16777216 pixels' '$T/texels-4096-2/err'"
+    bash -c "[ \$(cat '$T/texels-4096-2/rc') = 1 ] && grep -q '/objects/0/source/gltf/images/1/uri: the textures together are over the limit (16777216 pixels a glTF file' '$T/texels-4096-2/err'"
 check gltf_scene_texel_budget_small "exit $(cat "$T/texels-64-64/rc"): $(head -c 300 "$T/texels-64-64/err")" \
     bash -c "[ \$(cat '$T/texels-64-64/rc') = 0 ] && [ -s '$T/texels-64-64/out.png' ]"
+
+# The scene's image textures together: four 4096 x 4096 images fill them,
+# so a fifth gltf object naming the same file is refused at its image.
+d="$T/texels-scene"
+mkdir -p "$d"
+python3 "$LIB/gltf_textures.py" "$d" 4096
+python3 -c '
+import json, sys
+s = json.load(open(sys.argv[1]))
+s["objects"] = s["objects"] * 5
+json.dump(s, open(sys.argv[1], "w"))' "$d/scene.json"
+timeout 120 "$RENDER" "$d/scene.json" -o "$d/out.png" -q 2>"$d/err"
+rc=$?
+check gltf_scene_scene_texel_budget "exit $rc: $(head -c 300 "$d/err")" \
+    bash -c "[ $rc = 1 ] && grep -q '^rayd-render: error: /objects/4/source/gltf/images/0/uri: the textures together are over the limit' '$d/err'"
 
 # A lens on the file's orthographic camera is refused, as on a hand-written one.
 mkdir -p "$T/orthoap"
