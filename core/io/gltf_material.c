@@ -34,35 +34,15 @@
 #include "io/gltf_material.h"
 
 #include "base/error.h"
+#include "io/gltf_pointer.h"
 #include "render/image.h"
 
-#define TRY_GM(expr)                                                                               \
-    do {                                                                                           \
-        enum rayd_status st_ = (expr);                                                             \
-        if (st_ != RAYD_OK) return st_;                                                            \
-    } while (0)
-
-/* A JSON Pointer inside the glTF document. */
-struct gmp {
-    char s[200];
-};
-
-static struct gmp gm_key(const struct gmp *p, const char *key) {
-    struct gmp r;
-    snprintf(r.s, sizeof r.s, "%.*s/%s", (int)(sizeof r.s - 40), p->s, key);
-    return r;
-}
-
-static const cJSON *gm_get(const cJSON *o, const char *key) {
-    return cJSON_IsObject(o) ? cJSON_GetObjectItemCaseSensitive(o, key) : NULL;
-}
-
 /* n numbers at o[key], each in [lo, hi], into out; def when absent. */
-static enum rayd_status gm_nums(struct rayd_error *err, const cJSON *o, const struct gmp *at,
+static enum rayd_status gm_nums(struct rayd_error *err, const cJSON *o, const struct gp *at,
                                 const char *key, int n, const double *def, double lo, double hi,
                                 double *out) {
-    const cJSON *v = gm_get(o, key);
-    struct gmp p = gm_key(at, key);
+    const cJSON *v = gl_get(o, key);
+    struct gp p = gp_key(at, key);
     if (!v) {
         memcpy(out, def, sizeof *out * (size_t)n);
         return RAYD_OK;
@@ -81,7 +61,7 @@ static enum rayd_status gm_nums(struct rayd_error *err, const cJSON *o, const st
     return RAYD_OK;
 }
 
-static enum rayd_status gm_num(struct rayd_error *err, const cJSON *o, const struct gmp *at,
+static enum rayd_status gm_num(struct rayd_error *err, const cJSON *o, const struct gp *at,
                                const char *key, double def, double lo, double hi, double *out) {
     return gm_nums(err, o, at, key, 1, &def, lo, hi, out);
 }
@@ -114,7 +94,7 @@ struct material gltf_pbr_material(const struct gltf_pbr *p) {
 
 /* Decoded 8-bit sRGB pixels of a PNG or a JPEG, into *img. */
 static enum rayd_status gm_decode(struct rayd_error *err, const unsigned char *b, size_t len,
-                                  const struct gmp *p, long budget, rayd_image **img) {
+                                  const struct gp *p, long budget, rayd_image **img) {
     struct rayd_error e = {0};
     if (budget <= 0) /* and never 0 to the PNG decoder: there 0 means its own default */
         return err_set(err, RAYD_E_LIMIT, p->s,
@@ -162,24 +142,24 @@ static enum rayd_status gm_decode(struct rayd_error *err, const unsigned char *b
 /* The image /images/i: its bytes from a bufferView or a URI, decoded. */
 static enum rayd_status gm_image(struct gltf_doc *d, struct rayd_error *err, int i, long budget,
                                  rayd_image **img) {
-    const cJSON *ij = cJSON_GetArrayItem(gm_get(gltf_doc_root(d), "images"), i);
-    struct gmp p;
+    const cJSON *ij = cJSON_GetArrayItem(gl_get(gltf_doc_root(d), "images"), i);
+    struct gp p;
     snprintf(p.s, sizeof p.s, "/images/%d", i);
     if (!cJSON_IsObject(ij)) return err_set(err, RAYD_E_INVALID, p.s, "must be an object");
-    const cJSON *uri = gm_get(ij, "uri"), *view = gm_get(ij, "bufferView");
-    struct gmp pu = gm_key(&p, uri ? "uri" : "bufferView");
+    const cJSON *uri = gl_get(ij, "uri"), *view = gl_get(ij, "bufferView");
+    struct gp pu = gp_key(&p, uri ? "uri" : "bufferView");
     if (!!uri + !!view != 1)
         return err_set(err, RAYD_E_INVALID, p.s, "needs exactly one of \"uri\" and \"bufferView\"");
     if (view) {
         const unsigned char *b;
         size_t len;
-        TRY_GM(gltf_doc_view(d, ij, p.s, "bufferView", &b, &len));
+        TRY_GL(gltf_doc_view(d, ij, p.s, "bufferView", &b, &len));
         return gm_decode(err, b, len, &pu, budget, img);
     }
     if (!cJSON_IsString(uri)) return err_set(err, RAYD_E_INVALID, pu.s, "must be a string");
     unsigned char *b;
     size_t len;
-    TRY_GM(gltf_doc_uri(d, uri->valuestring, pu.s, &b, &len));
+    TRY_GL(gltf_doc_uri(d, uri->valuestring, pu.s, &b, &len));
     enum rayd_status st = gm_decode(err, b, len, &pu, budget, img);
     free(b);
     return st;
@@ -188,17 +168,17 @@ static enum rayd_status gm_image(struct gltf_doc *d, struct rayd_error *err, int
 /* The texture info ti (baseColorTexture at p): the image, decoded, with
  * the factor baked into linear texels. */
 static enum rayd_status gm_texture(struct gltf_doc *d, struct rayd_error *err, const cJSON *ti,
-                                   const struct gmp *p, const double *factor, struct gltf_mats *g,
+                                   const struct gp *p, const double *factor, struct gltf_mats *g,
                                    long *texels, int *uv_set) {
-    const cJSON *texs = gm_get(gltf_doc_root(d), "textures");
+    const cJSON *texs = gl_get(gltf_doc_root(d), "textures");
     int ntex = cJSON_IsArray(texs) ? cJSON_GetArraySize(texs) : 0;
     double index, set, source;
     if (!cJSON_IsObject(ti)) return err_set(err, RAYD_E_INVALID, p->s, "must be an object");
     /* any number first, then the range here: a message that names what an
      * index must be, and says so when the file has no textures at all */
-    TRY_GM(gm_num(err, ti, p, "index", -1, -HUGE_VAL, HUGE_VAL, &index));
-    TRY_GM(gm_num(err, ti, p, "texCoord", 0, -HUGE_VAL, HUGE_VAL, &set));
-    struct gmp pi = gm_key(p, "index"), pc = gm_key(p, "texCoord");
+    TRY_GL(gm_num(err, ti, p, "index", -1, -HUGE_VAL, HUGE_VAL, &index));
+    TRY_GL(gm_num(err, ti, p, "texCoord", 0, -HUGE_VAL, HUGE_VAL, &set));
+    struct gp pi = gp_key(p, "index"), pc = gp_key(p, "texCoord");
     if (ntex == 0)
         return err_set(err, RAYD_E_INVALID, pi.s, "names a texture, but the file has no /textures");
     if (index < 0 || index >= ntex || floor(index) != index)
@@ -210,11 +190,11 @@ static enum rayd_status gm_texture(struct gltf_doc *d, struct rayd_error *err, c
         return err_set(err, RAYD_E_LIMIT, p->s, "is past the limit of %d textured materials",
                        GLTF_MAX_TEXTURES);
     const cJSON *tj = cJSON_GetArrayItem(texs, (int)index);
-    struct gmp pt;
+    struct gp pt;
     snprintf(pt.s, sizeof pt.s, "/textures/%d", (int)index);
-    int nimg = cJSON_GetArraySize(gm_get(gltf_doc_root(d), "images"));
-    TRY_GM(gm_num(err, tj, &pt, "source", -1, -HUGE_VAL, HUGE_VAL, &source));
-    struct gmp ps = gm_key(&pt, "source");
+    int nimg = cJSON_GetArraySize(gl_get(gltf_doc_root(d), "images"));
+    TRY_GL(gm_num(err, tj, &pt, "source", -1, -HUGE_VAL, HUGE_VAL, &source));
+    struct gp ps = gp_key(&pt, "source");
     if (nimg == 0)
         return err_set(err, RAYD_E_INVALID, ps.s,
                        "the file has no /images (images of other extensions are not read)");
@@ -223,7 +203,7 @@ static enum rayd_status gm_texture(struct gltf_doc *d, struct rayd_error *err, c
                        "must be an image index in 0..%d (other image extensions are not read)",
                        nimg - 1);
     rayd_image *img = NULL;
-    TRY_GM(gm_image(d, err, (int)source, g->budget - *texels, &img));
+    TRY_GL(gm_image(d, err, (int)source, g->budget - *texels, &img));
     struct texture t = {.kind = TEX_IMAGE, .space = TEX_UV, .scale = 1, .w = img->w, .h = img->h};
     t.rgb = texture_linear_from_srgb8(img->px, img->w, img->h);
     rayd_image_free(img);
@@ -237,11 +217,11 @@ static enum rayd_status gm_texture(struct gltf_doc *d, struct rayd_error *err, c
 
 /* ---- materials --------------------------------------------------------------- */
 
-static enum rayd_status gm_alpha_mode(struct rayd_error *err, const cJSON *mj, const struct gmp *p,
+static enum rayd_status gm_alpha_mode(struct rayd_error *err, const cJSON *mj, const struct gp *p,
                                       int *mode) {
     static const char *const modes[] = {"OPAQUE", "MASK", "BLEND"};
-    const cJSON *v = gm_get(mj, "alphaMode");
-    struct gmp pa = gm_key(p, "alphaMode");
+    const cJSON *v = gl_get(mj, "alphaMode");
+    struct gp pa = gp_key(p, "alphaMode");
     *mode = 0;
     if (!v) return RAYD_OK;
     for (int i = 0; i < 3 && cJSON_IsString(v); i++)
@@ -251,41 +231,41 @@ static enum rayd_status gm_alpha_mode(struct rayd_error *err, const cJSON *mj, c
 
 /* Material mj at p (NULL: glTF's default material). */
 static enum rayd_status gm_material(struct gltf_doc *d, struct rayd_error *err, const cJSON *mj,
-                                    const struct gmp *p, struct gltf_mats *g, int i, long *texels) {
+                                    const struct gp *p, struct gltf_mats *g, int i, long *texels) {
     static const double white[4] = {1, 1, 1, 1}, black[3] = {0, 0, 0};
     struct gltf_pbr pbr;
     if (mj && !cJSON_IsObject(mj)) return err_set(err, RAYD_E_INVALID, p->s, "must be an object");
-    const cJSON *pj = gm_get(mj, "pbrMetallicRoughness"), *ext = gm_get(mj, "extensions");
-    struct gmp pp = gm_key(p, "pbrMetallicRoughness"), pe = gm_key(p, "extensions");
+    const cJSON *pj = gl_get(mj, "pbrMetallicRoughness"), *ext = gl_get(mj, "extensions");
+    struct gp pp = gp_key(p, "pbrMetallicRoughness"), pe = gp_key(p, "extensions");
     if (pj && !cJSON_IsObject(pj)) return err_set(err, RAYD_E_INVALID, pp.s, "must be an object");
-    TRY_GM(gm_nums(err, pj, &pp, "baseColorFactor", 4, white, 0, 1, pbr.base));
-    TRY_GM(gm_num(err, pj, &pp, "metallicFactor", 1, 0, 1, &pbr.metallic));
-    TRY_GM(gm_num(err, pj, &pp, "roughnessFactor", 1, 0, 1, &pbr.roughness));
-    TRY_GM(gm_nums(err, mj, p, "emissiveFactor", 3, black, 0, 1, pbr.emissive));
-    TRY_GM(gm_alpha_mode(err, mj, p, &pbr.alpha_mode));
-    TRY_GM(gm_num(err, mj, p, "alphaCutoff", 0.5, 0, 1e6, &pbr.cutoff));
-    const cJSON *es = gm_get(ext, "KHR_materials_emissive_strength");
-    const cJSON *ij = gm_get(ext, "KHR_materials_ior");
-    struct gmp pes = gm_key(&pe, "KHR_materials_emissive_strength");
-    struct gmp pior = gm_key(&pe, "KHR_materials_ior");
+    TRY_GL(gm_nums(err, pj, &pp, "baseColorFactor", 4, white, 0, 1, pbr.base));
+    TRY_GL(gm_num(err, pj, &pp, "metallicFactor", 1, 0, 1, &pbr.metallic));
+    TRY_GL(gm_num(err, pj, &pp, "roughnessFactor", 1, 0, 1, &pbr.roughness));
+    TRY_GL(gm_nums(err, mj, p, "emissiveFactor", 3, black, 0, 1, pbr.emissive));
+    TRY_GL(gm_alpha_mode(err, mj, p, &pbr.alpha_mode));
+    TRY_GL(gm_num(err, mj, p, "alphaCutoff", 0.5, 0, 1e6, &pbr.cutoff));
+    const cJSON *es = gl_get(ext, "KHR_materials_emissive_strength");
+    const cJSON *ij = gl_get(ext, "KHR_materials_ior");
+    struct gp pes = gp_key(&pe, "KHR_materials_emissive_strength");
+    struct gp pior = gp_key(&pe, "KHR_materials_ior");
     double strength, ior;
-    TRY_GM(gm_num(err, es, &pes, "emissiveStrength", 1, 0, 1e6, &strength));
-    TRY_GM(gm_num(err, ij, &pior, "ior", 1, 0, 10, &ior));
+    TRY_GL(gm_num(err, es, &pes, "emissiveStrength", 1, 0, 1e6, &strength));
+    TRY_GL(gm_num(err, ij, &pior, "ior", 1, 0, 10, &ior));
     for (int k = 0; k < 3; k++) pbr.emissive[k] *= strength;
     pbr.ior = ior > 0 ? ior : 1; /* glTF's ior 0 is "a perfect reflector": ignored */
     g->m[i] = gltf_pbr_material(&pbr);
     g->uv_set[i] = -1;
-    const cJSON *ti = gm_get(pj, "baseColorTexture");
+    const cJSON *ti = gl_get(pj, "baseColorTexture");
     if (!ti) return RAYD_OK;
-    struct gmp pt = gm_key(&pp, "baseColorTexture");
+    struct gp pt = gp_key(&pp, "baseColorTexture");
     g->m[i].texture = g->ntex;
     return gm_texture(d, err, ti, &pt, pbr.base, g, texels, &g->uv_set[i]);
 }
 
 enum rayd_status gltf_mats_read(struct gltf_doc *d, int max, long texels, struct gltf_mats *out,
                                 struct rayd_error *err) {
-    const cJSON *ms = gm_get(gltf_doc_root(d), "materials");
-    struct gmp at = {"/materials"};
+    const cJSON *ms = gl_get(gltf_doc_root(d), "materials");
+    struct gp at = {"/materials"};
     memset(out, 0, sizeof *out);
     if (ms && !cJSON_IsArray(ms)) return err_set(err, RAYD_E_INVALID, at.s, "must be an array");
     int n = ms ? cJSON_GetArraySize(ms) : 0;
@@ -301,9 +281,9 @@ enum rayd_status gltf_mats_read(struct gltf_doc *d, int max, long texels, struct
     out->budget = texels < GLTF_MAX_TEXELS ? texels : GLTF_MAX_TEXELS;
     int i = 0;
     for (const cJSON *m = ms ? ms->child : NULL; m; m = m->next, i++) {
-        struct gmp p;
+        struct gp p;
         snprintf(p.s, sizeof p.s, "/materials/%d", i);
-        TRY_GM(gm_material(d, err, m, &p, out, i, &out->texels));
+        TRY_GL(gm_material(d, err, m, &p, out, i, &out->texels));
     }
     return gm_material(d, err, NULL, &at, out, n, &out->texels);
 }

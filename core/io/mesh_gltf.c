@@ -62,6 +62,7 @@
 #include "base/error.h"
 #include "base/hugemem.h"
 #include "io/base64.h"
+#include "io/gltf_pointer.h"
 #include "io/json_check.h"
 #include "io/json_parse.h"
 
@@ -69,16 +70,6 @@
 #define GLB_JSON 0x4E4F534Au
 #define GLB_BIN 0x004E4942u
 
-#define TRY_GL(expr)                                                                     \
-    do {                                                                                 \
-        enum rayd_status st_ = (expr);                                                   \
-        if (st_ != RAYD_OK) return st_;                                                  \
-    } while (0)
-
-/* A JSON Pointer inside the glTF document. */
-struct gp {
-    char s[200];
-};
 
 struct gl_buf {
     unsigned char *data; /* NULL until loaded */
@@ -148,18 +139,6 @@ static enum rayd_status gl_fail(struct gl *G, enum rayd_status code, const struc
     return err_set(G->err, code, at ? at->s : "", "%s", msg);
 }
 
-static struct gp gp_key(const struct gp *p, const char *key) {
-    struct gp r;
-    snprintf(r.s, sizeof r.s, "%.*s/%s", (int)(sizeof r.s - 40), p->s, key);
-    return r;
-}
-
-static struct gp gp_index(const struct gp *p, long i) {
-    struct gp r;
-    snprintf(r.s, sizeof r.s, "%.*s/%ld", (int)(sizeof r.s - 24), p->s, i);
-    return r;
-}
-
 static struct gp gp_item(const char *top, long i) {
     struct gp r;
     snprintf(r.s, sizeof r.s, "/%s/%ld", top, i);
@@ -167,10 +146,6 @@ static struct gp gp_item(const char *top, long i) {
 }
 
 /* ---- typed getters ------------------------------------------------------ */
-
-static const cJSON *gl_get(const cJSON *o, const char *key) {
-    return cJSON_IsObject(o) ? cJSON_GetObjectItemCaseSensitive(o, key) : NULL;
-}
 
 /* An integer o[key] in [lo, hi], def when absent (-1 def: required). */
 static enum rayd_status gl_int(struct gl *G, const cJSON *o, const struct gp *at, const char *key,

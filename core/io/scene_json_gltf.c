@@ -33,6 +33,7 @@
 #include "base/clock.h"
 #include "base/parallel.h"
 #include "io/gltf_material.h"
+#include "io/gltf_pointer.h"
 #include "io/scene_json_material.h"
 #include "io/scene_json_texture.h"
 #include "io/scene_json_mesh.h"
@@ -53,15 +54,11 @@ static enum rayd_status imp_fail(struct imp *im, enum rayd_status st) {
     return sj_gltf_error(im->ld, &im->src, st);
 }
 
-static const cJSON *get(const cJSON *o, const char *key) {
-    return cJSON_IsObject(o) ? cJSON_GetObjectItemCaseSensitive(o, key) : NULL;
-}
-
 /* oj[key]: an index into the glTF's array top, or the name of one of its
  * items; -1 when absent. */
 static enum rayd_status item_ref(struct imp *im, const cJSON *oj, const struct jp *at,
                                  const char *key, const cJSON *arr, const char *top, int *out) {
-    const cJSON *v = get(oj, key);
+    const cJSON *v = gl_get(oj, key);
     struct jp p = sj_key(at, key);
     int n = cJSON_IsArray(arr) ? cJSON_GetArraySize(arr) : 0;
     *out = -1;
@@ -79,7 +76,7 @@ static enum rayd_status item_ref(struct imp *im, const cJSON *oj, const struct j
                        sj_type_name(v));
     int i = 0;
     for (const cJSON *e = arr ? arr->child : NULL; e; e = e->next, i++) {
-        const cJSON *name = get(e, "name");
+        const cJSON *name = gl_get(e, "name");
         if (cJSON_IsString(name) && !strcmp(name->valuestring, v->valuestring)) {
             *out = i;
             return RAYD_OK;
@@ -311,7 +308,7 @@ static enum rayd_status light_of(struct imp *im, const cJSON *lj, const struct j
         return sj_fail(ld, RAYD_E_LIMIT, &pi, "%g times light_scale %g is over rayd's limit of 1e6",
                        k, scale);
     l->intensity = k * scale;
-    const cJSON *sp = get(lj, "spot");
+    const cJSON *sp = gl_get(lj, "spot");
     if (sp && !cJSON_IsObject(sp)) return sj_fail(ld, RAYD_E_INVALID, &ps, "must be an object");
     TRY(sj_num(ld, sp, &ps, "innerConeAngle", 0, 0, false, GLTF_PI / 2, &inner));
     TRY(sj_num(ld, sp, &ps, "outerConeAngle", GLTF_PI / 4, 0, true, GLTF_PI / 2, &outer));
@@ -342,17 +339,18 @@ static enum rayd_status add_light(struct loader *ld, const struct light *l, cons
 
 /* Every walked node's KHR_lights_punctual light. */
 static enum rayd_status load_lights(struct imp *im, double scale) {
-    const cJSON *root = gltf_doc_root(im->doc), *nodes = get(root, "nodes");
-    const cJSON *lights = get(get(get(root, "extensions"), "KHR_lights_punctual"), "lights");
+    const cJSON *root = gltf_doc_root(im->doc), *nodes = gl_get(root, "nodes");
+    const cJSON *lights =
+        gl_get(gl_get(gl_get(root, "extensions"), "KHR_lights_punctual"), "lights");
     int nl = cJSON_IsArray(lights) ? cJSON_GetArraySize(lights) : 0, i = 0;
     struct jp pg = sj_key(&im->src, "gltf"), pn = sj_key(&pg, "nodes");
     for (const cJSON *n = cJSON_IsArray(nodes) ? nodes->child : NULL; n; n = n->next, i++) {
-        const cJSON *ext = get(get(n, "extensions"), "KHR_lights_punctual");
+        const cJSON *ext = gl_get(gl_get(n, "extensions"), "KHR_lights_punctual");
         const double *w = gltf_doc_world(im->doc, i);
         if (!ext || !w) continue;
         struct jp pi = sj_index(&pn, i), pe = sj_key(&pi, "extensions");
         struct jp pk = sj_key(&pe, "KHR_lights_punctual"), pl = sj_key(&pk, "light");
-        const cJSON *lv = get(ext, "light");
+        const cJSON *lv = gl_get(ext, "light");
         if (!cJSON_IsNumber(lv) || !(lv->valuedouble >= 0 && lv->valuedouble < nl) ||
             floor(lv->valuedouble) != lv->valuedouble) {
             if (nl == 0)
@@ -378,7 +376,7 @@ static enum rayd_status camera_clash(struct imp *im, const struct jp *at) {
     static const char *const set[] = {"position",   "look_at",    "up",    "fov_x", "fov_y",
                                       "projection", "view_width", "frame", "view",  NULL};
     for (int k = 0; set[k]; k++)
-        if (get(im->ld->camera, set[k]))
+        if (gl_get(im->ld->camera, set[k]))
             return sj_fail(
                 im->ld, RAYD_E_INVALID, at,
                 "the glTF camera sets the scene's camera: /camera/%s cannot be given too "
@@ -400,7 +398,7 @@ static enum rayd_status set_camera(struct imp *im, const cJSON *cj, const struct
     struct jp pt = sj_key(pc, "type"), pp = sj_key(pc, type == 1 ? "orthographic" : "perspective");
     if (type < 0)
         return sj_fail(ld, RAYD_E_INVALID, &pt, "is required (perspective or orthographic)");
-    const cJSON *pj = get(cj, type == 1 ? "orthographic" : "perspective");
+    const cJSON *pj = gl_get(cj, type == 1 ? "orthographic" : "perspective");
     if (!cJSON_IsObject(pj)) return sj_fail(ld, RAYD_E_INVALID, &pp, "is required (an object)");
     vec3 pos = place(im, w, 0, 0, 0, 1), dir = place(im, w, 0, 0, -1, 0),
          up = place(im, w, 0, 1, 0, 0);
@@ -430,21 +428,21 @@ static enum rayd_status set_camera(struct imp *im, const cJSON *cj, const struct
         cam->tan_x = cam->tan_y * rs->width / rs->height;
     }
     cam->aperture = aperture;
-    if (get(ld->camera, "focus_distance")) cam->focus = focus;
+    if (gl_get(ld->camera, "focus_distance")) cam->focus = focus;
     ld->gltf_camera = true;
     return RAYD_OK;
 }
 
 static enum rayd_status load_camera(struct imp *im, const cJSON *oj, const struct jp *at) {
-    const cJSON *root = gltf_doc_root(im->doc), *cams = get(root, "cameras"),
-                *nodes = get(root, "nodes");
+    const cJSON *root = gltf_doc_root(im->doc), *cams = gl_get(root, "cameras"),
+                *nodes = gl_get(root, "nodes");
     int c, i = 0;
     TRY(item_ref(im, oj, at, "camera", cams, "cameras", &c));
     if (c < 0) return RAYD_OK;
     struct jp pc = sj_key(at, "camera");
     TRY(camera_clash(im, &pc));
     for (const cJSON *n = cJSON_IsArray(nodes) ? nodes->child : NULL; n; n = n->next, i++) {
-        const cJSON *v = get(n, "camera");
+        const cJSON *v = gl_get(n, "camera");
         const double *w = gltf_doc_world(im->doc, i);
         if (!w || !cJSON_IsNumber(v) || v->valuedouble != c) continue;
         struct jp pg = sj_key(&im->src, "gltf"), pcs = sj_key(&pg, "cameras"),
@@ -463,7 +461,7 @@ static enum rayd_status load(struct imp *im, const cJSON *oj, const struct jp *a
     int scene;
     bool lights;
     double scale;
-    TRY(item_ref(im, oj, at, "scene", get(root, "scenes"), "scenes", &scene));
+    TRY(item_ref(im, oj, at, "scene", gl_get(root, "scenes"), "scenes", &scene));
     TRY(sj_bool(ld, oj, at, "lights", true, &lights));
     TRY(sj_num(ld, oj, at, "light_scale", 1, 0, true, 1e6, &scale));
     struct mesh_limits ml = sj_mesh_budget(ld);
