@@ -61,7 +61,8 @@ static void usage(FILE *f) {
             "                    the pass's samples (implies --passes)\n"
             "  --region X,Y,W,H  render only the W x H crop whose top-left pixel is (X, Y)\n"
             "  --threads N       rendering and PNG encoding threads (default 0: every core)\n"
-            "  --png-level N     deflate level of the PNG, 0-9 (default 2, libdeflate; 1: ISA-L, fastest)\n"
+            "  --png-level N     deflate level of the PNG, 0-9 (default 2, libdeflate; 1: ISA-L, "
+            "fastest)\n"
             "  --stats           print rays cast, rays per second, the render's wall time and\n"
             "                    the time of each stage (read, parse, decode, build, render,\n"
             "                    encode, write)\n"
@@ -131,13 +132,25 @@ struct args {
 
 /* "png", "png16" or "exr"; -1 for anything else. */
 static int format_named(const char *s) {
-    return !strcmp(s, "png") ? FMT_PNG : !strcmp(s, "png16") ? FMT_PNG16 : !strcmp(s, "exr") ? FMT_EXR : -1;
+    return !strcmp(s, "png")     ? FMT_PNG
+           : !strcmp(s, "png16") ? FMT_PNG16
+           : !strcmp(s, "exr")   ? FMT_EXR
+                                 : -1;
 }
 
 /* The long options; those without a short letter are numbered from 256. */
 enum {
-    OPT_FORMAT = 256, OPT_REGION, OPT_THREADS, OPT_PNG_LEVEL, OPT_PASSES, OPT_PASS_STEP,
-    OPT_PASS_OUTPUT, OPT_EXPOSURE, OPT_TONEMAP, OPT_STATS, OPT_VERSION
+    OPT_FORMAT = 256,
+    OPT_REGION,
+    OPT_THREADS,
+    OPT_PNG_LEVEL,
+    OPT_PASSES,
+    OPT_PASS_STEP,
+    OPT_PASS_OUTPUT,
+    OPT_EXPOSURE,
+    OPT_TONEMAP,
+    OPT_STATS,
+    OPT_VERSION
 };
 static const struct option long_options[] = {
     {"output", required_argument, NULL, 'o'},
@@ -177,7 +190,8 @@ static int set_pass_option(int opt, const char *val, struct args *a) {
             return bad_usage("--pass-output takes a file name with at most one %%d (the pass's "
                              "samples) and no other %%");
         if (!strcmp(val, "-"))
-            return bad_usage("--pass-output cannot be standard output (it writes one image a pass)");
+            return bad_usage(
+                "--pass-output cannot be standard output (it writes one image a pass)");
         a->passes = 1;
         a->pass_output = val;
         return 0;
@@ -281,7 +295,8 @@ static int parse_args(int argc, char **argv, struct args *a) {
     if (a->region.w == 0 && a->region.h == 0 && (a->region.x || a->region.y))
         return bad_usage("--region needs W and H > 0");
     size_t olen = strlen(a->output);
-    if (a->format < 0) a->format = olen >= 4 && !strcmp(a->output + olen - 4, ".exr") ? FMT_EXR : FMT_PNG;
+    if (a->format < 0)
+        a->format = olen >= 4 && !strcmp(a->output + olen - 4, ".exr") ? FMT_EXR : FMT_PNG;
     return 0;
 }
 
@@ -312,19 +327,25 @@ static const char *const stage_names[ST__COUNT] = {"read",   "parse",  "decode",
 static double estimated_rays(const struct args *a, const rayd_scene *scene) {
     struct rayd_scene_info info;
     rayd_scene_info(scene, &info);
-    double pixels = a->region.w > 0 ? (double)a->region.w * a->region.h
-                                    : (double)info.width * info.height;
+    double pixels =
+        a->region.w > 0 ? (double)a->region.w * a->region.h : (double)info.width * info.height;
     return pixels * info.samples * info.rays_per_sample;
 }
 
+/* ps (NULL for passes): the PNG's bands, how many were encoded during the
+ * render, and their encoding's time on all threads together. */
 static void print_stats(const struct args *a, const rayd_scene *scene,
-                        const struct rayd_render_stats *rs, const double *stage, double total) {
+                        const struct rayd_render_stats *rs, const struct rayd_png_stats *ps,
+                        const double *stage, double total) {
     fprintf(stderr, "rays: %llu\nrays estimated: %.0f\nrays/s: %.0f\nwall: %.3f s\nthreads: %d\n",
             (unsigned long long)rs->rays, estimated_rays(a, scene),
             rs->seconds > 0 ? (double)rs->rays / rs->seconds : 0.0, rs->seconds, a->threads);
     for (int i = 0; i < ST__COUNT; i++)
         fprintf(stderr, "time %s: %.4f s\n", stage_names[i], stage[i]);
     fprintf(stderr, "time total: %.4f s\n", total);
+    if (ps && ps->bands)
+        fprintf(stderr, "encode bands: %d, %d during the render, %.4f s of work on all threads\n",
+                ps->bands, ps->bands_early, ps->band_seconds);
 }
 
 /* ---- the progress line -------------------------------------------------
@@ -344,13 +365,13 @@ static void print_stats(const struct args *a, const rayd_scene *scene,
 
 struct progress {
     int on;
-    double t0;          /* start of the render (of every pass) */
-    long tiles;         /* tiles of one pass */
-    atomic_long done;   /* tiles finished in this pass */
-    atomic_int busy;    /* a thread is drawing */
-    _Atomic double last; /* when the line was drawn */
-    int width;          /* characters drawn, to clear; under busy */
-    int pass, passes;   /* passes 0: a plain render */
+    double t0;             /* start of the render (of every pass) */
+    long tiles;            /* tiles of one pass */
+    atomic_long done;      /* tiles finished in this pass */
+    atomic_int busy;       /* a thread is drawing */
+    _Atomic double last;   /* when the line was drawn */
+    int width;             /* characters drawn, to clear; under busy */
+    int pass, passes;      /* passes 0: a plain render */
     int from, to, samples; /* this pass's samples, of samples */
 };
 
@@ -420,7 +441,8 @@ static void progress_opts(struct progress *p, struct rayd_render_opts *opts) {
 
 /* Writes the whole buffer to path ("-": standard output); 0 on success. */
 static int write_file(const char *path, const void *buf, size_t len) {
-    if (!strcmp(path, "-")) return fwrite(buf, 1, len, stdout) == len && fflush(stdout) == 0 ? 0 : -1;
+    if (!strcmp(path, "-"))
+        return fwrite(buf, 1, len, stdout) == len && fflush(stdout) == 0 ? 0 : -1;
     FILE *f = fopen(path, "wb");
     int ok = f && fwrite(buf, 1, len, f) == len;
     if (f && fclose(f) != 0) ok = 0;
@@ -445,6 +467,31 @@ static int write_or_say(const char *path, const void *buf, size_t len) {
     return 1;
 }
 
+/* Renders the scene into img, encoding each band of rows as soon as it is
+ * drawn (rayd_png_stream_rows as opts.rows), then the bands left: the PNG
+ * into *png.  stage[ST_RENDER] is the render with the encoding done beside
+ * it, stage[ST_ENCODE] the encoding after it. */
+static enum rayd_status render_png(const rayd_scene *scene, struct rayd_render_opts *opts,
+                                   rayd_image *img, int level, double *stage, void **png,
+                                   size_t *len, struct rayd_png_stats *ps, struct rayd_error *err) {
+    rayd_png_stream *ps_stream = NULL;
+    enum rayd_status st = rayd_png_stream_new(img, level, &ps_stream, err);
+    if (st != RAYD_OK) return st;
+    opts->rows = rayd_png_stream_rows;
+    opts->rows_user = ps_stream;
+    double t = now();
+    st = rayd_render_image(scene, opts, img, err);
+    stage[ST_RENDER] = now() - t;
+    if (st != RAYD_OK) {
+        rayd_png_stream_free(ps_stream);
+        return st;
+    }
+    t = now();
+    st = rayd_png_stream_finish(ps_stream, opts->threads, png, len, ps, err);
+    stage[ST_ENCODE] = now() - t;
+    return st;
+}
+
 /* Renders the parsed scene and writes the PNG, timing each stage from t0,
  * the start of the run. */
 static int render_and_write(const struct args *a, const rayd_scene *scene, double *stage,
@@ -456,28 +503,25 @@ static int render_and_write(const struct args *a, const rayd_scene *scene, doubl
     rayd_scene_info(scene, &info);
     struct rayd_region r = a->region;
     if (r.w == 0 && r.h == 0) r = (struct rayd_region){0, 0, info.width, info.height};
+    if (rayd_region_check(scene, &a->region, &err) != RAYD_OK) return fail_render(&err);
+    rayd_image *img = NULL;
+    if (rayd_image_new(r.w, r.h, &img, &err) != RAYD_OK) return fail("", &err);
     struct progress prog;
     progress_start(&prog, a, r, 0, 1);
     progress_opts(&prog, &opts);
-    rayd_image *img = NULL;
-    double t = now();
-    enum rayd_status rs = rayd_render(scene, &opts, &img, &err);
-    progress_clear(&prog);
-    if (rs != RAYD_OK) return fail_render(&err);
-    stage[ST_RENDER] = now() - t;
-    t = now();
     void *png = NULL;
     size_t len = 0;
-    enum rayd_status st = rayd_png_encode_threads(img, a->png_level, a->threads, &png, &len, &err);
+    struct rayd_png_stats ps = {0};
+    enum rayd_status st = render_png(scene, &opts, img, a->png_level, stage, &png, &len, &ps, &err);
+    progress_clear(&prog);
     rayd_image_free(img);
-    if (st != RAYD_OK) return fail("", &err);
-    stage[ST_ENCODE] = now() - t;
-    t = now();
+    if (st != RAYD_OK) return fail_render(&err);
+    double t = now();
     int rc = write_or_say(a->output, png, len);
     rayd_free(png);
     if (rc != 0) return rc;
     stage[ST_WRITE] = now() - t;
-    if (a->stats) print_stats(a, scene, &stats, stage, now() - t0);
+    if (a->stats) print_stats(a, scene, &stats, &ps, stage, now() - t0);
     return 0;
 }
 
@@ -488,7 +532,8 @@ static enum rayd_status encode_accum(const struct args *a, const rayd_accum *acc
     if (a->format == FMT_PNG) {
         rayd_image *img = NULL;
         st = rayd_accum_image_tone(acc, &a->tone, &img, err);
-        if (st == RAYD_OK) st = rayd_png_encode_threads(img, a->png_level, a->threads, buf, len, err);
+        if (st == RAYD_OK)
+            st = rayd_png_encode_threads(img, a->png_level, a->threads, buf, len, err);
         rayd_image_free(img);
         return st;
     }
@@ -555,8 +600,8 @@ static int run_passes(const struct args *a, const rayd_scene *scene, rayd_accum 
         stats->seconds += one.seconds;
         from = to;
         if (a->passes && !a->quiet)
-            fprintf(stderr, "pass %d: %d samples, %.3f s, %.3f s since the first\n", count + 1,
-                    to, one.seconds, stats->seconds);
+            fprintf(stderr, "pass %d: %d samples, %.3f s, %.3f s since the first\n", count + 1, to,
+                    one.seconds, stats->seconds);
         if (a->pass_output) {
             char path[4096];
             pass_path(a->pass_output, to, path, sizeof path);
@@ -568,8 +613,7 @@ static int run_passes(const struct args *a, const rayd_scene *scene, rayd_accum 
 
 /* The progressive or HDR render: passes into an accumulator, then the last
  * image in a's format. */
-static int render_passes(const struct args *a, const rayd_scene *scene, double *stage,
-                         double t0) {
+static int render_passes(const struct args *a, const rayd_scene *scene, double *stage, double t0) {
     struct rayd_error err = {0};
     rayd_accum *acc = NULL;
     if (rayd_accum_new(scene, &a->region, &acc, &err) != RAYD_OK) return fail_render(&err);
@@ -581,7 +625,7 @@ static int render_passes(const struct args *a, const rayd_scene *scene, double *
     if (rc == 0) rc = write_accum(a, acc, a->output);
     stage[ST_ENCODE] = now() - t; /* with the write: one call */
     rayd_accum_free(acc);
-    if (rc == 0 && a->stats) print_stats(a, scene, &stats, stage, now() - t0);
+    if (rc == 0 && a->stats) print_stats(a, scene, &stats, NULL, stage, now() - t0);
     return rc;
 }
 
@@ -623,7 +667,7 @@ int main(int argc, char **argv) {
     stage[ST_PARSE] = now() - t - info.decode_seconds - info.build_seconds;
     bool toned = a.tone.exposure != 0 || a.tone.curve != RAYD_TONE_CLAMP;
     rc = a.passes || a.format != FMT_PNG || toned ? render_passes(&a, scene, stage, t0)
-                                                      : render_and_write(&a, scene, stage, t0);
+                                                  : render_and_write(&a, scene, stage, t0);
     rayd_scene_free(scene);
     return rc;
 }

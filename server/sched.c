@@ -4,9 +4,14 @@
  * Scheduling is per tile, not per task: each time a worker is free it takes
  * the next tile of the task task_pick() puts first (task.c explains the
  * order), so a small interactive request overtakes a big frame at the next
- * tile boundary.  The worker that finishes a task's last tile encodes its
- * PNG (or, for a 16-bit PNG or EXR task, its linear floats) -- with the
- * lock released, like the tiles -- and answers everyone interested in it.
+ * tile boundary.  A plain PNG task is encoded as it is drawn: the worker
+ * that finishes a row of its tiles deflates the PNG bands that row
+ * completes (rayd_png_stream, lock released, the task still counted as
+ * running so it cannot finish meanwhile), so the encoding overlaps the
+ * other tiles' rendering.  The worker that finishes a task's last tile
+ * encodes what is left of its PNG (or, for a 16-bit PNG or EXR task, its
+ * linear floats) -- with the lock released, like the tiles -- and answers
+ * everyone interested in it.
  *
  * Back-pressure: at most queue_cap tasks may wait for a worker (have tiles
  * nobody has started); beyond that a submission is refused with WORK_FULL and
@@ -50,8 +55,9 @@ static struct task *sched_next_task(void)
     return NULL;
 }
 
-/* t's pixels in its format into *buf. */
-static enum rayd_status sched_encode_as(const struct task *t, void **buf, size_t *len,
+/* t's pixels in its format into *buf (a PNG stream: the bands not yet
+ * deflated, and the file joined). */
+static enum rayd_status sched_encode_as(struct task *t, void **buf, size_t *len,
                                         struct rayd_error *err)
 {
     if (t->format == WORK_SUMS)
@@ -61,6 +67,11 @@ static enum rayd_status sched_encode_as(const struct task *t, void **buf, size_t
     if (t->format == WORK_PNG16)
         return rayd_png16_encode(t->lin, t->reg.w, t->reg.h, (int)config.png_level, buf, len,
                                  err);
+    if (t->stream) {
+        rayd_png_stream *s = t->stream;
+        t->stream = NULL; /* finish frees it */
+        return rayd_png_stream_finish(s, 0, buf, len, NULL, err);
+    }
     return rayd_png_encode(t->img, (int)config.png_level, buf, len, err);
 }
 
@@ -152,9 +163,46 @@ static bool sched_pass_close(struct task *t, struct task_notify *sse)
     return true;
 }
 
+/* t's PNG stream and row counts, when t is a plain PNG task, lock held;
+ * without memory, t is encoded whole at the end. */
+static void sched_stream_open(struct task *t)
+{
+    if (t->format != WORK_PNG || t->passes || t->stream)
+        return;
+    t->row_left = malloc((size_t)t->nty * sizeof *t->row_left);
+    if (!t->row_left || rayd_png_stream_new(t->img, (int)config.png_level, &t->stream, NULL) !=
+                            RAYD_OK) {
+        free(t->row_left);
+        t->row_left = NULL;
+        return;
+    }
+    for (int i = 0; i < t->nty; i++)
+        t->row_left[i] = t->ntx;
+}
+
+/* Tile `tile` of t is drawn: when that completes rows at the top, the
+ * stream encodes the bands they finish, on this worker, lock released (t
+ * cannot finish meanwhile: this worker still counts as running it).
+ * Called and returns without the lock. */
+static void sched_stream_tile(struct task *t, int tile)
+{
+    pthread_mutex_lock(&work_lock);
+    int rows = -1;
+    if (t->stream && --t->row_left[tile / t->ntx] == 0) {
+        while (t->rows_top < t->nty && t->row_left[t->rows_top] == 0)
+            t->rows_top++;
+        rows = t->rows_top * t->tile < t->reg.h ? t->rows_top * t->tile : t->reg.h;
+    }
+    rayd_png_stream *s = t->stream;
+    pthread_mutex_unlock(&work_lock);
+    if (rows > 0)
+        rayd_png_stream_rows(s, rows);
+}
+
 /* Takes a tile of t, lock held. */
 static void sched_take(struct task *t)
 {
+    sched_stream_open(t);
     if (t->t_start == 0) {
         t->t_start = log_now();
         metrics_queue_wait(t->interactive, t->t_start - t->t_enq);
@@ -263,6 +311,8 @@ static void *sched_worker(void *arg)
         enum rayd_status st = sched_tile(t, tile, pass, &rays, &err);
         double took = log_now() - t0;
         metrics_rays(rays);
+        if (st == RAYD_OK)
+            sched_stream_tile(t, tile);
 
         struct task_notify n = {0}, sse = {0};
         pthread_mutex_lock(&work_lock);

@@ -109,6 +109,8 @@ void task_unref(struct task *t)
     if (--t->refs > 0)
         return;
     blob_unref(t->png);
+    rayd_png_stream_free(t->stream);
+    free(t->row_left);
     rayd_image_free(t->img);
     passes_free(t->passes);
     free(t->lin);

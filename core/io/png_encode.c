@@ -33,16 +33,25 @@
  * larger.  libdeflate cannot end a stream without a final block, so each
  * band but the last is walked once more by deflate_chain (a tenth of the
  * deflate's time) to clear that bit and append the empty stored block.
- * Levels 0 and 2-9 are libdeflate's, as asked.  Level 1, the fastest, is Intel ISA-L (isal_deflate, level 2,
- * raw deflate with a sync flush or, for the last band, the final block):
- * 1.5x faster than the default and 17x libpng level 6 on the sphere scene
- * for +5% to +21% bytes (+18% there, +21% on paper): ISA-L matches greedily
- * from one hash candidate and misses the short repeats that lazy matching
- * finds in smooth gradients.  ISA-L level 1, other token buffer sizes, a
- * preset dictionary from the band before and bigram filter measures came
- * within 1% of this and no lower; its level 3 was 3% larger.  The Adler-32
- * of a band is ISA-L's (4x zlib's), combined across bands with zlib's
+ * Levels 0 and 2-9 are libdeflate's, as asked.  Level 1, the fastest, is Intel ISA-L (isal_deflate,
+ * level 2, raw deflate with a sync flush or, for the last band, the final block): 1.5x faster than
+ * the default and 17x libpng level 6 on the sphere scene for +5% to +21% bytes (+18% there, +21% on
+ * paper): ISA-L matches greedily from one hash candidate and misses the short repeats that lazy
+ * matching finds in smooth gradients.  ISA-L level 1, other token buffer sizes, a preset dictionary
+ * from the band before and bigram filter measures came within 1% of this and no lower; its level 3
+ * was 3% larger.  The Adler-32 of a band is ISA-L's (4x zlib's), combined across bands with zlib's
  * adler32_combine.
+ *
+ * Encoding while rendering (rayd_png_stream).  A band needs only its own
+ * rows and the one above them, so it can be deflated as soon as those are
+ * drawn: the render tells the stream through its rows callback, and the
+ * worker that finishes a row of tiles deflates the bands it completes
+ * while the other workers go on drawing.  Only the joining is left for
+ * after the render.  On the 1080p sphere scene (2 threads) every band is
+ * deflated during the render and the encode after it fell from 36 ms to
+ * 5 ms; the whole process gains less (about 10 ms), since both cores were
+ * already busy.  Which thread deflates which band changes nothing in the
+ * bytes.
  *
  * The chunks are those libpng wrote before: IHDR, sRGB, gAMA and cHRM for
  * sRGB, the IDATs (one a band: no copy of the whole stream), IEND.
@@ -51,21 +60,23 @@
 #include <libdeflate.h>
 #include <math.h>
 #include <pthread.h>
+#include <stdbool.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 #include <zlib.h>
 
+#include "base/clock.h"
 #include "base/error.h"
 #include "io/deflate_chain.h"
 #include "render/image.h"
 
 #define PNG_BAND_BYTES (256u * 1024u) /* raw bytes of a band, about */
 #define PNG_MAX_THREADS 64
-#define PNG_ISAL_LEVEL 2      /* ISA-L's level for --png-level 1 (measured) */
-#define PNG_LEVEL_DEFAULT 2   /* libdeflate's level when none is asked for (measured) */
-#define PNG_XLOGX_N 4096      /* counts below this have c log2 c in a table */
+#define PNG_ISAL_LEVEL 2    /* ISA-L's level for --png-level 1 (measured) */
+#define PNG_LEVEL_DEFAULT 2 /* libdeflate's level when none is asked for (measured) */
+#define PNG_XLOGX_N 4096    /* counts below this have c log2 c in a table */
 
 struct png_band {
     int y0, rows;
@@ -76,12 +87,20 @@ struct png_band {
     int failed;
 };
 
-struct png_job {
+/* A PNG being encoded: its bands, which of them are taken, and how many of
+ * the image's rows are final (all of them unless the encoder runs beside
+ * the render that draws them). */
+struct rayd_png_stream {
     const rayd_image *img;
     int level, nbands, band_rows; /* level -1: ISA-L */
     struct png_band *bands;
     pthread_mutex_t lock;
-    int next; /* the next band nobody has taken */
+    int next;                  /* the next band nobody has taken */
+    int ready;                 /* rows [0, ready) are final */
+    int early;                 /* bands taken before finish */
+    bool finishing;            /* finish has begun: every band is ready */
+    double band_seconds;       /* spent deflating bands, every thread */
+    struct png_scratch *spare; /* workers' buffers, free for the next */
 };
 
 /* ---- filtering ---------------------------------------------------------- */
@@ -199,14 +218,16 @@ static size_t deflate_isal(unsigned char *in, size_t n, int last, unsigned char 
     return cap - s.avail_out;
 }
 
-/* A worker's buffers, kept from band to band: fresh ones for each band cost
- * page faults (the deflate's output, allocated a band, was 7% of the whole
- * process on the 1080p sphere scene). */
+/* A worker's buffers, kept from band to band and from worker to worker in
+ * the stream's pool: fresh ones for each band cost page faults (the
+ * deflate's output, allocated a band, was 7% of the whole process on the
+ * 1080p sphere scene). */
 struct png_scratch {
     unsigned char *filt, *tmp, *zero; /* filtered rows, a row, zeros */
     unsigned char *z, *lb;            /* the deflate's output (zcap bytes), ISA-L's state */
     size_t zcap, lbsize;
     struct libdeflate_compressor *ld; /* for every level but ISA-L's */
+    struct png_scratch *next;         /* in the pool */
 };
 
 /* Room for a band of raw bytes deflated by either library, with stored
@@ -231,32 +252,86 @@ static void band_encode(const rayd_image *img, int level, struct png_band *b, in
     b->failed = !b->out;
 }
 
-static void *band_worker(void *arg) {
-    struct png_job *j = arg;
-    pthread_once(&png_xlogx_once, xlogx_init);
-    size_t n = (size_t)j->img->w * 3;
-    size_t raw = (n + 1) * (size_t)j->band_rows;
-    struct png_scratch w = {malloc(raw), malloc(n + 1), calloc(1, n), malloc(band_zcap(raw)), NULL,
-                            band_zcap(raw), j->level < 0 ? ISAL_DEF_LVL2_DEFAULT : 0,
-                            j->level >= 0 ? libdeflate_alloc_compressor(j->level) : NULL};
-    w.lb = w.lbsize ? malloc(w.lbsize) : NULL;
-    int ok = w.filt && w.tmp && w.zero && w.z && (j->level < 0 ? w.lb != NULL : w.ld != NULL);
-    for (;;) {
-        pthread_mutex_lock(&j->lock);
-        int i = j->next < j->nbands ? j->next++ : -1;
-        pthread_mutex_unlock(&j->lock);
-        if (i < 0) break;
-        if (ok)
-            band_encode(j->img, j->level, &j->bands[i], i == j->nbands - 1, &w);
-        else
-            j->bands[i].failed = 1;
+static void scratch_free(struct png_scratch *w) {
+    if (!w) return;
+    free(w->filt);
+    free(w->tmp);
+    free(w->zero);
+    free(w->z);
+    free(w->lb);
+    libdeflate_free_compressor(w->ld);
+    free(w);
+}
+
+/* A worker's buffers for s's bands, from the pool or new; NULL when out of
+ * memory. */
+static struct png_scratch *scratch_take(struct rayd_png_stream *s) {
+    pthread_mutex_lock(&s->lock);
+    struct png_scratch *w = s->spare;
+    if (w) s->spare = w->next;
+    pthread_mutex_unlock(&s->lock);
+    if (w) return w;
+    size_t n = (size_t)s->img->w * 3, raw = (n + 1) * (size_t)s->band_rows;
+    w = calloc(1, sizeof *w);
+    if (!w) return NULL;
+    *w = (struct png_scratch){malloc(raw),
+                              malloc(n + 1),
+                              calloc(1, n),
+                              malloc(band_zcap(raw)),
+                              NULL,
+                              band_zcap(raw),
+                              s->level < 0 ? ISAL_DEF_LVL2_DEFAULT : 0,
+                              s->level >= 0 ? libdeflate_alloc_compressor(s->level) : NULL,
+                              NULL};
+    w->lb = w->lbsize ? malloc(w->lbsize) : NULL;
+    if (w->filt && w->tmp && w->zero && w->z && (s->level < 0 ? w->lb != NULL : w->ld != NULL))
+        return w;
+    scratch_free(w);
+    return NULL;
+}
+
+static void scratch_give(struct rayd_png_stream *s, struct png_scratch *w) {
+    pthread_mutex_lock(&s->lock);
+    w->next = s->spare;
+    s->spare = w;
+    pthread_mutex_unlock(&s->lock);
+}
+
+/* The next band nobody has taken whose rows, and the row above them that
+ * its filters read, are final; -1 when there is none (yet). */
+static int band_claim(struct rayd_png_stream *s) {
+    pthread_mutex_lock(&s->lock);
+    int i = -1;
+    if (s->next < s->nbands) {
+        const struct png_band *b = &s->bands[s->next];
+        if (s->finishing || b->y0 + b->rows <= s->ready) i = s->next++;
+        if (i >= 0 && !s->finishing) s->early++;
     }
-    free(w.filt);
-    free(w.tmp);
-    free(w.zero);
-    free(w.z);
-    free(w.lb);
-    libdeflate_free_compressor(w.ld);
+    pthread_mutex_unlock(&s->lock);
+    return i;
+}
+
+/* Deflates bands while there are ones ready, on the calling thread. */
+static void bands_encode(struct rayd_png_stream *s) {
+    struct png_scratch *w = NULL;
+    double spent = 0;
+    for (int i; (i = band_claim(s)) >= 0;) {
+        if (!w) w = scratch_take(s);
+        double t0 = clock_now();
+        if (w)
+            band_encode(s->img, s->level, &s->bands[i], i == s->nbands - 1, w);
+        else
+            s->bands[i].failed = 1;
+        spent += clock_now() - t0;
+    }
+    if (w) scratch_give(s, w);
+    pthread_mutex_lock(&s->lock);
+    s->band_seconds += spent;
+    pthread_mutex_unlock(&s->lock);
+}
+
+static void *band_worker(void *arg) {
+    bands_encode(arg);
     return NULL;
 }
 
@@ -322,7 +397,11 @@ static void put_header(struct out *o, const rayd_image *img) {
  * header, the last ends with the Adler-32 of the whole. */
 static void put_idats(struct out *o, int level, const struct png_band *bands, int nbands) {
     static const unsigned char flg[4] = {0x01, 0x5e, 0x9c, 0xda}; /* by FLEVEL, as zlib */
-    int flevel = level < 0 ? 1 : level < 2 ? 0 : level <= 5 ? 1 : level == 6 ? 2 : 3; /* ISA-L: fast */
+    int flevel = level < 0    ? 1
+                 : level < 2  ? 0
+                 : level <= 5 ? 1
+                 : level == 6 ? 2
+                              : 3; /* ISA-L: fast */
     const unsigned char head[2] = {0x78, flg[flevel]};
     uLong adler = adler32_z(0, NULL, 0);
     for (int i = 0; i < nbands; i++)
@@ -346,56 +425,101 @@ static int png_threads(int threads, int nbands) {
     return threads < nbands ? threads : nbands;
 }
 
-/* Deflates every band on threads threads; 0 when all went well. */
-static int encode_bands(struct png_job *j, int threads) {
+/* Deflates every band left on threads threads; 0 when all went well. */
+static int encode_bands(struct rayd_png_stream *s, int threads) {
+    pthread_mutex_lock(&s->lock);
+    s->finishing = true;
+    pthread_mutex_unlock(&s->lock);
     pthread_t tid[PNG_MAX_THREADS];
     int started = 0;
     for (int t = 1; t < threads; t++)
-        if (pthread_create(&tid[started], NULL, band_worker, j) == 0) started++;
-    band_worker(j);
+        if (pthread_create(&tid[started], NULL, band_worker, s) == 0) started++;
+    bands_encode(s);
     for (int t = 0; t < started; t++) pthread_join(tid[t], NULL);
-    for (int i = 0; i < j->nbands; i++)
-        if (j->bands[i].failed) return -1;
+    for (int i = 0; i < s->nbands; i++)
+        if (s->bands[i].failed) return -1;
     return 0;
+}
+
+enum rayd_status rayd_png_stream_new(const rayd_image *img, int level, rayd_png_stream **out,
+                                     struct rayd_error *err) {
+    if (level < 0 || level > 9) level = PNG_LEVEL_DEFAULT;
+    if (level == 1) level = -1; /* the fastest: ISA-L (smaller and faster than zlib's 1) */
+    pthread_once(&png_xlogx_once, xlogx_init);
+    size_t rowb = (size_t)img->w * 3 + 1;
+    int band_rows = (int)(PNG_BAND_BYTES / rowb);
+    if (band_rows < 1) band_rows = 1;
+    struct rayd_png_stream *s = calloc(1, sizeof *s);
+    int nbands = (img->h + band_rows - 1) / band_rows;
+    if (s) s->bands = calloc((size_t)nbands, sizeof *s->bands);
+    if (!s || !s->bands) {
+        free(s);
+        return err_set(err, RAYD_E_NOMEM, NULL, "out of memory encoding the PNG");
+    }
+    s->img = img;
+    s->level = level;
+    s->nbands = nbands;
+    s->band_rows = band_rows;
+    for (int i = 0; i < nbands; i++) {
+        s->bands[i].y0 = i * band_rows;
+        s->bands[i].rows =
+            img->h - s->bands[i].y0 < band_rows ? img->h - s->bands[i].y0 : band_rows;
+    }
+    pthread_mutex_init(&s->lock, NULL);
+    *out = s;
+    return RAYD_OK;
+}
+
+void rayd_png_stream_rows(void *stream, int rows) {
+    struct rayd_png_stream *s = stream;
+    pthread_mutex_lock(&s->lock);
+    if (rows > s->ready) s->ready = rows;
+    pthread_mutex_unlock(&s->lock);
+    bands_encode(s);
+}
+
+void rayd_png_stream_free(rayd_png_stream *s) {
+    if (!s) return;
+    for (int i = 0; i < s->nbands; i++) free(s->bands[i].out);
+    free(s->bands);
+    while (s->spare) {
+        struct png_scratch *w = s->spare;
+        s->spare = w->next;
+        scratch_free(w);
+    }
+    pthread_mutex_destroy(&s->lock);
+    free(s);
+}
+
+/* The PNG file of s's encoded bands into *buf; 0, or -1 out of memory. */
+static int png_assemble(const struct rayd_png_stream *s, void **buf, size_t *len) {
+    size_t zlen = 6;
+    for (int i = 0; i < s->nbands; i++) zlen += s->bands[i].len;
+    /* header chunks 8 + 25 + 13 + 16 + 44, 12 per IDAT, IEND 12 */
+    size_t cap = 8 + 25 + 13 + 16 + 44 + zlen + 12 * (size_t)s->nbands + 12;
+    struct out o = {malloc(cap), 0};
+    if (!o.p) return -1;
+    put_header(&o, s->img);
+    put_idats(&o, s->level, s->bands, s->nbands);
+    *buf = o.p;
+    *len = o.len;
+    return 0;
+}
+
+enum rayd_status rayd_png_stream_finish(rayd_png_stream *s, int threads, void **buf, size_t *len,
+                                        struct rayd_png_stats *stats, struct rayd_error *err) {
+    int failed = encode_bands(s, png_threads(threads, s->nbands));
+    if (stats) *stats = (struct rayd_png_stats){s->nbands, s->early, s->band_seconds};
+    failed = failed || png_assemble(s, buf, len) < 0;
+    rayd_png_stream_free(s);
+    if (failed) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory encoding the PNG");
+    return RAYD_OK;
 }
 
 enum rayd_status rayd_png_encode_threads(const rayd_image *img, int level, int threads, void **buf,
                                          size_t *len, struct rayd_error *err) {
-    if (level < 0 || level > 9) level = PNG_LEVEL_DEFAULT;
-    if (level == 1) level = -1; /* the fastest: ISA-L (smaller and faster than zlib's 1) */
-    size_t rowb = (size_t)img->w * 3 + 1;
-    int band_rows = (int)(PNG_BAND_BYTES / rowb);
-    if (band_rows < 1) band_rows = 1;
-    struct png_job j = {.img = img,
-                        .level = level,
-                        .nbands = (img->h + band_rows - 1) / band_rows,
-                        .band_rows = band_rows};
-    j.bands = calloc((size_t)j.nbands, sizeof *j.bands);
-    if (!j.bands) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory encoding the PNG");
-    for (int i = 0; i < j.nbands; i++) {
-        j.bands[i].y0 = i * band_rows;
-        j.bands[i].rows = img->h - j.bands[i].y0 < band_rows ? img->h - j.bands[i].y0 : band_rows;
-    }
-    pthread_mutex_init(&j.lock, NULL);
-    int failed = encode_bands(&j, png_threads(threads, j.nbands));
-    pthread_mutex_destroy(&j.lock);
-    size_t zlen = 6;
-    for (int i = 0; i < j.nbands; i++) zlen += j.bands[i].len;
-    /* header chunks 8 + 25 + 13 + 16 + 44, 12 per IDAT, IEND 12 */
-    size_t cap = 8 + 25 + 13 + 16 + 44 + zlen + 12 * (size_t)j.nbands + 12;
-    struct out o = {failed ? NULL : malloc(cap), 0};
-    int ok = o.p != NULL;
-    if (ok) {
-        put_header(&o, img);
-        put_idats(&o, level, j.bands, j.nbands);
-    }
-    for (int i = 0; i < j.nbands; i++) free(j.bands[i].out);
-    free(j.bands);
-    if (!ok) {
-        free(o.p);
-        return err_set(err, RAYD_E_NOMEM, NULL, "out of memory encoding the PNG");
-    }
-    *buf = o.p;
-    *len = o.len;
-    return RAYD_OK;
+    rayd_png_stream *s = NULL;
+    enum rayd_status st = rayd_png_stream_new(img, level, &s, err);
+    if (st != RAYD_OK) return st;
+    return rayd_png_stream_finish(s, threads, buf, len, NULL, err);
 }

@@ -19,6 +19,12 @@
  * gives every ray exactly its one-ray answer, the blocks change nothing
  * in the bytes.  The cancel flag is polled once per row of blocks.
  *
+ * Rows done (opts->rows).  The tiles are handed out row by row, and each
+ * row of tiles counts the tiles it still lacks; the thread that draws a
+ * row's last tile counts the rows at the top that are all drawn and tells
+ * the caller, which may then read those rows while the other threads draw
+ * on (rayd-render and rayd deflate the PNG's bands so, png_encode.c).
+ *
  * The same blocks serve progressive passes (accum.c): instead of bytes, a
  * block then adds a range of samples k0..k1-1 to running per-pixel sums,
  * which is exactly what the plain render does before it scales and
@@ -196,8 +202,10 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h,
     union block_colours c; /* the lanes outside the block stay 0 */
     uint32_t active = ((1u << w) - 1) * (0x1111u & ((1u << 4 * h) - 1)); /* w lanes of h rows */
     if (active != 0xffff) memset(&c, 0, sizeof c);
-    if (o->sum) sums_load(o, o->dx + bx, o->dy + by, active, acc);
-    else if (n > 1) memset(acc, 0, sizeof acc);
+    if (o->sum)
+        sums_load(o, o->dx + bx, o->dy + by, active, acc);
+    else if (n > 1)
+        memset(acc, 0, sizeof acc);
     for (int k = o->k0; k < o->k1; k++) {
         block_sample(s, x, y, active, centre, k, n, &c, rays);
         for (uint32_t m = sum ? active : 0; m; m &= m - 1) {
@@ -214,8 +222,8 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h,
         c.v[q] = v3_scale(acc[q], 1.0 / n);
     }
     size_t stride = (size_t)o->img->w * 3;
-    put_block(o->img->px + (size_t)(o->dy + by) * stride + (size_t)(o->dx + bx) * 3, stride, &c,
-              w, h);
+    put_block(o->img->px + (size_t)(o->dy + by) * stride + (size_t)(o->dx + bx) * 3, stride, &c, w,
+              h);
 }
 
 /* Renders the w x h rectangle at (x, y) of the image into dst at (dx, dy)
@@ -267,8 +275,8 @@ enum rayd_status rayd_region_check(const rayd_scene *s, const struct rayd_region
         return err_set(err, RAYD_E_ARG, "w", "must be in 1..%d (x + w may not pass the width %d)",
                        W - r.x, W);
     if (r.h <= 0 || r.h > H - r.y)
-        return err_set(err, RAYD_E_ARG, "h",
-                       "must be in 1..%d (y + h may not pass the height %d)", H - r.y, H);
+        return err_set(err, RAYD_E_ARG, "h", "must be in 1..%d (y + h may not pass the height %d)",
+                       H - r.y, H);
     return RAYD_OK;
 }
 
@@ -300,7 +308,25 @@ struct job {
     atomic_long done;
     atomic_int canceled;
     atomic_uint_least64_t rays;
+    /* for opts->rows: tiles left to draw in each row of tiles, and how many
+     * rows of tiles at the top are all drawn (under rows_lock) */
+    atomic_int *row_left;
+    int tiles_y, rows_top;
+    pthread_mutex_t rows_lock;
 };
+
+/* A tile of tile row ty is drawn.  When that completes the row, the rows
+ * of tiles at the top that are all drawn are counted again and
+ * opts->rows told how many pixel rows they hold. */
+static void rows_note(struct job *jb, int ty) {
+    if (atomic_fetch_sub(&jb->row_left[ty], 1) != 1) return;
+    pthread_mutex_lock(&jb->rows_lock);
+    while (jb->rows_top < jb->tiles_y && atomic_load(&jb->row_left[jb->rows_top]) == 0)
+        jb->rows_top++;
+    int rows = jb->rows_top * jb->tile < jb->r.h ? jb->rows_top * jb->tile : jb->r.h;
+    pthread_mutex_unlock(&jb->rows_lock);
+    jb->opts->rows(jb->opts->rows_user, rows);
+}
 
 static void *render_worker(void *arg) {
     struct job *jb = arg;
@@ -311,11 +337,12 @@ static void *render_worker(void *arg) {
         int tx = (t % jb->tiles_x) * jb->tile, ty = (t / jb->tiles_x) * jb->tile;
         int w = jb->r.w - tx < jb->tile ? jb->r.w - tx : jb->tile;
         int h = jb->r.h - ty < jb->tile ? jb->r.h - ty : jb->tile;
-        if (render_rect(jb->s, jb->r.x + tx, jb->r.y + ty, w, h, jb->out, tx, ty,
-                        jb->opts->cancel, &rays) != RAYD_OK) {
+        if (render_rect(jb->s, jb->r.x + tx, jb->r.y + ty, w, h, jb->out, tx, ty, jb->opts->cancel,
+                        &rays) != RAYD_OK) {
             atomic_store(&jb->canceled, 1);
             break;
         }
+        if (jb->row_left) rows_note(jb, t / jb->tiles_x);
         long done = atomic_fetch_add(&jb->done, (long)w * h) + (long)w * h;
         if (jb->opts->progress)
             jb->opts->progress(jb->opts->progress_user, done, (long)jb->r.w * jb->r.h);
@@ -338,6 +365,13 @@ static enum rayd_status render_tiles(const rayd_scene *s, const struct rayd_rend
     atomic_init(&jb.done, 0);
     atomic_init(&jb.canceled, 0);
     atomic_init(&jb.rays, 0);
+    jb.tiles_y = (jb.r.h + jb.tile - 1) / jb.tile;
+    if (opts->rows && !out->sum) {
+        jb.row_left = malloc((size_t)jb.tiles_y * sizeof *jb.row_left);
+        if (!jb.row_left) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for a render");
+        for (int i = 0; i < jb.tiles_y; i++) atomic_init(&jb.row_left[i], jb.tiles_x);
+        pthread_mutex_init(&jb.rows_lock, NULL);
+    }
 
     int nthreads = opts->threads > 1 ? opts->threads : 1;
     if (nthreads > jb.ntiles) nthreads = jb.ntiles;
@@ -348,6 +382,10 @@ static enum rayd_status render_tiles(const rayd_scene *s, const struct rayd_rend
     render_worker(&jb); /* the calling thread works too */
     for (int i = 0; i < started; i++) pthread_join(th[i], NULL);
     free(th);
+    if (jb.row_left) {
+        pthread_mutex_destroy(&jb.rows_lock);
+        free(jb.row_left);
+    }
 
     if (opts->stats) {
         opts->stats->rays = atomic_load(&jb.rays);
@@ -355,6 +393,22 @@ static enum rayd_status render_tiles(const rayd_scene *s, const struct rayd_rend
     }
     if (atomic_load(&jb.canceled)) return err_set(err, RAYD_E_CANCELED, NULL, "render canceled");
     return RAYD_OK;
+}
+
+enum rayd_status rayd_render_image(const rayd_scene *s, const struct rayd_render_opts *opts,
+                                   rayd_image *dst, struct rayd_error *err) {
+    static const struct rayd_render_opts none;
+    if (!opts) opts = &none;
+    enum rayd_status st = rayd_region_check(s, &opts->region, err);
+    if (st != RAYD_OK) return st;
+    struct rayd_region r;
+    region_resolve(s, &opts->region, &r);
+    if (dst->w != r.w || dst->h != r.h)
+        return err_set(err, RAYD_E_ARG, NULL, "the image is %dx%d, the region %dx%d", dst->w,
+                       dst->h, r.w, r.h);
+    int n = s->rs.samples;
+    struct rect_out o = {.img = dst, .k0 = 0, .k1 = n, .n = n};
+    return render_tiles(s, opts, &r, &o, err);
 }
 
 enum rayd_status rayd_render(const rayd_scene *s, const struct rayd_render_opts *opts,
@@ -367,10 +421,7 @@ enum rayd_status rayd_render(const rayd_scene *s, const struct rayd_render_opts 
     region_resolve(s, &opts->region, &r);
     rayd_image *img = NULL;
     st = rayd_image_new(r.w, r.h, &img, err);
-    if (st != RAYD_OK) return st;
-    int n = s->rs.samples;
-    struct rect_out o = {.img = img, .k0 = 0, .k1 = n, .n = n};
-    st = render_tiles(s, opts, &r, &o, err);
+    if (st == RAYD_OK) st = rayd_render_image(s, opts, img, err);
     if (st != RAYD_OK) {
         rayd_image_free(img);
         return st;

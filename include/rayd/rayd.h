@@ -146,6 +146,14 @@ struct rayd_render_stats {
  * finished tile: done and total count pixels.  Must be thread-safe. */
 typedef void (*rayd_progress_fn)(void *user, long done, long total);
 
+/* Called from rendering threads, possibly several at once and out of
+ * order, when rows [0, rows) of the region are final: every tile that
+ * touches them is drawn.  The largest rows seen counts; the last call says
+ * the region's height.  Work done here (rayd_png_stream_rows: encoding the
+ * finished bands) runs beside the tiles other threads draw.  Not called
+ * by rayd_render_pass. */
+typedef void (*rayd_rows_fn)(void *user, int rows);
+
 struct rayd_render_opts {
     struct rayd_region region;     /* what to render; zero = whole image */
     int threads;                   /* worker threads; <= 0 means 1 */
@@ -154,6 +162,8 @@ struct rayd_render_opts {
     void *progress_user;
     const atomic_int *cancel;      /* may be NULL; non-zero stops the render */
     struct rayd_render_stats *stats; /* may be NULL; filled on return */
+    rayd_rows_fn rows;             /* may be NULL; see rayd_rows_fn */
+    void *rows_user;
 };
 
 /* Checks a region against the scene's image size: RAYD_OK or RAYD_E_ARG
@@ -165,6 +175,10 @@ enum rayd_status rayd_region_check(const rayd_scene *scene, const struct rayd_re
  * size.  Safe to call from many threads at once on one scene. */
 enum rayd_status rayd_render(const rayd_scene *scene, const struct rayd_render_opts *opts,
                              rayd_image **out, struct rayd_error *err);
+/* rayd_render into dst, an image of the region's size made by the caller
+ * (so that opts->rows may read it while it is drawn). */
+enum rayd_status rayd_render_image(const rayd_scene *scene, const struct rayd_render_opts *opts,
+                                   rayd_image *dst, struct rayd_error *err);
 
 /* Renders region into an existing image with its top-left pixel at
  * (dst_x, dst_y) of dst, on the calling thread only.  Calls on disjoint
@@ -292,8 +306,8 @@ enum rayd_status rayd_image_blit(rayd_image *dst, const rayd_image *src, int x, 
 
 /* PNG encoding to memory: *buf (malloc'd, free with rayd_free) holds *len
  * bytes of an 8-bit RGB PNG.  level is the deflate level 0-9 (1, the
- * fastest, is ISA-L's; the others zlib's), or -1 for the default, zlib's 4
- * (see core/io/png_encode.c). */
+ * fastest, is ISA-L's; the others libdeflate's), or -1 for the default,
+ * libdeflate's 2 (see core/io/png_encode.c). */
 enum rayd_status rayd_png_encode(const rayd_image *img, int level, void **buf, size_t *len,
                                  struct rayd_error *err);
 /* rayd_png_encode on threads threads (<= 0: every core).  The image is
@@ -301,6 +315,32 @@ enum rayd_status rayd_png_encode(const rayd_image *img, int level, void **buf, s
  * same for every thread count. */
 enum rayd_status rayd_png_encode_threads(const rayd_image *img, int level, int threads,
                                          void **buf, size_t *len, struct rayd_error *err);
+/* A PNG encoded while its image is still being drawn: each band of rows is
+ * deflated as soon as rayd_png_stream_rows says its rows are final, on the
+ * thread that says so, so a render's workers encode between tiles and only
+ * the last bands wait for the render's end.  The bytes are rayd_png_encode's
+ * whatever the order and threads.  img must outlive the stream. */
+typedef struct rayd_png_stream rayd_png_stream;
+struct rayd_png_stats {
+    int bands;           /* bands of rows in the file */
+    int bands_early;     /* of them, deflated before rayd_png_stream_finish */
+    double band_seconds; /* spent filtering and deflating, all threads together */
+};
+enum rayd_status rayd_png_stream_new(const rayd_image *img, int level, rayd_png_stream **out,
+                                     struct rayd_error *err);
+/* Rows [0, rows) of the image are final (calls may come from any thread
+ * and in any order; the largest counts): deflates the bands this makes
+ * ready that no other thread has taken.  The signature is rayd_rows_fn's,
+ * so it can be given to a render as opts.rows with the stream as
+ * opts.rows_user. */
+void rayd_png_stream_rows(void *stream, int rows);
+/* Deflates the bands left on threads threads (<= 0: every core), after
+ * which every row must be final; *buf as rayd_png_encode's, stats (may be
+ * NULL) filled.  Frees the stream, whatever the outcome. */
+enum rayd_status rayd_png_stream_finish(rayd_png_stream *s, int threads, void **buf, size_t *len,
+                                        struct rayd_png_stats *stats, struct rayd_error *err);
+/* Frees a stream that will not be finished (a canceled render). */
+void rayd_png_stream_free(rayd_png_stream *s);
 enum rayd_status rayd_png_write_file(const rayd_image *img, const char *path,
                                      struct rayd_error *err);
 /* Decodes any PNG libpng reads into 8-bit RGB; refuses images over max_pixels

@@ -1,0 +1,215 @@
+/* test_png_stream.c -- encoding while rendering: a render's rows callback
+ * (opts.rows) only ever names rows that are final, reaching the height; a
+ * PNG stream fed by it, or by rows told from many threads in any order,
+ * writes the very bytes rayd_png_encode writes afterwards, for odd sizes
+ * and every thread count; a stream dropped half way leaks nothing. */
+#include <pthread.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "check.h"
+#include "render/image.h"
+#include "rayd/rayd.h"
+#include "scene_util.h"
+
+/* scenes/whitted.json at w x h (several PNG bands when wide). */
+static rayd_scene *whitted_sized(int w, int h) {
+    size_t len;
+    char *text = read_file("scenes/whitted.json", &len);
+    CHECK(text != NULL, "scenes/whitted.json readable (run from the repository root)");
+    if (!text) return NULL;
+    char *pw = strstr(text, "\"width\": 640"), *ph = strstr(text, "\"height\": 480");
+    CHECK(pw && ph, "size keys present");
+    rayd_scene *s = NULL;
+    if (pw && ph) {
+        char num[8];
+        snprintf(num, sizeof num, "%4d", w);
+        memcpy(pw + 8, num, 4);
+        snprintf(num, sizeof num, "%4d", h);
+        memcpy(ph + 9, num, 4);
+        struct rayd_error err = {0};
+        CHECK(rayd_scene_parse(text, len, NULL, &s, &err) == RAYD_OK, "parse: %s", err.message);
+    }
+    free(text);
+    return s;
+}
+
+/* What a rows callback saw: the rows as they were when first named final. */
+struct seen {
+    pthread_mutex_t lock;
+    const rayd_image *img;
+    uint8_t *snap; /* rows [0, top) copied when named */
+    int top, calls, bad;
+    rayd_png_stream *stream; /* told too, when not NULL */
+};
+
+static void on_rows(void *user, int rows) {
+    struct seen *v = user;
+    pthread_mutex_lock(&v->lock);
+    v->calls++;
+    if (rows < 0 || rows > v->img->h) v->bad++;
+    size_t rowb = (size_t)v->img->w * 3;
+    if (rows > v->top) {
+        memcpy(v->snap + (size_t)v->top * rowb, v->img->px + (size_t)v->top * rowb,
+               (size_t)(rows - v->top) * rowb);
+        v->top = rows;
+    }
+    pthread_mutex_unlock(&v->lock);
+    if (v->stream) rayd_png_stream_rows(v->stream, rows);
+}
+
+static void test_rows_named_are_final(void) {
+    rayd_scene *s = whitted_sized(300, 70);
+    if (!s) return;
+    const int threads[] = {1, 2, 3}, tiles[] = {7, 32, 500};
+    for (int i = 0; i < 3; i++)
+        for (int k = 0; k < 3; k++) {
+            rayd_image *img = NULL;
+            CHECK(rayd_image_new(300, 70, &img, NULL) == RAYD_OK, "image");
+            if (!img) continue;
+            struct seen v = {PTHREAD_MUTEX_INITIALIZER, img, malloc(300 * 70 * 3), 0, 0, 0, NULL};
+            struct rayd_render_opts o = {
+                .threads = threads[i], .tile = tiles[k], .rows = on_rows, .rows_user = &v};
+            CHECK(rayd_render_image(s, &o, img, NULL) == RAYD_OK, "render");
+            int rows_of_tiles = (70 + tiles[k] - 1) / tiles[k];
+            CHECK(v.bad == 0 && v.top == 70, "%d threads, tile %d: rows reach %d (bad %d)",
+                  threads[i], tiles[k], v.top, v.bad);
+            CHECK(v.calls == rows_of_tiles, "%d threads, tile %d: %d calls for %d rows of tiles",
+                  threads[i], tiles[k], v.calls, rows_of_tiles);
+            CHECK(v.snap && !memcmp(v.snap, img->px, (size_t)300 * 70 * 3),
+                  "%d threads, tile %d: a row named final changed afterwards", threads[i],
+                  tiles[k]);
+            free(v.snap);
+            rayd_image_free(img);
+        }
+    rayd_image *small = NULL;
+    CHECK(rayd_image_new(10, 10, &small, NULL) == RAYD_OK, "image");
+    struct rayd_render_opts o = {.threads = 1};
+    struct rayd_error err = {0};
+    CHECK(rayd_render_image(s, &o, small, &err) == RAYD_E_ARG, "an image not the region's size");
+    rayd_image_free(small);
+    rayd_scene_free(s);
+}
+
+/* The default encode of img, one thread: what every stream must match. */
+static void *reference(const rayd_image *img, size_t *len) {
+    void *buf = NULL;
+    if (rayd_png_encode_threads(img, -1, 1, &buf, len, NULL) != RAYD_OK) return NULL;
+    return buf;
+}
+
+static void test_render_stream_equals_encode(void) {
+    rayd_scene *s = whitted_sized(1500, 140); /* 58 rows a band: 3 bands */
+    if (!s) return;
+    const int threads[] = {1, 2, 4}, tiles[] = {16, 57};
+    for (int i = 0; i < 3; i++)
+        for (int k = 0; k < 2; k++) {
+            rayd_image *img = NULL;
+            rayd_png_stream *ps = NULL;
+            CHECK(rayd_image_new(1500, 140, &img, NULL) == RAYD_OK, "image");
+            if (!img) continue;
+            CHECK(rayd_png_stream_new(img, -1, &ps, NULL) == RAYD_OK, "stream");
+            struct rayd_render_opts o = {.threads = threads[i],
+                                         .tile = tiles[k],
+                                         .rows = rayd_png_stream_rows,
+                                         .rows_user = ps};
+            CHECK(rayd_render_image(s, &o, img, NULL) == RAYD_OK, "render");
+            void *buf = NULL, *ref;
+            size_t len = 0, rlen = 0;
+            struct rayd_png_stats st = {0};
+            CHECK(rayd_png_stream_finish(ps, threads[i], &buf, &len, &st, NULL) == RAYD_OK,
+                  "finish");
+            ref = reference(img, &rlen);
+            CHECK(buf && ref && len == rlen && !memcmp(buf, ref, len),
+                  "%d threads, tile %d: the stream's PNG differs from the encoder's", threads[i],
+                  tiles[k]);
+            CHECK(st.bands == 3 && st.bands_early == 3 && st.band_seconds > 0,
+                  "%d threads, tile %d: %d bands, %d during the render", threads[i], tiles[k],
+                  st.bands, st.bands_early);
+            rayd_free(buf);
+            rayd_free(ref);
+            rayd_image_free(img);
+        }
+    rayd_scene_free(s);
+}
+
+/* A w x h image of gradients and noise. */
+static rayd_image *pattern(int w, int h, unsigned seed) {
+    rayd_image *img = NULL;
+    if (rayd_image_new(w, h, &img, NULL) != RAYD_OK) return NULL;
+    uint32_t r = seed * 2654435761u + 1;
+    for (size_t i = 0; i < (size_t)w * (size_t)h * 3; i++) {
+        r = r * 1664525u + 1013904223u;
+        img->px[i] = (uint8_t)(i % 3 == 2 ? r >> 24 : (i / 3 % (size_t)w) * 255 / (size_t)w);
+    }
+    return img;
+}
+
+struct teller {
+    rayd_png_stream *ps;
+    int h;
+    unsigned seed;
+};
+
+/* Tells the stream rows in a random order, growing and shrinking. */
+static void *tell_rows(void *arg) {
+    struct teller *t = arg;
+    uint32_t r = t->seed;
+    for (int k = 0; k < 40; k++) {
+        r = r * 1664525u + 1013904223u;
+        rayd_png_stream_rows(t->ps, (int)((r >> 8) % (uint32_t)(t->h + 1)));
+    }
+    return NULL;
+}
+
+static void test_rows_in_any_order_any_threads(void) {
+    const int sizes[][2] = {{1, 1}, {1, 10000}, {4097, 3}, {300, 2000}};
+    for (int i = 0; i < 4; i++) {
+        int w = sizes[i][0], h = sizes[i][1];
+        rayd_image *img = pattern(w, h, (unsigned)i + 1);
+        CHECK(img != NULL, "image");
+        if (!img) continue;
+        size_t rlen = 0;
+        void *ref = reference(img, &rlen);
+        for (int threads = 1; threads <= 4; threads++) {
+            rayd_png_stream *ps = NULL;
+            CHECK(rayd_png_stream_new(img, -1, &ps, NULL) == RAYD_OK, "stream");
+            pthread_t tid[3];
+            struct teller tl[3];
+            for (int k = 0; k < 3; k++) {
+                tl[k] = (struct teller){ps, h, (unsigned)(7 * threads + k)};
+                pthread_create(&tid[k], NULL, tell_rows, &tl[k]);
+            }
+            for (int k = 0; k < 3; k++) pthread_join(tid[k], NULL);
+            void *buf = NULL;
+            size_t len = 0;
+            CHECK(rayd_png_stream_finish(ps, threads, &buf, &len, NULL, NULL) == RAYD_OK, "finish");
+            CHECK(ref && buf && len == rlen && !memcmp(buf, ref, len),
+                  "%dx%d, %d threads: the stream's PNG differs from the encoder's", w, h, threads);
+            rayd_free(buf);
+        }
+        rayd_free(ref);
+        rayd_image_free(img);
+    }
+}
+
+static void test_dropped_stream_frees_all(void) {
+    rayd_image *img = pattern(600, 900, 5);
+    CHECK(img != NULL, "image");
+    if (!img) return;
+    rayd_png_stream *ps = NULL;
+    CHECK(rayd_png_stream_new(img, 6, &ps, NULL) == RAYD_OK, "stream");
+    rayd_png_stream_rows(ps, 450); /* some bands encoded, the rest never */
+    rayd_png_stream_free(ps);
+    rayd_png_stream_free(NULL);
+    rayd_image_free(img);
+}
+
+int main(void) {
+    RUN(test_rows_named_are_final);
+    RUN(test_render_stream_equals_encode);
+    RUN(test_rows_in_any_order_any_threads);
+    RUN(test_dropped_stream_frees_all);
+    CHECK_EXIT();
+}
