@@ -2,7 +2,10 @@
 # bench/scenes.sh BUILD -- every example scene at 1920x1080, rayd-render's
 # whole process (what a user waits for) beside its render time and the other
 # stages of --stats (parse: the JSON; decode: mesh files; build: BVHs and
-# light buffers; encode: the PNG; other: start-up, reads, write), with SPP
+# light buffers; render: the tiles, with the PNG bands deflated as their rows
+# are drawn; encode: the PNG after the render; enc cpu: the bands' deflating
+# on all threads together, most of it inside the render's time; other:
+# start-up, reads, write), with SPP
 # samples per pixel (default 1; SPP="1 16" adds 16 samples, several
 # minutes more) on 2 threads; median of RUNS runs (default 3).  One sample
 # keeps the whole `make bench` within about 5 minutes on a busy 2-core
@@ -14,8 +17,8 @@ RUNS=${RUNS:-3}
 SPP=${SPP:-1}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-printf '%-10s %7s %8s %8s %8s %8s %8s %8s %8s %8s %14s\n' scene samples "whole s" "parse s" \
-    "decode s" "build s" "render s" "encode s" "other s" "Mrays/s" "renders (s)"
+printf '%-10s %7s %8s %8s %8s %8s %8s %8s %9s %8s %8s %14s\n' scene samples "whole s" "parse s" \
+    "decode s" "build s" "render s" "encode s" "enc cpu s" "other s" "Mrays/s" "renders (s)"
 median() { sort -n | awk '{a[NR]=$1} END {print a[int((NR+1)/2)]}'; }
 for scene in ${SCENES:-scenes/*.json}; do
     name=$(basename "$scene" .json)
@@ -30,7 +33,7 @@ for o in d.get("objects", []):  # mesh files stay where the scene found them
         src["file"] = os.path.join(os.path.dirname(os.path.abspath(sys.argv[1])), src["file"])
 json.dump(d, open(sys.argv[2], "w"))
 PY
-        times=() rates=() wholes=() parses=() decodes=() builds=() encodes=()
+        times=() rates=() wholes=() parses=() decodes=() builds=() encodes=() bands=()
         for _ in $(seq "$RUNS"); do
             t0=$(date +%s%N)
             out=$("$BUILD/rayd-render" "$tmp/$name-$spp.json" -o "$tmp/out.png" --threads 2 --stats 2>&1)
@@ -40,6 +43,7 @@ PY
             decodes+=("$(awk '/^time decode:/ {print $3}' <<<"$out")")
             builds+=("$(awk '/^time build:/ {print $3}' <<<"$out")")
             encodes+=("$(awk '/^time encode:/ {print $3}' <<<"$out")")
+            bands+=("$(awk '/^encode bands:/ {print $8}' <<<"$out")")
             rates+=("$(awk '/^rays\/s:/ {printf "%.2f", $2 / 1e6}' <<<"$out")")
         done
         med=$(printf '%s\n' "${times[@]}" | median)
@@ -48,10 +52,11 @@ PY
         dec=$(printf '%s\n' "${decodes[@]}" | median)
         bld=$(printf '%s\n' "${builds[@]}" | median)
         enc=$(printf '%s\n' "${encodes[@]}" | median)
+        ecpu=$(printf '%s\n' "${bands[@]}" | median)
         other=$(awk -v w="$whole" -v p="$parse" -v d="$dec" -v b="$bld" -v r="$med" -v e="$enc" \
             'BEGIN {printf "%.3f", w - p - d - b - r - e}')
         mr=$(printf '%s\n' "${rates[@]}" | median)
-        printf '%-10s %7s %8s %8.3f %8.3f %8.3f %8s %8.3f %8s %8s   %s\n' "$name" "$spp" "$whole" \
-            "$parse" "$dec" "$bld" "$med" "$enc" "$other" "$mr" "${times[*]}"
+        printf '%-10s %7s %8s %8.3f %8.3f %8.3f %8s %8.3f %9.3f %8s %8s   %s\n' "$name" "$spp" "$whole" \
+            "$parse" "$dec" "$bld" "$med" "$enc" "$ecpu" "$other" "$mr" "${times[*]}"
     done
 done
