@@ -470,18 +470,24 @@ static int write_or_say(const char *path, const void *buf, size_t len) {
 /* Renders the scene into img, encoding each band of rows as soon as it is
  * drawn (rayd_png_stream_rows as opts.rows), then the bands left: the PNG
  * into *png.  stage[ST_RENDER] is the render with the encoding done beside
- * it, stage[ST_ENCODE] the encoding after it. */
+ * it, stage[ST_ENCODE] the encoding after it; the progress line is
+ * cleared when the render returns. */
 static enum rayd_status render_png(const rayd_scene *scene, struct rayd_render_opts *opts,
-                                   rayd_image *img, int level, double *stage, void **png,
-                                   size_t *len, struct rayd_png_stats *ps, struct rayd_error *err) {
+                                   struct progress *prog, rayd_image *img, int level, double *stage,
+                                   void **png, size_t *len, struct rayd_png_stats *ps,
+                                   struct rayd_error *err) {
     rayd_png_stream *ps_stream = NULL;
     enum rayd_status st = rayd_png_stream_new(img, level, &ps_stream, err);
-    if (st != RAYD_OK) return st;
+    if (st != RAYD_OK) {
+        progress_clear(prog);
+        return st;
+    }
     opts->rows = rayd_png_stream_rows;
     opts->rows_user = ps_stream;
     double t = now();
     st = rayd_render_image(scene, opts, img, err);
     stage[ST_RENDER] = now() - t;
+    progress_clear(prog);
     if (st != RAYD_OK) {
         rayd_png_stream_free(ps_stream);
         return st;
@@ -512,8 +518,8 @@ static int render_and_write(const struct args *a, const rayd_scene *scene, doubl
     void *png = NULL;
     size_t len = 0;
     struct rayd_png_stats ps = {0};
-    enum rayd_status st = render_png(scene, &opts, img, a->png_level, stage, &png, &len, &ps, &err);
-    progress_clear(&prog);
+    enum rayd_status st =
+        render_png(scene, &opts, &prog, img, a->png_level, stage, &png, &len, &ps, &err);
     rayd_image_free(img);
     if (st != RAYD_OK) return fail_render(&err);
     double t = now();

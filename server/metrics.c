@@ -246,7 +246,8 @@ static void metrics_stage_text(struct metrics_buf *b)
 {
     metrics_printf(b, "# HELP rayd_stage_seconds Time of each stage of a request's wait: upload "
                       "(the body), parse (the JSON), decode (mesh files), build (BVHs), queue, "
-                      "render (the tiles), encode (the PNG), send (the reply).\n"
+                      "render (the tiles, the PNG's bands deflated as their rows finish), encode (the PNG "
+                      "after the last tile), send (the reply).\n"
                       "# TYPE rayd_stage_seconds histogram\n");
     for (int s = 0; s < MS__COUNT; s++) {
         char label[32];

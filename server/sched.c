@@ -69,7 +69,7 @@ static enum rayd_status sched_encode_as(struct task *t, void **buf, size_t *len,
                                  err);
     if (t->stream) {
         rayd_png_stream *s = t->stream;
-        t->stream = NULL; /* finish frees it */
+        t->stream = NULL; /* finish frees it; no tile runs (running == 0), so unlocked */
         return rayd_png_stream_finish(s, 0, buf, len, NULL, err);
     }
     return rayd_png_encode(t->img, (int)config.png_level, buf, len, err);
@@ -167,8 +167,9 @@ static bool sched_pass_close(struct task *t, struct task_notify *sse)
  * without memory, t is encoded whole at the end. */
 static void sched_stream_open(struct task *t)
 {
-    if (t->format != WORK_PNG || t->passes || t->stream)
+    if (t->format != WORK_PNG || t->passes || t->stream_tried)
         return;
+    t->stream_tried = true;
     t->row_left = malloc((size_t)t->nty * sizeof *t->row_left);
     if (!t->row_left || rayd_png_stream_new(t->img, (int)config.png_level, &t->stream, NULL) !=
                             RAYD_OK) {
@@ -182,18 +183,25 @@ static void sched_stream_open(struct task *t)
 
 /* Tile `tile` of t is drawn: when that completes rows at the top, the
  * stream encodes the bands they finish, on this worker, lock released (t
- * cannot finish meanwhile: this worker still counts as running it).
- * Called and returns without the lock. */
+ * cannot finish meanwhile: this worker still counts as running it).  The
+ * stream is read without the lock: it was set, under the lock, before
+ * this worker took its tile, and is only cleared once no tile runs.  A
+ * stream's call deflates only the bands its rows complete, a band or two,
+ * so the worker is soon back for tiles.  Called and returns without the
+ * lock. */
 static void sched_stream_tile(struct task *t, int tile)
 {
+    rayd_png_stream *s = t->stream;
+    if (!s || atomic_load(&t->cancel))
+        return;
     pthread_mutex_lock(&work_lock);
-    int rows = -1;
-    if (t->stream && --t->row_left[tile / t->ntx] == 0) {
+    int rows = 0, top = t->rows_top;
+    if (--t->row_left[tile / t->ntx] == 0) {
         while (t->rows_top < t->nty && t->row_left[t->rows_top] == 0)
             t->rows_top++;
-        rows = t->rows_top * t->tile < t->reg.h ? t->rows_top * t->tile : t->reg.h;
+        if (t->rows_top > top)
+            rows = t->rows_top * t->tile < t->reg.h ? t->rows_top * t->tile : t->reg.h;
     }
-    rayd_png_stream *s = t->stream;
     pthread_mutex_unlock(&work_lock);
     if (rows > 0)
         rayd_png_stream_rows(s, rows);

@@ -368,6 +368,10 @@ void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
     if (t->status == RAYD_OK && t->png && !t->passes)
         rcache_put(t->key, t->png);
     task_unqueue(t);
+    rayd_png_stream_free(t->stream); /* before its image; NULL once finished */
+    t->stream = NULL;
+    free(t->row_left);
+    t->row_left = NULL;
     rayd_image_free(t->img);
     t->img = NULL;
     free(t->lin);

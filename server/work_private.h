@@ -156,10 +156,12 @@ struct task {
     rayd_image *img;           /* WORK_PNG: the tiles' bytes */
     /* a plain WORK_PNG task: the PNG encoded band by band as rows of tiles
      * are drawn (sched.c), made when the first tile is taken (NULL if out
-     * of memory: then encoded whole at the end); tiles left to draw in each
-     * row of tiles, and how many rows of tiles at the top are all drawn */
+     * of memory, stream_tried then set: encoded whole at the end); tiles
+     * left to draw in each row of tiles, and how many rows of tiles at the
+     * top are all drawn */
     rayd_png_stream *stream;
     int *row_left, rows_top;
+    bool stream_tried;
     float *lin;                /* WORK_PNG16, WORK_EXR: the tiles' linear RGB, reg.w * reg.h * 3 */
     double *sums;              /* WORK_SUMS: the tiles' sums of samples k0..k1-1 */
     enum work_format format;

@@ -87,21 +87,28 @@ struct png_band {
     int failed;
 };
 
-/* A PNG being encoded: its bands, which of them are taken, and how many of
- * the image's rows are final (all of them unless the encoder runs beside
- * the render that draws them). */
+/* A PNG being encoded: its bands and which of them are taken.  The bands
+ * are taken in order, each by the rows call that finds its rows final (or
+ * by finish), so a call deflates only what its own rows complete and holds
+ * its thread no longer than that. */
 struct rayd_png_stream {
     const rayd_image *img;
     int level, nbands, band_rows; /* level -1: ISA-L */
     struct png_band *bands;
     pthread_mutex_t lock;
+    pthread_cond_t idle;       /* signalled when calls drops to 0 */
     int next;                  /* the next band nobody has taken */
-    int ready;                 /* rows [0, ready) are final */
     int early;                 /* bands taken before finish */
-    bool finishing;            /* finish has begun: every band is ready */
+    int calls;                 /* rows calls deflating now */
+    bool finishing;            /* finish has begun: every row is final */
     double band_seconds;       /* spent deflating bands, every thread */
     struct png_scratch *spare; /* workers' buffers, free for the next */
+    int nspare;
 };
+
+/* Spare buffers a stream keeps between calls: enough for rayd-render's
+ * two threads; a server stream that many workers fed frees the rest. */
+#define PNG_SPARE_MAX 2
 
 /* ---- filtering ---------------------------------------------------------- */
 
@@ -292,30 +299,36 @@ static struct png_scratch *scratch_take(struct rayd_png_stream *s) {
 
 static void scratch_give(struct rayd_png_stream *s, struct png_scratch *w) {
     pthread_mutex_lock(&s->lock);
-    w->next = s->spare;
-    s->spare = w;
+    bool keep = s->nspare < PNG_SPARE_MAX;
+    if (keep) {
+        w->next = s->spare;
+        s->spare = w;
+        s->nspare++;
+    }
     pthread_mutex_unlock(&s->lock);
+    if (!keep) scratch_free(w);
 }
 
 /* The next band nobody has taken whose rows, and the row above them that
- * its filters read, are final; -1 when there is none (yet). */
-static int band_claim(struct rayd_png_stream *s) {
+ * its filters read, are among rows [0, rows); -1 when there is none. */
+static int band_claim(struct rayd_png_stream *s, int rows) {
     pthread_mutex_lock(&s->lock);
     int i = -1;
     if (s->next < s->nbands) {
         const struct png_band *b = &s->bands[s->next];
-        if (s->finishing || b->y0 + b->rows <= s->ready) i = s->next++;
+        if (b->y0 + b->rows <= rows) i = s->next++;
         if (i >= 0 && !s->finishing) s->early++;
     }
     pthread_mutex_unlock(&s->lock);
     return i;
 }
 
-/* Deflates bands while there are ones ready, on the calling thread. */
-static void bands_encode(struct rayd_png_stream *s) {
+/* Deflates the bands rows [0, rows) complete that nobody has taken, on
+ * the calling thread. */
+static void bands_encode(struct rayd_png_stream *s, int rows) {
     struct png_scratch *w = NULL;
     double spent = 0;
-    for (int i; (i = band_claim(s)) >= 0;) {
+    for (int i; (i = band_claim(s, rows)) >= 0;) {
         if (!w) w = scratch_take(s);
         double t0 = clock_now();
         if (w)
@@ -331,7 +344,8 @@ static void bands_encode(struct rayd_png_stream *s) {
 }
 
 static void *band_worker(void *arg) {
-    bands_encode(arg);
+    struct rayd_png_stream *s = arg;
+    bands_encode(s, s->img->h);
     return NULL;
 }
 
@@ -425,16 +439,28 @@ static int png_threads(int threads, int nbands) {
     return threads < nbands ? threads : nbands;
 }
 
-/* Deflates every band left on threads threads; 0 when all went well. */
-static int encode_bands(struct rayd_png_stream *s, int threads) {
+/* Stops the rows calls: later ones do nothing, and those under way are
+ * waited for (their bands must be done before the file is joined or the
+ * stream freed).  Returns the bands nobody has taken. */
+static int stream_close(struct rayd_png_stream *s) {
     pthread_mutex_lock(&s->lock);
     s->finishing = true;
+    while (s->calls > 0) pthread_cond_wait(&s->idle, &s->lock);
+    int left = s->nbands - s->next;
     pthread_mutex_unlock(&s->lock);
+    return left;
+}
+
+/* Deflates every band left on up to threads threads (none started when
+ * none is left); 0 when all went well. */
+static int encode_bands(struct rayd_png_stream *s, int threads) {
+    int left = stream_close(s);
+    threads = png_threads(threads, left);
     pthread_t tid[PNG_MAX_THREADS];
     int started = 0;
     for (int t = 1; t < threads; t++)
         if (pthread_create(&tid[started], NULL, band_worker, s) == 0) started++;
-    bands_encode(s);
+    bands_encode(s, s->img->h);
     for (int t = 0; t < started; t++) pthread_join(tid[t], NULL);
     for (int i = 0; i < s->nbands; i++)
         if (s->bands[i].failed) return -1;
@@ -466,6 +492,7 @@ enum rayd_status rayd_png_stream_new(const rayd_image *img, int level, rayd_png_
             img->h - s->bands[i].y0 < band_rows ? img->h - s->bands[i].y0 : band_rows;
     }
     pthread_mutex_init(&s->lock, NULL);
+    pthread_cond_init(&s->idle, NULL);
     *out = s;
     return RAYD_OK;
 }
@@ -473,13 +500,19 @@ enum rayd_status rayd_png_stream_new(const rayd_image *img, int level, rayd_png_
 void rayd_png_stream_rows(void *stream, int rows) {
     struct rayd_png_stream *s = stream;
     pthread_mutex_lock(&s->lock);
-    if (rows > s->ready) s->ready = rows;
+    bool open = !s->finishing;
+    s->calls += open;
     pthread_mutex_unlock(&s->lock);
-    bands_encode(s);
+    if (!open) return;
+    bands_encode(s, rows);
+    pthread_mutex_lock(&s->lock);
+    if (--s->calls == 0) pthread_cond_broadcast(&s->idle);
+    pthread_mutex_unlock(&s->lock);
 }
 
 void rayd_png_stream_free(rayd_png_stream *s) {
     if (!s) return;
+    stream_close(s);
     for (int i = 0; i < s->nbands; i++) free(s->bands[i].out);
     free(s->bands);
     while (s->spare) {
@@ -487,6 +520,7 @@ void rayd_png_stream_free(rayd_png_stream *s) {
         s->spare = w->next;
         scratch_free(w);
     }
+    pthread_cond_destroy(&s->idle);
     pthread_mutex_destroy(&s->lock);
     free(s);
 }
@@ -508,7 +542,7 @@ static int png_assemble(const struct rayd_png_stream *s, void **buf, size_t *len
 
 enum rayd_status rayd_png_stream_finish(rayd_png_stream *s, int threads, void **buf, size_t *len,
                                         struct rayd_png_stats *stats, struct rayd_error *err) {
-    int failed = encode_bands(s, png_threads(threads, s->nbands));
+    int failed = encode_bands(s, threads);
     if (stats) *stats = (struct rayd_png_stats){s->nbands, s->early, s->band_seconds};
     failed = failed || png_assemble(s, buf, len) < 0;
     rayd_png_stream_free(s);

@@ -316,16 +316,18 @@ struct job {
 };
 
 /* A tile of tile row ty is drawn.  When that completes the row, the rows
- * of tiles at the top that are all drawn are counted again and
- * opts->rows told how many pixel rows they hold. */
+ * of tiles at the top that are all drawn are counted again and, if there
+ * are more than before, opts->rows told how many pixel rows they hold. */
 static void rows_note(struct job *jb, int ty) {
     if (atomic_fetch_sub(&jb->row_left[ty], 1) != 1) return;
     pthread_mutex_lock(&jb->rows_lock);
+    int top = jb->rows_top;
     while (jb->rows_top < jb->tiles_y && atomic_load(&jb->row_left[jb->rows_top]) == 0)
         jb->rows_top++;
     int rows = jb->rows_top * jb->tile < jb->r.h ? jb->rows_top * jb->tile : jb->r.h;
+    bool more = jb->rows_top > top;
     pthread_mutex_unlock(&jb->rows_lock);
-    jb->opts->rows(jb->opts->rows_user, rows);
+    if (more) jb->opts->rows(jb->opts->rows_user, rows);
 }
 
 static void *render_worker(void *arg) {
@@ -403,6 +405,7 @@ enum rayd_status rayd_render_image(const rayd_scene *s, const struct rayd_render
     if (st != RAYD_OK) return st;
     struct rayd_region r;
     region_resolve(s, &opts->region, &r);
+    if (!dst) return err_set(err, RAYD_E_ARG, NULL, "no image to render into");
     if (dst->w != r.w || dst->h != r.h)
         return err_set(err, RAYD_E_ARG, NULL, "the image is %dx%d, the region %dx%d", dst->w,
                        dst->h, r.w, r.h);

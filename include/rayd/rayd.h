@@ -146,12 +146,14 @@ struct rayd_render_stats {
  * finished tile: done and total count pixels.  Must be thread-safe. */
 typedef void (*rayd_progress_fn)(void *user, long done, long total);
 
-/* Called from rendering threads, possibly several at once and out of
- * order, when rows [0, rows) of the region are final: every tile that
- * touches them is drawn.  The largest rows seen counts; the last call says
- * the region's height.  Work done here (rayd_png_stream_rows: encoding the
- * finished bands) runs beside the tiles other threads draw.  Not called
- * by rayd_render_pass. */
+/* Called from rendering threads, possibly several at once, when rows
+ * [0, rows) of the region are final: every tile that touches them is
+ * drawn.  Each call names more rows than any before it was decided, but
+ * calls may run in any order; one of them names the region's height, and
+ * all have returned when the render returns.  Work done here
+ * (rayd_png_stream_rows: encoding the finished bands) runs beside the
+ * tiles other threads draw.  Only rayd_render and rayd_render_image call
+ * it (not the passes or sample ranges). */
 typedef void (*rayd_rows_fn)(void *user, int rows);
 
 struct rayd_render_opts {
@@ -329,17 +331,20 @@ struct rayd_png_stats {
 enum rayd_status rayd_png_stream_new(const rayd_image *img, int level, rayd_png_stream **out,
                                      struct rayd_error *err);
 /* Rows [0, rows) of the image are final (calls may come from any thread
- * and in any order; the largest counts): deflates the bands this makes
- * ready that no other thread has taken.  The signature is rayd_rows_fn's,
- * so it can be given to a render as opts.rows with the stream as
- * opts.rows_user. */
+ * and in any order): deflates, on the calling thread, the bands among
+ * those rows that no other call has taken.  The signature is
+ * rayd_rows_fn's, so it can be given to a render as opts.rows with the
+ * stream as opts.rows_user.  A call made once finish has begun does
+ * nothing. */
 void rayd_png_stream_rows(void *stream, int rows);
 /* Deflates the bands left on threads threads (<= 0: every core), after
- * which every row must be final; *buf as rayd_png_encode's, stats (may be
- * NULL) filled.  Frees the stream, whatever the outcome. */
+ * waiting for the rows calls under way; every row must be final by now.
+ * *buf as rayd_png_encode's, stats (may be NULL) filled.  Frees the
+ * stream, whatever the outcome. */
 enum rayd_status rayd_png_stream_finish(rayd_png_stream *s, int threads, void **buf, size_t *len,
                                         struct rayd_png_stats *stats, struct rayd_error *err);
-/* Frees a stream that will not be finished (a canceled render). */
+/* Frees a stream that will not be finished (a canceled render), after
+ * waiting for the rows calls under way; NULL is allowed. */
 void rayd_png_stream_free(rayd_png_stream *s);
 enum rayd_status rayd_png_write_file(const rayd_image *img, const char *path,
                                      struct rayd_error *err);
