@@ -220,14 +220,11 @@ static double order0(int f, const unsigned char *cur, const unsigned char *prev,
 }
 
 /* The row filtered with the one of None, Sub, Up and Average whose bytes
- * have the least order-0 entropy, into out (1 + n bytes).  tmp, scratch of
- * the same size, is no longer needed (the callers' scratch is left as it
- * was while the band scheduling around it changes).  (Measured against
- * libpng's least sum of absolute values and against Paeth: see the top
- * comment.) */
+ * have the least order-0 entropy, into out (1 + n bytes).  (Measured
+ * against libpng's least sum of absolute values and against Paeth: see the
+ * top comment.) */
 static void filter_best(const unsigned char *cur, const unsigned char *prev, size_t n,
-                        unsigned char *out, unsigned char *tmp) {
-    (void)tmp;
+                        unsigned char *out) {
     int best = 0;
     double most = order0(0, cur, prev, n);
     for (int f = 1; f <= 3; f++) {
@@ -277,8 +274,8 @@ static size_t deflate_isal(unsigned char *in, size_t n, int last, unsigned char 
  * deflate's output, allocated a band, was 7% of the whole process on the
  * 1080p sphere scene). */
 struct png_scratch {
-    unsigned char *filt, *tmp, *zero; /* filtered rows, a row, zeros */
-    unsigned char *z, *lb;            /* the deflate's output (zcap bytes), ISA-L's state */
+    unsigned char *filt, *zero; /* filtered rows, a row of zeros */
+    unsigned char *z, *lb;      /* the deflate's output (zcap bytes), ISA-L's state */
     size_t zcap, lbsize;
     struct libdeflate_compressor *ld; /* for every level but ISA-L's */
     struct png_scratch *next;         /* in the pool */
@@ -295,7 +292,7 @@ static void band_encode(const rayd_image *img, int level, struct png_band *b, in
     for (int r = 0; r < b->rows; r++) {
         int y = b->y0 + r;
         const unsigned char *cur = img->px + (size_t)y * n;
-        filter_best(cur, y > 0 ? cur - n : w->zero, n, w->filt + (size_t)r * rowb, w->tmp);
+        filter_best(cur, y > 0 ? cur - n : w->zero, n, w->filt + (size_t)r * rowb);
     }
     b->adler = isal_adler32(1, w->filt, b->raw);
     size_t zcap = band_zcap(b->raw);
@@ -309,7 +306,6 @@ static void band_encode(const rayd_image *img, int level, struct png_band *b, in
 static void scratch_free(struct png_scratch *w) {
     if (!w) return;
     free(w->filt);
-    free(w->tmp);
     free(w->zero);
     free(w->z);
     free(w->lb);
@@ -329,7 +325,6 @@ static struct png_scratch *scratch_take(struct rayd_png_stream *s) {
     w = calloc(1, sizeof *w);
     if (!w) return NULL;
     *w = (struct png_scratch){malloc(raw),
-                              malloc(n + 1),
                               calloc(1, n),
                               malloc(band_zcap(raw)),
                               NULL,
@@ -338,8 +333,7 @@ static struct png_scratch *scratch_take(struct rayd_png_stream *s) {
                               s->level >= 0 ? libdeflate_alloc_compressor(s->level) : NULL,
                               NULL};
     w->lb = w->lbsize ? malloc(w->lbsize) : NULL;
-    if (w->filt && w->tmp && w->zero && w->z && (s->level < 0 ? w->lb != NULL : w->ld != NULL))
-        return w;
+    if (w->filt && w->zero && w->z && (s->level < 0 ? w->lb != NULL : w->ld != NULL)) return w;
     scratch_free(w);
     return NULL;
 }
