@@ -318,7 +318,10 @@ static void scratch_free(struct png_scratch *w) {
 static struct png_scratch *scratch_take(struct rayd_png_stream *s) {
     pthread_mutex_lock(&s->lock);
     struct png_scratch *w = s->spare;
-    if (w) s->spare = w->next;
+    if (w) {
+        s->spare = w->next;
+        s->nspare--;
+    }
     pthread_mutex_unlock(&s->lock);
     if (w) return w;
     size_t n = (size_t)s->img->w * 3, raw = (n + 1) * (size_t)s->band_rows;
