@@ -468,34 +468,76 @@ static int write_or_say(const char *path, const void *buf, size_t len) {
 }
 
 /* Renders the scene into img, encoding each band of rows as soon as it is
- * drawn (rayd_png_stream_rows as opts.rows), then the bands left: the PNG
- * into *png.  stage[ST_RENDER] is the render with the encoding done beside
- * it, stage[ST_ENCODE] the encoding after it; the progress line is
- * cleared when the render returns. */
+ * drawn (rayd_png_stream_rows as opts.rows): the stream, not finished, in
+ * *out.  stage[ST_RENDER] is the render with the encoding done beside it;
+ * the progress line is cleared when the render returns. */
 static enum rayd_status render_png(const rayd_scene *scene, struct rayd_render_opts *opts,
                                    struct progress *prog, rayd_image *img, int level, double *stage,
-                                   void **png, size_t *len, struct rayd_png_stats *ps,
-                                   struct rayd_error *err) {
-    rayd_png_stream *ps_stream = NULL;
-    enum rayd_status st = rayd_png_stream_new(img, level, &ps_stream, err);
+                                   rayd_png_stream **out, struct rayd_error *err) {
+    rayd_png_stream *ps = NULL;
+    enum rayd_status st = rayd_png_stream_new(img, level, &ps, err);
     if (st != RAYD_OK) {
         progress_clear(prog);
         return st;
     }
     opts->rows = rayd_png_stream_rows;
-    opts->rows_user = ps_stream;
+    opts->rows_user = ps;
     double t = now();
     st = rayd_render_image(scene, opts, img, err);
     stage[ST_RENDER] = now() - t;
     progress_clear(prog);
     if (st != RAYD_OK) {
-        rayd_png_stream_free(ps_stream);
+        rayd_png_stream_free(ps);
         return st;
     }
+    *out = ps;
+    return RAYD_OK;
+}
+
+/* The output file as a sink: its writes timed, for the write stage. */
+struct file_sink {
+    FILE *f;
+    double seconds;
+};
+
+static int file_put(void *user, const void *buf, size_t len) {
+    struct file_sink *fs = user;
+    double t = now();
+    int rc = fwrite(buf, 1, len, fs->f) == len ? 0 : -1;
+    fs->seconds += now() - t;
+    return rc;
+}
+
+/* Finishes the stream straight into a's output (the bands' bytes written
+ * from their own buffers, no copy of the file): the bands left are
+ * stage[ST_ENCODE], opening, writing and closing stage[ST_WRITE].  0, or
+ * 1 with the error said. */
+static int write_png(const struct args *a, rayd_png_stream *ps, double *stage,
+                     struct rayd_png_stats *st_out) {
+    double t = now();
+    bool out = !strcmp(a->output, "-");
+    struct file_sink fs = {out ? stdout : fopen(a->output, "wb"), 0};
+    if (!fs.f) {
+        int e = errno;
+        rayd_png_stream_free(ps);
+        fprintf(stderr, "rayd-render: error: cannot write %s: %s\n", a->output, strerror(e));
+        return 1;
+    }
+    double open_s = now() - t;
+    struct rayd_error err = {0};
     t = now();
-    st = rayd_png_stream_finish(ps_stream, opts->threads, png, len, ps, err);
-    stage[ST_ENCODE] = now() - t;
-    return st;
+    enum rayd_status st = rayd_png_stream_finish_to(ps, a->threads, file_put, &fs, st_out, &err);
+    double finish_s = now() - t;
+    t = now();
+    int ok = st == RAYD_OK && (out ? fflush(stdout) == 0 : 1);
+    if (!out && fclose(fs.f) != 0) ok = 0;
+    stage[ST_WRITE] = open_s + fs.seconds + (now() - t);
+    stage[ST_ENCODE] = finish_s - fs.seconds;
+    if (ok) return 0;
+    if (st != RAYD_OK && st != RAYD_E_IO) return fail("", &err);
+    fprintf(stderr, "rayd-render: error: cannot write %s: %s\n",
+            out ? "standard output" : a->output, strerror(errno));
+    return 1;
 }
 
 /* Renders the parsed scene and writes the PNG, timing each stage from t0,
@@ -515,18 +557,12 @@ static int render_and_write(const struct args *a, const rayd_scene *scene, doubl
     struct progress prog;
     progress_start(&prog, a, r, 0, 1);
     progress_opts(&prog, &opts);
-    void *png = NULL;
-    size_t len = 0;
+    rayd_png_stream *stream = NULL;
     struct rayd_png_stats ps = {0};
-    enum rayd_status st =
-        render_png(scene, &opts, &prog, img, a->png_level, stage, &png, &len, &ps, &err);
-    rayd_image_free(img);
-    if (st != RAYD_OK) return fail_render(&err);
-    double t = now();
-    int rc = write_or_say(a->output, png, len);
-    rayd_free(png);
+    enum rayd_status st = render_png(scene, &opts, &prog, img, a->png_level, stage, &stream, &err);
+    int rc = st == RAYD_OK ? write_png(a, stream, stage, &ps) : fail_render(&err);
+    rayd_image_free(img); /* after the stream, which reads it */
     if (rc != 0) return rc;
-    stage[ST_WRITE] = now() - t;
     if (a->stats) print_stats(a, scene, &stats, &ps, stage, now() - t0);
     return 0;
 }

@@ -395,32 +395,45 @@ static void *band_worker(void *arg) {
 
 /* ---- the file ----------------------------------------------------------- */
 
+/* Where the file's bytes go: into memory at p, or, when sink is set, to
+ * the caller's sink in order (failed: it said no). */
 struct out {
     unsigned char *p;
     size_t len;
+    rayd_sink_fn sink;
+    void *user;
+    bool failed;
 };
 
-static void put32(struct out *o, uint32_t v) {
-    o->p[o->len++] = (unsigned char)(v >> 24);
-    o->p[o->len++] = (unsigned char)(v >> 16);
-    o->p[o->len++] = (unsigned char)(v >> 8);
-    o->p[o->len++] = (unsigned char)v;
+static void put(struct out *o, const void *data, size_t n) {
+    if (o->sink) {
+        o->failed = o->failed || (n && o->sink(o->user, data, n) != 0);
+    } else {
+        memcpy(o->p + o->len, data, n);
+    }
+    o->len += n;
+}
+
+static void be32(unsigned char *b, uint32_t v) {
+    for (int k = 0; k < 4; k++) b[k] = (unsigned char)(v >> (24 - 8 * k));
 }
 
 /* A chunk whose data is up to three pieces: length, type, data, the CRC of
  * type and data. */
 static void put_chunk3(struct out *o, const char *type, const unsigned char *const piece[3],
                        const size_t len[3]) {
-    put32(o, (uint32_t)(len[0] + len[1] + len[2]));
-    size_t start = o->len;
-    memcpy(o->p + o->len, type, 4);
-    o->len += 4;
+    unsigned char head[8], crc[4];
+    be32(head, (uint32_t)(len[0] + len[1] + len[2]));
+    memcpy(head + 4, type, 4);
+    uLong c = crc32_z(0, head + 4, 4);
+    put(o, head, 8);
     for (int i = 0; i < 3; i++)
         if (len[i]) {
-            memcpy(o->p + o->len, piece[i], len[i]);
-            o->len += len[i];
+            c = crc32_z(c, piece[i], len[i]);
+            put(o, piece[i], len[i]);
         }
-    put32(o, (uint32_t)crc32_z(0, o->p + start, o->len - start));
+    be32(crc, (uint32_t)c);
+    put(o, crc, 4);
 }
 
 static void put_chunk(struct out *o, const char *type, const unsigned char *data, size_t n) {
@@ -431,8 +444,7 @@ static void put_chunk(struct out *o, const char *type, const unsigned char *data
 
 static void put_header(struct out *o, const rayd_image *img) {
     static const unsigned char sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
-    memcpy(o->p, sig, 8);
-    o->len = 8;
+    put(o, sig, 8);
     unsigned char ihdr[13] = {0, 0, 0, 0, 0, 0, 0, 0, 8, 2, 0, 0, 0}; /* 8-bit RGB */
     for (int k = 0; k < 4; k++) {
         ihdr[k] = (unsigned char)((uint32_t)img->w >> (24 - 8 * k));
@@ -575,7 +587,7 @@ static int png_assemble(const struct rayd_png_stream *s, void **buf, size_t *len
     for (int i = 0; i < s->nbands; i++) zlen += s->bands[i].len;
     /* header chunks 8 + 25 + 13 + 16 + 44, 12 per IDAT, IEND 12 */
     size_t cap = 8 + 25 + 13 + 16 + 44 + zlen + 12 * (size_t)s->nbands + 12;
-    struct out o = {malloc(cap), 0};
+    struct out o = {.p = malloc(cap)};
     if (!o.p) return -1;
     put_header(&o, s->img);
     put_idats(&o, s->level, s->bands, s->nbands);
@@ -591,6 +603,22 @@ enum rayd_status rayd_png_stream_finish(rayd_png_stream *s, int threads, void **
     failed = failed || png_assemble(s, buf, len) < 0;
     rayd_png_stream_free(s);
     if (failed) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory encoding the PNG");
+    return RAYD_OK;
+}
+
+enum rayd_status rayd_png_stream_finish_to(rayd_png_stream *s, int threads, rayd_sink_fn sink,
+                                           void *user, struct rayd_png_stats *stats,
+                                           struct rayd_error *err) {
+    int failed = encode_bands(s, threads);
+    if (stats) *stats = (struct rayd_png_stats){s->nbands, s->early, s->band_seconds};
+    struct out o = {.sink = sink, .user = user};
+    if (!failed) {
+        put_header(&o, s->img);
+        put_idats(&o, s->level, s->bands, s->nbands);
+    }
+    rayd_png_stream_free(s);
+    if (failed) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory encoding the PNG");
+    if (o.failed) return err_set(err, RAYD_E_IO, NULL, "the PNG's bytes could not be written");
     return RAYD_OK;
 }
 

@@ -343,6 +343,16 @@ void rayd_png_stream_rows(void *stream, int rows);
  * stream, whatever the outcome. */
 enum rayd_status rayd_png_stream_finish(rayd_png_stream *s, int threads, void **buf, size_t *len,
                                         struct rayd_png_stats *stats, struct rayd_error *err);
+/* Takes bytes in order; returns 0, or non-zero to say they could not be
+ * taken (the rest are then not offered). */
+typedef int (*rayd_sink_fn)(void *user, const void *buf, size_t len);
+/* rayd_png_stream_finish, the file's bytes handed to sink in order from the
+ * bands' own buffers instead of joined in one (no copy of the file, no
+ * fresh memory for it): rayd-render writes them straight to its output.
+ * A sink's refusal is RAYD_E_IO. */
+enum rayd_status rayd_png_stream_finish_to(rayd_png_stream *s, int threads, rayd_sink_fn sink,
+                                           void *user, struct rayd_png_stats *stats,
+                                           struct rayd_error *err);
 /* Frees a stream that will not be finished (a canceled render), after
  * waiting for the rows calls under way; NULL is allowed. */
 void rayd_png_stream_free(rayd_png_stream *s);

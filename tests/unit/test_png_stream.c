@@ -202,6 +202,50 @@ static void test_rows_in_any_order_any_threads(void) {
     }
 }
 
+/* A sink into memory that says no after `room` bytes. */
+struct mem_sink {
+    unsigned char *buf;
+    size_t len, room;
+    int refused, after; /* refusals, and calls after the first */
+};
+
+static int mem_put(void *user, const void *data, size_t n) {
+    struct mem_sink *m = user;
+    m->after += m->refused > 0;
+    if (m->len + n > m->room) return ++m->refused, -1;
+    memcpy(m->buf + m->len, data, n);
+    m->len += n;
+    return 0;
+}
+
+static void test_finish_to_a_sink(void) {
+    rayd_image *img = pattern(700, 1500, 4);
+    CHECK(img != NULL, "image");
+    if (!img) return;
+    size_t rlen = 0;
+    void *ref = reference(img, -1, &rlen);
+    struct mem_sink m = {malloc(rlen + 1), 0, rlen + 1, 0, 0};
+    rayd_png_stream *ps = NULL;
+    CHECK(rayd_png_stream_new(img, -1, &ps, NULL) == RAYD_OK, "stream");
+    rayd_png_stream_rows(ps, 700); /* some bands before finish */
+    struct rayd_png_stats st = {0};
+    CHECK(rayd_png_stream_finish_to(ps, 2, mem_put, &m, &st, NULL) == RAYD_OK, "finish_to");
+    CHECK(ref && m.len == rlen && !memcmp(m.buf, ref, rlen),
+          "the sink's bytes (%zu) differ from the encoder's (%zu)", m.len, rlen);
+    CHECK(st.bands > 1 && st.bands_early > 0 && st.bands_early < st.bands,
+          "%d bands, %d before finish", st.bands, st.bands_early);
+    struct mem_sink small = {m.buf, 0, rlen / 2, 0, 0};
+    struct rayd_error err = {0};
+    CHECK(rayd_png_stream_new(img, -1, &ps, NULL) == RAYD_OK, "stream");
+    CHECK(rayd_png_stream_finish_to(ps, 1, mem_put, &small, NULL, &err) == RAYD_E_IO &&
+              err.message[0],
+          "a sink that says no: RAYD_E_IO with a message");
+    CHECK(small.refused == 1 && small.after == 0, "%d calls after the refusal", small.after);
+    free(m.buf);
+    rayd_free(ref);
+    rayd_image_free(img);
+}
+
 static void test_dropped_stream_frees_all(void) {
     rayd_image *img = pattern(600, 900, 5);
     CHECK(img != NULL, "image");
@@ -218,6 +262,7 @@ int main(void) {
     RUN(test_rows_named_are_final);
     RUN(test_render_stream_equals_encode);
     RUN(test_rows_in_any_order_any_threads);
+    RUN(test_finish_to_a_sink);
     RUN(test_dropped_stream_frees_all);
     CHECK_EXIT();
 }
