@@ -397,14 +397,21 @@ static enum rayd_status render_tiles(const rayd_scene *s, const struct rayd_rend
     return RAYD_OK;
 }
 
+/* *opts, or no options when NULL, and its region checked and resolved. */
+static enum rayd_status opts_region(const rayd_scene *s, const struct rayd_render_opts **opts,
+                                    struct rayd_region *r, struct rayd_error *err) {
+    static const struct rayd_render_opts none;
+    if (!*opts) *opts = &none;
+    enum rayd_status st = rayd_region_check(s, &(*opts)->region, err);
+    if (st == RAYD_OK) region_resolve(s, &(*opts)->region, r);
+    return st;
+}
+
 enum rayd_status rayd_render_image(const rayd_scene *s, const struct rayd_render_opts *opts,
                                    rayd_image *dst, struct rayd_error *err) {
-    static const struct rayd_render_opts none;
-    if (!opts) opts = &none;
-    enum rayd_status st = rayd_region_check(s, &opts->region, err);
-    if (st != RAYD_OK) return st;
     struct rayd_region r;
-    region_resolve(s, &opts->region, &r);
+    enum rayd_status st = opts_region(s, &opts, &r, err);
+    if (st != RAYD_OK) return st;
     if (!dst) return err_set(err, RAYD_E_ARG, NULL, "no image to render into");
     if (dst->w != r.w || dst->h != r.h)
         return err_set(err, RAYD_E_ARG, NULL, "the image is %dx%d, the region %dx%d", dst->w,
@@ -416,12 +423,9 @@ enum rayd_status rayd_render_image(const rayd_scene *s, const struct rayd_render
 
 enum rayd_status rayd_render(const rayd_scene *s, const struct rayd_render_opts *opts,
                              rayd_image **out, struct rayd_error *err) {
-    static const struct rayd_render_opts none;
-    if (!opts) opts = &none;
-    enum rayd_status st = rayd_region_check(s, &opts->region, err);
-    if (st != RAYD_OK) return st;
     struct rayd_region r;
-    region_resolve(s, &opts->region, &r);
+    enum rayd_status st = opts_region(s, &opts, &r, err);
+    if (st != RAYD_OK) return st;
     rayd_image *img = NULL;
     st = rayd_image_new(r.w, r.h, &img, err);
     if (st == RAYD_OK) st = rayd_render_image(s, opts, img, err);

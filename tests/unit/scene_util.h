@@ -42,4 +42,26 @@ static inline char *read_file(const char *path, size_t *len) {
     return rayd_read_file(path, (size_t)1 << 30, &buf, len, NULL) == RAYD_OK ? buf : NULL;
 }
 
+/* scenes/whitted.json (640 x 480) at w x h, w and h below 10000; prints why
+ * and returns NULL when it cannot (run from the repository root). */
+static inline rayd_scene *whitted_sized(int w, int h) {
+    size_t len;
+    char *text = read_file("scenes/whitted.json", &len);
+    char *pw = text ? strstr(text, "\"width\": 640") : NULL;
+    char *ph = text ? strstr(text, "\"height\": 480") : NULL;
+    rayd_scene *s = NULL;
+    if (pw && ph) {
+        char num[8];
+        snprintf(num, sizeof num, "%4d", w); /* over " 640" or " 480": the same length */
+        memcpy(pw + 8, num, 4);
+        snprintf(num, sizeof num, "%4d", h);
+        memcpy(ph + 9, num, 4);
+        s = scene_from(text);
+    } else {
+        printf("  scenes/whitted.json unreadable or without its 640 x 480 size\n");
+    }
+    free(text);
+    return s;
+}
+
 #endif

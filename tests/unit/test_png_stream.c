@@ -13,28 +13,6 @@
 #include "rayd/rayd.h"
 #include "scene_util.h"
 
-/* scenes/whitted.json at w x h (several PNG bands when wide). */
-static rayd_scene *whitted_sized(int w, int h) {
-    size_t len;
-    char *text = read_file("scenes/whitted.json", &len);
-    CHECK(text != NULL, "scenes/whitted.json readable (run from the repository root)");
-    if (!text) return NULL;
-    char *pw = strstr(text, "\"width\": 640"), *ph = strstr(text, "\"height\": 480");
-    CHECK(pw && ph, "size keys present");
-    rayd_scene *s = NULL;
-    if (pw && ph) {
-        char num[8];
-        snprintf(num, sizeof num, "%4d", w);
-        memcpy(pw + 8, num, 4);
-        snprintf(num, sizeof num, "%4d", h);
-        memcpy(ph + 9, num, 4);
-        struct rayd_error err = {0};
-        CHECK(rayd_scene_parse(text, len, NULL, &s, &err) == RAYD_OK, "parse: %s", err.message);
-    }
-    free(text);
-    return s;
-}
-
 /* What a rows callback saw: the rows as they were when first named final. */
 struct seen {
     pthread_mutex_t lock;

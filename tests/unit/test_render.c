@@ -13,22 +13,8 @@
 /* The Whitted example at a small size with several samples: reflection,
  * refraction, two lights and anti-aliasing all take part. */
 static rayd_scene *small_whitted(void) {
-    size_t len;
-    char *text = read_file("scenes/whitted.json", &len);
-    CHECK(text != NULL, "scenes/whitted.json readable (run from the repository root)");
-    if (!text) return NULL;
-    char *w = strstr(text, "\"width\": 640"), *h = strstr(text, "\"height\": 480");
-    CHECK(w && h, "size keys present");
-    if (!w || !h) {
-        free(text);
-        return NULL;
-    }
-    memcpy(w, "\"width\":  97", 12);
-    memcpy(h, "\"height\":  61", 13);
-    rayd_scene *s = NULL;
-    struct rayd_error err;
-    CHECK(rayd_scene_parse(text, len, NULL, &s, &err) == RAYD_OK, "parse: %s", err.message);
-    free(text);
+    rayd_scene *s = whitted_sized(97, 61);
+    CHECK(s != NULL, "scenes/whitted.json at 97 x 61");
     return s;
 }
 
@@ -93,7 +79,7 @@ static void test_bad_regions_are_refused(void) {
     rayd_scene *s = scene_from("{\"render\": {\"width\": 20, \"height\": 10}}");
     if (!s) return;
     struct rayd_region bad[] = {{-1, 0, 5, 5}, {20, 0, 1, 1}, {0, 10, 1, 1},
-                                {15, 0, 6, 1}, {0, 5, 1, 6}, {0, 0, 0, 5}};
+                                {15, 0, 6, 1}, {0, 5, 1, 6},  {0, 0, 0, 5}};
     const char *field[] = {"x", "x", "y", "w", "h", "w"};
     for (int i = 0; i < 6; i++) {
         struct rayd_error err;
@@ -246,8 +232,10 @@ static void test_srgb_bytes_equal_the_formula(void) {
         double lo = 0, hi = 1;
         for (int it = 0; it < 200 && nextafter(lo, 2) < hi; it++) {
             double mid = lo + (hi - lo) / 2;
-            if (srgb_ref(mid) >= k) hi = mid;
-            else lo = mid;
+            if (srgb_ref(mid) >= k)
+                hi = mid;
+            else
+                lo = mid;
         }
         double around[4] = {nextafter(lo, 0), lo, hi, nextafter(hi, 2)};
         for (int j = 0; j < 4; j++, n++) bad += render_srgb8(around[j]) != srgb_ref(around[j]);
@@ -265,16 +253,18 @@ static void test_srgb_bytes_equal_the_formula(void) {
 static void test_srgb_blocks_equal_one_value(void) {
     double v[48 * 64];
     int n = 0;
-    const double odd[12] = {NAN,  -NAN,      -INFINITY, INFINITY, -0.0, 0.0,
-                            1.0,  0x1p-1074, 1.7e308,   0x1p-13,  -0.5, nextafter(1.0, 0)};
+    const double odd[12] = {NAN, -NAN,      -INFINITY, INFINITY, -0.0, 0.0,
+                            1.0, 0x1p-1074, 1.7e308,   0x1p-13,  -0.5, nextafter(1.0, 0)};
     for (int j = 0; j < 12; j++) v[n++] = odd[j];
     unsigned long long x = 0x9e3779b97f4a7c15ull;
     for (int k = 1; k < 256; k++) { /* each step's neighbourhood, from the scalar encoder */
         double lo = 0, hi = 1;
         for (int it = 0; it < 200 && nextafter(lo, 2) < hi; it++) {
             double mid = lo + (hi - lo) / 2;
-            if (render_srgb8(mid) >= k) hi = mid;
-            else lo = mid;
+            if (render_srgb8(mid) >= k)
+                hi = mid;
+            else
+                lo = mid;
         }
         v[n++] = lo, v[n++] = hi;
     }
