@@ -334,8 +334,9 @@ enum rayd_status rayd_png_stream_new(const rayd_image *img, int level, rayd_png_
  * and in any order): deflates, on the calling thread, the bands among
  * those rows that no other call has taken.  The signature is
  * rayd_rows_fn's, so it can be given to a render as opts.rows with the
- * stream as opts.rows_user.  A call made once finish has begun does
- * nothing. */
+ * stream as opts.rows_user.  Every call must start before finish or free
+ * is called (a render's calls have all returned when it returns); calls
+ * still running then are waited for, and their bands kept. */
 void rayd_png_stream_rows(void *stream, int rows);
 /* Deflates the bands left on threads threads (<= 0: every core), after
  * waiting for the rows calls under way; every row must be final by now.
