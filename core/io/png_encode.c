@@ -22,39 +22,46 @@
  * the size are the same as with every byte, at 16% less time); then only
  * the chosen filter's row is written.  On one thread, 10.4 ms for the
  * 1080p sphere scene, 15.5 ms when each filter's row was written out and
- * then counted, for the same bytes.  Against libpng's least sum of absolute values over all five
- * filters this gave 2% fewer bytes on the 1080p sphere scene and 6% on
- * paper, with either deflate (zlib or ISA-L); Paeth, the costliest filter, made the output
- * larger under this measure, so it is not tried.
+ * then counted, for the same bytes.  Against libpng's least sum of
+ * absolute values over all five filters this gave 2% fewer bytes on the
+ * 1080p sphere scene and 6% on paper, with either deflate (zlib or ISA-L);
+ * Paeth, the costliest filter, made the output larger under this measure,
+ * so it is not tried.
  *
  * Deflate.  With no level asked for (-1), libdeflate level 2.  On the 1080p
  * sphere scene (bench/pngbench.c, 2 threads, Nov 25 2026) it encodes in
  * 24 ms for +7.3% bytes against libpng level 6; zlib level 4 with the
  * filtered strategy, the default before, took 50 ms for +6.5%.  On every
- * example scene it is between -5.4% and +7.3%, inside the promise of at
+ * example scene it is between -6.3% and +7.3%, inside the promise of at
  * most +15% by default.  libdeflate's level 1 was no faster here and 2-3%
  * larger.  libdeflate cannot end a stream without a final block, so each
- * band but the last is walked once more by deflate_chain (a tenth of the
+ * band but the last is walked once more by deflate_chain (a sixth of the
  * deflate's time) to clear that bit and append the empty stored block.
- * Levels 0 and 2-9 are libdeflate's, as asked.  Level 1, the fastest, is Intel ISA-L (isal_deflate,
- * level 2, raw deflate with a sync flush or, for the last band, the final block): 1.5x faster than
- * the default and 17x libpng level 6 on the sphere scene for +5% to +21% bytes (+18% there, +21% on
- * paper): ISA-L matches greedily from one hash candidate and misses the short repeats that lazy
- * matching finds in smooth gradients.  ISA-L level 1, other token buffer sizes, a preset dictionary
- * from the band before and bigram filter measures came within 1% of this and no lower; its level 3
- * was 3% larger.  The Adler-32 of a band is ISA-L's (4x zlib's), combined across bands with zlib's
- * adler32_combine.
+ * Levels 0 and 2-9 are libdeflate's, as asked.  Level 1, the fastest, is
+ * Intel ISA-L (isal_deflate, level 2, raw deflate with a sync flush or, for
+ * the last band, the final block): 1.5x faster than the default and 17x
+ * libpng level 6 on the sphere scene for +5% to +21% bytes (+18% there,
+ * +21% on paper): ISA-L matches greedily from one hash candidate and misses
+ * the short repeats that lazy matching finds in smooth gradients.  ISA-L
+ * level 1, other token buffer sizes, a preset dictionary from the band
+ * before and bigram filter measures came within 1% of this and no lower;
+ * its level 3 was 3% larger.  The Adler-32 of a band is ISA-L's (4x
+ * zlib's), combined across bands with zlib's adler32_combine.
  *
  * Encoding while rendering (rayd_png_stream).  A band needs only its own
  * rows and the one above them, so it can be deflated as soon as those are
  * drawn: the render tells the stream through its rows callback, and the
- * worker that finishes a row of tiles deflates the bands it completes
- * while the other workers go on drawing.  Only the joining is left for
- * after the render.  On the 1080p sphere scene (2 threads) every band is
- * deflated during the render and the encode after it fell from 36 ms to
- * 5 ms; the whole process gains less (about 10 ms), since both cores were
- * already busy.  Which thread deflates which band changes nothing in the
- * bytes.
+ * worker that finishes a row of tiles deflates the bands that row
+ * completes (only those: it is soon back to tiles) while the others go on
+ * drawing.  Only the joining is left for after the render, and
+ * rayd_png_stream_finish_to hands the chunks to a sink straight from the
+ * bands' buffers, so rayd-render never copies the file whole into fresh
+ * memory.  On the 1080p sphere scene (2 threads) every band is deflated
+ * during the render and the encode after it fell from 36 ms to 1.2 ms; the
+ * whole process gained 8% (0.104 -> 0.096 s, with the filter and chain
+ * work), less than the 36 ms since both cores were already busy
+ * (bench/README.md).  Which thread deflates which band changes nothing in
+ * the bytes.
  *
  * The chunks are those libpng wrote before: IHDR, sRGB, gAMA and cHRM for
  * sRGB, the IDATs (one a band: no copy of the whole stream), IEND.
