@@ -460,11 +460,16 @@ static int fail_render(struct rayd_error *err) {
     return fail("", err);
 }
 
-static int write_or_say(const char *path, const void *buf, size_t len) {
-    if (write_file(path, buf, len) == 0) return 0;
+/* Says that path ("-": standard output) cannot be written, for errno e;
+ * returns 1, the exit code. */
+static int cannot_write(const char *path, int e) {
     fprintf(stderr, "rayd-render: error: cannot write %s: %s\n",
-            strcmp(path, "-") ? path : "standard output", strerror(errno));
+            strcmp(path, "-") ? path : "standard output", strerror(e));
     return 1;
+}
+
+static int write_or_say(const char *path, const void *buf, size_t len) {
+    return write_file(path, buf, len) == 0 ? 0 : cannot_write(path, errno);
 }
 
 /* Renders the scene into img, encoding each band of rows as soon as it is
@@ -476,10 +481,7 @@ static enum rayd_status render_png(const rayd_scene *scene, struct rayd_render_o
                                    rayd_png_stream **out, struct rayd_error *err) {
     rayd_png_stream *ps = NULL;
     enum rayd_status st = rayd_png_stream_new(img, level, &ps, err);
-    if (st != RAYD_OK) {
-        progress_clear(prog);
-        return st;
-    }
+    if (st != RAYD_OK) return st; /* nothing drawn yet: no progress line */
     opts->rows = rayd_png_stream_rows;
     opts->rows_user = ps;
     double t = now();
@@ -520,8 +522,7 @@ static int write_png(const struct args *a, rayd_png_stream *ps, double *stage,
     if (!fs.f) {
         int e = errno;
         rayd_png_stream_free(ps);
-        fprintf(stderr, "rayd-render: error: cannot write %s: %s\n", a->output, strerror(e));
-        return 1;
+        return cannot_write(a->output, e);
     }
     double open_s = now() - t;
     struct rayd_error err = {0};
@@ -535,9 +536,7 @@ static int write_png(const struct args *a, rayd_png_stream *ps, double *stage,
     stage[ST_ENCODE] = finish_s - fs.seconds;
     if (ok) return 0;
     if (st != RAYD_OK && st != RAYD_E_IO) return fail("", &err);
-    fprintf(stderr, "rayd-render: error: cannot write %s: %s\n",
-            out ? "standard output" : a->output, strerror(errno));
-    return 1;
+    return cannot_write(a->output, errno);
 }
 
 /* Renders the parsed scene and writes the PNG, timing each stage from t0,

@@ -70,7 +70,6 @@
 #define GLB_JSON 0x4E4F534Au
 #define GLB_BIN 0x004E4942u
 
-
 struct gl_buf {
     unsigned char *data; /* NULL until loaded */
     size_t len;

@@ -129,33 +129,6 @@ static void xlogx_init(void) {
     for (int c = 1; c < PNG_XLOGX_N; c++) png_xlogx[c] = (float)(c * log2((double)c));
 }
 
-/* Each filter has its own loop, which the compiler can vectorise (the
- * encoder reads only unfiltered bytes, so no loop carries a dependency);
- * a = the byte one pixel left, b = above. */
-static void filter_row(int f, const unsigned char *cur, const unsigned char *prev, size_t n,
-                       unsigned char *out) {
-    unsigned char *o = out + 1;
-    out[0] = (unsigned char)f;
-    size_t k = n < 3 ? n : 3;
-    switch (f) {
-    case 0:
-        memcpy(o, cur, n);
-        break;
-    case 1:
-        memcpy(o, cur, k);
-        for (size_t i = 3; i < n; i++) o[i] = (unsigned char)(cur[i] - cur[i - 3]);
-        break;
-    case 2:
-        for (size_t i = 0; i < n; i++) o[i] = (unsigned char)(cur[i] - prev[i]);
-        break;
-    default:
-        for (size_t i = 0; i < k; i++) o[i] = (unsigned char)(cur[i] - (prev[i] >> 1));
-        for (size_t i = 3; i < n; i++)
-            o[i] = (unsigned char)(cur[i] - ((cur[i - 3] + prev[i]) >> 1));
-        break;
-    }
-}
-
 /* The byte that filter f makes of cur[i]: for the first bytes of a row,
  * where the pixel to the left is missing (0). */
 static unsigned char filter_byte(int f, const unsigned char *cur, const unsigned char *prev,
@@ -165,6 +138,41 @@ static unsigned char filter_byte(int f, const unsigned char *cur, const unsigned
                            : f == 1 ? cur[i] - a
                            : f == 2 ? cur[i] - b
                                     : cur[i] - ((a + b) >> 1));
+}
+
+/* The four filters at byte j >= 3 of the row cur over the row prev (names
+ * the callers use), for the loops below: one loop a filter, which the
+ * compiler can vectorise (the filters read only unfiltered bytes, so no
+ * loop carries a dependency). */
+#define FILTER_NONE(j) cur[j]
+#define FILTER_SUB(j) (cur[j] - cur[(j)-3])
+#define FILTER_UP(j) (cur[j] - prev[j])
+#define FILTER_AVG(j) (cur[j] - ((cur[(j)-3] + prev[j]) >> 1))
+
+/* The row filtered with f into out (the filter type byte, then n bytes). */
+static void filter_row(int f, const unsigned char *cur, const unsigned char *prev, size_t n,
+                       unsigned char *out) {
+    unsigned char *o = out + 1;
+    out[0] = (unsigned char)f;
+    size_t i = 0;
+    for (; i < n && i < 3; i++) o[i] = filter_byte(f, cur, prev, i);
+#define FILL(v)                                                                                    \
+    for (; i < n; i++) o[i] = (unsigned char)(v(i))
+    switch (f) {
+    case 0:
+        memcpy(o + i, cur + i, n - i);
+        break;
+    case 1:
+        FILL(FILTER_SUB);
+        break;
+    case 2:
+        FILL(FILTER_UP);
+        break;
+    default:
+        FILL(FILTER_AVG);
+        break;
+    }
+#undef FILL
 }
 
 /* Sum of c log2 c over the byte counts c of the row filtered with f: the
@@ -194,29 +202,21 @@ static double order0(int f, const unsigned char *cur, const unsigned char *prev,
             cnt[3][(unsigned char)(v(i + 3))]++;                                                   \
         }                                                                                          \
     } while (0)
-#define NONE(j) cur[j]
-#define SUB(j) (cur[j] - cur[(j)-3])
-#define UP(j) (cur[j] - prev[j])
-#define AVG(j) (cur[j] - ((cur[(j)-3] + prev[j]) >> 1))
     switch (f) {
     case 0:
-        COUNT4(NONE);
+        COUNT4(FILTER_NONE);
         break;
     case 1:
-        COUNT4(SUB);
+        COUNT4(FILTER_SUB);
         break;
     case 2:
-        COUNT4(UP);
+        COUNT4(FILTER_UP);
         break;
     default:
-        COUNT4(AVG);
+        COUNT4(FILTER_AVG);
         break;
     }
 #undef COUNT4
-#undef NONE
-#undef SUB
-#undef UP
-#undef AVG
     for (; i < n; i += 2) cnt[0][filter_byte(f, cur, prev, i)]++;
     double s = 0;
     for (int b = 0; b < 256; b++) {
@@ -453,20 +453,17 @@ static void put_header(struct out *o, const rayd_image *img) {
     static const unsigned char sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
     put(o, sig, 8);
     unsigned char ihdr[13] = {0, 0, 0, 0, 0, 0, 0, 0, 8, 2, 0, 0, 0}; /* 8-bit RGB */
-    for (int k = 0; k < 4; k++) {
-        ihdr[k] = (unsigned char)((uint32_t)img->w >> (24 - 8 * k));
-        ihdr[4 + k] = (unsigned char)((uint32_t)img->h >> (24 - 8 * k));
-    }
+    be32(ihdr, (uint32_t)img->w);
+    be32(ihdr + 4, (uint32_t)img->h);
     put_chunk(o, "IHDR", ihdr, 13);
     unsigned char srgb = 0; /* perceptual */
     put_chunk(o, "sRGB", &srgb, 1);
     static const uint32_t gama = 45455,
                           chrm[8] = {31270, 32900, 64000, 33000, 30000, 60000, 15000, 6000};
     unsigned char buf[32];
-    for (int k = 0; k < 4; k++) buf[k] = (unsigned char)(gama >> (24 - 8 * k));
+    be32(buf, gama);
     put_chunk(o, "gAMA", buf, 4);
-    for (int i = 0; i < 8; i++)
-        for (int k = 0; k < 4; k++) buf[4 * i + k] = (unsigned char)(chrm[i] >> (24 - 8 * k));
+    for (int i = 0; i < 8; i++) be32(buf + 4 * i, chrm[i]);
     put_chunk(o, "cHRM", buf, 32);
 }
 
@@ -484,7 +481,7 @@ static void put_idats(struct out *o, int level, const struct png_band *bands, in
     for (int i = 0; i < nbands; i++)
         adler = adler32_combine(adler, bands[i].adler, (z_off_t)bands[i].raw);
     unsigned char tail[4];
-    for (int k = 0; k < 4; k++) tail[k] = (unsigned char)(adler >> (24 - 8 * k));
+    be32(tail, (uint32_t)adler);
     for (int i = 0; i < nbands; i++) {
         const unsigned char *piece[3] = {head, bands[i].out, tail};
         const size_t len[3] = {i == 0 ? 2 : 0, bands[i].len, i == nbands - 1 ? 4 : 0};
