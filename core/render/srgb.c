@@ -23,9 +23,9 @@ static uint8_t srgb8_exact(double c) {
     return (uint8_t)(e * 255.0 + 0.5);
 }
 
-/* The sRGB byte by table.  srgb_edge[k], the least linear value whose
- * byte is k (k = 1..255), is found once by bisection over the doubles in
- * (0, 1) -- ordered like their bit patterns -- against srgb8_exact.  The
+/* The sRGB byte by table.  The edge of byte k, the least linear value whose
+ * byte is k (k = 1..255), is found once by bisection over the doubles
+ * near it -- ordered like their bit patterns -- against srgb8_exact.  The
  * doubles from 2^-13 (below it every byte is 0) to 1 are cut into 128
  * slices a binade, a slice being the values that share their top 19 bits
  * (exponent and 7 bits of mantissa).  A slice is narrower than a step
@@ -42,21 +42,42 @@ static pthread_once_t srgb_once = PTHREAD_ONCE_INIT;
 static const int64_t srgb_lo = (int64_t)(1023 - SRGB_BINADES) << 52; /* 2^-13 */
 static const int64_t srgb_one = (int64_t)1023 << 52;                 /* 1.0 */
 
+static int srgb8_bits(uint64_t bits) {
+    double c;
+    memcpy(&c, &bits, sizeof c);
+    return srgb8_exact(c);
+}
+
+/* The bits of the least double in (0, 1] whose byte is k.  The formula's
+ * inverse at the step gives a start some ulps off it; a bracket grown from
+ * there until it holds the step is then bisected.  About 20 calls of pow a
+ * byte, not the 64 of a bisection over all of (0, 1): the table is made in
+ * every process, and that one took 2 ms of rayd-render's start. */
+static uint64_t srgb_edge(int k) {
+    double e = (k - 0.5) / 255.0, one = 1.0;
+    double g = e <= 0.04045 ? e / 12.92 : pow((e + 0.055) / 1.055, 2.4);
+    uint64_t top, lo, hi, step = 1;
+    memcpy(&top, &one, sizeof top);
+    memcpy(&lo, &g, sizeof lo);
+    lo = lo > top ? top : lo;
+    hi = lo;
+    while (lo > 0 && srgb8_bits(lo) >= k) { /* srgb8_bits(lo) < k */
+        lo = lo > step ? lo - step : 0;
+        step *= 2;
+    }
+    for (step = 1; srgb8_bits(hi) < k; step *= 2) /* srgb8_bits(hi) >= k */
+        hi = top - hi > step ? hi + step : top;
+    while (hi - lo > 1) {
+        uint64_t mid = lo + (hi - lo) / 2;
+        if (srgb8_bits(mid) >= k) hi = mid;
+        else lo = mid;
+    }
+    return hi;
+}
+
 static void srgb_init(void) {
     uint64_t edge[257];
-    for (int k = 1; k < 256; k++) {
-        double one = 1.0;
-        uint64_t lo = 0, hi; /* srgb8_exact(lo) < k <= srgb8_exact(hi) */
-        memcpy(&hi, &one, sizeof hi);
-        while (hi - lo > 1) {
-            uint64_t mid = lo + (hi - lo) / 2;
-            double c;
-            memcpy(&c, &mid, sizeof c);
-            if (srgb8_exact(c) >= k) hi = mid;
-            else lo = mid;
-        }
-        edge[k] = hi;
-    }
+    for (int k = 1; k < 256; k++) edge[k] = srgb_edge(k);
     edge[256] = UINT64_MAX; /* no byte past 255 */
     const uint64_t none = (uint64_t)1 << SRGB_LOW;
     int k = 0;
