@@ -69,8 +69,10 @@ static uint64_t srgb_edge(int k) {
         hi = top - hi > step ? hi + step : top;
     while (hi - lo > 1) {
         uint64_t mid = lo + (hi - lo) / 2;
-        if (srgb8_bits(mid) >= k) hi = mid;
-        else lo = mid;
+        if (srgb8_bits(mid) >= k)
+            hi = mid;
+        else
+            lo = mid;
     }
     return hi;
 }
@@ -114,8 +116,8 @@ BVH16_FN void srgb8_48(const double v[48], uint8_t out[48]) {
         __m512i bits = _mm512_min_epi64(_mm512_max_epi64(_mm512_castpd_si512(c), lo), one);
         __m512i idx = _mm512_srli_epi64(_mm512_sub_epi64(bits, lo), SRGB_LOW);
         __m512i e = _mm512_i64gather_epi64(idx, (const void *)srgb_slice, 8);
-        __mmask8 past = _mm512_cmpge_epu64_mask(_mm512_and_si512(bits, low),
-                                                _mm512_and_si512(e, entry));
+        __mmask8 past =
+            _mm512_cmpge_epu64_mask(_mm512_and_si512(bits, low), _mm512_and_si512(e, entry));
         __m512i byte = _mm512_mask_add_epi64(_mm512_srli_epi64(e, 48), past,
                                              _mm512_srli_epi64(e, 48), _mm512_set1_epi64(1));
         byte = _mm512_maskz_mov_epi64(_mm512_cmp_pd_mask(c, c, _CMP_ORD_Q), byte); /* NaN: 0 */
@@ -139,4 +141,3 @@ uint8_t render_srgb8(double c) {
     pthread_once(&srgb_once, srgb_init);
     return srgb8(c);
 }
-
