@@ -1179,6 +1179,49 @@ static void test_obj_large_on_threads(void) {
     free(s);
 }
 
+/* Faces of positions alone ("f a b c", as scanned meshes are) number their
+ * vertices on every thread (obj_number_positions): corners drawn at random
+ * from all the positions defined so far, some negative, some polygons, so
+ * that the order of first use is far from the order of definition and
+ * crosses the chunks; every tenth position is never used. */
+static char *positions_obj(uint32_t n, size_t *len) {
+    size_t cap = (size_t)n * 96 + 256, at = 0;
+    char *s = malloc(cap);
+    uint64_t x = 0x2545F4914F6CDD1Dull;
+    for (uint32_t i = 1; i <= n; i++) {
+        at += (size_t)sprintf(s + at, "v %u %u.25 -%u\n", i % 89, i % 11, i % 5);
+        if (i < 12) continue;
+        uint32_t c[4];
+        for (int k = 0; k < 4; k++) {
+            x ^= x << 13, x ^= x >> 7, x ^= x << 17;
+            c[k] = 1 + (uint32_t)(x % i);
+            if (c[k] % 10 == 0) c[k]--; /* positions 10, 20, ... stay unused */
+        }
+        if (i % 5 == 0)
+            at += (size_t)sprintf(s + at, "f %u %u %u %u\n", c[0], c[1], c[2], c[3]);
+        else if (i % 7 == 0)
+            at += (size_t)sprintf(s + at, "f -%u %u -1\n", i - c[0] + 1, c[1]);
+        else
+            at += (size_t)sprintf(s + at, "f %u %u %u\n", c[0], c[1], c[2]);
+    }
+    *len = at;
+    return s;
+}
+
+static void test_obj_positions_only_on_threads(void) {
+    size_t len;
+    struct mesh_data m = {0};
+    struct rayd_error e = {0};
+    char *s = positions_obj(20000, &len);
+    CHECK(obj_n(s, len, NULL, &m, &e) == RAYD_OK && m.ntris > 20000 && m.nverts < 20000 &&
+              !m.normal && !m.uv,
+          "%s (%u vertices, %u triangles)", e.message, m.nverts, m.ntris);
+    mesh_data_free(&m);
+    struct mesh_limits lim = {100000, 20000};
+    CHECK(obj_n(s, len, &lim, &m, &e) == RAYD_E_LIMIT, "%s", e.message);
+    free(s);
+}
+
 /* ---- fuzz-style: truncate and corrupt at every offset ------------------- */
 
 static int fuzz_run(int kind, const unsigned char *buf, size_t n) {
@@ -1268,6 +1311,7 @@ int main(void) {
     RUN(test_ply_binary_large_on_threads);
     RUN(test_ply_binary_fast_layout);
     RUN(test_obj_large_on_threads);
+    RUN(test_obj_positions_only_on_threads);
     RUN(test_base64_round_trip);
     RUN(test_base64_padding_and_whitespace);
     RUN(test_base64_errors);
