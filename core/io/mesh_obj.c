@@ -72,7 +72,7 @@ struct obj {
     uint32_t *tri; /* 3 output vertices per triangle */
     size_t ntri, cap_tri;
     bool all_t, all_n;
-    bool some_tn; /* some corner has a vt or a vn */
+    bool some_tn;            /* some corner has a vt or a vn */
     struct obj_chunk *defer; /* a chunk read on its own thread: faces kept as triples */
     _Atomic uint32_t *first; /* with defer: v -> the first chunk using it (obj_number_positions) */
     struct rayd_error *err;
@@ -356,9 +356,8 @@ static enum rayd_status obj_triangle(struct obj *o, uint32_t a, uint32_t b, uint
  * corner is at hand, rather than in a pass of its own over them all. */
 static void obj_first_use(struct obj *o, uint32_t v) {
     uint32_t c = o->defer->index, cur = atomic_load_explicit(&o->first[v], memory_order_relaxed);
-    while (cur > c && !atomic_compare_exchange_weak_explicit(&o->first[v], &cur, c,
-                                                             memory_order_relaxed,
-                                                             memory_order_relaxed)) {
+    while (cur > c && !atomic_compare_exchange_weak_explicit(
+                          &o->first[v], &cur, c, memory_order_relaxed, memory_order_relaxed)) {
     }
 }
 
