@@ -379,16 +379,48 @@ static enum rayd_status obj_defer(struct obj *o, struct obj_key a, struct obj_ke
     return RAYD_OK;
 }
 
+#define OBJ_PLAIN_MAX 8 /* corners a face may have for obj_plain_corners */
+
+/* The corners of a face line of plain position indices ("f 1 2 3", the
+ * faces of most scanned meshes), read in one pass into v: their number,
+ * or 0 when the line has anything else (a slash, a sign, an index out of
+ * range, more corners), which obj_f's general reading then takes and
+ * words the error of.  Splitting every corner into fields instead, the
+ * 1.3M-triangle OBJ decoded in 0.151 s against 0.136 (2 threads, median
+ * of 15). */
+static int obj_plain_corners(const struct obj *o, const char *p, const char *end,
+                             uint32_t v[OBJ_PLAIN_MAX]) {
+    int n = 0;
+    for (;;) {
+        while (p < end && obj_space(*p)) p++;
+        if (p == end || *p == '#') return n >= 3 ? n : 0;
+        const char *digits = p;
+        uint64_t x = 0;
+        while (p < end && p - digits < 10 && *p >= '0' && *p <= '9')
+            x = x * 10 + (uint64_t)(*p++ - '0');
+        if (n == OBJ_PLAIN_MAX || p == digits || x == 0 || x > o->nv || (p < end && !obj_space(*p)))
+            return 0;
+        v[n++] = (uint32_t)x;
+    }
+}
+
 static enum rayd_status obj_f(struct obj *o, const char *p, const char *end) {
     const char *tok;
     size_t n;
-    uint32_t first = 0, prev = 0;
+    uint32_t first = 0, prev = 0, plain[OBJ_PLAIN_MAX];
     struct obj_key first_k = {0, 0, 0}, prev_k = {0, 0, 0};
-    int corners = 0;
-    while (obj_token(&p, end, &tok, &n)) {
+    int corners = 0, nplain = obj_plain_corners(o, p, end, plain);
+    for (;;) {
         struct obj_key k = {0, 0, 0};
         uint32_t idx = 0;
-        enum rayd_status st = obj_corner(o, tok, n, &k);
+        enum rayd_status st = RAYD_OK;
+        if (nplain) {
+            if (corners == nplain) break;
+            k.v = plain[corners];
+        } else {
+            if (!obj_token(&p, end, &tok, &n)) break;
+            st = obj_corner(o, tok, n, &k);
+        }
         if (st == RAYD_OK && !o->defer) st = obj_vertex(o, k, &idx);
         if (st == RAYD_OK && corners >= 2)
             st = o->defer ? obj_defer(o, first_k, prev_k, k) : obj_triangle(o, first, prev, idx);

@@ -188,6 +188,36 @@ static void test_obj_plain_faces(void) {
     mesh_data_free(NULL);
 }
 
+/* Faces of plain indices take a shorter road (obj_plain_corners); at its
+ * edges -- leading zeros, a comment, CR, tabs, more corners than it takes,
+ * an index glued to a comment or out of range -- the mesh or the error is
+ * the general reading's. */
+static void test_obj_plain_face_edges(void) {
+    struct mesh_data m = {0};
+    struct rayd_error e = {0};
+    char text[1024];
+    snprintf(text, sizeof text,
+             "%sv 2 0 0\nv 2 1 0\nv 3 0 0\nv 3 1 0\nv 4 0 0\n"
+             "f 001 2 3 # a comment\nf\t1 3\t4\r\nf 1 2 3 4 5 6 7 8 9\n",
+             obj_square_v);
+    CHECK(obj(text, &m, &e) == RAYD_OK && m.ntris == 1 + 1 + 7 && m.nverts == 9, "%s (%u tris)",
+          e.message, m.ntris);
+    CHECK(tri_is(&m, 0, 0, 1, 2) && tri_is(&m, 1, 0, 2, 3) && tri_is(&m, 8, 0, 7, 8),
+          "fan indices");
+    mesh_data_free(&m);
+    snprintf(text, sizeof text, "%sf 1 2 3#x\n", obj_square_v);
+    CHECK(obj(text, &m, &e) == RAYD_E_INVALID && strstr(e.message, "line 5: bad face index '3#x'"),
+          "%s", e.message);
+    snprintf(text, sizeof text, "%sf 1 2 5\n", obj_square_v);
+    CHECK(obj(text, &m, &e) == RAYD_E_INVALID &&
+              strstr(e.message, "line 5: face index 5 is out of range (1..4)"),
+          "%s", e.message);
+    snprintf(text, sizeof text, "%sf 1 2 99999999999\n", obj_square_v);
+    CHECK(obj(text, &m, &e) == RAYD_E_INVALID &&
+              strstr(e.message, "face index 99999999999 is out of range"),
+          "%s", e.message);
+}
+
 static void test_obj_face_forms(void) {
     struct mesh_data m = {0};
     struct rayd_error e = {0};
@@ -1291,6 +1321,7 @@ static void test_fuzz_truncate_and_corrupt(void) {
 int main(void) {
     RUN(test_number_parser);
     RUN(test_obj_plain_faces);
+    RUN(test_obj_plain_face_edges);
     RUN(test_obj_face_forms);
     RUN(test_obj_negative_indices);
     RUN(test_obj_polygons_fan);
