@@ -353,7 +353,9 @@ static enum rayd_status obj_triangle(struct obj *o, uint32_t a, uint32_t b, uint
 
 /* Position v is used by o's chunk: the first chunk to use it is kept (an
  * atomic minimum), for obj_number_positions.  Noted here, while the
- * corner is at hand, rather than in a pass of its own over them all. */
+ * corner is at hand, rather than in a pass of its own over them all; a
+ * file whose faces turn out to have a vt or vn then wasted this (a compare
+ * and swap a corner, one word a position). */
 static void obj_first_use(struct obj *o, uint32_t v) {
     uint32_t c = o->defer->index, cur = atomic_load_explicit(&o->first[v], memory_order_relaxed);
     while (cur > c && !atomic_compare_exchange_weak_explicit(

@@ -1249,6 +1249,14 @@ static void test_obj_positions_only_on_threads(void) {
     mesh_data_free(&m);
     struct mesh_limits lim = {100000, 20000};
     CHECK(obj_n(s, len, &lim, &m, &e) == RAYD_E_LIMIT, "%s", e.message);
+    /* one face with a vt at the end: numbered in order on one thread (its
+     * chunk alone has one), the uv dropped since the other corners lack it */
+    const char *tail = "vt 0 0\nf 1/1 2/1 3/1\n";
+    s = realloc(s, len + strlen(tail) + 1);
+    memcpy(s + len, tail, strlen(tail) + 1);
+    CHECK(obj_n(s, len + strlen(tail), NULL, &m, &e) == RAYD_OK && m.ntris > 20000 && !m.uv, "%s",
+          e.message);
+    mesh_data_free(&m);
     free(s);
 }
 
