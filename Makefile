@@ -470,6 +470,11 @@ $(BUILD)/bench/genmesh: bench/genmesh.c | $(BUILD)/.deps-ok
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) $< -o $@ $(LDFLAGS_ALL) -lm
 
+# The benches' timer of a whole process (fork to exit).
+$(BUILD)/bench/walltime: bench/walltime.c | $(BUILD)/.deps-ok
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS_ALL) $< -o $@ $(LDFLAGS_ALL)
+
 # Deterministic meshes (same level, same bytes) and a scene framing each.
 $(BENCH_DIR)/mesh-%.ply: $(BUILD)/bench/genmesh
 	$< $* $@
@@ -511,11 +516,11 @@ bench-deps: | $(BUILD)/.deps-ok
 	@sh tools/deps.sh "make bench-deps" $(BENCH_PKGS)
 
 bench: all $(BUILD)/bench/raybench $(BUILD)/bench/genmesh $(BUILD)/bench/pngbench $(BUILD)/bench/hdrbench $(BENCH_SCENES) \
-       $(BENCH_DIR)/mesh-8-obj.json | $(BUILD)/.test-deps-ok
+       $(BENCH_DIR)/mesh-8-obj.json $(BUILD)/bench/walltime | $(BUILD)/.test-deps-ok
 	@bash bench/run.sh $(BUILD)
 
 bench-peers: all bench-deps $(BUILD)/bench/raybench $(BUILD)/bench/embree_bench $(BUILD)/bench/imgdiff \
-             $(BENCH_SCENES) $(BENCH_DIR)/mesh-8-obj.json
+             $(BENCH_SCENES) $(BENCH_DIR)/mesh-8-obj.json $(BUILD)/bench/walltime
 	@bash bench/peers.sh $(BUILD)
 
 lint-deps:

@@ -35,7 +35,7 @@ D=$BUILD/bench
 R=$D/results
 mkdir -p "$R"
 rm -f "$R"/*.[0-9] "$R"/*.[0-9][0-9] "$R/stderr.log"
-for p in "$D/raybench" "$D/embree_bench" "$D/imgdiff" "$BUILD/rayd-render"; do
+for p in "$D/raybench" "$D/embree_bench" "$D/imgdiff" "$D/walltime" "$BUILD/rayd-render"; do
     [ -x "$p" ] || { echo "bench-peers: $p is missing (run make bench-peers)"; exit 1; }
 done
 command -v povray >/dev/null || { echo "bench-peers: povray is missing (make bench-deps)"; exit 1; }
@@ -120,11 +120,11 @@ rayd_cpu=$(kv "$R/spheres10.raybench-cpu" image_s_1t)
 # every pixel, their one-thread time halved for 2 threads (ideal scaling:
 # generous to Embree).
 whole() { # SCENE -> the median of RUNS whole rayd-render processes, seconds
-    local k t0 ts=()
-    for k in $(seq "$RUNS"); do
-        t0=$(date +%s%N)
-        "$BUILD/rayd-render" "$1" -o "$R/whole.png" --threads 2 2>>"$R/stderr.log"
-        ts+=("$(( ($(date +%s%N) - t0) / 1000 ))")
+    local k ts=()
+    for k in $(seq "$RUNS"); do # fork to exit (bench/walltime.c)
+        "$D/walltime" "$R/walltime" "$BUILD/rayd-render" "$1" -o "$R/whole.png" --threads 2 \
+            2>>"$R/stderr.log"
+        ts+=("$(cat "$R/walltime")")
     done
     printf '%s\n' "${ts[@]}" | med | awk '{printf "%.4f", $1 / 1e6}'
 }

@@ -35,9 +35,9 @@ json.dump(d, open(sys.argv[2], "w"))
 PY
         times=() rates=() wholes=() parses=() decodes=() builds=() encodes=() bands=()
         for _ in $(seq "$RUNS"); do
-            t0=$(date +%s%N)
-            out=$("$BUILD/rayd-render" "$tmp/$name-$spp.json" -o "$tmp/out.png" --threads 2 --stats 2>&1)
-            wholes+=("$(( ($(date +%s%N) - t0) / 1000 ))")
+            out=$("$BUILD/bench/walltime" "$tmp/us" "$BUILD/rayd-render" "$tmp/$name-$spp.json" \
+                -o "$tmp/out.png" --threads 2 --stats 2>&1)
+            wholes+=("$(cat "$tmp/us")")
             times+=("$(awk '/^wall:/ {print $2}' <<<"$out")")
             parses+=("$(awk '/^time parse:/ {print $3}' <<<"$out")")
             decodes+=("$(awk '/^time decode:/ {print $3}' <<<"$out")")

@@ -30,13 +30,11 @@ url=$(sed -n 's/^rayd listening on //p' "$tmp/rayd.out")
 cli=() http=()
 for k in $(seq 1 $((${RUNS:-3} * 3))); do
     { cat bench/scenes/spheres10.json; printf '%*s\n' "$k" ''; } >"$tmp/s$k.json"
-    t0=$(date +%s%N)
-    "$BUILD/rayd-render" "$tmp/s$k.json" -o "$tmp/cli.png" --threads 2
-    cli+=("$(( ($(date +%s%N) - t0) / 1000 ))")
-    t0=$(date +%s%N)
-    curl -s -o "$tmp/http.png" -H 'Content-Type: application/json' --data-binary @"$tmp/s$k.json" \
-        "$url/v1/render"
-    http+=("$(( ($(date +%s%N) - t0) / 1000 ))")
+    "$D/walltime" "$tmp/us" "$BUILD/rayd-render" "$tmp/s$k.json" -o "$tmp/cli.png" --threads 2
+    cli+=("$(cat "$tmp/us")")
+    "$D/walltime" "$tmp/us" curl -s -o "$tmp/http.png" -H 'Content-Type: application/json' \
+        --data-binary @"$tmp/s$k.json" "$url/v1/render"
+    http+=("$(cat "$tmp/us")")
 done
 kill -TERM "$rp"
 wait "$rp" || true
