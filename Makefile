@@ -454,9 +454,10 @@ run: all
 	$(BUILD)/rayd --bind 127.0.0.1 --port 8080
 
 # Benchmark programs: raybench links the core's internals, like unit tests.
-# Bench-only Debian packages (Embree and POV-Ray for `make bench-peers`):
+# Bench-only Debian packages (Embree and POV-Ray for `make bench-peers`,
+# tinyobjloader and g++ for the Embree side's OBJ parse, bench/peers/objparse.cc):
 # never runtime dependencies, never installed by `make deps`.
-BENCH_PKGS := libembree-dev povray
+BENCH_PKGS := libembree-dev povray libtinyobjloader-dev g++
 BENCH_DIR := $(BUILD)/bench
 # genmesh levels: 20 * 4^L triangles, 5,120 (L=4) .. 1,310,720 (L=8).
 BENCH_LEVELS := 4 5 6 7 8
@@ -507,6 +508,10 @@ $(BUILD)/bench/embree_bench: bench/peers/embree_bench.c $(BUILD)/librayd.a | ben
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -Iinclude -Icore $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a -lembree3 $(LIBS_CORE)
 
+$(BUILD)/bench/objparse: bench/peers/objparse.cc | bench-deps
+	@mkdir -p $(dir $@)
+	$(CXX) -std=c++17 -O2 -Wall -Wextra -Werror $< -o $@ -ltinyobjloader
+
 $(BUILD)/bench/imgdiff: bench/peers/imgdiff.c $(BUILD)/librayd.a
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -Iinclude $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
@@ -520,7 +525,7 @@ bench: all $(BUILD)/bench/raybench $(BUILD)/bench/genmesh $(BUILD)/bench/pngbenc
 	@bash bench/run.sh $(BUILD)
 
 bench-peers: all bench-deps $(BUILD)/bench/raybench $(BUILD)/bench/embree_bench $(BUILD)/bench/imgdiff \
-             $(BENCH_SCENES) $(BENCH_DIR)/mesh-8-obj.json $(BUILD)/bench/walltime
+             $(BENCH_SCENES) $(BENCH_DIR)/mesh-8-obj.json $(BUILD)/bench/walltime $(BUILD)/bench/objparse
 	@bash bench/peers.sh $(BUILD)
 
 lint-deps:
