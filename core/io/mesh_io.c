@@ -31,7 +31,6 @@ void mesh_data_free(struct mesh_data *m) {
     memset(m, 0, sizeof *m);
 }
 
-
 /* UINT32_MAX - 1 at most, so a count + 1 still fits a uint32_t. */
 uint32_t mesh_max_vertices(const struct mesh_limits *lim) {
     return lim && lim->max_vertices < UINT32_MAX ? lim->max_vertices : UINT32_MAX - 1;
@@ -77,8 +76,8 @@ static bool mesh_number_slow(const char *s, size_t n, double *out) {
     return true;
 }
 
-bool mesh_parse_number(const char *s, size_t n, double *out) {
-    size_t i = 0;
+size_t mesh_scan_number(const char *s, const char *end, double *out) {
+    size_t n = (size_t)(end - s), i = 0;
     bool neg = false;
     if (i < n && (s[i] == '+' || s[i] == '-')) neg = s[i++] == '-';
     uint64_t m = 0;
@@ -86,36 +85,43 @@ bool mesh_parse_number(const char *s, size_t n, double *out) {
     for (; i < n && mesh_is_digit(s[i]); i++, digits++) {
         if (m == 0 && s[i] == '0') continue;
         m = m * 10 + (uint64_t)(s[i] - '0');
-        if (++sig > 19) return mesh_number_slow(s, n, out);
+        if (++sig > 19) return 0;
     }
     if (i < n && s[i] == '.') {
         for (i++; i < n && mesh_is_digit(s[i]); i++, digits++) {
             exp10--;
             if (m == 0 && s[i] == '0') continue;
             m = m * 10 + (uint64_t)(s[i] - '0');
-            if (++sig > 19) return mesh_number_slow(s, n, out);
+            if (++sig > 19) return 0;
         }
     }
-    if (digits == 0) return mesh_number_slow(s, n, out); /* "nan", "inf", ".", "" */
+    if (digits == 0) return 0; /* "nan", "inf", ".", "" */
     if (i < n && (s[i] == 'e' || s[i] == 'E')) {
         i++;
         bool eneg = false;
         if (i < n && (s[i] == '+' || s[i] == '-')) eneg = s[i++] == '-';
-        if (i >= n || !mesh_is_digit(s[i])) return false;
+        if (i >= n || !mesh_is_digit(s[i])) return 0;
         int e = 0;
         for (; i < n && mesh_is_digit(s[i]); i++)
             if (e < 100000) e = e * 10 + (s[i] - '0');
         exp10 += eneg ? -e : e;
     }
-    if (i != n) return mesh_number_slow(s, n, out); /* hex and other strtod forms */
     double v;
     if (m == 0) {
         v = 0.0;
     } else if (m <= (UINT64_C(1) << 53) && exp10 >= -22 && exp10 <= 22) {
         v = exp10 < 0 ? (double)m / mesh_pow10[-exp10] : (double)m * mesh_pow10[exp10];
     } else {
-        return mesh_number_slow(s, n, out);
+        return 0;
     }
     *out = neg ? -v : v;
-    return true;
+    return i;
+}
+
+bool mesh_parse_number(const char *s, size_t n, double *out) {
+    /* the whole token by the fast path, or strtod: hex and other strtod
+     * forms, long mantissas, big exponents, and every malformed token,
+     * which strtod refuses */
+    if (n > 0 && mesh_scan_number(s, s + n, out) == n) return true;
+    return mesh_number_slow(s, n, out);
 }

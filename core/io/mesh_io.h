@@ -46,12 +46,15 @@ enum rayd_status mesh_parse_ply(const void *data, size_t len, const struct mesh_
  * (1: one pass in order, as above), <= 0 every core for inputs large
  * enough to gain from them.  The mesh, and on failure the error, are the
  * same whatever the count. */
-enum rayd_status mesh_parse_obj_threads(const char *text, size_t len,
-                                        const struct mesh_limits *lim, int threads,
-                                        struct mesh_data *out, struct rayd_error *err);
-enum rayd_status mesh_parse_ply_threads(const void *data, size_t len,
-                                        const struct mesh_limits *lim, int threads,
-                                        struct mesh_data *out, struct rayd_error *err);
+enum rayd_status mesh_parse_obj_threads(const char *text, size_t len, const struct mesh_limits *lim,
+                                        int threads, struct mesh_data *out, struct rayd_error *err);
+enum rayd_status mesh_parse_ply_threads(const void *data, size_t len, const struct mesh_limits *lim,
+                                        int threads, struct mesh_data *out, struct rayd_error *err);
+
+/* Tests: OBJ lines read only the general way (false), or with the fast
+ * path for plain "v" and "f" lines (true, the default); both must give
+ * the same mesh or the same error. */
+void mesh_obj_fast_path(bool on);
 
 /* ---- helpers shared by mesh_obj.c and mesh_ply.c ------------------------ */
 
@@ -59,12 +62,18 @@ enum rayd_status mesh_parse_ply_threads(const void *data, size_t len,
  * the thread count themselves. */
 #define MESH_IO_CHUNK 8192
 
-
 /* Parses the whole of s[0..n) as a decimal number (sign, digits, point,
  * exponent; strtod's forms such as "nan" and "inf" too, so the caller can
  * say "not finite" rather than "not a number").  False unless every byte is
  * part of the number.  Never reads s[n]. */
 bool mesh_parse_number(const char *s, size_t n, double *out);
+
+/* The number that starts at s (before end) in its common form -- sign,
+ * at most 19 significant digits, point, exponent, a value the fast path
+ * computes exactly -- into *out: the bytes it spans, or 0 when s does not
+ * start such a number (mesh_parse_number then asks strtod).  The decoders'
+ * loops read numbers with it in place, without cutting tokens first. */
+size_t mesh_scan_number(const char *s, const char *end, double *out);
 
 /* Copies s[0..n) into buf (MESH_QUOTE_SIZE bytes) for an error message:
  * bytes outside printable ASCII become '?' (messages end up in JSON), and

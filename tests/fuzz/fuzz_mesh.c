@@ -23,22 +23,27 @@ static bool same_mesh(const struct mesh_data *a, const struct mesh_data *b) {
            same_array(a->index, b->index, (size_t)a->ntris * 3 * sizeof(uint32_t));
 }
 
-/* Decodes with 1 and 3 threads and compares. */
+/* Decodes with 1 and 3 threads and compares; an OBJ also with its fast
+ * path for plain lines off (mesh_obj_fast_path), on one thread. */
 static void both(bool obj, const char *p, size_t n) {
     struct mesh_limits lim = {100000, 100000};
-    struct mesh_data m[2] = {{0}, {0}};
-    struct rayd_error err[2];
-    enum rayd_status st[2];
-    for (int k = 0; k < 2; k++) {
+    struct mesh_data m[3] = {{0}, {0}, {0}};
+    struct rayd_error err[3];
+    enum rayd_status st[3];
+    int runs = obj ? 3 : 2;
+    for (int k = 0; k < runs; k++) {
         memset(&err[k], 0, sizeof err[k]);
-        st[k] = obj ? mesh_parse_obj_threads(p, n, &lim, k ? 3 : 1, &m[k], &err[k])
-                    : mesh_parse_ply_threads(p, n, &lim, k ? 3 : 1, &m[k], &err[k]);
+        if (k == 2) mesh_obj_fast_path(false);
+        st[k] = obj ? mesh_parse_obj_threads(p, n, &lim, k == 1 ? 3 : 1, &m[k], &err[k])
+                    : mesh_parse_ply_threads(p, n, &lim, k == 1 ? 3 : 1, &m[k], &err[k]);
+        if (k == 2) mesh_obj_fast_path(true);
     }
-    if (st[0] != st[1]) abort();
-    if (st[0] != RAYD_OK && strcmp(err[0].message, err[1].message)) abort();
-    if (st[0] == RAYD_OK && !same_mesh(&m[0], &m[1])) abort();
-    mesh_data_free(&m[0]);
-    mesh_data_free(&m[1]);
+    for (int k = 1; k < runs; k++) {
+        if (st[0] != st[k]) abort();
+        if (st[0] != RAYD_OK && strcmp(err[0].message, err[k].message)) abort();
+        if (st[0] == RAYD_OK && !same_mesh(&m[0], &m[k])) abort();
+    }
+    for (int k = 0; k < runs; k++) mesh_data_free(&m[k]);
 }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);

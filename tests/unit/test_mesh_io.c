@@ -4,6 +4,7 @@
  * NUL after it), so under ASan a decoder reading one byte too far fails.
  * Binary PLY files are built byte by byte here, in both byte orders.
  */
+#include <dirent.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -20,16 +21,21 @@ static bool same_floats(const float *a, const float *b, size_t n) {
 
 /* Decodes data with 2, 3 and 8 threads too and checks that every count
  * gives what one thread gave: the same status and message, or the same
- * mesh (the threaded decoders must be invisible). */
+ * mesh (the threaded decoders must be invisible).  An OBJ is read once
+ * more with the fast path for plain lines off (mesh_obj_fast_path), which
+ * must be invisible too: threads 0 below. */
 static void same_on_threads(bool is_obj, const void *data, size_t len,
                             const struct mesh_limits *lim, enum rayd_status st,
                             const struct mesh_data *m, const struct rayd_error *e) {
-    static const int threads[] = {2, 3, 8};
-    for (size_t k = 0; k < sizeof threads / sizeof threads[0]; k++) {
+    static const int threads[] = {2, 3, 8, 0};
+    for (size_t k = 0; k < sizeof threads / sizeof threads[0] - !is_obj; k++) {
         struct mesh_data t = {0};
         struct rayd_error te = {0};
-        enum rayd_status ts = is_obj ? mesh_parse_obj_threads(data, len, lim, threads[k], &t, &te)
-                                     : mesh_parse_ply_threads(data, len, lim, threads[k], &t, &te);
+        mesh_obj_fast_path(threads[k] != 0);
+        enum rayd_status ts =
+            is_obj ? mesh_parse_obj_threads(data, len, lim, threads[k] ? threads[k] : 1, &t, &te)
+                   : mesh_parse_ply_threads(data, len, lim, threads[k], &t, &te);
+        mesh_obj_fast_path(true);
         bool same = ts == st;
         if (same && st != RAYD_OK) same = e && !strcmp(te.message, e->message);
         if (same && st == RAYD_OK)
@@ -1260,6 +1266,40 @@ static void test_obj_positions_only_on_threads(void) {
     free(s);
 }
 
+/* ---- OBJ files others made --------------------------------------------- */
+
+/* Every OBJ of Debian's assimp-testmodels (make test-deps installs it):
+ * decoded on one thread, on 2, 3 and 8, and with the fast path for plain
+ * lines off (obj_n), all alike.  Among them: number forms, many spaces,
+ * a missing last line end, a long line, UTF-16, lines and points. */
+static void test_obj_files_others_made(void) {
+    static const char *dir = "/usr/share/assimp/models/OBJ";
+    DIR *d = opendir(dir);
+    CHECK(d != NULL, "%s is missing (make test-deps installs assimp-testmodels)", dir);
+    if (!d) return;
+    int files = 0, meshes = 0;
+    for (struct dirent *f; (f = readdir(d));) {
+        size_t n = strlen(f->d_name);
+        if (n < 5 || strcmp(f->d_name + n - 4, ".obj")) continue;
+        char path[512];
+        snprintf(path, sizeof path, "%s/%s", dir, f->d_name);
+        char *text;
+        size_t len;
+        struct rayd_error e = {0};
+        if (rayd_read_file(path, (size_t)1 << 26, &text, &len, &e) != RAYD_OK) {
+            CHECK(0, "%s: %s", path, e.message);
+            continue;
+        }
+        struct mesh_data m = {0};
+        if (obj_n(text, len, NULL, &m, &e) == RAYD_OK) meshes++;
+        mesh_data_free(&m);
+        free(text);
+        files++;
+    }
+    closedir(d);
+    CHECK(files >= 20 && meshes >= 10, "%d files, %d meshes", files, meshes);
+}
+
 /* ---- fuzz-style: truncate and corrupt at every offset ------------------- */
 
 static int fuzz_run(int kind, const unsigned char *buf, size_t n) {
@@ -1351,6 +1391,7 @@ int main(void) {
     RUN(test_ply_binary_fast_layout);
     RUN(test_obj_large_on_threads);
     RUN(test_obj_positions_only_on_threads);
+    RUN(test_obj_files_others_made);
     RUN(test_base64_round_trip);
     RUN(test_base64_padding_and_whitespace);
     RUN(test_base64_errors);
