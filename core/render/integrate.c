@@ -186,11 +186,12 @@ static vec3 shade_secondary(const rayd_scene *s, const ray *r, const struct fram
     if (depth >= s->rs.max_depth) return c;
     const struct material *m = f->sf.m;
     double kr = m->reflectivity, kt = m->transparency;
-    vec3 refl_dir = mirror_dir(r, f);
-    if (kt <= 0) {
-        if (kr > 0) c = v3_madd(c, trace_from(s, f->above, refl_dir, depth + 1, key, rays), kr);
+    if (kt <= 0) { /* opaque: a mirror ray only where the material reflects */
+        if (kr > 0)
+            c = v3_madd(c, trace_from(s, f->above, mirror_dir(r, f), depth + 1, key, rays), kr);
         return c;
     }
+    vec3 refl_dir = mirror_dir(r, f);
     double cos_i = -v3_dot(r->d, f->nf), cos_t = 0, fr;
     vec3 tdir;
     if (f->sf.thin) { /* thin surface: no bending, no Fresnel split */
