@@ -128,15 +128,16 @@ rayd_cpu=$(kv "$R/spheres10.raybench-cpu" image_s_1t)
 # peer given the binary file).
 # One round a run, each side right after the other, so that a burst of
 # load from elsewhere hits both: the OBJ parse, POV-Ray's +WT2 trace and
-# rayd's sphere frame, Embree's PLY load + build + rays (embree_bench
-# --runs 1), rayd's PLY and its OBJ.  Each figure is the median of its
-# RUNS.  The order keeps the memory of every timed process as warm as its
-# peer's: on the VMs rayd runs on, pages freed a second or two ago are
-# handed back to the host and cost dear to touch again (hugemem.c), so a
-# rayd run straight after the 2 s OBJ parse took 0.55-0.62 s for the PLY
-# against 0.38-0.40 straight after another run.  Each mesh process here
-# follows one that has just freed its memory, as Embree's build, timed
-# inside embree_bench, follows its own load.
+# rayd's sphere frame, then Embree's PLY load + build + rays (embree_bench
+# --runs 1) and rayd's PLY, each run twice and timed the second time, then
+# rayd's OBJ.  Each figure is the median of its RUNS.  On the VMs rayd runs
+# on, pages freed a second or two ago are handed back to the host and cost
+# dear to touch again (hugemem.c): a rayd run straight after the 2 s OBJ
+# parse took 0.55-0.62 s for the PLY against 0.38-0.40 straight after
+# another run, and embree_bench's load and build after rayd's small sphere
+# frame 0.16 + 0.37 s against 0.07 + 0.22 after its own run.  So every
+# timed mesh process follows one that has just freed as much memory: both
+# sides are timed warm, as a user rendering one frame after another is.
 whole() { # SCENE: one whole rayd-render process, its microseconds (fork to exit,
     # walltime.c) into $R/walltime
     "$D/walltime" "$R/walltime" "$BUILD/rayd-render" "$1" -o "$R/whole.png" --threads 2 \
@@ -151,6 +152,8 @@ for r in $(seq "$RUNS"); do
     pov2_t+=("$(sed -n 's/.*Trace Time:.*(\([0-9.]*\) seconds).*/\1/p' "$pov/povray2.log" | head -1)")
     whole bench/scenes/spheres10.json && ws+=("$(cat "$R/walltime")")
     run "$R/e2e.embree.$r" "$D/embree_bench" "$D/mesh-8.json" --runs 1
+    run "$R/e2e.embree.$r" "$D/embree_bench" "$D/mesh-8.json" --runs 1
+    whole "$D/mesh-8.json"
     whole "$D/mesh-8.json" && wp+=("$(cat "$R/walltime")")
     whole "$D/mesh-8-obj.json" && wo+=("$(cat "$R/walltime")")
 done
