@@ -548,6 +548,16 @@ static bool obj_fast_numbers(const char *p, const char *end, float vals[7], int 
     }
 }
 
+enum obj_kind { OBJ_OTHER, OBJ_V, OBJ_VT, OBJ_VN, OBJ_F };
+
+/* The two common lines at a glance: OBJ_V for "v " and OBJ_F for "f "
+ * (or a tab) at p, the keyword first on the line; OBJ_OTHER for anything
+ * else, which obj_kind then reads token by token. */
+static enum obj_kind obj_kind_glance(const char *p, const char *end) {
+    if (end - p < 2 || (p[1] != ' ' && p[1] != '\t')) return OBJ_OTHER;
+    return p[0] == 'v' ? OBJ_V : p[0] == 'f' ? OBJ_F : OBJ_OTHER;
+}
+
 static atomic_bool obj_fast_on = true;
 
 void mesh_obj_fast_path(bool on) { atomic_store(&obj_fast_on, on); }
@@ -563,28 +573,24 @@ void mesh_obj_fast_path(bool on) { atomic_store(&obj_fast_on, on); }
  * its whole rayd-render process 0.484 -> 0.454 s (median of 11). */
 static bool obj_fast_line(struct obj *o, const char *p, const char *end, const char **next,
                           enum rayd_status *st) {
-    if (!atomic_load_explicit(&obj_fast_on, memory_order_relaxed) || end - p < 2 ||
-        (p[1] != ' ' && p[1] != '\t'))
+    enum obj_kind kind = obj_kind_glance(p, end);
+    if (!atomic_load_explicit(&obj_fast_on, memory_order_relaxed) || kind == OBJ_OTHER)
         return false;
     const char *eol;
-    if (p[0] == 'v') {
+    if (kind == OBJ_V) {
         float vals[7];
         int k;
         if (!obj_fast_numbers(p + 2, end, vals, &k, &eol)) return false;
         *st = obj_push(o, "v", &o->v, &o->nv, &o->cap_v, vals, 3);
-    } else if (p[0] == 'f') {
+    } else {
         uint32_t plain[OBJ_PLAIN_MAX];
         int n = obj_plain_corners(o, p + 2, end, plain, &eol);
         if (!n) return false;
         *st = obj_f_plain(o, plain, n);
-    } else {
-        return false;
     }
     *next = eol < end ? eol + 1 : end;
     return true;
 }
-
-enum obj_kind { OBJ_OTHER, OBJ_V, OBJ_VT, OBJ_VN, OBJ_F };
 
 /* What line [*p, end) states; *p is left after the keyword. */
 static enum obj_kind obj_kind(const char **p, const char *end) {
@@ -598,14 +604,10 @@ static enum obj_kind obj_kind(const char **p, const char *end) {
     return OBJ_OTHER; /* o g s usemtl mtllib l p and anything unknown */
 }
 
-/* obj_kind of the line [p, end), the two common lines ("v " and "f ")
- * at a glance. */
+/* obj_kind of the line [p, end), the two common lines at a glance. */
 static enum obj_kind obj_kind_quick(const char *p, const char *end) {
-    if (end - p >= 2 && (p[1] == ' ' || p[1] == '\t')) {
-        if (p[0] == 'v') return OBJ_V;
-        if (p[0] == 'f') return OBJ_F;
-    }
-    return obj_kind(&p, end);
+    enum obj_kind k = obj_kind_glance(p, end);
+    return k != OBJ_OTHER ? k : obj_kind(&p, end);
 }
 
 static enum rayd_status obj_statement(struct obj *o, const char *p, const char *end) {
@@ -802,7 +804,8 @@ static bool obj_bases(struct obj_par *j) {
     o->first = huge_alloc(sizeof *o->first * (o->nv + 1));
     if (o->first) memset(o->first, 0xff, sizeof *o->first * (o->nv + 1)); /* before the threads */
     /* one block for every chunk's plain corners: big enough for huge pages
-     * (hugemem.c), where a block a chunk was not and faulted 4 KiB pages */
+     * (hugemem.c); a block for each chunk was too small for them and
+     * faulted 4 KiB pages */
     j->vblock = huge_alloc(sizeof *j->vblock * (3 * faces + 1));
     for (size_t c = 0, at = 0; j->vblock && c < j->nchunks; c++) {
         j->chunks[c].vcorners = j->vblock + at;
