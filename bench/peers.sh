@@ -126,6 +126,7 @@ rayd_cpu=$(kv "$R/spheres10.raybench-cpu" image_s_1t)
 # use (objparse.cc, one thread as it runs), as issue 16 words the target;
 # the OBJ against the PLY load is printed too, the stricter reading (the
 # peer given the binary file).
+#
 # One round a run, each side right after the other, so that a burst of
 # load from elsewhere hits both: the OBJ parse, POV-Ray's +WT2 trace and
 # rayd's sphere frame, then Embree's PLY load + build + rays (embree_bench
