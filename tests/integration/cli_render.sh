@@ -19,6 +19,25 @@ else
     bad cli-threads-identical-bytes "PNG bytes differ between 1, 2 and 7 threads"
 fi
 
+# An existing output file is written over, not emptied first: what is left
+# must be the PNG alone, whether the old file was longer or shorter, and a
+# render to standard output and the progressive path's single write agree.
+head -c 3000000 /dev/urandom >"$T/over.png"
+printf 'x' >"$T/short.png"
+if "$R" "$scene" -o "$T/over.png" && "$R" "$scene" -o "$T/short.png" &&
+    cmp -s "$T/over.png" "$T/full1.png" && cmp -s "$T/short.png" "$T/full1.png"; then
+    ok cli-overwrite-existing
+else
+    bad cli-overwrite-existing "$(stat -c %s "$T/over.png") and $(stat -c %s "$T/short.png") bytes, want $(stat -c %s "$T/full1.png")"
+fi
+head -c 3000000 /dev/urandom >"$T/over-p.png"
+"$R" "$scene" -o "$T/pass.png" --passes -q && "$R" "$scene" -o "$T/over-p.png" --passes -q
+if cmp -s "$T/over-p.png" "$T/pass.png"; then
+    ok cli-overwrite-existing-passes
+else
+    bad cli-overwrite-existing-passes "$(stat -c %s "$T/over-p.png") bytes, want $(stat -c %s "$T/pass.png")"
+fi
+
 all_ok=1
 for region in 0,0,160,120 10,20,33,17 159,119,1,1 0,60,160,60; do
     IFS=, read -r x y w h <<<"$region"
