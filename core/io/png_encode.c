@@ -89,7 +89,7 @@
 #include "io/deflate_chain.h"
 #include "render/image.h"
 
-#define PNG_BAND_BYTES (128u * 1024u) /* raw bytes of a band, about */
+#define PNG_BAND_BYTES (256u * 1024u) /* raw bytes of a band, about */
 #define PNG_MAX_THREADS 64
 #define PNG_ISAL_LEVEL 2    /* ISA-L's level for --png-level 1 (measured) */
 #define PNG_LEVEL_DEFAULT 2 /* libdeflate's level when none is asked for (measured) */
