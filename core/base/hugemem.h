@@ -11,4 +11,10 @@
 void *huge_alloc(size_t bytes);
 void *huge_calloc(size_t n, size_t size);
 
+/* Short-lived work buffers (the PNG encoder's) on huge pages whatever
+ * their size, rounded up to whole 2 MiB pages: one fault each, where a
+ * fault is dear, rather than one per 4 KiB they touch.  Not zeroed; free
+ * with free(). */
+void *huge_alloc_pages(size_t bytes);
+
 #endif

@@ -87,6 +87,27 @@ static void test_every_level(void) {
     rayd_image_free(img);
 }
 
+/* A big image stored (level 0): its deflated bands fill more than one of
+ * the encoder's huge-page blocks, and come back whole on every thread
+ * count, the same bytes. */
+static void test_big_image_many_blocks(void) {
+    rayd_image *img = pattern(1200, 1000, 11); /* 3.6 MB of rows */
+    CHECK(img != NULL, "no image");
+    if (!img) return;
+    size_t len0 = 0;
+    void *first = roundtrip(img, 0, 1, &len0);
+    CHECK(len0 > (size_t)3 << 20, "level 0 of 3.6 MB of rows: %zu bytes", len0);
+    for (int threads = 2; threads <= 7; threads += 5) {
+        size_t len = 0;
+        void *buf = roundtrip(img, 0, threads, &len);
+        CHECK(first && buf && len == len0 && !memcmp(buf, first, len),
+              "1200x1000 level 0: %d threads give other bytes than 1", threads);
+        rayd_free(buf);
+    }
+    rayd_free(first);
+    rayd_image_free(img);
+}
+
 static uint32_t be32(const unsigned char *p) {
     return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
 }
@@ -138,6 +159,7 @@ static void test_chunks_well_formed(void) {
 int main(void) {
     RUN(test_odd_sizes_every_thread_count);
     RUN(test_every_level);
+    RUN(test_big_image_many_blocks);
     RUN(test_chunks_well_formed);
     CHECK_EXIT();
 }
