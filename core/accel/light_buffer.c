@@ -287,6 +287,10 @@ size_t light_buffers_bytes(const struct light_buffer *bufs, int nlights) {
 }
 
 void light_buffers_free(struct light_buffer *bufs, int nlights) {
-    (void)nlights; /* one block holds them all */
-    free(bufs);
+    if (!bufs) return;
+    size_t bytes = light_buffers_bytes(bufs, nlights); /* the one block's, as allocated */
+    if (bytes >= LB_HUGE)
+        huge_free_pages(bufs, bytes);
+    else
+        free(bufs);
 }

@@ -17,6 +17,8 @@
 #define _DEFAULT_SOURCE /* madvise */
 #include "base/hugemem.h"
 
+#include <pthread.h>
+#include <stdbool.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -25,14 +27,66 @@
 #define HUGEMEM_PAGE ((size_t)2 << 20)
 #define HUGEMEM_MIN ((size_t)4 << 20) /* smaller arrays: plain malloc */
 
+/* Blocks huge_free_pages keeps for the next huge_alloc_pages of their size:
+ * a server asks for the same buffers (a frame, the PNG encoder's) request
+ * after request, and on the virtual machines rayd runs on, fresh huge pages
+ * cost the kernel's zeroing of them on every fault (clear_page: 12% of the
+ * server's CPU on the 1080p sphere scene, POST after POST), where kept ones
+ * are warm.  At most HUGEMEM_KEEP bytes in HUGEMEM_KEEP_N blocks. */
+#define HUGEMEM_KEEP ((size_t)32 << 20)
+#define HUGEMEM_KEEP_N 16
+static struct {
+    void *p;
+    size_t whole;
+} kept[HUGEMEM_KEEP_N];
+static int nkept;
+static size_t kept_bytes;
+static pthread_mutex_t kept_lock = PTHREAD_MUTEX_INITIALIZER;
+
+/* bytes rounded up to whole huge pages (one at least); 0 past SIZE_MAX. */
+static size_t huge_whole(size_t bytes) {
+    if (bytes > SIZE_MAX - HUGEMEM_PAGE) return 0;
+    return bytes ? (bytes + HUGEMEM_PAGE - 1) / HUGEMEM_PAGE * HUGEMEM_PAGE : HUGEMEM_PAGE;
+}
+
+/* A kept block of whole bytes, or NULL. */
+static void *kept_take(size_t whole) {
+    void *p = NULL;
+    pthread_mutex_lock(&kept_lock);
+    for (int i = nkept - 1; i >= 0 && !p; i--)
+        if (kept[i].whole == whole) {
+            p = kept[i].p;
+            kept[i] = kept[--nkept];
+            kept_bytes -= whole;
+        }
+    pthread_mutex_unlock(&kept_lock);
+    return p;
+}
+
 void *huge_alloc_pages(size_t bytes) {
-    if (bytes > SIZE_MAX - HUGEMEM_PAGE) return NULL;
-    size_t whole = bytes ? (bytes + HUGEMEM_PAGE - 1) / HUGEMEM_PAGE * HUGEMEM_PAGE : HUGEMEM_PAGE;
-    void *p = aligned_alloc(HUGEMEM_PAGE, whole);
+    size_t whole = huge_whole(bytes);
+    if (!whole) return NULL;
+    void *p = kept_take(whole);
+    if (p) return p;
+    p = aligned_alloc(HUGEMEM_PAGE, whole);
 #ifdef MADV_HUGEPAGE
     if (p) madvise(p, whole, MADV_HUGEPAGE);
 #endif
     return p;
+}
+
+void huge_free_pages(void *p, size_t bytes) {
+    if (!p) return;
+    size_t whole = huge_whole(bytes);
+    pthread_mutex_lock(&kept_lock);
+    bool keep = nkept < HUGEMEM_KEEP_N && kept_bytes + whole <= HUGEMEM_KEEP;
+    if (keep) {
+        kept[nkept].p = p, kept[nkept].whole = whole;
+        nkept++;
+        kept_bytes += whole;
+    }
+    pthread_mutex_unlock(&kept_lock);
+    if (!keep) free(p);
 }
 
 void *huge_alloc(size_t bytes) {

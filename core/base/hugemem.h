@@ -11,10 +11,13 @@
 void *huge_alloc(size_t bytes);
 void *huge_calloc(size_t n, size_t size);
 
-/* Short-lived work buffers (the PNG encoder's) on huge pages whatever
- * their size, rounded up to whole 2 MiB pages: one fault each, where a
- * fault is dear, rather than one per 4 KiB they touch.  Not zeroed; free
- * with free(). */
+/* Work buffers that live for one render (a frame, the PNG encoder's) on
+ * huge pages whatever their size, rounded up to whole 2 MiB pages: one
+ * fault each, where a fault is dear, rather than one per 4 KiB they touch.
+ * Not zeroed.  Give them back with huge_free_pages and the same bytes,
+ * which keeps a few for the next call of their size (warm: no fault, no
+ * zeroing by the kernel). */
 void *huge_alloc_pages(size_t bytes);
+void huge_free_pages(void *p, size_t bytes);
 
 #endif

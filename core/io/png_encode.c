@@ -78,7 +78,10 @@
  * on 4 KiB pages these buffers took 500 of the 820 faults of a whole
  * rayd-render process on the 1080p sphere scene; on huge pages the process
  * takes 305, and the bands' deflating on all threads fell from 42.7 to
- * 34.6 ms (medians of 6 runs, alternating; same bytes).  Images from 256
+ * 34.6 ms (medians of 6 runs, alternating; same bytes).  They go back to
+ * huge_free_pages, which keeps them warm for the next image: in the server,
+ * POST after POST, fresh huge pages had cost the kernel's zeroing on every
+ * fault (12% of its CPU).  Images from 256
  * KB of rows on (PNG_HUGE_MIN): a 640 x 480 frame's encoder, on 4 KiB
  * pages, took 10.5 ms of work on all threads, on huge pages 8.4 ms.
  *
@@ -107,9 +110,9 @@
 #define PNG_ISAL_LEVEL 2    /* ISA-L's level for --png-level 1 (measured) */
 #define PNG_LEVEL_DEFAULT 2 /* libdeflate's level when none is asked for (measured) */
 #define PNG_XLOGX_N 4096    /* counts below this have c log2 c in a table */
-#define PNG_HUGE_MIN ((size_t)256 << 10) /* raw bytes of an image whose buffers are on huge pages  \
-                                          */
-#define PNG_LD_HUGE ((size_t)256 << 10) /* libdeflate's allocations on huge pages from this on */
+#define PNG_HUGE_MIN                                                                               \
+    ((size_t)256 << 10) /* raw bytes of an image whose buffers are on huge pages                   \
+                         */
 #define PNG_HOLD_BLOCK (((size_t)2 << 20) - 64) /* a block of deflated bands: one huge page */
 #define PNG_CHOOSE_EVERY 4  /* rows of a band whose filter is measured: 0, 4, 8, ... */
 
@@ -151,19 +154,52 @@ struct rayd_png_stream {
 static float png_xlogx[PNG_XLOGX_N];
 static pthread_once_t png_xlogx_once = PTHREAD_ONCE_INIT;
 
-/* bytes for the encoding of an image of raw bytes of filtered rows: on
- * huge pages when the image is big (see Memory, at the top). */
-static void *png_alloc(size_t bytes, size_t raw) {
-    return raw >= PNG_HUGE_MIN ? huge_alloc_pages(bytes) : malloc(bytes);
+/* A buffer of the encoder's: on huge pages for a big image (see Memory, at
+ * the top), given back to huge_free_pages, which keeps it warm for the
+ * next image. */
+struct png_buf {
+    unsigned char *p;
+    size_t bytes;
+    bool huge;
+};
+
+/* bytes into b, for an image of raw bytes of filtered rows; b->p NULL
+ * when out of memory. */
+static void png_buf_new(struct png_buf *b, size_t bytes, size_t raw) {
+    b->bytes = bytes;
+    b->huge = raw >= PNG_HUGE_MIN;
+    b->p = b->huge ? huge_alloc_pages(bytes) : malloc(bytes);
 }
 
-/* libdeflate's allocations: its compressor (668 KB from level 2 on, whose
- * hash tables every band clears) on huge pages, whatever the image. */
-static void *png_ld_alloc(size_t n) { return png_alloc(n, n >= PNG_LD_HUGE ? PNG_HUGE_MIN : 0); }
+static void png_buf_free(struct png_buf *b) {
+    if (b->huge)
+        huge_free_pages(b->p, b->bytes);
+    else
+        free(b->p);
+    b->p = NULL;
+}
+
+/* libdeflate's allocations (its compressor: 668 KB from level 2 on, whose
+ * hash tables every band clears) on huge pages, their size in front. */
+#define PNG_LD_HEAD 64
+static void *png_ld_alloc(size_t n) {
+    unsigned char *p = n <= SIZE_MAX - PNG_LD_HEAD ? huge_alloc_pages(n + PNG_LD_HEAD) : NULL;
+    if (!p) return NULL;
+    memcpy(p, &n, sizeof n);
+    return p + PNG_LD_HEAD;
+}
+
+static void png_ld_free(void *q) {
+    if (!q) return;
+    unsigned char *p = (unsigned char *)q - PNG_LD_HEAD;
+    size_t n;
+    memcpy(&n, p, sizeof n);
+    huge_free_pages(p, n + PNG_LD_HEAD);
+}
 
 static void xlogx_init(void) {
     for (int c = 1; c < PNG_XLOGX_N; c++) png_xlogx[c] = (float)(c * log2((double)c));
-    libdeflate_set_memory_allocator(png_ld_alloc, free); /* rayd's one use of libdeflate */
+    libdeflate_set_memory_allocator(png_ld_alloc, png_ld_free); /* rayd's one use of libdeflate */
 }
 
 /* The byte that filter f makes of cur[i]: for the first bytes of a row,
@@ -316,6 +352,7 @@ static size_t deflate_isal(unsigned char *in, size_t n, int last, unsigned char 
  * deflate's output, allocated a band, was 7% of the whole process on the
  * 1080p sphere scene). */
 struct png_scratch {
+    struct png_buf block, lbuf; /* holding the three below; ISA-L's state */
     unsigned char *filt, *zero; /* filtered rows, a row of zeros */
     unsigned char *z, *lb;      /* the deflate's output (zcap bytes), ISA-L's state */
     size_t zcap, lbsize;
@@ -346,8 +383,8 @@ static void band_encode(const rayd_image *img, int level, struct png_band *b, in
 
 static void scratch_free(struct png_scratch *w) {
     if (!w) return;
-    free(w->filt);
-    free(w->lb);
+    png_buf_free(&w->block);
+    png_buf_free(&w->lbuf);
     libdeflate_free_compressor(w->ld);
     free(w);
 }
@@ -366,18 +403,16 @@ static struct png_scratch *scratch_take(struct rayd_png_stream *s) {
     size_t n = (size_t)s->img->w * 3, raw = (n + 1) * (size_t)s->band_rows;
     w = calloc(1, sizeof *w);
     if (!w) return NULL;
-    size_t zcap = band_zcap(raw);
-    unsigned char *block = png_alloc(raw + n + zcap, (size_t)s->img->h * (n + 1));
-    *w = (struct png_scratch){block,
-                              block ? block + raw : NULL,
-                              block ? block + raw + n : NULL,
-                              NULL,
-                              zcap,
-                              s->level < 0 ? ISAL_DEF_LVL2_DEFAULT : 0,
-                              s->level >= 0 ? libdeflate_alloc_compressor(s->level) : NULL,
-                              NULL};
-    if (block) memset(w->zero, 0, n);
-    w->lb = w->lbsize ? png_alloc(w->lbsize, (size_t)s->img->h * (n + 1)) : NULL;
+    size_t zcap = band_zcap(raw), image_raw = (size_t)s->img->h * (n + 1);
+    png_buf_new(&w->block, raw + n + zcap, image_raw);
+    unsigned char *b = w->block.p;
+    w->filt = b, w->zero = b ? b + raw : NULL, w->z = b ? b + raw + n : NULL;
+    w->zcap = zcap;
+    if (b) memset(w->zero, 0, n);
+    w->lbsize = s->level < 0 ? ISAL_DEF_LVL2_DEFAULT : 0;
+    if (w->lbsize) png_buf_new(&w->lbuf, w->lbsize, image_raw);
+    w->lb = w->lbuf.p;
+    w->ld = s->level >= 0 ? libdeflate_alloc_compressor(s->level) : NULL;
     if (w->filt && w->zero && w->z && (s->level < 0 ? w->lb != NULL : w->ld != NULL)) return w;
     scratch_free(w);
     return NULL;
@@ -402,6 +437,7 @@ static void scratch_give(struct rayd_png_stream *s, struct png_scratch *w) {
 struct png_hold {
     struct png_hold *next;
     size_t used, cap;
+    bool huge;
     unsigned char data[];
 };
 
@@ -413,8 +449,10 @@ static unsigned char *hold_take(struct rayd_png_stream *s, size_t len) {
         size_t raw = (size_t)s->img->h * ((size_t)s->img->w * 3 + 1);
         size_t cap = raw >= PNG_HUGE_MIN ? PNG_HOLD_BLOCK : raw / 4 + 4096;
         cap = cap < len ? len : cap;
-        h = png_alloc(sizeof *h + cap, raw);
-        if (h) *h = (struct png_hold){s->hold, 0, cap};
+        struct png_buf m;
+        png_buf_new(&m, sizeof *h + cap, raw);
+        h = (struct png_hold *)(void *)m.p;
+        if (h) *h = (struct png_hold){s->hold, 0, cap, m.huge};
         if (h) s->hold = h;
     }
     unsigned char *p = h ? h->data + h->used : NULL;
@@ -640,7 +678,8 @@ void rayd_png_stream_free(rayd_png_stream *s) {
     while (s->hold) {
         struct png_hold *h = s->hold;
         s->hold = h->next;
-        free(h);
+        struct png_buf m = {(unsigned char *)h, sizeof *h + h->cap, h->huge};
+        png_buf_free(&m);
     }
     free(s->bands);
     while (s->spare) {

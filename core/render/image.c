@@ -14,7 +14,8 @@
 
 /* Images of this many bytes on 2 MiB huge pages: a 640 x 480 frame's 0.9 MB
  * on 4 KiB pages took 225 page faults, some 3 ms of a 25 ms render on a
- * virtual machine, where a fault costs about 14 us. */
+ * virtual machine, where a fault costs about 14 us.  Given back with
+ * huge_free_pages, a server's next frame of the size finds them warm. */
 #define IMAGE_HUGE_MIN ((size_t)256 << 10)
 
 enum rayd_status rayd_image_new(int w, int h, rayd_image **out, struct rayd_error *err) {
@@ -23,23 +24,31 @@ enum rayd_status rayd_image_new(int w, int h, rayd_image **out, struct rayd_erro
         return err_set(err, RAYD_E_LIMIT, NULL, "image of %d x %d pixels is too large", w, h);
     rayd_image *img = malloc(sizeof *img);
     size_t bytes = (size_t)w * (size_t)h * 3;
-    uint8_t *px = bytes >= IMAGE_HUGE_MIN ? huge_alloc_pages(bytes) : calloc(bytes, 1);
-    if (px && bytes >= IMAGE_HUGE_MIN) memset(px, 0, bytes);
+    bool huge = bytes >= IMAGE_HUGE_MIN;
+    uint8_t *px = huge ? huge_alloc_pages(bytes) : calloc(bytes, 1);
+    if (px && huge) memset(px, 0, bytes);
     if (!img || !px) {
         free(img);
-        free(px);
+        if (huge)
+            huge_free_pages(px, bytes);
+        else
+            free(px);
         return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for a %d x %d image", w, h);
     }
     img->w = w;
     img->h = h;
     img->px = px;
+    img->huge = huge;
     *out = img;
     return RAYD_OK;
 }
 
 void rayd_image_free(rayd_image *img) {
     if (!img) return;
-    free(img->px);
+    if (img->huge)
+        huge_free_pages(img->px, (size_t)img->w * (size_t)img->h * 3);
+    else
+        free(img->px);
     free(img);
 }
 

@@ -2,6 +2,7 @@
 #ifndef IMAGE_H
 #define IMAGE_H
 
+#include <stdbool.h>
 #include <stdint.h>
 
 #include "rayd/rayd.h"
@@ -9,6 +10,7 @@
 struct rayd_image {
     int w, h;
     uint8_t *px; /* w * h * 3 bytes */
+    bool huge;   /* px from huge_alloc_pages (else malloc) */
 };
 
 #endif

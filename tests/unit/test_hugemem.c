@@ -1,0 +1,97 @@
+/* test_hugemem.c -- huge-page buffers (hugemem.c): aligned to 2 MiB, and
+ * huge_free_pages keeps a few for the next call of their size, within its
+ * bounds, from any thread. */
+#include <pthread.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "base/hugemem.h"
+#include "check.h"
+
+#define MIB ((size_t)1 << 20)
+
+static void test_aligned_and_usable(void) {
+    static const size_t sizes[] = {1, 300000, 2 * MIB, 2 * MIB + 1, 7 * MIB};
+    for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) {
+        unsigned char *p = huge_alloc_pages(sizes[i]);
+        CHECK(p != NULL, "%zu bytes", sizes[i]);
+        if (!p) continue;
+        CHECK((uintptr_t)p % (2 * MIB) == 0, "%zu bytes at %p: not on a 2 MiB boundary", sizes[i],
+              (void *)p);
+        memset(p, 0xab, sizes[i]);
+        CHECK(p[sizes[i] - 1] == 0xab, "the last byte of %zu", sizes[i]);
+        huge_free_pages(p, sizes[i]);
+    }
+    CHECK(huge_alloc_pages(SIZE_MAX - 1) == NULL, "SIZE_MAX - 1 bytes allocated");
+    huge_free_pages(NULL, 123); /* nothing to do */
+}
+
+/* A block given back comes again for the next call whose size rounds to
+ * the same huge pages, with its bytes as they were left; not for another
+ * size. */
+static void test_kept_for_its_size(void) {
+    unsigned char *a = huge_alloc_pages(3 * MIB); /* 4 MiB of pages */
+    CHECK(a != NULL, "3 MiB");
+    if (!a) return;
+    a[12345] = 77;
+    huge_free_pages(a, 3 * MIB);
+    unsigned char *b = huge_alloc_pages(2 * MIB); /* other pages: not a */
+    unsigned char *c = huge_alloc_pages(4 * MIB - 5);
+    CHECK(b != a, "a 2 MiB call took the 4 MiB block");
+    CHECK(c == a, "the 4 MiB block was not kept for the next 4 MiB call");
+    if (c == a) CHECK(c[12345] == 77, "the kept block's bytes changed: %d", c[12345]);
+    huge_free_pages(b, 2 * MIB);
+    huge_free_pages(c, 4 * MIB - 5);
+}
+
+/* Far more given back than is kept: the rest is freed, and what is kept
+ * still comes back whole. */
+static void test_bounded(void) {
+    enum { N = 40 };
+    unsigned char *p[N];
+    for (int i = 0; i < N; i++) {
+        p[i] = huge_alloc_pages(2 * MIB);
+        CHECK(p[i] != NULL, "block %d", i);
+        if (p[i]) memset(p[i], i, 2 * MIB);
+    }
+    for (int i = 0; i < N; i++) huge_free_pages(p[i], 2 * MIB);
+    for (int i = 0; i < N; i++) {
+        p[i] = huge_alloc_pages(2 * MIB);
+        CHECK(p[i] != NULL, "again, block %d", i);
+        if (p[i]) memset(p[i], 0xff, 2 * MIB); /* every byte writable */
+    }
+    for (int i = 0; i < N; i++) huge_free_pages(p[i], 2 * MIB);
+}
+
+static void *churn(void *arg) {
+    size_t size = (size_t)(uintptr_t)arg;
+    for (int k = 0; k < 200; k++) {
+        unsigned char *q = huge_alloc_pages(size);
+        if (!q) return (void *)1;
+        q[0] = q[size - 1] = (unsigned char)k;
+        if (q[0] != (unsigned char)k) return (void *)1;
+        huge_free_pages(q, size);
+    }
+    return NULL;
+}
+
+static void test_threads(void) {
+    pthread_t t[4];
+    for (int i = 0; i < 4; i++)
+        CHECK(pthread_create(&t[i], NULL, churn, (void *)(uintptr_t)((size_t)(i + 1) * MIB)) == 0,
+              "thread %d", i);
+    for (int i = 0; i < 4; i++) {
+        void *r = NULL;
+        pthread_join(t[i], &r);
+        CHECK(r == NULL, "thread %d saw a block go wrong", i);
+    }
+}
+
+int main(void) {
+    RUN(test_aligned_and_usable);
+    RUN(test_kept_for_its_size);
+    RUN(test_bounded);
+    RUN(test_threads);
+    CHECK_EXIT();
+}
