@@ -30,7 +30,6 @@
 #include <string.h>
 
 #include "base/error.h"
-#include "base/hugemem.h"
 
 #define LB_MARGIN (1.0 / 1024) /* the widening of every object's directions */
 #define LB_CELLS 64            /* cells on a side of a face's rectangle */
@@ -38,7 +37,6 @@
 #define LB_MAX_LIGHTS 32       /* lights with a buffer; the others walk */
 #define LB_MAX_PAIRS (1 << 21) /* lights x objects: bounds the time to build */
 #define LB_MAX_IDS (1u << 22)  /* entries in all the cells of all the lights */
-#define LB_HUGE ((size_t)128 << 10) /* buffers of this many bytes on huge pages */
 
 /* An object's rectangle of directions on one face, or none. */
 struct lb_rect {
@@ -100,46 +98,39 @@ struct lb_scratch {
     uint32_t *fill;
 };
 
-/* Face f's rectangle and cells over the objects' boxes rel[] (relative to
- * the light), its objects' rectangles left in sc->rect; the entries its
- * lists will take, or SIZE_MAX past budget. */
-static size_t face_plan(struct light_face *f, int fi, const struct aabb *rel, int32_t n,
-                        struct lb_scratch *sc, size_t budget) {
+/* Face f's rectangle, cells and lists over the objects' boxes rel[]
+ * (relative to the light), taking their entries from *budget.  False when
+ * out of memory (*nomem set) or over the budget; either way the face may
+ * hold memory for buffer_free. */
+static bool face_build(struct light_face *f, int fi, const struct aabb *rel, int32_t n,
+                       struct lb_scratch *sc, size_t *budget, bool *nomem) {
     double u0 = INFINITY, u1 = -INFINITY, v0 = INFINITY, v1 = -INFINITY;
     for (int32_t k = 0; k < n; k++) {
         struct lb_rect r = sc->rect[k] = face_rect(fi, rel[k].lo, rel[k].hi);
         if (!r.on) continue;
         u0 = fmin(u0, r.u0), u1 = fmax(u1, r.u1), v0 = fmin(v0, r.v0), v1 = fmax(v1, r.v1);
     }
-    if (!(u0 < u1 && v0 < v1)) return 0; /* no object on this face */
+    if (!(u0 < u1 && v0 < v1)) return true; /* no object on this face */
     f->nu = f->nv = LB_CELLS;
     f->u0 = u0, f->v0 = v0;
     f->su = LB_CELLS / (u1 - u0), f->sv = LB_CELLS / (v1 - v0);
     f->cu = 1 / f->su, f->cv = 1 / f->sv;
-    size_t total = 0;
+    int32_t cells = f->nu * f->nv;
+    f->start = calloc((size_t)cells + 1, sizeof *f->start);
+    if (!f->start) return !(*nomem = true);
+    size_t total = 0; /* the counts, then the lists */
     for (int32_t k = 0; k < n; k++) {
         if (!sc->rect[k].on) continue;
         int32_t i0, i1, j0, j1;
         face_cells(f, &sc->rect[k], &i0, &i1, &j0, &j1);
         total += (size_t)(i1 - i0 + 1) * (size_t)(j1 - j0 + 1);
-        if (total > budget) return SIZE_MAX;
-    }
-    return total;
-}
-
-/* Face f's lists, planned by face_plan (whose rectangles sc->rect holds),
- * into f->start and f->ids, which have room for them. */
-static void face_fill(struct light_face *f, int32_t n, struct lb_scratch *sc) {
-    int32_t cells = f->nu * f->nv;
-    memset(f->start, 0, sizeof *f->start * ((size_t)cells + 1));
-    for (int32_t k = 0; k < n; k++) { /* the counts, then the lists */
-        if (!sc->rect[k].on) continue;
-        int32_t i0, i1, j0, j1;
-        face_cells(f, &sc->rect[k], &i0, &i1, &j0, &j1);
+        if (total > *budget) return false;
         for (int32_t j = j0; j <= j1; j++)
             for (int32_t i = i0; i <= i1; i++) f->start[j * f->nu + i + 1]++;
     }
+    *budget -= total;
     for (int32_t c = 0; c < cells; c++) f->start[c + 1] += f->start[c];
+    if (!(f->ids = malloc(sizeof *f->ids * (total + 1)))) return !(*nomem = true);
     memcpy(sc->fill, f->start, sizeof *sc->fill * (size_t)cells);
     for (int32_t k = 0; k < n; k++) {
         if (!sc->rect[k].on) continue;
@@ -148,43 +139,41 @@ static void face_fill(struct light_face *f, int32_t n, struct lb_scratch *sc) {
         for (int32_t j = j0; j <= j1; j++)
             for (int32_t i = i0; i <= i1; i++) f->ids[sc->fill[j * f->nu + i]++] = (uint32_t)k;
     }
+    return true;
 }
 
-/* The boxes relative to the light at p. */
-static void boxes_from(const struct aabb *box, int32_t n, vec3 p, struct aabb *rel) {
-    for (int32_t k = 0; k < n; k++)
-        rel[k] = (struct aabb){v3_sub(box[k].lo, p), v3_sub(box[k].hi, p)};
+static void buffer_free(struct light_buffer *b) {
+    for (int f = 0; f < 6; f++) free(b->face[f].start), free(b->face[f].ids);
+    memset(b, 0, sizeof *b);
 }
 
-/* Plans the buffer of the point light at p over the objects (boxes rel,
- * relative to p): its faces' rectangles and cells into b, the entries of
- * each face's lists into entries[6], within *budget (less those it
- * takes).  Leaves b->ok false where the buffer would not be sound, or not
- * fit. */
-static void buffer_plan(struct light_buffer *b, vec3 p, const struct aabb *rel, int32_t n,
-                        struct lb_scratch *sc, size_t *budget, size_t entries[6]) {
+/* The buffer of the point light at p over the objects (boxes rel,
+ * relative to p), with at most *budget entries (less those it takes);
+ * false when out of memory.  Leaves b->ok false where the buffer would not
+ * be sound, or not fit. */
+static bool buffer_build(struct light_buffer *b, vec3 p, const struct aabb *rel, int32_t n,
+                         struct lb_scratch *sc, size_t *budget) {
     double near = INFINITY;
     for (int32_t k = 0; k < n; k++) {
-        if (!box_finite(&rel[k])) return;
+        if (!box_finite(&rel[k])) return true;
         near = fmin(near, box_distance(rel[k].lo, rel[k].hi));
     }
     /* light_buffer.h's reach: within it a shadow ray strays from its line by
      * far less than LB_MARGIN sees at distance near */
     double reach = near * 1e3 - 1 - 1e-5 * v3_maxabs(p);
-    if (!(reach > 0) || !(near > 1e-6 * (1 + v3_maxabs(p)))) return;
+    if (!(reach > 0) || !(near > 1e-6 * (1 + v3_maxabs(p)))) return true;
     size_t left = *budget;
+    bool nomem = false;
     for (int f = 0; f < 6; f++) {
-        entries[f] = face_plan(&b->face[f], f, rel, n, sc, left);
-        if (entries[f] == SIZE_MAX) {
-            memset(b, 0, sizeof *b);
-            return;
-        }
-        left -= entries[f];
+        if (face_build(&b->face[f], f, rel, n, sc, &left, &nomem)) continue;
+        buffer_free(b);
+        return !nomem;
     }
     *budget = left;
     b->at = p;
     b->reach = reach;
     b->ok = true;
+    return true;
 }
 
 bool light_buffers_worth(const struct light_buffer_light *lights, int nlights, int32_t nobjs) {
@@ -193,81 +182,34 @@ bool light_buffers_worth(const struct light_buffer_light *lights, int nlights, i
     return point && nobjs >= 2 && nobjs <= LB_MAX_OBJS;
 }
 
-/* The uint32_t words the lists of the planned buffers take. */
-static size_t words_planned(const struct light_buffer *bufs, int nlights, size_t (*entries)[6]) {
-    size_t words = 0;
-    for (int i = 0; i < nlights; i++)
-        for (int f = 0; bufs[i].ok && f < 6; f++)
-            if (bufs[i].face[f].nu)
-                words +=
-                    (size_t)bufs[i].face[f].nu * (size_t)bufs[i].face[f].nv + 1 + entries[i][f];
-    return words;
-}
-
-/* The lists of the planned buffers bufs[0..nlights), entries[i][f] in
- * face f of light i, into words from w on (words_planned of them). */
-static void buffers_fill(struct light_buffer *bufs, int nlights, uint32_t *w, size_t (*entries)[6],
-                         const struct aabb *box, int32_t nobjs, struct aabb *rel,
-                         struct lb_scratch *sc) {
-    for (int i = 0; i < nlights; i++) {
-        if (!bufs[i].ok) continue;
-        boxes_from(box, nobjs, bufs[i].at, rel);
-        for (int fi = 0; fi < 6; fi++) {
-            struct light_face *f = &bufs[i].face[fi];
-            if (!f->nu) continue;
-            face_plan(f, fi, rel, nobjs, sc, SIZE_MAX); /* the rectangles again */
-            f->start = w;
-            f->ids = w + (size_t)f->nu * (size_t)f->nv + 1;
-            w = f->ids + entries[i][fi];
-            face_fill(f, nobjs, sc);
-        }
-    }
-}
-
-/* The buffers are planned first, light by light, and then built into one
- * block that holds them all: one allocation, on huge pages when big, in
- * place of two a face.  On the 100-sphere scene with two lights (230 KB
- * of lists) the build touched 60 fresh 4 KiB pages, each fault dear on a
- * virtual machine, and its build stage of a 1x1 render took 1.4 ms, now
- * 0.8 ms (the page faults of the whole process 259, now 205). */
 enum rayd_status light_buffers_build(const struct aabb *box, int32_t nobjs,
                                      const struct light_buffer_light *lights, int nlights,
                                      struct light_buffer **out, struct rayd_error *err) {
     *out = NULL;
     if (!light_buffers_worth(lights, nlights, nobjs)) return RAYD_OK;
-    struct light_buffer *plan = calloc((size_t)nlights, sizeof *plan);
-    size_t(*entries)[6] = calloc((size_t)nlights, sizeof *entries);
+    struct light_buffer *bufs = calloc((size_t)nlights, sizeof *bufs);
     struct aabb *rel = malloc(sizeof *rel * (size_t)nobjs);
     struct lb_scratch sc = {malloc(sizeof *sc.rect * (size_t)nobjs),
                             malloc(sizeof *sc.fill * (size_t)LB_CELLS * LB_CELLS)};
-    bool ok = plan && entries && rel && sc.rect && sc.fill;
+    bool ok = bufs && rel && sc.rect && sc.fill;
     size_t ids = LB_MAX_IDS;
     int built = 0, most = LB_MAX_PAIRS / nobjs < LB_MAX_LIGHTS ? LB_MAX_PAIRS / nobjs : LB_MAX_LIGHTS;
     for (int i = 0; ok && i < nlights && built < most; i++) {
         if (!lights[i].point) continue;
-        boxes_from(box, nobjs, lights[i].at, rel);
-        buffer_plan(&plan[i], lights[i].at, rel, nobjs, &sc, &ids, entries[i]);
+        vec3 p = lights[i].at;
+        for (int32_t k = 0; k < nobjs; k++)
+            rel[k] = (struct aabb){v3_sub(box[k].lo, p), v3_sub(box[k].hi, p)};
+        ok = buffer_build(&bufs[i], p, rel, nobjs, &sc, &ids);
         built++;
     }
-    size_t head = sizeof *plan * (size_t)nlights,
-           words = ok ? words_planned(plan, nlights, entries) : 0;
-    size_t bytes = head + sizeof(uint32_t) * words;
-    struct light_buffer *bufs =
-        ok ? (bytes >= LB_HUGE ? huge_alloc_pages(bytes) : malloc(bytes)) : NULL;
-    if (bufs) {
-        memcpy(bufs, plan, head);
-        buffers_fill(bufs, nlights, (uint32_t *)((char *)bufs + head), entries, box, nobjs, rel,
-                     &sc);
-    }
-    free(plan);
-    free(entries);
     free(rel);
     free(sc.rect);
     free(sc.fill);
-    if (bufs) {
+    if (ok) {
         *out = bufs;
         return RAYD_OK;
     }
+    light_buffers_free(bufs, nlights);
     return err_set(err, RAYD_E_NOMEM, NULL, "out of memory building the light buffers");
 }
 
@@ -288,9 +230,6 @@ size_t light_buffers_bytes(const struct light_buffer *bufs, int nlights) {
 
 void light_buffers_free(struct light_buffer *bufs, int nlights) {
     if (!bufs) return;
-    size_t bytes = light_buffers_bytes(bufs, nlights); /* the one block's, as allocated */
-    if (bytes >= LB_HUGE)
-        huge_free_pages(bufs, bytes);
-    else
-        free(bufs);
+    for (int i = 0; i < nlights; i++) buffer_free(&bufs[i]);
+    free(bufs);
 }

@@ -70,20 +70,22 @@
  * (bench/README.md).  Which thread deflates which band changes nothing in
  * the bytes.
  *
- * Memory.  A big image's buffers -- each worker's filtered rows and
- * deflate output, libdeflate's compressor, and the blocks that keep the
- * deflated bands until the file is joined (several bands a block, not an
- * allocation each) -- are on 2 MiB huge pages (huge_alloc_pages).  On the
- * virtual machines rayd is measured on a page fault costs some 14 us, and
- * on 4 KiB pages these buffers took 500 of the 820 faults of a whole
- * rayd-render process on the 1080p sphere scene; on huge pages the process
- * takes 305, and the bands' deflating on all threads fell from 42.7 to
- * 34.6 ms (medians of 6 runs, alternating; same bytes).  They go back to
- * huge_free_pages, which keeps them warm for the next image: in the server,
- * POST after POST, fresh huge pages had cost the kernel's zeroing on every
- * fault (12% of its CPU).  Images from 256
- * KB of rows on (PNG_HUGE_MIN): a 640 x 480 frame's encoder, on 4 KiB
- * pages, took 10.5 ms of work on all threads, on huge pages 8.4 ms.
+ * Memory.  On the virtual machines rayd is measured on a 4 KiB page fault
+ * costs some 14 us, and the encoder's buffers on such pages took 500 of
+ * the 820 faults of a whole rayd-render process on the 1080p sphere
+ * scene.  So each worker's memory is one block -- its filtered rows, its
+ * deflate output and libdeflate's compressor, put there through
+ * libdeflate's allocator hook -- and the deflated bands are kept in a few
+ * big blocks until the file is joined, not in an allocation each; for an
+ * image of 256 KB of rows or more (PNG_HUGE_MIN) these blocks are on 2 MiB
+ * huge pages (huge_alloc_pages).  The process then takes 300 faults, and
+ * the bands' deflating on all threads fell from 42.7 to 34.6 ms (medians
+ * of 6 runs, alternating; same bytes).  A huge page costs the kernel's
+ * zeroing of all of it when fresh, so the blocks are packed to fill their
+ * pages (a compressor on a page of its own made runs after a pause
+ * slower), and they go back to huge_free_pages, which keeps them warm for
+ * the next image: in the server, POST after POST, fresh huge pages had
+ * cost that zeroing on every fault (12% of its CPU).
  *
  * The chunks are those libpng wrote before: IHDR, sRGB, gAMA and cHRM for
  * sRGB, the IDATs (one a band: no copy of the whole stream), IEND.
@@ -179,22 +181,32 @@ static void png_buf_free(struct png_buf *b) {
     b->p = NULL;
 }
 
-/* libdeflate's allocations (its compressor: 668 KB from level 2 on, whose
- * hash tables every band clears) on huge pages, their size in front. */
+/* libdeflate's allocations: its compressor, 668 KB from level 2 on (its
+ * hash tables cleared for every band), goes into the room a worker's
+ * buffer keeps for it (png_ld_room, set around the call), so that one
+ * block holds all a worker's memory; anything else on huge pages.  The
+ * size and where it went are kept in front. */
 #define PNG_LD_HEAD 64
+#define PNG_LD_ROOM ((size_t)704 << 10) /* libdeflate 1.14's level 2-12 compressor, and more */
+static _Thread_local unsigned char *png_ld_room;
+
 static void *png_ld_alloc(size_t n) {
-    unsigned char *p = n <= SIZE_MAX - PNG_LD_HEAD ? huge_alloc_pages(n + PNG_LD_HEAD) : NULL;
+    size_t head[2] = {n, png_ld_room && n <= PNG_LD_ROOM - PNG_LD_HEAD};
+    unsigned char *p = head[1]                       ? png_ld_room
+                       : n <= SIZE_MAX - PNG_LD_HEAD ? huge_alloc_pages(n + PNG_LD_HEAD)
+                                                     : NULL;
+    png_ld_room = NULL;
     if (!p) return NULL;
-    memcpy(p, &n, sizeof n);
+    memcpy(p, head, sizeof head);
     return p + PNG_LD_HEAD;
 }
 
 static void png_ld_free(void *q) {
     if (!q) return;
     unsigned char *p = (unsigned char *)q - PNG_LD_HEAD;
-    size_t n;
-    memcpy(&n, p, sizeof n);
-    huge_free_pages(p, n + PNG_LD_HEAD);
+    size_t head[2];
+    memcpy(head, p, sizeof head);
+    if (!head[1]) huge_free_pages(p, head[0] + PNG_LD_HEAD); /* else its block's */
 }
 
 static void xlogx_init(void) {
@@ -383,9 +395,9 @@ static void band_encode(const rayd_image *img, int level, struct png_band *b, in
 
 static void scratch_free(struct png_scratch *w) {
     if (!w) return;
+    libdeflate_free_compressor(w->ld); /* first: it may live in the block */
     png_buf_free(&w->block);
     png_buf_free(&w->lbuf);
-    libdeflate_free_compressor(w->ld);
     free(w);
 }
 
@@ -404,7 +416,8 @@ static struct png_scratch *scratch_take(struct rayd_png_stream *s) {
     w = calloc(1, sizeof *w);
     if (!w) return NULL;
     size_t zcap = band_zcap(raw), image_raw = (size_t)s->img->h * (n + 1);
-    png_buf_new(&w->block, raw + n + zcap, image_raw);
+    size_t room = (raw + n + zcap + 63) / 64 * 64; /* the compressor's room from here */
+    png_buf_new(&w->block, room + (s->level >= 0 ? PNG_LD_ROOM : 0), image_raw);
     unsigned char *b = w->block.p;
     w->filt = b, w->zero = b ? b + raw : NULL, w->z = b ? b + raw + n : NULL;
     w->zcap = zcap;
@@ -412,7 +425,9 @@ static struct png_scratch *scratch_take(struct rayd_png_stream *s) {
     w->lbsize = s->level < 0 ? ISAL_DEF_LVL2_DEFAULT : 0;
     if (w->lbsize) png_buf_new(&w->lbuf, w->lbsize, image_raw);
     w->lb = w->lbuf.p;
+    png_ld_room = b && s->level >= 0 ? b + room : NULL;
     w->ld = s->level >= 0 ? libdeflate_alloc_compressor(s->level) : NULL;
+    png_ld_room = NULL;
     if (w->filt && w->zero && w->z && (s->level < 0 ? w->lb != NULL : w->ld != NULL)) return w;
     scratch_free(w);
     return NULL;
