@@ -9,10 +9,12 @@
  * its load 2-3x faster (make bench, bench/whole.sh).  Where the kernel
  * says no, the memory is ordinary and only the advice is lost.
  *
- * huge_alloc_pages does the same for any size: the PNG encoder's work
- * buffers, a few hundred KB each, live for one image and are touched
- * nearly whole, so a 2 MiB page a buffer costs one fault instead of a
- * hundred (png_encode.c, "Memory").
+ * huge_alloc_pages does the same for any size, for buffers that live for
+ * one render and fill most of their pages -- the frame, the PNG encoder's
+ * blocks (image.c; png_encode.c, "Memory") -- so that a 2 MiB page costs
+ * one fault instead of 512.  A fresh huge page is zeroed whole by the
+ * kernel, so one that would hold a few hundred KB costs more than their
+ * faults when the host must back it anew (bench/README.md, "Page faults").
  */
 #define _DEFAULT_SOURCE /* madvise */
 #include "base/hugemem.h"

@@ -112,9 +112,7 @@
 #define PNG_ISAL_LEVEL 2    /* ISA-L's level for --png-level 1 (measured) */
 #define PNG_LEVEL_DEFAULT 2 /* libdeflate's level when none is asked for (measured) */
 #define PNG_XLOGX_N 4096    /* counts below this have c log2 c in a table */
-#define PNG_HUGE_MIN                                                                               \
-    ((size_t)256 << 10) /* raw bytes of an image whose buffers are on huge pages                   \
-                         */
+#define PNG_HUGE_MIN ((size_t)256 << 10)        /* an image's raw bytes from which: huge pages */
 #define PNG_HOLD_BLOCK (((size_t)2 << 20) - 64) /* a block of deflated bands: one huge page */
 #define PNG_CHOOSE_EVERY 4  /* rows of a band whose filter is measured: 0, 4, 8, ... */
 
