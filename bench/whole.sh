@@ -43,8 +43,9 @@ for k in $(seq 1 $((${RUNS:-3} * 3))); do
 done
 kill -TERM "$rp"
 wait "$rp" || true
-c=$(printf '%s\n' "${cli[@]}" | sort -n | awk '{a[NR]=$1} END {print a[int((NR+1)/2)]}')
-h=$(printf '%s\n' "${http[@]}" | sort -n | awk '{a[NR]=$1} END {print a[int((NR+1)/2)]}')
-p=$(printf '%s\n' "${curlp[@]}" | sort -n | awk '{a[NR]=$1} END {print a[int((NR+1)/2)]}')
+med() { printf '%s\n' "$@" | sort -n | awk '{a[NR]=$1} END {print a[int((NR+1)/2)]}'; }
+c=$(med "${cli[@]}")
+h=$(med "${http[@]}")
+p=$(med "${curlp[@]}")
 cmp -s "$tmp/cli.png" "$tmp/http.png" && same=identical || same=DIFFERENT
 awk -v c="$c" -v h="$h" -v p="$p" -v s="$same" 'BEGIN {printf "rayd-render whole process %.3f s, POST /v1/render %.3f s: %.2fx (PNGs %s; the curl process %.3f s)\n", c / 1e6, h / 1e6, h / c, s, p / 1e6}'

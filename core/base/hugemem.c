@@ -91,6 +91,17 @@ void huge_free_pages(void *p, size_t bytes) {
     if (!keep) free(p);
 }
 
+void *huge_alloc_if(bool huge, size_t bytes) {
+    return huge ? huge_alloc_pages(bytes) : malloc(bytes);
+}
+
+void huge_free_if(bool huge, void *p, size_t bytes) {
+    if (huge)
+        huge_free_pages(p, bytes);
+    else
+        free(p);
+}
+
 void *huge_alloc(size_t bytes) {
     return bytes < HUGEMEM_MIN ? malloc(bytes) : huge_alloc_pages(bytes);
 }

@@ -2,6 +2,7 @@
 #ifndef RAYD_HUGEMEM_H
 #define RAYD_HUGEMEM_H
 
+#include <stdbool.h>
 #include <stddef.h>
 
 /* malloc and calloc for arrays that grow with a scene (a mesh's vertices
@@ -19,5 +20,10 @@ void *huge_calloc(size_t n, size_t size);
  * zeroing by the kernel). */
 void *huge_alloc_pages(size_t bytes);
 void huge_free_pages(void *p, size_t bytes);
+
+/* huge_alloc_pages when huge, else malloc; and the free that matches, for
+ * a buffer whose owner decided which by its size and keeps that flag. */
+void *huge_alloc_if(bool huge, size_t bytes);
+void huge_free_if(bool huge, void *p, size_t bytes);
 
 #endif

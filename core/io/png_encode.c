@@ -168,14 +168,11 @@ struct png_buf {
 static void png_buf_new(struct png_buf *b, size_t bytes, size_t raw) {
     b->bytes = bytes;
     b->huge = raw >= PNG_HUGE_MIN;
-    b->p = b->huge ? huge_alloc_pages(bytes) : malloc(bytes);
+    b->p = huge_alloc_if(b->huge, bytes);
 }
 
 static void png_buf_free(struct png_buf *b) {
-    if (b->huge)
-        huge_free_pages(b->p, b->bytes);
-    else
-        free(b->p);
+    huge_free_if(b->huge, b->p, b->bytes);
     b->p = NULL;
 }
 
@@ -465,8 +462,10 @@ static unsigned char *hold_take(struct rayd_png_stream *s, size_t len) {
         struct png_buf m;
         png_buf_new(&m, sizeof *h + cap, raw);
         h = (struct png_hold *)(void *)m.p;
-        if (h) *h = (struct png_hold){s->hold, 0, cap, m.huge};
-        if (h) s->hold = h;
+        if (h) {
+            *h = (struct png_hold){s->hold, 0, cap, m.huge};
+            s->hold = h;
+        }
     }
     unsigned char *p = h ? h->data + h->used : NULL;
     if (h) h->used += len;

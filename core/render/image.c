@@ -25,14 +25,11 @@ enum rayd_status rayd_image_new(int w, int h, rayd_image **out, struct rayd_erro
     rayd_image *img = malloc(sizeof *img);
     size_t bytes = (size_t)w * (size_t)h * 3;
     bool huge = bytes >= IMAGE_HUGE_MIN;
-    uint8_t *px = huge ? huge_alloc_pages(bytes) : calloc(bytes, 1);
-    if (px && huge) memset(px, 0, bytes);
+    uint8_t *px = huge_alloc_if(huge, bytes);
+    if (px) memset(px, 0, bytes);
     if (!img || !px) {
         free(img);
-        if (huge)
-            huge_free_pages(px, bytes);
-        else
-            free(px);
+        huge_free_if(huge, px, bytes);
         return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for a %d x %d image", w, h);
     }
     img->w = w;
@@ -45,10 +42,7 @@ enum rayd_status rayd_image_new(int w, int h, rayd_image **out, struct rayd_erro
 
 void rayd_image_free(rayd_image *img) {
     if (!img) return;
-    if (img->huge)
-        huge_free_pages(img->px, (size_t)img->w * (size_t)img->h * 3);
-    else
-        free(img->px);
+    huge_free_if(img->huge, img->px, (size_t)img->w * (size_t)img->h * 3);
     free(img);
 }
 

@@ -20,8 +20,9 @@ else
 fi
 
 # An existing output file is written over, not emptied first: what is left
-# must be the PNG alone, whether the old file was longer or shorter, and a
-# render to standard output and the progressive path's single write agree.
+# must be the PNG alone, whether the old file was longer or shorter, both
+# for a plain render (the PNG streamed from its bands) and for --passes
+# (the whole PNG written at once).
 head -c 3000000 /dev/urandom >"$T/over.png"
 printf 'x' >"$T/short.png"
 if "$R" "$scene" -o "$T/over.png" && "$R" "$scene" -o "$T/short.png" &&
