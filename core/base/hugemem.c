@@ -15,6 +15,8 @@
  * one fault instead of 512.  A fresh huge page is zeroed whole by the
  * kernel, so one that would hold a few hundred KB costs more than their
  * faults when the host must back it anew (bench/README.md, "Page faults").
+ * These blocks are mapped with mmap, so a fresh one is known to be zeros
+ * and huge_calloc_pages leaves its first touch to its writers.
  */
 #define _DEFAULT_SOURCE /* madvise */
 #include "base/hugemem.h"
@@ -65,15 +67,47 @@ static void *kept_take(size_t whole) {
     return p;
 }
 
-void *huge_alloc_pages(size_t bytes) {
+/* whole bytes (a multiple of HUGEMEM_PAGE) mapped fresh at a huge page's
+ * boundary, or NULL.  Straight from mmap, not aligned_alloc: a fresh
+ * mapping is known to read as zeros (huge_calloc_pages then need not touch
+ * it), and its pages are first touched by whoever writes them -- the
+ * render's threads, each its own tiles -- not by one thread zeroing them
+ * all before the work starts. */
+static void *map_pages(size_t whole) {
+    if (whole > SIZE_MAX - HUGEMEM_PAGE) return NULL;
+    size_t len = whole + HUGEMEM_PAGE;
+    char *m = mmap(NULL, len, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (m == MAP_FAILED) return NULL;
+    size_t head = (HUGEMEM_PAGE - (uintptr_t)m % HUGEMEM_PAGE) % HUGEMEM_PAGE;
+    if (head) munmap(m, head);
+    if (len - head > whole) munmap(m + head + whole, len - head - whole);
+#ifdef MADV_HUGEPAGE
+    madvise(m + head, whole, MADV_HUGEPAGE);
+#endif
+    return m + head;
+}
+
+/* A block for bytes (whole huge pages), kept or mapped anew, and in *fresh
+ * whether it is new (all zeros). */
+static void *pages_get(size_t bytes, bool *fresh) {
     size_t whole = huge_whole(bytes);
+    *fresh = false;
     if (!whole) return NULL;
     void *p = kept_take(whole);
     if (p) return p;
-    p = aligned_alloc(HUGEMEM_PAGE, whole);
-#ifdef MADV_HUGEPAGE
-    if (p) madvise(p, whole, MADV_HUGEPAGE);
-#endif
+    *fresh = true;
+    return map_pages(whole);
+}
+
+void *huge_alloc_pages(size_t bytes) {
+    bool fresh;
+    return pages_get(bytes, &fresh);
+}
+
+void *huge_calloc_pages(size_t bytes) {
+    bool fresh;
+    void *p = pages_get(bytes, &fresh);
+    if (p && !fresh) memset(p, 0, bytes); /* a kept block: warm, and quick to clear */
     return p;
 }
 
@@ -88,7 +122,7 @@ void huge_free_pages(void *p, size_t bytes) {
         kept_bytes += whole;
     }
     pthread_mutex_unlock(&kept_lock);
-    if (!keep) free(p);
+    if (!keep) munmap(p, whole);
 }
 
 void *huge_alloc_if(bool huge, size_t bytes) {
@@ -102,8 +136,19 @@ void huge_free_if(bool huge, void *p, size_t bytes) {
         free(p);
 }
 
+/* For huge_alloc: from malloc's heap (freed with free, grown with
+ * realloc), aligned and advised like map_pages. */
+static void *heap_pages(size_t bytes) {
+    size_t whole = huge_whole(bytes);
+    void *p = whole ? aligned_alloc(HUGEMEM_PAGE, whole) : NULL;
+#ifdef MADV_HUGEPAGE
+    if (p) madvise(p, whole, MADV_HUGEPAGE);
+#endif
+    return p;
+}
+
 void *huge_alloc(size_t bytes) {
-    return bytes < HUGEMEM_MIN ? malloc(bytes) : huge_alloc_pages(bytes);
+    return bytes < HUGEMEM_MIN ? malloc(bytes) : heap_pages(bytes);
 }
 
 void *huge_calloc(size_t n, size_t size) {

@@ -21,6 +21,10 @@ void *huge_calloc(size_t n, size_t size);
 void *huge_alloc_pages(size_t bytes);
 void huge_free_pages(void *p, size_t bytes);
 
+/* huge_alloc_pages, all zeros: a fresh mapping is, and is left for its
+ * writers to touch; only a kept block is cleared here. */
+void *huge_calloc_pages(size_t bytes);
+
 /* huge_alloc_pages when huge, else malloc; and the free that matches, for
  * a buffer whose owner decided which by its size and keeps that flag. */
 void *huge_alloc_if(bool huge, size_t bytes);

@@ -1,6 +1,6 @@
-/* test_hugemem.c -- huge-page buffers (hugemem.c): aligned to 2 MiB, and
+/* test_hugemem.c -- huge-page buffers (hugemem.c): aligned to 2 MiB,
  * huge_free_pages keeps a few for the next call of their size, within its
- * bounds, from any thread. */
+ * bounds, from any thread, and huge_calloc_pages gives zeros either way. */
 #include <pthread.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -64,6 +64,28 @@ static void test_bounded(void) {
     for (int i = 0; i < N; i++) huge_free_pages(p[i], 2 * MIB);
 }
 
+/* huge_calloc_pages reads as zeros, fresh or kept: a block left dirty and
+ * given back is cleared before it comes again; every byte is checked. */
+static int all_zero(const unsigned char *p, size_t n) {
+    for (size_t i = 0; i < n; i++)
+        if (p[i]) return 0;
+    return 1;
+}
+
+static void test_calloc_zeros(void) {
+    const size_t n = 5 * MIB + 3;
+    unsigned char *a = huge_calloc_pages(n);
+    CHECK(a != NULL, "%zu bytes", n);
+    if (!a) return;
+    CHECK(all_zero(a, n), "a fresh block is not all zeros");
+    memset(a, 0x5a, n);
+    huge_free_pages(a, n);
+    unsigned char *b = huge_calloc_pages(n);
+    CHECK(b == a, "the dirty block was not kept for the next call");
+    if (b) CHECK(all_zero(b, n), "a kept block came back dirty");
+    huge_free_pages(b, n);
+}
+
 static void *churn(void *arg) {
     size_t size = (size_t)(uintptr_t)arg;
     for (int k = 0; k < 200; k++) {
@@ -93,5 +115,6 @@ int main(void) {
     RUN(test_kept_for_its_size);
     RUN(test_bounded);
     RUN(test_threads);
+    RUN(test_calloc_zeros);
     CHECK_EXIT();
 }
