@@ -147,9 +147,7 @@ static void *heap_pages(size_t bytes) {
     return p;
 }
 
-void *huge_alloc(size_t bytes) {
-    return bytes < HUGEMEM_MIN ? malloc(bytes) : heap_pages(bytes);
-}
+void *huge_alloc(size_t bytes) { return bytes < HUGEMEM_MIN ? malloc(bytes) : heap_pages(bytes); }
 
 void *huge_calloc(size_t n, size_t size) {
     if (size && n > SIZE_MAX / size) return NULL;
