@@ -430,13 +430,15 @@ $(FUZZ_SERVER_TARGETS:%=$(BUILD)/tests/fuzz/replay_%): $(BUILD)/tests/fuzz/repla
 # three integration scripts with rayd under valgrind memcheck (exit 99 on any
 # error or definite leak).  Both print "N passed, N failed".
 TSAN_TESTS := jobs lifecycle api_basic api_hdr load slow_clients faults api_progressive deadline fair observability
+# the render's threads and the PNG stream sharing a window image's rows
+TSAN_UNIT := test_png_stream
 VALGRIND_TESTS := security api_errors bad_requests
 
 test-tsan: | $(BUILD)/.test-deps-ok
 	@$(MAKE) --no-print-directory TSAN=1 build/tsan/rayd build/tsan/rayd-render build/tsan/bench/genmesh \
-	  build/tsan/tests/tools/hdrcheck
+	  build/tsan/tests/tools/hdrcheck $(TSAN_UNIT:%=build/tsan/tests/%)
 	@TSAN_OPTIONS="halt_on_error=0 second_deadlock_stack=1 $${TSAN_OPTIONS:-}" \
-	  RAYD_TIMEOUT=1800 RAYD_TESTS="$(TSAN_TESTS)" bash tests/run.sh build/tsan
+	  RAYD_TIMEOUT=1800 RAYD_TESTS="$(TSAN_TESTS)" RAYD_UNIT="$(TSAN_UNIT)" bash tests/run.sh build/tsan
 
 test-valgrind: all | $(BUILD)/.test-deps-ok
 	@RAYD_WRAP="valgrind -q --error-exitcode=99 --leak-check=full --errors-for-leak-kinds=definite \

@@ -584,7 +584,8 @@ static int render_and_write(const struct args *a, const rayd_scene *scene, doubl
     if (r.w == 0 && r.h == 0) r = (struct rayd_region){0, 0, info.width, info.height};
     if (rayd_region_check(scene, &a->region, &err) != RAYD_OK) return fail_render(&err);
     rayd_image *img = NULL;
-    if (rayd_image_new(r.w, r.h, &img, &err) != RAYD_OK) return fail("", &err);
+    /* only the rows in flight: the stream deflates each band as it is drawn */
+    if (rayd_image_new_window(r.w, r.h, &img, &err) != RAYD_OK) return fail("", &err);
     struct progress prog;
     progress_start(&prog, a, r, 0, 1);
     progress_opts(&prog, &opts);

@@ -9,7 +9,8 @@
 # is never a pass.  The layer check (tools/check_layers.py) runs with the
 # unit tests.  RAYD_ONLY=unit|integration limits the run;
 # RAYD_TESTS="jobs lifecycle" runs only those tests/integration/NAME.sh
-# (make test-tsan and make test-valgrind use it); RAYD_SKIP="a b" leaves
+# (make test-tsan and make test-valgrind use it), and RAYD_UNIT="test_x"
+# only those unit tests of BUILD (make test-tsan); RAYD_SKIP="a b" leaves
 # those integration tests out (tests/stress.sh uses it).  SKIP lines are shown.
 set -u
 cd "$(dirname "$0")/.."
@@ -50,6 +51,12 @@ if [ -n "${RAYD_TESTS:-}" ]; then
     only=none
     for name in $RAYD_TESTS; do
         run_one "$name" bash "tests/integration/$name.sh"
+    done
+fi
+if [ -n "${RAYD_UNIT:-}" ]; then
+    only=none
+    for name in $RAYD_UNIT; do
+        run_one "unit/$name" "$BUILD/tests/$name"
     done
 fi
 if [ "$only" = all ] || [ "$only" = unit ]; then

@@ -99,6 +99,8 @@ static void *pages_get(size_t bytes, bool *fresh) {
     return map_pages(whole);
 }
 
+size_t huge_pages_room(size_t bytes) { return huge_whole(bytes); }
+
 void *huge_alloc_pages(size_t bytes) {
     bool fresh;
     return pages_get(bytes, &fresh);

@@ -25,6 +25,10 @@ void huge_free_pages(void *p, size_t bytes);
  * writers to touch; only a kept block is cleared here. */
 void *huge_calloc_pages(size_t bytes);
 
+/* The bytes huge_alloc_pages(bytes) gives: whole huge pages; 0 when that
+ * many cannot be. */
+size_t huge_pages_room(size_t bytes);
+
 /* huge_alloc_pages when huge, else malloc; and the free that matches, for
  * a buffer whose owner decided which by its size and keeps that flag. */
 void *huge_alloc_if(bool huge, size_t bytes);

@@ -123,6 +123,7 @@ struct png_band {
     uLong adler; /* of the filtered rows */
     size_t raw;  /* bytes of filtered rows */
     int failed;
+    bool done; /* deflated, or failed: its rows are read for good */
 };
 
 /* A PNG being encoded: its bands and which of them are taken.  The bands
@@ -136,6 +137,7 @@ struct rayd_png_stream {
     pthread_mutex_t lock;
     pthread_cond_t idle;       /* signalled when calls drops to 0 */
     int next;                  /* the next band nobody has taken */
+    int done_upto;             /* bands [0, done_upto) are done */
     int early;                 /* bands taken before finish */
     int calls;                 /* rows calls deflating now */
     bool finishing;            /* finish has begun: every row is final */
@@ -378,7 +380,7 @@ static void band_encode(const rayd_image *img, int level, struct png_band *b, in
     int f = 0;
     for (int r = 0; r < b->rows; r++) {
         int y = b->y0 + r;
-        const unsigned char *cur = img->px + (size_t)y * n, *prev = y > 0 ? cur - n : w->zero;
+        const unsigned char *cur = image_row(img, y), *prev = y > 0 ? image_row(img, y - 1) : w->zero;
         if (r % PNG_CHOOSE_EVERY == 0) f = filter_choose(cur, prev, n);
         filter_row(f, cur, prev, n, w->filt + (size_t)r * rowb);
     }
@@ -487,6 +489,17 @@ static int band_claim(struct rayd_png_stream *s, int rows) {
     return i;
 }
 
+/* Band i is done: the rows above the first band not done, but the one
+ * right above it (its filters read it), go back to a window image. */
+static void band_done(struct rayd_png_stream *s, int i) {
+    pthread_mutex_lock(&s->lock);
+    s->bands[i].done = true;
+    while (s->done_upto < s->nbands && s->bands[s->done_upto].done) s->done_upto++;
+    int read = s->done_upto < s->nbands ? s->bands[s->done_upto].y0 - 1 : s->img->h;
+    pthread_mutex_unlock(&s->lock);
+    image_rows_release(s->img, read);
+}
+
 /* Deflates the bands rows [0, rows) complete that nobody has taken, on
  * the calling thread. */
 static void bands_encode(struct rayd_png_stream *s, int rows) {
@@ -501,6 +514,7 @@ static void bands_encode(struct rayd_png_stream *s, int rows) {
         if (b->out) memcpy(b->out, w->z, b->len);
         b->failed = !b->out;
         spent += clock_now() - t0;
+        band_done(s, i);
     }
     if (w) scratch_give(s, w);
     pthread_mutex_lock(&s->lock);
@@ -643,6 +657,8 @@ static int encode_bands(struct rayd_png_stream *s, int threads) {
 
 enum rayd_status rayd_png_stream_new(const rayd_image *img, int level, rayd_png_stream **out,
                                      struct rayd_error *err) {
+    if (img->win && img->px)
+        return err_set(err, RAYD_E_ARG, NULL, "a window image streams only its own render");
     if (level < 0 || level > 9) level = PNG_LEVEL_DEFAULT;
     if (level == 1) level = -1; /* the fastest: ISA-L (smaller and faster than zlib's 1) */
     pthread_once(&png_xlogx_once, xlogx_init);
@@ -667,6 +683,7 @@ enum rayd_status rayd_png_stream_new(const rayd_image *img, int level, rayd_png_
     }
     pthread_mutex_init(&s->lock, NULL);
     pthread_cond_init(&s->idle, NULL);
+    image_window_keep(img, band_rows + 1); /* a band and the row above it */
     *out = s;
     return RAYD_OK;
 }

@@ -3,6 +3,22 @@
  * 8-bit output is the contract (the PNG is 8-bit sRGB), and storing the
  * encoded bytes is what makes "same bytes whatever the tiling" checkable
  * by memcmp.
+ *
+ * Windows.  rayd-render draws a frame only to deflate it: the PNG stream
+ * reads each band of rows once, as soon as the render has drawn it
+ * (png_encode.c), and never again.  A window image (rayd_image_new_window)
+ * holds only the rows in flight -- row y at y % rows -- instead of the
+ * whole frame: 1.1 MB of a 1080p frame's 6.2 MB, on one huge page where
+ * the whole took three, each paid for when the host backs it anew.  The
+ * render sizes the window when it starts (image_window_open): the rows
+ * the stream may hold (image_window_keep) plus its tiles in flight.  Before
+ * drawing a row of tiles a thread waits until the stream has released the
+ * rows that room held (image_rows_wait).  It cannot wait for ever: the
+ * earliest waiting thread's rows of tiles above are all drawn and their
+ * bands deflated, so all but the stream's kept rows are released, and
+ * the window holds those plus its own row of tiles.  A render that stops
+ * early gives up the window (image_rows_give_up), which turns every
+ * waiter away.
  */
 #include "render/image.h"
 
@@ -26,7 +42,7 @@ enum rayd_status rayd_image_new(int w, int h, rayd_image **out, struct rayd_erro
     if (w <= 0 || h <= 0) return err_set(err, RAYD_E_ARG, NULL, "image size must be > 0");
     if ((size_t)w > SIZE_MAX / 3 / (size_t)h)
         return err_set(err, RAYD_E_LIMIT, NULL, "image of %d x %d pixels is too large", w, h);
-    rayd_image *img = malloc(sizeof *img);
+    rayd_image *img = calloc(1, sizeof *img);
     size_t bytes = (size_t)w * (size_t)h * 3;
     bool huge = bytes >= IMAGE_HUGE_MIN;
     uint8_t *px = huge ? huge_calloc_pages(bytes) : calloc(bytes, 1);
@@ -43,19 +59,106 @@ enum rayd_status rayd_image_new(int w, int h, rayd_image **out, struct rayd_erro
     return RAYD_OK;
 }
 
+enum rayd_status rayd_image_new_window(int w, int h, rayd_image **out, struct rayd_error *err) {
+    if (w <= 0 || h <= 0) return err_set(err, RAYD_E_ARG, NULL, "image size must be > 0");
+    if ((size_t)w > SIZE_MAX / 3 / (size_t)h)
+        return err_set(err, RAYD_E_LIMIT, NULL, "image of %d x %d pixels is too large", w, h);
+    rayd_image *img = calloc(1, sizeof *img);
+    struct image_window *win = calloc(1, sizeof *win);
+    if (!img || !win) {
+        free(img);
+        free(win);
+        return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for a %d x %d image", w, h);
+    }
+    pthread_mutex_init(&win->lock, NULL);
+    pthread_cond_init(&win->moved, NULL);
+    img->w = w, img->h = h, img->win = win;
+    *out = img;
+    return RAYD_OK;
+}
+
+/* The bytes of img's pixels: all its rows, or its window's. */
+static size_t image_bytes(const rayd_image *img) {
+    size_t rows = img->win ? (size_t)img->win->rows : (size_t)img->h;
+    return rows * (size_t)img->w * 3;
+}
+
 void rayd_image_free(rayd_image *img) {
     if (!img) return;
-    huge_free_if(img->huge, img->px, (size_t)img->w * (size_t)img->h * 3);
+    huge_free_if(img->huge, img->px, image_bytes(img));
+    if (img->win) {
+        pthread_mutex_destroy(&img->win->lock);
+        pthread_cond_destroy(&img->win->moved);
+        free(img->win);
+    }
     free(img);
+}
+
+void image_window_keep(const rayd_image *img, int rows) {
+    if (img->win) img->win->keep = rows;
+}
+
+enum rayd_status image_window_open(rayd_image *img, int ahead, struct rayd_error *err) {
+    struct image_window *win = img->win;
+    if (!win) return RAYD_OK;
+    if (img->px) return err_set(err, RAYD_E_ARG, NULL, "a window image takes one render");
+    size_t stride = (size_t)img->w * 3;
+    size_t rows = (size_t)(win->keep > 0 ? win->keep : img->h) + (size_t)(ahead > 0 ? ahead : 1);
+    rows = rows < (size_t)img->h ? rows : (size_t)img->h;
+    img->huge = rows * stride >= IMAGE_HUGE_MIN;
+    if (img->huge) { /* the rest of its huge pages is the window's too: no more memory */
+        size_t room = huge_pages_room(rows * stride) / stride;
+        rows = room < (size_t)img->h ? room : (size_t)img->h;
+    }
+    img->px = img->huge ? huge_calloc_pages(rows * stride) : calloc(rows * stride, 1);
+    if (!img->px) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for a %d x %zu window",
+                                 img->w, rows);
+    win->rows = (int)rows;
+    return RAYD_OK;
+}
+
+bool image_rows_wait(const rayd_image *img, int end) {
+    struct image_window *win = img->win;
+    if (!win || end <= win->rows) return true; /* the first rows have room of their own */
+    pthread_mutex_lock(&win->lock);
+    while (!win->given_up && end - win->rows > win->released)
+        pthread_cond_wait(&win->moved, &win->lock);
+    bool ok = !win->given_up;
+    pthread_mutex_unlock(&win->lock);
+    return ok;
+}
+
+void image_rows_release(const rayd_image *img, int rows) {
+    struct image_window *win = img->win;
+    if (!win) return;
+    pthread_mutex_lock(&win->lock);
+    if (rows > win->released) {
+        win->released = rows;
+        pthread_cond_broadcast(&win->moved);
+    }
+    pthread_mutex_unlock(&win->lock);
+}
+
+void image_rows_give_up(const rayd_image *img) {
+    struct image_window *win = img->win;
+    if (!win) return;
+    pthread_mutex_lock(&win->lock);
+    win->given_up = true;
+    pthread_cond_broadcast(&win->moved);
+    pthread_mutex_unlock(&win->lock);
 }
 
 int rayd_image_width(const rayd_image *img) { return img->w; }
 int rayd_image_height(const rayd_image *img) { return img->h; }
-uint8_t *rayd_image_pixels(rayd_image *img) { return img->px; }
-const uint8_t *rayd_image_pixels_const(const rayd_image *img) { return img->px; }
+uint8_t *rayd_image_pixels(rayd_image *img) { return img->win ? NULL : img->px; }
+const uint8_t *rayd_image_pixels_const(const rayd_image *img) {
+    return img->win ? NULL : img->px;
+}
 
 enum rayd_status rayd_image_blit(rayd_image *dst, const rayd_image *src, int x, int y,
                                  struct rayd_error *err) {
+    if (dst->win || src->win)
+        return err_set(err, RAYD_E_ARG, NULL, "a window image has no whole frame to copy");
     if (x < 0 || y < 0 || x > dst->w - src->w || y > dst->h - src->h)
         return err_set(err, RAYD_E_ARG, NULL,
                        "a %d x %d image at (%d, %d) does not fit in %d x %d", src->w, src->h, x,

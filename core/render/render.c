@@ -72,12 +72,13 @@ union block_colours {
 _Static_assert(sizeof(vec3) == 3 * sizeof(double), "vec3 is three doubles");
 
 /* The bytes of the 4x4 block of colours c (inactive lanes 0) into its
- * w x h pixels at dst, rows stride bytes apart. */
-static void put_block(uint8_t *dst, size_t stride, const union block_colours *c, int w, int h) {
+ * w x h pixels of img at (x, y), row by row (a window image's rows may
+ * wrap round inside a block). */
+static void put_block(rayd_image *img, int x, int y, const union block_colours *c, int w, int h) {
     uint8_t b[48];
     render_srgb48(c->d, b);
     for (int row = 0; row < h; row++)
-        memcpy(dst + (size_t)row * stride, b + 12 * row, (size_t)w * 3);
+        memcpy(image_row(img, y + row) + (size_t)x * 3, b + 12 * row, (size_t)w * 3);
 }
 
 static vec3 trace(const rayd_scene *s, const ray *r, const struct rng_key *key, uint64_t *rays) {
@@ -221,9 +222,7 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h,
         int q = __builtin_ctz(m);
         c.v[q] = v3_scale(acc[q], 1.0 / n);
     }
-    size_t stride = (size_t)o->img->w * 3;
-    put_block(o->img->px + (size_t)(o->dy + by) * stride + (size_t)(o->dx + bx) * 3, stride, &c, w,
-              h);
+    put_block(o->img, o->dx + bx, o->dy + by, &c, w, h);
 }
 
 /* Renders the w x h rectangle at (x, y) of the image into dst at (dx, dy)
@@ -287,6 +286,7 @@ enum rayd_status rayd_render_into(const rayd_scene *s, const struct rayd_region 
     if (st != RAYD_OK) return st;
     struct rayd_region r;
     region_resolve(s, region, &r);
+    if (dst->win) return err_set(err, RAYD_E_ARG, NULL, "a window image is for rayd_render_image");
     if (dst_x < 0 || dst_y < 0 || dst_x > dst->w - r.w || dst_y > dst->h - r.h)
         return err_set(err, RAYD_E_ARG, NULL, "the region does not fit the destination image");
     uint64_t count = 0;
@@ -339,9 +339,11 @@ static void *render_worker(void *arg) {
         int tx = (t % jb->tiles_x) * jb->tile, ty = (t / jb->tiles_x) * jb->tile;
         int w = jb->r.w - tx < jb->tile ? jb->r.w - tx : jb->tile;
         int h = jb->r.h - ty < jb->tile ? jb->r.h - ty : jb->tile;
+        if (jb->out->img && !image_rows_wait(jb->out->img, ty + h)) break; /* given up */
         if (render_rect(jb->s, jb->r.x + tx, jb->r.y + ty, w, h, jb->out, tx, ty, jb->opts->cancel,
                         &rays) != RAYD_OK) {
             atomic_store(&jb->canceled, 1);
+            if (jb->out->img) image_rows_give_up(jb->out->img); /* no rows will come */
             break;
         }
         if (jb->row_left) rows_note(jb, t / jb->tiles_x);
@@ -368,6 +370,13 @@ static enum rayd_status render_tiles(const rayd_scene *s, const struct rayd_rend
     atomic_init(&jb.canceled, 0);
     atomic_init(&jb.rays, 0);
     jb.tiles_y = (jb.r.h + jb.tile - 1) / jb.tile;
+    int nthreads = opts->threads > 1 ? opts->threads : 1;
+    if (nthreads > jb.ntiles) nthreads = jb.ntiles;
+    /* a window image's rows in flight: the threads' tiles, over as many
+     * rows of tiles as they may span, and the row a thread waits to draw */
+    enum rayd_status st =
+        out->img ? image_window_open(out->img, jb.tile * (2 + nthreads / jb.tiles_x), err) : RAYD_OK;
+    if (st != RAYD_OK) return st;
     if (opts->rows && !out->sum) {
         jb.row_left = malloc((size_t)jb.tiles_y * sizeof *jb.row_left);
         if (!jb.row_left) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for a render");
@@ -375,8 +384,6 @@ static enum rayd_status render_tiles(const rayd_scene *s, const struct rayd_rend
         pthread_mutex_init(&jb.rows_lock, NULL);
     }
 
-    int nthreads = opts->threads > 1 ? opts->threads : 1;
-    if (nthreads > jb.ntiles) nthreads = jb.ntiles;
     pthread_t *th = nthreads > 1 ? calloc((size_t)nthreads - 1, sizeof *th) : NULL;
     int started = 0;
     for (int i = 0; th && i < nthreads - 1; i++, started++)

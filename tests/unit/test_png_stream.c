@@ -2,9 +2,13 @@
  * (opts.rows) only ever names rows that are final, reaching the height; a
  * PNG stream fed by it, or by rows told from many threads in any order,
  * writes the very bytes rayd_png_encode writes afterwards, for odd sizes
- * and every thread count; a stream dropped half way leaks nothing. */
+ * and every thread count; a stream dropped half way leaks nothing.  A
+ * window image, which holds only the rows in flight, gives the same PNG,
+ * serves one render, and a canceled render of one returns. */
 #include <pthread.h>
+#include <stdatomic.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -236,11 +240,147 @@ static void test_dropped_stream_frees_all(void) {
     rayd_image_free(img);
 }
 
+/* The PNG of a render of s into a window image (rayd_image_new_window),
+ * streamed as it is drawn; NULL on failure.  *rows: the rows it held. */
+static void *window_png(const rayd_scene *s, int w, int h, int threads, int tile, size_t *len,
+                        int *rows) {
+    rayd_image *img = NULL;
+    rayd_png_stream *ps = NULL;
+    void *buf = NULL;
+    if (rayd_image_new_window(w, h, &img, NULL) != RAYD_OK) return NULL;
+    if (rayd_png_stream_new(img, -1, &ps, NULL) == RAYD_OK) {
+        struct rayd_render_opts o = {
+            .threads = threads, .tile = tile, .rows = rayd_png_stream_rows, .rows_user = ps};
+        if (rayd_render_image(s, &o, img, NULL) == RAYD_OK)
+            rayd_png_stream_finish(ps, threads, &buf, len, NULL, NULL);
+        else
+            rayd_png_stream_free(ps);
+    }
+    *rows = img->win->rows;
+    CHECK(rayd_image_pixels(img) == NULL, "a window image's pixels were handed out");
+    rayd_image_free(img);
+    return buf;
+}
+
+/* A w x h frame of a few spheres on a plane, quick to draw big. */
+static rayd_scene *spheres_sized(int w, int h) {
+    char json[600];
+    snprintf(json, sizeof json,
+             "{\"camera\": {\"position\": [0, 2, 6], \"look_at\": [0, 0.5, 0], \"fov_x\": 60},"
+             " \"render\": {\"width\": %d, \"height\": %d, \"background\": [0.3, 0.5, 0.8]},"
+             " \"lights\": [{\"type\": \"point\", \"position\": [-4, 6, 5]}],"
+             " \"objects\": [{\"type\": \"plane\", \"point\": [0, 0, 0], \"normal\": [0, 1, 0]},"
+             " {\"type\": \"sphere\", \"center\": [-1, 0.8, 0], \"radius\": 0.8},"
+             " {\"type\": \"sphere\", \"center\": [1.2, 0.5, 0.5], \"radius\": 0.5}]}",
+             w, h);
+    return scene_from(json);
+}
+
+/* A render streamed from a window image writes the bytes of the whole
+ * frame's PNG, for odd sizes, thread counts and tile sizes, holding fewer
+ * rows than the frame when it is tall (the window cannot take all). */
+static void test_window_image_same_png(void) {
+    /* the last frame, 2.3 MB, is more than a window's huge page holds */
+    const int sizes[][2] = {{1, 1}, {1, 9999}, {4097, 3}, {1100, 700}};
+    const int threads[] = {1, 2, 3, 5}, tiles[] = {1, 7, 32};
+    for (int i = 0; i < 4; i++) {
+        int w = sizes[i][0], h = sizes[i][1];
+        rayd_scene *s = w * h < 100000 ? whitted_sized(w, h) : spheres_sized(w, h);
+        rayd_image *whole = NULL;
+        CHECK(s && rayd_render(s, NULL, &whole, NULL) == RAYD_OK, "%dx%d: the whole frame", w, h);
+        size_t rlen = 0;
+        void *ref = whole ? reference(whole, -1, &rlen) : NULL;
+        for (int t = 0; ref && t < 4; t++)
+            for (int k = 0; k < 3; k++) {
+                if ((tiles[k] == 1 || threads[t] == 1 || threads[t] == 5) && w * h > 20000)
+                    continue; /* slow */
+                size_t len = 0;
+                int rows = 0;
+                void *buf = window_png(s, w, h, threads[t], tiles[k], &len, &rows);
+                CHECK(buf && len == rlen && !memcmp(buf, ref, len),
+                      "%dx%d, %d threads, tile %d: the window's PNG differs from the frame's", w,
+                      h, threads[t], tiles[k]);
+                CHECK(w * h < 100000 || rows < h, "%dx%d, tile %d: the window held all %d rows", w, h,
+                      tiles[k], rows);
+                rayd_free(buf);
+            }
+        rayd_free(ref);
+        rayd_image_free(whole);
+        rayd_scene_free(s);
+    }
+}
+
+/* A window image serves one streamed render: no second render, no second
+ * stream, no blit, no render into it at an offset. */
+static void test_window_image_once(void) {
+    rayd_scene *s = whitted_sized(64, 48);
+    rayd_image *img = NULL, *other = NULL;
+    rayd_png_stream *ps = NULL;
+    CHECK(s && rayd_image_new_window(64, 48, &img, NULL) == RAYD_OK, "window image");
+    CHECK(rayd_image_new(64, 48, &other, NULL) == RAYD_OK, "image");
+    if (!s || !img || !other) return;
+    struct rayd_error err = {0};
+    CHECK(rayd_image_blit(other, img, 0, 0, &err) == RAYD_E_ARG, "blit from a window image");
+    CHECK(rayd_render_into(s, NULL, img, 0, 0, NULL, NULL, &err) == RAYD_E_ARG,
+          "render_into a window image");
+    CHECK(rayd_png_stream_new(img, -1, &ps, NULL) == RAYD_OK, "stream");
+    struct rayd_render_opts o = {.threads = 2, .rows = rayd_png_stream_rows, .rows_user = ps};
+    CHECK(rayd_render_image(s, &o, img, NULL) == RAYD_OK, "render");
+    rayd_png_stream_free(ps);
+    ps = NULL;
+    CHECK(rayd_render_image(s, &o, img, &err) == RAYD_E_ARG && strstr(err.message, "one render"),
+          "a second render: %s", err.message);
+    CHECK(rayd_png_stream_new(img, -1, &ps, &err) == RAYD_E_ARG && !ps,
+          "a second stream: %s", err.message);
+    rayd_image_free(other);
+    rayd_image_free(img);
+    rayd_scene_free(s);
+}
+
+/* A render canceled half way, threads waiting for the window's room,
+ * returns canceled (it does not hang): the cancel flag is raised from the
+ * rows callback after its first call, on a frame far taller than its
+ * window, with more threads than tiles in a row. */
+struct cancel_after {
+    rayd_png_stream *ps;
+    atomic_int cancel;
+};
+
+static void rows_then_cancel(void *user, int rows) {
+    struct cancel_after *c = user;
+    rayd_png_stream_rows(c->ps, rows);
+    atomic_store(&c->cancel, 1);
+}
+
+static void test_window_cancel_does_not_hang(void) {
+    rayd_scene *s = whitted_sized(40, 3000);
+    for (int threads = 2; s && threads <= 6; threads += 2) {
+        rayd_image *img = NULL;
+        struct cancel_after c = {NULL, 0};
+        CHECK(rayd_image_new_window(40, 3000, &img, NULL) == RAYD_OK, "window image");
+        CHECK(img && rayd_png_stream_new(img, -1, &c.ps, NULL) == RAYD_OK, "stream");
+        if (!c.ps) break;
+        struct rayd_render_opts o = {.threads = threads,
+                                     .tile = 4,
+                                     .rows = rows_then_cancel,
+                                     .rows_user = &c,
+                                     .cancel = &c.cancel};
+        CHECK(rayd_render_image(s, &o, img, NULL) == RAYD_E_CANCELED, "%d threads: not canceled",
+              threads);
+        rayd_png_stream_free(c.ps);
+        rayd_image_free(img);
+    }
+    rayd_scene_free(s);
+}
+
 int main(void) {
     RUN(test_rows_named_are_final);
     RUN(test_render_stream_equals_encode);
     RUN(test_rows_in_any_order_any_threads);
     RUN(test_finish_to_a_sink);
     RUN(test_dropped_stream_frees_all);
+    RUN(test_window_image_same_png);
+    RUN(test_window_image_once);
+    RUN(test_window_cancel_does_not_hang);
     CHECK_EXIT();
 }
