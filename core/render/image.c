@@ -8,8 +8,8 @@
  * reads each band of rows once, as soon as the render has drawn it
  * (png_encode.c), and never again.  A window image (rayd_image_new_window)
  * holds only the rows in flight -- row y at y % rows -- instead of the
- * whole frame: 1.1 MB of a 1080p frame's 6.2 MB, on one huge page where
- * the whole took three, each paid for when the host backs it anew.  The
+ * whole frame: for a 1080p frame 364 rows on one 2 MiB huge page where the
+ * whole took three, each paid for when the host backs it anew.  The
  * render sizes the window when it starts (image_window_open): the rows
  * the stream may hold (image_window_keep) plus its tiles in flight.  Before
  * drawing a row of tiles a thread waits until the stream has released the
@@ -98,21 +98,22 @@ void image_window_keep(const rayd_image *img, int rows) {
     if (img->win) img->win->keep = rows;
 }
 
-enum rayd_status image_window_open(rayd_image *img, int ahead, struct rayd_error *err) {
+enum rayd_status image_window_open(rayd_image *img, size_t ahead, struct rayd_error *err) {
     struct image_window *win = img->win;
     if (!win) return RAYD_OK;
     if (img->px) return err_set(err, RAYD_E_ARG, NULL, "a window image takes one render");
     size_t stride = (size_t)img->w * 3;
-    size_t rows = (size_t)(win->keep > 0 ? win->keep : img->h) + (size_t)(ahead > 0 ? ahead : 1);
-    rows = rows < (size_t)img->h ? rows : (size_t)img->h;
+    size_t keep = (size_t)(win->keep > 0 ? win->keep : img->h), h = (size_t)img->h;
+    size_t rows = ahead < h && keep < h - ahead ? keep + (ahead ? ahead : 1) : h;
     img->huge = rows * stride >= IMAGE_HUGE_MIN;
     if (img->huge) { /* the rest of its huge pages is the window's too: no more memory */
         size_t room = huge_pages_room(rows * stride) / stride;
-        rows = room < (size_t)img->h ? room : (size_t)img->h;
+        if (room > rows) rows = room < h ? room : h;
     }
     img->px = img->huge ? huge_calloc_pages(rows * stride) : calloc(rows * stride, 1);
-    if (!img->px) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for a %d x %zu window",
-                                 img->w, rows);
+    if (!img->px)
+        return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for a %d x %zu window", img->w,
+                       rows);
     win->rows = (int)rows;
     return RAYD_OK;
 }
@@ -151,18 +152,15 @@ void image_rows_give_up(const rayd_image *img) {
 int rayd_image_width(const rayd_image *img) { return img->w; }
 int rayd_image_height(const rayd_image *img) { return img->h; }
 uint8_t *rayd_image_pixels(rayd_image *img) { return img->win ? NULL : img->px; }
-const uint8_t *rayd_image_pixels_const(const rayd_image *img) {
-    return img->win ? NULL : img->px;
-}
+const uint8_t *rayd_image_pixels_const(const rayd_image *img) { return img->win ? NULL : img->px; }
 
 enum rayd_status rayd_image_blit(rayd_image *dst, const rayd_image *src, int x, int y,
                                  struct rayd_error *err) {
     if (dst->win || src->win)
         return err_set(err, RAYD_E_ARG, NULL, "a window image has no whole frame to copy");
     if (x < 0 || y < 0 || x > dst->w - src->w || y > dst->h - src->h)
-        return err_set(err, RAYD_E_ARG, NULL,
-                       "a %d x %d image at (%d, %d) does not fit in %d x %d", src->w, src->h, x,
-                       y, dst->w, dst->h);
+        return err_set(err, RAYD_E_ARG, NULL, "a %d x %d image at (%d, %d) does not fit in %d x %d",
+                       src->w, src->h, x, y, dst->w, dst->h);
     for (int row = 0; row < src->h; row++)
         memcpy(dst->px + ((size_t)(y + row) * (size_t)dst->w + (size_t)x) * 3,
                src->px + (size_t)row * (size_t)src->w * 3, (size_t)src->w * 3);

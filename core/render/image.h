@@ -5,6 +5,7 @@
 
 #include <pthread.h>
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdint.h>
 
 #include "rayd/rayd.h"
@@ -22,8 +23,8 @@ struct image_window {
 
 struct rayd_image {
     int w, h;
-    uint8_t *px; /* w * h * 3 bytes, or a window's rows * w * 3 */
-    bool huge;   /* px from huge_alloc_pages (else malloc) */
+    uint8_t *px;              /* w * h * 3 bytes, or a window's rows * w * 3 */
+    bool huge;                /* px from huge_alloc_pages (else malloc) */
     struct image_window *win; /* NULL: every row held */
 };
 
@@ -40,7 +41,7 @@ void image_window_keep(const rayd_image *img, int rows);
 /* Sizes and allocates a window image's rows for a render that draws ahead
  * rows past the last released row (its tiles in flight); a no-op for any
  * other image. */
-enum rayd_status image_window_open(rayd_image *img, int ahead, struct rayd_error *err);
+enum rayd_status image_window_open(rayd_image *img, size_t ahead, struct rayd_error *err);
 
 /* Waits until rows [0, end) may all be drawn (their room is released);
  * false when the render has given up.  At once for an image that is not a

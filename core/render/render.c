@@ -373,9 +373,10 @@ static enum rayd_status render_tiles(const rayd_scene *s, const struct rayd_rend
     int nthreads = opts->threads > 1 ? opts->threads : 1;
     if (nthreads > jb.ntiles) nthreads = jb.ntiles;
     /* a window image's rows in flight: the threads' tiles, over as many
-     * rows of tiles as they may span, and the row a thread waits to draw */
-    enum rayd_status st =
-        out->img ? image_window_open(out->img, jb.tile * (2 + nthreads / jb.tiles_x), err) : RAYD_OK;
+     * rows of tiles as they may span, and the row a thread waits to draw;
+     * with no rows callback nothing is released, so the whole frame */
+    size_t ahead = opts->rows ? (size_t)jb.tile * (size_t)(2 + nthreads / jb.tiles_x) : SIZE_MAX;
+    enum rayd_status st = out->img ? image_window_open(out->img, ahead, err) : RAYD_OK;
     if (st != RAYD_OK) return st;
     if (opts->rows && !out->sum) {
         jb.row_left = malloc((size_t)jb.tiles_y * sizeof *jb.row_left);

@@ -295,10 +295,11 @@ enum rayd_status rayd_render_linear_into(const rayd_scene *scene, const struct r
 
 /* A new black w x h image; *out owns it. */
 enum rayd_status rayd_image_new(int w, int h, rayd_image **out, struct rayd_error *err);
-/* A w x h image for one render streamed into a rayd_png_stream (made for
- * it before the render, passed as the render's rows callback): it holds
- * only the rows in flight, not the whole frame, so its pixels cannot be
- * read (rayd_image_pixels gives NULL) nor blitted. */
+/* A w x h image for one render streamed into a rayd_png_stream: the
+ * stream made for it before the render, and every call of the render's
+ * rows callback passed on to rayd_png_stream_rows.  It holds only the rows
+ * in flight, not the whole frame, so its pixels cannot be read
+ * (rayd_image_pixels gives NULL) nor blitted. */
 enum rayd_status rayd_image_new_window(int w, int h, rayd_image **out, struct rayd_error *err);
 void rayd_image_free(rayd_image *img);
 int rayd_image_width(const rayd_image *img);

@@ -298,10 +298,10 @@ static void test_window_image_same_png(void) {
                 int rows = 0;
                 void *buf = window_png(s, w, h, threads[t], tiles[k], &len, &rows);
                 CHECK(buf && len == rlen && !memcmp(buf, ref, len),
-                      "%dx%d, %d threads, tile %d: the window's PNG differs from the frame's", w,
-                      h, threads[t], tiles[k]);
-                CHECK(w * h < 100000 || rows < h, "%dx%d, tile %d: the window held all %d rows", w, h,
-                      tiles[k], rows);
+                      "%dx%d, %d threads, tile %d: the window's PNG differs from the frame's", w, h,
+                      threads[t], tiles[k]);
+                CHECK(w * h < 100000 || rows < h, "%dx%d, tile %d: the window held all %d rows", w,
+                      h, tiles[k], rows);
                 rayd_free(buf);
             }
         rayd_free(ref);
@@ -330,9 +330,35 @@ static void test_window_image_once(void) {
     ps = NULL;
     CHECK(rayd_render_image(s, &o, img, &err) == RAYD_E_ARG && strstr(err.message, "one render"),
           "a second render: %s", err.message);
-    CHECK(rayd_png_stream_new(img, -1, &ps, &err) == RAYD_E_ARG && !ps,
-          "a second stream: %s", err.message);
+    CHECK(rayd_png_stream_new(img, -1, &ps, &err) == RAYD_E_ARG && !ps, "a second stream: %s",
+          err.message);
     rayd_image_free(other);
+    rayd_image_free(img);
+    rayd_scene_free(s);
+}
+
+/* A window image whose render is given no rows callback holds the whole
+ * frame (nothing would release its rows): the render returns, and the
+ * stream finished afterwards writes the frame's PNG. */
+static void test_window_without_rows_callback(void) {
+    rayd_scene *s = spheres_sized(1100, 700);
+    rayd_image *img = NULL, *whole = NULL;
+    rayd_png_stream *ps = NULL;
+    CHECK(s && rayd_render(s, NULL, &whole, NULL) == RAYD_OK, "the whole frame");
+    CHECK(rayd_image_new_window(1100, 700, &img, NULL) == RAYD_OK, "window image");
+    CHECK(img && rayd_png_stream_new(img, -1, &ps, NULL) == RAYD_OK, "stream");
+    if (!s || !whole || !ps) return;
+    struct rayd_render_opts o = {.threads = 3, .tile = 16};
+    CHECK(rayd_render_image(s, &o, img, NULL) == RAYD_OK, "render");
+    CHECK(img->win->rows == 700, "the window held %d of 700 rows", img->win->rows);
+    void *buf = NULL, *ref;
+    size_t len = 0, rlen = 0;
+    CHECK(rayd_png_stream_finish(ps, 2, &buf, &len, NULL, NULL) == RAYD_OK, "finish");
+    ref = reference(whole, -1, &rlen);
+    CHECK(buf && ref && len == rlen && !memcmp(buf, ref, len), "the PNG differs from the frame's");
+    rayd_free(buf);
+    rayd_free(ref);
+    rayd_image_free(whole);
     rayd_image_free(img);
     rayd_scene_free(s);
 }
@@ -381,6 +407,7 @@ int main(void) {
     RUN(test_dropped_stream_frees_all);
     RUN(test_window_image_same_png);
     RUN(test_window_image_once);
+    RUN(test_window_without_rows_callback);
     RUN(test_window_cancel_does_not_hang);
     CHECK_EXIT();
 }
