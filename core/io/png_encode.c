@@ -380,7 +380,8 @@ static void band_encode(const rayd_image *img, int level, struct png_band *b, in
     int f = 0;
     for (int r = 0; r < b->rows; r++) {
         int y = b->y0 + r;
-        const unsigned char *cur = image_row(img, y), *prev = y > 0 ? image_row(img, y - 1) : w->zero;
+        const unsigned char *cur = image_row(img, y);
+        const unsigned char *prev = y > 0 ? image_row(img, y - 1) : w->zero;
         if (r % PNG_CHOOSE_EVERY == 0) f = filter_choose(cur, prev, n);
         filter_row(f, cur, prev, n, w->filt + (size_t)r * rowb);
     }
