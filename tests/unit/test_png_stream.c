@@ -328,6 +328,7 @@ static void test_window_image_once(void) {
     CHECK(rayd_render_image(s, &o, img, NULL) == RAYD_OK, "render");
     rayd_png_stream_free(ps);
     ps = NULL;
+    o.rows = NULL, o.rows_user = NULL;
     CHECK(rayd_render_image(s, &o, img, &err) == RAYD_E_ARG && strstr(err.message, "one render"),
           "a second render: %s", err.message);
     CHECK(rayd_png_stream_new(img, -1, &ps, &err) == RAYD_E_ARG && !ps, "a second stream: %s",
