@@ -38,10 +38,17 @@
  * 16 ms of the 1080p sphere frame's 0.1 s when the host had to back them. */
 #define IMAGE_HUGE_MIN ((size_t)256 << 10)
 
-enum rayd_status rayd_image_new(int w, int h, rayd_image **out, struct rayd_error *err) {
+/* w x h pixels: a size an image can have. */
+static enum rayd_status size_check(int w, int h, struct rayd_error *err) {
     if (w <= 0 || h <= 0) return err_set(err, RAYD_E_ARG, NULL, "image size must be > 0");
     if ((size_t)w > SIZE_MAX / 3 / (size_t)h)
         return err_set(err, RAYD_E_LIMIT, NULL, "image of %d x %d pixels is too large", w, h);
+    return RAYD_OK;
+}
+
+enum rayd_status rayd_image_new(int w, int h, rayd_image **out, struct rayd_error *err) {
+    enum rayd_status st = size_check(w, h, err);
+    if (st != RAYD_OK) return st;
     rayd_image *img = calloc(1, sizeof *img);
     size_t bytes = (size_t)w * (size_t)h * 3;
     bool huge = bytes >= IMAGE_HUGE_MIN;
@@ -60,9 +67,8 @@ enum rayd_status rayd_image_new(int w, int h, rayd_image **out, struct rayd_erro
 }
 
 enum rayd_status rayd_image_new_window(int w, int h, rayd_image **out, struct rayd_error *err) {
-    if (w <= 0 || h <= 0) return err_set(err, RAYD_E_ARG, NULL, "image size must be > 0");
-    if ((size_t)w > SIZE_MAX / 3 / (size_t)h)
-        return err_set(err, RAYD_E_LIMIT, NULL, "image of %d x %d pixels is too large", w, h);
+    enum rayd_status st = size_check(w, h, err);
+    if (st != RAYD_OK) return st;
     rayd_image *img = calloc(1, sizeof *img);
     struct image_window *win = calloc(1, sizeof *win);
     if (!img || !win) {
