@@ -658,8 +658,9 @@ static int encode_bands(struct rayd_png_stream *s, int threads) {
 
 enum rayd_status rayd_png_stream_new(const rayd_image *img, int level, rayd_png_stream **out,
                                      struct rayd_error *err) {
-    if (img->win && img->px)
-        return err_set(err, RAYD_E_ARG, NULL, "a window image streams only its own render");
+    if (img->win && (img->px || img->win->keep))
+        return err_set(err, RAYD_E_ARG, NULL,
+                       "a window image streams only its own render, into one stream");
     if (level < 0 || level > 9) level = PNG_LEVEL_DEFAULT;
     if (level == 1) level = -1; /* the fastest: ISA-L (smaller and faster than zlib's 1) */
     pthread_once(&png_xlogx_once, xlogx_init);
@@ -737,8 +738,17 @@ static int png_assemble(const struct rayd_png_stream *s, void **buf, size_t *len
     return 0;
 }
 
+/* A window image holds rows only once its render has opened it: until
+ * then there is nothing to encode (and no row has a place). */
+static enum rayd_status stream_undrawn(rayd_png_stream *s, struct rayd_error *err) {
+    if (!s->img->win || s->img->win->rows > 0) return RAYD_OK;
+    rayd_png_stream_free(s);
+    return err_set(err, RAYD_E_ARG, NULL, "a window image is encoded only as its render draws it");
+}
+
 enum rayd_status rayd_png_stream_finish(rayd_png_stream *s, int threads, void **buf, size_t *len,
                                         struct rayd_png_stats *stats, struct rayd_error *err) {
+    if (stream_undrawn(s, err) != RAYD_OK) return RAYD_E_ARG;
     int failed = encode_bands(s, threads);
     if (stats) *stats = (struct rayd_png_stats){s->nbands, s->early, s->band_seconds};
     failed = failed || png_assemble(s, buf, len) < 0;
@@ -750,6 +760,7 @@ enum rayd_status rayd_png_stream_finish(rayd_png_stream *s, int threads, void **
 enum rayd_status rayd_png_stream_finish_to(rayd_png_stream *s, int threads, rayd_sink_fn sink,
                                            void *user, struct rayd_png_stats *stats,
                                            struct rayd_error *err) {
+    if (stream_undrawn(s, err) != RAYD_OK) return RAYD_E_ARG;
     int failed = encode_bands(s, threads);
     if (stats) *stats = (struct rayd_png_stats){s->nbands, s->early, s->band_seconds};
     struct out o = {.sink = sink, .user = user};
@@ -765,6 +776,8 @@ enum rayd_status rayd_png_stream_finish_to(rayd_png_stream *s, int threads, rayd
 
 enum rayd_status rayd_png_encode_threads(const rayd_image *img, int level, int threads, void **buf,
                                          size_t *len, struct rayd_error *err) {
+    if (img->win) /* its rows come only while its render draws them */
+        return err_set(err, RAYD_E_ARG, NULL, "a window image is encoded only by its stream");
     rayd_png_stream *s = NULL;
     enum rayd_status st = rayd_png_stream_new(img, level, &s, err);
     if (st != RAYD_OK) return st;

@@ -100,6 +100,8 @@ void rayd_image_free(rayd_image *img) {
     free(img);
 }
 
+bool image_window_tight;
+
 void image_window_keep(const rayd_image *img, int rows) {
     if (img->win) img->win->keep = rows;
 }
@@ -112,7 +114,7 @@ enum rayd_status image_window_open(rayd_image *img, size_t ahead, struct rayd_er
     size_t keep = (size_t)(win->keep > 0 ? win->keep : img->h), h = (size_t)img->h;
     size_t rows = ahead < h && keep < h - ahead ? keep + (ahead ? ahead : 1) : h;
     img->huge = rows * stride >= IMAGE_HUGE_MIN;
-    if (img->huge) { /* the rest of its huge pages is the window's too: no more memory */
+    if (img->huge && !image_window_tight) { /* the rest of its huge pages: no more memory */
         size_t room = huge_pages_room(rows * stride) / stride;
         if (room > rows) rows = room < h ? room : h;
     }

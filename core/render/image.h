@@ -16,7 +16,7 @@ struct image_window {
     pthread_mutex_t lock;
     pthread_cond_t moved; /* released grew, or the render gave up */
     int rows;             /* rows held: row y lives at y % rows; 0 until opened */
-    int keep;             /* rows the consumer holds at most before releasing them */
+    int keep;             /* its stream's band and the row above it; 0: no stream */
     int released;         /* rows [0, released) read for good: their room may be drawn over */
     bool given_up;        /* the render stopped: nobody waits any more */
 };
@@ -24,7 +24,7 @@ struct image_window {
 struct rayd_image {
     int w, h;
     uint8_t *px;              /* w * h * 3 bytes, or a window's rows * w * 3 */
-    bool huge;                /* px from huge_alloc_pages (else malloc) */
+    bool huge;                /* px from huge_calloc_pages (else calloc) */
     struct image_window *win; /* NULL: every row held */
 };
 
@@ -34,9 +34,16 @@ static inline uint8_t *image_row(const rayd_image *img, int y) {
     return img->px + (size_t)r * (size_t)img->w * 3;
 }
 
-/* For a window image: the consumer (the PNG stream) says it holds at most
- * rows rows it has been told are drawn before it releases them. */
+/* For a window image: its PNG stream deflates bands of at most rows - 1
+ * rows, each read with the row above it, and releases the rows above the
+ * first band it has not done but the one right above it (png_encode.c,
+ * band_done).  Once every band whose rows are drawn is done, then, all
+ * but the last `rows` rows drawn are released. */
 void image_window_keep(const rayd_image *img, int rows);
+
+/* For tests: a window of exactly the rows the render needs, without the
+ * rest of its huge pages, so that it wraps round often. */
+extern bool image_window_tight;
 
 /* Sizes and allocates a window image's rows for a render that draws ahead
  * rows past the last released row (its tiles in flight); a no-op for any

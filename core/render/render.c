@@ -363,6 +363,8 @@ static enum rayd_status render_tiles(const rayd_scene *s, const struct rayd_rend
     double t0 = clock_now();
     struct job jb = {.s = s, .r = *r, .opts = opts, .out = out};
     jb.tile = opts->tile > 0 ? opts->tile : 32;
+    int side = jb.r.w > jb.r.h ? jb.r.w : jb.r.h;
+    if (jb.tile > side) jb.tile = side; /* the same one tile, and no overflow below */
     jb.tiles_x = (jb.r.w + jb.tile - 1) / jb.tile;
     jb.ntiles = jb.tiles_x * ((jb.r.h + jb.tile - 1) / jb.tile);
     atomic_init(&jb.next, 0);
@@ -370,6 +372,12 @@ static enum rayd_status render_tiles(const rayd_scene *s, const struct rayd_rend
     atomic_init(&jb.canceled, 0);
     atomic_init(&jb.rays, 0);
     jb.tiles_y = (jb.r.h + jb.tile - 1) / jb.tile;
+    if (opts->rows && !out->sum) {
+        jb.row_left = malloc((size_t)jb.tiles_y * sizeof *jb.row_left);
+        if (!jb.row_left) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for a render");
+        for (int i = 0; i < jb.tiles_y; i++) atomic_init(&jb.row_left[i], jb.tiles_x);
+        pthread_mutex_init(&jb.rows_lock, NULL);
+    }
     int nthreads = opts->threads > 1 ? opts->threads : 1;
     if (nthreads > jb.ntiles) nthreads = jb.ntiles;
     /* a window image's rows in flight: the threads' tiles, over as many
@@ -377,12 +385,12 @@ static enum rayd_status render_tiles(const rayd_scene *s, const struct rayd_rend
      * with no rows callback nothing is released, so the whole frame */
     size_t ahead = opts->rows ? (size_t)jb.tile * (size_t)(2 + nthreads / jb.tiles_x) : SIZE_MAX;
     enum rayd_status st = out->img ? image_window_open(out->img, ahead, err) : RAYD_OK;
-    if (st != RAYD_OK) return st;
-    if (opts->rows && !out->sum) {
-        jb.row_left = malloc((size_t)jb.tiles_y * sizeof *jb.row_left);
-        if (!jb.row_left) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for a render");
-        for (int i = 0; i < jb.tiles_y; i++) atomic_init(&jb.row_left[i], jb.tiles_x);
-        pthread_mutex_init(&jb.rows_lock, NULL);
+    if (st != RAYD_OK) {
+        if (jb.row_left) {
+            pthread_mutex_destroy(&jb.rows_lock);
+            free(jb.row_left);
+        }
+        return st;
     }
 
     pthread_t *th = nthreads > 1 ? calloc((size_t)nthreads - 1, sizeof *th) : NULL;

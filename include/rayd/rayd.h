@@ -178,7 +178,8 @@ enum rayd_status rayd_region_check(const rayd_scene *scene, const struct rayd_re
 enum rayd_status rayd_render(const rayd_scene *scene, const struct rayd_render_opts *opts,
                              rayd_image **out, struct rayd_error *err);
 /* rayd_render into dst, an image of the region's size made by the caller
- * (so that opts->rows may read it while it is drawn). */
+ * (so that opts->rows may read it while it is drawn; a window image only
+ * through its rayd_png_stream). */
 enum rayd_status rayd_render_image(const rayd_scene *scene, const struct rayd_render_opts *opts,
                                    rayd_image *dst, struct rayd_error *err);
 
@@ -304,7 +305,8 @@ enum rayd_status rayd_image_new_window(int w, int h, rayd_image **out, struct ra
 void rayd_image_free(rayd_image *img);
 int rayd_image_width(const rayd_image *img);
 int rayd_image_height(const rayd_image *img);
-/* Row-major RGB, 3 bytes a pixel, rows packed (stride = 3 * width). */
+/* Row-major RGB, 3 bytes a pixel, rows packed (stride = 3 * width); NULL
+ * for a window image. */
 uint8_t *rayd_image_pixels(rayd_image *img);
 const uint8_t *rayd_image_pixels_const(const rayd_image *img);
 
@@ -327,7 +329,9 @@ enum rayd_status rayd_png_encode_threads(const rayd_image *img, int level, int t
  * deflated as soon as rayd_png_stream_rows says its rows are final, on the
  * thread that says so, so a render's workers encode between tiles and only
  * the last bands wait for the render's end.  The bytes are rayd_png_encode's
- * whatever the order and threads.  img must outlive the stream. */
+ * whatever the order and threads.  img must outlive the stream.  A window
+ * image (rayd_image_new_window) takes one stream, made before its render,
+ * and is finished only after it. */
 typedef struct rayd_png_stream rayd_png_stream;
 struct rayd_png_stats {
     int bands;           /* bands of rows in the file */

@@ -111,10 +111,10 @@ static void test_threads(void) {
 }
 
 int main(void) {
+    RUN(test_calloc_zeros); /* first: nothing kept yet, so its block is kept */
     RUN(test_aligned_and_usable);
     RUN(test_kept_for_its_size);
     RUN(test_bounded);
     RUN(test_threads);
-    RUN(test_calloc_zeros);
     CHECK_EXIT();
 }

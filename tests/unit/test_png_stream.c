@@ -7,6 +7,7 @@
  * serves one render, and a canceled render of one returns. */
 #include <pthread.h>
 #include <stdatomic.h>
+#include <stdbool.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -291,27 +292,33 @@ static void test_window_image_same_png(void) {
         size_t rlen = 0;
         void *ref = whole ? reference(whole, -1, &rlen) : NULL;
         for (int t = 0; ref && t < 4; t++)
-            for (int k = 0; k < 3; k++) {
-                if ((tiles[k] == 1 || threads[t] == 1 || threads[t] == 5) && w * h > 20000)
-                    continue; /* slow */
-                size_t len = 0;
-                int rows = 0;
-                void *buf = window_png(s, w, h, threads[t], tiles[k], &len, &rows);
-                CHECK(buf && len == rlen && !memcmp(buf, ref, len),
-                      "%dx%d, %d threads, tile %d: the window's PNG differs from the frame's", w, h,
-                      threads[t], tiles[k]);
-                CHECK(w * h < 100000 || rows < h, "%dx%d, tile %d: the window held all %d rows", w,
-                      h, tiles[k], rows);
-                rayd_free(buf);
-            }
+            for (int k = 0; k < 3; k++)
+                for (int tight = 0; tight < 2; tight++) {
+                    bool big = w * h > 20000;
+                    if (big ? tiles[k] == 1 || threads[t] == 1 || threads[t] == 5 : tight)
+                        continue; /* slow, or the same: a small frame's window holds it all */
+                    image_window_tight = tight;
+                    size_t len = 0;
+                    int rows = 0;
+                    void *buf = window_png(s, w, h, threads[t], tiles[k], &len, &rows);
+                    CHECK(buf && len == rlen && !memcmp(buf, ref, len),
+                          "%dx%d, %d threads, tile %d%s: the window's PNG differs from the frame's",
+                          w, h, threads[t], tiles[k], tight ? ", tight" : "");
+                    CHECK(!big || rows < (tight ? h / 3 : h),
+                          "%dx%d, tile %d%s: the window held %d of %d rows", w, h, tiles[k],
+                          tight ? ", tight" : "", rows, h);
+                    rayd_free(buf);
+                }
         rayd_free(ref);
         rayd_image_free(whole);
         rayd_scene_free(s);
     }
+    image_window_tight = false;
 }
 
 /* A window image serves one streamed render: no second render, no second
- * stream, no blit, no render into it at an offset. */
+ * stream (before the render or after it), no encoding before its render,
+ * no blit, no render into it at an offset. */
 static void test_window_image_once(void) {
     rayd_scene *s = whitted_sized(64, 48);
     rayd_image *img = NULL, *other = NULL;
@@ -323,7 +330,14 @@ static void test_window_image_once(void) {
     CHECK(rayd_image_blit(other, img, 0, 0, &err) == RAYD_E_ARG, "blit from a window image");
     CHECK(rayd_render_into(s, NULL, img, 0, 0, NULL, NULL, &err) == RAYD_E_ARG,
           "render_into a window image");
+    void *buf = NULL;
+    size_t len = 0;
+    CHECK(rayd_png_encode(img, -1, &buf, &len, &err) == RAYD_E_ARG && !buf,
+          "a window image encoded before its render: %s", err.message);
     CHECK(rayd_png_stream_new(img, -1, &ps, NULL) == RAYD_OK, "stream");
+    rayd_png_stream *ps2 = NULL;
+    CHECK(rayd_png_stream_new(img, -1, &ps2, &err) == RAYD_E_ARG && !ps2,
+          "a second stream before the render: %s", err.message);
     struct rayd_render_opts o = {.threads = 2, .rows = rayd_png_stream_rows, .rows_user = ps};
     CHECK(rayd_render_image(s, &o, img, NULL) == RAYD_OK, "render");
     rayd_png_stream_free(ps);
@@ -362,6 +376,58 @@ static void test_window_without_rows_callback(void) {
     rayd_image_free(whole);
     rayd_image_free(img);
     rayd_scene_free(s);
+}
+
+/* A stream of a window image finished with no render says so (there
+ * are no rows to encode) and frees itself. */
+static void test_window_finish_without_render(void) {
+    rayd_image *img = NULL;
+    rayd_png_stream *ps = NULL;
+    CHECK(rayd_image_new_window(300, 200, &img, NULL) == RAYD_OK, "window image");
+    CHECK(img && rayd_png_stream_new(img, -1, &ps, NULL) == RAYD_OK, "stream");
+    if (!ps) return;
+    struct rayd_error err = {0};
+    void *buf = NULL;
+    size_t len = 0;
+    CHECK(rayd_png_stream_finish(ps, 2, &buf, &len, NULL, &err) == RAYD_E_ARG && !buf,
+          "finished with no render: %s", err.message);
+    rayd_image_free(img);
+}
+
+/* The window's waits: a thread waiting for rows past the window returns
+ * true once they are released, false once the render gives up; rows
+ * inside the first window never wait. */
+struct waiter {
+    rayd_image *img;
+    int end;
+    bool ok;
+};
+
+static void *wait_rows(void *arg) {
+    struct waiter *w = arg;
+    w->ok = image_rows_wait(w->img, w->end);
+    return NULL;
+}
+
+static void test_window_waits(void) {
+    rayd_image *img = NULL;
+    CHECK(rayd_image_new_window(10, 1000, &img, NULL) == RAYD_OK, "window image");
+    if (!img) return;
+    image_window_keep(img, 50);
+    CHECK(image_window_open(img, 50, NULL) == RAYD_OK && img->win->rows == 100, "rows %d",
+          img ? img->win->rows : -1);
+    CHECK(image_rows_wait(img, 100), "the first window's rows waited");
+    struct waiter a = {img, 250, false}, b = {img, 900, true};
+    pthread_t ta, tb;
+    pthread_create(&ta, NULL, wait_rows, &a);
+    pthread_create(&tb, NULL, wait_rows, &b);
+    image_rows_release(img, 150); /* room for rows up to 250: a goes on */
+    pthread_join(ta, NULL);
+    CHECK(a.ok, "rows [0, 250) after 150 released");
+    image_rows_give_up(img); /* b, waiting for 800 released, is turned away */
+    pthread_join(tb, NULL);
+    CHECK(!b.ok, "a waiter went on after the render gave up");
+    rayd_image_free(img);
 }
 
 /* A render canceled half way, threads waiting for the window's room,
@@ -409,6 +475,8 @@ int main(void) {
     RUN(test_window_image_same_png);
     RUN(test_window_image_once);
     RUN(test_window_without_rows_callback);
+    RUN(test_window_finish_without_render);
+    RUN(test_window_waits);
     RUN(test_window_cancel_does_not_hang);
     CHECK_EXIT();
 }
