@@ -67,6 +67,16 @@ static void *kept_take(size_t whole) {
     return p;
 }
 
+/* Asks the kernel for huge pages over p's whole bytes (a huge page's
+ * boundary); where it says no, they stay ordinary pages. */
+static void advise_huge(void *p, size_t whole) {
+#ifdef MADV_HUGEPAGE
+    if (p) madvise(p, whole, MADV_HUGEPAGE);
+#else
+    (void)p, (void)whole;
+#endif
+}
+
 /* whole bytes (a multiple of HUGEMEM_PAGE) mapped fresh at a huge page's
  * boundary, or NULL.  Straight from mmap, not aligned_alloc: a fresh
  * mapping is known to read as zeros (huge_calloc_pages then need not touch
@@ -81,9 +91,7 @@ static void *map_pages(size_t whole) {
     size_t head = (HUGEMEM_PAGE - (uintptr_t)m % HUGEMEM_PAGE) % HUGEMEM_PAGE;
     if (head) munmap(m, head);
     if (len - head > whole) munmap(m + head + whole, len - head - whole);
-#ifdef MADV_HUGEPAGE
-    madvise(m + head, whole, MADV_HUGEPAGE);
-#endif
+    advise_huge(m + head, whole);
     return m + head;
 }
 
@@ -143,9 +151,7 @@ void huge_free_if(bool huge, void *p, size_t bytes) {
 static void *heap_pages(size_t bytes) {
     size_t whole = huge_whole(bytes);
     void *p = whole ? aligned_alloc(HUGEMEM_PAGE, whole) : NULL;
-#ifdef MADV_HUGEPAGE
-    if (p) madvise(p, whole, MADV_HUGEPAGE);
-#endif
+    advise_huge(p, whole);
     return p;
 }
 

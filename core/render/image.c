@@ -112,7 +112,7 @@ enum rayd_status image_window_open(rayd_image *img, size_t ahead, struct rayd_er
     if (img->px) return err_set(err, RAYD_E_ARG, NULL, "a window image takes one render");
     size_t stride = (size_t)img->w * 3;
     size_t keep = (size_t)(win->keep > 0 ? win->keep : img->h), h = (size_t)img->h;
-    size_t rows = ahead < h && keep < h - ahead ? keep + (ahead ? ahead : 1) : h;
+    size_t rows = ahead < h && keep < h - ahead ? keep + ahead : h;
     img->huge = rows * stride >= IMAGE_HUGE_MIN;
     if (img->huge && !image_window_tight) { /* the rest of its huge pages: no more memory */
         size_t room = huge_pages_room(rows * stride) / stride;

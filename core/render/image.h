@@ -46,8 +46,8 @@ void image_window_keep(const rayd_image *img, int rows);
 extern bool image_window_tight;
 
 /* Sizes and allocates a window image's rows for a render that draws ahead
- * rows past the last released row (its tiles in flight); a no-op for any
- * other image. */
+ * (at least 1) rows past the last released row (its tiles in flight); a
+ * no-op for any other image. */
 enum rayd_status image_window_open(rayd_image *img, size_t ahead, struct rayd_error *err);
 
 /* Waits until rows [0, end) may all be drawn (their room is released);

@@ -355,6 +355,13 @@ static void *render_worker(void *arg) {
     return NULL;
 }
 
+/* The job's count of rows of tiles left, when it keeps one. */
+static void job_rows_free(struct job *jb) {
+    if (!jb->row_left) return;
+    pthread_mutex_destroy(&jb->rows_lock);
+    free(jb->row_left);
+}
+
 /* Renders region r (checked) to out in tiles on opts->threads threads;
  * fills opts->stats. */
 static enum rayd_status render_tiles(const rayd_scene *s, const struct rayd_render_opts *opts,
@@ -386,10 +393,7 @@ static enum rayd_status render_tiles(const rayd_scene *s, const struct rayd_rend
     size_t ahead = opts->rows ? (size_t)jb.tile * (size_t)(2 + nthreads / jb.tiles_x) : SIZE_MAX;
     enum rayd_status st = out->img ? image_window_open(out->img, ahead, err) : RAYD_OK;
     if (st != RAYD_OK) {
-        if (jb.row_left) {
-            pthread_mutex_destroy(&jb.rows_lock);
-            free(jb.row_left);
-        }
+        job_rows_free(&jb);
         return st;
     }
 
@@ -400,10 +404,7 @@ static enum rayd_status render_tiles(const rayd_scene *s, const struct rayd_rend
     render_worker(&jb); /* the calling thread works too */
     for (int i = 0; i < started; i++) pthread_join(th[i], NULL);
     free(th);
-    if (jb.row_left) {
-        pthread_mutex_destroy(&jb.rows_lock);
-        free(jb.row_left);
-    }
+    job_rows_free(&jb);
 
     if (opts->stats) {
         opts->stats->rays = atomic_load(&jb.rays);
