@@ -119,7 +119,7 @@ static void test_shadow_packets_match_one_ray(void) {
 
 /* The buffer is there for a point light clear of every object, not for a
  * light inside an object's box nor for other kinds of light, and covers
- * only the faces objects show on. */
+ * only the faces objects show on, in cells as many as they need. */
 static void test_buffer_built_where_sound(void) {
     static char json[1 << 16];
     cloud_scene(json, sizeof json, 40,
@@ -147,6 +147,10 @@ static void test_buffer_built_where_sound(void) {
         CHECK(faces == 1 && b[0].face[3].nu > 0, "%d faces in use, -y %s", faces,
               b[0].face[3].nu > 0 ? "among them" : "not");
         CHECK(b[0].reach > 1000, "reach %g", b[0].reach);
+        /* its cells sized to the 41 objects it shows: about 20 an object,
+         * not the 64 x 64 of a crowded face */
+        int nu = b[0].face[3].nu, nv = b[0].face[3].nv;
+        CHECK(nu == nv && nu * nv >= 20 * 41 && nu * nv < 25 * 41, "-y face %d x %d cells", nu, nv);
     }
     struct rayd_scene_info info;
     rayd_scene_info(s, &info);
