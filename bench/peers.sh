@@ -137,20 +137,25 @@ rayd_cpu=$(kv "$R/spheres10.raybench-cpu" image_s_1t)
 # parse took 0.55-0.62 s for the PLY against 0.38-0.40 straight after
 # another run, and embree_bench's load and build after rayd's small sphere
 # frame 0.16 + 0.37 s against 0.07 + 0.22 after its own run.  So every
-# timed mesh process follows one that has just freed as much memory: both
+# timed process follows one that has just freed as much memory: both
 # sides are timed warm, as a user rendering one frame after another is.
+# The sphere frame too (since Nov 28 2026): POV-Ray's trace time is taken
+# inside its process, after its parse has touched its memory, and rayd's
+# frame is timed the second of two runs; the first, straight after
+# POV-Ray, is printed beside it (cold).
 whole() { # SCENE: one whole rayd-render process, its microseconds (fork to exit,
     # walltime.c) into $R/walltime
     "$D/walltime" "$R/walltime" "$BUILD/rayd-render" "$1" -o "$R/whole.png" --threads 2 \
         2>>"$R/stderr.log" || { echo "bench-peers: rayd-render $1 failed"; exit 1; }
 }
 seconds() { med | awk '{printf "%.4f", $1 / 1e6}'; }
-pov2_t=() ws=() wp=() wo=()
+pov2_t=() ws=() wsc=() wp=() wo=()
 for r in $(seq "$RUNS"); do
     run "$R/e2e.objparse.$r" "$D/objparse" "$D/mesh-8.obj" --runs 1
     (cd "$pov" && povray +Ispheres10.pov +Ospheres10-pov2.png +W1920 +H1080 -A +WT2 -D +FN \
         >povray2.log 2>&1) || { echo "bench-peers: povray +WT2 failed"; exit 1; }
     pov2_t+=("$(sed -n 's/.*Trace Time:.*(\([0-9.]*\) seconds).*/\1/p' "$pov/povray2.log" | head -1)")
+    whole bench/scenes/spheres10.json && wsc+=("$(cat "$R/walltime")")
     whole bench/scenes/spheres10.json && ws+=("$(cat "$R/walltime")")
     run "$R/e2e.embree.$r" "$D/embree_bench" "$D/mesh-8.json" --runs 1
     run "$R/e2e.embree.$r" "$D/embree_bench" "$D/mesh-8.json" --runs 1
@@ -160,6 +165,7 @@ for r in $(seq "$RUNS"); do
 done
 pov2_s=$(printf '%s\n' "${pov2_t[@]}" | med)
 whole_spheres=$(printf '%s\n' "${ws[@]}" | seconds)
+whole_spheres_cold=$(printf '%s\n' "${wsc[@]}" | seconds)
 whole_ply=$(printf '%s\n' "${wp[@]}" | seconds)
 whole_obj=$(printf '%s\n' "${wo[@]}" | seconds)
 medianize "$R/e2e.embree".[0-9]* >"$R/e2e.embree"
@@ -246,11 +252,12 @@ row "  (Embree packet16 1.3M / 5k, reference)" "$(kv "$R/mesh-8.embree" primary_
     "$(kv "$R/mesh-8.embree-cpu" primary_mrays_1t_packet16)" \
     "$(kv "$R/mesh-4.embree-cpu" primary_mrays_1t_packet16)" -
 row "whole: spheres10 2t / POV-Ray trace 2t" "$whole_spheres" "$pov2_s" - - 10 1
+row "  (spheres10 cold: right after POV-Ray)" "$whole_spheres_cold" "$pov2_s" - - - 1
 row "whole: 1.3M PLY / Embree load+build+rays" "$whole_ply" "$embree_e2e" - - 1 1
 row "whole: 1.3M OBJ / Embree OBJ+build+rays" "$whole_obj" "$embree_e2e_obj" - - 1 1
 row "  (the OBJ / Embree PLY load+build+rays)" "$whole_obj" "$embree_e2e" - - - 1
-printf '(whole: rayd-render start to PNG written, 2 threads: spheres10 %s s, 1.3M PLY %s s, OBJ %s s;\n' \
-    "$whole_spheres" "$whole_ply" "$whole_obj"
+printf '(whole: rayd-render start to PNG written, 2 threads: spheres10 %s s (cold %s s), 1.3M PLY %s s, OBJ %s s;\n' \
+    "$whole_spheres" "$whole_spheres_cold" "$whole_ply" "$whole_obj"
 printf ' POV-Ray +WT2 trace %s s; Embree PLY load %s s or OBJ parse (tinyobjloader) %s s\n' \
     "$pov2_s" "$(kv "$em8" parse_s)" "$(kv "$R/e2e.objparse" obj_parse_s)"
 printf ' + medium build %s s + rays %s Mpixels/s 1t)\n' \
