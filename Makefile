@@ -548,7 +548,7 @@ format: lint-deps
 lint: lint-deps
 	cppcheck --quiet --error-exitcode=1 --enable=warning,performance,portability \
 	  --inline-suppr -Iinclude -Icore --std=c11 core cli server clients
-	clang-tidy --quiet $(CORE_SRC) -- -std=c11 -D_POSIX_C_SOURCE=200809L -Iinclude -Icore
+	clang-tidy --quiet $(CORE_SRC) -- -std=c11 -D_POSIX_C_SOURCE=200809L -Iinclude -Icore $(EXR_CFLAGS)
 
 clean:
 	rm -rf build

@@ -161,12 +161,17 @@ static void parse_blocks(void *ctx, size_t lo, size_t hi) {
 
 static long run(struct job *j, int threads, double *bad) {
     size_t nb = (j->sp->close - j->sp->open + JN_BLOCK - 1) / JN_BLOCK;
-    long *first = malloc(nb * (2 * sizeof(long) + sizeof(double)));
-    if (!first) return JSON_NUMBERS_NOMEM;
+    long *first = malloc(nb * 2 * sizeof(long));
+    double *badv = malloc(nb * sizeof(double));
+    if (!first || !badv) {
+        free(first);
+        free(badv);
+        return JSON_NUMBERS_NOMEM;
+    }
     j->nblocks = nb;
     j->first = first;
     j->bad = first + nb;
-    j->badv = (double *)(j->bad + nb);
+    j->badv = badv;
     if (threads != 1 && nb < 16) threads = 1; /* under 1 MB: not worth a thread */
     parallel_for(nb, threads, 1, count_blocks, j);
     for (size_t b = 0, sum = 0; b < nb; b++) {
@@ -182,6 +187,7 @@ static long run(struct job *j, int threads, double *bad) {
             if (bad) *bad = j->badv[b];
         }
     free(first);
+    free(badv);
     return result;
 }
 
