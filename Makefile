@@ -85,7 +85,7 @@ EXR_LIBS = $(shell pkg-config --libs OpenEXR)
 # Debian's -dev packages ship: three shared libraries fewer to map and
 # relocate at each start (rayd-render --version 6.8 -> 5.9 ms, median of 21
 # on the 2-core VM, where each page a process first touches costs a fault),
-# and libdeflate, the PNG's deflate on every frame, 5% faster as an archive
+# and libdeflate, the PNG deflate at the default level, 5% faster as an archive
 # (the 1080p sphere frame's bands 36.9 -> 35.2 ms of work, median of 9).
 # librayd.so links them all as shared libraries (LIBS_SHARED).
 LIBS_DYN = -lz -lisal -lcjson $(EXR_LIBS) -lpthread -lm

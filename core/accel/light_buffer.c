@@ -24,7 +24,7 @@
  * x LB_CELLS cells; lanes outside it meet no object.
  *
  * Cells an object.  A face holds about LB_CELLS_PER_OBJ cells for each
- * object that shows on it (64 x 64 from 205 objects on).  The cells' lists
+ * object that shows on it (64 x 64 from 199 objects on).  The cells' lists
  * are built in every process before the first ray, on fresh pages: with 64
  * x 64 cells on every face whatever the scene, the 51 spheres of the bench
  * scene (two point lights) took 1.3-2.2 ms to build, against 0.5-1.2 ms
