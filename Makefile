@@ -90,7 +90,7 @@ EXR_LIBS = $(shell pkg-config --libs OpenEXR)
 # librayd.so links them all as shared libraries (LIBS_SHARED).
 LIBS_DYN = -lz -lisal -lcjson $(EXR_LIBS) -lpthread -lm
 LIBS_CORE = -Wl,-Bstatic -lpng16 -ldeflate -lstb -Wl,-Bdynamic $(LIBS_DYN)
-LIBS_SHARED = -lpng -lz -lisal -ldeflate -lcjson -lstb $(EXR_LIBS) -lpthread -lm
+LIBS_SHARED = -lpng16 -ldeflate -lstb $(LIBS_DYN)
 
 # --- version ----------------------------------------------------------------
 # The file VERSION holds the one version string.  Every compile sees it as
