@@ -120,8 +120,12 @@ static enum rayd_status obj_fail(struct obj *o, enum rayd_status code, const cha
     return err_set(o->err, code, NULL, "OBJ line %zu: %s", o->line, msg);
 }
 
+/* The code named, not obj_fail's return of it: the analyzer does not follow
+ * a call into a variadic function, and took a failure here and in
+ * obj_new_vertex for RAYD_OK (a vertex number read unset, a merge of no keys). */
 static enum rayd_status obj_nomem(struct obj *o) {
-    return obj_fail(o, RAYD_E_NOMEM, "out of memory");
+    obj_fail(o, RAYD_E_NOMEM, "out of memory");
+    return RAYD_E_NOMEM;
 }
 
 static void obj_release(struct obj *o) {
@@ -312,9 +316,11 @@ static bool obj_table_fit(struct obj *o, size_t entries) {
 /* A new output vertex for triple k (limit checked), numbered in order of
  * first appearance whichever way it was found. */
 static enum rayd_status obj_new_vertex(struct obj *o, struct obj_key k, uint32_t *out) {
-    if (o->nkeys >= o->max_verts)
-        return obj_fail(o, RAYD_E_LIMIT, "%zu vertices exceed the limit of %u", o->nkeys + 1,
-                        o->max_verts);
+    if (o->nkeys >= o->max_verts) {
+        obj_fail(o, RAYD_E_LIMIT, "%zu vertices exceed the limit of %u", o->nkeys + 1,
+                 o->max_verts);
+        return RAYD_E_LIMIT;
+    }
     if (!array_grow((void **)&o->keys, &o->cap_keys, o->nkeys + 1, sizeof *o->keys))
         return obj_nomem(o);
     o->keys[o->nkeys] = k;
@@ -670,6 +676,8 @@ static enum rayd_status obj_finish(struct obj *o, struct mesh_data *out) {
     enum rayd_status st = obj_merge(o);
     if (st != RAYD_OK) return st;
     size_t nv = o->nkeys;
+    if (nv == 0) /* never with faces (a corner is a vertex); no allocation of 0 bytes below */
+        return err_set(o->err, RAYD_E_INVALID, NULL, "OBJ has no faces ('f' lines)");
     struct mesh_data m = {0};
     m.pos = huge_alloc(nv * 3 * sizeof *m.pos);
     if (o->all_n) m.normal = huge_alloc(nv * 3 * sizeof *m.normal);
@@ -884,6 +892,7 @@ static void num_tris_body(void *ctx, size_t lo, size_t hi) {
 }
 
 static bool obj_number_positions(struct obj_par *j, int threads) {
+    if (j->nchunks == 0) return false; /* never (4 a thread); no calloc of 0 below */
     struct obj *o = &j->shared;
     struct obj_num u = {j, o->first, huge_calloc(o->nv + 1, sizeof *u.num),
                         calloc(j->nchunks, sizeof(size_t)), calloc(j->nchunks, sizeof(size_t))};

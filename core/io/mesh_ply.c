@@ -265,7 +265,8 @@ static enum rayd_status ply_element_line(struct ply *P, const char *p, const cha
                    : kind == PLY_ELEM_FACE   ? &P->face
                    : kind == PLY_ELEM_STRIPS ? &P->strips
                                              : NULL;
-    if (slot && *slot) return ply_hfail(P, RAYD_E_INVALID, "a second '%s' element", ply_q(q, name));
+    if (kind != PLY_ELEM_OTHER && *slot)
+        return ply_hfail(P, RAYD_E_INVALID, "a second '%s' element", ply_q(q, name));
     if (!array_grow((void **)&P->elems, &P->cap_elems, P->nelems + 1, sizeof *P->elems))
         return ply_hfail(P, RAYD_E_NOMEM, "out of memory");
     struct ply_elem *e = &P->elems[P->nelems++];
@@ -482,7 +483,7 @@ static enum rayd_status ply_value(struct ply *P, enum ply_type t, double *out) {
 
 /* A list's item count. */
 static enum rayd_status ply_count(struct ply *P, enum ply_type t, uint32_t *n) {
-    double d;
+    double d = -1; /* set unless ply_value fails (the analyzer cannot see its failures' codes) */
     enum rayd_status st = ply_value(P, t, &d);
     if (st != RAYD_OK) return st;
     if (!(d >= 0 && d <= 4294967295.0 && d == floor(d)))
@@ -840,8 +841,10 @@ enum rayd_status mesh_parse_ply_threads(const void *data, size_t len, const stru
     if (st == RAYD_OK) st = ply_check_header(&P);
     if (st == RAYD_OK) st = ply_alloc(&P);
     if (st == RAYD_OK) st = ply_body(&P);
-    if (st == RAYD_OK && P.ntri == 0)
-        st = err_set(err, RAYD_E_INVALID, NULL, "PLY file has no faces");
+    if (st == RAYD_OK && P.ntri == 0) { /* the code named: the analyzer cannot see err_set's */
+        err_set(err, RAYD_E_INVALID, NULL, "PLY file has no faces");
+        st = RAYD_E_INVALID;
+    }
     if (st == RAYD_OK) {
         uint32_t *tri = realloc(P.tri, P.ntri * 3 * sizeof *tri); /* shrink; may fail */
         if (tri) P.tri = tri;

@@ -138,8 +138,8 @@ enum rayd_status sj_environment(struct loader *ld, const cJSON *r, const struct 
         char *data = NULL;
         size_t len = 0;
         TRY(env_encoded(ld, ej, &at, &p, &data, &len));
-        bool exr =
-            format == 1 || (format < 0 && len >= 4 && memcmp(data, "\x76\x2f\x31\x01", 4) == 0);
+        bool exr = format == 1 ||
+                   (format < 0 && data && len >= 4 && memcmp(data, "\x76\x2f\x31\x01", 4) == 0);
         enum rayd_status st =
             exr ? env_decode_exr(ld, data, len, &p, k, e) : env_decode_hdr(ld, data, len, &p, k, e);
         free(data);

@@ -254,10 +254,10 @@ static enum rayd_status load_source(struct loader *ld, const cJSON *src, const s
     const cJSON *b64 = cJSON_GetObjectItemCaseSensitive(src, "base64");
     const cJSON *file = cJSON_GetObjectItemCaseSensitive(src, "file");
     struct jp pv = sj_key(at, text ? "text" : b64 ? "base64" : "file");
-    int format;
-    char *data;
-    const char *bytes;
-    size_t nbytes;
+    int format = -1; /* all four set by sj_source_read when it succeeds */
+    char *data = NULL;
+    const char *bytes = NULL;
+    size_t nbytes = 0;
     double t0 = clock_now(); /* decode: reading the file or base64 too */
     TRY(sj_source_read(ld, src, at, &format, &data, &bytes, &nbytes));
     struct mesh_limits ml = sj_mesh_budget(ld);

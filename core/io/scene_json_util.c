@@ -192,7 +192,7 @@ enum rayd_status sj_vec_value(struct loader *ld, const cJSON *v, const struct jp
                               enum vec_rule rule, vec3 *out) {
     if (!cJSON_IsArray(v) || cJSON_GetArraySize(v) != 3)
         return sj_fail(ld, RAYD_E_INVALID, p, "must be an array of 3 numbers");
-    double c[3];
+    double c[3] = {0, 0, 0}; /* all three set: the size is checked above */
     int i = 0;
     for (const cJSON *e = v->child; e; e = e->next, i++) {
         struct jp pe = sj_index(p, i);
@@ -356,10 +356,11 @@ enum rayd_status sj_read_asset(struct loader *ld, const cJSON *f, const struct j
     if (!cJSON_IsString(f)) return sj_fail(ld, RAYD_E_INVALID, at, "must be a string, not %s", sj_type_name(f));
     const char *name = f->valuestring;
     char q[96];
-    int fd;
+    int fd = -1;
     TRY(asset_open(ld, name, at, &fd));
     struct stat st;
-    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    /* st_size < 0: never; said so the analyzer knows cap > 0 below */
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || st.st_size < 0) {
         close(fd);
         return sj_fail(ld, RAYD_E_INVALID, at, "\"%s\" is not a regular file", sj_quote(q, sizeof q, name));
     }
