@@ -52,7 +52,6 @@
  */
 #include <float.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -125,18 +124,12 @@ struct gl {
 
 /* ---- errors and pointers ----------------------------------------------- */
 
-static enum rayd_status gl_fail(struct gl *G, enum rayd_status code, const struct gp *at,
-                                const char *fmt, ...) __attribute__((format(printf, 4, 5)));
-
-static enum rayd_status gl_fail(struct gl *G, enum rayd_status code, const struct gp *at,
-                                const char *fmt, ...) {
-    char msg[256];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(msg, sizeof msg, fmt, ap);
-    va_end(ap);
-    return err_set(G->err, code, at ? at->s : "", "%s", msg);
-}
+/* Sets G's error at the JSON Pointer at, and is the code.  A macro, not a
+ * function, so that the code is the value where it is returned: clang's
+ * analyzer does not follow calls into variadic functions, and took what
+ * one returned for a status that might be RAYD_OK (and read on down the
+ * failure paths as if they had succeeded, into values never written). */
+#define gl_fail(G, code, at, ...) (err_set((G)->err, (code), (at)->s, __VA_ARGS__), (code))
 
 static struct gp gp_item(const char *top, long i) {
     struct gp r;
@@ -191,8 +184,9 @@ static enum rayd_status gl_nums(struct gl *G, const cJSON *o, const struct gp *a
     }
     if (!cJSON_IsArray(v) || cJSON_GetArraySize(v) != n)
         return gl_fail(G, RAYD_E_INVALID, &p, "must be an array of %d numbers", n);
-    int i = 0;
-    for (const cJSON *e = v->child; e; e = e->next, i++) {
+    /* n entries, each written or refused (a NULL e is no number) */
+    const cJSON *e = v->child;
+    for (int i = 0; i < n; i++, e = e ? e->next : NULL) {
         struct gp pe = gp_index(&p, i);
         if (!cJSON_IsNumber(e) || !isfinite(e->valuedouble) || fabs(e->valuedouble) > 1e30)
             return gl_fail(G, RAYD_E_INVALID, &pe, "must be a finite number");
@@ -294,8 +288,8 @@ static enum rayd_status gl_data_uri(struct gl *G, const char *uri, const struct 
     if (!comma || comma - uri < 12 || memcmp(comma - 7, ";base64", 7) != 0)
         return gl_fail(G, RAYD_E_INVALID, p, "a data: URI must be base64 (\"data:...;base64,\")");
     struct rayd_error e = {0};
-    if (base64_decode(comma + 1, strlen(comma + 1), &b->data, &b->len, &e) != RAYD_OK)
-        return gl_fail(G, e.code, p, "%s", e.message);
+    enum rayd_status st = base64_decode(comma + 1, strlen(comma + 1), &b->data, &b->len, &e);
+    if (st != RAYD_OK) return gl_fail(G, st, p, "%s", e.message);
     b->owned = true;
     return RAYD_OK;
 }

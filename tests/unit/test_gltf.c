@@ -313,6 +313,26 @@ static void v_deep(cJSON *d) {
 static void v_nan_matrix(cJSON *d) {
     cJSON_ReplaceItemInObject(item(d, "nodes", 1), "matrix", cJSON_CreateString("x"));
 }
+/* Required values missing and arrays cut short: each refused where it is,
+ * never read (clang's analyzer followed these paths on into values never
+ * written; ASan and the messages here say they stop). */
+static void v_no_buffer_len(cJSON *d) { cJSON_DeleteItemFromObject(item(d, "buffers", 0), "byteLength"); }
+static void v_no_view_buffer(cJSON *d) { cJSON_DeleteItemFromObject(item(d, "bufferViews", 0), "buffer"); }
+static void v_no_view_len(cJSON *d) { cJSON_DeleteItemFromObject(item(d, "bufferViews", 0), "byteLength"); }
+static void v_no_count(cJSON *d) { cJSON_DeleteItemFromObject(item(d, "accessors", 0), "count"); }
+static void v_no_ctype(cJSON *d) { cJSON_DeleteItemFromObject(item(d, "accessors", 0), "componentType"); }
+static void v_no_position(cJSON *d) {
+    cJSON *p = cJSON_GetArrayItem(cJSON_GetObjectItem(item(d, "meshes", 0), "primitives"), 0);
+    cJSON_DeleteItemFromObject(cJSON_GetObjectItem(p, "attributes"), "POSITION");
+}
+static void v_short_rotation(cJSON *d) { cJSON_ReplaceItemInObject(item(d, "nodes", 2), "rotation", cJSON_CreateIntArray((int[]){0, 0, 1}, 3)); }
+static void v_short_matrix(cJSON *d) {
+    cJSON *m = cJSON_GetObjectItem(item(d, "nodes", 1), "matrix");
+    cJSON_DeleteItemFromArray(m, 15);
+}
+static void v_translation_str(cJSON *d) {
+    cJSON_ReplaceItemInArray(cJSON_GetObjectItem(item(d, "nodes", 2), "translation"), 1, cJSON_CreateString("x"));
+}
 
 struct hostile {
     const char *name;
@@ -343,6 +363,15 @@ static void test_hostile(void) {
         {"points_only", v_points_only, RAYD_E_INVALID, "", "no triangles"},
         {"deep", v_deep, RAYD_E_LIMIT, "/nodes/", "nest more than"},
         {"matrix_type", v_nan_matrix, RAYD_E_INVALID, "/nodes/1/matrix", "array of 16 numbers"},
+        {"no_buffer_len", v_no_buffer_len, RAYD_E_INVALID, "/buffers/0/byteLength", "is required"},
+        {"no_view_buffer", v_no_view_buffer, RAYD_E_INVALID, "/bufferViews/0/buffer", "is required"},
+        {"no_view_len", v_no_view_len, RAYD_E_INVALID, "/bufferViews/0/byteLength", "is required"},
+        {"no_count", v_no_count, RAYD_E_INVALID, "/accessors/0/count", "is required"},
+        {"no_ctype", v_no_ctype, RAYD_E_INVALID, "/accessors/0/componentType", "is required"},
+        {"no_position", v_no_position, RAYD_E_INVALID, "/meshes/0/primitives/0/attributes/POSITION", "is required"},
+        {"short_rotation", v_short_rotation, RAYD_E_INVALID, "/nodes/2/rotation", "array of 4 numbers"},
+        {"short_matrix", v_short_matrix, RAYD_E_INVALID, "/nodes/1/matrix", "array of 16 numbers"},
+        {"translation_str", v_translation_str, RAYD_E_INVALID, "/nodes/2/translation/1", "must be a finite number"},
     };
     for (size_t i = 0; i < sizeof h / sizeof h[0]; i++) {
         cJSON *d = cJSON_Parse(doc_text);

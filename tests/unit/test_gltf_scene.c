@@ -487,6 +487,43 @@ static void test_errors(void) {
                              cJSON_CreateString("EXT_unknown"));
     expect(parse(d, "", "", &err), &err, "/objects/0/source/gltf/extensionsRequired/0",
            "not supported");
+    /* required values missing or wrong in a material's extensions and an
+     * image's bufferView: refused where they are, never read */
+    d = doc_tree();
+    cJSON_ReplaceItemInObject(
+        cJSON_GetObjectItem(at(d, "materials", 1, "extensions"), "KHR_materials_emissive_strength"),
+        "emissiveStrength", cJSON_CreateString("x"));
+    expect(parse(d, "", "", &err), &err,
+           "/objects/0/source/gltf/materials/1/extensions/KHR_materials_emissive_strength/"
+           "emissiveStrength",
+           "must be a number");
+    d = doc_tree();
+    cJSON_ReplaceItemInObject(
+        cJSON_GetObjectItem(at(d, "materials", 1, "extensions"), "KHR_materials_ior"), "ior",
+        cJSON_CreateNumber(20));
+    expect(parse(d, "", "", &err), &err,
+           "/objects/0/source/gltf/materials/1/extensions/KHR_materials_ior/ior", "[0, 10]");
+    d = doc_tree();
+    cJSON_ReplaceItemInObject(at(d, "images", 0, NULL), "bufferView", cJSON_CreateNumber(9));
+    expect(parse(d, "", "", &err), &err, "/objects/0/source/gltf/images/0/bufferView",
+           "9 is not an index into /bufferViews");
+    d = doc_tree();
+    cJSON_DeleteItemFromObject(at(d, "bufferViews", 3, NULL), "buffer");
+    expect(parse(d, "", "", &err), &err, "/objects/0/source/gltf/bufferViews/3/buffer",
+           "is required");
+    d = doc_tree();
+    cJSON_DeleteItemFromObject(at(d, "bufferViews", 3, NULL), "byteLength");
+    expect(parse(d, "", "", &err), &err, "/objects/0/source/gltf/bufferViews/3/byteLength",
+           "is required");
+    d = doc_tree();
+    cJSON_ReplaceItemInObject(at(d, "bufferViews", 3, NULL), "byteLength",
+                              cJSON_CreateNumber((double)png_len + 1));
+    expect(parse(d, "", "", &err), &err, "/objects/0/source/gltf/bufferViews/3/byteLength",
+           "runs past the end of buffer 0");
+    d = doc_tree();
+    cJSON_DeleteItemFromObject(at(d, "buffers", 0, NULL), "byteLength");
+    expect(parse(d, "", "", &err), &err, "/objects/0/source/gltf/buffers/0/byteLength",
+           "is required");
     const char *grouped = "{\"groups\": {\"g\": [{\"type\": \"gltf\", \"source\": {\"format\": "
                           "\"gltf\", \"text\": \"{}\"}}]}}";
     rayd_scene *s = NULL;
