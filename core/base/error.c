@@ -11,8 +11,8 @@
 #include <stdio.h>
 #include <string.h>
 
-enum rayd_status err_set(struct rayd_error *err, enum rayd_status code, const char *path,
-                         const char *fmt, ...) {
+enum rayd_status err_setf(struct rayd_error *err, enum rayd_status code, const char *path,
+                          const char *fmt, ...) {
     if (!err) return code;
     err->code = code;
     err->line = 0;

@@ -54,8 +54,7 @@ enum rayd_status rayd_read_file(const char *path, size_t max, char **out, size_t
     if (rc == RAYD_OK && ferror(f)) rc = err_set(err, RAYD_E_IO, NULL, "cannot read %s", path);
     if (rc == RAYD_OK && n > max) rc = err_set(err, RAYD_E_LIMIT, NULL, "%s is over the limit of %zu bytes", path, max);
     if (!in) fclose(f);
-    /* !buf: rc is RAYD_E_NOMEM then, but the analyzer cannot see err_set return it */
-    if (rc != RAYD_OK || !buf) {
+    if (rc != RAYD_OK) {
         free(buf);
         return rc;
     }

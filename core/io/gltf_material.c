@@ -37,12 +37,6 @@
 #include "io/gltf_pointer.h"
 #include "render/image.h"
 
-/* err_set, as an expression whose value is the code.  clang's analyzer does
- * not follow calls into variadic functions, and took what err_set returned
- * for a status that might be RAYD_OK (and read on down the failure paths as
- * if they had succeeded, into values never written). */
-#define gm_fail(err, code, at, ...) (err_set((err), (code), (at), __VA_ARGS__), (code))
-
 /* n numbers at o[key], each in [lo, hi], into out; def when absent. */
 static enum rayd_status gm_nums(struct rayd_error *err, const cJSON *o, const struct gp *at,
                                 const char *key, int n, const double *def, double lo, double hi,
@@ -55,13 +49,13 @@ static enum rayd_status gm_nums(struct rayd_error *err, const cJSON *o, const st
     }
     bool one = n == 1 && cJSON_IsNumber(v);
     if (!one && (!cJSON_IsArray(v) || cJSON_GetArraySize(v) != n || n == 1))
-        return n == 1 ? gm_fail(err, RAYD_E_INVALID, p.s, "must be a number")
-                      : gm_fail(err, RAYD_E_INVALID, p.s, "must be an array of %d numbers", n);
+        return n == 1 ? err_set(err, RAYD_E_INVALID, p.s, "must be a number")
+                      : err_set(err, RAYD_E_INVALID, p.s, "must be an array of %d numbers", n);
     /* n entries, each written or refused (a NULL e is no number) */
     const cJSON *e = one ? v : v->child;
     for (int i = 0; i < n; i++, e = e ? e->next : NULL) {
         if (!cJSON_IsNumber(e) || !(e->valuedouble >= lo && e->valuedouble <= hi))
-            return gm_fail(err, RAYD_E_INVALID, p.s, "must be %s in [%g, %g]",
+            return err_set(err, RAYD_E_INVALID, p.s, "must be %s in [%g, %g]",
                            n == 1 ? "a number" : "numbers", lo, hi);
         out[i] = e->valuedouble;
     }
@@ -104,33 +98,33 @@ static enum rayd_status gm_decode(struct rayd_error *err, const unsigned char *b
                                   const struct gp *p, long budget, rayd_image **img) {
     struct rayd_error e = {0};
     if (budget <= 0) /* and never 0 to the PNG decoder: there 0 means its own default */
-        return gm_fail(err, RAYD_E_LIMIT, p->s,
+        return err_set(err, RAYD_E_LIMIT, p->s,
                        "the textures together are over the limit (%ld pixels a glTF file, %ld "
                        "a scene)",
                        (long)GLTF_MAX_TEXELS, (long)TEXTURE_MAX_SCENE_PIXELS);
     long max = budget < TEXTURE_MAX_PIXELS ? budget : TEXTURE_MAX_PIXELS;
     if (len >= 8 && !memcmp(b, "\x89PNG", 4)) {
         enum rayd_status st = rayd_png_decode(b, len, max, img, &e);
-        if (st != RAYD_OK) return gm_fail(err, st, p->s, "%s", e.message);
+        if (st != RAYD_OK) return err_set(err, st, p->s, "%s", e.message);
         return RAYD_OK;
     }
     if (len < 3 || b[0] != 0xFF || b[1] != 0xD8 || b[2] != 0xFF)
-        return gm_fail(err, RAYD_E_INVALID, p->s, "is neither a PNG nor a JPEG image");
-    if (len > (size_t)0x7fffffff) return gm_fail(err, RAYD_E_LIMIT, p->s, "the image is too large");
+        return err_set(err, RAYD_E_INVALID, p->s, "is neither a PNG nor a JPEG image");
+    if (len > (size_t)0x7fffffff) return err_set(err, RAYD_E_LIMIT, p->s, "the image is too large");
     int w, h, n;
     if (!stbi_info_from_memory(b, (int)len, &w, &h, &n) || w <= 0 || h <= 0)
-        return gm_fail(err, RAYD_E_INVALID, p->s, "is not a readable JPEG image");
+        return err_set(err, RAYD_E_INVALID, p->s, "is not a readable JPEG image");
     if ((long)w * h > max)
-        return gm_fail(err, RAYD_E_LIMIT, p->s,
+        return err_set(err, RAYD_E_LIMIT, p->s,
                        "the image is %d x %d pixels; the limit is %ld pixels (%ld left of the "
                        "file's textures)",
                        w, h, TEXTURE_MAX_PIXELS, budget);
     int w2, h2;
     stbi_uc *px = stbi_load_from_memory(b, (int)len, &w2, &h2, &n, 3);
-    if (!px) return gm_fail(err, RAYD_E_INVALID, p->s, "cannot decode the JPEG image");
+    if (!px) return err_set(err, RAYD_E_INVALID, p->s, "cannot decode the JPEG image");
     if (w2 != w || h2 != h) {
         stbi_image_free(px);
-        return gm_fail(err, RAYD_E_INVALID, p->s, "the JPEG image's size changed while decoding");
+        return err_set(err, RAYD_E_INVALID, p->s, "the JPEG image's size changed while decoding");
     }
     *img = calloc(1, sizeof **img);
     size_t m = (size_t)w * (size_t)h * 3;
@@ -138,7 +132,7 @@ static enum rayd_status gm_decode(struct rayd_error *err, const unsigned char *b
     if (!*img || !(*img)->px) {
         stbi_image_free(px);
         rayd_image_free(*img);
-        return gm_fail(err, RAYD_E_NOMEM, p->s, "out of memory for a texture");
+        return err_set(err, RAYD_E_NOMEM, p->s, "out of memory for a texture");
     }
     memcpy((*img)->px, px, m);
     (*img)->w = w, (*img)->h = h;
@@ -152,18 +146,18 @@ static enum rayd_status gm_image(struct gltf_doc *d, struct rayd_error *err, int
     const cJSON *ij = cJSON_GetArrayItem(gl_get(gltf_doc_root(d), "images"), i);
     struct gp p;
     snprintf(p.s, sizeof p.s, "/images/%d", i);
-    if (!cJSON_IsObject(ij)) return gm_fail(err, RAYD_E_INVALID, p.s, "must be an object");
+    if (!cJSON_IsObject(ij)) return err_set(err, RAYD_E_INVALID, p.s, "must be an object");
     const cJSON *uri = gl_get(ij, "uri"), *view = gl_get(ij, "bufferView");
     struct gp pu = gp_key(&p, uri ? "uri" : "bufferView");
     if (!!uri + !!view != 1)
-        return gm_fail(err, RAYD_E_INVALID, p.s, "needs exactly one of \"uri\" and \"bufferView\"");
+        return err_set(err, RAYD_E_INVALID, p.s, "needs exactly one of \"uri\" and \"bufferView\"");
     if (view) {
         const unsigned char *b;
         size_t len;
         TRY_GL(gltf_doc_view(d, ij, p.s, "bufferView", &b, &len));
         return gm_decode(err, b, len, &pu, budget, img);
     }
-    if (!cJSON_IsString(uri)) return gm_fail(err, RAYD_E_INVALID, pu.s, "must be a string");
+    if (!cJSON_IsString(uri)) return err_set(err, RAYD_E_INVALID, pu.s, "must be a string");
     unsigned char *b;
     size_t len;
     TRY_GL(gltf_doc_uri(d, uri->valuestring, pu.s, &b, &len));
@@ -180,21 +174,21 @@ static enum rayd_status gm_texture(struct gltf_doc *d, struct rayd_error *err, c
     const cJSON *texs = gl_get(gltf_doc_root(d), "textures");
     int ntex = cJSON_IsArray(texs) ? cJSON_GetArraySize(texs) : 0;
     double index, set, source;
-    if (!cJSON_IsObject(ti)) return gm_fail(err, RAYD_E_INVALID, p->s, "must be an object");
+    if (!cJSON_IsObject(ti)) return err_set(err, RAYD_E_INVALID, p->s, "must be an object");
     /* any number first, then the range here: a message that names what an
      * index must be, and says so when the file has no textures at all */
     TRY_GL(gm_num(err, ti, p, "index", -1, -HUGE_VAL, HUGE_VAL, &index));
     TRY_GL(gm_num(err, ti, p, "texCoord", 0, -HUGE_VAL, HUGE_VAL, &set));
     struct gp pi = gp_key(p, "index"), pc = gp_key(p, "texCoord");
     if (ntex == 0)
-        return gm_fail(err, RAYD_E_INVALID, pi.s, "names a texture, but the file has no /textures");
+        return err_set(err, RAYD_E_INVALID, pi.s, "names a texture, but the file has no /textures");
     if (index < 0 || index >= ntex || floor(index) != index)
-        return gm_fail(err, RAYD_E_INVALID, pi.s, "must be a texture index in 0..%d", ntex - 1);
+        return err_set(err, RAYD_E_INVALID, pi.s, "must be a texture index in 0..%d", ntex - 1);
     if (set < 0 || set > 7 || floor(set) != set)
-        return gm_fail(err, RAYD_E_INVALID, pc.s,
+        return err_set(err, RAYD_E_INVALID, pc.s,
                        "must be an integer in 0..7 (TEXCOORD_0 to TEXCOORD_7)");
     if (g->ntex >= GLTF_MAX_TEXTURES)
-        return gm_fail(err, RAYD_E_LIMIT, p->s, "is past the limit of %d textured materials",
+        return err_set(err, RAYD_E_LIMIT, p->s, "is past the limit of %d textured materials",
                        GLTF_MAX_TEXTURES);
     const cJSON *tj = cJSON_GetArrayItem(texs, (int)index);
     struct gp pt;
@@ -203,10 +197,10 @@ static enum rayd_status gm_texture(struct gltf_doc *d, struct rayd_error *err, c
     TRY_GL(gm_num(err, tj, &pt, "source", -1, -HUGE_VAL, HUGE_VAL, &source));
     struct gp ps = gp_key(&pt, "source");
     if (nimg == 0)
-        return gm_fail(err, RAYD_E_INVALID, ps.s,
+        return err_set(err, RAYD_E_INVALID, ps.s,
                        "the file has no /images (images of other extensions are not read)");
     if (source < 0 || source >= nimg || floor(source) != source)
-        return gm_fail(err, RAYD_E_INVALID, ps.s,
+        return err_set(err, RAYD_E_INVALID, ps.s,
                        "must be an image index in 0..%d (other image extensions are not read)",
                        nimg - 1);
     rayd_image *img = NULL;
@@ -214,7 +208,7 @@ static enum rayd_status gm_texture(struct gltf_doc *d, struct rayd_error *err, c
     struct texture t = {.kind = TEX_IMAGE, .space = TEX_UV, .scale = 1, .w = img->w, .h = img->h};
     t.rgb = texture_linear_from_srgb8(img->px, img->w, img->h);
     rayd_image_free(img);
-    if (!t.rgb) return gm_fail(err, RAYD_E_NOMEM, p->s, "out of memory for a texture");
+    if (!t.rgb) return err_set(err, RAYD_E_NOMEM, p->s, "out of memory for a texture");
     for (size_t k = 0; k < (size_t)t.w * (size_t)t.h * 3; k++) t.rgb[k] *= (float)factor[k % 3];
     *texels += (long)t.w * t.h;
     g->tex[g->ntex++] = t;
@@ -233,7 +227,7 @@ static enum rayd_status gm_alpha_mode(struct rayd_error *err, const cJSON *mj, c
     if (!v) return RAYD_OK;
     for (int i = 0; i < 3 && cJSON_IsString(v); i++)
         if (!strcmp(v->valuestring, modes[i])) return *mode = i, RAYD_OK;
-    return gm_fail(err, RAYD_E_INVALID, pa.s, "must be \"OPAQUE\", \"MASK\" or \"BLEND\"");
+    return err_set(err, RAYD_E_INVALID, pa.s, "must be \"OPAQUE\", \"MASK\" or \"BLEND\"");
 }
 
 /* Material mj at p (NULL: glTF's default material). */
@@ -241,10 +235,10 @@ static enum rayd_status gm_material(struct gltf_doc *d, struct rayd_error *err, 
                                     const struct gp *p, struct gltf_mats *g, int i, long *texels) {
     static const double white[4] = {1, 1, 1, 1}, black[3] = {0, 0, 0};
     struct gltf_pbr pbr;
-    if (mj && !cJSON_IsObject(mj)) return gm_fail(err, RAYD_E_INVALID, p->s, "must be an object");
+    if (mj && !cJSON_IsObject(mj)) return err_set(err, RAYD_E_INVALID, p->s, "must be an object");
     const cJSON *pj = gl_get(mj, "pbrMetallicRoughness"), *ext = gl_get(mj, "extensions");
     struct gp pp = gp_key(p, "pbrMetallicRoughness"), pe = gp_key(p, "extensions");
-    if (pj && !cJSON_IsObject(pj)) return gm_fail(err, RAYD_E_INVALID, pp.s, "must be an object");
+    if (pj && !cJSON_IsObject(pj)) return err_set(err, RAYD_E_INVALID, pp.s, "must be an object");
     TRY_GL(gm_nums(err, pj, &pp, "baseColorFactor", 4, white, 0, 1, pbr.base));
     TRY_GL(gm_num(err, pj, &pp, "metallicFactor", 1, 0, 1, &pbr.metallic));
     TRY_GL(gm_num(err, pj, &pp, "roughnessFactor", 1, 0, 1, &pbr.roughness));
@@ -274,17 +268,17 @@ enum rayd_status gltf_mats_read(struct gltf_doc *d, int max, long texels, struct
     const cJSON *ms = gl_get(gltf_doc_root(d), "materials");
     struct gp at = {"/materials"};
     memset(out, 0, sizeof *out);
-    if (ms && !cJSON_IsArray(ms)) return gm_fail(err, RAYD_E_INVALID, at.s, "must be an array");
+    if (ms && !cJSON_IsArray(ms)) return err_set(err, RAYD_E_INVALID, at.s, "must be an array");
     int n = ms ? cJSON_GetArraySize(ms) : 0;
     if (max > GLTF_MAX_MATERIALS) max = GLTF_MAX_MATERIALS;
     if (n > max)
-        return gm_fail(err, RAYD_E_LIMIT, at.s, "has %d materials; the limit is %d", n, max);
+        return err_set(err, RAYD_E_LIMIT, at.s, "has %d materials; the limit is %d", n, max);
     out->m = calloc((size_t)n + 1, sizeof *out->m);
     out->uv_set = calloc((size_t)n + 1, sizeof *out->uv_set);
     out->tex = calloc(GLTF_MAX_TEXTURES, sizeof *out->tex);
     out->n = n;
     if (!out->m || !out->uv_set || !out->tex)
-        return gm_fail(err, RAYD_E_NOMEM, at.s, "out of memory");
+        return err_set(err, RAYD_E_NOMEM, at.s, "out of memory");
     out->budget = texels < GLTF_MAX_TEXELS ? texels : GLTF_MAX_TEXELS;
     int i = 0;
     for (const cJSON *m = ms ? ms->child : NULL; m; m = m->next, i++) {

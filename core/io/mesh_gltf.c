@@ -124,12 +124,9 @@ struct gl {
 
 /* ---- errors and pointers ----------------------------------------------- */
 
-/* Sets G's error at the JSON Pointer at, and is the code.  A macro, not a
- * function, so that the code is the value where it is returned: clang's
- * analyzer does not follow calls into variadic functions, and took what
- * one returned for a status that might be RAYD_OK (and read on down the
- * failure paths as if they had succeeded, into values never written). */
-#define gl_fail(G, code, at, ...) (err_set((G)->err, (code), (at)->s, __VA_ARGS__), (code))
+/* Sets G's error at the JSON Pointer at, and is the code (a macro like
+ * err_set, for the reason error.h gives). */
+#define gl_fail(G, code, at, ...) err_set((G)->err, (code), (at)->s, __VA_ARGS__)
 
 static struct gp gp_item(const char *top, long i) {
     struct gp r;

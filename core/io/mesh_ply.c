@@ -841,10 +841,8 @@ enum rayd_status mesh_parse_ply_threads(const void *data, size_t len, const stru
     if (st == RAYD_OK) st = ply_check_header(&P);
     if (st == RAYD_OK) st = ply_alloc(&P);
     if (st == RAYD_OK) st = ply_body(&P);
-    if (st == RAYD_OK && P.ntri == 0) { /* the code named: the analyzer cannot see err_set's */
-        err_set(err, RAYD_E_INVALID, NULL, "PLY file has no faces");
-        st = RAYD_E_INVALID;
-    }
+    if (st == RAYD_OK && P.ntri == 0)
+        st = err_set(err, RAYD_E_INVALID, NULL, "PLY file has no faces");
     if (st == RAYD_OK) {
         uint32_t *tri = realloc(P.tri, P.ntri * 3 * sizeof *tri); /* shrink; may fail */
         if (tri) P.tri = tri;

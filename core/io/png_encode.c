@@ -658,14 +658,9 @@ static int encode_bands(struct rayd_png_stream *s, int threads) {
 
 enum rayd_status rayd_png_stream_new(const rayd_image *img, int level, rayd_png_stream **out,
                                      struct rayd_error *err) {
-    /* the error returns name their code rather than return err_set's: it is
-     * the same code, but the analyzer cannot see so, and took them for RAYD_OK
-     * with *out unset (rayd_png_encode_threads then finishing a NULL stream) */
-    if (img->win && (img->px || img->win->keep)) {
-        err_set(err, RAYD_E_ARG, NULL,
-                "a window image streams only its own render, into one stream");
-        return RAYD_E_ARG;
-    }
+    if (img->win && (img->px || img->win->keep))
+        return err_set(err, RAYD_E_ARG, NULL,
+                       "a window image streams only its own render, into one stream");
     if (level < 0 || level > 9) level = PNG_LEVEL_DEFAULT;
     if (level == 1) level = -1; /* the fastest: ISA-L (smaller and faster than zlib's 1) */
     pthread_once(&png_xlogx_once, xlogx_init);
@@ -677,8 +672,7 @@ enum rayd_status rayd_png_stream_new(const rayd_image *img, int level, rayd_png_
     if (s) s->bands = calloc((size_t)nbands, sizeof *s->bands);
     if (!s || !s->bands) {
         free(s);
-        err_set(err, RAYD_E_NOMEM, NULL, "out of memory encoding the PNG");
-        return RAYD_E_NOMEM;
+        return err_set(err, RAYD_E_NOMEM, NULL, "out of memory encoding the PNG");
     }
     s->img = img;
     s->level = level;
@@ -745,20 +739,16 @@ static int png_assemble(const struct rayd_png_stream *s, void **buf, size_t *len
 }
 
 /* A window image holds rows only once its render has opened it: until
- * then there is nothing to encode (and no row has a place).  True when so:
- * s is freed and err set, and the caller returns RAYD_E_ARG.  (A bool, not
- * err_set's code: the analyzer cannot see that err_set returns its code, and
- * took a return of it for RAYD_OK, s used after its free.) */
-static bool stream_undrawn(rayd_png_stream *s, struct rayd_error *err) {
-    if (!s->img->win || s->img->win->rows > 0) return false;
+ * then there is nothing to encode (and no row has a place). */
+static enum rayd_status stream_undrawn(rayd_png_stream *s, struct rayd_error *err) {
+    if (!s->img->win || s->img->win->rows > 0) return RAYD_OK;
     rayd_png_stream_free(s);
-    err_set(err, RAYD_E_ARG, NULL, "a window image is encoded only as its render draws it");
-    return true;
+    return err_set(err, RAYD_E_ARG, NULL, "a window image is encoded only as its render draws it");
 }
 
 enum rayd_status rayd_png_stream_finish(rayd_png_stream *s, int threads, void **buf, size_t *len,
                                         struct rayd_png_stats *stats, struct rayd_error *err) {
-    if (stream_undrawn(s, err)) return RAYD_E_ARG;
+    if (stream_undrawn(s, err) != RAYD_OK) return RAYD_E_ARG;
     int failed = encode_bands(s, threads);
     if (stats) *stats = (struct rayd_png_stats){s->nbands, s->early, s->band_seconds};
     failed = failed || png_assemble(s, buf, len) < 0;
@@ -770,7 +760,7 @@ enum rayd_status rayd_png_stream_finish(rayd_png_stream *s, int threads, void **
 enum rayd_status rayd_png_stream_finish_to(rayd_png_stream *s, int threads, rayd_sink_fn sink,
                                            void *user, struct rayd_png_stats *stats,
                                            struct rayd_error *err) {
-    if (stream_undrawn(s, err)) return RAYD_E_ARG;
+    if (stream_undrawn(s, err) != RAYD_OK) return RAYD_E_ARG;
     int failed = encode_bands(s, threads);
     if (stats) *stats = (struct rayd_png_stats){s->nbands, s->early, s->band_seconds};
     struct out o = {.sink = sink, .user = user};

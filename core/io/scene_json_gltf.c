@@ -241,11 +241,9 @@ static enum rayd_status load_meshes(struct imp *im, int override, struct object 
                               ? RAYD_OK
                               : gltf_mats_read(im->doc, (int)(room > 0 ? room : 0),
                                                TEXTURE_MAX_SCENE_PIXELS - ld->texels, &g, ld->err);
-    ld->texels += g.texels;                /* the scene's image textures together */
-    if (override >= 0 && !mats_none(&g)) { /* the code named: the analyzer cannot see err_set's */
-        err_set(ld->err, RAYD_E_NOMEM, im->src.s, "out of memory");
-        st = RAYD_E_NOMEM;
-    }
+    ld->texels += g.texels; /* the scene's image textures together */
+    if (override >= 0 && !mats_none(&g))
+        st = err_set(ld->err, RAYD_E_NOMEM, im->src.s, "out of memory");
     bool any_uv = false;
     for (int m = 0; m <= g.n && st == RAYD_OK; m++) any_uv = any_uv || g.uv_set[m] >= 0;
     double t0 = clock_now();

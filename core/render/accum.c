@@ -47,10 +47,7 @@ enum rayd_status rayd_accum_new(const rayd_scene *s, const struct rayd_region *r
     if (!a || !sum) {
         free(a);
         free(sum);
-        /* the code named, not err_set's return of it, which the analyzer cannot
-         * see: it took this for RAYD_OK with *out unset */
-        err_set(err, RAYD_E_NOMEM, NULL, "out of memory for a %dx%d accumulator", r.w, r.h);
-        return RAYD_E_NOMEM;
+        return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for a %dx%d accumulator", r.w, r.h);
     }
     a->r = r;
     a->sum = sum;

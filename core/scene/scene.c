@@ -447,23 +447,27 @@ static enum rayd_status split_unbounded(rayd_scene *s, struct rayd_error *err) {
 
 enum rayd_status scene_build_bvh(const rayd_scene *s, struct object **objs, int32_t n,
                                  struct bvh4 *bvh, struct aabb *bounds, struct rayd_error *err) {
-    struct bbox *boxes = malloc(sizeof *boxes * ((size_t)n + 1));
+    /* zeroed: with no objects nothing is written to it, nor read, but gcc
+     * cannot see the second and warns of the first */
+    struct bbox *boxes = calloc((size_t)n + 1, sizeof *boxes);
     uint32_t *order = malloc(sizeof *order * ((size_t)n + 1));
     struct object *sorted = malloc(sizeof *sorted * ((size_t)n + 1));
-    enum rayd_status st = RAYD_OK;
     struct aabb all = {v3(INFINITY, INFINITY, INFINITY), v3(-INFINITY, -INFINITY, -INFINITY)};
     if (!boxes || !order || !sorted) {
-        st = err_set(err, RAYD_E_NOMEM, NULL, "out of memory building the scene");
-    } else {
-        for (int32_t i = 0; i < n; i++) {
-            struct aabb b;
-            scene_object_bounds(s, &(*objs)[i], &b);
-            boxes[i] = bbox_from(b.lo, b.hi);
-            all.lo = v3_min(all.lo, b.lo);
-            all.hi = v3_max(all.hi, b.hi);
-        }
-        st = bvh_build(bvh, boxes, (uint32_t)n, 1, order, 1, err); /* an object a leaf */
+        free(boxes);
+        free(order);
+        free(sorted);
+        return err_set(err, RAYD_E_NOMEM, NULL, "out of memory building the scene");
     }
+    for (int32_t i = 0; i < n; i++) {
+        struct aabb b;
+        scene_object_bounds(s, &(*objs)[i], &b);
+        boxes[i] = bbox_from(b.lo, b.hi);
+        all.lo = v3_min(all.lo, b.lo);
+        all.hi = v3_max(all.hi, b.hi);
+    }
+    /* an object a leaf */
+    enum rayd_status st = bvh_build(bvh, boxes, (uint32_t)n, 1, order, 1, err);
     if (st == RAYD_OK) {
         for (int32_t i = 0; i < n; i++) sorted[i] = (*objs)[order[i]];
         free(*objs);
@@ -533,7 +537,7 @@ enum rayd_status scene_freeze(rayd_scene *s, struct rayd_error *err) {
         s->simple_lights &= k == LIGHT_POINT || k == LIGHT_DIRECTIONAL;
     }
     enum rayd_status st = split_unbounded(s, err);
-    if (st != RAYD_OK || s->nobjs == 0) return st;
+    if (st != RAYD_OK || s->nobjs <= 0) return st;
     double t0 = clock_now();
     st = scene_build_bvh(s, &s->objs, s->nobjs, &s->tlas, NULL, err);
     if (st == RAYD_OK) st = build_light_buffers(s, err);
