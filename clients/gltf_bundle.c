@@ -67,10 +67,11 @@ static const char *gltf_name(const char *uri, char *out, size_t cap) {
     out[n] = '\0';
     if (out[0] == '/') return "is an absolute path: only files next to the .gltf are sent";
     for (const char *p = out; p;) {
-        size_t k = strcspn(p, "/");
+        const char *slash = strchr(p, '/');
+        size_t k = slash ? (size_t)(slash - p) : strlen(p);
         if (k == 2 && p[0] == '.' && p[1] == '.')
             return "has a '..' component: only files next to the .gltf are sent";
-        p = p[k] ? p + k + 1 : NULL;
+        p = slash ? slash + 1 : NULL;
     }
     return NULL;
 }

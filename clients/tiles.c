@@ -131,7 +131,8 @@ static int tiles_start(struct tiles *T, enum tiles_kind kind, int ti, int si)
     char url[1024];
     const char *body = NULL;
     size_t blen = 0;
-    const struct tiles_tile *t = ti >= 0 ? &T->t[ti] : NULL;
+    /* a GET or POST is a tile's (a range's), the others the server's */
+    const struct tiles_tile *t = kind == X_GET || kind == X_POST ? &T->t[ti] : NULL;
     switch (kind) {
     case X_LEARN:
         snprintf(url, sizeof url, "%s/v1/scenes", s->url);
@@ -197,10 +198,10 @@ static int tiles_start(struct tiles *T, enum tiles_kind kind, int ti, int si)
 
 static void tiles_xfer_free(struct tiles *T, struct tiles_xfer *x)
 {
-    if (x->prev)
-        x->prev->next = x->next;
-    else
+    if (T->xfers == x)
         T->xfers = x->next;
+    else
+        x->prev->next = x->next;
     if (x->next)
         x->next->prev = x->prev;
     curl_multi_remove_handle(T->multi, x->h);
@@ -341,7 +342,8 @@ static void tiles_finish(struct tiles *T, struct tiles_xfer *x, CURLcode cc, dou
         return;
     }
     s->inflight--;
-    struct tiles_tile *t = x->tile >= 0 ? &T->t[x->tile] : NULL;
+    /* the scene's POST, or a tile's (a range's) GET or POST */
+    struct tiles_tile *t = x->kind == X_LEARN ? NULL : &T->t[x->tile];
     if (x->kind == X_GET || x->kind == X_POST)
         T->running--;
     char why[600];

@@ -140,7 +140,7 @@ const char *router_allow(const char *path, char *buf, size_t size)
     }
     if (n == 0)
         return NULL;
-    n += (size_t)snprintf(buf + n, size > n ? size - n : 0, ", OPTIONS");
+    snprintf(buf + n, size > n ? size - n : 0, ", OPTIONS");
     return buf;
 }
 
