@@ -553,8 +553,8 @@ LINT_TIDY = xargs -P "$$(nproc)" -I{} clang-tidy --quiet --warnings-as-errors='*
 lint: lint-deps $(BUILD)/server/web_assets.h
 	cppcheck --quiet --error-exitcode=1 --enable=warning,performance,portability \
 	  --inline-suppr -Iinclude -Icore --std=c11 core cli server clients
-	@# a clang-tidy a file: clang-tidy 14 run over several files in one process
-	@# reports va_lists as uninitialised that va_start has set
+	@# one clang-tidy process per file: clang-tidy 14, given several files in
+	@# one process, reports va_lists as uninitialised that va_start has set
 	printf '%s\n' $(CORE_SRC) | $(LINT_TIDY) -Iinclude -Icore $(EXR_CFLAGS)
 	printf '%s\n' $(SERVER_SRC) | $(LINT_TIDY) -D_DEFAULT_SOURCE -Iinclude -I$(BUILD)/server
 	printf '%s\n' $(wildcard cli/*.c) | $(LINT_TIDY) -Iinclude

@@ -108,24 +108,28 @@ struct obj_chunk {
     uint32_t index; /* its place among the chunks */
 };
 
-static enum rayd_status obj_fail(struct obj *o, enum rayd_status code, const char *fmt, ...)
+static void obj_say(struct obj *o, enum rayd_status code, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
 
-static enum rayd_status obj_fail(struct obj *o, enum rayd_status code, const char *fmt, ...) {
+static void obj_say(struct obj *o, enum rayd_status code, const char *fmt, ...) {
     char msg[224];
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
-    return err_set(o->err, code, NULL, "OBJ line %zu: %s", o->line, msg);
+    err_set(o->err, code, NULL, "OBJ line %zu: %s", o->line, msg);
 }
 
-/* The code named, not obj_fail's return of it: the analyzer does not follow
- * a call into a variadic function, and took a failure here and in
- * obj_new_vertex for RAYD_OK (a vertex number read unset, a merge of no keys). */
+/* Sets the error at the current line, and is the code (a macro like
+ * err_set, for the reason error.h gives). */
+#define obj_fail(o, code, ...)                                                                     \
+    __extension__({                                                                                \
+        obj_say((o), (code), __VA_ARGS__);                                                         \
+        (code);                                                                                    \
+    })
+
 static enum rayd_status obj_nomem(struct obj *o) {
-    obj_fail(o, RAYD_E_NOMEM, "out of memory");
-    return RAYD_E_NOMEM;
+    return obj_fail(o, RAYD_E_NOMEM, "out of memory");
 }
 
 static void obj_release(struct obj *o) {
@@ -316,11 +320,9 @@ static bool obj_table_fit(struct obj *o, size_t entries) {
 /* A new output vertex for triple k (limit checked), numbered in order of
  * first appearance whichever way it was found. */
 static enum rayd_status obj_new_vertex(struct obj *o, struct obj_key k, uint32_t *out) {
-    if (o->nkeys >= o->max_verts) {
-        obj_fail(o, RAYD_E_LIMIT, "%zu vertices exceed the limit of %u", o->nkeys + 1,
-                 o->max_verts);
-        return RAYD_E_LIMIT;
-    }
+    if (o->nkeys >= o->max_verts)
+        return obj_fail(o, RAYD_E_LIMIT, "%zu vertices exceed the limit of %u", o->nkeys + 1,
+                        o->max_verts);
     if (!array_grow((void **)&o->keys, &o->cap_keys, o->nkeys + 1, sizeof *o->keys))
         return obj_nomem(o);
     o->keys[o->nkeys] = k;

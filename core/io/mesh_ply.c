@@ -110,43 +110,43 @@ struct ply {
 
 /* Sets err to msg, prefixed with where: the record being read (body) or
  * the header line (P->line, or the header as a whole when it is 0). */
-static enum rayd_status ply_fail_at(struct ply *P, enum rayd_status code, bool body,
-                                    const char *msg) {
-    if (body) {
-        char q[MESH_QUOTE_SIZE];
-        return err_set(P->err, code, NULL, "PLY %s %llu: %s",
-                       mesh_quote(q, P->cur->name, P->cur->name_len), (unsigned long long)P->rec,
-                       msg);
-    }
-    if (P->line) return err_set(P->err, code, NULL, "PLY header line %zu: %s", P->line, msg);
-    return err_set(P->err, code, NULL, "PLY header: %s", msg);
+static void ply_fail_at(struct ply *P, enum rayd_status code, bool body, const char *msg) {
+    char q[MESH_QUOTE_SIZE];
+    if (body)
+        err_set(P->err, code, NULL, "PLY %s %llu: %s",
+                mesh_quote(q, P->cur->name, P->cur->name_len), (unsigned long long)P->rec, msg);
+    else if (P->line)
+        err_set(P->err, code, NULL, "PLY header line %zu: %s", P->line, msg);
+    else
+        err_set(P->err, code, NULL, "PLY header: %s", msg);
 }
 
-/* An error in the header. */
-static enum rayd_status ply_hfail(struct ply *P, enum rayd_status code, const char *fmt, ...)
-    __attribute__((format(printf, 3, 4)));
+/* An error in the header (body false) or in record P->rec of element
+ * P->cur (body true). */
+static void ply_say(struct ply *P, enum rayd_status code, bool body, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
 
-static enum rayd_status ply_hfail(struct ply *P, enum rayd_status code, const char *fmt, ...) {
+static void ply_say(struct ply *P, enum rayd_status code, bool body, const char *fmt, ...) {
     char msg[200];
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
-    return ply_fail_at(P, code, false, msg);
+    ply_fail_at(P, code, body, msg);
 }
 
-/* An error in record P->rec of element P->cur. */
-static enum rayd_status ply_bfail(struct ply *P, enum rayd_status code, const char *fmt, ...)
-    __attribute__((format(printf, 3, 4)));
-
-static enum rayd_status ply_bfail(struct ply *P, enum rayd_status code, const char *fmt, ...) {
-    char msg[200];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(msg, sizeof msg, fmt, ap);
-    va_end(ap);
-    return ply_fail_at(P, code, true, msg);
-}
+/* ply_say as expressions whose value is the code (a macro like err_set, for
+ * the reason error.h gives): in the header, and in a record. */
+#define ply_hfail(P, code, ...)                                                                    \
+    __extension__({                                                                                \
+        ply_say((P), (code), false, __VA_ARGS__);                                                  \
+        (code);                                                                                    \
+    })
+#define ply_bfail(P, code, ...)                                                                    \
+    __extension__({                                                                                \
+        ply_say((P), (code), true, __VA_ARGS__);                                                   \
+        (code);                                                                                    \
+    })
 
 static enum rayd_status ply_truncated(struct ply *P) {
     return ply_bfail(P, RAYD_E_INVALID, "file ends early (truncated %s body)",
@@ -483,7 +483,7 @@ static enum rayd_status ply_value(struct ply *P, enum ply_type t, double *out) {
 
 /* A list's item count. */
 static enum rayd_status ply_count(struct ply *P, enum ply_type t, uint32_t *n) {
-    double d = -1; /* set unless ply_value fails (the analyzer cannot see its failures' codes) */
+    double d = -1; /* set unless ply_value fails (which the analyzer cannot always follow) */
     enum rayd_status st = ply_value(P, t, &d);
     if (st != RAYD_OK) return st;
     if (!(d >= 0 && d <= 4294967295.0 && d == floor(d)))
