@@ -13,6 +13,12 @@ Two kinds of use are read, and both must obey:
   - calls and data: every undefined symbol of every object file, matched
     with the object that defines it, by `nm`, so a call through a header
     that was not included, or an `extern` written by hand, is seen too.
+And in the core, where each header is the interface of its own folder, a
+header may name only functions of its own and lower layers: a low header
+that declares a function a higher layer defines hands every includer a
+call up, which neither kind of use shows until some file makes the call.
+(server/'s shared headers, api.h and request.h, declare the layers above
+them on purpose: they are those layers' interfaces.)
 
 A circle is a set of files that use each other: .c files whose functions
 call each other round, or headers that include each other round.  A header
@@ -198,6 +204,35 @@ def layer_problems(edges, layers, scope):
     return sorted(set(problems))
 
 
+def strip_comments(text):
+    return re.sub(r"//[^\n]*", "", re.sub(r"/\*.*?\*/", " ", text, flags=re.S))
+
+
+def header_problems(root, files, objs, layers, scope):
+    """Headers that name a function defined in a layer above their own.
+
+    Whoever includes such a header is handed a call up, and neither the
+    includes nor the symbols show it until some lower file makes the call.
+    """
+    definer = {}
+    for f, (defined, _) in objs.items():
+        for s in defined:
+            definer.setdefault(s, f)
+    problems = []
+    for h in files:
+        if not (h.endswith(".h") and h.startswith(scope)):
+            continue
+        rh, nh = rank_of(h, layers)
+        with open(os.path.join(root, h), encoding="utf-8", errors="replace") as fh:
+            text = strip_comments(fh.read())
+        for name in sorted(set(re.findall(r"\b([A-Za-z_]\w*)\s*\(", text))):
+            d = definer.get(name)
+            rd, nd = rank_of(d, layers) if d and d.startswith(scope) else (None, None)
+            if rh is not None and rd is not None and rd > rh:
+                problems.append(f"{h} ({nh}) names {name}, defined in {d} ({nd}), a higher layer")
+    return sorted(set(problems))
+
+
 def public_problems(inc_edges, sym_edges):
     problems = []
     for a, b in inc_edges:
@@ -270,6 +305,8 @@ def run(build, root):
               layer_problems(inc, CORE_LAYERS, "core/"))
     rep.check("layers: core/ calls only its own and lower layers",
               layer_problems(sym, CORE_LAYERS, "core/"))
+    rep.check("layers: core/ headers name only functions of their own and lower layers",
+              header_problems(root, files, objs, CORE_LAYERS, "core/"))
     rep.check("layers: server/ includes only its own and lower layers",
               layer_problems(inc, SERVER_LAYERS, "server/"))
     rep.check("layers: server/ calls only its own and lower layers",
@@ -321,6 +358,9 @@ def self_test():
             "core/base/c.c": '#include "base/b.h"\nint c_fn(void) { return b_fn(); }\n',
             "core/base/b.c": '#include "base/b.h"\n#include "base/c.h"\n'
                              "int b_fn(void) { return c_fn() + 1; }\n"}),
+        "a header names a function of a higher layer": ("core/ headers", {
+            "core/base/b.h": "int b_fn(void);\nint x_fn(void);\n",
+            "core/io/x.c": "int x_fn(void);\nint x_fn(void) { return 2; }\n"}),
         "a program includes a private header": ("through include/rayd/", {
             "cli/main.c": '#include "base/b.h"\nint main(void) { return b_fn(); }\n'}),
     }
@@ -344,7 +384,7 @@ def self_test():
         compile_tree(tmp, os.path.join(tmp, "build"))
         out = subprocess.run([sys.executable, __file__, os.path.join(tmp, "build"), tmp],
                              capture_output=True, text=True).stdout
-        ok = "FAIL" not in out and out.count("PASS") >= 7
+        ok = "FAIL" not in out and out.count("PASS") >= 8
         print(("PASS" if ok else "FAIL") + " layers self-test: a sound tree passes"
               + ("" if ok else ": " + out.replace("\n", " | ")))
         failed += not ok

@@ -16,9 +16,9 @@
  * (mesh_ray.h, scene_query.h) every ray finds exactly its one-ray hit.
  *
  * Only the AVX-512 code lives here, compiled for that target whatever the
- * build's -march (functions carry a target attribute), and used when the
- * CPU has it (bvh16_available).  The leaf test is the caller's: it comes
- * in as an always-inlined function, so each walk is specialised.
+ * build's -march (functions carry base/cpu.h's target attribute), and
+ * used when the CPU has it (cpu_avx512).  The leaf test is the caller's:
+ * it comes in as an always-inlined function, so each walk is specialised.
  */
 #ifndef BVH16_H
 #define BVH16_H
@@ -28,28 +28,14 @@
 #include <stdint.h>
 
 #include "accel/bvh.h"
+#include "base/cpu.h"
 
-/* True when the packet code runs with AVX-512 (built in, the CPU and OS
- * have it, and not forced off); else packets loop over their rays. */
-bool bvh16_available(void);
-/* Tests: trace packets one ray at a time even where AVX-512 runs. */
-void packet_force_scalar(bool on);
-
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(RAYD_NO_SIMD)
-#define BVH16 1
-#include <immintrin.h>
-
-/* Skylake-server's set: AVX-512 F, DQ, BW, VL with the AVX2 generation
- * beside it (BMI, popcount), all checked at run time by bvh16_available. */
-#define BVH16_TARGET "avx512f,avx512dq,avx512bw,avx512vl,avx2,bmi,bmi2,popcnt"
-#define BVH16_EXTERN __attribute__((target(BVH16_TARGET)))
-#define BVH16_FN __attribute__((target(BVH16_TARGET))) static inline
-#define BVH16_INLINE __attribute__((target(BVH16_TARGET), always_inline)) static inline
+#ifdef CPU_AVX512
 
 /* A packet's rays as struct ray16 (vec.h), 8 lanes to a register half,
  * from an array of rays; lanes not in the packet copy its first ray (they
  * are masked off). */
-BVH16_FN void ray16_from_rays(struct ray16 *q, const ray r[16], uint32_t active) {
+CPU_AVX512_FN void ray16_from_rays(struct ray16 *q, const ray r[16], uint32_t active) {
     int first = __builtin_ctz(active);
     for (int i = 0; i < 16; i++) {
         const ray *ri = &r[active >> i & 1 ? i : first];
@@ -60,8 +46,8 @@ BVH16_FN void ray16_from_rays(struct ray16 *q, const ray r[16], uint32_t active)
 
 /* The same from rays already in structure of arrays (o[k][i], d[k][i]),
  * whatever the lanes outside active hold. */
-BVH16_FN void ray16_from_arrays(struct ray16 *q, const double o[3][16], const double d[3][16],
-                                uint32_t active) {
+CPU_AVX512_FN void ray16_from_arrays(struct ray16 *q, const double o[3][16], const double d[3][16],
+                                     uint32_t active) {
     int first = __builtin_ctz(active);
     for (int k = 0; k < 3; k++)
         for (int h = 0; h < 16; h += 8) {
@@ -73,7 +59,7 @@ BVH16_FN void ray16_from_arrays(struct ray16 *q, const double o[3][16], const do
 }
 
 /* Two halves of 8 floats as one register of 16. */
-BVH16_FN __m512 join16(__m256 lo, __m256 hi) {
+CPU_AVX512_FN __m512 join16(__m256 lo, __m256 hi) {
     return _mm512_castpd_ps(
         _mm512_insertf64x4(_mm512_castps_pd(_mm512_castps256_ps512(lo)), _mm256_castps_pd(hi), 1));
 }
@@ -87,7 +73,7 @@ struct bvh16_ray {
     uint8_t near[3], far[3]; /* then the byte offsets in a node of those sides' floats */
 };
 
-BVH16_FN void bvh16_ray_init(struct bvh16_ray *p, const struct ray16 *q) {
+CPU_AVX512_FN void bvh16_ray_init(struct bvh16_ray *p, const struct ray16 *q) {
     p->uniform = true;
     for (int k = 0; k < 3; k++) {
         __m512 c = join16(_mm512_cvtpd_ps(_mm512_loadu_pd(q->d[k])),
@@ -119,8 +105,9 @@ struct bvh16_entry {
 /* Child c of nd against the rays in lanes, for t in [0, tmax]: the mask of
  * rays that enter it and their entry distances.  The same float operations
  * as bvh4_test, lane by lane. */
-BVH16_INLINE __mmask16 bvh16_child(const struct bvh4_node *nd, int c, const struct bvh16_ray *r,
-                                   __m512 tmax, __mmask16 lanes, __m512 *tnear) {
+CPU_AVX512_INLINE __mmask16 bvh16_child(const struct bvh4_node *nd, int c,
+                                        const struct bvh16_ray *r, __m512 tmax, __mmask16 lanes,
+                                        __m512 *tnear) {
     __m512 tn = _mm512_setzero_ps(), tf = tmax;
     const char *at = (const char *)nd + sizeof(float) * (size_t)c;
     for (int k = 0; k < 3; k++) {
@@ -152,9 +139,10 @@ typedef __mmask16 (*bvh16_leaf_fn)(void *ctx, uint32_t first, uint32_t count, __
  * any-hit walk needs no order), and pops the nearest into *cur,
  * prefetching each (see bvh16_walk for leaves).  False when no ray enters
  * any child. */
-BVH16_INLINE bool bvh16_descend(const struct bvh4_node *nodes, const char *leaves, size_t leaf_size,
-                                const struct bvh16_ray *r, __m512 tm, struct bvh16_entry *cur,
-                                struct bvh16_entry *stack, int *sp, bool ordered) {
+CPU_AVX512_INLINE bool bvh16_descend(const struct bvh4_node *nodes, const char *leaves,
+                                     size_t leaf_size, const struct bvh16_ray *r, __m512 tm,
+                                     struct bvh16_entry *cur, struct bvh16_entry *stack, int *sp,
+                                     bool ordered) {
     const struct bvh4_node *nd = &nodes[cur->node];
     __m512 tmax = _mm512_mul_ps(tm, _mm512_set1_ps(BVH_SLACK));
     int hit[4], n = 0;
@@ -201,9 +189,9 @@ BVH16_INLINE bool bvh16_descend(const struct bvh4_node *nodes, const char *leave
  * any-hit leaf blocked.
  * leaves (records of leaf_size bytes, a leaf's first index into them) is
  * only prefetched from; NULL when the leaves are not such an array. */
-BVH16_INLINE __mmask16 bvh16_walk(const struct bvh4 *bvh, const char *leaves, size_t leaf_size,
-                                  const struct bvh16_ray *r, __m512 *tm, __mmask16 lanes,
-                                  bvh16_leaf_fn leaf, void *ctx, bool ordered) {
+CPU_AVX512_INLINE __mmask16 bvh16_walk(const struct bvh4 *bvh, const char *leaves, size_t leaf_size,
+                                       const struct bvh16_ray *r, __m512 *tm, __mmask16 lanes,
+                                       bvh16_leaf_fn leaf, void *ctx, bool ordered) {
     struct bvh16_entry stack[BVH_STACK], cur;
     int sp = 0;
     __mmask16 blocked = 0;
@@ -231,5 +219,5 @@ BVH16_INLINE __mmask16 bvh16_walk(const struct bvh4 *bvh, const char *leaves, si
     }
 }
 
-#endif /* BVH16 */
+#endif /* CPU_AVX512 */
 #endif

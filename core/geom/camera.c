@@ -9,10 +9,8 @@
  */
 #include "geom/camera.h"
 
-#include "accel/bvh16.h" /* the AVX-512 target and its run-time check */
-
+#include "base/cpu.h"
 #include "base/error.h"
-
 
 enum rayd_status cam_init(struct camera *cam, vec3 pos, vec3 look_at, vec3 up, double fov_x_deg,
                           double fov_y_deg, int n, int m, struct rayd_error *err) {
@@ -95,15 +93,15 @@ __attribute__((always_inline)) static inline void block_rays(const struct camera
     }
 }
 
-#ifdef BVH16
-BVH16_FN void block_rays_avx512(const struct camera *cam, int x, int y, struct ray16 *r) {
+#ifdef CPU_AVX512
+CPU_AVX512_FN void block_rays_avx512(const struct camera *cam, int x, int y, struct ray16 *r) {
     block_rays(cam, x, y, r); /* inlined, so compiled and vectorised for AVX-512 */
 }
 #endif
 
 void cam_block_rays(const struct camera *cam, int x, int y, struct ray16 *r) {
-#ifdef BVH16
-    if (bvh16_available()) {
+#ifdef CPU_AVX512
+    if (cpu_avx512()) {
         block_rays_avx512(cam, x, y, r);
         return;
     }

@@ -58,7 +58,7 @@ uint32_t mesh_intersect16(const struct mesh *m, const ray r[16], const double tm
 uint32_t mesh_occluded16(const struct mesh *m, const ray r[16], const double tmax[16],
                          uint32_t active);
 /* The same for rays already loaded as structure of arrays, with AVX-512:
- * the caller checked bvh16_available (bvh16.h; mesh_packet.c). */
+ * the caller checked cpu_avx512 (bvh16.h; mesh_packet.c). */
 uint32_t mesh16_intersect(const struct mesh *m, const struct ray16 *rd, const double tmax[16],
                           uint32_t active, struct mesh_hit h[16]);
 uint32_t mesh16_occluded(const struct mesh *m, const struct ray16 *rd, const double tmax[16],

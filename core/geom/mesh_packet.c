@@ -13,37 +13,13 @@
  * RAYD_NO_AVX512 in the environment) the same entry points loop over the
  * rays one at a time.
  */
-#include <stdatomic.h>
 #include <stdlib.h>
 
 #include "accel/bvh16.h"
 #include "geom/mesh.h"
 #include "geom/mesh_ray.h"
 
-static atomic_bool force_scalar;
-
-void packet_force_scalar(bool on) {
-    atomic_store(&force_scalar, on);
-}
-
-#ifdef BVH16
-
-/* The CPU's answer, and RAYD_NO_AVX512 set in the environment (to compare
- * or to rule the SIMD code out), read once. */
-static atomic_int cpu_ok = -1;
-
-bool bvh16_available(void) {
-    int ok = atomic_load_explicit(&cpu_ok, memory_order_relaxed);
-    if (ok < 0) {
-        ok = !getenv("RAYD_NO_AVX512") && __builtin_cpu_supports("avx512f") &&
-             __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512bw") &&
-             __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx2") &&
-             __builtin_cpu_supports("bmi") && __builtin_cpu_supports("bmi2") &&
-             __builtin_cpu_supports("popcnt");
-        atomic_store_explicit(&cpu_ok, ok, memory_order_relaxed);
-    }
-    return ok && !atomic_load_explicit(&force_scalar, memory_order_relaxed);
-}
+#ifdef CPU_AVX512
 
 /* One lives on the stack per packet traversal, its fields in the order the
  * code reads them: the padding that the 64-byte __m512 alignment leaves
@@ -61,14 +37,14 @@ struct mesh16 {
 };
 
 /* m0 ? x : m1 ? y : z, lane by lane: axis k of a vector per lane's k. */
-BVH16_FN __m512 pick(__mmask16 m0, __mmask16 m1, const __m512 d[3]) {
+CPU_AVX512_FN __m512 pick(__mmask16 m0, __mmask16 m1, const __m512 d[3]) {
     return _mm512_mask_blend_ps(m0, _mm512_mask_blend_ps(m1, d[2], d[1]), d[0]);
 }
 
 /* Lane j of block b against the rays in lanes with bounds tm: tri4_test's
  * operations, 16 rays wide.  Returns the rays that hit, with t, u, v. */
-BVH16_FN __mmask16 tri16(const struct mesh16 *q, const struct tri4 *b, int j, __mmask16 lanes,
-                         __m512 tm, __m512 *t_out, __m512 *u_out, __m512 *v_out) {
+CPU_AVX512_FN __mmask16 tri16(const struct mesh16 *q, const struct tri4 *b, int j, __mmask16 lanes,
+                              __m512 tm, __m512 *t_out, __m512 *u_out, __m512 *v_out) {
     __m512 d[3][3];
     for (int k = 0; k < 3; k++)
         for (int a = 0; a < 3; a++)
@@ -134,8 +110,8 @@ BVH16_FN __mmask16 tri16(const struct mesh16 *q, const struct tri4 *b, int j, __
 
 /* A leaf for the nearest-hit walk: all its triangles tested with the
  * bounds on entry, then taken in lane order, as tri4_take does. */
-BVH16_FN __mmask16 leaf_nearest(void *ctx, uint32_t first, uint32_t count, __mmask16 lanes,
-                                __m512 *tm) {
+CPU_AVX512_FN __mmask16 leaf_nearest(void *ctx, uint32_t first, uint32_t count, __mmask16 lanes,
+                                     __m512 *tm) {
     struct mesh16 *q = ctx;
     const struct tri4 *b = &q->m->blocks[first];
     __m512 T[4], U[4], V[4];
@@ -161,8 +137,8 @@ BVH16_FN __mmask16 leaf_nearest(void *ctx, uint32_t first, uint32_t count, __mma
 }
 
 /* A leaf for the any-hit walk: the rays that hit any of its triangles. */
-BVH16_FN __mmask16 leaf_any(void *ctx, uint32_t first, uint32_t count, __mmask16 lanes,
-                            __m512 *tm) {
+CPU_AVX512_FN __mmask16 leaf_any(void *ctx, uint32_t first, uint32_t count, __mmask16 lanes,
+                                 __m512 *tm) {
     const struct mesh16 *q = ctx;
     const struct tri4 *b = &q->m->blocks[first];
     __mmask16 hit = 0;
@@ -177,7 +153,7 @@ BVH16_FN __mmask16 leaf_any(void *ctx, uint32_t first, uint32_t count, __mmask16
  * the dominant axis kz, kx and ky after it (swapped when d[kz] < 0), and
  * the shear s (x, y, z).  m[a][v]: the lanes whose axis a (x, y, z) is v
  * (0, 1). */
-BVH16_FN void shear8(const struct ray16 *q, int h, __m256 s[3], unsigned m[3][2]) {
+CPU_AVX512_FN void shear8(const struct ray16 *q, int h, __m256 s[3], unsigned m[3][2]) {
     __m512d d[3], ad[3];
     for (int k = 0; k < 3; k++) {
         d[k] = _mm512_loadu_pd(q->d[k] + 8 * h);
@@ -205,7 +181,7 @@ BVH16_FN void shear8(const struct ray16 *q, int h, __m256 s[3], unsigned m[3][2]
 }
 
 /* tri_tmax_nearest (any: tri_tmax_any) of each lane's tmax, 16 at once. */
-BVH16_FN __m512 bounds16(const double tmax[16], uint32_t active, bool any) {
+CPU_AVX512_FN __m512 bounds16(const double tmax[16], uint32_t active, bool any) {
     double t[16];
     int first = __builtin_ctz(active);
     for (int i = 0; i < 16; i++) t[i] = tmax[active >> i & 1 ? i : first];
@@ -227,8 +203,8 @@ BVH16_FN __m512 bounds16(const double tmax[16], uint32_t active, bool any) {
 }
 
 /* Loads the packet: each lane's ray set up as the one-ray code does. */
-BVH16_FN void mesh16_init(struct mesh16 *q, const struct mesh *m, const struct ray16 *rd,
-                          const double tmax[16], uint32_t active, bool any, __m512 *tm) {
+CPU_AVX512_FN void mesh16_init(struct mesh16 *q, const struct mesh *m, const struct ray16 *rd,
+                               const double tmax[16], uint32_t active, bool any, __m512 *tm) {
     bvh16_ray_init(&q->br, rd);
     __m256 sh[2][3];
     unsigned kmask[3][2] = {{0, 0}, {0, 0}, {0, 0}};
@@ -257,9 +233,9 @@ BVH16_FN void mesh16_init(struct mesh16 *q, const struct mesh *m, const struct r
     q->found = 0;
 }
 
-BVH16_EXTERN uint32_t mesh16_intersect(const struct mesh *m, const struct ray16 *rd,
-                                       const double tmax[16], uint32_t active,
-                                       struct mesh_hit h[16]) {
+CPU_AVX512_EXTERN uint32_t mesh16_intersect(const struct mesh *m, const struct ray16 *rd,
+                                            const double tmax[16], uint32_t active,
+                                            struct mesh_hit h[16]) {
     if (!active || m->bvh.nnodes == 0) return 0;
     struct mesh16 q;
     __m512 tm;
@@ -279,8 +255,8 @@ BVH16_EXTERN uint32_t mesh16_intersect(const struct mesh *m, const struct ray16 
     return hit;
 }
 
-BVH16_EXTERN uint32_t mesh16_occluded(const struct mesh *m, const struct ray16 *rd,
-                                      const double tmax[16], uint32_t active) {
+CPU_AVX512_EXTERN uint32_t mesh16_occluded(const struct mesh *m, const struct ray16 *rd,
+                                           const double tmax[16], uint32_t active) {
     if (!active || m->bvh.nnodes == 0) return 0;
     struct mesh16 q;
     __m512 tm;
@@ -289,19 +265,13 @@ BVH16_EXTERN uint32_t mesh16_occluded(const struct mesh *m, const struct ray16 *
                       (__mmask16)active, leaf_any, &q, false);
 }
 
-#else
-
-bool bvh16_available(void) {
-    return false;
-}
-
 #endif
 
 uint32_t mesh_intersect16(const struct mesh *m, const ray r[16], const double tmax[16],
                           uint32_t active, struct mesh_hit h[16]) {
     if (!active || m->bvh.nnodes == 0) return 0;
-#ifdef BVH16
-    if (bvh16_available()) {
+#ifdef CPU_AVX512
+    if (cpu_avx512()) {
         struct ray16 rd;
         ray16_from_rays(&rd, r, active);
         return mesh16_intersect(m, &rd, tmax, active, h);
@@ -316,8 +286,8 @@ uint32_t mesh_intersect16(const struct mesh *m, const ray r[16], const double tm
 uint32_t mesh_occluded16(const struct mesh *m, const ray r[16], const double tmax[16],
                          uint32_t active) {
     if (!active || m->bvh.nnodes == 0) return 0;
-#ifdef BVH16
-    if (bvh16_available()) {
+#ifdef CPU_AVX512
+    if (cpu_avx512()) {
         struct ray16 rd;
         ray16_from_rays(&rd, r, active);
         return mesh16_occluded(m, &rd, tmax, active);

@@ -83,7 +83,7 @@ double json_number(const char **s, char point) {
 
 /* ---- blocks ------------------------------------------------------------------ */
 
-struct job {
+struct numbers_job {
     const char *text;
     const struct json_span *sp;
     size_t nblocks;
@@ -97,18 +97,16 @@ struct job {
     char point;      /* the locale's decimal point */
 };
 
-static size_t block_lo(const struct job *j, size_t b) {
-    return j->sp->open + b * JN_BLOCK;
-}
+static size_t block_lo(const struct numbers_job *j, size_t b) { return j->sp->open + b * JN_BLOCK; }
 
-static size_t block_hi(const struct job *j, size_t b) {
+static size_t block_hi(const struct numbers_job *j, size_t b) {
     size_t hi = j->sp->open + (b + 1) * JN_BLOCK;
     return hi < j->sp->close ? hi : j->sp->close;
 }
 
 /* Separators ('[' and ',') in each block: the elements that start there. */
 static void count_blocks(void *ctx, size_t lo, size_t hi) {
-    struct job *j = ctx;
+    struct numbers_job *j = ctx;
     for (size_t b = lo; b < hi; b++) {
         const char *p = j->text + block_lo(j, b), *end = j->text + block_hi(j, b);
         long n = b == 0; /* the '[' */
@@ -120,7 +118,7 @@ static void count_blocks(void *ctx, size_t lo, size_t hi) {
     }
 }
 
-static bool keep(struct job *j, long i, double v) {
+static bool keep(struct numbers_job *j, long i, double v) {
     if (j->f) {
         if (!isfinite(v) || fabs(v) > j->limit) return false;
         j->f[i] = (float)v;
@@ -136,7 +134,7 @@ static void skip_ws(const char **p) {
 }
 
 /* Parses the elements whose separator lies in block b. */
-static void parse_block(struct job *j, size_t b) {
+static void parse_block(struct numbers_job *j, size_t b) {
     const char *p = j->text + block_lo(j, b), *end = j->text + block_hi(j, b);
     long i = j->first[b];
     j->bad[b] = -1;
@@ -159,7 +157,7 @@ static void parse_blocks(void *ctx, size_t lo, size_t hi) {
     for (size_t b = lo; b < hi; b++) parse_block(ctx, b);
 }
 
-static long run(struct job *j, int threads, double *bad) {
+static long run(struct numbers_job *j, int threads, double *bad) {
     size_t nb = (j->sp->close - j->sp->open + JN_BLOCK - 1) / JN_BLOCK;
     long *first = malloc(nb * 2 * sizeof(long));
     double *badv = malloc(nb * sizeof(double));
@@ -193,14 +191,17 @@ static long run(struct job *j, int threads, double *bad) {
 
 long json_floats(const char *text, const struct json_span *sp, double limit, int threads,
                  float *out, double *bad) {
-    struct job j = {.text = text, .sp = sp, .f = out, .limit = limit,
-                    .point = localeconv()->decimal_point[0]};
+    struct numbers_job j = {
+        .text = text, .sp = sp, .f = out, .limit = limit, .point = localeconv()->decimal_point[0]};
     return run(&j, threads, bad);
 }
 
 long json_indices(const char *text, const struct json_span *sp, long nverts, int threads,
                   uint32_t *out) {
-    struct job j = {.text = text, .sp = sp, .ix = out, .nverts = nverts,
-                    .point = localeconv()->decimal_point[0]};
+    struct numbers_job j = {.text = text,
+                            .sp = sp,
+                            .ix = out,
+                            .nverts = nverts,
+                            .point = localeconv()->decimal_point[0]};
     return run(&j, threads, NULL);
 }

@@ -1,4 +1,4 @@
-/* json_parse.c -- the one lock of the core, around cJSON's parse.
+/* json_parse.c -- the lock around cJSON's parse.
  *
  * cJSON writes a global error slot on every parse, so two threads parsing
  * at once race on it.  Every parse in the core (the scene, a glTF mesh's

@@ -1,9 +1,11 @@
-/* png.c -- PNG in (libpng) and PNG files; the only file that includes libpng.
+/* png.c -- PNG in, 16-bit PNG out (both libpng), and PNG files; the only
+ * file that includes libpng.
  *
- * Encoding is png_encode.c's (parallel bands of one zlib stream); this file
- * writes its buffer to a file.  Decoding uses libpng's simplified png_image
- * API, which converts any PNG to 8-bit RGB for us, and refuses images over
- * a pixel limit before allocating them.
+ * The everyday 8-bit encoding is png_encode.c's (parallel bands of one
+ * zlib stream); this file writes its buffer to a file.  Decoding uses
+ * libpng's simplified png_image API, which converts any PNG to 8-bit RGB
+ * for us, and refuses images over a pixel limit before allocating them.
+ * The 16-bit encoder for linear images is at the bottom.
  */
 #include <math.h>
 #include <png.h>
@@ -13,6 +15,7 @@
 #include <string.h>
 
 #include "base/error.h"
+#include "math/srgb_curve.h"
 #include "render/image.h"
 
 #define PNG_DEFAULT_MAX_PIXELS (1L << 26)
@@ -81,8 +84,8 @@ enum rayd_status rayd_png_read_file(const char *path, long max_pixels, rayd_imag
  * rounded to 16 bits, so v16 / 257 is within one step of the 8-bit image's
  * byte.  Written by libpng (one thread, its adaptive filters) with the
  * sRGB, gAMA and cHRM chunks the 8-bit PNG has; fixed settings, so the same
- * image gives the same bytes.  zlib level 4 by default, as the 8-bit PNG:
- * on a 1080p frame 415 ms against 705 ms at level 6, for 3% more bytes.
+ * image gives the same bytes.  zlib level 4 by default: on a 1080p frame
+ * 415 ms against 705 ms at level 6, for 3% more bytes.
  * Slower than the 8-bit band encoder (one thread, twice the bytes), which
  * is the everyday path; 16-bit is for the rarer export. */
 
@@ -115,8 +118,7 @@ static uint16_t srgb16(float v) {
     double c = v;
     if (!(c > 0)) return 0; /* also NaN */
     if (c >= 1) return 65535;
-    double e = c <= 0.0031308 ? 12.92 * c : 1.055 * pow(c, 1.0 / 2.4) - 0.055;
-    return (uint16_t)(e * 65535.0 + 0.5);
+    return (uint16_t)(srgb_encode(c) * 65535.0 + 0.5);
 }
 
 /* Row y of rgb as big-endian 16-bit sRGB into row. */
@@ -135,7 +137,7 @@ static int png16_write(png_structp png, png_infop info, const float *rgb, int w,
                        struct png_mem *m, unsigned char *row) {
     if (setjmp(png_jmpbuf(png))) return -1;
     png_set_write_fn(png, m, mem_write, mem_flush);
-    png_set_compression_level(png, level < 0 ? 4 : level); /* 4: as the 8-bit default */
+    png_set_compression_level(png, level < 0 ? 4 : level); /* 4: see above */
     png_set_IHDR(png, info, (png_uint_32)w, (png_uint_32)h, 16, PNG_COLOR_TYPE_RGB,
                  PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     png_set_sRGB_gAMA_and_cHRM(png, info, PNG_sRGB_INTENT_PERCEPTUAL);

@@ -1,15 +1,15 @@
 /* scene_json.c -- scene format v1: JSON text to a frozen rayd_scene.
  *
- * The entry point of the loader (scene_json_util.h lists its other files, the
- * only ones that include cJSON).  Loading is three passes:
+ * The entry point of the loader (scene_json_util.h lists its other files and
+ * the order they call each other in).  Loading is three passes:
  *
  *   1. json_check.c walks the bytes once before cJSON sees them: syntax,
  *      UTF-8 and nesting depth, each failure with a line, a column and what
  *      was expected.  cJSON parses recursively, so the depth is bounded
  *      there, not by its stack.
  *   2. cJSON parse.  cJSON writes a global error slot on every parse, so
- *      parses are serialised by one mutex (json_parse.c) -- the only lock
- *      in the core, and cheap next to building the scene.
+ *      parses are serialised by one mutex (json_parse.c), cheap next to
+ *      building the scene.
  *   3. A strict walk of the tree.  Every object accepts a fixed set of keys;
  *      unknown and duplicate keys, wrong types, non-finite or out-of-range
  *      numbers and zero-length vectors are refused with the JSON Pointer of

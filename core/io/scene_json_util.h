@@ -1,14 +1,16 @@
 /* scene_json_util.h -- the scene loader's state and the typed getters
  * every part of it uses (scene_json_util.c owns them).  Private to the
- * scene_json*.c files, the only ones that include cJSON.  The loader's
- * files call one way, each only those below it:
+ * scene_json*.c files (cJSON's tree is read by them, by the glTF readers
+ * mesh_gltf.c and gltf_material.c, and parsed in json_parse.c).  The
+ * loader's files call one way, each only those below it:
  *
  *   scene_json.c           the entry point: render, camera, lights, the order
+ *   scene_json_frame.c     camera.frame: the camera placed round the objects
+ *   scene_json_env.c       render.environment: a colour or an .hdr image
  *   scene_json_objects.c   objects: shapes, CSG, groups and instances, transforms
+ *   scene_json_gltf.c      gltf objects: a glTF file's meshes, materials, lights, camera
  *   scene_json_material.c  named and inline materials
  *   scene_json_texture.c   material textures
- *   scene_json_env.c       render.environment: a colour or an .hdr image
- *   scene_json_gltf.c      gltf objects: a glTF file's meshes, materials, lights, camera
  *   scene_json_mesh.c      meshes: inline arrays, OBJ/PLY sources
  *   scene_json_inline.c    large inline arrays kept out of cJSON's tree
  *   scene_json_util.c      JSON Pointers, the typed getters, files a scene names

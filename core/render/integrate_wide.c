@@ -9,7 +9,7 @@
  * structure-of-arrays form (integrate_wide_body.h), by plain loops the
  * compiler vectorises.  Each lane does exactly the one-ray code's double
  * operations in its order, so the colour is the same to the bit; the
- * AVX-512 copy of the code is used where bvh16_available says so, the
+ * AVX-512 copy of the code is used where cpu_avx512 says so, the
  * build's own otherwise, and both give the same bytes.
  *
  * So a change to the one-ray shading (hit_frame, shade_base, light_at,
@@ -64,9 +64,9 @@ struct aimed {
 #undef WIDE
 #undef WIDE_FN
 
-#ifdef BVH16
+#ifdef CPU_AVX512
 #define WIDE(f) f##_avx512
-#define WIDE_FN BVH16_FN
+#define WIDE_FN CPU_AVX512_FN
 #include "render/integrate_wide_body.h"
 #undef WIDE
 #undef WIDE_FN
@@ -91,8 +91,8 @@ uint32_t whitted_wide(const rayd_scene *s, const struct ray16 *r, const struct h
                       uint32_t lanes, int depth, vec3 out[16], struct ray16 *rr, double kr[16],
                       uint64_t *rays) {
     if (!lanes) return 0;
-#ifdef BVH16
-    if (bvh16_available()) return whitted_wide_avx512(s, r, hs, lanes, depth, out, rr, kr, rays);
+#ifdef CPU_AVX512
+    if (cpu_avx512()) return whitted_wide_avx512(s, r, hs, lanes, depth, out, rr, kr, rays);
 #endif
     return whitted_wide_base(s, r, hs, lanes, depth, out, rr, kr, rays);
 }

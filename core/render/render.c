@@ -298,7 +298,7 @@ enum rayd_status rayd_render_into(const rayd_scene *s, const struct rayd_region 
     return st;
 }
 
-struct job {
+struct tile_job {
     const rayd_scene *s;
     struct rayd_region r;
     const struct rayd_render_opts *opts;
@@ -318,7 +318,7 @@ struct job {
 /* A tile of tile row ty is drawn.  When that completes the row, the rows
  * of tiles at the top that are all drawn are counted again and, if there
  * are more than before, opts->rows told how many pixel rows they hold. */
-static void rows_note(struct job *jb, int ty) {
+static void rows_note(struct tile_job *jb, int ty) {
     if (atomic_fetch_sub(&jb->row_left[ty], 1) != 1) return;
     pthread_mutex_lock(&jb->rows_lock);
     int top = jb->rows_top;
@@ -331,7 +331,7 @@ static void rows_note(struct job *jb, int ty) {
 }
 
 static void *render_worker(void *arg) {
-    struct job *jb = arg;
+    struct tile_job *jb = arg;
     uint64_t rays = 0;
     for (;;) {
         int t = atomic_fetch_add(&jb->next, 1);
@@ -356,7 +356,7 @@ static void *render_worker(void *arg) {
 }
 
 /* The job's count of rows of tiles left, when it keeps one. */
-static void job_rows_free(struct job *jb) {
+static void tile_job_rows_free(struct tile_job *jb) {
     if (!jb->row_left) return;
     pthread_mutex_destroy(&jb->rows_lock);
     free(jb->row_left);
@@ -368,7 +368,7 @@ static enum rayd_status render_tiles(const rayd_scene *s, const struct rayd_rend
                                      const struct rayd_region *r, const struct rect_out *out,
                                      struct rayd_error *err) {
     double t0 = clock_now();
-    struct job jb = {.s = s, .r = *r, .opts = opts, .out = out};
+    struct tile_job jb = {.s = s, .r = *r, .opts = opts, .out = out};
     jb.tile = opts->tile > 0 ? opts->tile : 32;
     int side = jb.r.w > jb.r.h ? jb.r.w : jb.r.h;
     if (jb.tile > side) jb.tile = side; /* the same one tile, and no overflow below */
@@ -393,7 +393,7 @@ static enum rayd_status render_tiles(const rayd_scene *s, const struct rayd_rend
     size_t ahead = opts->rows ? (size_t)jb.tile * (size_t)(2 + nthreads / jb.tiles_x) : SIZE_MAX;
     enum rayd_status st = out->img ? image_window_open(out->img, ahead, err) : RAYD_OK;
     if (st != RAYD_OK) {
-        job_rows_free(&jb);
+        tile_job_rows_free(&jb);
         return st;
     }
 
@@ -404,7 +404,7 @@ static enum rayd_status render_tiles(const rayd_scene *s, const struct rayd_rend
     render_worker(&jb); /* the calling thread works too */
     for (int i = 0; i < started; i++) pthread_join(th[i], NULL);
     free(th);
-    job_rows_free(&jb);
+    tile_job_rows_free(&jb);
 
     if (opts->stats) {
         opts->stats->rays = atomic_load(&jb.rays);

@@ -12,15 +12,15 @@
 #include <stdint.h>
 #include <string.h>
 
-#include "accel/bvh16.h"
+#include "base/cpu.h"
+#include "math/srgb_curve.h"
 #include "render/srgb.h"
 
 /* The sRGB byte of a linear value, by the formula. */
 static uint8_t srgb8_exact(double c) {
     if (!(c > 0)) return 0; /* also NaN */
     if (c >= 1) return 255;
-    double e = c <= 0.0031308 ? 12.92 * c : 1.055 * pow(c, 1.0 / 2.4) - 0.055;
-    return (uint8_t)(e * 255.0 + 0.5);
+    return (uint8_t)(srgb_encode(c) * 255.0 + 0.5);
 }
 
 /* The sRGB byte by table.  The edge of byte k, the least linear value whose
@@ -56,7 +56,7 @@ static int srgb8_bits(uint64_t bits) {
  * start. */
 static uint64_t srgb_edge(int k) {
     double e = (k - 0.5) / 255.0, one = 1.0;
-    double g = e <= 0.04045 ? e / 12.92 : pow((e + 0.055) / 1.055, 2.4);
+    double g = srgb_decode(e);
     uint64_t top, lo, hi, step = 1;
     memcpy(&top, &one, sizeof top);
     memcpy(&lo, &g, sizeof lo);
@@ -105,10 +105,10 @@ static inline uint8_t srgb8(double c) {
     return c != c ? 0 : (uint8_t)k;
 }
 
-#ifdef BVH16
+#ifdef CPU_AVX512
 /* srgb8 of the 48 values v[0..48), 8 at a time, the same integer steps
  * (the table read by gathers) into out[0..48). */
-BVH16_FN void srgb8_48(const double v[48], uint8_t out[48]) {
+CPU_AVX512_FN void srgb8_48(const double v[48], uint8_t out[48]) {
     const __m512i lo = _mm512_set1_epi64(srgb_lo), one = _mm512_set1_epi64(srgb_one);
     const __m512i low = _mm512_set1_epi64(((int64_t)1 << SRGB_LOW) - 1);
     const __m512i entry = _mm512_set1_epi64(((int64_t)1 << 48) - 1);
@@ -129,8 +129,8 @@ BVH16_FN void srgb8_48(const double v[48], uint8_t out[48]) {
 
 void render_srgb48(const double v[48], uint8_t out[48]) {
     pthread_once(&srgb_once, srgb_init);
-#ifdef BVH16
-    if (bvh16_available()) {
+#ifdef CPU_AVX512
+    if (cpu_avx512()) {
         srgb8_48(v, out);
         return;
     }

@@ -46,7 +46,7 @@ static void transmittance_each(const rayd_scene *s, const ray r[16], const doubl
         if (active >> i & 1) out[i] = scene_transmittance(s, &r[i], tmax[i]);
 }
 
-#ifdef BVH16
+#ifdef CPU_AVX512
 
 /* A packet's nearest-hit search: struct nearest of scene_query.h for 16
  * rays as structure of arrays.  The untransformed spheres and planes keep
@@ -90,8 +90,8 @@ static void lane_taken(struct scene16 *q, int i, const struct nearest *c) {
  * sphere o, the one-ray code's double operations: oc = o - centre, b =
  * oc . d, c = oc . oc - r2 (r2 the squared radius), nb = -b and the
  * discriminant r2 - |oc - b d|^2 (d is a unit vector). */
-BVH16_INLINE void sphere16_terms(const struct ray16 *rd, const struct object *o, int h, __m512d *b,
-                                 __m512d *c, __m512d *nb, __m512d *disc) {
+CPU_AVX512_INLINE void sphere16_terms(const struct ray16 *rd, const struct object *o, int h,
+                                      __m512d *b, __m512d *c, __m512d *nb, __m512d *disc) {
     const vec3 c3 = o->u.sphere.center;
     const double cen[3] = {c3.x, c3.y, c3.z}, rad = o->u.sphere.radius;
     __m512d oc[3], d[3], hv[3];
@@ -119,8 +119,9 @@ BVH16_INLINE void sphere16_terms(const struct ray16 *rd, const struct object *o,
  * IEEE square root and division).  Returns the rays that hit before their
  * bound, with t; rays whose roots came out NaN (a NaN or infinite input)
  * are left in *odd for the one-ray code, whose fmin treats NaN its own way. */
-BVH16_FN uint32_t sphere16(const struct ray16 *rd, const struct object *o, const double bound[16],
-                           uint32_t lanes, double t_out[16], uint32_t *odd) {
+CPU_AVX512_FN uint32_t sphere16(const struct ray16 *rd, const struct object *o,
+                                const double bound[16], uint32_t lanes, double t_out[16],
+                                uint32_t *odd) {
     __m512d zero = _mm512_setzero_pd();
     __m512i sign = _mm512_set1_epi64(INT64_MIN);
     uint32_t hit = 0;
@@ -158,8 +159,8 @@ BVH16_FN uint32_t sphere16(const struct ray16 *rd, const struct object *o, const
  * miss; for b < 0 the nearer root, c / q with q = -b + sqrt(disc) >= -b, is
  * positive and at most c / -b, so a hit when that is well below the bound
  * (the factors stand far above the rounding of the division it spares). */
-BVH16_FN uint32_t sphere16_any(const struct ray16 *rd, const struct object *o,
-                               const double bound[16], uint32_t lanes, uint32_t *rest) {
+CPU_AVX512_FN uint32_t sphere16_any(const struct ray16 *rd, const struct object *o,
+                                    const double bound[16], uint32_t lanes, uint32_t *rest) {
     __m512d zero = _mm512_setzero_pd();
     uint32_t hit = 0;
     *rest = 0;
@@ -188,8 +189,9 @@ BVH16_FN uint32_t sphere16_any(const struct ray16 *rd, const struct object *o,
 /* plane_nearest of untransformed plane o for the rays in lanes, 16 at
  * once, the same double operations; as sphere16 (no ray is odd here: a NaN
  * t fails t > 0 both ways). */
-BVH16_FN uint32_t plane16(const struct ray16 *rd, const struct object *o, const double bound[16],
-                          uint32_t lanes, double t_out[16], uint32_t *odd) {
+CPU_AVX512_FN uint32_t plane16(const struct ray16 *rd, const struct object *o,
+                               const double bound[16], uint32_t lanes, double t_out[16],
+                               uint32_t *odd) {
     const vec3 n3 = o->u.plane.normal, p3 = o->u.plane.point;
     const double n[3] = {n3.x, n3.y, n3.z}, pt[3] = {p3.x, p3.y, p3.z};
     __m512d zero = _mm512_setzero_pd();
@@ -229,9 +231,9 @@ static bool simple16(const struct object *o) {
     return (o->kind == SHAPE_SPHERE || o->kind == SHAPE_PLANE) && o->xform < 0;
 }
 
-BVH16_FN uint32_t simple16_hit(const struct scene16 *q, const struct object *o,
-                               const double bound[16], uint32_t lanes, double t[16],
-                               uint32_t *odd) {
+CPU_AVX512_FN uint32_t simple16_hit(const struct scene16 *q, const struct object *o,
+                                    const double bound[16], uint32_t lanes, double t[16],
+                                    uint32_t *odd) {
     return o->kind == SHAPE_SPHERE ? sphere16(&q->rd, o, bound, lanes, t, odd)
                                    : plane16(&q->rd, o, bound, lanes, t, odd);
 }
@@ -239,7 +241,7 @@ BVH16_FN uint32_t simple16_hit(const struct scene16 *q, const struct object *o,
 /* nearest_bound for untransformed object o (rank) and the 16 rays: just
  * past tmax (the next double up) where o would win a tie with the best hit
  * so far. */
-BVH16_FN void simple_bounds16(const struct scene16 *q, long rank, double bound[16]) {
+CPU_AVX512_FN void simple_bounds16(const struct scene16 *q, long rank, double bound[16]) {
     __m512i rk = _mm512_set1_epi64(rank), one = _mm512_set1_epi64(1);
     __m512d zero = _mm512_setzero_pd(), inf = _mm512_set1_pd(INFINITY);
     for (int k = 0; k < 16; k += 8) {
@@ -253,8 +255,8 @@ BVH16_FN void simple_bounds16(const struct scene16 *q, long rank, double bound[1
 
 /* nearest_take of untransformed object o's hits t (the rays in hit): kept
  * in tmax, best and leaf. */
-BVH16_FN void simple_take16(struct scene16 *q, const struct object *o, long rank,
-                            const double t[16], uint32_t hit) {
+CPU_AVX512_FN void simple_take16(struct scene16 *q, const struct object *o, long rank,
+                                 const double t[16], uint32_t hit) {
     __m512i rk = _mm512_set1_epi64(rank), leaf = _mm512_set1_epi64((int64_t)(intptr_t)o);
     /* blends and whole stores, not masked stores: a later load of these
      * could not be forwarded from a masked store and would wait for it */
@@ -270,7 +272,7 @@ BVH16_FN void simple_take16(struct scene16 *q, const struct object *o, long rank
 }
 
 /* Object o for the rays in lanes, nearest hit: meshes as a packet. */
-BVH16_FN void visit_nearest16(struct scene16 *q, const struct object *o, uint32_t lanes) {
+CPU_AVX512_FN void visit_nearest16(struct scene16 *q, const struct object *o, uint32_t lanes) {
     if (simple16(o)) { /* object_hit and nearest_take, 16 wide */
         long rank = q->rank0 + (long)(o - q->base);
         LANES_ALIGN double bound[16];
@@ -323,7 +325,7 @@ BVH16_FN void visit_nearest16(struct scene16 *q, const struct object *o, uint32_
 
 /* Object o for the rays in lanes, any hit: the rays it blocks (the scene
  * is opaque). */
-BVH16_FN uint32_t visit_any16(struct scene16 *q, const struct object *o, uint32_t lanes) {
+CPU_AVX512_FN uint32_t visit_any16(struct scene16 *q, const struct object *o, uint32_t lanes) {
     uint32_t blocked = 0;
     if (simple16(o)) { /* object_filter, 16 wide */
         LANES_ALIGN double t[16];
@@ -360,14 +362,14 @@ BVH16_FN uint32_t visit_any16(struct scene16 *q, const struct object *o, uint32_
 
 /* The rays' bounds, lanes outside active copying the first one in it (every
  * lane then holds a number the walk may read). */
-BVH16_FN void bounds16_load(double out[16], const double tmax[16], uint32_t active) {
+CPU_AVX512_FN void bounds16_load(double out[16], const double tmax[16], uint32_t active) {
     __m512d first = _mm512_set1_pd(tmax[__builtin_ctz(active)]);
     for (int k = 0; k < 16; k += 8)
         _mm512_storeu_pd(out + k, _mm512_mask_loadu_pd(first, (__mmask8)(active >> k), tmax + k));
 }
 
 /* Each ray's float bound for the node tests, as objects_walk has it. */
-BVH16_FN __m512 node_bounds16(const double tmax[16]) {
+CPU_AVX512_FN __m512 node_bounds16(const double tmax[16]) {
     __m512d big = _mm512_set1_pd(3e38);
     __m512d lo = _mm512_loadu_pd(tmax), hi = _mm512_loadu_pd(tmax + 8);
     /* tmax > 3e38 ? 3e38f : (float)tmax, the rounding to nearest of a cast */
@@ -376,16 +378,16 @@ BVH16_FN __m512 node_bounds16(const double tmax[16]) {
     return _mm512_insertf32x8(_mm512_castps256_ps512(_mm512_cvtpd_ps(lo)), _mm512_cvtpd_ps(hi), 1);
 }
 
-BVH16_FN __mmask16 tlas_nearest(void *ctx, uint32_t first, uint32_t count, __mmask16 lanes,
-                                __m512 *tm) {
+CPU_AVX512_FN __mmask16 tlas_nearest(void *ctx, uint32_t first, uint32_t count, __mmask16 lanes,
+                                     __m512 *tm) {
     struct scene16 *q = ctx;
     for (uint32_t k = first; k < first + count; k++) visit_nearest16(q, &q->s->objs[k], lanes);
     *tm = node_bounds16(q->tmax);
     return 0;
 }
 
-BVH16_FN __mmask16 tlas_any(void *ctx, uint32_t first, uint32_t count, __mmask16 lanes,
-                            __m512 *tm) {
+CPU_AVX512_FN __mmask16 tlas_any(void *ctx, uint32_t first, uint32_t count, __mmask16 lanes,
+                                 __m512 *tm) {
     struct scene16 *q = ctx;
     (void)tm;
     __mmask16 blocked = 0;
@@ -396,8 +398,8 @@ BVH16_FN __mmask16 tlas_any(void *ctx, uint32_t first, uint32_t count, __mmask16
 
 /* The nearest hits of the rays in q->rd: into h, or for the untransformed
  * spheres and planes into simple when given. */
-BVH16_FN uint32_t intersect16(struct scene16 *q, const double tmax[16], uint32_t active,
-                              struct hit h[16], struct hit16 *simple) {
+CPU_AVX512_FN uint32_t intersect16(struct scene16 *q, const double tmax[16], uint32_t active,
+                                   struct hit h[16], struct hit16 *simple) {
     /* q comes with s, r and rd set; the rest is set here before it is read
      * (the 3 KB are not zeroed on purpose): */
     // cppcheck-suppress ctuuninitvar
@@ -438,8 +440,8 @@ BVH16_FN uint32_t intersect16(struct scene16 *q, const double tmax[16], uint32_t
     return hit & active;
 }
 
-BVH16_FN uint32_t intersect16_aos(const rayd_scene *s, const ray r[16], const double tmax[16],
-                                  uint32_t active, struct hit h[16]) {
+CPU_AVX512_FN uint32_t intersect16_aos(const rayd_scene *s, const ray r[16], const double tmax[16],
+                                       uint32_t active, struct hit h[16]) {
     struct scene16 q; /* every field used is set: no zeroing of its 3 KB */
     q.s = s;
     q.r = r;
@@ -447,8 +449,9 @@ BVH16_FN uint32_t intersect16_aos(const rayd_scene *s, const ray r[16], const do
     return intersect16(&q, tmax, active, h, NULL);
 }
 
-BVH16_FN uint32_t intersect16_soa(const rayd_scene *s, const struct ray16 *r, const double tmax[16],
-                                  uint32_t active, struct hit h[16], struct hit16 *simple) {
+CPU_AVX512_FN uint32_t intersect16_soa(const rayd_scene *s, const struct ray16 *r,
+                                       const double tmax[16], uint32_t active, struct hit h[16],
+                                       struct hit16 *simple) {
     struct scene16 q;
     q.s = s;
     q.r = NULL;
@@ -460,8 +463,8 @@ BVH16_FN uint32_t intersect16_soa(const rayd_scene *s, const struct ray16 *r, co
  * from cell ij[0], ij[1] on, and the stretch [lo, hi) of u and of v they
  * cover -- unbounded on the side of cells beyond the rectangle.  Without
  * a branch: which cells is as good as a coin toss. */
-BVH16_FN void lb_span(const struct light_face *f, __m128d w, int32_t ij[2], __m128d *lo,
-                      __m128d *hi) {
+CPU_AVX512_FN void lb_span(const struct light_face *f, __m128d w, int32_t ij[2], __m128d *lo,
+                           __m128d *hi) {
     __m128d w0 = _mm_set_pd(f->v0, f->u0), sw = _mm_set_pd(f->sv, f->su);
     __m128d cw = _mm_set_pd(f->cv, f->cu), n = _mm_set_pd(f->nv, f->nu), two = _mm_set1_pd(2);
     /* the cell w is in, less one if w is in its lower half */
@@ -484,8 +487,8 @@ BVH16_FN void lb_span(const struct light_face *f, __m128d w, int32_t ij[2], __m1
  * are checked against the cells' edges by multiplying, not dividing: a few
  * roundings off at an edge, which LB_MARGIN covers. */
 #define LB_MAX_TEST 16
-BVH16_FN bool shadow_candidates(const struct light_buffer *b, const struct ray16 *rd, uint32_t open,
-                                uint32_t ids[LB_MAX_TEST], int *n) {
+CPU_AVX512_FN bool shadow_candidates(const struct light_buffer *b, const struct ray16 *rd,
+                                     uint32_t open, uint32_t ids[LB_MAX_TEST], int *n) {
     int i0 = __builtin_ctz(open);
     const double at[3] = {b->at.x, b->at.y, b->at.z};
     double r0[3], m0[3];
@@ -542,8 +545,8 @@ BVH16_FN bool shadow_candidates(const struct light_buffer *b, const struct ray16
 /* The shadow rays in q->rd: the mask of those that get through.  With
  * light buffer b (else NULL), the objects it names for them stand in for
  * the walk where it can name them. */
-BVH16_FN uint32_t transmittance16(struct scene16 *q, const double tmax[16], uint32_t active,
-                                  const struct light_buffer *b) {
+CPU_AVX512_FN uint32_t transmittance16(struct scene16 *q, const double tmax[16], uint32_t active,
+                                       const struct light_buffer *b) {
     /* as in intersect16: */
     // cppcheck-suppress ctuuninitvar
     const rayd_scene *s = q->s;
@@ -565,8 +568,8 @@ BVH16_FN uint32_t transmittance16(struct scene16 *q, const double tmax[16], uint
     return open;
 }
 
-BVH16_FN void transmittance16_aos(const rayd_scene *s, const ray r[16], const double tmax[16],
-                                  uint32_t active, vec3 out[16]) {
+CPU_AVX512_FN void transmittance16_aos(const rayd_scene *s, const ray r[16], const double tmax[16],
+                                       uint32_t active, vec3 out[16]) {
     struct scene16 q; /* every field used is set: no zeroing of its 3 KB */
     q.s = s;
     q.r = r;
@@ -576,9 +579,9 @@ BVH16_FN void transmittance16_aos(const rayd_scene *s, const ray r[16], const do
         if (active >> i & 1) out[i] = open >> i & 1 ? v3(1, 1, 1) : v3(0, 0, 0);
 }
 
-BVH16_FN void transmittance16_soa(const rayd_scene *s, const struct light_buffer *b,
-                                  const double o[3][16], const double d[3][16],
-                                  const double tmax[16], uint32_t active, double out[3][16]) {
+CPU_AVX512_FN void transmittance16_soa(const rayd_scene *s, const struct light_buffer *b,
+                                       const double o[3][16], const double d[3][16],
+                                       const double tmax[16], uint32_t active, double out[3][16]) {
     struct scene16 q;
     q.s = s;
     q.r = NULL;
@@ -596,8 +599,8 @@ BVH16_FN void transmittance16_soa(const rayd_scene *s, const struct light_buffer
 uint32_t scene_intersect16(const rayd_scene *s, const ray r[16], const double tmax[16],
                            uint32_t active, struct hit h[16]) {
     if (!active) return 0;
-#ifdef BVH16
-    if (!s->brute && bvh16_available()) return intersect16_aos(s, r, tmax, active, h);
+#ifdef CPU_AVX512
+    if (!s->brute && cpu_avx512()) return intersect16_aos(s, r, tmax, active, h);
 #endif
     return intersect_each(s, r, tmax, active, h);
 }
@@ -606,8 +609,8 @@ uint32_t scene_intersect16_soa(const rayd_scene *s, const struct ray16 *r, const
                                uint32_t active, struct hit h[16], struct hit16 *simple) {
     if (simple) simple->lanes = 0;
     if (!active) return 0;
-#ifdef BVH16
-    if (!s->brute && bvh16_available()) return intersect16_soa(s, r, tmax, active, h, simple);
+#ifdef CPU_AVX512
+    if (!s->brute && cpu_avx512()) return intersect16_soa(s, r, tmax, active, h, simple);
 #endif
     ray each[16];
     for (int i = 0; i < 16; i++)
@@ -618,8 +621,8 @@ uint32_t scene_intersect16_soa(const rayd_scene *s, const struct ray16 *r, const
 void scene_transmittance16(const rayd_scene *s, const ray r[16], const double tmax[16],
                            uint32_t active, vec3 out[16]) {
     if (!active) return;
-#ifdef BVH16
-    if (!s->brute && s->opaque && bvh16_available()) {
+#ifdef CPU_AVX512
+    if (!s->brute && s->opaque && cpu_avx512()) {
         transmittance16_aos(s, r, tmax, active, out);
         return;
     }
@@ -630,8 +633,8 @@ void scene_transmittance16(const rayd_scene *s, const ray r[16], const double tm
 void scene_transmittance16_soa(const rayd_scene *s, int light, const double o[3][16],
                                const double d[3][16], const double tmax[16], uint32_t active,
                                double out[3][16]) {
-#ifdef BVH16
-    if (active && !s->brute && s->opaque && bvh16_available()) {
+#ifdef CPU_AVX512
+    if (active && !s->brute && s->opaque && cpu_avx512()) {
         const struct light_buffer *b =
             light >= 0 && s->light_buffers ? &s->light_buffers[light] : NULL;
         transmittance16_soa(s, b, o, d, tmax, active, out);

@@ -12,10 +12,9 @@
 
 #include <stdlib.h>
 
-static double srgb_to_linear_u8(int c) {
-    double x = c / 255.0;
-    return x <= 0.04045 ? x / 12.92 : pow((x + 0.055) / 1.055, 2.4);
-}
+#include "math/srgb_curve.h"
+
+static double srgb_to_linear_u8(int c) { return srgb_decode(c / 255.0); }
 
 static vec3 texel(const struct texture *t, int x, int y) {
     x = ((x % t->w) + t->w) % t->w;

@@ -207,7 +207,7 @@ int main(int argc, char **argv) {
     if (rays < 0) rc = 1;
     else
         printf("PASS packet-equals-ray %s (%ld rays, %s)\n", argv[1], rays,
-               bvh16_available() ? "AVX-512" : "one ray at a time");
+               cpu_avx512() ? "AVX-512" : "one ray at a time");
     rayd_scene_free(fast);
     rayd_scene_free(slow);
     return rc;

@@ -105,12 +105,12 @@ static void test_shadow_packets_match_one_ray(void) {
         uint64_t x = 7 + (uint64_t)l;
         int differ = 0, blocked = 0;
         for (int scalar = 0; scalar < 2; scalar++) {
-            packet_force_scalar(scalar);
+            cpu_force_scalar(scalar);
             differ += packets_differ(s, 0, 400, 0.002, &x, &blocked);
             differ += packets_differ(s, 0, 200, 0.3, &x, &blocked);
             differ += packets_differ(s, 0, 100, 40, &x, &blocked);
         }
-        packet_force_scalar(false);
+        cpu_force_scalar(false);
         CHECK(differ == 0, "light %d: %d shadow rays differ from the one-ray answer", l, differ);
         CHECK(blocked > 500, "light %d: only %d shadow rays blocked", l, blocked);
         rayd_scene_free(s);

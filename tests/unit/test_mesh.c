@@ -195,7 +195,7 @@ static void test_packets_equal_single_rays(void) {
         }
         uint32_t active = p % 5 == 4 ? 0x9f35u ^ (uint32_t)p : 0xffffu;
         for (int scalar = 0; scalar <= 1; scalar++) {
-            packet_force_scalar(scalar);
+            cpu_force_scalar(scalar);
             struct mesh_hit h[16];
             uint32_t hit = mesh_intersect16(m, r, tmax, active, h);
             uint32_t blocked = mesh_occluded16(m, r, tmax, active);
@@ -213,9 +213,9 @@ static void test_packets_equal_single_rays(void) {
             }
         }
     }
-    packet_force_scalar(false);
+    cpu_force_scalar(false);
     printf("  %d rays (%d hits), packets %s\n", total, hits,
-           bvh16_available() ? "with AVX-512" : "one ray at a time (no AVX-512 here)");
+           cpu_avx512() ? "with AVX-512" : "one ray at a time (no AVX-512 here)");
     CHECK(hits > total / 3, "%d hits of %d", hits, total);
     CHECK(differ == 0, "%d of %d packet answers differ from the one-ray ones", differ, total);
     rayd_scene_free(s);

@@ -275,14 +275,14 @@ static void test_srgb_blocks_equal_one_value(void) {
     }
     int bad = 0;
     for (int scalar = 0; scalar < 2; scalar++) {
-        packet_force_scalar(scalar);
+        cpu_force_scalar(scalar);
         for (int b = 0; b < 64; b++) {
             uint8_t out[48];
             render_srgb48(v + 48 * b, out);
             for (int k = 0; k < 48; k++) bad += out[k] != render_srgb8(v[48 * b + k]);
         }
     }
-    packet_force_scalar(false);
+    cpu_force_scalar(false);
     CHECK(bad == 0, "%d of %d block bytes differ from render_srgb8", bad, 2 * 48 * 64);
 }
 

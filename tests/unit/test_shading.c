@@ -278,7 +278,7 @@ static void test_packets_shade_as_one_ray(void) {
         int differ = 0, count_differ = 0;
         uint64_t x = 12345 + (uint64_t)l;
         for (int scalar = 0; scalar < 2; scalar++) {
-            packet_force_scalar(scalar);
+            cpu_force_scalar(scalar);
             for (int n = 0; n < 300; n++) {
                 ray r[16];
                 struct rng_key key[16];
@@ -299,7 +299,7 @@ static void test_packets_shade_as_one_ray(void) {
                 count_differ += rays16 != rays1;
             }
         }
-        packet_force_scalar(false);
+        cpu_force_scalar(false);
         CHECK(differ == 0, "lights %d: %d packet colours differ from the one-ray colour", l,
               differ);
         CHECK(count_differ == 0, "lights %d: %d packets counted other rays", l, count_differ);

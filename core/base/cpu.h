@@ -1,0 +1,37 @@
+/* cpu.h -- whether rayd's AVX-512 code may run here (cpu.c), and the
+ * attributes that compile a function for AVX-512 whatever the build's
+ * -march.
+ *
+ * The packet code (accel/bvh16.h, geom/mesh_packet.c, scene/scene_packet.c,
+ * render/integrate_wide.c, the camera's and sRGB's 16-wide paths) is built
+ * for AVX-512 in every x86-64 build with GCC or clang, its functions
+ * carrying a target attribute, and each entry point asks cpu_avx512 before
+ * it runs any of it: elsewhere the same entry points loop over their rays
+ * one at a time, to the same bits.  Every layer of the core asks, so the
+ * question lives here at the bottom.
+ */
+#ifndef CPU_H
+#define CPU_H
+
+#include <stdbool.h>
+
+/* True when the AVX-512 code runs: built in, the CPU and OS have it,
+ * RAYD_NO_AVX512 is not set in the environment (to compare, or to rule
+ * the SIMD code out), and cpu_force_scalar has not turned it off. */
+bool cpu_avx512(void);
+/* Tests: run the one-ray paths even where AVX-512 runs. */
+void cpu_force_scalar(bool on);
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(RAYD_NO_SIMD)
+#define CPU_AVX512 1
+#include <immintrin.h>
+
+/* Skylake-server's set: AVX-512 F, DQ, BW, VL with the AVX2 generation
+ * beside it (BMI, popcount), all checked at run time by cpu_avx512. */
+#define CPU_AVX512_TARGET "avx512f,avx512dq,avx512bw,avx512vl,avx2,bmi,bmi2,popcnt"
+#define CPU_AVX512_EXTERN __attribute__((target(CPU_AVX512_TARGET)))
+#define CPU_AVX512_FN __attribute__((target(CPU_AVX512_TARGET))) static inline
+#define CPU_AVX512_INLINE __attribute__((target(CPU_AVX512_TARGET), always_inline)) static inline
+#endif
+
+#endif
