@@ -53,6 +53,11 @@ struct aimed {
     double tr[3][16]; /* 0 outside the lanes it reaches */
 };
 
+/* Eight lanes in one value (GNU C vector extensions): where a loop over
+ * arrays would leave its values in memory between steps. */
+typedef double wide_d8 __attribute__((vector_size(64)));
+typedef int64_t wide_i8 __attribute__((vector_size(64)));
+
 /* The lights aimed at, and their shadow rays traced, before any is shaded:
  * their square roots, divisions and walks then overlap instead of waiting
  * one on the other. */
