@@ -126,7 +126,8 @@ enum format { FMT_PNG, FMT_PNG16, FMT_EXR };
 
 struct args {
     const char *scene, *output;
-    struct rayd_region region;
+    struct rayd_region region; /* 0 x 0: the whole image */
+    bool region_set;           /* --region given: then never 0 x 0 */
     int threads;
     int png_level;
     int stats, quiet;
@@ -249,6 +250,7 @@ static int set_option(int opt, const char *val, struct args *a) {
     case OPT_REGION:
         if (!val || parse_region(val, &a->region) != 0)
             return bad_usage("--region takes X,Y,W,H (four integers)");
+        a->region_set = true;
         return 0;
     case OPT_THREADS:
         if (!val || parse_int(val, 0, 1024, &n) != 0)
@@ -298,7 +300,7 @@ static int parse_args(int argc, char **argv, struct args *a) {
     if (!a->output) return bad_usage("no output given (-o OUT.png)");
     if (!strcmp(a->output, "-") && isatty(STDOUT_FILENO))
         return bad_usage("-o - writes the image to standard output, which is a terminal");
-    if (a->region.w == 0 && a->region.h == 0 && (a->region.x || a->region.y))
+    if (a->region_set && a->region.w == 0 && a->region.h == 0) /* else the whole image */
         return bad_usage("--region needs W and H > 0");
     size_t olen = strlen(a->output);
     if (a->format < 0)
@@ -312,7 +314,9 @@ static int parse_args(int argc, char **argv, struct args *a) {
 static int fail(const char *what, const struct rayd_error *err) {
     char msg[600];
     fprintf(stderr, "rayd-render: error: %s%s\n", what, rayd_error_format(err, msg, sizeof msg));
-    return err->code == RAYD_E_ARG ? 2 : 1;
+    if (err->code != RAYD_E_ARG) return 1;
+    fprintf(stderr, "Try 'rayd-render --help'.\n"); /* as every usage error */
+    return 2;
 }
 
 static double now(void) {

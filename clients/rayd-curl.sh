@@ -10,6 +10,9 @@
 # standard input, never on its command line (visible in ps).
 set -eu
 [ $# -ge 2 ] || { echo "usage: $0 SCENE.json OUT.png [SERVER]" >&2; exit 2; }
+# curl would send an empty body for a file it cannot read, and the server's
+# "unexpected end of input" would hide the real trouble.
+[ -f "$1" ] && [ -r "$1" ] || { echo "rayd-curl: error: cannot read $1" >&2; exit 1; }
 server=${3:-${RAYD_SERVER:-http://127.0.0.1:8080}}
 token=${RAYD_TOKEN:-}
 [ -n "${RAYD_TOKEN_FILE:-}" ] && token=$(cat "$RAYD_TOKEN_FILE")

@@ -19,6 +19,7 @@
  */
 #include "base.h"
 
+#include <arpa/inet.h>
 #include <errno.h>
 #include <getopt.h>
 #include <limits.h>
@@ -43,7 +44,7 @@ struct config_option {
 
 static const struct config_option config_table[] = {
     {"bind", "RAYD_BIND", CT_STRING, &config.bind, "127.0.0.1", 0, 0,
-     "address to listen on (IPv4 or IPv6 literal)"},
+     "address to listen on (IPv4 or IPv6 literal, or localhost)"},
     {"port", "RAYD_PORT", CT_LONG, &config.port, "8080", 0, 65535,
      "TCP port; 0 picks a free one (printed on the first line)"},
     {"threads", "RAYD_THREADS", CT_LONG, &config.threads, "0", 0, 1024,
@@ -242,6 +243,26 @@ bool config_loopback(const char *addr)
     return !strncmp(addr, "127.", 4) || !strcmp(addr, "::1") || !strcmp(addr, "localhost");
 }
 
+/* --bind: an IPv4 or IPv6 address, or localhost (127.0.0.1), checked here
+ * as any option's value is, so a wrong one is a usage error (2) and not a
+ * failure to listen (1). */
+static int config_bind(void)
+{
+    unsigned char addr[sizeof(struct in6_addr)];
+    if (!strcmp(config.bind, "localhost")) {
+        char *lo = strdup("127.0.0.1");
+        if (!lo)
+            return -1;
+        free(config.bind);
+        config.bind = lo;
+    }
+    if (inet_pton(AF_INET, config.bind, addr) == 1 || inet_pton(AF_INET6, config.bind, addr) == 1)
+        return 0;
+    fprintf(stderr, "rayd: error: --bind must be an IPv4 or IPv6 address or localhost, not '%s'\n",
+            config.bind);
+    return -1;
+}
+
 /* --asset-dir: an existing folder, kept as its real path, so the loader's
  * confinement (openat2 RESOLVE_BENEATH, core/io/scene_json_util.c) starts
  * from a fixed place.  Unset, a scene's "file" is refused. */
@@ -321,7 +342,7 @@ int config_load(int argc, char **argv)
         return CONFIG_USAGE;
     }
     config.log_json = !strcmp(config.log_format, "json");
-    if (config_log_level())
+    if (config_log_level() || config_bind())
         return CONFIG_USAGE;
     if (config.threads == 0) {
         long n = sysconf(_SC_NPROCESSORS_ONLN);

@@ -19,6 +19,8 @@
 #include <arpa/inet.h>
 #include <errno.h>
 #include <microhttpd.h>
+#include <pthread.h>
+#include <stdbool.h>
 #include <netinet/in.h>
 #include <stdarg.h>
 #include <stdlib.h>
@@ -112,9 +114,23 @@ static const struct http_io http_mhd_io = {http_mhd_header,  http_mhd_header_eac
                                            http_mhd_query_each, http_mhd_suspend,
                                            http_mhd_resume, http_mhd_fd};
 
+/* Set by http_drop in the thread that returns MHD_NO for a request whose
+ * client left: libmicrohttpd then says "Application reported internal
+ * error", which is no error of rayd's (the access log has the request, 499
+ * client_gone), so that line goes to debug. */
+static _Thread_local bool http_dropped;
+
+static enum MHD_Result http_drop(void)
+{
+    http_dropped = true;
+    return MHD_NO;
+}
+
 static enum MHD_Result http_flush(struct http_req *r)
 {
-    if (r->gone || !r->pending)
+    if (r->gone)
+        return http_drop();
+    if (!r->pending)
         return MHD_NO;
     r->t_sent = log_now();
     enum MHD_Result ret = MHD_queue_response(r->io_ctx, r->pending_status, r->pending);
@@ -154,7 +170,7 @@ static enum MHD_Result http_access(void *cls, struct MHD_Connection *c, const ch
         return http_flow_begin(r) ? MHD_YES : http_flush(r);
     }
     if (r->gone)
-        return MHD_NO;
+        return http_drop();
     if (r->pending) /* resumed with an answer, or replied during the upload */
         return http_flush(r);
     if (r->replied)
@@ -188,6 +204,13 @@ static void http_completed(void *cls, struct MHD_Connection *c, void **con_cls,
     http_flow_end(r, note);
 }
 
+/* While http_start starts libmicrohttpd its messages are kept, not logged:
+ * a failure to listen is then one line that says why ("cannot listen ...:
+ * Address already in use"), as every rayd error. */
+static pthread_mutex_t http_start_lock = PTHREAD_MUTEX_INITIALIZER;
+static bool http_starting;
+static char http_start_why[256];
+
 /* libmicrohttpd's own messages (malformed requests, ...) go through log.c so
  * --log-format json keeps every stderr line JSON. */
 static void http_mhd_log(void *cls, const char *fmt, va_list ap) __attribute__((format(printf, 2, 0)));
@@ -199,7 +222,19 @@ static void http_mhd_log(void *cls, const char *fmt, va_list ap)
     size_t n = strlen(msg);
     while (n > 0 && (msg[n - 1] == '\n' || msg[n - 1] == '\r'))
         msg[--n] = 0;
-    log_warn("http: %s", msg);
+    pthread_mutex_lock(&http_start_lock);
+    bool keep = http_starting;
+    if (keep && !http_start_why[0])
+        snprintf(http_start_why, sizeof http_start_why, "%s", msg);
+    pthread_mutex_unlock(&http_start_lock);
+    if (keep)
+        return;
+    bool dropped = http_dropped && !strncmp(msg, "Application reported internal error", 35);
+    http_dropped = false;
+    if (dropped)
+        log_debug("http: %s", msg);
+    else
+        log_warn("http: %s", msg);
 }
 
 /* ---- start / stop --------------------------------------------------------------- */
@@ -311,14 +346,25 @@ int http_start(void)
     }
     HTTP_OPT(MHD_OPTION_END, 0, NULL);
 #undef HTTP_OPT
+    pthread_mutex_lock(&http_start_lock);
+    http_starting = true;
+    pthread_mutex_unlock(&http_start_lock);
     http_daemon = MHD_start_daemon(flags, (uint16_t)config.port, NULL, NULL, http_access, NULL,
                                    MHD_OPTION_ARRAY, opts, MHD_OPTION_END);
+    pthread_mutex_lock(&http_start_lock);
+    http_starting = false;
+    char why[sizeof http_start_why];
+    memcpy(why, http_start_why, sizeof why);
+    pthread_mutex_unlock(&http_start_lock);
     if (!http_daemon) {
-        fprintf(stderr, "rayd: error: cannot listen on %s port %ld%s\n", config.bind, config.port,
-                config.tls_cert ? " (or the TLS key/certificate was refused)" : "");
+        fprintf(stderr, "rayd: error: cannot listen on %s port %ld%s%s%s\n", config.bind,
+                config.port, config.tls_cert ? " (or the TLS key/certificate was refused)" : "",
+                why[0] ? ": " : "", why);
         http_stop();
         return -1;
     }
+    if (why[0])
+        log_warn("http: %s", why);
     const union MHD_DaemonInfo *di = MHD_get_daemon_info(http_daemon, MHD_DAEMON_INFO_BIND_PORT);
     http_bound_port = di ? di->port : (int)config.port;
     return 0;

@@ -26,6 +26,7 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 
 #include "accel/bvh.h"
 #include "base/cpu.h"
@@ -113,8 +114,10 @@ CPU_AVX512_INLINE __mmask16 bvh16_child(const struct bvh4_node *nd, int c,
     for (int k = 0; k < 3; k++) {
         __m512 near, far;
         if (r->uniform) { /* the common case: each axis one sign for the whole packet */
-            near = _mm512_set1_ps(*(const float *)(at + r->near[k]));
-            far = _mm512_set1_ps(*(const float *)(at + r->far[k]));
+            float nv, fv; /* the floats at those byte offsets into the node */
+            memcpy(&nv, at + r->near[k], sizeof nv);
+            memcpy(&fv, at + r->far[k], sizeof fv);
+            near = _mm512_set1_ps(nv), far = _mm512_set1_ps(fv);
         } else {
             __m512 lo = _mm512_set1_ps(nd->lo[k][c]), hi = _mm512_set1_ps(nd->hi[k][c]);
             near = _mm512_mask_blend_ps(r->neg[k], lo, hi);

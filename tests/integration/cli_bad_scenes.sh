@@ -188,6 +188,21 @@ region_err cli-region-h-too-high 0,40,8,9 "rayd-render: error: --region h: must 
 region_err cli-region-w-zero 0,0,0,8 "rayd-render: error: --region w: must be in 1..64 (x + w may not pass the width 64)"
 region_err cli-region-w-negative 0,0,-8,8 "rayd-render: error: --region w: must be in 1..64 (x + w may not pass the width 64)"
 region_err cli-region-empty-at-offset 5,5,0,0 "rayd-render: error: --region needs W and H > 0"
+# 0 x 0 at the origin is the core's "whole image": given on the command line
+# it is a mistake, not a request for everything.
+region_err cli-region-empty-at-origin 0,0,0,0 "rayd-render: error: --region needs W and H > 0"
+
+# Every usage error ends with the pointer to --help, also those the core
+# finds once the scene says how big the image is.
+for r in 0,0,0,0 0,0,100000,8; do
+    "$R" "$small" -o "$T/x.png" --region "$r" >/dev/null 2>"$T/stderr"
+    rc=$?
+    if [ $rc -eq 2 ] && [ "$(tail -n 1 "$T/stderr")" = "Try 'rayd-render --help'." ]; then
+        echo "PASS cli-region-usage-try-line-$r"
+    else
+        echo "FAIL cli-region-usage-try-line-$r: exit $rc; stderr: $(oneline "$T/stderr")"
+    fi
+done
 region_err cli-region-three-numbers 1,2,3 "$SYNTAX"
 region_err cli-region-five-numbers 0,0,8,8,8 "$SYNTAX"
 region_err cli-region-letters a,b,c,d "$SYNTAX"

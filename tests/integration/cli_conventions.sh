@@ -97,10 +97,19 @@ same_server() {
 same_server opt_equals --threads=0 --max-pixels=4096
 PORT_IN_USE=$PORT
 run busy "$RAYD" --bind 127.0.0.1 --port "$PORT_IN_USE"
-check rayd_cannot_listen_exit_1 "exit $RC, stderr '$(first_err busy)'" bash -c \
-    "[ $RC = 1 ] && grep -q '^rayd: error: cannot listen' '$T/busy.err'"
+check rayd_cannot_listen_exit_1 "exit $RC, stderr '$(cat "$T/busy.err")'" bash -c \
+    "[ $RC = 1 ] && grep -q '^rayd: error: cannot listen on 127.0.0.1 port $PORT_IN_USE: .*in use' '$T/busy.err' && [ \$(wc -l <'$T/busy.err') = 1 ]"
 stop_rayd
 same_server opt_space --threads 0 --max-pixels 4096
+run badbind "$RAYD" --bind 999.1.1.1 --port 0
+check rayd_bad_bind_usage_exit_2 "exit $RC, stderr '$(first_err badbind)'" bash -c \
+    '[ "$1" = 2 ] && [ "$(head -n 1 "$2")" = "$3" ] && [ "$(tail -n 1 "$2")" = "$4" ]' _ "$RC" \
+    "$T/badbind.err" "rayd: error: --bind must be an IPv4 or IPv6 address or localhost, not '999.1.1.1'" \
+    "Try 'rayd --help'."
+stop_rayd
+start_rayd --bind localhost --threads 1 # start_rayd wants 'listening on http://127.0.0.1:PORT'
+code=$(req GET /healthz)
+check rayd_bind_localhost "status $code" test "$code" = 200
 run nofile "$RAYD" --port 0 --token-file "$T/no-such-token"
 check rayd_missing_file_exit_1 "exit $RC, stderr '$(first_err nofile)'" bash -c \
     "[ $RC = 1 ] && grep -q '^rayd: error: --token-file' '$T/nofile.err'"
@@ -122,6 +131,16 @@ check client_job_stdout "exit $RC: $(first_err c_job)" bash -c "[ $RC = 0 ] && c
 run c_bad "$CLIENT" render "$T/bad.json" -o "$T/c_bad.png" --server "$URL"
 check client_bad_scene_exit_1 "exit $RC, stderr '$(first_err c_bad)'" bash -c \
     "[ $RC = 1 ] && grep -q '^rayd-client: error: .*/objects/0/radius: must be > 0' '$T/c_bad.err' && [ ! -e '$T/c_bad.png' ]"
+# An OpenEXR comes only from summed sample ranges: tiles and jobs are 8-bit
+# PNGs, which must not be written under an .exr name.
+for cmd in render job; do
+    run "c_exr_$cmd" "$CLIENT" "$cmd" "$T/s.json" -o "$T/c_$cmd.exr" --server "$URL" -q
+    check "client_${cmd}_exr_needs_split_samples" "exit $RC, stderr '$(first_err "c_exr_$cmd")'" bash -c \
+        "[ $RC = 2 ] && grep -q '^rayd-client: error: -o .*c_$cmd.exr: OpenEXR comes only from render --split-samples' '$T/c_exr_$cmd.err' && [ ! -e '$T/c_$cmd.exr' ]"
+done
+run c_exr_split "$CLIENT" render "$T/s.json" -o "$T/c_split.exr" --server "$URL" --split-samples 1 -q
+check client_split_samples_writes_exr "exit $RC: $(first_err c_exr_split)" bash -c \
+    "[ $RC = 0 ] && [ \"\$(head -c 4 '$T/c_split.exr' | od -An -tx1 | tr -d ' ')\" = 762f3101 ]"
 stop_rayd
 run c_down "$CLIENT" render "$T/s.json" -o "$T/c_down.png" --server "http://127.0.0.1:$PORT" --retries 0 -q
 check client_unreachable_exit_1 "exit $RC, stderr '$(first_err c_down)'" bash -c \
@@ -129,6 +148,11 @@ check client_unreachable_exit_1 "exit $RC, stderr '$(first_err c_down)'" bash -c
 run c_nocmd "$CLIENT"
 check client_no_command_exit_2 "exit $RC, stderr '$(first_err c_nocmd)'" bash -c \
     "[ $RC = 2 ] && [ '$(first_err c_nocmd)' = 'rayd-client: error: no command given (render, job, health or thumbnails)' ]"
+# rayd-curl.sh names a scene it cannot read (curl alone would send an empty
+# body, and the server's answer would be about JSON, not the file).
+run curl_nofile sh "$RAYD_ROOT/clients/rayd-curl.sh" "$T/no-such.json" "$T/curl.png" "http://127.0.0.1:$PORT"
+check rayd_curl_unreadable_scene "exit $RC, stderr '$(first_err curl_nofile)'" bash -c \
+    "[ $RC = 1 ] && [ '$(first_err curl_nofile)' = 'rayd-curl: error: cannot read $T/no-such.json' ] && [ ! -e '$T/curl.png' ] && [ ! -e '$T/curl.png.part' ]"
 
 # --- rayd-render's progress line ---------------------------------------------------
 # on_tty NAME ARGS...: runs rayd-render with stdin, stdout and stderr on a

@@ -142,5 +142,9 @@ check disconnect_frees_worker "tiles started $s0 -> $(jfield "$T/gate.json" star
     bash -c "[ '$(jfield "$T/gate.json" started)' = '$s0' ] && [ '$(metric rayd_workers_busy)' = 0 ] && [ '$(metric rayd_render_seconds_count)' = '${r0:-0}' ]"
 wait_until 60 grep -q 'POST /v1/render 499 .*client_gone' "$T/rayd.err"
 check disconnect_logged "no 499 client_gone line" grep -q 'POST /v1/render 499 .*client_gone' "$T/rayd.err"
+# the access line says it all: libmicrohttpd's "internal error" for the
+# dropped connection is no warning of the server's
+check disconnect_no_internal_error_warning "$(grep -m1 'warn http: Application' "$T/rayd.err")" \
+    bash -c "! grep -q 'warn http: Application reported internal error' '$T/rayd.err'"
 check alive_after_disconnect "healthz" [ "$(req GET /healthz)" = 200 ]
 stop_rayd TERM
