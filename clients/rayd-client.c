@@ -380,8 +380,10 @@ static int client_urls(struct client_opts *o, char **urls) {
         urls[i] = strdup(o->servers[i]);
         if (!urls[i]) return client_bad("out of memory");
         while (n > 0 && urls[i][n - 1] == '/') urls[i][--n] = '\0';
-        if (!strstr(urls[i], "://"))
-            return client_bad("--server wants a URL such as http://host:8080, not '%s'", urls[i]);
+        if (strncmp(urls[i], "http://", 7) && strncmp(urls[i], "https://", 8))
+            return client_bad("--server wants an http:// or https:// URL such as "
+                              "http://host:8080, not '%s'",
+                              urls[i]);
         o->servers[i] = urls[i];
     }
     return 0;
@@ -414,7 +416,10 @@ int main(int argc, char **argv) {
     }
     char *urls[CLIENT_MAX_SERVERS] = {0};
     rc = CLIENT_USAGE_EXIT;
-    if (client_urls(&a.o, urls) != 0) goto out;
+    if (client_urls(&a.o, urls) != 0) {
+        fprintf(stderr, "Try 'rayd-client --help'.\n");
+        goto out;
+    }
     rc = 1;
     if (a.token_file && *a.token_file && !(a.o.token = client_read_token(a.token_file))) goto out;
     net_global_init();

@@ -93,6 +93,7 @@ static void sched_encode(struct task *t)
     if (st == RAYD_OK && !(t->png = blob_new(buf, len))) {
         rayd_free(buf);
         st = RAYD_E_NOMEM;
+        snprintf(err.message, sizeof err.message, "out of memory keeping the PNG");
     }
     if (st != RAYD_OK) {
         t->status = st;
@@ -136,6 +137,7 @@ static bool sched_pass_close(struct task *t, struct task_notify *sse)
     if (st == RAYD_OK && !png) {
         rayd_free(buf);
         st = RAYD_E_NOMEM;
+        snprintf(err.message, sizeof err.message, "out of memory keeping the pass's PNG");
     }
     pthread_mutex_lock(&work_lock);
     if (st != RAYD_OK) {

@@ -101,8 +101,6 @@ static enum rayd_status transform_step(struct loader *ld, const cJSON *t, const 
 }
 
 /* "transform": one step {scale, rotate, translate} applied in that order,
- * or an array of steps applied first to last. */
-/* "transform": one step {scale, rotate, translate} applied in that order,
  * or an array of steps applied first to last.  *present is false (and *out
  * the identity) without one. */
 static enum rayd_status load_transform(struct loader *ld, const cJSON *obj, const struct jp *at,

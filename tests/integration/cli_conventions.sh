@@ -148,6 +148,9 @@ check client_unreachable_exit_1 "exit $RC, stderr '$(first_err c_down)'" bash -c
 run c_nocmd "$CLIENT"
 check client_no_command_exit_2 "exit $RC, stderr '$(first_err c_nocmd)'" bash -c \
     "[ $RC = 2 ] && [ '$(first_err c_nocmd)' = 'rayd-client: error: no command given (render, job, health or thumbnails)' ]"
+run c_ftp "$CLIENT" render "$T/s.json" -o "$T/c_ftp.png" --server ftp://127.0.0.1
+check client_server_not_http_exit_2 "exit $RC, stderr '$(first_err c_ftp)'" bash -c \
+    "[ $RC = 2 ] && grep -q '^rayd-client: error: --server wants an http:// or https:// URL' '$T/c_ftp.err' && tail -n 1 '$T/c_ftp.err' | grep -q '^Try '"
 # rayd-curl.sh names a scene it cannot read (curl alone would send an empty
 # body, and the server's answer would be about JSON, not the file).
 run curl_nofile sh "$RAYD_ROOT/clients/rayd-curl.sh" "$T/no-such.json" "$T/curl.png" "http://127.0.0.1:$PORT"
