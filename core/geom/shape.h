@@ -9,7 +9,7 @@
  * the first crossing inside (tmin, tmax); CSG combines the crossing lists.
  *
  * Meshes, CSG nodes and instances refer to data held by the scene and are
- * dispatched in scene.c.  Unbounded kinds (planes, quadrics) are kept out of
+ * dispatched in scene_query.c.  Unbounded kinds (planes, quadrics) are kept out of
  * the BVH and tested one by one.
  */
 #ifndef SHAPE_H

@@ -5,7 +5,7 @@
  * WIDE_FN its target.  The loops over the 16 lanes are straight-line code
  * on arrays of doubles (flags are doubles too, 0 or 1), the shape the
  * vectoriser turns into vector instructions; each lane does the one-ray
- * code's operations in the one-ray code's order (integrate.c, scene.c,
+ * code's operations in the one-ray code's order (integrate.c, scene_query.c,
  * light.c, shape_sphere.c), so the colours are the same bits however wide
  * the registers are.
  */

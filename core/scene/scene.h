@@ -99,6 +99,8 @@ bool scene_object_bounds(const rayd_scene *s, const struct object *o, struct aab
 enum rayd_status scene_build_bvh(const rayd_scene *s, struct object **objs, int32_t n,
                                  struct bvh4 *bvh, struct aabb *bounds, struct rayd_error *err);
 
+/* ---- the queries: one ray (scene_query.c), 16 rays (scene_packet.c) ---- */
+
 /* Nearest hit with t in (0, tmax); false when the ray escapes. */
 bool scene_intersect(const rayd_scene *s, const ray *r, double tmax, struct hit *h);
 

@@ -1,4 +1,4 @@
-/* scene_query.h -- what the one-ray queries of scene.c share with the
+/* scene_query.h -- what the one-ray queries of scene_query.c share with the
  * 16-ray packets of scene_packet.c.
  *
  * A packet must give every ray exactly the answer the ray would get alone,

@@ -1,0 +1,338 @@
+/* scene_query.c -- the one-ray queries the tracer makes of a frozen scene:
+ * nearest hit, what a shadow ray lets through, and the surface at a hit.
+ *
+ * Levels, like Embree's and OptiX's: a top-level BVH over objects (spheres,
+ * boxes, tori, mesh references, CSG trees, instances of groups) and, inside
+ * each mesh and each group, a BVH of its own.  An object may carry a
+ * transform; a ray meets it in object space (origin and direction by the
+ * inverse transform, the direction renormalised and t rescaled), so a mesh
+ * or a group drawn a thousand times is stored once.  Unbounded objects
+ * (planes, quadrics) are tested one by one beside the BVH.
+ *
+ * CSG follows Roth (1982): every operand's crossings with the ray's line
+ * are merged in order, and the tree's point-in-solid test, evaluated
+ * between consecutive crossings, tells which of them are surfaces of the
+ * result and whether the ray enters or leaves it there.  Transforms inside
+ * a CSG tree are composed down to its leaves at load time.  A CSG node's
+ * operands are objects like any other, so CSG and the hits call each other
+ * and live together here.
+ *
+ * The nearest-hit search is order-free (scene_query.h), so the 16-ray
+ * packets of scene_packet.c give every ray this file's answer.
+ */
+#include "scene/scene_query.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "scene/scene.h"
+#include "shade/texture.h"
+
+#define CSG_MAX_XINGS 128
+
+/* ---- object space ---------------------------------------------------------- */
+
+ray object_ray_xform(const rayd_scene *s, const struct object *o, const ray *r, double *scale) {
+    const struct xform *x = &s->xforms[o->xform];
+    vec3 d = xform_inv_dir(x, r->d);
+    double len = v3_len(d);
+    ray lr = {xform_inv_point(x, r->o), v3_scale(d, 1.0 / len)};
+    *scale = len;
+    return lr;
+}
+
+/* ---- CSG ----------------------------------------------------------------------- */
+
+struct cx {
+    double t;
+    const struct object *leaf;
+    int part;
+};
+
+static bool csg_inside(const rayd_scene *s, const struct object *o, vec3 p) {
+    if (o->kind == SHAPE_CSG) {
+        bool a = csg_inside(s, &s->parts[o->u.csg.left], p);
+        if (o->u.csg.op == CSG_UNION && a) return true;
+        if (o->u.csg.op != CSG_UNION && !a) return false;
+        bool b = csg_inside(s, &s->parts[o->u.csg.right], p);
+        return o->u.csg.op == CSG_DIFFERENCE ? !b : b;
+    }
+    vec3 q = o->xform >= 0 ? xform_inv_point(&s->xforms[o->xform], p) : p;
+    return shape_ops[o->kind]->inside(o, q);
+}
+
+static int csg_collect(const rayd_scene *s, const struct object *o, const ray *r, struct cx *out,
+                       int n) {
+    if (o->kind == SHAPE_CSG) {
+        n = csg_collect(s, &s->parts[o->u.csg.left], r, out, n);
+        return csg_collect(s, &s->parts[o->u.csg.right], r, out, n);
+    }
+    double scale;
+    ray lr = object_ray(s, o, r, &scale);
+    struct xing x[SHAPE_MAX_XINGS];
+    int k = shape_ops[o->kind]->crossings(o, &lr, x);
+    for (int i = 0; i < k && n < CSG_MAX_XINGS; i++) out[n++] = (struct cx){x[i].t / scale, o, x[i].part};
+    return n;
+}
+
+static int cmp_cx(const void *a, const void *b) {
+    double x = ((const struct cx *)a)->t, y = ((const struct cx *)b)->t;
+    return (x > y) - (x < y);
+}
+
+static bool csg_hit(const rayd_scene *s, const struct object *o, const ray *r, double *tmax,
+                    struct hit *h) {
+    struct cx x[CSG_MAX_XINGS];
+    int n = csg_collect(s, o, r, x, 0);
+    if (n == 0) return false;
+    qsort(x, (size_t)n, sizeof *x, cmp_cx);
+    bool before = csg_inside(s, o, ray_at(r, x[0].t - (1 + fabs(x[0].t))));
+    for (int i = 0; i < n && x[i].t < *tmax; i++) {
+        double ta = i + 1 < n ? 0.5 * (x[i].t + x[i + 1].t) : x[i].t + (1 + fabs(x[i].t));
+        bool after = csg_inside(s, o, ray_at(r, ta));
+        if (after != before && x[i].t > 0) {
+            *tmax = x[i].t;
+            h->t = x[i].t;
+            h->leaf = x[i].leaf;
+            h->part = x[i].part;
+            h->orient = after ? 1 : -1;
+            return true;
+        }
+        before = after;
+    }
+    return false;
+}
+
+/* ---- hits ---------------------------------------------------------------------- */
+
+static bool objects_hit(const rayd_scene *s, const struct object *objs, int32_t nobjs,
+                        const struct bvh4 *bvh, const struct xform *outer, const ray *r,
+                        double *tmax, struct hit *h);
+
+bool object_mesh_hit(const struct object *o, const struct xform *outer,
+                     const struct mesh_hit *mh, double scale, double *tmax, struct hit *h) {
+    if (!((double)mh->t / scale < *tmax)) return false;
+    h->mh = *mh;
+    h->part = 0;
+    *tmax = mh->t / scale;
+    h->t = *tmax;
+    h->leaf = o;
+    h->outer = outer;
+    h->orient = 0;
+    return true;
+}
+
+/* Object space hit t_obj back in world units: kept if nearer than *tmax. */
+static bool world_take(double t_obj, double scale, double *tmax) {
+    double t = t_obj / scale;
+    if (!(t < *tmax)) return false;
+    *tmax = t;
+    return true;
+}
+
+/* Nearest hit of one object closer than *tmax: updates *tmax and h. */
+static bool object_hit(const rayd_scene *s, const struct object *o, const struct xform *outer,
+                       const ray *r, double *tmax, struct hit *h) {
+    double scale, t;
+    ray lr = object_ray(s, o, r, &scale);
+    double lmax = object_space_bound(*tmax, scale);
+    switch (o->kind) {
+    case SHAPE_MESH: {
+        struct mesh_hit mh;
+        const struct mesh *m = &s->meshes[o->u.mesh.id];
+        bool hit = s->brute ? mesh_intersect_brute(m, &lr, lmax, &mh)
+                            : mesh_intersect(m, &lr, lmax, &mh);
+        return hit && object_mesh_hit(o, outer, &mh, scale, tmax, h);
+    }
+    case SHAPE_CSG:
+        if (!csg_hit(s, o, &lr, &lmax, h) || !world_take(lmax, scale, tmax)) return false;
+        h->t = *tmax;
+        h->outer = outer;
+        return true;
+    case SHAPE_INSTANCE: {
+        const struct group *g = &s->groups[o->u.inst.group];
+        if (!objects_hit(s, g->objs, g->nobjs, &g->bvh, &s->xforms[o->xform], &lr, &lmax, h) ||
+            !world_take(lmax, scale, tmax))
+            return false;
+        h->t = *tmax;
+        return true;
+    }
+    case SHAPE_SPHERE: /* the commonest kinds without the crossing list */
+        if (!sphere_nearest(o, &lr, lmax, &t)) return false;
+        h->part = 0;
+        break;
+    case SHAPE_PLANE:
+        if (!plane_nearest(o, &lr, lmax, &t)) return false;
+        h->part = 0;
+        break;
+    default:
+        if (!shape_hit(o, &lr, 0, lmax, &t, &h->part)) return false;
+    }
+    if (!world_take(t, scale, tmax)) return false;
+    h->t = *tmax;
+    h->leaf = o;
+    h->outer = outer;
+    h->orient = 0;
+    return true;
+}
+
+/* Calls visit for every object of objs whose BVH box the ray enters before
+ * *tmax, nearest boxes first, until visit returns false.  visit may shrink
+ * *tmax (a nearest-hit search) and so prune the rest of the walk.  With
+ * brute (tests) or a single object, every object is visited in order. */
+typedef bool (*visit_fn)(void *ctx, const struct object *o, double *tmax);
+
+static void objects_walk(const struct object *objs, int32_t n, const struct bvh4 *bvh, bool brute,
+                         const ray *r, double *tmax, visit_fn visit, void *ctx) {
+    if (brute || n <= 1) {
+        for (int32_t i = 0; i < n; i++)
+            if (!visit(ctx, &objs[i], tmax)) return;
+        return;
+    }
+    struct bvh_ray br;
+    bvh_ray_init(&br, r->o, r->d);
+    struct bvh_entry stack[BVH_STACK], e = {0, 0, 0};
+    int sp = 0;
+    for (;;) {
+        float tm = *tmax > 3e38 ? 3e38f : (float)*tmax * BVH_SLACK;
+        if (e.count == 0) {
+            if (bvh4_descend(bvh->nodes, &e, &br, tm, stack, &sp)) continue;
+        } else {
+            for (uint32_t i = e.node; i < e.node + e.count; i++)
+                if (!visit(ctx, &objs[i], tmax)) return;
+        }
+        do { /* pop the nearest entry still in reach */
+            if (sp == 0) return;
+            e = stack[--sp];
+        } while (e.tnear > *tmax * BVH_SLACK);
+    }
+}
+
+void nearest_take(struct nearest *c, const struct object *o, double t, const struct hit *h,
+                  double *tmax) {
+    if (t > *tmax) return;
+    *tmax = t;
+    *c->h = *h;
+    c->best = nearest_rank(c, o);
+}
+
+bool nearest_visit(void *ctx, const struct object *o, double *tmax) {
+    struct nearest *c = ctx;
+    double t = nearest_bound(c, o, *tmax);
+    struct hit h;
+    if (object_hit(c->s, o, c->outer, c->r, &t, &h)) nearest_take(c, o, t, &h, tmax);
+    return true;
+}
+
+/* Nearest hit among objs (with their BVH) closer than *tmax. */
+static bool objects_hit(const rayd_scene *s, const struct object *objs, int32_t nobjs,
+                        const struct bvh4 *bvh, const struct xform *outer, const ray *r,
+                        double *tmax, struct hit *h) {
+    struct nearest c = {s, outer, r, h, objs, 0, -1};
+    objects_walk(objs, nobjs, bvh, s->brute, r, tmax, nearest_visit, &c);
+    return c.best >= 0;
+}
+
+bool scene_intersect(const rayd_scene *s, const ray *r, double tmax, struct hit *h) {
+    /* h is written, never read, by the search: */
+    // cppcheck-suppress ctuuninitvar
+    struct nearest c = {s, NULL, r, h, s->planes, 0, -1};
+    for (int32_t i = 0; i < s->nplanes; i++) nearest_visit(&c, &s->planes[i], &tmax);
+    c.base = s->objs;
+    c.rank0 = s->nplanes;
+    objects_walk(s->objs, s->nobjs, &s->tlas, s->brute, r, &tmax, nearest_visit, &c);
+    return c.best >= 0;
+}
+
+/* Multiplies *trans by what material m lets through; false (stop) when
+ * nothing passes any more. */
+static bool filter_light(const rayd_scene *s, int material, vec3 *trans) {
+    const struct material *m = &s->mats[material];
+    if (m->transparency <= 0) {
+        *trans = v3(0, 0, 0);
+        return false;
+    }
+    *trans = v3_mul(*trans, v3_scale(m->color, m->transparency));
+    return v3_maxabs(*trans) > 0;
+}
+
+/* Any hit of object o closer than tmax, through its material's filter. */
+bool object_filter(const rayd_scene *s, const struct object *o, const ray *r, double tmax,
+                          vec3 *trans) {
+    struct hit h;
+    double t = tmax;
+    if (o->kind == SHAPE_MESH && !s->brute) {
+        double scale;
+        ray lr = object_ray(s, o, r, &scale);
+        if (!mesh_occluded(&s->meshes[o->u.mesh.id], &lr, tmax * scale)) return true;
+        return filter_light(s, o->material, trans);
+    }
+    if (!object_hit(s, o, NULL, r, &t, &h)) return true;
+    return filter_light(s, h.leaf->material, trans);
+}
+
+struct filter {
+    const rayd_scene *s;
+    const ray *r;
+    vec3 trans;
+};
+
+static bool visit_filter(void *ctx, const struct object *o, double *tmax) {
+    struct filter *c = ctx;
+    return object_filter(c->s, o, c->r, *tmax, &c->trans);
+}
+
+vec3 scene_transmittance(const rayd_scene *s, const ray *r, double tmax) {
+    struct filter c = {s, r, v3(1, 1, 1)};
+    for (int32_t i = 0; i < s->nplanes; i++)
+        if (!object_filter(s, &s->planes[i], r, tmax, &c.trans)) return c.trans;
+    objects_walk(s->objs, s->nobjs, &s->tlas, s->brute, r, &tmax, visit_filter, &c);
+    return c.trans;
+}
+
+/* ---- surfaces ------------------------------------------------------------------ */
+
+void scene_surface(const rayd_scene *s, const ray *r, const struct hit *h, struct surface *sf) {
+    const struct object *o = h->leaf;
+    const struct xform *x = o->xform >= 0 ? &s->xforms[o->xform] : NULL;
+    sf->m = &s->mats[o->material];
+    sf->thin = o->kind == SHAPE_PLANE || (!shape_is_solid(o) && o->kind != SHAPE_MESH);
+    sf->float_geom = o->kind == SHAPE_MESH;
+    vec3 pw = ray_at(r, h->t);
+    /* back to the leaf's own space: through the instance, then the leaf */
+    vec3 p = h->outer ? xform_inv_point(h->outer, pw) : pw;
+    if (x) p = xform_inv_point(x, p);
+    vec3 n, ng;
+    double u = 0, v = 0;
+    bool textured = sf->m->texture >= 0; /* uv costs trigonometry: only when used */
+    if (o->kind == SHAPE_MESH) {
+        const struct mesh *m = &s->meshes[o->u.mesh.id];
+        p = mesh_point(m, &h->mh);
+        ng = mesh_geometric_normal(m, &h->mh);
+        n = mesh_shading_normal(m, &h->mh);
+        if (textured) mesh_uv(m, &h->mh, &u, &v);
+    } else {
+        n = ng = shape_ops[o->kind]->normal(o, p, h->part);
+        if (textured) shape_ops[o->kind]->uv(o, p, h->part, &u, &v);
+    }
+    vec3 po = p; /* object space, for object-space textures */
+    if (x) {
+        p = xform_point(x, p);
+        n = xform_normal(x, n);
+        ng = xform_normal(x, ng);
+    }
+    if (h->outer) {
+        p = xform_point(h->outer, p);
+        n = xform_normal(h->outer, n);
+        ng = xform_normal(h->outer, ng);
+    }
+    if (h->orient && (v3_dot(ng, r->d) < 0) != (h->orient > 0)) { /* CSG: point out of the result */
+        n = v3_neg(n);
+        ng = v3_neg(ng);
+    }
+    sf->p = o->kind == SHAPE_MESH ? p : pw;
+    sf->n = n;
+    sf->ng = ng;
+    sf->color = sf->m->texture >= 0 ? texture_color(&s->textures[sf->m->texture], po, sf->p, u, v)
+                                    : sf->m->color;
+}
