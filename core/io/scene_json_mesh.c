@@ -78,15 +78,13 @@ static enum rayd_status get_flat(struct loader *ld, const cJSON *obj, const stru
     }
     long i = 0;
     for (const cJSON *e = a->child; e; e = e->next, i++) {
-        if (!cJSON_IsNumber(e) || !isfinite(e->valuedouble) || fabs(e->valuedouble) > 1e30) {
+        double x;
+        enum rayd_status st = sj_item_num(ld, e, &p, (int)i, 1e30, "[-1e30, 1e30]", &x);
+        if (st != RAYD_OK) {
             free(v);
-            struct jp pe = sj_index(&p, (int)i);
-            if (!cJSON_IsNumber(e))
-                return sj_fail(ld, RAYD_E_INVALID, &pe, "must be a number, not %s", sj_type_name(e));
-            if (!isfinite(e->valuedouble)) return sj_fail(ld, RAYD_E_INVALID, &pe, "must be a finite number");
-            return sj_fail(ld, RAYD_E_INVALID, &pe, "must be in [-1e30, 1e30]");
+            return st;
         }
-        v[i] = (float)e->valuedouble;
+        v[i] = (float)x;
     }
     *out = v;
     *count = n / per;

@@ -46,14 +46,8 @@ static enum rayd_status transform_step(struct loader *ld, const cJSON *t, const 
         if (!cJSON_IsArray(mj) || cJSON_GetArraySize(mj) != 16)
             return sj_fail(ld, RAYD_E_INVALID, &p, "must be an array of 16 numbers (a 4x4 matrix, row by row)");
         int i = 0;
-        for (const cJSON *e = mj->child; e; e = e->next, i++) {
-            struct jp pe = sj_index(&p, i);
-            if (!cJSON_IsNumber(e))
-                return sj_fail(ld, RAYD_E_INVALID, &pe, "must be a number, not %s", sj_type_name(e));
-            if (!isfinite(e->valuedouble) || fabs(e->valuedouble) > NUM_MAX)
-                return sj_fail(ld, RAYD_E_INVALID, &pe, "must be a finite number in [-1e9, 1e9]");
-            rows[i] = e->valuedouble;
-        }
+        for (const cJSON *e = mj->child; e; e = e->next, i++)
+            TRY(sj_item_num(ld, e, &p, i, NUM_MAX, NUM_RANGE, &rows[i]));
         if (!xform_from_matrix(rows, out))
             return sj_fail(ld, RAYD_E_INVALID, &p, "must be invertible with last row [0, 0, 0, 1]");
         return RAYD_OK;
@@ -251,11 +245,8 @@ static enum rayd_status load_quadric(struct loader *ld, const cJSON *oj, const s
     int i = 0;
     double any = 0;
     for (const cJSON *e = k->child; e; e = e->next, i++) {
-        struct jp pe = sj_index(&p, i);
-        if (!cJSON_IsNumber(e) || !isfinite(e->valuedouble) || fabs(e->valuedouble) > NUM_MAX)
-            return sj_fail(ld, RAYD_E_INVALID, &pe, "must be a finite number in [-1e9, 1e9]");
-        o->u.quadric.k[i] = e->valuedouble;
-        if (i < 9) any += fabs(e->valuedouble);
+        TRY(sj_item_num(ld, e, &p, i, NUM_MAX, NUM_RANGE, &o->u.quadric.k[i]));
+        if (i < 9) any += fabs(o->u.quadric.k[i]);
     }
     if (!(any > 0)) return sj_fail(ld, RAYD_E_INVALID, &p, "must not all be zero (but j)");
     return RAYD_OK;

@@ -188,6 +188,20 @@ enum rayd_status sj_int(struct loader *ld, const cJSON *obj, const struct jp *at
     return RAYD_OK;
 }
 
+enum rayd_status sj_item_num(struct loader *ld, const cJSON *e, const struct jp *p, int i,
+                             double max, const char *range, double *out) {
+    if (cJSON_IsNumber(e) && isfinite(e->valuedouble) && fabs(e->valuedouble) <= max) {
+        *out = e->valuedouble;
+        return RAYD_OK;
+    }
+    struct jp pe = sj_index(p, i);
+    if (!cJSON_IsNumber(e))
+        return sj_fail(ld, RAYD_E_INVALID, &pe, "must be a number, not %s", sj_type_name(e));
+    if (!isfinite(e->valuedouble))
+        return sj_fail(ld, RAYD_E_INVALID, &pe, "must be a finite number");
+    return sj_fail(ld, RAYD_E_INVALID, &pe, "must be in %s", range);
+}
+
 enum rayd_status sj_vec_value(struct loader *ld, const cJSON *v, const struct jp *p,
                               enum vec_rule rule, vec3 *out) {
     if (!cJSON_IsArray(v) || cJSON_GetArraySize(v) != 3)
@@ -195,13 +209,11 @@ enum rayd_status sj_vec_value(struct loader *ld, const cJSON *v, const struct jp
     double c[3] = {0, 0, 0}; /* all three set: the size is checked above */
     int i = 0;
     for (const cJSON *e = v->child; e; e = e->next, i++) {
-        struct jp pe = sj_index(p, i);
-        if (!cJSON_IsNumber(e))
-            return sj_fail(ld, RAYD_E_INVALID, &pe, "must be a number, not %s", sj_type_name(e));
-        c[i] = e->valuedouble;
-        if (!isfinite(c[i])) return sj_fail(ld, RAYD_E_INVALID, &pe, "must be a finite number");
-        if (fabs(c[i]) > NUM_MAX) return sj_fail(ld, RAYD_E_INVALID, &pe, "must be in [-1e9, 1e9]");
-        if (rule == VEC_COLOR && c[i] < 0) return sj_fail(ld, RAYD_E_INVALID, &pe, "must be >= 0");
+        TRY(sj_item_num(ld, e, p, i, NUM_MAX, NUM_RANGE, &c[i]));
+        if (rule == VEC_COLOR && c[i] < 0) {
+            struct jp pe = sj_index(p, i);
+            return sj_fail(ld, RAYD_E_INVALID, &pe, "must be >= 0");
+        }
     }
     *out = v3(c[0], c[1], c[2]);
     if (rule == VEC_NONZERO && !(v3_len(*out) > 0))

@@ -32,7 +32,7 @@
 #include "scene/scene.h"
 
 #define NUM_MAX 1e9 /* coordinates and sizes: generous but far from overflow */
-
+#define NUM_RANGE "[-1e9, 1e9]" /* the same, for messages */
 
 /* ---- JSON Pointers ----------------------------------------------------- */
 
@@ -94,6 +94,10 @@ enum rayd_status sj_num(struct loader *ld, const cJSON *obj, const struct jp *at
 /* A whole number in [lo, hi]; over hi is RAYD_E_LIMIT when hi_is_limit. */
 enum rayd_status sj_int(struct loader *ld, const cJSON *obj, const struct jp *at, const char *key,
                         long def, long lo, long hi, bool hi_is_limit, long *out);
+/* Item i (e) of the array at p: a number in [-max, max], range naming that
+ * interval for the message ("[-1e9, 1e9]"); the error is at the item. */
+enum rayd_status sj_item_num(struct loader *ld, const cJSON *e, const struct jp *p, int i,
+                             double max, const char *range, double *out);
 /* An array of 3 numbers (v itself, named p). */
 enum rayd_status sj_vec_value(struct loader *ld, const cJSON *v, const struct jp *p,
                               enum vec_rule rule, vec3 *out);

@@ -732,7 +732,11 @@ case('quadric-nine.json', '{"objects": [{"type": "quadric", "coefficients": [1, 
 case('quadric-zero.json', '{"objects": [{"type": "quadric", "coefficients": [0, 0, 0, 0, 0, 0, 0, 0, 0, -1]}]}\n',
      'error: /objects/0/coefficients: must not all be zero (but j)')
 case('quadric-huge.json', '{"objects": [{"type": "quadric", "coefficients": [1, 1, 1, 0, 0, 0, 0, 0, 0, -2e9]}]}\n',
-     'error: /objects/0/coefficients/9: must be a finite number in [-1e9, 1e9]')
+     'error: /objects/0/coefficients/9: must be in [-1e9, 1e9]')
+# Every array of numbers says the same three things: not a number (and what
+# it is), not finite, out of range.
+case('quadric-string.json', '{"objects": [{"type": "quadric", "coefficients": [1, 1, 1, "0", 0, 0, 0, 0, 0, -2]}]}\n',
+     'error: /objects/0/coefficients/3: must be a number, not a string')
 case('csg-no-op.json', '{"objects": [{"type": "csg", "operands": [{"type": "sphere"}, {"type": "box"}]}]}\n',
      'error: /objects/0/op: is required (union, intersection or difference)')
 case('csg-unknown-op.json', '{"objects": [{"type": "csg", "op": "xor", "operands": [{"type": "sphere"}, {"type": "box"}]}]}\n',
@@ -791,7 +795,10 @@ case("transform-steps-underflow.json", xf("[%s]" % steps),
 # Matrix entries have the same bound as translate.
 case("transform-matrix-huge-translation.json",
      xf('{"matrix": [1, 0, 0, 1e300, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]}'),
-     E + "/objects/0/transform/matrix/3: must be a finite number in [-1e9, 1e9]")
+     E + "/objects/0/transform/matrix/3: must be in [-1e9, 1e9]")
+case("transform-matrix-null.json",
+     xf('{"matrix": [1, 0, 0, 0, 0, 1, 0, null, 0, 0, 1, 0, 0, 0, 0, 1]}'),
+     E + "/objects/0/transform/matrix/7: must be a number, not null")
 # Mesh numbers: out of range and not a number are told apart.
 case("mesh-vertex-huge.json", mesh('"vertices": [0, 0, 0, 1e31, 0, 0, 0, 1, 0], "indices": [0, 1, 2]'),
      E + "/objects/0/vertices/3: must be in [-1e30, 1e30]")
