@@ -272,82 +272,92 @@ static enum rayd_status load_source(struct loader *ld, const cJSON *src, const s
     return st;
 }
 
-enum rayd_status sj_mesh(struct loader *ld, const cJSON *oj, const struct jp *at,
-                                  uint32_t *id) {
+/* A "source" mesh's arrays (a file, text or base64), decoded within what
+ * is left of the scene's vertex and triangle budget; the inline keys may
+ * not come beside it. */
+static enum rayd_status mesh_from_source(struct loader *ld, const cJSON *oj, const cJSON *src,
+                                         const struct jp *at, struct mesh_data *md) {
+    static const char *const inline_keys[] = {"vertices", "indices", "normals", "uvs"};
+    for (int k = 0; k < 4; k++) {
+        if (!cJSON_GetObjectItemCaseSensitive(oj, inline_keys[k])) continue;
+        struct jp p = sj_key(at, inline_keys[k]);
+        return sj_fail(ld, RAYD_E_INVALID, &p, "cannot be combined with \"source\"");
+    }
+    struct jp p = sj_key(at, "source");
+    return load_source(ld, src, &p, md);
+}
+
+/* Each normal of n made a unit vector; a zero-length one is an error at
+ * its first number. */
+static enum rayd_status unit_normals(struct loader *ld, const struct jp *at, float *nrm, long n) {
+    for (long i = 0; i < n; i++) {
+        float *v = nrm + 3 * i;
+        double len = sqrt((double)v[0] * v[0] + (double)v[1] * v[1] + (double)v[2] * v[2]);
+        if (!(len > 0)) {
+            struct jp p = sj_key(at, "normals");
+            struct jp pe = sj_index(&p, (int)(3 * i));
+            return sj_fail(ld, RAYD_E_INVALID, &pe, "normal %ld must not be a zero-length vector", i);
+        }
+        for (int k = 0; k < 3; k++) v[k] = (float)(v[k] / len);
+    }
+    return RAYD_OK;
+}
+
+/* An inline mesh's arrays: "vertices" (within the scene's vertex budget),
+ * "indices", and "normals" (made unit) and "uvs", one per vertex.  On an
+ * error nothing is kept. */
+static enum rayd_status mesh_from_inline(struct loader *ld, const cJSON *oj, const struct jp *at,
+                                         struct mesh_data *md) {
     float *pos = NULL, *nrm = NULL, *uv = NULL;
     uint32_t *ix = NULL;
     long nv = 0, nn = 0, nuv = 0, nt = 0;
-    bool smooth = true;
-    const cJSON *sm = cJSON_GetObjectItemCaseSensitive(oj, "smooth");
-    struct jp p;
-    enum rayd_status st = RAYD_OK;
-    if (sm && !cJSON_IsBool(sm)) {
-        p = sj_key(at, "smooth");
-        return sj_fail(ld, RAYD_E_INVALID, &p, "must be true or false, not %s", sj_type_name(sm));
-    }
-    if (sm) smooth = cJSON_IsTrue(sm);
-    const cJSON *src = cJSON_GetObjectItemCaseSensitive(oj, "source");
-    if (src) {
-        static const char *const inline_keys[] = {"vertices", "indices", "normals", "uvs"};
-        for (int k = 0; k < 4; k++) {
-            if (!cJSON_GetObjectItemCaseSensitive(oj, inline_keys[k])) continue;
-            p = sj_key(at, inline_keys[k]);
-            return sj_fail(ld, RAYD_E_INVALID, &p, "cannot be combined with \"source\"");
-        }
-        struct mesh_data md = {0};
-        p = sj_key(at, "source");
-        TRY(load_source(ld, src, &p, &md));
-        pos = md.pos;
-        nrm = md.normal;
-        uv = md.uv;
-        ix = md.index;
-        nv = md.nverts;
-        nt = md.ntris;
-        goto build;
-    }
-    if ((st = get_flat(ld, oj, at, "vertices", 3, 3, &pos, &nv)) != RAYD_OK) goto out;
-    if (!pos) {
-        p = sj_key(at, "vertices");
+    struct jp p = sj_key(at, "vertices");
+    enum rayd_status st = get_flat(ld, oj, at, "vertices", 3, 3, &pos, &nv);
+    if (st == RAYD_OK && !pos)
         st = sj_fail(ld, RAYD_E_INVALID, &p, "is required (x, y, z of each vertex, flat)");
-        goto out;
-    }
-    if (ld->vertices + nv > ld->lim->max_vertices) {
-        p = sj_key(at, "vertices");
-        st = sj_fail(ld, RAYD_E_LIMIT, &p, "brings the scene to %ld vertices; the limit is %ld", ld->vertices + nv, ld->lim->max_vertices);
-        goto out;
-    }
-    if ((st = get_indices(ld, oj, at, nv, &ix, &nt)) != RAYD_OK) goto out;
-    if ((st = get_flat(ld, oj, at, "normals", 3, 0, &nrm, &nn)) != RAYD_OK) goto out;
-    if ((st = get_flat(ld, oj, at, "uvs", 2, 0, &uv, &nuv)) != RAYD_OK) goto out;
-    if ((nrm && nn != nv) || (uv && nuv != nv)) {
+    if (st == RAYD_OK && ld->vertices + nv > ld->lim->max_vertices)
+        st = sj_fail(ld, RAYD_E_LIMIT, &p, "brings the scene to %ld vertices; the limit is %ld",
+                     ld->vertices + nv, ld->lim->max_vertices);
+    if (st == RAYD_OK) st = get_indices(ld, oj, at, nv, &ix, &nt);
+    if (st == RAYD_OK) st = get_flat(ld, oj, at, "normals", 3, 0, &nrm, &nn);
+    if (st == RAYD_OK) st = get_flat(ld, oj, at, "uvs", 2, 0, &uv, &nuv);
+    if (st == RAYD_OK && ((nrm && nn != nv) || (uv && nuv != nv))) {
         p = sj_key(at, nrm && nn != nv ? "normals" : "uvs");
         st = sj_fail(ld, RAYD_E_INVALID, &p, "must have one entry per vertex (%ld)", nv);
-        goto out;
     }
-    for (long i = 0; nrm && i < nn; i++) {
-        float *n = nrm + 3 * i;
-        double len = sqrt((double)n[0] * n[0] + (double)n[1] * n[1] + (double)n[2] * n[2]);
-        if (!(len > 0)) {
-            p = sj_key(at, "normals");
-            struct jp pe = sj_index(&p, (int)(3 * i));
-            st = sj_fail(ld, RAYD_E_INVALID, &pe, "normal %ld must not be a zero-length vector", i);
-            goto out;
-        }
-        for (int k = 0; k < 3; k++) n[k] = (float)(n[k] / len);
+    if (st == RAYD_OK && nrm) st = unit_normals(ld, at, nrm, nn);
+    if (st != RAYD_OK) {
+        free(pos);
+        free(nrm);
+        free(uv);
+        free(ix);
+        return st;
     }
-build:
-    if ((st = sj_add_mesh(ld, id)) != RAYD_OK) goto out;
-    ld->vertices += nv;
-    ld->triangles += nt;
+    *md = (struct mesh_data){pos, nrm, uv, ix, (uint32_t)nv, (uint32_t)nt};
+    return RAYD_OK;
+}
+
+enum rayd_status sj_mesh(struct loader *ld, const cJSON *oj, const struct jp *at,
+                                  uint32_t *id) {
+    const cJSON *sm = cJSON_GetObjectItemCaseSensitive(oj, "smooth");
+    if (sm && !cJSON_IsBool(sm)) {
+        struct jp p = sj_key(at, "smooth");
+        return sj_fail(ld, RAYD_E_INVALID, &p, "must be true or false, not %s", sj_type_name(sm));
+    }
+    bool smooth = !sm || cJSON_IsTrue(sm);
+    const cJSON *src = cJSON_GetObjectItemCaseSensitive(oj, "source");
+    struct mesh_data md = {0};
+    TRY(src ? mesh_from_source(ld, oj, src, at, &md) : mesh_from_inline(ld, oj, at, &md));
+    enum rayd_status st = sj_add_mesh(ld, id);
+    if (st != RAYD_OK) {
+        mesh_data_free(&md);
+        return st;
+    }
+    ld->vertices += md.nverts;
+    ld->triangles += md.ntris;
     double t0 = clock_now();
-    st = mesh_build(&ld->s->meshes[*id], pos, (uint32_t)nv, ix, (uint32_t)nt, nrm, uv, smooth,
-                    nt >= 50000 ? parallel_cores() : 1, ld->err);
+    st = mesh_build(&ld->s->meshes[*id], md.pos, md.nverts, md.index, md.ntris, md.normal, md.uv,
+                    smooth, md.ntris >= 50000 ? parallel_cores() : 1, ld->err);
     ld->s->build_s += clock_now() - t0;
     return st; /* the mesh owns the arrays now, even on failure */
-out:
-    free(pos);
-    free(nrm);
-    free(uv);
-    free(ix);
-    return st;
 }
