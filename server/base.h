@@ -1,7 +1,7 @@
 /* base.h -- the bottom layer of the daemon: options, logging, metrics, the
  * shared PNG blob and the few JSON helpers every upper layer writes with.
  *
- * Layer: base (config.c, log.c, metrics.c, procstat.c, blob.c, json.c).
+ * Layer: base (config.c, log.c, clock.c, metrics.c, procstat.c, blob.c, json.c).
  * May include: the C library, <rayd/rayd.h> and cJSON -- nothing of
  * server/.  Everything above (work, the HTTP request and reply, handlers,
  * router, transport, main) may include this header.  A base file never
@@ -9,7 +9,7 @@
  * the layers above, it reads through callbacks they registered at start-up.
  *
  * Every file of server/ is one idea and its public names start with the
- * file's name (config_, log_, metrics_, blob_, json_).  The server's layers,
+ * file's name (config_, log_, clock_, metrics_, blob_, json_).  The server's layers,
  * bottom to top, are drawn in docs/architecture.md and kept by
  * tools/check_layers.py.
  */
@@ -109,7 +109,10 @@ void log_debug(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 void log_info(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 void log_warn(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 void log_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
-double log_now(void); /* monotonic seconds */
+
+/* ---- clock.c ------------------------------------------------------------- */
+
+double clock_now(void); /* monotonic seconds: every duration the server measures */
 
 /* ---- metrics.c ----------------------------------------------------------- */
 

@@ -85,7 +85,7 @@ static int events_news(struct events_stream *s, struct events_item *it, int n,
             *err = t->err;
         s->sent_done = true;
     }
-    double now = log_now();
+    double now = clock_now();
     if (k == 0 && !final && s->last_write > 0 && now - s->last_write >= EVENTS_PING)
         it[k++] = (struct events_item){.kind = EVENTS_PING};
     if (k > 0)

@@ -132,7 +132,7 @@ static enum MHD_Result http_flush(struct http_req *r)
         return http_drop();
     if (!r->pending)
         return MHD_NO;
-    r->t_sent = log_now();
+    r->t_sent = clock_now();
     enum MHD_Result ret = MHD_queue_response(r->io_ctx, r->pending_status, r->pending);
     MHD_destroy_response(r->pending);
     r->pending = NULL;

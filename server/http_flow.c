@@ -150,7 +150,7 @@ bool http_flow_body(struct http_req *r, const char *data, size_t n)
 {
     /* --timeout drops an idle connection, but a client that sends a byte now
      * and then is never idle: the whole body gets --upload-seconds */
-    if (config.upload_seconds > 0 && log_now() - r->t0 > (double)config.upload_seconds) {
+    if (config.upload_seconds > 0 && clock_now() - r->t0 > (double)config.upload_seconds) {
         r->note = "upload_too_slow";
         return false;
     }
@@ -186,7 +186,7 @@ bool http_flow_body(struct http_req *r, const char *data, size_t n)
 void http_flow_handle(struct http_req *r)
 {
     if (r->body_len > 0)
-        metrics_stage(MS_UPLOAD, log_now() - r->t0);
+        metrics_stage(MS_UPLOAD, clock_now() - r->t0);
     if (r->too_large) {
         metrics_reject(MR_BODY_TOO_LARGE);
         http_reply_error(r, 413, "body_too_large", "the body is over the limit (--max-body)", NULL,
@@ -216,7 +216,7 @@ void http_flow_handle(struct http_req *r)
 
 void http_flow_end(struct http_req *r, const char *note)
 {
-    double total = log_now() - r->t0;
+    double total = clock_now() - r->t0;
     if (!r->method) {
         /* refused by libmicrohttpd before the handler saw it (bad headers,
          * headers over --max-header-bytes): it answered by itself */
@@ -236,7 +236,7 @@ void http_flow_end(struct http_req *r, const char *note)
     }
     metrics_request(r->route, r->method, status, total);
     if (r->is_png && r->t_sent > 0 && status == 200)
-        metrics_stage(MS_SEND, log_now() - r->t_sent);
+        metrics_stage(MS_SEND, clock_now() - r->t_sent);
     struct log_access a = {
         .client = r->client,
         .method = r->method,

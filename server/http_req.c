@@ -31,7 +31,7 @@
 #include <unistd.h>
 
 static atomic_long http_req_nsuspended, http_req_ninflight;
-static atomic_long http_req_last_ms; /* when the latest request came, log_now() in ms */
+static atomic_long http_req_last_ms; /* when the latest request came, clock_now() in ms */
 
 long http_req_suspended(void) { return atomic_load(&http_req_nsuspended); }
 long http_req_in_flight(void) { return atomic_load(&http_req_ninflight); }
@@ -48,7 +48,7 @@ struct http_req *http_req_new(const struct http_io *io, void *io_ctx, const char
     r->method = method;
     r->url = url;
     r->target_len = target_len;
-    r->t0 = log_now();
+    r->t0 = clock_now();
     r->route = -1;
     atomic_fetch_add(&http_req_ninflight, 1);
     atomic_store(&http_req_last_ms, (long)(r->t0 * 1000.0));

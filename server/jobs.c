@@ -163,7 +163,7 @@ enum work_submit jobs_create(struct cache_entry *scene, const struct work_target
         return WORK_NOMEM;
     }
     snprintf(j->id, sizeof j->id, "%s", id);
-    j->created = log_now();
+    j->created = clock_now();
     j->refs = 1;
     pthread_mutex_lock(&work_lock);
     enum work_submit r = WORK_OK;
@@ -205,7 +205,7 @@ static void jobs_info_of(const struct job *j, struct jobs_info *info, bool want_
         info->progress = 1;
     info->region = t->reg;
     snprintf(info->scene_id, sizeof info->scene_id, "%s", t->scene_id);
-    double now = log_now();
+    double now = clock_now();
     info->created_age = now - j->created;
     info->queue_ms = t->t_start > 0 ? (t->t_start - t->t_enq) * 1e3 : (now - t->t_enq) * 1e3;
     info->render_ms = t->t_start > 0 ? ((t->finished ? t->t_end : now) - t->t_start) * 1e3 : 0;

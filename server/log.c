@@ -31,13 +31,6 @@
 #include <string.h>
 #include <time.h>
 
-double log_now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + (double)ts.tv_nsec / 1e9;
-}
-
 static void log_stamp(char *buf, size_t size)
 {
     struct timespec ts;

@@ -41,9 +41,9 @@
 /* Waits up to seconds for cond(); returns early on a signal (sets *sig). */
 static bool main_wait(bool (*cond)(void), double seconds, const sigset_t *set, bool *sig)
 {
-    double end = log_now() + seconds;
+    double end = clock_now() + seconds;
     while (!cond()) {
-        if (log_now() >= end)
+        if (clock_now() >= end)
             return false;
         struct timespec ts = {0, 20 * 1000000L};
         if (sigtimedwait(set, NULL, &ts) > 0 && sig) {
@@ -58,7 +58,7 @@ static bool main_no_suspended(void) { return http_req_suspended() == 0; }
 static bool main_no_requests(void) { return http_req_in_flight() == 0; }
 static bool main_quiet(void)
 {
-    return http_req_in_flight() == 0 && log_now() - http_req_last() >= 0.2;
+    return http_req_in_flight() == 0 && clock_now() - http_req_last() >= 0.2;
 }
 
 /* A process started with stdin, stdout or stderr closed would hand those

@@ -78,7 +78,7 @@ void http_req_set_target(struct http_req *r, const char *target);
 void http_req_take_id(struct http_req *r);
 long http_req_in_flight(void);          /* requests not yet freed */
 long http_req_suspended(void);          /* requests suspended right now */
-double http_req_last(void);             /* when the latest came (log_now() time) */
+double http_req_last(void);             /* when the latest came (clock_now() time) */
 
 const char *http_req_header(struct http_req *r, const char *name);
 const char *http_req_query(struct http_req *r, const char *name);

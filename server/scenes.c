@@ -51,9 +51,9 @@ static enum rayd_status scenes_compile(const char *body, size_t len, rayd_scene 
             lim.max_bytes = (size_t)config.max_body;
         lim.asset_dir = config.asset_dir; /* confined (asset_confine) */
     }
-    double t0 = log_now();
+    double t0 = clock_now();
     enum rayd_status st = rayd_scene_parse(body, len, &lim, scene, err);
-    double parsed = log_now() - t0;
+    double parsed = clock_now() - t0;
     if (st != RAYD_OK) {
         metrics_stage(MS_PARSE, parsed);
         return st;

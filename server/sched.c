@@ -83,10 +83,10 @@ static void sched_encode(struct task *t)
     void *buf = NULL;
     size_t len = 0;
     struct rayd_error err = {0};
-    double t0 = log_now();
+    double t0 = clock_now();
     metrics_stage(MS_RENDER, t0 - t->t_start);
     enum rayd_status st = sched_encode_as(t, &buf, &len, &err);
-    double enc = log_now() - t0;
+    double enc = clock_now() - t0;
     metrics_stage(MS_ENCODE, enc);
     pthread_mutex_lock(&work_lock);
     t->encode_s = enc;
@@ -147,9 +147,9 @@ static bool sched_pass_close(struct task *t, struct task_notify *sse)
         rayd_image_free(spare);
         return false;
     }
-    passes_complete(p, png, log_now() - t->t_start, noise);
+    passes_complete(p, png, clock_now() - t->t_start, noise);
     task_notify_add(sse, &t->sse_waiters);
-    if (!passes_more(p, log_now() - t->t_start) || atomic_load(&t->cancel)) {
+    if (!passes_more(p, clock_now() - t->t_start) || atomic_load(&t->cancel)) {
         rayd_image_free(spare);
         return false;
     }
@@ -214,7 +214,7 @@ static void sched_take(struct task *t)
 {
     sched_stream_open(t);
     if (t->t_start == 0) {
-        t->t_start = log_now();
+        t->t_start = clock_now();
         metrics_queue_wait(t->interactive, t->t_start - t->t_enq);
         metrics_stage(MS_QUEUE, t->t_start - t->t_enq);
     }
@@ -239,7 +239,7 @@ static void sched_done(struct task *t, int tile, enum rayd_status st,
         if (!t->passes) /* a progressive task's streams hear of passes only */
             task_notify_add(sse, &t->sse_waiters);
         if (t->passes && t->passes->plan.time_budget > 0 &&
-            log_now() - t->t_start >= t->passes->plan.time_budget)
+            clock_now() - t->t_start >= t->passes->plan.time_budget)
             task_end_early(t, PASSES_BY_TIME);
     } else if (st != RAYD_E_CANCELED && t->status == RAYD_OK) {
         t->status = st;
@@ -317,9 +317,9 @@ static void *sched_worker(void *arg)
 
         uint64_t rays = 0;
         struct rayd_error err = {0};
-        double t0 = log_now();
+        double t0 = clock_now();
         enum rayd_status st = sched_tile(t, tile, pass, &rays, &err);
-        double took = log_now() - t0;
+        double took = clock_now() - t0;
         metrics_rays(rays);
         if (st == RAYD_OK)
             sched_stream_tile(t, tile);

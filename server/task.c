@@ -209,7 +209,7 @@ enum work_submit task_submit(struct cache_entry *scene, struct task **fresh, str
     t = *fresh;
     *fresh = NULL;
     t->scene = cache_ref(scene);
-    t->t_enq = log_now();
+    t->t_enq = clock_now();
     t->queued = true;
     task_queued++;
     t->next = task_active;
@@ -350,7 +350,7 @@ bool task_past_deadline(struct task *t, double now, long limit, struct task_noti
 void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
 {
     t->finished = true;
-    t->t_end = log_now();
+    t->t_end = clock_now();
     task_keep_pass(t);
     if (t->status == RAYD_OK && !t->png)
         t->status = RAYD_E_CANCELED;

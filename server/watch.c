@@ -126,7 +126,7 @@ static bool watch_deadlines(void)
 {
     struct task_notify n = {0}, sse = {0};
     bool any = false;
-    double now = log_now();
+    double now = clock_now();
     for (struct task *t = task_active; t; t = t->next)
         if (task_past_deadline(t, now, config.max_render_seconds, &n, &sse)) {
             any = true; /* t may be freed: no t->next now */
@@ -157,18 +157,18 @@ static void *watch_main(void *arg)
 {
     (void)arg;
     struct watch_set s = {0};
-    double last_ping = log_now(), last_expire = log_now();
+    double last_ping = clock_now(), last_expire = clock_now();
     pthread_mutex_lock(&work_lock);
     while (!watch_stopping) {
         watch_collect(&s);
-        if (log_now() - last_expire >= 1.0) {
-            last_expire = log_now();
+        if (clock_now() - last_expire >= 1.0) {
+            last_expire = clock_now();
             jobs_expire(last_expire);
         }
         if (watch_deadlines())
             continue;
-        if (log_now() - last_ping >= EVENTS_PING) {
-            last_ping = log_now();
+        if (clock_now() - last_ping >= EVENTS_PING) {
+            last_ping = clock_now();
             if (watch_ping())
                 continue;
         }

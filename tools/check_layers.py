@@ -53,7 +53,7 @@ CORE_LAYERS = [
     ("core/io", ["core/io/"]),
 ]
 SERVER_LAYERS = [
-    ("server/base", ["server/base.h", "server/config.", "server/log.", "server/metrics.", "server/procstat.",
+    ("server/base", ["server/base.h", "server/config.", "server/log.", "server/clock.", "server/metrics.", "server/procstat.",
                      "server/blob.", "server/json."]),
     # the work layer, its files in call order: each calls only those before it
     ("server/work: lock", ["server/work.h", "server/work_private.h", "server/work.c"]),
