@@ -309,12 +309,31 @@ static int client_option(int opt, const char *v, struct client_args *a) {
     return client_bad("unknown option");
 }
 
+/* The long options of opts that word ("--na" or "--na=value") is a prefix
+ * of, as "--name, --namesake" into out: getopt_long refuses a prefix of
+ * more than one, which is no unknown option and is said so. */
+static int client_prefix_of(const struct option *opts, const char *word, char *out, size_t size) {
+    size_t len = strcspn(word + 2, "="), used = 0;
+    int n = 0;
+    out[0] = '\0';
+    for (const struct option *o = opts; o->name; o++) {
+        if (strncmp(o->name, word + 2, len) != 0) continue;
+        int k = snprintf(out + used, size - used, "%s--%s", n ? ", " : "", o->name);
+        if (k > 0 && (size_t)k < size - used) used += (size_t)k;
+        n++;
+    }
+    return n;
+}
+
 /* getopt_long's '?': arg is the word it stopped at; opt the short option,
  * or a long option's value when it was given one it does not take. */
 static int client_unknown(const char *arg, int opt) {
-    if (!strncmp(arg, "--", 2))
-        return opt ? client_bad("option '%.*s' takes no value", (int)strcspn(arg, "="), arg)
-                   : client_bad("unknown option '%s'", arg);
+    char names[512];
+    if (!strncmp(arg, "--", 2) && opt)
+        return client_bad("option '%.*s' takes no value", (int)strcspn(arg, "="), arg);
+    if (!strncmp(arg, "--", 2) && client_prefix_of(client_options, arg, names, sizeof names) > 1)
+        return client_bad("ambiguous option '%s' (%s)", arg, names);
+    if (!strncmp(arg, "--", 2)) return client_bad("unknown option '%s'", arg);
     return client_bad("unknown option '-%c'", opt);
 }
 

@@ -170,15 +170,37 @@ static void config_longopts(struct option *lo)
     lo[CONFIG_N + 2] = (struct option){NULL, 0, NULL, 0};
 }
 
+/* The long options of lo that word ("--na" or "--na=value") is a prefix of,
+ * as "--name, --namesake" into out: getopt_long refuses a prefix of more
+ * than one, which is no unknown option and is said so. */
+static int config_prefix_of(const struct option *lo, const char *word, char *out, size_t size)
+{
+    size_t len = strcspn(word + 2, "="), used = 0;
+    int n = 0;
+    out[0] = '\0';
+    for (const struct option *o = lo; o->name; o++) {
+        if (strncmp(o->name, word + 2, len) != 0)
+            continue;
+        int k = snprintf(out + used, size - used, "%s--%s", n ? ", " : "", o->name);
+        if (k > 0 && (size_t)k < size - used)
+            used += (size_t)k;
+        n++;
+    }
+    return n;
+}
+
 /* getopt_long's '?' or ':' at arg (the word it stopped at), which its optopt
  * (a short option, or the number of a long one): the message. */
-static int config_bad_option(int opt, int which, const char *arg)
+static int config_bad_option(const struct option *lo, int opt, int which, const char *arg)
 {
+    char names[1024];
     if (opt == ':' && which >= CONFIG_OPT0)
         fprintf(stderr, "rayd: error: option --%s needs a value\n",
                 config_table[which - CONFIG_OPT0].name);
     else if (!strncmp(arg, "--", 2) && which)
         fprintf(stderr, "rayd: error: option '%.*s' takes no value\n", (int)strcspn(arg, "="), arg);
+    else if (!strncmp(arg, "--", 2) && config_prefix_of(lo, arg, names, sizeof names) > 1)
+        fprintf(stderr, "rayd: error: ambiguous option '%s' (%s)\n", arg, names);
     else if (!strncmp(arg, "--", 2) || !which)
         fprintf(stderr, "rayd: error: unknown option '%s'\n", arg);
     else
@@ -196,7 +218,7 @@ static int config_args(int argc, char **argv)
     int opt;
     while ((opt = getopt_long(argc, argv, ":h", lo, NULL)) != -1) {
         if (opt == '?' || opt == ':')
-            return config_bad_option(opt, optopt, argv[optind - 1]);
+            return config_bad_option(lo, opt, optopt, argv[optind - 1]);
         if (opt == CONFIG_HELP) {
             config_usage(stdout);
             return CONFIG_DONE;

@@ -48,6 +48,16 @@ for prog in rayd rayd-render rayd-client; do
     check "${prog}_bad_option" "exit $RC, stderr '$(first_err badopt)'" bash -c \
         '[ "$1" = 2 ] && [ "$(head -n 1 "$2")" = "$3" ] && [ ! -s "$4" ]' _ \
         "$RC" "$T/badopt.err" "$want" "$T/badopt.out"
+    # a prefix of two options is ambiguous, and said so with their names
+    case $prog in
+        rayd) amb=--max-c want_names="--max-conns, --max-conns-per-ip" ;;
+        rayd-render) amb=--t want_names="--threads, --tonemap" ;;
+        *) amb=--ti want_names="--tile, --timeout" ;;
+    esac
+    run ambiguous "$bin" "$amb" 1
+    want="$prog: error: ambiguous option '$amb' ($want_names)"
+    check "${prog}_ambiguous_option" "exit $RC, stderr '$(first_err ambiguous)'" bash -c \
+        '[ "$1" = 2 ] && [ "$(head -n 1 "$2")" = "$3" ]' _ "$RC" "$T/ambiguous.err" "$want"
     run badval "$bin" --threads=many
     check "${prog}_bad_value_equals" "exit $RC, stderr '$(first_err badval)'" bash -c \
         "[ $RC = 2 ] && grep -q '^$prog: error: .*threads' '$T/badval.err'"
