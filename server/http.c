@@ -19,10 +19,10 @@
 #include <arpa/inet.h>
 #include <errno.h>
 #include <microhttpd.h>
-#include <pthread.h>
-#include <stdbool.h>
 #include <netinet/in.h>
+#include <pthread.h>
 #include <stdarg.h>
+#include <stdbool.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/resource.h>
@@ -209,7 +209,7 @@ static void http_completed(void *cls, struct MHD_Connection *c, void **con_cls,
  * Address already in use"), as every rayd error. */
 static pthread_mutex_t http_start_lock = PTHREAD_MUTEX_INITIALIZER;
 static bool http_starting;
-static char http_start_why[256];
+static char http_start_why[512]; /* as long as http_mhd_log's line */
 
 /* libmicrohttpd's own messages (malformed requests, ...) go through log.c so
  * --log-format json keeps every stderr line JSON. */
