@@ -208,7 +208,7 @@ enum rayd_status sj_vec_value(struct loader *ld, const cJSON *v, const struct jp
         return sj_fail(ld, RAYD_E_INVALID, p, "must be an array of 3 numbers");
     double c[3] = {0, 0, 0}; /* all three set: the size is checked above */
     int i = 0;
-    for (const cJSON *e = v->child; e; e = e->next, i++) {
+    for (const cJSON *e = v->child; e && i < 3; e = e->next, i++) {
         TRY(sj_item_num(ld, e, p, i, NUM_MAX, NUM_RANGE, &c[i]));
         if (rule == VEC_COLOR && c[i] < 0) {
             struct jp pe = sj_index(p, i);
