@@ -34,6 +34,7 @@
 #define RAYD_CLIENT_H
 
 #include <stddef.h>
+#include <stdbool.h>
 #include <stdint.h>
 
 #define CLIENT_MAX_SERVERS 64
@@ -61,6 +62,9 @@ struct client_opts {
 int output_write(const char *path, const void *buf, size_t len);
 /* path as a message names it: "standard output" for "-". */
 const char *output_name(const char *path);
+/* Whether path names an OpenEXR file (ends in .exr): the image then goes
+ * out as linear float RGB, which only summed sample ranges give. */
+bool output_is_exr(const char *path);
 
 /* ---- scenefile.c ---------------------------------------------------------- */
 

@@ -18,6 +18,12 @@ const char *output_name(const char *path)
     return strcmp(path, "-") ? path : "standard output";
 }
 
+bool output_is_exr(const char *path)
+{
+    size_t n = strlen(path);
+    return n >= 4 && !strcmp(path + n - 4, ".exr");
+}
+
 static int output_stdout(const void *buf, size_t len)
 {
     if (fwrite(buf, 1, len, stdout) == len && fflush(stdout) == 0)

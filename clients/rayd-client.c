@@ -366,8 +366,7 @@ static int client_parse(int argc, char **argv, struct client_args *a) {
         return client_bad("%s needs SCENE.json and -o OUT.png", a->cmd);
     if (!strcmp(a->cmd, "job") && a->o.nservers > 1)
         return client_bad("job: give exactly one --server (jobs live on one node)");
-    size_t n = a->o.out ? strlen(a->o.out) : 0;
-    bool exr = n >= 4 && !strcmp(a->o.out + n - 4, ".exr");
+    bool exr = a->o.out && output_is_exr(a->o.out);
     if (exr && (!strcmp(a->cmd, "job") || a->o.ranges <= 0)) /* else a PNG named .exr */
         return client_bad("-o %s: OpenEXR comes only from render --split-samples N (tiles and "
                           "jobs arrive as 8-bit PNGs)",
