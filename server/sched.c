@@ -95,11 +95,8 @@ static void sched_encode(struct task *t)
         st = RAYD_E_NOMEM;
         snprintf(err.message, sizeof err.message, "out of memory keeping the PNG");
     }
-    if (st != RAYD_OK) {
-        t->status = st;
-        t->err = err;
-        t->err.code = st;
-    }
+    if (st != RAYD_OK)
+        task_fail(t, st, &err);
 }
 
 /* Opens t's next pass, lock held: its tiles queue again.  img is the
@@ -141,9 +138,7 @@ static bool sched_pass_close(struct task *t, struct task_notify *sse)
     }
     pthread_mutex_lock(&work_lock);
     if (st != RAYD_OK) {
-        t->status = st;
-        t->err = err;
-        t->err.code = st;
+        task_fail(t, st, &err);
         rayd_image_free(spare);
         return false;
     }
@@ -154,8 +149,7 @@ static bool sched_pass_close(struct task *t, struct task_notify *sse)
         return false;
     }
     if (!p->prev && !spare) {
-        t->status = t->err.code = RAYD_E_NOMEM;
-        snprintf(t->err.message, sizeof t->err.message, "out of memory for the next pass");
+        task_failf(t, RAYD_E_NOMEM, "out of memory for the next pass");
         return false;
     }
     rayd_image *next = passes_swap(p, t->img);
@@ -242,9 +236,7 @@ static void sched_done(struct task *t, int tile, enum rayd_status st,
             clock_now() - t->t_start >= t->passes->plan.time_budget)
             task_end_early(t, PASSES_BY_TIME);
     } else if (st != RAYD_E_CANCELED && t->status == RAYD_OK) {
-        t->status = st;
-        t->err = *err;
-        t->err.code = st;
+        task_fail(t, st, err);
         atomic_store(&t->cancel, 1);
         task_unqueue(t);
     }

@@ -25,6 +25,8 @@
  */
 #include "work_private.h"
 
+#include <stdarg.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -338,13 +340,29 @@ bool task_past_deadline(struct task *t, double now, long limit, struct task_noti
             task_finish(t, n, sse);
         return true;
     }
-    t->status = t->err.code = RAYD_E_LIMIT;
-    snprintf(t->err.message, sizeof t->err.message,
-             "the render ran past the server's limit of %ld s (--max-render-seconds) and was "
-             "stopped; ask for fewer pixels or samples",
-             limit);
+    task_failf(t, RAYD_E_LIMIT,
+               "the render ran past the server's limit of %ld s (--max-render-seconds) and was "
+               "stopped; ask for fewer pixels or samples",
+               limit);
     task_cancel(t, MC_DEADLINE, n, sse);
     return true;
+}
+
+void task_fail(struct task *t, enum rayd_status st, const struct rayd_error *err)
+{
+    t->status = st;
+    t->err = *err;
+    t->err.code = st;
+}
+
+void task_failf(struct task *t, enum rayd_status st, const char *fmt, ...)
+{
+    struct rayd_error err = {0};
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(err.message, sizeof err.message, fmt, ap);
+    va_end(ap);
+    task_fail(t, st, &err);
 }
 
 void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
@@ -354,10 +372,8 @@ void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
     task_keep_pass(t);
     if (t->status == RAYD_OK && !t->png)
         t->status = RAYD_E_CANCELED;
-    if (t->status == RAYD_E_CANCELED && !t->err.message[0]) {
-        t->err.code = RAYD_E_CANCELED;
-        snprintf(t->err.message, sizeof t->err.message, "the render was cancelled");
-    }
+    if (t->status == RAYD_E_CANCELED && !t->err.message[0])
+        task_failf(t, RAYD_E_CANCELED, "the render was cancelled");
     if (t->status == RAYD_OK && t->t_start > 0)
         metrics_render(t->t_end - t->t_start);
     /* --log-level debug only: written under work_lock, so never on by default */

@@ -210,6 +210,11 @@ struct rayd_region task_tile(const struct task *t, int tile);
 double task_tile_rays(const struct task *t, const struct rayd_region *r, int pass);
 double task_backlog_rays(void); /* of every unfinished task, what is left */
 void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse);
+/* t fails with st and err's message and place (the first failure stands:
+ * the caller checks t->status).  task_failf: with a message of its own. */
+void task_fail(struct task *t, enum rayd_status st, const struct rayd_error *err);
+void task_failf(struct task *t, enum rayd_status st, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
 /* Ends a progressive task after its latest complete pass (or its first, if
  * none is complete yet), why being the reason; true when nothing is in
  * flight and the caller should task_finish it now. */
