@@ -34,15 +34,15 @@
 #include "io/gltf_material.h"
 
 #include "base/error.h"
-#include "io/gltf_pointer.h"
+#include "io/gltf_json.h"
 #include "render/image.h"
 
 /* n numbers at o[key], each in [lo, hi], into out; def when absent. */
-static enum rayd_status gm_nums(struct rayd_error *err, const cJSON *o, const struct gp *at,
+static enum rayd_status gm_nums(struct rayd_error *err, const cJSON *o, const struct jp *at,
                                 const char *key, int n, const double *def, double lo, double hi,
                                 double *out) {
     const cJSON *v = gl_get(o, key);
-    struct gp p = gp_key(at, key);
+    struct jp p = jp_key(at, key);
     if (!v) {
         memcpy(out, def, sizeof *out * (size_t)n);
         return RAYD_OK;
@@ -62,7 +62,7 @@ static enum rayd_status gm_nums(struct rayd_error *err, const cJSON *o, const st
     return RAYD_OK;
 }
 
-static enum rayd_status gm_num(struct rayd_error *err, const cJSON *o, const struct gp *at,
+static enum rayd_status gm_num(struct rayd_error *err, const cJSON *o, const struct jp *at,
                                const char *key, double def, double lo, double hi, double *out) {
     return gm_nums(err, o, at, key, 1, &def, lo, hi, out);
 }
@@ -95,7 +95,7 @@ struct material gltf_pbr_material(const struct gltf_pbr *p) {
 
 /* Decoded 8-bit sRGB pixels of a PNG or a JPEG, into *img. */
 static enum rayd_status gm_decode(struct rayd_error *err, const unsigned char *b, size_t len,
-                                  const struct gp *p, long budget, rayd_image **img) {
+                                  const struct jp *p, long budget, rayd_image **img) {
     struct rayd_error e = {0};
     if (budget <= 0) /* and never 0 to the PNG decoder: there 0 means its own default */
         return err_set(err, RAYD_E_LIMIT, p->s,
@@ -144,11 +144,11 @@ static enum rayd_status gm_decode(struct rayd_error *err, const unsigned char *b
 static enum rayd_status gm_image(struct gltf_doc *d, struct rayd_error *err, int i, long budget,
                                  rayd_image **img) {
     const cJSON *ij = cJSON_GetArrayItem(gl_get(gltf_doc_root(d), "images"), i);
-    struct gp p;
+    struct jp p = {.s = ""};
     snprintf(p.s, sizeof p.s, "/images/%d", i);
     if (!cJSON_IsObject(ij)) return err_set(err, RAYD_E_INVALID, p.s, "must be an object");
     const cJSON *uri = gl_get(ij, "uri"), *view = gl_get(ij, "bufferView");
-    struct gp pu = gp_key(&p, uri ? "uri" : "bufferView");
+    struct jp pu = jp_key(&p, uri ? "uri" : "bufferView");
     if (!!uri + !!view != 1)
         return err_set(err, RAYD_E_INVALID, p.s, "needs exactly one of \"uri\" and \"bufferView\"");
     if (view) {
@@ -169,7 +169,7 @@ static enum rayd_status gm_image(struct gltf_doc *d, struct rayd_error *err, int
 /* The texture info ti (baseColorTexture at p): the image, decoded, with
  * the factor baked into linear texels. */
 static enum rayd_status gm_texture(struct gltf_doc *d, struct rayd_error *err, const cJSON *ti,
-                                   const struct gp *p, const double *factor, struct gltf_mats *g,
+                                   const struct jp *p, const double *factor, struct gltf_mats *g,
                                    long *texels, int *uv_set) {
     const cJSON *texs = gl_get(gltf_doc_root(d), "textures");
     int ntex = cJSON_IsArray(texs) ? cJSON_GetArraySize(texs) : 0;
@@ -179,7 +179,7 @@ static enum rayd_status gm_texture(struct gltf_doc *d, struct rayd_error *err, c
      * index must be, and says so when the file has no textures at all */
     TRY_GL(gm_num(err, ti, p, "index", -1, -HUGE_VAL, HUGE_VAL, &index));
     TRY_GL(gm_num(err, ti, p, "texCoord", 0, -HUGE_VAL, HUGE_VAL, &set));
-    struct gp pi = gp_key(p, "index"), pc = gp_key(p, "texCoord");
+    struct jp pi = jp_key(p, "index"), pc = jp_key(p, "texCoord");
     if (ntex == 0)
         return err_set(err, RAYD_E_INVALID, pi.s, "names a texture, but the file has no /textures");
     if (index < 0 || index >= ntex || floor(index) != index)
@@ -191,11 +191,11 @@ static enum rayd_status gm_texture(struct gltf_doc *d, struct rayd_error *err, c
         return err_set(err, RAYD_E_LIMIT, p->s, "is past the limit of %d textured materials",
                        GLTF_MAX_TEXTURES);
     const cJSON *tj = cJSON_GetArrayItem(texs, (int)index);
-    struct gp pt;
+    struct jp pt = {.s = ""};
     snprintf(pt.s, sizeof pt.s, "/textures/%d", (int)index);
     int nimg = cJSON_GetArraySize(gl_get(gltf_doc_root(d), "images"));
     TRY_GL(gm_num(err, tj, &pt, "source", -1, -HUGE_VAL, HUGE_VAL, &source));
-    struct gp ps = gp_key(&pt, "source");
+    struct jp ps = jp_key(&pt, "source");
     if (nimg == 0)
         return err_set(err, RAYD_E_INVALID, ps.s,
                        "the file has no /images (images of other extensions are not read)");
@@ -218,11 +218,11 @@ static enum rayd_status gm_texture(struct gltf_doc *d, struct rayd_error *err, c
 
 /* ---- materials --------------------------------------------------------------- */
 
-static enum rayd_status gm_alpha_mode(struct rayd_error *err, const cJSON *mj, const struct gp *p,
+static enum rayd_status gm_alpha_mode(struct rayd_error *err, const cJSON *mj, const struct jp *p,
                                       int *mode) {
     static const char *const modes[] = {"OPAQUE", "MASK", "BLEND"};
     const cJSON *v = gl_get(mj, "alphaMode");
-    struct gp pa = gp_key(p, "alphaMode");
+    struct jp pa = jp_key(p, "alphaMode");
     *mode = 0;
     if (!v) return RAYD_OK;
     for (int i = 0; i < 3 && cJSON_IsString(v); i++)
@@ -232,12 +232,12 @@ static enum rayd_status gm_alpha_mode(struct rayd_error *err, const cJSON *mj, c
 
 /* Material mj at p (NULL: glTF's default material). */
 static enum rayd_status gm_material(struct gltf_doc *d, struct rayd_error *err, const cJSON *mj,
-                                    const struct gp *p, struct gltf_mats *g, int i, long *texels) {
+                                    const struct jp *p, struct gltf_mats *g, int i, long *texels) {
     static const double white[4] = {1, 1, 1, 1}, black[3] = {0, 0, 0};
     struct gltf_pbr pbr;
     if (mj && !cJSON_IsObject(mj)) return err_set(err, RAYD_E_INVALID, p->s, "must be an object");
     const cJSON *pj = gl_get(mj, "pbrMetallicRoughness"), *ext = gl_get(mj, "extensions");
-    struct gp pp = gp_key(p, "pbrMetallicRoughness"), pe = gp_key(p, "extensions");
+    struct jp pp = jp_key(p, "pbrMetallicRoughness"), pe = jp_key(p, "extensions");
     if (pj && !cJSON_IsObject(pj)) return err_set(err, RAYD_E_INVALID, pp.s, "must be an object");
     TRY_GL(gm_nums(err, pj, &pp, "baseColorFactor", 4, white, 0, 1, pbr.base));
     TRY_GL(gm_num(err, pj, &pp, "metallicFactor", 1, 0, 1, &pbr.metallic));
@@ -247,8 +247,8 @@ static enum rayd_status gm_material(struct gltf_doc *d, struct rayd_error *err, 
     TRY_GL(gm_num(err, mj, p, "alphaCutoff", 0.5, 0, 1e6, &pbr.cutoff));
     const cJSON *es = gl_get(ext, "KHR_materials_emissive_strength");
     const cJSON *ij = gl_get(ext, "KHR_materials_ior");
-    struct gp pes = gp_key(&pe, "KHR_materials_emissive_strength");
-    struct gp pior = gp_key(&pe, "KHR_materials_ior");
+    struct jp pes = jp_key(&pe, "KHR_materials_emissive_strength");
+    struct jp pior = jp_key(&pe, "KHR_materials_ior");
     double strength, ior;
     TRY_GL(gm_num(err, es, &pes, "emissiveStrength", 1, 0, 1e6, &strength));
     TRY_GL(gm_num(err, ij, &pior, "ior", 1, 0, 10, &ior));
@@ -258,7 +258,7 @@ static enum rayd_status gm_material(struct gltf_doc *d, struct rayd_error *err, 
     g->uv_set[i] = -1;
     const cJSON *ti = gl_get(pj, "baseColorTexture");
     if (!ti) return RAYD_OK;
-    struct gp pt = gp_key(&pp, "baseColorTexture");
+    struct jp pt = jp_key(&pp, "baseColorTexture");
     g->m[i].texture = g->ntex;
     return gm_texture(d, err, ti, &pt, pbr.base, g, texels, &g->uv_set[i]);
 }
@@ -266,7 +266,7 @@ static enum rayd_status gm_material(struct gltf_doc *d, struct rayd_error *err, 
 enum rayd_status gltf_mats_read(struct gltf_doc *d, int max, long texels, struct gltf_mats *out,
                                 struct rayd_error *err) {
     const cJSON *ms = gl_get(gltf_doc_root(d), "materials");
-    struct gp at = {"/materials"};
+    struct jp at = {.s = "/materials"};
     memset(out, 0, sizeof *out);
     if (ms && !cJSON_IsArray(ms)) return err_set(err, RAYD_E_INVALID, at.s, "must be an array");
     int n = ms ? cJSON_GetArraySize(ms) : 0;
@@ -282,7 +282,7 @@ enum rayd_status gltf_mats_read(struct gltf_doc *d, int max, long texels, struct
     out->budget = texels < GLTF_MAX_TEXELS ? texels : GLTF_MAX_TEXELS;
     int i = 0;
     for (const cJSON *m = ms ? ms->child : NULL; m; m = m->next, i++) {
-        struct gp p;
+        struct jp p = {.s = ""};
         snprintf(p.s, sizeof p.s, "/materials/%d", i);
         TRY_GL(gm_material(d, err, m, &p, out, i, &out->texels));
     }

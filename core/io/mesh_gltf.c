@@ -61,7 +61,7 @@
 #include "base/error.h"
 #include "base/hugemem.h"
 #include "io/base64.h"
-#include "io/gltf_pointer.h"
+#include "io/gltf_json.h"
 #include "io/json_check.h"
 #include "io/json_parse.h"
 
@@ -128,8 +128,8 @@ struct gl {
  * err_set, for the reason error.h gives). */
 #define gl_fail(G, code, at, ...) err_set((G)->err, (code), (at)->s, __VA_ARGS__)
 
-static struct gp gp_item(const char *top, long i) {
-    struct gp r;
+static struct jp gl_item(const char *top, long i) {
+    struct jp r = {.s = ""};
     snprintf(r.s, sizeof r.s, "/%s/%ld", top, i);
     return r;
 }
@@ -137,10 +137,10 @@ static struct gp gp_item(const char *top, long i) {
 /* ---- typed getters ------------------------------------------------------ */
 
 /* An integer o[key] in [lo, hi], def when absent (-1 def: required). */
-static enum rayd_status gl_int(struct gl *G, const cJSON *o, const struct gp *at, const char *key,
+static enum rayd_status gl_int(struct gl *G, const cJSON *o, const struct jp *at, const char *key,
                                double def, double lo, double hi, double *out) {
     const cJSON *v = gl_get(o, key);
-    struct gp p = gp_key(at, key);
+    struct jp p = jp_key(at, key);
     if (!v) {
         if (def < 0) return gl_fail(G, RAYD_E_INVALID, &p, "is required");
         *out = def;
@@ -155,26 +155,26 @@ static enum rayd_status gl_int(struct gl *G, const cJSON *o, const struct gp *at
 }
 
 /* o[key] as the index of an item of the top-level array top: *item. */
-static enum rayd_status gl_ref(struct gl *G, const cJSON *o, const struct gp *at, const char *key,
+static enum rayd_status gl_ref(struct gl *G, const cJSON *o, const struct jp *at, const char *key,
                                const char *top, int *id, const cJSON **item) {
     const cJSON *arr = gl_get(G->root, top);
     int n = cJSON_IsArray(arr) ? cJSON_GetArraySize(arr) : 0;
     double v;
     TRY_GL(gl_int(G, o, at, key, -1, 0, 2147483647.0, &v));
-    struct gp p = gp_key(at, key);
+    struct jp p = jp_key(at, key);
     if (v >= n) return gl_fail(G, RAYD_E_INVALID, &p, "%.0f is not an index into /%s (the file has %d)", v, top, n);
     *id = (int)v;
     *item = cJSON_GetArrayItem(arr, *id);
-    struct gp pi = gp_item(top, *id);
+    struct jp pi = gl_item(top, *id);
     if (!cJSON_IsObject(*item)) return gl_fail(G, RAYD_E_INVALID, &pi, "must be an object");
     return RAYD_OK;
 }
 
 /* n numbers at o[key] into out; def when absent. */
-static enum rayd_status gl_nums(struct gl *G, const cJSON *o, const struct gp *at, const char *key,
+static enum rayd_status gl_nums(struct gl *G, const cJSON *o, const struct jp *at, const char *key,
                                 int n, const double *def, double *out) {
     const cJSON *v = gl_get(o, key);
-    struct gp p = gp_key(at, key);
+    struct jp p = jp_key(at, key);
     if (!v) {
         memcpy(out, def, sizeof *out * (size_t)n);
         return RAYD_OK;
@@ -184,7 +184,7 @@ static enum rayd_status gl_nums(struct gl *G, const cJSON *o, const struct gp *a
     /* n entries, each written or refused (a NULL e is no number) */
     const cJSON *e = v->child;
     for (int i = 0; i < n; i++, e = e ? e->next : NULL) {
-        struct gp pe = gp_index(&p, i);
+        struct jp pe = jp_index(&p, i);
         if (!cJSON_IsNumber(e) || !isfinite(e->valuedouble) || fabs(e->valuedouble) > 1e30)
             return gl_fail(G, RAYD_E_INVALID, &pe, "must be a finite number");
         out[i] = e->valuedouble;
@@ -201,7 +201,7 @@ static uint32_t le32(const unsigned char *b) {
 /* A .glb: 12-byte header, a JSON chunk, then an optional BIN chunk. */
 static enum rayd_status gl_glb(struct gl *G, const unsigned char *b, size_t len, const char **json,
                                size_t *jlen) {
-    struct gp top = {""};
+    struct jp top = {.s = ""};
     if (len < 20) return gl_fail(G, RAYD_E_INVALID, &top, "GLB file ends early (%zu bytes)", len);
     if (le32(b + 4) != 2) return gl_fail(G, RAYD_E_INVALID, &top, "GLB version %u is not supported (2 is)", le32(b + 4));
     if (le32(b + 8) > len) return gl_fail(G, RAYD_E_INVALID, &top, "GLB header says %u bytes but there are %zu", le32(b + 8), len);
@@ -223,7 +223,7 @@ static enum rayd_status gl_glb(struct gl *G, const unsigned char *b, size_t len,
 /* Syntax (line and column, nesting), then cJSON. */
 static enum rayd_status gl_parse_json(struct gl *G, const char *json, size_t len, cJSON **root) {
     struct rayd_error e = {0};
-    struct gp top = {""};
+    struct jp top = {.s = ""};
     if (json_check(json, len, G->o->max_nesting, &e) != RAYD_OK)
         return gl_fail(G, RAYD_E_INVALID, &top, "glTF JSON line %d, column %d: %s", e.line, e.column, e.message);
     *root = json_parse_locked(json, len);
@@ -237,7 +237,7 @@ static enum rayd_status gl_check_asset(struct gl *G) {
     static const char *const harmless[] = {"KHR_mesh_quantization", "KHR_texture_transform",
                                            "KHR_lights_punctual", "KHR_texture_basisu",
                                            "KHR_materials_", "EXT_texture_webp", NULL};
-    struct gp pa = {"/asset"}, pv = {"/asset/version"}, pe = {"/extensionsRequired"};
+    struct jp pa = {.s = "/asset"}, pv = {.s = "/asset/version"}, pe = {.s = "/extensionsRequired"};
     const cJSON *v = gl_get(gl_get(G->root, "asset"), "version");
     if (!cJSON_IsObject(gl_get(G->root, "asset"))) return gl_fail(G, RAYD_E_INVALID, &pa, "is required (an object with \"version\")");
     if (!cJSON_IsString(v)) return gl_fail(G, RAYD_E_INVALID, &pv, "must be a string such as \"2.0\"");
@@ -246,7 +246,7 @@ static enum rayd_status gl_check_asset(struct gl *G) {
     if (req && !cJSON_IsArray(req)) return gl_fail(G, RAYD_E_INVALID, &pe, "must be an array of strings");
     int i = 0;
     for (const cJSON *e = req ? req->child : NULL; e; e = e->next, i++) {
-        struct gp p = gp_index(&pe, i);
+        struct jp p = jp_index(&pe, i);
         if (!cJSON_IsString(e)) return gl_fail(G, RAYD_E_INVALID, &p, "must be a string");
         const char *const *h = harmless;
         while (*h && strncmp(e->valuestring, *h, strlen(*h)) != 0) h++;
@@ -279,7 +279,7 @@ static bool gl_uri_name(const char *uri, char *out, size_t cap) {
 }
 
 /* A "data:...;base64," URI's bytes. */
-static enum rayd_status gl_data_uri(struct gl *G, const char *uri, const struct gp *p,
+static enum rayd_status gl_data_uri(struct gl *G, const char *uri, const struct jp *p,
                                     struct gl_buf *b) {
     const char *comma = strchr(uri, ',');
     if (!comma || comma - uri < 12 || memcmp(comma - 7, ";base64", 7) != 0)
@@ -291,7 +291,7 @@ static enum rayd_status gl_data_uri(struct gl *G, const char *uri, const struct 
     return RAYD_OK;
 }
 
-static enum rayd_status gl_file_uri(struct gl *G, const char *uri, const struct gp *p,
+static enum rayd_status gl_file_uri(struct gl *G, const char *uri, const struct jp *p,
                                     struct gl_buf *b) {
     char name[1024];
     if (!gl_uri_name(uri, name, sizeof name))
@@ -311,14 +311,14 @@ static enum rayd_status gl_file_uri(struct gl *G, const char *uri, const struct 
 /* Buffer i, loaded on first use: the BIN chunk, a data: URI or a file. */
 static enum rayd_status gl_buffer(struct gl *G, int i, const struct gl_buf **out) {
     struct gl_buf *b = &G->bufs[i];
-    struct gp p = gp_item("buffers", i);
+    struct jp p = gl_item("buffers", i);
     const cJSON *bj = cJSON_GetArrayItem(gl_get(G->root, "buffers"), i);
     double blen;
     *out = b;
     if (b->data) return RAYD_OK;
     TRY_GL(gl_int(G, bj, &p, "byteLength", -1, 1, 9007199254740991.0, &blen));
     const cJSON *uri = gl_get(bj, "uri");
-    struct gp pu = gp_key(&p, "uri");
+    struct jp pu = jp_key(&p, "uri");
     if (uri && !cJSON_IsString(uri)) return gl_fail(G, RAYD_E_INVALID, &pu, "must be a string");
     if (!uri && (i != 0 || !G->bin)) return gl_fail(G, RAYD_E_INVALID, &pu, "is required (only buffer 0 of a .glb may use its BIN chunk)");
     if (!uri) {
@@ -328,7 +328,7 @@ static enum rayd_status gl_buffer(struct gl *G, int i, const struct gl_buf **out
     } else {
         TRY_GL(gl_file_uri(G, uri->valuestring, &pu, b));
     }
-    struct gp pl = gp_key(&p, "byteLength");
+    struct jp pl = jp_key(&p, "byteLength");
     if ((double)b->len < blen)
         return gl_fail(G, RAYD_E_INVALID, &pl, "is %.0f but the data has %zu bytes", blen, b->len);
     b->len = (size_t)blen;
@@ -357,13 +357,13 @@ static int gl_ncomp(const char *type) {
 }
 
 /* The accessor's bufferView, checked to hold count elements of esize bytes. */
-static enum rayd_status gl_view(struct gl *G, const cJSON *aj, const struct gp *pa, double offset,
+static enum rayd_status gl_view(struct gl *G, const cJSON *aj, const struct jp *pa, double offset,
                                 size_t esize, struct gl_acc *a) {
     const cJSON *vj;
     int vid;
     double boff, blen, stride;
     TRY_GL(gl_ref(G, aj, pa, "bufferView", "bufferViews", &vid, &vj));
-    struct gp pv = gp_item("bufferViews", vid);
+    struct jp pv = gl_item("bufferViews", vid);
     const cJSON *bj;
     int bid;
     TRY_GL(gl_ref(G, vj, &pv, "buffer", "buffers", &bid, &bj));
@@ -372,16 +372,16 @@ static enum rayd_status gl_view(struct gl *G, const cJSON *aj, const struct gp *
     TRY_GL(gl_int(G, vj, &pv, "byteStride", 0, 4, 252, &stride));
     const struct gl_buf *b;
     TRY_GL(gl_buffer(G, bid, &b));
-    struct gp pvl = gp_key(&pv, "byteLength");
+    struct jp pvl = jp_key(&pv, "byteLength");
     if (boff + blen > (double)b->len)
         return gl_fail(G, RAYD_E_INVALID, &pvl, "runs past the end of buffer %d (offset %.0f + %.0f > %zu bytes)", bid, boff, blen, b->len);
-    struct gp pst = gp_key(&pv, "byteStride");
+    struct jp pst = jp_key(&pv, "byteStride");
     if (stride && stride < (double)esize)
         return gl_fail(G, RAYD_E_INVALID, &pst, "%.0f is less than the accessor's element (%zu bytes)", stride, esize);
     a->stride = stride ? (size_t)stride : esize;
     /* every term is below 2^53 and exact in a double */
     double need = offset + (double)(a->count - 1) * (double)a->stride + (double)esize;
-    struct gp pc = gp_key(pa, "count");
+    struct jp pc = jp_key(pa, "count");
     if (need > blen)
         return gl_fail(G, RAYD_E_INVALID, &pc, "exceeds the buffer view (offset %.0f + %u elements of stride %zu need %.0f bytes; bufferView %d has %.0f)",
                        offset, a->count, a->stride, need, vid, blen);
@@ -390,14 +390,15 @@ static enum rayd_status gl_view(struct gl *G, const cJSON *aj, const struct gp *
 }
 
 /* Accessor o[key] (index into /accessors), of ncomp components. */
-static enum rayd_status gl_accessor(struct gl *G, const cJSON *o, const struct gp *at,
+static enum rayd_status gl_accessor(struct gl *G, const cJSON *o, const struct jp *at,
                                     const char *key, int ncomp, bool index, struct gl_acc *a) {
     const cJSON *aj;
     double ct, count, offset;
     memset(a, 0, sizeof *a);
     TRY_GL(gl_ref(G, o, at, key, "accessors", &a->id, &aj));
-    struct gp pa = gp_item("accessors", a->id);
-    struct gp pct = gp_key(&pa, "componentType"), pt = gp_key(&pa, "type"), ps = gp_key(&pa, "sparse");
+    struct jp pa = gl_item("accessors", a->id);
+    struct jp pct = jp_key(&pa, "componentType"), pt = jp_key(&pa, "type"),
+              ps = jp_key(&pa, "sparse");
     TRY_GL(gl_int(G, aj, &pa, "componentType", -1, 5120, 5126, &ct));
     TRY_GL(gl_int(G, aj, &pa, "count", -1, 1, 4294967295.0, &count));
     TRY_GL(gl_int(G, aj, &pa, "byteOffset", 0, 0, 9007199254740991.0, &offset));
@@ -418,7 +419,7 @@ static enum rayd_status gl_accessor(struct gl *G, const cJSON *o, const struct g
     if (gl_get(aj, "sparse")) return gl_fail(G, RAYD_E_INVALID, &ps, "sparse accessors are not supported");
     if (!gl_get(aj, "bufferView")) return RAYD_OK; /* all zeros, as the spec says */
     size_t esize = (size_t)gl_csize(a->ctype) * (size_t)ncomp;
-    struct gp po = gp_key(&pa, "byteOffset");
+    struct jp po = jp_key(&pa, "byteOffset");
     if ((size_t)offset % (size_t)gl_csize(a->ctype) != 0)
         return gl_fail(G, RAYD_E_INVALID, &po, "must be a multiple of the component size");
     return gl_view(G, aj, &pa, offset, esize, a);
@@ -469,8 +470,8 @@ struct gl_prim {
 
 /* The whole-scene import's part of a primitive: its material and, when the
  * material's texture wants one, its TEXCOORD_n. */
-static enum rayd_status gl_prim_parts(struct gl *G, const struct gl_draw *d, const struct gp *pp,
-                                      const cJSON *attr, const struct gp *pat, struct gl_prim *P) {
+static enum rayd_status gl_prim_parts(struct gl *G, const struct gl_draw *d, const struct jp *pp,
+                                      const cJSON *attr, const struct jp *pat, struct gl_prim *P) {
     const cJSON *mj;
     if (gl_get(d->prim, "material"))
         TRY_GL(gl_ref(G, d->prim, pp, "material", "materials", &P->material, &mj));
@@ -480,7 +481,7 @@ static enum rayd_status gl_prim_parts(struct gl *G, const struct gl_draw *d, con
     if (set < 0 || !gl_get(attr, key)) return RAYD_OK;
     TRY_GL(gl_accessor(G, attr, pat, key, 2, false, &P->uv));
     P->has_uv = true;
-    struct gp pa = gp_item("accessors", P->uv.id);
+    struct jp pa = gl_item("accessors", P->uv.id);
     if (P->uv.count != P->pos.count)
         return gl_fail(G, RAYD_E_INVALID, &pa, "%s has %u entries but POSITION has %u", key,
                        P->uv.count, P->pos.count);
@@ -488,7 +489,8 @@ static enum rayd_status gl_prim_parts(struct gl *G, const struct gl_draw *d, con
 }
 
 static enum rayd_status gl_prim(struct gl *G, const struct gl_draw *d, struct gl_prim *P) {
-    struct gp pm = gp_item("meshes", d->mesh), pl = gp_key(&pm, "primitives"), pp = gp_index(&pl, d->index);
+    struct jp pm = gl_item("meshes", d->mesh), pl = jp_key(&pm, "primitives"),
+              pp = jp_index(&pl, d->index);
     double mode;
     memset(P, 0, sizeof *P);
     P->material = -1;
@@ -496,12 +498,12 @@ static enum rayd_status gl_prim(struct gl *G, const struct gl_draw *d, struct gl
     P->mode = (int)mode;
     if (mode < 4) return RAYD_OK; /* points and lines: nothing to draw */
     const cJSON *attr = gl_get(d->prim, "attributes");
-    struct gp pat = gp_key(&pp, "attributes");
+    struct jp pat = jp_key(&pp, "attributes");
     if (!cJSON_IsObject(attr)) return gl_fail(G, RAYD_E_INVALID, &pat, "is required (an object)");
     TRY_GL(gl_accessor(G, attr, &pat, "POSITION", 3, false, &P->pos));
     P->has_nrm = gl_get(attr, "NORMAL") != NULL;
     if (P->has_nrm) TRY_GL(gl_accessor(G, attr, &pat, "NORMAL", 3, false, &P->nrm));
-    struct gp pn = gp_item("accessors", P->nrm.id);
+    struct jp pn = gl_item("accessors", P->nrm.id);
     if (P->has_nrm && P->nrm.count != P->pos.count)
         return gl_fail(G, RAYD_E_INVALID, &pn, "NORMAL has %u entries but POSITION has %u", P->nrm.count, P->pos.count);
     P->has_ix = gl_get(d->prim, "indices") != NULL;
@@ -524,7 +526,7 @@ static void mat_mul(const double *a, const double *b, double *out) {
 }
 
 /* The node's local matrix: "matrix", or T * R * S. */
-static enum rayd_status gl_local(struct gl *G, const cJSON *n, const struct gp *pn, double *m) {
+static enum rayd_status gl_local(struct gl *G, const cJSON *n, const struct jp *pn, double *m) {
     static const double id[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
     static const double zero[3] = {0, 0, 0}, one[3] = {1, 1, 1}, q0[4] = {0, 0, 0, 1};
     double t[3], q[4], s[3];
@@ -533,7 +535,7 @@ static enum rayd_status gl_local(struct gl *G, const cJSON *n, const struct gp *
     TRY_GL(gl_nums(G, n, pn, "rotation", 4, q0, q));
     TRY_GL(gl_nums(G, n, pn, "scale", 3, one, s));
     double len = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-    struct gp pr = gp_key(pn, "rotation");
+    struct jp pr = jp_key(pn, "rotation");
     if (!(len > 0)) return gl_fail(G, RAYD_E_INVALID, &pr, "must not be a zero quaternion");
     double x = q[0] / len, y = q[1] / len, z = q[2] / len, w = q[3] / len;
     double r[9] = {1 - 2 * (y * y + z * z), 2 * (x * y + z * w), 2 * (x * z - y * w),
@@ -547,19 +549,18 @@ static enum rayd_status gl_local(struct gl *G, const cJSON *n, const struct gp *
     return RAYD_OK;
 }
 
-static enum rayd_status gl_add_draws(struct gl *G, const cJSON *n, const struct gp *pn,
-                                     int node) {
+static enum rayd_status gl_add_draws(struct gl *G, const cJSON *n, const struct jp *pn, int node) {
     const cJSON *mj;
     int mid;
     if (!gl_get(n, "mesh")) return RAYD_OK;
     TRY_GL(gl_ref(G, n, pn, "mesh", "meshes", &mid, &mj));
     const cJSON *prims = gl_get(mj, "primitives");
-    struct gp pm = gp_item("meshes", mid), pp = gp_key(&pm, "primitives");
+    struct jp pm = gl_item("meshes", mid), pp = jp_key(&pm, "primitives");
     if (!prims) return gl_fail(G, RAYD_E_INVALID, &pp, "is required (an array)");
     if (!cJSON_IsArray(prims)) return gl_fail(G, RAYD_E_INVALID, &pp, "must be an array");
     int i = 0;
     for (const cJSON *p = prims->child; p; p = p->next, i++) {
-        struct gp pi = gp_index(&pp, i);
+        struct jp pi = jp_index(&pp, i);
         if (!cJSON_IsObject(p)) return gl_fail(G, RAYD_E_INVALID, &pi, "must be an object");
         const cJSON *mode = gl_get(p, "mode");
         if (cJSON_IsNumber(mode) && mode->valuedouble >= 0 && mode->valuedouble < 4) continue;
@@ -575,11 +576,11 @@ static enum rayd_status gl_add_draws(struct gl *G, const cJSON *n, const struct 
 }
 
 /* Node id under the parent matrix pm, its children after it. */
-static enum rayd_status gl_node(struct gl *G, int id, const struct gp *from, const double *pm,
+static enum rayd_status gl_node(struct gl *G, int id, const struct jp *from, const double *pm,
                                 int depth) {
     const cJSON *nodes = gl_get(G->root, "nodes");
     const cJSON *n = cJSON_GetArrayItem(nodes, id);
-    struct gp pn = gp_item("nodes", id);
+    struct jp pn = gl_item("nodes", id);
     if (G->seen[id] == 1) return gl_fail(G, RAYD_E_INVALID, from, "node %d is its own ancestor (the node hierarchy has a cycle)", id);
     if (G->seen[id] == 2) return gl_fail(G, RAYD_E_INVALID, from, "node %d is reached twice (a node has one parent at most)", id);
     if (depth > GL_MAX_DEPTH) return gl_fail(G, RAYD_E_LIMIT, from, "nodes nest more than %d deep", GL_MAX_DEPTH);
@@ -590,11 +591,11 @@ static enum rayd_status gl_node(struct gl *G, int id, const struct gp *from, con
     mat_mul(pm, local, m);
     TRY_GL(gl_add_draws(G, n, &pn, id));
     const cJSON *kids = gl_get(n, "children");
-    struct gp pc = gp_key(&pn, "children");
+    struct jp pc = jp_key(&pn, "children");
     if (kids && !cJSON_IsArray(kids)) return gl_fail(G, RAYD_E_INVALID, &pc, "must be an array of node indices");
     int i = 0;
     for (const cJSON *k = kids ? kids->child : NULL; k; k = k->next, i++) {
-        struct gp pk = gp_index(&pc, i);
+        struct jp pk = jp_index(&pc, i);
         if (!cJSON_IsNumber(k) || floor(k->valuedouble) != k->valuedouble || k->valuedouble < 0 || k->valuedouble >= G->nnodes)
             return gl_fail(G, RAYD_E_INVALID, &pk, "must be a node index in 0..%d", G->nnodes - 1);
         TRY_GL(gl_node(G, (int)k->valuedouble, &pk, m, depth + 1));
@@ -608,7 +609,7 @@ static enum rayd_status gl_node(struct gl *G, int id, const struct gp *from, con
 static enum rayd_status gl_walk(struct gl *G, int scene) {
     static const double id[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
     const cJSON *nodes = gl_get(G->root, "nodes"), *scenes = gl_get(G->root, "scenes");
-    struct gp pnodes = {"/nodes"}, pscenes = {"/scenes"}, top = {""};
+    struct jp pnodes = {.s = "/nodes"}, pscenes = {.s = "/scenes"}, top = {.s = ""};
     if (nodes && !cJSON_IsArray(nodes)) return gl_fail(G, RAYD_E_INVALID, &pnodes, "must be an array");
     if (scenes && !cJSON_IsArray(scenes)) return gl_fail(G, RAYD_E_INVALID, &pscenes, "must be an array");
     G->nnodes = nodes ? cJSON_GetArraySize(nodes) : 0;
@@ -623,14 +624,14 @@ static enum rayd_status gl_walk(struct gl *G, int scene) {
         int sid = scene >= 0 ? scene : 0;
         if (scene < 0 && gl_get(G->root, "scene"))
             TRY_GL(gl_ref(G, G->root, &top, "scene", "scenes", &sid, &sj));
-        struct gp ps0 = gp_item("scenes", sid);
+        struct jp ps0 = gl_item("scenes", sid);
         if (!cJSON_IsObject(sj)) return gl_fail(G, RAYD_E_INVALID, &ps0, "must be an object");
         const cJSON *roots = gl_get(sj, "nodes");
-        struct gp ps = gp_item("scenes", sid), pr = gp_key(&ps, "nodes");
+        struct jp ps = gl_item("scenes", sid), pr = jp_key(&ps, "nodes");
         if (roots && !cJSON_IsArray(roots)) return gl_fail(G, RAYD_E_INVALID, &pr, "must be an array of node indices");
         int i = 0;
         for (const cJSON *r = roots ? roots->child : NULL; r; r = r->next, i++) {
-            struct gp pi = gp_index(&pr, i);
+            struct jp pi = jp_index(&pr, i);
             if (!cJSON_IsNumber(r) || floor(r->valuedouble) != r->valuedouble || r->valuedouble < 0 || r->valuedouble >= G->nnodes)
                 return gl_fail(G, RAYD_E_INVALID, &pi, "must be a node index in 0..%d", G->nnodes - 1);
             TRY_GL(gl_node(G, (int)r->valuedouble, &pi, id, 0));
@@ -646,7 +647,7 @@ static enum rayd_status gl_walk(struct gl *G, int scene) {
     }
     enum rayd_status st = RAYD_OK;
     for (int i = 0; i < G->nnodes && st == RAYD_OK; i++) {
-        struct gp pi = gp_item("nodes", i);
+        struct jp pi = gl_item("nodes", i);
         if (!child[i] && !G->seen[i]) st = gl_node(G, i, &pi, id, 0);
     }
     free(child);
@@ -657,7 +658,7 @@ static enum rayd_status gl_walk(struct gl *G, int scene) {
 
 /* Checks every draw, sums vertices and triangles against the limits. */
 static enum rayd_status gl_count(struct gl *G) {
-    struct gp top = {""};
+    struct jp top = {.s = ""};
     G->normals = true;
     for (size_t i = 0; i < G->ndraws; i++) {
         struct gl_prim P;
@@ -666,8 +667,8 @@ static enum rayd_status gl_count(struct gl *G) {
         G->normals = G->normals && P.has_nrm;
         G->nverts += P.pos.count;
         G->ntris += P.ntris;
-        struct gp pm = gp_item("meshes", G->draws[i].mesh), pl = gp_key(&pm, "primitives");
-        struct gp pp = gp_index(&pl, G->draws[i].index);
+        struct jp pm = gl_item("meshes", G->draws[i].mesh), pl = jp_key(&pm, "primitives");
+        struct jp pp = jp_index(&pl, G->draws[i].index);
         if (G->nverts > G->max_verts)
             return gl_fail(G, RAYD_E_LIMIT, &pp, "brings the mesh to %llu vertices; the limit is %u", (unsigned long long)G->nverts, G->max_verts);
         if (G->ntris > G->max_tris)
@@ -700,7 +701,7 @@ static enum rayd_status gl_uv(struct gl *G, const struct gl_prim *P, uint32_t i,
         return RAYD_OK;
     }
     double u = gl_value(&P->uv, i, 0), v = gl_value(&P->uv, i, 1);
-    struct gp pa = gp_item("accessors", P->uv.id);
+    struct jp pa = gl_item("accessors", P->uv.id);
     if (!isfinite(u) || !isfinite(v) || fabs(u) > 1e6 || fabs(v) > 1e6)
         return gl_fail(G, RAYD_E_INVALID, &pa, "TEXCOORD %u is not finite (or beyond 1e6)", i);
     o[0] = (float)u;
@@ -718,7 +719,7 @@ static enum rayd_status gl_vertices(struct gl *G, const struct gl_draw *d, const
         for (int r = 0; r < 3; r++) {
             double v = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r];
             if (!isfinite(v) || fabs(v) > 1e30) {
-                struct gp pa = gp_item("accessors", P->pos.id);
+                struct jp pa = gl_item("accessors", P->pos.id);
                 return gl_fail(G, RAYD_E_INVALID, &pa, "POSITION %u is not finite (or beyond 1e30 once placed)", i);
             }
             o[r] = (float)v;
@@ -742,7 +743,7 @@ static enum rayd_status gl_triangles(struct gl *G, const struct gl_draw *d, cons
             uint32_t c = gl_corner(P->mode, t, k);
             v[k] = P->has_ix ? (uint32_t)gl_value(&P->ix, c, 0) : c;
             if (v[k] >= P->pos.count) {
-                struct gp pa = gp_item("accessors", P->ix.id);
+                struct jp pa = gl_item("accessors", P->ix.id);
                 return gl_fail(G, RAYD_E_INVALID, &pa, "element %u is %u, out of range (the primitive's POSITION has %u vertices)", c, v[k], P->pos.count);
             }
         }
@@ -758,7 +759,7 @@ static enum rayd_status gl_triangles(struct gl *G, const struct gl_draw *d, cons
 }
 
 static enum rayd_status gl_bake(struct gl *G) {
-    struct gp top = {""};
+    struct jp top = {.s = ""};
     /* huge pages, as the PLY reader's: a million triangles fault far fewer pages */
     G->pos = huge_alloc((size_t)G->nverts * 3 * sizeof *G->pos);
     G->nrm = G->normals ? huge_alloc((size_t)G->nverts * 3 * sizeof *G->nrm) : NULL;
@@ -803,7 +804,7 @@ static void gl_release(struct gl *G, cJSON *root) {
 static enum rayd_status gl_open(struct gl *G, const unsigned char *b, size_t len, cJSON **root) {
     const char *json = (const char *)b;
     size_t jlen = len;
-    struct gp pb = {"/buffers"};
+    struct jp pb = {.s = "/buffers"};
     if (len >= 4 && !memcmp(b, "glTF", 4)) {
         json = NULL;
         TRY_GL(gl_glb(G, b, len, &json, &jlen));
@@ -874,7 +875,7 @@ enum rayd_status gltf_doc_open(const void *data, size_t len, const struct mesh_g
 const cJSON *gltf_doc_root(const struct gltf_doc *d) { return d->root; }
 
 enum rayd_status gltf_doc_walk(struct gltf_doc *d, int scene, const struct mesh_limits *lim) {
-    struct gp top = {""};
+    struct jp top = {.s = ""};
     if (d->walked) return gl_fail(&d->G, RAYD_E_INVALID, &top, "the scene is walked once");
     d->walked = true;
     d->G.max_verts = mesh_max_vertices(lim);
@@ -890,7 +891,7 @@ const double *gltf_doc_world(const struct gltf_doc *d, int node) {
 enum rayd_status gltf_doc_bake(struct gltf_doc *d, const int *uv_set, int nuv_set,
                                struct mesh_data *out, int32_t **tri_mat) {
     struct gl *G = &d->G;
-    struct gp top = {""};
+    struct jp top = {.s = ""};
     if (!d->walked || d->baked)
         return gl_fail(G, RAYD_E_INVALID, &top, "walk the scene once, then bake once");
     d->baked = true;
@@ -915,19 +916,19 @@ enum rayd_status gltf_doc_bake(struct gltf_doc *d, const int *uv_set, int nuv_se
 enum rayd_status gltf_doc_view(struct gltf_doc *d, const cJSON *o, const char *at, const char *key,
                                const unsigned char **p, size_t *len) {
     struct gl *G = &d->G;
-    struct gp pa;
+    struct jp pa = {.s = ""};
     snprintf(pa.s, sizeof pa.s, "%s", at);
     const cJSON *vj, *bj;
     int vid, bid;
     double boff, blen;
     TRY_GL(gl_ref(G, o, &pa, key, "bufferViews", &vid, &vj));
-    struct gp pv = gp_item("bufferViews", vid);
+    struct jp pv = gl_item("bufferViews", vid);
     TRY_GL(gl_ref(G, vj, &pv, "buffer", "buffers", &bid, &bj));
     TRY_GL(gl_int(G, vj, &pv, "byteOffset", 0, 0, 9007199254740991.0, &boff));
     TRY_GL(gl_int(G, vj, &pv, "byteLength", -1, 1, 9007199254740991.0, &blen));
     const struct gl_buf *b;
     TRY_GL(gl_buffer(G, bid, &b));
-    struct gp pvl = gp_key(&pv, "byteLength");
+    struct jp pvl = jp_key(&pv, "byteLength");
     if (boff + blen > (double)b->len)
         return gl_fail(G, RAYD_E_INVALID, &pvl,
                        "runs past the end of buffer %d (offset %.0f + %.0f > %zu bytes)", bid, boff,
@@ -940,7 +941,7 @@ enum rayd_status gltf_doc_view(struct gltf_doc *d, const cJSON *o, const char *a
 enum rayd_status gltf_doc_uri(struct gltf_doc *d, const char *uri, const char *at,
                               unsigned char **p, size_t *len) {
     struct gl *G = &d->G;
-    struct gp pu;
+    struct jp pu = {.s = ""};
     struct gl_buf b = {0};
     snprintf(pu.s, sizeof pu.s, "%s", at);
     if (!strncmp(uri, "data:", 5)) {

@@ -73,7 +73,7 @@ static enum rayd_status load_render(struct loader *ld, const cJSON *root) {
                                        "background", "seed", "integrator", "environment",
                                        NULL};
     static const char *const integrators[] = {"whitted", "path", NULL};
-    struct jp at = {"/render"};
+    struct jp at = {.s = "/render"};
     cJSON empty;
     const cJSON *r = section(root, "render", &empty);
     TRY(sj_check_keys(ld, r, &at, keys));
@@ -108,7 +108,7 @@ static enum rayd_status load_camera(struct loader *ld, const cJSON *root) {
                                        "focus_distance", "frame", "view", "azimuth",
                                        "elevation", NULL};
     static const char *const projections[] = {"perspective", "orthographic", NULL};
-    struct jp at = {"/camera"};
+    struct jp at = {.s = "/camera"};
     cJSON empty;
     const cJSON *c = section(root, "camera", &empty);
     ld->camera = cJSON_GetObjectItemCaseSensitive(root, "camera");
@@ -133,7 +133,7 @@ static enum rayd_status load_camera(struct loader *ld, const cJSON *root) {
     TRY(sj_num(ld, c, &at, "view_width", 2, 0, true, NUM_MAX, &view_w));
     TRY(sj_num(ld, c, &at, "aperture", 0, 0, false, NUM_MAX, &aperture));
     TRY(sj_num(ld, c, &at, "focus_distance", cam->focus, 0, true, NUM_MAX, &focus));
-    struct jp pa = sj_key(&at, "aperture");
+    struct jp pa = jp_key(&at, "aperture");
     if (proj == 1) {
         if (aperture > 0) return sj_fail(ld, RAYD_E_INVALID, &pa, "must be 0 with an orthographic projection");
         cam->ortho = true;
@@ -164,7 +164,7 @@ static enum rayd_status load_area_light(struct loader *ld, const cJSON *lj, cons
     TRY(sj_vec(ld, lj, at, "edge2", v3(0, 0, 1), VEC_NONZERO, &l->e2));
     vec3 n;
     TRY(sj_vec(ld, lj, at, "normal", v3(0, -1, 0), VEC_NONZERO, &n));
-    struct jp p = sj_key(at, "edge2");
+    struct jp p = jp_key(at, "edge2");
     if (l->shape == AREA_RECT && !(v3_len(v3_cross(l->e1, l->e2)) > 0))
         return sj_fail(ld, RAYD_E_INVALID, &p, "must not be parallel to edge1");
     if (l->shape == AREA_DISC) {
@@ -209,7 +209,7 @@ static enum rayd_status load_light(struct loader *ld, const cJSON *lj, const str
 static enum rayd_status load_lights(struct loader *ld, const cJSON *root) {
     const cJSON *ls = cJSON_GetObjectItemCaseSensitive(root, "lights");
     if (!ls) return RAYD_OK;
-    struct jp at = {"/lights"};
+    struct jp at = {.s = "/lights"};
     if (!cJSON_IsArray(ls)) return sj_fail(ld, RAYD_E_INVALID, &at, "must be an array, not %s", sj_type_name(ls));
     int n = cJSON_GetArraySize(ls);
     if (n > ld->lim->max_lights)
@@ -219,7 +219,7 @@ static enum rayd_status load_lights(struct loader *ld, const cJSON *root) {
     if (!ld->s->lights) return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
     int i = 0;
     for (const cJSON *l = ls->child; l; l = l->next, i++) {
-        struct jp p = sj_index(&at, i);
+        struct jp p = jp_index(&at, i);
         TRY(load_light(ld, l, &p, &ld->s->lights[i]));
         ld->s->nlights = i + 1;
     }
@@ -240,7 +240,7 @@ static enum rayd_status parse_json(const char *json, size_t len, cJSON **out,
 static enum rayd_status load_root(struct loader *ld, const cJSON *root) {
     static const char *const keys[] = {"version", "camera",  "render", "materials",
                                        "lights",  "groups",  "objects", NULL};
-    struct jp at = {""};
+    struct jp at = {.s = ""};
     if (!cJSON_IsObject(root))
         return err_set(ld->err, RAYD_E_INVALID, "", "the scene must be a JSON object, not %s",
                        sj_type_name(root));

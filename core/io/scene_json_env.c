@@ -32,7 +32,7 @@ static enum rayd_status env_encoded(struct loader *ld, const cJSON *ej, const st
                                     struct jp *p, char **data, size_t *len) {
     const cJSON *file = cJSON_GetObjectItemCaseSensitive(ej, "file");
     const cJSON *b64 = cJSON_GetObjectItemCaseSensitive(ej, "base64");
-    *p = sj_key(at, file ? "file" : "base64");
+    *p = jp_key(at, file ? "file" : "base64");
     if (file) return sj_read_asset(ld, file, p, data, len);
     if (!cJSON_IsString(b64))
         return sj_fail(ld, RAYD_E_INVALID, p, "must be a string, not %s", sj_type_name(b64));
@@ -105,7 +105,7 @@ enum rayd_status sj_environment(struct loader *ld, const cJSON *r, const struct 
                                        "rotation", "intensity", "visible", NULL};
     const cJSON *ej = cJSON_GetObjectItemCaseSensitive(r, "environment");
     if (!ej) return RAYD_OK;
-    struct jp at = sj_key(render_at, "environment");
+    struct jp at = jp_key(render_at, "environment");
     if (!cJSON_IsObject(ej))
         return sj_fail(ld, RAYD_E_INVALID, &at, "must be an object, not %s", sj_type_name(ej));
     TRY(sj_check_keys(ld, ej, &at, keys));
@@ -124,7 +124,7 @@ enum rayd_status sj_environment(struct loader *ld, const cJSON *r, const struct 
     e->sin_r = sin(rot * DEG2RAD_ENV);
     if (cJSON_GetObjectItemCaseSensitive(ej, "color")) {
         if (cJSON_GetObjectItemCaseSensitive(ej, "format")) {
-            struct jp pf = sj_key(&at, "format");
+            struct jp pf = jp_key(&at, "format");
             return sj_fail(ld, RAYD_E_INVALID, &pf, "belongs to an image environment (\"base64\")");
         }
         TRY(sj_vec(ld, ej, &at, "color", v3(0, 0, 0), VEC_COLOR, &e->color));
@@ -134,7 +134,7 @@ enum rayd_status sj_environment(struct loader *ld, const cJSON *r, const struct 
         static const char *const formats[] = {"hdr", "exr", NULL};
         int format;
         TRY(sj_enum(ld, ej, &at, "format", formats, &format));
-        struct jp p;
+        struct jp p = {.s = ""};
         char *data = NULL;
         size_t len = 0;
         TRY(env_encoded(ld, ej, &at, &p, &data, &len));

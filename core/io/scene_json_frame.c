@@ -23,13 +23,13 @@ static enum rayd_status refuse_with_frame(struct loader *ld, const cJSON *c, con
     static const char *const fixed[] = {"position", "look_at", "up", NULL};
     for (int i = 0; fixed[i]; i++) {
         if (!cJSON_GetObjectItemCaseSensitive(c, fixed[i])) continue;
-        struct jp p = sj_key(at, fixed[i]);
+        struct jp p = jp_key(at, fixed[i]);
         return sj_fail(ld, RAYD_E_INVALID, &p,
                        "must not be given with /camera/frame (the view sets it)");
     }
     const cJSON *proj = cJSON_GetObjectItemCaseSensitive(c, "projection");
     if (cJSON_IsString(proj) && strcmp(proj->valuestring, "orthographic") == 0) {
-        struct jp p = sj_key(at, "projection");
+        struct jp p = jp_key(at, "projection");
         return sj_fail(ld, RAYD_E_INVALID, &p, "must be \"perspective\" with /camera/frame");
     }
     return RAYD_OK;
@@ -41,7 +41,7 @@ static enum rayd_status refuse_without_frame(struct loader *ld, const cJSON *c,
     static const char *const framing[] = {"view", "azimuth", "elevation", NULL};
     for (int i = 0; framing[i]; i++) {
         if (!cJSON_GetObjectItemCaseSensitive(c, framing[i])) continue;
-        struct jp p = sj_key(at, framing[i]);
+        struct jp p = jp_key(at, framing[i]);
         return sj_fail(ld, RAYD_E_INVALID, &p, "needs /camera/frame");
     }
     return RAYD_OK;
@@ -118,7 +118,7 @@ enum rayd_status sj_frame_apply(struct loader *ld) {
     if (!ld->frame) return RAYD_OK;
     vec3 centre = v3(0, 0, 0);
     double radius = 0;
-    struct jp at = {"/camera/frame"};
+    struct jp at = {.s = "/camera/frame"};
     if (!all_sphere(ld->s, &centre, &radius))
         return sj_fail(
             ld, RAYD_E_INVALID, &at,

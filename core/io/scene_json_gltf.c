@@ -33,7 +33,7 @@
 #include "base/clock.h"
 #include "base/parallel.h"
 #include "io/gltf_material.h"
-#include "io/gltf_pointer.h"
+#include "io/gltf_json.h"
 #include "io/scene_json_material.h"
 #include "io/scene_json_texture.h"
 #include "io/scene_json_mesh.h"
@@ -59,7 +59,7 @@ static enum rayd_status imp_fail(struct imp *im, enum rayd_status st) {
 static enum rayd_status item_ref(struct imp *im, const cJSON *oj, const struct jp *at,
                                  const char *key, const cJSON *arr, const char *top, int *out) {
     const cJSON *v = gl_get(oj, key);
-    struct jp p = sj_key(at, key);
+    struct jp p = jp_key(at, key);
     int n = cJSON_IsArray(arr) ? cJSON_GetArraySize(arr) : 0;
     *out = -1;
     if (!v) return RAYD_OK;
@@ -84,7 +84,7 @@ static enum rayd_status item_ref(struct imp *im, const cJSON *oj, const struct j
     }
     char q[96];
     return sj_fail(im->ld, RAYD_E_INVALID, &p, "the glTF has no %s named \"%s\"", top,
-                   sj_quote(q, sizeof q, v->valuestring));
+                   jp_quote(q, sizeof q, v->valuestring));
 }
 
 /* ---- meshes, one per material ------------------------------------------- */
@@ -144,7 +144,7 @@ static enum rayd_status use_material(struct imp *im, const struct gltf_mats *g, 
         g->tex[mat.texture].rgb = NULL; /* the scene owns the texels now */
         mat.texture = t;
     }
-    struct jp pm = sj_key(&im->src, "gltf");
+    struct jp pm = jp_key(&im->src, "gltf");
     if (ld->s->nmats > ld->lim->max_materials)
         return sj_fail(ld, RAYD_E_LIMIT, &pm, "brings the scene past the limit of %d materials",
                        ld->lim->max_materials);
@@ -297,7 +297,7 @@ static enum rayd_status light_of(struct imp *im, const cJSON *lj, const struct j
     if (!cJSON_IsObject(lj)) return sj_fail(ld, RAYD_E_INVALID, pl, "must be an object");
     TRY(sj_check_keys(ld, lj, pl, keys));
     TRY(sj_enum(ld, lj, pl, "type", types, &type));
-    struct jp pt = sj_key(pl, "type"), pi = sj_key(pl, "intensity"), ps = sj_key(pl, "spot");
+    struct jp pt = jp_key(pl, "type"), pi = jp_key(pl, "intensity"), ps = jp_key(pl, "spot");
     if (type < 0)
         return sj_fail(ld, RAYD_E_INVALID, &pt, "is required (point, directional or spot)");
     memset(l, 0, sizeof *l);
@@ -312,7 +312,7 @@ static enum rayd_status light_of(struct imp *im, const cJSON *lj, const struct j
     if (sp && !cJSON_IsObject(sp)) return sj_fail(ld, RAYD_E_INVALID, &ps, "must be an object");
     TRY(sj_num(ld, sp, &ps, "innerConeAngle", 0, 0, false, GLTF_PI / 2, &inner));
     TRY(sj_num(ld, sp, &ps, "outerConeAngle", GLTF_PI / 4, 0, true, GLTF_PI / 2, &outer));
-    struct jp pin = sj_key(&ps, "innerConeAngle");
+    struct jp pin = jp_key(&ps, "innerConeAngle");
     if (inner >= outer)
         return sj_fail(ld, RAYD_E_INVALID, &pin, "must be less than outerConeAngle");
     l->cos_outer = cos(outer);
@@ -343,13 +343,13 @@ static enum rayd_status load_lights(struct imp *im, double scale) {
     const cJSON *lights =
         gl_get(gl_get(gl_get(root, "extensions"), "KHR_lights_punctual"), "lights");
     int nl = cJSON_IsArray(lights) ? cJSON_GetArraySize(lights) : 0, i = 0;
-    struct jp pg = sj_key(&im->src, "gltf"), pn = sj_key(&pg, "nodes");
+    struct jp pg = jp_key(&im->src, "gltf"), pn = jp_key(&pg, "nodes");
     for (const cJSON *n = cJSON_IsArray(nodes) ? nodes->child : NULL; n; n = n->next, i++) {
         const cJSON *ext = gl_get(gl_get(n, "extensions"), "KHR_lights_punctual");
         const double *w = gltf_doc_world(im->doc, i);
         if (!ext || !w) continue;
-        struct jp pi = sj_index(&pn, i), pe = sj_key(&pi, "extensions");
-        struct jp pk = sj_key(&pe, "KHR_lights_punctual"), pl = sj_key(&pk, "light");
+        struct jp pi = jp_index(&pn, i), pe = jp_key(&pi, "extensions");
+        struct jp pk = jp_key(&pe, "KHR_lights_punctual"), pl = jp_key(&pk, "light");
         const cJSON *lv = gl_get(ext, "light");
         if (!cJSON_IsNumber(lv) || !(lv->valuedouble >= 0 && lv->valuedouble < nl) ||
             floor(lv->valuedouble) != lv->valuedouble) {
@@ -362,8 +362,8 @@ static enum rayd_status load_lights(struct imp *im, double scale) {
                            nl - 1);
         }
         int li = (int)lv->valuedouble;
-        struct jp pe2 = sj_key(&pg, "extensions"), pk2 = sj_key(&pe2, "KHR_lights_punctual");
-        struct jp pls = sj_key(&pk2, "lights"), plj = sj_index(&pls, li);
+        struct jp pe2 = jp_key(&pg, "extensions"), pk2 = jp_key(&pe2, "KHR_lights_punctual");
+        struct jp pls = jp_key(&pk2, "lights"), plj = jp_index(&pls, li);
         struct light l;
         TRY(light_of(im, cJSON_GetArrayItem(lights, li), &plj, w, scale, &l));
         TRY(add_light(im->ld, &l, &pl));
@@ -395,7 +395,7 @@ static enum rayd_status set_camera(struct imp *im, const cJSON *cj, const struct
     int type;
     if (!cJSON_IsObject(cj)) return sj_fail(ld, RAYD_E_INVALID, pc, "must be an object");
     TRY(sj_enum(ld, cj, pc, "type", types, &type));
-    struct jp pt = sj_key(pc, "type"), pp = sj_key(pc, type == 1 ? "orthographic" : "perspective");
+    struct jp pt = jp_key(pc, "type"), pp = jp_key(pc, type == 1 ? "orthographic" : "perspective");
     if (type < 0)
         return sj_fail(ld, RAYD_E_INVALID, &pt, "is required (perspective or orthographic)");
     const cJSON *pj = gl_get(cj, type == 1 ? "orthographic" : "perspective");
@@ -409,7 +409,7 @@ static enum rayd_status set_camera(struct imp *im, const cJSON *cj, const struct
     double aperture = cam->aperture, focus = cam->focus, yfov = 0, ymag = 1;
     if (type == 0) TRY(sj_num(ld, pj, &pp, "yfov", -1, 0, true, 179 * GLTF_PI / 180, &yfov));
     if (type == 1) TRY(sj_num(ld, pj, &pp, "ymag", -1, 0, true, NUM_MAX, &ymag));
-    struct jp py = sj_key(&pp, type == 0 ? "yfov" : "ymag");
+    struct jp py = jp_key(&pp, type == 0 ? "yfov" : "ymag");
     if (yfov < 0 || ymag < 0) return sj_fail(ld, RAYD_E_INVALID, &py, "is required");
     const struct render_settings *rs = &ld->s->rs;
     enum rayd_status st =
@@ -417,7 +417,7 @@ static enum rayd_status set_camera(struct imp *im, const cJSON *cj, const struct
                  rs->width, rs->height, ld->err);
     if (st != RAYD_OK) return sj_fail(ld, st, pc, "%s", ld->err->message);
     if (type == 1 && aperture > 0) { /* as a hand-written orthographic camera */
-        struct jp root = {""}, pa = sj_key(&root, "camera"), pap = sj_key(&pa, "aperture");
+        struct jp root = {.s = ""}, pa = jp_key(&root, "camera"), pap = jp_key(&pa, "aperture");
         return sj_fail(
             ld, RAYD_E_INVALID, &pap,
             "must be 0 with the glTF's orthographic camera (a lens needs a perspective)");
@@ -439,14 +439,14 @@ static enum rayd_status load_camera(struct imp *im, const cJSON *oj, const struc
     int c, i = 0;
     TRY(item_ref(im, oj, at, "camera", cams, "cameras", &c));
     if (c < 0) return RAYD_OK;
-    struct jp pc = sj_key(at, "camera");
+    struct jp pc = jp_key(at, "camera");
     TRY(camera_clash(im, &pc));
     for (const cJSON *n = cJSON_IsArray(nodes) ? nodes->child : NULL; n; n = n->next, i++) {
         const cJSON *v = gl_get(n, "camera");
         const double *w = gltf_doc_world(im->doc, i);
         if (!w || !cJSON_IsNumber(v) || v->valuedouble != c) continue;
-        struct jp pg = sj_key(&im->src, "gltf"), pcs = sj_key(&pg, "cameras"),
-                  pci = sj_index(&pcs, c);
+        struct jp pg = jp_key(&im->src, "gltf"), pcs = jp_key(&pg, "cameras"),
+                  pci = jp_index(&pcs, c);
         return set_camera(im, cJSON_GetArrayItem(cams, c), &pci, w);
     }
     return sj_fail(im->ld, RAYD_E_INVALID, &pc, "no node of the glTF scene shows camera %d", c);
@@ -474,7 +474,7 @@ static enum rayd_status load(struct imp *im, const cJSON *oj, const struct jp *a
 enum rayd_status sj_gltf(struct loader *ld, const cJSON *oj, const struct jp *at,
                          const struct xform *x, struct object *o) {
     const cJSON *src = cJSON_GetObjectItemCaseSensitive(oj, "source");
-    struct imp im = {.ld = ld, .src = sj_key(at, "source"), .x = x};
+    struct imp im = {.ld = ld, .src = jp_key(at, "source"), .x = x};
     if (!src)
         return sj_fail(ld, RAYD_E_INVALID, &im.src,
                        "is required (a glTF or GLB file, as a mesh source)");
@@ -486,7 +486,7 @@ enum rayd_status sj_gltf(struct loader *ld, const cJSON *oj, const struct jp *at
     size_t n;
     double t0 = clock_now();
     TRY(sj_source_read(ld, src, &im.src, &format, &owned, &bytes, &n));
-    struct jp pf = sj_key(&im.src, "format");
+    struct jp pf = jp_key(&im.src, "format");
     if (format < 2) {
         free(owned);
         return sj_fail(ld, RAYD_E_INVALID, &pf, "must be \"gltf\" or \"glb\" for a gltf object");

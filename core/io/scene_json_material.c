@@ -34,7 +34,7 @@ static enum rayd_status material(struct loader *ld, const cJSON *m, const struct
     TRY(sj_num(ld, m, at, "metallic", d.metallic, 0, false, 1, &out->metallic));
     const cJSON *tex = cJSON_GetObjectItemCaseSensitive(m, "texture");
     if (tex) {
-        struct jp pt = sj_key(at, "texture");
+        struct jp pt = jp_key(at, "texture");
         TRY(sj_texture(ld, tex, &pt, &out->texture));
     }
     return RAYD_OK;
@@ -62,13 +62,13 @@ enum rayd_status sj_materials(struct loader *ld, const cJSON *root) {
     TRY(sj_add_material(ld, &def, &idx));
     const cJSON *ms = cJSON_GetObjectItemCaseSensitive(root, "materials");
     if (!ms) return RAYD_OK;
-    struct jp at = {"/materials"};
+    struct jp at = {.s = "/materials"};
     TRY(sj_check_keys(ld, ms, &at, NULL));
     if (cJSON_GetArraySize(ms) > ld->lim->max_materials)
         return sj_fail(ld, RAYD_E_LIMIT, &at, "has %d materials; the limit is %d",
                     cJSON_GetArraySize(ms), ld->lim->max_materials);
     for (const cJSON *m = ms->child; m; m = m->next) {
-        struct jp p = sj_key(&at, m->string);
+        struct jp p = jp_key(&at, m->string);
         if (m->string[0] == '\0') return sj_fail(ld, RAYD_E_INVALID, &p, "a material name may not be empty");
         struct material mat;
         TRY(material(ld, m, &p, &mat));
@@ -92,7 +92,7 @@ enum rayd_status sj_object_material(struct loader *ld, const cJSON *obj, const s
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, "material");
     *index = inherit;
     if (!v) return RAYD_OK;
-    struct jp p = sj_key(at, "material");
+    struct jp p = jp_key(at, "material");
     if (cJSON_IsObject(v)) {
         struct material mat;
         if (ld->s->nmats > ld->lim->max_materials)
@@ -113,5 +113,5 @@ enum rayd_status sj_object_material(struct loader *ld, const cJSON *obj, const s
     }
     char q[96];
     return sj_fail(ld, RAYD_E_INVALID, &p, "unknown material \"%s\" (not a key of /materials)",
-                   sj_quote(q, sizeof q, v->valuestring));
+                   jp_quote(q, sizeof q, v->valuestring));
 }

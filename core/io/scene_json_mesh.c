@@ -44,7 +44,7 @@ static enum rayd_status flat_text(struct loader *ld, const struct json_span *sp,
     long i = json_floats(ld->inl->text, sp, 1e30, 0, v, &bad);
     if (i == -1) return RAYD_OK;
     if (i == JSON_NUMBERS_NOMEM) return err_set(ld->err, RAYD_E_NOMEM, p->s, "out of memory");
-    struct jp pe = sj_index(p, (int)i);
+    struct jp pe = jp_index(p, (int)i);
     if (!isfinite(bad)) return sj_fail(ld, RAYD_E_INVALID, &pe, "must be a finite number");
     return sj_fail(ld, RAYD_E_INVALID, &pe, "must be in [-1e30, 1e30]");
 }
@@ -56,7 +56,7 @@ static enum rayd_status get_flat(struct loader *ld, const cJSON *obj, const stru
     *out = NULL;
     *count = 0;
     if (!a) return RAYD_OK;
-    struct jp p = sj_key(at, key);
+    struct jp p = jp_key(at, key);
     if (!cJSON_IsArray(a)) return sj_fail(ld, RAYD_E_INVALID, &p, "must be an array of numbers, not %s", sj_type_name(a));
     const struct json_span *sp = sj_inline_span(ld->inl, a);
     long n = count_items(a, sp);
@@ -94,7 +94,7 @@ static enum rayd_status get_flat(struct loader *ld, const cJSON *obj, const stru
 static enum rayd_status get_indices(struct loader *ld, const cJSON *obj, const struct jp *at,
                                     long nverts, uint32_t **out, long *ntris) {
     const cJSON *a = cJSON_GetObjectItemCaseSensitive(obj, "indices");
-    struct jp p = sj_key(at, "indices");
+    struct jp p = jp_key(at, "indices");
     if (!a) return sj_fail(ld, RAYD_E_INVALID, &p, "is required (3 vertex indices per triangle)");
     if (!cJSON_IsArray(a)) return sj_fail(ld, RAYD_E_INVALID, &p, "must be an array of integers, not %s", sj_type_name(a));
     const struct json_span *sp = sj_inline_span(ld->inl, a);
@@ -109,7 +109,7 @@ static enum rayd_status get_indices(struct loader *ld, const cJSON *obj, const s
     if (i != -1) {
         free(ix);
         if (i == JSON_NUMBERS_NOMEM) return err_set(ld->err, RAYD_E_NOMEM, p.s, "out of memory");
-        struct jp pe = sj_index(&p, (int)i);
+        struct jp pe = jp_index(&p, (int)i);
         return sj_fail(ld, RAYD_E_INVALID, &pe, "must be an integer in 0..%ld (a vertex index)", nverts - 1);
     }
     i = 0;
@@ -117,7 +117,7 @@ static enum rayd_status get_indices(struct loader *ld, const cJSON *obj, const s
         double v = cJSON_IsNumber(e) ? e->valuedouble : -1;
         if (!(v >= 0 && v < (double)nverts && floor(v) == v)) {
             free(ix);
-            struct jp pe = sj_index(&p, (int)i);
+            struct jp pe = jp_index(&p, (int)i);
             return sj_fail(ld, RAYD_E_INVALID, &pe, "must be an integer in 0..%ld (a vertex index)", nverts - 1);
         }
         ix[i] = (uint32_t)v;
@@ -144,11 +144,11 @@ static enum rayd_status gltf_open(void *ctx, const char *name, char **data, size
     char path[2048];
     (void)err; /* sj_read_asset fills the loader's error, the same one */
     if ((size_t)snprintf(path, sizeof path, "%s%s", f->dir, name) >= sizeof path)
-        return sj_fail(f->ld, RAYD_E_INVALID, &(struct jp){""}, "path is too long");
+        return sj_fail(f->ld, RAYD_E_INVALID, &(struct jp){.s = ""}, "path is too long");
     cJSON v = {0};
     v.type = cJSON_String;
     v.valuestring = path;
-    struct jp at = {""};
+    struct jp at = {.s = ""};
     return sj_read_asset(f->ld, &v, &at, data, len);
 }
 
@@ -174,7 +174,7 @@ enum rayd_status sj_gltf_error(struct loader *ld, const struct jp *at, enum rayd
     if (st != RAYD_OK && ld->err) {
         char inner[sizeof ld->err->path];
         snprintf(inner, sizeof inner, "%s", ld->err->path);
-        struct jp pg = sj_key(at, "gltf");
+        struct jp pg = jp_key(at, "gltf");
         size_t n1 = strlen(pg.s) < 120 ? strlen(pg.s) : 120; /* both fit the 256 bytes */
         snprintf(ld->err->path, sizeof ld->err->path, "%.*s%.*s", (int)n1, pg.s, 130, inner);
     }
@@ -213,10 +213,10 @@ enum rayd_status sj_source_read(struct loader *ld, const cJSON *src, const struc
         if (n > 5 && !strcasecmp(file->valuestring + n - 5, ".gltf")) format = 2;
         if (n > 4 && !strcasecmp(file->valuestring + n - 4, ".glb")) format = 3;
     }
-    struct jp pf = sj_key(at, "format");
+    struct jp pf = jp_key(at, "format");
     if (format < 0) return sj_fail(ld, RAYD_E_INVALID, &pf, "is required (\"obj\", \"ply\", \"gltf\" or \"glb\")");
     const cJSON *v = text ? text : b64 ? b64 : file;
-    struct jp pv = sj_key(at, text ? "text" : b64 ? "base64" : "file");
+    struct jp pv = jp_key(at, text ? "text" : b64 ? "base64" : "file");
     char *data = NULL;
     size_t len = 0;
     *fmt_out = format;
@@ -251,7 +251,7 @@ static enum rayd_status load_source(struct loader *ld, const cJSON *src, const s
     const cJSON *text = cJSON_GetObjectItemCaseSensitive(src, "text");
     const cJSON *b64 = cJSON_GetObjectItemCaseSensitive(src, "base64");
     const cJSON *file = cJSON_GetObjectItemCaseSensitive(src, "file");
-    struct jp pv = sj_key(at, text ? "text" : b64 ? "base64" : "file");
+    struct jp pv = jp_key(at, text ? "text" : b64 ? "base64" : "file");
     int format = -1; /* all four set by sj_source_read when it succeeds */
     char *data = NULL;
     const char *bytes = NULL;
@@ -280,10 +280,10 @@ static enum rayd_status mesh_from_source(struct loader *ld, const cJSON *oj, con
     static const char *const inline_keys[] = {"vertices", "indices", "normals", "uvs"};
     for (int k = 0; k < 4; k++) {
         if (!cJSON_GetObjectItemCaseSensitive(oj, inline_keys[k])) continue;
-        struct jp p = sj_key(at, inline_keys[k]);
+        struct jp p = jp_key(at, inline_keys[k]);
         return sj_fail(ld, RAYD_E_INVALID, &p, "cannot be combined with \"source\"");
     }
-    struct jp p = sj_key(at, "source");
+    struct jp p = jp_key(at, "source");
     return load_source(ld, src, &p, md);
 }
 
@@ -294,8 +294,8 @@ static enum rayd_status unit_normals(struct loader *ld, const struct jp *at, flo
         float *v = nrm + 3 * i;
         double len = sqrt((double)v[0] * v[0] + (double)v[1] * v[1] + (double)v[2] * v[2]);
         if (!(len > 0)) {
-            struct jp p = sj_key(at, "normals");
-            struct jp pe = sj_index(&p, (int)(3 * i));
+            struct jp p = jp_key(at, "normals");
+            struct jp pe = jp_index(&p, (int)(3 * i));
             return sj_fail(ld, RAYD_E_INVALID, &pe, "normal %ld must not be a zero-length vector", i);
         }
         for (int k = 0; k < 3; k++) v[k] = (float)(v[k] / len);
@@ -311,7 +311,7 @@ static enum rayd_status mesh_from_inline(struct loader *ld, const cJSON *oj, con
     float *pos = NULL, *nrm = NULL, *uv = NULL;
     uint32_t *ix = NULL;
     long nv = 0, nn = 0, nuv = 0, nt = 0;
-    struct jp p = sj_key(at, "vertices");
+    struct jp p = jp_key(at, "vertices");
     enum rayd_status st = get_flat(ld, oj, at, "vertices", 3, 3, &pos, &nv);
     if (st == RAYD_OK && !pos)
         st = sj_fail(ld, RAYD_E_INVALID, &p, "is required (x, y, z of each vertex, flat)");
@@ -322,7 +322,7 @@ static enum rayd_status mesh_from_inline(struct loader *ld, const cJSON *oj, con
     if (st == RAYD_OK) st = get_flat(ld, oj, at, "normals", 3, 0, &nrm, &nn);
     if (st == RAYD_OK) st = get_flat(ld, oj, at, "uvs", 2, 0, &uv, &nuv);
     if (st == RAYD_OK && ((nrm && nn != nv) || (uv && nuv != nv))) {
-        p = sj_key(at, nrm && nn != nv ? "normals" : "uvs");
+        p = jp_key(at, nrm && nn != nv ? "normals" : "uvs");
         st = sj_fail(ld, RAYD_E_INVALID, &p, "must have one entry per vertex (%ld)", nv);
     }
     if (st == RAYD_OK && nrm) st = unit_normals(ld, at, nrm, nn);
@@ -341,7 +341,7 @@ enum rayd_status sj_mesh(struct loader *ld, const cJSON *oj, const struct jp *at
                                   uint32_t *id) {
     const cJSON *sm = cJSON_GetObjectItemCaseSensitive(oj, "smooth");
     if (sm && !cJSON_IsBool(sm)) {
-        struct jp p = sj_key(at, "smooth");
+        struct jp p = jp_key(at, "smooth");
         return sj_fail(ld, RAYD_E_INVALID, &p, "must be true or false, not %s", sj_type_name(sm));
     }
     bool smooth = !sm || cJSON_IsTrue(sm);

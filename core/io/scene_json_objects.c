@@ -39,7 +39,7 @@ static enum rayd_status transform_step(struct loader *ld, const cJSON *t, const 
     struct xform x = xform_identity();
     const cJSON *mj = cJSON_GetObjectItemCaseSensitive(t, "matrix");
     if (mj) {
-        struct jp p = sj_key(at, "matrix");
+        struct jp p = jp_key(at, "matrix");
         if (cJSON_GetArraySize(t) > 1)
             return sj_fail(ld, RAYD_E_INVALID, &p, "cannot be combined with translate, rotate or scale");
         double rows[16];
@@ -55,7 +55,7 @@ static enum rayd_status transform_step(struct loader *ld, const cJSON *t, const 
     const cJSON *sc = cJSON_GetObjectItemCaseSensitive(t, "scale");
     if (sc) {
         vec3 v;
-        struct jp p = sj_key(at, "scale");
+        struct jp p = jp_key(at, "scale");
         if (cJSON_IsNumber(sc)) {
             double k;
             TRY(sj_num(ld, t, at, "scale", 1, -NUM_MAX, false, NUM_MAX, &k));
@@ -70,7 +70,7 @@ static enum rayd_status transform_step(struct loader *ld, const cJSON *t, const 
     }
     const cJSON *ro = cJSON_GetObjectItemCaseSensitive(t, "rotate");
     if (ro) {
-        struct jp p = sj_key(at, "rotate");
+        struct jp p = jp_key(at, "rotate");
         struct xform k;
         if (cJSON_IsObject(ro)) {
             static const char *const rkeys[] = {"axis", "angle", NULL};
@@ -103,11 +103,11 @@ static enum rayd_status load_transform(struct loader *ld, const cJSON *obj, cons
     *present = false;
     const cJSON *t = cJSON_GetObjectItemCaseSensitive(obj, "transform");
     if (!t) return RAYD_OK;
-    struct jp p = sj_key(at, "transform");
+    struct jp p = jp_key(at, "transform");
     if (cJSON_IsArray(t)) {
         int i = 0;
         for (const cJSON *e = t->child; e; e = e->next, i++) {
-            struct jp pe = sj_index(&p, i);
+            struct jp pe = jp_index(&p, i);
             struct xform step;
             TRY(transform_step(ld, e, &pe, &step));
             *out = xform_then(out, &step);
@@ -147,7 +147,7 @@ static enum rayd_status load_box(struct loader *ld, const cJSON *oj, const struc
         TRY(sj_vec(ld, oj, at, "min", v3(-1, -1, -1), VEC_ANY, &o->u.box.lo));
         TRY(sj_vec(ld, oj, at, "max", v3(1, 1, 1), VEC_ANY, &o->u.box.hi));
         vec3 d = v3_sub(o->u.box.hi, o->u.box.lo);
-        struct jp p = sj_key(at, "max");
+        struct jp p = jp_key(at, "max");
         if (!(d.x > 0 && d.y > 0 && d.z > 0))
             return sj_fail(ld, RAYD_E_INVALID, &p, "must be greater than min in every axis");
         return RAYD_OK;
@@ -155,7 +155,7 @@ static enum rayd_status load_box(struct loader *ld, const cJSON *oj, const struc
     vec3 c, size;
     TRY(sj_vec(ld, oj, at, "center", v3(0, 0, 0), VEC_ANY, &c));
     TRY(sj_vec(ld, oj, at, "size", v3(1, 1, 1), VEC_ANY, &size));
-    struct jp p = sj_key(at, "size");
+    struct jp p = jp_key(at, "size");
     if (!(size.x > 0 && size.y > 0 && size.z > 0))
         return sj_fail(ld, RAYD_E_INVALID, &p, "must be > 0 in every axis");
     o->u.box.lo = v3_madd(c, size, -0.5);
@@ -169,7 +169,7 @@ static enum rayd_status load_cylinder(struct loader *ld, const cJSON *oj, const 
     TRY(sj_vec(ld, oj, at, "base", v3(0, 0, 0), VEC_ANY, &base));
     TRY(sj_vec(ld, oj, at, "top", v3(0, 1, 0), VEC_ANY, &top));
     double h = v3_len(v3_sub(top, base));
-    struct jp p = sj_key(at, "top");
+    struct jp p = jp_key(at, "top");
     if (!(h > 1e-12 * (1 + v3_maxabs(base))))
         return sj_fail(ld, RAYD_E_INVALID, &p, "must differ from base");
     o->u.cyl.base = base;
@@ -178,7 +178,7 @@ static enum rayd_status load_cylinder(struct loader *ld, const cJSON *oj, const 
     if (cone) {
         TRY(sj_num(ld, oj, at, "base_radius", 1, 0, false, NUM_MAX, &o->u.cyl.r0));
         TRY(sj_num(ld, oj, at, "top_radius", 0, 0, false, NUM_MAX, &o->u.cyl.r1));
-        struct jp pr = sj_key(at, "base_radius");
+        struct jp pr = jp_key(at, "base_radius");
         if (!(o->u.cyl.r0 > 0 || o->u.cyl.r1 > 0))
             return sj_fail(ld, RAYD_E_INVALID, &pr, "base_radius or top_radius must be > 0");
     } else {
@@ -195,7 +195,7 @@ static enum rayd_status load_torus(struct loader *ld, const cJSON *oj, const str
     TRY(sj_vec(ld, oj, at, "axis", v3(0, 1, 0), VEC_NONZERO, &axis));
     TRY(positive(ld, oj, at, "major_radius", 1, &o->u.torus.major));
     TRY(positive(ld, oj, at, "minor_radius", 0.25, &o->u.torus.minor));
-    struct jp p = sj_key(at, "minor_radius");
+    struct jp p = jp_key(at, "minor_radius");
     if (o->u.torus.minor > o->u.torus.major)
         return sj_fail(ld, RAYD_E_INVALID, &p, "must be <= major_radius");
     o->u.torus.w = v3_norm(axis);
@@ -206,14 +206,14 @@ static enum rayd_status load_torus(struct loader *ld, const cJSON *oj, const str
 static enum rayd_status load_triangle(struct loader *ld, const cJSON *oj, const struct jp *at,
                                       struct object *o) {
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(oj, "vertices");
-    struct jp p = sj_key(at, "vertices");
+    struct jp p = jp_key(at, "vertices");
     if (!v) return sj_fail(ld, RAYD_E_INVALID, &p, "is required (three [x, y, z] points)");
     if (!cJSON_IsArray(v) || cJSON_GetArraySize(v) != 3)
         return sj_fail(ld, RAYD_E_INVALID, &p, "must be an array of 3 points");
     vec3 pts[3];
     int i = 0;
     for (const cJSON *e = v->child; e; e = e->next, i++) {
-        struct jp pe = sj_index(&p, i);
+        struct jp pe = jp_index(&p, i);
         TRY(sj_vec_value(ld, e, &pe, VEC_ANY, &pts[i]));
     }
     if (!(v3_len(v3_cross(v3_sub(pts[1], pts[0]), v3_sub(pts[2], pts[0]))) > 0))
@@ -229,7 +229,7 @@ static enum rayd_status load_quad(struct loader *ld, const cJSON *oj, const stru
     TRY(sj_vec(ld, oj, at, "corner", v3(-0.5, 0, -0.5), VEC_ANY, &o->u.quad.corner));
     TRY(sj_vec(ld, oj, at, "edge1", v3(1, 0, 0), VEC_NONZERO, &o->u.quad.e1));
     TRY(sj_vec(ld, oj, at, "edge2", v3(0, 0, 1), VEC_NONZERO, &o->u.quad.e2));
-    struct jp p = sj_key(at, "edge2");
+    struct jp p = jp_key(at, "edge2");
     if (!(v3_len(v3_cross(o->u.quad.e1, o->u.quad.e2)) > 1e-12 * v3_len(o->u.quad.e1) * v3_len(o->u.quad.e2)))
         return sj_fail(ld, RAYD_E_INVALID, &p, "must not be parallel to edge1");
     return RAYD_OK;
@@ -238,7 +238,7 @@ static enum rayd_status load_quad(struct loader *ld, const cJSON *oj, const stru
 static enum rayd_status load_quadric(struct loader *ld, const cJSON *oj, const struct jp *at,
                                      struct object *o) {
     const cJSON *k = cJSON_GetObjectItemCaseSensitive(oj, "coefficients");
-    struct jp p = sj_key(at, "coefficients");
+    struct jp p = jp_key(at, "coefficients");
     if (!k || !cJSON_IsArray(k) || cJSON_GetArraySize(k) != 10)
         return sj_fail(ld, RAYD_E_INVALID, &p,
                        "is required: 10 numbers a..j of a x^2 + b y^2 + c z^2 + d xy + e xz + f yz + g x + h y + i z + j");
@@ -268,10 +268,10 @@ static enum rayd_status load_csg(struct loader *ld, const cJSON *oj, const struc
     static const char *const ops[] = {"union", "intersection", "difference", NULL};
     int op;
     TRY(sj_enum(ld, oj, at, "op", ops, &op));
-    struct jp pop = sj_key(at, "op");
+    struct jp pop = jp_key(at, "op");
     if (op < 0) return sj_fail(ld, RAYD_E_INVALID, &pop, "is required (union, intersection or difference)");
     const cJSON *list = cJSON_GetObjectItemCaseSensitive(oj, "operands");
-    struct jp pl = sj_key(at, "operands");
+    struct jp pl = jp_key(at, "operands");
     if (!list || !cJSON_IsArray(list) || cJSON_GetArraySize(list) < 2)
         return sj_fail(ld, RAYD_E_INVALID, &pl, "must be an array of at least 2 objects");
     if (cJSON_GetArraySize(list) > 32)
@@ -281,7 +281,7 @@ static enum rayd_status load_csg(struct loader *ld, const cJSON *oj, const struc
     int32_t left = -1;
     int i = 0;
     for (const cJSON *e = list->child; e; e = e->next, i++) {
-        struct jp pe = sj_index(&pl, i);
+        struct jp pe = jp_index(&pl, i);
         struct object child;
         int32_t idx;
         TRY(load_object(ld, e, &pe, &sub, &child));
@@ -312,7 +312,7 @@ static enum rayd_status load_csg(struct loader *ld, const cJSON *oj, const struc
 static enum rayd_status load_instance(struct loader *ld, const cJSON *oj, const struct jp *at,
                                       struct object *o) {
     const cJSON *g = cJSON_GetObjectItemCaseSensitive(oj, "group");
-    struct jp p = sj_key(at, "group");
+    struct jp p = jp_key(at, "group");
     if (!g || !cJSON_IsString(g)) return sj_fail(ld, RAYD_E_INVALID, &p, "is required: the name of a group in /groups");
     int i = 0;
     for (const cJSON *e = ld->groups ? ld->groups->child : NULL; e; e = e->next, i++) {
@@ -323,7 +323,7 @@ static enum rayd_status load_instance(struct loader *ld, const cJSON *oj, const 
     }
     char q[96];
     return sj_fail(ld, RAYD_E_INVALID, &p, "unknown group \"%s\" (not a key of /groups)",
-                   sj_quote(q, sizeof q, g->valuestring));
+                   jp_quote(q, sizeof q, g->valuestring));
 }
 
 /* ---- objects ----------------------------------------------------------------------- */
@@ -417,10 +417,10 @@ static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const st
     TRY(sj_check_keys(ld, oj, at, kind_keys[kind]));
     const cJSON *name = cJSON_GetObjectItemCaseSensitive(oj, "name");
     if (name && !cJSON_IsString(name)) {
-        struct jp p = sj_key(at, "name");
+        struct jp p = jp_key(at, "name");
         return sj_fail(ld, RAYD_E_INVALID, &p, "must be a string, not %s", sj_type_name(name));
     }
-    struct jp pt = sj_key(at, "type");
+    struct jp pt = jp_key(at, "type");
     if (kind == K_INSTANCE && cx->in_group)
         return sj_fail(ld, RAYD_E_INVALID, &pt, "an instance cannot be inside a group (groups do not nest)");
     if (kind == K_GLTF && (cx->in_group || cx->in_csg))
@@ -436,7 +436,7 @@ static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const st
     if ((kind == K_INSTANCE || kind == K_GLTF) && !has_x) x = xform_identity(), has_x = true;
     /* inside CSG every transform is composed down to the leaves */
     struct xform acc = cx->acc ? xform_then(&x, cx->acc) : x;
-    struct jp ptr = sj_key(at, "transform");
+    struct jp ptr = jp_key(at, "transform");
     if (cx->acc && !xform_sane(&acc))
         return sj_fail(ld, RAYD_E_INVALID, &ptr, "must not scale the object by more than 1e9 or less than 1e-9 (with the CSG nodes above it)");
     struct ctx sub = *cx;
@@ -469,7 +469,7 @@ static enum rayd_status load_list(struct loader *ld, const cJSON *list, const st
     struct ctx cx = {0, NULL, false, in_group};
     int i = 0;
     for (const cJSON *o = list->child; o; o = o->next, i++) {
-        struct jp p = sj_index(at, i);
+        struct jp p = jp_index(at, i);
         TRY(load_object(ld, o, &p, &cx, &(*out)[i]));
         *count = i + 1;
     }
@@ -481,7 +481,7 @@ static enum rayd_status load_list(struct loader *ld, const cJSON *list, const st
 enum rayd_status sj_groups(struct loader *ld, const cJSON *root) {
     const cJSON *gs = cJSON_GetObjectItemCaseSensitive(root, "groups");
     if (!gs) return RAYD_OK;
-    struct jp at = {"/groups"};
+    struct jp at = {.s = "/groups"};
     TRY(sj_check_keys(ld, gs, &at, NULL));
     int n = cJSON_GetArraySize(gs);
     rayd_scene *s = ld->s;
@@ -489,13 +489,13 @@ enum rayd_status sj_groups(struct loader *ld, const cJSON *root) {
     if (!s->groups) return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
     ld->groups = gs;
     for (const cJSON *g = gs->child; g; g = g->next) {
-        struct jp p = sj_key(&at, g->string);
+        struct jp p = jp_key(&at, g->string);
         struct group *gr = &s->groups[s->ngroups++];
         TRY(load_list(ld, g, &p, true, &gr->objs, &gr->nobjs));
         if (gr->nobjs == 0) return sj_fail(ld, RAYD_E_INVALID, &p, "must not be empty");
         for (int32_t i = 0; i < gr->nobjs; i++) {
             struct aabb b;
-            struct jp pi = sj_index(&p, i);
+            struct jp pi = jp_index(&p, i);
             if (!scene_object_bounds(s, &gr->objs[i], &b))
                 return sj_fail(ld, RAYD_E_INVALID, &pi, "unbounded objects (planes, quadrics) cannot be in a group");
         }
@@ -510,6 +510,6 @@ enum rayd_status sj_groups(struct loader *ld, const cJSON *root) {
 enum rayd_status sj_objects(struct loader *ld, const cJSON *root) {
     const cJSON *os = cJSON_GetObjectItemCaseSensitive(root, "objects");
     if (!os) return RAYD_OK;
-    struct jp at = {"/objects"};
+    struct jp at = {.s = "/objects"};
     return load_list(ld, os, &at, false, &ld->s->objs, &ld->s->nobjs);
 }

@@ -34,7 +34,7 @@ static enum rayd_status load_image(struct loader *ld, const cJSON *tj, const str
     if (!!b64 + !!file != 1)
         return sj_fail(ld, RAYD_E_INVALID, at,
                        "an image texture needs exactly one of \"png_base64\" or \"file\"");
-    struct jp p = sj_key(at, b64 ? "png_base64" : "file");
+    struct jp p = jp_key(at, b64 ? "png_base64" : "file");
     char *data = NULL;
     size_t len = 0;
     if (file) {
@@ -93,10 +93,10 @@ enum rayd_status sj_texture(struct loader *ld, const cJSON *tj, const struct jp 
     t.b = v3(0.1, 0.1, 0.1);
     const cJSON *colors = cJSON_GetObjectItemCaseSensitive(tj, "colors");
     if (colors) {
-        struct jp pc = sj_key(at, "colors");
+        struct jp pc = jp_key(at, "colors");
         if (!cJSON_IsArray(colors) || cJSON_GetArraySize(colors) != 2)
             return sj_fail(ld, RAYD_E_INVALID, &pc, "must be an array of 2 colours");
-        struct jp p0 = sj_index(&pc, 0), p1 = sj_index(&pc, 1);
+        struct jp p0 = jp_index(&pc, 0), p1 = jp_index(&pc, 1);
         TRY(sj_vec_value(ld, colors->child, &p0, VEC_COLOR, &t.a));
         TRY(sj_vec_value(ld, colors->child->next, &p1, VEC_COLOR, &t.b));
     }

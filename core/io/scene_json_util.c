@@ -1,7 +1,7 @@
-/* scene_json_util.c -- JSON Pointers and the typed getters of the scene
- * loader.  Each getter reads one key, checks its type and range, and on
- * failure names the value by its JSON Pointer (RFC 6901: "~" and "/" in keys
- * are escaped) with a message that says what is wrong.
+/* scene_json_util.c -- the typed getters of the scene loader.  Each getter
+ * reads one key, checks its type and range, and on failure names the value
+ * by its JSON Pointer (json_pointer.h) with a message that says what is
+ * wrong.
  */
 #define _GNU_SOURCE /* realpath, syscall (openat2) */
 #include <errno.h>
@@ -18,70 +18,6 @@
 
 #include "io/scene_json_util.h"
 #include "base/hugemem.h"
-
-/* Appends the UTF-8 character at *src to dst (capacity cap, length *n)
- * with control characters (and, with quotes, '"' and '\\') escaped as in
- * JSON, so a message stays one line of valid UTF-8.  False (nothing written) when it does not
- * fit. */
-static bool put_char(char *dst, size_t cap, size_t *n, const char **src, bool quotes) {
-    unsigned char c = (unsigned char)**src;
-    char esc[8];
-    size_t len = 1;
-    const char *from = *src;
-    if (c < 0x20 || c == 0x7f) {
-        snprintf(esc, sizeof esc, "\\u%04x", c);
-        from = esc;
-        len = 6;
-    } else if (quotes && (c == '"' || c == '\\')) {
-        esc[0] = '\\';
-        esc[1] = (char)c;
-        from = esc;
-        len = 2;
-    } else if (c >= 0x80) {
-        while ((((unsigned char)(*src)[len]) & 0xC0) == 0x80) len++;
-    }
-    if (*n + len + 4 >= cap) return false; /* keep room for "..." and NUL */
-    memcpy(dst + *n, from, len);
-    *n += len;
-    *src += c >= 0x80 ? len : 1;
-    return true;
-}
-
-const char *sj_quote(char *dst, size_t cap, const char *src) {
-    size_t n = 0;
-    while (*src && put_char(dst, cap, &n, &src, true)) continue;
-    if (*src) memcpy(dst + n, "...", 3), n += 3;
-    dst[n] = '\0';
-    return dst;
-}
-
-struct jp sj_key(const struct jp *parent, const char *key) {
-    struct jp r;
-    size_t n = strlen(parent->s);
-    memcpy(r.s, parent->s, n);
-    r.s[n++] = '/';
-    const char *k = key;
-    while (*k) {
-        if (*k == '~' || *k == '/') { /* RFC 6901 escapes */
-            if (n + 6 >= sizeof r.s) break;
-            r.s[n++] = '~';
-            r.s[n++] = *k++ == '~' ? '0' : '1';
-        } else if (!put_char(r.s, sizeof r.s, &n, &k, false)) {
-            break;
-        }
-    }
-    if (*k) memcpy(r.s + n, "...", 3), n += 3;
-    r.s[n] = '\0';
-    return r;
-}
-
-struct jp sj_index(const struct jp *parent, int i) {
-    struct jp r;
-    size_t n = strlen(parent->s);
-    if (n > sizeof r.s - 16) n = sizeof r.s - 16; /* a parent this long ends in "..." already */
-    snprintf(r.s, sizeof r.s, "%.*s/%d", (int)n, parent->s, i);
-    return r;
-}
 
 const char *sj_type_name(const cJSON *v) {
     if (cJSON_IsNumber(v)) return "a number";
@@ -124,7 +60,7 @@ enum rayd_status sj_check_keys(struct loader *ld, const cJSON *obj, const struct
             strncat(list, *a, sizeof list - strlen(list) - 1);
             if (a[1]) strncat(list, ", ", sizeof list - strlen(list) - 1);
         }
-        struct jp p = sj_key(at, c->string);
+        struct jp p = jp_key(at, c->string);
         return sj_fail(ld, RAYD_E_INVALID, &p, "unknown key (allowed here: %s)", list);
     }
     if (n < 2) return RAYD_OK;
@@ -136,7 +72,7 @@ enum rayd_status sj_check_keys(struct loader *ld, const cJSON *obj, const struct
     for (i = 1; i < n && strcmp(names[i - 1], names[i]) != 0; i++) continue;
     enum rayd_status st = RAYD_OK;
     if (i < n) {
-        struct jp p = sj_key(at, names[i]);
+        struct jp p = jp_key(at, names[i]);
         st = sj_fail(ld, RAYD_E_INVALID, &p, "duplicate key");
     }
     free(names);
@@ -152,7 +88,7 @@ enum rayd_status sj_num(struct loader *ld, const cJSON *obj, const struct jp *at
         *out = def;
         return RAYD_OK;
     }
-    struct jp p = sj_key(at, key);
+    struct jp p = jp_key(at, key);
     if (!cJSON_IsNumber(v))
         return sj_fail(ld, RAYD_E_INVALID, &p, "must be a number, not %s", sj_type_name(v));
     double x = v->valuedouble;
@@ -174,7 +110,7 @@ enum rayd_status sj_int(struct loader *ld, const cJSON *obj, const struct jp *at
         *out = def;
         return RAYD_OK;
     }
-    struct jp p = sj_key(at, key);
+    struct jp p = jp_key(at, key);
     if (!cJSON_IsNumber(v))
         return sj_fail(ld, RAYD_E_INVALID, &p, "must be an integer, not %s", sj_type_name(v));
     double x = v->valuedouble;
@@ -194,7 +130,7 @@ enum rayd_status sj_item_num(struct loader *ld, const cJSON *e, const struct jp 
         *out = e->valuedouble;
         return RAYD_OK;
     }
-    struct jp pe = sj_index(p, i);
+    struct jp pe = jp_index(p, i);
     if (!cJSON_IsNumber(e))
         return sj_fail(ld, RAYD_E_INVALID, &pe, "must be a number, not %s", sj_type_name(e));
     if (!isfinite(e->valuedouble))
@@ -211,7 +147,7 @@ enum rayd_status sj_vec_value(struct loader *ld, const cJSON *v, const struct jp
     for (const cJSON *e = v->child; e && i < 3; e = e->next, i++) {
         TRY(sj_item_num(ld, e, p, i, NUM_MAX, NUM_RANGE, &c[i]));
         if (rule == VEC_COLOR && c[i] < 0) {
-            struct jp pe = sj_index(p, i);
+            struct jp pe = jp_index(p, i);
             return sj_fail(ld, RAYD_E_INVALID, &pe, "must be >= 0");
         }
     }
@@ -228,7 +164,7 @@ enum rayd_status sj_vec(struct loader *ld, const cJSON *obj, const struct jp *at
         *out = def;
         return RAYD_OK;
     }
-    struct jp p = sj_key(at, key);
+    struct jp p = jp_key(at, key);
     return sj_vec_value(ld, v, &p, rule, out);
 }
 
@@ -238,7 +174,7 @@ enum rayd_status sj_vec(struct loader *ld, const cJSON *obj, const struct jp *at
 enum rayd_status sj_enum(struct loader *ld, const cJSON *obj, const struct jp *at,
                                      const char *key, const char *const *types, int *out) {
     const cJSON *t = cJSON_GetObjectItemCaseSensitive(obj, key);
-    struct jp p = sj_key(at, key);
+    struct jp p = jp_key(at, key);
     *out = -1;
     if (!t) return RAYD_OK;
     if (!cJSON_IsString(t))
@@ -254,13 +190,14 @@ enum rayd_status sj_enum(struct loader *ld, const cJSON *obj, const struct jp *a
     }
     char q[96];
     return sj_fail(ld, RAYD_E_INVALID, &p, "unknown %s \"%s\" (supported: %s)",
-                   strcmp(key, "type") == 0 ? "type" : "value", sj_quote(q, sizeof q, t->valuestring), list);
+                   strcmp(key, "type") == 0 ? "type" : "value",
+                   jp_quote(q, sizeof q, t->valuestring), list);
 }
 
 enum rayd_status sj_type(struct loader *ld, const cJSON *obj, const struct jp *at,
                          const char *const *types, int *out) {
     TRY(sj_enum(ld, obj, at, "type", types, out));
-    struct jp p = sj_key(at, "type");
+    struct jp p = jp_key(at, "type");
     if (*out < 0) return sj_fail(ld, RAYD_E_INVALID, &p, "is required");
     return RAYD_OK;
 }
@@ -270,7 +207,7 @@ enum rayd_status sj_bool(struct loader *ld, const cJSON *obj, const struct jp *a
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, key);
     *out = def;
     if (!v) return RAYD_OK;
-    struct jp p = sj_key(at, key);
+    struct jp p = jp_key(at, key);
     if (!cJSON_IsBool(v)) return sj_fail(ld, RAYD_E_INVALID, &p, "must be true or false, not %s", sj_type_name(v));
     *out = cJSON_IsTrue(v);
     return RAYD_OK;
@@ -358,8 +295,11 @@ static enum rayd_status asset_open(struct loader *ld, const char *name, const st
     }
     if (*fd >= 0) return RAYD_OK;
     if (lim->asset_confine && errno == EXDEV) /* RESOLVE_BENEATH's (and the fallback's) refusal */
-        return sj_fail(ld, RAYD_E_INVALID, at, "\"%s\" leads outside the asset directory (a symbolic link)", sj_quote(q, sizeof q, name));
-    return sj_fail(ld, RAYD_E_INVALID, at, "cannot open \"%s\": %s", sj_quote(q, sizeof q, name), strerror(errno));
+        return sj_fail(ld, RAYD_E_INVALID, at,
+                       "\"%s\" leads outside the asset directory (a symbolic link)",
+                       jp_quote(q, sizeof q, name));
+    return sj_fail(ld, RAYD_E_INVALID, at, "cannot open \"%s\": %s", jp_quote(q, sizeof q, name),
+                   strerror(errno));
 }
 
 /* Reads a file named by a scene, under the limits' asset rules. */
@@ -374,7 +314,8 @@ enum rayd_status sj_read_asset(struct loader *ld, const cJSON *f, const struct j
     /* st_size < 0: never; said so the analyzer knows cap > 0 below */
     if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || st.st_size < 0) {
         close(fd);
-        return sj_fail(ld, RAYD_E_INVALID, at, "\"%s\" is not a regular file", sj_quote(q, sizeof q, name));
+        return sj_fail(ld, RAYD_E_INVALID, at, "\"%s\" is not a regular file",
+                       jp_quote(q, sizeof q, name));
     }
     size_t max = ld->lim->max_bytes;
     if ((uintmax_t)st.st_size > (uintmax_t)max) {
@@ -411,7 +352,8 @@ enum rayd_status sj_read_asset(struct loader *ld, const cJSON *f, const struct j
     }
     if (r < 0) {
         free(buf);
-        return sj_fail(ld, RAYD_E_INVALID, at, "cannot read \"%s\": %s", sj_quote(q, sizeof q, name), strerror(rerr));
+        return sj_fail(ld, RAYD_E_INVALID, at, "cannot read \"%s\": %s",
+                       jp_quote(q, sizeof q, name), strerror(rerr));
     }
     *out = buf;
     *len = n;

@@ -29,16 +29,11 @@
 #include "base/array.h"
 #include "base/error.h"
 #include "geom/camera_frame.h"
+#include "io/json_pointer.h"
 #include "scene/scene.h"
 
 #define NUM_MAX 1e9 /* coordinates and sizes: generous but far from overflow */
 #define NUM_RANGE "[-1e9, 1e9]" /* the same, for messages */
-
-/* ---- JSON Pointers ----------------------------------------------------- */
-
-struct jp {
-    char s[256];
-};
 
 /* ---- the loader ---------------------------------------------------------- */
 
@@ -76,11 +71,6 @@ enum vec_rule { VEC_ANY, VEC_NONZERO, VEC_COLOR };
         if (st_ != RAYD_OK) return st_;                                                  \
     } while (0)
 
-/* User text fit for a one-line message: control characters, quotes and
- * backslashes escaped, cut at a character boundary with "..." to fit cap. */
-const char *sj_quote(char *dst, size_t cap, const char *src);
-struct jp sj_key(const struct jp *parent, const char *key);
-struct jp sj_index(const struct jp *parent, int i);
 const char *sj_type_name(const cJSON *v);
 enum rayd_status sj_fail(struct loader *ld, enum rayd_status code, const struct jp *at,
                          const char *fmt, ...) __attribute__((format(printf, 4, 5)));

@@ -269,6 +269,12 @@ case("material-duplicate-name.json", '{"materials": {"red": {}, "blue": {}, "red
      E + "/materials/red: duplicate key")
 case("material-unknown-key.json", '{"materials": {"red": {"glossiness": 0.5}}}\n',
      E + "/materials/red/glossiness: unknown key (allowed here: %s)" % MAT_KEYS)
+# A name longer than a message shows: cut, with the pointer going on after
+# it (a 300-character name once overran the pointer's buffer and crashed).
+case("material-name-long.json", '{"materials": {"' + "m" * 300 + '": {"color": [1, 2, "x"]}}}\n',
+     E + "/materials/" + "m" * 64 + ".../color/2: must be a number, not a string")
+case("material-name-long-slashes.json", '{"materials": {"' + "a/" * 150 + '": {"color": [1, 2, "x"]}}}\n',
+     E + "/materials/" + "a~1" * 21 + "a.../color/2: must be a number, not a string")
 case("material-name-escaped.json", '{"materials": {"a/b~c": {"colour": [1, 0, 0]}}}\n',
      E + "/materials/a~1b~0c/colour: unknown key (allowed here: %s)" % MAT_KEYS)
 case("material-duplicate-key.json", '{"materials": {"red": {"diffuse": 0.5, "diffuse": 0.6}}}\n',
