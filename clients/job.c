@@ -3,8 +3,9 @@
  * POST /v1/jobs answers at once with the job id; the render then runs on
  * the server whether or not anyone watches.  We follow
  * GET /v1/jobs/{id}/events, a Server-Sent Events stream that replays what
- * already happened and then sends one "tile" and one "progress" event per
- * finished 64 x 64 tile and a final "done".  The stream is parsed as it
+ * already happened and then sends, as the render goes, a "tile" event per
+ * finished tile (a progressive job: a "pass" event per finished pass),
+ * "progress" events and a final "done".  The stream is parsed as it
  * arrives (lines, "event:" and "data:" fields, a blank line ends an event)
  * and drives the same progress display as the tile client.  If the stream
  * breaks before "done" (a proxy timeout, a restart), we fall back to polling

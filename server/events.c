@@ -6,12 +6,13 @@
  * job's state first, then one item per finished tile, then the final state
  * -- as plain records; the handler (api_jobs.c) writes them as Server-Sent
  * Events.  A progressive job's stream reports passes instead of tiles: one
- * item per complete pass, in pass order.  When there is nothing new, the reader's waiter is linked to the
- * task and its suspend() runs, both under the lock, so a tile finishing in
- * between cannot be missed; the worker that finishes the next tile answers
- * the waiter (done), and the reader reads again.  An idle stream therefore
- * costs no thread and no polling.  The watcher wakes idle streams every
- * EVENTS_PING seconds so they can send a keep-alive through proxies.
+ * item per complete pass, in pass order.  When there is nothing new, the
+ * reader's waiter is linked to the task and its suspend() runs, both under
+ * the lock, so a tile finishing in between cannot be missed; the worker
+ * that finishes the next tile answers the waiter (done), and the reader
+ * reads again.  An idle stream therefore costs no thread and no polling.  The
+ * watcher wakes idle streams every EVENTS_PING_SECONDS seconds so they can
+ * send a keep-alive through proxies.
  */
 #include "work_private.h"
 
@@ -86,7 +87,7 @@ static int events_news(struct events_stream *s, struct events_item *it, int n,
         s->sent_done = true;
     }
     double now = clock_now();
-    if (k == 0 && !final && s->last_write > 0 && now - s->last_write >= EVENTS_PING)
+    if (k == 0 && !final && s->last_write > 0 && now - s->last_write >= EVENTS_PING_SECONDS)
         it[k++] = (struct events_item){.kind = EVENTS_PING};
     if (k > 0)
         s->last_write = now;

@@ -1,4 +1,5 @@
-/* rcache.c -- an LRU of finished PNGs keyed by scene id and region.
+/* rcache.c -- an LRU of finished results (PNG, 16-bit PNG, EXR, sample
+ * sums) keyed by scene id, region, format and sample range (task_key).
  *
  * Rendering is deterministic: the same scene bytes and the same region give
  * the same PNG on any node, at any time.  So a finished PNG can answer every
@@ -44,8 +45,7 @@ struct blob *rcache_get(const char *key)
     struct rcache_item *it = (struct rcache_item *)lru_find(&rcache_lru, key);
     if (!it)
         return NULL;
-    atomic_fetch_add(&it->png->refs, 1);
-    return it->png;
+    return blob_ref(it->png);
 }
 
 void rcache_put(const char *key, struct blob *png)
@@ -59,8 +59,7 @@ void rcache_put(const char *key, struct blob *png)
     snprintf(it->key, sizeof it->key, "%s", key);
     it->node.key = it->key;
     it->node.bytes = need;
-    it->png = png;
-    atomic_fetch_add(&png->refs, 1);
+    it->png = blob_ref(png);
     lru_insert(&rcache_lru, &it->node);
 }
 

@@ -106,18 +106,19 @@ static bool router_match(const char *pattern, const char *path, char *id, size_t
     return *path == 0;
 }
 
-/* Whether row i serves path (a static file only if it exists). */
-static bool router_row_matches(int i, const char *path)
+/* Whether row i serves path (a static file only if it exists); the id in
+ * the path, if any, into id. */
+static bool router_row_matches(int i, const char *path, char *id, size_t size)
 {
-    char id[80];
-    return router_match(router_table[i].pattern, path, id, sizeof id) &&
+    return router_match(router_table[i].pattern, path, id, size) &&
            (router_table[i].fn != api_web_asset || api_web_exists(id));
 }
 
 int router_find(const char *url)
 {
+    char id[80];
     for (int i = 0; i < ROUTER_N; i++)
-        if (router_row_matches(i, url))
+        if (router_row_matches(i, url, id, sizeof id))
             return router_label(i);
     return -1;
 }
@@ -128,8 +129,7 @@ const char *router_allow(const char *path, char *buf, size_t size)
     size_t n = 0;
     buf[0] = 0;
     for (int i = 0; i < ROUTER_N; i++) {
-        if (!router_match(router_table[i].pattern, path, id, sizeof id) ||
-            (router_table[i].fn == api_web_asset && !api_web_exists(id)))
+        if (!router_row_matches(i, path, id, sizeof id))
             continue;
         const char *m = router_table[i].method;
         if (strstr(buf, m))
@@ -150,8 +150,7 @@ void router_dispatch(struct http_req *r)
     char id[80];
     bool path_known = false;
     for (int i = 0; i < ROUTER_N; i++) {
-        if (!router_match(router_table[i].pattern, r->url, id, sizeof id) ||
-            (router_table[i].fn == api_web_asset && !api_web_exists(id)))
+        if (!router_row_matches(i, r->url, id, sizeof id))
             continue;
         if (!strcmp(router_table[i].method, method)) {
             r->route = router_label(i);

@@ -8,8 +8,9 @@
  * POLLHUP, or EOF on a peek -- and answers such a waiter with "gone"; a
  * task nobody wants any more (no waiter, no job) is cancelled.  The same
  * thread, on the same tick, forgets finished jobs past --job-ttl (jobs.c)
- * and every EVENTS_PING seconds wakes idle event streams so they send a
- * keep-alive comment.  One thread for the three because each is a small
+ * every EVENTS_PING_SECONDS seconds wakes idle event streams so they send a
+ * keep-alive comment, and stops renders that ran past --max-render-seconds
+ * (task_past_deadline).  One thread for the four because each is a small
  * periodic look at the same lists under the same lock.
  */
 #include "work_private.h"
@@ -167,7 +168,7 @@ static void *watch_main(void *arg)
         }
         if (watch_deadlines())
             continue;
-        if (clock_now() - last_ping >= EVENTS_PING) {
+        if (clock_now() - last_ping >= EVENTS_PING_SECONDS) {
             last_ping = clock_now();
             if (watch_ping())
                 continue;

@@ -68,7 +68,7 @@ void scenes_release(struct cache_entry *e);      /* NULL allowed */
 /* Replaces the scene limits derived from the options (before any request). */
 void scenes_set_limits(const struct rayd_limits *lim);
 
-/* ---- sched.c: the pool, synchronous renders, lifecycle ------------------- */
+/* ---- what a render makes --------------------------------------------------- */
 
 /* What a render's bytes are: the 8-bit PNG (every route), or from the
  * linear float image a 16-bit PNG or an OpenEXR (POST /v1/render's
@@ -90,11 +90,13 @@ struct work_target {
 /* Estimated rays of rendering what of scene (rayd_scene_info's
  * rays_per_sample x pixels x samples); any thread. */
 double cost_rays(const rayd_scene *scene, const struct work_target *what);
-/* Those rays as seconds of the whole pool at this node's measured rate
- * (sched.c). */
+
+/* ---- sched.c: the pool, synchronous renders, lifecycle ------------------- */
+
+/* Estimated rays (cost_rays) as seconds of the whole pool at this node's
+ * measured rate. */
 double sched_seconds(double rays);
-/* Estimated seconds of the work queued and running, for the whole pool
- * (sched.c). */
+/* Estimated seconds of the work queued and running, for the whole pool. */
 double sched_backlog(void);
 
 int sched_start(int workers, int queue_cap, int max_jobs);

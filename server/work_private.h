@@ -35,7 +35,7 @@
 
 #define TASK_INTERACTIVE (256L * 256L) /* pixels of a preview or a tile */
 #define TASK_BULK_EVERY 4             /* when both classes wait, bulk gets 1 tile in 4 */
-#define EVENTS_PING 15.0              /* seconds of silence before a keep-alive */
+#define EVENTS_PING_SECONDS 15.0      /* seconds of silence before a keep-alive */
 
 extern pthread_mutex_t work_lock; /* work.c */
 extern pthread_cond_t work_cond;
