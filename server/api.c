@@ -153,8 +153,27 @@ bool api_region_also(struct http_req *r, const rayd_scene *scene, struct rayd_re
     return api_region_q(r, scene, out, &q);
 }
 
-/* ?format= first; else an Accept naming image/x-exr; else the PNG.  An
- * Accept without either is not refused: PNG stays the answer, as before. */
+/* The q of media type type in an Accept header (RFC 9110 12.5.1): 1 when
+ * it is named without one, -1 when it is not named (wildcards are not
+ * counted: they name no preference for EXR). */
+static double api_accept_q(const char *accept, const char *type)
+{
+    size_t tl = strlen(type);
+    for (const char *p = accept; p; p = strchr(p, ',')) {
+        p += strspn(p, ", \t"); /* the next media range */
+        if (strncasecmp(p, type, tl) || (p[tl] && !strchr(" \t;,", p[tl])))
+            continue;
+        const char *end = strchr(p, ','), *qp = strstr(p + tl, "q=");
+        if (!qp || (end && qp > end))
+            return 1;
+        return strtod(qp + 2, NULL);
+    }
+    return -1;
+}
+
+/* ?format= first; else an Accept naming image/x-exr with a q above 0 and
+ * not below image/png's; else the PNG.  An Accept without either is not
+ * refused: PNG stays the answer, as before. */
 static bool api_format_of(struct http_req *r, const struct api_q *q, enum work_format *format)
 {
     static const char *const names[] = {"png", "png16", "exr", "sums"};
@@ -176,7 +195,8 @@ static bool api_format_of(struct http_req *r, const struct api_q *q, enum work_f
         return false;
     }
     const char *accept = http_req_header(r, "Accept");
-    *format = accept && strstr(accept, "image/x-exr") ? WORK_EXR : WORK_PNG;
+    double exr = accept ? api_accept_q(accept, "image/x-exr") : -1;
+    *format = exr > 0 && exr >= api_accept_q(accept, "image/png") ? WORK_EXR : WORK_PNG;
     return true;
 }
 

@@ -71,6 +71,9 @@ static bool api_plan(struct http_req *r, const rayd_scene *scene, struct jobs_pl
                      bool *progressive)
 {
     memset(plan, 0, sizeof *plan);
+    for (int i = 0; api_plan_names[i]; i++)
+        if (http_req_query_count(r, api_plan_names[i]) > 1)
+            return api_plan_bad(r, api_plan_names[i], "given more than once");
     const char *v = http_req_query(r, "progressive");
     *progressive = v && (!strcmp(v, "1") || !strcmp(v, "true"));
     if (v && !*progressive && strcmp(v, "0") && strcmp(v, "false"))
@@ -268,10 +271,17 @@ static void api_jobs_pass_image(struct http_req *r, const char *id, const char *
         return;
     }
     api_job_scene(r, &info);
-    if (!*q || *end || k < 1 || !info.progressive || k > info.passes.total) {
-        http_reply_error(r, 400, "bad_parameter",
-                         "pass: must be a pass number of this progressive job (1..passes)", NULL,
-                         0, 0, "pass");
+    if (http_req_query_count(r, "pass") > 1 || !*q || *end || k < 1 || !info.progressive ||
+        k > info.passes.total) {
+        char msg[120];
+        if (http_req_query_count(r, "pass") > 1)
+            snprintf(msg, sizeof msg, "pass: given more than once");
+        else if (!info.progressive)
+            snprintf(msg, sizeof msg, "pass: only a progressive job has passes");
+        else
+            snprintf(msg, sizeof msg, "pass: must be a pass number of this job, 1..%d",
+                     info.passes.total);
+        http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, "pass");
         return;
     }
     struct blob *png = NULL;

@@ -147,6 +147,25 @@ const char *http_req_query(struct http_req *r, const char *name)
     return f.value;
 }
 
+struct http_req_count {
+    const char *name;
+    int n;
+};
+
+static void http_req_count_cb(void *u, const char *k, const char *v)
+{
+    struct http_req_count *c = u;
+    (void)v;
+    c->n += !strcmp(k, c->name);
+}
+
+int http_req_query_count(struct http_req *r, const char *name)
+{
+    struct http_req_count c = {name, 0};
+    r->io->query_each(r, http_req_count_cb, &c);
+    return c.n;
+}
+
 void http_req_query_each(struct http_req *r, void (*fn)(void *u, const char *k, const char *v),
                          void *u)
 {

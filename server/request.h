@@ -81,7 +81,8 @@ long http_req_suspended(void);          /* requests suspended right now */
 double http_req_last(void);             /* when the latest came (clock_now() time) */
 
 const char *http_req_header(struct http_req *r, const char *name);
-const char *http_req_query(struct http_req *r, const char *name);
+const char *http_req_query(struct http_req *r, const char *name); /* the first, or NULL */
+int http_req_query_count(struct http_req *r, const char *name);   /* how many times given */
 void http_req_query_each(struct http_req *r, void (*fn)(void *u, const char *k, const char *v),
                          void *u);
 int http_req_fd(struct http_req *r);

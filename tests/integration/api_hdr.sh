@@ -28,6 +28,12 @@ for s in path whitted; do
     check "${s}_accept_exr" "status $code, $(header Content-Type)" \
         bash -c "[ $code = 200 ] && cmp -s '$T/body' '$T/$s-ref.exr'"
     check "${s}_accept_vary" "Vary: $(header Vary)" [ "$(header Vary)" = Accept ]
+    # q=0 refuses a type (RFC 9110), and a lower q than image/png's loses to it
+    for acc in 'image/png, image/x-exr;q=0' 'image/x-exr; q=0' 'image/x-exr;q=0.4, image/png;q=0.5'; do
+        code=$(post_json "/v1/render" "$T/$s.json" -H "Accept: $acc")
+        check "${s}_accept_png_${acc//[^a-z0-9]/_}" "status $code, $(header Content-Type)" \
+            bash -c "[ $code = 200 ] && cmp -s '$T/body' '$T/$s-ref.png'"
+    done
     # after the EXR is cached, the plain PNG is still the PNG
     code=$(post_json "/v1/render" "$T/$s.json")
     check "${s}_png_after_exr" "status $code or not the PNG" \

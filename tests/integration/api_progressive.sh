@@ -71,6 +71,14 @@ for n in 3 6; do
     check "prog_step_pass_${n}_equals_plain" "status $code" \
         bash -c "[ $code = 200 ] && cmp -s '$T/body' '$T/ref$n.png'"
 done
+# a pass past the last names the job's own count; one given twice is refused
+code=$(req GET "/v1/jobs/$id/image.png?pass=99")
+check pass_past_last_names_count "status $code $(head -c 200 "$T/body")" \
+    bash -c "[ $code = 400 ] && grep -q 'pass number of this job, 1..3' '$T/body'"
+code=$(req GET "/v1/jobs/$id/image.png?pass=1&pass=2")
+check pass_twice_400 "status $code $(head -c 200 "$T/body")" \
+    bash -c "[ $code = 400 ] && grep -q 'pass: given more than once' '$T/body'"
+
 
 # --- held by the gate: the latest pass while running, then a client stop ---------------
 gate 0
@@ -123,9 +131,14 @@ check plain_job_stop_409 "status $code" err_is "$T/body" 409 not_progressive
 bad_option() { [ "$1" = 400 ] && [ "$(json "$T/body" 'j["error"]["parameter"]')" = "$2" ]; }
 for q in "progressive=2:progressive" "pass_step=2:pass_step" "progressive=1&pass_step=0.5:pass_step" \
     "progressive=1&pass_step=-1:pass_step" "progressive=1&noise_target=2:noise_target" \
-    "progressive=1&time_budget=abc:time_budget" "progressive=1&colour=red:colour"; do
+    "progressive=1&time_budget=abc:time_budget" "progressive=1&colour=red:colour" \
+    "progressive=1&noise_target=0.5&noise_target=abc:noise_target" \
+    "progressive=1&pass_step=2&pass_step=3:pass_step" "progressive=1&progressive=1:progressive"; do
     code=$(post_json "/v1/jobs?${q%%:*}" "$T/p8.json")
     check "bad_option_${q%%:*}" "status $code $(head -c 200 "$T/body")" bad_option "$code" "${q##*:}"
+    case $q in *"${q##*:}="*"${q##*:}="*)
+        check "bad_option_twice_${q##*:}" "$(head -c 200 "$T/body")" grep -q 'given more than once' "$T/body" ;;
+    esac
 done
 scene "$T/p100.json" 64 64 100 cornell
 code=$(post_json "/v1/jobs?progressive=1&pass_step=1" "$T/p100.json")
