@@ -217,7 +217,8 @@ static cJSON *api_job_json(const char *id, const struct jobs_info *in)
         cJSON *err = cJSON_AddObjectToObject(o, "error");
         cJSON_AddStringToObject(err, "code", rayd_status_name(in->err.code));
         cJSON_AddStringToObject(err, "message", in->err.message);
-        cJSON_AddStringToObject(err, "path", in->err.path);
+        if (in->err.path[0]) /* as every error: a path only when about one value */
+            cJSON_AddStringToObject(err, "path", in->err.path);
     }
     return o;
 }

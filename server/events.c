@@ -6,13 +6,15 @@
  * job's state first, then one item per finished tile, then the final state
  * -- as plain records; the handler (api_jobs.c) writes them as Server-Sent
  * Events.  A progressive job's stream reports passes instead of tiles: one
- * item per complete pass, in pass order.  When there is nothing new, the
- * reader's waiter is linked to the task and its suspend() runs, both under
- * the lock, so a tile finishing in between cannot be missed; the worker
- * that finishes the next tile answers the waiter (done), and the reader
- * reads again.  An idle stream therefore costs no thread and no polling.  The
- * watcher wakes idle streams every EVENTS_PING_SECONDS seconds so they can
- * send a keep-alive through proxies.
+ * item per complete pass, in pass order.  A cancelled or failed job's
+ * stream, too, reports every tile (or pass) that was finished, then its
+ * final state.  When there is nothing new, the reader's waiter is linked to
+ * the task and its suspend() runs, both under the lock, so a tile finishing
+ * in between cannot be missed; the worker that finishes the next tile
+ * answers the waiter (done), and the reader reads again.  An idle stream
+ * therefore costs no thread and no polling.  The watcher wakes idle streams
+ * every EVENTS_PING_SECONDS seconds so they can send a keep-alive through
+ * proxies.
  */
 #include "work_private.h"
 
@@ -56,7 +58,7 @@ static int events_news(struct events_stream *s, struct events_item *it, int n,
         s->started = true;
     }
     const struct passes *p = t->passes;
-    while (p && s->cursor < p->done && !j->canceled && k < n) {
+    while (p && s->cursor < p->done && k < n) {
         int c = s->cursor++;
         it[k++] = (struct events_item){.kind = EVENTS_PASS,
                                        .done = s->cursor,
@@ -66,7 +68,7 @@ static int events_news(struct events_stream *s, struct events_item *it, int n,
                                        .noise = p->noise[c],
                                        .progress = passes_progress(p, s->cursor, 0)};
     }
-    while (!p && s->cursor < t->done && !j->canceled && k < n) {
+    while (!p && s->cursor < t->done && k < n) {
         s->cursor++;
         it[k++] = (struct events_item){.kind = EVENTS_TILE,
                                        .tile = task_tile(t, t->order[s->cursor - 1]),

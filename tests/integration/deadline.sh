@@ -19,6 +19,10 @@ wait_until 60 job_state_is "$id" failed
 check deadline_job_fails "state $(jfield "$T/body" state): $(head -c 300 "$T/body")" \
     bash -c "grep -q '\"state\":\"failed\"' '$T/body' && grep -q 'max-render-seconds' '$T/body'"
 check deadline_job_one_tile "$(jfield "$T/body" tiles_done) tiles done" job_is "$id" tiles_done 1
+req GET "/v1/jobs/$id" >/dev/null
+ecode=$(json "$T/body" 'j["error"]["code"]')
+check deadline_error_no_path "$(head -c 400 "$T/body")" \
+    bash -c "[ '$ecode' = too_large ] && ! grep -q '\"path\"' '$T/body'"
 check deadline_counted "$(metric 'rayd_canceled_total{reason="deadline"}')" \
     metric_is 'rayd_canceled_total{reason="deadline"}' 1
 

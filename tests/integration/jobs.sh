@@ -96,6 +96,10 @@ code=$(req GET "/v1/jobs/$id3/image.png")
 check job_canceled_image_409 "status $code" err_is "$T/body" 409 job_canceled
 wait $ssepid
 check sse_done_canceled "$(tail -c 200 "$T/sse3.txt")" bash -c "grep -A1 '^event: done' '$T/sse3.txt' | grep -q canceled"
+# a stream opened after the cancel replays the two tiles that were done, then done
+curl -s -N -m 10 "$URL/v1/jobs/$id3/events" >"$T/sse3b.txt"
+check sse_replay_after_cancel "$(head -c 400 "$T/sse3b.txt")" \
+    bash -c "[ \$(grep -c '^event: tile' '$T/sse3b.txt') = 2 ] && grep -A1 '^event: done' '$T/sse3b.txt' | grep -q canceled"
 code=$(req DELETE "/v1/jobs/$id3")
 check job_delete_twice "status $code" [ "$code" = 200 ]
 
