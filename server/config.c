@@ -112,6 +112,8 @@ static const struct config_option config_table[] = {
 
 #define CONFIG_N (sizeof config_table / sizeof config_table[0])
 
+/* Sets o from val; a bad value is reported under from (an environment
+ * variable's name) or, NULL, the option's own --name. */
 static int config_set(const struct config_option *o, const char *val, const char *from)
 {
     if (o->type == CT_STRING) {
@@ -124,8 +126,10 @@ static int config_set(const struct config_option *o, const char *val, const char
     errno = 0;
     long v = strtol(val, &end, 10);
     if (errno || end == val || *end || v < o->min || v > o->max) {
-        fprintf(stderr, "rayd: error: %s: bad value '%s' for %s (an integer in %ld..%ld)\n", from, val,
-                o->name, o->min, o->max);
+        char flag[64];
+        snprintf(flag, sizeof flag, "--%s", o->name);
+        fprintf(stderr, "rayd: error: %s takes an integer in %ld..%ld, not '%s'\n",
+                from ? from : flag, o->min, o->max, val);
         return -1;
     }
     *(long *)o->ptr = v;
@@ -227,7 +231,7 @@ static int config_args(int argc, char **argv)
             printf("rayd %s\n", RAYD_VERSION);
             return CONFIG_DONE;
         }
-        if (config_set(&config_table[opt - CONFIG_OPT0], optarg, "command line"))
+        if (config_set(&config_table[opt - CONFIG_OPT0], optarg, NULL))
             return CONFIG_USAGE;
     }
     if (optind < argc) {
@@ -349,7 +353,7 @@ static int config_log_level(void)
 int config_load(int argc, char **argv)
 {
     for (size_t i = 0; i < CONFIG_N; i++)
-        if (config_table[i].def && config_set(&config_table[i], config_table[i].def, "default"))
+        if (config_table[i].def && config_set(&config_table[i], config_table[i].def, NULL))
             return CONFIG_USAGE;
     for (size_t i = 0; i < CONFIG_N; i++) {
         const char *v = getenv(config_table[i].env);

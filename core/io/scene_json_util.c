@@ -114,8 +114,9 @@ enum rayd_status sj_int(struct loader *ld, const cJSON *obj, const struct jp *at
     if (!cJSON_IsNumber(v))
         return sj_fail(ld, RAYD_E_INVALID, &p, "must be an integer, not %s", sj_type_name(v));
     double x = v->valuedouble;
-    if (!isfinite(x) || floor(x) != x)
-        return sj_fail(ld, RAYD_E_INVALID, &p, "must be an integer");
+    if (!isfinite(x)) return sj_fail(ld, RAYD_E_INVALID, &p, "must be a finite number");
+    if (floor(x) != x) return sj_fail(ld, RAYD_E_INVALID, &p, "must be an integer");
+    if (lo == hi && x != (double)lo) return sj_fail(ld, RAYD_E_INVALID, &p, "must be %ld", lo);
     if (x < (double)lo) return sj_fail(ld, RAYD_E_INVALID, &p, "must be >= %ld", lo);
     if (x > (double)hi)
         return sj_fail(ld, hi_is_limit ? RAYD_E_LIMIT : RAYD_E_INVALID, &p,

@@ -169,8 +169,8 @@ case("materials-null.json", '{"materials": null}\n', E + "/materials: must be an
 case("lights-null.json", '{"lights": null}\n', E + "/lights: must be an array, not null")
 case("objects-string.json", '{"objects": "sphere"}\n', E + "/objects: must be an array, not a string")
 case("camera-array.json", '{"camera": [0, 1, 6]}\n', E + "/camera: must be an object, not an array")
-case("version-2.json", '{"version": 2}\n', E + "/version: must be <= 1")
-case("version-0.json", '{"version": 0}\n', E + "/version: must be >= 1")
+case("version-2.json", '{"version": 2}\n', E + "/version: must be 1")
+case("version-0.json", '{"version": 0}\n', E + "/version: must be 1")
 case("version-string.json", '{"version": "1"}\n', E + "/version: must be an integer, not a string")
 case("version-fraction.json", '{"version": 1.5}\n', E + "/version: must be an integer")
 
@@ -190,7 +190,7 @@ case("width-null.json", '{"render": {"width": null}}\n', E + "/render/width: mus
 case("width-over-limit.json", '{"render": {"width": 16385, "height": 1}}\n',
      E + "/render/width: must be <= 16384 (the limit)")
 case("width-huge.json", '{"render": {"width": 1e300}}\n', E + "/render/width: must be <= 16384 (the limit)")
-case("width-non-finite.json", '{"render": {"width": 1e999}}\n', E + "/render/width: must be an integer")
+case("width-non-finite.json", '{"render": {"width": 1e999}}\n', E + "/render/width: must be a finite number")
 case("height-zero.json", '{"render": {"height": 0}}\n', E + "/render/height: must be >= 1")
 case("height-over-limit.json", '{"render": {"width": 1, "height": 16385}}\n',
      E + "/render/height: must be <= 16384 (the limit)")

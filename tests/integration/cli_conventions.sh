@@ -116,6 +116,13 @@ check rayd_bad_bind_usage_exit_2 "exit $RC, stderr '$(first_err badbind)'" bash 
     '[ "$1" = 2 ] && [ "$(head -n 1 "$2")" = "$3" ] && [ "$(tail -n 1 "$2")" = "$4" ]' _ "$RC" \
     "$T/badbind.err" "rayd: error: --bind must be an IPv4 or IPv6 address or localhost, not '999.1.1.1'" \
     "Try 'rayd --help'."
+run badport "$RAYD" --port 70000
+check rayd_bad_port_names_flag "exit $RC, stderr '$(first_err badport)'" bash -c \
+    '[ "$1" = 2 ] && [ "$(head -n 1 "$2")" = "$3" ]' _ "$RC" \
+    "$T/badport.err" "rayd: error: --port takes an integer in 0..65535, not '70000'"
+RAYD_PORT=x run badenv "$RAYD" --port 0
+check rayd_bad_env_names_variable "exit $RC, stderr '$(first_err badenv)'" bash -c \
+    '[ "$1" = 2 ] && grep -q "^rayd: error: RAYD_PORT takes an integer in 0..65535, not .x.$" "$2"' _ "$RC" "$T/badenv.err"
 stop_rayd
 start_rayd --bind localhost --threads 1 # start_rayd wants 'listening on http://127.0.0.1:PORT'
 code=$(req GET /healthz)

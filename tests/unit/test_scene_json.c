@@ -102,7 +102,7 @@ static void test_errors_name_the_path(void) {
     expect("{\"render\": {\"width\": 10, \"width\": 20}}", RAYD_E_INVALID, "/render/width",
            "duplicate key");
     expect("[1, 2]", RAYD_E_INVALID, "", "must be a JSON object");
-    expect("{\"version\": 2}", RAYD_E_INVALID, "/version", "must be <= 1");
+    expect("{\"version\": 2}", RAYD_E_INVALID, "/version", "must be 1");
 }
 
 static void test_malformed_json_has_line_and_column(void) {
