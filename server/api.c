@@ -306,7 +306,8 @@ void api_refused(struct http_req *r, enum work_submit why)
      * the tasks in it; a drain, when this server is gone and another one
      * answers. */
     if (why == WORK_FULL || why == WORK_TOO_MANY_JOBS)
-        r->retry_after = api_retry_after(st.backlog_s / (double)(st.queued > 0 ? st.queued : 1));
+        r->retry_after =
+            api_cost_retry_after(st.backlog_s / (double)(st.queued > 0 ? st.queued : 1));
     switch (why) {
     case WORK_FULL:
         metrics_reject(MR_QUEUE_FULL);

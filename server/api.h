@@ -47,16 +47,16 @@ struct api_price {
     double rays, seconds; /* estimated (cost.c) */
 };
 /* The client r comes from (--client-header, else the peer address), hashed. */
-uint64_t api_client(struct http_req *r);
+uint64_t api_cost_client(struct http_req *r);
 /* Sets what->client and prices what; false after replying 413 over_budget
  * when over --max-work, or (unless progressive) far past
  * --max-render-seconds. */
-bool api_admit(struct http_req *r, const rayd_scene *scene, struct work_target *what,
-               bool progressive, struct api_price *out);
+bool api_cost_admit(struct http_req *r, const rayd_scene *scene, struct work_target *what,
+                    bool progressive, struct api_price *out);
 /* X-Rayd-Estimated-Rays and X-Rayd-Estimated-Seconds on r's reply. */
-void api_price_headers(struct http_req *r, const struct api_price *p);
+void api_cost_price_headers(struct http_req *r, const struct api_price *p);
 /* A Retry-After for a wait of about `seconds`: 1 to 600. */
-int api_retry_after(double seconds);
+int api_cost_retry_after(double seconds);
 
 /* ---- the routes ----------------------------------------------------------------- */
 

@@ -32,7 +32,7 @@
 
 #define API_DEADLINE_SLACK 4.0
 
-static uint64_t api_fnv(const void *p, size_t n)
+static uint64_t api_cost_fnv(const void *p, size_t n)
 {
     const unsigned char *b = p;
     uint64_t h = 0xcbf29ce484222325ull;
@@ -41,24 +41,24 @@ static uint64_t api_fnv(const void *p, size_t n)
     return h;
 }
 
-uint64_t api_client(struct http_req *r)
+uint64_t api_cost_client(struct http_req *r)
 {
     const char *v = config.client_header ? http_req_header(r, config.client_header) : NULL;
     if (v && *v)
-        return api_fnv(v, strlen(v));
+        return api_cost_fnv(v, strlen(v));
     struct sockaddr_storage ss;
     socklen_t len = sizeof ss;
     int fd = http_req_fd(r);
     if (fd < 0 || getpeername(fd, (struct sockaddr *)&ss, &len) != 0)
         return 0;
     if (ss.ss_family == AF_INET)
-        return api_fnv(&((struct sockaddr_in *)&ss)->sin_addr, sizeof(struct in_addr));
+        return api_cost_fnv(&((struct sockaddr_in *)&ss)->sin_addr, sizeof(struct in_addr));
     if (ss.ss_family == AF_INET6) /* a /64 is one host's: it could mint addresses */
-        return api_fnv(&((struct sockaddr_in6 *)&ss)->sin6_addr, 8);
+        return api_cost_fnv(&((struct sockaddr_in6 *)&ss)->sin6_addr, 8);
     return 0;
 }
 
-static void api_over_budget(struct http_req *r, const struct api_price *p, const char *limit)
+static void api_cost_over_budget(struct http_req *r, const struct api_price *p, const char *limit)
 {
     char msg[320];
     snprintf(msg, sizeof msg,
@@ -69,17 +69,17 @@ static void api_over_budget(struct http_req *r, const struct api_price *p, const
     http_reply_error(r, 413, "over_budget", msg, NULL, 0, 0, NULL);
 }
 
-bool api_admit(struct http_req *r, const rayd_scene *scene, struct work_target *what,
-               bool progressive, struct api_price *out)
+bool api_cost_admit(struct http_req *r, const rayd_scene *scene, struct work_target *what,
+                    bool progressive, struct api_price *out)
 {
-    what->client = api_client(r);
+    what->client = api_cost_client(r);
     out->rays = cost_rays(scene, what);
     out->seconds = sched_seconds(out->rays);
     char limit[160];
     if (config.max_work > 0 && out->rays > (double)config.max_work) {
         snprintf(limit, sizeof limit, "the server's budget of %ld rays (--max-work)",
                  config.max_work);
-        api_over_budget(r, out, limit);
+        api_cost_over_budget(r, out, limit);
         return false;
     }
     double deadline = (double)config.max_render_seconds;
@@ -87,13 +87,13 @@ bool api_admit(struct http_req *r, const rayd_scene *scene, struct work_target *
         snprintf(limit, sizeof limit,
                  "%.0f times the server's limit of %ld s a render (--max-render-seconds)",
                  API_DEADLINE_SLACK, config.max_render_seconds);
-        api_over_budget(r, out, limit);
+        api_cost_over_budget(r, out, limit);
         return false;
     }
     return true;
 }
 
-void api_price_headers(struct http_req *r, const struct api_price *p)
+void api_cost_price_headers(struct http_req *r, const struct api_price *p)
 {
     char v[32];
     snprintf(v, sizeof v, "%.0f", p->rays);
@@ -102,7 +102,7 @@ void api_price_headers(struct http_req *r, const struct api_price *p)
     http_reply_header(r, "X-Rayd-Estimated-Seconds", v);
 }
 
-int api_retry_after(double seconds)
+int api_cost_retry_after(double seconds)
 {
     if (!(seconds >= 1))
         return 1;

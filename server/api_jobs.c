@@ -123,7 +123,7 @@ void api_jobs_post(struct http_req *r, const char *unused)
     enum work_submit s;
     if (!api_region_also(r, cache_scene(e), &what.reg, api_plan_names) ||
         !api_plan(r, cache_scene(e), &plan, &progressive) ||
-        !api_admit(r, cache_scene(e), &what, progressive, &price)) {
+        !api_cost_admit(r, cache_scene(e), &what, progressive, &price)) {
         /* replied */
     } else if ((s = jobs_create(e, &what, progressive ? &plan : NULL, id)) != WORK_OK) {
         api_refused(r, s);
@@ -142,7 +142,7 @@ void api_jobs_post(struct http_req *r, const char *unused)
         http_reply_json(r, 202, o);
         api_job_url(url, sizeof url, id, "");
         http_reply_header(r, "Location", url);
-        api_price_headers(r, &price);
+        api_cost_price_headers(r, &price);
     }
     scenes_release(e);
 }

@@ -41,7 +41,7 @@ static void api_render_reply(struct http_req *r, struct blob *img, enum work_for
 {
     http_reply_image(r, 200, img, api_format_type(format));
     http_reply_cache_headers(r);
-    api_price_headers(r, price);
+    api_cost_price_headers(r, price);
     if (r->route_negotiates)
         http_reply_vary(r, "Accept");
 }
@@ -82,7 +82,7 @@ static void api_render_submit(struct http_req *r, struct cache_entry *scene,
 {
     enum work_format format = what->format;
     struct api_price price;
-    if (!api_admit(r, cache_scene(scene), what, false, &price))
+    if (!api_cost_admit(r, cache_scene(scene), what, false, &price))
         return;
     struct api_render_wait *a = calloc(1, sizeof *a);
     if (!a) {

@@ -75,6 +75,21 @@ static enum rayd_status sched_encode_as(struct task *t, void **buf, size_t *len,
     return rayd_png_encode(t->img, (int)config.png_level, buf, len, err);
 }
 
+/* An encoder's bytes (buf, len bytes, when *st is RAYD_OK) kept as a
+ * blob; NULL when *st was not RAYD_OK, or when there is no memory for the
+ * blob: then *st and err say so (what names the bytes).  Lock not held. */
+static struct blob *sched_keep(enum rayd_status *st, void *buf, size_t len, struct rayd_error *err,
+                               const char *what)
+{
+    struct blob *b = *st == RAYD_OK ? blob_new(buf, len) : NULL;
+    if (*st == RAYD_OK && !b) {
+        rayd_free(buf);
+        *st = RAYD_E_NOMEM;
+        snprintf(err->message, sizeof err->message, "out of memory keeping %s", what);
+    }
+    return b;
+}
+
 /* Encodes t's PNG (every core: png_encode.c's bands), lock released;
  * returns with the lock held.  The tiles' and the encoding's times go to
  * the stage metrics. */
@@ -88,13 +103,10 @@ static void sched_encode(struct task *t)
     enum rayd_status st = sched_encode_as(t, &buf, &len, &err);
     double enc = clock_now() - t0;
     metrics_stage(MS_ENCODE, enc);
+    struct blob *png = sched_keep(&st, buf, len, &err, "the PNG");
     pthread_mutex_lock(&work_lock);
     t->encode_s = enc;
-    if (st == RAYD_OK && !(t->png = blob_new(buf, len))) {
-        rayd_free(buf);
-        st = RAYD_E_NOMEM;
-        snprintf(err.message, sizeof err.message, "out of memory keeping the PNG");
-    }
+    t->png = png;
     if (st != RAYD_OK)
         task_fail(t, st, &err);
 }
@@ -130,12 +142,7 @@ static bool sched_pass_close(struct task *t, struct task_notify *sse)
     size_t len = 0;
     struct rayd_error err = {0};
     enum rayd_status st = rayd_png_encode(t->img, (int)config.png_level, &buf, &len, &err);
-    struct blob *png = st == RAYD_OK ? blob_new(buf, len) : NULL;
-    if (st == RAYD_OK && !png) {
-        rayd_free(buf);
-        st = RAYD_E_NOMEM;
-        snprintf(err.message, sizeof err.message, "out of memory keeping the pass's PNG");
-    }
+    struct blob *png = sched_keep(&st, buf, len, &err, "the pass's PNG");
     pthread_mutex_lock(&work_lock);
     if (st != RAYD_OK) {
         task_fail(t, st, &err);
