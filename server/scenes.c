@@ -114,25 +114,27 @@ void scenes_release(struct cache_entry *e)
     pthread_mutex_unlock(&work_lock);
 }
 
-/* ---- the caches' gauges, registered with metrics.c ----------------------- */
+/* ---- both caches' gauges, registered with metrics.c --------------------- */
 
-static long scenes_read(bool result, bool bytes)
+/* The bytes (or, bytes false, the entries) of the cache whose stats
+ * function is given (cache.c's or rcache.c's), read under the lock that
+ * both files leave to their callers. */
+static long scenes_size(void (*stats)(size_t *bytes, size_t *entries), bool bytes)
 {
     size_t b, n;
     pthread_mutex_lock(&work_lock);
-    if (result)
-        rcache_stats(&b, &n);
-    else
-        cache_stats(&b, &n);
+    stats(&b, &n);
     pthread_mutex_unlock(&work_lock);
     return (long)(bytes ? b : n);
 }
 
-static long scenes_gauge_bytes(void) { return scenes_read(false, true); }
-static long scenes_gauge_entries(void) { return scenes_read(false, false); }
-static long scenes_gauge_rbytes(void) { return scenes_read(true, true); }
-static long scenes_gauge_rentries(void) { return scenes_read(true, false); }
+static long scenes_gauge_bytes(void) { return scenes_size(cache_stats, true); }
+static long scenes_gauge_entries(void) { return scenes_size(cache_stats, false); }
+static long scenes_gauge_rbytes(void) { return scenes_size(rcache_stats, true); }
+static long scenes_gauge_rentries(void) { return scenes_size(rcache_stats, false); }
 
+/* Sizes the scene cache and the result cache and registers their gauges:
+ * here, because this file is where the caches meet the lock. */
 void scenes_start(void)
 {
     cache_init((size_t)config.cache_mb * 1024 * 1024);

@@ -82,7 +82,7 @@ void rcache_free_all(void);
 
 /* ---- scenes.c ---------------------------------------------------------------- */
 
-void scenes_start(void); /* registers the cache gauges */
+void scenes_start(void); /* sizes both caches, registers their gauges */
 
 /* ---- cost.c (lock held but for cost_rays, cost_tile) ------------------------ */
 
