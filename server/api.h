@@ -1,14 +1,17 @@
 /* api.h -- the handlers: one function per route, and what they share.
  *
  * Layer: handlers (api.c and api_cost.c, shared; api_render.c, api_jobs.c,
- * api_health.c, api_test.c, api_web.c).  A handler validates the request, submits work
- * and shapes the reply; it never renders and never blocks.
+ * api_events.c, api_health.c, api_test.c, api_web.c).  A handler validates
+ * the request, submits work and shapes the reply; it never renders and
+ * never blocks.
  * May include: request.h (read the request, reply), work.h (scenes,
  * renders, jobs, events), base.h, cJSON and libmicrohttpd's response API.
  * Included by router.c (the table) and the fuzz harnesses.
  */
 #ifndef RAYD_SERVER_API_H
 #define RAYD_SERVER_API_H
+
+#include <cjson/cJSON.h>
 
 #include "request.h"
 #include "work.h"
@@ -66,9 +69,16 @@ void api_scenes_image(struct http_req *r, const char *id);
 void api_jobs_post(struct http_req *r, const char *id);
 void api_jobs_get(struct http_req *r, const char *id);
 void api_jobs_image(struct http_req *r, const char *id);
-void api_jobs_events(struct http_req *r, const char *id);
 void api_jobs_delete(struct http_req *r, const char *id);
 void api_jobs_stop(struct http_req *r, const char *id);
+/* api_jobs.c's pieces the event stream shares: 404 job_unknown, and a
+ * pass's noise and image URL in a JSON object. */
+void api_jobs_unknown(struct http_req *r);
+void api_jobs_add_noise(cJSON *o, double noise);
+void api_jobs_add_pass_url(cJSON *o, const char *id, int k);
+
+/* api_events.c */
+void api_events_get(struct http_req *r, const char *id);
 void api_health_live(struct http_req *r, const char *id);
 void api_health_ready(struct http_req *r, const char *id);
 void api_health_metrics(struct http_req *r, const char *id);
