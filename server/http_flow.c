@@ -235,7 +235,7 @@ void http_flow_end(struct http_req *r, const char *note)
             note = "client_gone";
     }
     metrics_request(r->route, r->method, status, total);
-    if (r->is_png && r->t_sent > 0 && status == 200)
+    if (r->is_image && r->t_sent > 0 && status == 200)
         metrics_stage(MS_SEND, clock_now() - r->t_sent);
     struct log_access a = {
         .client = r->client,

@@ -145,7 +145,7 @@ void http_reply_image(struct http_req *r, unsigned status, struct blob *png, con
     }
     MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, type);
     r->bytes = png->len;
-    r->is_png = true;
+    r->is_image = true;
     http_reply(r, status, resp);
 }
 

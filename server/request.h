@@ -52,7 +52,7 @@ struct http_req {
     size_t bytes;                /* response body size */
     double t0, queue_ms, render_ms, encode_ms; /* the handler fills the last three */
     double t_sent;               /* when the response was handed to libmicrohttpd */
-    bool is_png;                 /* the response is an image (its send is a stage) */
+    bool is_image;               /* the response is an image (its send is a stage) */
     bool route_negotiates;       /* POST /v1/render: Accept may pick the format (Vary) */
     struct MHD_Response *pending; /* to queue when the handler runs again */
     unsigned pending_status;

@@ -52,12 +52,19 @@ static bool watch_add(struct watch_set *s, struct work_waiter *w)
     return true;
 }
 
+/* t's two lists of waiters: 0, the requests waiting on its render; 1, the
+ * event streams waiting for news. */
+static struct work_waiter **watch_list(struct task *t, int which)
+{
+    return which ? &t->sse_waiters : &t->waiters;
+}
+
 static void watch_collect(struct watch_set *s)
 {
     s->n = 0;
     for (struct task *t = task_active; t; t = t->next)
-        for (int pass = 0; pass < 2; pass++)
-            for (struct work_waiter *w = pass ? t->sse_waiters : t->waiters; w; w = w->next)
+        for (int which = 0; which < 2; which++)
+            for (struct work_waiter *w = *watch_list(t, which); w; w = w->next)
                 if (w->fd >= 0 && !watch_add(s, w))
                     return;
 }
@@ -75,9 +82,8 @@ static void watch_drop(struct work_waiter *w, struct task_notify *gone, struct t
                        struct task_notify *sse)
 {
     for (struct task *t = task_active; t; t = t->next)
-        for (int pass = 0; pass < 2; pass++)
-            for (struct work_waiter **pp = pass ? &t->sse_waiters : &t->waiters; *pp;
-                 pp = &(*pp)->next)
+        for (int which = 0; which < 2; which++)
+            for (struct work_waiter **pp = watch_list(t, which); *pp; pp = &(*pp)->next)
                 if (*pp == w) {
                     *pp = w->next;
                     w->next = gone->list;
