@@ -62,7 +62,7 @@ static void client_usage(FILE *f) {
            "  -o, --output F    the PNG to write (only when every tile arrived), '-' for\n"
            "                    standard output; with\n"
            "                    --split-samples, F.exr writes the linear OpenEXR\n"
-           "  --tile N          tile edge in pixels (default 128)\n"
+           "  --tile N          tile edge in pixels (default 128); not with --split-samples\n"
            "  --split-samples N split the frame's samples, not its pixels, into N ranges:\n"
            "                    each server returns its range's exact sums, added here\n"
            "                    (the same bytes as one render)\n"
@@ -360,6 +360,10 @@ static int client_parse(int argc, char **argv, struct client_args *a) {
         if (rc != 0) return rc;
     }
     if (client_words(argc, argv, a) != 0) return -1;
+    /* a range is always the whole image: a --tile would be dropped unsaid */
+    if (a->o.tile && a->o.ranges > 0)
+        return client_bad("--tile and --split-samples exclude each other (--split-samples sends "
+                          "whole-image sample ranges, not tiles)");
     if (!strcmp(a->cmd, "thumbnails"))
         return a->scene ? 0 : client_bad("thumbnails needs DIR, the folder of models");
     if (strcmp(a->cmd, "health") && (!a->scene || !a->o.out))
@@ -377,11 +381,12 @@ static int client_parse(int argc, char **argv, struct client_args *a) {
 /* The defaults, then the command line. */
 static int client_args(int argc, char **argv, struct client_args *a) {
     memset(a, 0, sizeof *a);
-    a->o.tile = 128, a->o.retries = 3, a->o.timeout = 120, a->o.parallel = 0;
+    a->o.retries = 3, a->o.timeout = 120, a->o.parallel = 0;
     a->token_file = getenv("RAYD_TOKEN_FILE");
     int rc = client_parse(argc, argv, a);
     if (rc != 0) return rc;
     struct client_opts *o = &a->o;
+    if (!o->tile) o->tile = 128; /* after the parse, which tells a given --tile by its 0 */
     if (!o->nservers) {
         const char *env = getenv("RAYD_SERVER");
         o->servers[o->nservers++] = env && *env ? env : "http://127.0.0.1:8080";

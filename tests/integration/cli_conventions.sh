@@ -158,6 +158,14 @@ done
 run c_exr_split "$CLIENT" render "$T/s.json" -o "$T/c_split.exr" --server "$URL" --split-samples 1 -q
 check client_split_samples_writes_exr "exit $RC: $(first_err c_exr_split)" bash -c \
     "[ $RC = 0 ] && [ \"\$(head -c 4 '$T/c_split.exr' | od -An -tx1 | tr -d ' ')\" = 762f3101 ]"
+# --tile and --split-samples are alternatives (a range is the whole image):
+# both at once is a usage error in one line and the Try line, not a --tile
+# dropped unsaid.
+run c_tile_split "$CLIENT" render "$T/s.json" -o "$T/c_tile_split.png" --server "$URL" --tile 64 --split-samples 2
+check client_tile_with_split_samples_usage "exit $RC, stderr '$(cat "$T/c_tile_split.err")'" bash -c \
+    '[ "$1" = 2 ] && [ "$(wc -l <"$2")" = 2 ] && [ "$(tail -n 1 "$2")" = "$3" ] && [ ! -e "$4" ] &&
+     head -n 1 "$2" | grep -q "^rayd-client: error: --tile and --split-samples exclude each other"' _ \
+    "$RC" "$T/c_tile_split.err" "Try 'rayd-client --help'." "$T/c_tile_split.png"
 stop_rayd
 run c_down "$CLIENT" render "$T/s.json" -o "$T/c_down.png" --server "http://127.0.0.1:$PORT" --retries 0 -q
 check client_unreachable_exit_1 "exit $RC, stderr '$(first_err c_down)'" bash -c \
