@@ -176,7 +176,9 @@ int tiles_render(const struct client_opts *o, const struct scenefile *sf);
  * "top").  turntable > 0 renders that many frames a model instead,
  * NAME-000.png ..., the view turned about +Y in equal steps.  One line a
  * PNG on stderr; 0 when every model was written, 1 when any failed (the
- * others are still written). */
+ * others are still written).  A model whose name differs from an earlier
+ * one's only in the extension (a.gltf after a.glb) would overwrite its
+ * PNGs: it is skipped, said, and counts as failed. */
 int thumbnails_run(const struct client_opts *o, const char *dir, const char *outdir, int size,
                    const char *view, int turntable);
 

@@ -13,6 +13,11 @@
  * servers, into OUTDIR/NAME.png, NAME being the file's name without its
  * extension.  One line a PNG on stderr, "rayd-client: thumbnail ..." or
  * "rayd-client: error: ..."; a model that fails does not stop the others.
+ * Two models whose names differ only in the extension (a.glb, a.gltf)
+ * would write the same PNGs, the second over the first: that is found
+ * before anything is rendered, and the later one in name order is skipped
+ * with an error line naming both and the PNG, so the run ends with 1 and
+ * the PNG is the first one's.  Names that do not clash are kept as NAME.
  * A .gltf's own files (.bin buffers, images) are inlined as data: URIs
  * first (gltf_bundle.c) and it then travels as "text".
  *
@@ -148,12 +153,18 @@ static double thumb_azimuth(const char *view, int k, int n) {
     return a >= 360 ? a - 360 : a;
 }
 
+/* The length of a model's name without its extension: the NAME of its
+ * NAME.png. */
+static int thumb_stem(const char *name) {
+    return (int)(strlen(name) - strlen(scenefile_format(name)) - 1);
+}
+
 /* One model: 0 when its PNG(s) were written, 1 when not (said).  A
  * turntable stops at the first frame that fails. */
 static int thumb_one(const struct client_opts *o, const char *dir, const char *name,
                      const char *outdir, const struct thumb_look *look) {
     const char *format = scenefile_format(name);
-    int n = (int)(strlen(name) - strlen(format) - 1);
+    int n = thumb_stem(name);
     char path[4096], out[4096];
     if (snprintf(path, sizeof path, "%s/%s", dir, name) >= (int)sizeof path ||
         snprintf(out, sizeof out, "%s/%.*s-000.png", outdir, n, name) >= (int)sizeof out) {
@@ -175,32 +186,117 @@ static int thumb_one(const struct client_opts *o, const char *dir, const char *n
     return rc;
 }
 
+/* A model of the folder: its name, its stem's length, its place in name
+ * order. */
+struct thumb_entry {
+    const char *name;
+    int stem, index;
+};
+
+/* By stem, then by name order. */
+static int thumb_by_stem(const void *a, const void *b) {
+    const struct thumb_entry *x = a, *y = b;
+    int c = memcmp(x->name, y->name, (size_t)(x->stem < y->stem ? x->stem : y->stem));
+    if (c) return c;
+    if (x->stem != y->stem) return x->stem < y->stem ? -1 : 1;
+    return x->index - y->index;
+}
+
+/* For each model of names (n, in name order) into first[i]: the index of
+ * the first model of its stem when that is another one (its PNGs would be
+ * written twice), else -1.  Sorted by stem, so a folder of thousands is
+ * not compared pair by pair.  0, or -1 when out of memory. */
+static int thumb_clashes(struct dirent **names, int n, int *first) {
+    struct thumb_entry *e = malloc((size_t)(n ? n : 1) * sizeof *e);
+    if (!e) return -1;
+    for (int i = 0; i < n; i++) {
+        e[i] = (struct thumb_entry){names[i]->d_name, thumb_stem(names[i]->d_name), i};
+        first[i] = -1;
+    }
+    qsort(e, (size_t)n, sizeof *e, thumb_by_stem);
+    for (int i = 1; i < n; i++) {
+        const struct thumb_entry *a = &e[i - 1], *b = &e[i];
+        if (a->stem == b->stem && !memcmp(a->name, b->name, (size_t)a->stem))
+            first[b->index] = first[a->index] >= 0 ? first[a->index] : a->index;
+    }
+    free(e);
+    return 0;
+}
+
+/* The PNGs of the model name as a message names them: OUTDIR/NAME.png,
+ * or a turntable's OUTDIR/NAME-000.png ... NAME-002.png. */
+static void thumb_outputs(const char *outdir, const char *name, const struct thumb_look *look,
+                          char *buf, size_t size) {
+    int n = thumb_stem(name);
+    if (!look->turntable)
+        snprintf(buf, size, "%s/%.*s.png", outdir, n, name);
+    else if (look->turntable == 1)
+        snprintf(buf, size, "%s/%.*s-000.png", outdir, n, name);
+    else
+        snprintf(buf, size, "%s/%.*s-000.png ... %.*s-%03d.png", outdir, n, name, n, name,
+                 look->turntable - 1);
+}
+
+/* Model name is skipped: its PNGs are those of other, earlier in name
+ * order (written, or failed: either way not overwritten).  1, after
+ * saying so. */
+static int thumb_clash(const char *dir, const char *name, const char *other, const char *outdir,
+                       const struct thumb_look *look) {
+    char out[8192]; /* OUTDIR and the name twice: enough, and only a message if not */
+    thumb_outputs(outdir, name, look, out, sizeof out);
+    fprintf(stderr,
+            "rayd-client: error: %s/%s: skipped: %s/%s, of the same name but for the extension, "
+            "writes %s\n",
+            dir, name, dir, other, out);
+    return 1;
+}
+
+static void thumb_free(struct dirent **list, int n) {
+    for (int i = 0; i < n; i++) free(list[i]);
+    free(list);
+}
+
 static int thumb_filter(const struct dirent *e) {
     return e->d_name[0] != '.' && scenefile_format(e->d_name) != NULL;
+}
+
+/* The models of the folder in name order, and the folder for their PNGs
+ * made: 0, or -1 after saying why (*list freed). */
+static int thumb_list(const char *dir, const char *outdir, struct dirent ***list, int *n) {
+    *n = scandir(dir, list, thumb_filter, alphasort);
+    if (*n < 0) {
+        fprintf(stderr, "rayd-client: error: cannot read the folder %s\n", dir);
+        return -1;
+    }
+    if (mkdir(outdir, 0777) != 0 && errno != EEXIST) {
+        fprintf(stderr, "rayd-client: error: cannot make the folder %s: %s\n", outdir,
+                strerror(errno));
+        thumb_free(*list, *n);
+        return -1;
+    }
+    return 0;
 }
 
 int thumbnails_run(const struct client_opts *o, const char *dir, const char *outdir, int size,
                    const char *view, int turntable) {
     struct thumb_look look = {size, view, turntable};
     struct dirent **list = NULL;
-    int n = scandir(dir, &list, thumb_filter, alphasort);
-    if (n < 0) {
-        fprintf(stderr, "rayd-client: error: cannot read the folder %s\n", dir);
-        return 1;
-    }
-    if (mkdir(outdir, 0777) != 0 && errno != EEXIST) {
-        fprintf(stderr, "rayd-client: error: cannot make the folder %s: %s\n", outdir,
-                strerror(errno));
-        for (int i = 0; i < n; i++) free(list[i]);
-        free(list);
+    int n = 0;
+    if (thumb_list(dir, outdir, &list, &n) != 0) return 1;
+    int *first = malloc((size_t)(n ? n : 1) * sizeof *first);
+    if (!first || thumb_clashes(list, n, first) != 0) {
+        fprintf(stderr, "rayd-client: error: out of memory\n");
+        thumb_free(list, n);
+        free(first);
         return 1;
     }
     int failed = 0;
-    for (int i = 0; i < n; i++) {
-        failed += thumb_one(o, dir, list[i]->d_name, outdir, &look);
-        free(list[i]);
-    }
-    free(list);
+    for (int i = 0; i < n; i++)
+        failed += first[i] >= 0
+                      ? thumb_clash(dir, list[i]->d_name, list[first[i]]->d_name, outdir, &look)
+                      : thumb_one(o, dir, list[i]->d_name, outdir, &look);
+    thumb_free(list, n);
+    free(first);
     if (n == 0)
         fprintf(stderr, "rayd-client: error: %s has no .ply, .obj, .glb or .gltf model\n", dir);
     return failed || n == 0 ? 1 : 0;

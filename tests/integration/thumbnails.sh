@@ -93,5 +93,41 @@ for bad in 0 361 2.5 x -1 ''; do
         bash -c "[ $rc = 2 ] && grep -q -- '^rayd-client: error: --turntable needs' '$T/bad$bad.err' &&
             [ ! -e '$T/bad$bad' ]"
 done
+
+# Two models whose names differ only in the extension would write the same
+# PNGs.  The clash is found before rendering: the later in name order
+# (cube.ply after cube.glb, the textured box under another name) is skipped
+# in one error line naming both and the PNG, the first one's PNG is kept
+# (the box's thumbnail from above, byte for byte), a model of another name
+# still gets its NAME.png, and the run exits 1.  The same for a turntable.
+mkdir -p "$T/clash"
+cp "$A/PLY/cube.ply" "$T/clash/cube.ply"
+cp "$A/PLY/cube.ply" "$T/clash/alone.ply"
+cp "$A/glTF2/BoxTextured-glTF-Binary/BoxTextured.glb" "$T/clash/cube.glb"
+# clash OUT ARGS...: thumbnails of $T/clash at 48 pixels into $T/OUT; sets
+# rc and files (the PNGs written)
+clash() {
+    local out=$1; shift
+    "$CLIENT" thumbnails "$T/clash" -o "$T/$out" --size 48 -s "$URL" "$@" 2>"$T/$out.err"
+    rc=$?
+    files=$(cd "$T/$out" 2>/dev/null && ls | tr '\n' ' ')
+}
+said="rayd-client: error: $T/clash/cube.ply: skipped: $T/clash/cube.glb, of the same name but for the extension, writes"
+clash clash1
+check thumbnails_same_name_exit_1 "exit $rc: $(cat "$T/clash1.err")" [ "$rc" = 1 ]
+check thumbnails_same_name_said "$(cat "$T/clash1.err")" \
+    grep -qxF "$said $T/clash1/cube.png" "$T/clash1.err"
+check thumbnails_same_name_first_kept "files $files; $(cat "$T/clash1.err")" bash -c \
+    "[ '$files' = 'alone.png cube.png ' ] && cmp -s '$T/clash1/cube.png' '$T/out/BoxTextured.png' &&
+        cmp -s '$T/clash1/alone.png' '$T/out/cube.png'"
+nlines=$(wc -l <"$T/clash1.err")
+check thumbnails_same_name_one_line_a_model "$(cat "$T/clash1.err")" [ "$nlines" = 3 ]
+clash clash3 --turntable 3
+check turntable_same_name_said "exit $rc: $(cat "$T/clash3.err")" bash -c \
+    '[ "$1" = 1 ] && grep -qxF "$2" "$3"' _ "$rc" \
+    "$said $T/clash3/cube-000.png ... cube-002.png" "$T/clash3.err"
+check turntable_same_name_first_kept "files $files" bash -c \
+    "[ '$files' = 'alone-000.png alone-001.png alone-002.png cube-000.png cube-001.png cube-002.png ' ] &&
+        cmp -s '$T/clash3/cube-000.png' '$T/out/BoxTextured.png'"
 stop_rayd
 exit $((NFAIL > 0))
