@@ -53,6 +53,7 @@ struct client_opts {
     int quiet;       /* no progress at all */
     int ranges;      /* > 0: split the samples into this many ranges, not the pixels */
     int threads;     /* PNG encoding threads of the stitched frame; 0 = every core */
+    const char *what; /* named first in tiles.c's error lines (thumbnails: the model), or NULL */
 };
 
 /* ---- output.c ------------------------------------------------------------- */

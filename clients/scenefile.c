@@ -9,6 +9,9 @@
  * becomes "base64" (the core tells .hdr from OpenEXR by the bytes).
  * Relative names resolve against the scene's folder, as rayd-render does.  A scene without file
  * references is sent byte for byte as it is on disk, so its id equals `sha256sum scene.json`.
+ * The first file that cannot be inlined stops the walk, and the one line
+ * said where it failed (the file, its JSON Pointer, the reason) is the
+ * whole error: no summary line follows it.
  *
  * The bytes to send are then parsed by the core exactly as a server will
  * parse them (rayd_scene_parse with the default limits): a bad scene is
@@ -37,8 +40,15 @@ struct scenefile_walk {
     const char *scene; /* the scene's name, for messages */
     const char *dir;   /* the scene's folder with a trailing '/', "" for the cwd */
     int count;
-    int failed;
+    int failed; /* said; the walk stops */
 };
+
+/* Memory ran out while the file at where was inlined: said, and the walk
+ * stops. */
+static void scenefile_no_memory(struct scenefile_walk *w, const char *where) {
+    fprintf(stderr, "rayd-client: error: %s: %s: out of memory\n", w->scene, where);
+    w->failed = 1;
+}
 
 const char *scenefile_format(const char *name) {
     static const char *const ext[][2] = {
@@ -57,7 +67,10 @@ static char *scenefile_asset(struct scenefile_walk *w, const char *name, const c
                              char **path, size_t *len) {
     size_t n = strlen(w->dir) + strlen(name) + 1;
     *path = malloc(n);
-    if (!*path) return NULL;
+    if (!*path) {
+        scenefile_no_memory(w, where);
+        return NULL;
+    }
     snprintf(*path, n, "%s%s", name[0] == '/' ? "" : w->dir, name);
     struct rayd_error err;
     char *data = scenefile_read(*path, len, &err);
@@ -81,7 +94,7 @@ static void scenefile_inline(struct scenefile_walk *w, cJSON *obj, const char *k
     size_t len = 0;
     char *data = scenefile_asset(w, name, where, &path, &len);
     int files = data && gltf ? gltf_bundle(path, &data, &len) : 0;
-    if (!data || files < 0) {
+    if (!data || files < 0) { /* said by either */
         free(path);
         free(data);
         w->failed = 1;
@@ -92,13 +105,13 @@ static void scenefile_inline(struct scenefile_walk *w, cJSON *obj, const char *k
     char *enc = text ? data : base64enc((const unsigned char *)data, len);
     if (!text) free(data);
     if (!enc) {
-        w->failed = 1;
+        scenefile_no_memory(w, where);
         return;
     }
     /* a mesh without "format" took it from the file name: keep it explicit */
     if (mesh && !given && format) cJSON_AddStringToObject(obj, "format", format);
     cJSON_DeleteItemFromObjectCaseSensitive(obj, key);
-    if (!cJSON_AddStringToObject(obj, text ? "text" : newkey, enc)) w->failed = 1;
+    if (!cJSON_AddStringToObject(obj, text ? "text" : newkey, enc)) scenefile_no_memory(w, where);
     free(enc);
     w->count++;
 }
@@ -115,9 +128,13 @@ static void scenefile_gltf_text(struct scenefile_walk *w, cJSON *obj, const char
     snprintf(name, sizeof name, "%s: %s/text", w->scene, where);
     size_t len = strlen(text->valuestring);
     char *data = strdup(text->valuestring);
-    int files = data ? gltf_bundle_in(w->dir, name, &data, &len) : -1;
+    if (!data) {
+        scenefile_no_memory(w, where);
+        return;
+    }
+    int files = gltf_bundle_in(w->dir, name, &data, &len); /* < 0: said */
     if (files > 0 && !cJSON_ReplaceItemInObjectCaseSensitive(obj, "text", cJSON_CreateString(data)))
-        files = -1;
+        scenefile_no_memory(w, where);
     free(data);
     if (files < 0)
         w->failed = 1;
@@ -130,6 +147,7 @@ static void scenefile_gltf_text(struct scenefile_walk *w, cJSON *obj, const char
  * with "type": "image"; the environment is the object at "environment". */
 static void scenefile_walk(struct scenefile_walk *w, cJSON *node, const char *key, char *ptr,
                            size_t ptrlen) {
+    if (w->failed) return; /* the scene is not sent: one error is the whole story */
     if (cJSON_IsObject(node)) {
         const cJSON *type = cJSON_GetObjectItemCaseSensitive(node, "type");
         if (key && !strcmp(key, "source") && cJSON_GetObjectItemCaseSensitive(node, "file"))
@@ -156,7 +174,8 @@ static void scenefile_walk(struct scenefile_walk *w, cJSON *node, const char *ke
     }
 }
 
-/* Inlines the files of sf->bytes; on a change sf->bytes is re-serialised. */
+/* Inlines the files of sf->bytes; on a change sf->bytes is re-serialised.
+ * 0, or -1 after saying why in one line. */
 static int scenefile_bundle(const char *path, struct scenefile *sf) {
     cJSON *root = cJSON_ParseWithLength(sf->bytes, sf->len);
     if (!root) return 0; /* malformed: the core's parse reports line and column */
@@ -173,6 +192,7 @@ static int scenefile_bundle(const char *path, struct scenefile *sf) {
     } else if (w.count) {
         char *s = cJSON_PrintUnformatted(root);
         if (!s) {
+            fprintf(stderr, "rayd-client: error: %s: out of memory\n", path);
             rc = -1;
         } else {
             free(sf->bytes);
@@ -223,9 +243,7 @@ int scenefile_load(const char *path, struct scenefile *sf) {
         fprintf(stderr, "rayd-client: error: %s\n", err.message);
         return -1;
     }
-    if (scenefile_bundle(path, sf) != 0) {
-        fprintf(stderr, "rayd-client: error: %s: could not inline the files the scene names\n",
-                path);
+    if (scenefile_bundle(path, sf) != 0) { /* said where, by the file that failed */
         scenefile_free(sf);
         return -1;
     }

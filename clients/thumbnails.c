@@ -137,12 +137,10 @@ static int thumb_frame(const struct client_opts *o, const char *path, const stru
     struct client_opts one = *o;
     one.out = out;
     one.quiet = 1;
+    one.what = path; /* a failure is said there, once, naming the model */
     int rc = tiles_render(&one, &sf);
     scenefile_free(&sf);
-    if (rc == 0)
-        fprintf(stderr, "rayd-client: thumbnail %s -> %s\n", path, out);
-    else
-        fprintf(stderr, "rayd-client: error: %s: the render failed\n", path);
+    if (rc == 0) fprintf(stderr, "rayd-client: thumbnail %s -> %s\n", path, out);
     return rc == 0 ? 0 : 1;
 }
 

@@ -34,7 +34,12 @@
  * prints the server's JSON error.  When every server has failed more than
  * --retries times in a row, the remaining tiles are given up.  An image with
  * a missing tile is never written: the exit status is 1 and the message
- * names the missing tiles.
+ * names the missing tiles and the last error.
+ *
+ * One failure, one error line: a refusal is said by the first answer that
+ * brings it (the others in flight, each the same 4xx, are not repeated),
+ * and the missing tiles and the last error share a line.  With
+ * client_opts.what set (thumbnails: the model) each line names it first.
  *
  * Sample ranges (--split-samples N).  The pieces may instead be N ranges
  * of the frame's samples, each the whole image: a range is POST
@@ -240,12 +245,21 @@ static void tiles_tile_failed(struct tiles *T, int ti, int si, const char *why, 
     }
 }
 
+/* Starts an error line: the prefix, then what the frame is when the caller
+ * named it (thumbnails: the model), since the server's words do not. */
+static void tiles_error(const struct tiles *T) {
+    fputs("rayd-client: error: ", stderr);
+    if (T->o->what) fprintf(stderr, "%s: ", T->o->what);
+}
+
 static void tiles_fatal(struct tiles *T, int si, long status, const struct net_buf *b)
 {
+    if (T->fatal) return; /* the same refusal again, from a request that was in flight */
     char why[600];
     net_describe(status, b, why, sizeof why);
-    fprintf(stderr, "%srayd-client: error: %s refused the scene: %s\n", T->prog.tty ? "\n" : "",
-            T->s[si].url, why);
+    progress_end(&T->prog); /* the bar's line, when one is drawn */
+    tiles_error(T);
+    fprintf(stderr, "%s refused the scene: %s\n", T->s[si].url, why);
     T->fatal = 1;
 }
 
@@ -487,7 +501,8 @@ static void tiles_draw(struct tiles *T, int force)
 static void tiles_report_missing(struct tiles *T)
 {
     int missing = T->n - T->done;
-    fprintf(stderr, "rayd-client: error: incomplete image, nothing written to %s: %d of %d tiles missing:",
+    tiles_error(T);
+    fprintf(stderr, "incomplete image, nothing written to %s: %d of %d tiles missing:",
             output_name(T->o->out), missing, T->n);
     int shown = 0;
     for (int i = 0; i < T->n; i++) {
@@ -504,13 +519,12 @@ static void tiles_report_missing(struct tiles *T)
                     T->t[i].w, T->t[i].h);
         shown++;
     }
-    fputc('\n', stderr);
     const char *why = T->last_err;
     for (int i = 0; i < T->n && !*why; i++)
         if (T->t[i].err[0])
             why = T->t[i].err;
-    if (*why)
-        fprintf(stderr, "rayd-client: last error: %s\n", why);
+    if (*why) fprintf(stderr, "; last error: %s", why);
+    fputc('\n', stderr);
 }
 
 /* The pieces: a grid of tiles, or --split-samples ranges of the whole
@@ -570,7 +584,8 @@ static int tiles_write(const struct tiles *T)
     void *buf = NULL;
     size_t len = 0;
     if (tiles_encode(T, &buf, &len, &err) != RAYD_OK) {
-        fprintf(stderr, "rayd-client: error: cannot encode the image: %s\n", err.message);
+        tiles_error(T);
+        fprintf(stderr, "cannot encode the image: %s\n", err.message);
         return -1;
     }
     int rc = output_write(T->o->out, buf, len);
@@ -594,7 +609,8 @@ int tiles_render(const struct client_opts *o, const struct scenefile *sf)
     if (!T.s || !T.per_server || !T.labels || !T.multi || tiles_pieces(&T, o, sf) != 0 ||
         (o->ranges > 0 ? rayd_accum_new_sized(sf->width, sf->height, &T.acc, &err)
                        : rayd_image_new(sf->width, sf->height, &T.img, &err)) != RAYD_OK) {
-        fprintf(stderr, "rayd-client: error: out of memory\n");
+        tiles_error(&T);
+        fprintf(stderr, "out of memory\n");
         goto out;
     }
     for (int i = 0; i < T.ns; i++) {

@@ -170,6 +170,71 @@ stop_rayd
 run c_down "$CLIENT" render "$T/s.json" -o "$T/c_down.png" --server "http://127.0.0.1:$PORT" --retries 0 -q
 check client_unreachable_exit_1 "exit $RC, stderr '$(first_err c_down)'" bash -c \
     "[ $RC = 1 ] && grep -q '^rayd-client: error: incomplete image' '$T/c_down.err' && [ ! -e '$T/c_down.png' ]"
+# One failure, one error line: the missing tiles and the last error share
+# it; a server whose --max-work refuses the frame answers every range (or
+# every tile, to every address) with the same 413, which is said once.
+check client_unreachable_one_line "$(cat "$T/c_down.err")" bash -c \
+    "[ \$(wc -l <'$T/c_down.err') = 1 ] && grep -q '; last error: .*onnect' '$T/c_down.err'"
+scene "$T/s4.json" 96 64 4 spheres
+start_rayd --threads 1 --max-work 1000
+for how in ranges tiles; do
+    args=(--split-samples 4)
+    [ $how = tiles ] && args=(--tile 32 --server "$URL/")
+    run "c_413_$how" "$CLIENT" render "$T/s4.json" -o "$T/c_413.png" --server "$URL" "${args[@]}" -q
+    check "client_refused_one_line_$how" "exit $RC, stderr: $(cat "$T/c_413_$how.err")" bash -c \
+        "[ $RC = 1 ] && [ \$(wc -l <'$T/c_413_$how.err') = 1 ] && [ ! -e '$T/c_413.png' ] &&
+         grep -q '^rayd-client: error: $URL/* refused the scene: HTTP 413 over_budget' '$T/c_413_$how.err'"
+done
+stop_rayd
+# The same, whatever the timing: a server that answers the 4 ranges only
+# when all 4 have come, and writes the four 413s while the client is
+# stopped (SIGSTOP), so that it reads them at once.
+cat >"$T/refuse_all.py" <<'EOF'
+import os, signal, socket, sys, time
+port_file, pid_file, n = sys.argv[1], sys.argv[2], int(sys.argv[3])
+srv = socket.create_server(("127.0.0.1", 0))
+open(port_file, "w").write(str(srv.getsockname()[1]))
+def read_request(c):  # the head, then Content-Length bytes of body
+    data = b""
+    while b"\r\n\r\n" not in data:
+        data += c.recv(65536)
+    head, _, body = data.partition(b"\r\n\r\n")
+    size = [int(l.split(b":")[1]) for l in head.split(b"\r\n") if l.lower().startswith(b"content-length:")]
+    while len(body) < (size[0] if size else 0):
+        body += c.recv(65536)
+conns = []
+for _ in range(n):
+    c, _ = srv.accept()
+    read_request(c)
+    conns.append(c)
+while not open(pid_file).read().strip():
+    time.sleep(0.01)
+pid = int(open(pid_file).read())
+os.kill(pid, signal.SIGSTOP)
+try:
+    while open("/proc/%d/stat" % pid).read().rsplit(")", 1)[1].split()[0] != "T":
+        time.sleep(0.01)
+    msg = b'{"error": {"status": 413, "code": "over_budget", "message": "over the budget"}}'
+    for c in conns:
+        c.sendall(b"HTTP/1.1 413 Payload Too Large\r\nContent-Type: application/json\r\n"
+                  b"Content-Length: %d\r\n\r\n%s" % (len(msg), msg))
+finally:
+    os.kill(pid, signal.SIGCONT)
+for c in conns:
+    c.recv(1)  # until the client hangs up
+EOF
+: >"$T/refuse.pid"
+python3 "$T/refuse_all.py" "$T/refuse.port" "$T/refuse.pid" 4 &
+PIDS+=("$!")
+wait_until 20 test -s "$T/refuse.port"
+"$CLIENT" render "$T/s4.json" -o "$T/c_413.png" --server "http://127.0.0.1:$(cat "$T/refuse.port")" \
+    --split-samples 4 --timeout 60 -q 2>"$T/c_413_at_once.err" </dev/null &
+echo $! >"$T/refuse.pid" # the client's own PID, which the server stops
+wait $!
+RC=$?
+check client_refused_one_line_at_once "exit $RC, stderr: $(cat "$T/c_413_at_once.err")" bash -c \
+    "[ $RC = 1 ] && [ \$(wc -l <'$T/c_413_at_once.err') = 1 ] &&
+     grep -q '^rayd-client: error: .* refused the scene: HTTP 413 over_budget: over the budget\$' '$T/c_413_at_once.err'"
 run c_nocmd "$CLIENT"
 check client_no_command_exit_2 "exit $RC, stderr '$(first_err c_nocmd)'" bash -c \
     "[ $RC = 2 ] && [ '$(first_err c_nocmd)' = 'rayd-client: error: no command given (render, job, health or thumbnails)' ]"

@@ -9,7 +9,8 @@
 # right MIME type (a capture server reads it); a name with %20 is decoded;
 # names that lead out of the .gltf's folder (.., %2e%2e, an absolute path,
 # a symbolic link), a URL and a missing file are refused before anything
-# is sent, in one line naming the .gltf, the JSON Pointer and the file.
+# is sent, in one line naming the .gltf, the JSON Pointer and the file
+# (that line alone: no summary of the scene's files follows it).
 # A .gltf given as "text" in the scene has its files next to the scene.
 # A whole-scene "gltf" object's source travels the same way.
 # `thumbnails` does the same with a folder holding a .gltf: its thumbnail
@@ -107,12 +108,12 @@ check client_gltf_text_source_same_png "$(cat "$dir/text.err")" \
         cmp -s '$dir/text-local.png' '$dir/local.png'"
 "$CLIENT" render "$dir/text-gone.json" -o "$dir/text-gone.png" -s "$URL" -q 2>"$dir/text-gone.err"
 rc=$?
-first=$(head -n 1 "$dir/text-gone.err")
+got=$(cat "$dir/text-gone.err") # the one line, no summary after it
 want="rayd-client: error: $dir/text-gone.json: /objects/0/source/text: /buffers/0/uri: cannot read \"gone.bin\": No such file or directory"
-if [ "$rc" = 1 ] && [ "$first" = "$want" ]; then
+if [ "$rc" = 1 ] && [ "$got" = "$want" ]; then
     pass client_gltf_text_source_missing
 else
-    fail client_gltf_text_source_missing "exit $rc: $first"
+    fail client_gltf_text_source_missing "exit $rc: $got"
 fi
 stop_rayd
 
@@ -181,9 +182,11 @@ refuse() {
     scene "$dir" "$name.gltf"
     "$CLIENT" render "$dir/scene.json" -o "$T/bad/$name.png" -s http://127.0.0.1:9 --retries 0 \
         -q 2>"$T/bad/$name.err"
-    local rc=$? first
+    local rc=$? first lines
     first=$(head -n 1 "$T/bad/$name.err")
-    if [ $rc = 1 ] && [[ $first == "rayd-client: error: $dir/$name.gltf: $ptr: "*$want* ]]; then
+    lines=$(wc -l <"$T/bad/$name.err")
+    if [ $rc = 1 ] && [ "$lines" = 1 ] &&
+        [[ $first == "rayd-client: error: $dir/$name.gltf: $ptr: "*$want* ]]; then
         pass "client_gltf_refuses_$name"
     else
         fail "client_gltf_refuses_$name" "exit $rc: $(cat "$T/bad/$name.err")"

@@ -130,4 +130,14 @@ check turntable_same_name_first_kept "files $files" bash -c \
     "[ '$files' = 'alone-000.png alone-001.png alone-002.png cube-000.png cube-001.png cube-002.png ' ] &&
         cmp -s '$T/clash3/cube-000.png' '$T/out/BoxTextured.png'"
 stop_rayd
+
+# One failure, one error line: a server whose --max-work refuses the
+# thumbnail's scene; the line names the model and gives the server's error.
+start_rayd --threads 1 --max-work 1000
+"$CLIENT" thumbnails "$T/turn" -o "$T/refused" --size 32 -s "$URL" 2>"$T/refused.err"
+rc=$?
+check thumbnails_refused_one_line "exit $rc: $(cat "$T/refused.err")" bash -c \
+    "[ $rc = 1 ] && [ \$(wc -l <'$T/refused.err') = 1 ] && [ ! -e '$T/refused/Wuson.png' ] &&
+        grep -q '^rayd-client: error: $T/turn/Wuson.ply: $URL refused the scene: HTTP 413 over_budget' '$T/refused.err'"
+stop_rayd
 exit $((NFAIL > 0))
