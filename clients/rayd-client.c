@@ -237,7 +237,38 @@ struct client_args {
     int size;         /* thumbnails: --size */
     const char *view; /* thumbnails: --view */
     int turntable;    /* thumbnails: --turntable, 0 = none */
+    unsigned given;   /* bit opt - OPT_TILE: that long option was given */
 };
+
+/* The long options only some commands use, and which: any other command
+ * would drop them unsaid (a job renders whole on its server; only the
+ * thumbnails pose a model). */
+static const struct {
+    int opt;
+    const char *name, *cmds;
+} client_only[] = {
+    {OPT_TILE, "--tile", "render and thumbnails"},
+    {OPT_SPLIT, "--split-samples", "render and thumbnails"},
+    {OPT_PARALLEL, "--parallel", "render and thumbnails"},
+    {OPT_RETRIES, "--retries", "render and thumbnails"},
+    {OPT_THREADS, "--threads", "render and thumbnails"},
+    {OPT_SIZE, "--size", "thumbnails"},
+    {OPT_VIEW, "--view", "thumbnails"},
+    {OPT_TURNTABLE, "--turntable", "thumbnails"},
+};
+
+/* 0, or -1 after saying which given option cmd does not take. */
+static int client_for_cmd(const struct client_args *a) {
+    for (size_t i = 0; i < sizeof client_only / sizeof client_only[0]; i++) {
+        char word[32], list[64]; /* " cmd " among " render and thumbnails " */
+        snprintf(word, sizeof word, " %s ", a->cmd);
+        snprintf(list, sizeof list, " %s ", client_only[i].cmds);
+        if ((a->given >> (client_only[i].opt - OPT_TILE) & 1) && !strstr(list, word))
+            return client_bad("%s is not an option of %s (only of %s)", client_only[i].name, a->cmd,
+                              client_only[i].cmds);
+    }
+    return 0;
+}
 
 /* A whole number option's value into *out; -1 after saying why. */
 static int client_int(int opt, const char *v, double lo, double hi, int *out) {
@@ -259,6 +290,7 @@ static int client_int(int opt, const char *v, double lo, double hi, int *out) {
  * (--help, --version), -1 after saying why. */
 static int client_option(int opt, const char *v, struct client_args *a) {
     struct client_opts *o = &a->o;
+    if (opt >= OPT_TILE) a->given |= 1u << (opt - OPT_TILE);
     switch (opt) {
     case 'h':
         client_usage(stdout);
@@ -359,7 +391,7 @@ static int client_parse(int argc, char **argv, struct client_args *a) {
         rc = opt == ':' ? client_option(optopt, NULL, a) : client_option(opt, optarg, a);
         if (rc != 0) return rc;
     }
-    if (client_words(argc, argv, a) != 0) return -1;
+    if (client_words(argc, argv, a) != 0 || client_for_cmd(a) != 0) return -1;
     /* a range is always the whole image: a --tile would be dropped unsaid */
     if (a->o.tile && a->o.ranges > 0)
         return client_bad("--tile and --split-samples exclude each other (--split-samples sends "

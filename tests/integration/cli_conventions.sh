@@ -166,6 +166,16 @@ check client_tile_with_split_samples_usage "exit $RC, stderr '$(cat "$T/c_tile_s
     '[ "$1" = 2 ] && [ "$(wc -l <"$2")" = 2 ] && [ "$(tail -n 1 "$2")" = "$3" ] && [ ! -e "$4" ] &&
      head -n 1 "$2" | grep -q "^rayd-client: error: --tile and --split-samples exclude each other"' _ \
     "$RC" "$T/c_tile_split.err" "Try 'rayd-client --help'." "$T/c_tile_split.png"
+# an option the command would drop unsaid is a usage error
+for c in "job:--tile 64:--tile is not an option of job (only of render and thumbnails)" \
+    "job:--retries 1:--retries is not an option of job (only of render and thumbnails)" \
+    "render:--size 64:--size is not an option of render (only of thumbnails)"; do
+    IFS=: read -r cmd opt want <<<"$c"
+    run c_not_for "$CLIENT" "$cmd" "$T/s.json" -o "$T/c_not_for.png" --server "$URL" $opt
+    check "client_${cmd}_refuses_${opt%% *}" "exit $RC, stderr '$(first_err c_not_for)'" bash -c \
+        '[ "$1" = 2 ] && [ "$(head -n 1 "$2")" = "rayd-client: error: $3" ] && [ ! -e "$4" ]' _ \
+        "$RC" "$T/c_not_for.err" "$want" "$T/c_not_for.png"
+done
 stop_rayd
 run c_down "$CLIENT" render "$T/s.json" -o "$T/c_down.png" --server "http://127.0.0.1:$PORT" --retries 0 -q
 check client_unreachable_exit_1 "exit $RC, stderr '$(first_err c_down)'" bash -c \
