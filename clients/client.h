@@ -134,6 +134,12 @@ void *net_easy(const struct client_opts *o, const char *url, struct net_buf *bod
  * /objects/1/radius: must be > 0" from the API's JSON error, or the first
  * bytes of the body.  Returns buf. */
 char *net_describe(long status, const struct net_buf *body, char *buf, size_t size);
+/* Runs the request of handle h (net_easy's, with its header list hdrs) and
+ * frees both: the HTTP status, or 0 with why set on a transport error. */
+long net_perform(void *h, void *hdrs, char *why, size_t size);
+/* o[k] when it is a string, else NULL (o a cJSON *, void here to keep cJSON
+ * out). */
+const char *net_json_str(const void *o, const char *k);
 /* The API error code of a JSON error body ("scene_unknown"), into buf; "" if
  * none. */
 char *net_error_code(const struct net_buf *body, char *buf, size_t size);

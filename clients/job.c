@@ -47,17 +47,23 @@ struct job_sse {
     char (*label)[40];
 };
 
+/* The progress display at done of total tiles, numbers from the server's
+ * JSON (an event's, or the job's when polled); nothing when either is
+ * missing. */
+static void job_progress(struct progress *p, char (*label)[40], const cJSON *done,
+                         const cJSON *total) {
+    if (!cJSON_IsNumber(done) || !cJSON_IsNumber(total)) return;
+    long per = done->valueint;
+    p->total = total->valueint;
+    progress_update(p, done->valueint, 0, 1, &per, label, -1, 0);
+}
+
 static void job_sse_dispatch(struct job_sse *j)
 {
     cJSON *d = cJSON_Parse(j->data);
     if (!strcmp(j->event, "progress")) {
-        const cJSON *done = cJSON_GetObjectItemCaseSensitive(d, "done");
-        const cJSON *total = cJSON_GetObjectItemCaseSensitive(d, "total");
-        if (cJSON_IsNumber(done) && cJSON_IsNumber(total)) {
-            long per = done->valueint;
-            j->prog->total = total->valueint;
-            progress_update(j->prog, done->valueint, 0, 1, &per, j->label, -1, 0);
-        }
+        job_progress(j->prog, j->label, cJSON_GetObjectItemCaseSensitive(d, "done"),
+                     cJSON_GetObjectItemCaseSensitive(d, "total"));
     } else if (!strcmp(j->event, "done")) {
         const cJSON *st = cJSON_GetObjectItemCaseSensitive(d, "state");
         snprintf(j->final_state, sizeof j->final_state, "%s",
@@ -134,21 +140,10 @@ static long job_request(const struct client_opts *o, const char *method, const c
         curl_easy_setopt(h, CURLOPT_CUSTOMREQUEST, method);
     curl_easy_setopt(h, CURLOPT_NOPROGRESS, 0L);
     curl_easy_setopt(h, CURLOPT_XFERINFOFUNCTION, job_xferinfo);
-    CURLcode cc = curl_easy_perform(h);
-    long status = 0;
-    if (cc == CURLE_OK)
-        curl_easy_getinfo(h, CURLINFO_RESPONSE_CODE, &status);
-    else
-        snprintf(why, size, "%s: %s", url, curl_easy_strerror(cc));
-    curl_easy_cleanup(h);
-    curl_slist_free_all(hdrs);
+    char err[256] = "";
+    long status = net_perform(h, hdrs, err, sizeof err);
+    if (err[0]) snprintf(why, size, "%s: %s", url, err);
     return status;
-}
-
-static const char *job_str(const cJSON *o, const char *k)
-{
-    const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, k);
-    return cJSON_IsString(v) ? v->valuestring : NULL;
 }
 
 /* Follows the event stream; returns 1 when "done" arrived. */
@@ -198,14 +193,9 @@ static int job_poll(const struct client_opts *o, const char *base, const char *i
             break;
         }
         cJSON *j = cJSON_ParseWithLength(b.data, b.len);
-        const char *state = job_str(j, "state");
-        const cJSON *d = cJSON_GetObjectItemCaseSensitive(j, "tiles_done");
-        const cJSON *t = cJSON_GetObjectItemCaseSensitive(j, "tiles_total");
-        if (cJSON_IsNumber(d) && cJSON_IsNumber(t)) {
-            long per = d->valueint;
-            prog->total = t->valueint;
-            progress_update(prog, d->valueint, 0, 1, &per, label, -1, 0);
-        }
+        const char *state = net_json_str(j, "state");
+        job_progress(prog, label, cJSON_GetObjectItemCaseSensitive(j, "tiles_done"),
+                     cJSON_GetObjectItemCaseSensitive(j, "tiles_total"));
         int fin = state && (!strcmp(state, "succeeded") || !strcmp(state, "failed") ||
                             !strcmp(state, "canceled"));
         cJSON_Delete(j);
@@ -255,7 +245,7 @@ int job_run(const struct client_opts *o, const struct scenefile *sf)
     }
     cJSON *j = cJSON_ParseWithLength(b.data, b.len);
     char id[64] = "";
-    const char *jid = job_str(j, "id");
+    const char *jid = net_json_str(j, "id");
     if (jid && strlen(jid) < sizeof id && strspn(jid, "0123456789abcdef") == strlen(jid))
         snprintf(id, sizeof id, "%s", jid);
     cJSON_Delete(j);

@@ -121,9 +121,8 @@ static cJSON *net_error_obj(const struct net_buf *body, cJSON **root)
     return cJSON_IsObject(e) ? e : NULL;
 }
 
-static const char *net_str(const cJSON *o, const char *k)
-{
-    const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, k);
+const char *net_json_str(const void *o, const char *k) {
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive((const cJSON *)o, k);
     return cJSON_IsString(v) ? v->valuestring : NULL;
 }
 
@@ -131,7 +130,7 @@ char *net_error_code(const struct net_buf *body, char *buf, size_t size)
 {
     cJSON *root;
     cJSON *e = net_error_obj(body, &root);
-    const char *code = e ? net_str(e, "code") : NULL;
+    const char *code = e ? net_json_str(e, "code") : NULL;
     snprintf(buf, size, "%s", code ? code : "");
     cJSON_Delete(root);
     return buf;
@@ -142,8 +141,8 @@ char *net_describe(long status, const struct net_buf *body, char *buf, size_t si
     cJSON *root;
     cJSON *e = net_error_obj(body, &root);
     if (e) {
-        const char *code = net_str(e, "code"), *msg = net_str(e, "message");
-        const char *path = net_str(e, "path"), *param = net_str(e, "parameter");
+        const char *code = net_json_str(e, "code"), *msg = net_json_str(e, "message");
+        const char *path = net_json_str(e, "path"), *param = net_json_str(e, "parameter");
         const cJSON *line = cJSON_GetObjectItemCaseSensitive(e, "line");
         const cJSON *col = cJSON_GetObjectItemCaseSensitive(e, "column");
         char where[300] = "";
@@ -197,4 +196,16 @@ void net_label(const char *url, char *buf, size_t size)
         n = size - 1;
     memcpy(buf, p, n);
     buf[n] = '\0';
+}
+
+long net_perform(void *h, void *hdrs, char *why, size_t size) {
+    CURLcode cc = curl_easy_perform(h);
+    long status = 0;
+    if (cc == CURLE_OK)
+        curl_easy_getinfo(h, CURLINFO_RESPONSE_CODE, &status);
+    else
+        snprintf(why, size, "%s", curl_easy_strerror(cc));
+    curl_easy_cleanup(h);
+    curl_slist_free_all(hdrs);
+    return status;
 }

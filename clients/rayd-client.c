@@ -132,15 +132,7 @@ static long client_get(const struct client_opts *o, const char *url, struct net_
         snprintf(why, size, "out of memory");
         return 0;
     }
-    CURLcode cc = curl_easy_perform(h);
-    long st = 0;
-    if (cc == CURLE_OK)
-        curl_easy_getinfo(h, CURLINFO_RESPONSE_CODE, &st);
-    else
-        snprintf(why, size, "%s", curl_easy_strerror(cc));
-    curl_easy_cleanup(h);
-    curl_slist_free_all(hdrs);
-    return st;
+    return net_perform(h, hdrs, why, size);
 }
 
 static int client_health(const struct client_opts *o) {
