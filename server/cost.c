@@ -43,11 +43,16 @@
 static double cost_spr = 1.0 / COST_RATE_START; /* worker seconds per estimated ray */
 static int cost_workers = 1;
 
+int cost_samples(const struct work_target *what, int scene_samples)
+{
+    return what->format == WORK_SUMS ? what->k1 - what->k0 : scene_samples;
+}
+
 double cost_rays(const rayd_scene *scene, const struct work_target *what)
 {
     struct rayd_scene_info info;
     rayd_scene_info(scene, &info);
-    double samples = what->format == WORK_SUMS ? what->k1 - what->k0 : info.samples;
+    double samples = cost_samples(what, info.samples);
     return (double)what->reg.w * what->reg.h * samples * info.rays_per_sample;
 }
 

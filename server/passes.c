@@ -186,14 +186,18 @@ struct blob *passes_png(const struct passes *p, int pass)
     return p->png[(pass - 1) % PASSES_KEEP];
 }
 
+int passes_added(const struct passes *p, int k)
+{
+    return p->samples[k] - (k == 0 || p->samples[k - 1] == 1 ? 0 : p->samples[k - 1]);
+}
+
 /* The share of the samples' work done after `done` passes and frac of the
  * next pass's tiles (a pass's work: the samples it adds or restarts). */
 double passes_progress(const struct passes *p, int done, double frac)
 {
     double total = 0, work = 0;
     for (int k = 0; k < p->n; k++) {
-        int prev = k == 0 || p->samples[k - 1] == 1 ? 0 : p->samples[k - 1];
-        double cost = p->samples[k] - prev;
+        double cost = passes_added(p, k);
         total += cost;
         if (k < done)
             work += cost;

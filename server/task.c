@@ -83,7 +83,7 @@ struct task *task_new(struct cache_entry *scene, const struct work_target *what)
     const rayd_scene *rs = cache_scene(scene);
     struct rayd_scene_info info;
     rayd_scene_info(rs, &info);
-    int samples = what->format == WORK_SUMS ? what->k1 - what->k0 : info.samples;
+    int samples = cost_samples(what, info.samples);
     t->rays_per_sample = info.rays_per_sample;
     t->est_rays = cost_rays(rs, what);
     t->tile = cost_tile(samples * info.rays_per_sample);
@@ -236,8 +236,7 @@ double task_tile_rays(const struct task *t, const struct rayd_region *r, int pas
 {
     double samples = t->format == WORK_SUMS ? t->k1 - t->k0 : 0;
     if (t->passes) {
-        const int *k = t->passes->samples;
-        samples = k[pass] - (pass == 0 || k[pass - 1] == 1 ? 0 : k[pass - 1]);
+        samples = passes_added(t->passes, pass);
     } else if (t->format != WORK_SUMS) {
         double pixels = (double)t->reg.w * t->reg.h;
         return pixels > 0 ? t->est_rays * ((double)r->w * r->h) / pixels : 0;

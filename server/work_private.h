@@ -84,7 +84,10 @@ void rcache_free_all(void);
 
 void scenes_start(void); /* sizes both caches, registers their gauges */
 
-/* ---- cost.c (lock held but for cost_rays, cost_tile) ------------------------ */
+/* ---- cost.c (lock held but for cost_rays, cost_tile, cost_samples) --------- */
+
+/* The samples a pixel of what takes: a sample range's, else the scene's. */
+int cost_samples(const struct work_target *what, int scene_samples);
 
 /* The side of a square tile whose estimated rays stay under the tile
  * budget, given a pixel's estimated rays. */
@@ -135,6 +138,9 @@ bool passes_more(struct passes *p, double elapsed);
 rayd_image *passes_swap(struct passes *p, rayd_image *img);
 struct blob *passes_png(const struct passes *p, int pass); /* not referenced; NULL: gone */
 double passes_progress(const struct passes *p, int done, double frac);
+/* The samples pass k (from 0) renders: what it adds to the pass before, or
+ * all of its own after the one-sample image, which is not added to. */
+int passes_added(const struct passes *p, int k);
 void passes_info(const struct passes *p, struct jobs_passes *out);
 
 /* ---- task.c: one render, its tiles and its waiters (lock held) --------------- */
