@@ -207,8 +207,7 @@ static void jobs_info_of(const struct job *j, struct jobs_info *info, bool want_
     snprintf(info->scene_id, sizeof info->scene_id, "%s", t->scene_id);
     double now = clock_now();
     info->created_age = now - j->created;
-    info->queue_ms = t->t_start > 0 ? (t->t_start - t->t_enq) * 1e3 : (now - t->t_enq) * 1e3;
-    info->render_ms = t->t_start > 0 ? ((t->finished ? t->t_end : now) - t->t_start) * 1e3 : 0;
+    task_times(t, now, &info->queue_ms, &info->render_ms);
     info->encode_ms = t->encode_s * 1e3;
     info->rays = t->rays;
     info->est_rays = t->est_rays;

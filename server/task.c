@@ -106,20 +106,39 @@ struct task *task_new(struct cache_entry *scene, const struct work_target *what)
     return t;
 }
 
+/* The pixels and their encoder: freed when the task finishes, since
+ * nobody reads them after (a job keeps only the PNG and its counts). */
+static void task_free_pixels(struct task *t)
+{
+    rayd_png_stream_free(t->stream); /* before its image */
+    t->stream = NULL;
+    free(t->row_left);
+    t->row_left = NULL;
+    rayd_image_free(t->img);
+    t->img = NULL;
+    free(t->lin);
+    t->lin = NULL;
+    free(t->sums);
+    t->sums = NULL;
+}
+
 void task_unref(struct task *t)
 {
     if (--t->refs > 0)
         return;
     blob_unref(t->png);
-    rayd_png_stream_free(t->stream);
-    free(t->row_left);
-    rayd_image_free(t->img);
+    task_free_pixels(t);
     passes_free(t->passes);
-    free(t->lin);
-    free(t->sums);
     cache_release(t->scene);
     free(t->order);
     free(t);
+}
+
+void task_times(const struct task *t, double now, double *queue_ms, double *render_ms)
+{
+    bool started = t->t_start > 0;
+    *queue_ms = ((started ? t->t_start : now) - t->t_enq) * 1e3;
+    *render_ms = started ? ((t->finished ? t->t_end : now) - t->t_start) * 1e3 : 0;
 }
 
 void task_unqueue(struct task *t)
@@ -314,6 +333,16 @@ static void task_keep_pass(struct task *t)
     t->png = blob_ref(passes_png(p, p->done));
 }
 
+/* Takes t off the active list. */
+static void task_unlink(struct task *t)
+{
+    for (struct task **pp = &task_active; *pp; pp = &(*pp)->next)
+        if (*pp == t) {
+            *pp = t->next;
+            return;
+        }
+}
+
 bool task_end_early(struct task *t, enum passes_stop why)
 {
     struct passes *p = t->passes;
@@ -375,34 +404,21 @@ void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
         task_failf(t, RAYD_E_CANCELED, "the render was cancelled");
     if (t->status == RAYD_OK && t->t_start > 0)
         metrics_render(t->t_end - t->t_start);
+    double queue_ms, render_ms;
+    task_times(t, t->t_end, &queue_ms, &render_ms);
     /* --log-level debug only: written under work_lock, so never on by default */
     log_debug("render %s finished: %s, queued %.3f ms, rendered %.3f ms", t->key,
-              t->status == RAYD_OK ? "ok" : t->err.message,
-              t->t_start > 0 ? (t->t_start - t->t_enq) * 1e3 : 0,
-              t->t_start > 0 ? (t->t_end - t->t_start) * 1e3 : 0);
+              t->status == RAYD_OK ? "ok" : t->err.message, queue_ms, render_ms);
     if (t->status == RAYD_OK && t->png && !t->passes)
         rcache_put(t->key, t->png);
     task_unqueue(t);
-    rayd_png_stream_free(t->stream); /* before its image; NULL once finished */
-    t->stream = NULL;
-    free(t->row_left);
-    t->row_left = NULL;
-    rayd_image_free(t->img);
-    t->img = NULL;
-    free(t->lin);
-    t->lin = NULL;
-    free(t->sums);
-    t->sums = NULL;
+    task_free_pixels(t); /* NULL once finished: a job's reads see none */
     cache_release(t->scene);
     t->scene = NULL;
     task_result(t, &n->res);
     task_notify_add(n, &t->waiters);
     task_notify_add(sse, &t->sse_waiters);
-    for (struct task **pp = &task_active; *pp; pp = &(*pp)->next)
-        if (*pp == t) {
-            *pp = t->next;
-            break;
-        }
+    task_unlink(t);
     task_unref(t);
 }
 

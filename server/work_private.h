@@ -216,6 +216,9 @@ struct rayd_region task_tile(const struct task *t, int tile);
 double task_tile_rays(const struct task *t, const struct rayd_region *r, int pass);
 double task_backlog_rays(void); /* of every unfinished task, what is left */
 void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse);
+/* Milliseconds t waited in the queue and has rendered, up to now (or to
+ * its end, when finished). */
+void task_times(const struct task *t, double now, double *queue_ms, double *render_ms);
 /* t fails with st and err's message and place (the first failure stands:
  * the caller checks t->status).  task_failf: with a message of its own. */
 void task_fail(struct task *t, enum rayd_status st, const struct rayd_error *err);
