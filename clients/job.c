@@ -223,52 +223,70 @@ static int job_write(const char *path, const struct net_buf *b)
     return output_write(path, b->data, b->len);
 }
 
-int job_run(const struct client_opts *o, const struct scenefile *sf)
-{
+/* POSTs the scene; its job's id into id: 0, or 1 after saying why. */
+static int job_post(const struct client_opts *o, const struct scenefile *sf, char *id,
+                    size_t size) {
     const char *base = o->servers[0];
     char url[1024], why[600] = "";
     struct net_buf b = {0};
-    int rc = 1;
-    struct sigaction sa, old_int, old_term;
-    memset(&sa, 0, sizeof sa);
-    sa.sa_handler = job_on_signal;
-    sigaction(SIGINT, &sa, &old_int);
-    sigaction(SIGTERM, &sa, &old_term);
-
     snprintf(url, sizeof url, "%s/v1/jobs", base);
     long st = job_request(o, "POST", url, sf, &b, why, sizeof why);
+    int rc = 1;
     if (st != 202) {
         if (st)
             net_describe(st, &b, why, sizeof why);
         fprintf(stderr, "rayd-client: error: %s refused the job: %s\n", base, why);
-        goto out;
+    } else {
+        cJSON *j = cJSON_ParseWithLength(b.data, b.len);
+        const char *jid = net_json_str(j, "id");
+        if (jid && strlen(jid) < size && strspn(jid, "0123456789abcdef") == strlen(jid)) {
+            snprintf(id, size, "%s", jid);
+            rc = 0;
+        } else {
+            fprintf(stderr, "rayd-client: error: %s: no job id in the answer\n", base);
+        }
+        cJSON_Delete(j);
     }
-    cJSON *j = cJSON_ParseWithLength(b.data, b.len);
-    char id[64] = "";
-    const char *jid = net_json_str(j, "id");
-    if (jid && strlen(jid) < sizeof id && strspn(jid, "0123456789abcdef") == strlen(jid))
-        snprintf(id, sizeof id, "%s", jid);
-    cJSON_Delete(j);
-    if (!id[0]) {
-        fprintf(stderr, "rayd-client: error: %s: no job id in the answer\n", base);
-        goto out;
-    }
-    if (!o->quiet)
-        fprintf(stderr, "rayd-client: job %s on %s (%dx%d)\n", id, base, sf->width, sf->height);
+    net_buf_free(&b);
+    return rc;
+}
 
+/* Ctrl-C or SIGTERM came: the job is cancelled on the server (DELETE).
+ * Returns 130, the exit status of an interrupted command. */
+static int job_cancel(const struct client_opts *o, const char *id) {
+    char url[1024], why[600] = "";
+    struct net_buf b = {0};
+    job_interrupted = 0; /* let the DELETE through */
+    snprintf(url, sizeof url, "%s/v1/jobs/%s", o->servers[0], id);
+    job_request(o, "DELETE", url, NULL, &b, why, sizeof why);
+    net_buf_free(&b);
+    fprintf(stderr, "rayd-client: interrupted; job %s cancelled\n", id);
+    return 130;
+}
+
+/* Follows job id to its end, showing progress: 0, 1 (said) or 130
+ * (interrupted: cancelled). */
+static int job_wait(const struct client_opts *o, const char *id) {
+    const char *base = o->servers[0];
     struct progress prog;
     char label[1][40];
     net_label(base, label[0], sizeof label[0]);
     progress_init(&prog, 1, o->quiet);
     int done = job_follow(o, base, id, &prog, label);
-    if (!done && !job_interrupted && job_poll(o, base, id, &prog, label) != 0)
-        goto cancel;
-    if (job_interrupted)
-        goto cancel;
-    progress_update(&prog, prog.total, 0, 1, (long[]){prog.total}, label, -1, 1);
+    int failed = !done && !job_interrupted && job_poll(o, base, id, &prog, label) != 0;
+    if (!failed && !job_interrupted)
+        progress_update(&prog, prog.total, 0, 1, (long[]){prog.total}, label, -1, 1);
     progress_end(&prog);
+    return job_interrupted ? job_cancel(o, id) : failed;
+}
 
-    snprintf(url, sizeof url, "%s/v1/jobs/%s/image.png", base, id);
+/* The finished job's image into o->out (202 while the server encodes
+ * it): 0, or 1 after saying why. */
+static int job_fetch(const struct client_opts *o, const char *id) {
+    char url[1024], why[600] = "";
+    struct net_buf b = {0};
+    long st = 0;
+    snprintf(url, sizeof url, "%s/v1/jobs/%s/image.png", o->servers[0], id);
     for (int tries = 0; tries < 600 && !job_interrupted; tries++) {
         net_buf_reset(&b);
         st = job_request(o, "GET", url, NULL, &b, why, sizeof why);
@@ -277,6 +295,7 @@ int job_run(const struct client_opts *o, const struct scenefile *sf)
         struct timespec ts = {0, 200 * 1000 * 1000}; /* encoding the PNG */
         nanosleep(&ts, NULL);
     }
+    int rc = 1;
     if (st == 200) {
         rc = job_write(o->out, &b) == 0 ? 0 : 1;
         if (rc == 0 && !o->quiet)
@@ -286,20 +305,24 @@ int job_run(const struct client_opts *o, const struct scenefile *sf)
             net_describe(st, &b, why, sizeof why);
         fprintf(stderr, "rayd-client: error: job %s: %s\n", id, why);
     }
-    goto out;
-cancel:
-    progress_end(&prog);
-    if (job_interrupted) {
-        job_interrupted = 0; /* let the DELETE through */
-        snprintf(url, sizeof url, "%s/v1/jobs/%s", base, id);
-        net_buf_reset(&b);
-        job_request(o, "DELETE", url, NULL, &b, why, sizeof why);
-        fprintf(stderr, "rayd-client: interrupted; job %s cancelled\n", id);
-        rc = 130;
-    }
-out:
+    net_buf_free(&b);
+    return rc;
+}
+
+int job_run(const struct client_opts *o, const struct scenefile *sf) {
+    struct sigaction sa, old_int, old_term;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = job_on_signal;
+    sigaction(SIGINT, &sa, &old_int);
+    sigaction(SIGTERM, &sa, &old_term);
+    char id[64] = "";
+    int rc = job_post(o, sf, id, sizeof id);
+    if (rc == 0 && !o->quiet)
+        fprintf(stderr, "rayd-client: job %s on %s (%dx%d)\n", id, o->servers[0], sf->width,
+                sf->height);
+    if (rc == 0) rc = job_wait(o, id);
+    if (rc == 0) rc = job_fetch(o, id);
     sigaction(SIGINT, &old_int, NULL);
     sigaction(SIGTERM, &old_term, NULL);
-    net_buf_free(&b);
     return rc;
 }

@@ -113,6 +113,20 @@ wait_until 30 metric_is rayd_http_suspended 0
 check sse_disconnect_resumed "rayd_http_suspended = $(metric rayd_http_suspended)" metric_is rayd_http_suspended 0
 check sse_disconnect_job_goes_on "state $(jfield "$T/body" state)" job_state_is "$id5" queued
 req DELETE "/v1/jobs/$id5" >/dev/null
+
+# --- rayd-client job: Ctrl-C cancels the job on the server and exits 130 -------------------
+# The gate is still closed, so the job is waiting when the signal comes.
+"$RAYD_BUILD/rayd-client" job "$T/sse4.json" -o "$T/cj.png" --server "$URL" 2>"$T/cj.err" </dev/null &
+cpid=$!
+PIDS+=($cpid)
+wait_until 30 grep -q '^rayd-client: job [0-9a-f]* on' "$T/cj.err"
+idc=$(sed -n 's/^rayd-client: job \([0-9a-f]*\) on.*/\1/p' "$T/cj.err")
+kill -INT "$cpid"
+wait "$cpid"
+crc=$?
+check client_job_interrupt_130 "exit $crc, stderr: $(tail -n 2 "$T/cj.err")" \
+    bash -c "[ $crc = 130 ] && grep -q '^rayd-client: interrupted; job $idc cancelled' '$T/cj.err' && [ ! -e '$T/cj.png' ]"
+check client_job_interrupt_cancels "job $idc" job_state_is "$idc" canceled
 gate open
 
 # --- jobs with a region ------------------------------------------------------------------------
