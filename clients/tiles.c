@@ -593,103 +593,129 @@ static int tiles_write(const struct tiles *T)
     return rc;
 }
 
-int tiles_render(const struct client_opts *o, const struct scenefile *sf)
-{
-    struct tiles T;
-    memset(&T, 0, sizeof T);
-    T.o = o, T.sf = sf, T.ns = o->nservers;
-    T.busy_limit = 20 + 10 * o->retries;
-    int tile = o->tile;
-    T.s = calloc((size_t)T.ns, sizeof *T.s);
-    T.per_server = calloc((size_t)T.ns, sizeof *T.per_server);
-    T.labels = calloc((size_t)T.ns, sizeof *T.labels);
-    T.multi = curl_multi_init();
+/* T's servers, pieces and image (or sums), from o and sf: 0, or -1 after
+ * saying so (out of memory); tiles_cleanup frees what was made. */
+static int tiles_setup(struct tiles *T, const struct client_opts *o, const struct scenefile *sf) {
+    memset(T, 0, sizeof *T);
+    T->o = o, T->sf = sf, T->ns = o->nservers;
+    T->busy_limit = 20 + 10 * o->retries;
+    T->s = calloc((size_t)T->ns, sizeof *T->s);
+    T->per_server = calloc((size_t)T->ns, sizeof *T->per_server);
+    T->labels = calloc((size_t)T->ns, sizeof *T->labels);
+    T->multi = curl_multi_init();
     struct rayd_error err = {0};
-    int rc = 1;
-    if (!T.s || !T.per_server || !T.labels || !T.multi || tiles_pieces(&T, o, sf) != 0 ||
-        (o->ranges > 0 ? rayd_accum_new_sized(sf->width, sf->height, &T.acc, &err)
-                       : rayd_image_new(sf->width, sf->height, &T.img, &err)) != RAYD_OK) {
-        tiles_error(&T);
+    if (!T->s || !T->per_server || !T->labels || !T->multi || tiles_pieces(T, o, sf) != 0 ||
+        (o->ranges > 0 ? rayd_accum_new_sized(sf->width, sf->height, &T->acc, &err)
+                       : rayd_image_new(sf->width, sf->height, &T->img, &err)) != RAYD_OK) {
+        tiles_error(T);
         fprintf(stderr, "out of memory\n");
-        goto out;
+        return -1;
     }
-    for (int i = 0; i < T.ns; i++) {
-        T.s[i].url = o->servers[i];
-        net_label(o->servers[i], T.s[i].label, sizeof T.s[i].label);
-        memcpy(T.labels[i], T.s[i].label, sizeof T.labels[i]);
+    for (int i = 0; i < T->ns; i++) {
+        T->s[i].url = o->servers[i];
+        net_label(o->servers[i], T->s[i].label, sizeof T->s[i].label);
+        memcpy(T->labels[i], T->s[i].label, sizeof T->labels[i]);
     }
     /* one keep-alive connection per request in flight, a few spare */
-    curl_multi_setopt(T.multi, CURLMOPT_MAXCONNECTS, (long)(o->parallel + 2 * T.ns + 4));
-    progress_init(&T.prog, T.n, o->quiet);
-    if (!o->quiet && !T.prog.tty && T.acc)
-        fprintf(stderr, "rayd-client: %dx%d frame, %d samples in %d ranges over %d server%s, scene %.12s\n",
-                sf->width, sf->height, sf->samples, T.n, T.ns, T.ns > 1 ? "s" : "", sf->id);
-    else if (!o->quiet && !T.prog.tty)
-        fprintf(stderr, "rayd-client: %dx%d frame, %d tiles of %d px over %d server%s, scene %.12s\n",
-                sf->width, sf->height, T.n, tile, T.ns, T.ns > 1 ? "s" : "", sf->id);
-    double t0 = net_now();
-    while (T.done + T.failed < T.n && !T.fatal) {
-        double now = net_now();
-        tiles_dispatch(&T, now);
+    curl_multi_setopt(T->multi, CURLMOPT_MAXCONNECTS, (long)(o->parallel + 2 * T->ns + 4));
+    return 0;
+}
+
+/* The one line that says what is about to be done, when no progress bar
+ * is drawn (a pipe, a log) and not --quiet. */
+static void tiles_banner(const struct tiles *T) {
+    const struct scenefile *sf = T->sf;
+    const char *servers = T->ns > 1 ? "s" : "";
+    if (T->o->quiet || T->prog.tty) return;
+    if (T->acc)
+        fprintf(stderr,
+                "rayd-client: %dx%d frame, %d samples in %d ranges over %d server%s, scene %.12s\n",
+                sf->width, sf->height, sf->samples, T->n, T->ns, servers, sf->id);
+    else
+        fprintf(stderr,
+                "rayd-client: %dx%d frame, %d tiles of %d px over %d server%s, scene %.12s\n",
+                sf->width, sf->height, T->n, T->o->tile, T->ns, servers, sf->id);
+}
+
+/* Every pending piece failed, when no server is left alive. */
+static void tiles_give_up(struct tiles *T) {
+    for (int i = 0; i < T->n; i++)
+        if (T->t[i].st == TS_PENDING) {
+            T->t[i].st = TS_FAILED;
+            T->failed++;
+        }
+}
+
+/* Requests the pieces, as many in flight as allowed, until each is done
+ * or failed, or a fatal answer ends the render. */
+static void tiles_loop(struct tiles *T) {
+    while (T->done + T->failed < T->n && !T->fatal) {
+        tiles_dispatch(T, net_now());
         int still = 0;
-        curl_multi_perform(T.multi, &still);
+        curl_multi_perform(T->multi, &still);
         CURLMsg *m;
         int left;
-        while ((m = curl_multi_info_read(T.multi, &left))) {
+        while ((m = curl_multi_info_read(T->multi, &left))) {
             if (m->msg != CURLMSG_DONE)
                 continue;
             struct tiles_xfer *x = NULL;
             curl_easy_getinfo(m->easy_handle, CURLINFO_PRIVATE, (char **)&x);
-            CURLcode cc = m->data.result;
-            tiles_finish(&T, x, cc, net_now());
-            tiles_xfer_free(&T, x);
+            tiles_finish(T, x, m->data.result, net_now());
+            tiles_xfer_free(T, x);
         }
-        if (tiles_all_dead(&T)) {
-            for (int i = 0; i < T.n; i++)
-                if (T.t[i].st == TS_PENDING) {
-                    T.t[i].st = TS_FAILED;
-                    T.failed++;
-                }
-            if (T.done + T.failed == T.n)
-                break;
-        }
-        tiles_draw(&T, 0);
-        if (T.done + T.failed < T.n && !T.fatal)
-            curl_multi_poll(T.multi, NULL, 0, 50, NULL);
+        if (tiles_all_dead(T)) tiles_give_up(T);
+        if (T->done + T->failed == T->n) break;
+        tiles_draw(T, 0);
+        if (!T->fatal) curl_multi_poll(T->multi, NULL, 0, 50, NULL);
     }
-    double secs = net_now() - t0;
-    if (!T.fatal)
-        tiles_draw(&T, 1);
-    progress_end(&T.prog);
-    if (T.fatal) {
-        rc = 1;
-    } else if (T.done < T.n) {
-        tiles_report_missing(&T);
-    } else {
-        rc = tiles_write(&T) == 0 ? 0 : 1;
-        if (rc == 0 && !o->quiet) {
-            long uploads = 0;
-            for (int i = 0; i < T.ns; i++)
-                uploads += T.s[i].uploads;
-            fprintf(stderr,
-                    "rayd-client: wrote %s (%dx%d) from %d tiles in %.2f s (%.1f tiles/s), "
-                    "scene sent %ld time%s\n",
-                    output_name(o->out), sf->width, sf->height, T.n, secs, secs > 0 ? T.n / secs : 0.0,
-                    uploads, uploads == 1 ? "" : "s");
-        }
+}
+
+/* After the loop: the image written (0), or why not said (1). */
+static int tiles_conclude(struct tiles *T, double secs) {
+    if (!T->fatal) tiles_draw(T, 1);
+    progress_end(&T->prog);
+    if (T->fatal) return 1;
+    if (T->done < T->n) {
+        tiles_report_missing(T);
+        return 1;
     }
-out:
-    if (T.multi) {
+    if (tiles_write(T) != 0) return 1;
+    if (!T->o->quiet) {
+        long uploads = 0;
+        for (int i = 0; i < T->ns; i++) uploads += T->s[i].uploads;
+        fprintf(stderr,
+                "rayd-client: wrote %s (%dx%d) from %d tiles in %.2f s (%.1f tiles/s), "
+                "scene sent %ld time%s\n",
+                output_name(T->o->out), T->sf->width, T->sf->height, T->n, secs,
+                secs > 0 ? T->n / secs : 0.0, uploads, uploads == 1 ? "" : "s");
+    }
+    return 0;
+}
+
+static void tiles_cleanup(struct tiles *T) {
+    if (T->multi) {
         /* abandon what is still in flight (a fatal error or given-up tiles) */
-        while (T.xfers)
-            tiles_xfer_free(&T, T.xfers);
-        curl_multi_cleanup(T.multi);
+        while (T->xfers) tiles_xfer_free(T, T->xfers);
+        curl_multi_cleanup(T->multi);
     }
-    rayd_image_free(T.img);
-    rayd_accum_free(T.acc);
-    free(T.t);
-    free(T.s);
-    free(T.per_server);
-    free(T.labels);
+    rayd_image_free(T->img);
+    rayd_accum_free(T->acc);
+    free(T->t);
+    free(T->s);
+    free(T->per_server);
+    free(T->labels);
+}
+
+int tiles_render(const struct client_opts *o, const struct scenefile *sf) {
+    struct tiles T;
+    int rc = 1;
+    if (tiles_setup(&T, o, sf) == 0) {
+        progress_init(&T.prog, T.n, o->quiet);
+        tiles_banner(&T);
+        double t0 = net_now();
+        tiles_loop(&T);
+        rc = tiles_conclude(&T, net_now() - t0);
+    }
+    tiles_cleanup(&T);
     return rc;
 }
