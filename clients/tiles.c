@@ -346,77 +346,96 @@ static void tiles_metrics_done(struct tiles *T, struct tiles_xfer *x, long statu
     r->t = now;
 }
 
+/* A transport failure in words: too large, timed out, or curl's. */
+static void tiles_transport_why(const struct tiles *T, const struct tiles_xfer *x, CURLcode cc,
+                                char *why, size_t size) {
+    if (x->body.overflow)
+        snprintf(why, size, "answer too large");
+    else if (cc == CURLE_OPERATION_TIMEDOUT)
+        snprintf(why, size, "timed out after %.0f s (%s)", T->o->timeout, curl_easy_strerror(cc));
+    else
+        snprintf(why, size, "%s", curl_easy_strerror(cc));
+}
+
+/* 503 or 429: the server rests for its Retry-After, and the piece t (NULL
+ * for the scene's POST) waits to be sent again, unless it was turned away
+ * more than busy_limit times. */
+static void tiles_busy(struct tiles *T, struct tiles_xfer *x, struct tiles_tile *t, long status,
+                       double now) {
+    struct tiles_server *s = &T->s[x->server];
+    s->down_until = now + net_retry_after(x->h, 1);
+    if (s->scene == SS_LEARNING) s->scene = SS_UNKNOWN;
+    if (!t) return;
+    t->st = TS_PENDING;
+    t->not_before = now;
+    t->last_server = x->server;
+    if (++t->busy > T->busy_limit) {
+        char why[600];
+        net_describe(status, &x->body, why, sizeof why);
+        snprintf(t->err, sizeof t->err, "%.80s: busy %d times, last: %.120s", s->url, t->busy, why);
+        t->st = TS_FAILED;
+        T->failed++;
+    }
+}
+
+/* A 4xx but 408: a node that lacks the scene is taught it (the same
+ * piece, with the body); anything else ends the render (tiles_fatal). */
+static void tiles_refused(struct tiles *T, struct tiles_xfer *x, long status, double now) {
+    char code[64];
+    net_error_code(&x->body, code, sizeof code);
+    if (x->kind == X_GET && status == 404 && !strcmp(code, "scene_unknown")) {
+        T->s[x->server].scene = SS_KNOWN;
+        if (tiles_start(T, X_POST, x->tile, x->server) != 0)
+            tiles_tile_failed(T, x->tile, x->server, "out of memory", now);
+        return;
+    }
+    tiles_fatal(T, x->server, status, &x->body);
+}
+
+/* Any other answer: true when it is a success (the scene learnt, or the
+ * piece t stitched in), else false with why. */
+static bool tiles_answered(struct tiles *T, struct tiles_xfer *x, struct tiles_tile *t, long status,
+                           char *why, size_t size) {
+    struct tiles_server *s = &T->s[x->server];
+    bool ok = x->kind == X_LEARN ? status == 200 || status == 201
+                                 : status == 200 && tiles_stitch(T, t, &x->body, why, size) == 0;
+    if (ok && x->kind == X_LEARN) {
+        s->scene = SS_KNOWN;
+    } else if (ok) {
+        t->st = TS_DONE;
+        T->done++;
+        s->done++;
+    } else if (x->kind == X_LEARN || status != 200) {
+        net_describe(status, &x->body, why, size);
+    }
+    if (ok) s->fails_row = 0;
+    return ok;
+}
+
 static void tiles_finish(struct tiles *T, struct tiles_xfer *x, CURLcode cc, double now)
 {
     long status = 0;
     curl_easy_getinfo(x->h, CURLINFO_RESPONSE_CODE, &status);
-    struct tiles_server *s = &T->s[x->server];
     if (x->kind == X_METRICS) {
         tiles_metrics_done(T, x, cc == CURLE_OK ? status : 0, now);
         return;
     }
-    s->inflight--;
+    T->s[x->server].inflight--;
     /* the scene's POST, or a tile's (a range's) GET or POST */
     struct tiles_tile *t = x->kind == X_LEARN ? NULL : &T->t[x->tile];
     if (x->kind == X_GET || x->kind == X_POST)
         T->running--;
-    char why[600];
+    char why[600] = "";
     if (cc != CURLE_OK) {
-        if (x->body.overflow)
-            snprintf(why, sizeof why, "answer too large");
-        else if (cc == CURLE_OPERATION_TIMEDOUT)
-            snprintf(why, sizeof why, "timed out after %.0f s (%s)", T->o->timeout,
-                     curl_easy_strerror(cc));
-        else
-            snprintf(why, sizeof why, "%s", curl_easy_strerror(cc));
-        status = 0;
+        tiles_transport_why(T, x, cc, why, sizeof why);
     } else if (status == 503 || status == 429) {
-        double ra = net_retry_after(x->h, 1);
-        s->down_until = now + ra;
-        if (s->scene == SS_LEARNING)
-            s->scene = SS_UNKNOWN;
-        if (t) {
-            t->st = TS_PENDING;
-            t->not_before = now;
-            t->last_server = x->server;
-            if (++t->busy > T->busy_limit) {
-                net_describe(status, &x->body, why, sizeof why);
-                snprintf(t->err, sizeof t->err, "%.80s: busy %d times, last: %.120s", s->url, t->busy,
-                         why);
-                t->st = TS_FAILED;
-                T->failed++;
-            }
-        }
+        tiles_busy(T, x, t, status, now);
         return;
     } else if (status >= 400 && status < 500 && status != 408) {
-        char code[64];
-        net_error_code(&x->body, code, sizeof code);
-        if (x->kind == X_GET && status == 404 && !strcmp(code, "scene_unknown")) {
-            /* this node lacks the scene: the same tile with the body teaches it */
-            s->scene = SS_KNOWN;
-            if (tiles_start(T, X_POST, x->tile, x->server) != 0)
-                tiles_tile_failed(T, x->tile, x->server, "out of memory", now);
-            return;
-        }
-        tiles_fatal(T, x->server, status, &x->body);
+        tiles_refused(T, x, status, now);
         return;
-    } else if (x->kind == X_LEARN) {
-        if (status == 200 || status == 201) {
-            s->scene = SS_KNOWN;
-            s->fails_row = 0;
-            return;
-        }
-        net_describe(status, &x->body, why, sizeof why);
-    } else if (status == 200) {
-        if (tiles_stitch(T, t, &x->body, why, sizeof why) == 0) {
-            t->st = TS_DONE;
-            T->done++;
-            s->done++;
-            s->fails_row = 0;
-            return;
-        }
-    } else {
-        net_describe(status, &x->body, why, sizeof why);
+    } else if (tiles_answered(T, x, t, status, why, sizeof why)) {
+        return;
     }
     tiles_server_failed(T, x->server, why, now);
     if (t)
