@@ -76,25 +76,15 @@ static void main_std_fds(void)
         }
 }
 
-int main(int argc, char **argv)
+/* The worker pool, the router and the listener, with the signals the
+ * main thread waits for blocked in every thread: 0, or 1 after saying why. */
+static int main_start(sigset_t *set)
 {
-    main_std_fds();
-    /* a write to a closed pipe or socket is an error return, never a signal */
-    signal(SIGPIPE, SIG_IGN);
-    int rc = config_load(argc, argv);
-    if (rc != CONFIG_RUN) {
-        if (rc == CONFIG_USAGE)
-            fprintf(stderr, "Try 'rayd --help'.\n");
-        config_free();
-        return rc == CONFIG_DONE ? 0 : rc == CONFIG_FAILED ? 1 : 2;
-    }
     metrics_start(config.max_render_seconds);
-    sigset_t set;
-    sigemptyset(&set);
-    sigaddset(&set, SIGTERM);
-    sigaddset(&set, SIGINT);
-    pthread_sigmask(SIG_BLOCK, &set, NULL);
-
+    sigemptyset(set);
+    sigaddset(set, SIGTERM);
+    sigaddset(set, SIGINT);
+    pthread_sigmask(SIG_BLOCK, set, NULL);
     if (sched_start((int)config.threads, (int)config.queue, (int)config.max_jobs)) {
         fprintf(stderr, "rayd: error: cannot start the worker pool\n");
         return 1;
@@ -106,9 +96,15 @@ int main(int argc, char **argv)
     router_start();
     if (http_start()) {
         sched_stop();
-        config_free();
         return 1;
     }
+    return 0;
+}
+
+/* The warning when anyone may reach rayd, and the one line on standard
+ * output that says where it listens (scripts and tests read it). */
+static void main_announce(void)
+{
     if (!config_loopback(config.bind) && !config.token) {
         fprintf(stderr,
                 "\n"
@@ -131,21 +127,24 @@ int main(int argc, char **argv)
     log_info("rayd %s: %ld workers, queue %ld, max body %ld, max pixels %ld, cache %ld MiB%s",
              RAYD_VERSION, config.threads, config.queue, config.max_body, config.max_pixels,
              config.cache_mb, config.token ? ", token required" : "");
+}
 
-    int sig = 0;
-    while (sig != SIGTERM && sig != SIGINT)
-        sig = sigwaitinfo(&set, NULL);
-
+/* After SIGTERM or SIGINT: new work refused, the work in flight given
+ * --drain-seconds (a second signal cuts it short), the rest cancelled,
+ * then the connections answered and the listener stopped.  Should
+ * connections stay suspended, rayd exits here (status 1), without cleanup. */
+static void main_drain(int sig, sigset_t *set)
+{
     log_info("signal %d: draining (up to %ld s)", sig, config.drain_seconds);
     sched_drain();
     bool again = false;
-    if (!main_wait(sched_idle, (double)config.drain_seconds, &set, &again))
+    if (!main_wait(sched_idle, (double)config.drain_seconds, set, &again))
         log_info("drain: %s, cancelling what is left", again ? "second signal" : "deadline");
     sched_cancel_all();
-    main_wait(sched_idle, 30, &set, NULL);
-    main_wait(main_no_suspended, 10, &set, NULL);
-    main_wait(main_no_requests, 2, &set, NULL);
-    main_wait(main_quiet, 2, &set, NULL);
+    main_wait(sched_idle, 30, set, NULL);
+    main_wait(main_no_suspended, 10, set, NULL);
+    main_wait(main_no_requests, 2, set, NULL);
+    main_wait(main_quiet, 2, set, NULL);
     if (http_req_suspended() > 0) {
         /* never stop libmicrohttpd with suspended connections */
         log_warn("drain: %ld connections still suspended; exiting without cleanup",
@@ -155,6 +154,30 @@ int main(int argc, char **argv)
     }
     http_stop();
     sched_stop();
+}
+
+int main(int argc, char **argv)
+{
+    main_std_fds();
+    /* a write to a closed pipe or socket is an error return, never a signal */
+    signal(SIGPIPE, SIG_IGN);
+    int rc = config_load(argc, argv);
+    if (rc != CONFIG_RUN) {
+        if (rc == CONFIG_USAGE)
+            fprintf(stderr, "Try 'rayd --help'.\n");
+        config_free();
+        return rc == CONFIG_DONE ? 0 : rc == CONFIG_FAILED ? 1 : 2;
+    }
+    sigset_t set;
+    if (main_start(&set)) {
+        config_free();
+        return 1;
+    }
+    main_announce();
+    int sig = 0;
+    while (sig != SIGTERM && sig != SIGINT)
+        sig = sigwaitinfo(&set, NULL);
+    main_drain(sig, &set);
     metrics_free();
     log_info("stopped");
     config_free();
