@@ -283,74 +283,85 @@ static long http_fd_budget(void)
     return rl.rlim_cur == RLIM_INFINITY || rl.rlim_cur > 100000000 ? 100000000 : (long)rl.rlim_cur;
 }
 
-int http_start(void)
+/* The --bind address and --port into ss (MHD_USE_IPv6 into *flags for an
+ * IPv6 one): 0, or -1 after saying why. */
+static int http_address(struct sockaddr_storage *ss, unsigned *flags)
 {
-    metrics_gauge(MG_HTTP_SUSPENDED, http_req_suspended);
-    struct sockaddr_storage ss;
-    memset(&ss, 0, sizeof ss);
-    unsigned flags = MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_EPOLL | MHD_ALLOW_SUSPEND_RESUME |
-                     MHD_USE_ERROR_LOG;
-    struct sockaddr_in *s4 = (struct sockaddr_in *)&ss;
-    struct sockaddr_in6 *s6 = (struct sockaddr_in6 *)&ss;
+    memset(ss, 0, sizeof *ss);
+    struct sockaddr_in *s4 = (struct sockaddr_in *)ss;
+    struct sockaddr_in6 *s6 = (struct sockaddr_in6 *)ss;
     if (inet_pton(AF_INET, config.bind, &s4->sin_addr) == 1) {
         s4->sin_family = AF_INET;
         s4->sin_port = htons((uint16_t)config.port);
     } else if (inet_pton(AF_INET6, config.bind, &s6->sin6_addr) == 1) {
         s6->sin6_family = AF_INET6;
         s6->sin6_port = htons((uint16_t)config.port);
-        flags |= MHD_USE_IPv6;
+        *flags |= MHD_USE_IPv6;
     } else {
         fprintf(stderr, "rayd: error: --bind %s: not an IPv4 or IPv6 address\n", config.bind);
         return -1;
     }
-    /* descriptors: the connections, plus the listener, epoll sets, inter-thread
-     * channels, stdio and the odd file -- 64 is plenty */
-    long fds = http_fd_budget();
-    long conns = config.max_conns;
+    return 0;
+}
+
+/* --max-conns, lowered to what the open-file limit allows: the
+ * connections, plus the listener, epoll sets, inter-thread channels, stdio
+ * and the odd file -- 64 is plenty for those. */
+static long http_conn_limit(void)
+{
+    long fds = http_fd_budget(), conns = config.max_conns;
     if (conns > fds - 64) {
         conns = fds - 64 > 16 ? fds - 64 : 16;
         log_warn("--max-conns %ld lowered to %ld: the open-file limit is %ld (ulimit -n)",
                  config.max_conns, conns, fds);
     }
-    struct MHD_OptionItem opts[24];
-    int n = 0;
-#define HTTP_OPT(o, v, p) opts[n++] = (struct MHD_OptionItem){(o), (intptr_t)(v), (p)}
-    HTTP_OPT(MHD_OPTION_EXTERNAL_LOGGER, (intptr_t)http_mhd_log, NULL);
-    HTTP_OPT(MHD_OPTION_SOCK_ADDR, 0, &ss);
-    HTTP_OPT(MHD_OPTION_THREAD_POOL_SIZE, config.http_threads, NULL);
-    HTTP_OPT(MHD_OPTION_CONNECTION_TIMEOUT, config.timeout, NULL);
-    HTTP_OPT(MHD_OPTION_NOTIFY_COMPLETED, (intptr_t)http_completed, NULL);
-    HTTP_OPT(MHD_OPTION_URI_LOG_CALLBACK, (intptr_t)http_uri_log, NULL);
-    HTTP_OPT(MHD_OPTION_CONNECTION_LIMIT, conns, NULL);
-    HTTP_OPT(MHD_OPTION_PER_IP_CONNECTION_LIMIT, config.max_conns_per_ip, NULL);
-    HTTP_OPT(MHD_OPTION_CONNECTION_MEMORY_LIMIT, config.max_header_bytes, NULL);
-    HTTP_OPT(MHD_OPTION_LISTEN_BACKLOG_SIZE, 1024, NULL);
-    /* strict parsing: HTTP/1.1 needs Host, no spaces inside the target, no
-     * whitespace before a header's colon (RFC 9112) */
-    HTTP_OPT(MHD_OPTION_STRICT_FOR_CLIENT, 1, NULL);
-    if (config.tls_cert) {
-        if (MHD_is_feature_supported(MHD_FEATURE_TLS) != MHD_YES) {
-            fprintf(stderr, "rayd: error: this libmicrohttpd has no TLS support (--tls-cert)\n");
-            return -1;
-        }
-        http_tls_cert = http_read_pem(config.tls_cert);
-        http_tls_key = http_tls_cert ? http_read_pem(config.tls_key) : NULL;
-        if (!http_tls_key) {
-            free(http_tls_cert);
-            http_tls_cert = NULL;
-            return -1;
-        }
-        flags |= MHD_USE_TLS;
-        HTTP_OPT(MHD_OPTION_HTTPS_MEM_CERT, 0, http_tls_cert);
-        HTTP_OPT(MHD_OPTION_HTTPS_MEM_KEY, 0, http_tls_key);
+    return conns;
+}
+
+/* libmicrohttpd's options, built one at a time. */
+struct http_opts {
+    struct MHD_OptionItem item[24];
+    int n;
+};
+
+static void http_opt(struct http_opts *o, enum MHD_OPTION opt, intptr_t value, void *ptr)
+{
+    o->item[o->n++] = (struct MHD_OptionItem){opt, value, ptr};
+}
+
+/* With --tls-cert: the certificate and key read and their options added
+ * (MHD_USE_TLS into *flags).  0, or -1 after saying why. */
+static int http_tls_options(struct http_opts *o, unsigned *flags)
+{
+    if (!config.tls_cert)
+        return 0;
+    if (MHD_is_feature_supported(MHD_FEATURE_TLS) != MHD_YES) {
+        fprintf(stderr, "rayd: error: this libmicrohttpd has no TLS support (--tls-cert)\n");
+        return -1;
     }
-    HTTP_OPT(MHD_OPTION_END, 0, NULL);
-#undef HTTP_OPT
+    http_tls_cert = http_read_pem(config.tls_cert);
+    http_tls_key = http_tls_cert ? http_read_pem(config.tls_key) : NULL;
+    if (!http_tls_key) {
+        free(http_tls_cert);
+        http_tls_cert = NULL;
+        return -1;
+    }
+    *flags |= MHD_USE_TLS;
+    http_opt(o, MHD_OPTION_HTTPS_MEM_CERT, 0, http_tls_cert);
+    http_opt(o, MHD_OPTION_HTTPS_MEM_KEY, 0, http_tls_key);
+    return 0;
+}
+
+/* Starts libmicrohttpd with flags and o; what it logs while starting is
+ * kept (http_start_why) to explain a failure in one line.  0, or -1 after
+ * saying why. */
+static int http_launch(unsigned flags, struct http_opts *o)
+{
     pthread_mutex_lock(&http_start_lock);
     http_starting = true;
     pthread_mutex_unlock(&http_start_lock);
     http_daemon = MHD_start_daemon(flags, (uint16_t)config.port, NULL, NULL, http_access, NULL,
-                                   MHD_OPTION_ARRAY, opts, MHD_OPTION_END);
+                                   MHD_OPTION_ARRAY, o->item, MHD_OPTION_END);
     pthread_mutex_lock(&http_start_lock);
     http_starting = false;
     char why[sizeof http_start_why];
@@ -360,11 +371,42 @@ int http_start(void)
         fprintf(stderr, "rayd: error: cannot listen on %s port %ld%s%s%s\n", config.bind,
                 config.port, config.tls_cert ? " (or the TLS key/certificate was refused)" : "",
                 why[0] ? ": " : "", why);
-        http_stop();
         return -1;
     }
     if (why[0])
         log_warn("http: %s", why);
+    return 0;
+}
+
+int http_start(void)
+{
+    metrics_gauge(MG_HTTP_SUSPENDED, http_req_suspended);
+    unsigned flags = MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_EPOLL | MHD_ALLOW_SUSPEND_RESUME |
+                     MHD_USE_ERROR_LOG;
+    struct sockaddr_storage ss;
+    if (http_address(&ss, &flags) != 0)
+        return -1;
+    struct http_opts o = {.n = 0};
+    http_opt(&o, MHD_OPTION_EXTERNAL_LOGGER, (intptr_t)http_mhd_log, NULL);
+    http_opt(&o, MHD_OPTION_SOCK_ADDR, 0, &ss);
+    http_opt(&o, MHD_OPTION_THREAD_POOL_SIZE, config.http_threads, NULL);
+    http_opt(&o, MHD_OPTION_CONNECTION_TIMEOUT, config.timeout, NULL);
+    http_opt(&o, MHD_OPTION_NOTIFY_COMPLETED, (intptr_t)http_completed, NULL);
+    http_opt(&o, MHD_OPTION_URI_LOG_CALLBACK, (intptr_t)http_uri_log, NULL);
+    http_opt(&o, MHD_OPTION_CONNECTION_LIMIT, http_conn_limit(), NULL);
+    http_opt(&o, MHD_OPTION_PER_IP_CONNECTION_LIMIT, config.max_conns_per_ip, NULL);
+    http_opt(&o, MHD_OPTION_CONNECTION_MEMORY_LIMIT, config.max_header_bytes, NULL);
+    http_opt(&o, MHD_OPTION_LISTEN_BACKLOG_SIZE, 1024, NULL);
+    /* strict parsing: HTTP/1.1 needs Host, no spaces inside the target, no
+     * whitespace before a header's colon (RFC 9112) */
+    http_opt(&o, MHD_OPTION_STRICT_FOR_CLIENT, 1, NULL);
+    if (http_tls_options(&o, &flags) != 0)
+        return -1;
+    http_opt(&o, MHD_OPTION_END, 0, NULL);
+    if (http_launch(flags, &o) != 0) {
+        http_stop();
+        return -1;
+    }
     const union MHD_DaemonInfo *di = MHD_get_daemon_info(http_daemon, MHD_DAEMON_INFO_BIND_PORT);
     http_bound_port = di ? di->port : (int)config.port;
     return 0;
