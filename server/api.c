@@ -68,68 +68,93 @@ static bool api_int(const char *s, long *out)
     return true;
 }
 
+/* 400 bad_parameter for a query parameter the route does not take,
+ * listing those it does. */
+static void api_q_unknown(struct http_req *r, const struct api_q *q)
+{
+    char more[120] = "", msg[320];
+    size_t used = 0;
+    for (const char *const *a = q->also; a && *a && used < sizeof more; a++)
+        used += (size_t)snprintf(more + used, sizeof more - used, ", %s", *a);
+    snprintf(msg, sizeof msg, "unknown query parameter '%s' (only x, y, w, h%s%s)", q->unknown,
+             q->allow_format ? ", format, samples" : "", more);
+    http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, q->unknown);
+}
+
+/* 400 bad_region naming the parameter name and what is wrong with it;
+ * false, for the callers' return. */
+static bool api_region_bad(struct http_req *r, const char *name, const char *why)
+{
+    char msg[320];
+    snprintf(msg, sizeof msg, "%s: %s", name, why);
+    http_reply_error(r, 400, "bad_region", msg, NULL, 0, 0, name);
+    return false;
+}
+
+/* x, y, w, h into v: 1, or 0 when none is given (the whole image), or -1
+ * after a 400: one given twice (looked for first), missing, or not an
+ * integer. */
+static int api_region_values(struct http_req *r, const struct api_q *q, long v[4])
+{
+    int present = 0;
+    for (int i = 0; i < 4; i++) {
+        if (q->count[i] > 1) {
+            api_region_bad(r, api_q_names[i], "given more than once");
+            return -1;
+        }
+        present += q->count[i];
+    }
+    for (int i = 0; i < 4 && present > 0; i++) {
+        const char *why = !q->count[i] ? "missing (a region needs all of x, y, w, h)"
+                          : !api_int(q->val[i], &v[i]) ? "must be a decimal integer"
+                                                       : NULL;
+        if (why) {
+            api_region_bad(r, api_q_names[i], why);
+            return -1;
+        }
+    }
+    return present > 0;
+}
+
+/* The region v inside an image of info's size; else a 400 naming the first
+ * value out of it. */
+static bool api_region_inside(struct http_req *r, const struct rayd_scene_info *info,
+                              const long v[4])
+{
+    const char *bad = NULL, *why = "";
+    if (v[0] < 0 || v[0] >= info->width)
+        bad = "x", why = "must be in 0..width-1";
+    else if (v[1] < 0 || v[1] >= info->height)
+        bad = "y", why = "must be in 0..height-1";
+    else if (v[2] < 1 || v[0] + v[2] > info->width)
+        bad = "w", why = "must be >= 1 with x + w <= width";
+    else if (v[3] < 1 || v[1] + v[3] > info->height)
+        bad = "h", why = "must be >= 1 with y + h <= height";
+    if (!bad)
+        return true;
+    char full[160];
+    snprintf(full, sizeof full, "%s (the image is %dx%d)", why, info->width, info->height);
+    return api_region_bad(r, bad, full);
+}
+
 static bool api_region_q(struct http_req *r, const rayd_scene *scene, struct rayd_region *out,
                          struct api_q *qp)
 {
     struct rayd_scene_info info;
     rayd_scene_info(scene, &info);
-    struct api_q q = *qp;
-    http_req_query_each(r, api_q_each, &q);
-    *qp = q;
-    char msg[320];
-    if (q.unknown[0]) {
-        char more[120] = "";
-        size_t used = 0;
-        for (const char *const *a = q.also; a && *a && used < sizeof more; a++)
-            used += (size_t)snprintf(more + used, sizeof more - used, ", %s", *a);
-        snprintf(msg, sizeof msg, "unknown query parameter '%s' (only x, y, w, h%s%s)", q.unknown,
-                 q.allow_format ? ", format, samples" : "", more);
-        http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, q.unknown);
+    http_req_query_each(r, api_q_each, qp);
+    if (qp->unknown[0]) {
+        api_q_unknown(r, qp);
         return false;
-    }
-    int present = 0;
-    for (int i = 0; i < 4; i++) {
-        if (q.count[i] > 1) {
-            snprintf(msg, sizeof msg, "%s: given more than once", api_q_names[i]);
-            http_reply_error(r, 400, "bad_region", msg, NULL, 0, 0, api_q_names[i]);
-            return false;
-        }
-        present += q.count[i];
-    }
-    if (present == 0) {
-        *out = (struct rayd_region){0, 0, info.width, info.height};
-        return true;
     }
     long v[4];
-    for (int i = 0; i < 4; i++) {
-        if (!q.count[i]) {
-            snprintf(msg, sizeof msg, "%s: missing (a region needs all of x, y, w, h)",
-                     api_q_names[i]);
-            http_reply_error(r, 400, "bad_region", msg, NULL, 0, 0, api_q_names[i]);
-            return false;
-        }
-        if (!api_int(q.val[i], &v[i])) {
-            snprintf(msg, sizeof msg, "%s: must be a decimal integer", api_q_names[i]);
-            http_reply_error(r, 400, "bad_region", msg, NULL, 0, 0, api_q_names[i]);
-            return false;
-        }
+    int given = api_region_values(r, qp, v);
+    if (given <= 0) {
+        *out = (struct rayd_region){0, 0, info.width, info.height};
+        return given == 0;
     }
-    const char *bad = NULL;
-    const char *why = "";
-    if (v[0] < 0 || v[0] >= info.width)
-        bad = "x", why = "must be in 0..width-1";
-    else if (v[1] < 0 || v[1] >= info.height)
-        bad = "y", why = "must be in 0..height-1";
-    else if (v[2] < 1 || v[0] + v[2] > info.width)
-        bad = "w", why = "must be >= 1 with x + w <= width";
-    else if (v[3] < 1 || v[1] + v[3] > info.height)
-        bad = "h", why = "must be >= 1 with y + h <= height";
-    if (bad) {
-        snprintf(msg, sizeof msg, "%s: %s (the image is %dx%d)", bad, why, info.width,
-                 info.height);
-        http_reply_error(r, 400, "bad_region", msg, NULL, 0, 0, bad);
+    if (!api_region_inside(r, &info, v))
         return false;
-    }
     *out = (struct rayd_region){(int)v[0], (int)v[1], (int)v[2], (int)v[3]};
     struct rayd_error err = {0};
     if (rayd_region_check(scene, out, &err) != RAYD_OK) {
