@@ -444,8 +444,8 @@ TSAN_UNIT := test_png_stream
 VALGRIND_TESTS := security api_errors bad_requests
 
 test-tsan: | $(BUILD)/.test-deps-ok
-	@$(MAKE) --no-print-directory TSAN=1 build/tsan/rayd build/tsan/rayd-render build/tsan/bench/genmesh \
-	  build/tsan/tests/tools/hdrcheck $(TSAN_UNIT:%=build/tsan/tests/%)
+	@$(MAKE) --no-print-directory TSAN=1 build/tsan/rayd build/tsan/rayd-render build/tsan/rayd-client \
+	  build/tsan/bench/genmesh build/tsan/tests/tools/hdrcheck $(TSAN_UNIT:%=build/tsan/tests/%)
 	@TSAN_OPTIONS="halt_on_error=0 second_deadlock_stack=1 $${TSAN_OPTIONS:-}" \
 	  RAYD_TIMEOUT=1800 RAYD_TESTS="$(TSAN_TESTS)" RAYD_UNIT="$(TSAN_UNIT)" bash tests/run.sh build/tsan
 
