@@ -263,17 +263,14 @@ static void api_jobs_pass_image(struct http_req *r, const char *id, const char *
         return;
     }
     api_job_scene(r, &info);
-    if (http_req_query_count(r, "pass") > 1 || !*q || *end || k < 1 || !info.progressive ||
-        k > info.passes.total) {
-        char msg[120];
-        if (http_req_query_count(r, "pass") > 1)
-            snprintf(msg, sizeof msg, "pass: given more than once");
-        else if (!info.progressive)
-            snprintf(msg, sizeof msg, "pass: only a progressive job has passes");
-        else
-            snprintf(msg, sizeof msg, "pass: must be a pass number of this job, 1..%d",
-                     info.passes.total);
-        http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, "pass");
+    char range[80];
+    snprintf(range, sizeof range, "must be a pass number of this job, 1..%d", info.passes.total);
+    const char *why = http_req_query_count(r, "pass") > 1 ? "given more than once"
+                      : !info.progressive                 ? "only a progressive job has passes"
+                      : !*q || *end || k < 1 || k > info.passes.total ? range
+                                                                      : NULL;
+    if (why) {
+        api_plan_bad(r, "pass", why);
         return;
     }
     struct blob *png = NULL;
