@@ -178,20 +178,40 @@ bool api_region_also(struct http_req *r, const rayd_scene *scene, struct rayd_re
     return api_region_q(r, scene, out, &q);
 }
 
-/* The q of media type type in an Accept header (RFC 9110 12.5.1): 1 when
- * it is named without one, -1 when it is not named (wildcards are not
- * counted: they name no preference for EXR). */
+/* The weight of one media range's parameters [p, end) (RFC 9110 12.4.2):
+ * the value of its parameter named q, 1 without one, -1 when that value is
+ * not a qvalue (0 to 1, three decimals at most: the range then counts as
+ * not named).  Only a parameter whose name is q counts, not one that ends
+ * in q ("xq=1"). */
+static double api_accept_weight(const char *p, const char *end)
+{
+    while ((p = memchr(p, ';', (size_t)(end - p))) != NULL) {
+        p += 1 + strspn(p + 1, " \t");
+        if ((*p != 'q' && *p != 'Q') || p[1] != '=')
+            continue;
+        const char *v = p + 2;
+        size_t n = strspn(v, "0123456789.");
+        char *stop;
+        double q = strtod(v, &stop);
+        bool digits =
+            n >= 1 && n <= 5 && stop == v + n && (v[1] == '.' || n == 1) && strchr(" \t;,", v[n]);
+        return digits && q >= 0 && q <= 1 ? q : -1;
+    }
+    return 1;
+}
+
+/* The q of media type type in an Accept header (RFC 9110 12.5.1): its
+ * weight (api_accept_weight) where it is named, -1 when it is not named
+ * (wildcards are not counted: they name no preference for EXR). */
 static double api_accept_q(const char *accept, const char *type)
 {
     size_t tl = strlen(type);
     for (const char *p = accept; p; p = strchr(p, ',')) {
         p += strspn(p, ", \t"); /* the next media range */
-        if (strncasecmp(p, type, tl) || (p[tl] && !strchr(" \t;,", p[tl])))
+        const char *end = p + strcspn(p, ",");
+        if (strncasecmp(p, type, tl) || !strchr(" \t;,", p[tl])) /* '\0' is in it too */
             continue;
-        const char *end = strchr(p, ','), *qp = strstr(p + tl, "q=");
-        if (!qp || (end && qp > end))
-            return 1;
-        return strtod(qp + 2, NULL);
+        return api_accept_weight(p + tl, end);
     }
     return -1;
 }

@@ -41,9 +41,13 @@ unpolicy() { if [ -n "$ours" ]; then $sudo rm -f "$policy"; fi; }
 trap unpolicy EXIT
 trap 'exit 130' INT TERM
 
-$sudo apt-get update -qq
+# Another apt-get may hold dpkg's lock (a second clone's make, the host's
+# own updates): wait for it, up to 10 minutes, rather than fail at once.
+wait_lock="-o DPkg::Lock::Timeout=600"
+# shellcheck disable=SC2086 # an option and its value
+$sudo apt-get $wait_lock update -qq
 # shellcheck disable=SC2086 # one word a package
-$sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $missing
+$sudo env DEBIAN_FRONTEND=noninteractive apt-get $wait_lock install -y -qq --no-install-recommends $missing
 
 case " $missing " in
 *" nginx "*)

@@ -28,8 +28,16 @@ for s in path whitted; do
     check "${s}_accept_exr" "status $code, $(header Content-Type)" \
         bash -c "[ $code = 200 ] && cmp -s '$T/body' '$T/$s-ref.exr'"
     check "${s}_accept_vary" "Vary: $(header Vary)" [ "$(header Vary)" = Accept ]
-    # q=0 refuses a type (RFC 9110), and a lower q than image/png's loses to it
-    for acc in 'image/png, image/x-exr;q=0' 'image/x-exr; q=0' 'image/x-exr;q=0.4, image/png;q=0.5'; do
+    # only a parameter named q weighs, and after the other parameters too
+    for acc in 'image/x-exr;note=aq=0, image/png;q=0.5' 'image/x-exr;v=1;q=0.9, image/png;Q=0.8'; do
+        code=$(post_json "/v1/render" "$T/$s.json" -H "Accept: $acc")
+        check "${s}_accept_exr_${acc//[^a-z0-9]/_}" "status $code, $(header Content-Type)" \
+            bash -c "[ $code = 200 ] && cmp -s '$T/body' '$T/$s-ref.exr'"
+    done
+    # q=0 refuses a type (RFC 9110), a lower q than image/png's loses to it,
+    # and a q that is no qvalue (above 1, four decimals) names nothing
+    for acc in 'image/png, image/x-exr;q=0' 'image/x-exr; q=0' 'image/x-exr;q=0.4, image/png;q=0.5' \
+        'image/x-exr;q=2' 'image/x-exr;q=0.5000'; do
         code=$(post_json "/v1/render" "$T/$s.json" -H "Accept: $acc")
         check "${s}_accept_png_${acc//[^a-z0-9]/_}" "status $code, $(header Content-Type)" \
             bash -c "[ $code = 200 ] && cmp -s '$T/body' '$T/$s-ref.png'"
