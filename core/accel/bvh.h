@@ -21,6 +21,8 @@
 #define BVH_SSE 1
 #endif
 
+/* A box in floats, as the BVH's nodes keep them: rounded outward from an
+ * object's struct aabb (math/vec.h), half the memory for the walk. */
 struct bbox {
     float lo[3], hi[3];
 };

@@ -15,7 +15,8 @@ typedef struct {
 
 #define DEG2RAD (3.14159265358979323846 / 180.0)
 
-/* An axis-aligned box. */
+/* An axis-aligned box in doubles: an object's or a scene's bounds (for the
+ * BVH's float boxes, see struct bbox in accel/bvh.h). */
 struct aabb {
     vec3 lo, hi;
 };
