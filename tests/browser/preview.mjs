@@ -609,6 +609,44 @@ try {
     return (!isOneToOne(back) && pressed === "false") || `key 1 left ${back.w} x ${back.h}, aria-pressed ${pressed}`;
   });
 
+  // --- a narrow, short window: the panes stack and the page scrolls to the image ---------------
+  // The image pane keeps its whole height (canvas, progress bar, status
+  // line with its buttons) and main scrolls to it; it used to be squeezed
+  // into what was left under the editor (2 px at 700 x 400), clipped.
+  await check("narrow_window_image_reachable", async () => {
+    try {
+      for (const [w, h] of [[700, 400], [800, 600], [420, 860]]) {
+        await page.setViewportSize({ width: w, height: h });
+        await page.waitForFunction(() => getComputedStyle(document.querySelector("main")).gridTemplateColumns.split(" ").length === 1);
+        const geometry = () =>
+          page.evaluate(() => {
+            const r = (s) => document.querySelector(s).getBoundingClientRect();
+            const pane = r(".view-pane"), canvas = r("#canvas"), st = r(".statusline");
+            const m = document.querySelector("main");
+            return { paneTop: pane.top, paneBottom: pane.bottom, canvasTop: canvas.top, canvasH: canvas.height,
+                     stBottom: st.bottom, main: m.scrollHeight, mainClient: m.clientHeight };
+          });
+        const fits = (g) => g.canvasH >= 100 && g.canvasTop >= g.paneTop && g.stBottom <= g.paneBottom + 1;
+        // the canvas is sized to its stage after a resize observer fires: wait for it
+        await until(async () => fits(await geometry()), 5000);
+        const g = await geometry();
+        if (!(g.canvasH >= 100)) return `${w} x ${h}: the canvas is ${g.canvasH} px tall`;
+        if (g.canvasTop < g.paneTop || g.stBottom > g.paneBottom + 1)
+          return `${w} x ${h}: the image pane (${g.paneTop}..${g.paneBottom}) clips the canvas (top ${g.canvasTop}) or the status line (bottom ${g.stBottom})`;
+        const lastVisible = await page.evaluate(() => {
+          const m = document.querySelector("main");
+          m.scrollTop = m.scrollHeight;
+          const b = document.querySelector(".statusline").getBoundingClientRect();
+          return b.bottom <= innerHeight + 1 && b.top >= 0;
+        });
+        if (!lastVisible) return `${w} x ${h}: scrolling main does not bring the status line into view (main ${g.main} of ${g.mainClient})`;
+      }
+      return true;
+    } finally {
+      await page.setViewportSize({ width: 1440, height: 860 });
+    }
+  });
+
   // --- the orbit stops at the ground unless asked ------------------------------------------------
   // Dragging up tilts the eye down (theta grows); from the bottom of the
   // image to the top is more than enough to reach the floor.
