@@ -210,6 +210,16 @@ export class Editor {
   }
 
   // Moves the caret to an offset and scrolls it into the middle of the view.
+  // The width of one character of the textarea's (monospace) font.
+  charWidth() {
+    if (!this.measure) this.measure = document.createElement("canvas").getContext("2d");
+    const cs = getComputedStyle(this.ta);
+    this.measure.font = `${cs.fontSize} ${cs.fontFamily}`;
+    return this.measure.measureText("0").width || 7.5;
+  }
+
+  // The caret at offset, scrolled into view: its line in the middle, and,
+  // since lines do not wrap, its column too when it is past either edge.
   reveal(offset) {
     const before = this.ta.value.slice(0, offset);
     const line = before.split("\n").length;
@@ -217,6 +227,12 @@ export class Editor {
     this.ta.setSelectionRange(offset, offset);
     const lh = this.lineHeight();
     this.ta.scrollTop = Math.max(0, (line - 1) * lh - this.ta.clientHeight / 2 + lh);
+    const cw = this.charWidth();
+    const x = (offset - before.lastIndexOf("\n") - 1) * cw; // from the text's left edge
+    const pad = parseFloat(getComputedStyle(this.ta).paddingLeft) || 0;
+    const view = this.ta.clientWidth - 2 * pad;
+    if (x < this.ta.scrollLeft || x + 12 * cw > this.ta.scrollLeft + view)
+      this.ta.scrollLeft = Math.max(0, x - view / 3);
     this.sync();
   }
 }

@@ -238,6 +238,29 @@ try {
     const msg = await page.$eval("#error .error-msg", (e) => e.textContent);
     return (got === k && msg.includes(`line ${k}`)) || `highlighted line ${got}, message "${msg}", want line ${k}`;
   });
+  // "Show in editor" brings the error's column into view too: the editor
+  // does not wrap, and it used to scroll only vertically.
+  await check("show_in_editor_reveals_column", async () => {
+    const far = '"material": "red", ' + " ".repeat(150) + '"radiuss": 1';
+    const bad = paper.replace('"material": "red"', far);
+    if (bad === paper) return "could not make the bad scene";
+    await setText(page, bad);
+    await page.click("#render");
+    await waitState(page, "error");
+    await page.$eval("#scene", (t) => (t.scrollLeft = 0));
+    await page.click("#goto");
+    const g = await page.$eval("#scene", (t) => {
+      const before = t.value.slice(0, t.selectionStart);
+      const col = t.selectionStart - before.lastIndexOf("\n") - 1;
+      const c = document.createElement("canvas").getContext("2d");
+      const cs = getComputedStyle(t);
+      c.font = `${cs.fontSize} ${cs.fontFamily}`;
+      const x = parseFloat(cs.paddingLeft) + col * c.measureText("0").width - t.scrollLeft;
+      return { col, x, width: t.clientWidth, at: t.value.slice(t.selectionStart, t.selectionStart + 9) };
+    });
+    if (g.at !== '"radiuss"') return `the caret is at "${g.at}", not at the unknown key`;
+    return (g.x >= 0 && g.x <= g.width - 40) || `column ${g.col} is at x ${g.x} of a ${g.width} px editor (not in view)`;
+  });
   await check("error_cleared_by_good_render", async () => {
     const n = await renders(page);
     await setText(page, paper);
