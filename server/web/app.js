@@ -232,7 +232,9 @@ async function render({ fromStart = false } = {}) {
         if (!stats.passes.length) stats.firstPassMs = performance.now() - started;
         stats.passes.push({ samples: p.samples, ms: performance.now() - started });
         lastProgress = { done: p.done, total: p.total, samples: p.samples };
-        bar(p.done / p.total);
+        // the sample work done: the last pass is about half of it, so
+        // passes done / passes would sit near the end for half the time
+        bar(typeof p.progress === "number" ? p.progress : p.done / p.total);
         status("Refining · " + progressText(false));
       } else {
         lastProgress = { done: p.done, total: p.total };

@@ -211,7 +211,9 @@ export class Renderer {
 
   // A progressive job: each pass drawn as it completes (only the newest of
   // those that arrived together).  progress({phase: "pass", samples,
-  // target, done, total, id}) after each.  The stream is read with fetch,
+  // target, done, total, progress, id}) after each; progress is the
+  // server's share of the sample work done (a pass of 64 samples weighs
+  // 32 times one of 2), not done / total.  The stream is read with fetch,
   // since EventSource cannot send the token.  Aborted (a new render, an
   // orbit, Stop), the job is deleted, so the server stops at once.  The
   // POST that makes the job is not aborted: its answer names the job to
@@ -240,7 +242,14 @@ export class Renderer {
           const p = passes[passes.length - 1].data;
           await lowDone; // passes go over the quick pass, never under it
           if ((await this.drawPass(p.image_url.replace(/^\//, ""), signal)) || end)
-            progress({ phase: "pass", samples: p.samples, done: p.pass, total: p.passes, id: job.scene_id });
+            progress({
+              phase: "pass",
+              samples: p.samples,
+              done: p.pass,
+              total: p.passes,
+              progress: p.progress,
+              id: job.scene_id,
+            });
         }
         if (end && end.data.state === "succeeded") return { id: job.scene_id, samples: end.data.samples };
         if (end) throw new ApiError({ code: "job_" + end.data.state, message: end.data.error || "the render was cancelled" });

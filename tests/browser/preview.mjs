@@ -393,7 +393,7 @@ try {
     const text = JSON.stringify(sc, null, 2);
     const n = await renders(page);
     await gate(0);
-    let first, status;
+    let first, status, barAfterFirst;
     try {
       await setText(page, text);
       await page.click("#render");
@@ -402,12 +402,17 @@ try {
       await gate(5);
       await page.waitForFunction(() => window.rayd.stats.passes.length === 1, null, { timeout: 60000 });
       status = await page.$eval("#status", (e) => e.textContent);
+      barAfterFirst = await page.$eval("#bar", (e) => parseFloat(e.style.width));
       first = await canvasPng(page);
     } finally {
       await gate("open");
     }
     await waitDone(page, n);
     if (!/^Refining · 1 spp · pass 1\/4/.test(status)) return `status after the first pass "${status}"`;
+    // the bar shows the sample work (docs/api.md, the job's "progress"): the
+    // one-sample pass, then 8 samples' worth for the rest (pass 2 renders 2,
+    // passes 4 and 8 add to them), so 1/9 of it; not 1/4 for one pass of four
+    if (!(Math.abs(barAfterFirst - 100 / 9) < 0.5)) return `progress bar at ${barAfterFirst}% after the first pass, want 11.1%`;
     const one = JSON.parse(text);
     one.render.samples = 1;
     const r1 = samePixels(await serverPng(JSON.stringify(one)), first);
