@@ -542,26 +542,35 @@ $("dl-json").addEventListener("click", () =>
 );
 
 // ---- start: a scene from the link, or the default example ----------------------------------
+// "opened" (the link's scene is in the editor), "none" (no scene in the
+// link) or "bad" (it could not be decoded: the error is shown, and no
+// render may follow, or it would clear the error and show another scene
+// as if it were the link's).
 async function openHash() {
   let got = null;
   try {
     got = await fromHash(location.hash);
   } catch (e) {
-    showError("Bad link", "the scene in this link could not be decoded: " + (e.message || e));
-    return false;
+    showError(
+      "Bad link",
+      "the scene in this link could not be decoded (cut short or altered?): " +
+        (e.message || e) +
+        "\nThe editor holds your last scene instead; Render draws it."
+    );
+    return "bad";
   }
-  if (!got) return false;
+  if (!got) return "none";
   if (got.text !== editor.value) {
     const edited = !isExample(editor.value);
     select.value = editor.label = "";
     editor.set(got.text, { kind: "link" });
     if (edited) showNotice("Link opened — Ctrl+Z to get your scene back");
   }
-  return true;
+  return "opened";
 }
 window.addEventListener("hashchange", async () => {
   const before = editor.value;
-  if ((await openHash()) && editor.value !== before) render();
+  if ((await openHash()) === "opened" && editor.value !== before) render();
 });
 
 // The text of the last visit (autosave.js), or the default example; then
@@ -581,6 +590,5 @@ window.addEventListener("hashchange", async () => {
   }
   select.value = editor.label;
   describe();
-  await openHash();
-  render({ fromStart: true });
+  if ((await openHash()) !== "bad") render({ fromStart: true });
 })();

@@ -451,6 +451,26 @@ try {
     return r;
   });
 
+  // A link cut short (a chat client, a copy that missed its end) is said
+  // so and stays said: the page used to show "Bad link", then render the
+  // saved scene at once, which cleared the message, so the wrong scene
+  // looked like the link's.
+  await check("bad_link_error_stays", async () => {
+    const href = await page.$eval("#link", (a) => a.href);
+    const p2 = await context.newPage();
+    try {
+      await p2.goto(href.slice(0, href.length - 40));
+      await p2.waitForFunction(() => ["done", "error"].includes(document.body.dataset.state), null, { timeout: 60000 });
+      const state = await p2.evaluate(() => document.body.dataset.state);
+      const title = await p2.$eval("#error", (e) => (e.hidden ? "" : e.querySelector(".error-title").textContent));
+      const renders2 = await p2.evaluate(() => document.body.dataset.renders || "0");
+      return (state === "error" && title === "Bad link" && renders2 === "0") ||
+        `state ${state}, error "${title}", ${renders2} renders: the broken link's error did not stay`;
+    } finally {
+      await p2.close();
+    }
+  });
+
   // --- the page keeps work: undo of camera moves and examples, autosave, reset -----------------
   const { examples: EXAMPLES } = await import(join(OUT_DIR, "server/web/examples.js"));
   const exampleOf = (name) => EXAMPLES.find((e) => e.name === name).text;
