@@ -209,7 +209,6 @@ export class Editor {
     }
   }
 
-  // Moves the caret to an offset and scrolls it into the middle of the view.
   // The width of one character of the textarea's (monospace) font.
   charWidth() {
     if (!this.measure) this.measure = document.createElement("canvas").getContext("2d");
