@@ -553,7 +553,7 @@ async function openHash() {
   } catch (e) {
     showError(
       "Bad link",
-      "the scene in this link could not be decoded (cut short or altered?): " +
+      "the scene in this link could not be opened: " +
         (e.message || e) +
         "\nThe editor holds your last scene instead; Render draws it."
     );

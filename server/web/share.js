@@ -5,7 +5,10 @@
 // URL fragment (never sent to the server): z= is the base64url of the
 // deflate-raw compressed text (CompressionStream), j= the base64url of the
 // plain text where that is missing.  The id (the SHA-256 the server gave for
-// these bytes) names the scene for people and is checked on opening.
+// these bytes, as sha256sum gives it) names the scene for people and is
+// checked on opening, where the page may hash (crypto.subtle: a secure
+// context, as localhost is): a link altered or cut short is then refused
+// with a reason, never opened as another scene.
 
 const b64url = (bytes) => {
   let s = "";
@@ -31,14 +34,36 @@ export async function linkFor(id, text) {
   return `#scene=${id}&j=${b64url(raw)}`;
 }
 
-// {id, text} from a location.hash, or null when it holds no scene.
+// {id, text} from a location.hash, or null when it holds no scene.  Throws
+// an Error saying which part of the link is wrong.
 export async function fromHash(hash) {
   const p = new URLSearchParams(hash.replace(/^#/, ""));
-  let bytes = null;
-  if (p.get("z")) bytes = await pipe(unb64url(p.get("z")), new DecompressionStream("deflate-raw"));
-  else if (p.get("j")) bytes = unb64url(p.get("j"));
-  if (!bytes) return null;
-  return { id: p.get("scene") || "", text: new TextDecoder("utf-8", { fatal: true }).decode(bytes) };
+  const data = p.get("z") || p.get("j");
+  if (!data) return null;
+  let bytes;
+  try {
+    bytes = unb64url(data);
+  } catch {
+    throw new Error(`its ${p.get("z") ? "z" : "j"}= is not base64url`);
+  }
+  if (p.get("z")) {
+    try {
+      bytes = await pipe(bytes, new DecompressionStream("deflate-raw"));
+    } catch {
+      throw new Error("its z= does not inflate: cut short or altered");
+    }
+  }
+  let text;
+  try {
+    text = new TextDecoder("utf-8", { fatal: true }).decode(bytes);
+  } catch {
+    throw new Error("its scene is not UTF-8 text");
+  }
+  const id = p.get("scene") || "";
+  const sum = id ? await sha256hex(text) : "";
+  if (sum && sum !== id.toLowerCase())
+    throw new Error(`its scene is not the one its id names (scene=${id.slice(0, 12)}…): altered`);
+  return { id, text };
 }
 
 export async function sha256hex(text) {

@@ -471,6 +471,25 @@ try {
     }
   });
 
+  // A link whose id does not name its text (edited by hand, or two links
+  // spliced) is refused with the reason, in words, not the browser's.
+  await check("altered_link_refused", async () => {
+    const href = await page.$eval("#link", (a) => a.href);
+    const bad = href.replace(/#scene=([0-9a-f]{63})([0-9a-f])/, (m, a, b) => `#scene=${a}${b === "0" ? "1" : "0"}`);
+    if (bad === href) return `no scene id in ${href.slice(0, 120)}`;
+    const p2 = await context.newPage();
+    try {
+      await p2.goto(bad);
+      await p2.waitForFunction(() => ["done", "error"].includes(document.body.dataset.state), null, { timeout: 60000 });
+      const title = await p2.$eval("#error", (e) => (e.hidden ? "" : e.querySelector(".error-title").textContent));
+      const text = await p2.$eval("#error", (e) => e.textContent);
+      return (title === "Bad link" && /not the one its id names/.test(text) && !/Failed to execute/.test(text)) ||
+        `error "${title}": ${text.slice(0, 200)}`;
+    } finally {
+      await p2.close();
+    }
+  });
+
   // --- the page keeps work: undo of camera moves and examples, autosave, reset -----------------
   const { examples: EXAMPLES } = await import(join(OUT_DIR, "server/web/examples.js"));
   const exampleOf = (name) => EXAMPLES.find((e) => e.name === name).text;
