@@ -208,6 +208,7 @@ $("goto").addEventListener("click", () => gotoOffset >= 0 && editor.reveal(gotoO
 // ---- rendering -------------------------------------------------------------------
 let gen = 0;
 let lastRendered = null; // {id, text} of the last finished render
+let partial = false; // the canvas holds a render stopped part way (its PNG says so)
 const pageStart = 0; // performance.now() at navigation start
 
 async function render({ fromStart = false } = {}) {
@@ -216,6 +217,7 @@ async function render({ fromStart = false } = {}) {
   const d = parsed();
   clearError();
   setState("rendering");
+  partial = false;
   $("dl-png").disabled = true;
   $("link").hidden = true;
   bar(0);
@@ -264,9 +266,14 @@ async function render({ fromStart = false } = {}) {
 }
 
 // Stop: the render in flight (its fetches aborted, a progressive job
-// deleted, so rayd stops its work) and any full render still to come.
+// deleted, so rayd stops its work) and any full render still to come.  The
+// image stays as far as it got, and once a tile or a pass is in it, the
+// PNG button saves it (as NAME-partial.png).
 function stop() {
-  if (!(document.body.dataset.state === "rendering" || document.body.dataset.state === "orbit")) return;
+  const was = document.body.dataset.state;
+  if (!(was === "rendering" || was === "orbit")) return;
+  partial = was === "rendering" && lastProgress.done > 0;
+  $("dl-png").disabled = !partial;
   gen++;
   clearTimeout(fullTimer);
   clearTimeout(autoTimer);
@@ -536,7 +543,9 @@ function download(blob, name) {
   setTimeout(() => URL.revokeObjectURL(a.href), 10000);
 }
 const baseName = () => select.value || (lastRendered ? "scene-" + lastRendered.id.slice(0, 12) : "scene");
-$("dl-png").addEventListener("click", () => canvas.toBlob((b) => b && download(b, baseName() + ".png"), "image/png"));
+$("dl-png").addEventListener("click", () =>
+  canvas.toBlob((b) => b && download(b, baseName() + (partial ? "-partial" : "") + ".png"), "image/png")
+);
 $("dl-json").addEventListener("click", () =>
   download(new Blob([editor.value], { type: "application/json" }), baseName() + ".json")
 );

@@ -641,6 +641,37 @@ try {
     }
   });
 
+  // Stopped with some of its tiles drawn, the image as far as it got is
+  // saved by the PNG button, named as partial (the button stayed disabled).
+  // The gate lets server tiles through a few at a time until the page has
+  // drawn one of its own (each is many of the server's).
+  await check("stopped_render_downloads", async () => {
+    const slow = JSON.parse(exampleOf("paper"));
+    slow.render = { ...slow.render, width: 1280, height: 720, samples: 4, seed: 8 };
+    const drawn = () => page.$eval("#status", (e) => /\b[1-9]\d*\/\d+ tiles/.test(e.textContent));
+    await gate(0);
+    try {
+      await setText(page, JSON.stringify(slow, null, 2));
+      await page.click("#render");
+      for (let k = 0; k < 200 && !(await drawn()); k++) {
+        await gate(4);
+        await until(async () => (await drawn()) || (await gateState()).tiles === 0, 10000);
+      }
+      if (!(await drawn())) return "no tile was drawn";
+      await page.click("#stop");
+      await waitState(page, "stopped");
+      if (await page.$eval("#dl-png", (b) => b.disabled)) return "PNG button disabled after a stop with tiles drawn";
+      const [dp] = await Promise.all([page.waitForEvent("download"), page.click("#dl-png")]);
+      const name = dp.suggestedFilename();
+      if (!name.endsWith("-partial.png")) return `download named ${name}`;
+      const f = join(WORK, "partial.png");
+      await dp.saveAs(f);
+      return samePixels(await canvasPng(page), f);
+    } finally {
+      await gate("open");
+    }
+  });
+
   // --- 1:1: one image pixel per device pixel, at any devicePixelRatio --------------------------
   await check("one_to_one_view", async () => {
     await showScene(exampleOf("paper"));
