@@ -50,7 +50,8 @@ static void usage(FILE *f) {
             "\n"
             "  SCENE.json        scene file (format v1, docs/scene-format.md); '-' reads stdin\n"
             "  -o, --output F    file to write (required); '-' writes standard output;\n"
-            "                    F ending in .exr means --format exr\n"
+            "                    F ending in .exr means --format exr; in .jpg, .webp or\n"
+            "                    another format's, it is refused without --format\n"
             "  --format F        png (8-bit sRGB, the default), png16 (16-bit sRGB) or exr\n"
             "                    (OpenEXR, linear float RGB, unclamped)\n"
             "  --exposure EV     scale the light by 2^EV before the 8-bit PNG (default 0)\n"
@@ -321,9 +322,14 @@ static int parse_args(int argc, char **argv, struct args *a) {
         return bad_usage("-o - writes the image to standard output, which is a terminal");
     if (a->region_set && a->region.w == 0 && a->region.h == 0) /* else the whole image */
         return bad_usage("--region needs W and H > 0");
-    size_t olen = strlen(a->output);
-    if (a->format < 0)
-        a->format = olen >= 4 && !strcmp(a->output + olen - 4, ".exr") ? FMT_EXR : FMT_PNG;
+    if (a->format < 0) {
+        const char *kind = rayd_output_kind(a->output);
+        if (!kind)
+            return bad_usage("-o %s: rayd-render writes PNG (.png) and OpenEXR (.exr), not this "
+                             "format (give --format png to write a PNG under this name)",
+                             a->output);
+        a->format = !strcmp(kind, "exr") ? FMT_EXR : FMT_PNG;
+    }
     return 0;
 }
 

@@ -8,6 +8,8 @@
  */
 #include "client.h"
 
+#include <rayd/rayd.h>
+
 #include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -20,8 +22,8 @@ const char *output_name(const char *path)
 
 bool output_is_exr(const char *path)
 {
-    size_t n = strlen(path);
-    return n >= 4 && !strcmp(path + n - 4, ".exr");
+    const char *kind = rayd_output_kind(path);
+    return kind && !strcmp(kind, "exr");
 }
 
 static int output_stdout(const void *buf, size_t len)

@@ -394,6 +394,9 @@ static int client_parse(int argc, char **argv, struct client_args *a) {
         return client_bad("%s needs SCENE.json and -o OUT.png", a->cmd);
     if (!strcmp(a->cmd, "job") && a->o.nservers > 1)
         return client_bad("job: give exactly one --server (jobs live on one node)");
+    if (a->o.out && !rayd_output_kind(a->o.out))
+        return client_bad(
+            "-o %s: rayd-client writes PNG (.png) and OpenEXR (.exr), not this format", a->o.out);
     bool exr = a->o.out && output_is_exr(a->o.out);
     if (exr && (!strcmp(a->cmd, "job") || a->o.ranges <= 0)) /* else a PNG named .exr */
         return client_bad("-o %s: OpenEXR comes only from render --split-samples N (tiles and "

@@ -517,12 +517,19 @@ static void tiles_draw(struct tiles *T, int force)
                     force);
 }
 
+/* One line: what is missing, then why (the last error: the cause a user
+ * acts on, before the list that may be long), then which pieces. */
 static void tiles_report_missing(struct tiles *T)
 {
     int missing = T->n - T->done;
+    const char *why = T->last_err;
+    for (int i = 0; i < T->n && !*why; i++)
+        if (T->t[i].err[0]) why = T->t[i].err;
     tiles_error(T);
-    fprintf(stderr, "incomplete image, nothing written to %s: %d of %d tiles missing:",
+    fprintf(stderr, "incomplete image, nothing written to %s: %d of %d tiles missing",
             output_name(T->o->out), missing, T->n);
+    if (*why) fprintf(stderr, "; last error: %s", why);
+    fputs("; missing:", stderr);
     int shown = 0;
     for (int i = 0; i < T->n; i++) {
         if (T->t[i].st == TS_DONE)
@@ -538,11 +545,6 @@ static void tiles_report_missing(struct tiles *T)
                     T->t[i].w, T->t[i].h);
         shown++;
     }
-    const char *why = T->last_err;
-    for (int i = 0; i < T->n && !*why; i++)
-        if (T->t[i].err[0])
-            why = T->t[i].err;
-    if (*why) fprintf(stderr, "; last error: %s", why);
     fputc('\n', stderr);
 }
 

@@ -87,6 +87,15 @@ printf '{"render": {"width": 8,}}' >"$T/bad2.json"
 run r_bad2 "$RENDER" "$T/bad2.json" -o "$T/bad.png"
 check render_bad_json_line_column "exit $RC, stderr '$(first_err r_bad2)'" bash -c \
     "[ $RC = 1 ] && grep -qx 'rayd-render: error: line 1, column 24: malformed JSON: .*' '$T/r_bad2.err'"
+# a name of a format rayd does not write is refused, not given PNG bytes;
+# .EXR is OpenEXR whatever its case; --format png writes the name anyway
+run r_jpg "$RENDER" "$T/s.json" -o "$T/r.jpg"
+check render_refuses_jpg_name "exit $RC, stderr '$(first_err r_jpg)'" bash -c \
+    "[ $RC = 2 ] && [ ! -e '$T/r.jpg' ] && grep -q '^rayd-render: error: -o .*r.jpg: rayd-render writes PNG (.png) and OpenEXR (.exr), not this format' '$T/r_jpg.err'"
+run r_EXR "$RENDER" "$T/s.json" -o "$T/r.EXR"
+check render_upper_exr_is_exr "exit $RC" bash -c "[ $RC = 0 ] && cmp -s '$T/r.EXR' '$T/ref.exr'"
+run r_jpg_png "$RENDER" "$T/s.json" -o "$T/r2.jpg" --format png
+check render_jpg_name_with_format "exit $RC" bash -c "[ $RC = 0 ] && cmp -s '$T/r2.jpg' '$T/ref.png'"
 run r_write "$RENDER" "$T/s.json" -o /nonexistent-dir/x.png
 check render_write_error_exit_1 "exit $RC, stderr '$(first_err r_write)'" bash -c \
     "[ $RC = 1 ] && grep -q '^rayd-render: error: cannot write /nonexistent-dir/x.png' '$T/r_write.err'"
@@ -158,6 +167,9 @@ done
 run c_exr_split "$CLIENT" render "$T/s.json" -o "$T/c_split.exr" --server "$URL" --split-samples 1 -q
 check client_split_samples_writes_exr "exit $RC: $(first_err c_exr_split)" bash -c \
     "[ $RC = 0 ] && [ \"\$(head -c 4 '$T/c_split.exr' | od -An -tx1 | tr -d ' ')\" = 762f3101 ]"
+run c_webp "$CLIENT" render "$T/s.json" -o "$T/c.webp" --server "$URL"
+check client_refuses_webp_name "exit $RC, stderr '$(first_err c_webp)'" bash -c \
+    "[ $RC = 2 ] && [ ! -e '$T/c.webp' ] && grep -q '^rayd-client: error: -o .*c.webp: rayd-client writes PNG (.png) and OpenEXR (.exr), not this format' '$T/c_webp.err'"
 # --tile and --split-samples are alternatives (a range is the whole image):
 # both at once is a usage error in one line and the Try line, not a --tile
 # dropped unsaid.
@@ -181,10 +193,10 @@ run c_down "$CLIENT" render "$T/s.json" -o "$T/c_down.png" --server "http://127.
 check client_unreachable_exit_1 "exit $RC, stderr '$(first_err c_down)'" bash -c \
     "[ $RC = 1 ] && grep -q '^rayd-client: error: incomplete image' '$T/c_down.err' && [ ! -e '$T/c_down.png' ]"
 # One failure, one error line: the missing tiles and the last error share
-# it; a server whose --max-work refuses the frame answers every range (or
+# it, the error (the cause) before the list of tiles; a server whose --max-work refuses the frame answers every range (or
 # every tile, to every address) with the same 413, which is said once.
 check client_unreachable_one_line "$(cat "$T/c_down.err")" bash -c \
-    "[ \$(wc -l <'$T/c_down.err') = 1 ] && grep -q '; last error: .*onnect' '$T/c_down.err'"
+    "[ \$(wc -l <'$T/c_down.err') = 1 ] && grep -q 'tiles missing; last error: [^;]*onnect[^;]*; missing: x=' '$T/c_down.err'"
 scene "$T/s4.json" 96 64 4 spheres
 start_rayd --threads 1 --max-work 1000
 for how in ranges tiles; do
