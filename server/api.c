@@ -332,6 +332,14 @@ unsigned api_status_of(enum rayd_status s)
     }
 }
 
+void api_not_found(struct http_req *r)
+{
+    http_reply_error(r, 404, "not_found",
+                     "no such resource; rayd serves /v1/render, /v1/scenes and /v1/jobs "
+                     "(docs/api.md), /healthz, /readyz, /metrics and the preview at /",
+                     NULL, 0, 0, NULL);
+}
+
 void api_reply_rayd_error(struct http_req *r, const struct rayd_error *err)
 {
     unsigned st = api_status_of(err->code);

@@ -38,6 +38,9 @@ bool api_is_hex(const char *s, size_t n);
 /* The one place where a core status becomes an HTTP status and code. */
 unsigned api_status_of(enum rayd_status s);
 void api_reply_rayd_error(struct http_req *r, const struct rayd_error *err);
+/* 404 for a path rayd does not serve, naming the ones it does (a user who
+ * tried /health finds /healthz). */
+void api_not_found(struct http_req *r);
 /* Reply for a refused submission (queue full, draining, ...). */
 void api_refused(struct http_req *r, enum work_submit why);
 /* Parses r's body as a scene (refusing while draining): false after

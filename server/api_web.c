@@ -47,7 +47,7 @@ static void api_web_send(struct http_req *r, const char *name)
 {
     const struct web_asset *a = api_web_find(name);
     if (!a) {
-        http_reply_error(r, 404, "not_found", "no such resource", NULL, 0, 0, NULL);
+        api_not_found(r);
         return;
     }
     http_reply_data(r, 200, api_web_type(name), a->data, a->len);

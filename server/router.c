@@ -169,5 +169,5 @@ void router_dispatch(struct http_req *r)
         http_reply_header(r, "Allow", allow);
         return;
     }
-    http_reply_error(r, 404, "not_found", "no such resource", NULL, 0, 0, NULL);
+    api_not_found(r);
 }

@@ -72,6 +72,10 @@ code=$(req GET /nope)
 check not_found_404 "status $code" err_is "$T/body" 404 not_found
 code=$(req GET /v1/render/extra)
 check not_found_deeper_404 "status $code" err_is "$T/body" 404 not_found
+# a near miss (/health) is told where the endpoints are
+code=$(req GET /health)
+check not_found_names_endpoints "status $code: $(head -c 300 "$T/body")" \
+    bash -c "[ $code = 404 ] && grep -q '/healthz, /readyz, /metrics' '$T/body' && grep -q '/v1/render' '$T/body'"
 code=$(req GET "/v1/scenes/$(printf '0%.0s' {1..64})/image.png")
 check scene_unknown_404 "status $code" err_is "$T/body" 404 scene_unknown
 code=$(req GET "/v1/scenes/not-hex/image.png")
