@@ -314,10 +314,13 @@ static bool jc_container(struct jc *c, int depth, bool object, bool elem) {
         }
         if (c->p[c->i] != ',')
             return jc_fail(c, object ? "expected ',' or '}'" : "expected ',' or ']'");
-        c->i++;
+        size_t comma = c->i++;
         jc_ws(c);
-        if (c->i < c->len && c->p[c->i] == close)
-            return jc_fail(c, "trailing comma is not allowed");
+        if (c->i < c->len && c->p[c->i] == close) { /* said at the comma, the thing to delete */
+            c->i = comma;
+            return jc_fail(c, object ? "trailing comma before '}' is not allowed"
+                                     : "trailing comma before ']' is not allowed");
+        }
     }
 }
 

@@ -78,9 +78,9 @@ case("missing-comma-object.json", t,
 t = '{"render" {"width": 64}}'
 case("missing-colon.json", t, E + at(t, " {", delta=1) + ": malformed JSON: expected ':' after the key, found '{'")
 t = '{"render": {"width": 64,}}'
-case("trailing-comma-object.json", t, E + at(t, "}") + ": malformed JSON: trailing comma is not allowed")
+case("trailing-comma-object.json", t, E + at(t, ",}") + ": malformed JSON: trailing comma before '}' is not allowed")
 t = '{"objects": [{"type": "sphere"},]}'
-case("trailing-comma-array.json", t, E + at(t, "]") + ": malformed JSON: trailing comma is not allowed")
+case("trailing-comma-array.json", t, E + at(t, ",]") + ": malformed JSON: trailing comma before ']' is not allowed")
 t = '{render: {}}'
 case("unquoted-key.json", t, E + at(t, "r") + ": malformed JSON: expected a string key in quotes, found 'r'")
 t = "{'render': {}}"

@@ -111,9 +111,13 @@ static void test_malformed_json_has_line_and_column(void) {
     CHECK(err.line == 2 && err.column == 26, "line %d column %d", err.line, err.column);
     CHECK(strstr(err.message, "expected a string key in quotes, found ','") != NULL, "%s",
           err.message);
-    CHECK(parse("{\"a\": [1, 2,]}", &err) == RAYD_E_PARSE && err.column == 13 &&
-              strstr(err.message, "trailing comma"),
+    /* at the comma to delete, not at what follows it (on the next line) */
+    CHECK(parse("{\"a\": [1, 2,]}", &err) == RAYD_E_PARSE && err.column == 12 &&
+              strstr(err.message, "trailing comma before ']'"),
           "trailing comma: %s col %d", err.message, err.column);
+    CHECK(parse("{\n  \"a\": 1,\n}", &err) == RAYD_E_PARSE && err.line == 2 && err.column == 9 &&
+              strstr(err.message, "trailing comma before '}'"),
+          "trailing comma: %s line %d col %d", err.message, err.line, err.column);
     CHECK(parse("{\"a\": 01}", &err) == RAYD_E_PARSE && err.column == 8, "leading zero col %d",
           err.column);
     CHECK(parse("{\"a\": \"\\ud800\"}", &err) == RAYD_E_PARSE && strstr(err.message, "surrogate"),
