@@ -115,9 +115,10 @@ static const struct http_io http_mhd_io = {http_mhd_header,  http_mhd_header_eac
                                            http_mhd_resume, http_mhd_fd};
 
 /* Set by http_drop in the thread that returns MHD_NO for a request whose
- * client left: libmicrohttpd then says "Application reported internal
- * error", which is no error of rayd's (the access log has the request, 499
- * client_gone), so that line goes to debug. */
+ * client left, or whose upload rayd stops (too slow, or ended short):
+ * libmicrohttpd then says "Application reported internal error", which is
+ * no error of rayd's (the access log has the request, a 499 with its
+ * note), so that line goes to debug. */
 static _Thread_local bool http_dropped;
 
 static enum MHD_Result http_drop(void)
@@ -178,7 +179,7 @@ static enum MHD_Result http_access(void *cls, struct MHD_Connection *c, const ch
     if (*upload_size) {
         size_t n = *upload_size;
         *upload_size = 0;
-        return http_flow_body(r, upload, n) ? MHD_YES : MHD_NO;
+        return http_flow_body(r, upload, n) ? MHD_YES : http_drop();
     }
     /* the whole request is here */
     http_flow_handle(r);

@@ -27,6 +27,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <sys/socket.h>
 
 /* Constant-time check of "Authorization: Bearer <token>". */
 static bool http_flow_authorized(struct http_req *r)
@@ -126,6 +127,7 @@ bool http_flow_begin(struct http_req *r)
         http_reply_header(r, MHD_HTTP_HEADER_CONNECTION, "close");
         return false;
     }
+    r->body_declared = f.nlength ? f.length : -1;
     if (f.nlength && f.length > config.max_body) {
         metrics_reject(MR_BODY_TOO_LARGE);
         char msg[128];
@@ -146,7 +148,26 @@ static void http_flow_drop_body(struct http_req *r, size_t n)
     r->body_len += n;
 }
 
-bool http_flow_body(struct http_req *r, const char *data, size_t n)
+/* A client that shuts its side of the connection before the body it
+ * declared is all sent can never send the rest.  A full close is seen by
+ * libmicrohttpd, but its epoll loop is edge-triggered: when the shutdown
+ * (FIN) arrives together with the body's last bytes, it reads the bytes and
+ * never the end, and the connection would wait for --timeout.  So after a
+ * chunk that leaves the body short, a peek at the socket says whether the
+ * peer has ended; a half-close after a whole body is a client waiting for
+ * its answer, and is left alone. */
+static bool http_flow_upload_ended(struct http_req *r)
+{
+    if (r->body_declared < 0 || (long long)r->body_len >= r->body_declared)
+        return false;
+    int fd = r->io->fd ? r->io->fd(r) : -1;
+    char c;
+    return fd >= 0 && recv(fd, &c, 1, MSG_PEEK | MSG_DONTWAIT) == 0;
+}
+
+/* Appends a chunk, or counts it past --max-body; false to drop the
+ * connection. */
+static bool http_flow_keep(struct http_req *r, const char *data, size_t n)
 {
     /* --timeout drops an idle connection, but a client that sends a byte now
      * and then is never idle: the whole body gets --upload-seconds */
@@ -181,6 +202,16 @@ bool http_flow_body(struct http_req *r, const char *data, size_t n)
     r->body_len += n;
     r->body[r->body_len] = 0;
     return true;
+}
+
+bool http_flow_body(struct http_req *r, const char *data, size_t n)
+{
+    bool ok = http_flow_keep(r, data, n);
+    if (ok && http_flow_upload_ended(r)) {
+        r->note = "upload_incomplete";
+        return false;
+    }
+    return ok;
 }
 
 void http_flow_handle(struct http_req *r)

@@ -47,6 +47,7 @@ struct http_req {
     const char *err_code;        /* code of the error reply sent, NULL for none */
     char *body;
     size_t body_len, body_cap;
+    long long body_declared;     /* Content-Length, -1 when none was sent */
     int route;                   /* router index for metrics, -1 none */
     int status;                  /* the status sent */
     size_t bytes;                /* response body size */

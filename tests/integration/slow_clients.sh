@@ -5,7 +5,8 @@
 # hang); --max-conns-per-ip and --max-conns close connections over the limit
 # at accept and the server serves again once they are gone; the open-file
 # limit was raised at start-up to hold them; a trickling upload that is
-# never idle is dropped after --upload-seconds.
+# never idle is dropped after --upload-seconds; an upload the client ends short
+# (a half-close) is closed at once.
 source "$(dirname "$0")/lib/common.sh"
 
 scene "$T/small.json" 64 48 1 spheres
@@ -182,3 +183,46 @@ check trickle_logged "no upload_too_slow line" grep -q 'note=upload_too_slow' "$
 check normal_upload_ok "status" [ "$(post_json /v1/render "$T/small.json")" = 200 ]
 stop_rayd TERM
 check exit_0_trickle "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
+
+# A client that shuts its side (half-close) before its declared body is all
+# sent can never send the rest: rayd closes at once, as for a full close,
+# however the shutdown arrives -- with the body's last bytes in one read
+# (which libmicrohttpd's edge-triggered loop alone missed until --timeout)
+# or on its own.  A bound far below --timeout 60, never a measure of speed.
+start_rayd --timeout 60
+cat >"$T/halfclose.py" <<'PY'
+import socket, sys, time
+port, pause = int(sys.argv[1]), float(sys.argv[2])
+s = socket.create_connection(("127.0.0.1", port), timeout=40)
+s.sendall(b"POST /v1/render HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+          b"Content-Length: 1000\r\n\r\n{\"camera\": ")
+if pause:  # no call at all between the two, not even sleep(0)
+    time.sleep(pause)
+s.shutdown(socket.SHUT_WR)
+t0 = time.time()
+got = b""
+try:
+    while True:
+        d = s.recv(4096)
+        if not d:
+            break
+        got += d
+except OSError:
+    pass
+print("%.1f %d" % (time.time() - t0, len(got)))
+PY
+for pause in 0 0 0 0 0 0.2; do
+    python3 "$T/halfclose.py" "$PORT" "$pause"
+done >"$T/halfclose.txt"
+echo "half-closed uploads (seconds to close, bytes answered): $(tr '\n' ' ' <"$T/halfclose.txt")"
+check half_closed_upload_closed "$(tr '\n' ' ' <"$T/halfclose.txt")" python3 -c '
+import sys
+rows = [l.split() for l in open(sys.argv[1])]
+sys.exit(0 if len(rows) == 6 and all(float(s) < 10 and b == "0" for s, b in rows) else 1)' "$T/halfclose.txt"
+check half_closed_upload_logged "$(grep -c 'note=timeout' "$T/rayd.err") timeouts" \
+    [ "$(grep -Ec ' 499 .*note=(aborted|upload_incomplete)' "$T/rayd.err")" = 6 ]
+check half_closed_no_internal_error "$(grep -m1 'internal error' "$T/rayd.err")" \
+    bash -c "! grep -q 'Application reported internal error' '$T/rayd.err'"
+check after_half_close_ok "status" [ "$(post_json /v1/render "$T/small.json")" = 200 ]
+stop_rayd TERM
+check exit_0_half_close "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
