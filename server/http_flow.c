@@ -155,10 +155,12 @@ static void http_flow_drop_body(struct http_req *r, size_t n)
  * never the end, and the connection would wait for --timeout.  So after a
  * chunk that leaves the body short, a peek at the socket says whether the
  * peer has ended; a half-close after a whole body is a client waiting for
- * its answer, and is left alone. */
+ * its answer, and is left alone.  Not under TLS: there the TLS library may
+ * hold body bytes it already read from the socket, so the socket's end is
+ * not the body's. */
 static bool http_flow_upload_ended(struct http_req *r)
 {
-    if (r->body_declared < 0 || (long long)r->body_len >= r->body_declared)
+    if (config.tls_cert || r->body_declared < 0 || (long long)r->body_len >= r->body_declared)
         return false;
     int fd = r->io->fd ? r->io->fd(r) : -1;
     char c;
