@@ -122,6 +122,8 @@ struct tiles {
     rayd_accum *acc; /* --split-samples: the ranges' sums added up */
     struct progress prog;
     char last_err[400];
+    char version[48]; /* X-Rayd-Version of the first piece ("" none) */
+    int version_from; /* its server; -1 before the first piece */
     long *per_server;
     char (*labels)[40];
     int busy_limit;
@@ -392,6 +394,34 @@ static void tiles_refused(struct tiles *T, struct tiles_xfer *x, long status, do
     tiles_fatal(T, x->server, status, &x->body);
 }
 
+/* The version that drew x's piece: X-Rayd-Version, "" from a rayd too old
+ * to send it.  Two versions may draw one scene differently, so a frame is
+ * stitched from one version only: the first piece sets it, and a piece of
+ * another ends the run before anything is written, naming both. */
+static bool tiles_same_version(struct tiles *T, const struct tiles_xfer *x) {
+    struct curl_header *hd = NULL;
+    const char *v = "";
+    if (curl_easy_header(x->h, "X-Rayd-Version", 0, CURLH_HEADER, -1, &hd) == CURLHE_OK && hd)
+        v = hd->value;
+    if (T->version_from < 0) {
+        snprintf(T->version, sizeof T->version, "%.40s", v);
+        T->version_from = x->server;
+        return true;
+    }
+    if (!strncmp(T->version, v, 40) && strlen(v) <= 40) return true;
+    if (T->fatal) return false;
+    progress_end(&T->prog);
+    tiles_error(T);
+    fprintf(stderr,
+            "%s drew a tile with %s%.40s, %s with %s%s: one frame needs the same rayd version "
+            "on every node (and no tiles of another in a balancer's cache)\n",
+            T->s[x->server].url, *v ? "rayd " : "a rayd that does not say its version", v,
+            T->s[T->version_from].url,
+            *T->version ? "rayd " : "a rayd that does not say its version", T->version);
+    T->fatal = 1;
+    return false;
+}
+
 /* Any other answer: true when it is a success (the scene learnt, or the
  * piece t stitched in), else false with why. */
 static bool tiles_answered(struct tiles *T, struct tiles_xfer *x, struct tiles_tile *t, long status,
@@ -434,6 +464,8 @@ static void tiles_finish(struct tiles *T, struct tiles_xfer *x, CURLcode cc, dou
     } else if (status >= 400 && status < 500 && status != 408) {
         tiles_refused(T, x, status, now);
         return;
+    } else if (t && status == 200 && !tiles_same_version(T, x)) {
+        return; /* the run ends, said: nothing to retry */
     } else if (tiles_answered(T, x, t, status, why, sizeof why)) {
         return;
     }
@@ -619,6 +651,7 @@ static int tiles_write(const struct tiles *T)
 static int tiles_setup(struct tiles *T, const struct client_opts *o, const struct scenefile *sf) {
     memset(T, 0, sizeof *T);
     T->o = o, T->sf = sf, T->ns = o->nservers;
+    T->version_from = -1;
     T->busy_limit = 20 + 10 * o->retries;
     T->s = calloc((size_t)T->ns, sizeof *T->s);
     T->per_server = calloc((size_t)T->ns, sizeof *T->per_server);

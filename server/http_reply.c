@@ -10,7 +10,10 @@
  * {"error": {"status", "code", "message", "path"?, "line"?, "column"?,
  * "parameter"?}}.  PNGs are sent from the shared blob without a copy; the
  * response holds a reference, dropped by libmicrohttpd when it is done.
- * Every reply carries the request's X-Request-Id.
+ * Every reply carries the request's X-Request-Id.  Every image carries
+ * X-Rayd-Version: two versions may draw the same scene differently, and a
+ * client stitching a frame from many nodes (or a balancer's cache) must be
+ * able to tell.
  *
  * A 304 has no body, and RFC 9110 (section 8.6) forbids a Content-Length
  * other than the one the 200 would have had -- which rayd does not know
@@ -61,7 +64,7 @@ void http_reply(struct http_req *r, unsigned status, struct MHD_Response *resp)
         MHD_add_response_header(resp, "Access-Control-Allow-Origin", origin);
         MHD_add_response_header(resp, "Access-Control-Expose-Headers",
                                 "ETag, Location, Retry-After, Content-Length, X-Request-Id, "
-                                "X-Rayd-Estimated-Rays, X-Rayd-Estimated-Seconds");
+                                "X-Rayd-Estimated-Rays, X-Rayd-Estimated-Seconds, X-Rayd-Version");
     }
     MHD_add_response_header(resp, "X-Content-Type-Options", "nosniff");
     if (r->request_id[0])
@@ -144,6 +147,8 @@ void http_reply_image(struct http_req *r, unsigned status, struct blob *png, con
         return;
     }
     MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, type);
+    /* the renderer that made the pixels: a frame is stitched from one only */
+    MHD_add_response_header(resp, "X-Rayd-Version", RAYD_VERSION);
     r->bytes = png->len;
     r->is_image = true;
     http_reply(r, status, resp);
