@@ -220,6 +220,16 @@ static void tiles_xfer_free(struct tiles *T, struct tiles_xfer *x)
 
 /* ---- outcomes --------------------------------------------------------------- */
 
+/* A server that worked (or was new) has just failed: one line says so,
+ * since a node lost mid-frame otherwise shows only as a slower frame.  The
+ * next line about it comes only after it has answered again. */
+static void tiles_warn_failing(struct tiles *T, int si, const char *why) {
+    if (T->o->quiet) return;
+    progress_end(&T->prog); /* the bar's line, when one is drawn */
+    fprintf(stderr, "rayd-client: warning: %s failed: %.300s; %s\n", T->s[si].url, why,
+            T->ns > 1 ? "its tiles go to the other servers" : "retrying it");
+}
+
 static void tiles_server_failed(struct tiles *T, int si, const char *why, double now)
 {
     struct tiles_server *s = &T->s[si];
@@ -231,6 +241,7 @@ static void tiles_server_failed(struct tiles *T, int si, const char *why, double
     if (s->scene == SS_LEARNING)
         s->scene = SS_UNKNOWN;
     snprintf(T->last_err, sizeof T->last_err, "%.150s: %.240s", s->url, why);
+    if (s->fails_row == 1) tiles_warn_failing(T, si, why);
 }
 
 static void tiles_tile_failed(struct tiles *T, int ti, int si, const char *why, double now)

@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# client_failover.sh -- rayd-client says when a server fails mid-frame.
+#
+# A node that is gone costs a frame only time: its tiles move to the other
+# servers and the frame is still rayd-render's.  The user is told, with one
+# warning line per server each time it starts failing (not one per tile),
+# and nothing with --quiet.  The dead server is a loopback port nobody
+# listens on (bound, then closed).
+source "$(dirname "$0")/lib/common.sh"
+
+CLIENT=$RAYD_BUILD/rayd-client
+[ -x "$CLIENT" ] || { echo "FAIL setup: $CLIENT missing"; exit 1; }
+start_rayd --threads 1
+DEAD=http://127.0.0.1:$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
+
+scene "$T/s.json" 160 96 1 spheres
+"$RENDER" "$T/s.json" -o "$T/ref.png" 2>/dev/null
+timeout 120 "$CLIENT" render "$T/s.json" -o "$T/a.png" --tile 16 --parallel 4 \
+    --server "$DEAD" --server "$URL" 2>"$T/a.err"
+RC=$?
+check failover_frame "exit $RC: $(tail -n 2 "$T/a.err")" bash -c "[ $RC = 0 ] && cmp -s '$T/ref.png' '$T/a.png'"
+check failover_warned "stderr: $(head -c 400 "$T/a.err")" \
+    grep -q "^rayd-client: warning: $DEAD failed: Couldn't connect to server; its tiles go to the other servers$" "$T/a.err"
+n=$(grep -c 'warning:' "$T/a.err")
+check failover_warned_once "$n warning lines: $(grep warning "$T/a.err" | head -c 400)" [ "$n" = 1 ]
+
+timeout 120 "$CLIENT" render "$T/s.json" -o "$T/q.png" --tile 16 --quiet \
+    --server "$DEAD" --server "$URL" 2>"$T/q.err"
+RC=$?
+check failover_quiet "exit $RC, stderr: $(head -c 300 "$T/q.err")" \
+    bash -c "[ $RC = 0 ] && [ ! -s '$T/q.err' ] && cmp -s '$T/ref.png' '$T/q.png'"
