@@ -7,12 +7,11 @@
  *   and "visible" (camera rays that miss see it; default true).
  *
  * Images are Radiance .hdr (RGBE), decoded by stb_image (Debian's
- * libstb), or OpenEXR (exr_read.c, the library rayd writes EXR with); the
- * format is "format", else the file's magic number (.hdr when it is not
- * OpenEXR's).  Both headers give the size before any pixel is decoded, so
- * an image over the texture pixel limit is refused without the memory.  The
- * intensity is folded into the pixels once, here, so a lookup is a read.
- * Files are opened like mesh and texture files (sj_read_asset).
+ * libstb) once hdr_scan.c has found the data whole, or OpenEXR (exr_read.c, the library rayd writes
+ * EXR with); the format is "format", else the file's magic number (.hdr when it is not OpenEXR's).
+ * Both headers give the size before any pixel is decoded, so an image over the texture pixel limit
+ * is refused without the memory.  The intensity is folded into the pixels once, here, so a lookup
+ * is a read. Files are opened like mesh and texture files (sj_read_asset).
  */
 #include <stdlib.h>
 #include <string.h>
@@ -23,6 +22,7 @@
 
 #include "io/base64.h"
 #include "io/exr_read.h"
+#include "io/hdr_scan.h"
 #include "shade/texture.h"
 
 #define DEG2RAD_ENV (3.14159265358979323846 / 180)
@@ -84,6 +84,9 @@ static enum rayd_status env_decode_hdr(struct loader *ld, const char *data, size
     if ((long)w * h > TEXTURE_MAX_PIXELS)
         return sj_fail(ld, RAYD_E_LIMIT, p, "the image is %d x %d pixels; the limit is %ld pixels",
                        w, h, TEXTURE_MAX_PIXELS);
+    char why[128];
+    if (!hdr_scan(b, len, w, h, why, sizeof why)) /* stb would read zeros past the end, or spin */
+        return sj_fail(ld, RAYD_E_INVALID, p, "%s", why);
     float *px = stbi_loadf_from_memory(b, (int)len, &w, &h, &n, 3);
     if (px && (w <= 0 || h <= 0 || (long)w * h > TEXTURE_MAX_PIXELS)) { /* as stbi_info said */
         stbi_image_free(px);

@@ -832,6 +832,33 @@ case("environment-base64-png.json", '{"render": {"environment": {"base64": "iVBO
      E + '/render/environment/format: unknown value "png" (supported: hdr, exr)')
 
 
+def rle_hdr(w, h):
+    """A w x h new-style RLE .hdr: each component of a scanline one run."""
+    out = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y %d +X %d\n" % (h, w)
+    for _ in range(h):
+        out += bytes([2, 2, w >> 8, w & 255])
+        for v in (128, 100, 60, 129):
+            out += bytes([128 + w, v])
+    return out
+
+
+def env_b64(data):
+    b64 = base64.b64encode(data).decode()
+    return '{"render": {"environment": {"base64": "%s"}}, "objects": []}\n' % b64
+
+
+import base64  # noqa: E402
+# A download cut short: stb_image reads zeros past the end, each a no-op
+# run count, and spun for ever on them.  Cut after row 3's header and first run.
+RLE = rle_hdr(16, 8)
+HDR_HEAD = RLE.index(b"+X 16\n") + len(b"+X 16\n")
+case("environment-hdr-truncated.json", env_b64(RLE[:HDR_HEAD + 3 * 12 + 6]),
+     E + "/render/environment/base64: the .hdr image's data ends early (it stops in row 3 of 8)")
+FLAT = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 4 +X 4\n" + bytes([128, 128, 128, 129]) * 10
+case("environment-hdr-flat-truncated.json", env_b64(FLAT),
+     E + "/render/environment/base64: the .hdr image's data ends early (it stops in row 2 of 4)")
+
+
 def main():
     os.makedirs(OUT, exist_ok=True)
     names = set()
