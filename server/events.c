@@ -79,11 +79,10 @@ static int events_news(struct events_stream *s, struct events_item *it, int n,
     enum jobs_state st = jobs_state(j);
     bool final = st == JS_SUCCEEDED || st == JS_FAILED || st == JS_CANCELED;
     if (k == 0 && final && !s->sent_done) {
-        it[k++] = (struct events_item){
-            .kind = EVENTS_DONE,
-            .state = st,
-            .samples = p && p->done ? p->samples[p->done - 1] : 0,
-            .progress = st == JS_SUCCEEDED ? 1.0 : (double)t->done / t->ntiles};
+        it[k++] = (struct events_item){.kind = EVENTS_DONE,
+                                       .state = st,
+                                       .samples = p && p->done ? p->samples[p->done - 1] : 0,
+                                       .progress = jobs_progress(j)};
         if (st == JS_FAILED && err)
             *err = t->err;
         s->sent_done = true;

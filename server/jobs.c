@@ -188,6 +188,18 @@ enum work_submit jobs_create(struct cache_entry *scene, const struct work_target
     return r;
 }
 
+/* The share of the work done, lock held: of the tiles, or for a progressive
+ * job of the samples' work.  One function, so the job's JSON and the final
+ * event of its stream say the same. */
+double jobs_progress(const struct job *j)
+{
+    const struct task *t = j->task;
+    if (jobs_state(j) == JS_SUCCEEDED)
+        return 1;
+    double frac = t->ntiles ? (double)t->done / t->ntiles : 0;
+    return t->passes ? passes_progress(t->passes, t->passes->done, frac) : frac;
+}
+
 /* The job's numbers, lock held. */
 static void jobs_info_of(const struct job *j, struct jobs_info *info, bool want_png)
 {
@@ -195,14 +207,11 @@ static void jobs_info_of(const struct job *j, struct jobs_info *info, bool want_
     info->state = jobs_state(j);
     info->tiles_done = t->done;
     info->tiles_total = t->ntiles;
-    info->progress = t->ntiles ? (double)t->done / t->ntiles : 0;
+    info->progress = jobs_progress(j);
     if (t->passes) {
         info->progressive = true;
         passes_info(t->passes, &info->passes);
-        info->progress = passes_progress(t->passes, t->passes->done, info->progress);
     }
-    if (info->state == JS_SUCCEEDED)
-        info->progress = 1;
     info->region = t->reg;
     snprintf(info->scene_id, sizeof info->scene_id, "%s", t->scene_id);
     double now = clock_now();

@@ -257,6 +257,7 @@ int jobs_start(int max_jobs); /* any lock */
 void jobs_stop(void);         /* after the workers and the watcher have stopped */
 struct job *jobs_find(const char *id);
 enum jobs_state jobs_state(const struct job *j);
+double jobs_progress(const struct job *j); /* 0..1, as the job's JSON says it */
 void jobs_unref(struct job *j);
 void jobs_expire(double now); /* forgets finished jobs past --job-ttl */
 

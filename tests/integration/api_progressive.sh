@@ -122,6 +122,27 @@ check prog_noise_budget "$(head -c 400 "$T/body")" bash -c \
 code=$(req GET "/v1/jobs/$id/image.png")
 check prog_noise_image "status $code" bash -c "[ $code = 200 ] && cmp -s '$T/body' '$T/ref2.png'"
 
+# --- cancelled half-way through pass 2: the done event's progress is the job's ----------
+gate 0
+code=$(post_json "/v1/jobs?progressive=1" "$T/p8.json")
+id=$(jfield "$T/body" id)
+gate 3 # pass 1's two tiles and one of pass 2's
+wait_until 60 job_is "$id" done 1
+wait_until 30 gate_is started 3
+code=$(req DELETE "/v1/jobs/$id")
+wait_until 30 job_state_is "$id" canceled
+gate open
+curl -s -N -m 60 "$URL/v1/jobs/$id/events" >"$T/sse-cancel.txt"
+req GET "/v1/jobs/$id" >/dev/null
+check prog_cancel_done_progress "$(tail -n 3 "$T/sse-cancel.txt") vs $(head -c 300 "$T/body")" \
+    env PYTHONPATH="$SSE_LIB" python3 -c '
+import json, sys
+import sse
+done = [json.loads(e["data"]) for e in sse.events(sys.argv[1]) if e.get("event") == "done"]
+job = json.load(open(sys.argv[2]))
+ok = len(done) == 1 and done[0]["state"] == "canceled" and 0 < job["progress"] < 1
+sys.exit(0 if ok and abs(done[0]["progress"] - job["progress"]) < 1e-4 else 1)' "$T/sse-cancel.txt" "$T/body"
+
 # --- a plain job cannot be stopped-and-kept; bad options name their parameter -------------
 code=$(post_json /v1/jobs "$T/p1.json")
 id=$(jfield "$T/body" id)
