@@ -76,6 +76,12 @@ struct scenefile {
     int width, height;
     int samples;
     int bundled; /* files inlined */
+    /* JSON Pointers of the keys the inlined bytes went to ("/render/
+     * environment/base64"), each where the scene said "file": an error the
+     * core finds in those bytes is reported at the "file" the user wrote,
+     * as rayd-render reports it.  malloc'd, ninlined of them. */
+    char **inlined;
+    int ninlined;
 };
 
 /* Reads path, inlines "file" references (mesh sources and image textures,

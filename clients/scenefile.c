@@ -15,7 +15,9 @@
  *
  * The bytes to send are then parsed by the core exactly as a server will
  * parse them (rayd_scene_parse with the default limits): a bad scene is
- * reported here with its JSON Pointer, before any network traffic, and the
+ * reported here with its JSON Pointer, before any network traffic (an error
+ * inside an inlined file is put back at the "file" key the scene has, so
+ * the pointer is rayd-render's, not one of the sent text's), and the
  * image size for the tiling comes from rayd_scene_info.  The scene id is the
  * SHA-256 of those bytes (OpenSSL's EVP), the same hash every node computes.
  */
@@ -40,7 +42,8 @@ struct scenefile_walk {
     const char *scene; /* the scene's name, for messages */
     const char *dir;   /* the scene's folder with a trailing '/', "" for the cwd */
     int count;
-    int failed; /* said; the walk stops */
+    int failed;           /* said; the walk stops */
+    struct scenefile *sf; /* where the inlined keys' pointers are noted */
 };
 
 /* Memory ran out while the file at where was inlined: said, and the walk
@@ -78,6 +81,37 @@ static char *scenefile_asset(struct scenefile_walk *w, const char *name, const c
     return data;
 }
 
+/* Notes where/newkey as a key that holds the bytes of a "file". */
+static void scenefile_note(struct scenefile_walk *w, const char *where, const char *newkey) {
+    struct scenefile *sf = w->sf;
+    char **more = realloc(sf->inlined, (size_t)(sf->ninlined + 1) * sizeof *more);
+    size_t n = strlen(where) + strlen(newkey) + 2;
+    char *p = malloc(n);
+    if (more) sf->inlined = more;
+    if (!more || !p) {
+        free(p);
+        scenefile_no_memory(w, where);
+        return;
+    }
+    snprintf(p, n, "%s/%s", where, newkey);
+    sf->inlined[sf->ninlined++] = p;
+}
+
+/* An error's JSON Pointer inside an inlined key, put back at the scene's
+ * "file" key: /render/environment/base64 -> /render/environment/file. */
+static void scenefile_unmap(const struct scenefile *sf, char *path) {
+    for (int i = 0; i < sf->ninlined; i++) {
+        const char *p = sf->inlined[i];
+        size_t n = strlen(p);
+        if (strncmp(path, p, n) || (path[n] != '\0' && path[n] != '/')) continue;
+        size_t keep = (size_t)(strrchr(p, '/') - p);
+        /* "/file" is no longer than "/text", "/base64" or "/png_base64": in place */
+        memmove(path + keep + 5, path + n, strlen(path + n) + 1);
+        memcpy(path + keep, "/file", 5);
+        return;
+    }
+}
+
 /* Replaces obj[key] (a file name) by obj[newkey] (its bytes in base64).  A
  * mesh source's .gltf has its own files inlined first (gltf_bundle.c) and
  * then, when that changed it, travels as "text". */
@@ -113,6 +147,7 @@ static void scenefile_inline(struct scenefile_walk *w, cJSON *obj, const char *k
     cJSON_DeleteItemFromObjectCaseSensitive(obj, key);
     if (!cJSON_AddStringToObject(obj, text ? "text" : newkey, enc)) scenefile_no_memory(w, where);
     free(enc);
+    scenefile_note(w, where, text ? "text" : newkey);
     w->count++;
 }
 
@@ -183,7 +218,7 @@ static int scenefile_bundle(const char *path, struct scenefile *sf) {
     const char *slash = strrchr(path, '/');
     if (slash && (size_t)(slash - path) + 2 < sizeof dir)
         snprintf(dir, sizeof dir, "%.*s/", (int)(slash - path), path);
-    struct scenefile_walk w = {path, dir, 0, 0};
+    struct scenefile_walk w = {path, dir, 0, 0, sf};
     char ptr[1024] = "";
     scenefile_walk(&w, root, NULL, ptr, sizeof ptr);
     int rc = 0;
@@ -213,6 +248,7 @@ int scenefile_finish(const char *name, struct scenefile *sf) {
     rayd_scene *scene = NULL;
     if (rayd_scene_parse(sf->bytes, sf->len, NULL, &scene, &err) != RAYD_OK) {
         char msg[600];
+        scenefile_unmap(sf, err.path);
         fprintf(stderr, "rayd-client: error: %s: %s: %s\n", name, rayd_status_name(err.code),
                 rayd_error_format(&err, msg, sizeof msg));
         scenefile_free(sf);
@@ -255,4 +291,8 @@ void scenefile_free(struct scenefile *sf) {
     free(sf->bytes);
     sf->bytes = NULL;
     sf->len = 0;
+    for (int i = 0; i < sf->ninlined; i++) free(sf->inlined[i]);
+    free(sf->inlined);
+    sf->inlined = NULL;
+    sf->ninlined = 0;
 }

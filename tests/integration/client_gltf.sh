@@ -12,7 +12,9 @@
 # is sent, in one line naming the .gltf, the JSON Pointer and the file
 # (that line alone: no summary of the scene's files follows it).
 # A .gltf given as "text" in the scene has its files next to the scene.
-# A whole-scene "gltf" object's source travels the same way.
+# A whole-scene "gltf" object's source travels the same way.  A bad file
+# the client inlines (a PLY, an environment map) is reported at the scene's
+# "file" key, in rayd-render's words.
 # `thumbnails` does the same with a folder holding a .gltf: its thumbnail
 # equals the one of the same model as a .glb.
 source "$(dirname "$0")/lib/common.sh"
@@ -74,6 +76,28 @@ if [ $rc = 1 ] && [ -n "$want" ] && [ "$got" = "$want" ] && [[ $want == *KHR_dra
 else
     fail client_gltf_draco_same_error "exit $rc: '$got' against '$want'"
 fi
+
+# a bad file the client inlines as base64 is reported at the scene's "file",
+# as rayd-render reports it, not at the "base64" key the client wrote
+dir="$T/inlined"
+mkdir "$dir"
+printf 'ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n' >"$dir/bad.ply"
+printf 'not an image\n' >"$dir/sky.hdr"
+printf '{"objects": [{"type": "mesh", "source": {"file": "bad.ply"}}]}\n' >"$dir/ply.json"
+printf '{"render": {"environment": {"file": "sky.hdr"}}}\n' >"$dir/env.json"
+for s in ply env; do
+    "$RENDER" "$dir/$s.json" -o "$dir/local.png" -q 2>"$dir/local.err"
+    "$CLIENT" render "$dir/$s.json" -o "$dir/remote.png" -s http://127.0.0.1:9 --retries 0 -q \
+        2>"$dir/remote.err"
+    rc=$?
+    want=$(sed 's/^rayd-render: error: //' "$dir/local.err")
+    got=$(sed "s|^rayd-client: error: $dir/$s.json: invalid_scene: ||" "$dir/remote.err")
+    if [ $rc = 1 ] && [ -n "$want" ] && [ "$got" = "$want" ] && [[ $want == */file:* ]]; then
+        pass "client_inlined_${s}_error_at_file"
+    else
+        fail "client_inlined_${s}_error_at_file" "exit $rc: '$got' against '$want'"
+    fi
+done
 
 # a buffer whose name has a space, written %20 in the URI
 dir="$T/space"
