@@ -180,6 +180,23 @@ static void scenefile_gltf_text(struct scenefile_walk *w, cJSON *obj, const char
 /* Visits every object of the tree: mesh sources hold "file" beside
  * "format"/"text"/"base64" under a "source" key; image textures are objects
  * with "type": "image"; the environment is the object at "environment". */
+/* "/key" into dst[0..cap), with "~" and "/" escaped as "~0" and "~1"
+ * (RFC 6901), as the core names the key in its errors. */
+static void scenefile_key(char *dst, size_t cap, const char *key) {
+    size_t n = 0;
+    if (cap < 2) return;
+    dst[n++] = '/';
+    for (; *key && n + 3 < cap; key++) {
+        if (*key == '~' || *key == '/') {
+            dst[n++] = '~';
+            dst[n++] = *key == '~' ? '0' : '1';
+        } else {
+            dst[n++] = *key;
+        }
+    }
+    dst[n] = '\0';
+}
+
 static void scenefile_walk(struct scenefile_walk *w, cJSON *node, const char *key, char *ptr,
                            size_t ptrlen) {
     if (w->failed) return; /* the scene is not sent: one error is the whole story */
@@ -201,7 +218,7 @@ static void scenefile_walk(struct scenefile_walk *w, cJSON *node, const char *ke
     for (cJSON *c = node->child; c; c = c->next, i++) {
         size_t len = strlen(ptr);
         if (c->string)
-            snprintf(ptr + len, ptrlen - len, "/%s", c->string);
+            scenefile_key(ptr + len, ptrlen - len, c->string);
         else
             snprintf(ptr + len, ptrlen - len, "/%d", i);
         scenefile_walk(w, c, c->string, ptr, ptrlen);

@@ -85,7 +85,11 @@ printf 'ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty floa
 printf 'not an image\n' >"$dir/sky.hdr"
 printf '{"objects": [{"type": "mesh", "source": {"file": "bad.ply"}}]}\n' >"$dir/ply.json"
 printf '{"render": {"environment": {"file": "sky.hdr"}}}\n' >"$dir/env.json"
-for s in ply env; do
+# a key with "/" and "~" is escaped in the pointer ("~1", "~0") as the core escapes it
+printf 'not a png\n' >"$dir/tex.png"
+printf '{"materials": {"wall/2~b": {"texture": {"type": "image", "file": "tex.png"}}},
+  "objects": [{"type": "sphere", "radius": 1, "material": "wall/2~b"}]}\n' >"$dir/tex.json"
+for s in ply env tex; do
     "$RENDER" "$dir/$s.json" -o "$dir/local.png" -q 2>"$dir/local.err"
     "$CLIENT" render "$dir/$s.json" -o "$dir/remote.png" -s http://127.0.0.1:9 --retries 0 -q \
         2>"$dir/remote.err"
