@@ -35,6 +35,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
@@ -51,7 +52,8 @@ static void usage(FILE *f) {
             "  SCENE.json        scene file (format v1, docs/scene-format.md); '-' reads stdin\n"
             "  -o, --output F    file to write (required); '-' writes standard output;\n"
             "                    F ending in .exr means --format exr; in .jpg, .webp or\n"
-            "                    another format's, it is refused without --format\n"
+            "                    another format's, it is refused without --format;\n"
+            "                    .png with --format exr, or .exr with png, is refused\n"
             "  --format F        png (8-bit sRGB, the default), png16 (16-bit sRGB) or exr\n"
             "                    (OpenEXR, linear float RGB, unclamped)\n"
             "  --exposure EV     scale the light by 2^EV before the 8-bit PNG (default 0)\n"
@@ -295,6 +297,22 @@ static int unknown_option(const char *arg, int opt) {
     return bad_usage("unknown option '-%c'", opt);
 }
 
+/* -o x.png with --format exr (or -o x.exr with a PNG format) would write one
+ * format under the other's name; --format wins over a name that says
+ * nothing (-o frame, -o -) or names another format (-o x.jpg), but a name
+ * that names the other format rayd writes is a mistake, refused. */
+static int output_matches_format(const struct args *a) {
+    const char *dot = strrchr(a->output, '.');
+    bool png_name = dot && !strcasecmp(dot, ".png");
+    const char *kind = rayd_output_kind(a->output);
+    if (png_name && a->format == FMT_EXR)
+        return bad_usage("-o %s names a PNG, but --format exr writes OpenEXR: name it .exr",
+                         a->output);
+    if (kind && !strcmp(kind, "exr") && a->format != FMT_EXR)
+        return bad_usage("-o %s names an OpenEXR file, but --format %s writes a PNG: name it .png",
+                         a->output, a->format == FMT_PNG16 ? "png16" : "png");
+    return 0;
+}
 /* The command line into a: 0, 1 when done (--help, --version), -1 on a
  * usage error (said).  getopt_long takes "--opt value" and "--opt=value";
  * a missing value goes to the option's own message. */
@@ -330,7 +348,7 @@ static int parse_args(int argc, char **argv, struct args *a) {
                              a->output);
         a->format = !strcmp(kind, "exr") ? FMT_EXR : FMT_PNG;
     }
-    return 0;
+    return output_matches_format(a);
 }
 
 /* A core error: "rayd-render: error: " and its message with the JSON Pointer

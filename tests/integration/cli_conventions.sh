@@ -96,6 +96,13 @@ run r_EXR "$RENDER" "$T/s.json" -o "$T/r.EXR"
 check render_upper_exr_is_exr "exit $RC" bash -c "[ $RC = 0 ] && cmp -s '$T/r.EXR' '$T/ref.exr'"
 run r_jpg_png "$RENDER" "$T/s.json" -o "$T/r2.jpg" --format png
 check render_jpg_name_with_format "exit $RC" bash -c "[ $RC = 0 ] && cmp -s '$T/r2.jpg' '$T/ref.png'"
+# --format against a name that names the other format rayd writes: refused
+run r_exr_as_png "$RENDER" "$T/s.json" -o "$T/r3.png" --format exr
+check render_exr_format_png_name_refused "exit $RC, stderr '$(first_err r_exr_as_png)'" bash -c \
+    "[ $RC = 2 ] && [ ! -e '$T/r3.png' ] && grep -q 'names a PNG, but --format exr' '$T/r_exr_as_png.err'"
+run r_png_as_exr "$RENDER" "$T/s.json" -o "$T/r3.Exr" --format png16
+check render_png_format_exr_name_refused "exit $RC, stderr '$(first_err r_png_as_exr)'" bash -c \
+    "[ $RC = 2 ] && [ ! -e '$T/r3.Exr' ] && grep -q 'names an OpenEXR file, but --format png16' '$T/r_png_as_exr.err'"
 run r_write "$RENDER" "$T/s.json" -o /nonexistent-dir/x.png
 check render_write_error_exit_1 "exit $RC, stderr '$(first_err r_write)'" bash -c \
     "[ $RC = 1 ] && grep -q '^rayd-render: error: cannot write /nonexistent-dir/x.png' '$T/r_write.err'"
