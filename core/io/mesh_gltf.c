@@ -240,6 +240,8 @@ static enum rayd_status gl_check_asset(struct gl *G) {
     struct jp pa = {.s = "/asset"}, pv = {.s = "/asset/version"}, pe = {.s = "/extensionsRequired"};
     const cJSON *v = gl_get(gl_get(G->root, "asset"), "version");
     if (!cJSON_IsObject(gl_get(G->root, "asset"))) return gl_fail(G, RAYD_E_INVALID, &pa, "is required (an object with \"version\")");
+    if (cJSON_IsNumber(v) && v->valuedouble < 2) /* glTF 1.0 files were written with "version": 1 */
+        return gl_fail(G, RAYD_E_INVALID, &pv, "glTF %g is not supported (2.x is)", v->valuedouble);
     if (!cJSON_IsString(v)) return gl_fail(G, RAYD_E_INVALID, &pv, "must be a string such as \"2.0\"");
     if (strncmp(v->valuestring, "2.", 2) != 0) return gl_fail(G, RAYD_E_INVALID, &pv, "glTF %.20s is not supported (2.x is)", v->valuestring);
     const cJSON *req = gl_get(G->root, "extensionsRequired");

@@ -70,6 +70,13 @@ bad BoxTextured-glTF-techniqueWebGL/BoxTextured.gltf "/objects/0/source/gltf/ext
 bad wrongTypes/badArray.gltf "/objects/0/source/gltf/meshes/0/primitives: must be an array"
 for m in 00 01 02 03 07 08 09 10; do bad glTF-Asset-Generator/Mesh_PrimitiveMode/Mesh_PrimitiveMode_$m.gltf "/objects/0/source/gltf: no triangles"; done
 
+# glTF 1.0 files from assimp's glTF folder: one says "version": 1 (a number),
+# and is named as glTF 1 all the same, not as a wrong type
+V1=/usr/share/assimp/models/glTF/CesiumMilkTruck/CesiumMilkTruck.gltf
+render "$V1" gltf1_number_version
+check gltf_refuses_version_number_as_gltf1 "exit $rc: $err" bash -c \
+    "[ $rc = 1 ] && grep -qF 'source/gltf/asset/version: glTF 1 is not supported (2.x is)' '$T/gltf1_number_version.err'"
+
 # The same files embedded in the scene: a .glb as base64, a .gltf as text.
 embed() { # FILE FORMAT KEY NAME
     python3 - "$1" "$2" "$3" "$FRAME" >"$T/$4.json" <<'PY'
