@@ -135,10 +135,47 @@ static long client_get(const struct client_opts *o, const char *url, struct net_
     return net_perform(h, hdrs, why, size);
 }
 
+/* The "version" of a /healthz answer into v ("" when it has none). */
+static void client_live_version(const struct net_buf *b, char *v, size_t size) {
+    cJSON *j = cJSON_ParseWithLength(b->data, b->len);
+    const cJSON *ver = cJSON_GetObjectItemCaseSensitive(j, "version");
+    snprintf(v, size, "%.40s", cJSON_IsString(ver) ? ver->valuestring : "");
+    cJSON_Delete(j);
+}
+
+/* One line for a live server: its version and /readyz.  1 when not ready. */
+static int client_ready(const struct client_opts *o, const char *server, const char *version) {
+    char url[1024], why[600] = "", live[96];
+    struct net_buf b = {0};
+    snprintf(live, sizeof live, "live (%s%s)", *version ? "rayd " : "version not said", version);
+    snprintf(url, sizeof url, "%s/readyz", server);
+    long ready = client_get(o, url, &b, why, sizeof why);
+    cJSON *j = ready == 200 ? cJSON_ParseWithLength(b.data, b.len) : NULL;
+    if (j) {
+        const cJSON *q = cJSON_GetObjectItemCaseSensitive(j, "queued");
+        const cJSON *c = cJSON_GetObjectItemCaseSensitive(j, "capacity");
+        const cJSON *w = cJSON_GetObjectItemCaseSensitive(j, "workers");
+        const cJSON *busy = cJSON_GetObjectItemCaseSensitive(j, "busy");
+        printf("%s: %s, ready (queue %d/%d, workers %d busy of %d)\n", server, live,
+               cJSON_IsNumber(q) ? q->valueint : -1, cJSON_IsNumber(c) ? c->valueint : -1,
+               cJSON_IsNumber(busy) ? busy->valueint : -1, cJSON_IsNumber(w) ? w->valueint : -1);
+        cJSON_Delete(j);
+    } else {
+        if (ready) net_describe(ready, &b, why, sizeof why);
+        printf("%s: %s, not ready (%s)\n", server, live, why);
+    }
+    net_buf_free(&b);
+    return j ? 0 : 1;
+}
+
+/* Every server live and ready, and all of one rayd version (a frame is
+ * stitched from one version only, and render refuses a mix): 0, else 1. */
 static int client_health(const struct client_opts *o) {
-    int bad = 0;
+    int bad = 0, first = -1;
+    bool mixed = false; /* said once */
+    char version0[48] = "";
     for (int i = 0; i < o->nservers; i++) {
-        char url[1024], why[600] = "";
+        char url[1024], why[600] = "", version[48];
         struct net_buf b = {0};
         snprintf(url, sizeof url, "%s/healthz", o->servers[i]);
         long live = client_get(o, url, &b, why, sizeof why);
@@ -149,28 +186,23 @@ static int client_health(const struct client_opts *o) {
             net_buf_free(&b);
             continue;
         }
-        net_buf_reset(&b);
-        snprintf(url, sizeof url, "%s/readyz", o->servers[i]);
-        long ready = client_get(o, url, &b, why, sizeof why);
-        cJSON *j = ready == 200 ? cJSON_ParseWithLength(b.data, b.len) : NULL;
-        if (j) {
-            const cJSON *q = cJSON_GetObjectItemCaseSensitive(j, "queued");
-            const cJSON *c = cJSON_GetObjectItemCaseSensitive(j, "capacity");
-            const cJSON *w = cJSON_GetObjectItemCaseSensitive(j, "workers");
-            const cJSON *busy = cJSON_GetObjectItemCaseSensitive(j, "busy");
-            printf("%s: live, ready (queue %d/%d, workers %d busy of %d)\n", o->servers[i],
-                   cJSON_IsNumber(q) ? q->valueint : -1, cJSON_IsNumber(c) ? c->valueint : -1,
-                   cJSON_IsNumber(busy) ? busy->valueint : -1,
-                   cJSON_IsNumber(w) ? w->valueint : -1);
-            cJSON_Delete(j);
-        } else {
-            if (ready) net_describe(ready, &b, why, sizeof why);
-            printf("%s: live, not ready (%s)\n", o->servers[i], why);
-            bad = 1;
-        }
+        client_live_version(&b, version, sizeof version);
         net_buf_free(&b);
+        bad |= client_ready(o, o->servers[i], version);
+        if (first < 0) {
+            first = i;
+            snprintf(version0, sizeof version0, "%s", version);
+        } else if (strcmp(version, version0) && !mixed) {
+            fprintf(stderr,
+                    "rayd-client: error: %s runs %s%s and %s %s%s: a frame needs one rayd version "
+                    "on every node\n",
+                    o->servers[first], *version0 ? "rayd " : "a rayd that does not say its version",
+                    version0, o->servers[i],
+                    *version ? "rayd " : "a rayd that does not say its version", version);
+            mixed = true;
+        }
     }
-    return bad;
+    return bad || mixed ? 1 : 0;
 }
 
 /* ---- the command line ------------------------------------------------------ */

@@ -1,6 +1,7 @@
 /* api_health.c -- /healthz, /readyz and /metrics.
  *
- * /healthz answers 200 while the process can answer at all (liveness).
+ * /healthz answers 200 while the process can answer at all (liveness), with
+ * rayd's version.
  * /readyz answers 503 while draining, while the render queue is full, or
  * while the estimated backlog is over --max-backlog seconds (cost.c), so a
  * load balancer stops sending work before requests are refused or wait for
@@ -18,6 +19,8 @@ void api_health_live(struct http_req *r, const char *id)
     (void)id;
     cJSON *o = cJSON_CreateObject();
     cJSON_AddStringToObject(o, "status", "ok");
+    /* a frame is stitched from one version only: rayd-client health says so */
+    cJSON_AddStringToObject(o, "version", RAYD_VERSION);
     http_reply_json(r, 200, o);
 }
 

@@ -8,7 +8,8 @@
 # Python proxy in front of a real node that rewrites that header (as an
 # upgraded node, or a balancer's cache holding an older node's tiles, would
 # answer).  Also: the immutable tile's strong ETag names its bytes, so it
-# changes with the deflate level (and the version) that made them.
+# changes with the deflate level (and the version) that made them; and
+# rayd-client health shows each node's version and fails on a mix.
 source "$(dirname "$0")/lib/common.sh"
 
 CLIENT=$RAYD_BUILD/rayd-client
@@ -33,7 +34,7 @@ A=$(cat "$T/a.url") B=$(cat "$T/b.url")
 
 # --- a proxy that answers as another version ----------------------------------------
 cat >"$T/other.py" <<'PY'
-import http.client, sys, urllib.parse
+import http.client, json, sys, urllib.parse
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 up = urllib.parse.urlsplit(sys.argv[1])
 class H(BaseHTTPRequestHandler):
@@ -47,6 +48,10 @@ class H(BaseHTTPRequestHandler):
         c.request(self.command, self.path, body=body, headers=hdrs)
         r = c.getresponse()
         data = r.read()
+        if self.path == "/healthz":  # its body says the version too
+            j = json.loads(data)
+            j["version"] = "9.9.9"
+            data = json.dumps(j).encode()
         self.send_response(r.status)
         for k, v in r.getheaders():
             if k.lower() not in ("x-rayd-version", "content-length", "connection", "date"):
@@ -83,6 +88,16 @@ check render_says_version "no X-Rayd-Version on POST /v1/render" bash -c \
      '$A/v1/render?x=0&y=0&w=8&h=8' | grep -qi '^X-Rayd-Version: $version'"
 check etag_names_bytes "the same ETag for the bytes of --png-level 2 and 1: $(hval ETag "$T/a.h")" \
     [ -n "$(hval ETag "$T/a.h")" -a "$(hval ETag "$T/a.h")" != "$(hval ETag "$T/b.h")" ]
+
+# --- rayd-client health: the versions, and a mix named before any frame -----------------
+"$CLIENT" health --server "$A" --server "$B" >"$T/h.out" 2>"$T/h.err"
+RC=$?
+check health_says_version "exit $RC: $(cat "$T/h.out" "$T/h.err")" bash -c \
+    "[ $RC = 0 ] && [ \$(grep -c 'live (rayd $version), ready' '$T/h.out') = 2 ]"
+"$CLIENT" health --server "$A" --server "$O" >"$T/hm.out" 2>"$T/hm.err"
+RC=$?
+check health_mixed_versions "exit $RC: $(cat "$T/hm.out" "$T/hm.err")" bash -c \
+    "[ $RC = 1 ] && grep -q 'runs rayd $version and .* rayd 9.9.9: a frame needs one rayd version' '$T/hm.err'"
 
 # --- rayd-client: one version per frame -------------------------------------------------
 "$RENDER" "$T/s.json" -o "$T/ref.png" 2>/dev/null

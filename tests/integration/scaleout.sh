@@ -171,7 +171,7 @@ check job_through_nginx "exit $RC: $(tail -n 2 "$T/job.err")" bash -c "[ $RC = 0
 check job_progress_events "no progress from the event stream" grep -q 'tiles (100%)' "$T/job.err"
 
 client health health --server "${NODE_URL[1]}" --server "${NODE_URL[2]}" --server "$LB"
-check health_ok "exit $RC: $(cat "$T/health.out")" bash -c "[ $RC = 0 ] && [ \$(grep -c ': live, ready' '$T/health.out') = 3 ]"
+check health_ok "exit $RC: $(cat "$T/health.out")" bash -c "[ $RC = 0 ] && [ \$(grep -c ': live (rayd [0-9.]*), ready' '$T/health.out') = 3 ]"
 
 mkdir -p "$T/models"
 printf 'v -1 0 0\nv 1 0 0\nv 0 1.5 0\nv 0 0.5 1\nf 1 2 3\nf 1 2 4\nf 2 3 4\nf 3 1 4\n' >"$T/models/tet.obj"
