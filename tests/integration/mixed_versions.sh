@@ -6,8 +6,9 @@
 # version drew it (X-Rayd-Version) and rayd-client refuses a frame whose
 # pieces disagree.  A node of another version is simulated by a small
 # Python proxy in front of a real node that rewrites that header (as an
-# upgraded node, or a balancer's cache holding an older node's tiles, would
-# answer).  Also: the immutable tile's strong ETag names its bytes, so it
+# upgraded node would answer), or rewrites it on every second image (as a
+# balancer's cache holding an older node's tiles among new ones would): the
+# frame meets both versions whichever node is faster.  Also: the immutable tile's strong ETag names its bytes, so it
 # changes with the deflate level (and the version) that made them; and
 # rayd-client health shows each node's version and fails on a mix.
 source "$(dirname "$0")/lib/common.sh"
@@ -34,9 +35,21 @@ A=$(cat "$T/a.url") B=$(cat "$T/b.url")
 
 # --- a proxy that answers as another version ----------------------------------------
 cat >"$T/other.py" <<'PY'
-import http.client, json, sys, urllib.parse
+import http.client, itertools, json, sys, threading, urllib.parse
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 up = urllib.parse.urlsplit(sys.argv[1])
+alternate = len(sys.argv) > 3 and sys.argv[3] == "alternate"
+images, lock = itertools.count(), threading.Lock()
+def other(version):
+    # "always": every answer is 9.9.9's; "alternate": every second piece of
+    # an image, an answer that says its version (a balancer whose cache
+    # holds an older node's tiles among new ones)
+    if not alternate:
+        return True
+    if not version:
+        return False
+    with lock:
+        return next(images) % 2 == 1
 class H(BaseHTTPRequestHandler):
     protocol_version = "HTTP/1.1"
     def log_message(self, *a): pass
@@ -48,15 +61,18 @@ class H(BaseHTTPRequestHandler):
         c.request(self.command, self.path, body=body, headers=hdrs)
         r = c.getresponse()
         data = r.read()
-        if self.path == "/healthz":  # its body says the version too
+        if self.path == "/healthz" and not alternate:  # its body says the version too
             j = json.loads(data)
             j["version"] = "9.9.9"
             data = json.dumps(j).encode()
+        swap = other(r.getheader("X-Rayd-Version"))
         self.send_response(r.status)
         for k, v in r.getheaders():
-            if k.lower() not in ("x-rayd-version", "content-length", "connection", "date"):
+            if k.lower() not in ("content-length", "connection", "date") and \
+                    not (swap and k.lower() == "x-rayd-version"):
                 self.send_header(k, v)
-        self.send_header("X-Rayd-Version", "9.9.9")
+        if swap:
+            self.send_header("X-Rayd-Version", "9.9.9")
         self.send_header("Content-Length", str(len(data)))
         self.end_headers()
         self.wfile.write(data)
@@ -65,10 +81,16 @@ s = ThreadingHTTPServer(("127.0.0.1", 0), H)
 open(sys.argv[2], "w").write("http://127.0.0.1:%d\n" % s.server_address[1])
 s.serve_forever()
 PY
-python3 "$T/other.py" "$B" "$T/other.url.tmp" &
+python3 "$T/other.py" "$B" "$T/other.url.tmp" >"$T/other.log" 2>&1 &
 PIDS+=($!)
 wait_until 30 test -s "$T/other.url.tmp"
 O=$(cat "$T/other.url.tmp")
+# M: before A, every second image as 9.9.9's, so any frame of two pieces or
+# more meets both versions, however the client spreads its pieces
+python3 "$T/other.py" "$A" "$T/mix.url.tmp" alternate >"$T/mix.log" 2>&1 &
+PIDS+=($!)
+wait_until 30 test -s "$T/mix.url.tmp"
+M=$(cat "$T/mix.url.tmp")
 
 # --- the header and the ETag ---------------------------------------------------------
 scene "$T/s.json" 160 96 1 spheres
@@ -105,7 +127,7 @@ timeout 120 "$CLIENT" render "$T/s.json" -o "$T/same.png" --tile 32 --server "$A
     2>"$T/same.err"
 check same_version_frame "exit $?: $(tail -n 2 "$T/same.err")" cmp -s "$T/ref.png" "$T/same.png"
 
-timeout 120 "$CLIENT" render "$T/s.json" -o "$T/mixed.png" --tile 32 --server "$A" --server "$O" \
+timeout 120 "$CLIENT" render "$T/s.json" -o "$T/mixed.png" --tile 32 --server "$M" \
     2>"$T/mixed.err"
 RC=$?
 check mixed_versions_exit_1 "exit $RC" [ "$RC" = 1 ]
@@ -117,7 +139,7 @@ check mixed_versions_no_file "an image was written" [ ! -e "$T/mixed.png" ]
 
 scene "$T/p.json" 64 48 8 spheres
 timeout 120 "$CLIENT" render "$T/p.json" -o "$T/mixed_s.png" --split-samples 4 --parallel 4 \
-    --server "$A" --server "$O" 2>"$T/mixed_s.err"
+    --server "$M" 2>"$T/mixed_s.err"
 RC=$?
 check mixed_versions_samples "exit $RC: $(grep error "$T/mixed_s.err" | head -c 300)" \
     bash -c "[ $RC = 1 ] && grep -q 'one frame needs the same rayd version' '$T/mixed_s.err' && [ ! -e '$T/mixed_s.png' ]"
