@@ -475,7 +475,7 @@ static void tiles_finish(struct tiles *T, struct tiles_xfer *x, CURLcode cc, dou
     } else if (status >= 400 && status < 500 && status != 408) {
         tiles_refused(T, x, status, now);
         return;
-    } else if (t && status == 200 && !tiles_same_version(T, x)) {
+    } else if (x->kind != X_LEARN && status == 200 && !tiles_same_version(T, x)) {
         return; /* the run ends, said: nothing to retry */
     } else if (tiles_answered(T, x, t, status, why, sizeof why)) {
         return;
