@@ -313,6 +313,7 @@ static int output_matches_format(const struct args *a) {
                          a->output, a->format == FMT_PNG16 ? "png16" : "png");
     return 0;
 }
+
 /* The command line into a: 0, 1 when done (--help, --version), -1 on a
  * usage error (said).  getopt_long takes "--opt value" and "--opt=value";
  * a missing value goes to the option's own message. */

@@ -151,6 +151,7 @@ static int client_ready(const struct client_opts *o, const char *server, const c
     snprintf(url, sizeof url, "%s/readyz", server);
     long ready = client_get(o, url, &b, why, sizeof why);
     cJSON *j = ready == 200 ? cJSON_ParseWithLength(b.data, b.len) : NULL;
+    int not_ready = !j;
     if (j) {
         const cJSON *q = cJSON_GetObjectItemCaseSensitive(j, "queued");
         const cJSON *c = cJSON_GetObjectItemCaseSensitive(j, "capacity");
@@ -165,7 +166,7 @@ static int client_ready(const struct client_opts *o, const char *server, const c
         printf("%s: %s, not ready (%s)\n", server, live, why);
     }
     net_buf_free(&b);
-    return j ? 0 : 1;
+    return not_ready;
 }
 
 /* Every server live and ready, and all of one rayd version (a frame is
