@@ -54,6 +54,7 @@ struct client_opts {
     int ranges;      /* > 0: split the samples into this many ranges, not the pixels */
     int threads;     /* PNG encoding threads of the stitched frame; 0 = every core */
     const char *what; /* named first in tiles.c's error lines (thumbnails: the model), or NULL */
+    int no_hedge;     /* --no-hedge: never send a straggler's copy to a second server */
 };
 
 /* ---- output.c ------------------------------------------------------------- */

@@ -2,7 +2,7 @@
  *
  *   rayd-client render SCENE.json -o OUT.png --server URL [--server URL ...]
  *               [--tile 128 | --split-samples N] [--parallel N] [--retries N]
- *               [--timeout S] [--threads N]
+ *               [--timeout S] [--threads N] [--no-hedge]
  *               [--token-file F] [--quiet]
  *   rayd-client job SCENE.json -o OUT.png --server URL [--token-file F]
  *   rayd-client health --server URL [--server URL ...]
@@ -50,7 +50,7 @@ static void client_usage(FILE *f) {
     fprintf(
         f, "usage: rayd-client render SCENE.json -o OUT.png --server URL [--server URL ...]\n"
            "                          [--tile N | --split-samples N] [--parallel N] [--retries N]\n"
-           "                          [--timeout S] [--threads N]\n"
+           "                          [--timeout S] [--threads N] [--no-hedge]\n"
            "                          [--token-file F] [--quiet]\n"
            "       rayd-client job SCENE.json -o OUT.png --server URL [--token-file F] [--quiet]\n"
            "       rayd-client health --server URL [--server URL ...] [--token-file F]\n"
@@ -70,6 +70,9 @@ static void client_usage(FILE *f) {
            "                    (default 8 for one server, 4 per server for a list)\n"
            "  --retries N       further attempts of a failed tile, on another server (default 3)\n"
            "  --timeout S       seconds per request (default 120)\n"
+           "  --no-hedge        never send a copy of a straggling tile to a second server\n"
+           "                    (by default, once no tile is left to start, a tile in flight\n"
+           "                    over 2x the median tile time and 1 s is copied once)\n"
            "  --token-file F    bearer token file (default $RAYD_TOKEN_FILE)\n"
            "  --threads N       threads encoding the stitched PNG (default 0: every core)\n"
            "  --size N          thumbnails: the PNGs' width and height (default 256)\n"
@@ -235,7 +238,8 @@ enum {
     OPT_VERSION,
     OPT_SIZE,
     OPT_VIEW,
-    OPT_TURNTABLE
+    OPT_TURNTABLE,
+    OPT_NO_HEDGE
 };
 static const struct option client_options[] = {
     {"server", required_argument, NULL, 's'},
@@ -250,6 +254,7 @@ static const struct option client_options[] = {
     {"size", required_argument, NULL, OPT_SIZE},
     {"view", required_argument, NULL, OPT_VIEW},
     {"turntable", required_argument, NULL, OPT_TURNTABLE},
+    {"no-hedge", no_argument, NULL, OPT_NO_HEDGE},
     {"quiet", no_argument, NULL, 'q'},
     {"help", no_argument, NULL, 'h'},
     {"version", no_argument, NULL, OPT_VERSION},
@@ -277,6 +282,7 @@ static const struct {
     {OPT_PARALLEL, "--parallel", "render and thumbnails"},
     {OPT_RETRIES, "--retries", "render and thumbnails"},
     {OPT_THREADS, "--threads", "render and thumbnails"},
+    {OPT_NO_HEDGE, "--no-hedge", "render and thumbnails"},
     {OPT_SIZE, "--size", "thumbnails"},
     {OPT_VIEW, "--view", "thumbnails"},
     {OPT_TURNTABLE, "--turntable", "thumbnails"},
@@ -355,6 +361,9 @@ static int client_option(int opt, const char *v, struct client_args *a) {
         return client_int(opt, v, 8, 4096, &a->size);
     case OPT_TURNTABLE:
         return client_int(opt, v, 1, 360, &a->turntable);
+    case OPT_NO_HEDGE:
+        o->no_hedge = 1;
+        return 0;
     case OPT_VIEW:
         if (!v || (strcmp(v, "three-quarter") && strcmp(v, "front") && strcmp(v, "side") &&
                    strcmp(v, "top")))

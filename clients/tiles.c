@@ -36,6 +36,19 @@
  * a missing tile is never written: the exit status is 1 and the message
  * names the missing tiles and the last error.
  *
+ * Stragglers.  Near the end of a frame (no piece left to start) a node that
+ * is slow or stalled would hold its pieces until --timeout.  So, as with
+ * MapReduce's backup tasks or hedged requests, a free slot takes a copy of
+ * the piece in flight the longest, once that is over twice the median time
+ * of the pieces drawn so far and 1 s, to another ready server; the first
+ * answer is stitched and the other request is cancelled, which is no
+ * failure of its server.  Any node of one version draws the same bytes, so
+ * it does not matter which answer wins.  A piece is copied at most once,
+ * and while its other copy is in flight a failed copy only waits for it.
+ * The end line counts the copies sent and those that won; --no-hedge
+ * turns it off.  A node that stalls while pieces are left to start still
+ * waits for --timeout: every slot is then better spent on a new piece.
+ *
  * One failure, one error line: a refusal is said by the first answer that
  * brings it (the others in flight, each the same 4xx, are not repeated),
  * and the missing tiles and the last error share a line.  With
@@ -78,6 +91,9 @@ struct tiles_tile {
     int busy;       /* 503 answers */
     int last_server;
     double not_before;
+    int copies;   /* its requests in flight: 2 while hedged */
+    int hedged;   /* a copy went to a second server (at most once) */
+    double since; /* when its requests in flight began */
     char err[240];
 };
 
@@ -104,6 +120,8 @@ struct tiles_xfer {
     struct net_buf body;
     enum tiles_kind kind;
     int tile, server;
+    double t0;                      /* when it started */
+    int hedge;                      /* the copy of a straggler (tiles_hedge) */
     struct tiles_xfer *prev, *next; /* every transfer in flight */
 };
 
@@ -128,7 +146,17 @@ struct tiles {
     char (*labels)[40];
     int busy_limit;
     struct tiles_xfer *xfers;
+    double *took; /* the request times of the pieces drawn, ascending */
+    int ntook;
+    int hedged, hedge_won;
 };
+
+/* A straggler is copied once nothing is left to start and it has been in
+ * flight over TILES_HEDGE_FACTOR times the median piece and TILES_HEDGE_FLOOR
+ * seconds: a loaded node's ordinary spread stays under that, a stalled one
+ * does not. */
+#define TILES_HEDGE_FACTOR 2.0
+#define TILES_HEDGE_FLOOR 1.0
 
 /* ---- starting requests ------------------------------------------------------ */
 
@@ -166,6 +194,7 @@ static int tiles_start(struct tiles *T, enum tiles_kind kind, int ti, int si)
     if (!x)
         return -1;
     x->kind = kind, x->tile = ti, x->server = si;
+    x->t0 = net_now();
     if (T->acc && t) /* a range's sums: 24 bytes a pixel */
         x->body.max = 1024 + (size_t)t->w * (size_t)t->h * 24;
     void *hdrs = NULL;
@@ -197,8 +226,8 @@ static int tiles_start(struct tiles *T, enum tiles_kind kind, int ti, int si)
     }
     if (t) {
         T->t[ti].st = TS_RUNNING;
-        if (kind == X_GET || kind == X_POST)
-            T->running++;
+        T->running++;
+        if (T->t[ti].copies++ == 0) T->t[ti].since = x->t0;
     }
     return 0;
 }
@@ -248,6 +277,7 @@ static void tiles_tile_failed(struct tiles *T, int ti, int si, const char *why, 
 {
     struct tiles_tile *t = &T->t[ti];
     snprintf(t->err, sizeof t->err, "%s: %s", T->s[si].url, why);
+    if (t->copies > 0) return; /* its other copy, still in flight, may yet draw it */
     t->last_server = si;
     if (++t->attempts > T->o->retries) {
         t->st = TS_FAILED;
@@ -378,7 +408,7 @@ static void tiles_busy(struct tiles *T, struct tiles_xfer *x, struct tiles_tile 
     struct tiles_server *s = &T->s[x->server];
     s->down_until = now + net_retry_after(x->h, 1);
     if (s->scene == SS_LEARNING) s->scene = SS_UNKNOWN;
-    if (!t) return;
+    if (!t || t->copies > 0) return; /* a copy still in flight may draw it */
     t->st = TS_PENDING;
     t->not_before = now;
     t->last_server = x->server;
@@ -400,6 +430,8 @@ static void tiles_refused(struct tiles *T, struct tiles_xfer *x, long status, do
         T->s[x->server].scene = SS_KNOWN;
         if (tiles_start(T, X_POST, x->tile, x->server) != 0)
             tiles_tile_failed(T, x->tile, x->server, "out of memory", now);
+        else
+            T->xfers->hedge = x->hedge; /* the same copy, now with the body */
         return;
     }
     tiles_fatal(T, x->server, status, &x->body);
@@ -453,6 +485,24 @@ static bool tiles_answered(struct tiles *T, struct tiles_xfer *x, struct tiles_t
     return ok;
 }
 
+/* x drew its piece: its time joins the typical piece's, and the other
+ * copy of a hedged piece is cancelled, which is no failure of its server
+ * (it may be merely slow, and its answer would be the same bytes). */
+static void tiles_settle(struct tiles *T, struct tiles_xfer *x, double now) {
+    int k = T->ntook++;
+    for (; k > 0 && T->took[k - 1] > now - x->t0; k--) T->took[k] = T->took[k - 1];
+    T->took[k] = now - x->t0;
+    if (x->hedge) T->hedge_won++;
+    for (struct tiles_xfer *o = T->xfers, *next; o; o = next) {
+        next = o->next;
+        if (o == x || o->tile != x->tile || (o->kind != X_GET && o->kind != X_POST)) continue;
+        T->s[o->server].inflight--;
+        T->running--;
+        T->t[o->tile].copies--;
+        tiles_xfer_free(T, o);
+    }
+}
+
 static void tiles_finish(struct tiles *T, struct tiles_xfer *x, CURLcode cc, double now)
 {
     long status = 0;
@@ -464,8 +514,10 @@ static void tiles_finish(struct tiles *T, struct tiles_xfer *x, CURLcode cc, dou
     T->s[x->server].inflight--;
     /* the scene's POST, or a tile's (a range's) GET or POST */
     struct tiles_tile *t = x->kind == X_LEARN ? NULL : &T->t[x->tile];
-    if (x->kind == X_GET || x->kind == X_POST)
+    if (t) {
         T->running--;
+        t->copies--;
+    }
     char why[600] = "";
     if (cc != CURLE_OK) {
         tiles_transport_why(T, x, cc, why, sizeof why);
@@ -478,6 +530,7 @@ static void tiles_finish(struct tiles *T, struct tiles_xfer *x, CURLcode cc, dou
     } else if (x->kind != X_LEARN && status == 200 && !tiles_same_version(T, x)) {
         return; /* the run ends, said: nothing to retry */
     } else if (tiles_answered(T, x, t, status, why, sizeof why)) {
+        if (t) tiles_settle(T, x, now);
         return;
     }
     tiles_server_failed(T, x->server, why, now);
@@ -487,18 +540,61 @@ static void tiles_finish(struct tiles *T, struct tiles_xfer *x, CURLcode cc, dou
 
 /* ---- the loop ------------------------------------------------------------------ */
 
-static int tiles_pick(struct tiles *T, const struct tiles_tile *t, double now)
-{
+/* The ready server with the fewest requests in flight, not t's last
+ * failing one if another is ready, never avoid (-1: none); -1 if none. */
+static int tiles_pick(struct tiles *T, const struct tiles_tile *t, int avoid, double now) {
     int best = -1, score = 0;
     for (int i = 0; i < T->ns; i++) {
         const struct tiles_server *s = &T->s[i];
-        if ((s->scene != SS_KNOWN && !T->acc) || s->down_until > now)
-            continue;
+        if ((s->scene != SS_KNOWN && !T->acc) || s->down_until > now || i == avoid) continue;
         int sc = s->inflight + (i == t->last_server && T->ns > 1 ? 1000 : 0);
         if (best < 0 || sc < score)
             best = i, score = sc;
     }
     return best;
+}
+
+/* The straggler to copy: in flight on one server for longer than the
+ * median piece drawn so far times TILES_HEDGE_FACTOR (and at least
+ * TILES_HEDGE_FLOOR), never copied before, the longest in flight of those.
+ * -1: none, or no piece drawn yet to tell what is slow. */
+static int tiles_straggler(const struct tiles *T, double now) {
+    if (T->ntook == 0) return -1;
+    double after = TILES_HEDGE_FACTOR * T->took[T->ntook / 2];
+    if (after < TILES_HEDGE_FLOOR) after = TILES_HEDGE_FLOOR;
+    int best = -1;
+    for (int i = 0; i < T->n; i++) {
+        const struct tiles_tile *t = &T->t[i];
+        if (t->st != TS_RUNNING || t->copies != 1 || t->hedged || now - t->since < after) continue;
+        if (best < 0 || t->since < T->t[best].since) best = i;
+    }
+    return best;
+}
+
+/* The server of piece ti's request in flight; -1 if none. */
+static int tiles_running_on(const struct tiles *T, int ti) {
+    for (const struct tiles_xfer *x = T->xfers; x; x = x->next)
+        if (x->tile == ti && (x->kind == X_GET || x->kind == X_POST)) return x->server;
+    return -1;
+}
+
+/* Hedged requests: near the end (no piece left to start) a free slot
+ * takes a copy of a straggler to another ready server, and the first
+ * answer wins (tiles_settle).  A stalled or overloaded node then holds the
+ * frame up for about twice a typical piece, not for --timeout. */
+static void tiles_hedge(struct tiles *T, double now) {
+    if (T->o->no_hedge) return;
+    for (int i = 0; i < T->n; i++)
+        if (T->t[i].st == TS_PENDING) return;
+    while (T->running < T->o->parallel) {
+        int ti = tiles_straggler(T, now);
+        if (ti < 0) return;
+        int si = tiles_pick(T, &T->t[ti], tiles_running_on(T, ti), now);
+        if (si < 0 || tiles_start(T, T->acc ? X_POST : X_GET, ti, si) != 0) return;
+        T->xfers->hedge = 1; /* tiles_start put the new request first */
+        T->t[ti].hedged = 1;
+        T->hedged++;
+    }
 }
 
 static void tiles_dispatch(struct tiles *T, double now)
@@ -515,12 +611,13 @@ static void tiles_dispatch(struct tiles *T, double now)
         struct tiles_tile *t = &T->t[i];
         if (t->st != TS_PENDING || t->not_before > now)
             continue;
-        int si = tiles_pick(T, t, now);
+        int si = tiles_pick(T, t, -1, now);
         if (si < 0)
             break;
         if (tiles_start(T, T->acc ? X_POST : X_GET, i, si) != 0)
             break;
     }
+    tiles_hedge(T, now);
     if (!T->prog.quiet)
         for (int i = 0; i < T->ns; i++) {
             struct tiles_server *s = &T->s[i];
@@ -599,8 +696,8 @@ static int tiles_pieces(struct tiles *T, const struct client_opts *o, const stru
     int cols = (sf->width + tile - 1) / tile, rows = (sf->height + tile - 1) / tile;
     T->n = o->ranges > 0 ? (o->ranges < samples ? o->ranges : samples) : cols * rows;
     T->t = calloc((size_t)T->n, sizeof *T->t);
-    if (!T->t)
-        return -1;
+    T->took = calloc((size_t)T->n, sizeof *T->took);
+    if (!T->t || !T->took) return -1;
     for (int k = 0; k < T->n; k++) {
         struct tiles_tile *t = &T->t[k];
         t->last_server = -1;
@@ -750,9 +847,12 @@ static int tiles_conclude(struct tiles *T, double secs) {
         for (int i = 0; i < T->ns; i++) uploads += T->s[i].uploads;
         fprintf(stderr,
                 "rayd-client: wrote %s (%dx%d) from %d tiles in %.2f s (%.1f tiles/s), "
-                "scene sent %ld time%s\n",
+                "scene sent %ld time%s",
                 output_name(T->o->out), T->sf->width, T->sf->height, T->n, secs,
                 secs > 0 ? T->n / secs : 0.0, uploads, uploads == 1 ? "" : "s");
+        if (!T->o->no_hedge)
+            fprintf(stderr, ", tiles hedged: %d, won: %d", T->hedged, T->hedge_won);
+        fputc('\n', stderr);
     }
     return 0;
 }
@@ -769,6 +869,7 @@ static void tiles_cleanup(struct tiles *T) {
     free(T->s);
     free(T->per_server);
     free(T->labels);
+    free(T->took);
 }
 
 int tiles_render(const struct client_opts *o, const struct scenefile *sf) {

@@ -1,0 +1,120 @@
+#!/usr/bin/env bash
+# client_hedge.sh -- rayd-client hedges the tiles of a stalled node.
+#
+# Two nodes, both started with the test gate shut (--test-gate 0): once B
+# has learnt the scene, A's gate opens and B's lets one tile through, and B
+# is stopped with SIGSTOP once it holds a tile at its gate.  A draws every other tile; B's tiles are
+# left in flight, and once none is left to start the client must send a copy
+# of each to A and use A's answer, long before the per-request --timeout
+# (60 s) could move them.  The frame is rayd-render's byte for byte, the end
+# line counts the hedged tiles and those that won, --quiet prints nothing,
+# --no-hedge leaves the count out, and healthy nodes hedge at most the
+# tiles in flight at the end.  The order of events is held by the gates, not
+# by timing; the 45 s bound only tells a hedge from a timeout.  Every node is
+# resumed (SIGCONT) and stopped by its PID.
+source "$(dirname "$0")/lib/common.sh"
+
+CLIENT=$RAYD_BUILD/rayd-client
+[ -x "$CLIENT" ] || { echo "FAIL setup: $CLIENT missing"; exit 1; }
+
+NODE_PID=() NODE_URL=()
+start_node() { # start_node I GATE
+    local i=$1 out=$T/node$1.out line=
+    "$RAYD" --bind 127.0.0.1 --port 0 --threads 1 --test-gate "$2" >"$out" 2>"$T/node$i.err" &
+    NODE_PID[$i]=$!
+    PIDS+=("${NODE_PID[$i]}")
+    wait_until 60 test -s "$out"
+    line=$(head -n 1 "$out" 2>/dev/null)
+    [[ $line =~ ^rayd\ listening\ on\ (http://127\.0\.0\.1:[0-9]+)$ ]] ||
+        { echo "FAIL setup: node $i said '$line'"; exit 1; }
+    NODE_URL[$i]=${BASH_REMATCH[1]}
+}
+# node_gate I TILES: lets TILES more tiles start on node I ("open": all)
+node_gate() { curl -s -m 30 -X POST -o /dev/null "${NODE_URL[$1]}/v1/test/gate?tiles=$2"; }
+# node_holds I: node I has a tile waiting at its gate
+node_holds() {
+    local held
+    held=$(curl -s -m 5 "${NODE_URL[$1]}/v1/test/gate" | jfield /dev/stdin held)
+    [ "${held:-0}" -ge 1 ]
+}
+# node_learnt I: node I has answered the client's POST /v1/scenes
+node_learnt() {
+    curl -s -m 5 "${NODE_URL[$1]}/metrics" |
+        grep -q '^rayd_http_requests_total{route="/v1/scenes",method="POST",code="201"} [1-9]'
+}
+stop_nodes() {
+    local p
+    for p in "${NODE_PID[@]}"; do
+        kill -CONT "$p" 2>/dev/null
+        kill -TERM "$p" 2>/dev/null
+    done
+    for p in "${NODE_PID[@]}"; do wait "$p" 2>/dev/null; done
+    NODE_PID=()
+}
+# hedges FILE: "HEDGED WON" from the client's end line, empty if absent
+hedges() { sed -n 's/.*tiles hedged: \([0-9]*\), won: \([0-9]*\)$/\1 \2/p' "$1"; }
+
+scene "$T/s.json" 160 96 1 spheres
+"$RENDER" "$T/s.json" -o "$T/ref.png" 2>/dev/null
+
+# stalled NAME [ARGS...]: one frame over A and B, B stopped while it holds a
+# tile; sets RC and SECS, stderr in $T/NAME.err
+stalled() {
+    local name=$1 t0 cpid; shift
+    start_node 1 0
+    start_node 2 0
+    t0=$(date +%s%N)
+    timeout 120 "$CLIENT" render "$T/s.json" -o "$T/$name.png" --tile 16 --timeout 60 \
+        --server "${NODE_URL[1]}" --server "${NODE_URL[2]}" "$@" 2>"$T/$name.err" &
+    cpid=$!
+    # B has the scene before anything is drawn.  Whichever node learnt it
+    # first holds every slot (--parallel); B draws one tile, so a slot is
+    # freed either way, and from then on B takes tiles as A frees slots and
+    # holds them at its gate until it is stopped
+    if wait_until 60 node_learnt 2 && node_gate 1 open && node_gate 2 1 &&
+        wait_until 60 node_holds 2; then
+        kill -STOP "${NODE_PID[2]}"
+    else
+        fail "${name}_setup" "the nodes never held a tile: $(head -c 300 "$T/$name.err")"
+        node_gate 1 open
+        node_gate 2 open
+    fi
+    wait "$cpid"
+    RC=$?
+    SECS=$((($(date +%s%N) - t0) / 1000000000))
+    stop_nodes
+}
+
+stalled hedge
+read -r HEDGED WON <<<"$(hedges "$T/hedge.err")"
+check hedge_exit "exit $RC: $(tail -n 3 "$T/hedge.err")" [ "$RC" = 0 ]
+check hedge_frame "the frame differs from rayd-render's" cmp -s "$T/ref.png" "$T/hedge.png"
+check hedge_counted "end line: $(tail -n 1 "$T/hedge.err")" \
+    bash -c "[ '${WON:-0}' -ge 1 ] && [ '${HEDGED:-0}' -ge '${WON:-0}' ]"
+check hedge_before_timeout "took $SECS s" [ "$SECS" -lt 45 ]
+
+stalled hedge_quiet --quiet
+check hedge_quiet "exit $RC, stderr: $(head -c 300 "$T/hedge_quiet.err")" \
+    bash -c "[ $RC = 0 ] && [ ! -s '$T/hedge_quiet.err' ] && cmp -s '$T/ref.png' '$T/hedge_quiet.png'"
+
+# healthy nodes: the same frame; hedges only at the end, so never more than
+# the requests in flight then (--parallel)
+start_node 1 open
+start_node 2 open
+timeout 120 "$CLIENT" render "$T/s.json" -o "$T/ok.png" --tile 16 --parallel 4 \
+    --server "${NODE_URL[1]}" --server "${NODE_URL[2]}" 2>"$T/ok.err"
+RC=$?
+read -r HEDGED WON <<<"$(hedges "$T/ok.err")"
+check healthy_frame "exit $RC: $(tail -n 3 "$T/ok.err")" \
+    bash -c "[ $RC = 0 ] && cmp -s '$T/ref.png' '$T/ok.png'"
+check healthy_hedges_bounded "end line: $(tail -n 1 "$T/ok.err")" \
+    bash -c "[ -n '$HEDGED' ] && [ '${HEDGED:-0}' -le 4 ]"
+
+timeout 120 "$CLIENT" render "$T/s.json" -o "$T/off.png" --tile 16 --no-hedge \
+    --server "${NODE_URL[1]}" --server "${NODE_URL[2]}" 2>"$T/off.err"
+RC=$?
+check no_hedge "exit $RC: $(tail -n 2 "$T/off.err")" \
+    bash -c "[ $RC = 0 ] && cmp -s '$T/ref.png' '$T/off.png' && grep -q 'scene sent' '$T/off.err' && ! grep -q hedged '$T/off.err'"
+stop_nodes
+
+[ "$NFAIL" = 0 ]
