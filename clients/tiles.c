@@ -103,7 +103,7 @@ struct tiles_server {
     enum tiles_scene scene;
     int inflight;         /* learn + tile requests */
     long done;            /* tiles rendered */
-    long uploads;         /* times the scene body was sent */
+    long uploads;         /* times the scene body was sent and answered */
     int fails_row;        /* consecutive failures */
     double down_until;    /* resting until then */
     int metrics_busy;
@@ -221,8 +221,6 @@ static int tiles_start(struct tiles *T, enum tiles_kind kind, int ti, int si)
         s->metrics_busy = 1;
     } else {
         s->inflight++;
-        if (body)
-            s->uploads++;
     }
     if (t) {
         T->t[ti].st = TS_RUNNING;
@@ -512,6 +510,9 @@ static void tiles_finish(struct tiles *T, struct tiles_xfer *x, CURLcode cc, dou
         return;
     }
     T->s[x->server].inflight--;
+    /* the scene's body reached a server that answered: an attempt on a
+     * server that could not be reached is no upload */
+    if (cc == CURLE_OK && (x->kind == X_LEARN || x->kind == X_POST)) T->s[x->server].uploads++;
     /* the scene's POST, or a tile's (a range's) GET or POST */
     struct tiles_tile *t = x->kind == X_LEARN ? NULL : &T->t[x->tile];
     if (t) {

@@ -4,8 +4,9 @@
 # A node that is gone costs a frame only time: its tiles move to the other
 # servers and the frame is still rayd-render's.  The user is told, with one
 # warning line per server each time it starts failing (not one per tile),
-# and nothing with --quiet.  The dead server is a loopback port nobody
-# listens on (bound, then closed).
+# and nothing with --quiet; the end line counts only the uploads a server
+# answered (the attempts on the dead one are none).  The dead server is a
+# loopback port nobody listens on (bound, then closed).
 source "$(dirname "$0")/lib/common.sh"
 
 CLIENT=$RAYD_BUILD/rayd-client
@@ -21,6 +22,8 @@ RC=$?
 check failover_frame "exit $RC: $(tail -n 2 "$T/a.err")" bash -c "[ $RC = 0 ] && cmp -s '$T/ref.png' '$T/a.png'"
 check failover_warned "stderr: $(head -c 400 "$T/a.err")" \
     grep -q "^rayd-client: warning: $DEAD failed: Couldn't connect to server; its tiles go to the other servers$" "$T/a.err"
+sent=$(sed -n 's/.*scene sent \([0-9]*\) time.*/\1/p' "$T/a.err")
+check failover_uploads_counted "end line: $(tail -n 1 "$T/a.err")" [ "$sent" = 1 ]
 n=$(grep -c 'warning:' "$T/a.err")
 check failover_warned_once "$n warning lines: $(grep warning "$T/a.err" | head -c 400)" [ "$n" = 1 ]
 
