@@ -222,7 +222,7 @@ static int tiles_start(struct tiles *T, enum tiles_kind kind, int ti, int si)
     } else {
         s->inflight++;
     }
-    if (t) {
+    if (kind == X_GET || kind == X_POST) { /* a piece's (by kind, as t was chosen) */
         T->t[ti].st = TS_RUNNING;
         T->running++;
         if (T->t[ti].copies++ == 0) T->t[ti].since = x->t0;
@@ -515,9 +515,9 @@ static void tiles_finish(struct tiles *T, struct tiles_xfer *x, CURLcode cc, dou
     if (cc == CURLE_OK && (x->kind == X_LEARN || x->kind == X_POST)) T->s[x->server].uploads++;
     /* the scene's POST, or a tile's (a range's) GET or POST */
     struct tiles_tile *t = x->kind == X_LEARN ? NULL : &T->t[x->tile];
-    if (t) {
+    if (x->kind != X_LEARN) { /* by kind, as t was chosen */
         T->running--;
-        t->copies--;
+        T->t[x->tile].copies--;
     }
     char why[600] = "";
     if (cc != CURLE_OK) {
@@ -531,7 +531,7 @@ static void tiles_finish(struct tiles *T, struct tiles_xfer *x, CURLcode cc, dou
     } else if (x->kind != X_LEARN && status == 200 && !tiles_same_version(T, x)) {
         return; /* the run ends, said: nothing to retry */
     } else if (tiles_answered(T, x, t, status, why, sizeof why)) {
-        if (t) tiles_settle(T, x, now);
+        if (x->kind != X_LEARN) tiles_settle(T, x, now);
         return;
     }
     tiles_server_failed(T, x->server, why, now);
