@@ -20,6 +20,9 @@ CLIENT=$RAYD_BUILD/rayd-client
 NODE_PID=() NODE_URL=()
 start_node() { # start_node I GATE
     local i=$1 out=$T/node$1.out line=
+    # emptied first: node I is started again, and until the new process's
+    # redirection empties the file, the last one's line would be read
+    : >"$out"
     "$RAYD" --bind 127.0.0.1 --port 0 --threads 1 --test-gate "$2" >"$out" 2>"$T/node$i.err" &
     NODE_PID[$i]=$!
     PIDS+=("${NODE_PID[$i]}")
