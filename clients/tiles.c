@@ -579,14 +579,12 @@ static int tiles_running_on(const struct tiles *T, int ti) {
     return -1;
 }
 
-/* Hedged requests: near the end (no piece left to start) a free slot
- * takes a copy of a straggler to another ready server, and the first
- * answer wins (tiles_settle).  A stalled or overloaded node then holds the
+/* Hedged requests: near the end (no piece left to start, which the
+ * caller has counted) a free slot takes a copy of a straggler to another
+ * ready server, and the first answer wins (tiles_settle).  A stalled or overloaded node then holds the
  * frame up for about twice a typical piece, not for --timeout. */
 static void tiles_hedge(struct tiles *T, double now) {
     if (T->o->no_hedge) return;
-    for (int i = 0; i < T->n; i++)
-        if (T->t[i].st == TS_PENDING) return;
     while (T->running < T->o->parallel) {
         int ti = tiles_straggler(T, now);
         if (ti < 0) return;
@@ -600,7 +598,10 @@ static void tiles_hedge(struct tiles *T, double now) {
 
 static void tiles_dispatch(struct tiles *T, double now)
 {
-    int pending = T->n - T->done - T->failed - T->running;
+    /* counted, not derived from T->running: a hedged piece has two requests */
+    int pending = 0;
+    for (int i = 0; i < T->n; i++)
+        pending += T->t[i].st == TS_PENDING;
     for (int i = 0; i < T->ns && pending > 0 && !T->acc; i++) { /* ranges carry the body */
         struct tiles_server *s = &T->s[i];
         if (s->scene == SS_UNKNOWN && s->down_until <= now) {
@@ -617,8 +618,10 @@ static void tiles_dispatch(struct tiles *T, double now)
             break;
         if (tiles_start(T, T->acc ? X_POST : X_GET, i, si) != 0)
             break;
+        pending--;
     }
-    tiles_hedge(T, now);
+    if (pending == 0)
+        tiles_hedge(T, now);
     if (!T->prog.quiet)
         for (int i = 0; i < T->ns; i++) {
             struct tiles_server *s = &T->s[i];
