@@ -28,17 +28,8 @@ TOKEN="bal-$RANDOM$RANDOM$RANDOM-secret"
 printf '%s\n' "$TOKEN" >"$T/token"
 AUTH=(-H "Authorization: Bearer $TOKEN")
 
-NODE_PID=() NODE_URL=()
 for i in 1 2 3; do
-    "$RAYD" --bind 127.0.0.1 --port 0 --threads 1 --queue 1 --test-gate 0 \
-        --token-file "$T/token" >"$T/node$i.out" 2>"$T/node$i.err" &
-    NODE_PID[$i]=$!
-    PIDS+=("${NODE_PID[$i]}")
-    wait_until 60 test -s "$T/node$i.out"
-    line=$(head -n 1 "$T/node$i.out")
-    [[ $line =~ ^rayd\ listening\ on\ (http://127\.0\.0\.1:[0-9]+)$ ]] ||
-        { echo "FAIL setup: node $i said '$line'"; exit 1; }
-    NODE_URL[$i]=${BASH_REMATCH[1]}
+    start_node $i --threads 1 --queue 1 --test-gate 0 --token-file "$T/token"
 done
 
 # node_gate I TILES / node_gate_is I KEY VALUE: the test gate of node I

@@ -17,21 +17,6 @@ source "$(dirname "$0")/lib/common.sh"
 CLIENT=$RAYD_BUILD/rayd-client
 [ -x "$CLIENT" ] || { echo "FAIL setup: $CLIENT missing"; exit 1; }
 
-NODE_PID=() NODE_URL=()
-start_node() { # start_node I GATE
-    local i=$1 out=$T/node$1.out line=
-    # emptied first: node I is started again, and until the new process's
-    # redirection empties the file, the last one's line would be read
-    : >"$out"
-    "$RAYD" --bind 127.0.0.1 --port 0 --threads 1 --test-gate "$2" >"$out" 2>"$T/node$i.err" &
-    NODE_PID[$i]=$!
-    PIDS+=("${NODE_PID[$i]}")
-    wait_until 60 test -s "$out"
-    line=$(head -n 1 "$out" 2>/dev/null)
-    [[ $line =~ ^rayd\ listening\ on\ (http://127\.0\.0\.1:[0-9]+)$ ]] ||
-        { echo "FAIL setup: node $i said '$line'"; exit 1; }
-    NODE_URL[$i]=${BASH_REMATCH[1]}
-}
 # node_gate I TILES: lets TILES more tiles start on node I ("open": all)
 node_gate() { curl -s -m 30 -X POST -o /dev/null "${NODE_URL[$1]}/v1/test/gate?tiles=$2"; }
 # node_holds I: node I has a tile waiting at its gate
@@ -64,8 +49,8 @@ scene "$T/s.json" 160 96 1 spheres
 # tile; sets RC and SECS, stderr in $T/NAME.err
 stalled() {
     local name=$1 t0 cpid; shift
-    start_node 1 0
-    start_node 2 0
+    start_node 1 --threads 1 --test-gate 0
+    start_node 2 --threads 1 --test-gate 0
     t0=$(date +%s%N)
     timeout 120 "$CLIENT" render "$T/s.json" -o "$T/$name.png" --tile 16 --timeout 60 \
         --server "${NODE_URL[1]}" --server "${NODE_URL[2]}" "$@" 2>"$T/$name.err" &
@@ -102,8 +87,8 @@ check hedge_quiet "exit $RC, stderr: $(head -c 300 "$T/hedge_quiet.err")" \
 
 # healthy nodes: the same frame; hedges only at the end, so never more than
 # the requests in flight then (--parallel)
-start_node 1 open
-start_node 2 open
+start_node 1 --threads 1 --test-gate open
+start_node 2 --threads 1 --test-gate open
 timeout 120 "$CLIENT" render "$T/s.json" -o "$T/ok.png" --tile 16 --parallel 4 \
     --server "${NODE_URL[1]}" --server "${NODE_URL[2]}" 2>"$T/ok.err"
 RC=$?

@@ -17,21 +17,9 @@ CLIENT=$RAYD_BUILD/rayd-client
 [ -x "$CLIENT" ] || { echo "FAIL setup: $CLIENT missing"; exit 1; }
 version=$("$RAYD" --version | awk '{print $2}')
 
-# start_node NAME ARGS...: a rayd on loopback; its URL in $T/NAME.url
-start_node() {
-    local name=$1 line=
-    shift
-    "$RAYD" --bind 127.0.0.1 --port 0 --threads 1 "$@" >"$T/$name.out" 2>"$T/$name.err" &
-    PIDS+=($!)
-    wait_until 60 test -s "$T/$name.out"
-    line=$(head -n 1 "$T/$name.out")
-    [[ $line =~ ^rayd\ listening\ on\ (http://127\.0\.0\.1:[0-9]+)$ ]] ||
-        { echo "FAIL setup: $name said '$line'"; exit 1; }
-    echo "${BASH_REMATCH[1]}" >"$T/$name.url"
-}
-start_node a
-start_node b --png-level 1
-A=$(cat "$T/a.url") B=$(cat "$T/b.url")
+start_node 1 --threads 1
+start_node 2 --threads 1 --png-level 1
+A=${NODE_URL[1]} B=${NODE_URL[2]}
 
 # --- a proxy that answers as another version ----------------------------------------
 cat >"$T/other.py" <<'PY'

@@ -24,20 +24,8 @@ NGINX=$(command -v nginx || echo /usr/sbin/nginx)
 [ -x "$NGINX" ] || { echo "FAIL setup: nginx missing (make test-deps installs it)"; exit 1; }
 
 # --- three nodes ---------------------------------------------------------------
-NODE_PID=() NODE_URL=()
-start_node() { # start_node I
-    local i=$1 out=$T/node$1.out line= k
-    # --test-gate open: the kill cases below hold a node's tiles with it
-    "$RAYD" --bind 127.0.0.1 --port 0 --threads 2 --test-gate open >"$out" 2>"$T/node$i.err" &
-    NODE_PID[$i]=$!
-    PIDS+=("${NODE_PID[$i]}")
-    wait_until 60 test -s "$out"
-    line=$(head -n 1 "$out" 2>/dev/null)
-    [[ $line =~ ^rayd\ listening\ on\ (http://127\.0\.0\.1:[0-9]+)$ ]] ||
-        { echo "FAIL setup: node $i said '$line'"; exit 1; }
-    NODE_URL[$i]=${BASH_REMATCH[1]}
-}
-for i in 1 2 3; do start_node $i; done
+# --test-gate open: the kill cases below hold a node's tiles with it
+for i in 1 2 3; do start_node $i --threads 2 --test-gate open; done
 
 # node_count I "METHOD ROUTE" CODE: rayd_http_requests_total of node I (0 if absent)
 node_count() {
@@ -206,11 +194,8 @@ check rayd_curl_error "exit $? or no JSON error: $(head -c 200 "$T/curl2.err")" 
 
 # --- a node with a token ------------------------------------------------------------
 printf 'tok-%s\n' "$RANDOM$RANDOM" >"$T/token"
-"$RAYD" --bind 127.0.0.1 --port 0 --threads 1 --token-file "$T/token" >"$T/tok.out" 2>"$T/tok.err" &
-TOK_PID=$!
-PIDS+=("$TOK_PID")
-wait_until 60 test -s "$T/tok.out"
-TOK_URL=$(sed -n 's/^rayd listening on //p' "$T/tok.out")
+start_node 5 --threads 1 --token-file "$T/token"
+TOK_PID=${NODE_PID[5]} TOK_URL=${NODE_URL[5]}
 client token render "$T/j.json" -o "$T/tok.png" --server "$TOK_URL" --token-file "$T/token"
 check token_render "exit $RC: $(tail -n 2 "$T/token.err")" bash -c "[ $RC = 0 ] && cmp -s '$T/tok.png' '$T/j_ref.png'"
 client notoken render "$T/j.json" -o "$T/notok.png" --server "$TOK_URL"
@@ -220,8 +205,8 @@ RAYD_TOKEN_FILE=$T/token sh "$RAYD_ROOT/clients/rayd-curl.sh" "$T/j.json" "$T/cu
 check rayd_curl_token "exit $?: $(head -c 200 "$T/curl3.err")" cmp -s "$T/curl3.png" "$T/j_ref.png"
 kill -TERM "$TOK_PID"
 wait "$TOK_PID" 2>/dev/null
-if grep -Eq 'ERROR: (Address|Leak)Sanitizer|runtime error:' "$T/tok.err"; then
-    fail token_node_sanitizer "$(grep -Em 3 'Sanitizer|runtime error' "$T/tok.err")"
+if grep -Eq 'ERROR: (Address|Leak)Sanitizer|runtime error:' "$T/node5.err"; then
+    fail token_node_sanitizer "$(grep -Em 3 'Sanitizer|runtime error' "$T/node5.err")"
 fi
 
 # --- one frame's samples over the nodes (--split-samples) ---------------------------
@@ -281,7 +266,7 @@ kill_mid_frame kill_list 3 "$T/k1.json" --server "${NODE_URL[1]}" --server "${NO
 # A node killed while it renders a sample range: the range is rendered
 # again elsewhere and the frame is still the one render's.  A fourth node
 # (node 3 is gone) lets 2 tiles of its range through and holds the rest.
-start_node 4
+start_node 4 --threads 2 --test-gate open
 curl -s -m 30 -o /dev/null -X POST "${NODE_URL[4]}/v1/test/gate?tiles=2"
 scene "$T/sk.json" 160 120 12 cornell 2
 "$RENDER" "$T/sk.json" -o "$T/sk_ref.png" 2>/dev/null

@@ -64,6 +64,27 @@ start_rayd() {
     URL="${BASH_REMATCH[1]}://127.0.0.1:$PORT"
 }
 
+# start_node I [ARGS...]: one more rayd, node I of a test that runs several
+# (scale-out, balancers, failover), on 127.0.0.1 with --port 0 and ARGS; sets
+# NODE_PID[I] and NODE_URL[I], its output in $T/nodeI.out / $T/nodeI.err.
+# The output file is emptied before the start: a node started again under
+# the same I would otherwise show the last process's line until the new
+# one's redirection empties it, which a loaded machine lets a test read.
+NODE_PID=() NODE_URL=()
+start_node() {
+    local i=$1 out=$T/node$1.out line=
+    shift
+    : >"$out"
+    "$RAYD" --bind 127.0.0.1 --port 0 "$@" >"$out" 2>"$T/node$i.err" &
+    NODE_PID[$i]=$!
+    PIDS+=("${NODE_PID[$i]}")
+    wait_until 60 test -s "$out"
+    line=$(head -n 1 "$out" 2>/dev/null)
+    [[ $line =~ ^rayd\ listening\ on\ (http://127\.0\.0\.1:[0-9]+)$ ]] ||
+        { echo "FAIL setup: node $i said '$line'"; exit 1; }
+    NODE_URL[$i]=${BASH_REMATCH[1]}
+}
+
 rayd_gone() { ! kill -0 "$RAYD_PID" 2>/dev/null; }
 # stop_rayd [SIGNAL]: signals rayd and waits for it to exit; sets RAYD_RC
 # ("hung" when it was still there after RAYD_STOP_SECONDS, 60 by default: a
