@@ -152,6 +152,7 @@ void config_usage(FILE *f)
     fprintf(f, "  %-22s this help\n  %-22s print 'rayd VERSION'\n\n", "-h, --help", "--version");
     fprintf(f, "Signals: SIGTERM or SIGINT drain (readyz 503, new work refused, running\n"
                "renders finish or are cancelled after --drain-seconds) and exit 0.\n"
+               "SIGHUP, SIGUSR1 and SIGUSR2 are logged and ignored (nothing to reload).\n"
                "The first line on stdout is 'rayd listening on http://HOST:PORT'.\n\n"
                "Options take their value as '--opt value' or '--opt=value'.\n"
                "Errors are one line on stderr: 'rayd: error: ...'.\n"

@@ -22,6 +22,12 @@
  *   5. the listener stops -- never with a suspended connection -- the pool
  *      is joined, everything is freed, and the exit status is 0.
  *
+ * SIGHUP, SIGUSR1 and SIGUSR2 are taken the same way and only logged:
+ * rayd has no configuration to reload nor a log file to reopen, and their
+ * default action would end the process at once, without a drain, dropping
+ * every render in flight (an operator's reflexive "reload", a closed
+ * terminal).  Changing an option is a restart: SIGTERM, then start again.
+ *
  * Layer: main, above everything; the only file that starts and stops the
  * layers, so none of them needs to know another's life cycle.
  */
@@ -38,7 +44,21 @@
 #include <time.h>
 #include <unistd.h>
 
-/* Waits up to seconds for cond(); returns early on a signal (sets *sig). */
+/* True for SIGTERM and SIGINT, which stop the server; any other signal
+ * taken (SIGHUP, SIGUSR1, SIGUSR2) is logged and changes nothing. */
+static bool main_stop_signal(int sig)
+{
+    if (sig == SIGTERM || sig == SIGINT)
+        return true;
+    if (sig > 0)
+        log_info("signal %d ignored: rayd has nothing to reload or reopen (restart it to change "
+                 "an option; SIGTERM drains)",
+                 sig);
+    return false;
+}
+
+/* Waits up to seconds for cond(); returns early on SIGTERM or SIGINT (sets
+ * *sig). */
 static bool main_wait(bool (*cond)(void), double seconds, const sigset_t *set, bool *sig)
 {
     double end = clock_now() + seconds;
@@ -46,7 +66,7 @@ static bool main_wait(bool (*cond)(void), double seconds, const sigset_t *set, b
         if (clock_now() >= end)
             return false;
         struct timespec ts = {0, 20 * 1000000L};
-        if (sigtimedwait(set, NULL, &ts) > 0 && sig) {
+        if (main_stop_signal(sigtimedwait(set, NULL, &ts)) && sig) {
             *sig = true;
             return false;
         }
@@ -84,6 +104,9 @@ static int main_start(sigset_t *set)
     sigemptyset(set);
     sigaddset(set, SIGTERM);
     sigaddset(set, SIGINT);
+    sigaddset(set, SIGHUP);
+    sigaddset(set, SIGUSR1);
+    sigaddset(set, SIGUSR2);
     pthread_sigmask(SIG_BLOCK, set, NULL);
     if (sched_start((int)config.threads, (int)config.queue, (int)config.max_jobs)) {
         fprintf(stderr, "rayd: error: cannot start the worker pool\n");
@@ -175,8 +198,9 @@ int main(int argc, char **argv)
     }
     main_announce();
     int sig = 0;
-    while (sig != SIGTERM && sig != SIGINT)
+    do
         sig = sigwaitinfo(&set, NULL);
+    while (!main_stop_signal(sig));
     main_drain(sig, &set);
     metrics_free();
     log_info("stopped");

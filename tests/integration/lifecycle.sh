@@ -2,7 +2,8 @@
 # lifecycle.sh -- SIGTERM/SIGINT drain: /readyz turns 503, new work is
 # refused with 503 draining, renders in flight finish and are answered, and
 # the exit status is 0; past --drain-seconds the rest is cancelled and every
-# waiting client still gets an answer.
+# waiting client still gets an answer.  SIGHUP, SIGUSR1 and SIGUSR2 are
+# logged and change nothing: the render in flight goes on.
 #
 # The renders in flight are held by the test gate (--test-gate 0: no tile
 # starts until the test says so), so they are in flight through every check
@@ -65,3 +66,28 @@ wait "$cp2" "$cp3"
 check deadline_client_answered "status $(cat "$T/c.code") $(head -c 200 "$T/c.body")" err_is "$T/c.body" 503 draining
 check deadline_sse_done "$(tail -c 200 "$T/sse.txt")" bash -c "grep -A1 '^event: done' '$T/sse.txt' | grep -q canceled"
 check deadline_cancel_logged "no cancel line" grep -q 'cancelled (drain)' "$T/rayd.err"
+
+# --- SIGHUP, SIGUSR1, SIGUSR2: logged, the render in flight goes on ---------------------
+# Their default action would end rayd at once, without a drain (an
+# operator's "reload", a closed terminal): the held render must survive them.
+start_rayd --threads 1 --test-gate 0
+scene "$T/hup.json" 64 64 1 spheres
+curl -s -m 300 -o "$T/hup.png" -w '%{http_code}' -X POST -H 'Content-Type: application/json' \
+    --data-binary @"$T/hup.json" "$URL/v1/render" >"$T/hup.code" &
+cp4=$!
+PIDS+=($cp4)
+wait_until 60 gate_is queued 1
+for sig in HUP USR1 USR2; do
+    kill -"$sig" "$RAYD_PID"
+done
+hup_logged() { [ "$(grep -c 'ignored: rayd has nothing to reload' "$T/rayd.err")" = 3 ]; }
+wait_until 60 hup_logged
+check hup_logged "$(grep -m 3 signal "$T/rayd.err")" hup_logged
+check hup_still_running "rayd died on SIGHUP/SIGUSR1/SIGUSR2" kill -0 "$RAYD_PID"
+check hup_still_ready "readyz $(req GET /readyz)" [ "$(req GET /readyz)" = 200 ]
+gate open
+wait "$cp4"
+"$RENDER" "$T/hup.json" -o "$T/hup_ref.png" 2>/dev/null
+check hup_render_answered "status $(cat "$T/hup.code")" bash -c "[ \"\$(cat '$T/hup.code')\" = 200 ] && cmp -s '$T/hup.png' '$T/hup_ref.png'"
+stop_rayd TERM
+check hup_exit_0 "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
