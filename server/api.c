@@ -299,8 +299,32 @@ const char *api_format_type(enum work_format format)
                                  : "image/png";
 }
 
+/* A Content-Encoding other than identity: 415 naming it (RFC 9110 15.5.16),
+ * with Accept-Encoding: identity.  Read as it is, a gzip body would be
+ * "malformed JSON at line 1" and a br one parsed as if it were plain. */
+static bool api_encoded(struct http_req *r)
+{
+    const char *ce = http_req_header(r, "Content-Encoding");
+    if (!ce)
+        return false;
+    ce += strspn(ce, " \t");
+    size_t n = strcspn(ce, " \t");
+    if (n == strlen("identity") && !strncasecmp(ce, "identity", n) && !ce[n + strspn(ce + n, " \t")])
+        return false;
+    char msg[200];
+    snprintf(msg, sizeof msg,
+             "the body is sent with Content-Encoding: %.60s; rayd reads it uncompressed only "
+             "(no Content-Encoding, or identity)",
+             ce);
+    http_reply_error(r, 415, "unsupported_media_type", msg, NULL, 0, 0, NULL);
+    http_reply_header(r, "Accept-Encoding", "identity");
+    return true;
+}
+
 bool api_require_json(struct http_req *r)
 {
+    if (api_encoded(r))
+        return false;
     const char *ct = http_req_header(r, "Content-Type");
     if (ct) {
         while (*ct == ' ')

@@ -66,6 +66,21 @@ code=$(req POST /v1/render -H 'Content-Type: text/plain' --data-binary @"$T/smal
 check text_plain_415 "status $code" err_is "$T/body" 415 unsupported_media_type
 code=$(req POST /v1/render -H 'Content-Type: application/json; charset=utf-8' --data-binary @"$T/small.json")
 check json_charset_ok "status $code" [ "$code" = 200 ]
+# a compressed body is refused naming its Content-Encoding (not read as
+# "malformed JSON" for gzip, nor parsed as plain for br); identity is plain
+gzip -c "$T/small.json" >"$T/small.json.gz"
+for ce in gzip br; do
+    f="$T/small.json"; [ "$ce" = gzip ] && f="$T/small.json.gz"
+    for route in /v1/render /v1/scenes /v1/jobs; do
+        code=$(post_json "$route" "$f" -H "Content-Encoding: $ce")
+        ok=false
+        err_is "$T/body" 415 unsupported_media_type && grep -q "Content-Encoding: $ce" "$T/body" &&
+            [ "$(header Accept-Encoding)" = identity ] && ok=true
+        check "content_encoding_${ce}_415${route//\//_}" "status $code $(head -c 200 "$T/body")" $ok
+    done
+done
+code=$(post_json /v1/render "$T/small.json" -H 'Content-Encoding: identity')
+check content_encoding_identity_ok "status $code" [ "$code" = 200 ]
 
 # --- 404 -----------------------------------------------------------------------------
 code=$(req GET /nope)
