@@ -54,17 +54,18 @@ static void api_q_each(void *u, const char *k, const char *v)
         snprintf(q->unknown, sizeof q->unknown, "%s", k);
 }
 
+/* A decimal integer (an optional '-', then digits only) into *out.  Past
+ * nine significant digits the value is kept as +-1e9, beyond any image, so
+ * the range checks name a huge number as out of range, not as "not an
+ * integer" (w=4294967297 is a decimal integer). */
 static bool api_int(const char *s, long *out)
 {
-    const char *p = s;
-    if (*p == '-')
-        p++;
-    if (!*p || strlen(p) > 9)
+    const char *p = s + (*s == '-');
+    if (!*p || p[strspn(p, "0123456789")])
         return false;
-    for (; *p; p++)
-        if (*p < '0' || *p > '9')
-            return false;
-    *out = strtol(s, NULL, 10);
+    p += strspn(p, "0");
+    long v = strlen(p) > 9 ? 1000000000L : strtol(p, NULL, 10);
+    *out = *s == '-' ? -v : v;
     return true;
 }
 

@@ -135,6 +135,19 @@ bad_region region_w_overflow "x=100&y=0&w=61&h=10" w
 bad_region region_h_overflow "x=0&y=100&w=10&h=21" h
 bad_region region_huge "x=0&y=0&w=99999999999999&h=1" w
 bad_region region_repeated "x=0&x=1&y=0&w=10&h=10" x
+# a huge integer is out of the image, not "not a decimal integer"; leading
+# zeros do not make a small one huge
+region_range() { # name query param
+    local code
+    code=$(post_json "/v1/render?$2" "$T/small.json")
+    check "$1" "status $code $(cat "$T/body")" grep -q "\"message\":\"$3: must be [>i]" "$T/body"
+}
+region_range region_huge_out_of_range "x=0&y=0&w=99999999999999&h=1" w
+region_range region_int32_out_of_range "x=0&y=0&w=2147483647&h=1" w
+region_range region_uint32_wrap_out_of_range "x=0&y=0&w=4294967297&h=1" w
+region_range region_huge_negative_out_of_range "x=-99999999999&y=0&w=1&h=1" x
+code=$(post_json "/v1/render?x=0000000000001&y=0&w=1&h=1" "$T/small.json")
+check region_leading_zeros "status $code $(head -c 200 "$T/body")" [ "$code" = 200 ]
 code=$(post_json "/v1/render?x=0&y=0&w=1&h=1&zoom=2" "$T/small.json")
 check unknown_query_param_400 "status $code" bash -c "[ $code = 400 ] && grep -q zoom '$T/body'"
 code=$(post_json /v1/scenes "$T/small.json")
