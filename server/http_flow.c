@@ -4,14 +4,16 @@
  *   begin   headers only.  The request gets its id (X-Request-Id) and its
  *           route label for the metrics.  A request-target over --max-url is 414, an
  *           ambiguous body length 400 (how requests are smuggled past
- *           proxies), a Content-Length over --max-body 413 -- all before a
- *           byte of the body is read.
+ *           proxies), a missing or wrong token 401 (--token-file), a
+ *           Content-Length over --max-body 413 -- all before a byte of the
+ *           body is read.
  *   body    chunks appended up to --max-body; past it they are counted, not
  *           kept, and the request is answered 413; the whole upload gets
  *           --upload-seconds.
- *   handle  authentication (--token-file), the CORS preflight (OPTIONS), then
- *           the router.  Decided here, before routing, so no handler can
- *           forget them.  The handler replies, or suspends the request.
+ *   handle  the CORS preflight (OPTIONS), the token again (for a transport
+ *           that reads the body anyway), then the router.  Decided here,
+ *           before routing, so no handler can forget them.  The handler
+ *           replies, or suspends the request.
  *   end     the access log line (client, method, target with its query,
  *           status, bytes, times, scene, request id) and the request
  *           metrics (route pattern, method, code, duration), then free.
@@ -45,6 +47,22 @@ static bool http_flow_authorized(struct http_req *r)
     for (size_t i = 0; i < config.token_len; i++)
         diff |= (unsigned char)(config.token[i] ^ (i < hl ? h[i] : 0));
     return diff == 0;
+}
+
+/* The 401 of a request that needs the token and lacks it (OPTIONS and the
+ * public paths need none); false when the request may go on.  Asked with
+ * the headers, before a byte of the body is read: else a client without
+ * the token could make rayd read and keep --max-body on every connection
+ * it opens, and one sending Expect: 100-continue would be told to send its
+ * body only to be refused. */
+static bool http_flow_unauthorized(struct http_req *r)
+{
+    if (!strcmp(r->method, "OPTIONS") || router_public(r->method, r->url) ||
+        http_flow_authorized(r))
+        return false;
+    metrics_reject(MR_UNAUTHORIZED);
+    http_reply_error(r, 401, "unauthorized", "missing or wrong bearer token", NULL, 0, 0, NULL);
+    return true;
 }
 
 /* OPTIONS: CORS preflight or a plain Allow listing. */
@@ -128,6 +146,8 @@ bool http_flow_begin(struct http_req *r)
         return false;
     }
     r->body_declared = f.nlength ? f.length : -1;
+    if (http_flow_unauthorized(r))
+        return false;
     if (f.nlength && f.length > config.max_body) {
         metrics_reject(MR_BODY_TOO_LARGE);
         char msg[128];
@@ -233,10 +253,9 @@ void http_flow_handle(struct http_req *r)
     }
     if (!strcmp(r->method, "OPTIONS")) {
         http_flow_options(r);
-    } else if (!router_public(r->method, r->url) && !http_flow_authorized(r)) {
-        metrics_reject(MR_UNAUTHORIZED);
-        http_reply_error(r, 401, "unauthorized", "missing or wrong bearer token", NULL, 0, 0,
-                         NULL);
+    } else if (http_flow_unauthorized(r)) {
+        /* begin refused it already over libmicrohttpd; a transport that
+         * goes on to the body is refused here */
     } else {
         r->parked = false;
         router_dispatch(r);

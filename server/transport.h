@@ -15,7 +15,8 @@
 /* ---- http_flow.c: a request's life, independent of the transport ------------
  *   http_req_new    (request.h) a request with its method and path;
  *   http_flow_begin headers only: refuses early (400 for an ambiguous body
- *                   length, 413 by Content-Length, 414 over --max-url);
+ *                   length, 401 without the token, 413 by Content-Length,
+ *                   414 over --max-url);
  *                   false when a reply is already pending;
  *   http_flow_body  appends a body chunk (counted, not kept, past --max-body);
  *                   false when the transport should drop the connection;

@@ -31,6 +31,30 @@ for p in /metrics /v1/scenes/0123456789abcdef0123456789abcdef0123456789abcdef012
     code=$(req GET "$p")
     check "auth_required_${p//[\/]/_}" "status $code" [ "$code" = 401 ]
 done
+# the token is checked with the headers, before the body: a client without it
+# is refused at once (never told "100 Continue", never read and kept up to
+# --max-body). The client sends headers only and reads the first answer; a
+# server that waited for the body would answer 100 or nothing.
+first_answer() { # AUTH-HEADER (or ""): the status line rayd sends to a 1 MB POST's headers
+    python3 - "$PORT" "$1" <<'PY'
+import socket, sys
+s = socket.create_connection(("127.0.0.1", int(sys.argv[1])))
+s.sendall(b"POST /v1/render HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+          b"Content-Length: 1000000\r\nExpect: 100-continue\r\n" +
+          (sys.argv[2].encode() + b"\r\n" if sys.argv[2] else b"") + b"\r\n")
+s.settimeout(20)
+try:
+    print(s.recv(200).split(b"\r\n")[0].decode())
+except OSError as e:
+    print("no answer:", e)
+PY
+}
+line=$(first_answer "")
+check auth_before_body "first answer '$line'" [ "$line" = "HTTP/1.1 401 Unauthorized" ]
+line=$(first_answer "Authorization: Bearer wrong")
+check auth_wrong_before_body "first answer '$line'" [ "$line" = "HTTP/1.1 401 Unauthorized" ]
+line=$(first_answer "Authorization: Bearer s3cret-token")
+check auth_right_continue "first answer '$line'" [ "$line" = "HTTP/1.1 100 Continue" ]
 # the preview's static files open without a token (the page then sends the token it is given)
 check auth_page_open "status" [ "$(req GET /)" = 200 ]
 check auth_page_asset_open "status" [ "$(req GET /app.js)" = 200 ]
