@@ -300,6 +300,38 @@ const char *api_format_type(enum work_format format)
                                  : "image/png";
 }
 
+struct api_only {
+    const char *const *names;
+    char unknown[64];
+};
+
+static void api_only_each(void *u, const char *k, const char *v)
+{
+    (void)v;
+    struct api_only *o = u;
+    for (const char *const *n = o->names; n && *n; n++)
+        if (!strcmp(k, *n))
+            return;
+    if (!o->unknown[0])
+        snprintf(o->unknown, sizeof o->unknown, "%s", k);
+}
+
+bool api_only_params(struct http_req *r, const char *const *names)
+{
+    struct api_only o = {.names = names};
+    http_req_query_each(r, api_only_each, &o);
+    if (!o.unknown[0])
+        return true;
+    char takes[120] = "", msg[240];
+    size_t used = 0;
+    for (const char *const *n = names; n && *n && used < sizeof takes; n++)
+        used += (size_t)snprintf(takes + used, sizeof takes - used, "%s%s", used ? ", " : "", *n);
+    snprintf(msg, sizeof msg, "unknown query parameter '%s' (%s%s)", o.unknown,
+             used ? "only " : "this route takes none", takes);
+    http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, o.unknown);
+    return false;
+}
+
 /* A Content-Encoding other than identity: 415 naming it (RFC 9110 15.5.16),
  * with Accept-Encoding: identity.  Read as it is, a gzip body would be
  * "malformed JSON at line 1" and a br one parsed as if it were plain. */

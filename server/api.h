@@ -33,6 +33,10 @@ bool api_target(struct http_req *r, const rayd_scene *scene, struct work_target 
 const char *api_format_type(enum work_format format);
 /* Body is JSON?  Otherwise replies 415 and returns false. */
 bool api_require_json(struct http_req *r);
+/* For a route that takes no query parameters but names (NULL-ended; NULL
+ * for none): false after a 400 bad_parameter naming the first other one,
+ * so a typo (?pas=2) is told, not ignored. */
+bool api_only_params(struct http_req *r, const char *const *names);
 /* s is exactly n lowercase hex digits (a scene id is 64, a job id 32). */
 bool api_is_hex(const char *s, size_t n);
 /* The one place where a core status becomes an HTTP status and code. */

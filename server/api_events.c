@@ -184,6 +184,8 @@ static void api_events_free(void *cls)
 
 void api_events_get(struct http_req *r, const char *id)
 {
+    if (!api_only_params(r, NULL))
+        return;
     struct api_events *a = calloc(1, sizeof *a);
     if (!a) {
         api_refused(r, WORK_NOMEM);

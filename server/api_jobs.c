@@ -223,6 +223,8 @@ static void api_job_scene(struct http_req *r, const struct jobs_info *info)
 void api_jobs_get(struct http_req *r, const char *id)
 {
     struct jobs_info info;
+    if (!api_only_params(r, NULL))
+        return;
     if (!api_is_hex(id, 32) || !jobs_get(id, &info, false)) {
         api_jobs_unknown(r);
         return;
@@ -234,6 +236,8 @@ void api_jobs_get(struct http_req *r, const char *id)
 void api_jobs_delete(struct http_req *r, const char *id)
 {
     struct jobs_info info;
+    if (!api_only_params(r, NULL))
+        return;
     if (!api_is_hex(id, 32) || !jobs_cancel(id) || !jobs_get(id, &info, false)) {
         api_jobs_unknown(r);
         return;
@@ -295,6 +299,8 @@ void api_jobs_stop(struct http_req *r, const char *id)
 {
     struct jobs_info info;
     bool progressive = false;
+    if (!api_only_params(r, NULL))
+        return;
     if (!api_is_hex(id, 32) || !jobs_end_early(id, &progressive) || !jobs_get(id, &info, false)) {
         api_jobs_unknown(r);
         return;
@@ -311,8 +317,11 @@ void api_jobs_stop(struct http_req *r, const char *id)
 
 void api_jobs_image(struct http_req *r, const char *id)
 {
+    static const char *const takes[] = {"pass", NULL};
     struct jobs_info info;
     const char *pass = http_req_query(r, "pass");
+    if (!api_only_params(r, takes))
+        return;
     if (!api_is_hex(id, 32)) {
         api_jobs_unknown(r);
         return;

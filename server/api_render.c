@@ -128,7 +128,7 @@ void api_scenes_post(struct http_req *r, const char *id)
     (void)id;
     struct cache_entry *e;
     bool hit;
-    if (!api_scene(r, &e, &hit))
+    if (!api_only_params(r, NULL) || !api_scene(r, &e, &hit))
         return;
     struct rayd_scene_info info;
     rayd_scene_info(cache_scene(e), &info);

@@ -154,6 +154,27 @@ code=$(post_json /v1/scenes "$T/small.json")
 id=$(json "$T/body" 'j["id"]')
 code=$(req GET "/v1/scenes/$id/image.png?x=0&y=0&w=500&h=1")
 check scene_region_400 "status $code" err_is "$T/body" 400 bad_region
+# the routes without a region refuse a query parameter they do not take (a
+# typo such as ?pas=2 would silently answer the latest pass)
+post_json /v1/jobs "$T/small.json" >/dev/null
+job=$(jfield "$T/body" id)
+param_refused() { # name method path param
+    local code
+    code=$(req "$2" "$3")
+    local ok=false
+    err_is "$T/body" 400 bad_parameter && grep -q "\"parameter\":\"$4\"" "$T/body" && ok=true
+    check "$1" "status $code $(head -c 200 "$T/body")" $ok
+}
+param_refused param_job_image GET "/v1/jobs/$job/image.png?pas=2" pas
+param_refused param_job_status GET "/v1/jobs/$job?verbose=1" verbose
+param_refused param_job_events GET "/v1/jobs/$job/events?from=3" from
+param_refused param_job_stop POST "/v1/jobs/$job/stop?now=1" now
+param_refused param_job_delete DELETE "/v1/jobs/$job?force=1" force
+code=$(post_json "/v1/scenes?x=0&y=0&w=1&h=1" "$T/small.json")
+check param_scenes_post "status $code $(head -c 200 "$T/body")" err_is "$T/body" 400 bad_parameter
+req GET "/v1/jobs/$job" >/dev/null
+state=$(jfield "$T/body" state)
+check param_job_not_deleted "state $state" [ "$state" != canceled ]
 
 # --- garbage never crashes, hangs or 500s ------------------------------------------------
 ok=1
