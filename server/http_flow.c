@@ -102,9 +102,10 @@ static long long http_flow_length(const char *cl)
 }
 
 struct http_flow_framing {
-    int nlength, nte;
+    int nlength, nte, nhost;
     long long length; /* the first Content-Length, -2 malformed */
     bool differ;      /* two Content-Length headers that disagree */
+    const char *te;   /* the first Transfer-Encoding */
 };
 
 static void http_flow_framing_cb(void *u, const char *k, const char *v)
@@ -117,8 +118,38 @@ static void http_flow_framing_cb(void *u, const char *k, const char *v)
         else if (n != f->length)
             f->differ = true;
     } else if (!strcasecmp(k, MHD_HTTP_HEADER_TRANSFER_ENCODING)) {
-        f->nte++;
+        if (f->nte++ == 0)
+            f->te = v;
+    } else if (!strcasecmp(k, MHD_HTTP_HEADER_HOST)) {
+        f->nhost++;
     }
+}
+
+/* Whether te from offset at to its end is the word "chunked", with spaces
+ * or tabs around it. */
+static bool http_flow_chunked_at(const char *te, size_t at)
+{
+    const char *p = te + at + strspn(te + at, " \t");
+    size_t n = strlen("chunked");
+    return !strncasecmp(p, "chunked", n) && !p[n + strspn(p + n, " \t")];
+}
+
+/* The refusal of a Transfer-Encoding libmicrohttpd does not decode: it
+ * knows the value "chunked" alone, and on any other would wait for
+ * --timeout, then drop the connection unanswered.  0 for none or
+ * "chunked"; else the status, with the message in msg: 501 for a coding
+ * before a final chunked (RFC 9112 section 6.1), 400 otherwise (chunked is
+ * not the last coding: the body's length is unknown, section 6.3). */
+static unsigned http_flow_te_refusal(const char *te, char *msg, size_t size)
+{
+    if (!te || !strcasecmp(te, "chunked"))
+        return 0;
+    const char *comma = strrchr(te, ',');
+    bool coded = comma && http_flow_chunked_at(te, (size_t)(comma + 1 - te));
+    snprintf(msg, size, "Transfer-Encoding '%.40s': %s", te,
+             coded ? "no transfer coding but chunked is implemented"
+                   : "only the value chunked is understood (the body's length is unknown)");
+    return coded ? 501 : 400;
 }
 
 bool http_flow_begin(struct http_req *r)
@@ -134,13 +165,18 @@ bool http_flow_begin(struct http_req *r)
     }
     /* an ambiguous body length is how requests are smuggled past proxies:
      * refuse it rather than guess (RFC 9112 section 6.3) */
-    struct http_flow_framing f = {0, 0, -1, false};
+    struct http_flow_framing f = {.length = -1};
     r->io->header_each(r, http_flow_framing_cb, &f);
-    if (f.differ || f.length == -2 || (f.nlength && f.nte) || f.nte > 1) {
-        http_reply_error(r, 400, "bad_request",
-                         f.nte && f.nlength ? "both Transfer-Encoding and Content-Length"
-                         : f.nte > 1        ? "more than one Transfer-Encoding header"
-                                            : "malformed or conflicting Content-Length",
+    char te_why[160];
+    unsigned te = f.nte == 1 ? http_flow_te_refusal(f.te, te_why, sizeof te_why) : 0;
+    if (f.differ || f.length == -2 || (f.nlength && f.nte) || f.nte > 1 || f.nhost > 1 || te) {
+        const char *why = f.nte && f.nlength ? "both Transfer-Encoding and Content-Length"
+                          : f.nte > 1        ? "more than one Transfer-Encoding header"
+                          : f.nhost > 1      ? "more than one Host header"
+                          : te               ? te_why
+                                             : "malformed or conflicting Content-Length";
+        bool coding = why == te_why && te == 501;
+        http_reply_error(r, coding ? 501 : 400, coding ? "not_implemented" : "bad_request", why,
                          NULL, 0, 0, NULL);
         http_reply_header(r, MHD_HTTP_HEADER_CONNECTION, "close");
         return false;

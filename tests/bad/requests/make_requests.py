@@ -344,6 +344,21 @@ raw("hdr-length-and-chunked", request("POST", "/v1/render", b"5\r\nhello\r\n0\r\
 raw("hdr-chunked-twice", request("POST", "/v1/render", b"5\r\nhello\r\n0\r\n\r\n",
                                  headers=["Transfer-Encoding: chunked", "Transfer-Encoding: chunked"],
                                  length=False), 400, "bad_request", "Transfer-Encoding given twice")
+# a Transfer-Encoding libmicrohttpd does not decode made it wait for
+# --timeout and drop the connection unanswered
+raw("hdr-te-gzip-chunked", request("POST", "/v1/render", b"5\r\nhello\r\n0\r\n\r\n",
+                                   headers=["Transfer-Encoding: gzip, chunked"], length=False),
+    501, "not_implemented", "a transfer coding before chunked (gzip, chunked)")
+raw("hdr-te-chunked-gzip", request("POST", "/v1/render", b"5\r\nhello\r\n0\r\n\r\n",
+                                   headers=["Transfer-Encoding: chunked, gzip"], length=False),
+    400, "bad_request", "chunked not the last transfer coding (the body's length is unknown)")
+raw("hdr-te-identity", request("POST", "/v1/render", GOOD, headers=["Transfer-Encoding: identity"],
+                               length=False), 400, "bad_request",
+    "Transfer-Encoding: identity (not chunked: the body's length is unknown)")
+raw("hdr-te-on-get", request("GET", "/healthz", headers=["Transfer-Encoding: gzip"]), 400,
+    "bad_request", "GET with Transfer-Encoding: gzip")
+raw("hdr-host-twice", request("GET", "/healthz", headers=["Host: other.example"]), 400,
+    "bad_request", "two Host headers (RFC 9112 section 3.2)")
 raw("hdr-chunk-size-garbage", request("POST", "/v1/render", b"ZZZ\r\nhello\r\n0\r\n\r\n",
                                       headers=["Transfer-Encoding: chunked"], length=False), 400, "-",
     "a chunk size that is not hex (libmicrohttpd)")
