@@ -98,6 +98,8 @@ struct log_access {
     const char *scene;      /* the scene's id, or NULL */
     const char *request_id; /* X-Request-Id sent back, or NULL */
     const char *note;       /* "client_gone", ... or NULL */
+    const char *error;      /* the error reply's code ("invalid_scene"), or NULL */
+    const char *error_at;   /* its JSON Pointer or query parameter, or NULL / "" */
 };
 
 extern bool log_quiet; /* no output at all (the fuzz harness) */

@@ -339,6 +339,8 @@ void http_flow_end(struct http_req *r, const char *note)
         .scene = r->scene,
         .request_id = r->request_id,
         .note = note,
+        .error = r->err_code,
+        .error_at = r->err_at,
     };
     log_access(&a);
     http_req_free(r);

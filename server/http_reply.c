@@ -172,6 +172,7 @@ void http_reply_error(struct http_req *r, unsigned status, const char *code, con
         cJSON_AddStringToObject(e, "parameter", param);
     http_reply_text(r, status, o);
     r->err_code = code;
+    snprintf(r->err_at, sizeof r->err_at, "%s", path && *path ? path : param ? param : "");
     http_reply_header(r, "Cache-Control", "no-store");
     if (status == 503) {
         char v[16];

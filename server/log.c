@@ -108,7 +108,7 @@ static void log_json_line(cJSON *o)
 }
 
 static void log_access_json(const char *ts, const struct log_access *a, const char *method,
-                            const char *path)
+                            const char *path, const char *error_at)
 {
     cJSON *o = cJSON_CreateObject();
     cJSON_AddStringToObject(o, "time", ts);
@@ -127,6 +127,10 @@ static void log_access_json(const char *ts, const struct log_access *a, const ch
     if (a->scene && *a->scene)
         cJSON_AddStringToObject(o, "scene", a->scene);
     cJSON_AddStringToObject(o, "request_id", log_or_dash(a->request_id));
+    if (a->error)
+        cJSON_AddStringToObject(o, "error", a->error);
+    if (a->error && a->error_at && *a->error_at)
+        cJSON_AddStringToObject(o, "error_at", error_at);
     if (a->note)
         cJSON_AddStringToObject(o, "note", a->note);
     log_json_line(o);
@@ -137,23 +141,28 @@ void log_access(const struct log_access *a)
     enum log_level level = log_access_level(a->status);
     if (!log_on(level))
         return;
-    char ts[40], mbuf[64], pbuf[6144];
+    char ts[40], mbuf[64], pbuf[6144], ebuf[400], error[480] = "";
     log_stamp(ts, sizeof ts);
     const char *method = log_field(a->method, mbuf, sizeof mbuf);
     const char *path = log_field(a->path, pbuf, sizeof pbuf);
+    const char *error_at = log_field(a->error_at, ebuf, sizeof ebuf);
     if (config.log_json) {
-        log_access_json(ts, a, method, path);
+        log_access_json(ts, a, method, path, error_at);
         return;
     }
+    if (a->error)
+        snprintf(error, sizeof error, " error=%s%s%s", a->error,
+                 a->error_at && *a->error_at ? " error_at=" : "",
+                 a->error_at && *a->error_at ? error_at : "");
     char rendered[128] = "";
     if (a->rendered)
         snprintf(rendered, sizeof rendered, "queue_ms=%.3f render_ms=%.3f encode_ms=%.3f ",
                  a->queue_ms, a->render_ms, a->encode_ms);
     bool scene = a->scene && *a->scene;
-    fprintf(stderr, "%s %s %s %s %s %d %zu %stotal_ms=%.3f%s%s request_id=%s%s%s\n", ts,
+    fprintf(stderr, "%s %s %s %s %s %d %zu %stotal_ms=%.3f%s%s request_id=%s%s%s%s\n", ts,
             log_names[level], log_or_dash(a->client), method, path, a->status, a->bytes,
             rendered, a->total_ms, scene ? " scene=" : "", scene ? a->scene : "",
-            log_or_dash(a->request_id), a->note ? " note=" : "", a->note ? a->note : "");
+            log_or_dash(a->request_id), error, a->note ? " note=" : "", a->note ? a->note : "");
 }
 
 static void log_msg(enum log_level level, const char *fmt, va_list ap)

@@ -45,6 +45,7 @@ struct http_req {
     char request_id[65];         /* X-Request-Id: the client's, or one made up */
     char scene[65];              /* the scene's id when the request named or sent one */
     const char *err_code;        /* code of the error reply sent, NULL for none */
+    char err_at[128];            /* its JSON Pointer or query parameter, "" for none */
     char *body;
     size_t body_len, body_cap;
     long long body_declared;     /* Content-Length, -1 when none was sent */

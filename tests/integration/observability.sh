@@ -63,7 +63,18 @@ code=$(req GET /nope-404 -H 'X-Request-Id: obs-404')
 check request_id_on_errors "404 without its id" [ "$code" = 404 -a "$(header X-Request-Id)" = obs-404 ]
 wait_until 30 grep -q 'request_id=obs-404' "$T/rayd.err"
 check level_warn_for_4xx "$(grep 'request_id=obs-404' "$T/rayd.err")" \
-    grep -Eq '^[0-9T:.-]+Z warn 127\.0\.0\.1 GET /nope-404 404 [0-9]+ total_ms=[0-9.]+ request_id=obs-404$' "$T/rayd.err"
+    grep -Eq '^[0-9T:.-]+Z warn 127\.0\.0\.1 GET /nope-404 404 [0-9]+ total_ms=[0-9.]+ request_id=obs-404 error=not_found$' "$T/rayd.err"
+# an error's line says what was wrong and where: the code, and the JSON
+# Pointer (or query parameter) the answer names
+printf '{"objects": [{"type": "sphere"}, {"type": "sphere", "radius": 0}]}' >"$T/bad-radius.json"
+post_json /v1/render "$T/bad-radius.json" -H 'X-Request-Id: obs-422' >/dev/null
+printf '{}' >"$T/empty-scene.json"
+post_json "/v1/render?x=0&y=0&w=0&h=1" "$T/empty-scene.json" -H 'X-Request-Id: obs-400' >/dev/null
+wait_until 30 grep -q 'request_id=obs-400' "$T/rayd.err"
+check access_error_pointer "$(grep 'request_id=obs-422' "$T/rayd.err")" \
+    grep -Eq ' POST /v1/render 422 .* request_id=obs-422 error=invalid_scene error_at=/objects/1/radius$' "$T/rayd.err"
+check access_error_parameter "$(grep 'request_id=obs-400' "$T/rayd.err")" \
+    grep -Eq ' 400 .* request_id=obs-400 error=bad_region error_at=w$' "$T/rayd.err"
 
 # --- 304: no body, no Content-Length, the 200's ETag and Cache-Control --------
 etag=$(grep -i '^etag:' "$T/tile.h" | sed 's/^[^:]*: *//; s/\r$//')
@@ -252,7 +263,7 @@ check buckets_end_at_max_render "le=100 missing or le=3600 present" \
     bash -c "grep -q '^rayd_render_seconds_bucket{le=\"100\"}' '$T/body' && ! grep -q 'le=\"3600\"' '$T/body' && grep -q '^rayd_render_seconds_bucket{le=\"60\"}' '$T/body'"
 stop_rayd TERM
 check level_warn_drops_info "an info line was written" bash -c "! grep -q ' info ' '$T/rayd.err' && ! grep -q 'lvl-200' '$T/rayd.err'"
-check level_warn_keeps_4xx "no 404 line" grep -q 'warn 127.0.0.1 GET /nope 404 .*request_id=lvl-404$' "$T/rayd.err"
+check level_warn_keeps_4xx "no 404 line" grep -q 'warn 127.0.0.1 GET /nope 404 .*request_id=lvl-404 error=not_found$' "$T/rayd.err"
 
 start_rayd --log-level error --queue 1 --test-gate 0 --max-render-seconds 7200
 post_json /v1/jobs "$T/held.json" -H 'X-Request-Id: lvl-202' >/dev/null
@@ -267,7 +278,7 @@ check buckets_past_3600 "no le=3600 then le=7200" \
 req DELETE "/v1/jobs/$job" >/dev/null
 gate open
 stop_rayd TERM
-check level_error_keeps_5xx "no error line for the 503" grep -q 'error 127.0.0.1 GET /readyz 503 .*request_id=lvl-503$' "$T/rayd.err"
+check level_error_keeps_5xx "no error line for the 503" grep -q 'error 127.0.0.1 GET /readyz 503 .*request_id=lvl-503 error=queue_full$' "$T/rayd.err"
 check level_error_drops_rest "a 2xx/4xx or info line was written" \
     bash -c "! grep -Eq 'lvl-202|lvl-404| info | warn ' '$T/rayd.err'"
 
