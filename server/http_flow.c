@@ -4,9 +4,11 @@
  *   begin   headers only.  The request gets its id (X-Request-Id) and its
  *           route label for the metrics.  A request-target over --max-url is 414, an
  *           ambiguous body length 400 (how requests are smuggled past
- *           proxies), a missing or wrong token 401 (--token-file), a
- *           Content-Length over --max-body 413 -- all before a byte of the
- *           body is read.
+ *           proxies), a Content-Length over --max-body 413, and for a
+ *           request with a body, a missing token 401 and a path or method
+ *           no route serves 404 / 405 -- all before a byte of the body is
+ *           read (a request without a body meets those in handle, and its
+ *           connection stays open).
  *   body    chunks appended up to --max-body; past it they are counted, not
  *           kept, and the request is answered 413; the whole upload gets
  *           --upload-seconds.
@@ -182,7 +184,11 @@ bool http_flow_begin(struct http_req *r)
         return false;
     }
     r->body_declared = f.nlength ? f.length : -1;
-    if (http_flow_unauthorized(r))
+    /* a request with a body that will be refused anyway is refused now,
+     * before the body (libmicrohttpd then closes the connection); one
+     * without a body goes on, and its connection stays open */
+    bool body = f.nte || (f.nlength && f.length > 0);
+    if (body && (http_flow_unauthorized(r) || (strcmp(r->method, "OPTIONS") && router_refuse(r))))
         return false;
     if (f.nlength && f.length > config.max_body) {
         metrics_reject(MR_BODY_TOO_LARGE);

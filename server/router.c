@@ -144,23 +144,29 @@ const char *router_allow(const char *path, char *buf, size_t size)
     return buf;
 }
 
-void router_dispatch(struct http_req *r)
+/* The row that serves r's method and path, or -1; its id into id.
+ * *path_known tells whether some row has the path (then a 405). */
+static int router_row_of(struct http_req *r, char *id, size_t size, bool *path_known)
 {
     const char *method = strcmp(r->method, "HEAD") ? r->method : "GET";
-    char id[80];
-    bool path_known = false;
+    *path_known = false;
     for (int i = 0; i < ROUTER_N; i++) {
-        if (!router_row_matches(i, r->url, id, sizeof id))
+        if (!router_row_matches(i, r->url, id, size))
             continue;
         if (!strcmp(router_table[i].method, method)) {
             r->route = router_label(i);
-            router_table[i].fn(r, id);
-            return;
+            return i;
         }
-        if (!path_known)
+        if (!*path_known)
             r->route = router_label(i);
-        path_known = true;
+        *path_known = true;
     }
+    return -1;
+}
+
+/* 404, or 405 with Allow when the path is known. */
+static void router_refuse_reply(struct http_req *r, bool path_known)
+{
     if (path_known) {
         char allow[128], msg[200];
         router_allow(r->url, allow, sizeof allow);
@@ -170,4 +176,25 @@ void router_dispatch(struct http_req *r)
         return;
     }
     api_not_found(r);
+}
+
+bool router_refuse(struct http_req *r)
+{
+    char id[80];
+    bool path_known;
+    if (router_row_of(r, id, sizeof id, &path_known) >= 0)
+        return false;
+    router_refuse_reply(r, path_known);
+    return true;
+}
+
+void router_dispatch(struct http_req *r)
+{
+    char id[80];
+    bool path_known;
+    int i = router_row_of(r, id, sizeof id, &path_known);
+    if (i >= 0)
+        router_table[i].fn(r, id);
+    else
+        router_refuse_reply(r, path_known);
 }

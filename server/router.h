@@ -18,6 +18,11 @@ void router_start(void);
 int router_find(const char *url);
 /* Runs the handler of r's method and path, or replies 404 / 405. */
 void router_dispatch(struct http_req *r);
+/* Replies 404 / 405 as router_dispatch would when no route takes r's
+ * method and path: true after that reply.  Asked with the headers, so a
+ * body is never read (nor "100 Continue" sent) for a request no route
+ * serves. */
+bool router_refuse(struct http_req *r);
 /* Allowed methods for a path ("GET, DELETE"), NULL when no route matches. */
 const char *router_allow(const char *path, char *buf, size_t size);
 /* Routes open without a token: the probes and the preview's own files. */

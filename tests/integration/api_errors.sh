@@ -83,6 +83,35 @@ code=$(post_json /v1/render "$T/small.json" -H 'Content-Encoding: identity')
 check content_encoding_identity_ok "status $code" [ "$code" = 200 ]
 
 # --- 404 -----------------------------------------------------------------------------
+# a body sent to a path or method no route serves is refused from the
+# headers: an Expect: 100-continue client is not told to send it; a request
+# without a body is refused as before, its connection kept (pipelined: both
+# answered)
+raw_answers() { # REQUEST (printf escapes): the status lines rayd sends back
+    python3 - "$PORT" "$1" <<'PY'
+import re, socket, sys
+s = socket.create_connection(("127.0.0.1", int(sys.argv[1])))
+s.sendall(sys.argv[2].encode().decode("unicode_escape").encode("latin-1"))
+s.settimeout(20)
+got = b""
+try:
+    while True:
+        d = s.recv(65536)
+        if not d:
+            break
+        got += d
+except OSError:
+    pass
+print(" ".join(m.decode() for m in re.findall(rb"HTTP/1\.1 \d{3}", got)))
+PY
+}
+expect_body='Host: x\r\nContent-Type: application/json\r\nContent-Length: 1000\r\nExpect: 100-continue\r\n\r\n'
+got=$(raw_answers "POST /nope HTTP/1.1\r\n$expect_body")
+check body_to_unknown_path_404_first "answers '$got'" [ "$got" = "HTTP/1.1 404" ]
+got=$(raw_answers "PUT /v1/render HTTP/1.1\r\n$expect_body")
+check body_to_wrong_method_405_first "answers '$got'" [ "$got" = "HTTP/1.1 405" ]
+got=$(raw_answers 'GET /nope HTTP/1.1\r\nHost: x\r\n\r\nGET /healthz HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n')
+check not_found_keeps_connection "answers '$got'" [ "$got" = "HTTP/1.1 404 HTTP/1.1 200" ]
 code=$(req GET /nope)
 check not_found_404 "status $code" err_is "$T/body" 404 not_found
 code=$(req GET /v1/render/extra)
