@@ -12,7 +12,9 @@
  * CSG follows Roth (1982): every operand's crossings with the ray's line
  * are merged in order, and the tree's point-in-solid test, evaluated
  * between consecutive crossings, tells which of them are surfaces of the
- * result and whether the ray enters or leaves it there.  Transforms inside
+ * result and whether the ray enters or leaves it there.  Crossings at one
+ * point of the line (a face two operands share) are crossed together, so a
+ * union of boxes that touch has no face inside it.  Transforms inside
  * a CSG tree are composed down to its leaves at load time.  A CSG node's
  * operands are objects like any other, so CSG and the hits call each other
  * and live together here.
@@ -28,7 +30,8 @@
 #include "scene/scene.h"
 #include "shade/texture.h"
 
-#define CSG_MAX_XINGS 128
+/* the loader keeps a CSG tree within CSG_MAX_SOLIDS leaves (shape.h) */
+#define CSG_MAX_XINGS (CSG_MAX_SOLIDS * SHAPE_MAX_XINGS)
 
 /* ---- object space ---------------------------------------------------------- */
 
@@ -80,6 +83,16 @@ static int cmp_cx(const void *a, const void *b) {
     return (x > y) - (x < y);
 }
 
+/* The end of the run of crossings from i on that lie at one point of the
+ * line (within rounding): the faces two operands share, or an operand's
+ * face lying in another's.  The state between them says nothing, so the
+ * run is crossed as one. */
+static int csg_run_end(const struct cx *x, int n, int i) {
+    int j = i + 1;
+    while (j < n && x[j].t - x[i].t <= 1e-9 * (1 + fabs(x[i].t))) j++;
+    return j;
+}
+
 static bool csg_hit(const rayd_scene *s, const struct object *o, const ray *r, double *tmax,
                     struct hit *h) {
     struct cx x[CSG_MAX_XINGS];
@@ -87,8 +100,9 @@ static bool csg_hit(const rayd_scene *s, const struct object *o, const ray *r, d
     if (n == 0) return false;
     qsort(x, (size_t)n, sizeof *x, cmp_cx);
     bool before = csg_inside(s, o, ray_at(r, x[0].t - (1 + fabs(x[0].t))));
-    for (int i = 0; i < n && x[i].t < *tmax; i++) {
-        double ta = i + 1 < n ? 0.5 * (x[i].t + x[i + 1].t) : x[i].t + (1 + fabs(x[i].t));
+    for (int i = 0, j; i < n && x[i].t < *tmax; i = j) {
+        j = csg_run_end(x, n, i);
+        double ta = j < n ? 0.5 * (x[i].t + x[j].t) : x[i].t + (1 + fabs(x[i].t));
         bool after = csg_inside(s, o, ray_at(r, ta));
         if (after != before && x[i].t > 0) {
             *tmax = x[i].t;

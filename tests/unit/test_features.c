@@ -75,6 +75,63 @@ static void test_csg_operations_on_the_line(void) {
     }
 }
 
+static void test_csg_touching_operands_have_no_inner_face(void) {
+    /* Two boxes that share the face x = 0.  Seen from inside, a union has
+     * no surface there (the ray leaves at x = 1); an intersection of a box
+     * with one sharing its face x = -1 starts there. */
+    rayd_scene *s = scene_from(
+        "{\"objects\": [{\"type\": \"csg\", \"op\": \"union\", \"operands\": ["
+        "{\"type\": \"box\", \"min\": [-1,-1,-1], \"max\": [0,1,1]},"
+        " {\"type\": \"box\", \"min\": [0,-1,-1], \"max\": [1,1,1]}]}]}");
+    CHECK(s != NULL, "parse");
+    if (!s) return;
+    struct hit h;
+    struct surface sf;
+    ray in = {v3(-0.5, 0.1, 0.2), v3(1, 0, 0)}, back = {v3(0.5, 0.1, 0.2), v3(-1, 0, 0)};
+    CHECK(scene_intersect(s, &in, INFINITY, &h) && fabs(ray_at(&in, h.t).x - 1) < 1e-12,
+          "from inside the union the ray leaves at x = 1 (got x = %g)", ray_at(&in, h.t).x);
+    scene_surface(s, &in, &h, &sf);
+    CHECK(sf.ng.x > 0.999, "and the normal there points out, along +x");
+    CHECK(scene_intersect(s, &back, INFINITY, &h) && fabs(ray_at(&back, h.t).x + 1) < 1e-12,
+          "backwards it leaves at x = -1 (got x = %g)", ray_at(&back, h.t).x);
+    rayd_scene_free(s);
+    s = scene_from("{\"objects\": [{\"type\": \"csg\", \"op\": \"intersection\", \"operands\": ["
+                   "{\"type\": \"box\", \"min\": [-1,-1,-1], \"max\": [1,1,1]},"
+                   " {\"type\": \"box\", \"min\": [-1,-1,-1], \"max\": [0.5,1,1]}]}]}");
+    CHECK(s != NULL, "parse the intersection");
+    if (!s) return;
+    ray out = {v3(-5, 0.1, 0.2), v3(1, 0, 0)};
+    CHECK(scene_intersect(s, &out, INFINITY, &h) && fabs(ray_at(&out, h.t).x + 1) < 1e-12,
+          "the intersection starts at the shared face x = -1");
+    rayd_scene_free(s);
+}
+
+static void test_csg_of_64_solids_keeps_every_crossing(void) {
+    /* 64 tori (the most one CSG object may hold), each crossed 4 times by
+     * the z axis, listed far to near: the nearest, at z = 0, is hit at
+     * z = 1.25, though all the others' crossings come first. */
+    size_t cap = 16384, n = 0;
+    char *b = malloc(cap);
+    n += (size_t)snprintf(b + n, cap - n, "{\"objects\": [{\"type\": \"csg\", \"op\": \"union\", \"operands\": [");
+    for (int g = 0; g < 2; g++) {
+        n += (size_t)snprintf(b + n, cap - n, "%s{\"type\": \"csg\", \"op\": \"union\", \"operands\": [", g ? ", " : "");
+        for (int k = 0; k < 32; k++)
+            n += (size_t)snprintf(b + n, cap - n, "%s{\"type\": \"torus\", \"axis\": [1,0,0], \"center\": [0,0,%d]}",
+                                  k ? ", " : "", -3 * (63 - (g * 32 + k)));
+        n += (size_t)snprintf(b + n, cap - n, "]}");
+    }
+    snprintf(b + n, cap - n, "]}]}");
+    rayd_scene *s = scene_from(b);
+    free(b);
+    CHECK(s != NULL, "parse");
+    if (!s) return;
+    struct hit h;
+    ray r = {v3(0, 0, 10), v3(0, 0, -1)};
+    CHECK(scene_intersect(s, &r, INFINITY, &h) && fabs(ray_at(&r, h.t).z - 1.25) < 1e-9,
+          "the nearest torus is hit at z = 1.25 (got z = %g)", ray_at(&r, h.t).z);
+    rayd_scene_free(s);
+}
+
 static char *big_instances_scene(int tris_side, int instances) {
     /* a grid mesh of 2 * side^2 triangles, in a group, drawn `instances` times */
     size_t cap = (size_t)tris_side * tris_side * 64 + (size_t)instances * 128 + 4096, n = 0;
@@ -395,6 +452,8 @@ static void test_path_tiles_are_exact(void) {
 int main(void) {
     RUN(test_csg_sphere_minus_box_along_an_axis);
     RUN(test_csg_operations_on_the_line);
+    RUN(test_csg_touching_operands_have_no_inner_face);
+    RUN(test_csg_of_64_solids_keeps_every_crossing);
     RUN(test_instances_share_geometry);
     RUN(test_checker_texture_in_world_space);
     RUN(test_image_texture_uv_bilinear);
