@@ -51,6 +51,7 @@ struct object {
         struct {
             vec3 point;  /* Q */
             vec3 normal; /* unit n */
+            bool baked;  /* its transform is baked in (scene.c): a top-level plane */
         } plane;
         struct {
             vec3 lo, hi;

@@ -42,6 +42,7 @@ void rayd_scene_free(rayd_scene *s) {
     free(s->lights);
     free(s->objs);
     free(s->planes);
+    free(s->planes_src);
     free(s->emitters);
     bvh_free(&s->tlas);
     light_buffers_free(s->light_buffers, s->nlights);
@@ -98,14 +99,17 @@ bool scene_object_bounds(const rayd_scene *s, const struct object *o, struct aab
 
 /* ---- freeze ---------------------------------------------------------------------- */
 
-/* Splits out unbounded objects; plane placements are baked in. */
+/* Splits out unbounded objects; plane placements are baked in (the planes
+ * as loaded are kept beside them: a texture in object space follows the
+ * transform). */
 static enum rayd_status split_unbounded(rayd_scene *s, struct rayd_error *err) {
     int32_t nb = 0, np = 0;
     struct aabb b;
     for (int32_t i = 0; i < s->nobjs; i++) np += !scene_object_bounds(s, &s->objs[i], &b);
     if (np == 0) return RAYD_OK;
     s->planes = malloc(sizeof *s->planes * (size_t)np);
-    if (!s->planes) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory");
+    s->planes_src = malloc(sizeof *s->planes_src * (size_t)np);
+    if (!s->planes || !s->planes_src) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory");
     np = 0;
     for (int32_t i = 0; i < s->nobjs; i++) {
         struct object o = s->objs[i];
@@ -113,10 +117,12 @@ static enum rayd_status split_unbounded(rayd_scene *s, struct rayd_error *err) {
             s->objs[nb++] = o;
             continue;
         }
+        s->planes_src[np] = o;
         if (o.kind == SHAPE_PLANE && o.xform >= 0) {
             const struct xform *x = &s->xforms[o.xform];
             o.u.plane.point = xform_point(x, o.u.plane.point);
             o.u.plane.normal = xform_normal(x, o.u.plane.normal);
+            o.u.plane.baked = true;
             o.xform = -1;
         }
         s->planes[np++] = o;

@@ -47,6 +47,8 @@ struct rayd_scene {
     int32_t nobjs;
     struct object *planes; /* unbounded objects (planes, quadrics), tested one by one */
     int32_t nplanes;
+    struct object *planes_src; /* planes[i] as loaded, with its transform: the object
+                                  space of the textures of a plane whose placement is baked */
     struct object *parts;  /* CSG operands: referred to by CSG nodes, not in any BVH */
     int32_t nparts;
     struct group *groups;  /* referred to by instances */

@@ -306,6 +306,15 @@ vec3 scene_transmittance(const rayd_scene *s, const ray *r, double tmax) {
 
 /* ---- surfaces ------------------------------------------------------------------ */
 
+/* A baked plane's texture point and (u, v) in its own space, from the plane
+ * as loaded: its placement is baked into the one hit, not the pattern. */
+static void plane_texture_space(const rayd_scene *s, const struct object *o, vec3 pw, vec3 *po,
+                                double *u, double *v) {
+    const struct object *src = &s->planes_src[o - s->planes];
+    *po = xform_inv_point(&s->xforms[src->xform], pw);
+    plane_ops.uv(src, *po, 0, u, v);
+}
+
 void scene_surface(const rayd_scene *s, const ray *r, const struct hit *h, struct surface *sf) {
     const struct object *o = h->leaf;
     const struct xform *x = o->xform >= 0 ? &s->xforms[o->xform] : NULL;
@@ -330,6 +339,7 @@ void scene_surface(const rayd_scene *s, const ray *r, const struct hit *h, struc
         if (textured) shape_ops[o->kind]->uv(o, p, h->part, &u, &v);
     }
     vec3 po = p; /* object space, for object-space textures */
+    if (textured && o->kind == SHAPE_PLANE && o->u.plane.baked) plane_texture_space(s, o, pw, &po, &u, &v);
     if (x) {
         p = xform_point(x, p);
         n = xform_normal(x, n);

@@ -212,6 +212,35 @@ static void test_checker_texture_in_world_space(void) {
     rayd_scene_free(s);
 }
 
+static void test_object_space_texture_follows_a_plane_transform(void) {
+    /* Stripes across the plane's own x, the plane scaled by 2 in x, turned
+     * 90 degrees about y (its x goes to world -z) and moved: in the world
+     * the stripes run across z, 2 units wide: object x = -z / 2.  (A
+     * plane's placement is baked in for the hit; its texture must not.) */
+    rayd_scene *s = scene_from(
+        "{\"objects\": [{\"type\": \"plane\", \"transform\": {\"scale\": [2,1,1], \"rotate\": [0,90,0], \"translate\": [0.25,0,0]},"
+        " \"material\": {\"texture\": {\"type\": \"stripes\", \"axis\": [1,0,0], \"colors\": [[1,0,0],[0,0,1]]}}}]}");
+    CHECK(s != NULL, "parse");
+    if (!s) return;
+    int bad = 0, n = 0;
+    for (double x = -2.95; x < 3; x += 0.3)
+        for (double z = -2.95; z < 3; z += 0.3) {
+            ray r = {v3(x, 5, z), v3(0, -1, 0)};
+            struct hit h;
+            struct surface sf;
+            if (!scene_intersect(s, &r, INFINITY, &h)) {
+                bad++;
+                continue;
+            }
+            scene_surface(s, &r, &h, &sf);
+            long k = (long)floor(-z / 2);
+            bad += (k & 1) ? sf.color.z != 1 : sf.color.x != 1;
+            n++;
+        }
+    CHECK(n > 300 && bad == 0, "%d of %d points have the wrong stripe", bad, n);
+    rayd_scene_free(s);
+}
+
 static char *b64(const unsigned char *in, size_t n) {
     static const char al[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     char *out = malloc(4 * ((n + 2) / 3) + 1), *o = out;
@@ -456,6 +485,7 @@ int main(void) {
     RUN(test_csg_of_64_solids_keeps_every_crossing);
     RUN(test_instances_share_geometry);
     RUN(test_checker_texture_in_world_space);
+    RUN(test_object_space_texture_follows_a_plane_transform);
     RUN(test_image_texture_uv_bilinear);
     RUN(test_orthographic_exact_projection);
     RUN(test_depth_of_field);
