@@ -43,6 +43,11 @@ struct object {
     enum shape_kind kind;
     int material;  /* index into the scene's materials */
     int32_t xform; /* index into the scene's transforms, -1 for none */
+    /* A CSG leaf that takes its material from a csg node above it: 1 + the
+     * index of that node's transform, the space its object-space texture is
+     * in (one pattern across the whole node, as in POV-Ray); 0: the
+     * object's own space. */
+    int32_t tex_xform;
     union {
         struct {
             vec3 center;

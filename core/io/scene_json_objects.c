@@ -26,6 +26,7 @@ struct ctx {
     bool in_csg;             /* must be a closed solid */
     bool in_group;           /* may not be an instance */
     int *solids;             /* CSG: the leaf solids of the whole tree so far */
+    const struct xform *mat_space; /* CSG: the transform of the node the material is from */
 };
 
 static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const struct jp *at,
@@ -278,7 +279,8 @@ static enum rayd_status load_csg(struct loader *ld, const cJSON *oj, const struc
     if (cJSON_GetArraySize(list) > 32)
         return sj_fail(ld, RAYD_E_LIMIT, &pl, "has %d operands; the limit is 32", cJSON_GetArraySize(list));
     int solids = 0; /* the root's count, shared by every nested csg */
-    struct ctx sub = {o->material, cx->acc, true, cx->in_group, cx->solids ? cx->solids : &solids};
+    struct ctx sub = {o->material, cx->acc, true, cx->in_group, cx->solids ? cx->solids : &solids,
+                      cx->mat_space};
     /* left-deep tree: ((a op b) op c) ...; difference: a minus all the rest */
     int32_t left = -1;
     int i = 0;
@@ -443,6 +445,8 @@ static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const st
         return sj_fail(ld, RAYD_E_INVALID, &ptr, "must not scale the object by more than 1e9 or less than 1e-9 (with the CSG nodes above it)");
     struct ctx sub = *cx;
     sub.acc = (cx->in_csg || kind == K_CSG) ? &acc : NULL;
+    bool own_mat = cJSON_GetObjectItemCaseSensitive(oj, "material") != NULL;
+    if (kind == K_CSG && (own_mat || !cx->in_csg)) sub.mat_space = &acc;
     if (kind == K_GLTF) {
         TRY(sj_gltf(ld, oj, at, &x, o));
     } else {
@@ -460,6 +464,11 @@ static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const st
         struct xform leaf = cx->acc && cx->in_csg ? acc : x;
         TRY(add_xform(ld, &leaf, &o->xform));
     }
+    if (cx->in_csg && o->kind != SHAPE_CSG && !own_mat) {
+        int32_t t;
+        TRY(add_xform(ld, cx->mat_space, &t));
+        o->tex_xform = t + 1;
+    }
     return RAYD_OK;
 }
 
@@ -472,7 +481,7 @@ static enum rayd_status load_list(struct loader *ld, const cJSON *list, const st
         return sj_fail(ld, RAYD_E_LIMIT, at, "has %d objects; the limit is %ld", n, ld->lim->max_objects);
     *out = calloc((size_t)n + 1, sizeof **out);
     if (!*out) return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
-    struct ctx cx = {0, NULL, false, in_group, NULL};
+    struct ctx cx = {0, NULL, false, in_group, NULL, NULL};
     int i = 0;
     for (const cJSON *o = list->child; o; o = o->next, i++) {
         struct jp p = jp_index(at, i);

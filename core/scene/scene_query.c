@@ -323,7 +323,7 @@ void scene_surface(const rayd_scene *s, const ray *r, const struct hit *h, struc
     sf->float_geom = o->kind == SHAPE_MESH;
     vec3 pw = ray_at(r, h->t);
     /* back to the leaf's own space: through the instance, then the leaf */
-    vec3 p = h->outer ? xform_inv_point(h->outer, pw) : pw;
+    vec3 p = h->outer ? xform_inv_point(h->outer, pw) : pw, pm = p;
     if (x) p = xform_inv_point(x, p);
     vec3 n, ng;
     double u = 0, v = 0;
@@ -340,6 +340,7 @@ void scene_surface(const rayd_scene *s, const ray *r, const struct hit *h, struc
     }
     vec3 po = p; /* object space, for object-space textures */
     if (textured && o->kind == SHAPE_PLANE && o->u.plane.baked) plane_texture_space(s, o, pw, &po, &u, &v);
+    if (o->tex_xform > 0) po = xform_inv_point(&s->xforms[o->tex_xform - 1], pm); /* the csg node's */
     if (x) {
         p = xform_point(x, p);
         n = xform_normal(x, n);

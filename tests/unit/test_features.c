@@ -241,6 +241,39 @@ static void test_object_space_texture_follows_a_plane_transform(void) {
     rayd_scene_free(s);
 }
 
+static void test_csg_texture_is_in_the_space_of_its_node(void) {
+    /* A union of two spheres moved apart, striped across x by the union's
+     * material, the union moved by 0.1: one pattern runs across both, in
+     * the union's space (stripe = floor(2 (x - 0.1))), not restarted at
+     * each sphere's centre.  A third operand with its own material keeps
+     * its own space (moved by 3.05 + 0.1: stripe = floor(2 (x - 3.15))). */
+    rayd_scene *s = scene_from(
+        "{\"objects\": [{\"type\": \"csg\", \"op\": \"union\", \"transform\": {\"translate\": [0.1,0,0]},"
+        " \"material\": {\"texture\": {\"type\": \"stripes\", \"scale\": 2, \"colors\": [[1,0,0],[0,0,1]]}},"
+        " \"operands\": [{\"type\": \"sphere\", \"transform\": {\"translate\": [-0.8,0,0]}},"
+        "              {\"type\": \"sphere\", \"center\": [0.65,0,0]},"
+        "              {\"type\": \"sphere\", \"radius\": 0.5, \"transform\": {\"translate\": [3.05,0,0]},"
+        "               \"material\": {\"texture\": {\"type\": \"stripes\", \"scale\": 2, \"colors\": [[0,1,0],[1,1,1]]}}}]}]}");
+    CHECK(s != NULL, "parse");
+    if (!s) return;
+    int bad = 0, n = 0;
+    for (double x = -1.63; x < 3.6; x += 0.1)
+        for (double y = -0.45; y < 0.5; y += 0.3) {
+            ray r = {v3(x, y, 5), v3(0, 0, -1)};
+            struct hit h;
+            struct surface sf;
+            if (!scene_intersect(s, &r, INFINITY, &h)) continue;
+            scene_surface(s, &r, &h, &sf);
+            bool own = x > 2.5;
+            long k = (long)floor(2 * (x - (own ? 3.15 : 0.1)));
+            vec3 want = own ? ((k & 1) ? v3(1, 1, 1) : v3(0, 1, 0)) : ((k & 1) ? v3(0, 0, 1) : v3(1, 0, 0));
+            bad += v3_len(v3_sub(sf.color, want)) != 0;
+            n++;
+        }
+    CHECK(n > 100 && bad == 0, "%d of %d points have the wrong stripe", bad, n);
+    rayd_scene_free(s);
+}
+
 static char *b64(const unsigned char *in, size_t n) {
     static const char al[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     char *out = malloc(4 * ((n + 2) / 3) + 1), *o = out;
@@ -486,6 +519,7 @@ int main(void) {
     RUN(test_instances_share_geometry);
     RUN(test_checker_texture_in_world_space);
     RUN(test_object_space_texture_follows_a_plane_transform);
+    RUN(test_csg_texture_is_in_the_space_of_its_node);
     RUN(test_image_texture_uv_bilinear);
     RUN(test_orthographic_exact_projection);
     RUN(test_depth_of_field);
