@@ -452,10 +452,13 @@ static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const st
     } else {
         TRY(load_shape(ld, oj, at, kind, &sub, o));
     }
-    if (cx->in_csg && !shape_is_solid(o))
-        return sj_fail(ld, RAYD_E_INVALID, &pt,
-                       "a %s cannot be a CSG operand: CSG needs closed solids (sphere, box, capped cylinder or cone, torus, plane, quadric, csg)",
-                       kind_names[kind]);
+    if (cx->in_csg && !shape_is_solid(o)) {
+        bool open = o->kind == SHAPE_CYLINDER; /* capped: false */
+        struct jp pc = jp_key(at, "capped");
+        return sj_fail(ld, RAYD_E_INVALID, open ? &pc : &pt,
+                       "%s %s%s cannot be a CSG operand: CSG needs closed solids (sphere, box, capped cylinder or cone, torus, plane, quadric, csg)",
+                       open || kind == K_INSTANCE ? "an" : "a", open ? "open " : "", kind_names[kind]);
+    }
     if (cx->in_csg && kind != K_CSG && ++*cx->solids > CSG_MAX_SOLIDS)
         return sj_fail(ld, RAYD_E_LIMIT, at,
                        "is solid number %d of one CSG object; the limit is %d (nested csg operands' solids count too)",

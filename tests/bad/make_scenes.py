@@ -752,7 +752,12 @@ case('csg-one-operand.json', '{"objects": [{"type": "csg", "op": "union", "opera
 case('csg-operand-disc.json', '{"objects": [{"type": "csg", "op": "difference", "operands": [{"type": "sphere"}, {"type": "disc"}]}]}\n',
      'error: /objects/0/operands/1/type: a disc cannot be a CSG operand: CSG needs closed solids (sphere, box, capped cylinder or cone, torus, plane, quadric, csg)')
 case('csg-operand-open-cylinder.json', '{"objects": [{"type": "csg", "op": "union", "operands": [{"type": "sphere"}, {"type": "cylinder", "capped": false}]}]}\n',
-     'error: /objects/0/operands/1/type: a cylinder cannot be a CSG operand: CSG needs closed solids (sphere, box, capped cylinder or cone, torus, plane, quadric, csg)')
+     'error: /objects/0/operands/1/capped: an open cylinder cannot be a CSG operand: CSG needs closed solids (sphere, box, capped cylinder or cone, torus, plane, quadric, csg)')
+# the message said "a cylinder" (which may be an operand, capped) and "a instance"
+case('csg-operand-open-cone.json', '{"objects": [{"type": "csg", "op": "union", "operands": [{"type": "sphere"}, {"type": "cone", "capped": false}]}]}\n',
+     'error: /objects/0/operands/1/capped: an open cone cannot be a CSG operand: CSG needs closed solids (sphere, box, capped cylinder or cone, torus, plane, quadric, csg)')
+case('csg-operand-instance.json', '{"groups": {"g": [{"type": "sphere"}]}, "objects": [{"type": "csg", "op": "union", "operands": [{"type": "sphere"}, {"type": "instance", "group": "g"}]}]}\n',
+     'error: /objects/0/operands/1/type: an instance cannot be a CSG operand: CSG needs closed solids (sphere, box, capped cylinder or cone, torus, plane, quadric, csg)')
 case('csg-operand-bad.json', '{"objects": [{"type": "csg", "op": "union", "operands": [{"type": "sphere"}, {"type": "sphere", "radius": -1}]}]}\n',
      'error: /objects/0/operands/1/radius: must be > 0')
 case('instance-no-group.json', '{"objects": [{"type": "instance"}]}\n',
