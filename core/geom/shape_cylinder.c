@@ -57,7 +57,7 @@ static vec3 cyl_normal(const struct object *o, vec3 p, int part) {
     double h = v3_dot(q, w), k = (o->u.cyl.r1 - o->u.cyl.r0) / o->u.cyl.height;
     vec3 qp = v3_madd(q, w, -h);
     double len = v3_len(qp);
-    if (!(len > 0)) return v3_neg(w); /* the apex of a cone */
+    if (!(len > 0)) return k > 0 ? v3_neg(w) : w; /* the apex of a cone: out of its tip */
     double rh = o->u.cyl.r0 + k * h;
     return v3_norm(v3_madd(v3_scale(qp, 1 / len), w, -k * (rh > 0 ? 1 : 0)));
 }

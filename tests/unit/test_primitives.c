@@ -71,6 +71,12 @@ static void test_cone(void) {
     CHECK(fabs(v3_dot(n, want) - 1) < 1e-12, "cone normal (%g %g %g)", n.x, n.y, n.z);
     CHECK(!hit(&c, mk(v3(-5, 1.9, 0.2), v3(1, 0, 0)), &t, &n), "misses beside the apex");
     CHECK(hit(&c, mk(v3(0, 5, 0), v3(0, -1, 0)), &t, &n) && fabs(t - 3) < 1e-9, "the apex");
+    /* the apex's normal points out of the tip, not back into the cone (a
+     * ray meeting it there would be taken as leaving a glass cone) */
+    CHECK(n.y == 1, "apex normal (%g %g %g) points up, out of the tip", n.x, n.y, n.z);
+    struct object d = cyl(0, 1, true); /* apex at the base, y = 0 */
+    CHECK(hit(&d, mk(v3(0, -5, 0), v3(0, 1, 0)), &t, &n) && fabs(t - 5) < 1e-9 && n.y == -1,
+          "apex at the base: normal (%g %g %g) points down", n.x, n.y, n.z);
     CHECK(hit(&c, mk(v3(0.2, -3, 0), v3(0, 1, 0)), &t, &n) && fabs(t - 3) < 1e-12 && n.y == -1, "base cap");
     CHECK(shape_ops[SHAPE_CYLINDER]->inside(&c, v3(0, 1, 0.4)) && !shape_ops[SHAPE_CYLINDER]->inside(&c, v3(0, 1, 0.6)), "inside");
 }
