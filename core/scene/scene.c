@@ -244,7 +244,7 @@ void rayd_scene_info(const rayd_scene *s, struct rayd_scene_info *info) {
     info->rays_per_sample = scene_rays_per_sample(s);
     size_t bytes = sizeof *s + sizeof *s->mats * (size_t)s->nmats +
                    sizeof *s->lights * (size_t)s->nlights +
-                   sizeof *s->objs * (size_t)(s->nobjs + s->nplanes + s->nparts) +
+                   sizeof *s->objs * (size_t)(s->nobjs + 2 * s->nplanes + s->nparts) + /* planes_src */
                    sizeof *s->xforms * (size_t)s->nxforms +
                    sizeof *s->tlas.nodes * (size_t)s->tlas.nnodes;
     for (uint32_t i = 0; i < s->nmeshes; i++) bytes += mesh_bytes(&s->meshes[i]);
