@@ -108,11 +108,6 @@ struct xing {
 
 #define SHAPE_MAX_XINGS 4
 
-/* The most leaf solids one CSG object may combine, nested csg operands'
- * included: its crossings with a line (at most SHAPE_MAX_XINGS each) must
- * all fit the tracer's fixed buffer, or the nearest could be dropped. */
-#define CSG_MAX_SOLIDS 64
-
 struct shape_ops {
     const char *name;
     /* All crossings with the whole line o + t d (t of any sign), sorted. */

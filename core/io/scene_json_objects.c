@@ -25,7 +25,6 @@ struct ctx {
     const struct xform *acc; /* CSG: the composed transform of the nodes above, or NULL */
     bool in_csg;             /* must be a closed solid */
     bool in_group;           /* may not be an instance */
-    int *solids;             /* CSG: the leaf solids of the whole tree so far */
     const struct xform *mat_space; /* CSG: the transform of the node the material is from */
 };
 
@@ -278,9 +277,7 @@ static enum rayd_status load_csg(struct loader *ld, const cJSON *oj, const struc
         return sj_fail(ld, RAYD_E_INVALID, &pl, "must be an array of at least 2 objects");
     if (cJSON_GetArraySize(list) > 32)
         return sj_fail(ld, RAYD_E_LIMIT, &pl, "has %d operands; the limit is 32", cJSON_GetArraySize(list));
-    int solids = 0; /* the root's count, shared by every nested csg */
-    struct ctx sub = {o->material, cx->acc, true, cx->in_group, cx->solids ? cx->solids : &solids,
-                      cx->mat_space};
+    struct ctx sub = {o->material, cx->acc, true, cx->in_group, cx->mat_space};
     /* left-deep tree: ((a op b) op c) ...; difference: a minus all the rest */
     int32_t left = -1;
     int i = 0;
@@ -459,10 +456,6 @@ static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const st
                        "%s %s%s cannot be a CSG operand: CSG needs closed solids (sphere, box, capped cylinder or cone, torus, plane, quadric, csg)",
                        open || kind == K_INSTANCE ? "an" : "a", open ? "open " : "", kind_names[kind]);
     }
-    if (cx->in_csg && kind != K_CSG && ++*cx->solids > CSG_MAX_SOLIDS)
-        return sj_fail(ld, RAYD_E_LIMIT, at,
-                       "is solid number %d of one CSG object; the limit is %d (nested csg operands' solids count too)",
-                       *cx->solids, CSG_MAX_SOLIDS);
     if (o->kind != SHAPE_CSG && (has_x || cx->acc)) {
         struct xform leaf = cx->acc && cx->in_csg ? acc : x;
         TRY(add_xform(ld, &leaf, &o->xform));
@@ -484,7 +477,7 @@ static enum rayd_status load_list(struct loader *ld, const cJSON *list, const st
         return sj_fail(ld, RAYD_E_LIMIT, at, "has %d objects; the limit is %ld", n, ld->lim->max_objects);
     *out = calloc((size_t)n + 1, sizeof **out);
     if (!*out) return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
-    struct ctx cx = {0, NULL, false, in_group, NULL, NULL};
+    struct ctx cx = {0, NULL, false, in_group, NULL};
     int i = 0;
     for (const cJSON *o = list->child; o; o = o->next, i++) {
         struct jp p = jp_index(at, i);

@@ -30,8 +30,11 @@
 #include "scene/scene.h"
 #include "shade/texture.h"
 
-/* the loader keeps a CSG tree within CSG_MAX_SOLIDS leaves (shape.h) */
-#define CSG_MAX_XINGS (CSG_MAX_SOLIDS * SHAPE_MAX_XINGS)
+/* Crossings a CSG hit keeps on the stack: those of 64 solids.  A tree with
+ * more (nesting has no limit) whose solids a ray crosses more often takes a
+ * buffer of the size it needs from the heap for that ray: a crossing
+ * dropped could be the nearest surface. */
+#define CSG_STACK_XINGS (64 * SHAPE_MAX_XINGS)
 
 /* ---- object space ---------------------------------------------------------- */
 
@@ -64,17 +67,21 @@ static bool csg_inside(const rayd_scene *s, const struct object *o, vec3 p) {
     return shape_ops[o->kind]->inside(o, q);
 }
 
+/* Appends o's crossings with r to out[n..cap) and returns the count they
+ * make; past cap they are counted, not kept, so the caller learns the
+ * room it needs. */
 static int csg_collect(const rayd_scene *s, const struct object *o, const ray *r, struct cx *out,
-                       int n) {
+                       int n, int cap) {
     if (o->kind == SHAPE_CSG) {
-        n = csg_collect(s, &s->parts[o->u.csg.left], r, out, n);
-        return csg_collect(s, &s->parts[o->u.csg.right], r, out, n);
+        n = csg_collect(s, &s->parts[o->u.csg.left], r, out, n, cap);
+        return csg_collect(s, &s->parts[o->u.csg.right], r, out, n, cap);
     }
     double scale;
     ray lr = object_ray(s, o, r, &scale);
     struct xing x[SHAPE_MAX_XINGS];
     int k = shape_ops[o->kind]->crossings(o, &lr, x);
-    for (int i = 0; i < k && n < CSG_MAX_XINGS; i++) out[n++] = (struct cx){x[i].t / scale, o, x[i].part};
+    for (int i = 0; i < k; i++, n++)
+        if (n < cap) out[n] = (struct cx){x[i].t / scale, o, x[i].part};
     return n;
 }
 
@@ -93,11 +100,10 @@ static int csg_run_end(const struct cx *x, int n, int i) {
     return j;
 }
 
-static bool csg_hit(const rayd_scene *s, const struct object *o, const ray *r, double *tmax,
-                    struct hit *h) {
-    struct cx x[CSG_MAX_XINGS];
-    int n = csg_collect(s, o, r, x, 0);
-    if (n == 0) return false;
+/* The surface of the result nearest along r within *tmax, from the
+ * sorted crossings x[0..n). */
+static bool csg_nearest(const rayd_scene *s, const struct object *o, const ray *r, struct cx *x,
+                        int n, double *tmax, struct hit *h) {
     qsort(x, (size_t)n, sizeof *x, cmp_cx);
     bool before = csg_inside(s, o, ray_at(r, x[0].t - (1 + fabs(x[0].t))));
     for (int i = 0, j; i < n && x[i].t < *tmax; i = j) {
@@ -115,6 +121,21 @@ static bool csg_hit(const rayd_scene *s, const struct object *o, const ray *r, d
         before = after;
     }
     return false;
+}
+
+static bool csg_hit(const rayd_scene *s, const struct object *o, const ray *r, double *tmax,
+                    struct hit *h) {
+    struct cx stack[CSG_STACK_XINGS], *x = stack;
+    int n = csg_collect(s, o, r, x, 0, CSG_STACK_XINGS);
+    if (n == 0) return false;
+    if (n > CSG_STACK_XINGS) {
+        x = malloc((size_t)n * sizeof *x);
+        if (!x) return false; /* out of memory: this ray misses the object */
+        csg_collect(s, o, r, x, 0, n);
+    }
+    bool hit = csg_nearest(s, o, r, x, n, tmax, h);
+    if (x != stack) free(x);
+    return hit;
 }
 
 /* ---- hits ---------------------------------------------------------------------- */

@@ -779,16 +779,6 @@ case('group-member-bad.json', '{"groups": {"tree": [{"type": "sphere", "radius":
 case("csg-33-operands.json", '{"objects": [{"type": "csg", "op": "union", "operands": ['
      + ", ".join(['{"type": "sphere"}'] * 33) + ']}]}\n',
      'error: /objects/0/operands: has 33 operands; the limit is 32')
-# nested csg objects could hold more solids than the tracer's crossing
-# buffer: the crossings past it were dropped, and with them the nearest
-# surface; now the whole tree is held to 64 solids
-case("csg-65-solids.json", '{"objects": [{"type": "csg", "op": "union", "operands": ['
-     + ", ".join(['{"type": "csg", "op": "union", "operands": ['
-                  + ", ".join(['{"type": "sphere"}'] * 30) + ']}'] * 2
-                 + ['{"type": "csg", "op": "intersection", "operands": ['
-                    + ", ".join(['{"type": "sphere"}'] * 5) + ']}']) + ']}]}\n',
-     "error: /objects/0/operands/2/operands/4: is solid number 65 of one CSG object; "
-     "the limit is 64 (nested csg operands' solids count too)")
 
 # ---- once loader bugs, now fixed: each stays here as a regression case ------------
 # \u0000 in a string: cJSON would cut the string at the NUL and read

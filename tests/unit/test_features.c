@@ -106,18 +106,19 @@ static void test_csg_touching_operands_have_no_inner_face(void) {
     rayd_scene_free(s);
 }
 
-static void test_csg_of_64_solids_keeps_every_crossing(void) {
-    /* 64 tori (the most one CSG object may hold), each crossed 4 times by
-     * the z axis, listed far to near: the nearest, at z = 0, is hit at
-     * z = 1.25, though all the others' crossings come first. */
-    size_t cap = 16384, n = 0;
+static void test_csg_keeps_every_crossing(void) {
+    /* 96 tori in three nested unions of 32, each crossed 4 times by the z
+     * axis: 384 crossings, more than a CSG hit keeps on the stack, listed
+     * far to near: the nearest, at z = 0, is hit at z = 1.25, though all
+     * the others' crossings come first. */
+    size_t cap = 32768, n = 0;
     char *b = malloc(cap);
     n += (size_t)snprintf(b + n, cap - n, "{\"objects\": [{\"type\": \"csg\", \"op\": \"union\", \"operands\": [");
-    for (int g = 0; g < 2; g++) {
+    for (int g = 0; g < 3; g++) {
         n += (size_t)snprintf(b + n, cap - n, "%s{\"type\": \"csg\", \"op\": \"union\", \"operands\": [", g ? ", " : "");
         for (int k = 0; k < 32; k++)
             n += (size_t)snprintf(b + n, cap - n, "%s{\"type\": \"torus\", \"axis\": [1,0,0], \"center\": [0,0,%d]}",
-                                  k ? ", " : "", -3 * (63 - (g * 32 + k)));
+                                  k ? ", " : "", -3 * (95 - (g * 32 + k)));
         n += (size_t)snprintf(b + n, cap - n, "]}");
     }
     snprintf(b + n, cap - n, "]}]}");
@@ -129,6 +130,11 @@ static void test_csg_of_64_solids_keeps_every_crossing(void) {
     ray r = {v3(0, 0, 10), v3(0, 0, -1)};
     CHECK(scene_intersect(s, &r, INFINITY, &h) && fabs(ray_at(&r, h.t).z - 1.25) < 1e-9,
           "the nearest torus is hit at z = 1.25 (got z = %g)", ray_at(&r, h.t).z);
+    /* from inside the nearest torus's tube, toward the far ones: the
+     * ray leaves it at z = 0.75, whatever lies beyond */
+    ray in = {v3(0, 0, 1.1), v3(0, 0, -1)};
+    CHECK(scene_intersect(s, &in, INFINITY, &h) && fabs(ray_at(&in, h.t).z - 0.75) < 1e-9,
+          "from inside, the ray leaves at z = 0.75 (got z = %g)", ray_at(&in, h.t).z);
     rayd_scene_free(s);
 }
 
@@ -515,7 +521,7 @@ int main(void) {
     RUN(test_csg_sphere_minus_box_along_an_axis);
     RUN(test_csg_operations_on_the_line);
     RUN(test_csg_touching_operands_have_no_inner_face);
-    RUN(test_csg_of_64_solids_keeps_every_crossing);
+    RUN(test_csg_keeps_every_crossing);
     RUN(test_instances_share_geometry);
     RUN(test_checker_texture_in_world_space);
     RUN(test_object_space_texture_follows_a_plane_transform);
