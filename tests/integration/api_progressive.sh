@@ -124,11 +124,14 @@ check prog_noise_image "status $code" bash -c "[ $code = 200 ] && cmp -s '$T/bod
 
 # --- cancelled half-way through pass 2: the done event's progress is the job's ----------
 gate 0
+gate_read
+s0=$(jfield "$T/gate.json" started) # "started" counts every tile since rayd began
 code=$(post_json "/v1/jobs?progressive=1" "$T/p8.json")
 id=$(jfield "$T/body" id)
 gate 3 # pass 1's two tiles and one of pass 2's
 wait_until 60 job_is "$id" done 1
-wait_until 30 gate_is started 3
+wait_until 30 gate_is started $((s0 + 3))
+check prog_cancel_in_pass_2 "gate $(cat "$T/gate.json"), $s0 started before" gate_is started $((s0 + 3))
 code=$(req DELETE "/v1/jobs/$id")
 wait_until 30 job_state_is "$id" canceled
 gate open
