@@ -108,7 +108,34 @@ gate 0
 scene "$T/sse4.json" 640 480 16 spheres 4
 post_json /v1/jobs "$T/sse4.json" >/dev/null
 id5=$(jfield "$T/body" id)
-curl -s -N -m 0.4 "$URL/v1/jobs/$id5/events" >/dev/null
+# The client reads the stream's first event, so it is open and waiting on
+# the server when it leaves (a client timing out after a fixed 0.4 s might
+# not even have connected on a loaded machine).
+PYTHONPATH="$SSE_LIB" python3 - "$PORT" "$id5" "$T/sse5" <<'PY' &
+import os, socket, sys, time
+port, jid, f = int(sys.argv[1]), sys.argv[2], sys.argv[3]
+s = socket.create_connection(("127.0.0.1", port), timeout=60)
+s.sendall(("GET /v1/jobs/%s/events HTTP/1.1\r\nHost: x\r\n\r\n" % jid).encode())
+got = b""
+while b"event: state" not in got:
+    d = s.recv(4096)
+    if not d:
+        break
+    got += d
+open(f + ".ready", "w").write(got.decode("latin-1"))
+end = time.time() + 60  # only ends a hung case
+while not os.path.exists(f + ".stop") and time.time() < end:
+    time.sleep(0.05)
+s.close()
+PY
+sse5=$!
+PIDS+=($sse5)
+wait_until 60 test -e "$T/sse5.ready"
+wait_until 30 metric_is rayd_http_suspended 1
+check sse_stream_open "first event: $(head -c 200 "$T/sse5.ready" 2>/dev/null), rayd_http_suspended $(metric rayd_http_suspended)" \
+    bash -c "grep -q '^event: state' '$T/sse5.ready' && [ '$(metric rayd_http_suspended)' = 1 ]"
+touch "$T/sse5.stop"
+wait "$sse5"
 wait_until 30 metric_is rayd_http_suspended 0
 check sse_disconnect_resumed "rayd_http_suspended = $(metric rayd_http_suspended)" metric_is rayd_http_suspended 0
 check sse_disconnect_job_goes_on "state $(jfield "$T/body" state)" job_state_is "$id5" queued
@@ -151,11 +178,26 @@ stop_rayd TERM
 check exit_0 "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
 
 # --- finished jobs are forgotten after --job-ttl ----------------------------------------------
-start_rayd --job-ttl 2
+# --job-ttl counts from a job's creation, so "still known right after the
+# POST" would be a race on a loaded machine.  Instead: job A is held at the
+# gate (never finished), job B, created after A, is cancelled (finished).
+# Once the watcher has forgotten B, A is older than the TTL too and must
+# still be known, because it is not finished; when it finishes, it goes.
+start_rayd --job-ttl 1 --test-gate 0
 scene "$T/ttl.json" 32 32 1 spheres 5
+scene "$T/ttl2.json" 32 32 1 spheres 6
 post_json /v1/jobs "$T/ttl.json" >/dev/null
 idt=$(jfield "$T/body" id)
-check ttl_job_kept_first "status $(req GET "/v1/jobs/$idt")" [ "$(req GET "/v1/jobs/$idt")" = 200 ]
-wait_until 60 bash -c "[ \"\$(curl -s -o /dev/null -w '%{http_code}' '$URL/v1/jobs/$idt')\" = 404 ]"
-check ttl_job_forgotten "still known after 60 s" [ "$(req GET "/v1/jobs/$idt")" = 404 ]
+post_json /v1/jobs "$T/ttl2.json" >/dev/null
+idb=$(jfield "$T/body" id)
+code=$(req DELETE "/v1/jobs/$idb")
+check ttl_cancelled_job "status $code" [ "$code" = 200 ]
+job_gone() { [ "$(curl -s -m 10 -o /dev/null -w '%{http_code}' "$URL/v1/jobs/$1")" = 404 ]; }
+wait_until 60 job_gone "$idb"
+check ttl_finished_job_forgotten "cancelled job still known after 60 s" job_gone "$idb"
+check ttl_unfinished_job_kept "status $(req GET "/v1/jobs/$idt"), $(head -c 200 "$T/body")" \
+    job_state_is "$idt" queued
+gate open
+wait_until 60 job_gone "$idt"
+check ttl_job_forgotten "still known after 60 s" job_gone "$idt"
 stop_rayd TERM
