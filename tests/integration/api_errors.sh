@@ -52,7 +52,7 @@ code=$(curl -s -m 60 -o "$T/body" -w '%{http_code}' -X POST -H 'Content-Type: ap
 ms=$(( ($(date +%s%N) - start) / 1000000 ))
 check body_too_large_before_read "status $code after ${ms} ms" [ "$code" = 413 ]
 # chunked upload without Content-Length that grows too big
-code=$(head -c 300000 /dev/zero | tr '\0' ' ' | curl -s -m 10 -o "$T/body" -w '%{http_code}' -X POST \
+code=$(head -c 300000 /dev/zero | tr '\0' ' ' | curl -s -m 60 -o "$T/body" -w '%{http_code}' -X POST \
     -H 'Content-Type: application/json' -H 'Transfer-Encoding: chunked' --data-binary @- "$URL/v1/render")
 check chunked_too_large_413 "status $code" err_is "$T/body" 413 body_too_large
 scene "$T/huge.json" 2000 1000 1 spheres
@@ -217,9 +217,9 @@ for body in '[' '{"camera": 1}' 'null' '"x"' '{"objects": [{"type": "cube"}]}' \
     python3 -c 'import json,sys; json.load(open(sys.argv[1]))["error"]["code"]' "$T/body" || ok=0
 done
 check garbage_bodies_4xx "a garbage body got a non-4xx answer" [ $ok = 1 ]
-code=$(curl -s -m 5 -o /dev/null -w '%{http_code}' --path-as-is "$URL/../../etc/passwd")
+code=$(curl -s -m 60 -o /dev/null -w '%{http_code}' --path-as-is "$URL/../../etc/passwd")
 check path_traversal_404 "status $code" [ "$code" = 404 ]
-code=$(curl -s -m 5 -o /dev/null -w '%{http_code}' -X BREW "$URL/v1/render")
+code=$(curl -s -m 60 -o /dev/null -w '%{http_code}' -X BREW "$URL/v1/render")
 check odd_method_405 "status $code" [ "$code" = 405 ]
 # malformed HTTP on raw sockets: answered 4xx or closed, never a crash
 python3 - "$PORT" >"$T/raw.txt" <<'PY'

@@ -41,7 +41,7 @@ node_gate_is() {
 # node_count I "METHOD ROUTE" CODE: rayd_http_requests_total of node I (0 if absent)
 node_count() {
     local v method=${2%% *} route=${2#* }
-    v=$(curl -s -m 5 "${AUTH[@]}" "${NODE_URL[$1]}/metrics" |
+    v=$(curl -s -m 60 "${AUTH[@]}" "${NODE_URL[$1]}/metrics" |
         awk -v k="rayd_http_requests_total{route=\"$route\",method=\"$method\",code=\"$3\"} " 'index($0, k) == 1 {print $NF}')
     echo "${v:-0}"
 }
@@ -130,7 +130,7 @@ for k in 1 2 3; do
     [ "$code" = 202 ] && [ -n "$id" ] || { jobs_ok=0 why+=" create $k: $code"; continue; }
     holder=""
     for i in 1 2 3; do
-        [ "$(curl -s -m 10 -o /dev/null -w '%{http_code}' "${AUTH[@]}" "${NODE_URL[$i]}/v1/jobs/$id")" = 200 ] &&
+        [ "$(curl -s -m 60 -o /dev/null -w '%{http_code}' "${AUTH[@]}" "${NODE_URL[$i]}/v1/jobs/$id")" = 200 ] &&
             holder+="${NODE_URL[$i]#http://}"
     done
     [ -n "$holder" ] && [[ $holder != *" "* ]] || { jobs_ok=0 why+=" job $k on '$holder'"; continue; }

@@ -202,7 +202,7 @@ io_case() { # name, redirections as a string
         code=$(curl -s -m 30 -o "$T/io.png" -w '%{http_code}' -H 'Content-Type: application/json' \
             --data-binary @"$T/tiny.json" "http://127.0.0.1:$port/v1/render")
         [ "$code" = 200 ] && is_png "$T/io.png" || ok=0
-        code=$(curl -s -m 5 -o "$T/io.txt" -w '%{http_code}' "http://127.0.0.1:$port/nope")
+        code=$(curl -s -m 60 -o "$T/io.txt" -w '%{http_code}' "http://127.0.0.1:$port/nope")
         [ "$code" = 404 ] && err_is "$T/io.txt" 404 not_found || ok=0
     done
     check "io_${name}_serves" "a request failed" [ "$ok" = 1 ]

@@ -192,7 +192,7 @@ post_json /v1/jobs "$T/ttl2.json" >/dev/null
 idb=$(jfield "$T/body" id)
 code=$(req DELETE "/v1/jobs/$idb")
 check ttl_cancelled_job "status $code" [ "$code" = 200 ]
-job_gone() { [ "$(curl -s -m 10 -o /dev/null -w '%{http_code}' "$URL/v1/jobs/$1")" = 404 ]; }
+job_gone() { [ "$(curl -s -m 60 -o /dev/null -w '%{http_code}' "$URL/v1/jobs/$1")" = 404 ]; }
 wait_until 60 job_gone "$idb"
 check ttl_finished_job_forgotten "cancelled job still known after 60 s" job_gone "$idb"
 check ttl_unfinished_job_kept "status $(req GET "/v1/jobs/$idt"), $(head -c 200 "$T/body")" \

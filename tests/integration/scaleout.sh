@@ -30,7 +30,7 @@ for i in 1 2 3; do start_node $i --threads 2 --test-gate open; done
 # node_count I "METHOD ROUTE" CODE: rayd_http_requests_total of node I (0 if absent)
 node_count() {
     local v method=${2%% *} route=${2#* }
-    v=$(curl -s -m 5 "${NODE_URL[$1]}/metrics" |
+    v=$(curl -s -m 60 "${NODE_URL[$1]}/metrics" |
         awk -v k="rayd_http_requests_total{route=\"$route\",method=\"$method\",code=\"$3\"} " 'index($0, k) == 1 {print $NF}')
     echo "${v:-0}"
 }
@@ -110,7 +110,7 @@ done
 # (Held requests take at most the client's 12 slots: 35 tiles leave the
 # last node its 4 even then.)
 gate() { curl -s -m 30 -o /dev/null -X POST "${NODE_URL[$1]}/v1/test/gate?tiles=$2"; }
-gate_left() { curl -s -m 5 "${NODE_URL[$1]}/v1/test/gate" | sed -n 's/.*"tiles":\([0-9a-z"]*\).*/\1/p'; }
+gate_left() { curl -s -m 60 "${NODE_URL[$1]}/v1/test/gate" | sed -n 's/.*"tiles":\([0-9a-z"]*\).*/\1/p'; }
 gates_spent() { for i in 1 2 3; do [ "$(gate_left $i)" = 0 ] || return 1; done; }
 for i in 1 2 3; do gate $i 4; done
 timeout 200 "$CLIENT" render "$T/b.json" -o "$T/b.png" --tile 64 \

@@ -156,9 +156,9 @@ check exit_0 "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
 start_rayd --max-url 1024 --max-header-bytes 8192
 code=$(req GET "/healthz?$(head -c 2000 /dev/zero | tr '\0' a)")
 check max_url_414 "status $code" err_is "$T/body" 414 uri_too_long
-code=$(curl -s -m 5 -o /dev/null -w '%{http_code}' -H "X-Big: $(head -c 10000 /dev/zero | tr '\0' a)" "$URL/healthz")
+code=$(curl -s -m 60 -o /dev/null -w '%{http_code}' -H "X-Big: $(head -c 10000 /dev/zero | tr '\0' a)" "$URL/healthz")
 check max_header_bytes_431 "status $code" [ "$code" = 431 ]
-code=$(curl -s -m 5 -o /dev/null -w '%{http_code}' -H "X-Ok: $(head -c 2000 /dev/zero | tr '\0' a)" "$URL/healthz")
+code=$(curl -s -m 60 -o /dev/null -w '%{http_code}' -H "X-Ok: $(head -c 2000 /dev/zero | tr '\0' a)" "$URL/healthz")
 check header_under_limit_ok "status $code" [ "$code" = 200 ]
 stop_rayd TERM
 check exit_0_limits "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]

@@ -182,7 +182,7 @@ png_size() { # png_size FILE: "WxH" from the IHDR
     python3 -c 'import struct,sys; d=open(sys.argv[1],"rb").read(24); print("%dx%d" % struct.unpack(">II", d[16:24]))' "$1"
 }
 metric() { # metric NAME_WITH_LABELS: current value from /metrics
-    curl -s -m 10 "$URL/metrics" "${AUTH[@]}" | awk -v k="$1" '$1 == k {print $2}'
+    curl -s -m 60 "$URL/metrics" "${AUTH[@]}" | awk -v k="$1" '$1 == k {print $2}'
 }
 AUTH=()
 # PYTHONPATH for the scripts' Python that reads event streams (sse.py)
