@@ -47,9 +47,8 @@ node_count() {
 }
 
 NG=$T/nginx
-NGPORT=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
-nginx_start "$NG" "$NGPORT" "${NODE_URL[1]#http://}" "${NODE_URL[2]#http://}" "${NODE_URL[3]#http://}"
-URL=http://127.0.0.1:$NGPORT     # req, post_json: through nginx
+nginx_start "$NG" "${NODE_URL[1]#http://}" "${NODE_URL[2]#http://}" "${NODE_URL[3]#http://}"
+URL=http://127.0.0.1:$NGINX_PORT     # req, post_json: through nginx
 wait_until 60 bash -c "[ \"\$(curl -s -o /dev/null -w '%{http_code}' '$URL/healthz')\" = 200 ]"
 check nginx_up "nginx does not answer /healthz on $URL" \
     [ "$(curl -s -o /dev/null -w '%{http_code}' "$URL/healthz")" = 200 ]

@@ -185,14 +185,15 @@ stop_rayd TERM
 check cut_exit_0 "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
 
 # --- the access log on a full disk; stdout or stderr closed --------------------------------------
-freeport() { python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'; }
-wait_up() { wait_until 60 curl -s -m 5 -o /dev/null "http://127.0.0.1:$1/healthz"; } # port
+# rayd's stdout may be closed here, so its port is read from /proc (--port
+# 0: no free port picked first and raced for with other programs)
+rayd_port() { port=$(listen_port "$RAYD_PID"); [ -n "$port" ]; }
 io_case() { # name, redirections as a string
-    local name=$1 redir=$2 port code ok=1 k
-    port=$(freeport)
-    eval "\"\$RAYD\" --bind 127.0.0.1 --port $port --threads 2 $redir &"
+    local name=$1 redir=$2 port= code ok=1 k
+    eval "\"\$RAYD\" --bind 127.0.0.1 --port 0 --threads 2 $redir &"
     RAYD_PID=$!
-    if ! wait_up "$port"; then
+    if ! wait_until 60 rayd_port ||
+        ! wait_until 60 curl -s -m 5 -o /dev/null "http://127.0.0.1:$port/healthz"; then
         fail "io_${name}_up" "rayd did not come up"
         kill -KILL "$RAYD_PID" 2>/dev/null
         RAYD_PID=

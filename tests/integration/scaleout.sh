@@ -40,10 +40,9 @@ node_tiles() { # tiles answered by node I: GET image 200 + POST render 200
 
 # --- nginx with docker/nginx.conf ------------------------------------------------
 NG=$T/nginx
-NGPORT=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
 source "$RAYD_ROOT/tests/integration/lib/nginx.sh"
-nginx_start "$NG" "$NGPORT" "${NODE_URL[1]#http://}" "${NODE_URL[2]#http://}" "${NODE_URL[3]#http://}"
-LB=http://127.0.0.1:$NGPORT
+nginx_start "$NG" "${NODE_URL[1]#http://}" "${NODE_URL[2]#http://}" "${NODE_URL[3]#http://}"
+LB=http://127.0.0.1:$NGINX_PORT
 wait_until 60 bash -c "[ \"\$(curl -s -o /dev/null -w '%{http_code}' '$LB/healthz')\" = 200 ]"
 check nginx_up "nginx does not answer /healthz on $LB" [ "$(curl -s -o /dev/null -w '%{http_code}' "$LB/healthz")" = 200 ]
 

@@ -85,6 +85,29 @@ start_node() {
     NODE_URL[$i]=${BASH_REMATCH[1]}
 }
 
+# listen_port PID: the port of the TCP socket that process PID listens on
+# at 127.0.0.1 (from /proc; empty while it has none).  For servers whose
+# stdout cannot be read: no free port is picked first and then raced for.
+listen_port() {
+    python3 - "$1" <<'PY' 2>/dev/null
+import os, sys
+pid = sys.argv[1]
+inodes = set()
+for fd in os.listdir("/proc/%s/fd" % pid):
+    try:
+        t = os.readlink("/proc/%s/fd/%s" % (pid, fd))
+    except OSError:
+        continue
+    if t.startswith("socket:["):
+        inodes.add(t[8:-1])
+for line in open("/proc/%s/net/tcp" % pid).readlines()[1:]:
+    f = line.split()
+    if f[3] == "0A" and f[9] in inodes and f[1].startswith("0100007F:"):
+        print(int(f[1].split(":")[1], 16))
+        break
+PY
+}
+
 rayd_gone() { ! kill -0 "$RAYD_PID" 2>/dev/null; }
 # stop_rayd [SIGNAL]: signals rayd and waits for it to exit; sets RAYD_RC
 # ("hung" when it was still there after RAYD_STOP_SECONDS, 60 by default: a

@@ -41,25 +41,44 @@ nginx_opts() {
     echo "$g"
 }
 
-# nginx_start DIR PORT ADDR...: (tests only, after common.sh) writes DIR's
+# nginx_start DIR ADDR...: (tests only, after common.sh) writes DIR's
 # config with nginx_conf, checks it (a FAIL line and exit when nginx refuses
-# it), and starts $NGINX in the foreground: NGINX_PID.  The EXIT trap then
-# stops it with TERM before common.sh's cleanup, since nginx's workers
-# outlive a SIGKILLed master.
+# it), and starts $NGINX in the foreground: NGINX_PID, listening on
+# 127.0.0.1:NGINX_PORT.  nginx needs its port in the config, so a free one
+# is picked; should another program take it first, nginx cannot bind and
+# exits, and another port is tried.  The EXIT trap then stops nginx with
+# TERM before common.sh's cleanup, since nginx's workers outlive a
+# SIGKILLed master.
 nginx_start() {
-    local dir=$1 port=$2 opts
-    shift 2
-    nginx_conf "$RAYD_ROOT" "$dir" "$port" "$@"
+    local dir=$1 opts try
+    shift
     opts=$(nginx_opts)
-    if ! "$NGINX" -t -q -p "$dir" -c "$dir/nginx.conf" -e "$dir/log/error.log" -g "$opts" \
-        2>"$T/nginx-t.err"; then
-        echo "FAIL nginx_conf_valid: $(head -c 400 "$T/nginx-t.err")"
+    trap nginx_cleanup EXIT
+    for try in 1 2 3 4 5; do
+        NGINX_PORT=$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
+        nginx_conf "$RAYD_ROOT" "$dir" "$NGINX_PORT" "$@"
+        if ! "$NGINX" -t -q -p "$dir" -c "$dir/nginx.conf" -e "$dir/log/error.log" -g "$opts" \
+            2>"$T/nginx-t.err"; then
+            echo "FAIL nginx_conf_valid: $(head -c 400 "$T/nginx-t.err")"
+            exit 1
+        fi
+        "$NGINX" -p "$dir" -c "$dir/nginx.conf" -e "$dir/log/error.log" -g "$opts" 2>"$T/nginx.err" &
+        NGINX_PID=$!
+        # up: its master listens on the port; or gone (the port was taken)
+        wait_until 60 nginx_listening_or_gone
+        [ "$(listen_port "$NGINX_PID")" = "$NGINX_PORT" ] && break
+        kill -TERM "$NGINX_PID" 2>/dev/null
+        wait "$NGINX_PID" 2>/dev/null
+        NGINX_PID=
+    done
+    if [ -z "$NGINX_PID" ]; then
+        echo "FAIL nginx_start: nginx never listened: $(tail -c 400 "$T/nginx.err" "$dir/log/error.log" 2>/dev/null)"
         exit 1
     fi
     echo "PASS nginx_conf_valid"
-    "$NGINX" -p "$dir" -c "$dir/nginx.conf" -e "$dir/log/error.log" -g "$opts" 2>"$T/nginx.err" &
-    NGINX_PID=$!
-    trap nginx_cleanup EXIT
+}
+nginx_listening_or_gone() {
+    ! kill -0 "$NGINX_PID" 2>/dev/null || [ "$(listen_port "$NGINX_PID")" = "$NGINX_PORT" ]
 }
 nginx_cleanup() {
     kill -TERM "$NGINX_PID" 2>/dev/null && wait "$NGINX_PID" 2>/dev/null
