@@ -145,7 +145,7 @@ try {
   await page.goto(URL + "/", { waitUntil: "load" });
   let opened = false;
   await check("renders_on_open", async () => {
-    await page.waitForFunction(() => window.rayd && window.rayd.stats, null, { timeout: 15000 });
+    await page.waitForFunction(() => window.rayd && window.rayd.stats, null, { timeout: 60000 });
     await waitDone(page, 0, 60000);
     opened = true;
   });
@@ -207,7 +207,7 @@ try {
     await page.check("#auto");
     await page.focus("#scene");
     await page.keyboard.type(" "); // at the caret (the start): still the same scene
-    await waitDone(page, n, 15000);
+    await waitDone(page, n);
     await page.uncheck("#auto");
   });
 
@@ -567,7 +567,7 @@ try {
     const text = await editorText();
     if (text !== edited + "\n") return "typing did not reach the editor";
     const saved = () => page.evaluate(() => JSON.parse(localStorage.getItem("rayd.scene") || "null"));
-    if (!(await until(async () => ((await saved()) || {}).text === text, 10000))) return "the text was not saved";
+    if (!(await until(async () => ((await saved()) || {}).text === text, 60000))) return "the text was not saved";
     await page.reload();
     await waitDone(page, 0);
     const got = await editorText();
@@ -690,8 +690,8 @@ try {
     try {
       // (headless Chromium tells the page of a new ratio only with a new size)
       await cdp.send("Emulation.setDeviceMetricsOverride", { width: 1400, height: 860, deviceScaleFactor: 2, mobile: false });
-      await page.waitForFunction(() => devicePixelRatio === 2, null, { timeout: 10000 });
-      const ok2 = await until(async () => isOneToOne(await size()), 10000);
+      await page.waitForFunction(() => devicePixelRatio === 2, null, { timeout: 60000 });
+      const ok2 = await until(async () => isOneToOne(await size()), 60000);
       const s2 = await size();
       if (!ok2) return `1:1 at ratio 2: ${s2.w} x ${s2.h} for ${s2.iw} x ${s2.ih}`;
     } finally {
@@ -699,7 +699,7 @@ try {
       await cdp.send("Emulation.setDeviceMetricsOverride", { width: 1440, height: 860, deviceScaleFactor: 1, mobile: false });
       await cdp.detach();
     }
-    await page.waitForFunction(() => devicePixelRatio === 1, null, { timeout: 10000 });
+    await page.waitForFunction(() => devicePixelRatio === 1, null, { timeout: 60000 });
     await page.focus("#canvas");
     await page.keyboard.press("1");
     const back = await size();
@@ -726,7 +726,7 @@ try {
           });
         const fits = (g) => g.canvasH >= 100 && g.canvasTop >= g.paneTop && g.stBottom <= g.paneBottom + 1;
         // the canvas is sized to its stage after a resize observer fires: wait for it
-        await until(async () => fits(await geometry()), 5000);
+        await until(async () => fits(await geometry()), 60000);
         const g = await geometry();
         if (!(g.canvasH >= 100)) return `${w} x ${h}: the canvas is ${g.canvasH} px tall`;
         if (g.canvasTop < g.paneTop || g.stBottom > g.paneBottom + 1)
