@@ -1,6 +1,6 @@
 /* pngbench.c -- PNG encoding: libpng (one thread, as rayd encoded before,
  * adaptive filters) against rayd's band encoder at each deflate level and
- * thread count (-1: the default, libdeflate level 2; 1: ISA-L).  Prints the median time of RUNS
+ * thread count (-1: the default, libdeflate level 1; 1: ISA-L).  Prints the median time of RUNS
  * encodes and the size.
  *
  *   build/bench/pngbench IMAGE.png... (`make bench` runs it on renders)
@@ -83,7 +83,7 @@ int main(int argc, char **argv) {
         double tb = median_ms(img, -2, 1, &base);
         printf("%s (%dx%d): libpng level 6, 1 thread: %.1f ms, %zu bytes\n", argv[a],
                rayd_image_width(img), rayd_image_height(img), tb, base);
-        static const int levels[] = {-1, 1, 4, 6}; /* -1: the default (libdeflate 2), 1: ISA-L */
+        static const int levels[] = {-1, 1, 2, 6}; /* -1: the default (libdeflate 1), 1: ISA-L */
         for (size_t l = 0; l < sizeof levels / sizeof levels[0]; l++)
             for (int th = 1; th <= 2; th++) {
                 size_t n;

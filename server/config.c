@@ -88,7 +88,7 @@ static const struct config_option config_table[] = {
     {"job-ttl", "RAYD_JOB_TTL", CT_LONG, &config.job_ttl, "600", 1, 31536000,
      "seconds a finished job (and its PNG) is kept after it was created"},
     {"png-level", "RAYD_PNG_LEVEL", CT_LONG, &config.png_level, "-1", -1, 9,
-     "deflate level of the PNGs, as rayd-render --png-level (-1 = the default, 2; 1 = the fastest)"},
+     "deflate level of the PNGs, as rayd-render --png-level (-1 = the default, libdeflate's 1; 1 = the fastest)"},
     {"max-conns", "RAYD_MAX_CONNS", CT_LONG, &config.max_conns, "4096", 1, 1000000,
      "open connections in all; more wait unaccepted (open-file limit raised to fit)"},
     {"max-conns-per-ip", "RAYD_MAX_CONNS_PER_IP", CT_LONG, &config.max_conns_per_ip, "0", 0,

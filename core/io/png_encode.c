@@ -35,20 +35,24 @@
  * Paeth, the costliest filter, made the output larger under this measure,
  * so it is not tried.
  *
- * Deflate.  With no level asked for (-1), libdeflate level 2.  On the 1080p
- * sphere scene (bench/pngbench.c, 2 threads, Nov 25 2026) it encodes in
- * 24 ms for +7.3% bytes against libpng level 6; zlib level 4 with the
- * filtered strategy, the default before, took 50 ms for +6.5%.  On every
- * example scene it is between -6.3% and +7.3%, inside the promise of at
- * most +15% by default.  libdeflate's level 1 was no faster here and 2-3%
- * larger.  libdeflate cannot end a stream without a final block, so each
- * band but the last is walked once more by deflate_chain (a sixth of the
- * deflate's time) to clear that bit and append the empty stored block.
+ * Deflate.  With no level asked for (-1), libdeflate level 1 (its
+ * hash-table matcher, greedy).  bench/pngbench.c on the example scenes and
+ * the 1080p sphere scene, one thread, Nov 29 2026: the sphere scene in
+ * 34.3 ms for +10.4% bytes against libpng level 6 (253 ms), where
+ * libdeflate's level 2, the default before, took 39.0 ms for +7.5%; every
+ * image within -0.9% and +10.4%, all of them together +5.7% (level 2:
+ * +3.2%), inside the promise of at most +15% by default.  In a whole
+ * render the bands' deflating is then at most a quarter of the tracing's
+ * CPU (bench/README.md).  Zlib level 4 with the filtered strategy, the
+ * default before libdeflate, took 50 ms for +6.5% on two threads.
+ * libdeflate cannot end a stream without a final block, so each
+ * band but the last is walked once more by deflate_chain (a fifth of the
+ * deflate's time at level 1) to clear that bit and append the empty stored block.
  * Levels 0 and 2-9 are libdeflate's, as asked.  Level 1, the fastest, is
  * Intel ISA-L (isal_deflate, level 2, raw deflate with a sync flush or, for
- * the last band, the final block): 1.5x faster than the default and 17x
- * libpng level 6 on the sphere scene for +5% to +21% bytes (+18% there,
- * +21% on paper): ISA-L matches greedily from one hash candidate and misses
+ * the last band, the final block): 2.6x faster than the default and 19x
+ * libpng level 6 on the sphere scene (one thread) for +1% to +21% bytes
+ * (+18% there, +21% on paper): ISA-L matches greedily from one hash candidate and misses
  * the short repeats that lazy matching finds in smooth gradients.  ISA-L
  * level 1, other token buffer sizes, a preset dictionary from the band
  * before and bigram filter measures came within 1% of this and no lower;
@@ -109,12 +113,12 @@
 
 #define PNG_BAND_BYTES (256u * 1024u) /* raw bytes of a band, about */
 #define PNG_MAX_THREADS 64
-#define PNG_ISAL_LEVEL 2    /* ISA-L's level for --png-level 1 (measured) */
-#define PNG_LEVEL_DEFAULT 2 /* libdeflate's level when none is asked for (measured) */
-#define PNG_XLOGX_N 4096    /* counts below this have c log2 c in a table */
-#define PNG_HUGE_MIN ((size_t)256 << 10)        /* an image's raw bytes from which: huge pages */
+#define PNG_ISAL_LEVEL 2                 /* ISA-L's level for --png-level 1 (measured) */
+#define PNG_LEVEL_DEFAULT 1              /* libdeflate's level when none is asked for (measured) */
+#define PNG_XLOGX_N 4096                 /* counts below this have c log2 c in a table */
+#define PNG_HUGE_MIN ((size_t)256 << 10) /* an image's raw bytes from which: huge pages */
 #define PNG_HOLD_BLOCK (((size_t)2 << 20) - 64) /* a block of deflated bands: one huge page */
-#define PNG_CHOOSE_EVERY 4  /* rows of a band whose filter is measured: 0, 4, 8, ... */
+#define PNG_CHOOSE_EVERY 4 /* rows of a band whose filter is measured: 0, 4, 8, ... */
 
 struct png_band {
     int y0, rows;
@@ -178,7 +182,7 @@ static void png_buf_free(struct png_buf *b) {
     b->p = NULL;
 }
 
-/* libdeflate's allocations: its compressor, 668 KB from level 2 on (its
+/* libdeflate's allocations: its compressor, 668 KB from level 2 on, less at 1 (its
  * hash tables cleared for every band), goes into the room a worker's
  * buffer keeps for it (png_ld_room, set around the call), so that one
  * block holds all a worker's memory; anything else on huge pages.  The
@@ -661,8 +665,10 @@ enum rayd_status rayd_png_stream_new(const rayd_image *img, int level, rayd_png_
     if (img->win && (img->px || img->win->keep))
         return err_set(err, RAYD_E_ARG, NULL,
                        "a window image streams only its own render, into one stream");
-    if (level < 0 || level > 9) level = PNG_LEVEL_DEFAULT;
-    if (level == 1) level = -1; /* the fastest: ISA-L (smaller and faster than zlib's 1) */
+    if (level == 1)
+        level = -1; /* asked for the fastest: ISA-L (smaller and faster than zlib's 1) */
+    else if (level < 0 || level > 9)
+        level = PNG_LEVEL_DEFAULT; /* libdeflate's 1, which no --png-level names */
     pthread_once(&png_xlogx_once, xlogx_init);
     size_t rowb = (size_t)img->w * 3 + 1;
     int band_rows = (int)(PNG_BAND_BYTES / rowb);
