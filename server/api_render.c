@@ -179,10 +179,11 @@ void api_scenes_image(struct http_req *r, const char *id)
         return;
     }
     /* the bytes depend on the version that draws them and the deflate
-     * level, not only on the scene and region: a strong ETag names bytes */
-    char key[200], hex[65];
-    snprintf(key, sizeof key, "%s@%d,%d,%d,%d@%s,%ld", id, reg.x, reg.y, reg.w, reg.h,
-             RAYD_VERSION, config.png_level);
+     * that encodes them (library, version, level), not only on the scene
+     * and region: a strong ETag names bytes */
+    char key[240], hex[65];
+    snprintf(key, sizeof key, "%s@%d,%d,%d,%d@%s,%s", id, reg.x, reg.y, reg.w, reg.h, RAYD_VERSION,
+             rayd_png_encoder((int)config.png_level));
     if (cache_hash(key, strlen(key), hex))
         snprintf(r->etag, sizeof r->etag, "\"%s\"", hex);
     const char *inm = http_req_header(r, "If-None-Match");

@@ -660,15 +660,34 @@ static int encode_bands(struct rayd_png_stream *s, int threads) {
     return 0;
 }
 
+/* The deflate a level asked for runs: -1 for ISA-L, else libdeflate's level. */
+static int png_level(int level) {
+    if (level == 1) return -1; /* the fastest: ISA-L (smaller and faster than zlib's 1) */
+    if (level < 0 || level > 9) return PNG_LEVEL_DEFAULT; /* libdeflate's 1, which no level names */
+    return level;
+}
+
+const char *rayd_png_encoder(int level) {
+    static const char *const names[] = {
+#define PNG_LD_NAME(n) "libdeflate " LIBDEFLATE_VERSION_STRING " level " #n
+        PNG_LD_NAME(0), PNG_LD_NAME(1), PNG_LD_NAME(2), PNG_LD_NAME(3), PNG_LD_NAME(4),
+        PNG_LD_NAME(5), PNG_LD_NAME(6), PNG_LD_NAME(7), PNG_LD_NAME(8), PNG_LD_NAME(9),
+#undef PNG_LD_NAME
+    };
+#define PNG_STR(x) #x
+#define PNG_XSTR(x) PNG_STR(x)
+    static const char isal[] = "isa-l " PNG_XSTR(ISAL_MAJOR_VERSION) "." PNG_XSTR(
+        ISAL_MINOR_VERSION) " level " PNG_XSTR(PNG_ISAL_LEVEL);
+    int l = png_level(level);
+    return l < 0 ? isal : names[l];
+}
+
 enum rayd_status rayd_png_stream_new(const rayd_image *img, int level, rayd_png_stream **out,
                                      struct rayd_error *err) {
     if (img->win && (img->px || img->win->keep))
         return err_set(err, RAYD_E_ARG, NULL,
                        "a window image streams only its own render, into one stream");
-    if (level == 1)
-        level = -1; /* asked for the fastest: ISA-L (smaller and faster than zlib's 1) */
-    else if (level < 0 || level > 9)
-        level = PNG_LEVEL_DEFAULT; /* libdeflate's 1, which no --png-level names */
+    level = png_level(level);
     pthread_once(&png_xlogx_once, xlogx_init);
     size_t rowb = (size_t)img->w * 3 + 1;
     int band_rows = (int)(PNG_BAND_BYTES / rowb);

@@ -325,6 +325,11 @@ enum rayd_status rayd_png_encode(const rayd_image *img, int level, void **buf, s
  * same for every thread count. */
 enum rayd_status rayd_png_encode_threads(const rayd_image *img, int level, int threads,
                                          void **buf, size_t *len, struct rayd_error *err);
+/* What, besides the pixels, makes the bytes rayd_png_encode writes at
+ * level: the deflate library, its version and the level it runs at
+ * ("libdeflate 1.14 level 1").  Encoders of one name write the same bytes,
+ * so a cache key or a strong ETag of a PNG names it. */
+const char *rayd_png_encoder(int level);
 /* A PNG encoded while its image is still being drawn: each band of rows is
  * deflated as soon as rayd_png_stream_rows says its rows are final, on the
  * thread that says so, so a render's workers encode between tiles and only

@@ -135,6 +135,32 @@ static rayd_image *pattern(int w, int h, unsigned seed) {
     return img;
 }
 
+/* rayd_png_encoder names what makes the bytes: levels of one name write
+ * the same bytes, and the default (any level out of 0-9) is named apart
+ * from every level the caller can ask for, since its bytes are its own. */
+static void test_encoder_names_the_bytes(void) {
+    rayd_image *img = pattern(300, 90, 7);
+    CHECK(img != NULL, "image");
+    if (!img) return;
+    void *png[12] = {0};
+    size_t len[12] = {0};
+    for (int l = -1; l <= 10; l++) png[l + 1] = reference(img, l, &len[l + 1]);
+    for (int a = -1; a <= 10; a++)
+        for (int b = -1; b <= 10; b++) {
+            bool same_name = !strcmp(rayd_png_encoder(a), rayd_png_encoder(b));
+            bool same_bytes = png[a + 1] && png[b + 1] && len[a + 1] == len[b + 1] &&
+                              !memcmp(png[a + 1], png[b + 1], len[a + 1]);
+            CHECK(!same_name || same_bytes, "levels %d and %d: one name (%s), other bytes", a, b,
+                  rayd_png_encoder(a));
+        }
+    for (int l = 0; l <= 9; l++)
+        CHECK(strcmp(rayd_png_encoder(-1), rayd_png_encoder(l)) != 0,
+              "the default is named as level %d: %s", l, rayd_png_encoder(l));
+    CHECK(!strcmp(rayd_png_encoder(-1), rayd_png_encoder(10)), "10 is not the default");
+    for (int l = 0; l < 12; l++) rayd_free(png[l]);
+    rayd_image_free(img);
+}
+
 struct teller {
     rayd_png_stream *ps;
     int h;
@@ -478,5 +504,6 @@ int main(void) {
     RUN(test_window_finish_without_render);
     RUN(test_window_waits);
     RUN(test_window_cancel_does_not_hang);
+    RUN(test_encoder_names_the_bytes);
     CHECK_EXIT();
 }
