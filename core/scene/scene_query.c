@@ -332,7 +332,8 @@ vec3 scene_transmittance(const rayd_scene *s, const ray *r, double tmax) {
 static void plane_texture_space(const rayd_scene *s, const struct object *o, vec3 pw, vec3 *po,
                                 double *u, double *v) {
     const struct object *src = &s->planes_src[o - s->planes];
-    *po = xform_inv_point(&s->xforms[src->xform], pw);
+    const struct xform *x = src->xform >= 0 && s->xforms ? &s->xforms[src->xform] : NULL;
+    *po = x ? xform_inv_point(x, pw) : pw;
     plane_ops.uv(src, *po, 0, u, v);
 }
 
@@ -361,7 +362,8 @@ void scene_surface(const rayd_scene *s, const ray *r, const struct hit *h, struc
     }
     vec3 po = p; /* object space, for object-space textures */
     if (textured && o->kind == SHAPE_PLANE && o->u.plane.baked) plane_texture_space(s, o, pw, &po, &u, &v);
-    if (o->tex_xform > 0) po = xform_inv_point(&s->xforms[o->tex_xform - 1], pm); /* the csg node's */
+    const struct xform *tx = o->tex_xform > 0 && s->xforms ? &s->xforms[o->tex_xform - 1] : NULL;
+    if (tx) po = xform_inv_point(tx, pm); /* the space of the csg node whose material it is */
     if (x) {
         p = xform_point(x, p);
         n = xform_normal(x, n);
