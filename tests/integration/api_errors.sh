@@ -87,24 +87,6 @@ check content_encoding_identity_ok "status $code" [ "$code" = 200 ]
 # headers: an Expect: 100-continue client is not told to send it; a request
 # without a body is refused as before, its connection kept (pipelined: both
 # answered)
-raw_answers() { # REQUEST (printf escapes): the status lines rayd sends back
-    python3 - "$PORT" "$1" <<'PY'
-import re, socket, sys
-s = socket.create_connection(("127.0.0.1", int(sys.argv[1])))
-s.sendall(sys.argv[2].encode().decode("unicode_escape").encode("latin-1"))
-s.settimeout(20)
-got = b""
-try:
-    while True:
-        d = s.recv(65536)
-        if not d:
-            break
-        got += d
-except OSError:
-    pass
-print(" ".join(m.decode() for m in re.findall(rb"HTTP/1\.1 \d{3}", got)))
-PY
-}
 expect_body='Host: x\r\nContent-Type: application/json\r\nContent-Length: 1000\r\nExpect: 100-continue\r\n\r\n'
 got=$(raw_answers "POST /nope HTTP/1.1\r\n$expect_body")
 check body_to_unknown_path_404_first "answers '$got'" [ "$got" = "HTTP/1.1 404" ]

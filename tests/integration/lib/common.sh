@@ -108,6 +108,29 @@ for line in open("/proc/%s/net/tcp" % pid).readlines()[1:]:
 PY
 }
 
+# raw_answers REQUEST: sends REQUEST (printf-style escapes: \r\n) to rayd
+# on one raw connection and prints the status lines that come back
+# ("HTTP/1.1 401 HTTP/1.1 200"): for pipelining, Expect and early refusals,
+# which curl hides.
+raw_answers() {
+    python3 - "$PORT" "$1" <<'PY'
+import re, socket, sys
+s = socket.create_connection(("127.0.0.1", int(sys.argv[1])))
+s.sendall(sys.argv[2].encode().decode("unicode_escape").encode("latin-1"))
+s.settimeout(60)
+got = b""
+try:
+    while True:
+        d = s.recv(65536)
+        if not d:
+            break
+        got += d
+except OSError:
+    pass
+print(" ".join(m.decode() for m in re.findall(rb"HTTP/1\.1 \d{3}", got)))
+PY
+}
+
 rayd_gone() { ! kill -0 "$RAYD_PID" 2>/dev/null; }
 # stop_rayd [SIGNAL]: signals rayd and waits for it to exit; sets RAYD_RC
 # ("hung" when it was still there after RAYD_STOP_SECONDS, 60 by default: a
