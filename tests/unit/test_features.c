@@ -187,6 +187,15 @@ static void test_instances_share_geometry(void) {
     rayd_scene_free(b);
 }
 
+/* The surface a ray straight down from (x, 5, z) meets: false if none. */
+static bool surface_below(const rayd_scene *s, double x, double z, struct surface *sf) {
+    ray r = {v3(x, 5, z), v3(0, -1, 0)};
+    struct hit h;
+    if (!scene_intersect(s, &r, INFINITY, &h)) return false;
+    scene_surface(s, &r, &h, sf);
+    return true;
+}
+
 static void test_checker_texture_in_world_space(void) {
     /* looking straight down at a checkered plane: cells of 1/scale = 0.5 */
     const char *json =
@@ -202,14 +211,11 @@ static void test_checker_texture_in_world_space(void) {
     for (int j = 0; j < 64; j += 3)
         for (int i = 0; i < 64; i += 3) {
             double x = 2.0 * ((i + 0.5) - 32) / 32, z = -2.0 * (32 - (j + 0.5)) / 32;
-            ray r = {v3(x, 5, z), v3(0, -1, 0)};
-            struct hit h;
             struct surface sf;
-            if (!scene_intersect(s, &r, INFINITY, &h)) {
+            if (!surface_below(s, x, z, &sf)) {
                 bad++;
                 continue;
             }
-            scene_surface(s, &r, &h, &sf);
             long k = (long)floor(2 * x + 1e-9) + (long)floor(2 * z + 1e-9);
             if (fabs(fmod(2 * x, 1)) < 1e-6 || fabs(fmod(2 * z, 1)) < 1e-6) continue;
             bad += (k & 1) ? sf.color.z != 1 : sf.color.x != 1;
@@ -231,14 +237,11 @@ static void test_object_space_texture_follows_a_plane_transform(void) {
     int bad = 0, n = 0;
     for (double x = -2.95; x < 3; x += 0.3)
         for (double z = -2.95; z < 3; z += 0.3) {
-            ray r = {v3(x, 5, z), v3(0, -1, 0)};
-            struct hit h;
             struct surface sf;
-            if (!scene_intersect(s, &r, INFINITY, &h)) {
+            if (!surface_below(s, x, z, &sf)) {
                 bad++;
                 continue;
             }
-            scene_surface(s, &r, &h, &sf);
             long k = (long)floor(-z / 2);
             bad += (k & 1) ? sf.color.z != 1 : sf.color.x != 1;
             n++;
