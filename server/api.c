@@ -54,20 +54,28 @@ static void api_q_each(void *u, const char *k, const char *v)
         snprintf(q->unknown, sizeof q->unknown, "%s", k);
 }
 
-/* A decimal integer (an optional '-', then digits only) into *out.  Past
- * nine significant digits the value is kept as +-1e9, beyond any image, so
- * the range checks name a huge number as out of range, not as "not an
- * integer" (w=4294967297 is a decimal integer). */
-static bool api_int(const char *s, long *out)
+/* A decimal integer (an optional '-', then digits only) in the n bytes at
+ * s into *out.  Past nine significant digits the value is kept as +-1e9,
+ * beyond any image or sample count, so the range checks name a huge number
+ * as out of range, not as "not an integer" (w=4294967297 is a decimal
+ * integer). */
+static bool api_int_n(const char *s, size_t n, long *out)
 {
-    const char *p = s + (*s == '-');
-    if (!*p || p[strspn(p, "0123456789")])
+    bool neg = n > 0 && *s == '-';
+    const char *p = s + neg;
+    size_t len = n - neg;
+    if (!len || strspn(p, "0123456789") < len)
         return false;
-    p += strspn(p, "0");
-    long v = strlen(p) > 9 ? 1000000000L : strtol(p, NULL, 10);
-    *out = *s == '-' ? -v : v;
+    for (; len > 1 && *p == '0'; len--)
+        p++;
+    long v = len > 9 ? 1000000000L : 0;
+    for (size_t i = 0; len <= 9 && i < len; i++)
+        v = v * 10 + (p[i] - '0');
+    *out = neg ? -v : v;
     return true;
 }
+
+static bool api_int(const char *s, long *out) { return api_int_n(s, strlen(s), out); }
 
 /* 400 bad_parameter for a query parameter the route does not take,
  * listing those it does. */
@@ -255,7 +263,6 @@ static bool api_samples_of(struct http_req *r, const rayd_scene *scene, const st
     char msg[200];
     const char *why = NULL;
     long k0 = -1, k1 = -1;
-    char a[16] = "", b[16] = "";
     const char *dash = q->samples ? strchr(q->samples, '-') : NULL;
     if (q->samples_count > 1)
         why = "given more than once";
@@ -263,17 +270,14 @@ static bool api_samples_of(struct http_req *r, const rayd_scene *scene, const st
         why = "only with format=sums";
     else if (what->format == WORK_SUMS && !q->samples)
         why = "format=sums needs a range samples=K0-K1";
-    else if (q->samples && (!dash || dash - q->samples >= 10 || strlen(dash + 1) >= 10))
+    else if (q->samples && (!dash || !api_int_n(q->samples, (size_t)(dash - q->samples), &k0) ||
+                            !api_int(dash + 1, &k1)))
         why = "must be K0-K1, two decimal sample numbers";
-    if (!why && q->samples) {
-        snprintf(a, sizeof a, "%.*s", (int)(dash - q->samples), q->samples);
-        snprintf(b, sizeof b, "%s", dash + 1);
-        if (!api_int(a, &k0) || !api_int(b, &k1) || k0 < 0 || k1 <= k0 || k1 > info.samples) {
-            snprintf(msg, sizeof msg, "samples: must be K0-K1 with 0 <= K0 < K1 <= %d (render.samples)",
-                     info.samples);
-            http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, "samples");
-            return false;
-        }
+    if (!why && q->samples && (k0 < 0 || k1 <= k0 || k1 > info.samples)) {
+        snprintf(msg, sizeof msg,
+                 "samples: must be K0-K1 with 0 <= K0 < K1 <= %d (render.samples)", info.samples);
+        http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, "samples");
+        return false;
     }
     if (why) {
         snprintf(msg, sizeof msg, "samples: %s", why);

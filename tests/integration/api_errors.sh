@@ -159,6 +159,20 @@ region_range region_uint32_wrap_out_of_range "x=0&y=0&w=4294967297&h=1" w
 region_range region_huge_negative_out_of_range "x=-99999999999&y=0&w=1&h=1" x
 code=$(post_json "/v1/render?x=0000000000001&y=0&w=1&h=1" "$T/small.json")
 check region_leading_zeros "status $code $(head -c 200 "$T/body")" [ "$code" = 200 ]
+# a sample range of decimal integers, however large, is out of range; only
+# a range that is not two decimal integers is "K0-K1, two decimal numbers"
+samples_bad() { # name query message-start
+    local code
+    code=$(post_json "/v1/render?format=sums&$2" "$T/small.json")
+    check "$1" "status $code $(cat "$T/body")" \
+        bash -c "[ $code = 400 ] && grep -q '\"message\":\"samples: $3' '$T/body'"
+}
+samples_bad samples_huge_out_of_range "samples=0-99999999999" "must be K0-K1 with 0 <= K0 < K1 <= 1 "
+samples_bad samples_huge_k0_out_of_range "samples=99999999999-1" "must be K0-K1 with 0"
+samples_bad samples_not_numbers "samples=0-x" "must be K0-K1, two decimal"
+samples_bad samples_no_dash "samples=5" "must be K0-K1, two decimal"
+code=$(post_json "/v1/render?format=sums&samples=00000000000-0000000000001" "$T/small.json")
+check samples_leading_zeros "status $code $(head -c 200 "$T/body")" [ "$code" = 200 ]
 code=$(post_json "/v1/render?x=0&y=0&w=1&h=1&zoom=2" "$T/small.json")
 check unknown_query_param_400 "status $code" bash -c "[ $code = 400 ] && grep -q zoom '$T/body'"
 code=$(post_json /v1/scenes "$T/small.json")
