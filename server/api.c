@@ -463,6 +463,18 @@ bool api_scene(struct http_req *r, struct cache_entry **out, bool *hit)
     return true;
 }
 
+bool api_is_decimal(const char *s, bool point)
+{
+    size_t digits = strspn(s, "0123456789");
+    const char *p = s + digits;
+    if (point && *p == '.') {
+        size_t frac = strspn(p + 1, "0123456789");
+        digits += frac;
+        p += 1 + frac;
+    }
+    return digits > 0 && !*p;
+}
+
 bool api_is_hex(const char *s, size_t n)
 {
     if (strlen(s) != n)

@@ -39,6 +39,10 @@ bool api_require_json(struct http_req *r);
 bool api_only_params(struct http_req *r, const char *const *names);
 /* s is exactly n lowercase hex digits (a scene id is 64, a job id 32). */
 bool api_is_hex(const char *s, size_t n);
+/* Whether s is a plain decimal number as a query parameter takes it: digits
+ * with at most one '.', at least one digit; no sign, exponent, space, hex,
+ * "inf" or "nan" (which strtod would take).  Integers too when !point. */
+bool api_is_decimal(const char *s, bool point);
 /* The one place where a core status becomes an HTTP status and code. */
 unsigned api_status_of(enum rayd_status s);
 void api_reply_rayd_error(struct http_req *r, const struct rayd_error *err);

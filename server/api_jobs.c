@@ -39,7 +39,8 @@ static bool api_plan_bad(struct http_req *r, const char *name, const char *why)
     return false;
 }
 
-/* A decimal number in (0, max] from ?name=, if given. */
+/* A decimal number in (0, max] from ?name=, if given: digits and a point
+ * only (api_is_decimal), so 0x10, 1e3, inf and " 5" are refused. */
 static bool api_plan_number(struct http_req *r, const char *name, double max, double *out)
 {
     const char *v = http_req_query(r, name);
@@ -47,9 +48,9 @@ static bool api_plan_number(struct http_req *r, const char *name, double max, do
         return true;
     char *end = NULL;
     double x = strtod(v, &end);
-    if (!*v || *end || !(x > 0 && x <= max)) {
-        char why[80];
-        snprintf(why, sizeof why, "must be a number above 0 and at most %g", max);
+    if (!api_is_decimal(v, true) || *end || !(x > 0 && x <= max)) {
+        char why[100];
+        snprintf(why, sizeof why, "must be a decimal number above 0 and at most %g", max);
         return api_plan_bad(r, name, why);
     }
     *out = x;
@@ -271,8 +272,8 @@ static void api_jobs_pass_image(struct http_req *r, const char *id, const char *
     snprintf(range, sizeof range, "must be a pass number of this job, 1..%d", info.passes.total);
     const char *why = http_req_query_count(r, "pass") > 1 ? "given more than once"
                       : !info.progressive                 ? "only a progressive job has passes"
-                      : !*q || *end || k < 1 || k > info.passes.total ? range
-                                                                      : NULL;
+                      : !api_is_decimal(q, false) || *end || k < 1 || k > info.passes.total ? range
+                                                                                            : NULL;
     if (why) {
         api_plan_bad(r, "pass", why);
         return;

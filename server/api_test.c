@@ -64,7 +64,7 @@ void api_test_gate_post(struct http_req *r, const char *id)
     long n = v ? strtol(v, &end, 10) : 0;
     if (v && !strcmp(v, "open")) {
         n = -1;
-    } else if (!v || errno || end == v || *end || n < 0 || n > 1000000000L) {
+    } else if (!v || !api_is_decimal(v, false) || errno || *end || n > 1000000000L) {
         http_reply_error(r, 400, "bad_parameter", "tiles must be 'open' or an integer >= 0", NULL,
                          0, 0, "tiles");
         return;

@@ -75,6 +75,12 @@ done
 code=$(req GET "/v1/jobs/$id/image.png?pass=99")
 check pass_past_last_names_count "status $code $(head -c 200 "$T/body")" \
     bash -c "[ $code = 400 ] && grep -q 'pass number of this job, 1..3' '$T/body'"
+# a pass number is decimal digits only, as every number of the query
+for p in 0x1 %2B1 %201 1.0; do
+    code=$(req GET "/v1/jobs/$id/image.png?pass=$p")
+    check "pass_not_decimal_$p" "status $code $(head -c 200 "$T/body")" \
+        bash -c "[ $code = 400 ] && grep -q '\"parameter\":\"pass\"' '$T/body'"
+done
 code=$(req GET "/v1/jobs/$id/image.png?pass=1&pass=2")
 check pass_twice_400 "status $code $(head -c 200 "$T/body")" \
     bash -c "[ $code = 400 ] && grep -q 'pass: given more than once' '$T/body'"
@@ -157,7 +163,11 @@ for q in "progressive=2:progressive" "pass_step=2:pass_step" "progressive=1&pass
     "progressive=1&pass_step=-1:pass_step" "progressive=1&noise_target=2:noise_target" \
     "progressive=1&time_budget=abc:time_budget" "progressive=1&colour=red:colour" \
     "progressive=1&noise_target=0.5&noise_target=abc:noise_target" \
-    "progressive=1&pass_step=2&pass_step=3:pass_step" "progressive=1&progressive=1:progressive"; do
+    "progressive=1&pass_step=2&pass_step=3:pass_step" "progressive=1&progressive=1:progressive" \
+    "progressive=1&time_budget=0x10:time_budget" "progressive=1&time_budget=inf:time_budget" \
+    "progressive=1&time_budget=1e1:time_budget" "progressive=1&time_budget=%2B5:time_budget" \
+    "progressive=1&time_budget=%205:time_budget" "progressive=1&noise_target=nan:noise_target" \
+    "progressive=1&pass_step=0x2:pass_step"; do
     code=$(post_json "/v1/jobs?${q%%:*}" "$T/p8.json")
     check "bad_option_${q%%:*}" "status $code $(head -c 200 "$T/body")" bad_option "$code" "${q##*:}"
     case $q in *"${q##*:}="*"${q##*:}="*)
