@@ -422,18 +422,20 @@ char *metrics_text(size_t *len)
                    "# TYPE rayd_cache_entries gauge\nrayd_cache_entries %ld\n",
                    atomic_load(&metrics_hits), atomic_load(&metrics_misses),
                    metrics_read(MG_CACHE_BYTES), metrics_read(MG_CACHE_ENTRIES));
-    metrics_printf(&b,
-                   "# HELP rayd_result_cache_hits_total Renders answered from finished PNGs.\n"
-                   "# TYPE rayd_result_cache_hits_total counter\nrayd_result_cache_hits_total %lu\n"
-                   "# HELP rayd_result_cache_misses_total Renders not found finished.\n"
-                   "# TYPE rayd_result_cache_misses_total counter\n"
-                   "rayd_result_cache_misses_total %lu\n"
-                   "# HELP rayd_result_cache_bytes Memory held by finished PNGs.\n"
-                   "# TYPE rayd_result_cache_bytes gauge\nrayd_result_cache_bytes %ld\n"
-                   "# HELP rayd_result_cache_entries Finished PNGs kept.\n"
-                   "# TYPE rayd_result_cache_entries gauge\nrayd_result_cache_entries %ld\n",
-                   atomic_load(&metrics_rhits), atomic_load(&metrics_rmisses),
-                   metrics_read(MG_RESULT_CACHE_BYTES), metrics_read(MG_RESULT_CACHE_ENTRIES));
+    metrics_printf(
+        &b,
+        "# HELP rayd_result_cache_hits_total Renders answered from finished PNGs.\n"
+        "# TYPE rayd_result_cache_hits_total counter\nrayd_result_cache_hits_total %lu\n"
+        "# HELP rayd_result_cache_misses_total Renders looked up in the result cache and not "
+        "found (none while it is off).\n"
+        "# TYPE rayd_result_cache_misses_total counter\n"
+        "rayd_result_cache_misses_total %lu\n"
+        "# HELP rayd_result_cache_bytes Memory held by finished PNGs.\n"
+        "# TYPE rayd_result_cache_bytes gauge\nrayd_result_cache_bytes %ld\n"
+        "# HELP rayd_result_cache_entries Finished PNGs kept.\n"
+        "# TYPE rayd_result_cache_entries gauge\nrayd_result_cache_entries %ld\n",
+        atomic_load(&metrics_rhits), atomic_load(&metrics_rmisses),
+        metrics_read(MG_RESULT_CACHE_BYTES), metrics_read(MG_RESULT_CACHE_ENTRIES));
     metrics_printf(&b, "# HELP rayd_rejections_total Requests refused before any work.\n"
                        "# TYPE rayd_rejections_total counter\n");
     for (int i = 0; i < MR__COUNT; i++)

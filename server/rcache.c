@@ -40,6 +40,8 @@ void rcache_init(size_t budget_bytes)
     lru_init(&rcache_lru, rcache_table, RCACHE_BUCKETS, budget_bytes, rcache_evicted);
 }
 
+bool rcache_on(void) { return rcache_lru.budget > 0; }
+
 struct blob *rcache_get(const char *key)
 {
     struct rcache_item *it = (struct rcache_item *)lru_find(&rcache_lru, key);

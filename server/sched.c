@@ -430,7 +430,10 @@ void sched_stop(void)
 
 /* ---- synchronous renders ------------------------------------------------------ */
 
-/* The finished PNG of (scene, reg) from the result cache, referenced, or NULL. */
+/* The finished PNG of (scene, reg) from the result cache, referenced, or
+ * NULL.  A hit or miss is counted only while the cache is on: with
+ * --result-cache-mb 0 there is nothing to look in, and a miss counted for
+ * every render would read as a cache that never helps. */
 static struct blob *sched_result_find(const struct cache_entry *scene,
                                       const struct work_target *what)
 {
@@ -438,8 +441,10 @@ static struct blob *sched_result_find(const struct cache_entry *scene,
     task_key(key, sizeof key, cache_id(scene), what);
     pthread_mutex_lock(&work_lock);
     struct blob *b = rcache_get(key);
+    bool on = rcache_on();
     pthread_mutex_unlock(&work_lock);
-    metrics_result_cache(b != NULL);
+    if (on)
+        metrics_result_cache(b != NULL);
     return b;
 }
 

@@ -75,6 +75,7 @@ void cache_free_all(void);
 /* ---- rcache.c (lock held) ------------------------------------------------------ */
 
 void rcache_init(size_t budget_bytes);
+bool rcache_on(void);                     /* --result-cache-mb above 0 */
 struct blob *rcache_get(const char *key); /* refs the PNG */
 void rcache_put(const char *key, struct blob *png);
 void rcache_stats(size_t *bytes, size_t *entries);

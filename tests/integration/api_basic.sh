@@ -141,6 +141,9 @@ for k in 1 2; do
 done
 check no_result_cache_renders "status $code, renders $(metric rayd_render_seconds_count)" \
     bash -c "[ $code = 200 ] && cmp -s '$T/body' '$T/ref_r.png' && [ \"\$(curl -s '$URL/metrics' | awk '\$1==\"rayd_render_seconds_count\"{print \$2}')\" = 2 ]"
+# with the cache off nothing is looked up: no hit and no miss is counted
+check no_result_cache_no_misses "misses $(metric rayd_result_cache_misses_total), hits $(metric rayd_result_cache_hits_total)" \
+    bash -c "[ '$(metric rayd_result_cache_misses_total)' = 0 ] && [ '$(metric rayd_result_cache_hits_total)' = 0 ]"
 stop_rayd TERM
 # --- environment ------------------------------------------------------------------
 RAYD_QUEUE=7 start_rayd
