@@ -6,6 +6,11 @@
  * while the estimated backlog is over --max-backlog seconds (cost.c), so a
  * load balancer stops sending work before requests are refused or wait for
  * long; 200 otherwise, with the backlog.  Both stay open without a token so probes need no secret.
+ * A table of --max-jobs jobs all unfinished refuses POST /v1/jobs (503
+ * queue_full) but not renders, which a balancer should still send here:
+ * /readyz stays 200 and says so in "jobs_refused", beside the jobs counted
+ * ("jobs" unfinished of "max_jobs"), so an operator or a job client sees
+ * why.
  * /metrics is the Prometheus text of metrics.c.
  */
 #include "api.h"
@@ -22,6 +27,22 @@ void api_health_live(struct http_req *r, const char *id)
     /* a frame is stitched from one version only: rayd-client health says so */
     cJSON_AddStringToObject(o, "version", RAYD_VERSION);
     http_reply_json(r, 200, o);
+}
+
+/* "jobs", "max_jobs", and "jobs_refused" while POST /v1/jobs is refused
+ * because every job kept is unfinished (jobs.c evicts finished ones only). */
+static void api_health_jobs(cJSON *o, const struct sched_stats *st)
+{
+    cJSON_AddNumberToObject(o, "jobs", (double)st->jobs_unfinished);
+    cJSON_AddNumberToObject(o, "max_jobs", (double)st->jobs_cap);
+    if (st->jobs_unfinished < st->jobs_cap)
+        return;
+    char msg[200];
+    snprintf(msg, sizeof msg,
+             "all %ld jobs kept (--max-jobs) are unfinished: POST /v1/jobs answers 503 "
+             "queue_full until one ends; renders are accepted",
+             st->jobs_cap);
+    cJSON_AddStringToObject(o, "jobs_refused", msg);
 }
 
 void api_health_ready(struct http_req *r, const char *id)
@@ -55,6 +76,7 @@ void api_health_ready(struct http_req *r, const char *id)
     cJSON_AddNumberToObject(o, "workers", (double)st.workers);
     cJSON_AddNumberToObject(o, "busy", (double)st.busy_workers);
     json_add_fixed(o, "backlog_s", st.backlog_s, 3);
+    api_health_jobs(o, &st);
     http_reply_json(r, 200, o);
 }
 

@@ -105,6 +105,15 @@ void jobs_expire(double now)
     }
 }
 
+void jobs_count(long *unfinished, long *cap)
+{
+    long n = 0;
+    for (int i = 0; i < jobs_n; i++)
+        n += !jobs_final(jobs_table[i]);
+    *unfinished = n;
+    *cap = jobs_max;
+}
+
 /* Makes room in the table by forgetting the oldest finished job. */
 static bool jobs_evict(void)
 {

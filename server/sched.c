@@ -527,5 +527,6 @@ void sched_stats(struct sched_stats *st)
     st->queue_cap = task_queue_cap;
     st->workers = sched_nworkers;
     st->busy_workers = sched_busy;
+    jobs_count(&st->jobs_unfinished, &st->jobs_cap);
     pthread_mutex_unlock(&work_lock);
 }

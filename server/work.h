@@ -113,7 +113,8 @@ void sched_cancel_all(void); /* cancel every task (drain deadline) */
 bool sched_idle(void);       /* no task queued or running */
 struct sched_stats {
     long queued, queue_cap, workers, busy_workers;
-    double backlog_s; /* sched_backlog() */
+    long jobs_unfinished, jobs_cap; /* POST /v1/jobs is refused when they are equal */
+    double backlog_s;               /* sched_backlog() */
 };
 void sched_stats(struct sched_stats *st);
 

@@ -255,6 +255,8 @@ struct job {
     int refs; /* the table + open event streams */
 };
 int jobs_start(int max_jobs); /* any lock */
+/* The jobs not finished and the --max-jobs the table holds; lock held. */
+void jobs_count(long *unfinished, long *cap);
 void jobs_stop(void);         /* after the workers and the watcher have stopped */
 struct job *jobs_find(const char *id);
 enum jobs_state jobs_state(const struct job *j);

@@ -201,3 +201,30 @@ gate open
 wait_until 60 job_gone "$idt"
 check ttl_job_forgotten "still known after 60 s" job_gone "$idt"
 stop_rayd TERM
+
+# --- a full job table: /readyz stays 200 (renders are accepted) and says why jobs are not ------
+# The gate holds both jobs unfinished, so the table of --max-jobs 2 is full
+# of jobs that cannot be evicted, while the render queue (--queue 8) is not.
+start_rayd --max-jobs 2 --queue 8 --test-gate 0
+scene "$T/f1.json" 32 32 1 spheres 7
+scene "$T/f2.json" 32 32 1 spheres 8
+scene "$T/f3.json" 32 32 1 spheres 9
+post_json /v1/jobs "$T/f1.json" >/dev/null
+idf1=$(jfield "$T/body" id)
+code=$(req GET /readyz)
+check readyz_jobs_room "status $code $(cat "$T/body")" bash -c \
+    "[ $code = 200 ] && [ '$(jfield "$T/body" jobs)' = 1 ] && [ '$(jfield "$T/body" max_jobs)' = 2 ] && ! grep -q jobs_refused '$T/body'"
+post_json /v1/jobs "$T/f2.json" >/dev/null
+code=$(post_json /v1/jobs "$T/f3.json")
+check jobs_table_full_503 "status $code $(head -c 200 "$T/body")" err_is "$T/body" 503 queue_full
+code=$(req GET /readyz)
+check readyz_says_jobs_refused "status $code $(cat "$T/body")" bash -c \
+    "[ $code = 200 ] && [ '$(jfield "$T/body" status)' = ready ] && [ '$(jfield "$T/body" jobs)' = 2 ] && grep -q '\"jobs_refused\":\"all 2 jobs kept (--max-jobs) are unfinished' '$T/body'"
+req DELETE "/v1/jobs/$idf1" >/dev/null
+code=$(req GET /readyz)
+check readyz_jobs_room_again "status $code $(cat "$T/body")" bash -c \
+    "[ $code = 200 ] && [ '$(jfield "$T/body" jobs)' = 1 ] && ! grep -q jobs_refused '$T/body'"
+code=$(post_json /v1/jobs "$T/f3.json")
+check job_accepted_again "status $code" [ "$code" = 202 ]
+gate open
+stop_rayd TERM
