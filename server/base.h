@@ -124,6 +124,7 @@ enum metrics_reject {
     MR_BODY_TOO_LARGE,
     MR_UNAUTHORIZED,
     MR_OVER_BUDGET, /* --max-work */
+    MR_HTTP_PARSER, /* answered with an error by libmicrohttpd itself */
     MR__COUNT
 };
 enum metrics_cancel { MC_CLIENT_GONE, MC_DELETE, MC_DRAIN, MC_DEADLINE, MC__COUNT };

@@ -13,6 +13,21 @@
  * read headers and suspend a connection without naming libmicrohttpd's
  * connection type, the access and completion callbacks that call the flow,
  * and the daemon's options (connection limits, timeouts, TLS) from config.
+ *
+ * Requests libmicrohttpd refuses by itself, with an error page of its own,
+ * are seen three ways.  Each refusal is one message to the external logger
+ * ("Error processing request (HTTP response code is 431 ...)"): the only
+ * hook that sees them all, so it counts them (rayd_rejections_total
+ * {reason="http_parser"}), but it names no connection.  One whose target
+ * was read (headers over --max-header-bytes, no Host, a malformed chunk)
+ * then reaches the completion callback, which asks libmicrohttpd for the
+ * status it queued (MHD_CONNECTION_INFO_HTTP_STATUS).  One refused on its
+ * request line (over --max-header-bytes: 414, a bad line: 400, an unknown
+ * version: 505) never becomes a request: libmicrohttpd closes the
+ * connection next, in the thread that logged, so the status is kept per
+ * thread until that connection's close (MHD_OPTION_NOTIFY_CONNECTION) or a
+ * completion takes it.  A line libmicrohttpd drops without a message (a
+ * space inside the target, bytes that are not HTTP) is seen by no hook.
  */
 #include "transport.h"
 
@@ -121,6 +136,27 @@ static const struct http_io http_mhd_io = {http_mhd_header,  http_mhd_header_eac
  * note), so that line goes to debug. */
 static _Thread_local bool http_dropped;
 
+/* The status of libmicrohttpd's last own error answer in this thread, until
+ * the refused request's completion or its connection's close takes it. */
+static _Thread_local unsigned http_refused;
+
+/* The error status libmicrohttpd queued on c by itself, 0 if none (or if
+ * this libmicrohttpd cannot say: then the one its message named). */
+static unsigned http_refused_status(struct MHD_Connection *c)
+{
+    unsigned st = http_refused;
+#if MHD_VERSION >= 0x00097400
+    const union MHD_ConnectionInfo *ci =
+        MHD_get_connection_info(c, MHD_CONNECTION_INFO_HTTP_STATUS);
+    st = ci && ci->http_status >= 400 ? ci->http_status : 0;
+#else
+    (void)c;
+#endif
+    if (st)
+        http_refused = 0;
+    return st;
+}
+
 static enum MHD_Result http_drop(void)
 {
     http_dropped = true;
@@ -152,6 +188,21 @@ static void *http_uri_log(void *cls, const char *uri, struct MHD_Connection *c)
         http_client_address(c, r->client, sizeof r->client);
     }
     return r;
+}
+
+/* A connection closing with an error of libmicrohttpd's still untaken: its
+ * request line was refused, so no request reached rayd; its access line. */
+static void http_connection(void *cls, struct MHD_Connection *c, void **socket_ctx,
+                            enum MHD_ConnectionNotificationCode what)
+{
+    (void)cls;
+    (void)socket_ctx;
+    if (what != MHD_CONNECTION_NOTIFY_CLOSED || !http_refused)
+        return;
+    char client[64];
+    http_client_address(c, client, sizeof client);
+    http_flow_refused(client, http_refused);
+    http_refused = 0;
 }
 
 static enum MHD_Result http_access(void *cls, struct MHD_Connection *c, const char *url,
@@ -197,6 +248,8 @@ static void http_completed(void *cls, struct MHD_Connection *c, void **con_cls,
     *con_cls = NULL;
     if (!r)
         return;
+    if (!r->method || !r->replied)
+        r->refused_status = http_refused_status(c);
     const char *note = NULL;
     if (toe != MHD_REQUEST_TERMINATED_COMPLETED_OK)
         note = toe == MHD_REQUEST_TERMINATED_TIMEOUT_REACHED ? "timeout"
@@ -211,6 +264,19 @@ static void http_completed(void *cls, struct MHD_Connection *c, void **con_cls,
 static pthread_mutex_t http_start_lock = PTHREAD_MUTEX_INITIALIZER;
 static bool http_starting;
 static char http_start_why[512]; /* as long as http_mhd_log's line */
+
+/* A message of libmicrohttpd's saying it answered a request with an error
+ * page of its own: counted, and the status kept for the access line. */
+static void http_mhd_refusal(const char *msg)
+{
+    static const char said[] = "HTTP response code is ";
+    const char *p = strstr(msg, said);
+    if (!p || strncmp(msg, "Error processing request", 24))
+        return;
+    unsigned long st = strtoul(p + sizeof said - 1, NULL, 10);
+    metrics_reject(MR_HTTP_PARSER);
+    http_refused = st >= 400 && st <= 599 ? (unsigned)st : 400;
+}
 
 /* libmicrohttpd's own messages (malformed requests, ...) go through log.c so
  * --log-format json keeps every stderr line JSON. */
@@ -230,6 +296,7 @@ static void http_mhd_log(void *cls, const char *fmt, va_list ap)
     pthread_mutex_unlock(&http_start_lock);
     if (keep)
         return;
+    http_mhd_refusal(msg);
     bool dropped = http_dropped && !strncmp(msg, "Application reported internal error", 35);
     http_dropped = false;
     if (dropped)
@@ -394,6 +461,7 @@ int http_start(void)
     http_opt(&o, MHD_OPTION_CONNECTION_TIMEOUT, config.timeout, NULL);
     http_opt(&o, MHD_OPTION_NOTIFY_COMPLETED, (intptr_t)http_completed, NULL);
     http_opt(&o, MHD_OPTION_URI_LOG_CALLBACK, (intptr_t)http_uri_log, NULL);
+    http_opt(&o, MHD_OPTION_NOTIFY_CONNECTION, (intptr_t)http_connection, NULL);
     http_opt(&o, MHD_OPTION_CONNECTION_LIMIT, http_conn_limit(), NULL);
     http_opt(&o, MHD_OPTION_PER_IP_CONNECTION_LIMIT, config.max_conns_per_ip, NULL);
     http_opt(&o, MHD_OPTION_CONNECTION_MEMORY_LIMIT, config.max_header_bytes, NULL);

@@ -19,6 +19,13 @@
  *   end     the access log line (client, method, target with its query,
  *           status, bytes, times, scene, request id) and the request
  *           metrics (route pattern, method, code, duration), then free.
+ *           A request libmicrohttpd answered itself (headers over
+ *           --max-header-bytes: 431, no Host: 400, a malformed chunk: 400)
+ *           is logged and counted with the status it sent, as the
+ *           transport learnt it (r->refused_status), note
+ *           refused_by_http_parser; one refused before its target was read
+ *           (a request line over the limit: 414) reaches http_flow_refused
+ *           only, with no method, path or id to name.
  *
  * libmicrohttpd (http.c) and the fuzz harness drive the same four calls, so
  * the fuzzer exercises exactly the code that serves.  Handlers are reached
@@ -311,19 +318,29 @@ void http_flow_handle(struct http_req *r)
 void http_flow_end(struct http_req *r, const char *note)
 {
     double total = clock_now() - r->t0;
+    int refused = (int)r->refused_status;
     if (!r->method) {
         /* refused by libmicrohttpd before the handler saw it (bad headers,
-         * headers over --max-header-bytes): it answered by itself */
-        struct log_access a = {.client = r->client, .path = r->target, .total_ms = total * 1e3,
-                               .note = "refused_by_http_parser"};
+         * headers over --max-header-bytes): it answered by itself, with
+         * refused (0 when the client left before it could) */
+        struct log_access a = {.client = r->client,
+                               .path = r->target,
+                               .status = refused,
+                               .total_ms = total * 1e3,
+                               .note = refused || !note ? "refused_by_http_parser" : note};
         log_access(&a);
+        if (refused)
+            metrics_request(r->route, NULL, refused, total);
         http_req_free(r);
         return;
     }
     int status = r->status;
     if (r->note)
         note = r->note;
-    if (r->gone || !r->replied) {
+    if ((r->gone || !r->replied) && refused) {
+        status = refused; /* libmicrohttpd answered the body (a malformed chunk) */
+        note = "refused_by_http_parser";
+    } else if (r->gone || !r->replied) {
         status = 499;
         if (!note)
             note = "client_gone";
@@ -350,4 +367,12 @@ void http_flow_end(struct http_req *r, const char *note)
     };
     log_access(&a);
     http_req_free(r);
+}
+
+void http_flow_refused(const char *client, unsigned status)
+{
+    struct log_access a = {
+        .client = client, .status = (int)status, .note = "refused_by_http_parser"};
+    log_access(&a);
+    metrics_request(-1, NULL, (int)status, 0);
 }

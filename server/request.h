@@ -61,6 +61,7 @@ struct http_req {
     bool suspended, gone, replied, too_large, no_memory;
     bool parked;                 /* suspended by the handler now running (its thread only) */
     const char *note;            /* for the access log */
+    unsigned refused_status; /* the error libmicrohttpd answered by itself (431, ...), 0 none */
     int retry_after;             /* seconds in a 503's Retry-After; 0: 1 */
     char etag[72];               /* set for immutable GETs */
 };

@@ -28,6 +28,10 @@ bool http_flow_begin(struct http_req *r);
 bool http_flow_body(struct http_req *r, const char *data, size_t n);
 void http_flow_handle(struct http_req *r);
 void http_flow_end(struct http_req *r, const char *note);
+/* The access line and count of a request libmicrohttpd refused with status
+ * before rayd saw even its target (a request line over --max-header-bytes:
+ * 414), from client ("" unknown). */
+void http_flow_refused(const char *client, unsigned status);
 
 /* ---- http.c: libmicrohttpd ------------------------------------------------------ */
 

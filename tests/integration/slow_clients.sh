@@ -160,6 +160,22 @@ code=$(curl -s -m 60 -o /dev/null -w '%{http_code}' -H "X-Big: $(head -c 10000 /
 check max_header_bytes_431 "status $code" [ "$code" = 431 ]
 code=$(curl -s -m 60 -o /dev/null -w '%{http_code}' -H "X-Ok: $(head -c 2000 /dev/zero | tr '\0' a)" "$URL/healthz")
 check header_under_limit_ok "status $code" [ "$code" = 200 ]
+# libmicrohttpd answers these itself: each gets an access line with the
+# status it sent and is counted, the request line over the limit too
+# (libmicrohttpd's 414, not rayd's --max-url one: no request reaches rayd)
+code=$(curl -s -m 60 -o /dev/null -w '%{http_code}' "$URL/healthz?$(head -c 10000 /dev/zero | tr '\0' b)")
+check request_line_over_header_bytes_414 "status $code" [ "$code" = 414 ]
+wait_until 30 grep -q ' - - 414 0 .*note=refused_by_http_parser$' "$T/rayd.err"
+check request_line_414_logged "$(grep -v ' 200 ' "$T/rayd.err" | tail -n 4)" \
+    grep -q ' 127.0.0.1 - - 414 0 .*note=refused_by_http_parser$' "$T/rayd.err"
+wait_until 30 grep -q ' - /healthz 431 0 .*note=refused_by_http_parser$' "$T/rayd.err"
+check headers_431_logged "$(grep 431 "$T/rayd.err" | tail -n 2)" \
+    grep -q ' 127.0.0.1 - /healthz 431 0 .*note=refused_by_http_parser$' "$T/rayd.err"
+wait_until 30 metric_is 'rayd_rejections_total{reason="http_parser"}' 2
+check http_parser_refusals_counted "rejections $(metric 'rayd_rejections_total{reason="http_parser"}')" \
+    metric_is 'rayd_rejections_total{reason="http_parser"}' 2
+check http_parser_requests_counted "414: $(metric 'rayd_http_requests_total{route="none",method="other",code="414"}'), 431: $(metric 'rayd_http_requests_total{route="none",method="other",code="431"}')" \
+    bash -c "[ '$(metric 'rayd_http_requests_total{route="none",method="other",code="414"}')' = 1 ] && [ '$(metric 'rayd_http_requests_total{route="none",method="other",code="431"}')' = 1 ]"
 stop_rayd TERM
 check exit_0_limits "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
 
