@@ -144,13 +144,13 @@ static _Thread_local unsigned http_refused;
  * this libmicrohttpd cannot say: then the one its message named). */
 static unsigned http_refused_status(struct MHD_Connection *c)
 {
-    unsigned st = http_refused;
 #if MHD_VERSION >= 0x00097400
     const union MHD_ConnectionInfo *ci =
         MHD_get_connection_info(c, MHD_CONNECTION_INFO_HTTP_STATUS);
-    st = ci && ci->http_status >= 400 ? ci->http_status : 0;
+    unsigned st = ci && ci->http_status >= 400 ? ci->http_status : 0;
 #else
     (void)c;
+    unsigned st = http_refused;
 #endif
     if (st)
         http_refused = 0;
