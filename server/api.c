@@ -28,6 +28,33 @@ struct api_q {
 
 static const char *const api_q_names[4] = {"x", "y", "w", "h"};
 
+/* Keeps k in unknown (size bytes) unless it is one of names (NULL-ended,
+ * or NULL) or a name was kept already: the first parameter a route does
+ * not take. */
+static void api_note_unknown(char *unknown, size_t size, const char *const *names, const char *k)
+{
+    for (const char *const *n = names; n && *n; n++)
+        if (!strcmp(k, *n))
+            return;
+    if (!unknown[0])
+        snprintf(unknown, size, "%s", k);
+}
+
+/* 400 bad_parameter for the query parameter unknown, which the route does
+ * not take, listing those it does: head (or NULL), then names (NULL-ended,
+ * or NULL). */
+static void api_reply_unknown(struct http_req *r, const char *unknown, const char *head,
+                              const char *const *names)
+{
+    char takes[160] = "", msg[320];
+    size_t used = head ? (size_t)snprintf(takes, sizeof takes, "%s", head) : 0;
+    for (const char *const *n = names; n && *n && used < sizeof takes; n++)
+        used += (size_t)snprintf(takes + used, sizeof takes - used, "%s%s", used ? ", " : "", *n);
+    snprintf(msg, sizeof msg, "unknown query parameter '%s' (%s%s)", unknown,
+             used ? "only " : "this route takes none", takes);
+    http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, unknown);
+}
+
 static void api_q_each(void *u, const char *k, const char *v)
 {
     struct api_q *q = u;
@@ -47,11 +74,7 @@ static void api_q_each(void *u, const char *k, const char *v)
         q->samples_count++;
         return;
     }
-    for (const char *const *a = q->also; a && *a; a++)
-        if (!strcmp(k, *a))
-            return;
-    if (!q->unknown[0])
-        snprintf(q->unknown, sizeof q->unknown, "%s", k);
+    api_note_unknown(q->unknown, sizeof q->unknown, q->also, k);
 }
 
 /* A decimal integer (an optional '-', then digits only) in the n bytes at
@@ -81,13 +104,8 @@ static bool api_int(const char *s, long *out) { return api_int_n(s, strlen(s), o
  * listing those it does. */
 static void api_q_unknown(struct http_req *r, const struct api_q *q)
 {
-    char more[120] = "", msg[320];
-    size_t used = 0;
-    for (const char *const *a = q->also; a && *a && used < sizeof more; a++)
-        used += (size_t)snprintf(more + used, sizeof more - used, ", %s", *a);
-    snprintf(msg, sizeof msg, "unknown query parameter '%s' (only x, y, w, h%s%s)", q->unknown,
-             q->allow_format ? ", format, samples" : "", more);
-    http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, q->unknown);
+    api_reply_unknown(r, q->unknown, q->allow_format ? "x, y, w, h, format, samples" : "x, y, w, h",
+                      q->also);
 }
 
 /* 400 bad_region naming the parameter name and what is wrong with it;
@@ -313,11 +331,7 @@ static void api_only_each(void *u, const char *k, const char *v)
 {
     (void)v;
     struct api_only *o = u;
-    for (const char *const *n = o->names; n && *n; n++)
-        if (!strcmp(k, *n))
-            return;
-    if (!o->unknown[0])
-        snprintf(o->unknown, sizeof o->unknown, "%s", k);
+    api_note_unknown(o->unknown, sizeof o->unknown, o->names, k);
 }
 
 bool api_only_params(struct http_req *r, const char *const *names)
@@ -326,13 +340,7 @@ bool api_only_params(struct http_req *r, const char *const *names)
     http_req_query_each(r, api_only_each, &o);
     if (!o.unknown[0])
         return true;
-    char takes[120] = "", msg[240];
-    size_t used = 0;
-    for (const char *const *n = names; n && *n && used < sizeof takes; n++)
-        used += (size_t)snprintf(takes + used, sizeof takes - used, "%s%s", used ? ", " : "", *n);
-    snprintf(msg, sizeof msg, "unknown query parameter '%s' (%s%s)", o.unknown,
-             used ? "only " : "this route takes none", takes);
-    http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, o.unknown);
+    api_reply_unknown(r, o.unknown, NULL, names);
     return false;
 }
 

@@ -46,9 +46,8 @@ static bool api_plan_number(struct http_req *r, const char *name, double max, do
     const char *v = http_req_query(r, name);
     if (!v)
         return true;
-    char *end = NULL;
-    double x = strtod(v, &end);
-    if (!api_is_decimal(v, true) || *end || !(x > 0 && x <= max)) {
+    double x = strtod(v, NULL);
+    if (!api_is_decimal(v, true) || !(x > 0 && x <= max)) {
         char why[100];
         snprintf(why, sizeof why, "must be a decimal number above 0 and at most %g", max);
         return api_plan_bad(r, name, why);
@@ -260,8 +259,7 @@ static void api_pass_headers(struct http_req *r, int pass, int total, int sample
 /* GET /v1/jobs/{id}/image.png?pass=K: that pass's image, while kept. */
 static void api_jobs_pass_image(struct http_req *r, const char *id, const char *q)
 {
-    char *end = NULL;
-    long k = strtol(q, &end, 10);
+    long k = strtol(q, NULL, 10);
     struct jobs_info info;
     if (!jobs_get(id, &info, false)) {
         api_jobs_unknown(r);
@@ -272,7 +270,7 @@ static void api_jobs_pass_image(struct http_req *r, const char *id, const char *
     snprintf(range, sizeof range, "must be a pass number of this job, 1..%d", info.passes.total);
     const char *why = http_req_query_count(r, "pass") > 1 ? "given more than once"
                       : !info.progressive                 ? "only a progressive job has passes"
-                      : !api_is_decimal(q, false) || *end || k < 1 || k > info.passes.total ? range
+                      : !api_is_decimal(q, false) || k < 1 || k > info.passes.total ? range
                                                                                             : NULL;
     if (why) {
         api_plan_bad(r, "pass", why);

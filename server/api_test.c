@@ -59,12 +59,11 @@ void api_test_gate_post(struct http_req *r, const char *id)
         return;
     }
     const char *v = http_req_query(r, "tiles");
-    char *end = NULL;
     errno = 0;
-    long n = v ? strtol(v, &end, 10) : 0;
+    long n = v ? strtol(v, NULL, 10) : 0;
     if (v && !strcmp(v, "open")) {
         n = -1;
-    } else if (!v || !api_is_decimal(v, false) || errno || *end || n > 1000000000L) {
+    } else if (!v || !api_is_decimal(v, false) || errno || n > 1000000000L) {
         http_reply_error(r, 400, "bad_parameter", "tiles must be 'open' or an integer >= 0", NULL,
                          0, 0, "tiles");
         return;
