@@ -25,7 +25,7 @@ struct ctx {
     const struct xform *acc; /* CSG: the composed transform of the nodes above, or NULL */
     bool in_csg;             /* must be a closed solid */
     bool in_group;           /* may not be an instance */
-    const struct xform *mat_space; /* CSG: the transform of the node the material is from */
+    int32_t tex_xform;       /* CSG: 1 + the transform of the node the material is from */
 };
 
 static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const struct jp *at,
@@ -277,7 +277,7 @@ static enum rayd_status load_csg(struct loader *ld, const cJSON *oj, const struc
         return sj_fail(ld, RAYD_E_INVALID, &pl, "must be an array of at least 2 objects");
     if (cJSON_GetArraySize(list) > 32)
         return sj_fail(ld, RAYD_E_LIMIT, &pl, "has %d operands; the limit is 32", cJSON_GetArraySize(list));
-    struct ctx sub = {o->material, cx->acc, true, cx->in_group, cx->mat_space};
+    struct ctx sub = {o->material, cx->acc, true, cx->in_group, cx->tex_xform};
     /* left-deep tree: ((a op b) op c) ...; difference: a minus all the rest */
     int32_t left = -1;
     int i = 0;
@@ -443,7 +443,10 @@ static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const st
     struct ctx sub = *cx;
     sub.acc = (cx->in_csg || kind == K_CSG) ? &acc : NULL;
     bool own_mat = cJSON_GetObjectItemCaseSensitive(oj, "material") != NULL;
-    if (kind == K_CSG && (own_mat || !cx->in_csg)) sub.mat_space = &acc;
+    if (kind == K_CSG && (own_mat || !cx->in_csg)) { /* its leaves' texture space: added once */
+        TRY(add_xform(ld, &acc, &sub.tex_xform));
+        sub.tex_xform++;
+    }
     if (kind == K_GLTF) {
         TRY(sj_gltf(ld, oj, at, &x, o));
     } else {
@@ -460,11 +463,7 @@ static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const st
         struct xform leaf = cx->acc && cx->in_csg ? acc : x;
         TRY(add_xform(ld, &leaf, &o->xform));
     }
-    if (cx->in_csg && o->kind != SHAPE_CSG && !own_mat) {
-        int32_t t;
-        TRY(add_xform(ld, cx->mat_space, &t));
-        o->tex_xform = t + 1;
-    }
+    if (cx->in_csg && o->kind != SHAPE_CSG && !own_mat) o->tex_xform = cx->tex_xform;
     return RAYD_OK;
 }
 
@@ -477,7 +476,7 @@ static enum rayd_status load_list(struct loader *ld, const cJSON *list, const st
         return sj_fail(ld, RAYD_E_LIMIT, at, "has %d objects; the limit is %ld", n, ld->lim->max_objects);
     *out = calloc((size_t)n + 1, sizeof **out);
     if (!*out) return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
-    struct ctx cx = {0, NULL, false, in_group, NULL};
+    struct ctx cx = {0, NULL, false, in_group, 0};
     int i = 0;
     for (const cJSON *o = list->child; o; o = o->next, i++) {
         struct jp p = jp_index(at, i);
