@@ -179,6 +179,10 @@ export function lineOf(text, offset) {
   return line;
 }
 
+// The offset of (line, column), both from 1, as rayd counts them: a column
+// is a character (a code point), while the text's offsets count UTF-16
+// units, two for a character beyond U+FFFF (an emoji in a name), so the
+// columns are walked, not added.  Never past the line's end.
 export function offsetOfLine(text, line, column = 1) {
   let off = 0;
   for (let l = 1; l < line; l++) {
@@ -186,7 +190,9 @@ export function offsetOfLine(text, line, column = 1) {
     if (nl < 0) return text.length;
     off = nl + 1;
   }
-  return Math.min(text.length, off + Math.max(0, column - 1));
+  for (let c = 1; c < column && off < text.length && text[off] !== "\n"; c++)
+    off += text.codePointAt(off) > 0xffff ? 2 : 1;
+  return off;
 }
 
 export function fmtNumber(x) {

@@ -2,7 +2,7 @@
 // camera.js, ground.js, history.js) in Node, without a browser: pointer ->
 // line, in-place edits, the formatter of the examples, orbit and dolly and
 // their stop at the ground, the undo history.  Prints PASS/FAIL lines.
-import { parse, pointerOffset, lineOf, replaceAt, format, fmtVector, JsonSyntaxError } from "../../server/web/json.js";
+import { parse, pointerOffset, lineOf, offsetOfLine, replaceAt, format, fmtVector, JsonSyntaxError } from "../../server/web/json.js";
 import { cameraOf, orbit, dolly } from "../../server/web/camera.js";
 import { groundHeight, eyeFloor } from "../../server/web/ground.js";
 import { TextHistory, changedRange } from "../../server/web/history.js";
@@ -52,6 +52,16 @@ check("syntax_error_offset", () => {
   } catch (e) {
     return (e instanceof JsonSyntaxError && e.offset === 8) || `offset ${e.offset}`;
   }
+});
+// rayd counts a column per character; an emoji is two UTF-16 units of the
+// text, so adding the column to the line's offset put the caret before the
+// error on a line with an emoji in a name.
+check("column_counts_characters", () => {
+  // rayd's answer for this text: line 2, column 43, at "angle"
+  const t = '{"materials": {"\u{1F525}": {}},\n "lights": [{"name": "\u{1F525}\u{1F525}", "type": "spot" "angle": 5}]}';
+  const got = [offsetOfLine(t, 2, 43), offsetOfLine("ab\ncd", 1, 9), offsetOfLine("ab\ncd", 3, 1)];
+  const want = [t.indexOf('"angle"'), 2, 5];
+  return isDeepStrictEqual(got, want) || `offsets ${got}, want ${want}`;
 });
 check("replace_keeps_the_rest", () => {
   const t2 = replaceAt(text, root, ["camera", "position"], "[1, 2, 3]");
