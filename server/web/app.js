@@ -176,6 +176,16 @@ function reportError(e, text) {
     );
     return;
   }
+  if (e.job) {
+    // a progressive job that ended without its image: no HTTP status to show
+    const canceled = e.code === "job_canceled";
+    showError(
+      `${canceled ? "Render cancelled" : "Render failed"} (${e.code})`,
+      canceled ? `${e.message}\nrayd cancelled the job (deleted by another client, or shutting down).` : e.message,
+      { retry: () => render() }
+    );
+    return;
+  }
   if (e.status === 401) {
     showError("Unauthorized (401)", `${e.message}\nThis rayd needs a token: enter it in the Token field above.`, {
       retry: () => render(),

@@ -215,7 +215,8 @@ export class Renderer {
   // server's share of the sample work done (a pass of 64 samples weighs
   // 32 times one of 2), not done / total.  The stream is read with fetch,
   // since EventSource cannot send the token.  Aborted (a new render, an
-  // orbit, Stop), the job is deleted, so the server stops at once.  The
+  // orbit, Stop), the job is deleted, so the server stops at once.  A job
+  // that failed or was cancelled is an ApiError with job: true.  The
   // POST that makes the job is not aborted: its answer names the job to
   // delete (rayd answers it as soon as the scene is read).
   async progressive(text, progress, lowDone, signal) {
@@ -252,7 +253,12 @@ export class Renderer {
             });
         }
         if (end && end.data.state === "succeeded") return { id: job.scene_id, samples: end.data.samples };
-        if (end) throw new ApiError({ code: "job_" + end.data.state, message: end.data.error || "the render was cancelled" });
+        if (end)
+          throw new ApiError({
+            job: true,
+            code: "job_" + end.data.state,
+            message: end.data.error || "the render was cancelled",
+          });
       }
     } finally {
       signal.removeEventListener("abort", drop);

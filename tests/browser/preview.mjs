@@ -617,6 +617,31 @@ try {
       await gate("open");
     }
   });
+  // A progressive job that ends failed (here: its stream says so, as it
+  // does when --max-render-seconds passes before the first pass) is named
+  // as such; it used to be shown as "undefined job_failed".
+  await check("failed_progressive_job_named", async () => {
+    const sc = JSON.parse(exampleOf("cornell"));
+    sc.render = { ...sc.render, width: 32, height: 24, samples: 2, seed: 11 };
+    const failed = '{"state":"failed","progress":0.0000,"error":"stopped after 1 s by --max-render-seconds"}';
+    await page.route("**/v1/jobs/*/events", (r) =>
+      r.fulfill({ status: 200, contentType: "text/event-stream", body: `event: done\ndata: ${failed}\n\n` })
+    );
+    try {
+      await setText(page, JSON.stringify(sc, null, 2));
+      await page.click("#render");
+      await waitState(page, "error");
+    } finally {
+      await page.unroute("**/v1/jobs/*/events");
+    }
+    const title = await page.$eval("#error .error-title", (e) => e.textContent);
+    const msg = await page.$eval("#error .error-msg", (e) => e.textContent);
+    const retry = await page.$eval("#retry", (e) => !e.hidden);
+    return (
+      (title === "Render failed (job_failed)" && msg.includes("--max-render-seconds") && retry) ||
+      `title "${title}", message "${msg}", retry shown: ${retry}`
+    );
+  });
   await check("escape_stops_tiles", async () => {
     const slow = JSON.parse(exampleOf("paper"));
     slow.render = { ...slow.render, width: 1280, height: 720, samples: 4, seed: 7 };
