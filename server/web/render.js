@@ -215,8 +215,9 @@ export class Renderer {
   // server's share of the sample work done (a pass of 64 samples weighs
   // 32 times one of 2), not done / total.  The stream is read with fetch,
   // since EventSource cannot send the token.  Aborted (a new render, an
-  // orbit, Stop), the job is deleted, so the server stops at once.  A job
-  // that failed or was cancelled is an ApiError with job: true.  The
+  // orbit, Stop), the job is deleted, so the server stops at once; so it is
+  // when the stream breaks or a pass cannot be fetched.  A job that failed
+  // or was cancelled is an ApiError with job: true.  The
   // POST that makes the job is not aborted: its answer names the job to
   // delete (rayd answers it as soon as the scene is read).
   async progressive(text, progress, lowDone, signal) {
@@ -227,6 +228,7 @@ export class Renderer {
       throw Object.assign(new Error("aborted"), { name: "AbortError" });
     }
     signal.addEventListener("abort", drop, { once: true });
+    let ended = false; // its done event came: nothing left to delete
     try {
       const res = await this.api.call("GET", `v1/jobs/${job.id}/events`, { signal });
       const reader = res.body.getReader();
@@ -252,6 +254,7 @@ export class Renderer {
               id: job.scene_id,
             });
         }
+        ended = !!end;
         if (end && end.data.state === "succeeded") return { id: job.scene_id, samples: end.data.samples };
         if (end)
           throw new ApiError({
@@ -260,6 +263,11 @@ export class Renderer {
             message: end.data.error || "the render was cancelled",
           });
       }
+    } catch (e) {
+      // the stream broke or a pass could not be had: the job would go on
+      // rendering for no one (an abort has deleted it already)
+      if (!ended && !signal.aborted) drop();
+      throw e;
     } finally {
       signal.removeEventListener("abort", drop);
     }

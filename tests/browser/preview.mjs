@@ -642,6 +642,36 @@ try {
       `title "${title}", message "${msg}", retry shown: ${retry}`
     );
   });
+  // The job's event stream breaks (a proxy's timeout, the network): the
+  // page says so and deletes the job, which would otherwise go on rendering
+  // for no one.  The gate holds the job, so it is still there to delete.
+  await check("broken_stream_deletes_job", async () => {
+    const sc = JSON.parse(exampleOf("cornell"));
+    sc.render = { ...sc.render, width: 96, height: 72, samples: 8, seed: 12 };
+    await gate(0);
+    await page.route("**/v1/jobs/*/events", (r) =>
+      r.fulfill({ status: 200, contentType: "text/event-stream", body: "retry: 1000\n\n" })
+    );
+    try {
+      await setText(page, JSON.stringify(sc, null, 2));
+      const posted = page.waitForResponse((r) => /\/v1\/jobs\?progressive=1$/.test(r.url()), { timeout: 60000 });
+      await page.click("#render");
+      const job = await (await posted).json();
+      await waitState(page, "error");
+      const msg = await page.$eval("#error .error-msg", (e) => e.textContent);
+      if (!msg.includes("event stream ended early")) return `message "${msg}"`;
+      let state = "";
+      const gone = await until(async () => {
+        const r = await fetch(`${URL}/v1/jobs/${job.id}`);
+        state = r.status === 404 ? "gone" : (await r.json()).state;
+        return state === "canceled" || state === "gone";
+      }, 60000);
+      return gone || `the job is still ${state}`;
+    } finally {
+      await page.unroute("**/v1/jobs/*/events");
+      await gate("open");
+    }
+  });
   await check("escape_stops_tiles", async () => {
     const slow = JSON.parse(exampleOf("paper"));
     slow.render = { ...slow.render, width: 1280, height: 720, samples: 4, seed: 7 };
