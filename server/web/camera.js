@@ -8,6 +8,8 @@
 // the lowest height along up the eye may reach (ground.js finds it); a
 // move stops there, but never lifts an eye that started below it.  Defaults
 // are the scene format's: position [0,0,0], look_at [0,0,-1], up [0,1,0].
+// A camera the renderer places ("frame": "all", a gltf object's "camera")
+// is not moved: the scene may not give a position beside it.
 
 const sub = (a, b) => [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
 const add = (a, b) => [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
@@ -19,12 +21,19 @@ const norm = (a) => mul(a, 1 / (len(a) || 1));
 
 const isVec = (v) => Array.isArray(v) && v.length === 3 && v.every((x) => typeof x === "number" && isFinite(x));
 
+// Does a gltf object of the scene choose one of its file's cameras?  That
+// camera then places the scene's, which may add only aperture and
+// focus_distance; where the file's camera is, the page cannot know.
+const gltfCamera = (scene) =>
+  Array.isArray(scene.objects) && scene.objects.some((o) => o && o.type === "gltf" && o.camera !== undefined);
+
 // The camera of a parsed scene with the defaults filled in, or null when it
 // is not one the controls can move (missing pieces are defaulted).
 export function cameraOf(scene) {
   const cam = (scene && typeof scene === "object" && scene.camera) || {};
   if (typeof cam !== "object" || Array.isArray(cam)) return null;
   if (cam.frame !== undefined) return null; // placed by the renderer ("frame": "all"): no orbit
+  if (gltfCamera(scene)) return null; // placed by the file's camera: position is refused beside it
   const position = cam.position === undefined ? [0, 0, 0] : cam.position;
   const lookAt = cam.look_at === undefined ? [0, 0, -1] : cam.look_at;
   const up = cam.up === undefined ? [0, 1, 0] : cam.up;

@@ -98,6 +98,15 @@ check("framed_camera_does_not_orbit", () => {
   // "frame": "all" refuses a position beside it, so the preview must not write one
   return cameraOf({ camera: { frame: "all", view: "front" } }) === null || "cameraOf gave a camera";
 });
+check("gltf_camera_does_not_orbit", () => {
+  // a gltf object's "camera" sets the scene's camera and /camera/position is
+  // refused beside it: orbiting the gltf example used to write one, and the
+  // next render failed with 422
+  const gltf = JSON.parse(examples.find((e) => e.name === "gltf").text);
+  const own = { objects: [{ type: "gltf", source: { text: "{}" } }], camera: { position: [0, 1, 5] } };
+  if (cameraOf(gltf) !== null) return "cameraOf gave a camera for the gltf example";
+  return cameraOf(own) !== null || "a gltf object without a camera stopped the orbit";
+});
 check("ground_of_scenes", () => {
   const cam = cameraOf({ camera: { position: [0, 2, 7], look_at: [0, 1, 0] } });
   const cases = [
