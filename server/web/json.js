@@ -153,6 +153,16 @@ export function splitPointer(ptr) {
     .map((s) => s.replace(/~1/g, "/").replace(/~0/g, "~"));
 }
 
+// The member a pointer's segment names.  rayd shows a key longer than 64
+// bytes cut, with "..." (core/io/json_pointer.c): such a segment names the
+// first longer key it begins (the first in the text the checks meet).
+function memberOf(node, seg) {
+  const m = member(node, seg);
+  if (m || !seg.endsWith("...")) return m;
+  const cut = seg.slice(0, -3);
+  return node.members.find((x) => x.key.length > cut.length && x.key.startsWith(cut)) || null;
+}
+
 // The text offset a JSON Pointer names: the key of an object member, the
 // start of an array element; as deep as the pointer resolves (an error
 // about a missing value points at its parent).
@@ -161,7 +171,7 @@ export function pointerOffset(root, ptr) {
   let off = root.start;
   for (const seg of splitPointer(ptr)) {
     if (node.kind === "object") {
-      const m = member(node, seg);
+      const m = memberOf(node, seg);
       if (!m) break;
       off = m.keyStart;
       node = m.node;

@@ -45,6 +45,14 @@ check("pointer_to_line", () => {
   for (const [p, l] of Object.entries(want)) if (at(p) !== l) return `${p} at line ${at(p)}, want ${l}`;
   return true;
 });
+check("pointer_with_a_cut_key", () => {
+  // rayd's pointer for the bad key below: the name cut to 64 bytes, with "..."
+  const name = "a/b" + "m".repeat(77);
+  const t = `{"materials": {\n  "x": {},\n  ${JSON.stringify(name)}: {\n    "colr": 1}}}`;
+  const ptr = "/materials/a~1b" + "m".repeat(60) + ".../colr";
+  const line = lineOf(t, pointerOffset(parse(t), ptr));
+  return line === 4 || `line ${line}, want 4`;
+});
 check("syntax_error_offset", () => {
   try {
     parse('{"a": 1 "b": 2}');
