@@ -22,6 +22,12 @@ struct light_face {
     double cu, cv;  /* and a cell's width in u and v, 1 / su and 1 / sv */
     int32_t nu, nv; /* 0 x 0: no object shows on this face */
     uint32_t *start, *ids;
+    /* The 2 x 2 cells from (i, j) on, i in -1 .. nu - 1 and j in -1 .. nv - 1
+     * (cells outside the rectangle hold nothing): their objects, each once,
+     * in the order of the cells' lists, are quad[qstart[q] .. qstart[q + 1])
+     * with q = (j + 1) * (nu + 1) + i + 1.  A packet's candidates are then
+     * one range, not four lists merged while its rays wait. */
+    uint32_t *qstart, *quad;
 };
 
 struct light_buffer {

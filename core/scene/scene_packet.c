@@ -528,17 +528,12 @@ CPU_AVX512_FN bool shadow_candidates(const struct light_buffer *b, const struct 
         if (ok != lm) return false;
     }
     *n = 0;
-    for (int32_t j = cj < 0 ? 0 : cj; f->nu && j <= cj + 1 && j < f->nv; j++)
-        for (int32_t i = ci < 0 ? 0 : ci; i <= ci + 1 && i < f->nu; i++) {
-            int32_t cell = j * f->nu + i;
-            for (uint32_t k = f->start[cell]; k < f->start[cell + 1]; k++) {
-                int seen = 0;
-                while (seen < *n && ids[seen] != f->ids[k]) seen++;
-                if (seen < *n) continue;
-                if (*n == LB_MAX_TEST) return false;
-                ids[(*n)++] = f->ids[k];
-            }
-        }
+    if (!f->nu || ci < -1 || ci >= f->nu || cj < -1 || cj >= f->nv) return true; /* none */
+    uint32_t q = (uint32_t)(cj + 1) * (uint32_t)(f->nu + 1) + (uint32_t)(ci + 1);
+    uint32_t k0 = f->qstart[q], k1 = f->qstart[q + 1];
+    if (k1 - k0 > LB_MAX_TEST) return false;
+    memcpy(ids, f->quad + k0, sizeof *ids * (k1 - k0));
+    *n = (int)(k1 - k0);
     return true;
 }
 

@@ -117,6 +117,58 @@ static void test_shadow_packets_match_one_ray(void) {
     }
 }
 
+/* Whether the list of the 2 x 2 cells from (i, j) of face f holds each
+ * object of those cells exactly once, and nothing else. */
+static bool quad_is_its_cells(const struct light_face *f, int32_t i, int32_t j) {
+    uint32_t q = (uint32_t)(j + 1) * (uint32_t)(f->nu + 1) + (uint32_t)(i + 1);
+    const uint32_t *l = f->quad + f->qstart[q];
+    uint32_t n = f->qstart[q + 1] - f->qstart[q], in_cells = 0;
+    for (uint32_t a = 0; a < n; a++)
+        for (uint32_t b = a + 1; b < n; b++)
+            if (l[a] == l[b]) return false; /* listed twice */
+    for (int32_t y = j; y <= j + 1; y++)
+        for (int32_t x = i; x <= i + 1; x++) {
+            if (x < 0 || y < 0 || x >= f->nu || y >= f->nv) continue;
+            int32_t c = y * f->nu + x;
+            for (uint32_t k = f->start[c]; k < f->start[c + 1]; k++) {
+                bool found = false, before = false;
+                for (uint32_t a = 0; a < n; a++) found |= l[a] == f->ids[k];
+                for (int32_t yy = j; yy <= y; yy++) /* counted in an earlier cell? */
+                    for (int32_t xx = i; xx <= i + 1 && !(yy == y && xx >= x); xx++) {
+                        if (xx < 0 || yy < 0 || xx >= f->nu || yy >= f->nv) continue;
+                        int32_t e = yy * f->nu + xx;
+                        for (uint32_t m = f->start[e]; m < f->start[e + 1]; m++)
+                            before |= f->ids[m] == f->ids[k];
+                    }
+                if (!found) return false;
+                in_cells += !before;
+            }
+        }
+    return in_cells == n;
+}
+
+/* The lists a packet reads (a face's 2 x 2 cells, light_buffer.h) are the
+ * union of those cells' lists, each object once, on every face, including
+ * the cells along the rectangle's edges. */
+static void test_quads_list_their_cells(void) {
+    static char json[1 << 16];
+    cloud_scene(json, sizeof json, 240, "{\"type\": \"point\", \"position\": [-6,10,8]}");
+    rayd_scene *s = scene_from(json);
+    CHECK(s != NULL && s->light_buffers && s->light_buffers[0].ok, "a buffer is built");
+    if (!s || !s->light_buffers) return;
+    int faces = 0, quads = 0, wrong = 0;
+    for (int fi = 0; fi < 6; fi++) {
+        const struct light_face *f = &s->light_buffers[0].face[fi];
+        if (!f->nu) continue;
+        faces++;
+        for (int32_t j = -1; j < f->nv; j++)
+            for (int32_t i = -1; i < f->nu; i++, quads++) wrong += !quad_is_its_cells(f, i, j);
+    }
+    CHECK(faces >= 2 && quads > 500, "%d faces, %d lists checked", faces, quads);
+    CHECK(wrong == 0, "%d of %d lists are not their cells' objects once each", wrong, quads);
+    rayd_scene_free(s);
+}
+
 /* The buffer is there for a point light clear of every object, not for a
  * light inside an object's box nor for other kinds of light, and covers
  * only the faces objects show on, in cells as many as they need. */
@@ -184,6 +236,7 @@ static void test_buffers_bounded(void) {
 
 int main(void) {
     RUN(test_shadow_packets_match_one_ray);
+    RUN(test_quads_list_their_cells);
     RUN(test_buffer_built_where_sound);
     RUN(test_buffers_bounded);
     CHECK_EXIT();
