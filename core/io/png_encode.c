@@ -119,6 +119,8 @@
 #define PNG_HUGE_MIN ((size_t)256 << 10) /* an image's raw bytes from which: huge pages */
 #define PNG_HOLD_BLOCK (((size_t)2 << 20) - 64) /* a block of deflated bands: one huge page */
 #define PNG_CHOOSE_EVERY 4 /* rows of a band whose filter is measured: 0, 4, 8, ... */
+#define PNG_STR(x) #x
+#define PNG_XSTR(x) PNG_STR(x) /* a macro's value as a string: PNG_XSTR(PNG_ISAL_LEVEL) is "2" */
 
 struct png_band {
     int y0, rows;
@@ -674,8 +676,6 @@ const char *rayd_png_encoder(int level) {
         PNG_LD_NAME(5), PNG_LD_NAME(6), PNG_LD_NAME(7), PNG_LD_NAME(8), PNG_LD_NAME(9),
 #undef PNG_LD_NAME
     };
-#define PNG_STR(x) #x
-#define PNG_XSTR(x) PNG_STR(x)
     static const char isal[] = "isa-l " PNG_XSTR(ISAL_MAJOR_VERSION) "." PNG_XSTR(
         ISAL_MINOR_VERSION) " level " PNG_XSTR(PNG_ISAL_LEVEL);
     int l = png_level(level);
