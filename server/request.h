@@ -50,6 +50,12 @@ struct http_req {
     size_t body_len, body_cap;
     long long body_declared;     /* Content-Length, -1 when none was sent */
     int route;                   /* router index for metrics, -1 none */
+    /* The router's row for the method and path, looked up once (router.c):
+     * begin asks it of a request with a body, dispatch uses what it found. */
+    bool routed;                 /* route_row, route_path_known and route_id are set */
+    int route_row;               /* the table row that serves them, -1 none */
+    bool route_path_known;       /* with route_row -1: the path is served to other methods */
+    char route_id[80];           /* the path's {id} segment, "" for none */
     int status;                  /* the status sent */
     size_t bytes;                /* response body size */
     double t0, queue_ms, render_ms, encode_ms; /* the handler fills the last three */

@@ -144,30 +144,40 @@ const char *router_allow(const char *path, char *buf, size_t size)
     return buf;
 }
 
-/* The row that serves r's method and path, or -1; its id into id.
- * *path_known tells whether some row has the path (then a 405). */
-static int router_row_of(struct http_req *r, char *id, size_t size, bool *path_known)
+/* The row that serves r's method and path, or -1; its {id} segment into
+ * r->route_id, and r->route_path_known tells whether some row has the path
+ * (then a 405).  Looked up once per request: router_refuse (at the headers)
+ * and router_dispatch (with the body) read the same answer from r. */
+static int router_row_of(struct http_req *r)
 {
+    if (r->routed)
+        return r->route_row;
     const char *method = strcmp(r->method, "HEAD") ? r->method : "GET";
-    *path_known = false;
+    char id[sizeof r->route_id];
+    r->routed = true;
+    r->route_row = -1;
+    r->route_path_known = false;
+    r->route_id[0] = 0;
     for (int i = 0; i < ROUTER_N; i++) {
-        if (!router_row_matches(i, r->url, id, size))
+        if (!router_row_matches(i, r->url, id, sizeof id))
             continue;
         if (!strcmp(router_table[i].method, method)) {
             r->route = router_label(i);
+            r->route_row = i;
+            memcpy(r->route_id, id, sizeof id);
             return i;
         }
-        if (!*path_known)
+        if (!r->route_path_known)
             r->route = router_label(i);
-        *path_known = true;
+        r->route_path_known = true;
     }
     return -1;
 }
 
 /* 404, or 405 with Allow when the path is known. */
-static void router_refuse_reply(struct http_req *r, bool path_known)
+static void router_refuse_reply(struct http_req *r)
 {
-    if (path_known) {
+    if (r->route_path_known) {
         char allow[128], msg[200];
         router_allow(r->url, allow, sizeof allow);
         snprintf(msg, sizeof msg, "method %s not allowed here; allowed: %s", r->method, allow);
@@ -180,21 +190,17 @@ static void router_refuse_reply(struct http_req *r, bool path_known)
 
 bool router_refuse(struct http_req *r)
 {
-    char id[80];
-    bool path_known;
-    if (router_row_of(r, id, sizeof id, &path_known) >= 0)
+    if (router_row_of(r) >= 0)
         return false;
-    router_refuse_reply(r, path_known);
+    router_refuse_reply(r);
     return true;
 }
 
 void router_dispatch(struct http_req *r)
 {
-    char id[80];
-    bool path_known;
-    int i = router_row_of(r, id, sizeof id, &path_known);
+    int i = router_row_of(r);
     if (i >= 0)
-        router_table[i].fn(r, id);
+        router_table[i].fn(r, r->route_id);
     else
-        router_refuse_reply(r, path_known);
+        router_refuse_reply(r);
 }

@@ -21,7 +21,8 @@ void router_dispatch(struct http_req *r);
 /* Replies 404 / 405 as router_dispatch would when no route takes r's
  * method and path: true after that reply.  Asked with the headers, so a
  * body is never read (nor "100 Continue" sent) for a request no route
- * serves. */
+ * serves.  The row it finds is kept in r (route_row, route_id), and
+ * router_dispatch takes it from there: one lookup per request. */
 bool router_refuse(struct http_req *r);
 /* Allowed methods for a path ("GET, DELETE"), NULL when no route matches. */
 const char *router_allow(const char *path, char *buf, size_t size);
