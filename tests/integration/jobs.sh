@@ -111,25 +111,8 @@ id5=$(jfield "$T/body" id)
 # The client reads the stream's first event, so it is open and waiting on
 # the server when it leaves (a client timing out after a fixed 0.4 s might
 # not even have connected on a loaded machine).
-PYTHONPATH="$SSE_LIB" python3 - "$PORT" "$id5" "$T/sse5" <<'PY' &
-import os, socket, sys, time
-port, jid, f = int(sys.argv[1]), sys.argv[2], sys.argv[3]
-s = socket.create_connection(("127.0.0.1", port), timeout=60)
-s.sendall(("GET /v1/jobs/%s/events HTTP/1.1\r\nHost: x\r\n\r\n" % jid).encode())
-got = b""
-while b"event: state" not in got:
-    d = s.recv(4096)
-    if not d:
-        break
-    got += d
-open(f + ".ready", "w").write(got.decode("latin-1"))
-end = time.time() + 60  # only ends a hung case
-while not os.path.exists(f + ".stop") and time.time() < end:
-    time.sleep(0.05)
-s.close()
-PY
-sse5=$!
-PIDS+=($sse5)
+hold_request "$T/sse5" "event: state" GET "/v1/jobs/$id5/events"
+sse5=$HOLD_PID
 wait_until 60 test -e "$T/sse5.ready"
 wait_until 30 metric_is rayd_http_suspended 1
 check sse_stream_open "first event: $(head -c 200 "$T/sse5.ready" 2>/dev/null), rayd_http_suspended $(metric rayd_http_suspended)" \

@@ -131,22 +131,11 @@ gate 0
 scene "$T/slow.json" 320 240 2 spheres 3
 # The client leaves once its render is held at the gate (curl -m 1 could
 # give up before its request had even arrived on a loaded machine).
-python3 - "$PORT" "$T/slow.json" "$T/leave" <<'PY' &
-import os, socket, sys, time
-port, body, f = int(sys.argv[1]), open(sys.argv[2], "rb").read(), sys.argv[3]
-s = socket.create_connection(("127.0.0.1", port), timeout=60)
-s.sendall(b"POST /v1/render HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
-          b"Content-Length: %d\r\n\r\n" % len(body) + body)
-end = time.time() + 60  # only ends a hung case
-while not os.path.exists(f) and time.time() < end:
-    time.sleep(0.05)
-s.close()
-PY
-lp=$!
-PIDS+=($lp)
+hold_request "$T/leave" "" POST /v1/render "$T/slow.json"
+lp=$HOLD_PID
 wait_until 60 gate_is queued 1
 check disconnect_render_held "gate $(cat "$T/gate.json")" gate_is queued 1
-touch "$T/leave"
+touch "$T/leave.stop"
 wait "$lp"
 wait_until 60 metric_is 'rayd_canceled_total{reason="client_gone"}' $((c0 + 1))
 c1=$(metric 'rayd_canceled_total{reason="client_gone"}')

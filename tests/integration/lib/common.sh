@@ -131,6 +131,41 @@ print(" ".join(m.decode() for m in re.findall(rb"HTTP/1\.1 \d{3}", got)))
 PY
 }
 
+# hold_request NAME READY METHOD PATH [BODY-FILE]: a client that holds its
+# request open until the file NAME.stop appears, started in the background
+# (its PID in HOLD_PID, and in PIDS).  It sends METHOD PATH to rayd on one
+# raw connection (with BODY-FILE as a JSON body); with READY not empty, it
+# then reads the answer until READY is in it and writes what it read to
+# NAME.ready, so the test knows the answer has begun.  It closes the
+# connection once NAME.stop exists: the client leaves when the test says,
+# not after a time (60 s at most: that only ends a hung case).
+hold_request() {
+    python3 - "$PORT" "$@" <<'PY' &
+import os, socket, sys, time
+port, name, ready, method, path = int(sys.argv[1]), sys.argv[2], sys.argv[3], sys.argv[4], sys.argv[5]
+body = open(sys.argv[6], "rb").read() if len(sys.argv) > 6 else None
+head = "%s %s HTTP/1.1\r\nHost: x\r\n" % (method, path)
+if body is not None:
+    head += "Content-Type: application/json\r\nContent-Length: %d\r\n" % len(body)
+s = socket.create_connection(("127.0.0.1", port), timeout=60)
+s.sendall((head + "\r\n").encode() + (body or b""))
+if ready:
+    got = b""
+    while ready.encode() not in got:
+        d = s.recv(4096)
+        if not d:
+            break
+        got += d
+    open(name + ".ready", "w").write(got.decode("latin-1"))
+end = time.time() + 60  # only ends a hung case
+while not os.path.exists(name + ".stop") and time.time() < end:
+    time.sleep(0.05)
+s.close()
+PY
+    HOLD_PID=$!
+    PIDS+=("$HOLD_PID")
+}
+
 rayd_gone() { ! kill -0 "$RAYD_PID" 2>/dev/null; }
 # stop_rayd [SIGNAL]: signals rayd and waits for it to exit; sets RAYD_RC
 # ("hung" when it was still there after RAYD_STOP_SECONDS, 60 by default: a
