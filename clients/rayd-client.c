@@ -146,9 +146,26 @@ static void client_live_version(const struct net_buf *b, char *v, size_t size) {
     cJSON_Delete(j);
 }
 
-/* One line for a live server: its version and /readyz.  1 when not ready. */
+/* The jobs part of a ready line: ", jobs 1/1024" (unfinished of --max-jobs),
+ * and why new jobs are refused when /readyz says so ("" from a rayd that
+ * counts no jobs). */
+static void client_ready_jobs(const cJSON *j, char *buf, size_t size) {
+    const cJSON *n = cJSON_GetObjectItemCaseSensitive(j, "jobs");
+    const cJSON *max = cJSON_GetObjectItemCaseSensitive(j, "max_jobs");
+    const cJSON *refused = cJSON_GetObjectItemCaseSensitive(j, "jobs_refused");
+    buf[0] = 0;
+    if (cJSON_IsNumber(n) && cJSON_IsNumber(max))
+        snprintf(buf, size, ", jobs %.0f/%.0f", n->valuedouble, max->valuedouble);
+    if (cJSON_IsString(refused)) {
+        size_t used = strlen(buf);
+        snprintf(buf + used, size - used, "; jobs refused: %.300s", refused->valuestring);
+    }
+}
+
+/* One line for a live server: its version and /readyz.  1 when not ready
+ * (a server that refuses new jobs but takes renders is ready: it says so). */
 static int client_ready(const struct client_opts *o, const char *server, const char *version) {
-    char url[1024], why[600] = "", live[96];
+    char url[1024], why[600] = "", live[96], jobs[400];
     struct net_buf b = {0};
     snprintf(live, sizeof live, "live (%s%s)", *version ? "rayd " : "version not said", version);
     snprintf(url, sizeof url, "%s/readyz", server);
@@ -160,9 +177,11 @@ static int client_ready(const struct client_opts *o, const char *server, const c
         const cJSON *c = cJSON_GetObjectItemCaseSensitive(j, "capacity");
         const cJSON *w = cJSON_GetObjectItemCaseSensitive(j, "workers");
         const cJSON *busy = cJSON_GetObjectItemCaseSensitive(j, "busy");
-        printf("%s: %s, ready (queue %d/%d, workers %d busy of %d)\n", server, live,
+        client_ready_jobs(j, jobs, sizeof jobs);
+        printf("%s: %s, ready (queue %d/%d, workers %d busy of %d%s)\n", server, live,
                cJSON_IsNumber(q) ? q->valueint : -1, cJSON_IsNumber(c) ? c->valueint : -1,
-               cJSON_IsNumber(busy) ? busy->valueint : -1, cJSON_IsNumber(w) ? w->valueint : -1);
+               cJSON_IsNumber(busy) ? busy->valueint : -1, cJSON_IsNumber(w) ? w->valueint : -1,
+               jobs);
         cJSON_Delete(j);
     } else {
         if (ready) net_describe(ready, &b, why, sizeof why);

@@ -197,12 +197,22 @@ idf1=$(jfield "$T/body" id)
 code=$(req GET /readyz)
 check readyz_jobs_room "status $code $(cat "$T/body")" bash -c \
     "[ $code = 200 ] && [ '$(jfield "$T/body" jobs)' = 1 ] && [ '$(jfield "$T/body" max_jobs)' = 2 ] && ! grep -q jobs_refused '$T/body'"
+"$RAYD_BUILD/rayd-client" health --server "$URL" >"$T/health1.out" 2>&1
+RC=$?
+check client_health_counts_jobs "exit $RC: $(cat "$T/health1.out")" bash -c \
+    "[ $RC = 0 ] && grep -q ', ready (queue [0-9]*/8, workers [0-9]* busy of [0-9]*, jobs 1/2)\$' '$T/health1.out'"
 post_json /v1/jobs "$T/f2.json" >/dev/null
 code=$(post_json /v1/jobs "$T/f3.json")
 check jobs_table_full_503 "status $code $(head -c 200 "$T/body")" err_is "$T/body" 503 queue_full
 code=$(req GET /readyz)
 check readyz_says_jobs_refused "status $code $(cat "$T/body")" bash -c \
     "[ $code = 200 ] && [ '$(jfield "$T/body" status)' = ready ] && [ '$(jfield "$T/body" jobs)' = 2 ] && grep -q '\"jobs_refused\":\"all 2 jobs kept (--max-jobs) are unfinished' '$T/body'"
+# rayd-client health shows it: the node is ready (renders are accepted), and
+# says why new jobs are not
+"$RAYD_BUILD/rayd-client" health --server "$URL" >"$T/health2.out" 2>&1
+RC=$?
+check client_health_says_jobs_refused "exit $RC: $(cat "$T/health2.out")" bash -c \
+    "[ $RC = 0 ] && grep -q ', ready (.*, jobs 2/2; jobs refused: all 2 jobs kept (--max-jobs) are unfinished: POST /v1/jobs answers 503 queue_full' '$T/health2.out'"
 req DELETE "/v1/jobs/$idf1" >/dev/null
 code=$(req GET /readyz)
 check readyz_jobs_room_again "status $code $(cat "$T/body")" bash -c \
