@@ -6,13 +6,29 @@
 # warning line per server each time it starts failing (not one per tile),
 # and nothing with --quiet; the end line counts only the uploads a server
 # answered (the attempts on the dead one are none).  The dead server is a
-# loopback port nobody listens on (bound, then closed).
+# loopback port whose connections are refused for the whole test: a socket
+# stays bound to it without listening (on Linux a connect() to it gets
+# ECONNREFUSED), held by a process the test starts and stops by PID, so no
+# other program can take the port meanwhile (a port bound and closed could
+# be taken between).
 source "$(dirname "$0")/lib/common.sh"
 
 CLIENT=$RAYD_BUILD/rayd-client
 [ -x "$CLIENT" ] || { echo "FAIL setup: $CLIENT missing"; exit 1; }
 start_rayd --threads 1
-DEAD=http://127.0.0.1:$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
+python3 -c '
+import signal, socket
+s = socket.socket()  # no SO_REUSEADDR: no other socket may bind the port
+s.bind(("127.0.0.1", 0))
+print(s.getsockname()[1], flush=True)
+signal.pause()' >"$T/dead.port" &
+DEAD_PID=$!
+PIDS+=("$DEAD_PID")
+wait_until 60 test -s "$T/dead.port"
+DEAD=http://127.0.0.1:$(cat "$T/dead.port")
+# curl's 7: the connection was refused (not a timeout, nor an answer)
+check dead_port_refused "$DEAD: $(curl -s -m 60 -o /dev/null -w '%{errormsg}' "$DEAD/healthz")" bash -c \
+    "curl -s -m 60 -o /dev/null '$DEAD/healthz'; [ \$? = 7 ]"
 
 scene "$T/s.json" 160 96 1 spheres
 "$RENDER" "$T/s.json" -o "$T/ref.png" 2>/dev/null
@@ -32,3 +48,5 @@ timeout 120 "$CLIENT" render "$T/s.json" -o "$T/q.png" --tile 16 --quiet \
 RC=$?
 check failover_quiet "exit $RC, stderr: $(head -c 300 "$T/q.err")" \
     bash -c "[ $RC = 0 ] && [ ! -s '$T/q.err' ] && cmp -s '$T/ref.png' '$T/q.png'"
+kill "$DEAD_PID"
+wait "$DEAD_PID" 2>/dev/null || true # its status is the TERM's
