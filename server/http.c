@@ -28,6 +28,13 @@
  * thread until that connection's close (MHD_OPTION_NOTIFY_CONNECTION) or a
  * completion takes it.  A line libmicrohttpd drops without a message (a
  * space inside the target, bytes that are not HTTP) is seen by no hook.
+ *
+ * The operator sees one line per refusal, rayd's access line, with the
+ * status and the reason: the title of libmicrohttpd's error page as a code
+ * ("Request too big": request_too_big) in its error field.  libmicrohttpd's
+ * own message, and the one it writes just before some refusals ("Received
+ * HTTP/1.1 request without `Host' header."), say nothing more and go to
+ * debug; its other messages stay warnings.
  */
 #include "transport.h"
 
@@ -136,13 +143,16 @@ static const struct http_io http_mhd_io = {http_mhd_header,  http_mhd_header_eac
  * note), so that line goes to debug. */
 static _Thread_local bool http_dropped;
 
-/* The status of libmicrohttpd's last own error answer in this thread, until
- * the refused request's completion or its connection's close takes it. */
+/* The status of libmicrohttpd's last own error answer in this thread, and
+ * its reason (http_mhd_refusal), until the refused request's completion or
+ * its connection's close takes them. */
 static _Thread_local unsigned http_refused;
+static _Thread_local char http_refused_why[HTTP_REFUSED_WHY];
 
 /* The error status libmicrohttpd queued on c by itself, 0 if none (or if
- * this libmicrohttpd cannot say: then the one its message named). */
-static unsigned http_refused_status(struct MHD_Connection *c)
+ * this libmicrohttpd cannot say: then the one its message named); its
+ * reason into why ("" when this thread's message was not about it). */
+static unsigned http_refused_status(struct MHD_Connection *c, char *why, size_t size)
 {
 #if MHD_VERSION >= 0x00097400
     const union MHD_ConnectionInfo *ci =
@@ -152,8 +162,11 @@ static unsigned http_refused_status(struct MHD_Connection *c)
     (void)c;
     unsigned st = http_refused;
 #endif
-    if (st)
+    snprintf(why, size, "%s", st && st == http_refused ? http_refused_why : "");
+    if (st) {
         http_refused = 0;
+        http_refused_why[0] = 0;
+    }
     return st;
 }
 
@@ -201,8 +214,9 @@ static void http_connection(void *cls, struct MHD_Connection *c, void **socket_c
         return;
     char client[64];
     http_client_address(c, client, sizeof client);
-    http_flow_refused(client, http_refused);
+    http_flow_refused(client, http_refused, http_refused_why);
     http_refused = 0;
+    http_refused_why[0] = 0;
 }
 
 static enum MHD_Result http_access(void *cls, struct MHD_Connection *c, const char *url,
@@ -249,7 +263,7 @@ static void http_completed(void *cls, struct MHD_Connection *c, void **con_cls,
     if (!r)
         return;
     if (!r->method || !r->replied)
-        r->refused_status = http_refused_status(c);
+        r->refused_status = http_refused_status(c, r->refused_why, sizeof r->refused_why);
     const char *note = NULL;
     if (toe != MHD_REQUEST_TERMINATED_COMPLETED_OK)
         note = toe == MHD_REQUEST_TERMINATED_TIMEOUT_REACHED ? "timeout"
@@ -265,21 +279,73 @@ static pthread_mutex_t http_start_lock = PTHREAD_MUTEX_INITIALIZER;
 static bool http_starting;
 static char http_start_why[512]; /* as long as http_mhd_log's line */
 
+/* The title of the error page in a libmicrohttpd message as a code, into
+ * why: "<title>&quot;Host:&quot; header required</title>" is
+ * host_header_required (entities dropped; letters and digits kept, in
+ * lower case; any run of other bytes one '_').  "" when there is none. */
+static void http_page_title_code(const char *msg, char *why, size_t size)
+{
+    const char *p = strstr(msg, "<title>");
+    const char *end = p ? strstr(p, "</title>") : NULL;
+    size_t n = 0;
+    why[0] = 0;
+    if (!end || size == 0)
+        return;
+    for (p += 7; p < end && n + 1 < size; p++) {
+        if (*p == '&' && memchr(p, ';', (size_t)(end - p))) {
+            p = memchr(p, ';', (size_t)(end - p)); /* an entity: &quot; */
+            continue;
+        }
+        char ch = *p;
+        if (ch >= 'A' && ch <= 'Z')
+            ch = (char)(ch - 'A' + 'a');
+        if ((ch >= 'a' && ch <= 'z') || (ch >= '0' && ch <= '9'))
+            why[n++] = ch;
+        else if (n > 0 && why[n - 1] != '_')
+            why[n++] = '_';
+    }
+    while (n > 0 && why[n - 1] == '_')
+        n--;
+    why[n] = 0;
+}
+
 /* A message of libmicrohttpd's saying it answered a request with an error
- * page of its own: counted, and the status kept for the access line. */
-static void http_mhd_refusal(const char *msg)
+ * page of its own: counted, and the status and the page's title kept for
+ * the access line.  False for any other message. */
+static bool http_mhd_refusal(const char *msg)
 {
     static const char said[] = "HTTP response code is ";
     const char *p = strstr(msg, said);
     if (!p || strncmp(msg, "Error processing request", 24))
-        return;
+        return false;
     unsigned long st = strtoul(p + sizeof said - 1, NULL, 10);
     metrics_reject(MR_HTTP_PARSER);
     http_refused = st >= 400 && st <= 599 ? (unsigned)st : 400;
+    http_page_title_code(msg, http_refused_why, sizeof http_refused_why);
+    return true;
+}
+
+/* The messages libmicrohttpd (0.9.75) writes just before it refuses a
+ * request with an error page: the refusal's access line tells as much
+ * (its status, and the page's title as its reason). */
+static bool http_mhd_before_refusal(const char *msg)
+{
+    static const char *const lead[] = {
+        "Received HTTP/1.1 request without `Host' header",
+        "Not enough memory in pool to allocate header record",
+        "Not enough memory in pool to parse cookies",
+        "Too large value of 'Content-Length' header",
+        "Failed to parse `Content-Length' header",
+    };
+    for (size_t i = 0; i < sizeof lead / sizeof lead[0]; i++)
+        if (!strncmp(msg, lead[i], strlen(lead[i])))
+            return true;
+    return false;
 }
 
 /* libmicrohttpd's own messages (malformed requests, ...) go through log.c so
- * --log-format json keeps every stderr line JSON. */
+ * --log-format json keeps every stderr line JSON.  Those about a refusal
+ * go to debug: rayd's access line is the refusal's one line. */
 static void http_mhd_log(void *cls, const char *fmt, va_list ap) __attribute__((format(printf, 2, 0)));
 static void http_mhd_log(void *cls, const char *fmt, va_list ap)
 {
@@ -296,10 +362,10 @@ static void http_mhd_log(void *cls, const char *fmt, va_list ap)
     pthread_mutex_unlock(&http_start_lock);
     if (keep)
         return;
-    http_mhd_refusal(msg);
+    bool refusal = http_mhd_refusal(msg) || http_mhd_before_refusal(msg);
     bool dropped = http_dropped && !strncmp(msg, "Application reported internal error", 35);
     http_dropped = false;
-    if (dropped)
+    if (dropped || refusal)
         log_debug("http: %s", msg);
     else
         log_warn("http: %s", msg);

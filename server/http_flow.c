@@ -22,7 +22,8 @@
  *           A request libmicrohttpd answered itself (headers over
  *           --max-header-bytes: 431, no Host: 400, a malformed chunk: 400)
  *           is logged and counted with the status it sent, as the
- *           transport learnt it (r->refused_status), note
+ *           transport learnt it (r->refused_status), and its reason
+ *           (r->refused_why) as the error, note
  *           refused_by_http_parser; one refused before its target was read
  *           (a request line over the limit: 414) reaches http_flow_refused
  *           only, with no method, path or id to name.
@@ -327,6 +328,7 @@ void http_flow_end(struct http_req *r, const char *note)
                                .path = r->target,
                                .status = refused,
                                .total_ms = total * 1e3,
+                               .error = r->refused_why[0] ? r->refused_why : NULL,
                                .note = refused || !note ? "refused_by_http_parser" : note};
         log_access(&a);
         if (refused)
@@ -340,6 +342,10 @@ void http_flow_end(struct http_req *r, const char *note)
     if ((r->gone || !r->replied) && refused) {
         status = refused; /* libmicrohttpd answered the body (a malformed chunk) */
         note = "refused_by_http_parser";
+        if (r->refused_why[0]) {
+            r->err_code = r->refused_why;
+            r->err_at[0] = 0;
+        }
     } else if (r->gone || !r->replied) {
         status = 499;
         if (!note)
@@ -369,10 +375,12 @@ void http_flow_end(struct http_req *r, const char *note)
     http_req_free(r);
 }
 
-void http_flow_refused(const char *client, unsigned status)
+void http_flow_refused(const char *client, unsigned status, const char *why)
 {
-    struct log_access a = {
-        .client = client, .status = (int)status, .note = "refused_by_http_parser"};
+    struct log_access a = {.client = client,
+                           .status = (int)status,
+                           .error = why && *why ? why : NULL,
+                           .note = "refused_by_http_parser"};
     log_access(&a);
     metrics_request(-1, NULL, (int)status, 0);
 }

@@ -20,6 +20,10 @@
 struct MHD_Response;
 struct http_req;
 
+/* Room for the reason of a refusal of libmicrohttpd's (a code made of its
+ * error page's title: "requested_http_version_is_not_supported"). */
+#define HTTP_REFUSED_WHY 48
+
 /* Where a request comes from: libmicrohttpd (http.c) or a test harness
  * (tests/fuzz/fuzz_http_common.h).  Everything reaches the connection only
  * through these. */
@@ -68,6 +72,7 @@ struct http_req {
     bool parked;                 /* suspended by the handler now running (its thread only) */
     const char *note;            /* for the access log */
     unsigned refused_status; /* the error libmicrohttpd answered by itself (431, ...), 0 none */
+    char refused_why[HTTP_REFUSED_WHY]; /* its reason, a code ("request_too_big"), "" none */
     int retry_after;             /* seconds in a 503's Retry-After; 0: 1 */
     char etag[72];               /* set for immutable GETs */
 };

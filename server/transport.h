@@ -30,8 +30,8 @@ void http_flow_handle(struct http_req *r);
 void http_flow_end(struct http_req *r, const char *note);
 /* The access line and count of a request libmicrohttpd refused with status
  * before rayd saw even its target (a request line over --max-header-bytes:
- * 414), from client ("" unknown). */
-void http_flow_refused(const char *client, unsigned status);
+ * 414), from client ("" unknown); why is the reason ("" unknown). */
+void http_flow_refused(const char *client, unsigned status, const char *why);
 
 /* ---- http.c: libmicrohttpd ------------------------------------------------------ */
 

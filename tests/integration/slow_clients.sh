@@ -6,7 +6,8 @@
 # at accept and the server serves again once they are gone; the open-file
 # limit was raised at start-up to hold them; a trickling upload that is
 # never idle is dropped after --upload-seconds; an upload the client ends short
-# (a half-close) is closed at once.
+# (a half-close) is closed at once.  A request libmicrohttpd refuses itself
+# (414, 431, no Host) is one log line, rayd's, with the status and the reason.
 source "$(dirname "$0")/lib/common.sh"
 
 scene "$T/small.json" 64 48 1 spheres
@@ -167,17 +168,37 @@ code=$(curl -s -m 60 -o /dev/null -w '%{http_code}' "$URL/healthz?$(head -c 1000
 check request_line_over_header_bytes_414 "status $code" [ "$code" = 414 ]
 wait_until 30 grep -q ' - - 414 0 .*note=refused_by_http_parser$' "$T/rayd.err"
 check request_line_414_logged "$(grep -v ' 200 ' "$T/rayd.err" | tail -n 4)" \
-    grep -q ' 127.0.0.1 - - 414 0 .*note=refused_by_http_parser$' "$T/rayd.err"
+    grep -q ' 127.0.0.1 - - 414 0 .* error=request_too_big note=refused_by_http_parser$' "$T/rayd.err"
 wait_until 30 grep -q ' - /healthz 431 0 .*note=refused_by_http_parser$' "$T/rayd.err"
 check headers_431_logged "$(grep 431 "$T/rayd.err" | tail -n 2)" \
-    grep -q ' 127.0.0.1 - /healthz 431 0 .*note=refused_by_http_parser$' "$T/rayd.err"
-wait_until 30 metric_is 'rayd_rejections_total{reason="http_parser"}' 2
+    grep -q ' 127.0.0.1 - /healthz 431 0 .* error=request_too_big note=refused_by_http_parser$' "$T/rayd.err"
+# one without Host, which libmicrohttpd announces with a line of its own first
+got=$(raw_answers 'GET /healthz HTTP/1.1\r\nConnection: close\r\n\r\n')
+# (libmicrohttpd 0.9.75 writes its status line and headers twice here: the
+# first answer is what a client reads)
+check no_host_400 "answers '$got'" bash -c "[[ '$got' == 'HTTP/1.1 400'* ]]"
+wait_until 30 grep -q ' - /healthz 400 0 .*note=refused_by_http_parser$' "$T/rayd.err"
+check no_host_logged "$(grep ' 400 ' "$T/rayd.err" | tail -n 2)" \
+    grep -q ' 127.0.0.1 - /healthz 400 0 .* error=host_header_required note=refused_by_http_parser$' "$T/rayd.err"
+# each refusal is one line, rayd's access line: libmicrohttpd's own words
+# about it ("Error processing request (HTTP response code is 414 ...)",
+# "Received HTTP/1.1 request without `Host' header.") are debug lines
+check refusals_one_line_each "$(grep -c 'refused_by_http_parser' "$T/rayd.err") access lines; $(grep ' http: ' "$T/rayd.err" | head -n 3)" \
+    bash -c "[ \$(grep -c 'refused_by_http_parser' '$T/rayd.err') = 3 ] && ! grep -q ' http: ' '$T/rayd.err'"
+wait_until 30 metric_is 'rayd_rejections_total{reason="http_parser"}' 3
 check http_parser_refusals_counted "rejections $(metric 'rayd_rejections_total{reason="http_parser"}')" \
-    metric_is 'rayd_rejections_total{reason="http_parser"}' 2
+    metric_is 'rayd_rejections_total{reason="http_parser"}' 3
 check http_parser_requests_counted "414: $(metric 'rayd_http_requests_total{route="none",method="other",code="414"}'), 431: $(metric 'rayd_http_requests_total{route="none",method="other",code="431"}')" \
     bash -c "[ '$(metric 'rayd_http_requests_total{route="none",method="other",code="414"}')' = 1 ] && [ '$(metric 'rayd_http_requests_total{route="none",method="other",code="431"}')' = 1 ]"
 stop_rayd TERM
 check exit_0_limits "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
+# at --log-level debug libmicrohttpd's own words are there too
+start_rayd --max-header-bytes 8192 --log-level debug
+code=$(curl -s -m 60 -o /dev/null -w '%{http_code}' -H "X-Big: $(head -c 10000 /dev/zero | tr '\0' a)" "$URL/healthz")
+wait_until 30 grep -q ' - /healthz 431 0 .*note=refused_by_http_parser$' "$T/rayd.err"
+check refusal_words_at_debug "status $code; $(grep ' http: ' "$T/rayd.err" | head -n 2)" \
+    grep -q ' debug http: Error processing request (HTTP response code is 431 ' "$T/rayd.err"
+stop_rayd TERM
 
 # --- a trickling upload is dropped after --upload-seconds, though never idle -------------------
 start_rayd --upload-seconds 2 --timeout 30
