@@ -56,7 +56,9 @@ WIDE_FN void WIDE(gather)(const rayd_scene *s, const struct ray16 *r, const stru
             w->dx[j] = r->d[0][i], w->dy[j] = r->d[1][i], w->dz[j] = r->d[2][i];
         }
     }
-    for (int j = 0; j < 16; j++) one &= obj[j] == obj[0];
+    uintptr_t other = 0; /* bits where some lane's object differs: vectorised */
+    for (int j = 0; j < 16; j++) other |= (uintptr_t)obj[j] ^ (uintptr_t)obj[0];
+    one = other == 0;
     w->top = 0, w->frac = w->gloss = w->spheres = false;
     if (one) { /* copies: no store to w can change them, so they load once */
         const struct object o = *obj[0];
