@@ -1,6 +1,7 @@
 /* pngbench.c -- PNG encoding: libpng (one thread, as rayd encoded before,
  * adaptive filters) against rayd's band encoder at each deflate level and
- * thread count (-1: the default, libdeflate level 1; 1: ISA-L).  Prints the median time of RUNS
+ * thread count (-1: the default, libdeflate level 1 with ISA-L every
+ * fourth band; 1: ISA-L).  Prints the median time of RUNS
  * encodes and the size.
  *
  *   build/bench/pngbench IMAGE.png... (`make bench` runs it on renders)

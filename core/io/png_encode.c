@@ -35,22 +35,31 @@
  * Paeth, the costliest filter, made the output larger under this measure,
  * so it is not tried.
  *
- * Deflate.  With no level asked for (-1), libdeflate level 1 (its
- * hash-table matcher, greedy).  bench/pngbench.c on the example scenes and
- * the 1080p sphere scene, one thread, Nov 29 2026: the sphere scene in
- * 34.3 ms for +10.4% bytes against libpng level 6 (253 ms), where
- * libdeflate's level 2, the default before, took 39.0 ms for +7.5%; every
- * image within -0.9% and +10.4%, all of them together +5.7% (level 2:
- * +3.2%), inside the promise of at most +15% by default.  In a whole
- * render the bands' deflating is then at most a quarter of the tracing's
- * CPU (bench/README.md).  Zlib level 4 with the filtered strategy, the
- * default before libdeflate, took 50 ms for +6.5% on two threads.
- * libdeflate cannot end a stream without a final block, so each
+ * Deflate.  With no level asked for (-1), a blend: libdeflate level 1
+ * (its hash-table matcher, greedy) for three bands in four, ISA-L (below)
+ * for every fourth, bands 3, 7, 11, ... (PNG_ISAL_EVERY): which band is
+ * which depends on the image's size alone, so the bytes still do not
+ * depend on the threads.  Why a blend: #16 asks for the encoding to cost
+ * at most a quarter of the tracing, with bytes within +15% of libpng level
+ * 6.  libdeflate level 1 alone met both until the tracer itself got 12%
+ * faster (Nov 29 2026: -O3 and vectorised shading), which left the bands'
+ * deflating at 0.29 of the tracing; no libdeflate level is faster, and
+ * ISA-L alone is +18% on the sphere scene and +21% on paper.  Every fourth
+ * band by ISA-L costs 15% less deflating (no deflate_chain walk for those
+ * bands either), and the bytes: bench/pngbench.c on the example scenes and
+ * the 1080p sphere scene, one thread, the sphere scene +12.3% against
+ * libpng level 6 (libdeflate level 1 alone: +10.4%), every image within
+ * -0.5% and +12.3%, all of them together +6.5% (+5.7%); images of fewer
+ * than four bands (256 KB of rows each) are libdeflate's alone.  Before
+ * it: libdeflate level 1 alone (34.3 ms on that scene for +10.4%), its
+ * level 2 (39.0 ms, +7.5%), zlib level 4 with the filtered strategy (50 ms
+ * on two threads, +6.5%).
+ * libdeflate cannot end a stream without a final block, so each of its
  * band but the last is walked once more by deflate_chain (a fifth of the
  * deflate's time at level 1) to clear that bit and append the empty stored block.
  * Levels 0 and 2-9 are libdeflate's, as asked.  Level 1, the fastest, is
  * Intel ISA-L (isal_deflate, level 2, raw deflate with a sync flush or, for
- * the last band, the final block): 2.6x faster than the default and 19x
+ * the last band, the final block): 2.6x faster than libdeflate level 1 and 19x
  * libpng level 6 on the sphere scene (one thread) for +1% to +21% bytes
  * (+18% there, +21% on paper): ISA-L matches greedily from one hash candidate and misses
  * the short repeats that lazy matching finds in smooth gradients.  ISA-L
@@ -114,7 +123,10 @@
 #define PNG_BAND_BYTES (256u * 1024u) /* raw bytes of a band, about */
 #define PNG_MAX_THREADS 64
 #define PNG_ISAL_LEVEL 2                 /* ISA-L's level for --png-level 1 (measured) */
-#define PNG_LEVEL_DEFAULT 1              /* libdeflate's level when none is asked for (measured) */
+#define PNG_ISAL (-1)                    /* the stream's level for ISA-L */
+#define PNG_BLEND (-2)   /* ... for the default: libdeflate's 1, ISA-L every PNG_ISAL_EVERY bands */
+#define PNG_BLEND_LD 1   /* the blend's libdeflate level (measured) */
+#define PNG_ISAL_EVERY 4 /* bands 3, 7, 11, ... of the blend are ISA-L's (measured) */
 #define PNG_XLOGX_N 4096                 /* counts below this have c log2 c in a table */
 #define PNG_HUGE_MIN ((size_t)256 << 10) /* an image's raw bytes from which: huge pages */
 #define PNG_HOLD_BLOCK (((size_t)2 << 20) - 64) /* a block of deflated bands: one huge page */
@@ -138,7 +150,7 @@ struct png_band {
  * its thread no longer than that. */
 struct rayd_png_stream {
     const rayd_image *img;
-    int level, nbands, band_rows; /* level -1: ISA-L */
+    int level, nbands, band_rows; /* level PNG_ISAL, PNG_BLEND or libdeflate's */
     struct png_band *bands;
     pthread_mutex_t lock;
     pthread_cond_t idle;       /* signalled when calls drops to 0 */
@@ -362,12 +374,19 @@ static size_t deflate_isal(unsigned char *in, size_t n, int last, unsigned char 
     return cap - s.avail_out;
 }
 
+/* The deflate band i of a stream at level runs: PNG_ISAL or libdeflate's
+ * level. */
+static int band_level(int level, int i) {
+    if (level != PNG_BLEND) return level;
+    return i % PNG_ISAL_EVERY == PNG_ISAL_EVERY - 1 ? PNG_ISAL : PNG_BLEND_LD;
+}
+
 /* A worker's buffers, kept from band to band and from worker to worker in
  * the stream's pool: fresh ones for each band cost page faults (the
  * deflate's output, allocated a band, was 7% of the whole process on the
  * 1080p sphere scene). */
 struct png_scratch {
-    struct png_buf block, lbuf; /* holding the three below; ISA-L's state */
+    struct png_buf block;       /* holding all below, and libdeflate's compressor */
     unsigned char *filt, *zero; /* filtered rows, a row of zeros */
     unsigned char *z, *lb;      /* the deflate's output (zcap bytes), ISA-L's state */
     size_t zcap, lbsize;
@@ -393,15 +412,14 @@ static void band_encode(const rayd_image *img, int level, struct png_band *b, in
     }
     b->adler = isal_adler32(1, w->filt, b->raw);
     size_t zcap = band_zcap(b->raw);
-    b->len = level < 0 ? deflate_isal(w->filt, b->raw, last, w->lb, w->lbsize, w->z, zcap)
-                       : deflate_libdeflate(w->ld, w->filt, b->raw, last, w->z, zcap);
+    b->len = level == PNG_ISAL ? deflate_isal(w->filt, b->raw, last, w->lb, w->lbsize, w->z, zcap)
+                               : deflate_libdeflate(w->ld, w->filt, b->raw, last, w->z, zcap);
 }
 
 static void scratch_free(struct png_scratch *w) {
     if (!w) return;
     libdeflate_free_compressor(w->ld); /* first: it may live in the block */
     png_buf_free(&w->block);
-    png_buf_free(&w->lbuf);
     free(w);
 }
 
@@ -421,18 +439,19 @@ static struct png_scratch *scratch_take(struct rayd_png_stream *s) {
     if (!w) return NULL;
     size_t zcap = band_zcap(raw), image_raw = (size_t)s->img->h * (n + 1);
     size_t room = (raw + n + zcap + 63) / 64 * 64; /* the compressor's room from here */
-    png_buf_new(&w->block, room + (s->level >= 0 ? PNG_LD_ROOM : 0), image_raw);
+    bool ld = s->level != PNG_ISAL, isal = s->level < 0; /* the blend: both */
+    w->lbsize = isal ? ISAL_DEF_LVL2_DEFAULT : 0;
+    png_buf_new(&w->block, room + (ld ? PNG_LD_ROOM : 0) + w->lbsize, image_raw);
     unsigned char *b = w->block.p;
     w->filt = b, w->zero = b ? b + raw : NULL, w->z = b ? b + raw + n : NULL;
     w->zcap = zcap;
     if (b) memset(w->zero, 0, n);
-    w->lbsize = s->level < 0 ? ISAL_DEF_LVL2_DEFAULT : 0;
-    if (w->lbsize) png_buf_new(&w->lbuf, w->lbsize, image_raw);
-    w->lb = w->lbuf.p;
-    png_ld_room = b && s->level >= 0 ? b + room : NULL;
-    w->ld = s->level >= 0 ? libdeflate_alloc_compressor(s->level) : NULL;
+    w->lb = b && isal ? b + room + (ld ? PNG_LD_ROOM : 0) : NULL;
+    png_ld_room = b && ld ? b + room : NULL;
+    w->ld =
+        ld ? libdeflate_alloc_compressor(s->level == PNG_BLEND ? PNG_BLEND_LD : s->level) : NULL;
     png_ld_room = NULL;
-    if (w->filt && w->zero && w->z && (s->level < 0 ? w->lb != NULL : w->ld != NULL)) return w;
+    if (w->filt && w->zero && w->z && (!isal || w->lb) && (!ld || w->ld)) return w;
     scratch_free(w);
     return NULL;
 }
@@ -516,7 +535,7 @@ static void bands_encode(struct rayd_png_stream *s, int rows) {
         if (!w) w = scratch_take(s);
         double t0 = clock_now();
         struct png_band *b = &s->bands[i];
-        if (w) band_encode(s->img, s->level, b, i == s->nbands - 1, w);
+        if (w) band_encode(s->img, band_level(s->level, i), b, i == s->nbands - 1, w);
         b->out = w && b->len ? hold_take(s, b->len) : NULL;
         if (b->out) memcpy(b->out, w->z, b->len);
         b->failed = !b->out;
@@ -606,11 +625,11 @@ static void put_header(struct out *o, const rayd_image *img) {
  * header, the last ends with the Adler-32 of the whole. */
 static void put_idats(struct out *o, int level, const struct png_band *bands, int nbands) {
     static const unsigned char flg[4] = {0x01, 0x5e, 0x9c, 0xda}; /* by FLEVEL, as zlib */
-    int flevel = level < 0    ? 1
-                 : level < 2  ? 0
-                 : level <= 5 ? 1
-                 : level == 6 ? 2
-                              : 3; /* ISA-L: fast */
+    int flevel = level == PNG_ISAL ? 1                            /* fast */
+                 : level < 2       ? 0 /* the blend, libdeflate's 0 and 1: fastest */
+                 : level <= 5      ? 1
+                 : level == 6      ? 2
+                                   : 3;
     const unsigned char head[2] = {0x78, flg[flevel]};
     uLong adler = adler32_z(0, NULL, 0);
     for (int i = 0; i < nbands; i++)
@@ -662,10 +681,11 @@ static int encode_bands(struct rayd_png_stream *s, int threads) {
     return 0;
 }
 
-/* The deflate a level asked for runs: -1 for ISA-L, else libdeflate's level. */
+/* The deflate a level asked for runs: PNG_ISAL, PNG_BLEND (the default,
+ * which no level names) or libdeflate's level. */
 static int png_level(int level) {
-    if (level == 1) return -1; /* the fastest: ISA-L (smaller and faster than zlib's 1) */
-    if (level < 0 || level > 9) return PNG_LEVEL_DEFAULT; /* libdeflate's 1, which no level names */
+    if (level == 1) return PNG_ISAL; /* the fastest (smaller and faster than zlib's 1) */
+    if (level < 0 || level > 9) return PNG_BLEND;
     return level;
 }
 
@@ -676,10 +696,15 @@ const char *rayd_png_encoder(int level) {
         PNG_LD_NAME(5), PNG_LD_NAME(6), PNG_LD_NAME(7), PNG_LD_NAME(8), PNG_LD_NAME(9),
 #undef PNG_LD_NAME
     };
-    static const char isal[] = "isa-l " PNG_XSTR(ISAL_MAJOR_VERSION) "." PNG_XSTR(
-        ISAL_MINOR_VERSION) " level " PNG_XSTR(PNG_ISAL_LEVEL);
+#define PNG_ISAL_NAME                                                                              \
+    "isa-l " PNG_XSTR(ISAL_MAJOR_VERSION) "." PNG_XSTR(ISAL_MINOR_VERSION) " level " PNG_XSTR(     \
+        PNG_ISAL_LEVEL)
+    static const char isal[] = PNG_ISAL_NAME;
+    static const char blend[] = "libdeflate " LIBDEFLATE_VERSION_STRING " level " PNG_XSTR(
+        PNG_BLEND_LD) ", every " PNG_XSTR(PNG_ISAL_EVERY) "th band " PNG_ISAL_NAME;
+#undef PNG_ISAL_NAME
     int l = png_level(level);
-    return l < 0 ? isal : names[l];
+    return l == PNG_ISAL ? isal : l == PNG_BLEND ? blend : names[l];
 }
 
 enum rayd_status rayd_png_stream_new(const rayd_image *img, int level, rayd_png_stream **out,

@@ -156,10 +156,45 @@ static void test_chunks_well_formed(void) {
     rayd_image_free(img);
 }
 
+/* The IDAT chunks of PNG buf: their data into at[], their sizes into n[];
+ * how many (at most max). */
+static int idats(const unsigned char *buf, size_t len, const unsigned char **at, uint32_t *n,
+                 int max) {
+    int k = 0;
+    for (size_t p = 8; p + 12 <= len && k < max; p += 12 + be32(buf + p))
+        if (!memcmp(buf + p + 4, "IDAT", 4)) at[k] = buf + p + 8, n[k++] = be32(buf + p);
+    return k;
+}
+
+/* The default deflates every fourth band (3, 7, ...) with ISA-L, the rest
+ * with libdeflate: an IDAT a band, the fourth is the very bytes
+ * --png-level 1 (ISA-L alone) writes for it, the first three are not. */
+static void test_default_blends_isal(void) {
+    rayd_image *img = pattern(1500, 400, 3); /* bands of 58 rows: 7 */
+    unsigned char *dflt = NULL, *isal = NULL;
+    size_t dlen = 0, ilen = 0;
+    bool ok = img && rayd_png_encode_threads(img, -1, 2, (void **)&dflt, &dlen, NULL) == RAYD_OK &&
+              rayd_png_encode_threads(img, 1, 2, (void **)&isal, &ilen, NULL) == RAYD_OK;
+    CHECK(ok, "encode failed");
+    const unsigned char *d[16], *i[16];
+    uint32_t dn[16], in[16];
+    int nd = ok ? idats(dflt, dlen, d, dn, 16) : 0, ni = ok ? idats(isal, ilen, i, in, 16) : 0;
+    CHECK(nd == 7 && ni == 7, "%d and %d IDATs, not a band each", nd, ni);
+    if (nd == 7 && ni == 7) {
+        CHECK(dn[3] == in[3] && !memcmp(d[3], i[3], dn[3]), "band 3 is not ISA-L's");
+        for (int b = 0; b < 3; b++)
+            CHECK(dn[b] != in[b] || memcmp(d[b], i[b], dn[b]), "band %d is ISA-L's", b);
+    }
+    rayd_free(dflt);
+    rayd_free(isal);
+    rayd_image_free(img);
+}
+
 int main(void) {
     RUN(test_odd_sizes_every_thread_count);
     RUN(test_every_level);
     RUN(test_big_image_many_blocks);
     RUN(test_chunks_well_formed);
+    RUN(test_default_blends_isal);
     CHECK_EXIT();
 }
