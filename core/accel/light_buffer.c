@@ -110,27 +110,26 @@ static int32_t face_side(int32_t shown) {
 
 /* Room the build reuses from face to face and light to light: each
  * object's rectangle on the face at hand, a cursor per cell, and a mark
- * per object (the last 2 x 2 cells it was listed for, plus one). */
+ * per object: the stamp of the last list of 2 x 2 cells it went into (the
+ * stamps only grow, so the marks are never cleared). */
 struct lb_scratch {
     struct lb_rect *rect;
     uint32_t *fill;
-    uint32_t *mark;
-    size_t nobjs;
+    uint32_t *mark, stamp;
 };
 
 /* The objects of the 2 x 2 cells from (i, j) of face f, each once, into
- * out (when not NULL) in the order of the cells' lists; their count.
- * q + 1 marks an object listed (sc->mark, zero for none yet). */
-static uint32_t quad_list(const struct light_face *f, int32_t i, int32_t j, uint32_t q,
-                          struct lb_scratch *sc, uint32_t *out) {
-    uint32_t n = 0;
+ * out (when not NULL) in the order of the cells' lists; their count. */
+static uint32_t quad_list(const struct light_face *f, int32_t i, int32_t j, struct lb_scratch *sc,
+                          uint32_t *out) {
+    uint32_t n = 0, q = ++sc->stamp;
     for (int32_t y = j < 0 ? 0 : j; y <= j + 1 && y < f->nv; y++)
         for (int32_t x = i < 0 ? 0 : i; x <= i + 1 && x < f->nu; x++) {
             int32_t cell = y * f->nu + x;
             for (uint32_t k = f->start[cell]; k < f->start[cell + 1]; k++) {
                 uint32_t id = f->ids[k];
-                if (sc->mark[id] == q + 1) continue;
-                sc->mark[id] = q + 1;
+                if (sc->mark[id] == q) continue;
+                sc->mark[id] = q;
                 if (out) out[n] = id;
                 n++;
             }
@@ -148,12 +147,11 @@ static bool face_quads(struct light_face *f, struct lb_scratch *sc, size_t *budg
     if (!(f->qstart = calloc((size_t)quads + 1, sizeof *f->qstart))) return !(*nomem = true);
     size_t total = 0;
     for (int pass = 0; pass < 2; pass++) { /* the counts, then the lists */
-        memset(sc->mark, 0, sizeof *sc->mark * sc->nobjs);
         for (uint32_t q = 0; q < quads; q++) {
             int32_t i = (int32_t)(q % (uint32_t)(f->nu + 1)) - 1;
             int32_t j = (int32_t)(q / (uint32_t)(f->nu + 1)) - 1;
             uint32_t *out = pass ? f->quad + f->qstart[q] : NULL;
-            uint32_t n = quad_list(f, i, j, q, sc, out);
+            uint32_t n = quad_list(f, i, j, sc, out);
             if (!pass) f->qstart[q + 1] = f->qstart[q] + n, total += n;
         }
         if (pass) break;
@@ -264,7 +262,7 @@ enum rayd_status light_buffers_build(const struct aabb *box, int32_t nobjs,
     size_t side = (size_t)face_side(nobjs); /* no face shows more objects */
     struct lb_scratch sc = {malloc(sizeof *sc.rect * (size_t)nobjs),
                             malloc(sizeof *sc.fill * side * side),
-                            malloc(sizeof *sc.mark * (size_t)nobjs), (size_t)nobjs};
+                            calloc((size_t)nobjs, sizeof *sc.mark), 0};
     bool ok = bufs && rel && sc.rect && sc.fill && sc.mark;
     size_t ids = LB_MAX_IDS;
     int built = 0,
