@@ -79,14 +79,21 @@ void api_scenes_post(struct http_req *r, const char *id);
 void api_scenes_image(struct http_req *r, const char *id);
 void api_jobs_post(struct http_req *r, const char *id);
 void api_jobs_get(struct http_req *r, const char *id);
-void api_jobs_image(struct http_req *r, const char *id);
 void api_jobs_delete(struct http_req *r, const char *id);
 void api_jobs_stop(struct http_req *r, const char *id);
-/* api_jobs.c's pieces the event stream shares: 404 job_unknown, and a
- * pass's noise and image URL in a JSON object. */
+/* api_jobs.c's pieces the event stream and the images share: 404
+ * job_unknown, a pass's noise and image URL in a JSON object, the job's
+ * status document (docs/api.md: key order and decimals), and the job's
+ * scene for the access log. */
 void api_jobs_unknown(struct http_req *r);
 void api_jobs_add_noise(cJSON *o, double noise);
 void api_jobs_add_pass_url(cJSON *o, const char *id, int k);
+cJSON *api_jobs_json(const char *id, const struct jobs_info *in);
+void api_jobs_scene(struct http_req *r, const struct jobs_info *info);
+
+/* api_jobs_image.c: GET /v1/jobs/{id}/image.png and image.exr */
+void api_jobs_image(struct http_req *r, const char *id);
+void api_jobs_exr(struct http_req *r, const char *id);
 
 /* api_events.c */
 void api_events_get(struct http_req *r, const char *id);

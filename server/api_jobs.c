@@ -1,12 +1,13 @@
 /* api_jobs.c -- asynchronous renders: POST /v1/jobs, GET /v1/jobs/{id},
- * GET /v1/jobs/{id}/image.png, POST /v1/jobs/{id}/stop, DELETE.
+ * POST /v1/jobs/{id}/stop, DELETE.
  *
  * A job is a render nobody waits on: POST answers 202 with the job id at
  * once, the client polls the job or follows its Server-Sent Events, then
- * fetches the PNG.  The jobs themselves (table, states, progress, the event
- * cursor) live in the work layer (jobs.c, events.c); this file turns them
- * into HTTP and JSON.  The event stream, GET /v1/jobs/{id}/events, is
- * api_events.c's.
+ * fetches the PNG (or, for a job created with ?format=exr, the EXR too).
+ * The jobs themselves (table, states, progress, the event cursor) live in
+ * the work layer (jobs.c, events.c); this file turns them into HTTP and
+ * JSON.  The event stream, GET /v1/jobs/{id}/events, is api_events.c's;
+ * the images, GET /v1/jobs/{id}/image.png and image.exr, api_jobs_image.c's.
  */
 #include "api.h"
 
@@ -30,6 +31,9 @@ static void api_job_url(char *buf, size_t size, const char *id, const char *tail
 
 static const char *const api_plan_names[] = {"progressive", "pass_step", "time_budget",
                                              "noise_target", NULL};
+/* What POST /v1/jobs takes besides the region. */
+static const char *const api_jobs_names[] = {"progressive",  "pass_step", "time_budget",
+                                             "noise_target", "format",    NULL};
 
 static bool api_plan_bad(struct http_req *r, const char *name, const char *why)
 {
@@ -92,6 +96,23 @@ static bool api_plan(struct http_req *r, const rayd_scene *scene, struct jobs_pl
     return true;
 }
 
+/* ?format=png|exr into what (POST /v1/render's names; a job keeps its
+ * 8-bit PNG always, and with exr the EXR of the same samples).  Replies
+ * 400 naming format and returns false on a bad one. */
+static bool api_jobs_format(struct http_req *r, struct work_target *what)
+{
+    const char *v = http_req_query(r, "format");
+    if (http_req_query_count(r, "format") > 1)
+        return api_plan_bad(r, "format", "given more than once");
+    if (v && strcmp(v, "png") && strcmp(v, "exr")) {
+        char why[120];
+        snprintf(why, sizeof why, "must be png or exr for a job, not '%.40s'", v);
+        return api_plan_bad(r, "format", why);
+    }
+    what->keep_exr = v && !strcmp(v, "exr");
+    return true;
+}
+
 /* "estimate": {"rays", "seconds"}: the job's price (api_cost.c). */
 static void api_add_estimate(cJSON *o, const struct api_price *p)
 {
@@ -112,8 +133,8 @@ void api_jobs_post(struct http_req *r, const char *unused)
     struct api_price price;
     char id[33], url[80];
     enum work_submit s;
-    if (!api_region_also(r, cache_scene(e), &what.reg, api_plan_names) ||
-        !api_plan(r, cache_scene(e), &plan, &progressive) ||
+    if (!api_region_also(r, cache_scene(e), &what.reg, api_jobs_names) ||
+        !api_plan(r, cache_scene(e), &plan, &progressive) || !api_jobs_format(r, &what) ||
         !api_cost_admit(r, cache_scene(e), &what, progressive, &price)) {
         /* replied */
     } else if ((s = jobs_create(e, &what, progressive ? &plan : NULL, id)) != WORK_OK) {
@@ -127,6 +148,10 @@ void api_jobs_post(struct http_req *r, const char *unused)
         cJSON_AddStringToObject(o, "status_url", url);
         api_job_url(url, sizeof url, id, "/image.png");
         cJSON_AddStringToObject(o, "image_url", url);
+        if (what.keep_exr) {
+            api_job_url(url, sizeof url, id, "/image.exr");
+            cJSON_AddStringToObject(o, "exr_url", url);
+        }
         api_job_url(url, sizeof url, id, "/events");
         cJSON_AddStringToObject(o, "events_url", url);
         api_add_estimate(o, &price);
@@ -156,8 +181,17 @@ void api_jobs_add_pass_url(cJSON *o, const char *id, int k)
     cJSON_AddStringToObject(o, "image_url", url);
 }
 
+/* "exr_url" of pass k of job id (a job with format=exr). */
+static void api_jobs_add_pass_exr_url(cJSON *o, const char *id, int k)
+{
+    char url[100], tail[40];
+    snprintf(tail, sizeof tail, "/image.exr?pass=%d", k);
+    api_job_url(url, sizeof url, id, tail);
+    cJSON_AddStringToObject(o, "exr_url", url);
+}
+
 /* A progressive job's "passes" object. */
-static void api_job_passes(cJSON *o, const char *id, const struct jobs_passes *p)
+static void api_job_passes(cJSON *o, const char *id, const struct jobs_passes *p, bool exr)
 {
     cJSON *x = cJSON_AddObjectToObject(o, "passes");
     cJSON_AddNumberToObject(x, "done", p->done);
@@ -173,10 +207,11 @@ static void api_job_passes(cJSON *o, const char *id, const struct jobs_passes *p
         cJSON_AddNullToObject(x, "stopped_by");
     if (p->done)
         api_jobs_add_pass_url(x, id, p->done);
+    if (p->done && exr)
+        api_jobs_add_pass_exr_url(x, id, p->done);
 }
 
-/* The job's status document (docs/api.md: key order and decimals). */
-static cJSON *api_job_json(const char *id, const struct jobs_info *in)
+cJSON *api_jobs_json(const char *id, const struct jobs_info *in)
 {
     cJSON *o = cJSON_CreateObject();
     cJSON_AddStringToObject(o, "id", id);
@@ -198,11 +233,14 @@ static cJSON *api_job_json(const char *id, const struct jobs_info *in)
     struct api_price price = {in->est_rays, sched_seconds(in->est_rays)};
     api_add_estimate(o, &price);
     if (in->progressive)
-        api_job_passes(o, id, &in->passes);
+        api_job_passes(o, id, &in->passes, in->keep_exr);
     if (in->state == JS_SUCCEEDED) {
         char url[80];
         api_job_url(url, sizeof url, id, "/image.png");
         cJSON_AddStringToObject(o, "image_url", url);
+        api_job_url(url, sizeof url, id, "/image.exr");
+        if (in->keep_exr)
+            cJSON_AddStringToObject(o, "exr_url", url);
     }
     if (in->state == JS_FAILED) {
         cJSON *err = cJSON_AddObjectToObject(o, "error");
@@ -214,8 +252,7 @@ static cJSON *api_job_json(const char *id, const struct jobs_info *in)
     return o;
 }
 
-/* The job's scene, for the access log. */
-static void api_job_scene(struct http_req *r, const struct jobs_info *info)
+void api_jobs_scene(struct http_req *r, const struct jobs_info *info)
 {
     snprintf(r->scene, sizeof r->scene, "%s", info->scene_id);
 }
@@ -225,12 +262,12 @@ void api_jobs_get(struct http_req *r, const char *id)
     struct jobs_info info;
     if (!api_only_params(r, NULL))
         return;
-    if (!api_is_hex(id, 32) || !jobs_get(id, &info, false)) {
+    if (!api_is_hex(id, 32) || !jobs_get(id, &info, JOBS_NUMBERS)) {
         api_jobs_unknown(r);
         return;
     }
-    api_job_scene(r, &info);
-    http_reply_json(r, 200, api_job_json(id, &info));
+    api_jobs_scene(r, &info);
+    http_reply_json(r, 200, api_jobs_json(id, &info));
 }
 
 void api_jobs_delete(struct http_req *r, const char *id)
@@ -238,60 +275,12 @@ void api_jobs_delete(struct http_req *r, const char *id)
     struct jobs_info info;
     if (!api_only_params(r, NULL))
         return;
-    if (!api_is_hex(id, 32) || !jobs_cancel(id) || !jobs_get(id, &info, false)) {
+    if (!api_is_hex(id, 32) || !jobs_cancel(id) || !jobs_get(id, &info, JOBS_NUMBERS)) {
         api_jobs_unknown(r);
         return;
     }
-    api_job_scene(r, &info);
-    http_reply_json(r, 200, api_job_json(id, &info));
-}
-
-/* Which pass an image is: X-Rayd-Pass "k/total", X-Rayd-Samples n. */
-static void api_pass_headers(struct http_req *r, int pass, int total, int samples)
-{
-    char v[32];
-    snprintf(v, sizeof v, "%d/%d", pass, total);
-    http_reply_header(r, "X-Rayd-Pass", v);
-    snprintf(v, sizeof v, "%d", samples);
-    http_reply_header(r, "X-Rayd-Samples", v);
-}
-
-/* GET /v1/jobs/{id}/image.png?pass=K: that pass's image, while kept. */
-static void api_jobs_pass_image(struct http_req *r, const char *id, const char *q)
-{
-    long k = strtol(q, NULL, 10);
-    struct jobs_info info;
-    if (!jobs_get(id, &info, false)) {
-        api_jobs_unknown(r);
-        return;
-    }
-    api_job_scene(r, &info);
-    char range[80];
-    snprintf(range, sizeof range, "must be a pass number of this job, 1..%d", info.passes.total);
-    const char *why = http_req_query_count(r, "pass") > 1 ? "given more than once"
-                      : !info.progressive                 ? "only a progressive job has passes"
-                      : !api_is_decimal(q, false) || k < 1 || k > info.passes.total ? range
-                                                                                            : NULL;
-    if (why) {
-        api_plan_bad(r, "pass", why);
-        return;
-    }
-    struct blob *png = NULL;
-    int samples = 0;
-    jobs_pass_png(id, (int)k, &png, &samples);
-    if (png) {
-        http_reply_png(r, 200, png);
-        http_reply_header(r, "Cache-Control", "private, max-age=3600");
-        api_pass_headers(r, (int)k, info.passes.total, samples);
-        blob_unref(png);
-    } else if (k <= info.passes.done) {
-        http_reply_error(r, 410, "pass_gone",
-                         "that pass's image is no longer kept (only the latest passes are)",
-                         NULL, 0, 0, "pass");
-    } else {
-        http_reply_json(r, 202, api_job_json(id, &info));
-        http_reply_header(r, MHD_HTTP_HEADER_RETRY_AFTER, "1");
-    }
+    api_jobs_scene(r, &info);
+    http_reply_json(r, 200, api_jobs_json(id, &info));
 }
 
 void api_jobs_stop(struct http_req *r, const char *id)
@@ -300,58 +289,17 @@ void api_jobs_stop(struct http_req *r, const char *id)
     bool progressive = false;
     if (!api_only_params(r, NULL))
         return;
-    if (!api_is_hex(id, 32) || !jobs_end_early(id, &progressive) || !jobs_get(id, &info, false)) {
+    if (!api_is_hex(id, 32) || !jobs_end_early(id, &progressive) ||
+        !jobs_get(id, &info, JOBS_NUMBERS)) {
         api_jobs_unknown(r);
         return;
     }
-    api_job_scene(r, &info);
+    api_jobs_scene(r, &info);
     if (!progressive) {
         http_reply_error(r, 409, "not_progressive",
                          "only a progressive job can be stopped and kept; DELETE cancels a job",
                          NULL, 0, 0, NULL);
         return;
     }
-    http_reply_json(r, 200, api_job_json(id, &info));
-}
-
-void api_jobs_image(struct http_req *r, const char *id)
-{
-    static const char *const takes[] = {"pass", NULL};
-    struct jobs_info info;
-    const char *pass = http_req_query(r, "pass");
-    if (!api_only_params(r, takes))
-        return;
-    if (!api_is_hex(id, 32)) {
-        api_jobs_unknown(r);
-        return;
-    }
-    if (pass) {
-        api_jobs_pass_image(r, id, pass);
-        return;
-    }
-    if (!jobs_get(id, &info, true)) {
-        api_jobs_unknown(r);
-        return;
-    }
-    api_job_scene(r, &info);
-    if (info.png && (info.state == JS_SUCCEEDED || info.state == JS_RUNNING)) {
-        http_reply_png(r, 200, info.png);
-        http_reply_header(r, "Cache-Control",
-                          info.state == JS_SUCCEEDED ? "private, max-age=3600" : "no-store");
-        if (info.progressive)
-            api_pass_headers(r, info.passes.done, info.passes.total, info.passes.samples);
-        blob_unref(info.png);
-        return;
-    }
-    blob_unref(info.png);
-    if (info.state == JS_FAILED) {
-        char msg[400];
-        snprintf(msg, sizeof msg, "the job failed: %s", info.err.message);
-        http_reply_error(r, 409, "job_failed", msg, info.err.path, 0, 0, NULL);
-    } else if (info.state == JS_CANCELED) {
-        http_reply_error(r, 409, "job_canceled", "the job was cancelled", NULL, 0, 0, NULL);
-    } else {
-        http_reply_json(r, 202, api_job_json(id, &info));
-        http_reply_header(r, MHD_HTTP_HEADER_RETRY_AFTER, "1");
-    }
+    http_reply_json(r, 200, api_jobs_json(id, &info));
 }

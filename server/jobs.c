@@ -209,8 +209,21 @@ double jobs_progress(const struct job *j)
     return t->passes ? passes_progress(t->passes, t->passes->done, frac) : frac;
 }
 
+/* The image jobs_get hands out, lock held: the final one once succeeded,
+ * else a progressive job's latest pass (NULL if none yet); referenced. */
+static struct blob *jobs_image(const struct job *j, enum jobs_state state, bool exr)
+{
+    const struct task *t = j->task;
+    if (state == JS_SUCCEEDED)
+        return blob_ref(exr ? t->exr : t->png);
+    if (!t->passes || t->finished || !t->passes->done)
+        return NULL;
+    const struct passes *p = t->passes;
+    return blob_ref(exr ? passes_exr(p, p->done) : passes_png(p, p->done));
+}
+
 /* The job's numbers, lock held. */
-static void jobs_info_of(const struct job *j, struct jobs_info *info, bool want_png)
+static void jobs_info_of(const struct job *j, struct jobs_info *info, enum jobs_want want)
 {
     const struct task *t = j->task;
     info->state = jobs_state(j);
@@ -231,19 +244,20 @@ static void jobs_info_of(const struct job *j, struct jobs_info *info, bool want_
     info->est_rays = t->est_rays;
     if (info->state == JS_FAILED)
         info->err = t->err;
-    if (want_png && info->state == JS_SUCCEEDED && t->png)
-        info->png = blob_ref(t->png);
-    else if (want_png && t->passes && !t->finished && t->passes->done)
-        info->png = blob_ref(passes_png(t->passes, t->passes->done));
+    info->keep_exr = t->keep_exr;
+    if (want & JOBS_PNG)
+        info->png = jobs_image(j, info->state, false);
+    if (want & JOBS_EXR)
+        info->exr = jobs_image(j, info->state, true);
 }
 
-bool jobs_get(const char *id, struct jobs_info *info, bool want_png)
+bool jobs_get(const char *id, struct jobs_info *info, enum jobs_want want)
 {
     memset(info, 0, sizeof *info);
     pthread_mutex_lock(&work_lock);
     struct job *j = jobs_find(id);
     if (j)
-        jobs_info_of(j, info, want_png);
+        jobs_info_of(j, info, want);
     pthread_mutex_unlock(&work_lock);
     return j != NULL;
 }
@@ -267,15 +281,15 @@ bool jobs_cancel(const char *id)
     return j != NULL;
 }
 
-bool jobs_pass_png(const char *id, int pass, struct blob **png, int *samples)
+bool jobs_pass_image(const char *id, int pass, bool exr, struct blob **img, int *samples)
 {
-    *png = NULL;
+    *img = NULL;
     *samples = 0;
     pthread_mutex_lock(&work_lock);
     struct job *j = jobs_find(id);
     const struct passes *p = j ? j->task->passes : NULL;
     if (p && !j->canceled && pass >= 1 && pass <= p->done) {
-        *png = blob_ref(passes_png(p, pass));
+        *img = blob_ref(exr ? passes_exr(p, pass) : passes_png(p, pass));
         *samples = p->samples[pass - 1];
     }
     pthread_mutex_unlock(&work_lock);

@@ -95,12 +95,14 @@ void passes_free(struct passes *p)
     free(p->tiles);
     for (int i = 0; i < PASSES_KEEP; i++)
         blob_unref(p->png[i]);
+    for (int i = 0; i < PASSES_KEEP_EXR; i++)
+        blob_unref(p->exr[i]);
     rayd_image_free(p->prev);
     free(p);
 }
 
 enum rayd_status passes_tile(struct passes *p, const rayd_scene *scene, int tile, int pass,
-                             rayd_image *dst, int dst_x, int dst_y, const atomic_int *cancel,
+                             const struct resolve_dst *dst, const atomic_int *cancel,
                              uint64_t *rays, struct rayd_error *err)
 {
     if (!p->acc[tile]) { /* its first pass: only this worker holds the tile */
@@ -116,12 +118,8 @@ enum rayd_status passes_tile(struct passes *p, const rayd_scene *scene, int tile
     enum rayd_status st =
         rayd_render_pass(scene, &o, acc, rayd_accum_samples(acc), p->samples[pass], err);
     *rays += stats.rays;
-    rayd_image *img = NULL;
     if (st == RAYD_OK)
-        st = rayd_accum_image(acc, &img, err);
-    if (st == RAYD_OK)
-        st = rayd_image_blit(dst, img, dst_x, dst_y, err);
-    rayd_image_free(img);
+        st = resolve_into(acc, dst, err);
     return st;
 }
 
@@ -148,11 +146,14 @@ double passes_noise(const struct passes *p, const rayd_image *img, int pass)
 }
 
 /* Lock held. */
-void passes_complete(struct passes *p, struct blob *png, double time_s, double noise)
+void passes_complete(struct passes *p, struct blob *png, struct blob *exr, double time_s,
+                     double noise)
 {
     int k = p->done++;
     blob_unref(p->png[k % PASSES_KEEP]);
     p->png[k % PASSES_KEEP] = png;
+    blob_unref(p->exr[k % PASSES_KEEP_EXR]);
+    p->exr[k % PASSES_KEEP_EXR] = exr;
     p->time_s[k] = time_s;
     p->noise[k] = noise;
 }
@@ -184,6 +185,14 @@ struct blob *passes_png(const struct passes *p, int pass)
     if (pass < 1 || pass > p->done || pass <= p->done - PASSES_KEEP)
         return NULL;
     return p->png[(pass - 1) % PASSES_KEEP];
+}
+
+/* Lock held. */
+struct blob *passes_exr(const struct passes *p, int pass)
+{
+    if (pass < 1 || pass > p->done || pass <= p->done - PASSES_KEEP_EXR)
+        return NULL;
+    return p->exr[(pass - 1) % PASSES_KEEP_EXR];
 }
 
 int passes_added(const struct passes *p, int k)

@@ -41,6 +41,7 @@ static const struct route router_table[] = {
     {"DELETE", "/v1/jobs/{id}", api_jobs_delete, "/v1/jobs/{id}"},
     {"POST", "/v1/jobs/{id}/stop", api_jobs_stop, "/v1/jobs/{id}/stop"},
     {"GET", "/v1/jobs/{id}/image.png", api_jobs_image, "/v1/jobs/{id}/image.png"},
+    {"GET", "/v1/jobs/{id}/image.exr", api_jobs_exr, "/v1/jobs/{id}/image.exr"},
     {"GET", "/v1/jobs/{id}/events", api_events_get, "/v1/jobs/{id}/events"},
     {"GET", "/healthz", api_health_live, "/healthz"},
     {"GET", "/readyz", api_health_ready, "/readyz"},

@@ -90,9 +90,21 @@ static struct blob *sched_keep(enum rayd_status *st, void *buf, size_t len, stru
     return b;
 }
 
-/* Encodes t's PNG (every core: png_encode.c's bands), lock released;
- * returns with the lock held.  The tiles' and the encoding's times go to
- * the stage metrics. */
+/* The EXR of t's linear floats when t keeps one (keep_exr), after *st was
+ * RAYD_OK; else NULL.  A failure sets *st and err.  Lock not held. */
+static struct blob *sched_exr(const struct task *t, enum rayd_status *st, struct rayd_error *err)
+{
+    if (!t->keep_exr || *st != RAYD_OK)
+        return NULL;
+    void *buf = NULL;
+    size_t len = 0;
+    *st = rayd_exr_encode(t->lin, t->reg.w, t->reg.h, &buf, &len, err);
+    return sched_keep(st, buf, len, err, "the EXR");
+}
+
+/* Encodes t's PNG (every core: png_encode.c's bands), and its EXR when it
+ * keeps one, lock released; returns with the lock held.  The tiles' and
+ * the encoding's times go to the stage metrics. */
 static void sched_encode(struct task *t)
 {
     void *buf = NULL;
@@ -101,12 +113,14 @@ static void sched_encode(struct task *t)
     double t0 = clock_now();
     metrics_stage(MS_RENDER, t0 - t->t_start);
     enum rayd_status st = sched_encode_as(t, &buf, &len, &err);
+    struct blob *png = sched_keep(&st, buf, len, &err, "the PNG");
+    struct blob *exr = sched_exr(t, &st, &err);
     double enc = clock_now() - t0;
     metrics_stage(MS_ENCODE, enc);
-    struct blob *png = sched_keep(&st, buf, len, &err, "the PNG");
     pthread_mutex_lock(&work_lock);
     t->encode_s = enc;
     t->png = png;
+    t->exr = exr;
     if (st != RAYD_OK)
         task_fail(t, st, &err);
 }
@@ -143,13 +157,15 @@ static bool sched_pass_close(struct task *t, struct task_notify *sse)
     struct rayd_error err = {0};
     enum rayd_status st = rayd_png_encode(t->img, (int)config.png_level, &buf, &len, &err);
     struct blob *png = sched_keep(&st, buf, len, &err, "the pass's PNG");
+    struct blob *exr = sched_exr(t, &st, &err);
     pthread_mutex_lock(&work_lock);
     if (st != RAYD_OK) {
         task_fail(t, st, &err);
+        blob_unref(png);
         rayd_image_free(spare);
         return false;
     }
-    passes_complete(p, png, clock_now() - t->t_start, noise);
+    passes_complete(p, png, exr, clock_now() - t->t_start, noise);
     task_notify_add(sse, &t->sse_waiters);
     if (!passes_more(p, clock_now() - t->t_start) || atomic_load(&t->cancel)) {
         rayd_image_free(spare);
@@ -292,10 +308,13 @@ static enum rayd_status sched_tile(struct task *t, int tile, int pass, uint64_t 
     struct rayd_region tr = task_tile(t, tile);
     const rayd_scene *scene = cache_scene(t->scene);
     int dx = tr.x - t->reg.x, dy = tr.y - t->reg.y;
+    struct resolve_dst dst = {t->img, t->keep_exr ? t->lin : NULL, t->reg.w, dx, dy};
     if (t->passes)
-        return passes_tile(t->passes, scene, tile, pass, t->img, dx, dy, &t->cancel, rays, err);
+        return passes_tile(t->passes, scene, tile, pass, &dst, &t->cancel, rays, err);
     if (t->sums)
         return sched_sums_tile(t, &tr, rays, err);
+    if (t->keep_exr)
+        return resolve_render(scene, &tr, &dst, &t->cancel, rays, err);
     if (t->lin)
         return rayd_render_linear_into(scene, &tr, t->lin, t->reg.w, dx, dy, &t->cancel, rays,
                                        err);

@@ -46,22 +46,27 @@ void task_drain(void)
 bool task_draining(void) { return atomic_load(&task_drain_flag); }
 
 /* The PNG's key is the one it always had; the other formats add a suffix,
- * so an EXR never answers a PNG request from the caches, nor the reverse. */
+ * so an EXR never answers a PNG request from the caches, nor the reverse.
+ * A job's PNG with its EXR (keep_exr) adds "+exr": a PNG-only task has no
+ * floats for it to join. */
 void task_key(char *key, size_t size, const char *id, const struct work_target *what)
 {
     static const char *const suffix[] = {"", ".png16", ".exr", ".sums"};
     const struct rayd_region *reg = &what->reg;
-    int n = snprintf(key, size, "%s@%d,%d,%d,%d%s", id, reg->x, reg->y, reg->w, reg->h,
-                     suffix[what->format]);
+    int n = snprintf(key, size, "%s@%d,%d,%d,%d%s%s", id, reg->x, reg->y, reg->w, reg->h,
+                     suffix[what->format], what->keep_exr ? "+exr" : "");
     if (what->format == WORK_SUMS && n > 0 && (size_t)n < size)
         snprintf(key + n, size - (size_t)n, "%d-%d", what->k0, what->k1);
 }
 
-/* The task's pixel store: bytes for the PNG, linear floats for the HDR
- * formats, sums for WORK_SUMS. */
+/* The task's pixel store: bytes for the PNG (and linear floats beside
+ * them for keep_exr), linear floats for the HDR formats, sums for
+ * WORK_SUMS. */
 static bool task_pixels(struct task *t)
 {
     size_t values = (size_t)t->reg.w * (size_t)t->reg.h * 3;
+    if (t->format == WORK_PNG && t->keep_exr && !(t->lin = malloc(values * sizeof *t->lin)))
+        return false;
     if (t->format == WORK_PNG)
         return rayd_image_new(t->reg.w, t->reg.h, &t->img, NULL) == RAYD_OK;
     if (t->format == WORK_SUMS)
@@ -78,6 +83,7 @@ struct task *task_new(struct cache_entry *scene, const struct work_target *what)
     const struct rayd_region *reg = &what->reg;
     t->reg = *reg;
     t->format = what->format;
+    t->keep_exr = what->format == WORK_PNG && what->keep_exr;
     t->k0 = what->k0;
     t->k1 = what->k1;
     const rayd_scene *rs = cache_scene(scene);
@@ -94,6 +100,7 @@ struct task *task_new(struct cache_entry *scene, const struct work_target *what)
     t->order = calloc((size_t)t->ntiles, sizeof *t->order);
     if (!t->order || !task_pixels(t)) {
         free(t->order);
+        free(t->lin);
         free(t);
         return NULL;
     }
@@ -127,6 +134,7 @@ void task_unref(struct task *t)
     if (--t->refs > 0)
         return;
     blob_unref(t->png);
+    blob_unref(t->exr);
     task_free_pixels(t);
     passes_free(t->passes);
     cache_release(t->scene);
@@ -331,6 +339,7 @@ static void task_keep_pass(struct task *t)
         (p->done < p->n && p->stop == PASSES_GOING))
         return;
     t->png = blob_ref(passes_png(p, p->done));
+    t->exr = blob_ref(passes_exr(p, p->done));
 }
 
 /* Takes t off the active list. */
@@ -409,7 +418,7 @@ void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
     /* --log-level debug only: written under work_lock, so never on by default */
     log_debug("render %s finished: %s, queued %.3f ms, rendered %.3f ms", t->key,
               t->status == RAYD_OK ? "ok" : t->err.message, queue_ms, render_ms);
-    if (t->status == RAYD_OK && t->png && !t->passes)
+    if (t->status == RAYD_OK && t->png && !t->passes && !t->keep_exr) /* a job's: no one asks */
         rcache_put(t->key, t->png);
     task_unqueue(t);
     task_free_pixels(t); /* NULL once finished: a job's reads see none */

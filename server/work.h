@@ -2,7 +2,7 @@
  * queued and answered, asynchronous jobs and their event streams.
  *
  * Layer: work (work.c, lru.c, cache.c, rcache.c, scenes.c, cost.c, fair.c,
- * passes.c, task.c, gate.c, sched.c, jobs.c, events.c, watch.c).  May
+ * resolve.c, passes.c, task.c, gate.c, sched.c, jobs.c, events.c, watch.c).  May
  * include: base.h and <rayd/rayd.h> -- never an HTTP header, never
  * libmicrohttpd.  Included by the handlers
  * (api_*.c) and main.c.
@@ -82,6 +82,8 @@ struct work_target {
     struct rayd_region reg; /* absolute, checked */
     enum work_format format;
     int k0, k1;      /* WORK_SUMS only */
+    bool keep_exr;   /* a job's (POST /v1/jobs?format=exr): with the WORK_PNG, the EXR of
+                        the same sums; part of the key */
     uint64_t client; /* who asks (fair.c's turns); not part of the key */
 };
 
@@ -128,6 +130,10 @@ const char *jobs_state_name(enum jobs_state s);
  * (passes.c). */
 #define PASSES_MAX 64 /* passes a job may plan */
 #define PASSES_KEEP 4 /* the latest passes whose PNGs are kept */
+/* The latest passes whose EXRs are kept (a job with format=exr): an EXR is
+ * up to 12 bytes a pixel, so two hold at most the 24 bytes a pixel of the
+ * sums the job renders into, however many passes the client asks for. */
+#define PASSES_KEEP_EXR 2
 struct jobs_plan {
     int step;            /* 0: passes of 1, 2, 4, 8, ... samples; k: k, 2k, 3k, ... */
     double time_budget;  /* seconds after the first tile; 0: none */
@@ -160,17 +166,21 @@ struct jobs_info {
     struct rayd_error err; /* when failed */
     struct blob *png;      /* when asked for: the image if succeeded, else a progressive
                               job's latest pass (or NULL); unref it */
+    struct blob *exr;      /* when asked for, likewise its EXR (keep_exr only); unref it */
+    bool keep_exr;         /* created with format=exr */
     bool progressive;
     struct jobs_passes passes; /* progressive only */
 };
-/* A job rendering what->reg of scene (as a PNG) for what->client: plain
- * with plan NULL, else progressive. */
+/* A job rendering what->reg of scene (as a PNG, and an EXR with
+ * what->keep_exr) for what->client: plain with plan NULL, else progressive. */
 enum work_submit jobs_create(struct cache_entry *scene, const struct work_target *what,
                              const struct jobs_plan *plan, char id[33]);
-bool jobs_get(const char *id, struct jobs_info *info, bool want_png);
-/* Pass `pass` (1-based) of a progressive job, if still kept: *png
- * referenced, *samples its count.  false: no such job. */
-bool jobs_pass_png(const char *id, int pass, struct blob **png, int *samples);
+/* What jobs_get copies besides the numbers: the PNG, the EXR. */
+enum jobs_want { JOBS_NUMBERS = 0, JOBS_PNG = 1, JOBS_EXR = 2 };
+bool jobs_get(const char *id, struct jobs_info *info, enum jobs_want want);
+/* Pass `pass` (1-based) of a progressive job, its PNG or (exr) its EXR,
+ * if still kept: *img referenced, *samples its count.  false: no such job. */
+bool jobs_pass_image(const char *id, int pass, bool exr, struct blob **img, int *samples);
 bool jobs_cancel(const char *id);
 /* Ends a progressive job after the latest complete pass (or after the
  * first, if none is complete yet), keeping it as the job's image.  false:

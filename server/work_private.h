@@ -1,8 +1,9 @@
 /* work_private.h -- what the files of the work layer share, and its one rule.
  *
  * Layer: work, private.  Included only by the work layer's own files
- * (work.c, lru.c, cache.c, rcache.c, scenes.c, cost.c, fair.c, passes.c,
- * task.c, gate.c, sched.c, jobs.c, events.c, watch.c); the layers above see work.h alone.
+ * (work.c, lru.c, cache.c, rcache.c, scenes.c, cost.c, fair.c, resolve.c,
+ * passes.c, task.c, gate.c, sched.c, jobs.c, events.c, watch.c); the layers
+ * above see work.h alone.
  * May include: work.h (and through it base.h, <rayd/rayd.h>).
  *
  * THE ONE LOCK.  work_lock is the only mutex of the server.  It guards every
@@ -21,7 +22,7 @@
  *     and the watcher's periodic wait.
  * Calls inside the layer go one way too, in this order (a file calls only
  * files before it): work (the lock), lru, cache, rcache, scenes, cost, fair,
- * passes, task, gate, jobs, events, watch, sched.
+ * resolve, passes, task, gate, jobs, events, watch, sched.
  * Ownership: a task is referenced by the active list and by each job of it
  * (task.refs, lock held); it holds its scene until it finishes.  A job is
  * referenced by the table and by each open event stream (job.refs).
@@ -103,6 +104,25 @@ double cost_rate(void);                       /* estimated rays a worker casts a
 uint64_t fair_last(uint64_t client); /* the tick it was last served, 0: never */
 void fair_served(uint64_t client);
 
+/* ---- resolve.c: a tile's sums into a task's pixels (no lock) ----------------- */
+
+/* Where a tile's pixels go: its 8-bit image at (x, y) of img and, when lin
+ * is not NULL, its linear floats at (x, y) of lin (lin_w pixels a row). */
+struct resolve_dst {
+    rayd_image *img;
+    float *lin;
+    int lin_w, x, y;
+};
+/* acc's pixels (as a plain render of its samples gives them) into d. */
+enum rayd_status resolve_into(const rayd_accum *acc, const struct resolve_dst *d,
+                              struct rayd_error *err);
+/* Renders tile (absolute) of scene with all its samples into d, through one
+ * set of sums: the bytes of rayd_render_into and the floats of
+ * rayd_render_linear_into. */
+enum rayd_status resolve_render(const rayd_scene *scene, const struct rayd_region *tile,
+                                const struct resolve_dst *d, const atomic_int *cancel,
+                                uint64_t *rays, struct rayd_error *err);
+
 /* ---- passes.c: a progressive task's passes ------------------------------------ */
 
 struct passes {
@@ -115,6 +135,7 @@ struct passes {
     struct rayd_region *tiles;     /* the task tiles (absolute) */
     rayd_image *prev;              /* the latest complete pass's image */
     struct blob *png[PASSES_KEEP]; /* pass k's PNG (1-based) at (k - 1) % PASSES_KEEP */
+    struct blob *exr[PASSES_KEEP_EXR]; /* a job's with format=exr: pass k's EXR, likewise */
     double time_s[PASSES_MAX], noise[PASSES_MAX];
     enum passes_stop stop; /* asked (client, time) or decided (noise) */
 };
@@ -124,20 +145,24 @@ struct passes {
 struct passes *passes_new(const rayd_scene *scene, const struct jobs_plan *plan,
                           struct rayd_region *tiles, int ntiles);
 void passes_free(struct passes *p); /* NULL allowed */
-/* Renders pass `pass` of tile `tile` (its sums) and puts the tile's image
- * into dst at (dst_x, dst_y); no lock. */
+/* Renders pass `pass` of tile `tile` (its sums) and resolves the tile's
+ * pixels into dst; no lock. */
 enum rayd_status passes_tile(struct passes *p, const rayd_scene *scene, int tile, int pass,
-                             rayd_image *dst, int dst_x, int dst_y, const atomic_int *cancel,
+                             const struct resolve_dst *dst, const atomic_int *cancel,
                              uint64_t *rays, struct rayd_error *err);
 /* Pass `pass`'s noise estimate from its image (< 0: none); no lock. */
 double passes_noise(const struct passes *p, const rayd_image *img, int pass);
-void passes_complete(struct passes *p, struct blob *png, double time_s, double noise);
+/* Lock held: the pass is complete, png its PNG and exr its EXR (NULL when
+ * the job keeps none); both references become the passes'. */
+void passes_complete(struct passes *p, struct blob *png, struct blob *exr, double time_s,
+                     double noise);
 /* Lock held: is there a next pass to render?  false also when a budget or
  * a stop ended the job (p->stop says which). */
 bool passes_more(struct passes *p, double elapsed);
 /* img becomes the latest pass image; the one before it is returned for reuse. */
 rayd_image *passes_swap(struct passes *p, rayd_image *img);
 struct blob *passes_png(const struct passes *p, int pass); /* not referenced; NULL: gone */
+struct blob *passes_exr(const struct passes *p, int pass); /* likewise; NULL: gone or none */
 double passes_progress(const struct passes *p, int done, double frac);
 /* The samples pass k (from 0) renders: what it adds to the pass before, or
  * all of its own after the one-sample image, which is not added to. */
@@ -169,9 +194,12 @@ struct task {
     rayd_png_stream *stream;
     int *row_left, rows_top;
     bool stream_tried;
-    float *lin;                /* WORK_PNG16, WORK_EXR: the tiles' linear RGB, reg.w * reg.h * 3 */
+    float *lin;                /* WORK_PNG16, WORK_EXR, keep_exr: the tiles' linear RGB,
+                                  reg.w * reg.h * 3 */
     double *sums;              /* WORK_SUMS: the tiles' sums of samples k0..k1-1 */
     enum work_format format;
+    bool keep_exr;    /* a job's: its EXR too (work_target's keep_exr) */
+    struct blob *exr; /* keep_exr: the EXR, made with the PNG */
     int k0, k1;
     atomic_int cancel;
     bool interactive, queued, finalizing, finished;

@@ -62,6 +62,7 @@ SERVER_LAYERS = [
     ("server/work: scenes", ["server/scenes."]),
     ("server/work: cost", ["server/cost."]),
     ("server/work: fair", ["server/fair."]),
+    ("server/work: resolve", ["server/resolve."]),
     ("server/work: passes", ["server/passes."]),
     ("server/work: task", ["server/task."]),
     ("server/work: gate", ["server/gate."]),
