@@ -11,7 +11,9 @@
  * breaks before "done" (a proxy timeout, a restart), we fall back to polling
  * GET /v1/jobs/{id} once a second.  Then GET /v1/jobs/{id}/image.png gives
  * the PNG, written unchanged (it equals rayd-render's bytes), or 409 with
- * the job's error, printed as the server sent it.
+ * the job's error, printed as the server sent it.  For -o OUT.exr the job
+ * is created with ?format=exr and GET /v1/jobs/{id}/image.exr gives the
+ * linear OpenEXR (rayd-render -o OUT.exr's bytes).
  *
  * Ctrl-C cancels the job on the server (DELETE /v1/jobs/{id}) before
  * exiting, so an abandoned render does not keep the workers busy.
@@ -210,9 +212,18 @@ static int job_poll(const struct client_opts *o, const char *base, const char *i
     return rc;
 }
 
-/* The job's PNG (checked to be one) into path: 0, or -1 after saying why. */
+/* The job's PNG, or EXR for an .exr path (checked to be one) into path: 0,
+ * or -1 after saying why. */
 static int job_write(const char *path, const struct net_buf *b)
 {
+    static const unsigned char exr_magic[4] = {0x76, 0x2f, 0x31, 0x01};
+    if (output_is_exr(path)) {
+        if (b->len < 4 || memcmp(b->data, exr_magic, 4)) {
+            fprintf(stderr, "rayd-client: error: the job's image is not an OpenEXR\n");
+            return -1;
+        }
+        return output_write(path, b->data, b->len);
+    }
     rayd_image *img = NULL;
     struct rayd_error err = {0};
     if (rayd_png_decode(b->data, b->len, 0, &img, &err) != RAYD_OK) {
@@ -229,7 +240,7 @@ static int job_post(const struct client_opts *o, const struct scenefile *sf, cha
     const char *base = o->servers[0];
     char url[1024], why[600] = "";
     struct net_buf b = {0};
-    snprintf(url, sizeof url, "%s/v1/jobs", base);
+    snprintf(url, sizeof url, "%s/v1/jobs%s", base, output_is_exr(o->out) ? "?format=exr" : "");
     long st = job_request(o, "POST", url, sf, &b, why, sizeof why);
     int rc = 1;
     if (st != 202) {
@@ -286,7 +297,8 @@ static int job_fetch(const struct client_opts *o, const char *id) {
     char url[1024], why[600] = "";
     struct net_buf b = {0};
     long st = 0;
-    snprintf(url, sizeof url, "%s/v1/jobs/%s/image.png", o->servers[0], id);
+    snprintf(url, sizeof url, "%s/v1/jobs/%s/image.%s", o->servers[0], id,
+             output_is_exr(o->out) ? "exr" : "png");
     for (int tries = 0; tries < 600 && !job_interrupted; tries++) {
         net_buf_reset(&b);
         st = job_request(o, "GET", url, NULL, &b, why, sizeof why);

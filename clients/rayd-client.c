@@ -4,7 +4,7 @@
  *               [--tile 128 | --split-samples N] [--parallel N] [--retries N]
  *               [--timeout S] [--threads N] [--no-hedge]
  *               [--token-file F] [--quiet]
- *   rayd-client job SCENE.json -o OUT.png --server URL [--token-file F]
+ *   rayd-client job SCENE.json -o OUT.png|OUT.exr --server URL [--token-file F]
  *   rayd-client health --server URL [--server URL ...]
  *   rayd-client thumbnails DIR [-o OUTDIR] [--size N] [--view V] [--turntable N]
  *                          --server URL ...
@@ -52,7 +52,8 @@ static void client_usage(FILE *f) {
            "                          [--tile N | --split-samples N] [--parallel N] [--retries N]\n"
            "                          [--timeout S] [--threads N] [--no-hedge]\n"
            "                          [--token-file F] [--quiet]\n"
-           "       rayd-client job SCENE.json -o OUT.png --server URL [--token-file F] [--quiet]\n"
+           "       rayd-client job SCENE.json -o OUT.png|OUT.exr --server URL [--token-file F]\n"
+           "                       [--quiet]\n"
            "       rayd-client health --server URL [--server URL ...] [--token-file F]\n"
            "       rayd-client thumbnails DIR [-o OUTDIR] [--size N] [--view V] [--turntable N]\n"
            "                              --server URL ...\n"
@@ -61,7 +62,7 @@ static void client_usage(FILE *f) {
            "                    default $RAYD_SERVER or http://127.0.0.1:8080)\n"
            "  -o, --output F    the PNG to write (only when every tile arrived), '-' for\n"
            "                    standard output; with\n"
-           "                    --split-samples, F.exr writes the linear OpenEXR\n"
+           "                    --split-samples or job, F.exr writes the linear OpenEXR\n"
            "  --tile N          tile edge in pixels (default 128); not with --split-samples\n"
            "  --split-samples N split the frame's samples, not its pixels, into N ranges:\n"
            "                    each server returns its range's exact sums, added here\n"
@@ -459,9 +460,9 @@ static int client_parse(int argc, char **argv, struct client_args *a) {
         return client_bad(
             "-o %s: rayd-client writes PNG (.png) and OpenEXR (.exr), not this format", a->o.out);
     bool exr = a->o.out && output_is_exr(a->o.out);
-    if (exr && (!strcmp(a->cmd, "job") || a->o.ranges <= 0)) /* else a PNG named .exr */
-        return client_bad("-o %s: OpenEXR comes only from render --split-samples N (tiles and "
-                          "jobs arrive as 8-bit PNGs)",
+    if (exr && strcmp(a->cmd, "job") && a->o.ranges <= 0) /* else a PNG named .exr */
+        return client_bad("-o %s: OpenEXR comes only from render --split-samples N or from job "
+                          "(tiles arrive as 8-bit PNGs)",
                           a->o.out);
     return 0;
 }

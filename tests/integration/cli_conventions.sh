@@ -164,13 +164,15 @@ check client_job_stdout "exit $RC: $(first_err c_job)" bash -c "[ $RC = 0 ] && c
 run c_bad "$CLIENT" render "$T/bad.json" -o "$T/c_bad.png" --server "$URL"
 check client_bad_scene_exit_1 "exit $RC, stderr '$(first_err c_bad)'" bash -c \
     "[ $RC = 1 ] && grep -q '^rayd-client: error: .*/objects/0/radius: must be > 0' '$T/c_bad.err' && [ ! -e '$T/c_bad.png' ]"
-# An OpenEXR comes only from summed sample ranges: tiles and jobs are 8-bit
-# PNGs, which must not be written under an .exr name.
-for cmd in render job; do
-    run "c_exr_$cmd" "$CLIENT" "$cmd" "$T/s.json" -o "$T/c_$cmd.exr" --server "$URL" -q
-    check "client_${cmd}_exr_needs_split_samples" "exit $RC, stderr '$(first_err "c_exr_$cmd")'" bash -c \
-        "[ $RC = 2 ] && grep -q '^rayd-client: error: -o .*c_$cmd.exr: OpenEXR comes only from render --split-samples' '$T/c_exr_$cmd.err' && [ ! -e '$T/c_$cmd.exr' ]"
-done
+# An OpenEXR comes only from summed sample ranges or a job (?format=exr):
+# tiles are 8-bit PNGs, which must not be written under an .exr name.
+run c_exr_render "$CLIENT" render "$T/s.json" -o "$T/c_render.exr" --server "$URL" -q
+check client_render_exr_needs_split_samples "exit $RC, stderr '$(first_err c_exr_render)'" bash -c \
+    "[ $RC = 2 ] && grep -q '^rayd-client: error: -o .*c_render.exr: OpenEXR comes only from render --split-samples N or from job' '$T/c_exr_render.err' && [ ! -e '$T/c_render.exr' ]"
+"$RENDER" "$T/s.json" -o "$T/ref.exr" --threads 1
+run c_exr_job "$CLIENT" job "$T/s.json" -o "$T/c_job.exr" --server "$URL" -q
+check client_job_writes_exr "exit $RC: $(first_err c_exr_job)" bash -c \
+    "[ $RC = 0 ] && cmp -s '$T/c_job.exr' '$T/ref.exr'"
 run c_exr_split "$CLIENT" render "$T/s.json" -o "$T/c_split.exr" --server "$URL" --split-samples 1 -q
 check client_split_samples_writes_exr "exit $RC: $(first_err c_exr_split)" bash -c \
     "[ $RC = 0 ] && [ \"\$(head -c 4 '$T/c_split.exr' | od -An -tx1 | tr -d ' ')\" = 762f3101 ]"
