@@ -10,7 +10,8 @@
  * any worker in any order and the result still does not depend on timing.
  * A tile's sums (24 bytes a pixel) are made when the tile is first
  * rendered, so a queued progressive job holds no more memory than a plain
- * one.
+ * one, and freed when the task finishes (passes_release), so a finished job
+ * kept for --job-ttl holds only its kept PNGs and EXRs.
  *
  * Passes follow one another with a barrier: the worker that completes a
  * pass's last tile encodes the pass (sched.c), records it here and only then
@@ -99,6 +100,17 @@ void passes_free(struct passes *p)
         blob_unref(p->exr[i]);
     rayd_image_free(p->prev);
     free(p);
+}
+
+/* Lock held. */
+void passes_release(struct passes *p)
+{
+    for (int i = 0; p->acc && i < p->ntiles; i++) {
+        rayd_accum_free(p->acc[i]);
+        p->acc[i] = NULL;
+    }
+    rayd_image_free(p->prev);
+    p->prev = NULL;
 }
 
 enum rayd_status passes_tile(struct passes *p, const rayd_scene *scene, int tile, int pass,

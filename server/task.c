@@ -422,6 +422,9 @@ void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
         rcache_put(t->key, t->png);
     task_unqueue(t);
     task_free_pixels(t); /* NULL once finished: a job's reads see none */
+    /* the sums too: a kept job holds its images only */
+    if (t->passes)
+        passes_release(t->passes);
     cache_release(t->scene);
     t->scene = NULL;
     task_result(t, &n->res);

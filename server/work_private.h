@@ -156,6 +156,9 @@ double passes_noise(const struct passes *p, const rayd_image *img, int pass);
  * the job keeps none); both references become the passes'. */
 void passes_complete(struct passes *p, struct blob *png, struct blob *exr, double time_s,
                      double noise);
+/* Lock held: a finished task lets go of its sums and last image (it renders
+ * no more); its PNGs, EXRs and counts stay for the job. */
+void passes_release(struct passes *p);
 /* Lock held: is there a next pass to render?  false also when a budget or
  * a stop ended the job (p->stop says which). */
 bool passes_more(struct passes *p, double elapsed);
