@@ -18,6 +18,7 @@
 
 #include "io/scene_json_util.h"
 #include "base/hugemem.h"
+#include "scene/scene_files.h"
 
 const char *sj_type_name(const cJSON *v) {
     if (cJSON_IsNumber(v)) return "a number";
@@ -317,6 +318,11 @@ enum rayd_status sj_read_asset(struct loader *ld, const cJSON *f, const struct j
         close(fd);
         return sj_fail(ld, RAYD_E_INVALID, at, "\"%s\" is not a regular file",
                        jp_quote(q, sizeof q, name));
+    }
+    /* the identity before a byte is read: a write during the read shows */
+    if (!scene_files_add(ld->s, ld->lim->asset_dir, name, &st)) {
+        close(fd);
+        return err_set(ld->err, RAYD_E_NOMEM, at->s, "out of memory reading a file");
     }
     size_t max = ld->lim->max_bytes;
     if ((uintmax_t)st.st_size > (uintmax_t)max) {

@@ -16,6 +16,7 @@
 #include "base/error.h"
 #include "accel/light_buffer.h"
 #include "shade/texture.h"
+#include "scene/scene_files.h"
 
 enum rayd_status scene_alloc(rayd_scene **out, struct rayd_error *err) {
     rayd_scene *s = calloc(1, sizeof *s);
@@ -34,6 +35,7 @@ void rayd_scene_free(rayd_scene *s) {
     for (int i = 0; i < s->ntextures; i++) texture_free(&s->textures[i]);
     free(s->textures);
     env_free(&s->rs.env);
+    scene_files_free(s);
     free(s->groups);
     free(s->parts);
     free(s->meshes);

@@ -34,6 +34,7 @@ struct group {
 };
 
 struct texture;
+struct scene_file;
 
 struct rayd_scene {
     double decode_s, build_s; /* loading: mesh files decoded, BVHs and light buffers built */
@@ -66,6 +67,9 @@ struct rayd_scene {
     bool opaque;           /* no material lets light through: shadows are 0 or 1 */
     bool simple_lights;    /* only point and directional lights (integrate_wide.c) */
     bool brute;            /* tests only: every query tests every primitive */
+    struct scene_file *files; /* the files read, as they were (scene_files.c) */
+    int nfiles;
+    size_t files_cap;
 };
 
 struct hit {

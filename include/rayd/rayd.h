@@ -130,6 +130,38 @@ struct rayd_scene_info {
 
 void rayd_scene_info(const rayd_scene *scene, struct rayd_scene_info *info);
 
+/* ---- the files a scene read ------------------------------------------------
+ * A scene may read files (a mesh's, a glTF's buffers and images, a texture's,
+ * an environment map's "file"); the scene keeps what each one was when it was
+ * read, as make and ccache's direct mode do, so a cache of compiled scenes
+ * can tell cheaply (a stat, never a read) that a file changed under it. */
+
+/* A file's identity (stat): equal identities mean an unchanged file. */
+struct rayd_file_id {
+    unsigned long long dev, ino, size;
+    long long mtime_ns; /* modification time, nanoseconds since the epoch */
+};
+
+/* What rayd_scene_files_check finds. */
+enum rayd_files_state {
+    RAYD_FILES_CURRENT,   /* every file is as it was read (or there are none) */
+    RAYD_FILES_UNSETTLED, /* as read, but one was written less than
+                           * RAYD_FILES_SETTLE_NS before it was read: a later
+                           * write within its timestamp's resolution would not
+                           * show, so only a new read can be trusted */
+    RAYD_FILES_CHANGED    /* one is changed, gone, or no longer the same file */
+};
+#define RAYD_FILES_SETTLE_NS 1000000000LL
+
+/* The number of files the scene read, each counted once per read. */
+int rayd_scene_files(const rayd_scene *scene);
+/* File i (0 <= i < rayd_scene_files): the path it was opened by, and its
+ * identity then (id may be NULL); NULL when i is out of range. */
+const char *rayd_scene_file(const rayd_scene *scene, int i, struct rayd_file_id *id);
+/* Stats every file the scene read (by the path it was opened by, following
+ * links as the open did) and compares it with the identity it had. */
+enum rayd_files_state rayd_scene_files_check(const rayd_scene *scene);
+
 /* ---- rendering ----------------------------------------------------------- */
 
 struct rayd_region {
