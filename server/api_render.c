@@ -11,8 +11,10 @@
  * rayd-render --format's; only this route takes it, so the immutable image
  * URL of a kept scene stays a PNG.  ?format=sums&samples=K0-K1 answers the
  * exact sums of that sample range (application/x-rayd-sums), for a client
- * that spreads one frame's samples over many nodes and adds them up.  POST /v1/scenes compiles and keeps a
- * scene; its image URL is immutable (strong ETag, 304 on If-None-Match).
+ * that spreads one frame's samples over many nodes and adds them up.  POST /v1/scenes compiles and
+ * keeps a scene; its image URL is immutable (strong ETag, 304 on If-None-Match), unless the scene
+ * read files: then it is revalidated (no-cache), and a file changed since the scene was compiled
+ * makes the id unknown here until the text is sent again (scenefiles.c).
  *
  * The wait: a small struct ties the work layer's waiter to the request.
  * Its suspend callback suspends the connection (called by the work layer
@@ -180,12 +182,15 @@ void api_scenes_image(struct http_req *r, const char *id)
     }
     /* the bytes depend on the version that draws them and the deflate
      * that encodes them (library, version, level), not only on the scene
-     * and region: a strong ETag names bytes */
+     * (its text and the files it read: cache_version) and region: a strong
+     * ETag names bytes.  The image of a scene that read files changes when
+     * they do, so a cache must ask again (revalidate) before each use. */
     char key[240], hex[65];
-    snprintf(key, sizeof key, "%s@%d,%d,%d,%d@%s,%s", id, reg.x, reg.y, reg.w, reg.h, RAYD_VERSION,
-             rayd_png_encoder((int)config.png_level));
+    snprintf(key, sizeof key, "%s@%d,%d,%d,%d@%s,%s", cache_version(e), reg.x, reg.y, reg.w, reg.h,
+             RAYD_VERSION, rayd_png_encoder((int)config.png_level));
     if (cache_hash(key, strlen(key), hex))
         snprintf(r->etag, sizeof r->etag, "\"%s\"", hex);
+    r->etag_revalidate = rayd_scene_files(cache_scene(e)) > 0;
     const char *inm = http_req_header(r, "If-None-Match");
     if (inm && api_etag_match(inm, r->etag)) {
         http_reply_not_modified(r);

@@ -10,9 +10,17 @@
  *
  * The cache has no lock of its own: every call is made under work_lock, the
  * one lock of the server (work_private.h); scenes.c and task.c are the
- * callers.  cache_hash() is a pure function and cache_scene()/cache_id()
- * read what never changes, so any thread may call those three.  Lookup is a chained hash table on
+ * callers.  cache_hash() is a pure function and cache_scene(), cache_id()
+ * and cache_version() read what never changes, so any thread may call
+ * those four.  Lookup is a chained hash table on
  * the id, recency a doubly linked list: the shared index in lru.c.
+ *
+ * A scene that read files (meshes, textures, environment maps under
+ * --asset-dir) is more than its text: each entry also keeps a version, the
+ * key of its results and ETags (scenefiles.c), which names the files'
+ * identities too.  Putting a scene whose id is cached under another version
+ * replaces that entry: the files changed and it was compiled anew.  Renders
+ * holding the old entry keep it until they release it.
  *
  * The ids themselves are computed by OpenSSL's libcrypto (EVP_Digest with
  * EVP_sha256), a maintained and audited implementation, rather than by
@@ -29,6 +37,7 @@
 struct cache_entry {
     struct lru_node node; /* first: the index finds entries through it */
     char id[65];
+    char version[65]; /* id, or with the files' identities (scenefiles.c) */
     rayd_scene *scene;
     int refs;    /* holders, the cache itself counting one while linked */
     bool linked;
@@ -74,17 +83,29 @@ struct cache_entry *cache_get(const char *id)
     return e;
 }
 
-struct cache_entry *cache_put(const char *id, rayd_scene *scene)
+/* Unlinks e, a version of a scene whose files have changed since. */
+static void cache_replace(struct cache_entry *e)
+{
+    lru_remove(&cache_lru, &e->node);
+    cache_evicted(&e->node);
+}
+
+struct cache_entry *cache_put(const char *id, const char *version, rayd_scene *scene)
 {
     struct cache_entry *e = cache_get(id);
-    if (e) {
+    if (e && !strcmp(e->version, version)) {
         rayd_scene_free(scene);
         return e;
+    }
+    if (e) {
+        cache_replace(e);
+        cache_release(e); /* cache_get's */
     }
     e = calloc(1, sizeof *e);
     if (!e)
         return NULL;
     snprintf(e->id, sizeof e->id, "%s", id);
+    snprintf(e->version, sizeof e->version, "%s", version);
     e->node.key = e->id;
     e->scene = scene;
     struct rayd_scene_info info;
@@ -114,6 +135,7 @@ void cache_release(struct cache_entry *e)
 
 const rayd_scene *cache_scene(const struct cache_entry *e) { return e->scene; }
 const char *cache_id(const struct cache_entry *e) { return e->id; }
+const char *cache_version(const struct cache_entry *e) { return e->version; }
 
 void cache_stats(size_t *bytes, size_t *entries)
 {

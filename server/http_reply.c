@@ -235,7 +235,9 @@ void http_reply_cache_headers(struct http_req *r)
 {
     if (r->etag[0]) {
         http_reply_header(r, MHD_HTTP_HEADER_ETAG, r->etag);
-        http_reply_header(r, MHD_HTTP_HEADER_CACHE_CONTROL, "public, max-age=31536000, immutable");
+        http_reply_header(r, MHD_HTTP_HEADER_CACHE_CONTROL,
+                          r->etag_revalidate ? "public, no-cache"
+                                             : "public, max-age=31536000, immutable");
         if (config.token)
             http_reply_vary(r, "Authorization");
     } else {

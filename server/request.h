@@ -75,6 +75,7 @@ struct http_req {
     char refused_why[HTTP_REFUSED_WHY]; /* its reason, a code ("request_too_big"), "" none */
     int retry_after;             /* seconds in a 503's Retry-After; 0: 1 */
     char etag[72];               /* set for immutable GETs */
+    bool etag_revalidate;        /* the ETag's bytes may change: no-cache, not immutable */
 };
 
 /* ---- http_req.c: the request ------------------------------------------------ */
@@ -132,8 +133,8 @@ void http_reply_header(struct http_req *r, const char *name, const char *value);
 void http_reply_not_modified(struct http_req *r);
 /* Adds field to the reply's one Vary header (Vary: Accept, Authorization). */
 void http_reply_vary(struct http_req *r, const char *field);
-/* ETag + immutable Cache-Control when r->etag is set (and Vary:
- * Authorization with a token), else no-store. */
+/* ETag + immutable Cache-Control when r->etag is set (no-cache when
+ * r->etag_revalidate; and Vary: Authorization with a token), else no-store. */
 void http_reply_cache_headers(struct http_req *r);
 /* The Access-Control-Allow-Origin value for r under --cors-origin, or NULL. */
 const char *http_reply_cors_origin(struct http_req *r);

@@ -9,6 +9,10 @@
  * both compile it; cache_put keeps the first and frees the second, which is
  * cheaper than making the second wait on a per-entry lock.
  *
+ * A scene that read files is used from the cache only while they are
+ * unchanged (scenefiles.c); otherwise it is compiled again and replaces the
+ * old entry, which renders in flight keep until they finish.
+ *
  * The parse stages (parse, decode mesh files, build BVHs) of a miss are
  * timed here for rayd_stage_seconds.
  */
@@ -36,6 +40,23 @@ static void scenes_nomem(struct rayd_error *err, const char *msg)
     err->code = RAYD_E_NOMEM;
     snprintf(err->message, sizeof err->message, "%s", msg);
 }
+
+/* The cached scene of id, referenced, if it may answer a request that
+ * brings its text (have_text) or names only its id (scenefiles.c): its
+ * files are checked outside the lock. */
+static struct cache_entry *scenes_get(const char *id, bool have_text)
+{
+    pthread_mutex_lock(&work_lock);
+    struct cache_entry *e = cache_get(id);
+    pthread_mutex_unlock(&work_lock);
+    if (e && !scenefiles_usable(cache_scene(e), have_text)) {
+        scenes_release(e);
+        return NULL;
+    }
+    return e;
+}
+
+struct cache_entry *scenes_find(const char *id) { return scenes_get(id, false); }
 
 /* Parses and builds body outside the lock, timing each stage. */
 static enum rayd_status scenes_compile(const char *body, size_t len, rayd_scene **scene,
@@ -74,7 +95,7 @@ enum rayd_status scenes_parse(const char *body, size_t len, struct cache_entry *
         scenes_nomem(err, "cannot hash the scene (libcrypto)");
         return RAYD_E_NOMEM;
     }
-    struct cache_entry *e = scenes_find(id);
+    struct cache_entry *e = scenes_get(id, true);
     metrics_cache(e != NULL);
     *hit = e != NULL;
     if (e) {
@@ -85,9 +106,13 @@ enum rayd_status scenes_parse(const char *body, size_t len, struct cache_entry *
     enum rayd_status st = scenes_compile(body, len, &scene, err);
     if (st != RAYD_OK)
         return st;
-    pthread_mutex_lock(&work_lock);
-    e = cache_put(id, scene);
-    pthread_mutex_unlock(&work_lock);
+    char version[65];
+    e = NULL;
+    if (scenefiles_version(id, scene, version)) {
+        pthread_mutex_lock(&work_lock);
+        e = cache_put(id, version, scene);
+        pthread_mutex_unlock(&work_lock);
+    }
     if (!e) {
         rayd_scene_free(scene);
         scenes_nomem(err, "out of memory");
@@ -95,14 +120,6 @@ enum rayd_status scenes_parse(const char *body, size_t len, struct cache_entry *
     }
     *out = e;
     return RAYD_OK;
-}
-
-struct cache_entry *scenes_find(const char *id)
-{
-    pthread_mutex_lock(&work_lock);
-    struct cache_entry *e = cache_get(id);
-    pthread_mutex_unlock(&work_lock);
-    return e;
 }
 
 void scenes_release(struct cache_entry *e)

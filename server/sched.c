@@ -457,7 +457,7 @@ static struct blob *sched_result_find(const struct cache_entry *scene,
                                       const struct work_target *what)
 {
     char key[160];
-    task_key(key, sizeof key, cache_id(scene), what);
+    task_key(key, sizeof key, cache_version(scene), what);
     pthread_mutex_lock(&work_lock);
     struct blob *b = rcache_get(key);
     bool on = rcache_on();

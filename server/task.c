@@ -105,7 +105,7 @@ struct task *task_new(struct cache_entry *scene, const struct work_target *what)
         return NULL;
     }
     snprintf(t->scene_id, sizeof t->scene_id, "%s", cache_id(scene));
-    task_key(t->key, sizeof t->key, t->scene_id, what);
+    task_key(t->key, sizeof t->key, cache_version(scene), what);
     atomic_init(&t->cancel, 0);
     t->interactive = (long)reg->w * reg->h <= TASK_INTERACTIVE;
     t->status = RAYD_OK;

@@ -56,6 +56,9 @@ struct cache_entry; /* a compiled scene and its id, reference counted */
 bool cache_hash(const void *data, size_t len, char out[65]);
 const rayd_scene *cache_scene(const struct cache_entry *e); /* immutable */
 const char *cache_id(const struct cache_entry *e);          /* immutable */
+/* The id, or for a scene that read files a hash of it and the files'
+ * identities: the key of its results and ETags (scenefiles.c). */
+const char *cache_version(const struct cache_entry *e);
 
 /* ---- scenes.c: the compiled-scene cache behind the lock ------------------- */
 

@@ -66,12 +66,24 @@ void lru_clear(struct lru *l); /* evicts everything */
 
 void cache_init(size_t budget_bytes);
 struct cache_entry *cache_get(const char *id); /* refs the entry, bumps LRU */
-/* Inserts (or returns the existing entry for id, freeing scene); refs it. */
-struct cache_entry *cache_put(const char *id, rayd_scene *scene);
+/* Inserts (or returns the existing entry for id of that version, freeing
+ * scene; one of another version is replaced); refs it. */
+struct cache_entry *cache_put(const char *id, const char *version, rayd_scene *scene);
 struct cache_entry *cache_ref(struct cache_entry *e);
 void cache_release(struct cache_entry *e); /* drops a ref; frees when evicted */
 void cache_stats(size_t *bytes, size_t *entries);
 void cache_free_all(void);
+
+/* ---- scenefiles.c: the files a cached scene read (any thread, no lock) ---- */
+
+/* Whether a cached scene may answer: it read no file, or each is as it was
+ * read (a stat each) and, when the request brings the text to compile
+ * again (have_text), was settled then. */
+bool scenefiles_usable(const rayd_scene *scene, bool have_text);
+/* The version of the scene of id just compiled: id when it read no file,
+ * else the SHA-256 of id and the files' identities (unique to this compile
+ * when they were not settled); false only if out of memory. */
+bool scenefiles_version(const char *id, const rayd_scene *scene, char out[65]);
 
 /* ---- rcache.c (lock held) ------------------------------------------------------ */
 
