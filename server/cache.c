@@ -83,23 +83,16 @@ struct cache_entry *cache_get(const char *id)
     return e;
 }
 
-/* Unlinks e, a version of a scene whose files have changed since. */
-static void cache_replace(struct cache_entry *e)
-{
-    lru_remove(&cache_lru, &e->node);
-    cache_evicted(&e->node);
-}
-
 struct cache_entry *cache_put(const char *id, const char *version, rayd_scene *scene)
 {
-    struct cache_entry *e = cache_get(id);
+    struct cache_entry *e = (struct cache_entry *)lru_find(&cache_lru, id);
     if (e && !strcmp(e->version, version)) {
         rayd_scene_free(scene);
-        return e;
+        return cache_ref(e);
     }
-    if (e) {
-        cache_replace(e);
-        cache_release(e); /* cache_get's */
+    if (e) { /* a version whose files have changed since: unlinked */
+        lru_remove(&cache_lru, &e->node);
+        cache_evicted(&e->node);
     }
     e = calloc(1, sizeof *e);
     if (!e)
