@@ -59,6 +59,7 @@ SERVER_LAYERS = [
     ("server/work: lock", ["server/work.h", "server/work_private.h", "server/work.c"]),
     ("server/work: lru", ["server/lru."]),
     ("server/work: caches", ["server/cache.", "server/rcache."]),
+    ("server/work: scene files", ["server/scenefiles."]),
     ("server/work: scenes", ["server/scenes."]),
     ("server/work: cost", ["server/cost."]),
     ("server/work: fair", ["server/fair."]),
