@@ -41,7 +41,7 @@
  * which depends on the image's size alone, so the bytes still do not
  * depend on the threads.  Why a blend: #16 asks for the encoding to cost
  * at most a quarter of the tracing, with bytes within +15% of libpng level
- * 6.  libdeflate level 1 alone met both until the tracer itself got 12%
+ * 6.  libdeflate level 1 alone met both until the tracer itself got a sixth
  * faster (Nov 29 2026: -O3 and vectorised shading), which left the bands'
  * deflating at 0.29 of the tracing; no libdeflate level is faster, and
  * ISA-L alone is +18% on the sphere scene and +21% on paper.  Every fourth
