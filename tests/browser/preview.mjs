@@ -54,6 +54,17 @@ async function until(cond, ms) {
   }
   return true;
 }
+// Job id's state once it is canceled or forgotten ("gone"), or its state
+// after 60 s of waiting for that.
+async function jobEnded(id) {
+  let state = "";
+  await until(async () => {
+    const r = await fetch(`${URL}/v1/jobs/${id}`);
+    state = r.status === 404 ? "gone" : (await r.json()).state;
+    return state === "canceled" || state === "gone";
+  }, 60000);
+  return state;
+}
 async function metric(name) {
   const t = await (await fetch(URL + "/metrics")).text();
   const line = t.split("\n").find((l) => l.startsWith(name + " "));
@@ -604,12 +615,8 @@ try {
       if (!(await until(async () => (await gateState()).queued > 0, 60000))) return "the render never reached the server";
       if (await page.$eval("#stop", (b) => b.disabled)) return "Stop disabled while rendering";
       await page.click("#stop");
-      let state = "";
-      const gone = await until(async () => {
-        const r = await fetch(`${URL}/v1/jobs/${job.id}`);
-        state = r.status === 404 ? "gone" : (await r.json()).state;
-        return state === "canceled" || state === "gone";
-      }, 60000);
+      const state = await jobEnded(job.id);
+      const gone = state === "canceled" || state === "gone";
       if (!gone) return `the job is still ${state}`;
       const page_ = await page.evaluate(() => [document.body.dataset.state, document.getElementById("stop").disabled]);
       return (page_[0] === "stopped" && page_[1]) || `page state ${page_[0]}, Stop disabled: ${page_[1]}`;
@@ -660,12 +667,8 @@ try {
       await waitState(page, "error");
       const msg = await page.$eval("#error .error-msg", (e) => e.textContent);
       if (!msg.includes("event stream ended early")) return `message "${msg}"`;
-      let state = "";
-      const gone = await until(async () => {
-        const r = await fetch(`${URL}/v1/jobs/${job.id}`);
-        state = r.status === 404 ? "gone" : (await r.json()).state;
-        return state === "canceled" || state === "gone";
-      }, 60000);
+      const state = await jobEnded(job.id);
+      const gone = state === "canceled" || state === "gone";
       return gone || `the job is still ${state}`;
     } finally {
       await page.unroute("**/v1/jobs/*/events");
