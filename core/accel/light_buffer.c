@@ -137,28 +137,31 @@ static uint32_t quad_list(const struct light_face *f, int32_t i, int32_t j, stru
     return n;
 }
 
+/* Every list of 2 x 2 cells of face f: their sizes into f->qstart (from
+ * qstart[0] = 0), or with fill their objects into f->quad. */
+static void quad_lists(struct light_face *f, struct lb_scratch *sc, bool fill) {
+    uint32_t row = (uint32_t)(f->nu + 1), quads = row * (uint32_t)(f->nv + 1);
+    for (uint32_t q = 0; q < quads; q++) {
+        int32_t i = (int32_t)(q % row) - 1, j = (int32_t)(q / row) - 1;
+        uint32_t n = quad_list(f, i, j, sc, fill ? f->quad + f->qstart[q] : NULL);
+        if (!fill) f->qstart[q + 1] = f->qstart[q] + n;
+    }
+}
+
 /* Face f's lists of 2 x 2 cells (light_buffer.h), from its cells' lists,
  * taking their entries from *budget; as face_build.  A packet's shadow
  * rays used to merge the four cells' lists themselves, a tenth of the
  * shadow query's time on the 1080p sphere scene; made here once, the
  * one-thread image took 2% less CPU (bench/README.md, Nov 29 2026). */
 static bool face_quads(struct light_face *f, struct lb_scratch *sc, size_t *budget, bool *nomem) {
-    uint32_t quads = (uint32_t)(f->nu + 1) * (uint32_t)(f->nv + 1);
-    if (!(f->qstart = calloc((size_t)quads + 1, sizeof *f->qstart))) return !(*nomem = true);
-    size_t total = 0;
-    for (int pass = 0; pass < 2; pass++) { /* the counts, then the lists */
-        for (uint32_t q = 0; q < quads; q++) {
-            int32_t i = (int32_t)(q % (uint32_t)(f->nu + 1)) - 1;
-            int32_t j = (int32_t)(q / (uint32_t)(f->nu + 1)) - 1;
-            uint32_t *out = pass ? f->quad + f->qstart[q] : NULL;
-            uint32_t n = quad_list(f, i, j, sc, out);
-            if (!pass) f->qstart[q + 1] = f->qstart[q] + n, total += n;
-        }
-        if (pass) break;
-        if (total > *budget) return false;
-        *budget -= total;
-        if (!(f->quad = malloc(sizeof *f->quad * (total + 1)))) return !(*nomem = true);
-    }
+    size_t quads = (size_t)(f->nu + 1) * (size_t)(f->nv + 1);
+    if (!(f->qstart = calloc(quads + 1, sizeof *f->qstart))) return !(*nomem = true);
+    quad_lists(f, sc, false);
+    size_t total = f->qstart[quads];
+    if (total > *budget) return false;
+    *budget -= total;
+    if (!(f->quad = malloc(sizeof *f->quad * (total + 1)))) return !(*nomem = true);
+    quad_lists(f, sc, true);
     return true;
 }
 

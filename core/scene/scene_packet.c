@@ -479,7 +479,8 @@ CPU_AVX512_FN void lb_span(const struct light_face *f, __m128d w, int32_t ij[2],
 }
 
 /* The objects of light buffer b (light_buffer.h) that can stop the shadow
- * rays in lanes open of rd, into ids[0..*n) (at most LB_MAX_TEST): those
+ * rays in lanes open of rd, as (*ids)[0..*n) (at most LB_MAX_TEST; the
+ * buffer's own list, no copy): those
  * of the 2 x 2 cells around the first ray's (or the stretch beyond the
  * rectangle, which holds none) when all the rays' origins, seen from the
  * light through one face, fall in them, and the rays leave from within the
@@ -488,7 +489,7 @@ CPU_AVX512_FN void lb_span(const struct light_face *f, __m128d w, int32_t ij[2],
  * roundings off at an edge, which LB_MARGIN covers. */
 #define LB_MAX_TEST 16
 CPU_AVX512_FN bool shadow_candidates(const struct light_buffer *b, const struct ray16 *rd,
-                                     uint32_t open, uint32_t ids[LB_MAX_TEST], int *n) {
+                                     uint32_t open, const uint32_t **ids, int *n) {
     int i0 = __builtin_ctz(open);
     const double at[3] = {b->at.x, b->at.y, b->at.z};
     double r0[3], m0[3];
@@ -532,7 +533,7 @@ CPU_AVX512_FN bool shadow_candidates(const struct light_buffer *b, const struct 
     uint32_t q = (uint32_t)(cj + 1) * (uint32_t)(f->nu + 1) + (uint32_t)(ci + 1);
     uint32_t k0 = f->qstart[q], k1 = f->qstart[q + 1];
     if (k1 - k0 > LB_MAX_TEST) return false;
-    memcpy(ids, f->quad + k0, sizeof *ids * (k1 - k0));
+    *ids = f->quad + k0;
     *n = (int)(k1 - k0);
     return true;
 }
@@ -546,12 +547,13 @@ CPU_AVX512_FN uint32_t transmittance16(struct scene16 *q, const double tmax[16],
     // cppcheck-suppress ctuuninitvar
     const rayd_scene *s = q->s;
     bounds16_load(q->tmax, tmax, active);
-    uint32_t open = active, ids[LB_MAX_TEST];
+    uint32_t open = active;
+    const uint32_t *ids = NULL;
     int n;
     for (int32_t k = 0; k < s->nplanes && open; k++) open &= ~visit_any16(q, &s->planes[k], open);
     if (open && s->nobjs == 1) {
         open &= ~visit_any16(q, &s->objs[0], open);
-    } else if (open && b && b->ok && shadow_candidates(b, &q->rd, open, ids, &n)) {
+    } else if (open && b && b->ok && shadow_candidates(b, &q->rd, open, &ids, &n)) {
         for (int k = 0; k < n && open; k++) open &= ~visit_any16(q, &s->objs[ids[k]], open);
     } else if (open && s->nobjs > 1) {
         struct bvh16_ray br;
