@@ -40,6 +40,14 @@ static void api_note_unknown(char *unknown, size_t size, const char *const *name
         snprintf(unknown, size, "%s", k);
 }
 
+bool api_bad_param(struct http_req *r, const char *name, const char *why)
+{
+    char msg[200];
+    snprintf(msg, sizeof msg, "%s: %s", name, why);
+    http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, name);
+    return false;
+}
+
 /* 400 bad_parameter for the query parameter unknown, which the route does
  * not take, listing those it does: head (or NULL), then names (NULL-ended,
  * or NULL). */
@@ -249,22 +257,17 @@ static double api_accept_q(const char *accept, const char *type)
 static bool api_format_of(struct http_req *r, const struct api_q *q, enum work_format *format)
 {
     static const char *const names[] = {"png", "png16", "exr", "sums"};
-    char msg[200];
-    if (q->format_count > 1) {
-        http_reply_error(r, 400, "bad_parameter", "format: given more than once", NULL, 0, 0,
-                         "format");
-        return false;
-    }
+    char why[120];
+    if (q->format_count > 1)
+        return api_bad_param(r, "format", "given more than once");
     if (q->format) {
         for (int i = 0; i < 4; i++)
             if (!strcmp(q->format, names[i])) {
                 *format = (enum work_format)i;
                 return true;
             }
-        snprintf(msg, sizeof msg, "format: must be png, png16, exr or sums, not '%.40s'",
-                 q->format);
-        http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, "format");
-        return false;
+        snprintf(why, sizeof why, "must be png, png16, exr or sums, not '%.40s'", q->format);
+        return api_bad_param(r, "format", why);
     }
     const char *accept = http_req_header(r, "Accept");
     double exr = accept ? api_accept_q(accept, "image/x-exr") : -1;
@@ -278,7 +281,7 @@ static bool api_samples_of(struct http_req *r, const rayd_scene *scene, const st
 {
     struct rayd_scene_info info;
     rayd_scene_info(scene, &info);
-    char msg[200];
+    char range[120];
     const char *why = NULL;
     long k0 = -1, k1 = -1;
     const char *dash = q->samples ? strchr(q->samples, '-') : NULL;
@@ -292,16 +295,12 @@ static bool api_samples_of(struct http_req *r, const rayd_scene *scene, const st
                             !api_int(dash + 1, &k1)))
         why = "must be K0-K1, two decimal sample numbers";
     if (!why && q->samples && (k0 < 0 || k1 <= k0 || k1 > info.samples)) {
-        snprintf(msg, sizeof msg,
-                 "samples: must be K0-K1 with 0 <= K0 < K1 <= %d (render.samples)", info.samples);
-        http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, "samples");
-        return false;
+        snprintf(range, sizeof range, "must be K0-K1 with 0 <= K0 < K1 <= %d (render.samples)",
+                 info.samples);
+        why = range;
     }
-    if (why) {
-        snprintf(msg, sizeof msg, "samples: %s", why);
-        http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, "samples");
-        return false;
-    }
+    if (why)
+        return api_bad_param(r, "samples", why);
     what->k0 = (int)k0;
     what->k1 = (int)k1;
     return true;

@@ -37,6 +37,9 @@ bool api_require_json(struct http_req *r);
  * for none): false after a 400 bad_parameter naming the first other one,
  * so a typo (?pas=2) is told, not ignored. */
 bool api_only_params(struct http_req *r, const char *const *names);
+/* 400 bad_parameter "NAME: WHY" pointing at the query parameter name;
+ * returns false, for a parser's `return api_bad_param(...)`. */
+bool api_bad_param(struct http_req *r, const char *name, const char *why);
 /* s is exactly n lowercase hex digits (a scene id is 64, a job id 32). */
 bool api_is_hex(const char *s, size_t n);
 /* Whether s is a plain decimal number as a query parameter takes it: digits

@@ -35,14 +35,6 @@ static const char *const api_plan_names[] = {"progressive", "pass_step", "time_b
 static const char *const api_jobs_names[] = {"progressive",  "pass_step", "time_budget",
                                              "noise_target", "format",    NULL};
 
-static bool api_plan_bad(struct http_req *r, const char *name, const char *why)
-{
-    char msg[200];
-    snprintf(msg, sizeof msg, "%s: %s", name, why);
-    http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, name);
-    return false;
-}
-
 /* A decimal number in (0, max] from ?name=, if given: digits and a point
  * only (api_is_decimal), so 0x10, 1e3, inf and " 5" are refused. */
 static bool api_plan_number(struct http_req *r, const char *name, double max, double *out)
@@ -54,7 +46,7 @@ static bool api_plan_number(struct http_req *r, const char *name, double max, do
     if (!api_is_decimal(v, true) || !(x > 0 && x <= max)) {
         char why[100];
         snprintf(why, sizeof why, "must be a decimal number above 0 and at most %g", max);
-        return api_plan_bad(r, name, why);
+        return api_bad_param(r, name, why);
     }
     *out = x;
     return true;
@@ -68,21 +60,21 @@ static bool api_plan(struct http_req *r, const rayd_scene *scene, struct jobs_pl
     memset(plan, 0, sizeof *plan);
     for (int i = 0; api_plan_names[i]; i++)
         if (http_req_query_count(r, api_plan_names[i]) > 1)
-            return api_plan_bad(r, api_plan_names[i], "given more than once");
+            return api_bad_param(r, api_plan_names[i], "given more than once");
     const char *v = http_req_query(r, "progressive");
     *progressive = v && (!strcmp(v, "1") || !strcmp(v, "true"));
     if (v && !*progressive && strcmp(v, "0") && strcmp(v, "false"))
-        return api_plan_bad(r, "progressive", "must be 1, true, 0 or false");
+        return api_bad_param(r, "progressive", "must be 1, true, 0 or false");
     for (int i = 1; api_plan_names[i]; i++)
         if (!*progressive && http_req_query(r, api_plan_names[i]))
-            return api_plan_bad(r, api_plan_names[i], "needs progressive=1");
+            return api_bad_param(r, api_plan_names[i], "needs progressive=1");
     double step = 0;
     if (!api_plan_number(r, "pass_step", 1e6, &step) ||
         !api_plan_number(r, "time_budget", 86400, &plan->time_budget) ||
         !api_plan_number(r, "noise_target", 1, &plan->noise_target))
         return false;
     if (step != (int)step)
-        return api_plan_bad(r, "pass_step", "must be a whole number of samples");
+        return api_bad_param(r, "pass_step", "must be a whole number of samples");
     plan->step = (int)step;
     struct rayd_scene_info info;
     rayd_scene_info(scene, &info);
@@ -91,7 +83,7 @@ static bool api_plan(struct http_req *r, const rayd_scene *scene, struct jobs_pl
         char why[120];
         snprintf(why, sizeof why, "%d samples in steps of %d is more than %d passes",
                  info.samples, plan->step, PASSES_MAX);
-        return api_plan_bad(r, "pass_step", why);
+        return api_bad_param(r, "pass_step", why);
     }
     return true;
 }
@@ -103,11 +95,11 @@ static bool api_jobs_format(struct http_req *r, struct work_target *what)
 {
     const char *v = http_req_query(r, "format");
     if (http_req_query_count(r, "format") > 1)
-        return api_plan_bad(r, "format", "given more than once");
+        return api_bad_param(r, "format", "given more than once");
     if (v && strcmp(v, "png") && strcmp(v, "exr")) {
         char why[120];
         snprintf(why, sizeof why, "must be png or exr for a job, not '%.40s'", v);
-        return api_plan_bad(r, "format", why);
+        return api_bad_param(r, "format", why);
     }
     what->keep_exr = v && !strcmp(v, "exr");
     return true;

@@ -83,11 +83,10 @@ static void api_jobs_pass_image(struct http_req *r, const char *id, const char *
         return;
     }
     api_jobs_scene(r, &info);
-    char range[80], msg[200];
+    char range[80];
     const char *why = api_jobs_pass_why(r, q, &info, range, sizeof range);
     if (why) {
-        snprintf(msg, sizeof msg, "pass: %s", why);
-        http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, "pass");
+        api_bad_param(r, "pass", why);
         return;
     }
     if (api_jobs_no_exr(r, &info, exr))
