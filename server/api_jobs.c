@@ -230,9 +230,10 @@ cJSON *api_jobs_json(const char *id, const struct jobs_info *in)
         char url[80];
         api_job_url(url, sizeof url, id, "/image.png");
         cJSON_AddStringToObject(o, "image_url", url);
-        api_job_url(url, sizeof url, id, "/image.exr");
-        if (in->keep_exr)
+        if (in->keep_exr) {
+            api_job_url(url, sizeof url, id, "/image.exr");
             cJSON_AddStringToObject(o, "exr_url", url);
+        }
     }
     if (in->state == JS_FAILED) {
         cJSON *err = cJSON_AddObjectToObject(o, "error");
