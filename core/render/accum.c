@@ -194,24 +194,26 @@ enum rayd_status rayd_accum_linear(const rayd_accum *a, float **out, struct rayd
     return RAYD_OK;
 }
 
-enum rayd_status rayd_render_linear_into(const rayd_scene *s, const struct rayd_region *region,
+enum rayd_status rayd_render_linear_tile(const rayd_scene *s, const struct rayd_render_opts *opts,
                                          float *dst, int dst_w, int dst_x, int dst_y,
-                                         const atomic_int *cancel, uint64_t *rays,
                                          struct rayd_error *err) {
+    static const struct rayd_render_opts none;
+    if (!opts) opts = &none;
     rayd_accum *a = NULL;
-    enum rayd_status st = rayd_accum_new(s, region, &a, err);
+    enum rayd_status st = rayd_accum_new(s, &opts->region, &a, err);
     if (st != RAYD_OK) return st;
     struct rayd_region r = a->r;
     if (dst_x < 0 || dst_y < 0 || dst_x > dst_w - r.w) {
         rayd_accum_free(a);
         return err_set(err, RAYD_E_ARG, NULL, "the region does not fit the destination image");
     }
-    struct rayd_render_stats stats = {0};
-    struct rayd_render_opts o = {.threads = 1, .tile = r.w > r.h ? r.w : r.h, .cancel = cancel,
-                                 .stats = &stats};
+    struct rayd_render_opts o = {.threads = 1,
+                                 .tile = r.w > r.h ? r.w : r.h,
+                                 .cancel = opts->cancel,
+                                 .stats = opts->stats,
+                                 .rays_left = opts->rays_left};
     int n = s->rs.samples;
     st = rayd_render_pass(s, &o, a, 0, n, err); /* one pass: the plain render's sums */
-    if (rays) *rays += stats.rays;
     double scale = 1.0 / n;
     for (int row = 0; st == RAYD_OK && row < r.h; row++) {
         float *out = dst + ((size_t)(dst_y + row) * (size_t)dst_w + (size_t)dst_x) * 3;
@@ -219,6 +221,18 @@ enum rayd_status rayd_render_linear_into(const rayd_scene *s, const struct rayd_
         for (size_t k = 0; k < (size_t)r.w * 3; k++) out[k] = (float)(in[k] * scale);
     }
     rayd_accum_free(a);
+    return st;
+}
+
+enum rayd_status rayd_render_linear_into(const rayd_scene *s, const struct rayd_region *region,
+                                         float *dst, int dst_w, int dst_x, int dst_y,
+                                         const atomic_int *cancel, uint64_t *rays,
+                                         struct rayd_error *err) {
+    struct rayd_render_stats stats = {0};
+    struct rayd_render_opts o = {.cancel = cancel, .stats = &stats};
+    if (region) o.region = *region;
+    enum rayd_status st = rayd_render_linear_tile(s, &o, dst, dst_w, dst_x, dst_y, err);
+    if (rays) *rays += stats.rays;
     return st;
 }
 

@@ -30,9 +30,9 @@
 #include "render/integrate_wide.h"
 
 vec3 integrate_visible(const rayd_scene *s, vec3 origin, vec3 to_light, double dist,
-                       uint64_t *rays) {
+                       struct meter *mt) {
     ray sr = {origin, to_light};
-    (*rays)++;
+    if (!meter_ray(mt)) return v3(0, 0, 0); /* stopped: nothing more is traced */
     return scene_transmittance(s, &sr, dist);
 }
 
@@ -60,10 +60,10 @@ static inline bool light_pass(vec3 tr, vec3 *radiance) {
 
 bool integrate_light_sample(const rayd_scene *s, const struct light *l, vec3 p, vec3 nf,
                             vec3 origin, double su, double sv, vec3 *wi, vec3 *radiance,
-                            uint64_t *rays) {
+                            struct meter *mt) {
     double dist;
     if (!integrate_light_aim(l, p, nf, su, sv, origin, wi, radiance, &dist)) return false;
-    return light_pass(integrate_visible(s, origin, *wi, dist, rays), radiance);
+    return light_pass(integrate_visible(s, origin, *wi, dist, mt), radiance);
 }
 
 /* x^e for m's Blinn-Phong exponent e: by squaring when e is a whole
@@ -148,17 +148,17 @@ static vec3 shade_base(const rayd_scene *s, const struct frame *f) {
 /* Direct light at the hit: an area light is the average of its samples,
  * each a point light, stratified. */
 static vec3 shade_local(const rayd_scene *s, const struct frame *f, vec3 d, int depth,
-                        const struct rng_key *key, uint64_t *rays) {
+                        const struct rng_key *key, struct meter *mt) {
     vec3 c = shade_base(s, f);
-    for (int i = 0; i < s->nlights; i++) {
+    for (int i = 0; i < s->nlights && meter_going(mt); i++) {
         const struct light *l = &s->lights[i];
         int gx, gy, n = light_samples(l, &gx, &gy);
         vec3 sum = v3(0, 0, 0);
-        for (int k = 0; k < n; k++) {
+        for (int k = 0; k < n && meter_going(mt); k++) {
             double su, sv;
             light_uv(l, i, k, gx, gy, depth, key, &su, &sv);
             vec3 wi, rad;
-            if (integrate_light_sample(s, l, f->sf.p, f->nf, f->above, su, sv, &wi, &rad, rays))
+            if (integrate_light_sample(s, l, f->sf.p, f->nf, f->above, su, sv, &wi, &rad, mt))
                 sum = v3_add(sum, shade_one(f->sf.m, f->sf.color, f->nf, d, wi, rad));
         }
         c = v3_madd(c, sum, 1.0 / n);
@@ -167,9 +167,9 @@ static vec3 shade_local(const rayd_scene *s, const struct frame *f, vec3 d, int 
 }
 
 static vec3 trace_from(const rayd_scene *s, vec3 o, vec3 d, int depth, const struct rng_key *key,
-                       uint64_t *rays) {
+                       struct meter *mt) {
     ray r = {o, d};
-    return whitted_radiance(s, &r, depth, key, rays);
+    return whitted_radiance(s, &r, depth, key, mt);
 }
 
 /* The mirror direction a hit sends a reflected ray in: about the shading normal, unless
@@ -182,13 +182,13 @@ static vec3 mirror_dir(const ray *r, const struct frame *f) {
 /* c (the direct light) plus the mirror and refracted rays, while depth <
  * render.max_depth. */
 static vec3 shade_secondary(const rayd_scene *s, const ray *r, const struct frame *f, vec3 c,
-                            int depth, const struct rng_key *key, uint64_t *rays) {
+                            int depth, const struct rng_key *key, struct meter *mt) {
     if (depth >= s->rs.max_depth) return c;
     const struct material *m = f->sf.m;
     double kr = m->reflectivity, kt = m->transparency;
     if (kt <= 0) { /* opaque: a mirror ray only where the material reflects */
         if (kr > 0)
-            c = v3_madd(c, trace_from(s, f->above, mirror_dir(r, f), depth + 1, key, rays), kr);
+            c = v3_madd(c, trace_from(s, f->above, mirror_dir(r, f), depth + 1, key, mt), kr);
         return c;
     }
     vec3 refl_dir = mirror_dir(r, f);
@@ -204,23 +204,23 @@ static vec3 shade_secondary(const rayd_scene *s, const ray *r, const struct fram
     }
     c = v3_scale(c, 1.0 - kt);
     double wr = kr + kt * fr;
-    if (wr > 0) c = v3_madd(c, trace_from(s, f->above, refl_dir, depth + 1, key, rays), wr);
+    if (wr > 0) c = v3_madd(c, trace_from(s, f->above, refl_dir, depth + 1, key, mt), wr);
     if (fr < 1) {
-        vec3 refr = trace_from(s, f->below, tdir, depth + 1, key, rays);
+        vec3 refr = trace_from(s, f->below, tdir, depth + 1, key, mt);
         c = v3_add(c, v3_mul(refr, v3_scale(f->sf.color, kt * (1 - fr))));
     }
     return c;
 }
 
 vec3 whitted_radiance(const rayd_scene *s, const ray *r, int depth, const struct rng_key *key,
-                      uint64_t *rays) {
-    (*rays)++;
+                      struct meter *mt) {
+    if (!meter_ray(mt)) return v3(0, 0, 0); /* stopped: the colour is thrown away */
     struct hit h;
     if (!scene_intersect(s, r, INFINITY, &h)) return integrate_escape(s, r->d, depth);
     struct frame f;
     hit_frame(s, r, &h, &f);
-    vec3 c = shade_local(s, &f, r->d, depth, key, rays);
-    return shade_secondary(s, r, &f, c, depth, key, rays);
+    vec3 c = shade_local(s, &f, r->d, depth, key, mt);
+    return shade_secondary(s, r, &f, c, depth, key, mt);
 }
 
 /* ---- 16 camera rays at once --------------------------------------------------- */
@@ -229,7 +229,7 @@ vec3 whitted_radiance(const rayd_scene *s, const ray *r, int depth, const struct
  * one packet: the same operations in the same order for every ray. */
 static void shade_local16(const rayd_scene *s, const ray r[16], uint32_t hit,
                           const struct frame f[16], int depth, const struct rng_key key[16],
-                          vec3 c[16], uint64_t *rays) {
+                          vec3 c[16], struct meter *mt) {
     for (uint32_t m = hit; m; m &= m - 1) c[__builtin_ctz(m)] = shade_base(s, &f[__builtin_ctz(m)]);
     for (int i = 0; i < s->nlights; i++) {
         const struct light *l = &s->lights[i];
@@ -250,7 +250,7 @@ static void shade_local16(const rayd_scene *s, const ray r[16], uint32_t hit,
                 sr[j] = (ray){f[j].above, wi[j]};
                 aim |= 1u << j;
             }
-            *rays += (uint64_t)__builtin_popcount(aim);
+            if (!meter_rays(mt, (uint64_t)__builtin_popcount(aim))) return; /* stopped */
             scene_transmittance16(s, sr, dist, aim, tr);
             for (; aim; aim &= aim - 1) {
                 int j = __builtin_ctz(aim);
@@ -273,8 +273,11 @@ static void shade_local16(const rayd_scene *s, const ray r[16], uint32_t hit,
  * lanes have one (fewer are not worth a packet); everything else takes
  * shade_secondary, ray by ray. */
 static void whitted16(const rayd_scene *s, const struct ray16 *r, uint32_t active, int depth,
-                      const struct rng_key key[16], vec3 out[16], uint64_t *rays) {
-    *rays += (uint64_t)__builtin_popcount(active);
+                      const struct rng_key key[16], vec3 out[16], struct meter *mt) {
+    if (!meter_rays(mt, (uint64_t)__builtin_popcount(active))) { /* stopped: thrown away */
+        for (uint32_t m = active; m; m &= m - 1) out[__builtin_ctz(m)] = v3(0, 0, 0);
+        return;
+    }
     double kr[16];
     struct hit h[16];
     struct hit16 hs; /* the hits on spheres and planes, most of them: the wide shader's */
@@ -287,7 +290,7 @@ static void whitted16(const rayd_scene *s, const struct ray16 *r, uint32_t activ
         int i = __builtin_ctz(m);
         h[i] = hit16_get(&hs, i);
     }
-    uint32_t mirror = whitted_wide(s, r, &hs, wide, depth, out, &rr, kr, rays);
+    uint32_t mirror = whitted_wide(s, r, &hs, wide, depth, out, &rr, kr, mt);
     struct frame f[16];
     ray ri[16]; /* the other lanes' rays, one by one */
     for (uint32_t m = rest; m; m &= m - 1) {
@@ -295,28 +298,28 @@ static void whitted16(const rayd_scene *s, const struct ray16 *r, uint32_t activ
         ri[i] = ray16_get(r, i);
         hit_frame(s, &ri[i], &h[i], &f[i]);
     }
-    shade_local16(s, ri, rest, f, depth, key, out, rays);
+    shade_local16(s, ri, rest, f, depth, key, out, mt);
     for (uint32_t m = rest; m; m &= m - 1) {
         int i = __builtin_ctz(m);
-        const struct material *mt = f[i].sf.m;
-        if (depth < s->rs.max_depth && mt->transparency <= 0 && mt->reflectivity > 0) {
+        const struct material *mat = f[i].sf.m;
+        if (depth < s->rs.max_depth && mat->transparency <= 0 && mat->reflectivity > 0) {
             mirror |= 1u << i;
             ray16_set(&rr, i, (ray){f[i].above, mirror_dir(&ri[i], &f[i])});
-            kr[i] = mt->reflectivity;
+            kr[i] = mat->reflectivity;
         } else {
-            out[i] = shade_secondary(s, &ri[i], &f[i], out[i], depth, &key[i], rays);
+            out[i] = shade_secondary(s, &ri[i], &f[i], out[i], depth, &key[i], mt);
         }
     }
     if (__builtin_popcount(mirror) < 4) { /* c + kr * the mirror ray, as shade_secondary */
         for (uint32_t m = mirror; m; m &= m - 1) {
             int i = __builtin_ctz(m);
             ray mr = ray16_get(&rr, i);
-            out[i] = v3_madd(out[i], whitted_radiance(s, &mr, depth + 1, &key[i], rays), kr[i]);
+            out[i] = v3_madd(out[i], whitted_radiance(s, &mr, depth + 1, &key[i], mt), kr[i]);
         }
         return;
     }
     vec3 rc[16];
-    whitted16(s, &rr, mirror, depth + 1, key, rc, rays);
+    whitted16(s, &rr, mirror, depth + 1, key, rc, mt);
     for (uint32_t m = mirror; m; m &= m - 1) {
         int i = __builtin_ctz(m);
         out[i] = v3_madd(out[i], rc[i], kr[i]);
@@ -324,6 +327,6 @@ static void whitted16(const rayd_scene *s, const struct ray16 *r, uint32_t activ
 }
 
 void whitted_radiance16(const rayd_scene *s, const struct ray16 *r, uint32_t active,
-                        const struct rng_key key[16], vec3 out[16], uint64_t *rays) {
-    whitted16(s, r, active, 0, key, out, rays);
+                        const struct rng_key key[16], vec3 out[16], struct meter *mt) {
+    whitted16(s, r, active, 0, key, out, mt);
 }

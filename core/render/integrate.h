@@ -4,28 +4,31 @@
 
 #include <stdint.h>
 
+#include "base/meter.h"
 #include "scene/scene.h"
 
 #include "math/rng.h"
 
 /* Whitted ray tracing: the radiance arriving along r after `depth` bounces
- * so far.  key names the pixel sample (area lights draw from it).  Adds
- * every ray it casts (this one included) to *rays. */
+ * so far.  key names the pixel sample (area lights draw from it).  Counts
+ * every ray it casts (this one included) on mt; once mt stops, returns
+ * at once with a colour that must be thrown away (every integrator here
+ * does the same). */
 vec3 whitted_radiance(const rayd_scene *s, const ray *r, int depth, const struct rng_key *key,
-                      uint64_t *rays);
+                      struct meter *mt);
 
 /* The same for 16 camera rays (ray i, bit i of active set) at once, as
  * packets: out[i] is exactly whitted_radiance(s, &ray i, 0, &key[i], ..). */
 void whitted_radiance16(const rayd_scene *s, const struct ray16 *r, uint32_t active,
-                        const struct rng_key key[16], vec3 out[16], uint64_t *rays);
+                        const struct rng_key key[16], vec3 out[16], struct meter *mt);
 
 /* Path tracing (integrate_path.c): an unbiased estimate of the radiance
  * arriving along r. */
-vec3 path_radiance(const rayd_scene *s, const ray *r, const struct rng_key *key, uint64_t *rays);
+vec3 path_radiance(const rayd_scene *s, const ray *r, const struct rng_key *key, struct meter *mt);
 /* The same with r's nearest hit already found: *h when hit, else r escapes
  * (a camera ray of a packet, scene_intersect16). */
 vec3 path_radiance_from(const rayd_scene *s, const ray *r, const struct hit *h, bool hit,
-                        const struct rng_key *key, uint64_t *rays);
+                        const struct rng_key *key, struct meter *mt);
 
 /* What a ray along d that escapes the scene after `depth` bounces sees:
  * the environment, or the background (no environment, or a camera ray and
@@ -34,7 +37,7 @@ vec3 integrate_escape(const rayd_scene *s, vec3 d, int depth);
 
 /* The shadow ray test from origin toward a light: what gets through. */
 vec3 integrate_visible(const rayd_scene *s, vec3 origin, vec3 to_light, double dist,
-                       uint64_t *rays);
+                       struct meter *mt);
 
 /* The first half of integrate_light_sample, before the shadow ray: the
  * direction wi toward sample (su, sv) of light l, its distance from origin
@@ -47,7 +50,7 @@ bool integrate_light_aim(const struct light *l, vec3 p, vec3 nf, double su, doub
  * when none arrives; *wi the direction toward it. */
 bool integrate_light_sample(const rayd_scene *s, const struct light *l, vec3 p, vec3 nf,
                             vec3 origin, double su, double sv, vec3 *wi, vec3 *radiance,
-                            uint64_t *rays);
+                            struct meter *mt);
 
 /* How far to lift a secondary ray's origin off the surface at p so that it
  * cannot hit the surface it leaves (no shadow acne): relative to the size of

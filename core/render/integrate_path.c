@@ -147,7 +147,7 @@ static vec3 emitter_point(const struct object *o, double a, double b, vec3 *n) {
 
 /* Light arriving at x from one direction drawn from the environment map. */
 static vec3 env_event(const rayd_scene *s, const struct lobes *lb, const struct vertex *x,
-                      vec3 wo, const struct rng_key *key, uint32_t b, uint64_t *rays) {
+                      vec3 wo, const struct rng_key *key, uint32_t b, struct meter *mt) {
     const struct environment *e = &s->rs.env;
     vec3 wi;
     double pdf_l, pdf_b;
@@ -156,7 +156,7 @@ static vec3 env_event(const rayd_scene *s, const struct lobes *lb, const struct 
     if (v3_dot(x->n, wi) <= 0 || v3_dot(x->ng, wi) <= 0) return v3(0, 0, 0);
     vec3 f = eval_nondelta(lb, x->n, wo, wi, &pdf_b);
     if (v3_maxabs(f) == 0) return v3(0, 0, 0);
-    vec3 tr = integrate_visible(s, x->above, wi, INFINITY, rays);
+    vec3 tr = integrate_visible(s, x->above, wi, INFINITY, mt);
     if (v3_maxabs(tr) == 0) return v3(0, 0, 0);
     vec3 le = env_radiance(e, wi);
     return v3_scale(v3_mul(v3_mul(le, tr), f), mis(pdf_l, pdf_b) / pdf_l);
@@ -171,18 +171,18 @@ static vec3 escaped(const rayd_scene *s, vec3 d, uint32_t b, bool prev_delta, do
 
 /* Light arriving at vertex x through the lights and one emitter (NEE). */
 static vec3 next_event(const rayd_scene *s, const struct lobes *lb, const struct vertex *x,
-                       vec3 wo, const struct rng_key *key, uint32_t b, uint64_t *rays) {
+                       vec3 wo, const struct rng_key *key, uint32_t b, struct meter *mt) {
     vec3 sum = v3(0, 0, 0);
     for (int i = 0; i < s->nlights; i++) {
         vec3 wi, rad;
         double pdf;
         double su = rng_uniform(key, b, D_LIGHT0 + 2 * (uint32_t)i);
         double sv = rng_uniform(key, b, D_LIGHT0 + 2 * (uint32_t)i + 1);
-        if (!integrate_light_sample(s, &s->lights[i], x->p, x->n, x->above, su, sv, &wi, &rad, rays))
+        if (!integrate_light_sample(s, &s->lights[i], x->p, x->n, x->above, su, sv, &wi, &rad, mt))
             continue;
         sum = v3_add(sum, v3_mul(rad, eval_nondelta(lb, x->n, wo, wi, &pdf)));
     }
-    if (env_can_sample(&s->rs.env)) sum = v3_add(sum, env_event(s, lb, x, wo, key, b, rays));
+    if (env_can_sample(&s->rs.env)) sum = v3_add(sum, env_event(s, lb, x, wo, key, b, mt));
     int ne = s->nemitters;
     if (ne == 0) return sum;
     int k = (int)(rng_uniform(key, b, D_PICK) * ne);
@@ -198,7 +198,7 @@ static vec3 next_event(const rayd_scene *s, const struct lobes *lb, const struct
     double pdf_b;
     vec3 f = eval_nondelta(lb, x->n, wo, wi, &pdf_b);
     if (v3_maxabs(f) == 0) return sum;
-    vec3 tr = integrate_visible(s, x->above, wi, dist * (1 - 1e-7), rays);
+    vec3 tr = integrate_visible(s, x->above, wi, dist * (1 - 1e-7), mt);
     if (v3_maxabs(tr) == 0) return sum;
     double pdf_l = dist * dist / (cl * emitter_area(e)) / ne;
     vec3 le = s->mats[e->material].emission;
@@ -258,7 +258,7 @@ static bool sample_bsdf(const struct lobes *lb, const struct vertex *x, vec3 col
 /* The path from r0; first, when not NULL, is r0's nearest hit already
  * found (first_hit says whether *first is a hit or r0 escapes). */
 static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *first, bool first_hit,
-                       const struct rng_key *key, uint64_t *rays) {
+                       const struct rng_key *key, struct meter *mt) {
     vec3 L = v3(0, 0, 0), beta = v3(1, 1, 1);
     ray r = *r0;
     bool prev_delta = true;
@@ -266,7 +266,7 @@ static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *fir
     vec3 prev_p = r.o;
     for (uint32_t b = 0;; b++) {
         struct hit h;
-        (*rays)++;
+        if (!meter_ray(mt)) break; /* stopped: the colour is thrown away */
         bool found = b == 0 && first ? first_hit : scene_intersect(s, &r, INFINITY, &h);
         if (b == 0 && first && first_hit) h = *first;
         if (!found) return v3_add(L, v3_mul(beta, escaped(s, r.d, b, prev_delta, prev_pdf)));
@@ -297,7 +297,7 @@ static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *fir
         vec3 wo = v3_neg(r.d);
         struct lobes lb = lobes_of(m, sf.color);
         if (lb.w_diff > 0 || (lb.w_metal > 0 && lb.alpha > 0))
-            L = v3_add(L, v3_mul(beta, next_event(s, &lb, &x, wo, key, b, rays)));
+            L = v3_add(L, v3_mul(beta, next_event(s, &lb, &x, wo, key, b, mt)));
         vec3 wi;
         bool delta, through;
         double pdf = 0;
@@ -316,11 +316,11 @@ static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *fir
     return L;
 }
 
-vec3 path_radiance(const rayd_scene *s, const ray *r, const struct rng_key *key, uint64_t *rays) {
-    return path_trace(s, r, NULL, false, key, rays);
+vec3 path_radiance(const rayd_scene *s, const ray *r, const struct rng_key *key, struct meter *mt) {
+    return path_trace(s, r, NULL, false, key, mt);
 }
 
 vec3 path_radiance_from(const rayd_scene *s, const ray *r, const struct hit *h, bool hit,
-                        const struct rng_key *key, uint64_t *rays) {
-    return path_trace(s, r, h, hit, key, rays);
+                        const struct rng_key *key, struct meter *mt) {
+    return path_trace(s, r, h, hit, key, mt);
 }

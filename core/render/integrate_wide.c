@@ -94,10 +94,10 @@ uint32_t whitted_wide_lanes(const rayd_scene *s, const struct hit16 *hs) {
 
 uint32_t whitted_wide(const rayd_scene *s, const struct ray16 *r, const struct hit16 *hs,
                       uint32_t lanes, int depth, vec3 out[16], struct ray16 *rr, double kr[16],
-                      uint64_t *rays) {
+                      struct meter *mt) {
     if (!lanes) return 0;
 #ifdef CPU_AVX512
-    if (cpu_avx512()) return whitted_wide_avx512(s, r, hs, lanes, depth, out, rr, kr, rays);
+    if (cpu_avx512()) return whitted_wide_avx512(s, r, hs, lanes, depth, out, rr, kr, mt);
 #endif
-    return whitted_wide_base(s, r, hs, lanes, depth, out, rr, kr, rays);
+    return whitted_wide_base(s, r, hs, lanes, depth, out, rr, kr, mt);
 }

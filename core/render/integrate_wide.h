@@ -18,6 +18,6 @@ uint32_t whitted_wide_lanes(const rayd_scene *s, const struct hit16 *hs);
  * (other lanes of rr are overwritten too) and its weight in kr[i]. */
 uint32_t whitted_wide(const rayd_scene *s, const struct ray16 *r, const struct hit16 *hs,
                       uint32_t lanes, int depth, vec3 out[16], struct ray16 *rr, double kr[16],
-                      uint64_t *rays);
+                      struct meter *mt);
 
 #endif

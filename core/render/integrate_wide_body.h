@@ -189,11 +189,11 @@ WIDE_FN void WIDE(shade)(struct wide *w, const double wi[3][16], const double pa
 /* The shadow rays of the lanes in aim toward light l (aimed at by a) as a
  * packet: what each lets through into a->tr. */
 WIDE_FN void WIDE(shadow)(const rayd_scene *s, const struct light *l, struct aimed *a,
-                          const struct wide *w, uint32_t lanes, uint64_t *rays) {
+                          const struct wide *w, uint32_t lanes, struct meter *mt) {
     uint32_t aim = 0;
     for (int j = 0; j < 16; j++) aim |= (uint32_t)(a->ok[j] != 0) << j;
     aim &= lanes;
-    *rays += (uint64_t)__builtin_popcount(aim);
+    if (!meter_rays(mt, (uint64_t)__builtin_popcount(aim))) aim = 0; /* stopped: none traced */
     scene_transmittance16_soa(s, (int)(l - s->lights), (const double(*)[16])w->up, a->wi, a->dist,
                               aim, a->tr);
 }
@@ -226,7 +226,7 @@ WIDE_FN void WIDE(mirror)(const struct wide *w, struct ray16 *rr) {
 
 WIDE_FN uint32_t WIDE(whitted_wide)(const rayd_scene *s, const struct ray16 *r,
                                     const struct hit16 *hs, uint32_t lanes, int depth, vec3 out[16],
-                                    struct ray16 *rr, double kr[16], uint64_t *rays) {
+                                    struct ray16 *rr, double kr[16], struct meter *mt) {
     struct wide w;
     WIDE(gather)(s, r, hs, lanes, &w);
     WIDE(frame)(&w, s->nlights > 0);
@@ -235,7 +235,7 @@ WIDE_FN uint32_t WIDE(whitted_wide)(const rayd_scene *s, const struct ray16 *r,
         int n = s->nlights - i0 < WIDE_AHEAD ? s->nlights - i0 : WIDE_AHEAD; /* first: nothing */
         const struct light *l = &s->lights[i0];                              /* waits on them */
         for (int k = 0; k < n; k++) WIDE(aim)(&l[k], &w, &a[k]);
-        for (int k = 0; k < n; k++) WIDE(shadow)(s, &l[k], &a[k], &w, lanes, rays);
+        for (int k = 0; k < n; k++) WIDE(shadow)(s, &l[k], &a[k], &w, lanes, mt);
         for (int k = 0; k < n; k++) WIDE(light)(&l[k], &a[k], &w);
     }
     uint32_t mirror = 0;

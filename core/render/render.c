@@ -13,11 +13,14 @@
  * goes through the pixel centre, as in the paper.
  *
  * rayd_render splits the region into tiles handed out through an atomic
- * counter to `threads` pthreads; each thread keeps its own ray count, so the
- * hot loop shares nothing.  A tile is traced in blocks of 4x4 pixels, each
+ * counter to `threads` pthreads; each thread keeps its own ray count (its
+ * meter), so the hot loop shares nothing.  A tile is traced in blocks of 4x4 pixels, each
  * sample's 16 camera rays as one packet (scene_packet.c); since a packet
  * gives every ray exactly its one-ray answer, the blocks change nothing
- * in the bytes.  The cancel flag is polled once per row of blocks.
+ * in the bytes.  Each thread counts its rays on a meter (base/meter.h),
+ * which looks at the cancel flag and the ray budget every thousand rays or
+ * so, before every pixel sample of a block, and inside the scene's costly
+ * walks: a stop is seen within milliseconds whatever one pixel costs.
  *
  * Rows done (opts->rows).  The tiles are handed out row by row, and each
  * row of tiles counts the tiles it still lacks; the thread that draws a
@@ -53,6 +56,7 @@
 
 #include "accel/bvh16.h"
 #include "base/error.h"
+#include "base/meter.h"
 #include "render/image.h"
 #include "render/integrate.h"
 #include "render/render.h"
@@ -81,9 +85,9 @@ static void put_block(rayd_image *img, int x, int y, const union block_colours *
         memcpy(image_row(img, y + row) + (size_t)x * 3, b + 12 * row, (size_t)w * 3);
 }
 
-static vec3 trace(const rayd_scene *s, const ray *r, const struct rng_key *key, uint64_t *rays) {
-    return s->rs.integrator == INTEGRATOR_PATH ? path_radiance(s, r, key, rays)
-                                               : whitted_radiance(s, r, 0, key, rays);
+static vec3 trace(const rayd_scene *s, const ray *r, const struct rng_key *key, struct meter *mt) {
+    return s->rs.integrator == INTEGRATOR_PATH ? path_radiance(s, r, key, mt)
+                                               : whitted_radiance(s, r, 0, key, mt);
 }
 
 /* The random numbers of pixel (i, j)'s first sample. */
@@ -121,12 +125,14 @@ static inline vec3 render_sum_term(vec3 c) {
 vec3 render_pixel(const rayd_scene *s, int i, int j, uint64_t *rays) {
     int n = s->rs.samples;
     vec3 acc = v3(0, 0, 0);
+    struct meter mt = meter_make(NULL, NULL);
     for (int k = 0; k < n; k++) {
         struct rng_key key;
         ray r = sample_ray(s, i, j, k, n, &key);
-        vec3 c = trace(s, &r, &key, rays);
+        vec3 c = trace(s, &r, &key, &mt);
         acc = n > 1 ? v3_add(acc, render_sum_term(c)) : c;
     }
+    *rays += mt.rays;
     return v3_scale(acc, 1.0 / n);
 }
 
@@ -136,7 +142,7 @@ vec3 render_pixel(const rayd_scene *s, int i, int j, uint64_t *rays) {
  * camera); else each lane's ray is sample_ray's. */
 static void block_sample(const rayd_scene *s, int x, int y, uint32_t active,
                          const struct ray16 *centre, int k, int n, union block_colours *c,
-                         uint64_t *rays) {
+                         struct meter *mt) {
     struct ray16 rs; /* the sample rays, when not through the centres: set below */
     // cppcheck-suppress uninitvar
     const struct ray16 *r = centre ? centre : &rs;
@@ -147,7 +153,7 @@ static void block_sample(const rayd_scene *s, int x, int y, uint32_t active,
         ray16_set(&rs, q, sample_ray(s, x + q % 4, y + q / 4, k, n, &key[q]));
     }
     if (s->rs.integrator == INTEGRATOR_WHITTED) {
-        whitted_radiance16(s, r, active, key, c->v, rays);
+        whitted_radiance16(s, r, active, key, c->v, mt);
         return;
     } /* the path tracer: the camera rays as a packet, the paths on one by one */
     struct hit first[16];
@@ -155,7 +161,7 @@ static void block_sample(const rayd_scene *s, int x, int y, uint32_t active,
     for (uint32_t m = active; m; m &= m - 1) {
         int q = __builtin_ctz(m);
         ray rq = ray16_get(r, q);
-        c->v[q] = path_radiance_from(s, &rq, &first[q], hit >> q & 1, &key[q], rays);
+        c->v[q] = path_radiance_from(s, &rq, &first[q], hit >> q & 1, &key[q], mt);
     }
 }
 
@@ -193,10 +199,11 @@ static void sums_store(const struct rect_out *o, int bx, int by, uint32_t active
 /* The w x h (at most 4 x 4) block at (x, y), going to o at (bx, by) past
  * o's (dx, dy): each sample's 16 camera rays traced as packets, the same
  * radiance per pixel as render_pixel, summed in the same order (sample
- * index order, from 0 or from the pass's running sums). */
+ * index order, from 0 or from the pass's running sums).  The meter is
+ * polled before every sample; stopped, the block is left unwritten. */
 static void render_block(const rayd_scene *s, int x, int y, int w, int h,
                          const struct ray16 *centre, const struct rect_out *o, int bx, int by,
-                         uint64_t *rays) {
+                         struct meter *mt) {
     int n = o->n;
     bool sum = o->sum || n > 1;
     vec3 acc[16];
@@ -208,12 +215,14 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h,
     else if (n > 1)
         memset(acc, 0, sizeof acc);
     for (int k = o->k0; k < o->k1; k++) {
-        block_sample(s, x, y, active, centre, k, n, &c, rays);
+        if (!meter_poll(mt)) return;
+        block_sample(s, x, y, active, centre, k, n, &c, mt);
         for (uint32_t m = sum ? active : 0; m; m &= m - 1) {
             int q = __builtin_ctz(m);
             acc[q] = v3_add(acc[q], n == 1 ? c.v[q] : render_sum_term(c.v[q])); /* centre: as is */
         }
     }
+    if (!meter_going(mt)) return; /* stopped inside the last sample */
     if (o->sum) {
         sums_store(o, o->dx + bx, o->dy + by, active, acc);
         return;
@@ -226,29 +235,39 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h,
 }
 
 /* Renders the w x h rectangle at (x, y) of the image into dst at (dx, dy)
- * by 4 x 4 blocks of packets.  The cancel flag is polled once per row of
- * blocks.  With a pinhole camera and one sample, the next block's camera
- * rays are made before the block is traced: nothing waits for them, so
- * their square roots and divisions run while the block's work does. */
+ * by 4 x 4 blocks of packets, counting on mt, which is bound to the thread
+ * meanwhile (the scene's queries look at it).  A stopped meter ends it
+ * with its status.  With a pinhole camera and one sample, the next
+ * block's camera rays are made before the block is traced: nothing waits
+ * for them, so their square roots and divisions run while the block's
+ * work does. */
 static enum rayd_status render_rect(const rayd_scene *s, int x, int y, int w, int h,
-                                    const struct rect_out *o, int bx, int by,
-                                    const atomic_int *cancel, uint64_t *rays) {
+                                    const struct rect_out *o, int bx, int by, struct meter *mt) {
     bool centres = o->n == 1 && s->cam.aperture <= 0 && !s->cam.ortho;
     struct ray16 ahead[2];
     int now = 0;
     if (centres) cam_block_rays(&s->cam, x, y, &ahead[0]);
-    for (int row = 0; row < h; row += 4) {
-        if (cancel && atomic_load_explicit(cancel, memory_order_relaxed)) return RAYD_E_CANCELED;
-        for (int col = 0; col < w; col += 4) {
+    meter_bind(mt);
+    for (int row = 0; row < h && meter_going(mt); row += 4) {
+        for (int col = 0; col < w && meter_going(mt); col += 4) {
             int bw = w - col < 4 ? w - col : 4, bh = h - row < 4 ? h - row : 4;
             int ncol = col + 4 < w ? col + 4 : 0, nrow = col + 4 < w ? row : row + 4;
             if (centres && nrow < h) cam_block_rays(&s->cam, x + ncol, y + nrow, &ahead[!now]);
             render_block(s, x + col, y + row, bw, bh, centres ? &ahead[now] : NULL, o, bx + col,
-                         by + row, rays);
+                         by + row, mt);
             now = !now;
         }
     }
-    return RAYD_OK;
+    meter_bind(NULL);
+    return mt->stop;
+}
+
+/* The error of a render its meter stopped (st: RAYD_E_CANCELED or
+ * RAYD_E_LIMIT). */
+static enum rayd_status render_stopped(enum rayd_status st, struct rayd_error *err) {
+    if (st == RAYD_E_LIMIT)
+        return err_set(err, st, NULL, "the render cast more rays than its budget and was stopped");
+    return err_set(err, st, NULL, "render canceled");
 }
 
 static void region_resolve(const rayd_scene *s, const struct rayd_region *in,
@@ -279,22 +298,39 @@ enum rayd_status rayd_region_check(const rayd_scene *s, const struct rayd_region
     return RAYD_OK;
 }
 
-enum rayd_status rayd_render_into(const rayd_scene *s, const struct rayd_region *region,
-                                  rayd_image *dst, int dst_x, int dst_y, const atomic_int *cancel,
-                                  uint64_t *rays, struct rayd_error *err) {
-    enum rayd_status st = rayd_region_check(s, region, err);
+enum rayd_status rayd_render_tile(const rayd_scene *s, const struct rayd_render_opts *opts,
+                                  rayd_image *dst, int dst_x, int dst_y, struct rayd_error *err) {
+    static const struct rayd_render_opts none;
+    if (!opts) opts = &none;
+    enum rayd_status st = rayd_region_check(s, &opts->region, err);
     if (st != RAYD_OK) return st;
     struct rayd_region r;
-    region_resolve(s, region, &r);
+    region_resolve(s, &opts->region, &r);
+    if (!dst) return err_set(err, RAYD_E_ARG, NULL, "no image to render into");
     if (dst->win) return err_set(err, RAYD_E_ARG, NULL, "a window image is for rayd_render_image");
     if (dst_x < 0 || dst_y < 0 || dst_x > dst->w - r.w || dst_y > dst->h - r.h)
         return err_set(err, RAYD_E_ARG, NULL, "the region does not fit the destination image");
-    uint64_t count = 0;
+    double t0 = clock_now();
+    struct meter mt = meter_make(opts->cancel, opts->rays_left);
     int n = s->rs.samples;
     struct rect_out o = {.img = dst, .dx = dst_x, .dy = dst_y, .k0 = 0, .k1 = n, .n = n};
-    st = render_rect(s, r.x, r.y, r.w, r.h, &o, 0, 0, cancel, &count);
-    if (rays) *rays += count;
-    if (st == RAYD_E_CANCELED) return err_set(err, st, NULL, "render canceled");
+    st = render_rect(s, r.x, r.y, r.w, r.h, &o, 0, 0, &mt);
+    if (st == RAYD_OK && !meter_close(&mt)) st = mt.stop;
+    if (opts->stats) {
+        opts->stats->rays = mt.rays;
+        opts->stats->seconds = clock_now() - t0;
+    }
+    return st == RAYD_OK ? st : render_stopped(st, err);
+}
+
+enum rayd_status rayd_render_into(const rayd_scene *s, const struct rayd_region *region,
+                                  rayd_image *dst, int dst_x, int dst_y, const atomic_int *cancel,
+                                  uint64_t *rays, struct rayd_error *err) {
+    struct rayd_render_stats stats = {0};
+    struct rayd_render_opts o = {.cancel = cancel, .stats = &stats};
+    if (region) o.region = *region;
+    enum rayd_status st = rayd_render_tile(s, &o, dst, dst_x, dst_y, err);
+    if (rays) *rays += stats.rays;
     return st;
 }
 
@@ -306,7 +342,7 @@ struct tile_job {
     int tile, tiles_x, ntiles;
     atomic_int next;
     atomic_long done;
-    atomic_int canceled;
+    atomic_int stop; /* the first status that stopped a thread, RAYD_OK while none */
     atomic_uint_least64_t rays;
     /* for opts->rows: tiles left to draw in each row of tiles, and how many
      * rows of tiles at the top are all drawn (under rows_lock) */
@@ -330,20 +366,27 @@ static void rows_note(struct tile_job *jb, int ty) {
     if (more) jb->opts->rows(jb->opts->rows_user, rows);
 }
 
+/* Tells the other threads to take no more tiles: the first status stands. */
+static void tile_job_stop(struct tile_job *jb, enum rayd_status st) {
+    int none = RAYD_OK;
+    atomic_compare_exchange_strong(&jb->stop, &none, (int)st);
+    if (jb->out->img) image_rows_give_up(jb->out->img); /* no rows will come */
+}
+
 static void *render_worker(void *arg) {
     struct tile_job *jb = arg;
-    uint64_t rays = 0;
+    struct meter mt = meter_make(jb->opts->cancel, jb->opts->rays_left);
     for (;;) {
         int t = atomic_fetch_add(&jb->next, 1);
-        if (t >= jb->ntiles || atomic_load(&jb->canceled)) break;
+        if (t >= jb->ntiles || atomic_load(&jb->stop) != RAYD_OK) break;
         int tx = (t % jb->tiles_x) * jb->tile, ty = (t / jb->tiles_x) * jb->tile;
         int w = jb->r.w - tx < jb->tile ? jb->r.w - tx : jb->tile;
         int h = jb->r.h - ty < jb->tile ? jb->r.h - ty : jb->tile;
         if (jb->out->img && !image_rows_wait(jb->out->img, ty + h)) break; /* given up */
-        if (render_rect(jb->s, jb->r.x + tx, jb->r.y + ty, w, h, jb->out, tx, ty, jb->opts->cancel,
-                        &rays) != RAYD_OK) {
-            atomic_store(&jb->canceled, 1);
-            if (jb->out->img) image_rows_give_up(jb->out->img); /* no rows will come */
+        enum rayd_status st =
+            render_rect(jb->s, jb->r.x + tx, jb->r.y + ty, w, h, jb->out, tx, ty, &mt);
+        if (st != RAYD_OK) {
+            tile_job_stop(jb, st);
             break;
         }
         if (jb->row_left) rows_note(jb, t / jb->tiles_x);
@@ -351,7 +394,8 @@ static void *render_worker(void *arg) {
         if (jb->opts->progress)
             jb->opts->progress(jb->opts->progress_user, done, (long)jb->r.w * jb->r.h);
     }
-    atomic_fetch_add(&jb->rays, rays);
+    if (!meter_close(&mt) && atomic_load(&jb->stop) == RAYD_OK) tile_job_stop(jb, mt.stop);
+    atomic_fetch_add(&jb->rays, mt.rays);
     return NULL;
 }
 
@@ -376,7 +420,7 @@ static enum rayd_status render_tiles(const rayd_scene *s, const struct rayd_rend
     jb.ntiles = jb.tiles_x * ((jb.r.h + jb.tile - 1) / jb.tile);
     atomic_init(&jb.next, 0);
     atomic_init(&jb.done, 0);
-    atomic_init(&jb.canceled, 0);
+    atomic_init(&jb.stop, RAYD_OK);
     atomic_init(&jb.rays, 0);
     jb.tiles_y = (jb.r.h + jb.tile - 1) / jb.tile;
     if (opts->rows && !out->sum) {
@@ -410,8 +454,8 @@ static enum rayd_status render_tiles(const rayd_scene *s, const struct rayd_rend
         opts->stats->rays = atomic_load(&jb.rays);
         opts->stats->seconds = clock_now() - t0;
     }
-    if (atomic_load(&jb.canceled)) return err_set(err, RAYD_E_CANCELED, NULL, "render canceled");
-    return RAYD_OK;
+    enum rayd_status stop = (enum rayd_status)atomic_load(&jb.stop);
+    return stop == RAYD_OK ? RAYD_OK : render_stopped(stop, err);
 }
 
 /* *opts, or no options when NULL, and its region checked and resolved. */

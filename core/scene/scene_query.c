@@ -21,12 +21,20 @@
  *
  * The nearest-hit search is order-free (scene_query.h), so the 16-ray
  * packets of scene_packet.c give every ray this file's answer.
+ *
+ * A ray's cost is bounded by the scene's size but can still be seconds (a
+ * ray through 20,000 instances of a 20,000-object group that all overlap
+ * it): so the walks look at the render's meter (base/meter.h) at every
+ * instance, every CSG hit and every few thousand objects met, and once it
+ * is stopped they return at once, with no hit -- the render is being
+ * thrown away.
  */
 #include "scene/scene_query.h"
 
 #include <stdlib.h>
 #include <string.h>
 
+#include "base/meter.h"
 #include "scene/scene.h"
 #include "shade/texture.h"
 
@@ -35,6 +43,13 @@
  * buffer of the size it needs from the heap for that ray: a crossing
  * dropped could be the nearest surface. */
 #define CSG_STACK_XINGS (64 * SHAPE_MAX_XINGS)
+
+/* How often a ray's own work looks at the render's meter (meter.h): every
+ * so many objects met in one BVH walk (thousands of objects overlapping
+ * where the ray goes), every so many runs of CSG crossings (each one
+ * evaluates the whole tree).  Every instance and every CSG hit looks too. */
+#define SCENE_LOOK_VISITS 4096
+#define SCENE_LOOK_RUNS 16
 
 /* ---- object space ---------------------------------------------------------- */
 
@@ -106,7 +121,9 @@ static bool csg_nearest(const rayd_scene *s, const struct object *o, const ray *
                         int n, double *tmax, struct hit *h) {
     qsort(x, (size_t)n, sizeof *x, cmp_cx);
     bool before = csg_inside(s, o, ray_at(r, x[0].t - (1 + fabs(x[0].t))));
-    for (int i = 0, j; i < n && x[i].t < *tmax; i = j) {
+    for (int i = 0, j, runs = 0; i < n && x[i].t < *tmax; i = j) {
+        /* each run evaluates the whole tree: a big tree is looked at often */
+        if (++runs % SCENE_LOOK_RUNS == 0 && !meter_live()) return false;
         j = csg_run_end(x, n, i);
         double ta = j < n ? 0.5 * (x[i].t + x[j].t) : x[i].t + (1 + fabs(x[i].t));
         bool after = csg_inside(s, o, ray_at(r, ta));
@@ -126,6 +143,7 @@ static bool csg_nearest(const rayd_scene *s, const struct object *o, const ray *
 static bool csg_hit(const rayd_scene *s, const struct object *o, const ray *r, double *tmax,
                     struct hit *h) {
     struct cx stack[CSG_STACK_XINGS], *x = stack;
+    if (!meter_live()) return false; /* the render stopped: no more work */
     int n = csg_collect(s, o, r, x, 0, CSG_STACK_XINGS);
     if (n == 0) return false;
     if (n > CSG_STACK_XINGS) {
@@ -186,6 +204,9 @@ static bool object_hit(const rayd_scene *s, const struct object *o, const struct
         return true;
     case SHAPE_INSTANCE: {
         const struct group *g = &s->groups[o->u.inst.group];
+        /* the rays through many instances that overlap walk a BVH each:
+         * unbounded but for this look (meter.h) */
+        if (!meter_live()) return false;
         if (!objects_hit(s, g->objs, g->nobjs, &g->bvh, &s->xforms[o->xform], &lr, &lmax, h) ||
             !world_take(lmax, scale, tmax))
             return false;
@@ -228,13 +249,16 @@ static void objects_walk(const struct object *objs, int32_t n, const struct bvh4
     bvh_ray_init(&br, r->o, r->d);
     struct bvh_entry stack[BVH_STACK], e = {0, 0, 0};
     int sp = 0;
+    uint32_t visits = 0;
     for (;;) {
         float tm = *tmax > 3e38 ? 3e38f : (float)*tmax * BVH_SLACK;
         if (e.count == 0) {
             if (bvh4_descend(bvh->nodes, &e, &br, tm, stack, &sp)) continue;
         } else {
-            for (uint32_t i = e.node; i < e.node + e.count; i++)
+            for (uint32_t i = e.node; i < e.node + e.count; i++) {
+                if (++visits % SCENE_LOOK_VISITS == 0 && !meter_live()) return; /* overlaps */
                 if (!visit(ctx, &objs[i], tmax)) return;
+            }
         }
         do { /* pop the nearest entry still in reach */
             if (sp == 0) return;

@@ -198,6 +198,17 @@ struct rayd_render_opts {
     struct rayd_render_stats *stats; /* may be NULL; filled on return */
     rayd_rows_fn rows;             /* may be NULL; see rayd_rows_fn */
     void *rows_user;
+    /* May be NULL: a ray budget, which many renders may share (a server's
+     * tiles of one frame).  Each rendering thread takes the rays it casts
+     * from it every 1024 rays or so; a render that takes it below zero, or
+     * finds it below zero, stops with RAYD_E_LIMIT (no path).  A render
+     * whose rays fit is never stopped, so the outcome does not depend on
+     * tiling or threads.  The cancel flag and the budget are looked at
+     * within about a thousand rays (and at every pixel sample, and inside
+     * a ray's walk through instances and CSG trees): a few milliseconds
+     * whatever the scene.  The rays cast up to the stop are counted in
+     * stats. */
+    atomic_int_least64_t *rays_left;
 };
 
 /* Checks a region against the scene's image size: RAYD_OK or RAYD_E_ARG
@@ -222,6 +233,11 @@ enum rayd_status rayd_render_image(const rayd_scene *scene, const struct rayd_re
 enum rayd_status rayd_render_into(const rayd_scene *scene, const struct rayd_region *region,
                                   rayd_image *dst, int dst_x, int dst_y, const atomic_int *cancel,
                                   uint64_t *rays, struct rayd_error *err);
+/* rayd_render_into with options: opts->region into dst at (dst_x, dst_y),
+ * on the calling thread (threads, tile, progress and rows are not read);
+ * opts->cancel, opts->rays_left and opts->stats as rayd_render's. */
+enum rayd_status rayd_render_tile(const rayd_scene *scene, const struct rayd_render_opts *opts,
+                                  rayd_image *dst, int dst_x, int dst_y, struct rayd_error *err);
 
 /* ---- passes: progressive rendering --------------------------------------- */
 
@@ -323,6 +339,10 @@ enum rayd_status rayd_render_linear_into(const rayd_scene *scene, const struct r
                                          float *dst, int dst_w, int dst_x, int dst_y,
                                          const atomic_int *cancel, uint64_t *rays,
                                          struct rayd_error *err);
+/* rayd_render_linear_into with options, as rayd_render_tile. */
+enum rayd_status rayd_render_linear_tile(const rayd_scene *scene,
+                                         const struct rayd_render_opts *opts, float *dst,
+                                         int dst_w, int dst_x, int dst_y, struct rayd_error *err);
 
 /* ---- images -------------------------------------------------------------- */
 

@@ -2,8 +2,10 @@
  * through the public API only.  The determinism rule: a region equals the
  * same crop of the full render byte for byte, whatever the thread count or
  * tile size. */
+#include <pthread.h>
 #include <stdatomic.h>
 #include <stdlib.h>
+#include <time.h>
 
 #include "accel/bvh16.h"
 #include "check.h"
@@ -286,6 +288,174 @@ static void test_srgb_blocks_equal_one_value(void) {
     CHECK(bad == 0, "%d of %d block bytes differ from render_srgb8", bad, 2 * 48 * 64);
 }
 
+/* ---- run-time limits: the meter (base/meter.h) -------------------------------- */
+
+static double now_s(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+/* A 1 x 1 scene whose one pixel is very costly: a 4 x 4 x 4 grid of glass
+ * spheres seen from outside at max_depth depth, `samples` samples: every
+ * hit casts a reflected and a refracted ray, so the rays grow about 1.7
+ * times a bounce (some 1e9 at depth 32 and 16 samples). */
+static rayd_scene *glass_pixel(int depth, int samples) {
+    size_t cap = 16384, n = 0;
+    char *t = malloc(cap);
+    if (!t) return NULL;
+    n += (size_t)snprintf(t + n, cap - n,
+                          "{\"render\": {\"width\": 1, \"height\": 1, \"samples\": %d, "
+                          "\"max_depth\": %d}, \"camera\": {\"position\": [0.3, 0.2, -12], "
+                          "\"look_at\": [1.0, 1.2, 0], \"fov_x\": 20}, \"materials\": {\"glass\": "
+                          "{\"transparency\": 0.9, \"reflectivity\": 0.1, \"ior\": 1.5}}, "
+                          "\"lights\": [{\"type\": \"point\", \"position\": [0, 20, -20]}], "
+                          "\"objects\": [",
+                          samples, depth);
+    for (int i = 0; i < 64; i++)
+        n += (size_t)snprintf(t + n, cap - n,
+                              "%s{\"type\": \"sphere\", \"center\": [%g, %g, %g], \"radius\": 1, "
+                              "\"material\": \"glass\"}",
+                              i ? ", " : "", (i % 4) * 2.2 - 3.3, (i / 4 % 4) * 2.2 - 3.3,
+                              (i / 16) * 2.2 - 3.3);
+    snprintf(t + n, cap - n, "]}");
+    rayd_scene *s = scene_from(t);
+    free(t);
+    return s;
+}
+
+/* A 1 x 1 scene of m instances of a group of m spheres, all in one place,
+ * the camera ray passing through every box and missing every sphere: one
+ * ray meets m * m spheres (some 13 s at m = 10000 on one core). */
+static rayd_scene *instances_pixel(int m) {
+    size_t cap = (size_t)m * 120 + 512, n = 0;
+    char *t = malloc(cap);
+    if (!t) return NULL;
+    n += (size_t)snprintf(t + n, cap - n,
+                          "{\"render\": {\"width\": 1, \"height\": 1, \"max_depth\": 0}, "
+                          "\"camera\": {\"position\": [0.9, 0.9, -10], \"look_at\": [0.9, 0.9, "
+                          "0]}, \"groups\": {\"g\": [");
+    for (int i = 0; i < m; i++)
+        n += (size_t)snprintf(t + n, cap - n, "%s{\"type\": \"sphere\", \"radius\": 1}",
+                              i ? ", " : "");
+    n += (size_t)snprintf(t + n, cap - n, "]}, \"objects\": [");
+    for (int i = 0; i < m; i++)
+        n += (size_t)snprintf(t + n, cap - n, "%s{\"type\": \"instance\", \"group\": \"g\"}",
+                              i ? ", " : "");
+    snprintf(t + n, cap - n, "]}");
+    struct rayd_limits lim = {0};
+    rayd_limits_default(&lim);
+    lim.max_bytes = cap;
+    rayd_scene *s = NULL;
+    struct rayd_error err = {0};
+    if (rayd_scene_parse(t, strlen(t), &lim, &s, &err) != RAYD_OK)
+        printf("  instances scene did not parse: %s\n", err.message);
+    free(t);
+    return s;
+}
+
+struct raiser {
+    atomic_int *flag;
+    double after; /* seconds */
+};
+
+static void *raise_later(void *arg) {
+    struct raiser *r = arg;
+    struct timespec ts = {0, (long)(r->after * 1e9)};
+    nanosleep(&ts, NULL);
+    atomic_store(r->flag, 1);
+    return NULL;
+}
+
+/* Renders s's one pixel with the cancel flag raised 50 ms in: the seconds
+ * the render took, *st its status. */
+static double cancel_mid_pixel(const rayd_scene *s, int threads, enum rayd_status *st,
+                               uint64_t *rays) {
+    atomic_int cancel = 0;
+    struct raiser r = {&cancel, 0.05};
+    pthread_t th;
+    struct rayd_render_stats stats = {0};
+    struct rayd_render_opts o = {.threads = threads, .cancel = &cancel, .stats = &stats};
+    rayd_image *img = NULL;
+    double t0 = now_s();
+    if (pthread_create(&th, NULL, raise_later, &r) != 0) return -1;
+    *st = rayd_render(s, &o, &img, NULL);
+    double took = now_s() - t0;
+    pthread_join(th, NULL);
+    rayd_image_free(img);
+    *rays = stats.rays;
+    return took;
+}
+
+/* A cancel raised while the one pixel is traced stops it within
+ * milliseconds (the bound here is generous: a busy machine, ASan), where
+ * the flag was looked at only between rows of blocks before: the glass
+ * pixel would have run for minutes, the instances' one ray for tens of
+ * seconds. */
+static void test_cancel_mid_pixel(void) {
+    rayd_scene *glass = glass_pixel(32, 16);
+    CHECK(glass != NULL, "the glass scene");
+    enum rayd_status st = RAYD_OK;
+    uint64_t rays = 0;
+    double took = glass ? cancel_mid_pixel(glass, 1, &st, &rays) : 0;
+    CHECK(st == RAYD_E_CANCELED, "glass: canceled, not %s", rayd_status_name(st));
+    CHECK(took < 3, "glass: stopped %.3f s after the start (cancel at 0.05 s)", took);
+    CHECK(rays > 0, "glass: the rays cast up to the cancel are counted");
+    rayd_scene_free(glass);
+
+    rayd_scene *inst = instances_pixel(10000);
+    CHECK(inst != NULL, "the instances scene");
+    took = inst ? cancel_mid_pixel(inst, 2, &st, &rays) : 0;
+    CHECK(st == RAYD_E_CANCELED, "instances: canceled, not %s", rayd_status_name(st));
+    CHECK(took < 3, "instances: stopped %.3f s after the start (cancel at 0.05 s)", took);
+    rayd_scene_free(inst);
+}
+
+/* The ray budget: a render whose rays fit it is the same bytes as one
+ * without; one ray less stops it with RAYD_E_LIMIT; the rays counted are
+ * the rays the render reports; a small budget stops a huge pixel soon. */
+static void test_ray_budget(void) {
+    rayd_scene *s = small_whitted();
+    if (!s) return;
+    struct rayd_render_stats st = {0};
+    struct rayd_render_opts o = {.threads = 2, .tile = 16, .stats = &st};
+    rayd_image *plain = NULL, *img = NULL;
+    CHECK(rayd_render(s, &o, &plain, NULL) == RAYD_OK, "render");
+    uint64_t total = st.rays, one_by_one = 0;
+    for (int y = 0; y < 61; y++)
+        for (int x = 0; x < 97; x++) render_pixel(s, x, y, &one_by_one);
+    CHECK(total == one_by_one, "rays reported %llu, counted pixel by pixel %llu",
+          (unsigned long long)total, (unsigned long long)one_by_one);
+
+    atomic_int_least64_t left = (int_least64_t)total;
+    struct rayd_render_opts ob = {.threads = 3, .tile = 8, .stats = &st, .rays_left = &left};
+    CHECK(rayd_render(s, &ob, &img, NULL) == RAYD_OK, "a budget of exactly its rays");
+    CHECK(img && plain && same_crop(plain, img, 0, 0), "the same bytes under a budget");
+    CHECK(st.rays == total && atomic_load(&left) == 0, "rays %llu, left %lld",
+          (unsigned long long)st.rays, (long long)atomic_load(&left));
+    rayd_image_free(img);
+    img = NULL;
+
+    atomic_store(&left, (int_least64_t)total - 1);
+    struct rayd_error err = {0};
+    CHECK(rayd_render(s, &ob, &img, &err) == RAYD_E_LIMIT, "one ray over the budget");
+    CHECK(img == NULL && err.code == RAYD_E_LIMIT && err.path[0] == 0, "no image, no path");
+    rayd_image_free(plain);
+    rayd_scene_free(s);
+
+    rayd_scene *glass = glass_pixel(32, 16);
+    if (!glass) return;
+    atomic_store(&left, 100000);
+    double t0 = now_s();
+    CHECK(rayd_render(glass, &ob, &img, &err) == RAYD_E_LIMIT, "the glass pixel over 1e5 rays");
+    CHECK(now_s() - t0 < 3, "stopped within %.3f s", now_s() - t0);
+    CHECK(st.rays >= 100000 && st.rays <= 100000 + 3 * 1100,
+          "rays %llu: the budget and at most "
+          "a look's worth more a thread",
+          (unsigned long long)st.rays);
+    rayd_scene_free(glass);
+}
+
 int main(void) {
     RUN(test_threads_and_tiles_give_same_bytes);
     RUN(test_region_equals_crop_of_full);
@@ -296,5 +466,7 @@ int main(void) {
     RUN(test_srgb_bytes_equal_the_formula);
     RUN(test_srgb_blocks_equal_one_value);
     RUN(test_blocks_equal_one_ray_pixels);
+    RUN(test_cancel_mid_pixel);
+    RUN(test_ray_budget);
     CHECK_EXIT();
 }

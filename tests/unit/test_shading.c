@@ -287,7 +287,7 @@ static void test_packets_shade_as_one_ray(void) {
                 uint32_t active = n % 5 ? 0xffffu : (uint32_t)(unit_rand(&x) * 65535) + 1;
                 for (int i = 0; i < 16; i++)
                     key[i] = (struct rng_key){1, (uint32_t)n, (uint32_t)i, 0};
-                uint64_t rays16 = 0, rays1 = 0;
+                struct meter rays16 = meter_make(NULL, NULL), rays1 = meter_make(NULL, NULL);
                 struct ray16 rs;
                 for (int i = 0; i < 16; i++) ray16_set(&rs, i, r[i]);
                 whitted_radiance16(s, &rs, active, key, out, &rays16);
@@ -296,7 +296,7 @@ static void test_packets_shade_as_one_ray(void) {
                     vec3 c = whitted_radiance(s, &r[i], 0, &key[i], &rays1);
                     differ += memcmp(&c, &out[i], sizeof c) != 0;
                 }
-                count_differ += rays16 != rays1;
+                count_differ += rays16.rays != rays1.rays;
             }
         }
         cpu_force_scalar(false);
