@@ -8,19 +8,30 @@
  * port.  Logs go to stderr.
  *
  * Signals are blocked in every thread and taken synchronously by the main
- * thread with sigtimedwait, so no work happens in a signal handler.  On the
+ * thread with sigwaitinfo, so no work happens in a signal handler.  On the
  * first SIGTERM or SIGINT the server drains:
  *   1. /readyz turns 503 and new work is refused with 503 "draining";
- *   2. running and queued renders get --drain-seconds to finish (a second
- *      signal cuts that short);
- *   3. whatever is left is cancelled (it stops within one tile) and every
- *      suspended connection is answered;
+ *   2. running and queued renders get --drain-seconds to finish;
+ *   3. whatever is left is cancelled (the core sees it within milliseconds,
+ *      whatever one pixel costs) and every suspended connection is
+ *      answered (a synchronous render: 503 draining);
  *   4. the listener stays up, answering "draining", until no request has
  *      come for 0.2 s (2 s at most): a client that raced the shutdown -- a
  *      retry after "busy", a connection the kernel had already queued --
  *      gets an answer rather than a reset;
  *   5. the listener stops -- never with a suspended connection -- the pool
  *      is joined, everything is freed, and the exit status is 0.
+ *
+ * The drain always ends.  From the first signal on, a guard thread takes
+ * the signals instead of the main thread (which may be blocked in a join:
+ * a connection thread still parsing or building a big scene, which no
+ * cancel reaches).  A second SIGTERM or SIGINT ends the process at once:
+ * status 0 when every render had been answered already (only the
+ * listener's last steps were left), else 128 + the signal (143, 130), as a
+ * shell reports a process that signal killed.  And whatever happens,
+ * MAIN_STOP_GRACE seconds after --drain-seconds the guard ends the process
+ * with status 0, after a warning: the renders were all cancelled and
+ * answered by then; only work on connection threads can still be going.
  *
  * SIGHUP, SIGUSR1 and SIGUSR2 are taken the same way and only logged:
  * rayd has no configuration to reload nor a log file to reopen, and their
@@ -37,6 +48,7 @@
 
 #include <pthread.h>
 #include <signal.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 #include <errno.h>
@@ -46,6 +58,14 @@
 
 /* True for SIGTERM and SIGINT, which stop the server; any other signal
  * taken (SIGHUP, SIGUSR1, SIGUSR2) is logged and changes nothing. */
+/* Seconds past --drain-seconds the drain may take at most (cancelled
+ * renders stop within milliseconds; this is for the connection threads and
+ * the listener's quiet period). */
+#define MAIN_STOP_GRACE 8.0
+
+static double main_stop_by;       /* set before the guard starts */
+static atomic_bool main_answered; /* every render cancelled and answered */
+
 static bool main_stop_signal(int sig)
 {
     if (sig == SIGTERM || sig == SIGINT)
@@ -57,21 +77,44 @@ static bool main_stop_signal(int sig)
     return false;
 }
 
-/* Waits up to seconds for cond(); returns early on SIGTERM or SIGINT (sets
- * *sig). */
-static bool main_wait(bool (*cond)(void), double seconds, const sigset_t *set, bool *sig)
+/* Waits up to seconds for cond() (the guard takes the signals meanwhile). */
+static bool main_wait(bool (*cond)(void), double seconds)
 {
     double end = clock_now() + seconds;
     while (!cond()) {
         if (clock_now() >= end)
             return false;
         struct timespec ts = {0, 20 * 1000000L};
-        if (main_stop_signal(sigtimedwait(set, NULL, &ts)) && sig) {
-            *sig = true;
-            return false;
-        }
+        nanosleep(&ts, NULL);
     }
     return true;
+}
+
+/* The guard of the drain (see the top): a second stop signal, or the
+ * drain's time bound, ends the process at once. */
+static void *main_guard(void *arg)
+{
+    const sigset_t *set = arg;
+    for (;;) {
+        struct timespec ts = {0, 50 * 1000000L};
+        int sig = sigtimedwait(set, NULL, &ts);
+        if (sig == SIGTERM || sig == SIGINT) {
+            bool done = atomic_load(&main_answered);
+            log_warn("signal %d during the drain: exiting at once (status %d)", sig,
+                     done ? 0 : 128 + sig);
+            fflush(stderr);
+            _exit(done ? 0 : 128 + sig);
+        }
+        main_stop_signal(sig); /* SIGHUP and the others: logged */
+        if (clock_now() >= main_stop_by) {
+            log_warn("drain: not stopped %.0f s after --drain-seconds (work on a connection "
+                     "thread?); exiting",
+                     MAIN_STOP_GRACE);
+            fflush(stderr);
+            _exit(0);
+        }
+    }
+    return NULL;
 }
 
 static bool main_no_suspended(void) { return http_req_suspended() == 0; }
@@ -153,21 +196,27 @@ static void main_announce(void)
 }
 
 /* After SIGTERM or SIGINT: new work refused, the work in flight given
- * --drain-seconds (a second signal cuts it short), the rest cancelled,
- * then the connections answered and the listener stopped.  Should
- * connections stay suspended, rayd exits here (status 1), without cleanup. */
+ * --drain-seconds, the rest cancelled, then the connections answered and
+ * the listener stopped; the guard bounds it all (see the top).  Should
+ * connections stay suspended, rayd exits here (status 1), without
+ * cleanup. */
 static void main_drain(int sig, sigset_t *set)
 {
     log_info("signal %d: draining (up to %ld s)", sig, config.drain_seconds);
+    main_stop_by = clock_now() + (double)config.drain_seconds + MAIN_STOP_GRACE;
+    pthread_t guard;
+    if (pthread_create(&guard, NULL, main_guard, set) == 0)
+        pthread_detach(guard);
     sched_drain();
-    bool again = false;
-    if (!main_wait(sched_idle, (double)config.drain_seconds, set, &again))
-        log_info("drain: %s, cancelling what is left", again ? "second signal" : "deadline");
+    if (!main_wait(sched_idle, (double)config.drain_seconds))
+        log_info("drain: deadline, cancelling what is left");
     sched_cancel_all();
-    main_wait(sched_idle, 30, set, NULL);
-    main_wait(main_no_suspended, 10, set, NULL);
-    main_wait(main_no_requests, 2, set, NULL);
-    main_wait(main_quiet, 2, set, NULL);
+    main_wait(sched_idle, MAIN_STOP_GRACE / 2);
+    main_wait(main_no_suspended, MAIN_STOP_GRACE / 2);
+    if (sched_idle() && http_req_suspended() == 0)
+        atomic_store(&main_answered, true);
+    main_wait(main_no_requests, 2);
+    main_wait(main_quiet, 2);
     if (http_req_suspended() > 0) {
         /* never stop libmicrohttpd with suspended connections */
         log_warn("drain: %ld connections still suspended; exiting without cleanup",

@@ -115,7 +115,8 @@ void passes_release(struct passes *p)
 
 enum rayd_status passes_tile(struct passes *p, const rayd_scene *scene, int tile, int pass,
                              const struct resolve_dst *dst, const atomic_int *cancel,
-                             uint64_t *rays, struct rayd_error *err)
+                             atomic_int_least64_t *rays_left, uint64_t *rays,
+                             struct rayd_error *err)
 {
     if (!p->acc[tile]) { /* its first pass: only this worker holds the tile */
         enum rayd_status st = rayd_accum_new(scene, &p->tiles[tile], &p->acc[tile], err);
@@ -125,8 +126,11 @@ enum rayd_status passes_tile(struct passes *p, const rayd_scene *scene, int tile
     rayd_accum *acc = p->acc[tile];
     struct rayd_region r = rayd_accum_region(acc);
     struct rayd_render_stats stats = {0};
-    struct rayd_render_opts o = {
-        .threads = 1, .tile = r.w > r.h ? r.w : r.h, .cancel = cancel, .stats = &stats};
+    struct rayd_render_opts o = {.threads = 1,
+                                 .tile = r.w > r.h ? r.w : r.h,
+                                 .cancel = cancel,
+                                 .stats = &stats,
+                                 .rays_left = rays_left};
     enum rayd_status st =
         rayd_render_pass(scene, &o, acc, rayd_accum_samples(acc), p->samples[pass], err);
     *rays += stats.rays;

@@ -51,7 +51,8 @@ enum rayd_status resolve_into(const rayd_accum *acc, const struct resolve_dst *d
 
 enum rayd_status resolve_render(const rayd_scene *scene, const struct rayd_region *tile,
                                 const struct resolve_dst *d, const atomic_int *cancel,
-                                uint64_t *rays, struct rayd_error *err)
+                                atomic_int_least64_t *rays_left, uint64_t *rays,
+                                struct rayd_error *err)
 {
     rayd_accum *acc = NULL;
     enum rayd_status st = rayd_accum_new(scene, tile, &acc, err);
@@ -63,7 +64,8 @@ enum rayd_status resolve_render(const rayd_scene *scene, const struct rayd_regio
     struct rayd_render_opts o = {.threads = 1,
                                  .tile = tile->w > tile->h ? tile->w : tile->h,
                                  .cancel = cancel,
-                                 .stats = &stats};
+                                 .stats = &stats,
+                                 .rays_left = rays_left};
     st = rayd_render_pass(scene, &o, acc, 0, info.samples, err); /* the plain render's sums */
     *rays += stats.rays;
     if (st == RAYD_OK)

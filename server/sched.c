@@ -259,7 +259,10 @@ static void sched_done(struct task *t, int tile, enum rayd_status st,
             clock_now() - t->t_start >= t->passes->plan.time_budget)
             task_end_early(t, PASSES_BY_TIME);
     } else if (st != RAYD_E_CANCELED && t->status == RAYD_OK) {
-        task_fail(t, st, err);
+        if (st == RAYD_E_LIMIT) /* the core's meter: the task's ray budget is spent */
+            task_over_work(t);
+        else
+            task_fail(t, st, err);
         atomic_store(&t->cancel, 1);
         task_unqueue(t);
     }
@@ -280,14 +283,23 @@ static void sched_done(struct task *t, int tile, enum rayd_status st,
     }
 }
 
+/* t's ray budget (--max-work), or NULL when there is none. */
+static atomic_int_least64_t *sched_budget(struct task *t)
+{
+    return config.max_work > 0 ? &t->rays_left : NULL;
+}
+
 /* A WORK_SUMS tile: its samples k0..k1-1 summed, into t's sums. */
 static enum rayd_status sched_sums_tile(struct task *t, const struct rayd_region *tr,
                                         uint64_t *rays, struct rayd_error *err)
 {
     rayd_accum *acc = NULL;
     struct rayd_render_stats stats = {0};
-    struct rayd_render_opts o = {
-        .threads = 1, .tile = tr->w > tr->h ? tr->w : tr->h, .cancel = &t->cancel, .stats = &stats};
+    struct rayd_render_opts o = {.threads = 1,
+                                 .tile = tr->w > tr->h ? tr->w : tr->h,
+                                 .cancel = &t->cancel,
+                                 .stats = &stats,
+                                 .rays_left = sched_budget(t)};
     enum rayd_status st = rayd_accum_new(cache_scene(t->scene), tr, &acc, err);
     if (st == RAYD_OK)
         st = rayd_render_sample_range(cache_scene(t->scene), &o, acc, t->k0, t->k1, err);
@@ -301,7 +313,10 @@ static enum rayd_status sched_sums_tile(struct task *t, const struct rayd_region
     return st;
 }
 
-/* Renders tile `tile` of t (of pass `pass` if progressive), no lock. */
+/* Renders tile `tile` of t (of pass `pass` if progressive), no lock.  The
+ * core looks at t's cancel flag and ray budget every thousand rays or so,
+ * so a cancel, a deadline or a spent budget stops the tile within
+ * milliseconds whatever one pixel costs. */
 static enum rayd_status sched_tile(struct task *t, int tile, int pass, uint64_t *rays,
                                    struct rayd_error *err)
 {
@@ -309,16 +324,21 @@ static enum rayd_status sched_tile(struct task *t, int tile, int pass, uint64_t 
     const rayd_scene *scene = cache_scene(t->scene);
     int dx = tr.x - t->reg.x, dy = tr.y - t->reg.y;
     struct resolve_dst dst = {t->img, t->keep_exr ? t->lin : NULL, t->reg.w, dx, dy};
+    atomic_int_least64_t *left = sched_budget(t);
     if (t->passes)
-        return passes_tile(t->passes, scene, tile, pass, &dst, &t->cancel, rays, err);
+        return passes_tile(t->passes, scene, tile, pass, &dst, &t->cancel, left, rays, err);
     if (t->sums)
         return sched_sums_tile(t, &tr, rays, err);
     if (t->keep_exr)
-        return resolve_render(scene, &tr, &dst, &t->cancel, rays, err);
-    if (t->lin)
-        return rayd_render_linear_into(scene, &tr, t->lin, t->reg.w, dx, dy, &t->cancel, rays,
-                                       err);
-    return rayd_render_into(scene, &tr, t->img, dx, dy, &t->cancel, rays, err);
+        return resolve_render(scene, &tr, &dst, &t->cancel, left, rays, err);
+    struct rayd_render_stats stats = {0};
+    struct rayd_render_opts o = {
+        .region = tr, .cancel = &t->cancel, .stats = &stats, .rays_left = left};
+    enum rayd_status st = t->lin
+                              ? rayd_render_linear_tile(scene, &o, t->lin, t->reg.w, dx, dy, err)
+                              : rayd_render_tile(scene, &o, t->img, dx, dy, err);
+    *rays += stats.rays;
+    return st;
 }
 
 static void *sched_worker(void *arg)

@@ -30,6 +30,10 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* The advice of a render stopped by a limit: the admission refusal's
+ * (api_cost.c), so a client sees one message however it was stopped. */
+#define TASK_ASK "ask for fewer pixels, samples, bounces or light samples"
+
 struct task *task_active;
 long task_queued;
 int task_queue_cap;
@@ -107,6 +111,7 @@ struct task *task_new(struct cache_entry *scene, const struct work_target *what)
     snprintf(t->scene_id, sizeof t->scene_id, "%s", cache_id(scene));
     task_key(t->key, sizeof t->key, cache_version(scene), what);
     atomic_init(&t->cancel, 0);
+    atomic_init(&t->rays_left, config.max_work > 0 ? (int_least64_t)config.max_work : 0);
     t->interactive = (long)reg->w * reg->h <= TASK_INTERACTIVE;
     t->status = RAYD_OK;
     t->refs = 1;
@@ -366,6 +371,16 @@ bool task_end_early(struct task *t, enum passes_stop why)
     return t->running == 0 && !t->finalizing;
 }
 
+void task_over_work(struct task *t)
+{
+    if (t->status != RAYD_OK)
+        return;
+    task_failf(t, RAYD_E_LIMIT,
+               "the render cast more than the server's budget of %ld rays (--max-work) and was "
+               "stopped (its estimate was %.3g rays); " TASK_ASK,
+               config.max_work, t->est_rays);
+}
+
 bool task_past_deadline(struct task *t, double now, long limit, struct task_notify *n,
                         struct task_notify *sse)
 {
@@ -379,8 +394,8 @@ bool task_past_deadline(struct task *t, double now, long limit, struct task_noti
     }
     task_failf(t, RAYD_E_LIMIT,
                "the render ran past the server's limit of %ld s (--max-render-seconds) and was "
-               "stopped; ask for fewer pixels or samples",
-               limit);
+               "stopped (its estimate was %.3g rays); " TASK_ASK,
+               limit, t->est_rays);
     task_cancel(t, MC_DEADLINE, n, sse);
     return true;
 }
@@ -434,8 +449,9 @@ void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
     task_unref(t);
 }
 
-/* Raises the atomic flag rayd_render_into() checks, so a cancelled task
- * stops within one tile; finishes it now if no worker is inside it. */
+/* Raises the atomic flag the core's meters look at, so a cancelled task
+ * stops within milliseconds, inside its tile; finishes it now if no worker
+ * is inside it. */
 void task_cancel(struct task *t, enum metrics_cancel why, struct task_notify *n,
                  struct task_notify *sse)
 {

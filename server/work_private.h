@@ -130,10 +130,11 @@ enum rayd_status resolve_into(const rayd_accum *acc, const struct resolve_dst *d
                               struct rayd_error *err);
 /* Renders tile (absolute) of scene with all its samples into d, through one
  * set of sums: the bytes of rayd_render_into and the floats of
- * rayd_render_linear_into. */
+ * rayd_render_linear_into.  rays_left: the task's ray budget, or NULL. */
 enum rayd_status resolve_render(const rayd_scene *scene, const struct rayd_region *tile,
                                 const struct resolve_dst *d, const atomic_int *cancel,
-                                uint64_t *rays, struct rayd_error *err);
+                                atomic_int_least64_t *rays_left, uint64_t *rays,
+                                struct rayd_error *err);
 
 /* ---- passes.c: a progressive task's passes ------------------------------------ */
 
@@ -158,10 +159,11 @@ struct passes *passes_new(const rayd_scene *scene, const struct jobs_plan *plan,
                           struct rayd_region *tiles, int ntiles);
 void passes_free(struct passes *p); /* NULL allowed */
 /* Renders pass `pass` of tile `tile` (its sums) and resolves the tile's
- * pixels into dst; no lock. */
+ * pixels into dst; no lock.  rays_left: the task's ray budget, or NULL. */
 enum rayd_status passes_tile(struct passes *p, const rayd_scene *scene, int tile, int pass,
                              const struct resolve_dst *dst, const atomic_int *cancel,
-                             uint64_t *rays, struct rayd_error *err);
+                             atomic_int_least64_t *rays_left, uint64_t *rays,
+                             struct rayd_error *err);
 /* Pass `pass`'s noise estimate from its image (< 0: none); no lock. */
 double passes_noise(const struct passes *p, const rayd_image *img, int pass);
 /* Lock held: the pass is complete, png its PNG and exr its EXR (NULL when
@@ -217,6 +219,9 @@ struct task {
     struct blob *exr; /* keep_exr: the EXR, made with the PNG */
     int k0, k1;
     atomic_int cancel;
+    /* --max-work: rays the task may still cast, shared by its tiles and
+     * passes (the core's meters take from it; RAYD_E_LIMIT below zero) */
+    atomic_int_least64_t rays_left;
     bool interactive, queued, finalizing, finished;
     double t_enq, t_start, t_end;
     double encode_s; /* of t_end - t_start, the PNG's encoding */
@@ -266,6 +271,9 @@ void task_times(const struct task *t, double now, double *queue_ms, double *rend
 /* t fails with st and err's message and place (the first failure stands:
  * the caller checks t->status).  task_failf: with a message of its own. */
 void task_fail(struct task *t, enum rayd_status st, const struct rayd_error *err);
+/* t cast more rays than --max-work: it fails with RAYD_E_LIMIT and a
+ * message naming the budget (unless it failed already). */
+void task_over_work(struct task *t);
 void task_failf(struct task *t, enum rayd_status st, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
 /* Ends a progressive task after its latest complete pass (or its first, if

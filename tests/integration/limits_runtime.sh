@@ -1,0 +1,162 @@
+#!/usr/bin/env bash
+# limits_runtime.sh -- limits enforced while a render runs, not only at the
+# door: a DELETE, --max-work (rays actually cast), --max-render-seconds and
+# the drain stop a render whose one pixel is very costly within a bounded
+# time; SIGTERM ends the process within --drain-seconds plus a small bound
+# and answers the synchronous client; a second signal ends it at once.
+#
+# The hostile scenes are one pixel each, so a render is a single tile that
+# the old per-row cancel check never looked inside:
+#   - glass: a 4x4x4 grid of glass spheres at max_depth 32, 16 samples --
+#     every hit casts a reflected and a refracted ray: some 1e9 rays, minutes;
+#   - instances: 20,000 instances of a 20,000-sphere group all in one place,
+#     the camera ray through every box and missing every sphere: one ray
+#     meets 4e8 spheres, tens of seconds.
+# The test gate (--test-gate 0) lets the tile start when the test says, so
+# "running" is a state the test sees (the gate's started count), not a
+# race.  The time bounds are generous (a busy machine, ASan): they only
+# tell "stopped within milliseconds" from "ran to the end", which takes
+# minutes for the glass pixel and tens of seconds for the instances.
+source "$(dirname "$0")/lib/common.sh"
+
+python3 - "$T" <<'PY'
+import json, sys
+t = sys.argv[1]
+spheres = [{"type": "sphere", "center": [(i % 4) * 2.2 - 3.3, (i // 4 % 4) * 2.2 - 3.3,
+                                         (i // 16) * 2.2 - 3.3], "radius": 1, "material": "glass"}
+           for i in range(64)]
+glass = {"render": {"width": 1, "height": 1, "samples": 16, "max_depth": 32},
+         "camera": {"position": [0.3, 0.2, -12], "look_at": [1.0, 1.2, 0], "fov_x": 20},
+         "materials": {"glass": {"transparency": 0.9, "reflectivity": 0.1, "ior": 1.5}},
+         "lights": [{"type": "point", "position": [0, 20, -20]}], "objects": spheres}
+json.dump(glass, open(t + "/glass.json", "w"), separators=(",", ":"))
+glass["render"]["seed"] = 7  # another scene id: no task to join
+json.dump(glass, open(t + "/glass2.json", "w"), separators=(",", ":"))
+m = 20000
+inst = {"render": {"width": 1, "height": 1, "max_depth": 0},
+        "camera": {"position": [0.9, 0.9, -10], "look_at": [0.9, 0.9, 0]},
+        "groups": {"g": [{"type": "sphere", "radius": 1}] * m},
+        "objects": [{"type": "instance", "group": "g"}] * m}
+json.dump(inst, open(t + "/inst.json", "w"), separators=(",", ":"))
+PY
+scene "$T/small.json" 8 8 1 spheres
+
+# started N: the gate has let N tiles start (a worker is inside the pixel)
+started() { gate_is started "$1"; }
+# elapsed START: whole seconds since START (date +%s%N)
+elapsed() { echo $((($(date +%s%N) - $1) / 1000000000)); }
+# sync_render FILE NAME: POST /v1/render in the background; status in
+# $T/NAME.code, body in $T/NAME.body, the seconds it took in $T/NAME.s
+sync_render() {
+    (
+        s=$(date +%s%N)
+        curl -s -m 120 -o "$T/$2.body" -w '%{http_code}' -X POST \
+            -H 'Content-Type: application/json' --data-binary @"$1" "$URL/v1/render" >"$T/$2.code"
+        elapsed "$s" >"$T/$2.s"
+    ) &
+    PIDS+=($!)
+    SYNC_PID=$!
+}
+# limit_answer FILE FLAG: a 413 whose message names FLAG: stopped while it
+# ran (too_large) or, should the estimate see the cost, refused at the door
+# (over_budget)
+limit_answer() {
+    python3 - "$1" "$2" <<'PY' 2>/dev/null
+import json, sys
+e = json.load(open(sys.argv[1]))["error"]
+sys.exit(0 if e["status"] == 413 and e["code"] in ("too_large", "over_budget")
+         and sys.argv[2] in e["message"] else 1)
+PY
+}
+
+# --- a DELETE is seen inside the one costly pixel ---------------------------------
+start_rayd --threads 1 --test-gate 0
+post_json /v1/jobs "$T/glass.json" >/dev/null
+job=$(jfield "$T/body" id)
+gate 1
+wait_until 60 started 1
+code=$(req DELETE "/v1/jobs/$job")
+t0=$(date +%s%N)
+gate open
+code=$(post_json /v1/render "$T/small.json")
+took=$(elapsed "$t0")
+check delete_frees_worker "the 8x8 render behind the deleted job: $code after $took s" \
+    bash -c "[ $code = 200 ] && [ $took -le 10 ]"
+check delete_counted "rayd_canceled_total{reason=\"delete\"} $(metric 'rayd_canceled_total{reason="delete"}')" \
+    metric_is 'rayd_canceled_total{reason="delete"}' 1
+stop_rayd TERM
+check delete_exit_0 "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
+
+# --- --max-work: the rays actually cast stop the render ------------------------------
+start_rayd --threads 1 --max-work 100000
+t0=$(date +%s%N)
+code=$(post_json /v1/render "$T/glass.json")
+took=$(elapsed "$t0")
+check max_work_stops_render "status $code after $took s: $(head -c 300 "$T/body")" \
+    bash -c "[ $code = 413 ] && [ $took -le 20 ]"
+check max_work_message "$(head -c 400 "$T/body")" limit_answer "$T/body" "100000 rays (--max-work)"
+check max_work_advice "$(head -c 400 "$T/body")" \
+    grep -q 'ask for fewer pixels, samples, bounces or light samples' "$T/body"
+code=$(post_json /v1/render "$T/small.json")
+check max_work_small_renders "status $code" [ "$code" = 200 ]
+# a job: fails with the same message
+post_json /v1/jobs "$T/glass2.json" >/dev/null
+job=$(jfield "$T/body" id)
+if [ "$(json "$T/body" 'j.get("error",{}).get("code","")')" = over_budget ]; then
+    pass max_work_job_fails # refused at the door: nothing to stop
+else
+    wait_until 30 job_state_is "$job" failed
+    check max_work_job_fails "$(head -c 400 "$T/body")" \
+        bash -c "grep -q '\"state\":\"failed\"' '$T/body' && grep -q -- '--max-work' '$T/body'"
+fi
+stop_rayd TERM
+
+# --- --max-render-seconds: one ray through 20,000 instances is stopped -----------------
+start_rayd --threads 1 --max-render-seconds 1
+t0=$(date +%s%N)
+code=$(post_json /v1/render "$T/inst.json")
+took=$(elapsed "$t0")
+check deadline_stops_ray "status $code after $took s: $(head -c 300 "$T/body")" \
+    bash -c "[ $code = 413 ] && [ $took -le 12 ]"
+check deadline_message "$(head -c 400 "$T/body")" limit_answer "$T/body" "--max-render-seconds"
+stop_rayd TERM
+
+# --- SIGTERM: the drain ends, the waiting client gets a JSON error -----------------------
+start_rayd --threads 1 --drain-seconds 1 --test-gate 0
+sync_render "$T/glass.json" drain
+wait_until 60 gate_is queued 1
+gate 1
+wait_until 60 started 1
+t0=$(date +%s%N)
+kill -TERM "$RAYD_PID"
+wait_until 30 rayd_gone
+took=$(elapsed "$t0")
+stop_rayd TERM
+check sigterm_exits "gone $took s after SIGTERM (--drain-seconds 1)" [ "$took" -le 12 ]
+check sigterm_exit_0 "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
+wait "$SYNC_PID"
+check sigterm_client_answered "status $(cat "$T/drain.code"): $(head -c 300 "$T/drain.body")" \
+    err_is "$T/drain.body" 503 draining
+
+# --- a second SIGTERM or SIGINT ends the process at once ------------------------------------
+for sig in TERM INT; do
+    start_rayd --threads 1 --drain-seconds 600 --test-gate 0
+    sync_render "$T/glass.json" second
+    wait_until 60 gate_is queued 1
+    gate 1
+    wait_until 60 started 1
+    kill -TERM "$RAYD_PID"
+    wait_until 60 bash -c "[ \"\$(curl -s -o /dev/null -w '%{http_code}' '$URL/readyz')\" = 503 ]"
+    t0=$(date +%s%N)
+    kill -"$sig" "$RAYD_PID"
+    wait_until 30 rayd_gone
+    took=$(elapsed "$t0")
+    stop_rayd TERM
+    want=$((128 + $(kill -l "$sig")))
+    check "second_sig${sig}_exits" "gone $took s after the second signal" [ "$took" -le 5 ]
+    check "second_sig${sig}_status" "exit status $RAYD_RC, want $want" [ "$RAYD_RC" = "$want" ]
+    check "second_sig${sig}_logged" "$(tail -n 3 "$T/rayd.err")" grep -q 'during the drain: exiting at once' "$T/rayd.err"
+    wait "$SYNC_PID"
+done
+
+exit $((NFAIL > 0))
