@@ -54,7 +54,7 @@
  * the example scenes without glass it is 1.2 to 4 times the rays cast (a
  * shadow ray for every light at every pixel, even where the camera sees the
  * background); with glass the tree bound overcounts more (whitted.json's
- * single glass sphere: about 40 times).  The server's seconds follow each
+ * single glass sphere: about 70 times).  The server's seconds follow each
  * scene's measured rate, so only --max-work (in these units) sees it.
  */
 #include <math.h>
