@@ -65,10 +65,15 @@ struct api_price {
 };
 /* The client r comes from (--client-header, else the peer address), hashed. */
 uint64_t api_cost_client(struct http_req *r);
-/* Sets what->client and prices what; false after replying 413 over_budget
- * when over --max-work, or (unless progressive) far past
- * --max-render-seconds. */
-bool api_cost_admit(struct http_req *r, const rayd_scene *scene, struct work_target *what,
+/* Sets what->client and prices what of scene; false when over --max-work,
+ * or (unless progressive) far past --max-render-seconds, with the limit
+ * passed written to limit. */
+bool api_cost_price(struct http_req *r, const struct cache_entry *scene, struct work_target *what,
+                    bool progressive, struct api_price *out, char *limit, size_t n);
+/* The 413 over_budget of a render priced at p, over limit. */
+void api_cost_over_budget(struct http_req *r, const struct api_price *p, const char *limit);
+/* api_cost_price, then the 413 when over a budget (false). */
+bool api_cost_admit(struct http_req *r, const struct cache_entry *scene, struct work_target *what,
                     bool progressive, struct api_price *out);
 /* X-Rayd-Estimated-Rays and X-Rayd-Estimated-Seconds on r's reply. */
 void api_cost_price_headers(struct http_req *r, const struct api_price *p);

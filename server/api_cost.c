@@ -12,9 +12,12 @@
  *     times --max-render-seconds: it would be stopped anyway.  (The slack
  *     covers the estimate's error, which errs high.  A progressive job is
  *     not refused this way: the deadline ends it with its latest pass.)
- * The price goes back with the answer (X-Rayd-Estimated-Rays and
- * X-Rayd-Estimated-Seconds, and the job's status), so a client can see
- * what it asked for.
+ * The seconds are at the scene's own measured rate (cost.c), so another
+ * client's heavy scene does not change them.  A render the result cache
+ * can answer is never refused for its cost (api_render.c looks there
+ * before it refuses): it costs nothing.  The price goes back with the
+ * answer (X-Rayd-Estimated-Rays and X-Rayd-Estimated-Seconds, and the
+ * job's status), so a client can see what it asked for.
  *
  * Who asks: fair.c serves clients in turn, and a client is named here, by
  * the peer's address (an IPv6 peer by its /64), or by the header --client-header names when a
@@ -58,7 +61,7 @@ uint64_t api_cost_client(struct http_req *r)
     return 0;
 }
 
-static void api_cost_over_budget(struct http_req *r, const struct api_price *p, const char *limit)
+void api_cost_over_budget(struct http_req *r, const struct api_price *p, const char *limit)
 {
     char msg[320];
     snprintf(msg, sizeof msg,
@@ -69,33 +72,39 @@ static void api_cost_over_budget(struct http_req *r, const struct api_price *p, 
     http_reply_error(r, 413, "over_budget", msg, NULL, 0, 0, NULL);
 }
 
-bool api_cost_admit(struct http_req *r, const rayd_scene *scene, struct work_target *what,
-                    bool progressive, struct api_price *out)
+bool api_cost_price(struct http_req *r, const struct cache_entry *scene, struct work_target *what,
+                    bool progressive, struct api_price *out, char *limit, size_t n)
 {
     what->client = api_cost_client(r);
-    out->rays = cost_rays(scene, what);
-    out->seconds = sched_seconds(out->rays);
-    char limit[160];
+    out->rays = cost_rays(cache_scene(scene), what);
+    out->seconds = cost_price_seconds(cache_id(scene), out->rays);
     if (config.max_work > 0 && out->rays > (double)config.max_work) {
-        snprintf(limit, sizeof limit, "the server's budget of %ld rays (--max-work)",
-                 config.max_work);
-        api_cost_over_budget(r, out, limit);
+        snprintf(limit, n, "the server's budget of %ld rays (--max-work)", config.max_work);
         return false;
     }
     double deadline = (double)config.max_render_seconds;
     if (!progressive && deadline > 0 && out->seconds > API_DEADLINE_SLACK * deadline) {
-        snprintf(limit, sizeof limit,
+        snprintf(limit, n,
                  "%.0f times the server's limit of %ld s a render (--max-render-seconds)",
                  API_DEADLINE_SLACK, config.max_render_seconds);
-        api_cost_over_budget(r, out, limit);
         return false;
     }
     return true;
 }
 
+bool api_cost_admit(struct http_req *r, const struct cache_entry *scene, struct work_target *what,
+                    bool progressive, struct api_price *out)
+{
+    char limit[160];
+    if (api_cost_price(r, scene, what, progressive, out, limit, sizeof limit))
+        return true;
+    api_cost_over_budget(r, out, limit);
+    return false;
+}
+
 void api_cost_price_headers(struct http_req *r, const struct api_price *p)
 {
-    char v[32];
+    char v[64];
     snprintf(v, sizeof v, "%.0f", p->rays);
     http_reply_header(r, "X-Rayd-Estimated-Rays", v);
     snprintf(v, sizeof v, "%.3f", p->seconds);

@@ -127,7 +127,7 @@ void api_jobs_post(struct http_req *r, const char *unused)
     enum work_submit s;
     if (!api_region_also(r, cache_scene(e), &what.reg, api_jobs_names) ||
         !api_plan(r, cache_scene(e), &plan, &progressive) || !api_jobs_format(r, &what) ||
-        !api_cost_admit(r, cache_scene(e), &what, progressive, &price)) {
+        !api_cost_admit(r, e, &what, progressive, &price)) {
         /* replied */
     } else if ((s = jobs_create(e, &what, progressive ? &plan : NULL, id)) != WORK_OK) {
         api_refused(r, s);
@@ -222,7 +222,7 @@ cJSON *api_jobs_json(const char *id, const struct jobs_info *in)
     json_add_fixed(o, "render_ms", in->render_ms, 3);
     json_add_fixed(o, "encode_ms", in->encode_ms, 3);
     json_add_u64(o, "rays", in->rays);
-    struct api_price price = {in->est_rays, sched_seconds(in->est_rays)};
+    struct api_price price = {in->est_rays, cost_price_seconds(in->scene_id, in->est_rays)};
     api_add_estimate(o, &price);
     if (in->progressive)
         api_job_passes(o, id, &in->passes, in->keep_exr);

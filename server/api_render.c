@@ -76,16 +76,27 @@ static void api_render_suspend(struct work_waiter *w)
     http_req_suspend(((struct api_render_wait *)w)->r);
 }
 
-/* Renders what of scene for r: priced (and refused if over budget),
- * answered at once from the result cache, or suspended until a worker
- * answers, or refused with a 503. */
+/* Renders what of scene for r: priced (and refused if over budget and not
+ * in the result cache), answered at once from the result cache, or
+ * suspended until a worker answers, or refused with a 503. */
 static void api_render_submit(struct http_req *r, struct cache_entry *scene,
                               struct work_target *what)
 {
     enum work_format format = what->format;
     struct api_price price;
-    if (!api_cost_admit(r, cache_scene(scene), what, false, &price))
+    char limit[160];
+    struct blob *png = NULL;
+    if (!api_cost_price(r, scene, what, false, &price, limit, sizeof limit)) {
+        /* over a budget, unless it costs nothing: already in the result cache */
+        if ((png = sched_result_find(scene, what))) {
+            api_render_reply(r, png, format, &price);
+            blob_unref(png);
+            r->note = "result_cache";
+        } else {
+            api_cost_over_budget(r, &price, limit);
+        }
         return;
+    }
     struct api_render_wait *a = calloc(1, sizeof *a);
     if (!a) {
         api_refused(r, WORK_NOMEM);
@@ -97,7 +108,6 @@ static void api_render_submit(struct http_req *r, struct cache_entry *scene,
     a->w.done = api_render_done;
     a->w.suspend = api_render_suspend;
     a->w.fd = http_req_fd(r);
-    struct blob *png = NULL;
     enum work_submit s = sched_render(scene, what, &a->w, &png);
     if (s == WORK_OK)
         return; /* a belongs to the work layer until done() */

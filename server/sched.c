@@ -364,10 +364,8 @@ static void *sched_worker(void *arg)
 
         struct task_notify n = {0}, sse = {0};
         pthread_mutex_lock(&work_lock);
-        if (st == RAYD_OK) {
-            struct rayd_region tr = task_tile(t, tile);
-            cost_observe(task_tile_rays(t, &tr, pass), took);
-        }
+        struct rayd_region tr = task_tile(t, tile);
+        cost_observe(t->scene_id, t->client, task_tile_rays(t, &tr, pass), took, st == RAYD_OK);
         sched_done(t, tile, st, &err, rays, &n, &sse);
         pthread_mutex_unlock(&work_lock);
         task_notify_run(&n);
@@ -473,8 +471,7 @@ void sched_stop(void)
  * NULL.  A hit or miss is counted only while the cache is on: with
  * --result-cache-mb 0 there is nothing to look in, and a miss counted for
  * every render would read as a cache that never helps. */
-static struct blob *sched_result_find(const struct cache_entry *scene,
-                                      const struct work_target *what)
+struct blob *sched_result_find(const struct cache_entry *scene, const struct work_target *what)
 {
     char key[160];
     task_key(key, sizeof key, cache_version(scene), what);

@@ -291,7 +291,7 @@ double task_backlog_rays(void)
     double rays = 0;
     for (const struct task *t = task_active; t; t = t->next)
         if (!t->finished && !atomic_load(&t->cancel))
-            rays += t->est_rays * task_left(t);
+            rays += t->est_rays * task_left(t) * cost_scene_weight(t->scene_id);
     return rays;
 }
 

@@ -95,6 +95,10 @@ struct work_target {
 /* Estimated rays of rendering what of scene (rayd_scene_info's
  * rays_per_sample x pixels x samples); any thread. */
 double cost_rays(const rayd_scene *scene, const struct work_target *what);
+/* Estimated rays of scene scene_id (its id, cache_id) as seconds of the
+ * whole pool at that scene's measured rate, or the node's for a scene not
+ * yet measured; any thread (takes the lock). */
+double cost_price_seconds(const char *scene_id, double rays);
 
 /* ---- sched.c: the pool, synchronous renders, lifecycle ------------------- */
 
@@ -112,6 +116,9 @@ void sched_stop(void);
  * else: refused, w not used. */
 enum work_submit sched_render(struct cache_entry *scene, const struct work_target *what,
                               struct work_waiter *w, struct blob **png);
+/* The finished image of what of scene from the result cache (referenced),
+ * or NULL; any thread. */
+struct blob *sched_result_find(const struct cache_entry *scene, const struct work_target *what);
 void sched_drain(void);      /* refuse new work from now on */
 bool sched_draining(void);   /* lock-free */
 void sched_cancel_all(void); /* cancel every task (drain deadline) */

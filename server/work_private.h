@@ -107,9 +107,14 @@ int cost_samples(const struct work_target *what, int scene_samples);
  * budget, given a pixel's estimated rays. */
 int cost_tile(double rays_per_pixel);
 void cost_set_workers(int workers);          /* before the workers start */
-void cost_observe(double rays, double seconds); /* a tile's estimate and time */
-double cost_seconds(double rays);             /* of the whole pool */
-double cost_rate(void);                       /* estimated rays a worker casts a second */
+/* A tile of scene_id for client: its estimated rays and the seconds it
+ * took; complete false: it was stopped part way. */
+void cost_observe(const char *scene_id, uint64_t client, double rays, double seconds,
+                  bool complete);
+double cost_seconds(double rays); /* of the whole pool, at the node's rate */
+/* scene_id's rate over the node's: times a task's rays, node-rate rays. */
+double cost_scene_weight(const char *scene_id);
+double cost_rate(void); /* estimated rays a worker casts a second, the node's */
 
 /* ---- fair.c (lock held) ------------------------------------------------------- */
 

@@ -230,6 +230,7 @@ enum rayd_status scene_freeze(rayd_scene *s, struct rayd_error *err) {
     double t0 = clock_now();
     st = scene_build_bvh(s, &s->objs, s->nobjs, &s->tlas, NULL, err);
     if (st == RAYD_OK) st = build_light_buffers(s, err);
+    if (st == RAYD_OK) scene_cost_freeze(s);
     s->build_s += clock_now() - t0;
     return st == RAYD_OK ? find_emitters(s, err) : st;
 }

@@ -67,6 +67,7 @@ struct rayd_scene {
     bool opaque;           /* no material lets light through: shadows are 0 or 1 */
     bool simple_lights;    /* only point and directional lights (integrate_wide.c) */
     bool brute;            /* tests only: every query tests every primitive */
+    double ray_tests;      /* scene_cost.c: a ray's primitive tests where the BVHs are worst */
     struct scene_file *files; /* the files read, as they were (scene_files.c) */
     int nfiles;
     size_t files_cap;
@@ -157,8 +158,11 @@ void scene_transmittance16_soa(const rayd_scene *s, int light, const double o[3]
 /* Point, normals and material of a hit of ray r. */
 void scene_surface(const rayd_scene *s, const ray *r, const struct hit *h, struct surface *sf);
 
-/* scene_cost.c: the rays one camera sample is expected to cast (an
- * estimate from the scene's description alone). */
+/* scene_cost.c: the rays one camera sample is expected to cast, each
+ * weighted by its cost against a plain ray's (an upper-bound estimate from
+ * the scene's description alone). */
 double scene_rays_per_sample(const struct rayd_scene *s);
+/* scene_cost.c: sets s->ray_tests from the built BVHs (scene_freeze). */
+void scene_cost_freeze(struct rayd_scene *s);
 
 #endif

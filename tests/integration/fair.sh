@@ -35,7 +35,7 @@ ceil_div() { python3 -c 'import math,sys; print(math.ceil(float(sys.argv[1]) / f
 scene "$T/paper.json" 160 120 4 paper
 scene "$T/big.json" 640 480 4 spheres
 scene "$T/cb.json" 320 240 64 cornell
-scene "$T/cb_small.json" 40 40 128 cornell
+scene "$T/cb_small.json" 40 40 96 cornell
 
 # --- --max-render-seconds as a budget, then the price -------------------------------------
 # (the budget first, while the node still assumes its starting rate)

@@ -1,0 +1,134 @@
+#!/usr/bin/env bash
+# limits_estimate.sh -- an estimate that cannot be gamed (issue 39, must-have
+# 2; docs/api.md "Cost, budgets and fair shares", docs/operations.md "How a
+# render is priced"):
+#   - a scene's price in seconds is measured on its own tiles: after another
+#     client's heavy render, a known scene's price is unchanged and a new
+#     scene's (the node's rate: a median over clients) changes by less than
+#     a small factor.  Before, one tile of a heavy 1-pixel scene moved the
+#     single node-wide average some 500 times;
+#   - a render the result cache holds is answered 200 from it even when its
+#     price is over --max-render-seconds; an uncached region of the same
+#     scene is refused 413;
+#   - a tree of glass is priced by its depth: 16 x 16 pixels of glass
+#     spheres at max_depth 20 (60 million rays) is refused at admission by
+#     --max-work, where it was priced at 1,536 rays and admitted.
+# No check depends on the machine's speed beyond generous factors: the rates
+# compared are each a median or a scene's own, and the refusals compare
+# prices that differ by hundreds of times.
+source "$(dirname "$0")/lib/common.sh"
+
+# glass FILE SIDE DEPTH: a 7 x 7 x 3 grid of touching glass spheres filling
+# the view, SIDE x SIDE pixels, max_depth DEPTH
+glass() {
+    python3 - "$@" <<'PY'
+import json, sys
+out, side, depth = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+objs = [{"type": "sphere", "center": [i, j, -k], "radius": 0.55, "material": "glass"}
+        for i in range(-3, 4) for j in range(-3, 4) for k in range(3)]
+json.dump({"camera": {"position": [0, 0, 4], "look_at": [0, 0, 0], "fov_x": 40},
+           "render": {"width": side, "height": side, "samples": 1, "max_depth": depth},
+           "materials": {"glass": {"color": [1, 1, 1], "diffuse": 0, "transparency": 0.9, "ior": 1.5}},
+           "lights": [{"type": "point", "position": [3, 5, 8], "intensity": 1}],
+           "objects": objs}, open(out, "w"))
+PY
+}
+# lone_glass FILE SIDE DEPTH: one small glass ball in a corner of a wide sky:
+# priced for the whole tree at every pixel, cheap to render
+lone_glass() {
+    python3 - "$@" <<'PY'
+import json, sys
+out, side, depth = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+json.dump({"camera": {"position": [0, 0, 10], "look_at": [0, 0, 0], "fov_x": 60},
+           "render": {"width": side, "height": side, "samples": 1, "max_depth": depth},
+           "materials": {"glass": {"color": [1, 1, 1], "diffuse": 0, "transparency": 0.9, "ior": 1.5}},
+           "lights": [{"type": "point", "position": [3, 5, 8], "intensity": 1}],
+           "objects": [{"type": "sphere", "center": [4, 4, 0], "radius": 0.3, "material": "glass"}]},
+          open(out, "w"))
+PY
+}
+secs() { header X-Rayd-Estimated-Seconds; }
+# within A B FACTOR: A and B (> 0) differ by at most FACTOR times
+within() { python3 -c 'import sys; a, b, f = map(float, sys.argv[1:]); sys.exit(not (a > 0 and b > 0 and max(a / b, b / a) <= f))' "$1" "$2" "$3"; }
+over() { python3 -c 'import sys; sys.exit(not float(sys.argv[1]) > float(sys.argv[2]))' "$1" "$2" 2>/dev/null; }
+
+glass "$T/heavy.json" 1 14 # one pixel of a deep glass tree: thousands of rays
+for k in 1 2 3; do scene "$T/c$k.json" 160 120 16 spheres "$k"; done
+scene "$T/new1.json" 160 120 16 spheres 11
+scene "$T/new2.json" 160 120 16 spheres 12
+
+# --- one client's heavy scene does not move the others' prices ----------------------------
+start_rayd --threads 1 --client-header X-Client
+for k in 1 2 3; do post_json /v1/render "$T/c$k.json" -H "X-Client: c$k" >/dev/null; done
+post_json /v1/render "$T/c1.json" -H 'X-Client: c1' >/dev/null # cached: the price only
+known1=$(secs)
+code=$(post_json /v1/render "$T/new1.json" -H 'X-Client: c4')
+new1=$(secs)
+check isolation_setup "status $code, seconds '$known1' '$new1'" \
+    bash -c "[ $code = 200 ] && [ -n '$known1' ] && [ -n '$new1' ]"
+code=$(post_json /v1/render "$T/heavy.json" -H 'X-Client: evil')
+check isolation_heavy_rendered "status $code: $(head -c 200 "$T/body" | tr -d "\\0")" [ "$code" = 200 ]
+post_json /v1/render "$T/c1.json" -H 'X-Client: c1' >/dev/null
+known2=$(secs)
+post_json /v1/render "$T/new2.json" -H 'X-Client: c4' >/dev/null
+new2=$(secs)
+check isolation_known_scene "a known scene's price $known1 s, after another's heavy render $known2 s" \
+    within "$known1" "$known2" 1.5
+echo "# prices: known $known1 -> $known2, new $new1 -> $new2"
+check isolation_new_scene "a new scene's price $new1 s, after another's heavy render $new2 s" \
+    within "$new1" "$new2" 4
+stop_rayd
+check rayd_exit_0 "exit $RAYD_RC" [ "$RAYD_RC" = 0 ]
+
+# --- a cached render is never refused for its cost --------------------------------------
+# S is priced near 3.3 s at the starting rate (1e7 estimated rays a second)
+# and renders in milliseconds.  Then 300 one-pixel scenes from two other
+# clients, each costing a tile's overhead for one estimated ray, make the
+# node's rate slow and push S's own rate out of the table, and a heavy
+# pixel from S's own client poisons the old single average: S is priced
+# over 4 x --max-render-seconds from then on.
+lone_glass "$T/s.json" 256 7
+start_rayd --threads 1 --client-header X-Client --max-render-seconds 1
+code=$(post_json /v1/render "$T/s.json" -H 'X-Client: s')
+cp "$T/body" "$T/s.png"
+check cached_first_render "status $code, $(secs) s: $(head -c 200 "$T/body" | tr -d "\\0")" \
+    bash -c "[ $code = 200 ] && [ \"\$(head -c 4 '$T/s.png' | tail -c 3)\" = PNG ]"
+# one curl for all 300 (a process each would take longer than the renders)
+: >"$T/flood.cfg"
+for i in $(seq 1 300); do
+    printf '{"render": {"width": 1, "height": 1, "samples": 1, "max_depth": 0}, "objects":
+ [{"type": "sphere", "center": [0, 0, -3], "radius": 1}]}%*s\n' "$i" "" >"$T/one$i.json"
+    printf 'url = "%s/v1/render"\ndata-binary = "@%s"\nheader = "Content-Type: application/json"
+header = "X-Client: %s"\noutput = "/dev/null"\nwrite-out = "%%{http_code}\\n"\n%s' \
+        "$URL" "$T/one$i.json" "$([ $((i % 2)) = 0 ] && echo q || echo p)" \
+        "$([ "$i" -lt 300 ] && echo next)" >>"$T/flood.cfg"
+    echo >>"$T/flood.cfg"
+done
+flood=$(curl -s -m 300 -K "$T/flood.cfg" | grep -c '^200$')
+check cached_flood_rendered "$flood of 300" [ "$flood" = 300 ]
+post_json /v1/render "$T/heavy.json" -H 'X-Client: s' >/dev/null
+code=$(post_json /v1/render "$T/s.json" -H 'X-Client: s')
+check cached_answered_200 "status $code, priced $(secs) s: $(head -c 300 "$T/body" | tr -d "\\0")" \
+    bash -c "[ $code = 200 ] && cmp -s '$T/body' '$T/s.png'"
+echo "# the cached render priced $(secs) s"
+check cached_priced_over "the cached render is priced $(secs) s, want over 4" over "$(secs)" 4
+code=$(post_json "/v1/render?x=0&y=0&w=255&h=256" "$T/s.json" -H 'X-Client: s')
+check cached_uncached_region_413 "status $code: $(head -c 300 "$T/body" | tr -d "\\0")" \
+    err_is "$T/body" 413 over_budget
+stop_rayd
+check rayd_exit_0 "exit $RAYD_RC" [ "$RAYD_RC" = 0 ]
+
+# --- a deep glass tree is refused at admission ----------------------------------------
+glass "$T/deep.json" 16 20
+glass "$T/shallow.json" 16 8
+start_rayd --threads 1 --max-work 100000000
+code=$(post_json /v1/jobs "$T/deep.json")
+check glass_depth20_413 "status $code, priced $(header X-Rayd-Estimated-Rays): $(head -c 300 "$T/body" | tr -d "\\0")" \
+    err_is "$T/body" 413 over_budget
+check glass_depth20_message "$(head -c 300 "$T/body" | tr -d "\\0")" grep -q -- '--max-work' "$T/body"
+[ "$code" = 202 ] && req DELETE "/v1/jobs/$(jfield "$T/body" id)" >/dev/null
+code=$(post_json /v1/render "$T/shallow.json")
+check glass_depth8_runs "status $code, priced $(header X-Rayd-Estimated-Rays)" \
+    bash -c "[ $code = 200 ] && [ \"\$(head -c 4 '$T/body' | tail -c 3)\" = PNG ]"
+stop_rayd
+check rayd_exit_0 "exit $RAYD_RC" [ "$RAYD_RC" = 0 ]
