@@ -206,6 +206,11 @@ void api_scenes_image(struct http_req *r, const char *id)
         http_reply_not_modified(r);
     } else if (sched_draining()) {
         api_refused(r, WORK_DRAINING);
+    } else if (!strcmp(r->method, "HEAD")) {
+        /* the headers without the render (RFC 9110 section 9.3.2): the
+         * PNG's size is known only once drawn, so no Content-Length */
+        http_reply_head(r, 200, "image/png");
+        http_reply_cache_headers(r);
     } else {
         struct work_target what = {.reg = reg, .format = WORK_PNG};
         api_render_submit(r, e, &what);

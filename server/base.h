@@ -91,7 +91,11 @@ enum log_level { LOG_DEBUG, LOG_INFO, LOG_WARN, LOG_ERROR };
 struct log_access {
     const char *client, *method, *path;
     int status;       /* 0: refused by the HTTP parser before a status was known */
-    size_t bytes;
+    size_t bytes;     /* body bytes sent */
+    /* An answer cut short (the client closed, a send failed, the timeout):
+     * why ("client_closed"), and the whole body's size; NULL and 0 else. */
+    const char *cut;
+    size_t size;
     double total_ms;
     bool rendered;    /* queue_ms, render_ms and encode_ms are meaningful */
     double queue_ms, render_ms, encode_ms;

@@ -245,6 +245,36 @@ static int config_args(int argc, char **argv)
     return CONFIG_RUN;
 }
 
+/* The longest token --token-file may hold (bytes, blanks around it aside). */
+#define CONFIG_TOKEN_MAX 4096
+
+/* Why the token t[0..n) cannot be used, or NULL; the byte at fault (from
+ * 1) into *at, 0 for none.  It is compared with the Authorization header
+ * as a C string, so a NUL inside would cut it (and was once copied short,
+ * then cleared and compared at its full length); a control character
+ * cannot be sent in a header at all. */
+static const char *config_token_why(const char *t, size_t n, size_t *at)
+{
+    *at = 0;
+    if (n == 0)
+        return "is empty";
+    if (n > CONFIG_TOKEN_MAX)
+        return "holds a token over 4096 bytes";
+    for (size_t i = 0; i < n; i++) {
+        unsigned char c = (unsigned char)t[i];
+        *at = i + 1;
+        if (c == 0)
+            return "holds a NUL byte";
+        if (c < 0x20 || c == 0x7f)
+            return "holds a control character";
+    }
+    *at = 0;
+    return NULL;
+}
+
+/* Reads --token-file: the token is the file's text without the blanks and
+ * line ends around it, checked whole (config_token_why).  -1 after naming
+ * the file and the problem. */
 static int config_read_token(void)
 {
     FILE *f = fopen(config.token_file, "rb");
@@ -252,19 +282,36 @@ static int config_read_token(void)
         fprintf(stderr, "rayd: error: --token-file %s: %s\n", config.token_file, strerror(errno));
         return -1;
     }
-    char buf[4096];
-    size_t n = fread(buf, 1, sizeof buf - 1, f);
+    /* a little more than the longest token, so that a longer one is seen */
+    char buf[CONFIG_TOKEN_MAX + 64];
+    size_t n = fread(buf, 1, sizeof buf, f);
+    bool more = n == sizeof buf && fgetc(f) != EOF;
     fclose(f);
-    while (n > 0 && (buf[n - 1] == '\n' || buf[n - 1] == '\r' || buf[n - 1] == ' ' ||
-                     buf[n - 1] == '\t'))
+    const char *t = buf;
+    while (n > 0 && (t[0] == ' ' || t[0] == '\t' || t[0] == '\r' || t[0] == '\n'))
+        t++, n--;
+    while (n > 0 && (t[n - 1] == ' ' || t[n - 1] == '\t' || t[n - 1] == '\r' || t[n - 1] == '\n'))
         n--;
-    if (n == 0) {
-        fprintf(stderr, "rayd: error: --token-file %s is empty\n", config.token_file);
+    size_t at = 0;
+    const char *why = more ? "holds a token over 4096 bytes" : config_token_why(t, n, &at);
+    if (why) {
+        memset(buf, 0, sizeof buf);
+        if (at)
+            fprintf(stderr, "rayd: error: --token-file %s %s (byte %zu of the token)\n",
+                    config.token_file, why, at);
+        else
+            fprintf(stderr, "rayd: error: --token-file %s %s\n", config.token_file, why);
         return -1;
     }
-    buf[n] = 0;
-    config.token = strdup(buf);
+    config.token = malloc(n + 1);
+    if (!config.token) {
+        fprintf(stderr, "rayd: error: --token-file %s: out of memory\n", config.token_file);
+        return -1;
+    }
+    memcpy(config.token, t, n);
+    config.token[n] = 0;
     config.token_len = n;
+    memset(buf, 0, sizeof buf);
     return 0;
 }
 

@@ -19,7 +19,7 @@
  * ("Error processing request (HTTP response code is 431 ...)"): the only
  * hook that sees them all, so it counts them (rayd_rejections_total
  * {reason="http_parser"}), but it names no connection.  One whose target
- * was read (headers over --max-header-bytes, no Host, a malformed chunk)
+ * was read (headers over --max-header-bytes, a bad Content-Length or chunk)
  * then reaches the completion callback, which asks libmicrohttpd for the
  * status it queued (MHD_CONNECTION_INFO_HTTP_STATUS).  One refused on its
  * request line (over --max-header-bytes: 414, a bad line: 400, an unknown
@@ -219,13 +219,107 @@ static void http_connection(void *cls, struct MHD_Connection *c, void **socket_c
     http_refused_why[0] = 0;
 }
 
+/* ---- the header block as libmicrohttpd 0.9.75 stored it ------------------------- */
+
+#if MHD_VERSION <= 0x00097500
+/* libmicrohttpd 0.9.75 parses a header block leniently and says nothing
+ * about it: a line folded onto the next (obs-fold, a line starting with a
+ * space or tab) is glued to the previous header's *name*, so a folded
+ * "Transfer-Encoding:" or "Content-Length:" vanishes and the body is read as
+ * the next request; a bare LF ends a line like CR LF; a NUL byte ends a
+ * value early.  RFC 9112 asks a 400 for the first, and a front proxy may
+ * read the others differently, which is how requests are smuggled.  Its
+ * strict mode does not help (it checks whitespace before a colon only in
+ * its *lenient* mode, and answers a missing Host twice), so rayd checks.
+ *
+ * What it parsed still lies in its read buffer, in order, with each CR and
+ * LF of a line end replaced by a NUL, and the colon too:
+ * "GET / HTTP/1.1\0\0Host\0 x\0\0Name\0value\0\0\0\0".  So the block is
+ * walked as stored: each header name starts two bytes (a CR LF) past the
+ * end of the line before, its value follows its name's colon and blanks,
+ * and the empty line ends where libmicrohttpd says the block ended
+ * (MHD_CONNECTION_INFO_REQUEST_HEADER_SIZE).  A request whose headers do
+ * not lie so was not read the way its bytes say.  Later libmicrohttpd
+ * versions parse strictly themselves and lay the block out differently, so
+ * this walk is built for 0.9.75 and older only. */
+struct http_layout {
+    const char *at;          /* where the next line must start */
+    const char *begin, *end; /* the header block */
+    const char *why;
+};
+
+static bool http_layout_in(const struct http_layout *l, const char *p)
+{
+    return p >= l->begin && p < l->end;
+}
+
+#define HTTP_LAYOUT_LF "a header line holds a NUL byte or ends in a bare LF (CR LF is required)"
+
+/* A header line that should have started at l->at starts at line: why. */
+static const char *http_layout_broken(const struct http_layout *l, const char *line)
+{
+    if (!http_layout_in(l, line))
+        return "obsolete line folding (a header line that starts with a space or tab)";
+    return HTTP_LAYOUT_LF;
+}
+
+static enum MHD_Result http_layout_cb(void *cls, enum MHD_ValueKind kind, const char *key,
+                                      size_t key_size, const char *value, size_t value_size)
+{
+    (void)kind;
+    struct http_layout *l = cls;
+    if (key != l->at) {
+        l->why = http_layout_broken(l, key);
+        return MHD_NO;
+    }
+    const char *p = key + key_size + 1; /* past the colon */
+    if (!value || value < p || value + value_size + 2 > l->end) {
+        l->why = "a malformed header line";
+        return MHD_NO;
+    }
+    while (p < value && (*p == ' ' || *p == '\t'))
+        p++;
+    if (p != value || value[value_size + 1]) {
+        l->why = p != value ? "a malformed header line" : HTTP_LAYOUT_LF;
+        return MHD_NO;
+    }
+    l->at = value + value_size + 2;
+    return MHD_YES;
+}
+
+/* NULL when c's header block lies as its bytes say, else why not. */
+static const char *http_mhd_layout(struct MHD_Connection *c, const char *method,
+                                   const char *version)
+{
+    const union MHD_ConnectionInfo *ci =
+        MHD_get_connection_info(c, MHD_CONNECTION_INFO_REQUEST_HEADER_SIZE);
+    if (!ci || !method || !version)
+        return NULL;
+    struct http_layout l = {.begin = method, .end = method + ci->header_size};
+    if (!http_layout_in(&l, version))
+        return NULL; /* no version on the request line: libmicrohttpd refuses it */
+    l.at = version + strlen(version) + 2;
+    MHD_get_connection_values_n(c, MHD_HEADER_KIND, http_layout_cb, &l);
+    if (!l.why && l.at + 2 != l.end)
+        l.why = l.at + 1 == l.end ? HTTP_LAYOUT_LF : "a malformed header block";
+    return l.why;
+}
+#else
+static const char *http_mhd_layout(struct MHD_Connection *c, const char *method,
+                                   const char *version)
+{
+    (void)c;
+    (void)method;
+    (void)version;
+    return NULL;
+}
+#endif
+
 static enum MHD_Result http_access(void *cls, struct MHD_Connection *c, const char *url,
                                    const char *method, const char *version, const char *upload,
                                    size_t *upload_size, void **con_cls)
 {
     (void)cls;
-    (void)c;
-    (void)version;
     struct http_req *r = *con_cls;
     if (!r) /* out of memory in http_uri_log */
         return MHD_NO;
@@ -233,6 +327,8 @@ static enum MHD_Result http_access(void *cls, struct MHD_Connection *c, const ch
         /* first call: headers only */
         r->method = method;
         r->url = url;
+        r->version = version;
+        r->framing = http_mhd_layout(c, method, version);
         return http_flow_begin(r) ? MHD_YES : http_flush(r);
     }
     if (r->gone)
@@ -269,6 +365,11 @@ static void http_completed(void *cls, struct MHD_Connection *c, void **con_cls,
         note = toe == MHD_REQUEST_TERMINATED_TIMEOUT_REACHED ? "timeout"
                : toe == MHD_REQUEST_TERMINATED_DAEMON_SHUTDOWN ? "shutdown"
                                                                 : "aborted";
+    /* for an answer cut short, the finer reason */
+    r->end_why = toe == MHD_REQUEST_TERMINATED_CLIENT_ABORT ? "client_closed"
+                 : toe == MHD_REQUEST_TERMINATED_READ_ERROR ? "read_error"
+                 : toe == MHD_REQUEST_TERMINATED_WITH_ERROR ? "send_error"
+                                                            : note;
     http_flow_end(r, note);
 }
 
@@ -532,9 +633,12 @@ int http_start(void)
     http_opt(&o, MHD_OPTION_PER_IP_CONNECTION_LIMIT, config.max_conns_per_ip, NULL);
     http_opt(&o, MHD_OPTION_CONNECTION_MEMORY_LIMIT, config.max_header_bytes, NULL);
     http_opt(&o, MHD_OPTION_LISTEN_BACKLOG_SIZE, 1024, NULL);
-    /* strict parsing: HTTP/1.1 needs Host, no spaces inside the target, no
-     * whitespace before a header's colon (RFC 9112) */
-    http_opt(&o, MHD_OPTION_STRICT_FOR_CLIENT, 1, NULL);
+    /* strict parsing (RFC 9112): libmicrohttpd 0.9.75's strict mode answers
+     * a missing Host with its 400 written twice, and never checks for
+     * whitespace before a colon; rayd checks those, spaces in the target
+     * and the header block itself (http_mhd_layout, http_flow_begin).  Later
+     * versions are strict by themselves. */
+    http_opt(&o, MHD_OPTION_STRICT_FOR_CLIENT, MHD_VERSION <= 0x00097500 ? 0 : 1, NULL);
     if (http_tls_options(&o, &flags) != 0)
         return -1;
     http_opt(&o, MHD_OPTION_END, 0, NULL);

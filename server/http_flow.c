@@ -2,9 +2,17 @@
  * whatever the transport.
  *
  *   begin   headers only.  The request gets its id (X-Request-Id) and its
- *           route label for the metrics.  A request-target over --max-url is 414, an
- *           ambiguous body length 400 (how requests are smuggled past
- *           proxies), a Content-Length over --max-body 413, and for a
+ *           route label for the metrics.  Framing first (RFC 9112): a
+ *           header block the transport found unsound (a folded line, a
+ *           bare LF), a header name that is no token (whitespace before
+ *           its colon), a control character in a value, HTTP/1.1 without
+ *           Host, a target with a space, a NUL or an encoded '/' are 400,
+ *           an ambiguous body length 400, an Expect other than
+ *           100-continue 417 -- each closing the connection, so what a
+ *           proxy might have read as the body is never run as a request.
+ *           An absolute-form target is served as its path.  Then a
+ *           request-target over --max-url is 414,
+ *           a Content-Length over --max-body 413, and for a
  *           request with a body, a missing token 401 and a path or method
  *           no route serves 404 / 405 -- all before a byte of the body is
  *           read (a request without a body meets those in handle, and its
@@ -19,8 +27,11 @@
  *   end     the access log line (client, method, target with its query,
  *           status, bytes, times, scene, request id) and the request
  *           metrics (route pattern, method, code, duration), then free.
+ *           An answer that went out only in part (the transport ended it:
+ *           the client closed, a send failed) is logged with the bytes
+ *           that went out and why (cut_short).
  *           A request libmicrohttpd answered itself (headers over
- *           --max-header-bytes: 431, no Host: 400, a malformed chunk: 400)
+ *           --max-header-bytes: 431, a bad Content-Length or chunk: 400)
  *           is logged and counted with the status it sent, as the
  *           transport learnt it (r->refused_status), and its reason
  *           (r->refused_why) as the error, note
@@ -41,7 +52,9 @@
 #include <strings.h>
 #include <sys/socket.h>
 
-/* Constant-time check of "Authorization: Bearer <token>". */
+/* Constant-time check of "Authorization: Bearer <token>": every byte of
+ * the token is compared whatever the header holds (config.c refuses a
+ * token with a NUL, so config.token_len is its whole length). */
 static bool http_flow_authorized(struct http_req *r)
 {
     if (!config.token)
@@ -113,14 +126,55 @@ static long long http_flow_length(const char *cl)
 
 struct http_flow_framing {
     int nlength, nte, nhost;
-    long long length; /* the first Content-Length, -2 malformed */
-    bool differ;      /* two Content-Length headers that disagree */
-    const char *te;   /* the first Transfer-Encoding */
+    long long length;                 /* the first Content-Length, -2 malformed */
+    bool differ;                      /* two Content-Length headers that disagree */
+    const char *te;                   /* the first Transfer-Encoding */
+    const char *expect;               /* an Expect other than 100-continue */
+    const char *bad_name, *bad_value; /* the first header whose name, or value, is malformed */
 };
+
+/* A header name is a token (RFC 9110 section 5.6.2): a space or tab in it
+ * is whitespace before the colon, which RFC 9112 section 5.1 asks a 400
+ * for -- libmicrohttpd keeps "Transfer-Encoding " as an unknown header and
+ * would read the body as the next request. */
+static bool http_flow_token(const char *k)
+{
+    if (!*k)
+        return false;
+    for (; *k; k++)
+        if (!((*k >= 'a' && *k <= 'z') || (*k >= 'A' && *k <= 'Z') || (*k >= '0' && *k <= '9') ||
+              strchr("!#$%&'*+-.^_`|~", *k)))
+            return false;
+    return true;
+}
+
+/* A field value holds no control character but tab (a bare CR above all). */
+static bool http_flow_value_ok(const char *v)
+{
+    for (; *v; v++)
+        if (((unsigned char)*v < 0x20 && *v != '\t') || *v == 0x7f)
+            return false;
+    return true;
+}
+
+/* Expect: 100-continue is the only expectation there is (RFC 9110
+ * section 10.1.1); libmicrohttpd answers it. */
+static bool http_flow_continue(const char *v)
+{
+    v += strspn(v, " \t");
+    size_t n = strlen("100-continue");
+    return !strncasecmp(v, "100-continue", n) && !v[n + strspn(v + n, " \t")];
+}
 
 static void http_flow_framing_cb(void *u, const char *k, const char *v)
 {
     struct http_flow_framing *f = u;
+    if (!f->bad_name && !http_flow_token(k))
+        f->bad_name = k;
+    if (!f->bad_value && !http_flow_value_ok(v))
+        f->bad_value = k;
+    if (!strcasecmp(k, "Expect") && !f->expect && !http_flow_continue(v))
+        f->expect = v;
     if (!strcasecmp(k, MHD_HTTP_HEADER_CONTENT_LENGTH)) {
         long long n = http_flow_length(v);
         if (f->nlength++ == 0)
@@ -162,9 +216,71 @@ static unsigned http_flow_te_refusal(const char *te, char *msg, size_t size)
     return coded ? 501 : 400;
 }
 
+/* An absolute-form target ("GET http://host/healthz", RFC 9112 section
+ * 3.2.2, what a client talking to a proxy sends) is served as its path; its
+ * host stands in for Host, which rayd does not use.  False when the target
+ * has a scheme but no host. */
+static bool http_flow_absolute_form(struct http_req *r)
+{
+    const char *u = r->url;
+    size_t skip = !strncasecmp(u, "http://", 7) ? 7 : !strncasecmp(u, "https://", 8) ? 8 : 0;
+    if (!skip)
+        return true;
+    const char *path = strchr(u + skip, '/');
+    if ((path ? (size_t)(path - u) : strlen(u)) == skip)
+        return false;
+    r->url = path ? path : "/";
+    return true;
+}
+
+/* The refusal of a request whose framing cannot be trusted: the
+ * connection closes after it, so no byte after its headers is ever read
+ * as a request. */
+static void http_flow_refuse_framing(struct http_req *r, unsigned status, const char *code,
+                                     const char *why)
+{
+    http_reply_error(r, status, code, why, NULL, 0, 0, NULL);
+    http_reply_header(r, MHD_HTTP_HEADER_CONNECTION, "close");
+}
+
+/* Why the header block is refused (400), into msg; false when it is sound:
+ * what the transport found, a header name that is no token (whitespace
+ * before its colon), a control character in a value, a missing Host in
+ * HTTP/1.1, a target with a space, control, NUL or encoded '/'. */
+static bool http_flow_malformed(struct http_req *r, const struct http_flow_framing *f, char *msg,
+                                size_t size)
+{
+    if (r->framing)
+        snprintf(msg, size, "%s", r->framing);
+    else if (f->bad_name)
+        snprintf(msg, size,
+                 "the header name '%.40s' is not a token (whitespace before the colon?)",
+                 f->bad_name);
+    else if (f->bad_value)
+        snprintf(msg, size, "the value of the header '%.40s' holds a control character",
+                 f->bad_value);
+    else if (f->nhost == 0 && r->version && !strcmp(r->version, "HTTP/1.1"))
+        snprintf(msg, size, "an HTTP/1.1 request needs a Host header");
+    else if (r->target_why)
+        snprintf(msg, size, "%s", r->target_why);
+    else if (!http_flow_absolute_form(r))
+        snprintf(msg, size, "an absolute-form target without a host");
+    else
+        return false;
+    return true;
+}
+
 bool http_flow_begin(struct http_req *r)
 {
     http_req_take_id(r);
+    struct http_flow_framing f = {.length = -1};
+    r->io->header_each(r, http_flow_framing_cb, &f);
+    char bad[200];
+    if (http_flow_malformed(r, &f, bad, sizeof bad)) {
+        r->route = router_find(r->url);
+        http_flow_refuse_framing(r, 400, "bad_request", bad);
+        return false;
+    }
     r->route = router_find(r->url);
     if (r->target_len > (size_t)config.max_url) {
         char msg[128];
@@ -175,8 +291,6 @@ bool http_flow_begin(struct http_req *r)
     }
     /* an ambiguous body length is how requests are smuggled past proxies:
      * refuse it rather than guess (RFC 9112 section 6.3) */
-    struct http_flow_framing f = {.length = -1};
-    r->io->header_each(r, http_flow_framing_cb, &f);
     char te_why[160];
     unsigned te = f.nte == 1 ? http_flow_te_refusal(f.te, te_why, sizeof te_why) : 0;
     if (f.differ || f.length == -2 || (f.nlength && f.nte) || f.nte > 1 || f.nhost > 1 || te) {
@@ -186,9 +300,14 @@ bool http_flow_begin(struct http_req *r)
                           : te               ? te_why
                                              : "malformed or conflicting Content-Length";
         bool coding = why == te_why && te == 501;
-        http_reply_error(r, coding ? 501 : 400, coding ? "not_implemented" : "bad_request", why,
-                         NULL, 0, 0, NULL);
-        http_reply_header(r, MHD_HTTP_HEADER_CONNECTION, "close");
+        http_flow_refuse_framing(r, coding ? 501 : 400, coding ? "not_implemented" : "bad_request",
+                                 why);
+        return false;
+    }
+    if (f.expect) {
+        char msg[120];
+        snprintf(msg, sizeof msg, "Expect '%.40s': only 100-continue is understood", f.expect);
+        http_flow_refuse_framing(r, 417, "expectation_failed", msg);
         return false;
     }
     r->body_declared = f.nlength ? f.length : -1;
@@ -337,6 +456,11 @@ void http_flow_end(struct http_req *r, const char *note)
         return;
     }
     int status = r->status;
+    /* a reply that went out but not to its end (the transport's note):
+     * how much did, and why */
+    bool head = !strcmp(r->method, "HEAD"); /* no body goes out */
+    bool cut = note && r->replied && !r->gone && r->t_sent > 0 && !head;
+    const char *cut_why = r->end_why ? r->end_why : note;
     if (r->note)
         note = r->note;
     if ((r->gone || !r->replied) && refused) {
@@ -354,12 +478,15 @@ void http_flow_end(struct http_req *r, const char *note)
     metrics_request(r->route, r->method, status, total);
     if (r->is_image && r->t_sent > 0 && status == 200)
         metrics_stage(MS_SEND, clock_now() - r->t_sent);
+    size_t bytes = head ? 0 : cut && r->body_counted ? r->body_taken : r->bytes;
     struct log_access a = {
         .client = r->client,
         .method = r->method,
         .path = r->target ? r->target : r->url,
         .status = status,
-        .bytes = strcmp(r->method, "HEAD") ? r->bytes : 0, /* no body goes out */
+        .bytes = bytes,
+        .cut = cut ? cut_why : NULL,
+        .size = cut ? r->bytes : 0,
         .total_ms = total * 1e3,
         .rendered = r->queue_ms > 0 || r->render_ms > 0 || r->encode_ms > 0,
         .queue_ms = r->queue_ms,
@@ -367,7 +494,7 @@ void http_flow_end(struct http_req *r, const char *note)
         .encode_ms = r->encode_ms,
         .scene = r->scene,
         .request_id = r->request_id,
-        .note = note,
+        .note = cut ? r->note : note, /* the transport's note is cut_short */
         .error = r->err_code,
         .error_at = r->err_at,
     };

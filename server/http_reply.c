@@ -8,8 +8,9 @@
  * Origin, nosniff -- are added here, once, so no handler can forget them.
  * Every error body of the API comes from http_reply_error, written by cJSON:
  * {"error": {"status", "code", "message", "path"?, "line"?, "column"?,
- * "parameter"?}}.  PNGs are sent from the shared blob without a copy; the
- * response holds a reference, dropped by libmicrohttpd when it is done.
+ * "parameter"?}}.  PNGs are sent from the shared blob, a block at a time as
+ * libmicrohttpd asks (so the access log knows how much of one went out);
+ * the response holds a reference, dropped by libmicrohttpd when it is done.
  * Every reply carries the request's X-Request-Id.  Every image carries
  * X-Rayd-Version: two versions may draw the same scene differently, and a
  * client stitching a frame from many nodes (or a balancer's cache) must be
@@ -59,6 +60,7 @@ void http_reply(struct http_req *r, unsigned status, struct MHD_Response *resp)
     }
     if (r->pending)
         MHD_destroy_response(r->pending);
+    r->body_counted = false;
     const char *origin = http_reply_cors_origin(r);
     if (origin) {
         MHD_add_response_header(resp, "Access-Control-Allow-Origin", origin);
@@ -128,7 +130,34 @@ void http_reply_json(struct http_req *r, unsigned status, cJSON *o)
         http_reply_header(r, "Cache-Control", "no-store");
 }
 
-static void http_reply_blob_free(void *cls) { blob_unref(cls); }
+/* An image's body is handed to libmicrohttpd as it asks for it (a copy
+ * of a block at a time, instead of the buffer whole), so the request knows
+ * how much went out: the access line of an answer the client stopped
+ * reading says so (r->body_taken).  The reader runs only while the answer
+ * is sent, before the completion that frees r. */
+struct http_reply_body {
+    struct blob *img;
+    struct http_req *r;
+};
+
+static ssize_t http_reply_body_read(void *cls, uint64_t pos, char *buf, size_t max)
+{
+    struct http_reply_body *b = cls;
+    if (pos >= b->img->len)
+        return MHD_CONTENT_READER_END_OF_STREAM;
+    size_t n = b->img->len - (size_t)pos < max ? b->img->len - (size_t)pos : max;
+    memcpy(buf, (const char *)b->img->data + pos, n);
+    if ((size_t)pos + n > b->r->body_taken)
+        b->r->body_taken = (size_t)pos + n;
+    return (ssize_t)n;
+}
+
+static void http_reply_body_free(void *cls)
+{
+    struct http_reply_body *b = cls;
+    blob_unref(b->img);
+    free(b);
+}
 
 void http_reply_png(struct http_req *r, unsigned status, struct blob *png)
 {
@@ -138,20 +167,26 @@ void http_reply_png(struct http_req *r, unsigned status, struct blob *png)
 void http_reply_image(struct http_req *r, unsigned status, struct blob *png, const char *type)
 {
     /* the response holds one reference to the blob, dropped by libmicrohttpd */
-    blob_ref(png);
-    struct MHD_Response *resp = MHD_create_response_from_buffer_with_free_callback_cls(
-        png->len, png->data, http_reply_blob_free, png);
+    struct http_reply_body *b = malloc(sizeof *b);
+    struct MHD_Response *resp =
+        b ? MHD_create_response_from_callback(png->len, 64 * 1024, http_reply_body_read, b,
+                                              http_reply_body_free)
+          : NULL;
     if (!resp) {
-        blob_unref(png);
+        free(b);
         r->gone = true;
         return;
     }
+    blob_ref(png);
+    *b = (struct http_reply_body){png, r};
     MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, type);
     /* the renderer that made the pixels: a frame is stitched from one only */
     MHD_add_response_header(resp, "X-Rayd-Version", RAYD_VERSION);
     r->bytes = png->len;
     r->is_image = true;
     http_reply(r, status, resp);
+    r->body_taken = 0;
+    r->body_counted = true;
 }
 
 void http_reply_error(struct http_req *r, unsigned status, const char *code, const char *message,
@@ -195,7 +230,8 @@ static ssize_t http_reply_no_body(void *cls, uint64_t pos, char *buf, size_t max
     return MHD_CONTENT_READER_END_OF_STREAM;
 }
 
-void http_reply_not_modified(struct http_req *r)
+/* A response with no body and neither Content-Length nor chunking. */
+static struct MHD_Response *http_reply_bodiless(void)
 {
     struct MHD_Response *resp =
         MHD_create_response_from_callback(MHD_SIZE_UNKNOWN, 64, http_reply_no_body, NULL, NULL);
@@ -204,9 +240,23 @@ void http_reply_not_modified(struct http_req *r)
         MHD_destroy_response(resp);
         resp = NULL;
     }
+    return resp;
+}
+
+void http_reply_not_modified(struct http_req *r)
+{
     r->bytes = 0;
-    http_reply(r, 304, resp);
+    http_reply(r, 304, http_reply_bodiless());
     http_reply_cache_headers(r);
+}
+
+void http_reply_head(struct http_req *r, unsigned status, const char *ctype)
+{
+    struct MHD_Response *resp = http_reply_bodiless();
+    if (resp)
+        MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, ctype);
+    r->bytes = 0;
+    http_reply(r, status, resp);
 }
 
 /* One Vary line for the reply: nginx up to 1.22 reads only the last Vary

@@ -26,6 +26,7 @@
 #include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/random.h>
 #include <time.h>
 #include <unistd.h>
@@ -65,10 +66,46 @@ void http_req_free(struct http_req *r)
     atomic_fetch_sub(&http_req_ninflight, 1);
 }
 
+static int http_req_hex(char c)
+{
+    return c >= '0' && c <= '9'   ? c - '0'
+           : c >= 'a' && c <= 'f' ? c - 'a' + 10
+           : c >= 'A' && c <= 'F' ? c - 'A' + 10
+                                  : -1;
+}
+
+/* Why the raw target t is refused, or NULL. */
+static const char *http_req_target_why(const char *t)
+{
+    for (const char *p = t; *p; p++)
+        if ((unsigned char)*p <= 0x20 || *p == 0x7f)
+            return "a space or control character in the request target";
+    /* the path: after an absolute form's scheme and host, up to the query */
+    const char *p = t;
+    if (!strncasecmp(p, "http://", 7) || !strncasecmp(p, "https://", 8)) {
+        p = strchr(p + 7 + (p[4] != ':'), '/');
+        if (!p)
+            return NULL;
+    }
+    for (; *p && *p != '?'; p++) {
+        if (*p != '%' || http_req_hex(p[1]) < 0 || http_req_hex(p[2]) < 0)
+            continue;
+        int c = http_req_hex(p[1]) * 16 + http_req_hex(p[2]);
+        if (c == 0)
+            return "a NUL byte (%00) in the path";
+        if (c == '/')
+            return "an encoded / (%2F) in the path";
+        if (c < 0x20 || c == 0x7f)
+            return "an encoded control character in the path";
+    }
+    return NULL;
+}
+
 void http_req_set_target(struct http_req *r, const char *target)
 {
     free(r->target);
     r->target = target ? strndup(target, 2048) : NULL;
+    r->target_why = target ? http_req_target_why(target) : NULL;
 }
 
 /* ---- request ids ---------------------------------------------------------- */

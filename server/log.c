@@ -7,7 +7,12 @@
  *   time (RFC 3339, UTC, milliseconds), level, client address, method, the
  *   request-target as sent (path and query: a tile's region is in it),
  *   status, body bytes, [queue_ms render_ms encode_ms when it rendered],
- *   total_ms, [scene=<id>], request_id=<X-Request-Id>, [note=<why>]
+ *   total_ms, [scene=<id>], request_id=<X-Request-Id>, [note=<why>],
+ *   [cut_short=<why> size=<the whole body's bytes>]
+ *
+ * An answer cut short (the client stopped reading and closed, a send
+ * failed, --timeout) keeps the status it was sent with; its bytes are those
+ * that went out, and cut_short says why it ended.
  *
  * The level follows the status: info up to 3xx, warn for 4xx (499, a client
  * that left, included), error for 5xx, so --log-level warn keeps the
@@ -133,6 +138,10 @@ static void log_access_json(const char *ts, const struct log_access *a, const ch
         cJSON_AddStringToObject(o, "error_at", error_at);
     if (a->note)
         cJSON_AddStringToObject(o, "note", a->note);
+    if (a->cut) {
+        cJSON_AddStringToObject(o, "cut_short", a->cut);
+        json_add_u64(o, "size", a->size);
+    }
     log_json_line(o);
 }
 
@@ -159,10 +168,13 @@ void log_access(const struct log_access *a)
         snprintf(rendered, sizeof rendered, "queue_ms=%.3f render_ms=%.3f encode_ms=%.3f ",
                  a->queue_ms, a->render_ms, a->encode_ms);
     bool scene = a->scene && *a->scene;
-    fprintf(stderr, "%s %s %s %s %s %d %zu %stotal_ms=%.3f%s%s request_id=%s%s%s%s\n", ts,
-            log_names[level], log_or_dash(a->client), method, path, a->status, a->bytes,
-            rendered, a->total_ms, scene ? " scene=" : "", scene ? a->scene : "",
-            log_or_dash(a->request_id), error, a->note ? " note=" : "", a->note ? a->note : "");
+    char cut[96] = "";
+    if (a->cut)
+        snprintf(cut, sizeof cut, " cut_short=%s size=%zu", a->cut, a->size);
+    fprintf(stderr, "%s %s %s %s %s %d %zu %stotal_ms=%.3f%s%s request_id=%s%s%s%s%s\n", ts,
+            log_names[level], log_or_dash(a->client), method, path, a->status, a->bytes, rendered,
+            a->total_ms, scene ? " scene=" : "", scene ? a->scene : "", log_or_dash(a->request_id),
+            error, a->note ? " note=" : "", a->note ? a->note : "", cut);
 }
 
 static void log_msg(enum log_level level, const char *fmt, va_list ap)

@@ -43,8 +43,13 @@ struct http_req {
     const struct http_io *io;
     void *io_ctx;                /* the transport's own (an MHD_Connection) */
     const char *method, *url;
+    const char *version;         /* "HTTP/1.1", "HTTP/1.0"; NULL: the transport does not say */
+    /* Why the transport refuses the header block it parsed ("obsolete line
+     * folding ..."), or NULL: http_flow_begin answers it 400 and closes. */
+    const char *framing;
     size_t target_len;           /* bytes of the request-target, query included */
     char *target;                /* the request-target as sent (malloc'd, cut), or NULL */
+    const char *target_why;      /* why the target is refused (400), or NULL */
     char client[48];             /* the peer's address, "" when unknown */
     char request_id[65];         /* X-Request-Id: the client's, or one made up */
     char scene[65];              /* the scene's id when the request named or sent one */
@@ -62,6 +67,12 @@ struct http_req {
     char route_id[80];           /* the path's {id} segment, "" for none */
     int status;                  /* the status sent */
     size_t bytes;                /* response body size */
+    /* An image's body is handed to the transport as it is read (http_reply.c):
+     * body_taken is how much was, so the access log of an answer cut short
+     * says how much went out (body_counted: this reply is counted). */
+    size_t body_taken;
+    bool body_counted;
+    const char *end_why;         /* why the transport ended the answer early, NULL none */
     double t0, queue_ms, render_ms, encode_ms; /* the handler fills the last three */
     double t_sent;               /* when the response was handed to libmicrohttpd */
     bool is_image;               /* the response is an image (its send is a stage) */
@@ -86,7 +97,11 @@ struct http_req *http_req_new(const struct http_io *io, void *io_ctx, const char
                               const char *url, size_t target_len);
 void http_req_free(struct http_req *r); /* the pending response too */
 /* Keeps a copy of the raw request-target for the access log (the first
- * 2 KiB: a log line is no place for a 16 MiB query). */
+ * 2 KiB: a log line is no place for a 16 MiB query), and checks all of it:
+ * r->target_why says why it is refused -- a space or control character, or
+ * in its path a %00 (a NUL that would end the path early: /app.js%00.png
+ * read as /app.js), a %2F (an encoded '/', which the router would see as a
+ * separator once decoded) or another encoded control character. */
 void http_req_set_target(struct http_req *r, const char *target);
 /* Sets r->request_id: the client's X-Request-Id when it is 1-64 characters
  * of [A-Za-z0-9._:+/=@-], else 32 hex digits unique to this request. */
@@ -131,6 +146,10 @@ void http_reply_header(struct http_req *r, const char *name, const char *value);
 /* 304 Not Modified: no body, no Content-Length, the cache headers of the
  * 200 (http_reply_cache_headers).  The connection closes after it. */
 void http_reply_not_modified(struct http_req *r);
+/* The headers of an answer whose body is not made (HEAD of an image that
+ * would have to be rendered): Content-Type, no body, no Content-Length; the
+ * connection closes after it, as after a 304. */
+void http_reply_head(struct http_req *r, unsigned status, const char *ctype);
 /* Adds field to the reply's one Vary header (Vary: Accept, Authorization). */
 void http_reply_vary(struct http_req *r, const char *field);
 /* ETag + immutable Cache-Control when r->etag is set (no-cache when

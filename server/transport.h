@@ -14,9 +14,11 @@
 
 /* ---- http_flow.c: a request's life, independent of the transport ------------
  *   http_req_new    (request.h) a request with its method and path;
- *   http_flow_begin headers only: refuses early (400 for an ambiguous body
- *                   length, 401 without the token, 413 by Content-Length,
- *                   414 over --max-url);
+ *   http_flow_begin headers only: refuses early (400 for unsound framing --
+ *                   the transport's r->framing, a header name that is no
+ *                   token, no Host, a bad target, an ambiguous body length
+ *                   --, 417 for an unknown Expect, 401 without the token,
+ *                   413 by Content-Length, 414 over --max-url);
  *                   false when a reply is already pending;
  *   http_flow_body  appends a body chunk (counted, not kept, past --max-body);
  *                   false when the transport should drop the connection;

@@ -88,6 +88,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     char *target = sp + 1, *sp2 = strchr(target, ' ');
     if (sp2)
         *sp2 = 0;
+    const char *version = sp2 ? sp2 + 1 : NULL;
     static struct fh_req q; /* static: the worker may touch it until resumed */
     memset(&q, 0, sizeof q);
     pthread_mutex_init(&q.mu, NULL);
@@ -117,6 +118,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     struct http_req *r = http_req_new(&fh_io, &q, first, path, strlen(target));
     if (!r)
         abort();
+    http_req_set_target(r, target); /* as libmicrohttpd's URI log callback does */
+    r->version = version;
     bool drop = false;
     if (http_flow_begin(r)) {
         /* the body in pieces, as libmicrohttpd delivers it */

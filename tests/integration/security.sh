@@ -89,6 +89,44 @@ check exit_0 "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
 "$RAYD" --token-file "$T/missing-file" --port 0 >/dev/null 2>&1
 check missing_token_file_fails "rayd started without its token file" [ $? -ne 0 ]
 
+# --- a token file that cannot be a token is refused at start -------------------------------
+# A NUL byte once made every request 401, a heap overflow in the compare and
+# an abort on SIGTERM; a token over 4,095 bytes was cut silently.  Each is
+# refused with exit status 1 and a line naming the file and the problem; the
+# process never listens.
+token_refused() { # NAME WHAT: rayd --token-file $T/NAME must exit 1 saying WHAT
+    local out rc
+    out=$(timeout 20 "$RAYD" --bind 127.0.0.1 --port 0 --token-file "$T/$1" 2>&1 </dev/null)
+    rc=$?
+    [ "$rc" = 1 ] && [[ $out == *"--token-file $T/$1 $2"* ]] && [[ $out != *listening* ]] ||
+        { echo "  rc $rc: $out" >&2; return 1; }
+}
+printf 'abc\0def\n' >"$T/tok-nul"
+check token_nul_refused "started or said something else" token_refused tok-nul "holds a NUL byte (byte 4"
+printf 'abc\001def\n' >"$T/tok-ctrl"
+check token_control_refused "started or said something else" token_refused tok-ctrl "holds a control character"
+printf 'abc\tdef\n' >"$T/tok-tab"
+check token_tab_refused "started or said something else" token_refused tok-tab "holds a control character"
+head -c 4097 /dev/zero | tr '\0' a >"$T/tok-long"
+check token_over_4096_refused "started or said something else" token_refused tok-long "holds a token over 4096 bytes"
+head -c 100000 /dev/zero | tr '\0' a >"$T/tok-huge"
+check token_huge_refused "started or said something else" token_refused tok-huge "holds a token over 4096 bytes"
+printf ' \r\n\n' >"$T/tok-blank"
+check token_blank_refused "started or said something else" token_refused tok-blank "is empty"
+# the longest token there may be, with blanks around it, is used whole: one
+# byte more or less is refused
+head -c 4096 /dev/zero | tr '\0' b >"$T/tok-max"
+printf '  %s \n' "$(cat "$T/tok-max")" >"$T/tok-max-padded"
+start_rayd --token-file "$T/tok-max-padded"
+code=$(req GET /metrics -H "Authorization: Bearer $(cat "$T/tok-max")")
+check token_4096_whole_200 "status $code" [ "$code" = 200 ]
+code=$(req GET /metrics -H "Authorization: Bearer $(head -c 4095 "$T/tok-max")")
+check token_4096_shorter_401 "status $code" [ "$code" = 401 ]
+code=$(req GET /metrics -H "Authorization: Bearer $(cat "$T/tok-max")b")
+check token_4096_longer_401 "status $code" [ "$code" = 401 ]
+stop_rayd TERM
+check token_4096_exit_0 "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
+
 # --- HTTPS with libmicrohttpd's TLS ---------------------------------------------------------
 if command -v openssl >/dev/null; then
     openssl req -x509 -newkey rsa:2048 -nodes -days 2 -subj /CN=127.0.0.1 \
