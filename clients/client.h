@@ -114,6 +114,10 @@ int gltf_bundle(const char *path, char **json, size_t *len);
 /* The same for a .gltf whose files are in the folder dir ("" = the current
  * one); messages call it name. */
 int gltf_bundle_in(const char *dir, const char *name, char **json, size_t *len);
+/* Why a file name may not be sent from the folder it is read from (empty,
+ * an absolute path, a ".." component), or NULL: the one rule for a .gltf's
+ * files and a scene's own "file" names alike. */
+const char *gltf_bundle_outside(const char *name);
 
 /* ---- net.c ---------------------------------------------------------------- */
 
@@ -137,6 +141,13 @@ void net_global_cleanup(void);
  * transfer.  The handle is a CURL * (void here to keep curl out). */
 void *net_easy(const struct client_opts *o, const char *url, struct net_buf *body,
                const char *json_body, size_t json_len, void **hdrs);
+/* s as it may be printed on a terminal, into buf: control characters (C0
+ * incl. ESC, CR and LF, DEL, C1 raw or UTF-8 encoded) and bytes that are
+ * no UTF-8 as \xNN, the rest as it is; cut with "..." to fit size.  Every
+ * string a server sent goes through it before it is printed.  Returns buf
+ * ("" for NULL).  net_safe_n: the first n bytes of s (up to a NUL). */
+char *net_safe(const char *s, char *buf, size_t size);
+char *net_safe_n(const char *s, size_t n, char *buf, size_t size);
 /* Describes an answer that is not a success: "HTTP 422 invalid_scene at
  * /objects/1/radius: must be > 0" from the API's JSON error, or the first
  * bytes of the body.  Returns buf. */

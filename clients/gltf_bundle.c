@@ -65,12 +65,18 @@ static const char *gltf_name(const char *uri, char *out, size_t cap) {
         out[n++] = (char)ch;
     }
     out[n] = '\0';
-    if (out[0] == '/') return "is an absolute path: only files next to the .gltf are sent";
-    for (const char *p = out; p;) {
+    return gltf_bundle_outside(out);
+}
+
+const char *gltf_bundle_outside(const char *name) {
+    if (!name[0]) return "is empty";
+    if (name[0] == '/')
+        return "is an absolute path: only files in the folder it is read from are sent";
+    for (const char *p = name; p;) {
         const char *slash = strchr(p, '/');
-        size_t k = slash ? (size_t)(slash - p) : strlen(p);
-        if (k == 2 && p[0] == '.' && p[1] == '.')
-            return "has a '..' component: only files next to the .gltf are sent";
+        size_t len = slash ? (size_t)(slash - p) : strlen(p);
+        if (len == 2 && p[0] == '.' && p[1] == '.')
+            return "has a '..' component: only files in the folder it is read from are sent";
         p = slash ? slash + 1 : NULL;
     }
     return NULL;

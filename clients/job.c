@@ -17,11 +17,19 @@
  *
  * Ctrl-C cancels the job on the server (DELETE /v1/jobs/{id}) before
  * exiting, so an abandoned render does not keep the workers busy.
+ *
+ * What the server says is checked, not trusted: progress figures must be
+ * whole numbers with 0 <= done <= total and 0 < total <= the image's
+ * pixels (others are ignored, with one warning); the image must be the
+ * size of the scene (the PNG's IHDR, the EXR's dataWindow, read before
+ * anything is decoded), else nothing is written; its words are printed
+ * escaped (net_safe).
  */
 #include "client.h"
 
 #include <cjson/cJSON.h>
 #include <curl/curl.h>
+#include <math.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -45,26 +53,49 @@ struct job_sse {
     char data[4096];
     int done;
     char final_state[32];
-    struct progress *prog;
-    char (*label)[40];
+    struct job_show *show;
 };
+
+/* Where the job's progress is shown, and what the figures may be. */
+struct job_show {
+    struct progress prog;
+    char label[1][40];
+    double max_total; /* the image's pixels: no more tiles than that */
+    int warned;       /* bad figures were said once */
+};
+
+/* Whether done of total tiles can be true of this job: whole numbers,
+ * 0 <= done <= total, 0 < total <= the image's pixels. */
+static bool job_figures_ok(const struct job_show *s, double done, double total) {
+    return isfinite(done) && isfinite(total) && done == floor(done) && total == floor(total) &&
+           done >= 0 && done <= total && total > 0 && total <= s->max_total;
+}
 
 /* The progress display at done of total tiles, numbers from the server's
  * JSON (an event's, or the job's when polled); nothing when either is
- * missing. */
-static void job_progress(struct progress *p, char (*label)[40], const cJSON *done,
-                         const cJSON *total) {
+ * missing, and nothing but one warning when they make no sense. */
+static void job_progress(struct job_show *s, const cJSON *done, const cJSON *total) {
     if (!cJSON_IsNumber(done) || !cJSON_IsNumber(total)) return;
-    long per = done->valueint;
-    p->total = total->valueint;
-    progress_update(p, done->valueint, 0, 1, &per, label, -1, 0);
+    if (!job_figures_ok(s, done->valuedouble, total->valuedouble)) {
+        if (!s->warned++ && !s->prog.quiet) {
+            progress_end(&s->prog);
+            fprintf(stderr,
+                    "rayd-client: warning: the server's progress figures make no sense (%.6g of "
+                    "%.6g tiles, for a %.0f-pixel image): ignored\n",
+                    done->valuedouble, total->valuedouble, s->max_total);
+        }
+        return;
+    }
+    long per = (long)done->valuedouble;
+    s->prog.total = (int)total->valuedouble;
+    progress_update(&s->prog, (int)per, 0, 1, &per, s->label, -1, 0);
 }
 
 static void job_sse_dispatch(struct job_sse *j)
 {
     cJSON *d = cJSON_Parse(j->data);
     if (!strcmp(j->event, "progress")) {
-        job_progress(j->prog, j->label, cJSON_GetObjectItemCaseSensitive(d, "done"),
+        job_progress(j->show, cJSON_GetObjectItemCaseSensitive(d, "done"),
                      cJSON_GetObjectItemCaseSensitive(d, "total"));
     } else if (!strcmp(j->event, "done")) {
         const cJSON *st = cJSON_GetObjectItemCaseSensitive(d, "state");
@@ -150,14 +181,12 @@ static long job_request(const struct client_opts *o, const char *method, const c
 
 /* Follows the event stream; returns 1 when "done" arrived. */
 static int job_follow(const struct client_opts *o, const char *base, const char *id,
-                      struct progress *prog, char (*label)[40])
-{
+                      struct job_show *show) {
     char url[1024];
     snprintf(url, sizeof url, "%s/v1/jobs/%s/events", base, id);
     struct job_sse j;
     memset(&j, 0, sizeof j);
-    j.prog = prog;
-    j.label = label;
+    j.show = show;
     struct net_buf unused = {0};
     void *hdrs = NULL;
     CURL *h = net_easy(o, url, &unused, NULL, 0, &hdrs);
@@ -179,8 +208,7 @@ static int job_follow(const struct client_opts *o, const char *base, const char 
 
 /* Polls GET /v1/jobs/{id} until the job is finished; 0, or -1. */
 static int job_poll(const struct client_opts *o, const char *base, const char *id,
-                    struct progress *prog, char (*label)[40])
-{
+                    struct job_show *show) {
     char url[1024], why[600];
     snprintf(url, sizeof url, "%s/v1/jobs/%s", base, id);
     struct net_buf b = {0};
@@ -196,7 +224,7 @@ static int job_poll(const struct client_opts *o, const char *base, const char *i
         }
         cJSON *j = cJSON_ParseWithLength(b.data, b.len);
         const char *state = net_json_str(j, "state");
-        job_progress(prog, label, cJSON_GetObjectItemCaseSensitive(j, "tiles_done"),
+        job_progress(show, cJSON_GetObjectItemCaseSensitive(j, "tiles_done"),
                      cJSON_GetObjectItemCaseSensitive(j, "tiles_total"));
         int fin = state && (!strcmp(state, "succeeded") || !strcmp(state, "failed") ||
                             !strcmp(state, "canceled"));
@@ -212,22 +240,77 @@ static int job_poll(const struct client_opts *o, const char *base, const char *i
     return rc;
 }
 
-/* The job's PNG, or EXR for an .exr path (checked to be one) into path: 0,
- * or -1 after saying why. */
-static int job_write(const char *path, const struct net_buf *b)
-{
-    static const unsigned char exr_magic[4] = {0x76, 0x2f, 0x31, 0x01};
-    if (output_is_exr(path)) {
-        if (b->len < 4 || memcmp(b->data, exr_magic, 4)) {
-            fprintf(stderr, "rayd-client: error: the job's image is not an OpenEXR\n");
-            return -1;
+/* A big-endian (PNG) or little-endian (EXR) 32-bit number at p. */
+static uint32_t job_be32(const unsigned char *p) {
+    return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | p[3];
+}
+static int32_t job_le32(const unsigned char *p) {
+    return (int32_t)((uint32_t)p[3] << 24 | (uint32_t)p[2] << 16 | (uint32_t)p[1] << 8 | p[0]);
+}
+
+/* The size of a PNG from its IHDR (the first chunk): 0, or -1. */
+static int job_png_size(const struct net_buf *b, long *w, long *h) {
+    static const unsigned char sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    const unsigned char *p = (const unsigned char *)b->data;
+    if (b->len < 24 || memcmp(p, sig, 8) || memcmp(p + 12, "IHDR", 4)) return -1;
+    *w = (long)job_be32(p + 16), *h = (long)job_be32(p + 20);
+    return 0;
+}
+
+/* The size of an OpenEXR from its header's dataWindow (box2i): 0, or -1
+ * when it has none or the header runs past the bytes.  The header is a
+ * list of attributes (name NUL, type NUL, int32 size, value) ended by an
+ * empty name, after the magic and the version. */
+static int job_exr_size(const struct net_buf *b, long *w, long *h) {
+    static const unsigned char magic[4] = {0x76, 0x2f, 0x31, 0x01};
+    const unsigned char *p = (const unsigned char *)b->data, *end = p + b->len;
+    if (b->len < 8 || memcmp(p, magic, 4)) return -1;
+    for (p += 8; p < end && *p;) {
+        const unsigned char *name = p, *type = memchr(p, 0, (size_t)(end - p));
+        if (!type++) return -1;
+        const unsigned char *sz = memchr(type, 0, (size_t)(end - type));
+        if (!sz++ || end - sz < 4) return -1;
+        int32_t n = job_le32(sz);
+        const unsigned char *v = sz + 4;
+        if (n < 0 || end - v < n) return -1;
+        if (!strcmp((const char *)name, "dataWindow") && !strcmp((const char *)type, "box2i") &&
+            n == 16) {
+            *w = (long)job_le32(v + 8) - job_le32(v) + 1;
+            *h = (long)job_le32(v + 12) - job_le32(v + 4) + 1;
+            return 0;
         }
-        return output_write(path, b->data, b->len);
+        p = v + n;
     }
+    return -1;
+}
+
+/* The job's PNG, or EXR for an .exr path, into path once it is one of the
+ * size asked for (w x h: the scene's): 0, or -1 after saying why (nothing
+ * written).  The size is read from the header before anything is decoded,
+ * so a huge image costs nothing. */
+static int job_write(const char *path, const struct net_buf *b, int w, int h) {
+    bool exr = output_is_exr(path);
+    long iw = 0, ih = 0;
+    if ((exr ? job_exr_size(b, &iw, &ih) : job_png_size(b, &iw, &ih)) != 0) {
+        fprintf(stderr, "rayd-client: error: the job's image is not %s; nothing written to %s\n",
+                exr ? "an OpenEXR" : "a PNG", output_name(path));
+        return -1;
+    }
+    if (iw != w || ih != h) {
+        fprintf(stderr,
+                "rayd-client: error: the job's image is %ldx%ld, not the %dx%d asked for; nothing "
+                "written to %s\n",
+                iw, ih, w, h, output_name(path));
+        return -1;
+    }
+    if (exr) return output_write(path, b->data, b->len);
     rayd_image *img = NULL;
     struct rayd_error err = {0};
-    if (rayd_png_decode(b->data, b->len, 0, &img, &err) != RAYD_OK) {
-        fprintf(stderr, "rayd-client: error: the job's image is not a PNG: %s\n", err.message);
+    if (rayd_png_decode(b->data, b->len, (long)w * h, &img, &err) != RAYD_OK) {
+        char why[300];
+        fprintf(stderr,
+                "rayd-client: error: the job's image is not a PNG: %s; nothing written to %s\n",
+                net_safe(err.message, why, sizeof why), output_name(path));
         return -1;
     }
     rayd_image_free(img);
@@ -277,23 +360,23 @@ static int job_cancel(const struct client_opts *o, const char *id) {
 
 /* Follows job id to its end, showing progress: 0, 1 (said) or 130
  * (interrupted: cancelled). */
-static int job_wait(const struct client_opts *o, const char *id) {
+static int job_wait(const struct client_opts *o, const char *id, const struct scenefile *sf) {
     const char *base = o->servers[0];
-    struct progress prog;
-    char label[1][40];
-    net_label(base, label[0], sizeof label[0]);
-    progress_init(&prog, 1, o->quiet);
-    int done = job_follow(o, base, id, &prog, label);
-    int failed = !done && !job_interrupted && job_poll(o, base, id, &prog, label) != 0;
+    struct job_show show = {.max_total = (double)sf->width * sf->height};
+    net_label(base, show.label[0], sizeof show.label[0]);
+    progress_init(&show.prog, 1, o->quiet);
+    int done = job_follow(o, base, id, &show);
+    int failed = !done && !job_interrupted && job_poll(o, base, id, &show) != 0;
     if (!failed && !job_interrupted)
-        progress_update(&prog, prog.total, 0, 1, (long[]){prog.total}, label, -1, 1);
-    progress_end(&prog);
+        progress_update(&show.prog, show.prog.total, 0, 1, (long[]){show.prog.total}, show.label,
+                        -1, 1);
+    progress_end(&show.prog);
     return job_interrupted ? job_cancel(o, id) : failed;
 }
 
 /* The finished job's image into o->out (202 while the server encodes
  * it): 0, or 1 after saying why. */
-static int job_fetch(const struct client_opts *o, const char *id) {
+static int job_fetch(const struct client_opts *o, const char *id, const struct scenefile *sf) {
     char url[1024], why[600] = "";
     struct net_buf b = {0};
     long st = 0;
@@ -309,7 +392,7 @@ static int job_fetch(const struct client_opts *o, const char *id) {
     }
     int rc = 1;
     if (st == 200) {
-        rc = job_write(o->out, &b) == 0 ? 0 : 1;
+        rc = job_write(o->out, &b, sf->width, sf->height) == 0 ? 0 : 1;
         if (rc == 0 && !o->quiet)
             fprintf(stderr, "rayd-client: wrote %s\n", output_name(o->out));
     } else {
@@ -332,8 +415,8 @@ int job_run(const struct client_opts *o, const struct scenefile *sf) {
     if (rc == 0 && !o->quiet)
         fprintf(stderr, "rayd-client: job %s on %s (%dx%d)\n", id, o->servers[0], sf->width,
                 sf->height);
-    if (rc == 0) rc = job_wait(o, id);
-    if (rc == 0) rc = job_fetch(o, id);
+    if (rc == 0) rc = job_wait(o, id, sf);
+    if (rc == 0) rc = job_fetch(o, id, sf);
     sigaction(SIGINT, &old_int, NULL);
     sigaction(SIGTERM, &old_term, NULL);
     return rc;

@@ -11,6 +11,13 @@
  * ({"error": {"status", "code", "message", "path"}}) so the user sees the
  * code, the JSON Pointer and the message the server gave; anything else
  * (a proxy's HTML page) is shown as its first bytes.
+ *
+ * A server is not trusted with the user's terminal: every string that came
+ * from one (an error's code, message and path, a version, a reason) goes
+ * through net_safe before it is printed, which writes control characters
+ * (C0 with ESC, CR and LF; DEL; C1, raw or UTF-8 encoded) and bytes that
+ * are no UTF-8 as \xNN.  A message cannot then move the cursor, retitle
+ * the window, hide what came before it or fake a second line.
  */
 #include "client.h"
 
@@ -136,6 +143,52 @@ char *net_error_code(const struct net_buf *body, char *buf, size_t size)
     return buf;
 }
 
+/* The length of the UTF-8 character at s (n bytes left) when it is a
+ * printable one: well formed, shortest form, no surrogate, not C1
+ * (U+0080..U+009F); 0 when not. */
+static size_t net_utf8_len(const unsigned char *s, size_t n) {
+    size_t len = s[0] >= 0xf0 ? 4 : s[0] >= 0xe0 ? 3 : s[0] >= 0xc0 ? 2 : 0;
+    if (!len || s[0] > 0xf4 || len > n) return 0;
+    unsigned cp = s[0] & (0x7f >> len);
+    for (size_t i = 1; i < len; i++) {
+        if ((s[i] & 0xc0) != 0x80) return 0;
+        cp = cp << 6 | (s[i] & 0x3f);
+    }
+    static const unsigned least[5] = {0, 0, 0x80, 0x800, 0x10000};
+    if (cp < least[len] || cp > 0x10ffff || (cp >= 0xd800 && cp <= 0xdfff) ||
+        (cp >= 0x80 && cp <= 0x9f))
+        return 0;
+    return len;
+}
+
+char *net_safe_n(const char *s, size_t n, char *buf, size_t size) {
+    size_t o = 0;
+    if (!size) return buf;
+    const unsigned char *u = (const unsigned char *)(s ? s : "");
+    for (size_t i = 0; i < n && u[i];) {
+        size_t len = u[i] >= 0x20 && u[i] < 0x7f ? 1
+                     : u[i] >= 0x80              ? net_utf8_len(u + i, n - i)
+                                                 : 0;
+        size_t need = len ? len : 4;
+        if (o + need + 4 > size) { /* room for "..." and the NUL */
+            snprintf(buf + o, size - o, "...");
+            return buf;
+        }
+        if (len)
+            memcpy(buf + o, u + i, len);
+        else
+            snprintf(buf + o, size - o, "\\x%02x", u[i]);
+        o += need;
+        i += len ? len : 1;
+    }
+    buf[o] = '\0';
+    return buf;
+}
+
+char *net_safe(const char *s, char *buf, size_t size) {
+    return net_safe_n(s, s ? strlen(s) : 0, buf, size);
+}
+
 char *net_describe(long status, const struct net_buf *body, char *buf, size_t size)
 {
     cJSON *root;
@@ -145,23 +198,21 @@ char *net_describe(long status, const struct net_buf *body, char *buf, size_t si
         const char *path = net_json_str(e, "path"), *param = net_json_str(e, "parameter");
         const cJSON *line = cJSON_GetObjectItemCaseSensitive(e, "line");
         const cJSON *col = cJSON_GetObjectItemCaseSensitive(e, "column");
-        char where[300] = "";
+        char where[300] = "", safe[240], scode[80], smsg[600];
         if (path && *path)
-            snprintf(where, sizeof where, " at %s", path);
+            snprintf(where, sizeof where, " at %s", net_safe(path, safe, sizeof safe));
         else if (cJSON_IsNumber(line) && cJSON_IsNumber(col))
-            snprintf(where, sizeof where, " at line %d, column %d", line->valueint, col->valueint);
+            snprintf(where, sizeof where, " at line %.0f, column %.0f", line->valuedouble,
+                     col->valuedouble);
         else if (param && *param)
-            snprintf(where, sizeof where, " (parameter %s)", param);
-        snprintf(buf, size, "HTTP %ld %s%s: %s", status, code ? code : "error", where,
-                 msg ? msg : "(no message)");
+            snprintf(where, sizeof where, " (parameter %s)", net_safe(param, safe, sizeof safe));
+        snprintf(buf, size, "HTTP %ld %s%s: %s", status,
+                 code ? net_safe(code, scode, sizeof scode) : "error", where,
+                 msg ? net_safe(msg, smsg, sizeof smsg) : "(no message)");
     } else {
-        char snippet[120] = "";
-        size_t n = 0;
-        for (size_t i = 0; body->data && i < body->len && n + 1 < sizeof snippet; i++) {
-            unsigned char c = (unsigned char)body->data[i];
-            snippet[n++] = (c >= 32 && c < 127) ? (char)c : ' ';
-        }
-        snippet[n] = '\0';
+        char snippet[160];
+        size_t n = body->data ? body->len : 0;
+        net_safe_n(body->data, n < 100 ? n : 100, snippet, sizeof snippet);
         snprintf(buf, size, "HTTP %ld%s%s", status, n ? ": " : "", snippet);
     }
     cJSON_Delete(root);

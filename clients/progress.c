@@ -51,8 +51,8 @@ static void progress_rays(double rps, char *buf, size_t size)
 void progress_update(struct progress *p, int done, int failed, int nservers,
                      const long *per_server, char labels[][40], double rays_per_s, int force)
 {
-    if (p->quiet || p->total <= 0)
-        return;
+    if (p->quiet || p->total <= 0 || done < 0 || done > p->total)
+        return; /* figures that make no sense are never drawn (job.c warns) */
     double now = net_now(), el = now - p->t0;
     int pct = (int)(100.0 * done / p->total);
     if (p->tty) {

@@ -139,11 +139,12 @@ static long client_get(const struct client_opts *o, const char *url, struct net_
     return net_perform(h, hdrs, why, size);
 }
 
-/* The "version" of a /healthz answer into v ("" when it has none). */
+/* The "version" of a /healthz answer into v, escaped to be printed ("" when
+ * it has none). */
 static void client_live_version(const struct net_buf *b, char *v, size_t size) {
     cJSON *j = cJSON_ParseWithLength(b->data, b->len);
     const cJSON *ver = cJSON_GetObjectItemCaseSensitive(j, "version");
-    snprintf(v, size, "%.40s", cJSON_IsString(ver) ? ver->valuestring : "");
+    net_safe(cJSON_IsString(ver) ? ver->valuestring : "", v, size);
     cJSON_Delete(j);
 }
 
@@ -159,14 +160,16 @@ static void client_ready_jobs(const cJSON *j, char *buf, size_t size) {
         snprintf(buf, size, ", jobs %.0f/%.0f", n->valuedouble, max->valuedouble);
     if (cJSON_IsString(refused)) {
         size_t used = strlen(buf);
-        snprintf(buf + used, size - used, "; jobs refused: %.300s", refused->valuestring);
+        char why[300];
+        snprintf(buf + used, size - used, "; jobs refused: %s",
+                 net_safe(refused->valuestring, why, sizeof why));
     }
 }
 
 /* One line for a live server: its version and /readyz.  1 when not ready
  * (a server that refuses new jobs but takes renders is ready: it says so). */
 static int client_ready(const struct client_opts *o, const char *server, const char *version) {
-    char url[1024], why[600] = "", live[96], jobs[400];
+    char url[1024], why[600] = "", live[112], jobs[400];
     struct net_buf b = {0};
     snprintf(live, sizeof live, "live (%s%s)", *version ? "rayd " : "version not said", version);
     snprintf(url, sizeof url, "%s/readyz", server);
@@ -197,9 +200,9 @@ static int client_ready(const struct client_opts *o, const char *server, const c
 static int client_health(const struct client_opts *o) {
     int bad = 0, first = -1;
     bool mixed = false; /* said once */
-    char version0[48] = "";
+    char version0[64] = "";
     for (int i = 0; i < o->nservers; i++) {
-        char url[1024], why[600] = "", version[48];
+        char url[1024], why[600] = "", version[64];
         struct net_buf b = {0};
         snprintf(url, sizeof url, "%s/healthz", o->servers[i]);
         long live = client_get(o, url, &b, why, sizeof why);

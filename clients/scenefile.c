@@ -7,8 +7,12 @@
  * image files inlined as data: URIs by gltf_bundle.c, becomes "text"), an
  * image texture's "file" becomes "png_base64", an environment map's "file"
  * becomes "base64" (the core tells .hdr from OpenEXR by the bytes).
- * Relative names resolve against the scene's folder, as rayd-render does.  A scene without file
- * references is sent byte for byte as it is on disk, so its id equals `sha256sum scene.json`.
+ * Relative names resolve against the scene's folder, as rayd-render does.  The names are
+ * confined to that folder as the .gltf bundler confines a .gltf's (gltf_bundle_outside): no
+ * absolute path, no ".." component, no symbolic link leading out (the real paths are
+ * compared), since a scene from elsewhere must not make the client send, say, ~/.ssh files
+ * to a server; the error names the JSON Pointer of the "file" and nothing is sent.  A scene without
+ * file references is sent byte for byte as it is on disk, so its id equals `sha256sum scene.json`.
  * The first file that cannot be inlined stops the walk, and the one line
  * said where it failed (the file, its JSON Pointer, the reason) is the
  * whole error: no summary line follows it.
@@ -24,6 +28,7 @@
 #include "client.h"
 
 #include <cjson/cJSON.h>
+#include <limits.h>
 #include <openssl/evp.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -41,6 +46,7 @@ static char *scenefile_read(const char *path, size_t *len, struct rayd_error *er
 struct scenefile_walk {
     const char *scene; /* the scene's name, for messages */
     const char *dir;   /* the scene's folder with a trailing '/', "" for the cwd */
+    char real[PATH_MAX]; /* its real path ("" until needed) */
     int count;
     int failed;           /* said; the walk stops */
     struct scenefile *sf; /* where the inlined keys' pointers are noted */
@@ -64,8 +70,24 @@ const char *scenefile_format(const char *name) {
     return NULL;
 }
 
-/* The bytes of a "file" a scene names, relative to its folder; NULL after
- * saying why.  *path receives the name as opened (malloc'd). */
+/* Why the file path (name, under the scene's folder) may not be sent, or
+ * NULL: a name that leads out of the folder, as a .gltf's may not. */
+static const char *scenefile_outside(struct scenefile_walk *w, const char *name, const char *path) {
+    const char *why = gltf_bundle_outside(name);
+    char real[PATH_MAX];
+    if (why || !realpath(path, real)) return why; /* a missing file: its read says so */
+    if (!w->real[0] && !realpath(w->dir[0] ? w->dir : ".", w->real))
+        return "cannot be checked: the scene's folder does not resolve";
+    size_t dl = strlen(w->real);
+    bool root = dl == 1 && w->real[0] == '/';
+    if (!root && (strncmp(real, w->real, dl) || (real[dl] != '/' && real[dl] != '\0')))
+        return "leads out of the scene's folder (a symbolic link): only files in it are sent";
+    return NULL;
+}
+
+/* The bytes of a "file" a scene names, relative to its folder and confined
+ * to it; NULL after saying why.  *path receives the name as opened
+ * (malloc'd). */
 static char *scenefile_asset(struct scenefile_walk *w, const char *name, const char *where,
                              char **path, size_t *len) {
     size_t n = strlen(w->dir) + strlen(name) + 1;
@@ -74,7 +96,14 @@ static char *scenefile_asset(struct scenefile_walk *w, const char *name, const c
         scenefile_no_memory(w, where);
         return NULL;
     }
-    snprintf(*path, n, "%s%s", name[0] == '/' ? "" : w->dir, name);
+    snprintf(*path, n, "%s%s", w->dir, name);
+    const char *bad = scenefile_outside(w, name, *path);
+    if (bad) {
+        char safe[300];
+        fprintf(stderr, "rayd-client: error: %s: %s/file: \"%s\" %s\n", w->scene, where,
+                net_safe(name, safe, sizeof safe), bad);
+        return NULL;
+    }
     struct rayd_error err;
     char *data = scenefile_read(*path, len, &err);
     if (!data) fprintf(stderr, "rayd-client: error: %s: %s\n", where, err.message);
@@ -235,7 +264,7 @@ static int scenefile_bundle(const char *path, struct scenefile *sf) {
     const char *slash = strrchr(path, '/');
     if (slash && (size_t)(slash - path) + 2 < sizeof dir)
         snprintf(dir, sizeof dir, "%.*s/", (int)(slash - path), path);
-    struct scenefile_walk w = {path, dir, 0, 0, sf};
+    struct scenefile_walk w = {path, dir, "", 0, 0, sf};
     char ptr[1024] = "";
     scenefile_walk(&w, root, NULL, ptr, sizeof ptr);
     int rc = 0;

@@ -453,12 +453,15 @@ static bool tiles_same_version(struct tiles *T, const struct tiles_xfer *x) {
     if (T->fatal) return false;
     progress_end(&T->prog);
     tiles_error(T);
+    char v1[64], v0[64]; /* the servers' words: escaped */
+    net_safe_n(v, 40, v1, sizeof v1);
+    net_safe(T->version, v0, sizeof v0);
     fprintf(stderr,
-            "%s drew a tile with %s%.40s, %s with %s%s: one frame needs the same rayd version "
+            "%s drew a tile with %s%s, %s with %s%s: one frame needs the same rayd version "
             "on every node (and no tiles of another in a balancer's cache)\n",
-            T->s[x->server].url, *v ? "rayd " : "a rayd that does not say its version", v,
+            T->s[x->server].url, *v ? "rayd " : "a rayd that does not say its version", v1,
             T->s[T->version_from].url,
-            *T->version ? "rayd " : "a rayd that does not say its version", T->version);
+            *T->version ? "rayd " : "a rayd that does not say its version", v0);
     T->fatal = 1;
     return false;
 }

@@ -94,6 +94,13 @@ void api_jobs_stop(struct http_req *r, const char *id);
  * status document (docs/api.md: key order and decimals), and the job's
  * scene for the access log. */
 void api_jobs_unknown(struct http_req *r);
+/* A job id the table does not have: 410 job_expired or job_evicted (how
+ * and when it ended, when it went) for one this server forgot, else 404
+ * job_unknown. */
+void api_jobs_missing(struct http_req *r, const char *id);
+/* 410 result_evicted with the job's JSON when info's images were evicted
+ * (a memory budget); true when it replied. */
+bool api_jobs_evicted(struct http_req *r, const char *id, const struct jobs_info *info);
 void api_jobs_add_noise(cJSON *o, double noise);
 void api_jobs_add_pass_url(cJSON *o, const char *id, int k);
 cJSON *api_jobs_json(const char *id, const struct jobs_info *in);

@@ -193,7 +193,7 @@ void api_events_get(struct http_req *r, const char *id)
     }
     if (!api_is_hex(id, 32) || !(a->s = events_open(id))) {
         free(a);
-        api_jobs_unknown(r);
+        api_jobs_missing(r, id);
         return;
     }
     a->r = r;

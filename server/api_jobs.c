@@ -8,6 +8,13 @@
  * the work layer (jobs.c, events.c); this file turns them into HTTP and
  * JSON.  The event stream, GET /v1/jobs/{id}/events, is api_events.c's;
  * the images, GET /v1/jobs/{id}/image.png and image.exr, api_jobs_image.c's.
+ *
+ * An id the server gave but no longer has answers 410 Gone with why: the
+ * job expired (--job-ttl after it ended), was forgotten to make room
+ * (--max-jobs), or its image was evicted (a memory budget) -- with how and
+ * when it ended -- so a client that polled too late is told so, and a 404
+ * job_unknown means an id this server never had (or forgot long ago, past
+ * its tombstones: jobs.c).
  */
 #include "api.h"
 
@@ -15,11 +22,85 @@
 #include <microhttpd.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 void api_jobs_unknown(struct http_req *r)
 {
     http_reply_error(r, 404, "job_unknown", "no such job on this server (or it was forgotten)",
                      NULL, 0, 0, NULL);
+}
+
+/* t, seconds since the epoch, as RFC 3339 UTC: 2026-12-02T00:38:53Z. */
+static void api_jobs_time(char *buf, size_t size, double t)
+{
+    time_t s = (time_t)t;
+    struct tm tm;
+    if (!gmtime_r(&s, &tm) || !strftime(buf, size, "%Y-%m-%dT%H:%M:%SZ", &tm))
+        snprintf(buf, size, "unknown");
+}
+
+/* The sentence of a 410: how the job ended, when, and why it is gone. */
+static void api_jobs_gone_message(char *msg, size_t size, const struct jobs_gone *g,
+                                  const char *ended, const char *gone)
+{
+    const char *how = g->state == JS_SUCCEEDED ? "succeeded"
+                      : g->state == JS_FAILED  ? "failed"
+                                               : "was cancelled";
+    if (g->why == JG_EXPIRED)
+        snprintf(msg, size,
+                 "the job %s at %s and was forgotten at %s: an ended job is kept for --job-ttl "
+                 "%ld s",
+                 how, ended, gone, config.job_ttl);
+    else if (g->why == JG_EVICTED)
+        snprintf(msg, size,
+                 "the job %s at %s and was forgotten at %s to make room for newer jobs "
+                 "(--max-jobs %ld)",
+                 how, ended, gone, config.max_jobs);
+    else
+        snprintf(msg, size, "the job %s at %s; its image was evicted at %s (%s)", how, ended, gone,
+                 g->detail[0] ? g->detail : "no reason given");
+}
+
+/* 410 Gone for a job or its result: the error with the job's end and, when
+ * the job is still known, its JSON (job, owned). */
+static void api_jobs_gone(struct http_req *r, const struct jobs_gone *g, cJSON *job)
+{
+    static const char *const codes[] = {"job_expired", "job_evicted", "result_evicted"};
+    char msg[400], ended[40], gone[40];
+    api_jobs_time(ended, sizeof ended, g->ended_wall);
+    api_jobs_time(gone, sizeof gone, g->gone_wall);
+    api_jobs_gone_message(msg, sizeof msg, g, ended, gone);
+    cJSON *o = cJSON_CreateObject();
+    cJSON *e = cJSON_AddObjectToObject(o, "error");
+    cJSON_AddNumberToObject(e, "status", 410);
+    cJSON_AddStringToObject(e, "code", codes[g->why]);
+    cJSON_AddStringToObject(e, "message", msg);
+    cJSON_AddStringToObject(e, "state", jobs_state_name(g->state));
+    cJSON_AddStringToObject(e, "ended_at", ended);
+    cJSON_AddStringToObject(e, g->why == JG_RESULT_EVICTED ? "evicted_at" : "forgotten_at", gone);
+    if (job)
+        cJSON_AddItemToObject(o, "job", job);
+    http_reply_json(r, 410, o);
+    http_reply_header(r, "Cache-Control", "no-store");
+    r->err_code = codes[g->why];
+}
+
+void api_jobs_missing(struct http_req *r, const char *id)
+{
+    struct jobs_gone g;
+    if (api_is_hex(id, 32) && jobs_gone(id, &g))
+        api_jobs_gone(r, &g, NULL);
+    else
+        api_jobs_unknown(r);
+}
+
+bool api_jobs_evicted(struct http_req *r, const char *id, const struct jobs_info *info)
+{
+    if (!info->result_evicted)
+        return false;
+    api_jobs_scene(r, info);
+    api_jobs_gone(r, &info->gone, api_jobs_json(id, info));
+    return true;
 }
 
 static void api_job_url(char *buf, size_t size, const char *id, const char *tail)
@@ -222,6 +303,10 @@ cJSON *api_jobs_json(const char *id, const struct jobs_info *in)
     json_add_fixed(o, "render_ms", in->render_ms, 3);
     json_add_fixed(o, "encode_ms", in->encode_ms, 3);
     json_add_u64(o, "rays", in->rays);
+    if (in->ended_age >= 0) { /* forgotten --job-ttl after it ended */
+        double left = (double)config.job_ttl - in->ended_age;
+        json_add_fixed(o, "expires_in_s", left > 0 ? left : 0, 3);
+    }
     struct api_price price = {in->est_rays, cost_price_seconds(in->scene_id, in->est_rays)};
     api_add_estimate(o, &price);
     if (in->progressive)
@@ -256,9 +341,11 @@ void api_jobs_get(struct http_req *r, const char *id)
     if (!api_only_params(r, NULL))
         return;
     if (!api_is_hex(id, 32) || !jobs_get(id, &info, JOBS_NUMBERS)) {
-        api_jobs_unknown(r);
+        api_jobs_missing(r, id);
         return;
     }
+    if (api_jobs_evicted(r, id, &info))
+        return;
     api_jobs_scene(r, &info);
     http_reply_json(r, 200, api_jobs_json(id, &info));
 }
@@ -269,9 +356,11 @@ void api_jobs_delete(struct http_req *r, const char *id)
     if (!api_only_params(r, NULL))
         return;
     if (!api_is_hex(id, 32) || !jobs_cancel(id) || !jobs_get(id, &info, JOBS_NUMBERS)) {
-        api_jobs_unknown(r);
+        api_jobs_missing(r, id);
         return;
     }
+    if (api_jobs_evicted(r, id, &info))
+        return;
     api_jobs_scene(r, &info);
     http_reply_json(r, 200, api_jobs_json(id, &info));
 }
@@ -284,9 +373,11 @@ void api_jobs_stop(struct http_req *r, const char *id)
         return;
     if (!api_is_hex(id, 32) || !jobs_end_early(id, &progressive) ||
         !jobs_get(id, &info, JOBS_NUMBERS)) {
-        api_jobs_unknown(r);
+        api_jobs_missing(r, id);
         return;
     }
+    if (api_jobs_evicted(r, id, &info))
+        return;
     api_jobs_scene(r, &info);
     if (!progressive) {
         http_reply_error(r, 409, "not_progressive",

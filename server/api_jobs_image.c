@@ -5,7 +5,8 @@
  * Both routes answer alike, from the same job: the image once the job
  * succeeded (a progressive job's latest pass while it runs), 202 with the
  * job's JSON while there is none yet, 409 when the job failed or was
- * cancelled, and pass K while it is kept (410 after).  They differ in what
+ * cancelled, and pass K while it is kept (410 after); 410 too for a job
+ * whose image was evicted or that was forgotten (api_jobs.c).  They differ in what
  * they hand out: image.png the 8-bit PNG every job keeps, image.exr the
  * OpenEXR (linear, 32-bit float) that only a job created with
  * POST /v1/jobs?format=exr keeps -- any other job answers 409 not_exr,
@@ -79,9 +80,11 @@ static void api_jobs_pass_image(struct http_req *r, const char *id, const char *
 {
     struct jobs_info info;
     if (!jobs_get(id, &info, JOBS_NUMBERS)) {
-        api_jobs_unknown(r);
+        api_jobs_missing(r, id);
         return;
     }
+    if (api_jobs_evicted(r, id, &info))
+        return;
     api_jobs_scene(r, &info);
     char range[80];
     const char *why = api_jobs_pass_why(r, q, &info, range, sizeof range);
@@ -127,9 +130,11 @@ static void api_jobs_final_image(struct http_req *r, const char *id, bool exr)
 {
     struct jobs_info info;
     if (!jobs_get(id, &info, exr ? JOBS_EXR : JOBS_PNG)) {
-        api_jobs_unknown(r);
+        api_jobs_missing(r, id);
         return;
     }
+    if (api_jobs_evicted(r, id, &info))
+        return;
     api_jobs_scene(r, &info);
     struct blob *img = exr ? info.exr : info.png;
     if (api_jobs_no_exr(r, &info, exr)) {

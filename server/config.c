@@ -88,7 +88,7 @@ static const struct config_option config_table[] = {
      "request header naming the client for fair shares, set by a trusted balancer "
      "(default: the peer address)"},
     {"job-ttl", "RAYD_JOB_TTL", CT_LONG, &config.job_ttl, "600", 1, 31536000,
-     "seconds a finished job (and its PNG) is kept after it was created"},
+     "seconds a job (and its PNG) is kept after it ended (succeeded, failed or cancelled)"},
     {"png-level", "RAYD_PNG_LEVEL", CT_LONG, &config.png_level, "-1", -1, 9,
      "deflate level of the PNGs, as rayd-render --png-level (-1 = the default, libdeflate's 1 "
      "with ISA-L every fourth band; 1 = the fastest)"},

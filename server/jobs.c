@@ -4,10 +4,22 @@
  * follows a task (possibly shared with synchronous requests and other jobs)
  * and outlives it, keeping the finished task -- its state, its timings, its
  * PNG -- for GET /v1/jobs/{id} and the image.  The table is bounded:
- * --max-jobs jobs at most, the oldest finished one making room for a new
- * one, and the watcher (watch.c) forgets finished jobs past --job-ttl.
- * Cancelling a job (DELETE) cancels its task only when nobody else -- no
- * other job, no waiting connection -- still wants it.
+ * --max-jobs jobs at most, the job that ended first making room for a new
+ * one, and the watcher (watch.c) forgets jobs that ended more than
+ * --job-ttl seconds ago.  The TTL counts from the end (succeeded, failed or
+ * cancelled), never from the POST: a render longer than the TTL must still
+ * be there for the client that polls it when it ends.  Cancelling a job
+ * (DELETE) cancels its task only when nobody else -- no other job, no
+ * waiting connection -- still wants it.
+ *
+ * A forgotten job leaves a tombstone: its id, how and when it ended, why
+ * and when it went, in a ring of the last JOBS_TOMBSTONES (a fixed array,
+ * under 1 MB), so its routes answer 410 job_expired or job_evicted rather
+ * than the 404 of an id that never was -- a client then knows it polled too
+ * late, not that it has a wrong id.  Past the ring an old id is a 404
+ * again; the ring only has to outlast a poller's interval.  A job whose
+ * images were dropped by a memory budget (jobs_evict_result) stays in the
+ * table with its numbers, and answers 410 result_evicted with the reason.
  *
  * All under work_lock; a job's memory is held by the table and by each open
  * event stream (events.c), so a stream outlives the job's eviction.
@@ -17,9 +29,17 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/random.h>
+#include <time.h>
 
 static struct job **jobs_table;
 static int jobs_n, jobs_max;
+
+/* The ring of tombstones: the next slot to write, and how many are used. */
+static struct jobs_tomb {
+    char id[33];
+    struct jobs_gone g;
+} jobs_tombs[JOBS_TOMBSTONES];
+static int jobs_tomb_next, jobs_tomb_n;
 
 static long jobs_gauge(void)
 {
@@ -44,6 +64,7 @@ void jobs_stop(void)
     jobs_n = 0;
     free(jobs_table);
     jobs_table = NULL;
+    jobs_tomb_n = jobs_tomb_next = 0;
 }
 
 const char *jobs_state_name(enum jobs_state s)
@@ -70,6 +91,24 @@ static bool jobs_final(const struct job *j)
     return s == JS_SUCCEEDED || s == JS_FAILED || s == JS_CANCELED;
 }
 
+/* When a final job ended (clock_now's clock): its DELETE, or its task's
+ * end (never before the job was made, for a task it joined late). */
+static double jobs_ended(const struct job *j)
+{
+    if (j->canceled)
+        return j->canceled_at;
+    double end = j->task->t_end;
+    return end > j->created ? end : j->created;
+}
+
+/* A clock_now() time as wall-clock seconds since the epoch, for answers. */
+static double jobs_wall(double mono)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    return (double)ts.tv_sec + (double)ts.tv_nsec / 1e9 - (clock_now() - mono);
+}
+
 struct job *jobs_find(const char *id)
 {
     for (int i = 0; i < jobs_n; i++)
@@ -87,9 +126,26 @@ void jobs_unref(struct job *j)
     free(j);
 }
 
-static void jobs_forget(int i)
+/* Writes j's tombstone over the oldest one once the ring is full. */
+static void jobs_bury(const struct job *j, enum jobs_gone_why why, double now)
+{
+    struct jobs_tomb *t = &jobs_tombs[jobs_tomb_next];
+    jobs_tomb_next = (jobs_tomb_next + 1) % JOBS_TOMBSTONES;
+    if (jobs_tomb_n < JOBS_TOMBSTONES)
+        jobs_tomb_n++;
+    memset(t, 0, sizeof *t);
+    snprintf(t->id, sizeof t->id, "%s", j->id);
+    t->g.why = why;
+    t->g.state = jobs_state(j);
+    t->g.ended_wall = jobs_wall(jobs_ended(j));
+    t->g.gone_wall = jobs_wall(now);
+}
+
+/* Forgets the final job at i, leaving its tombstone. */
+static void jobs_forget(int i, enum jobs_gone_why why, double now)
 {
     struct job *j = jobs_table[i];
+    jobs_bury(j, why, now);
     jobs_table[i] = jobs_table[--jobs_n];
     jobs_unref(j);
 }
@@ -98,11 +154,65 @@ void jobs_expire(double now)
 {
     for (int i = 0; i < jobs_n;) {
         const struct job *j = jobs_table[i];
-        if (jobs_final(j) && now - j->created > (double)config.job_ttl)
-            jobs_forget(i);
+        if (jobs_final(j) && now - jobs_ended(j) > (double)config.job_ttl)
+            jobs_forget(i, JG_EXPIRED, now);
         else
             i++;
     }
+}
+
+bool jobs_gone(const char *id, struct jobs_gone *g)
+{
+    bool found = false;
+    pthread_mutex_lock(&work_lock);
+    for (int k = 1; k <= jobs_tomb_n && !found; k++) { /* the newest first */
+        const struct jobs_tomb *t =
+            &jobs_tombs[(jobs_tomb_next - k + JOBS_TOMBSTONES) % JOBS_TOMBSTONES];
+        if (!strcmp(t->id, id)) {
+            *g = t->g;
+            found = true;
+        }
+    }
+    pthread_mutex_unlock(&work_lock);
+    return found;
+}
+
+/* Whether j's task still holds an image to hand out. */
+static bool jobs_has_result(const struct job *j)
+{
+    const struct task *t = j->task;
+    return t->finished && (t->png || t->exr) && j->evicted_at == 0;
+}
+
+struct job *jobs_oldest_result(void)
+{
+    struct job *best = NULL;
+    for (int i = 0; i < jobs_n; i++) {
+        struct job *j = jobs_table[i];
+        if (jobs_has_result(j) && (!best || j->task->t_end < best->task->t_end))
+            best = j;
+    }
+    return best;
+}
+
+size_t jobs_evict_result(struct job *j, const char *why)
+{
+    struct task *t = j->task;
+    size_t bytes = (t->png ? t->png->len : 0) + (t->exr ? t->exr->len : 0);
+    blob_unref(t->png);
+    blob_unref(t->exr);
+    t->png = t->exr = NULL;
+    double now = clock_now();
+    for (int i = 0; i < jobs_n; i++) /* every job of t shared those images */
+        if (jobs_table[i]->task == t && jobs_table[i]->evicted_at == 0) {
+            jobs_table[i]->evicted_at = now;
+            snprintf(jobs_table[i]->evicted_why, sizeof jobs_table[i]->evicted_why, "%s", why);
+        }
+    if (j->evicted_at == 0) { /* j not (or no longer) in the table */
+        j->evicted_at = now;
+        snprintf(j->evicted_why, sizeof j->evicted_why, "%s", why);
+    }
+    return bytes;
 }
 
 void jobs_count(long *unfinished, long *cap)
@@ -114,17 +224,17 @@ void jobs_count(long *unfinished, long *cap)
     *cap = jobs_max;
 }
 
-/* Makes room in the table by forgetting the oldest finished job. */
+/* Makes room in the table by forgetting the job that ended first. */
 static bool jobs_evict(void)
 {
     int victim = -1;
     for (int i = 0; i < jobs_n; i++)
         if (jobs_final(jobs_table[i]) &&
-            (victim < 0 || jobs_table[i]->created < jobs_table[victim]->created))
+            (victim < 0 || jobs_ended(jobs_table[i]) < jobs_ended(jobs_table[victim])))
             victim = i;
     if (victim < 0)
         return false;
-    jobs_forget(victim);
+    jobs_forget(victim, JG_EVICTED, clock_now());
     return true;
 }
 
@@ -245,6 +355,16 @@ static void jobs_info_of(const struct job *j, struct jobs_info *info, enum jobs_
     if (info->state == JS_FAILED)
         info->err = t->err;
     info->keep_exr = t->keep_exr;
+    info->ended_age = jobs_final(j) ? now - jobs_ended(j) : -1;
+    if (j->evicted_at > 0) { /* no image to hand out: why instead */
+        info->result_evicted = true;
+        info->gone = (struct jobs_gone){.why = JG_RESULT_EVICTED,
+                                        .state = info->state,
+                                        .ended_wall = jobs_wall(jobs_ended(j)),
+                                        .gone_wall = jobs_wall(j->evicted_at)};
+        snprintf(info->gone.detail, sizeof info->gone.detail, "%s", j->evicted_why);
+        return;
+    }
     if (want & JOBS_PNG)
         info->png = jobs_image(j, info->state, false);
     if (want & JOBS_EXR)
@@ -270,6 +390,7 @@ bool jobs_cancel(const char *id)
     if (j && !j->canceled && !j->task->finished) {
         struct task *t = j->task;
         j->canceled = true;
+        j->canceled_at = clock_now();
         t->njobs--;
         if (t->njobs == 0 && !t->waiters)
             task_cancel(t, MC_DELETE, &n, &sse);
@@ -288,7 +409,7 @@ bool jobs_pass_image(const char *id, int pass, bool exr, struct blob **img, int 
     pthread_mutex_lock(&work_lock);
     struct job *j = jobs_find(id);
     const struct passes *p = j ? j->task->passes : NULL;
-    if (p && !j->canceled && pass >= 1 && pass <= p->done) {
+    if (p && !j->canceled && j->evicted_at == 0 && pass >= 1 && pass <= p->done) {
         *img = blob_ref(exr ? passes_exr(p, pass) : passes_png(p, pass));
         *samples = p->samples[pass - 1];
     }

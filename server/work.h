@@ -164,6 +164,25 @@ struct jobs_passes {
     double noise;           /* its noise estimate (passes.c); < 0: none */
     enum passes_stop stopped;
 };
+/* Why the server no longer has a job it once created, or its image:
+ * forgotten --job-ttl seconds after it ended, forgotten to make room in a
+ * full table (--max-jobs), or its result evicted (a memory budget).  The
+ * routes of such a job answer 410 with this, never the 404 of an id that
+ * never was. */
+enum jobs_gone_why { JG_EXPIRED, JG_EVICTED, JG_RESULT_EVICTED };
+struct jobs_gone {
+    enum jobs_gone_why why;
+    enum jobs_state state; /* how it ended */
+    double ended_wall;     /* when it ended, seconds since the epoch */
+    double gone_wall;      /* when it (or its result) was dropped, likewise */
+    char detail[96];       /* JG_RESULT_EVICTED: the reason given */
+};
+/* The tombstones of forgotten jobs: the last JOBS_TOMBSTONES ids, the
+ * oldest dropped first (160 bytes each: 640 KiB in all). */
+#define JOBS_TOMBSTONES 4096
+/* true when id was a job of this server that was forgotten (filled in g);
+ * false for an id it never had, or whose tombstone is gone too. */
+bool jobs_gone(const char *id, struct jobs_gone *g);
 struct jobs_info {
     enum jobs_state state;
     double progress;
@@ -180,6 +199,9 @@ struct jobs_info {
     bool keep_exr;         /* created with format=exr */
     bool progressive;
     struct jobs_passes passes; /* progressive only */
+    double ended_age;          /* seconds since it ended; < 0 while it runs */
+    bool result_evicted;       /* its images were evicted: gone says why */
+    struct jobs_gone gone;     /* result_evicted only */
 };
 /* A job rendering what->reg of scene (as a PNG, and an EXR with
  * what->keep_exr) for what->client: plain with plan NULL, else progressive. */

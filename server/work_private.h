@@ -308,6 +308,9 @@ struct job {
     struct task *task;
     bool canceled;
     double created;
+    double canceled_at;   /* when DELETE cancelled it (clock_now) */
+    double evicted_at;    /* when its result was evicted (jobs_evict_result); 0: kept */
+    char evicted_why[96]; /* why, as jobs_evict_result was told */
     int refs; /* the table + open event streams */
 };
 int jobs_start(int max_jobs); /* any lock */
@@ -318,7 +321,18 @@ struct job *jobs_find(const char *id);
 enum jobs_state jobs_state(const struct job *j);
 double jobs_progress(const struct job *j); /* 0..1, as the job's JSON says it */
 void jobs_unref(struct job *j);
-void jobs_expire(double now); /* forgets finished jobs past --job-ttl */
+/* Forgets the jobs that ended (finished, failed or were cancelled) more
+ * than --job-ttl seconds ago, each leaving a tombstone (jobs_gone). */
+void jobs_expire(double now);
+/* The finished job whose result was made longest ago and is still held
+ * (not evicted), or NULL: the next result a memory budget evicts. */
+struct job *jobs_oldest_result(void);
+/* Drops the images (PNG, EXR) of j's task, which every job of that task
+ * shared: from now on their image and status routes answer 410
+ * result_evicted with why (copied; e.g. "over --max-memory").  The bytes
+ * freed (blob lengths; a blob still referenced elsewhere, by a response in
+ * flight or the result cache, is counted but lives on until released). */
+size_t jobs_evict_result(struct job *j, const char *why);
 
 /* ---- watch.c ------------------------------------------------------------------- */
 

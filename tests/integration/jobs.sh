@@ -155,17 +155,18 @@ for k in 1 2 3 4; do
     wait_until 60 job_state_is "$last" succeeded
 done
 check jobs_bounded "rayd_jobs = $(metric rayd_jobs)" [ "$(metric rayd_jobs)" = 4 ]
-check oldest_job_forgotten "first job still known" [ "$(req GET "/v1/jobs/$id")" = 404 ]
+code=$(req GET "/v1/jobs/$id")
+check oldest_job_forgotten "status $code: $(head -c 300 "$T/body")" err_is "$T/body" 410 job_evicted
 check newest_job_kept "last job unknown" [ "$(req GET "/v1/jobs/$last")" = 200 ]
 stop_rayd TERM
 check exit_0 "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
 
 # --- finished jobs are forgotten after --job-ttl ----------------------------------------------
-# --job-ttl counts from a job's creation, so "still known right after the
-# POST" would be a race on a loaded machine.  Instead: job A is held at the
-# gate (never finished), job B, created after A, is cancelled (finished).
-# Once the watcher has forgotten B, A is older than the TTL too and must
-# still be known, because it is not finished; when it finishes, it goes.
+# --job-ttl counts from a job's end: job A is held at the gate (never
+# finished), job B, created after A, is cancelled (ended).  Once the watcher
+# has forgotten B (410 job_expired), A is older than the TTL too and must
+# still be known, because it has not ended; when it ends, it goes.
+# (tests/integration/jobs_ttl.sh holds a render past the TTL.)
 start_rayd --job-ttl 1 --test-gate 0
 scene "$T/ttl.json" 32 32 1 spheres 5
 scene "$T/ttl2.json" 32 32 1 spheres 6
@@ -175,7 +176,7 @@ post_json /v1/jobs "$T/ttl2.json" >/dev/null
 idb=$(jfield "$T/body" id)
 code=$(req DELETE "/v1/jobs/$idb")
 check ttl_cancelled_job "status $code" [ "$code" = 200 ]
-job_gone() { [ "$(curl -s -m 60 -o /dev/null -w '%{http_code}' "$URL/v1/jobs/$1")" = 404 ]; }
+job_gone() { [ "$(curl -s -m 60 -o /dev/null -w '%{http_code}' "$URL/v1/jobs/$1")" = 410 ]; }
 wait_until 60 job_gone "$idb"
 check ttl_finished_job_forgotten "cancelled job still known after 60 s" job_gone "$idb"
 check ttl_unfinished_job_kept "status $(req GET "/v1/jobs/$idt"), $(head -c 200 "$T/body")" \
