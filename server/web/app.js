@@ -2,7 +2,8 @@
 //
 // States (body[data-state], read by the tests too): loading, rendering,
 // orbit (low-resolution frames while the camera moves), done, error,
-// stopped (the Stop button or Esc).  Each finished full render bumps
+// stopped (the Stop button or Esc), linked (a scene from a link waits for
+// the user's Render: see "a link's scene").  Each finished full render bumps
 // body[data-renders].  window.rayd exposes the measurements (stats) the
 // browser tests and the README's figures use.
 //
@@ -10,6 +11,9 @@
 // included, is a step of the editor's undo history (an undone camera move or
 // example renders again); the text is saved in local storage at each change
 // and comes back after a reload.
+//
+// The page acts only for its user: it sends the token for a scene the user
+// started, never for one a link brought (a link is anyone's; see openHash).
 
 import { examples } from "./examples.js";
 import { parse, pointerOffset, lineOf, offsetOfLine, replaceAt, fmtVector, format, JsonSyntaxError } from "./json.js";
@@ -49,7 +53,7 @@ const stats = {
   passes: [], // a path-traced render's passes drawn: {samples, ms}
   firstPassMs: 0, // to the first whole (noisy) frame of a path-traced render
 };
-window.rayd = { stats, editor, view, render: () => render() };
+window.rayd = { stats, editor, view, render: () => render({ user: true }) };
 
 // ---- parsed state of the text ---------------------------------------------------
 let doc = { text: null, root: null, error: null };
@@ -159,12 +163,12 @@ function showError(title, message, { line = 0, offset = -1, retry = null } = {})
 
 function reportError(e, text) {
   if (!(e instanceof ApiError)) {
-    showError("Error", String((e && e.message) || e), { retry: () => render() });
+    showError("Error", String((e && e.message) || e), { retry: () => render({ user: true }) });
     return;
   }
   if (e.network) {
     showError("Cannot reach the server", `${e.message}\nIs rayd still running at ${location.origin}?`, {
-      retry: () => render(),
+      retry: () => render({ user: true }),
     });
     return;
   }
@@ -172,7 +176,7 @@ function reportError(e, text) {
     showError(
       `Server busy (${e.status} ${e.code})`,
       `${e.message}\nrayd is ${e.code === "draining" ? "shutting down" : "full"}; try again in a moment.`,
-      { retry: () => render() }
+      { retry: () => render({ user: true }) }
     );
     return;
   }
@@ -182,13 +186,13 @@ function reportError(e, text) {
     showError(
       `${canceled ? "Render cancelled" : "Render failed"} (${e.code})`,
       canceled ? `${e.message}\nrayd cancelled the job (deleted by another client, or shutting down).` : e.message,
-      { retry: () => render() }
+      { retry: () => render({ user: true }) }
     );
     return;
   }
   if (e.status === 401) {
     showError("Unauthorized (401)", `${e.message}\nThis rayd needs a token: enter it in the Token field above.`, {
-      retry: () => render(),
+      retry: () => render({ user: true }),
     });
     tokenInput.focus();
     return;
@@ -221,7 +225,16 @@ let lastRendered = null; // {id, text} of the last finished render
 let partial = false; // the canvas holds a render stopped part way (its PNG says so)
 const pageStart = 0; // performance.now() at navigation start
 
-async function render({ fromStart = false } = {}) {
+// user: started by the user (Render, Ctrl+Enter, Retry, an example): the
+// only renders a scene from a link may have.
+async function render({ fromStart = false, user = false } = {}) {
+  if (linkWaiting) {
+    if (!user) {
+      showLinkWait();
+      return;
+    }
+    linkDone(true);
+  }
   const my = ++gen;
   const text = editor.value;
   const d = parsed();
@@ -306,6 +319,7 @@ let moveRun = 0;
 // fn(cam, floor) gives the new position; floor is the lowest height the eye
 // may reach (ground.js), -Infinity when going under is allowed.
 function moveCamera(fn, under = false) {
+  if (linkWaiting) return false; // a gesture on a scene not drawn yet renders nothing
   const d = parsed();
   if (!d.root) return false;
   const cam = cameraOf(d.root.value);
@@ -366,7 +380,7 @@ function scheduleFull(ms) {
 }
 
 canvas.addEventListener("pointerdown", (e) => {
-  if (e.button !== 0) return;
+  if (e.button !== 0 || linkWaiting) return;
   const d = parsed();
   const cam = d.root && cameraOf(d.root.value);
   if (!cam) return;
@@ -431,8 +445,14 @@ let autoTimer = 0;
 const rendersWhenUndone = new Set(["camera", "example", "link"]);
 editor.onChange(({ source, kind }) => {
   describe();
-  save(editor.value, editor.label, !isExample(editor.value));
   hideNotice();
+  if (kind === "link" && (source === "undo" || source === "redo")) {
+    // undone, the text is the user's again; redone, the link's, which
+    // waits again unless the user rendered it in this page already
+    if (source === "undo") linkDone();
+    else if (!accepted.has(editor.value)) linkWait();
+  }
+  autosave();
   if (source === "undo" || source === "redo") {
     select.value = editor.label;
     if (rendersWhenUndone.has(kind)) {
@@ -458,14 +478,15 @@ function hideNotice() {
 $("notice-undo").addEventListener("click", () => editor.undo());
 $("auto").checked = localStorage.getItem("rayd.auto") === "1";
 $("auto").addEventListener("change", () => localStorage.setItem("rayd.auto", $("auto").checked ? "1" : "0"));
-$("render").addEventListener("click", () => render());
+$("render").addEventListener("click", () => render({ user: true }));
+$("linknote-render").addEventListener("click", () => render({ user: true }));
 // Keys of the whole page; outside the text fields, Ctrl+Z and Ctrl+Y undo
 // and redo the editor too (after a drag the focus is on the image), and 1
 // toggles the 1:1 view.
 document.addEventListener("keydown", (e) => {
   if (e.key === "Enter" && (e.ctrlKey || e.metaKey)) {
     e.preventDefault();
-    render();
+    render({ user: true });
     return;
   }
   if (e.key === "Escape") {
@@ -520,6 +541,7 @@ const isExample = (text) => exampleTexts.has(text);
 // (an undo shows the example the text came from) and in the autosave.
 function loadExample(name) {
   const ex = examples.find((x) => x.name === name) || examples[0];
+  linkDone(); // an example is the server's own scene, chosen by the user
   const edited = !isExample(editor.value);
   select.value = editor.label = ex.name;
   editor.set(exampleText(ex), { kind: "example" });
@@ -532,14 +554,14 @@ select.addEventListener("change", () => {
   if (!select.value) return;
   loadExample(select.value);
   forgetLink();
-  render();
+  render({ user: true });
 });
 // Reset: the example chosen in the menu as it was (the default one when the
 // text came from a link); one undoable step like choosing it.
 $("reset").addEventListener("click", () => {
   loadExample(select.value || DEFAULT_EXAMPLE);
   forgetLink();
-  render();
+  render({ user: true });
 });
 
 // ---- downloads -----------------------------------------------------------------------
@@ -560,12 +582,58 @@ $("dl-json").addEventListener("click", () =>
   download(new Blob([editor.value], { type: "application/json" }), baseName() + ".json")
 );
 
+// ---- a link's scene: loaded, shown, not rendered ----------------------------------------------
+// A link is anyone's to make, and anyone's page can open it (a tab, a
+// window; a frame too, where the headers of api_web.c do not stop it), so
+// the scene it carries is not the user's choice until the user says so:
+// rendering it at once sent the user's token with a stranger's scene (and
+// a scene can cost minutes of the server's work).  It is loaded into the
+// editor and waits, with a note, for Render (the button, the note's, or
+// Ctrl+Enter).  Until then nothing renders by itself: not at the start, not
+// after an edit with auto ticked, not on an undo or redo, not on a camera
+// gesture; the text is saved with linked: true, so a reload waits as well.
+// A scene the user rendered is theirs for this page (accepted): redoing
+// back to it does not ask again.
+let linkWaiting = false;
+const accepted = new Set();
+function autosave() {
+  save(editor.value, editor.label, !isExample(editor.value), linkWaiting);
+}
+function showLinkWait() {
+  $("linknote").hidden = false;
+  setState("linked");
+  status("Scene from a link · not rendered: press Render to draw it");
+}
+function linkWait() {
+  gen++; // a render of the scene before it ends here
+  clearTimeout(fullTimer);
+  clearTimeout(autoTimer);
+  renderer.cancel();
+  stopClock();
+  clearError();
+  linkWaiting = true;
+  autosave();
+  showLinkWait();
+}
+// accept: the user renders the scene (it is theirs now); else it was
+// replaced (an example, an undo).
+function linkDone(accept = false) {
+  if (!linkWaiting) return;
+  linkWaiting = false;
+  if (accept) accepted.add(editor.value);
+  $("linknote").hidden = true;
+  autosave();
+}
+
 // ---- start: a scene from the link, or the default example ----------------------------------
-// "opened" (the link's scene is in the editor), "none" (no scene in the
+// "opened" (the link's scene is in the editor, waiting for Render), "same"
+// (a hash change to a link of the text the editor holds, as when the user
+// clicks the page's own link: nothing changes), "none" (no scene in the
 // link) or "bad" (it could not be decoded: the error is shown, and no
 // render may follow, or it would clear the error and show another scene
-// as if it were the link's).
-async function openHash() {
+// as if it were the link's).  Opening the page, a link always waits, even
+// for the text saved from the last visit.
+async function openHash(atStart = false) {
   let got = null;
   try {
     got = await fromHash(location.hash);
@@ -579,23 +647,26 @@ async function openHash() {
     return "bad";
   }
   if (!got) return "none";
-  if (got.text !== editor.value) {
-    const edited = !isExample(editor.value);
-    select.value = editor.label = "";
-    editor.set(got.text, { kind: "link" });
-    if (edited) showNotice("Link opened — Ctrl+Z to get your scene back");
+  if (got.text === editor.value) {
+    if (!atStart) return "same";
+    linkWait();
+    return "opened";
   }
+  const edited = !isExample(editor.value);
+  linkWaiting = true; // before the change, so that the autosave says so
+  select.value = editor.label = "";
+  editor.set(got.text, { kind: "link" });
+  if (edited) showNotice("Link opened — Ctrl+Z to get your scene back");
+  linkWait();
   return "opened";
 }
-window.addEventListener("hashchange", async () => {
-  const before = editor.value;
-  if ((await openHash()) === "opened" && editor.value !== before) render();
-});
+window.addEventListener("hashchange", () => openHash());
 
 // The text of the last visit (autosave.js), or the default example; then
 // the link's scene over it, undoably, so a link never costs the saved work.
 (async () => {
   const saved = loadSaved();
+  linkWaiting = !!(saved && saved.linked); // the saved text is a link's, never rendered
   const known = (name) => examples.some((x) => x.name === name);
   if (saved && (saved.edited || !known(saved.example))) {
     editor.label = known(saved.example) ? saved.example : "";
@@ -609,5 +680,8 @@ window.addEventListener("hashchange", async () => {
   }
   select.value = editor.label;
   describe();
-  if ((await openHash()) !== "bad") render({ fromStart: true });
+  const link = await openHash(true);
+  if (link === "bad" || link === "opened") return;
+  if (linkWaiting) linkWait();
+  else render({ fromStart: true });
 })();

@@ -7,6 +7,7 @@
 // (libpng, through the core's rayd_png_decode) and must be equal.
 import { chromium } from "playwright-core";
 import { execFileSync } from "node:child_process";
+import { createHash } from "node:crypto";
 import { mkdtempSync, rmSync, writeFileSync, mkdirSync, copyFileSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
@@ -16,6 +17,9 @@ const OUT_DIR = process.env.OUT_DIR || "build";
 const PNGCMP = process.env.PNGCMP;
 const WORK = process.env.WORK || mkdtempSync(join(tmpdir(), "rayd-browser-"));
 const MEASURE = process.env.MEASURE === "1";
+// CASES=regex runs only the cases it matches (and renders_on_open), to work
+// on a few; later cases may need the state earlier ones leave.
+const CASES = process.env.CASES ? new RegExp(process.env.CASES) : null;
 let failures = 0;
 
 const pass = (name) => console.log(`PASS ${name}`);
@@ -24,6 +28,7 @@ const fail = (name, why) => {
   console.log(`FAIL ${name}: ${String(why).replace(/\s+/g, " ").slice(0, 400)}`);
 };
 async function check(name, fn) {
+  if (CASES && name !== "renders_on_open" && !CASES.test(name)) return;
   try {
     const r = await fn();
     if (r === true || r === undefined) pass(name);
@@ -116,6 +121,22 @@ const setText = (page, text) =>
     document.getElementById("scene").dispatchEvent(new Event("input"));
   }, text);
 
+// A link to text as another site would make it: #scene=<sha256>&j=<base64url>.
+const linkOf = (text) =>
+  `#scene=${createHash("sha256").update(text).digest("hex")}&j=${Buffer.from(text).toString("base64url")}`;
+// The requests page p (frames included) makes to rayd's API, as "METHOD
+// /path": what carries the token.  The page's own files are not counted.
+function apiRequests(p) {
+  const seen = [];
+  p.on("request", (r) => {
+    const u = new globalThis.URL(r.url());
+    if (u.origin === new globalThis.URL(URL).origin && /^\/(v1\/|metrics)/.test(u.pathname))
+      seen.push(`${r.method()} ${u.pathname}`);
+  });
+  return seen;
+}
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+
 // the first line of text containing needle (1-based)
 const lineWith = (text, needle) => text.split("\n").findIndex((l) => l.includes(needle)) + 1;
 
@@ -142,6 +163,15 @@ try {
   fail("chromium_launch", e.message);
   process.exit(0);
 }
+// Every Content-Security-Policy violation of every page (rayd serves the
+// page with a CSP: nothing of it may be refused), reported to Node.
+const cspViolations = [];
+await context.exposeBinding("raydCspViolation", (src, v) => cspViolations.push(v));
+await context.addInitScript(() =>
+  document.addEventListener("securitypolicyviolation", (e) =>
+    window.raydCspViolation(`${e.violatedDirective} blocked ${e.blockedURI || "inline"} at ${e.sourceFile}:${e.lineNumber}`)
+  )
+);
 
 try {
   const page = context.pages()[0] || (await context.newPage());
@@ -448,19 +478,165 @@ try {
     if (readFileSync(fjson, "utf8") !== text) return "the JSON download is not the editor's text";
     return samePixels(await serverPng(text), fpng);
   });
-  await check("link_reopens_scene", async () => {
+  // The page's own link opens its scene in the editor, and the scene waits
+  // for the user's Render: a link is anyone's (finding 9: a page elsewhere
+  // opening or framing the preview with #scene= made it render that scene
+  // with the user's token, with no click).  Nothing goes to the API until
+  // Render, not even with auto ticked; then the pixels are the server's.
+  await check("link_waits_for_render", async () => {
     const text = await page.evaluate(() => window.rayd.editor.value);
     const href = await page.$eval("#link", (a) => a.href);
     const id = (await post("/v1/scenes", text)).bytes.toString().match(/"id":"([0-9a-f]{64})"/);
     if (!id || !href.includes("#scene=" + id[1])) return `link ${href.slice(0, 120)} does not carry the id ${id && id[1]}`;
+    await page.evaluate(() => localStorage.setItem("rayd.auto", "1"));
     const p2 = await context.newPage();
-    await p2.goto(href);
-    await waitDone(p2, 0);
-    const text2 = await p2.evaluate(() => window.rayd.editor.value);
-    const r = text2 === text || "reopened text differs";
-    await p2.close();
-    return r;
+    try {
+      const sent = apiRequests(p2);
+      await p2.goto(href);
+      await p2.waitForFunction(() => !["loading", ""].includes(document.body.dataset.state || ""), null, { timeout: 60000 });
+      const state = await p2.evaluate(() => document.body.dataset.state);
+      if (state !== "linked") return `the linked page went to "${state}" by itself (${sent.join(", ")})`;
+      if ((await p2.evaluate(() => window.rayd.editor.value)) !== text) return "the editor does not hold the link's scene";
+      const note = await p2.$eval("#linknote", (e) => (e.hidden ? "" : e.textContent.replace(/\s+/g, " ")));
+      if (!/from a link: not rendered/.test(note)) return `note "${note}"`;
+      if (!(await p2.$eval("#auto", (e) => e.checked))) return "auto is not ticked: the case proves less";
+      // an edit (auto would render it 0.7 s later) and a camera gesture: still nothing sent
+      await p2.focus("#scene");
+      await p2.keyboard.press("Control+End");
+      await p2.keyboard.type(" ");
+      const box = await p2.$eval("#canvas", (c) => c.getBoundingClientRect().toJSON());
+      await p2.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
+      await p2.mouse.wheel(0, -200);
+      await sleep(1500);
+      if (sent.length) return `sent before Render: ${sent.join(", ")}`;
+      if ((await p2.evaluate(() => document.body.dataset.state)) !== "linked") return "the page left the linked state by itself";
+      await p2.click("#render");
+      await waitDone(p2, 0);
+      if (!sent.some((r) => r.startsWith("POST /v1/"))) return `Render sent no POST: ${sent.join(", ")}`;
+      if (!(await p2.$eval("#linknote", (e) => e.hidden))) return "the note stays after Render";
+      const text2 = await p2.evaluate(() => window.rayd.editor.value);
+      if (text2 !== text + " ") return "the rendered text is not the link's with the edit";
+      return samePixels(await serverPng(text2), await canvasPng(p2));
+    } finally {
+      await p2.close();
+      await page.evaluate(() => localStorage.setItem("rayd.auto", "0"));
+    }
   });
+
+  // A link's scene left unrendered is saved as a link's: the page opened
+  // again without the link (a reload, a new tab) still waits; once the user
+  // rendered it, it is theirs and the next opening renders it.
+  await check("linked_scene_waits_after_reopen", async () => {
+    const sc = JSON.parse(await page.evaluate(() => window.rayd.editor.value));
+    sc.render = { ...sc.render, width: 40, height: 30, seed: 91 };
+    const text = JSON.stringify(sc, null, 2);
+    const p2 = await context.newPage();
+    try {
+      const sent = apiRequests(p2);
+      await p2.goto(URL + "/" + linkOf(text));
+      await waitState(p2, "linked");
+      await p2.goto(URL + "/");
+      await waitState(p2, "linked");
+      if ((await p2.evaluate(() => window.rayd.editor.value)) !== text) return "the reopened page lost the link's scene";
+      await sleep(500);
+      if (sent.length) return `sent before Render: ${sent.join(", ")}`;
+      await p2.click("#linknote-render");
+      await waitDone(p2, 0);
+      await p2.reload();
+      await waitDone(p2, 0);
+      return (await p2.evaluate(() => window.rayd.editor.value)) === text || "the rendered scene did not come back";
+    } finally {
+      await p2.close();
+    }
+  });
+
+  // A link pasted into an open page (a hash change, no reload) waits too,
+  // and so does a redo back to it; the undo brings back the user's scene,
+  // which renders as an undone example does.
+  await check("hashchange_link_waits", async () => {
+    const mine = await page.evaluate(() => window.rayd.editor.value);
+    const sc = JSON.parse(mine);
+    sc.render = { ...sc.render, width: 40, height: 30, seed: 92 };
+    const text = JSON.stringify(sc, null, 2);
+    const p2 = await context.newPage();
+    try {
+      await p2.goto(URL + "/");
+      await waitDone(p2, 0);
+      const before = await p2.evaluate(() => window.rayd.editor.value);
+      const sent = apiRequests(p2);
+      await p2.evaluate((h) => (location.hash = h), linkOf(text));
+      await waitState(p2, "linked");
+      if ((await p2.evaluate(() => window.rayd.editor.value)) !== text) return "the hash change did not load the link's scene";
+      await sleep(500);
+      if (sent.length) return `sent for the link: ${sent.join(", ")}`;
+      let n = await renders(p2);
+      await p2.focus("#canvas");
+      await p2.keyboard.press("Control+z");
+      await waitDone(p2, n);
+      if ((await p2.evaluate(() => window.rayd.editor.value)) !== before) return "Ctrl+Z did not bring the scene back";
+      sent.length = 0;
+      await p2.keyboard.press("Control+Shift+z");
+      await waitState(p2, "linked");
+      await sleep(500);
+      return sent.length === 0 || `sent after the redo to the link: ${sent.join(", ")}`;
+    } finally {
+      await p2.close();
+    }
+  });
+
+  // rayd serves the page and its files with a policy that keeps other
+  // sites out: no frame, nothing but its own files and its own server.
+  await check("csp_headers", async () => {
+    for (const path of ["/", "/index.html", "/app.js", "/app.css", "/examples.js", "/favicon.svg"]) {
+      const res = await fetch(URL + path);
+      if (res.status !== 200) return `${path}: ${res.status}`;
+      const csp = res.headers.get("content-security-policy") || "";
+      for (const d of ["default-src 'self'", "script-src 'self'", "style-src 'self'", "connect-src 'self'",
+                       "frame-ancestors 'none'", "base-uri 'none'", "form-action 'none'", "object-src 'none'"])
+        if (!csp.split(/\s*;\s*/).includes(d)) return `${path}: no "${d}" in Content-Security-Policy "${csp}"`;
+      if (/unsafe-inline|unsafe-eval/.test(csp)) return `${path}: ${csp}`;
+      const want = { "x-frame-options": "DENY", "referrer-policy": "no-referrer", "cross-origin-opener-policy": "same-origin" };
+      for (const [h, v] of Object.entries(want))
+        if (res.headers.get(h) !== v) return `${path}: ${h}: ${res.headers.get(h)}`;
+    }
+  });
+
+  // A page of another origin (python's http.server on another port) that
+  // frames the preview with a #scene= link: the browser refuses the frame,
+  // so nothing of the preview runs there and nothing is sent to the API.
+  if (process.env.FRAMER_URL)
+    await check("framed_preview_blocked", async () => {
+      const text = await page.evaluate(() => window.rayd.editor.value);
+      const target = URL + "/" + linkOf(text);
+      writeFileSync(
+        join(process.env.FRAMER_DIR, "frame.html"),
+        `<!doctype html><title>framer</title><iframe id="f" src="${target}" width="800" height="600"` +
+          ` onload="document.title = 'loaded'"></iframe>`
+      );
+      const p3 = await context.newPage();
+      try {
+        const sent = apiRequests(p3);
+        let frameHeaders = null;
+        p3.on("response", (r) => {
+          if (r.url().startsWith(URL + "/") && r.request().resourceType() === "document") frameHeaders = r.headers();
+        });
+        await p3.goto(process.env.FRAMER_URL + "/frame.html");
+        await p3.waitForFunction(() => document.title === "loaded", null, { timeout: 60000 });
+        await sleep(1000);
+        // a refused frame shows the browser's error page (chrome-error://), not the preview
+        const child = p3.frames().find((f) => f !== p3.mainFrame());
+        const childUrl = child ? child.url() : "(none)";
+        if (sent.length) return `the framed preview sent ${sent.join(", ")}`;
+        if (childUrl.startsWith(URL)) {
+          const state = await child.evaluate(() => document.body && document.body.dataset.state).catch((e) => e.message);
+          return `the preview loaded in the frame (state ${state}, ${childUrl.slice(0, 80)})`;
+        }
+        if (!frameHeaders) return "the frame's request never reached rayd";
+        return frameHeaders["x-frame-options"] === "DENY" || `X-Frame-Options: ${frameHeaders["x-frame-options"]}`;
+      } finally {
+        await p3.close();
+      }
+    });
 
   // A link cut short (a chat client, a copy that missed its end) is said
   // so and stays said: the page used to show "Bad link", then render the
@@ -852,6 +1028,10 @@ try {
       return /rays\/s|from cache/.test(status) || `status "${status}" (no /metrics with the token?)`;
     });
 
+  // every page of the run (renders, errors, orbits, downloads, links,
+  // progressive jobs, 1:1) worked under the CSP: not one violation
+  await check("no_csp_violations", () => cspViolations.length === 0 || cspViolations.slice(0, 5).join(" | "));
+
   // --- figures (MEASURE=1): first full image at 1280x720, orbit preview frame rate ----------------
   if (MEASURE) {
     const { examples } = await import(join(OUT_DIR, "server/web/examples.js"));
@@ -878,13 +1058,14 @@ try {
     for (let run = 0; run < 3; run++) {
       base.render.seed = 100 + run; // other bytes, so no cache helps; whitted's image does not depend on it
       writeFileSync(cold, JSON.stringify(base, null, 2));
-      const link = await page.evaluate(async (t) => {
-        const { linkFor } = await import("./share.js");
-        return linkFor("", t);
-      }, JSON.stringify(base, null, 2));
+      // opened as the user's saved scene (a link's would wait for Render)
+      await page.evaluate(
+        (t) => localStorage.setItem("rayd.scene", JSON.stringify({ text: t, example: "", edited: true })),
+        JSON.stringify(base, null, 2)
+      );
       const p = await context.newPage();
       const t = Date.now();
-      await p.goto(URL + "/" + link);
+      await p.goto(URL + "/");
       await waitDone(p, 0, 120000);
       const s = await p.evaluate(() => window.rayd.stats);
       console.log(

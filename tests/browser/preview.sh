@@ -7,6 +7,7 @@
 #
 #   bash tests/browser/preview.sh            (tests/run.sh sets RAYD_BUILD)
 #   MEASURE=1 bash tests/browser/preview.sh  also prints the timing figures
+#   CASES=link bash tests/browser/preview.sh  only the cases whose names match
 source "$(dirname "$0")/../integration/lib/common.sh"
 HERE=$RAYD_ROOT/tests/browser
 CHROMIUM=${CHROMIUM:-/usr/bin/chromium}
@@ -33,14 +34,26 @@ TOKEN_PID=$RAYD_PID
 PIDS+=("$TOKEN_PID")
 cp "$T/rayd.err" "$T/rayd-token.err"
 
+# a page of another origin (another port) for framed_preview_blocked: it
+# frames the preview; python's http.server on a port the kernel picks
+mkdir -p "$T/framer"
+python3 -m http.server 0 --bind 127.0.0.1 --directory "$T/framer" >"$T/framer.log" 2>&1 &
+FRAMER_PID=$!
+PIDS+=("$FRAMER_PID")
+framer_listens() { [ -n "$(listen_port "$FRAMER_PID")" ]; }
+wait_until 60 framer_listens || fail framer_setup "python3 -m http.server did not listen"
+FRAMER_URL=http://127.0.0.1:$(listen_port "$FRAMER_PID")
+
 # two workers, as on a small machine; the test scenes are small
 start_rayd --threads 2 --test-gate open
 # the screenshot is saved beside the binaries (build/preview.png)
 OUT_DIR=$RAYD_BUILD PNGCMP=$RAYD_BUILD/tests/tools/pngcmp CHROMIUM=$CHROMIUM WORK=$T \
-    TOKEN_URL=$TOKEN_URL TOKEN=preview-test-token \
+    TOKEN_URL=$TOKEN_URL TOKEN=preview-test-token FRAMER_URL=$FRAMER_URL FRAMER_DIR=$T/framer \
     timeout 600 node "$HERE/preview.mjs" "$URL"
 rc=$?
 [ "$rc" -eq 0 ] || fail preview_driver "node exited with status $rc"
+kill "$FRAMER_PID" 2>/dev/null
+wait "$FRAMER_PID" 2>/dev/null
 stop_rayd
 [ "$RAYD_RC" = 0 ] || fail rayd_exit "rayd exited with $RAYD_RC"
 RAYD_PID=$TOKEN_PID
