@@ -173,7 +173,8 @@ static void http_flow_no_memory(struct http_req *r, size_t need)
     char msg[200];
     metrics_reject(MR_MEMORY);
     if (need > mem_limit()) {
-        snprintf(msg, sizeof msg, "the body alone is over the memory budget of %zu bytes (--max-memory)",
+        snprintf(msg, sizeof msg,
+                 "the body alone is over the memory budget of %zu bytes (--max-memory)",
                  mem_limit());
         http_reply_error(r, 413, "over_memory", msg, NULL, 0, 0, NULL);
     } else {

@@ -92,8 +92,8 @@ void jobs_stop(void)
 
 const char *jobs_state_name(enum jobs_state s)
 {
-    static const char *const names[] = {"queued",   "running",  "succeeded",
-                                        "failed",   "canceled", "evicted"};
+    static const char *const names[] = {"queued", "running",  "succeeded",
+                                        "failed", "canceled", "evicted"};
     return names[s];
 }
 

@@ -138,11 +138,24 @@ bool mem_parse(const char *s, size_t *out)
     if (*end && !strchr("kKmMgGtT", *end))
         return false;
     switch (*end) {
-    case 'k': case 'K': mul = 1ULL << 10; break;
-    case 'm': case 'M': mul = 1ULL << 20; break;
-    case 'g': case 'G': mul = 1ULL << 30; break;
-    case 't': case 'T': mul = 1ULL << 40; break;
-    default: break;
+    case 'k':
+    case 'K':
+        mul = 1ULL << 10;
+        break;
+    case 'm':
+    case 'M':
+        mul = 1ULL << 20;
+        break;
+    case 'g':
+    case 'G':
+        mul = 1ULL << 30;
+        break;
+    case 't':
+    case 'T':
+        mul = 1ULL << 40;
+        break;
+    default:
+        break;
     }
     if (*end) {
         end++;

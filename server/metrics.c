@@ -74,8 +74,8 @@ static atomic_ulong metrics_hits, metrics_misses, metrics_rhits, metrics_rmisses
 static atomic_ulong metrics_rejects[MR__COUNT], metrics_cancels[MC__COUNT];
 
 static const char *const metrics_reject_names[MR__COUNT] = {
-    "queue_full", "draining", "body_too_large", "unauthorized", "over_budget", "http_parser",
-    "memory"};
+    "queue_full",  "draining",    "body_too_large", "unauthorized",
+    "over_budget", "http_parser", "memory"};
 static const char *const metrics_cancel_names[MC__COUNT] = {"client_gone", "delete", "drain",
                                                                         "deadline"};
 

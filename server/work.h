@@ -130,8 +130,8 @@ void sched_stats(struct sched_stats *st);
 /* JS_EVICTED: succeeded, but its images were let go to keep rayd within
  * --max-memory (the oldest finished first); its numbers stay. */
 enum jobs_state { JS_QUEUED, JS_RUNNING, JS_SUCCEEDED, JS_FAILED, JS_CANCELED, JS_EVICTED };
-#define JOBS_EVICTED_WHY                                                                       \
-    "the job's image was let go to keep rayd within its memory budget (--max-memory; the "    \
+#define JOBS_EVICTED_WHY                                                                          \
+    "the job's image was let go to keep rayd within its memory budget (--max-memory; the "        \
     "oldest finished results go first): render it again"
 
 const char *jobs_state_name(enum jobs_state s);
