@@ -134,9 +134,10 @@ const char *mem_kind_name(enum mem_kind k);
 size_t mem_default_limit(void); /* half the machine's (or the cgroup's) memory */
 void mem_start(size_t limit);   /* once, before the first thread; 0: the default */
 size_t mem_limit(void);
-/* Called by a reservation that does not fit, with no lock held: frees what
- * it can toward need bytes (evicts); false when nothing was left to free. */
-void mem_set_reclaim(bool (*reclaim)(size_t need));
+/* Called by a reservation of need bytes of k that does not fit, with no
+ * lock held: frees one thing it may let go for k (evicts); false when
+ * nothing is left to free. */
+void mem_set_reclaim(bool (*reclaim)(enum mem_kind k, size_t need));
 /* Counts n bytes of k if they fit under the limit, after the reclaimer freed
  * room; false (nothing counted) if they do not.  Never with work_lock held. */
 bool mem_reserve(enum mem_kind k, size_t n);

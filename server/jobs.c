@@ -62,12 +62,15 @@ static bool jobs_evict_result(void)
 }
 
 /* The memory budget's reclaimer (mem.c): one thing let go, cheapest
- * first; false when nothing is left to let go.  Takes work_lock. */
-static bool jobs_reclaim(size_t need)
+ * first; false when nothing is left to let go.  A body in flight is
+ * transient, and many slow uploads must not wipe out every client's
+ * finished images: it may take the caches' room only.  Takes work_lock. */
+static bool jobs_reclaim(enum mem_kind k, size_t need)
 {
     (void)need; /* called again until the reservation fits */
     pthread_mutex_lock(&work_lock);
-    bool freed = rcache_evict_one() || cache_evict_one() || jobs_evict_result();
+    bool freed =
+        rcache_evict_one() || cache_evict_one() || (k != MEM_BODIES && jobs_evict_result());
     pthread_mutex_unlock(&work_lock);
     return freed;
 }
@@ -105,9 +108,9 @@ enum jobs_state jobs_state(const struct job *j)
     if (t->finished && t->evicted)
         return JS_EVICTED;
     if (t->finished)
-        return t->status == RAYD_OK            ? JS_SUCCEEDED
+        return t->status == RAYD_OK           ? JS_SUCCEEDED
                : t->status == RAYD_E_CANCELED ? JS_CANCELED
-                                               : JS_FAILED;
+                                              : JS_FAILED;
     return t->t_start == 0 && !t->finalizing ? JS_QUEUED : JS_RUNNING;
 }
 

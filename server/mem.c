@@ -40,7 +40,7 @@ static atomic_size_t mem_total_bytes;
 static atomic_size_t mem_kind_bytes[MEM__COUNT];
 static atomic_size_t mem_released; /* since the last trim */
 static atomic_flag mem_trimming = ATOMIC_FLAG_INIT;
-static bool (*mem_reclaimer)(size_t need);
+static bool (*mem_reclaimer)(enum mem_kind k, size_t need);
 
 const char *mem_kind_name(enum mem_kind k)
 {
@@ -69,7 +69,7 @@ void mem_start(size_t limit) { mem_limit_bytes = limit ? limit : mem_default_lim
 
 size_t mem_limit(void) { return mem_limit_bytes; }
 
-void mem_set_reclaim(bool (*reclaim)(size_t need)) { mem_reclaimer = reclaim; }
+void mem_set_reclaim(bool (*reclaim)(enum mem_kind k, size_t need)) { mem_reclaimer = reclaim; }
 
 bool mem_try(enum mem_kind k, size_t n)
 {
@@ -87,7 +87,7 @@ bool mem_reserve(enum mem_kind k, size_t n)
     if (n > mem_limit_bytes)
         return false;
     while (!mem_try(k, n))
-        if (!mem_reclaimer || !mem_reclaimer(n))
+        if (!mem_reclaimer || !mem_reclaimer(k, n))
             return false;
     return true;
 }
