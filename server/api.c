@@ -426,7 +426,7 @@ void api_refused(struct http_req *r, enum work_submit why)
     /* A queue slot frees when a task ahead starts: about the backlog over
      * the tasks in it; a drain, when this server is gone and another one
      * answers. */
-    if (why == WORK_FULL || why == WORK_TOO_MANY_JOBS)
+    if (why == WORK_FULL || why == WORK_TOO_MANY_JOBS || why == WORK_MEMORY)
         r->retry_after =
             api_cost_retry_after(st.backlog_s / (double)(st.queued > 0 ? st.queued : 1));
     switch (why) {
@@ -443,6 +443,20 @@ void api_refused(struct http_req *r, enum work_submit why)
         metrics_reject(MR_QUEUE_FULL);
         http_reply_error(r, 503, "queue_full", "too many unfinished jobs, retry later", NULL, 0,
                          0, NULL);
+        break;
+    case WORK_MEMORY:
+        metrics_reject(MR_MEMORY);
+        http_reply_error(r, 503, "memory_full",
+                         "the memory budget (--max-memory) has no room for this render now; "
+                         "retry later",
+                         NULL, 0, 0, NULL);
+        break;
+    case WORK_TOO_BIG:
+        metrics_reject(MR_MEMORY);
+        http_reply_error(r, 413, "over_memory",
+                         "the render alone needs more than the memory budget (--max-memory); "
+                         "ask for a smaller region or format",
+                         NULL, 0, 0, NULL);
         break;
     case WORK_NOMEM:
     default:

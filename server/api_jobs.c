@@ -320,6 +320,8 @@ cJSON *api_jobs_json(const char *id, const struct jobs_info *in)
             cJSON_AddStringToObject(o, "exr_url", url);
         }
     }
+    if (in->state == JS_EVICTED)
+        cJSON_AddStringToObject(o, "evicted_reason", JOBS_EVICTED_WHY);
     if (in->state == JS_FAILED) {
         cJSON *err = cJSON_AddObjectToObject(o, "error");
         cJSON_AddStringToObject(err, "code", rayd_status_name(in->err.code));

@@ -120,6 +120,8 @@ static void api_jobs_no_image(struct http_req *r, const char *id, const struct j
         http_reply_error(r, 409, "job_failed", msg, info->err.path, 0, 0, NULL);
     } else if (info->state == JS_CANCELED) {
         http_reply_error(r, 409, "job_canceled", "the job was cancelled", NULL, 0, 0, NULL);
+    } else if (info->state == JS_EVICTED) {
+        http_reply_error(r, 410, "result_evicted", JOBS_EVICTED_WHY, NULL, 0, 0, NULL);
     } else {
         api_jobs_not_yet(r, id, info);
     }

@@ -1,7 +1,8 @@
 /* base.h -- the bottom layer of the daemon: options, logging, metrics, the
  * shared PNG blob and the few JSON helpers every upper layer writes with.
  *
- * Layer: base (config.c, log.c, clock.c, metrics.c, procstat.c, blob.c, json.c).
+ * Layer: base (config.c, log.c, clock.c, mem.c, metrics.c, procstat.c, blob.c,
+ * json.c).
  * May include: the C library, <rayd/rayd.h> and cJSON -- nothing of
  * server/.  Everything above (work, the HTTP request and reply, handlers,
  * router, transport, main) may include this header.  A base file never
@@ -38,6 +39,7 @@ struct config {
     char *token_file;    /* bearer token file, NULL = no auth */
     long cache_mb;       /* compiled scene cache budget */
     long result_cache_mb; /* finished PNG cache budget */
+    char *max_memory;    /* --max-memory as given (bytes, K/M/G/T suffixes); NULL: default */
     char *log_format;    /* text | json */
     char *log_level;     /* debug | info | warn | error: the least severe line written */
     long drain_seconds;  /* grace period on SIGTERM */
@@ -64,6 +66,7 @@ struct config {
     bool log_json;
     int log_min;          /* enum log_level of --log-level */
     long test_gate_tiles; /* parsed --test-gate: -1 open, -2 off */
+    size_t max_memory_bytes; /* parsed --max-memory: the one budget (mem.c) */
 };
 
 extern struct config config;
@@ -120,6 +123,41 @@ void log_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 
 double clock_now(void); /* monotonic seconds: every duration the server measures */
 
+/* ---- mem.c: the one memory budget (--max-memory) ------------------------ */
+
+/* What the budget's bytes are: rayd_memory_bytes{kind=...}. */
+enum mem_kind {
+    MEM_BODIES,  /* request bodies in flight */
+    MEM_SCENES,  /* compiled scenes: cached, queued or in use */
+    MEM_RESULTS, /* finished images (PNG, EXR, sums answers) and renders' pixels */
+    MEM_SUMS,    /* renders' per-pixel sums: sums answers, progressive jobs */
+    MEM_CACHES,  /* finished images kept by the result cache */
+    MEM__COUNT
+};
+const char *mem_kind_name(enum mem_kind k);
+size_t mem_default_limit(void); /* half the machine's (or the cgroup's) memory */
+void mem_start(size_t limit);   /* once, before the first thread; 0: the default */
+size_t mem_limit(void);
+/* Called by a reservation of need bytes of k that does not fit, with no
+ * lock held: frees one thing it may let go for k (evicts); false when
+ * nothing is left to free. */
+void mem_set_reclaim(bool (*reclaim)(enum mem_kind k, size_t need));
+/* Counts n bytes of k if they fit under the limit, after the reclaimer freed
+ * room; false (nothing counted) if they do not.  Never with work_lock held. */
+bool mem_reserve(enum mem_kind k, size_t n);
+bool mem_try(enum mem_kind k, size_t n);   /* the same, never reclaiming: any lock */
+void mem_force(enum mem_kind k, size_t n); /* bytes that exist: counted past the limit */
+void mem_release(enum mem_kind k, size_t n);
+void mem_move(enum mem_kind from, enum mem_kind to, size_t n);
+void mem_freed(size_t n); /* bytes freed that were never counted: for mem_trim */
+size_t mem_used(enum mem_kind k);
+size_t mem_total(void);
+/* Gives freed heap back to the kernel once enough was released since the
+ * last time (malloc_trim); cheap otherwise.  With no lock held. */
+void mem_trim(void);
+/* "64M", "1G", "1048576", "512KiB": bytes; false if malformed. */
+bool mem_parse(const char *s, size_t *out);
+
 /* ---- metrics.c ----------------------------------------------------------- */
 
 enum metrics_reject {
@@ -129,6 +167,7 @@ enum metrics_reject {
     MR_UNAUTHORIZED,
     MR_OVER_BUDGET, /* --max-work */
     MR_HTTP_PARSER, /* answered with an error by libmicrohttpd itself */
+    MR_MEMORY,      /* --max-memory: no room (503) or too big alone (413) */
     MR__COUNT
 };
 enum metrics_cancel { MC_CLIENT_GONE, MC_DELETE, MC_DRAIN, MC_DEADLINE, MC__COUNT };
@@ -211,12 +250,16 @@ struct blob {
     atomic_int refs;
     void *data; /* rayd_free()d with the last reference */
     size_t len;
+    atomic_int kind; /* enum mem_kind its len is counted as (mem.c) */
 };
-/* A blob owning data (from the core's allocator), one reference; NULL on no
- * memory (data is then left to the caller). */
+/* A blob owning data (from the core's allocator), one reference, its len
+ * counted in the memory budget as MEM_RESULTS until the last reference
+ * goes; NULL on no memory (data is then left to the caller). */
 struct blob *blob_new(void *data, size_t len);
 struct blob *blob_ref(struct blob *b); /* returns b; NULL allowed */
 void blob_unref(struct blob *b);       /* NULL allowed */
+/* The blob's bytes are counted as kind from now on (the result cache). */
+void blob_kind(struct blob *b, enum mem_kind kind);
 
 /* ---- json.c -------------------------------------------------------------- */
 

@@ -6,7 +6,9 @@
  * a blob with an atomic count: the worker that encodes the PNG makes it, the
  * result cache, each waiting request and each response in flight hold a
  * reference, and whoever drops the last frees it -- no lock needed, which is
- * why it sits at the bottom where every layer can reach it.
+ * why it sits at the bottom where every layer can reach it.  Its bytes are
+ * counted in the one memory budget (mem.c) from its making to its freeing,
+ * whoever holds it.
  */
 #include "base.h"
 
@@ -20,6 +22,8 @@ struct blob *blob_new(void *data, size_t len)
     atomic_init(&b->refs, 1);
     b->data = data;
     b->len = len;
+    atomic_init(&b->kind, MEM_RESULTS);
+    mem_force(MEM_RESULTS, len + sizeof *b);
     return b;
 }
 
@@ -33,7 +37,15 @@ struct blob *blob_ref(struct blob *b)
 void blob_unref(struct blob *b)
 {
     if (b && atomic_fetch_sub(&b->refs, 1) == 1) {
+        mem_release((enum mem_kind)atomic_load(&b->kind), b->len + sizeof *b);
         rayd_free(b->data);
         free(b);
     }
+}
+
+void blob_kind(struct blob *b, enum mem_kind kind)
+{
+    int old = atomic_exchange(&b->kind, (int)kind);
+    if (old != (int)kind)
+        mem_move((enum mem_kind)old, kind, b->len + sizeof *b);
 }

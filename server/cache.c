@@ -3,7 +3,11 @@
  * Parsing a scene and building its acceleration structure is the costly
  * part of a small render, and tile clients send the same scene many times,
  * so each distinct body is compiled once and kept while it is used.  The
- * budget is --cache-mb, counted with rayd_scene_info().bytes.  Entries are
+ * budget is --cache-mb, counted with rayd_scene_info().bytes, inside the
+ * one memory budget (--max-memory): every entry's scene is counted there
+ * from cache_put to its free (scenes.c reserved it), cached or not, and
+ * an entry nobody uses is evicted when a reservation needs room
+ * (cache_evict_one).  Entries are
  * reference counted: a render in progress holds its scene, so an eviction
  * only unlinks the entry (it can no longer be found) and the last release
  * frees it.  A scene larger than the whole budget is used and never kept.
@@ -39,6 +43,7 @@ struct cache_entry {
     char id[65];
     char version[65]; /* id, or with the files' identities (scenefiles.c) */
     rayd_scene *scene;
+    size_t mem; /* its bytes counted in --max-memory, released when freed */
     int refs;    /* holders, the cache itself counting one while linked */
     bool linked;
 };
@@ -85,8 +90,11 @@ struct cache_entry *cache_get(const char *id)
 
 struct cache_entry *cache_put(const char *id, const char *version, rayd_scene *scene)
 {
+    struct rayd_scene_info info;
+    rayd_scene_info(scene, &info);
     struct cache_entry *e = (struct cache_entry *)lru_find(&cache_lru, id);
     if (e && !strcmp(e->version, version)) {
+        mem_release(MEM_SCENES, info.bytes);
         rayd_scene_free(scene);
         return cache_ref(e);
     }
@@ -101,9 +109,8 @@ struct cache_entry *cache_put(const char *id, const char *version, rayd_scene *s
     snprintf(e->version, sizeof e->version, "%s", version);
     e->node.key = e->id;
     e->scene = scene;
-    struct rayd_scene_info info;
-    rayd_scene_info(scene, &info);
     e->node.bytes = info.bytes + sizeof *e;
+    e->mem = info.bytes; /* reserved by the caller (scenes.c) */
     e->refs = 1; /* the caller's */
     if (!lru_insert(&cache_lru, &e->node))
         return e; /* too big to keep: used once, freed on release */
@@ -122,8 +129,23 @@ void cache_release(struct cache_entry *e)
 {
     if (!e || --e->refs > 0)
         return;
+    mem_release(MEM_SCENES, e->mem);
     rayd_scene_free(e->scene);
     free(e);
+}
+
+bool cache_evict_one(void)
+{
+    /* the least recently used entry no render holds: its memory comes back */
+    for (struct lru_node *n = cache_lru.tail; n; n = n->prev) {
+        struct cache_entry *e = (struct cache_entry *)n;
+        if (e->refs == 1) {
+            lru_remove(&cache_lru, n);
+            cache_evicted(n);
+            return true;
+        }
+    }
+    return false;
 }
 
 const rayd_scene *cache_scene(const struct cache_entry *e) { return e->scene; }

@@ -64,6 +64,9 @@ static const struct config_option config_table[] = {
      "memory budget of the compiled-scene cache in MiB"},
     {"result-cache-mb", "RAYD_RESULT_CACHE_MB", CT_LONG, &config.result_cache_mb, "64", 0, 1048576,
      "memory for finished PNGs served again without rendering (0 = off)"},
+    {"max-memory", "RAYD_MAX_MEMORY", CT_STRING, &config.max_memory, NULL, 0, 0,
+     "one budget for bodies, scenes, results, sums and caches, in bytes or with K, M, G "
+     "(default: half the machine's memory); past it 503 with Retry-After"},
     {"log-format", "RAYD_LOG_FORMAT", CT_STRING, &config.log_format, "text", 0, 0,
      "access log format on stderr: text or json"},
     {"log-level", "RAYD_LOG_LEVEL", CT_STRING, &config.log_level, "info", 0, 0,
@@ -399,6 +402,24 @@ static int config_log_level(void)
     return -1;
 }
 
+/* --max-memory: bytes, or with a K, M, G or T suffix (KiB, MiB, ...);
+ * unset, half of the machine's memory (or of its cgroup's limit).  The
+ * budget starts here, before any thread (mem.c). */
+static int config_max_memory(void)
+{
+    size_t v = 0;
+    if (config.max_memory && (!mem_parse(config.max_memory, &v) || v < ((size_t)1 << 20))) {
+        fprintf(stderr,
+                "rayd: error: --max-memory takes bytes of at least 1M (a number with an optional "
+                "K, M, G or T suffix), not '%s'\n",
+                config.max_memory);
+        return -1;
+    }
+    config.max_memory_bytes = config.max_memory ? v : mem_default_limit();
+    mem_start(config.max_memory_bytes);
+    return 0;
+}
+
 /* Defaults, then the environment, then the command line (a flag wins);
  * then the checks that need every option.  An enum config_result. */
 int config_load(int argc, char **argv)
@@ -431,6 +452,8 @@ int config_load(int argc, char **argv)
         return CONFIG_USAGE;
     if (config_asset_dir())
         return CONFIG_FAILED;
+    if (config_max_memory())
+        return CONFIG_USAGE;
     if (!config.tls_cert != !config.tls_key) {
         fprintf(stderr, "rayd: error: --tls-cert and --tls-key go together\n");
         return CONFIG_USAGE;

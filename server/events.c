@@ -77,7 +77,7 @@ static int events_news(struct events_stream *s, struct events_item *it, int n,
                                        .progress = (double)s->cursor / t->ntiles};
     }
     enum jobs_state st = jobs_state(j);
-    bool final = st == JS_SUCCEEDED || st == JS_FAILED || st == JS_CANCELED;
+    bool final = st == JS_SUCCEEDED || st == JS_FAILED || st == JS_CANCELED || st == JS_EVICTED;
     if (k == 0 && final && !s->sent_done) {
         it[k++] = (struct events_item){.kind = EVENTS_DONE,
                                        .state = st,

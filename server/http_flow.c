@@ -19,7 +19,12 @@
  *           connection stays open).
  *   body    chunks appended up to --max-body; past it they are counted, not
  *           kept, and the request is answered 413; the whole upload gets
- *           --upload-seconds.
+ *           --upload-seconds.  A body's bytes are counted in the one
+ *           memory budget (--max-memory, mem.c): a Content-Length is
+ *           reserved whole in begin (503 with Retry-After when it does not
+ *           fit, 413 when it is over the whole budget), a chunked body as
+ *           it grows (503 when it outgrows the room left), so many slow
+ *           uploads cannot hold more than the budget between them.
  *   handle  the CORS preflight (OPTIONS), the token again (for a transport
  *           that reads the body anyway), then the router.  Decided here,
  *           before routing, so no handler can forget them.  The handler
@@ -268,6 +273,37 @@ static bool http_flow_malformed(struct http_req *r, const struct http_flow_frami
     else
         return false;
     return true;
+/* The 503 (or 413) of a body the memory budget has no room for. */
+static void http_flow_no_memory(struct http_req *r, size_t need)
+{
+    char msg[200];
+    metrics_reject(MR_MEMORY);
+    if (need > mem_limit()) {
+        snprintf(msg, sizeof msg,
+                 "the body alone is over the memory budget of %zu bytes (--max-memory)",
+                 mem_limit());
+        http_reply_error(r, 413, "over_memory", msg, NULL, 0, 0, NULL);
+    } else {
+        snprintf(msg, sizeof msg,
+                 "the memory budget (--max-memory, %zu bytes) has no room for this body now; "
+                 "retry later",
+                 mem_limit());
+        r->retry_after = 2;
+        http_reply_error(r, 503, "memory_full", msg, NULL, 0, 0, NULL);
+    }
+    http_reply_header(r, MHD_HTTP_HEADER_CONNECTION, "close");
+}
+
+/* Counts a declared body whole before a byte of it is read; false when
+ * refused (replied). */
+static bool http_flow_reserve(struct http_req *r, size_t need)
+{
+    if (mem_reserve(MEM_BODIES, need)) {
+        r->body_mem = need;
+        return true;
+    }
+    http_flow_no_memory(r, need);
+    return false;
 }
 
 bool http_flow_begin(struct http_req *r)
@@ -325,7 +361,7 @@ bool http_flow_begin(struct http_req *r)
         http_reply_error(r, 413, "body_too_large", msg, NULL, 0, 0, NULL);
         return false;
     }
-    return true;
+    return !(f.nlength && f.length > 0) || http_flow_reserve(r, (size_t)f.length + 1);
 }
 
 /* Forgets the body kept so far; the rest is counted only. */
@@ -335,6 +371,8 @@ static void http_flow_drop_body(struct http_req *r, size_t n)
     r->body = NULL;
     r->body_cap = 0;
     r->body_len += n;
+    mem_release(MEM_BODIES, r->body_mem);
+    r->body_mem = 0;
 }
 
 /* A client that shuts its side of the connection before the body it
@@ -366,7 +404,7 @@ static bool http_flow_keep(struct http_req *r, const char *data, size_t n)
         r->note = "upload_too_slow";
         return false;
     }
-    if (r->too_large || r->no_memory) {
+    if (r->too_large || r->no_memory || r->over_memory) {
         r->body_len += n; /* counted, not kept */
         return r->body_len <= 4 * (size_t)config.max_body;
     }
@@ -379,6 +417,15 @@ static bool http_flow_keep(struct http_req *r, const char *data, size_t n)
         size_t cap = r->body_cap ? r->body_cap : 4096;
         while (cap < r->body_len + n + 1)
             cap *= 2;
+        if (r->body_declared >= 0 && cap > r->body_mem && r->body_mem >= r->body_len + n + 1)
+            cap = r->body_mem; /* the declared length, reserved in begin */
+        if (cap > r->body_mem && !mem_reserve(MEM_BODIES, cap - r->body_mem)) {
+            r->over_memory = true; /* read the rest without keeping it, then 503 */
+            http_flow_drop_body(r, n);
+            return true;
+        }
+        if (cap > r->body_mem)
+            r->body_mem = cap;
         char *b = realloc(r->body, cap);
         if (!b) {
             /* read the rest without keeping it, then answer 503 */
@@ -418,6 +465,10 @@ void http_flow_handle(struct http_req *r)
     if (r->no_memory) {
         http_reply_error(r, 503, "out_of_memory", "out of memory reading the body", NULL, 0, 0,
                          NULL);
+        return;
+    }
+    if (r->over_memory) {
+        http_flow_no_memory(r, r->body_len + 1);
         return;
     }
     if (!strcmp(r->method, "OPTIONS")) {
@@ -500,6 +551,7 @@ void http_flow_end(struct http_req *r, const char *note)
     };
     log_access(&a);
     http_req_free(r);
+    mem_trim(); /* after a body or a reply let go of much memory */
 }
 
 void http_flow_refused(const char *client, unsigned status, const char *why)

@@ -62,6 +62,7 @@ void http_req_free(struct http_req *r)
         MHD_destroy_response(r->pending);
     free(r->target);
     free(r->body);
+    mem_release(MEM_BODIES, r->body_mem);
     free(r);
     atomic_fetch_sub(&http_req_ninflight, 1);
 }

@@ -23,6 +23,14 @@
  *
  * All under work_lock; a job's memory is held by the table and by each open
  * event stream (events.c), so a stream outlives the job's eviction.
+ *
+ * The memory budget (--max-memory, mem.c) reclaims through here: when a
+ * reservation does not fit, jobs_reclaim lets go of one thing at a time,
+ * the cheapest first -- the result cache's least recently used PNG, a
+ * compiled scene nobody renders, then the images of the finished job that
+ * finished first.  Such a job keeps its numbers and says "evicted" (its
+ * image answers 410 result_evicted), so a client knows to render again
+ * rather than think its id wrong.
  */
 #include "work_private.h"
 
@@ -49,9 +57,48 @@ static long jobs_gauge(void)
     return n;
 }
 
+/* Lets go of the images of the finished job that finished first (of the
+ * task it shares with any other job): they become "evicted".  false when
+ * no finished job keeps an image. */
+static bool jobs_evict_result(void)
+{
+    struct task *victim = NULL;
+    for (int i = 0; i < jobs_n; i++) {
+        struct task *t = jobs_table[i]->task;
+        bool keeps = t->png || t->exr || (t->passes && t->passes->done);
+        if (t->finished && t->status == RAYD_OK && !t->evicted && keeps &&
+            (!victim || t->t_end < victim->t_end))
+            victim = t;
+    }
+    if (!victim)
+        return false;
+    blob_unref(victim->png);
+    blob_unref(victim->exr);
+    victim->png = victim->exr = NULL;
+    if (victim->passes)
+        passes_let_go(victim->passes);
+    victim->evicted = true;
+    return true;
+}
+
+/* The memory budget's reclaimer (mem.c): one thing let go, cheapest
+ * first; false when nothing is left to let go.  A body in flight is
+ * transient, and many slow uploads must not wipe out every client's
+ * finished images: it may take the caches' room only.  Takes work_lock. */
+static bool jobs_reclaim(enum mem_kind k, size_t need)
+{
+    (void)need; /* called again until the reservation fits */
+    pthread_mutex_lock(&work_lock);
+    bool freed =
+        rcache_evict_one() || cache_evict_one() || (k != MEM_BODIES && jobs_evict_result());
+    pthread_mutex_unlock(&work_lock);
+    return freed;
+}
+
 int jobs_start(int max_jobs)
 {
     jobs_max = max_jobs;
+    mem_set_reclaim(jobs_reclaim);
     jobs_table = calloc((size_t)max_jobs, sizeof *jobs_table);
     metrics_gauge(MG_JOBS, jobs_gauge);
     return jobs_table ? 0 : -1;
@@ -69,7 +116,8 @@ void jobs_stop(void)
 
 const char *jobs_state_name(enum jobs_state s)
 {
-    static const char *const names[] = {"queued", "running", "succeeded", "failed", "canceled"};
+    static const char *const names[] = {"queued", "running",  "succeeded",
+                                        "failed", "canceled", "evicted"};
     return names[s];
 }
 
@@ -78,17 +126,19 @@ enum jobs_state jobs_state(const struct job *j)
     const struct task *t = j->task;
     if (j->canceled)
         return JS_CANCELED;
+    if (t->finished && t->evicted)
+        return JS_EVICTED;
     if (t->finished)
-        return t->status == RAYD_OK            ? JS_SUCCEEDED
+        return t->status == RAYD_OK           ? JS_SUCCEEDED
                : t->status == RAYD_E_CANCELED ? JS_CANCELED
-                                               : JS_FAILED;
+                                              : JS_FAILED;
     return t->t_start == 0 && !t->finalizing ? JS_QUEUED : JS_RUNNING;
 }
 
 static bool jobs_final(const struct job *j)
 {
     enum jobs_state s = jobs_state(j);
-    return s == JS_SUCCEEDED || s == JS_FAILED || s == JS_CANCELED;
+    return s == JS_SUCCEEDED || s == JS_FAILED || s == JS_CANCELED || s == JS_EVICTED;
 }
 
 /* When a final job ended (clock_now's clock): its DELETE, or its task's
@@ -269,9 +319,12 @@ enum work_submit jobs_create(struct cache_entry *scene, const struct work_target
 {
     if (!jobs_new_id(id))
         return WORK_NOMEM;
+    enum work_submit why;
+    struct task *fresh = budget_task(scene, what, plan != NULL, &why);
+    if (!fresh)
+        return why;
     struct job *j = calloc(1, sizeof *j);
-    struct task *fresh = task_new(scene, what);
-    if (fresh && plan && !jobs_progressive(fresh, scene, plan, id)) {
+    if (plan && !jobs_progressive(fresh, scene, plan, id)) {
         task_unref(fresh);
         fresh = NULL;
     }
@@ -399,6 +452,7 @@ bool jobs_cancel(const char *id)
     pthread_mutex_unlock(&work_lock);
     task_notify_run(&n);
     task_notify_run(&sse);
+    mem_trim(); /* a cancelled job's sums may have been freed */
     return j != NULL;
 }
 

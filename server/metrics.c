@@ -74,7 +74,8 @@ static atomic_ulong metrics_hits, metrics_misses, metrics_rhits, metrics_rmisses
 static atomic_ulong metrics_rejects[MR__COUNT], metrics_cancels[MC__COUNT];
 
 static const char *const metrics_reject_names[MR__COUNT] = {
-    "queue_full", "draining", "body_too_large", "unauthorized", "over_budget", "http_parser"};
+    "queue_full",  "draining",    "body_too_large", "unauthorized",
+    "over_budget", "http_parser", "memory"};
 static const char *const metrics_cancel_names[MC__COUNT] = {"client_gone", "delete", "drain",
                                                                         "deadline"};
 
@@ -371,6 +372,19 @@ static void metrics_process_text(struct metrics_buf *b)
                    p.start_time);
 }
 
+/* The one memory budget (mem.c): each kind's bytes and the limit. */
+static void metrics_memory_text(struct metrics_buf *b)
+{
+    metrics_printf(b, "# HELP rayd_memory_bytes Memory counted in the --max-memory budget, by "
+                      "kind.\n# TYPE rayd_memory_bytes gauge\n");
+    for (int k = 0; k < MEM__COUNT; k++)
+        metrics_printf(b, "rayd_memory_bytes{kind=\"%s\"} %zu\n", mem_kind_name(k), mem_used(k));
+    metrics_printf(b,
+                   "# HELP rayd_memory_limit_bytes The memory budget (--max-memory).\n"
+                   "# TYPE rayd_memory_limit_bytes gauge\nrayd_memory_limit_bytes %zu\n",
+                   mem_limit());
+}
+
 char *metrics_text(size_t *len)
 {
     struct metrics_buf b = {0};
@@ -436,6 +450,7 @@ char *metrics_text(size_t *len)
         "# TYPE rayd_result_cache_entries gauge\nrayd_result_cache_entries %ld\n",
         atomic_load(&metrics_rhits), atomic_load(&metrics_rmisses),
         metrics_read(MG_RESULT_CACHE_BYTES), metrics_read(MG_RESULT_CACHE_ENTRIES));
+    metrics_memory_text(&b);
     metrics_printf(&b, "# HELP rayd_rejections_total Requests refused before any work.\n"
                        "# TYPE rayd_rejections_total counter\n");
     for (int i = 0; i < MR__COUNT; i++)

@@ -11,7 +11,9 @@
  * A tile's sums (24 bytes a pixel) are made when the tile is first
  * rendered, so a queued progressive job holds no more memory than a plain
  * one, and freed when the task finishes (passes_release), so a finished job
- * kept for --job-ttl holds only its kept PNGs and EXRs.
+ * kept for --job-ttl holds only its kept PNGs and EXRs.  The sums are
+ * reserved in the memory budget at the job's admission (budget.c), and a
+ * finished job's kept images may be let go to make room (passes_let_go).
  *
  * Passes follow one another with a barrier: the worker that completes a
  * pass's last tile encodes the pass (sched.c), records it here and only then
@@ -111,6 +113,18 @@ void passes_release(struct passes *p)
     }
     rayd_image_free(p->prev);
     p->prev = NULL;
+}
+
+void passes_let_go(struct passes *p)
+{
+    for (int i = 0; i < PASSES_KEEP; i++) {
+        blob_unref(p->png[i]);
+        p->png[i] = NULL;
+    }
+    for (int i = 0; i < PASSES_KEEP_EXR; i++) {
+        blob_unref(p->exr[i]);
+        p->exr[i] = NULL;
+    }
 }
 
 enum rayd_status passes_tile(struct passes *p, const rayd_scene *scene, int tile, int pass,

@@ -9,6 +9,12 @@
  * are dropped first.  PNGs are shared blobs with an atomic reference count,
  * so a PNG being sent while it is evicted stays alive until sent.
  *
+ * The PNGs are counted in the one memory budget (--max-memory, mem.c) as
+ * kind "caches" while the cache keeps them (a blob is counted once, whoever
+ * holds it), and the least recently used is evicted when a reservation
+ * needs room (rcache_evict_one), so the cache lives inside that budget as
+ * well as inside its own.
+ *
  * Like cache.c, this file has no lock: it is called under work_lock; the
  * hash table, recency list and budget are the shared index of lru.c.
  */
@@ -62,7 +68,18 @@ void rcache_put(const char *key, struct blob *png)
     it->node.key = it->key;
     it->node.bytes = need;
     it->png = blob_ref(png);
-    lru_insert(&rcache_lru, &it->node);
+    if (lru_insert(&rcache_lru, &it->node))
+        blob_kind(png, MEM_CACHES);
+}
+
+bool rcache_evict_one(void)
+{
+    struct lru_node *n = rcache_lru.tail;
+    if (!n)
+        return false;
+    lru_remove(&rcache_lru, n);
+    rcache_evicted(n);
+    return true;
 }
 
 void rcache_stats(size_t *bytes, size_t *entries)

@@ -58,6 +58,8 @@ struct http_req {
     char *body;
     size_t body_len, body_cap;
     long long body_declared;     /* Content-Length, -1 when none was sent */
+    size_t body_mem;             /* bytes of the body counted in --max-memory (mem.c) */
+    bool over_memory;            /* a chunked body outgrew the memory budget: 503 */
     int route;                   /* router index for metrics, -1 none */
     /* The router's row for the method and path, looked up once (router.c):
      * begin asks it of a request with a body, dispatch uses what it found. */

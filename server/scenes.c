@@ -15,6 +15,12 @@
  *
  * The parse stages (parse, decode mesh files, build BVHs) of a miss are
  * timed here for rayd_stage_seconds.
+ *
+ * A compiled scene's bytes (rayd_scene_info: its textures, meshes, BVHs)
+ * are counted in the one memory budget (--max-memory, mem.c) from its
+ * compile to its free, whether it is cached, queued or rendering; a scene
+ * that finds no room is freed and refused (503 with Retry-After, or 413
+ * when it alone is over the whole budget) before anything holds it.
  */
 #include "work_private.h"
 
@@ -58,6 +64,31 @@ static struct cache_entry *scenes_get(const char *id, bool have_text)
 
 struct cache_entry *scenes_find(const char *id) { return scenes_get(id, false); }
 
+/* About the memory a built triangle takes (its vertices, normals, BVH
+ * nodes and material index; 5 million took 650 MB), and a decoded texel
+ * (linear RGB floats). */
+#define SCENES_TRIANGLE_BYTES 128
+#define SCENES_TEXEL_BYTES 12
+
+/* A scene may not build more than the whole memory budget: its triangles,
+ * its decoded textures and the files and buffers it reads are held to the
+ * budget (the text itself, already read, keeps --max-body), so a few bytes
+ * of glTF or PNG are refused 413 with the JSON Pointer of what is too big,
+ * rather than building hundreds of MB first.  The budget, not the room left
+ * now, so the answer does not depend on other requests: what the room
+ * allows is decided once the scene is built (scenes_reserve, 503). */
+static void scenes_room(struct rayd_limits *lim)
+{
+    size_t room = mem_limit();
+    if ((size_t)lim->max_triangles > room / SCENES_TRIANGLE_BYTES)
+        lim->max_triangles = (long)(room / SCENES_TRIANGLE_BYTES);
+    if (lim->max_texels <= 0 || (size_t)lim->max_texels > room / SCENES_TEXEL_BYTES)
+        lim->max_texels = (long)(room / SCENES_TEXEL_BYTES) + 1; /* 0 would be the default */
+    size_t floor = (size_t)config.max_body;
+    if (lim->max_bytes > room)
+        lim->max_bytes = room > floor ? room : floor;
+}
+
 /* Parses and builds body outside the lock, timing each stage. */
 static enum rayd_status scenes_compile(const char *body, size_t len, rayd_scene **scene,
                                        struct rayd_error *err)
@@ -72,6 +103,7 @@ static enum rayd_status scenes_compile(const char *body, size_t len, rayd_scene 
             lim.max_bytes = (size_t)config.max_body;
         lim.asset_dir = config.asset_dir; /* confined (asset_confine) */
     }
+    scenes_room(&lim);
     double t0 = clock_now();
     enum rayd_status st = rayd_scene_parse(body, len, &lim, scene, err);
     double parsed = clock_now() - t0;
@@ -85,6 +117,35 @@ static enum rayd_status scenes_compile(const char *body, size_t len, rayd_scene 
     metrics_stage(MS_DECODE, info.decode_seconds);
     metrics_stage(MS_BUILD, info.build_seconds);
     return RAYD_OK;
+}
+
+static size_t scenes_bytes(const rayd_scene *scene)
+{
+    struct rayd_scene_info info;
+    rayd_scene_info(scene, &info);
+    return info.bytes;
+}
+
+/* Counts a scene just compiled in the memory budget, or frees it and says
+ * why not: 413 when it alone is over the budget, else 503 (no room now). */
+static enum rayd_status scenes_reserve(rayd_scene *scene, struct rayd_error *err)
+{
+    size_t bytes = scenes_bytes(scene);
+    if (mem_reserve(MEM_SCENES, bytes))
+        return RAYD_OK;
+    rayd_scene_free(scene);
+    mem_freed(bytes); /* for mem_trim: the heap held it a moment ago */
+    metrics_reject(MR_MEMORY);
+    bool alone = bytes > mem_limit();
+    memset(err, 0, sizeof *err);
+    err->code = alone ? RAYD_E_LIMIT : RAYD_E_NOMEM;
+    snprintf(err->message, sizeof err->message,
+             alone ? "the compiled scene takes %zu bytes, over the memory budget of %zu bytes "
+                     "(--max-memory)"
+                   : "the compiled scene takes %zu bytes and the memory budget of %zu bytes "
+                     "(--max-memory) has no room for it now; retry later",
+             bytes, mem_limit());
+    return err->code;
 }
 
 enum rayd_status scenes_parse(const char *body, size_t len, struct cache_entry **out, bool *hit,
@@ -106,6 +167,9 @@ enum rayd_status scenes_parse(const char *body, size_t len, struct cache_entry *
     enum rayd_status st = scenes_compile(body, len, &scene, err);
     if (st != RAYD_OK)
         return st;
+    st = scenes_reserve(scene, err);
+    if (st != RAYD_OK)
+        return st;
     char version[65];
     e = NULL;
     if (scenefiles_version(id, scene, version)) {
@@ -114,6 +178,7 @@ enum rayd_status scenes_parse(const char *body, size_t len, struct cache_entry *
         pthread_mutex_unlock(&work_lock);
     }
     if (!e) {
+        mem_release(MEM_SCENES, scenes_bytes(scene));
         rayd_scene_free(scene);
         scenes_nomem(err, "out of memory");
         return RAYD_E_NOMEM;

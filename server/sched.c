@@ -489,9 +489,10 @@ enum work_submit sched_render(struct cache_entry *scene, const struct work_targe
 {
     if ((*png = sched_result_find(scene, what)))
         return WORK_CACHED;
-    struct task *fresh = task_new(scene, what);
+    enum work_submit why;
+    struct task *fresh = budget_task(scene, what, false, &why);
     if (!fresh)
-        return WORK_NOMEM;
+        return why;
     pthread_mutex_lock(&work_lock);
     struct task *t = NULL;
     enum work_submit r = task_submit(scene, &fresh, &t);

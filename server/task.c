@@ -132,6 +132,8 @@ static void task_free_pixels(struct task *t)
     t->lin = NULL;
     free(t->sums);
     t->sums = NULL;
+    mem_release(t->mem_kind, t->mem); /* budget.c's reservation */
+    t->mem = 0;
 }
 
 void task_unref(struct task *t)

@@ -45,7 +45,9 @@ enum work_submit {
     WORK_FULL,
     WORK_DRAINING,
     WORK_NOMEM,
-    WORK_TOO_MANY_JOBS
+    WORK_TOO_MANY_JOBS,
+    WORK_MEMORY, /* the memory budget (--max-memory) has no room now: 503 */
+    WORK_TOO_BIG /* the render alone is over the memory budget: 413 */
 };
 
 /* ---- cache.c: the parts any thread may call ----------------------------- */
@@ -132,7 +134,13 @@ void sched_stats(struct sched_stats *st);
 
 /* ---- jobs.c: asynchronous renders ------------------------------------------ */
 
-enum jobs_state { JS_QUEUED, JS_RUNNING, JS_SUCCEEDED, JS_FAILED, JS_CANCELED };
+/* JS_EVICTED: succeeded, but its images were let go to keep rayd within
+ * --max-memory (the oldest finished first); its numbers stay. */
+enum jobs_state { JS_QUEUED, JS_RUNNING, JS_SUCCEEDED, JS_FAILED, JS_CANCELED, JS_EVICTED };
+#define JOBS_EVICTED_WHY                                                                          \
+    "the job's image was let go to keep rayd within its memory budget (--max-memory; the "        \
+    "oldest finished results go first): render it again"
+
 const char *jobs_state_name(enum jobs_state s);
 
 /* A progressive job (POST /v1/jobs?progressive=1): the frame in passes of

@@ -2,7 +2,7 @@
  *
  * Layer: work, private.  Included only by the work layer's own files
  * (work.c, lru.c, cache.c, rcache.c, scenes.c, cost.c, fair.c, resolve.c,
- * passes.c, task.c, gate.c, sched.c, jobs.c, events.c, watch.c); the layers
+ * passes.c, task.c, budget.c, gate.c, sched.c, jobs.c, events.c, watch.c); the layers
  * above see work.h alone.
  * May include: work.h (and through it base.h, <rayd/rayd.h>).
  *
@@ -22,7 +22,7 @@
  *     and the watcher's periodic wait.
  * Calls inside the layer go one way too, in this order (a file calls only
  * files before it): work (the lock), lru, cache, rcache, scenes, cost, fair,
- * resolve, passes, task, gate, jobs, events, watch, sched.
+ * resolve, passes, task, budget, gate, jobs, events, watch, sched.
  * Ownership: a task is referenced by the active list and by each job of it
  * (task.refs, lock held); it holds its scene until it finishes.  A job is
  * referenced by the table and by each open event stream (job.refs).
@@ -67,12 +67,17 @@ void lru_clear(struct lru *l); /* evicts everything */
 void cache_init(size_t budget_bytes);
 struct cache_entry *cache_get(const char *id); /* refs the entry, bumps LRU */
 /* Inserts (or returns the existing entry for id of that version, freeing
- * scene; one of another version is replaced); refs it. */
+ * scene; one of another version is replaced); refs it.  The scene's bytes
+ * were reserved in the memory budget by the caller: the entry releases them
+ * when it frees the scene (at once when it was a duplicate). */
 struct cache_entry *cache_put(const char *id, const char *version, rayd_scene *scene);
 struct cache_entry *cache_ref(struct cache_entry *e);
 void cache_release(struct cache_entry *e); /* drops a ref; frees when evicted */
 void cache_stats(size_t *bytes, size_t *entries);
 void cache_free_all(void);
+/* Evicts the least recently used entry no render holds (its scene freed);
+ * false when there is none. */
+bool cache_evict_one(void);
 
 /* ---- scenefiles.c: the files a cached scene read (any thread, no lock) ---- */
 
@@ -93,6 +98,7 @@ struct blob *rcache_get(const char *key); /* refs the PNG */
 void rcache_put(const char *key, struct blob *png);
 void rcache_stats(size_t *bytes, size_t *entries);
 void rcache_free_all(void);
+bool rcache_evict_one(void); /* the least recently used result; false: empty */
 
 /* ---- scenes.c ---------------------------------------------------------------- */
 
@@ -178,6 +184,9 @@ void passes_complete(struct passes *p, struct blob *png, struct blob *exr, doubl
 /* Lock held: a finished task lets go of its sums and last image (it renders
  * no more); its PNGs, EXRs and counts stay for the job. */
 void passes_release(struct passes *p);
+/* Lock held: a finished job's kept pass images are let go (the memory
+ * budget evicted them); its counts stay. */
+void passes_let_go(struct passes *p);
 /* Lock held: is there a next pass to render?  false also when a budget or
  * a stop ended the job (p->stop says which). */
 bool passes_more(struct passes *p, double elapsed);
@@ -221,6 +230,8 @@ struct task {
     double *sums;              /* WORK_SUMS: the tiles' sums of samples k0..k1-1 */
     enum work_format format;
     bool keep_exr;    /* a job's: its EXR too (work_target's keep_exr) */
+    size_t mem;             /* reserved in --max-memory (budget.c), released with the pixels */
+    enum mem_kind mem_kind; /* as what */
     struct blob *exr; /* keep_exr: the EXR, made with the PNG */
     int k0, k1;
     atomic_int cancel;
@@ -228,6 +239,7 @@ struct task {
      * passes (the core's meters take from it; RAYD_E_LIMIT below zero) */
     atomic_int_least64_t rays_left;
     bool interactive, queued, finalizing, finished;
+    bool evicted; /* finished, its images let go for the memory budget (jobs.c) */
     double t_enq, t_start, t_end;
     double encode_s; /* of t_end - t_start, the PNG's encoding */
     enum rayd_status status;
@@ -295,6 +307,17 @@ void task_cancel(struct task *t, enum metrics_cancel why, struct task_notify *n,
                  struct task_notify *sse);
 void task_notify_add(struct task_notify *n, struct work_waiter **from);
 void task_notify_run(struct task_notify *n); /* lock NOT held */
+
+/* ---- budget.c: a render's admission into the memory budget (no lock) ---- */
+
+/* The bytes a task rendering what will hold (its pixels or sums, its
+ * answer; a progressive job's sums and passes) and their kind. */
+size_t budget_bytes(const struct work_target *what, bool progressive, enum mem_kind *kind);
+/* task_new with what it will hold reserved in the memory budget; NULL with
+ * *why WORK_TOO_BIG (over the whole budget), WORK_MEMORY (no room now) or
+ * WORK_NOMEM. */
+struct task *budget_task(struct cache_entry *scene, const struct work_target *what,
+                         bool progressive, enum work_submit *why);
 
 /* ---- gate.c (lock held) -------------------------------------------------------- */
 

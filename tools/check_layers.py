@@ -54,7 +54,7 @@ CORE_LAYERS = [
 ]
 SERVER_LAYERS = [
     ("server/base", ["server/base.h", "server/config.", "server/log.", "server/clock.", "server/metrics.", "server/procstat.",
-                     "server/blob.", "server/json."]),
+                     "server/blob.", "server/json.", "server/mem."]),
     # the work layer, its files in call order: each calls only those before it
     ("server/work: lock", ["server/work.h", "server/work_private.h", "server/work.c"]),
     ("server/work: lru", ["server/lru."]),
@@ -66,6 +66,7 @@ SERVER_LAYERS = [
     ("server/work: resolve", ["server/resolve."]),
     ("server/work: passes", ["server/passes."]),
     ("server/work: task", ["server/task."]),
+    ("server/work: budget", ["server/budget."]),
     ("server/work: gate", ["server/gate."]),
     ("server/work: jobs", ["server/jobs."]),
     ("server/work: events", ["server/events."]),

@@ -32,7 +32,8 @@
  * parents, nodes nested deeper than GL_MAX_DEPTH, out-of-range indices,
  * counts that run past their buffer view or buffer (all sizes in 64-bit
  * arithmetic from values checked to be integers in range), buffers that
- * together exceed max_bytes, non-finite positions, and more vertices or
+ * together exceed max_bytes (an accessor without a bufferView counting its
+ * zeros as bytes read), non-finite positions, and more vertices or
  * triangles than the limits -- counted over every draw before the output
  * is allocated.  Each node is walked once, so the walk is as long as the
  * file; a mesh's primitives drawn by many nodes multiply, so the primitives
@@ -101,6 +102,7 @@ struct gl {
     struct gl_buf *bufs;
     int nbufs;
     size_t loaded;
+    bool counted; /* gl_count is done: the bake reads the same accessors again */
     uint32_t max_verts, max_tris;
     struct gl_draw *draws;
     size_t ndraws, cap_draws;
@@ -419,8 +421,16 @@ static enum rayd_status gl_accessor(struct gl *G, const cJSON *o, const struct j
         return gl_fail(G, RAYD_E_INVALID, &pct, "indices must be UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT (5121, 5123, 5125), not %d", a->ctype);
     if (!index && a->ctype == 5125) return gl_fail(G, RAYD_E_INVALID, &pct, "UNSIGNED_INT is not a vertex attribute type");
     if (gl_get(aj, "sparse")) return gl_fail(G, RAYD_E_INVALID, &ps, "sparse accessors are not supported");
-    if (!gl_get(aj, "bufferView")) return RAYD_OK; /* all zeros, as the spec says */
     size_t esize = (size_t)gl_csize(a->ctype) * (size_t)ncomp;
+    if (!gl_get(aj, "bufferView")) {
+        /* all zeros, as the spec says: a few bytes of JSON that stand for
+         * count elements, so they count against max_bytes as if read */
+        struct jp pc = jp_key(&pa, "count");
+        if (!G->counted && (G->loaded += (size_t)a->count * esize) > G->o->max_bytes)
+            return gl_fail(G, RAYD_E_LIMIT, &pc, "has no bufferView: its %u elements of zeros count as %zu bytes, bringing the buffers to %zu; the limit is %zu",
+                           a->count, (size_t)a->count * esize, G->loaded, G->o->max_bytes);
+        return RAYD_OK;
+    }
     struct jp po = jp_key(&pa, "byteOffset");
     if ((size_t)offset % (size_t)gl_csize(a->ctype) != 0)
         return gl_fail(G, RAYD_E_INVALID, &po, "must be a multiple of the component size");
@@ -677,6 +687,7 @@ static enum rayd_status gl_count(struct gl *G) {
             return gl_fail(G, RAYD_E_LIMIT, &pp, "brings the mesh to %llu triangles; the limit is %u", (unsigned long long)G->ntris, G->max_tris);
     }
     if (G->ntris == 0) return gl_fail(G, RAYD_E_INVALID, &top, "no triangles (the scene's primitives are points or lines, or there are none)");
+    G->counted = true;
     return RAYD_OK;
 }
 

@@ -39,6 +39,7 @@
 #include "io/scene_json_material.h"
 #include "io/scene_json_objects.h"
 #include "render/render.h"
+#include "shade/texture.h"
 
 void rayd_limits_default(struct rayd_limits *lim) {
     lim->max_width = 16384;
@@ -55,6 +56,7 @@ void rayd_limits_default(struct rayd_limits *lim) {
     lim->max_vertices = 5000000;
     lim->asset_dir = NULL;
     lim->asset_confine = 1;
+    lim->max_texels = TEXTURE_MAX_SCENE_PIXELS;
 }
 /* ---- camera and render --------------------------------------------------- */
 

@@ -240,7 +240,7 @@ static enum rayd_status load_meshes(struct imp *im, int override, struct object 
     enum rayd_status st = override >= 0
                               ? RAYD_OK
                               : gltf_mats_read(im->doc, (int)(room > 0 ? room : 0),
-                                               TEXTURE_MAX_SCENE_PIXELS - ld->texels, &g, ld->err);
+                                               sj_max_texels(ld) - ld->texels, &g, ld->err);
     ld->texels += g.texels; /* the scene's image textures together */
     if (override >= 0 && !mats_none(&g))
         st = err_set(ld->err, RAYD_E_NOMEM, im->src.s, "out of memory");

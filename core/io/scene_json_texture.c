@@ -50,12 +50,12 @@ static enum rayd_status load_image(struct loader *ld, const cJSON *tj, const str
     }
     rayd_image *img = NULL;
     struct rayd_error e = {0};
-    long room = TEXTURE_MAX_SCENE_PIXELS - ld->texels;
+    long room = sj_max_texels(ld) - ld->texels;
     if (room <= 0) { /* never 0 to the decoder: there 0 means its own default */
         free(data);
         return sj_fail(ld, RAYD_E_LIMIT, &p,
                        "the scene's image textures together are over the limit of %ld pixels",
-                       (long)TEXTURE_MAX_SCENE_PIXELS);
+                       sj_max_texels(ld));
     }
     enum rayd_status st =
         rayd_png_decode(data, len, room < TEXTURE_MAX_PIXELS ? room : TEXTURE_MAX_PIXELS, &img, &e);

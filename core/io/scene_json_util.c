@@ -19,6 +19,12 @@
 #include "io/scene_json_util.h"
 #include "base/hugemem.h"
 #include "scene/scene_files.h"
+#include "shade/texture.h"
+
+long sj_max_texels(const struct loader *ld) {
+    long m = ld->lim->max_texels;
+    return m > 0 && m < TEXTURE_MAX_SCENE_PIXELS ? m : TEXTURE_MAX_SCENE_PIXELS;
+}
 
 const char *sj_type_name(const cJSON *v) {
     if (cJSON_IsNumber(v)) return "a number";

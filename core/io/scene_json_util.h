@@ -52,7 +52,7 @@ struct loader {
     size_t mat_cap, tex_cap, mesh_cap, xform_cap, part_cap; /* array capacities */
     long objects;             /* objects, operands and group members so far */
     long triangles, vertices; /* totals so far, against the limits */
-    long texels;              /* pixels of the image textures so far (TEXTURE_MAX_SCENE_PIXELS) */
+    long texels;              /* pixels of the image textures so far (sj_max_texels) */
     const struct sj_inline *inl; /* inline mesh arrays left out of the tree */
     bool frame;                  /* camera.frame: placed after the objects load */
     double frame_azimuth;        /* degrees about +Y: the view's, or camera.azimuth */
@@ -72,6 +72,9 @@ enum vec_rule { VEC_ANY, VEC_NONZERO, VEC_COLOR };
     } while (0)
 
 const char *sj_type_name(const cJSON *v);
+/* The pixels all of the scene's image textures may have together: the
+ * limits' max_texels, or the default (TEXTURE_MAX_SCENE_PIXELS). */
+long sj_max_texels(const struct loader *ld);
 enum rayd_status sj_fail(struct loader *ld, enum rayd_status code, const struct jp *at,
                          const char *fmt, ...) __attribute__((format(printf, 4, 5)));
 /* Every key of obj must be in allowed (NULL-terminated; NULL = any) and

@@ -93,6 +93,11 @@ struct rayd_limits {
      * and does not confine.  A file counts against max_bytes. */
     const char *asset_dir;
     int asset_confine;
+    /* Pixels of all the scene's image textures together (each decoded
+     * texel is 12 bytes of linear RGB); 0 or above the default (4 x 4096 x
+     * 4096) means the default.  rayd lowers it to what its memory budget
+     * has room for. */
+    long max_texels;
 };
 
 /* Fills lim with the documented defaults (docs/scene-format.md). */

@@ -446,8 +446,32 @@ static void test_limits_and_container(void) {
     free(s);
 }
 
+/* An accessor without a bufferView is all zeros: a few bytes of JSON that
+ * stand for count elements.  They count against max_bytes as if read, so a
+ * 300-byte file cannot build millions of triangles under a small limit; under
+ * a large one the same file still decodes (zeros, as the spec says). */
+static void test_accessor_without_view(void) {
+    const char *doc = "{\"asset\": {\"version\": \"2.0\"}, \"scene\": 0, \"scenes\": [{\"nodes\": [0]}],"
+                      " \"nodes\": [{\"mesh\": 0}], \"meshes\": [{\"primitives\": [{\"attributes\":"
+                      " {\"POSITION\": 0}}]}], \"accessors\": [{\"componentType\": 5126, \"count\": 3000,"
+                      " \"type\": \"VEC3\", \"min\": [0, 0, 0], \"max\": [0, 0, 0]}]}";
+    struct mesh_data m = {0};
+    struct rayd_error e = {0};
+    struct mesh_gltf_opts o = {.max_bytes = 35999, .max_nesting = 64};
+    enum rayd_status st = mesh_parse_gltf(doc, strlen(doc), NULL, &o, &m, &e);
+    CHECK(st == RAYD_E_LIMIT && !strcmp(e.path, "/accessors/0/count") && strstr(e.message, "no bufferView") &&
+              strstr(e.message, "36000 bytes"),
+          "zeros over max_bytes: %d '%s' %s", (int)st, e.path, e.message);
+    o.max_bytes = 36000;
+    memset(&e, 0, sizeof e);
+    st = mesh_parse_gltf(doc, strlen(doc), NULL, &o, &m, &e);
+    CHECK(st == RAYD_OK && m.ntris == 1000, "zeros at max_bytes: %d %s, %u triangles", (int)st, e.message, m.ntris);
+    mesh_data_free(&m);
+}
+
 int main(void) {
     make_bin();
+    RUN(test_accessor_without_view);
     RUN(test_glb);
     RUN(test_gltf_data_uri_and_file);
     RUN(test_normals_transformed);

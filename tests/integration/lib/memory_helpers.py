@@ -1,0 +1,111 @@
+"""memory_helpers.py -- the memory budget's tests and bench build their
+scenes and their slow clients here (tests/integration/memory_budget.sh,
+tests/tools/memory_table.sh).
+
+  texture_scene OUT SIDE TEXTURES TAG   a scene of TEXTURES spheres, each with
+                                        its own SIDE x SIDE PNG texture
+                                        (decoded: SIDE^2 texels each)
+  gltf_zeros OUT COUNT                  a mesh whose glTF POSITION accessor has
+                                        COUNT elements and no bufferView
+  slow_bodies PORT N LEN DIR            N connections, each declaring a body of
+                                        LEN bytes with Expect: 100-continue;
+                                        those told to continue send all but
+                                        16 bytes and hold; the others' status
+                                        lines and Retry-After go to DIR/answers;
+                                        DIR/sent is written when all are done;
+                                        they hold until DIR/stop exists
+"""
+import base64
+import json
+import os
+import socket
+import struct
+import sys
+import time
+import zlib
+
+
+def png(side, shade):
+    """A SIDE x SIDE 8-bit RGB PNG of one colour (a few KB whatever SIDE)."""
+    row = b"\x00" + bytes([shade, 255 - shade, 128]) * side
+    raw = zlib.compress(row * side, 9)
+
+    def chunk(kind, data):
+        c = kind + data
+        return struct.pack(">I", len(data)) + c + struct.pack(">I", zlib.crc32(c) & 0xFFFFFFFF)
+
+    ihdr = struct.pack(">IIBBBBB", side, side, 8, 2, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", raw) + chunk(b"IEND", b"")
+
+
+def texture_scene(out, side, n, tag):
+    mats, objs = {}, []
+    for i in range(n):
+        b64 = base64.b64encode(png(side, (i * 37 + int(tag)) % 256)).decode()
+        mats["t%d" % i] = {"color": [1, 1, 1], "diffuse": 0.8,
+                           "texture": {"type": "image", "png_base64": b64}}
+        objs.append({"type": "sphere", "center": [i - n / 2.0, 0, -5], "radius": 0.4,
+                     "material": "t%d" % i})
+    scene = {"camera": {"position": [0, 0, 3], "look_at": [0, 0, -5], "up": [0, 1, 0],
+                        "fov_x": 60},
+             "render": {"width": 32, "height": 32, "samples": 1, "max_depth": 1, "seed": int(tag)},
+             "materials": mats, "lights": [{"type": "point", "position": [0, 5, 0],
+                                            "color": [1, 1, 1]}],
+             "objects": objs}
+    open(out, "w").write(json.dumps(scene))
+
+
+def gltf_zeros(out, count):
+    doc = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],
+           "nodes": [{"mesh": 0}],
+           "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+           "accessors": [{"componentType": 5126, "count": count, "type": "VEC3",
+                          "min": [0, 0, 0], "max": [0, 0, 0]}]}
+    scene = {"camera": {"position": [0, 0, 3], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov_x": 60},
+             "render": {"width": 8, "height": 8, "samples": 1},
+             "materials": {"m": {"color": [1, 1, 1]}},
+             "objects": [{"type": "mesh", "material": "m",
+                          "source": {"format": "gltf", "text": json.dumps(doc)}}]}
+    open(out, "w").write(json.dumps(scene))
+
+
+def slow_bodies(port, n, length, folder):
+    held, answers = [], []
+    for i in range(n):
+        s = socket.create_connection(("127.0.0.1", port), timeout=60)
+        s.sendall(("POST /v1/render HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+                   "Content-Length: %d\r\nExpect: 100-continue\r\n\r\n" % length).encode())
+        got = b""
+        while b"\r\n\r\n" not in got:
+            d = s.recv(4096)
+            if not d:
+                break
+            got += d
+        head = got.decode("latin-1")
+        if head.startswith("HTTP/1.1 100"):
+            s.sendall(b" " * (length - 16))  # all but the last bytes: the body stays unfinished
+            held.append(s)
+        else:
+            retry = [l.split(":", 1)[1].strip() for l in head.split("\r\n")
+                     if l.lower().startswith("retry-after:")]
+            answers.append("%s retry=%s" % (head.split("\r\n")[0], retry[0] if retry else "-"))
+            s.close()
+    open(os.path.join(folder, "answers"), "w").write("\n".join(answers) + "\n")
+    open(os.path.join(folder, "sent"), "w").write("%d held\n" % len(held))
+    end = time.time() + 120  # only ends a hung case
+    while not os.path.exists(os.path.join(folder, "stop")) and time.time() < end:
+        time.sleep(0.05)
+    for s in held:
+        s.close()
+
+
+if __name__ == "__main__":
+    cmd = sys.argv[1]
+    if cmd == "texture_scene":
+        texture_scene(sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), sys.argv[5])
+    elif cmd == "gltf_zeros":
+        gltf_zeros(sys.argv[2], int(sys.argv[3]))
+    elif cmd == "slow_bodies":
+        slow_bodies(int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]), sys.argv[5])
+    else:
+        sys.exit("unknown command " + cmd)

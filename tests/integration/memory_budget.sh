@@ -1,0 +1,168 @@
+#!/usr/bin/env bash
+# memory_budget.sh -- one memory budget (--max-memory, docs/operations.md
+# "Memory budget"): request bodies in flight, compiled scenes (queued ones
+# too), renders' pixels and sums, finished results and the result cache are
+# counted together; past the budget a request is refused 503 with
+# Retry-After (413 when it alone is over the whole budget) instead of rayd
+# growing; finished results are let go oldest first and the job says so
+# (state "evicted", its image 410 result_evicted); /metrics shows each kind.
+# The budget here is 16 MiB, so the whole test stays in tens of MB.  Work is
+# held by the test gate, never by a sleep.
+. "$(dirname "$0")/lib/common.sh"
+
+HELP="python3 $RAYD_ROOT/tests/integration/lib/memory_helpers.py"
+LIMIT=16777216
+
+start_rayd --max-memory 16M --max-body 1048576 --threads 1 --test-gate 0
+
+kinds_shown() {
+    local k
+    for k in bodies scenes results sums caches; do
+        [ -n "$(metric "rayd_memory_bytes{kind=\"$k\"}")" ] || return 1
+    done
+    [ "$(metric rayd_memory_limit_bytes)" = "$LIMIT" ]
+}
+check metrics_kinds "rayd_memory_bytes{kind=...} or rayd_memory_limit_bytes missing" kinds_shown
+
+total() {
+    local k sum=0 v
+    for k in bodies scenes results sums caches; do
+        v=$(metric "rayd_memory_bytes{kind=\"$k\"}")
+        sum=$((sum + ${v:-0}))
+    done
+    echo "$sum"
+}
+rss() { awk '/^VmRSS:/ {print $2 * 1024}' "/proc/$RAYD_PID/status"; }
+
+# --- slow bodies: 40 uploads of 1 MiB that never finish -----------------------------
+rss0=$(rss)
+mkdir -p "$T/slow"
+$HELP slow_bodies "$PORT" 40 1048576 "$T/slow" &
+SLOW_PID=$!
+PIDS+=("$SLOW_PID")
+wait_until 60 test -s "$T/slow/sent"
+held=$(awk '{print $1}' "$T/slow/sent")
+refused=$(grep -c '^HTTP/1.1 503 .* retry=[0-9]' "$T/slow/answers")
+bodies=$(metric 'rayd_memory_bytes{kind="bodies"}')
+rss1=$(rss)
+if [ "$held" -ge 1 ] && [ "$refused" -ge 20 ] && [ $((held + refused)) -eq 40 ] &&
+    [ "${bodies:-0}" -le "$LIMIT" ] && [ "${bodies:-0}" -ge $((held * 1048576)) ]; then
+    pass slow_bodies_refused
+else
+    fail slow_bodies_refused "held $held, refused 503+Retry-After $refused of 40, bodies $bodies"
+fi
+# 40 MiB would be resident if every body were kept; the budget keeps 16
+if [ $((rss1 - rss0)) -le $((LIMIT + 8388608)) ]; then
+    pass slow_bodies_rss_bounded
+else
+    fail slow_bodies_rss_bounded "VmRSS grew by $((rss1 - rss0)) bytes for 40 slow 1 MiB bodies"
+fi
+: >"$T/slow/stop"
+wait "$SLOW_PID" 2>/dev/null
+check slow_bodies_released "bodies still counted after the clients left" \
+    wait_until 30 metric_is 'rayd_memory_bytes{kind="bodies"}' 0
+
+# --- queued texture scenes count ------------------------------------------------------
+# each scene: 4 textures of 256 x 256 (3 MB decoded); jobs held by the gate
+ok=0 full=0 retry= held_ids=()
+for i in $(seq 1 8); do
+    $HELP texture_scene "$T/tex$i.json" 256 4 "$i"
+    code=$(post_json /v1/jobs "$T/tex$i.json")
+    if [ "$code" = 202 ]; then
+        ok=$((ok + 1))
+        held_ids+=("$(jfield "$T/body" id)")
+    elif [ "$code" = 503 ] && err_is "$T/body" 503 out_of_memory; then
+        full=$((full + 1))
+        retry=$(header Retry-After)
+    fi
+done
+scenes=$(metric 'rayd_memory_bytes{kind="scenes"}')
+if [ "$ok" -ge 2 ] && [ "$full" -ge 1 ] && [ -n "$retry" ] && [ "${scenes:-0}" -ge $((ok * 3000000)) ] &&
+    [ "$(total)" -le "$LIMIT" ]; then
+    pass queued_scenes_count
+else
+    fail queued_scenes_count "$ok accepted, $full refused (Retry-After '$retry'), scenes $scenes, total $(total)"
+fi
+# the held jobs go; their scenes with them
+for id in "${held_ids[@]}"; do
+    req DELETE "/v1/jobs/$id" >/dev/null
+done
+# the scenes stay cached, but the cache gives them up for a new one
+$HELP texture_scene "$T/tex9.json" 256 4 9
+code=$(post_json /v1/jobs "$T/tex9.json")
+check cached_scenes_make_room "a new scene after the jobs were deleted: $code $(head -c 200 "$T/body")" \
+    [ "$code" = 202 ]
+req DELETE "/v1/jobs/$(jfield "$T/body" id)" >/dev/null
+
+# --- a sums answer bigger than the budget -----------------------------------------------
+scene "$T/big.json" 1024 1024 1
+code=$(post_json '/v1/render?format=sums&samples=0-1' "$T/big.json" -m 20)
+if [ "$code" = 413 ] && err_is "$T/body" 413 over_memory; then
+    pass sums_over_budget_413
+else
+    fail sums_over_budget_413 "format=sums of 1024x1024 (48 MB) under 16 MiB gave $code $(head -c 200 "$T/body")"
+fi
+
+# --- progressive sums count, and DELETE releases them ----------------------------------------
+scene "$T/p.json" 256 256 8
+code=$(post_json '/v1/jobs?progressive=1' "$T/p.json")
+pid=$(jfield "$T/body" id)
+sums=$(metric 'rayd_memory_bytes{kind="sums"}')
+if [ "$code" = 202 ] && [ "${sums:-0}" -ge $((256 * 256 * 24)) ]; then
+    pass progressive_sums_count
+else
+    fail progressive_sums_count "POST $code, sums counted $sums"
+fi
+req DELETE "/v1/jobs/$pid" >/dev/null
+check progressive_sums_released "sums still counted after DELETE" \
+    wait_until 30 metric_is 'rayd_memory_bytes{kind="sums"}' 0
+
+# --- finished results are let go oldest first ----------------------------------------
+gate open
+ids=()
+evicted=
+for i in $(seq 1 12); do
+    scene "$T/e$i.json" 512 512 1 spheres "$i"
+    code=$(post_json '/v1/jobs?format=exr' "$T/e$i.json")
+    [ "$code" = 202 ] || break
+    ids+=("$(jfield "$T/body" id)")
+    wait_until 60 job_state_is "${ids[-1]}" succeeded
+    if job_state_is "${ids[0]}" evicted; then
+        evicted=${#ids[@]}
+        break
+    fi
+done
+if [ -n "$evicted" ] && job_state_is "${ids[-1]}" succeeded && [ "$(total)" -le "$LIMIT" ]; then
+    pass results_evicted
+else
+    fail results_evicted "after ${#ids[@]} jobs (last POST $code) the first is $(jfield "$T/body" state 2>/dev/null), total $(total)"
+fi
+# oldest first: the second job outlives the first
+if [ -n "$evicted" ] && [ "$evicted" -ge 3 ] && ! job_state_is "${ids[1]}" evicted; then
+    pass results_evicted_oldest_first
+elif [ -n "$evicted" ] && [ "$evicted" -lt 3 ]; then
+    pass results_evicted_oldest_first # only two finished: the older went
+else
+    fail results_evicted_oldest_first "job 2 of ${#ids[@]} was evicted before job 1 or none was"
+fi
+code=$(req GET "/v1/jobs/${ids[0]}/image.png")
+if [ "$code" = 410 ] && err_is "$T/body" 410 result_evicted; then
+    pass evicted_image_410
+else
+    fail evicted_image_410 "GET image of an evicted job: $code $(head -c 200 "$T/body")"
+fi
+req GET "/v1/jobs/${ids[0]}" >/dev/null
+check evicted_job_says_why "no evicted_reason in the job" grep -q '"evicted_reason":"[^"]*max-memory' "$T/body"
+
+# --- a glTF whose accessor has no bufferView counts its zeros -------------------------------
+$HELP gltf_zeros "$T/zeros.json" 15000000
+code=$(post_json /v1/render "$T/zeros.json" -m 30)
+if [ "$code" = 413 ] && [ "$(json "$T/body" 'j["error"]["path"]')" = /objects/0/source/gltf/accessors/0/count ]; then
+    pass gltf_without_bufferview_counted
+else
+    fail gltf_without_bufferview_counted "$code $(head -c 300 "$T/body")"
+fi
+
+stop_rayd
+check exit_clean "rayd exited $RAYD_RC" [ "$RAYD_RC" = 0 ]
+exit $((NFAIL > 0))
