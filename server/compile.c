@@ -117,6 +117,8 @@ static enum work_submit compile_enqueue(const char *id, const char *body, size_t
 {
     struct compile_job *j = compile_find(id, body == NULL);
     if (j) { /* the same body is being parsed: wait for it */
+        if (e)
+            cache_release(e); /* that job has its own */
         w->suspend(w);
         w->next = j->waiters;
         j->waiters = w;

@@ -26,7 +26,7 @@ scene() {
 # status in $T/NAME.code, body in $T/NAME.body
 post_bg() {
     local name=$1 file=$2; shift 2
-    curl -s -m 60 -o "$T/$name.body" -w '%{http_code}' -H 'Content-Type: application/json' \
+    curl -s -m 300 -o "$T/$name.body" -w '%{http_code}' -H 'Content-Type: application/json' \
         --data-binary @"$file" "$@" "$URL/v1/scenes" >"$T/$name.code" 2>/dev/null &
     PIDS+=($!)
 }
@@ -80,7 +80,7 @@ check cached_answers_while_held "status $code: $(head -c 200 "$T/body")" \
 
 # --- identical bodies: one parse -------------------------------------------------
 code=$(parse_gate open)
-for n in a1 a2 a3 b; do wait_until 30 done_code $n; done
+for n in a1 a2 a3 b; do wait_until 120 done_code $n; done
 ida=$(sha256sum "$T/a.json" | cut -d' ' -f1)
 for n in a1 a2 a3; do
     check "coalesced_answer_$n" "status $(code_of $n): $(head -c 200 "$T/$n.body")" \
@@ -140,6 +140,27 @@ code2=$(req GET "/v1/scenes/$idm/image.png?x=0&y=0&w=2&h=2")
 c2=$(metric rayd_scene_file_checks_total)
 check one_stat_per_cached_get "GETs $code1 $code2; file checks $c0 -> $c1 -> $c2 for 3000 references to one file" \
     bash -c "[ $code1 = 200 ] && [ $code2 = 200 ] && [ '$c1' = $((c0 + 1)) ] && [ '$c2' = $((c1 + 1)) ]"
+
+# a scene of 20 distinct files is checked on a parse thread: the same answers
+for i in $(seq 1 20); do cp "$A/tri.obj" "$A/t$i.obj"; touch -d '2001-01-01 00:00:01' "$A/t$i.obj"; done
+python3 - "$T/twenty.json" <<'PY'
+import json, sys
+objs = [{"type": "mesh", "source": {"file": "t%d.obj" % i}} for i in range(1, 21)]
+json.dump({"render": {"width": 8, "height": 6}, "objects": objs}, open(sys.argv[1], "w"))
+PY
+idt=$(sha256sum "$T/twenty.json" | cut -d' ' -f1)
+code1=$(post_json /v1/scenes "$T/twenty.json")
+code2=$(post_json /v1/scenes "$T/twenty.json")
+check many_files_cached_post "statuses $code1 $code2: $(head -c 200 "$T/body")" \
+    bash -c "[ $code1 = 201 ] && [ $code2 = 201 ] && grep -q '\"cached\":true' '$T/body'"
+c0=$(metric rayd_scene_file_checks_total)
+code=$(req GET "/v1/scenes/$idt/image.png")
+check many_files_cached_get "GET $code, file checks $c0 -> $(metric rayd_scene_file_checks_total)" \
+    bash -c "[ $code = 200 ] && [ '$(metric rayd_scene_file_checks_total)' = $((c0 + 20)) ]"
+printf 'v 0 0 -3\nv 2 0 -3\nv 0 1 -3\nf 1 2 3\n' >"$A/t7.obj"
+code=$(req GET "/v1/scenes/$idt/image.png")
+check many_files_changed_unknown "GET after a change: $code $(head -c 200 "$T/body")" \
+    err_is "$T/body" 404 scene_unknown
 
 # --- a drain answers a held parse's request ----------------------------------------
 stop_rayd TERM
