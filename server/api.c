@@ -430,6 +430,12 @@ void api_refused(struct http_req *r, enum work_submit why)
         r->retry_after =
             api_cost_retry_after(st.backlog_s / (double)(st.queued > 0 ? st.queued : 1));
     switch (why) {
+    case WORK_PARSE_FULL: /* a place frees when a queued parse starts */
+        metrics_reject(MR_PARSE_QUEUE_FULL);
+        r->retry_after = api_cost_retry_after(compile_retry_seconds());
+        http_reply_error(r, 503, "queue_full", "the scene parse queue is full, retry later", NULL,
+                         0, 0, NULL);
+        break;
     case WORK_FULL:
         metrics_reject(MR_QUEUE_FULL);
         http_reply_error(r, 503, "queue_full", "the render queue is full, retry later", NULL, 0, 0,
@@ -465,23 +471,79 @@ void api_refused(struct http_req *r, enum work_submit why)
     }
 }
 
-bool api_scene(struct http_req *r, struct cache_entry **out, bool *hit)
+/* A request waiting on a parse thread for its scene (compile.c). */
+struct api_scene_wait {
+    struct compile_waiter w; /* first: the callbacks get it back */
+    struct http_req *r;
+    api_scene_then then;
+};
+
+/* r's answer for its scene: the error, or what the continuation does with
+ * it; true when the continuation handed r on (a render will resume it). */
+static bool api_scene_answer(struct http_req *r, struct compile_result *res, api_scene_then then)
 {
-    if (sched_draining()) {
+    if (res->draining) {
         api_refused(r, WORK_DRAINING);
         return false;
     }
-    if (!api_require_json(r))
-        return false;
-    struct rayd_error err = {0};
-    enum rayd_status st = scenes_parse(r->body ? r->body : "", r->body_len, out, hit, &err);
-    if (st != RAYD_OK) {
-        err.code = st;
-        api_reply_rayd_error(r, &err);
+    if (res->status != RAYD_OK) {
+        res->err.code = res->status;
+        api_reply_rayd_error(r, &res->err);
         return false;
     }
-    snprintf(r->scene, sizeof r->scene, "%s", cache_id(*out)); /* for the access log */
-    return true;
+    snprintf(r->scene, sizeof r->scene, "%s", cache_id(res->scene)); /* for the access log */
+    bool handed = then(r, res->scene, res->hit);
+    scenes_release(res->scene);
+    return handed;
+}
+
+/* On a parse thread, r still suspended: the continuation runs here, and r
+ * is resumed unless the continuation handed it on. */
+static void api_scene_done(struct compile_waiter *w, struct compile_result *res)
+{
+    struct api_scene_wait a = *(struct api_scene_wait *)w;
+    free(w);
+    if (!api_scene_answer(a.r, res, a.then))
+        http_req_resume(a.r);
+}
+
+static void api_scene_suspend(struct compile_waiter *w)
+{
+    http_req_suspend(((struct api_scene_wait *)w)->r);
+}
+
+void api_scene(struct http_req *r, api_scene_then then)
+{
+    if (sched_draining()) {
+        api_refused(r, WORK_DRAINING);
+        return;
+    }
+    if (!api_require_json(r))
+        return;
+    struct api_scene_wait *a = calloc(1, sizeof *a);
+    if (!a) {
+        api_refused(r, WORK_NOMEM);
+        return;
+    }
+    a->r = r;
+    a->then = then;
+    a->w.done = api_scene_done;
+    a->w.suspend = api_scene_suspend;
+    struct compile_result res;
+    enum work_submit s = compile_scene(r->body ? r->body : "", r->body_len, &a->w, &res);
+    if (s == WORK_OK)
+        return; /* a belongs to the parse pool until done() */
+    free(a);
+    if (s == WORK_CACHED)
+        api_scene_answer(r, &res, then);
+    else
+        api_refused(r, s);
+}
+
+void api_suspend(struct http_req *r)
+{
+    if (!r->suspended)
+        http_req_suspend(r);
 }
 
 bool api_is_decimal(const char *s, bool point)

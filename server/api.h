@@ -54,9 +54,20 @@ void api_reply_rayd_error(struct http_req *r, const struct rayd_error *err);
 void api_not_found(struct http_req *r);
 /* Reply for a refused submission (queue full, draining, ...). */
 void api_refused(struct http_req *r, enum work_submit why);
-/* Parses r's body as a scene (refusing while draining): false after
- * replying with the error; *out to scenes_release. */
-bool api_scene(struct http_req *r, struct cache_entry **out, bool *hit);
+/* What a handler does with r's scene once it is compiled: e is referenced
+ * for the call only (api_scene releases it after), hit when it was found
+ * compiled.  It may run on a parse thread with r suspended; it returns true
+ * when it handed r on to something that will resume it (a render's waiter,
+ * suspended with api_suspend), false when it answered r. */
+typedef bool (*api_scene_then)(struct http_req *r, struct cache_entry *e, bool hit);
+/* Compiles r's body as a scene (refusing while draining, or 503 queue_full
+ * with Retry-After when --parse-queue scenes wait), then calls then: at once
+ * when the scene is cached, else from a parse thread while r is suspended
+ * (compile.c).  A bad scene is answered with its error, then not called. */
+void api_scene(struct http_req *r, api_scene_then then);
+/* A waiter's suspend(): suspends r unless it is already, waiting for its
+ * scene (a continuation of api_scene's on a parse thread). */
+void api_suspend(struct http_req *r);
 
 /* ---- api_cost.c: who asks, and what it costs ------------------------------------ */
 

@@ -194,13 +194,11 @@ static void api_add_estimate(cJSON *o, const struct api_price *p)
     json_add_fixed(e, "seconds", p->seconds, 3);
 }
 
-void api_jobs_post(struct http_req *r, const char *unused)
+/* POST /v1/jobs once its scene is compiled (api_scene's continuation). */
+static bool api_jobs_compiled(struct http_req *r, struct cache_entry *e, bool hit)
 {
-    (void)unused;
-    struct cache_entry *e;
-    bool hit, progressive = false;
-    if (!api_scene(r, &e, &hit))
-        return;
+    (void)hit;
+    bool progressive = false;
     struct work_target what = {.format = WORK_PNG};
     struct jobs_plan plan;
     struct api_price price;
@@ -233,7 +231,13 @@ void api_jobs_post(struct http_req *r, const char *unused)
         http_reply_header(r, "Location", url);
         api_cost_price_headers(r, &price);
     }
-    scenes_release(e);
+    return false;
+}
+
+void api_jobs_post(struct http_req *r, const char *unused)
+{
+    (void)unused;
+    api_scene(r, api_jobs_compiled);
 }
 
 /* "noise": the estimate with 6 decimals, or null before there is one. */

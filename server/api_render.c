@@ -73,13 +73,14 @@ static void api_render_done(struct work_waiter *w, struct work_result *res)
 
 static void api_render_suspend(struct work_waiter *w)
 {
-    http_req_suspend(((struct api_render_wait *)w)->r);
+    api_suspend(((struct api_render_wait *)w)->r);
 }
 
 /* Renders what of scene for r: priced (and refused if over budget and not
  * in the result cache), answered at once from the result cache, or
- * suspended until a worker answers, or refused with a 503. */
-static void api_render_submit(struct http_req *r, struct cache_entry *scene,
+ * suspended until a worker answers (true: r is the worker's now), or
+ * refused with a 503. */
+static bool api_render_submit(struct http_req *r, struct cache_entry *scene,
                               struct work_target *what)
 {
     enum work_format format = what->format;
@@ -95,12 +96,12 @@ static void api_render_submit(struct http_req *r, struct cache_entry *scene,
         } else {
             api_cost_over_budget(r, &price, limit);
         }
-        return;
+        return false;
     }
     struct api_render_wait *a = calloc(1, sizeof *a);
     if (!a) {
         api_refused(r, WORK_NOMEM);
-        return;
+        return false;
     }
     a->r = r;
     a->format = format;
@@ -110,7 +111,7 @@ static void api_render_submit(struct http_req *r, struct cache_entry *scene,
     a->w.fd = http_req_fd(r);
     enum work_submit s = sched_render(scene, what, &a->w, &png);
     if (s == WORK_OK)
-        return; /* a belongs to the work layer until done() */
+        return true; /* a belongs to the work layer until done() */
     free(a);
     if (s == WORK_CACHED) {
         api_render_reply(r, png, format, &price);
@@ -119,29 +120,27 @@ static void api_render_submit(struct http_req *r, struct cache_entry *scene,
     } else {
         api_refused(r, s);
     }
+    return false;
+}
+
+/* POST /v1/render once its scene is compiled (api_scene's continuation). */
+static bool api_render_scene(struct http_req *r, struct cache_entry *e, bool hit)
+{
+    (void)hit;
+    struct work_target what;
+    return api_target(r, cache_scene(e), &what) && api_render_submit(r, e, &what);
 }
 
 void api_render_post(struct http_req *r, const char *id)
 {
     (void)id;
-    struct cache_entry *e;
-    bool hit;
-    if (!api_scene(r, &e, &hit))
-        return;
-    struct work_target what;
     r->route_negotiates = true;
-    if (api_target(r, cache_scene(e), &what))
-        api_render_submit(r, e, &what);
-    scenes_release(e);
+    api_scene(r, api_render_scene);
 }
 
-void api_scenes_post(struct http_req *r, const char *id)
+/* POST /v1/scenes once its scene is compiled: 201 and what it is. */
+static bool api_scenes_created(struct http_req *r, struct cache_entry *e, bool hit)
 {
-    (void)id;
-    struct cache_entry *e;
-    bool hit;
-    if (!api_only_params(r, NULL) || !api_scene(r, &e, &hit))
-        return;
     struct rayd_scene_info info;
     rayd_scene_info(cache_scene(e), &info);
     cJSON *o = cJSON_CreateObject();
@@ -154,7 +153,14 @@ void api_scenes_post(struct http_req *r, const char *id)
     snprintf(loc, sizeof loc, "/v1/scenes/%s", cache_id(e));
     http_reply_json(r, 201, o);
     http_reply_header(r, "Location", loc);
-    scenes_release(e);
+    return false;
+}
+
+void api_scenes_post(struct http_req *r, const char *id)
+{
+    (void)id;
+    if (api_only_params(r, NULL))
+        api_scene(r, api_scenes_created);
 }
 
 /* If-None-Match: a list of entity tags or "*"; weak comparison. */
@@ -173,23 +179,19 @@ static bool api_etag_match(const char *inm, const char *etag)
     return false;
 }
 
-void api_scenes_image(struct http_req *r, const char *id)
+/* GET /v1/scenes/{id}/image.png with the scene found (e referenced for
+ * the call, or NULL): the image, 304, or a 404; true when a render took r. */
+static bool api_scenes_image_of(struct http_req *r, struct cache_entry *e)
 {
-    bool well_formed = api_is_hex(id, 64);
-    if (well_formed) /* for the access log, known to this node or not */
-        snprintf(r->scene, sizeof r->scene, "%s", id);
-    struct cache_entry *e = well_formed ? scenes_find(id) : NULL;
     if (!e) {
         http_reply_error(r, 404, "scene_unknown",
                          "this server does not hold that scene; POST it to /v1/scenes", NULL, 0, 0,
                          NULL);
-        return;
+        return false;
     }
     struct rayd_region reg;
-    if (!api_region(r, cache_scene(e), &reg)) {
-        scenes_release(e);
-        return;
-    }
+    if (!api_region(r, cache_scene(e), &reg))
+        return false;
     /* the bytes depend on the version that draws them and the deflate
      * that encodes them (library, version, level), not only on the scene
      * (its text and the files it read: cache_version) and region: a strong
@@ -213,7 +215,60 @@ void api_scenes_image(struct http_req *r, const char *id)
         http_reply_cache_headers(r);
     } else {
         struct work_target what = {.reg = reg, .format = WORK_PNG};
-        api_render_submit(r, e, &what);
+        return api_render_submit(r, e, &what);
     }
-    scenes_release(e);
+    return false;
+}
+
+/* A GET waiting on a parse thread for the check of its scene's files. */
+struct api_find_wait {
+    struct compile_waiter w; /* first: the callbacks get it back */
+    struct http_req *r;
+};
+
+static void api_find_done(struct compile_waiter *w, struct compile_result *res)
+{
+    struct http_req *r = ((struct api_find_wait *)w)->r;
+    free(w);
+    bool handed = false;
+    if (res->draining)
+        api_refused(r, WORK_DRAINING);
+    else
+        handed = api_scenes_image_of(r, res->scene);
+    scenes_release(res->scene);
+    if (!handed)
+        http_req_resume(r);
+}
+
+static void api_find_suspend(struct compile_waiter *w)
+{
+    http_req_suspend(((struct api_find_wait *)w)->r);
+}
+
+void api_scenes_image(struct http_req *r, const char *id)
+{
+    if (!api_is_hex(id, 64)) {
+        api_scenes_image_of(r, NULL);
+        return;
+    }
+    snprintf(r->scene, sizeof r->scene, "%s", id); /* for the access log, known here or not */
+    struct api_find_wait *a = calloc(1, sizeof *a);
+    if (!a) {
+        api_refused(r, WORK_NOMEM);
+        return;
+    }
+    a->r = r;
+    a->w.done = api_find_done;
+    a->w.suspend = api_find_suspend;
+    struct compile_result res;
+    enum work_submit s = compile_find_scene(id, &a->w, &res);
+    if (s == WORK_OK)
+        return; /* a belongs to the parse pool until done() */
+    free(a);
+    if (s == WORK_CACHED) {
+        api_scenes_image_of(r, res.scene);
+        scenes_release(res.scene);
+    } else {
+        api_refused(r, s);
+    }
 }

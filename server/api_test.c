@@ -6,12 +6,16 @@
  *
  *   POST /v1/test/gate?tiles=N     N more tiles, then the workers wait
  *   POST /v1/test/gate?tiles=open  no limit (the gate stays, open)
+ *   POST /v1/test/gate?parses=N    N more scene parses, then the parse
+ *                                  threads wait (compile.c); parses=open
  *   GET  /v1/test/gate             the gate as it is
  *
  * Both answer {"tiles": N or "open", "started": tiles let through so far,
  * "held": workers waiting at the gate with a tile to start, "queued": tasks
- * waiting for a worker}.  Without --test-gate the route is a 404 like any
- * unknown path.  The gate itself is in gate.c, asked by the workers (sched.c).
+ * waiting for a worker, "parses": N or "open", "parses_started",
+ * "parses_queued": scenes waiting for a parse thread, "parses_running"}.  Without --test-gate the
+ * route is a 404 like any unknown path.  The gate itself is in gate.c, asked by the workers
+ * (sched.c).
  */
 #include "api.h"
 
@@ -30,6 +34,15 @@ static void api_test_gate_reply(struct http_req *r, const struct gate_state *g)
     cJSON_AddNumberToObject(o, "started", (double)g->started);
     cJSON_AddNumberToObject(o, "held", (double)g->held);
     cJSON_AddNumberToObject(o, "queued", (double)g->queued);
+    struct compile_gate_state c;
+    compile_gate_get(&c);
+    if (c.parses < 0)
+        cJSON_AddStringToObject(o, "parses", "open");
+    else
+        cJSON_AddNumberToObject(o, "parses", (double)c.parses);
+    cJSON_AddNumberToObject(o, "parses_started", (double)c.started);
+    cJSON_AddNumberToObject(o, "parses_queued", (double)c.queued);
+    cJSON_AddNumberToObject(o, "parses_running", (double)c.running);
     http_reply_json(r, 200, o);
 }
 
@@ -37,6 +50,18 @@ static void api_test_gate_off(struct http_req *r)
 {
     http_reply_error(r, 404, "not_found", "no such resource (rayd runs without --test-gate)", NULL,
                      0, 0, NULL);
+}
+
+/* "open" (-1) or a decimal count into *n. */
+static bool api_test_count(const char *v, long *n)
+{
+    if (!strcmp(v, "open")) {
+        *n = -1;
+        return true;
+    }
+    errno = 0;
+    *n = strtol(v, NULL, 10);
+    return api_is_decimal(v, false) && !errno && *n <= 1000000000L;
 }
 
 void api_test_gate_get(struct http_req *r, const char *id)
@@ -58,17 +83,22 @@ void api_test_gate_post(struct http_req *r, const char *id)
         api_test_gate_off(r);
         return;
     }
-    const char *v = http_req_query(r, "tiles");
-    errno = 0;
-    long n = v ? strtol(v, NULL, 10) : 0;
-    if (v && !strcmp(v, "open")) {
-        n = -1;
-    } else if (!v || !api_is_decimal(v, false) || errno || n > 1000000000L) {
+    const char *v = http_req_query(r, "tiles"), *pv = http_req_query(r, "parses");
+    long n, parses;
+    if (pv && !api_test_count(pv, &parses)) {
+        http_reply_error(r, 400, "bad_parameter", "parses must be 'open' or an integer >= 0", NULL,
+                         0, 0, "parses");
+        return;
+    }
+    if ((v || !pv) && (!v || !api_test_count(v, &n))) {
         http_reply_error(r, 400, "bad_parameter", "tiles must be 'open' or an integer >= 0", NULL,
                          0, 0, "tiles");
         return;
     }
-    gate_set(n);
+    if (pv)
+        compile_gate_set(parses);
+    if (v)
+        gate_set(n);
     gate_get(&g);
     api_test_gate_reply(r, &g);
 }

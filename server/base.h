@@ -34,6 +34,8 @@ struct config {
     long threads;        /* render workers; 0 = number of cores */
     long http_threads;   /* libmicrohttpd threads (validation, I/O) */
     long queue;          /* pending render tasks before 503 */
+    long parse_threads;  /* threads that parse and build scenes (compile.c) */
+    long parse_queue;    /* scenes waiting for a parse thread before 503 */
     long max_body;       /* bytes of a request body */
     long max_pixels;     /* width * height of a scene */
     char *token_file;    /* bearer token file, NULL = no auth */
@@ -168,6 +170,7 @@ enum metrics_reject {
     MR_OVER_BUDGET, /* --max-work */
     MR_HTTP_PARSER, /* answered with an error by libmicrohttpd itself */
     MR_MEMORY,      /* --max-memory: no room (503) or too big alone (413) */
+    MR_PARSE_QUEUE_FULL, /* --parse-queue scenes already wait for a parse thread */
     MR__COUNT
 };
 enum metrics_cancel { MC_CLIENT_GONE, MC_DELETE, MC_DRAIN, MC_DEADLINE, MC__COUNT };
@@ -225,6 +228,8 @@ void metrics_reject(enum metrics_reject why);
 void metrics_cancel(enum metrics_cancel why);
 void metrics_rays(uint64_t n);
 void metrics_coalesced(void);
+void metrics_scene_parse(void);            /* a scene body parsed and built (compile.c) */
+void metrics_file_checks(unsigned long n); /* stats of a cached scene's files */
 /* Registration, once at start-up, before the first scrape. */
 void metrics_gauge(enum metrics_gauge g, long (*read)(void));
 void metrics_route_name(int route, const char *name); /* label of a route index */

@@ -273,6 +273,8 @@ static bool http_flow_malformed(struct http_req *r, const struct http_flow_frami
     else
         return false;
     return true;
+}
+
 /* The 503 (or 413) of a body the memory budget has no room for. */
 static void http_flow_no_memory(struct http_req *r, size_t need)
 {

@@ -58,26 +58,27 @@ static long jobs_gauge(void)
 }
 
 /* Lets go of the images of the finished job that finished first (of the
- * task it shares with any other job): they become "evicted".  false when
- * no finished job keeps an image. */
-static bool jobs_evict_result(void)
+ * task it shares with any other job): its jobs become "evicted" and answer
+ * 410 result_evicted (jobs_evict_result).  false when no finished job
+ * keeps an image. */
+static bool jobs_evict_oldest(void)
 {
-    struct task *victim = NULL;
+    struct job *victim = NULL;
     for (int i = 0; i < jobs_n; i++) {
-        struct task *t = jobs_table[i]->task;
+        struct job *j = jobs_table[i];
+        struct task *t = j->task;
         bool keeps = t->png || t->exr || (t->passes && t->passes->done);
         if (t->finished && t->status == RAYD_OK && !t->evicted && keeps &&
-            (!victim || t->t_end < victim->t_end))
-            victim = t;
+            (!victim || t->t_end < victim->task->t_end))
+            victim = j;
     }
     if (!victim)
         return false;
-    blob_unref(victim->png);
-    blob_unref(victim->exr);
-    victim->png = victim->exr = NULL;
-    if (victim->passes)
-        passes_let_go(victim->passes);
-    victim->evicted = true;
+    struct task *t = victim->task;
+    jobs_evict_result(victim, JOBS_EVICTED_WHY);
+    if (t->passes)
+        passes_let_go(t->passes);
+    t->evicted = true;
     return true;
 }
 
@@ -90,7 +91,7 @@ static bool jobs_reclaim(enum mem_kind k, size_t need)
     (void)need; /* called again until the reservation fits */
     pthread_mutex_lock(&work_lock);
     bool freed =
-        rcache_evict_one() || cache_evict_one() || (k != MEM_BODIES && jobs_evict_result());
+        rcache_evict_one() || cache_evict_one() || (k != MEM_BODIES && jobs_evict_oldest());
     pthread_mutex_unlock(&work_lock);
     return freed;
 }

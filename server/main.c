@@ -225,6 +225,7 @@ static void main_drain(int sig, sigset_t *set)
         _exit(1);
     }
     http_stop();
+    compile_stop();
     sched_stop();
 }
 

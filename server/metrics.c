@@ -71,11 +71,12 @@ static struct metrics_hist metrics_wait[2], metrics_rend, metrics_stages[MS__COU
 static const char *const metrics_stage_names[MS__COUNT] = {
     "upload", "parse", "decode", "build", "queue", "render", "encode", "send"};
 static atomic_ulong metrics_hits, metrics_misses, metrics_rhits, metrics_rmisses, metrics_rays_n, metrics_coalesced_n;
+static atomic_ulong metrics_parses_n, metrics_file_checks_n; /* compile.c, scenefiles.c */
 static atomic_ulong metrics_rejects[MR__COUNT], metrics_cancels[MC__COUNT];
 
 static const char *const metrics_reject_names[MR__COUNT] = {
     "queue_full",  "draining",    "body_too_large", "unauthorized",
-    "over_budget", "http_parser", "memory"};
+    "over_budget", "http_parser", "memory",         "parse_queue_full"};
 static const char *const metrics_cancel_names[MC__COUNT] = {"client_gone", "delete", "drain",
                                                                         "deadline"};
 
@@ -185,6 +186,8 @@ void metrics_reject(enum metrics_reject why) { atomic_fetch_add(&metrics_rejects
 void metrics_cancel(enum metrics_cancel why) { atomic_fetch_add(&metrics_cancels[why], 1); }
 void metrics_rays(uint64_t n) { atomic_fetch_add(&metrics_rays_n, (unsigned long)n); }
 void metrics_coalesced(void) { atomic_fetch_add(&metrics_coalesced_n, 1); }
+void metrics_scene_parse(void) { atomic_fetch_add(&metrics_parses_n, 1); }
+void metrics_file_checks(unsigned long n) { atomic_fetch_add(&metrics_file_checks_n, n); }
 
 /* A growable string for the exposition. */
 struct metrics_buf {
@@ -467,6 +470,15 @@ char *metrics_text(size_t *len)
                    "# HELP rayd_rays_total Rays cast by the renderer.\n"
                    "# TYPE rayd_rays_total counter\nrayd_rays_total %lu\n",
                    atomic_load(&metrics_coalesced_n), atomic_load(&metrics_rays_n));
+    metrics_printf(&b,
+                   "# HELP rayd_scene_parses_total Scene bodies parsed and built (identical "
+                   "bodies posted at once are parsed once).\n"
+                   "# TYPE rayd_scene_parses_total counter\nrayd_scene_parses_total %lu\n"
+                   "# HELP rayd_scene_file_checks_total Files of cached scenes checked with a "
+                   "stat before use (one per distinct file per use).\n"
+                   "# TYPE rayd_scene_file_checks_total counter\n"
+                   "rayd_scene_file_checks_total %lu\n",
+                   atomic_load(&metrics_parses_n), atomic_load(&metrics_file_checks_n));
     *len = b.len;
     return b.p;
 }

@@ -8,7 +8,11 @@
  * scene keeps every file's identity (device, inode, size, modification time
  * in nanoseconds; rayd_scene_files), and before a cached scene is used it is
  * checked with a stat of each file -- cheap enough for every request, and
- * no file is ever read or hashed to answer from a cache.
+ * no file is ever read or hashed to answer from a cache.  The list has one
+ * entry per distinct file (the core drops a scene's repeated reads of one
+ * path), so a scene naming one texture 90,000 times costs one stat a use;
+ * rayd_scene_file_checks_total counts them.  A scene of many files is
+ * checked on a parse thread, not the connection's (compile.c).
  *
  * The version of a scene is the key of its results and ETags: its id when
  * it read no file (the keys of such scenes are what they always were), else
@@ -32,8 +36,10 @@
 
 bool scenefiles_usable(const rayd_scene *scene, bool have_text)
 {
-    if (rayd_scene_files(scene) == 0)
+    int nfiles = rayd_scene_files(scene); /* distinct files: the core keeps one per path */
+    if (nfiles == 0)
         return true;
+    metrics_file_checks((unsigned long)nfiles);
     enum rayd_files_state st = rayd_scene_files_check(scene);
     return st == RAYD_FILES_CURRENT || (!have_text && st == RAYD_FILES_UNSETTLED);
 }

@@ -5,9 +5,9 @@
  * looked up by its SHA-256 first and compiled only on a miss.  Hashing and
  * compiling run outside work_lock (they take milliseconds to seconds); the
  * lookup and the insertion take it, because cache.c and rcache.c have no
- * lock of their own.  Two requests compiling the same new scene at once
- * both compile it; cache_put keeps the first and frees the second, which is
- * cheaper than making the second wait on a per-entry lock.
+ * lock of their own.  Where they run is compile.c's choice: the lookup on
+ * the connection's thread, a parse on its pool, where two requests posting
+ * the same new scene at once wait for one parse.
  *
  * A scene that read files is used from the cache only while they are
  * unchanged (scenefiles.c); otherwise it is compiled again and replaces the
@@ -47,15 +47,26 @@ static void scenes_nomem(struct rayd_error *err, const char *msg)
     snprintf(err->message, sizeof err->message, "%s", msg);
 }
 
+struct cache_entry *scenes_peek(const char *id)
+{
+    pthread_mutex_lock(&work_lock);
+    struct cache_entry *e = cache_get(id);
+    pthread_mutex_unlock(&work_lock);
+    return e;
+}
+
+bool scenes_current(struct cache_entry *e, bool have_text)
+{
+    return scenefiles_usable(cache_scene(e), have_text);
+}
+
 /* The cached scene of id, referenced, if it may answer a request that
  * brings its text (have_text) or names only its id (scenefiles.c): its
  * files are checked outside the lock. */
 static struct cache_entry *scenes_get(const char *id, bool have_text)
 {
-    pthread_mutex_lock(&work_lock);
-    struct cache_entry *e = cache_get(id);
-    pthread_mutex_unlock(&work_lock);
-    if (e && !scenefiles_usable(cache_scene(e), have_text)) {
+    struct cache_entry *e = scenes_peek(id);
+    if (e && !scenes_current(e, have_text)) {
         scenes_release(e);
         return NULL;
     }
@@ -104,6 +115,7 @@ static enum rayd_status scenes_compile(const char *body, size_t len, rayd_scene 
         lim.asset_dir = config.asset_dir; /* confined (asset_confine) */
     }
     scenes_room(&lim);
+    metrics_scene_parse();
     double t0 = clock_now();
     enum rayd_status st = rayd_scene_parse(body, len, &lim, scene, err);
     double parsed = clock_now() - t0;
@@ -148,21 +160,17 @@ static enum rayd_status scenes_reserve(rayd_scene *scene, struct rayd_error *err
     return err->code;
 }
 
-enum rayd_status scenes_parse(const char *body, size_t len, struct cache_entry **out, bool *hit,
-                              struct rayd_error *err)
+bool scenes_id(const char *body, size_t len, char id[65], struct rayd_error *err)
 {
-    char id[65];
-    if (!cache_hash(body, len, id)) {
-        scenes_nomem(err, "cannot hash the scene (libcrypto)");
-        return RAYD_E_NOMEM;
-    }
-    struct cache_entry *e = scenes_get(id, true);
-    metrics_cache(e != NULL);
-    *hit = e != NULL;
-    if (e) {
-        *out = e;
-        return RAYD_OK;
-    }
+    if (cache_hash(body, len, id))
+        return true;
+    scenes_nomem(err, "cannot hash the scene (libcrypto)");
+    return false;
+}
+
+enum rayd_status scenes_build(const char *id, const char *body, size_t len,
+                              struct cache_entry **out, struct rayd_error *err)
+{
     rayd_scene *scene = NULL;
     enum rayd_status st = scenes_compile(body, len, &scene, err);
     if (st != RAYD_OK)
@@ -171,7 +179,7 @@ enum rayd_status scenes_parse(const char *body, size_t len, struct cache_entry *
     if (st != RAYD_OK)
         return st;
     char version[65];
-    e = NULL;
+    struct cache_entry *e = NULL;
     if (scenefiles_version(id, scene, version)) {
         pthread_mutex_lock(&work_lock);
         e = cache_put(id, version, scene);

@@ -2,7 +2,8 @@
  * queued and answered, asynchronous jobs and their event streams.
  *
  * Layer: work (work.c, lru.c, cache.c, rcache.c, scenes.c, cost.c, fair.c,
- * resolve.c, passes.c, task.c, gate.c, sched.c, jobs.c, events.c, watch.c).  May
+ * resolve.c, passes.c, task.c, gate.c, sched.c, jobs.c, events.c, watch.c,
+ * compile.c).  May
  * include: base.h and <rayd/rayd.h> -- never an HTTP header, never
  * libmicrohttpd.  Included by the handlers
  * (api_*.c) and main.c.
@@ -47,7 +48,8 @@ enum work_submit {
     WORK_NOMEM,
     WORK_TOO_MANY_JOBS,
     WORK_MEMORY, /* the memory budget (--max-memory) has no room now: 503 */
-    WORK_TOO_BIG /* the render alone is over the memory budget: 413 */
+    WORK_TOO_BIG, /* the render alone is over the memory budget: 413 */
+    WORK_PARSE_FULL /* --parse-queue scenes wait for a parse thread (compile.c) */
 };
 
 /* ---- cache.c: the parts any thread may call ----------------------------- */
@@ -64,10 +66,6 @@ const char *cache_version(const struct cache_entry *e);
 
 /* ---- scenes.c: the compiled-scene cache behind the lock ------------------- */
 
-/* Hashes the body, finds it compiled or parses and builds it (outside the
- * lock); *out holds a reference: scenes_release it. */
-enum rayd_status scenes_parse(const char *body, size_t len, struct cache_entry **out, bool *hit,
-                              struct rayd_error *err);
 struct cache_entry *scenes_find(const char *id); /* referenced, or NULL */
 void scenes_release(struct cache_entry *e);      /* NULL allowed */
 /* Replaces the scene limits derived from the options (before any request). */
@@ -247,6 +245,53 @@ struct events_stream *events_open(const char *id); /* NULL: no such job */
 int events_read(struct events_stream *s, struct events_item *items, int n,
                 struct rayd_error *err, struct work_waiter *w);
 void events_close(struct events_stream *s); /* NULL allowed */
+
+/* ---- compile.c: scenes parsed off the HTTP threads ------------------------- */
+
+/* What a compile waiter is told. */
+struct compile_result {
+    enum rayd_status status; /* RAYD_OK and scene, or an error */
+    struct rayd_error err;
+    struct cache_entry *scene; /* a reference owned by the waiter: scenes_release it */
+    bool hit;                  /* found compiled (and its files as read), not parsed */
+    bool draining;             /* refused: the server drains (no parse was made for it) */
+};
+
+/* A request waiting for its scene: done() is called exactly once, from a
+ * parse thread with no lock held; suspend() under the lock before it is
+ * linked, as struct work_waiter's. */
+struct compile_waiter {
+    void (*done)(struct compile_waiter *w, struct compile_result *res);
+    void (*suspend)(struct compile_waiter *w);
+    struct compile_waiter *next; /* the pool's list link */
+};
+
+/* The compiled scene of body (len bytes, which stay valid and unchanged
+ * until w->done when WORK_OK is returned).  WORK_CACHED: *res is the answer
+ * now (found compiled, or an error), w is not used.  WORK_OK: w->suspend
+ * ran and w->done will be called once; the same body already being parsed
+ * is waited for, not parsed again.  WORK_PARSE_FULL or WORK_DRAINING:
+ * refused, w not used. */
+enum work_submit compile_scene(const char *body, size_t len, struct compile_waiter *w,
+                               struct compile_result *res);
+/* The cached scene of id for a request that names only its id (GET
+ * /v1/scenes/{id}/image.png), its files checked (scenefiles.c): on this
+ * thread when it has few, else on the pool (WORK_OK, as above).  res->scene
+ * NULL: not held here, or a file changed. */
+enum work_submit compile_find_scene(const char *id, struct compile_waiter *w,
+                                    struct compile_result *res);
+/* About how long a refused request should wait for a place (Retry-After). */
+double compile_retry_seconds(void);
+/* Ends the pool: the scenes still queued are answered draining, the threads
+ * joined (each parse running finishes first, waited for up to a bound). */
+void compile_stop(void);
+/* The test gate's parse knob (--test-gate, POST /v1/test/gate?parses=N):
+ * how many more parses may start, -1 open; and what the pool is doing. */
+struct compile_gate_state {
+    long parses, started, queued, running;
+};
+void compile_gate_set(long parses);
+void compile_gate_get(struct compile_gate_state *g);
 
 /* ---- gate.c: the test gate (--test-gate) ----------------------------------- */
 

@@ -2,7 +2,7 @@
  *
  * Layer: work, private.  Included only by the work layer's own files
  * (work.c, lru.c, cache.c, rcache.c, scenes.c, cost.c, fair.c, resolve.c,
- * passes.c, task.c, budget.c, gate.c, sched.c, jobs.c, events.c, watch.c); the layers
+ * passes.c, task.c, budget.c, gate.c, sched.c, jobs.c, events.c, watch.c, compile.c); the layers
  * above see work.h alone.
  * May include: work.h (and through it base.h, <rayd/rayd.h>).
  *
@@ -22,7 +22,7 @@
  *     and the watcher's periodic wait.
  * Calls inside the layer go one way too, in this order (a file calls only
  * files before it): work (the lock), lru, cache, rcache, scenes, cost, fair,
- * resolve, passes, task, budget, gate, jobs, events, watch, sched.
+ * resolve, passes, task, budget, gate, jobs, events, watch, sched, compile.
  * Ownership: a task is referenced by the active list and by each job of it
  * (task.refs, lock held); it holds its scene until it finishes.  A job is
  * referenced by the table and by each open event stream (job.refs).
@@ -78,6 +78,16 @@ void cache_free_all(void);
 /* Evicts the least recently used entry no render holds (its scene freed);
  * false when there is none. */
 bool cache_evict_one(void);
+
+/* ---- scenes.c: the pieces compile.c runs where it chooses (any thread) ---- */
+
+/* The scene id of body (its SHA-256); false after an out_of_memory error. */
+bool scenes_id(const char *body, size_t len, char id[65], struct rayd_error *err);
+struct cache_entry *scenes_peek(const char *id);            /* referenced, files not checked */
+bool scenes_current(struct cache_entry *e, bool have_text); /* scenefiles_usable */
+/* Parses and builds body (of that id) and caches it; *out referenced. */
+enum rayd_status scenes_build(const char *id, const char *body, size_t len,
+                              struct cache_entry **out, struct rayd_error *err);
 
 /* ---- scenefiles.c: the files a cached scene read (any thread, no lock) ---- */
 

@@ -72,6 +72,7 @@ SERVER_LAYERS = [
     ("server/work: events", ["server/events."]),
     ("server/work: watch", ["server/watch."]),
     ("server/work: sched", ["server/sched."]),
+    ("server/work: compile", ["server/compile."]),
     ("server/request", ["server/request.h", "server/http_req."]),
     ("server/request: replies", ["server/http_reply."]),
     ("server/handlers: shared", ["server/api.h", "server/api.c", "server/api_cost."]),

@@ -218,6 +218,7 @@ static enum rayd_status build_light_buffers(rayd_scene *s, struct rayd_error *er
 }
 
 enum rayd_status scene_freeze(rayd_scene *s, struct rayd_error *err) {
+    if (!scene_files_dedupe(s)) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory");
     s->opaque = true;
     for (int i = 0; i < s->nmats; i++) s->opaque &= !(s->mats[i].transparency > 0);
     s->simple_lights = true;

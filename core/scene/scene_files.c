@@ -18,6 +18,13 @@
  * RAYD_FILES_SETTLE_NS of the read is recorded as unsettled, and a check
  * says so: a cache must not trust such a scene for another request, only a
  * new read once the file has settled.
+ *
+ * A scene may name one file many times (90,000 textures of one image), and
+ * each read records it, so when the scene is frozen the list is made one
+ * entry per path (scene_files_dedupe): a check is then one stat per
+ * distinct file, not per reference.  Two reads of one path that saw
+ * different identities (the file changed between them) keep an identity
+ * no stat can match, so the scene shows as changed.
  */
 #include "scene/scene_files.h"
 
@@ -63,6 +70,52 @@ bool scene_files_add(rayd_scene *s, const char *dir, const char *name, const str
     f->path = path;
     f->id = file_id(st);
     f->settled = f->id.mtime_ns <= ns_of(&now) - RAYD_FILES_SETTLE_NS;
+    return true;
+}
+
+struct file_ref {
+    const char *path;
+    int i; /* its index in the list */
+};
+
+/* By path, then by index: the first read of a path first. */
+static int by_path(const void *a, const void *b) {
+    const struct file_ref *x = a, *y = b;
+    int c = strcmp(x->path, y->path);
+    return c ? c : (x->i > y->i) - (x->i < y->i);
+}
+
+static int by_index(const void *a, const void *b) {
+    const struct file_ref *x = a, *y = b;
+    return (x->i > y->i) - (x->i < y->i);
+}
+
+bool scene_files_dedupe(rayd_scene *s) {
+    int n = s->nfiles;
+    if (n < 2) return true;
+    struct file_ref *ref = malloc((size_t)n * sizeof *ref);
+    if (!ref) return false;
+    for (int i = 0; i < n; i++) ref[i] = (struct file_ref){s->files[i].path, i};
+    qsort(ref, (size_t)n, sizeof *ref, by_path);
+    /* keep the first read of each path, marking it when a later read saw
+     * another identity */
+    int kept = 0;
+    for (int k = 0; k < n;) {
+        struct scene_file *first = &s->files[ref[k].i];
+        int m = k + 1;
+        for (; m < n && !strcmp(ref[m].path, first->path); m++) {
+            struct scene_file *dup = &s->files[ref[m].i];
+            if (!same_id(dup->id, first->id)) first->id = (struct rayd_file_id){.mtime_ns = -1};
+            first->settled &= dup->settled;
+            free(dup->path);
+        }
+        ref[kept++] = ref[k];
+        k = m;
+    }
+    qsort(ref, (size_t)kept, sizeof *ref, by_index); /* back in read order */
+    for (int i = 0; i < kept; i++) s->files[i] = s->files[ref[i].i];
+    s->nfiles = kept;
+    free(ref);
     return true;
 }
 

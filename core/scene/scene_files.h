@@ -17,6 +17,10 @@ struct scene_file {
 /* Records that s read name (relative to dir unless absolute, dir NULL for
  * none) whose open file fstat gave st; false when out of memory. */
 bool scene_files_add(rayd_scene *s, const char *dir, const char *name, const struct stat *st);
+/* Makes the list one entry per path, the first read of each in read order
+ * (a path read with two identities keeps one no stat matches); false when
+ * out of memory, the list unchanged. */
+bool scene_files_dedupe(rayd_scene *s);
 void scene_files_free(rayd_scene *s);
 
 #endif

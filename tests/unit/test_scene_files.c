@@ -5,7 +5,8 @@
  * size, after the file is gone; UNSETTLED for a file whose time is not at
  * least RAYD_FILES_SETTLE_NS before the read (here a time in the future,
  * so the test does not depend on how fast it runs).  Every time is set
- * explicitly with utimensat. */
+ * explicitly with utimensat.  A file named many times is one entry (in the
+ * order first read), so a check is one stat per distinct file. */
 #include <fcntl.h>
 #include <stdbool.h>
 #include <stdio.h>
@@ -85,7 +86,43 @@ static void test_files_checked(void) {
     rmdir(dir);
 }
 
+/* A scene naming a.obj, b.obj, a.obj, a.obj, b.obj keeps a then b. */
+static void test_files_once(void) {
+    char dir[] = "/tmp/rayd-files-XXXXXX", a[64], b[64];
+    CHECK(mkdtemp(dir) != NULL, "a directory");
+    snprintf(a, sizeof a, "%s/a.obj", dir);
+    snprintf(b, sizeof b, "%s/b.obj", dir);
+    time_t past = time(NULL) - 3600;
+    CHECK(put(a, tri, past) && put(b, tri2, past), "write %s and %s", a, b);
+    char json[1024];
+    int n = snprintf(json, sizeof json, "{\"render\": {\"width\": 8, \"height\": 6}, \"objects\": [");
+    const char *names[] = {"a", "b", "a", "a", "b"};
+    for (int i = 0; i < 5; i++)
+        n += snprintf(json + n, sizeof json - (size_t)n,
+                      "%s{\"type\": \"mesh\", \"source\": {\"file\": \"%s.obj\"}}", i ? ", " : "",
+                      names[i]);
+    snprintf(json + n, sizeof json - (size_t)n, "]}");
+    struct rayd_limits lim;
+    rayd_limits_default(&lim);
+    lim.asset_dir = dir;
+    rayd_scene *s = NULL;
+    CHECK(rayd_scene_parse(json, strlen(json), &lim, &s, NULL) == RAYD_OK && s, "the scene parses");
+    if (s) {
+        const char *p0 = rayd_scene_file(s, 0, NULL), *p1 = rayd_scene_file(s, 1, NULL);
+        CHECK(rayd_scene_files(s) == 2 && p0 && p1 && !strcmp(p0, a) && !strcmp(p1, b),
+              "two files, a then b: %d, %s, %s", rayd_scene_files(s), p0 ? p0 : "-", p1 ? p1 : "-");
+        CHECK(rayd_scene_files_check(s) == RAYD_FILES_CURRENT, "current");
+        CHECK(put(b, tri, past + 1) && rayd_scene_files_check(s) == RAYD_FILES_CHANGED,
+              "the second file changed: changed");
+    }
+    rayd_scene_free(s);
+    unlink(a);
+    unlink(b);
+    rmdir(dir);
+}
+
 int main(void) {
     RUN(test_files_checked);
+    RUN(test_files_once);
     CHECK_EXIT();
 }
