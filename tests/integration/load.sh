@@ -69,7 +69,7 @@ stop_rayd TERM
 # arrives; one more tile is let through, and it must be the small render's.
 start_rayd --threads 1 --test-gate 1
 scene "$T/bulk.json" 1280 960 16 spheres
-scene "$T/tile.json" 640 480 1 whitted
+scene "$T/tile.json" 640 480 1 spheres 5 # a 64x64 region is one tile (a glass scene is priced for its whole tree, in smaller tiles)
 code=$(post_json /v1/jobs "$T/bulk.json")
 bulk=$(jfield "$T/body" id)
 wait_until 60 gate_is held 1
@@ -98,7 +98,7 @@ gate 1
 wait_until 60 job_is "$bulk" tiles_done 1
 wait_until 60 gate_is held 1
 sleep 2.5
-scene "$T/tiles.json" 640 480 1 whitted 7 # four 64x64 regions, one request each
+scene "$T/tiles.json" 640 480 1 spheres 7 # 64x64 regions, one tile and one request each
 for k in 0 1 2 3 4 5; do
     curl -s -m 300 -o /dev/null -w '%{http_code}' -X POST -H 'Content-Type: application/json' \
         --data-binary @"$T/tiles.json" "$URL/v1/render?x=$((64 * k))&y=0&w=64&h=64" >"$T/small$k.code" &
