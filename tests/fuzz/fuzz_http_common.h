@@ -149,7 +149,7 @@ static inline void fh_free(struct fh_req *q)
 static inline int fh_status_ok(int st)
 {
     static const int ok[] = {200, 201, 202, 204, 304, 400, 401, 404, 405,
-                             409, 413, 414, 415, 417, 422, 499, 501, 503};
+                             409, 410, 413, 414, 415, 417, 422, 499, 501, 503};
     for (size_t i = 0; i < sizeof ok / sizeof ok[0]; i++)
         if (ok[i] == st)
             return 1;

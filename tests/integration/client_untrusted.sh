@@ -191,6 +191,10 @@ check untrusted_file_nothing_sent "POSTs: $(grep POST "$T/fake.log" | tail -n 3)
 "$CLIENT" job "$T/sc/good.json" -o "$T/sc/good.png" --server "$FAKE" -q >"$T/sc/good.out" 2>&1
 check untrusted_file_inside_sent "POSTs $(posts), $(shows "$T/sc/good.out")" [ "$(posts)" = $((before + 1)) ]
 
+# under SANITIZE=1 a report (overflow, leak, UB) in the client fails the script
+if grep -lE 'ERROR: (Address|Leak)Sanitizer|runtime error:' "$T"/*.out "$T"/sc/*.out >"$T/san" 2>/dev/null; then
+    fail sanitizer_report "in $(tr '\n' ' ' <"$T/san")"
+fi
 kill "$FAKE_PID" 2>/dev/null
 wait "$FAKE_PID" 2>/dev/null # killed: its status is no failure of the test
 true
