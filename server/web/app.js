@@ -149,6 +149,7 @@ function clearError() {
 function showError(title, message, { line = 0, offset = -1, retry = null } = {}) {
   stopClock();
   setState("error");
+  $("linknote").hidden = true; // shown again by the next render while the link waits
   $("error").hidden = false;
   $("error").querySelector(".error-title").textContent = title;
   $("error").querySelector(".error-msg").textContent = message;
@@ -600,6 +601,7 @@ function autosave() {
   save(editor.value, editor.label, !isExample(editor.value), linkWaiting);
 }
 function showLinkWait() {
+  clearError();
   $("linknote").hidden = false;
   setState("linked");
   status("Scene from a link · not rendered: press Render to draw it");
@@ -610,7 +612,9 @@ function linkWait() {
   clearTimeout(autoTimer);
   renderer.cancel();
   stopClock();
-  clearError();
+  $("dl-png").disabled = true; // the image is not the editor's scene
+  $("link").hidden = true;
+  bar(0);
   linkWaiting = true;
   autosave();
   showLinkWait();
