@@ -446,8 +446,11 @@ bool jobs_cancel(const char *id)
         j->canceled = true;
         j->canceled_at = clock_now();
         t->njobs--;
-        if (t->njobs == 0 && !t->waiters)
+        if (t->njobs == 0 && !t->waiters) {
             task_cancel(t, MC_DELETE, &n, &sse);
+            if (t->passes) /* a cancelled job's passes are never served again */
+                passes_let_go(t->passes);
+        }
         task_notify_add(&sse, &t->sse_waiters);
     }
     pthread_mutex_unlock(&work_lock);

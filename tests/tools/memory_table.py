@@ -18,10 +18,12 @@ own (VmHWM of /proc/PID/status), and prints one row of a Markdown table:
   progressive 4 progressive jobs of 2048 x 2048 (2 samples), each left to
              finish a pass, then all DELETEd (MEM_PROG_SIDE=2048)
 
-Columns: answers (status: count), peak resident size (VmHWM), resident size
-while held (VmRSS), rayd's own count at its highest (sum of
-rayd_memory_bytes, "-" when the build has none), and the resident size after
-the load let go.  Needs python3 only; takes a few minutes and, on a rayd
+Columns: answers (status: count; "refused": the connection was reset while
+the body was sent, after rayd's early 503), peak resident size (VmHWM),
+resident size while held (VmRSS), rayd's own count at its highest (sum of
+rayd_memory_bytes, "-" when the build has none), and the resident size and
+the count after the load let go (what stays is the scene cache's and the
+finished jobs').  Needs python3 only; takes a few minutes and, on a rayd
 without a budget, a few GB.
 """
 import base64
@@ -153,9 +155,11 @@ def answers(codes):
 def row(name, r, codes, held_rss, after_rss):
     peak = r.status("VmHWM")
     counted = "-" if r.peak_count is None else "%.0f MB" % (r.peak_count / MB)
-    print("| %s | %s | %s | %.0f MB | %.0f MB | %s | %.0f MB |" % (
-        name, BUDGET or "none", answers(codes), peak / MB, held_rss / MB, counted, after_rss / MB),
-        flush=True)
+    now = r.counted()
+    after = "-" if now is None else "%.0f MB" % (now / MB)
+    print("| %s | %s | %s | %.0f MB | %.0f MB | %s | %.0f MB | %s |" % (
+        name, BUDGET or "none", answers(codes), peak / MB, held_rss / MB, counted, after_rss / MB,
+        after), flush=True)
 
 
 def load_bodies():
@@ -267,7 +271,8 @@ def load_progressive():
 
 
 if __name__ == "__main__":
-    print("| load | --max-memory | answers | peak RSS | RSS held | rayd's count (peak) | RSS after |")
-    print("|---|---|---|---|---|---|---|")
+    print("| load | --max-memory | answers | peak RSS | RSS held | rayd's count (peak) | RSS after "
+          "| count after |")
+    print("|---|---|---|---|---|---|---|---|")
     for f in (load_bodies, load_scenes, load_sums, load_progressive):
         f()
