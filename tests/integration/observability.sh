@@ -248,7 +248,8 @@ if ok:
           t["path"] == sys.argv[3] and t["status"] == 200 and t["bytes"] > 0 and t["scene"] == sys.argv[2] and
           "total_ms" in t and "render_ms" in t and t["time"].endswith("Z"))
     hostile = [d for d in lines if d.get("path") in want]
-    ok = ok and all(d["level"] == "warn" and d["status"] == 404 for d in hostile)
+    # (control bytes in a target are 400 bad_request: RFC 9112 framing)
+    ok = ok and all(d["level"] == "warn" and d["status"] == 400 for d in hostile)
 print(missing, tile)
 sys.exit(0 if ok else 1)
 PY
