@@ -10,9 +10,7 @@
  */
 #include "base/meter.h"
 
-/* The thread's bound meter.  initial-exec: one load off the thread
- * pointer, also in librayd.so (the general model would be a call). */
-static _Thread_local struct meter *meter_here __attribute__((tls_model("initial-exec")));
+_Thread_local struct meter *meter_here __attribute__((tls_model("initial-exec")));
 
 static bool meter_halt(struct meter *m, enum rayd_status why) {
     if (m->stop == RAYD_OK) m->stop = why;
@@ -38,13 +36,13 @@ bool meter_check(struct meter *m) {
     return true;
 }
 
-bool meter_poll(struct meter *m) {
+bool meter_poll_stop(struct meter *m) {
     if (m->stop != RAYD_OK) return false;
     if (m->cancel && atomic_load_explicit(m->cancel, memory_order_relaxed))
         return meter_halt(m, RAYD_E_CANCELED);
     if (m->left && atomic_load_explicit(m->left, memory_order_relaxed) < 0)
         return meter_halt(m, RAYD_E_LIMIT); /* another thread passed it */
-    return true;
+    return true; /* the flag was lowered meanwhile (never, in practice) */
 }
 
 bool meter_close(struct meter *m) {
@@ -53,11 +51,4 @@ bool meter_close(struct meter *m) {
         return false;
     }
     return meter_take(m) || meter_halt(m, RAYD_E_LIMIT);
-}
-
-void meter_bind(struct meter *m) { meter_here = m; }
-
-bool meter_live(void) {
-    struct meter *m = meter_here;
-    return !m || meter_poll(m);
 }

@@ -68,9 +68,20 @@ static inline bool meter_ray(struct meter *m) { return meter_rays(m, 1); }
 /* False once the meter stopped (no look at the flag: a plain load). */
 static inline bool meter_going(const struct meter *m) { return m->stop == RAYD_OK; }
 
-/* True while the meter goes: the cancel flag is looked at now, not only
- * every METER_EVERY rays (for the per-sample and per-block checks). */
-bool meter_poll(struct meter *m);
+/* Stops m for what meter_poll saw (out of line: the rare case). */
+bool meter_poll_stop(struct meter *m);
+
+/* True while the meter goes: the cancel flag (and whether another thread
+ * spent the budget) is looked at now, not only every METER_EVERY rays
+ * (for the per-sample checks and the scene's walks).  Inline: two relaxed
+ * loads on the way that goes on. */
+static inline bool meter_poll(struct meter *m) {
+    if (m->stop == RAYD_OK &&
+        !(m->cancel && atomic_load_explicit(m->cancel, memory_order_relaxed)) &&
+        !(m->left && atomic_load_explicit(m->left, memory_order_relaxed) < 0))
+        return true;
+    return meter_poll_stop(m);
+}
 
 /* Takes what is left of the rays from the budget, at the end of the
  * meter's render; false when the budget is passed (the meter then stops
@@ -78,11 +89,18 @@ bool meter_poll(struct meter *m);
 bool meter_close(struct meter *m);
 
 /* The meter the scene's queries of this thread look at (NULL: none):
- * bound by the render around its work, unbound (NULL) after. */
-void meter_bind(struct meter *m);
+ * bound by the render around its work (meter_bind), unbound (NULL) after.
+ * initial-exec: one load off the thread pointer, in librayd.so too (the
+ * general model would be a call). */
+extern _Thread_local struct meter *meter_here __attribute__((tls_model("initial-exec")));
+
+static inline void meter_bind(struct meter *m) { meter_here = m; }
 
 /* For the scene's costly inner loops: false when this thread's meter is
  * stopped or its cancel flag raised (then stopped).  True with none bound. */
-bool meter_live(void);
+static inline bool meter_live(void) {
+    struct meter *m = meter_here;
+    return !m || meter_poll(m);
+}
 
 #endif
