@@ -43,7 +43,7 @@ static void api_jobs_time(char *buf, size_t size, double t)
 static void api_jobs_gone_message(char *msg, size_t size, const struct jobs_gone *g,
                                   const char *ended, const char *gone)
 {
-    const char *how = g->state == JS_SUCCEEDED ? "succeeded"
+    const char *how = g->state == JS_SUCCEEDED || g->state == JS_EVICTED ? "succeeded"
                       : g->state == JS_FAILED  ? "failed"
                                                : "was cancelled";
     if (g->why == JG_EXPIRED)

@@ -115,6 +115,8 @@ static long compile_queue_cap(void) { return config.parse_queue > 0 ? config.par
 static enum work_submit compile_enqueue(const char *id, const char *body, size_t len,
                                         struct cache_entry *e, struct compile_waiter *w)
 {
+    if (task_draining()) /* nothing new is suspended once the drain began */
+        return WORK_DRAINING;
     struct compile_job *j = compile_find(id, body == NULL);
     if (j) { /* the same body is being parsed: wait for it */
         if (e)

@@ -117,6 +117,7 @@ void passes_release(struct passes *p)
 
 void passes_let_go(struct passes *p)
 {
+    p->let_go = true; /* a pass being encoded now (sched_pass_close) is dropped too */
     for (int i = 0; i < PASSES_KEEP; i++) {
         blob_unref(p->png[i]);
         p->png[i] = NULL;
@@ -180,6 +181,11 @@ void passes_complete(struct passes *p, struct blob *png, struct blob *exr, doubl
                      double noise)
 {
     int k = p->done++;
+    if (p->let_go) { /* cancelled or evicted while this pass was encoded */
+        blob_unref(png);
+        blob_unref(exr);
+        png = exr = NULL;
+    }
     blob_unref(p->png[k % PASSES_KEEP]);
     p->png[k % PASSES_KEEP] = png;
     blob_unref(p->exr[k % PASSES_KEEP_EXR]);

@@ -484,11 +484,34 @@ struct blob *sched_result_find(const struct cache_entry *scene, const struct wor
     return b;
 }
 
+/* Links w to an unfinished task of the same scene, region and format, if
+ * there is one.  Such a waiter costs no memory, so it joins before the
+ * budget is asked: a reservation it would release at once could still
+ * evict other clients' results to make room. */
+static bool sched_join(struct cache_entry *scene, const struct work_target *what,
+                       struct work_waiter *w)
+{
+    char key[160];
+    task_key(key, sizeof key, cache_version(scene), what);
+    pthread_mutex_lock(&work_lock);
+    struct task *t = task_draining() ? NULL : task_find(key);
+    if (t) {
+        metrics_coalesced();
+        w->suspend(w);
+        w->next = t->waiters;
+        t->waiters = w;
+    }
+    pthread_mutex_unlock(&work_lock);
+    return t != NULL;
+}
+
 enum work_submit sched_render(struct cache_entry *scene, const struct work_target *what,
                               struct work_waiter *w, struct blob **png)
 {
     if ((*png = sched_result_find(scene, what)))
         return WORK_CACHED;
+    if (sched_join(scene, what, w))
+        return WORK_OK;
     enum work_submit why;
     struct task *fresh = budget_task(scene, what, false, &why);
     if (!fresh)

@@ -172,6 +172,7 @@ struct passes {
     struct blob *exr[PASSES_KEEP_EXR]; /* a job's with format=exr: pass k's EXR, likewise */
     double time_s[PASSES_MAX], noise[PASSES_MAX];
     enum passes_stop stop; /* asked (client, time) or decided (noise) */
+    bool let_go;           /* passes_let_go ran: a pass completed later is not kept */
 };
 /* The passes of a task whose tiles are tiles[0..ntiles-1] (absolute; the
  * malloc'd array is the passes' from now on, freed with them even on

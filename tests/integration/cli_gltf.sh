@@ -130,8 +130,12 @@ for f in box/BoxTextured.gltf escape.gltf; do
             bash -c "[ $code = 200 ] && [ \$(python3 '$FRAME' lit '$T/srv.out') -gt 0 ]"
     fi
 done
-# rayd-client inlines a .glb file source as base64 with its format.
-python3 "$FRAME" scene "$DIR/BoxTextured-glTF-Binary/BoxTextured.glb" >"$T/client.json"
+# rayd-client inlines a .glb file source as base64 with its format.  It
+# sends only files in the scene's own folder (named relatively), so the
+# model is copied beside the scene.
+cp "$DIR/BoxTextured-glTF-Binary/BoxTextured.glb" "$T/BoxTextured.glb"
+python3 "$FRAME" scene "$T/BoxTextured.glb" | sed "s#\"$T/BoxTextured.glb\"#\"BoxTextured.glb\"#" >"$T/client.json"
+grep -q '"file": *"BoxTextured.glb"' "$T/client.json" || echo "FAIL gltf_client_scene: $(head -c 300 "$T/client.json")"
 timeout 60 "$RAYD_BUILD/rayd-client" render "$T/client.json" -o "$T/client.png" --server "$URL" -q 2>"$T/client.err"
 rc=$?
 lit=0
