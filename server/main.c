@@ -56,8 +56,6 @@
 #include <time.h>
 #include <unistd.h>
 
-/* True for SIGTERM and SIGINT, which stop the server; any other signal
- * taken (SIGHUP, SIGUSR1, SIGUSR2) is logged and changes nothing. */
 /* Seconds past --drain-seconds the drain may take at most (cancelled
  * renders stop within milliseconds; this is for the connection threads and
  * the listener's quiet period). */
@@ -66,6 +64,8 @@
 static double main_stop_by;       /* set before the guard starts */
 static atomic_bool main_answered; /* every render cancelled and answered */
 
+/* True for SIGTERM and SIGINT, which stop the server; any other signal
+ * taken (SIGHUP, SIGUSR1, SIGUSR2) is logged and changes nothing. */
 static bool main_stop_signal(int sig)
 {
     if (sig == SIGTERM || sig == SIGINT)
