@@ -246,7 +246,10 @@ kill_mid_frame() {
     local name=$1 node=$2 sc=$3; shift 3
     "$RENDER" "$sc" -o "$T/$name.ref.png" 2>/dev/null
     local base; base=$(node_tiles "$node")
-    curl -s -m 30 -o /dev/null -X POST "${NODE_URL[$node]}/v1/test/gate?tiles=3"
+    # 40 tiles of the node's own: a client tile of these whitted scenes is
+    # four (a costly scene's tiles are 32 pixels, cost.c), and tiles of
+    # several client tiles interleave; enough for 3 answers, far from all
+    curl -s -m 30 -o /dev/null -X POST "${NODE_URL[$node]}/v1/test/gate?tiles=40"
     timeout 200 "$CLIENT" render "$sc" -o "$T/$name.png" --tile 48 --no-hedge "$@" 2>"$T/$name.err" &
     local cpid=$!
     node_answered() { [ $(($(node_tiles "$node") - base)) -ge 3 ] || ! kill -0 $cpid 2>/dev/null; }
