@@ -90,6 +90,8 @@ static bool main_wait(bool (*cond)(void), double seconds)
     return true;
 }
 
+static sigset_t main_guard_set; /* the guard's own copy: it outlives main's frame */
+
 /* The guard of the drain (see the top): a second stop signal, or the
  * drain's time bound, ends the process at once. */
 static void *main_guard(void *arg)
@@ -205,7 +207,8 @@ static void main_drain(int sig, sigset_t *set)
     log_info("signal %d: draining (up to %ld s)", sig, config.drain_seconds);
     main_stop_by = clock_now() + (double)config.drain_seconds + MAIN_STOP_GRACE;
     pthread_t guard;
-    if (pthread_create(&guard, NULL, main_guard, set) == 0)
+    main_guard_set = *set;
+    if (pthread_create(&guard, NULL, main_guard, &main_guard_set) == 0)
         pthread_detach(guard);
     sched_drain();
     if (!main_wait(sched_idle, (double)config.drain_seconds))
