@@ -38,6 +38,9 @@ import tempfile
 import threading
 import time
 import urllib.request
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "integration", "lib"))
+from memory_helpers import png  # noqa: E402  (one PNG maker for the test and this table)
 import zlib
 
 RAYD = sys.argv[1] if len(sys.argv) > 1 else "build/rayd"
@@ -113,18 +116,6 @@ class Rayd:
         except subprocess.TimeoutExpired:
             self.p.kill()
             self.p.wait()
-
-
-def png(side, shade):
-    row = b"\x00" + bytes([shade, 255 - shade, 128]) * side
-    raw = zlib.compress(row * side, 9)
-
-    def chunk(kind, data):
-        c = kind + data
-        return struct.pack(">I", len(data)) + c + struct.pack(">I", zlib.crc32(c) & 0xFFFFFFFF)
-
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", side, side, 8, 2, 0, 0, 0))
-            + chunk(b"IDAT", raw) + chunk(b"IEND", b""))
 
 
 def scene(w, h, samples, seed, textures=0, side=0):
