@@ -22,8 +22,8 @@
 # says what each package is for).  BUILD_PKGS: compiler and tools, the three
 # given libraries (libpng, cJSON, libmicrohttpd), libcurl for the client,
 # libssl (libcrypto's SHA-256 of scene ids), libdeflate, libisal and zlib (the PNG
-# encoder's deflates), libopenexr-dev (EXR out and environment maps in, core/io/exr*.c), libstb-dev
-# (stb_image: Radiance .hdr environments, core/io/scene_json_env.c).  TEST_PKGS,
+# encoder's deflates), libopenexr-dev (EXR out and environment maps in, core/codec/exr*.c), libstb-dev
+# (stb_image: Radiance .hdr environments, core/load/scene_json_env.c).  TEST_PKGS,
 # on top for `make test`: curl and python3 (the integration tests), nginx (the
 # scale-out test balances through it; installed, never started: tools/deps.sh),
 # wrk (the load test), chromium and a font (the preview's browser tests),
@@ -82,7 +82,7 @@ WARN := -Wall -Wextra -Werror -Wshadow -Wpointer-arith -Wstrict-prototypes \
 # default), so the one-ray code and the packets do the same roundings.
 CFLAGS_ALL := -std=c11 -D_POSIX_C_SOURCE=200809L -ffp-contract=off $(OPT) $(WARN) -MMD -MP $(CFLAGS)
 LDFLAGS_ALL := $(LDSAN) $(LDFLAGS)
-# OpenEXR (core/io/exr.c and exr_read.c only) through pkg-config; recursively expanded, so
+# OpenEXR (core/codec/exr.c and exr_read.c only) through pkg-config; recursively expanded, so
 # pkg-config runs in recipes, after `make deps` has installed it.
 EXR_CFLAGS = $(patsubst -I%,-isystem %,$(shell pkg-config --cflags OpenEXR))
 EXR_LIBS = $(shell pkg-config --libs OpenEXR)
@@ -108,9 +108,10 @@ CFLAGS_ALL += -DRAYD_VERSION='"$(VERSION)"'
 
 CORE_SRC := $(wildcard core/*/*.c)
 CORE_OBJ := $(CORE_SRC:%.c=$(BUILD)/%.o)
-SERVER_SRC := $(wildcard server/*.c)
+# server/: main.c and one folder per layer (docs/architecture.md).
+SERVER_SRC := $(wildcard server/*.c server/*/*.c)
 SERVER_OBJ := $(SERVER_SRC:%.c=$(BUILD)/%.o)
-SERVER_HDR := $(wildcard server/*.h)
+SERVER_HDR := $(wildcard server/*.h server/*/*.h)
 WEB_FILES := $(wildcard server/web/*)
 CLIENT_SRC := $(wildcard clients/*.c)
 UNIT_SRC := $(wildcard tests/unit/test_*.c)
@@ -161,9 +162,10 @@ $(BUILD)/%.o: %.c | $(BUILD)/.deps-ok
 	$(CC) $(CFLAGS_ALL) -Iinclude -c $< -o $@
 
 # server/ and clients/ see only include/: the core's internals stay private.
+# A server file names the layer of what it includes ("work/work.h").
 $(BUILD)/server/%.o: server/%.c | $(BUILD)/.deps-ok
 	@mkdir -p $(dir $@)
-	$(CC) $(CFLAGS_ALL) -D_DEFAULT_SOURCE -Iinclude -I$(BUILD)/server -c $< -o $@
+	$(CC) $(CFLAGS_ALL) -D_DEFAULT_SOURCE -Iserver -Iinclude -I$(BUILD)/server -c $< -o $@
 
 $(BUILD)/clients/%.o: clients/%.c | $(BUILD)/.deps-ok
 	@mkdir -p $(dir $@)
@@ -178,11 +180,11 @@ $(BUILD)/core/%.o: core/%.c | $(BUILD)/.deps-ok
 # on the cheapest loops (-O3 on all, with this cost model): so they stay
 # vectorised in a build made with CFLAGS=-O2.  The same for their PIC
 # copies (librayd.so).
-VEC_OBJ := core/render/integrate_wide.o core/geom/camera.o core/io/png_encode.o
+VEC_OBJ := core/render/integrate_wide.o core/geom/camera.o core/codec/png_encode.o
 $(VEC_OBJ:%=$(BUILD)/%) $(VEC_OBJ:%=$(BUILD)/pic/%): CFLAGS_VEC := -ftree-vectorize \
     -fvect-cost-model=dynamic
 
-$(BUILD)/core/io/exr.o $(BUILD)/pic/core/io/exr.o $(BUILD)/core/io/exr_read.o $(BUILD)/pic/core/io/exr_read.o: CFLAGS_VEC = $(EXR_CFLAGS)
+$(BUILD)/core/codec/exr.o $(BUILD)/pic/core/codec/exr.o $(BUILD)/core/codec/exr_read.o $(BUILD)/pic/core/codec/exr_read.o: CFLAGS_VEC = $(EXR_CFLAGS)
 
 $(BUILD)/librayd.a: $(CORE_OBJ)
 	@rm -f $@
@@ -388,7 +390,7 @@ build/fuzz/core/%.o: core/%.c | $(BUILD)/.test-deps-ok
 	@mkdir -p $(dir $@)
 	clang $(FUZZ_CFLAGS) -MMD -MP -c $< -o $@
 
-build/fuzz/core/io/exr.o build/fuzz/core/io/exr_read.o: FUZZ_CFLAGS += $(EXR_CFLAGS)
+build/fuzz/core/codec/exr.o build/fuzz/core/codec/exr_read.o: FUZZ_CFLAGS += $(EXR_CFLAGS)
 
 build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c $(FUZZ_CORE_OBJ)
 	clang $(FUZZ_CFLAGS) -fsanitize=fuzzer $^ -o $@ $(LIBS_CORE)
@@ -402,11 +404,11 @@ FUZZ_SERVER_OBJ := $(patsubst server/%.c,build/fuzz/server/%.o,$(filter-out serv
 
 build/fuzz/server/%.o: server/%.c $(SERVER_HDR) build/server/web_assets.h | $(BUILD)/.test-deps-ok
 	@mkdir -p $(dir $@)
-	clang $(FUZZ_CFLAGS) -MMD -MP -D_DEFAULT_SOURCE -Ibuild/server -c $< -o $@
+	clang -Iserver $(FUZZ_CFLAGS) -MMD -MP -D_DEFAULT_SOURCE -Ibuild/server -c $< -o $@
 
 $(FUZZ_SERVER_TARGETS:%=build/fuzz/fuzz_%): build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c \
     tests/fuzz/fuzz_http_common.h $(SERVER_HDR) $(FUZZ_SERVER_OBJ) $(FUZZ_CORE_OBJ)
-	clang $(FUZZ_CFLAGS) -D_DEFAULT_SOURCE -fsanitize=fuzzer $(filter %.c %.o,$^) -o $@ \
+	clang -Iserver $(FUZZ_CFLAGS) -D_DEFAULT_SOURCE -fsanitize=fuzzer $(filter %.c %.o,$^) -o $@ \
 	  -lmicrohttpd -lcrypto $(LIBS_CORE)
 
 # A crash, leak, timeout or out-of-memory fails the run (the artifact stays
@@ -436,7 +438,7 @@ $(FUZZ_SERVER_TARGETS:%=$(BUILD)/tests/fuzz/replay_%): $(BUILD)/tests/fuzz/repla
     tests/fuzz/fuzz_%.c tests/fuzz/replay.c tests/fuzz/fuzz_http_common.h $(SERVER_HDR) \
     $(SERVER_LIB_OBJ) $(BUILD)/librayd.a
 	@mkdir -p $(dir $@)
-	$(CC) $(CFLAGS_ALL) -D_DEFAULT_SOURCE -Iinclude -I$(BUILD)/server $(filter %.c,$^) -o $@ \
+	$(CC) $(CFLAGS_ALL) -D_DEFAULT_SOURCE -Iserver -Iinclude -I$(BUILD)/server $(filter %.c,$^) -o $@ \
 	  $(LDFLAGS_ALL) $(SERVER_LIB_OBJ) $(BUILD)/librayd.a -lmicrohttpd -lcrypto $(LIBS_CORE)
 
 # --- TSan and valgrind ------------------------------------------------------
@@ -559,11 +561,11 @@ LINT_TIDY = xargs -P "$$(nproc)" -I{} clang-tidy --quiet --warnings-as-errors='*
 
 lint: lint-deps $(BUILD)/server/web_assets.h
 	cppcheck --quiet --error-exitcode=1 --enable=warning,performance,portability \
-	  --inline-suppr -Iinclude -Icore --std=c11 core cli server clients
+	  --inline-suppr -Iinclude -Icore -Iserver --std=c11 core cli server clients
 	@# one clang-tidy process per file: clang-tidy 14, given several files in
 	@# one process, reports va_lists as uninitialised that va_start has set
 	printf '%s\n' $(CORE_SRC) | $(LINT_TIDY) -Iinclude -Icore $(EXR_CFLAGS)
-	printf '%s\n' $(SERVER_SRC) | $(LINT_TIDY) -D_DEFAULT_SOURCE -Iinclude -I$(BUILD)/server
+	printf '%s\n' $(SERVER_SRC) | $(LINT_TIDY) -D_DEFAULT_SOURCE -Iserver -Iinclude -I$(BUILD)/server
 	printf '%s\n' $(wildcard cli/*.c) | $(LINT_TIDY) -Iinclude
 	printf '%s\n' $(CLIENT_SRC) | $(LINT_TIDY) -D_DEFAULT_SOURCE -Iinclude
 

@@ -42,9 +42,9 @@
  * Layer: main, above everything; the only file that starts and stops the
  * layers, so none of them needs to know another's life cycle.
  */
-#include "router.h"
-#include "transport.h"
-#include "work.h"
+#include "route/router.h"
+#include "net/transport.h"
+#include "work/work.h"
 
 #include <pthread.h>
 #include <signal.h>

@@ -37,7 +37,7 @@
 #include <string.h>
 #include <time.h>
 
-#include "io/mesh_io.h"
+#include "format/mesh_io.h"
 
 static double now(void) {
     struct timespec ts;

@@ -2,7 +2,7 @@
  * for values in [0, 1].
  *
  * One formula for every encoder and decoder: render/srgb.c's 8-bit table
- * (its edges found with srgb_decode, checked with srgb_encode), io/png.c's
+ * (its edges found with srgb_decode, checked with srgb_encode), codec/png.c's
  * 16-bit PNG and shade/texture.c's 8-bit textures.  Kept in one place so
  * the 8-bit and 16-bit images cannot drift apart by a changed constant.
  */

@@ -13,7 +13,7 @@
  * front, because a server that prices the common case and trusts the rest
  * can be handed an hour of work for the price of a millisecond.  What the
  * bound overcounts on an honest scene, the server's per-scene rate absorbs
- * (server/cost.c measures seconds per estimated ray per scene).
+ * (server/work/cost.c measures seconds per estimated ray per scene).
  *
  * The unit is a plain ray: one ray through a scene whose BVH separates its
  * objects.  rays_per_sample = rays x per-ray cost factor, per camera sample:

@@ -4,7 +4,7 @@
  * object, the default), world space, or the surface's (u, v).  Checker and
  * stripes alternate two colours over cells of 1/scale; gradient blends
  * from the first to the second colour along its axis and repeats.  Image
- * textures are PNGs decoded once at load time (core/io/png.c), converted from
+ * textures are PNGs decoded once at load time (core/codec/png.c), converted from
  * sRGB to linear, and sampled bilinearly in (u, v) with wrap-around, v = 0
  * at the bottom of the image.
  */

@@ -374,7 +374,7 @@ enum rayd_status rayd_image_blit(rayd_image *dst, const rayd_image *src, int x, 
 /* PNG encoding to memory: *buf (malloc'd, free with rayd_free) holds *len
  * bytes of an 8-bit RGB PNG.  level is the deflate level 0-9 (1, the
  * fastest, is ISA-L's; the others libdeflate's), or -1 for the default,
- * libdeflate's 1 with ISA-L for every fourth band (core/io/png_encode.c). */
+ * libdeflate's 1 with ISA-L for every fourth band (core/codec/png_encode.c). */
 enum rayd_status rayd_png_encode(const rayd_image *img, int level, void **buf, size_t *len,
                                  struct rayd_error *err);
 /* rayd_png_encode on threads threads (<= 0: every core).  The image is

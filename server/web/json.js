@@ -154,7 +154,7 @@ export function splitPointer(ptr) {
 }
 
 // The member a pointer's segment names.  rayd shows a key longer than 64
-// bytes cut, with "..." (core/io/json_pointer.c): such a segment names the
+// bytes cut, with "..." (core/format/json_pointer.c): such a segment names the
 // first longer key it begins (the first in the text the checks meet).
 function memberOf(node, seg) {
   const m = member(node, seg);

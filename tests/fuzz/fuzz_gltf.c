@@ -18,8 +18,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "io/gltf_material.h"
-#include "io/mesh_gltf.h"
+#include "load/gltf_material.h"
+#include "format/mesh_gltf.h"
 #include "rayd/rayd.h"
 
 static enum rayd_status open_any(void *ctx, const char *name, char **data, size_t *len,

@@ -10,9 +10,9 @@
 #ifndef FUZZ_HTTP_COMMON_H
 #define FUZZ_HTTP_COMMON_H
 
-#include "../../server/api.h"
-#include "../../server/router.h"
-#include "../../server/transport.h"
+#include "api/api.h"
+#include "route/router.h"
+#include "net/transport.h"
 
 #include <pthread.h>
 #include <stdlib.h>

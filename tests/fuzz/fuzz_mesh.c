@@ -7,8 +7,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "io/base64.h"
-#include "io/mesh_io.h"
+#include "format/base64.h"
+#include "format/mesh_io.h"
 
 static bool same_array(const void *a, const void *b, size_t bytes) {
     return (!a && !b) || (a && b && !memcmp(a, b, bytes));

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # offload.sh -- scenes are parsed on a pool of their own, never on the HTTP
-# threads (server/compile.c).  With the test gate holding every parse
+# threads (server/work/compile.c).  With the test gate holding every parse
 # (POST /v1/test/gate?parses=0), the scenes posted stay queued while
 # /healthz, /readyz and /metrics answer at once; --parse-queue scenes wait
 # and one more is refused 503 queue_full with a Retry-After; the same body

@@ -13,7 +13,7 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "io/scene_json.h"
+#include "load/scene_json.h"
 #include "scene/scene.h"
 
 static bool same_bytes(const void *a, const void *b, size_t n) {

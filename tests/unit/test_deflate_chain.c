@@ -11,7 +11,7 @@
 #include <zlib.h>
 
 #include "check.h"
-#include "io/deflate_chain.h"
+#include "format/deflate_chain.h"
 
 /* Bytes of piece k: runs, gradients and noise in turns, so that the
  * compressor picks every kind of block somewhere. */

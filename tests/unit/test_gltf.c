@@ -1,4 +1,4 @@
-/* test_gltf.c -- the glTF 2.0 mesh reader (core/io/mesh_gltf.c).
+/* test_gltf.c -- the glTF 2.0 mesh reader (core/format/mesh_gltf.c).
  *
  * One small glTF is built here: a unit quad's four positions and its two
  * triangles as UNSIGNED_BYTE, UNSIGNED_SHORT and UNSIGNED_INT indices, a
@@ -19,7 +19,7 @@
 #include <cjson/cJSON.h>
 
 #include "check.h"
-#include "io/mesh_gltf.h"
+#include "format/mesh_gltf.h"
 
 /* ---- the buffer and the document -------------------------------------- */
 

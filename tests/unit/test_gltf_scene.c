@@ -1,5 +1,5 @@
 /* test_gltf_scene.c -- "gltf" objects: a glTF file as a whole scene
- * (core/io/scene_json_gltf.c, gltf_material.c, mesh_gltf.c's gltf_doc_*).
+ * (core/load/scene_json_gltf.c, gltf_material.c, mesh_gltf.c's gltf_doc_*).
  *
  * One glTF is built here as a cJSON tree: a unit quad (positions, uvs and
  * indices in one data: URI buffer, which also holds a 2 x 1 PNG made with
@@ -21,7 +21,7 @@
 #include <stb/stb_image_write.h>
 
 #include "check.h"
-#include "io/gltf_material.h"
+#include "load/gltf_material.h"
 #include "render/image.h"
 #include "scene/scene.h"
 #include "shade/texture.h"

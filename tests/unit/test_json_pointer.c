@@ -9,7 +9,7 @@
 #include <string.h>
 
 #include "check.h"
-#include "io/json_pointer.h"
+#include "format/json_pointer.h"
 
 static bool ends_with(const char *s, const char *tail) {
     size_t n = strlen(s), t = strlen(tail);

@@ -9,9 +9,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "io/base64.h"
+#include "format/base64.h"
 #include "check.h"
-#include "io/mesh_io.h"
+#include "format/mesh_io.h"
 
 /* ---- helpers ----------------------------------------------------------- */
 

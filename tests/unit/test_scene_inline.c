@@ -5,7 +5,7 @@
 #include <stdlib.h>
 
 #include "check.h"
-#include "io/json_numbers.h"
+#include "format/json_numbers.h"
 #include "scene_compare.h"
 
 static uint64_t rng_state = 0x9e3779b97f4a7c15ull;

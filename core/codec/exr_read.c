@@ -1,0 +1,155 @@
+/* exr_read.c -- OpenEXR in: environment maps as linear float RGB.
+ *
+ * The other file (with exr.c) that includes OpenEXR, for the same reason:
+ * OpenEXRCore, the format's own C library, already linked for the output,
+ * knows the compressors and their corners.  The file is read from memory
+ * (the scene loader has the bytes) through the library's read callback.
+ * Only what an environment needs is taken: the first part, scanlines
+ * (tiled files are refused), channels R, G and B at full resolution, half
+ * or float, converted to float by the library; the data window is the
+ * image.  The size is checked against the limit from the header, before
+ * any pixel memory is taken.
+ */
+#include <openexr.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "codec/exr_read.h"
+
+struct exr_src {
+    const unsigned char *p;
+    size_t len;
+    char message[200]; /* the library's last error, if any */
+};
+
+static int64_t src_read(exr_const_context_t ctx, void *user, void *buf, uint64_t sz,
+                        uint64_t offset, exr_stream_error_func_ptr_t error_cb) {
+    (void)ctx;
+    (void)error_cb;
+    const struct exr_src *s = user;
+    if (offset >= s->len) return 0;
+    size_t n = s->len - (size_t)offset < sz ? s->len - (size_t)offset : (size_t)sz;
+    memcpy(buf, s->p + offset, n);
+    return (int64_t)n;
+}
+
+static int64_t src_size(exr_const_context_t ctx, void *user) {
+    (void)ctx;
+    return (int64_t)((const struct exr_src *)user)->len;
+}
+
+/* The library reports errors here; the core never prints. */
+static void src_error(exr_const_context_t ctx, exr_result_t code, const char *msg) {
+    void *user = NULL;
+    if (exr_get_user_data(ctx, &user) != EXR_ERR_SUCCESS || !user) return;
+    struct exr_src *s = user;
+    snprintf(s->message, sizeof s->message, "%s: %s", exr_get_error_code_as_string(code),
+             msg ? msg : "");
+}
+
+/* The index 0-2 of an R, G or B channel name, or -1. */
+static int rgb_index(const char *name) {
+    return strcmp(name, "R") == 0   ? 0
+           : strcmp(name, "G") == 0 ? 1
+           : strcmp(name, "B") == 0 ? 2
+                                    : -1;
+}
+
+/* Why the part cannot be read as RGB scanlines, or NULL when it can. */
+static const char *unsupported(exr_context_t ctx) {
+    exr_storage_t st;
+    if (exr_get_storage(ctx, 0, &st) != EXR_ERR_SUCCESS || st != EXR_STORAGE_SCANLINE)
+        return "is a tiled or deep OpenEXR file; only scanline files are read";
+    const exr_attr_chlist_t *ch = NULL;
+    if (exr_get_channels(ctx, 0, &ch) != EXR_ERR_SUCCESS || !ch) return "has no channel list";
+    int seen = 0;
+    for (int i = 0; i < ch->num_channels; i++) {
+        int k = rgb_index(ch->entries[i].name.str);
+        if (k < 0) continue;
+        if (ch->entries[i].x_sampling != 1 || ch->entries[i].y_sampling != 1)
+            return "has subsampled R, G or B channels; only full-resolution ones are read";
+        seen |= 1 << k;
+    }
+    return seen == 7 ? NULL : "needs the channels R, G and B";
+}
+
+/* Decodes every chunk of rows into rgb (w wide, from data window row y0). */
+static exr_result_t read_rows(exr_context_t ctx, float *rgb, int w, int y0, int y1) {
+    int32_t lines = 0;
+    exr_result_t rv = exr_get_scanlines_per_chunk(ctx, 0, &lines);
+    exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
+    int started = 0;
+    for (int y = y0; rv == EXR_ERR_SUCCESS && y <= y1; y += lines) {
+        exr_chunk_info_t ci;
+        rv = exr_read_scanline_chunk_info(ctx, 0, y, &ci);
+        if (rv != EXR_ERR_SUCCESS) break;
+        rv = started ? exr_decoding_update(ctx, 0, &ci, &dec)
+                     : exr_decoding_initialize(ctx, 0, &ci, &dec);
+        if (rv != EXR_ERR_SUCCESS) break;
+        for (int c = 0; c < dec.channel_count; c++) {
+            exr_coding_channel_info_t *ch = &dec.channels[c];
+            int k = rgb_index(ch->channel_name);
+            ch->decode_to_ptr =
+                k < 0 ? NULL : (uint8_t *)(rgb + (size_t)(ci.start_y - y0) * (size_t)w * 3 + k);
+            ch->user_pixel_stride = 3 * (int32_t)sizeof(float);
+            ch->user_line_stride = w * 3 * (int32_t)sizeof(float);
+            ch->user_data_type = EXR_PIXEL_FLOAT;
+            ch->user_bytes_per_element = (int16_t)sizeof(float);
+        }
+        if (!started++) rv = exr_decoding_choose_default_routines(ctx, 0, &dec);
+        if (rv == EXR_ERR_SUCCESS) rv = exr_decoding_run(ctx, 0, &dec);
+    }
+    exr_decoding_destroy(ctx, &dec);
+    return rv;
+}
+
+enum rayd_status exr_read_rgb(const void *buf, size_t len, long max_pixels, float **rgb, int *w,
+                              int *h, struct rayd_error *err) {
+    struct exr_src src = {buf, len, ""};
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.user_data = &src;
+    init.read_fn = src_read;
+    init.size_fn = src_size;
+    init.error_handler_fn = src_error;
+    exr_context_t ctx = NULL;
+    if (len < 4 || memcmp(buf, "\x76\x2f\x31\x01", 4) != 0)
+        return err_set(err, RAYD_E_INVALID, NULL,
+                       "is not an OpenEXR image (no OpenEXR magic number)");
+    exr_result_t rv = exr_start_read(&ctx, "memory", &init);
+    exr_attr_box2i_t dw;
+    if (rv == EXR_ERR_SUCCESS) rv = exr_get_data_window(ctx, 0, &dw);
+    if (rv != EXR_ERR_SUCCESS) {
+        if (ctx) exr_finish(&ctx);
+        return err_set(err, RAYD_E_INVALID, NULL, "is not a readable OpenEXR image: %s",
+                       src.message[0] ? src.message : exr_get_default_error_message(rv));
+    }
+    const char *why = unsupported(ctx);
+    long ww = (long)dw.max.x - dw.min.x + 1, hh = (long)dw.max.y - dw.min.y + 1;
+    enum rayd_status st = RAYD_OK;
+    if (why)
+        st = err_set(err, RAYD_E_INVALID, NULL, "%s", why);
+    else if (ww <= 0 || hh <= 0)
+        st = err_set(err, RAYD_E_INVALID, NULL, "has an empty data window");
+    else if (ww > max_pixels / hh)
+        st = err_set(err, RAYD_E_LIMIT, NULL,
+                     "the image is %ld x %ld pixels; the limit is %ld pixels", ww, hh, max_pixels);
+    float *px = st == RAYD_OK ? calloc((size_t)ww * (size_t)hh * 3, sizeof *px) : NULL;
+    if (st == RAYD_OK && !px)
+        st = err_set(err, RAYD_E_NOMEM, NULL, "out of memory for an OpenEXR image");
+    if (st == RAYD_OK) {
+        rv = read_rows(ctx, px, (int)ww, dw.min.y, dw.max.y);
+        if (rv != EXR_ERR_SUCCESS)
+            st = err_set(err, RAYD_E_INVALID, NULL, "cannot decode the OpenEXR image: %s",
+                         src.message[0] ? src.message : exr_get_default_error_message(rv));
+    }
+    exr_finish(&ctx);
+    if (st != RAYD_OK) {
+        free(px);
+        return st;
+    }
+    *rgb = px;
+    *w = (int)ww;
+    *h = (int)hh;
+    return RAYD_OK;
+}

@@ -1,0 +1,47 @@
+/* gltf_material.h -- glTF 2.0 materials as rayd materials (internal). */
+#ifndef GLTF_MATERIAL_H
+#define GLTF_MATERIAL_H
+
+#include "format/mesh_gltf.h"
+#include "shade/material.h"
+#include "shade/texture.h"
+
+/* The most materials and base colour textures a glTF may bring, and the
+ * texels of all its textures together (one 4096 x 4096 image's worth). */
+#define GLTF_MAX_MATERIALS 1024
+#define GLTF_MAX_TEXTURES 64
+#define GLTF_MAX_TEXELS TEXTURE_MAX_PIXELS
+
+/* Material i of the file (and, at index n, glTF's default material for
+ * primitives without one).  m.texture is -1 or an index into tex. */
+struct gltf_mats {
+    struct material *m; /* n + 1 */
+    int *uv_set;        /* n + 1: the base colour texture's texCoord, -1 without */
+    int n;
+    struct texture *tex;
+    int ntex;
+    long texels; /* pixels of all the decoded textures */
+    long budget; /* the most pixels they may have (gltf_mats_read's texels) */
+};
+
+/* Reads /materials of the doc's file (at most max, and GLTF_MAX_MATERIALS)
+ * and decodes their base colour images (PNG or JPEG) with the factor
+ * baked in, at most texels pixels of them in all (and GLTF_MAX_TEXELS).
+ * Errors name the JSON Pointer inside the glTF document. */
+enum rayd_status gltf_mats_read(struct gltf_doc *d, int max, long texels, struct gltf_mats *out,
+                                struct rayd_error *err);
+
+/* The mapping of one PBR material, without its texture: exposed for tests. */
+struct gltf_pbr {
+    double base[4]; /* baseColorFactor */
+    double metallic, roughness;
+    double emissive[3]; /* emissiveFactor times KHR_materials_emissive_strength */
+    int alpha_mode;     /* 0 OPAQUE, 1 MASK, 2 BLEND */
+    double cutoff, ior;
+};
+struct material gltf_pbr_material(const struct gltf_pbr *p);
+
+/* Frees the arrays and the textures' texels (those not handed on). */
+void gltf_mats_free(struct gltf_mats *g);
+
+#endif

@@ -1,0 +1,155 @@
+/* scene_json_env.c -- render.environment: the light from far away.
+ *
+ *   {"color": [r, g, b]}                        a constant radiance, or
+ *   {"file": "sky.hdr"} | {"base64": "...", "format": "hdr" | "exr"}
+ *                                               an equirectangular image,
+ *   with "rotation" (degrees about +Y), "intensity" (>= 0, a multiplier)
+ *   and "visible" (camera rays that miss see it; default true).
+ *
+ * Images are Radiance .hdr (RGBE), decoded by stb_image (Debian's
+ * libstb) once hdr_scan.c has found the data whole, or OpenEXR (exr_read.c, the library rayd writes
+ * EXR with); the format is "format", else the file's magic number (.hdr when it is not OpenEXR's).
+ * Both headers give the size before any pixel is decoded, so an image over the texture pixel limit
+ * is refused without the memory.  The intensity is folded into the pixels once, here, so a lookup
+ * is a read. Files are opened like mesh and texture files (sj_read_asset).
+ */
+#include <stdlib.h>
+#include <string.h>
+
+#include <stb/stb_image.h>
+
+#include "load/scene_json_env.h"
+
+#include "format/base64.h"
+#include "codec/exr_read.h"
+#include "format/hdr_scan.h"
+#include "shade/texture.h"
+
+#define DEG2RAD_ENV (3.14159265358979323846 / 180)
+
+/* The encoded bytes of "file" or "base64". */
+static enum rayd_status env_encoded(struct loader *ld, const cJSON *ej, const struct jp *at,
+                                    struct jp *p, char **data, size_t *len) {
+    const cJSON *file = cJSON_GetObjectItemCaseSensitive(ej, "file");
+    const cJSON *b64 = cJSON_GetObjectItemCaseSensitive(ej, "base64");
+    *p = jp_key(at, file ? "file" : "base64");
+    if (file) return sj_read_asset(ld, file, p, data, len);
+    if (!cJSON_IsString(b64))
+        return sj_fail(ld, RAYD_E_INVALID, p, "must be a string, not %s", sj_type_name(b64));
+    unsigned char *bytes;
+    enum rayd_status st =
+        base64_decode(b64->valuestring, strlen(b64->valuestring), &bytes, len, ld->err);
+    if (st != RAYD_OK) return sj_fail(ld, st, p, "%s", ld->err->message);
+    *data = (char *)bytes;
+    return RAYD_OK;
+}
+
+/* Linear floats px (w x h, malloc'd, taken) times k into e, non-finite
+ * and negative values as 0. */
+static enum rayd_status env_take(float *px, int w, int h, double k, struct environment *e) {
+    size_t m = (size_t)w * (size_t)h * 3;
+    for (size_t i = 0; i < m; i++) px[i] = isfinite(px[i]) && px[i] > 0 ? (float)(px[i] * k) : 0.0f;
+    e->rgb = px;
+    e->w = w;
+    e->h = h;
+    return RAYD_OK;
+}
+
+static enum rayd_status env_decode_exr(struct loader *ld, const char *data, size_t len,
+                                       const struct jp *p, double k, struct environment *e) {
+    float *px;
+    int w, h;
+    struct rayd_error x = {0};
+    enum rayd_status st = exr_read_rgb(data, len, TEXTURE_MAX_PIXELS, &px, &w, &h, &x);
+    if (st != RAYD_OK) return sj_fail(ld, st, p, "%s", x.message);
+    return env_take(px, w, h, k, e);
+}
+
+/* Decodes a Radiance .hdr into linear floats times k. */
+static enum rayd_status env_decode_hdr(struct loader *ld, const char *data, size_t len,
+                                       const struct jp *p, double k, struct environment *e) {
+    if (len > (size_t)0x7fffffff) return sj_fail(ld, RAYD_E_LIMIT, p, "the image is too large");
+    const stbi_uc *b = (const stbi_uc *)data;
+    int w, h, n;
+    if (!stbi_is_hdr_from_memory(b, (int)len))
+        return sj_fail(
+            ld, RAYD_E_INVALID, p,
+            "is not a Radiance .hdr image (it must start with \"#?RADIANCE\" or \"#?RGBE\")");
+    if (!stbi_info_from_memory(b, (int)len, &w, &h, &n))
+        return sj_fail(ld, RAYD_E_INVALID, p, "is not a readable .hdr image: %s",
+                       stbi_failure_reason());
+    if (w <= 0 || h <= 0) /* stb reads a header's missing size as 0 */
+        return sj_fail(ld, RAYD_E_INVALID, p, "the .hdr image is %d x %d pixels: it has none", w,
+                       h);
+    if ((long)w * h > TEXTURE_MAX_PIXELS)
+        return sj_fail(ld, RAYD_E_LIMIT, p, "the image is %d x %d pixels; the limit is %ld pixels",
+                       w, h, TEXTURE_MAX_PIXELS);
+    char why[128];
+    if (!hdr_scan(b, len, w, h, why, sizeof why)) /* stb would read zeros past the end, or spin */
+        return sj_fail(ld, RAYD_E_INVALID, p, "%s", why);
+    float *px = stbi_loadf_from_memory(b, (int)len, &w, &h, &n, 3);
+    if (px && (w <= 0 || h <= 0 || (long)w * h > TEXTURE_MAX_PIXELS)) { /* as stbi_info said */
+        stbi_image_free(px);
+        return sj_fail(ld, RAYD_E_INVALID, p, "the .hdr image's size changed while decoding");
+    }
+    if (!px)
+        return sj_fail(ld, RAYD_E_INVALID, p, "cannot decode the .hdr image: %s",
+                       stbi_failure_reason());
+    size_t m = (size_t)w * (size_t)h * 3;
+    float *own = malloc(m * sizeof *own); /* stb's allocator is its own: copy into ours */
+    if (own) memcpy(own, px, m * sizeof *own);
+    stbi_image_free(px);
+    if (!own) return err_set(ld->err, RAYD_E_NOMEM, p->s, "out of memory for the environment");
+    return env_take(own, w, h, k, e);
+}
+
+enum rayd_status sj_environment(struct loader *ld, const cJSON *r, const struct jp *render_at) {
+    static const char *const keys[] = {"color",    "file",      "base64",  "format",
+                                       "rotation", "intensity", "visible", NULL};
+    const cJSON *ej = cJSON_GetObjectItemCaseSensitive(r, "environment");
+    if (!ej) return RAYD_OK;
+    struct jp at = jp_key(render_at, "environment");
+    if (!cJSON_IsObject(ej))
+        return sj_fail(ld, RAYD_E_INVALID, &at, "must be an object, not %s", sj_type_name(ej));
+    TRY(sj_check_keys(ld, ej, &at, keys));
+    const char *kinds[] = {"color", "file", "base64"};
+    int given = 0;
+    for (int i = 0; i < 3; i++) given += cJSON_GetObjectItemCaseSensitive(ej, kinds[i]) != NULL;
+    if (given != 1)
+        return sj_fail(ld, RAYD_E_INVALID, &at,
+                       "needs exactly one of \"color\", \"file\" or \"base64\"");
+    struct environment *e = &ld->s->rs.env;
+    double rot, k;
+    TRY(sj_num(ld, ej, &at, "rotation", 0, -NUM_MAX, false, NUM_MAX, &rot));
+    TRY(sj_num(ld, ej, &at, "intensity", 1, 0, false, 1e6, &k));
+    TRY(sj_bool(ld, ej, &at, "visible", true, &e->visible));
+    e->cos_r = cos(rot * DEG2RAD_ENV);
+    e->sin_r = sin(rot * DEG2RAD_ENV);
+    if (cJSON_GetObjectItemCaseSensitive(ej, "color")) {
+        if (cJSON_GetObjectItemCaseSensitive(ej, "format")) {
+            struct jp pf = jp_key(&at, "format");
+            return sj_fail(ld, RAYD_E_INVALID, &pf, "belongs to an image environment (\"base64\")");
+        }
+        TRY(sj_vec(ld, ej, &at, "color", v3(0, 0, 0), VEC_COLOR, &e->color));
+        e->color = v3_scale(e->color, k);
+        e->kind = ENV_CONSTANT;
+    } else {
+        static const char *const formats[] = {"hdr", "exr", NULL};
+        int format;
+        TRY(sj_enum(ld, ej, &at, "format", formats, &format));
+        struct jp p = {.s = ""};
+        char *data = NULL;
+        size_t len = 0;
+        TRY(env_encoded(ld, ej, &at, &p, &data, &len));
+        bool exr = format == 1 ||
+                   (format < 0 && data && len >= 4 && memcmp(data, "\x76\x2f\x31\x01", 4) == 0);
+        enum rayd_status st =
+            exr ? env_decode_exr(ld, data, len, &p, k, e) : env_decode_hdr(ld, data, len, &p, k, e);
+        free(data);
+        TRY(st);
+        e->kind = ENV_IMAGE;
+    }
+    if (!env_prepare(e))
+        return err_set(ld->err, RAYD_E_NOMEM, at.s, "out of memory for the environment");
+    return RAYD_OK;
+}

@@ -1,0 +1,363 @@
+/* scene_json_mesh.c -- mesh objects: flat inline arrays ("vertices",
+ * "indices", "normals", "uvs") or a "source" in OBJ, PLY or glTF, given as text,
+ * base64 or a file.  Files are read only when the limits name an asset
+ * folder (rayd-render: the scene's folder; rayd: --asset-dir, confined).
+ * Totals of vertices and triangles are checked against the limits before
+ * anything large is allocated.  Large inline arrays come not as cJSON items
+ * but as spans of the text (scene_json_inline.c), read by json_numbers.c
+ * with the same checks, values and messages.
+ */
+#define _XOPEN_SOURCE 700 /* realpath */
+#include <errno.h>
+#include <sys/stat.h>
+#include <strings.h>
+#include <unistd.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "load/scene_json_mesh.h"
+
+#include "format/base64.h"
+#include "format/json_numbers.h"
+#include "load/scene_json_inline.h"
+#include "base/clock.h"
+#include "format/mesh_gltf.h"
+#include "format/mesh_io.h"
+#include "base/parallel.h"
+
+/* ---- meshes ------------------------------------------------------------------- */
+
+/* The numbers in array a: its items, or those of its span in the text. */
+static long count_items(const cJSON *a, const struct json_span *sp) {
+    long n = 0;
+    if (sp) return sp->count;
+    for (const cJSON *e = a->child; e; e = e->next) n++;
+    return n;
+}
+
+/* The numbers of an array left out of the tree, read from the text into v:
+ * the same checks and messages as the loop over cJSON's items in get_flat. */
+static enum rayd_status flat_text(struct loader *ld, const struct json_span *sp, const struct jp *p,
+                                  float *v) {
+    double bad = 0;
+    long i = json_floats(ld->inl->text, sp, 1e30, 0, v, &bad);
+    if (i == -1) return RAYD_OK;
+    if (i == JSON_NUMBERS_NOMEM) return err_set(ld->err, RAYD_E_NOMEM, p->s, "out of memory");
+    struct jp pe = jp_index(p, (int)i);
+    if (!isfinite(bad)) return sj_fail(ld, RAYD_E_INVALID, &pe, "must be a finite number");
+    return sj_fail(ld, RAYD_E_INVALID, &pe, "must be in [-1e30, 1e30]");
+}
+
+/* A flat array of numbers, count a multiple of per (and at least min). */
+static enum rayd_status get_flat(struct loader *ld, const cJSON *obj, const struct jp *at,
+                                 const char *key, int per, long min, float **out, long *count) {
+    const cJSON *a = cJSON_GetObjectItemCaseSensitive(obj, key);
+    *out = NULL;
+    *count = 0;
+    if (!a) return RAYD_OK;
+    struct jp p = jp_key(at, key);
+    if (!cJSON_IsArray(a)) return sj_fail(ld, RAYD_E_INVALID, &p, "must be an array of numbers, not %s", sj_type_name(a));
+    const struct json_span *sp = sj_inline_span(ld->inl, a);
+    long n = count_items(a, sp);
+    if (n % per != 0 || n < min)
+        return sj_fail(ld, RAYD_E_INVALID, &p, "must hold a multiple of %d numbers (at least %ld); it has %ld", per, min, n);
+    if (n / per > ld->lim->max_vertices)
+        return sj_fail(ld, RAYD_E_LIMIT, &p, "has %ld vertices; the limit is %ld", n / per, ld->lim->max_vertices);
+    float *v = malloc(sizeof *v * (size_t)(n ? n : 1));
+    if (!v) return err_set(ld->err, RAYD_E_NOMEM, p.s, "out of memory");
+    if (sp) {
+        enum rayd_status st = flat_text(ld, sp, &p, v);
+        if (st != RAYD_OK) {
+            free(v);
+            return st;
+        }
+        *out = v;
+        *count = n / per;
+        return RAYD_OK;
+    }
+    long i = 0;
+    for (const cJSON *e = a->child; e; e = e->next, i++) {
+        double x;
+        enum rayd_status st = sj_item_num(ld, e, &p, (int)i, 1e30, "[-1e30, 1e30]", &x);
+        if (st != RAYD_OK) {
+            free(v);
+            return st;
+        }
+        v[i] = (float)x;
+    }
+    *out = v;
+    *count = n / per;
+    return RAYD_OK;
+}
+
+static enum rayd_status get_indices(struct loader *ld, const cJSON *obj, const struct jp *at,
+                                    long nverts, uint32_t **out, long *ntris) {
+    const cJSON *a = cJSON_GetObjectItemCaseSensitive(obj, "indices");
+    struct jp p = jp_key(at, "indices");
+    if (!a) return sj_fail(ld, RAYD_E_INVALID, &p, "is required (3 vertex indices per triangle)");
+    if (!cJSON_IsArray(a)) return sj_fail(ld, RAYD_E_INVALID, &p, "must be an array of integers, not %s", sj_type_name(a));
+    const struct json_span *sp = sj_inline_span(ld->inl, a);
+    long n = count_items(a, sp);
+    if (n % 3 != 0 || n == 0)
+        return sj_fail(ld, RAYD_E_INVALID, &p, "must hold a multiple of 3 indices (at least 3); it has %ld", n);
+    if (ld->triangles + n / 3 > ld->lim->max_triangles)
+        return sj_fail(ld, RAYD_E_LIMIT, &p, "brings the scene to %ld triangles; the limit is %ld", ld->triangles + n / 3, ld->lim->max_triangles);
+    uint32_t *ix = malloc(sizeof *ix * (size_t)n);
+    if (!ix) return err_set(ld->err, RAYD_E_NOMEM, p.s, "out of memory");
+    long i = sp ? json_indices(ld->inl->text, sp, nverts, 0, ix) : -1;
+    if (i != -1) {
+        free(ix);
+        if (i == JSON_NUMBERS_NOMEM) return err_set(ld->err, RAYD_E_NOMEM, p.s, "out of memory");
+        struct jp pe = jp_index(&p, (int)i);
+        return sj_fail(ld, RAYD_E_INVALID, &pe, "must be an integer in 0..%ld (a vertex index)", nverts - 1);
+    }
+    i = 0;
+    for (const cJSON *e = sp ? NULL : a->child; e; e = e->next, i++) {
+        double v = cJSON_IsNumber(e) ? e->valuedouble : -1;
+        if (!(v >= 0 && v < (double)nverts && floor(v) == v)) {
+            free(ix);
+            struct jp pe = jp_index(&p, (int)i);
+            return sj_fail(ld, RAYD_E_INVALID, &pe, "must be an integer in 0..%ld (a vertex index)", nverts - 1);
+        }
+        ix[i] = (uint32_t)v;
+    }
+    *out = ix;
+    *ntris = n / 3;
+    return RAYD_OK;
+}
+
+enum rayd_status sj_add_mesh(struct loader *ld, uint32_t *id) {
+    rayd_scene *s = ld->s;
+    if (!array_grow((void **)&s->meshes, &ld->mesh_cap, (size_t)s->nmeshes + 1, sizeof *s->meshes))
+        return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
+    memset(&s->meshes[s->nmeshes], 0, sizeof s->meshes[0]);
+    *id = s->nmeshes++;
+    return RAYD_OK;
+}
+
+/* ---- glTF ------------------------------------------------------------------------ */
+
+static enum rayd_status gltf_open(void *ctx, const char *name, char **data, size_t *len,
+                                  struct rayd_error *err) {
+    struct gltf_files *f = ctx;
+    char path[2048];
+    (void)err; /* sj_read_asset fills the loader's error, the same one */
+    if ((size_t)snprintf(path, sizeof path, "%s%s", f->dir, name) >= sizeof path)
+        return sj_fail(f->ld, RAYD_E_INVALID, &(struct jp){.s = ""}, "path is too long");
+    cJSON v = {0};
+    v.type = cJSON_String;
+    v.valuestring = path;
+    struct jp at = {.s = ""};
+    return sj_read_asset(f->ld, &v, &at, data, len);
+}
+
+enum rayd_status sj_gltf_opts(struct loader *ld, const struct jp *at, const cJSON *file,
+                              struct gltf_files *f, struct mesh_gltf_opts *o) {
+    f->ld = ld;
+    f->dir[0] = '\0';
+    if (file) {
+        const char *name = file->valuestring, *slash = strrchr(name, '/');
+        size_t dn = slash ? (size_t)(slash - name) + 1 : 0;
+        if (dn >= sizeof f->dir) return sj_fail(ld, RAYD_E_INVALID, at, "file name is too long");
+        memcpy(f->dir, name, dn);
+        f->dir[dn] = '\0';
+    }
+    *o = (struct mesh_gltf_opts){.max_bytes = ld->lim->max_bytes,
+                                 .max_nesting = ld->lim->max_nesting,
+                                 .open = ld->lim->asset_dir ? gltf_open : NULL,
+                                 .ctx = f};
+    return RAYD_OK;
+}
+
+enum rayd_status sj_gltf_error(struct loader *ld, const struct jp *at, enum rayd_status st) {
+    if (st != RAYD_OK && ld->err) {
+        char inner[sizeof ld->err->path];
+        snprintf(inner, sizeof inner, "%s", ld->err->path);
+        struct jp pg = jp_key(at, "gltf");
+        size_t n1 = strlen(pg.s) < 120 ? strlen(pg.s) : 120; /* both fit the 256 bytes */
+        snprintf(ld->err->path, sizeof ld->err->path, "%.*s%.*s", (int)n1, pg.s, 130, inner);
+    }
+    return st;
+}
+
+/* A glTF or GLB source; errors get the source's pointer, then "/gltf" and
+ * the pointer inside the glTF document. */
+static enum rayd_status load_gltf(struct loader *ld, const struct jp *at, const cJSON *file,
+                                  const char *bytes, size_t n, const struct mesh_limits *ml,
+                                  struct mesh_data *md) {
+    struct gltf_files f;
+    struct mesh_gltf_opts o;
+    TRY(sj_gltf_opts(ld, at, file, &f, &o));
+    return sj_gltf_error(ld, at, mesh_parse_gltf(bytes, n, ml, &o, md, ld->err));
+}
+
+enum rayd_status sj_source_read(struct loader *ld, const cJSON *src, const struct jp *at,
+                                int *fmt_out, char **owned, const char **out, size_t *nbytes) {
+    static const char *const keys[] = {"format", "text", "base64", "file", NULL};
+    static const char *const formats[] = {"obj", "ply", "gltf", "glb", NULL};
+    TRY(sj_check_keys(ld, src, at, keys));
+    const cJSON *text = cJSON_GetObjectItemCaseSensitive(src, "text");
+    const cJSON *b64 = cJSON_GetObjectItemCaseSensitive(src, "base64");
+    const cJSON *file = cJSON_GetObjectItemCaseSensitive(src, "file");
+    if (!!text + !!b64 + !!file != 1)
+        return sj_fail(ld, RAYD_E_INVALID, at, "needs exactly one of \"text\", \"base64\" or \"file\"");
+    const cJSON *fmt = cJSON_GetObjectItemCaseSensitive(src, "format");
+    int format = -1;
+    if (fmt) {
+        TRY(sj_enum(ld, src, at, "format", formats, &format));
+    } else if (file && cJSON_IsString(file)) {
+        size_t n = strlen(file->valuestring);
+        if (n > 4 && !strcasecmp(file->valuestring + n - 4, ".obj")) format = 0;
+        if (n > 4 && !strcasecmp(file->valuestring + n - 4, ".ply")) format = 1;
+        if (n > 5 && !strcasecmp(file->valuestring + n - 5, ".gltf")) format = 2;
+        if (n > 4 && !strcasecmp(file->valuestring + n - 4, ".glb")) format = 3;
+    }
+    struct jp pf = jp_key(at, "format");
+    if (format < 0) return sj_fail(ld, RAYD_E_INVALID, &pf, "is required (\"obj\", \"ply\", \"gltf\" or \"glb\")");
+    const cJSON *v = text ? text : b64 ? b64 : file;
+    struct jp pv = jp_key(at, text ? "text" : b64 ? "base64" : "file");
+    char *data = NULL;
+    size_t len = 0;
+    *fmt_out = format;
+    if (file) {
+        TRY(sj_read_asset(ld, file, &pv, &data, &len));
+    } else if (!cJSON_IsString(v)) {
+        return sj_fail(ld, RAYD_E_INVALID, &pv, "must be a string, not %s", sj_type_name(v));
+    } else if (b64) {
+        unsigned char *bytes;
+        enum rayd_status st = base64_decode(v->valuestring, strlen(v->valuestring), &bytes, &len, ld->err);
+        if (st != RAYD_OK) {
+            snprintf(ld->err->path, sizeof ld->err->path, "%s", pv.s);
+            return st;
+        }
+        data = (char *)bytes;
+    }
+    *owned = data;
+    *out = data ? data : v->valuestring;
+    *nbytes = data ? len : strlen(v->valuestring);
+    return RAYD_OK;
+}
+
+/* "source": {"format": "obj"|"ply"|"gltf"|"glb", and one of "text", "base64", "file"}. */
+struct mesh_limits sj_mesh_budget(const struct loader *ld) {
+    long v = ld->lim->max_vertices - ld->vertices, t = ld->lim->max_triangles - ld->triangles;
+    return (struct mesh_limits){(uint32_t)(v > (long)UINT32_MAX ? UINT32_MAX : v < 0 ? 0 : v),
+                                (uint32_t)(t > (long)UINT32_MAX ? UINT32_MAX : t < 0 ? 0 : t)};
+}
+
+static enum rayd_status load_source(struct loader *ld, const cJSON *src, const struct jp *at,
+                                    struct mesh_data *md) {
+    const cJSON *text = cJSON_GetObjectItemCaseSensitive(src, "text");
+    const cJSON *b64 = cJSON_GetObjectItemCaseSensitive(src, "base64");
+    const cJSON *file = cJSON_GetObjectItemCaseSensitive(src, "file");
+    struct jp pv = jp_key(at, text ? "text" : b64 ? "base64" : "file");
+    int format = -1; /* all four set by sj_source_read when it succeeds */
+    char *data = NULL;
+    const char *bytes = NULL;
+    size_t nbytes = 0;
+    double t0 = clock_now(); /* decode: reading the file or base64 too */
+    TRY(sj_source_read(ld, src, at, &format, &data, &bytes, &nbytes));
+    struct mesh_limits ml = sj_mesh_budget(ld);
+    enum rayd_status st = format == 0   ? mesh_parse_obj_threads(bytes, nbytes, &ml, 0, md, ld->err)
+                          : format == 1 ? mesh_parse_ply_threads(bytes, nbytes, &ml, 0, md, ld->err)
+                                        : load_gltf(ld, at, file, bytes, nbytes, &ml, md);
+    ld->s->decode_s += clock_now() - t0;
+    free(data);
+    if (st != RAYD_OK && ld->err && format < 2) snprintf(ld->err->path, sizeof ld->err->path, "%s", pv.s);
+    if (st == RAYD_OK && md->ntris == 0) {
+        mesh_data_free(md);
+        return sj_fail(ld, RAYD_E_INVALID, &pv, "holds no triangles");
+    }
+    return st;
+}
+
+/* A "source" mesh's arrays (a file, text or base64), decoded within what
+ * is left of the scene's vertex and triangle budget; the inline keys may
+ * not come beside it. */
+static enum rayd_status mesh_from_source(struct loader *ld, const cJSON *oj, const cJSON *src,
+                                         const struct jp *at, struct mesh_data *md) {
+    static const char *const inline_keys[] = {"vertices", "indices", "normals", "uvs"};
+    for (int k = 0; k < 4; k++) {
+        if (!cJSON_GetObjectItemCaseSensitive(oj, inline_keys[k])) continue;
+        struct jp p = jp_key(at, inline_keys[k]);
+        return sj_fail(ld, RAYD_E_INVALID, &p, "cannot be combined with \"source\"");
+    }
+    struct jp p = jp_key(at, "source");
+    return load_source(ld, src, &p, md);
+}
+
+/* Each normal of n made a unit vector; a zero-length one is an error at
+ * its first number. */
+static enum rayd_status unit_normals(struct loader *ld, const struct jp *at, float *nrm, long n) {
+    for (long i = 0; i < n; i++) {
+        float *v = nrm + 3 * i;
+        double len = sqrt((double)v[0] * v[0] + (double)v[1] * v[1] + (double)v[2] * v[2]);
+        if (!(len > 0)) {
+            struct jp p = jp_key(at, "normals");
+            struct jp pe = jp_index(&p, (int)(3 * i));
+            return sj_fail(ld, RAYD_E_INVALID, &pe, "normal %ld must not be a zero-length vector", i);
+        }
+        for (int k = 0; k < 3; k++) v[k] = (float)(v[k] / len);
+    }
+    return RAYD_OK;
+}
+
+/* An inline mesh's arrays: "vertices" (within the scene's vertex budget),
+ * "indices", and "normals" (made unit) and "uvs", one per vertex.  On an
+ * error nothing is kept. */
+static enum rayd_status mesh_from_inline(struct loader *ld, const cJSON *oj, const struct jp *at,
+                                         struct mesh_data *md) {
+    float *pos = NULL, *nrm = NULL, *uv = NULL;
+    uint32_t *ix = NULL;
+    long nv = 0, nn = 0, nuv = 0, nt = 0;
+    struct jp p = jp_key(at, "vertices");
+    enum rayd_status st = get_flat(ld, oj, at, "vertices", 3, 3, &pos, &nv);
+    if (st == RAYD_OK && !pos)
+        st = sj_fail(ld, RAYD_E_INVALID, &p, "is required (x, y, z of each vertex, flat)");
+    if (st == RAYD_OK && ld->vertices + nv > ld->lim->max_vertices)
+        st = sj_fail(ld, RAYD_E_LIMIT, &p, "brings the scene to %ld vertices; the limit is %ld",
+                     ld->vertices + nv, ld->lim->max_vertices);
+    if (st == RAYD_OK) st = get_indices(ld, oj, at, nv, &ix, &nt);
+    if (st == RAYD_OK) st = get_flat(ld, oj, at, "normals", 3, 0, &nrm, &nn);
+    if (st == RAYD_OK) st = get_flat(ld, oj, at, "uvs", 2, 0, &uv, &nuv);
+    if (st == RAYD_OK && ((nrm && nn != nv) || (uv && nuv != nv))) {
+        p = jp_key(at, nrm && nn != nv ? "normals" : "uvs");
+        st = sj_fail(ld, RAYD_E_INVALID, &p, "must have one entry per vertex (%ld)", nv);
+    }
+    if (st == RAYD_OK && nrm) st = unit_normals(ld, at, nrm, nn);
+    if (st != RAYD_OK) {
+        free(pos);
+        free(nrm);
+        free(uv);
+        free(ix);
+        return st;
+    }
+    *md = (struct mesh_data){pos, nrm, uv, ix, (uint32_t)nv, (uint32_t)nt};
+    return RAYD_OK;
+}
+
+enum rayd_status sj_mesh(struct loader *ld, const cJSON *oj, const struct jp *at,
+                                  uint32_t *id) {
+    const cJSON *sm = cJSON_GetObjectItemCaseSensitive(oj, "smooth");
+    if (sm && !cJSON_IsBool(sm)) {
+        struct jp p = jp_key(at, "smooth");
+        return sj_fail(ld, RAYD_E_INVALID, &p, "must be true or false, not %s", sj_type_name(sm));
+    }
+    bool smooth = !sm || cJSON_IsTrue(sm);
+    const cJSON *src = cJSON_GetObjectItemCaseSensitive(oj, "source");
+    struct mesh_data md = {0};
+    TRY(src ? mesh_from_source(ld, oj, src, at, &md) : mesh_from_inline(ld, oj, at, &md));
+    enum rayd_status st = sj_add_mesh(ld, id);
+    if (st != RAYD_OK) {
+        mesh_data_free(&md);
+        return st;
+    }
+    ld->vertices += md.nverts;
+    ld->triangles += md.ntris;
+    double t0 = clock_now();
+    st = mesh_build(&ld->s->meshes[*id], md.pos, md.nverts, md.index, md.ntris, md.normal, md.uv,
+                    smooth, md.ntris >= 50000 ? parallel_cores() : 1, ld->err);
+    ld->s->build_s += clock_now() - t0;
+    return st; /* the mesh owns the arrays now, even on failure */
+}

@@ -1,0 +1,135 @@
+/* api.h -- the handlers: one function per route, and what they share.
+ *
+ * Layer: handlers (api.c and api_cost.c, shared; api_render.c, api_jobs.c,
+ * api_events.c, api_health.c, api_test.c, api_web.c).  A handler validates
+ * the request, submits work and shapes the reply; it never renders and
+ * never blocks.
+ * May include: request.h (read the request, reply), work.h (scenes,
+ * renders, jobs, events), base.h, cJSON and libmicrohttpd's response API.
+ * Included by router.c (the table) and the fuzz harnesses.
+ */
+#ifndef RAYD_SERVER_API_H
+#define RAYD_SERVER_API_H
+
+#include <cjson/cJSON.h>
+
+#include "req/request.h"
+#include "work/work.h"
+
+/* ---- api.c: helpers of every handler ----------------------------------------- */
+
+/* Parses ?x=&y=&w=&h= strictly against scene; on error replies 400 and
+ * returns false.  No parameters: the whole image. */
+bool api_region(struct http_req *r, const rayd_scene *scene, struct rayd_region *out);
+/* api_region, letting the names in also (NULL-ended) through for the
+ * route's own parser. */
+bool api_region_also(struct http_req *r, const rayd_scene *scene, struct rayd_region *out,
+                     const char *const *also);
+/* api_region, also taking ?format=png|png16|exr|sums (or Accept:
+ * image/x-exr) and, for sums, ?samples=K0-K1, into *what; a bad one is
+ * answered 400 naming it. */
+bool api_target(struct http_req *r, const rayd_scene *scene, struct work_target *what);
+/* The Content-Type of a format's bytes. */
+const char *api_format_type(enum work_format format);
+/* Body is JSON?  Otherwise replies 415 and returns false. */
+bool api_require_json(struct http_req *r);
+/* For a route that takes no query parameters but names (NULL-ended; NULL
+ * for none): false after a 400 bad_parameter naming the first other one,
+ * so a typo (?pas=2) is told, not ignored. */
+bool api_only_params(struct http_req *r, const char *const *names);
+/* 400 bad_parameter "NAME: WHY" pointing at the query parameter name;
+ * returns false, for a parser's `return api_bad_param(...)`. */
+bool api_bad_param(struct http_req *r, const char *name, const char *why);
+/* s is exactly n lowercase hex digits (a scene id is 64, a job id 32). */
+bool api_is_hex(const char *s, size_t n);
+/* Whether s is a plain decimal number as a query parameter takes it: digits
+ * with at most one '.', at least one digit; no sign, exponent, space, hex,
+ * "inf" or "nan" (which strtod would take).  Integers too when !point. */
+bool api_is_decimal(const char *s, bool point);
+/* The one place where a core status becomes an HTTP status and code. */
+unsigned api_status_of(enum rayd_status s);
+void api_reply_rayd_error(struct http_req *r, const struct rayd_error *err);
+/* 404 for a path rayd does not serve, naming the ones it does (a user who
+ * tried /health finds /healthz). */
+void api_not_found(struct http_req *r);
+/* Reply for a refused submission (queue full, draining, ...). */
+void api_refused(struct http_req *r, enum work_submit why);
+/* What a handler does with r's scene once it is compiled: e is referenced
+ * for the call only (api_scene releases it after), hit when it was found
+ * compiled.  It may run on a parse thread with r suspended; it returns true
+ * when it handed r on to something that will resume it (a render's waiter,
+ * suspended with api_suspend), false when it answered r. */
+typedef bool (*api_scene_then)(struct http_req *r, struct cache_entry *e, bool hit);
+/* Compiles r's body as a scene (refusing while draining, or 503 queue_full
+ * with Retry-After when --parse-queue scenes wait), then calls then: at once
+ * when the scene is cached, else from a parse thread while r is suspended
+ * (compile.c).  A bad scene is answered with its error, then not called. */
+void api_scene(struct http_req *r, api_scene_then then);
+/* A waiter's suspend(): suspends r unless it is already, waiting for its
+ * scene (a continuation of api_scene's on a parse thread). */
+void api_suspend(struct http_req *r);
+
+/* ---- api_cost.c: who asks, and what it costs ------------------------------------ */
+
+struct api_price {
+    double rays, seconds; /* estimated (cost.c) */
+};
+/* The client r comes from (--client-header, else the peer address), hashed. */
+uint64_t api_cost_client(struct http_req *r);
+/* Sets what->client and prices what of scene; false when over --max-work,
+ * or (unless progressive) far past --max-render-seconds, with the limit
+ * passed written to limit. */
+bool api_cost_price(struct http_req *r, const struct cache_entry *scene, struct work_target *what,
+                    bool progressive, struct api_price *out, char *limit, size_t n);
+/* The 413 over_budget of a render priced at p, over limit. */
+void api_cost_over_budget(struct http_req *r, const struct api_price *p, const char *limit);
+/* api_cost_price, then the 413 when over a budget (false). */
+bool api_cost_admit(struct http_req *r, const struct cache_entry *scene, struct work_target *what,
+                    bool progressive, struct api_price *out);
+/* X-Rayd-Estimated-Rays and X-Rayd-Estimated-Seconds on r's reply. */
+void api_cost_price_headers(struct http_req *r, const struct api_price *p);
+/* A Retry-After for a wait of about `seconds`: 1 to 600. */
+int api_cost_retry_after(double seconds);
+
+/* ---- the routes ----------------------------------------------------------------- */
+
+void api_render_post(struct http_req *r, const char *id);
+void api_scenes_post(struct http_req *r, const char *id);
+void api_scenes_image(struct http_req *r, const char *id);
+void api_jobs_post(struct http_req *r, const char *id);
+void api_jobs_get(struct http_req *r, const char *id);
+void api_jobs_delete(struct http_req *r, const char *id);
+void api_jobs_stop(struct http_req *r, const char *id);
+/* api_jobs.c's pieces the event stream and the images share: 404
+ * job_unknown, a pass's noise and image URL in a JSON object, the job's
+ * status document (docs/api.md: key order and decimals), and the job's
+ * scene for the access log. */
+void api_jobs_unknown(struct http_req *r);
+/* A job id the table does not have: 410 job_expired or job_evicted (how
+ * and when it ended, when it went) for one this server forgot, else 404
+ * job_unknown. */
+void api_jobs_missing(struct http_req *r, const char *id);
+/* 410 result_evicted with the job's JSON when info's images were evicted
+ * (a memory budget); true when it replied. */
+bool api_jobs_evicted(struct http_req *r, const char *id, const struct jobs_info *info);
+void api_jobs_add_noise(cJSON *o, double noise);
+void api_jobs_add_pass_url(cJSON *o, const char *id, int k);
+cJSON *api_jobs_json(const char *id, const struct jobs_info *in);
+void api_jobs_scene(struct http_req *r, const struct jobs_info *info);
+
+/* api_jobs_image.c: GET /v1/jobs/{id}/image.png and image.exr */
+void api_jobs_image(struct http_req *r, const char *id);
+void api_jobs_exr(struct http_req *r, const char *id);
+
+/* api_events.c */
+void api_events_get(struct http_req *r, const char *id);
+void api_health_live(struct http_req *r, const char *id);
+void api_health_ready(struct http_req *r, const char *id);
+void api_health_metrics(struct http_req *r, const char *id);
+void api_test_gate_get(struct http_req *r, const char *id);
+void api_test_gate_post(struct http_req *r, const char *id);
+void api_web_index(struct http_req *r, const char *id);
+void api_web_asset(struct http_req *r, const char *id);
+bool api_web_exists(const char *name);
+
+#endif

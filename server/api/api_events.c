@@ -1,0 +1,215 @@
+/* api_events.c -- GET /v1/jobs/{id}/events: a job's progress as
+ * Server-Sent Events.
+ *
+ * The stream is a libmicrohttpd callback response.  The reader asks
+ * events.c for news; when there is none, events.c links the stream's waiter
+ * to the job's task and calls its suspend callback (inside the work lock,
+ * so a tile that finishes meanwhile cannot be missed), and the worker that
+ * finishes the next tile calls its done callback, which resumes the
+ * connection.  So an open stream costs no thread and no polling.  The
+ * records are written as SSE here, each data line by cJSON; text that does
+ * not fit libmicrohttpd's buffer waits in the stream's carry for the next
+ * call.
+ */
+#include "api/api.h"
+
+#include <cjson/cJSON.h>
+#include <microhttpd.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define API_EVENTS_ITEMS 32
+
+/* One open stream: freed with its response (libmicrohttpd's free callback). */
+struct api_events {
+    struct work_waiter w; /* first: the callbacks get it back */
+    struct http_req *r;
+    struct events_stream *s;
+    char id[33];
+    char *carry; /* text formatted but not yet sent */
+    size_t carry_len, carry_off;
+};
+
+static void api_events_suspend(struct work_waiter *w)
+{
+    http_req_suspend(((struct api_events *)w)->r);
+}
+
+/* Woken by news of the job, or by the watcher when the client hung up: then
+ * the stream ends at once (the reader's next call), rather than waiting,
+ * suspended, for an event that may be long in coming -- a queued job's. */
+static void api_events_wake(struct work_waiter *w, struct work_result *res)
+{
+    struct http_req *r = ((struct api_events *)w)->r;
+    if (res->gone) {
+        r->gone = true;
+        r->note = "client_gone";
+    }
+    blob_unref(res->png);
+    http_req_resume(r);
+}
+
+/* "event: NAME\ndata: JSON\n\n" appended to out (o deleted). */
+static size_t api_events_event(char *out, size_t size, const char *name, cJSON *o)
+{
+    char data[2048];
+    bool ok = json_print_into(o, data, sizeof data);
+    cJSON_Delete(o);
+    int n = snprintf(out, size, "event: %s\ndata: %s\n\n", name, ok ? data : "{}");
+    return n < 0 || (size_t)n >= size ? 0 : (size_t)n;
+}
+
+/* "event: pass": a progressive job's pass is complete (o deleted). */
+static size_t api_events_pass(struct api_events *a, const struct events_item *it, cJSON *o,
+                              char *out, size_t size)
+{
+    cJSON_AddNumberToObject(o, "pass", it->done);
+    cJSON_AddNumberToObject(o, "passes", it->total);
+    cJSON_AddNumberToObject(o, "samples", it->samples);
+    json_add_fixed(o, "time_s", it->time_s, 3);
+    api_jobs_add_noise(o, it->noise);
+    json_add_fixed(o, "progress", it->progress, 4);
+    api_jobs_add_pass_url(o, a->id, it->done);
+    return api_events_event(out, size, "pass", o);
+}
+
+/* One item as SSE text into out (2.5 KiB is enough for any). */
+static size_t api_events_format(struct api_events *a, const struct events_item *it,
+                                const struct rayd_error *err, char *out, size_t size)
+{
+    cJSON *o = cJSON_CreateObject();
+    size_t n = 0;
+    switch (it->kind) {
+    case EVENTS_STATE:
+        n = (size_t)snprintf(out, size, "retry: 1000\n");
+        cJSON_AddStringToObject(o, "id", a->id);
+        cJSON_AddStringToObject(o, "state", jobs_state_name(it->state));
+        return n + api_events_event(out + n, size - n, "state", o);
+    case EVENTS_TILE:
+        cJSON_AddNumberToObject(o, "x", it->tile.x);
+        cJSON_AddNumberToObject(o, "y", it->tile.y);
+        cJSON_AddNumberToObject(o, "w", it->tile.w);
+        cJSON_AddNumberToObject(o, "h", it->tile.h);
+        n = api_events_event(out, size, "tile", o);
+        o = cJSON_CreateObject();
+        json_add_fixed(o, "progress", it->progress, 4);
+        cJSON_AddNumberToObject(o, "done", it->done);
+        cJSON_AddNumberToObject(o, "total", it->total);
+        return n + api_events_event(out + n, size - n, "progress", o);
+    case EVENTS_PASS:
+        return api_events_pass(a, it, o, out, size);
+    case EVENTS_DONE:
+        cJSON_AddStringToObject(o, "state", jobs_state_name(it->state));
+        json_add_fixed(o, "progress", it->progress, 4);
+        if (it->samples > 0)
+            cJSON_AddNumberToObject(o, "samples", it->samples);
+        if (it->state == JS_FAILED)
+            cJSON_AddStringToObject(o, "error", err->message);
+        return api_events_event(out, size, "done", o);
+    case EVENTS_PING:
+    default:
+        cJSON_Delete(o);
+        return (size_t)snprintf(out, size, ": keep-alive\n\n");
+    }
+}
+
+/* Copies what fits of text to buf; the rest goes to the carry.  false when
+ * the carry cannot be had (out of memory). */
+static bool api_events_put(struct api_events *a, char *buf, size_t max, size_t *used,
+                           const char *text, size_t len)
+{
+    size_t k = len < max - *used ? len : max - *used;
+    memcpy(buf + *used, text, k);
+    *used += k;
+    if (k == len)
+        return true;
+    char *c = realloc(a->carry, a->carry_len + len - k);
+    if (!c)
+        return false;
+    memcpy(c + a->carry_len, text + k, len - k);
+    a->carry = c;
+    a->carry_len += len - k;
+    return true;
+}
+
+/* Sends what is left of the carry; true when it is empty. */
+static bool api_events_flush(struct api_events *a, char *buf, size_t max, size_t *used)
+{
+    size_t left = a->carry_len - a->carry_off;
+    size_t k = left < max - *used ? left : max - *used;
+    memcpy(buf + *used, a->carry + a->carry_off, k);
+    *used += k;
+    a->carry_off += k;
+    if (a->carry_off < a->carry_len)
+        return false;
+    free(a->carry);
+    a->carry = NULL;
+    a->carry_len = a->carry_off = 0;
+    return true;
+}
+
+static ssize_t api_events_reader(void *cls, uint64_t pos, char *buf, size_t max)
+{
+    (void)pos;
+    struct api_events *a = cls;
+    struct http_req *r = a->r;
+    if (r->gone)
+        return MHD_CONTENT_READER_END_WITH_ERROR;
+    size_t used = 0;
+    if (a->carry && !api_events_flush(a, buf, max, &used))
+        goto out;
+    struct events_item items[API_EVENTS_ITEMS];
+    struct rayd_error err = {0};
+    int n = used ? 0 : events_read(a->s, items, API_EVENTS_ITEMS, &err, &a->w);
+    if (n < 0)
+        return MHD_CONTENT_READER_END_OF_STREAM;
+    for (int i = 0; i < n; i++) {
+        char text[2560];
+        size_t len = api_events_format(a, &items[i], &err, text, sizeof text);
+        if (!api_events_put(a, buf, max, &used, text, len))
+            return MHD_CONTENT_READER_END_WITH_ERROR;
+    }
+out:
+    r->bytes += used;
+    return (ssize_t)used;
+}
+
+static void api_events_free(void *cls)
+{
+    struct api_events *a = cls;
+    events_close(a->s);
+    free(a->carry);
+    free(a);
+}
+
+void api_events_get(struct http_req *r, const char *id)
+{
+    if (!api_only_params(r, NULL))
+        return;
+    struct api_events *a = calloc(1, sizeof *a);
+    if (!a) {
+        api_refused(r, WORK_NOMEM);
+        return;
+    }
+    if (!api_is_hex(id, 32) || !(a->s = events_open(id))) {
+        free(a);
+        api_jobs_missing(r, id);
+        return;
+    }
+    a->r = r;
+    snprintf(a->id, sizeof a->id, "%s", id);
+    a->w.done = api_events_wake;
+    a->w.suspend = api_events_suspend;
+    a->w.fd = http_req_fd(r);
+    struct MHD_Response *resp = MHD_create_response_from_callback(
+        MHD_SIZE_UNKNOWN, 4096, api_events_reader, a, api_events_free);
+    if (!resp) {
+        api_events_free(a);
+        r->gone = true;
+        return;
+    }
+    MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, "text/event-stream");
+    MHD_add_response_header(resp, MHD_HTTP_HEADER_CACHE_CONTROL, "no-store");
+    MHD_add_response_header(resp, "X-Accel-Buffering", "no");
+    http_reply(r, 200, resp);
+}

@@ -1,0 +1,95 @@
+/* api_health.c -- /healthz, /readyz and /metrics.
+ *
+ * /healthz answers 200 while the process can answer at all (liveness), with
+ * rayd's version.
+ * /readyz answers 503 while draining, while the render queue is full, or
+ * while the estimated backlog is over --max-backlog seconds (cost.c), so a
+ * load balancer stops sending work before requests are refused or wait for
+ * long; 200 otherwise, with the backlog.  Both stay open without a token so probes need no secret.
+ * A table of --max-jobs jobs all unfinished refuses POST /v1/jobs (503
+ * queue_full) but not renders, which a balancer should still send here:
+ * /readyz stays 200 and says so in "jobs_refused", beside the jobs counted
+ * ("jobs" unfinished of "max_jobs"), so an operator or a job client sees
+ * why.
+ * /metrics is the Prometheus text of metrics.c.
+ */
+#include "api/api.h"
+
+#include <cjson/cJSON.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+void api_health_live(struct http_req *r, const char *id)
+{
+    (void)id;
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddStringToObject(o, "status", "ok");
+    /* a frame is stitched from one version only: rayd-client health says so */
+    cJSON_AddStringToObject(o, "version", RAYD_VERSION);
+    http_reply_json(r, 200, o);
+}
+
+/* "jobs", "max_jobs", and "jobs_refused" while POST /v1/jobs is refused
+ * because every job kept is unfinished (jobs.c evicts finished ones only). */
+static void api_health_jobs(cJSON *o, const struct sched_stats *st)
+{
+    cJSON_AddNumberToObject(o, "jobs", (double)st->jobs_unfinished);
+    cJSON_AddNumberToObject(o, "max_jobs", (double)st->jobs_cap);
+    if (st->jobs_unfinished < st->jobs_cap)
+        return;
+    char msg[200];
+    snprintf(msg, sizeof msg,
+             "all %ld jobs kept (--max-jobs) are unfinished: POST /v1/jobs answers 503 "
+             "queue_full until one ends; renders are accepted",
+             st->jobs_cap);
+    cJSON_AddStringToObject(o, "jobs_refused", msg);
+}
+
+void api_health_ready(struct http_req *r, const char *id)
+{
+    (void)id;
+    struct sched_stats st;
+    sched_stats(&st);
+    if (sched_draining()) {
+        http_reply_error(r, 503, "draining", "the server is shutting down", NULL, 0, 0, NULL);
+        return;
+    }
+    if (st.queued >= st.queue_cap) {
+        r->retry_after = api_cost_retry_after(st.backlog_s / (double)st.queued);
+        http_reply_error(r, 503, "queue_full", "the render queue is full", NULL, 0, 0, NULL);
+        return;
+    }
+    if (config.max_backlog > 0 && st.backlog_s > (double)config.max_backlog) {
+        char msg[200];
+        snprintf(msg, sizeof msg,
+                 "about %.0f s of work is queued, more than --max-backlog %ld s; send new work "
+                 "elsewhere",
+                 st.backlog_s, config.max_backlog);
+        r->retry_after = api_cost_retry_after(st.backlog_s - (double)config.max_backlog);
+        http_reply_error(r, 503, "backlog", msg, NULL, 0, 0, NULL);
+        return;
+    }
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddStringToObject(o, "status", "ready");
+    cJSON_AddNumberToObject(o, "queued", (double)st.queued);
+    cJSON_AddNumberToObject(o, "capacity", (double)st.queue_cap);
+    cJSON_AddNumberToObject(o, "workers", (double)st.workers);
+    cJSON_AddNumberToObject(o, "busy", (double)st.busy_workers);
+    json_add_fixed(o, "backlog_s", st.backlog_s, 3);
+    api_health_jobs(o, &st);
+    http_reply_json(r, 200, o);
+}
+
+void api_health_metrics(struct http_req *r, const char *id)
+{
+    (void)id;
+    size_t len = 0;
+    char *text = metrics_text(&len);
+    if (!text) {
+        http_reply_error(r, 503, "out_of_memory", "out of memory", NULL, 0, 0, NULL);
+        return;
+    }
+    http_reply_data(r, 200, "text/plain; version=0.0.4; charset=utf-8", text, len);
+    http_reply_header(r, "Cache-Control", "no-store");
+    free(text);
+}

@@ -1,0 +1,171 @@
+/* api_jobs_image.c -- a job's image: GET /v1/jobs/{id}/image.png and
+ * GET /v1/jobs/{id}/image.exr, each the final image or, with ?pass=K, a
+ * progressive job's pass K.
+ *
+ * Both routes answer alike, from the same job: the image once the job
+ * succeeded (a progressive job's latest pass while it runs), 202 with the
+ * job's JSON while there is none yet, 409 when the job failed or was
+ * cancelled, and pass K while it is kept (410 after); 410 too for a job
+ * whose image was evicted or that was forgotten (api_jobs.c).  They differ in what
+ * they hand out: image.png the 8-bit PNG every job keeps, image.exr the
+ * OpenEXR (linear, 32-bit float) that only a job created with
+ * POST /v1/jobs?format=exr keeps -- any other job answers 409 not_exr,
+ * since its floats were never kept and never will be.  The EXR holds the
+ * very floats POST /v1/render?format=exr gives for the same scene and
+ * samples (resolve.c), so the route of a kept scene's image and the job's
+ * agree byte for byte.  Fewer EXRs than PNGs are kept (PASSES_KEEP_EXR,
+ * work.h): the memory a job's EXRs hold stays bounded however many passes
+ * a client asks for.
+ */
+#include "api/api.h"
+
+#include <microhttpd.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Which pass an image is: X-Rayd-Pass "k/total", X-Rayd-Samples n. */
+static void api_pass_headers(struct http_req *r, int pass, int total, int samples)
+{
+    char v[32];
+    snprintf(v, sizeof v, "%d/%d", pass, total);
+    http_reply_header(r, "X-Rayd-Pass", v);
+    snprintf(v, sizeof v, "%d", samples);
+    http_reply_header(r, "X-Rayd-Samples", v);
+}
+
+/* 409 not_exr when the EXR is asked of a job that keeps none; true if so. */
+static bool api_jobs_no_exr(struct http_req *r, const struct jobs_info *info, bool exr)
+{
+    if (!exr || info->keep_exr)
+        return false;
+    http_reply_error(r, 409, "not_exr",
+                     "this job keeps no EXR: create it with POST /v1/jobs?format=exr (its PNG is "
+                     "image.png)",
+                     NULL, 0, 0, NULL);
+    return true;
+}
+
+/* The image's 200: its type, cache policy and, for a pass, which one. */
+static void api_jobs_image_reply(struct http_req *r, struct blob *img, bool exr, const char *cache)
+{
+    http_reply_image(r, 200, img, api_format_type(exr ? WORK_EXR : WORK_PNG));
+    http_reply_header(r, "Cache-Control", cache);
+}
+
+/* 202 + Retry-After and the job's JSON: the image is not there yet. */
+static void api_jobs_not_yet(struct http_req *r, const char *id, const struct jobs_info *info)
+{
+    http_reply_json(r, 202, api_jobs_json(id, info));
+    http_reply_header(r, MHD_HTTP_HEADER_RETRY_AFTER, "1");
+}
+
+/* Why ?pass=q is refused for the job info, or NULL; range is a buffer for
+ * the message naming the job's passes. */
+static const char *api_jobs_pass_why(struct http_req *r, const char *q,
+                                     const struct jobs_info *info, char *range, size_t size)
+{
+    long k = strtol(q, NULL, 10);
+    snprintf(range, size, "must be a pass number of this job, 1..%d", info->passes.total);
+    if (http_req_query_count(r, "pass") > 1)
+        return "given more than once";
+    if (!info->progressive)
+        return "only a progressive job has passes";
+    if (!api_is_decimal(q, false) || k < 1 || k > info->passes.total)
+        return range;
+    return NULL;
+}
+
+/* ?pass=K: that pass's image, while kept. */
+static void api_jobs_pass_image(struct http_req *r, const char *id, const char *q, bool exr)
+{
+    struct jobs_info info;
+    if (!jobs_get(id, &info, JOBS_NUMBERS)) {
+        api_jobs_missing(r, id);
+        return;
+    }
+    if (api_jobs_evicted(r, id, &info))
+        return;
+    api_jobs_scene(r, &info);
+    char range[80];
+    const char *why = api_jobs_pass_why(r, q, &info, range, sizeof range);
+    if (why) {
+        api_bad_param(r, "pass", why);
+        return;
+    }
+    if (api_jobs_no_exr(r, &info, exr))
+        return;
+    int k = (int)strtol(q, NULL, 10), samples = 0;
+    struct blob *img = NULL;
+    jobs_pass_image(id, k, exr, &img, &samples);
+    if (img) {
+        api_jobs_image_reply(r, img, exr, "private, max-age=3600");
+        api_pass_headers(r, k, info.passes.total, samples);
+        blob_unref(img);
+    } else if (k <= info.passes.done) {
+        http_reply_error(r, 410, "pass_gone",
+                         exr ? "that pass's EXR is no longer kept (only the latest passes' are)"
+                             : "that pass's image is no longer kept (only the latest passes are)",
+                         NULL, 0, 0, "pass");
+    } else {
+        api_jobs_not_yet(r, id, &info);
+    }
+}
+
+/* The job's failure (409), or 202 while it has no image yet. */
+static void api_jobs_no_image(struct http_req *r, const char *id, const struct jobs_info *info)
+{
+    if (info->state == JS_FAILED) {
+        char msg[400];
+        snprintf(msg, sizeof msg, "the job failed: %s", info->err.message);
+        http_reply_error(r, 409, "job_failed", msg, info->err.path, 0, 0, NULL);
+    } else if (info->state == JS_CANCELED) {
+        http_reply_error(r, 409, "job_canceled", "the job was cancelled", NULL, 0, 0, NULL);
+    } else if (info->state == JS_EVICTED) {
+        http_reply_error(r, 410, "result_evicted", JOBS_EVICTED_WHY, NULL, 0, 0, NULL);
+    } else {
+        api_jobs_not_yet(r, id, info);
+    }
+}
+
+/* The final image (a progressive job's latest pass while it runs). */
+static void api_jobs_final_image(struct http_req *r, const char *id, bool exr)
+{
+    struct jobs_info info;
+    if (!jobs_get(id, &info, exr ? JOBS_EXR : JOBS_PNG)) {
+        api_jobs_missing(r, id);
+        return;
+    }
+    if (api_jobs_evicted(r, id, &info))
+        return;
+    api_jobs_scene(r, &info);
+    struct blob *img = exr ? info.exr : info.png;
+    if (api_jobs_no_exr(r, &info, exr)) {
+        /* replied */
+    } else if (img && (info.state == JS_SUCCEEDED || info.state == JS_RUNNING)) {
+        api_jobs_image_reply(r, img, exr,
+                             info.state == JS_SUCCEEDED ? "private, max-age=3600" : "no-store");
+        if (info.progressive)
+            api_pass_headers(r, info.passes.done, info.passes.total, info.passes.samples);
+    } else {
+        api_jobs_no_image(r, id, &info);
+    }
+    blob_unref(img);
+}
+
+static void api_jobs_image_as(struct http_req *r, const char *id, bool exr)
+{
+    static const char *const takes[] = {"pass", NULL};
+    const char *pass = http_req_query(r, "pass");
+    if (!api_only_params(r, takes))
+        return;
+    if (!api_is_hex(id, 32))
+        api_jobs_unknown(r);
+    else if (pass)
+        api_jobs_pass_image(r, id, pass, exr);
+    else
+        api_jobs_final_image(r, id, exr);
+}
+
+void api_jobs_image(struct http_req *r, const char *id) { api_jobs_image_as(r, id, false); }
+
+void api_jobs_exr(struct http_req *r, const char *id) { api_jobs_image_as(r, id, true); }

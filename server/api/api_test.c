@@ -1,0 +1,104 @@
+/* api_test.c -- GET and POST /v1/test/gate: the test gate, for tests only.
+ *
+ * A test that needs work in flight -- a render to cancel, to drain, to fill
+ * the queue with, to join -- starts rayd with --test-gate (on loopback only)
+ * and sets how many more tiles the workers may start:
+ *
+ *   POST /v1/test/gate?tiles=N     N more tiles, then the workers wait
+ *   POST /v1/test/gate?tiles=open  no limit (the gate stays, open)
+ *   POST /v1/test/gate?parses=N    N more scene parses, then the parse
+ *                                  threads wait (compile.c); parses=open
+ *   GET  /v1/test/gate             the gate as it is
+ *
+ * Both answer {"tiles": N or "open", "started": tiles let through so far,
+ * "held": workers waiting at the gate with a tile to start, "queued": tasks
+ * waiting for a worker, "parses": N or "open", "parses_started",
+ * "parses_queued": scenes waiting for a parse thread, "parses_running"}.  Without --test-gate the
+ * route is a 404 like any unknown path.  The gate itself is in gate.c, asked by the workers
+ * (sched.c).
+ */
+#include "api/api.h"
+
+#include <cjson/cJSON.h>
+#include <errno.h>
+#include <stdlib.h>
+#include <string.h>
+
+static void api_test_gate_reply(struct http_req *r, const struct gate_state *g)
+{
+    cJSON *o = cJSON_CreateObject();
+    if (g->tiles < 0)
+        cJSON_AddStringToObject(o, "tiles", "open");
+    else
+        cJSON_AddNumberToObject(o, "tiles", (double)g->tiles);
+    cJSON_AddNumberToObject(o, "started", (double)g->started);
+    cJSON_AddNumberToObject(o, "held", (double)g->held);
+    cJSON_AddNumberToObject(o, "queued", (double)g->queued);
+    struct compile_gate_state c;
+    compile_gate_get(&c);
+    if (c.parses < 0)
+        cJSON_AddStringToObject(o, "parses", "open");
+    else
+        cJSON_AddNumberToObject(o, "parses", (double)c.parses);
+    cJSON_AddNumberToObject(o, "parses_started", (double)c.started);
+    cJSON_AddNumberToObject(o, "parses_queued", (double)c.queued);
+    cJSON_AddNumberToObject(o, "parses_running", (double)c.running);
+    http_reply_json(r, 200, o);
+}
+
+static void api_test_gate_off(struct http_req *r)
+{
+    http_reply_error(r, 404, "not_found", "no such resource (rayd runs without --test-gate)", NULL,
+                     0, 0, NULL);
+}
+
+/* "open" (-1) or a decimal count into *n. */
+static bool api_test_count(const char *v, long *n)
+{
+    if (!strcmp(v, "open")) {
+        *n = -1;
+        return true;
+    }
+    errno = 0;
+    *n = strtol(v, NULL, 10);
+    return api_is_decimal(v, false) && !errno && *n <= 1000000000L;
+}
+
+void api_test_gate_get(struct http_req *r, const char *id)
+{
+    (void)id;
+    struct gate_state g;
+    if (!gate_get(&g)) {
+        api_test_gate_off(r);
+        return;
+    }
+    api_test_gate_reply(r, &g);
+}
+
+void api_test_gate_post(struct http_req *r, const char *id)
+{
+    (void)id;
+    struct gate_state g;
+    if (!gate_get(&g)) {
+        api_test_gate_off(r);
+        return;
+    }
+    const char *v = http_req_query(r, "tiles"), *pv = http_req_query(r, "parses");
+    long n, parses;
+    if (pv && !api_test_count(pv, &parses)) {
+        http_reply_error(r, 400, "bad_parameter", "parses must be 'open' or an integer >= 0", NULL,
+                         0, 0, "parses");
+        return;
+    }
+    if ((v || !pv) && (!v || !api_test_count(v, &n))) {
+        http_reply_error(r, 400, "bad_parameter", "tiles must be 'open' or an integer >= 0", NULL,
+                         0, 0, "tiles");
+        return;
+    }
+    if (pv)
+        compile_gate_set(parses);
+    if (v)
+        gate_set(n);
+    gate_get(&g);
+    api_test_gate_reply(r, &g);
+}

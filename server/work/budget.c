@@ -1,0 +1,66 @@
+/* budget.c -- a render's admission into the one memory budget.
+ *
+ * A render holds memory from its admission to its end that no scene text
+ * shows: its pixels (8-bit, or linear floats for the HDR formats), the
+ * per-pixel sums of a sums answer or of a progressive job (24 bytes a
+ * pixel), and then the encoded answer (a 4096 x 4096 sums answer is a 402 MB
+ * blob).  So before a task is made, what it will hold is reserved whole in
+ * the memory budget (--max-memory, mem.c): a render alone over the budget
+ * is refused 413 (WORK_TOO_BIG), one with no room now 503 with Retry-After
+ * (WORK_MEMORY), after the reclaimer evicted what it could.  The
+ * reservation is the task's (t->mem) and is released when its pixels are
+ * freed (task.c, when it finishes); the encoded blobs are counted on their
+ * own from their making (blob.c) for as long as a job or a cache keeps them.
+ *
+ * Called with no lock held (the reclaimer takes work_lock).
+ */
+#include "work/work_private.h"
+
+size_t budget_bytes(const struct work_target *what, bool progressive, enum mem_kind *kind)
+{
+    size_t px = (size_t)what->reg.w * (size_t)what->reg.h;
+    size_t n;
+    switch (what->format) {
+    case WORK_SUMS: /* the sums, then their bytes */
+        n = px * 48 + 64;
+        break;
+    case WORK_EXR: /* linear floats, then the EXR */
+        n = px * 24;
+        break;
+    case WORK_PNG16: /* linear floats, then 6 bytes a pixel */
+        n = px * 18;
+        break;
+    case WORK_PNG:
+    default: /* the 8-bit pixels, then the PNG (at worst about as large) */
+        n = px * 6;
+        if (what->keep_exr)
+            n += px * 24;
+        break;
+    }
+    if (progressive) /* the passes' sums, the last pass's image, the passes kept */
+        n += px * (24 + 3 + 3 * PASSES_KEEP) + (what->keep_exr ? px * 12 * PASSES_KEEP_EXR : 0);
+    *kind = progressive || what->format == WORK_SUMS ? MEM_SUMS : MEM_RESULTS;
+    return n + 4096;
+}
+
+struct task *budget_task(struct cache_entry *scene, const struct work_target *what,
+                         bool progressive, enum work_submit *why)
+{
+    enum mem_kind kind;
+    size_t n = budget_bytes(what, progressive, &kind);
+    if (!mem_reserve(kind, n)) {
+        metrics_reject(MR_MEMORY);
+        *why = n > mem_limit() ? WORK_TOO_BIG : WORK_MEMORY;
+        return NULL;
+    }
+    struct task *t = task_new(scene, what);
+    if (!t) {
+        mem_release(kind, n);
+        *why = WORK_NOMEM;
+        return NULL;
+    }
+    t->mem = n;
+    t->mem_kind = kind;
+    *why = WORK_OK;
+    return t;
+}

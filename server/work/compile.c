@@ -1,0 +1,388 @@
+/* compile.c -- scenes parsed and built off the HTTP threads: a small pool of
+ * its own.
+ *
+ * Parsing a scene, decoding its textures and building its meshes and BVHs
+ * takes milliseconds to tens of seconds.  Run on libmicrohttpd's threads, a
+ * few heavy bodies held every one of them, and /healthz (a liveness probe)
+ * waited 20 s and more behind them.  So a request whose scene is not
+ * already compiled is suspended, like a request waiting for its render, and
+ * --parse-threads threads of this file parse it and resume it with the
+ * compiled scene (the handler's continuation runs on that thread, still
+ * suspended, and either answers or hands the request on to a render).
+ *
+ * What stays on the connection's thread is what costs about as much as
+ * having received the body: its SHA-256 and the cache lookup, and the stat
+ * check of a cached scene's files when there are few of them (at most
+ * COMPILE_INLINE_FILES distinct files; more are checked on the pool).  A
+ * scene in the cache therefore answers at once, with no thread hop.
+ *
+ * Bounds: at most --parse-queue scenes wait for a thread; one more is
+ * refused 503 queue_full with a Retry-After (the parses queued times the
+ * average parse, over the threads).  A body posted while the same body (by
+ * its SHA-256) is queued or being parsed does not take a place: it waits
+ * for that parse and gets the same scene or the same error, so a scene
+ * posted by many tile clients at once is parsed once.
+ *
+ * A client that hangs up while its scene is parsed is seen later (the
+ * watcher, once its render is queued; or libmicrohttpd, once resumed): the
+ * parse still finishes and its scene stays cached for the next request.  A
+ * drain answers the scenes still queued with 503 draining without parsing
+ * them; a parse running finishes (the core has no way to stop one), and
+ * compile_stop, called after libmicrohttpd stops, waits for it only up to
+ * COMPILE_JOIN_SECONDS.
+ *
+ * The pool's state is under work_lock (the server's one mutex) with a
+ * condition variable of its own; the threads start with the first scene.
+ */
+#include "work/work_private.h"
+
+#include <errno.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#define COMPILE_INLINE_FILES 16  /* files a connection's thread may stat */
+#define COMPILE_JOIN_SECONDS 2.0 /* compile_stop's wait for a parse running */
+
+/* One scene to parse (or, cached, to check), and who waits for it. */
+struct compile_job {
+    char id[65];
+    const char *body; /* the first waiter's request body: suspended until done;
+                         NULL for a GET by id, which only checks the cached scene */
+    size_t len;
+    struct cache_entry *cached; /* found compiled; its files are checked here */
+    struct compile_waiter *waiters;
+    int nwaiters;
+    struct compile_job *next; /* the queue, or the list being parsed */
+};
+
+/* lock held */
+static struct compile_job *compile_head, *compile_tail, *compile_running;
+static long compile_queued, compile_nrunning, compile_started;
+static long compile_gate = -1; /* parses that may still start (test gate), -1 open */
+static bool compile_stopping;
+static double compile_avg = 0.1; /* seconds of a parse, a moving average */
+
+static pthread_cond_t compile_cond = PTHREAD_COND_INITIALIZER;
+static pthread_once_t compile_once = PTHREAD_ONCE_INIT;
+static pthread_t *compile_threads;
+static int compile_nthreads;
+static int compile_alive; /* threads not yet ended, lock held */
+
+static void *compile_thread(void *arg);
+
+static void compile_start(void)
+{
+    long n = config.parse_threads > 0 ? config.parse_threads : 2;
+    compile_threads = calloc((size_t)n, sizeof *compile_threads);
+    pthread_mutex_lock(&work_lock);
+    for (int i = 0; compile_threads && i < n; i++) {
+        if (pthread_create(&compile_threads[i], NULL, compile_thread, NULL))
+            break;
+        compile_nthreads++;
+        compile_alive++;
+    }
+    pthread_mutex_unlock(&work_lock);
+}
+
+/* The job of id (with a body to parse, or by id only) queued or being
+ * parsed, lock held; NULL if none. */
+static struct compile_job *compile_find(const char *id, bool by_id)
+{
+    for (struct compile_job *j = compile_head; j; j = j->next)
+        if (!strcmp(j->id, id) && (j->body == NULL) == by_id)
+            return j;
+    for (struct compile_job *j = compile_running; j; j = j->next)
+        if (!strcmp(j->id, id) && (j->body == NULL) == by_id)
+            return j;
+    return NULL;
+}
+
+/* Unlinks j from the list at *head, lock held. */
+static void compile_unlink(struct compile_job **head, struct compile_job *j)
+{
+    for (struct compile_job **p = head; *p; p = &(*p)->next)
+        if (*p == j) {
+            *p = j->next;
+            return;
+        }
+}
+
+static long compile_queue_cap(void) { return config.parse_queue > 0 ? config.parse_queue : 64; }
+
+/* Queues a new job for body (with e, a cached scene to check, or NULL),
+ * lock held; WORK_OK after w->suspend, or the refusal. */
+static enum work_submit compile_enqueue(const char *id, const char *body, size_t len,
+                                        struct cache_entry *e, struct compile_waiter *w)
+{
+    if (task_draining()) /* nothing new is suspended once the drain began */
+        return WORK_DRAINING;
+    struct compile_job *j = compile_find(id, body == NULL);
+    if (j) { /* the same body is being parsed: wait for it */
+        if (e)
+            cache_release(e); /* that job has its own */
+        w->suspend(w);
+        w->next = j->waiters;
+        j->waiters = w;
+        j->nwaiters++;
+        return WORK_OK;
+    }
+    if (compile_queued >= compile_queue_cap())
+        return WORK_PARSE_FULL;
+    j = calloc(1, sizeof *j);
+    if (!j)
+        return WORK_NOMEM;
+    snprintf(j->id, sizeof j->id, "%s", id);
+    j->body = body;
+    j->len = len;
+    j->cached = e;
+    j->waiters = w;
+    j->nwaiters = 1;
+    w->suspend(w);
+    w->next = NULL;
+    if (compile_tail)
+        compile_tail->next = j;
+    else
+        compile_head = j;
+    compile_tail = j;
+    compile_queued++;
+    pthread_cond_signal(&compile_cond);
+    return WORK_OK;
+}
+
+enum work_submit compile_scene(const char *body, size_t len, struct compile_waiter *w,
+                               struct compile_result *res)
+{
+    memset(res, 0, sizeof *res);
+    char id[65];
+    if (!scenes_id(body, len, id, &res->err)) {
+        res->status = RAYD_E_NOMEM;
+        return WORK_CACHED;
+    }
+    struct cache_entry *e = scenes_peek(id);
+    if (e && rayd_scene_files(cache_scene(e)) <= COMPILE_INLINE_FILES) {
+        if (scenes_current(e, true)) {
+            metrics_cache(true);
+            res->scene = e;
+            res->hit = true;
+            return WORK_CACHED;
+        }
+        scenes_release(e); /* a file changed: parse it again */
+        e = NULL;
+    }
+    pthread_once(&compile_once, compile_start);
+    pthread_mutex_lock(&work_lock);
+    enum work_submit s = compile_stopping || compile_nthreads == 0
+                             ? (compile_stopping ? WORK_DRAINING : WORK_NOMEM)
+                             : compile_enqueue(id, body, len, e, w);
+    pthread_mutex_unlock(&work_lock);
+    if (s != WORK_OK)
+        scenes_release(e);
+    return s;
+}
+
+enum work_submit compile_find_scene(const char *id, struct compile_waiter *w,
+                                    struct compile_result *res)
+{
+    memset(res, 0, sizeof *res);
+    struct cache_entry *e = scenes_peek(id);
+    if (!e || rayd_scene_files(cache_scene(e)) <= COMPILE_INLINE_FILES) {
+        if (e && !scenes_current(e, false)) {
+            scenes_release(e);
+            e = NULL;
+        }
+        res->scene = e;
+        res->hit = e != NULL;
+        return WORK_CACHED;
+    }
+    pthread_once(&compile_once, compile_start);
+    pthread_mutex_lock(&work_lock);
+    enum work_submit s = compile_stopping || compile_nthreads == 0
+                             ? (compile_stopping ? WORK_DRAINING : WORK_NOMEM)
+                             : compile_enqueue(id, NULL, 0, e, w);
+    pthread_mutex_unlock(&work_lock);
+    if (s != WORK_OK)
+        scenes_release(e);
+    return s;
+}
+
+/* Parses j (or checks its cached scene) outside the lock: the status, and
+ * the scene referenced once (NULL for a GET by id whose files changed);
+ * *hit when it was found compiled. */
+static enum rayd_status compile_run(struct compile_job *j, struct cache_entry **out, bool *hit,
+                                    struct rayd_error *err)
+{
+    *hit = false;
+    if (j->cached) {
+        if (scenes_current(j->cached, j->body != NULL)) {
+            *out = j->cached;
+            *hit = true;
+            return RAYD_OK;
+        }
+        scenes_release(j->cached);
+    }
+    if (!j->body)
+        return RAYD_OK; /* unknown here now: the client sends the text again */
+    double t0 = clock_now();
+    enum rayd_status st = scenes_build(j->id, j->body, j->len, out, err);
+    double took = clock_now() - t0;
+    pthread_mutex_lock(&work_lock);
+    compile_avg += (took - compile_avg) * 0.2;
+    pthread_mutex_unlock(&work_lock);
+    return st;
+}
+
+/* Answers j's waiters with st (each its own reference to e) and frees j;
+ * no lock held.  draining: refused, nothing was parsed. */
+static void compile_answer(struct compile_job *j, enum rayd_status st, struct cache_entry *e,
+                           bool hit, const struct rayd_error *err, bool draining)
+{
+    pthread_mutex_lock(&work_lock);
+    for (int i = 1; e && i < j->nwaiters; i++)
+        cache_ref(e); /* the first waiter takes the parse's own */
+    pthread_mutex_unlock(&work_lock);
+    struct compile_waiter *w = j->waiters;
+    bool j_body = j->body != NULL;
+    free(j);
+    while (w) {
+        struct compile_waiter *next = w->next;
+        struct compile_result res = {.status = st, .hit = hit, .draining = draining};
+        if (err)
+            res.err = *err;
+        res.scene = e;
+        if (!draining && j_body)
+            metrics_cache(hit);
+        w->done(w, &res);
+        w = next;
+    }
+}
+
+/* The next job to parse, lock held, moved to the running list; NULL when
+ * the pool stops.  The test gate holds jobs in the queue, until a drain. */
+static struct compile_job *compile_next(void)
+{
+    for (;;) {
+        if (compile_stopping)
+            return NULL;
+        bool draining = sched_draining(); /* a drain lets the held ones be refused */
+        if (compile_head && (compile_gate != 0 || draining))
+            break;
+        if (!compile_head) {
+            pthread_cond_wait(&compile_cond, &work_lock);
+            continue;
+        }
+        struct timespec t; /* held by the test gate: look at the drain again soon */
+        clock_gettime(CLOCK_REALTIME, &t);
+        t.tv_nsec += 200000000L;
+        t.tv_sec += t.tv_nsec / 1000000000L;
+        t.tv_nsec %= 1000000000L;
+        pthread_cond_timedwait(&compile_cond, &work_lock, &t);
+    }
+    struct compile_job *j = compile_head;
+    compile_head = j->next;
+    if (!compile_head)
+        compile_tail = NULL;
+    compile_queued--;
+    if (compile_gate > 0)
+        compile_gate--;
+    compile_started++;
+    compile_nrunning++;
+    j->next = compile_running;
+    compile_running = j;
+    return j;
+}
+
+static void *compile_thread(void *arg)
+{
+    (void)arg;
+    pthread_mutex_lock(&work_lock);
+    struct compile_job *j;
+    while ((j = compile_next()) != NULL) {
+        pthread_mutex_unlock(&work_lock);
+        struct rayd_error err = {0};
+        struct cache_entry *e = NULL;
+        bool hit = false, draining = sched_draining();
+        enum rayd_status st = draining ? RAYD_E_CANCELED : compile_run(j, &e, &hit, &err);
+        if (draining)
+            scenes_release(j->cached);
+        pthread_mutex_lock(&work_lock);
+        compile_unlink(&compile_running, j); /* no one joins it from now on */
+        compile_nrunning--;
+        pthread_mutex_unlock(&work_lock);
+        compile_answer(j, st, e, hit, &err, draining);
+        pthread_mutex_lock(&work_lock);
+    }
+    compile_alive--;
+    pthread_cond_broadcast(&compile_cond); /* compile_join */
+    pthread_mutex_unlock(&work_lock);
+    return NULL;
+}
+
+double compile_retry_seconds(void)
+{
+    pthread_mutex_lock(&work_lock);
+    double s = compile_avg * (double)(compile_queued + compile_nrunning) /
+               (double)(compile_nthreads > 0 ? compile_nthreads : 1);
+    pthread_mutex_unlock(&work_lock);
+    return s;
+}
+
+/* Joins the threads, waiting up to COMPILE_JOIN_SECONDS for the parses
+ * still running; threads not ended by then are left to the exit. */
+static bool compile_join(void)
+{
+    struct timespec until;
+    clock_gettime(CLOCK_REALTIME, &until);
+    until.tv_sec += (time_t)COMPILE_JOIN_SECONDS;
+    pthread_mutex_lock(&work_lock);
+    while (compile_alive > 0 &&
+           pthread_cond_timedwait(&compile_cond, &work_lock, &until) != ETIMEDOUT)
+        ;
+    bool ended = compile_alive == 0;
+    pthread_mutex_unlock(&work_lock);
+    for (int i = 0; i < compile_nthreads; i++) {
+        if (ended)
+            pthread_join(compile_threads[i], NULL);
+        else
+            pthread_detach(compile_threads[i]);
+    }
+    return ended;
+}
+
+void compile_stop(void)
+{
+    pthread_mutex_lock(&work_lock);
+    compile_stopping = true;
+    struct compile_job *queued = compile_head;
+    compile_head = compile_tail = NULL;
+    compile_queued = 0;
+    pthread_cond_broadcast(&compile_cond);
+    pthread_mutex_unlock(&work_lock);
+    while (queued) {
+        struct compile_job *next = queued->next;
+        scenes_release(queued->cached);
+        compile_answer(queued, RAYD_E_CANCELED, NULL, false, NULL, true);
+        queued = next;
+    }
+    if (compile_join()) {
+        free(compile_threads);
+        compile_threads = NULL;
+        compile_nthreads = 0;
+    }
+}
+
+void compile_gate_set(long parses)
+{
+    pthread_mutex_lock(&work_lock);
+    compile_gate = parses;
+    pthread_cond_broadcast(&compile_cond);
+    pthread_mutex_unlock(&work_lock);
+}
+
+void compile_gate_get(struct compile_gate_state *g)
+{
+    pthread_mutex_lock(&work_lock);
+    *g = (struct compile_gate_state){compile_gate, compile_started, compile_queued,
+                                     compile_nrunning};
+    pthread_mutex_unlock(&work_lock);
+}

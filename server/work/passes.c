@@ -1,0 +1,265 @@
+/* passes.c -- a progressive job's passes: the plan, the per-tile sums, the
+ * images kept, the noise estimate and when to stop.
+ *
+ * A progressive task renders its whole region once per pass, each pass
+ * adding samples to the same per-pixel sums, so the user sees the whole
+ * frame after the first (one-sample) pass and watches it refine.  The core
+ * guarantees the image after a pass of n samples is byte for byte the plain
+ * render of n samples (rayd_render_pass, docs/scene-format.md's pass rule);
+ * here each task tile keeps its own rayd_accum, so tiles of one pass run on
+ * any worker in any order and the result still does not depend on timing.
+ * A tile's sums (24 bytes a pixel) are made when the tile is first
+ * rendered, so a queued progressive job holds no more memory than a plain
+ * one, and freed when the task finishes (passes_release), so a finished job
+ * kept for --job-ttl holds only its kept PNGs and EXRs.  The sums are
+ * reserved in the memory budget at the job's admission (budget.c), and a
+ * finished job's kept images may be let go to make room (passes_let_go).
+ *
+ * Passes follow one another with a barrier: the worker that completes a
+ * pass's last tile encodes the pass (sched.c), records it here and only then
+ * opens the next pass.  A tile of the next pass therefore never sees sums of
+ * a pass being resolved, and the PNG of pass k is exactly what a plain
+ * render of samples[k] gives.
+ *
+ * The noise estimate after a pass of n samples compares it with the
+ * previous pass of m samples, on the 8-bit values shown (0..1): if the two
+ * images were independent estimates of the pixel (the pass after the
+ * one-sample centre image starts again from sample 0), the variance of
+ * their difference is s2/n + s2/m, otherwise (the later pass contains the
+ * earlier) it is s2 (n - m) / (n m); the image's own variance is s2 / n.
+ * So the estimate is RMS(difference) * sqrt(m / (n + m)) or
+ * RMS(difference) * sqrt(m / (n - m)): the standard error of a shown
+ * value, averaged over the pixels and channels.  It depends on the images
+ * only, so a noise budget stops at the same pass on every run.
+ *
+ * Everything here works on a struct passes alone; the task (task.c), the
+ * scheduler (sched.c) and the jobs (jobs.c) decide when to call it.  The
+ * functions marked "lock held" are called with work_lock held; the others
+ * touch only what the caller owns at that moment.
+ */
+#include "work/work_private.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* The sample count of the pass after one of s samples. */
+static long passes_next(long s, int step) { return step > 0 ? s + step : 2 * s; }
+
+int passes_plan(const struct jobs_plan *plan, int samples, int out[PASSES_MAX])
+{
+    int n = 0;
+    if (samples < 1)
+        samples = 1;
+    for (long s = plan->step > 0 ? plan->step : 1; s < samples; s = passes_next(s, plan->step)) {
+        if (n == PASSES_MAX - 1)
+            return -1;
+        out[n++] = (int)s;
+    }
+    out[n++] = samples;
+    return n;
+}
+
+const char *passes_stop_name(enum passes_stop s)
+{
+    static const char *const names[] = {NULL, "time_budget", "noise_target", "client"};
+    return names[s];
+}
+
+struct passes *passes_new(const rayd_scene *scene, const struct jobs_plan *plan,
+                          struct rayd_region *tiles, int ntiles)
+{
+    struct passes *p = calloc(1, sizeof *p);
+    if (!p) {
+        free(tiles);
+        return NULL;
+    }
+    struct rayd_scene_info info;
+    rayd_scene_info(scene, &info);
+    p->plan = *plan;
+    p->n = passes_plan(plan, info.samples, p->samples);
+    p->ntiles = ntiles;
+    p->tiles = tiles;
+    p->acc = calloc((size_t)ntiles, sizeof *p->acc);
+    if (p->n < 1 || !p->acc) {
+        passes_free(p);
+        return NULL;
+    }
+    return p;
+}
+
+void passes_free(struct passes *p)
+{
+    if (!p)
+        return;
+    for (int i = 0; p->acc && i < p->ntiles; i++)
+        rayd_accum_free(p->acc[i]);
+    free(p->acc);
+    free(p->tiles);
+    for (int i = 0; i < PASSES_KEEP; i++)
+        blob_unref(p->png[i]);
+    for (int i = 0; i < PASSES_KEEP_EXR; i++)
+        blob_unref(p->exr[i]);
+    rayd_image_free(p->prev);
+    free(p);
+}
+
+/* Lock held. */
+void passes_release(struct passes *p)
+{
+    for (int i = 0; p->acc && i < p->ntiles; i++) {
+        rayd_accum_free(p->acc[i]);
+        p->acc[i] = NULL;
+    }
+    rayd_image_free(p->prev);
+    p->prev = NULL;
+}
+
+void passes_let_go(struct passes *p)
+{
+    p->let_go = true; /* a pass being encoded now (sched_pass_close) is dropped too */
+    for (int i = 0; i < PASSES_KEEP; i++) {
+        blob_unref(p->png[i]);
+        p->png[i] = NULL;
+    }
+    for (int i = 0; i < PASSES_KEEP_EXR; i++) {
+        blob_unref(p->exr[i]);
+        p->exr[i] = NULL;
+    }
+}
+
+enum rayd_status passes_tile(struct passes *p, const rayd_scene *scene, int tile, int pass,
+                             const struct resolve_dst *dst, const atomic_int *cancel,
+                             atomic_int_least64_t *rays_left, uint64_t *rays,
+                             struct rayd_error *err)
+{
+    if (!p->acc[tile]) { /* its first pass: only this worker holds the tile */
+        enum rayd_status st = rayd_accum_new(scene, &p->tiles[tile], &p->acc[tile], err);
+        if (st != RAYD_OK)
+            return st;
+    }
+    rayd_accum *acc = p->acc[tile];
+    struct rayd_region r = rayd_accum_region(acc);
+    struct rayd_render_stats stats = {0};
+    struct rayd_render_opts o = {.threads = 1,
+                                 .tile = r.w > r.h ? r.w : r.h,
+                                 .cancel = cancel,
+                                 .stats = &stats,
+                                 .rays_left = rays_left};
+    enum rayd_status st =
+        rayd_render_pass(scene, &o, acc, rayd_accum_samples(acc), p->samples[pass], err);
+    *rays += stats.rays;
+    if (st == RAYD_OK)
+        st = resolve_into(acc, dst, err);
+    return st;
+}
+
+/* The root mean square difference of two equal-sized images, in 0..1. */
+static double passes_rms(const rayd_image *a, const rayd_image *b)
+{
+    size_t n = (size_t)rayd_image_width(a) * (size_t)rayd_image_height(a) * 3;
+    const uint8_t *x = rayd_image_pixels_const(a), *y = rayd_image_pixels_const(b);
+    double sum = 0;
+    for (size_t i = 0; i < n; i++) {
+        double d = (double)x[i] - (double)y[i];
+        sum += d * d;
+    }
+    return sqrt(sum / (double)n) / 255.0;
+}
+
+double passes_noise(const struct passes *p, const rayd_image *img, int pass)
+{
+    if (pass == 0 || !p->prev)
+        return -1;
+    double n = p->samples[pass], m = p->samples[pass - 1];
+    bool restarted = m == 1; /* the centre image is not sample 0 of the next */
+    return passes_rms(img, p->prev) * sqrt(m / (restarted ? n + m : n - m));
+}
+
+/* Lock held. */
+void passes_complete(struct passes *p, struct blob *png, struct blob *exr, double time_s,
+                     double noise)
+{
+    int k = p->done++;
+    if (p->let_go) { /* cancelled or evicted while this pass was encoded */
+        blob_unref(png);
+        blob_unref(exr);
+        png = exr = NULL;
+    }
+    blob_unref(p->png[k % PASSES_KEEP]);
+    p->png[k % PASSES_KEEP] = png;
+    blob_unref(p->exr[k % PASSES_KEEP_EXR]);
+    p->exr[k % PASSES_KEEP_EXR] = exr;
+    p->time_s[k] = time_s;
+    p->noise[k] = noise;
+}
+
+/* Lock held. */
+bool passes_more(struct passes *p, double elapsed)
+{
+    if (p->done >= p->n)
+        return false;
+    if (p->stop == PASSES_GOING && p->plan.time_budget > 0 && elapsed >= p->plan.time_budget)
+        p->stop = PASSES_BY_TIME;
+    double noise = p->noise[p->done - 1];
+    if (p->stop == PASSES_GOING && p->plan.noise_target > 0 && noise >= 0 &&
+        noise <= p->plan.noise_target)
+        p->stop = PASSES_BY_NOISE;
+    return p->stop == PASSES_GOING;
+}
+
+rayd_image *passes_swap(struct passes *p, rayd_image *img)
+{
+    rayd_image *old = p->prev;
+    p->prev = img;
+    return old;
+}
+
+/* Lock held. */
+struct blob *passes_png(const struct passes *p, int pass)
+{
+    if (pass < 1 || pass > p->done || pass <= p->done - PASSES_KEEP)
+        return NULL;
+    return p->png[(pass - 1) % PASSES_KEEP];
+}
+
+/* Lock held. */
+struct blob *passes_exr(const struct passes *p, int pass)
+{
+    if (pass < 1 || pass > p->done || pass <= p->done - PASSES_KEEP_EXR)
+        return NULL;
+    return p->exr[(pass - 1) % PASSES_KEEP_EXR];
+}
+
+int passes_added(const struct passes *p, int k)
+{
+    return p->samples[k] - (k == 0 || p->samples[k - 1] == 1 ? 0 : p->samples[k - 1]);
+}
+
+/* The share of the samples' work done after `done` passes and frac of the
+ * next pass's tiles (a pass's work: the samples it adds or restarts). */
+double passes_progress(const struct passes *p, int done, double frac)
+{
+    double total = 0, work = 0;
+    for (int k = 0; k < p->n; k++) {
+        double cost = passes_added(p, k);
+        total += cost;
+        if (k < done)
+            work += cost;
+        else if (k == done)
+            work += cost * frac;
+    }
+    return total > 0 ? work / total : 0;
+}
+
+/* Lock held. */
+void passes_info(const struct passes *p, struct jobs_passes *out)
+{
+    out->done = p->done;
+    out->total = p->n;
+    out->samples = p->done ? p->samples[p->done - 1] : 0;
+    out->samples_target = p->samples[p->n - 1];
+    out->time_s = p->done ? p->time_s[p->done - 1] : 0;
+    out->noise = p->done ? p->noise[p->done - 1] : -1;
+    out->stopped = p->stop;
+}

@@ -1,0 +1,470 @@
+/* task.c -- one render: a compiled scene, a region, its tiles and who waits.
+ *
+ * A task is split into square tiles (sized by cost.c: 64 pixels, fewer for
+ * costly scenes) rendered straight into one shared rayd_image (or, for the
+ * HDR formats, one float RGB buffer): tiles are disjoint rectangles, so any
+ * number of workers may fill tiles of one task at once without a lock on the
+ * pixels.  Identical requests in flight -- same scene id, same region --
+ * join the same task (its key), so a burst of equal tile requests renders
+ * once and is answered together; joining costs no queue slot.
+ *
+ * Who waits: synchronous requests (t->waiters), event streams wanting news
+ * (t->sse_waiters) and jobs (t->njobs, counted).  A task is cancelled when
+ * its last interested party goes away, and finished -- unlinked, its PNG
+ * handed to the result cache, its waiters collected on a task_notify -- when
+ * the last tile is done or cancelled.  The waiters are answered by
+ * task_notify_run after the lock is released (work_private.h's rule).
+ *
+ * Back-pressure and drain are decided here too, at the one place work is
+ * admitted (task_submit): at most --queue tasks may wait for a worker, and
+ * nothing new is admitted once the drain began.
+ *
+ * Every function here but task_new, task_drain(ing) and task_notify_run runs
+ * with work_lock held; this file owns the active list, the queued count, the
+ * capacity and the drain flag.
+ */
+#include "work/work_private.h"
+
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* The advice of a render stopped by a limit: the admission refusal's
+ * (api_cost.c), so a client sees one message however it was stopped. */
+#define TASK_ASK "ask for fewer pixels, samples, bounces or light samples"
+
+struct task *task_active;
+long task_queued;
+int task_queue_cap;
+static atomic_bool task_drain_flag;
+
+/* Set under the lock, so no submission slips past it; read without. */
+void task_drain(void)
+{
+    pthread_mutex_lock(&work_lock);
+    atomic_store(&task_drain_flag, true);
+    pthread_mutex_unlock(&work_lock);
+}
+
+bool task_draining(void) { return atomic_load(&task_drain_flag); }
+
+/* The PNG's key is the one it always had; the other formats add a suffix,
+ * so an EXR never answers a PNG request from the caches, nor the reverse.
+ * A job's PNG with its EXR (keep_exr) adds "+exr": a PNG-only task has no
+ * floats for it to join. */
+void task_key(char *key, size_t size, const char *id, const struct work_target *what)
+{
+    static const char *const suffix[] = {"", ".png16", ".exr", ".sums"};
+    const struct rayd_region *reg = &what->reg;
+    int n = snprintf(key, size, "%s@%d,%d,%d,%d%s%s", id, reg->x, reg->y, reg->w, reg->h,
+                     suffix[what->format], what->keep_exr ? "+exr" : "");
+    if (what->format == WORK_SUMS && n > 0 && (size_t)n < size)
+        snprintf(key + n, size - (size_t)n, "%d-%d", what->k0, what->k1);
+}
+
+/* The task's pixel store: bytes for the PNG (and linear floats beside
+ * them for keep_exr), linear floats for the HDR formats, sums for
+ * WORK_SUMS. */
+static bool task_pixels(struct task *t)
+{
+    size_t values = (size_t)t->reg.w * (size_t)t->reg.h * 3;
+    if (t->format == WORK_PNG && t->keep_exr && !(t->lin = malloc(values * sizeof *t->lin)))
+        return false;
+    if (t->format == WORK_PNG)
+        return rayd_image_new(t->reg.w, t->reg.h, &t->img, NULL) == RAYD_OK;
+    if (t->format == WORK_SUMS)
+        return (t->sums = malloc(values * sizeof *t->sums)) != NULL;
+    t->lin = malloc(values * sizeof *t->lin);
+    return t->lin != NULL;
+}
+
+struct task *task_new(struct cache_entry *scene, const struct work_target *what)
+{
+    struct task *t = calloc(1, sizeof *t);
+    if (!t)
+        return NULL;
+    const struct rayd_region *reg = &what->reg;
+    t->reg = *reg;
+    t->format = what->format;
+    t->keep_exr = what->format == WORK_PNG && what->keep_exr;
+    t->k0 = what->k0;
+    t->k1 = what->k1;
+    const rayd_scene *rs = cache_scene(scene);
+    struct rayd_scene_info info;
+    rayd_scene_info(rs, &info);
+    int samples = cost_samples(what, info.samples);
+    t->rays_per_sample = info.rays_per_sample;
+    t->est_rays = cost_rays(rs, what);
+    t->tile = cost_tile(samples * info.rays_per_sample);
+    t->client = what->client;
+    t->ntx = (reg->w + t->tile - 1) / t->tile;
+    t->nty = (reg->h + t->tile - 1) / t->tile;
+    t->ntiles = t->ntx * t->nty;
+    t->order = calloc((size_t)t->ntiles, sizeof *t->order);
+    if (!t->order || !task_pixels(t)) {
+        free(t->order);
+        free(t->lin);
+        free(t);
+        return NULL;
+    }
+    snprintf(t->scene_id, sizeof t->scene_id, "%s", cache_id(scene));
+    task_key(t->key, sizeof t->key, cache_version(scene), what);
+    atomic_init(&t->cancel, 0);
+    atomic_init(&t->rays_left, config.max_work > 0 ? (int_least64_t)config.max_work : 0);
+    t->interactive = (long)reg->w * reg->h <= TASK_INTERACTIVE;
+    t->status = RAYD_OK;
+    t->refs = 1;
+    return t;
+}
+
+/* The pixels and their encoder: freed when the task finishes, since
+ * nobody reads them after (a job keeps only the PNG and its counts). */
+static void task_free_pixels(struct task *t)
+{
+    rayd_png_stream_free(t->stream); /* before its image */
+    t->stream = NULL;
+    free(t->row_left);
+    t->row_left = NULL;
+    rayd_image_free(t->img);
+    t->img = NULL;
+    free(t->lin);
+    t->lin = NULL;
+    free(t->sums);
+    t->sums = NULL;
+    mem_release(t->mem_kind, t->mem); /* budget.c's reservation */
+    t->mem = 0;
+}
+
+void task_unref(struct task *t)
+{
+    if (--t->refs > 0)
+        return;
+    blob_unref(t->png);
+    blob_unref(t->exr);
+    task_free_pixels(t);
+    passes_free(t->passes);
+    cache_release(t->scene);
+    free(t->order);
+    free(t);
+}
+
+void task_times(const struct task *t, double now, double *queue_ms, double *render_ms)
+{
+    bool started = t->t_start > 0;
+    *queue_ms = ((started ? t->t_start : now) - t->t_enq) * 1e3;
+    *render_ms = started ? ((t->finished ? t->t_end : now) - t->t_start) * 1e3 : 0;
+}
+
+void task_unqueue(struct task *t)
+{
+    if (t->queued) {
+        t->queued = false;
+        task_queued--;
+    }
+}
+
+struct task *task_find(const char *key)
+{
+    for (struct task *t = task_active; t; t = t->next)
+        if (!t->finalizing && !atomic_load(&t->cancel) && !strcmp(t->key, key))
+            return t;
+    return NULL;
+}
+
+/* Two classes, each served client by client (fair.c: the client served
+ * least recently first, then that client's oldest task): interactive
+ * tasks (previews, tiles, small regions) and bulk ones.  An interactive
+ * task gets the next free worker whatever the age of the bulk backlog -- so
+ * a small request waits at most one bulk tile -- except that when both
+ * classes wait, every TASK_BULK_EVERY-th tile goes to bulk work, so a
+ * stream of small requests cannot starve a frame either.  (An older rule
+ * let a bulk task queued 2 s before a small one win every tile until it
+ * finished, which with big path-traced jobs meant hours.) */
+static int task_interactive_streak; /* interactive tiles taken while bulk waited */
+
+static bool task_waiting(const struct task *t)
+{
+    return t->next_tile < t->ntiles && !atomic_load(&t->cancel) && !t->finalizing;
+}
+
+/* Does t's turn come before u's (u may be NULL)? */
+static bool task_before(const struct task *t, uint64_t t_last, const struct task *u,
+                        uint64_t u_last)
+{
+    if (!u)
+        return true;
+    if (t_last != u_last)
+        return t_last < u_last;
+    return t->t_enq < u->t_enq;
+}
+
+struct task *task_pick(void)
+{
+    struct task *first[2] = {NULL, NULL}; /* [interactive] */
+    uint64_t last[2] = {0, 0};
+    for (struct task *t = task_active; t; t = t->next) {
+        if (!task_waiting(t))
+            continue;
+        uint64_t l = fair_last(t->client);
+        int c = t->interactive;
+        if (task_before(t, l, first[c], last[c])) {
+            first[c] = t;
+            last[c] = l;
+        }
+    }
+    if (first[1] && first[0] && task_interactive_streak >= TASK_BULK_EVERY - 1)
+        return first[0];
+    return first[1] ? first[1] : first[0];
+}
+
+void task_taken(const struct task *t)
+{
+    fair_served(t->client);
+    bool bulk_waits = false;
+    for (const struct task *u = task_active; u && !bulk_waits; u = u->next)
+        bulk_waits = !u->interactive && task_waiting(u);
+    if (!t->interactive || !bulk_waits)
+        task_interactive_streak = 0;
+    else
+        task_interactive_streak++;
+}
+
+enum work_submit task_submit(struct cache_entry *scene, struct task **fresh, struct task **out)
+{
+    if (task_draining())
+        return WORK_DRAINING;
+    struct task *t = task_find((*fresh)->key); /* scene, region and format */
+    if (t) {
+        metrics_coalesced();
+        *out = t;
+        return WORK_OK;
+    }
+    if (task_queued >= task_queue_cap)
+        return WORK_FULL;
+    t = *fresh;
+    *fresh = NULL;
+    t->scene = cache_ref(scene);
+    t->t_enq = clock_now();
+    t->queued = true;
+    task_queued++;
+    t->next = task_active;
+    task_active = t;
+    pthread_cond_broadcast(&work_cond);
+    *out = t;
+    return WORK_OK;
+}
+
+struct rayd_region task_tile(const struct task *t, int tile)
+{
+    int tx = tile % t->ntx, ty = tile / t->ntx;
+    struct rayd_region r = {t->reg.x + tx * t->tile, t->reg.y + ty * t->tile, t->tile, t->tile};
+    if (r.x + r.w > t->reg.x + t->reg.w)
+        r.w = t->reg.x + t->reg.w - r.x;
+    if (r.y + r.h > t->reg.y + t->reg.h)
+        r.h = t->reg.y + t->reg.h - r.y;
+    return r;
+}
+
+double task_tile_rays(const struct task *t, const struct rayd_region *r, int pass)
+{
+    double samples = t->format == WORK_SUMS ? t->k1 - t->k0 : 0;
+    if (t->passes) {
+        samples = passes_added(t->passes, pass);
+    } else if (t->format != WORK_SUMS) {
+        double pixels = (double)t->reg.w * t->reg.h;
+        return pixels > 0 ? t->est_rays * ((double)r->w * r->h) / pixels : 0;
+    }
+    return (double)r->w * r->h * samples * t->rays_per_sample;
+}
+
+/* What is left of t, as a fraction of its estimate: its tiles not done;
+ * a progressive task's passes to come too. */
+static double task_left(const struct task *t)
+{
+    double frac = t->ntiles ? (double)t->done / t->ntiles : 1;
+    if (t->passes)
+        frac = passes_progress(t->passes, t->passes->done, frac);
+    return frac < 1 ? 1 - frac : 0;
+}
+
+double task_backlog_rays(void)
+{
+    double rays = 0;
+    for (const struct task *t = task_active; t; t = t->next)
+        if (!t->finished && !atomic_load(&t->cancel))
+            rays += t->est_rays * task_left(t) * cost_scene_weight(t->scene_id);
+    return rays;
+}
+
+/* ---- answering ------------------------------------------------------------- */
+
+void task_notify_add(struct task_notify *n, struct work_waiter **from)
+{
+    while (*from) {
+        struct work_waiter *w = *from;
+        *from = w->next;
+        w->next = n->list;
+        n->list = w;
+    }
+}
+
+void task_notify_run(struct task_notify *n)
+{
+    struct work_waiter *w = n->list;
+    n->list = NULL;
+    while (w) {
+        struct work_waiter *next = w->next;
+        struct work_result r = n->res;
+        blob_ref(r.png);
+        w->next = NULL;
+        w->done(w, &r);
+        w = next;
+    }
+    blob_unref(n->res.png);
+    n->res.png = NULL;
+}
+
+static void task_result(const struct task *t, struct work_result *res)
+{
+    memset(res, 0, sizeof *res);
+    res->status = t->status;
+    res->err = t->err;
+    if (t->status == RAYD_OK && t->png)
+        res->png = blob_ref(t->png);
+    res->queue_ms = t->t_start > 0 ? (t->t_start - t->t_enq) * 1e3 : 0;
+    res->render_ms = t->t_start > 0 && t->t_end > 0 ? (t->t_end - t->t_start) * 1e3 : 0;
+    res->encode_ms = t->encode_s * 1e3;
+}
+
+/* A progressive task ends with its latest complete pass as its image: after
+ * its last pass, or stopped early (a budget, the client) once it has one. */
+static void task_keep_pass(struct task *t)
+{
+    const struct passes *p = t->passes;
+    if (!p || t->png || t->status != RAYD_OK || p->done == 0 ||
+        (p->done < p->n && p->stop == PASSES_GOING))
+        return;
+    t->png = blob_ref(passes_png(p, p->done));
+    t->exr = blob_ref(passes_exr(p, p->done));
+}
+
+/* Takes t off the active list. */
+static void task_unlink(struct task *t)
+{
+    for (struct task **pp = &task_active; *pp; pp = &(*pp)->next)
+        if (*pp == t) {
+            *pp = t->next;
+            return;
+        }
+}
+
+bool task_end_early(struct task *t, enum passes_stop why)
+{
+    struct passes *p = t->passes;
+    if (!p || t->finished)
+        return false;
+    if (p->stop == PASSES_GOING)
+        p->stop = why;
+    if (p->done == 0) /* the first pass ends it */
+        return false;
+    atomic_store(&t->cancel, 1); /* the pass in flight stops within a tile */
+    task_unqueue(t);
+    return t->running == 0 && !t->finalizing;
+}
+
+void task_over_work(struct task *t)
+{
+    if (t->status != RAYD_OK)
+        return;
+    task_failf(t, RAYD_E_LIMIT,
+               "the render cast more than the server's budget of %ld rays (--max-work) and was "
+               "stopped (its estimate was %.3g rays); " TASK_ASK,
+               config.max_work, t->est_rays);
+}
+
+bool task_past_deadline(struct task *t, double now, long limit, struct task_notify *n,
+                        struct task_notify *sse)
+{
+    if (limit <= 0 || t->t_start <= 0 || t->finished || t->finalizing ||
+        atomic_load(&t->cancel) || now - t->t_start < (double)limit)
+        return false;
+    if (t->passes && t->passes->done > 0) { /* keep the latest pass, as a time budget */
+        if (task_end_early(t, PASSES_BY_TIME))
+            task_finish(t, n, sse);
+        return true;
+    }
+    task_failf(t, RAYD_E_LIMIT,
+               "the render ran past the server's limit of %ld s (--max-render-seconds) and was "
+               "stopped (its estimate was %.3g rays); " TASK_ASK,
+               limit, t->est_rays);
+    task_cancel(t, MC_DEADLINE, n, sse);
+    return true;
+}
+
+void task_fail(struct task *t, enum rayd_status st, const struct rayd_error *err)
+{
+    t->status = st;
+    t->err = *err;
+    t->err.code = st;
+}
+
+void task_failf(struct task *t, enum rayd_status st, const char *fmt, ...)
+{
+    struct rayd_error err = {0};
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(err.message, sizeof err.message, fmt, ap);
+    va_end(ap);
+    task_fail(t, st, &err);
+}
+
+void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
+{
+    t->finished = true;
+    t->t_end = clock_now();
+    task_keep_pass(t);
+    if (t->status == RAYD_OK && !t->png)
+        t->status = RAYD_E_CANCELED;
+    if (t->status == RAYD_E_CANCELED && !t->err.message[0])
+        task_failf(t, RAYD_E_CANCELED, "the render was cancelled");
+    if (t->status == RAYD_OK && t->t_start > 0)
+        metrics_render(t->t_end - t->t_start);
+    double queue_ms, render_ms;
+    task_times(t, t->t_end, &queue_ms, &render_ms);
+    /* --log-level debug only: written under work_lock, so never on by default */
+    log_debug("render %s finished: %s, queued %.3f ms, rendered %.3f ms", t->key,
+              t->status == RAYD_OK ? "ok" : t->err.message, queue_ms, render_ms);
+    if (t->status == RAYD_OK && t->png && !t->passes && !t->keep_exr) /* a job's: no one asks */
+        rcache_put(t->key, t->png);
+    task_unqueue(t);
+    task_free_pixels(t); /* NULL once finished: a job's reads see none */
+    /* the sums too: a kept job holds its images only */
+    if (t->passes)
+        passes_release(t->passes);
+    cache_release(t->scene);
+    t->scene = NULL;
+    task_result(t, &n->res);
+    task_notify_add(n, &t->waiters);
+    task_notify_add(sse, &t->sse_waiters);
+    task_unlink(t);
+    task_unref(t);
+}
+
+/* Raises the atomic flag the core's meters look at, so a cancelled task
+ * stops within milliseconds, inside its tile; finishes it now if no worker
+ * is inside it. */
+void task_cancel(struct task *t, enum metrics_cancel why, struct task_notify *n,
+                 struct task_notify *sse)
+{
+    if (t->finished || atomic_load(&t->cancel))
+        return;
+    atomic_store(&t->cancel, 1);
+    metrics_cancel(why);
+    static const char *const whys[MC__COUNT] = {"client gone", "job deleted", "drain",
+                                                "past --max-render-seconds"};
+    log_info("render %s cancelled (%s)", t->key, whys[why]);
+    task_unqueue(t);
+    if (t->running == 0 && !t->finalizing)
+        task_finish(t, n, sse);
+}

@@ -1,0 +1,307 @@
+/* work.h -- the work layer as the handlers see it: compiled scenes, renders
+ * queued and answered, asynchronous jobs and their event streams.
+ *
+ * Layer: work (work.c, lru.c, cache.c, rcache.c, scenes.c, cost.c, fair.c,
+ * resolve.c, passes.c, task.c, gate.c, sched.c, jobs.c, events.c, watch.c,
+ * compile.c).  May
+ * include: base.h and <rayd/rayd.h> -- never an HTTP header, never
+ * libmicrohttpd.  Included by the handlers
+ * (api_*.c) and main.c.
+ *
+ * The work layer knows nothing about connections.  Whoever waits on a render
+ * or on a job's events hands in a struct work_waiter: a done() callback, the
+ * socket to watch for a hang-up, and a suspend() callback run under the lock
+ * just before the waiter is linked, so the wake-up can never overtake the
+ * suspension.  That is the only way work talks back up.
+ */
+#ifndef RAYD_SERVER_WORK_H
+#define RAYD_SERVER_WORK_H
+
+#include "base/base.h"
+
+/* ---- what a waiter is told --------------------------------------------- */
+
+struct work_result {
+    enum rayd_status status; /* RAYD_OK and png, or an error */
+    struct rayd_error err;
+    struct blob *png;        /* a reference owned by the waiter: unref it */
+    bool gone;               /* the client disconnected */
+    double queue_ms, render_ms, encode_ms;
+};
+
+/* Something waiting on a task or a job's events.  done() is called exactly
+ * once per registration -- from a worker, the watcher thread, a DELETE of
+ * the job or the drain's cancel of everything -- after the waiter is
+ * removed from every list and with no lock held. */
+struct work_waiter {
+    void (*done)(struct work_waiter *w, struct work_result *res);
+    void (*suspend)(struct work_waiter *w); /* under the lock, before linking */
+    int fd;                                 /* socket polled for a hang-up, -1 none */
+    struct work_waiter *next;               /* the work layer's list link */
+};
+
+enum work_submit {
+    WORK_OK = 0,
+    WORK_CACHED, /* answered at once from the result cache */
+    WORK_FULL,
+    WORK_DRAINING,
+    WORK_NOMEM,
+    WORK_TOO_MANY_JOBS,
+    WORK_MEMORY, /* the memory budget (--max-memory) has no room now: 503 */
+    WORK_TOO_BIG, /* the render alone is over the memory budget: 413 */
+    WORK_PARSE_FULL /* --parse-queue scenes wait for a parse thread (compile.c) */
+};
+
+/* ---- cache.c: the parts any thread may call ----------------------------- */
+
+struct cache_entry; /* a compiled scene and its id, reference counted */
+/* SHA-256 of data as 64 lowercase hex digits (a scene id, an ETag); false
+ * (and out = "") only if libcrypto fails. */
+bool cache_hash(const void *data, size_t len, char out[65]);
+const rayd_scene *cache_scene(const struct cache_entry *e); /* immutable */
+const char *cache_id(const struct cache_entry *e);          /* immutable */
+/* The id, or for a scene that read files a hash of it and the files'
+ * identities: the key of its results and ETags (scenefiles.c). */
+const char *cache_version(const struct cache_entry *e);
+
+/* ---- scenes.c: the compiled-scene cache behind the lock ------------------- */
+
+struct cache_entry *scenes_find(const char *id); /* referenced, or NULL */
+void scenes_release(struct cache_entry *e);      /* NULL allowed */
+/* Replaces the scene limits derived from the options (before any request). */
+void scenes_set_limits(const struct rayd_limits *lim);
+
+/* ---- what a render makes --------------------------------------------------- */
+
+/* What a render's bytes are: the 8-bit PNG (every route), or from the
+ * linear float image a 16-bit PNG or an OpenEXR (POST /v1/render's
+ * ?format= or Accept).  Part of the task and result-cache key. */
+enum work_format { WORK_PNG, WORK_PNG16, WORK_EXR, WORK_SUMS };
+
+/* What a render makes: a region, in a format; WORK_SUMS is the exact
+ * per-pixel sums of samples k0..k1-1 (rayd_sums_encode), a part of a frame
+ * whose samples are spread over many nodes. */
+struct work_target {
+    struct rayd_region reg; /* absolute, checked */
+    enum work_format format;
+    int k0, k1;      /* WORK_SUMS only */
+    bool keep_exr;   /* a job's (POST /v1/jobs?format=exr): with the WORK_PNG, the EXR of
+                        the same sums; part of the key */
+    uint64_t client; /* who asks (fair.c's turns); not part of the key */
+};
+
+/* ---- cost.c: what a render costs, before it starts -------------------------- */
+
+/* Estimated rays of rendering what of scene (rayd_scene_info's
+ * rays_per_sample x pixels x samples); any thread. */
+double cost_rays(const rayd_scene *scene, const struct work_target *what);
+/* Estimated rays of scene scene_id (its id, cache_id) as seconds of the
+ * whole pool at that scene's measured rate, or the node's for a scene not
+ * yet measured; any thread (takes the lock). */
+double cost_price_seconds(const char *scene_id, double rays);
+
+/* ---- sched.c: the pool, synchronous renders, lifecycle ------------------- */
+
+/* Estimated rays (cost_rays) as seconds of the whole pool at this node's
+ * measured rate. */
+double sched_seconds(double rays);
+/* Estimated seconds of the work queued and running, for the whole pool. */
+double sched_backlog(void);
+
+int sched_start(int workers, int queue_cap, int max_jobs);
+void sched_stop(void);
+/* Renders what of scene for w.
+ * WORK_CACHED: *png is the finished image (a reference), w is not used.
+ * WORK_OK: w->suspend(w) ran and w->done will be called once.  Anything
+ * else: refused, w not used. */
+enum work_submit sched_render(struct cache_entry *scene, const struct work_target *what,
+                              struct work_waiter *w, struct blob **png);
+/* The finished image of what of scene from the result cache (referenced),
+ * or NULL; any thread. */
+struct blob *sched_result_find(const struct cache_entry *scene, const struct work_target *what);
+void sched_drain(void);      /* refuse new work from now on */
+bool sched_draining(void);   /* lock-free */
+void sched_cancel_all(void); /* cancel every task (drain deadline) */
+bool sched_idle(void);       /* no task queued or running */
+struct sched_stats {
+    long queued, queue_cap, workers, busy_workers;
+    long jobs_unfinished, jobs_cap; /* POST /v1/jobs is refused when they are equal */
+    double backlog_s;               /* sched_backlog() */
+};
+void sched_stats(struct sched_stats *st);
+
+/* ---- jobs.c: asynchronous renders ------------------------------------------ */
+
+/* JS_EVICTED: succeeded, but its images were let go to keep rayd within
+ * --max-memory (the oldest finished first); its numbers stay. */
+enum jobs_state { JS_QUEUED, JS_RUNNING, JS_SUCCEEDED, JS_FAILED, JS_CANCELED, JS_EVICTED };
+#define JOBS_EVICTED_WHY                                                                          \
+    "the job's image was let go to keep rayd within its memory budget (--max-memory; the "        \
+    "oldest finished results go first): render it again"
+
+const char *jobs_state_name(enum jobs_state s);
+
+/* A progressive job (POST /v1/jobs?progressive=1): the frame in passes of
+ * growing sample counts, each pass's image kept as it completes
+ * (passes.c). */
+#define PASSES_MAX 64 /* passes a job may plan */
+#define PASSES_KEEP 4 /* the latest passes whose PNGs are kept */
+/* The latest passes whose EXRs are kept (a job with format=exr): an EXR is
+ * up to 12 bytes a pixel, so two hold at most the 24 bytes a pixel of the
+ * sums the job renders into, however many passes the client asks for. */
+#define PASSES_KEEP_EXR 2
+struct jobs_plan {
+    int step;            /* 0: passes of 1, 2, 4, 8, ... samples; k: k, 2k, 3k, ... */
+    double time_budget;  /* seconds after the first tile; 0: none */
+    double noise_target; /* stop once the noise estimate is at most this; 0: none */
+};
+/* The samples after each pass of plan for a scene of `samples` samples, the
+ * last pass always all of them: how many passes, or -1 if more than
+ * PASSES_MAX. */
+int passes_plan(const struct jobs_plan *plan, int samples, int out[PASSES_MAX]);
+/* Why a progressive job stopped before its last pass. */
+enum passes_stop { PASSES_GOING, PASSES_BY_TIME, PASSES_BY_NOISE, PASSES_BY_CLIENT };
+const char *passes_stop_name(enum passes_stop s); /* NULL for PASSES_GOING */
+struct jobs_passes {
+    int done, total;        /* passes complete, planned */
+    int samples;            /* samples of the latest complete pass (0: none yet) */
+    int samples_target;     /* of the last planned pass */
+    double time_s;          /* when the latest pass completed, after the first tile */
+    double noise;           /* its noise estimate (passes.c); < 0: none */
+    enum passes_stop stopped;
+};
+/* Why the server no longer has a job it once created, or its image:
+ * forgotten --job-ttl seconds after it ended, forgotten to make room in a
+ * full table (--max-jobs), or its result evicted (a memory budget).  The
+ * routes of such a job answer 410 with this, never the 404 of an id that
+ * never was. */
+enum jobs_gone_why { JG_EXPIRED, JG_EVICTED, JG_RESULT_EVICTED };
+struct jobs_gone {
+    enum jobs_gone_why why;
+    enum jobs_state state; /* how it ended */
+    double ended_wall;     /* when it ended, seconds since the epoch */
+    double gone_wall;      /* when it (or its result) was dropped, likewise */
+    char detail[96];       /* JG_RESULT_EVICTED: the reason given */
+};
+/* The tombstones of forgotten jobs: the last JOBS_TOMBSTONES ids, the
+ * oldest dropped first (160 bytes each: 640 KiB in all). */
+#define JOBS_TOMBSTONES 4096
+/* true when id was a job of this server that was forgotten (filled in g);
+ * false for an id it never had, or whose tombstone is gone too. */
+bool jobs_gone(const char *id, struct jobs_gone *g);
+struct jobs_info {
+    enum jobs_state state;
+    double progress;
+    long tiles_done, tiles_total;
+    struct rayd_region region;
+    char scene_id[65];
+    double created_age, queue_ms, render_ms, encode_ms;
+    uint64_t rays;
+    double est_rays;       /* cost_rays at admission */
+    struct rayd_error err; /* when failed */
+    struct blob *png;      /* when asked for: the image if succeeded, else a progressive
+                              job's latest pass (or NULL); unref it */
+    struct blob *exr;      /* when asked for, likewise its EXR (keep_exr only); unref it */
+    bool keep_exr;         /* created with format=exr */
+    bool progressive;
+    struct jobs_passes passes; /* progressive only */
+    double ended_age;          /* seconds since it ended; < 0 while it runs */
+    bool result_evicted;       /* its images were evicted: gone says why */
+    struct jobs_gone gone;     /* result_evicted only */
+};
+/* A job rendering what->reg of scene (as a PNG, and an EXR with
+ * what->keep_exr) for what->client: plain with plan NULL, else progressive. */
+enum work_submit jobs_create(struct cache_entry *scene, const struct work_target *what,
+                             const struct jobs_plan *plan, char id[33]);
+/* What jobs_get copies besides the numbers: the PNG, the EXR. */
+enum jobs_want { JOBS_NUMBERS = 0, JOBS_PNG = 1, JOBS_EXR = 2 };
+bool jobs_get(const char *id, struct jobs_info *info, enum jobs_want want);
+/* Pass `pass` (1-based) of a progressive job, its PNG or (exr) its EXR,
+ * if still kept: *img referenced, *samples its count.  false: no such job. */
+bool jobs_pass_image(const char *id, int pass, bool exr, struct blob **img, int *samples);
+bool jobs_cancel(const char *id);
+/* Ends a progressive job after the latest complete pass (or after the
+ * first, if none is complete yet), keeping it as the job's image.  false:
+ * no such job; *progressive false: the job is not progressive. */
+bool jobs_end_early(const char *id, bool *progressive);
+
+/* ---- events.c: a job's progress as a stream ------------------------------- */
+
+enum events_kind { EVENTS_STATE, EVENTS_TILE, EVENTS_PASS, EVENTS_DONE, EVENTS_PING };
+struct events_item {
+    enum events_kind kind;
+    enum jobs_state state;   /* STATE, DONE */
+    struct rayd_region tile; /* TILE */
+    int done, total;         /* TILE: tiles reported with this one, of total; PASS: passes */
+    double progress;         /* TILE, PASS, DONE */
+    int samples;             /* PASS: samples of the pass; DONE: of the image (progressive) */
+    double time_s, noise;    /* PASS: as struct jobs_passes */
+};
+struct events_stream;
+struct events_stream *events_open(const char *id); /* NULL: no such job */
+/* Up to n items: returns how many; 0 after registering w (its suspend ran),
+ * -1 at the end of the stream.  A failed job's error is copied to *err with
+ * its DONE item. */
+int events_read(struct events_stream *s, struct events_item *items, int n,
+                struct rayd_error *err, struct work_waiter *w);
+void events_close(struct events_stream *s); /* NULL allowed */
+
+/* ---- compile.c: scenes parsed off the HTTP threads ------------------------- */
+
+/* What a compile waiter is told. */
+struct compile_result {
+    enum rayd_status status; /* RAYD_OK and scene, or an error */
+    struct rayd_error err;
+    struct cache_entry *scene; /* a reference owned by the waiter: scenes_release it */
+    bool hit;                  /* found compiled (and its files as read), not parsed */
+    bool draining;             /* refused: the server drains (no parse was made for it) */
+};
+
+/* A request waiting for its scene: done() is called exactly once, from a
+ * parse thread with no lock held; suspend() under the lock before it is
+ * linked, as struct work_waiter's. */
+struct compile_waiter {
+    void (*done)(struct compile_waiter *w, struct compile_result *res);
+    void (*suspend)(struct compile_waiter *w);
+    struct compile_waiter *next; /* the pool's list link */
+};
+
+/* The compiled scene of body (len bytes, which stay valid and unchanged
+ * until w->done when WORK_OK is returned).  WORK_CACHED: *res is the answer
+ * now (found compiled, or an error), w is not used.  WORK_OK: w->suspend
+ * ran and w->done will be called once; the same body already being parsed
+ * is waited for, not parsed again.  WORK_PARSE_FULL or WORK_DRAINING:
+ * refused, w not used. */
+enum work_submit compile_scene(const char *body, size_t len, struct compile_waiter *w,
+                               struct compile_result *res);
+/* The cached scene of id for a request that names only its id (GET
+ * /v1/scenes/{id}/image.png), its files checked (scenefiles.c): on this
+ * thread when it has few, else on the pool (WORK_OK, as above).  res->scene
+ * NULL: not held here, or a file changed. */
+enum work_submit compile_find_scene(const char *id, struct compile_waiter *w,
+                                    struct compile_result *res);
+/* About how long a refused request should wait for a place (Retry-After). */
+double compile_retry_seconds(void);
+/* Ends the pool: the scenes still queued are answered draining, the threads
+ * joined (each parse running finishes first, waited for up to a bound). */
+void compile_stop(void);
+/* The test gate's parse knob (--test-gate, POST /v1/test/gate?parses=N):
+ * how many more parses may start, -1 open; and what the pool is doing. */
+struct compile_gate_state {
+    long parses, started, queued, running;
+};
+void compile_gate_set(long parses);
+void compile_gate_get(struct compile_gate_state *g);
+
+/* ---- gate.c: the test gate (--test-gate) ----------------------------------- */
+
+/* Workers start a tile only while the gate lets one through.  tiles: how
+ * many more may start, -1 = open. */
+struct gate_state {
+    long tiles, started, held, queued;
+};
+void gate_enable(long tiles);
+bool gate_set(long tiles);                /* false when the gate is off */
+bool gate_get(struct gate_state *g);      /* false when the gate is off */
+
+#endif
