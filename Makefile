@@ -15,7 +15,9 @@
 #   make bench       benchmarks (never part of make test)
 #   make bench-peers the same meshes and sphere scene with Embree and POV-Ray (make bench-deps)
 #   make check-layers  includes and calls one way down the layers, no circles
-#                    (tools/check_layers.py; part of make test)
+#                    (tools/check_layers.py), docs/architecture.md true to the
+#                    tree, no source file over 1000 lines (tools/check_tree.py;
+#                    both part of make test)
 #   make format      clang-format every C file;  make lint  cppcheck + clang-tidy
 
 # Debian packages, in lists by what needs them (README.md, "Dependencies",
@@ -361,9 +363,11 @@ test-stress: all $(TEST_TOOLS) $(FUZZ_REPLAY) $(BUILD)/bench/genmesh $(BROWSER_N
 	@bash tests/stress.sh $(BUILD)
 
 # The layers of docs/architecture.md, read from the includes and from the
-# objects' symbols (nm): a use of a higher layer or a circle fails.
+# objects' symbols (nm): a use of a higher layer or a circle fails; and the
+# page itself checked against the tree (tools/check_tree.py).
 check-layers: all | $(BUILD)/.test-deps-ok
-	@python3 tools/check_layers.py $(BUILD) && python3 tools/check_layers.py --self-test
+	@python3 tools/check_layers.py $(BUILD) && python3 tools/check_layers.py --self-test && \
+	  python3 tools/check_tree.py && python3 tools/check_tree.py --self-test
 
 test-unit: all $(UNIT_BIN) | $(BUILD)/.test-deps-ok
 	@RAYD_ONLY=unit bash tests/run.sh $(BUILD)
