@@ -5,7 +5,7 @@
 #   make test SANITIZE=1   the same suite built with ASan+UBSan into build/asan/
 #   make test-tsan   server + job queue integration tests under ThreadSanitizer (build/tsan/)
 #   make test-valgrind  three server integration tests with rayd under valgrind memcheck
-#   make test-stress the integration tests loaded, on one core, and idle
+#   make test-stress the integration tests loaded, and on one core
 #   make run         build and start rayd on 127.0.0.1:8080 with the preview
 #   make deps        install the Debian packages the build needs (make does it)
 #   make test-deps   and those the tests need as well (make test does it)

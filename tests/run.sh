@@ -11,7 +11,11 @@
 # limits the run; RAYD_TESTS="jobs lifecycle" runs only those
 # tests/integration/NAME.sh (make test-tsan and make test-valgrind use it), and RAYD_UNIT="test_x"
 # only those unit tests of BUILD (make test-tsan); RAYD_SKIP="a b" leaves
-# those integration tests out (tests/stress.sh uses it).  SKIP lines are shown.
+# those integration tests out (tests/stress.sh uses it).  SKIP lines are shown,
+# and each test's line ends with the seconds it took, to find the slow ones.
+# RAYD_JOBS=N runs up to N integration tests at once (default 1): each test
+# starts its own rayd on its own port and folder, so they do not meet; their
+# reports are printed whole, in the order they end.
 set -u
 cd "$(dirname "$0")/.."
 BUILD=$(cd "${1:-build}" && pwd)
@@ -25,6 +29,7 @@ failed_names=()
 run_one() { # name, command...
     local name=$1; shift
     local out; out=$(mktemp)
+    local t0=$SECONDS
     timeout "${RAYD_TIMEOUT:-900}" "$@" >"$out" 2>&1
     local rc=$?
     local p f
@@ -35,11 +40,11 @@ run_one() { # name, command...
         f=1
     fi
     if [ "$f" -gt 0 ]; then
-        echo "--- $name: $p passed, $f failed"
+        echo "--- $name: $p passed, $f failed ($((SECONDS - t0)) s)"
         grep -v '^PASS ' "$out" | tail -n 60
         failed_names+=("$name")
     else
-        echo "--- $name: $p passed"
+        echo "--- $name: $p passed ($((SECONDS - t0)) s)"
     fi
     grep '^SKIP ' "$out"
     pass=$((pass + p))
@@ -47,11 +52,58 @@ run_one() { # name, command...
     rm -f "$out"
 }
 
+# Parallel integration tests: each runs run_one in a subshell whose report
+# and counts go to files in $par, gathered as they end.
+jobs_max=${RAYD_JOBS:-1}
+par=$(mktemp -d)
+trap 'rm -rf "$par"' EXIT
+started=0
+gathered=0
+gather() { # prints and counts every finished report not yet gathered
+    local f n p x names
+    for f in "$par"/*.done; do
+        [ -e "$f" ] || continue
+        n=${f%.done}
+        cat "$n.log"
+        read -r p x names <"$n.sum"
+        pass=$((pass + p))
+        fail=$((fail + x))
+        [ -n "$names" ] && failed_names+=($names)
+        rm -f "$f" "$n.log" "$n.sum"
+        gathered=$((gathered + 1))
+    done
+}
+run_test() { # name, command...
+    if [ "$jobs_max" -le 1 ]; then
+        run_one "$@"
+        return
+    fi
+    while [ "$(jobs -rp | wc -l)" -ge "$jobs_max" ]; do
+        wait -n
+        gather
+    done
+    started=$((started + 1))
+    local key; key=$par/$(printf '%04d' "$started")
+    (
+        pass=0 fail=0 failed_names=()
+        run_one "$@" >"$key.log"
+        echo "$pass $fail ${failed_names[*]}" >"$key.sum"
+        touch "$key.done"
+    ) &
+}
+finish_tests() {
+    while [ "$gathered" -lt "$started" ]; do
+        wait -n 2>/dev/null || sleep 0.2
+        gather
+    done
+}
+
 if [ -n "${RAYD_TESTS:-}" ]; then
     only=none
     for name in $RAYD_TESTS; do
-        run_one "$name" bash "tests/integration/$name.sh"
+        run_test "$name" bash "tests/integration/$name.sh"
     done
+    finish_tests
 fi
 if [ -n "${RAYD_UNIT:-}" ]; then
     only=none
@@ -77,8 +129,9 @@ if [ "$only" = all ] || [ "$only" = integration ]; then
     for t in tests/integration/*.sh tests/browser/*.sh; do
         [ -f "$t" ] || continue
         [[ " ${RAYD_SKIP:-} " == *" $(basename "$t" .sh) "* ]] && continue
-        run_one "$t" bash "$t"
+        run_test "$t" bash "$t"
     done
+    finish_tests
 fi
 
 [ "${#failed_names[@]}" -gt 0 ] && echo "failed: ${failed_names[*]}"
