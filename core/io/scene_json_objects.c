@@ -370,7 +370,8 @@ static const char *const *const kind_keys[] = {
                           NULL},
     (const char *const[]){COMMON, "op", "operands", NULL},
     (const char *const[]){"type", "name", "transform", "group", NULL},
-    (const char *const[]){COMMON, "source", "scene", "lights", "light_scale", "camera", NULL},
+    (const char *const[]){COMMON, "source", "scene", "lights", "light_scale", "camera",
+                          "animation", NULL},
 };
 
 static enum rayd_status load_shape(struct loader *ld, const cJSON *oj, const struct jp *at,
