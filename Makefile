@@ -25,7 +25,8 @@
 # given libraries (libpng, cJSON, libmicrohttpd), libcurl for the client,
 # libssl (libcrypto's SHA-256 of scene ids), libdeflate, libisal and zlib (the PNG
 # encoder's deflates), libopenexr-dev (EXR out and environment maps in, core/codec/exr*.c), libstb-dev
-# (stb_image: Radiance .hdr environments, core/load/scene_json_env.c).  TEST_PKGS,
+# (stb_image: Radiance .hdr environments, core/load/scene_json_env.c), ffmpeg (the
+# program rayd-render --video pipes its frames to; ffprobe for the tests).  TEST_PKGS,
 # on top for `make test`: curl and python3 (the integration tests), nginx (the
 # scale-out test balances through it; installed, never started: tools/deps.sh),
 # wrk (the load test), chromium and a font (the preview's browser tests),
@@ -36,7 +37,7 @@
 # reads /metrics in tests/integration/observability.sh).  LINT_PKGS: make lint and make format.
 # BENCH_PKGS (below): make bench-peers only.
 BUILD_PKGS := gcc make pkg-config libc6-dev libpng-dev zlib1g-dev libisal-dev libdeflate-dev libcjson-dev \
-              libmicrohttpd-dev libcurl4-openssl-dev libssl-dev libopenexr-dev libstb-dev
+              libmicrohttpd-dev libcurl4-openssl-dev libssl-dev libopenexr-dev libstb-dev ffmpeg
 TEST_PKGS := curl python3 nginx wrk chromium fonts-dejavu-core pngcheck openexr g++ \
              assimp-testmodels clang libclang-rt-14-dev valgrind openssl man-db \
              python3-prometheus-client

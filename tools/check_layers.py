@@ -58,10 +58,12 @@ CORE_LAYERS = [
     ("core/base/", "error (status, message, JSON Pointer, line/column), array, hugemem, parallel, "
                    "clock, cpu (whether the AVX-512 code runs), meter (a render thread's ray count, "
                    "cancel flag and ray budget)"),
-    ("core/format/", "byte-level formats on base alone: json_check, json_parse (the locked cJSON "
-                     "parse), json_numbers, json_pointer, base64, mesh_io + mesh_obj, mesh_ply, "
-                     "mesh_gltf, hdr_scan, deflate_chain, file"),
-    ("core/math/", "vec.h, xform, poly (the quadratic and the quartic), rng.h"),
+    ("core/math/", "vec.h, xform, poly (the quadratic and the quartic), rng.h, keyframe "
+                   "(interpolation of animation keys, quaternion slerp)"),
+    ("core/format/", "byte-level formats on base and math alone: json_check, json_parse (the "
+                     "locked cJSON parse), json_numbers, json_pointer, base64, mesh_io + "
+                     "mesh_obj, mesh_ply, mesh_gltf (with its animation channels), hdr_scan, "
+                     "deflate_chain, file"),
     ("core/accel/", "bvh.c (the SAH builder and walk, over boxes), bvh16.h (16-ray packet walk), "
                     "light_buffer.c (which objects can shadow which directions of a point light)"),
     ("core/geom/", "shape.c + shape_*.c (one file per primitive), mesh.c + mesh_packet.c, camera"),

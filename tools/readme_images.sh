@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # readme_images.sh [BUILD] -- renders the README's model pictures into
-# docs/images/: model.png, a real model lit by the studio environment, and
-# model-turntable.png, the same model from six azimuths joined side by side.
+# docs/images/: model.png, a real model lit by the studio environment,
+# model-turntable.png, the same model from six azimuths joined side by side,
+# and animation-strip.png, six frames of scenes/animation.json.
 #
 # The model is Wuson.ply, a bison (Blender's "Wuson", 11184 vertices with
 # normals) from Debian's assimp-testmodels (/usr/share/assimp/models/PLY/,
@@ -59,4 +60,12 @@ for k in 0 1 2 3 4 5; do
     frames+=("$T/turn-$k.png")
 done
 python3 tools/png_strip.py "$OUT/model-turntable.png" "${frames[@]}"
-ls -l "$OUT/model.png" "$OUT/model-turntable.png"
+
+# The animated example (scenes/animation.json, tools/make_animation_scene.py):
+# six of its 48 frames, 8 apart, at half its size, joined side by side.
+python3 -c 'import json,sys; s=json.load(open(sys.argv[1])); s["render"].update(width=160, height=90); print(json.dumps(s))' \
+    scenes/animation.json >"$T/animation.json"
+"$RENDER" "$T/animation.json" --frames 0-40 -o "$T/anim-%02d.png" -q
+python3 tools/png_strip.py "$OUT/animation-strip.png" "$T"/anim-00.png "$T"/anim-08.png \
+    "$T"/anim-16.png "$T"/anim-24.png "$T"/anim-32.png "$T"/anim-40.png
+ls -l "$OUT/model.png" "$OUT/model-turntable.png" "$OUT/animation-strip.png"

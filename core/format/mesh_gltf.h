@@ -47,6 +47,10 @@ const cJSON *gltf_doc_root(const struct gltf_doc *d);
 /* Walks scenes[scene], or with scene < 0 what mesh_parse_gltf walks;
  * lim bounds the primitives drawn (here) and the bake's mesh. */
 enum rayd_status gltf_doc_walk(struct gltf_doc *d, int scene, const struct mesh_limits *lim);
+/* Before the walk: play node animation `animation` (an index into
+ * /animations, checked by the walk) at `seconds`: its translation,
+ * rotation and scale channels replace the nodes' own values. */
+void gltf_doc_animate(struct gltf_doc *d, int animation, double seconds);
 /* Node's world matrix (16 numbers, column-major); NULL when the walk did
  * not reach the node. */
 const double *gltf_doc_world(const struct gltf_doc *d, int node);

@@ -32,6 +32,7 @@
 
 #include "format/json_check.h"
 #include "format/json_parse.h"
+#include "load/scene_json_anim.h"
 #include "load/scene_json_env.h"
 #include "load/scene_json_frame.h"
 #include "load/scene_json.h"
@@ -239,9 +240,9 @@ static enum rayd_status parse_json(const char *json, size_t len, cJSON **out,
     return RAYD_OK;
 }
 
-static enum rayd_status load_root(struct loader *ld, const cJSON *root) {
-    static const char *const keys[] = {"version", "camera",  "render", "materials",
-                                       "lights",  "groups",  "objects", NULL};
+static enum rayd_status load_root(struct loader *ld, cJSON *root, long frame) {
+    static const char *const keys[] = {"version", "camera",  "render",  "materials", "lights",
+                                       "groups",  "objects", "animation", NULL};
     struct jp at = {.s = ""};
     if (!cJSON_IsObject(root))
         return err_set(ld->err, RAYD_E_INVALID, "", "the scene must be a JSON object, not %s",
@@ -249,6 +250,7 @@ static enum rayd_status load_root(struct loader *ld, const cJSON *root) {
     TRY(sj_check_keys(ld, root, &at, keys));
     long version;
     TRY(sj_int(ld, root, &at, "version", 1, 1, 1, false, &version));
+    TRY(sj_anim_load(ld, root, frame)); /* the tree at the frame, before it is read */
     TRY(load_render(ld, root));
     TRY(load_camera(ld, root));
     TRY(sj_materials(ld, root));
@@ -272,8 +274,15 @@ static enum rayd_status check_and_parse(const char *json, size_t len, const stru
     return st;
 }
 
-enum rayd_status scene_json_parse(const char *json, size_t len, const struct rayd_limits *lim,
-                                  long inline_min, rayd_scene **out, struct rayd_error *err) {
+/* The frame's facts for rayd_scene_animation. */
+static void note_frames(rayd_scene *s, const struct sj_anim *a) {
+    s->anim = (struct rayd_animation){.animated = a->on, .start = a->start, .end = a->end,
+                                      .fps = a->on ? a->fps : 0, .frame = a->frame};
+}
+
+enum rayd_status scene_json_parse_frame(const char *json, size_t len,
+                                        const struct rayd_limits *lim, long inline_min,
+                                        long frame, rayd_scene **out, struct rayd_error *err) {
     struct rayd_limits deflim;
     if (!lim) {
         rayd_limits_default(&deflim);
@@ -288,8 +297,12 @@ enum rayd_status scene_json_parse(const char *json, size_t len, const struct ray
     enum rayd_status st = check_and_parse(json, len, lim, &in, &root, err);
     if (st == RAYD_OK) st = scene_alloc(&s, err);
     if (st == RAYD_OK) {
-        struct loader ld = {.lim = lim, .s = s, .err = err, .inl = &in};
-        st = load_root(&ld, root);
+        struct sj_anim anim = {0};
+        struct loader ld = {.lim = lim, .s = s, .err = err, .inl = &in, .anim = &anim};
+        st = load_root(&ld, root, frame);
+        if (st != RAYD_OK) sj_anim_error(&anim, err);
+        note_frames(s, &anim);
+        sj_anim_free(&anim);
         free(ld.mat_names);
         if (st == RAYD_OK) st = scene_freeze(s, err);
         if (st != RAYD_OK) rayd_scene_free(s);
@@ -300,7 +313,24 @@ enum rayd_status scene_json_parse(const char *json, size_t len, const struct ray
     return st;
 }
 
+enum rayd_status scene_json_parse(const char *json, size_t len, const struct rayd_limits *lim,
+                                  long inline_min, rayd_scene **out, struct rayd_error *err) {
+    return scene_json_parse_frame(json, len, lim, inline_min, -1, out, err);
+}
+
 enum rayd_status rayd_scene_parse(const char *json, size_t len, const struct rayd_limits *lim,
                                   rayd_scene **out, struct rayd_error *err) {
-    return scene_json_parse(json, len, lim, SJ_INLINE_MIN, out, err);
+    return scene_json_parse_frame(json, len, lim, SJ_INLINE_MIN, -1, out, err);
+}
+
+enum rayd_status rayd_scene_parse_frame(const char *json, size_t len,
+                                        const struct rayd_limits *lim, long frame,
+                                        rayd_scene **out, struct rayd_error *err) {
+    if (frame < 0)
+        return err_set(err, RAYD_E_ARG, "/animation", "frame %ld: frames are numbered from 0", frame);
+    return scene_json_parse_frame(json, len, lim, SJ_INLINE_MIN, frame, out, err);
+}
+
+void rayd_scene_animation(const rayd_scene *scene, struct rayd_animation *out) {
+    *out = scene->anim;
 }

@@ -2,7 +2,7 @@
  *
  *   {"type": "gltf", "source": {...as a mesh source...}, "scene": 0 | "name",
  *    "material": ..., "lights": true, "light_scale": 1, "camera": 0 | "name",
- *    "name": ..., "transform": ...}
+ *    "name": ..., "transform": ..., "animation": 0 | "name"}
  *
  * A mesh source bakes a glTF into one mesh with the object's material; this
  * object keeps the file's own materials instead.  mesh_gltf.c walks the
@@ -33,6 +33,7 @@
 #include "base/clock.h"
 #include "base/parallel.h"
 #include "load/gltf_material.h"
+#include "load/scene_json_anim.h"
 #include "format/gltf_json.h"
 #include "load/scene_json_material.h"
 #include "load/scene_json_texture.h"
@@ -454,6 +455,23 @@ static enum rayd_status load_camera(struct imp *im, const cJSON *oj, const struc
 
 /* ---- the object ------------------------------------------------------------ */
 
+/* "animation": the glTF animation played (an index or a name; the first
+ * by default), at the scene's frame: seconds from /animation/start at its
+ * fps.  A still scene plays none, so it shows the file's rest pose as it
+ * always did. */
+static enum rayd_status animate(struct imp *im, const cJSON *oj, const struct jp *at) {
+    struct loader *ld = im->ld;
+    const cJSON *anims = gl_get(gltf_doc_root(im->doc), "animations");
+    int a;
+    TRY(item_ref(im, oj, at, "animation", anims, "animations", &a));
+    struct jp pa = jp_key(at, "animation");
+    if (a >= 0 && !ld->anim->on)
+        return sj_fail(ld, RAYD_E_INVALID, &pa, "needs /animation (the scene's frame range)");
+    if (!ld->anim->on || !cJSON_IsArray(anims) || cJSON_GetArraySize(anims) == 0) return RAYD_OK;
+    gltf_doc_animate(im->doc, a < 0 ? 0 : a, sj_anim_seconds(ld->anim));
+    return RAYD_OK;
+}
+
 static enum rayd_status load(struct imp *im, const cJSON *oj, const struct jp *at, int override,
                              struct object *o) {
     struct loader *ld = im->ld;
@@ -464,6 +482,7 @@ static enum rayd_status load(struct imp *im, const cJSON *oj, const struct jp *a
     TRY(item_ref(im, oj, at, "scene", gl_get(root, "scenes"), "scenes", &scene));
     TRY(sj_bool(ld, oj, at, "lights", true, &lights));
     TRY(sj_num(ld, oj, at, "light_scale", 1, 0, true, 1e6, &scale));
+    TRY(animate(im, oj, at));
     struct mesh_limits ml = sj_mesh_budget(ld);
     TRY(imp_fail(im, gltf_doc_walk(im->doc, scene, &ml)));
     TRY(load_meshes(im, override, o));

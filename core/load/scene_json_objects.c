@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "load/scene_json_objects.h"
+#include "load/scene_json_anim.h"
 
 #include "base/clock.h"
 #include "load/scene_json_gltf.h"
@@ -103,8 +104,10 @@ static enum rayd_status load_transform(struct loader *ld, const cJSON *obj, cons
     *out = xform_identity();
     *present = false;
     const cJSON *t = cJSON_GetObjectItemCaseSensitive(obj, "transform");
-    if (!t) return RAYD_OK;
-    struct jp p = jp_key(at, "transform");
+    struct xform kx;
+    bool keyed = sj_anim_xform(ld->anim, obj, &kx); /* keyframes move it after its transform */
+    if (!t && !keyed) return RAYD_OK;
+    struct jp p = jp_key(at, t ? "transform" : "keyframes");
     if (cJSON_IsArray(t)) {
         int i = 0;
         for (const cJSON *e = t->child; e; e = e->next, i++) {
@@ -113,9 +116,10 @@ static enum rayd_status load_transform(struct loader *ld, const cJSON *obj, cons
             TRY(transform_step(ld, e, &pe, &step));
             *out = xform_then(out, &step);
         }
-    } else {
+    } else if (t) {
         TRY(transform_step(ld, t, &p, out));
     }
+    if (keyed) *out = xform_then(out, &kx);
     if (!xform_sane(out))
         return sj_fail(ld, RAYD_E_INVALID, &p, "must not scale the object by more than 1e9 or less than 1e-9 (all steps together)");
     *present = true;
@@ -366,7 +370,8 @@ static const char *const *const kind_keys[] = {
                           NULL},
     (const char *const[]){COMMON, "op", "operands", NULL},
     (const char *const[]){"type", "name", "transform", "group", NULL},
-    (const char *const[]){COMMON, "source", "scene", "lights", "light_scale", "camera", NULL},
+    (const char *const[]){COMMON, "source", "scene", "lights", "light_scale", "camera",
+                          "animation", NULL},
 };
 
 static enum rayd_status load_shape(struct loader *ld, const cJSON *oj, const struct jp *at,

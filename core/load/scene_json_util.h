@@ -13,6 +13,7 @@
  *   scene_json_texture.c   material textures
  *   scene_json_mesh.c      meshes: inline arrays, OBJ/PLY sources
  *   scene_json_inline.c    large inline arrays kept out of cJSON's tree
+ *   scene_json_anim.c      /animation and keyframes: the tree at one frame
  *   scene_json_util.c      JSON Pointers, the typed getters, files a scene names
  *
  * Every getter checks one value and, when it is wrong, fills the error with
@@ -36,6 +37,8 @@
 #define NUM_RANGE "[-1e9, 1e9]" /* the same, for messages */
 
 /* ---- the loader ---------------------------------------------------------- */
+
+struct sj_anim;
 
 struct named {
     const char *name;
@@ -61,6 +64,7 @@ struct loader {
     bool frame_focus;            /* focus_distance given: kept when framing */
     const cJSON *camera;         /* /camera, or NULL */
     bool gltf_camera;            /* a gltf object has set the camera */
+    struct sj_anim *anim;        /* the frame being loaded (scene_json_anim.h) */
 };
 
 enum vec_rule { VEC_ANY, VEC_NONZERO, VEC_COLOR };

@@ -38,6 +38,7 @@ struct scene_file;
 
 struct rayd_scene {
     double decode_s, build_s; /* loading: mesh files decoded, BVHs and light buffers built */
+    struct rayd_animation anim; /* the frames of the scene and the one this is */
     struct camera cam;
     struct render_settings rs;
     struct material *mats;

@@ -135,6 +135,30 @@ struct rayd_scene_info {
 
 void rayd_scene_info(const rayd_scene *scene, struct rayd_scene_info *info);
 
+/* ---- frames: animated scenes ----------------------------------------------
+ * A scene with an "animation" block (docs/scene-format.md, "Animation") has
+ * frames start..end; its keyframes and glTF animations give each frame its
+ * camera, lights and transforms.  A scene is loaded at one frame: frame k
+ * is a pure function of the scene's bytes and k (the same bytes of every
+ * pixel on any node, thread count or tiling).  A server renders a shot by
+ * parsing the scene once per frame.  A scene without the block is a still:
+ * one frame, 0. */
+struct rayd_animation {
+    int animated;    /* 1 with an "animation" block, else 0 (one frame, 0) */
+    long start, end; /* the frames, inclusive: end - start + 1 of them */
+    double fps;      /* frames per second (24 by default; 0 for a still) */
+    long frame;      /* the frame this scene shows */
+};
+
+/* rayd_scene_parse at frame `frame`: start <= frame <= end, or
+ * RAYD_E_ARG (path "/animation") naming the range; for a still scene only
+ * frame 0.  rayd_scene_parse is the scene's first frame. */
+enum rayd_status rayd_scene_parse_frame(const char *json, size_t len,
+                                        const struct rayd_limits *lim, long frame,
+                                        rayd_scene **out, struct rayd_error *err);
+/* The scene's frames, and the one it was loaded at. */
+void rayd_scene_animation(const rayd_scene *scene, struct rayd_animation *out);
+
 /* ---- the files a scene read ------------------------------------------------
  * A scene may read files (a mesh's, a glTF's buffers and images, a texture's,
  * an environment map's "file"); the scene keeps what each one was when it was

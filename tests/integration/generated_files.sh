@@ -3,7 +3,8 @@
 # what those scripts write today, byte for byte: scenes/sky.hdr and its
 # copy in scenes/environment.json (tools/make_sky_hdr.py), scenes/studio.hdr,
 # scenes/studio.json and clients/studio_hdr.h (tools/make_studio_hdr.py),
-# scenes/gltf.json (tools/make_gltf_scene.py).  A hand edit of one of them,
+# scenes/gltf.json (tools/make_gltf_scene.py), scenes/animation.json
+# (tools/make_animation_scene.py).  A hand edit of one of them,
 # or a script changed without rerunning it, is a FAIL naming the command
 # that rewrites the file.
 #
@@ -48,5 +49,8 @@ if gen studio python3 "$RAYD_ROOT/tools/make_studio_hdr.py" --scene; then
 fi
 if gen gltf python3 "$RAYD_ROOT/tools/make_gltf_scene.py"; then
     same scenes/gltf.json "python3 tools/make_gltf_scene.py"
+fi
+if gen animation python3 "$RAYD_ROOT/tools/make_animation_scene.py"; then
+    same scenes/animation.json "python3 tools/make_animation_scene.py"
 fi
 exit 0

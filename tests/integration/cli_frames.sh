@@ -1,0 +1,123 @@
+#!/usr/bin/env bash
+# cli_frames.sh -- rayd-render on animated scenes: --frame, --frames A-B
+# with an -o pattern, --video (read back with ffprobe: codec, frame count,
+# size, rate), frame k the same bytes on any thread count, tiling or range,
+# and the command line's mistakes (exit 2, one line naming them).
+set -u
+cd "$RAYD_ROOT"
+R="$RAYD_BUILD/rayd-render"
+CMP="$RAYD_BUILD/tests/tools/pngcmp"
+T=$(mktemp -d)
+trap 'rm -rf "$T"' EXIT
+ok() { echo "PASS $1"; }
+bad() { echo "FAIL $1: $2"; }
+check() { local name=$1; shift; if "$@"; then ok "$name"; else bad "$name" "${WHY:-check failed}"; fi; }
+run() { timeout 120 "$R" "$@"; }
+
+cat >"$T/anim.json" <<'EOF'
+{"animation": {"start": 2, "end": 9, "fps": 12},
+ "render": {"width": 48, "height": 32, "samples": 2},
+ "camera": {"look_at": [0, 0.5, 0], "interpolation": "smooth",
+            "keyframes": [{"frame": 2, "position": [0, 1.5, 5]}, {"frame": 6, "position": [4, 2, 2]},
+                          {"frame": 9, "position": [3, 1, -4], "fov_x": 50}]},
+ "lights": [{"type": "point", "keyframes": [{"frame": 2, "position": [4, 5, 4]},
+                                            {"frame": 9, "position": [-4, 5, 2], "intensity": 0.5}]}],
+ "objects": [{"type": "plane", "material": {"color": [0.6, 0.6, 0.6]}},
+             {"type": "box", "min": [-0.5, 0, -0.5], "max": [0.5, 1, 0.5],
+              "material": {"color": [0.9, 0.3, 0.2]},
+              "keyframes": [{"frame": 2, "rotate": [0, 0, 0]}, {"frame": 9, "rotate": [0, 150, 0]}]}]}
+EOF
+
+# --frames A-B: one file a frame, named by the pattern; a line a frame and one for the range
+if run "$T/anim.json" --frames 3-6 -o "$T/f-%03d.png" --threads 2 2>"$T/log"; then
+    n=$(ls "$T"/f-*.png 2>/dev/null | wc -l)
+    WHY="files: $(ls "$T" | tr '\n' ' ')"
+    check frames_files [ "$n" = 4 -a -f "$T/f-003.png" -a -f "$T/f-006.png" ]
+    WHY="stderr: $(tr '\n' '|' <"$T/log")"
+    check frames_lines [ "$(grep -c '^frame [3-6]: .* \[[1-4]/4 frames' "$T/log")" = 4 -a \
+                         "$(grep -c '^frames 3-6: 4 frames in ' "$T/log")" = 1 ]
+else
+    bad frames_files "exit $?: $(tr '\n' '|' <"$T/log")"
+fi
+
+# frame k alone equals frame k of the range, on any thread count, and any tiling
+run "$T/anim.json" --frame 5 -o "$T/k1.png" --threads 1 -q 2>"$T/log"
+run "$T/anim.json" --frame 5 -o "$T/k4.png" --threads 4 -q 2>>"$T/log"
+WHY="$(tr '\n' '|' <"$T/log")"
+check frame_alone_equals_range cmp -s "$T/k1.png" "$T/f-005.png"
+check frame_threads_equal cmp -s "$T/k1.png" "$T/k4.png"
+tiles_ok=1
+for reg in 0,0,48,16 0,16,48,16 0,0,17,32 17,0,31,32; do
+    run "$T/anim.json" --frame 5 --region "$reg" -o "$T/tile.png" --threads 3 -q 2>/dev/null || tiles_ok=0
+    IFS=, read -r x y _ _ <<<"$reg"
+    "$CMP" "$T/k1.png" "$T/tile.png" "$x" "$y" 2>/dev/null || tiles_ok=0
+done
+WHY="a tile of frame 5 differs from the frame's crop"
+check frame_tiles_equal [ "$tiles_ok" = 1 ]
+WHY="frames 3 and 6 are the same image: nothing moved"
+check frames_differ bash -c '! cmp -s "$0" "$1"' "$T/f-003.png" "$T/f-006.png"
+# the default is the first frame
+run "$T/anim.json" -o "$T/first.png" -q 2>/dev/null
+run "$T/anim.json" --frame 2 -o "$T/k2.png" -q 2>/dev/null
+check default_first_frame cmp -s "$T/first.png" "$T/k2.png"
+
+# mistakes: exit 2, one line naming them, nothing written
+usage() { # NAME WANT ARGS...
+    local name=$1 want=$2; shift 2
+    run "$@" >/dev/null 2>"$T/err"
+    local rc=$?
+    WHY="exit $rc, stderr: $(tr '\n' '|' <"$T/err")"
+    check "$name" bash -c '[ "$0" = 2 ] && grep -qF -- "$1" "$2"' "$rc" "$want" "$T/err"
+}
+usage frames_outside "rayd-render: error: frame 12 is outside the scene's frames 2-9" \
+    "$T/anim.json" --frames 5-12 -o "$T/x%d.png"
+usage frame_before_start "frame 1 is outside the animation's frames 2-9" "$T/anim.json" --frame 1 -o "$T/x.png"
+usage frames_need_pattern "a range of frames needs a file name with %d" "$T/anim.json" --frames 3-4 -o "$T/x.png"
+usage frames_bad_pattern "a frame's file takes one %d (or %0Nd, N < 10) and no other %" \
+    "$T/anim.json" --frames 3-4 -o "$T/x-%s.png"
+usage frames_backwards "--frames takes A-B" "$T/anim.json" --frames 6-3 -o "$T/x%d.png"
+usage frames_stdout "-o - cannot take a range of frames" "$T/anim.json" --frames 3-4 -o -
+usage still_frame "rayd-render: error: frame 1: the scene has no /animation, so its one frame is 0" \
+    scenes/paper.json --frame 1 -o "$T/x.png"
+usage video_extension "--video writes H.264 in .mp4, .mov or .mkv" "$T/anim.json" --video "$T/v.avi"
+WHY="$(ls "$T" | tr '\n' ' ')"
+check mistakes_write_nothing bash -c '! ls "$0"/x* >/dev/null 2>&1' "$T"
+
+# --video: every frame of the scene by default, H.264 in MP4, the scene's rate and size
+probe() { ffprobe -v error -select_streams v:0 -count_frames \
+    -show_entries stream=codec_name,width,height,r_frame_rate,nb_read_frames -of default=nw=1 "$1"; }
+if ! command -v ffprobe >/dev/null; then
+    bad video "no ffprobe (make deps installs ffmpeg)"
+else
+    if run "$T/anim.json" --video "$T/all.mp4" -q 2>"$T/log"; then
+        probe "$T/all.mp4" >"$T/p" 2>&1
+        WHY="ffprobe: $(tr '\n' ' ' <"$T/p")"
+        check video_all_frames grep -qx 'nb_read_frames=8' "$T/p"
+        check video_h264 grep -qx 'codec_name=h264' "$T/p"
+        check video_size bash -c 'grep -qx width=48 "$0" && grep -qx height=32 "$0"' "$T/p"
+        check video_rate grep -qx 'r_frame_rate=12/1' "$T/p"
+        fmt=$(ffprobe -v error -show_entries format=format_name -of default=nw=1:nk=1 "$T/all.mp4")
+        WHY="format $fmt"
+        check video_mp4 bash -c '[[ "$0" == *mp4* ]]' "$fmt"
+    else
+        bad video_all_frames "exit $?: $(tr '\n' '|' <"$T/log")"
+    fi
+    # a range with its frames written too: the files are the plain frames' bytes
+    if run "$T/anim.json" --frames 4-6 --video "$T/part.mp4" -o "$T/v-%d.png" --region 2,2,40,26 \
+        -q 2>"$T/log"; then
+        probe "$T/part.mp4" >"$T/p" 2>&1
+        WHY="ffprobe: $(tr '\n' ' ' <"$T/p")"
+        check video_range_frames bash -c 'grep -qx nb_read_frames=3 "$0" && grep -qx width=40 "$0" && grep -qx height=26 "$0"' "$T/p"
+        run "$T/anim.json" --frame 5 --region 2,2,40,26 -o "$T/r5.png" -q 2>/dev/null
+        WHY="v-5.png differs from --frame 5's"
+        check video_frame_files cmp -s "$T/v-5.png" "$T/r5.png"
+    else
+        bad video_range_frames "exit $?: $(tr '\n' '|' <"$T/log")"
+    fi
+    # no ffmpeg on the PATH: exit 1, said
+    PATH=/nonexistent "$R" "$T/anim.json" --video "$T/none.mp4" -q 2>"$T/err"
+    rc=$?
+    WHY="exit $rc: $(tr '\n' '|' <"$T/err")"
+    check video_without_ffmpeg bash -c '[ "$0" = 1 ] && grep -q "needs the ffmpeg program" "$1"' "$rc" "$T/err"
+fi
+exit 0
