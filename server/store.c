@@ -243,15 +243,17 @@ static int store_run(sqlite3_stmt **out, const char *sql, const char *fmt, ...)
     return rc == SQLITE_ROW ? SQLITE_DONE : rc;
 }
 
-static const char *store_state_name(enum jobs_state s)
-{
-    return s == JS_QUEUED || s == JS_RUNNING ? "queued" : jobs_state_name(s);
-}
+/* A job's state as the store writes it (jobs.c's names; an unfinished
+ * job is "queued" whatever it was doing). */
+static const char *const store_states[] = {"queued",   "queued",   "succeeded",
+                                           "failed",   "canceled", "evicted"};
+
+static const char *store_state_name(enum jobs_state s) { return store_states[s]; }
 
 static enum jobs_state store_state_of(const char *s)
 {
     for (int i = JS_SUCCEEDED; i <= JS_EVICTED; i++)
-        if (s && !strcmp(s, jobs_state_name((enum jobs_state)i)))
+        if (s && !strcmp(s, store_states[i]))
             return (enum jobs_state)i;
     return JS_QUEUED;
 }
