@@ -2,8 +2,8 @@
  * queued and answered, asynchronous jobs and their event streams.
  *
  * Layer: work (work.c, lru.c, cache.c, rcache.c, scenes.c, cost.c, fair.c,
- * resolve.c, passes.c, task.c, gate.c, sched.c, jobs.c, events.c, watch.c,
- * compile.c).  May
+ * resolve.c, passes.c, task.c, gate.c, store.c, sched.c, jobs.c, events.c,
+ * watch.c, compile.c, durable.c).  May
  * include: base.h and <rayd/rayd.h> -- never an HTTP header, never
  * libmicrohttpd.  Included by the handlers
  * (api_*.c) and main.c.

@@ -86,6 +86,8 @@ check restart_cancel_state "$(head -c 200 "$T/body")" job_state_is "$(jid cancel
 check restart_queued_again "$(head -c 200 "$T/body")" job_state_is "$(jid run)" queued
 req GET "/v1/jobs/$(jid done)/image.png" >/dev/null
 check restart_done_same_bytes "image differs after the restart" cmp -s "$T/body" "$T/done.before"
+curl -s -m 30 "$URL/v1/jobs/$(jid done)/events" >"$T/events"
+check restart_events_done "$(head -c 300 "$T/events")" grep -q "event: done" "$T/events"
 req GET "/v1/jobs/$(jid exr)/image.exr" >/dev/null
 check restart_exr_same_bytes "EXR differs after the restart" cmp -s "$T/body" "$T/exr.before"
 gate open
