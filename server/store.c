@@ -190,6 +190,12 @@ struct blob *store_read(const char *id, bool exr)
 
 /* ---- SQLite ------------------------------------------------------------------------ */
 
+static const char *store_text(sqlite3_stmt *st, int col)
+{
+    const unsigned char *t = sqlite3_column_text(st, col);
+    return t ? (const char *)t : "";
+}
+
 static bool store_exec(const char *sql)
 {
     char *msg = NULL;
@@ -409,7 +415,8 @@ static void store_do(struct store_op *op)
             bytes = (size_t)sqlite3_column_int64(st, 0);
             sqlite3_finalize(st);
         }
-        if (store_run(NULL, "DELETE FROM jobs WHERE id = ?", "t", op->row.id) == SQLITE_DONE) {
+        if (store_run(NULL, "DELETE FROM frames WHERE job = ?", "t", op->row.id) == SQLITE_DONE &&
+            store_run(NULL, "DELETE FROM jobs WHERE id = ?", "t", op->row.id) == SQLITE_DONE) {
             store_unlink(op->row.id);
             store_bytes -= bytes < store_bytes ? bytes : store_bytes;
         }
@@ -588,6 +595,15 @@ int store_open(const char *dir)
         store_bytes = (size_t)sqlite3_column_int64(st, 0);
         sqlite3_finalize(st);
     }
+    /* a --max-disk lowered since the last run: kept from the start (the newest image stays) */
+    if (config.max_disk_bytes > 0 && store_bytes > config.max_disk_bytes &&
+        store_run(&st, "SELECT job FROM frames WHERE state = 'done' ORDER BY ended DESC LIMIT 1",
+                  "") == SQLITE_ROW) {
+        char keep[33];
+        snprintf(keep, sizeof keep, "%s", store_text(st, 0));
+        sqlite3_finalize(st);
+        store_evict(keep);
+    }
     return 0;
 }
 
@@ -620,12 +636,6 @@ static bool store_files_ok(const char *id, bool exr, long long bytes)
         have += st.st_size;
     }
     return have == bytes;
-}
-
-static const char *store_text(sqlite3_stmt *st, int col)
-{
-    const unsigned char *t = sqlite3_column_text(st, col);
-    return t ? (const char *)t : "";
 }
 
 /* One row of store_load's query into j. */
