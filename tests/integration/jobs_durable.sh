@@ -71,13 +71,15 @@ post_job run
 gate 1
 wait_until 60 gate_is started 3
 post_job queue
+scene "$T/prog.json" 32 32 4 spheres 12
+post_job prog "?progressive=1"
 wait_until 60 job_state_is "$(jid queue)" queued
 check matrix_run_running "state $(jfield "$T/body" state)" job_state_is "$(jid run)" running
 
 kill9
 # no result cache: the synchronous render compared with is rendered anew
 start_rayd --threads 1 --test-gate 0 --data-dir "$D" --result-cache-mb 0
-for n in done exr cancel run queue; do
+for n in done exr cancel run queue prog; do
     code=$(req GET "/v1/jobs/$(jid $n)")
     check "restart_${n}_kept" "status $code: $(head -c 200 "$T/body")" [ "$code" = 200 ]
 done
@@ -93,6 +95,10 @@ check restart_exr_same_bytes "EXR differs after the restart" cmp -s "$T/body" "$
 gate open
 wait_until 60 job_state_is "$(jid run)" succeeded
 wait_until 60 job_state_is "$(jid queue)" succeeded
+wait_until 60 job_state_is "$(jid prog)" succeeded
+code=$(req GET "/v1/jobs/$(jid prog)/image.png")
+check restart_progressive_rendered "status $code: $(head -c 200 "$T/body" | tr -c '[:print:]' .)" \
+    bash -c "[ $code = 200 ] && [ '$(png_size "$T/body" 2>/dev/null)' = 32x32 ]"
 for n in run queue; do
     req GET "/v1/jobs/$(jid $n)/image.png" >/dev/null && cp "$T/body" "$T/$n.png"
     check "restart_${n}_rendered" "$(head -c 200 "$T/$n.png" | tr -c '[:print:]' .)" \
@@ -106,7 +112,7 @@ req GET "/v1/jobs/$(jid run)/image.png" >/dev/null
 check restart_twice_same_bytes "image differs" cmp -s "$T/body" "$T/run.png"
 req GET /v1/jobs >/dev/null
 check restart_list_all "$(head -c 300 "$T/body")" python3 - "$T/body" \
-    "$(jid queue)" "$(jid run)" "$(jid cancel)" "$(jid exr)" "$(jid done)" <<'PY'
+    "$(jid prog)" "$(jid queue)" "$(jid run)" "$(jid cancel)" "$(jid exr)" "$(jid done)" <<'PY'
 import json, sys
 ids = [j["id"] for j in json.load(open(sys.argv[1]))["jobs"]]
 sys.exit(0 if ids == sys.argv[2:] else 1)
