@@ -93,6 +93,11 @@ for q in "priority=urgent" "priority=HIGH" "priority=" "priority=low&priority=hi
     check "priority_bad_$(echo "$q" | tr -c '[:alnum:]\n' _)" "status $code: $(head -c 200 "$T/body")" \
         bad_param_is "$T/body" priority
 done
+# a good value is taken (on f1aafc1 any ?priority= was an unknown parameter)
+code=$(post_json "/v1/jobs?priority=low" "$T/j7.json" -H "X-Client: alice")
+check priority_low_taken "status $code: $(head -c 200 "$T/body")" [ "$code" = 202 ]
+code=$(post_json "/v1/jobs?priority=urgent" "$T/j8.json" -H "X-Client: alice")
+check priority_bad_says_values "$(head -c 200 "$T/body")" grep -q "must be low, normal or high" "$T/body"
 
 # a fresh rayd: dave posts low, normal, high; the high one starts first, then normal
 kill -KILL "$RAYD_PID"; wait "$RAYD_PID" 2>/dev/null
