@@ -37,7 +37,8 @@
 # reads /metrics in tests/integration/observability.sh).  LINT_PKGS: make lint and make format.
 # BENCH_PKGS (below): make bench-peers only.
 BUILD_PKGS := gcc make pkg-config libc6-dev libpng-dev zlib1g-dev libisal-dev libdeflate-dev libcjson-dev \
-              libmicrohttpd-dev libcurl4-openssl-dev libssl-dev libopenexr-dev libstb-dev ffmpeg
+              libmicrohttpd-dev libcurl4-openssl-dev libssl-dev libopenexr-dev libstb-dev ffmpeg \
+              libsqlite3-dev
 TEST_PKGS := curl python3 nginx wrk chromium fonts-dejavu-core pngcheck openexr g++ \
              assimp-testmodels clang libclang-rt-14-dev valgrind openssl man-db \
              python3-prometheus-client
@@ -96,6 +97,9 @@ EXR_LIBS = $(shell pkg-config --libs OpenEXR)
 # and libdeflate, the PNG deflate at the default level, 5% faster as an archive
 # (the 1080p sphere frame's bands 36.9 -> 35.2 ms of work, median of 9).
 # librayd.so links them all as shared libraries (LIBS_SHARED).
+# SQLite (server/store.c only, rayd --data-dir) through pkg-config, as OpenEXR.
+SQLITE_CFLAGS = $(patsubst -I%,-isystem %,$(shell pkg-config --cflags sqlite3))
+SQLITE_LIBS = $(shell pkg-config --libs sqlite3)
 LIBS_DYN = -lz -lisal -lcjson $(EXR_LIBS) -lpthread -lm
 LIBS_CORE = -Wl,-Bstatic -lpng16 -ldeflate -lstb -Wl,-Bdynamic $(LIBS_DYN)
 LIBS_SHARED = -lpng16 -ldeflate -lstb $(LIBS_DYN)
@@ -168,7 +172,7 @@ $(BUILD)/%.o: %.c | $(BUILD)/.deps-ok
 # A server file names the layer of what it includes ("work/work.h").
 $(BUILD)/server/%.o: server/%.c | $(BUILD)/.deps-ok
 	@mkdir -p $(dir $@)
-	$(CC) $(CFLAGS_ALL) -D_DEFAULT_SOURCE -Iserver -Iinclude -I$(BUILD)/server -c $< -o $@
+	$(CC) $(CFLAGS_ALL) -D_DEFAULT_SOURCE $(SQLITE_CFLAGS) -Iserver -Iinclude -I$(BUILD)/server -c $< -o $@
 
 $(BUILD)/clients/%.o: clients/%.c | $(BUILD)/.deps-ok
 	@mkdir -p $(dir $@)
@@ -220,7 +224,7 @@ $(BUILD)/server/web_assets.h: $(WEB_FILES) $(WEB_EXAMPLES) tools/embed.sh | $(BU
 $(SERVER_OBJ): $(BUILD)/server/web_assets.h
 
 $(BUILD)/rayd: $(SERVER_OBJ) $(BUILD)/librayd.a
-	$(CC) $(LDFLAGS_ALL) -o $@ $^ -lmicrohttpd -lcrypto $(LIBS_CORE)
+	$(CC) $(LDFLAGS_ALL) -o $@ $^ -lmicrohttpd -lcrypto $(SQLITE_LIBS) $(LIBS_CORE)
 
 # --- clients ----------------------------------------------------------------
 $(BUILD)/rayd-client: $(CLIENT_SRC:%.c=$(BUILD)/%.o) $(BUILD)/librayd.a
@@ -409,12 +413,12 @@ FUZZ_SERVER_OBJ := $(patsubst server/%.c,build/fuzz/server/%.o,$(filter-out serv
 
 build/fuzz/server/%.o: server/%.c $(SERVER_HDR) build/server/web_assets.h | $(BUILD)/.test-deps-ok
 	@mkdir -p $(dir $@)
-	clang -Iserver $(FUZZ_CFLAGS) -MMD -MP -D_DEFAULT_SOURCE -Ibuild/server -c $< -o $@
+	clang -Iserver $(FUZZ_CFLAGS) -MMD -MP -D_DEFAULT_SOURCE $(SQLITE_CFLAGS) -Ibuild/server -c $< -o $@
 
 $(FUZZ_SERVER_TARGETS:%=build/fuzz/fuzz_%): build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c \
     tests/fuzz/fuzz_http_common.h $(SERVER_HDR) $(FUZZ_SERVER_OBJ) $(FUZZ_CORE_OBJ)
 	clang -Iserver $(FUZZ_CFLAGS) -D_DEFAULT_SOURCE -fsanitize=fuzzer $(filter %.c %.o,$^) -o $@ \
-	  -lmicrohttpd -lcrypto $(LIBS_CORE)
+	  -lmicrohttpd -lcrypto $(SQLITE_LIBS) $(LIBS_CORE)
 
 # A crash, leak, timeout or out-of-memory fails the run (the artifact stays
 # in build/fuzz/crash-TARGET-*).  Object files track their headers (-MMD).
@@ -476,7 +480,7 @@ readme-images: $(BUILD)/rayd-render | $(BUILD)/.test-deps-ok
 	bash tools/readme_images.sh $(BUILD)
 
 run: all
-	$(BUILD)/rayd --bind 127.0.0.1 --port 8080
+	$(BUILD)/rayd --bind 127.0.0.1 --port 8080 --data-dir $(BUILD)/data
 
 # Benchmark programs: raybench links the core's internals, like unit tests.
 # Bench-only Debian packages (Embree and POV-Ray for `make bench-peers`,

@@ -1,7 +1,7 @@
 /* main.c -- rayd: start, serve, drain, stop.
  *
  * Start-up order: options (config.c), the work layer (sched.c: caches, jobs,
- * workers, watcher), the route labels (router.c), then the listener
+ * workers, watcher), the jobs of --data-dir (durable.c), the route labels (router.c), then the listener
  * (http.c); each registers its gauges with metrics.c as it starts.  Only when the socket is bound is the line
  * "rayd listening on http://HOST:PORT" printed and flushed, as the first and
  * only line on stdout, so scripts can start `rayd --port 0` and read the
@@ -161,6 +161,12 @@ static int main_start(sigset_t *set)
         gate_enable(config.test_gate_tiles);
         log_warn("--test-gate: workers start tiles only as POST /v1/test/gate allows");
     }
+    if (durable_start()) { /* --data-dir: its jobs back before anyone can ask */
+        durable_stop();
+        compile_stop();
+        sched_stop();
+        return 1;
+    }
     router_start();
     if (http_start()) {
         sched_stop();
@@ -229,6 +235,7 @@ static void main_drain(int sig, sigset_t *set)
     }
     http_stop();
     compile_stop();
+    durable_stop(); /* what is queued is written; unfinished jobs stay queued on disk */
     sched_stop();
 }
 

@@ -83,8 +83,9 @@ SERVER_LAYERS = [
     ("server/base/", "base.h: config.c, log.c, clock.c, mem.c (the memory budget), metrics.c "
                      "(+ procstat.c), blob.c (a shared PNG), json.c"),
     ("server/work/", "work.h for the layers above, work_private.h for the work files alone; "
-                     "work.c (the one lock), the caches, scenes, costs, tasks, jobs, events, the "
-                     "watcher, the scheduler, the scene compiles"),
+                     "work.c (the one lock), the caches, scenes, costs, tasks, the job store "
+                     "(SQLite, store.c), jobs, events, the watcher, the scheduler, the scene "
+                     "compiles, the restart of stored jobs (durable.c)"),
     ("server/req/", "request.h: http_req.c (headers, query, suspend/resume, counts), "
                     "http_reply.c (replies, the error body)"),
     ("server/api/", "api.h: the handlers, a file per resource (api_render.c, api_jobs.c + "
@@ -104,8 +105,8 @@ SERVER_LAYERS = [
 FOLDER_ORDER = {
     "server/work/": [
         ["work", "work_private"], ["lru"], ["cache", "rcache"], ["scenefiles"], ["scenes"],
-        ["cost"], ["fair"], ["resolve"], ["passes"], ["task"], ["budget"], ["gate"], ["jobs"],
-        ["events"], ["watch"], ["sched"], ["compile"],
+        ["cost"], ["fair"], ["resolve"], ["passes"], ["task"], ["budget"], ["gate"], ["store"],
+        ["jobs"], ["events"], ["watch"], ["sched"], ["compile"], ["durable"],
     ],
 }
 # Programs above the core: each its own layer, side by side.
@@ -128,6 +129,7 @@ MHD_TEMPORARY = [
 ]
 SYSTEM_HEADERS = [
     ("microhttpd.h", "libmicrohttpd", MHD_ROOMS + MHD_TEMPORARY),
+    ("sqlite3.h", "SQLite", ["server/work/store.c"]),
     ("cjson/cJSON.h", "cJSON", ["core/format/", "core/load/", "server/base/", "server/req/",
                                 "server/api/", "clients/"]),
     ("png.h", "libpng", ["core/codec/"]),

@@ -97,6 +97,7 @@ void api_render_post(struct http_req *r, const char *id);
 void api_scenes_post(struct http_req *r, const char *id);
 void api_scenes_image(struct http_req *r, const char *id);
 void api_jobs_post(struct http_req *r, const char *id);
+void api_jobs_list(struct http_req *r, const char *id); /* GET /v1/jobs: the client's own */
 void api_jobs_get(struct http_req *r, const char *id);
 void api_jobs_delete(struct http_req *r, const char *id);
 void api_jobs_stop(struct http_req *r, const char *id);

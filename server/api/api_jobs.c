@@ -114,7 +114,7 @@ static const char *const api_plan_names[] = {"progressive", "pass_step", "time_b
                                              "noise_target", NULL};
 /* What POST /v1/jobs takes besides the region. */
 static const char *const api_jobs_names[] = {"progressive",  "pass_step", "time_budget",
-                                             "noise_target", "format",    NULL};
+                                             "noise_target", "format",    "priority", NULL};
 
 /* A decimal number in (0, max] from ?name=, if given: digits and a point
  * only (api_is_decimal), so 0x10, 1e3, inf and " 5" are refused. */
@@ -194,7 +194,85 @@ static void api_add_estimate(cJSON *o, const struct api_price *p)
     json_add_fixed(e, "seconds", p->seconds, 3);
 }
 
-/* POST /v1/jobs once its scene is compiled (api_scene's continuation). */
+/* ?priority=low|normal|high into *p (normal without it); 400 and false on
+ * a bad one. */
+static bool api_jobs_priority(struct http_req *r, int *p)
+{
+    const char *v = http_req_query(r, "priority");
+    *p = JP_NORMAL;
+    if (http_req_query_count(r, "priority") > 1)
+        return api_bad_param(r, "priority", "given more than once");
+    if (!v)
+        return true;
+    for (int i = JP_LOW; i <= JP_HIGH; i++)
+        if (!strcmp(v, jobs_priority_name(i))) {
+            *p = i;
+            return true;
+        }
+    char why[120];
+    snprintf(why, sizeof why, "must be low, normal or high, not '%.40s'", v);
+    return api_bad_param(r, "priority", why);
+}
+
+/* What the 202 of a new job says, kept until it is sent (at once, or once
+ * the job is on disk: --data-dir). */
+struct api_jobs_wait {
+    struct work_waiter w;
+    struct http_req *r;
+    char id[33], scene_id[65];
+    bool keep_exr;
+    struct api_price price;
+};
+
+/* 202: the job's id and where to follow it. */
+static void api_jobs_accepted(struct api_jobs_wait *a)
+{
+    struct http_req *r = a->r;
+    char url[80];
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddStringToObject(o, "id", a->id);
+    cJSON_AddStringToObject(o, "state", "queued");
+    cJSON_AddStringToObject(o, "scene_id", a->scene_id);
+    api_job_url(url, sizeof url, a->id, "");
+    cJSON_AddStringToObject(o, "status_url", url);
+    api_job_url(url, sizeof url, a->id, "/image.png");
+    cJSON_AddStringToObject(o, "image_url", url);
+    if (a->keep_exr) {
+        api_job_url(url, sizeof url, a->id, "/image.exr");
+        cJSON_AddStringToObject(o, "exr_url", url);
+    }
+    api_job_url(url, sizeof url, a->id, "/events");
+    cJSON_AddStringToObject(o, "events_url", url);
+    api_add_estimate(o, &a->price);
+    http_reply_json(r, 202, o);
+    api_job_url(url, sizeof url, a->id, "");
+    http_reply_header(r, "Location", url);
+    api_cost_price_headers(r, &a->price);
+}
+
+/* The store thread's word (--data-dir): the job is on disk, or could not
+ * be recorded (then it is cancelled: a job rayd cannot keep is not taken). */
+static void api_jobs_recorded(struct work_waiter *w, struct work_result *res)
+{
+    struct api_jobs_wait *a = (struct api_jobs_wait *)w;
+    if (res->status == RAYD_OK) {
+        api_jobs_accepted(a);
+    } else {
+        jobs_cancel(a->id);
+        http_reply_error(a->r, 503, "store_failed", res->err.message, NULL, 0, 0, NULL);
+        http_reply_header(a->r, MHD_HTTP_HEADER_RETRY_AFTER, "5");
+    }
+    http_req_resume(a->r);
+    free(a);
+}
+
+static void api_jobs_recorded_suspend(struct work_waiter *w)
+{
+    api_suspend(((struct api_jobs_wait *)w)->r);
+}
+
+/* POST /v1/jobs once its scene is compiled (api_scene's continuation);
+ * true when the request waits for the store (it resumes it). */
 static bool api_jobs_compiled(struct http_req *r, struct cache_entry *e, bool hit)
 {
     (void)hit;
@@ -202,35 +280,32 @@ static bool api_jobs_compiled(struct http_req *r, struct cache_entry *e, bool hi
     struct work_target what = {.format = WORK_PNG};
     struct jobs_plan plan;
     struct api_price price;
-    char id[33], url[80];
-    enum work_submit s;
+    struct jobs_new how = {.scene = r->body ? r->body : "", .scene_len = r->body_len};
     if (!api_region_also(r, cache_scene(e), &what.reg, api_jobs_names) ||
         !api_plan(r, cache_scene(e), &plan, &progressive) || !api_jobs_format(r, &what) ||
-        !api_cost_admit(r, e, &what, progressive, &price)) {
-        /* replied */
-    } else if ((s = jobs_create(e, &what, progressive ? &plan : NULL, id)) != WORK_OK) {
-        api_refused(r, s);
-    } else {
-        cJSON *o = cJSON_CreateObject();
-        cJSON_AddStringToObject(o, "id", id);
-        cJSON_AddStringToObject(o, "state", "queued");
-        cJSON_AddStringToObject(o, "scene_id", cache_id(e));
-        api_job_url(url, sizeof url, id, "");
-        cJSON_AddStringToObject(o, "status_url", url);
-        api_job_url(url, sizeof url, id, "/image.png");
-        cJSON_AddStringToObject(o, "image_url", url);
-        if (what.keep_exr) {
-            api_job_url(url, sizeof url, id, "/image.exr");
-            cJSON_AddStringToObject(o, "exr_url", url);
-        }
-        api_job_url(url, sizeof url, id, "/events");
-        cJSON_AddStringToObject(o, "events_url", url);
-        api_add_estimate(o, &price);
-        http_reply_json(r, 202, o);
-        api_job_url(url, sizeof url, id, "");
-        http_reply_header(r, "Location", url);
-        api_cost_price_headers(r, &price);
+        !api_jobs_priority(r, &how.priority) || !api_cost_admit(r, e, &what, progressive, &price))
+        return false; /* replied */
+    struct api_jobs_wait *a = calloc(1, sizeof *a);
+    if (!a) {
+        api_refused(r, WORK_NOMEM);
+        return false;
     }
+    a->r = r;
+    a->w.done = api_jobs_recorded;
+    a->w.suspend = api_jobs_recorded_suspend;
+    a->w.fd = -1;
+    snprintf(a->scene_id, sizeof a->scene_id, "%s", cache_id(e));
+    a->keep_exr = what.keep_exr;
+    a->price = price;
+    how.w = &a->w;
+    enum work_submit s = jobs_submit(e, &what, progressive ? &plan : NULL, &how, a->id);
+    if (how.waiting)
+        return true; /* a is the store's until done() */
+    if (s != WORK_OK)
+        api_refused(r, s);
+    else
+        api_jobs_accepted(a);
+    free(a);
     return false;
 }
 
@@ -302,6 +377,12 @@ cJSON *api_jobs_json(const char *id, const struct jobs_info *in)
     cJSON_AddNumberToObject(reg, "y", in->region.y);
     cJSON_AddNumberToObject(reg, "w", in->region.w);
     cJSON_AddNumberToObject(reg, "h", in->region.h);
+    cJSON_AddStringToObject(o, "priority", jobs_priority_name(in->priority));
+    if (in->created_wall > 0) {
+        char at[40];
+        api_jobs_time(at, sizeof at, in->created_wall);
+        cJSON_AddStringToObject(o, "created_at", at);
+    }
     json_add_fixed(o, "age_s", in->created_age, 3);
     json_add_fixed(o, "queue_ms", in->queue_ms, 3);
     json_add_fixed(o, "render_ms", in->render_ms, 3);
@@ -325,7 +406,9 @@ cJSON *api_jobs_json(const char *id, const struct jobs_info *in)
         }
     }
     if (in->state == JS_EVICTED)
-        cJSON_AddStringToObject(o, "evicted_reason", JOBS_EVICTED_WHY);
+        cJSON_AddStringToObject(o, "evicted_reason", in->result_evicted && in->gone.detail[0]
+                                                         ? in->gone.detail
+                                                         : JOBS_EVICTED_WHY);
     if (in->state == JS_FAILED) {
         cJSON *err = cJSON_AddObjectToObject(o, "error");
         cJSON_AddStringToObject(err, "code", rayd_status_name(in->err.code));
@@ -392,4 +475,84 @@ void api_jobs_stop(struct http_req *r, const char *id)
         return;
     }
     http_reply_json(r, 200, api_jobs_json(id, &info));
+}
+
+/* ---- GET /v1/jobs: the calling client's jobs --------------------------------- */
+
+#define API_JOBS_PAGE 20     /* jobs a page holds without ?limit= */
+#define API_JOBS_PAGE_MAX 100
+
+/* ?name=, a whole number in 1..max, into *out (left as is without it). */
+static bool api_jobs_count(struct http_req *r, const char *name, long long max, long long *out)
+{
+    const char *v = http_req_query(r, name);
+    if (http_req_query_count(r, name) > 1)
+        return api_bad_param(r, name, "given more than once");
+    if (!v)
+        return true;
+    long long x = strtoll(v, NULL, 10);
+    if (!api_is_decimal(v, false) || strlen(v) > 18 || x < 1 || x > max) {
+        char why[100];
+        snprintf(why, sizeof why, "must be a whole number from 1 to %lld", max);
+        return api_bad_param(r, name, why);
+    }
+    *out = x;
+    return true;
+}
+
+/* ?state=: a job state's name, or any (-1) without it. */
+static bool api_jobs_state_param(struct http_req *r, int *state)
+{
+    const char *v = http_req_query(r, "state");
+    *state = -1;
+    if (http_req_query_count(r, "state") > 1)
+        return api_bad_param(r, "state", "given more than once");
+    if (!v)
+        return true;
+    for (int i = JS_QUEUED; i <= JS_EVICTED; i++)
+        if (!strcmp(v, jobs_state_name((enum jobs_state)i))) {
+            *state = i;
+            return true;
+        }
+    return api_bad_param(r, "state",
+                         "must be queued, running, succeeded, failed, canceled or evicted");
+}
+
+void api_jobs_list(struct http_req *r, const char *unused)
+{
+    (void)unused;
+    static const char *const takes[] = {"limit", "after", "state", NULL};
+    long long limit = API_JOBS_PAGE, after = 0;
+    int state;
+    if (!api_only_params(r, takes) || !api_jobs_count(r, "limit", API_JOBS_PAGE_MAX, &limit) ||
+        !api_jobs_count(r, "after", (long long)1e18, &after) || !api_jobs_state_param(r, &state))
+        return;
+    struct jobs_info *rows = calloc((size_t)limit, sizeof *rows);
+    if (!rows) {
+        api_refused(r, WORK_NOMEM);
+        return;
+    }
+    bool more = false;
+    int n = jobs_list(api_cost_client(r), state, after, rows, (int)limit, &more);
+    cJSON *o = cJSON_CreateObject();
+    cJSON *list = cJSON_AddArrayToObject(o, "jobs");
+    for (int i = 0; i < n; i++) {
+        cJSON_AddItemToArray(list, api_jobs_json(rows[i].id, &rows[i]));
+    }
+    if (more && n > 0) {
+        char cursor[24], url[200];
+        snprintf(cursor, sizeof cursor, "%lld", rows[n - 1].seq);
+        cJSON_AddStringToObject(o, "next_after", cursor);
+        int k = snprintf(url, sizeof url, "/v1/jobs?limit=%lld&after=%s", limit, cursor);
+        if (state >= 0 && k > 0 && (size_t)k < sizeof url)
+            snprintf(url + k, sizeof url - (size_t)k, "&state=%s",
+                     jobs_state_name((enum jobs_state)state));
+        cJSON_AddStringToObject(o, "next_url", url);
+    } else {
+        cJSON_AddNullToObject(o, "next_after");
+        cJSON_AddNullToObject(o, "next_url");
+    }
+    free(rows);
+    http_reply_json(r, 200, o);
+    http_reply_header(r, "Cache-Control", "no-store");
 }

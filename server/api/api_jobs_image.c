@@ -139,6 +139,12 @@ static void api_jobs_final_image(struct http_req *r, const char *id, bool exr)
         return;
     api_jobs_scene(r, &info);
     struct blob *img = exr ? info.exr : info.png;
+    if (!img && info.on_disk && (!exr || info.keep_exr) && !(img = store_read(id, exr))) {
+        http_reply_error(r, 410, "result_evicted",
+                         "the job's image is no longer on disk (--max-disk evicted it)", NULL, 0,
+                         0, NULL);
+        return;
+    }
     if (api_jobs_no_exr(r, &info, exr)) {
         /* replied */
     } else if (img && (info.state == JS_SUCCEEDED || info.state == JS_RUNNING)) {

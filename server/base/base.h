@@ -62,6 +62,8 @@ struct config {
     char *tls_cert, *tls_key; /* PEM files: serve HTTPS with libmicrohttpd's TLS */
     char *asset_dir;     /* folder of scene "file" references (real path), NULL = refused */
     char *test_gate;     /* tests only: "open" or tiles allowed; NULL = off */
+    char *data_dir;      /* jobs kept on disk here (store.c), NULL = in memory only */
+    char *max_disk;      /* --max-disk as given (bytes, K/M/G/T suffixes); NULL: no budget */
     /* derived */
     char *token;         /* contents of token_file, trimmed */
     size_t token_len;
@@ -69,6 +71,7 @@ struct config {
     int log_min;          /* enum log_level of --log-level */
     long test_gate_tiles; /* parsed --test-gate: -1 open, -2 off */
     size_t max_memory_bytes; /* parsed --max-memory: the one budget (mem.c) */
+    size_t max_disk_bytes;   /* parsed --max-disk, 0 = no budget */
 };
 
 extern struct config config;

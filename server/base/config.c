@@ -116,6 +116,12 @@ static const struct config_option config_table[] = {
      "PEM private key for --tls-cert"},
     {"asset-dir", "RAYD_ASSET_DIR", CT_STRING, &config.asset_dir, NULL, 0, 0,
      "folder a scene's mesh and texture \"file\" names are read from (inside it only)"},
+    {"data-dir", "RAYD_DATA_DIR", CT_STRING, &config.data_dir, NULL, 0, 0,
+     "folder where jobs (SQLite) and their images are kept across restarts (default: memory "
+     "only)"},
+    {"max-disk", "RAYD_MAX_DISK", CT_STRING, &config.max_disk, NULL, 0, 0,
+     "disk budget of the finished images under --data-dir, in bytes or with K, M, G; the "
+     "oldest are evicted first (410 result_evicted); default: no budget"},
     {"test-gate", "RAYD_TEST_GATE", CT_STRING, &config.test_gate, NULL, 0, 0,
      "tests only: workers start tiles only as POST /v1/test/gate allows (N tiles, or open)"},
 };
@@ -393,6 +399,48 @@ static int config_test_gate(void)
     return 0;
 }
 
+/* --data-dir: a folder that exists (or can be made, one level) and that
+ * rayd may write in, kept as its real path; --max-disk, which needs it:
+ * bytes, K, M, G or T as --max-memory. */
+static int config_data_dir(void)
+{
+    size_t v = 0;
+    if (config.max_disk && (!mem_parse(config.max_disk, &v) || v == 0)) {
+        fprintf(stderr,
+                "rayd: error: --max-disk takes bytes above 0 (a number with an optional K, M, G "
+                "or T suffix), not '%s'\n",
+                config.max_disk);
+        return CONFIG_USAGE;
+    }
+    config.max_disk_bytes = v;
+    if (!config.data_dir)
+        return config.max_disk ? (fprintf(stderr, "rayd: error: --max-disk needs --data-dir\n"),
+                                  CONFIG_USAGE)
+                               : 0;
+    struct stat st;
+    if (!*config.data_dir) {
+        fprintf(stderr, "rayd: error: --data-dir is empty\n");
+        return CONFIG_USAGE;
+    }
+    if (stat(config.data_dir, &st) != 0 && (errno != ENOENT || mkdir(config.data_dir, 0700) != 0)) {
+        fprintf(stderr, "rayd: error: --data-dir %s: cannot use or create it: %s\n",
+                config.data_dir, strerror(errno));
+        return CONFIG_FAILED;
+    }
+    char *real = realpath(config.data_dir, NULL);
+    if (!real || stat(real, &st) != 0 || !S_ISDIR(st.st_mode) || access(real, W_OK | X_OK) != 0) {
+        fprintf(stderr, "rayd: error: --data-dir %s: %s\n", config.data_dir,
+                !real                  ? strerror(errno)
+                : !S_ISDIR(st.st_mode) ? "not a directory"
+                                       : "not writable by rayd");
+        free(real);
+        return CONFIG_FAILED;
+    }
+    free(config.data_dir);
+    config.data_dir = real;
+    return 0;
+}
+
 /* --log-level as enum log_level (log.c writes the same words). */
 static int config_log_level(void)
 {
@@ -458,6 +506,8 @@ int config_load(int argc, char **argv)
         return CONFIG_FAILED;
     if (config_max_memory())
         return CONFIG_USAGE;
+    if ((rc = config_data_dir()) != 0)
+        return rc;
     if (!config.tls_cert != !config.tls_key) {
         fprintf(stderr, "rayd: error: --tls-cert and --tls-key go together\n");
         return CONFIG_USAGE;

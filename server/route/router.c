@@ -37,6 +37,7 @@ static const struct route router_table[] = {
     {"POST", "/v1/scenes", api_scenes_post, "/v1/scenes"},
     {"GET", "/v1/scenes/{id}/image.png", api_scenes_image, "/v1/scenes/{id}/image.png"},
     {"POST", "/v1/jobs", api_jobs_post, "/v1/jobs"},
+    {"GET", "/v1/jobs", api_jobs_list, "/v1/jobs"},
     {"GET", "/v1/jobs/{id}", api_jobs_get, "/v1/jobs/{id}"},
     {"DELETE", "/v1/jobs/{id}", api_jobs_delete, "/v1/jobs/{id}"},
     {"POST", "/v1/jobs/{id}/stop", api_jobs_stop, "/v1/jobs/{id}/stop"},

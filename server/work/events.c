@@ -68,7 +68,7 @@ static int events_news(struct events_stream *s, struct events_item *it, int n,
                                        .noise = p->noise[c],
                                        .progress = passes_progress(p, s->cursor, 0)};
     }
-    while (!p && s->cursor < t->done && k < n) {
+    while (!p && t->order && s->cursor < t->done && k < n) { /* none: restored (durable.c) */
         s->cursor++;
         it[k++] = (struct events_item){.kind = EVENTS_TILE,
                                        .tile = task_tile(t, t->order[s->cursor - 1]),

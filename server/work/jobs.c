@@ -31,6 +31,17 @@
  * finished first.  Such a job keeps its numbers and says "evicted" (its
  * image answers 410 result_evicted), so a client knows to render again
  * rather than think its id wrong.
+ *
+ * With --data-dir every job is also a record on disk (store.c): created
+ * before its 202 is sent, ended when its task finishes (the finish hook,
+ * its images written by the store thread), dropped when it is forgotten.
+ * A job whose images are on disk (j->stored) may let go of them in memory
+ * without being evicted: they are read back from the file.  A task the
+ * drain cancels is not an end: its jobs stay queued on disk and render
+ * after the restart.  Priorities (POST /v1/jobs?priority=) are the task's
+ * (task.c orders a client's own tasks by them) and jobs_list pages a
+ * client's jobs newest first by their creation number, which survives a
+ * restart.
  */
 #include "work/work_private.h"
 
@@ -41,6 +52,7 @@
 
 static struct job **jobs_table;
 static int jobs_n, jobs_max;
+static long long jobs_seq; /* the last creation number given */
 
 /* The ring of tombstones: the next slot to write, and how many are used. */
 static struct jobs_tomb {
@@ -55,6 +67,19 @@ static long jobs_gauge(void)
     long n = jobs_n;
     pthread_mutex_unlock(&work_lock);
     return n;
+}
+
+/* Whether every job of t has its images on disk (--data-dir). */
+static bool jobs_all_stored(const struct task *t)
+{
+    bool any = false;
+    for (int i = 0; i < jobs_n; i++)
+        if (jobs_table[i]->task == t) {
+            if (!jobs_table[i]->stored)
+                return false;
+            any = true;
+        }
+    return any;
 }
 
 /* Lets go of the images of the finished job that finished first (of the
@@ -75,6 +100,14 @@ static bool jobs_evict_oldest(void)
     if (!victim)
         return false;
     struct task *t = victim->task;
+    if (jobs_all_stored(t)) { /* on disk: only the memory goes */
+        blob_unref(t->png);
+        blob_unref(t->exr);
+        t->png = t->exr = NULL;
+        if (t->passes)
+            passes_let_go(t->passes);
+        return true;
+    }
     jobs_evict_result(victim, JOBS_EVICTED_WHY);
     if (t->passes)
         passes_let_go(t->passes);
@@ -96,10 +129,16 @@ static bool jobs_reclaim(enum mem_kind k, size_t need)
     return freed;
 }
 
+static void jobs_finished(struct task *t);
+static void jobs_written(const char *id);
+static void jobs_disk_evicted(const char *id, const char *why, double wall);
+
 int jobs_start(int max_jobs)
 {
     jobs_max = max_jobs;
     mem_set_reclaim(jobs_reclaim);
+    task_on_finish(jobs_finished);
+    store_hooks(jobs_written, jobs_disk_evicted);
     jobs_table = calloc((size_t)max_jobs, sizeof *jobs_table);
     metrics_gauge(MG_JOBS, jobs_gauge);
     return jobs_table ? 0 : -1;
@@ -127,7 +166,7 @@ enum jobs_state jobs_state(const struct job *j)
     const struct task *t = j->task;
     if (j->canceled)
         return JS_CANCELED;
-    if (t->finished && t->evicted)
+    if (t->finished && (t->evicted || (j->evicted_at > 0 && t->status == RAYD_OK)))
         return JS_EVICTED;
     if (t->finished)
         return t->status == RAYD_OK           ? JS_SUCCEEDED
@@ -197,6 +236,8 @@ static void jobs_forget(int i, enum jobs_gone_why why, double now)
 {
     struct job *j = jobs_table[i];
     jobs_bury(j, why, now);
+    if (store_on())
+        store_forget(j->id);
     jobs_table[i] = jobs_table[--jobs_n];
     jobs_unref(j);
 }
@@ -315,31 +356,161 @@ static bool jobs_progressive(struct task *t, struct cache_entry *scene,
     return t->passes != NULL;
 }
 
-enum work_submit jobs_create(struct cache_entry *scene, const struct work_target *what,
-                             const struct jobs_plan *plan, char id[33])
+/* A clock_now() time of a wall-clock one (seconds since the epoch). */
+static double jobs_mono(double wall)
 {
-    if (!jobs_new_id(id))
-        return WORK_NOMEM;
-    enum work_submit why;
-    struct task *fresh = budget_task(scene, what, plan != NULL, &why);
-    if (!fresh)
-        return why;
-    struct job *j = calloc(1, sizeof *j);
-    if (plan && !jobs_progressive(fresh, scene, plan, id)) {
-        task_unref(fresh);
-        fresh = NULL;
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    return clock_now() - ((double)ts.tv_sec + (double)ts.tv_nsec / 1e9 - wall);
+}
+
+const char *jobs_priority_name(int p)
+{
+    static const char *const names[] = {"low", "normal", "high"};
+    return p >= JP_LOW && p <= JP_HIGH ? names[p] : "normal";
+}
+
+/* j's record for the store: what it renders, and how it ended so far. */
+static void jobs_record(const struct job *j, struct store_job *row)
+{
+    const struct task *t = j->task;
+    memset(row, 0, sizeof *row);
+    snprintf(row->id, sizeof row->id, "%s", j->id);
+    row->seq = j->seq;
+    row->client = j->client;
+    row->priority = j->priority;
+    row->created_wall = j->created_wall;
+    row->state = jobs_state(j);
+    snprintf(row->scene_id, sizeof row->scene_id, "%s", t->scene_id);
+    row->reg = t->reg;
+    row->keep_exr = t->keep_exr;
+    row->progressive = t->passes != NULL;
+    if (t->passes)
+        row->plan = t->passes->plan;
+    row->tiles = t->ntiles;
+    row->rays = t->rays;
+    row->est_rays = t->est_rays;
+    task_times(t, clock_now(), &row->queue_ms, &row->render_ms);
+    row->encode_ms = t->encode_s * 1e3;
+    if (row->state == JS_FAILED)
+        row->err = t->err;
+    if (jobs_final(j))
+        row->ended_wall = jobs_wall(jobs_ended(j));
+}
+
+/* The finish hook (task.c), lock held: each job of t that ended is
+ * recorded with its images.  A task the drain cancelled did not end for
+ * its jobs: they stay queued on disk and render again after the restart. */
+static void jobs_finished(struct task *t)
+{
+    if (!store_on() || (task_draining() && t->status == RAYD_E_CANCELED))
+        return;
+    for (int i = 0; i < jobs_n; i++) {
+        struct job *j = jobs_table[i];
+        if (j->task != t || j->canceled || j->recorded)
+            continue;
+        struct store_job row;
+        jobs_record(j, &row);
+        bool ok = row.state == JS_SUCCEEDED;
+        store_end(&row, ok ? t->png : NULL, ok ? t->exr : NULL);
+        j->recorded = true;
     }
-    if (!j || !fresh) {
-        free(j);
-        if (fresh)
-            task_unref(fresh);
-        return WORK_NOMEM;
+}
+
+/* The store hooks, on the store thread: j's images are on disk; or they
+ * were evicted from it (--max-disk), so j answers 410 result_evicted. */
+static void jobs_written(const char *id)
+{
+    pthread_mutex_lock(&work_lock);
+    struct job *j = jobs_find(id);
+    if (j)
+        j->stored = true;
+    pthread_mutex_unlock(&work_lock);
+}
+
+static void jobs_disk_evicted(const char *id, const char *why, double wall)
+{
+    pthread_mutex_lock(&work_lock);
+    struct job *j = jobs_find(id);
+    if (j && j->evicted_at == 0) {
+        j->stored = false;
+        j->evicted_at = jobs_mono(wall);
+        snprintf(j->evicted_why, sizeof j->evicted_why, "%s", why);
+        bool shared = false;
+        for (int i = 0; i < jobs_n; i++)
+            shared |= jobs_table[i] != j && jobs_table[i]->task == j->task;
+        if (!shared) { /* nobody else reads the task's images */
+            blob_unref(j->task->png);
+            blob_unref(j->task->exr);
+            j->task->png = j->task->exr = NULL;
+        }
     }
+    pthread_mutex_unlock(&work_lock);
+}
+
+/* j (zeroed) becomes job id of task t (lock held, the table has room). */
+static struct job *jobs_add(struct job *j, const char *id, struct task *t, uint64_t client,
+                            int priority)
+{
     snprintf(j->id, sizeof j->id, "%s", id);
     j->created = clock_now();
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    j->created_wall = (double)ts.tv_sec + (double)ts.tv_nsec / 1e9;
     j->refs = 1;
+    j->client = client;
+    j->priority = priority;
+    j->seq = ++jobs_seq;
+    j->task = t;
+    t->refs++;
+    t->njobs++;
+    if (t->client == client && priority > t->priority)
+        t->priority = priority; /* a joined task: its client's order only */
+    jobs_table[jobs_n++] = j;
+    return j;
+}
+
+/* The task a new job renders: fresh, its passes made for a progressive
+ * one; NULL with *why. */
+static struct task *jobs_task(struct cache_entry *scene, const struct work_target *what,
+                              const struct jobs_plan *plan, const char *id, int priority,
+                              enum work_submit *why)
+{
+    struct task *fresh = budget_task(scene, what, plan != NULL, why);
+    if (!fresh)
+        return NULL;
+    if (plan && !jobs_progressive(fresh, scene, plan, id)) {
+        task_unref(fresh);
+        *why = WORK_NOMEM;
+        return NULL;
+    }
+    fresh->priority = priority;
+    return fresh;
+}
+
+enum work_submit jobs_submit(struct cache_entry *scene, const struct work_target *what,
+                             const struct jobs_plan *plan, struct jobs_new *how, char id[33])
+{
+    how->waiting = false;
+    if (!jobs_new_id(id))
+        return WORK_NOMEM;
+    enum work_submit r;
+    struct task *fresh = jobs_task(scene, what, plan, id, how->priority, &r);
+    if (!fresh)
+        return r;
+    struct store_job row = {0};
+    struct job *spare = calloc(1, sizeof *spare);
+    if (!spare || (store_on() && !(row.scene = malloc(how->scene_len + 1)))) {
+        free(spare);
+        task_unref(fresh);
+        return WORK_NOMEM;
+    }
+    if (row.scene) {
+        memcpy(row.scene, how->scene, how->scene_len);
+        row.scene[how->scene_len] = 0;
+        row.scene_len = how->scene_len;
+    }
     pthread_mutex_lock(&work_lock);
-    enum work_submit r = WORK_OK;
     struct task *t = NULL;
     if (task_draining())
         r = WORK_DRAINING;
@@ -347,18 +518,117 @@ enum work_submit jobs_create(struct cache_entry *scene, const struct work_target
         r = WORK_TOO_MANY_JOBS;
     else
         r = task_submit(scene, &fresh, &t);
-    if (r == WORK_OK) {
-        j->task = t;
-        t->refs++;
-        t->njobs++;
-        jobs_table[jobs_n++] = j;
-        j = NULL;
+    struct job *j = r == WORK_OK ? jobs_add(spare, id, t, what->client, how->priority) : NULL;
+    if (j)
+        spare = NULL;
+    if (j && row.scene) {
+        char *scene_copy = row.scene;
+        jobs_record(j, &row);
+        row.scene = scene_copy;
+        row.scene_len = how->scene_len;
+        how->waiting = store_insert(&row, how->w);
     }
     pthread_mutex_unlock(&work_lock);
-    free(j);
+    free(row.scene);
+    free(spare);
     if (fresh)
         task_unref(fresh);
     return r;
+}
+
+enum work_submit jobs_create(struct cache_entry *scene, const struct work_target *what,
+                             const struct jobs_plan *plan, char id[33])
+{
+    struct jobs_new how = {.priority = JP_NORMAL};
+    return jobs_submit(scene, what, plan, &how, id);
+}
+
+/* ---- start-up: the store's jobs put back ------------------------------------------ */
+
+/* A finished task standing for a job that ended before this process:
+ * its numbers, no pixels; its image, if any, on disk. */
+static struct task *jobs_ended_task(const struct store_job *row)
+{
+    struct task *t = calloc(1, sizeof *t);
+    if (!t)
+        return NULL;
+    t->reg = row->reg;
+    t->ntiles = t->done = (int)row->tiles;
+    t->tile = 1;
+    snprintf(t->scene_id, sizeof t->scene_id, "%s", row->scene_id);
+    snprintf(t->key, sizeof t->key, "restored~%s", row->id);
+    t->keep_exr = row->keep_exr;
+    t->rays = row->rays;
+    t->est_rays = row->est_rays;
+    t->finished = true;
+    t->t_end = jobs_mono(row->ended_wall);
+    t->status = row->state == JS_SUCCEEDED ? RAYD_OK
+                : row->state == JS_FAILED  ? (row->err.code ? row->err.code : RAYD_E_INTERNAL)
+                                           : RAYD_E_CANCELED;
+    t->err = row->err;
+    t->err.code = t->status;
+    t->priority = row->priority;
+    t->refs = 1;
+    atomic_init(&t->cancel, 0);
+    return t;
+}
+
+bool jobs_restore(const struct store_job *row, struct cache_entry *scene)
+{
+    enum work_submit r = WORK_OK;
+    struct task *fresh = NULL;
+    if (scene) {
+        struct work_target what = {.reg = row->reg, .format = WORK_PNG,
+                                   .keep_exr = row->keep_exr, .client = row->client};
+        fresh = jobs_task(scene, &what, row->progressive ? &row->plan : NULL, row->id,
+                          row->priority, &r);
+        if (fresh)
+            fresh->restored = true;
+    } else {
+        fresh = jobs_ended_task(row);
+    }
+    struct job *spare = fresh ? calloc(1, sizeof *spare) : NULL;
+    if (!spare) {
+        if (fresh)
+            task_unref(fresh);
+        return false;
+    }
+    pthread_mutex_lock(&work_lock);
+    struct task *t = fresh;
+    if (jobs_n == jobs_max && !jobs_evict())
+        r = WORK_TOO_MANY_JOBS;
+    else if (scene)
+        r = task_submit(scene, &fresh, &t);
+    else
+        fresh = NULL;
+    struct job *j = r == WORK_OK ? jobs_add(spare, row->id, t, row->client, row->priority) : NULL;
+    if (j) {
+        spare = NULL;
+        j->seq = row->seq;
+        if (row->seq > jobs_seq)
+            jobs_seq = row->seq;
+        j->created_wall = row->created_wall;
+        j->created = jobs_mono(row->created_wall);
+        if (!scene) {
+            j->restored = j->recorded = true;
+            j->stored = row->state == JS_SUCCEEDED && row->result_ok;
+            j->canceled = row->state == JS_CANCELED;
+            j->canceled_at = t->t_end;
+            j->queue_ms = row->queue_ms;
+            j->render_ms = row->render_ms;
+            j->encode_ms = row->encode_ms;
+            if (row->evicted_wall > 0) {
+                j->evicted_at = jobs_mono(row->evicted_wall);
+                snprintf(j->evicted_why, sizeof j->evicted_why, "%s", row->evicted_why);
+            }
+            task_unref(t); /* the job's reference stays */
+        }
+    }
+    pthread_mutex_unlock(&work_lock);
+    free(spare);
+    if (fresh)
+        task_unref(fresh);
+    return j != NULL;
 }
 
 /* The share of the work done, lock held: of the tiles, or for a progressive
@@ -410,6 +680,15 @@ static void jobs_info_of(const struct job *j, struct jobs_info *info, enum jobs_
         info->err = t->err;
     info->keep_exr = t->keep_exr;
     info->ended_age = jobs_final(j) ? now - jobs_ended(j) : -1;
+    snprintf(info->id, sizeof info->id, "%s", j->id);
+    info->priority = j->priority;
+    info->seq = j->seq;
+    info->created_wall = j->created_wall;
+    if (j->restored) {
+        info->queue_ms = j->queue_ms;
+        info->render_ms = j->render_ms;
+        info->encode_ms = j->encode_ms;
+    }
     if (j->evicted_at > 0) { /* no image to hand out: why instead */
         info->result_evicted = true;
         info->gone = (struct jobs_gone){.why = JG_RESULT_EVICTED,
@@ -423,6 +702,41 @@ static void jobs_info_of(const struct job *j, struct jobs_info *info, enum jobs_
         info->png = jobs_image(j, info->state, false);
     if (want & JOBS_EXR)
         info->exr = jobs_image(j, info->state, true);
+    /* in memory no more (or never, in this process), on disk still */
+    info->on_disk = want && info->state == JS_SUCCEEDED && j->stored &&
+                    !((want & JOBS_PNG) && info->png) && !((want & JOBS_EXR) && info->exr);
+}
+
+/* Newest first: by creation number, descending. */
+static int jobs_newer(const void *a, const void *b)
+{
+    long long x = (*(struct job *const *)a)->seq, y = (*(struct job *const *)b)->seq;
+    return x < y ? 1 : x > y ? -1 : 0;
+}
+
+int jobs_list(uint64_t client, int state, long long before, struct jobs_info *out, int n,
+              bool *more)
+{
+    *more = false;
+    pthread_mutex_lock(&work_lock);
+    struct job **mine = malloc((size_t)(jobs_n ? jobs_n : 1) * sizeof *mine);
+    int m = 0, got = 0;
+    for (int i = 0; mine && i < jobs_n; i++) {
+        struct job *j = jobs_table[i];
+        if (j->client == client && (before <= 0 || j->seq < before) &&
+            (state < 0 || jobs_state(j) == (enum jobs_state)state))
+            mine[m++] = j;
+    }
+    if (mine)
+        qsort(mine, (size_t)m, sizeof *mine, jobs_newer);
+    for (; got < n && got < m; got++) {
+        memset(&out[got], 0, sizeof out[got]);
+        jobs_info_of(mine[got], &out[got], JOBS_NUMBERS);
+    }
+    *more = m > got;
+    pthread_mutex_unlock(&work_lock);
+    free(mine);
+    return got;
 }
 
 bool jobs_get(const char *id, struct jobs_info *info, enum jobs_want want)
@@ -452,6 +766,12 @@ bool jobs_cancel(const char *id)
                 passes_let_go(t->passes);
         }
         task_notify_add(&sse, &t->sse_waiters);
+        if (store_on() && !j->recorded) {
+            struct store_job row;
+            jobs_record(j, &row);
+            store_end(&row, NULL, NULL);
+            j->recorded = true;
+        }
     }
     pthread_mutex_unlock(&work_lock);
     task_notify_run(&n);

@@ -38,6 +38,9 @@ struct task *task_active;
 long task_queued;
 int task_queue_cap;
 static atomic_bool task_drain_flag;
+static void (*task_finish_hook)(struct task *t); /* jobs.c's: a job's end to record */
+
+void task_on_finish(void (*fn)(struct task *t)) { task_finish_hook = fn; }
 
 /* Set under the lock, so no submission slips past it; read without. */
 void task_drain(void)
@@ -199,6 +202,21 @@ static bool task_before(const struct task *t, uint64_t t_last, const struct task
     return t->t_enq < u->t_enq;
 }
 
+/* The task of t's client and class that goes first by the client's own
+ * order: the highest priority (POST /v1/jobs?priority=), then the oldest.
+ * The client and class were chosen by the fair rule before, so a priority
+ * orders a client's own work and never moves it ahead of another client. */
+static struct task *task_own_first(struct task *t)
+{
+    struct task *best = t;
+    for (struct task *u = task_active; u; u = u->next)
+        if (u->client == t->client && u->interactive == t->interactive && task_waiting(u) &&
+            (u->priority > best->priority ||
+             (u->priority == best->priority && u->t_enq < best->t_enq)))
+            best = u;
+    return best;
+}
+
 struct task *task_pick(void)
 {
     struct task *first[2] = {NULL, NULL}; /* [interactive] */
@@ -214,8 +232,8 @@ struct task *task_pick(void)
         }
     }
     if (first[1] && first[0] && task_interactive_streak >= TASK_BULK_EVERY - 1)
-        return first[0];
-    return first[1] ? first[1] : first[0];
+        return task_own_first(first[0]);
+    return first[1] ? task_own_first(first[1]) : first[0] ? task_own_first(first[0]) : NULL;
 }
 
 void task_taken(const struct task *t)
@@ -240,7 +258,7 @@ enum work_submit task_submit(struct cache_entry *scene, struct task **fresh, str
         *out = t;
         return WORK_OK;
     }
-    if (task_queued >= task_queue_cap)
+    if (task_queued >= task_queue_cap && !(*fresh)->restored)
         return WORK_FULL;
     t = *fresh;
     *fresh = NULL;
@@ -444,6 +462,8 @@ void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
         passes_release(t->passes);
     cache_release(t->scene);
     t->scene = NULL;
+    if (t->njobs > 0 && task_finish_hook)
+        task_finish_hook(t);
     task_result(t, &n->res);
     task_notify_add(n, &t->waiters);
     task_notify_add(sse, &t->sse_waiters);

@@ -2,8 +2,8 @@
  * queued and answered, asynchronous jobs and their event streams.
  *
  * Layer: work (work.c, lru.c, cache.c, rcache.c, scenes.c, cost.c, fair.c,
- * resolve.c, passes.c, task.c, gate.c, sched.c, jobs.c, events.c, watch.c,
- * compile.c).  May
+ * resolve.c, passes.c, task.c, gate.c, store.c, sched.c, jobs.c, events.c,
+ * watch.c, compile.c, durable.c).  May
  * include: base.h and <rayd/rayd.h> -- never an HTTP header, never
  * libmicrohttpd.  Included by the handlers
  * (api_*.c) and main.c.
@@ -208,11 +208,36 @@ struct jobs_info {
     double ended_age;          /* seconds since it ended; < 0 while it runs */
     bool result_evicted;       /* its images were evicted: gone says why */
     struct jobs_gone gone;     /* result_evicted only */
+    char id[33];
+    int priority;              /* enum jobs_priority */
+    long long seq;             /* creation order (GET /v1/jobs's cursor) */
+    double created_wall;       /* seconds since the epoch */
+    bool on_disk;              /* its image is not in memory but on disk: store_read */
 };
+/* GET /v1/jobs: client's jobs made before the one numbered before (0: from
+ * the newest), newest first, in state (< 0: any), up to n of them into out;
+ * how many, and *more whether older ones follow. */
+int jobs_list(uint64_t client, int state, long long before, struct jobs_info *out, int n,
+              bool *more);
 /* A job rendering what->reg of scene (as a PNG, and an EXR with
  * what->keep_exr) for what->client: plain with plan NULL, else progressive. */
 enum work_submit jobs_create(struct cache_entry *scene, const struct work_target *what,
                              const struct jobs_plan *plan, char id[33]);
+/* POST /v1/jobs?priority=: orders a client's own jobs, never another's. */
+enum jobs_priority { JP_LOW, JP_NORMAL, JP_HIGH };
+const char *jobs_priority_name(int p);
+/* What jobs_submit needs besides what jobs_create takes. */
+struct jobs_new {
+    int priority;            /* enum jobs_priority */
+    const char *scene;       /* the scene as sent, recorded with --data-dir */
+    size_t scene_len;
+    struct work_waiter *w;   /* --data-dir: told once the job is on disk */
+    bool waiting;            /* out: w->suspend ran and w->done will be called once */
+};
+/* jobs_create with a priority and, with --data-dir, the job recorded on
+ * disk before anyone is told of it (how->waiting). */
+enum work_submit jobs_submit(struct cache_entry *scene, const struct work_target *what,
+                             const struct jobs_plan *plan, struct jobs_new *how, char id[33]);
 /* What jobs_get copies besides the numbers: the PNG, the EXR. */
 enum jobs_want { JOBS_NUMBERS = 0, JOBS_PNG = 1, JOBS_EXR = 2 };
 bool jobs_get(const char *id, struct jobs_info *info, enum jobs_want want);
@@ -224,6 +249,19 @@ bool jobs_cancel(const char *id);
  * first, if none is complete yet), keeping it as the job's image.  false:
  * no such job; *progressive false: the job is not progressive. */
 bool jobs_end_early(const char *id, bool *progressive);
+
+/* ---- store.c and durable.c: jobs on disk (--data-dir) ----------------------- */
+
+bool store_on(void); /* --data-dir is in use */
+/* A finished job's image from its file (PNG, or the EXR), or NULL when it
+ * is gone; a plain read (no SQLite), so any thread. */
+struct blob *store_read(const char *id, bool exr);
+/* Main thread, after sched_start: opens --data-dir, puts every job it
+ * holds back (the finished with their results, the others queued again,
+ * their scenes parsed again) and starts the store thread.  -1 after
+ * saying why. */
+int durable_start(void);
+void durable_stop(void); /* after sched_stop: what is queued is written */
 
 /* ---- events.c: a job's progress as a stream ------------------------------- */
 

@@ -250,6 +250,7 @@ struct task {
      * passes (the core's meters take from it; RAYD_E_LIMIT below zero) */
     atomic_int_least64_t rays_left;
     bool interactive, queued, finalizing, finished;
+    bool restored; /* re-queued at start-up from --data-dir: admitted past --queue */
     bool evicted; /* finished, its images let go for the memory budget (jobs.c) */
     double t_enq, t_start, t_end;
     double encode_s; /* of t_end - t_start, the PNG's encoding */
@@ -260,6 +261,7 @@ struct task {
     struct work_waiter *waiters;     /* synchronous requests */
     struct work_waiter *sse_waiters; /* event streams waiting for news */
     int njobs;                       /* jobs still interested */
+    int priority; /* enum jobs_priority: orders its client's own tasks (task_pick) */
     int refs;                        /* active list + jobs */
 };
 
@@ -317,6 +319,8 @@ bool task_past_deadline(struct task *t, double now, long limit, struct task_noti
 void task_cancel(struct task *t, enum metrics_cancel why, struct task_notify *n,
                  struct task_notify *sse);
 void task_notify_add(struct task_notify *n, struct work_waiter **from);
+/* Called by task_finish, lock held, for a task jobs follow (jobs.c's). */
+void task_on_finish(void (*fn)(struct task *t));
 void task_notify_run(struct task_notify *n); /* lock NOT held */
 
 /* ---- budget.c: a render's admission into the memory budget (no lock) ---- */
@@ -335,6 +339,50 @@ struct task *budget_task(struct cache_entry *scene, const struct work_target *wh
 bool gate_pass(void);     /* may a worker start a tile now? takes one */
 void gate_count(long started, long held); /* adds to the started / held counters */
 
+/* ---- store.c: jobs on disk (--data-dir) ------------------------------------------ */
+
+/* One job's record: what it was asked (to render it again after a restart)
+ * and, once it ended, how. */
+struct store_job {
+    char id[33];
+    long long seq;              /* creation order: GET /v1/jobs pages by it */
+    uint64_t client;
+    int priority;               /* enum jobs_priority */
+    double created_wall, ended_wall; /* seconds since the epoch; ended 0: unfinished */
+    enum jobs_state state;      /* JS_QUEUED (unfinished), or how it ended */
+    char *scene;                /* the scene as sent (malloc'd, NUL-terminated) */
+    size_t scene_len;
+    char scene_id[65];
+    struct rayd_region reg;
+    bool keep_exr, progressive;
+    struct jobs_plan plan;
+    long tiles;
+    uint64_t rays;
+    double est_rays, queue_ms, render_ms, encode_ms;
+    struct rayd_error err;      /* JS_FAILED */
+    double evicted_wall;        /* > 0: its images were evicted (--max-disk) */
+    char evicted_why[96];
+    int attempts;               /* starts of rayd that found it unfinished */
+    bool result_ok;             /* store_load: its files are there, whole */
+};
+/* Opens DIR's store (before any thread but main's): -1 after saying why. */
+int store_open(const char *dir);
+int store_start(void); /* the store thread (none without a store) */
+void store_stop(void); /* runs what is queued, joins, closes */
+/* Every job's record, oldest first (main thread, at start-up). */
+int store_load(struct store_job **rows, int *n);
+void store_rows_free(struct store_job *rows, int n);
+/* jobs.c's hooks, called on the store thread with no lock held: an image
+ * is on disk; an image was evicted by --max-disk. */
+void store_hooks(void (*written)(const char *id),
+                 void (*evicted)(const char *id, const char *why, double wall));
+/* Lock held: queue a new job's record (row->scene becomes the store's),
+ * w->suspend runs now and w->done once it is committed (status RAYD_OK or
+ * RAYD_E_IO); a job's end, with its images (referenced); a job forgotten. */
+bool store_insert(struct store_job *row, struct work_waiter *w);
+void store_end(const struct store_job *row, struct blob *png, struct blob *exr);
+void store_forget(const char *id);
+
 /* ---- jobs.c (lock held) -------------------------------------------------------- */
 
 struct job {
@@ -346,7 +394,18 @@ struct job {
     double evicted_at;    /* when its result was evicted (jobs_evict_result); 0: kept */
     char evicted_why[96]; /* why, as jobs_evict_result was told */
     int refs; /* the table + open event streams */
+    uint64_t client;      /* who created it (GET /v1/jobs lists a client's own) */
+    int priority;         /* enum jobs_priority */
+    long long seq;        /* creation order, kept across restarts */
+    double created_wall;  /* seconds since the epoch */
+    bool stored;          /* --data-dir: its images are on disk (store.c) */
+    bool recorded;        /* --data-dir: its end is queued to the store */
+    bool restored;        /* ended before this process started: its times are these */
+    double queue_ms, render_ms, encode_ms;
 };
+/* Start-up (durable.c): a job of the store put back, finished as it
+ * ended, or (scene not NULL) queued again; false: no room or memory. */
+bool jobs_restore(const struct store_job *row, struct cache_entry *scene);
 int jobs_start(int max_jobs); /* any lock */
 /* The jobs not finished and the --max-jobs the table holds; lock held. */
 void jobs_count(long *unfinished, long *cap);

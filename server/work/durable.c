@@ -1,0 +1,154 @@
+/* durable.c -- at start-up, the jobs of --data-dir put back.
+ *
+ * store.c keeps the records and images, jobs.c the table; this file, above
+ * both and above the parse pool (compile.c), joins them once, on the main
+ * thread, before the server listens: every record comes back as a job of
+ * the table, in creation order.  One that ended comes back as it ended
+ * (its image read from its file when asked, its TTL counting from when it
+ * ended, so one that expired while rayd was down is forgotten at once by
+ * the watcher).  One that had not ended -- queued, rendering, or with its
+ * image half written when rayd was killed -- is queued again: its scene,
+ * kept as it was sent, is parsed again on the parse pool (its files read
+ * from --asset-dir again), and it renders from the start (a progressive
+ * job from its first pass).  A scene that no longer parses (a file gone
+ * from --asset-dir) ends its job as failed with the parser's error, and a
+ * job found unfinished DURABLE_ATTEMPTS times (rayd killed during it each
+ * time) fails too, rather than take every restart down with it.
+ *
+ * Only when every job is back does the server listen, so no client sees a
+ * 404 for a job it was told of.  Layer: work, above compile.c.
+ */
+#include "work/work_private.h"
+
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#define DURABLE_ATTEMPTS 5
+
+struct durable_wait {
+    struct compile_waiter w;
+    struct store_job *row;
+};
+
+static long durable_pending; /* lock held: compiles not yet answered */
+
+/* Records row as failed with err (the store thread writes it). */
+static void durable_fail(struct store_job *row, const struct rayd_error *err)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    row->state = JS_FAILED;
+    row->err = *err;
+    row->ended_wall = (double)ts.tv_sec + (double)ts.tv_nsec / 1e9;
+    log_warn("job %s: not restarted: %s", row->id, err->message);
+    pthread_mutex_lock(&work_lock);
+    store_end(row, NULL, NULL);
+    pthread_mutex_unlock(&work_lock);
+    jobs_restore(row, NULL);
+}
+
+/* A parse thread's answer for one unfinished job. */
+static void durable_compiled(struct compile_waiter *w, struct compile_result *res)
+{
+    struct durable_wait *d = (struct durable_wait *)w;
+    if (res->status == RAYD_OK) {
+        if (!jobs_restore(d->row, res->scene))
+            log_error("job %s: no room or memory to queue it again (it stays on disk for the "
+                      "next start)",
+                      d->row->id);
+        scenes_release(res->scene);
+    } else {
+        struct rayd_error err = res->err;
+        err.code = res->draining ? RAYD_E_CANCELED : res->status;
+        char msg[sizeof err.message];
+        snprintf(msg, sizeof msg, "its scene no longer loads: %.200s", res->err.message);
+        snprintf(err.message, sizeof err.message, "%s", msg);
+        durable_fail(d->row, &err);
+    }
+    pthread_mutex_lock(&work_lock);
+    durable_pending--;
+    pthread_mutex_unlock(&work_lock);
+    free(d);
+}
+
+static void durable_suspend(struct compile_waiter *w)
+{
+    (void)w;
+}
+
+/* An unfinished job: its scene parsed again, then queued (durable_compiled). */
+static void durable_requeue(struct store_job *row)
+{
+    if (row->attempts >= DURABLE_ATTEMPTS) {
+        struct rayd_error err = {.code = RAYD_E_INTERNAL};
+        snprintf(err.message, sizeof err.message,
+                 "rayd stopped %d times while the job was unfinished; it is not started again",
+                 row->attempts);
+        durable_fail(row, &err);
+        return;
+    }
+    struct durable_wait *d = calloc(1, sizeof *d);
+    struct compile_result res;
+    if (!d) {
+        log_error("job %s: out of memory to queue it again", row->id);
+        return;
+    }
+    d->row = row;
+    d->w.done = durable_compiled;
+    d->w.suspend = durable_suspend;
+    pthread_mutex_lock(&work_lock);
+    durable_pending++;
+    pthread_mutex_unlock(&work_lock);
+    enum work_submit s;
+    while ((s = compile_scene(row->scene, row->scene_len, &d->w, &res)) == WORK_PARSE_FULL) {
+        struct timespec ts = {0, 20 * 1000000L}; /* the pool is busy with the others */
+        nanosleep(&ts, NULL);
+    }
+    if (s == WORK_CACHED)
+        durable_compiled(&d->w, &res);
+    else if (s != WORK_OK) {
+        pthread_mutex_lock(&work_lock);
+        durable_pending--;
+        pthread_mutex_unlock(&work_lock);
+        free(d);
+    }
+}
+
+static long durable_left(void)
+{
+    pthread_mutex_lock(&work_lock);
+    long n = durable_pending;
+    pthread_mutex_unlock(&work_lock);
+    return n;
+}
+
+int durable_start(void)
+{
+    if (!config.data_dir)
+        return 0;
+    struct store_job *rows = NULL;
+    int n = 0;
+    if (store_open(config.data_dir) || store_load(&rows, &n) || store_start())
+        return -1;
+    long finished = 0, queued = 0;
+    for (int i = 0; i < n; i++) {
+        if (rows[i].state == JS_QUEUED) {
+            durable_requeue(&rows[i]);
+            queued++;
+        } else {
+            finished += jobs_restore(&rows[i], NULL);
+        }
+    }
+    while (durable_left() > 0) {
+        struct timespec ts = {0, 10 * 1000000L};
+        nanosleep(&ts, NULL);
+    }
+    store_rows_free(rows, n);
+    if (n)
+        log_info("--data-dir %s: %ld ended jobs kept, %ld queued again", config.data_dir,
+                 finished, queued);
+    return 0;
+}
+
+void durable_stop(void) { store_stop(); }

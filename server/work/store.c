@@ -1,0 +1,751 @@
+/* store.c -- the jobs on disk: SQLite for their records, files for images.
+ *
+ * With --data-dir DIR a job outlives the process: DIR/jobs.db (SQLite in
+ * WAL mode, synchronous=FULL, so a commit is on disk when it returns) holds
+ * each job's record -- who asked, its priority, the scene as it was sent and
+ * the query that shaped it, and once it ended how and when -- and
+ * DIR/results/ its images.  The schema has a frames table (job, frame k,
+ * state, attempts, file paths): a job of today is its frame 0, and a job of
+ * many frames will be its rows 0..n-1, each kept and served on its own.
+ *
+ * Nothing torn is ever served: an image is written to NAME.tmp, fsynced,
+ * renamed to NAME and the folder fsynced, and only then does the frame's
+ * row say "done" (one transaction with the job's end).  A kill -9 at any
+ * moment leaves either the old state (the job queued: it is rendered again
+ * at the next start) or the new one; at start-up a .tmp file, and a file no
+ * row names as done, are deleted, and a done row is believed only when its
+ * files are there with the sizes it recorded.  A job is inserted before its
+ * 202 is sent (the POST waits for the commit: jobs.c hands the waiter down
+ * here), so no job the client was told of is lost.
+ *
+ * --max-disk bounds the images' bytes: after each write, while over it,
+ * the frame that ended first is evicted (its row first, its files after,
+ * so a crash in between leaves only orphans the next start deletes); the
+ * job keeps its record and answers 410 result_evicted.  The latest image
+ * is never evicted by its own write: a budget smaller than one image keeps
+ * that one.
+ *
+ * SQLite and fsync block, so none of it runs on an HTTP thread: the work
+ * layer queues operations here under work_lock (store_insert, store_end,
+ * store_forget: a few pointers linked) and one store thread runs them in
+ * order, without the lock, telling jobs.c what it did through the hooks
+ * jobs.c handed it.  The one thing an HTTP thread does is store_read, a
+ * plain read of a finished image's file (never written again: renamed into
+ * place whole).  Opening and loading (store_open, store_load) run on the
+ * main thread before the server listens.  A second rayd on the same DIR is
+ * refused (flock on DIR/lock).
+ */
+#include "work/work_private.h"
+
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <sqlite3.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/file.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+enum store_kind { SO_INSERT, SO_END, SO_FORGET };
+
+struct store_op {
+    enum store_kind kind;
+    struct store_job row;
+    struct blob *png, *exr;  /* SO_END: the images, referenced */
+    struct work_waiter *w;   /* SO_INSERT: told once the row is committed */
+    struct store_op *next;
+};
+
+static sqlite3 *store_db;
+static atomic_bool store_up; /* store_on(): from store_open to store_stop */
+static char *store_dir;
+static int store_lock_fd = -1;
+static pthread_t store_thread;
+static bool store_running, store_stopping; /* lock held */
+static pthread_cond_t store_cond = PTHREAD_COND_INITIALIZER;
+static struct store_op *store_head, **store_tail = &store_head; /* lock held */
+static size_t store_bytes; /* the store thread's (and start-up's): images on disk */
+static void (*store_written)(const char *id);
+static void (*store_evicted)(const char *id, const char *why, double wall);
+
+static const char *const store_schema =
+    "PRAGMA journal_mode=WAL;"
+    "PRAGMA synchronous=FULL;"
+    "CREATE TABLE IF NOT EXISTS jobs("
+    " id TEXT PRIMARY KEY, seq INTEGER NOT NULL UNIQUE, client INTEGER NOT NULL,"
+    " priority INTEGER NOT NULL, created REAL NOT NULL, state TEXT NOT NULL, ended REAL,"
+    " scene BLOB NOT NULL, scene_id TEXT NOT NULL, x INTEGER, y INTEGER, w INTEGER, h INTEGER,"
+    " keep_exr INTEGER, progressive INTEGER, pass_step INTEGER, time_budget REAL,"
+    " noise_target REAL, tiles INTEGER, rays INTEGER, est_rays REAL, queue_ms REAL,"
+    " render_ms REAL, encode_ms REAL, err_code INTEGER, err_message TEXT, err_path TEXT,"
+    " evicted REAL, evicted_why TEXT);"
+    "CREATE TABLE IF NOT EXISTS frames("
+    " job TEXT NOT NULL REFERENCES jobs(id) ON DELETE CASCADE, k INTEGER NOT NULL,"
+    " state TEXT NOT NULL, attempts INTEGER NOT NULL DEFAULT 0, path TEXT, exr_path TEXT,"
+    " bytes INTEGER NOT NULL DEFAULT 0, ended REAL, PRIMARY KEY(job, k));"
+    "CREATE INDEX IF NOT EXISTS jobs_client ON jobs(client, seq);"
+    "CREATE INDEX IF NOT EXISTS frames_ended ON frames(state, ended);"
+    "PRAGMA foreign_keys=ON;";
+
+bool store_on(void) { return atomic_load(&store_up); }
+
+/* ---- files ----------------------------------------------------------------------- */
+
+/* DIR/results/ID.png (or .exr, or with .tmp): a frame-0 image's path. */
+static void store_path(char *buf, size_t size, const char *id, bool exr, bool tmp)
+{
+    snprintf(buf, size, "%s/results/%s.%s%s", store_dir, id, exr ? "exr" : "png",
+             tmp ? ".tmp" : "");
+}
+
+static int store_fsync_dir(const char *path)
+{
+    int fd = open(path, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (fd < 0)
+        return -1;
+    int rc = fsync(fd);
+    close(fd);
+    return rc;
+}
+
+/* The test knob of the kill -9 matrix: with --test-gate and
+ * RAYD_TEST_STORE_STALL=1 the store thread stops for good between writing
+ * an image's temporary file and renaming it, so a test can kill rayd
+ * there. */
+static void store_test_stall(void)
+{
+    const char *v = getenv("RAYD_TEST_STORE_STALL");
+    if (config.test_gate_tiles >= -1 && v && !strcmp(v, "1")) {
+        log_warn("RAYD_TEST_STORE_STALL: the store stops before a rename, for good");
+        for (;;)
+            pause();
+    }
+}
+
+/* b's bytes to path, whole or not at all: NAME.tmp, fsync, rename. */
+static int store_write_file(const char *id, bool exr, const struct blob *b)
+{
+    char tmp[4200], path[4200];
+    store_path(tmp, sizeof tmp, id, exr, true);
+    store_path(path, sizeof path, id, exr, false);
+    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+    if (fd < 0)
+        return -1;
+    const unsigned char *p = b->data;
+    size_t left = b->len;
+    while (left > 0) {
+        ssize_t n = write(fd, p, left);
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n <= 0) {
+            close(fd);
+            unlink(tmp);
+            return -1;
+        }
+        p += n;
+        left -= (size_t)n;
+    }
+    if (fsync(fd) != 0 || close(fd) != 0) {
+        unlink(tmp);
+        return -1;
+    }
+    store_test_stall();
+    return rename(tmp, path);
+}
+
+struct blob *store_read(const char *id, bool exr)
+{
+    char path[4200];
+    store_path(path, sizeof path, id, exr, false);
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    struct stat st;
+    if (fd < 0)
+        return NULL;
+    unsigned char *data = NULL;
+    size_t got = 0;
+    if (fstat(fd, &st) == 0 && st.st_size > 0 && (data = malloc((size_t)st.st_size))) {
+        while (got < (size_t)st.st_size) {
+            ssize_t n = read(fd, data + got, (size_t)st.st_size - got);
+            if (n < 0 && errno == EINTR)
+                continue;
+            if (n <= 0)
+                break;
+            got += (size_t)n;
+        }
+    }
+    close(fd);
+    if (!data || got != (size_t)st.st_size) {
+        rayd_free(data);
+        return NULL;
+    }
+    struct blob *b = blob_new(data, got);
+    if (!b)
+        rayd_free(data);
+    return b;
+}
+
+/* ---- SQLite ------------------------------------------------------------------------ */
+
+static const char *store_text(sqlite3_stmt *st, int col)
+{
+    const unsigned char *t = sqlite3_column_text(st, col);
+    return t ? (const char *)t : "";
+}
+
+static bool store_exec(const char *sql)
+{
+    char *msg = NULL;
+    if (sqlite3_exec(store_db, sql, NULL, NULL, &msg) == SQLITE_OK)
+        return true;
+    log_error("--data-dir %s: %s: %s", store_dir, sql, msg ? msg : "?");
+    sqlite3_free(msg);
+    return false;
+}
+
+/* A statement made from sql with its ? bound by fmt ('t' text, 'b' blob
+ * and length, 'i' 64-bit integer, 'd' double), stepped to its first row:
+ * SQLITE_ROW (the statement is the caller's: finalize it) or the error
+ * (finalized). */
+static int store_run(sqlite3_stmt **out, const char *sql, const char *fmt, ...)
+{
+    sqlite3_stmt *st = NULL;
+    int rc = sqlite3_prepare_v2(store_db, sql, -1, &st, NULL);
+    va_list ap;
+    va_start(ap, fmt);
+    for (int i = 1; rc == SQLITE_OK && fmt[i - 1]; i++) {
+        switch (fmt[i - 1]) {
+        case 't': {
+            const char *s = va_arg(ap, const char *);
+            rc = s ? sqlite3_bind_text(st, i, s, -1, SQLITE_TRANSIENT) : sqlite3_bind_null(st, i);
+            break;
+        }
+        case 'b': {
+            const void *b = va_arg(ap, const void *);
+            size_t n = va_arg(ap, size_t);
+            rc = sqlite3_bind_blob64(st, i, b, n, SQLITE_TRANSIENT);
+            break;
+        }
+        case 'i':
+            rc = sqlite3_bind_int64(st, i, va_arg(ap, long long));
+            break;
+        default:
+            rc = sqlite3_bind_double(st, i, va_arg(ap, double));
+        }
+    }
+    va_end(ap);
+    if (rc == SQLITE_OK)
+        rc = sqlite3_step(st);
+    if (rc == SQLITE_ROW && out) {
+        *out = st;
+        return rc;
+    }
+    if (rc != SQLITE_ROW && rc != SQLITE_DONE)
+        log_error("--data-dir %s: %s", store_dir, sqlite3_errmsg(store_db));
+    sqlite3_finalize(st);
+    return rc == SQLITE_ROW ? SQLITE_DONE : rc;
+}
+
+/* A job's state as the store writes it (jobs.c's names; an unfinished
+ * job is "queued" whatever it was doing). */
+static const char *const store_states[] = {"queued",   "queued",   "succeeded",
+                                           "failed",   "canceled", "evicted"};
+
+static const char *store_state_name(enum jobs_state s) { return store_states[s]; }
+
+static enum jobs_state store_state_of(const char *s)
+{
+    for (int i = JS_SUCCEEDED; i <= JS_EVICTED; i++)
+        if (s && !strcmp(s, store_states[i]))
+            return (enum jobs_state)i;
+    return JS_QUEUED;
+}
+
+static bool store_insert_row(const struct store_job *j)
+{
+    bool ok = store_exec("BEGIN") &&
+              store_run(NULL,
+                        "INSERT OR REPLACE INTO jobs(id, seq, client, priority, created, state,"
+                        " scene, scene_id, x, y, w, h, keep_exr, progressive, pass_step,"
+                        " time_budget, noise_target, tiles, est_rays)"
+                        " VALUES(?, ?, ?, ?, ?, 'queued', ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                        "tiiidbtiiiiiiiddid", j->id, j->seq, (long long)j->client,
+                        (long long)j->priority, j->created_wall, j->scene, j->scene_len,
+                        j->scene_id, (long long)j->reg.x, (long long)j->reg.y,
+                        (long long)j->reg.w, (long long)j->reg.h, (long long)j->keep_exr,
+                        (long long)j->progressive, (long long)j->plan.step, j->plan.time_budget,
+                        j->plan.noise_target, (long long)j->tiles, j->est_rays) == SQLITE_DONE &&
+              store_run(NULL, "INSERT OR REPLACE INTO frames(job, k, state) VALUES(?, 0, 'queued')",
+                        "t", j->id) == SQLITE_DONE &&
+              store_exec("COMMIT");
+    if (!ok)
+        store_exec("ROLLBACK");
+    return ok;
+}
+
+/* The job's end, and its frame's files once they are in place. */
+static bool store_end_row(const struct store_job *j, size_t bytes, bool png, bool exr)
+{
+    const char *fstate = j->state == JS_SUCCEEDED ? "done" : store_state_name(j->state);
+    char p[80], e[80];
+    snprintf(p, sizeof p, "results/%s.png", j->id);
+    snprintf(e, sizeof e, "results/%s.exr", j->id);
+    bool ok = store_exec("BEGIN") &&
+              store_run(NULL,
+                        "UPDATE jobs SET state = ?, ended = ?, tiles = ?, rays = ?, queue_ms = ?,"
+                        " render_ms = ?, encode_ms = ?, err_code = ?, err_message = ?,"
+                        " err_path = ? WHERE id = ?",
+                        "tdiidddittt", store_state_name(j->state), j->ended_wall,
+                        (long long)j->tiles, (long long)j->rays, j->queue_ms, j->render_ms,
+                        j->encode_ms, (long long)j->err.code, j->err.message, j->err.path,
+                        j->id) == SQLITE_DONE &&
+              store_run(NULL,
+                        "UPDATE frames SET state = ?, path = ?, exr_path = ?, bytes = ?,"
+                        " ended = ? WHERE job = ? AND k = 0",
+                        "tttidt", fstate, png ? p : NULL, exr ? e : NULL, (long long)bytes,
+                        j->ended_wall, j->id) == SQLITE_DONE &&
+              store_exec("COMMIT");
+    if (!ok)
+        store_exec("ROLLBACK");
+    return ok;
+}
+
+static void store_unlink(const char *id)
+{
+    char path[4200];
+    store_path(path, sizeof path, id, false, false);
+    unlink(path);
+    store_path(path, sizeof path, id, true, false);
+    unlink(path);
+}
+
+/* --max-disk: evicts the frames that ended first, never keep's, while the
+ * images are over the budget. */
+static void store_evict(const char *keep)
+{
+    static const char why[] = "over --max-disk: the oldest finished results are evicted first";
+    while (config.max_disk_bytes > 0 && store_bytes > config.max_disk_bytes) {
+        sqlite3_stmt *st = NULL;
+        if (store_run(&st,
+                      "SELECT job, bytes FROM frames WHERE state = 'done' AND job != ?"
+                      " ORDER BY ended LIMIT 1",
+                      "t", keep) != SQLITE_ROW)
+            return;
+        char id[33];
+        snprintf(id, sizeof id, "%s", (const char *)sqlite3_column_text(st, 0));
+        size_t bytes = (size_t)sqlite3_column_int64(st, 1);
+        sqlite3_finalize(st);
+        double now = (double)time(NULL);
+        bool ok = store_exec("BEGIN") &&
+                  store_run(NULL,
+                            "UPDATE frames SET state = 'evicted', path = NULL, exr_path = NULL,"
+                            " bytes = 0 WHERE job = ? AND k = 0",
+                            "t", id) == SQLITE_DONE &&
+                  store_run(NULL, "UPDATE jobs SET evicted = ?, evicted_why = ? WHERE id = ?",
+                            "dtt", now, why, id) == SQLITE_DONE &&
+                  store_exec("COMMIT");
+        if (!ok) {
+            store_exec("ROLLBACK");
+            return;
+        }
+        store_unlink(id);
+        store_bytes -= bytes < store_bytes ? bytes : store_bytes;
+        log_info("job %s: its result was evicted (%s)", id, why);
+        if (store_evicted)
+            store_evicted(id, why, now);
+    }
+}
+
+/* ---- the store thread ------------------------------------------------------------- */
+
+static void store_do_end(struct store_op *op)
+{
+    struct store_job *j = &op->row;
+    bool ok = true;
+    size_t bytes = 0;
+    if (op->png) {
+        ok = store_write_file(j->id, false, op->png) == 0;
+        bytes += op->png->len;
+    }
+    if (ok && op->exr) {
+        ok = store_write_file(j->id, true, op->exr) == 0;
+        bytes += op->exr->len;
+    }
+    char dir[4200];
+    snprintf(dir, sizeof dir, "%s/results", store_dir);
+    if (ok && (op->png || op->exr))
+        ok = store_fsync_dir(dir) == 0;
+    if (!ok) {
+        log_error("job %s: cannot write its image under --data-dir %s: %s (it stays on this "
+                  "process's memory only)",
+                  j->id, store_dir, strerror(errno));
+        return;
+    }
+    if (!store_end_row(j, bytes, op->png != NULL, op->exr != NULL))
+        return;
+    store_bytes += bytes;
+    if (bytes && store_written)
+        store_written(j->id);
+    if (bytes)
+        store_evict(j->id);
+}
+
+static void store_do(struct store_op *op)
+{
+    if (op->kind == SO_INSERT) {
+        struct work_result res = {.status = RAYD_OK};
+        if (!store_insert_row(&op->row)) {
+            res.status = RAYD_E_IO;
+            snprintf(res.err.message, sizeof res.err.message,
+                     "the job could not be recorded under --data-dir: %s",
+                     sqlite3_errmsg(store_db));
+        }
+        if (op->w)
+            op->w->done(op->w, &res);
+    } else if (op->kind == SO_END) {
+        store_do_end(op);
+    } else {
+        sqlite3_stmt *st = NULL;
+        size_t bytes = 0;
+        if (store_run(&st, "SELECT bytes FROM frames WHERE job = ? AND state = 'done'", "t",
+                      op->row.id) == SQLITE_ROW) {
+            bytes = (size_t)sqlite3_column_int64(st, 0);
+            sqlite3_finalize(st);
+        }
+        if (store_run(NULL, "DELETE FROM frames WHERE job = ?", "t", op->row.id) == SQLITE_DONE &&
+            store_run(NULL, "DELETE FROM jobs WHERE id = ?", "t", op->row.id) == SQLITE_DONE) {
+            store_unlink(op->row.id);
+            store_bytes -= bytes < store_bytes ? bytes : store_bytes;
+        }
+    }
+}
+
+static void store_op_free(struct store_op *op)
+{
+    blob_unref(op->png);
+    blob_unref(op->exr);
+    free(op->row.scene);
+    free(op);
+}
+
+static void *store_main(void *arg)
+{
+    (void)arg;
+    pthread_mutex_lock(&work_lock);
+    for (;;) {
+        while (!store_head && !store_stopping)
+            pthread_cond_wait(&store_cond, &work_lock);
+        struct store_op *ops = store_head;
+        store_head = NULL;
+        store_tail = &store_head;
+        if (!ops && store_stopping)
+            break;
+        pthread_mutex_unlock(&work_lock);
+        while (ops) {
+            struct store_op *next = ops->next;
+            store_do(ops);
+            store_op_free(ops);
+            ops = next;
+        }
+        pthread_mutex_lock(&work_lock);
+    }
+    pthread_mutex_unlock(&work_lock);
+    return NULL;
+}
+
+/* Links op (lock held); without a store it is dropped. */
+static void store_queue(struct store_op *op)
+{
+    if (store_stopping || !store_running) { /* rayd stops: the job stays as it was on disk */
+        store_op_free(op);
+        return;
+    }
+    op->next = NULL;
+    *store_tail = op;
+    store_tail = &op->next;
+    pthread_cond_signal(&store_cond);
+}
+
+bool store_insert(struct store_job *row, struct work_waiter *w)
+{
+    struct store_op *op = store_stopping || !store_running ? NULL : calloc(1, sizeof *op);
+    if (!op)
+        return false;
+    op->kind = SO_INSERT;
+    op->row = *row;
+    row->scene = NULL; /* the op's now */
+    op->w = w;
+    if (w)
+        w->suspend(w);
+    store_queue(op);
+    return true;
+}
+
+void store_end(const struct store_job *row, struct blob *png, struct blob *exr)
+{
+    struct store_op *op = calloc(1, sizeof *op);
+    if (!op) {
+        log_error("job %s: out of memory to record its end under --data-dir", row->id);
+        return;
+    }
+    op->kind = SO_END;
+    op->row = *row;
+    op->row.scene = NULL;
+    op->png = blob_ref(png);
+    op->exr = blob_ref(exr);
+    store_queue(op);
+}
+
+void store_forget(const char *id)
+{
+    struct store_op *op = calloc(1, sizeof *op);
+    if (!op)
+        return;
+    op->kind = SO_FORGET;
+    snprintf(op->row.id, sizeof op->row.id, "%s", id);
+    store_queue(op);
+}
+
+void store_hooks(void (*written)(const char *id),
+                 void (*evicted)(const char *id, const char *why, double wall))
+{
+    store_written = written;
+    store_evicted = evicted;
+}
+
+/* ---- start-up ---------------------------------------------------------------------- */
+
+/* Deletes what a kill left under results/: .tmp files, and files no done
+ * frame names. */
+static void store_sweep(void)
+{
+    char dir[4200];
+    snprintf(dir, sizeof dir, "%s/results", store_dir);
+    DIR *d = opendir(dir);
+    if (!d)
+        return;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        if (e->d_name[0] == '.')
+            continue;
+        char id[33] = "";
+        size_t n = strlen(e->d_name);
+        bool tmp = n > 4 && !strcmp(e->d_name + n - 4, ".tmp");
+        bool known = false;
+        if (!tmp && n > 32) {
+            memcpy(id, e->d_name, 32);
+            sqlite3_stmt *st = NULL;
+            known = store_run(&st, "SELECT 1 FROM frames WHERE job = ? AND state = 'done'", "t",
+                              id) == SQLITE_ROW;
+            if (known)
+                sqlite3_finalize(st);
+        }
+        if (!known) {
+            unlinkat(dirfd(d), e->d_name, 0);
+            log_info("--data-dir: deleted %s/%s (%s)", dir, e->d_name,
+                     tmp ? "a write cut short" : "no job names it");
+        }
+    }
+    closedir(d);
+}
+
+int store_open(const char *dir)
+{
+    char path[4200];
+    store_dir = strdup(dir);
+    snprintf(path, sizeof path, "%s/lock", dir);
+    store_lock_fd = open(path, O_RDWR | O_CREAT | O_CLOEXEC, 0600);
+    if (!store_dir || store_lock_fd < 0 || flock(store_lock_fd, LOCK_EX | LOCK_NB) != 0) {
+        fprintf(stderr, "rayd: error: --data-dir %s: %s\n", dir,
+                errno == EWOULDBLOCK ? "another rayd uses it" : strerror(errno));
+        return -1;
+    }
+    snprintf(path, sizeof path, "%s/results", dir);
+    if (mkdir(path, 0700) != 0 && errno != EEXIST) {
+        fprintf(stderr, "rayd: error: --data-dir %s: cannot make results/: %s\n", dir,
+                strerror(errno));
+        return -1;
+    }
+    snprintf(path, sizeof path, "%s/jobs.db", dir);
+    if (sqlite3_open_v2(path, &store_db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, NULL) !=
+            SQLITE_OK ||
+        sqlite3_busy_timeout(store_db, 5000) != SQLITE_OK) {
+        fprintf(stderr, "rayd: error: --data-dir %s: cannot open jobs.db: %s\n", dir,
+                store_db ? sqlite3_errmsg(store_db) : "out of memory");
+        sqlite3_close(store_db);
+        store_db = NULL;
+        return -1;
+    }
+    if (!store_exec(store_schema)) {
+        fprintf(stderr, "rayd: error: --data-dir %s: jobs.db is not a rayd store (or is "
+                        "damaged)\n",
+                dir);
+        sqlite3_close(store_db);
+        store_db = NULL;
+        return -1;
+    }
+    store_sweep();
+    atomic_store(&store_up, true);
+    sqlite3_stmt *st = NULL;
+    if (store_run(&st, "SELECT COALESCE(SUM(bytes), 0) FROM frames WHERE state = 'done'", "") ==
+        SQLITE_ROW) {
+        store_bytes = (size_t)sqlite3_column_int64(st, 0);
+        sqlite3_finalize(st);
+    }
+    /* a --max-disk lowered since the last run: kept from the start (the newest image stays) */
+    if (config.max_disk_bytes > 0 && store_bytes > config.max_disk_bytes &&
+        store_run(&st, "SELECT job FROM frames WHERE state = 'done' ORDER BY ended DESC LIMIT 1",
+                  "") == SQLITE_ROW) {
+        char keep[33];
+        snprintf(keep, sizeof keep, "%s", store_text(st, 0));
+        sqlite3_finalize(st);
+        store_evict(keep);
+    }
+    return 0;
+}
+
+int store_start(void)
+{
+    if (!store_db)
+        return 0;
+    if (pthread_create(&store_thread, NULL, store_main, NULL))
+        return -1;
+    pthread_mutex_lock(&work_lock);
+    store_running = true;
+    pthread_mutex_unlock(&work_lock);
+    return 0;
+}
+
+/* A done row's files, there with the bytes it recorded? */
+static bool store_files_ok(const char *id, bool exr, long long bytes)
+{
+    char path[4200];
+    struct stat st;
+    long long have = 0;
+    store_path(path, sizeof path, id, false, false);
+    if (stat(path, &st) != 0)
+        return false;
+    have += st.st_size;
+    if (exr) {
+        store_path(path, sizeof path, id, true, false);
+        if (stat(path, &st) != 0)
+            return false;
+        have += st.st_size;
+    }
+    return have == bytes;
+}
+
+/* One row of store_load's query into j. */
+static bool store_row(sqlite3_stmt *st, struct store_job *j)
+{
+    memset(j, 0, sizeof *j);
+    snprintf(j->id, sizeof j->id, "%s", store_text(st, 0));
+    j->seq = sqlite3_column_int64(st, 1);
+    j->client = (uint64_t)sqlite3_column_int64(st, 2);
+    j->priority = sqlite3_column_int(st, 3);
+    j->created_wall = sqlite3_column_double(st, 4);
+    j->state = store_state_of(store_text(st, 5));
+    j->ended_wall = sqlite3_column_double(st, 6);
+    int n = sqlite3_column_bytes(st, 7);
+    j->scene = malloc((size_t)n + 1);
+    if (!j->scene)
+        return false;
+    memcpy(j->scene, sqlite3_column_blob(st, 7), (size_t)n);
+    j->scene[n] = 0;
+    j->scene_len = (size_t)n;
+    snprintf(j->scene_id, sizeof j->scene_id, "%s", store_text(st, 8));
+    j->reg = (struct rayd_region){sqlite3_column_int(st, 9), sqlite3_column_int(st, 10),
+                                  sqlite3_column_int(st, 11), sqlite3_column_int(st, 12)};
+    j->keep_exr = sqlite3_column_int(st, 13);
+    j->progressive = sqlite3_column_int(st, 14);
+    j->plan.step = sqlite3_column_int(st, 15);
+    j->plan.time_budget = sqlite3_column_double(st, 16);
+    j->plan.noise_target = sqlite3_column_double(st, 17);
+    j->tiles = sqlite3_column_int64(st, 18);
+    j->rays = (uint64_t)sqlite3_column_int64(st, 19);
+    j->est_rays = sqlite3_column_double(st, 20);
+    j->queue_ms = sqlite3_column_double(st, 21);
+    j->render_ms = sqlite3_column_double(st, 22);
+    j->encode_ms = sqlite3_column_double(st, 23);
+    j->err.code = (enum rayd_status)sqlite3_column_int(st, 24);
+    snprintf(j->err.message, sizeof j->err.message, "%s", store_text(st, 25));
+    snprintf(j->err.path, sizeof j->err.path, "%s", store_text(st, 26));
+    j->evicted_wall = sqlite3_column_double(st, 27);
+    snprintf(j->evicted_why, sizeof j->evicted_why, "%s", store_text(st, 28));
+    const char *fstate = store_text(st, 29);
+    j->attempts = sqlite3_column_int(st, 30);
+    bool has_exr = sqlite3_column_type(st, 31) != SQLITE_NULL;
+    long long bytes = sqlite3_column_int64(st, 32);
+    j->result_ok = !strcmp(fstate, "done") && store_files_ok(j->id, has_exr, bytes);
+    if (j->state == JS_SUCCEEDED && !strcmp(fstate, "done") && !j->result_ok) {
+        log_warn("job %s: its image files are missing or not whole: it renders again", j->id);
+        j->state = JS_QUEUED;
+    }
+    return true;
+}
+
+int store_load(struct store_job **rows, int *n)
+{
+    *rows = NULL;
+    *n = 0;
+    if (!store_db)
+        return 0;
+    /* each unfinished frame is an attempt more from now on */
+    store_run(NULL, "UPDATE frames SET attempts = attempts + 1 WHERE state = 'queued'", "");
+    sqlite3_stmt *st = NULL;
+    int rc = sqlite3_prepare_v2(
+        store_db,
+        "SELECT j.id, j.seq, j.client, j.priority, j.created, j.state, j.ended, j.scene,"
+        " j.scene_id, j.x, j.y, j.w, j.h, j.keep_exr, j.progressive, j.pass_step, j.time_budget,"
+        " j.noise_target, j.tiles, j.rays, j.est_rays, j.queue_ms, j.render_ms, j.encode_ms,"
+        " j.err_code, j.err_message, j.err_path, j.evicted, j.evicted_why, f.state, f.attempts,"
+        " f.exr_path, f.bytes FROM jobs j LEFT JOIN frames f ON f.job = j.id AND f.k = 0"
+        " ORDER BY j.seq",
+        -1, &st, NULL);
+    int cap = 0;
+    while (rc == SQLITE_OK && sqlite3_step(st) == SQLITE_ROW) {
+        if (*n == cap) {
+            cap = cap ? 2 * cap : 64;
+            struct store_job *more = realloc(*rows, (size_t)cap * sizeof **rows);
+            if (!more)
+                break;
+            *rows = more;
+        }
+        if (!store_row(st, &(*rows)[*n]))
+            break;
+        (*n)++;
+    }
+    sqlite3_finalize(st);
+    return rc == SQLITE_OK ? 0 : -1;
+}
+
+void store_rows_free(struct store_job *rows, int n)
+{
+    for (int i = 0; i < n; i++)
+        free(rows[i].scene);
+    free(rows);
+}
+
+void store_stop(void)
+{
+    atomic_store(&store_up, false);
+    if (store_running) {
+        pthread_mutex_lock(&work_lock);
+        store_stopping = true;
+        pthread_cond_signal(&store_cond);
+        pthread_mutex_unlock(&work_lock);
+        pthread_join(store_thread, NULL);
+        store_running = false;
+    }
+    if (store_db)
+        sqlite3_close(store_db);
+    store_db = NULL;
+    if (store_lock_fd >= 0)
+        close(store_lock_fd);
+    store_lock_fd = -1;
+    free(store_dir);
+    store_dir = NULL;
+}

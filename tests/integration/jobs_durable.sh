@@ -1,0 +1,192 @@
+#!/usr/bin/env bash
+# jobs_durable.sh -- with --data-dir a job survives kill -9: the restart
+# matrix, the disk budget (--max-disk, 410), and --data-dir's checks.
+#
+# rayd is killed with SIGKILL while a job is queued (held at the test
+# gate), while one renders (the gate let one tile through), after jobs
+# ended (succeeded, cancelled, one with its EXR), and during an image's
+# write (RAYD_TEST_STORE_STALL=1 stops the store between writing the
+# temporary file and renaming it).  After each restart every job is still
+# there under its id: the finished ones served byte for byte as before,
+# the unfinished ones queued again and rendered to the same bytes a
+# synchronous render gives, nothing torn (no .tmp is left, no image
+# differs).  On f1aafc1 rayd had no --data-dir, and a restarted rayd
+# answered 404 job_unknown for every job.
+source "$(dirname "$0")/lib/common.sh"
+
+D=$T/data
+post_job() { # post_job NAME [QUERY]: POSTs $T/NAME.json; the id in $T/NAME.id
+    local code
+    code=$(post_json "/v1/jobs${2:-}" "$T/$1.json")
+    jfield "$T/body" id >"$T/$1.id"
+    [ "$code" = 202 ]
+}
+jid() { cat "$T/$1.id"; }
+kill9() { kill -KILL "$RAYD_PID" 2>/dev/null; wait "$RAYD_PID" 2>/dev/null; RAYD_PID=; }
+# same_as_render NAME FILE: FILE has the bytes POST /v1/render gives for NAME's scene
+same_as_render() {
+    [ "$(post_json /v1/render "$T/$1.json")" = 200 ] && cmp -s "$T/body" "$2"
+}
+
+# ---- bad --data-dir values ---------------------------------------------------------
+bad_start() { # bad_start STATUS TEXT ARGS...: rayd refuses to start, saying TEXT
+    local want=$1 text=$2 rc
+    shift 2
+    timeout 30 "$RAYD" --bind 127.0.0.1 --port 0 "$@" >"$T/bad.out" 2>"$T/bad.err"
+    rc=$?
+    [ "$rc" = "$want" ] && grep -q -- "$text" "$T/bad.err" && ! [ -s "$T/bad.out" ]
+}
+: >"$T/afile"
+check datadir_is_file "$(cat "$T/bad.err" 2>/dev/null)" bad_start 1 "not a directory" --data-dir "$T/afile"
+check datadir_cannot_make "$(cat "$T/bad.err")" bad_start 1 "cannot use or create" \
+    --data-dir "$T/no/such/parent"
+check datadir_empty "$(cat "$T/bad.err")" bad_start 2 "is empty" --data-dir ""
+check max_disk_needs_dir "$(cat "$T/bad.err")" bad_start 2 "needs --data-dir" --max-disk 10M
+check max_disk_bad "$(cat "$T/bad.err")" bad_start 2 "--max-disk takes bytes" \
+    --data-dir "$D" --max-disk 10Q
+
+# ---- the kill -9 matrix ------------------------------------------------------------
+start_rayd --threads 1 --test-gate 0 --data-dir "$D"
+check datadir_made "no $D/jobs.db after a start with it" test -f "$D/jobs.db"
+check datadir_second_rayd "$(cat "$T/bad.err")" bad_start 1 "another rayd uses it" --data-dir "$D"
+
+# distinct bytes for each scene (a tag of spaces per name), so no two share
+# a task; 32x32 is one tile, 96x96 (run) several
+i=1
+for n in done exr cancel queue; do scene "$T/$n.json" 32 32 1 spheres $i; i=$((i + 1)); done
+scene "$T/run.json" 96 96 1 spheres 5
+
+post_job done && post_job exr "?format=exr" && post_job cancel
+check matrix_posted "$(head -c 200 "$T/body")" test -s "$T/cancel.id"
+req DELETE "/v1/jobs/$(jid cancel)" >/dev/null
+gate open
+wait_until 60 job_state_is "$(jid done)" succeeded
+wait_until 60 job_state_is "$(jid exr)" succeeded
+gate 0
+req GET "/v1/jobs/$(jid done)/image.png" >/dev/null && cp "$T/body" "$T/done.before"
+req GET "/v1/jobs/$(jid exr)/image.exr" >/dev/null && cp "$T/body" "$T/exr.before"
+check matrix_done_before "no PNG" is_png "$T/done.before"
+# one renders: the gate lets its one tile start and holds the next job's
+post_job run
+gate 1
+wait_until 60 gate_is started 3
+post_job queue
+scene "$T/prog.json" 32 32 4 spheres 12
+post_job prog "?progressive=1"
+wait_until 60 job_state_is "$(jid queue)" queued
+check matrix_run_running "state $(jfield "$T/body" state)" job_state_is "$(jid run)" running
+
+kill9
+# no result cache: the synchronous render compared with is rendered anew
+start_rayd --threads 1 --test-gate 0 --data-dir "$D" --result-cache-mb 0
+for n in done exr cancel run queue prog; do
+    code=$(req GET "/v1/jobs/$(jid $n)")
+    check "restart_${n}_kept" "status $code: $(head -c 200 "$T/body")" [ "$code" = 200 ]
+done
+check restart_done_state "$(head -c 200 "$T/body")" job_state_is "$(jid done)" succeeded
+check restart_cancel_state "$(head -c 200 "$T/body")" job_state_is "$(jid cancel)" canceled
+check restart_queued_again "$(head -c 200 "$T/body")" job_state_is "$(jid run)" queued
+req GET "/v1/jobs/$(jid done)/image.png" >/dev/null
+check restart_done_same_bytes "image differs after the restart" cmp -s "$T/body" "$T/done.before"
+curl -s -m 30 "$URL/v1/jobs/$(jid done)/events" >"$T/events"
+check restart_events_done "$(head -c 300 "$T/events")" grep -q "event: done" "$T/events"
+req GET "/v1/jobs/$(jid exr)/image.exr" >/dev/null
+check restart_exr_same_bytes "EXR differs after the restart" cmp -s "$T/body" "$T/exr.before"
+gate open
+wait_until 60 job_state_is "$(jid run)" succeeded
+wait_until 60 job_state_is "$(jid queue)" succeeded
+wait_until 60 job_state_is "$(jid prog)" succeeded
+code=$(req GET "/v1/jobs/$(jid prog)/image.png")
+check restart_progressive_rendered "status $code: $(head -c 200 "$T/body" | tr -c '[:print:]' .)" \
+    bash -c "[ $code = 200 ] && [ '$(png_size "$T/body" 2>/dev/null)' = 32x32 ]"
+for n in run queue; do
+    req GET "/v1/jobs/$(jid $n)/image.png" >/dev/null && cp "$T/body" "$T/$n.png"
+    check "restart_${n}_rendered" "$(head -c 200 "$T/$n.png" | tr -c '[:print:]' .)" \
+        same_as_render "$n" "$T/$n.png"
+done
+
+# after they finished: a second kill keeps them all, still the same bytes
+kill9
+start_rayd --threads 1 --data-dir "$D"
+req GET "/v1/jobs/$(jid run)/image.png" >/dev/null
+check restart_twice_same_bytes "image differs" cmp -s "$T/body" "$T/run.png"
+req GET /v1/jobs >/dev/null
+check restart_list_all "$(head -c 300 "$T/body")" python3 - "$T/body" \
+    "$(jid prog)" "$(jid queue)" "$(jid run)" "$(jid cancel)" "$(jid exr)" "$(jid done)" <<'PY'
+import json, sys
+ids = [j["id"] for j in json.load(open(sys.argv[1]))["jobs"]]
+sys.exit(0 if ids == sys.argv[2:] else 1)
+PY
+
+# during a write: the store stops between the temporary file and its rename
+kill9
+RAYD_TEST_STORE_STALL=1 start_rayd --threads 1 --test-gate open --data-dir "$D"
+scene "$T/torn.json" 48 48 1 spheres 9
+post_job torn
+tmp_there() { test -e "$D/results/$(jid torn).png.tmp"; }
+wait_until 60 tmp_there
+check write_stalled "no $D/results/$(jid torn).png.tmp" tmp_there
+kill9
+start_rayd --threads 1 --data-dir "$D" --result-cache-mb 0
+check write_tmp_swept "$(ls "$D/results")" bash -c "! ls '$D/results' | grep -q tmp"
+wait_until 60 job_state_is "$(jid torn)" succeeded
+req GET "/v1/jobs/$(jid torn)/image.png" >/dev/null && cp "$T/body" "$T/torn.png"
+check write_rendered_whole "$(head -c 100 "$T/torn.png" | tr -c '[:print:]' .)" \
+    same_as_render torn "$T/torn.png"
+check write_file_whole "file differs from the image served" \
+    cmp -s "$D/results/$(jid torn).png" "$T/torn.png"
+
+# a drain (SIGTERM) is no end: a job it cancels is queued again at the next start
+kill9
+start_rayd --threads 1 --test-gate 0 --data-dir "$D" --drain-seconds 0
+scene "$T/drain.json" 32 32 1 spheres 11
+post_job drain
+stop_rayd TERM
+start_rayd --threads 1 --data-dir "$D"
+wait_until 60 job_state_is "$(jid drain)" succeeded
+check drain_requeued "$(head -c 200 "$T/body")" job_state_is "$(jid drain)" succeeded
+
+# ---- --max-disk: the oldest finished image goes first, and says so -----------------
+kill9
+rm -rf "$D"
+start_rayd --threads 1 --data-dir "$D" --max-disk 1
+for n in d1 d2; do
+    scene "$T/$n.json" 32 32 1 spheres "$((${#n} + 20 + ${n#d}))"
+    post_job "$n"
+    wait_until 60 job_state_is "$(jid $n)" succeeded
+done
+evicted() { [ "$(req GET "/v1/jobs/$(jid d1)/image.png")" = 410 ]; }
+wait_until 60 evicted
+code=$(req GET "/v1/jobs/$(jid d1)/image.png")
+check disk_evicted_410 "status $code: $(head -c 300 "$T/body")" err_is "$T/body" 410 result_evicted
+check disk_evicted_says_why "$(head -c 300 "$T/body")" grep -q -- "--max-disk" "$T/body"
+code=$(req GET "/v1/jobs/$(jid d2)/image.png")
+check disk_newest_kept "status $code" [ "$code" = 200 ]
+check disk_file_gone "$(ls "$D/results")" bash -c "! ls '$D/results' | grep -q '$(jid d1)'"
+kill9
+start_rayd --threads 1 --data-dir "$D" --max-disk 1
+code=$(req GET "/v1/jobs/$(jid d1)")
+check disk_evicted_after_restart "status $code: $(head -c 300 "$T/body")" \
+    err_is "$T/body" 410 result_evicted
+code=$(req GET "/v1/jobs/$(jid d2)/image.png")
+check disk_kept_after_restart "status $code" [ "$code" = 200 ]
+
+# the TTL counts from the end, across a restart: an ended job older than it goes
+kill9
+start_rayd --threads 1 --data-dir "$D" --job-ttl 1
+gone() { [ "$(req GET "/v1/jobs/$(jid d2)")" != 200 ]; }
+wait_until 60 gone
+check ttl_across_restart "status $(req GET "/v1/jobs/$(jid d2)")" gone
+check ttl_file_deleted "$(ls "$D/results")" bash -c "! ls '$D/results' | grep -q png"
+
+# ---- without --data-dir: memory only, as before --------------------------------------
+kill9
+start_rayd --threads 1
+post_job d1
+wait_until 60 job_state_is "$(jid d1)" succeeded
+kill9
+start_rayd --threads 1
+code=$(req GET "/v1/jobs/$(jid d1)")
+check memory_only_forgets "status $code" [ "$code" = 404 ]
+
+exit $((NFAIL > 0))
