@@ -101,8 +101,7 @@ static void http_flow_options(struct http_req *r)
         http_reply_error(r, 404, "not_found", "no such resource", NULL, 0, 0, NULL);
         return;
     }
-    struct MHD_Response *resp = MHD_create_response_from_buffer(0, NULL, MHD_RESPMEM_PERSISTENT);
-    http_reply(r, 204, resp);
+    http_reply_data(r, 204, NULL, NULL, 0);
     http_reply_header(r, MHD_HTTP_HEADER_ALLOW, allow);
     if (http_reply_cors_origin(r)) {
         http_reply_header(r, "Access-Control-Allow-Methods", allow);

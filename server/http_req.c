@@ -22,7 +22,6 @@
  */
 #include "request.h"
 
-#include <microhttpd.h>
 #include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
@@ -56,10 +55,23 @@ struct http_req *http_req_new(const struct http_io *io, void *io_ctx, const char
     return r;
 }
 
+void http_req_reply_free(struct http_reply *p)
+{
+    if (!p)
+        return;
+    for (size_t i = 0; i < p->nheaders; i++)
+        free(p->headers[i].name);
+    free(p->headers);
+    free(p->data);
+    blob_unref(p->blob);
+    if (p->done)
+        p->done(p->cls);
+    free(p);
+}
+
 void http_req_free(struct http_req *r)
 {
-    if (r->pending)
-        MHD_destroy_response(r->pending);
+    http_req_reply_free(r->pending);
     free(r->target);
     free(r->body);
     mem_release(MEM_BODIES, r->body_mem);

@@ -7,7 +7,8 @@
  * (http.c) and the request flow (http_flow.c) are above the router and
  * reach a request through struct http_io, the table of functions the
  * transport fills in (libmicrohttpd, or the fuzz harness's own).
- * May include: base.h, libmicrohttpd's response type (opaque here) -- never
+ * May include: base.h -- never libmicrohttpd (a reply is data, struct
+ * http_reply, which the transport alone turns into a response), never
  * work.h: a reply carries a PNG as a struct blob (base), not a task.
  * Included by http_req.c, http_reply.c, api_*.c, router.c, http_flow.c,
  * http.c and the fuzz harnesses.
@@ -17,8 +18,43 @@
 
 #include "base.h"
 
-struct MHD_Response;
 struct http_req;
+
+/* A reply as data: status, headers in the order they were added, and a
+ * body.  Handlers shape it through http_reply_* (below) and never see the
+ * transport's response type; the transport turns it into one when the
+ * handler returns or a suspended request is resumed (http.c), and frees it
+ * with http_req_reply_free. */
+enum http_body {
+    HTTP_BODY_BYTES,  /* data[0..len), malloc'd, owned by the reply */
+    HTTP_BODY_BLOB,   /* an image: one reference to blob, read a block at a time */
+    HTTP_BODY_STREAM, /* of unknown length: the transport calls read until its end */
+    HTTP_BODY_NONE,   /* no body, and neither Content-Length nor chunking (304, HEAD) */
+};
+/* What a stream's read returns instead of a byte count: its end, or an
+ * error that ends the connection. */
+#define HTTP_STREAM_END ((ssize_t)-1)
+#define HTTP_STREAM_ERROR ((ssize_t)-2)
+struct http_header {
+    char *name, *value; /* one malloc'd block: name, NUL, value */
+};
+struct http_reply {
+    unsigned status;
+    enum http_body kind;
+    struct http_header *headers;
+    size_t nheaders, cap;
+    char *data; /* HTTP_BODY_BYTES */
+    size_t len;
+    struct blob *blob; /* HTTP_BODY_BLOB */
+    /* HTTP_BODY_STREAM: read fills up to max bytes of buf (or says
+     * HTTP_STREAM_END / HTTP_STREAM_ERROR), called by the transport's
+     * threads while the answer is sent, block bytes at most; done is called
+     * once when the transport, or a reply dropped unsent, lets go of cls. */
+    ssize_t (*read)(void *cls, char *buf, size_t max);
+    void (*done)(void *cls);
+    void *cls;
+    size_t block;
+};
 
 /* Room for the reason of a refusal of libmicrohttpd's (a code made of its
  * error page's title: "requested_http_version_is_not_supported"). */
@@ -79,8 +115,7 @@ struct http_req {
     double t_sent;               /* when the response was handed to libmicrohttpd */
     bool is_image;               /* the response is an image (its send is a stage) */
     bool route_negotiates;       /* POST /v1/render: Accept may pick the format (Vary) */
-    struct MHD_Response *pending; /* to queue when the handler runs again */
-    unsigned pending_status;
+    struct http_reply *pending;  /* to queue when the handler runs again */
     bool suspended, gone, replied, too_large, no_memory;
     bool parked;                 /* suspended by the handler now running (its thread only) */
     const char *note;            /* for the access log */
@@ -97,7 +132,9 @@ struct http_req {
  * http_req_free.  NULL on no memory. */
 struct http_req *http_req_new(const struct http_io *io, void *io_ctx, const char *method,
                               const char *url, size_t target_len);
-void http_req_free(struct http_req *r); /* the pending response too */
+void http_req_free(struct http_req *r); /* the pending reply too */
+/* Frees a reply: its bytes, its blob reference, its stream's done. */
+void http_req_reply_free(struct http_reply *p);
 /* Keeps a copy of the raw request-target for the access log (the first
  * 2 KiB: a log line is no place for a 16 MiB query), and checks all of it:
  * r->target_why says why it is refused -- a space or control character, or
@@ -128,10 +165,10 @@ bool http_req_list_next(const char **p, const char **item, size_t *len);
 
 /* ---- http_reply.c: the reply ------------------------------------------------- */
 
-/* Each takes ownership of nothing (but resp); the response goes out when the
- * handler returns, or when a suspended request is resumed.  CORS and
- * nosniff headers are added to every reply here. */
-void http_reply(struct http_req *r, unsigned status, struct MHD_Response *resp);
+/* Each takes ownership of nothing; the reply goes out when the handler
+ * returns, or when a suspended request is resumed.  CORS and nosniff
+ * headers are added to every reply here.  A reply replaces the one before.
+ * Out of memory, r->gone is set: the transport drops the connection. */
 void http_reply_data(struct http_req *r, unsigned status, const char *ctype, const void *data,
                      size_t len);
 /* o as the JSON body, deleted; Cache-Control: no-store on a success. */
@@ -143,6 +180,14 @@ void http_reply_image(struct http_req *r, unsigned status, struct blob *img, con
  * column are written when line > 0; param names a bad query parameter. */
 void http_reply_error(struct http_req *r, unsigned status, const char *code, const char *message,
                       const char *path, int line, int column, const char *param);
+/* A body of unknown length, read by the transport as it sends (an event
+ * stream): see struct http_reply.  headers: name, value, ..., NULL, put
+ * before those every reply carries.  done(cls) is called once whatever
+ * happens, even when this fails. */
+void http_reply_stream(struct http_req *r, unsigned status, const char *const *headers,
+                       size_t block,
+                       ssize_t (*read)(void *cls, char *buf, size_t max), void (*done)(void *cls),
+                       void *cls);
 /* Adds a header to the response queued last (call right after a reply). */
 void http_reply_header(struct http_req *r, const char *name, const char *value);
 /* 304 Not Modified: no body, no Content-Length, the cache headers of the
