@@ -46,6 +46,7 @@ size_t budget_bytes(const struct work_target *what, bool progressive, enum mem_k
 struct task *budget_task(struct cache_entry *scene, const struct work_target *what,
                          bool progressive, enum work_submit *why)
 {
+    work_assert_unlocked();
     enum mem_kind kind;
     size_t n = budget_bytes(what, progressive, &kind);
     if (!mem_reserve(kind, n)) {

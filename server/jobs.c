@@ -51,9 +51,9 @@ static int jobs_tomb_next, jobs_tomb_n;
 
 static long jobs_gauge(void)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     long n = jobs_n;
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return n;
 }
 
@@ -89,10 +89,10 @@ static bool jobs_evict_oldest(void)
 static bool jobs_reclaim(enum mem_kind k, size_t need)
 {
     (void)need; /* called again until the reservation fits */
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     bool freed =
         rcache_evict_one() || cache_evict_one() || (k != MEM_BODIES && jobs_evict_oldest());
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return freed;
 }
 
@@ -162,6 +162,7 @@ static double jobs_wall(double mono)
 
 struct job *jobs_find(const char *id)
 {
+    work_assert_locked();
     for (int i = 0; i < jobs_n; i++)
         if (!strcmp(jobs_table[i]->id, id))
             return jobs_table[i];
@@ -203,6 +204,7 @@ static void jobs_forget(int i, enum jobs_gone_why why, double now)
 
 void jobs_expire(double now)
 {
+    work_assert_locked();
     for (int i = 0; i < jobs_n;) {
         const struct job *j = jobs_table[i];
         if (jobs_final(j) && now - jobs_ended(j) > (double)config.job_ttl)
@@ -215,7 +217,7 @@ void jobs_expire(double now)
 bool jobs_gone(const char *id, struct jobs_gone *g)
 {
     bool found = false;
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     for (int k = 1; k <= jobs_tomb_n && !found; k++) { /* the newest first */
         const struct jobs_tomb *t =
             &jobs_tombs[(jobs_tomb_next - k + JOBS_TOMBSTONES) % JOBS_TOMBSTONES];
@@ -224,7 +226,7 @@ bool jobs_gone(const char *id, struct jobs_gone *g)
             found = true;
         }
     }
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return found;
 }
 
@@ -237,6 +239,7 @@ static bool jobs_has_result(const struct job *j)
 
 struct job *jobs_oldest_result(void)
 {
+    work_assert_locked();
     struct job *best = NULL;
     for (int i = 0; i < jobs_n; i++) {
         struct job *j = jobs_table[i];
@@ -248,6 +251,7 @@ struct job *jobs_oldest_result(void)
 
 size_t jobs_evict_result(struct job *j, const char *why)
 {
+    work_assert_locked();
     struct task *t = j->task;
     size_t bytes = (t->png ? t->png->len : 0) + (t->exr ? t->exr->len : 0);
     blob_unref(t->png);
@@ -338,7 +342,7 @@ enum work_submit jobs_create(struct cache_entry *scene, const struct work_target
     snprintf(j->id, sizeof j->id, "%s", id);
     j->created = clock_now();
     j->refs = 1;
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     enum work_submit r = WORK_OK;
     struct task *t = NULL;
     if (task_draining())
@@ -354,7 +358,7 @@ enum work_submit jobs_create(struct cache_entry *scene, const struct work_target
         jobs_table[jobs_n++] = j;
         j = NULL;
     }
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     free(j);
     if (fresh)
         task_unref(fresh);
@@ -366,6 +370,7 @@ enum work_submit jobs_create(struct cache_entry *scene, const struct work_target
  * event of its stream say the same. */
 double jobs_progress(const struct job *j)
 {
+    work_assert_locked();
     const struct task *t = j->task;
     if (jobs_state(j) == JS_SUCCEEDED)
         return 1;
@@ -377,6 +382,7 @@ double jobs_progress(const struct job *j)
  * else a progressive job's latest pass (NULL if none yet); referenced. */
 static struct blob *jobs_image(const struct job *j, enum jobs_state state, bool exr)
 {
+    work_assert_locked();
     const struct task *t = j->task;
     if (state == JS_SUCCEEDED)
         return blob_ref(exr ? t->exr : t->png);
@@ -389,6 +395,7 @@ static struct blob *jobs_image(const struct job *j, enum jobs_state state, bool 
 /* The job's numbers, lock held. */
 static void jobs_info_of(const struct job *j, struct jobs_info *info, enum jobs_want want)
 {
+    work_assert_locked();
     const struct task *t = j->task;
     info->state = jobs_state(j);
     info->tiles_done = t->done;
@@ -428,18 +435,18 @@ static void jobs_info_of(const struct job *j, struct jobs_info *info, enum jobs_
 bool jobs_get(const char *id, struct jobs_info *info, enum jobs_want want)
 {
     memset(info, 0, sizeof *info);
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     struct job *j = jobs_find(id);
     if (j)
         jobs_info_of(j, info, want);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return j != NULL;
 }
 
 bool jobs_cancel(const char *id)
 {
     struct task_notify n = {0}, sse = {0};
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     struct job *j = jobs_find(id);
     if (j && !j->canceled && !j->task->finished) {
         struct task *t = j->task;
@@ -453,7 +460,7 @@ bool jobs_cancel(const char *id)
         }
         task_notify_add(&sse, &t->sse_waiters);
     }
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     task_notify_run(&n);
     task_notify_run(&sse);
     mem_trim(); /* a cancelled job's sums may have been freed */
@@ -464,26 +471,26 @@ bool jobs_pass_image(const char *id, int pass, bool exr, struct blob **img, int 
 {
     *img = NULL;
     *samples = 0;
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     struct job *j = jobs_find(id);
     const struct passes *p = j ? j->task->passes : NULL;
     if (p && !j->canceled && j->evicted_at == 0 && pass >= 1 && pass <= p->done) {
         *img = blob_ref(exr ? passes_exr(p, pass) : passes_png(p, pass));
         *samples = p->samples[pass - 1];
     }
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return j != NULL;
 }
 
 bool jobs_end_early(const char *id, bool *progressive)
 {
     struct task_notify n = {0}, sse = {0};
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     struct job *j = jobs_find(id);
     *progressive = j && j->task->passes;
     if (*progressive && !j->canceled && task_end_early(j->task, PASSES_BY_CLIENT))
         task_finish(j->task, &n, &sse);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     task_notify_run(&n);
     task_notify_run(&sse);
     return j != NULL;

@@ -42,6 +42,7 @@ static bool sched_stopping; /* lock held: the workers end */
  * while it waits. */
 static struct task *sched_next_task(void)
 {
+    work_assert_locked();
     while (!sched_stopping) {
         struct task *t = task_pick();
         if (t && gate_pass()) {
@@ -49,7 +50,7 @@ static struct task *sched_next_task(void)
             return t;
         }
         gate_count(0, t != NULL);
-        pthread_cond_wait(&work_cond, &work_lock);
+        work_wait(&work_cond);
         gate_count(0, -(long)(t != NULL));
     }
     return NULL;
@@ -81,6 +82,7 @@ static enum rayd_status sched_encode_as(struct task *t, void **buf, size_t *len,
 static struct blob *sched_keep(enum rayd_status *st, void *buf, size_t len, struct rayd_error *err,
                                const char *what)
 {
+    work_assert_unlocked();
     struct blob *b = *st == RAYD_OK ? blob_new(buf, len) : NULL;
     if (*st == RAYD_OK && !b) {
         rayd_free(buf);
@@ -94,6 +96,7 @@ static struct blob *sched_keep(enum rayd_status *st, void *buf, size_t len, stru
  * RAYD_OK; else NULL.  A failure sets *st and err.  Lock not held. */
 static struct blob *sched_exr(const struct task *t, enum rayd_status *st, struct rayd_error *err)
 {
+    work_assert_unlocked();
     if (!t->keep_exr || *st != RAYD_OK)
         return NULL;
     void *buf = NULL;
@@ -117,7 +120,7 @@ static void sched_encode(struct task *t)
     struct blob *exr = sched_exr(t, &st, &err);
     double enc = clock_now() - t0;
     metrics_stage(MS_ENCODE, enc);
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     t->encode_s = enc;
     t->png = png;
     t->exr = exr;
@@ -129,6 +132,7 @@ static void sched_encode(struct task *t)
  * image the pass's tiles draw into. */
 static void sched_pass_open(struct task *t, rayd_image *img)
 {
+    work_assert_locked();
     t->img = img;
     t->passes->pass++;
     t->next_tile = 0;
@@ -158,7 +162,7 @@ static bool sched_pass_close(struct task *t, struct task_notify *sse)
     enum rayd_status st = rayd_png_encode(t->img, (int)config.png_level, &buf, &len, &err);
     struct blob *png = sched_keep(&st, buf, len, &err, "the pass's PNG");
     struct blob *exr = sched_exr(t, &st, &err);
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     if (st != RAYD_OK) {
         task_fail(t, st, &err);
         blob_unref(png);
@@ -186,6 +190,7 @@ static bool sched_pass_close(struct task *t, struct task_notify *sse)
  * without memory, t is encoded whole at the end. */
 static void sched_stream_open(struct task *t)
 {
+    work_assert_locked();
     if (t->format != WORK_PNG || t->passes || t->stream_tried)
         return;
     t->stream_tried = true;
@@ -210,10 +215,11 @@ static void sched_stream_open(struct task *t)
  * lock. */
 static void sched_stream_tile(struct task *t, int tile)
 {
+    work_assert_unlocked();
     rayd_png_stream *s = t->stream;
     if (!s || atomic_load(&t->cancel))
         return;
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     int rows = 0, top = t->rows_top;
     if (--t->row_left[tile / t->ntx] == 0) {
         while (t->rows_top < t->nty && t->row_left[t->rows_top] == 0)
@@ -221,7 +227,7 @@ static void sched_stream_tile(struct task *t, int tile)
         if (t->rows_top > top)
             rows = t->rows_top * t->tile < t->reg.h ? t->rows_top * t->tile : t->reg.h;
     }
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     if (rows > 0)
         rayd_png_stream_rows(s, rows);
 }
@@ -229,6 +235,7 @@ static void sched_stream_tile(struct task *t, int tile)
 /* Takes a tile of t, lock held. */
 static void sched_take(struct task *t)
 {
+    work_assert_locked();
     sched_stream_open(t);
     if (t->t_start == 0) {
         t->t_start = clock_now();
@@ -248,6 +255,7 @@ static void sched_done(struct task *t, int tile, enum rayd_status st,
                        const struct rayd_error *err, uint64_t rays, struct task_notify *n,
                        struct task_notify *sse)
 {
+    work_assert_locked();
     sched_busy--;
     t->running--;
     t->rays += rays;
@@ -270,7 +278,7 @@ static void sched_done(struct task *t, int tile, enum rayd_status st,
         return;
     if (t->done == t->ntiles && t->status == RAYD_OK) {
         t->finalizing = true;
-        pthread_mutex_unlock(&work_lock);
+        work_lock_give();
         if (t->passes) {
             if (sched_pass_close(t, sse)) /* returns with the lock held */
                 return;
@@ -320,6 +328,7 @@ static enum rayd_status sched_sums_tile(struct task *t, const struct rayd_region
 static enum rayd_status sched_tile(struct task *t, int tile, int pass, uint64_t *rays,
                                    struct rayd_error *err)
 {
+    work_assert_unlocked();
     struct rayd_region tr = task_tile(t, tile);
     const rayd_scene *scene = cache_scene(t->scene);
     int dx = tr.x - t->reg.x, dy = tr.y - t->reg.y;
@@ -344,14 +353,14 @@ static enum rayd_status sched_tile(struct task *t, int tile, int pass, uint64_t 
 static void *sched_worker(void *arg)
 {
     (void)arg;
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     for (;;) {
         struct task *t = sched_next_task();
         if (!t)
             break;
         int tile = t->next_tile++, pass = t->passes ? t->passes->pass : 0;
         sched_take(t);
-        pthread_mutex_unlock(&work_lock);
+        work_lock_give();
 
         uint64_t rays = 0;
         struct rayd_error err = {0};
@@ -363,16 +372,16 @@ static void *sched_worker(void *arg)
             sched_stream_tile(t, tile);
 
         struct task_notify n = {0}, sse = {0};
-        pthread_mutex_lock(&work_lock);
+        work_lock_take();
         struct rayd_region tr = task_tile(t, tile);
         cost_observe(t->scene_id, t->client, task_tile_rays(t, &tr, pass), took, st == RAYD_OK);
         sched_done(t, tile, st, &err, rays, &n, &sse);
-        pthread_mutex_unlock(&work_lock);
+        work_lock_give();
         task_notify_run(&n);
         task_notify_run(&sse);
-        pthread_mutex_lock(&work_lock);
+        work_lock_take();
     }
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return NULL;
 }
 
@@ -380,9 +389,9 @@ static void *sched_worker(void *arg)
 
 static long sched_gauge_queued(void)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     long x = task_queued;
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return x;
 }
 
@@ -392,19 +401,19 @@ static long sched_gauge_draining(void) { return sched_draining(); }
 
 static long sched_gauge_busy(void)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     long x = sched_busy;
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return x;
 }
 
 static long sched_gauge_running(void)
 {
     long n = 0;
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     for (struct task *t = task_active; t; t = t->next)
         n += t->next_tile > 0;
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return n;
 }
 
@@ -442,10 +451,10 @@ int sched_start(int workers, int queue_cap, int max_jobs)
 
 void sched_stop(void)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     sched_stopping = true;
     pthread_cond_broadcast(&work_cond);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     for (int i = 0; i < sched_nworkers; i++)
         pthread_join(sched_threads[i], NULL);
     watch_stop();
@@ -475,10 +484,10 @@ struct blob *sched_result_find(const struct cache_entry *scene, const struct wor
 {
     char key[160];
     task_key(key, sizeof key, cache_version(scene), what);
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     struct blob *b = rcache_get(key);
     bool on = rcache_on();
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     if (on)
         metrics_result_cache(b != NULL);
     return b;
@@ -493,7 +502,7 @@ static bool sched_join(struct cache_entry *scene, const struct work_target *what
 {
     char key[160];
     task_key(key, sizeof key, cache_version(scene), what);
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     struct task *t = task_draining() ? NULL : task_find(key);
     if (t) {
         metrics_coalesced();
@@ -501,7 +510,7 @@ static bool sched_join(struct cache_entry *scene, const struct work_target *what
         w->next = t->waiters;
         t->waiters = w;
     }
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return t != NULL;
 }
 
@@ -516,7 +525,7 @@ enum work_submit sched_render(struct cache_entry *scene, const struct work_targe
     struct task *fresh = budget_task(scene, what, false, &why);
     if (!fresh)
         return why;
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     struct task *t = NULL;
     enum work_submit r = task_submit(scene, &fresh, &t);
     if (r == WORK_OK) {
@@ -524,7 +533,7 @@ enum work_submit sched_render(struct cache_entry *scene, const struct work_targe
         w->next = t->waiters;
         t->waiters = w;
     }
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     if (fresh)
         task_unref(fresh);
     return r;
@@ -538,7 +547,7 @@ bool sched_draining(void) { return task_draining(); }
 
 void sched_cancel_all(void)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     for (;;) {
         struct task *t = task_active;
         while (t && (atomic_load(&t->cancel) || t->finished))
@@ -547,46 +556,46 @@ void sched_cancel_all(void)
             break;
         struct task_notify n = {0}, sse = {0};
         task_cancel(t, MC_DRAIN, &n, &sse);
-        pthread_mutex_unlock(&work_lock);
+        work_lock_give();
         task_notify_run(&n);
         task_notify_run(&sse);
-        pthread_mutex_lock(&work_lock);
+        work_lock_take();
     }
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
 }
 
 bool sched_idle(void)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     bool idle = task_active == NULL;
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return idle;
 }
 
 double sched_seconds(double rays)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     double s = cost_seconds(rays);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return s;
 }
 
 double sched_backlog(void)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     double s = cost_seconds(task_backlog_rays());
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return s;
 }
 
 void sched_stats(struct sched_stats *st)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     st->backlog_s = cost_seconds(task_backlog_rays());
     st->queued = task_queued;
     st->queue_cap = task_queue_cap;
     st->workers = sched_nworkers;
     st->busy_workers = sched_busy;
     jobs_count(&st->jobs_unfinished, &st->jobs_cap);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
 }

@@ -42,9 +42,9 @@ static atomic_bool task_drain_flag;
 /* Set under the lock, so no submission slips past it; read without. */
 void task_drain(void)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     atomic_store(&task_drain_flag, true);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
 }
 
 bool task_draining(void) { return atomic_load(&task_drain_flag); }
@@ -158,6 +158,7 @@ void task_times(const struct task *t, double now, double *queue_ms, double *rend
 
 void task_unqueue(struct task *t)
 {
+    work_assert_locked();
     if (t->queued) {
         t->queued = false;
         task_queued--;
@@ -166,6 +167,7 @@ void task_unqueue(struct task *t)
 
 struct task *task_find(const char *key)
 {
+    work_assert_locked();
     for (struct task *t = task_active; t; t = t->next)
         if (!t->finalizing && !atomic_load(&t->cancel) && !strcmp(t->key, key))
             return t;
@@ -201,6 +203,7 @@ static bool task_before(const struct task *t, uint64_t t_last, const struct task
 
 struct task *task_pick(void)
 {
+    work_assert_locked();
     struct task *first[2] = {NULL, NULL}; /* [interactive] */
     uint64_t last[2] = {0, 0};
     for (struct task *t = task_active; t; t = t->next) {
@@ -220,6 +223,7 @@ struct task *task_pick(void)
 
 void task_taken(const struct task *t)
 {
+    work_assert_locked();
     fair_served(t->client);
     bool bulk_waits = false;
     for (const struct task *u = task_active; u && !bulk_waits; u = u->next)
@@ -232,6 +236,7 @@ void task_taken(const struct task *t)
 
 enum work_submit task_submit(struct cache_entry *scene, struct task **fresh, struct task **out)
 {
+    work_assert_locked();
     if (task_draining())
         return WORK_DRAINING;
     struct task *t = task_find((*fresh)->key); /* scene, region and format */
@@ -290,6 +295,7 @@ static double task_left(const struct task *t)
 
 double task_backlog_rays(void)
 {
+    work_assert_locked();
     double rays = 0;
     for (const struct task *t = task_active; t; t = t->next)
         if (!t->finished && !atomic_load(&t->cancel))
@@ -311,6 +317,7 @@ void task_notify_add(struct task_notify *n, struct work_waiter **from)
 
 void task_notify_run(struct task_notify *n)
 {
+    work_assert_unlocked();
     struct work_waiter *w = n->list;
     n->list = NULL;
     while (w) {
@@ -361,6 +368,7 @@ static void task_unlink(struct task *t)
 
 bool task_end_early(struct task *t, enum passes_stop why)
 {
+    work_assert_locked();
     struct passes *p = t->passes;
     if (!p || t->finished)
         return false;
@@ -375,6 +383,7 @@ bool task_end_early(struct task *t, enum passes_stop why)
 
 void task_over_work(struct task *t)
 {
+    work_assert_locked();
     if (t->status != RAYD_OK)
         return;
     task_failf(t, RAYD_E_LIMIT,
@@ -386,6 +395,7 @@ void task_over_work(struct task *t)
 bool task_past_deadline(struct task *t, double now, long limit, struct task_notify *n,
                         struct task_notify *sse)
 {
+    work_assert_locked();
     if (limit <= 0 || t->t_start <= 0 || t->finished || t->finalizing ||
         atomic_load(&t->cancel) || now - t->t_start < (double)limit)
         return false;
@@ -404,6 +414,7 @@ bool task_past_deadline(struct task *t, double now, long limit, struct task_noti
 
 void task_fail(struct task *t, enum rayd_status st, const struct rayd_error *err)
 {
+    work_assert_locked();
     t->status = st;
     t->err = *err;
     t->err.code = st;
@@ -421,6 +432,7 @@ void task_failf(struct task *t, enum rayd_status st, const char *fmt, ...)
 
 void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
 {
+    work_assert_locked();
     t->finished = true;
     t->t_end = clock_now();
     task_keep_pass(t);
@@ -457,6 +469,7 @@ void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
 void task_cancel(struct task *t, enum metrics_cancel why, struct task_notify *n,
                  struct task_notify *sse)
 {
+    work_assert_locked();
     if (t->finished || atomic_load(&t->cancel))
         return;
     atomic_store(&t->cancel, 1);

@@ -35,6 +35,7 @@ struct watch_set {
 
 static bool watch_add(struct watch_set *s, struct work_waiter *w)
 {
+    work_assert_locked();
     if (s->n == s->cap) {
         size_t nc = s->cap ? s->cap * 2 : 64;
         struct pollfd *f2 = realloc(s->fds, nc * sizeof *s->fds);
@@ -81,6 +82,7 @@ static bool watch_hung_up(const struct pollfd *p)
 static void watch_drop(struct work_waiter *w, struct task_notify *gone, struct task_notify *n,
                        struct task_notify *sse)
 {
+    work_assert_locked();
     for (struct task *t = task_active; t; t = t->next)
         for (int which = 0; which < 2; which++)
             for (struct work_waiter **pp = watch_list(t, which); *pp; pp = &(*pp)->next)
@@ -97,6 +99,7 @@ static void watch_drop(struct work_waiter *w, struct task_notify *gone, struct t
 /* Answers the waiters whose client hung up.  Lock held on entry and exit. */
 static void watch_poll(struct watch_set *s)
 {
+    work_assert_locked();
     if (s->n == 0 || poll(s->fds, s->n, 0) <= 0)
         return;
     struct task_notify gone = {0}, n = {0}, sse = {0};
@@ -105,25 +108,26 @@ static void watch_poll(struct watch_set *s)
     for (size_t i = 0; i < s->n; i++)
         if (watch_hung_up(&s->fds[i]))
             watch_drop(s->ws[i], &gone, &n, &sse);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     task_notify_run(&gone);
     task_notify_run(&n);
     task_notify_run(&sse);
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
 }
 
 /* Wakes every idle event stream; true when there was one (the lock was
  * released meanwhile).  Lock held. */
 static bool watch_ping(void)
 {
+    work_assert_locked();
     struct task_notify ping = {0};
     for (struct task *t = task_active; t; t = t->next)
         task_notify_add(&ping, &t->sse_waiters);
     if (!ping.list)
         return false;
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     task_notify_run(&ping);
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     return true;
 }
 
@@ -131,6 +135,7 @@ static bool watch_ping(void)
  * lock was released meanwhile).  Lock held. */
 static bool watch_deadlines(void)
 {
+    work_assert_locked();
     struct task_notify n = {0}, sse = {0};
     bool any = false;
     double now = clock_now();
@@ -141,10 +146,10 @@ static bool watch_deadlines(void)
         }
     if (!any)
         return false;
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     task_notify_run(&n);
     task_notify_run(&sse);
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     return true;
 }
 
@@ -157,7 +162,7 @@ static void watch_sleep(void)
         ts.tv_sec++;
         ts.tv_nsec -= 1000000000L;
     }
-    pthread_cond_timedwait(&work_cond, &work_lock, &ts);
+    work_timedwait(&work_cond, &ts);
 }
 
 static void *watch_main(void *arg)
@@ -165,7 +170,7 @@ static void *watch_main(void *arg)
     (void)arg;
     struct watch_set s = {0};
     double last_ping = clock_now(), last_expire = clock_now();
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     while (!watch_stopping) {
         watch_collect(&s);
         if (clock_now() - last_expire >= 1.0) {
@@ -182,7 +187,7 @@ static void *watch_main(void *arg)
         watch_poll(&s);
         watch_sleep();
     }
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     free(s.fds);
     free(s.ws);
     return NULL;
@@ -198,10 +203,10 @@ int watch_start(void)
 
 void watch_stop(void)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     watch_stopping = true;
     pthread_cond_broadcast(&work_cond);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     if (watch_started)
         pthread_join(watch_thread, NULL);
     watch_started = false;

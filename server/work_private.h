@@ -10,8 +10,10 @@
  * task, the active list and queue counters, the jobs table, every event
  * stream's cursor, the test gate, the compiled-scene cache (cache.c) and the
  * result cache (rcache.c) -- those two have no lock of their own.  Rules:
- *   - a function whose comment says "lock held" is called with it held, any
- *     other public function of the layer takes it itself;
+ *   - a function whose comment says "lock held" is called with it held
+ *     (and says so with work_assert_locked()), any other public function of
+ *     the layer takes it itself; it is taken and released only through
+ *     work_lock_take / work_lock_give / work_wait, which know its owner;
  *   - rendering, PNG encoding, scene parsing and hashing run without it;
  *   - a waiter's done() is never called with it held: waiters are unlinked
  *     onto a struct task_notify under the lock and answered after releasing
@@ -38,8 +40,20 @@
 #define TASK_BULK_EVERY 4             /* when both classes wait, bulk gets 1 tile in 4 */
 #define EVENTS_PING_SECONDS 15.0      /* seconds of silence before a keep-alive */
 
-extern pthread_mutex_t work_lock; /* work.c */
+extern pthread_mutex_t work_lock; /* work.c: taken only through work_lock_take */
 extern pthread_cond_t work_cond;
+
+/* ---- work.c: the lock, with its owner known ------------------------------ */
+
+void work_lock_take(void);
+void work_lock_give(void); /* asserts the caller holds it */
+bool work_locked(void);    /* held by the calling thread */
+/* pthread_cond_wait / timedwait on c with work_lock (held; held again after). */
+void work_wait(pthread_cond_t *c);
+int work_timedwait(pthread_cond_t *c, const struct timespec *until);
+/* The contract "lock held" (or "called without the lock"), checked. */
+#define work_assert_locked() server_assert(work_locked())
+#define work_assert_unlocked() server_assert(!work_locked())
 
 /* ---- lru.c: the index under both caches; entries embed a struct lru_node -- */
 
