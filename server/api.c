@@ -316,9 +316,7 @@ bool api_target(struct http_req *r, const rayd_scene *scene, struct work_target 
 
 const char *api_format_type(enum work_format format)
 {
-    return format == WORK_EXR    ? "image/x-exr"
-           : format == WORK_SUMS ? "application/x-rayd-sums"
-                                 : "image/png";
+    return work_format_type(format);
 }
 
 struct api_only {

@@ -96,61 +96,61 @@ static void watch_drop(struct work_waiter *w, struct task_notify *gone, struct t
                 }
 }
 
-/* Answers the waiters whose client hung up.  Lock held on entry and exit. */
-static void watch_poll(struct watch_set *s)
+/* The waiters whose client hung up, onto gone (their tasks cancelled
+ * when nobody else wants them: onto n and sse).  Lock held. */
+static void watch_poll(struct watch_set *s, struct task_notify *gone, struct task_notify *n,
+                       struct task_notify *sse)
 {
     work_assert_locked();
     if (s->n == 0 || poll(s->fds, s->n, 0) <= 0)
         return;
-    struct task_notify gone = {0}, n = {0}, sse = {0};
-    gone.res.gone = true;
-    gone.res.status = RAYD_E_CANCELED;
     for (size_t i = 0; i < s->n; i++)
         if (watch_hung_up(&s->fds[i]))
-            watch_drop(s->ws[i], &gone, &n, &sse);
-    work_lock_give();
-    task_notify_run(&gone);
-    task_notify_run(&n);
-    task_notify_run(&sse);
-    work_lock_take();
+            watch_drop(s->ws[i], gone, n, sse);
 }
 
-/* Wakes every idle event stream; true when there was one (the lock was
- * released meanwhile).  Lock held. */
-static bool watch_ping(void)
+/* Every idle event stream, onto ping, to be woken.  Lock held. */
+static void watch_ping(struct task_notify *ping)
 {
     work_assert_locked();
-    struct task_notify ping = {0};
     for (struct task *t = task_active; t; t = t->next)
-        task_notify_add(&ping, &t->sse_waiters);
-    if (!ping.list)
-        return false;
-    work_lock_give();
-    task_notify_run(&ping);
-    work_lock_take();
-    return true;
+        task_notify_add(ping, &t->sse_waiters);
 }
 
-/* Stops the renders past --max-render-seconds; true when one was (the
- * lock was released meanwhile).  Lock held. */
-static bool watch_deadlines(void)
+/* Stops a render past --max-render-seconds, its waiters onto n and sse;
+ * true when one was.  Lock held. */
+static bool watch_deadlines(struct task_notify *n, struct task_notify *sse)
 {
     work_assert_locked();
-    struct task_notify n = {0}, sse = {0};
-    bool any = false;
     double now = clock_now();
     for (struct task *t = task_active; t; t = t->next)
-        if (task_past_deadline(t, now, config.max_render_seconds, &n, &sse)) {
-            any = true; /* t may be freed: no t->next now */
-            break;
-        }
-    if (!any)
-        return false;
-    work_lock_give();
-    task_notify_run(&n);
-    task_notify_run(&sse);
-    work_lock_take();
-    return true;
+        if (task_past_deadline(t, now, config.max_render_seconds, n, sse))
+            return true; /* t may be freed: no t->next now */
+    return false;
+}
+
+/* One look round, lock held: what to answer onto gone, n and sse; true
+ * when the watcher looks again at once (a deadline or a keep-alive was
+ * due), false when it sleeps first. */
+static bool watch_round(struct watch_set *s, double *last_expire, double *last_ping,
+                        struct task_notify *gone, struct task_notify *n, struct task_notify *sse)
+{
+    work_assert_locked();
+    watch_collect(s);
+    if (clock_now() - *last_expire >= 1.0) {
+        *last_expire = clock_now();
+        jobs_expire(*last_expire);
+    }
+    if (watch_deadlines(n, sse))
+        return true;
+    if (clock_now() - *last_ping >= EVENTS_PING_SECONDS) {
+        *last_ping = clock_now();
+        watch_ping(n);
+        if (n->list)
+            return true;
+    }
+    watch_poll(s, gone, n, sse);
+    return false;
 }
 
 static void watch_sleep(void)
@@ -172,20 +172,18 @@ static void *watch_main(void *arg)
     double last_ping = clock_now(), last_expire = clock_now();
     work_lock_take();
     while (!watch_stopping) {
-        watch_collect(&s);
-        if (clock_now() - last_expire >= 1.0) {
-            last_expire = clock_now();
-            jobs_expire(last_expire);
+        struct task_notify gone = {.res = {.gone = true, .status = RAYD_E_CANCELED}};
+        struct task_notify n = {0}, sse = {0};
+        bool again = watch_round(&s, &last_expire, &last_ping, &gone, &n, &sse);
+        if (gone.list || n.list || sse.list) { /* answered without the lock */
+            work_lock_give();
+            task_notify_run(&gone);
+            task_notify_run(&n);
+            task_notify_run(&sse);
+            work_lock_take();
         }
-        if (watch_deadlines())
-            continue;
-        if (clock_now() - last_ping >= EVENTS_PING_SECONDS) {
-            last_ping = clock_now();
-            if (watch_ping())
-                continue;
-        }
-        watch_poll(&s);
-        watch_sleep();
+        if (!again)
+            watch_sleep();
     }
     work_lock_give();
     free(s.fds);
