@@ -43,7 +43,7 @@ static void api_events_wake(struct work_waiter *w, struct work_result *res)
     struct http_req *r = ((struct api_events *)w)->r;
     if (res->gone) {
         r->gone = true;
-        r->note = "client_gone";
+        r->res.note = "client_gone";
     }
     blob_unref(res->png);
     http_req_resume(r);
@@ -169,7 +169,7 @@ static ssize_t api_events_reader(void *cls, char *buf, size_t max)
             return HTTP_STREAM_ERROR;
     }
 out:
-    r->bytes += used;
+    r->res.bytes += used;
     return (ssize_t)used;
 }
 

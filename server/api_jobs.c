@@ -81,7 +81,7 @@ static void api_jobs_gone(struct http_req *r, const struct jobs_gone *g, cJSON *
         cJSON_AddItemToObject(o, "job", job);
     http_reply_json(r, 410, o);
     http_reply_header(r, "Cache-Control", "no-store");
-    r->err_code = codes[g->why];
+    r->res.err_code = codes[g->why];
 }
 
 void api_jobs_missing(struct http_req *r, const char *id)
@@ -337,7 +337,7 @@ cJSON *api_jobs_json(const char *id, const struct jobs_info *in)
 
 void api_jobs_scene(struct http_req *r, const struct jobs_info *info)
 {
-    snprintf(r->scene, sizeof r->scene, "%s", info->scene_id);
+    snprintf(r->res.scene, sizeof r->res.scene, "%s", info->scene_id);
 }
 
 void api_jobs_get(struct http_req *r, const char *id)

@@ -2,7 +2,7 @@
  * carries.
  *
  * A reply is data (struct http_reply: status, headers, body) parked on the
- * request (r->pending); the transport turns it into a response and queues
+ * request (r->conn.pending); the transport turns it into a response and queues
  * it when the handler returns or when a suspended request is resumed, so a
  * worker thread never touches the connection, and no file below the
  * transport knows libmicrohttpd.  Headers every reply needs -- CORS for an
@@ -96,8 +96,8 @@ static void http_reply_set(struct http_req *r, unsigned status, struct http_repl
     }
     if (ctype)
         http_reply_add(resp, "Content-Type", ctype);
-    http_req_reply_free(r->pending);
-    r->body_counted = false;
+    http_req_reply_free(r->conn.pending);
+    r->log.body_counted = false;
     const char *origin = http_reply_cors_origin(r);
     if (origin) {
         http_reply_add(resp, "Access-Control-Allow-Origin", origin);
@@ -109,17 +109,17 @@ static void http_reply_set(struct http_req *r, unsigned status, struct http_repl
     if (r->request_id[0])
         http_reply_add(resp, "X-Request-Id", r->request_id);
     resp->status = status;
-    r->pending = resp;
+    r->conn.pending = resp;
     if (origin && strcmp(origin, "*"))
         http_reply_vary(r, "Origin");
-    r->status = (int)status;
-    r->replied = true;
+    r->res.status = (int)status;
+    r->conn.replied = true;
 }
 
 void http_reply_header(struct http_req *r, const char *name, const char *value)
 {
-    if (r->pending)
-        http_reply_add(r->pending, name, value);
+    if (r->conn.pending)
+        http_reply_add(r->conn.pending, name, value);
 }
 
 /* A reply whose body is data[0..len) (malloc'd; taken, freed on failure). */
@@ -131,7 +131,7 @@ static void http_reply_take(struct http_req *r, unsigned status, const char *cty
         free(data);
     else
         *resp = (struct http_reply){.kind = HTTP_BODY_BYTES, .data = data, .len = len};
-    r->bytes = len;
+    r->res.bytes = len;
     http_reply_set(r, status, resp, ctype);
 }
 
@@ -210,11 +210,11 @@ void http_reply_image(struct http_req *r, unsigned status, struct blob *png, con
     http_reply_add(resp, "Content-Type", type);
     /* the renderer that made the pixels: a frame is stitched from one only */
     http_reply_add(resp, "X-Rayd-Version", RAYD_VERSION);
-    r->bytes = png->len;
-    r->is_image = true;
+    r->res.bytes = png->len;
+    r->res.is_image = true;
     http_reply_set(r, status, resp, NULL);
-    r->body_taken = 0;
-    r->body_counted = true;
+    r->log.body_taken = 0;
+    r->log.body_counted = true;
 }
 
 void http_reply_error(struct http_req *r, unsigned status, const char *code, const char *message,
@@ -234,12 +234,12 @@ void http_reply_error(struct http_req *r, unsigned status, const char *code, con
     if (param && *param)
         cJSON_AddStringToObject(e, "parameter", param);
     http_reply_text(r, status, o);
-    r->err_code = code;
-    snprintf(r->err_at, sizeof r->err_at, "%s", path && *path ? path : param ? param : "");
+    r->res.err_code = code;
+    snprintf(r->res.err_at, sizeof r->res.err_at, "%s", path && *path ? path : param ? param : "");
     http_reply_header(r, "Cache-Control", "no-store");
     if (status == 503) {
         char v[16];
-        snprintf(v, sizeof v, "%d", r->retry_after > 0 ? r->retry_after : 1);
+        snprintf(v, sizeof v, "%d", r->res.retry_after > 0 ? r->res.retry_after : 1);
         http_reply_header(r, "Retry-After", v);
     }
     if (status == 401)
@@ -250,14 +250,14 @@ void http_reply_error(struct http_req *r, unsigned status, const char *code, con
 
 void http_reply_not_modified(struct http_req *r)
 {
-    r->bytes = 0;
+    r->res.bytes = 0;
     http_reply_set(r, 304, http_reply_new(HTTP_BODY_NONE), NULL);
     http_reply_cache_headers(r);
 }
 
 void http_reply_head(struct http_req *r, unsigned status, const char *ctype)
 {
-    r->bytes = 0;
+    r->res.bytes = 0;
     http_reply_set(r, status, http_reply_new(HTTP_BODY_NONE), ctype);
 }
 
@@ -265,7 +265,7 @@ void http_reply_head(struct http_req *r, unsigned status, const char *ctype)
  * header of an answer it caches, so every field goes into the same line. */
 void http_reply_vary(struct http_req *r, const char *field)
 {
-    struct http_reply *p = r->pending;
+    struct http_reply *p = r->conn.pending;
     if (!p)
         return;
     long at = http_reply_find(p, "Vary");
@@ -290,10 +290,10 @@ void http_reply_vary(struct http_req *r, const char *field)
  * files in clear (docs/operations.md). */
 void http_reply_cache_headers(struct http_req *r)
 {
-    if (r->etag[0]) {
-        http_reply_header(r, "ETag", r->etag);
+    if (r->res.etag[0]) {
+        http_reply_header(r, "ETag", r->res.etag);
         http_reply_header(r, "Cache-Control",
-                          r->etag_revalidate ? "public, no-cache"
+                          r->res.etag_revalidate ? "public, no-cache"
                                              : "public, max-age=31536000, immutable");
         if (config.token)
             http_reply_vary(r, "Authorization");

@@ -74,56 +74,86 @@ struct http_io {
     int (*fd)(struct http_req *r); /* socket to watch for a hang-up, -1 none */
 };
 
-/* One HTTP request from the first header to the last byte sent. */
-struct http_req {
+/* One HTTP request from the first header to the last byte sent, in the
+ * parts each layer owns.  At the top what every layer reads: the request as
+ * sent.  Then the transport's (conn: the connection, the body as it is
+ * read, the reply waiting to be queued, suspension), the access log's
+ * (log: where it came from and how the answer went out), the router's
+ * (route), and the result (res): what climbs back from the handler and
+ * the work below it -- status, size, timings, reason, cache tag -- for the
+ * transport to send and log.  A layer writes only its own part and res. */
+struct http_conn {
     const struct http_io *io;
     void *io_ctx;                /* the transport's own (an MHD_Connection) */
-    const char *method, *url;
     const char *version;         /* "HTTP/1.1", "HTTP/1.0"; NULL: the transport does not say */
     /* Why the transport refuses the header block it parsed ("obsolete line
      * folding ..."), or NULL: http_flow_begin answers it 400 and closes. */
     const char *framing;
     size_t target_len;           /* bytes of the request-target, query included */
-    char *target;                /* the request-target as sent (malloc'd, cut), or NULL */
     const char *target_why;      /* why the target is refused (400), or NULL */
-    char client[48];             /* the peer's address, "" when unknown */
-    char request_id[65];         /* X-Request-Id: the client's, or one made up */
-    char scene[65];              /* the scene's id when the request named or sent one */
-    const char *err_code;        /* code of the error reply sent, NULL for none */
-    char err_at[128];            /* its JSON Pointer or query parameter, "" for none */
-    char *body;
-    size_t body_len, body_cap;
+    size_t body_cap;
     long long body_declared;     /* Content-Length, -1 when none was sent */
     size_t body_mem;             /* bytes of the body counted in --max-memory (mem.c) */
     bool over_memory;            /* a chunked body outgrew the memory budget: 503 */
-    int route;                   /* router index for metrics, -1 none */
-    /* The router's row for the method and path, looked up once (router.c):
-     * begin asks it of a request with a body, dispatch uses what it found. */
-    bool routed;                 /* route_row, route_path_known and route_id are set */
-    int route_row;               /* the table row that serves them, -1 none */
-    bool route_path_known;       /* with route_row -1: the path is served to other methods */
-    char route_id[80];           /* the path's {id} segment, "" for none */
-    int status;                  /* the status sent */
-    size_t bytes;                /* response body size */
-    /* An image's body is handed to the transport as it is read (http_reply.c):
+    bool too_large, no_memory;
+    struct http_reply *pending;  /* to queue when the handler runs again */
+    bool suspended, replied;
+    bool parked;                 /* suspended by the handler now running (its thread only) */
+};
+
+struct http_log {
+    char client[48];             /* the peer's address, "" when unknown */
+    char *target;                /* the request-target as sent (malloc'd, cut), or NULL */
+    double t0;                   /* when the request came */
+    double t_sent;               /* when the response was handed to the transport */
+    /* An image's body is handed to the transport as it is read (http.c):
      * body_taken is how much was, so the access log of an answer cut short
      * says how much went out (body_counted: this reply is counted). */
     size_t body_taken;
     bool body_counted;
     const char *end_why;         /* why the transport ended the answer early, NULL none */
-    double t0, queue_ms, render_ms, encode_ms; /* the handler fills the last three */
-    double t_sent;               /* when the response was handed to libmicrohttpd */
-    bool is_image;               /* the response is an image (its send is a stage) */
-    bool route_negotiates;       /* POST /v1/render: Accept may pick the format (Vary) */
-    struct http_reply *pending;  /* to queue when the handler runs again */
-    bool suspended, gone, replied, too_large, no_memory;
-    bool parked;                 /* suspended by the handler now running (its thread only) */
-    const char *note;            /* for the access log */
     unsigned refused_status; /* the error libmicrohttpd answered by itself (431, ...), 0 none */
     char refused_why[HTTP_REFUSED_WHY]; /* its reason, a code ("request_too_big"), "" none */
+};
+
+/* The router's row for the method and path, looked up once (router.c):
+ * begin asks it of a request with a body, dispatch uses what it found. */
+struct http_route {
+    int label;                   /* router index for metrics, -1 none */
+    bool done;                   /* row, path_known and id are set */
+    int row;                     /* the table row that serves them, -1 none */
+    bool path_known;             /* with row -1: the path is served to other methods */
+    char id[80];                 /* the path's {id} segment, "" for none */
+    bool negotiates;             /* POST /v1/render: Accept may pick the format (Vary) */
+};
+
+/* What travels back up: set by the reply functions (status, bytes,
+ * err_code, err_at, is_image) and by the handler from what the work layer
+ * answered (timings, scene, the ETag, retry_after, note). */
+struct http_result {
+    int status;                  /* the status sent */
+    size_t bytes;                /* response body size */
+    const char *err_code;        /* code of the error reply sent, NULL for none */
+    char err_at[128];            /* its JSON Pointer or query parameter, "" for none */
+    double queue_ms, render_ms, encode_ms;
+    bool is_image;               /* the response is an image (its send is a stage) */
+    const char *note;            /* why, for the access log ("client_gone") */
     int retry_after;             /* seconds in a 503's Retry-After; 0: 1 */
     char etag[72];               /* set for immutable GETs */
     bool etag_revalidate;        /* the ETag's bytes may change: no-cache, not immutable */
+    char scene[65];              /* the scene's id when the request named or sent one */
+};
+
+struct http_req {
+    const char *method, *url;
+    char request_id[65];         /* X-Request-Id: the client's, or one made up */
+    char *body;
+    size_t body_len;
+    bool gone;                   /* the client left, or no memory: drop the connection */
+    struct http_conn conn;
+    struct http_log log;
+    struct http_route route;
+    struct http_result res;
 };
 
 /* ---- http_req.c: the request ------------------------------------------------ */
@@ -137,7 +167,7 @@ void http_req_free(struct http_req *r); /* the pending reply too */
 void http_req_reply_free(struct http_reply *p);
 /* Keeps a copy of the raw request-target for the access log (the first
  * 2 KiB: a log line is no place for a 16 MiB query), and checks all of it:
- * r->target_why says why it is refused -- a space or control character, or
+ * r->conn.target_why says why it is refused -- a space or control character, or
  * in its path a %00 (a NUL that would end the path early: /app.js%00.png
  * read as /app.js), a %2F (an encoded '/', which the router would see as a
  * separator once decoded) or another encoded control character. */
@@ -155,7 +185,7 @@ int http_req_query_count(struct http_req *r, const char *name);   /* how many ti
 void http_req_query_each(struct http_req *r, void (*fn)(void *u, const char *k, const char *v),
                          void *u);
 int http_req_fd(struct http_req *r);
-/* Suspends r: from now on only whoever resumes it may touch it (r->parked
+/* Suspends r: from now on only whoever resumes it may touch it (r->conn.parked
  * tells the thread that ran the handler). */
 void http_req_suspend(struct http_req *r);
 void http_req_resume(struct http_req *r); /* r may be gone after this */
@@ -199,8 +229,8 @@ void http_reply_not_modified(struct http_req *r);
 void http_reply_head(struct http_req *r, unsigned status, const char *ctype);
 /* Adds field to the reply's one Vary header (Vary: Accept, Authorization). */
 void http_reply_vary(struct http_req *r, const char *field);
-/* ETag + immutable Cache-Control when r->etag is set (no-cache when
- * r->etag_revalidate; and Vary: Authorization with a token), else no-store. */
+/* ETag + immutable Cache-Control when r->res.etag is set (no-cache when
+ * r->res.etag_revalidate; and Vary: Authorization with a token), else no-store. */
 void http_reply_cache_headers(struct http_req *r);
 /* The Access-Control-Allow-Origin value for r under --cors-origin, or NULL. */
 const char *http_reply_cors_origin(struct http_req *r);

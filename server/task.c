@@ -563,6 +563,8 @@ static void task_result(const struct task *t, struct work_result *res)
     memset(res, 0, sizeof *res);
     res->status = t->status;
     res->err = t->err;
+    /* the reason travels with the answer: the layers above need not ask */
+    res->draining = t->status == RAYD_E_CANCELED && task_draining();
     if (t->status == RAYD_OK && t->png)
         res->png = blob_ref(t->png);
     res->queue_ms = t->t_start > 0 ? (t->t_start - t->t_enq) * 1e3 : 0;

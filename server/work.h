@@ -26,6 +26,7 @@ struct work_result {
     struct rayd_error err;
     struct blob *png;        /* a reference owned by the waiter: unref it */
     bool gone;               /* the client disconnected */
+    bool draining;           /* cancelled because the server drains (503 "draining") */
     double queue_ms, render_ms, encode_ms;
 };
 
