@@ -84,7 +84,7 @@ struct http_io {
  * transport to send and log.  A layer writes only its own part and res. */
 struct http_conn {
     const struct http_io *io;
-    void *io_ctx;                /* the transport's own (an MHD_Connection) */
+    void *io_ctx;                /* the transport's own (libmicrohttpd's connection) */
     const char *version;         /* "HTTP/1.1", "HTTP/1.0"; NULL: the transport does not say */
     /* Why the transport refuses the header block it parsed ("obsolete line
      * folding ..."), or NULL: http_flow_begin answers it 400 and closes. */
