@@ -104,10 +104,7 @@ int events_read(struct events_stream *s, struct events_item *items, int n,
     if (k == 0 && s->sent_done) {
         k = -1;
     } else if (k == 0) {
-        struct task *t = s->job->task;
-        w->suspend(w); /* before the waiter is linked (work_private.h) */
-        w->next = t->sse_waiters;
-        t->sse_waiters = w;
+        task_wait_news(s->job->task, w);
     }
     work_lock_give();
     return k;

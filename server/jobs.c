@@ -76,9 +76,7 @@ static bool jobs_evict_oldest(void)
         return false;
     struct task *t = victim->task;
     jobs_evict_result(victim, JOBS_EVICTED_WHY);
-    if (t->passes)
-        passes_let_go(t->passes);
-    t->evicted = true;
+    task_evicted(t);
     return true;
 }
 
@@ -253,10 +251,7 @@ size_t jobs_evict_result(struct job *j, const char *why)
 {
     work_assert_locked();
     struct task *t = j->task;
-    size_t bytes = (t->png ? t->png->len : 0) + (t->exr ? t->exr->len : 0);
-    blob_unref(t->png);
-    blob_unref(t->exr);
-    t->png = t->exr = NULL;
+    size_t bytes = task_let_go_images(t);
     double now = clock_now();
     for (int i = 0; i < jobs_n; i++) /* every job of t shared those images */
         if (jobs_table[i]->task == t && jobs_table[i]->evicted_at == 0) {
@@ -313,9 +308,7 @@ static bool jobs_progressive(struct task *t, struct cache_entry *scene,
         return false;
     for (int i = 0; i < t->ntiles; i++)
         tiles[i] = task_tile(t, i);
-    t->passes = passes_new(cache_scene(scene), plan, tiles, t->ntiles); /* owns tiles */
-    size_t n = strlen(t->key);
-    snprintf(t->key + n, sizeof t->key - n, "~%s", id);
+    task_progressive(t, passes_new(cache_scene(scene), plan, tiles, t->ntiles), id); /* owns tiles */
     return t->passes != NULL;
 }
 
@@ -353,8 +346,7 @@ enum work_submit jobs_create(struct cache_entry *scene, const struct work_target
         r = task_submit(scene, &fresh, &t);
     if (r == WORK_OK) {
         j->task = t;
-        t->refs++;
-        t->njobs++;
+        task_job_ref(t);
         jobs_table[jobs_n++] = j;
         j = NULL;
     }
@@ -452,7 +444,7 @@ bool jobs_cancel(const char *id)
         struct task *t = j->task;
         j->canceled = true;
         j->canceled_at = clock_now();
-        t->njobs--;
+        task_job_drop(t);
         if (t->njobs == 0 && !t->waiters) {
             task_cancel(t, MC_DELETE, &n, &sse);
             if (t->passes) /* a cancelled job's passes are never served again */

@@ -364,6 +364,53 @@ double task_backlog_rays(void)
 
 /* ---- a worker's tiles ------------------------------------------------------- */
 
+void task_wait_news(struct task *t, struct work_waiter *w)
+{
+    work_assert_locked();
+    w->suspend(w); /* before the waiter is linked (work_private.h) */
+    w->next = t->sse_waiters;
+    t->sse_waiters = w;
+}
+
+void task_job_ref(struct task *t)
+{
+    work_assert_locked();
+    t->refs++;
+    t->njobs++;
+}
+
+void task_job_drop(struct task *t)
+{
+    work_assert_locked();
+    server_assert(t->njobs > 0);
+    t->njobs--;
+}
+
+void task_progressive(struct task *t, struct passes *p, const char *id)
+{
+    t->passes = p;
+    size_t n = strlen(t->key);
+    snprintf(t->key + n, sizeof t->key - n, "~%s", id);
+}
+
+size_t task_let_go_images(struct task *t)
+{
+    work_assert_locked();
+    size_t bytes = (t->png ? t->png->len : 0) + (t->exr ? t->exr->len : 0);
+    blob_unref(t->png);
+    blob_unref(t->exr);
+    t->png = t->exr = NULL;
+    return bytes;
+}
+
+void task_evicted(struct task *t)
+{
+    work_assert_locked();
+    if (t->passes)
+        passes_let_go(t->passes);
+    t->evicted = true;
+}
+
 void task_hold(struct task *t, size_t bytes, enum mem_kind kind)
 {
     t->mem = bytes;

@@ -396,6 +396,20 @@ bool task_pass_closed(struct task *t, const struct task_out *o, struct task_noti
 rayd_png_stream *task_stream_take(struct task *t);
 /* w waits for t: suspended (w->suspend), then linked.  Lock held. */
 void task_wait(struct task *t, struct work_waiter *w);
+/* An event stream w waits for t's news: suspended, then linked.  Lock held. */
+void task_wait_news(struct task *t, struct work_waiter *w);
+/* A job holds t (a reference, and one more party interested), or lets go
+ * of its interest (cancelled; its reference stays until the job goes).
+ * Lock held. */
+void task_job_ref(struct task *t);
+void task_job_drop(struct task *t);
+/* t, not yet submitted, renders in progressive passes p for job id alone
+ * (its key gets the id).  Any lock: t is the caller's own still. */
+void task_progressive(struct task *t, struct passes *p, const char *id);
+/* A finished task's images let go for the memory budget: their bytes.
+ * task_evicted: and its kept passes too, for good.  Lock held. */
+size_t task_let_go_images(struct task *t);
+void task_evicted(struct task *t);
 /* The memory budget.c reserved for t, released with its pixels. */
 void task_hold(struct task *t, size_t bytes, enum mem_kind kind);
 void task_notify_add(struct task_notify *n, struct work_waiter **from);
