@@ -226,6 +226,7 @@ int http_req_fd(struct http_req *r) { return r->conn.io->fd(r); }
 
 void http_req_suspend(struct http_req *r)
 {
+    server_assert(!r->conn.suspended); /* one resume answers one suspend */
     r->conn.parked = true;
     r->conn.suspended = true;
     atomic_fetch_add(&http_req_nsuspended, 1);
@@ -234,6 +235,7 @@ void http_req_suspend(struct http_req *r)
 
 void http_req_resume(struct http_req *r)
 {
+    server_assert(r->conn.suspended);
     r->conn.suspended = false;
     r->conn.io->resume(r); /* for the harness, r may be gone after this */
     atomic_fetch_sub(&http_req_nsuspended, 1);

@@ -197,6 +197,7 @@ static void task_free_pixels(struct task *t)
 
 void task_unref(struct task *t)
 {
+    server_assert(t->refs > 0);
     if (--t->refs > 0)
         return;
     blob_unref(t->png);
@@ -219,6 +220,7 @@ void task_unqueue(struct task *t)
 {
     work_assert_locked();
     if (t->queued) {
+        server_assert(task_queued > 0);
         t->queued = false;
         task_queued--;
     }
