@@ -116,19 +116,8 @@ PUBLIC = "include/rayd/"
 # System headers and the folders (or files) that may include them: each
 # library has a room.
 MHD_ROOMS = ["server/net/"]
-# TEMPORARY (issue 40, "honest boundaries"): the request layer and three
-# handlers still build libmicrohttpd responses themselves.  Remove a file
-# here as soon as it stops including <microhttpd.h> (a file listed that no
-# longer includes it fails the check); the list must end empty.
-MHD_TEMPORARY = [
-    "server/req/http_req.c",
-    "server/req/http_reply.c",
-    "server/api/api_events.c",
-    "server/api/api_jobs.c",
-    "server/api/api_jobs_image.c",
-]
 SYSTEM_HEADERS = [
-    ("microhttpd.h", "libmicrohttpd", MHD_ROOMS + MHD_TEMPORARY),
+    ("microhttpd.h", "libmicrohttpd", MHD_ROOMS),
     ("sqlite3.h", "SQLite", ["server/work/store.c"]),
     ("cjson/cJSON.h", "cJSON", ["core/format/", "core/load/", "server/base/", "server/req/",
                                 "server/api/", "clients/"]),
@@ -278,13 +267,6 @@ def system_header_problems(sys_incs):
                 problems.append(f"{f} includes <{hdr}>: {lib} belongs only in "
                                 + ", ".join(rooms))
     return sorted(set(problems))
-
-
-def temporary_problems(sys_incs):
-    """An entry of MHD_TEMPORARY that no longer includes <microhttpd.h> goes."""
-    has = {f for f, hdr in sys_incs if hdr == "microhttpd.h"}
-    return [f"{f} no longer includes <microhttpd.h>: remove it from MHD_TEMPORARY"
-            for f in MHD_TEMPORARY if f not in has]
 
 
 def unplaced_problems(files, layers, scope):
@@ -510,8 +492,6 @@ def run(build, root):
     sys_incs = system_includes(root, files)
     rep.check("layers: each library's header only in its room",
               system_header_problems(sys_incs))
-    rep.check("layers: the temporary libmicrohttpd allowances are all still used",
-              temporary_problems(sys_incs))
     rep.check(f"layers: {DOC}'s diagrams are these tables", docs_problems(root))
     return rep.failed
 
@@ -555,8 +535,6 @@ def self_test():
         "server/work/lru.c": '#include "work/work.h"\nint s_work(void) { return s_base(); }\n',
         DOC: doc_block("core") + "\n" + doc_block("server") + "\n",
     }
-    for f in MHD_TEMPORARY:  # each allowance in use
-        base[f] = "#include <microhttpd.h>\n"
     breaks = {
         "includes a higher layer": ("core/ includes", {
             "core/base/b.c": '#include "base/b.h"\n#include "load/x.h"\nint b_fn(void) { return 1; }\n',
@@ -591,8 +569,6 @@ def self_test():
             "core/base/j.h": "#include <cjson/cJSON.h>\n"}),
         "libmicrohttpd in a handler not allowed it": ("its room", {
             "server/api/api_x.c": "#include <microhttpd.h>\n"}),
-        "a temporary allowance no longer used": ("temporary", {
-            MHD_TEMPORARY[0]: "int s_req(void);\nint s_req(void) { return 6; }\n"}),
         "the page's diagram differs from the tables": ("diagrams", {
             DOC: doc_block("core").replace("core/math/", "core/maths") + "\n"
                  + doc_block("server") + "\n"}),

@@ -23,9 +23,9 @@
  * walks: a stop is seen within milliseconds whatever one pixel costs.
  *
  * Rows done (opts->rows).  The tiles are handed out row by row, and each
- * row of tiles counts the tiles it still lacks; the thread that draws a
- * row's last tile counts the rows at the top that are all drawn and tells
- * the caller, which may then read those rows while the other threads draw
+ * row of tiles counts the tiles it still lacks (base/rows.c, the one
+ * tracker rayd's workers use too); the thread that draws a row's last tile
+ * counts the rows at the top that are all drawn and tells the caller, which may then read those rows while the other threads draw
  * on (rayd-render and rayd deflate the PNG's bands so, png_encode.c).
  *
  * The same blocks serve progressive passes (accum.c): instead of bytes, a
@@ -344,26 +344,14 @@ struct tile_job {
     atomic_long done;
     atomic_int stop; /* the first status that stopped a thread, RAYD_OK while none */
     atomic_uint_least64_t rays;
-    /* for opts->rows: tiles left to draw in each row of tiles, and how many
-     * rows of tiles at the top are all drawn (under rows_lock) */
-    atomic_int *row_left;
-    int tiles_y, rows_top;
-    pthread_mutex_t rows_lock;
+    rayd_rows *rows; /* for opts->rows: which rows at the top are all drawn */
 };
 
-/* A tile of tile row ty is drawn.  When that completes the row, the rows
- * of tiles at the top that are all drawn are counted again and, if there
- * are more than before, opts->rows told how many pixel rows they hold. */
+/* A tile of tile row ty is drawn: when that completes rows at the top,
+ * opts->rows is told how many pixel rows are all drawn. */
 static void rows_note(struct tile_job *jb, int ty) {
-    if (atomic_fetch_sub(&jb->row_left[ty], 1) != 1) return;
-    pthread_mutex_lock(&jb->rows_lock);
-    int top = jb->rows_top;
-    while (jb->rows_top < jb->tiles_y && atomic_load(&jb->row_left[jb->rows_top]) == 0)
-        jb->rows_top++;
-    int rows = jb->rows_top * jb->tile < jb->r.h ? jb->rows_top * jb->tile : jb->r.h;
-    bool more = jb->rows_top > top;
-    pthread_mutex_unlock(&jb->rows_lock);
-    if (more) jb->opts->rows(jb->opts->rows_user, rows);
+    int rows = rayd_rows_tile_done(jb->rows, ty);
+    if (rows > 0) jb->opts->rows(jb->opts->rows_user, rows);
 }
 
 /* Tells the other threads to take no more tiles: the first status stands. */
@@ -389,7 +377,7 @@ static void *render_worker(void *arg) {
             tile_job_stop(jb, st);
             break;
         }
-        if (jb->row_left) rows_note(jb, t / jb->tiles_x);
+        if (jb->rows) rows_note(jb, t / jb->tiles_x);
         long done = atomic_fetch_add(&jb->done, (long)w * h) + (long)w * h;
         if (jb->opts->progress)
             jb->opts->progress(jb->opts->progress_user, done, (long)jb->r.w * jb->r.h);
@@ -397,13 +385,6 @@ static void *render_worker(void *arg) {
     if (!meter_close(&mt) && atomic_load(&jb->stop) == RAYD_OK) tile_job_stop(jb, mt.stop);
     atomic_fetch_add(&jb->rays, mt.rays);
     return NULL;
-}
-
-/* The job's count of rows of tiles left, when it keeps one. */
-static void tile_job_rows_free(struct tile_job *jb) {
-    if (!jb->row_left) return;
-    pthread_mutex_destroy(&jb->rows_lock);
-    free(jb->row_left);
 }
 
 /* Renders region r (checked) to out in tiles on opts->threads threads;
@@ -422,12 +403,10 @@ static enum rayd_status render_tiles(const rayd_scene *s, const struct rayd_rend
     atomic_init(&jb.done, 0);
     atomic_init(&jb.stop, RAYD_OK);
     atomic_init(&jb.rays, 0);
-    jb.tiles_y = (jb.r.h + jb.tile - 1) / jb.tile;
     if (opts->rows && !out->sum) {
-        jb.row_left = malloc((size_t)jb.tiles_y * sizeof *jb.row_left);
-        if (!jb.row_left) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for a render");
-        for (int i = 0; i < jb.tiles_y; i++) atomic_init(&jb.row_left[i], jb.tiles_x);
-        pthread_mutex_init(&jb.rows_lock, NULL);
+        int tiles_y = (jb.r.h + jb.tile - 1) / jb.tile;
+        jb.rows = rayd_rows_new(jb.tiles_x, tiles_y, jb.tile, jb.r.h);
+        if (!jb.rows) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for a render");
     }
     int nthreads = opts->threads > 1 ? opts->threads : 1;
     if (nthreads > jb.ntiles) nthreads = jb.ntiles;
@@ -437,7 +416,7 @@ static enum rayd_status render_tiles(const rayd_scene *s, const struct rayd_rend
     size_t ahead = opts->rows ? (size_t)jb.tile * (size_t)(2 + nthreads / jb.tiles_x) : SIZE_MAX;
     enum rayd_status st = out->img ? image_window_open(out->img, ahead, err) : RAYD_OK;
     if (st != RAYD_OK) {
-        tile_job_rows_free(&jb);
+        rayd_rows_free(jb.rows);
         return st;
     }
 
@@ -448,7 +427,7 @@ static enum rayd_status render_tiles(const rayd_scene *s, const struct rayd_rend
     render_worker(&jb); /* the calling thread works too */
     for (int i = 0; i < started; i++) pthread_join(th[i], NULL);
     free(th);
-    tile_job_rows_free(&jb);
+    rayd_rows_free(jb.rows);
 
     if (opts->stats) {
         opts->stats->rays = atomic_load(&jb.rays);

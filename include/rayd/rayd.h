@@ -434,6 +434,21 @@ enum rayd_status rayd_png_stream_new(const rayd_image *img, int level, rayd_png_
  * is called (a render's calls have all returned when it returns); calls
  * still running then are waited for, and their bands kept. */
 void rayd_png_stream_rows(void *stream, int rows);
+/* Rows done: how many rows at the top of an image drawn tile by tile are
+ * complete, whatever order the tiles finish in -- what a consumer reading
+ * the image from the top waits for (rayd_png_stream_rows).  The image is
+ * cut into rows of tiles, tiles_x tiles each; the last row of tiles may be
+ * shorter than tile pixels (height says where the image ends).  Any thread
+ * may report a tile, with no lock of its own: the counts are atomic and a
+ * tracker's own mutex orders the rows at the top.  Used by the render's
+ * threads (opts.rows) and by the server's workers, one tracker each. */
+typedef struct rayd_rows rayd_rows;
+/* NULL on no memory (or a size below 1). */
+rayd_rows *rayd_rows_new(int tiles_x, int tiles_y, int tile, int height);
+/* A tile of row of tiles ty is drawn: when that completes rows at the top
+ * that were not before, how many pixel rows are complete now; else 0. */
+int rayd_rows_tile_done(rayd_rows *r, int ty);
+void rayd_rows_free(rayd_rows *r); /* NULL allowed */
 /* Deflates the bands left on threads threads (<= 0: every core), after
  * waiting for the rows calls under way; every row must be final by now.
  * *buf as rayd_png_encode's, stats (may be NULL) filled.  Frees the

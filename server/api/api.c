@@ -194,7 +194,7 @@ static bool api_region_q(struct http_req *r, const rayd_scene *scene, struct ray
     struct rayd_error err = {0};
     if (rayd_region_check(scene, out, &err) != RAYD_OK) {
         err.code = RAYD_E_ARG;
-        api_reply_rayd_error(r, &err);
+        api_reply_rayd_error(r, &err, false);
         return false;
     }
     return true;
@@ -316,9 +316,7 @@ bool api_target(struct http_req *r, const rayd_scene *scene, struct work_target 
 
 const char *api_format_type(enum work_format format)
 {
-    return format == WORK_EXR    ? "image/x-exr"
-           : format == WORK_SUMS ? "application/x-rayd-sums"
-                                 : "image/png";
+    return work_format_type(format);
 }
 
 struct api_only {
@@ -408,12 +406,11 @@ void api_not_found(struct http_req *r)
                      NULL, 0, 0, NULL);
 }
 
-void api_reply_rayd_error(struct http_req *r, const struct rayd_error *err)
+void api_reply_rayd_error(struct http_req *r, const struct rayd_error *err, bool draining)
 {
     unsigned st = api_status_of(err->code);
-    const char *code = err->code == RAYD_E_CANCELED && sched_draining()
-                           ? "draining"
-                           : rayd_status_name(err->code);
+    const char *code =
+        err->code == RAYD_E_CANCELED && draining ? "draining" : rayd_status_name(err->code);
     http_reply_error(r, st, code, err->message[0] ? err->message : code, err->path,
                      err->code == RAYD_E_PARSE ? (err->line > 0 ? err->line : 1) : 0,
                      err->column, NULL);
@@ -427,12 +424,12 @@ void api_refused(struct http_req *r, enum work_submit why)
      * the tasks in it; a drain, when this server is gone and another one
      * answers. */
     if (why == WORK_FULL || why == WORK_TOO_MANY_JOBS || why == WORK_MEMORY)
-        r->retry_after =
+        r->res.retry_after =
             api_cost_retry_after(st.backlog_s / (double)(st.queued > 0 ? st.queued : 1));
     switch (why) {
     case WORK_PARSE_FULL: /* a place frees when a queued parse starts */
         metrics_reject(MR_PARSE_QUEUE_FULL);
-        r->retry_after = api_cost_retry_after(compile_retry_seconds());
+        r->res.retry_after = api_cost_retry_after(compile_retry_seconds());
         http_reply_error(r, 503, "queue_full", "the scene parse queue is full, retry later", NULL,
                          0, 0, NULL);
         break;
@@ -488,10 +485,10 @@ static bool api_scene_answer(struct http_req *r, struct compile_result *res, api
     }
     if (res->status != RAYD_OK) {
         res->err.code = res->status;
-        api_reply_rayd_error(r, &res->err);
+        api_reply_rayd_error(r, &res->err, res->draining);
         return false;
     }
-    snprintf(r->scene, sizeof r->scene, "%s", cache_id(res->scene)); /* for the access log */
+    snprintf(r->res.scene, sizeof r->res.scene, "%s", cache_id(res->scene)); /* for the access log */
     bool handed = then(r, res->scene, res->hit);
     scenes_release(res->scene);
     return handed;
@@ -542,7 +539,7 @@ void api_scene(struct http_req *r, api_scene_then then)
 
 void api_suspend(struct http_req *r)
 {
-    if (!r->suspended)
+    if (!r->conn.suspended)
         http_req_suspend(r);
 }
 

@@ -48,7 +48,9 @@ bool api_is_hex(const char *s, size_t n);
 bool api_is_decimal(const char *s, bool point);
 /* The one place where a core status becomes an HTTP status and code. */
 unsigned api_status_of(enum rayd_status s);
-void api_reply_rayd_error(struct http_req *r, const struct rayd_error *err);
+/* err's error reply; draining: the result says the server drains (a
+ * cancelled render is then 503 "draining"), as the work layer reported. */
+void api_reply_rayd_error(struct http_req *r, const struct rayd_error *err, bool draining);
 /* 404 for a path rayd does not serve, naming the ones it does (a user who
  * tried /health finds /healthz). */
 void api_not_found(struct http_req *r);

@@ -1,26 +1,26 @@
 /* api_events.c -- GET /v1/jobs/{id}/events: a job's progress as
  * Server-Sent Events.
  *
- * The stream is a libmicrohttpd callback response.  The reader asks
+ * The stream is a reply whose body the transport reads through a
+ * callback (http_reply_stream) as it sends.  The reader asks
  * events.c for news; when there is none, events.c links the stream's waiter
  * to the job's task and calls its suspend callback (inside the work lock,
  * so a tile that finishes meanwhile cannot be missed), and the worker that
  * finishes the next tile calls its done callback, which resumes the
  * connection.  So an open stream costs no thread and no polling.  The
  * records are written as SSE here, each data line by cJSON; text that does
- * not fit libmicrohttpd's buffer waits in the stream's carry for the next
+ * not fit the transport's buffer waits in the stream's carry for the next
  * call.
  */
 #include "api/api.h"
 
 #include <cjson/cJSON.h>
-#include <microhttpd.h>
 #include <stdlib.h>
 #include <string.h>
 
 #define API_EVENTS_ITEMS 32
 
-/* One open stream: freed with its response (libmicrohttpd's free callback). */
+/* One open stream: freed with its reply (the stream's done callback). */
 struct api_events {
     struct work_waiter w; /* first: the callbacks get it back */
     struct http_req *r;
@@ -43,7 +43,7 @@ static void api_events_wake(struct work_waiter *w, struct work_result *res)
     struct http_req *r = ((struct api_events *)w)->r;
     if (res->gone) {
         r->gone = true;
-        r->note = "client_gone";
+        r->res.note = "client_gone";
     }
     blob_unref(res->png);
     http_req_resume(r);
@@ -148,13 +148,12 @@ static bool api_events_flush(struct api_events *a, char *buf, size_t max, size_t
     return true;
 }
 
-static ssize_t api_events_reader(void *cls, uint64_t pos, char *buf, size_t max)
+static ssize_t api_events_reader(void *cls, char *buf, size_t max)
 {
-    (void)pos;
     struct api_events *a = cls;
     struct http_req *r = a->r;
     if (r->gone)
-        return MHD_CONTENT_READER_END_WITH_ERROR;
+        return HTTP_STREAM_ERROR;
     size_t used = 0;
     if (a->carry && !api_events_flush(a, buf, max, &used))
         goto out;
@@ -162,15 +161,15 @@ static ssize_t api_events_reader(void *cls, uint64_t pos, char *buf, size_t max)
     struct rayd_error err = {0};
     int n = used ? 0 : events_read(a->s, items, API_EVENTS_ITEMS, &err, &a->w);
     if (n < 0)
-        return MHD_CONTENT_READER_END_OF_STREAM;
+        return HTTP_STREAM_END;
     for (int i = 0; i < n; i++) {
         char text[2560];
         size_t len = api_events_format(a, &items[i], &err, text, sizeof text);
         if (!api_events_put(a, buf, max, &used, text, len))
-            return MHD_CONTENT_READER_END_WITH_ERROR;
+            return HTTP_STREAM_ERROR;
     }
 out:
-    r->bytes += used;
+    r->res.bytes += used;
     return (ssize_t)used;
 }
 
@@ -201,15 +200,9 @@ void api_events_get(struct http_req *r, const char *id)
     a->w.done = api_events_wake;
     a->w.suspend = api_events_suspend;
     a->w.fd = http_req_fd(r);
-    struct MHD_Response *resp = MHD_create_response_from_callback(
-        MHD_SIZE_UNKNOWN, 4096, api_events_reader, a, api_events_free);
-    if (!resp) {
-        api_events_free(a);
-        r->gone = true;
-        return;
-    }
-    MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, "text/event-stream");
-    MHD_add_response_header(resp, MHD_HTTP_HEADER_CACHE_CONTROL, "no-store");
-    MHD_add_response_header(resp, "X-Accel-Buffering", "no");
-    http_reply(r, 200, resp);
+    static const char *const headers[] = {"Content-Type",      "text/event-stream",
+                                          "Cache-Control",     "no-store",
+                                          "X-Accel-Buffering", "no",
+                                          NULL};
+    http_reply_stream(r, 200, headers, 4096, api_events_reader, api_events_free, a);
 }

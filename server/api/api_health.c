@@ -55,7 +55,7 @@ void api_health_ready(struct http_req *r, const char *id)
         return;
     }
     if (st.queued >= st.queue_cap) {
-        r->retry_after = api_cost_retry_after(st.backlog_s / (double)st.queued);
+        r->res.retry_after = api_cost_retry_after(st.backlog_s / (double)st.queued);
         http_reply_error(r, 503, "queue_full", "the render queue is full", NULL, 0, 0, NULL);
         return;
     }
@@ -65,7 +65,7 @@ void api_health_ready(struct http_req *r, const char *id)
                  "about %.0f s of work is queued, more than --max-backlog %ld s; send new work "
                  "elsewhere",
                  st.backlog_s, config.max_backlog);
-        r->retry_after = api_cost_retry_after(st.backlog_s - (double)config.max_backlog);
+        r->res.retry_after = api_cost_retry_after(st.backlog_s - (double)config.max_backlog);
         http_reply_error(r, 503, "backlog", msg, NULL, 0, 0, NULL);
         return;
     }

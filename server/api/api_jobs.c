@@ -19,7 +19,6 @@
 #include "api/api.h"
 
 #include <cjson/cJSON.h>
-#include <microhttpd.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -82,7 +81,7 @@ static void api_jobs_gone(struct http_req *r, const struct jobs_gone *g, cJSON *
         cJSON_AddItemToObject(o, "job", job);
     http_reply_json(r, 410, o);
     http_reply_header(r, "Cache-Control", "no-store");
-    r->err_code = codes[g->why];
+    r->res.err_code = codes[g->why];
 }
 
 void api_jobs_missing(struct http_req *r, const char *id)
@@ -259,8 +258,8 @@ static void api_jobs_recorded(struct work_waiter *w, struct work_result *res)
         api_jobs_accepted(a);
     } else {
         jobs_cancel(a->id);
+        a->r->res.retry_after = 5;
         http_reply_error(a->r, 503, "store_failed", res->err.message, NULL, 0, 0, NULL);
-        http_reply_header(a->r, MHD_HTTP_HEADER_RETRY_AFTER, "5");
     }
     http_req_resume(a->r);
     free(a);
@@ -421,7 +420,7 @@ cJSON *api_jobs_json(const char *id, const struct jobs_info *in)
 
 void api_jobs_scene(struct http_req *r, const struct jobs_info *info)
 {
-    snprintf(r->scene, sizeof r->scene, "%s", info->scene_id);
+    snprintf(r->res.scene, sizeof r->res.scene, "%s", info->scene_id);
 }
 
 void api_jobs_get(struct http_req *r, const char *id)

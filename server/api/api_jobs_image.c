@@ -19,7 +19,6 @@
  */
 #include "api/api.h"
 
-#include <microhttpd.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -56,7 +55,7 @@ static void api_jobs_image_reply(struct http_req *r, struct blob *img, bool exr,
 static void api_jobs_not_yet(struct http_req *r, const char *id, const struct jobs_info *info)
 {
     http_reply_json(r, 202, api_jobs_json(id, info));
-    http_reply_header(r, MHD_HTTP_HEADER_RETRY_AFTER, "1");
+    http_reply_header(r, "Retry-After", "1");
 }
 
 /* Why ?pass=q is refused for the job info, or NULL; range is a buffer for

@@ -44,7 +44,7 @@ static void api_render_reply(struct http_req *r, struct blob *img, enum work_for
     http_reply_image(r, 200, img, api_format_type(format));
     http_reply_cache_headers(r);
     api_cost_price_headers(r, price);
-    if (r->route_negotiates)
+    if (r->route.negotiates)
         http_reply_vary(r, "Accept");
 }
 
@@ -54,18 +54,18 @@ static void api_render_done(struct work_waiter *w, struct work_result *res)
     struct api_render_wait a = *(struct api_render_wait *)w;
     struct http_req *r = a.r;
     free(w);
-    r->queue_ms = res->queue_ms;
-    r->render_ms = res->render_ms;
-    r->encode_ms = res->encode_ms;
+    r->res.queue_ms = res->queue_ms;
+    r->res.render_ms = res->render_ms;
+    r->res.encode_ms = res->encode_ms;
     if (res->gone) {
         r->gone = true;
-        r->note = "client_gone";
+        r->res.note = "client_gone";
     } else if (res->status == RAYD_OK && res->png) {
         api_render_reply(r, res->png, a.format, &a.price);
     } else {
         struct rayd_error e = res->err;
         e.code = res->status;
-        api_reply_rayd_error(r, &e);
+        api_reply_rayd_error(r, &e, res->draining);
     }
     blob_unref(res->png);
     http_req_resume(r);
@@ -92,7 +92,7 @@ static bool api_render_submit(struct http_req *r, struct cache_entry *scene,
         if ((png = sched_result_find(scene, what))) {
             api_render_reply(r, png, format, &price);
             blob_unref(png);
-            r->note = "result_cache";
+            r->res.note = "result_cache";
         } else {
             api_cost_over_budget(r, &price, limit);
         }
@@ -116,7 +116,7 @@ static bool api_render_submit(struct http_req *r, struct cache_entry *scene,
     if (s == WORK_CACHED) {
         api_render_reply(r, png, format, &price);
         blob_unref(png);
-        r->note = "result_cache";
+        r->res.note = "result_cache";
     } else {
         api_refused(r, s);
     }
@@ -134,7 +134,7 @@ static bool api_render_scene(struct http_req *r, struct cache_entry *e, bool hit
 void api_render_post(struct http_req *r, const char *id)
 {
     (void)id;
-    r->route_negotiates = true;
+    r->route.negotiates = true;
     api_scene(r, api_render_scene);
 }
 
@@ -201,10 +201,10 @@ static bool api_scenes_image_of(struct http_req *r, struct cache_entry *e)
     snprintf(key, sizeof key, "%s@%d,%d,%d,%d@%s,%s", cache_version(e), reg.x, reg.y, reg.w, reg.h,
              RAYD_VERSION, rayd_png_encoder((int)config.png_level));
     if (cache_hash(key, strlen(key), hex))
-        snprintf(r->etag, sizeof r->etag, "\"%s\"", hex);
-    r->etag_revalidate = rayd_scene_files(cache_scene(e)) > 0;
+        snprintf(r->res.etag, sizeof r->res.etag, "\"%s\"", hex);
+    r->res.etag_revalidate = rayd_scene_files(cache_scene(e)) > 0;
     const char *inm = http_req_header(r, "If-None-Match");
-    if (inm && api_etag_match(inm, r->etag)) {
+    if (inm && api_etag_match(inm, r->res.etag)) {
         http_reply_not_modified(r);
     } else if (sched_draining()) {
         api_refused(r, WORK_DRAINING);
@@ -251,7 +251,7 @@ void api_scenes_image(struct http_req *r, const char *id)
         api_scenes_image_of(r, NULL);
         return;
     }
-    snprintf(r->scene, sizeof r->scene, "%s", id); /* for the access log, known here or not */
+    snprintf(r->res.scene, sizeof r->res.scene, "%s", id); /* for the access log, known here or not */
     struct api_find_wait *a = calloc(1, sizeof *a);
     if (!a) {
         api_refused(r, WORK_NOMEM);

@@ -124,6 +124,20 @@ void log_info(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 void log_warn(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 void log_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 
+/* server_assert(e): an invariant the code relies on -- a "lock held"
+ * contract, a count that cannot go below zero, a state a function needs.
+ * When e is false, the file, line, function and the expression go to
+ * stderr and the process aborts: a broken invariant is a bug, and going on
+ * would serve wrong answers or corrupt shared state.  Checked in every
+ * build the Makefile makes (the default one, ASan and TSan: the tests run
+ * them all); -DNDEBUG leaves the checks out, as it does assert()'s. */
+#ifdef NDEBUG
+#define server_assert(e) ((void)sizeof(e))
+#else
+#define server_assert(e) ((e) ? (void)0 : log_assert_fail(#e, __FILE__, __LINE__, __func__))
+#endif
+_Noreturn void log_assert_fail(const char *expr, const char *file, int line, const char *func);
+
 /* ---- clock.c ------------------------------------------------------------- */
 
 double clock_now(void); /* monotonic seconds: every duration the server measures */

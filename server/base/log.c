@@ -210,3 +210,12 @@ LOG_AT(log_debug, LOG_DEBUG)
 LOG_AT(log_info, LOG_INFO)
 LOG_AT(log_warn, LOG_WARN)
 LOG_AT(log_error, LOG_ERROR)
+
+/* Whatever the log's format and level: the line is for whoever reads the
+ * crash, and abort leaves a core and the signal. */
+void log_assert_fail(const char *expr, const char *file, int line, const char *func)
+{
+    fprintf(stderr, "rayd: %s:%d: %s: assertion failed: %s\n", file, line, func, expr);
+    fflush(stderr);
+    abort();
+}

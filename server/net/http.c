@@ -58,7 +58,7 @@ int http_port(void) { return http_bound_port; }
 
 static const char *http_mhd_header(struct http_req *r, const char *name)
 {
-    return MHD_lookup_connection_value(r->io_ctx, MHD_HEADER_KIND, name);
+    return MHD_lookup_connection_value(r->conn.io_ctx, MHD_HEADER_KIND, name);
 }
 
 struct http_each {
@@ -97,23 +97,23 @@ static void http_mhd_query_each(struct http_req *r,
                                 void (*fn)(void *u, const char *k, const char *v), void *u)
 {
     struct http_each e = {fn, u};
-    MHD_get_connection_values_n(r->io_ctx, MHD_GET_ARGUMENT_KIND, http_each_n_cb, &e);
+    MHD_get_connection_values_n(r->conn.io_ctx, MHD_GET_ARGUMENT_KIND, http_each_n_cb, &e);
 }
 
 static void http_mhd_header_each(struct http_req *r,
                                  void (*fn)(void *u, const char *k, const char *v), void *u)
 {
     struct http_each e = {fn, u};
-    MHD_get_connection_values(r->io_ctx, MHD_HEADER_KIND, http_each_cb, &e);
+    MHD_get_connection_values(r->conn.io_ctx, MHD_HEADER_KIND, http_each_cb, &e);
 }
 
-static void http_mhd_suspend(struct http_req *r) { MHD_suspend_connection(r->io_ctx); }
-static void http_mhd_resume(struct http_req *r) { MHD_resume_connection(r->io_ctx); }
+static void http_mhd_suspend(struct http_req *r) { MHD_suspend_connection(r->conn.io_ctx); }
+static void http_mhd_resume(struct http_req *r) { MHD_resume_connection(r->conn.io_ctx); }
 
 static int http_mhd_fd(struct http_req *r)
 {
     const union MHD_ConnectionInfo *ci =
-        MHD_get_connection_info(r->io_ctx, MHD_CONNECTION_INFO_CONNECTION_FD);
+        MHD_get_connection_info(r->conn.io_ctx, MHD_CONNECTION_INFO_CONNECTION_FD);
     return ci ? ci->connect_fd : -1;
 }
 
@@ -176,16 +176,156 @@ static enum MHD_Result http_drop(void)
     return MHD_NO;
 }
 
+/* ---- replies: struct http_reply as libmicrohttpd's response ------------------- */
+
+/* An image's body is handed to libmicrohttpd as it asks for it (a copy
+ * of a block at a time, instead of the buffer whole), so the request knows
+ * how much went out: the access line of an answer the client stopped
+ * reading says so (r->log.body_taken).  The reader runs only while the answer
+ * is sent, before the completion that frees r. */
+struct http_blob_body {
+    struct blob *img;
+    struct http_req *r;
+};
+
+static ssize_t http_blob_read(void *cls, uint64_t pos, char *buf, size_t max)
+{
+    struct http_blob_body *b = cls;
+    if (pos >= b->img->len)
+        return MHD_CONTENT_READER_END_OF_STREAM;
+    size_t n = b->img->len - (size_t)pos < max ? b->img->len - (size_t)pos : max;
+    memcpy(buf, (const char *)b->img->data + pos, n);
+    if ((size_t)pos + n > b->r->log.body_taken)
+        b->r->log.body_taken = (size_t)pos + n;
+    return (ssize_t)n;
+}
+
+static void http_blob_free(void *cls)
+{
+    struct http_blob_body *b = cls;
+    blob_unref(b->img);
+    free(b);
+}
+
+/* A stream's read and done, taken from its reply. */
+struct http_stream_body {
+    ssize_t (*read)(void *cls, char *buf, size_t max);
+    void (*done)(void *cls);
+    void *cls;
+};
+
+static ssize_t http_stream_read(void *cls, uint64_t pos, char *buf, size_t max)
+{
+    (void)pos;
+    struct http_stream_body *s = cls;
+    ssize_t n = s->read(s->cls, buf, max);
+    return n == HTTP_STREAM_END     ? MHD_CONTENT_READER_END_OF_STREAM
+           : n == HTTP_STREAM_ERROR ? MHD_CONTENT_READER_END_WITH_ERROR
+                                    : n;
+}
+
+static void http_stream_free(void *cls)
+{
+    struct http_stream_body *s = cls;
+    s->done(s->cls);
+    free(s);
+}
+
+/* The body of a 304: none (never called for a 304, which sends no body). */
+static ssize_t http_no_body(void *cls, uint64_t pos, char *buf, size_t max)
+{
+    (void)cls;
+    (void)pos;
+    (void)buf;
+    (void)max;
+    return MHD_CONTENT_READER_END_OF_STREAM;
+}
+
+/* A response with no body and neither Content-Length nor chunking.
+ * libmicrohttpd (0.9.75 as in Debian 12, and later) writes
+ * "Content-Length: <size of the response's body>" on a 304, so an empty
+ * buffer would say 0, and a body of unknown size would say
+ * "Transfer-Encoding: chunked"; a body of unknown size under
+ * MHD_RF_HTTP_1_0_COMPATIBLE_STRICT writes neither.  The price is that
+ * libmicrohttpd then closes the connection after it ("Connection: close"),
+ * one new connection per revalidation. */
+static struct MHD_Response *http_bodiless(void)
+{
+    struct MHD_Response *resp =
+        MHD_create_response_from_callback(MHD_SIZE_UNKNOWN, 64, http_no_body, NULL, NULL);
+    if (resp &&
+        MHD_set_response_options(resp, MHD_RF_HTTP_1_0_COMPATIBLE_STRICT, MHD_RO_END) != MHD_YES) {
+        MHD_destroy_response(resp);
+        resp = NULL;
+    }
+    return resp;
+}
+
+/* p's body as libmicrohttpd's response, which takes what p held (its
+ * bytes, blob or stream); NULL on no memory. */
+static struct MHD_Response *http_body(struct http_req *r, struct http_reply *p)
+{
+    struct MHD_Response *resp = NULL;
+    if (p->kind == HTTP_BODY_BYTES) {
+        resp = MHD_create_response_from_buffer_with_free_callback(p->len, p->data, free);
+        if (resp)
+            p->data = NULL;
+    } else if (p->kind == HTTP_BODY_BLOB) {
+        struct http_blob_body *b = malloc(sizeof *b);
+        resp = b ? MHD_create_response_from_callback(p->blob->len, 64 * 1024, http_blob_read, b,
+                                                     http_blob_free)
+                 : NULL;
+        if (resp) {
+            *b = (struct http_blob_body){p->blob, r};
+            p->blob = NULL;
+        } else {
+            free(b);
+        }
+    } else if (p->kind == HTTP_BODY_STREAM) {
+        struct http_stream_body *s = malloc(sizeof *s);
+        resp = s ? MHD_create_response_from_callback(MHD_SIZE_UNKNOWN, p->block, http_stream_read,
+                                                     s, http_stream_free)
+                 : NULL;
+        if (resp) {
+            *s = (struct http_stream_body){p->read, p->done, p->cls};
+            p->done = NULL;
+        } else {
+            free(s);
+        }
+    } else {
+        resp = http_bodiless();
+    }
+    return resp;
+}
+
+/* r's reply as libmicrohttpd's response: its body, then its headers in
+ * the order they were added. */
+static struct MHD_Response *http_response(struct http_req *r, struct http_reply *p)
+{
+    struct MHD_Response *resp = http_body(r, p);
+    for (size_t i = 0; resp && i < p->nheaders; i++)
+        MHD_add_response_header(resp, p->headers[i].name, p->headers[i].value);
+    return resp;
+}
+
 static enum MHD_Result http_flush(struct http_req *r)
 {
     if (r->gone)
         return http_drop();
-    if (!r->pending)
+    if (!r->conn.pending)
         return MHD_NO;
-    r->t_sent = clock_now();
-    enum MHD_Result ret = MHD_queue_response(r->io_ctx, r->pending_status, r->pending);
-    MHD_destroy_response(r->pending);
-    r->pending = NULL;
+    struct http_reply *p = r->conn.pending;
+    r->conn.pending = NULL;
+    struct MHD_Response *resp = http_response(r, p);
+    unsigned status = p->status;
+    http_req_reply_free(p);
+    if (!resp) {
+        r->gone = true; /* out of memory: give up on the connection */
+        return http_drop();
+    }
+    r->log.t_sent = clock_now();
+    enum MHD_Result ret = MHD_queue_response(r->conn.io_ctx, status, resp);
+    MHD_destroy_response(resp);
     return ret;
 }
 
@@ -198,7 +338,7 @@ static void *http_uri_log(void *cls, const char *uri, struct MHD_Connection *c)
     struct http_req *r = http_req_new(&http_mhd_io, c, NULL, NULL, uri ? strlen(uri) : 0);
     if (r) {
         http_req_set_target(r, uri);
-        http_client_address(c, r->client, sizeof r->client);
+        http_client_address(c, r->log.client, sizeof r->log.client);
     }
     return r;
 }
@@ -327,15 +467,15 @@ static enum MHD_Result http_access(void *cls, struct MHD_Connection *c, const ch
         /* first call: headers only */
         r->method = method;
         r->url = url;
-        r->version = version;
-        r->framing = http_mhd_layout(c, method, version);
+        r->conn.version = version;
+        r->conn.framing = http_mhd_layout(c, method, version);
         return http_flow_begin(r) ? MHD_YES : http_flush(r);
     }
     if (r->gone)
         return http_drop();
-    if (r->pending) /* resumed with an answer, or replied during the upload */
+    if (r->conn.pending) /* resumed with an answer, or replied during the upload */
         return http_flush(r);
-    if (r->replied)
+    if (r->conn.replied)
         return MHD_YES;
     if (*upload_size) {
         size_t n = *upload_size;
@@ -344,7 +484,7 @@ static enum MHD_Result http_access(void *cls, struct MHD_Connection *c, const ch
     }
     /* the whole request is here */
     http_flow_handle(r);
-    if (r->parked)
+    if (r->conn.parked)
         return MHD_YES;
     return http_flush(r);
 }
@@ -358,15 +498,15 @@ static void http_completed(void *cls, struct MHD_Connection *c, void **con_cls,
     *con_cls = NULL;
     if (!r)
         return;
-    if (!r->method || !r->replied)
-        r->refused_status = http_refused_status(c, r->refused_why, sizeof r->refused_why);
+    if (!r->method || !r->conn.replied)
+        r->log.refused_status = http_refused_status(c, r->log.refused_why, sizeof r->log.refused_why);
     const char *note = NULL;
     if (toe != MHD_REQUEST_TERMINATED_COMPLETED_OK)
         note = toe == MHD_REQUEST_TERMINATED_TIMEOUT_REACHED ? "timeout"
                : toe == MHD_REQUEST_TERMINATED_DAEMON_SHUTDOWN ? "shutdown"
                                                                 : "aborted";
     /* for an answer cut short, the finer reason */
-    r->end_why = toe == MHD_REQUEST_TERMINATED_CLIENT_ABORT ? "client_closed"
+    r->log.end_why = toe == MHD_REQUEST_TERMINATED_CLIENT_ABORT ? "client_closed"
                  : toe == MHD_REQUEST_TERMINATED_READ_ERROR ? "read_error"
                  : toe == MHD_REQUEST_TERMINATED_WITH_ERROR ? "send_error"
                                                             : note;

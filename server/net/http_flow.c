@@ -38,8 +38,8 @@
  *           A request libmicrohttpd answered itself (headers over
  *           --max-header-bytes: 431, a bad Content-Length or chunk: 400)
  *           is logged and counted with the status it sent, as the
- *           transport learnt it (r->refused_status), and its reason
- *           (r->refused_why) as the error, note
+ *           transport learnt it (r->log.refused_status), and its reason
+ *           (r->log.refused_why) as the error, note
  *           refused_by_http_parser; one refused before its target was read
  *           (a request line over the limit: 414) reaches http_flow_refused
  *           only, with no method, path or id to name.
@@ -101,8 +101,7 @@ static void http_flow_options(struct http_req *r)
         http_reply_error(r, 404, "not_found", "no such resource", NULL, 0, 0, NULL);
         return;
     }
-    struct MHD_Response *resp = MHD_create_response_from_buffer(0, NULL, MHD_RESPMEM_PERSISTENT);
-    http_reply(r, 204, resp);
+    http_reply_data(r, 204, NULL, NULL, 0);
     http_reply_header(r, MHD_HTTP_HEADER_ALLOW, allow);
     if (http_reply_cors_origin(r)) {
         http_reply_header(r, "Access-Control-Allow-Methods", allow);
@@ -255,8 +254,8 @@ static void http_flow_refuse_framing(struct http_req *r, unsigned status, const 
 static bool http_flow_malformed(struct http_req *r, const struct http_flow_framing *f, char *msg,
                                 size_t size)
 {
-    if (r->framing)
-        snprintf(msg, size, "%s", r->framing);
+    if (r->conn.framing)
+        snprintf(msg, size, "%s", r->conn.framing);
     else if (f->bad_name)
         snprintf(msg, size,
                  "the header name '%.40s' is not a token (whitespace before the colon?)",
@@ -264,10 +263,10 @@ static bool http_flow_malformed(struct http_req *r, const struct http_flow_frami
     else if (f->bad_value)
         snprintf(msg, size, "the value of the header '%.40s' holds a control character",
                  f->bad_value);
-    else if (f->nhost == 0 && r->version && !strcmp(r->version, "HTTP/1.1"))
+    else if (f->nhost == 0 && r->conn.version && !strcmp(r->conn.version, "HTTP/1.1"))
         snprintf(msg, size, "an HTTP/1.1 request needs a Host header");
-    else if (r->target_why)
-        snprintf(msg, size, "%s", r->target_why);
+    else if (r->conn.target_why)
+        snprintf(msg, size, "%s", r->conn.target_why);
     else if (!http_flow_absolute_form(r))
         snprintf(msg, size, "an absolute-form target without a host");
     else
@@ -290,7 +289,7 @@ static void http_flow_no_memory(struct http_req *r, size_t need)
                  "the memory budget (--max-memory, %zu bytes) has no room for this body now; "
                  "retry later",
                  mem_limit());
-        r->retry_after = 2;
+        r->res.retry_after = 2;
         http_reply_error(r, 503, "memory_full", msg, NULL, 0, 0, NULL);
     }
     http_reply_header(r, MHD_HTTP_HEADER_CONNECTION, "close");
@@ -301,7 +300,7 @@ static void http_flow_no_memory(struct http_req *r, size_t need)
 static bool http_flow_reserve(struct http_req *r, size_t need)
 {
     if (mem_reserve(MEM_BODIES, need)) {
-        r->body_mem = need;
+        r->conn.body_mem = need;
         return true;
     }
     http_flow_no_memory(r, need);
@@ -312,15 +311,15 @@ bool http_flow_begin(struct http_req *r)
 {
     http_req_take_id(r);
     struct http_flow_framing f = {.length = -1};
-    r->io->header_each(r, http_flow_framing_cb, &f);
+    r->conn.io->header_each(r, http_flow_framing_cb, &f);
     char bad[200];
     if (http_flow_malformed(r, &f, bad, sizeof bad)) {
-        r->route = router_find(r->url);
+        r->route.label = router_find(r->url);
         http_flow_refuse_framing(r, 400, "bad_request", bad);
         return false;
     }
-    r->route = router_find(r->url);
-    if (r->target_len > (size_t)config.max_url) {
+    r->route.label = router_find(r->url);
+    if (r->conn.target_len > (size_t)config.max_url) {
         char msg[128];
         snprintf(msg, sizeof msg, "the request target is over the limit of %ld bytes (--max-url)",
                  config.max_url);
@@ -348,7 +347,7 @@ bool http_flow_begin(struct http_req *r)
         http_flow_refuse_framing(r, 417, "expectation_failed", msg);
         return false;
     }
-    r->body_declared = f.nlength ? f.length : -1;
+    r->conn.body_declared = f.nlength ? f.length : -1;
     /* a request with a body that will be refused anyway is refused now,
      * before the body (libmicrohttpd then closes the connection); one
      * without a body goes on, and its connection stays open */
@@ -371,10 +370,10 @@ static void http_flow_drop_body(struct http_req *r, size_t n)
 {
     free(r->body);
     r->body = NULL;
-    r->body_cap = 0;
+    r->conn.body_cap = 0;
     r->body_len += n;
-    mem_release(MEM_BODIES, r->body_mem);
-    r->body_mem = 0;
+    mem_release(MEM_BODIES, r->conn.body_mem);
+    r->conn.body_mem = 0;
 }
 
 /* A client that shuts its side of the connection before the body it
@@ -389,9 +388,9 @@ static void http_flow_drop_body(struct http_req *r, size_t n)
  * not the body's. */
 static bool http_flow_upload_ended(struct http_req *r)
 {
-    if (config.tls_cert || r->body_declared < 0 || (long long)r->body_len >= r->body_declared)
+    if (config.tls_cert || r->conn.body_declared < 0 || (long long)r->body_len >= r->conn.body_declared)
         return false;
-    int fd = r->io->fd ? r->io->fd(r) : -1;
+    int fd = r->conn.io->fd ? r->conn.io->fd(r) : -1;
     char c;
     return fd >= 0 && recv(fd, &c, 1, MSG_PEEK | MSG_DONTWAIT) == 0;
 }
@@ -402,41 +401,41 @@ static bool http_flow_keep(struct http_req *r, const char *data, size_t n)
 {
     /* --timeout drops an idle connection, but a client that sends a byte now
      * and then is never idle: the whole body gets --upload-seconds */
-    if (config.upload_seconds > 0 && clock_now() - r->t0 > (double)config.upload_seconds) {
-        r->note = "upload_too_slow";
+    if (config.upload_seconds > 0 && clock_now() - r->log.t0 > (double)config.upload_seconds) {
+        r->res.note = "upload_too_slow";
         return false;
     }
-    if (r->too_large || r->no_memory || r->over_memory) {
+    if (r->conn.too_large || r->conn.no_memory || r->conn.over_memory) {
         r->body_len += n; /* counted, not kept */
         return r->body_len <= 4 * (size_t)config.max_body;
     }
     if (r->body_len + n > (size_t)config.max_body) {
-        r->too_large = true;
+        r->conn.too_large = true;
         http_flow_drop_body(r, n);
         return true;
     }
-    if (r->body_len + n + 1 > r->body_cap) {
-        size_t cap = r->body_cap ? r->body_cap : 4096;
+    if (r->body_len + n + 1 > r->conn.body_cap) {
+        size_t cap = r->conn.body_cap ? r->conn.body_cap : 4096;
         while (cap < r->body_len + n + 1)
             cap *= 2;
-        if (r->body_declared >= 0 && cap > r->body_mem && r->body_mem >= r->body_len + n + 1)
-            cap = r->body_mem; /* the declared length, reserved in begin */
-        if (cap > r->body_mem && !mem_reserve(MEM_BODIES, cap - r->body_mem)) {
-            r->over_memory = true; /* read the rest without keeping it, then 503 */
+        if (r->conn.body_declared >= 0 && cap > r->conn.body_mem && r->conn.body_mem >= r->body_len + n + 1)
+            cap = r->conn.body_mem; /* the declared length, reserved in begin */
+        if (cap > r->conn.body_mem && !mem_reserve(MEM_BODIES, cap - r->conn.body_mem)) {
+            r->conn.over_memory = true; /* read the rest without keeping it, then 503 */
             http_flow_drop_body(r, n);
             return true;
         }
-        if (cap > r->body_mem)
-            r->body_mem = cap;
+        if (cap > r->conn.body_mem)
+            r->conn.body_mem = cap;
         char *b = realloc(r->body, cap);
         if (!b) {
             /* read the rest without keeping it, then answer 503 */
-            r->no_memory = true;
+            r->conn.no_memory = true;
             http_flow_drop_body(r, n);
             return true;
         }
         r->body = b;
-        r->body_cap = cap;
+        r->conn.body_cap = cap;
     }
     memcpy(r->body + r->body_len, data, n);
     r->body_len += n;
@@ -448,7 +447,7 @@ bool http_flow_body(struct http_req *r, const char *data, size_t n)
 {
     bool ok = http_flow_keep(r, data, n);
     if (ok && http_flow_upload_ended(r)) {
-        r->note = "upload_incomplete";
+        r->res.note = "upload_incomplete";
         return false;
     }
     return ok;
@@ -457,19 +456,19 @@ bool http_flow_body(struct http_req *r, const char *data, size_t n)
 void http_flow_handle(struct http_req *r)
 {
     if (r->body_len > 0)
-        metrics_stage(MS_UPLOAD, clock_now() - r->t0);
-    if (r->too_large) {
+        metrics_stage(MS_UPLOAD, clock_now() - r->log.t0);
+    if (r->conn.too_large) {
         metrics_reject(MR_BODY_TOO_LARGE);
         http_reply_error(r, 413, "body_too_large", "the body is over the limit (--max-body)", NULL,
                          0, 0, NULL);
         return;
     }
-    if (r->no_memory) {
+    if (r->conn.no_memory) {
         http_reply_error(r, 503, "out_of_memory", "out of memory reading the body", NULL, 0, 0,
                          NULL);
         return;
     }
-    if (r->over_memory) {
+    if (r->conn.over_memory) {
         http_flow_no_memory(r, r->body_len + 1);
         return;
     }
@@ -479,77 +478,77 @@ void http_flow_handle(struct http_req *r)
         /* begin refused it already over libmicrohttpd; a transport that
          * goes on to the body is refused here */
     } else {
-        r->parked = false;
+        r->conn.parked = false;
         router_dispatch(r);
-        if (r->parked)
+        if (r->conn.parked)
             return; /* r now belongs to the worker until it resumes */
     }
-    if (!r->pending && !r->gone)
+    if (!r->conn.pending && !r->gone)
         http_reply_error(r, 500, "internal", "the handler gave no answer", NULL, 0, 0, NULL);
 }
 
 void http_flow_end(struct http_req *r, const char *note)
 {
-    double total = clock_now() - r->t0;
-    int refused = (int)r->refused_status;
+    double total = clock_now() - r->log.t0;
+    int refused = (int)r->log.refused_status;
     if (!r->method) {
         /* refused by libmicrohttpd before the handler saw it (bad headers,
          * headers over --max-header-bytes): it answered by itself, with
          * refused (0 when the client left before it could) */
-        struct log_access a = {.client = r->client,
-                               .path = r->target,
+        struct log_access a = {.client = r->log.client,
+                               .path = r->log.target,
                                .status = refused,
                                .total_ms = total * 1e3,
-                               .error = r->refused_why[0] ? r->refused_why : NULL,
+                               .error = r->log.refused_why[0] ? r->log.refused_why : NULL,
                                .note = refused || !note ? "refused_by_http_parser" : note};
         log_access(&a);
         if (refused)
-            metrics_request(r->route, NULL, refused, total);
+            metrics_request(r->route.label, NULL, refused, total);
         http_req_free(r);
         return;
     }
-    int status = r->status;
+    int status = r->res.status;
     /* a reply that went out but not to its end (the transport's note):
      * how much did, and why */
     bool head = !strcmp(r->method, "HEAD"); /* no body goes out */
-    bool cut = note && r->replied && !r->gone && r->t_sent > 0 && !head;
-    const char *cut_why = r->end_why ? r->end_why : note;
-    if (r->note)
-        note = r->note;
-    if ((r->gone || !r->replied) && refused) {
+    bool cut = note && r->conn.replied && !r->gone && r->log.t_sent > 0 && !head;
+    const char *cut_why = r->log.end_why ? r->log.end_why : note;
+    if (r->res.note)
+        note = r->res.note;
+    if ((r->gone || !r->conn.replied) && refused) {
         status = refused; /* libmicrohttpd answered the body (a malformed chunk) */
         note = "refused_by_http_parser";
-        if (r->refused_why[0]) {
-            r->err_code = r->refused_why;
-            r->err_at[0] = 0;
+        if (r->log.refused_why[0]) {
+            r->res.err_code = r->log.refused_why;
+            r->res.err_at[0] = 0;
         }
-    } else if (r->gone || !r->replied) {
+    } else if (r->gone || !r->conn.replied) {
         status = 499;
         if (!note)
             note = "client_gone";
     }
-    metrics_request(r->route, r->method, status, total);
-    if (r->is_image && r->t_sent > 0 && status == 200)
-        metrics_stage(MS_SEND, clock_now() - r->t_sent);
-    size_t bytes = head ? 0 : cut && r->body_counted ? r->body_taken : r->bytes;
+    metrics_request(r->route.label, r->method, status, total);
+    if (r->res.is_image && r->log.t_sent > 0 && status == 200)
+        metrics_stage(MS_SEND, clock_now() - r->log.t_sent);
+    size_t bytes = head ? 0 : cut && r->log.body_counted ? r->log.body_taken : r->res.bytes;
     struct log_access a = {
-        .client = r->client,
+        .client = r->log.client,
         .method = r->method,
-        .path = r->target ? r->target : r->url,
+        .path = r->log.target ? r->log.target : r->url,
         .status = status,
         .bytes = bytes,
         .cut = cut ? cut_why : NULL,
-        .size = cut ? r->bytes : 0,
+        .size = cut ? r->res.bytes : 0,
         .total_ms = total * 1e3,
-        .rendered = r->queue_ms > 0 || r->render_ms > 0 || r->encode_ms > 0,
-        .queue_ms = r->queue_ms,
-        .render_ms = r->render_ms,
-        .encode_ms = r->encode_ms,
-        .scene = r->scene,
+        .rendered = r->res.queue_ms > 0 || r->res.render_ms > 0 || r->res.encode_ms > 0,
+        .queue_ms = r->res.queue_ms,
+        .render_ms = r->res.render_ms,
+        .encode_ms = r->res.encode_ms,
+        .scene = r->res.scene,
         .request_id = r->request_id,
-        .note = cut ? r->note : note, /* the transport's note is cut_short */
-        .error = r->err_code,
-        .error_at = r->err_at,
+        .note = cut ? r->res.note : note, /* the transport's note is cut_short */
+        .error = r->res.err_code,
+        .error_at = r->res.err_at,
     };
     log_access(&a);
     http_req_free(r);

@@ -15,7 +15,7 @@
 /* ---- http_flow.c: a request's life, independent of the transport ------------
  *   http_req_new    (request.h) a request with its method and path;
  *   http_flow_begin headers only: refuses early (400 for unsound framing --
- *                   the transport's r->framing, a header name that is no
+ *                   the transport's r->conn.framing, a header name that is no
  *                   token, no Host, a bad target, an ambiguous body length
  *                   --, 417 for an unknown Expect, 401 without the token,
  *                   413 by Content-Length, 414 over --max-url);
@@ -23,7 +23,7 @@
  *   http_flow_body  appends a body chunk (counted, not kept, past --max-body);
  *                   false when the transport should drop the connection;
  *   http_flow_handle the whole request is here: auth, CORS, routing; the
- *                   handler replies (r->pending) or suspends (then r->parked
+ *                   handler replies (r->conn.pending) or suspends (then r->conn.parked
  *                   is set and r belongs to the worker until it resumes it);
  *   http_flow_end   access log, metrics, free. */
 bool http_flow_begin(struct http_req *r);

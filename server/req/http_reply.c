@@ -1,38 +1,33 @@
 /* http_reply.c -- the replies a handler can give, and what every reply
  * carries.
  *
- * A reply is built as a libmicrohttpd response and parked on the request
- * (r->pending); the transport queues it when the handler returns or when a
- * suspended request is resumed, so a worker thread never touches the
- * connection itself.  Headers every reply needs -- CORS for an allowed
- * Origin, nosniff -- are added here, once, so no handler can forget them.
- * Every error body of the API comes from http_reply_error, written by cJSON:
- * {"error": {"status", "code", "message", "path"?, "line"?, "column"?,
- * "parameter"?}}.  PNGs are sent from the shared blob, a block at a time as
- * libmicrohttpd asks (so the access log knows how much of one went out);
- * the response holds a reference, dropped by libmicrohttpd when it is done.
- * Every reply carries the request's X-Request-Id.  Every image carries
- * X-Rayd-Version: two versions may draw the same scene differently, and a
- * client stitching a frame from many nodes (or a balancer's cache) must be
- * able to tell.
+ * A reply is data (struct http_reply: status, headers, body) parked on the
+ * request (r->conn.pending); the transport turns it into a response and queues
+ * it when the handler returns or when a suspended request is resumed, so a
+ * worker thread never touches the connection, and no file below the
+ * transport knows libmicrohttpd.  Headers every reply needs -- CORS for an
+ * allowed Origin, nosniff -- are added here, once, so no handler can forget
+ * them.  Every error body of the API comes from http_reply_error, written
+ * by cJSON: {"error": {"status", "code", "message", "path"?, "line"?,
+ * "column"?, "parameter"?}}.  Images are sent from the shared blob, which
+ * the reply holds a reference to; the transport reads it a block at a time
+ * (so the access log knows how much of one went out).  Every reply carries
+ * the request's X-Request-Id.  Every image carries X-Rayd-Version: two
+ * versions may draw the same scene differently, and a client stitching a
+ * frame from many nodes (or a balancer's cache) must be able to tell.
  *
  * A 304 has no body, and RFC 9110 (section 8.6) forbids a Content-Length
  * other than the one the 200 would have had -- which rayd does not know
- * without rendering.  libmicrohttpd (0.9.75 as in Debian 12, and later)
- * writes "Content-Length: <size of the response's body>" on a 304, so an
- * empty buffer would say 0, and a body of unknown size would say
- * "Transfer-Encoding: chunked".  http_reply_not_modified therefore answers
- * with a body of unknown size under MHD_RF_HTTP_1_0_COMPATIBLE_STRICT: no
- * chunking, so neither header is written; the price is that libmicrohttpd
- * then closes the connection after the 304 ("Connection: close"), one new
- * connection per revalidation.
+ * without rendering.  So http_reply_not_modified answers with
+ * HTTP_BODY_NONE: no body and neither Content-Length nor chunking, which
+ * the transport keeps (http.c says how, and what it costs).
  */
 #include "req/request.h"
 
 #include <cjson/cJSON.h>
-#include <microhttpd.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 const char *http_reply_cors_origin(struct http_req *r)
 {
@@ -51,49 +46,122 @@ const char *http_reply_cors_origin(struct http_req *r)
     return NULL;
 }
 
-void http_reply(struct http_req *r, unsigned status, struct MHD_Response *resp)
+/* A reply of kind with no headers yet; NULL on no memory. */
+static struct http_reply *http_reply_new(enum http_body kind)
+{
+    struct http_reply *p = calloc(1, sizeof *p);
+    if (p)
+        p->kind = kind;
+    return p;
+}
+
+/* Appends name: value to p; false on no memory. */
+static bool http_reply_add(struct http_reply *p, const char *name, const char *value)
+{
+    if (p->nheaders == p->cap) {
+        size_t cap = p->cap ? 2 * p->cap : 8;
+        struct http_header *h = realloc(p->headers, cap * sizeof *h);
+        if (!h)
+            return false;
+        p->headers = h;
+        p->cap = cap;
+    }
+    size_t nl = strlen(name), vl = strlen(value);
+    char *n = malloc(nl + vl + 2);
+    if (!n)
+        return false;
+    memcpy(n, name, nl + 1);
+    memcpy(n + nl + 1, value, vl + 1);
+    p->headers[p->nheaders++] = (struct http_header){n, n + nl + 1};
+    return true;
+}
+
+/* The index of p's header name (any case), or -1. */
+static long http_reply_find(const struct http_reply *p, const char *name)
+{
+    for (size_t i = 0; i < p->nheaders; i++)
+        if (!strcasecmp(p->headers[i].name, name))
+            return (long)i;
+    return -1;
+}
+
+/* Parks resp (NULL: out of memory) on r as its answer with status. */
+static void http_reply_set(struct http_req *r, unsigned status, struct http_reply *resp,
+                           const char *ctype)
 {
     if (!resp) {
         /* out of memory building a response: give up on the connection */
         r->gone = true;
         return;
     }
-    if (r->pending)
-        MHD_destroy_response(r->pending);
-    r->body_counted = false;
+    if (ctype)
+        http_reply_add(resp, "Content-Type", ctype);
+    http_req_reply_free(r->conn.pending);
+    r->log.body_counted = false;
     const char *origin = http_reply_cors_origin(r);
     if (origin) {
-        MHD_add_response_header(resp, "Access-Control-Allow-Origin", origin);
-        MHD_add_response_header(resp, "Access-Control-Expose-Headers",
-                                "ETag, Location, Retry-After, Content-Length, X-Request-Id, "
-                                "X-Rayd-Estimated-Rays, X-Rayd-Estimated-Seconds, X-Rayd-Version");
+        http_reply_add(resp, "Access-Control-Allow-Origin", origin);
+        http_reply_add(resp, "Access-Control-Expose-Headers",
+                       "ETag, Location, Retry-After, Content-Length, X-Request-Id, "
+                       "X-Rayd-Estimated-Rays, X-Rayd-Estimated-Seconds, X-Rayd-Version");
     }
-    MHD_add_response_header(resp, "X-Content-Type-Options", "nosniff");
+    http_reply_add(resp, "X-Content-Type-Options", "nosniff");
     if (r->request_id[0])
-        MHD_add_response_header(resp, "X-Request-Id", r->request_id);
-    r->pending = resp;
+        http_reply_add(resp, "X-Request-Id", r->request_id);
+    resp->status = status;
+    r->conn.pending = resp;
     if (origin && strcmp(origin, "*"))
         http_reply_vary(r, "Origin");
-    r->pending_status = status;
-    r->status = (int)status;
-    r->replied = true;
+    r->res.status = (int)status;
+    r->conn.replied = true;
 }
 
 void http_reply_header(struct http_req *r, const char *name, const char *value)
 {
-    if (r->pending)
-        MHD_add_response_header(r->pending, name, value);
+    if (r->conn.pending)
+        http_reply_add(r->conn.pending, name, value);
+}
+
+/* A reply whose body is data[0..len) (malloc'd; taken, freed on failure). */
+static void http_reply_take(struct http_req *r, unsigned status, const char *ctype, char *data,
+                            size_t len)
+{
+    struct http_reply *resp = data ? http_reply_new(HTTP_BODY_BYTES) : NULL;
+    if (!resp)
+        free(data);
+    else
+        *resp = (struct http_reply){.kind = HTTP_BODY_BYTES, .data = data, .len = len};
+    r->res.bytes = len;
+    http_reply_set(r, status, resp, ctype);
 }
 
 void http_reply_data(struct http_req *r, unsigned status, const char *ctype, const void *data,
                      size_t len)
 {
-    struct MHD_Response *resp =
-        MHD_create_response_from_buffer(len, (void *)(uintptr_t)data, MHD_RESPMEM_MUST_COPY);
-    if (resp && ctype)
-        MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, ctype);
-    r->bytes = len;
-    http_reply(r, status, resp);
+    char *copy = malloc(len + 1);
+    if (copy && len)
+        memcpy(copy, data, len);
+    http_reply_take(r, status, ctype, copy, len);
+}
+
+void http_reply_stream(struct http_req *r, unsigned status, const char *const *headers,
+                       size_t block,
+                       ssize_t (*read)(void *cls, char *buf, size_t max), void (*done)(void *cls),
+                       void *cls)
+{
+    struct http_reply *resp = http_reply_new(HTTP_BODY_STREAM);
+    if (!resp) {
+        done(cls);
+        r->gone = true;
+        return;
+    }
+    resp->read = read;
+    resp->done = done;
+    resp->cls = cls;
+    resp->block = block;
+    for (; headers && headers[0]; headers += 2)
+        http_reply_add(resp, headers[0], headers[1]);
+    http_reply_set(r, status, resp, NULL);
 }
 
 /* The text of o (deleted) as the body.  Printed into a stack buffer and
@@ -111,16 +179,11 @@ static void http_reply_text(struct http_req *r, unsigned status, cJSON *o)
     }
     size_t len = 0;
     char *text = json_print(o, true, &len); /* deletes o */
-    struct MHD_Response *resp =
-        text ? MHD_create_response_from_buffer_with_free_callback(len, text, free) : NULL;
-    if (!resp) {
-        free(text);
+    if (!text) {
         r->gone = true;
         return;
     }
-    MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, "application/json");
-    r->bytes = len;
-    http_reply(r, status, resp);
+    http_reply_take(r, status, "application/json", text, len);
 }
 
 void http_reply_json(struct http_req *r, unsigned status, cJSON *o)
@@ -130,35 +193,6 @@ void http_reply_json(struct http_req *r, unsigned status, cJSON *o)
         http_reply_header(r, "Cache-Control", "no-store");
 }
 
-/* An image's body is handed to libmicrohttpd as it asks for it (a copy
- * of a block at a time, instead of the buffer whole), so the request knows
- * how much went out: the access line of an answer the client stopped
- * reading says so (r->body_taken).  The reader runs only while the answer
- * is sent, before the completion that frees r. */
-struct http_reply_body {
-    struct blob *img;
-    struct http_req *r;
-};
-
-static ssize_t http_reply_body_read(void *cls, uint64_t pos, char *buf, size_t max)
-{
-    struct http_reply_body *b = cls;
-    if (pos >= b->img->len)
-        return MHD_CONTENT_READER_END_OF_STREAM;
-    size_t n = b->img->len - (size_t)pos < max ? b->img->len - (size_t)pos : max;
-    memcpy(buf, (const char *)b->img->data + pos, n);
-    if ((size_t)pos + n > b->r->body_taken)
-        b->r->body_taken = (size_t)pos + n;
-    return (ssize_t)n;
-}
-
-static void http_reply_body_free(void *cls)
-{
-    struct http_reply_body *b = cls;
-    blob_unref(b->img);
-    free(b);
-}
-
 void http_reply_png(struct http_req *r, unsigned status, struct blob *png)
 {
     http_reply_image(r, status, png, "image/png");
@@ -166,27 +200,21 @@ void http_reply_png(struct http_req *r, unsigned status, struct blob *png)
 
 void http_reply_image(struct http_req *r, unsigned status, struct blob *png, const char *type)
 {
-    /* the response holds one reference to the blob, dropped by libmicrohttpd */
-    struct http_reply_body *b = malloc(sizeof *b);
-    struct MHD_Response *resp =
-        b ? MHD_create_response_from_callback(png->len, 64 * 1024, http_reply_body_read, b,
-                                              http_reply_body_free)
-          : NULL;
+    /* the reply holds one reference to the blob, dropped by the transport */
+    struct http_reply *resp = http_reply_new(HTTP_BODY_BLOB);
     if (!resp) {
-        free(b);
         r->gone = true;
         return;
     }
-    blob_ref(png);
-    *b = (struct http_reply_body){png, r};
-    MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, type);
+    resp->blob = blob_ref(png);
+    http_reply_add(resp, "Content-Type", type);
     /* the renderer that made the pixels: a frame is stitched from one only */
-    MHD_add_response_header(resp, "X-Rayd-Version", RAYD_VERSION);
-    r->bytes = png->len;
-    r->is_image = true;
-    http_reply(r, status, resp);
-    r->body_taken = 0;
-    r->body_counted = true;
+    http_reply_add(resp, "X-Rayd-Version", RAYD_VERSION);
+    r->res.bytes = png->len;
+    r->res.is_image = true;
+    http_reply_set(r, status, resp, NULL);
+    r->log.body_taken = 0;
+    r->log.body_counted = true;
 }
 
 void http_reply_error(struct http_req *r, unsigned status, const char *code, const char *message,
@@ -206,74 +234,53 @@ void http_reply_error(struct http_req *r, unsigned status, const char *code, con
     if (param && *param)
         cJSON_AddStringToObject(e, "parameter", param);
     http_reply_text(r, status, o);
-    r->err_code = code;
-    snprintf(r->err_at, sizeof r->err_at, "%s", path && *path ? path : param ? param : "");
+    r->res.err_code = code;
+    snprintf(r->res.err_at, sizeof r->res.err_at, "%s", path && *path ? path : param ? param : "");
     http_reply_header(r, "Cache-Control", "no-store");
     if (status == 503) {
         char v[16];
-        snprintf(v, sizeof v, "%d", r->retry_after > 0 ? r->retry_after : 1);
-        http_reply_header(r, MHD_HTTP_HEADER_RETRY_AFTER, v);
+        snprintf(v, sizeof v, "%d", r->res.retry_after > 0 ? r->res.retry_after : 1);
+        http_reply_header(r, "Retry-After", v);
     }
     if (status == 401)
-        http_reply_header(r, MHD_HTTP_HEADER_WWW_AUTHENTICATE, "Bearer realm=\"rayd\"");
+        http_reply_header(r, "WWW-Authenticate", "Bearer realm=\"rayd\"");
     if (status == 413 && !r->body && r->body_len == 0 && !strcmp(code, "body_too_large"))
-        http_reply_header(r, MHD_HTTP_HEADER_CONNECTION, "close");
-}
-
-/* The body of a 304: none (never called for a 304, which sends no body). */
-static ssize_t http_reply_no_body(void *cls, uint64_t pos, char *buf, size_t max)
-{
-    (void)cls;
-    (void)pos;
-    (void)buf;
-    (void)max;
-    return MHD_CONTENT_READER_END_OF_STREAM;
-}
-
-/* A response with no body and neither Content-Length nor chunking. */
-static struct MHD_Response *http_reply_bodiless(void)
-{
-    struct MHD_Response *resp =
-        MHD_create_response_from_callback(MHD_SIZE_UNKNOWN, 64, http_reply_no_body, NULL, NULL);
-    if (resp &&
-        MHD_set_response_options(resp, MHD_RF_HTTP_1_0_COMPATIBLE_STRICT, MHD_RO_END) != MHD_YES) {
-        MHD_destroy_response(resp);
-        resp = NULL;
-    }
-    return resp;
+        http_reply_header(r, "Connection", "close");
 }
 
 void http_reply_not_modified(struct http_req *r)
 {
-    r->bytes = 0;
-    http_reply(r, 304, http_reply_bodiless());
+    r->res.bytes = 0;
+    http_reply_set(r, 304, http_reply_new(HTTP_BODY_NONE), NULL);
     http_reply_cache_headers(r);
 }
 
 void http_reply_head(struct http_req *r, unsigned status, const char *ctype)
 {
-    struct MHD_Response *resp = http_reply_bodiless();
-    if (resp)
-        MHD_add_response_header(resp, MHD_HTTP_HEADER_CONTENT_TYPE, ctype);
-    r->bytes = 0;
-    http_reply(r, status, resp);
+    r->res.bytes = 0;
+    http_reply_set(r, status, http_reply_new(HTTP_BODY_NONE), ctype);
 }
 
 /* One Vary line for the reply: nginx up to 1.22 reads only the last Vary
  * header of an answer it caches, so every field goes into the same line. */
 void http_reply_vary(struct http_req *r, const char *field)
 {
-    if (!r->pending)
+    struct http_reply *p = r->conn.pending;
+    if (!p)
         return;
-    const char *old = MHD_get_response_header(r->pending, "Vary");
-    if (!old) {
-        MHD_add_response_header(r->pending, "Vary", field);
+    long at = http_reply_find(p, "Vary");
+    if (at < 0) {
+        http_reply_add(p, "Vary", field);
         return;
     }
+    /* the old line goes, the joined one is added last */
     char both[256];
-    snprintf(both, sizeof both, "%s, %s", old, field);
-    MHD_del_response_header(r->pending, "Vary", old);
-    MHD_add_response_header(r->pending, "Vary", both);
+    snprintf(both, sizeof both, "%s, %s", p->headers[at].value, field);
+    free(p->headers[at].name);
+    memmove(p->headers + at, p->headers + at + 1,
+            (p->nheaders - (size_t)at - 1) * sizeof *p->headers);
+    p->nheaders--;
+    http_reply_add(p, "Vary", both);
 }
 
 /* With a token, a shared cache (nginx's proxy_cache) must keep the answer
@@ -283,14 +290,14 @@ void http_reply_vary(struct http_req *r, const char *field)
  * files in clear (docs/operations.md). */
 void http_reply_cache_headers(struct http_req *r)
 {
-    if (r->etag[0]) {
-        http_reply_header(r, MHD_HTTP_HEADER_ETAG, r->etag);
-        http_reply_header(r, MHD_HTTP_HEADER_CACHE_CONTROL,
-                          r->etag_revalidate ? "public, no-cache"
+    if (r->res.etag[0]) {
+        http_reply_header(r, "ETag", r->res.etag);
+        http_reply_header(r, "Cache-Control",
+                          r->res.etag_revalidate ? "public, no-cache"
                                              : "public, max-age=31536000, immutable");
         if (config.token)
             http_reply_vary(r, "Authorization");
     } else {
-        http_reply_header(r, MHD_HTTP_HEADER_CACHE_CONTROL, "no-store");
+        http_reply_header(r, "Cache-Control", "no-store");
     }
 }

@@ -9,7 +9,7 @@
  * Suspension is the one delicate part.  A handler that queues a render
  * suspends the request from inside the work layer's lock (the waiter's
  * suspend callback), and from that moment a worker may answer and resume it
- * at any time; r->parked tells the thread that ran the handler that r is no
+ * at any time; r->conn.parked tells the thread that ran the handler that r is no
  * longer its own.  The counts of requests in flight and suspended are what
  * main.c's drain waits on, and the suspended count is a gauge.
  *
@@ -22,7 +22,6 @@
  */
 #include "req/request.h"
 
-#include <microhttpd.h>
 #include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
@@ -44,25 +43,38 @@ struct http_req *http_req_new(const struct http_io *io, void *io_ctx, const char
     struct http_req *r = calloc(1, sizeof *r);
     if (!r)
         return NULL;
-    r->io = io;
-    r->io_ctx = io_ctx;
+    r->conn.io = io;
+    r->conn.io_ctx = io_ctx;
     r->method = method;
     r->url = url;
-    r->target_len = target_len;
-    r->t0 = clock_now();
-    r->route = -1;
+    r->conn.target_len = target_len;
+    r->log.t0 = clock_now();
+    r->route.label = -1;
     atomic_fetch_add(&http_req_ninflight, 1);
-    atomic_store(&http_req_last_ms, (long)(r->t0 * 1000.0));
+    atomic_store(&http_req_last_ms, (long)(r->log.t0 * 1000.0));
     return r;
+}
+
+void http_req_reply_free(struct http_reply *p)
+{
+    if (!p)
+        return;
+    for (size_t i = 0; i < p->nheaders; i++)
+        free(p->headers[i].name);
+    free(p->headers);
+    free(p->data);
+    blob_unref(p->blob);
+    if (p->done)
+        p->done(p->cls);
+    free(p);
 }
 
 void http_req_free(struct http_req *r)
 {
-    if (r->pending)
-        MHD_destroy_response(r->pending);
-    free(r->target);
+    http_req_reply_free(r->conn.pending);
+    free(r->log.target);
     free(r->body);
-    mem_release(MEM_BODIES, r->body_mem);
+    mem_release(MEM_BODIES, r->conn.body_mem);
     free(r);
     atomic_fetch_sub(&http_req_ninflight, 1);
 }
@@ -104,9 +116,9 @@ static const char *http_req_target_why(const char *t)
 
 void http_req_set_target(struct http_req *r, const char *target)
 {
-    free(r->target);
-    r->target = target ? strndup(target, 2048) : NULL;
-    r->target_why = target ? http_req_target_why(target) : NULL;
+    free(r->log.target);
+    r->log.target = target ? strndup(target, 2048) : NULL;
+    r->conn.target_why = target ? http_req_target_why(target) : NULL;
 }
 
 /* ---- request ids ---------------------------------------------------------- */
@@ -164,7 +176,7 @@ void http_req_take_id(struct http_req *r)
 
 const char *http_req_header(struct http_req *r, const char *name)
 {
-    return r->io->header(r, name);
+    return r->conn.io->header(r, name);
 }
 
 struct http_req_first {
@@ -181,7 +193,7 @@ static void http_req_first_cb(void *u, const char *k, const char *v)
 const char *http_req_query(struct http_req *r, const char *name)
 {
     struct http_req_first f = {name, NULL};
-    r->io->query_each(r, http_req_first_cb, &f);
+    r->conn.io->query_each(r, http_req_first_cb, &f);
     return f.value;
 }
 
@@ -200,30 +212,32 @@ static void http_req_count_cb(void *u, const char *k, const char *v)
 int http_req_query_count(struct http_req *r, const char *name)
 {
     struct http_req_count c = {name, 0};
-    r->io->query_each(r, http_req_count_cb, &c);
+    r->conn.io->query_each(r, http_req_count_cb, &c);
     return c.n;
 }
 
 void http_req_query_each(struct http_req *r, void (*fn)(void *u, const char *k, const char *v),
                          void *u)
 {
-    r->io->query_each(r, fn, u);
+    r->conn.io->query_each(r, fn, u);
 }
 
-int http_req_fd(struct http_req *r) { return r->io->fd(r); }
+int http_req_fd(struct http_req *r) { return r->conn.io->fd(r); }
 
 void http_req_suspend(struct http_req *r)
 {
-    r->parked = true;
-    r->suspended = true;
+    server_assert(!r->conn.suspended); /* one resume answers one suspend */
+    r->conn.parked = true;
+    r->conn.suspended = true;
     atomic_fetch_add(&http_req_nsuspended, 1);
-    r->io->suspend(r);
+    r->conn.io->suspend(r);
 }
 
 void http_req_resume(struct http_req *r)
 {
-    r->suspended = false;
-    r->io->resume(r); /* for the harness, r may be gone after this */
+    server_assert(r->conn.suspended);
+    r->conn.suspended = false;
+    r->conn.io->resume(r); /* for the harness, r may be gone after this */
     atomic_fetch_sub(&http_req_nsuspended, 1);
 }
 

@@ -30,27 +30,31 @@ struct route {
     const char *pattern;
     router_handler fn;
     const char *name;
+    /* NULL, or whether the {id} names something the row serves: a row of
+     * files matches only the files that exist, so another row (or a 404)
+     * answers the rest */
+    bool (*exists)(const char *id);
 };
 
 static const struct route router_table[] = {
-    {"POST", "/v1/render", api_render_post, "/v1/render"},
-    {"POST", "/v1/scenes", api_scenes_post, "/v1/scenes"},
-    {"GET", "/v1/scenes/{id}/image.png", api_scenes_image, "/v1/scenes/{id}/image.png"},
-    {"POST", "/v1/jobs", api_jobs_post, "/v1/jobs"},
-    {"GET", "/v1/jobs", api_jobs_list, "/v1/jobs"},
-    {"GET", "/v1/jobs/{id}", api_jobs_get, "/v1/jobs/{id}"},
-    {"DELETE", "/v1/jobs/{id}", api_jobs_delete, "/v1/jobs/{id}"},
-    {"POST", "/v1/jobs/{id}/stop", api_jobs_stop, "/v1/jobs/{id}/stop"},
-    {"GET", "/v1/jobs/{id}/image.png", api_jobs_image, "/v1/jobs/{id}/image.png"},
-    {"GET", "/v1/jobs/{id}/image.exr", api_jobs_exr, "/v1/jobs/{id}/image.exr"},
-    {"GET", "/v1/jobs/{id}/events", api_events_get, "/v1/jobs/{id}/events"},
-    {"GET", "/healthz", api_health_live, "/healthz"},
-    {"GET", "/readyz", api_health_ready, "/readyz"},
-    {"GET", "/metrics", api_health_metrics, "/metrics"},
-    {"GET", "/v1/test/gate", api_test_gate_get, "/v1/test/gate"},
-    {"POST", "/v1/test/gate", api_test_gate_post, "/v1/test/gate"},
-    {"GET", "/", api_web_index, "/"},
-    {"GET", "/{id}", api_web_asset, "/{asset}"},
+    {"POST", "/v1/render", api_render_post, "/v1/render", NULL},
+    {"POST", "/v1/scenes", api_scenes_post, "/v1/scenes", NULL},
+    {"GET", "/v1/scenes/{id}/image.png", api_scenes_image, "/v1/scenes/{id}/image.png", NULL},
+    {"POST", "/v1/jobs", api_jobs_post, "/v1/jobs", NULL},
+    {"GET", "/v1/jobs", api_jobs_list, "/v1/jobs", NULL},
+    {"GET", "/v1/jobs/{id}", api_jobs_get, "/v1/jobs/{id}", NULL},
+    {"DELETE", "/v1/jobs/{id}", api_jobs_delete, "/v1/jobs/{id}", NULL},
+    {"POST", "/v1/jobs/{id}/stop", api_jobs_stop, "/v1/jobs/{id}/stop", NULL},
+    {"GET", "/v1/jobs/{id}/image.png", api_jobs_image, "/v1/jobs/{id}/image.png", NULL},
+    {"GET", "/v1/jobs/{id}/image.exr", api_jobs_exr, "/v1/jobs/{id}/image.exr", NULL},
+    {"GET", "/v1/jobs/{id}/events", api_events_get, "/v1/jobs/{id}/events", NULL},
+    {"GET", "/healthz", api_health_live, "/healthz", NULL},
+    {"GET", "/readyz", api_health_ready, "/readyz", NULL},
+    {"GET", "/metrics", api_health_metrics, "/metrics", NULL},
+    {"GET", "/v1/test/gate", api_test_gate_get, "/v1/test/gate", NULL},
+    {"POST", "/v1/test/gate", api_test_gate_post, "/v1/test/gate", NULL},
+    {"GET", "/", api_web_index, "/", NULL},
+    {"GET", "/{id}", api_web_asset, "/{asset}", api_web_exists},
 };
 
 #define ROUTER_N ((int)(sizeof router_table / sizeof router_table[0]))
@@ -108,12 +112,12 @@ static bool router_match(const char *pattern, const char *path, char *id, size_t
     return *path == 0;
 }
 
-/* Whether row i serves path (a static file only if it exists); the id in
- * the path, if any, into id. */
+/* Whether row i serves path (a row of files only a file that exists); the
+ * id in the path, if any, into id. */
 static bool router_row_matches(int i, const char *path, char *id, size_t size)
 {
     return router_match(router_table[i].pattern, path, id, size) &&
-           (router_table[i].fn != api_web_asset || api_web_exists(id));
+           (!router_table[i].exists || router_table[i].exists(id));
 }
 
 int router_find(const char *url)
@@ -147,31 +151,31 @@ const char *router_allow(const char *path, char *buf, size_t size)
 }
 
 /* The row that serves r's method and path, or -1; its {id} segment into
- * r->route_id, and r->route_path_known tells whether some row has the path
+ * r->route.id, and r->route.path_known tells whether some row has the path
  * (then a 405).  Looked up once per request: router_refuse (at the headers)
  * and router_dispatch (with the body) read the same answer from r. */
 static int router_row_of(struct http_req *r)
 {
-    if (r->routed)
-        return r->route_row;
+    if (r->route.done)
+        return r->route.row;
     const char *method = strcmp(r->method, "HEAD") ? r->method : "GET";
-    char id[sizeof r->route_id];
-    r->routed = true;
-    r->route_row = -1;
-    r->route_path_known = false;
-    r->route_id[0] = 0;
+    char id[sizeof r->route.id];
+    r->route.done = true;
+    r->route.row = -1;
+    r->route.path_known = false;
+    r->route.id[0] = 0;
     for (int i = 0; i < ROUTER_N; i++) {
         if (!router_row_matches(i, r->url, id, sizeof id))
             continue;
         if (!strcmp(router_table[i].method, method)) {
-            r->route = router_label(i);
-            r->route_row = i;
-            memcpy(r->route_id, id, sizeof id);
+            r->route.label = router_label(i);
+            r->route.row = i;
+            memcpy(r->route.id, id, sizeof id);
             return i;
         }
-        if (!r->route_path_known)
-            r->route = router_label(i);
-        r->route_path_known = true;
+        if (!r->route.path_known)
+            r->route.label = router_label(i);
+        r->route.path_known = true;
     }
     return -1;
 }
@@ -179,7 +183,7 @@ static int router_row_of(struct http_req *r)
 /* 404, or 405 with Allow when the path is known. */
 static void router_refuse_reply(struct http_req *r)
 {
-    if (r->route_path_known) {
+    if (r->route.path_known) {
         char allow[128], msg[200];
         router_allow(r->url, allow, sizeof allow);
         snprintf(msg, sizeof msg, "method %s not allowed here; allowed: %s", r->method, allow);
@@ -202,7 +206,7 @@ void router_dispatch(struct http_req *r)
 {
     int i = router_row_of(r);
     if (i >= 0)
-        router_table[i].fn(r, r->route_id);
+        router_table[i].fn(r, r->route.id);
     else
         router_refuse_reply(r);
 }

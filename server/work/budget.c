@@ -19,33 +19,22 @@
 size_t budget_bytes(const struct work_target *what, bool progressive, enum mem_kind *kind)
 {
     size_t px = (size_t)what->reg.w * (size_t)what->reg.h;
-    size_t n;
-    switch (what->format) {
-    case WORK_SUMS: /* the sums, then their bytes */
-        n = px * 48 + 64;
-        break;
-    case WORK_EXR: /* linear floats, then the EXR */
-        n = px * 24;
-        break;
-    case WORK_PNG16: /* linear floats, then 6 bytes a pixel */
-        n = px * 18;
-        break;
-    case WORK_PNG:
-    default: /* the 8-bit pixels, then the PNG (at worst about as large) */
-        n = px * 6;
-        if (what->keep_exr)
-            n += px * 24;
-        break;
-    }
+    /* the store (8-bit pixels, linear floats or sums), then the answer
+     * (a PNG at worst about as large as its pixels) */
+    const struct task_format *f = task_format(what->format);
+    size_t n = px * f->px_bytes + f->extra;
+    if (f->store == TASK_STORE_IMAGE && what->keep_exr)
+        n += px * 24; /* linear floats, then the EXR */
     if (progressive) /* the passes' sums, the last pass's image, the passes kept */
         n += px * (24 + 3 + 3 * PASSES_KEEP) + (what->keep_exr ? px * 12 * PASSES_KEEP_EXR : 0);
-    *kind = progressive || what->format == WORK_SUMS ? MEM_SUMS : MEM_RESULTS;
+    *kind = progressive ? MEM_SUMS : f->mem_kind;
     return n + 4096;
 }
 
 struct task *budget_task(struct cache_entry *scene, const struct work_target *what,
                          bool progressive, enum work_submit *why)
 {
+    work_assert_unlocked();
     enum mem_kind kind;
     size_t n = budget_bytes(what, progressive, &kind);
     if (!mem_reserve(kind, n)) {
@@ -59,8 +48,7 @@ struct task *budget_task(struct cache_entry *scene, const struct work_target *wh
         *why = WORK_NOMEM;
         return NULL;
     }
-    t->mem = n;
-    t->mem_kind = kind;
+    task_hold(t, n, kind);
     *why = WORK_OK;
     return t;
 }

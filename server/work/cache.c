@@ -82,6 +82,7 @@ bool cache_hash(const void *data, size_t len, char out[65])
 
 struct cache_entry *cache_get(const char *id)
 {
+    work_assert_locked();
     struct cache_entry *e = (struct cache_entry *)lru_find(&cache_lru, id);
     if (e)
         e->refs++;
@@ -90,6 +91,7 @@ struct cache_entry *cache_get(const char *id)
 
 struct cache_entry *cache_put(const char *id, const char *version, rayd_scene *scene)
 {
+    work_assert_locked();
     struct rayd_scene_info info;
     rayd_scene_info(scene, &info);
     struct cache_entry *e = (struct cache_entry *)lru_find(&cache_lru, id);
@@ -121,6 +123,7 @@ struct cache_entry *cache_put(const char *id, const char *version, rayd_scene *s
 
 struct cache_entry *cache_ref(struct cache_entry *e)
 {
+    work_assert_locked();
     e->refs++;
     return e;
 }
@@ -136,6 +139,7 @@ void cache_release(struct cache_entry *e)
 
 bool cache_evict_one(void)
 {
+    work_assert_locked();
     /* the least recently used entry no render holds: its memory comes back */
     for (struct lru_node *n = cache_lru.tail; n; n = n->prev) {
         struct cache_entry *e = (struct cache_entry *)n;

@@ -75,20 +75,21 @@ static void compile_start(void)
 {
     long n = config.parse_threads > 0 ? config.parse_threads : 2;
     compile_threads = calloc((size_t)n, sizeof *compile_threads);
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     for (int i = 0; compile_threads && i < n; i++) {
         if (pthread_create(&compile_threads[i], NULL, compile_thread, NULL))
             break;
         compile_nthreads++;
         compile_alive++;
     }
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
 }
 
 /* The job of id (with a body to parse, or by id only) queued or being
  * parsed, lock held; NULL if none. */
 static struct compile_job *compile_find(const char *id, bool by_id)
 {
+    work_assert_locked();
     for (struct compile_job *j = compile_head; j; j = j->next)
         if (!strcmp(j->id, id) && (j->body == NULL) == by_id)
             return j;
@@ -101,6 +102,7 @@ static struct compile_job *compile_find(const char *id, bool by_id)
 /* Unlinks j from the list at *head, lock held. */
 static void compile_unlink(struct compile_job **head, struct compile_job *j)
 {
+    work_assert_locked();
     for (struct compile_job **p = head; *p; p = &(*p)->next)
         if (*p == j) {
             *p = j->next;
@@ -115,6 +117,7 @@ static long compile_queue_cap(void) { return config.parse_queue > 0 ? config.par
 static enum work_submit compile_enqueue(const char *id, const char *body, size_t len,
                                         struct cache_entry *e, struct compile_waiter *w)
 {
+    work_assert_locked();
     if (task_draining()) /* nothing new is suspended once the drain began */
         return WORK_DRAINING;
     struct compile_job *j = compile_find(id, body == NULL);
@@ -171,11 +174,11 @@ enum work_submit compile_scene(const char *body, size_t len, struct compile_wait
         e = NULL;
     }
     pthread_once(&compile_once, compile_start);
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     enum work_submit s = compile_stopping || compile_nthreads == 0
                              ? (compile_stopping ? WORK_DRAINING : WORK_NOMEM)
                              : compile_enqueue(id, body, len, e, w);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     if (s != WORK_OK)
         scenes_release(e);
     return s;
@@ -196,11 +199,11 @@ enum work_submit compile_find_scene(const char *id, struct compile_waiter *w,
         return WORK_CACHED;
     }
     pthread_once(&compile_once, compile_start);
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     enum work_submit s = compile_stopping || compile_nthreads == 0
                              ? (compile_stopping ? WORK_DRAINING : WORK_NOMEM)
                              : compile_enqueue(id, NULL, 0, e, w);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     if (s != WORK_OK)
         scenes_release(e);
     return s;
@@ -226,9 +229,9 @@ static enum rayd_status compile_run(struct compile_job *j, struct cache_entry **
     double t0 = clock_now();
     enum rayd_status st = scenes_build(j->id, j->body, j->len, out, err);
     double took = clock_now() - t0;
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     compile_avg += (took - compile_avg) * 0.2;
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return st;
 }
 
@@ -237,10 +240,11 @@ static enum rayd_status compile_run(struct compile_job *j, struct cache_entry **
 static void compile_answer(struct compile_job *j, enum rayd_status st, struct cache_entry *e,
                            bool hit, const struct rayd_error *err, bool draining)
 {
-    pthread_mutex_lock(&work_lock);
+    work_assert_unlocked();
+    work_lock_take();
     for (int i = 1; e && i < j->nwaiters; i++)
         cache_ref(e); /* the first waiter takes the parse's own */
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     struct compile_waiter *w = j->waiters;
     bool j_body = j->body != NULL;
     free(j);
@@ -261,6 +265,7 @@ static void compile_answer(struct compile_job *j, enum rayd_status st, struct ca
  * the pool stops.  The test gate holds jobs in the queue, until a drain. */
 static struct compile_job *compile_next(void)
 {
+    work_assert_locked();
     for (;;) {
         if (compile_stopping)
             return NULL;
@@ -268,7 +273,7 @@ static struct compile_job *compile_next(void)
         if (compile_head && (compile_gate != 0 || draining))
             break;
         if (!compile_head) {
-            pthread_cond_wait(&compile_cond, &work_lock);
+            work_wait(&compile_cond);
             continue;
         }
         struct timespec t; /* held by the test gate: look at the drain again soon */
@@ -276,7 +281,7 @@ static struct compile_job *compile_next(void)
         t.tv_nsec += 200000000L;
         t.tv_sec += t.tv_nsec / 1000000000L;
         t.tv_nsec %= 1000000000L;
-        pthread_cond_timedwait(&compile_cond, &work_lock, &t);
+        work_timedwait(&compile_cond, &t);
     }
     struct compile_job *j = compile_head;
     compile_head = j->next;
@@ -295,35 +300,35 @@ static struct compile_job *compile_next(void)
 static void *compile_thread(void *arg)
 {
     (void)arg;
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     struct compile_job *j;
     while ((j = compile_next()) != NULL) {
-        pthread_mutex_unlock(&work_lock);
+        work_lock_give();
         struct rayd_error err = {0};
         struct cache_entry *e = NULL;
         bool hit = false, draining = sched_draining();
         enum rayd_status st = draining ? RAYD_E_CANCELED : compile_run(j, &e, &hit, &err);
         if (draining)
             scenes_release(j->cached);
-        pthread_mutex_lock(&work_lock);
+        work_lock_take();
         compile_unlink(&compile_running, j); /* no one joins it from now on */
         compile_nrunning--;
-        pthread_mutex_unlock(&work_lock);
+        work_lock_give();
         compile_answer(j, st, e, hit, &err, draining);
-        pthread_mutex_lock(&work_lock);
+        work_lock_take();
     }
     compile_alive--;
     pthread_cond_broadcast(&compile_cond); /* compile_join */
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return NULL;
 }
 
 double compile_retry_seconds(void)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     double s = compile_avg * (double)(compile_queued + compile_nrunning) /
                (double)(compile_nthreads > 0 ? compile_nthreads : 1);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return s;
 }
 
@@ -334,12 +339,12 @@ static bool compile_join(void)
     struct timespec until;
     clock_gettime(CLOCK_REALTIME, &until);
     until.tv_sec += (time_t)COMPILE_JOIN_SECONDS;
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     while (compile_alive > 0 &&
-           pthread_cond_timedwait(&compile_cond, &work_lock, &until) != ETIMEDOUT)
+           work_timedwait(&compile_cond, &until) != ETIMEDOUT)
         ;
     bool ended = compile_alive == 0;
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     for (int i = 0; i < compile_nthreads; i++) {
         if (ended)
             pthread_join(compile_threads[i], NULL);
@@ -351,13 +356,13 @@ static bool compile_join(void)
 
 void compile_stop(void)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     compile_stopping = true;
     struct compile_job *queued = compile_head;
     compile_head = compile_tail = NULL;
     compile_queued = 0;
     pthread_cond_broadcast(&compile_cond);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     while (queued) {
         struct compile_job *next = queued->next;
         scenes_release(queued->cached);
@@ -373,16 +378,16 @@ void compile_stop(void)
 
 void compile_gate_set(long parses)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     compile_gate = parses;
     pthread_cond_broadcast(&compile_cond);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
 }
 
 void compile_gate_get(struct compile_gate_state *g)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     *g = (struct compile_gate_state){compile_gate, compile_started, compile_queued,
                                      compile_nrunning};
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
 }

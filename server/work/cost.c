@@ -168,6 +168,7 @@ static void cost_node_update(void)
 void cost_observe(const char *scene_id, uint64_t client, double rays, double seconds,
                   bool complete)
 {
+    work_assert_locked();
     if (!(rays > 0) || !(seconds > 0))
         return;
     struct cost_entry *s = cost_find(cost_scenes, COST_SCENES, cost_key(scene_id));
@@ -194,8 +195,8 @@ double cost_rate(void) { return 1.0 / cost_node_spr; }
 
 double cost_price_seconds(const char *scene_id, double rays)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     double s = rays * cost_scene_spr(scene_id) / cost_workers;
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return s;
 }

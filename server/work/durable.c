@@ -42,9 +42,9 @@ static void durable_fail(struct store_job *row, const struct rayd_error *err)
     row->err = *err;
     row->ended_wall = (double)ts.tv_sec + (double)ts.tv_nsec / 1e9;
     log_warn("job %s: not restarted: %s", row->id, err->message);
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     store_end(row, NULL, NULL);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     jobs_restore(row, NULL);
 }
 
@@ -66,9 +66,9 @@ static void durable_compiled(struct compile_waiter *w, struct compile_result *re
         snprintf(err.message, sizeof err.message, "%s", msg);
         durable_fail(d->row, &err);
     }
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     durable_pending--;
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     free(d);
 }
 
@@ -97,9 +97,9 @@ static void durable_requeue(struct store_job *row)
     d->row = row;
     d->w.done = durable_compiled;
     d->w.suspend = durable_suspend;
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     durable_pending++;
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     enum work_submit s;
     while ((s = compile_scene(row->scene, row->scene_len, &d->w, &res)) == WORK_PARSE_FULL) {
         struct timespec ts = {0, 20 * 1000000L}; /* the pool is busy with the others */
@@ -108,18 +108,18 @@ static void durable_requeue(struct store_job *row)
     if (s == WORK_CACHED)
         durable_compiled(&d->w, &res);
     else if (s != WORK_OK) {
-        pthread_mutex_lock(&work_lock);
+        work_lock_take();
         durable_pending--;
-        pthread_mutex_unlock(&work_lock);
+        work_lock_give();
         free(d);
     }
 }
 
 static long durable_left(void)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     long n = durable_pending;
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return n;
 }
 

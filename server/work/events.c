@@ -32,13 +32,13 @@ struct events_stream *events_open(const char *id)
     struct events_stream *s = calloc(1, sizeof *s);
     if (!s)
         return NULL;
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     struct job *j = jobs_find(id);
     if (j) {
         j->refs++;
         s->job = j;
     }
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     if (!j) {
         free(s);
         return NULL;
@@ -50,6 +50,7 @@ struct events_stream *events_open(const char *id)
 static int events_news(struct events_stream *s, struct events_item *it, int n,
                        struct rayd_error *err)
 {
+    work_assert_locked();
     struct job *j = s->job;
     const struct task *t = j->task;
     int k = 0;
@@ -98,17 +99,14 @@ static int events_news(struct events_stream *s, struct events_item *it, int n,
 int events_read(struct events_stream *s, struct events_item *items, int n,
                 struct rayd_error *err, struct work_waiter *w)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     int k = events_news(s, items, n, err);
     if (k == 0 && s->sent_done) {
         k = -1;
     } else if (k == 0) {
-        struct task *t = s->job->task;
-        w->suspend(w); /* before the waiter is linked (work_private.h) */
-        w->next = t->sse_waiters;
-        t->sse_waiters = w;
+        task_wait_news(s->job->task, w);
     }
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return k;
 }
 
@@ -116,8 +114,8 @@ void events_close(struct events_stream *s)
 {
     if (!s)
         return;
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     jobs_unref(s->job);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     free(s);
 }

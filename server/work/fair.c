@@ -32,6 +32,7 @@ static size_t fair_home(uint64_t client)
 
 uint64_t fair_last(uint64_t client)
 {
+    work_assert_locked();
     size_t h = fair_home(client);
     for (int i = 0; i < FAIR_PROBE; i++) {
         const struct fair_slot *s = &fair_slots[(h + (size_t)i) & (FAIR_SLOTS - 1)];
@@ -44,6 +45,7 @@ uint64_t fair_last(uint64_t client)
 /* The client's slot, or the least recently served of its probe window. */
 void fair_served(uint64_t client)
 {
+    work_assert_locked();
     size_t h = fair_home(client);
     struct fair_slot *victim = NULL;
     for (int i = 0; i < FAIR_PROBE; i++) {

@@ -16,6 +16,7 @@ static long gate_started, gate_held;
 
 bool gate_pass(void)
 {
+    work_assert_locked();
     if (!gate_on || gate_tiles < 0)
         return true;
     if (gate_tiles == 0)
@@ -26,39 +27,40 @@ bool gate_pass(void)
 
 void gate_count(long started, long held)
 {
+    work_assert_locked();
     gate_started += started;
     gate_held += held;
 }
 
 void gate_enable(long tiles)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     gate_on = true;
     gate_tiles = tiles;
     pthread_cond_broadcast(&work_cond);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
 }
 
 bool gate_set(long tiles)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     bool on = gate_on;
     if (on) {
         gate_tiles = tiles;
         pthread_cond_broadcast(&work_cond);
     }
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return on;
 }
 
 bool gate_get(struct gate_state *g)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     g->tiles = gate_tiles;
     g->started = gate_started;
     g->held = gate_held;
     g->queued = task_queued;
     bool on = gate_on;
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return on;
 }

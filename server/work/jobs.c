@@ -63,9 +63,9 @@ static int jobs_tomb_next, jobs_tomb_n;
 
 static long jobs_gauge(void)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     long n = jobs_n;
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return n;
 }
 
@@ -109,9 +109,7 @@ static bool jobs_evict_oldest(void)
         return true;
     }
     jobs_evict_result(victim, JOBS_EVICTED_WHY);
-    if (t->passes)
-        passes_let_go(t->passes);
-    t->evicted = true;
+    task_evicted(t);
     return true;
 }
 
@@ -122,10 +120,10 @@ static bool jobs_evict_oldest(void)
 static bool jobs_reclaim(enum mem_kind k, size_t need)
 {
     (void)need; /* called again until the reservation fits */
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     bool freed =
         rcache_evict_one() || cache_evict_one() || (k != MEM_BODIES && jobs_evict_oldest());
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return freed;
 }
 
@@ -201,6 +199,7 @@ static double jobs_wall(double mono)
 
 struct job *jobs_find(const char *id)
 {
+    work_assert_locked();
     for (int i = 0; i < jobs_n; i++)
         if (!strcmp(jobs_table[i]->id, id))
             return jobs_table[i];
@@ -244,6 +243,7 @@ static void jobs_forget(int i, enum jobs_gone_why why, double now)
 
 void jobs_expire(double now)
 {
+    work_assert_locked();
     for (int i = 0; i < jobs_n;) {
         const struct job *j = jobs_table[i];
         if (jobs_final(j) && now - jobs_ended(j) > (double)config.job_ttl)
@@ -256,7 +256,7 @@ void jobs_expire(double now)
 bool jobs_gone(const char *id, struct jobs_gone *g)
 {
     bool found = false;
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     for (int k = 1; k <= jobs_tomb_n && !found; k++) { /* the newest first */
         const struct jobs_tomb *t =
             &jobs_tombs[(jobs_tomb_next - k + JOBS_TOMBSTONES) % JOBS_TOMBSTONES];
@@ -265,7 +265,7 @@ bool jobs_gone(const char *id, struct jobs_gone *g)
             found = true;
         }
     }
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return found;
 }
 
@@ -278,6 +278,7 @@ static bool jobs_has_result(const struct job *j)
 
 struct job *jobs_oldest_result(void)
 {
+    work_assert_locked();
     struct job *best = NULL;
     for (int i = 0; i < jobs_n; i++) {
         struct job *j = jobs_table[i];
@@ -289,11 +290,9 @@ struct job *jobs_oldest_result(void)
 
 size_t jobs_evict_result(struct job *j, const char *why)
 {
+    work_assert_locked();
     struct task *t = j->task;
-    size_t bytes = (t->png ? t->png->len : 0) + (t->exr ? t->exr->len : 0);
-    blob_unref(t->png);
-    blob_unref(t->exr);
-    t->png = t->exr = NULL;
+    size_t bytes = task_let_go_images(t);
     double now = clock_now();
     for (int i = 0; i < jobs_n; i++) /* every job of t shared those images */
         if (jobs_table[i]->task == t && jobs_table[i]->evicted_at == 0) {
@@ -350,9 +349,7 @@ static bool jobs_progressive(struct task *t, struct cache_entry *scene,
         return false;
     for (int i = 0; i < t->ntiles; i++)
         tiles[i] = task_tile(t, i);
-    t->passes = passes_new(cache_scene(scene), plan, tiles, t->ntiles); /* owns tiles */
-    size_t n = strlen(t->key);
-    snprintf(t->key + n, sizeof t->key - n, "~%s", id);
+    task_progressive(t, passes_new(cache_scene(scene), plan, tiles, t->ntiles), id); /* owns tiles */
     return t->passes != NULL;
 }
 
@@ -421,16 +418,16 @@ static void jobs_finished(struct task *t)
  * were evicted from it (--max-disk), so j answers 410 result_evicted. */
 static void jobs_written(const char *id)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     struct job *j = jobs_find(id);
     if (j)
         j->stored = true;
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
 }
 
 static void jobs_disk_evicted(const char *id, const char *why, double wall)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     struct job *j = jobs_find(id);
     if (j && j->evicted_at == 0) {
         j->stored = false;
@@ -445,7 +442,7 @@ static void jobs_disk_evicted(const char *id, const char *why, double wall)
             j->task->png = j->task->exr = NULL;
         }
     }
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
 }
 
 /* j (zeroed) becomes job id of task t (lock held, the table has room). */
@@ -462,8 +459,7 @@ static struct job *jobs_add(struct job *j, const char *id, struct task *t, uint6
     j->priority = priority;
     j->seq = ++jobs_seq;
     j->task = t;
-    t->refs++;
-    t->njobs++;
+    task_job_ref(t);
     if (t->client == client && priority > t->priority)
         t->priority = priority; /* a joined task: its client's order only */
     jobs_table[jobs_n++] = j;
@@ -510,7 +506,7 @@ enum work_submit jobs_submit(struct cache_entry *scene, const struct work_target
         row.scene[how->scene_len] = 0;
         row.scene_len = how->scene_len;
     }
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     struct task *t = NULL;
     if (task_draining())
         r = WORK_DRAINING;
@@ -528,7 +524,7 @@ enum work_submit jobs_submit(struct cache_entry *scene, const struct work_target
         row.scene_len = how->scene_len;
         how->waiting = store_insert(&row, how->w);
     }
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     free(row.scene);
     free(spare);
     if (fresh)
@@ -593,7 +589,7 @@ bool jobs_restore(const struct store_job *row, struct cache_entry *scene)
             task_unref(fresh);
         return false;
     }
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     struct task *t = fresh;
     if (jobs_n == jobs_max && !jobs_evict())
         r = WORK_TOO_MANY_JOBS;
@@ -624,7 +620,7 @@ bool jobs_restore(const struct store_job *row, struct cache_entry *scene)
             task_unref(t); /* the job's reference stays */
         }
     }
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     free(spare);
     if (fresh)
         task_unref(fresh);
@@ -636,6 +632,7 @@ bool jobs_restore(const struct store_job *row, struct cache_entry *scene)
  * event of its stream say the same. */
 double jobs_progress(const struct job *j)
 {
+    work_assert_locked();
     const struct task *t = j->task;
     if (jobs_state(j) == JS_SUCCEEDED)
         return 1;
@@ -647,6 +644,7 @@ double jobs_progress(const struct job *j)
  * else a progressive job's latest pass (NULL if none yet); referenced. */
 static struct blob *jobs_image(const struct job *j, enum jobs_state state, bool exr)
 {
+    work_assert_locked();
     const struct task *t = j->task;
     if (state == JS_SUCCEEDED)
         return blob_ref(exr ? t->exr : t->png);
@@ -659,6 +657,7 @@ static struct blob *jobs_image(const struct job *j, enum jobs_state state, bool 
 /* The job's numbers, lock held. */
 static void jobs_info_of(const struct job *j, struct jobs_info *info, enum jobs_want want)
 {
+    work_assert_locked();
     const struct task *t = j->task;
     info->state = jobs_state(j);
     info->tiles_done = t->done;
@@ -718,7 +717,7 @@ int jobs_list(uint64_t client, int state, long long before, struct jobs_info *ou
               bool *more)
 {
     *more = false;
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     struct job **mine = malloc((size_t)(jobs_n ? jobs_n : 1) * sizeof *mine);
     int m = 0, got = 0;
     for (int i = 0; mine && i < jobs_n; i++) {
@@ -734,7 +733,7 @@ int jobs_list(uint64_t client, int state, long long before, struct jobs_info *ou
         jobs_info_of(mine[got], &out[got], JOBS_NUMBERS);
     }
     *more = m > got;
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     free(mine);
     return got;
 }
@@ -742,24 +741,24 @@ int jobs_list(uint64_t client, int state, long long before, struct jobs_info *ou
 bool jobs_get(const char *id, struct jobs_info *info, enum jobs_want want)
 {
     memset(info, 0, sizeof *info);
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     struct job *j = jobs_find(id);
     if (j)
         jobs_info_of(j, info, want);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return j != NULL;
 }
 
 bool jobs_cancel(const char *id)
 {
     struct task_notify n = {0}, sse = {0};
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     struct job *j = jobs_find(id);
     if (j && !j->canceled && !j->task->finished) {
         struct task *t = j->task;
         j->canceled = true;
         j->canceled_at = clock_now();
-        t->njobs--;
+        task_job_drop(t);
         if (t->njobs == 0 && !t->waiters) {
             task_cancel(t, MC_DELETE, &n, &sse);
             if (t->passes) /* a cancelled job's passes are never served again */
@@ -773,7 +772,7 @@ bool jobs_cancel(const char *id)
             j->recorded = true;
         }
     }
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     task_notify_run(&n);
     task_notify_run(&sse);
     mem_trim(); /* a cancelled job's sums may have been freed */
@@ -784,26 +783,26 @@ bool jobs_pass_image(const char *id, int pass, bool exr, struct blob **img, int 
 {
     *img = NULL;
     *samples = 0;
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     struct job *j = jobs_find(id);
     const struct passes *p = j ? j->task->passes : NULL;
     if (p && !j->canceled && j->evicted_at == 0 && pass >= 1 && pass <= p->done) {
         *img = blob_ref(exr ? passes_exr(p, pass) : passes_png(p, pass));
         *samples = p->samples[pass - 1];
     }
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return j != NULL;
 }
 
 bool jobs_end_early(const char *id, bool *progressive)
 {
     struct task_notify n = {0}, sse = {0};
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     struct job *j = jobs_find(id);
     *progressive = j && j->task->passes;
     if (*progressive && !j->canceled && task_end_early(j->task, PASSES_BY_CLIENT))
         task_finish(j->task, &n, &sse);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     task_notify_run(&n);
     task_notify_run(&sse);
     return j != NULL;

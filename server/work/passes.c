@@ -107,6 +107,7 @@ void passes_free(struct passes *p)
 /* Lock held. */
 void passes_release(struct passes *p)
 {
+    work_assert_locked();
     for (int i = 0; p->acc && i < p->ntiles; i++) {
         rayd_accum_free(p->acc[i]);
         p->acc[i] = NULL;
@@ -180,6 +181,7 @@ double passes_noise(const struct passes *p, const rayd_image *img, int pass)
 void passes_complete(struct passes *p, struct blob *png, struct blob *exr, double time_s,
                      double noise)
 {
+    work_assert_locked();
     int k = p->done++;
     if (p->let_go) { /* cancelled or evicted while this pass was encoded */
         blob_unref(png);
@@ -197,6 +199,7 @@ void passes_complete(struct passes *p, struct blob *png, struct blob *exr, doubl
 /* Lock held. */
 bool passes_more(struct passes *p, double elapsed)
 {
+    work_assert_locked();
     if (p->done >= p->n)
         return false;
     if (p->stop == PASSES_GOING && p->plan.time_budget > 0 && elapsed >= p->plan.time_budget)
@@ -218,6 +221,7 @@ rayd_image *passes_swap(struct passes *p, rayd_image *img)
 /* Lock held. */
 struct blob *passes_png(const struct passes *p, int pass)
 {
+    work_assert_locked();
     if (pass < 1 || pass > p->done || pass <= p->done - PASSES_KEEP)
         return NULL;
     return p->png[(pass - 1) % PASSES_KEEP];
@@ -226,6 +230,7 @@ struct blob *passes_png(const struct passes *p, int pass)
 /* Lock held. */
 struct blob *passes_exr(const struct passes *p, int pass)
 {
+    work_assert_locked();
     if (pass < 1 || pass > p->done || pass <= p->done - PASSES_KEEP_EXR)
         return NULL;
     return p->exr[(pass - 1) % PASSES_KEEP_EXR];
@@ -255,6 +260,7 @@ double passes_progress(const struct passes *p, int done, double frac)
 /* Lock held. */
 void passes_info(const struct passes *p, struct jobs_passes *out)
 {
+    work_assert_locked();
     out->done = p->done;
     out->total = p->n;
     out->samples = p->done ? p->samples[p->done - 1] : 0;

@@ -50,6 +50,7 @@ bool rcache_on(void) { return rcache_lru.budget > 0; }
 
 struct blob *rcache_get(const char *key)
 {
+    work_assert_locked();
     struct rcache_item *it = (struct rcache_item *)lru_find(&rcache_lru, key);
     if (!it)
         return NULL;
@@ -58,6 +59,7 @@ struct blob *rcache_get(const char *key)
 
 void rcache_put(const char *key, struct blob *png)
 {
+    work_assert_locked();
     size_t need = png->len + sizeof(struct rcache_item);
     if (need > rcache_lru.budget || lru_find(&rcache_lru, key))
         return;
@@ -74,6 +76,7 @@ void rcache_put(const char *key, struct blob *png)
 
 bool rcache_evict_one(void)
 {
+    work_assert_locked();
     struct lru_node *n = rcache_lru.tail;
     if (!n)
         return false;

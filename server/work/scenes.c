@@ -49,9 +49,9 @@ static void scenes_nomem(struct rayd_error *err, const char *msg)
 
 struct cache_entry *scenes_peek(const char *id)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     struct cache_entry *e = cache_get(id);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return e;
 }
 
@@ -181,9 +181,9 @@ enum rayd_status scenes_build(const char *id, const char *body, size_t len,
     char version[65];
     struct cache_entry *e = NULL;
     if (scenefiles_version(id, scene, version)) {
-        pthread_mutex_lock(&work_lock);
+        work_lock_take();
         e = cache_put(id, version, scene);
-        pthread_mutex_unlock(&work_lock);
+        work_lock_give();
     }
     if (!e) {
         mem_release(MEM_SCENES, scenes_bytes(scene));
@@ -199,9 +199,9 @@ void scenes_release(struct cache_entry *e)
 {
     if (!e)
         return;
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     cache_release(e);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
 }
 
 /* ---- both caches' gauges, registered with metrics.c --------------------- */
@@ -212,9 +212,9 @@ void scenes_release(struct cache_entry *e)
 static long scenes_size(void (*stats)(size_t *bytes, size_t *entries), bool bytes)
 {
     size_t b, n;
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     stats(&b, &n);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return (long)(bytes ? b : n);
 }
 

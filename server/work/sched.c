@@ -4,7 +4,10 @@
  * Scheduling is per tile, not per task: each time a worker is free it takes
  * the next tile of the task task_pick() puts first (task.c explains the
  * order), so a small interactive request overtakes a big frame at the next
- * tile boundary.  A plain PNG task is encoded as it is drawn: the worker
+ * tile boundary.  The task's state is task.c's: a worker takes a tile
+ * (task_take), books it (task_tile_done) and, when it was the last, makes
+ * the answer without the lock and hands it back (task_encoded,
+ * task_pass_closed).  Every lock a function here releases is one it took.  A plain PNG task is encoded as it is drawn: the worker
  * that finishes a row of its tiles deflates the PNG bands that row
  * completes (rayd_png_stream, lock released, the task still counted as
  * running so it cannot finish meanwhile), so the encoding overlaps the
@@ -42,6 +45,7 @@ static bool sched_stopping; /* lock held: the workers end */
  * while it waits. */
 static struct task *sched_next_task(void)
 {
+    work_assert_locked();
     while (!sched_stopping) {
         struct task *t = task_pick();
         if (t && gate_pass()) {
@@ -49,30 +53,10 @@ static struct task *sched_next_task(void)
             return t;
         }
         gate_count(0, t != NULL);
-        pthread_cond_wait(&work_cond, &work_lock);
+        work_wait(&work_cond);
         gate_count(0, -(long)(t != NULL));
     }
     return NULL;
-}
-
-/* t's pixels in its format into *buf (a PNG stream: the bands not yet
- * deflated, and the file joined). */
-static enum rayd_status sched_encode_as(struct task *t, void **buf, size_t *len,
-                                        struct rayd_error *err)
-{
-    if (t->format == WORK_SUMS)
-        return rayd_sums_encode(t->reg.w, t->reg.h, t->k0, t->k1, t->sums, buf, len, err);
-    if (t->format == WORK_EXR)
-        return rayd_exr_encode(t->lin, t->reg.w, t->reg.h, buf, len, err);
-    if (t->format == WORK_PNG16)
-        return rayd_png16_encode(t->lin, t->reg.w, t->reg.h, (int)config.png_level, buf, len,
-                                 err);
-    if (t->stream) {
-        rayd_png_stream *s = t->stream;
-        t->stream = NULL; /* finish frees it; no tile runs (running == 0), so unlocked */
-        return rayd_png_stream_finish(s, 0, buf, len, NULL, err);
-    }
-    return rayd_png_encode(t->img, (int)config.png_level, buf, len, err);
 }
 
 /* An encoder's bytes (buf, len bytes, when *st is RAYD_OK) kept as a
@@ -81,6 +65,7 @@ static enum rayd_status sched_encode_as(struct task *t, void **buf, size_t *len,
 static struct blob *sched_keep(enum rayd_status *st, void *buf, size_t len, struct rayd_error *err,
                                const char *what)
 {
+    work_assert_unlocked();
     struct blob *b = *st == RAYD_OK ? blob_new(buf, len) : NULL;
     if (*st == RAYD_OK && !b) {
         rayd_free(buf);
@@ -94,6 +79,7 @@ static struct blob *sched_keep(enum rayd_status *st, void *buf, size_t len, stru
  * RAYD_OK; else NULL.  A failure sets *st and err.  Lock not held. */
 static struct blob *sched_exr(const struct task *t, enum rayd_status *st, struct rayd_error *err)
 {
+    work_assert_unlocked();
     if (!t->keep_exr || *st != RAYD_OK)
         return NULL;
     void *buf = NULL;
@@ -102,185 +88,69 @@ static struct blob *sched_exr(const struct task *t, enum rayd_status *st, struct
     return sched_keep(st, buf, len, err, "the EXR");
 }
 
-/* Encodes t's PNG (every core: png_encode.c's bands), and its EXR when it
- * keeps one, lock released; returns with the lock held.  The tiles' and
- * the encoding's times go to the stage metrics. */
-static void sched_encode(struct task *t)
+/* Encodes t's answer in its format (every core: png_encode.c's bands, or
+ * the rest of its PNG stream), and its EXR when it keeps one, into o; no
+ * lock.  The tiles' and the encoding's times go to the stage metrics. */
+static void sched_encode(struct task *t, struct task_out *o)
 {
+    work_assert_unlocked();
     void *buf = NULL;
     size_t len = 0;
-    struct rayd_error err = {0};
     double t0 = clock_now();
     metrics_stage(MS_RENDER, t0 - t->t_start);
-    enum rayd_status st = sched_encode_as(t, &buf, &len, &err);
-    struct blob *png = sched_keep(&st, buf, len, &err, "the PNG");
-    struct blob *exr = sched_exr(t, &st, &err);
-    double enc = clock_now() - t0;
-    metrics_stage(MS_ENCODE, enc);
-    pthread_mutex_lock(&work_lock);
-    t->encode_s = enc;
-    t->png = png;
-    t->exr = exr;
-    if (st != RAYD_OK)
-        task_fail(t, st, &err);
+    o->st = task_format(t->format)->encode(t, &buf, &len, &o->err);
+    o->png = sched_keep(&o->st, buf, len, &o->err, "the PNG");
+    o->exr = sched_exr(t, &o->st, &o->err);
+    o->encode_s = clock_now() - t0;
+    metrics_stage(MS_ENCODE, o->encode_s);
 }
 
-/* Opens t's next pass, lock held: its tiles queue again.  img is the
- * image the pass's tiles draw into. */
-static void sched_pass_open(struct task *t, rayd_image *img)
+/* The pass whose last tile just finished, into o: its noise estimate, its
+ * PNG (and EXR), the image for the next pass; no lock. */
+static void sched_pass(struct task *t, struct task_out *o)
 {
-    t->img = img;
-    t->passes->pass++;
-    t->next_tile = 0;
-    t->done = 0;
-    t->finalizing = false;
-    if (!t->queued) {
-        t->queued = true;
-        task_queued++;
-    }
-    pthread_cond_broadcast(&work_cond);
-}
-
-/* The pass whose last tile just finished, lock released: its noise
- * estimate and PNG, recorded (passes.c), the streams told; then the next
- * pass opened, unless it was the last or a budget or stop ends the job.
- * Returns with the lock held: true when the next pass is open. */
-static bool sched_pass_close(struct task *t, struct task_notify *sse)
-{
+    work_assert_unlocked();
     struct passes *p = t->passes;
-    double noise = passes_noise(p, t->img, p->pass);
-    rayd_image *spare = NULL;
+    o->noise = passes_noise(p, t->img, p->pass);
     if (!p->prev && p->pass + 1 < p->n)
-        rayd_image_new(t->reg.w, t->reg.h, &spare, NULL);
+        rayd_image_new(t->reg.w, t->reg.h, &o->spare, NULL);
     void *buf = NULL;
     size_t len = 0;
-    struct rayd_error err = {0};
-    enum rayd_status st = rayd_png_encode(t->img, (int)config.png_level, &buf, &len, &err);
-    struct blob *png = sched_keep(&st, buf, len, &err, "the pass's PNG");
-    struct blob *exr = sched_exr(t, &st, &err);
-    pthread_mutex_lock(&work_lock);
-    if (st != RAYD_OK) {
-        task_fail(t, st, &err);
-        blob_unref(png);
-        rayd_image_free(spare);
-        return false;
-    }
-    passes_complete(p, png, exr, clock_now() - t->t_start, noise);
-    task_notify_add(sse, &t->sse_waiters);
-    if (!passes_more(p, clock_now() - t->t_start) || atomic_load(&t->cancel)) {
-        rayd_image_free(spare);
-        return false;
-    }
-    if (!p->prev && !spare) {
-        task_failf(t, RAYD_E_NOMEM, "out of memory for the next pass");
-        return false;
-    }
-    rayd_image *next = passes_swap(p, t->img);
-    sched_pass_open(t, next ? next : spare);
-    if (next)
-        rayd_image_free(spare);
-    return true;
-}
-
-/* t's PNG stream and row counts, when t is a plain PNG task, lock held;
- * without memory, t is encoded whole at the end. */
-static void sched_stream_open(struct task *t)
-{
-    if (t->format != WORK_PNG || t->passes || t->stream_tried)
-        return;
-    t->stream_tried = true;
-    t->row_left = malloc((size_t)t->nty * sizeof *t->row_left);
-    if (!t->row_left || rayd_png_stream_new(t->img, (int)config.png_level, &t->stream, NULL) !=
-                            RAYD_OK) {
-        free(t->row_left);
-        t->row_left = NULL;
-        return;
-    }
-    for (int i = 0; i < t->nty; i++)
-        t->row_left[i] = t->ntx;
+    o->st = rayd_png_encode(t->img, (int)config.png_level, &buf, &len, &o->err);
+    o->png = sched_keep(&o->st, buf, len, &o->err, "the pass's PNG");
+    o->exr = sched_exr(t, &o->st, &o->err);
 }
 
 /* Tile `tile` of t is drawn: when that completes rows at the top, the
- * stream encodes the bands they finish, on this worker, lock released (t
- * cannot finish meanwhile: this worker still counts as running it).  The
- * stream is read without the lock: it was set, under the lock, before
- * this worker took its tile, and is only cleared once no tile runs.  A
- * stream's call deflates only the bands its rows complete, a band or two,
- * so the worker is soon back for tiles.  Called and returns without the
- * lock. */
+ * stream encodes the bands they finish, on this worker, without the lock
+ * (t cannot finish meanwhile: this worker still counts as running it).
+ * A stream's call deflates only the bands its rows complete, a band or
+ * two, so the worker is soon back for tiles. */
 static void sched_stream_tile(struct task *t, int tile)
 {
-    rayd_png_stream *s = t->stream;
-    if (!s || atomic_load(&t->cancel))
-        return;
-    pthread_mutex_lock(&work_lock);
-    int rows = 0, top = t->rows_top;
-    if (--t->row_left[tile / t->ntx] == 0) {
-        while (t->rows_top < t->nty && t->row_left[t->rows_top] == 0)
-            t->rows_top++;
-        if (t->rows_top > top)
-            rows = t->rows_top * t->tile < t->reg.h ? t->rows_top * t->tile : t->reg.h;
-    }
-    pthread_mutex_unlock(&work_lock);
+    work_assert_unlocked();
+    int rows = task_rows_done(t, tile);
     if (rows > 0)
-        rayd_png_stream_rows(s, rows);
+        rayd_png_stream_rows(t->stream, rows);
 }
 
-/* Takes a tile of t, lock held. */
-static void sched_take(struct task *t)
+/* Finishes t when its last tile (of a pass) was drawn: its answer (or
+ * pass) made without the lock, then kept under it.  Called and returns
+ * without the lock; t's waiters onto n and sse. */
+static void sched_finalize(struct task *t, enum task_next next, struct task_notify *n,
+                           struct task_notify *sse)
 {
-    sched_stream_open(t);
-    if (t->t_start == 0) {
-        t->t_start = clock_now();
-        metrics_queue_wait(t->interactive, t->t_start - t->t_enq);
-        metrics_stage(MS_QUEUE, t->t_start - t->t_enq);
-    }
-    if (t->next_tile == t->ntiles)
-        task_unqueue(t);
-    task_taken(t);
-    t->running++;
-    sched_busy++;
-}
-
-/* Books a rendered (or failed) tile, lock held; finishes the task when it
- * was the last one in flight.  Returns with the lock held. */
-static void sched_done(struct task *t, int tile, enum rayd_status st,
-                       const struct rayd_error *err, uint64_t rays, struct task_notify *n,
-                       struct task_notify *sse)
-{
-    sched_busy--;
-    t->running--;
-    t->rays += rays;
-    if (st == RAYD_OK) {
-        t->order[t->done++] = tile;
-        if (!t->passes) /* a progressive task's streams hear of passes only */
-            task_notify_add(sse, &t->sse_waiters);
-        if (t->passes && t->passes->plan.time_budget > 0 &&
-            clock_now() - t->t_start >= t->passes->plan.time_budget)
-            task_end_early(t, PASSES_BY_TIME);
-    } else if (st != RAYD_E_CANCELED && t->status == RAYD_OK) {
-        if (st == RAYD_E_LIMIT) /* the core's meter: the task's ray budget is spent */
-            task_over_work(t);
-        else
-            task_fail(t, st, err);
-        atomic_store(&t->cancel, 1);
-        task_unqueue(t);
-    }
-    if (t->running > 0 || t->finalizing)
-        return;
-    if (t->done == t->ntiles && t->status == RAYD_OK) {
-        t->finalizing = true;
-        pthread_mutex_unlock(&work_lock);
-        if (t->passes) {
-            if (sched_pass_close(t, sse)) /* returns with the lock held */
-                return;
-        } else {
-            sched_encode(t); /* returns with the lock held */
-        }
-        task_finish(t, n, sse);
-    } else if (atomic_load(&t->cancel) || t->status != RAYD_OK) {
-        task_finish(t, n, sse);
-    }
+    struct task_out o = {0};
+    if (next == TASK_ENCODE)
+        sched_encode(t, &o);
+    else
+        sched_pass(t, &o);
+    work_lock_take();
+    if (next == TASK_ENCODE)
+        task_encoded(t, &o, n, sse);
+    else
+        task_pass_closed(t, &o, n, sse);
+    work_lock_give();
 }
 
 /* t's ray budget (--max-work), or NULL when there is none. */
@@ -320,6 +190,7 @@ static enum rayd_status sched_sums_tile(struct task *t, const struct rayd_region
 static enum rayd_status sched_tile(struct task *t, int tile, int pass, uint64_t *rays,
                                    struct rayd_error *err)
 {
+    work_assert_unlocked();
     struct rayd_region tr = task_tile(t, tile);
     const rayd_scene *scene = cache_scene(t->scene);
     int dx = tr.x - t->reg.x, dy = tr.y - t->reg.y;
@@ -344,14 +215,14 @@ static enum rayd_status sched_tile(struct task *t, int tile, int pass, uint64_t 
 static void *sched_worker(void *arg)
 {
     (void)arg;
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     for (;;) {
         struct task *t = sched_next_task();
         if (!t)
             break;
-        int tile = t->next_tile++, pass = t->passes ? t->passes->pass : 0;
-        sched_take(t);
-        pthread_mutex_unlock(&work_lock);
+        int pass, tile = task_take(t, &pass);
+        sched_busy++;
+        work_lock_give();
 
         uint64_t rays = 0;
         struct rayd_error err = {0};
@@ -363,16 +234,19 @@ static void *sched_worker(void *arg)
             sched_stream_tile(t, tile);
 
         struct task_notify n = {0}, sse = {0};
-        pthread_mutex_lock(&work_lock);
+        work_lock_take();
         struct rayd_region tr = task_tile(t, tile);
         cost_observe(t->scene_id, t->client, task_tile_rays(t, &tr, pass), took, st == RAYD_OK);
-        sched_done(t, tile, st, &err, rays, &n, &sse);
-        pthread_mutex_unlock(&work_lock);
+        sched_busy--;
+        enum task_next next = task_tile_done(t, tile, st, &err, rays, &n, &sse);
+        work_lock_give();
+        if (next != TASK_GOING)
+            sched_finalize(t, next, &n, &sse);
         task_notify_run(&n);
         task_notify_run(&sse);
-        pthread_mutex_lock(&work_lock);
+        work_lock_take();
     }
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return NULL;
 }
 
@@ -380,9 +254,9 @@ static void *sched_worker(void *arg)
 
 static long sched_gauge_queued(void)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     long x = task_queued;
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return x;
 }
 
@@ -392,19 +266,19 @@ static long sched_gauge_draining(void) { return sched_draining(); }
 
 static long sched_gauge_busy(void)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     long x = sched_busy;
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return x;
 }
 
 static long sched_gauge_running(void)
 {
     long n = 0;
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     for (struct task *t = task_active; t; t = t->next)
         n += t->next_tile > 0;
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return n;
 }
 
@@ -442,10 +316,10 @@ int sched_start(int workers, int queue_cap, int max_jobs)
 
 void sched_stop(void)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     sched_stopping = true;
     pthread_cond_broadcast(&work_cond);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     for (int i = 0; i < sched_nworkers; i++)
         pthread_join(sched_threads[i], NULL);
     watch_stop();
@@ -453,13 +327,15 @@ void sched_stop(void)
     sched_threads = NULL;
     /* Anything left was cancelled by the drain; answer and free it. */
     struct task_notify n = {0}, sse = {0};
+    work_lock_take();
     while (task_active) {
-        struct task *t = task_active;
-        atomic_store(&t->cancel, 1);
-        task_finish(t, &n, &sse);
+        task_abandon(task_active, &n, &sse);
+        work_lock_give();
         task_notify_run(&n);
         task_notify_run(&sse);
+        work_lock_take();
     }
+    work_lock_give();
     jobs_stop();
     cache_free_all();
     rcache_free_all();
@@ -475,10 +351,10 @@ struct blob *sched_result_find(const struct cache_entry *scene, const struct wor
 {
     char key[160];
     task_key(key, sizeof key, cache_version(scene), what);
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     struct blob *b = rcache_get(key);
     bool on = rcache_on();
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     if (on)
         metrics_result_cache(b != NULL);
     return b;
@@ -493,15 +369,13 @@ static bool sched_join(struct cache_entry *scene, const struct work_target *what
 {
     char key[160];
     task_key(key, sizeof key, cache_version(scene), what);
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     struct task *t = task_draining() ? NULL : task_find(key);
     if (t) {
         metrics_coalesced();
-        w->suspend(w);
-        w->next = t->waiters;
-        t->waiters = w;
+        task_wait(t, w);
     }
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return t != NULL;
 }
 
@@ -516,15 +390,12 @@ enum work_submit sched_render(struct cache_entry *scene, const struct work_targe
     struct task *fresh = budget_task(scene, what, false, &why);
     if (!fresh)
         return why;
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     struct task *t = NULL;
     enum work_submit r = task_submit(scene, &fresh, &t);
-    if (r == WORK_OK) {
-        w->suspend(w);
-        w->next = t->waiters;
-        t->waiters = w;
-    }
-    pthread_mutex_unlock(&work_lock);
+    if (r == WORK_OK)
+        task_wait(t, w);
+    work_lock_give();
     if (fresh)
         task_unref(fresh);
     return r;
@@ -538,7 +409,7 @@ bool sched_draining(void) { return task_draining(); }
 
 void sched_cancel_all(void)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     for (;;) {
         struct task *t = task_active;
         while (t && (atomic_load(&t->cancel) || t->finished))
@@ -547,46 +418,46 @@ void sched_cancel_all(void)
             break;
         struct task_notify n = {0}, sse = {0};
         task_cancel(t, MC_DRAIN, &n, &sse);
-        pthread_mutex_unlock(&work_lock);
+        work_lock_give();
         task_notify_run(&n);
         task_notify_run(&sse);
-        pthread_mutex_lock(&work_lock);
+        work_lock_take();
     }
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
 }
 
 bool sched_idle(void)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     bool idle = task_active == NULL;
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return idle;
 }
 
 double sched_seconds(double rays)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     double s = cost_seconds(rays);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return s;
 }
 
 double sched_backlog(void)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     double s = cost_seconds(task_backlog_rays());
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return s;
 }
 
 void sched_stats(struct sched_stats *st)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     st->backlog_s = cost_seconds(task_backlog_rays());
     st->queued = task_queued;
     st->queue_cap = task_queue_cap;
     st->workers = sched_nworkers;
     st->busy_workers = sched_busy;
     jobs_count(&st->jobs_unfinished, &st->jobs_cap);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
 }

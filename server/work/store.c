@@ -434,25 +434,25 @@ static void store_op_free(struct store_op *op)
 static void *store_main(void *arg)
 {
     (void)arg;
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     for (;;) {
         while (!store_head && !store_stopping)
-            pthread_cond_wait(&store_cond, &work_lock);
+            work_wait(&store_cond);
         struct store_op *ops = store_head;
         store_head = NULL;
         store_tail = &store_head;
         if (!ops && store_stopping)
             break;
-        pthread_mutex_unlock(&work_lock);
+        work_lock_give();
         while (ops) {
             struct store_op *next = ops->next;
             store_do(ops);
             store_op_free(ops);
             ops = next;
         }
-        pthread_mutex_lock(&work_lock);
+        work_lock_take();
     }
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return NULL;
 }
 
@@ -613,9 +613,9 @@ int store_start(void)
         return 0;
     if (pthread_create(&store_thread, NULL, store_main, NULL))
         return -1;
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     store_running = true;
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     return 0;
 }
 
@@ -733,10 +733,10 @@ void store_stop(void)
 {
     atomic_store(&store_up, false);
     if (store_running) {
-        pthread_mutex_lock(&work_lock);
+        work_lock_take();
         store_stopping = true;
         pthread_cond_signal(&store_cond);
-        pthread_mutex_unlock(&work_lock);
+        work_lock_give();
         pthread_join(store_thread, NULL);
         store_running = false;
     }

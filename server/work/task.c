@@ -19,9 +19,15 @@
  * admitted (task_submit): at most --queue tasks may wait for a worker, and
  * nothing new is admitted once the drain began.
  *
- * Every function here but task_new, task_drain(ing) and task_notify_run runs
- * with work_lock held; this file owns the active list, the queued count, the
- * capacity and the drain flag.
+ * Every function here but task_new, task_drain(ing), task_notify_run and
+ * the two a worker calls between tiles (task_rows_done, task_stream_take)
+ * runs with work_lock held, and asserts it; this file owns the active
+ * list, the queued count, the capacity, the drain flag and every field of
+ * a task: the workers (sched.c) take tiles, book them and hand back what
+ * they encoded through task_take, task_tile_done, task_encoded and
+ * task_pass_closed, and write none of them.  What differs between the
+ * output formats -- key, pixels, memory, encoder, media type -- is one row
+ * of task_formats each.
  */
 #include "work/work_private.h"
 
@@ -45,12 +51,62 @@ void task_on_finish(void (*fn)(struct task *t)) { task_finish_hook = fn; }
 /* Set under the lock, so no submission slips past it; read without. */
 void task_drain(void)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     atomic_store(&task_drain_flag, true);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
 }
 
 bool task_draining(void) { return atomic_load(&task_drain_flag); }
+
+/* ---- the output formats ---------------------------------------------------- */
+
+/* A plain PNG task's stream holds the bands deflated while it was drawn. */
+static enum rayd_status task_encode_png(struct task *t, void **buf, size_t *len,
+                                        struct rayd_error *err)
+{
+    rayd_png_stream *s = task_stream_take(t);
+    if (s)
+        return rayd_png_stream_finish(s, 0, buf, len, NULL, err);
+    return rayd_png_encode(t->img, (int)config.png_level, buf, len, err);
+}
+
+static enum rayd_status task_encode_png16(struct task *t, void **buf, size_t *len,
+                                          struct rayd_error *err)
+{
+    return rayd_png16_encode(t->lin, t->reg.w, t->reg.h, (int)config.png_level, buf, len, err);
+}
+
+static enum rayd_status task_encode_exr(struct task *t, void **buf, size_t *len,
+                                        struct rayd_error *err)
+{
+    return rayd_exr_encode(t->lin, t->reg.w, t->reg.h, buf, len, err);
+}
+
+static enum rayd_status task_encode_sums(struct task *t, void **buf, size_t *len,
+                                         struct rayd_error *err)
+{
+    return rayd_sums_encode(t->reg.w, t->reg.h, t->k0, t->k1, t->sums, buf, len, err);
+}
+
+/* A new format is a row here (and a value of enum work_format).  Memory a
+ * pixel: PNG 3 bytes and the PNG, PNG16 12 bytes of floats and 6 of PNG,
+ * EXR floats and the EXR, sums 24 bytes and their 24 bytes of answer. */
+static const struct task_format task_formats[] = {
+    [WORK_PNG] = {"", "image/png", TASK_STORE_IMAGE, 6, 0, MEM_RESULTS, task_encode_png},
+    [WORK_PNG16] = {".png16", "image/png", TASK_STORE_FLOATS, 18, 0, MEM_RESULTS,
+                    task_encode_png16},
+    [WORK_EXR] = {".exr", "image/x-exr", TASK_STORE_FLOATS, 24, 0, MEM_RESULTS, task_encode_exr},
+    [WORK_SUMS] = {".sums", "application/x-rayd-sums", TASK_STORE_SUMS, 48, 64, MEM_SUMS,
+                   task_encode_sums},
+};
+
+const struct task_format *task_format(enum work_format format)
+{
+    server_assert((size_t)format < sizeof task_formats / sizeof task_formats[0]);
+    return &task_formats[format];
+}
+
+const char *work_format_type(enum work_format format) { return task_format(format)->type; }
 
 /* The PNG's key is the one it always had; the other formats add a suffix,
  * so an EXR never answers a PNG request from the caches, nor the reverse.
@@ -58,10 +114,9 @@ bool task_draining(void) { return atomic_load(&task_drain_flag); }
  * floats for it to join. */
 void task_key(char *key, size_t size, const char *id, const struct work_target *what)
 {
-    static const char *const suffix[] = {"", ".png16", ".exr", ".sums"};
     const struct rayd_region *reg = &what->reg;
     int n = snprintf(key, size, "%s@%d,%d,%d,%d%s%s", id, reg->x, reg->y, reg->w, reg->h,
-                     suffix[what->format], what->keep_exr ? "+exr" : "");
+                     task_format(what->format)->key_suffix, what->keep_exr ? "+exr" : "");
     if (what->format == WORK_SUMS && n > 0 && (size_t)n < size)
         snprintf(key + n, size - (size_t)n, "%d-%d", what->k0, what->k1);
 }
@@ -72,14 +127,18 @@ void task_key(char *key, size_t size, const char *id, const struct work_target *
 static bool task_pixels(struct task *t)
 {
     size_t values = (size_t)t->reg.w * (size_t)t->reg.h * 3;
-    if (t->format == WORK_PNG && t->keep_exr && !(t->lin = malloc(values * sizeof *t->lin)))
-        return false;
-    if (t->format == WORK_PNG)
+    switch (task_format(t->format)->store) {
+    case TASK_STORE_IMAGE:
+        if (t->keep_exr && !(t->lin = malloc(values * sizeof *t->lin)))
+            return false;
         return rayd_image_new(t->reg.w, t->reg.h, &t->img, NULL) == RAYD_OK;
-    if (t->format == WORK_SUMS)
+    case TASK_STORE_SUMS:
         return (t->sums = malloc(values * sizeof *t->sums)) != NULL;
-    t->lin = malloc(values * sizeof *t->lin);
-    return t->lin != NULL;
+    case TASK_STORE_FLOATS:
+    default:
+        t->lin = malloc(values * sizeof *t->lin);
+        return t->lin != NULL;
+    }
 }
 
 struct task *task_new(struct cache_entry *scene, const struct work_target *what)
@@ -127,8 +186,8 @@ static void task_free_pixels(struct task *t)
 {
     rayd_png_stream_free(t->stream); /* before its image */
     t->stream = NULL;
-    free(t->row_left);
-    t->row_left = NULL;
+    rayd_rows_free(t->rows);
+    t->rows = NULL;
     rayd_image_free(t->img);
     t->img = NULL;
     free(t->lin);
@@ -141,6 +200,7 @@ static void task_free_pixels(struct task *t)
 
 void task_unref(struct task *t)
 {
+    server_assert(t->refs > 0);
     if (--t->refs > 0)
         return;
     blob_unref(t->png);
@@ -161,7 +221,9 @@ void task_times(const struct task *t, double now, double *queue_ms, double *rend
 
 void task_unqueue(struct task *t)
 {
+    work_assert_locked();
     if (t->queued) {
+        server_assert(task_queued > 0);
         t->queued = false;
         task_queued--;
     }
@@ -169,6 +231,7 @@ void task_unqueue(struct task *t)
 
 struct task *task_find(const char *key)
 {
+    work_assert_locked();
     for (struct task *t = task_active; t; t = t->next)
         if (!t->finalizing && !atomic_load(&t->cancel) && !strcmp(t->key, key))
             return t;
@@ -219,6 +282,7 @@ static struct task *task_own_first(struct task *t)
 
 struct task *task_pick(void)
 {
+    work_assert_locked();
     struct task *first[2] = {NULL, NULL}; /* [interactive] */
     uint64_t last[2] = {0, 0};
     for (struct task *t = task_active; t; t = t->next) {
@@ -238,6 +302,7 @@ struct task *task_pick(void)
 
 void task_taken(const struct task *t)
 {
+    work_assert_locked();
     fair_served(t->client);
     bool bulk_waits = false;
     for (const struct task *u = task_active; u && !bulk_waits; u = u->next)
@@ -250,6 +315,7 @@ void task_taken(const struct task *t)
 
 enum work_submit task_submit(struct cache_entry *scene, struct task **fresh, struct task **out)
 {
+    work_assert_locked();
     if (task_draining())
         return WORK_DRAINING;
     struct task *t = task_find((*fresh)->key); /* scene, region and format */
@@ -308,11 +374,226 @@ static double task_left(const struct task *t)
 
 double task_backlog_rays(void)
 {
+    work_assert_locked();
     double rays = 0;
     for (const struct task *t = task_active; t; t = t->next)
         if (!t->finished && !atomic_load(&t->cancel))
             rays += t->est_rays * task_left(t) * cost_scene_weight(t->scene_id);
     return rays;
+}
+
+/* ---- a worker's tiles ------------------------------------------------------- */
+
+void task_wait_news(struct task *t, struct work_waiter *w)
+{
+    work_assert_locked();
+    w->suspend(w); /* before the waiter is linked (work_private.h) */
+    w->next = t->sse_waiters;
+    t->sse_waiters = w;
+}
+
+void task_job_ref(struct task *t)
+{
+    work_assert_locked();
+    t->refs++;
+    t->njobs++;
+}
+
+void task_job_drop(struct task *t)
+{
+    work_assert_locked();
+    server_assert(t->njobs > 0);
+    t->njobs--;
+}
+
+void task_progressive(struct task *t, struct passes *p, const char *id)
+{
+    t->passes = p;
+    size_t n = strlen(t->key);
+    snprintf(t->key + n, sizeof t->key - n, "~%s", id);
+}
+
+size_t task_let_go_images(struct task *t)
+{
+    work_assert_locked();
+    size_t bytes = (t->png ? t->png->len : 0) + (t->exr ? t->exr->len : 0);
+    blob_unref(t->png);
+    blob_unref(t->exr);
+    t->png = t->exr = NULL;
+    return bytes;
+}
+
+void task_evicted(struct task *t)
+{
+    work_assert_locked();
+    if (t->passes)
+        passes_let_go(t->passes);
+    t->evicted = true;
+}
+
+void task_hold(struct task *t, size_t bytes, enum mem_kind kind)
+{
+    t->mem = bytes;
+    t->mem_kind = kind;
+}
+
+void task_wait(struct task *t, struct work_waiter *w)
+{
+    work_assert_locked();
+    w->suspend(w);
+    w->next = t->waiters;
+    t->waiters = w;
+}
+
+/* t's PNG stream and row tracker, when t is a plain PNG task, lock held;
+ * without memory, t is encoded whole at the end. */
+static void task_stream_open(struct task *t)
+{
+    work_assert_locked();
+    if (t->format != WORK_PNG || t->passes || t->stream_tried)
+        return;
+    t->stream_tried = true;
+    t->rows = rayd_rows_new(t->ntx, t->nty, t->tile, t->reg.h);
+    if (!t->rows || rayd_png_stream_new(t->img, (int)config.png_level, &t->stream, NULL) !=
+                        RAYD_OK) {
+        rayd_rows_free(t->rows);
+        t->rows = NULL;
+    }
+}
+
+int task_take(struct task *t, int *pass)
+{
+    work_assert_locked();
+    server_assert(t->next_tile < t->ntiles);
+    int tile = t->next_tile++;
+    *pass = t->passes ? t->passes->pass : 0;
+    task_stream_open(t);
+    if (t->t_start == 0) {
+        t->t_start = clock_now();
+        metrics_queue_wait(t->interactive, t->t_start - t->t_enq);
+        metrics_stage(MS_QUEUE, t->t_start - t->t_enq);
+    }
+    if (t->next_tile == t->ntiles)
+        task_unqueue(t);
+    task_taken(t);
+    t->running++;
+    return tile;
+}
+
+int task_rows_done(struct task *t, int tile)
+{
+    if (!t->stream || atomic_load(&t->cancel))
+        return 0;
+    return rayd_rows_tile_done(t->rows, tile / t->ntx);
+}
+
+rayd_png_stream *task_stream_take(struct task *t)
+{
+    server_assert(t->running == 0);
+    rayd_png_stream *s = t->stream;
+    t->stream = NULL; /* finish frees it */
+    return s;
+}
+
+enum task_next task_tile_done(struct task *t, int tile, enum rayd_status st,
+                              const struct rayd_error *err, uint64_t rays, struct task_notify *n,
+                              struct task_notify *sse)
+{
+    work_assert_locked();
+    server_assert(t->running > 0);
+    t->running--;
+    t->rays += rays;
+    if (st == RAYD_OK) {
+        t->order[t->done++] = tile;
+        if (!t->passes) /* a progressive task's streams hear of passes only */
+            task_notify_add(sse, &t->sse_waiters);
+        if (t->passes && t->passes->plan.time_budget > 0 &&
+            clock_now() - t->t_start >= t->passes->plan.time_budget)
+            task_end_early(t, PASSES_BY_TIME);
+    } else if (st != RAYD_E_CANCELED && t->status == RAYD_OK) {
+        if (st == RAYD_E_LIMIT) /* the core's meter: the task's ray budget is spent */
+            task_over_work(t);
+        else
+            task_fail(t, st, err);
+        atomic_store(&t->cancel, 1);
+        task_unqueue(t);
+    }
+    if (t->running > 0 || t->finalizing)
+        return TASK_GOING;
+    if (t->done == t->ntiles && t->status == RAYD_OK) {
+        t->finalizing = true; /* no other worker finishes it meanwhile */
+        return t->passes ? TASK_PASS_END : TASK_ENCODE;
+    }
+    if (atomic_load(&t->cancel) || t->status != RAYD_OK)
+        task_finish(t, n, sse);
+    return TASK_GOING;
+}
+
+void task_encoded(struct task *t, const struct task_out *o, struct task_notify *n,
+                  struct task_notify *sse)
+{
+    work_assert_locked();
+    server_assert(t->finalizing);
+    t->encode_s = o->encode_s;
+    t->png = o->png;
+    t->exr = o->exr;
+    if (o->st != RAYD_OK)
+        task_fail(t, o->st, &o->err);
+    task_finish(t, n, sse);
+}
+
+/* Opens t's next pass, lock held: its tiles queue again.  img is the
+ * image the pass's tiles draw into. */
+static void task_pass_open(struct task *t, rayd_image *img)
+{
+    t->img = img;
+    t->passes->pass++;
+    t->next_tile = 0;
+    t->done = 0;
+    t->finalizing = false;
+    if (!t->queued) {
+        t->queued = true;
+        task_queued++;
+    }
+    pthread_cond_broadcast(&work_cond);
+}
+
+/* The pass closed, recorded; true when the next one is open. */
+static bool task_pass_next(struct task *t, const struct task_out *o, struct task_notify *sse)
+{
+    struct passes *p = t->passes;
+    if (o->st != RAYD_OK) {
+        task_fail(t, o->st, &o->err);
+        blob_unref(o->png);
+        rayd_image_free(o->spare);
+        return false;
+    }
+    passes_complete(p, o->png, o->exr, clock_now() - t->t_start, o->noise);
+    task_notify_add(sse, &t->sse_waiters);
+    if (!passes_more(p, clock_now() - t->t_start) || atomic_load(&t->cancel)) {
+        rayd_image_free(o->spare);
+        return false;
+    }
+    if (!p->prev && !o->spare) {
+        task_failf(t, RAYD_E_NOMEM, "out of memory for the next pass");
+        return false;
+    }
+    rayd_image *next = passes_swap(p, t->img);
+    task_pass_open(t, next ? next : o->spare);
+    if (next)
+        rayd_image_free(o->spare);
+    return true;
+}
+
+bool task_pass_closed(struct task *t, const struct task_out *o, struct task_notify *n,
+                      struct task_notify *sse)
+{
+    work_assert_locked();
+    server_assert(t->finalizing && t->passes);
+    if (task_pass_next(t, o, sse))
+        return true;
+    task_finish(t, n, sse);
+    return false;
 }
 
 /* ---- answering ------------------------------------------------------------- */
@@ -329,6 +610,7 @@ void task_notify_add(struct task_notify *n, struct work_waiter **from)
 
 void task_notify_run(struct task_notify *n)
 {
+    work_assert_unlocked();
     struct work_waiter *w = n->list;
     n->list = NULL;
     while (w) {
@@ -348,6 +630,8 @@ static void task_result(const struct task *t, struct work_result *res)
     memset(res, 0, sizeof *res);
     res->status = t->status;
     res->err = t->err;
+    /* the reason travels with the answer: the layers above need not ask */
+    res->draining = t->status == RAYD_E_CANCELED && task_draining();
     if (t->status == RAYD_OK && t->png)
         res->png = blob_ref(t->png);
     res->queue_ms = t->t_start > 0 ? (t->t_start - t->t_enq) * 1e3 : 0;
@@ -379,6 +663,7 @@ static void task_unlink(struct task *t)
 
 bool task_end_early(struct task *t, enum passes_stop why)
 {
+    work_assert_locked();
     struct passes *p = t->passes;
     if (!p || t->finished)
         return false;
@@ -393,6 +678,7 @@ bool task_end_early(struct task *t, enum passes_stop why)
 
 void task_over_work(struct task *t)
 {
+    work_assert_locked();
     if (t->status != RAYD_OK)
         return;
     task_failf(t, RAYD_E_LIMIT,
@@ -404,6 +690,7 @@ void task_over_work(struct task *t)
 bool task_past_deadline(struct task *t, double now, long limit, struct task_notify *n,
                         struct task_notify *sse)
 {
+    work_assert_locked();
     if (limit <= 0 || t->t_start <= 0 || t->finished || t->finalizing ||
         atomic_load(&t->cancel) || now - t->t_start < (double)limit)
         return false;
@@ -422,6 +709,7 @@ bool task_past_deadline(struct task *t, double now, long limit, struct task_noti
 
 void task_fail(struct task *t, enum rayd_status st, const struct rayd_error *err)
 {
+    work_assert_locked();
     t->status = st;
     t->err = *err;
     t->err.code = st;
@@ -439,6 +727,7 @@ void task_failf(struct task *t, enum rayd_status st, const char *fmt, ...)
 
 void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
 {
+    work_assert_locked();
     t->finished = true;
     t->t_end = clock_now();
     task_keep_pass(t);
@@ -471,12 +760,20 @@ void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
     task_unref(t);
 }
 
+void task_abandon(struct task *t, struct task_notify *n, struct task_notify *sse)
+{
+    work_assert_locked();
+    atomic_store(&t->cancel, 1);
+    task_finish(t, n, sse);
+}
+
 /* Raises the atomic flag the core's meters look at, so a cancelled task
  * stops within milliseconds, inside its tile; finishes it now if no worker
  * is inside it. */
 void task_cancel(struct task *t, enum metrics_cancel why, struct task_notify *n,
                  struct task_notify *sse)
 {
+    work_assert_locked();
     if (t->finished || atomic_load(&t->cancel))
         return;
     atomic_store(&t->cancel, 1);

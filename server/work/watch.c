@@ -35,6 +35,7 @@ struct watch_set {
 
 static bool watch_add(struct watch_set *s, struct work_waiter *w)
 {
+    work_assert_locked();
     if (s->n == s->cap) {
         size_t nc = s->cap ? s->cap * 2 : 64;
         struct pollfd *f2 = realloc(s->fds, nc * sizeof *s->fds);
@@ -81,6 +82,7 @@ static bool watch_hung_up(const struct pollfd *p)
 static void watch_drop(struct work_waiter *w, struct task_notify *gone, struct task_notify *n,
                        struct task_notify *sse)
 {
+    work_assert_locked();
     for (struct task *t = task_active; t; t = t->next)
         for (int which = 0; which < 2; which++)
             for (struct work_waiter **pp = watch_list(t, which); *pp; pp = &(*pp)->next)
@@ -94,58 +96,61 @@ static void watch_drop(struct work_waiter *w, struct task_notify *gone, struct t
                 }
 }
 
-/* Answers the waiters whose client hung up.  Lock held on entry and exit. */
-static void watch_poll(struct watch_set *s)
+/* The waiters whose client hung up, onto gone (their tasks cancelled
+ * when nobody else wants them: onto n and sse).  Lock held. */
+static void watch_poll(struct watch_set *s, struct task_notify *gone, struct task_notify *n,
+                       struct task_notify *sse)
 {
+    work_assert_locked();
     if (s->n == 0 || poll(s->fds, s->n, 0) <= 0)
         return;
-    struct task_notify gone = {0}, n = {0}, sse = {0};
-    gone.res.gone = true;
-    gone.res.status = RAYD_E_CANCELED;
     for (size_t i = 0; i < s->n; i++)
         if (watch_hung_up(&s->fds[i]))
-            watch_drop(s->ws[i], &gone, &n, &sse);
-    pthread_mutex_unlock(&work_lock);
-    task_notify_run(&gone);
-    task_notify_run(&n);
-    task_notify_run(&sse);
-    pthread_mutex_lock(&work_lock);
+            watch_drop(s->ws[i], gone, n, sse);
 }
 
-/* Wakes every idle event stream; true when there was one (the lock was
- * released meanwhile).  Lock held. */
-static bool watch_ping(void)
+/* Every idle event stream, onto ping, to be woken.  Lock held. */
+static void watch_ping(struct task_notify *ping)
 {
-    struct task_notify ping = {0};
+    work_assert_locked();
     for (struct task *t = task_active; t; t = t->next)
-        task_notify_add(&ping, &t->sse_waiters);
-    if (!ping.list)
-        return false;
-    pthread_mutex_unlock(&work_lock);
-    task_notify_run(&ping);
-    pthread_mutex_lock(&work_lock);
-    return true;
+        task_notify_add(ping, &t->sse_waiters);
 }
 
-/* Stops the renders past --max-render-seconds; true when one was (the
- * lock was released meanwhile).  Lock held. */
-static bool watch_deadlines(void)
+/* Stops a render past --max-render-seconds, its waiters onto n and sse;
+ * true when one was.  Lock held. */
+static bool watch_deadlines(struct task_notify *n, struct task_notify *sse)
 {
-    struct task_notify n = {0}, sse = {0};
-    bool any = false;
+    work_assert_locked();
     double now = clock_now();
     for (struct task *t = task_active; t; t = t->next)
-        if (task_past_deadline(t, now, config.max_render_seconds, &n, &sse)) {
-            any = true; /* t may be freed: no t->next now */
-            break;
-        }
-    if (!any)
-        return false;
-    pthread_mutex_unlock(&work_lock);
-    task_notify_run(&n);
-    task_notify_run(&sse);
-    pthread_mutex_lock(&work_lock);
-    return true;
+        if (task_past_deadline(t, now, config.max_render_seconds, n, sse))
+            return true; /* t may be freed: no t->next now */
+    return false;
+}
+
+/* One look round, lock held: what to answer onto gone, n and sse; true
+ * when the watcher looks again at once (a deadline or a keep-alive was
+ * due), false when it sleeps first. */
+static bool watch_round(struct watch_set *s, double *last_expire, double *last_ping,
+                        struct task_notify *gone, struct task_notify *n, struct task_notify *sse)
+{
+    work_assert_locked();
+    watch_collect(s);
+    if (clock_now() - *last_expire >= 1.0) {
+        *last_expire = clock_now();
+        jobs_expire(*last_expire);
+    }
+    if (watch_deadlines(n, sse))
+        return true;
+    if (clock_now() - *last_ping >= EVENTS_PING_SECONDS) {
+        *last_ping = clock_now();
+        watch_ping(n);
+        if (n->list)
+            return true;
+    }
+    watch_poll(s, gone, n, sse);
+    return false;
 }
 
 static void watch_sleep(void)
@@ -157,7 +162,7 @@ static void watch_sleep(void)
         ts.tv_sec++;
         ts.tv_nsec -= 1000000000L;
     }
-    pthread_cond_timedwait(&work_cond, &work_lock, &ts);
+    work_timedwait(&work_cond, &ts);
 }
 
 static void *watch_main(void *arg)
@@ -165,24 +170,22 @@ static void *watch_main(void *arg)
     (void)arg;
     struct watch_set s = {0};
     double last_ping = clock_now(), last_expire = clock_now();
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     while (!watch_stopping) {
-        watch_collect(&s);
-        if (clock_now() - last_expire >= 1.0) {
-            last_expire = clock_now();
-            jobs_expire(last_expire);
+        struct task_notify gone = {.res = {.gone = true, .status = RAYD_E_CANCELED}};
+        struct task_notify n = {0}, sse = {0};
+        bool again = watch_round(&s, &last_expire, &last_ping, &gone, &n, &sse);
+        if (gone.list || n.list || sse.list) { /* answered without the lock */
+            work_lock_give();
+            task_notify_run(&gone);
+            task_notify_run(&n);
+            task_notify_run(&sse);
+            work_lock_take();
         }
-        if (watch_deadlines())
-            continue;
-        if (clock_now() - last_ping >= EVENTS_PING_SECONDS) {
-            last_ping = clock_now();
-            if (watch_ping())
-                continue;
-        }
-        watch_poll(&s);
-        watch_sleep();
+        if (!again)
+            watch_sleep();
     }
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     free(s.fds);
     free(s.ws);
     return NULL;
@@ -198,10 +201,10 @@ int watch_start(void)
 
 void watch_stop(void)
 {
-    pthread_mutex_lock(&work_lock);
+    work_lock_take();
     watch_stopping = true;
     pthread_cond_broadcast(&work_cond);
-    pthread_mutex_unlock(&work_lock);
+    work_lock_give();
     if (watch_started)
         pthread_join(watch_thread, NULL);
     watch_started = false;

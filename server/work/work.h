@@ -26,6 +26,7 @@ struct work_result {
     struct rayd_error err;
     struct blob *png;        /* a reference owned by the waiter: unref it */
     bool gone;               /* the client disconnected */
+    bool draining;           /* cancelled because the server drains (503 "draining") */
     double queue_ms, render_ms, encode_ms;
 };
 
@@ -77,6 +78,7 @@ void scenes_set_limits(const struct rayd_limits *lim);
  * linear float image a 16-bit PNG or an OpenEXR (POST /v1/render's
  * ?format= or Accept).  Part of the task and result-cache key. */
 enum work_format { WORK_PNG, WORK_PNG16, WORK_EXR, WORK_SUMS };
+const char *work_format_type(enum work_format format); /* its media type ("image/png") */
 
 /* What a render makes: a region, in a format; WORK_SUMS is the exact
  * per-pixel sums of samples k0..k1-1 (rayd_sums_encode), a part of a frame

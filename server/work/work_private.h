@@ -10,8 +10,10 @@
  * task, the active list and queue counters, the jobs table, every event
  * stream's cursor, the test gate, the compiled-scene cache (cache.c) and the
  * result cache (rcache.c) -- those two have no lock of their own.  Rules:
- *   - a function whose comment says "lock held" is called with it held, any
- *     other public function of the layer takes it itself;
+ *   - a function whose comment says "lock held" is called with it held
+ *     (and says so with work_assert_locked()), any other public function of
+ *     the layer takes it itself; it is taken and released only through
+ *     work_lock_take / work_lock_give / work_wait, which know its owner;
  *   - rendering, PNG encoding, scene parsing and hashing run without it;
  *   - a waiter's done() is never called with it held: waiters are unlinked
  *     onto a struct task_notify under the lock and answered after releasing
@@ -38,8 +40,20 @@
 #define TASK_BULK_EVERY 4             /* when both classes wait, bulk gets 1 tile in 4 */
 #define EVENTS_PING_SECONDS 15.0      /* seconds of silence before a keep-alive */
 
-extern pthread_mutex_t work_lock; /* work.c */
+extern pthread_mutex_t work_lock; /* work.c: taken only through work_lock_take */
 extern pthread_cond_t work_cond;
+
+/* ---- work.c: the lock, with its owner known ------------------------------ */
+
+void work_lock_take(void);
+void work_lock_give(void); /* asserts the caller holds it */
+bool work_locked(void);    /* held by the calling thread */
+/* pthread_cond_wait / timedwait on c with work_lock (held; held again after). */
+void work_wait(pthread_cond_t *c);
+int work_timedwait(pthread_cond_t *c, const struct timespec *until);
+/* The contract "lock held" (or "called without the lock"), checked. */
+#define work_assert_locked() server_assert(work_locked())
+#define work_assert_unlocked() server_assert(!work_locked())
 
 /* ---- lru.c: the index under both caches; entries embed a struct lru_node -- */
 
@@ -230,11 +244,10 @@ struct task {
     rayd_image *img;           /* WORK_PNG: the tiles' bytes */
     /* a plain WORK_PNG task: the PNG encoded band by band as rows of tiles
      * are drawn (sched.c), made when the first tile is taken (NULL if out
-     * of memory, stream_tried then set: encoded whole at the end); tiles
-     * left to draw in each row of tiles, and how many rows of tiles at the
-     * top are all drawn */
+     * of memory, stream_tried then set: encoded whole at the end), and
+     * which of its rows at the top are all drawn (the core's tracker) */
     rayd_png_stream *stream;
-    int *row_left, rows_top;
+    rayd_rows *rows;
     bool stream_tried;
     float *lin;                /* WORK_PNG16, WORK_EXR, keep_exr: the tiles' linear RGB,
                                   reg.w * reg.h * 3 */
@@ -263,6 +276,42 @@ struct task {
     int njobs;                       /* jobs still interested */
     int priority; /* enum jobs_priority: orders its client's own tasks (task_pick) */
     int refs;                        /* active list + jobs */
+};
+
+/* An output format (enum work_format): one row of task.c's table each,
+ * read where a format makes a difference -- the key, the pixels a task
+ * draws into, the memory it holds, its encoder, the answer's media type. */
+enum task_store { TASK_STORE_IMAGE, TASK_STORE_FLOATS, TASK_STORE_SUMS };
+struct task_format {
+    const char *key_suffix; /* of the task's key: an EXR never answers a PNG request */
+    const char *type;       /* the answer's media type */
+    enum task_store store;  /* what the tiles draw into */
+    /* budget.c: bytes a pixel holds (its store, then its answer), bytes
+     * besides, and as what they count */
+    size_t px_bytes, extra;
+    enum mem_kind mem_kind;
+    /* t's pixels in this format into *buf (rayd_free), by the worker that
+     * drew the last tile, without the lock (no tile runs) */
+    enum rayd_status (*encode)(struct task *t, void **buf, size_t *len, struct rayd_error *err);
+};
+const struct task_format *task_format(enum work_format format); /* any lock */
+
+/* What the worker that finished a task (or a pass of it) made without the
+ * lock, for task_encoded / task_pass_closed to keep. */
+struct task_out {
+    enum rayd_status st;
+    struct rayd_error err;
+    struct blob *png, *exr; /* references handed over */
+    double encode_s;        /* the encoding's seconds */
+    double noise;           /* a pass's noise estimate */
+    rayd_image *spare;      /* a pass's: the image for the next one, or NULL */
+};
+
+/* What a worker does after task_tile_done. */
+enum task_next {
+    TASK_GOING,    /* nothing: other tiles are in flight, or t was finished */
+    TASK_ENCODE,   /* encode t's answer without the lock, then task_encoded */
+    TASK_PASS_END, /* close t's pass without the lock, then task_pass_closed */
 };
 
 /* Waiters to answer once the lock is released. */
@@ -318,6 +367,53 @@ bool task_past_deadline(struct task *t, double now, long limit, struct task_noti
                         struct task_notify *sse);
 void task_cancel(struct task *t, enum metrics_cancel why, struct task_notify *n,
                  struct task_notify *sse);
+/* The pool stopped with t unfinished (the drain's deadline cancelled it):
+ * t finished now, cancelled, whoever still runs nothing of it. */
+void task_abandon(struct task *t, struct task_notify *n, struct task_notify *sse);
+/* A worker takes t's next tile, lock held: its index, the pass it is of
+ * into *pass; t's start, its PNG stream (a plain PNG task), the queue. */
+int task_take(struct task *t, int *pass);
+/* Rows of t's PNG stream that tile `tile`, just drawn, completes (0: none
+ * new, or no stream).  No lock: the stream and its row tracker were made,
+ * under the lock, before this worker took its tile, and are freed only once
+ * no tile runs. */
+int task_rows_done(struct task *t, int tile);
+/* A worker is done with tile `tile` of t (st, err, rays cast), lock held:
+ * the tile booked, t failed or stopped early as it says, t finished when
+ * nothing is left in flight (its waiters onto n and sse).  What the worker
+ * does next: see enum task_next. */
+enum task_next task_tile_done(struct task *t, int tile, enum rayd_status st,
+                              const struct rayd_error *err, uint64_t rays, struct task_notify *n,
+                              struct task_notify *sse);
+/* t's answer made (TASK_ENCODE): kept, t finished.  Lock held. */
+void task_encoded(struct task *t, const struct task_out *o, struct task_notify *n,
+                  struct task_notify *sse);
+/* t's pass made (TASK_PASS_END): recorded, the streams told, and the next
+ * pass opened -- true -- unless it was the last or a budget or stop ends
+ * the job (t finished).  Lock held. */
+bool task_pass_closed(struct task *t, const struct task_out *o, struct task_notify *n,
+                      struct task_notify *sse);
+/* The PNG stream of t, taken from it for its finish (no lock: by the
+ * worker encoding t, when no tile runs), or NULL. */
+rayd_png_stream *task_stream_take(struct task *t);
+/* w waits for t: suspended (w->suspend), then linked.  Lock held. */
+void task_wait(struct task *t, struct work_waiter *w);
+/* An event stream w waits for t's news: suspended, then linked.  Lock held. */
+void task_wait_news(struct task *t, struct work_waiter *w);
+/* A job holds t (a reference, and one more party interested), or lets go
+ * of its interest (cancelled; its reference stays until the job goes).
+ * Lock held. */
+void task_job_ref(struct task *t);
+void task_job_drop(struct task *t);
+/* t, not yet submitted, renders in progressive passes p for job id alone
+ * (its key gets the id).  Any lock: t is the caller's own still. */
+void task_progressive(struct task *t, struct passes *p, const char *id);
+/* A finished task's images let go for the memory budget: their bytes.
+ * task_evicted: and its kept passes too, for good.  Lock held. */
+size_t task_let_go_images(struct task *t);
+void task_evicted(struct task *t);
+/* The memory budget.c reserved for t, released with its pixels. */
+void task_hold(struct task *t, size_t bytes, enum mem_kind kind);
 void task_notify_add(struct task_notify *n, struct work_waiter **from);
 /* Called by task_finish, lock held, for a task jobs follow (jobs.c's). */
 void task_on_finish(void (*fn)(struct task *t));

@@ -119,7 +119,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (!r)
         abort();
     http_req_set_target(r, target); /* as libmicrohttpd's URI log callback does */
-    r->version = version;
+    r->conn.version = version;
     bool drop = false;
     if (http_flow_begin(r)) {
         /* the body in pieces, as libmicrohttpd delivers it */
@@ -130,7 +130,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         }
         if (!drop) {
             http_flow_handle(r);
-            if (r->parked) {
+            if (r->conn.parked) {
                 pthread_mutex_lock(&q.mu);
                 while (!q.resumed)
                     pthread_cond_wait(&q.cv, &q.mu);
@@ -139,19 +139,19 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         }
     }
     if (!drop) {
-        if (r->suspended || (!r->pending && !r->gone) || !fh_status_ok(r->status)) {
+        if (r->conn.suspended || (!r->conn.pending && !r->gone) || !fh_status_ok(r->res.status)) {
             fprintf(stderr, "fuzz_http: %s %s: status %d, pending %d, suspended %d\n", r->method,
-                    r->url, r->status, r->pending != NULL, r->suspended);
+                    r->url, r->res.status, r->conn.pending != NULL, r->conn.suspended);
             abort();
         }
-        if (r->status >= 400 && r->status != 499 && !r->err_code) {
-            fprintf(stderr, "fuzz_http: status %d without an error code\n", r->status);
+        if (r->res.status >= 400 && r->res.status != 499 && !r->res.err_code) {
+            fprintf(stderr, "fuzz_http: status %d without an error code\n", r->res.status);
             abort();
         }
     }
     if (getenv("FUZZ_HTTP_VERBOSE"))
-        fprintf(stderr, "%s %s -> %d %s\n", r->method, r->url, r->status,
-                r->err_code ? r->err_code : "");
+        fprintf(stderr, "%s %s -> %d %s\n", r->method, r->url, r->res.status,
+                r->res.err_code ? r->res.err_code : "");
     http_flow_end(r, drop ? "aborted" : NULL);
     fh_free(&q);
     pthread_mutex_destroy(&q.mu);

@@ -35,7 +35,7 @@ struct fh_req {
 
 static inline const char *fh_header(struct http_req *r, const char *name)
 {
-    struct fh_req *q = r->io_ctx;
+    struct fh_req *q = r->conn.io_ctx;
     for (int i = 0; i < q->nhdr; i++)
         if (!strcasecmp(q->hdr[i].k, name))
             return q->hdr[i].v;
@@ -45,7 +45,7 @@ static inline const char *fh_header(struct http_req *r, const char *name)
 static inline void fh_header_each(struct http_req *r, void (*fn)(void *u, const char *k, const char *v),
                            void *u)
 {
-    struct fh_req *q = r->io_ctx;
+    struct fh_req *q = r->conn.io_ctx;
     for (int i = 0; i < q->nhdr; i++)
         fn(u, q->hdr[i].k, q->hdr[i].v);
 }
@@ -53,7 +53,7 @@ static inline void fh_header_each(struct http_req *r, void (*fn)(void *u, const 
 static inline void fh_query_each(struct http_req *r, void (*fn)(void *u, const char *k, const char *v),
                           void *u)
 {
-    struct fh_req *q = r->io_ctx;
+    struct fh_req *q = r->conn.io_ctx;
     for (int i = 0; i < q->narg; i++)
         fn(u, q->arg[i].k, q->arg[i].v);
 }
@@ -62,7 +62,7 @@ static inline void fh_suspend(struct http_req *r) { (void)r; }
 
 static inline void fh_resume(struct http_req *r)
 {
-    struct fh_req *q = r->io_ctx;
+    struct fh_req *q = r->conn.io_ctx;
     pthread_mutex_lock(&q->mu);
     q->resumed = 1;
     pthread_cond_signal(&q->cv);

@@ -64,16 +64,16 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         }
     }
     if (ok) {
-        if (r->pending || reg.x < 0 || reg.y < 0 || reg.w < 1 || reg.h < 1 ||
+        if (r->conn.pending || reg.x < 0 || reg.y < 0 || reg.w < 1 || reg.h < 1 ||
             (long)reg.x + reg.w > info.width || (long)reg.y + reg.h > info.height) {
             fprintf(stderr, "fuzz_query: accepted %d,%d,%d,%d of %dx%d\n", reg.x, reg.y, reg.w,
                     reg.h, info.width, info.height);
             abort();
         }
-    } else if (r->status != 400 || !r->err_code ||
-               (strcmp(r->err_code, "bad_region") && strcmp(r->err_code, "bad_parameter"))) {
-        fprintf(stderr, "fuzz_query: refused with %d %s\n", r->status,
-                r->err_code ? r->err_code : "(none)");
+    } else if (r->res.status != 400 || !r->res.err_code ||
+               (strcmp(r->res.err_code, "bad_region") && strcmp(r->res.err_code, "bad_parameter"))) {
+        fprintf(stderr, "fuzz_query: refused with %d %s\n", r->res.status,
+                r->res.err_code ? r->res.err_code : "(none)");
         abort();
     }
     http_flow_end(r, NULL);
