@@ -23,7 +23,10 @@
  * Freed memory goes back to the allocator, which keeps small freed blocks
  * in its arenas: after many megabytes are released, mem_trim hands them back
  * to the kernel (malloc_trim), so the process's resident size follows the
- * count down rather than staying at its peak.
+ * count down rather than staying at its peak.  malloc_trim walks every
+ * arena under its lock (milliseconds with a large heap, and every malloc of
+ * that arena waits), so only the watcher calls it, once a second at most,
+ * never a request's or a worker's path.
  */
 #define _GNU_SOURCE
 #include "base.h"
@@ -44,7 +47,7 @@ static bool (*mem_reclaimer)(enum mem_kind k, size_t need);
 
 const char *mem_kind_name(enum mem_kind k)
 {
-    static const char *const names[] = {"bodies", "scenes", "results", "sums", "caches"};
+    static const char *const names[] = {"bodies", "scenes", "results", "sums", "caches", "parses"};
     return names[k];
 }
 

@@ -11,7 +11,9 @@
  * every EVENTS_PING_SECONDS seconds wakes idle event streams so they send a
  * keep-alive comment, and stops renders that ran past --max-render-seconds
  * (task_past_deadline).  One thread for the four because each is a small
- * periodic look at the same lists under the same lock.
+ * periodic look at the same lists under the same lock.  Once a second it
+ * also hands freed heap back to the kernel (mem_trim), outside the lock:
+ * malloc_trim is too slow for a request's or a worker's path.
  */
 #include "work_private.h"
 
@@ -167,11 +169,16 @@ static void *watch_main(void *arg)
     double last_ping = clock_now(), last_expire = clock_now();
     pthread_mutex_lock(&work_lock);
     while (!watch_stopping) {
-        watch_collect(&s);
         if (clock_now() - last_expire >= 1.0) {
             last_expire = clock_now();
             jobs_expire(last_expire);
+            pthread_mutex_unlock(&work_lock);
+            mem_trim(); /* malloc_trim takes a while: here, off every request's path */
+            pthread_mutex_lock(&work_lock);
+            if (watch_stopping)
+                break;
         }
+        watch_collect(&s);
         if (watch_deadlines())
             continue;
         if (clock_now() - last_ping >= EVENTS_PING_SECONDS) {
