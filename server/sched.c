@@ -259,7 +259,9 @@ static void sched_done(struct task *t, int tile, enum rayd_status st,
             clock_now() - t->t_start >= t->passes->plan.time_budget)
             task_end_early(t, PASSES_BY_TIME);
     } else if (st != RAYD_E_CANCELED && t->status == RAYD_OK) {
-        if (st == RAYD_E_LIMIT) /* the core's meter: the task's ray budget is spent */
+        if (st == RAYD_E_LIMIT && t->passes && t->passes->done > 0)
+            task_end_early(t, PASSES_BY_WORK); /* keep the latest pass, as the deadline does */
+        else if (st == RAYD_E_LIMIT) /* the core's meter: the task's ray budget is spent */
             task_over_work(t);
         else
             task_fail(t, st, err);
@@ -286,7 +288,7 @@ static void sched_done(struct task *t, int tile, enum rayd_status st,
 /* t's ray budget (--max-work), or NULL when there is none. */
 static atomic_int_least64_t *sched_budget(struct task *t)
 {
-    return config.max_work > 0 ? &t->rays_left : NULL;
+    return t->work > 0 ? &t->rays_left : NULL;
 }
 
 /* A WORK_SUMS tile: its samples k0..k1-1 summed, into t's sums. */

@@ -299,6 +299,11 @@ struct compile_gate_state {
     long parses, started, queued, running;
 };
 void compile_gate_set(long parses);
+/* The test gate's work knob (?work=N): the rays each render made from now
+ * on may cast, as --max-work at run time but not priced at the door (a
+ * render that passes it while it runs, which the estimate would refuse);
+ * -1: --max-work again. */
+void task_gate_work(long rays);
 void compile_gate_get(struct compile_gate_state *g);
 
 /* ---- gate.c: the test gate (--test-gate) ----------------------------------- */

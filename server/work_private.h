@@ -255,6 +255,7 @@ struct task {
     /* --max-work: rays the task may still cast, shared by its tiles and
      * passes (the core's meters take from it; RAYD_E_LIMIT below zero) */
     atomic_int_least64_t rays_left;
+    long work; /* that budget whole (--max-work, or the test gate's); 0: none */
     bool interactive, queued, finalizing, finished;
     bool evicted; /* finished, its images let go for the memory budget (jobs.c) */
     double t_enq, t_start, t_end;
