@@ -156,9 +156,10 @@ void mem_freed(size_t n); /* bytes freed that were never counted: for mem_trim *
 size_t mem_used(enum mem_kind k);
 size_t mem_total(void);
 /* Gives freed heap back to the kernel once enough was released since the
- * last time (malloc_trim).  Called by the watcher only (it takes
+ * last time (malloc_trim), and, once idle (no render left), the frames the
+ * core keeps for reuse.  Called by the watcher only, one thread (it takes
  * milliseconds with a large heap): never on a request's path. */
-void mem_trim(void);
+void mem_trim(bool idle);
 /* "64M", "1G", "1048576", "512KiB": bytes; false if malformed. */
 bool mem_parse(const char *s, size_t *out);
 

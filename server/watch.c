@@ -172,8 +172,9 @@ static void *watch_main(void *arg)
         if (clock_now() - last_expire >= 1.0) {
             last_expire = clock_now();
             jobs_expire(last_expire);
+            bool idle = task_active == NULL;
             pthread_mutex_unlock(&work_lock);
-            mem_trim(); /* malloc_trim takes a while: here, off every request's path */
+            mem_trim(idle); /* malloc_trim takes a while: here, off every request's path */
             pthread_mutex_lock(&work_lock);
             if (watch_stopping)
                 break;
