@@ -30,7 +30,7 @@ idle=$(uncached)
 # image, by design)
 ids=()
 for i in 1 2 3 4; do
-    scene "$T/p$i.json" 512 512 1024 spheres "$i"
+    scene "$T/p$i.json" 1024 1024 1024 spheres "$i"
     code=$(post_json '/v1/jobs?progressive=1' "$T/p$i.json")
     [ "$code" = 202 ] && ids+=("$(jfield "$T/body" id)")
 done
@@ -53,6 +53,8 @@ check scenes_are_cached "scenes $(metric 'rayd_memory_bytes{kind="scenes"}'), ca
 # the watcher trims once a second: a generous bound, 24 MB over the idle size
 # (the four cached scenes and the allocator's own)
 rss_back() { [ "$(rss)" -le $((rss0 + 25165824)) ]; }
+wait_until 30 rss_back
+echo "# VmRSS idle $rss0, after DELETE $(rss)"
 if sanitized; then
     pass rss_back_to_idle # a sanitizer's shadow and quarantine make VmRSS meaningless
 else
