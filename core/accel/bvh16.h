@@ -30,6 +30,7 @@
 
 #include "accel/bvh.h"
 #include "base/cpu.h"
+#include "base/meter.h"
 
 #ifdef CPU_AVX512
 
@@ -186,10 +187,17 @@ CPU_AVX512_INLINE bool bvh16_descend(const struct bvh4_node *nodes, const char *
     return true;
 }
 
+/* Leaf entries met in one walk between two looks at the render's meter
+ * (meter_live), as the one-ray walks of the scene (SCENE_LOOK_VISITS in
+ * scene/scene_query.c): thousands of triangles or instances overlapping
+ * where the packet goes cost no rays, and nothing else would stop them. */
+#define BVH16_LOOK_VISITS 4096
+
 /* Walks the tree with the rays in lanes; *tm holds their bounds (lowered
  * by a nearest-hit leaf), and ordered asks for the nearest child first (a
  * nearest-hit walk; an any-hit one can do without).  Returns the rays an
- * any-hit leaf blocked.
+ * any-hit leaf blocked.  A stopped meter ends the walk with what it found
+ * so far (the render is thrown away).
  * leaves (records of leaf_size bytes, a leaf's first index into them) is
  * only prefetched from; NULL when the leaves are not such an array. */
 CPU_AVX512_INLINE __mmask16 bvh16_walk(const struct bvh4 *bvh, const char *leaves, size_t leaf_size,
@@ -197,6 +205,7 @@ CPU_AVX512_INLINE __mmask16 bvh16_walk(const struct bvh4 *bvh, const char *leave
                                        bvh16_leaf_fn leaf, void *ctx, bool ordered) {
     struct bvh16_entry stack[BVH_STACK], cur;
     int sp = 0;
+    uint32_t visits = 0;
     __mmask16 blocked = 0;
     cur.node = 0;
     cur.count = 0;
@@ -207,6 +216,11 @@ CPU_AVX512_INLINE __mmask16 bvh16_walk(const struct bvh4 *bvh, const char *leave
             if (bvh16_descend(bvh->nodes, leaves, leaf_size, r, *tm, &cur, stack, &sp, ordered))
                 continue;
         } else {
+            visits += cur.count;
+            if (visits >= BVH16_LOOK_VISITS) { /* overlaps: look at the meter */
+                visits = 0;
+                if (!meter_live()) return blocked;
+            }
             blocked |= leaf(ctx, cur.node, cur.count, cur.lanes, tm);
             lanes &= (__mmask16)~blocked;
             if (!lanes) return blocked;

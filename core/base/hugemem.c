@@ -20,6 +20,7 @@
  */
 #define _DEFAULT_SOURCE /* madvise */
 #include "base/hugemem.h"
+#include "rayd/rayd.h"
 
 #include <pthread.h>
 #include <stdbool.h>
@@ -36,7 +37,8 @@
  * after request, and on the virtual machines rayd runs on, fresh huge pages
  * cost the kernel's zeroing of them on every fault (clear_page: 12% of the
  * server's CPU on the 1080p sphere scene, POST after POST), where kept ones
- * are warm.  At most HUGEMEM_KEEP bytes in HUGEMEM_KEEP_N blocks. */
+ * are warm.  At most HUGEMEM_KEEP bytes in HUGEMEM_KEEP_N blocks, until
+ * rayd_memory_trim gives them back (rayd, once it goes idle). */
 #define HUGEMEM_KEEP ((size_t)32 << 20)
 #define HUGEMEM_KEEP_N 16
 static struct {
@@ -133,6 +135,17 @@ void huge_free_pages(void *p, size_t bytes) {
     }
     pthread_mutex_unlock(&kept_lock);
     if (!keep) munmap(p, whole);
+}
+
+void rayd_memory_trim(void) {
+    pthread_mutex_lock(&kept_lock);
+    int n = nkept;
+    struct { void *p; size_t whole; } drop[HUGEMEM_KEEP_N];
+    for (int i = 0; i < n; i++) drop[i].p = kept[i].p, drop[i].whole = kept[i].whole;
+    nkept = 0;
+    kept_bytes = 0;
+    pthread_mutex_unlock(&kept_lock);
+    for (int i = 0; i < n; i++) munmap(drop[i].p, drop[i].whole);
 }
 
 void *huge_alloc_if(bool huge, size_t bytes) {

@@ -508,6 +508,12 @@ const char *rayd_output_kind(const char *path);
 /* Frees memory the core handed out (PNG buffers, files). */
 void rayd_free(void *p);
 
+/* Gives back to the kernel the freed blocks of whole huge pages the core
+ * keeps for the next render of the same size (frames, PNG encoder blocks:
+ * up to 32 MB), which no count of a caller shows.  For a server that has
+ * gone idle after large renders; thread-safe, cheap when nothing is kept. */
+void rayd_memory_trim(void);
+
 #ifdef __cplusplus
 }
 #endif

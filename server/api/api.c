@@ -447,15 +447,13 @@ void api_refused(struct http_req *r, enum work_submit why)
         http_reply_error(r, 503, "queue_full", "too many unfinished jobs, retry later", NULL, 0,
                          0, NULL);
         break;
-    case WORK_MEMORY:
-        metrics_reject(MR_MEMORY);
+    case WORK_MEMORY: /* counted by budget.c or compile.c */
         http_reply_error(r, 503, "memory_full",
-                         "the memory budget (--max-memory) has no room for this render now; "
-                         "retry later",
+                         "the memory budget (--max-memory) has no room for this scene's parse "
+                         "or this render now; retry later",
                          NULL, 0, 0, NULL);
         break;
-    case WORK_TOO_BIG:
-        metrics_reject(MR_MEMORY);
+    case WORK_TOO_BIG: /* counted in rayd_rejected_total by budget.c */
         http_reply_error(r, 413, "over_memory",
                          "the render alone needs more than the memory budget (--max-memory); "
                          "ask for a smaller region or format",
@@ -481,6 +479,11 @@ static bool api_scene_answer(struct http_req *r, struct compile_result *res, api
 {
     if (res->draining) {
         api_refused(r, WORK_DRAINING);
+        return false;
+    }
+    if (res->memory_full) { /* the budget, not an allocation that failed */
+        r->retry_after = api_cost_retry_after(compile_retry_seconds());
+        http_reply_error(r, 503, "memory_full", res->err.message, NULL, 0, 0, NULL);
         return false;
     }
     if (res->status != RAYD_OK) {

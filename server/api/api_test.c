@@ -6,6 +6,10 @@
  *
  *   POST /v1/test/gate?tiles=N     N more tiles, then the workers wait
  *   POST /v1/test/gate?tiles=open  no limit (the gate stays, open)
+ *   POST /v1/test/gate?work=N      the renders made from now on stop
+ *                                  after N rays, as --max-work at run time,
+ *                                  with no price at the door; work=open:
+ *                                  --max-work again
  *   POST /v1/test/gate?parses=N    N more scene parses, then the parse
  *                                  threads wait (compile.c); parses=open
  *   GET  /v1/test/gate             the gate as it is
@@ -84,17 +88,25 @@ void api_test_gate_post(struct http_req *r, const char *id)
         return;
     }
     const char *v = http_req_query(r, "tiles"), *pv = http_req_query(r, "parses");
-    long n, parses;
+    const char *wv = http_req_query(r, "work");
+    long n = 0, parses = 0, work = 0;
+    if (wv && !api_test_count(wv, &work)) {
+        http_reply_error(r, 400, "bad_parameter", "work must be 'open' or an integer >= 0", NULL,
+                         0, 0, "work");
+        return;
+    }
     if (pv && !api_test_count(pv, &parses)) {
         http_reply_error(r, 400, "bad_parameter", "parses must be 'open' or an integer >= 0", NULL,
                          0, 0, "parses");
         return;
     }
-    if ((v || !pv) && (!v || !api_test_count(v, &n))) {
+    if ((v || (!pv && !wv)) && (!v || !api_test_count(v, &n))) {
         http_reply_error(r, 400, "bad_parameter", "tiles must be 'open' or an integer >= 0", NULL,
                          0, 0, "tiles");
         return;
     }
+    if (wv)
+        task_gate_work(work);
     if (pv)
         compile_gate_set(parses);
     if (v)

@@ -151,6 +151,7 @@ enum mem_kind {
     MEM_RESULTS, /* finished images (PNG, EXR, sums answers) and renders' pixels */
     MEM_SUMS,    /* renders' per-pixel sums: sums answers, progressive jobs */
     MEM_CACHES,  /* finished images kept by the result cache */
+    MEM_PARSES,  /* scenes being parsed: each parse's cap, reserved before it starts */
     MEM__COUNT
 };
 const char *mem_kind_name(enum mem_kind k);
@@ -172,8 +173,10 @@ void mem_freed(size_t n); /* bytes freed that were never counted: for mem_trim *
 size_t mem_used(enum mem_kind k);
 size_t mem_total(void);
 /* Gives freed heap back to the kernel once enough was released since the
- * last time (malloc_trim); cheap otherwise.  With no lock held. */
-void mem_trim(void);
+ * last time (malloc_trim), and, once idle (no render left), the frames the
+ * core keeps for reuse.  Called by the watcher only, one thread (it takes
+ * milliseconds with a large heap): never on a request's path. */
+void mem_trim(bool idle);
 /* "64M", "1G", "1048576", "512KiB": bytes; false if malformed. */
 bool mem_parse(const char *s, size_t *out);
 

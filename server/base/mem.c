@@ -23,7 +23,13 @@
  * Freed memory goes back to the allocator, which keeps small freed blocks
  * in its arenas: after many megabytes are released, mem_trim hands them back
  * to the kernel (malloc_trim), so the process's resident size follows the
- * count down rather than staying at its peak.
+ * count down rather than staying at its peak.  malloc_trim walks every
+ * arena under its lock (milliseconds with a large heap, and every malloc of
+ * that arena waits), so only the watcher calls it, once a second at most,
+ * never a request's or a worker's path.  The core also keeps the blocks of
+ * its last frames for the next render (up to 32 MB, hugemem.c): once no
+ * render is left, those go back too (rayd_memory_trim), so an idle rayd's
+ * resident size comes back to about its size at start.
  */
 #define _GNU_SOURCE
 #include "base/base.h"
@@ -39,12 +45,11 @@ static size_t mem_limit_bytes = SIZE_MAX;
 static atomic_size_t mem_total_bytes;
 static atomic_size_t mem_kind_bytes[MEM__COUNT];
 static atomic_size_t mem_released; /* since the last trim */
-static atomic_flag mem_trimming = ATOMIC_FLAG_INIT;
 static bool (*mem_reclaimer)(enum mem_kind k, size_t need);
 
 const char *mem_kind_name(enum mem_kind k)
 {
-    static const char *const names[] = {"bodies", "scenes", "results", "sums", "caches"};
+    static const char *const names[] = {"bodies", "scenes", "results", "sums", "caches", "parses"};
     return names[k];
 }
 
@@ -119,13 +124,19 @@ size_t mem_used(enum mem_kind k) { return atomic_load(&mem_kind_bytes[k]); }
 
 size_t mem_total(void) { return atomic_load(&mem_total_bytes); }
 
-void mem_trim(void)
+void mem_trim(bool idle)
 {
-    if (atomic_load(&mem_released) < MEM_TRIM_AFTER || atomic_flag_test_and_set(&mem_trimming))
-        return;
-    atomic_store(&mem_released, 0);
-    malloc_trim(0);
-    atomic_flag_clear(&mem_trimming);
+    static bool kept; /* the core may keep freed frames: give them back once idle */
+    if (atomic_load(&mem_released) >= MEM_TRIM_AFTER) {
+        atomic_store(&mem_released, 0);
+        kept = true;
+        malloc_trim(0);
+    }
+    if (kept && idle) {
+        kept = false;
+        rayd_memory_trim();
+        malloc_trim(0);
+    }
 }
 
 bool mem_parse(const char *s, size_t *out)

@@ -551,8 +551,7 @@ void http_flow_end(struct http_req *r, const char *note)
         .error_at = r->res.err_at,
     };
     log_access(&a);
-    http_req_free(r);
-    mem_trim(); /* after a body or a reply let go of much memory */
+    http_req_free(r); /* the watcher gives freed heap back (mem_trim) */
 }
 
 void http_flow_refused(const char *client, unsigned status, const char *why)

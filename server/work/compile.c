@@ -18,7 +18,10 @@
  *
  * Bounds: at most --parse-queue scenes wait for a thread; one more is
  * refused 503 queue_full with a Retry-After (the parses queued times the
- * average parse, over the threads).  A body posted while the same body (by
+ * average parse, over the threads).  Each scene queued holds its parse's
+ * first cap in the memory budget (kind parses, scenes_parse_cap) from the
+ * moment it is queued, so what the queue and the parses may build is
+ * counted before it exists; one with no room is refused 503 memory_full.  A body posted while the same body (by
  * its SHA-256) is queued or being parsed does not take a place: it waits
  * for that parse and gets the same scene or the same error, so a scene
  * posted by many tile clients at once is parsed once.
@@ -51,6 +54,7 @@ struct compile_job {
                          NULL for a GET by id, which only checks the cached scene */
     size_t len;
     struct cache_entry *cached; /* found compiled; its files are checked here */
+    size_t mem;                 /* bytes of kind parses reserved for it, until parsed */
     struct compile_waiter *waiters;
     int nwaiters;
     struct compile_job *next; /* the queue, or the list being parsed */
@@ -112,26 +116,44 @@ static void compile_unlink(struct compile_job **head, struct compile_job *j)
 
 static long compile_queue_cap(void) { return config.parse_queue > 0 ? config.parse_queue : 64; }
 
-/* Queues a new job for body (with e, a cached scene to check, or NULL),
- * lock held; WORK_OK after w->suspend, or the refusal. */
-static enum work_submit compile_enqueue(const char *id, const char *body, size_t len,
-                                        struct cache_entry *e, struct compile_waiter *w)
+/* Joins w to the job of the same body queued or being parsed, lock held:
+ * WORK_OK after w->suspend; WORK_CACHED when there is none (w not used), or
+ * the refusal. */
+static enum work_submit compile_join_same(const char *id, bool by_id, struct cache_entry *e,
+                                          struct compile_waiter *w)
 {
     work_assert_locked();
+    if (compile_stopping || compile_nthreads == 0)
+        return compile_stopping ? WORK_DRAINING : WORK_NOMEM;
     if (task_draining()) /* nothing new is suspended once the drain began */
         return WORK_DRAINING;
-    struct compile_job *j = compile_find(id, body == NULL);
-    if (j) { /* the same body is being parsed: wait for it */
-        if (e)
-            cache_release(e); /* that job has its own */
-        w->suspend(w);
-        w->next = j->waiters;
-        j->waiters = w;
-        j->nwaiters++;
-        return WORK_OK;
-    }
+    struct compile_job *j = compile_find(id, by_id);
+    if (!j)
+        return WORK_CACHED;
+    if (e)
+        cache_release(e); /* that job has its own */
+    w->suspend(w);
+    w->next = j->waiters;
+    j->waiters = w;
+    j->nwaiters++;
+    return WORK_OK;
+}
+
+/* Queues a new job for body (with e, a cached scene to check, or NULL; mem
+ * bytes of kind parses reserved for it, the job's once queued), lock held;
+ * WORK_OK after w->suspend, or the refusal.  *joined: w waits for the same
+ * body queued meanwhile, and mem is still the caller's. */
+static enum work_submit compile_enqueue(const char *id, const char *body, size_t len,
+                                        struct cache_entry *e, size_t mem,
+                                        struct compile_waiter *w, bool *joined)
+{
+    enum work_submit s = compile_join_same(id, body == NULL, e, w);
+    *joined = s == WORK_OK;
+    if (s != WORK_CACHED)
+        return s;
     if (compile_queued >= compile_queue_cap())
         return WORK_PARSE_FULL;
+    struct compile_job *j;
     j = calloc(1, sizeof *j);
     if (!j)
         return WORK_NOMEM;
@@ -139,6 +161,7 @@ static enum work_submit compile_enqueue(const char *id, const char *body, size_t
     j->body = body;
     j->len = len;
     j->cached = e;
+    j->mem = mem;
     j->waiters = w;
     j->nwaiters = 1;
     w->suspend(w);
@@ -151,6 +174,28 @@ static enum work_submit compile_enqueue(const char *id, const char *body, size_t
     compile_queued++;
     pthread_cond_signal(&compile_cond);
     return WORK_OK;
+}
+
+/* Reserves a new parse's first cap (no lock held: the reservation may
+ * reclaim), then queues it; e is released unless the job took it. */
+static enum work_submit compile_queue_new(const char *id, const char *body, size_t len,
+                                          struct cache_entry *e, struct compile_waiter *w)
+{
+    size_t mem = scenes_parse_cap(len);
+    if (!mem_reserve(MEM_PARSES, mem)) {
+        metrics_reject(MR_MEMORY);
+        scenes_release(e);
+        return WORK_MEMORY;
+    }
+    bool joined = false;
+    work_lock_take();
+    enum work_submit s = compile_enqueue(id, body, len, e, mem, w, &joined);
+    work_lock_give();
+    if (s != WORK_OK || joined)
+        mem_release(MEM_PARSES, mem);
+    if (s != WORK_OK)
+        scenes_release(e);
+    return s;
 }
 
 enum work_submit compile_scene(const char *body, size_t len, struct compile_waiter *w,
@@ -175,11 +220,11 @@ enum work_submit compile_scene(const char *body, size_t len, struct compile_wait
     }
     pthread_once(&compile_once, compile_start);
     work_lock_take();
-    enum work_submit s = compile_stopping || compile_nthreads == 0
-                             ? (compile_stopping ? WORK_DRAINING : WORK_NOMEM)
-                             : compile_enqueue(id, body, len, e, w);
+    enum work_submit s = compile_join_same(id, false, e, w);
     work_lock_give();
-    if (s != WORK_OK)
+    if (s == WORK_CACHED) /* a new parse: its first cap reserved before it is queued */
+        s = compile_queue_new(id, body, len, e, w);
+    else if (s != WORK_OK)
         scenes_release(e);
     return s;
 }
@@ -199,10 +244,9 @@ enum work_submit compile_find_scene(const char *id, struct compile_waiter *w,
         return WORK_CACHED;
     }
     pthread_once(&compile_once, compile_start);
+    bool joined;
     work_lock_take();
-    enum work_submit s = compile_stopping || compile_nthreads == 0
-                             ? (compile_stopping ? WORK_DRAINING : WORK_NOMEM)
-                             : compile_enqueue(id, NULL, 0, e, w);
+    enum work_submit s = compile_enqueue(id, NULL, 0, e, 0, w, &joined);
     work_lock_give();
     if (s != WORK_OK)
         scenes_release(e);
@@ -213,9 +257,10 @@ enum work_submit compile_find_scene(const char *id, struct compile_waiter *w,
  * the scene referenced once (NULL for a GET by id whose files changed);
  * *hit when it was found compiled. */
 static enum rayd_status compile_run(struct compile_job *j, struct cache_entry **out, bool *hit,
-                                    struct rayd_error *err)
+                                    struct rayd_error *err, bool *full)
 {
     *hit = false;
+    *full = false;
     if (j->cached) {
         if (scenes_current(j->cached, j->body != NULL)) {
             *out = j->cached;
@@ -227,7 +272,8 @@ static enum rayd_status compile_run(struct compile_job *j, struct cache_entry **
     if (!j->body)
         return RAYD_OK; /* unknown here now: the client sends the text again */
     double t0 = clock_now();
-    enum rayd_status st = scenes_build(j->id, j->body, j->len, out, err);
+    enum rayd_status st = scenes_build(j->id, j->body, j->len, j->mem, out, err, full);
+    j->mem = 0; /* scenes_build's now: the scene's own, or released */
     double took = clock_now() - t0;
     work_lock_take();
     compile_avg += (took - compile_avg) * 0.2;
@@ -238,9 +284,10 @@ static enum rayd_status compile_run(struct compile_job *j, struct cache_entry **
 /* Answers j's waiters with st (each its own reference to e) and frees j;
  * no lock held.  draining: refused, nothing was parsed. */
 static void compile_answer(struct compile_job *j, enum rayd_status st, struct cache_entry *e,
-                           bool hit, const struct rayd_error *err, bool draining)
+                           bool hit, const struct rayd_error *err, bool draining, bool full)
 {
     work_assert_unlocked();
+    mem_release(MEM_PARSES, j->mem); /* not parsed: a hit, or a drain */
     work_lock_take();
     for (int i = 1; e && i < j->nwaiters; i++)
         cache_ref(e); /* the first waiter takes the parse's own */
@@ -250,7 +297,8 @@ static void compile_answer(struct compile_job *j, enum rayd_status st, struct ca
     free(j);
     while (w) {
         struct compile_waiter *next = w->next;
-        struct compile_result res = {.status = st, .hit = hit, .draining = draining};
+        struct compile_result res = {
+            .status = st, .hit = hit, .draining = draining, .memory_full = full};
         if (err)
             res.err = *err;
         res.scene = e;
@@ -306,15 +354,16 @@ static void *compile_thread(void *arg)
         work_lock_give();
         struct rayd_error err = {0};
         struct cache_entry *e = NULL;
-        bool hit = false, draining = sched_draining();
-        enum rayd_status st = draining ? RAYD_E_CANCELED : compile_run(j, &e, &hit, &err);
+        bool hit = false, full = false, draining = sched_draining();
+        enum rayd_status st =
+            draining ? RAYD_E_CANCELED : compile_run(j, &e, &hit, &err, &full);
         if (draining)
             scenes_release(j->cached);
         work_lock_take();
         compile_unlink(&compile_running, j); /* no one joins it from now on */
         compile_nrunning--;
         work_lock_give();
-        compile_answer(j, st, e, hit, &err, draining);
+        compile_answer(j, st, e, hit, &err, draining, full);
         work_lock_take();
     }
     compile_alive--;
@@ -366,7 +415,7 @@ void compile_stop(void)
     while (queued) {
         struct compile_job *next = queued->next;
         scenes_release(queued->cached);
-        compile_answer(queued, RAYD_E_CANCELED, NULL, false, NULL, true);
+        compile_answer(queued, RAYD_E_CANCELED, NULL, false, NULL, true, false);
         queued = next;
     }
     if (compile_join()) {

@@ -113,16 +113,35 @@ static bool jobs_evict_oldest(void)
     return true;
 }
 
+/* Whether the two caches hold more than half the memory budget, lock
+ * held. */
+static bool jobs_caches_over_half(void)
+{
+    size_t scenes, results, n;
+    cache_stats(&scenes, &n);
+    rcache_stats(&results, &n);
+    return scenes + results > mem_limit() / 2;
+}
+
 /* The memory budget's reclaimer (mem.c): one thing let go, cheapest
  * first; false when nothing is left to let go.  A body in flight is
  * transient, and many slow uploads must not wipe out every client's
- * finished images: it may take the caches' room only.  Takes work_lock. */
+ * finished images: it may take the caches' room only.  And a body costs
+ * its sender nothing until its bytes arrive (600 connections that each
+ * declare 4 MiB and send one byte a second), so a body evicts from the
+ * caches only while they hold over half the budget: the other half keeps
+ * them warm whatever the uploads, and the bodies still find room once the
+ * caches are down to half.  A parse (its cap) may let go of what the scene
+ * it builds may.  Takes work_lock. */
 static bool jobs_reclaim(enum mem_kind k, size_t need)
 {
     (void)need; /* called again until the reservation fits */
     work_lock_take();
-    bool freed =
-        rcache_evict_one() || cache_evict_one() || (k != MEM_BODIES && jobs_evict_oldest());
+    bool freed = false;
+    if (k != MEM_BODIES || jobs_caches_over_half())
+        freed = rcache_evict_one() || cache_evict_one();
+    if (!freed && k != MEM_BODIES)
+        freed = jobs_evict_oldest();
     work_lock_give();
     return freed;
 }
@@ -774,8 +793,7 @@ bool jobs_cancel(const char *id)
     }
     work_lock_give();
     task_notify_run(&n);
-    task_notify_run(&sse);
-    mem_trim(); /* a cancelled job's sums may have been freed */
+    task_notify_run(&sse); /* the watcher gives freed sums back (mem_trim) */
     return j != NULL;
 }
 

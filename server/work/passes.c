@@ -62,7 +62,7 @@ int passes_plan(const struct jobs_plan *plan, int samples, int out[PASSES_MAX])
 
 const char *passes_stop_name(enum passes_stop s)
 {
-    static const char *const names[] = {NULL, "time_budget", "noise_target", "client"};
+    static const char *const names[] = {NULL, "time_budget", "noise_target", "client", "max_work"};
     return names[s];
 }
 

@@ -34,9 +34,13 @@ struct rcache_item {
 static struct lru_node *rcache_table[RCACHE_BUCKETS];
 static struct lru rcache_lru;
 
+/* An item leaves the cache: its PNG, if a job or a reply still holds it,
+ * is counted as a result again (kind caches only while cached), so the two
+ * kinds in /metrics follow what the cache holds. */
 static void rcache_evicted(struct lru_node *n)
 {
     struct rcache_item *it = (struct rcache_item *)n;
+    blob_kind(it->png, MEM_RESULTS);
     blob_unref(it->png);
     free(it);
 }

@@ -19,8 +19,20 @@
  * A compiled scene's bytes (rayd_scene_info: its textures, meshes, BVHs)
  * are counted in the one memory budget (--max-memory, mem.c) from its
  * compile to its free, whether it is cached, queued or rendering; a scene
- * that finds no room is freed and refused (503 with Retry-After, or 413
- * when it alone is over the whole budget) before anything holds it.
+ * that finds no room is freed and refused (503 memory_full with
+ * Retry-After, or 413 when it alone is over the whole budget) before
+ * anything holds it.
+ *
+ * A parse is counted too, before it starts: what it may build is held to a
+ * cap (its triangles, texels and bytes read, scenes_room), and that cap is
+ * reserved in the budget as kind "parses" (compile.c, when the body is
+ * queued).  The first cap is small, from the body's size
+ * (scenes_parse_cap); a scene that needs more is refused by the core at
+ * the first value over it, and parsed again under a cap SCENES_PARSE_STEP
+ * times larger, reserved first, up to the whole budget -- so the parses of
+ * big scenes cost about a third more, and no parse holds memory the budget
+ * did not grant.  When the scene is built its reservation becomes the
+ * scene's own bytes (kind scenes) and the rest is released.
  */
 #include "work/work_private.h"
 
@@ -81,16 +93,32 @@ struct cache_entry *scenes_find(const char *id) { return scenes_get(id, false); 
 #define SCENES_TRIANGLE_BYTES 128
 #define SCENES_TEXEL_BYTES 12
 
-/* A scene may not build more than the whole memory budget: its triangles,
- * its decoded textures and the files and buffers it reads are held to the
- * budget (the text itself, already read, keeps --max-body), so a few bytes
- * of glTF or PNG are refused 413 with the JSON Pointer of what is too big,
- * rather than building hundreds of MB first.  The budget, not the room left
- * now, so the answer does not depend on other requests: what the room
- * allows is decided once the scene is built (scenes_reserve, 503). */
-static void scenes_room(struct rayd_limits *lim)
+/* A parse's first cap: SCENES_PARSE_FLOOR, and SCENES_PARSE_PER_BYTE bytes
+ * a byte of text (its JSON tree, inline meshes and data URIs decoded); each
+ * raise multiplies it by SCENES_PARSE_STEP, up to the whole budget. */
+#define SCENES_PARSE_FLOOR ((size_t)4 << 20)
+#define SCENES_PARSE_PER_BYTE 32
+#define SCENES_PARSE_STEP 4
+
+size_t scenes_parse_cap(size_t len)
 {
-    size_t room = mem_limit();
+    size_t limit = mem_limit();
+    if (limit <= SCENES_PARSE_FLOOR || len > (limit - SCENES_PARSE_FLOOR) / SCENES_PARSE_PER_BYTE)
+        return limit;
+    return SCENES_PARSE_FLOOR + len * SCENES_PARSE_PER_BYTE;
+}
+
+/* A scene may not build more than its parse's cap (at most the whole memory
+ * budget): its triangles, its decoded textures and the files and buffers it
+ * reads are held to it (the text itself, already read, keeps --max-body),
+ * so a few bytes of glTF or PNG are refused 413 with the JSON Pointer of
+ * what is too big, rather than building hundreds of MB first.  The last cap
+ * is the budget, not the room left now, so the 413 does not depend on other
+ * requests: what the room allows is decided as the cap is raised and once
+ * the scene is built (scenes_reserve, 503). */
+static void scenes_room(struct rayd_limits *lim, size_t cap)
+{
+    size_t room = cap;
     if ((size_t)lim->max_triangles > room / SCENES_TRIANGLE_BYTES)
         lim->max_triangles = (long)(room / SCENES_TRIANGLE_BYTES);
     if (lim->max_texels <= 0 || (size_t)lim->max_texels > room / SCENES_TEXEL_BYTES)
@@ -101,8 +129,8 @@ static void scenes_room(struct rayd_limits *lim)
 }
 
 /* Parses and builds body outside the lock, timing each stage. */
-static enum rayd_status scenes_compile(const char *body, size_t len, rayd_scene **scene,
-                                       struct rayd_error *err)
+static enum rayd_status scenes_compile(const char *body, size_t len, size_t cap,
+                                       rayd_scene **scene, struct rayd_error *err)
 {
     struct rayd_limits lim;
     if (scenes_limits_set) {
@@ -114,7 +142,7 @@ static enum rayd_status scenes_compile(const char *body, size_t len, rayd_scene 
             lim.max_bytes = (size_t)config.max_body;
         lim.asset_dir = config.asset_dir; /* confined (asset_confine) */
     }
-    scenes_room(&lim);
+    scenes_room(&lim, cap);
     metrics_scene_parse();
     double t0 = clock_now();
     enum rayd_status st = rayd_scene_parse(body, len, &lim, scene, err);
@@ -138,26 +166,73 @@ static size_t scenes_bytes(const rayd_scene *scene)
     return info.bytes;
 }
 
-/* Counts a scene just compiled in the memory budget, or frees it and says
- * why not: 413 when it alone is over the budget, else 503 (no room now). */
-static enum rayd_status scenes_reserve(rayd_scene *scene, struct rayd_error *err)
+/* err says the budget has no room now for what, of bytes: 503 memory_full. */
+static void scenes_full(struct rayd_error *err, const char *what, size_t bytes, bool *full)
+{
+    metrics_reject(MR_MEMORY);
+    memset(err, 0, sizeof *err);
+    err->code = RAYD_E_NOMEM;
+    snprintf(err->message, sizeof err->message,
+             "%s %zu bytes and the memory budget of %zu bytes (--max-memory) has no room for "
+             "it now; retry later",
+             what, bytes, mem_limit());
+    *full = true;
+}
+
+/* Counts a scene just compiled in the memory budget, its parse's held
+ * bytes turned into its own, or frees it and says why not: 413 when it
+ * alone is over the budget, else 503 (no room now). */
+static enum rayd_status scenes_reserve(rayd_scene *scene, size_t held, struct rayd_error *err,
+                                       bool *full)
 {
     size_t bytes = scenes_bytes(scene);
-    if (mem_reserve(MEM_SCENES, bytes))
+    if (bytes <= held) {
+        mem_move(MEM_PARSES, MEM_SCENES, bytes);
+        mem_release(MEM_PARSES, held - bytes);
         return RAYD_OK;
+    }
+    if (mem_reserve(MEM_SCENES, bytes - held)) {
+        mem_move(MEM_PARSES, MEM_SCENES, held);
+        return RAYD_OK;
+    }
+    mem_release(MEM_PARSES, held);
     rayd_scene_free(scene);
     mem_freed(bytes); /* for mem_trim: the heap held it a moment ago */
+    if (bytes <= mem_limit()) {
+        scenes_full(err, "the compiled scene takes", bytes, full);
+        return RAYD_E_NOMEM;
+    }
     metrics_reject(MR_MEMORY);
-    bool alone = bytes > mem_limit();
     memset(err, 0, sizeof *err);
-    err->code = alone ? RAYD_E_LIMIT : RAYD_E_NOMEM;
+    err->code = RAYD_E_LIMIT;
     snprintf(err->message, sizeof err->message,
-             alone ? "the compiled scene takes %zu bytes, over the memory budget of %zu bytes "
-                     "(--max-memory)"
-                   : "the compiled scene takes %zu bytes and the memory budget of %zu bytes "
-                     "(--max-memory) has no room for it now; retry later",
+             "the compiled scene takes %zu bytes, over the memory budget of %zu bytes "
+             "(--max-memory)",
              bytes, mem_limit());
     return err->code;
+}
+
+/* Parses body under the cap held, raising the cap (reserved first) while
+ * the core refuses a value over it and the cap is under the budget. */
+static enum rayd_status scenes_parse_within(const char *body, size_t len, size_t *held,
+                                            rayd_scene **scene, struct rayd_error *err,
+                                            bool *full)
+{
+    /* the last cap: the budget less the body's buffer, counted too (twice
+     * the text at most: a chunked body's buffer grows by doubling) */
+    size_t text = 2 * len + 4096;
+    size_t limit = mem_limit() > text ? mem_limit() - text : 0;
+    for (;;) {
+        enum rayd_status st = scenes_compile(body, len, *held, scene, err);
+        if (st != RAYD_E_LIMIT || *held >= limit)
+            return st;
+        size_t next = *held > limit / SCENES_PARSE_STEP ? limit : *held * SCENES_PARSE_STEP;
+        if (!mem_reserve(MEM_PARSES, next - *held)) {
+            scenes_full(err, "parsing this scene needs more than", *held, full);
+            return RAYD_E_NOMEM;
+        }
+        *held = next;
+    }
 }
 
 bool scenes_id(const char *body, size_t len, char id[65], struct rayd_error *err)
@@ -168,14 +243,17 @@ bool scenes_id(const char *body, size_t len, char id[65], struct rayd_error *err
     return false;
 }
 
-enum rayd_status scenes_build(const char *id, const char *body, size_t len,
-                              struct cache_entry **out, struct rayd_error *err)
+enum rayd_status scenes_build(const char *id, const char *body, size_t len, size_t held,
+                              struct cache_entry **out, struct rayd_error *err, bool *full)
 {
     rayd_scene *scene = NULL;
-    enum rayd_status st = scenes_compile(body, len, &scene, err);
-    if (st != RAYD_OK)
+    *full = false;
+    enum rayd_status st = scenes_parse_within(body, len, &held, &scene, err, full);
+    if (st != RAYD_OK) {
+        mem_release(MEM_PARSES, held);
         return st;
-    st = scenes_reserve(scene, err);
+    }
+    st = scenes_reserve(scene, held, err, full);
     if (st != RAYD_OK)
         return st;
     char version[65];

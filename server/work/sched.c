@@ -156,7 +156,7 @@ static void sched_finalize(struct task *t, enum task_next next, struct task_noti
 /* t's ray budget (--max-work), or NULL when there is none. */
 static atomic_int_least64_t *sched_budget(struct task *t)
 {
-    return config.max_work > 0 ? &t->rays_left : NULL;
+    return t->work > 0 ? &t->rays_left : NULL;
 }
 
 /* A WORK_SUMS tile: its samples k0..k1-1 summed, into t's sums. */

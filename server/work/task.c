@@ -141,6 +141,20 @@ static bool task_pixels(struct task *t)
     }
 }
 
+/* The test gate's ray budget for new tasks (task_gate_work), -1: none. */
+static atomic_long task_test_work = -1;
+
+void task_gate_work(long rays) { atomic_store(&task_test_work, rays); }
+
+/* The rays a new task may cast: --max-work, or the test gate's; 0: no limit. */
+static long task_work_budget(void)
+{
+    long w = atomic_load(&task_test_work);
+    if (w >= 0)
+        return w > 0 ? w : 1;
+    return config.max_work > 0 ? config.max_work : 0;
+}
+
 struct task *task_new(struct cache_entry *scene, const struct work_target *what)
 {
     struct task *t = calloc(1, sizeof *t);
@@ -173,7 +187,8 @@ struct task *task_new(struct cache_entry *scene, const struct work_target *what)
     snprintf(t->scene_id, sizeof t->scene_id, "%s", cache_id(scene));
     task_key(t->key, sizeof t->key, cache_version(scene), what);
     atomic_init(&t->cancel, 0);
-    atomic_init(&t->rays_left, config.max_work > 0 ? (int_least64_t)config.max_work : 0);
+    t->work = task_work_budget();
+    atomic_init(&t->rays_left, (int_least64_t)t->work);
     t->interactive = (long)reg->w * reg->h <= TASK_INTERACTIVE;
     t->status = RAYD_OK;
     t->refs = 1;
@@ -511,7 +526,9 @@ enum task_next task_tile_done(struct task *t, int tile, enum rayd_status st,
             clock_now() - t->t_start >= t->passes->plan.time_budget)
             task_end_early(t, PASSES_BY_TIME);
     } else if (st != RAYD_E_CANCELED && t->status == RAYD_OK) {
-        if (st == RAYD_E_LIMIT) /* the core's meter: the task's ray budget is spent */
+        if (st == RAYD_E_LIMIT && t->passes && t->passes->done > 0)
+            task_end_early(t, PASSES_BY_WORK); /* keep the latest pass, as the deadline does */
+        else if (st == RAYD_E_LIMIT) /* the core's meter: the task's ray budget is spent */
             task_over_work(t);
         else
             task_fail(t, st, err);
@@ -684,7 +701,7 @@ void task_over_work(struct task *t)
     task_failf(t, RAYD_E_LIMIT,
                "the render cast more than the server's budget of %ld rays (--max-work) and was "
                "stopped (its estimate was %.3g rays); " TASK_ASK,
-               config.max_work, t->est_rays);
+               t->work, t->est_rays);
 }
 
 bool task_past_deadline(struct task *t, double now, long limit, struct task_notify *n,

@@ -11,7 +11,9 @@
  * every EVENTS_PING_SECONDS seconds wakes idle event streams so they send a
  * keep-alive comment, and stops renders that ran past --max-render-seconds
  * (task_past_deadline).  One thread for the four because each is a small
- * periodic look at the same lists under the same lock.
+ * periodic look at the same lists under the same lock.  Once a second it
+ * also hands freed heap back to the kernel (mem_trim), outside the lock:
+ * malloc_trim is too slow for a request's or a worker's path.
  */
 #include "work/work_private.h"
 
@@ -132,14 +134,23 @@ static bool watch_deadlines(struct task_notify *n, struct task_notify *sse)
 /* One look round, lock held: what to answer onto gone, n and sse; true
  * when the watcher looks again at once (a deadline or a keep-alive was
  * due), false when it sleeps first. */
+/* Once a second the watcher gives freed heap back, without the lock; idle:
+ * no render runs, so the core's kept blocks may go too (mem_trim). */
+struct watch_trim {
+    bool due, idle;
+};
+
 static bool watch_round(struct watch_set *s, double *last_expire, double *last_ping,
-                        struct task_notify *gone, struct task_notify *n, struct task_notify *sse)
+                        struct task_notify *gone, struct task_notify *n, struct task_notify *sse,
+                        struct watch_trim *trim)
 {
     work_assert_locked();
     watch_collect(s);
     if (clock_now() - *last_expire >= 1.0) {
         *last_expire = clock_now();
         jobs_expire(*last_expire);
+        trim->due = true;
+        trim->idle = task_active == NULL;
     }
     if (watch_deadlines(n, sse))
         return true;
@@ -174,12 +185,15 @@ static void *watch_main(void *arg)
     while (!watch_stopping) {
         struct task_notify gone = {.res = {.gone = true, .status = RAYD_E_CANCELED}};
         struct task_notify n = {0}, sse = {0};
-        bool again = watch_round(&s, &last_expire, &last_ping, &gone, &n, &sse);
-        if (gone.list || n.list || sse.list) { /* answered without the lock */
+        struct watch_trim trim = {0};
+        bool again = watch_round(&s, &last_expire, &last_ping, &gone, &n, &sse, &trim);
+        if (gone.list || n.list || sse.list || trim.due) { /* without the lock */
             work_lock_give();
             task_notify_run(&gone);
             task_notify_run(&n);
             task_notify_run(&sse);
+            if (trim.due) /* malloc_trim takes a while: here, off every request's path */
+                mem_trim(trim.idle);
             work_lock_take();
         }
         if (!again)

@@ -162,7 +162,13 @@ struct jobs_plan {
  * PASSES_MAX. */
 int passes_plan(const struct jobs_plan *plan, int samples, int out[PASSES_MAX]);
 /* Why a progressive job stopped before its last pass. */
-enum passes_stop { PASSES_GOING, PASSES_BY_TIME, PASSES_BY_NOISE, PASSES_BY_CLIENT };
+enum passes_stop {
+    PASSES_GOING,
+    PASSES_BY_TIME,
+    PASSES_BY_NOISE,
+    PASSES_BY_CLIENT,
+    PASSES_BY_WORK /* --max-work spent: the latest complete pass is kept */
+};
 const char *passes_stop_name(enum passes_stop s); /* NULL for PASSES_GOING */
 struct jobs_passes {
     int done, total;        /* passes complete, planned */
@@ -295,6 +301,7 @@ struct compile_result {
     struct cache_entry *scene; /* a reference owned by the waiter: scenes_release it */
     bool hit;                  /* found compiled (and its files as read), not parsed */
     bool draining;             /* refused: the server drains (no parse was made for it) */
+    bool memory_full; /* refused: the memory budget has no room now (503 memory_full) */
 };
 
 /* A request waiting for its scene: done() is called exactly once, from a
@@ -310,8 +317,9 @@ struct compile_waiter {
  * until w->done when WORK_OK is returned).  WORK_CACHED: *res is the answer
  * now (found compiled, or an error), w is not used.  WORK_OK: w->suspend
  * ran and w->done will be called once; the same body already being parsed
- * is waited for, not parsed again.  WORK_PARSE_FULL or WORK_DRAINING:
- * refused, w not used. */
+ * is waited for, not parsed again.  WORK_PARSE_FULL, WORK_MEMORY (no room
+ * in --max-memory for the parse's first cap) or WORK_DRAINING: refused, w
+ * not used. */
 enum work_submit compile_scene(const char *body, size_t len, struct compile_waiter *w,
                                struct compile_result *res);
 /* The cached scene of id for a request that names only its id (GET
@@ -331,6 +339,11 @@ struct compile_gate_state {
     long parses, started, queued, running;
 };
 void compile_gate_set(long parses);
+/* The test gate's work knob (?work=N): the rays each render made from now
+ * on may cast, as --max-work at run time but not priced at the door (a
+ * render that passes it while it runs, which the estimate would refuse);
+ * -1: --max-work again. */
+void task_gate_work(long rays);
 void compile_gate_get(struct compile_gate_state *g);
 
 /* ---- gate.c: the test gate (--test-gate) ----------------------------------- */

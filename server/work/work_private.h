@@ -99,9 +99,15 @@ bool cache_evict_one(void);
 bool scenes_id(const char *body, size_t len, char id[65], struct rayd_error *err);
 struct cache_entry *scenes_peek(const char *id);            /* referenced, files not checked */
 bool scenes_current(struct cache_entry *e, bool have_text); /* scenefiles_usable */
-/* Parses and builds body (of that id) and caches it; *out referenced. */
-enum rayd_status scenes_build(const char *id, const char *body, size_t len,
-                              struct cache_entry **out, struct rayd_error *err);
+/* The bytes a parse of a len-byte body reserves (kind parses) before it
+ * starts: its first cap, raised by scenes_build while the scene needs more. */
+size_t scenes_parse_cap(size_t len);
+/* Parses and builds body (of that id) and caches it; *out referenced.  held:
+ * the bytes of kind parses reserved for it (scenes_parse_cap), which this
+ * releases or turns into the scene's own on every path.  *full: refused
+ * because the memory budget has no room now (503 memory_full). */
+enum rayd_status scenes_build(const char *id, const char *body, size_t len, size_t held,
+                              struct cache_entry **out, struct rayd_error *err, bool *full);
 
 /* ---- scenefiles.c: the files a cached scene read (any thread, no lock) ---- */
 
@@ -262,6 +268,7 @@ struct task {
     /* --max-work: rays the task may still cast, shared by its tiles and
      * passes (the core's meters take from it; RAYD_E_LIMIT below zero) */
     atomic_int_least64_t rays_left;
+    long work; /* that budget whole (--max-work, or the test gate's); 0: none */
     bool interactive, queued, finalizing, finished;
     bool restored; /* re-queued at start-up from --data-dir: admitted past --queue */
     bool evicted; /* finished, its images let go for the memory budget (jobs.c) */

@@ -115,6 +115,26 @@ else
 fi
 stop_rayd TERM
 
+# --- a progressive job that passes its ray budget keeps its latest pass -----------------
+# The estimate refuses at the door what it prices over --max-work, so the
+# test gate's work knob sets the run-time budget alone: 20,000 rays, about
+# six samples of 32x32 spheres; the passes are 1, 2, 4, ... 64 samples.
+start_rayd --threads 1 --max-render-seconds 0 --test-gate open
+curl -s -m 30 -X POST -o "$T/gate.json" "$URL/v1/test/gate?work=20000" >/dev/null
+scene "$T/prog.json" 32 32 64 spheres
+code=$(post_json '/v1/jobs?progressive=1' "$T/prog.json")
+job=$(jfield "$T/body" id)
+wait_until 60 bash -c "curl -s -m 5 '$URL/v1/jobs/$job' | grep -q '\"state\":\"\(succeeded\|failed\)\"'"
+req GET "/v1/jobs/$job" >/dev/null
+cp "$T/body" "$T/prog.job"
+done_passes=$(json "$T/prog.job" 'j["passes"]["done"]' 2>/dev/null)
+check max_work_progressive_keeps_pass "$(head -c 500 "$T/prog.job")" \
+    bash -c "grep -q '\"state\":\"succeeded\"' '$T/prog.job' && grep -q '\"stopped_by\":\"max_work\"' '$T/prog.job' && [ '${done_passes:-0}' -ge 1 ] && [ '${done_passes:-0}' -lt 7 ]"
+code=$(req GET "/v1/jobs/$job/image.png")
+check max_work_progressive_image "GET image.png: $code" bash -c "[ $code = 200 ] && head -c 4 '$T/body' | grep -q PNG"
+curl -s -m 30 -X POST -o "$T/gate.json" "$URL/v1/test/gate?work=open" >/dev/null
+stop_rayd TERM
+
 # --- --max-render-seconds: one ray through 20,000 instances is stopped -----------------
 # A plain render priced past 4 x the limit is refused at the door; a
 # progressive job is not (its passes end it), so it runs until the watcher

@@ -4,7 +4,8 @@
 # too), renders' pixels and sums, finished results and the result cache are
 # counted together; past the budget a request is refused 503 with
 # Retry-After (413 when it alone is over the whole budget) instead of rayd
-# growing; finished results are let go oldest first and the job says so
+# growing; a scene's parse holds its cap (kind "parses") from when it is
+# queued, so parses held at the gate fill the budget and the next is 503; finished results are let go oldest first and the job says so
 # (state "evicted", its image 410 result_evicted); /metrics shows each kind.
 # The budget here is 16 MiB, so the whole test stays in tens of MB.  Work is
 # held by the test gate, never by a sleep.
@@ -17,7 +18,7 @@ start_rayd --max-memory 16M --max-body 1048576 --threads 1 --test-gate 0
 
 kinds_shown() {
     local k
-    for k in bodies scenes results sums caches; do
+    for k in bodies scenes results sums caches parses; do
         [ -n "$(metric "rayd_memory_bytes{kind=\"$k\"}")" ] || return 1
     done
     [ "$(metric rayd_memory_limit_bytes)" = "$LIMIT" ]
@@ -26,13 +27,25 @@ check metrics_kinds "rayd_memory_bytes{kind=...} or rayd_memory_limit_bytes miss
 
 total() {
     local k sum=0 v
-    for k in bodies scenes results sums caches; do
+    for k in bodies scenes results sums caches parses; do
         v=$(metric "rayd_memory_bytes{kind=\"$k\"}")
         sum=$((sum + ${v:-0}))
     done
     echo "$sum"
 }
 rss() { awk '/^VmRSS:/ {print $2 * 1024}' "/proc/$RAYD_PID/status"; }
+
+# --- a glTF whose accessor has no bufferView counts its zeros -------------------------------
+# (first, while the budget holds nothing: the parse's cap is
+# raised up to the whole budget, less its own body, before the core can say
+# the scene alone is over it, 413; with no room for that: 503 memory_full)
+$HELP gltf_zeros "$T/zeros.json" 15000000
+code=$(post_json /v1/render "$T/zeros.json" -m 30)
+if [ "$code" = 413 ] && [ "$(json "$T/body" 'j["error"]["path"]')" = /objects/0/source/gltf/accessors/0/count ]; then
+    pass gltf_without_bufferview_counted
+else
+    fail gltf_without_bufferview_counted "$code $(head -c 300 "$T/body")"
+fi
 
 # --- slow bodies: 40 uploads of 1 MiB that never finish -----------------------------
 rss0=$(rss)
@@ -63,6 +76,44 @@ wait "$SLOW_PID" 2>/dev/null
 check slow_bodies_released "bodies still counted after the clients left" \
     wait_until 30 metric_is 'rayd_memory_bytes{kind="bodies"}' 0
 
+# --- scenes being parsed count: their caps, reserved before the parse -----------------
+# each small scene reserves its first cap (4 MiB and 32 bytes a byte of text);
+# parses held at the gate keep theirs, so the fourth finds no room in 16 MiB
+parse_gate() { curl -s -m 30 -X POST -o "$T/gate.json" "$URL/v1/test/gate?parses=$1" >/dev/null; }
+small() {
+    printf '{"render":{"width":16,"height":12},"objects":[{"type":"sphere","center":[0,0,-3],"radius":%s}]}' \
+        "$2" >"$1"
+}
+parse_gate 0
+for i in 1 2 3; do
+    small "$T/s$i.json" "0.$i"
+    curl -s -m 120 -o "$T/s$i.body" -w '%{http_code}' -H 'Content-Type: application/json' \
+        --data-binary @"$T/s$i.json" "$URL/v1/scenes" >"$T/s$i.code" 2>/dev/null &
+    PIDS+=($!)
+done
+parses_queued() { curl -s -m 5 "$URL/v1/test/gate" | grep -q '"parses_queued":3,'; }
+wait_until 30 parses_queued
+parses=$(metric 'rayd_memory_bytes{kind="parses"}')
+if [ "${parses:-0}" -ge $((3 * 4194304)) ] && [ "$(total)" -le "$LIMIT" ]; then
+    pass parses_reserved
+else
+    fail parses_reserved "3 parses held: parses counted ${parses:-none}, total $(total)"
+fi
+small "$T/s4.json" 0.4
+code=$(post_json /v1/scenes "$T/s4.json")
+if [ "$code" = 503 ] && err_is "$T/body" 503 memory_full && [ -n "$(header Retry-After)" ]; then
+    pass parse_refused_memory_full
+else
+    fail parse_refused_memory_full "a 4th parse with 3 held in 16 MiB: $code $(head -c 200 "$T/body")"
+fi
+parse_gate open
+all_parsed() { for i in 1 2 3; do [ "$(cat "$T/s$i.code" 2>/dev/null)" = 201 ] || return 1; done; }
+check held_parses_answered "codes $(cat "$T"/s[123].code 2>/dev/null | tr '\n' ' ')" wait_until 60 all_parsed
+check parses_released "parses still counted: $(metric 'rayd_memory_bytes{kind="parses"}')" \
+    wait_until 30 metric_is 'rayd_memory_bytes{kind="parses"}' 0
+code=$(post_json /v1/scenes "$T/s4.json")
+check parse_after_room "the 4th scene again: $code $(head -c 200 "$T/body")" [ "$code" = 201 ]
+
 # --- queued texture scenes count ------------------------------------------------------
 # each scene: 4 textures of 256 x 256 (3 MB decoded); jobs held by the gate
 ok=0 full=0 retry= held_ids=()
@@ -72,7 +123,7 @@ for i in $(seq 1 8); do
     if [ "$code" = 202 ]; then
         ok=$((ok + 1))
         held_ids+=("$(jfield "$T/body" id)")
-    elif [ "$code" = 503 ] && err_is "$T/body" 503 out_of_memory; then
+    elif [ "$code" = 503 ] && err_is "$T/body" 503 memory_full; then
         full=$((full + 1))
         retry=$(header Retry-After)
     fi
@@ -154,15 +205,6 @@ else
 fi
 req GET "/v1/jobs/${ids[0]}" >/dev/null
 check evicted_job_says_why "no evicted_reason in the job" grep -q '"evicted_reason":"[^"]*max-memory' "$T/body"
-
-# --- a glTF whose accessor has no bufferView counts its zeros -------------------------------
-$HELP gltf_zeros "$T/zeros.json" 15000000
-code=$(post_json /v1/render "$T/zeros.json" -m 30)
-if [ "$code" = 413 ] && [ "$(json "$T/body" 'j["error"]["path"]')" = /objects/0/source/gltf/accessors/0/count ]; then
-    pass gltf_without_bufferview_counted
-else
-    fail gltf_without_bufferview_counted "$code $(head -c 300 "$T/body")"
-fi
 
 stop_rayd
 check exit_clean "rayd exited $RAYD_RC" [ "$RAYD_RC" = 0 ]
