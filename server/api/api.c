@@ -482,7 +482,7 @@ static bool api_scene_answer(struct http_req *r, struct compile_result *res, api
         return false;
     }
     if (res->memory_full) { /* the budget, not an allocation that failed */
-        r->retry_after = api_cost_retry_after(compile_retry_seconds());
+        r->res.retry_after = api_cost_retry_after(compile_retry_seconds());
         http_reply_error(r, 503, "memory_full", res->err.message, NULL, 0, 0, NULL);
         return false;
     }
