@@ -44,7 +44,8 @@ static uint64_t api_cost_fnv(const void *p, size_t n)
     return h;
 }
 
-uint64_t api_cost_client(struct http_req *r)
+/* The client r comes from (--client-header, else the peer address), hashed. */
+static uint64_t api_cost_client(struct http_req *r)
 {
     const char *v = config.client_header ? http_req_header(r, config.client_header) : NULL;
     if (v && *v)

@@ -190,8 +190,6 @@ double cost_seconds(double rays) { return rays * cost_node_spr / cost_workers; }
 
 double cost_scene_weight(const char *scene_id) { return cost_scene_spr(scene_id) / cost_node_spr; }
 
-double cost_rate(void) { return 1.0 / cost_node_spr; }
-
 double cost_price_seconds(const char *scene_id, double rays)
 {
     pthread_mutex_lock(&work_lock);

@@ -159,11 +159,6 @@ static void http_reply_body_free(void *cls)
     free(b);
 }
 
-void http_reply_png(struct http_req *r, unsigned status, struct blob *png)
-{
-    http_reply_image(r, status, png, "image/png");
-}
-
 void http_reply_image(struct http_req *r, unsigned status, struct blob *png, const char *type)
 {
     /* the response holds one reference to the blob, dropped by libmicrohttpd */

@@ -57,7 +57,9 @@ static bool log_on(enum log_level level)
     return !log_quiet && (int)level >= config.log_min;
 }
 
-enum log_level log_access_level(int status)
+/* The level of an access line: info for 1xx-3xx, warn for 4xx (and for
+ * 499, and 0), error for 5xx. */
+static enum log_level log_access_level(int status)
 {
     if (status >= 500)
         return LOG_ERROR;
@@ -209,4 +211,3 @@ static void log_msg(enum log_level level, const char *fmt, va_list ap)
 LOG_AT(log_debug, LOG_DEBUG)
 LOG_AT(log_info, LOG_INFO)
 LOG_AT(log_warn, LOG_WARN)
-LOG_AT(log_error, LOG_ERROR)

@@ -408,6 +408,8 @@ static long sched_gauge_running(void)
     return n;
 }
 
+/* Estimated seconds of the work queued and running, for the whole pool. */
+static double sched_backlog(void);
 static long sched_gauge_backlog_ms(void) { return (long)(sched_backlog() * 1e3); }
 
 static void sched_register_gauges(void)
@@ -563,15 +565,7 @@ bool sched_idle(void)
     return idle;
 }
 
-double sched_seconds(double rays)
-{
-    pthread_mutex_lock(&work_lock);
-    double s = cost_seconds(rays);
-    pthread_mutex_unlock(&work_lock);
-    return s;
-}
-
-double sched_backlog(void)
+static double sched_backlog(void)
 {
     pthread_mutex_lock(&work_lock);
     double s = cost_seconds(task_backlog_rays());
