@@ -6,8 +6,8 @@
 # scripts tests/integration/*.sh (and tests/browser/*.sh).  Every test prints
 # one line per case, "PASS name" or "FAIL name: why"; this script counts them.
 # A program that dies without printing FAIL counts as one failure, so a crash
-# is never a pass.  The layer check (tools/check_layers.py) runs with the
-# unit tests.  RAYD_ONLY=unit|integration limits the run;
+# is never a pass.  The layer check (tools/check_layers.py) and the unused
+# exports check (tools/unused_exports.py) run with the unit tests.  RAYD_ONLY=unit|integration limits the run;
 # RAYD_TESTS="jobs lifecycle" runs only those tests/integration/NAME.sh
 # (make test-tsan and make test-valgrind use it), and RAYD_UNIT="test_x"
 # only those unit tests of BUILD (make test-tsan); RAYD_SKIP="a b" leaves
@@ -64,6 +64,9 @@ if [ "$only" = all ] || [ "$only" = unit ]; then
     # no circles; and the checker's own rules each caught when broken.
     run_one "layers" python3 tools/check_layers.py "$BUILD"
     run_one "layers self-test" python3 tools/check_layers.py --self-test
+    # Every exported function has a caller in another file (or is static).
+    run_one "exports" python3 tools/unused_exports.py "$BUILD"
+    run_one "exports self-test" python3 tools/unused_exports.py --self-test
     for t in "$BUILD"/tests/test_*; do
         [ -x "$t" ] || continue
         run_one "unit/$(basename "$t")" "$t"
