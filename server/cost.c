@@ -44,7 +44,7 @@
  *
  * Tiles are sized by cost: the largest of 64, 32, 16 and 8 pixels square
  * whose estimated rays stay under COST_TILE_RAYS, about 100 ms of one
- * worker on the slowest example scene on a 2-core machine of 2026.  A tile
+ * worker on the slowest example scene on a 2-core machine.  A tile
  * is the unit of scheduling, so a small request waits for at most one tile
  * of anything else; a 64-pixel tile of 1024 path-traced samples would hold
  * a worker for seconds.  The size depends on the scene alone, never on the
