@@ -19,7 +19,6 @@
 #include "api.h"
 
 #include <cjson/cJSON.h>
-#include <microhttpd.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
