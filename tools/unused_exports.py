@@ -41,17 +41,23 @@ ALLOWED = {
 WORD_RE = re.compile(r"\b[A-Za-z_]\w*\b")
 
 
-def nm_symbols(obj):
-    """(defined, undefined) global symbols of an object file."""
-    out = subprocess.run(["nm", obj], capture_output=True, text=True, check=True).stdout
-    defined, undefined = set(), set()
-    for line in out.splitlines():
-        parts = line.split()
+def nm_symbols(objs):
+    """{object: (defined, undefined) global symbols}, from one run of nm."""
+    out = {o: (set(), set()) for o in objs}
+    if not objs:
+        return out
+    text = subprocess.run(["nm", "-A"] + objs, capture_output=True, text=True,
+                          check=True).stdout
+    for line in text.splitlines():
+        obj, _, rest = line.partition(":")  # nm -A: "file.o:addr type name"
+        parts = rest.split()
+        if obj not in out:
+            continue
         if len(parts) == 2 and parts[0] == "U":
-            undefined.add(parts[1])
+            out[obj][1].add(parts[1])
         elif len(parts) == 3 and parts[1] in "TDBRCGSV":
-            defined.add(parts[2])
-    return defined, undefined
+            out[obj][0].add(parts[2])
+    return out
 
 
 def objects(build):
@@ -60,15 +66,11 @@ def objects(build):
     Only the plain build's objects: its asan/, tsan/, pic/ and fuzz/ copies
     are the same sources again.
     """
-    out = {}
+    paths = []
     for top in CHECKED:
-        base = os.path.join(build, top)
-        for dirpath, _, names in os.walk(base):
-            for n in sorted(names):
-                if n.endswith(".o"):
-                    p = os.path.join(dirpath, n)
-                    out[os.path.relpath(p, build)] = nm_symbols(p)
-    return out
+        for dirpath, _, names in os.walk(os.path.join(build, top)):
+            paths += [os.path.join(dirpath, n) for n in sorted(names) if n.endswith(".o")]
+    return {os.path.relpath(p, build): syms for p, syms in nm_symbols(paths).items()}
 
 
 def words_in(root, folders, exts=(".c", ".h", ".cc")):
