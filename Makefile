@@ -18,7 +18,11 @@
 #                    (tools/check_layers.py), docs/architecture.md true to the
 #                    tree, no source file over 1000 lines (tools/check_tree.py;
 #                    both part of make test)
-#   make format      clang-format every C file;  make lint  cppcheck + clang-tidy
+#   make format      clang-format every C file (tools/format.sh, the root .clang-format)
+#   make format-check  the files that are not clean, listed; fails if any
+#   make lint        cppcheck + clang-tidy, every file in parallel (part of .ci/run)
+#   make check-exports  no exported function without a caller (tools/unused_exports.py;
+#                    part of make test)
 
 # Debian packages, in lists by what needs them (README.md, "Dependencies",
 # says what each package is for).  BUILD_PKGS: compiler and tools, the three
@@ -134,7 +138,7 @@ ifneq ($(CLIENT_SRC),)
 PROGS += $(BUILD)/rayd-client
 endif
 
-.PHONY: all deps test-deps lint-deps shared install uninstall check-layers test test-unit test-stress test-tsan test-valgrind golden readme-images run bench bench-deps bench-peers format lint clean
+.PHONY: all deps test-deps lint-deps shared install uninstall check-layers test test-unit test-stress test-tsan test-valgrind golden readme-images run bench bench-deps bench-peers format format-check lint fuzz check-exports clean
 .DEFAULT_GOAL := all
 
 all: $(BUILD)/librayd.a $(PROGS)
@@ -146,7 +150,7 @@ all: $(BUILD)/librayd.a $(PROGS)
 # every test target through $(BUILD)/.test-deps-ok; both are redone when the
 # Makefile changes.  When a test target is among the goals, the first check
 # takes the tests' packages too, so a fresh machine runs apt-get once.
-TEST_GOALS := test test-unit test-stress test-tsan test-valgrind test-deps check-layers fuzz bench
+TEST_GOALS := test test-unit test-stress test-tsan test-valgrind test-deps check-layers check-exports fuzz bench
 DEPS_PKGS := $(BUILD_PKGS) $(if $(filter $(TEST_GOALS),$(MAKECMDGOALS)),$(TEST_PKGS))
 
 deps:
@@ -560,23 +564,43 @@ bench-peers: all bench-deps $(BUILD)/bench/raybench $(BUILD)/bench/embree_bench 
 lint-deps:
 	@sh tools/deps.sh "make lint" $(LINT_PKGS)
 
+# Every .c and .h git knows, found by pattern (tools/format.sh): moved or new
+# folders are covered without a list here.
 format: lint-deps
-	clang-format -i $(shell git ls-files '*.c' '*.h')
+	@sh tools/format.sh
+
+format-check: lint-deps
+	@sh tools/format.sh --check
+
+check-exports: all | $(BUILD)/.test-deps-ok
+	@python3 tools/unused_exports.py $(BUILD) && python3 tools/unused_exports.py --self-test
 
 # clang-tidy sees each file with its compile's flags (the rules above); the
-# server's include the generated web_assets.h.
-LINT_TIDY = xargs -P "$$(nproc)" -I{} clang-tidy --quiet --warnings-as-errors='*' {} -- \
-	  -std=c11 -D_POSIX_C_SOURCE=200809L -DRAYD_VERSION='"$(VERSION)"'
+# server's include the generated web_assets.h.  One process per file (clang-tidy
+# 14, given several files in one process, reports va_lists as uninitialised
+# that va_start has set), LINT_JOBS at a time, every program's files in one
+# queue so no core waits for a slow file of another group; cppcheck runs
+# beside them.  The checks are .clang-tidy's.
+LINT_JOBS ?= $(shell nproc 2>/dev/null || echo 2)
+LINT_STD := -std=c11 -D_POSIX_C_SOURCE=200809L -DRAYD_VERSION="$(VERSION)"
+LINT_CORE_FLAGS = $(LINT_STD) -Iinclude -Icore $(EXR_CFLAGS)
+LINT_SERVER_FLAGS := $(LINT_STD) -D_DEFAULT_SOURCE -Iserver -Iinclude -I$(BUILD)/server
+LINT_PROG_FLAGS := $(LINT_STD) -D_DEFAULT_SOURCE -Iinclude
+PROG_SRC = $(shell git ls-files 'cli/*.c' 'clients/*.c' 'programs/*.c')
 
 lint: lint-deps $(BUILD)/server/web_assets.h
+	@start=$$(date +%s); \
 	cppcheck --quiet --error-exitcode=1 --enable=warning,performance,portability \
-	  --inline-suppr -Iinclude -Icore -Iserver --std=c11 core cli server clients
-	@# one clang-tidy process per file: clang-tidy 14, given several files in
-	@# one process, reports va_lists as uninitialised that va_start has set
-	printf '%s\n' $(CORE_SRC) | $(LINT_TIDY) -Iinclude -Icore $(EXR_CFLAGS)
-	printf '%s\n' $(SERVER_SRC) | $(LINT_TIDY) -D_DEFAULT_SOURCE -Iserver -Iinclude -I$(BUILD)/server
-	printf '%s\n' $(wildcard cli/*.c) | $(LINT_TIDY) -Iinclude
-	printf '%s\n' $(CLIENT_SRC) | $(LINT_TIDY) -D_DEFAULT_SOURCE -Iinclude
+	  --inline-suppr -Iinclude -Icore -Iserver --std=c11 $(CORE_SRC) $(SERVER_SRC) $(PROG_SRC) & cpp=$$!; \
+	{ for f in $(CORE_SRC); do echo "$$f"'|$(LINT_CORE_FLAGS)'; done; \
+	  for f in $(SERVER_SRC); do echo "$$f"'|$(LINT_SERVER_FLAGS)'; done; \
+	  for f in $(PROG_SRC); do echo "$$f"'|$(LINT_PROG_FLAGS)'; done; } | \
+	  xargs -P $(LINT_JOBS) -d '\n' -n 1 sh -c 'f=$${1%%|*}; exec clang-tidy --quiet \
+	    --warnings-as-errors="*" "$$f" -- $${1#*|}' lint; tidy=$$?; \
+	wait $$cpp; cpp=$$?; \
+	echo "lint: cppcheck $$([ $$cpp = 0 ] && echo clean || echo FAILED)," \
+	  "clang-tidy $$([ $$tidy = 0 ] && echo clean || echo FAILED), $$(( $$(date +%s) - start )) s"; \
+	[ $$cpp = 0 ] && [ $$tidy = 0 ]
 
 clean:
 	rm -rf build

@@ -130,7 +130,6 @@ struct net_buf {
 
 void net_buf_reset(struct net_buf *b);
 void net_buf_free(struct net_buf *b);
-size_t net_buf_write(char *ptr, size_t size, size_t n, void *user);
 
 void net_global_init(void);
 void net_global_cleanup(void);

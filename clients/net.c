@@ -43,7 +43,7 @@ void net_buf_free(struct net_buf *b)
     b->len = b->cap = 0;
 }
 
-size_t net_buf_write(char *ptr, size_t size, size_t n, void *user)
+static size_t net_buf_write(char *ptr, size_t size, size_t n, void *user)
 {
     struct net_buf *b = user;
     size_t add = size * n;

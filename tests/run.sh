@@ -6,10 +6,11 @@
 # scripts tests/integration/*.sh (and tests/browser/*.sh).  Every test prints
 # one line per case, "PASS name" or "FAIL name: why"; this script counts them.
 # A program that dies without printing FAIL counts as one failure, so a crash
-# is never a pass.  The layer and tree checks (tools/check_layers.py,
-# tools/check_tree.py) run with the unit tests.  RAYD_ONLY=unit|integration
-# limits the run; RAYD_TESTS="jobs lifecycle" runs only those
-# tests/integration/NAME.sh (make test-tsan and make test-valgrind use it), and RAYD_UNIT="test_x"
+# is never a pass.  The layer, tree and unused-export checks
+# (tools/check_layers.py, tools/check_tree.py, tools/unused_exports.py) run
+# with the unit tests.  RAYD_ONLY=unit|integration limits the run;
+# RAYD_TESTS="jobs lifecycle" runs only those tests/integration/NAME.sh
+# (make test-tsan and make test-valgrind use it), and RAYD_UNIT="test_x"
 # only those unit tests of BUILD (make test-tsan); RAYD_SKIP="a b" leaves
 # those integration tests out (tests/stress.sh uses it).  SKIP lines are shown,
 # and each test's line ends with the seconds it took, to find the slow ones.
@@ -120,6 +121,9 @@ if [ "$only" = all ] || [ "$only" = unit ]; then
     # folder; no source file over 1,000 lines (tools/check_tree.py).
     run_one "tree" python3 tools/check_tree.py
     run_one "tree self-test" python3 tools/check_tree.py --self-test
+    # Every exported function has a caller in another file (or is static).
+    run_one "exports" python3 tools/unused_exports.py "$BUILD"
+    run_one "exports self-test" python3 tools/unused_exports.py --self-test
     for t in "$BUILD"/tests/test_*; do
         [ -x "$t" ] || continue
         run_one "unit/$(basename "$t")" "$t"

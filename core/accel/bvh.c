@@ -22,14 +22,11 @@
  * array, a subtree built on one thread reserving all it can need at once (take_children), so
  * threads never lock and rarely touch a shared counter.
  *
- * The top splits themselves run on one thread.  Splitting the largest
- * nodes by blocks on several threads (bins merged, a stable partition
- * through a second array) was tried and measured slower on 2 cores: the
- * second array's fresh pages and the copy back cost more than the binning
- * saved (the 1.3M mesh built in 0.455 s against 0.335 s).  The copy of the
- * boxes in, the order array out and the collapse do run on every thread,
- * in blocks fixed by the size alone: the tree is the same bytes on any
- * number of threads, which the unit tests check.
+ * The top splits themselves run on one thread (bench/README.md, "The
+ * block-parallel top split").  The copy of the boxes in, the order array
+ * out and the collapse do run on every thread, in blocks fixed by the size
+ * alone.  Invariant: the tree is the same bytes on any number of threads,
+ * which the unit tests check.
  *
  * Then bvh_collapse.c turns the binary tree into the 4-wide nodes the
  * walk reads; each binary node counts, as it is built, the wide nodes its
@@ -37,13 +34,12 @@
  * before writing them.  The binary tree is freed; only the wide one is
  * kept (bytes per primitive are what the benchmark reports).
  *
- * Memory is part of the cost: on the virtual machines rayd runs on, the
- * first touch of a page the kernel has not handed out lately is slow
- * (clear_page under the fault, 0.15 GB/s measured), pages a process has
- * just freed come back fast.  So the records are freed as soon as the
+ * Memory is part of the cost: the first touch of a page the kernel has not
+ * handed out lately is slow (clear_page under the fault), pages a process
+ * has just freed come back fast.  So the records are freed as soon as the
  * order is read out of them, and only then is the wide array allocated,
- * exactly the root's wide count: it lands on the records' pages.  The
- * 1.3M-triangle mesh's peak resident memory went from 165 to 125 MB.
+ * exactly the root's wide count: it lands on the records' pages (and the
+ * peak resident memory is the larger of the two, not their sum).
  */
 #include "base/hugemem.h"
 #include "accel/bvh.h"

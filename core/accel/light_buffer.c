@@ -25,12 +25,10 @@
  *
  * Cells an object.  A face holds about LB_CELLS_PER_OBJ cells for each
  * object that shows on it (64 x 64 from 199 objects on).  The cells' lists
- * are built in every process before the first ray, on fresh pages: with 64
- * x 64 cells on every face whatever the scene, the 51 spheres of the bench
- * scene (two point lights) took 1.3-2.2 ms to build, against 0.5-1.2 ms
- * with 32 x 32, and the render was as fast (134 ms on one thread, same
- * bytes); 16 x 16 was 5% slower to render, its cells holding too many
- * objects to settle a packet.
+ * are built in every process before the first ray, on fresh pages, so more
+ * cells than the objects need cost build time for no faster render; fewer
+ * leave cells holding too many objects to settle a packet (bench/README.md,
+ * "Design records").
  */
 #include "accel/light_buffer.h"
 
@@ -149,10 +147,8 @@ static void quad_lists(struct light_face *f, struct lb_scratch *sc, bool fill) {
 }
 
 /* Face f's lists of 2 x 2 cells (light_buffer.h), from its cells' lists,
- * taking their entries from *budget; as face_build.  A packet's shadow
- * rays used to merge the four cells' lists themselves, a tenth of the
- * shadow query's time on the 1080p sphere scene; made here once, the
- * one-thread image took 2% less CPU (bench/README.md, Nov 29 2026). */
+ * taking their entries from *budget; as face_build.  Made here once, so a
+ * packet's shadow rays read one list instead of merging four. */
 static bool face_quads(struct light_face *f, struct lb_scratch *sc, size_t *budget, bool *nomem) {
     size_t quads = (size_t)(f->nu + 1) * (size_t)(f->nv + 1);
     if (!(f->qstart = calloc(quads + 1, sizeof *f->qstart))) return !(*nomem = true);

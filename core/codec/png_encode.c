@@ -1,72 +1,41 @@
 /* png_encode.c -- PNG out, deflated in parallel bands.
  *
- * Encoding a 1080p frame with libpng (one thread, zlib level 6, adaptive
- * filters) took about twice as long as rendering it.  Here the image is cut
- * into bands of rows; each band is filtered and deflated on its own
- * (libdeflate or ISA-L, raw deflate) by whichever thread takes it, and the
- * bands are joined into one zlib stream: a band that is not the last ends
- * with an empty stored block at a byte boundary and no final block (a sync
- * flush, or libdeflate's whole stream rewritten so by deflate_chain.c), so
- * the deflate streams simply follow one another, and the Adler-32 of the
- * whole is combined from the bands' (adler32_combine).  This is how pigz
- * writes one valid stream from parallel pieces.
+ * The image is cut into bands of rows; each band is filtered and deflated
+ * on its own (libdeflate or ISA-L, raw deflate) by whichever thread takes
+ * it, and the bands are joined into one zlib stream: a band that is not the
+ * last ends with an empty stored block at a byte boundary and no final
+ * block (a sync flush, or libdeflate's whole stream rewritten so by
+ * deflate_chain.c), so the deflate streams simply follow one another, and
+ * the Adler-32 of the whole is combined from the bands' (adler32_combine).
+ * This is how pigz writes one valid stream from parallel pieces.
  *
- * The bands depend on the image width alone (about 256 KiB of raw rows
- * each), never on the thread count, so the bytes are the same however many
- * threads encode.  Each band starts with an empty dictionary, which costs a
- * little size (under 1% at level 6 on the example scenes).
+ * Invariant: the bytes depend on the image alone.  The bands depend on the
+ * image width alone (about PNG_BAND_BYTES of raw rows each), never on the
+ * thread count; which deflate takes which band depends on the band's index
+ * alone; which thread deflates which band changes nothing.  Each band
+ * starts with an empty dictionary.
  *
- * Filters: the one of None, Sub, Up and Average whose bytes have the
- * least order-0 entropy (a histogram of every other 4 bytes, counted as
- * each filter computes them, without writing its row; the choice and the
- * size are the same as with every byte, at 16% less time); then only the
- * chosen filter's row is written.  On one thread, 10.4 ms for the 1080p
- * sphere scene, 15.5 ms when each filter's row was written out and then
- * counted, for the same bytes.  The choice is measured on every fourth row
- * of a band (PNG_CHOOSE_EVERY) and the three rows below take it: a
- * rendered image changes little from row to row, and the four filters'
- * histograms were a sixth of the encoder's time.  Measured on each row,
- * one thread encoded the 1080p sphere scene in 48.7 ms, +7.3% bytes
- * against libpng level 6, and all the example scenes +2.97%; measured on
- * every fourth, 43.3 ms, +7.5% and +3.19% (every other row: 45.2 ms;
- * every eighth: 42.5 ms, +3.39%).  Against libpng's least sum of
- * absolute values over all five filters this gave 2% fewer bytes on the
- * 1080p sphere scene and 6% on paper, with either deflate (zlib or ISA-L);
- * Paeth, the costliest filter, made the output larger under this measure,
- * so it is not tried.
+ * Filters: the one of None, Sub, Up and Average whose bytes have the least
+ * order-0 entropy (a histogram of every other 4 bytes, counted as each
+ * filter computes them, without writing its row); then only the chosen
+ * filter's row is written.  The choice is made on every PNG_CHOOSE_EVERY-th
+ * row of a band and the rows below take it: a rendered image changes little
+ * from row to row.  Paeth is not tried (it made the output larger under
+ * this measure).
  *
- * Deflate.  With no level asked for (-1), a blend: libdeflate level 1
- * (its hash-table matcher, greedy) for three bands in four, ISA-L (below)
- * for every fourth, bands 3, 7, 11, ... (PNG_ISAL_EVERY): which band is
- * which depends on the image's size alone, so the bytes still do not
- * depend on the threads.  Why a blend: #16 asks for the encoding to cost
- * at most a quarter of the tracing, with bytes within +15% of libpng level
- * 6.  libdeflate level 1 alone met both until the tracer itself got a sixth
- * faster (Nov 29 2026: -O3 and vectorised shading), which left the bands'
- * deflating at 0.29 of the tracing; no libdeflate level is faster, and
- * ISA-L alone is +18% on the sphere scene and +21% on paper.  Every fourth
- * band by ISA-L costs 15% less deflating (no deflate_chain walk for those
- * bands either), and the bytes: bench/pngbench.c on the example scenes and
- * the 1080p sphere scene, one thread, the sphere scene +12.3% against
- * libpng level 6 (libdeflate level 1 alone: +10.4%), every image within
- * -0.5% and +12.3%, all of them together +6.5% (+5.7%); images of fewer
- * than four bands (256 KB of rows each) are libdeflate's alone.  Before
- * it: libdeflate level 1 alone (34.3 ms on that scene for +10.4%), its
- * level 2 (39.0 ms, +7.5%), zlib level 4 with the filtered strategy (50 ms
- * on two threads, +6.5%).
+ * Deflate.  With no level asked for (-1), a blend: libdeflate level 1 for
+ * three bands in four, ISA-L (below) for every fourth, bands 3, 7, 11, ...
+ * (PNG_ISAL_EVERY); images of fewer than four bands are libdeflate's alone.
+ * The blend keeps the encoding under a quarter of the tracing with bytes
+ * within +15% of libpng level 6 (bench/README.md, "Design records").
  * libdeflate cannot end a stream without a final block, so each of its
- * band but the last is walked once more by deflate_chain (a fifth of the
- * deflate's time at level 1) to clear that bit and append the empty stored block.
- * Levels 0 and 2-9 are libdeflate's, as asked.  Level 1, the fastest, is
- * Intel ISA-L (isal_deflate, level 2, raw deflate with a sync flush or, for
- * the last band, the final block): 2.6x faster than libdeflate level 1 and 19x
- * libpng level 6 on the sphere scene (one thread) for +1% to +21% bytes
- * (+18% there, +21% on paper): ISA-L matches greedily from one hash candidate and misses
- * the short repeats that lazy matching finds in smooth gradients.  ISA-L
- * level 1, other token buffer sizes, a preset dictionary from the band
- * before and bigram filter measures came within 1% of this and no lower;
- * its level 3 was 3% larger.  The Adler-32 of a band is ISA-L's (4x
- * zlib's), combined across bands with zlib's adler32_combine.
+ * bands but the last is walked once more by deflate_chain to clear that bit
+ * and append the empty stored block.  Levels 0 and 2-9 are libdeflate's, as
+ * asked.  Level 1, the fastest, is Intel ISA-L (isal_deflate,
+ * PNG_ISAL_LEVEL, raw deflate with a sync flush or, for the last band, the
+ * final block), which matches greedily from one hash candidate: faster,
+ * and larger on smooth gradients.  The Adler-32 of a band is ISA-L's,
+ * combined across bands with zlib's adler32_combine.
  *
  * Encoding while rendering (rayd_png_stream).  A band needs only its own
  * rows and the one above them, so it can be deflated as soon as those are
@@ -76,29 +45,17 @@
  * drawing.  Only the joining is left for after the render, and
  * rayd_png_stream_finish_to hands the chunks to a sink straight from the
  * bands' buffers, so rayd-render never copies the file whole into fresh
- * memory.  On the 1080p sphere scene (2 threads) every band is deflated
- * during the render and the encode after it fell from 36 ms to 1.2 ms; the
- * whole process gained 8% (0.104 -> 0.096 s, with the filter and chain
- * work), less than the 36 ms since both cores were already busy
- * (bench/README.md).  Which thread deflates which band changes nothing in
- * the bytes.
+ * memory.
  *
- * Memory.  On the virtual machines rayd is measured on a 4 KiB page fault
- * costs some 14 us, and the encoder's buffers on such pages took 500 of
- * the 820 faults of a whole rayd-render process on the 1080p sphere
- * scene.  So each worker's memory is one block -- its filtered rows, its
- * deflate output and libdeflate's compressor, put there through
- * libdeflate's allocator hook -- and the deflated bands are kept in a few
- * big blocks until the file is joined, not in an allocation each; for an
- * image of 256 KB of rows or more (PNG_HUGE_MIN) these blocks are on 2 MiB
- * huge pages (huge_alloc_pages).  The process then takes 300 faults, and
- * the bands' deflating on all threads fell from 42.7 to 34.6 ms (medians
- * of 6 runs, alternating; same bytes).  A huge page costs the kernel's
- * zeroing of all of it when fresh, so the blocks are packed to fill their
- * pages (a compressor on a page of its own made runs after a pause
- * slower), and they go back to huge_free_pages, which keeps them warm for
- * the next image: in the server, POST after POST, fresh huge pages had
- * cost that zeroing on every fault (12% of its CPU).
+ * Memory.  A page first touched costs a fault, so each worker's memory is
+ * one block -- its filtered rows, its deflate output and libdeflate's
+ * compressor, put there through libdeflate's allocator hook -- and the
+ * deflated bands are kept in a few big blocks until the file is joined,
+ * not in an allocation each; for an image of PNG_HUGE_MIN bytes of rows or
+ * more these blocks are on 2 MiB huge pages (huge_alloc_pages).  A fresh
+ * huge page costs the kernel's zeroing of all of it, so the blocks are
+ * packed to fill their pages, and they go back to huge_free_pages, which
+ * keeps them warm for the next image.
  *
  * The chunks are those libpng wrote before: IHDR, sRGB, gAMA and cHRM for
  * sRGB, the IDATs (one a band: no copy of the whole stream), IEND.

@@ -21,11 +21,8 @@
  * codes, 8 for distances, and a subtable under a prefix whose codes are
  * longer; an entry holds the code's length plus its extra bits, so a length
  * or a distance and its extra bits are skipped in one step; one 64-bit peek
- * serves several codes.  Before, each block filled (and first cleared)
- * tables of 1 << 15 entries, out of the first-level cache, and each code
- * and its extra bits took a peek of their own: on the 1080p sphere scene
- * (24 bands, libdeflate level 2) the walk took 6.2 ms a frame on one
- * thread, now 4.4 ms, against 27 ms for the deflate itself.
+ * serves several codes.  The tables stay in the first-level cache
+ * (bench/README.md, "Design records").
  *
  * The input is our encoder's own output, but the walk checks every bound
  * and every code as a decoder must, and refuses anything that is not one

@@ -341,7 +341,8 @@ static bool jc_value(struct jc *c, int depth, bool elem) {
     }
 }
 
-void json_position(const char *text, size_t off, int *line, int *col) {
+/* 1-based line and column (in characters) of byte offset off. */
+static void json_position(const char *text, size_t off, int *line, int *col) {
     int l = 1, k = 1;
     for (size_t i = 0; i < off; i++) {
         if (text[i] == '\n') {

@@ -34,7 +34,4 @@ struct json_spans {
 enum rayd_status json_check_spans(const char *text, size_t len, int max_depth,
                                   struct json_spans *spans, struct rayd_error *err);
 
-/* 1-based line and column (in characters) of byte offset off. */
-void json_position(const char *text, size_t off, int *line, int *col);
-
 #endif

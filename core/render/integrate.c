@@ -36,8 +36,11 @@ vec3 integrate_visible(const rayd_scene *s, vec3 origin, vec3 to_light, double d
     return scene_transmittance(s, &sr, dist);
 }
 
-bool integrate_light_aim(const struct light *l, vec3 p, vec3 nf, double su, double sv, vec3 origin,
-                         vec3 *wi, vec3 *radiance, double *dist) {
+/* The first half of integrate_light_sample, before the shadow ray: the
+ * direction wi toward sample (su, sv) of light l, its distance from origin
+ * and what it sends; false when it sends nothing or is behind nf. */
+static bool integrate_light_aim(const struct light *l, vec3 p, vec3 nf, double su, double sv,
+                                vec3 origin, vec3 *wi, vec3 *radiance, double *dist) {
     if (l->kind == LIGHT_AREA) {
         vec3 q = light_area_point(l, p, su, sv), d = v3_sub(q, origin);
         *dist = v3_len(d);

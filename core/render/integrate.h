@@ -39,12 +39,6 @@ vec3 integrate_escape(const rayd_scene *s, vec3 d, int depth);
 vec3 integrate_visible(const rayd_scene *s, vec3 origin, vec3 to_light, double dist,
                        struct meter *mt);
 
-/* The first half of integrate_light_sample, before the shadow ray: the
- * direction wi toward sample (su, sv) of light l, its distance from origin
- * and what it sends; false when it sends nothing or is behind nf. */
-bool integrate_light_aim(const struct light *l, vec3 p, vec3 nf, double su, double sv, vec3 origin,
-                         vec3 *wi, vec3 *radiance, double *dist);
-
 /* Radiance arriving at p (shading normal nf facing the viewer, shadow rays
  * from origin) from light l: one sample (su, sv) for area lights.  False
  * when none arrives; *wi the direction toward it. */

@@ -67,18 +67,3 @@ vec3 light_area_point(const struct light *l, vec3 p, double su, double sv) {
     }
     return l->position;
 }
-
-double light_area(const struct light *l) {
-    switch (l->shape) {
-    case AREA_RECT: return v3_len(v3_cross(l->e1, l->e2));
-    case AREA_DISC: return PI * l->radius * l->radius;
-    case AREA_SPHERE: return 2 * PI * l->radius * l->radius; /* the sampled half */
-    }
-    return 1;
-}
-
-vec3 light_area_normal(const struct light *l, vec3 q) {
-    if (l->shape == AREA_SPHERE) return v3_norm(v3_sub(q, l->position));
-    if (l->shape == AREA_DISC) return l->direction;
-    return v3_norm(v3_cross(l->e1, l->e2));
-}

@@ -35,8 +35,4 @@ bool light_at(const struct light *l, vec3 p, vec3 *to_light, double *dist, vec3 
  * over its samples by the caller. */
 vec3 light_area_point(const struct light *l, vec3 p, double su, double sv);
 
-/* Area lights: the area of the emitting surface, and its normal at q. */
-double light_area(const struct light *l);
-vec3 light_area_normal(const struct light *l, vec3 q);
-
 #endif

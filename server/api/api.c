@@ -363,7 +363,8 @@ static bool api_encoded(struct http_req *r)
     return true;
 }
 
-bool api_require_json(struct http_req *r)
+/* Body is JSON?  Otherwise replies 415 and returns false. */
+static bool api_require_json(struct http_req *r)
 {
     if (api_encoded(r))
         return false;
@@ -382,7 +383,8 @@ bool api_require_json(struct http_req *r)
     return false;
 }
 
-unsigned api_status_of(enum rayd_status s)
+/* The one place where a core status becomes an HTTP status and code. */
+static unsigned api_status_of(enum rayd_status s)
 {
     switch (s) {
     case RAYD_OK: return 200;

@@ -31,8 +31,6 @@ bool api_region_also(struct http_req *r, const rayd_scene *scene, struct rayd_re
 bool api_target(struct http_req *r, const rayd_scene *scene, struct work_target *what);
 /* The Content-Type of a format's bytes. */
 const char *api_format_type(enum work_format format);
-/* Body is JSON?  Otherwise replies 415 and returns false. */
-bool api_require_json(struct http_req *r);
 /* For a route that takes no query parameters but names (NULL-ended; NULL
  * for none): false after a 400 bad_parameter naming the first other one,
  * so a typo (?pas=2) is told, not ignored. */
@@ -46,8 +44,6 @@ bool api_is_hex(const char *s, size_t n);
  * with at most one '.', at least one digit; no sign, exponent, space, hex,
  * "inf" or "nan" (which strtod would take).  Integers too when !point. */
 bool api_is_decimal(const char *s, bool point);
-/* The one place where a core status becomes an HTTP status and code. */
-unsigned api_status_of(enum rayd_status s);
 /* err's error reply; draining: the result says the server drains (a
  * cancelled render is then 503 "draining"), as the work layer reported. */
 void api_reply_rayd_error(struct http_req *r, const struct rayd_error *err, bool draining);

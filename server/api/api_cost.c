@@ -44,6 +44,7 @@ static uint64_t api_cost_fnv(const void *p, size_t n)
     return h;
 }
 
+/* The client r comes from (--client-header, else the peer address), hashed. */
 uint64_t api_cost_client(struct http_req *r)
 {
     const char *v = config.client_header ? http_req_header(r, config.client_header) : NULL;

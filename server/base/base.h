@@ -86,7 +86,6 @@ enum config_result {
 };
 /* Parses environment then argv into config: an enum config_result. */
 int config_load(int argc, char **argv);
-void config_usage(FILE *f);
 bool config_loopback(const char *addr); /* 127.x, ::1 or localhost */
 void config_free(void);
 
@@ -115,9 +114,6 @@ struct log_access {
 };
 
 extern bool log_quiet; /* no output at all (the fuzz harness) */
-/* The level of an access line: info for 1xx-3xx, warn for 4xx (and for
- * 499, and 0), error for 5xx. */
-enum log_level log_access_level(int status);
 void log_access(const struct log_access *a);
 void log_debug(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 void log_info(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
@@ -165,13 +161,11 @@ void mem_set_reclaim(bool (*reclaim)(enum mem_kind k, size_t need));
 /* Counts n bytes of k if they fit under the limit, after the reclaimer freed
  * room; false (nothing counted) if they do not.  Never with work_lock held. */
 bool mem_reserve(enum mem_kind k, size_t n);
-bool mem_try(enum mem_kind k, size_t n);   /* the same, never reclaiming: any lock */
 void mem_force(enum mem_kind k, size_t n); /* bytes that exist: counted past the limit */
 void mem_release(enum mem_kind k, size_t n);
 void mem_move(enum mem_kind from, enum mem_kind to, size_t n);
 void mem_freed(size_t n); /* bytes freed that were never counted: for mem_trim */
 size_t mem_used(enum mem_kind k);
-size_t mem_total(void);
 /* Gives freed heap back to the kernel once enough was released since the
  * last time (malloc_trim), and, once idle (no render left), the frames the
  * core keeps for reuse.  Called by the watcher only, one thread (it takes

@@ -152,7 +152,7 @@ static int config_set(const struct config_option *o, const char *val, const char
     return 0;
 }
 
-void config_usage(FILE *f)
+static void config_usage(FILE *f)
 {
     fprintf(f, "usage: rayd [options]\n\n"
                "The rayd render server: POST a JSON scene, get a PNG (HTTP API v1, docs/api.md).\n"

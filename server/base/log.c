@@ -57,7 +57,9 @@ static bool log_on(enum log_level level)
     return !log_quiet && (int)level >= config.log_min;
 }
 
-enum log_level log_access_level(int status)
+/* The level of an access line: info for 1xx-3xx, warn for 4xx (and for
+ * 499, and 0), error for 5xx. */
+static enum log_level log_access_level(int status)
 {
     if (status >= 500)
         return LOG_ERROR;
@@ -210,7 +212,6 @@ LOG_AT(log_debug, LOG_DEBUG)
 LOG_AT(log_info, LOG_INFO)
 LOG_AT(log_warn, LOG_WARN)
 LOG_AT(log_error, LOG_ERROR)
-
 /* Whatever the log's format and level: the line is for whoever reads the
  * crash, and abort leaves a core and the signal. */
 void log_assert_fail(const char *expr, const char *file, int line, const char *func)

@@ -76,7 +76,8 @@ size_t mem_limit(void) { return mem_limit_bytes; }
 
 void mem_set_reclaim(bool (*reclaim)(enum mem_kind k, size_t need)) { mem_reclaimer = reclaim; }
 
-bool mem_try(enum mem_kind k, size_t n)
+/* mem_reserve without reclaiming: callable with any lock held. */
+static bool mem_try(enum mem_kind k, size_t n)
 {
     size_t cur = atomic_load(&mem_total_bytes);
     do {
@@ -121,8 +122,6 @@ void mem_move(enum mem_kind from, enum mem_kind to, size_t n)
 }
 
 size_t mem_used(enum mem_kind k) { return atomic_load(&mem_kind_bytes[k]); }
-
-size_t mem_total(void) { return atomic_load(&mem_total_bytes); }
 
 void mem_trim(bool idle)
 {

@@ -193,11 +193,6 @@ void http_reply_json(struct http_req *r, unsigned status, cJSON *o)
         http_reply_header(r, "Cache-Control", "no-store");
 }
 
-void http_reply_png(struct http_req *r, unsigned status, struct blob *png)
-{
-    http_reply_image(r, status, png, "image/png");
-}
-
 void http_reply_image(struct http_req *r, unsigned status, struct blob *png, const char *type)
 {
     /* the reply holds one reference to the blob, dropped by the transport */

@@ -203,8 +203,7 @@ void http_reply_data(struct http_req *r, unsigned status, const char *ctype, con
                      size_t len);
 /* o as the JSON body, deleted; Cache-Control: no-store on a success. */
 void http_reply_json(struct http_req *r, unsigned status, cJSON *o);
-void http_reply_png(struct http_req *r, unsigned status, struct blob *png); /* refs png */
-/* http_reply_png with another Content-Type (image/x-exr). */
+/* An image as the body (refs img), of Content-Type type (image/png, image/x-exr). */
 void http_reply_image(struct http_req *r, unsigned status, struct blob *img, const char *type);
 /* The JSON error body of the API.  path NULL or "" leaves it out; line and
  * column are written when line > 0; param names a bad query parameter. */

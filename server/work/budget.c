@@ -16,7 +16,9 @@
  */
 #include "work/work_private.h"
 
-size_t budget_bytes(const struct work_target *what, bool progressive, enum mem_kind *kind)
+/* The bytes a task rendering what will hold (its pixels or sums, its
+ * answer; a progressive job's sums and passes) and their kind. */
+static size_t budget_bytes(const struct work_target *what, bool progressive, enum mem_kind *kind)
 {
     size_t px = (size_t)what->reg.w * (size_t)what->reg.h;
     /* the store (8-bit pixels, linear floats or sums), then the answer

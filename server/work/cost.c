@@ -44,7 +44,7 @@
  *
  * Tiles are sized by cost: the largest of 64, 32, 16 and 8 pixels square
  * whose estimated rays stay under COST_TILE_RAYS, about 100 ms of one
- * worker on the slowest example scene on a 2-core machine of 2026.  A tile
+ * worker on the slowest example scene on a 2-core machine.  A tile
  * is the unit of scheduling, so a small request waits for at most one tile
  * of anything else; a 64-pixel tile of 1024 path-traced samples would hold
  * a worker for seconds.  The size depends on the scene alone, never on the
@@ -190,8 +190,6 @@ static double cost_scene_spr(const char *scene_id)
 double cost_seconds(double rays) { return rays * cost_node_spr / cost_workers; }
 
 double cost_scene_weight(const char *scene_id) { return cost_scene_spr(scene_id) / cost_node_spr; }
-
-double cost_rate(void) { return 1.0 / cost_node_spr; }
 
 double cost_price_seconds(const char *scene_id, double rays)
 {

@@ -82,6 +82,13 @@ static bool jobs_all_stored(const struct task *t)
     return any;
 }
 
+/* Drops the images (PNG, EXR) of j's task, which every job of that task
+ * shared: from now on their image and status routes answer 410
+ * result_evicted with why (copied; e.g. "over --max-memory").  The bytes
+ * freed (blob lengths; a blob still referenced elsewhere, by a response in
+ * flight or the result cache, is counted but lives on until released). */
+static size_t jobs_evict_result(struct job *j, const char *why);
+
 /* Lets go of the images of the finished job that finished first (of the
  * task it shares with any other job): its jobs become "evicted" and answer
  * 410 result_evicted (jobs_evict_result).  false when no finished job
@@ -288,26 +295,7 @@ bool jobs_gone(const char *id, struct jobs_gone *g)
     return found;
 }
 
-/* Whether j's task still holds an image to hand out. */
-static bool jobs_has_result(const struct job *j)
-{
-    const struct task *t = j->task;
-    return t->finished && (t->png || t->exr) && j->evicted_at == 0;
-}
-
-struct job *jobs_oldest_result(void)
-{
-    work_assert_locked();
-    struct job *best = NULL;
-    for (int i = 0; i < jobs_n; i++) {
-        struct job *j = jobs_table[i];
-        if (jobs_has_result(j) && (!best || j->task->t_end < best->task->t_end))
-            best = j;
-    }
-    return best;
-}
-
-size_t jobs_evict_result(struct job *j, const char *why)
+static size_t jobs_evict_result(struct job *j, const char *why)
 {
     work_assert_locked();
     struct task *t = j->task;

@@ -72,21 +72,6 @@ bool scenes_current(struct cache_entry *e, bool have_text)
     return scenefiles_usable(cache_scene(e), have_text);
 }
 
-/* The cached scene of id, referenced, if it may answer a request that
- * brings its text (have_text) or names only its id (scenefiles.c): its
- * files are checked outside the lock. */
-static struct cache_entry *scenes_get(const char *id, bool have_text)
-{
-    struct cache_entry *e = scenes_peek(id);
-    if (e && !scenes_current(e, have_text)) {
-        scenes_release(e);
-        return NULL;
-    }
-    return e;
-}
-
-struct cache_entry *scenes_find(const char *id) { return scenes_get(id, false); }
-
 /* About the memory a built triangle takes (its vertices, normals, BVH
  * nodes and material index; 5 million took 650 MB), and a decoded texel
  * (linear RGB floats). */

@@ -282,6 +282,8 @@ static long sched_gauge_running(void)
     return n;
 }
 
+/* Estimated seconds of the work queued and running, for the whole pool. */
+static double sched_backlog(void);
 static long sched_gauge_backlog_ms(void) { return (long)(sched_backlog() * 1e3); }
 
 static void sched_register_gauges(void)
@@ -434,15 +436,7 @@ bool sched_idle(void)
     return idle;
 }
 
-double sched_seconds(double rays)
-{
-    work_lock_take();
-    double s = cost_seconds(rays);
-    work_lock_give();
-    return s;
-}
-
-double sched_backlog(void)
+static double sched_backlog(void)
 {
     work_lock_take();
     double s = cost_seconds(task_backlog_rays());

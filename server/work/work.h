@@ -67,7 +67,6 @@ const char *cache_version(const struct cache_entry *e);
 
 /* ---- scenes.c: the compiled-scene cache behind the lock ------------------- */
 
-struct cache_entry *scenes_find(const char *id); /* referenced, or NULL */
 void scenes_release(struct cache_entry *e);      /* NULL allowed */
 /* Replaces the scene limits derived from the options (before any request). */
 void scenes_set_limits(const struct rayd_limits *lim);
@@ -104,11 +103,6 @@ double cost_price_seconds(const char *scene_id, double rays);
 
 /* ---- sched.c: the pool, synchronous renders, lifecycle ------------------- */
 
-/* Estimated rays (cost_rays) as seconds of the whole pool at this node's
- * measured rate. */
-double sched_seconds(double rays);
-/* Estimated seconds of the work queued and running, for the whole pool. */
-double sched_backlog(void);
 
 int sched_start(int workers, int queue_cap, int max_jobs);
 void sched_stop(void);
@@ -189,7 +183,7 @@ struct jobs_gone {
     enum jobs_state state; /* how it ended */
     double ended_wall;     /* when it ended, seconds since the epoch */
     double gone_wall;      /* when it (or its result) was dropped, likewise */
-    char detail[96];       /* JG_RESULT_EVICTED: the reason given */
+    char detail[160];      /* JG_RESULT_EVICTED: the reason given */
 };
 /* The tombstones of forgotten jobs: the last JOBS_TOMBSTONES ids, the
  * oldest dropped first (160 bytes each: 640 KiB in all). */

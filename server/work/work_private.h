@@ -150,7 +150,6 @@ void cost_observe(const char *scene_id, uint64_t client, double rays, double sec
 double cost_seconds(double rays); /* of the whole pool, at the node's rate */
 /* scene_id's rate over the node's: times a task's rays, node-rate rays. */
 double cost_scene_weight(const char *scene_id);
-double cost_rate(void); /* estimated rays a worker casts a second, the node's */
 
 /* ---- fair.c (lock held) ------------------------------------------------------- */
 
@@ -428,9 +427,6 @@ void task_notify_run(struct task_notify *n); /* lock NOT held */
 
 /* ---- budget.c: a render's admission into the memory budget (no lock) ---- */
 
-/* The bytes a task rendering what will hold (its pixels or sums, its
- * answer; a progressive job's sums and passes) and their kind. */
-size_t budget_bytes(const struct work_target *what, bool progressive, enum mem_kind *kind);
 /* task_new with what it will hold reserved in the memory budget; NULL with
  * *why WORK_TOO_BIG (over the whole budget), WORK_MEMORY (no room now) or
  * WORK_NOMEM. */
@@ -495,7 +491,7 @@ struct job {
     double created;
     double canceled_at;   /* when DELETE cancelled it (clock_now) */
     double evicted_at;    /* when its result was evicted (jobs_evict_result); 0: kept */
-    char evicted_why[96]; /* why, as jobs_evict_result was told */
+    char evicted_why[160]; /* why, as jobs_evict_result was told */
     int refs; /* the table + open event streams */
     uint64_t client;      /* who created it (GET /v1/jobs lists a client's own) */
     int priority;         /* enum jobs_priority */
@@ -520,15 +516,6 @@ void jobs_unref(struct job *j);
 /* Forgets the jobs that ended (finished, failed or were cancelled) more
  * than --job-ttl seconds ago, each leaving a tombstone (jobs_gone). */
 void jobs_expire(double now);
-/* The finished job whose result was made longest ago and is still held
- * (not evicted), or NULL: the next result a memory budget evicts. */
-struct job *jobs_oldest_result(void);
-/* Drops the images (PNG, EXR) of j's task, which every job of that task
- * shared: from now on their image and status routes answer 410
- * result_evicted with why (copied; e.g. "over --max-memory").  The bytes
- * freed (blob lengths; a blob still referenced elsewhere, by a response in
- * flight or the result cache, is counted but lives on until released). */
-size_t jobs_evict_result(struct job *j, const char *why);
 
 /* ---- watch.c ------------------------------------------------------------------- */
 

@@ -203,6 +203,9 @@ if [ "$code" = 410 ] && err_is "$T/body" 410 result_evicted; then
 else
     fail evicted_image_410 "GET image of an evicted job: $code $(head -c 200 "$T/body")"
 fi
+# the reason whole: it was cut at 95 bytes (evicted_why[96]) before "render it again"
+check evicted_reason_whole "the 410's reason is cut: $(head -c 400 "$T/body")" \
+    grep -q 'render it again)' "$T/body"
 req GET "/v1/jobs/${ids[0]}" >/dev/null
 check evicted_job_says_why "no evicted_reason in the job" grep -q '"evicted_reason":"[^"]*max-memory' "$T/body"
 
