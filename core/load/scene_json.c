@@ -280,7 +280,8 @@ static void note_frames(rayd_scene *s, const struct sj_anim *a) {
                                       .fps = a->on ? a->fps : 0, .frame = a->frame};
 }
 
-enum rayd_status scene_json_parse_frame(const char *json, size_t len,
+/* scene_json_parse at frame `frame` (< 0: the first; rayd_scene_parse_frame). */
+static enum rayd_status scene_json_parse_frame(const char *json, size_t len,
                                         const struct rayd_limits *lim, long inline_min,
                                         long frame, rayd_scene **out, struct rayd_error *err) {
     struct rayd_limits deflim;

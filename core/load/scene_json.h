@@ -12,9 +12,5 @@
  * result is the same for any inline_min. */
 enum rayd_status scene_json_parse(const char *json, size_t len, const struct rayd_limits *lim,
                                   long inline_min, rayd_scene **out, struct rayd_error *err);
-/* scene_json_parse at frame `frame` (< 0: the first; rayd_scene_parse_frame). */
-enum rayd_status scene_json_parse_frame(const char *json, size_t len,
-                                        const struct rayd_limits *lim, long inline_min,
-                                        long frame, rayd_scene **out, struct rayd_error *err);
 
 #endif

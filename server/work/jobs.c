@@ -539,13 +539,6 @@ enum work_submit jobs_submit(struct cache_entry *scene, const struct work_target
     return r;
 }
 
-enum work_submit jobs_create(struct cache_entry *scene, const struct work_target *what,
-                             const struct jobs_plan *plan, char id[33])
-{
-    struct jobs_new how = {.priority = JP_NORMAL};
-    return jobs_submit(scene, what, plan, &how, id);
-}
-
 /* ---- start-up: the store's jobs put back ------------------------------------------ */
 
 /* A finished task standing for a job that ended before this process:

@@ -36,6 +36,21 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* Used in this file only (task.c owns the task's state). */
+static void task_unqueue(struct task *t);
+static void task_taken(const struct task *t); /* a tile of t was taken (for the bulk share) */
+/* t fails with st and err's message and place (the first failure stands:
+ * the caller checks t->status).  task_failf: with a message of its own. */
+static void task_fail(struct task *t, enum rayd_status st, const struct rayd_error *err);
+static void task_failf(struct task *t, enum rayd_status st, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+/* t cast more rays than --max-work: it fails with RAYD_E_LIMIT and a
+ * message naming the budget (unless it failed already). */
+static void task_over_work(struct task *t);
+/* The PNG stream of t, taken from it for its finish (no lock: by the
+ * worker encoding t, when no tile runs), or NULL. */
+static rayd_png_stream *task_stream_take(struct task *t);
+
 /* The advice of a render stopped by a limit: the admission refusal's
  * (api_cost.c), so a client sees one message however it was stopped. */
 #define TASK_ASK "ask for fewer pixels, samples, bounces or light samples"
@@ -234,7 +249,7 @@ void task_times(const struct task *t, double now, double *queue_ms, double *rend
     *render_ms = started ? ((t->finished ? t->t_end : now) - t->t_start) * 1e3 : 0;
 }
 
-void task_unqueue(struct task *t)
+static void task_unqueue(struct task *t)
 {
     work_assert_locked();
     if (t->queued) {
@@ -315,7 +330,7 @@ struct task *task_pick(void)
     return first[1] ? task_own_first(first[1]) : first[0] ? task_own_first(first[0]) : NULL;
 }
 
-void task_taken(const struct task *t)
+static void task_taken(const struct task *t)
 {
     work_assert_locked();
     fair_served(t->client);
@@ -502,7 +517,7 @@ int task_rows_done(struct task *t, int tile)
     return rayd_rows_tile_done(t->rows, tile / t->ntx);
 }
 
-rayd_png_stream *task_stream_take(struct task *t)
+static rayd_png_stream *task_stream_take(struct task *t)
 {
     server_assert(t->running == 0);
     rayd_png_stream *s = t->stream;
@@ -693,7 +708,7 @@ bool task_end_early(struct task *t, enum passes_stop why)
     return t->running == 0 && !t->finalizing;
 }
 
-void task_over_work(struct task *t)
+static void task_over_work(struct task *t)
 {
     work_assert_locked();
     if (t->status != RAYD_OK)
@@ -724,7 +739,7 @@ bool task_past_deadline(struct task *t, double now, long limit, struct task_noti
     return true;
 }
 
-void task_fail(struct task *t, enum rayd_status st, const struct rayd_error *err)
+static void task_fail(struct task *t, enum rayd_status st, const struct rayd_error *err)
 {
     work_assert_locked();
     t->status = st;
@@ -732,7 +747,7 @@ void task_fail(struct task *t, enum rayd_status st, const struct rayd_error *err
     t->err.code = st;
 }
 
-void task_failf(struct task *t, enum rayd_status st, const char *fmt, ...)
+static void task_failf(struct task *t, enum rayd_status st, const char *fmt, ...)
 {
     struct rayd_error err = {0};
     va_list ap;

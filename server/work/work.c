@@ -13,7 +13,7 @@
  */
 #include "work/work_private.h"
 
-pthread_mutex_t work_lock = PTHREAD_MUTEX_INITIALIZER;
+static pthread_mutex_t work_lock = PTHREAD_MUTEX_INITIALIZER;
 pthread_cond_t work_cond = PTHREAD_COND_INITIALIZER;
 
 static _Thread_local char work_me;

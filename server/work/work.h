@@ -221,14 +221,10 @@ struct jobs_info {
  * how many, and *more whether older ones follow. */
 int jobs_list(uint64_t client, int state, long long before, struct jobs_info *out, int n,
               bool *more);
-/* A job rendering what->reg of scene (as a PNG, and an EXR with
- * what->keep_exr) for what->client: plain with plan NULL, else progressive. */
-enum work_submit jobs_create(struct cache_entry *scene, const struct work_target *what,
-                             const struct jobs_plan *plan, char id[33]);
 /* POST /v1/jobs?priority=: orders a client's own jobs, never another's. */
 enum jobs_priority { JP_LOW, JP_NORMAL, JP_HIGH };
 const char *jobs_priority_name(int p);
-/* What jobs_submit needs besides what jobs_create takes. */
+/* What jobs_submit needs besides the scene, the target and the plan. */
 struct jobs_new {
     int priority;            /* enum jobs_priority */
     const char *scene;       /* the scene as sent, recorded with --data-dir */
@@ -236,8 +232,10 @@ struct jobs_new {
     struct work_waiter *w;   /* --data-dir: told once the job is on disk */
     bool waiting;            /* out: w->suspend ran and w->done will be called once */
 };
-/* jobs_create with a priority and, with --data-dir, the job recorded on
- * disk before anyone is told of it (how->waiting). */
+/* A job rendering what->reg of scene (as a PNG, and an EXR with
+ * what->keep_exr) for what->client: plain with plan NULL, else progressive;
+ * with how->priority and, with --data-dir, the job recorded on disk before
+ * anyone is told of it (how->waiting). */
 enum work_submit jobs_submit(struct cache_entry *scene, const struct work_target *what,
                              const struct jobs_plan *plan, struct jobs_new *how, char id[33]);
 /* What jobs_get copies besides the numbers: the PNG, the EXR. */

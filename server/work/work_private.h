@@ -40,7 +40,6 @@
 #define TASK_BULK_EVERY 4             /* when both classes wait, bulk gets 1 tile in 4 */
 #define EVENTS_PING_SECONDS 15.0      /* seconds of silence before a keep-alive */
 
-extern pthread_mutex_t work_lock; /* work.c: taken only through work_lock_take */
 extern pthread_cond_t work_cond;
 
 /* ---- work.c: the lock, with its owner known ------------------------------ */
@@ -337,10 +336,8 @@ void task_key(char *key, size_t size, const char *id, const struct work_target *
  * linear floats for the HDR formats); NULL on no memory.  Any lock. */
 struct task *task_new(struct cache_entry *scene, const struct work_target *what);
 void task_unref(struct task *t);
-void task_unqueue(struct task *t);
 struct task *task_find(const char *key); /* an unfinished, uncancelled task */
 struct task *task_pick(void);            /* the task whose next tile comes first */
-void task_taken(const struct task *t);   /* a tile of t was taken (for the bulk share) */
 /* Joins the unfinished task with *fresh's key (scene, region, format) or
  * activates *fresh (then NULL); WORK_DRAINING or WORK_FULL when it cannot. */
 enum work_submit task_submit(struct cache_entry *scene, struct task **fresh, struct task **out);
@@ -353,14 +350,6 @@ void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
 /* Milliseconds t waited in the queue and has rendered, up to now (or to
  * its end, when finished). */
 void task_times(const struct task *t, double now, double *queue_ms, double *render_ms);
-/* t fails with st and err's message and place (the first failure stands:
- * the caller checks t->status).  task_failf: with a message of its own. */
-void task_fail(struct task *t, enum rayd_status st, const struct rayd_error *err);
-/* t cast more rays than --max-work: it fails with RAYD_E_LIMIT and a
- * message naming the budget (unless it failed already). */
-void task_over_work(struct task *t);
-void task_failf(struct task *t, enum rayd_status st, const char *fmt, ...)
-    __attribute__((format(printf, 3, 4)));
 /* Ends a progressive task after its latest complete pass (or its first, if
  * none is complete yet), why being the reason; true when nothing is in
  * flight and the caller should task_finish it now. */
@@ -399,9 +388,6 @@ void task_encoded(struct task *t, const struct task_out *o, struct task_notify *
  * the job (t finished).  Lock held. */
 bool task_pass_closed(struct task *t, const struct task_out *o, struct task_notify *n,
                       struct task_notify *sse);
-/* The PNG stream of t, taken from it for its finish (no lock: by the
- * worker encoding t, when no tile runs), or NULL. */
-rayd_png_stream *task_stream_take(struct task *t);
 /* w waits for t: suspended (w->suspend), then linked.  Lock held. */
 void task_wait(struct task *t, struct work_waiter *w);
 /* An event stream w waits for t's news: suspended, then linked.  Lock held. */
