@@ -25,7 +25,7 @@
  * a mirroring matrix (negative determinant) turns the winding back, as the
  * spec says.  Points and lines are skipped; materials, textures, cameras,
  * lights, skins and morph targets are ignored, and so are animations but
- * for the "gltf" object, which may play one (gl_animate).
+ * for the "gltf" object, which may play one (mesh_gltf_anim.c).
  *
  * Refused, each with the JSON Pointer of the value: any extensionsRequired
  * but the few that change nothing here (Draco and meshopt compression by
@@ -66,84 +66,15 @@
 #include "format/gltf_json.h"
 #include "format/json_check.h"
 #include "format/json_parse.h"
-#include "math/keyframe.h"
+#include "format/mesh_gltf_private.h"
 
 #define GL_MAX_DEPTH 128 /* nodes nested deeper are refused (the walk recurses) */
 #define GLB_JSON 0x4E4F534Au
 #define GLB_BIN 0x004E4942u
 
-struct gl_buf {
-    unsigned char *data; /* NULL until loaded */
-    size_t len;
-    bool owned;
-};
-
-/* A node's animated translation, rotation and scale, where a channel set them. */
-struct gl_pose {
-    bool has_t, has_r, has_s;
-    double t[3], r[4], s[3];
-};
-
-/* One primitive drawn by one node (whose world matrix is world[node]). */
-struct gl_draw {
-    const cJSON *prim;
-    int mesh, index; /* /meshes/mesh/primitives/index */
-    int node;
-};
-
-/* An accessor's data: element i, component c is at p + i * stride + c * size. */
-struct gl_acc {
-    const unsigned char *p; /* NULL: every value 0 (no bufferView) */
-    size_t stride;
-    int ctype, ncomp;
-    bool norm;
-    uint32_t count;
-    int id;
-};
-
-struct gl {
-    const cJSON *root;
-    const struct mesh_gltf_opts *o;
-    struct rayd_error *err;
-    const unsigned char *bin; /* the GLB's BIN chunk, or NULL */
-    size_t bin_len;
-    struct gl_buf *bufs;
-    int nbufs;
-    size_t loaded;
-    bool counted; /* gl_count is done: the bake reads the same accessors again */
-    uint32_t max_verts, max_tris;
-    struct gl_draw *draws;
-    size_t ndraws, cap_draws;
-    unsigned char *seen; /* per node: 1 on the walk's path, 2 done */
-    double *world;       /* per node: 16 numbers, column-major as glTF writes them */
-    int nnodes;
-    uint64_t nverts, ntris;
-    bool normals;
-    float *pos, *nrm;
-    uint32_t *idx;
-    uint32_t vat, tat;
-    /* the whole-scene import (gltf_doc_bake): a material per triangle, and
-     * texture coordinates of the set uv_set[material] (-1 or past nuv_set:
-     * none, so 0) */
-    bool want_parts;
-    const int *uv_set;
-    int nuv_set;
-    int32_t *tmat;
-    float *uv;
-    /* a node animation played (gltf_doc_animate): animation anim_id at
-     * anim_t seconds, its channels' values per node in pose */
-    int anim_id; /* -1: none */
-    double anim_t;
-    struct gl_pose *pose;
-};
-
 /* ---- errors and pointers ----------------------------------------------- */
 
-/* Sets G's error at the JSON Pointer at, and is the code (a macro like
- * err_set, for the reason error.h gives). */
-#define gl_fail(G, code, at, ...) err_set((G)->err, (code), (at)->s, __VA_ARGS__)
-
-static struct jp gl_item(const char *top, long i) {
+struct jp gl_item(const char *top, long i) {
     struct jp r = {.s = ""};
     snprintf(r.s, sizeof r.s, "/%s/%ld", top, i);
     return r;
@@ -152,8 +83,8 @@ static struct jp gl_item(const char *top, long i) {
 /* ---- typed getters ------------------------------------------------------ */
 
 /* An integer o[key] in [lo, hi], def when absent (-1 def: required). */
-static enum rayd_status gl_int(struct gl *G, const cJSON *o, const struct jp *at, const char *key,
-                               double def, double lo, double hi, double *out) {
+enum rayd_status gl_int(struct gl *G, const cJSON *o, const struct jp *at, const char *key,
+                        double def, double lo, double hi, double *out) {
     const cJSON *v = gl_get(o, key);
     struct jp p = jp_key(at, key);
     if (!v) {
@@ -407,8 +338,8 @@ static enum rayd_status gl_view(struct gl *G, const cJSON *aj, const struct jp *
 }
 
 /* Accessor o[key] (index into /accessors), of ncomp components. */
-static enum rayd_status gl_accessor(struct gl *G, const cJSON *o, const struct jp *at,
-                                    const char *key, int ncomp, bool index, struct gl_acc *a) {
+enum rayd_status gl_accessor(struct gl *G, const cJSON *o, const struct jp *at,
+                             const char *key, int ncomp, bool index, struct gl_acc *a) {
     const cJSON *aj;
     double ct, count, offset;
     memset(a, 0, sizeof *a);
@@ -452,7 +383,7 @@ static enum rayd_status gl_accessor(struct gl *G, const cJSON *o, const struct j
 }
 
 /* Component c of element i, as a number (normalised integers mapped to [-1, 1] or [0, 1]). */
-static double gl_value(const struct gl_acc *a, uint32_t i, int c) {
+double gl_value(const struct gl_acc *a, uint32_t i, int c) {
     if (!a->p) return 0;
     const unsigned char *b = a->p + (size_t)i * a->stride + (size_t)c * (size_t)gl_csize(a->ctype);
     uint32_t u = a->ctype == 5120 || a->ctype == 5121 ? b[0]
@@ -536,159 +467,6 @@ static enum rayd_status gl_prim(struct gl *G, const struct gl_draw *d, struct gl
     if (P->has_ix) TRY_GL(gl_accessor(G, d->prim, &pp, "indices", 1, true, &P->ix));
     P->ntris = gl_tris(P->mode, P->has_ix ? P->ix.count : P->pos.count);
     return G->want_parts ? gl_prim_parts(G, d, &pp, attr, &pat, P) : RAYD_OK;
-}
-
-/* ---- node animations -----------------------------------------------------
- *
- * One animation of the file is played at one time (gltf_doc_animate): each
- * of its channels that targets a node's translation, rotation or scale is
- * sampled there, and the node's own value is replaced by it before the
- * walk composes the world matrices.  "weights" (morph targets) is skipped,
- * as morph targets are.  A sampler's input is its keyframe times in
- * seconds (floats, increasing), its output the values: LINEAR (the
- * default: rotations slerped), STEP, or CUBICSPLINE (three elements a key:
- * in-tangent, value, out-tangent; the cubic Hermite curve, rotations
- * normalised).  Before the first time the first value holds, after the
- * last the last.  Values are read from the buffers as they are needed: a
- * binary search over the times, so a channel costs O(log n) reads. */
-
-struct gl_sampler {
-    struct gl_acc in, out;
-    int how; /* 0 LINEAR, 1 STEP, 2 CUBICSPLINE */
-};
-
-static void gl_elem(const struct gl_acc *a, uint32_t i, int n, double *out) {
-    for (int c = 0; c < n; c++) out[c] = gl_value(a, i, c);
-}
-
-/* The sampler's value at G->anim_t: n (3 or 4) numbers into out. */
-static void gl_sample(const struct gl *G, const struct gl_sampler *sm, int n, bool rot,
-                      double *out) {
-    uint32_t keys = sm->in.count, per = sm->how == 2 ? 3 : 1, mid = sm->how == 2 ? 1 : 0;
-    double t = G->anim_t;
-    if (keys == 1 || t <= gl_value(&sm->in, 0, 0)) {
-        gl_elem(&sm->out, mid, n, out);
-        return;
-    }
-    if (t >= gl_value(&sm->in, keys - 1, 0)) {
-        gl_elem(&sm->out, (keys - 1) * per + mid, n, out);
-        return;
-    }
-    uint32_t lo = 0, hi = keys - 1; /* in[lo] <= t < in[hi] */
-    while (hi - lo > 1) {
-        uint32_t m = lo + (hi - lo) / 2;
-        if (gl_value(&sm->in, m, 0) <= t) lo = m;
-        else hi = m;
-    }
-    double t0 = gl_value(&sm->in, lo, 0), t1 = gl_value(&sm->in, hi, 0);
-    double u = (t - t0) / (t1 - t0), a[4], b[4];
-    gl_elem(&sm->out, lo * per + mid, n, a);
-    if (sm->how == 1) {
-        memcpy(out, a, sizeof *out * (size_t)n);
-        return;
-    }
-    gl_elem(&sm->out, hi * per + mid, n, b);
-    if (sm->how == 2) {
-        double ma[4], mb[4], d = t1 - t0;
-        gl_elem(&sm->out, lo * per + 2, n, ma); /* lo's out-tangent */
-        gl_elem(&sm->out, hi * per, n, mb);     /* hi's in-tangent */
-        for (int c = 0; c < n; c++) ma[c] *= d, mb[c] *= d;
-        kf_hermite(a, ma, b, mb, n, u, out);
-    } else if (rot) {
-        kf_slerp(a, b, u, out);
-    } else {
-        for (int c = 0; c < n; c++) out[c] = (1 - u) * a[c] + u * b[c];
-    }
-    if (rot) {
-        double l = sqrt(out[0] * out[0] + out[1] * out[1] + out[2] * out[2] + out[3] * out[3]);
-        for (int c = 0; c < 4 && l > 0; c++) out[c] /= l;
-    }
-}
-
-/* samplers[i] of the animation at pa: its accessors, checked. */
-static enum rayd_status gl_sampler_read(struct gl *G, const cJSON *anim, const struct jp *pa,
-                                        int i, int n, struct gl_sampler *sm) {
-    static const char *const hows[] = {"LINEAR", "STEP", "CUBICSPLINE"};
-    const cJSON *list = gl_get(anim, "samplers");
-    struct jp pl = jp_key(pa, "samplers"), ps = jp_index(&pl, i);
-    const cJSON *sj = cJSON_IsArray(list) ? cJSON_GetArrayItem(list, i) : NULL;
-    if (!cJSON_IsObject(sj)) return gl_fail(G, RAYD_E_INVALID, &ps, "must be a sampler object");
-    const cJSON *how = gl_get(sj, "interpolation");
-    struct jp ph = jp_key(&ps, "interpolation");
-    sm->how = 0;
-    if (how) {
-        sm->how = -1;
-        for (int k = 0; k < 3 && cJSON_IsString(how); k++)
-            if (!strcmp(how->valuestring, hows[k])) sm->how = k;
-        if (sm->how < 0) return gl_fail(G, RAYD_E_INVALID, &ph, "must be LINEAR, STEP or CUBICSPLINE");
-    }
-    TRY_GL(gl_accessor(G, sj, &ps, "input", 1, false, &sm->in));
-    TRY_GL(gl_accessor(G, sj, &ps, "output", n, false, &sm->out));
-    struct jp pin = gl_item("accessors", sm->in.id), pout = gl_item("accessors", sm->out.id);
-    struct jp pic = jp_key(&pin, "componentType"), poc = jp_key(&pout, "count");
-    if (sm->in.ctype != 5126 || !sm->in.p)
-        return gl_fail(G, RAYD_E_INVALID, &pic, "an animation's times must be FLOAT (5126) in a bufferView");
-    uint64_t want = (uint64_t)sm->in.count * (sm->how == 2 ? 3 : 1);
-    if (sm->out.count != want)
-        return gl_fail(G, RAYD_E_INVALID, &poc, "must be %llu: the sampler's %u times%s", (unsigned long long)want, sm->in.count, sm->how == 2 ? " x 3 (in-tangent, value, out-tangent)" : "");
-    for (uint32_t k = 0; k < sm->in.count; k++) {
-        double v = gl_value(&sm->in, k, 0);
-        if (!isfinite(v) || (k > 0 && !(v > gl_value(&sm->in, k - 1, 0))))
-            return gl_fail(G, RAYD_E_INVALID, &pin, "time %u is %g: times must be finite and increase", k, v);
-    }
-    for (uint32_t k = 0; k < sm->out.count; k++)
-        for (int c = 0; c < n; c++)
-            if (!isfinite(gl_value(&sm->out, k, c)) || fabs(gl_value(&sm->out, k, c)) > 1e30)
-                return gl_fail(G, RAYD_E_INVALID, &pout, "value %u is not a finite number", k);
-    return RAYD_OK;
-}
-
-/* Channel i of the animation at pa into G->pose. */
-static enum rayd_status gl_channel(struct gl *G, const cJSON *anim, const struct jp *pa,
-                                   const cJSON *ch, int i) {
-    struct jp pl = jp_key(pa, "channels"), pc = jp_index(&pl, i), pt = jp_key(&pc, "target");
-    struct jp pp = jp_key(&pt, "path");
-    if (!cJSON_IsObject(ch)) return gl_fail(G, RAYD_E_INVALID, &pc, "must be a channel object");
-    const cJSON *tg = gl_get(ch, "target"), *path = gl_get(tg, "path");
-    if (!cJSON_IsObject(tg)) return gl_fail(G, RAYD_E_INVALID, &pt, "is required (an object)");
-    if (!cJSON_IsString(path)) return gl_fail(G, RAYD_E_INVALID, &pp, "is required (a string)");
-    int kind = !strcmp(path->valuestring, "translation") ? 0
-               : !strcmp(path->valuestring, "rotation")  ? 1
-               : !strcmp(path->valuestring, "scale")     ? 2
-                                                         : -1;
-    if (kind < 0 || !gl_get(tg, "node")) return RAYD_OK; /* weights, or an extension's target */
-    double node, smp;
-    TRY_GL(gl_int(G, tg, &pt, "node", -1, 0, G->nnodes - 1, &node));
-    TRY_GL(gl_int(G, ch, &pc, "sampler", -1, 0, 2147483647.0, &smp));
-    const cJSON *list = gl_get(anim, "samplers");
-    struct jp psm = jp_key(&pc, "sampler");
-    if (!cJSON_IsArray(list) || smp >= cJSON_GetArraySize(list))
-        return gl_fail(G, RAYD_E_INVALID, &psm, "%.0f is not an index into the animation's samplers", smp);
-    struct gl_sampler sm;
-    int n = kind == 1 ? 4 : 3;
-    TRY_GL(gl_sampler_read(G, anim, pa, (int)smp, n, &sm));
-    struct gl_pose *po = &G->pose[(int)node];
-    double v[4];
-    gl_sample(G, &sm, n, kind == 1, v);
-    if (kind == 0) po->has_t = true, memcpy(po->t, v, sizeof po->t);
-    if (kind == 1) po->has_r = true, memcpy(po->r, v, sizeof po->r);
-    if (kind == 2) po->has_s = true, memcpy(po->s, v, sizeof po->s);
-    return RAYD_OK;
-}
-
-static enum rayd_status gl_animate(struct gl *G) {
-    const cJSON *anims = gl_get(G->root, "animations");
-    struct jp pa = gl_item("animations", G->anim_id), top = {.s = "/animations"};
-    const cJSON *anim = cJSON_IsArray(anims) ? cJSON_GetArrayItem(anims, G->anim_id) : NULL;
-    if (!cJSON_IsObject(anim)) return gl_fail(G, RAYD_E_INVALID, cJSON_IsArray(anims) ? &pa : &top, "must be an animation object");
-    G->pose = calloc((size_t)G->nnodes + 1, sizeof *G->pose);
-    if (!G->pose) return gl_fail(G, RAYD_E_NOMEM, &pa, "out of memory");
-    const cJSON *chs = gl_get(anim, "channels");
-    struct jp pc = jp_key(&pa, "channels");
-    if (!cJSON_IsArray(chs)) return gl_fail(G, RAYD_E_INVALID, &pc, "is required (an array)");
-    int i = 0;
-    for (const cJSON *ch = chs->child; ch; ch = ch->next, i++) TRY_GL(gl_channel(G, anim, &pa, ch, i));
-    return RAYD_OK;
 }
 
 /* ---- the node tree ------------------------------------------------------ */
@@ -804,7 +582,7 @@ static enum rayd_status gl_walk(struct gl *G, int scene) {
     G->seen = calloc((size_t)G->nnodes + 1, 1);
     G->world = malloc(((size_t)G->nnodes + 1) * 16 * sizeof *G->world);
     if (!G->seen || !G->world) return gl_fail(G, RAYD_E_NOMEM, &top, "out of memory");
-    if (G->anim_id >= 0) TRY_GL(gl_animate(G));
+    if (G->anim_id >= 0) TRY_GL(G->animate(G));
     if (scene >= 0 && scene >= (scenes ? cJSON_GetArraySize(scenes) : 0))
         return gl_fail(G, RAYD_E_INVALID, &pscenes, "scene %d does not exist (there are %d)", scene,
                        scenes ? cJSON_GetArraySize(scenes) : 0);
@@ -1041,13 +819,6 @@ enum rayd_status mesh_parse_gltf(const void *data, size_t len, const struct mesh
 
 /* ---- the whole-scene import (scene_json_gltf.c) ------------------------- */
 
-struct gltf_doc {
-    struct gl G;
-    struct mesh_gltf_opts o;
-    cJSON *root;
-    bool walked, baked;
-};
-
 enum rayd_status gltf_doc_open(const void *data, size_t len, const struct mesh_gltf_opts *o,
                                struct rayd_error *err, struct gltf_doc **out) {
     struct gltf_doc *d = calloc(1, sizeof *d);
@@ -1074,11 +845,6 @@ enum rayd_status gltf_doc_walk(struct gltf_doc *d, int scene, const struct mesh_
     d->G.max_verts = mesh_max_vertices(lim);
     d->G.max_tris = mesh_max_triangles(lim);
     return gl_walk(&d->G, scene);
-}
-
-void gltf_doc_animate(struct gltf_doc *d, int animation, double seconds) {
-    d->G.anim_id = animation;
-    d->G.anim_t = seconds;
 }
 
 const double *gltf_doc_world(const struct gltf_doc *d, int node) {

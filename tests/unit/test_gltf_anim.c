@@ -1,4 +1,4 @@
-/* test_gltf_anim.c -- glTF node animations (mesh_gltf.c gl_animate): the
+/* test_gltf_anim.c -- glTF node animations (mesh_gltf_anim.c gl_animate): the
  * translation, rotation and scale channels with LINEAR, STEP and
  * CUBICSPLINE samplers, on a small file made here and on Debian's
  * assimp-testmodels file that has node animation (simple_skin.gltf), and
