@@ -112,7 +112,13 @@ SERVER_SRC := $(wildcard server/*.c)
 SERVER_OBJ := $(SERVER_SRC:%.c=$(BUILD)/%.o)
 SERVER_HDR := $(wildcard server/*.h)
 WEB_FILES := $(wildcard server/web/*)
-CLIENT_SRC := $(wildcard clients/*.c)
+# The command-line programs (programs/): rayd-render, rayd-client, and the
+# room both link, programs/common/ (it uses only include/rayd/rayd.h).
+RENDER_SRC := $(wildcard programs/render/*.c)
+CLIENT_SRC := $(wildcard programs/client/*.c)
+COMMON_SRC := $(wildcard programs/common/*.c)
+COMMON_OBJ := $(COMMON_SRC:%.c=$(BUILD)/%.o)
+PROGRAMS_OBJ := $(RENDER_SRC:%.c=$(BUILD)/%.o) $(CLIENT_SRC:%.c=$(BUILD)/%.o) $(COMMON_OBJ)
 UNIT_SRC := $(wildcard tests/unit/test_*.c)
 UNIT_BIN := $(UNIT_SRC:tests/unit/%.c=$(BUILD)/tests/%)
 FUZZ_TARGETS := $(patsubst tests/fuzz/fuzz_%.c,%,$(wildcard tests/fuzz/fuzz_*.c))
@@ -160,14 +166,15 @@ $(BUILD)/%.o: %.c | $(BUILD)/.deps-ok
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -Iinclude -c $< -o $@
 
-# server/ and clients/ see only include/: the core's internals stay private.
+# server/ and programs/ see only include/: the core's internals stay private.
+# The programs include their shared room as "common/common.h".
 $(BUILD)/server/%.o: server/%.c | $(BUILD)/.deps-ok
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -D_DEFAULT_SOURCE -Iinclude -I$(BUILD)/server -c $< -o $@
 
-$(BUILD)/clients/%.o: clients/%.c | $(BUILD)/.deps-ok
+$(BUILD)/programs/%.o: programs/%.c | $(BUILD)/.deps-ok
 	@mkdir -p $(dir $@)
-	$(CC) $(CFLAGS_ALL) -D_DEFAULT_SOURCE -Iinclude -c $< -o $@
+	$(CC) $(CFLAGS_ALL) -D_DEFAULT_SOURCE -Iinclude -Iprograms -c $< -o $@
 
 $(BUILD)/core/%.o: core/%.c | $(BUILD)/.deps-ok
 	@mkdir -p $(dir $@)
@@ -188,7 +195,7 @@ $(BUILD)/librayd.a: $(CORE_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
 
-$(BUILD)/rayd-render: $(BUILD)/cli/rayd-render.o $(BUILD)/librayd.a
+$(BUILD)/rayd-render: $(RENDER_SRC:%.c=$(BUILD)/%.o) $(COMMON_OBJ) $(BUILD)/librayd.a
 	$(CC) $(LDFLAGS_ALL) -o $@ $^ $(LIBS_CORE)
 
 # --- server -----------------------------------------------------------------
@@ -218,7 +225,7 @@ $(BUILD)/rayd: $(SERVER_OBJ) $(BUILD)/librayd.a
 	$(CC) $(LDFLAGS_ALL) -o $@ $^ -lmicrohttpd -lcrypto $(LIBS_CORE)
 
 # --- clients ----------------------------------------------------------------
-$(BUILD)/rayd-client: $(CLIENT_SRC:%.c=$(BUILD)/%.o) $(BUILD)/librayd.a
+$(BUILD)/rayd-client: $(CLIENT_SRC:%.c=$(BUILD)/%.o) $(COMMON_OBJ) $(BUILD)/librayd.a
 	$(CC) $(LDFLAGS_ALL) -o $@ $^ -lcurl -lcrypto $(LIBS_CORE)
 
 # --- shared library ---------------------------------------------------------
@@ -244,8 +251,7 @@ $(BUILD)/$(SO_FILE): $(CORE_PIC_OBJ) packaging/librayd.map
 shared: $(BUILD)/$(SO_FILE)
 
 # Every object sees RAYD_VERSION: a new VERSION compiles them again.
-$(CORE_OBJ) $(CORE_PIC_OBJ) $(SERVER_OBJ) $(CLIENT_SRC:%.c=$(BUILD)/%.o) \
-    $(BUILD)/cli/rayd-render.o: VERSION
+$(CORE_OBJ) $(CORE_PIC_OBJ) $(SERVER_OBJ) $(PROGRAMS_OBJ): VERSION
 
 # --- install ----------------------------------------------------------------
 # `make install` copies what `make` and `make shared` build (building first
@@ -559,13 +565,13 @@ LINT_TIDY = xargs -P "$$(nproc)" -I{} clang-tidy --quiet --warnings-as-errors='*
 
 lint: lint-deps $(BUILD)/server/web_assets.h
 	cppcheck --quiet --error-exitcode=1 --enable=warning,performance,portability \
-	  --inline-suppr -Iinclude -Icore --std=c11 core cli server clients
+	  --inline-suppr -Iinclude -Icore -Iprograms --std=c11 core server programs
 	@# one clang-tidy process per file: clang-tidy 14, given several files in
 	@# one process, reports va_lists as uninitialised that va_start has set
 	printf '%s\n' $(CORE_SRC) | $(LINT_TIDY) -Iinclude -Icore $(EXR_CFLAGS)
 	printf '%s\n' $(SERVER_SRC) | $(LINT_TIDY) -D_DEFAULT_SOURCE -Iinclude -I$(BUILD)/server
-	printf '%s\n' $(wildcard cli/*.c) | $(LINT_TIDY) -Iinclude
-	printf '%s\n' $(CLIENT_SRC) | $(LINT_TIDY) -D_DEFAULT_SOURCE -Iinclude
+	printf '%s\n' $(RENDER_SRC) $(CLIENT_SRC) $(COMMON_SRC) | $(LINT_TIDY) -D_DEFAULT_SOURCE \
+	  -Iinclude -Iprograms
 
 clean:
 	rm -rf build
