@@ -31,14 +31,16 @@ static int args_prefix_of(const struct option *opts, const char *word, char *out
     return n;
 }
 
-int args_unknown(const struct option *opts, const char *arg, int opt) {
+void args_refused(const struct option *opts, const char *arg, int opt) {
     char names[512];
     if (!strncmp(arg, "--", 2) && opt)
-        return args_bad("option '%.*s' takes no value", (int)strcspn(arg, "="), arg);
-    if (!strncmp(arg, "--", 2) && args_prefix_of(opts, arg, names, sizeof names) > 1)
-        return args_bad("ambiguous option '%s' (%s)", arg, names);
-    if (!strncmp(arg, "--", 2)) return args_bad("unknown option '%s'", arg);
-    return args_bad("unknown option '-%c'", opt);
+        prog_error("option '%.*s' takes no value", (int)strcspn(arg, "="), arg);
+    else if (!strncmp(arg, "--", 2) && args_prefix_of(opts, arg, names, sizeof names) > 1)
+        prog_error("ambiguous option '%s' (%s)", arg, names);
+    else if (!strncmp(arg, "--", 2))
+        prog_error("unknown option '%s'", arg);
+    else
+        prog_error("unknown option '-%c'", opt);
 }
 
 int args_long(const char *s, long lo, long hi, long *out) {

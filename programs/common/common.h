@@ -48,8 +48,10 @@ __attribute__((format(printf, 1, 2))) void prog_error(const char *fmt, ...);
  * arg is the word it stopped at, opt its optopt (the short option, or a long
  * option's value when it was given one it does not take), opts the long
  * options.  Says which it was (a value it takes not, an ambiguous prefix,
- * naming the options it fits, or unknown); returns -1. */
-int args_unknown(const struct option *opts, const char *arg, int opt);
+ * naming the options it fits, or unknown).  args_unknown is the same as an
+ * expression whose value is -1, seen at the call (as args_bad). */
+void args_refused(const struct option *opts, const char *arg, int opt);
+#define args_unknown(opts, arg, opt) (args_refused(opts, arg, opt), -1)
 /* s as a whole integer in lo..hi into *out: 0, or -1 (nothing said). */
 int args_long(const char *s, long lo, long hi, long *out);
 /* s as a whole number (strtod's syntax) in lo..hi into *out: 0, or -1
