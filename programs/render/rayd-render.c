@@ -34,6 +34,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -80,8 +81,12 @@ static void usage(FILE *f) {
             "Exit status: 0 done, 1 failure (bad scene, I/O), 2 usage error (bad command line).\n");
 }
 
-/* A usage error: one line, -1, and the caller exits 2 (nothing was tried). */
+/* A usage error: one line, and the caller exits 2 (nothing was tried);
+ * bad_usage says it as an expression whose value is -1.  Integers are read
+ * strictly.  The helpers are programs/common's, shared with rayd-client. */
+#define say_usage prog_error
 #define bad_usage(...) args_bad(__VA_ARGS__)
+#define parse_int(s, lo, hi, out) args_long(s, lo, hi, out)
 
 /* X,Y,W,H: four integers in int range (the core checks them against the
  * image). */
@@ -167,7 +172,7 @@ static int set_pass_option(int opt, const char *val, struct args *a) {
         a->passes = 1;
         return 0;
     case OPT_PASS_STEP:
-        if (args_long(val, 1, 1 << 20, &n) != 0)
+        if (!val || parse_int(val, 1, 1 << 20, &n) != 0)
             return bad_usage("--pass-step takes an integer in 1..1048576");
         a->passes = 1;
         a->pass_step = (int)n;
@@ -234,12 +239,12 @@ static int set_option(int opt, const char *val, struct args *a) {
         a->region_set = true;
         return 0;
     case OPT_THREADS:
-        if (args_long(val, 0, 1024, &n) != 0)
+        if (!val || parse_int(val, 0, 1024, &n) != 0)
             return bad_usage("--threads takes an integer in 0..1024 (0: every core)");
         a->threads = (int)n;
         return 0;
     case OPT_PNG_LEVEL:
-        if (args_long(val, 0, 9, &n) != 0)
+        if (!val || parse_int(val, 0, 9, &n) != 0)
             return bad_usage("--png-level takes an integer in 0..9");
         a->png_level = (int)n;
         return 0;
