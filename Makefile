@@ -124,7 +124,13 @@ SERVER_SRC := $(wildcard server/*.c server/*/*.c)
 SERVER_OBJ := $(SERVER_SRC:%.c=$(BUILD)/%.o)
 SERVER_HDR := $(wildcard server/*.h server/*/*.h)
 WEB_FILES := $(wildcard server/web/*)
-CLIENT_SRC := $(wildcard clients/*.c)
+# The command-line programs (programs/): rayd-render, rayd-client, and the
+# room both link, programs/common/ (it uses only include/rayd/rayd.h).
+RENDER_SRC := $(wildcard programs/render/*.c)
+CLIENT_SRC := $(wildcard programs/client/*.c)
+COMMON_SRC := $(wildcard programs/common/*.c)
+COMMON_OBJ := $(COMMON_SRC:%.c=$(BUILD)/%.o)
+PROGRAMS_OBJ := $(RENDER_SRC:%.c=$(BUILD)/%.o) $(CLIENT_SRC:%.c=$(BUILD)/%.o) $(COMMON_OBJ)
 UNIT_SRC := $(wildcard tests/unit/test_*.c)
 UNIT_BIN := $(UNIT_SRC:tests/unit/%.c=$(BUILD)/tests/%)
 FUZZ_TARGETS := $(patsubst tests/fuzz/fuzz_%.c,%,$(wildcard tests/fuzz/fuzz_*.c))
@@ -172,15 +178,16 @@ $(BUILD)/%.o: %.c | $(BUILD)/.deps-ok
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -Iinclude -c $< -o $@
 
-# server/ and clients/ see only include/: the core's internals stay private.
-# A server file names the layer of what it includes ("work/work.h").
+# server/ and programs/ see only include/: the core's internals stay private.
+# A server file names the layer of what it includes ("work/work.h"); the
+# programs include their shared room as "common/common.h".
 $(BUILD)/server/%.o: server/%.c | $(BUILD)/.deps-ok
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -D_DEFAULT_SOURCE $(SQLITE_CFLAGS) -Iserver -Iinclude -I$(BUILD)/server -c $< -o $@
 
-$(BUILD)/clients/%.o: clients/%.c | $(BUILD)/.deps-ok
+$(BUILD)/programs/%.o: programs/%.c | $(BUILD)/.deps-ok
 	@mkdir -p $(dir $@)
-	$(CC) $(CFLAGS_ALL) -D_DEFAULT_SOURCE -Iinclude -c $< -o $@
+	$(CC) $(CFLAGS_ALL) -D_DEFAULT_SOURCE -Iinclude -Iprograms -c $< -o $@
 
 $(BUILD)/core/%.o: core/%.c | $(BUILD)/.deps-ok
 	@mkdir -p $(dir $@)
@@ -201,7 +208,7 @@ $(BUILD)/librayd.a: $(CORE_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
 
-$(BUILD)/rayd-render: $(BUILD)/cli/rayd-render.o $(BUILD)/librayd.a
+$(BUILD)/rayd-render: $(RENDER_SRC:%.c=$(BUILD)/%.o) $(COMMON_OBJ) $(BUILD)/librayd.a
 	$(CC) $(LDFLAGS_ALL) -o $@ $^ $(LIBS_CORE)
 
 # --- server -----------------------------------------------------------------
@@ -231,7 +238,7 @@ $(BUILD)/rayd: $(SERVER_OBJ) $(BUILD)/librayd.a
 	$(CC) $(LDFLAGS_ALL) -o $@ $^ -lmicrohttpd -lcrypto $(SQLITE_LIBS) $(LIBS_CORE)
 
 # --- clients ----------------------------------------------------------------
-$(BUILD)/rayd-client: $(CLIENT_SRC:%.c=$(BUILD)/%.o) $(BUILD)/librayd.a
+$(BUILD)/rayd-client: $(CLIENT_SRC:%.c=$(BUILD)/%.o) $(COMMON_OBJ) $(BUILD)/librayd.a
 	$(CC) $(LDFLAGS_ALL) -o $@ $^ -lcurl -lcrypto $(LIBS_CORE)
 
 # --- shared library ---------------------------------------------------------
@@ -257,8 +264,7 @@ $(BUILD)/$(SO_FILE): $(CORE_PIC_OBJ) packaging/librayd.map
 shared: $(BUILD)/$(SO_FILE)
 
 # Every object sees RAYD_VERSION: a new VERSION compiles them again.
-$(CORE_OBJ) $(CORE_PIC_OBJ) $(SERVER_OBJ) $(CLIENT_SRC:%.c=$(BUILD)/%.o) \
-    $(BUILD)/cli/rayd-render.o: VERSION
+$(CORE_OBJ) $(CORE_PIC_OBJ) $(SERVER_OBJ) $(PROGRAMS_OBJ): VERSION
 
 # --- install ----------------------------------------------------------------
 # `make install` copies what `make` and `make shared` build (building first
@@ -585,13 +591,13 @@ LINT_JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 LINT_STD := -std=c11 -D_POSIX_C_SOURCE=200809L -DRAYD_VERSION="$(VERSION)"
 LINT_CORE_FLAGS = $(LINT_STD) -Iinclude -Icore $(EXR_CFLAGS)
 LINT_SERVER_FLAGS := $(LINT_STD) -D_DEFAULT_SOURCE -Iserver -Iinclude -I$(BUILD)/server
-LINT_PROG_FLAGS := $(LINT_STD) -D_DEFAULT_SOURCE -Iinclude
-PROG_SRC = $(shell git ls-files 'cli/*.c' 'clients/*.c' 'programs/*.c')
+LINT_PROG_FLAGS := $(LINT_STD) -D_DEFAULT_SOURCE -Iinclude -Iprograms
+PROG_SRC = $(RENDER_SRC) $(CLIENT_SRC) $(COMMON_SRC)
 
 lint: lint-deps $(BUILD)/server/web_assets.h
 	@start=$$(date +%s); \
 	cppcheck --quiet --error-exitcode=1 --enable=warning,performance,portability \
-	  --inline-suppr -Iinclude -Icore -Iserver --std=c11 $(CORE_SRC) $(SERVER_SRC) $(PROG_SRC) & cpp=$$!; \
+	  --inline-suppr -Iinclude -Icore -Iserver -Iprograms --std=c11 $(CORE_SRC) $(SERVER_SRC) $(PROG_SRC) & cpp=$$!; \
 	{ for f in $(CORE_SRC); do echo "$$f"'|$(LINT_CORE_FLAGS)'; done; \
 	  for f in $(SERVER_SRC); do echo "$$f"'|$(LINT_SERVER_FLAGS)'; done; \
 	  for f in $(PROG_SRC); do echo "$$f"'|$(LINT_PROG_FLAGS)'; done; } | \

@@ -2,13 +2,13 @@
 """check_layers.py -- the build keeps rayd's layers one way and without circles.
 
 rayd is built in layers (docs/architecture.md), a folder each: the core's
-folders from core/base/ up to core/load/, then the programs (cli/,
-clients/, server/) on top of the core's public header include/rayd/rayd.h,
-and inside server/ its own folders from server/base/ up to server/net/ and
-main.c.  A file may use its own layer and the layers below it, never one
-above; and no group of files may use each other in a circle, even inside
-one layer.  The tables below name folders, not files; only the work
-layer's files keep an order of their own (FOLDER_ORDER).
+folders from core/base/ up to core/load/, then the programs (programs/render/,
+programs/client/, server/) on top of the core's public header
+include/rayd/rayd.h, and inside server/ its own folders from server/base/ up
+to server/net/ and main.c.  A file may use its own layer and the layers
+below it, never one above; and no group of files may use each other in a
+circle, even inside one layer.  The tables below name folders, not files;
+only the work layer's files keep an order of their own (FOLDER_ORDER).
 
 Two kinds of use are read, and both must obey:
   - includes: every `#include "..."` of every .c and .h, by grep;
@@ -34,6 +34,13 @@ Every core/ and server/ file lies in a layer's folder; a library's header
 (<microhttpd.h>, <cjson/cJSON.h>, <png.h>, <openexr.h>, <curl/curl.h>, ...)
 is included only in the folders SYSTEM_HEADERS gives it; and the diagrams
 of docs/architecture.md are the ones these tables make.
+
+The programs are folders side by side (PROGRAMS): each uses its own folder
+and the rooms the table lists for it, nothing of another program.  Their
+shared room, programs/common/, is used by rayd-render and rayd-client alone
+and uses nothing but include/rayd/rayd.h and the C library: its system
+headers are checked against the C and POSIX headers (LIBC_HEADERS), so
+libcurl, cJSON or libpng cannot slip into it.
 
 Usage: check_layers.py BUILD [ROOT]   (ROOT defaults to the current folder)
 Prints "PASS name" or "FAIL name: why" lines, as the tests do, and exits 1
@@ -75,7 +82,7 @@ CORE_LAYERS = [
                      "path, 16-wide), image"),
     ("core/codec/", "image codecs on render/image.h: png.c (decode, 16-bit encode) + png_encode.c "
                     "(parallel bands), exr.c + exr_read.c (EXR out and in), sums.c (a sample "
-                    "range's exact sums as bytes), output_name.c"),
+                    "range's exact sums as bytes)"),
     ("core/load/", "the scene loader: scene_json*.c (scene_json.c the entry point), "
                    "gltf_material.c (glTF materials and images as rayd's)"),
 ]
@@ -109,9 +116,27 @@ FOLDER_ORDER = {
         ["jobs"], ["events"], ["watch"], ["sched"], ["compile"], ["durable"],
     ],
 }
-# Programs above the core: each its own layer, side by side.
-PROGRAMS = ["cli/", "clients/", "server/"]
+# Programs above the core, side by side: each folder, and the rooms besides
+# its own that it may use (and link).  Anything else of programs/ or server/
+# is another program's.  Keep in step with docs/architecture.md.
+PROGRAMS = {
+    "programs/render/": ["programs/common/"],   # rayd-render
+    "programs/client/": ["programs/common/"],   # rayd-client
+    "programs/common/": [],                     # their shared room (lauxlib-style)
+    "server/": [],                              # rayd (its own option parser)
+}
+COMMON = "programs/common/"
 PUBLIC = "include/rayd/"
+# The system headers the common room may include: the C library's (C11 and
+# POSIX), nothing that needs a library of its own.
+LIBC_HEADERS = set("""
+    assert.h complex.h ctype.h errno.h fenv.h float.h inttypes.h iso646.h limits.h locale.h
+    math.h setjmp.h signal.h stdalign.h stdarg.h stdatomic.h stdbool.h stddef.h stdint.h
+    stdio.h stdlib.h stdnoreturn.h string.h tgmath.h threads.h time.h uchar.h wchar.h wctype.h
+    dirent.h fcntl.h fnmatch.h getopt.h glob.h libgen.h poll.h pthread.h regex.h sched.h
+    strings.h sys/mman.h sys/resource.h sys/select.h sys/stat.h sys/statvfs.h sys/time.h
+    sys/types.h sys/uio.h sys/wait.h termios.h unistd.h utime.h
+""".split())
 
 # System headers and the folders (or files) that may include them: each
 # library has a room.
@@ -120,14 +145,14 @@ SYSTEM_HEADERS = [
     ("microhttpd.h", "libmicrohttpd", MHD_ROOMS),
     ("sqlite3.h", "SQLite", ["server/work/store.c"]),
     ("cjson/cJSON.h", "cJSON", ["core/format/", "core/load/", "server/base/", "server/req/",
-                                "server/api/", "clients/"]),
+                                "server/api/", "programs/client/"]),
     ("png.h", "libpng", ["core/codec/"]),
     ("openexr.h", "OpenEXR", ["core/codec/"]),
     ("zlib.h", "zlib", ["core/codec/"]),
     ("libdeflate.h", "libdeflate", ["core/codec/"]),
     ("isa-l.h", "ISA-L", ["core/codec/"]),
     ("stb/stb_image.h", "stb_image", ["core/load/"]),
-    ("curl/curl.h", "libcurl", ["clients/"]),
+    ("curl/curl.h", "libcurl", ["programs/client/"]),
 ]
 
 INCLUDE_RE = re.compile(r'^\s*#\s*include\s+[<"]([^">]+)[">]', re.M)
@@ -152,7 +177,7 @@ def rank_of(path, layers):
 
 def source_files(root):
     out = []
-    for top in ["core", "server", "clients", "cli"]:
+    for top in ["core", "server", "programs"]:
         for dirpath, _, names in os.walk(os.path.join(root, top)):
             if "/web" in dirpath:
                 continue
@@ -167,7 +192,8 @@ def resolve_include(root, src, inc):
     cands = [os.path.join(os.path.dirname(src), inc)]
     if src.startswith("server/"):
         cands.append(os.path.join("server", inc))  # built with -Iserver
-    cands += [os.path.join("core", inc), os.path.join("include", inc)]
+    cands += [os.path.join("core", inc), os.path.join("include", inc),
+              os.path.join("programs", inc)]
     for c in cands:
         c = os.path.normpath(c)
         if os.path.isfile(os.path.join(root, c)):
@@ -229,9 +255,14 @@ def symbol_edges(root, build, files):
     edges = []
     for f, (_, undefined) in objs.items():
         for s in undefined:
-            for d in definer.get(s, []):
-                if not same_program(f, d) and not d.startswith("core/"):
-                    continue  # programs are linked apart: cli/ never links server/
+            ds = definer.get(s, [])
+            # A program's own definition wins at its link; else one in a
+            # folder it may be linked with: the core, the common room, and
+            # for the common room the programs that link it.  Programs are
+            # linked apart otherwise: the client never links server/, so a
+            # name both define is no use of one by the other.
+            own = [d for d in ds if same_program(f, d)]
+            for d in own or [d for d in ds if linked_with(f, d)]:
                 edges.append((f, d, s))
     return edges, objs
 
@@ -241,6 +272,12 @@ def program_of(path):
         if path.startswith(p):
             return p
     return "core/" if path.startswith("core/") else None
+
+
+def linked_with(a, b):
+    """Whether b may be in the same link as a, besides a's own folder."""
+    pa, pb = program_of(a), program_of(b)
+    return pb in ("core/", COMMON) or (pa == COMMON and COMMON in PROGRAMS.get(pb, []))
 
 
 def same_program(a, b):
@@ -330,6 +367,40 @@ def public_problems(inc_edges, sym_edges):
     for a, b, s in sym_edges:
         if program_of(a) in PROGRAMS and b.startswith("core/") and not s.startswith("rayd_"):
             problems.append(f"{a} calls the core's private {s} ({b})")
+    return sorted(set(problems))
+
+
+def program_problems(edges):
+    """Uses of a program's folder from outside the folders it may be used by."""
+    problems = []
+    for e in edges:
+        a, b = e[0], e[1]
+        pa, pb = program_of(a), program_of(b)
+        if pb not in PROGRAMS or pa == pb:
+            continue
+        how = f"calls {e[2]} of" if len(e) > 2 else "includes"
+        if pa in PROGRAMS and pb in PROGRAMS[pa]:
+            continue
+        if pa in PROGRAMS:
+            may = ", ".join([pa] + PROGRAMS[pa])
+            problems.append(f"{a} {how} {b}: {pa} may use only {may} and {PUBLIC}")
+        else:
+            problems.append(f"{a} {how} {b}: the core never uses a program")
+    return sorted(set(problems))
+
+
+def common_problems(root, files):
+    """System headers of the common room that are not the C library's."""
+    problems = []
+    for f in files:
+        if not f.startswith(COMMON):
+            continue
+        with open(os.path.join(root, f), encoding="utf-8", errors="replace") as fh:
+            text = strip_comments(fh.read())
+        for inc in INCLUDE_RE.findall(text):
+            if resolve_include(root, f, inc) is None and inc not in LIBC_HEADERS:
+                problems.append(f"{f} includes <{inc}>: {COMMON} uses only {PUBLIC}rayd.h "
+                                "and the C library")
     return sorted(set(problems))
 
 
@@ -482,8 +553,13 @@ def run(build, root):
               layer_problems(inc, SERVER_LAYERS, "server/"))
     rep.check("layers: server/ calls only its own and lower layers",
               layer_problems(sym, SERVER_LAYERS, "server/"))
-    rep.check("layers: cli/, clients/ and server/ reach the core only through include/rayd/",
+    rep.check("layers: programs/ and server/ reach the core only through include/rayd/",
               public_problems(inc, sym))
+    rep.check("layers: each program uses only its own folder and the rooms it lists "
+              "(programs/common/ only by rayd-render and rayd-client)",
+              program_problems(inc + sym))
+    rep.check("layers: programs/common/ includes only include/rayd/rayd.h and libc headers",
+              common_problems(root, files))
     rep.check("layers: no circle of includes or calls between files",
               ["circle: " + " <-> ".join(c) for c in circles(inc + sym)])
     rep.check("layers: every core/ and server/ file is in a layer",
@@ -513,8 +589,8 @@ def compile_tree(root, build, only=None):
             os.makedirs(os.path.dirname(o), exist_ok=True)
             top = "server" if f.startswith("server/") else "core"
             subprocess.run(["cc", "-c", "-I" + os.path.join(root, "include"),
-                            "-I" + os.path.join(root, top), os.path.join(root, f), "-o", o],
-                           check=True)
+                            "-I" + os.path.join(root, top), "-I" + os.path.join(root, "programs"),
+                            os.path.join(root, f), "-o", o], check=True)
 
 
 def self_test():
@@ -528,12 +604,21 @@ def self_test():
         "core/load/api.c": '#include "base/b.h"\n#include "rayd/rayd.h"\n'
                            "int rayd_api(void) { return b_fn(); }\n",
         "core/codec/p.h": "#include <png.h>\n",
-        "cli/main.c": '#include <rayd/rayd.h>\nint main(void) { return rayd_api(); }\n',
         "server/base/base.h": "int s_base(void);\n",
         "server/base/s.c": '#include "base/base.h"\nint s_base(void) { return 1; }\n',
         "server/work/work.h": '#include "base/base.h"\nint s_work(void);\n',
         "server/work/lru.c": '#include "work/work.h"\nint s_work(void) { return s_base(); }\n',
         DOC: doc_block("core") + "\n" + doc_block("server") + "\n",
+        "programs/common/common.h": "int c_fn(void);\n",
+        "programs/common/c.c": '#include <stdio.h>\n#include "common/common.h"\n'
+                               '#include "rayd/rayd.h"\nint c_fn(void) { return rayd_api(); }\n',
+        "programs/render/main.c": '#include <rayd/rayd.h>\n#include "common/common.h"\n'
+                                  "int main(void) { return rayd_api() + c_fn(); }\n",
+        "programs/client/client.h": "int k_fn(void);\n",
+        "programs/client/main.c": '#include "client.h"\n#include "common/common.h"\n'
+                                  "int k_fn(void) { return 3; }\n"
+                                  "int main(void) { return k_fn() + c_fn(); }\n",
+        "server/main.c": '#include <rayd/rayd.h>\nint main(void) { return rayd_api(); }\n',
     }
     breaks = {
         "includes a higher layer": ("core/ includes", {
@@ -550,7 +635,7 @@ def self_test():
             "core/base/b.h": "int b_fn(void);\nint x_fn(void);\n",
             "core/load/x.c": "int x_fn(void);\nint x_fn(void) { return 2; }\n"}),
         "a program includes a private header": ("through include/rayd/", {
-            "cli/main.c": '#include "base/b.h"\nint main(void) { return b_fn(); }\n'}),
+            "programs/render/main.c": '#include "base/b.h"\nint main(void) { return b_fn(); }\n'}),
         "server/ includes a higher folder": ("server/ includes", {
             "server/base/s.c": '#include "base/base.h"\n#include "work/work.h"\n'
                                "int s_base(void) { return 1; }\n"}),
@@ -572,6 +657,19 @@ def self_test():
         "the page's diagram differs from the tables": ("diagrams", {
             DOC: doc_block("core").replace("core/math/", "core/maths") + "\n"
                  + doc_block("server") + "\n"}),
+        "the common room includes a program's header": ("uses only its own folder", {
+            "programs/common/c.c": '#include "client/client.h"\nint c_fn(void) { return 1; }\n'}),
+        "the common room calls a program": ("uses only its own folder", {
+            "programs/common/c.c": "int k_fn(void);\nint c_fn(void) { return k_fn(); }\n"}),
+        "the server includes the common room": ("uses only its own folder", {
+            "server/main.c": '#include "common/common.h"\nint main(void) { return 0; }\n'}),
+        "the server calls the common room": ("uses only its own folder", {
+            "server/main.c": "int c_fn(void);\nint main(void) { return c_fn(); }\n"}),
+        "one program uses another's file": ("uses only its own folder", {
+            "programs/render/main.c": '#include "client/client.h"\n'
+                                      "int main(void) { return k_fn(); }\n"}),
+        "the common room includes a library's header": ("libc headers", {
+            "programs/common/c.c": "#include <cjson/cJSON.h>\nint c_fn(void) { return 1; }\n"}),
     }
     failed = 0
     with tempfile.TemporaryDirectory() as top:

@@ -11,7 +11,7 @@ and options, its other lines (up to "-->") are the mode's inputs:
 
   <!-- docs-check -->            (mode "shell", the default) the block's shell
       commands run with bash in a scratch folder that sees the repository's
-      build/, scenes/, clients/, tests/ and docs/ (build/ is BUILD; in
+      build/, scenes/, programs/, tests/ and docs/ (build/ is BUILD; in
       scenes/ the path-traced scenes are cut to 64 x 64 pixels, same
       samples, so that they take seconds; scene.json is scenes/spheres.json).  A block
       of lines starting with "$ " is a session: each command (with "\"
@@ -248,7 +248,7 @@ class Env:
     def __init__(self, root, build):
         self.root, self.build = root, build
         self.work = tempfile.mkdtemp(prefix="rayd-docs.")
-        for d in ("clients", "tests", "docs"):
+        for d in ("programs", "tests", "docs"):
             os.symlink(os.path.join(root, d), os.path.join(self.work, d))
         self.scenes(os.path.join(root, "scenes"), os.path.join(self.work, "scenes"))
         os.symlink(build, os.path.join(self.work, "build"))

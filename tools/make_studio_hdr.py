@@ -4,7 +4,7 @@
     python3 tools/make_studio_hdr.py [OUT.hdr]    (default scenes/studio.hdr)
     python3 tools/make_studio_hdr.py --scene      and writes scenes/studio.json,
                                                   which embeds it (base64), and
-                                                  clients/studio_hdr.h
+                                                  programs/client/studio_hdr.h
 
 A 32 x 16 equirectangular Radiance .hdr in rayd's layout (row 0 looks
 straight up, the centre column looks down -Z), grey, with no colour so that
@@ -13,7 +13,7 @@ falling smoothly to the walls' level 50 degrees from the zenith), grey
 walls a little brighter at the horizon, and a darker grey floor.  No sun
 and no randomness, so the bytes never change and a render is soft and
 quiet at a few samples; 2 KiB.  rayd-client thumbnails embeds the same
-image (clients/studio_hdr.h is generated from it by this script).
+image (programs/client/studio_hdr.h is generated from it by this script).
 
 The example scene, scenes/studio.json, is a small vase (a surface of
 revolution, written here as OBJ text) on a floor plane, lit by the image
@@ -81,7 +81,7 @@ def scene(image):
     }
 
 
-def client_header(image, path="clients/studio_hdr.h"):
+def client_header(image, path="programs/client/studio_hdr.h"):
     b = base64.b64encode(image).decode()
     rows = "\n".join('    "%s"' % b[i:i + 96] for i in range(0, len(b), 96))
     with open(path, "w") as f:

@@ -498,13 +498,6 @@ enum rayd_status rayd_png16_encode(const float *rgb, int w, int h, int level, vo
 enum rayd_status rayd_read_file(const char *path, size_t max, char **out, size_t *len,
                                 struct rayd_error *err);
 
-/* The format an output file's name asks for by its extension, case
- * ignored: "exr" for .exr, "png" for .png and any name that is no image
- * format's ("-", "frame", "out.bin"), NULL for another image format's
- * (.jpg, .webp, .tiff, ...), which rayd does not write: a front end then
- * refuses the name unless a format is given. */
-const char *rayd_output_kind(const char *path);
-
 /* Frees memory the core handed out (PNG buffers, files). */
 void rayd_free(void *p);
 

@@ -274,7 +274,7 @@ check client_server_not_http_exit_2 "exit $RC, stderr '$(first_err c_ftp)'" bash
     "[ $RC = 2 ] && grep -q '^rayd-client: error: --server wants an http:// or https:// URL' '$T/c_ftp.err' && tail -n 1 '$T/c_ftp.err' | grep -q '^Try '"
 # rayd-curl.sh names a scene it cannot read (curl alone would send an empty
 # body, and the server's answer would be about JSON, not the file).
-run curl_nofile sh "$RAYD_ROOT/clients/rayd-curl.sh" "$T/no-such.json" "$T/curl.png" "http://127.0.0.1:$PORT"
+run curl_nofile sh "$RAYD_ROOT/programs/curl/rayd-curl.sh" "$T/no-such.json" "$T/curl.png" "http://127.0.0.1:$PORT"
 check rayd_curl_unreadable_scene "exit $RC, stderr '$(first_err curl_nofile)'" bash -c \
     "[ $RC = 1 ] && [ '$(first_err curl_nofile)' = 'rayd-curl: error: cannot read $T/no-such.json' ] && [ ! -e '$T/curl.png' ] && [ ! -e '$T/curl.png.part' ]"
 

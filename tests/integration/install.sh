@@ -33,7 +33,7 @@ files_under() { (cd "$1" && find . \( -type f -o -type l \) | sed 's|^\./||' | s
 # --- make install, PREFIX=/usr -----------------------------------------------
 # A dry run first: nothing of the static build may be compiled again.
 make -n install DESTDIR="$D" PREFIX=/usr "${MAKEVARS[@]}" >"$T/dry.log" 2>&1
-rebuilt=$(grep -E -- " -c [a-z]+/.*-o $BUILD_REL/(core|server|clients|cli)/| -o $BUILD_REL/(rayd|rayd-render|rayd-client) |^ar rcs $BUILD_REL/librayd.a " \
+rebuilt=$(grep -E -- " -c [a-z]+/.*-o $BUILD_REL/(core|server|programs)/| -o $BUILD_REL/(rayd|rayd-render|rayd-client) |^ar rcs $BUILD_REL/librayd.a " \
     "$T/dry.log" | head -n 3)
 check install-builds-nothing "make install would compile or link again: $rebuilt" [ -z "$rebuilt" ]
 

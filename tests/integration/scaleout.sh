@@ -12,7 +12,7 @@
 # immutable tiles, that a node killed with SIGKILL mid-frame costs nothing
 # but time, and that with every node down the client fails loudly without
 # writing an image.  Also: job through nginx, health, a refused scene's JSON
-# error, mesh and environment files inlined, clients/rayd-curl.sh.  Every process is stopped
+# error, mesh and environment files inlined, programs/curl/rayd-curl.sh.  Every process is stopped
 # by its PID; everything stays on loopback.
 source "$(dirname "$0")/lib/common.sh"
 
@@ -185,9 +185,9 @@ PY
 client env render "$T/env.json" -o "$T/env.png" --server "${NODE_URL[1]}" --server "${NODE_URL[2]}" --tile 32
 check environment_file_inlined "exit $RC: $(tail -n 2 "$T/env.err")" bash -c "[ $RC = 0 ] && '$PNGCMP' '$T/env_ref.png' '$T/env.png'"
 
-sh "$RAYD_ROOT/clients/rayd-curl.sh" "$T/j.json" "$T/curl.png" "$LB" 2>"$T/curl.err"
+sh "$RAYD_ROOT/programs/curl/rayd-curl.sh" "$T/j.json" "$T/curl.png" "$LB" 2>"$T/curl.err"
 check rayd_curl_through_nginx "exit $?: $(head -c 200 "$T/curl.err")" cmp -s "$T/curl.png" "$T/j_ref.png"
-sh "$RAYD_ROOT/clients/rayd-curl.sh" "$T/huge.json" "$T/curl2.png" "$LB" 2>"$T/curl2.err"
+sh "$RAYD_ROOT/programs/curl/rayd-curl.sh" "$T/huge.json" "$T/curl2.png" "$LB" 2>"$T/curl2.err"
 check rayd_curl_error "exit $? or no JSON error: $(head -c 200 "$T/curl2.err")" \
     bash -c "grep -q too_large '$T/curl2.err' && [ ! -e '$T/curl2.png' ]"
 
@@ -200,7 +200,7 @@ check token_render "exit $RC: $(tail -n 2 "$T/token.err")" bash -c "[ $RC = 0 ] 
 client notoken render "$T/j.json" -o "$T/notok.png" --server "$TOK_URL"
 check token_missing_refused "exit $RC: $(tail -n 1 "$T/notoken.err")" \
     bash -c "[ $RC = 1 ] && grep -q 'HTTP 401 unauthorized' '$T/notoken.err' && [ ! -e '$T/notok.png' ]"
-RAYD_TOKEN_FILE=$T/token sh "$RAYD_ROOT/clients/rayd-curl.sh" "$T/j.json" "$T/curl3.png" "$TOK_URL" 2>"$T/curl3.err"
+RAYD_TOKEN_FILE=$T/token sh "$RAYD_ROOT/programs/curl/rayd-curl.sh" "$T/j.json" "$T/curl3.png" "$TOK_URL" 2>"$T/curl3.err"
 check rayd_curl_token "exit $?: $(head -c 200 "$T/curl3.err")" cmp -s "$T/curl3.png" "$T/j_ref.png"
 kill -TERM "$TOK_PID"
 wait "$TOK_PID" 2>/dev/null

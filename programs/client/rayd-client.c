@@ -35,7 +35,6 @@
 #include <curl/curl.h>
 #include <errno.h>
 #include <getopt.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdbool.h>
 #include <stdlib.h>
@@ -114,16 +113,8 @@ static char *client_read_token(const char *path) {
 }
 
 static int client_number(const char *opt, const char *v, double lo, double hi, double *out) {
-    char *end;
-    errno = 0;
-    double d = v ? strtod(v, &end) : 0;
-    if (!v || end == v || *end || errno || !(d >= lo && d <= hi)) {
-        fprintf(stderr, "rayd-client: error: %s needs a number in %g..%g, not '%s'\n", opt, lo, hi,
-                v ? v : "");
-        return -1;
-    }
-    *out = d;
-    return 0;
+    if (args_double(v, lo, hi, out) == 0) return 0;
+    return args_bad("%s needs a number in %g..%g, not '%s'", opt, lo, hi, v ? v : "");
 }
 
 /* ---- health ---------------------------------------------------------------- */
@@ -234,21 +225,6 @@ static int client_health(const struct client_opts *o) {
 
 /* ---- the command line ------------------------------------------------------ */
 
-/* A usage error: one line; the caller exits 2. */
-__attribute__((format(printf, 1, 2))) static void client_say_bad(const char *fmt, ...) {
-    va_list ap;
-    va_start(ap, fmt);
-    fprintf(stderr, "rayd-client: error: ");
-    vfprintf(stderr, fmt, ap);
-    fprintf(stderr, "\n");
-    va_end(ap);
-}
-
-/* client_say_bad as an expression whose value is -1, seen at the call:
- * clang's analyzer does not follow calls into variadic functions, so a
- * function's -1 would be unknown to it (as err_set, core/base/error.h). */
-#define client_bad(...) (client_say_bad(__VA_ARGS__), -1)
-
 /* The long options; those without a short letter are numbered from 256. */
 enum {
     OPT_TILE = 256,
@@ -318,7 +294,7 @@ static int client_for_cmd(const struct client_args *a) {
         snprintf(word, sizeof word, " %s ", a->cmd);
         snprintf(list, sizeof list, " %s ", client_only[i].cmds);
         if ((a->given >> (client_only[i].opt - OPT_TILE) & 1) && !strstr(list, word))
-            return client_bad("%s is not an option of %s (only of %s)", client_only[i].name, a->cmd,
+            return args_bad("%s is not an option of %s (only of %s)", client_only[i].name, a->cmd,
                               client_only[i].cmds);
     }
     return 0;
@@ -335,7 +311,7 @@ static int client_int(int opt, const char *v, double lo, double hi, int *out) {
                                               : "--threads";
     double d;
     if (client_number(name, v, lo, hi, &d)) return -1;
-    if (d != (int)d) return client_bad("%s needs a whole number, not '%s'", name, v);
+    if (d != (int)d) return args_bad("%s needs a whole number, not '%s'", name, v);
     *out = (int)d;
     return 0;
 }
@@ -354,18 +330,18 @@ static int client_option(int opt, const char *v, struct client_args *a) {
         return 1;
     case 's':
         if (!v || o->nservers == CLIENT_MAX_SERVERS)
-            return client_bad("--server needs a URL (at most %d)", CLIENT_MAX_SERVERS);
+            return args_bad("--server needs a URL (at most %d)", CLIENT_MAX_SERVERS);
         o->servers[o->nservers++] = v;
         return 0;
     case 'o':
-        if (!v) return client_bad("-o/--output needs a file name ('-': standard output)");
+        if (!v) return args_bad("-o/--output needs a file name ('-': standard output)");
         o->out = v;
         return 0;
     case 'q':
         o->quiet = 1;
         return 0;
     case OPT_TOKEN_FILE:
-        if (!v) return client_bad("--token-file needs a file");
+        if (!v) return args_bad("--token-file needs a file");
         a->token_file = v;
         return 0;
     case OPT_TIMEOUT:
@@ -390,51 +366,23 @@ static int client_option(int opt, const char *v, struct client_args *a) {
     case OPT_VIEW:
         if (!v || (strcmp(v, "three-quarter") && strcmp(v, "front") && strcmp(v, "side") &&
                    strcmp(v, "top")))
-            return client_bad("--view needs three-quarter, front, side or top, not '%s'",
+            return args_bad("--view needs three-quarter, front, side or top, not '%s'",
                               v ? v : "");
         a->view = v;
         return 0;
     }
-    return client_bad("unknown option");
-}
-
-/* The long options of opts that word ("--na" or "--na=value") is a prefix
- * of, as "--name, --namesake" into out: getopt_long refuses a prefix of
- * more than one, which is no unknown option and is said so. */
-static int client_prefix_of(const struct option *opts, const char *word, char *out, size_t size) {
-    size_t len = strcspn(word + 2, "="), used = 0;
-    int n = 0;
-    out[0] = '\0';
-    for (const struct option *o = opts; o->name; o++) {
-        if (strncmp(o->name, word + 2, len) != 0) continue;
-        int k = snprintf(out + used, size - used, "%s--%s", n ? ", " : "", o->name);
-        if (k > 0 && (size_t)k < size - used) used += (size_t)k;
-        n++;
-    }
-    return n;
-}
-
-/* getopt_long's '?': arg is the word it stopped at; opt the short option,
- * or a long option's value when it was given one it does not take. */
-static int client_unknown(const char *arg, int opt) {
-    char names[512];
-    if (!strncmp(arg, "--", 2) && opt)
-        return client_bad("option '%.*s' takes no value", (int)strcspn(arg, "="), arg);
-    if (!strncmp(arg, "--", 2) && client_prefix_of(client_options, arg, names, sizeof names) > 1)
-        return client_bad("ambiguous option '%s' (%s)", arg, names);
-    if (!strncmp(arg, "--", 2)) return client_bad("unknown option '%s'", arg);
-    return client_bad("unknown option '-%c'", opt);
+    return args_bad("unknown option");
 }
 
 /* The words that are not options: the command, then the scene. */
 static int client_words(int argc, char **argv, struct client_args *a) {
-    if (optind >= argc) return client_bad("no command given (render, job, health or thumbnails)");
+    if (optind >= argc) return args_bad("no command given (render, job, health or thumbnails)");
     a->cmd = argv[optind++];
     if (strcmp(a->cmd, "render") && strcmp(a->cmd, "job") && strcmp(a->cmd, "health") &&
         strcmp(a->cmd, "thumbnails"))
-        return client_bad("unknown command '%s' (render, job, health or thumbnails)", a->cmd);
+        return args_bad("unknown command '%s' (render, job, health or thumbnails)", a->cmd);
     if (optind < argc && strcmp(a->cmd, "health")) a->scene = argv[optind++];
-    if (optind < argc) return client_bad("unexpected argument '%s'", argv[optind]);
+    if (optind < argc) return args_bad("unexpected argument '%s'", argv[optind]);
     return 0;
 }
 
@@ -444,27 +392,27 @@ static int client_parse(int argc, char **argv, struct client_args *a) {
     opterr = 0;
     int opt, rc;
     while ((opt = getopt_long(argc, argv, ":s:o:qh", client_options, NULL)) != -1) {
-        if (opt == '?') return client_unknown(argv[optind - 1], optopt);
+        if (opt == '?') return args_unknown(client_options, argv[optind - 1], optopt);
         rc = opt == ':' ? client_option(optopt, NULL, a) : client_option(opt, optarg, a);
         if (rc != 0) return rc;
     }
     if (client_words(argc, argv, a) != 0 || client_for_cmd(a) != 0) return -1;
     /* a range is always the whole image: a --tile would be dropped unsaid */
     if (a->o.tile && a->o.ranges > 0)
-        return client_bad("--tile and --split-samples exclude each other (--split-samples sends "
+        return args_bad("--tile and --split-samples exclude each other (--split-samples sends "
                           "whole-image sample ranges, not tiles)");
     if (!strcmp(a->cmd, "thumbnails"))
-        return a->scene ? 0 : client_bad("thumbnails needs DIR, the folder of models");
+        return a->scene ? 0 : args_bad("thumbnails needs DIR, the folder of models");
     if (strcmp(a->cmd, "health") && (!a->scene || !a->o.out))
-        return client_bad("%s needs SCENE.json and -o OUT.png", a->cmd);
+        return args_bad("%s needs SCENE.json and -o OUT.png", a->cmd);
     if (!strcmp(a->cmd, "job") && a->o.nservers > 1)
-        return client_bad("job: give exactly one --server (jobs live on one node)");
-    if (a->o.out && !rayd_output_kind(a->o.out))
-        return client_bad(
+        return args_bad("job: give exactly one --server (jobs live on one node)");
+    if (a->o.out && !output_kind(a->o.out))
+        return args_bad(
             "-o %s: rayd-client writes PNG (.png) and OpenEXR (.exr), not this format", a->o.out);
-    bool exr = a->o.out && output_is_exr(a->o.out);
+    bool exr = a->o.out && output_kind_exr(a->o.out);
     if (exr && strcmp(a->cmd, "job") && a->o.ranges <= 0) /* else a PNG named .exr */
-        return client_bad("-o %s: OpenEXR comes only from render --split-samples N or from job "
+        return args_bad("-o %s: OpenEXR comes only from render --split-samples N or from job "
                           "(tiles arrive as 8-bit PNGs)",
                           a->o.out);
     return 0;
@@ -493,10 +441,10 @@ static int client_urls(struct client_opts *o, char **urls) {
     for (int i = 0; i < o->nservers; i++) {
         size_t n = strlen(o->servers[i]);
         urls[i] = strdup(o->servers[i]);
-        if (!urls[i]) return client_bad("out of memory");
+        if (!urls[i]) return args_bad("out of memory");
         while (n > 0 && urls[i][n - 1] == '/') urls[i][--n] = '\0';
         if (strncmp(urls[i], "http://", 7) && strncmp(urls[i], "https://", 8))
-            return client_bad("--server wants an http:// or https:// URL such as "
+            return args_bad("--server wants an http:// or https:// URL such as "
                               "http://host:8080, not '%s'",
                               urls[i]);
         o->servers[i] = urls[i];
@@ -519,13 +467,14 @@ static int client_run(const struct client_args *a) {
 
 int main(int argc, char **argv) {
     struct client_args a;
+    prog_init("rayd-client");
     int rc = client_args(argc, argv, &a);
     if (rc != 0) {
         if (rc < 0) fprintf(stderr, "Try 'rayd-client --help'.\n");
         return rc < 0 ? CLIENT_USAGE_EXIT : 0;
     }
     if (!strcmp(a.o.out ? a.o.out : "", "-") && isatty(STDOUT_FILENO)) {
-        client_say_bad("-o - writes the image to standard output, which is a terminal");
+        prog_error("-o - writes the image to standard output, which is a terminal");
         fprintf(stderr, "Try 'rayd-client --help'.\n");
         return CLIENT_USAGE_EXIT;
     }

@@ -33,9 +33,7 @@
  * bad value, a --region outside the image) and nothing was rendered.
  */
 #include <errno.h>
-#include <fcntl.h>
 #include <getopt.h>
-#include <stdarg.h>
 #include <stdatomic.h>
 #include <stdbool.h>
 #include <stdio.h>
@@ -49,6 +47,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "common/common.h"
 #include "rayd/rayd.h"
 
 static void usage(FILE *f) {
@@ -98,29 +97,12 @@ static void usage(FILE *f) {
             "Exit status: 0 done, 1 failure (bad scene, I/O), 2 usage error (bad command line).\n");
 }
 
-/* A usage error: one line, and the caller exits 2 (nothing was tried). */
-__attribute__((format(printf, 1, 2))) static void say_usage(const char *fmt, ...) {
-    va_list ap;
-    va_start(ap, fmt);
-    fprintf(stderr, "rayd-render: error: ");
-    vfprintf(stderr, fmt, ap);
-    fprintf(stderr, "\n");
-    va_end(ap);
-}
-
-/* say_usage as an expression whose value is -1, seen at the call: clang's
- * analyzer does not follow calls into variadic functions, so a function's
- * -1 would be unknown to it (as err_set, core/base/error.h). */
-#define bad_usage(...) (say_usage(__VA_ARGS__), -1)
-
-static int parse_int(const char *s, long lo, long hi, long *out) {
-    char *end;
-    errno = 0;
-    long v = strtol(s, &end, 10);
-    if (errno || end == s || *end || v < lo || v > hi) return -1;
-    *out = v;
-    return 0;
-}
+/* A usage error: one line, and the caller exits 2 (nothing was tried);
+ * bad_usage says it as an expression whose value is -1.  Integers are read
+ * strictly.  The helpers are programs/common's, shared with rayd-client. */
+#define say_usage prog_error
+#define bad_usage(...) args_bad(__VA_ARGS__)
+#define parse_int(s, lo, hi, out) args_long(s, lo, hi, out)
 
 /* X,Y,W,H: four integers in int range (the core checks them against the
  * image). */
@@ -337,34 +319,6 @@ static int set_option(int opt, const char *val, struct args *a) {
     return set_pass_option(opt, val, a);
 }
 
-/* The long options of opts that word ("--na" or "--na=value") is a prefix
- * of, as "--name, --namesake" into out: getopt_long refuses a prefix of
- * more than one, which is no unknown option and is said so. */
-static int prefix_of(const struct option *opts, const char *word, char *out, size_t size) {
-    size_t len = strcspn(word + 2, "="), used = 0;
-    int n = 0;
-    out[0] = '\0';
-    for (const struct option *o = opts; o->name; o++) {
-        if (strncmp(o->name, word + 2, len) != 0) continue;
-        int k = snprintf(out + used, size - used, "%s--%s", n ? ", " : "", o->name);
-        if (k > 0 && (size_t)k < size - used) used += (size_t)k;
-        n++;
-    }
-    return n;
-}
-
-/* getopt_long's '?': arg is the word it stopped at; opt the short option,
- * or a long option's value when it was given one it does not take. */
-static int unknown_option(const char *arg, int opt) {
-    char names[512];
-    if (!strncmp(arg, "--", 2) && opt)
-        return bad_usage("option '%.*s' takes no value", (int)strcspn(arg, "="), arg);
-    if (!strncmp(arg, "--", 2) && prefix_of(long_options, arg, names, sizeof names) > 1)
-        return bad_usage("ambiguous option '%s' (%s)", arg, names);
-    if (!strncmp(arg, "--", 2)) return bad_usage("unknown option '%s'", arg);
-    return bad_usage("unknown option '-%c'", opt);
-}
-
 /* -o x.png with --format exr (or -o x.exr with a PNG format) would write one
  * format under the other's name; --format wins over a name that says
  * nothing (-o frame, -o -) or names another format (-o x.jpg), but a name
@@ -372,7 +326,7 @@ static int unknown_option(const char *arg, int opt) {
 static int output_matches_format(const struct args *a) {
     const char *dot = strrchr(a->output, '.');
     bool png_name = dot && !strcasecmp(dot, ".png");
-    const char *kind = rayd_output_kind(a->output);
+    const char *kind = output_kind(a->output);
     if (png_name && a->format == FMT_EXR)
         return bad_usage("-o %s names a PNG, but --format exr writes OpenEXR: name it .exr",
                          a->output);
@@ -391,7 +345,7 @@ static int parse_args(int argc, char **argv, struct args *a) {
     opterr = 0;
     int opt, rc;
     while ((opt = getopt_long(argc, argv, ":o:qh", long_options, NULL)) != -1) {
-        if (opt == '?') return unknown_option(argv[optind - 1], optopt);
+        if (opt == '?') return args_unknown(long_options, argv[optind - 1], optopt);
         rc = opt == ':' ? set_option(optopt, NULL, a) : set_option(opt, optarg, a);
         if (rc != 0) return rc;
     }
@@ -414,7 +368,7 @@ static int parse_args(int argc, char **argv, struct args *a) {
         return bad_usage("--region needs W and H > 0");
     if (a->format < 0 && !a->output[0]) a->format = FMT_PNG;
     if (a->format < 0) {
-        const char *kind = rayd_output_kind(a->output);
+        const char *kind = output_kind(a->output);
         if (!kind)
             return bad_usage("-o %s: rayd-render writes PNG (.png) and OpenEXR (.exr), not this "
                              "format (give --format png to write a PNG under this name)",
@@ -565,44 +519,6 @@ static void progress_opts(struct progress *p, struct rayd_render_opts *opts) {
     opts->progress_user = p;
 }
 
-/* The output file path opened for writing, created if need be, but not
- * emptied: its bytes are written over and what is left past the new end
- * is cut off when it is closed (output_close).  Rendering to the same
- * file again and again is the usual way to work on a scene, and emptying
- * it first freed its pages in the kernel only for the write to take fresh
- * ones: that truncation took 2.7 ms of a 0.1 s 1080p frame.  NULL, with
- * errno, when it cannot be opened. */
-static FILE *output_open(const char *path) {
-    int fd = open(path, O_WRONLY | O_CREAT | O_CLOEXEC, 0666);
-    if (fd < 0) return NULL;
-    FILE *f = fdopen(fd, "wb");
-    if (!f) close(fd);
-    return f;
-}
-
-/* Closes f, opened by output_open, len bytes having been written to it;
- * a regular file is cut to len.  0, or -1 with errno. */
-static int output_close(FILE *f, off_t len) {
-    struct stat st;
-    int rc = fflush(f);
-    if (rc == 0 && fstat(fileno(f), &st) == 0 && S_ISREG(st.st_mode) && st.st_size != len)
-        rc = ftruncate(fileno(f), len);
-    int e = errno;
-    if (fclose(f) != 0) return -1;
-    errno = e;
-    return rc == 0 ? 0 : -1;
-}
-
-/* Writes the whole buffer to path ("-": standard output); 0 on success. */
-static int write_file(const char *path, const void *buf, size_t len) {
-    if (!strcmp(path, "-"))
-        return fwrite(buf, 1, len, stdout) == len && fflush(stdout) == 0 ? 0 : -1;
-    FILE *f = output_open(path);
-    int ok = f && fwrite(buf, 1, len, f) == len;
-    if (f && output_close(f, (off_t)len) != 0) ok = 0;
-    return ok ? 0 : -1;
-}
-
 /* A core error; a region field is named as the flag's. */
 static int fail_render(struct rayd_error *err) {
     if (err->code == RAYD_E_ARG && err->path[0]) {
@@ -617,13 +533,14 @@ static int fail_render(struct rayd_error *err) {
 /* Says that path ("-": standard output) cannot be written, for errno e;
  * returns 1, the exit code. */
 static int cannot_write(const char *path, int e) {
-    fprintf(stderr, "rayd-render: error: cannot write %s: %s\n",
-            strcmp(path, "-") ? path : "standard output", strerror(e));
+    prog_error("cannot write %s: %s", output_name(path), strerror(e));
     return 1;
 }
 
+/* The whole buffer to path (programs/common/output.c: whole or not at
+ * all); 0, or 1 with the error said. */
 static int write_or_say(const char *path, const void *buf, size_t len) {
-    return write_file(path, buf, len) == 0 ? 0 : cannot_write(path, errno);
+    return output_write(path, buf, len) == 0 ? 0 : 1;
 }
 
 /* Renders the scene into img, encoding each band of rows as soon as it is
@@ -650,32 +567,30 @@ static enum rayd_status render_png(const rayd_scene *scene, struct rayd_render_o
     return RAYD_OK;
 }
 
-/* The output file as a sink: its writes timed, for the write stage. */
+/* The output as a sink: its writes timed, for the write stage. */
 struct file_sink {
-    FILE *f;
+    struct output out;
     double seconds;
-    size_t len; /* bytes written */
 };
 
 static int file_put(void *user, const void *buf, size_t len) {
     struct file_sink *fs = user;
     double t = now();
-    int rc = fwrite(buf, 1, len, fs->f) == len ? 0 : -1;
-    fs->len += len;
+    int rc = output_put(&fs->out, buf, len);
     fs->seconds += now() - t;
     return rc;
 }
 
 /* Finishes the stream straight into a's output (the bands' bytes written
- * from their own buffers, no copy of the file): the bands left are
- * stage[ST_ENCODE], opening, writing and closing stage[ST_WRITE].  0, or
- * 1 with the error said. */
+ * from their own buffers, no copy of the file; the file whole or not at
+ * all, programs/common/output.c): the bands left are stage[ST_ENCODE],
+ * opening, writing and committing stage[ST_WRITE].  0, or 1 with the
+ * error said. */
 static int write_png(const struct args *a, rayd_png_stream *ps, double *stage,
                      struct rayd_png_stats *st_out) {
     double t = now();
-    bool out = !strcmp(a->output, "-");
-    struct file_sink fs = {out ? stdout : output_open(a->output), 0, 0};
-    if (!fs.f) {
+    struct file_sink fs = {.seconds = 0};
+    if (output_open(&fs.out, a->output) != 0) {
         int e = errno;
         rayd_png_stream_free(ps);
         return cannot_write(a->output, e);
@@ -686,13 +601,14 @@ static int write_png(const struct args *a, rayd_png_stream *ps, double *stage,
     enum rayd_status st = rayd_png_stream_finish_to(ps, a->threads, file_put, &fs, st_out, &err);
     double finish_s = now() - t;
     t = now();
-    int ok = st == RAYD_OK && (out ? fflush(stdout) == 0 : 1);
-    if (!out && output_close(fs.f, (off_t)fs.len) != 0) ok = 0;
+    int ok = st == RAYD_OK && output_commit(&fs.out) == 0;
+    if (st != RAYD_OK) output_abort(&fs.out); /* the temporary file goes; errno stays */
+    int e = errno;
     stage[ST_WRITE] = open_s + fs.seconds + (now() - t);
     stage[ST_ENCODE] = finish_s - fs.seconds;
     if (ok) return 0;
     if (st != RAYD_OK && st != RAYD_E_IO) return fail("", &err);
-    return cannot_write(a->output, errno);
+    return cannot_write(a->output, e);
 }
 
 /* Renders the parsed scene and writes the PNG, timing each stage from t0,
@@ -1081,6 +997,7 @@ static int run_frames(const struct args *a, const char *text, size_t len,
 
 int main(int argc, char **argv) {
     struct args a = {0};
+    prog_init("rayd-render");
     int rc = parse_args(argc, argv, &a);
     if (rc != 0) {
         if (rc < 0) fprintf(stderr, "Try 'rayd-render --help'.\n");

@@ -1,13 +1,15 @@
 /* base64enc.c -- standard base64, for the bytes rayd-client embeds.
  *
  * A scene carries a mesh, texture or environment file as base64
- * (scenefile.c, thumbnails.c), and a .gltf its buffers and images as
- * data: URIs (gltf_bundle.c); all of them encode here.  The core only
- * decodes (core/io/base64.c, behind include/rayd/), so the client keeps its
- * own encoder: RFC 4648's alphabet with '=' padding, what the core reads.
+ * (programs/client/scenefile.c, thumbnails.c), and a .gltf its buffers and
+ * images as data: URIs (gltf_bundle.c); all of them encode here.  The core
+ * only decodes (core/io/base64.c, inside the scene loader, not in its
+ * public API), so the programs keep their own encoder: RFC 4648's
+ * alphabet with '=' padding, what the core reads.
  */
-#include "client.h"
+#include "common/common.h"
 
+#include <stdint.h>
 #include <stdlib.h>
 
 char *base64enc(const unsigned char *data, size_t len) {

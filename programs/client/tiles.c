@@ -729,7 +729,7 @@ static enum rayd_status tiles_encode(const struct tiles *T, void **buf, size_t *
 {
     if (!T->acc)
         return rayd_png_encode_threads(T->img, -1, T->o->threads, buf, len, err);
-    if (!output_is_exr(T->o->out)) {
+    if (!output_kind_exr(T->o->out)) {
         rayd_image *img = NULL;
         enum rayd_status st = rayd_accum_image(T->acc, &img, err);
         if (st == RAYD_OK)

@@ -9,7 +9,6 @@
  *                  names, validates it with the core, hashes it (scene id)
  *   gltf_bundle.c  a .gltf's buffer and image files as data: URIs, so that
  *                  it travels alone
- *   base64enc.c    the base64 encoder of those embedded files
  *   net.c          libcurl glue shared by the commands: response buffers,
  *                  headers, the API's JSON errors, Retry-After
  *   tiles.c        the tile scheduler: one frame as tiles (or sample ranges)
@@ -19,8 +18,11 @@
  *   job.c          the asynchronous job API with its Server-Sent Events
  *   thumbnails.c   the thumbnails command: each model of a folder in a
  *                  studio scene, framed, rendered by tiles.c
- *   output.c       the finished image into -o: a file (via FILE.part), or
- *                  standard output for "-"
+ *
+ * From programs/common/ (common.h), shared with rayd-render: the option
+ * helpers, the finished image into -o (output_write: a temporary file
+ * renamed when whole, or standard output for "-"), the output's format
+ * by its name, and the base64 encoder of the embedded files.
  *
  * Exit status (rayd-client.c): 0 done, 1 failure (the scene or job was
  * refused, a server is unhealthy, tiles are missing, a transport or write
@@ -32,6 +34,8 @@
  */
 #ifndef RAYD_CLIENT_H
 #define RAYD_CLIENT_H
+
+#include "common/common.h"
 
 #include <stddef.h>
 #include <stdbool.h>
@@ -56,17 +60,6 @@ struct client_opts {
     const char *what; /* named first in tiles.c's error lines (thumbnails: the model), or NULL */
     int no_hedge;     /* --no-hedge: never send a straggler's copy to a second server */
 };
-
-/* ---- output.c ------------------------------------------------------------- */
-
-/* Writes len bytes to path (through path.part and a rename), or to standard
- * output when path is "-".  0, or -1 after printing why. */
-int output_write(const char *path, const void *buf, size_t len);
-/* path as a message names it: "standard output" for "-". */
-const char *output_name(const char *path);
-/* Whether path names an OpenEXR file (ends in .exr): the image then goes
- * out as linear float RGB, which only summed sample ranges give. */
-bool output_is_exr(const char *path);
 
 /* ---- scenefile.c ---------------------------------------------------------- */
 
@@ -96,11 +89,6 @@ void scenefile_free(struct scenefile *sf);
 /* With sf->bytes (malloc'd) and sf->len set: validates and hashes them as
  * scenefile_load does.  0, or -1 after printing why (sf freed). */
 int scenefile_finish(const char *name, struct scenefile *sf);
-
-/* ---- base64enc.c --------------------------------------------------------- */
-
-/* Standard base64 with padding; malloc'd NUL-terminated string or NULL. */
-char *base64enc(const unsigned char *data, size_t len);
 
 /* ---- gltf_bundle.c ------------------------------------------------------- */
 

@@ -1,7 +1,7 @@
 #!/bin/sh
 # rayd-curl.sh SCENE.json OUT.png [SERVER] -- render a scene with nothing but curl.
 #
-#   clients/rayd-curl.sh scenes/paper.json paper.png http://127.0.0.1:8080
+#   programs/curl/rayd-curl.sh scenes/paper.json paper.png http://127.0.0.1:8080
 #
 # On success writes OUT.png; on a refused scene prints the server's JSON
 # error (code, message, JSON Pointer path) and exits 1.  SERVER defaults to

@@ -289,7 +289,7 @@ static int job_exr_size(const struct net_buf *b, long *w, long *h) {
  * written).  The size is read from the header before anything is decoded,
  * so a huge image costs nothing. */
 static int job_write(const char *path, const struct net_buf *b, int w, int h) {
-    bool exr = output_is_exr(path);
+    bool exr = output_kind_exr(path);
     long iw = 0, ih = 0;
     if ((exr ? job_exr_size(b, &iw, &ih) : job_png_size(b, &iw, &ih)) != 0) {
         fprintf(stderr, "rayd-client: error: the job's image is not %s; nothing written to %s\n",
@@ -323,7 +323,7 @@ static int job_post(const struct client_opts *o, const struct scenefile *sf, cha
     const char *base = o->servers[0];
     char url[1024], why[600] = "";
     struct net_buf b = {0};
-    snprintf(url, sizeof url, "%s/v1/jobs%s", base, output_is_exr(o->out) ? "?format=exr" : "");
+    snprintf(url, sizeof url, "%s/v1/jobs%s", base, output_kind_exr(o->out) ? "?format=exr" : "");
     long st = job_request(o, "POST", url, sf, &b, why, sizeof why);
     int rc = 1;
     if (st != 202) {
@@ -381,7 +381,7 @@ static int job_fetch(const struct client_opts *o, const char *id, const struct s
     struct net_buf b = {0};
     long st = 0;
     snprintf(url, sizeof url, "%s/v1/jobs/%s/image.%s", o->servers[0], id,
-             output_is_exr(o->out) ? "exr" : "png");
+             output_kind_exr(o->out) ? "exr" : "png");
     for (int tries = 0; tries < 600 && !job_interrupted; tries++) {
         net_buf_reset(&b);
         st = job_request(o, "GET", url, NULL, &b, why, sizeof why);
