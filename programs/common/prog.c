@@ -16,10 +16,6 @@ void prog_init(const char *name) {
     prog = name;
 }
 
-static const char *prog_name(void) {
-    return prog;
-}
-
 void prog_error(const char *fmt, ...) {
     va_list ap;
     va_start(ap, fmt);
