@@ -21,7 +21,11 @@ struct edge_map { /* midpoint cache: key (a, b) with a < b -> vertex */
 };
 
 static uint32_t midpoint(struct edge_map *m, float **pos, uint32_t *nv, uint32_t a, uint32_t b) {
-    if (a > b) { uint32_t t = a; a = b; b = t; }
+    if (a > b) {
+        uint32_t t = a;
+        a = b;
+        b = t;
+    }
     uint64_t key = ((uint64_t)a << 32) | b;
     size_t h = (size_t)((key * 0x9e3779b97f4a7c15ULL) >> 20) & (m->cap - 1);
     while (m->keys[h] != UINT64_MAX) {
@@ -53,12 +57,13 @@ int main(int argc, char **argv) {
     float *pos = malloc(sizeof *pos * 3 * maxv);
     uint32_t *tri = malloc(sizeof *tri * 3 * ntri), *next = malloc(sizeof *next * 3 * ntri);
     const double t = (1 + sqrt(5.0)) / 2;
-    const double v0[12][3] = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
-                              {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
-    const uint32_t f0[20][3] = {{0, 11, 5}, {0, 5, 1}, {0, 1, 7}, {0, 7, 10}, {0, 10, 11},
-                                {1, 5, 9}, {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
-                                {3, 9, 4}, {3, 4, 2}, {3, 2, 6}, {3, 6, 8}, {3, 8, 9},
-                                {4, 9, 5}, {2, 4, 11}, {6, 2, 10}, {8, 6, 7}, {9, 8, 1}};
+    const double v0[12][3] = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0},
+                              {0, -1, t}, {0, 1, t}, {0, -1, -t}, {0, 1, -t},
+                              {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+    const uint32_t f0[20][3] = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
+                                {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
+                                {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
+                                {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
     uint32_t nv = 12;
     for (int i = 0; i < 12; i++) {
         double l = sqrt(v0[i][0] * v0[i][0] + v0[i][1] * v0[i][1] + v0[i][2] * v0[i][2]);
@@ -93,9 +98,10 @@ int main(int argc, char **argv) {
     }
     FILE *f = fopen(argv[2], "wb");
     if (!f) return perror(argv[2]), 1;
-    fprintf(f, "ply\nformat binary_little_endian 1.0\ncomment rayd genmesh level %d\n"
-               "element vertex %u\nproperty float x\nproperty float y\nproperty float z\n"
-               "element face %zu\nproperty list uchar uint vertex_indices\nend_header\n",
+    fprintf(f,
+            "ply\nformat binary_little_endian 1.0\ncomment rayd genmesh level %d\n"
+            "element vertex %u\nproperty float x\nproperty float y\nproperty float z\n"
+            "element face %zu\nproperty list uchar uint vertex_indices\nend_header\n",
             level, nv, nt);
     fwrite(pos, sizeof *pos * 3, nv, f); /* x86-64 is little endian, as the header says */
     for (size_t i = 0; i < nt; i++) {

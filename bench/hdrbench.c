@@ -73,7 +73,8 @@ int main(int argc, char **argv) {
     float *lin = NULL;
     if (rayd_accum_new(s, NULL, &acc, NULL) != RAYD_OK ||
         rayd_render_pass(s, &o, acc, 0, info.samples, NULL) != RAYD_OK ||
-        rayd_accum_image(acc, &img, NULL) != RAYD_OK || rayd_accum_linear(acc, &lin, NULL) != RAYD_OK)
+        rayd_accum_image(acc, &img, NULL) != RAYD_OK ||
+        rayd_accum_linear(acc, &lin, NULL) != RAYD_OK)
         return fprintf(stderr, "hdrbench: render failed\n"), 1;
     printf("%s: %dx%d, %d samples; 8-bit PNG on %d threads, the others on one\n", argv[1],
            info.width, info.height, info.samples, threads);

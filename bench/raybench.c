@@ -50,7 +50,6 @@ static double now_1t(void) {
     return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
 }
 
-
 struct work {
     const rayd_scene *s;
     struct camera cam;
@@ -185,17 +184,25 @@ int main(int argc, char **argv) {
     const char *path = NULL;
     int w = 1920, h = 1080, runs = 3, tmax = 2, packets_only = 0;
     for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--width") && i + 1 < argc) w = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--height") && i + 1 < argc) h = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--runs") && i + 1 < argc) runs = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--threads-max") && i + 1 < argc) tmax = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--cpu-time")) use_cpu_time = true;
-        else if (!strcmp(argv[i], "--packets-only")) packets_only = 1;
-        else path = argv[i];
+        if (!strcmp(argv[i], "--width") && i + 1 < argc)
+            w = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--height") && i + 1 < argc)
+            h = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--runs") && i + 1 < argc)
+            runs = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--threads-max") && i + 1 < argc)
+            tmax = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--cpu-time"))
+            use_cpu_time = true;
+        else if (!strcmp(argv[i], "--packets-only"))
+            packets_only = 1;
+        else
+            path = argv[i];
     }
     if (!path || w <= 0 || h <= 0 || runs <= 0 || runs > 99 || tmax < 1 || tmax > 64) {
-        fprintf(stderr, "usage: raybench SCENE.json [--width W] [--height H] [--runs N] [--threads-max T]"
-                        " [--cpu-time] [--packets-only]\n");
+        fprintf(stderr,
+                "usage: raybench SCENE.json [--width W] [--height H] [--runs N] [--threads-max T]"
+                " [--cpu-time] [--packets-only]\n");
         return 2;
     }
     size_t len;
@@ -280,12 +287,13 @@ int main(int argc, char **argv) {
                 double rate[99];
                 long count = 0, hits = 0;
                 for (int r = 0; r < runs; r++) {
-                    double dt = cast(s, &cam, w, h, shadow, packets, thread_counts[ti], &count, &hits);
+                    double dt =
+                        cast(s, &cam, w, h, shadow, packets, thread_counts[ti], &count, &hits);
                     rate[r] = count / dt / 1e6;
                 }
                 const char *kind = shadow ? "shadow" : "primary";
-                printf("%s%s_mrays_%dt %.2f\n", kind, packets ? "_packet" : "",
-                       thread_counts[ti], median(rate, runs));
+                printf("%s%s_mrays_%dt %.2f\n", kind, packets ? "_packet" : "", thread_counts[ti],
+                       median(rate, runs));
                 if (ti == 0) printf("%s%s_hits %ld\n", kind, packets ? "_packet" : "", hits);
             }
         }

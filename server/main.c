@@ -1,9 +1,9 @@
 /* main.c -- rayd: start, serve, drain, stop.
  *
  * Start-up order: options (config.c), the work layer (sched.c: caches, jobs,
- * workers, watcher), the jobs of --data-dir (durable.c), the route labels (router.c), then the listener
- * (http.c); each registers its gauges with metrics.c as it starts.  Only when the socket is bound is the line
- * "rayd listening on http://HOST:PORT" printed and flushed, as the first and
+ * workers, watcher), the jobs of --data-dir (durable.c), the route labels (router.c), then the
+ * listener (http.c); each registers its gauges with metrics.c as it starts.  Only when the socket
+ * is bound is the line "rayd listening on http://HOST:PORT" printed and flushed, as the first and
  * only line on stdout, so scripts can start `rayd --port 0` and read the
  * port.  Logs go to stderr.
  *
@@ -66,10 +66,8 @@ static atomic_bool main_answered; /* every render cancelled and answered */
 
 /* True for SIGTERM and SIGINT, which stop the server; any other signal
  * taken (SIGHUP, SIGUSR1, SIGUSR2) is logged and changes nothing. */
-static bool main_stop_signal(int sig)
-{
-    if (sig == SIGTERM || sig == SIGINT)
-        return true;
+static bool main_stop_signal(int sig) {
+    if (sig == SIGTERM || sig == SIGINT) return true;
     if (sig > 0)
         log_info("signal %d ignored: rayd has nothing to reload or reopen (restart it to change "
                  "an option; SIGTERM drains)",
@@ -78,12 +76,10 @@ static bool main_stop_signal(int sig)
 }
 
 /* Waits up to seconds for cond() (the guard takes the signals meanwhile). */
-static bool main_wait(bool (*cond)(void), double seconds)
-{
+static bool main_wait(bool (*cond)(void), double seconds) {
     double end = clock_now() + seconds;
     while (!cond()) {
-        if (clock_now() >= end)
-            return false;
+        if (clock_now() >= end) return false;
         struct timespec ts = {0, 20 * 1000000L};
         nanosleep(&ts, NULL);
     }
@@ -94,8 +90,7 @@ static sigset_t main_guard_set; /* the guard's own copy: it outlives main's fram
 
 /* The guard of the drain (see the top): a second stop signal, or the
  * drain's time bound, ends the process at once. */
-static void *main_guard(void *arg)
-{
+static void *main_guard(void *arg) {
     const sigset_t *set = arg;
     for (;;) {
         struct timespec ts = {0, 50 * 1000000L};
@@ -121,16 +116,14 @@ static void *main_guard(void *arg)
 
 static bool main_no_suspended(void) { return http_req_suspended() == 0; }
 static bool main_no_requests(void) { return http_req_in_flight() == 0; }
-static bool main_quiet(void)
-{
+static bool main_quiet(void) {
     return http_req_in_flight() == 0 && clock_now() - http_req_last() >= 0.2;
 }
 
 /* A process started with stdin, stdout or stderr closed would hand those
  * numbers to its first sockets, and a log line would go to a client: point
  * any closed one at /dev/null first. */
-static void main_std_fds(void)
-{
+static void main_std_fds(void) {
     for (int fd = 0; fd <= 2; fd++)
         if (fcntl(fd, F_GETFD) < 0 && errno == EBADF) {
             int n = open("/dev/null", fd == 0 ? O_RDONLY : O_WRONLY);
@@ -143,8 +136,7 @@ static void main_std_fds(void)
 
 /* The worker pool, the router and the listener, with the signals the
  * main thread waits for blocked in every thread: 0, or 1 after saying why. */
-static int main_start(sigset_t *set)
-{
+static int main_start(sigset_t *set) {
     metrics_start(config.max_render_seconds);
     sigemptyset(set);
     sigaddset(set, SIGTERM);
@@ -177,8 +169,7 @@ static int main_start(sigset_t *set)
 
 /* The warning when anyone may reach rayd, and the one line on standard
  * output that says where it listens (scripts and tests read it). */
-static void main_announce(void)
-{
+static void main_announce(void) {
     if (!config_loopback(config.bind) && !config.token) {
         fprintf(stderr,
                 "\n"
@@ -208,22 +199,19 @@ static void main_announce(void)
  * the listener stopped; the guard bounds it all (see the top).  Should
  * connections stay suspended, rayd exits here (status 1), without
  * cleanup. */
-static void main_drain(int sig, sigset_t *set)
-{
+static void main_drain(int sig, sigset_t *set) {
     log_info("signal %d: draining (up to %ld s)", sig, config.drain_seconds);
     main_stop_by = clock_now() + (double)config.drain_seconds + MAIN_STOP_GRACE;
     pthread_t guard;
     main_guard_set = *set;
-    if (pthread_create(&guard, NULL, main_guard, &main_guard_set) == 0)
-        pthread_detach(guard);
+    if (pthread_create(&guard, NULL, main_guard, &main_guard_set) == 0) pthread_detach(guard);
     sched_drain();
     if (!main_wait(sched_idle, (double)config.drain_seconds))
         log_info("drain: deadline, cancelling what is left");
     sched_cancel_all();
     main_wait(sched_idle, MAIN_STOP_GRACE / 2);
     main_wait(main_no_suspended, MAIN_STOP_GRACE / 2);
-    if (sched_idle() && http_req_suspended() == 0)
-        atomic_store(&main_answered, true);
+    if (sched_idle() && http_req_suspended() == 0) atomic_store(&main_answered, true);
     main_wait(main_no_requests, 2);
     main_wait(main_quiet, 2);
     if (http_req_suspended() > 0) {
@@ -239,15 +227,13 @@ static void main_drain(int sig, sigset_t *set)
     sched_stop();
 }
 
-int main(int argc, char **argv)
-{
+int main(int argc, char **argv) {
     main_std_fds();
     /* a write to a closed pipe or socket is an error return, never a signal */
     signal(SIGPIPE, SIG_IGN);
     int rc = config_load(argc, argv);
     if (rc != CONFIG_RUN) {
-        if (rc == CONFIG_USAGE)
-            fprintf(stderr, "Try 'rayd --help'.\n");
+        if (rc == CONFIG_USAGE) fprintf(stderr, "Try 'rayd --help'.\n");
         config_free();
         return rc == CONFIG_DONE ? 0 : rc == CONFIG_FAILED ? 1 : 2;
     }
@@ -258,8 +244,7 @@ int main(int argc, char **argv)
     }
     main_announce();
     int sig = 0;
-    do
-        sig = sigwaitinfo(&set, NULL);
+    do sig = sigwaitinfo(&set, NULL);
     while (!main_stop_signal(sig));
     main_drain(sig, &set);
     metrics_free();

@@ -55,7 +55,6 @@ static double now_1t(void) {
     return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
 }
 
-
 static int cmp_double(const void *a, const void *b) {
     double x = *(const double *)a, y = *(const double *)b;
     return (x > y) - (x < y);
@@ -121,7 +120,8 @@ static d3 pixel_dir(const struct setup *s, int i, int j) {
  * toward the light; tfar = its distance. */
 static void shadow_ray(const struct setup *s, const float org[3], const float dir[3], float t,
                        const float ng[3], float o[3], float d[3], float *tfar) {
-    double p[3], n[3], nl = sqrt((double)ng[0] * ng[0] + (double)ng[1] * ng[1] + (double)ng[2] * ng[2]);
+    double p[3], n[3],
+        nl = sqrt((double)ng[0] * ng[0] + (double)ng[1] * ng[1] + (double)ng[2] * ng[2]);
     double dn = 0, maxabs = 0;
     for (int k = 0; k < 3; k++) {
         p[k] = org[k] + (double)t * dir[k];
@@ -188,9 +188,18 @@ static double cast1(const struct setup *s, bool shadow, long *hits) {
             const float ng[3] = {rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z};
             float o[3], sd[3], tfar;
             shadow_ray(s, org, dir, rh.ray.tfar, ng, o, sd, &tfar);
-            struct RTCRay r = {.org_x = o[0], .org_y = o[1], .org_z = o[2], .tnear = 0,
-                               .dir_x = sd[0], .dir_y = sd[1], .dir_z = sd[2], .time = 0,
-                               .tfar = tfar, .mask = 0xffffffffu, .id = 0, .flags = 0};
+            struct RTCRay r = {.org_x = o[0],
+                               .org_y = o[1],
+                               .org_z = o[2],
+                               .tnear = 0,
+                               .dir_x = sd[0],
+                               .dir_y = sd[1],
+                               .dir_z = sd[2],
+                               .time = 0,
+                               .tfar = tfar,
+                               .mask = 0xffffffffu,
+                               .id = 0,
+                               .flags = 0};
             rtcOccluded1(s->scene, &ctx, &r);
             n += r.tfar == -INFINITY;
         }
@@ -302,14 +311,21 @@ int main(int argc, char **argv) {
     const char *path = NULL;
     int w = 0, h = 0, runs = 3;
     for (int i = 1; i < argc; i++) {
-        if (!strcmp(argv[i], "--width") && i + 1 < argc) w = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--height") && i + 1 < argc) h = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--runs") && i + 1 < argc) runs = atoi(argv[++i]);
-        else if (!strcmp(argv[i], "--cpu-time")) use_cpu_time = true;
-        else path = argv[i];
+        if (!strcmp(argv[i], "--width") && i + 1 < argc)
+            w = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--height") && i + 1 < argc)
+            h = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--runs") && i + 1 < argc)
+            runs = atoi(argv[++i]);
+        else if (!strcmp(argv[i], "--cpu-time"))
+            use_cpu_time = true;
+        else
+            path = argv[i];
     }
     if (!path || w < 0 || h < 0 || runs <= 0 || runs > 99) {
-        fprintf(stderr, "usage: embree_bench SCENE.json [--width W] [--height H] [--runs N] [--cpu-time]\n");
+        fprintf(
+            stderr,
+            "usage: embree_bench SCENE.json [--width W] [--height H] [--runs N] [--cpu-time]\n");
         return 2;
     }
     size_t len;
@@ -348,9 +364,12 @@ int main(int argc, char **argv) {
     s.v = d3_cross(s.u, s.w);
     const double deg = 3.14159265358979323846 / 180;
     double fx = json_num(cam, "fov_x", 0), fy = json_num(cam, "fov_y", 0);
-    if (fx > 0) s.tan_x = tan(fx * deg / 2);
-    else if (fy > 0) s.tan_x = tan(fy * deg / 2) * sw / sh;
-    else s.tan_x = tan(60 * deg / 2);
+    if (fx > 0)
+        s.tan_x = tan(fx * deg / 2);
+    else if (fy > 0)
+        s.tan_x = tan(fy * deg / 2) * sw / sh;
+    else
+        s.tan_x = tan(60 * deg / 2);
     s.tan_y = s.tan_x * s.height / s.width; /* as raybench does */
     const cJSON *l0 = cJSON_GetArrayItem(lights, 0);
     const cJSON *lt = cJSON_GetObjectItemCaseSensitive(l0, "type");
@@ -431,7 +450,8 @@ int main(int argc, char **argv) {
     for (size_t c = 0; c < sizeof casts / sizeof casts[0]; c++) {
         double rate[99];
         long hits = 0;
-        for (int r = 0; r < runs; r++) rate[r] = count / casts[c].fn(&s, casts[c].shadow, &hits) / 1e6;
+        for (int r = 0; r < runs; r++)
+            rate[r] = count / casts[c].fn(&s, casts[c].shadow, &hits) / 1e6;
         printf("%s %.2f\n", casts[c].name, median(rate, runs));
         printf("%s_hits %ld\n", casts[c].name, hits);
     }

@@ -82,8 +82,8 @@ CPU_AVX512_FN void bvh16_ray_init(struct bvh16_ray *p, const struct ray16 *q) {
                           _mm512_cvtpd_ps(_mm512_loadu_pd(q->d[k] + 8)));
         __mmask16 tiny = _mm512_cmp_ps_mask(_mm512_abs_ps(c), _mm512_set1_ps(1e-30f), _CMP_LT_OQ);
         __m512i sign = _mm512_and_si512(_mm512_castps_si512(c), _mm512_set1_epi32(INT32_MIN));
-        __m512 tiny_c = _mm512_castsi512_ps(
-            _mm512_or_si512(sign, _mm512_castps_si512(_mm512_set1_ps(1e-30f))));
+        __m512 tiny_c =
+            _mm512_castsi512_ps(_mm512_or_si512(sign, _mm512_castps_si512(_mm512_set1_ps(1e-30f))));
         c = _mm512_mask_blend_ps(tiny, c, tiny_c); /* copysignf(1e-30f, c) */
         p->inv[k] = _mm512_div_ps(_mm512_set1_ps(1.0f), c);
         p->org[k] = join16(_mm512_cvtpd_ps(_mm512_loadu_pd(q->o[k])),

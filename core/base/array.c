@@ -18,7 +18,8 @@ bool array_grow(void **arr, size_t *cap, size_t need, size_t elem) {
         n *= 2;
     }
     if (elem == 0 || n > SIZE_MAX / elem) return false;
-    void *p = *arr ? realloc(*arr, n * elem) : huge_alloc(n * elem); /* a big first block: huge pages */
+    void *p =
+        *arr ? realloc(*arr, n * elem) : huge_alloc(n * elem); /* a big first block: huge pages */
     if (!p) return false;
     *arr = p;
     *cap = n;

@@ -140,7 +140,10 @@ void huge_free_pages(void *p, size_t bytes) {
 void rayd_memory_trim(void) {
     pthread_mutex_lock(&kept_lock);
     int n = nkept;
-    struct { void *p; size_t whole; } drop[HUGEMEM_KEEP_N];
+    struct {
+        void *p;
+        size_t whole;
+    } drop[HUGEMEM_KEEP_N];
     for (int i = 0; i < n; i++) drop[i].p = kept[i].p, drop[i].whole = kept[i].whole;
     nkept = 0;
     kept_bytes = 0;

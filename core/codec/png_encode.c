@@ -79,13 +79,13 @@
 
 #define PNG_BAND_BYTES (256u * 1024u) /* raw bytes of a band, about */
 #define PNG_MAX_THREADS 64
-#define PNG_ISAL_LEVEL 2                 /* ISA-L's level for --png-level 1 (measured) */
-#define PNG_ISAL (-1)                    /* the stream's level for ISA-L */
+#define PNG_ISAL_LEVEL 2 /* ISA-L's level for --png-level 1 (measured) */
+#define PNG_ISAL (-1)    /* the stream's level for ISA-L */
 #define PNG_BLEND (-2)   /* ... for the default: libdeflate's 1, ISA-L every PNG_ISAL_EVERY bands */
 #define PNG_BLEND_LD 1   /* the blend's libdeflate level (measured) */
 #define PNG_ISAL_EVERY 4 /* bands 3, 7, 11, ... of the blend are ISA-L's (measured) */
-#define PNG_XLOGX_N 4096                 /* counts below this have c log2 c in a table */
-#define PNG_HUGE_MIN ((size_t)256 << 10) /* an image's raw bytes from which: huge pages */
+#define PNG_XLOGX_N 4096 /* counts below this have c log2 c in a table */
+#define PNG_HUGE_MIN ((size_t)256 << 10)        /* an image's raw bytes from which: huge pages */
 #define PNG_HOLD_BLOCK (((size_t)2 << 20) - 64) /* a block of deflated bands: one huge page */
 #define PNG_CHOOSE_EVERY 4 /* rows of a band whose filter is measured: 0, 4, 8, ... */
 #define PNG_STR(x) #x
@@ -216,18 +216,10 @@ static void filter_row(int f, const unsigned char *cur, const unsigned char *pre
 #define FILL(v)                                                                                    \
     for (; i < n; i++) o[i] = (unsigned char)(v(i))
     switch (f) {
-    case 0:
-        memcpy(o + i, cur + i, n - i);
-        break;
-    case 1:
-        FILL(FILTER_SUB);
-        break;
-    case 2:
-        FILL(FILTER_UP);
-        break;
-    default:
-        FILL(FILTER_AVG);
-        break;
+    case 0: memcpy(o + i, cur + i, n - i); break;
+    case 1: FILL(FILTER_SUB); break;
+    case 2: FILL(FILTER_UP); break;
+    default: FILL(FILTER_AVG); break;
     }
 #undef FILL
 }
@@ -260,18 +252,10 @@ static double order0(int f, const unsigned char *cur, const unsigned char *prev,
         }                                                                                          \
     } while (0)
     switch (f) {
-    case 0:
-        COUNT4(FILTER_NONE);
-        break;
-    case 1:
-        COUNT4(FILTER_SUB);
-        break;
-    case 2:
-        COUNT4(FILTER_UP);
-        break;
-    default:
-        COUNT4(FILTER_AVG);
-        break;
+    case 0: COUNT4(FILTER_NONE); break;
+    case 1: COUNT4(FILTER_SUB); break;
+    case 2: COUNT4(FILTER_UP); break;
+    default: COUNT4(FILTER_AVG); break;
     }
 #undef COUNT4
     for (; i < n; i += 2) cnt[0][filter_byte(f, cur, prev, i)]++;
@@ -395,7 +379,7 @@ static struct png_scratch *scratch_take(struct rayd_png_stream *s) {
     w = calloc(1, sizeof *w);
     if (!w) return NULL;
     size_t zcap = band_zcap(raw), image_raw = (size_t)s->img->h * (n + 1);
-    size_t room = (raw + n + zcap + 63) / 64 * 64; /* the compressor's room from here */
+    size_t room = (raw + n + zcap + 63) / 64 * 64;       /* the compressor's room from here */
     bool ld = s->level != PNG_ISAL, isal = s->level < 0; /* the blend: both */
     w->lbsize = isal ? ISAL_DEF_LVL2_DEFAULT : 0;
     png_buf_new(&w->block, room + (ld ? PNG_LD_ROOM : 0) + w->lbsize, image_raw);

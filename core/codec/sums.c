@@ -42,7 +42,8 @@ enum rayd_status rayd_sums_encode(int w, int h, int k0, int k1, const double *su
     for (size_t i = 0; i < count; i++) {
         uint64_t v;
         memcpy(&v, &sums[i], 8);
-        for (int b = 0; b < 8; b++) p[SUMS_HEADER + 8 * i + (size_t)b] = (unsigned char)(v >> (8 * b));
+        for (int b = 0; b < 8; b++)
+            p[SUMS_HEADER + 8 * i + (size_t)b] = (unsigned char)(v >> (8 * b));
     }
     *buf = p;
     *len = n;

@@ -35,8 +35,7 @@ static enum rayd_status b64_bad_char(struct rayd_error *err, unsigned char c, si
                                      const char *why) {
     if (c >= 0x21 && c <= 0x7e)
         return err_set(err, RAYD_E_INVALID, NULL, "base64: %s '%c' at offset %zu", why, c, at);
-    return err_set(err, RAYD_E_INVALID, NULL, "base64: %s (byte 0x%02x) at offset %zu", why, c,
-                   at);
+    return err_set(err, RAYD_E_INVALID, NULL, "base64: %s (byte 0x%02x) at offset %zu", why, c, at);
 }
 
 /* Checks what follows the first '=' at in[at]: only '=' and whitespace,

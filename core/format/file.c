@@ -50,9 +50,11 @@ enum rayd_status rayd_read_file(const char *path, size_t max, char **out, size_t
         buf = nb;
         cap *= 2;
     }
-    if (rc == RAYD_OK && !buf) rc = err_set(err, RAYD_E_NOMEM, NULL, "out of memory reading %s", path);
+    if (rc == RAYD_OK && !buf)
+        rc = err_set(err, RAYD_E_NOMEM, NULL, "out of memory reading %s", path);
     if (rc == RAYD_OK && ferror(f)) rc = err_set(err, RAYD_E_IO, NULL, "cannot read %s", path);
-    if (rc == RAYD_OK && n > max) rc = err_set(err, RAYD_E_LIMIT, NULL, "%s is over the limit of %zu bytes", path, max);
+    if (rc == RAYD_OK && n > max)
+        rc = err_set(err, RAYD_E_LIMIT, NULL, "%s is over the limit of %zu bytes", path, max);
     if (!in) fclose(f);
     if (rc != RAYD_OK) {
         free(buf);

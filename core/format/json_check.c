@@ -45,11 +45,10 @@ struct jc {
     size_t len, i;
     int max_depth;
     long values;
-    const char *msg; /* set on failure; i is where */
+    const char *msg;          /* set on failure; i is where */
     struct json_spans *spans; /* NULL: not noting mesh arrays */
     long arrays;              /* arrays opened so far, in document order */
 };
-
 
 static bool jc_fail(struct jc *c, const char *msg) {
     c->msg = msg;
@@ -89,10 +88,14 @@ static size_t utf8_len(const unsigned char *p, size_t avail) {
     unsigned v = p[0], min;
     size_t n;
     if (v < 0x80) return 1;
-    if ((v & 0xE0) == 0xC0) n = 2, min = 0x80, v &= 0x1F;
-    else if ((v & 0xF0) == 0xE0) n = 3, min = 0x800, v &= 0x0F;
-    else if ((v & 0xF8) == 0xF0) n = 4, min = 0x10000, v &= 0x07;
-    else return 0;
+    if ((v & 0xE0) == 0xC0)
+        n = 2, min = 0x80, v &= 0x1F;
+    else if ((v & 0xF0) == 0xE0)
+        n = 3, min = 0x800, v &= 0x0F;
+    else if ((v & 0xF8) == 0xF0)
+        n = 4, min = 0x10000, v &= 0x07;
+    else
+        return 0;
     if (n > avail) return 0;
     for (size_t k = 1; k < n; k++) {
         if ((p[k] & 0xC0) != 0x80) return 0;
@@ -194,7 +197,8 @@ static bool jc_number(struct jc *c) {
 
 static bool jc_literal(struct jc *c, const char *word) {
     size_t n = strlen(word);
-    if (c->len - c->i < n || memcmp(c->p + c->i, word, n) != 0) return jc_fail(c, "expected a value");
+    if (c->len - c->i < n || memcmp(c->p + c->i, word, n) != 0)
+        return jc_fail(c, "expected a value");
     c->i += n;
     return true;
 }
@@ -274,7 +278,8 @@ static void drop_spans(struct json_spans *ss, size_t first, size_t owner) {
 /* One "key": value of an object; *kind is the key's mesh_key. */
 static bool jc_member(struct jc *c, int depth, bool elem, size_t open, bool *mesh) {
     if (c->i >= c->len || c->p[c->i] != '"')
-        return jc_fail(c, c->i >= c->len ? "unexpected end of input" : "expected a string key in quotes");
+        return jc_fail(c, c->i >= c->len ? "unexpected end of input"
+                                         : "expected a string key in quotes");
     size_t k0 = c->i;
     if (!jc_string(c)) return false;
     int kind = c->spans ? mesh_key(c->p + k0 + 1, c->i - k0 - 2) : -1;
@@ -374,7 +379,9 @@ enum rayd_status json_check_spans(const char *text, size_t len, int max_depth,
     if (strcmp(c.msg, "nesting deeper than the limit") == 0)
         snprintf(msg, sizeof msg, "malformed JSON: nesting deeper than %d levels", max_depth);
     else if (c.i == 0 && len >= 3 && memcmp(c.p, "\xEF\xBB\xBF", 3) == 0)
-        snprintf(msg, sizeof msg, "malformed JSON: a byte order mark (BOM) is not allowed; save the file as UTF-8 without BOM");
+        snprintf(msg, sizeof msg,
+                 "malformed JSON: a byte order mark (BOM) is not allowed; save the file as UTF-8 "
+                 "without BOM");
     else if (c.i < len && at >= 0x21 && at <= 0x7e && strstr(c.msg, "expected"))
         snprintf(msg, sizeof msg, "malformed JSON: %s, found '%c'", c.msg, at);
     else if (c.i < len && at < 0x20 && strstr(c.msg, "expected"))

@@ -34,16 +34,15 @@ static const double pow10_exact[23] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6, 
                                        1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
                                        1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
 
-static bool is_digit(char ch) {
-    return ch >= '0' && ch <= '9';
-}
+static bool is_digit(char ch) { return ch >= '0' && ch <= '9'; }
 
 /* As cJSON 1.7.15 parse_number: at most 63 characters of the number's
  * alphabet, '.' as the locale's decimal point, then strtod. */
 static double number_strtod(const char *s, const char **end, char point) {
     char buf[64];
     size_t n = 0;
-    for (; n < 63 && s[n] && strchr("0123456789+-eE.", s[n]); n++) buf[n] = s[n] == '.' ? point : s[n];
+    for (; n < 63 && s[n] && strchr("0123456789+-eE.", s[n]); n++)
+        buf[n] = s[n] == '.' ? point : s[n];
     buf[n] = 0;
     *end = s + n;
     return strtod(buf, NULL);
@@ -87,14 +86,14 @@ struct numbers_job {
     const char *text;
     const struct json_span *sp;
     size_t nblocks;
-    long *first;     /* per block: its first element's index (the counts first) */
-    long *bad;       /* per block: the index of its first bad number, or -1 */
-    double *badv;    /* and that number */
-    float *f;        /* floats out, or NULL */
-    uint32_t *ix;    /* indices out, or NULL */
-    double limit;    /* floats: the largest magnitude */
-    long nverts;     /* indices: the bound */
-    char point;      /* the locale's decimal point */
+    long *first;  /* per block: its first element's index (the counts first) */
+    long *bad;    /* per block: the index of its first bad number, or -1 */
+    double *badv; /* and that number */
+    float *f;     /* floats out, or NULL */
+    uint32_t *ix; /* indices out, or NULL */
+    double limit; /* floats: the largest magnitude */
+    long nverts;  /* indices: the bound */
+    char point;   /* the locale's decimal point */
 };
 
 static size_t block_lo(const struct numbers_job *j, size_t b) { return j->sp->open + b * JN_BLOCK; }

@@ -108,7 +108,9 @@ static enum rayd_status gl_ref(struct gl *G, const cJSON *o, const struct jp *at
     double v;
     TRY_GL(gl_int(G, o, at, key, -1, 0, 2147483647.0, &v));
     struct jp p = jp_key(at, key);
-    if (v >= n) return gl_fail(G, RAYD_E_INVALID, &p, "%.0f is not an index into /%s (the file has %d)", v, top, n);
+    if (v >= n)
+        return gl_fail(G, RAYD_E_INVALID, &p, "%.0f is not an index into /%s (the file has %d)", v,
+                       top, n);
     *id = (int)v;
     *item = cJSON_GetArrayItem(arr, *id);
     struct jp pi = gl_item(top, *id);
@@ -149,15 +151,21 @@ static enum rayd_status gl_glb(struct gl *G, const unsigned char *b, size_t len,
                                size_t *jlen) {
     struct jp top = {.s = ""};
     if (len < 20) return gl_fail(G, RAYD_E_INVALID, &top, "GLB file ends early (%zu bytes)", len);
-    if (le32(b + 4) != 2) return gl_fail(G, RAYD_E_INVALID, &top, "GLB version %u is not supported (2 is)", le32(b + 4));
-    if (le32(b + 8) > len) return gl_fail(G, RAYD_E_INVALID, &top, "GLB header says %u bytes but there are %zu", le32(b + 8), len);
+    if (le32(b + 4) != 2)
+        return gl_fail(G, RAYD_E_INVALID, &top, "GLB version %u is not supported (2 is)",
+                       le32(b + 4));
+    if (le32(b + 8) > len)
+        return gl_fail(G, RAYD_E_INVALID, &top, "GLB header says %u bytes but there are %zu",
+                       le32(b + 8), len);
     len = le32(b + 8);
     size_t at = 12;
     for (int k = 0; at + 8 <= len; k++) {
         uint32_t clen = le32(b + at), type = le32(b + at + 4);
         if (clen > len - at - 8)
-            return gl_fail(G, RAYD_E_INVALID, &top, "GLB chunk %d runs past the end of the file", k);
-        if (k == 0 && type != GLB_JSON) return gl_fail(G, RAYD_E_INVALID, &top, "GLB's first chunk is not JSON");
+            return gl_fail(G, RAYD_E_INVALID, &top, "GLB chunk %d runs past the end of the file",
+                           k);
+        if (k == 0 && type != GLB_JSON)
+            return gl_fail(G, RAYD_E_INVALID, &top, "GLB's first chunk is not JSON");
         if (k == 0) *json = (const char *)b + at + 8, *jlen = clen;
         if (k == 1 && type == GLB_BIN) G->bin = b + at + 8, G->bin_len = clen;
         at += 8 + (size_t)clen;
@@ -171,27 +179,38 @@ static enum rayd_status gl_parse_json(struct gl *G, const char *json, size_t len
     struct rayd_error e = {0};
     struct jp top = {.s = ""};
     if (json_check(json, len, G->o->max_nesting, &e) != RAYD_OK)
-        return gl_fail(G, RAYD_E_INVALID, &top, "glTF JSON line %d, column %d: %s", e.line, e.column, e.message);
+        return gl_fail(G, RAYD_E_INVALID, &top, "glTF JSON line %d, column %d: %s", e.line,
+                       e.column, e.message);
     *root = json_parse_locked(json, len);
     if (!*root) return gl_fail(G, RAYD_E_NOMEM, &top, "out of memory parsing the glTF JSON");
-    if (!cJSON_IsObject(*root)) return gl_fail(G, RAYD_E_INVALID, &top, "the glTF document must be a JSON object");
+    if (!cJSON_IsObject(*root))
+        return gl_fail(G, RAYD_E_INVALID, &top, "the glTF document must be a JSON object");
     return RAYD_OK;
 }
 
 /* asset.version 2.x, and no extension required that would change the geometry. */
 static enum rayd_status gl_check_asset(struct gl *G) {
-    static const char *const harmless[] = {"KHR_mesh_quantization", "KHR_texture_transform",
-                                           "KHR_lights_punctual", "KHR_texture_basisu",
-                                           "KHR_materials_", "EXT_texture_webp", NULL};
+    static const char *const harmless[] = {"KHR_mesh_quantization",
+                                           "KHR_texture_transform",
+                                           "KHR_lights_punctual",
+                                           "KHR_texture_basisu",
+                                           "KHR_materials_",
+                                           "EXT_texture_webp",
+                                           NULL};
     struct jp pa = {.s = "/asset"}, pv = {.s = "/asset/version"}, pe = {.s = "/extensionsRequired"};
     const cJSON *v = gl_get(gl_get(G->root, "asset"), "version");
-    if (!cJSON_IsObject(gl_get(G->root, "asset"))) return gl_fail(G, RAYD_E_INVALID, &pa, "is required (an object with \"version\")");
+    if (!cJSON_IsObject(gl_get(G->root, "asset")))
+        return gl_fail(G, RAYD_E_INVALID, &pa, "is required (an object with \"version\")");
     if (cJSON_IsNumber(v) && v->valuedouble < 2) /* glTF 1.0 files were written with "version": 1 */
         return gl_fail(G, RAYD_E_INVALID, &pv, "glTF %g is not supported (2.x is)", v->valuedouble);
-    if (!cJSON_IsString(v)) return gl_fail(G, RAYD_E_INVALID, &pv, "must be a string such as \"2.0\"");
-    if (strncmp(v->valuestring, "2.", 2) != 0) return gl_fail(G, RAYD_E_INVALID, &pv, "glTF %.20s is not supported (2.x is)", v->valuestring);
+    if (!cJSON_IsString(v))
+        return gl_fail(G, RAYD_E_INVALID, &pv, "must be a string such as \"2.0\"");
+    if (strncmp(v->valuestring, "2.", 2) != 0)
+        return gl_fail(G, RAYD_E_INVALID, &pv, "glTF %.20s is not supported (2.x is)",
+                       v->valuestring);
     const cJSON *req = gl_get(G->root, "extensionsRequired");
-    if (req && !cJSON_IsArray(req)) return gl_fail(G, RAYD_E_INVALID, &pe, "must be an array of strings");
+    if (req && !cJSON_IsArray(req))
+        return gl_fail(G, RAYD_E_INVALID, &pe, "must be an array of strings");
     int i = 0;
     for (const cJSON *e = req ? req->child : NULL; e; e = e->next, i++) {
         struct jp p = jp_index(&pe, i);
@@ -199,9 +218,14 @@ static enum rayd_status gl_check_asset(struct gl *G) {
         const char *const *h = harmless;
         while (*h && strncmp(e->valuestring, *h, strlen(*h)) != 0) h++;
         if (*h) continue;
-        if (!strcmp(e->valuestring, "KHR_draco_mesh_compression") || !strcmp(e->valuestring, "EXT_meshopt_compression"))
-            return gl_fail(G, RAYD_E_INVALID, &p, "%s: compressed meshes are not supported; export the file without compression", e->valuestring);
-        return gl_fail(G, RAYD_E_INVALID, &p, "required extension \"%.60s\" is not supported", e->valuestring);
+        if (!strcmp(e->valuestring, "KHR_draco_mesh_compression") ||
+            !strcmp(e->valuestring, "EXT_meshopt_compression"))
+            return gl_fail(
+                G, RAYD_E_INVALID, &p,
+                "%s: compressed meshes are not supported; export the file without compression",
+                e->valuestring);
+        return gl_fail(G, RAYD_E_INVALID, &p, "required extension \"%.60s\" is not supported",
+                       e->valuestring);
     }
     return RAYD_OK;
 }
@@ -209,7 +233,10 @@ static enum rayd_status gl_check_asset(struct gl *G) {
 /* ---- buffers ------------------------------------------------------------ */
 
 static int gl_hex(char c) {
-    return c >= '0' && c <= '9' ? c - '0' : c >= 'a' && c <= 'f' ? c - 'a' + 10 : c >= 'A' && c <= 'F' ? c - 'A' + 10 : -1;
+    return c >= '0' && c <= '9'   ? c - '0'
+           : c >= 'a' && c <= 'f' ? c - 'a' + 10
+           : c >= 'A' && c <= 'F' ? c - 'A' + 10
+                                  : -1;
 }
 
 /* A relative URI's file name, %XX decoded; false when it cannot be one. */
@@ -218,7 +245,8 @@ static bool gl_uri_name(const char *uri, char *out, size_t cap) {
     if (strstr(uri, "://") || uri[0] == '\0') return false;
     for (const char *c = uri; *c; c++) {
         int ch = (unsigned char)*c;
-        if (*c == '%' && gl_hex(c[1]) >= 0 && gl_hex(c[2]) >= 0) ch = gl_hex(c[1]) * 16 + gl_hex(c[2]), c += 2;
+        if (*c == '%' && gl_hex(c[1]) >= 0 && gl_hex(c[2]) >= 0)
+            ch = gl_hex(c[1]) * 16 + gl_hex(c[2]), c += 2;
         if (ch == 0 || n + 1 >= cap) return false;
         out[n++] = (char)ch;
     }
@@ -244,7 +272,10 @@ static enum rayd_status gl_file_uri(struct gl *G, const char *uri, const struct 
     char name[1024];
     if (!gl_uri_name(uri, name, sizeof name))
         return gl_fail(G, RAYD_E_INVALID, p, "only data: URIs and relative file names are read");
-    if (!G->o->open) return gl_fail(G, RAYD_E_INVALID, p, "names a file, but no files are read here; embed the file as a data: URI or use a .glb");
+    if (!G->o->open)
+        return gl_fail(G, RAYD_E_INVALID, p,
+                       "names a file, but no files are read here; embed the file as a data: URI or "
+                       "use a .glb");
     char *data = NULL;
     enum rayd_status st = G->o->open(G->o->ctx, name, &data, &b->len, G->err);
     if (st != RAYD_OK) {
@@ -268,7 +299,9 @@ static enum rayd_status gl_buffer(struct gl *G, int i, const struct gl_buf **out
     const cJSON *uri = gl_get(bj, "uri");
     struct jp pu = jp_key(&p, "uri");
     if (uri && !cJSON_IsString(uri)) return gl_fail(G, RAYD_E_INVALID, &pu, "must be a string");
-    if (!uri && (i != 0 || !G->bin)) return gl_fail(G, RAYD_E_INVALID, &pu, "is required (only buffer 0 of a .glb may use its BIN chunk)");
+    if (!uri && (i != 0 || !G->bin))
+        return gl_fail(G, RAYD_E_INVALID, &pu,
+                       "is required (only buffer 0 of a .glb may use its BIN chunk)");
     if (!uri) {
         b->data = (unsigned char *)(uintptr_t)G->bin, b->len = G->bin_len;
     } else if (!strncmp(uri->valuestring, "data:", 5)) {
@@ -281,7 +314,8 @@ static enum rayd_status gl_buffer(struct gl *G, int i, const struct gl_buf **out
         return gl_fail(G, RAYD_E_INVALID, &pl, "is %.0f but the data has %zu bytes", blen, b->len);
     b->len = (size_t)blen;
     if (b->owned && (G->loaded += b->len) > G->o->max_bytes)
-        return gl_fail(G, RAYD_E_LIMIT, &pl, "the buffers come to %zu bytes; the limit is %zu", G->loaded, G->o->max_bytes);
+        return gl_fail(G, RAYD_E_LIMIT, &pl, "the buffers come to %zu bytes; the limit is %zu",
+                       G->loaded, G->o->max_bytes);
     return RAYD_OK;
 }
 
@@ -289,9 +323,12 @@ static enum rayd_status gl_buffer(struct gl *G, int i, const struct gl_buf **out
 
 static int gl_csize(int ctype) {
     switch (ctype) {
-    case 5120: case 5121: return 1; /* BYTE, UNSIGNED_BYTE */
-    case 5122: case 5123: return 2; /* SHORT, UNSIGNED_SHORT */
-    case 5125: case 5126: return 4; /* UNSIGNED_INT, FLOAT */
+    case 5120:
+    case 5121: return 1; /* BYTE, UNSIGNED_BYTE */
+    case 5122:
+    case 5123: return 2; /* SHORT, UNSIGNED_SHORT */
+    case 5125:
+    case 5126: return 4; /* UNSIGNED_INT, FLOAT */
     default: return 0;
     }
 }
@@ -322,24 +359,29 @@ static enum rayd_status gl_view(struct gl *G, const cJSON *aj, const struct jp *
     TRY_GL(gl_buffer(G, bid, &b));
     struct jp pvl = jp_key(&pv, "byteLength");
     if (boff + blen > (double)b->len)
-        return gl_fail(G, RAYD_E_INVALID, &pvl, "runs past the end of buffer %d (offset %.0f + %.0f > %zu bytes)", bid, boff, blen, b->len);
+        return gl_fail(G, RAYD_E_INVALID, &pvl,
+                       "runs past the end of buffer %d (offset %.0f + %.0f > %zu bytes)", bid, boff,
+                       blen, b->len);
     struct jp pst = jp_key(&pv, "byteStride");
     if (stride && stride < (double)esize)
-        return gl_fail(G, RAYD_E_INVALID, &pst, "%.0f is less than the accessor's element (%zu bytes)", stride, esize);
+        return gl_fail(G, RAYD_E_INVALID, &pst,
+                       "%.0f is less than the accessor's element (%zu bytes)", stride, esize);
     a->stride = stride ? (size_t)stride : esize;
     /* every term is below 2^53 and exact in a double */
     double need = offset + (double)(a->count - 1) * (double)a->stride + (double)esize;
     struct jp pc = jp_key(pa, "count");
     if (need > blen)
-        return gl_fail(G, RAYD_E_INVALID, &pc, "exceeds the buffer view (offset %.0f + %u elements of stride %zu need %.0f bytes; bufferView %d has %.0f)",
+        return gl_fail(G, RAYD_E_INVALID, &pc,
+                       "exceeds the buffer view (offset %.0f + %u elements of stride %zu need %.0f "
+                       "bytes; bufferView %d has %.0f)",
                        offset, a->count, a->stride, need, vid, blen);
     a->p = b->data + (size_t)boff + (size_t)offset;
     return RAYD_OK;
 }
 
 /* Accessor o[key] (index into /accessors), of ncomp components. */
-enum rayd_status gl_accessor(struct gl *G, const cJSON *o, const struct jp *at,
-                             const char *key, int ncomp, bool index, struct gl_acc *a) {
+enum rayd_status gl_accessor(struct gl *G, const cJSON *o, const struct jp *at, const char *key,
+                             int ncomp, bool index, struct gl_acc *a) {
     const cJSON *aj;
     double ct, count, offset;
     memset(a, 0, sizeof *a);
@@ -355,7 +397,8 @@ enum rayd_status gl_accessor(struct gl *G, const cJSON *o, const struct jp *at,
     a->count = (uint32_t)count;
     a->norm = cJSON_IsTrue(norm);
     a->ncomp = cJSON_IsString(type) ? gl_ncomp(type->valuestring) : 0;
-    if (!gl_csize(a->ctype)) return gl_fail(G, RAYD_E_INVALID, &pct, "%d is not a glTF component type", a->ctype);
+    if (!gl_csize(a->ctype))
+        return gl_fail(G, RAYD_E_INVALID, &pct, "%d is not a glTF component type", a->ctype);
     if (a->ncomp != ncomp || (ncomp == 4 && strcmp(type->valuestring, "VEC4") != 0))
         return gl_fail(G, RAYD_E_INVALID, &pt, "must be \"%s\" here",
                        ncomp == 1   ? "SCALAR"
@@ -363,16 +406,23 @@ enum rayd_status gl_accessor(struct gl *G, const cJSON *o, const struct jp *at,
                        : ncomp == 3 ? "VEC3"
                                     : "VEC4");
     if (index && a->ctype != 5121 && a->ctype != 5123 && a->ctype != 5125)
-        return gl_fail(G, RAYD_E_INVALID, &pct, "indices must be UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT (5121, 5123, 5125), not %d", a->ctype);
-    if (!index && a->ctype == 5125) return gl_fail(G, RAYD_E_INVALID, &pct, "UNSIGNED_INT is not a vertex attribute type");
-    if (gl_get(aj, "sparse")) return gl_fail(G, RAYD_E_INVALID, &ps, "sparse accessors are not supported");
+        return gl_fail(G, RAYD_E_INVALID, &pct,
+                       "indices must be UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT (5121, 5123, "
+                       "5125), not %d",
+                       a->ctype);
+    if (!index && a->ctype == 5125)
+        return gl_fail(G, RAYD_E_INVALID, &pct, "UNSIGNED_INT is not a vertex attribute type");
+    if (gl_get(aj, "sparse"))
+        return gl_fail(G, RAYD_E_INVALID, &ps, "sparse accessors are not supported");
     size_t esize = (size_t)gl_csize(a->ctype) * (size_t)ncomp;
     if (!gl_get(aj, "bufferView")) {
         /* all zeros, as the spec says: a few bytes of JSON that stand for
          * count elements, so they count against max_bytes as if read */
         struct jp pc = jp_key(&pa, "count");
         if (!G->counted && (G->loaded += (size_t)a->count * esize) > G->o->max_bytes)
-            return gl_fail(G, RAYD_E_LIMIT, &pc, "has no bufferView: its %u elements of zeros count as %zu bytes, bringing the buffers to %zu; the limit is %zu",
+            return gl_fail(G, RAYD_E_LIMIT, &pc,
+                           "has no bufferView: its %u elements of zeros count as %zu bytes, "
+                           "bringing the buffers to %zu; the limit is %zu",
                            a->count, (size_t)a->count * esize, G->loaded, G->o->max_bytes);
         return RAYD_OK;
     }
@@ -386,9 +436,9 @@ enum rayd_status gl_accessor(struct gl *G, const cJSON *o, const struct jp *at,
 double gl_value(const struct gl_acc *a, uint32_t i, int c) {
     if (!a->p) return 0;
     const unsigned char *b = a->p + (size_t)i * a->stride + (size_t)c * (size_t)gl_csize(a->ctype);
-    uint32_t u = a->ctype == 5120 || a->ctype == 5121 ? b[0]
+    uint32_t u = a->ctype == 5120 || a->ctype == 5121   ? b[0]
                  : a->ctype == 5122 || a->ctype == 5123 ? (uint32_t)b[0] | (uint32_t)b[1] << 8
-                                                          : le32(b);
+                                                        : le32(b);
     float f;
     switch (a->ctype) {
     case 5120: return a->norm ? fmax((int8_t)u / 127.0, -1.0) : (int8_t)u;
@@ -462,7 +512,8 @@ static enum rayd_status gl_prim(struct gl *G, const struct gl_draw *d, struct gl
     if (P->has_nrm) TRY_GL(gl_accessor(G, attr, &pat, "NORMAL", 3, false, &P->nrm));
     struct jp pn = gl_item("accessors", P->nrm.id);
     if (P->has_nrm && P->nrm.count != P->pos.count)
-        return gl_fail(G, RAYD_E_INVALID, &pn, "NORMAL has %u entries but POSITION has %u", P->nrm.count, P->pos.count);
+        return gl_fail(G, RAYD_E_INVALID, &pn, "NORMAL has %u entries but POSITION has %u",
+                       P->nrm.count, P->pos.count);
     P->has_ix = gl_get(d->prim, "indices") != NULL;
     if (P->has_ix) TRY_GL(gl_accessor(G, d->prim, &pp, "indices", 1, true, &P->ix));
     P->ntris = gl_tris(P->mode, P->has_ix ? P->ix.count : P->pos.count);
@@ -492,7 +543,8 @@ static enum rayd_status gl_local(struct gl *G, const cJSON *n, const struct jp *
     bool posed = po && (po->has_t || po->has_r || po->has_s);
     struct jp pm = jp_key(pn, "matrix");
     if (gl_get(n, "matrix") && posed)
-        return gl_fail(G, RAYD_E_INVALID, &pm, "an animated node must have translation, rotation and scale, not a matrix");
+        return gl_fail(G, RAYD_E_INVALID, &pm,
+                       "an animated node must have translation, rotation and scale, not a matrix");
     if (gl_get(n, "matrix")) return gl_nums(G, n, pn, "matrix", 16, id, m);
     TRY_GL(gl_nums(G, n, pn, "translation", 3, zero, t));
     TRY_GL(gl_nums(G, n, pn, "rotation", 4, q0, q));
@@ -504,9 +556,9 @@ static enum rayd_status gl_local(struct gl *G, const cJSON *n, const struct jp *
     struct jp pr = jp_key(pn, "rotation");
     if (!(len > 0)) return gl_fail(G, RAYD_E_INVALID, &pr, "must not be a zero quaternion");
     double x = q[0] / len, y = q[1] / len, z = q[2] / len, w = q[3] / len;
-    double r[9] = {1 - 2 * (y * y + z * z), 2 * (x * y + z * w), 2 * (x * z - y * w),
-                   2 * (x * y - z * w), 1 - 2 * (x * x + z * z), 2 * (y * z + x * w),
-                   2 * (x * z + y * w), 2 * (y * z - x * w), 1 - 2 * (x * x + y * y)};
+    double r[9] = {1 - 2 * (y * y + z * z), 2 * (x * y + z * w),     2 * (x * z - y * w),
+                   2 * (x * y - z * w),     1 - 2 * (x * x + z * z), 2 * (y * z + x * w),
+                   2 * (x * z + y * w),     2 * (y * z - x * w),     1 - 2 * (x * x + y * y)};
     for (int c = 0; c < 3; c++) {
         for (int row = 0; row < 3; row++) m[c * 4 + row] = r[c * 3 + row] * s[c];
         m[c * 4 + 3] = 0;
@@ -533,7 +585,9 @@ static enum rayd_status gl_add_draws(struct gl *G, const cJSON *n, const struct 
         /* a mesh's primitives times the nodes drawing it could be far more
          * than the file's size: each counts as a triangle at least */
         if (G->ndraws >= G->max_tris)
-            return gl_fail(G, RAYD_E_LIMIT, &pi, "the nodes draw more than %u triangle primitives (the triangle limit)", G->max_tris);
+            return gl_fail(G, RAYD_E_LIMIT, &pi,
+                           "the nodes draw more than %u triangle primitives (the triangle limit)",
+                           G->max_tris);
         if (!array_grow((void **)&G->draws, &G->cap_draws, G->ndraws + 1, sizeof *G->draws))
             return gl_fail(G, RAYD_E_NOMEM, pn, "out of memory");
         G->draws[G->ndraws++] = (struct gl_draw){.prim = p, .mesh = mid, .index = i, .node = node};
@@ -547,9 +601,14 @@ static enum rayd_status gl_node(struct gl *G, int id, const struct jp *from, con
     const cJSON *nodes = gl_get(G->root, "nodes");
     const cJSON *n = cJSON_GetArrayItem(nodes, id);
     struct jp pn = gl_item("nodes", id);
-    if (G->seen[id] == 1) return gl_fail(G, RAYD_E_INVALID, from, "node %d is its own ancestor (the node hierarchy has a cycle)", id);
-    if (G->seen[id] == 2) return gl_fail(G, RAYD_E_INVALID, from, "node %d is reached twice (a node has one parent at most)", id);
-    if (depth > GL_MAX_DEPTH) return gl_fail(G, RAYD_E_LIMIT, from, "nodes nest more than %d deep", GL_MAX_DEPTH);
+    if (G->seen[id] == 1)
+        return gl_fail(G, RAYD_E_INVALID, from,
+                       "node %d is its own ancestor (the node hierarchy has a cycle)", id);
+    if (G->seen[id] == 2)
+        return gl_fail(G, RAYD_E_INVALID, from,
+                       "node %d is reached twice (a node has one parent at most)", id);
+    if (depth > GL_MAX_DEPTH)
+        return gl_fail(G, RAYD_E_LIMIT, from, "nodes nest more than %d deep", GL_MAX_DEPTH);
     if (!cJSON_IsObject(n)) return gl_fail(G, RAYD_E_INVALID, &pn, "must be an object");
     G->seen[id] = 1;
     double local[16], *m = G->world + (size_t)id * 16;
@@ -558,11 +617,13 @@ static enum rayd_status gl_node(struct gl *G, int id, const struct jp *from, con
     TRY_GL(gl_add_draws(G, n, &pn, id));
     const cJSON *kids = gl_get(n, "children");
     struct jp pc = jp_key(&pn, "children");
-    if (kids && !cJSON_IsArray(kids)) return gl_fail(G, RAYD_E_INVALID, &pc, "must be an array of node indices");
+    if (kids && !cJSON_IsArray(kids))
+        return gl_fail(G, RAYD_E_INVALID, &pc, "must be an array of node indices");
     int i = 0;
     for (const cJSON *k = kids ? kids->child : NULL; k; k = k->next, i++) {
         struct jp pk = jp_index(&pc, i);
-        if (!cJSON_IsNumber(k) || floor(k->valuedouble) != k->valuedouble || k->valuedouble < 0 || k->valuedouble >= G->nnodes)
+        if (!cJSON_IsNumber(k) || floor(k->valuedouble) != k->valuedouble || k->valuedouble < 0 ||
+            k->valuedouble >= G->nnodes)
             return gl_fail(G, RAYD_E_INVALID, &pk, "must be a node index in 0..%d", G->nnodes - 1);
         TRY_GL(gl_node(G, (int)k->valuedouble, &pk, m, depth + 1));
     }
@@ -576,8 +637,10 @@ static enum rayd_status gl_walk(struct gl *G, int scene) {
     static const double id[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
     const cJSON *nodes = gl_get(G->root, "nodes"), *scenes = gl_get(G->root, "scenes");
     struct jp pnodes = {.s = "/nodes"}, pscenes = {.s = "/scenes"}, top = {.s = ""};
-    if (nodes && !cJSON_IsArray(nodes)) return gl_fail(G, RAYD_E_INVALID, &pnodes, "must be an array");
-    if (scenes && !cJSON_IsArray(scenes)) return gl_fail(G, RAYD_E_INVALID, &pscenes, "must be an array");
+    if (nodes && !cJSON_IsArray(nodes))
+        return gl_fail(G, RAYD_E_INVALID, &pnodes, "must be an array");
+    if (scenes && !cJSON_IsArray(scenes))
+        return gl_fail(G, RAYD_E_INVALID, &pscenes, "must be an array");
     G->nnodes = nodes ? cJSON_GetArraySize(nodes) : 0;
     G->seen = calloc((size_t)G->nnodes + 1, 1);
     G->world = malloc(((size_t)G->nnodes + 1) * 16 * sizeof *G->world);
@@ -595,12 +658,15 @@ static enum rayd_status gl_walk(struct gl *G, int scene) {
         if (!cJSON_IsObject(sj)) return gl_fail(G, RAYD_E_INVALID, &ps0, "must be an object");
         const cJSON *roots = gl_get(sj, "nodes");
         struct jp ps = gl_item("scenes", sid), pr = jp_key(&ps, "nodes");
-        if (roots && !cJSON_IsArray(roots)) return gl_fail(G, RAYD_E_INVALID, &pr, "must be an array of node indices");
+        if (roots && !cJSON_IsArray(roots))
+            return gl_fail(G, RAYD_E_INVALID, &pr, "must be an array of node indices");
         int i = 0;
         for (const cJSON *r = roots ? roots->child : NULL; r; r = r->next, i++) {
             struct jp pi = jp_index(&pr, i);
-            if (!cJSON_IsNumber(r) || floor(r->valuedouble) != r->valuedouble || r->valuedouble < 0 || r->valuedouble >= G->nnodes)
-                return gl_fail(G, RAYD_E_INVALID, &pi, "must be a node index in 0..%d", G->nnodes - 1);
+            if (!cJSON_IsNumber(r) || floor(r->valuedouble) != r->valuedouble ||
+                r->valuedouble < 0 || r->valuedouble >= G->nnodes)
+                return gl_fail(G, RAYD_E_INVALID, &pi, "must be a node index in 0..%d",
+                               G->nnodes - 1);
             TRY_GL(gl_node(G, (int)r->valuedouble, &pi, id, 0));
         }
         return RAYD_OK;
@@ -610,7 +676,8 @@ static enum rayd_status gl_walk(struct gl *G, int scene) {
     for (const cJSON *n = nodes ? nodes->child : NULL; n; n = n->next) {
         const cJSON *kids = gl_get(n, "children");
         for (const cJSON *k = cJSON_IsArray(kids) ? kids->child : NULL; k; k = k->next)
-            if (cJSON_IsNumber(k) && k->valuedouble >= 0 && k->valuedouble < G->nnodes) child[(int)k->valuedouble] = 1;
+            if (cJSON_IsNumber(k) && k->valuedouble >= 0 && k->valuedouble < G->nnodes)
+                child[(int)k->valuedouble] = 1;
     }
     enum rayd_status st = RAYD_OK;
     for (int i = 0; i < G->nnodes && st == RAYD_OK; i++) {
@@ -637,11 +704,18 @@ static enum rayd_status gl_count(struct gl *G) {
         struct jp pm = gl_item("meshes", G->draws[i].mesh), pl = jp_key(&pm, "primitives");
         struct jp pp = jp_index(&pl, G->draws[i].index);
         if (G->nverts > G->max_verts)
-            return gl_fail(G, RAYD_E_LIMIT, &pp, "brings the mesh to %llu vertices; the limit is %u", (unsigned long long)G->nverts, G->max_verts);
+            return gl_fail(G, RAYD_E_LIMIT, &pp,
+                           "brings the mesh to %llu vertices; the limit is %u",
+                           (unsigned long long)G->nverts, G->max_verts);
         if (G->ntris > G->max_tris)
-            return gl_fail(G, RAYD_E_LIMIT, &pp, "brings the mesh to %llu triangles; the limit is %u", (unsigned long long)G->ntris, G->max_tris);
+            return gl_fail(G, RAYD_E_LIMIT, &pp,
+                           "brings the mesh to %llu triangles; the limit is %u",
+                           (unsigned long long)G->ntris, G->max_tris);
     }
-    if (G->ntris == 0) return gl_fail(G, RAYD_E_INVALID, &top, "no triangles (the scene's primitives are points or lines, or there are none)");
+    if (G->ntris == 0)
+        return gl_fail(
+            G, RAYD_E_INVALID, &top,
+            "no triangles (the scene's primitives are points or lines, or there are none)");
     G->counted = true;
     return RAYD_OK;
 }
@@ -654,10 +728,11 @@ static double mat_det3(const double *m) {
 /* The normal matrix: the inverse transpose of m's 3x3 part, up to a scale
  * (the cofactors); normals are normalised after. */
 static void mat_normal(const double *m, double *n) {
-    const double a = m[0], b = m[4], c = m[8], d = m[1], e = m[5], f = m[9], g = m[2], h = m[6], k = m[10];
-    double r[9] = {e * k - f * h, -(d * k - f * g), d * h - e * g,
-                   -(b * k - c * h), a * k - c * g, -(a * h - b * g),
-                   b * f - c * e, -(a * f - c * d), a * e - b * d};
+    const double a = m[0], b = m[4], c = m[8], d = m[1], e = m[5], f = m[9], g = m[2], h = m[6],
+                 k = m[10];
+    double r[9] = {e * k - f * h,    -(d * k - f * g), d * h - e * g,
+                   -(b * k - c * h), a * k - c * g,    -(a * h - b * g),
+                   b * f - c * e,    -(a * f - c * d), a * e - b * d};
     memcpy(n, r, sizeof r); /* n[row * 3 + col] */
 }
 
@@ -677,7 +752,8 @@ static enum rayd_status gl_uv(struct gl *G, const struct gl_prim *P, uint32_t i,
     return RAYD_OK;
 }
 
-static enum rayd_status gl_vertices(struct gl *G, const struct gl_draw *d, const struct gl_prim *P) {
+static enum rayd_status gl_vertices(struct gl *G, const struct gl_draw *d,
+                                    const struct gl_prim *P) {
     double nm[9];
     const double *m = G->world + (size_t)d->node * 16;
     mat_normal(m, nm);
@@ -688,22 +764,27 @@ static enum rayd_status gl_vertices(struct gl *G, const struct gl_draw *d, const
             double v = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r];
             if (!isfinite(v) || fabs(v) > 1e30) {
                 struct jp pa = gl_item("accessors", P->pos.id);
-                return gl_fail(G, RAYD_E_INVALID, &pa, "POSITION %u is not finite (or beyond 1e30 once placed)", i);
+                return gl_fail(G, RAYD_E_INVALID, &pa,
+                               "POSITION %u is not finite (or beyond 1e30 once placed)", i);
             }
             o[r] = (float)v;
         }
         if (G->uv) TRY_GL(gl_uv(G, P, i, G->uv + (size_t)(G->vat + i) * 2));
         if (!G->normals) continue;
-        double n[3] = {gl_value(&P->nrm, i, 0), gl_value(&P->nrm, i, 1), gl_value(&P->nrm, i, 2)}, w[3];
-        for (int r = 0; r < 3; r++) w[r] = nm[r * 3] * n[0] + nm[r * 3 + 1] * n[1] + nm[r * 3 + 2] * n[2];
+        double n[3] = {gl_value(&P->nrm, i, 0), gl_value(&P->nrm, i, 1), gl_value(&P->nrm, i, 2)},
+               w[3];
+        for (int r = 0; r < 3; r++)
+            w[r] = nm[r * 3] * n[0] + nm[r * 3 + 1] * n[1] + nm[r * 3 + 2] * n[2];
         double len = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
         float *on = G->nrm + (size_t)(G->vat + i) * 3;
-        for (int r = 0; r < 3; r++) on[r] = len > 0 && isfinite(len) ? (float)(w[r] / len) : (r == 1 ? 1.0f : 0.0f);
+        for (int r = 0; r < 3; r++)
+            on[r] = len > 0 && isfinite(len) ? (float)(w[r] / len) : (r == 1 ? 1.0f : 0.0f);
     }
     return RAYD_OK;
 }
 
-static enum rayd_status gl_triangles(struct gl *G, const struct gl_draw *d, const struct gl_prim *P) {
+static enum rayd_status gl_triangles(struct gl *G, const struct gl_draw *d,
+                                     const struct gl_prim *P) {
     bool flip = mat_det3(G->world + (size_t)d->node * 16) < 0;
     for (uint64_t t = 0; t < P->ntris; t++) {
         uint32_t v[3];
@@ -712,7 +793,10 @@ static enum rayd_status gl_triangles(struct gl *G, const struct gl_draw *d, cons
             v[k] = P->has_ix ? (uint32_t)gl_value(&P->ix, c, 0) : c;
             if (v[k] >= P->pos.count) {
                 struct jp pa = gl_item("accessors", P->ix.id);
-                return gl_fail(G, RAYD_E_INVALID, &pa, "element %u is %u, out of range (the primitive's POSITION has %u vertices)", c, v[k], P->pos.count);
+                return gl_fail(
+                    G, RAYD_E_INVALID, &pa,
+                    "element %u is %u, out of range (the primitive's POSITION has %u vertices)", c,
+                    v[k], P->pos.count);
             }
         }
         uint32_t *o = G->idx + (size_t)G->tat * 3;
@@ -740,7 +824,8 @@ static enum rayd_status gl_bake(struct gl *G) {
                            (unsigned long long)G->nverts);
     }
     if (!G->pos || !G->idx || (G->normals && !G->nrm))
-        return gl_fail(G, RAYD_E_NOMEM, &top, "out of memory for %llu vertices", (unsigned long long)G->nverts);
+        return gl_fail(G, RAYD_E_NOMEM, &top, "out of memory for %llu vertices",
+                       (unsigned long long)G->nverts);
     for (size_t i = 0; i < G->ndraws; i++) {
         struct gl_prim P;
         TRY_GL(gl_prim(G, &G->draws[i], &P));
@@ -808,8 +893,11 @@ enum rayd_status mesh_parse_gltf(const void *data, size_t len, const struct mesh
     cJSON *root = NULL;
     enum rayd_status st = gl_read(&G, data, len, &root);
     if (st == RAYD_OK) {
-        *out = (struct mesh_data){.pos = G.pos, .normal = G.nrm, .index = G.idx,
-                                  .nverts = (uint32_t)G.nverts, .ntris = (uint32_t)G.ntris};
+        *out = (struct mesh_data){.pos = G.pos,
+                                  .normal = G.nrm,
+                                  .index = G.idx,
+                                  .nverts = (uint32_t)G.nverts,
+                                  .ntris = (uint32_t)G.ntris};
         G.pos = G.nrm = NULL;
         G.idx = NULL;
     }

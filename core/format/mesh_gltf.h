@@ -9,12 +9,12 @@
 /* Reads the file a .gltf's buffer names by a relative uri (already
  * %-decoded): on RAYD_OK *data is malloc'd (*len bytes, freed by the
  * reader); otherwise err holds the message (its path is replaced). */
-typedef enum rayd_status (*mesh_gltf_open_fn)(void *ctx, const char *name, char **data,
-                                              size_t *len, struct rayd_error *err);
+typedef enum rayd_status (*mesh_gltf_open_fn)(void *ctx, const char *name, char **data, size_t *len,
+                                              struct rayd_error *err);
 
 struct mesh_gltf_opts {
-    size_t max_bytes;      /* the buffers read (data: URIs and files) together */
-    int max_nesting;       /* of the JSON document */
+    size_t max_bytes;       /* the buffers read (data: URIs and files) together */
+    int max_nesting;        /* of the JSON document */
     mesh_gltf_open_fn open; /* NULL: a buffer naming a file is refused */
     void *ctx;
 };

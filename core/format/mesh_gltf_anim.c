@@ -71,8 +71,10 @@ static void gl_sample(const struct gl *G, const struct gl_sampler *sm, int n, bo
     uint32_t lo = 0, hi = keys - 1; /* in[lo] <= t < in[hi] */
     while (hi - lo > 1) {
         uint32_t m = lo + (hi - lo) / 2;
-        if (gl_value(&sm->in, m, 0) <= t) lo = m;
-        else hi = m;
+        if (gl_value(&sm->in, m, 0) <= t)
+            lo = m;
+        else
+            hi = m;
     }
     double t0 = gl_value(&sm->in, lo, 0), t1 = gl_value(&sm->in, hi, 0);
     double u = (t - t0) / (t1 - t0), a[4], b[4];
@@ -100,8 +102,8 @@ static void gl_sample(const struct gl *G, const struct gl_sampler *sm, int n, bo
 }
 
 /* samplers[i] of the animation at pa: its accessors, checked. */
-static enum rayd_status gl_sampler_read(struct gl *G, const cJSON *anim, const struct jp *pa,
-                                        int i, int n, struct gl_sampler *sm) {
+static enum rayd_status gl_sampler_read(struct gl *G, const cJSON *anim, const struct jp *pa, int i,
+                                        int n, struct gl_sampler *sm) {
     static const char *const hows[] = {"LINEAR", "STEP", "CUBICSPLINE"};
     const cJSON *list = gl_get(anim, "samplers");
     struct jp pl = jp_key(pa, "samplers"), ps = jp_index(&pl, i);
@@ -114,21 +116,26 @@ static enum rayd_status gl_sampler_read(struct gl *G, const cJSON *anim, const s
         sm->how = -1;
         for (int k = 0; k < 3 && cJSON_IsString(how); k++)
             if (!strcmp(how->valuestring, hows[k])) sm->how = k;
-        if (sm->how < 0) return gl_fail(G, RAYD_E_INVALID, &ph, "must be LINEAR, STEP or CUBICSPLINE");
+        if (sm->how < 0)
+            return gl_fail(G, RAYD_E_INVALID, &ph, "must be LINEAR, STEP or CUBICSPLINE");
     }
     TRY_GL(gl_accessor(G, sj, &ps, "input", 1, false, &sm->in));
     TRY_GL(gl_accessor(G, sj, &ps, "output", n, false, &sm->out));
     struct jp pin = gl_item("accessors", sm->in.id), pout = gl_item("accessors", sm->out.id);
     struct jp pic = jp_key(&pin, "componentType"), poc = jp_key(&pout, "count");
     if (sm->in.ctype != 5126 || !sm->in.p)
-        return gl_fail(G, RAYD_E_INVALID, &pic, "an animation's times must be FLOAT (5126) in a bufferView");
+        return gl_fail(G, RAYD_E_INVALID, &pic,
+                       "an animation's times must be FLOAT (5126) in a bufferView");
     uint64_t want = (uint64_t)sm->in.count * (sm->how == 2 ? 3 : 1);
     if (sm->out.count != want)
-        return gl_fail(G, RAYD_E_INVALID, &poc, "must be %llu: the sampler's %u times%s", (unsigned long long)want, sm->in.count, sm->how == 2 ? " x 3 (in-tangent, value, out-tangent)" : "");
+        return gl_fail(G, RAYD_E_INVALID, &poc, "must be %llu: the sampler's %u times%s",
+                       (unsigned long long)want, sm->in.count,
+                       sm->how == 2 ? " x 3 (in-tangent, value, out-tangent)" : "");
     for (uint32_t k = 0; k < sm->in.count; k++) {
         double v = gl_value(&sm->in, k, 0);
         if (!isfinite(v) || (k > 0 && !(v > gl_value(&sm->in, k - 1, 0))))
-            return gl_fail(G, RAYD_E_INVALID, &pin, "time %u is %g: times must be finite and increase", k, v);
+            return gl_fail(G, RAYD_E_INVALID, &pin,
+                           "time %u is %g: times must be finite and increase", k, v);
     }
     for (uint32_t k = 0; k < sm->out.count; k++)
         for (int c = 0; c < n; c++)
@@ -157,7 +164,8 @@ static enum rayd_status gl_channel(struct gl *G, const cJSON *anim, const struct
     const cJSON *list = gl_get(anim, "samplers");
     struct jp psm = jp_key(&pc, "sampler");
     if (!cJSON_IsArray(list) || smp >= cJSON_GetArraySize(list))
-        return gl_fail(G, RAYD_E_INVALID, &psm, "%.0f is not an index into the animation's samplers", smp);
+        return gl_fail(G, RAYD_E_INVALID, &psm,
+                       "%.0f is not an index into the animation's samplers", smp);
     struct gl_sampler sm;
     int n = kind == 1 ? 4 : 3;
     TRY_GL(gl_sampler_read(G, anim, pa, (int)smp, n, &sm));
@@ -174,14 +182,17 @@ static enum rayd_status gl_animate(struct gl *G) {
     const cJSON *anims = gl_get(G->root, "animations");
     struct jp pa = gl_item("animations", G->anim_id), top = {.s = "/animations"};
     const cJSON *anim = cJSON_IsArray(anims) ? cJSON_GetArrayItem(anims, G->anim_id) : NULL;
-    if (!cJSON_IsObject(anim)) return gl_fail(G, RAYD_E_INVALID, cJSON_IsArray(anims) ? &pa : &top, "must be an animation object");
+    if (!cJSON_IsObject(anim))
+        return gl_fail(G, RAYD_E_INVALID, cJSON_IsArray(anims) ? &pa : &top,
+                       "must be an animation object");
     G->pose = calloc((size_t)G->nnodes + 1, sizeof *G->pose);
     if (!G->pose) return gl_fail(G, RAYD_E_NOMEM, &pa, "out of memory");
     const cJSON *chs = gl_get(anim, "channels");
     struct jp pc = jp_key(&pa, "channels");
     if (!cJSON_IsArray(chs)) return gl_fail(G, RAYD_E_INVALID, &pc, "is required (an array)");
     int i = 0;
-    for (const cJSON *ch = chs->child; ch; ch = ch->next, i++) TRY_GL(gl_channel(G, anim, &pa, ch, i));
+    for (const cJSON *ch = chs->child; ch; ch = ch->next, i++)
+        TRY_GL(gl_channel(G, anim, &pa, ch, i));
     return RAYD_OK;
 }
 

@@ -57,9 +57,7 @@ static const double mesh_pow10[] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e
                                     1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
                                     1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
 
-static bool mesh_is_digit(char c) {
-    return c >= '0' && c <= '9';
-}
+static bool mesh_is_digit(char c) { return c >= '0' && c <= '9'; }
 
 /* strtod on a copy of s[0..n), accepting only if it consumes all of it. */
 static bool mesh_number_slow(const char *s, size_t n, double *out) {

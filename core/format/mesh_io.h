@@ -46,12 +46,10 @@ enum rayd_status mesh_parse_ply(const void *data, size_t len, const struct mesh_
  * (1: one pass in order, as above), <= 0 every core for inputs large
  * enough to gain from them.  The mesh, and on failure the error, are the
  * same whatever the count. */
-enum rayd_status mesh_parse_obj_threads(const char *text, size_t len,
-                                        const struct mesh_limits *lim, int threads,
-                                        struct mesh_data *out, struct rayd_error *err);
-enum rayd_status mesh_parse_ply_threads(const void *data, size_t len,
-                                        const struct mesh_limits *lim, int threads,
-                                        struct mesh_data *out, struct rayd_error *err);
+enum rayd_status mesh_parse_obj_threads(const char *text, size_t len, const struct mesh_limits *lim,
+                                        int threads, struct mesh_data *out, struct rayd_error *err);
+enum rayd_status mesh_parse_ply_threads(const void *data, size_t len, const struct mesh_limits *lim,
+                                        int threads, struct mesh_data *out, struct rayd_error *err);
 
 /* Tests: OBJ lines read only the general way (false), or with the fast
  * path for plain "v" and "f" lines (true, the default); both must give

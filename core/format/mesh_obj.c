@@ -74,9 +74,9 @@ struct obj {
     size_t nv, nt, nn, cap_v, cap_vt, cap_vn;
     struct obj_key *keys; /* output vertex -> its triple */
     size_t nkeys, cap_keys;
-    struct obj_entry *table; /* open addressing, size a power of two */
+    struct obj_entry *table;   /* open addressing, size a power of two */
     size_t table_size, hashed; /* keys with a vt or vn (the table's) */
-    uint32_t *vmap; /* position-only corners: v -> output vertex + 1, 0 = none yet */
+    uint32_t *vmap;            /* position-only corners: v -> output vertex + 1, 0 = none yet */
     size_t cap_vmap;
     uint32_t *tri; /* 3 output vertices per triangle */
     size_t ntri, cap_tri;
@@ -166,8 +166,8 @@ static bool obj_token(const char **p, const char *end, const char **tok, size_t 
 
 /* Reads between min and max finite float numbers up to the end of the
  * line into vals; *count gets how many. */
-static enum rayd_status obj_numbers(struct obj *o, const char *what, const char *p,
-                                    const char *end, int min, int max, float *vals, int *count) {
+static enum rayd_status obj_numbers(struct obj *o, const char *what, const char *p, const char *end,
+                                    int min, int max, float *vals, int *count) {
     char q[MESH_QUOTE_SIZE];
     const char *tok;
     size_t n;
@@ -177,8 +177,8 @@ static enum rayd_status obj_numbers(struct obj *o, const char *what, const char 
         if (k == max)
             return obj_fail(o, RAYD_E_INVALID, "'%s' takes at most %d numbers", what, max);
         if (!mesh_parse_number(tok, n, &d))
-            return obj_fail(o, RAYD_E_INVALID, "bad number '%s' in '%s'",
-                            mesh_quote(q, tok, n), what);
+            return obj_fail(o, RAYD_E_INVALID, "bad number '%s' in '%s'", mesh_quote(q, tok, n),
+                            what);
         if (!isfinite(d) || fabs(d) > FLT_MAX)
             return obj_fail(o, RAYD_E_INVALID, "number '%s' in '%s' is not a finite float",
                             mesh_quote(q, tok, n), what);
@@ -194,8 +194,8 @@ static enum rayd_status obj_numbers(struct obj *o, const char *what, const char 
 static enum rayd_status obj_push(struct obj *o, const char *what, float **arr, size_t *n,
                                  size_t *cap, const float *vals, size_t width) {
     if (*n >= o->max_verts)
-        return obj_fail(o, RAYD_E_LIMIT, "%zu '%s' lines exceed the limit of %u vertices",
-                        *n + 1, what, o->max_verts);
+        return obj_fail(o, RAYD_E_LIMIT, "%zu '%s' lines exceed the limit of %u vertices", *n + 1,
+                        what, o->max_verts);
     if (!array_grow((void **)arr, cap, (*n + 1) * width, sizeof **arr)) return obj_nomem(o);
     memcpy(*arr + *n * width, vals, width * sizeof *vals);
     (*n)++;
@@ -245,8 +245,8 @@ static enum rayd_status obj_index(struct obj *o, const char *what, const char *s
     if (v == 0)
         return obj_fail(o, RAYD_E_INVALID, "%s index 0 is invalid (OBJ counts from 1)", what);
     if (count == 0)
-        return obj_fail(o, RAYD_E_INVALID, "%s index %lld is out of range (none defined yet)",
-                        what, v);
+        return obj_fail(o, RAYD_E_INVALID, "%s index %lld is out of range (none defined yet)", what,
+                        v);
     long long c = (long long)count;
     if (v > c)
         return obj_fail(o, RAYD_E_INVALID, "%s index %lld is out of range (1..%lld)", what, v, c);
@@ -673,8 +673,7 @@ static enum rayd_status obj_merge(struct obj *o) {
 
 /* Gathers per-vertex arrays from the triples into *out. */
 static enum rayd_status obj_finish(struct obj *o, struct mesh_data *out) {
-    if (o->ntri == 0)
-        return err_set(o->err, RAYD_E_INVALID, NULL, "OBJ has no faces ('f' lines)");
+    if (o->ntri == 0) return err_set(o->err, RAYD_E_INVALID, NULL, "OBJ has no faces ('f' lines)");
     enum rayd_status st = obj_merge(o);
     if (st != RAYD_OK) return st;
     size_t nv = o->nkeys;
@@ -804,8 +803,7 @@ static bool obj_bases(struct obj_par *j) {
     }
     size_t faces = 0; /* each face line makes a triangle at least */
     for (size_t c = 0; c < j->nchunks; c++) faces += j->chunks[c].cap_corners / 3;
-    if (o->nv > o->max_verts || o->nt > o->max_verts || o->nn > o->max_verts ||
-        faces > o->max_tris)
+    if (o->nv > o->max_verts || o->nt > o->max_verts || o->nn > o->max_verts || faces > o->max_tris)
         return false;
     o->cap_v = o->nv * 3 + 3, o->cap_vt = o->nt * 2 + 2, o->cap_vn = o->nn * 3 + 3;
     o->v = huge_alloc(o->cap_v * sizeof *o->v);
@@ -932,8 +930,8 @@ static bool obj_positions_only(const struct obj_par *j) {
 
 /* The threaded decoder; false when it gives up (the caller then reads in
  * order, which finds the error, or decodes what this could not). */
-static bool obj_parallel(const char *text, size_t len, const struct mesh_limits *lim,
-                         int threads, struct mesh_data *out) {
+static bool obj_parallel(const char *text, size_t len, const struct mesh_limits *lim, int threads,
+                         struct mesh_data *out) {
     struct obj_par j = {.nchunks = 4 * (size_t)threads};
     j.shared = (struct obj){.max_verts = mesh_max_vertices(lim),
                             .max_tris = mesh_max_triangles(lim),
@@ -960,9 +958,9 @@ static bool obj_parallel(const char *text, size_t len, const struct mesh_limits 
     return ok;
 }
 
-enum rayd_status mesh_parse_obj_threads(const char *text, size_t len,
-                                        const struct mesh_limits *lim, int threads,
-                                        struct mesh_data *out, struct rayd_error *err) {
+enum rayd_status mesh_parse_obj_threads(const char *text, size_t len, const struct mesh_limits *lim,
+                                        int threads, struct mesh_data *out,
+                                        struct rayd_error *err) {
     if (threads <= 0) threads = len >= OBJ_PARALLEL_BYTES ? parallel_cores() : 1;
     if (threads > 1 && obj_parallel(text, len, lim, threads, out)) return RAYD_OK;
     return obj_serial(text, len, lim, out, err);

@@ -439,15 +439,9 @@ static enum rayd_status ply_binary(struct ply *P, enum ply_type t, double *out) 
     for (size_t k = 0; k < n; k++) u = u << 8 | b[P->format == PLY_LE ? n - 1 - k : k];
     P->at += n;
     switch (t) {
-    case PLY_I8:
-        *out = ply_signed(u, 8);
-        break;
-    case PLY_I16:
-        *out = ply_signed(u, 16);
-        break;
-    case PLY_I32:
-        *out = ply_signed(u, 32);
-        break;
+    case PLY_I8: *out = ply_signed(u, 8); break;
+    case PLY_I16: *out = ply_signed(u, 16); break;
+    case PLY_I32: *out = ply_signed(u, 32); break;
     case PLY_F32: {
         uint32_t w = (uint32_t)u;
         float f;
@@ -455,12 +449,8 @@ static enum rayd_status ply_binary(struct ply *P, enum ply_type t, double *out) 
         *out = f;
         break;
     }
-    case PLY_F64:
-        memcpy(out, &u, sizeof *out);
-        break;
-    default:
-        *out = (double)u;
-        break;
+    case PLY_F64: memcpy(out, &u, sizeof *out); break;
+    default: *out = (double)u; break;
     }
     return RAYD_OK;
 }

@@ -8,14 +8,14 @@
 #include "math/vec.h"
 
 struct camera {
-    vec3 pos;          /* the eye C */
-    vec3 u, v, w;      /* right, up, forward: an orthonormal basis */
-    double tan_x;      /* tan(fov_x / 2) */
-    double tan_y;      /* tan(fov_y / 2) */
-    int n, m;          /* image width and height in pixels */
-    bool ortho;        /* orthographic: parallel rays, tan_x/tan_y hold half the view size */
-    double aperture;   /* thin lens radius; 0 is the paper's pinhole */
-    double focus;      /* distance along w that is sharp */
+    vec3 pos;        /* the eye C */
+    vec3 u, v, w;    /* right, up, forward: an orthonormal basis */
+    double tan_x;    /* tan(fov_x / 2) */
+    double tan_y;    /* tan(fov_y / 2) */
+    int n, m;        /* image width and height in pixels */
+    bool ortho;      /* orthographic: parallel rays, tan_x/tan_y hold half the view size */
+    double aperture; /* thin lens radius; 0 is the paper's pinhole */
+    double focus;    /* distance along w that is sharp */
 };
 
 /* Builds the basis w = normalize(look_at - pos), u = normalize(w x up),

@@ -21,20 +21,20 @@ struct mesh {
     /* Vertex data, kept only for smooth normals and texture coordinates:
      * a flat mesh without uvs needs nothing but its blocks (pos and index
      * are then freed after the build and NULL). */
-    float *pos;       /* 3 per vertex, object space */
-    float *normal;    /* 3 per vertex (unit), or NULL: flat shading */
-    float *uv;        /* 2 per vertex, or NULL */
-    uint32_t *index;  /* 3 per triangle, in BVH leaf order */
+    float *pos;      /* 3 per vertex, object space */
+    float *normal;   /* 3 per vertex (unit), or NULL: flat shading */
+    float *uv;       /* 2 per vertex, or NULL */
+    uint32_t *index; /* 3 per triangle, in BVH leaf order */
     uint32_t nverts, ntris;
     struct bvh4 bvh;
-    vec3 lo, hi;      /* bounds */
+    vec3 lo, hi; /* bounds */
 };
 
 struct mesh_hit {
     float t;
-    float u, v;       /* barycentric weights of the 2nd and 3rd vertex */
-    uint32_t tri;     /* triangle, in leaf order */
-    uint32_t blk;     /* its block and lane: where its vertices are */
+    float u, v;   /* barycentric weights of the 2nd and 3rd vertex */
+    uint32_t tri; /* triangle, in leaf order */
+    uint32_t blk; /* its block and lane: where its vertices are */
     uint32_t lane;
 };
 

@@ -70,9 +70,10 @@ CPU_AVX512_FN __mmask16 tri16(const struct mesh16 *q, const struct tri4 *b, int 
     __m512 v = _mm512_sub_ps(_mm512_mul_ps(ax, cy), _mm512_mul_ps(ay, cx));
     __m512 w = _mm512_sub_ps(_mm512_mul_ps(bx, ay), _mm512_mul_ps(by, ax));
     __m512 zero = _mm512_setzero_ps();
-    __mmask16 edge = (_mm512_cmp_ps_mask(u, zero, _CMP_EQ_OQ) |
-                      _mm512_cmp_ps_mask(v, zero, _CMP_EQ_OQ) |
-                      _mm512_cmp_ps_mask(w, zero, _CMP_EQ_OQ)) & lanes;
+    __mmask16 edge =
+        (_mm512_cmp_ps_mask(u, zero, _CMP_EQ_OQ) | _mm512_cmp_ps_mask(v, zero, _CMP_EQ_OQ) |
+         _mm512_cmp_ps_mask(w, zero, _CMP_EQ_OQ)) &
+        lanes;
     if (edge) { /* through an edge or a vertex: those lanes in double */
         float U[16], V[16], W[16], AX[16], AY[16], BX[16], BY[16], CX[16], CY[16];
         _mm512_storeu_ps(U, u), _mm512_storeu_ps(V, v), _mm512_storeu_ps(W, w);
@@ -96,10 +97,11 @@ CPU_AVX512_FN __mmask16 tri16(const struct mesh16 *q, const struct tri4 *b, int 
     __m512i sign = _mm512_and_si512(_mm512_castps_si512(det), _mm512_set1_epi32(INT32_MIN));
     __m512 ts = _mm512_castsi512_ps(_mm512_xor_si512(_mm512_castps_si512(t), sign));
     __m512 ds = _mm512_castsi512_ps(_mm512_xor_si512(_mm512_castps_si512(det), sign));
-    __mmask16 ok = lanes & (__mmask16) ~(neg & pos) & _mm512_cmp_ps_mask(det, zero, _CMP_NEQ_UQ) &
-                   _mm512_cmp_ps_mask(ts, zero, _CMP_GT_OQ) &
-                   _mm512_cmp_ps_mask(
-                       ts, _mm512_mul_ps(_mm512_mul_ps(tm, _mm512_set1_ps(TRI_SLACK)), ds), _CMP_LE_OQ);
+    __mmask16 ok =
+        lanes & (__mmask16) ~(neg & pos) & _mm512_cmp_ps_mask(det, zero, _CMP_NEQ_UQ) &
+        _mm512_cmp_ps_mask(ts, zero, _CMP_GT_OQ) &
+        _mm512_cmp_ps_mask(ts, _mm512_mul_ps(_mm512_mul_ps(tm, _mm512_set1_ps(TRI_SLACK)), ds),
+                           _CMP_LE_OQ);
     if (!ok) return 0;
     __m512 rcp = _mm512_div_ps(_mm512_set1_ps(1.0f), det);
     *t_out = _mm512_mul_ps(t, rcp);

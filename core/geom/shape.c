@@ -8,9 +8,9 @@
 #include <stddef.h>
 
 const struct shape_ops *const shape_ops[SHAPE_KINDS] = {
-    [SHAPE_SPHERE] = &sphere_ops, [SHAPE_PLANE] = &plane_ops,       [SHAPE_BOX] = &box_ops,
-    [SHAPE_CYLINDER] = &cylinder_ops, [SHAPE_DISC] = &disc_ops,     [SHAPE_TORUS] = &torus_ops,
-    [SHAPE_TRIANGLE] = &triangle_ops, [SHAPE_QUAD] = &quad_ops,     [SHAPE_QUADRIC] = &quadric_ops,
+    [SHAPE_SPHERE] = &sphere_ops,     [SHAPE_PLANE] = &plane_ops, [SHAPE_BOX] = &box_ops,
+    [SHAPE_CYLINDER] = &cylinder_ops, [SHAPE_DISC] = &disc_ops,   [SHAPE_TORUS] = &torus_ops,
+    [SHAPE_TRIANGLE] = &triangle_ops, [SHAPE_QUAD] = &quad_ops,   [SHAPE_QUADRIC] = &quadric_ops,
 };
 
 bool shape_hit(const struct object *o, const ray *r, double tmin, double tmax, double *t,

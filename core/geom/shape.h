@@ -183,5 +183,4 @@ bool sphere_hit(const struct object *o, const ray *r, double tmin, double tmax, 
 bool plane_hit(const struct object *o, const ray *r, double tmin, double tmax, double *t);
 vec3 sphere_normal(const struct object *o, vec3 p);
 
-
 #endif

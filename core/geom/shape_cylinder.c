@@ -90,5 +90,5 @@ static void cyl_uv(const struct object *o, vec3 p, int part, double *u, double *
     *v = part == 1 ? 0 : part == 2 ? 1 : v3_dot(q, w) / o->u.cyl.height;
 }
 
-const struct shape_ops cylinder_ops = {"cylinder", cyl_crossings, cyl_normal, cyl_bounds,
-                                       cyl_inside, cyl_uv};
+const struct shape_ops cylinder_ops = {"cylinder", cyl_crossings, cyl_normal,
+                                       cyl_bounds, cyl_inside,    cyl_uv};

@@ -41,5 +41,5 @@ static void plane_uv(const struct object *o, vec3 p, int part, double *u, double
     *v = v3_dot(d, b);
 }
 
-const struct shape_ops plane_ops = {"plane", plane_crossings, plane_normal, NULL, plane_inside,
-                                    plane_uv};
+const struct shape_ops plane_ops = {"plane", plane_crossings, plane_normal,
+                                    NULL,    plane_inside,    plane_uv};

@@ -45,5 +45,5 @@ static void quadric_uv(const struct object *o, vec3 p, int part, double *u, doub
     *v = p.z;
 }
 
-const struct shape_ops quadric_ops = {"quadric", quadric_crossings, quadric_normal, NULL,
-                                      quadric_inside, quadric_uv};
+const struct shape_ops quadric_ops = {"quadric", quadric_crossings, quadric_normal,
+                                      NULL,      quadric_inside,    quadric_uv};

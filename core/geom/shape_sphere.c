@@ -55,5 +55,5 @@ static void sphere_uv(const struct object *o, vec3 p, int part, double *u, doubl
     *v = 1 - acos(fmax(-1, fmin(1, d.y))) / 3.14159265358979323846;
 }
 
-const struct shape_ops sphere_ops = {"sphere", sphere_crossings, sphere_normal_part, sphere_bounds,
-                                     sphere_inside, sphere_uv};
+const struct shape_ops sphere_ops = {"sphere",      sphere_crossings, sphere_normal_part,
+                                     sphere_bounds, sphere_inside,    sphere_uv};

@@ -72,5 +72,5 @@ static void torus_uv(const struct object *o, vec3 p, int part, double *u, double
     *v = 0.5 + atan2(q.z, sqrt(q.x * q.x + q.y * q.y) - o->u.torus.major) / (2 * pi);
 }
 
-const struct shape_ops torus_ops = {"torus", torus_crossings, torus_normal, torus_bounds,
-                                    torus_inside, torus_uv};
+const struct shape_ops torus_ops = {"torus",      torus_crossings, torus_normal,
+                                    torus_bounds, torus_inside,    torus_uv};

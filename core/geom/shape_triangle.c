@@ -74,6 +74,6 @@ static void quad_uv(const struct object *o, vec3 p, int part, double *u, double 
     para_uv(o->u.quad.corner, o->u.quad.e1, o->u.quad.e2, p, u, v);
 }
 
-const struct shape_ops triangle_ops = {"triangle", tri_crossings, tri_normal, tri_bounds, NULL,
-                                       tri_uv};
+const struct shape_ops triangle_ops = {"triangle", tri_crossings, tri_normal,
+                                       tri_bounds, NULL,          tri_uv};
 const struct shape_ops quad_ops = {"quad", quad_crossings, quad_normal, quad_bounds, NULL, quad_uv};

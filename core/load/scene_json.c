@@ -72,9 +72,9 @@ static const cJSON *section(const cJSON *root, const char *key, cJSON *empty) {
 }
 
 static enum rayd_status load_render(struct loader *ld, const cJSON *root) {
-    static const char *const keys[] = {"width", "height", "samples",    "max_depth",
-                                       "background", "seed", "integrator", "environment",
-                                       NULL};
+    static const char *const keys[] = {"width",      "height",      "samples",
+                                       "max_depth",  "background",  "seed",
+                                       "integrator", "environment", NULL};
     static const char *const integrators[] = {"whitted", "path", NULL};
     struct jp at = {.s = "/render"};
     cJSON empty;
@@ -87,8 +87,8 @@ static enum rayd_status load_render(struct loader *ld, const cJSON *root) {
     TRY(sj_int(ld, r, &at, "height", 480, 1, lim->max_height, true, &h));
     if (w * h > lim->max_pixels)
         return sj_fail(ld, RAYD_E_LIMIT, &at,
-                    "width x height = %ld pixels is over the limit of %ld pixels", w * h,
-                    lim->max_pixels);
+                       "width x height = %ld pixels is over the limit of %ld pixels", w * h,
+                       lim->max_pixels);
     int max_spp = lim->max_samples < RENDER_SUM_SAMPLES ? lim->max_samples : RENDER_SUM_SAMPLES;
     TRY(sj_int(ld, r, &at, "samples", 1, 1, max_spp, true, &spp));
     TRY(sj_int(ld, r, &at, "max_depth", 5, 0, lim->max_depth, true, &depth));
@@ -106,10 +106,9 @@ static enum rayd_status load_render(struct loader *ld, const cJSON *root) {
 }
 
 static enum rayd_status load_camera(struct loader *ld, const cJSON *root) {
-    static const char *const keys[] = {"position",   "look_at",  "up",       "fov_x",
-                                       "fov_y",      "projection", "view_width", "aperture",
-                                       "focus_distance", "frame", "view", "azimuth",
-                                       "elevation", NULL};
+    static const char *const keys[] = {
+        "position", "look_at",        "up",    "fov_x", "fov_y",   "projection", "view_width",
+        "aperture", "focus_distance", "frame", "view",  "azimuth", "elevation",  NULL};
     static const char *const projections[] = {"perspective", "orthographic", NULL};
     struct jp at = {.s = "/camera"};
     cJSON empty;
@@ -138,7 +137,8 @@ static enum rayd_status load_camera(struct loader *ld, const cJSON *root) {
     TRY(sj_num(ld, c, &at, "focus_distance", cam->focus, 0, true, NUM_MAX, &focus));
     struct jp pa = jp_key(&at, "aperture");
     if (proj == 1) {
-        if (aperture > 0) return sj_fail(ld, RAYD_E_INVALID, &pa, "must be 0 with an orthographic projection");
+        if (aperture > 0)
+            return sj_fail(ld, RAYD_E_INVALID, &pa, "must be 0 with an orthographic projection");
         cam->ortho = true;
         cam->tan_x = view_w / 2; /* half extents of the view, in scene units */
         cam->tan_y = cam->tan_x * rs->height / rs->width;
@@ -184,9 +184,9 @@ static enum rayd_status load_light(struct loader *ld, const cJSON *lj, const str
     static const char *const dir_keys[] = {"type", "direction", "color", "intensity", NULL};
     static const char *const spot_keys[] = {"type",      "position", "direction", "color",
                                             "intensity", "angle",    "falloff",   NULL};
-    static const char *const area_keys[] = {"type",  "shape", "position", "edge1",  "edge2",
-                                            "normal", "radius", "color",  "intensity", "samples",
-                                            NULL};
+    static const char *const area_keys[] = {"type",      "shape",   "position", "edge1",
+                                            "edge2",     "normal",  "radius",   "color",
+                                            "intensity", "samples", NULL};
     static const char *const *const keys[] = {point_keys, dir_keys, spot_keys, area_keys};
     if (!cJSON_IsObject(lj))
         return sj_fail(ld, RAYD_E_INVALID, at, "must be an object, not %s", sj_type_name(lj));
@@ -213,10 +213,12 @@ static enum rayd_status load_lights(struct loader *ld, const cJSON *root) {
     const cJSON *ls = cJSON_GetObjectItemCaseSensitive(root, "lights");
     if (!ls) return RAYD_OK;
     struct jp at = {.s = "/lights"};
-    if (!cJSON_IsArray(ls)) return sj_fail(ld, RAYD_E_INVALID, &at, "must be an array, not %s", sj_type_name(ls));
+    if (!cJSON_IsArray(ls))
+        return sj_fail(ld, RAYD_E_INVALID, &at, "must be an array, not %s", sj_type_name(ls));
     int n = cJSON_GetArraySize(ls);
     if (n > ld->lim->max_lights)
-        return sj_fail(ld, RAYD_E_LIMIT, &at, "has %d lights; the limit is %d", n, ld->lim->max_lights);
+        return sj_fail(ld, RAYD_E_LIMIT, &at, "has %d lights; the limit is %d", n,
+                       ld->lim->max_lights);
     if (n == 0) return RAYD_OK;
     ld->s->lights = calloc((size_t)n, sizeof *ld->s->lights);
     if (!ld->s->lights) return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
@@ -241,7 +243,7 @@ static enum rayd_status parse_json(const char *json, size_t len, cJSON **out,
 }
 
 static enum rayd_status load_root(struct loader *ld, cJSON *root, long frame) {
-    static const char *const keys[] = {"version", "camera",  "render",  "materials", "lights",
+    static const char *const keys[] = {"version", "camera",  "render",    "materials", "lights",
                                        "groups",  "objects", "animation", NULL};
     struct jp at = {.s = ""};
     if (!cJSON_IsObject(root))
@@ -262,7 +264,8 @@ static enum rayd_status load_root(struct loader *ld, cJSON *root, long frame) {
 
 /* Check, and note the large inline mesh arrays; parse the rest with cJSON. */
 static enum rayd_status check_and_parse(const char *json, size_t len, const struct rayd_limits *lim,
-                                        struct sj_inline *in, cJSON **root, struct rayd_error *err) {
+                                        struct sj_inline *in, cJSON **root,
+                                        struct rayd_error *err) {
     struct json_spans *spans = in->spans.min_count > 0 ? &in->spans : NULL;
     TRY(json_check_spans(json, len, lim->max_nesting, spans, err));
     char *copy;
@@ -276,14 +279,18 @@ static enum rayd_status check_and_parse(const char *json, size_t len, const stru
 
 /* The frame's facts for rayd_scene_animation. */
 static void note_frames(rayd_scene *s, const struct sj_anim *a) {
-    s->anim = (struct rayd_animation){.animated = a->on, .start = a->start, .end = a->end,
-                                      .fps = a->on ? a->fps : 0, .frame = a->frame};
+    s->anim = (struct rayd_animation){.animated = a->on,
+                                      .start = a->start,
+                                      .end = a->end,
+                                      .fps = a->on ? a->fps : 0,
+                                      .frame = a->frame};
 }
 
 /* scene_json_parse at frame `frame` (< 0: the first; rayd_scene_parse_frame). */
 static enum rayd_status scene_json_parse_frame(const char *json, size_t len,
-                                        const struct rayd_limits *lim, long inline_min,
-                                        long frame, rayd_scene **out, struct rayd_error *err) {
+                                               const struct rayd_limits *lim, long inline_min,
+                                               long frame, rayd_scene **out,
+                                               struct rayd_error *err) {
     struct rayd_limits deflim;
     if (!lim) {
         rayd_limits_default(&deflim);
@@ -324,11 +331,11 @@ enum rayd_status rayd_scene_parse(const char *json, size_t len, const struct ray
     return scene_json_parse_frame(json, len, lim, SJ_INLINE_MIN, -1, out, err);
 }
 
-enum rayd_status rayd_scene_parse_frame(const char *json, size_t len,
-                                        const struct rayd_limits *lim, long frame,
-                                        rayd_scene **out, struct rayd_error *err) {
+enum rayd_status rayd_scene_parse_frame(const char *json, size_t len, const struct rayd_limits *lim,
+                                        long frame, rayd_scene **out, struct rayd_error *err) {
     if (frame < 0)
-        return err_set(err, RAYD_E_ARG, "/animation", "frame %ld: frames are numbered from 0", frame);
+        return err_set(err, RAYD_E_ARG, "/animation", "frame %ld: frames are numbered from 0",
+                       frame);
     return scene_json_parse_frame(json, len, lim, SJ_INLINE_MIN, frame, out, err);
 }
 

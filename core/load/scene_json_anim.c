@@ -48,20 +48,30 @@ struct channel {
     bool lo_open;
 };
 
-#define VEC(k, r) {k, CH_VEC, r, 0, 0, false}
-#define NUM(k, lo, open, hi) {k, CH_NUM, VEC_ANY, lo, hi, open}
+#define VEC(k, r)                                                                                  \
+    { k, CH_VEC, r, 0, 0, false }
+#define NUM(k, lo, open, hi)                                                                       \
+    { k, CH_NUM, VEC_ANY, lo, hi, open }
 
-static const struct channel camera_ch[] = {
-    VEC("position", VEC_ANY),     VEC("look_at", VEC_ANY),       VEC("up", VEC_NONZERO),
-    NUM("fov_x", 0, true, 179),   NUM("fov_y", 0, true, 179),    NUM("focus_distance", 0, true, NUM_MAX),
-    NUM("aperture", 0, false, NUM_MAX), NUM("azimuth", -360, false, 360),
-    NUM("elevation", -90, false, 90), {NULL, CH_NUM, VEC_ANY, 0, 0, false}};
-static const struct channel light_ch[] = {
-    VEC("position", VEC_ANY), VEC("direction", VEC_NONZERO), VEC("color", VEC_COLOR),
-    NUM("intensity", 0, false, 1e6), {NULL, CH_NUM, VEC_ANY, 0, 0, false}};
-static const struct channel object_ch[] = {
-    VEC("translate", VEC_ANY), {"rotate", CH_ROT, VEC_ANY, 0, 0, false},
-    {"scale", CH_SCALE, VEC_ANY, 0, 0, false}, {NULL, CH_NUM, VEC_ANY, 0, 0, false}};
+static const struct channel camera_ch[] = {VEC("position", VEC_ANY),
+                                           VEC("look_at", VEC_ANY),
+                                           VEC("up", VEC_NONZERO),
+                                           NUM("fov_x", 0, true, 179),
+                                           NUM("fov_y", 0, true, 179),
+                                           NUM("focus_distance", 0, true, NUM_MAX),
+                                           NUM("aperture", 0, false, NUM_MAX),
+                                           NUM("azimuth", -360, false, 360),
+                                           NUM("elevation", -90, false, 90),
+                                           {NULL, CH_NUM, VEC_ANY, 0, 0, false}};
+static const struct channel light_ch[] = {VEC("position", VEC_ANY),
+                                          VEC("direction", VEC_NONZERO),
+                                          VEC("color", VEC_COLOR),
+                                          NUM("intensity", 0, false, 1e6),
+                                          {NULL, CH_NUM, VEC_ANY, 0, 0, false}};
+static const struct channel object_ch[] = {VEC("translate", VEC_ANY),
+                                           {"rotate", CH_ROT, VEC_ANY, 0, 0, false},
+                                           {"scale", CH_SCALE, VEC_ANY, 0, 0, false},
+                                           {NULL, CH_NUM, VEC_ANY, 0, 0, false}};
 
 /* Which light channels each light type has (the keys of its still form). */
 static bool light_has(const cJSON *lj, const char *key) {
@@ -107,8 +117,7 @@ static enum rayd_status anim_block(struct loader *ld, const cJSON *root, struct 
 
 /* The keyframes array: objects, each with a frame in range, in order. */
 static enum rayd_status read_keys(struct loader *ld, const struct sj_anim *a,
-                                  const struct channel *ch, const cJSON *lj,
-                                  struct track_set *ts) {
+                                  const struct channel *ch, const cJSON *lj, struct track_set *ts) {
     const char *allowed[16] = {"frame"};
     int na = 1;
     for (const struct channel *c = ch; c->key; c++)
@@ -129,11 +138,15 @@ static enum rayd_status read_keys(struct loader *ld, const struct sj_anim *a,
         double f;
         TRY(sj_num(ld, k, &pk, "frame", 0, -NUM_MAX, false, NUM_MAX, &f));
         if (f < (double)a->start || f > (double)a->end)
-            return sj_fail(ld, RAYD_E_INVALID, &pf, "%g is outside the animation's frames %ld-%ld", f, a->start, a->end);
+            return sj_fail(ld, RAYD_E_INVALID, &pf, "%g is outside the animation's frames %ld-%ld",
+                           f, a->start, a->end);
         if (i > 0 && f == ts->t[i - 1])
-            return sj_fail(ld, RAYD_E_INVALID, &pf, "%g is the frame of keyframe %d too (one keyframe a frame)", f, i - 1);
+            return sj_fail(ld, RAYD_E_INVALID, &pf,
+                           "%g is the frame of keyframe %d too (one keyframe a frame)", f, i - 1);
         if (i > 0 && f < ts->t[i - 1])
-            return sj_fail(ld, RAYD_E_INVALID, &pf, "%g comes before keyframe %d's frame %g (keyframes go in frame order)", f, i - 1, ts->t[i - 1]);
+            return sj_fail(ld, RAYD_E_INVALID, &pf,
+                           "%g comes before keyframe %d's frame %g (keyframes go in frame order)",
+                           f, i - 1, ts->t[i - 1]);
         if (k->child && !k->child->next)
             return sj_fail(ld, RAYD_E_INVALID, &pk, "has a frame and nothing to animate");
         ts->t[i] = f;
@@ -176,7 +189,8 @@ static enum rayd_status read_scale(struct loader *ld, const cJSON *k, const stru
         TRY(sj_vec_value(ld, sc, &p, VEC_ANY, &v));
     }
     if (fabs(v.x) < 1e-9 || fabs(v.y) < 1e-9 || fabs(v.z) < 1e-9)
-        return sj_fail(ld, RAYD_E_INVALID, &p, "must not be zero (or smaller than 1e-9) in any axis");
+        return sj_fail(ld, RAYD_E_INVALID, &p,
+                       "must not be zero (or smaller than 1e-9) in any axis");
     s[0] = v.x, s[1] = v.y, s[2] = v.z;
     return RAYD_OK;
 }
@@ -184,8 +198,8 @@ static enum rayd_status read_scale(struct loader *ld, const cJSON *k, const stru
 /* Channel c of every keyframe that has it, evaluated at the frame: *n keys
  * (0: no keyframe has it), the value in out (dim 1, 3 or 4). */
 static enum rayd_status eval_channel(struct loader *ld, const struct sj_anim *a,
-                                     const struct track_set *ts, const struct channel *c,
-                                     int *n, double *out) {
+                                     const struct track_set *ts, const struct channel *c, int *n,
+                                     double *out) {
     int dim = c->kind == CH_NUM ? 1 : c->kind == CH_ROT ? 4 : 3;
     double *t = malloc(sizeof *t * (size_t)ts->n), *v = malloc(sizeof *v * 4 * (size_t)ts->n);
     if (!t || !v) {
@@ -213,8 +227,10 @@ static enum rayd_status eval_channel(struct loader *ld, const struct sj_anim *a,
         t[m++] = ts->t[i];
     }
     if (st == RAYD_OK && m > 0) {
-        if (c->kind == CH_ROT) kf_eval_quat(t, v, m, ts->how, (double)a->frame, out);
-        else kf_eval(t, v, m, dim, ts->how, (double)a->frame, out);
+        if (c->kind == CH_ROT)
+            kf_eval_quat(t, v, m, ts->how, (double)a->frame, out);
+        else
+            kf_eval(t, v, m, dim, ts->how, (double)a->frame, out);
     }
     *n = m;
     free(t);
@@ -237,8 +253,8 @@ static enum rayd_status find_keys(struct loader *ld, const struct sj_anim *a, co
         if (*slot) return sj_fail(ld, RAYD_E_INVALID, &p, "duplicate key");
         *slot = c;
     }
-    *ts = (struct track_set){.owner = o, .keys = keys, .at = *at, .kat = jp_key(at, "keyframes"),
-                             .how = KF_LINEAR};
+    *ts = (struct track_set){
+        .owner = o, .keys = keys, .at = *at, .kat = jp_key(at, "keyframes"), .how = KF_LINEAR};
     struct jp pi = jp_key(at, "interpolation");
     if (interp && !keys) return sj_fail(ld, RAYD_E_INVALID, &pi, "needs keyframes beside it");
     if (keys && !a->on)
@@ -290,7 +306,8 @@ static enum rayd_status anim_values(struct loader *ld, cJSON *o, const struct jp
         if (st != RAYD_OK || n == 0) continue;
         struct jp p = jp_key(at, c->key);
         if (cJSON_GetObjectItemCaseSensitive(o, c->key))
-            st = sj_fail(ld, RAYD_E_INVALID, &p, "is animated by %s too: give it in one place", ts.kat.s);
+            st = sj_fail(ld, RAYD_E_INVALID, &p, "is animated by %s too: give it in one place",
+                         ts.kat.s);
         if (st == RAYD_OK) st = note_sub(ld, &p, &ts.kat);
         if (st == RAYD_OK) st = put_value(ld, o, c, v);
     }
@@ -333,7 +350,10 @@ static enum rayd_status anim_object(struct loader *ld, cJSON *o, const struct jp
     struct xform x = xform_then(&sx, &rx);
     x = xform_then(&x, &tx);
     if (fabs(s[0]) < 1e-9 || fabs(s[1]) < 1e-9 || fabs(s[2]) < 1e-9 || !xform_sane(&x))
-        return sj_fail(ld, RAYD_E_INVALID, &ts.kat, "at frame %ld the keyframed scale is zero (or within 1e-9 of it) in some axis", a->frame);
+        return sj_fail(
+            ld, RAYD_E_INVALID, &ts.kat,
+            "at frame %ld the keyframed scale is zero (or within 1e-9 of it) in some axis",
+            a->frame);
     if (!array_grow((void **)&a->xf, &a->xf_cap, a->nxf + 1, sizeof *a->xf))
         return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
     a->xf[a->nxf++] = (struct sj_anim_xf){.obj = o, .x = x};
@@ -373,8 +393,11 @@ enum rayd_status sj_anim_load(struct loader *ld, cJSON *root, long frame) {
     a->frame = frame < 0 ? a->start : frame;
     if (a->frame < a->start || a->frame > a->end) {
         if (!a->on)
-            return err_set(ld->err, RAYD_E_ARG, "", "frame %ld: the scene has no /animation, so its one frame is 0", frame);
-        return err_set(ld->err, RAYD_E_ARG, top.s, "frame %ld is outside the animation's frames %ld-%ld", frame, a->start, a->end);
+            return err_set(ld->err, RAYD_E_ARG, "",
+                           "frame %ld: the scene has no /animation, so its one frame is 0", frame);
+        return err_set(ld->err, RAYD_E_ARG, top.s,
+                       "frame %ld is outside the animation's frames %ld-%ld", frame, a->start,
+                       a->end);
     }
     cJSON *cam = cJSON_GetObjectItemCaseSensitive(root, "camera");
     struct jp pc = {.s = "/camera"};

@@ -18,10 +18,10 @@ struct sj_anim_sub {
 };
 
 struct sj_anim {
-    bool on;            /* the scene has an /animation block */
-    long start, end;    /* its frames, inclusive */
+    bool on;         /* the scene has an /animation block */
+    long start, end; /* its frames, inclusive */
     double fps;
-    long frame;         /* the frame being built */
+    long frame;            /* the frame being built */
     struct sj_anim_xf *xf; /* sorted by obj once the walk is done */
     size_t nxf, xf_cap;
     struct sj_anim_sub *sub;

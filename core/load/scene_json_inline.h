@@ -13,8 +13,8 @@
 #define SJ_INLINE_MIN 1000
 
 struct sj_node {
-    const cJSON *node;             /* the empty array cJSON built in its place */
-    const struct json_span *span;  /* where its numbers are in the text */
+    const cJSON *node;            /* the empty array cJSON built in its place */
+    const struct json_span *span; /* where its numbers are in the text */
 };
 
 struct sj_inline {

@@ -13,10 +13,10 @@
 #include "load/scene_json_texture.h"
 
 static enum rayd_status material(struct loader *ld, const cJSON *m, const struct jp *at,
-                                       struct material *out) {
-    static const char *const keys[] = {"color",        "ambient",   "diffuse",  "specular",
-                                       "shininess",    "reflectivity", "transparency", "ior",
-                                       "emission",     "roughness", "metallic", "texture",
+                                 struct material *out) {
+    static const char *const keys[] = {"color",     "ambient",      "diffuse",      "specular",
+                                       "shininess", "reflectivity", "transparency", "ior",
+                                       "emission",  "roughness",    "metallic",     "texture",
                                        NULL};
     TRY(sj_check_keys(ld, m, at, keys));
     struct material d = material_default();
@@ -66,10 +66,11 @@ enum rayd_status sj_materials(struct loader *ld, const cJSON *root) {
     TRY(sj_check_keys(ld, ms, &at, NULL));
     if (cJSON_GetArraySize(ms) > ld->lim->max_materials)
         return sj_fail(ld, RAYD_E_LIMIT, &at, "has %d materials; the limit is %d",
-                    cJSON_GetArraySize(ms), ld->lim->max_materials);
+                       cJSON_GetArraySize(ms), ld->lim->max_materials);
     for (const cJSON *m = ms->child; m; m = m->next) {
         struct jp p = jp_key(&at, m->string);
-        if (m->string[0] == '\0') return sj_fail(ld, RAYD_E_INVALID, &p, "a material name may not be empty");
+        if (m->string[0] == '\0')
+            return sj_fail(ld, RAYD_E_INVALID, &p, "a material name may not be empty");
         struct material mat;
         TRY(material(ld, m, &p, &mat));
         TRY(sj_add_material(ld, &mat, &idx));
@@ -80,7 +81,8 @@ enum rayd_status sj_materials(struct loader *ld, const cJSON *root) {
     if (n == 0) return RAYD_OK;
     ld->mat_names = malloc(sizeof *ld->mat_names * (size_t)n);
     if (!ld->mat_names) return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
-    for (const cJSON *m = ms->child; m; m = m->next, i++) ld->mat_names[i - 1] = (struct named){m->string, i};
+    for (const cJSON *m = ms->child; m; m = m->next, i++)
+        ld->mat_names[i - 1] = (struct named){m->string, i};
     ld->nmat_names = n;
     qsort(ld->mat_names, (size_t)n, sizeof *ld->mat_names, cmp_named);
     return RAYD_OK;
@@ -96,17 +98,19 @@ enum rayd_status sj_object_material(struct loader *ld, const cJSON *obj, const s
     if (cJSON_IsObject(v)) {
         struct material mat;
         if (ld->s->nmats > ld->lim->max_materials)
-            return sj_fail(ld, RAYD_E_LIMIT, &p, "is past the limit of %d materials (named and inline)", ld->lim->max_materials);
+            return sj_fail(ld, RAYD_E_LIMIT, &p,
+                           "is past the limit of %d materials (named and inline)",
+                           ld->lim->max_materials);
         TRY(material(ld, v, &p, &mat));
         return sj_add_material(ld, &mat, index);
     }
     if (!cJSON_IsString(v))
         return sj_fail(ld, RAYD_E_INVALID, &p,
-                    "must be a material name or a material object, not %s", sj_type_name(v));
+                       "must be a material name or a material object, not %s", sj_type_name(v));
     struct named key = {v->valuestring, 0};
-    const struct named *hit = ld->nmat_names ? bsearch(&key, ld->mat_names, (size_t)ld->nmat_names,
-                                                       sizeof key, cmp_named)
-                                             : NULL;
+    const struct named *hit =
+        ld->nmat_names ? bsearch(&key, ld->mat_names, (size_t)ld->nmat_names, sizeof key, cmp_named)
+                       : NULL;
     if (hit) {
         *index = hit->index;
         return RAYD_OK;

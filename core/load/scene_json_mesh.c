@@ -57,13 +57,18 @@ static enum rayd_status get_flat(struct loader *ld, const cJSON *obj, const stru
     *count = 0;
     if (!a) return RAYD_OK;
     struct jp p = jp_key(at, key);
-    if (!cJSON_IsArray(a)) return sj_fail(ld, RAYD_E_INVALID, &p, "must be an array of numbers, not %s", sj_type_name(a));
+    if (!cJSON_IsArray(a))
+        return sj_fail(ld, RAYD_E_INVALID, &p, "must be an array of numbers, not %s",
+                       sj_type_name(a));
     const struct json_span *sp = sj_inline_span(ld->inl, a);
     long n = count_items(a, sp);
     if (n % per != 0 || n < min)
-        return sj_fail(ld, RAYD_E_INVALID, &p, "must hold a multiple of %d numbers (at least %ld); it has %ld", per, min, n);
+        return sj_fail(ld, RAYD_E_INVALID, &p,
+                       "must hold a multiple of %d numbers (at least %ld); it has %ld", per, min,
+                       n);
     if (n / per > ld->lim->max_vertices)
-        return sj_fail(ld, RAYD_E_LIMIT, &p, "has %ld vertices; the limit is %ld", n / per, ld->lim->max_vertices);
+        return sj_fail(ld, RAYD_E_LIMIT, &p, "has %ld vertices; the limit is %ld", n / per,
+                       ld->lim->max_vertices);
     float *v = malloc(sizeof *v * (size_t)(n ? n : 1));
     if (!v) return err_set(ld->err, RAYD_E_NOMEM, p.s, "out of memory");
     if (sp) {
@@ -96,13 +101,17 @@ static enum rayd_status get_indices(struct loader *ld, const cJSON *obj, const s
     const cJSON *a = cJSON_GetObjectItemCaseSensitive(obj, "indices");
     struct jp p = jp_key(at, "indices");
     if (!a) return sj_fail(ld, RAYD_E_INVALID, &p, "is required (3 vertex indices per triangle)");
-    if (!cJSON_IsArray(a)) return sj_fail(ld, RAYD_E_INVALID, &p, "must be an array of integers, not %s", sj_type_name(a));
+    if (!cJSON_IsArray(a))
+        return sj_fail(ld, RAYD_E_INVALID, &p, "must be an array of integers, not %s",
+                       sj_type_name(a));
     const struct json_span *sp = sj_inline_span(ld->inl, a);
     long n = count_items(a, sp);
     if (n % 3 != 0 || n == 0)
-        return sj_fail(ld, RAYD_E_INVALID, &p, "must hold a multiple of 3 indices (at least 3); it has %ld", n);
+        return sj_fail(ld, RAYD_E_INVALID, &p,
+                       "must hold a multiple of 3 indices (at least 3); it has %ld", n);
     if (ld->triangles + n / 3 > ld->lim->max_triangles)
-        return sj_fail(ld, RAYD_E_LIMIT, &p, "brings the scene to %ld triangles; the limit is %ld", ld->triangles + n / 3, ld->lim->max_triangles);
+        return sj_fail(ld, RAYD_E_LIMIT, &p, "brings the scene to %ld triangles; the limit is %ld",
+                       ld->triangles + n / 3, ld->lim->max_triangles);
     uint32_t *ix = malloc(sizeof *ix * (size_t)n);
     if (!ix) return err_set(ld->err, RAYD_E_NOMEM, p.s, "out of memory");
     long i = sp ? json_indices(ld->inl->text, sp, nverts, 0, ix) : -1;
@@ -110,7 +119,8 @@ static enum rayd_status get_indices(struct loader *ld, const cJSON *obj, const s
         free(ix);
         if (i == JSON_NUMBERS_NOMEM) return err_set(ld->err, RAYD_E_NOMEM, p.s, "out of memory");
         struct jp pe = jp_index(&p, (int)i);
-        return sj_fail(ld, RAYD_E_INVALID, &pe, "must be an integer in 0..%ld (a vertex index)", nverts - 1);
+        return sj_fail(ld, RAYD_E_INVALID, &pe, "must be an integer in 0..%ld (a vertex index)",
+                       nverts - 1);
     }
     i = 0;
     for (const cJSON *e = sp ? NULL : a->child; e; e = e->next, i++) {
@@ -118,7 +128,8 @@ static enum rayd_status get_indices(struct loader *ld, const cJSON *obj, const s
         if (!(v >= 0 && v < (double)nverts && floor(v) == v)) {
             free(ix);
             struct jp pe = jp_index(&p, (int)i);
-            return sj_fail(ld, RAYD_E_INVALID, &pe, "must be an integer in 0..%ld (a vertex index)", nverts - 1);
+            return sj_fail(ld, RAYD_E_INVALID, &pe, "must be an integer in 0..%ld (a vertex index)",
+                           nverts - 1);
         }
         ix[i] = (uint32_t)v;
     }
@@ -201,7 +212,8 @@ enum rayd_status sj_source_read(struct loader *ld, const cJSON *src, const struc
     const cJSON *b64 = cJSON_GetObjectItemCaseSensitive(src, "base64");
     const cJSON *file = cJSON_GetObjectItemCaseSensitive(src, "file");
     if (!!text + !!b64 + !!file != 1)
-        return sj_fail(ld, RAYD_E_INVALID, at, "needs exactly one of \"text\", \"base64\" or \"file\"");
+        return sj_fail(ld, RAYD_E_INVALID, at,
+                       "needs exactly one of \"text\", \"base64\" or \"file\"");
     const cJSON *fmt = cJSON_GetObjectItemCaseSensitive(src, "format");
     int format = -1;
     if (fmt) {
@@ -214,7 +226,9 @@ enum rayd_status sj_source_read(struct loader *ld, const cJSON *src, const struc
         if (n > 4 && !strcasecmp(file->valuestring + n - 4, ".glb")) format = 3;
     }
     struct jp pf = jp_key(at, "format");
-    if (format < 0) return sj_fail(ld, RAYD_E_INVALID, &pf, "is required (\"obj\", \"ply\", \"gltf\" or \"glb\")");
+    if (format < 0)
+        return sj_fail(ld, RAYD_E_INVALID, &pf,
+                       "is required (\"obj\", \"ply\", \"gltf\" or \"glb\")");
     const cJSON *v = text ? text : b64 ? b64 : file;
     struct jp pv = jp_key(at, text ? "text" : b64 ? "base64" : "file");
     char *data = NULL;
@@ -226,7 +240,8 @@ enum rayd_status sj_source_read(struct loader *ld, const cJSON *src, const struc
         return sj_fail(ld, RAYD_E_INVALID, &pv, "must be a string, not %s", sj_type_name(v));
     } else if (b64) {
         unsigned char *bytes;
-        enum rayd_status st = base64_decode(v->valuestring, strlen(v->valuestring), &bytes, &len, ld->err);
+        enum rayd_status st =
+            base64_decode(v->valuestring, strlen(v->valuestring), &bytes, &len, ld->err);
         if (st != RAYD_OK) {
             snprintf(ld->err->path, sizeof ld->err->path, "%s", pv.s);
             return st;
@@ -242,8 +257,12 @@ enum rayd_status sj_source_read(struct loader *ld, const cJSON *src, const struc
 /* "source": {"format": "obj"|"ply"|"gltf"|"glb", and one of "text", "base64", "file"}. */
 struct mesh_limits sj_mesh_budget(const struct loader *ld) {
     long v = ld->lim->max_vertices - ld->vertices, t = ld->lim->max_triangles - ld->triangles;
-    return (struct mesh_limits){(uint32_t)(v > (long)UINT32_MAX ? UINT32_MAX : v < 0 ? 0 : v),
-                                (uint32_t)(t > (long)UINT32_MAX ? UINT32_MAX : t < 0 ? 0 : t)};
+    return (struct mesh_limits){(uint32_t)(v > (long)UINT32_MAX ? UINT32_MAX
+                                           : v < 0              ? 0
+                                                                : v),
+                                (uint32_t)(t > (long)UINT32_MAX ? UINT32_MAX
+                                           : t < 0              ? 0
+                                                                : t)};
 }
 
 static enum rayd_status load_source(struct loader *ld, const cJSON *src, const struct jp *at,
@@ -264,7 +283,8 @@ static enum rayd_status load_source(struct loader *ld, const cJSON *src, const s
                                         : load_gltf(ld, at, file, bytes, nbytes, &ml, md);
     ld->s->decode_s += clock_now() - t0;
     free(data);
-    if (st != RAYD_OK && ld->err && format < 2) snprintf(ld->err->path, sizeof ld->err->path, "%s", pv.s);
+    if (st != RAYD_OK && ld->err && format < 2)
+        snprintf(ld->err->path, sizeof ld->err->path, "%s", pv.s);
     if (st == RAYD_OK && md->ntris == 0) {
         mesh_data_free(md);
         return sj_fail(ld, RAYD_E_INVALID, &pv, "holds no triangles");
@@ -296,7 +316,8 @@ static enum rayd_status unit_normals(struct loader *ld, const struct jp *at, flo
         if (!(len > 0)) {
             struct jp p = jp_key(at, "normals");
             struct jp pe = jp_index(&p, (int)(3 * i));
-            return sj_fail(ld, RAYD_E_INVALID, &pe, "normal %ld must not be a zero-length vector", i);
+            return sj_fail(ld, RAYD_E_INVALID, &pe, "normal %ld must not be a zero-length vector",
+                           i);
         }
         for (int k = 0; k < 3; k++) v[k] = (float)(v[k] / len);
     }
@@ -337,8 +358,7 @@ static enum rayd_status mesh_from_inline(struct loader *ld, const cJSON *oj, con
     return RAYD_OK;
 }
 
-enum rayd_status sj_mesh(struct loader *ld, const cJSON *oj, const struct jp *at,
-                                  uint32_t *id) {
+enum rayd_status sj_mesh(struct loader *ld, const cJSON *oj, const struct jp *at, uint32_t *id) {
     const cJSON *sm = cJSON_GetObjectItemCaseSensitive(oj, "smooth");
     if (sm && !cJSON_IsBool(sm)) {
         struct jp p = jp_key(at, "smooth");

@@ -43,10 +43,12 @@ static enum rayd_status transform_step(struct loader *ld, const cJSON *t, const 
     if (mj) {
         struct jp p = jp_key(at, "matrix");
         if (cJSON_GetArraySize(t) > 1)
-            return sj_fail(ld, RAYD_E_INVALID, &p, "cannot be combined with translate, rotate or scale");
+            return sj_fail(ld, RAYD_E_INVALID, &p,
+                           "cannot be combined with translate, rotate or scale");
         double rows[16];
         if (!cJSON_IsArray(mj) || cJSON_GetArraySize(mj) != 16)
-            return sj_fail(ld, RAYD_E_INVALID, &p, "must be an array of 16 numbers (a 4x4 matrix, row by row)");
+            return sj_fail(ld, RAYD_E_INVALID, &p,
+                           "must be an array of 16 numbers (a 4x4 matrix, row by row)");
         int i = 0;
         for (const cJSON *e = mj->child; e; e = e->next, i++)
             TRY(sj_item_num(ld, e, &p, i, NUM_MAX, NUM_RANGE, &rows[i]));
@@ -66,7 +68,8 @@ static enum rayd_status transform_step(struct loader *ld, const cJSON *t, const 
             TRY(sj_vec(ld, t, at, "scale", v3(1, 1, 1), VEC_ANY, &v));
         }
         if (fabs(v.x) < 1e-9 || fabs(v.y) < 1e-9 || fabs(v.z) < 1e-9)
-            return sj_fail(ld, RAYD_E_INVALID, &p, "must not be zero (or smaller than 1e-9) in any axis");
+            return sj_fail(ld, RAYD_E_INVALID, &p,
+                           "must not be zero (or smaller than 1e-9) in any axis");
         struct xform k = xform_scale(v);
         x = xform_then(&x, &k);
     }
@@ -100,7 +103,7 @@ static enum rayd_status transform_step(struct loader *ld, const cJSON *t, const 
  * or an array of steps applied first to last.  *present is false (and *out
  * the identity) without one. */
 static enum rayd_status load_transform(struct loader *ld, const cJSON *obj, const struct jp *at,
-                              struct xform *out, bool *present) {
+                                       struct xform *out, bool *present) {
     *out = xform_identity();
     *present = false;
     const cJSON *t = cJSON_GetObjectItemCaseSensitive(obj, "transform");
@@ -121,7 +124,9 @@ static enum rayd_status load_transform(struct loader *ld, const cJSON *obj, cons
     }
     if (keyed) *out = xform_then(out, &kx);
     if (!xform_sane(out))
-        return sj_fail(ld, RAYD_E_INVALID, &p, "must not scale the object by more than 1e9 or less than 1e-9 (all steps together)");
+        return sj_fail(
+            ld, RAYD_E_INVALID, &p,
+            "must not scale the object by more than 1e9 or less than 1e-9 (all steps together)");
     *present = true;
     return RAYD_OK;
 }
@@ -144,8 +149,10 @@ static enum rayd_status positive(struct loader *ld, const cJSON *oj, const struc
 
 static enum rayd_status load_box(struct loader *ld, const cJSON *oj, const struct jp *at,
                                  struct object *o) {
-    bool corners = cJSON_GetObjectItemCaseSensitive(oj, "min") || cJSON_GetObjectItemCaseSensitive(oj, "max");
-    bool sized = cJSON_GetObjectItemCaseSensitive(oj, "center") || cJSON_GetObjectItemCaseSensitive(oj, "size");
+    bool corners =
+        cJSON_GetObjectItemCaseSensitive(oj, "min") || cJSON_GetObjectItemCaseSensitive(oj, "max");
+    bool sized = cJSON_GetObjectItemCaseSensitive(oj, "center") ||
+                 cJSON_GetObjectItemCaseSensitive(oj, "size");
     if (corners && sized)
         return sj_fail(ld, RAYD_E_INVALID, at, "give either min and max, or center and size");
     if (corners) {
@@ -235,7 +242,8 @@ static enum rayd_status load_quad(struct loader *ld, const cJSON *oj, const stru
     TRY(sj_vec(ld, oj, at, "edge1", v3(1, 0, 0), VEC_NONZERO, &o->u.quad.e1));
     TRY(sj_vec(ld, oj, at, "edge2", v3(0, 0, 1), VEC_NONZERO, &o->u.quad.e2));
     struct jp p = jp_key(at, "edge2");
-    if (!(v3_len(v3_cross(o->u.quad.e1, o->u.quad.e2)) > 1e-12 * v3_len(o->u.quad.e1) * v3_len(o->u.quad.e2)))
+    if (!(v3_len(v3_cross(o->u.quad.e1, o->u.quad.e2)) >
+          1e-12 * v3_len(o->u.quad.e1) * v3_len(o->u.quad.e2)))
         return sj_fail(ld, RAYD_E_INVALID, &p, "must not be parallel to edge1");
     return RAYD_OK;
 }
@@ -246,7 +254,8 @@ static enum rayd_status load_quadric(struct loader *ld, const cJSON *oj, const s
     struct jp p = jp_key(at, "coefficients");
     if (!k || !cJSON_IsArray(k) || cJSON_GetArraySize(k) != 10)
         return sj_fail(ld, RAYD_E_INVALID, &p,
-                       "is required: 10 numbers a..j of a x^2 + b y^2 + c z^2 + d xy + e xz + f yz + g x + h y + i z + j");
+                       "is required: 10 numbers a..j of a x^2 + b y^2 + c z^2 + d xy + e xz + f yz "
+                       "+ g x + h y + i z + j");
     int i = 0;
     double any = 0;
     for (const cJSON *e = k->child; e; e = e->next, i++) {
@@ -274,13 +283,15 @@ static enum rayd_status load_csg(struct loader *ld, const cJSON *oj, const struc
     int op;
     TRY(sj_enum(ld, oj, at, "op", ops, &op));
     struct jp pop = jp_key(at, "op");
-    if (op < 0) return sj_fail(ld, RAYD_E_INVALID, &pop, "is required (union, intersection or difference)");
+    if (op < 0)
+        return sj_fail(ld, RAYD_E_INVALID, &pop, "is required (union, intersection or difference)");
     const cJSON *list = cJSON_GetObjectItemCaseSensitive(oj, "operands");
     struct jp pl = jp_key(at, "operands");
     if (!list || !cJSON_IsArray(list) || cJSON_GetArraySize(list) < 2)
         return sj_fail(ld, RAYD_E_INVALID, &pl, "must be an array of at least 2 objects");
     if (cJSON_GetArraySize(list) > 32)
-        return sj_fail(ld, RAYD_E_LIMIT, &pl, "has %d operands; the limit is 32", cJSON_GetArraySize(list));
+        return sj_fail(ld, RAYD_E_LIMIT, &pl, "has %d operands; the limit is 32",
+                       cJSON_GetArraySize(list));
     struct ctx sub = {o->material, cx->acc, true, cx->in_group, cx->tex_xform};
     /* left-deep tree: ((a op b) op c) ...; difference: a minus all the rest */
     int32_t left = -1;
@@ -318,7 +329,8 @@ static enum rayd_status load_instance(struct loader *ld, const cJSON *oj, const 
                                       struct object *o) {
     const cJSON *g = cJSON_GetObjectItemCaseSensitive(oj, "group");
     struct jp p = jp_key(at, "group");
-    if (!g || !cJSON_IsString(g)) return sj_fail(ld, RAYD_E_INVALID, &p, "is required: the name of a group in /groups");
+    if (!g || !cJSON_IsString(g))
+        return sj_fail(ld, RAYD_E_INVALID, &p, "is required: the name of a group in /groups");
     int i = 0;
     for (const cJSON *e = ld->groups ? ld->groups->child : NULL; e; e = e->next, i++) {
         if (strcmp(e->string, g->valuestring) == 0) {
@@ -370,8 +382,8 @@ static const char *const *const kind_keys[] = {
                           NULL},
     (const char *const[]){COMMON, "op", "operands", NULL},
     (const char *const[]){"type", "name", "transform", "group", NULL},
-    (const char *const[]){COMMON, "source", "scene", "lights", "light_scale", "camera",
-                          "animation", NULL},
+    (const char *const[]){COMMON, "source", "scene", "lights", "light_scale", "camera", "animation",
+                          NULL},
 };
 
 static enum rayd_status load_shape(struct loader *ld, const cJSON *oj, const struct jp *at,
@@ -417,7 +429,9 @@ static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const st
     if (!cJSON_IsObject(oj))
         return sj_fail(ld, RAYD_E_INVALID, at, "must be an object, not %s", sj_type_name(oj));
     if (++ld->objects > ld->lim->max_objects)
-        return sj_fail(ld, RAYD_E_LIMIT, at, "is past the limit of %ld objects (counting CSG operands and group members)", ld->lim->max_objects);
+        return sj_fail(ld, RAYD_E_LIMIT, at,
+                       "is past the limit of %ld objects (counting CSG operands and group members)",
+                       ld->lim->max_objects);
     int kind;
     TRY(sj_type(ld, oj, at, kind_names, &kind));
     TRY(sj_check_keys(ld, oj, at, kind_keys[kind]));
@@ -428,7 +442,8 @@ static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const st
     }
     struct jp pt = jp_key(at, "type");
     if (kind == K_INSTANCE && cx->in_group)
-        return sj_fail(ld, RAYD_E_INVALID, &pt, "an instance cannot be inside a group (groups do not nest)");
+        return sj_fail(ld, RAYD_E_INVALID, &pt,
+                       "an instance cannot be inside a group (groups do not nest)");
     if (kind == K_GLTF && (cx->in_group || cx->in_csg))
         return sj_fail(ld, RAYD_E_INVALID, &pt,
                        "a gltf object cannot be inside a group or a CSG object (its meshes are a "
@@ -444,7 +459,9 @@ static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const st
     struct xform acc = cx->acc ? xform_then(&x, cx->acc) : x;
     struct jp ptr = jp_key(at, "transform");
     if (cx->acc && !xform_sane(&acc))
-        return sj_fail(ld, RAYD_E_INVALID, &ptr, "must not scale the object by more than 1e9 or less than 1e-9 (with the CSG nodes above it)");
+        return sj_fail(ld, RAYD_E_INVALID, &ptr,
+                       "must not scale the object by more than 1e9 or less than 1e-9 (with the CSG "
+                       "nodes above it)");
     struct ctx sub = *cx;
     sub.acc = (cx->in_csg || kind == K_CSG) ? &acc : NULL;
     bool own_mat = cJSON_GetObjectItemCaseSensitive(oj, "material") != NULL;
@@ -461,8 +478,10 @@ static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const st
         bool open = o->kind == SHAPE_CYLINDER; /* capped: false */
         struct jp pc = jp_key(at, "capped");
         return sj_fail(ld, RAYD_E_INVALID, open ? &pc : &pt,
-                       "%s %s%s cannot be a CSG operand: CSG needs closed solids (sphere, box, capped cylinder or cone, torus, plane, quadric, csg)",
-                       open || kind == K_INSTANCE ? "an" : "a", open ? "open " : "", kind_names[kind]);
+                       "%s %s%s cannot be a CSG operand: CSG needs closed solids (sphere, box, "
+                       "capped cylinder or cone, torus, plane, quadric, csg)",
+                       open || kind == K_INSTANCE ? "an" : "a", open ? "open " : "",
+                       kind_names[kind]);
     }
     if (o->kind != SHAPE_CSG && (has_x || cx->acc)) {
         struct xform leaf = cx->acc && cx->in_csg ? acc : x;
@@ -478,7 +497,8 @@ static enum rayd_status load_list(struct loader *ld, const cJSON *list, const st
         return sj_fail(ld, RAYD_E_INVALID, at, "must be an array, not %s", sj_type_name(list));
     int n = cJSON_GetArraySize(list);
     if (n > ld->lim->max_objects)
-        return sj_fail(ld, RAYD_E_LIMIT, at, "has %d objects; the limit is %ld", n, ld->lim->max_objects);
+        return sj_fail(ld, RAYD_E_LIMIT, at, "has %d objects; the limit is %ld", n,
+                       ld->lim->max_objects);
     *out = calloc((size_t)n + 1, sizeof **out);
     if (!*out) return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
     struct ctx cx = {0, NULL, false, in_group, 0};
@@ -512,10 +532,12 @@ enum rayd_status sj_groups(struct loader *ld, const cJSON *root) {
             struct aabb b;
             struct jp pi = jp_index(&p, i);
             if (!scene_object_bounds(s, &gr->objs[i], &b))
-                return sj_fail(ld, RAYD_E_INVALID, &pi, "unbounded objects (planes, quadrics) cannot be in a group");
+                return sj_fail(ld, RAYD_E_INVALID, &pi,
+                               "unbounded objects (planes, quadrics) cannot be in a group");
         }
         double t0 = clock_now();
-        enum rayd_status st = scene_build_bvh(s, &gr->objs, gr->nobjs, &gr->bvh, &gr->bounds, ld->err);
+        enum rayd_status st =
+            scene_build_bvh(s, &gr->objs, gr->nobjs, &gr->bvh, &gr->bounds, ld->err);
         s->build_s += clock_now() - t0;
         TRY(st);
     }

@@ -36,7 +36,7 @@ const char *sj_type_name(const cJSON *v) {
 }
 
 enum rayd_status sj_fail(struct loader *ld, enum rayd_status code, const struct jp *at,
-                             const char *fmt, ...) {
+                         const char *fmt, ...) {
     char msg[256];
     va_list ap;
     va_start(ap, fmt);
@@ -52,7 +52,7 @@ static int cmp_names(const void *a, const void *b) {
 /* Every key of obj must be in allowed (NULL-terminated; NULL = any key) and
  * appear once. */
 enum rayd_status sj_check_keys(struct loader *ld, const cJSON *obj, const struct jp *at,
-                                   const char *const *allowed) {
+                               const char *const *allowed) {
     if (!cJSON_IsObject(obj))
         return sj_fail(ld, RAYD_E_INVALID, at, "must be an object, not %s", sj_type_name(obj));
     int n = 0;
@@ -87,9 +87,8 @@ enum rayd_status sj_check_keys(struct loader *ld, const cJSON *obj, const struct
 }
 
 /* A number in [lo, hi] (lo excluded when lo_open). */
-enum rayd_status sj_num(struct loader *ld, const cJSON *obj, const struct jp *at,
-                                const char *key, double def, double lo, bool lo_open, double hi,
-                                double *out) {
+enum rayd_status sj_num(struct loader *ld, const cJSON *obj, const struct jp *at, const char *key,
+                        double def, double lo, bool lo_open, double hi, double *out) {
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, key);
     if (!v) {
         *out = def;
@@ -109,9 +108,8 @@ enum rayd_status sj_num(struct loader *ld, const cJSON *obj, const struct jp *at
 
 /* A whole number in [lo, hi]; above hi is a limit (RAYD_E_LIMIT) when
  * hi_is_limit, else invalid. */
-enum rayd_status sj_int(struct loader *ld, const cJSON *obj, const struct jp *at,
-                                const char *key, long def, long lo, long hi, bool hi_is_limit,
-                                long *out) {
+enum rayd_status sj_int(struct loader *ld, const cJSON *obj, const struct jp *at, const char *key,
+                        long def, long lo, long hi, bool hi_is_limit, long *out) {
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, key);
     if (!v) {
         *out = def;
@@ -127,7 +125,7 @@ enum rayd_status sj_int(struct loader *ld, const cJSON *obj, const struct jp *at
     if (x < (double)lo) return sj_fail(ld, RAYD_E_INVALID, &p, "must be >= %ld", lo);
     if (x > (double)hi)
         return sj_fail(ld, hi_is_limit ? RAYD_E_LIMIT : RAYD_E_INVALID, &p,
-                    hi_is_limit ? "must be <= %ld (the limit)" : "must be <= %ld", hi);
+                       hi_is_limit ? "must be <= %ld (the limit)" : "must be <= %ld", hi);
     *out = (long)x;
     return RAYD_OK;
 }
@@ -165,8 +163,8 @@ enum rayd_status sj_vec_value(struct loader *ld, const cJSON *v, const struct jp
     return RAYD_OK;
 }
 
-enum rayd_status sj_vec(struct loader *ld, const cJSON *obj, const struct jp *at,
-                        const char *key, vec3 def, enum vec_rule rule, vec3 *out) {
+enum rayd_status sj_vec(struct loader *ld, const cJSON *obj, const struct jp *at, const char *key,
+                        vec3 def, enum vec_rule rule, vec3 *out) {
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(obj, key);
     if (!v) {
         *out = def;
@@ -179,8 +177,8 @@ enum rayd_status sj_vec(struct loader *ld, const cJSON *obj, const struct jp *at
 /* ---- lights ----------------------------------------------------------------- */
 
 /* A string key that must be one of the names in types: *out its index. */
-enum rayd_status sj_enum(struct loader *ld, const cJSON *obj, const struct jp *at,
-                                     const char *key, const char *const *types, int *out) {
+enum rayd_status sj_enum(struct loader *ld, const cJSON *obj, const struct jp *at, const char *key,
+                         const char *const *types, int *out) {
     const cJSON *t = cJSON_GetObjectItemCaseSensitive(obj, key);
     struct jp p = jp_key(at, key);
     *out = -1;
@@ -216,7 +214,8 @@ enum rayd_status sj_bool(struct loader *ld, const cJSON *obj, const struct jp *a
     *out = def;
     if (!v) return RAYD_OK;
     struct jp p = jp_key(at, key);
-    if (!cJSON_IsBool(v)) return sj_fail(ld, RAYD_E_INVALID, &p, "must be true or false, not %s", sj_type_name(v));
+    if (!cJSON_IsBool(v))
+        return sj_fail(ld, RAYD_E_INVALID, &p, "must be true or false, not %s", sj_type_name(v));
     *out = cJSON_IsTrue(v);
     return RAYD_OK;
 }
@@ -287,16 +286,23 @@ static enum rayd_status asset_open(struct loader *ld, const char *name, const st
     const struct rayd_limits *lim = ld->lim;
     char q[96];
     if (!lim->asset_dir)
-        return sj_fail(ld, RAYD_E_INVALID, at, "files are not read here: a server reads them only when started with --asset-dir; embed the data instead (a mesh: \"text\" or \"base64\", a texture: \"png_base64\")");
+        return sj_fail(
+            ld, RAYD_E_INVALID, at,
+            "files are not read here: a server reads them only when started with --asset-dir; "
+            "embed the data instead (a mesh: \"text\" or \"base64\", a texture: \"png_base64\")");
     if (name[0] == '\0') return sj_fail(ld, RAYD_E_INVALID, at, "must not be empty");
     if (lim->asset_confine && name[0] == '/')
-        return sj_fail(ld, RAYD_E_INVALID, at, "must be a path relative to the asset directory, not an absolute path");
+        return sj_fail(ld, RAYD_E_INVALID, at,
+                       "must be a path relative to the asset directory, not an absolute path");
     if (lim->asset_confine && has_dotdot(name))
-        return sj_fail(ld, RAYD_E_INVALID, at, "must not contain a '..' component (files are read only inside the asset directory)");
+        return sj_fail(
+            ld, RAYD_E_INVALID, at,
+            "must not contain a '..' component (files are read only inside the asset directory)");
     char path[4096];
     if (lim->asset_confine) {
         *fd = open_beneath(lim->asset_dir, name);
-    } else if (name[0] != '/' && (size_t)snprintf(path, sizeof path, "%s/%s", lim->asset_dir, name) >= sizeof path) {
+    } else if (name[0] != '/' &&
+               (size_t)snprintf(path, sizeof path, "%s/%s", lim->asset_dir, name) >= sizeof path) {
         return sj_fail(ld, RAYD_E_INVALID, at, "path is too long");
     } else {
         *fd = open(name[0] == '/' ? name : path, O_RDONLY | O_CLOEXEC | O_NOCTTY | O_NONBLOCK);
@@ -311,9 +317,10 @@ static enum rayd_status asset_open(struct loader *ld, const char *name, const st
 }
 
 /* Reads a file named by a scene, under the limits' asset rules. */
-enum rayd_status sj_read_asset(struct loader *ld, const cJSON *f, const struct jp *at,
-                                   char **out, size_t *len) {
-    if (!cJSON_IsString(f)) return sj_fail(ld, RAYD_E_INVALID, at, "must be a string, not %s", sj_type_name(f));
+enum rayd_status sj_read_asset(struct loader *ld, const cJSON *f, const struct jp *at, char **out,
+                               size_t *len) {
+    if (!cJSON_IsString(f))
+        return sj_fail(ld, RAYD_E_INVALID, at, "must be a string, not %s", sj_type_name(f));
     const char *name = f->valuestring;
     char q[96];
     int fd = -1;

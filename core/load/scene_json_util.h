@@ -33,7 +33,7 @@
 #include "format/json_pointer.h"
 #include "scene/scene.h"
 
-#define NUM_MAX 1e9 /* coordinates and sizes: generous but far from overflow */
+#define NUM_MAX 1e9             /* coordinates and sizes: generous but far from overflow */
 #define NUM_RANGE "[-1e9, 1e9]" /* the same, for messages */
 
 /* ---- the loader ---------------------------------------------------------- */
@@ -49,13 +49,13 @@ struct loader {
     const struct rayd_limits *lim;
     rayd_scene *s;
     struct rayd_error *err;
-    const cJSON *groups;    /* the /groups object, for names */
+    const cJSON *groups;     /* the /groups object, for names */
     struct named *mat_names; /* /materials keys, sorted */
     int nmat_names;
     size_t mat_cap, tex_cap, mesh_cap, xform_cap, part_cap; /* array capacities */
-    long objects;             /* objects, operands and group members so far */
-    long triangles, vertices; /* totals so far, against the limits */
-    long texels;              /* pixels of the image textures so far (sj_max_texels) */
+    long objects;                /* objects, operands and group members so far */
+    long triangles, vertices;    /* totals so far, against the limits */
+    long texels;                 /* pixels of the image textures so far (sj_max_texels) */
     const struct sj_inline *inl; /* inline mesh arrays left out of the tree */
     bool frame;                  /* camera.frame: placed after the objects load */
     double frame_azimuth;        /* degrees about +Y: the view's, or camera.azimuth */
@@ -69,10 +69,10 @@ struct loader {
 
 enum vec_rule { VEC_ANY, VEC_NONZERO, VEC_COLOR };
 
-#define TRY(expr)                                                                        \
-    do {                                                                                 \
-        enum rayd_status st_ = (expr);                                                   \
-        if (st_ != RAYD_OK) return st_;                                                  \
+#define TRY(expr)                                                                                  \
+    do {                                                                                           \
+        enum rayd_status st_ = (expr);                                                             \
+        if (st_ != RAYD_OK) return st_;                                                            \
     } while (0)
 
 const char *sj_type_name(const cJSON *v);
@@ -102,8 +102,8 @@ enum rayd_status sj_vec(struct loader *ld, const cJSON *obj, const struct jp *at
                         vec3 def, enum vec_rule rule, vec3 *out);
 /* A string that must be one of names (NULL-terminated): *out its index;
  * -1 and no error when absent and def_absent. */
-enum rayd_status sj_enum(struct loader *ld, const cJSON *obj, const struct jp *at,
-                         const char *key, const char *const *names, int *out);
+enum rayd_status sj_enum(struct loader *ld, const cJSON *obj, const struct jp *at, const char *key,
+                         const char *const *names, int *out);
 enum rayd_status sj_type(struct loader *ld, const cJSON *obj, const struct jp *at,
                          const char *const *types, int *out);
 enum rayd_status sj_bool(struct loader *ld, const cJSON *obj, const struct jp *at, const char *key,

@@ -32,8 +32,10 @@ static int kf_segment(const double *t, int n, double f) {
     int lo = 0, hi = n - 1; /* t[lo] <= f < t[hi] */
     while (hi - lo > 1) {
         int mid = lo + (hi - lo) / 2;
-        if (t[mid] <= f) lo = mid;
-        else hi = mid;
+        if (t[mid] <= f)
+            lo = mid;
+        else
+            hi = mid;
     }
     return lo;
 }
@@ -49,8 +51,7 @@ static int kf_key_at(const double *t, int n, double f) {
 void kf_hermite(const double *p0, const double *m0, const double *p1, const double *m1, int dim,
                 double u, double *out) {
     double u2 = u * u, u3 = u2 * u;
-    double h00 = 2 * u3 - 3 * u2 + 1, h10 = u3 - 2 * u2 + u, h01 = -2 * u3 + 3 * u2,
-           h11 = u3 - u2;
+    double h00 = 2 * u3 - 3 * u2 + 1, h10 = u3 - 2 * u2 + u, h01 = -2 * u3 + 3 * u2, h11 = u3 - u2;
     for (int c = 0; c < dim; c++) out[c] = h00 * p0[c] + h10 * m0[c] + h01 * p1[c] + h11 * m1[c];
 }
 

@@ -19,14 +19,15 @@ static double eval(const double *c, int deg, double t) {
     return v;
 }
 
-static double refine(const double *c, const double *dc, int deg, double lo, double hi,
-                     double flo) {
+static double refine(const double *c, const double *dc, int deg, double lo, double hi, double flo) {
     double t = 0.5 * (lo + hi);
     for (int it = 0; it < 100; it++) {
         double f = eval(c, deg, t), df = eval(dc, deg - 1, t);
         if (f == 0) return t;
-        if ((f < 0) == (flo < 0)) lo = t;
-        else hi = t;
+        if ((f < 0) == (flo < 0))
+            lo = t;
+        else
+            hi = t;
         double nt = df != 0 ? t - f / df : 0.5 * (lo + hi);
         if (!(nt > lo && nt < hi)) nt = 0.5 * (lo + hi); /* Newton left the bracket */
         if (fabs(nt - t) <= 1e-15 * fmax(1, fabs(t)) || hi - lo <= 1e-15 * fmax(1, fabs(t)))
@@ -67,8 +68,10 @@ int poly_roots(const double *c, int deg, double a, double b, double *roots) {
             roots[n++] = lo;
             continue;
         }
-        if ((flo < 0) != (fhi < 0) && fhi != 0) roots[n++] = refine(c, dc, deg, lo, hi, flo);
-        else if (fhi == 0 && i + 2 == np) roots[n++] = hi;
+        if ((flo < 0) != (fhi < 0) && fhi != 0)
+            roots[n++] = refine(c, dc, deg, lo, hi, flo);
+        else if (fhi == 0 && i + 2 == np)
+            roots[n++] = hi;
         if (n == deg) break;
     }
     return n;

@@ -19,8 +19,8 @@ static inline uint64_t rng_mix(uint64_t z) {
 
 struct rng_key {
     uint64_t seed;
-    uint32_t px, py;   /* the pixel, in whole-image coordinates */
-    uint32_t sample;   /* sample index inside the pixel */
+    uint32_t px, py; /* the pixel, in whole-image coordinates */
+    uint32_t sample; /* sample index inside the pixel */
 };
 
 /* A uniform double in [0, 1) for (key, bounce, dim).  Dimensions in use:

@@ -11,7 +11,6 @@
 
 #include <string.h>
 
-
 static void mat_mul(const double a[3][4], const double b[3][4], double out[3][4]) {
     /* out = a * b for affine 3x4 matrices (implicit last row 0 0 0 1) */
     double r[3][4];
@@ -30,8 +29,8 @@ static bool mat_inverse(const double m[3][4], double out[3][4]) {
     double g = m[2][0], h = m[2][1], k = m[2][2];
     double A = e * k - f * h, B = f * g - d * k, C = d * h - e * g;
     double det = a * A + b * B + c * C;
-    double scale = fabs(a) + fabs(b) + fabs(c) + fabs(d) + fabs(e) + fabs(f) + fabs(g) +
-                   fabs(h) + fabs(k);
+    double scale =
+        fabs(a) + fabs(b) + fabs(c) + fabs(d) + fabs(e) + fabs(f) + fabs(g) + fabs(h) + fabs(k);
     if (!(fabs(det) > 1e-12 * scale * scale * scale)) return false;
     double r[3][3] = {{A, c * h - b * k, b * f - c * e},
                       {B, a * k - c * g, c * d - a * f},

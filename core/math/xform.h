@@ -19,9 +19,9 @@ struct xform xform_identity(void);
 struct xform xform_then(const struct xform *a, const struct xform *b);
 
 struct xform xform_translate(vec3 t);
-struct xform xform_scale(vec3 s);                   /* each component non-zero */
+struct xform xform_scale(vec3 s);                      /* each component non-zero */
 struct xform xform_rotate_axis(vec3 axis, double deg); /* axis non-zero */
-struct xform xform_rotate_euler(vec3 deg);          /* about x, then y, then z */
+struct xform xform_rotate_euler(vec3 deg);             /* about x, then y, then z */
 
 /* From a row-major 4x4 matrix (last row must be 0 0 0 1); false when it is
  * singular or not affine. */

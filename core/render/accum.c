@@ -81,7 +81,9 @@ void rayd_accum_free(rayd_accum *a) {
 
 int rayd_accum_samples(const rayd_accum *a) { return a->n < 0 ? 0 : a->n; }
 
-struct rayd_region rayd_accum_region(const rayd_accum *a) { return a->r; }
+struct rayd_region rayd_accum_region(const rayd_accum *a) {
+    return a->r;
+}
 
 static enum rayd_status accum_usable(const rayd_accum *a, struct rayd_error *err) {
     if (a->n < 0)
@@ -115,7 +117,7 @@ enum rayd_status rayd_render_pass(const rayd_scene *s, const struct rayd_render_
         return err_set(err, RAYD_E_ARG, "samples_to", "must be at most %d, not %d",
                        RENDER_SUM_SAMPLES, to);
     bool centre = to == 1; /* the paper's one ray through the pixel centre */
-    if (a->centre) { /* the centre sample is no prefix of longer renders */
+    if (a->centre) {       /* the centre sample is no prefix of longer renders */
         memset(a->sum, 0, (size_t)a->r.w * (size_t)a->r.h * 3 * sizeof *a->sum);
         from = 0;
     }

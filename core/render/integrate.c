@@ -116,10 +116,10 @@ static void light_uv(const struct light *l, int i, int k, int gx, int gy, int de
 /* A hit as the shader sees it. */
 struct frame {
     struct surface sf;
-    bool inside;    /* the ray is leaving the solid */
-    vec3 ngf, nf;   /* geometric and shading normals facing the incoming ray */
-    vec3 above;     /* the point lifted off the surface on the ray's side */
-    vec3 below;     /* ... and on the far side */
+    bool inside;  /* the ray is leaving the solid */
+    vec3 ngf, nf; /* geometric and shading normals facing the incoming ray */
+    vec3 above;   /* the point lifted off the surface on the ray's side */
+    vec3 below;   /* ... and on the far side */
 };
 
 static void hit_frame(const rayd_scene *s, const ray *r, const struct hit *h, struct frame *f) {

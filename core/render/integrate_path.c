@@ -48,8 +48,8 @@ struct lobes {
 
 static struct lobes lobes_of(const struct material *m, vec3 color) {
     double t = m->transparency, mt = m->metallic, r = m->reflectivity;
-    struct lobes l = {(1 - t) * (1 - mt) * (1 - r), (1 - t) * mt, (1 - t) * (1 - mt) * r, t,
-                      v3_scale(color, m->diffuse), color, m->roughness * m->roughness};
+    struct lobes l = {(1 - t) * (1 - mt) * (1 - r), (1 - t) * mt, (1 - t) * (1 - mt) * r,     t,
+                      v3_scale(color, m->diffuse),  color,        m->roughness * m->roughness};
     if (l.alpha < 1e-3) { /* a smooth metal is a tinted mirror: treated as delta below */
         l.alpha = 0;
     }
@@ -146,8 +146,8 @@ static vec3 emitter_point(const struct object *o, double a, double b, vec3 *n) {
 }
 
 /* Light arriving at x from one direction drawn from the environment map. */
-static vec3 env_event(const rayd_scene *s, const struct lobes *lb, const struct vertex *x,
-                      vec3 wo, const struct rng_key *key, uint32_t b, struct meter *mt) {
+static vec3 env_event(const rayd_scene *s, const struct lobes *lb, const struct vertex *x, vec3 wo,
+                      const struct rng_key *key, uint32_t b, struct meter *mt) {
     const struct environment *e = &s->rs.env;
     vec3 wi;
     double pdf_l, pdf_b;
@@ -170,8 +170,8 @@ static vec3 escaped(const rayd_scene *s, vec3 d, uint32_t b, bool prev_delta, do
 }
 
 /* Light arriving at vertex x through the lights and one emitter (NEE). */
-static vec3 next_event(const rayd_scene *s, const struct lobes *lb, const struct vertex *x,
-                       vec3 wo, const struct rng_key *key, uint32_t b, struct meter *mt) {
+static vec3 next_event(const rayd_scene *s, const struct lobes *lb, const struct vertex *x, vec3 wo,
+                       const struct rng_key *key, uint32_t b, struct meter *mt) {
     vec3 sum = v3(0, 0, 0);
     for (int i = 0; i < s->nlights; i++) {
         vec3 wi, rad;
@@ -207,9 +207,9 @@ static vec3 next_event(const rayd_scene *s, const struct lobes *lb, const struct
 
 /* Samples the next direction; returns false when the path ends.  Updates
  * *beta and says whether the lobe was a delta one and its pdf. */
-static bool sample_bsdf(const struct lobes *lb, const struct vertex *x, vec3 color, const struct material *m,
-                        vec3 wo, const struct rng_key *key, uint32_t b, vec3 *wi, vec3 *beta,
-                        bool *delta, double *pdf, bool *through) {
+static bool sample_bsdf(const struct lobes *lb, const struct vertex *x, vec3 color,
+                        const struct material *m, vec3 wo, const struct rng_key *key, uint32_t b,
+                        vec3 *wi, vec3 *beta, bool *delta, double *pdf, bool *through) {
     double u = rng_uniform(key, b, D_LOBE), u1 = rng_uniform(key, b, D_DIR1),
            u2 = rng_uniform(key, b, D_DIR2);
     *through = false;
@@ -301,7 +301,8 @@ static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *fir
         vec3 wi;
         bool delta, through;
         double pdf = 0;
-        if (!sample_bsdf(&lb, &x, sf.color, m, wo, key, b, &wi, &beta, &delta, &pdf, &through)) break;
+        if (!sample_bsdf(&lb, &x, sf.color, m, wo, key, b, &wi, &beta, &delta, &pdf, &through))
+            break;
         if (b >= 3) { /* Russian roulette */
             double q = fmin(0.95, fmax(0.05, v3_maxabs(beta)));
             if (rng_uniform(key, b, D_RR) >= q) break;

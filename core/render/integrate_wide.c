@@ -29,7 +29,7 @@
 struct wide {
     LANES_ALIGN double ox[16];
     double oy[16], oz[16], dx[16], dy[16], dz[16], t[16]; /* the rays, the hits */
-    double gx[16], gy[16], gz[16]; /* a sphere's centre, a plane's normal */
+    double gx[16], gy[16], gz[16];                        /* a sphere's centre, a plane's normal */
     double sphere[16];
     double colx[16], coly[16], colz[16], emx[16], emy[16], emz[16]; /* the materials */
     double amb[16], dif[16], spec[16], cut[16], kr[16], shin[16];
@@ -41,7 +41,7 @@ struct wide {
     LANES_ALIGN double px[16];
     double py[16], pz[16], nx[16], ny[16], nz[16]; /* point, normal facing the ray */
     double up[3][16];                              /* the point lifted off the surface: x, y, z */
-    double cx[16], cy[16], cz[16];                          /* the colour so far */
+    double cx[16], cy[16], cz[16];                 /* the colour so far */
 };
 
 /* A light as the lanes see it: the unit vector toward it, its distance,
@@ -79,7 +79,8 @@ typedef int64_t wide_i8 __attribute__((vector_size(64)));
 
 uint32_t whitted_wide_lanes(const rayd_scene *s, const struct hit16 *hs) {
     uint32_t lanes = hs->lanes;
-    if (!lanes || !s->simple_lights || s->rs.env.kind != ENV_NONE) return 0; /* ambient: integrate.c */
+    if (!lanes || !s->simple_lights || s->rs.env.kind != ENV_NONE)
+        return 0; /* ambient: integrate.c */
     const struct object *first = hs->leaf[__builtin_ctz(lanes)];
     uint32_t same = 0; /* most packets hit one object: one material to look at */
     for (int j = 0; j < 16; j++) same |= (uint32_t)(hs->leaf[j] == first) << j;

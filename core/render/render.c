@@ -25,8 +25,9 @@
  * Rows done (opts->rows).  The tiles are handed out row by row, and each
  * row of tiles counts the tiles it still lacks (base/rows.c, the one
  * tracker rayd's workers use too); the thread that draws a row's last tile
- * counts the rows at the top that are all drawn and tells the caller, which may then read those rows while the other threads draw
- * on (rayd-render and rayd deflate the PNG's bands so, png_encode.c).
+ * counts the rows at the top that are all drawn and tells the caller, which may then read those
+ * rows while the other threads draw on (rayd-render and rayd deflate the PNG's bands so,
+ * png_encode.c).
  *
  * The same blocks serve progressive passes (accum.c): instead of bytes, a
  * block then adds a range of samples k0..k1-1 to running per-pixel sums,

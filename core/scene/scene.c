@@ -57,7 +57,8 @@ static struct aabb box_xform(const struct aabb *b, const struct xform *x) {
     if (!x) return *b;
     struct aabb w = {v3(INFINITY, INFINITY, INFINITY), v3(-INFINITY, -INFINITY, -INFINITY)};
     for (int c = 0; c < 8; c++) { /* the box around the transformed corners */
-        vec3 p = v3(c & 1 ? b->hi.x : b->lo.x, c & 2 ? b->hi.y : b->lo.y, c & 4 ? b->hi.z : b->lo.z);
+        vec3 p =
+            v3(c & 1 ? b->hi.x : b->lo.x, c & 2 ? b->hi.y : b->lo.y, c & 4 ? b->hi.z : b->lo.z);
         p = xform_point(x, p);
         w.lo = v3_min(w.lo, p);
         w.hi = v3_max(w.hi, p);
@@ -195,10 +196,11 @@ static enum rayd_status find_emitters(rayd_scene *s, struct rayd_error *err) {
  * boxes; an object without bounds shows in every direction. */
 static enum rayd_status build_light_buffers(rayd_scene *s, struct rayd_error *err) {
     struct light_buffer_light *lights = malloc(sizeof *lights * (size_t)(s->nlights + 1));
-    if (!lights) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory building the light buffers");
+    if (!lights)
+        return err_set(err, RAYD_E_NOMEM, NULL, "out of memory building the light buffers");
     for (int i = 0; i < s->nlights; i++)
-        lights[i] = (struct light_buffer_light){s->lights[i].position,
-                                                s->lights[i].kind == LIGHT_POINT};
+        lights[i] =
+            (struct light_buffer_light){s->lights[i].position, s->lights[i].kind == LIGHT_POINT};
     /* the objects' boxes only where some light can have a buffer */
     bool worth = light_buffers_worth(lights, s->nlights, s->nobjs);
     struct aabb *box = worth ? malloc(sizeof *box * (size_t)s->nobjs) : NULL;
@@ -246,11 +248,10 @@ void rayd_scene_info(const rayd_scene *s, struct rayd_scene_info *info) {
     info->decode_seconds = s->decode_s;
     info->build_seconds = s->build_s;
     info->rays_per_sample = scene_rays_per_sample(s);
-    size_t bytes = sizeof *s + sizeof *s->mats * (size_t)s->nmats +
-                   sizeof *s->lights * (size_t)s->nlights +
-                   sizeof *s->objs * (size_t)(s->nobjs + 2 * s->nplanes + s->nparts) + /* planes_src */
-                   sizeof *s->xforms * (size_t)s->nxforms +
-                   sizeof *s->tlas.nodes * (size_t)s->tlas.nnodes;
+    size_t bytes =
+        sizeof *s + sizeof *s->mats * (size_t)s->nmats + sizeof *s->lights * (size_t)s->nlights +
+        sizeof *s->objs * (size_t)(s->nobjs + 2 * s->nplanes + s->nparts) + /* planes_src */
+        sizeof *s->xforms * (size_t)s->nxforms + sizeof *s->tlas.nodes * (size_t)s->tlas.nnodes;
     for (uint32_t i = 0; i < s->nmeshes; i++) bytes += mesh_bytes(&s->meshes[i]);
     for (int32_t i = 0; i < s->ngroups; i++)
         bytes += sizeof *s->objs * (size_t)s->groups[i].nobjs +

@@ -37,7 +37,7 @@ struct texture;
 struct scene_file;
 
 struct rayd_scene {
-    double decode_s, build_s; /* loading: mesh files decoded, BVHs and light buffers built */
+    double decode_s, build_s;   /* loading: mesh files decoded, BVHs and light buffers built */
     struct rayd_animation anim; /* the frames of the scene and the one this is */
     struct camera cam;
     struct render_settings rs;
@@ -45,30 +45,30 @@ struct rayd_scene {
     int nmats;
     struct light *lights;
     int nlights;
-    struct object *objs;   /* bounded objects, in top-level BVH order */
+    struct object *objs; /* bounded objects, in top-level BVH order */
     int32_t nobjs;
     struct object *planes; /* unbounded objects (planes, quadrics), tested one by one */
     int32_t nplanes;
     struct object *planes_src; /* planes[i] as loaded, with its transform: the object
                                   space of the textures of a plane whose placement is baked */
-    struct object *parts;  /* CSG operands: referred to by CSG nodes, not in any BVH */
+    struct object *parts;      /* CSG operands: referred to by CSG nodes, not in any BVH */
     int32_t nparts;
-    struct group *groups;  /* referred to by instances */
+    struct group *groups; /* referred to by instances */
     int32_t ngroups;
     struct texture *textures;
     int ntextures;
-    struct mesh *meshes;   /* geometry that objects refer to */
+    struct mesh *meshes; /* geometry that objects refer to */
     uint32_t nmeshes;
-    struct xform *xforms;  /* placements that objects refer to */
+    struct xform *xforms; /* placements that objects refer to */
     int32_t nxforms;
-    struct bvh4 tlas;      /* over objs */
+    struct bvh4 tlas;                   /* over objs */
     struct light_buffer *light_buffers; /* per light, objs by direction (light_buffer.c) */
-    int32_t *emitters;     /* path tracer: emissive spheres, discs, quads of objs to sample */
+    int32_t *emitters; /* path tracer: emissive spheres, discs, quads of objs to sample */
     int nemitters;
-    bool opaque;           /* no material lets light through: shadows are 0 or 1 */
-    bool simple_lights;    /* only point and directional lights (integrate_wide.c) */
-    bool brute;            /* tests only: every query tests every primitive */
-    double ray_tests;      /* scene_cost.c: a ray's primitive tests where the BVHs are worst */
+    bool opaque;              /* no material lets light through: shadows are 0 or 1 */
+    bool simple_lights;       /* only point and directional lights (integrate_wide.c) */
+    bool brute;               /* tests only: every query tests every primitive */
+    double ray_tests;         /* scene_cost.c: a ray's primitive tests where the BVHs are worst */
     struct scene_file *files; /* the files read, as they were (scene_files.c) */
     int nfiles;
     size_t files_cap;
@@ -76,22 +76,22 @@ struct rayd_scene {
 
 struct hit {
     double t;
-    const struct object *leaf;  /* the primitive hit (for CSG, the operand) */
-    const struct xform *outer;  /* the instance's placement, or NULL */
-    int part;                   /* which part of the primitive */
-    int orient;                 /* CSG: +1 the ray enters the result, -1 leaves it */
-    struct mesh_hit mh;         /* set for meshes */
+    const struct object *leaf; /* the primitive hit (for CSG, the operand) */
+    const struct xform *outer; /* the instance's placement, or NULL */
+    int part;                  /* which part of the primitive */
+    int orient;                /* CSG: +1 the ray enters the result, -1 leaves it */
+    struct mesh_hit mh;        /* set for meshes */
 };
 
 /* What the shader needs to know about a hit. */
 struct surface {
-    vec3 p;           /* world-space point */
-    vec3 color;       /* the material's colour, or its texture's at p */
-    vec3 n;           /* unit shading normal, outward */
-    vec3 ng;          /* unit geometric normal, outward */
+    vec3 p;     /* world-space point */
+    vec3 color; /* the material's colour, or its texture's at p */
+    vec3 n;     /* unit shading normal, outward */
+    vec3 ng;    /* unit geometric normal, outward */
     const struct material *m;
-    bool thin;        /* no inside: what passes through goes straight on */
-    bool float_geom;  /* float geometry: larger offsets for secondary rays */
+    bool thin;       /* no inside: what passes through goes straight on */
+    bool float_geom; /* float geometry: larger offsets for secondary rays */
 };
 
 /* A scene under construction: objects are appended, then scene_freeze

@@ -134,14 +134,15 @@ CPU_AVX512_FN uint32_t sphere16(const struct ray16 *rd, const struct object *o,
         __mmask8 in = lm & _mm512_cmp_pd_mask(disc, zero, _CMP_NLT_UQ); /* !(disc < 0) */
         if (!in) continue;
         __m512i sq = _mm512_castpd_si512(_mm512_sqrt_pd(disc));
-        __m512d cs = _mm512_castsi512_pd(_mm512_or_si512(_mm512_andnot_si512(sign, sq),
-                                                         _mm512_and_si512(sign, _mm512_castpd_si512(b))));
+        __m512d cs = _mm512_castsi512_pd(_mm512_or_si512(
+            _mm512_andnot_si512(sign, sq), _mm512_and_si512(sign, _mm512_castpd_si512(b))));
         __m512d q = _mm512_sub_pd(nb, cs);
         __m512d a1 = _mm512_mask_div_pd(q, _mm512_cmp_pd_mask(q, zero, _CMP_NEQ_UQ), c, q);
         __mmask8 nan = in & _mm512_cmp_pd_mask(q, a1, _CMP_UNORD_Q);
         __m512d t0 = _mm512_min_pd(q, a1), t1 = _mm512_max_pd(q, a1);
         __m512d bnd = _mm512_loadu_pd(bound + 8 * h);
-        __mmask8 first = _mm512_cmp_pd_mask(t0, zero, _CMP_GT_OQ) & _mm512_cmp_pd_mask(t0, bnd, _CMP_LT_OQ);
+        __mmask8 first =
+            _mm512_cmp_pd_mask(t0, zero, _CMP_GT_OQ) & _mm512_cmp_pd_mask(t0, bnd, _CMP_LT_OQ);
         __m512d t = _mm512_mask_blend_pd(first, t1, t0);
         __mmask8 ok = in & (__mmask8)~nan & _mm512_cmp_pd_mask(t, zero, _CMP_GT_OQ) &
                       _mm512_cmp_pd_mask(t, bnd, _CMP_LT_OQ);
@@ -211,15 +212,15 @@ CPU_AVX512_FN uint32_t plane16(const struct ray16 *rd, const struct object *o,
         __mmask8 in = lm & _mm512_cmp_pd_mask(dn, zero, _CMP_NEQ_UQ);
         /* t = pn / dn > 0 needs pn and dn of one sign (a shadow ray leaving
          * the floor has not): else no division */
-        __mmask8 pos = _mm512_cmp_pd_mask(pn, zero, _CMP_GT_OQ) &
-                       _mm512_cmp_pd_mask(dn, zero, _CMP_GT_OQ);
-        __mmask8 neg = _mm512_cmp_pd_mask(pn, zero, _CMP_LT_OQ) &
-                       _mm512_cmp_pd_mask(dn, zero, _CMP_LT_OQ);
+        __mmask8 pos =
+            _mm512_cmp_pd_mask(pn, zero, _CMP_GT_OQ) & _mm512_cmp_pd_mask(dn, zero, _CMP_GT_OQ);
+        __mmask8 neg =
+            _mm512_cmp_pd_mask(pn, zero, _CMP_LT_OQ) & _mm512_cmp_pd_mask(dn, zero, _CMP_LT_OQ);
         if (!(in & (pos | neg))) continue;
         __m512d t = _mm512_div_pd(pn, dn);
         __m512d bnd = _mm512_loadu_pd(bound + 8 * h);
-        __mmask8 ok = in & _mm512_cmp_pd_mask(t, zero, _CMP_GT_OQ) &
-                      _mm512_cmp_pd_mask(t, bnd, _CMP_LT_OQ);
+        __mmask8 ok =
+            in & _mm512_cmp_pd_mask(t, zero, _CMP_GT_OQ) & _mm512_cmp_pd_mask(t, bnd, _CMP_LT_OQ);
         _mm512_storeu_pd(t_out + 8 * h, t);
         hit |= (uint32_t)ok << 8 * h;
     }

@@ -162,8 +162,8 @@ static bool objects_hit(const rayd_scene *s, const struct object *objs, int32_t 
                         const struct bvh4 *bvh, const struct xform *outer, const ray *r,
                         double *tmax, struct hit *h);
 
-bool object_mesh_hit(const struct object *o, const struct xform *outer,
-                     const struct mesh_hit *mh, double scale, double *tmax, struct hit *h) {
+bool object_mesh_hit(const struct object *o, const struct xform *outer, const struct mesh_hit *mh,
+                     double scale, double *tmax, struct hit *h) {
     if (!((double)mh->t / scale < *tmax)) return false;
     h->mh = *mh;
     h->part = 0;
@@ -193,8 +193,8 @@ static bool object_hit(const rayd_scene *s, const struct object *o, const struct
     case SHAPE_MESH: {
         struct mesh_hit mh;
         const struct mesh *m = &s->meshes[o->u.mesh.id];
-        bool hit = s->brute ? mesh_intersect_brute(m, &lr, lmax, &mh)
-                            : mesh_intersect(m, &lr, lmax, &mh);
+        bool hit =
+            s->brute ? mesh_intersect_brute(m, &lr, lmax, &mh) : mesh_intersect(m, &lr, lmax, &mh);
         return hit && object_mesh_hit(o, outer, &mh, scale, tmax, h);
     }
     case SHAPE_CSG:
@@ -317,7 +317,7 @@ static bool filter_light(const rayd_scene *s, int material, vec3 *trans) {
 
 /* Any hit of object o closer than tmax, through its material's filter. */
 bool object_filter(const rayd_scene *s, const struct object *o, const ray *r, double tmax,
-                          vec3 *trans) {
+                   vec3 *trans) {
     struct hit h;
     double t = tmax;
     if (o->kind == SHAPE_MESH && !s->brute) {
@@ -385,7 +385,8 @@ void scene_surface(const rayd_scene *s, const ray *r, const struct hit *h, struc
         if (textured) shape_ops[o->kind]->uv(o, p, h->part, &u, &v);
     }
     vec3 po = p; /* object space, for object-space textures */
-    if (textured && o->kind == SHAPE_PLANE && o->u.plane.baked) plane_texture_space(s, o, pw, &po, &u, &v);
+    if (textured && o->kind == SHAPE_PLANE && o->u.plane.baked)
+        plane_texture_space(s, o, pw, &po, &u, &v);
     const struct xform *tx = o->tex_xform > 0 && s->xforms ? &s->xforms[o->tex_xform - 1] : NULL;
     if (tx) po = xform_inv_point(tx, pm); /* the space of the csg node whose material it is */
     if (x) {

@@ -70,8 +70,8 @@ static inline double object_space_bound(double tmax, double scale) {
 
 /* Fills h (and *tmax, in world units) from mesh object o's hit mh, when
  * that is nearer than *tmax; false when not. */
-bool object_mesh_hit(const struct object *o, const struct xform *outer,
-                     const struct mesh_hit *mh, double scale, double *tmax, struct hit *h);
+bool object_mesh_hit(const struct object *o, const struct xform *outer, const struct mesh_hit *mh,
+                     double scale, double *tmax, struct hit *h);
 
 /* Any hit of object o closer than tmax, through its material's filter:
  * false when no light passes any more. */

@@ -48,8 +48,10 @@ vec3 light_area_point(const struct light *l, vec3 p, double su, double sv) {
     case AREA_DISC: { /* concentric mapping keeps strata compact */
         double a = 2 * su - 1, b = 2 * sv - 1, r, phi;
         if (a == 0 && b == 0) return l->position;
-        if (fabs(a) > fabs(b)) r = a, phi = (PI / 4) * (b / a);
-        else r = b, phi = PI / 2 - (PI / 4) * (a / b);
+        if (fabs(a) > fabs(b))
+            r = a, phi = (PI / 4) * (b / a);
+        else
+            r = b, phi = PI / 2 - (PI / 4) * (a / b);
         return v3_madd(v3_madd(l->position, l->e1, r * cos(phi) * l->radius), l->e2,
                        r * sin(phi) * l->radius);
     }
@@ -61,7 +63,8 @@ vec3 light_area_point(const struct light *l, vec3 p, double su, double sv) {
         vec3 a = fabs(w.x) > 0.9 ? v3(0, 1, 0) : v3(1, 0, 0);
         vec3 u = v3_norm(v3_cross(a, w)), v = v3_cross(w, u);
         double z = su, r = sqrt(fmax(0, 1 - z * z)), phi = 2 * PI * sv;
-        vec3 d = v3_add(v3_add(v3_scale(u, r * cos(phi)), v3_scale(v, r * sin(phi))), v3_scale(w, z));
+        vec3 d =
+            v3_add(v3_add(v3_scale(u, r * cos(phi)), v3_scale(v, r * sin(phi))), v3_scale(w, z));
         return v3_madd(l->position, d, l->radius);
     }
     }

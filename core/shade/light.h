@@ -22,7 +22,7 @@ struct light {
     enum area_shape shape;
     vec3 e1, e2;
     double radius;
-    int samples;      /* shadow rays per shading point */
+    int samples; /* shadow rays per shading point */
 };
 
 /* For the surface point p: the unit vector toward the light, the distance to

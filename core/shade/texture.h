@@ -20,11 +20,11 @@ enum texture_space { TEX_OBJECT, TEX_WORLD, TEX_UV };
 struct texture {
     enum texture_kind kind;
     enum texture_space space;
-    vec3 a, b;      /* the two colours (linear RGB) */
-    double scale;   /* pattern cells per scene unit (per uv unit for TEX_UV) */
-    vec3 axis;      /* stripes and gradient: unit direction */
-    int w, h;       /* image size */
-    float *rgb;     /* image pixels, linear RGB, rows from the top */
+    vec3 a, b;    /* the two colours (linear RGB) */
+    double scale; /* pattern cells per scene unit (per uv unit for TEX_UV) */
+    vec3 axis;    /* stripes and gradient: unit direction */
+    int w, h;     /* image size */
+    float *rgb;   /* image pixels, linear RGB, rows from the top */
 };
 
 /* Colour at a point: object-space po, world-space pw, surface (u, v). */

@@ -73,16 +73,16 @@ char *rayd_error_format(const struct rayd_error *err, char *buf, size_t size);
 /* Upper bounds on everything a scene author controls.  A scene over any of
  * them is refused with RAYD_E_LIMIT and the path of the offending value. */
 struct rayd_limits {
-    int max_width;     /* pixels per row */
-    int max_height;    /* rows */
-    long max_pixels;   /* width * height */
-    int max_samples;   /* render.samples */
-    int max_depth;     /* render.max_depth */
-    long max_objects;  /* entries of /objects */
-    int max_lights;    /* entries of /lights */
-    int max_materials; /* entries of /materials */
-    int max_nesting;   /* JSON nesting depth */
-    size_t max_bytes;  /* scene text size */
+    int max_width;      /* pixels per row */
+    int max_height;     /* rows */
+    long max_pixels;    /* width * height */
+    int max_samples;    /* render.samples */
+    int max_depth;      /* render.max_depth */
+    long max_objects;   /* entries of /objects */
+    int max_lights;     /* entries of /lights */
+    int max_materials;  /* entries of /materials */
+    int max_nesting;    /* JSON nesting depth */
+    size_t max_bytes;   /* scene text size */
     long max_triangles; /* all meshes together */
     long max_vertices;  /* all meshes together */
     /* Mesh and texture "file" references: NULL (the default) refuses them;
@@ -122,7 +122,7 @@ struct rayd_scene_info {
     int max_depth;     /* recursion limit */
     long objects;      /* primitives in the scene */
     int lights;
-    size_t bytes;      /* memory held by the frozen scene */
+    size_t bytes; /* memory held by the frozen scene */
     /* Rays one camera sample is expected to cast (the integrator, depth,
      * lights and materials; docs/scene-format.md "Cost"): a render of p
      * pixels at s samples is about p * s * rays_per_sample rays. */
@@ -153,9 +153,8 @@ struct rayd_animation {
 /* rayd_scene_parse at frame `frame`: start <= frame <= end, or
  * RAYD_E_ARG (path "/animation") naming the range; for a still scene only
  * frame 0.  rayd_scene_parse is the scene's first frame. */
-enum rayd_status rayd_scene_parse_frame(const char *json, size_t len,
-                                        const struct rayd_limits *lim, long frame,
-                                        rayd_scene **out, struct rayd_error *err);
+enum rayd_status rayd_scene_parse_frame(const char *json, size_t len, const struct rayd_limits *lim,
+                                        long frame, rayd_scene **out, struct rayd_error *err);
 /* The scene's frames, and the one it was loaded at. */
 void rayd_scene_animation(const rayd_scene *scene, struct rayd_animation *out);
 
@@ -199,8 +198,8 @@ struct rayd_region {
 };
 
 struct rayd_render_stats {
-    uint64_t rays;     /* all rays cast: primary, shadow, reflected, refracted */
-    double seconds;    /* wall time of the render call */
+    uint64_t rays;  /* all rays cast: primary, shadow, reflected, refracted */
+    double seconds; /* wall time of the render call */
 };
 
 /* Called from rendering threads, possibly several at once, after each
@@ -218,14 +217,14 @@ typedef void (*rayd_progress_fn)(void *user, long done, long total);
 typedef void (*rayd_rows_fn)(void *user, int rows);
 
 struct rayd_render_opts {
-    struct rayd_region region;     /* what to render; zero = whole image */
-    int threads;                   /* worker threads; <= 0 means 1 */
-    int tile;                      /* tile edge in pixels; <= 0 means 32 */
-    rayd_progress_fn progress;     /* may be NULL */
+    struct rayd_region region; /* what to render; zero = whole image */
+    int threads;               /* worker threads; <= 0 means 1 */
+    int tile;                  /* tile edge in pixels; <= 0 means 32 */
+    rayd_progress_fn progress; /* may be NULL */
     void *progress_user;
-    const atomic_int *cancel;      /* may be NULL; non-zero stops the render */
+    const atomic_int *cancel;        /* may be NULL; non-zero stops the render */
     struct rayd_render_stats *stats; /* may be NULL; filled on return */
-    rayd_rows_fn rows;             /* may be NULL; see rayd_rows_fn */
+    rayd_rows_fn rows;               /* may be NULL; see rayd_rows_fn */
     void *rows_user;
     /* May be NULL: a ray budget, which many renders may share (a server's
      * tiles of one frame).  Each rendering thread takes the rays it casts
@@ -303,8 +302,7 @@ enum rayd_status rayd_render_pass(const rayd_scene *scene, const struct rayd_ren
 
 /* The 8-bit sRGB image of the sums so far: sum * (1 / n) per channel, then
  * the same sRGB rounding as rayd_render.  *out owns a new image. */
-enum rayd_status rayd_accum_image(const rayd_accum *acc, rayd_image **out,
-                                  struct rayd_error *err);
+enum rayd_status rayd_accum_image(const rayd_accum *acc, rayd_image **out, struct rayd_error *err);
 /* Optional exposure and tone curve for the 8-bit image.  The value shown
  * is curve(average * 2^exposure), then sRGB-encoded.  RAYD_TONE_CLAMP is
  * no curve (values above 1 clip to 255): with exposure 0 it is exactly
@@ -349,7 +347,8 @@ enum rayd_status rayd_accum_add_sums(rayd_accum *acc, const double *sums, int sa
                                      struct rayd_error *err);
 /* The sums of a sample range as bytes (application/x-rayd-sums): "RAYDSUM1",
  * then width, height, k0, k1 as 32-bit little-endian integers, then each
- * sum as an IEEE 754 double, 64-bit little-endian, rows packed, RGB.  *buf (free with rayd_free) holds *len bytes. */
+ * sum as an IEEE 754 double, 64-bit little-endian, rows packed, RGB.  *buf (free with rayd_free)
+ * holds *len bytes. */
 enum rayd_status rayd_sums_encode(int width, int height, int k0, int k1, const double *sums,
                                   void **buf, size_t *len, struct rayd_error *err);
 struct rayd_sums_header {
@@ -370,8 +369,8 @@ enum rayd_status rayd_render_linear_into(const rayd_scene *scene, const struct r
                                          struct rayd_error *err);
 /* rayd_render_linear_into with options, as rayd_render_tile. */
 enum rayd_status rayd_render_linear_tile(const rayd_scene *scene,
-                                         const struct rayd_render_opts *opts, float *dst,
-                                         int dst_w, int dst_x, int dst_y, struct rayd_error *err);
+                                         const struct rayd_render_opts *opts, float *dst, int dst_w,
+                                         int dst_x, int dst_y, struct rayd_error *err);
 
 /* ---- images -------------------------------------------------------------- */
 
@@ -404,8 +403,8 @@ enum rayd_status rayd_png_encode(const rayd_image *img, int level, void **buf, s
 /* rayd_png_encode on threads threads (<= 0: every core).  The image is
  * deflated in bands of rows set by its width alone, so the bytes are the
  * same for every thread count. */
-enum rayd_status rayd_png_encode_threads(const rayd_image *img, int level, int threads,
-                                         void **buf, size_t *len, struct rayd_error *err);
+enum rayd_status rayd_png_encode_threads(const rayd_image *img, int level, int threads, void **buf,
+                                         size_t *len, struct rayd_error *err);
 /* What, besides the pixels, makes the bytes rayd_png_encode writes at
  * level: the deflate library, its version and the level it runs at
  * ("libdeflate 1.14 level 1").  Encoders of one name write the same bytes,

@@ -48,15 +48,15 @@
 struct client_opts {
     const char *servers[CLIENT_MAX_SERVERS]; /* base URLs, no trailing '/' */
     int nservers;
-    const char *out; /* -o */
-    int tile;        /* tile edge in pixels */
-    int parallel;    /* transfers in flight at once, all servers together */
-    int retries;     /* further attempts of a failed tile */
-    double timeout;  /* seconds per request */
-    char *token;     /* from --token-file, trimmed; NULL = none */
-    int quiet;       /* no progress at all */
-    int ranges;      /* > 0: split the samples into this many ranges, not the pixels */
-    int threads;     /* PNG encoding threads of the stitched frame; 0 = every core */
+    const char *out;  /* -o */
+    int tile;         /* tile edge in pixels */
+    int parallel;     /* transfers in flight at once, all servers together */
+    int retries;      /* further attempts of a failed tile */
+    double timeout;   /* seconds per request */
+    char *token;      /* from --token-file, trimmed; NULL = none */
+    int quiet;        /* no progress at all */
+    int ranges;       /* > 0: split the samples into this many ranges, not the pixels */
+    int threads;      /* PNG encoding threads of the stitched frame; 0 = every core */
     const char *what; /* named first in tiles.c's error lines (thumbnails: the model), or NULL */
     int no_hedge;     /* --no-hedge: never send a straggler's copy to a second server */
 };

@@ -40,8 +40,7 @@
 
 static volatile sig_atomic_t job_interrupted;
 
-static void job_on_signal(int sig)
-{
+static void job_on_signal(int sig) {
     (void)sig;
     job_interrupted = 1;
 }
@@ -91,8 +90,7 @@ static void job_progress(struct job_show *s, const cJSON *done, const cJSON *tot
     progress_update(&s->prog, (int)per, 0, 1, &per, s->label, -1, 0);
 }
 
-static void job_sse_dispatch(struct job_sse *j)
-{
+static void job_sse_dispatch(struct job_sse *j) {
     cJSON *d = cJSON_Parse(j->data);
     if (!strcmp(j->event, "progress")) {
         job_progress(j->show, cJSON_GetObjectItemCaseSensitive(d, "done"),
@@ -107,21 +105,17 @@ static void job_sse_dispatch(struct job_sse *j)
     j->event[0] = j->data[0] = '\0';
 }
 
-static void job_sse_line(struct job_sse *j)
-{
+static void job_sse_line(struct job_sse *j) {
     char *l = j->line;
     if (!*l) {
-        if (j->event[0] || j->data[0])
-            job_sse_dispatch(j);
+        if (j->event[0] || j->data[0]) job_sse_dispatch(j);
         return;
     }
-    if (*l == ':')
-        return; /* a comment: keep-alive */
+    if (*l == ':') return; /* a comment: keep-alive */
     char *v = strchr(l, ':');
     if (v) {
         *v++ = '\0';
-        if (*v == ' ')
-            v++;
+        if (*v == ' ') v++;
     } else {
         v = l + strlen(l);
     }
@@ -133,15 +127,13 @@ static void job_sse_line(struct job_sse *j)
     }
 }
 
-static size_t job_sse_write(char *ptr, size_t size, size_t n, void *user)
-{
+static size_t job_sse_write(char *ptr, size_t size, size_t n, void *user) {
     struct job_sse *j = user;
     size_t all = size * n;
     for (size_t i = 0; i < all; i++) {
         char c = ptr[i];
         if (c == '\n') {
-            if (j->len && j->line[j->len - 1] == '\r')
-                j->len--;
+            if (j->len && j->line[j->len - 1] == '\r') j->len--;
             j->line[j->len] = '\0';
             job_sse_line(j);
             j->len = 0;
@@ -152,8 +144,7 @@ static size_t job_sse_write(char *ptr, size_t size, size_t n, void *user)
     return all;
 }
 
-static int job_xferinfo(void *u, curl_off_t a, curl_off_t b, curl_off_t c, curl_off_t d)
-{
+static int job_xferinfo(void *u, curl_off_t a, curl_off_t b, curl_off_t c, curl_off_t d) {
     (void)u, (void)a, (void)b, (void)c, (void)d;
     return job_interrupted ? 1 : 0;
 }
@@ -161,8 +152,7 @@ static int job_xferinfo(void *u, curl_off_t a, curl_off_t b, curl_off_t c, curl_
 /* One blocking request; returns the status (0 on a transport error, with
  * why set). */
 static long job_request(const struct client_opts *o, const char *method, const char *url,
-                        const struct scenefile *sf, struct net_buf *body, char *why, size_t size)
-{
+                        const struct scenefile *sf, struct net_buf *body, char *why, size_t size) {
     void *hdrs = NULL;
     CURL *h = net_easy(o, url, body, sf ? sf->bytes : NULL, sf ? sf->len : 0, &hdrs);
     if (!h) {
@@ -190,8 +180,7 @@ static int job_follow(const struct client_opts *o, const char *base, const char 
     struct net_buf unused = {0};
     void *hdrs = NULL;
     CURL *h = net_easy(o, url, &unused, NULL, 0, &hdrs);
-    if (!h)
-        return 0;
+    if (!h) return 0;
     curl_easy_setopt(h, CURLOPT_WRITEFUNCTION, job_sse_write);
     curl_easy_setopt(h, CURLOPT_WRITEDATA, &j);
     curl_easy_setopt(h, CURLOPT_TIMEOUT_MS, 0L); /* a render may take long */
@@ -217,8 +206,7 @@ static int job_poll(const struct client_opts *o, const char *base, const char *i
         net_buf_reset(&b);
         long st = job_request(o, "GET", url, NULL, &b, why, sizeof why);
         if (st != 200) {
-            if (st)
-                net_describe(st, &b, why, sizeof why);
+            if (st) net_describe(st, &b, why, sizeof why);
             fprintf(stderr, "rayd-client: error: job %s: %s\n", id, why);
             break;
         }
@@ -327,8 +315,7 @@ static int job_post(const struct client_opts *o, const struct scenefile *sf, cha
     long st = job_request(o, "POST", url, sf, &b, why, sizeof why);
     int rc = 1;
     if (st != 202) {
-        if (st)
-            net_describe(st, &b, why, sizeof why);
+        if (st) net_describe(st, &b, why, sizeof why);
         fprintf(stderr, "rayd-client: error: %s refused the job: %s\n", base, why);
     } else {
         cJSON *j = cJSON_ParseWithLength(b.data, b.len);
@@ -385,19 +372,16 @@ static int job_fetch(const struct client_opts *o, const char *id, const struct s
     for (int tries = 0; tries < 600 && !job_interrupted; tries++) {
         net_buf_reset(&b);
         st = job_request(o, "GET", url, NULL, &b, why, sizeof why);
-        if (st != 202)
-            break;
+        if (st != 202) break;
         struct timespec ts = {0, 200 * 1000 * 1000}; /* encoding the PNG */
         nanosleep(&ts, NULL);
     }
     int rc = 1;
     if (st == 200) {
         rc = job_write(o->out, &b, sf->width, sf->height) == 0 ? 0 : 1;
-        if (rc == 0 && !o->quiet)
-            fprintf(stderr, "rayd-client: wrote %s\n", output_name(o->out));
+        if (rc == 0 && !o->quiet) fprintf(stderr, "rayd-client: wrote %s\n", output_name(o->out));
     } else {
-        if (st)
-            net_describe(st, &b, why, sizeof why);
+        if (st) net_describe(st, &b, why, sizeof why);
         fprintf(stderr, "rayd-client: error: job %s: %s\n", id, why);
     }
     net_buf_free(&b);

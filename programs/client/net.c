@@ -30,21 +30,18 @@
 
 #include <rayd/rayd.h>
 
-void net_buf_reset(struct net_buf *b)
-{
+void net_buf_reset(struct net_buf *b) {
     b->len = 0;
     b->overflow = 0;
 }
 
-void net_buf_free(struct net_buf *b)
-{
+void net_buf_free(struct net_buf *b) {
     free(b->data);
     b->data = NULL;
     b->len = b->cap = 0;
 }
 
-static size_t net_buf_write(char *ptr, size_t size, size_t n, void *user)
-{
+static size_t net_buf_write(char *ptr, size_t size, size_t n, void *user) {
     struct net_buf *b = user;
     size_t add = size * n;
     size_t max = b->max ? b->max : (size_t)64 << 20;
@@ -54,11 +51,9 @@ static size_t net_buf_write(char *ptr, size_t size, size_t n, void *user)
     }
     if (b->len + add + 1 > b->cap) {
         size_t cap = b->cap ? b->cap : 4096;
-        while (cap < b->len + add + 1)
-            cap *= 2;
+        while (cap < b->len + add + 1) cap *= 2;
         char *d = realloc(b->data, cap);
-        if (!d)
-            return 0;
+        if (!d) return 0;
         b->data = d;
         b->cap = cap;
     }
@@ -68,22 +63,14 @@ static size_t net_buf_write(char *ptr, size_t size, size_t n, void *user)
     return add;
 }
 
-void net_global_init(void)
-{
-    curl_global_init(CURL_GLOBAL_DEFAULT);
-}
+void net_global_init(void) { curl_global_init(CURL_GLOBAL_DEFAULT); }
 
-void net_global_cleanup(void)
-{
-    curl_global_cleanup();
-}
+void net_global_cleanup(void) { curl_global_cleanup(); }
 
 void *net_easy(const struct client_opts *o, const char *url, struct net_buf *body,
-               const char *json_body, size_t json_len, void **hdrs)
-{
+               const char *json_body, size_t json_len, void **hdrs) {
     CURL *h = curl_easy_init();
-    if (!h)
-        return NULL;
+    if (!h) return NULL;
     struct curl_slist *hl = NULL;
     if (o->token) {
         size_t n = strlen(o->token) + 32;
@@ -111,18 +98,15 @@ void *net_easy(const struct client_opts *o, const char *url, struct net_buf *bod
     curl_easy_setopt(h, CURLOPT_PROTOCOLS_STR, "http,https");
     double conn = o->timeout < 5 ? o->timeout : 5;
     curl_easy_setopt(h, CURLOPT_CONNECTTIMEOUT_MS, (long)(conn * 1000));
-    if (o->timeout > 0)
-        curl_easy_setopt(h, CURLOPT_TIMEOUT_MS, (long)(o->timeout * 1000));
+    if (o->timeout > 0) curl_easy_setopt(h, CURLOPT_TIMEOUT_MS, (long)(o->timeout * 1000));
     *hdrs = hl;
     return h;
 }
 
 /* Parses the API error object out of body; NULL if it is not one. */
-static cJSON *net_error_obj(const struct net_buf *body, cJSON **root)
-{
+static cJSON *net_error_obj(const struct net_buf *body, cJSON **root) {
     *root = NULL;
-    if (!body->data || !body->len)
-        return NULL;
+    if (!body->data || !body->len) return NULL;
     *root = cJSON_ParseWithLength(body->data, body->len);
     cJSON *e = cJSON_GetObjectItemCaseSensitive(*root, "error");
     return cJSON_IsObject(e) ? e : NULL;
@@ -133,8 +117,7 @@ const char *net_json_str(const void *o, const char *k) {
     return cJSON_IsString(v) ? v->valuestring : NULL;
 }
 
-char *net_error_code(const struct net_buf *body, char *buf, size_t size)
-{
+char *net_error_code(const struct net_buf *body, char *buf, size_t size) {
     cJSON *root;
     cJSON *e = net_error_obj(body, &root);
     const char *code = e ? net_json_str(e, "code") : NULL;
@@ -189,8 +172,7 @@ char *net_safe(const char *s, char *buf, size_t size) {
     return net_safe_n(s, s ? strlen(s) : 0, buf, size);
 }
 
-char *net_describe(long status, const struct net_buf *body, char *buf, size_t size)
-{
+char *net_describe(long status, const struct net_buf *body, char *buf, size_t size) {
     cJSON *root;
     cJSON *e = net_error_obj(body, &root);
     if (e) {
@@ -219,32 +201,27 @@ char *net_describe(long status, const struct net_buf *body, char *buf, size_t si
     return buf;
 }
 
-double net_retry_after(void *h, double def)
-{
+double net_retry_after(void *h, double def) {
     struct curl_header *hd = NULL;
     if (curl_easy_header(h, "Retry-After", 0, CURLH_HEADER, -1, &hd) != CURLHE_OK || !hd)
         return def;
     char *end;
     double v = strtod(hd->value, &end);
-    if (end == hd->value || v < 0)
-        return def; /* an HTTP date: not sent by rayd; use the default */
+    if (end == hd->value || v < 0) return def; /* an HTTP date: not sent by rayd; use the default */
     return v > 60 ? 60 : v;
 }
 
-double net_now(void)
-{
+double net_now(void) {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec + (double)ts.tv_nsec / 1e9;
 }
 
-void net_label(const char *url, char *buf, size_t size)
-{
+void net_label(const char *url, char *buf, size_t size) {
     const char *p = strstr(url, "://");
     p = p ? p + 3 : url;
     size_t n = strcspn(p, "/");
-    if (n >= size)
-        n = size - 1;
+    if (n >= size) n = size - 1;
     memcpy(buf, p, n);
     buf[n] = '\0';
 }

@@ -14,8 +14,7 @@
 #include <string.h>
 #include <unistd.h>
 
-void progress_init(struct progress *p, int total, int quiet)
-{
+void progress_init(struct progress *p, int total, int quiet) {
     memset(p, 0, sizeof *p);
     p->total = total;
     p->quiet = quiet;
@@ -24,8 +23,7 @@ void progress_init(struct progress *p, int total, int quiet)
     p->last_pct = -1;
 }
 
-static void progress_eta(double secs, char *buf, size_t size)
-{
+static void progress_eta(double secs, char *buf, size_t size) {
     if (secs < 0)
         snprintf(buf, size, "--");
     else if (secs < 60)
@@ -36,8 +34,7 @@ static void progress_eta(double secs, char *buf, size_t size)
         snprintf(buf, size, "%dh%02dm", (int)secs / 3600, (int)secs % 3600 / 60);
 }
 
-static void progress_rays(double rps, char *buf, size_t size)
-{
+static void progress_rays(double rps, char *buf, size_t size) {
     if (rps < 0)
         buf[0] = '\0';
     else if (rps >= 1e9)
@@ -48,16 +45,14 @@ static void progress_rays(double rps, char *buf, size_t size)
         snprintf(buf, size, "  %.0f rays/s", rps);
 }
 
-void progress_update(struct progress *p, int done, int failed, int nservers,
-                     const long *per_server, char labels[][40], double rays_per_s, int force)
-{
+void progress_update(struct progress *p, int done, int failed, int nservers, const long *per_server,
+                     char labels[][40], double rays_per_s, int force) {
     if (p->quiet || p->total <= 0 || done < 0 || done > p->total)
         return; /* figures that make no sense are never drawn (job.c warns) */
     double now = net_now(), el = now - p->t0;
     int pct = (int)(100.0 * done / p->total);
     if (p->tty) {
-        if (!force && now - p->last_draw < 0.2)
-            return;
+        if (!force && now - p->last_draw < 0.2) return;
     } else if (force ? done == p->last_done && p->last_pct >= 0
                      : pct / 10 == p->last_pct / 10 && now - p->last_line < 5) {
         return; /* plain lines: nothing new to say */
@@ -66,28 +61,26 @@ void progress_update(struct progress *p, int done, int failed, int nservers,
     p->last_draw = p->last_line = now;
     p->last_pct = pct;
     char eta[32], rays[48], servers[600] = "";
-    progress_eta(done > 0 && done < p->total ? el / done * (p->total - done) : done ? 0 : -1, eta,
-                 sizeof eta);
+    progress_eta(done > 0 && done < p->total ? el / done * (p->total - done)
+                 : done                      ? 0
+                                             : -1,
+                 eta, sizeof eta);
     progress_rays(rays_per_s, rays, sizeof rays);
     size_t n = 0;
     for (int i = 0; i < nservers && n + 60 < sizeof servers; i++)
-        n += (size_t)snprintf(servers + n, sizeof servers - n, "%s%s=%ld", i ? " " : "",
-                              labels[i], per_server[i]);
+        n += (size_t)snprintf(servers + n, sizeof servers - n, "%s%s=%ld", i ? " " : "", labels[i],
+                              per_server[i]);
     char fail[32] = "";
-    if (failed)
-        snprintf(fail, sizeof fail, ", %d failed", failed);
+    if (failed) snprintf(fail, sizeof fail, ", %d failed", failed);
     if (p->tty) {
         char bar[31];
         int fill = p->total ? 30 * done / p->total : 0;
-        for (int i = 0; i < 30; i++)
-            bar[i] = i < fill ? '#' : '.';
+        for (int i = 0; i < 30; i++) bar[i] = i < fill ? '#' : '.';
         bar[30] = '\0';
         int w = fprintf(stderr, "\r[%s] %d/%d tiles%s  %s%s  ETA %s", bar, done, p->total, fail,
                         servers, rays, eta);
-        for (int i = w; i < p->width; i++)
-            fputc(' ', stderr);
-        if (w > p->width)
-            p->width = w;
+        for (int i = w; i < p->width; i++) fputc(' ', stderr);
+        if (w > p->width) p->width = w;
     } else {
         fprintf(stderr, "rayd-client: %d/%d tiles (%d%%)%s, %.1fs, servers: %s%s, ETA %s\n", done,
                 p->total, pct, fail, el, servers, rays, eta);
@@ -95,8 +88,7 @@ void progress_update(struct progress *p, int done, int failed, int nservers,
     fflush(stderr);
 }
 
-void progress_end(struct progress *p)
-{
+void progress_end(struct progress *p) {
     if (!p->quiet && p->tty && p->width) {
         fputc('\n', stderr);
         p->width = 0;

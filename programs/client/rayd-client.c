@@ -295,7 +295,7 @@ static int client_for_cmd(const struct client_args *a) {
         snprintf(list, sizeof list, " %s ", client_only[i].cmds);
         if ((a->given >> (client_only[i].opt - OPT_TILE) & 1) && !strstr(list, word))
             return args_bad("%s is not an option of %s (only of %s)", client_only[i].name, a->cmd,
-                              client_only[i].cmds);
+                            client_only[i].cmds);
     }
     return 0;
 }
@@ -322,12 +322,8 @@ static int client_option(int opt, const char *v, struct client_args *a) {
     struct client_opts *o = &a->o;
     if (opt >= OPT_TILE) a->given |= 1u << (opt - OPT_TILE);
     switch (opt) {
-    case 'h':
-        client_usage(stdout);
-        return 1;
-    case OPT_VERSION:
-        printf("rayd-client %s\n", RAYD_VERSION);
-        return 1;
+    case 'h': client_usage(stdout); return 1;
+    case OPT_VERSION: printf("rayd-client %s\n", RAYD_VERSION); return 1;
     case 's':
         if (!v || o->nservers == CLIENT_MAX_SERVERS)
             return args_bad("--server needs a URL (at most %d)", CLIENT_MAX_SERVERS);
@@ -337,37 +333,24 @@ static int client_option(int opt, const char *v, struct client_args *a) {
         if (!v) return args_bad("-o/--output needs a file name ('-': standard output)");
         o->out = v;
         return 0;
-    case 'q':
-        o->quiet = 1;
-        return 0;
+    case 'q': o->quiet = 1; return 0;
     case OPT_TOKEN_FILE:
         if (!v) return args_bad("--token-file needs a file");
         a->token_file = v;
         return 0;
-    case OPT_TIMEOUT:
-        return client_number("--timeout", v, 0.1, 86400, &o->timeout);
-    case OPT_TILE:
-        return client_int(opt, v, 8, 4096, &o->tile);
-    case OPT_SPLIT:
-        return client_int(opt, v, 1, 65536, &o->ranges);
-    case OPT_PARALLEL:
-        return client_int(opt, v, 1, 1024, &o->parallel);
-    case OPT_RETRIES:
-        return client_int(opt, v, 0, 100, &o->retries);
-    case OPT_THREADS:
-        return client_int(opt, v, 0, 1024, &o->threads);
-    case OPT_SIZE:
-        return client_int(opt, v, 8, 4096, &a->size);
-    case OPT_TURNTABLE:
-        return client_int(opt, v, 1, 360, &a->turntable);
-    case OPT_NO_HEDGE:
-        o->no_hedge = 1;
-        return 0;
+    case OPT_TIMEOUT: return client_number("--timeout", v, 0.1, 86400, &o->timeout);
+    case OPT_TILE: return client_int(opt, v, 8, 4096, &o->tile);
+    case OPT_SPLIT: return client_int(opt, v, 1, 65536, &o->ranges);
+    case OPT_PARALLEL: return client_int(opt, v, 1, 1024, &o->parallel);
+    case OPT_RETRIES: return client_int(opt, v, 0, 100, &o->retries);
+    case OPT_THREADS: return client_int(opt, v, 0, 1024, &o->threads);
+    case OPT_SIZE: return client_int(opt, v, 8, 4096, &a->size);
+    case OPT_TURNTABLE: return client_int(opt, v, 1, 360, &a->turntable);
+    case OPT_NO_HEDGE: o->no_hedge = 1; return 0;
     case OPT_VIEW:
         if (!v || (strcmp(v, "three-quarter") && strcmp(v, "front") && strcmp(v, "side") &&
                    strcmp(v, "top")))
-            return args_bad("--view needs three-quarter, front, side or top, not '%s'",
-                              v ? v : "");
+            return args_bad("--view needs three-quarter, front, side or top, not '%s'", v ? v : "");
         a->view = v;
         return 0;
     }
@@ -400,7 +383,7 @@ static int client_parse(int argc, char **argv, struct client_args *a) {
     /* a range is always the whole image: a --tile would be dropped unsaid */
     if (a->o.tile && a->o.ranges > 0)
         return args_bad("--tile and --split-samples exclude each other (--split-samples sends "
-                          "whole-image sample ranges, not tiles)");
+                        "whole-image sample ranges, not tiles)");
     if (!strcmp(a->cmd, "thumbnails"))
         return a->scene ? 0 : args_bad("thumbnails needs DIR, the folder of models");
     if (strcmp(a->cmd, "health") && (!a->scene || !a->o.out))
@@ -408,13 +391,13 @@ static int client_parse(int argc, char **argv, struct client_args *a) {
     if (!strcmp(a->cmd, "job") && a->o.nservers > 1)
         return args_bad("job: give exactly one --server (jobs live on one node)");
     if (a->o.out && !output_kind(a->o.out))
-        return args_bad(
-            "-o %s: rayd-client writes PNG (.png) and OpenEXR (.exr), not this format", a->o.out);
+        return args_bad("-o %s: rayd-client writes PNG (.png) and OpenEXR (.exr), not this format",
+                        a->o.out);
     bool exr = a->o.out && output_kind_exr(a->o.out);
     if (exr && strcmp(a->cmd, "job") && a->o.ranges <= 0) /* else a PNG named .exr */
         return args_bad("-o %s: OpenEXR comes only from render --split-samples N or from job "
-                          "(tiles arrive as 8-bit PNGs)",
-                          a->o.out);
+                        "(tiles arrive as 8-bit PNGs)",
+                        a->o.out);
     return 0;
 }
 
@@ -445,8 +428,8 @@ static int client_urls(struct client_opts *o, char **urls) {
         while (n > 0 && urls[i][n - 1] == '/') urls[i][--n] = '\0';
         if (strncmp(urls[i], "http://", 7) && strncmp(urls[i], "https://", 8))
             return args_bad("--server wants an http:// or https:// URL such as "
-                              "http://host:8080, not '%s'",
-                              urls[i]);
+                            "http://host:8080, not '%s'",
+                            urls[i]);
         o->servers[i] = urls[i];
     }
     return 0;

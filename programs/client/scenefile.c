@@ -44,8 +44,8 @@ static char *scenefile_read(const char *path, size_t *len, struct rayd_error *er
 }
 
 struct scenefile_walk {
-    const char *scene; /* the scene's name, for messages */
-    const char *dir;   /* the scene's folder with a trailing '/', "" for the cwd */
+    const char *scene;   /* the scene's name, for messages */
+    const char *dir;     /* the scene's folder with a trailing '/', "" for the cwd */
     char real[PATH_MAX]; /* its real path ("" until needed) */
     int count;
     int failed;           /* said; the walk stops */

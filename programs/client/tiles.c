@@ -85,10 +85,10 @@ enum tiles_kind { X_LEARN, X_GET, X_POST, X_METRICS };
 
 struct tiles_tile {
     int x, y, w, h;
-    int k0, k1;     /* a sample range's samples (--split-samples) */
+    int k0, k1; /* a sample range's samples (--split-samples) */
     enum tiles_state st;
-    int attempts;   /* failures counted against --retries */
-    int busy;       /* 503 answers */
+    int attempts; /* failures counted against --retries */
+    int busy;     /* 503 answers */
     int last_server;
     double not_before;
     int copies;   /* its requests in flight: 2 while hedged */
@@ -101,14 +101,14 @@ struct tiles_server {
     const char *url;
     char label[40];
     enum tiles_scene scene;
-    int inflight;         /* learn + tile requests */
-    long done;            /* tiles rendered */
-    long uploads;         /* times the scene body was sent and answered */
-    int fails_row;        /* consecutive failures */
-    double down_until;    /* resting until then */
+    int inflight;      /* learn + tile requests */
+    long done;         /* tiles rendered */
+    long uploads;      /* times the scene body was sent and answered */
+    int fails_row;     /* consecutive failures */
+    double down_until; /* resting until then */
     int metrics_busy;
     double metrics_next;
-    struct tiles_rays {   /* per node behind this address (X-Upstream) */
+    struct tiles_rays { /* per node behind this address (X-Upstream) */
         char node[64];
         double t, last, rps;
     } rays[8];
@@ -160,8 +160,7 @@ struct tiles {
 
 /* ---- starting requests ------------------------------------------------------ */
 
-static int tiles_start(struct tiles *T, enum tiles_kind kind, int ti, int si)
-{
+static int tiles_start(struct tiles *T, enum tiles_kind kind, int ti, int si) {
     struct tiles_server *s = &T->s[si];
     char url[1024];
     const char *body = NULL;
@@ -182,17 +181,14 @@ static int tiles_start(struct tiles *T, enum tiles_kind kind, int ti, int si)
             snprintf(url, sizeof url, "%s/v1/render?format=sums&samples=%d-%d", s->url, t->k0,
                      t->k1);
         else
-            snprintf(url, sizeof url, "%s/v1/render?x=%d&y=%d&w=%d&h=%d", s->url, t->x, t->y,
-                     t->w, t->h);
+            snprintf(url, sizeof url, "%s/v1/render?x=%d&y=%d&w=%d&h=%d", s->url, t->x, t->y, t->w,
+                     t->h);
         body = T->sf->bytes, blen = T->sf->len;
         break;
-    case X_METRICS:
-        snprintf(url, sizeof url, "%s/metrics", s->url);
-        break;
+    case X_METRICS: snprintf(url, sizeof url, "%s/metrics", s->url); break;
     }
     struct tiles_xfer *x = calloc(1, sizeof *x);
-    if (!x)
-        return -1;
+    if (!x) return -1;
     x->kind = kind, x->tile = ti, x->server = si;
     x->t0 = net_now();
     if (T->acc && t) /* a range's sums: 24 bytes a pixel */
@@ -204,8 +200,7 @@ static int tiles_start(struct tiles *T, enum tiles_kind kind, int ti, int si)
         free(x);
         return -1;
     }
-    if (kind == X_METRICS)
-        curl_easy_setopt(x->h, CURLOPT_TIMEOUT_MS, 2000L);
+    if (kind == X_METRICS) curl_easy_setopt(x->h, CURLOPT_TIMEOUT_MS, 2000L);
     curl_easy_setopt(x->h, CURLOPT_PRIVATE, (void *)x);
     if (curl_multi_add_handle(T->multi, x->h) != CURLM_OK) {
         curl_easy_cleanup(x->h);
@@ -214,8 +209,7 @@ static int tiles_start(struct tiles *T, enum tiles_kind kind, int ti, int si)
         return -1;
     }
     x->next = T->xfers;
-    if (x->next)
-        x->next->prev = x;
+    if (x->next) x->next->prev = x;
     T->xfers = x;
     if (kind == X_METRICS) {
         s->metrics_busy = 1;
@@ -230,14 +224,12 @@ static int tiles_start(struct tiles *T, enum tiles_kind kind, int ti, int si)
     return 0;
 }
 
-static void tiles_xfer_free(struct tiles *T, struct tiles_xfer *x)
-{
+static void tiles_xfer_free(struct tiles *T, struct tiles_xfer *x) {
     if (T->xfers == x)
         T->xfers = x->next;
     else
         x->prev->next = x->next;
-    if (x->next)
-        x->next->prev = x->prev;
+    if (x->next) x->next->prev = x->prev;
     curl_multi_remove_handle(T->multi, x->h);
     curl_easy_cleanup(x->h);
     curl_slist_free_all(x->hdrs);
@@ -257,22 +249,18 @@ static void tiles_warn_failing(struct tiles *T, int si, const char *why) {
             T->ns > 1 ? "its tiles go to the other servers" : "retrying it");
 }
 
-static void tiles_server_failed(struct tiles *T, int si, const char *why, double now)
-{
+static void tiles_server_failed(struct tiles *T, int si, const char *why, double now) {
     struct tiles_server *s = &T->s[si];
     s->fails_row++;
     double backoff = 0.5;
-    for (int i = 1; i < s->fails_row && backoff < 10; i++)
-        backoff *= 2;
+    for (int i = 1; i < s->fails_row && backoff < 10; i++) backoff *= 2;
     s->down_until = now + (backoff > 10 ? 10 : backoff);
-    if (s->scene == SS_LEARNING)
-        s->scene = SS_UNKNOWN;
+    if (s->scene == SS_LEARNING) s->scene = SS_UNKNOWN;
     snprintf(T->last_err, sizeof T->last_err, "%.150s: %.240s", s->url, why);
     if (s->fails_row == 1) tiles_warn_failing(T, si, why);
 }
 
-static void tiles_tile_failed(struct tiles *T, int ti, int si, const char *why, double now)
-{
+static void tiles_tile_failed(struct tiles *T, int ti, int si, const char *why, double now) {
     struct tiles_tile *t = &T->t[ti];
     snprintf(t->err, sizeof t->err, "%s: %s", T->s[si].url, why);
     if (t->copies > 0) return; /* its other copy, still in flight, may yet draw it */
@@ -293,8 +281,7 @@ static void tiles_error(const struct tiles *T) {
     if (T->o->what) fprintf(stderr, "%s: ", T->o->what);
 }
 
-static void tiles_fatal(struct tiles *T, int si, long status, const struct net_buf *b)
-{
+static void tiles_fatal(struct tiles *T, int si, long status, const struct net_buf *b) {
     if (T->fatal) return; /* the same refusal again, from a request that was in flight */
     char why[600];
     net_describe(status, b, why, sizeof why);
@@ -307,8 +294,7 @@ static void tiles_fatal(struct tiles *T, int si, long status, const struct net_b
 /* A range's sums: decode, check they are this range's, add.  0 or -1
  * with why set. */
 static int tiles_add_sums(struct tiles *T, const struct tiles_tile *t, const struct net_buf *b,
-                          char *why, size_t size)
-{
+                          char *why, size_t size) {
     struct rayd_sums_header hdr;
     double *sums = NULL;
     struct rayd_error err = {0};
@@ -331,10 +317,8 @@ static int tiles_add_sums(struct tiles *T, const struct tiles_tile *t, const str
 
 /* A tile PNG: decode, check its size, blit.  0 or -1 with why set. */
 static int tiles_stitch(struct tiles *T, struct tiles_tile *t, const struct net_buf *b, char *why,
-                        size_t size)
-{
-    if (T->acc)
-        return tiles_add_sums(T, t, b, why, size);
+                        size_t size) {
+    if (T->acc) return tiles_add_sums(T, t, b, why, size);
     rayd_image *img = NULL;
     struct rayd_error err = {0};
     if (rayd_png_decode(b->data, b->len, (long)t->w * t->h, &img, &err) != RAYD_OK) {
@@ -354,16 +338,13 @@ static int tiles_stitch(struct tiles *T, struct tiles_tile *t, const struct net_
     return rc;
 }
 
-static void tiles_metrics_done(struct tiles *T, struct tiles_xfer *x, long status, double now)
-{
+static void tiles_metrics_done(struct tiles *T, struct tiles_xfer *x, long status, double now) {
     struct tiles_server *s = &T->s[x->server];
     s->metrics_busy = 0;
     s->metrics_next = now + 1;
-    if (status != 200 || !x->body.data)
-        return;
+    if (status != 200 || !x->body.data) return;
     const char *p = strstr(x->body.data, "\nrayd_rays_total ");
-    if (!p)
-        return;
+    if (!p) return;
     double v = strtod(p + 17, NULL);
     char node[64] = "";
     struct curl_header *hd = NULL;
@@ -504,8 +485,7 @@ static void tiles_settle(struct tiles *T, struct tiles_xfer *x, double now) {
     }
 }
 
-static void tiles_finish(struct tiles *T, struct tiles_xfer *x, CURLcode cc, double now)
-{
+static void tiles_finish(struct tiles *T, struct tiles_xfer *x, CURLcode cc, double now) {
     long status = 0;
     curl_easy_getinfo(x->h, CURLINFO_RESPONSE_CODE, &status);
     if (x->kind == X_METRICS) {
@@ -538,8 +518,7 @@ static void tiles_finish(struct tiles *T, struct tiles_xfer *x, CURLcode cc, dou
         return;
     }
     tiles_server_failed(T, x->server, why, now);
-    if (t)
-        tiles_tile_failed(T, x->tile, x->server, why, now);
+    if (t) tiles_tile_failed(T, x->tile, x->server, why, now);
 }
 
 /* ---- the loop ------------------------------------------------------------------ */
@@ -552,8 +531,7 @@ static int tiles_pick(struct tiles *T, const struct tiles_tile *t, int avoid, do
         const struct tiles_server *s = &T->s[i];
         if ((s->scene != SS_KNOWN && !T->acc) || s->down_until > now || i == avoid) continue;
         int sc = s->inflight + (i == t->last_server && T->ns > 1 ? 1000 : 0);
-        if (best < 0 || sc < score)
-            best = i, score = sc;
+        if (best < 0 || sc < score) best = i, score = sc;
     }
     return best;
 }
@@ -584,8 +562,8 @@ static int tiles_running_on(const struct tiles *T, int ti) {
 
 /* Hedged requests: near the end (no piece left to start, which the
  * caller has counted) a free slot takes a copy of a straggler to another
- * ready server, and the first answer wins (tiles_settle).  A stalled or overloaded node then holds the
- * frame up for about twice a typical piece, not for --timeout. */
+ * ready server, and the first answer wins (tiles_settle).  A stalled or overloaded node then holds
+ * the frame up for about twice a typical piece, not for --timeout. */
 static void tiles_hedge(struct tiles *T, double now) {
     if (T->o->no_hedge) return;
     while (T->running < T->o->parallel) {
@@ -599,32 +577,25 @@ static void tiles_hedge(struct tiles *T, double now) {
     }
 }
 
-static void tiles_dispatch(struct tiles *T, double now)
-{
+static void tiles_dispatch(struct tiles *T, double now) {
     /* counted, not derived from T->running: a hedged piece has two requests */
     int pending = 0;
-    for (int i = 0; i < T->n; i++)
-        pending += T->t[i].st == TS_PENDING;
+    for (int i = 0; i < T->n; i++) pending += T->t[i].st == TS_PENDING;
     for (int i = 0; i < T->ns && pending > 0 && !T->acc; i++) { /* ranges carry the body */
         struct tiles_server *s = &T->s[i];
         if (s->scene == SS_UNKNOWN && s->down_until <= now) {
-            if (tiles_start(T, X_LEARN, -1, i) == 0)
-                s->scene = SS_LEARNING;
+            if (tiles_start(T, X_LEARN, -1, i) == 0) s->scene = SS_LEARNING;
         }
     }
     for (int i = 0; i < T->n && T->running < T->o->parallel; i++) {
         struct tiles_tile *t = &T->t[i];
-        if (t->st != TS_PENDING || t->not_before > now)
-            continue;
+        if (t->st != TS_PENDING || t->not_before > now) continue;
         int si = tiles_pick(T, t, -1, now);
-        if (si < 0)
-            break;
-        if (tiles_start(T, T->acc ? X_POST : X_GET, i, si) != 0)
-            break;
+        if (si < 0) break;
+        if (tiles_start(T, T->acc ? X_POST : X_GET, i, si) != 0) break;
         pending--;
     }
-    if (pending == 0)
-        tiles_hedge(T, now);
+    if (pending == 0) tiles_hedge(T, now);
     if (!T->prog.quiet)
         for (int i = 0; i < T->ns; i++) {
             struct tiles_server *s = &T->s[i];
@@ -634,40 +605,33 @@ static void tiles_dispatch(struct tiles *T, double now)
 }
 
 /* Every server failed more than --retries times in a row: give up. */
-static int tiles_all_dead(const struct tiles *T)
-{
+static int tiles_all_dead(const struct tiles *T) {
     for (int i = 0; i < T->ns; i++)
-        if (T->s[i].fails_row <= T->o->retries)
-            return 0;
+        if (T->s[i].fails_row <= T->o->retries) return 0;
     return 1;
 }
 
 /* The sum of the nodes' rates measured in the last 5 s; -1 if none. */
-static double tiles_rps(const struct tiles *T)
-{
+static double tiles_rps(const struct tiles *T) {
     double sum = 0, now = net_now();
     int any = 0;
     for (int i = 0; i < T->ns; i++)
         for (int k = 0; k < 8; k++) {
             const struct tiles_rays *r = &T->s[i].rays[k];
-            if (r->t > 0 && now - r->t < 5 && r->rps > 0)
-                sum += r->rps, any = 1;
+            if (r->t > 0 && now - r->t < 5 && r->rps > 0) sum += r->rps, any = 1;
         }
     return any ? sum : -1;
 }
 
-static void tiles_draw(struct tiles *T, int force)
-{
-    for (int i = 0; i < T->ns; i++)
-        T->per_server[i] = T->s[i].done;
+static void tiles_draw(struct tiles *T, int force) {
+    for (int i = 0; i < T->ns; i++) T->per_server[i] = T->s[i].done;
     progress_update(&T->prog, T->done, T->failed, T->ns, T->per_server, T->labels, tiles_rps(T),
                     force);
 }
 
 /* One line: what is missing, then why (the last error: the cause a user
  * acts on, before the list that may be long), then which pieces. */
-static void tiles_report_missing(struct tiles *T)
-{
+static void tiles_report_missing(struct tiles *T) {
     int missing = T->n - T->done;
     const char *why = T->last_err;
     for (int i = 0; i < T->n && !*why; i++)
@@ -679,8 +643,7 @@ static void tiles_report_missing(struct tiles *T)
     fputs("; missing:", stderr);
     int shown = 0;
     for (int i = 0; i < T->n; i++) {
-        if (T->t[i].st == TS_DONE)
-            continue;
+        if (T->t[i].st == TS_DONE) continue;
         if (shown == 12) {
             fprintf(stderr, " ... and %d more", missing - shown);
             break;
@@ -697,8 +660,7 @@ static void tiles_report_missing(struct tiles *T)
 
 /* The pieces: a grid of tiles, or --split-samples ranges of the whole
  * image (as equal as can be; no more ranges than samples).  -1: no memory. */
-static int tiles_pieces(struct tiles *T, const struct client_opts *o, const struct scenefile *sf)
-{
+static int tiles_pieces(struct tiles *T, const struct client_opts *o, const struct scenefile *sf) {
     int tile = o->tile, samples = sf->samples > 0 ? sf->samples : 1;
     int cols = (sf->width + tile - 1) / tile, rows = (sf->height + tile - 1) / tile;
     T->n = o->ranges > 0 ? (o->ranges < samples ? o->ranges : samples) : cols * rows;
@@ -725,29 +687,24 @@ static int tiles_pieces(struct tiles *T, const struct client_opts *o, const stru
  * of the summed ranges (an OpenEXR of their linear values when -o ends in
  * .exr).  *buf is freed with rayd_free. */
 static enum rayd_status tiles_encode(const struct tiles *T, void **buf, size_t *len,
-                                     struct rayd_error *err)
-{
-    if (!T->acc)
-        return rayd_png_encode_threads(T->img, -1, T->o->threads, buf, len, err);
+                                     struct rayd_error *err) {
+    if (!T->acc) return rayd_png_encode_threads(T->img, -1, T->o->threads, buf, len, err);
     if (!output_kind_exr(T->o->out)) {
         rayd_image *img = NULL;
         enum rayd_status st = rayd_accum_image(T->acc, &img, err);
-        if (st == RAYD_OK)
-            st = rayd_png_encode_threads(img, -1, T->o->threads, buf, len, err);
+        if (st == RAYD_OK) st = rayd_png_encode_threads(img, -1, T->o->threads, buf, len, err);
         rayd_image_free(img);
         return st;
     }
     float *lin = NULL;
     enum rayd_status st = rayd_accum_linear(T->acc, &lin, err);
-    if (st == RAYD_OK)
-        st = rayd_exr_encode(lin, T->sf->width, T->sf->height, buf, len, err);
+    if (st == RAYD_OK) st = rayd_exr_encode(lin, T->sf->width, T->sf->height, buf, len, err);
     rayd_free(lin);
     return st;
 }
 
 /* Encodes the frame and writes it to o->out: 0, or -1 after saying why. */
-static int tiles_write(const struct tiles *T)
-{
+static int tiles_write(const struct tiles *T) {
     struct rayd_error err = {0};
     void *buf = NULL;
     size_t len = 0;
@@ -825,8 +782,7 @@ static void tiles_loop(struct tiles *T) {
         CURLMsg *m;
         int left;
         while ((m = curl_multi_info_read(T->multi, &left))) {
-            if (m->msg != CURLMSG_DONE)
-                continue;
+            if (m->msg != CURLMSG_DONE) continue;
             struct tiles_xfer *x = NULL;
             curl_easy_getinfo(m->easy_handle, CURLINFO_PRIVATE, (char **)&x);
             tiles_finish(T, x, m->data.result, net_now());

@@ -29,9 +29,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-const char *output_name(const char *path) {
-    return strcmp(path, "-") ? path : "standard output";
-}
+const char *output_name(const char *path) { return strcmp(path, "-") ? path : "standard output"; }
 
 /* A new temporary file beside target: O_EXCL, so it is never one another
  * run is writing; mode as the file it replaces, else 0666 less the umask.

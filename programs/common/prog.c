@@ -12,9 +12,7 @@
 
 static const char *prog = "rayd";
 
-void prog_init(const char *name) {
-    prog = name;
-}
+void prog_init(const char *name) { prog = name; }
 
 void prog_error(const char *fmt, ...) {
     va_list ap;

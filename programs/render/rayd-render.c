@@ -210,7 +210,8 @@ static int set_frame_option(int opt, const char *val, struct args *a) {
     if (opt == OPT_VIDEO) {
         const char *dot = val ? strrchr(val, '.') : NULL;
         if (!dot || (strcasecmp(dot, ".mp4") && strcasecmp(dot, ".mov") && strcasecmp(dot, ".mkv")))
-            return bad_usage("--video writes H.264 in .mp4, .mov or .mkv, not '%s'", val ? val : "");
+            return bad_usage("--video writes H.264 in .mp4, .mov or .mkv, not '%s'",
+                             val ? val : "");
         a->video = val;
         return 0;
     }
@@ -231,9 +232,7 @@ static int set_frame_option(int opt, const char *val, struct args *a) {
 static int set_pass_option(int opt, const char *val, struct args *a) {
     long n;
     switch (opt) {
-    case OPT_PASSES:
-        a->passes = 1;
-        return 0;
+    case OPT_PASSES: a->passes = 1; return 0;
     case OPT_PASS_STEP:
         if (!val || parse_int(val, 1, 1 << 20, &n) != 0)
             return bad_usage("--pass-step takes an integer in 1..1048576");
@@ -269,8 +268,7 @@ static int set_pass_option(int opt, const char *val, struct args *a) {
     }
     case OPT_FRAME:
     case OPT_FRAMES:
-    case OPT_VIDEO:
-        return set_frame_option(opt, val, a);
+    case OPT_VIDEO: return set_frame_option(opt, val, a);
     }
     return bad_usage("unknown option");
 }
@@ -280,22 +278,14 @@ static int set_pass_option(int opt, const char *val, struct args *a) {
 static int set_option(int opt, const char *val, struct args *a) {
     long n;
     switch (opt) {
-    case 'h':
-        usage(stdout);
-        return 1;
-    case OPT_VERSION:
-        printf("rayd-render %s\n", RAYD_VERSION);
-        return 1;
+    case 'h': usage(stdout); return 1;
+    case OPT_VERSION: printf("rayd-render %s\n", RAYD_VERSION); return 1;
     case 'o':
         if (!val) return bad_usage("-o/--output needs a file name ('-': standard output)");
         a->output = val;
         return 0;
-    case 'q':
-        a->quiet = 1;
-        return 0;
-    case OPT_STATS:
-        a->stats = 1;
-        return 0;
+    case 'q': a->quiet = 1; return 0;
+    case OPT_STATS: a->stats = 1; return 0;
     case OPT_FORMAT:
         if (!val || (a->format = format_named(val)) < 0)
             return bad_usage("--format takes png, png16 or exr, not '%s'", val ? val : "");
@@ -807,12 +797,21 @@ static int video_start(struct video *v, const char *path, int w, int h, double f
     snprintf(size, sizeof size, "%dx%d", w, h);
     snprintf(rate, sizeof rate, "%.17g", fps);
     snprintf(out, sizeof out, "%s%s", path[0] == '-' ? "./" : "", path);
-    char *argv[] = {"ffmpeg", "-hide_banner", "-loglevel", "error", "-nostats", "-y",
-                    "-f", "rawvideo", "-pix_fmt", "rgb24", "-video_size", size,
-                    "-framerate", rate, "-i", "pipe:0",
-                    "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-c:v", "libx264",
-                    "-pix_fmt", "yuv420p", "-preset", "veryfast", "-crf", "18",
-                    "-movflags", "+faststart", out, NULL};
+    char *argv[] = {"ffmpeg",      "-hide_banner",
+                    "-loglevel",   "error",
+                    "-nostats",    "-y",
+                    "-f",          "rawvideo",
+                    "-pix_fmt",    "rgb24",
+                    "-video_size", size,
+                    "-framerate",  rate,
+                    "-i",          "pipe:0",
+                    "-vf",         "pad=ceil(iw/2)*2:ceil(ih/2)*2",
+                    "-c:v",        "libx264",
+                    "-pix_fmt",    "yuv420p",
+                    "-preset",     "veryfast",
+                    "-crf",        "18",
+                    "-movflags",   "+faststart",
+                    out,           NULL};
     int fds[2];
     if (pipe(fds) != 0) return cannot_write(path, errno);
     posix_spawn_file_actions_t fa;
@@ -825,8 +824,10 @@ static int video_start(struct video *v, const char *path, int w, int h, double f
     close(fds[0]);
     if (e != 0) {
         close(fds[1]);
-        fprintf(stderr, "rayd-render: error: --video needs the ffmpeg program (Debian's ffmpeg "
-                        "package; make deps installs it): %s\n", strerror(e));
+        fprintf(stderr,
+                "rayd-render: error: --video needs the ffmpeg program (Debian's ffmpeg "
+                "package; make deps installs it): %s\n",
+                strerror(e));
         return 1;
     }
     signal(SIGPIPE, SIG_IGN); /* a dead ffmpeg is a write error, said below */
@@ -907,9 +908,11 @@ static int check_range(const struct args *a, const struct rayd_animation *an, lo
     char path[4096];
     int numbered = frame_path(a->output, *from, path, sizeof path);
     if (numbered < 0 || (numbered == 0 && a->output[0] && *to > *from)) {
-        say_usage(numbered < 0 ? "-o %s: a frame's file takes one %%d (or %%0Nd, N < 10) and no other %%"
-                               : "-o %s: a range of frames needs a file name with %%d, e.g. -o 'shot-%%04d.png'",
-                  a->output);
+        say_usage(
+            numbered < 0
+                ? "-o %s: a frame's file takes one %%d (or %%0Nd, N < 10) and no other %%"
+                : "-o %s: a range of frames needs a file name with %%d, e.g. -o 'shot-%%04d.png'",
+            a->output);
         return 2;
     }
     return 0;
@@ -958,20 +961,23 @@ static int frames_loop(const struct args *a, const char *text, size_t len,
         b.output = path;
         double stage[ST__COUNT] = {0};
         bool toned = a->tone.exposure != 0 || a->tone.curve != RAYD_TONE_CLAMP;
-        if (rc == 0 && a->video) rc = video_frame(&b, scene, path, &v);
-        else if (rc == 0) rc = a->passes || a->format != FMT_PNG || toned
-                                   ? render_passes(&b, scene, stage, t0)
-                                   : render_and_write(&b, scene, stage, t0);
+        if (rc == 0 && a->video)
+            rc = video_frame(&b, scene, path, &v);
+        else if (rc == 0)
+            rc = a->passes || a->format != FMT_PNG || toned
+                     ? render_passes(&b, scene, stage, t0)
+                     : render_and_write(&b, scene, stage, t0);
         rayd_scene_free(scene);
         scene = NULL;
-        if (rc == 0) frame_line(a, k, k - from + 1, to - from + 1, now() - tf, now() - t_range, path);
+        if (rc == 0)
+            frame_line(a, k, k - from + 1, to - from + 1, now() - tf, now() - t_range, path);
     }
     rayd_scene_free(scene);
     if (a->video && video_end(&v, a->video, rc != 0) != 0 && rc == 0) rc = 1;
     if (rc == 0 && !a->quiet)
         fprintf(stderr, "frames %ld-%ld: %ld frame%s in %.3f s%s%s\n", from, to, to - from + 1,
-                to > from ? "s" : "",
-                now() - t_range, a->video ? " -> " : "", a->video ? a->video : "");
+                to > from ? "s" : "", now() - t_range, a->video ? " -> " : "",
+                a->video ? a->video : "");
     return rc;
 }
 

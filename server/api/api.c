@@ -20,7 +20,7 @@ struct api_q {
     const char *val[4];
     int count[4];
     char unknown[64];
-    bool allow_format; /* POST /v1/render: ?format= and ?samples= too */
+    bool allow_format;       /* POST /v1/render: ?format= and ?samples= too */
     const char *const *also; /* names another parser of the route reads, NULL-ended */
     const char *format, *samples;
     int format_count, samples_count;
@@ -31,17 +31,13 @@ static const char *const api_q_names[4] = {"x", "y", "w", "h"};
 /* Keeps k in unknown (size bytes) unless it is one of names (NULL-ended,
  * or NULL) or a name was kept already: the first parameter a route does
  * not take. */
-static void api_note_unknown(char *unknown, size_t size, const char *const *names, const char *k)
-{
+static void api_note_unknown(char *unknown, size_t size, const char *const *names, const char *k) {
     for (const char *const *n = names; n && *n; n++)
-        if (!strcmp(k, *n))
-            return;
-    if (!unknown[0])
-        snprintf(unknown, size, "%s", k);
+        if (!strcmp(k, *n)) return;
+    if (!unknown[0]) snprintf(unknown, size, "%s", k);
 }
 
-bool api_bad_param(struct http_req *r, const char *name, const char *why)
-{
+bool api_bad_param(struct http_req *r, const char *name, const char *why) {
     char msg[200];
     snprintf(msg, sizeof msg, "%s: %s", name, why);
     http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, name);
@@ -52,8 +48,7 @@ bool api_bad_param(struct http_req *r, const char *name, const char *why)
  * not take, listing those it does: head (or NULL), then names (NULL-ended,
  * or NULL). */
 static void api_reply_unknown(struct http_req *r, const char *unknown, const char *head,
-                              const char *const *names)
-{
+                              const char *const *names) {
     char takes[160] = "", msg[320];
     size_t used = head ? (size_t)snprintf(takes, sizeof takes, "%s", head) : 0;
     for (const char *const *n = names; n && *n && used < sizeof takes; n++)
@@ -63,8 +58,7 @@ static void api_reply_unknown(struct http_req *r, const char *unknown, const cha
     http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, unknown);
 }
 
-static void api_q_each(void *u, const char *k, const char *v)
-{
+static void api_q_each(void *u, const char *k, const char *v) {
     struct api_q *q = u;
     for (int i = 0; i < 4; i++)
         if (!strcmp(k, api_q_names[i])) {
@@ -90,18 +84,14 @@ static void api_q_each(void *u, const char *k, const char *v)
  * beyond any image or sample count, so the range checks name a huge number
  * as out of range, not as "not an integer" (w=4294967297 is a decimal
  * integer). */
-static bool api_int_n(const char *s, size_t n, long *out)
-{
+static bool api_int_n(const char *s, size_t n, long *out) {
     bool neg = n > 0 && *s == '-';
     const char *p = s + neg;
     size_t len = n - neg;
-    if (!len || strspn(p, "0123456789") < len)
-        return false;
-    for (; len > 1 && *p == '0'; len--)
-        p++;
+    if (!len || strspn(p, "0123456789") < len) return false;
+    for (; len > 1 && *p == '0'; len--) p++;
     long v = len > 9 ? 1000000000L : 0;
-    for (size_t i = 0; len <= 9 && i < len; i++)
-        v = v * 10 + (p[i] - '0');
+    for (size_t i = 0; len <= 9 && i < len; i++) v = v * 10 + (p[i] - '0');
     *out = neg ? -v : v;
     return true;
 }
@@ -110,16 +100,14 @@ static bool api_int(const char *s, long *out) { return api_int_n(s, strlen(s), o
 
 /* 400 bad_parameter for a query parameter the route does not take,
  * listing those it does. */
-static void api_q_unknown(struct http_req *r, const struct api_q *q)
-{
+static void api_q_unknown(struct http_req *r, const struct api_q *q) {
     api_reply_unknown(r, q->unknown, q->allow_format ? "x, y, w, h, format, samples" : "x, y, w, h",
                       q->also);
 }
 
 /* 400 bad_region naming the parameter name and what is wrong with it;
  * false, for the callers' return. */
-static bool api_region_bad(struct http_req *r, const char *name, const char *why)
-{
+static bool api_region_bad(struct http_req *r, const char *name, const char *why) {
     char msg[320];
     snprintf(msg, sizeof msg, "%s: %s", name, why);
     http_reply_error(r, 400, "bad_region", msg, NULL, 0, 0, name);
@@ -129,8 +117,7 @@ static bool api_region_bad(struct http_req *r, const char *name, const char *why
 /* x, y, w, h into v: 1, or 0 when none is given (the whole image), or -1
  * after a 400: one given twice (looked for first), missing, or not an
  * integer. */
-static int api_region_values(struct http_req *r, const struct api_q *q, long v[4])
-{
+static int api_region_values(struct http_req *r, const struct api_q *q, long v[4]) {
     int present = 0;
     for (int i = 0; i < 4; i++) {
         if (q->count[i] > 1) {
@@ -154,8 +141,7 @@ static int api_region_values(struct http_req *r, const struct api_q *q, long v[4
 /* The region v inside an image of info's size; else a 400 naming the first
  * value out of it. */
 static bool api_region_inside(struct http_req *r, const struct rayd_scene_info *info,
-                              const long v[4])
-{
+                              const long v[4]) {
     const char *bad = NULL, *why = "";
     if (v[0] < 0 || v[0] >= info->width)
         bad = "x", why = "must be in 0..width-1";
@@ -165,16 +151,14 @@ static bool api_region_inside(struct http_req *r, const struct rayd_scene_info *
         bad = "w", why = "must be >= 1 with x + w <= width";
     else if (v[3] < 1 || v[1] + v[3] > info->height)
         bad = "h", why = "must be >= 1 with y + h <= height";
-    if (!bad)
-        return true;
+    if (!bad) return true;
     char full[160];
     snprintf(full, sizeof full, "%s (the image is %dx%d)", why, info->width, info->height);
     return api_region_bad(r, bad, full);
 }
 
 static bool api_region_q(struct http_req *r, const rayd_scene *scene, struct rayd_region *out,
-                         struct api_q *qp)
-{
+                         struct api_q *qp) {
     struct rayd_scene_info info;
     rayd_scene_info(scene, &info);
     http_req_query_each(r, api_q_each, qp);
@@ -188,8 +172,7 @@ static bool api_region_q(struct http_req *r, const rayd_scene *scene, struct ray
         *out = (struct rayd_region){0, 0, info.width, info.height};
         return given == 0;
     }
-    if (!api_region_inside(r, &info, v))
-        return false;
+    if (!api_region_inside(r, &info, v)) return false;
     *out = (struct rayd_region){(int)v[0], (int)v[1], (int)v[2], (int)v[3]};
     struct rayd_error err = {0};
     if (rayd_region_check(scene, out, &err) != RAYD_OK) {
@@ -200,15 +183,13 @@ static bool api_region_q(struct http_req *r, const rayd_scene *scene, struct ray
     return true;
 }
 
-bool api_region(struct http_req *r, const rayd_scene *scene, struct rayd_region *out)
-{
+bool api_region(struct http_req *r, const rayd_scene *scene, struct rayd_region *out) {
     struct api_q q = {0};
     return api_region_q(r, scene, out, &q);
 }
 
 bool api_region_also(struct http_req *r, const rayd_scene *scene, struct rayd_region *out,
-                     const char *const *also)
-{
+                     const char *const *also) {
     struct api_q q = {.also = also};
     return api_region_q(r, scene, out, &q);
 }
@@ -218,12 +199,10 @@ bool api_region_also(struct http_req *r, const rayd_scene *scene, struct rayd_re
  * not a qvalue (0 to 1, three decimals at most: the range then counts as
  * not named).  Only a parameter whose name is q counts, not one that ends
  * in q ("xq=1"). */
-static double api_accept_weight(const char *p, const char *end)
-{
+static double api_accept_weight(const char *p, const char *end) {
     while ((p = memchr(p, ';', (size_t)(end - p))) != NULL) {
         p += 1 + strspn(p + 1, " \t");
-        if ((*p != 'q' && *p != 'Q') || p[1] != '=')
-            continue;
+        if ((*p != 'q' && *p != 'Q') || p[1] != '=') continue;
         const char *v = p + 2;
         size_t n = strspn(v, "0123456789.");
         char *stop;
@@ -238,8 +217,7 @@ static double api_accept_weight(const char *p, const char *end)
 /* The q of media type type in an Accept header (RFC 9110 12.5.1): its
  * weight (api_accept_weight) where it is named, -1 when it is not named
  * (wildcards are not counted: they name no preference for EXR). */
-static double api_accept_q(const char *accept, const char *type)
-{
+static double api_accept_q(const char *accept, const char *type) {
     size_t tl = strlen(type);
     for (const char *p = accept; p; p = strchr(p, ',')) {
         p += strspn(p, ", \t"); /* the next media range */
@@ -254,12 +232,10 @@ static double api_accept_q(const char *accept, const char *type)
 /* ?format= first; else an Accept naming image/x-exr with a q above 0 and
  * not below image/png's; else the PNG.  An Accept without either is not
  * refused: PNG stays the answer, as before. */
-static bool api_format_of(struct http_req *r, const struct api_q *q, enum work_format *format)
-{
+static bool api_format_of(struct http_req *r, const struct api_q *q, enum work_format *format) {
     static const char *const names[] = {"png", "png16", "exr", "sums"};
     char why[120];
-    if (q->format_count > 1)
-        return api_bad_param(r, "format", "given more than once");
+    if (q->format_count > 1) return api_bad_param(r, "format", "given more than once");
     if (q->format) {
         for (int i = 0; i < 4; i++)
             if (!strcmp(q->format, names[i])) {
@@ -277,8 +253,7 @@ static bool api_format_of(struct http_req *r, const struct api_q *q, enum work_f
 
 /* ?samples=K0-K1 for format=sums: a range inside the scene's samples. */
 static bool api_samples_of(struct http_req *r, const rayd_scene *scene, const struct api_q *q,
-                           struct work_target *what)
-{
+                           struct work_target *what) {
     struct rayd_scene_info info;
     rayd_scene_info(scene, &info);
     char range[120];
@@ -299,44 +274,36 @@ static bool api_samples_of(struct http_req *r, const rayd_scene *scene, const st
                  info.samples);
         why = range;
     }
-    if (why)
-        return api_bad_param(r, "samples", why);
+    if (why) return api_bad_param(r, "samples", why);
     what->k0 = (int)k0;
     what->k1 = (int)k1;
     return true;
 }
 
-bool api_target(struct http_req *r, const rayd_scene *scene, struct work_target *what)
-{
+bool api_target(struct http_req *r, const rayd_scene *scene, struct work_target *what) {
     struct api_q q = {.allow_format = true};
     memset(what, 0, sizeof *what);
     return api_region_q(r, scene, &what->reg, &q) && api_format_of(r, &q, &what->format) &&
            api_samples_of(r, scene, &q, what);
 }
 
-const char *api_format_type(enum work_format format)
-{
-    return work_format_type(format);
-}
+const char *api_format_type(enum work_format format) { return work_format_type(format); }
 
 struct api_only {
     const char *const *names;
     char unknown[64];
 };
 
-static void api_only_each(void *u, const char *k, const char *v)
-{
+static void api_only_each(void *u, const char *k, const char *v) {
     (void)v;
     struct api_only *o = u;
     api_note_unknown(o->unknown, sizeof o->unknown, o->names, k);
 }
 
-bool api_only_params(struct http_req *r, const char *const *names)
-{
+bool api_only_params(struct http_req *r, const char *const *names) {
     struct api_only o = {.names = names};
     http_req_query_each(r, api_only_each, &o);
-    if (!o.unknown[0])
-        return true;
+    if (!o.unknown[0]) return true;
     api_reply_unknown(r, o.unknown, NULL, names);
     return false;
 }
@@ -344,14 +311,13 @@ bool api_only_params(struct http_req *r, const char *const *names)
 /* A Content-Encoding other than identity: 415 naming it (RFC 9110 15.5.16),
  * with Accept-Encoding: identity.  Read as it is, a gzip body would be
  * "malformed JSON at line 1" and a br one parsed as if it were plain. */
-static bool api_encoded(struct http_req *r)
-{
+static bool api_encoded(struct http_req *r) {
     const char *ce = http_req_header(r, "Content-Encoding");
-    if (!ce)
-        return false;
+    if (!ce) return false;
     ce += strspn(ce, " \t");
     size_t n = strcspn(ce, " \t");
-    if (n == strlen("identity") && !strncasecmp(ce, "identity", n) && !ce[n + strspn(ce + n, " \t")])
+    if (n == strlen("identity") && !strncasecmp(ce, "identity", n) &&
+        !ce[n + strspn(ce + n, " \t")])
         return false;
     char msg[200];
     snprintf(msg, sizeof msg,
@@ -364,28 +330,23 @@ static bool api_encoded(struct http_req *r)
 }
 
 /* Body is JSON?  Otherwise replies 415 and returns false. */
-static bool api_require_json(struct http_req *r)
-{
-    if (api_encoded(r))
-        return false;
+static bool api_require_json(struct http_req *r) {
+    if (api_encoded(r)) return false;
     const char *ct = http_req_header(r, "Content-Type");
     if (ct) {
-        while (*ct == ' ')
-            ct++;
+        while (*ct == ' ') ct++;
         size_t n = strlen("application/json");
-        if (!strncasecmp(ct, "application/json", n) &&
-            (ct[n] == 0 || ct[n] == ';' || ct[n] == ' '))
+        if (!strncasecmp(ct, "application/json", n) && (ct[n] == 0 || ct[n] == ';' || ct[n] == ' '))
             return true;
     }
     http_reply_error(r, 415, "unsupported_media_type",
-                     "the body must be a JSON scene sent with Content-Type: application/json",
-                     NULL, 0, 0, NULL);
+                     "the body must be a JSON scene sent with Content-Type: application/json", NULL,
+                     0, 0, NULL);
     return false;
 }
 
 /* The one place where a core status becomes an HTTP status and code. */
-static unsigned api_status_of(enum rayd_status s)
-{
+static unsigned api_status_of(enum rayd_status s) {
     switch (s) {
     case RAYD_OK: return 200;
     case RAYD_E_PARSE: return 400;
@@ -400,26 +361,23 @@ static unsigned api_status_of(enum rayd_status s)
     }
 }
 
-void api_not_found(struct http_req *r)
-{
+void api_not_found(struct http_req *r) {
     http_reply_error(r, 404, "not_found",
                      "no such resource; rayd serves /v1/render, /v1/scenes and /v1/jobs "
                      "(docs/api.md), /healthz, /readyz, /metrics and the preview at /",
                      NULL, 0, 0, NULL);
 }
 
-void api_reply_rayd_error(struct http_req *r, const struct rayd_error *err, bool draining)
-{
+void api_reply_rayd_error(struct http_req *r, const struct rayd_error *err, bool draining) {
     unsigned st = api_status_of(err->code);
     const char *code =
         err->code == RAYD_E_CANCELED && draining ? "draining" : rayd_status_name(err->code);
     http_reply_error(r, st, code, err->message[0] ? err->message : code, err->path,
-                     err->code == RAYD_E_PARSE ? (err->line > 0 ? err->line : 1) : 0,
-                     err->column, NULL);
+                     err->code == RAYD_E_PARSE ? (err->line > 0 ? err->line : 1) : 0, err->column,
+                     NULL);
 }
 
-void api_refused(struct http_req *r, enum work_submit why)
-{
+void api_refused(struct http_req *r, enum work_submit why) {
     struct sched_stats st;
     sched_stats(&st);
     /* A queue slot frees when a task ahead starts: about the backlog over
@@ -446,8 +404,8 @@ void api_refused(struct http_req *r, enum work_submit why)
         break;
     case WORK_TOO_MANY_JOBS:
         metrics_reject(MR_QUEUE_FULL);
-        http_reply_error(r, 503, "queue_full", "too many unfinished jobs, retry later", NULL, 0,
-                         0, NULL);
+        http_reply_error(r, 503, "queue_full", "too many unfinished jobs, retry later", NULL, 0, 0,
+                         NULL);
         break;
     case WORK_MEMORY: /* counted by budget.c or compile.c */
         http_reply_error(r, 503, "memory_full",
@@ -462,9 +420,7 @@ void api_refused(struct http_req *r, enum work_submit why)
                          NULL, 0, 0, NULL);
         break;
     case WORK_NOMEM:
-    default:
-        http_reply_error(r, 503, "out_of_memory", "out of memory", NULL, 0, 0, NULL);
-        break;
+    default: http_reply_error(r, 503, "out_of_memory", "out of memory", NULL, 0, 0, NULL); break;
     }
 }
 
@@ -477,8 +433,7 @@ struct api_scene_wait {
 
 /* r's answer for its scene: the error, or what the continuation does with
  * it; true when the continuation handed r on (a render will resume it). */
-static bool api_scene_answer(struct http_req *r, struct compile_result *res, api_scene_then then)
-{
+static bool api_scene_answer(struct http_req *r, struct compile_result *res, api_scene_then then) {
     if (res->draining) {
         api_refused(r, WORK_DRAINING);
         return false;
@@ -493,7 +448,8 @@ static bool api_scene_answer(struct http_req *r, struct compile_result *res, api
         api_reply_rayd_error(r, &res->err, res->draining);
         return false;
     }
-    snprintf(r->res.scene, sizeof r->res.scene, "%s", cache_id(res->scene)); /* for the access log */
+    snprintf(r->res.scene, sizeof r->res.scene, "%s",
+             cache_id(res->scene)); /* for the access log */
     bool handed = then(r, res->scene, res->hit);
     scenes_release(res->scene);
     return handed;
@@ -501,27 +457,22 @@ static bool api_scene_answer(struct http_req *r, struct compile_result *res, api
 
 /* On a parse thread, r still suspended: the continuation runs here, and r
  * is resumed unless the continuation handed it on. */
-static void api_scene_done(struct compile_waiter *w, struct compile_result *res)
-{
+static void api_scene_done(struct compile_waiter *w, struct compile_result *res) {
     struct api_scene_wait a = *(struct api_scene_wait *)w;
     free(w);
-    if (!api_scene_answer(a.r, res, a.then))
-        http_req_resume(a.r);
+    if (!api_scene_answer(a.r, res, a.then)) http_req_resume(a.r);
 }
 
-static void api_scene_suspend(struct compile_waiter *w)
-{
+static void api_scene_suspend(struct compile_waiter *w) {
     http_req_suspend(((struct api_scene_wait *)w)->r);
 }
 
-void api_scene(struct http_req *r, api_scene_then then)
-{
+void api_scene(struct http_req *r, api_scene_then then) {
     if (sched_draining()) {
         api_refused(r, WORK_DRAINING);
         return;
     }
-    if (!api_require_json(r))
-        return;
+    if (!api_require_json(r)) return;
     struct api_scene_wait *a = calloc(1, sizeof *a);
     if (!a) {
         api_refused(r, WORK_NOMEM);
@@ -533,8 +484,7 @@ void api_scene(struct http_req *r, api_scene_then then)
     a->w.suspend = api_scene_suspend;
     struct compile_result res;
     enum work_submit s = compile_scene(r->body ? r->body : "", r->body_len, &a->w, &res);
-    if (s == WORK_OK)
-        return; /* a belongs to the parse pool until done() */
+    if (s == WORK_OK) return; /* a belongs to the parse pool until done() */
     free(a);
     if (s == WORK_CACHED)
         api_scene_answer(r, &res, then);
@@ -542,14 +492,11 @@ void api_scene(struct http_req *r, api_scene_then then)
         api_refused(r, s);
 }
 
-void api_suspend(struct http_req *r)
-{
-    if (!r->conn.suspended)
-        http_req_suspend(r);
+void api_suspend(struct http_req *r) {
+    if (!r->conn.suspended) http_req_suspend(r);
 }
 
-bool api_is_decimal(const char *s, bool point)
-{
+bool api_is_decimal(const char *s, bool point) {
     size_t digits = strspn(s, "0123456789");
     const char *p = s + digits;
     if (point && *p == '.') {
@@ -560,12 +507,9 @@ bool api_is_decimal(const char *s, bool point)
     return digits > 0 && !*p;
 }
 
-bool api_is_hex(const char *s, size_t n)
-{
-    if (strlen(s) != n)
-        return false;
+bool api_is_hex(const char *s, size_t n) {
+    if (strlen(s) != n) return false;
     for (; *s; s++)
-        if (!((*s >= '0' && *s <= '9') || (*s >= 'a' && *s <= 'f')))
-            return false;
+        if (!((*s >= '0' && *s <= '9') || (*s >= 'a' && *s <= 'f'))) return false;
     return true;
 }

@@ -35,26 +35,21 @@
 
 #define API_DEADLINE_SLACK 4.0
 
-static uint64_t api_cost_fnv(const void *p, size_t n)
-{
+static uint64_t api_cost_fnv(const void *p, size_t n) {
     const unsigned char *b = p;
     uint64_t h = 0xcbf29ce484222325ull;
-    for (size_t i = 0; i < n; i++)
-        h = (h ^ b[i]) * 0x100000001b3ull;
+    for (size_t i = 0; i < n; i++) h = (h ^ b[i]) * 0x100000001b3ull;
     return h;
 }
 
 /* The client r comes from (--client-header, else the peer address), hashed. */
-uint64_t api_cost_client(struct http_req *r)
-{
+uint64_t api_cost_client(struct http_req *r) {
     const char *v = config.client_header ? http_req_header(r, config.client_header) : NULL;
-    if (v && *v)
-        return api_cost_fnv(v, strlen(v));
+    if (v && *v) return api_cost_fnv(v, strlen(v));
     struct sockaddr_storage ss;
     socklen_t len = sizeof ss;
     int fd = http_req_fd(r);
-    if (fd < 0 || getpeername(fd, (struct sockaddr *)&ss, &len) != 0)
-        return 0;
+    if (fd < 0 || getpeername(fd, (struct sockaddr *)&ss, &len) != 0) return 0;
     if (ss.ss_family == AF_INET)
         return api_cost_fnv(&((struct sockaddr_in *)&ss)->sin_addr, sizeof(struct in_addr));
     if (ss.ss_family == AF_INET6) /* a /64 is one host's: it could mint addresses */
@@ -62,8 +57,7 @@ uint64_t api_cost_client(struct http_req *r)
     return 0;
 }
 
-void api_cost_over_budget(struct http_req *r, const struct api_price *p, const char *limit)
-{
+void api_cost_over_budget(struct http_req *r, const struct api_price *p, const char *limit) {
     char msg[320];
     snprintf(msg, sizeof msg,
              "the render's estimated cost is %.3g rays (about %.3g s on this server), over %s; "
@@ -74,8 +68,7 @@ void api_cost_over_budget(struct http_req *r, const struct api_price *p, const c
 }
 
 bool api_cost_price(struct http_req *r, const struct cache_entry *scene, struct work_target *what,
-                    bool progressive, struct api_price *out, char *limit, size_t n)
-{
+                    bool progressive, struct api_price *out, char *limit, size_t n) {
     what->client = api_cost_client(r);
     out->rays = cost_rays(cache_scene(scene), what);
     out->seconds = cost_price_seconds(cache_id(scene), out->rays);
@@ -85,8 +78,7 @@ bool api_cost_price(struct http_req *r, const struct cache_entry *scene, struct 
     }
     double deadline = (double)config.max_render_seconds;
     if (!progressive && deadline > 0 && out->seconds > API_DEADLINE_SLACK * deadline) {
-        snprintf(limit, n,
-                 "%.0f times the server's limit of %ld s a render (--max-render-seconds)",
+        snprintf(limit, n, "%.0f times the server's limit of %ld s a render (--max-render-seconds)",
                  API_DEADLINE_SLACK, config.max_render_seconds);
         return false;
     }
@@ -94,17 +86,14 @@ bool api_cost_price(struct http_req *r, const struct cache_entry *scene, struct 
 }
 
 bool api_cost_admit(struct http_req *r, const struct cache_entry *scene, struct work_target *what,
-                    bool progressive, struct api_price *out)
-{
+                    bool progressive, struct api_price *out) {
     char limit[160];
-    if (api_cost_price(r, scene, what, progressive, out, limit, sizeof limit))
-        return true;
+    if (api_cost_price(r, scene, what, progressive, out, limit, sizeof limit)) return true;
     api_cost_over_budget(r, out, limit);
     return false;
 }
 
-void api_cost_price_headers(struct http_req *r, const struct api_price *p)
-{
+void api_cost_price_headers(struct http_req *r, const struct api_price *p) {
     char v[64];
     snprintf(v, sizeof v, "%.0f", p->rays);
     http_reply_header(r, "X-Rayd-Estimated-Rays", v);
@@ -112,9 +101,7 @@ void api_cost_price_headers(struct http_req *r, const struct api_price *p)
     http_reply_header(r, "X-Rayd-Estimated-Seconds", v);
 }
 
-int api_cost_retry_after(double seconds)
-{
-    if (!(seconds >= 1))
-        return 1;
+int api_cost_retry_after(double seconds) {
+    if (!(seconds >= 1)) return 1;
     return seconds > 600 ? 600 : (int)ceil(seconds);
 }

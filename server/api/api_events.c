@@ -30,16 +30,14 @@ struct api_events {
     size_t carry_len, carry_off;
 };
 
-static void api_events_suspend(struct work_waiter *w)
-{
+static void api_events_suspend(struct work_waiter *w) {
     http_req_suspend(((struct api_events *)w)->r);
 }
 
 /* Woken by news of the job, or by the watcher when the client hung up: then
  * the stream ends at once (the reader's next call), rather than waiting,
  * suspended, for an event that may be long in coming -- a queued job's. */
-static void api_events_wake(struct work_waiter *w, struct work_result *res)
-{
+static void api_events_wake(struct work_waiter *w, struct work_result *res) {
     struct http_req *r = ((struct api_events *)w)->r;
     if (res->gone) {
         r->gone = true;
@@ -50,8 +48,7 @@ static void api_events_wake(struct work_waiter *w, struct work_result *res)
 }
 
 /* "event: NAME\ndata: JSON\n\n" appended to out (o deleted). */
-static size_t api_events_event(char *out, size_t size, const char *name, cJSON *o)
-{
+static size_t api_events_event(char *out, size_t size, const char *name, cJSON *o) {
     char data[2048];
     bool ok = json_print_into(o, data, sizeof data);
     cJSON_Delete(o);
@@ -61,8 +58,7 @@ static size_t api_events_event(char *out, size_t size, const char *name, cJSON *
 
 /* "event: pass": a progressive job's pass is complete (o deleted). */
 static size_t api_events_pass(struct api_events *a, const struct events_item *it, cJSON *o,
-                              char *out, size_t size)
-{
+                              char *out, size_t size) {
     cJSON_AddNumberToObject(o, "pass", it->done);
     cJSON_AddNumberToObject(o, "passes", it->total);
     cJSON_AddNumberToObject(o, "samples", it->samples);
@@ -75,8 +71,7 @@ static size_t api_events_pass(struct api_events *a, const struct events_item *it
 
 /* One item as SSE text into out (2.5 KiB is enough for any). */
 static size_t api_events_format(struct api_events *a, const struct events_item *it,
-                                const struct rayd_error *err, char *out, size_t size)
-{
+                                const struct rayd_error *err, char *out, size_t size) {
     cJSON *o = cJSON_CreateObject();
     size_t n = 0;
     switch (it->kind) {
@@ -96,36 +91,28 @@ static size_t api_events_format(struct api_events *a, const struct events_item *
         cJSON_AddNumberToObject(o, "done", it->done);
         cJSON_AddNumberToObject(o, "total", it->total);
         return n + api_events_event(out + n, size - n, "progress", o);
-    case EVENTS_PASS:
-        return api_events_pass(a, it, o, out, size);
+    case EVENTS_PASS: return api_events_pass(a, it, o, out, size);
     case EVENTS_DONE:
         cJSON_AddStringToObject(o, "state", jobs_state_name(it->state));
         json_add_fixed(o, "progress", it->progress, 4);
-        if (it->samples > 0)
-            cJSON_AddNumberToObject(o, "samples", it->samples);
-        if (it->state == JS_FAILED)
-            cJSON_AddStringToObject(o, "error", err->message);
+        if (it->samples > 0) cJSON_AddNumberToObject(o, "samples", it->samples);
+        if (it->state == JS_FAILED) cJSON_AddStringToObject(o, "error", err->message);
         return api_events_event(out, size, "done", o);
     case EVENTS_PING:
-    default:
-        cJSON_Delete(o);
-        return (size_t)snprintf(out, size, ": keep-alive\n\n");
+    default: cJSON_Delete(o); return (size_t)snprintf(out, size, ": keep-alive\n\n");
     }
 }
 
 /* Copies what fits of text to buf; the rest goes to the carry.  false when
  * the carry cannot be had (out of memory). */
 static bool api_events_put(struct api_events *a, char *buf, size_t max, size_t *used,
-                           const char *text, size_t len)
-{
+                           const char *text, size_t len) {
     size_t k = len < max - *used ? len : max - *used;
     memcpy(buf + *used, text, k);
     *used += k;
-    if (k == len)
-        return true;
+    if (k == len) return true;
     char *c = realloc(a->carry, a->carry_len + len - k);
-    if (!c)
-        return false;
+    if (!c) return false;
     memcpy(c + a->carry_len, text + k, len - k);
     a->carry = c;
     a->carry_len += len - k;
@@ -133,58 +120,48 @@ static bool api_events_put(struct api_events *a, char *buf, size_t max, size_t *
 }
 
 /* Sends what is left of the carry; true when it is empty. */
-static bool api_events_flush(struct api_events *a, char *buf, size_t max, size_t *used)
-{
+static bool api_events_flush(struct api_events *a, char *buf, size_t max, size_t *used) {
     size_t left = a->carry_len - a->carry_off;
     size_t k = left < max - *used ? left : max - *used;
     memcpy(buf + *used, a->carry + a->carry_off, k);
     *used += k;
     a->carry_off += k;
-    if (a->carry_off < a->carry_len)
-        return false;
+    if (a->carry_off < a->carry_len) return false;
     free(a->carry);
     a->carry = NULL;
     a->carry_len = a->carry_off = 0;
     return true;
 }
 
-static ssize_t api_events_reader(void *cls, char *buf, size_t max)
-{
+static ssize_t api_events_reader(void *cls, char *buf, size_t max) {
     struct api_events *a = cls;
     struct http_req *r = a->r;
-    if (r->gone)
-        return HTTP_STREAM_ERROR;
+    if (r->gone) return HTTP_STREAM_ERROR;
     size_t used = 0;
-    if (a->carry && !api_events_flush(a, buf, max, &used))
-        goto out;
+    if (a->carry && !api_events_flush(a, buf, max, &used)) goto out;
     struct events_item items[API_EVENTS_ITEMS];
     struct rayd_error err = {0};
     int n = used ? 0 : events_read(a->s, items, API_EVENTS_ITEMS, &err, &a->w);
-    if (n < 0)
-        return HTTP_STREAM_END;
+    if (n < 0) return HTTP_STREAM_END;
     for (int i = 0; i < n; i++) {
         char text[2560];
         size_t len = api_events_format(a, &items[i], &err, text, sizeof text);
-        if (!api_events_put(a, buf, max, &used, text, len))
-            return HTTP_STREAM_ERROR;
+        if (!api_events_put(a, buf, max, &used, text, len)) return HTTP_STREAM_ERROR;
     }
 out:
     r->res.bytes += used;
     return (ssize_t)used;
 }
 
-static void api_events_free(void *cls)
-{
+static void api_events_free(void *cls) {
     struct api_events *a = cls;
     events_close(a->s);
     free(a->carry);
     free(a);
 }
 
-void api_events_get(struct http_req *r, const char *id)
-{
-    if (!api_only_params(r, NULL))
-        return;
+void api_events_get(struct http_req *r, const char *id) {
+    if (!api_only_params(r, NULL)) return;
     struct api_events *a = calloc(1, sizeof *a);
     if (!a) {
         api_refused(r, WORK_NOMEM);
@@ -200,9 +177,12 @@ void api_events_get(struct http_req *r, const char *id)
     a->w.done = api_events_wake;
     a->w.suspend = api_events_suspend;
     a->w.fd = http_req_fd(r);
-    static const char *const headers[] = {"Content-Type",      "text/event-stream",
-                                          "Cache-Control",     "no-store",
-                                          "X-Accel-Buffering", "no",
+    static const char *const headers[] = {"Content-Type",
+                                          "text/event-stream",
+                                          "Cache-Control",
+                                          "no-store",
+                                          "X-Accel-Buffering",
+                                          "no",
                                           NULL};
     http_reply_stream(r, 200, headers, 4096, api_events_reader, api_events_free, a);
 }

@@ -19,8 +19,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 
-void api_health_live(struct http_req *r, const char *id)
-{
+void api_health_live(struct http_req *r, const char *id) {
     (void)id;
     cJSON *o = cJSON_CreateObject();
     cJSON_AddStringToObject(o, "status", "ok");
@@ -31,12 +30,10 @@ void api_health_live(struct http_req *r, const char *id)
 
 /* "jobs", "max_jobs", and "jobs_refused" while POST /v1/jobs is refused
  * because every job kept is unfinished (jobs.c evicts finished ones only). */
-static void api_health_jobs(cJSON *o, const struct sched_stats *st)
-{
+static void api_health_jobs(cJSON *o, const struct sched_stats *st) {
     cJSON_AddNumberToObject(o, "jobs", (double)st->jobs_unfinished);
     cJSON_AddNumberToObject(o, "max_jobs", (double)st->jobs_cap);
-    if (st->jobs_unfinished < st->jobs_cap)
-        return;
+    if (st->jobs_unfinished < st->jobs_cap) return;
     char msg[200];
     snprintf(msg, sizeof msg,
              "all %ld jobs kept (--max-jobs) are unfinished: POST /v1/jobs answers 503 "
@@ -45,8 +42,7 @@ static void api_health_jobs(cJSON *o, const struct sched_stats *st)
     cJSON_AddStringToObject(o, "jobs_refused", msg);
 }
 
-void api_health_ready(struct http_req *r, const char *id)
-{
+void api_health_ready(struct http_req *r, const char *id) {
     (void)id;
     struct sched_stats st;
     sched_stats(&st);
@@ -80,8 +76,7 @@ void api_health_ready(struct http_req *r, const char *id)
     http_reply_json(r, 200, o);
 }
 
-void api_health_metrics(struct http_req *r, const char *id)
-{
+void api_health_metrics(struct http_req *r, const char *id) {
     (void)id;
     size_t len = 0;
     char *text = metrics_text(&len);

@@ -23,15 +23,13 @@
 #include <string.h>
 #include <time.h>
 
-void api_jobs_unknown(struct http_req *r)
-{
+void api_jobs_unknown(struct http_req *r) {
     http_reply_error(r, 404, "job_unknown", "no such job on this server (or it was forgotten)",
                      NULL, 0, 0, NULL);
 }
 
 /* t, seconds since the epoch, as RFC 3339 UTC: 2026-12-02T00:38:53Z. */
-static void api_jobs_time(char *buf, size_t size, double t)
-{
+static void api_jobs_time(char *buf, size_t size, double t) {
     time_t s = (time_t)t;
     struct tm tm;
     if (!gmtime_r(&s, &tm) || !strftime(buf, size, "%Y-%m-%dT%H:%M:%SZ", &tm))
@@ -40,11 +38,10 @@ static void api_jobs_time(char *buf, size_t size, double t)
 
 /* The sentence of a 410: how the job ended, when, and why it is gone. */
 static void api_jobs_gone_message(char *msg, size_t size, const struct jobs_gone *g,
-                                  const char *ended, const char *gone)
-{
+                                  const char *ended, const char *gone) {
     const char *how = g->state == JS_SUCCEEDED || g->state == JS_EVICTED ? "succeeded"
-                      : g->state == JS_FAILED  ? "failed"
-                                               : "was cancelled";
+                      : g->state == JS_FAILED                            ? "failed"
+                                                                         : "was cancelled";
     if (g->why == JG_EXPIRED)
         snprintf(msg, size,
                  "the job %s at %s and was forgotten at %s: an ended job is kept for --job-ttl "
@@ -62,8 +59,7 @@ static void api_jobs_gone_message(char *msg, size_t size, const struct jobs_gone
 
 /* 410 Gone for a job or its result: the error with the job's end and, when
  * the job is still known, its JSON (job, owned). */
-static void api_jobs_gone(struct http_req *r, const struct jobs_gone *g, cJSON *job)
-{
+static void api_jobs_gone(struct http_req *r, const struct jobs_gone *g, cJSON *job) {
     static const char *const codes[] = {"job_expired", "job_evicted", "result_evicted"};
     char msg[400], ended[40], gone[40];
     api_jobs_time(ended, sizeof ended, g->ended_wall);
@@ -77,15 +73,13 @@ static void api_jobs_gone(struct http_req *r, const struct jobs_gone *g, cJSON *
     cJSON_AddStringToObject(e, "state", jobs_state_name(g->state));
     cJSON_AddStringToObject(e, "ended_at", ended);
     cJSON_AddStringToObject(e, g->why == JG_RESULT_EVICTED ? "evicted_at" : "forgotten_at", gone);
-    if (job)
-        cJSON_AddItemToObject(o, "job", job);
+    if (job) cJSON_AddItemToObject(o, "job", job);
     http_reply_json(r, 410, o);
     http_reply_header(r, "Cache-Control", "no-store");
     r->res.err_code = codes[g->why];
 }
 
-void api_jobs_missing(struct http_req *r, const char *id)
-{
+void api_jobs_missing(struct http_req *r, const char *id) {
     struct jobs_gone g;
     if (api_is_hex(id, 32) && jobs_gone(id, &g))
         api_jobs_gone(r, &g, NULL);
@@ -93,17 +87,14 @@ void api_jobs_missing(struct http_req *r, const char *id)
         api_jobs_unknown(r);
 }
 
-bool api_jobs_evicted(struct http_req *r, const char *id, const struct jobs_info *info)
-{
-    if (!info->result_evicted)
-        return false;
+bool api_jobs_evicted(struct http_req *r, const char *id, const struct jobs_info *info) {
+    if (!info->result_evicted) return false;
     api_jobs_scene(r, info);
     api_jobs_gone(r, &info->gone, api_jobs_json(id, info));
     return true;
 }
 
-static void api_job_url(char *buf, size_t size, const char *id, const char *tail)
-{
+static void api_job_url(char *buf, size_t size, const char *id, const char *tail) {
     snprintf(buf, size, "/v1/jobs/%s%s", id, tail);
 }
 
@@ -112,16 +103,14 @@ static void api_job_url(char *buf, size_t size, const char *id, const char *tail
 static const char *const api_plan_names[] = {"progressive", "pass_step", "time_budget",
                                              "noise_target", NULL};
 /* What POST /v1/jobs takes besides the region. */
-static const char *const api_jobs_names[] = {"progressive",  "pass_step", "time_budget",
-                                             "noise_target", "format",    "priority", NULL};
+static const char *const api_jobs_names[] = {
+    "progressive", "pass_step", "time_budget", "noise_target", "format", "priority", NULL};
 
 /* A decimal number in (0, max] from ?name=, if given: digits and a point
  * only (api_is_decimal), so 0x10, 1e3, inf and " 5" are refused. */
-static bool api_plan_number(struct http_req *r, const char *name, double max, double *out)
-{
+static bool api_plan_number(struct http_req *r, const char *name, double max, double *out) {
     const char *v = http_req_query(r, name);
-    if (!v)
-        return true;
+    if (!v) return true;
     double x = strtod(v, NULL);
     if (!api_is_decimal(v, true) || !(x > 0 && x <= max)) {
         char why[100];
@@ -135,8 +124,7 @@ static bool api_plan_number(struct http_req *r, const char *name, double max, do
 /* ?progressive=1 and its options into *plan; *progressive false without
  * it.  Replies 400 and returns false on a bad one. */
 static bool api_plan(struct http_req *r, const rayd_scene *scene, struct jobs_plan *plan,
-                     bool *progressive)
-{
+                     bool *progressive) {
     memset(plan, 0, sizeof *plan);
     for (int i = 0; api_plan_names[i]; i++)
         if (http_req_query_count(r, api_plan_names[i]) > 1)
@@ -161,8 +149,8 @@ static bool api_plan(struct http_req *r, const rayd_scene *scene, struct jobs_pl
     int samples[PASSES_MAX];
     if (*progressive && passes_plan(plan, info.samples, samples) < 0) {
         char why[120];
-        snprintf(why, sizeof why, "%d samples in steps of %d is more than %d passes",
-                 info.samples, plan->step, PASSES_MAX);
+        snprintf(why, sizeof why, "%d samples in steps of %d is more than %d passes", info.samples,
+                 plan->step, PASSES_MAX);
         return api_bad_param(r, "pass_step", why);
     }
     return true;
@@ -171,8 +159,7 @@ static bool api_plan(struct http_req *r, const rayd_scene *scene, struct jobs_pl
 /* ?format=png|exr into what (POST /v1/render's names; a job keeps its
  * 8-bit PNG always, and with exr the EXR of the same samples).  Replies
  * 400 naming format and returns false on a bad one. */
-static bool api_jobs_format(struct http_req *r, struct work_target *what)
-{
+static bool api_jobs_format(struct http_req *r, struct work_target *what) {
     const char *v = http_req_query(r, "format");
     if (http_req_query_count(r, "format") > 1)
         return api_bad_param(r, "format", "given more than once");
@@ -186,8 +173,7 @@ static bool api_jobs_format(struct http_req *r, struct work_target *what)
 }
 
 /* "estimate": {"rays", "seconds"}: the job's price (api_cost.c). */
-static void api_add_estimate(cJSON *o, const struct api_price *p)
-{
+static void api_add_estimate(cJSON *o, const struct api_price *p) {
     cJSON *e = cJSON_AddObjectToObject(o, "estimate");
     json_add_fixed(e, "rays", p->rays, 0);
     json_add_fixed(e, "seconds", p->seconds, 3);
@@ -195,14 +181,12 @@ static void api_add_estimate(cJSON *o, const struct api_price *p)
 
 /* ?priority=low|normal|high into *p (normal without it); 400 and false on
  * a bad one. */
-static bool api_jobs_priority(struct http_req *r, int *p)
-{
+static bool api_jobs_priority(struct http_req *r, int *p) {
     const char *v = http_req_query(r, "priority");
     *p = JP_NORMAL;
     if (http_req_query_count(r, "priority") > 1)
         return api_bad_param(r, "priority", "given more than once");
-    if (!v)
-        return true;
+    if (!v) return true;
     for (int i = JP_LOW; i <= JP_HIGH; i++)
         if (!strcmp(v, jobs_priority_name(i))) {
             *p = i;
@@ -224,8 +208,7 @@ struct api_jobs_wait {
 };
 
 /* 202: the job's id and where to follow it. */
-static void api_jobs_accepted(struct api_jobs_wait *a)
-{
+static void api_jobs_accepted(struct api_jobs_wait *a) {
     struct http_req *r = a->r;
     char url[80];
     cJSON *o = cJSON_CreateObject();
@@ -251,8 +234,7 @@ static void api_jobs_accepted(struct api_jobs_wait *a)
 
 /* The store thread's word (--data-dir): the job is on disk, or could not
  * be recorded (then it is cancelled: a job rayd cannot keep is not taken). */
-static void api_jobs_recorded(struct work_waiter *w, struct work_result *res)
-{
+static void api_jobs_recorded(struct work_waiter *w, struct work_result *res) {
     struct api_jobs_wait *a = (struct api_jobs_wait *)w;
     if (res->status == RAYD_OK) {
         api_jobs_accepted(a);
@@ -265,15 +247,13 @@ static void api_jobs_recorded(struct work_waiter *w, struct work_result *res)
     free(a);
 }
 
-static void api_jobs_recorded_suspend(struct work_waiter *w)
-{
+static void api_jobs_recorded_suspend(struct work_waiter *w) {
     api_suspend(((struct api_jobs_wait *)w)->r);
 }
 
 /* POST /v1/jobs once its scene is compiled (api_scene's continuation);
  * true when the request waits for the store (it resumes it). */
-static bool api_jobs_compiled(struct http_req *r, struct cache_entry *e, bool hit)
-{
+static bool api_jobs_compiled(struct http_req *r, struct cache_entry *e, bool hit) {
     (void)hit;
     bool progressive = false;
     struct work_target what = {.format = WORK_PNG};
@@ -298,8 +278,7 @@ static bool api_jobs_compiled(struct http_req *r, struct cache_entry *e, bool hi
     a->price = price;
     how.w = &a->w;
     enum work_submit s = jobs_submit(e, &what, progressive ? &plan : NULL, &how, a->id);
-    if (how.waiting)
-        return true; /* a is the store's until done() */
+    if (how.waiting) return true; /* a is the store's until done() */
     if (s != WORK_OK)
         api_refused(r, s);
     else
@@ -308,15 +287,13 @@ static bool api_jobs_compiled(struct http_req *r, struct cache_entry *e, bool hi
     return false;
 }
 
-void api_jobs_post(struct http_req *r, const char *unused)
-{
+void api_jobs_post(struct http_req *r, const char *unused) {
     (void)unused;
     api_scene(r, api_jobs_compiled);
 }
 
 /* "noise": the estimate with 6 decimals, or null before there is one. */
-void api_jobs_add_noise(cJSON *o, double noise)
-{
+void api_jobs_add_noise(cJSON *o, double noise) {
     if (noise >= 0)
         json_add_fixed(o, "noise", noise, 6);
     else
@@ -324,8 +301,7 @@ void api_jobs_add_noise(cJSON *o, double noise)
 }
 
 /* "image_url" of pass k of job id. */
-void api_jobs_add_pass_url(cJSON *o, const char *id, int k)
-{
+void api_jobs_add_pass_url(cJSON *o, const char *id, int k) {
     char url[100], tail[40];
     snprintf(tail, sizeof tail, "/image.png?pass=%d", k);
     api_job_url(url, sizeof url, id, tail);
@@ -333,8 +309,7 @@ void api_jobs_add_pass_url(cJSON *o, const char *id, int k)
 }
 
 /* "exr_url" of pass k of job id (a job with format=exr). */
-static void api_jobs_add_pass_exr_url(cJSON *o, const char *id, int k)
-{
+static void api_jobs_add_pass_exr_url(cJSON *o, const char *id, int k) {
     char url[100], tail[40];
     snprintf(tail, sizeof tail, "/image.exr?pass=%d", k);
     api_job_url(url, sizeof url, id, tail);
@@ -342,8 +317,7 @@ static void api_jobs_add_pass_exr_url(cJSON *o, const char *id, int k)
 }
 
 /* A progressive job's "passes" object. */
-static void api_job_passes(cJSON *o, const char *id, const struct jobs_passes *p, bool exr)
-{
+static void api_job_passes(cJSON *o, const char *id, const struct jobs_passes *p, bool exr) {
     cJSON *x = cJSON_AddObjectToObject(o, "passes");
     cJSON_AddNumberToObject(x, "done", p->done);
     cJSON_AddNumberToObject(x, "total", p->total);
@@ -356,14 +330,11 @@ static void api_job_passes(cJSON *o, const char *id, const struct jobs_passes *p
         cJSON_AddStringToObject(x, "stopped_by", why);
     else
         cJSON_AddNullToObject(x, "stopped_by");
-    if (p->done)
-        api_jobs_add_pass_url(x, id, p->done);
-    if (p->done && exr)
-        api_jobs_add_pass_exr_url(x, id, p->done);
+    if (p->done) api_jobs_add_pass_url(x, id, p->done);
+    if (p->done && exr) api_jobs_add_pass_exr_url(x, id, p->done);
 }
 
-cJSON *api_jobs_json(const char *id, const struct jobs_info *in)
-{
+cJSON *api_jobs_json(const char *id, const struct jobs_info *in) {
     cJSON *o = cJSON_CreateObject();
     cJSON_AddStringToObject(o, "id", id);
     cJSON_AddStringToObject(o, "state", jobs_state_name(in->state));
@@ -393,8 +364,7 @@ cJSON *api_jobs_json(const char *id, const struct jobs_info *in)
     }
     struct api_price price = {in->est_rays, cost_price_seconds(in->scene_id, in->est_rays)};
     api_add_estimate(o, &price);
-    if (in->progressive)
-        api_job_passes(o, id, &in->passes, in->keep_exr);
+    if (in->progressive) api_job_passes(o, id, &in->passes, in->keep_exr);
     if (in->state == JS_SUCCEEDED) {
         char url[80];
         api_job_url(url, sizeof url, id, "/image.png");
@@ -405,9 +375,9 @@ cJSON *api_jobs_json(const char *id, const struct jobs_info *in)
         }
     }
     if (in->state == JS_EVICTED)
-        cJSON_AddStringToObject(o, "evicted_reason", in->result_evicted && in->gone.detail[0]
-                                                         ? in->gone.detail
-                                                         : JOBS_EVICTED_WHY);
+        cJSON_AddStringToObject(o, "evicted_reason",
+                                in->result_evicted && in->gone.detail[0] ? in->gone.detail
+                                                                         : JOBS_EVICTED_WHY);
     if (in->state == JS_FAILED) {
         cJSON *err = cJSON_AddObjectToObject(o, "error");
         cJSON_AddStringToObject(err, "code", rayd_status_name(in->err.code));
@@ -418,54 +388,44 @@ cJSON *api_jobs_json(const char *id, const struct jobs_info *in)
     return o;
 }
 
-void api_jobs_scene(struct http_req *r, const struct jobs_info *info)
-{
+void api_jobs_scene(struct http_req *r, const struct jobs_info *info) {
     snprintf(r->res.scene, sizeof r->res.scene, "%s", info->scene_id);
 }
 
-void api_jobs_get(struct http_req *r, const char *id)
-{
+void api_jobs_get(struct http_req *r, const char *id) {
     struct jobs_info info;
-    if (!api_only_params(r, NULL))
-        return;
+    if (!api_only_params(r, NULL)) return;
     if (!api_is_hex(id, 32) || !jobs_get(id, &info, JOBS_NUMBERS)) {
         api_jobs_missing(r, id);
         return;
     }
-    if (api_jobs_evicted(r, id, &info))
-        return;
+    if (api_jobs_evicted(r, id, &info)) return;
     api_jobs_scene(r, &info);
     http_reply_json(r, 200, api_jobs_json(id, &info));
 }
 
-void api_jobs_delete(struct http_req *r, const char *id)
-{
+void api_jobs_delete(struct http_req *r, const char *id) {
     struct jobs_info info;
-    if (!api_only_params(r, NULL))
-        return;
+    if (!api_only_params(r, NULL)) return;
     if (!api_is_hex(id, 32) || !jobs_cancel(id) || !jobs_get(id, &info, JOBS_NUMBERS)) {
         api_jobs_missing(r, id);
         return;
     }
-    if (api_jobs_evicted(r, id, &info))
-        return;
+    if (api_jobs_evicted(r, id, &info)) return;
     api_jobs_scene(r, &info);
     http_reply_json(r, 200, api_jobs_json(id, &info));
 }
 
-void api_jobs_stop(struct http_req *r, const char *id)
-{
+void api_jobs_stop(struct http_req *r, const char *id) {
     struct jobs_info info;
     bool progressive = false;
-    if (!api_only_params(r, NULL))
-        return;
+    if (!api_only_params(r, NULL)) return;
     if (!api_is_hex(id, 32) || !jobs_end_early(id, &progressive) ||
         !jobs_get(id, &info, JOBS_NUMBERS)) {
         api_jobs_missing(r, id);
         return;
     }
-    if (api_jobs_evicted(r, id, &info))
-        return;
+    if (api_jobs_evicted(r, id, &info)) return;
     api_jobs_scene(r, &info);
     if (!progressive) {
         http_reply_error(r, 409, "not_progressive",
@@ -478,17 +438,14 @@ void api_jobs_stop(struct http_req *r, const char *id)
 
 /* ---- GET /v1/jobs: the calling client's jobs --------------------------------- */
 
-#define API_JOBS_PAGE 20     /* jobs a page holds without ?limit= */
+#define API_JOBS_PAGE 20 /* jobs a page holds without ?limit= */
 #define API_JOBS_PAGE_MAX 100
 
 /* ?name=, a whole number in 1..max, into *out (left as is without it). */
-static bool api_jobs_count(struct http_req *r, const char *name, long long max, long long *out)
-{
+static bool api_jobs_count(struct http_req *r, const char *name, long long max, long long *out) {
     const char *v = http_req_query(r, name);
-    if (http_req_query_count(r, name) > 1)
-        return api_bad_param(r, name, "given more than once");
-    if (!v)
-        return true;
+    if (http_req_query_count(r, name) > 1) return api_bad_param(r, name, "given more than once");
+    if (!v) return true;
     long long x = strtoll(v, NULL, 10);
     if (!api_is_decimal(v, false) || strlen(v) > 18 || x < 1 || x > max) {
         char why[100];
@@ -500,14 +457,12 @@ static bool api_jobs_count(struct http_req *r, const char *name, long long max, 
 }
 
 /* ?state=: a job state's name, or any (-1) without it. */
-static bool api_jobs_state_param(struct http_req *r, int *state)
-{
+static bool api_jobs_state_param(struct http_req *r, int *state) {
     const char *v = http_req_query(r, "state");
     *state = -1;
     if (http_req_query_count(r, "state") > 1)
         return api_bad_param(r, "state", "given more than once");
-    if (!v)
-        return true;
+    if (!v) return true;
     for (int i = JS_QUEUED; i <= JS_EVICTED; i++)
         if (!strcmp(v, jobs_state_name((enum jobs_state)i))) {
             *state = i;
@@ -517,8 +472,7 @@ static bool api_jobs_state_param(struct http_req *r, int *state)
                          "must be queued, running, succeeded, failed, canceled or evicted");
 }
 
-void api_jobs_list(struct http_req *r, const char *unused)
-{
+void api_jobs_list(struct http_req *r, const char *unused) {
     (void)unused;
     static const char *const takes[] = {"limit", "after", "state", NULL};
     long long limit = API_JOBS_PAGE, after = 0;

@@ -23,8 +23,7 @@
 #include <string.h>
 
 /* Which pass an image is: X-Rayd-Pass "k/total", X-Rayd-Samples n. */
-static void api_pass_headers(struct http_req *r, int pass, int total, int samples)
-{
+static void api_pass_headers(struct http_req *r, int pass, int total, int samples) {
     char v[32];
     snprintf(v, sizeof v, "%d/%d", pass, total);
     http_reply_header(r, "X-Rayd-Pass", v);
@@ -33,10 +32,8 @@ static void api_pass_headers(struct http_req *r, int pass, int total, int sample
 }
 
 /* 409 not_exr when the EXR is asked of a job that keeps none; true if so. */
-static bool api_jobs_no_exr(struct http_req *r, const struct jobs_info *info, bool exr)
-{
-    if (!exr || info->keep_exr)
-        return false;
+static bool api_jobs_no_exr(struct http_req *r, const struct jobs_info *info, bool exr) {
+    if (!exr || info->keep_exr) return false;
     http_reply_error(r, 409, "not_exr",
                      "this job keeps no EXR: create it with POST /v1/jobs?format=exr (its PNG is "
                      "image.png)",
@@ -45,15 +42,14 @@ static bool api_jobs_no_exr(struct http_req *r, const struct jobs_info *info, bo
 }
 
 /* The image's 200: its type, cache policy and, for a pass, which one. */
-static void api_jobs_image_reply(struct http_req *r, struct blob *img, bool exr, const char *cache)
-{
+static void api_jobs_image_reply(struct http_req *r, struct blob *img, bool exr,
+                                 const char *cache) {
     http_reply_image(r, 200, img, api_format_type(exr ? WORK_EXR : WORK_PNG));
     http_reply_header(r, "Cache-Control", cache);
 }
 
 /* 202 + Retry-After and the job's JSON: the image is not there yet. */
-static void api_jobs_not_yet(struct http_req *r, const char *id, const struct jobs_info *info)
-{
+static void api_jobs_not_yet(struct http_req *r, const char *id, const struct jobs_info *info) {
     http_reply_json(r, 202, api_jobs_json(id, info));
     http_reply_header(r, "Retry-After", "1");
 }
@@ -61,29 +57,23 @@ static void api_jobs_not_yet(struct http_req *r, const char *id, const struct jo
 /* Why ?pass=q is refused for the job info, or NULL; range is a buffer for
  * the message naming the job's passes. */
 static const char *api_jobs_pass_why(struct http_req *r, const char *q,
-                                     const struct jobs_info *info, char *range, size_t size)
-{
+                                     const struct jobs_info *info, char *range, size_t size) {
     long k = strtol(q, NULL, 10);
     snprintf(range, size, "must be a pass number of this job, 1..%d", info->passes.total);
-    if (http_req_query_count(r, "pass") > 1)
-        return "given more than once";
-    if (!info->progressive)
-        return "only a progressive job has passes";
-    if (!api_is_decimal(q, false) || k < 1 || k > info->passes.total)
-        return range;
+    if (http_req_query_count(r, "pass") > 1) return "given more than once";
+    if (!info->progressive) return "only a progressive job has passes";
+    if (!api_is_decimal(q, false) || k < 1 || k > info->passes.total) return range;
     return NULL;
 }
 
 /* ?pass=K: that pass's image, while kept. */
-static void api_jobs_pass_image(struct http_req *r, const char *id, const char *q, bool exr)
-{
+static void api_jobs_pass_image(struct http_req *r, const char *id, const char *q, bool exr) {
     struct jobs_info info;
     if (!jobs_get(id, &info, JOBS_NUMBERS)) {
         api_jobs_missing(r, id);
         return;
     }
-    if (api_jobs_evicted(r, id, &info))
-        return;
+    if (api_jobs_evicted(r, id, &info)) return;
     api_jobs_scene(r, &info);
     char range[80];
     const char *why = api_jobs_pass_why(r, q, &info, range, sizeof range);
@@ -91,8 +81,7 @@ static void api_jobs_pass_image(struct http_req *r, const char *id, const char *
         api_bad_param(r, "pass", why);
         return;
     }
-    if (api_jobs_no_exr(r, &info, exr))
-        return;
+    if (api_jobs_no_exr(r, &info, exr)) return;
     int k = (int)strtol(q, NULL, 10), samples = 0;
     struct blob *img = NULL;
     jobs_pass_image(id, k, exr, &img, &samples);
@@ -111,8 +100,7 @@ static void api_jobs_pass_image(struct http_req *r, const char *id, const char *
 }
 
 /* The job's failure (409), or 202 while it has no image yet. */
-static void api_jobs_no_image(struct http_req *r, const char *id, const struct jobs_info *info)
-{
+static void api_jobs_no_image(struct http_req *r, const char *id, const struct jobs_info *info) {
     if (info->state == JS_FAILED) {
         char msg[400];
         snprintf(msg, sizeof msg, "the job failed: %s", info->err.message);
@@ -127,21 +115,19 @@ static void api_jobs_no_image(struct http_req *r, const char *id, const struct j
 }
 
 /* The final image (a progressive job's latest pass while it runs). */
-static void api_jobs_final_image(struct http_req *r, const char *id, bool exr)
-{
+static void api_jobs_final_image(struct http_req *r, const char *id, bool exr) {
     struct jobs_info info;
     if (!jobs_get(id, &info, exr ? JOBS_EXR : JOBS_PNG)) {
         api_jobs_missing(r, id);
         return;
     }
-    if (api_jobs_evicted(r, id, &info))
-        return;
+    if (api_jobs_evicted(r, id, &info)) return;
     api_jobs_scene(r, &info);
     struct blob *img = exr ? info.exr : info.png;
     if (!img && info.on_disk && (!exr || info.keep_exr) && !(img = store_read(id, exr))) {
         http_reply_error(r, 410, "result_evicted",
-                         "the job's image is no longer on disk (--max-disk evicted it)", NULL, 0,
-                         0, NULL);
+                         "the job's image is no longer on disk (--max-disk evicted it)", NULL, 0, 0,
+                         NULL);
         return;
     }
     if (api_jobs_no_exr(r, &info, exr)) {
@@ -157,12 +143,10 @@ static void api_jobs_final_image(struct http_req *r, const char *id, bool exr)
     blob_unref(img);
 }
 
-static void api_jobs_image_as(struct http_req *r, const char *id, bool exr)
-{
+static void api_jobs_image_as(struct http_req *r, const char *id, bool exr) {
     static const char *const takes[] = {"pass", NULL};
     const char *pass = http_req_query(r, "pass");
-    if (!api_only_params(r, takes))
-        return;
+    if (!api_only_params(r, takes)) return;
     if (!api_is_hex(id, 32))
         api_jobs_unknown(r);
     else if (pass)

@@ -39,18 +39,15 @@ struct api_render_wait {
 /* The image reply: its type, the cache headers, the price, and Vary:
  * Accept where the Accept header can choose the format. */
 static void api_render_reply(struct http_req *r, struct blob *img, enum work_format format,
-                             const struct api_price *price)
-{
+                             const struct api_price *price) {
     http_reply_image(r, 200, img, api_format_type(format));
     http_reply_cache_headers(r);
     api_cost_price_headers(r, price);
-    if (r->route.negotiates)
-        http_reply_vary(r, "Accept");
+    if (r->route.negotiates) http_reply_vary(r, "Accept");
 }
 
 /* The worker's answer (or the watcher's "gone"): the reply, then resume. */
-static void api_render_done(struct work_waiter *w, struct work_result *res)
-{
+static void api_render_done(struct work_waiter *w, struct work_result *res) {
     struct api_render_wait a = *(struct api_render_wait *)w;
     struct http_req *r = a.r;
     free(w);
@@ -71,8 +68,7 @@ static void api_render_done(struct work_waiter *w, struct work_result *res)
     http_req_resume(r);
 }
 
-static void api_render_suspend(struct work_waiter *w)
-{
+static void api_render_suspend(struct work_waiter *w) {
     api_suspend(((struct api_render_wait *)w)->r);
 }
 
@@ -81,8 +77,7 @@ static void api_render_suspend(struct work_waiter *w)
  * suspended until a worker answers (true: r is the worker's now), or
  * refused with a 503. */
 static bool api_render_submit(struct http_req *r, struct cache_entry *scene,
-                              struct work_target *what)
-{
+                              struct work_target *what) {
     enum work_format format = what->format;
     struct api_price price;
     char limit[160];
@@ -110,8 +105,7 @@ static bool api_render_submit(struct http_req *r, struct cache_entry *scene,
     a->w.suspend = api_render_suspend;
     a->w.fd = http_req_fd(r);
     enum work_submit s = sched_render(scene, what, &a->w, &png);
-    if (s == WORK_OK)
-        return true; /* a belongs to the work layer until done() */
+    if (s == WORK_OK) return true; /* a belongs to the work layer until done() */
     free(a);
     if (s == WORK_CACHED) {
         api_render_reply(r, png, format, &price);
@@ -124,23 +118,20 @@ static bool api_render_submit(struct http_req *r, struct cache_entry *scene,
 }
 
 /* POST /v1/render once its scene is compiled (api_scene's continuation). */
-static bool api_render_scene(struct http_req *r, struct cache_entry *e, bool hit)
-{
+static bool api_render_scene(struct http_req *r, struct cache_entry *e, bool hit) {
     (void)hit;
     struct work_target what;
     return api_target(r, cache_scene(e), &what) && api_render_submit(r, e, &what);
 }
 
-void api_render_post(struct http_req *r, const char *id)
-{
+void api_render_post(struct http_req *r, const char *id) {
     (void)id;
     r->route.negotiates = true;
     api_scene(r, api_render_scene);
 }
 
 /* POST /v1/scenes once its scene is compiled: 201 and what it is. */
-static bool api_scenes_created(struct http_req *r, struct cache_entry *e, bool hit)
-{
+static bool api_scenes_created(struct http_req *r, struct cache_entry *e, bool hit) {
     struct rayd_scene_info info;
     rayd_scene_info(cache_scene(e), &info);
     cJSON *o = cJSON_CreateObject();
@@ -156,33 +147,26 @@ static bool api_scenes_created(struct http_req *r, struct cache_entry *e, bool h
     return false;
 }
 
-void api_scenes_post(struct http_req *r, const char *id)
-{
+void api_scenes_post(struct http_req *r, const char *id) {
     (void)id;
-    if (api_only_params(r, NULL))
-        api_scene(r, api_scenes_created);
+    if (api_only_params(r, NULL)) api_scene(r, api_scenes_created);
 }
 
 /* If-None-Match: a list of entity tags or "*"; weak comparison. */
-static bool api_etag_match(const char *inm, const char *etag)
-{
+static bool api_etag_match(const char *inm, const char *etag) {
     size_t el = strlen(etag), n;
     const char *p = inm, *item;
     while (p && http_req_list_next(&p, &item, &n)) {
-        if (item[0] == '*')
-            return true;
-        if (n >= 2 && !strncmp(item, "W/", 2))
-            item += 2, n -= 2;
-        if (n == el && !memcmp(item, etag, el))
-            return true;
+        if (item[0] == '*') return true;
+        if (n >= 2 && !strncmp(item, "W/", 2)) item += 2, n -= 2;
+        if (n == el && !memcmp(item, etag, el)) return true;
     }
     return false;
 }
 
 /* GET /v1/scenes/{id}/image.png with the scene found (e referenced for
  * the call, or NULL): the image, 304, or a 404; true when a render took r. */
-static bool api_scenes_image_of(struct http_req *r, struct cache_entry *e)
-{
+static bool api_scenes_image_of(struct http_req *r, struct cache_entry *e) {
     if (!e) {
         http_reply_error(r, 404, "scene_unknown",
                          "this server does not hold that scene; POST it to /v1/scenes", NULL, 0, 0,
@@ -190,8 +174,7 @@ static bool api_scenes_image_of(struct http_req *r, struct cache_entry *e)
         return false;
     }
     struct rayd_region reg;
-    if (!api_region(r, cache_scene(e), &reg))
-        return false;
+    if (!api_region(r, cache_scene(e), &reg)) return false;
     /* the bytes depend on the version that draws them and the deflate
      * that encodes them (library, version, level), not only on the scene
      * (its text and the files it read: cache_version) and region: a strong
@@ -200,8 +183,7 @@ static bool api_scenes_image_of(struct http_req *r, struct cache_entry *e)
     char key[240], hex[65];
     snprintf(key, sizeof key, "%s@%d,%d,%d,%d@%s,%s", cache_version(e), reg.x, reg.y, reg.w, reg.h,
              RAYD_VERSION, rayd_png_encoder((int)config.png_level));
-    if (cache_hash(key, strlen(key), hex))
-        snprintf(r->res.etag, sizeof r->res.etag, "\"%s\"", hex);
+    if (cache_hash(key, strlen(key), hex)) snprintf(r->res.etag, sizeof r->res.etag, "\"%s\"", hex);
     r->res.etag_revalidate = rayd_scene_files(cache_scene(e)) > 0;
     const char *inm = http_req_header(r, "If-None-Match");
     if (inm && api_etag_match(inm, r->res.etag)) {
@@ -226,8 +208,7 @@ struct api_find_wait {
     struct http_req *r;
 };
 
-static void api_find_done(struct compile_waiter *w, struct compile_result *res)
-{
+static void api_find_done(struct compile_waiter *w, struct compile_result *res) {
     struct http_req *r = ((struct api_find_wait *)w)->r;
     free(w);
     bool handed = false;
@@ -236,22 +217,20 @@ static void api_find_done(struct compile_waiter *w, struct compile_result *res)
     else
         handed = api_scenes_image_of(r, res->scene);
     scenes_release(res->scene);
-    if (!handed)
-        http_req_resume(r);
+    if (!handed) http_req_resume(r);
 }
 
-static void api_find_suspend(struct compile_waiter *w)
-{
+static void api_find_suspend(struct compile_waiter *w) {
     http_req_suspend(((struct api_find_wait *)w)->r);
 }
 
-void api_scenes_image(struct http_req *r, const char *id)
-{
+void api_scenes_image(struct http_req *r, const char *id) {
     if (!api_is_hex(id, 64)) {
         api_scenes_image_of(r, NULL);
         return;
     }
-    snprintf(r->res.scene, sizeof r->res.scene, "%s", id); /* for the access log, known here or not */
+    snprintf(r->res.scene, sizeof r->res.scene, "%s",
+             id); /* for the access log, known here or not */
     struct api_find_wait *a = calloc(1, sizeof *a);
     if (!a) {
         api_refused(r, WORK_NOMEM);
@@ -262,8 +241,7 @@ void api_scenes_image(struct http_req *r, const char *id)
     a->w.suspend = api_find_suspend;
     struct compile_result res;
     enum work_submit s = compile_find_scene(id, &a->w, &res);
-    if (s == WORK_OK)
-        return; /* a belongs to the parse pool until done() */
+    if (s == WORK_OK) return; /* a belongs to the parse pool until done() */
     free(a);
     if (s == WORK_CACHED) {
         api_scenes_image_of(r, res.scene);

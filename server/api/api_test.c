@@ -28,8 +28,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-static void api_test_gate_reply(struct http_req *r, const struct gate_state *g)
-{
+static void api_test_gate_reply(struct http_req *r, const struct gate_state *g) {
     cJSON *o = cJSON_CreateObject();
     if (g->tiles < 0)
         cJSON_AddStringToObject(o, "tiles", "open");
@@ -50,15 +49,13 @@ static void api_test_gate_reply(struct http_req *r, const struct gate_state *g)
     http_reply_json(r, 200, o);
 }
 
-static void api_test_gate_off(struct http_req *r)
-{
+static void api_test_gate_off(struct http_req *r) {
     http_reply_error(r, 404, "not_found", "no such resource (rayd runs without --test-gate)", NULL,
                      0, 0, NULL);
 }
 
 /* "open" (-1) or a decimal count into *n. */
-static bool api_test_count(const char *v, long *n)
-{
+static bool api_test_count(const char *v, long *n) {
     if (!strcmp(v, "open")) {
         *n = -1;
         return true;
@@ -68,8 +65,7 @@ static bool api_test_count(const char *v, long *n)
     return api_is_decimal(v, false) && !errno && *n <= 1000000000L;
 }
 
-void api_test_gate_get(struct http_req *r, const char *id)
-{
+void api_test_gate_get(struct http_req *r, const char *id) {
     (void)id;
     struct gate_state g;
     if (!gate_get(&g)) {
@@ -79,8 +75,7 @@ void api_test_gate_get(struct http_req *r, const char *id)
     api_test_gate_reply(r, &g);
 }
 
-void api_test_gate_post(struct http_req *r, const char *id)
-{
+void api_test_gate_post(struct http_req *r, const char *id) {
     (void)id;
     struct gate_state g;
     if (!gate_get(&g)) {
@@ -91,8 +86,8 @@ void api_test_gate_post(struct http_req *r, const char *id)
     const char *wv = http_req_query(r, "work");
     long n = 0, parses = 0, work = 0;
     if (wv && !api_test_count(wv, &work)) {
-        http_reply_error(r, 400, "bad_parameter", "work must be 'open' or an integer >= 0", NULL,
-                         0, 0, "work");
+        http_reply_error(r, 400, "bad_parameter", "work must be 'open' or an integer >= 0", NULL, 0,
+                         0, "work");
         return;
     }
     if (pv && !api_test_count(pv, &parses)) {
@@ -105,12 +100,9 @@ void api_test_gate_post(struct http_req *r, const char *id)
                          0, 0, "tiles");
         return;
     }
-    if (wv)
-        task_gate_work(work);
-    if (pv)
-        compile_gate_set(parses);
-    if (v)
-        gate_set(n);
+    if (wv) task_gate_work(work);
+    if (pv) compile_gate_set(parses);
+    if (v) gate_set(n);
     gate_get(&g);
     api_test_gate_reply(r, &g);
 }

@@ -27,35 +27,24 @@
 
 #include "web_assets.h"
 
-static const struct web_asset *api_web_find(const char *name)
-{
+static const struct web_asset *api_web_find(const char *name) {
     for (const struct web_asset *a = web_assets; a->name; a++)
-        if (!strcmp(a->name, name))
-            return a;
+        if (!strcmp(a->name, name)) return a;
     return NULL;
 }
 
 bool api_web_exists(const char *name) { return api_web_find(name) != NULL; }
 
-static const char *api_web_type(const char *name)
-{
+static const char *api_web_type(const char *name) {
     const char *dot = strrchr(name, '.');
-    if (!dot)
-        return "application/octet-stream";
-    if (!strcmp(dot, ".html"))
-        return "text/html; charset=utf-8";
-    if (!strcmp(dot, ".js"))
-        return "text/javascript; charset=utf-8";
-    if (!strcmp(dot, ".css"))
-        return "text/css; charset=utf-8";
-    if (!strcmp(dot, ".json"))
-        return "application/json";
-    if (!strcmp(dot, ".png"))
-        return "image/png";
-    if (!strcmp(dot, ".svg"))
-        return "image/svg+xml";
-    if (!strcmp(dot, ".ico"))
-        return "image/x-icon";
+    if (!dot) return "application/octet-stream";
+    if (!strcmp(dot, ".html")) return "text/html; charset=utf-8";
+    if (!strcmp(dot, ".js")) return "text/javascript; charset=utf-8";
+    if (!strcmp(dot, ".css")) return "text/css; charset=utf-8";
+    if (!strcmp(dot, ".json")) return "application/json";
+    if (!strcmp(dot, ".png")) return "image/png";
+    if (!strcmp(dot, ".svg")) return "image/svg+xml";
+    if (!strcmp(dot, ".ico")) return "image/x-icon";
     return "application/octet-stream";
 }
 
@@ -63,13 +52,12 @@ static const char *api_web_type(const char *name)
  * canvas draws tiles from fetched bytes (createImageBitmap), not from <img>
  * URLs, and the downloads are navigations, so images need no blob: or
  * data:. */
-#define API_WEB_CSP                                                                               \
-    "default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self'; "                   \
-    "connect-src 'self'; object-src 'none'; frame-src 'none'; worker-src 'none'; "                \
+#define API_WEB_CSP                                                                                \
+    "default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self'; "                    \
+    "connect-src 'self'; object-src 'none'; frame-src 'none'; worker-src 'none'; "                 \
     "frame-ancestors 'none'; base-uri 'none'; form-action 'none'"
 
-static void api_web_headers(struct http_req *r)
-{
+static void api_web_headers(struct http_req *r) {
     http_reply_header(r, "Content-Security-Policy", API_WEB_CSP);
     http_reply_header(r, "X-Frame-Options", "DENY");
     http_reply_header(r, "Referrer-Policy", "no-referrer");
@@ -77,8 +65,7 @@ static void api_web_headers(struct http_req *r)
     http_reply_header(r, "Cross-Origin-Resource-Policy", "same-origin");
 }
 
-static void api_web_send(struct http_req *r, const char *name)
-{
+static void api_web_send(struct http_req *r, const char *name) {
     const struct web_asset *a = api_web_find(name);
     if (!a) {
         api_not_found(r);
@@ -89,8 +76,7 @@ static void api_web_send(struct http_req *r, const char *name)
     api_web_headers(r);
 }
 
-void api_web_index(struct http_req *r, const char *id)
-{
+void api_web_index(struct http_req *r, const char *id) {
     (void)id;
     api_web_send(r, "index.html");
 }

@@ -29,47 +29,47 @@
 /* ---- config.c ---------------------------------------------------------- */
 
 struct config {
-    char *bind;          /* address to listen on */
-    long port;           /* 0 picks a free port */
-    long threads;        /* render workers; 0 = number of cores */
-    long http_threads;   /* libmicrohttpd threads (validation, I/O) */
-    long queue;          /* pending render tasks before 503 */
-    long parse_threads;  /* threads that parse and build scenes (compile.c) */
-    long parse_queue;    /* scenes waiting for a parse thread before 503 */
-    long max_body;       /* bytes of a request body */
-    long max_pixels;     /* width * height of a scene */
-    char *token_file;    /* bearer token file, NULL = no auth */
-    long cache_mb;       /* compiled scene cache budget */
-    long result_cache_mb; /* finished PNG cache budget */
-    char *max_memory;    /* --max-memory as given (bytes, K/M/G/T suffixes); NULL: default */
-    char *log_format;    /* text | json */
-    char *log_level;     /* debug | info | warn | error: the least severe line written */
-    long drain_seconds;  /* grace period on SIGTERM */
-    char *cors_origin;   /* comma-separated allow-list, "*" = any */
-    long timeout;        /* connection idle timeout, seconds */
-    long max_jobs;       /* jobs kept for GET /v1/jobs/{id} */
-    long job_ttl;        /* seconds a finished job is kept */
-    long max_render_seconds; /* a render running longer is stopped; 0: no limit */
-    long png_level;      /* zlib level of the PNGs, -1 default */
-    long max_work;       /* largest render in estimated rays, 0 = no limit */
-    long max_backlog;    /* /readyz 503 past this many estimated seconds, 0 = never */
-    char *client_header; /* header naming the client for fair shares, NULL = peer address */
-    long max_conns;      /* open connections in all */
-    long max_conns_per_ip; /* open connections from one address, 0 = no limit */
-    long max_header_bytes; /* per-connection memory for request line + headers */
-    long max_url;        /* bytes of the request-target (path + query) */
-    long upload_seconds; /* longest time from the headers to the body's last byte, 0 = none */
+    char *bind;               /* address to listen on */
+    long port;                /* 0 picks a free port */
+    long threads;             /* render workers; 0 = number of cores */
+    long http_threads;        /* libmicrohttpd threads (validation, I/O) */
+    long queue;               /* pending render tasks before 503 */
+    long parse_threads;       /* threads that parse and build scenes (compile.c) */
+    long parse_queue;         /* scenes waiting for a parse thread before 503 */
+    long max_body;            /* bytes of a request body */
+    long max_pixels;          /* width * height of a scene */
+    char *token_file;         /* bearer token file, NULL = no auth */
+    long cache_mb;            /* compiled scene cache budget */
+    long result_cache_mb;     /* finished PNG cache budget */
+    char *max_memory;         /* --max-memory as given (bytes, K/M/G/T suffixes); NULL: default */
+    char *log_format;         /* text | json */
+    char *log_level;          /* debug | info | warn | error: the least severe line written */
+    long drain_seconds;       /* grace period on SIGTERM */
+    char *cors_origin;        /* comma-separated allow-list, "*" = any */
+    long timeout;             /* connection idle timeout, seconds */
+    long max_jobs;            /* jobs kept for GET /v1/jobs/{id} */
+    long job_ttl;             /* seconds a finished job is kept */
+    long max_render_seconds;  /* a render running longer is stopped; 0: no limit */
+    long png_level;           /* zlib level of the PNGs, -1 default */
+    long max_work;            /* largest render in estimated rays, 0 = no limit */
+    long max_backlog;         /* /readyz 503 past this many estimated seconds, 0 = never */
+    char *client_header;      /* header naming the client for fair shares, NULL = peer address */
+    long max_conns;           /* open connections in all */
+    long max_conns_per_ip;    /* open connections from one address, 0 = no limit */
+    long max_header_bytes;    /* per-connection memory for request line + headers */
+    long max_url;             /* bytes of the request-target (path + query) */
+    long upload_seconds;      /* longest time from the headers to the body's last byte, 0 = none */
     char *tls_cert, *tls_key; /* PEM files: serve HTTPS with libmicrohttpd's TLS */
-    char *asset_dir;     /* folder of scene "file" references (real path), NULL = refused */
-    char *test_gate;     /* tests only: "open" or tiles allowed; NULL = off */
-    char *data_dir;      /* jobs kept on disk here (store.c), NULL = in memory only */
-    char *max_disk;      /* --max-disk as given (bytes, K/M/G/T suffixes); NULL: no budget */
+    char *asset_dir;          /* folder of scene "file" references (real path), NULL = refused */
+    char *test_gate;          /* tests only: "open" or tiles allowed; NULL = off */
+    char *data_dir;           /* jobs kept on disk here (store.c), NULL = in memory only */
+    char *max_disk;           /* --max-disk as given (bytes, K/M/G/T suffixes); NULL: no budget */
     /* derived */
-    char *token;         /* contents of token_file, trimmed */
+    char *token; /* contents of token_file, trimmed */
     size_t token_len;
     bool log_json;
-    int log_min;          /* enum log_level of --log-level */
-    long test_gate_tiles; /* parsed --test-gate: -1 open, -2 off */
+    int log_min;             /* enum log_level of --log-level */
+    long test_gate_tiles;    /* parsed --test-gate: -1 open, -2 off */
     size_t max_memory_bytes; /* parsed --max-memory: the one budget (mem.c) */
     size_t max_disk_bytes;   /* parsed --max-disk, 0 = no budget */
 };
@@ -97,14 +97,14 @@ enum log_level { LOG_DEBUG, LOG_INFO, LOG_WARN, LOG_ERROR };
  * path is the request-target as the client sent it, query included. */
 struct log_access {
     const char *client, *method, *path;
-    int status;       /* 0: refused by the HTTP parser before a status was known */
-    size_t bytes;     /* body bytes sent */
+    int status;   /* 0: refused by the HTTP parser before a status was known */
+    size_t bytes; /* body bytes sent */
     /* An answer cut short (the client closed, a send failed, the timeout):
      * why ("client_closed"), and the whole body's size; NULL and 0 else. */
     const char *cut;
     size_t size;
     double total_ms;
-    bool rendered;    /* queue_ms, render_ms and encode_ms are meaningful */
+    bool rendered; /* queue_ms, render_ms and encode_ms are meaningful */
     double queue_ms, render_ms, encode_ms;
     const char *scene;      /* the scene's id, or NULL */
     const char *request_id; /* X-Request-Id sent back, or NULL */
@@ -181,9 +181,9 @@ enum metrics_reject {
     MR_DRAINING,
     MR_BODY_TOO_LARGE,
     MR_UNAUTHORIZED,
-    MR_OVER_BUDGET, /* --max-work */
-    MR_HTTP_PARSER, /* answered with an error by libmicrohttpd itself */
-    MR_MEMORY,      /* --max-memory: no room (503) or too big alone (413) */
+    MR_OVER_BUDGET,      /* --max-work */
+    MR_HTTP_PARSER,      /* answered with an error by libmicrohttpd itself */
+    MR_MEMORY,           /* --max-memory: no room (503) or too big alone (413) */
     MR_PARSE_QUEUE_FULL, /* --parse-queue scenes already wait for a parse thread */
     MR__COUNT
 };
@@ -253,8 +253,8 @@ char *metrics_text(size_t *len);
 /* ---- procstat.c: the process_* metrics ------------------------------------ */
 
 struct procstat {
-    double cpu_seconds;    /* user + system */
-    double start_time;     /* seconds since the epoch */
+    double cpu_seconds; /* user + system */
+    double start_time;  /* seconds since the epoch */
     double resident_bytes, virtual_bytes;
     double open_fds, max_fds;
 };

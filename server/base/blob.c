@@ -14,11 +14,9 @@
 
 #include <stdlib.h>
 
-struct blob *blob_new(void *data, size_t len)
-{
+struct blob *blob_new(void *data, size_t len) {
     struct blob *b = malloc(sizeof *b);
-    if (!b)
-        return NULL;
+    if (!b) return NULL;
     atomic_init(&b->refs, 1);
     b->data = data;
     b->len = len;
@@ -27,15 +25,12 @@ struct blob *blob_new(void *data, size_t len)
     return b;
 }
 
-struct blob *blob_ref(struct blob *b)
-{
-    if (b)
-        atomic_fetch_add(&b->refs, 1);
+struct blob *blob_ref(struct blob *b) {
+    if (b) atomic_fetch_add(&b->refs, 1);
     return b;
 }
 
-void blob_unref(struct blob *b)
-{
+void blob_unref(struct blob *b) {
     if (b && atomic_fetch_sub(&b->refs, 1) == 1) {
         mem_release((enum mem_kind)atomic_load(&b->kind), b->len + sizeof *b);
         rayd_free(b->data);
@@ -43,9 +38,7 @@ void blob_unref(struct blob *b)
     }
 }
 
-void blob_kind(struct blob *b, enum mem_kind kind)
-{
+void blob_kind(struct blob *b, enum mem_kind kind) {
     int old = atomic_exchange(&b->kind, (int)kind);
-    if (old != (int)kind)
-        mem_move((enum mem_kind)old, kind, b->len + sizeof *b);
+    if (old != (int)kind) mem_move((enum mem_kind)old, kind, b->len + sizeof *b);
 }

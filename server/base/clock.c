@@ -10,8 +10,7 @@
 
 #include <time.h>
 
-double clock_now(void)
-{
+double clock_now(void) {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec + (double)ts.tv_nsec / 1e9;

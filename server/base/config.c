@@ -102,8 +102,7 @@ static const struct config_option config_table[] = {
     {"max-conns", "RAYD_MAX_CONNS", CT_LONG, &config.max_conns, "4096", 1, 1000000,
      "open connections in all; more wait unaccepted (open-file limit raised to fit)"},
     {"max-conns-per-ip", "RAYD_MAX_CONNS_PER_IP", CT_LONG, &config.max_conns_per_ip, "0", 0,
-     1000000,
-     "open connections from one client address; more are closed at accept (0 = no limit)"},
+     1000000, "open connections from one client address; more are closed at accept (0 = no limit)"},
     {"max-header-bytes", "RAYD_MAX_HEADER_BYTES", CT_LONG, &config.max_header_bytes, "32768", 4096,
      16777216, "memory per connection for the request line and headers (larger: 431 or 414)"},
     {"max-url", "RAYD_MAX_URL", CT_LONG, &config.max_url, "8192", 64, 16777216,
@@ -130,8 +129,7 @@ static const struct config_option config_table[] = {
 
 /* Sets o from val; a bad value is reported under from (an environment
  * variable's name) or, NULL, the option's own --name. */
-static int config_set(const struct config_option *o, const char *val, const char *from)
-{
+static int config_set(const struct config_option *o, const char *val, const char *from) {
     if (o->type == CT_STRING) {
         char **p = o->ptr;
         free(*p);
@@ -152,8 +150,7 @@ static int config_set(const struct config_option *o, const char *val, const char
     return 0;
 }
 
-static void config_usage(FILE *f)
-{
+static void config_usage(FILE *f) {
     fprintf(f, "usage: rayd [options]\n\n"
                "The rayd render server: POST a JSON scene, get a PNG (HTTP API v1, docs/api.md).\n"
                "Every option can also be set from the environment variable shown;\n"
@@ -181,11 +178,10 @@ static void config_usage(FILE *f)
 enum { CONFIG_HELP = 'h', CONFIG_VERSION = 256, CONFIG_OPT0 = 257 };
 
 /* getopt_long's table for config_table, plus --help and --version. */
-static void config_longopts(struct option *lo)
-{
+static void config_longopts(struct option *lo) {
     for (size_t i = 0; i < CONFIG_N; i++)
-        lo[i] = (struct option){config_table[i].name, required_argument, NULL,
-                                CONFIG_OPT0 + (int)i};
+        lo[i] =
+            (struct option){config_table[i].name, required_argument, NULL, CONFIG_OPT0 + (int)i};
     lo[CONFIG_N] = (struct option){"help", no_argument, NULL, CONFIG_HELP};
     lo[CONFIG_N + 1] = (struct option){"version", no_argument, NULL, CONFIG_VERSION};
     lo[CONFIG_N + 2] = (struct option){NULL, 0, NULL, 0};
@@ -194,17 +190,14 @@ static void config_longopts(struct option *lo)
 /* The long options of lo that word ("--na" or "--na=value") is a prefix of,
  * as "--name, --namesake" into out: getopt_long refuses a prefix of more
  * than one, which is no unknown option and is said so. */
-static int config_prefix_of(const struct option *lo, const char *word, char *out, size_t size)
-{
+static int config_prefix_of(const struct option *lo, const char *word, char *out, size_t size) {
     size_t len = strcspn(word + 2, "="), used = 0;
     int n = 0;
     out[0] = '\0';
     for (const struct option *o = lo; o->name; o++) {
-        if (strncmp(o->name, word + 2, len) != 0)
-            continue;
+        if (strncmp(o->name, word + 2, len) != 0) continue;
         int k = snprintf(out + used, size - used, "%s--%s", n ? ", " : "", o->name);
-        if (k > 0 && (size_t)k < size - used)
-            used += (size_t)k;
+        if (k > 0 && (size_t)k < size - used) used += (size_t)k;
         n++;
     }
     return n;
@@ -212,8 +205,7 @@ static int config_prefix_of(const struct option *lo, const char *word, char *out
 
 /* getopt_long's '?' or ':' at arg (the word it stopped at), which its optopt
  * (a short option, or the number of a long one): the message. */
-static int config_bad_option(const struct option *lo, int opt, int which, const char *arg)
-{
+static int config_bad_option(const struct option *lo, int opt, int which, const char *arg) {
     char names[1024];
     if (opt == ':' && which >= CONFIG_OPT0)
         fprintf(stderr, "rayd: error: option --%s needs a value\n",
@@ -230,16 +222,14 @@ static int config_bad_option(const struct option *lo, int opt, int which, const 
 }
 
 /* The command line over the defaults and the environment. */
-static int config_args(int argc, char **argv)
-{
+static int config_args(int argc, char **argv) {
     struct option lo[CONFIG_N + 3];
     config_longopts(lo);
     opterr = 0;
     optind = 1;
     int opt;
     while ((opt = getopt_long(argc, argv, ":h", lo, NULL)) != -1) {
-        if (opt == '?' || opt == ':')
-            return config_bad_option(lo, opt, optopt, argv[optind - 1]);
+        if (opt == '?' || opt == ':') return config_bad_option(lo, opt, optopt, argv[optind - 1]);
         if (opt == CONFIG_HELP) {
             config_usage(stdout);
             return CONFIG_DONE;
@@ -248,8 +238,7 @@ static int config_args(int argc, char **argv)
             printf("rayd %s\n", RAYD_VERSION);
             return CONFIG_DONE;
         }
-        if (config_set(&config_table[opt - CONFIG_OPT0], optarg, NULL))
-            return CONFIG_USAGE;
+        if (config_set(&config_table[opt - CONFIG_OPT0], optarg, NULL)) return CONFIG_USAGE;
     }
     if (optind < argc) {
         fprintf(stderr, "rayd: error: unexpected argument '%s'\n", argv[optind]);
@@ -266,20 +255,15 @@ static int config_args(int argc, char **argv)
  * as a C string, so a NUL inside would cut it (and was once copied short,
  * then cleared and compared at its full length); a control character
  * cannot be sent in a header at all. */
-static const char *config_token_why(const char *t, size_t n, size_t *at)
-{
+static const char *config_token_why(const char *t, size_t n, size_t *at) {
     *at = 0;
-    if (n == 0)
-        return "is empty";
-    if (n > CONFIG_TOKEN_MAX)
-        return "holds a token over 4096 bytes";
+    if (n == 0) return "is empty";
+    if (n > CONFIG_TOKEN_MAX) return "holds a token over 4096 bytes";
     for (size_t i = 0; i < n; i++) {
         unsigned char c = (unsigned char)t[i];
         *at = i + 1;
-        if (c == 0)
-            return "holds a NUL byte";
-        if (c < 0x20 || c == 0x7f)
-            return "holds a control character";
+        if (c == 0) return "holds a NUL byte";
+        if (c < 0x20 || c == 0x7f) return "holds a control character";
     }
     *at = 0;
     return NULL;
@@ -288,8 +272,7 @@ static const char *config_token_why(const char *t, size_t n, size_t *at)
 /* Reads --token-file: the token is the file's text without the blanks and
  * line ends around it, checked whole (config_token_why).  -1 after naming
  * the file and the problem. */
-static int config_read_token(void)
-{
+static int config_read_token(void) {
     FILE *f = fopen(config.token_file, "rb");
     if (!f) {
         fprintf(stderr, "rayd: error: --token-file %s: %s\n", config.token_file, strerror(errno));
@@ -301,8 +284,7 @@ static int config_read_token(void)
     bool more = n == sizeof buf && fgetc(f) != EOF;
     fclose(f);
     const char *t = buf;
-    while (n > 0 && (t[0] == ' ' || t[0] == '\t' || t[0] == '\r' || t[0] == '\n'))
-        t++, n--;
+    while (n > 0 && (t[0] == ' ' || t[0] == '\t' || t[0] == '\r' || t[0] == '\n')) t++, n--;
     while (n > 0 && (t[n - 1] == ' ' || t[n - 1] == '\t' || t[n - 1] == '\r' || t[n - 1] == '\n'))
         n--;
     size_t at = 0;
@@ -328,21 +310,18 @@ static int config_read_token(void)
     return 0;
 }
 
-bool config_loopback(const char *addr)
-{
+bool config_loopback(const char *addr) {
     return !strncmp(addr, "127.", 4) || !strcmp(addr, "::1") || !strcmp(addr, "localhost");
 }
 
 /* --bind: an IPv4 or IPv6 address, or localhost (127.0.0.1), checked here
  * as any option's value is, so a wrong one is a usage error (2) and not a
  * failure to listen (1). */
-static int config_bind(void)
-{
+static int config_bind(void) {
     unsigned char addr[sizeof(struct in6_addr)];
     if (!strcmp(config.bind, "localhost")) {
         char *lo = strdup("127.0.0.1");
-        if (!lo)
-            return -1;
+        if (!lo) return -1;
         free(config.bind);
         config.bind = lo;
     }
@@ -356,10 +335,8 @@ static int config_bind(void)
 /* --asset-dir: an existing folder, kept as its real path, so the loader's
  * confinement (openat2 RESOLVE_BENEATH, core/load/scene_json_util.c) starts
  * from a fixed place.  Unset, a scene's "file" is refused. */
-static int config_asset_dir(void)
-{
-    if (!config.asset_dir)
-        return 0;
+static int config_asset_dir(void) {
+    if (!config.asset_dir) return 0;
     char *real = realpath(config.asset_dir, NULL);
     struct stat st;
     if (!real || stat(real, &st) != 0 || !S_ISDIR(st.st_mode)) {
@@ -375,23 +352,23 @@ static int config_asset_dir(void)
 
 /* --test-gate lets any client hold every worker, so it is refused unless
  * rayd listens on loopback only. */
-static int config_test_gate(void)
-{
+static int config_test_gate(void) {
     config.test_gate_tiles = -2;
-    if (!config.test_gate)
-        return 0;
+    if (!config.test_gate) return 0;
     char *end;
     errno = 0;
     long n = strtol(config.test_gate, &end, 10);
     if (!strcmp(config.test_gate, "open")) {
         n = -1;
     } else if (errno || end == config.test_gate || *end || n < 0) {
-        fprintf(stderr, "rayd: error: --test-gate must be 'open' or a number of tiles >= 0, not '%s'\n",
+        fprintf(stderr,
+                "rayd: error: --test-gate must be 'open' or a number of tiles >= 0, not '%s'\n",
                 config.test_gate);
         return -1;
     }
     if (!config_loopback(config.bind)) {
-        fprintf(stderr, "rayd: error: --test-gate is for tests and needs a loopback --bind (not %s)\n",
+        fprintf(stderr,
+                "rayd: error: --test-gate is for tests and needs a loopback --bind (not %s)\n",
                 config.bind);
         return -1;
     }
@@ -402,8 +379,7 @@ static int config_test_gate(void)
 /* --data-dir: a folder that exists (or can be made, one level) and that
  * rayd may write in, kept as its real path; --max-disk, which needs it:
  * bytes, K, M, G or T as --max-memory. */
-static int config_data_dir(void)
-{
+static int config_data_dir(void) {
     size_t v = 0;
     if (config.max_disk && (!mem_parse(config.max_disk, &v) || v == 0)) {
         fprintf(stderr,
@@ -414,9 +390,9 @@ static int config_data_dir(void)
     }
     config.max_disk_bytes = v;
     if (!config.data_dir)
-        return config.max_disk ? (fprintf(stderr, "rayd: error: --max-disk needs --data-dir\n"),
-                                  CONFIG_USAGE)
-                               : 0;
+        return config.max_disk
+                   ? (fprintf(stderr, "rayd: error: --max-disk needs --data-dir\n"), CONFIG_USAGE)
+                   : 0;
     struct stat st;
     if (!*config.data_dir) {
         fprintf(stderr, "rayd: error: --data-dir is empty\n");
@@ -442,8 +418,7 @@ static int config_data_dir(void)
 }
 
 /* --log-level as enum log_level (log.c writes the same words). */
-static int config_log_level(void)
-{
+static int config_log_level(void) {
     static const char *const names[] = {"debug", "info", "warn", "error"};
     for (int i = 0; i <= LOG_ERROR; i++)
         if (!strcmp(config.log_level, names[i])) {
@@ -457,8 +432,7 @@ static int config_log_level(void)
 /* --max-memory: bytes, or with a K, M, G or T suffix (KiB, MiB, ...);
  * unset, half of the machine's memory (or of its cgroup's limit).  The
  * budget starts here, before any thread (mem.c). */
-static int config_max_memory(void)
-{
+static int config_max_memory(void) {
     size_t v = 0;
     if (config.max_memory && (!mem_parse(config.max_memory, &v) || v < ((size_t)1 << 20))) {
         fprintf(stderr,
@@ -474,40 +448,31 @@ static int config_max_memory(void)
 
 /* Defaults, then the environment, then the command line (a flag wins);
  * then the checks that need every option.  An enum config_result. */
-int config_load(int argc, char **argv)
-{
+int config_load(int argc, char **argv) {
     for (size_t i = 0; i < CONFIG_N; i++)
         if (config_table[i].def && config_set(&config_table[i], config_table[i].def, NULL))
             return CONFIG_USAGE;
     for (size_t i = 0; i < CONFIG_N; i++) {
         const char *v = getenv(config_table[i].env);
-        if (v && config_set(&config_table[i], v, config_table[i].env))
-            return CONFIG_USAGE;
+        if (v && config_set(&config_table[i], v, config_table[i].env)) return CONFIG_USAGE;
     }
     int rc = config_args(argc, argv);
-    if (rc != CONFIG_RUN)
-        return rc;
+    if (rc != CONFIG_RUN) return rc;
     if (strcmp(config.log_format, "text") && strcmp(config.log_format, "json")) {
         fprintf(stderr, "rayd: error: --log-format must be text or json\n");
         return CONFIG_USAGE;
     }
     config.log_json = !strcmp(config.log_format, "json");
-    if (config_log_level() || config_bind())
-        return CONFIG_USAGE;
+    if (config_log_level() || config_bind()) return CONFIG_USAGE;
     if (config.threads == 0) {
         long n = sysconf(_SC_NPROCESSORS_ONLN);
         config.threads = n > 0 ? n : 1;
     }
-    if (config.token_file && *config.token_file && config_read_token())
-        return CONFIG_FAILED;
-    if (config_test_gate())
-        return CONFIG_USAGE;
-    if (config_asset_dir())
-        return CONFIG_FAILED;
-    if (config_max_memory())
-        return CONFIG_USAGE;
-    if ((rc = config_data_dir()) != 0)
-        return rc;
+    if (config.token_file && *config.token_file && config_read_token()) return CONFIG_FAILED;
+    if (config_test_gate()) return CONFIG_USAGE;
+    if (config_asset_dir()) return CONFIG_FAILED;
+    if (config_max_memory()) return CONFIG_USAGE;
+    if ((rc = config_data_dir()) != 0) return rc;
     if (!config.tls_cert != !config.tls_key) {
         fprintf(stderr, "rayd: error: --tls-cert and --tls-key go together\n");
         return CONFIG_USAGE;
@@ -515,8 +480,7 @@ int config_load(int argc, char **argv)
     return CONFIG_RUN;
 }
 
-void config_free(void)
-{
+void config_free(void) {
     for (size_t i = 0; i < CONFIG_N; i++)
         if (config_table[i].type == CT_STRING) {
             char **p = config_table[i].ptr;

@@ -16,44 +16,36 @@
 #include <stdlib.h>
 #include <string.h>
 
-void json_add_fixed(cJSON *o, const char *key, double v, int decimals)
-{
+void json_add_fixed(cJSON *o, const char *key, double v, int decimals) {
     char num[64];
-    if (!isfinite(v))
-        v = 0;
+    if (!isfinite(v)) v = 0;
     snprintf(num, sizeof num, "%.*f", decimals, v);
     cJSON_AddRawToObject(o, key, num);
 }
 
-void json_add_u64(cJSON *o, const char *key, uint64_t v)
-{
+void json_add_u64(cJSON *o, const char *key, uint64_t v) {
     char num[32];
     snprintf(num, sizeof num, "%" PRIu64, v);
     cJSON_AddRawToObject(o, key, num);
 }
 
-char *json_print(cJSON *o, bool nl, size_t *len)
-{
+char *json_print(cJSON *o, bool nl, size_t *len) {
     char *text = o ? cJSON_PrintUnformatted(o) : NULL;
     cJSON_Delete(o);
-    if (!text)
-        return NULL;
+    if (!text) return NULL;
     size_t n = strlen(text);
     char *out = malloc(n + 2);
     if (out) {
         memcpy(out, text, n);
-        if (nl)
-            out[n++] = '\n';
+        if (nl) out[n++] = '\n';
         out[n] = 0;
-        if (len)
-            *len = n;
+        if (len) *len = n;
     }
     cJSON_free(text);
     return out;
 }
 
-bool json_print_into(cJSON *o, char *buf, size_t size)
-{
+bool json_print_into(cJSON *o, char *buf, size_t size) {
     /* cJSON_PrintPreallocated wants 5 bytes of slack past the text */
     return o && size > 5 && size < (size_t)INT32_MAX &&
            cJSON_PrintPreallocated(o, buf, (int)size - 5, false);

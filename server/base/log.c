@@ -36,8 +36,7 @@
 #include <string.h>
 #include <time.h>
 
-static void log_stamp(char *buf, size_t size)
-{
+static void log_stamp(char *buf, size_t size) {
     struct timespec ts;
     struct tm tm;
     clock_gettime(CLOCK_REALTIME, &ts);
@@ -52,29 +51,21 @@ bool log_quiet;
 static const char *const log_names[] = {"debug", "info", "warn", "error"};
 
 /* config.log_min is set once before the first thread starts. */
-static bool log_on(enum log_level level)
-{
-    return !log_quiet && (int)level >= config.log_min;
-}
+static bool log_on(enum log_level level) { return !log_quiet && (int)level >= config.log_min; }
 
 /* The level of an access line: info for 1xx-3xx, warn for 4xx (and for
  * 499, and 0), error for 5xx. */
-static enum log_level log_access_level(int status)
-{
-    if (status >= 500)
-        return LOG_ERROR;
-    if (status >= 400 || status < 100)
-        return LOG_WARN;
+static enum log_level log_access_level(int status) {
+    if (status >= 500) return LOG_ERROR;
+    if (status >= 400 || status < 100) return LOG_WARN;
     return LOG_INFO;
 }
 
 /* s as one field: controls, space, DEL and non-ASCII bytes as %XX; "-" for
  * none; cut with "..." to fit size. */
-static const char *log_field(const char *s, char *buf, size_t size)
-{
+static const char *log_field(const char *s, char *buf, size_t size) {
     static const char hex[] = "0123456789ABCDEF";
-    if (!s || !*s)
-        return "-";
+    if (!s || !*s) return "-";
     size_t n = 0;
     for (; *s; s++) {
         unsigned char c = (unsigned char)*s;
@@ -99,24 +90,21 @@ static const char *log_or_dash(const char *s) { return s && *s ? s : "-"; }
 
 /* Writes o as one line and deletes it.  The line is printed into a stack
  * buffer first: no allocation for the text on the way out. */
-static void log_json_line(cJSON *o)
-{
+static void log_json_line(cJSON *o) {
     char line[4096];
     if (json_print_into(o, line, sizeof line)) {
         fprintf(stderr, "%s\n", line);
     } else {
         char *text = json_print(o, false, NULL);
         o = NULL;
-        if (text)
-            fprintf(stderr, "%s\n", text);
+        if (text) fprintf(stderr, "%s\n", text);
         free(text);
     }
     cJSON_Delete(o);
 }
 
 static void log_access_json(const char *ts, const struct log_access *a, const char *method,
-                            const char *path, const char *error_at)
-{
+                            const char *path, const char *error_at) {
     cJSON *o = cJSON_CreateObject();
     cJSON_AddStringToObject(o, "time", ts);
     cJSON_AddStringToObject(o, "level", log_names[log_access_level(a->status)]);
@@ -131,15 +119,11 @@ static void log_access_json(const char *ts, const struct log_access *a, const ch
         json_add_fixed(o, "encode_ms", a->encode_ms, 3);
     }
     json_add_fixed(o, "total_ms", a->total_ms, 3);
-    if (a->scene && *a->scene)
-        cJSON_AddStringToObject(o, "scene", a->scene);
+    if (a->scene && *a->scene) cJSON_AddStringToObject(o, "scene", a->scene);
     cJSON_AddStringToObject(o, "request_id", log_or_dash(a->request_id));
-    if (a->error)
-        cJSON_AddStringToObject(o, "error", a->error);
-    if (a->error && a->error_at && *a->error_at)
-        cJSON_AddStringToObject(o, "error_at", error_at);
-    if (a->note)
-        cJSON_AddStringToObject(o, "note", a->note);
+    if (a->error) cJSON_AddStringToObject(o, "error", a->error);
+    if (a->error && a->error_at && *a->error_at) cJSON_AddStringToObject(o, "error_at", error_at);
+    if (a->note) cJSON_AddStringToObject(o, "note", a->note);
     if (a->cut) {
         cJSON_AddStringToObject(o, "cut_short", a->cut);
         json_add_u64(o, "size", a->size);
@@ -147,11 +131,9 @@ static void log_access_json(const char *ts, const struct log_access *a, const ch
     log_json_line(o);
 }
 
-void log_access(const struct log_access *a)
-{
+void log_access(const struct log_access *a) {
     enum log_level level = log_access_level(a->status);
-    if (!log_on(level))
-        return;
+    if (!log_on(level)) return;
     char ts[40], mbuf[64], pbuf[6144], ebuf[400], error[480] = "";
     log_stamp(ts, sizeof ts);
     const char *method = log_field(a->method, mbuf, sizeof mbuf);
@@ -171,8 +153,7 @@ void log_access(const struct log_access *a)
                  a->queue_ms, a->render_ms, a->encode_ms);
     bool scene = a->scene && *a->scene;
     char cut[96] = "";
-    if (a->cut)
-        snprintf(cut, sizeof cut, " cut_short=%s size=%zu", a->cut, a->size);
+    if (a->cut) snprintf(cut, sizeof cut, " cut_short=%s size=%zu", a->cut, a->size);
     fprintf(stderr, "%s %s %s %s %s %d %zu %stotal_ms=%.3f%s%s request_id=%s%s%s%s%s\n", ts,
             log_names[level], log_or_dash(a->client), method, path, a->status, a->bytes, rendered,
             a->total_ms, scene ? " scene=" : "", scene ? a->scene : "", log_or_dash(a->request_id),
@@ -182,10 +163,8 @@ void log_access(const struct log_access *a)
 static void log_msg(enum log_level level, const char *fmt, va_list ap)
     __attribute__((format(printf, 2, 0)));
 
-static void log_msg(enum log_level level, const char *fmt, va_list ap)
-{
-    if (!log_on(level))
-        return;
+static void log_msg(enum log_level level, const char *fmt, va_list ap) {
+    if (!log_on(level)) return;
     char ts[40], msg[1024];
     log_stamp(ts, sizeof ts);
     vsnprintf(msg, sizeof msg, fmt, ap);
@@ -201,8 +180,7 @@ static void log_msg(enum log_level level, const char *fmt, va_list ap)
 }
 
 #define LOG_AT(name, level)                                                                        \
-    void name(const char *fmt, ...)                                                                \
-    {                                                                                              \
+    void name(const char *fmt, ...) {                                                              \
         va_list ap;                                                                                \
         va_start(ap, fmt);                                                                         \
         log_msg(level, fmt, ap);                                                                   \
@@ -214,8 +192,7 @@ LOG_AT(log_warn, LOG_WARN)
 LOG_AT(log_error, LOG_ERROR)
 /* Whatever the log's format and level: the line is for whoever reads the
  * crash, and abort leaves a core and the signal. */
-void log_assert_fail(const char *expr, const char *file, int line, const char *func)
-{
+void log_assert_fail(const char *expr, const char *file, int line, const char *func) {
     fprintf(stderr, "rayd: %s:%d: %s: assertion failed: %s\n", file, line, func, expr);
     fflush(stderr);
     abort();

@@ -47,22 +47,19 @@ static atomic_size_t mem_kind_bytes[MEM__COUNT];
 static atomic_size_t mem_released; /* since the last trim */
 static bool (*mem_reclaimer)(enum mem_kind k, size_t need);
 
-const char *mem_kind_name(enum mem_kind k)
-{
+const char *mem_kind_name(enum mem_kind k) {
     static const char *const names[] = {"bodies", "scenes", "results", "sums", "caches", "parses"};
     return names[k];
 }
 
 /* The machine's memory, or the cgroup's limit when lower (a container). */
-static size_t mem_machine(void)
-{
+static size_t mem_machine(void) {
     long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
     size_t total = pages > 0 && page > 0 ? (size_t)pages * (size_t)page : (size_t)1 << 32;
     FILE *f = fopen("/sys/fs/cgroup/memory.max", "r");
     if (f) {
         unsigned long long cg = 0;
-        if (fscanf(f, "%llu", &cg) == 1 && cg > 0 && cg < total)
-            total = (size_t)cg;
+        if (fscanf(f, "%llu", &cg) == 1 && cg > 0 && cg < total) total = (size_t)cg;
         fclose(f);
     }
     return total;
@@ -77,37 +74,29 @@ size_t mem_limit(void) { return mem_limit_bytes; }
 void mem_set_reclaim(bool (*reclaim)(enum mem_kind k, size_t need)) { mem_reclaimer = reclaim; }
 
 /* mem_reserve without reclaiming: callable with any lock held. */
-static bool mem_try(enum mem_kind k, size_t n)
-{
+static bool mem_try(enum mem_kind k, size_t n) {
     size_t cur = atomic_load(&mem_total_bytes);
     do {
-        if (n > mem_limit_bytes || cur > mem_limit_bytes - n)
-            return false;
+        if (n > mem_limit_bytes || cur > mem_limit_bytes - n) return false;
     } while (!atomic_compare_exchange_weak(&mem_total_bytes, &cur, cur + n));
     atomic_fetch_add(&mem_kind_bytes[k], n);
     return true;
 }
 
-bool mem_reserve(enum mem_kind k, size_t n)
-{
-    if (n > mem_limit_bytes)
-        return false;
+bool mem_reserve(enum mem_kind k, size_t n) {
+    if (n > mem_limit_bytes) return false;
     while (!mem_try(k, n))
-        if (!mem_reclaimer || !mem_reclaimer(k, n))
-            return false;
+        if (!mem_reclaimer || !mem_reclaimer(k, n)) return false;
     return true;
 }
 
-void mem_force(enum mem_kind k, size_t n)
-{
+void mem_force(enum mem_kind k, size_t n) {
     atomic_fetch_add(&mem_total_bytes, n);
     atomic_fetch_add(&mem_kind_bytes[k], n);
 }
 
-void mem_release(enum mem_kind k, size_t n)
-{
-    if (!n)
-        return;
+void mem_release(enum mem_kind k, size_t n) {
+    if (!n) return;
     atomic_fetch_sub(&mem_kind_bytes[k], n);
     atomic_fetch_sub(&mem_total_bytes, n);
     atomic_fetch_add(&mem_released, n);
@@ -115,16 +104,14 @@ void mem_release(enum mem_kind k, size_t n)
 
 void mem_freed(size_t n) { atomic_fetch_add(&mem_released, n); }
 
-void mem_move(enum mem_kind from, enum mem_kind to, size_t n)
-{
+void mem_move(enum mem_kind from, enum mem_kind to, size_t n) {
     atomic_fetch_sub(&mem_kind_bytes[from], n);
     atomic_fetch_add(&mem_kind_bytes[to], n);
 }
 
 size_t mem_used(enum mem_kind k) { return atomic_load(&mem_kind_bytes[k]); }
 
-void mem_trim(bool idle)
-{
+void mem_trim(bool idle) {
     static bool kept; /* the core may keep freed frames: give them back once idle */
     if (atomic_load(&mem_released) >= MEM_TRIM_AFTER) {
         atomic_store(&mem_released, 0);
@@ -138,44 +125,29 @@ void mem_trim(bool idle)
     }
 }
 
-bool mem_parse(const char *s, size_t *out)
-{
+bool mem_parse(const char *s, size_t *out) {
     char *end;
-    if (!s || *s < '0' || *s > '9')
-        return false;
+    if (!s || *s < '0' || *s > '9') return false;
     unsigned long long v = strtoull(s, &end, 10);
     unsigned long long mul = 1;
-    if (*end && !strchr("kKmMgGtT", *end))
-        return false;
+    if (*end && !strchr("kKmMgGtT", *end)) return false;
     switch (*end) {
     case 'k':
-    case 'K':
-        mul = 1ULL << 10;
-        break;
+    case 'K': mul = 1ULL << 10; break;
     case 'm':
-    case 'M':
-        mul = 1ULL << 20;
-        break;
+    case 'M': mul = 1ULL << 20; break;
     case 'g':
-    case 'G':
-        mul = 1ULL << 30;
-        break;
+    case 'G': mul = 1ULL << 30; break;
     case 't':
-    case 'T':
-        mul = 1ULL << 40;
-        break;
-    default:
-        break;
+    case 'T': mul = 1ULL << 40; break;
+    default: break;
     }
     if (*end) {
         end++;
-        if (*end == 'i')
-            end++;
-        if (*end == 'B')
-            end++;
+        if (*end == 'i') end++;
+        if (*end == 'B') end++;
     }
-    if (*end || v > SIZE_MAX / mul)
-        return false;
+    if (*end || v > SIZE_MAX / mul) return false;
     *out = (size_t)(v * mul);
     return true;
 }

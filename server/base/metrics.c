@@ -67,10 +67,12 @@ struct metrics_hist {
 static _Atomic(struct metrics_hist *) metrics_http[METRICS_ROUTES + 1][METRICS_NMETHODS]
                                                   [METRICS_NCODES];
 static atomic_int metrics_codes[METRICS_NCODES - 1]; /* 0: a free slot */
-static struct metrics_hist metrics_wait[2], metrics_rend, metrics_stages[MS__COUNT]; /* wait: [interactive] */
-static const char *const metrics_stage_names[MS__COUNT] = {
-    "upload", "parse", "decode", "build", "queue", "render", "encode", "send"};
-static atomic_ulong metrics_hits, metrics_misses, metrics_rhits, metrics_rmisses, metrics_rays_n, metrics_coalesced_n;
+static struct metrics_hist metrics_wait[2], metrics_rend,
+    metrics_stages[MS__COUNT]; /* wait: [interactive] */
+static const char *const metrics_stage_names[MS__COUNT] = {"upload", "parse",  "decode", "build",
+                                                           "queue",  "render", "encode", "send"};
+static atomic_ulong metrics_hits, metrics_misses, metrics_rhits, metrics_rmisses, metrics_rays_n,
+    metrics_coalesced_n;
 static atomic_ulong metrics_parses_n, metrics_file_checks_n; /* compile.c, scenefiles.c */
 static atomic_ulong metrics_rejects[MR__COUNT], metrics_cancels[MC__COUNT];
 
@@ -78,83 +80,67 @@ static const char *const metrics_reject_names[MR__COUNT] = {
     "queue_full",  "draining",    "body_too_large", "unauthorized",
     "over_budget", "http_parser", "memory",         "parse_queue_full"};
 static const char *const metrics_cancel_names[MC__COUNT] = {"client_gone", "delete", "drain",
-                                                                        "deadline"};
+                                                            "deadline"};
 
 /* Written once at start-up (before the listener), read by scrapes. */
 static long (*metrics_gauges[MG__COUNT])(void);
 static const char *metrics_routes[METRICS_ROUTES];
 
-void metrics_start(long max_render_seconds)
-{
+void metrics_start(long max_render_seconds) {
     size_t n = 0;
     double max = (double)max_render_seconds;
     for (size_t i = 0; i < METRICS_NLADDER; i++)
-        if (max <= 0 || metrics_ladder[i] < max)
-            metrics_buckets[n++] = metrics_ladder[i];
-    if (max > 0)
-        metrics_buckets[n++] = max;
+        if (max <= 0 || metrics_ladder[i] < max) metrics_buckets[n++] = metrics_ladder[i];
+    if (max > 0) metrics_buckets[n++] = max;
     metrics_nb = n;
 }
 
 void metrics_gauge(enum metrics_gauge g, long (*read)(void)) { metrics_gauges[g] = read; }
 
-void metrics_route_name(int route, const char *name)
-{
-    if (route >= 0 && route < METRICS_ROUTES)
-        metrics_routes[route] = name;
+void metrics_route_name(int route, const char *name) {
+    if (route >= 0 && route < METRICS_ROUTES) metrics_routes[route] = name;
 }
 
-static long metrics_read(enum metrics_gauge g)
-{
+static long metrics_read(enum metrics_gauge g) {
     return metrics_gauges[g] ? metrics_gauges[g]() : 0;
 }
 
 /* The slot of a status code: found, or taken on first sight. */
-static size_t metrics_code_slot(int status)
-{
+static size_t metrics_code_slot(int status) {
     for (size_t i = 0; i < METRICS_NCODES - 1; i++) {
         int c = atomic_load_explicit(&metrics_codes[i], memory_order_acquire);
         if (c == 0) {
             int free_slot = 0;
-            if (atomic_compare_exchange_strong(&metrics_codes[i], &free_slot, status))
-                return i;
+            if (atomic_compare_exchange_strong(&metrics_codes[i], &free_slot, status)) return i;
             c = free_slot; /* taken meanwhile by another thread: with which code? */
         }
-        if (c == status)
-            return i;
+        if (c == status) return i;
     }
     return METRICS_NCODES - 1;
 }
 
-static size_t metrics_method_slot(const char *method)
-{
+static size_t metrics_method_slot(const char *method) {
     size_t i = 0;
-    while (i < METRICS_NMETHODS - 1 && (!method || strcmp(metrics_methods[i], method)))
-        i++;
+    while (i < METRICS_NMETHODS - 1 && (!method || strcmp(metrics_methods[i], method))) i++;
     return i;
 }
 
-static void metrics_observe(struct metrics_hist *h, double s)
-{
+static void metrics_observe(struct metrics_hist *h, double s) {
     size_t i = 0;
-    while (i < metrics_nb && s > metrics_buckets[i])
-        i++;
+    while (i < metrics_nb && s > metrics_buckets[i]) i++;
     atomic_fetch_add_explicit(&h->bucket[i], 1, memory_order_relaxed);
     atomic_fetch_add_explicit(&h->count, 1, memory_order_relaxed);
     atomic_fetch_add_explicit(&h->sum_us, (unsigned long)(s * 1e6), memory_order_relaxed);
 }
 
-void metrics_request(int route, const char *method, int status, double seconds)
-{
-    if (route < 0 || route >= METRICS_ROUTES)
-        route = METRICS_ROUTES;
+void metrics_request(int route, const char *method, int status, double seconds) {
+    if (route < 0 || route >= METRICS_ROUTES) route = METRICS_ROUTES;
     _Atomic(struct metrics_hist *) *slot =
         &metrics_http[route][metrics_method_slot(method)][metrics_code_slot(status)];
     struct metrics_hist *h = atomic_load_explicit(slot, memory_order_acquire);
     if (!h) {
         struct metrics_hist *fresh = calloc(1, sizeof *fresh);
-        if (!fresh)
-            return; /* out of memory: this request goes uncounted */
+        if (!fresh) return; /* out of memory: this request goes uncounted */
         if (atomic_compare_exchange_strong(slot, &h, fresh))
             h = fresh;
         else
@@ -163,23 +149,22 @@ void metrics_request(int route, const char *method, int status, double seconds)
     metrics_observe(h, seconds);
 }
 
-void metrics_free(void)
-{
+void metrics_free(void) {
     for (size_t r = 0; r <= METRICS_ROUTES; r++)
         for (size_t m = 0; m < METRICS_NMETHODS; m++)
             for (size_t c = 0; c < METRICS_NCODES; c++)
                 free(atomic_exchange(&metrics_http[r][m][c], NULL));
 }
 
-void metrics_queue_wait(bool interactive, double s) { metrics_observe(&metrics_wait[interactive], s); }
+void metrics_queue_wait(bool interactive, double s) {
+    metrics_observe(&metrics_wait[interactive], s);
+}
 void metrics_render(double s) { metrics_observe(&metrics_rend, s); }
-void metrics_stage(enum metrics_stage stage, double s)
-{
+void metrics_stage(enum metrics_stage stage, double s) {
     metrics_observe(&metrics_stages[stage], s);
 }
 void metrics_cache(bool hit) { atomic_fetch_add(hit ? &metrics_hits : &metrics_misses, 1); }
-void metrics_result_cache(bool hit)
-{
+void metrics_result_cache(bool hit) {
     atomic_fetch_add(hit ? &metrics_rhits : &metrics_rmisses, 1);
 }
 void metrics_reject(enum metrics_reject why) { atomic_fetch_add(&metrics_rejects[why], 1); }
@@ -198,8 +183,7 @@ struct metrics_buf {
 static void metrics_printf(struct metrics_buf *b, const char *fmt, ...)
     __attribute__((format(printf, 2, 3)));
 
-static void metrics_printf(struct metrics_buf *b, const char *fmt, ...)
-{
+static void metrics_printf(struct metrics_buf *b, const char *fmt, ...) {
     for (;;) {
         va_list ap;
         va_start(ap, fmt);
@@ -211,8 +195,7 @@ static void metrics_printf(struct metrics_buf *b, const char *fmt, ...)
         }
         size_t cap = b->cap ? b->cap * 2 : 8192;
         char *q = realloc(b->p, cap);
-        if (!q)
-            return;
+        if (!q) return;
         b->p = q;
         b->cap = cap;
     }
@@ -221,8 +204,7 @@ static void metrics_printf(struct metrics_buf *b, const char *fmt, ...)
 /* One histogram's series; label is "" or a label pair and a comma
  * ("stage=\"parse\","). */
 static void metrics_hist_series(struct metrics_buf *b, const char *name, const char *label,
-                                struct metrics_hist *h)
-{
+                                struct metrics_hist *h) {
     unsigned long cum = 0;
     for (size_t i = 0; i <= metrics_nb; i++) {
         cum += atomic_load(&h->bucket[i]);
@@ -240,19 +222,18 @@ static void metrics_hist_series(struct metrics_buf *b, const char *name, const c
 }
 
 static void metrics_hist_text(struct metrics_buf *b, const char *name, const char *help,
-                              struct metrics_hist *h)
-{
+                              struct metrics_hist *h) {
     metrics_printf(b, "# HELP %s %s\n# TYPE %s histogram\n", name, help, name);
     metrics_hist_series(b, name, "", h);
 }
 
-static void metrics_stage_text(struct metrics_buf *b)
-{
-    metrics_printf(b, "# HELP rayd_stage_seconds Time of each stage of a request's wait: upload "
-                      "(the body), parse (the JSON), decode (mesh files), build (BVHs), queue, "
-                      "render (the tiles, the PNG's bands deflated as their rows finish), encode (the PNG "
-                      "after the last tile), send (the reply).\n"
-                      "# TYPE rayd_stage_seconds histogram\n");
+static void metrics_stage_text(struct metrics_buf *b) {
+    metrics_printf(
+        b, "# HELP rayd_stage_seconds Time of each stage of a request's wait: upload "
+           "(the body), parse (the JSON), decode (mesh files), build (BVHs), queue, "
+           "render (the tiles, the PNG's bands deflated as their rows finish), encode (the PNG "
+           "after the last tile), send (the reply).\n"
+           "# TYPE rayd_stage_seconds histogram\n");
     for (int s = 0; s < MS__COUNT; s++) {
         char label[32];
         snprintf(label, sizeof label, "stage=\"%s\",", metrics_stage_names[s]);
@@ -261,12 +242,10 @@ static void metrics_stage_text(struct metrics_buf *b)
 }
 
 /* The label pairs of a (route, method, code) series, with a final comma. */
-static void metrics_http_label(char *buf, size_t size, size_t r, size_t m, size_t c)
-{
+static void metrics_http_label(char *buf, size_t size, size_t r, size_t m, size_t c) {
     int code = c < METRICS_NCODES - 1 ? atomic_load(&metrics_codes[c]) : 0;
     char num[16] = "other";
-    if (code)
-        snprintf(num, sizeof num, "%d", code);
+    if (code) snprintf(num, sizeof num, "%d", code);
     snprintf(buf, size, "route=\"%s\",method=\"%s\",code=\"%s\",",
              r < METRICS_ROUTES ? metrics_routes[r] : "none", metrics_methods[m], num);
 }
@@ -274,17 +253,14 @@ static void metrics_http_label(char *buf, size_t size, size_t r, size_t m, size_
 /* Calls fn for every (route, method, code) series that has happened. */
 static void metrics_http_each(struct metrics_buf *b,
                               void (*fn)(struct metrics_buf *b, const char *label,
-                                         struct metrics_hist *h))
-{
+                                         struct metrics_hist *h)) {
     for (size_t r = 0; r <= METRICS_ROUTES; r++) {
-        if (r < METRICS_ROUTES && !metrics_routes[r])
-            continue;
+        if (r < METRICS_ROUTES && !metrics_routes[r]) continue;
         for (size_t m = 0; m < METRICS_NMETHODS; m++)
             for (size_t c = 0; c < METRICS_NCODES; c++) {
-                struct metrics_hist *h = atomic_load_explicit(&metrics_http[r][m][c],
-                                                              memory_order_acquire);
-                if (!h)
-                    continue;
+                struct metrics_hist *h =
+                    atomic_load_explicit(&metrics_http[r][m][c], memory_order_acquire);
+                if (!h) continue;
                 char label[160];
                 metrics_http_label(label, sizeof label, r, m, c);
                 fn(b, label, h);
@@ -292,20 +268,18 @@ static void metrics_http_each(struct metrics_buf *b,
     }
 }
 
-static void metrics_http_count(struct metrics_buf *b, const char *label, struct metrics_hist *h)
-{
+static void metrics_http_count(struct metrics_buf *b, const char *label, struct metrics_hist *h) {
     size_t n = strlen(label);
     metrics_printf(b, "rayd_http_requests_total{%.*s} %lu\n", (int)n - 1, label,
                    atomic_load(&h->count));
 }
 
-static void metrics_http_duration(struct metrics_buf *b, const char *label, struct metrics_hist *h)
-{
+static void metrics_http_duration(struct metrics_buf *b, const char *label,
+                                  struct metrics_hist *h) {
     metrics_hist_series(b, "rayd_http_request_duration_seconds", label, h);
 }
 
-static void metrics_http_text(struct metrics_buf *b)
-{
+static void metrics_http_text(struct metrics_buf *b) {
     metrics_printf(b, "# HELP rayd_http_requests_total HTTP requests answered, by route pattern, "
                       "method and status code (499: the client left first).\n"
                       "# TYPE rayd_http_requests_total counter\n");
@@ -317,8 +291,7 @@ static void metrics_http_text(struct metrics_buf *b)
 }
 
 /* The compiler that built rayd, for rayd_build_info (no quotes inside). */
-static const char *metrics_compiler(void)
-{
+static const char *metrics_compiler(void) {
 #if defined(__clang__)
     return "clang " __clang_version__;
 #elif defined(__GNUC__)
@@ -329,22 +302,18 @@ static const char *metrics_compiler(void)
 }
 
 /* A label value with \, " and newline escaped, trailing spaces cut. */
-static void metrics_label_value(char *buf, size_t size, const char *s)
-{
+static void metrics_label_value(char *buf, size_t size, const char *s) {
     size_t n = 0;
     for (; *s && n + 3 < size; s++) {
-        if (*s == '\\' || *s == '"' || *s == '\n')
-            buf[n++] = '\\';
+        if (*s == '\\' || *s == '"' || *s == '\n') buf[n++] = '\\';
         buf[n++] = *s == '\n' ? 'n' : *s;
     }
-    while (n > 0 && buf[n - 1] == ' ')
-        n--;
+    while (n > 0 && buf[n - 1] == ' ') n--;
     buf[n] = 0;
 }
 
 /* rayd_build_info and the process_* family of the Prometheus clients. */
-static void metrics_process_text(struct metrics_buf *b)
-{
+static void metrics_process_text(struct metrics_buf *b) {
     char compiler[128];
     metrics_label_value(compiler, sizeof compiler, metrics_compiler());
     metrics_printf(b,
@@ -376,8 +345,7 @@ static void metrics_process_text(struct metrics_buf *b)
 }
 
 /* The one memory budget (mem.c): each kind's bytes and the limit. */
-static void metrics_memory_text(struct metrics_buf *b)
-{
+static void metrics_memory_text(struct metrics_buf *b) {
     metrics_printf(b, "# HELP rayd_memory_bytes Memory counted in the --max-memory budget, by "
                       "kind.\n# TYPE rayd_memory_bytes gauge\n");
     for (int k = 0; k < MEM__COUNT; k++)
@@ -388,8 +356,7 @@ static void metrics_memory_text(struct metrics_buf *b)
                    mem_limit());
 }
 
-char *metrics_text(size_t *len)
-{
+char *metrics_text(size_t *len) {
     struct metrics_buf b = {0};
     metrics_http_text(&b);
     metrics_process_text(&b);

@@ -23,11 +23,9 @@
 #include <unistd.h>
 
 /* Boot time in seconds since the epoch: the "btime" line of /proc/stat. */
-static double procstat_boot_time(void)
-{
+static double procstat_boot_time(void) {
     FILE *f = fopen("/proc/stat", "r");
-    if (!f)
-        return 0;
+    if (!f) return 0;
     char line[256];
     double t = 0;
     while (fgets(line, sizeof line, f))
@@ -42,35 +40,28 @@ static double procstat_boot_time(void)
 /* Fields 14, 15 (utime, stime), 22 (starttime), 23 (vsize), 24 (rss) of
  * /proc/self/stat.  The command name (field 2) may hold spaces and
  * parentheses, so fields are counted from the last ')'. */
-static bool procstat_stat(struct procstat *p)
-{
+static bool procstat_stat(struct procstat *p) {
     FILE *f = fopen("/proc/self/stat", "r");
-    if (!f)
-        return false;
+    if (!f) return false;
     char buf[1024];
     size_t n = fread(buf, 1, sizeof buf - 1, f);
     fclose(f);
     buf[n] = 0;
     char *s = strrchr(buf, ')');
-    if (!s)
-        return false;
+    if (!s) return false;
     /* field k (from 3 on) as a number; the state letter (3) reads 0 */
     unsigned long long v[25] = {0};
     int k = 3;
     for (char *q = s + 1; k < 25; k++) {
-        while (*q == ' ')
-            q++;
-        if (!*q)
-            return false;
+        while (*q == ' ') q++;
+        if (!*q) return false;
         v[k] = strtoull(q, &q, 10);
-        while (*q && *q != ' ')
-            q++;
+        while (*q && *q != ' ') q++;
     }
     unsigned long long utime = v[14], stime = v[15], start = v[22], vsize = v[23], rss = v[24];
     double tick = (double)sysconf(_SC_CLK_TCK);
     long page = sysconf(_SC_PAGESIZE);
-    if (tick <= 0 || page <= 0)
-        return false;
+    if (tick <= 0 || page <= 0) return false;
     p->cpu_seconds = (double)(utime + stime) / tick;
     p->start_time = procstat_boot_time() + (double)start / tick;
     p->virtual_bytes = (double)vsize;
@@ -79,22 +70,18 @@ static bool procstat_stat(struct procstat *p)
 }
 
 /* Open descriptors: the entries of /proc/self/fd, less the one reading it. */
-static long procstat_fds(void)
-{
+static long procstat_fds(void) {
     DIR *d = opendir("/proc/self/fd");
-    if (!d)
-        return -1;
+    if (!d) return -1;
     long n = 0;
     struct dirent *e;
     while ((e = readdir(d)))
-        if (e->d_name[0] != '.')
-            n++;
+        if (e->d_name[0] != '.') n++;
     closedir(d);
     return n > 0 ? n - 1 : 0;
 }
 
-bool procstat_read(struct procstat *p)
-{
+bool procstat_read(struct procstat *p) {
     memset(p, 0, sizeof *p);
     bool ok = procstat_stat(p);
     long fds = procstat_fds();

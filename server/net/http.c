@@ -56,8 +56,7 @@ int http_port(void) { return http_bound_port; }
 
 /* ---- libmicrohttpd as the transport ---------------------------------------------- */
 
-static const char *http_mhd_header(struct http_req *r, const char *name)
-{
+static const char *http_mhd_header(struct http_req *r, const char *name) {
     return MHD_lookup_connection_value(r->conn.io_ctx, MHD_HEADER_KIND, name);
 }
 
@@ -67,8 +66,7 @@ struct http_each {
 };
 
 static enum MHD_Result http_each_cb(void *cls, enum MHD_ValueKind kind, const char *key,
-                                    const char *value)
-{
+                                    const char *value) {
     (void)kind;
     struct http_each *e = cls;
     e->fn(e->u, key, value ? value : "");
@@ -79,30 +77,24 @@ static enum MHD_Result http_each_cb(void *cls, enum MHD_ValueKind kind, const ch
  * through a C string: a key or value with a NUL byte inside is passed as the
  * text "\\0", which no parameter name or number matches. */
 static enum MHD_Result http_each_n_cb(void *cls, enum MHD_ValueKind kind, const char *key,
-                                      size_t key_size, const char *value, size_t value_size)
-{
+                                      size_t key_size, const char *value, size_t value_size) {
     (void)kind;
     struct http_each *e = cls;
-    if (!value)
-        value = "";
-    if (strlen(key) != key_size)
-        key = "\\0";
-    if (strlen(value) != value_size)
-        value = "\\0";
+    if (!value) value = "";
+    if (strlen(key) != key_size) key = "\\0";
+    if (strlen(value) != value_size) value = "\\0";
     e->fn(e->u, key, value);
     return MHD_YES;
 }
 
 static void http_mhd_query_each(struct http_req *r,
-                                void (*fn)(void *u, const char *k, const char *v), void *u)
-{
+                                void (*fn)(void *u, const char *k, const char *v), void *u) {
     struct http_each e = {fn, u};
     MHD_get_connection_values_n(r->conn.io_ctx, MHD_GET_ARGUMENT_KIND, http_each_n_cb, &e);
 }
 
 static void http_mhd_header_each(struct http_req *r,
-                                 void (*fn)(void *u, const char *k, const char *v), void *u)
-{
+                                 void (*fn)(void *u, const char *k, const char *v), void *u) {
     struct http_each e = {fn, u};
     MHD_get_connection_values(r->conn.io_ctx, MHD_HEADER_KIND, http_each_cb, &e);
 }
@@ -110,16 +102,14 @@ static void http_mhd_header_each(struct http_req *r,
 static void http_mhd_suspend(struct http_req *r) { MHD_suspend_connection(r->conn.io_ctx); }
 static void http_mhd_resume(struct http_req *r) { MHD_resume_connection(r->conn.io_ctx); }
 
-static int http_mhd_fd(struct http_req *r)
-{
+static int http_mhd_fd(struct http_req *r) {
     const union MHD_ConnectionInfo *ci =
         MHD_get_connection_info(r->conn.io_ctx, MHD_CONNECTION_INFO_CONNECTION_FD);
     return ci ? ci->connect_fd : -1;
 }
 
 /* The peer's address as text ("127.0.0.1", "::1"), for the access log. */
-static void http_client_address(struct MHD_Connection *c, char *buf, size_t size)
-{
+static void http_client_address(struct MHD_Connection *c, char *buf, size_t size) {
     const union MHD_ConnectionInfo *ci =
         MHD_get_connection_info(c, MHD_CONNECTION_INFO_CLIENT_ADDRESS);
     const struct sockaddr *sa = ci ? ci->client_addr : NULL;
@@ -132,9 +122,9 @@ static void http_client_address(struct MHD_Connection *c, char *buf, size_t size
                   (socklen_t)size);
 }
 
-static const struct http_io http_mhd_io = {http_mhd_header,  http_mhd_header_each,
+static const struct http_io http_mhd_io = {http_mhd_header,     http_mhd_header_each,
                                            http_mhd_query_each, http_mhd_suspend,
-                                           http_mhd_resume, http_mhd_fd};
+                                           http_mhd_resume,     http_mhd_fd};
 
 /* Set by http_drop in the thread that returns MHD_NO for a request whose
  * client left, or whose upload rayd stops (too slow, or ended short):
@@ -152,8 +142,7 @@ static _Thread_local char http_refused_why[HTTP_REFUSED_WHY];
 /* The error status libmicrohttpd queued on c by itself, 0 if none (or if
  * this libmicrohttpd cannot say: then the one its message named); its
  * reason into why ("" when this thread's message was not about it). */
-static unsigned http_refused_status(struct MHD_Connection *c, char *why, size_t size)
-{
+static unsigned http_refused_status(struct MHD_Connection *c, char *why, size_t size) {
 #if MHD_VERSION >= 0x00097400
     const union MHD_ConnectionInfo *ci =
         MHD_get_connection_info(c, MHD_CONNECTION_INFO_HTTP_STATUS);
@@ -170,8 +159,7 @@ static unsigned http_refused_status(struct MHD_Connection *c, char *why, size_t 
     return st;
 }
 
-static enum MHD_Result http_drop(void)
-{
+static enum MHD_Result http_drop(void) {
     http_dropped = true;
     return MHD_NO;
 }
@@ -188,20 +176,16 @@ struct http_blob_body {
     struct http_req *r;
 };
 
-static ssize_t http_blob_read(void *cls, uint64_t pos, char *buf, size_t max)
-{
+static ssize_t http_blob_read(void *cls, uint64_t pos, char *buf, size_t max) {
     struct http_blob_body *b = cls;
-    if (pos >= b->img->len)
-        return MHD_CONTENT_READER_END_OF_STREAM;
+    if (pos >= b->img->len) return MHD_CONTENT_READER_END_OF_STREAM;
     size_t n = b->img->len - (size_t)pos < max ? b->img->len - (size_t)pos : max;
     memcpy(buf, (const char *)b->img->data + pos, n);
-    if ((size_t)pos + n > b->r->log.body_taken)
-        b->r->log.body_taken = (size_t)pos + n;
+    if ((size_t)pos + n > b->r->log.body_taken) b->r->log.body_taken = (size_t)pos + n;
     return (ssize_t)n;
 }
 
-static void http_blob_free(void *cls)
-{
+static void http_blob_free(void *cls) {
     struct http_blob_body *b = cls;
     blob_unref(b->img);
     free(b);
@@ -214,8 +198,7 @@ struct http_stream_body {
     void *cls;
 };
 
-static ssize_t http_stream_read(void *cls, uint64_t pos, char *buf, size_t max)
-{
+static ssize_t http_stream_read(void *cls, uint64_t pos, char *buf, size_t max) {
     (void)pos;
     struct http_stream_body *s = cls;
     ssize_t n = s->read(s->cls, buf, max);
@@ -224,16 +207,14 @@ static ssize_t http_stream_read(void *cls, uint64_t pos, char *buf, size_t max)
                                     : n;
 }
 
-static void http_stream_free(void *cls)
-{
+static void http_stream_free(void *cls) {
     struct http_stream_body *s = cls;
     s->done(s->cls);
     free(s);
 }
 
 /* The body of a 304: none (never called for a 304, which sends no body). */
-static ssize_t http_no_body(void *cls, uint64_t pos, char *buf, size_t max)
-{
+static ssize_t http_no_body(void *cls, uint64_t pos, char *buf, size_t max) {
     (void)cls;
     (void)pos;
     (void)buf;
@@ -249,8 +230,7 @@ static ssize_t http_no_body(void *cls, uint64_t pos, char *buf, size_t max)
  * MHD_RF_HTTP_1_0_COMPATIBLE_STRICT writes neither.  The price is that
  * libmicrohttpd then closes the connection after it ("Connection: close"),
  * one new connection per revalidation. */
-static struct MHD_Response *http_bodiless(void)
-{
+static struct MHD_Response *http_bodiless(void) {
     struct MHD_Response *resp =
         MHD_create_response_from_callback(MHD_SIZE_UNKNOWN, 64, http_no_body, NULL, NULL);
     if (resp &&
@@ -263,13 +243,11 @@ static struct MHD_Response *http_bodiless(void)
 
 /* p's body as libmicrohttpd's response, which takes what p held (its
  * bytes, blob or stream); NULL on no memory. */
-static struct MHD_Response *http_body(struct http_req *r, struct http_reply *p)
-{
+static struct MHD_Response *http_body(struct http_req *r, struct http_reply *p) {
     struct MHD_Response *resp = NULL;
     if (p->kind == HTTP_BODY_BYTES) {
         resp = MHD_create_response_from_buffer_with_free_callback(p->len, p->data, free);
-        if (resp)
-            p->data = NULL;
+        if (resp) p->data = NULL;
     } else if (p->kind == HTTP_BODY_BLOB) {
         struct http_blob_body *b = malloc(sizeof *b);
         resp = b ? MHD_create_response_from_callback(p->blob->len, 64 * 1024, http_blob_read, b,
@@ -300,20 +278,16 @@ static struct MHD_Response *http_body(struct http_req *r, struct http_reply *p)
 
 /* r's reply as libmicrohttpd's response: its body, then its headers in
  * the order they were added. */
-static struct MHD_Response *http_response(struct http_req *r, struct http_reply *p)
-{
+static struct MHD_Response *http_response(struct http_req *r, struct http_reply *p) {
     struct MHD_Response *resp = http_body(r, p);
     for (size_t i = 0; resp && i < p->nheaders; i++)
         MHD_add_response_header(resp, p->headers[i].name, p->headers[i].value);
     return resp;
 }
 
-static enum MHD_Result http_flush(struct http_req *r)
-{
-    if (r->gone)
-        return http_drop();
-    if (!r->conn.pending)
-        return MHD_NO;
+static enum MHD_Result http_flush(struct http_req *r) {
+    if (r->gone) return http_drop();
+    if (!r->conn.pending) return MHD_NO;
     struct http_reply *p = r->conn.pending;
     r->conn.pending = NULL;
     struct MHD_Response *resp = http_response(r, p);
@@ -332,8 +306,7 @@ static enum MHD_Result http_flush(struct http_req *r)
 /* Called by libmicrohttpd with the raw request-target before it is parsed;
  * the request is born here (so its length is known: --max-url), and from
  * then on libmicrohttpd promises the completion callback, which frees it. */
-static void *http_uri_log(void *cls, const char *uri, struct MHD_Connection *c)
-{
+static void *http_uri_log(void *cls, const char *uri, struct MHD_Connection *c) {
     (void)cls;
     struct http_req *r = http_req_new(&http_mhd_io, c, NULL, NULL, uri ? strlen(uri) : 0);
     if (r) {
@@ -346,12 +319,10 @@ static void *http_uri_log(void *cls, const char *uri, struct MHD_Connection *c)
 /* A connection closing with an error of libmicrohttpd's still untaken: its
  * request line was refused, so no request reached rayd; its access line. */
 static void http_connection(void *cls, struct MHD_Connection *c, void **socket_ctx,
-                            enum MHD_ConnectionNotificationCode what)
-{
+                            enum MHD_ConnectionNotificationCode what) {
     (void)cls;
     (void)socket_ctx;
-    if (what != MHD_CONNECTION_NOTIFY_CLOSED || !http_refused)
-        return;
+    if (what != MHD_CONNECTION_NOTIFY_CLOSED || !http_refused) return;
     char client[64];
     http_client_address(c, client, sizeof client);
     http_flow_refused(client, http_refused, http_refused_why);
@@ -388,24 +359,21 @@ struct http_layout {
     const char *why;
 };
 
-static bool http_layout_in(const struct http_layout *l, const char *p)
-{
+static bool http_layout_in(const struct http_layout *l, const char *p) {
     return p >= l->begin && p < l->end;
 }
 
 #define HTTP_LAYOUT_LF "a header line holds a NUL byte or ends in a bare LF (CR LF is required)"
 
 /* A header line that should have started at l->at starts at line: why. */
-static const char *http_layout_broken(const struct http_layout *l, const char *line)
-{
+static const char *http_layout_broken(const struct http_layout *l, const char *line) {
     if (!http_layout_in(l, line))
         return "obsolete line folding (a header line that starts with a space or tab)";
     return HTTP_LAYOUT_LF;
 }
 
 static enum MHD_Result http_layout_cb(void *cls, enum MHD_ValueKind kind, const char *key,
-                                      size_t key_size, const char *value, size_t value_size)
-{
+                                      size_t key_size, const char *value, size_t value_size) {
     (void)kind;
     struct http_layout *l = cls;
     if (key != l->at) {
@@ -417,8 +385,7 @@ static enum MHD_Result http_layout_cb(void *cls, enum MHD_ValueKind kind, const 
         l->why = "a malformed header line";
         return MHD_NO;
     }
-    while (p < value && (*p == ' ' || *p == '\t'))
-        p++;
+    while (p < value && (*p == ' ' || *p == '\t')) p++;
     if (p != value || value[value_size + 1]) {
         l->why = p != value ? "a malformed header line" : HTTP_LAYOUT_LF;
         return MHD_NO;
@@ -429,12 +396,10 @@ static enum MHD_Result http_layout_cb(void *cls, enum MHD_ValueKind kind, const 
 
 /* NULL when c's header block lies as its bytes say, else why not. */
 static const char *http_mhd_layout(struct MHD_Connection *c, const char *method,
-                                   const char *version)
-{
+                                   const char *version) {
     const union MHD_ConnectionInfo *ci =
         MHD_get_connection_info(c, MHD_CONNECTION_INFO_REQUEST_HEADER_SIZE);
-    if (!ci || !method || !version)
-        return NULL;
+    if (!ci || !method || !version) return NULL;
     struct http_layout l = {.begin = method, .end = method + ci->header_size};
     if (!http_layout_in(&l, version))
         return NULL; /* no version on the request line: libmicrohttpd refuses it */
@@ -446,8 +411,7 @@ static const char *http_mhd_layout(struct MHD_Connection *c, const char *method,
 }
 #else
 static const char *http_mhd_layout(struct MHD_Connection *c, const char *method,
-                                   const char *version)
-{
+                                   const char *version) {
     (void)c;
     (void)method;
     (void)version;
@@ -457,8 +421,7 @@ static const char *http_mhd_layout(struct MHD_Connection *c, const char *method,
 
 static enum MHD_Result http_access(void *cls, struct MHD_Connection *c, const char *url,
                                    const char *method, const char *version, const char *upload,
-                                   size_t *upload_size, void **con_cls)
-{
+                                   size_t *upload_size, void **con_cls) {
     (void)cls;
     struct http_req *r = *con_cls;
     if (!r) /* out of memory in http_uri_log */
@@ -471,12 +434,10 @@ static enum MHD_Result http_access(void *cls, struct MHD_Connection *c, const ch
         r->conn.framing = http_mhd_layout(c, method, version);
         return http_flow_begin(r) ? MHD_YES : http_flush(r);
     }
-    if (r->gone)
-        return http_drop();
+    if (r->gone) return http_drop();
     if (r->conn.pending) /* resumed with an answer, or replied during the upload */
         return http_flush(r);
-    if (r->conn.replied)
-        return MHD_YES;
+    if (r->conn.replied) return MHD_YES;
     if (*upload_size) {
         size_t n = *upload_size;
         *upload_size = 0;
@@ -484,32 +445,30 @@ static enum MHD_Result http_access(void *cls, struct MHD_Connection *c, const ch
     }
     /* the whole request is here */
     http_flow_handle(r);
-    if (r->conn.parked)
-        return MHD_YES;
+    if (r->conn.parked) return MHD_YES;
     return http_flush(r);
 }
 
 static void http_completed(void *cls, struct MHD_Connection *c, void **con_cls,
-                           enum MHD_RequestTerminationCode toe)
-{
+                           enum MHD_RequestTerminationCode toe) {
     (void)cls;
     (void)c;
     struct http_req *r = *con_cls;
     *con_cls = NULL;
-    if (!r)
-        return;
+    if (!r) return;
     if (!r->method || !r->conn.replied)
-        r->log.refused_status = http_refused_status(c, r->log.refused_why, sizeof r->log.refused_why);
+        r->log.refused_status =
+            http_refused_status(c, r->log.refused_why, sizeof r->log.refused_why);
     const char *note = NULL;
     if (toe != MHD_REQUEST_TERMINATED_COMPLETED_OK)
-        note = toe == MHD_REQUEST_TERMINATED_TIMEOUT_REACHED ? "timeout"
+        note = toe == MHD_REQUEST_TERMINATED_TIMEOUT_REACHED   ? "timeout"
                : toe == MHD_REQUEST_TERMINATED_DAEMON_SHUTDOWN ? "shutdown"
-                                                                : "aborted";
+                                                               : "aborted";
     /* for an answer cut short, the finer reason */
     r->log.end_why = toe == MHD_REQUEST_TERMINATED_CLIENT_ABORT ? "client_closed"
-                 : toe == MHD_REQUEST_TERMINATED_READ_ERROR ? "read_error"
-                 : toe == MHD_REQUEST_TERMINATED_WITH_ERROR ? "send_error"
-                                                            : note;
+                     : toe == MHD_REQUEST_TERMINATED_READ_ERROR ? "read_error"
+                     : toe == MHD_REQUEST_TERMINATED_WITH_ERROR ? "send_error"
+                                                                : note;
     http_flow_end(r, note);
 }
 
@@ -524,41 +483,35 @@ static char http_start_why[512]; /* as long as http_mhd_log's line */
  * why: "<title>&quot;Host:&quot; header required</title>" is
  * host_header_required (entities dropped; letters and digits kept, in
  * lower case; any run of other bytes one '_').  "" when there is none. */
-static void http_page_title_code(const char *msg, char *why, size_t size)
-{
+static void http_page_title_code(const char *msg, char *why, size_t size) {
     const char *p = strstr(msg, "<title>");
     const char *end = p ? strstr(p, "</title>") : NULL;
     size_t n = 0;
     why[0] = 0;
-    if (!end || size == 0)
-        return;
+    if (!end || size == 0) return;
     for (p += 7; p < end && n + 1 < size; p++) {
         if (*p == '&' && memchr(p, ';', (size_t)(end - p))) {
             p = memchr(p, ';', (size_t)(end - p)); /* an entity: &quot; */
             continue;
         }
         char ch = *p;
-        if (ch >= 'A' && ch <= 'Z')
-            ch = (char)(ch - 'A' + 'a');
+        if (ch >= 'A' && ch <= 'Z') ch = (char)(ch - 'A' + 'a');
         if ((ch >= 'a' && ch <= 'z') || (ch >= '0' && ch <= '9'))
             why[n++] = ch;
         else if (n > 0 && why[n - 1] != '_')
             why[n++] = '_';
     }
-    while (n > 0 && why[n - 1] == '_')
-        n--;
+    while (n > 0 && why[n - 1] == '_') n--;
     why[n] = 0;
 }
 
 /* A message of libmicrohttpd's saying it answered a request with an error
  * page of its own: counted, and the status and the page's title kept for
  * the access line.  False for any other message. */
-static bool http_mhd_refusal(const char *msg)
-{
+static bool http_mhd_refusal(const char *msg) {
     static const char said[] = "HTTP response code is ";
     const char *p = strstr(msg, said);
-    if (!p || strncmp(msg, "Error processing request", 24))
-        return false;
+    if (!p || strncmp(msg, "Error processing request", 24)) return false;
     unsigned long st = strtoul(p + sizeof said - 1, NULL, 10);
     metrics_reject(MR_HTTP_PARSER);
     http_refused = st >= 400 && st <= 599 ? (unsigned)st : 400;
@@ -569,8 +522,7 @@ static bool http_mhd_refusal(const char *msg)
 /* The messages libmicrohttpd (0.9.75) writes just before it refuses a
  * request with an error page: the refusal's access line tells as much
  * (its status, and the page's title as its reason). */
-static bool http_mhd_before_refusal(const char *msg)
-{
+static bool http_mhd_before_refusal(const char *msg) {
     static const char *const lead[] = {
         "Received HTTP/1.1 request without `Host' header",
         "Not enough memory in pool to allocate header record",
@@ -579,30 +531,26 @@ static bool http_mhd_before_refusal(const char *msg)
         "Failed to parse `Content-Length' header",
     };
     for (size_t i = 0; i < sizeof lead / sizeof lead[0]; i++)
-        if (!strncmp(msg, lead[i], strlen(lead[i])))
-            return true;
+        if (!strncmp(msg, lead[i], strlen(lead[i]))) return true;
     return false;
 }
 
 /* libmicrohttpd's own messages (malformed requests, ...) go through log.c so
  * --log-format json keeps every stderr line JSON.  Those about a refusal
  * go to debug: rayd's access line is the refusal's one line. */
-static void http_mhd_log(void *cls, const char *fmt, va_list ap) __attribute__((format(printf, 2, 0)));
 static void http_mhd_log(void *cls, const char *fmt, va_list ap)
-{
+    __attribute__((format(printf, 2, 0)));
+static void http_mhd_log(void *cls, const char *fmt, va_list ap) {
     (void)cls;
     char msg[512];
     vsnprintf(msg, sizeof msg, fmt, ap);
     size_t n = strlen(msg);
-    while (n > 0 && (msg[n - 1] == '\n' || msg[n - 1] == '\r'))
-        msg[--n] = 0;
+    while (n > 0 && (msg[n - 1] == '\n' || msg[n - 1] == '\r')) msg[--n] = 0;
     pthread_mutex_lock(&http_start_lock);
     bool keep = http_starting;
-    if (keep && !http_start_why[0])
-        snprintf(http_start_why, sizeof http_start_why, "%s", msg);
+    if (keep && !http_start_why[0]) snprintf(http_start_why, sizeof http_start_why, "%s", msg);
     pthread_mutex_unlock(&http_start_lock);
-    if (keep)
-        return;
+    if (keep) return;
     bool refusal = http_mhd_refusal(msg) || http_mhd_before_refusal(msg);
     bool dropped = http_dropped && !strncmp(msg, "Application reported internal error", 35);
     http_dropped = false;
@@ -615,8 +563,7 @@ static void http_mhd_log(void *cls, const char *fmt, va_list ap)
 /* ---- start / stop --------------------------------------------------------------- */
 
 /* Reads a whole (small) file: the TLS key and certificate. */
-static char *http_read_pem(const char *path)
-{
+static char *http_read_pem(const char *path) {
     FILE *f = fopen(path, "rb");
     if (!f) {
         fprintf(stderr, "rayd: error: %s: %s\n", path, strerror(errno));
@@ -645,23 +592,19 @@ bool http_tls(void) { return http_tls_cert != NULL; }
 
 /* The number of open files allowed, raised to the hard limit: every
  * connection is a descriptor, and --max-conns is capped to what fits. */
-static long http_fd_budget(void)
-{
+static long http_fd_budget(void) {
     struct rlimit rl;
-    if (getrlimit(RLIMIT_NOFILE, &rl))
-        return 1024;
+    if (getrlimit(RLIMIT_NOFILE, &rl)) return 1024;
     if (rl.rlim_cur < rl.rlim_max) {
         struct rlimit want = {rl.rlim_max, rl.rlim_max};
-        if (!setrlimit(RLIMIT_NOFILE, &want))
-            rl.rlim_cur = rl.rlim_max;
+        if (!setrlimit(RLIMIT_NOFILE, &want)) rl.rlim_cur = rl.rlim_max;
     }
     return rl.rlim_cur == RLIM_INFINITY || rl.rlim_cur > 100000000 ? 100000000 : (long)rl.rlim_cur;
 }
 
 /* The --bind address and --port into ss (MHD_USE_IPv6 into *flags for an
  * IPv6 one): 0, or -1 after saying why. */
-static int http_address(struct sockaddr_storage *ss, unsigned *flags)
-{
+static int http_address(struct sockaddr_storage *ss, unsigned *flags) {
     memset(ss, 0, sizeof *ss);
     struct sockaddr_in *s4 = (struct sockaddr_in *)ss;
     struct sockaddr_in6 *s6 = (struct sockaddr_in6 *)ss;
@@ -682,8 +625,7 @@ static int http_address(struct sockaddr_storage *ss, unsigned *flags)
 /* --max-conns, lowered to what the open-file limit allows: the
  * connections, plus the listener, epoll sets, inter-thread channels, stdio
  * and the odd file -- 64 is plenty for those. */
-static long http_conn_limit(void)
-{
+static long http_conn_limit(void) {
     long fds = http_fd_budget(), conns = config.max_conns;
     if (conns > fds - 64) {
         conns = fds - 64 > 16 ? fds - 64 : 16;
@@ -699,17 +641,14 @@ struct http_opts {
     int n;
 };
 
-static void http_opt(struct http_opts *o, enum MHD_OPTION opt, intptr_t value, void *ptr)
-{
+static void http_opt(struct http_opts *o, enum MHD_OPTION opt, intptr_t value, void *ptr) {
     o->item[o->n++] = (struct MHD_OptionItem){opt, value, ptr};
 }
 
 /* With --tls-cert: the certificate and key read and their options added
  * (MHD_USE_TLS into *flags).  0, or -1 after saying why. */
-static int http_tls_options(struct http_opts *o, unsigned *flags)
-{
-    if (!config.tls_cert)
-        return 0;
+static int http_tls_options(struct http_opts *o, unsigned *flags) {
+    if (!config.tls_cert) return 0;
     if (MHD_is_feature_supported(MHD_FEATURE_TLS) != MHD_YES) {
         fprintf(stderr, "rayd: error: this libmicrohttpd has no TLS support (--tls-cert)\n");
         return -1;
@@ -730,8 +669,7 @@ static int http_tls_options(struct http_opts *o, unsigned *flags)
 /* Starts libmicrohttpd with flags and o; what it logs while starting is
  * kept (http_start_why) to explain a failure in one line.  0, or -1 after
  * saying why. */
-static int http_launch(unsigned flags, struct http_opts *o)
-{
+static int http_launch(unsigned flags, struct http_opts *o) {
     pthread_mutex_lock(&http_start_lock);
     http_starting = true;
     pthread_mutex_unlock(&http_start_lock);
@@ -748,19 +686,16 @@ static int http_launch(unsigned flags, struct http_opts *o)
                 why[0] ? ": " : "", why);
         return -1;
     }
-    if (why[0])
-        log_warn("http: %s", why);
+    if (why[0]) log_warn("http: %s", why);
     return 0;
 }
 
-int http_start(void)
-{
+int http_start(void) {
     metrics_gauge(MG_HTTP_SUSPENDED, http_req_suspended);
     unsigned flags = MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_EPOLL | MHD_ALLOW_SUSPEND_RESUME |
                      MHD_USE_ERROR_LOG;
     struct sockaddr_storage ss;
-    if (http_address(&ss, &flags) != 0)
-        return -1;
+    if (http_address(&ss, &flags) != 0) return -1;
     struct http_opts o = {.n = 0};
     http_opt(&o, MHD_OPTION_EXTERNAL_LOGGER, (intptr_t)http_mhd_log, NULL);
     http_opt(&o, MHD_OPTION_SOCK_ADDR, 0, &ss);
@@ -779,8 +714,7 @@ int http_start(void)
      * and the header block itself (http_mhd_layout, http_flow_begin).  Later
      * versions are strict by themselves. */
     http_opt(&o, MHD_OPTION_STRICT_FOR_CLIENT, MHD_VERSION <= 0x00097500 ? 0 : 1, NULL);
-    if (http_tls_options(&o, &flags) != 0)
-        return -1;
+    if (http_tls_options(&o, &flags) != 0) return -1;
     http_opt(&o, MHD_OPTION_END, 0, NULL);
     if (http_launch(flags, &o) != 0) {
         http_stop();
@@ -791,13 +725,10 @@ int http_start(void)
     return 0;
 }
 
-void http_stop(void)
-{
-    if (http_daemon)
-        MHD_stop_daemon(http_daemon);
+void http_stop(void) {
+    if (http_daemon) MHD_stop_daemon(http_daemon);
     http_daemon = NULL;
-    if (http_tls_key)
-        memset(http_tls_key, 0, strlen(http_tls_key));
+    if (http_tls_key) memset(http_tls_key, 0, strlen(http_tls_key));
     free(http_tls_key);
     free(http_tls_cert);
     http_tls_key = http_tls_cert = NULL;

@@ -60,16 +60,12 @@
 /* Constant-time check of "Authorization: Bearer <token>": every byte of
  * the token is compared whatever the header holds (config.c refuses a
  * token with a NUL, so config.token_len is its whole length). */
-static bool http_flow_authorized(struct http_req *r)
-{
-    if (!config.token)
-        return true;
+static bool http_flow_authorized(struct http_req *r) {
+    if (!config.token) return true;
     const char *h = http_req_header(r, MHD_HTTP_HEADER_AUTHORIZATION);
-    if (!h || strncasecmp(h, "Bearer ", 7))
-        return false;
+    if (!h || strncasecmp(h, "Bearer ", 7)) return false;
     h += 7;
-    while (*h == ' ')
-        h++;
+    while (*h == ' ') h++;
     size_t hl = strlen(h);
     unsigned char diff = hl != config.token_len;
     for (size_t i = 0; i < config.token_len; i++)
@@ -83,8 +79,7 @@ static bool http_flow_authorized(struct http_req *r)
  * the token could make rayd read and keep --max-body on every connection
  * it opens, and one sending Expect: 100-continue would be told to send its
  * body only to be refused. */
-static bool http_flow_unauthorized(struct http_req *r)
-{
+static bool http_flow_unauthorized(struct http_req *r) {
     if (!strcmp(r->method, "OPTIONS") || router_public(r->method, r->url) ||
         http_flow_authorized(r))
         return false;
@@ -94,8 +89,7 @@ static bool http_flow_unauthorized(struct http_req *r)
 }
 
 /* OPTIONS: CORS preflight or a plain Allow listing. */
-static void http_flow_options(struct http_req *r)
-{
+static void http_flow_options(struct http_req *r) {
     char allow[128];
     if (!router_allow(r->url, allow, sizeof allow)) {
         http_reply_error(r, 404, "not_found", "no such resource", NULL, 0, 0, NULL);
@@ -112,19 +106,15 @@ static void http_flow_options(struct http_req *r)
 }
 
 /* Content-Length: digits only.  -1 absent, -2 malformed. */
-static long long http_flow_length(const char *cl)
-{
-    while (*cl == ' ' || *cl == '\t')
-        cl++;
+static long long http_flow_length(const char *cl) {
+    while (*cl == ' ' || *cl == '\t') cl++;
     unsigned long long n = 0;
     const char *p = cl;
     for (; *p >= '0' && *p <= '9'; p++)
         if (n <= 1000000000000000ULL)
             n = n * 10 + (unsigned)(*p - '0'); /* past 10^15 it is over any limit anyway */
-    while (*p == ' ' || *p == '\t')
-        p++;
-    if (p == cl || *p)
-        return -2;
+    while (*p == ' ' || *p == '\t') p++;
+    if (p == cl || *p) return -2;
     return (long long)n;
 }
 
@@ -141,10 +131,8 @@ struct http_flow_framing {
  * is whitespace before the colon, which RFC 9112 section 5.1 asks a 400
  * for -- libmicrohttpd keeps "Transfer-Encoding " as an unknown header and
  * would read the body as the next request. */
-static bool http_flow_token(const char *k)
-{
-    if (!*k)
-        return false;
+static bool http_flow_token(const char *k) {
+    if (!*k) return false;
     for (; *k; k++)
         if (!((*k >= 'a' && *k <= 'z') || (*k >= 'A' && *k <= 'Z') || (*k >= '0' && *k <= '9') ||
               strchr("!#$%&'*+-.^_`|~", *k)))
@@ -153,32 +141,25 @@ static bool http_flow_token(const char *k)
 }
 
 /* A field value holds no control character but tab (a bare CR above all). */
-static bool http_flow_value_ok(const char *v)
-{
+static bool http_flow_value_ok(const char *v) {
     for (; *v; v++)
-        if (((unsigned char)*v < 0x20 && *v != '\t') || *v == 0x7f)
-            return false;
+        if (((unsigned char)*v < 0x20 && *v != '\t') || *v == 0x7f) return false;
     return true;
 }
 
 /* Expect: 100-continue is the only expectation there is (RFC 9110
  * section 10.1.1); libmicrohttpd answers it. */
-static bool http_flow_continue(const char *v)
-{
+static bool http_flow_continue(const char *v) {
     v += strspn(v, " \t");
     size_t n = strlen("100-continue");
     return !strncasecmp(v, "100-continue", n) && !v[n + strspn(v + n, " \t")];
 }
 
-static void http_flow_framing_cb(void *u, const char *k, const char *v)
-{
+static void http_flow_framing_cb(void *u, const char *k, const char *v) {
     struct http_flow_framing *f = u;
-    if (!f->bad_name && !http_flow_token(k))
-        f->bad_name = k;
-    if (!f->bad_value && !http_flow_value_ok(v))
-        f->bad_value = k;
-    if (!strcasecmp(k, "Expect") && !f->expect && !http_flow_continue(v))
-        f->expect = v;
+    if (!f->bad_name && !http_flow_token(k)) f->bad_name = k;
+    if (!f->bad_value && !http_flow_value_ok(v)) f->bad_value = k;
+    if (!strcasecmp(k, "Expect") && !f->expect && !http_flow_continue(v)) f->expect = v;
     if (!strcasecmp(k, MHD_HTTP_HEADER_CONTENT_LENGTH)) {
         long long n = http_flow_length(v);
         if (f->nlength++ == 0)
@@ -186,8 +167,7 @@ static void http_flow_framing_cb(void *u, const char *k, const char *v)
         else if (n != f->length)
             f->differ = true;
     } else if (!strcasecmp(k, MHD_HTTP_HEADER_TRANSFER_ENCODING)) {
-        if (f->nte++ == 0)
-            f->te = v;
+        if (f->nte++ == 0) f->te = v;
     } else if (!strcasecmp(k, MHD_HTTP_HEADER_HOST)) {
         f->nhost++;
     }
@@ -195,8 +175,7 @@ static void http_flow_framing_cb(void *u, const char *k, const char *v)
 
 /* Whether te from offset at to its end is the word "chunked", with spaces
  * or tabs around it. */
-static bool http_flow_chunked_at(const char *te, size_t at)
-{
+static bool http_flow_chunked_at(const char *te, size_t at) {
     const char *p = te + at + strspn(te + at, " \t");
     size_t n = strlen("chunked");
     return !strncasecmp(p, "chunked", n) && !p[n + strspn(p + n, " \t")];
@@ -208,10 +187,8 @@ static bool http_flow_chunked_at(const char *te, size_t at)
  * "chunked"; else the status, with the message in msg: 501 for a coding
  * before a final chunked (RFC 9112 section 6.1), 400 otherwise (chunked is
  * not the last coding: the body's length is unknown, section 6.3). */
-static unsigned http_flow_te_refusal(const char *te, char *msg, size_t size)
-{
-    if (!te || !strcasecmp(te, "chunked"))
-        return 0;
+static unsigned http_flow_te_refusal(const char *te, char *msg, size_t size) {
+    if (!te || !strcasecmp(te, "chunked")) return 0;
     const char *comma = strrchr(te, ',');
     bool coded = comma && http_flow_chunked_at(te, (size_t)(comma + 1 - te));
     snprintf(msg, size, "Transfer-Encoding '%.40s': %s", te,
@@ -224,15 +201,12 @@ static unsigned http_flow_te_refusal(const char *te, char *msg, size_t size)
  * 3.2.2, what a client talking to a proxy sends) is served as its path; its
  * host stands in for Host, which rayd does not use.  False when the target
  * has a scheme but no host. */
-static bool http_flow_absolute_form(struct http_req *r)
-{
+static bool http_flow_absolute_form(struct http_req *r) {
     const char *u = r->url;
     size_t skip = !strncasecmp(u, "http://", 7) ? 7 : !strncasecmp(u, "https://", 8) ? 8 : 0;
-    if (!skip)
-        return true;
+    if (!skip) return true;
     const char *path = strchr(u + skip, '/');
-    if ((path ? (size_t)(path - u) : strlen(u)) == skip)
-        return false;
+    if ((path ? (size_t)(path - u) : strlen(u)) == skip) return false;
     r->url = path ? path : "/";
     return true;
 }
@@ -241,8 +215,7 @@ static bool http_flow_absolute_form(struct http_req *r)
  * connection closes after it, so no byte after its headers is ever read
  * as a request. */
 static void http_flow_refuse_framing(struct http_req *r, unsigned status, const char *code,
-                                     const char *why)
-{
+                                     const char *why) {
     http_reply_error(r, status, code, why, NULL, 0, 0, NULL);
     http_reply_header(r, MHD_HTTP_HEADER_CONNECTION, "close");
 }
@@ -252,13 +225,11 @@ static void http_flow_refuse_framing(struct http_req *r, unsigned status, const 
  * before its colon), a control character in a value, a missing Host in
  * HTTP/1.1, a target with a space, control, NUL or encoded '/'. */
 static bool http_flow_malformed(struct http_req *r, const struct http_flow_framing *f, char *msg,
-                                size_t size)
-{
+                                size_t size) {
     if (r->conn.framing)
         snprintf(msg, size, "%s", r->conn.framing);
     else if (f->bad_name)
-        snprintf(msg, size,
-                 "the header name '%.40s' is not a token (whitespace before the colon?)",
+        snprintf(msg, size, "the header name '%.40s' is not a token (whitespace before the colon?)",
                  f->bad_name);
     else if (f->bad_value)
         snprintf(msg, size, "the value of the header '%.40s' holds a control character",
@@ -275,8 +246,7 @@ static bool http_flow_malformed(struct http_req *r, const struct http_flow_frami
 }
 
 /* The 503 (or 413) of a body the memory budget has no room for. */
-static void http_flow_no_memory(struct http_req *r, size_t need)
-{
+static void http_flow_no_memory(struct http_req *r, size_t need) {
     char msg[200];
     metrics_reject(MR_MEMORY);
     if (need > mem_limit()) {
@@ -297,8 +267,7 @@ static void http_flow_no_memory(struct http_req *r, size_t need)
 
 /* Counts a declared body whole before a byte of it is read; false when
  * refused (replied). */
-static bool http_flow_reserve(struct http_req *r, size_t need)
-{
+static bool http_flow_reserve(struct http_req *r, size_t need) {
     if (mem_reserve(MEM_BODIES, need)) {
         r->conn.body_mem = need;
         return true;
@@ -307,8 +276,7 @@ static bool http_flow_reserve(struct http_req *r, size_t need)
     return false;
 }
 
-bool http_flow_begin(struct http_req *r)
-{
+bool http_flow_begin(struct http_req *r) {
     http_req_take_id(r);
     struct http_flow_framing f = {.length = -1};
     r->conn.io->header_each(r, http_flow_framing_cb, &f);
@@ -366,8 +334,7 @@ bool http_flow_begin(struct http_req *r)
 }
 
 /* Forgets the body kept so far; the rest is counted only. */
-static void http_flow_drop_body(struct http_req *r, size_t n)
-{
+static void http_flow_drop_body(struct http_req *r, size_t n) {
     free(r->body);
     r->body = NULL;
     r->conn.body_cap = 0;
@@ -386,9 +353,9 @@ static void http_flow_drop_body(struct http_req *r, size_t n)
  * its answer, and is left alone.  Not under TLS: there the TLS library may
  * hold body bytes it already read from the socket, so the socket's end is
  * not the body's. */
-static bool http_flow_upload_ended(struct http_req *r)
-{
-    if (config.tls_cert || r->conn.body_declared < 0 || (long long)r->body_len >= r->conn.body_declared)
+static bool http_flow_upload_ended(struct http_req *r) {
+    if (config.tls_cert || r->conn.body_declared < 0 ||
+        (long long)r->body_len >= r->conn.body_declared)
         return false;
     int fd = r->conn.io->fd ? r->conn.io->fd(r) : -1;
     char c;
@@ -397,8 +364,7 @@ static bool http_flow_upload_ended(struct http_req *r)
 
 /* Appends a chunk, or counts it past --max-body; false to drop the
  * connection. */
-static bool http_flow_keep(struct http_req *r, const char *data, size_t n)
-{
+static bool http_flow_keep(struct http_req *r, const char *data, size_t n) {
     /* --timeout drops an idle connection, but a client that sends a byte now
      * and then is never idle: the whole body gets --upload-seconds */
     if (config.upload_seconds > 0 && clock_now() - r->log.t0 > (double)config.upload_seconds) {
@@ -416,17 +382,16 @@ static bool http_flow_keep(struct http_req *r, const char *data, size_t n)
     }
     if (r->body_len + n + 1 > r->conn.body_cap) {
         size_t cap = r->conn.body_cap ? r->conn.body_cap : 4096;
-        while (cap < r->body_len + n + 1)
-            cap *= 2;
-        if (r->conn.body_declared >= 0 && cap > r->conn.body_mem && r->conn.body_mem >= r->body_len + n + 1)
+        while (cap < r->body_len + n + 1) cap *= 2;
+        if (r->conn.body_declared >= 0 && cap > r->conn.body_mem &&
+            r->conn.body_mem >= r->body_len + n + 1)
             cap = r->conn.body_mem; /* the declared length, reserved in begin */
         if (cap > r->conn.body_mem && !mem_reserve(MEM_BODIES, cap - r->conn.body_mem)) {
             r->conn.over_memory = true; /* read the rest without keeping it, then 503 */
             http_flow_drop_body(r, n);
             return true;
         }
-        if (cap > r->conn.body_mem)
-            r->conn.body_mem = cap;
+        if (cap > r->conn.body_mem) r->conn.body_mem = cap;
         char *b = realloc(r->body, cap);
         if (!b) {
             /* read the rest without keeping it, then answer 503 */
@@ -443,8 +408,7 @@ static bool http_flow_keep(struct http_req *r, const char *data, size_t n)
     return true;
 }
 
-bool http_flow_body(struct http_req *r, const char *data, size_t n)
-{
+bool http_flow_body(struct http_req *r, const char *data, size_t n) {
     bool ok = http_flow_keep(r, data, n);
     if (ok && http_flow_upload_ended(r)) {
         r->res.note = "upload_incomplete";
@@ -453,10 +417,8 @@ bool http_flow_body(struct http_req *r, const char *data, size_t n)
     return ok;
 }
 
-void http_flow_handle(struct http_req *r)
-{
-    if (r->body_len > 0)
-        metrics_stage(MS_UPLOAD, clock_now() - r->log.t0);
+void http_flow_handle(struct http_req *r) {
+    if (r->body_len > 0) metrics_stage(MS_UPLOAD, clock_now() - r->log.t0);
     if (r->conn.too_large) {
         metrics_reject(MR_BODY_TOO_LARGE);
         http_reply_error(r, 413, "body_too_large", "the body is over the limit (--max-body)", NULL,
@@ -480,15 +442,13 @@ void http_flow_handle(struct http_req *r)
     } else {
         r->conn.parked = false;
         router_dispatch(r);
-        if (r->conn.parked)
-            return; /* r now belongs to the worker until it resumes */
+        if (r->conn.parked) return; /* r now belongs to the worker until it resumes */
     }
     if (!r->conn.pending && !r->gone)
         http_reply_error(r, 500, "internal", "the handler gave no answer", NULL, 0, 0, NULL);
 }
 
-void http_flow_end(struct http_req *r, const char *note)
-{
+void http_flow_end(struct http_req *r, const char *note) {
     double total = clock_now() - r->log.t0;
     int refused = (int)r->log.refused_status;
     if (!r->method) {
@@ -502,8 +462,7 @@ void http_flow_end(struct http_req *r, const char *note)
                                .error = r->log.refused_why[0] ? r->log.refused_why : NULL,
                                .note = refused || !note ? "refused_by_http_parser" : note};
         log_access(&a);
-        if (refused)
-            metrics_request(r->route.label, NULL, refused, total);
+        if (refused) metrics_request(r->route.label, NULL, refused, total);
         http_req_free(r);
         return;
     }
@@ -513,8 +472,7 @@ void http_flow_end(struct http_req *r, const char *note)
     bool head = !strcmp(r->method, "HEAD"); /* no body goes out */
     bool cut = note && r->conn.replied && !r->gone && r->log.t_sent > 0 && !head;
     const char *cut_why = r->log.end_why ? r->log.end_why : note;
-    if (r->res.note)
-        note = r->res.note;
+    if (r->res.note) note = r->res.note;
     if ((r->gone || !r->conn.replied) && refused) {
         status = refused; /* libmicrohttpd answered the body (a malformed chunk) */
         note = "refused_by_http_parser";
@@ -524,8 +482,7 @@ void http_flow_end(struct http_req *r, const char *note)
         }
     } else if (r->gone || !r->conn.replied) {
         status = 499;
-        if (!note)
-            note = "client_gone";
+        if (!note) note = "client_gone";
     }
     metrics_request(r->route.label, r->method, status, total);
     if (r->res.is_image && r->log.t_sent > 0 && status == 200)
@@ -554,8 +511,7 @@ void http_flow_end(struct http_req *r, const char *note)
     http_req_free(r); /* the watcher gives freed heap back (mem_trim) */
 }
 
-void http_flow_refused(const char *client, unsigned status, const char *why)
-{
+void http_flow_refused(const char *client, unsigned status, const char *why) {
     struct log_access a = {.client = client,
                            .status = (int)status,
                            .error = why && *why ? why : NULL,

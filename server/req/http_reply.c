@@ -29,47 +29,37 @@
 #include <string.h>
 #include <strings.h>
 
-const char *http_reply_cors_origin(struct http_req *r)
-{
-    if (!config.cors_origin || !*config.cors_origin)
-        return NULL;
+const char *http_reply_cors_origin(struct http_req *r) {
+    if (!config.cors_origin || !*config.cors_origin) return NULL;
     const char *origin = http_req_header(r, "Origin");
-    if (!origin)
-        return NULL;
-    if (!strcmp(config.cors_origin, "*"))
-        return "*";
+    if (!origin) return NULL;
+    if (!strcmp(config.cors_origin, "*")) return "*";
     size_t ol = strlen(origin), n;
     const char *p = config.cors_origin, *item;
     while (http_req_list_next(&p, &item, &n))
-        if (n == ol && ol && !memcmp(item, origin, ol))
-            return origin;
+        if (n == ol && ol && !memcmp(item, origin, ol)) return origin;
     return NULL;
 }
 
 /* A reply of kind with no headers yet; NULL on no memory. */
-static struct http_reply *http_reply_new(enum http_body kind)
-{
+static struct http_reply *http_reply_new(enum http_body kind) {
     struct http_reply *p = calloc(1, sizeof *p);
-    if (p)
-        p->kind = kind;
+    if (p) p->kind = kind;
     return p;
 }
 
 /* Appends name: value to p; false on no memory. */
-static bool http_reply_add(struct http_reply *p, const char *name, const char *value)
-{
+static bool http_reply_add(struct http_reply *p, const char *name, const char *value) {
     if (p->nheaders == p->cap) {
         size_t cap = p->cap ? 2 * p->cap : 8;
         struct http_header *h = realloc(p->headers, cap * sizeof *h);
-        if (!h)
-            return false;
+        if (!h) return false;
         p->headers = h;
         p->cap = cap;
     }
     size_t nl = strlen(name), vl = strlen(value);
     char *n = malloc(nl + vl + 2);
-    if (!n)
-        return false;
+    if (!n) return false;
     memcpy(n, name, nl + 1);
     memcpy(n + nl + 1, value, vl + 1);
     p->headers[p->nheaders++] = (struct http_header){n, n + nl + 1};
@@ -77,25 +67,21 @@ static bool http_reply_add(struct http_reply *p, const char *name, const char *v
 }
 
 /* The index of p's header name (any case), or -1. */
-static long http_reply_find(const struct http_reply *p, const char *name)
-{
+static long http_reply_find(const struct http_reply *p, const char *name) {
     for (size_t i = 0; i < p->nheaders; i++)
-        if (!strcasecmp(p->headers[i].name, name))
-            return (long)i;
+        if (!strcasecmp(p->headers[i].name, name)) return (long)i;
     return -1;
 }
 
 /* Parks resp (NULL: out of memory) on r as its answer with status. */
 static void http_reply_set(struct http_req *r, unsigned status, struct http_reply *resp,
-                           const char *ctype)
-{
+                           const char *ctype) {
     if (!resp) {
         /* out of memory building a response: give up on the connection */
         r->gone = true;
         return;
     }
-    if (ctype)
-        http_reply_add(resp, "Content-Type", ctype);
+    if (ctype) http_reply_add(resp, "Content-Type", ctype);
     http_req_reply_free(r->conn.pending);
     r->log.body_counted = false;
     const char *origin = http_reply_cors_origin(r);
@@ -106,26 +92,21 @@ static void http_reply_set(struct http_req *r, unsigned status, struct http_repl
                        "X-Rayd-Estimated-Rays, X-Rayd-Estimated-Seconds, X-Rayd-Version");
     }
     http_reply_add(resp, "X-Content-Type-Options", "nosniff");
-    if (r->request_id[0])
-        http_reply_add(resp, "X-Request-Id", r->request_id);
+    if (r->request_id[0]) http_reply_add(resp, "X-Request-Id", r->request_id);
     resp->status = status;
     r->conn.pending = resp;
-    if (origin && strcmp(origin, "*"))
-        http_reply_vary(r, "Origin");
+    if (origin && strcmp(origin, "*")) http_reply_vary(r, "Origin");
     r->res.status = (int)status;
     r->conn.replied = true;
 }
 
-void http_reply_header(struct http_req *r, const char *name, const char *value)
-{
-    if (r->conn.pending)
-        http_reply_add(r->conn.pending, name, value);
+void http_reply_header(struct http_req *r, const char *name, const char *value) {
+    if (r->conn.pending) http_reply_add(r->conn.pending, name, value);
 }
 
 /* A reply whose body is data[0..len) (malloc'd; taken, freed on failure). */
 static void http_reply_take(struct http_req *r, unsigned status, const char *ctype, char *data,
-                            size_t len)
-{
+                            size_t len) {
     struct http_reply *resp = data ? http_reply_new(HTTP_BODY_BYTES) : NULL;
     if (!resp)
         free(data);
@@ -136,19 +117,15 @@ static void http_reply_take(struct http_req *r, unsigned status, const char *cty
 }
 
 void http_reply_data(struct http_req *r, unsigned status, const char *ctype, const void *data,
-                     size_t len)
-{
+                     size_t len) {
     char *copy = malloc(len + 1);
-    if (copy && len)
-        memcpy(copy, data, len);
+    if (copy && len) memcpy(copy, data, len);
     http_reply_take(r, status, ctype, copy, len);
 }
 
 void http_reply_stream(struct http_req *r, unsigned status, const char *const *headers,
-                       size_t block,
-                       ssize_t (*read)(void *cls, char *buf, size_t max), void (*done)(void *cls),
-                       void *cls)
-{
+                       size_t block, ssize_t (*read)(void *cls, char *buf, size_t max),
+                       void (*done)(void *cls), void *cls) {
     struct http_reply *resp = http_reply_new(HTTP_BODY_STREAM);
     if (!resp) {
         done(cls);
@@ -159,16 +136,14 @@ void http_reply_stream(struct http_req *r, unsigned status, const char *const *h
     resp->done = done;
     resp->cls = cls;
     resp->block = block;
-    for (; headers && headers[0]; headers += 2)
-        http_reply_add(resp, headers[0], headers[1]);
+    for (; headers && headers[0]; headers += 2) http_reply_add(resp, headers[0], headers[1]);
     http_reply_set(r, status, resp, NULL);
 }
 
 /* The text of o (deleted) as the body.  Printed into a stack buffer and
  * copied once by libmicrohttpd, as any small body: an error reply under load
  * (503 queue_full) costs no more than the hand-written one did. */
-static void http_reply_text(struct http_req *r, unsigned status, cJSON *o)
-{
+static void http_reply_text(struct http_req *r, unsigned status, cJSON *o) {
     char buf[4096];
     if (json_print_into(o, buf, sizeof buf - 1)) {
         cJSON_Delete(o);
@@ -186,15 +161,12 @@ static void http_reply_text(struct http_req *r, unsigned status, cJSON *o)
     http_reply_take(r, status, "application/json", text, len);
 }
 
-void http_reply_json(struct http_req *r, unsigned status, cJSON *o)
-{
+void http_reply_json(struct http_req *r, unsigned status, cJSON *o) {
     http_reply_text(r, status, o);
-    if (status < 300)
-        http_reply_header(r, "Cache-Control", "no-store");
+    if (status < 300) http_reply_header(r, "Cache-Control", "no-store");
 }
 
-void http_reply_image(struct http_req *r, unsigned status, struct blob *png, const char *type)
-{
+void http_reply_image(struct http_req *r, unsigned status, struct blob *png, const char *type) {
     /* the reply holds one reference to the blob, dropped by the transport */
     struct http_reply *resp = http_reply_new(HTTP_BODY_BLOB);
     if (!resp) {
@@ -213,21 +185,18 @@ void http_reply_image(struct http_req *r, unsigned status, struct blob *png, con
 }
 
 void http_reply_error(struct http_req *r, unsigned status, const char *code, const char *message,
-                      const char *path, int line, int column, const char *param)
-{
+                      const char *path, int line, int column, const char *param) {
     cJSON *o = cJSON_CreateObject();
     cJSON *e = cJSON_AddObjectToObject(o, "error");
     cJSON_AddNumberToObject(e, "status", status);
     cJSON_AddStringToObject(e, "code", code);
     cJSON_AddStringToObject(e, "message", message ? message : "");
-    if (path && *path)
-        cJSON_AddStringToObject(e, "path", path);
+    if (path && *path) cJSON_AddStringToObject(e, "path", path);
     if (line > 0) {
         cJSON_AddNumberToObject(e, "line", line);
         cJSON_AddNumberToObject(e, "column", column);
     }
-    if (param && *param)
-        cJSON_AddStringToObject(e, "parameter", param);
+    if (param && *param) cJSON_AddStringToObject(e, "parameter", param);
     http_reply_text(r, status, o);
     r->res.err_code = code;
     snprintf(r->res.err_at, sizeof r->res.err_at, "%s", path && *path ? path : param ? param : "");
@@ -237,32 +206,27 @@ void http_reply_error(struct http_req *r, unsigned status, const char *code, con
         snprintf(v, sizeof v, "%d", r->res.retry_after > 0 ? r->res.retry_after : 1);
         http_reply_header(r, "Retry-After", v);
     }
-    if (status == 401)
-        http_reply_header(r, "WWW-Authenticate", "Bearer realm=\"rayd\"");
+    if (status == 401) http_reply_header(r, "WWW-Authenticate", "Bearer realm=\"rayd\"");
     if (status == 413 && !r->body && r->body_len == 0 && !strcmp(code, "body_too_large"))
         http_reply_header(r, "Connection", "close");
 }
 
-void http_reply_not_modified(struct http_req *r)
-{
+void http_reply_not_modified(struct http_req *r) {
     r->res.bytes = 0;
     http_reply_set(r, 304, http_reply_new(HTTP_BODY_NONE), NULL);
     http_reply_cache_headers(r);
 }
 
-void http_reply_head(struct http_req *r, unsigned status, const char *ctype)
-{
+void http_reply_head(struct http_req *r, unsigned status, const char *ctype) {
     r->res.bytes = 0;
     http_reply_set(r, status, http_reply_new(HTTP_BODY_NONE), ctype);
 }
 
 /* One Vary line for the reply: nginx up to 1.22 reads only the last Vary
  * header of an answer it caches, so every field goes into the same line. */
-void http_reply_vary(struct http_req *r, const char *field)
-{
+void http_reply_vary(struct http_req *r, const char *field) {
     struct http_reply *p = r->conn.pending;
-    if (!p)
-        return;
+    if (!p) return;
     long at = http_reply_find(p, "Vary");
     if (at < 0) {
         http_reply_add(p, "Vary", field);
@@ -283,15 +247,13 @@ void http_reply_vary(struct http_req *r, const char *field)
  * a request without it: Vary: Authorization says so, and nginx keys such an
  * answer on a hash of the header, so the token is never written to its cache
  * files in clear (docs/operations.md). */
-void http_reply_cache_headers(struct http_req *r)
-{
+void http_reply_cache_headers(struct http_req *r) {
     if (r->res.etag[0]) {
         http_reply_header(r, "ETag", r->res.etag);
         http_reply_header(r, "Cache-Control",
                           r->res.etag_revalidate ? "public, no-cache"
-                                             : "public, max-age=31536000, immutable");
-        if (config.token)
-            http_reply_vary(r, "Authorization");
+                                                 : "public, max-age=31536000, immutable");
+        if (config.token) http_reply_vary(r, "Authorization");
     } else {
         http_reply_header(r, "Cache-Control", "no-store");
     }

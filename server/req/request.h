@@ -84,34 +84,34 @@ struct http_io {
  * transport to send and log.  A layer writes only its own part and res. */
 struct http_conn {
     const struct http_io *io;
-    void *io_ctx;                /* the transport's own (libmicrohttpd's connection) */
-    const char *version;         /* "HTTP/1.1", "HTTP/1.0"; NULL: the transport does not say */
+    void *io_ctx;        /* the transport's own (libmicrohttpd's connection) */
+    const char *version; /* "HTTP/1.1", "HTTP/1.0"; NULL: the transport does not say */
     /* Why the transport refuses the header block it parsed ("obsolete line
      * folding ..."), or NULL: http_flow_begin answers it 400 and closes. */
     const char *framing;
-    size_t target_len;           /* bytes of the request-target, query included */
-    const char *target_why;      /* why the target is refused (400), or NULL */
+    size_t target_len;      /* bytes of the request-target, query included */
+    const char *target_why; /* why the target is refused (400), or NULL */
     size_t body_cap;
-    long long body_declared;     /* Content-Length, -1 when none was sent */
-    size_t body_mem;             /* bytes of the body counted in --max-memory (mem.c) */
-    bool over_memory;            /* a chunked body outgrew the memory budget: 503 */
+    long long body_declared; /* Content-Length, -1 when none was sent */
+    size_t body_mem;         /* bytes of the body counted in --max-memory (mem.c) */
+    bool over_memory;        /* a chunked body outgrew the memory budget: 503 */
     bool too_large, no_memory;
-    struct http_reply *pending;  /* to queue when the handler runs again */
+    struct http_reply *pending; /* to queue when the handler runs again */
     bool suspended, replied;
-    bool parked;                 /* suspended by the handler now running (its thread only) */
+    bool parked; /* suspended by the handler now running (its thread only) */
 };
 
 struct http_log {
-    char client[48];             /* the peer's address, "" when unknown */
-    char *target;                /* the request-target as sent (malloc'd, cut), or NULL */
-    double t0;                   /* when the request came */
-    double t_sent;               /* when the response was handed to the transport */
+    char client[48]; /* the peer's address, "" when unknown */
+    char *target;    /* the request-target as sent (malloc'd, cut), or NULL */
+    double t0;       /* when the request came */
+    double t_sent;   /* when the response was handed to the transport */
     /* An image's body is handed to the transport as it is read (http.c):
      * body_taken is how much was, so the access log of an answer cut short
      * says how much went out (body_counted: this reply is counted). */
     size_t body_taken;
     bool body_counted;
-    const char *end_why;         /* why the transport ended the answer early, NULL none */
+    const char *end_why;     /* why the transport ended the answer early, NULL none */
     unsigned refused_status; /* the error libmicrohttpd answered by itself (431, ...), 0 none */
     char refused_why[HTTP_REFUSED_WHY]; /* its reason, a code ("request_too_big"), "" none */
 };
@@ -119,37 +119,37 @@ struct http_log {
 /* The router's row for the method and path, looked up once (router.c):
  * begin asks it of a request with a body, dispatch uses what it found. */
 struct http_route {
-    int label;                   /* router index for metrics, -1 none */
-    bool done;                   /* row, path_known and id are set */
-    int row;                     /* the table row that serves them, -1 none */
-    bool path_known;             /* with row -1: the path is served to other methods */
-    char id[80];                 /* the path's {id} segment, "" for none */
-    bool negotiates;             /* POST /v1/render: Accept may pick the format (Vary) */
+    int label;       /* router index for metrics, -1 none */
+    bool done;       /* row, path_known and id are set */
+    int row;         /* the table row that serves them, -1 none */
+    bool path_known; /* with row -1: the path is served to other methods */
+    char id[80];     /* the path's {id} segment, "" for none */
+    bool negotiates; /* POST /v1/render: Accept may pick the format (Vary) */
 };
 
 /* What travels back up: set by the reply functions (status, bytes,
  * err_code, err_at, is_image) and by the handler from what the work layer
  * answered (timings, scene, the ETag, retry_after, note). */
 struct http_result {
-    int status;                  /* the status sent */
-    size_t bytes;                /* response body size */
-    const char *err_code;        /* code of the error reply sent, NULL for none */
-    char err_at[128];            /* its JSON Pointer or query parameter, "" for none */
+    int status;           /* the status sent */
+    size_t bytes;         /* response body size */
+    const char *err_code; /* code of the error reply sent, NULL for none */
+    char err_at[128];     /* its JSON Pointer or query parameter, "" for none */
     double queue_ms, render_ms, encode_ms;
-    bool is_image;               /* the response is an image (its send is a stage) */
-    const char *note;            /* why, for the access log ("client_gone") */
-    int retry_after;             /* seconds in a 503's Retry-After; 0: 1 */
-    char etag[72];               /* set for immutable GETs */
-    bool etag_revalidate;        /* the ETag's bytes may change: no-cache, not immutable */
-    char scene[65];              /* the scene's id when the request named or sent one */
+    bool is_image;        /* the response is an image (its send is a stage) */
+    const char *note;     /* why, for the access log ("client_gone") */
+    int retry_after;      /* seconds in a 503's Retry-After; 0: 1 */
+    char etag[72];        /* set for immutable GETs */
+    bool etag_revalidate; /* the ETag's bytes may change: no-cache, not immutable */
+    char scene[65];       /* the scene's id when the request named or sent one */
 };
 
 struct http_req {
     const char *method, *url;
-    char request_id[65];         /* X-Request-Id: the client's, or one made up */
+    char request_id[65]; /* X-Request-Id: the client's, or one made up */
     char *body;
     size_t body_len;
-    bool gone;                   /* the client left, or no memory: drop the connection */
+    bool gone; /* the client left, or no memory: drop the connection */
     struct http_conn conn;
     struct http_log log;
     struct http_route route;
@@ -175,9 +175,9 @@ void http_req_set_target(struct http_req *r, const char *target);
 /* Sets r->request_id: the client's X-Request-Id when it is 1-64 characters
  * of [A-Za-z0-9._:+/=@-], else 32 hex digits unique to this request. */
 void http_req_take_id(struct http_req *r);
-long http_req_in_flight(void);          /* requests not yet freed */
-long http_req_suspended(void);          /* requests suspended right now */
-double http_req_last(void);             /* when the latest came (clock_now() time) */
+long http_req_in_flight(void); /* requests not yet freed */
+long http_req_suspended(void); /* requests suspended right now */
+double http_req_last(void);    /* when the latest came (clock_now() time) */
 
 const char *http_req_header(struct http_req *r, const char *name);
 const char *http_req_query(struct http_req *r, const char *name); /* the first, or NULL */
@@ -214,9 +214,8 @@ void http_reply_error(struct http_req *r, unsigned status, const char *code, con
  * before those every reply carries.  done(cls) is called once whatever
  * happens, even when this fails. */
 void http_reply_stream(struct http_req *r, unsigned status, const char *const *headers,
-                       size_t block,
-                       ssize_t (*read)(void *cls, char *buf, size_t max), void (*done)(void *cls),
-                       void *cls);
+                       size_t block, ssize_t (*read)(void *cls, char *buf, size_t max),
+                       void (*done)(void *cls), void *cls);
 /* Adds a header to the response queued last (call right after a reply). */
 void http_reply_header(struct http_req *r, const char *name, const char *value);
 /* 304 Not Modified: no body, no Content-Length, the cache headers of the

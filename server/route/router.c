@@ -60,52 +60,41 @@ static const struct route router_table[] = {
 #define ROUTER_N ((int)(sizeof router_table / sizeof router_table[0]))
 
 /* The label index of row i: the first row with the same pattern. */
-static int router_label(int i)
-{
+static int router_label(int i) {
     for (int j = 0; j < i; j++)
-        if (!strcmp(router_table[j].pattern, router_table[i].pattern))
-            return j;
+        if (!strcmp(router_table[j].pattern, router_table[i].pattern)) return j;
     return i;
 }
 
-void router_start(void)
-{
+void router_start(void) {
     for (int i = 0; i < ROUTER_N; i++)
-        if (router_label(i) == i)
-            metrics_route_name(i, router_table[i].name);
+        if (router_label(i) == i) metrics_route_name(i, router_table[i].name);
 }
 
 /* The probes, and the preview's own static files (a browser cannot send a
  * bearer token to open a page; the page then sends the token it is given
  * with every API call). */
-bool router_public(const char *method, const char *url)
-{
-    if (!strcmp(url, "/healthz") || !strcmp(url, "/readyz"))
-        return true;
-    if (strcmp(method, "GET") && strcmp(method, "HEAD"))
-        return false;
+bool router_public(const char *method, const char *url) {
+    if (!strcmp(url, "/healthz") || !strcmp(url, "/readyz")) return true;
+    if (strcmp(method, "GET") && strcmp(method, "HEAD")) return false;
     return !strcmp(url, "/") || (url[0] == '/' && !strchr(url + 1, '/') && api_web_exists(url + 1));
 }
 
 /* Matches path against pattern; the {id} segment is copied to id. */
-static bool router_match(const char *pattern, const char *path, char *id, size_t idsize)
-{
+static bool router_match(const char *pattern, const char *path, char *id, size_t idsize) {
     while (*pattern) {
         if (!strncmp(pattern, "{id}", 4)) {
             const char *e = path;
-            while (*e && *e != '/')
-                e++;
+            while (*e && *e != '/') e++;
             size_t n = (size_t)(e - path);
-            if (n == 0 || n >= idsize)
-                return false;
+            if (n == 0 || n >= idsize) return false;
             memcpy(id, path, n);
             id[n] = 0;
             path = e;
             pattern += 4;
             continue;
         }
-        if (*pattern != *path)
-            return false;
+        if (*pattern != *path) return false;
         pattern++;
         path++;
     }
@@ -114,38 +103,30 @@ static bool router_match(const char *pattern, const char *path, char *id, size_t
 
 /* Whether row i serves path (a row of files only a file that exists); the
  * id in the path, if any, into id. */
-static bool router_row_matches(int i, const char *path, char *id, size_t size)
-{
+static bool router_row_matches(int i, const char *path, char *id, size_t size) {
     return router_match(router_table[i].pattern, path, id, size) &&
            (!router_table[i].exists || router_table[i].exists(id));
 }
 
-int router_find(const char *url)
-{
+int router_find(const char *url) {
     char id[80];
     for (int i = 0; i < ROUTER_N; i++)
-        if (router_row_matches(i, url, id, sizeof id))
-            return router_label(i);
+        if (router_row_matches(i, url, id, sizeof id)) return router_label(i);
     return -1;
 }
 
-const char *router_allow(const char *path, char *buf, size_t size)
-{
+const char *router_allow(const char *path, char *buf, size_t size) {
     char id[80];
     size_t n = 0;
     buf[0] = 0;
     for (int i = 0; i < ROUTER_N; i++) {
-        if (!router_row_matches(i, path, id, sizeof id))
-            continue;
+        if (!router_row_matches(i, path, id, sizeof id)) continue;
         const char *m = router_table[i].method;
-        if (strstr(buf, m))
-            continue;
+        if (strstr(buf, m)) continue;
         n += (size_t)snprintf(buf + n, size > n ? size - n : 0, "%s%s", n ? ", " : "", m);
-        if (!strcmp(m, "GET"))
-            n += (size_t)snprintf(buf + n, size > n ? size - n : 0, ", HEAD");
+        if (!strcmp(m, "GET")) n += (size_t)snprintf(buf + n, size > n ? size - n : 0, ", HEAD");
     }
-    if (n == 0)
-        return NULL;
+    if (n == 0) return NULL;
     snprintf(buf + n, size > n ? size - n : 0, ", OPTIONS");
     return buf;
 }
@@ -154,10 +135,8 @@ const char *router_allow(const char *path, char *buf, size_t size)
  * r->route.id, and r->route.path_known tells whether some row has the path
  * (then a 405).  Looked up once per request: router_refuse (at the headers)
  * and router_dispatch (with the body) read the same answer from r. */
-static int router_row_of(struct http_req *r)
-{
-    if (r->route.done)
-        return r->route.row;
+static int router_row_of(struct http_req *r) {
+    if (r->route.done) return r->route.row;
     const char *method = strcmp(r->method, "HEAD") ? r->method : "GET";
     char id[sizeof r->route.id];
     r->route.done = true;
@@ -165,24 +144,21 @@ static int router_row_of(struct http_req *r)
     r->route.path_known = false;
     r->route.id[0] = 0;
     for (int i = 0; i < ROUTER_N; i++) {
-        if (!router_row_matches(i, r->url, id, sizeof id))
-            continue;
+        if (!router_row_matches(i, r->url, id, sizeof id)) continue;
         if (!strcmp(router_table[i].method, method)) {
             r->route.label = router_label(i);
             r->route.row = i;
             memcpy(r->route.id, id, sizeof id);
             return i;
         }
-        if (!r->route.path_known)
-            r->route.label = router_label(i);
+        if (!r->route.path_known) r->route.label = router_label(i);
         r->route.path_known = true;
     }
     return -1;
 }
 
 /* 404, or 405 with Allow when the path is known. */
-static void router_refuse_reply(struct http_req *r)
-{
+static void router_refuse_reply(struct http_req *r) {
     if (r->route.path_known) {
         char allow[128], msg[200];
         router_allow(r->url, allow, sizeof allow);
@@ -194,16 +170,13 @@ static void router_refuse_reply(struct http_req *r)
     api_not_found(r);
 }
 
-bool router_refuse(struct http_req *r)
-{
-    if (router_row_of(r) >= 0)
-        return false;
+bool router_refuse(struct http_req *r) {
+    if (router_row_of(r) >= 0) return false;
     router_refuse_reply(r);
     return true;
 }
 
-void router_dispatch(struct http_req *r)
-{
+void router_dispatch(struct http_req *r) {
     int i = router_row_of(r);
     if (i >= 0)
         router_table[i].fn(r, r->route.id);

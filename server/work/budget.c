@@ -18,8 +18,7 @@
 
 /* The bytes a task rendering what will hold (its pixels or sums, its
  * answer; a progressive job's sums and passes) and their kind. */
-static size_t budget_bytes(const struct work_target *what, bool progressive, enum mem_kind *kind)
-{
+static size_t budget_bytes(const struct work_target *what, bool progressive, enum mem_kind *kind) {
     size_t px = (size_t)what->reg.w * (size_t)what->reg.h;
     /* the store (8-bit pixels, linear floats or sums), then the answer
      * (a PNG at worst about as large as its pixels) */
@@ -27,15 +26,14 @@ static size_t budget_bytes(const struct work_target *what, bool progressive, enu
     size_t n = px * f->px_bytes + f->extra;
     if (f->store == TASK_STORE_IMAGE && what->keep_exr)
         n += px * 24; /* linear floats, then the EXR */
-    if (progressive) /* the passes' sums, the last pass's image, the passes kept */
+    if (progressive)  /* the passes' sums, the last pass's image, the passes kept */
         n += px * (24 + 3 + 3 * PASSES_KEEP) + (what->keep_exr ? px * 12 * PASSES_KEEP_EXR : 0);
     *kind = progressive ? MEM_SUMS : f->mem_kind;
     return n + 4096;
 }
 
 struct task *budget_task(struct cache_entry *scene, const struct work_target *what,
-                         bool progressive, enum work_submit *why)
-{
+                         bool progressive, enum work_submit *why) {
     work_assert_unlocked();
     enum mem_kind kind;
     size_t n = budget_bytes(what, progressive, &kind);

@@ -44,27 +44,24 @@ struct cache_entry {
     char version[65]; /* id, or with the files' identities (scenefiles.c) */
     rayd_scene *scene;
     size_t mem; /* its bytes counted in --max-memory, released when freed */
-    int refs;    /* holders, the cache itself counting one while linked */
+    int refs;   /* holders, the cache itself counting one while linked */
     bool linked;
 };
 
 static struct lru_node *cache_table[CACHE_BUCKETS];
 static struct lru cache_lru;
 
-static void cache_evicted(struct lru_node *n)
-{
+static void cache_evicted(struct lru_node *n) {
     struct cache_entry *e = (struct cache_entry *)n;
     e->linked = false;
     cache_release(e); /* the cache's own reference */
 }
 
-void cache_init(size_t budget_bytes)
-{
+void cache_init(size_t budget_bytes) {
     lru_init(&cache_lru, cache_table, CACHE_BUCKETS, budget_bytes, cache_evicted);
 }
 
-bool cache_hash(const void *data, size_t len, char out[65])
-{
+bool cache_hash(const void *data, size_t len, char out[65]) {
     static const char hex[] = "0123456789abcdef";
     unsigned char d[EVP_MAX_MD_SIZE];
     unsigned int n = 0;
@@ -80,17 +77,14 @@ bool cache_hash(const void *data, size_t len, char out[65])
     return true;
 }
 
-struct cache_entry *cache_get(const char *id)
-{
+struct cache_entry *cache_get(const char *id) {
     work_assert_locked();
     struct cache_entry *e = (struct cache_entry *)lru_find(&cache_lru, id);
-    if (e)
-        e->refs++;
+    if (e) e->refs++;
     return e;
 }
 
-struct cache_entry *cache_put(const char *id, const char *version, rayd_scene *scene)
-{
+struct cache_entry *cache_put(const char *id, const char *version, rayd_scene *scene) {
     work_assert_locked();
     struct rayd_scene_info info;
     rayd_scene_info(scene, &info);
@@ -105,15 +99,14 @@ struct cache_entry *cache_put(const char *id, const char *version, rayd_scene *s
         cache_evicted(&e->node);
     }
     e = calloc(1, sizeof *e);
-    if (!e)
-        return NULL;
+    if (!e) return NULL;
     snprintf(e->id, sizeof e->id, "%s", id);
     snprintf(e->version, sizeof e->version, "%s", version);
     e->node.key = e->id;
     e->scene = scene;
     e->node.bytes = info.bytes + sizeof *e;
     e->mem = info.bytes; /* reserved by the caller (scenes.c) */
-    e->refs = 1; /* the caller's */
+    e->refs = 1;         /* the caller's */
     if (!lru_insert(&cache_lru, &e->node))
         return e; /* too big to keep: used once, freed on release */
     e->linked = true;
@@ -121,24 +114,20 @@ struct cache_entry *cache_put(const char *id, const char *version, rayd_scene *s
     return e;
 }
 
-struct cache_entry *cache_ref(struct cache_entry *e)
-{
+struct cache_entry *cache_ref(struct cache_entry *e) {
     work_assert_locked();
     e->refs++;
     return e;
 }
 
-void cache_release(struct cache_entry *e)
-{
-    if (!e || --e->refs > 0)
-        return;
+void cache_release(struct cache_entry *e) {
+    if (!e || --e->refs > 0) return;
     mem_release(MEM_SCENES, e->mem);
     rayd_scene_free(e->scene);
     free(e);
 }
 
-bool cache_evict_one(void)
-{
+bool cache_evict_one(void) {
     work_assert_locked();
     /* the least recently used entry no render holds: its memory comes back */
     for (struct lru_node *n = cache_lru.tail; n; n = n->prev) {
@@ -156,8 +145,7 @@ const rayd_scene *cache_scene(const struct cache_entry *e) { return e->scene; }
 const char *cache_id(const struct cache_entry *e) { return e->id; }
 const char *cache_version(const struct cache_entry *e) { return e->version; }
 
-void cache_stats(size_t *bytes, size_t *entries)
-{
+void cache_stats(size_t *bytes, size_t *entries) {
     *bytes = cache_lru.bytes;
     *entries = cache_lru.count;
 }

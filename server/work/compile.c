@@ -21,10 +21,10 @@
  * average parse, over the threads).  Each scene queued holds its parse's
  * first cap in the memory budget (kind parses, scenes_parse_cap) from the
  * moment it is queued, so what the queue and the parses may build is
- * counted before it exists; one with no room is refused 503 memory_full.  A body posted while the same body (by
- * its SHA-256) is queued or being parsed does not take a place: it waits
- * for that parse and gets the same scene or the same error, so a scene
- * posted by many tile clients at once is parsed once.
+ * counted before it exists; one with no room is refused 503 memory_full.  A body posted while the
+ * same body (by its SHA-256) is queued or being parsed does not take a place: it waits for that
+ * parse and gets the same scene or the same error, so a scene posted by many tile clients at once
+ * is parsed once.
  *
  * A client that hangs up while its scene is parsed is seen later (the
  * watcher, once its render is queued; or libmicrohttpd, once resumed): the
@@ -75,14 +75,12 @@ static int compile_alive; /* threads not yet ended, lock held */
 
 static void *compile_thread(void *arg);
 
-static void compile_start(void)
-{
+static void compile_start(void) {
     long n = config.parse_threads > 0 ? config.parse_threads : 2;
     compile_threads = calloc((size_t)n, sizeof *compile_threads);
     work_lock_take();
     for (int i = 0; compile_threads && i < n; i++) {
-        if (pthread_create(&compile_threads[i], NULL, compile_thread, NULL))
-            break;
+        if (pthread_create(&compile_threads[i], NULL, compile_thread, NULL)) break;
         compile_nthreads++;
         compile_alive++;
     }
@@ -91,21 +89,17 @@ static void compile_start(void)
 
 /* The job of id (with a body to parse, or by id only) queued or being
  * parsed, lock held; NULL if none. */
-static struct compile_job *compile_find(const char *id, bool by_id)
-{
+static struct compile_job *compile_find(const char *id, bool by_id) {
     work_assert_locked();
     for (struct compile_job *j = compile_head; j; j = j->next)
-        if (!strcmp(j->id, id) && (j->body == NULL) == by_id)
-            return j;
+        if (!strcmp(j->id, id) && (j->body == NULL) == by_id) return j;
     for (struct compile_job *j = compile_running; j; j = j->next)
-        if (!strcmp(j->id, id) && (j->body == NULL) == by_id)
-            return j;
+        if (!strcmp(j->id, id) && (j->body == NULL) == by_id) return j;
     return NULL;
 }
 
 /* Unlinks j from the list at *head, lock held. */
-static void compile_unlink(struct compile_job **head, struct compile_job *j)
-{
+static void compile_unlink(struct compile_job **head, struct compile_job *j) {
     work_assert_locked();
     for (struct compile_job **p = head; *p; p = &(*p)->next)
         if (*p == j) {
@@ -120,18 +114,15 @@ static long compile_queue_cap(void) { return config.parse_queue > 0 ? config.par
  * WORK_OK after w->suspend; WORK_CACHED when there is none (w not used), or
  * the refusal. */
 static enum work_submit compile_join_same(const char *id, bool by_id, struct cache_entry *e,
-                                          struct compile_waiter *w)
-{
+                                          struct compile_waiter *w) {
     work_assert_locked();
     if (compile_stopping || compile_nthreads == 0)
         return compile_stopping ? WORK_DRAINING : WORK_NOMEM;
     if (task_draining()) /* nothing new is suspended once the drain began */
         return WORK_DRAINING;
     struct compile_job *j = compile_find(id, by_id);
-    if (!j)
-        return WORK_CACHED;
-    if (e)
-        cache_release(e); /* that job has its own */
+    if (!j) return WORK_CACHED;
+    if (e) cache_release(e); /* that job has its own */
     w->suspend(w);
     w->next = j->waiters;
     j->waiters = w;
@@ -144,19 +135,15 @@ static enum work_submit compile_join_same(const char *id, bool by_id, struct cac
  * WORK_OK after w->suspend, or the refusal.  *joined: w waits for the same
  * body queued meanwhile, and mem is still the caller's. */
 static enum work_submit compile_enqueue(const char *id, const char *body, size_t len,
-                                        struct cache_entry *e, size_t mem,
-                                        struct compile_waiter *w, bool *joined)
-{
+                                        struct cache_entry *e, size_t mem, struct compile_waiter *w,
+                                        bool *joined) {
     enum work_submit s = compile_join_same(id, body == NULL, e, w);
     *joined = s == WORK_OK;
-    if (s != WORK_CACHED)
-        return s;
-    if (compile_queued >= compile_queue_cap())
-        return WORK_PARSE_FULL;
+    if (s != WORK_CACHED) return s;
+    if (compile_queued >= compile_queue_cap()) return WORK_PARSE_FULL;
     struct compile_job *j;
     j = calloc(1, sizeof *j);
-    if (!j)
-        return WORK_NOMEM;
+    if (!j) return WORK_NOMEM;
     snprintf(j->id, sizeof j->id, "%s", id);
     j->body = body;
     j->len = len;
@@ -179,8 +166,7 @@ static enum work_submit compile_enqueue(const char *id, const char *body, size_t
 /* Reserves a new parse's first cap (no lock held: the reservation may
  * reclaim), then queues it; e is released unless the job took it. */
 static enum work_submit compile_queue_new(const char *id, const char *body, size_t len,
-                                          struct cache_entry *e, struct compile_waiter *w)
-{
+                                          struct cache_entry *e, struct compile_waiter *w) {
     size_t mem = scenes_parse_cap(len);
     if (!mem_reserve(MEM_PARSES, mem)) {
         metrics_reject(MR_MEMORY);
@@ -191,16 +177,13 @@ static enum work_submit compile_queue_new(const char *id, const char *body, size
     work_lock_take();
     enum work_submit s = compile_enqueue(id, body, len, e, mem, w, &joined);
     work_lock_give();
-    if (s != WORK_OK || joined)
-        mem_release(MEM_PARSES, mem);
-    if (s != WORK_OK)
-        scenes_release(e);
+    if (s != WORK_OK || joined) mem_release(MEM_PARSES, mem);
+    if (s != WORK_OK) scenes_release(e);
     return s;
 }
 
 enum work_submit compile_scene(const char *body, size_t len, struct compile_waiter *w,
-                               struct compile_result *res)
-{
+                               struct compile_result *res) {
     memset(res, 0, sizeof *res);
     char id[65];
     if (!scenes_id(body, len, id, &res->err)) {
@@ -230,8 +213,7 @@ enum work_submit compile_scene(const char *body, size_t len, struct compile_wait
 }
 
 enum work_submit compile_find_scene(const char *id, struct compile_waiter *w,
-                                    struct compile_result *res)
-{
+                                    struct compile_result *res) {
     memset(res, 0, sizeof *res);
     struct cache_entry *e = scenes_peek(id);
     if (!e || rayd_scene_files(cache_scene(e)) <= COMPILE_INLINE_FILES) {
@@ -248,8 +230,7 @@ enum work_submit compile_find_scene(const char *id, struct compile_waiter *w,
     work_lock_take();
     enum work_submit s = compile_enqueue(id, NULL, 0, e, 0, w, &joined);
     work_lock_give();
-    if (s != WORK_OK)
-        scenes_release(e);
+    if (s != WORK_OK) scenes_release(e);
     return s;
 }
 
@@ -257,8 +238,7 @@ enum work_submit compile_find_scene(const char *id, struct compile_waiter *w,
  * the scene referenced once (NULL for a GET by id whose files changed);
  * *hit when it was found compiled. */
 static enum rayd_status compile_run(struct compile_job *j, struct cache_entry **out, bool *hit,
-                                    struct rayd_error *err, bool *full)
-{
+                                    struct rayd_error *err, bool *full) {
     *hit = false;
     *full = false;
     if (j->cached) {
@@ -269,8 +249,7 @@ static enum rayd_status compile_run(struct compile_job *j, struct cache_entry **
         }
         scenes_release(j->cached);
     }
-    if (!j->body)
-        return RAYD_OK; /* unknown here now: the client sends the text again */
+    if (!j->body) return RAYD_OK; /* unknown here now: the client sends the text again */
     double t0 = clock_now();
     enum rayd_status st = scenes_build(j->id, j->body, j->len, j->mem, out, err, full);
     j->mem = 0; /* scenes_build's now: the scene's own, or released */
@@ -284,8 +263,7 @@ static enum rayd_status compile_run(struct compile_job *j, struct cache_entry **
 /* Answers j's waiters with st (each its own reference to e) and frees j;
  * no lock held.  draining: refused, nothing was parsed. */
 static void compile_answer(struct compile_job *j, enum rayd_status st, struct cache_entry *e,
-                           bool hit, const struct rayd_error *err, bool draining, bool full)
-{
+                           bool hit, const struct rayd_error *err, bool draining, bool full) {
     work_assert_unlocked();
     mem_release(MEM_PARSES, j->mem); /* not parsed: a hit, or a drain */
     work_lock_take();
@@ -299,11 +277,9 @@ static void compile_answer(struct compile_job *j, enum rayd_status st, struct ca
         struct compile_waiter *next = w->next;
         struct compile_result res = {
             .status = st, .hit = hit, .draining = draining, .memory_full = full};
-        if (err)
-            res.err = *err;
+        if (err) res.err = *err;
         res.scene = e;
-        if (!draining && j_body)
-            metrics_cache(hit);
+        if (!draining && j_body) metrics_cache(hit);
         w->done(w, &res);
         w = next;
     }
@@ -311,15 +287,12 @@ static void compile_answer(struct compile_job *j, enum rayd_status st, struct ca
 
 /* The next job to parse, lock held, moved to the running list; NULL when
  * the pool stops.  The test gate holds jobs in the queue, until a drain. */
-static struct compile_job *compile_next(void)
-{
+static struct compile_job *compile_next(void) {
     work_assert_locked();
     for (;;) {
-        if (compile_stopping)
-            return NULL;
+        if (compile_stopping) return NULL;
         bool draining = sched_draining(); /* a drain lets the held ones be refused */
-        if (compile_head && (compile_gate != 0 || draining))
-            break;
+        if (compile_head && (compile_gate != 0 || draining)) break;
         if (!compile_head) {
             work_wait(&compile_cond);
             continue;
@@ -333,11 +306,9 @@ static struct compile_job *compile_next(void)
     }
     struct compile_job *j = compile_head;
     compile_head = j->next;
-    if (!compile_head)
-        compile_tail = NULL;
+    if (!compile_head) compile_tail = NULL;
     compile_queued--;
-    if (compile_gate > 0)
-        compile_gate--;
+    if (compile_gate > 0) compile_gate--;
     compile_started++;
     compile_nrunning++;
     j->next = compile_running;
@@ -345,8 +316,7 @@ static struct compile_job *compile_next(void)
     return j;
 }
 
-static void *compile_thread(void *arg)
-{
+static void *compile_thread(void *arg) {
     (void)arg;
     work_lock_take();
     struct compile_job *j;
@@ -355,10 +325,8 @@ static void *compile_thread(void *arg)
         struct rayd_error err = {0};
         struct cache_entry *e = NULL;
         bool hit = false, full = false, draining = sched_draining();
-        enum rayd_status st =
-            draining ? RAYD_E_CANCELED : compile_run(j, &e, &hit, &err, &full);
-        if (draining)
-            scenes_release(j->cached);
+        enum rayd_status st = draining ? RAYD_E_CANCELED : compile_run(j, &e, &hit, &err, &full);
+        if (draining) scenes_release(j->cached);
         work_lock_take();
         compile_unlink(&compile_running, j); /* no one joins it from now on */
         compile_nrunning--;
@@ -372,8 +340,7 @@ static void *compile_thread(void *arg)
     return NULL;
 }
 
-double compile_retry_seconds(void)
-{
+double compile_retry_seconds(void) {
     work_lock_take();
     double s = compile_avg * (double)(compile_queued + compile_nrunning) /
                (double)(compile_nthreads > 0 ? compile_nthreads : 1);
@@ -383,14 +350,12 @@ double compile_retry_seconds(void)
 
 /* Joins the threads, waiting up to COMPILE_JOIN_SECONDS for the parses
  * still running; threads not ended by then are left to the exit. */
-static bool compile_join(void)
-{
+static bool compile_join(void) {
     struct timespec until;
     clock_gettime(CLOCK_REALTIME, &until);
     until.tv_sec += (time_t)COMPILE_JOIN_SECONDS;
     work_lock_take();
-    while (compile_alive > 0 &&
-           work_timedwait(&compile_cond, &until) != ETIMEDOUT)
+    while (compile_alive > 0 && work_timedwait(&compile_cond, &until) != ETIMEDOUT)
         ;
     bool ended = compile_alive == 0;
     work_lock_give();
@@ -403,8 +368,7 @@ static bool compile_join(void)
     return ended;
 }
 
-void compile_stop(void)
-{
+void compile_stop(void) {
     work_lock_take();
     compile_stopping = true;
     struct compile_job *queued = compile_head;
@@ -425,16 +389,14 @@ void compile_stop(void)
     }
 }
 
-void compile_gate_set(long parses)
-{
+void compile_gate_set(long parses) {
     work_lock_take();
     compile_gate = parses;
     pthread_cond_broadcast(&compile_cond);
     work_lock_give();
 }
 
-void compile_gate_get(struct compile_gate_state *g)
-{
+void compile_gate_get(struct compile_gate_state *g) {
     work_lock_take();
     *g = (struct compile_gate_state){compile_gate, compile_started, compile_queued,
                                      compile_nrunning};

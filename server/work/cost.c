@@ -80,39 +80,32 @@ static uint64_t cost_tick;
 static double cost_node_spr = 1.0 / COST_RATE_START; /* worker seconds per estimated ray */
 static int cost_workers = 1;
 
-int cost_samples(const struct work_target *what, int scene_samples)
-{
+int cost_samples(const struct work_target *what, int scene_samples) {
     return what->format == WORK_SUMS ? what->k1 - what->k0 : scene_samples;
 }
 
-double cost_rays(const rayd_scene *scene, const struct work_target *what)
-{
+double cost_rays(const rayd_scene *scene, const struct work_target *what) {
     struct rayd_scene_info info;
     rayd_scene_info(scene, &info);
     double samples = cost_samples(what, info.samples);
     return (double)what->reg.w * what->reg.h * samples * info.rays_per_sample;
 }
 
-int cost_tile(double rays_per_pixel)
-{
+int cost_tile(double rays_per_pixel) {
     int side = COST_TILE_MAX;
-    while (side > COST_TILE_MIN && (double)side * side * rays_per_pixel > COST_TILE_RAYS)
-        side /= 2;
+    while (side > COST_TILE_MIN && (double)side * side * rays_per_pixel > COST_TILE_RAYS) side /= 2;
     return side;
 }
 
 void cost_set_workers(int workers) { cost_workers = workers > 0 ? workers : 1; }
 
-static uint64_t cost_key(const char *id)
-{
+static uint64_t cost_key(const char *id) {
     uint64_t h = 0xcbf29ce484222325ull;
-    for (; *id; id++)
-        h = (h ^ (unsigned char)*id) * 0x100000001b3ull;
+    for (; *id; id++) h = (h ^ (unsigned char)*id) * 0x100000001b3ull;
     return h ? h : 1;
 }
 
-static struct cost_entry *cost_find(struct cost_entry *tab, int n, uint64_t key)
-{
+static struct cost_entry *cost_find(struct cost_entry *tab, int n, uint64_t key) {
     for (int i = 0; i < n; i++)
         if (tab[i].key == key) {
             tab[i].used = ++cost_tick;
@@ -122,55 +115,44 @@ static struct cost_entry *cost_find(struct cost_entry *tab, int n, uint64_t key)
 }
 
 /* key's entry, made in the least recently used slot if new. */
-static struct cost_entry *cost_slot(struct cost_entry *tab, int n, uint64_t key)
-{
+static struct cost_entry *cost_slot(struct cost_entry *tab, int n, uint64_t key) {
     struct cost_entry *e = cost_find(tab, n, key), *old = &tab[0];
-    if (e)
-        return e;
+    if (e) return e;
     for (int i = 1; i < n; i++)
-        if (tab[i].used < old->used)
-            old = &tab[i];
+        if (tab[i].used < old->used) old = &tab[i];
     *old = (struct cost_entry){key, 0, 0, ++cost_tick};
     return old;
 }
 
-static double cost_spr(const struct cost_entry *e)
-{
+static double cost_spr(const struct cost_entry *e) {
     return e && e->rays > 0 && e->seconds > 0 ? e->seconds / e->rays : 0;
 }
 
-static void cost_add(struct cost_entry *e, double rays, double seconds)
-{
+static void cost_add(struct cost_entry *e, double rays, double seconds) {
     e->seconds = e->seconds * COST_DECAY + seconds;
     e->rays = e->rays * COST_DECAY + rays;
 }
 
-static int cost_cmp(const void *a, const void *b)
-{
+static int cost_cmp(const void *a, const void *b) {
     double x = *(const double *)a, y = *(const double *)b;
     return (x > y) - (x < y);
 }
 
 /* The node's rate: the median of the clients' (see the top). */
-static void cost_node_update(void)
-{
+static void cost_node_update(void) {
     double v[COST_CLIENTS + COST_VOTES];
     int n = 0;
     for (int i = 0; i < COST_CLIENTS; i++)
-        if (cost_spr(&cost_clients[i]) > 0)
-            v[n++] = cost_spr(&cost_clients[i]);
-    while (n < COST_VOTES)
-        v[n++] = 1.0 / COST_RATE_START;
+        if (cost_spr(&cost_clients[i]) > 0) v[n++] = cost_spr(&cost_clients[i]);
+    while (n < COST_VOTES) v[n++] = 1.0 / COST_RATE_START;
     qsort(v, (size_t)n, sizeof *v, cost_cmp);
     cost_node_spr = n % 2 ? v[n / 2] : sqrt(v[n / 2 - 1] * v[n / 2]);
 }
 
 void cost_observe(const char *scene_id, uint64_t client, double rays, double seconds,
-                  bool complete)
-{
+                  bool complete) {
     work_assert_locked();
-    if (!(rays > 0) || !(seconds > 0))
-        return;
+    if (!(rays > 0) || !(seconds > 0)) return;
     struct cost_entry *s = cost_find(cost_scenes, COST_SCENES, cost_key(scene_id));
     double priced = rays * (cost_spr(s) > 0 ? cost_spr(s) : cost_node_spr);
     if (!complete && seconds <= priced)
@@ -181,8 +163,7 @@ void cost_observe(const char *scene_id, uint64_t client, double rays, double sec
 }
 
 /* Worker seconds per estimated ray for scene_id: its own, or the node's. */
-static double cost_scene_spr(const char *scene_id)
-{
+static double cost_scene_spr(const char *scene_id) {
     double spr = cost_spr(cost_find(cost_scenes, COST_SCENES, cost_key(scene_id)));
     return spr > 0 ? spr : cost_node_spr;
 }
@@ -191,8 +172,7 @@ double cost_seconds(double rays) { return rays * cost_node_spr / cost_workers; }
 
 double cost_scene_weight(const char *scene_id) { return cost_scene_spr(scene_id) / cost_node_spr; }
 
-double cost_price_seconds(const char *scene_id, double rays)
-{
+double cost_price_seconds(const char *scene_id, double rays) {
     work_lock_take();
     double s = rays * cost_scene_spr(scene_id) / cost_workers;
     work_lock_give();

@@ -34,8 +34,7 @@ struct durable_wait {
 static long durable_pending; /* lock held: compiles not yet answered */
 
 /* Records row as failed with err (the store thread writes it). */
-static void durable_fail(struct store_job *row, const struct rayd_error *err)
-{
+static void durable_fail(struct store_job *row, const struct rayd_error *err) {
     struct timespec ts;
     clock_gettime(CLOCK_REALTIME, &ts);
     row->state = JS_FAILED;
@@ -49,8 +48,7 @@ static void durable_fail(struct store_job *row, const struct rayd_error *err)
 }
 
 /* A parse thread's answer for one unfinished job. */
-static void durable_compiled(struct compile_waiter *w, struct compile_result *res)
-{
+static void durable_compiled(struct compile_waiter *w, struct compile_result *res) {
     struct durable_wait *d = (struct durable_wait *)w;
     if (res->status == RAYD_OK) {
         if (!jobs_restore(d->row, res->scene))
@@ -72,14 +70,10 @@ static void durable_compiled(struct compile_waiter *w, struct compile_result *re
     free(d);
 }
 
-static void durable_suspend(struct compile_waiter *w)
-{
-    (void)w;
-}
+static void durable_suspend(struct compile_waiter *w) { (void)w; }
 
 /* An unfinished job: its scene parsed again, then queued (durable_compiled). */
-static void durable_requeue(struct store_job *row)
-{
+static void durable_requeue(struct store_job *row) {
     if (row->attempts >= DURABLE_ATTEMPTS) {
         struct rayd_error err = {.code = RAYD_E_INTERNAL};
         snprintf(err.message, sizeof err.message,
@@ -115,22 +109,18 @@ static void durable_requeue(struct store_job *row)
     }
 }
 
-static long durable_left(void)
-{
+static long durable_left(void) {
     work_lock_take();
     long n = durable_pending;
     work_lock_give();
     return n;
 }
 
-int durable_start(void)
-{
-    if (!config.data_dir)
-        return 0;
+int durable_start(void) {
+    if (!config.data_dir) return 0;
     struct store_job *rows = NULL;
     int n = 0;
-    if (store_open(config.data_dir) || store_load(&rows, &n) || store_start())
-        return -1;
+    if (store_open(config.data_dir) || store_load(&rows, &n) || store_start()) return -1;
     long finished = 0, queued = 0;
     for (int i = 0; i < n; i++) {
         if (rows[i].state == JS_QUEUED) {
@@ -146,8 +136,8 @@ int durable_start(void)
     }
     store_rows_free(rows, n);
     if (n)
-        log_info("--data-dir %s: %ld ended jobs kept, %ld queued again", config.data_dir,
-                 finished, queued);
+        log_info("--data-dir %s: %ld ended jobs kept, %ld queued again", config.data_dir, finished,
+                 queued);
     return 0;
 }
 

@@ -27,11 +27,9 @@ struct events_stream {
     double last_write; /* for the keep-alive */
 };
 
-struct events_stream *events_open(const char *id)
-{
+struct events_stream *events_open(const char *id) {
     struct events_stream *s = calloc(1, sizeof *s);
-    if (!s)
-        return NULL;
+    if (!s) return NULL;
     work_lock_take();
     struct job *j = jobs_find(id);
     if (j) {
@@ -48,8 +46,7 @@ struct events_stream *events_open(const char *id)
 
 /* The news since the last read, lock held: how many items were written. */
 static int events_news(struct events_stream *s, struct events_item *it, int n,
-                       struct rayd_error *err)
-{
+                       struct rayd_error *err) {
     work_assert_locked();
     struct job *j = s->job;
     const struct task *t = j->task;
@@ -84,21 +81,18 @@ static int events_news(struct events_stream *s, struct events_item *it, int n,
                                        .state = st,
                                        .samples = p && p->done ? p->samples[p->done - 1] : 0,
                                        .progress = jobs_progress(j)};
-        if (st == JS_FAILED && err)
-            *err = t->err;
+        if (st == JS_FAILED && err) *err = t->err;
         s->sent_done = true;
     }
     double now = clock_now();
     if (k == 0 && !final && s->last_write > 0 && now - s->last_write >= EVENTS_PING_SECONDS)
         it[k++] = (struct events_item){.kind = EVENTS_PING};
-    if (k > 0)
-        s->last_write = now;
+    if (k > 0) s->last_write = now;
     return k;
 }
 
-int events_read(struct events_stream *s, struct events_item *items, int n,
-                struct rayd_error *err, struct work_waiter *w)
-{
+int events_read(struct events_stream *s, struct events_item *items, int n, struct rayd_error *err,
+                struct work_waiter *w) {
     work_lock_take();
     int k = events_news(s, items, n, err);
     if (k == 0 && s->sent_done) {
@@ -110,10 +104,8 @@ int events_read(struct events_stream *s, struct events_item *items, int n,
     return k;
 }
 
-void events_close(struct events_stream *s)
-{
-    if (!s)
-        return;
+void events_close(struct events_stream *s) {
+    if (!s) return;
     work_lock_take();
     jobs_unref(s->job);
     work_lock_give();

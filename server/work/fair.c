@@ -25,26 +25,22 @@ struct fair_slot {
 static struct fair_slot fair_slots[FAIR_SLOTS];
 static uint64_t fair_tick;
 
-static size_t fair_home(uint64_t client)
-{
+static size_t fair_home(uint64_t client) {
     return (size_t)((client * 0x9E3779B97F4A7C15ull) >> 32) & (FAIR_SLOTS - 1);
 }
 
-uint64_t fair_last(uint64_t client)
-{
+uint64_t fair_last(uint64_t client) {
     work_assert_locked();
     size_t h = fair_home(client);
     for (int i = 0; i < FAIR_PROBE; i++) {
         const struct fair_slot *s = &fair_slots[(h + (size_t)i) & (FAIR_SLOTS - 1)];
-        if (s->last && s->client == client)
-            return s->last;
+        if (s->last && s->client == client) return s->last;
     }
     return 0;
 }
 
 /* The client's slot, or the least recently served of its probe window. */
-void fair_served(uint64_t client)
-{
+void fair_served(uint64_t client) {
     work_assert_locked();
     size_t h = fair_home(client);
     struct fair_slot *victim = NULL;
@@ -54,8 +50,7 @@ void fair_served(uint64_t client)
             victim = s;
             break;
         }
-        if (!victim || s->last < victim->last)
-            victim = s;
+        if (!victim || s->last < victim->last) victim = s;
     }
     victim->client = client;
     victim->last = ++fair_tick;

@@ -14,26 +14,21 @@ static bool gate_on;
 static long gate_tiles = -1; /* tiles that may still start, -1 = open */
 static long gate_started, gate_held;
 
-bool gate_pass(void)
-{
+bool gate_pass(void) {
     work_assert_locked();
-    if (!gate_on || gate_tiles < 0)
-        return true;
-    if (gate_tiles == 0)
-        return false;
+    if (!gate_on || gate_tiles < 0) return true;
+    if (gate_tiles == 0) return false;
     gate_tiles--;
     return true;
 }
 
-void gate_count(long started, long held)
-{
+void gate_count(long started, long held) {
     work_assert_locked();
     gate_started += started;
     gate_held += held;
 }
 
-void gate_enable(long tiles)
-{
+void gate_enable(long tiles) {
     work_lock_take();
     gate_on = true;
     gate_tiles = tiles;
@@ -41,8 +36,7 @@ void gate_enable(long tiles)
     work_lock_give();
 }
 
-bool gate_set(long tiles)
-{
+bool gate_set(long tiles) {
     work_lock_take();
     bool on = gate_on;
     if (on) {
@@ -53,8 +47,7 @@ bool gate_set(long tiles)
     return on;
 }
 
-bool gate_get(struct gate_state *g)
-{
+bool gate_get(struct gate_state *g) {
     work_lock_take();
     g->tiles = gate_tiles;
     g->started = gate_started;

@@ -61,8 +61,7 @@ static struct jobs_tomb {
 } jobs_tombs[JOBS_TOMBSTONES];
 static int jobs_tomb_next, jobs_tomb_n;
 
-static long jobs_gauge(void)
-{
+static long jobs_gauge(void) {
     work_lock_take();
     long n = jobs_n;
     work_lock_give();
@@ -70,13 +69,11 @@ static long jobs_gauge(void)
 }
 
 /* Whether every job of t has its images on disk (--data-dir). */
-static bool jobs_all_stored(const struct task *t)
-{
+static bool jobs_all_stored(const struct task *t) {
     bool any = false;
     for (int i = 0; i < jobs_n; i++)
         if (jobs_table[i]->task == t) {
-            if (!jobs_table[i]->stored)
-                return false;
+            if (!jobs_table[i]->stored) return false;
             any = true;
         }
     return any;
@@ -93,8 +90,7 @@ static size_t jobs_evict_result(struct job *j, const char *why);
  * task it shares with any other job): its jobs become "evicted" and answer
  * 410 result_evicted (jobs_evict_result).  false when no finished job
  * keeps an image. */
-static bool jobs_evict_oldest(void)
-{
+static bool jobs_evict_oldest(void) {
     struct job *victim = NULL;
     for (int i = 0; i < jobs_n; i++) {
         struct job *j = jobs_table[i];
@@ -104,15 +100,13 @@ static bool jobs_evict_oldest(void)
             (!victim || t->t_end < victim->task->t_end))
             victim = j;
     }
-    if (!victim)
-        return false;
+    if (!victim) return false;
     struct task *t = victim->task;
     if (jobs_all_stored(t)) { /* on disk: only the memory goes */
         blob_unref(t->png);
         blob_unref(t->exr);
         t->png = t->exr = NULL;
-        if (t->passes)
-            passes_let_go(t->passes);
+        if (t->passes) passes_let_go(t->passes);
         return true;
     }
     jobs_evict_result(victim, JOBS_EVICTED_WHY);
@@ -122,8 +116,7 @@ static bool jobs_evict_oldest(void)
 
 /* Whether the two caches hold more than half the memory budget, lock
  * held. */
-static bool jobs_caches_over_half(void)
-{
+static bool jobs_caches_over_half(void) {
     size_t scenes, results, n;
     cache_stats(&scenes, &n);
     rcache_stats(&results, &n);
@@ -140,15 +133,12 @@ static bool jobs_caches_over_half(void)
  * them warm whatever the uploads, and the bodies still find room once the
  * caches are down to half.  A parse (its cap) may let go of what the scene
  * it builds may.  Takes work_lock. */
-static bool jobs_reclaim(enum mem_kind k, size_t need)
-{
+static bool jobs_reclaim(enum mem_kind k, size_t need) {
     (void)need; /* called again until the reservation fits */
     work_lock_take();
     bool freed = false;
-    if (k != MEM_BODIES || jobs_caches_over_half())
-        freed = rcache_evict_one() || cache_evict_one();
-    if (!freed && k != MEM_BODIES)
-        freed = jobs_evict_oldest();
+    if (k != MEM_BODIES || jobs_caches_over_half()) freed = rcache_evict_one() || cache_evict_one();
+    if (!freed && k != MEM_BODIES) freed = jobs_evict_oldest();
     work_lock_give();
     return freed;
 }
@@ -157,8 +147,7 @@ static void jobs_finished(struct task *t);
 static void jobs_written(const char *id);
 static void jobs_disk_evicted(const char *id, const char *why, double wall);
 
-int jobs_start(int max_jobs)
-{
+int jobs_start(int max_jobs) {
     jobs_max = max_jobs;
     mem_set_reclaim(jobs_reclaim);
     task_on_finish(jobs_finished);
@@ -168,28 +157,23 @@ int jobs_start(int max_jobs)
     return jobs_table ? 0 : -1;
 }
 
-void jobs_stop(void)
-{
-    for (int i = 0; i < jobs_n; i++)
-        jobs_unref(jobs_table[i]);
+void jobs_stop(void) {
+    for (int i = 0; i < jobs_n; i++) jobs_unref(jobs_table[i]);
     jobs_n = 0;
     free(jobs_table);
     jobs_table = NULL;
     jobs_tomb_n = jobs_tomb_next = 0;
 }
 
-const char *jobs_state_name(enum jobs_state s)
-{
+const char *jobs_state_name(enum jobs_state s) {
     static const char *const names[] = {"queued", "running",  "succeeded",
                                         "failed", "canceled", "evicted"};
     return names[s];
 }
 
-enum jobs_state jobs_state(const struct job *j)
-{
+enum jobs_state jobs_state(const struct job *j) {
     const struct task *t = j->task;
-    if (j->canceled)
-        return JS_CANCELED;
+    if (j->canceled) return JS_CANCELED;
     if (t->finished && (t->evicted || (j->evicted_at > 0 && t->status == RAYD_OK)))
         return JS_EVICTED;
     if (t->finished)
@@ -199,55 +183,44 @@ enum jobs_state jobs_state(const struct job *j)
     return t->t_start == 0 && !t->finalizing ? JS_QUEUED : JS_RUNNING;
 }
 
-static bool jobs_final(const struct job *j)
-{
+static bool jobs_final(const struct job *j) {
     enum jobs_state s = jobs_state(j);
     return s == JS_SUCCEEDED || s == JS_FAILED || s == JS_CANCELED || s == JS_EVICTED;
 }
 
 /* When a final job ended (clock_now's clock): its DELETE, or its task's
  * end (never before the job was made, for a task it joined late). */
-static double jobs_ended(const struct job *j)
-{
-    if (j->canceled)
-        return j->canceled_at;
+static double jobs_ended(const struct job *j) {
+    if (j->canceled) return j->canceled_at;
     double end = j->task->t_end;
     return end > j->created ? end : j->created;
 }
 
 /* A clock_now() time as wall-clock seconds since the epoch, for answers. */
-static double jobs_wall(double mono)
-{
+static double jobs_wall(double mono) {
     struct timespec ts;
     clock_gettime(CLOCK_REALTIME, &ts);
     return (double)ts.tv_sec + (double)ts.tv_nsec / 1e9 - (clock_now() - mono);
 }
 
-struct job *jobs_find(const char *id)
-{
+struct job *jobs_find(const char *id) {
     work_assert_locked();
     for (int i = 0; i < jobs_n; i++)
-        if (!strcmp(jobs_table[i]->id, id))
-            return jobs_table[i];
+        if (!strcmp(jobs_table[i]->id, id)) return jobs_table[i];
     return NULL;
 }
 
-void jobs_unref(struct job *j)
-{
-    if (--j->refs > 0)
-        return;
-    if (j->task)
-        task_unref(j->task);
+void jobs_unref(struct job *j) {
+    if (--j->refs > 0) return;
+    if (j->task) task_unref(j->task);
     free(j);
 }
 
 /* Writes j's tombstone over the oldest one once the ring is full. */
-static void jobs_bury(const struct job *j, enum jobs_gone_why why, double now)
-{
+static void jobs_bury(const struct job *j, enum jobs_gone_why why, double now) {
     struct jobs_tomb *t = &jobs_tombs[jobs_tomb_next];
     jobs_tomb_next = (jobs_tomb_next + 1) % JOBS_TOMBSTONES;
-    if (jobs_tomb_n < JOBS_TOMBSTONES)
-        jobs_tomb_n++;
+    if (jobs_tomb_n < JOBS_TOMBSTONES) jobs_tomb_n++;
     memset(t, 0, sizeof *t);
     snprintf(t->id, sizeof t->id, "%s", j->id);
     t->g.why = why;
@@ -257,18 +230,15 @@ static void jobs_bury(const struct job *j, enum jobs_gone_why why, double now)
 }
 
 /* Forgets the final job at i, leaving its tombstone. */
-static void jobs_forget(int i, enum jobs_gone_why why, double now)
-{
+static void jobs_forget(int i, enum jobs_gone_why why, double now) {
     struct job *j = jobs_table[i];
     jobs_bury(j, why, now);
-    if (store_on())
-        store_forget(j->id);
+    if (store_on()) store_forget(j->id);
     jobs_table[i] = jobs_table[--jobs_n];
     jobs_unref(j);
 }
 
-void jobs_expire(double now)
-{
+void jobs_expire(double now) {
     work_assert_locked();
     for (int i = 0; i < jobs_n;) {
         const struct job *j = jobs_table[i];
@@ -279,8 +249,7 @@ void jobs_expire(double now)
     }
 }
 
-bool jobs_gone(const char *id, struct jobs_gone *g)
-{
+bool jobs_gone(const char *id, struct jobs_gone *g) {
     bool found = false;
     work_lock_take();
     for (int k = 1; k <= jobs_tomb_n && !found; k++) { /* the newest first */
@@ -295,8 +264,7 @@ bool jobs_gone(const char *id, struct jobs_gone *g)
     return found;
 }
 
-static size_t jobs_evict_result(struct job *j, const char *why)
-{
+static size_t jobs_evict_result(struct job *j, const char *why) {
     work_assert_locked();
     struct task *t = j->task;
     size_t bytes = task_let_go_images(t);
@@ -313,70 +281,58 @@ static size_t jobs_evict_result(struct job *j, const char *why)
     return bytes;
 }
 
-void jobs_count(long *unfinished, long *cap)
-{
+void jobs_count(long *unfinished, long *cap) {
     long n = 0;
-    for (int i = 0; i < jobs_n; i++)
-        n += !jobs_final(jobs_table[i]);
+    for (int i = 0; i < jobs_n; i++) n += !jobs_final(jobs_table[i]);
     *unfinished = n;
     *cap = jobs_max;
 }
 
 /* Makes room in the table by forgetting the job that ended first. */
-static bool jobs_evict(void)
-{
+static bool jobs_evict(void) {
     int victim = -1;
     for (int i = 0; i < jobs_n; i++)
         if (jobs_final(jobs_table[i]) &&
             (victim < 0 || jobs_ended(jobs_table[i]) < jobs_ended(jobs_table[victim])))
             victim = i;
-    if (victim < 0)
-        return false;
+    if (victim < 0) return false;
     jobs_forget(victim, JG_EVICTED, clock_now());
     return true;
 }
 
-static bool jobs_new_id(char id[33])
-{
+static bool jobs_new_id(char id[33]) {
     uint8_t rnd[16];
-    if (getrandom(rnd, sizeof rnd, 0) != (ssize_t)sizeof rnd)
-        return false;
-    for (int i = 0; i < 16; i++)
-        snprintf(id + 2 * i, 3, "%02x", rnd[i]);
+    if (getrandom(rnd, sizeof rnd, 0) != (ssize_t)sizeof rnd) return false;
+    for (int i = 0; i < 16; i++) snprintf(id + 2 * i, 3, "%02x", rnd[i]);
     return true;
 }
 
 /* A progressive job's task: its passes' sums, and a key of its own (the
  * job id), since its passes, budgets and stop belong to this job alone. */
 static bool jobs_progressive(struct task *t, struct cache_entry *scene,
-                             const struct jobs_plan *plan, const char *id)
-{
+                             const struct jobs_plan *plan, const char *id) {
     struct rayd_region *tiles = calloc((size_t)t->ntiles, sizeof *tiles);
-    if (!tiles)
-        return false;
-    for (int i = 0; i < t->ntiles; i++)
-        tiles[i] = task_tile(t, i);
-    task_progressive(t, passes_new(cache_scene(scene), plan, tiles, t->ntiles), id); /* owns tiles */
+    if (!tiles) return false;
+    for (int i = 0; i < t->ntiles; i++) tiles[i] = task_tile(t, i);
+    task_progressive(t, passes_new(cache_scene(scene), plan, tiles, t->ntiles),
+                     id); /* owns tiles */
     return t->passes != NULL;
 }
 
 /* A clock_now() time of a wall-clock one (seconds since the epoch). */
-static double jobs_mono(double wall)
-{
+static double jobs_mono(double wall) {
     struct timespec ts;
     clock_gettime(CLOCK_REALTIME, &ts);
     return clock_now() - ((double)ts.tv_sec + (double)ts.tv_nsec / 1e9 - wall);
 }
 
-const char *jobs_priority_name(int p)
-{
+const char *jobs_priority_name(int p) {
     static const char *const names[] = {"low", "normal", "high"};
     return p >= JP_LOW && p <= JP_HIGH ? names[p] : "normal";
 }
 
 /* j's record for the store: what it renders, and how it ended so far. */
-static void jobs_record(const struct job *j, struct store_job *row)
-{
+static void jobs_record(const struct job *j, struct store_job *row) {
     const struct task *t = j->task;
     memset(row, 0, sizeof *row);
     snprintf(row->id, sizeof row->id, "%s", j->id);
@@ -389,30 +345,24 @@ static void jobs_record(const struct job *j, struct store_job *row)
     row->reg = t->reg;
     row->keep_exr = t->keep_exr;
     row->progressive = t->passes != NULL;
-    if (t->passes)
-        row->plan = t->passes->plan;
+    if (t->passes) row->plan = t->passes->plan;
     row->tiles = t->ntiles;
     row->rays = t->rays;
     row->est_rays = t->est_rays;
     task_times(t, clock_now(), &row->queue_ms, &row->render_ms);
     row->encode_ms = t->encode_s * 1e3;
-    if (row->state == JS_FAILED)
-        row->err = t->err;
-    if (jobs_final(j))
-        row->ended_wall = jobs_wall(jobs_ended(j));
+    if (row->state == JS_FAILED) row->err = t->err;
+    if (jobs_final(j)) row->ended_wall = jobs_wall(jobs_ended(j));
 }
 
 /* The finish hook (task.c), lock held: each job of t that ended is
  * recorded with its images.  A task the drain cancelled did not end for
  * its jobs: they stay queued on disk and render again after the restart. */
-static void jobs_finished(struct task *t)
-{
-    if (!store_on() || (task_draining() && t->status == RAYD_E_CANCELED))
-        return;
+static void jobs_finished(struct task *t) {
+    if (!store_on() || (task_draining() && t->status == RAYD_E_CANCELED)) return;
     for (int i = 0; i < jobs_n; i++) {
         struct job *j = jobs_table[i];
-        if (j->task != t || j->canceled || j->recorded)
-            continue;
+        if (j->task != t || j->canceled || j->recorded) continue;
         struct store_job row;
         jobs_record(j, &row);
         bool ok = row.state == JS_SUCCEEDED;
@@ -423,17 +373,14 @@ static void jobs_finished(struct task *t)
 
 /* The store hooks, on the store thread: j's images are on disk; or they
  * were evicted from it (--max-disk), so j answers 410 result_evicted. */
-static void jobs_written(const char *id)
-{
+static void jobs_written(const char *id) {
     work_lock_take();
     struct job *j = jobs_find(id);
-    if (j)
-        j->stored = true;
+    if (j) j->stored = true;
     work_lock_give();
 }
 
-static void jobs_disk_evicted(const char *id, const char *why, double wall)
-{
+static void jobs_disk_evicted(const char *id, const char *why, double wall) {
     work_lock_take();
     struct job *j = jobs_find(id);
     if (j && j->evicted_at == 0) {
@@ -454,8 +401,7 @@ static void jobs_disk_evicted(const char *id, const char *why, double wall)
 
 /* j (zeroed) becomes job id of task t (lock held, the table has room). */
 static struct job *jobs_add(struct job *j, const char *id, struct task *t, uint64_t client,
-                            int priority)
-{
+                            int priority) {
     snprintf(j->id, sizeof j->id, "%s", id);
     j->created = clock_now();
     struct timespec ts;
@@ -477,11 +423,9 @@ static struct job *jobs_add(struct job *j, const char *id, struct task *t, uint6
  * one; NULL with *why. */
 static struct task *jobs_task(struct cache_entry *scene, const struct work_target *what,
                               const struct jobs_plan *plan, const char *id, int priority,
-                              enum work_submit *why)
-{
+                              enum work_submit *why) {
     struct task *fresh = budget_task(scene, what, plan != NULL, why);
-    if (!fresh)
-        return NULL;
+    if (!fresh) return NULL;
     if (plan && !jobs_progressive(fresh, scene, plan, id)) {
         task_unref(fresh);
         *why = WORK_NOMEM;
@@ -492,15 +436,12 @@ static struct task *jobs_task(struct cache_entry *scene, const struct work_targe
 }
 
 enum work_submit jobs_submit(struct cache_entry *scene, const struct work_target *what,
-                             const struct jobs_plan *plan, struct jobs_new *how, char id[33])
-{
+                             const struct jobs_plan *plan, struct jobs_new *how, char id[33]) {
     how->waiting = false;
-    if (!jobs_new_id(id))
-        return WORK_NOMEM;
+    if (!jobs_new_id(id)) return WORK_NOMEM;
     enum work_submit r;
     struct task *fresh = jobs_task(scene, what, plan, id, how->priority, &r);
-    if (!fresh)
-        return r;
+    if (!fresh) return r;
     struct store_job row = {0};
     struct job *spare = calloc(1, sizeof *spare);
     if (!spare || (store_on() && !(row.scene = malloc(how->scene_len + 1)))) {
@@ -522,8 +463,7 @@ enum work_submit jobs_submit(struct cache_entry *scene, const struct work_target
     else
         r = task_submit(scene, &fresh, &t);
     struct job *j = r == WORK_OK ? jobs_add(spare, id, t, what->client, how->priority) : NULL;
-    if (j)
-        spare = NULL;
+    if (j) spare = NULL;
     if (j && row.scene) {
         char *scene_copy = row.scene;
         jobs_record(j, &row);
@@ -534,8 +474,7 @@ enum work_submit jobs_submit(struct cache_entry *scene, const struct work_target
     work_lock_give();
     free(row.scene);
     free(spare);
-    if (fresh)
-        task_unref(fresh);
+    if (fresh) task_unref(fresh);
     return r;
 }
 
@@ -543,11 +482,9 @@ enum work_submit jobs_submit(struct cache_entry *scene, const struct work_target
 
 /* A finished task standing for a job that ended before this process:
  * its numbers, no pixels; its image, if any, on disk. */
-static struct task *jobs_ended_task(const struct store_job *row)
-{
+static struct task *jobs_ended_task(const struct store_job *row) {
     struct task *t = calloc(1, sizeof *t);
-    if (!t)
-        return NULL;
+    if (!t) return NULL;
     t->reg = row->reg;
     t->ntiles = t->done = (int)row->tiles;
     t->tile = 1;
@@ -569,24 +506,21 @@ static struct task *jobs_ended_task(const struct store_job *row)
     return t;
 }
 
-bool jobs_restore(const struct store_job *row, struct cache_entry *scene)
-{
+bool jobs_restore(const struct store_job *row, struct cache_entry *scene) {
     enum work_submit r = WORK_OK;
     struct task *fresh = NULL;
     if (scene) {
-        struct work_target what = {.reg = row->reg, .format = WORK_PNG,
-                                   .keep_exr = row->keep_exr, .client = row->client};
+        struct work_target what = {
+            .reg = row->reg, .format = WORK_PNG, .keep_exr = row->keep_exr, .client = row->client};
         fresh = jobs_task(scene, &what, row->progressive ? &row->plan : NULL, row->id,
                           row->priority, &r);
-        if (fresh)
-            fresh->restored = true;
+        if (fresh) fresh->restored = true;
     } else {
         fresh = jobs_ended_task(row);
     }
     struct job *spare = fresh ? calloc(1, sizeof *spare) : NULL;
     if (!spare) {
-        if (fresh)
-            task_unref(fresh);
+        if (fresh) task_unref(fresh);
         return false;
     }
     work_lock_take();
@@ -601,8 +535,7 @@ bool jobs_restore(const struct store_job *row, struct cache_entry *scene)
     if (j) {
         spare = NULL;
         j->seq = row->seq;
-        if (row->seq > jobs_seq)
-            jobs_seq = row->seq;
+        if (row->seq > jobs_seq) jobs_seq = row->seq;
         j->created_wall = row->created_wall;
         j->created = jobs_mono(row->created_wall);
         if (!scene) {
@@ -622,41 +555,34 @@ bool jobs_restore(const struct store_job *row, struct cache_entry *scene)
     }
     work_lock_give();
     free(spare);
-    if (fresh)
-        task_unref(fresh);
+    if (fresh) task_unref(fresh);
     return j != NULL;
 }
 
 /* The share of the work done, lock held: of the tiles, or for a progressive
  * job of the samples' work.  One function, so the job's JSON and the final
  * event of its stream say the same. */
-double jobs_progress(const struct job *j)
-{
+double jobs_progress(const struct job *j) {
     work_assert_locked();
     const struct task *t = j->task;
-    if (jobs_state(j) == JS_SUCCEEDED)
-        return 1;
+    if (jobs_state(j) == JS_SUCCEEDED) return 1;
     double frac = t->ntiles ? (double)t->done / t->ntiles : 0;
     return t->passes ? passes_progress(t->passes, t->passes->done, frac) : frac;
 }
 
 /* The image jobs_get hands out, lock held: the final one once succeeded,
  * else a progressive job's latest pass (NULL if none yet); referenced. */
-static struct blob *jobs_image(const struct job *j, enum jobs_state state, bool exr)
-{
+static struct blob *jobs_image(const struct job *j, enum jobs_state state, bool exr) {
     work_assert_locked();
     const struct task *t = j->task;
-    if (state == JS_SUCCEEDED)
-        return blob_ref(exr ? t->exr : t->png);
-    if (!t->passes || t->finished || !t->passes->done)
-        return NULL;
+    if (state == JS_SUCCEEDED) return blob_ref(exr ? t->exr : t->png);
+    if (!t->passes || t->finished || !t->passes->done) return NULL;
     const struct passes *p = t->passes;
     return blob_ref(exr ? passes_exr(p, p->done) : passes_png(p, p->done));
 }
 
 /* The job's numbers, lock held. */
-static void jobs_info_of(const struct job *j, struct jobs_info *info, enum jobs_want want)
-{
+static void jobs_info_of(const struct job *j, struct jobs_info *info, enum jobs_want want) {
     work_assert_locked();
     const struct task *t = j->task;
     info->state = jobs_state(j);
@@ -675,8 +601,7 @@ static void jobs_info_of(const struct job *j, struct jobs_info *info, enum jobs_
     info->encode_ms = t->encode_s * 1e3;
     info->rays = t->rays;
     info->est_rays = t->est_rays;
-    if (info->state == JS_FAILED)
-        info->err = t->err;
+    if (info->state == JS_FAILED) info->err = t->err;
     info->keep_exr = t->keep_exr;
     info->ended_age = jobs_final(j) ? now - jobs_ended(j) : -1;
     snprintf(info->id, sizeof info->id, "%s", j->id);
@@ -697,25 +622,21 @@ static void jobs_info_of(const struct job *j, struct jobs_info *info, enum jobs_
         snprintf(info->gone.detail, sizeof info->gone.detail, "%s", j->evicted_why);
         return;
     }
-    if (want & JOBS_PNG)
-        info->png = jobs_image(j, info->state, false);
-    if (want & JOBS_EXR)
-        info->exr = jobs_image(j, info->state, true);
+    if (want & JOBS_PNG) info->png = jobs_image(j, info->state, false);
+    if (want & JOBS_EXR) info->exr = jobs_image(j, info->state, true);
     /* in memory no more (or never, in this process), on disk still */
     info->on_disk = want && info->state == JS_SUCCEEDED && j->stored &&
                     !((want & JOBS_PNG) && info->png) && !((want & JOBS_EXR) && info->exr);
 }
 
 /* Newest first: by creation number, descending. */
-static int jobs_newer(const void *a, const void *b)
-{
+static int jobs_newer(const void *a, const void *b) {
     long long x = (*(struct job *const *)a)->seq, y = (*(struct job *const *)b)->seq;
     return x < y ? 1 : x > y ? -1 : 0;
 }
 
 int jobs_list(uint64_t client, int state, long long before, struct jobs_info *out, int n,
-              bool *more)
-{
+              bool *more) {
     *more = false;
     work_lock_take();
     struct job **mine = malloc((size_t)(jobs_n ? jobs_n : 1) * sizeof *mine);
@@ -726,8 +647,7 @@ int jobs_list(uint64_t client, int state, long long before, struct jobs_info *ou
             (state < 0 || jobs_state(j) == (enum jobs_state)state))
             mine[m++] = j;
     }
-    if (mine)
-        qsort(mine, (size_t)m, sizeof *mine, jobs_newer);
+    if (mine) qsort(mine, (size_t)m, sizeof *mine, jobs_newer);
     for (; got < n && got < m; got++) {
         memset(&out[got], 0, sizeof out[got]);
         jobs_info_of(mine[got], &out[got], JOBS_NUMBERS);
@@ -738,19 +658,16 @@ int jobs_list(uint64_t client, int state, long long before, struct jobs_info *ou
     return got;
 }
 
-bool jobs_get(const char *id, struct jobs_info *info, enum jobs_want want)
-{
+bool jobs_get(const char *id, struct jobs_info *info, enum jobs_want want) {
     memset(info, 0, sizeof *info);
     work_lock_take();
     struct job *j = jobs_find(id);
-    if (j)
-        jobs_info_of(j, info, want);
+    if (j) jobs_info_of(j, info, want);
     work_lock_give();
     return j != NULL;
 }
 
-bool jobs_cancel(const char *id)
-{
+bool jobs_cancel(const char *id) {
     struct task_notify n = {0}, sse = {0};
     work_lock_take();
     struct job *j = jobs_find(id);
@@ -778,8 +695,7 @@ bool jobs_cancel(const char *id)
     return j != NULL;
 }
 
-bool jobs_pass_image(const char *id, int pass, bool exr, struct blob **img, int *samples)
-{
+bool jobs_pass_image(const char *id, int pass, bool exr, struct blob **img, int *samples) {
     *img = NULL;
     *samples = 0;
     work_lock_take();
@@ -793,8 +709,7 @@ bool jobs_pass_image(const char *id, int pass, bool exr, struct blob **img, int 
     return j != NULL;
 }
 
-bool jobs_end_early(const char *id, bool *progressive)
-{
+bool jobs_end_early(const char *id, bool *progressive) {
     struct task_notify n = {0}, sse = {0};
     work_lock_take();
     struct job *j = jobs_find(id);

@@ -13,8 +13,7 @@
 #include <string.h>
 
 void lru_init(struct lru *l, struct lru_node **table, unsigned nbuckets, size_t budget,
-              void (*evict)(struct lru_node *n))
-{
+              void (*evict)(struct lru_node *n)) {
     memset(table, 0, sizeof *table * nbuckets);
     memset(l, 0, sizeof *l);
     l->table = table;
@@ -23,16 +22,13 @@ void lru_init(struct lru *l, struct lru_node **table, unsigned nbuckets, size_t 
     l->evict = evict;
 }
 
-static unsigned lru_bucket(const struct lru *l, const char *key)
-{
+static unsigned lru_bucket(const struct lru *l, const char *key) {
     unsigned h = 2166136261u; /* FNV-1a */
-    for (; *key; key++)
-        h = (h ^ (unsigned char)*key) * 16777619u;
+    for (; *key; key++) h = (h ^ (unsigned char)*key) * 16777619u;
     return h % l->nbuckets;
 }
 
-static void lru_list_unlink(struct lru *l, struct lru_node *n)
-{
+static void lru_list_unlink(struct lru *l, struct lru_node *n) {
     if (n->prev)
         n->prev->next = n->next;
     else
@@ -44,19 +40,15 @@ static void lru_list_unlink(struct lru *l, struct lru_node *n)
     n->prev = n->next = NULL;
 }
 
-static void lru_list_front(struct lru *l, struct lru_node *n)
-{
+static void lru_list_front(struct lru *l, struct lru_node *n) {
     n->next = l->head;
     n->prev = NULL;
-    if (l->head)
-        l->head->prev = n;
+    if (l->head) l->head->prev = n;
     l->head = n;
-    if (!l->tail)
-        l->tail = n;
+    if (!l->tail) l->tail = n;
 }
 
-struct lru_node *lru_find(struct lru *l, const char *key)
-{
+struct lru_node *lru_find(struct lru *l, const char *key) {
     for (struct lru_node *n = l->table[lru_bucket(l, key)]; n; n = n->hnext)
         if (!strcmp(n->key, key)) {
             lru_list_unlink(l, n);
@@ -66,22 +58,17 @@ struct lru_node *lru_find(struct lru *l, const char *key)
     return NULL;
 }
 
-void lru_remove(struct lru *l, struct lru_node *n)
-{
+void lru_remove(struct lru *l, struct lru_node *n) {
     struct lru_node **pp = &l->table[lru_bucket(l, n->key)];
-    while (*pp && *pp != n)
-        pp = &(*pp)->hnext;
-    if (*pp)
-        *pp = n->hnext;
+    while (*pp && *pp != n) pp = &(*pp)->hnext;
+    if (*pp) *pp = n->hnext;
     lru_list_unlink(l, n);
     l->bytes -= n->bytes;
     l->count--;
 }
 
-bool lru_insert(struct lru *l, struct lru_node *n)
-{
-    if (n->bytes > l->budget)
-        return false;
+bool lru_insert(struct lru *l, struct lru_node *n) {
+    if (n->bytes > l->budget) return false;
     while (l->tail && l->bytes + n->bytes > l->budget) {
         struct lru_node *old = l->tail;
         lru_remove(l, old);
@@ -96,8 +83,7 @@ bool lru_insert(struct lru *l, struct lru_node *n)
     return true;
 }
 
-void lru_clear(struct lru *l)
-{
+void lru_clear(struct lru *l) {
     while (l->head) {
         struct lru_node *n = l->head;
         lru_remove(l, n);

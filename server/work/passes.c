@@ -46,29 +46,24 @@
 /* The sample count of the pass after one of s samples. */
 static long passes_next(long s, int step) { return step > 0 ? s + step : 2 * s; }
 
-int passes_plan(const struct jobs_plan *plan, int samples, int out[PASSES_MAX])
-{
+int passes_plan(const struct jobs_plan *plan, int samples, int out[PASSES_MAX]) {
     int n = 0;
-    if (samples < 1)
-        samples = 1;
+    if (samples < 1) samples = 1;
     for (long s = plan->step > 0 ? plan->step : 1; s < samples; s = passes_next(s, plan->step)) {
-        if (n == PASSES_MAX - 1)
-            return -1;
+        if (n == PASSES_MAX - 1) return -1;
         out[n++] = (int)s;
     }
     out[n++] = samples;
     return n;
 }
 
-const char *passes_stop_name(enum passes_stop s)
-{
+const char *passes_stop_name(enum passes_stop s) {
     static const char *const names[] = {NULL, "time_budget", "noise_target", "client", "max_work"};
     return names[s];
 }
 
 struct passes *passes_new(const rayd_scene *scene, const struct jobs_plan *plan,
-                          struct rayd_region *tiles, int ntiles)
-{
+                          struct rayd_region *tiles, int ntiles) {
     struct passes *p = calloc(1, sizeof *p);
     if (!p) {
         free(tiles);
@@ -88,25 +83,19 @@ struct passes *passes_new(const rayd_scene *scene, const struct jobs_plan *plan,
     return p;
 }
 
-void passes_free(struct passes *p)
-{
-    if (!p)
-        return;
-    for (int i = 0; p->acc && i < p->ntiles; i++)
-        rayd_accum_free(p->acc[i]);
+void passes_free(struct passes *p) {
+    if (!p) return;
+    for (int i = 0; p->acc && i < p->ntiles; i++) rayd_accum_free(p->acc[i]);
     free(p->acc);
     free(p->tiles);
-    for (int i = 0; i < PASSES_KEEP; i++)
-        blob_unref(p->png[i]);
-    for (int i = 0; i < PASSES_KEEP_EXR; i++)
-        blob_unref(p->exr[i]);
+    for (int i = 0; i < PASSES_KEEP; i++) blob_unref(p->png[i]);
+    for (int i = 0; i < PASSES_KEEP_EXR; i++) blob_unref(p->exr[i]);
     rayd_image_free(p->prev);
     free(p);
 }
 
 /* Lock held. */
-void passes_release(struct passes *p)
-{
+void passes_release(struct passes *p) {
     work_assert_locked();
     for (int i = 0; p->acc && i < p->ntiles; i++) {
         rayd_accum_free(p->acc[i]);
@@ -116,8 +105,7 @@ void passes_release(struct passes *p)
     p->prev = NULL;
 }
 
-void passes_let_go(struct passes *p)
-{
+void passes_let_go(struct passes *p) {
     p->let_go = true; /* a pass being encoded now (sched_pass_close) is dropped too */
     for (int i = 0; i < PASSES_KEEP; i++) {
         blob_unref(p->png[i]);
@@ -132,12 +120,10 @@ void passes_let_go(struct passes *p)
 enum rayd_status passes_tile(struct passes *p, const rayd_scene *scene, int tile, int pass,
                              const struct resolve_dst *dst, const atomic_int *cancel,
                              atomic_int_least64_t *rays_left, uint64_t *rays,
-                             struct rayd_error *err)
-{
+                             struct rayd_error *err) {
     if (!p->acc[tile]) { /* its first pass: only this worker holds the tile */
         enum rayd_status st = rayd_accum_new(scene, &p->tiles[tile], &p->acc[tile], err);
-        if (st != RAYD_OK)
-            return st;
+        if (st != RAYD_OK) return st;
     }
     rayd_accum *acc = p->acc[tile];
     struct rayd_region r = rayd_accum_region(acc);
@@ -150,14 +136,12 @@ enum rayd_status passes_tile(struct passes *p, const rayd_scene *scene, int tile
     enum rayd_status st =
         rayd_render_pass(scene, &o, acc, rayd_accum_samples(acc), p->samples[pass], err);
     *rays += stats.rays;
-    if (st == RAYD_OK)
-        st = resolve_into(acc, dst, err);
+    if (st == RAYD_OK) st = resolve_into(acc, dst, err);
     return st;
 }
 
 /* The root mean square difference of two equal-sized images, in 0..1. */
-static double passes_rms(const rayd_image *a, const rayd_image *b)
-{
+static double passes_rms(const rayd_image *a, const rayd_image *b) {
     size_t n = (size_t)rayd_image_width(a) * (size_t)rayd_image_height(a) * 3;
     const uint8_t *x = rayd_image_pixels_const(a), *y = rayd_image_pixels_const(b);
     double sum = 0;
@@ -168,10 +152,8 @@ static double passes_rms(const rayd_image *a, const rayd_image *b)
     return sqrt(sum / (double)n) / 255.0;
 }
 
-double passes_noise(const struct passes *p, const rayd_image *img, int pass)
-{
-    if (pass == 0 || !p->prev)
-        return -1;
+double passes_noise(const struct passes *p, const rayd_image *img, int pass) {
+    if (pass == 0 || !p->prev) return -1;
     double n = p->samples[pass], m = p->samples[pass - 1];
     bool restarted = m == 1; /* the centre image is not sample 0 of the next */
     return passes_rms(img, p->prev) * sqrt(m / (restarted ? n + m : n - m));
@@ -179,8 +161,7 @@ double passes_noise(const struct passes *p, const rayd_image *img, int pass)
 
 /* Lock held. */
 void passes_complete(struct passes *p, struct blob *png, struct blob *exr, double time_s,
-                     double noise)
-{
+                     double noise) {
     work_assert_locked();
     int k = p->done++;
     if (p->let_go) { /* cancelled or evicted while this pass was encoded */
@@ -197,11 +178,9 @@ void passes_complete(struct passes *p, struct blob *png, struct blob *exr, doubl
 }
 
 /* Lock held. */
-bool passes_more(struct passes *p, double elapsed)
-{
+bool passes_more(struct passes *p, double elapsed) {
     work_assert_locked();
-    if (p->done >= p->n)
-        return false;
+    if (p->done >= p->n) return false;
     if (p->stop == PASSES_GOING && p->plan.time_budget > 0 && elapsed >= p->plan.time_budget)
         p->stop = PASSES_BY_TIME;
     double noise = p->noise[p->done - 1];
@@ -211,40 +190,33 @@ bool passes_more(struct passes *p, double elapsed)
     return p->stop == PASSES_GOING;
 }
 
-rayd_image *passes_swap(struct passes *p, rayd_image *img)
-{
+rayd_image *passes_swap(struct passes *p, rayd_image *img) {
     rayd_image *old = p->prev;
     p->prev = img;
     return old;
 }
 
 /* Lock held. */
-struct blob *passes_png(const struct passes *p, int pass)
-{
+struct blob *passes_png(const struct passes *p, int pass) {
     work_assert_locked();
-    if (pass < 1 || pass > p->done || pass <= p->done - PASSES_KEEP)
-        return NULL;
+    if (pass < 1 || pass > p->done || pass <= p->done - PASSES_KEEP) return NULL;
     return p->png[(pass - 1) % PASSES_KEEP];
 }
 
 /* Lock held. */
-struct blob *passes_exr(const struct passes *p, int pass)
-{
+struct blob *passes_exr(const struct passes *p, int pass) {
     work_assert_locked();
-    if (pass < 1 || pass > p->done || pass <= p->done - PASSES_KEEP_EXR)
-        return NULL;
+    if (pass < 1 || pass > p->done || pass <= p->done - PASSES_KEEP_EXR) return NULL;
     return p->exr[(pass - 1) % PASSES_KEEP_EXR];
 }
 
-int passes_added(const struct passes *p, int k)
-{
+int passes_added(const struct passes *p, int k) {
     return p->samples[k] - (k == 0 || p->samples[k - 1] == 1 ? 0 : p->samples[k - 1]);
 }
 
 /* The share of the samples' work done after `done` passes and frac of the
  * next pass's tiles (a pass's work: the samples it adds or restarts). */
-double passes_progress(const struct passes *p, int done, double frac)
-{
+double passes_progress(const struct passes *p, int done, double frac) {
     double total = 0, work = 0;
     for (int k = 0; k < p->n; k++) {
         double cost = passes_added(p, k);
@@ -258,8 +230,7 @@ double passes_progress(const struct passes *p, int done, double frac)
 }
 
 /* Lock held. */
-void passes_info(const struct passes *p, struct jobs_passes *out)
-{
+void passes_info(const struct passes *p, struct jobs_passes *out) {
     work_assert_locked();
     out->done = p->done;
     out->total = p->n;

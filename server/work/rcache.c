@@ -37,60 +37,49 @@ static struct lru rcache_lru;
 /* An item leaves the cache: its PNG, if a job or a reply still holds it,
  * is counted as a result again (kind caches only while cached), so the two
  * kinds in /metrics follow what the cache holds. */
-static void rcache_evicted(struct lru_node *n)
-{
+static void rcache_evicted(struct lru_node *n) {
     struct rcache_item *it = (struct rcache_item *)n;
     blob_kind(it->png, MEM_RESULTS);
     blob_unref(it->png);
     free(it);
 }
 
-void rcache_init(size_t budget_bytes)
-{
+void rcache_init(size_t budget_bytes) {
     lru_init(&rcache_lru, rcache_table, RCACHE_BUCKETS, budget_bytes, rcache_evicted);
 }
 
 bool rcache_on(void) { return rcache_lru.budget > 0; }
 
-struct blob *rcache_get(const char *key)
-{
+struct blob *rcache_get(const char *key) {
     work_assert_locked();
     struct rcache_item *it = (struct rcache_item *)lru_find(&rcache_lru, key);
-    if (!it)
-        return NULL;
+    if (!it) return NULL;
     return blob_ref(it->png);
 }
 
-void rcache_put(const char *key, struct blob *png)
-{
+void rcache_put(const char *key, struct blob *png) {
     work_assert_locked();
     size_t need = png->len + sizeof(struct rcache_item);
-    if (need > rcache_lru.budget || lru_find(&rcache_lru, key))
-        return;
+    if (need > rcache_lru.budget || lru_find(&rcache_lru, key)) return;
     struct rcache_item *it = calloc(1, sizeof *it);
-    if (!it)
-        return;
+    if (!it) return;
     snprintf(it->key, sizeof it->key, "%s", key);
     it->node.key = it->key;
     it->node.bytes = need;
     it->png = blob_ref(png);
-    if (lru_insert(&rcache_lru, &it->node))
-        blob_kind(png, MEM_CACHES);
+    if (lru_insert(&rcache_lru, &it->node)) blob_kind(png, MEM_CACHES);
 }
 
-bool rcache_evict_one(void)
-{
+bool rcache_evict_one(void) {
     work_assert_locked();
     struct lru_node *n = rcache_lru.tail;
-    if (!n)
-        return false;
+    if (!n) return false;
     lru_remove(&rcache_lru, n);
     rcache_evicted(n);
     return true;
 }
 
-void rcache_stats(size_t *bytes, size_t *entries)
-{
+void rcache_stats(size_t *bytes, size_t *entries) {
     *bytes = rcache_lru.bytes;
     *entries = rcache_lru.count;
 }

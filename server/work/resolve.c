@@ -21,12 +21,10 @@
 
 /* acc's linear values into rows of d->lin at (d->x, d->y). */
 static enum rayd_status resolve_linear(const rayd_accum *acc, const struct resolve_dst *d,
-                                       struct rayd_error *err)
-{
+                                       struct rayd_error *err) {
     float *f = NULL;
     enum rayd_status st = rayd_accum_linear(acc, &f, err);
-    if (st != RAYD_OK)
-        return st;
+    if (st != RAYD_OK) return st;
     struct rayd_region r = rayd_accum_region(acc);
     size_t row = (size_t)r.w * 3;
     for (int y = 0; y < r.h; y++)
@@ -37,27 +35,22 @@ static enum rayd_status resolve_linear(const rayd_accum *acc, const struct resol
 }
 
 enum rayd_status resolve_into(const rayd_accum *acc, const struct resolve_dst *d,
-                              struct rayd_error *err)
-{
+                              struct rayd_error *err) {
     rayd_image *img = NULL;
     enum rayd_status st = rayd_accum_image(acc, &img, err);
-    if (st == RAYD_OK)
-        st = rayd_image_blit(d->img, img, d->x, d->y, err);
+    if (st == RAYD_OK) st = rayd_image_blit(d->img, img, d->x, d->y, err);
     rayd_image_free(img);
-    if (st == RAYD_OK && d->lin)
-        st = resolve_linear(acc, d, err);
+    if (st == RAYD_OK && d->lin) st = resolve_linear(acc, d, err);
     return st;
 }
 
 enum rayd_status resolve_render(const rayd_scene *scene, const struct rayd_region *tile,
                                 const struct resolve_dst *d, const atomic_int *cancel,
                                 atomic_int_least64_t *rays_left, uint64_t *rays,
-                                struct rayd_error *err)
-{
+                                struct rayd_error *err) {
     rayd_accum *acc = NULL;
     enum rayd_status st = rayd_accum_new(scene, tile, &acc, err);
-    if (st != RAYD_OK)
-        return st;
+    if (st != RAYD_OK) return st;
     struct rayd_scene_info info;
     rayd_scene_info(scene, &info);
     struct rayd_render_stats stats = {0};
@@ -68,8 +61,7 @@ enum rayd_status resolve_render(const rayd_scene *scene, const struct rayd_regio
                                  .rays_left = rays_left};
     st = rayd_render_pass(scene, &o, acc, 0, info.samples, err); /* the plain render's sums */
     *rays += stats.rays;
-    if (st == RAYD_OK)
-        st = resolve_into(acc, d, err);
+    if (st == RAYD_OK) st = resolve_into(acc, d, err);
     rayd_accum_free(acc);
     return st;
 }

@@ -34,46 +34,38 @@
 #include <stdlib.h>
 #include <string.h>
 
-bool scenefiles_usable(const rayd_scene *scene, bool have_text)
-{
+bool scenefiles_usable(const rayd_scene *scene, bool have_text) {
     int nfiles = rayd_scene_files(scene); /* distinct files: the core keeps one per path */
-    if (nfiles == 0)
-        return true;
+    if (nfiles == 0) return true;
     metrics_file_checks((unsigned long)nfiles);
     enum rayd_files_state st = rayd_scene_files_check(scene);
     return st == RAYD_FILES_CURRENT || (!have_text && st == RAYD_FILES_UNSETTLED);
 }
 
 /* Appends file i's line to buf (of size, *n used); false when it is full. */
-static bool scenefiles_line(const rayd_scene *scene, int i, char *buf, size_t size, size_t *n)
-{
+static bool scenefiles_line(const rayd_scene *scene, int i, char *buf, size_t size, size_t *n) {
     struct rayd_file_id id;
     const char *path = rayd_scene_file(scene, i, &id);
-    int w = snprintf(buf + *n, size - *n, "\n%s %llu %llu %llu %lld", path, id.dev, id.ino,
-                     id.size, id.mtime_ns);
-    if (w < 0 || (size_t)w >= size - *n)
-        return false;
+    int w = snprintf(buf + *n, size - *n, "\n%s %llu %llu %llu %lld", path, id.dev, id.ino, id.size,
+                     id.mtime_ns);
+    if (w < 0 || (size_t)w >= size - *n) return false;
     *n += (size_t)w;
     return true;
 }
 
-bool scenefiles_version(const char *id, const rayd_scene *scene, char out[65])
-{
+bool scenefiles_version(const char *id, const rayd_scene *scene, char out[65]) {
     int nfiles = rayd_scene_files(scene);
     if (nfiles == 0) {
         snprintf(out, 65, "%s", id);
         return true;
     }
     size_t size = 128, n = 0;
-    for (int i = 0; i < nfiles; i++)
-        size += strlen(rayd_scene_file(scene, i, NULL)) + 96;
+    for (int i = 0; i < nfiles; i++) size += strlen(rayd_scene_file(scene, i, NULL)) + 96;
     char *buf = malloc(size);
-    if (!buf)
-        return false;
+    if (!buf) return false;
     n = (size_t)snprintf(buf, size, "%s", id);
     bool ok = true;
-    for (int i = 0; ok && i < nfiles; i++)
-        ok = scenefiles_line(scene, i, buf, size, &n);
+    for (int i = 0; ok && i < nfiles; i++) ok = scenefiles_line(scene, i, buf, size, &n);
     if (ok && rayd_scene_files_check(scene) != RAYD_FILES_CURRENT) {
         static atomic_ullong unsettled;
         snprintf(buf + n, size - n, "\nunsettled %llu", atomic_fetch_add(&unsettled, 1));

@@ -39,36 +39,31 @@
 #include <string.h>
 
 /* The scene limits: the core's defaults with --max-pixels, --max-body and
- * --asset-dir (files read only inside it), unless set here (the fuzz harness lowers them so it explores errors rather
- * than rendering big scenes). */
+ * --asset-dir (files read only inside it), unless set here (the fuzz harness lowers them so it
+ * explores errors rather than rendering big scenes). */
 static struct rayd_limits scenes_limits;
 static bool scenes_limits_set;
 
-void scenes_set_limits(const struct rayd_limits *lim)
-{
+void scenes_set_limits(const struct rayd_limits *lim) {
     scenes_limits = *lim;
     scenes_limits_set = true;
 }
 
-static void scenes_nomem(struct rayd_error *err, const char *msg)
-{
-    if (!err)
-        return;
+static void scenes_nomem(struct rayd_error *err, const char *msg) {
+    if (!err) return;
     memset(err, 0, sizeof *err);
     err->code = RAYD_E_NOMEM;
     snprintf(err->message, sizeof err->message, "%s", msg);
 }
 
-struct cache_entry *scenes_peek(const char *id)
-{
+struct cache_entry *scenes_peek(const char *id) {
     work_lock_take();
     struct cache_entry *e = cache_get(id);
     work_lock_give();
     return e;
 }
 
-bool scenes_current(struct cache_entry *e, bool have_text)
-{
+bool scenes_current(struct cache_entry *e, bool have_text) {
     return scenefiles_usable(cache_scene(e), have_text);
 }
 
@@ -85,8 +80,7 @@ bool scenes_current(struct cache_entry *e, bool have_text)
 #define SCENES_PARSE_PER_BYTE 32
 #define SCENES_PARSE_STEP 4
 
-size_t scenes_parse_cap(size_t len)
-{
+size_t scenes_parse_cap(size_t len) {
     size_t limit = mem_limit();
     if (limit <= SCENES_PARSE_FLOOR || len > (limit - SCENES_PARSE_FLOOR) / SCENES_PARSE_PER_BYTE)
         return limit;
@@ -101,30 +95,26 @@ size_t scenes_parse_cap(size_t len)
  * is the budget, not the room left now, so the 413 does not depend on other
  * requests: what the room allows is decided as the cap is raised and once
  * the scene is built (scenes_reserve, 503). */
-static void scenes_room(struct rayd_limits *lim, size_t cap)
-{
+static void scenes_room(struct rayd_limits *lim, size_t cap) {
     size_t room = cap;
     if ((size_t)lim->max_triangles > room / SCENES_TRIANGLE_BYTES)
         lim->max_triangles = (long)(room / SCENES_TRIANGLE_BYTES);
     if (lim->max_texels <= 0 || (size_t)lim->max_texels > room / SCENES_TEXEL_BYTES)
         lim->max_texels = (long)(room / SCENES_TEXEL_BYTES) + 1; /* 0 would be the default */
     size_t floor = (size_t)config.max_body;
-    if (lim->max_bytes > room)
-        lim->max_bytes = room > floor ? room : floor;
+    if (lim->max_bytes > room) lim->max_bytes = room > floor ? room : floor;
 }
 
 /* Parses and builds body outside the lock, timing each stage. */
-static enum rayd_status scenes_compile(const char *body, size_t len, size_t cap,
-                                       rayd_scene **scene, struct rayd_error *err)
-{
+static enum rayd_status scenes_compile(const char *body, size_t len, size_t cap, rayd_scene **scene,
+                                       struct rayd_error *err) {
     struct rayd_limits lim;
     if (scenes_limits_set) {
         lim = scenes_limits;
     } else {
         rayd_limits_default(&lim);
         lim.max_pixels = config.max_pixels;
-        if (lim.max_bytes < (size_t)config.max_body)
-            lim.max_bytes = (size_t)config.max_body;
+        if (lim.max_bytes < (size_t)config.max_body) lim.max_bytes = (size_t)config.max_body;
         lim.asset_dir = config.asset_dir; /* confined (asset_confine) */
     }
     scenes_room(&lim, cap);
@@ -144,16 +134,14 @@ static enum rayd_status scenes_compile(const char *body, size_t len, size_t cap,
     return RAYD_OK;
 }
 
-static size_t scenes_bytes(const rayd_scene *scene)
-{
+static size_t scenes_bytes(const rayd_scene *scene) {
     struct rayd_scene_info info;
     rayd_scene_info(scene, &info);
     return info.bytes;
 }
 
 /* err says the budget has no room now for what, of bytes: 503 memory_full. */
-static void scenes_full(struct rayd_error *err, const char *what, size_t bytes, bool *full)
-{
+static void scenes_full(struct rayd_error *err, const char *what, size_t bytes, bool *full) {
     metrics_reject(MR_MEMORY);
     memset(err, 0, sizeof *err);
     err->code = RAYD_E_NOMEM;
@@ -168,8 +156,7 @@ static void scenes_full(struct rayd_error *err, const char *what, size_t bytes, 
  * bytes turned into its own, or frees it and says why not: 413 when it
  * alone is over the budget, else 503 (no room now). */
 static enum rayd_status scenes_reserve(rayd_scene *scene, size_t held, struct rayd_error *err,
-                                       bool *full)
-{
+                                       bool *full) {
     size_t bytes = scenes_bytes(scene);
     if (bytes <= held) {
         mem_move(MEM_PARSES, MEM_SCENES, bytes);
@@ -201,16 +188,14 @@ static enum rayd_status scenes_reserve(rayd_scene *scene, size_t held, struct ra
  * the core refuses a value over it and the cap is under the budget. */
 static enum rayd_status scenes_parse_within(const char *body, size_t len, size_t *held,
                                             rayd_scene **scene, struct rayd_error *err,
-                                            bool *full)
-{
+                                            bool *full) {
     /* the last cap: the budget less the body's buffer, counted too (twice
      * the text at most: a chunked body's buffer grows by doubling) */
     size_t text = 2 * len + 4096;
     size_t limit = mem_limit() > text ? mem_limit() - text : 0;
     for (;;) {
         enum rayd_status st = scenes_compile(body, len, *held, scene, err);
-        if (st != RAYD_E_LIMIT || *held >= limit)
-            return st;
+        if (st != RAYD_E_LIMIT || *held >= limit) return st;
         size_t next = *held > limit / SCENES_PARSE_STEP ? limit : *held * SCENES_PARSE_STEP;
         if (!mem_reserve(MEM_PARSES, next - *held)) {
             scenes_full(err, "parsing this scene needs more than", *held, full);
@@ -220,17 +205,14 @@ static enum rayd_status scenes_parse_within(const char *body, size_t len, size_t
     }
 }
 
-bool scenes_id(const char *body, size_t len, char id[65], struct rayd_error *err)
-{
-    if (cache_hash(body, len, id))
-        return true;
+bool scenes_id(const char *body, size_t len, char id[65], struct rayd_error *err) {
+    if (cache_hash(body, len, id)) return true;
     scenes_nomem(err, "cannot hash the scene (libcrypto)");
     return false;
 }
 
 enum rayd_status scenes_build(const char *id, const char *body, size_t len, size_t held,
-                              struct cache_entry **out, struct rayd_error *err, bool *full)
-{
+                              struct cache_entry **out, struct rayd_error *err, bool *full) {
     rayd_scene *scene = NULL;
     *full = false;
     enum rayd_status st = scenes_parse_within(body, len, &held, &scene, err, full);
@@ -239,8 +221,7 @@ enum rayd_status scenes_build(const char *id, const char *body, size_t len, size
         return st;
     }
     st = scenes_reserve(scene, held, err, full);
-    if (st != RAYD_OK)
-        return st;
+    if (st != RAYD_OK) return st;
     char version[65];
     struct cache_entry *e = NULL;
     if (scenefiles_version(id, scene, version)) {
@@ -258,10 +239,8 @@ enum rayd_status scenes_build(const char *id, const char *body, size_t len, size
     return RAYD_OK;
 }
 
-void scenes_release(struct cache_entry *e)
-{
-    if (!e)
-        return;
+void scenes_release(struct cache_entry *e) {
+    if (!e) return;
     work_lock_take();
     cache_release(e);
     work_lock_give();
@@ -272,8 +251,7 @@ void scenes_release(struct cache_entry *e)
 /* The bytes (or, bytes false, the entries) of the cache whose stats
  * function is given (cache.c's or rcache.c's), read under the lock that
  * both files leave to their callers. */
-static long scenes_size(void (*stats)(size_t *bytes, size_t *entries), bool bytes)
-{
+static long scenes_size(void (*stats)(size_t *bytes, size_t *entries), bool bytes) {
     size_t b, n;
     work_lock_take();
     stats(&b, &n);
@@ -288,8 +266,7 @@ static long scenes_gauge_rentries(void) { return scenes_size(rcache_stats, false
 
 /* Sizes the scene cache and the result cache and registers their gauges:
  * here, because this file is where the caches meet the lock. */
-void scenes_start(void)
-{
+void scenes_start(void) {
     cache_init((size_t)config.cache_mb * 1024 * 1024);
     rcache_init((size_t)config.result_cache_mb * 1024 * 1024);
     metrics_gauge(MG_CACHE_BYTES, scenes_gauge_bytes);

@@ -7,14 +7,12 @@
  * tile boundary.  The task's state is task.c's: a worker takes a tile
  * (task_take), books it (task_tile_done) and, when it was the last, makes
  * the answer without the lock and hands it back (task_encoded,
- * task_pass_closed).  Every lock a function here releases is one it took.  A plain PNG task is encoded as it is drawn: the worker
- * that finishes a row of its tiles deflates the PNG bands that row
- * completes (rayd_png_stream, lock released, the task still counted as
- * running so it cannot finish meanwhile), so the encoding overlaps the
- * other tiles' rendering.  The worker that finishes a task's last tile
- * encodes what is left of its PNG (or, for a 16-bit PNG or EXR task, its
- * linear floats) -- with the lock released, like the tiles -- and answers
- * everyone interested in it.
+ * task_pass_closed).  Every lock a function here releases is one it took.  A plain PNG task is
+ * encoded as it is drawn: the worker that finishes a row of its tiles deflates the PNG bands that
+ * row completes (rayd_png_stream, lock released, the task still counted as running so it cannot
+ * finish meanwhile), so the encoding overlaps the other tiles' rendering.  The worker that finishes
+ * a task's last tile encodes what is left of its PNG (or, for a 16-bit PNG or EXR task, its linear
+ * floats) -- with the lock released, like the tiles -- and answers everyone interested in it.
  *
  * Back-pressure: at most queue_cap tasks may wait for a worker (have tiles
  * nobody has started); beyond that a submission is refused with WORK_FULL and
@@ -33,7 +31,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-
 static pthread_t *sched_threads;
 static int sched_nworkers, sched_busy;
 static bool sched_stopping; /* lock held: the workers end */
@@ -43,8 +40,7 @@ static bool sched_stopping; /* lock held: the workers end */
 /* The next task a worker should take a tile of, lock held; waits for one.
  * NULL when the pool stops.  A worker held by the test gate counts as held
  * while it waits. */
-static struct task *sched_next_task(void)
-{
+static struct task *sched_next_task(void) {
     work_assert_locked();
     while (!sched_stopping) {
         struct task *t = task_pick();
@@ -63,8 +59,7 @@ static struct task *sched_next_task(void)
  * blob; NULL when *st was not RAYD_OK, or when there is no memory for the
  * blob: then *st and err say so (what names the bytes).  Lock not held. */
 static struct blob *sched_keep(enum rayd_status *st, void *buf, size_t len, struct rayd_error *err,
-                               const char *what)
-{
+                               const char *what) {
     work_assert_unlocked();
     struct blob *b = *st == RAYD_OK ? blob_new(buf, len) : NULL;
     if (*st == RAYD_OK && !b) {
@@ -77,11 +72,9 @@ static struct blob *sched_keep(enum rayd_status *st, void *buf, size_t len, stru
 
 /* The EXR of t's linear floats when t keeps one (keep_exr), after *st was
  * RAYD_OK; else NULL.  A failure sets *st and err.  Lock not held. */
-static struct blob *sched_exr(const struct task *t, enum rayd_status *st, struct rayd_error *err)
-{
+static struct blob *sched_exr(const struct task *t, enum rayd_status *st, struct rayd_error *err) {
     work_assert_unlocked();
-    if (!t->keep_exr || *st != RAYD_OK)
-        return NULL;
+    if (!t->keep_exr || *st != RAYD_OK) return NULL;
     void *buf = NULL;
     size_t len = 0;
     *st = rayd_exr_encode(t->lin, t->reg.w, t->reg.h, &buf, &len, err);
@@ -91,8 +84,7 @@ static struct blob *sched_exr(const struct task *t, enum rayd_status *st, struct
 /* Encodes t's answer in its format (every core: png_encode.c's bands, or
  * the rest of its PNG stream), and its EXR when it keeps one, into o; no
  * lock.  The tiles' and the encoding's times go to the stage metrics. */
-static void sched_encode(struct task *t, struct task_out *o)
-{
+static void sched_encode(struct task *t, struct task_out *o) {
     work_assert_unlocked();
     void *buf = NULL;
     size_t len = 0;
@@ -107,13 +99,11 @@ static void sched_encode(struct task *t, struct task_out *o)
 
 /* The pass whose last tile just finished, into o: its noise estimate, its
  * PNG (and EXR), the image for the next pass; no lock. */
-static void sched_pass(struct task *t, struct task_out *o)
-{
+static void sched_pass(struct task *t, struct task_out *o) {
     work_assert_unlocked();
     struct passes *p = t->passes;
     o->noise = passes_noise(p, t->img, p->pass);
-    if (!p->prev && p->pass + 1 < p->n)
-        rayd_image_new(t->reg.w, t->reg.h, &o->spare, NULL);
+    if (!p->prev && p->pass + 1 < p->n) rayd_image_new(t->reg.w, t->reg.h, &o->spare, NULL);
     void *buf = NULL;
     size_t len = 0;
     o->st = rayd_png_encode(t->img, (int)config.png_level, &buf, &len, &o->err);
@@ -126,20 +116,17 @@ static void sched_pass(struct task *t, struct task_out *o)
  * (t cannot finish meanwhile: this worker still counts as running it).
  * A stream's call deflates only the bands its rows complete, a band or
  * two, so the worker is soon back for tiles. */
-static void sched_stream_tile(struct task *t, int tile)
-{
+static void sched_stream_tile(struct task *t, int tile) {
     work_assert_unlocked();
     int rows = task_rows_done(t, tile);
-    if (rows > 0)
-        rayd_png_stream_rows(t->stream, rows);
+    if (rows > 0) rayd_png_stream_rows(t->stream, rows);
 }
 
 /* Finishes t when its last tile (of a pass) was drawn: its answer (or
  * pass) made without the lock, then kept under it.  Called and returns
  * without the lock; t's waiters onto n and sse. */
 static void sched_finalize(struct task *t, enum task_next next, struct task_notify *n,
-                           struct task_notify *sse)
-{
+                           struct task_notify *sse) {
     struct task_out o = {0};
     if (next == TASK_ENCODE)
         sched_encode(t, &o);
@@ -154,15 +141,13 @@ static void sched_finalize(struct task *t, enum task_next next, struct task_noti
 }
 
 /* t's ray budget (--max-work), or NULL when there is none. */
-static atomic_int_least64_t *sched_budget(struct task *t)
-{
+static atomic_int_least64_t *sched_budget(struct task *t) {
     return t->work > 0 ? &t->rays_left : NULL;
 }
 
 /* A WORK_SUMS tile: its samples k0..k1-1 summed, into t's sums. */
 static enum rayd_status sched_sums_tile(struct task *t, const struct rayd_region *tr,
-                                        uint64_t *rays, struct rayd_error *err)
-{
+                                        uint64_t *rays, struct rayd_error *err) {
     rayd_accum *acc = NULL;
     struct rayd_render_stats stats = {0};
     struct rayd_render_opts o = {.threads = 1,
@@ -177,7 +162,8 @@ static enum rayd_status sched_sums_tile(struct task *t, const struct rayd_region
     const double *in = st == RAYD_OK ? rayd_accum_sums(acc) : NULL;
     for (int row = 0; in && row < tr->h; row++)
         memcpy(t->sums + ((size_t)(tr->y - t->reg.y + row) * (size_t)t->reg.w +
-                          (size_t)(tr->x - t->reg.x)) * 3,
+                          (size_t)(tr->x - t->reg.x)) *
+                             3,
                in + (size_t)row * (size_t)tr->w * 3, (size_t)tr->w * 3 * sizeof *in);
     rayd_accum_free(acc);
     return st;
@@ -188,8 +174,7 @@ static enum rayd_status sched_sums_tile(struct task *t, const struct rayd_region
  * so a cancel, a deadline or a spent budget stops the tile within
  * milliseconds whatever one pixel costs. */
 static enum rayd_status sched_tile(struct task *t, int tile, int pass, uint64_t *rays,
-                                   struct rayd_error *err)
-{
+                                   struct rayd_error *err) {
     work_assert_unlocked();
     struct rayd_region tr = task_tile(t, tile);
     const rayd_scene *scene = cache_scene(t->scene);
@@ -198,28 +183,23 @@ static enum rayd_status sched_tile(struct task *t, int tile, int pass, uint64_t 
     atomic_int_least64_t *left = sched_budget(t);
     if (t->passes)
         return passes_tile(t->passes, scene, tile, pass, &dst, &t->cancel, left, rays, err);
-    if (t->sums)
-        return sched_sums_tile(t, &tr, rays, err);
-    if (t->keep_exr)
-        return resolve_render(scene, &tr, &dst, &t->cancel, left, rays, err);
+    if (t->sums) return sched_sums_tile(t, &tr, rays, err);
+    if (t->keep_exr) return resolve_render(scene, &tr, &dst, &t->cancel, left, rays, err);
     struct rayd_render_stats stats = {0};
     struct rayd_render_opts o = {
         .region = tr, .cancel = &t->cancel, .stats = &stats, .rays_left = left};
-    enum rayd_status st = t->lin
-                              ? rayd_render_linear_tile(scene, &o, t->lin, t->reg.w, dx, dy, err)
-                              : rayd_render_tile(scene, &o, t->img, dx, dy, err);
+    enum rayd_status st = t->lin ? rayd_render_linear_tile(scene, &o, t->lin, t->reg.w, dx, dy, err)
+                                 : rayd_render_tile(scene, &o, t->img, dx, dy, err);
     *rays += stats.rays;
     return st;
 }
 
-static void *sched_worker(void *arg)
-{
+static void *sched_worker(void *arg) {
     (void)arg;
     work_lock_take();
     for (;;) {
         struct task *t = sched_next_task();
-        if (!t)
-            break;
+        if (!t) break;
         int pass, tile = task_take(t, &pass);
         sched_busy++;
         work_lock_give();
@@ -230,8 +210,7 @@ static void *sched_worker(void *arg)
         enum rayd_status st = sched_tile(t, tile, pass, &rays, &err);
         double took = clock_now() - t0;
         metrics_rays(rays);
-        if (st == RAYD_OK)
-            sched_stream_tile(t, tile);
+        if (st == RAYD_OK) sched_stream_tile(t, tile);
 
         struct task_notify n = {0}, sse = {0};
         work_lock_take();
@@ -240,8 +219,7 @@ static void *sched_worker(void *arg)
         sched_busy--;
         enum task_next next = task_tile_done(t, tile, st, &err, rays, &n, &sse);
         work_lock_give();
-        if (next != TASK_GOING)
-            sched_finalize(t, next, &n, &sse);
+        if (next != TASK_GOING) sched_finalize(t, next, &n, &sse);
         task_notify_run(&n);
         task_notify_run(&sse);
         work_lock_take();
@@ -252,8 +230,7 @@ static void *sched_worker(void *arg)
 
 /* ---- gauges (registered with metrics.c at start-up) ------------------------ */
 
-static long sched_gauge_queued(void)
-{
+static long sched_gauge_queued(void) {
     work_lock_take();
     long x = task_queued;
     work_lock_give();
@@ -264,20 +241,17 @@ static long sched_gauge_cap(void) { return task_queue_cap; }
 static long sched_gauge_workers(void) { return sched_nworkers; }
 static long sched_gauge_draining(void) { return sched_draining(); }
 
-static long sched_gauge_busy(void)
-{
+static long sched_gauge_busy(void) {
     work_lock_take();
     long x = sched_busy;
     work_lock_give();
     return x;
 }
 
-static long sched_gauge_running(void)
-{
+static long sched_gauge_running(void) {
     long n = 0;
     work_lock_take();
-    for (struct task *t = task_active; t; t = t->next)
-        n += t->next_tile > 0;
+    for (struct task *t = task_active; t; t = t->next) n += t->next_tile > 0;
     work_lock_give();
     return n;
 }
@@ -286,8 +260,7 @@ static long sched_gauge_running(void)
 static double sched_backlog(void);
 static long sched_gauge_backlog_ms(void) { return (long)(sched_backlog() * 1e3); }
 
-static void sched_register_gauges(void)
-{
+static void sched_register_gauges(void) {
     metrics_gauge(MG_BACKLOG_MS, sched_gauge_backlog_ms);
     metrics_gauge(MG_QUEUE_DEPTH, sched_gauge_queued);
     metrics_gauge(MG_QUEUE_CAPACITY, sched_gauge_cap);
@@ -299,31 +272,26 @@ static void sched_register_gauges(void)
 
 /* ---- start / stop ---------------------------------------------------------- */
 
-int sched_start(int workers, int queue_cap, int max_jobs)
-{
+int sched_start(int workers, int queue_cap, int max_jobs) {
     task_queue_cap = queue_cap;
     cost_set_workers(workers);
     sched_threads = calloc((size_t)workers, sizeof *sched_threads);
-    if (!sched_threads || jobs_start(max_jobs))
-        return -1;
+    if (!sched_threads || jobs_start(max_jobs)) return -1;
     scenes_start();
     sched_register_gauges();
     for (int i = 0; i < workers; i++) {
-        if (pthread_create(&sched_threads[i], NULL, sched_worker, NULL))
-            return -1;
+        if (pthread_create(&sched_threads[i], NULL, sched_worker, NULL)) return -1;
         sched_nworkers++;
     }
     return watch_start();
 }
 
-void sched_stop(void)
-{
+void sched_stop(void) {
     work_lock_take();
     sched_stopping = true;
     pthread_cond_broadcast(&work_cond);
     work_lock_give();
-    for (int i = 0; i < sched_nworkers; i++)
-        pthread_join(sched_threads[i], NULL);
+    for (int i = 0; i < sched_nworkers; i++) pthread_join(sched_threads[i], NULL);
     watch_stop();
     free(sched_threads);
     sched_threads = NULL;
@@ -349,16 +317,14 @@ void sched_stop(void)
  * NULL.  A hit or miss is counted only while the cache is on: with
  * --result-cache-mb 0 there is nothing to look in, and a miss counted for
  * every render would read as a cache that never helps. */
-struct blob *sched_result_find(const struct cache_entry *scene, const struct work_target *what)
-{
+struct blob *sched_result_find(const struct cache_entry *scene, const struct work_target *what) {
     char key[160];
     task_key(key, sizeof key, cache_version(scene), what);
     work_lock_take();
     struct blob *b = rcache_get(key);
     bool on = rcache_on();
     work_lock_give();
-    if (on)
-        metrics_result_cache(b != NULL);
+    if (on) metrics_result_cache(b != NULL);
     return b;
 }
 
@@ -367,8 +333,7 @@ struct blob *sched_result_find(const struct cache_entry *scene, const struct wor
  * budget is asked: a reservation it would release at once could still
  * evict other clients' results to make room. */
 static bool sched_join(struct cache_entry *scene, const struct work_target *what,
-                       struct work_waiter *w)
-{
+                       struct work_waiter *w) {
     char key[160];
     task_key(key, sizeof key, cache_version(scene), what);
     work_lock_take();
@@ -382,42 +347,32 @@ static bool sched_join(struct cache_entry *scene, const struct work_target *what
 }
 
 enum work_submit sched_render(struct cache_entry *scene, const struct work_target *what,
-                              struct work_waiter *w, struct blob **png)
-{
-    if ((*png = sched_result_find(scene, what)))
-        return WORK_CACHED;
-    if (sched_join(scene, what, w))
-        return WORK_OK;
+                              struct work_waiter *w, struct blob **png) {
+    if ((*png = sched_result_find(scene, what))) return WORK_CACHED;
+    if (sched_join(scene, what, w)) return WORK_OK;
     enum work_submit why;
     struct task *fresh = budget_task(scene, what, false, &why);
-    if (!fresh)
-        return why;
+    if (!fresh) return why;
     work_lock_take();
     struct task *t = NULL;
     enum work_submit r = task_submit(scene, &fresh, &t);
-    if (r == WORK_OK)
-        task_wait(t, w);
+    if (r == WORK_OK) task_wait(t, w);
     work_lock_give();
-    if (fresh)
-        task_unref(fresh);
+    if (fresh) task_unref(fresh);
     return r;
 }
-
 
 /* ---- lifecycle ------------------------------------------------------------------ */
 
 void sched_drain(void) { task_drain(); }
 bool sched_draining(void) { return task_draining(); }
 
-void sched_cancel_all(void)
-{
+void sched_cancel_all(void) {
     work_lock_take();
     for (;;) {
         struct task *t = task_active;
-        while (t && (atomic_load(&t->cancel) || t->finished))
-            t = t->next;
-        if (!t)
-            break;
+        while (t && (atomic_load(&t->cancel) || t->finished)) t = t->next;
+        if (!t) break;
         struct task_notify n = {0}, sse = {0};
         task_cancel(t, MC_DRAIN, &n, &sse);
         work_lock_give();
@@ -428,24 +383,21 @@ void sched_cancel_all(void)
     work_lock_give();
 }
 
-bool sched_idle(void)
-{
+bool sched_idle(void) {
     work_lock_take();
     bool idle = task_active == NULL;
     work_lock_give();
     return idle;
 }
 
-static double sched_backlog(void)
-{
+static double sched_backlog(void) {
     work_lock_take();
     double s = cost_seconds(task_backlog_rays());
     work_lock_give();
     return s;
 }
 
-void sched_stats(struct sched_stats *st)
-{
+void sched_stats(struct sched_stats *st) {
     work_lock_take();
     st->backlog_s = cost_seconds(task_backlog_rays());
     st->queued = task_queued;

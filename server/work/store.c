@@ -55,8 +55,8 @@ enum store_kind { SO_INSERT, SO_END, SO_FORGET };
 struct store_op {
     enum store_kind kind;
     struct store_job row;
-    struct blob *png, *exr;  /* SO_END: the images, referenced */
-    struct work_waiter *w;   /* SO_INSERT: told once the row is committed */
+    struct blob *png, *exr; /* SO_END: the images, referenced */
+    struct work_waiter *w;  /* SO_INSERT: told once the row is committed */
     struct store_op *next;
 };
 
@@ -96,17 +96,14 @@ bool store_on(void) { return atomic_load(&store_up); }
 /* ---- files ----------------------------------------------------------------------- */
 
 /* DIR/results/ID.png (or .exr, or with .tmp): a frame-0 image's path. */
-static void store_path(char *buf, size_t size, const char *id, bool exr, bool tmp)
-{
+static void store_path(char *buf, size_t size, const char *id, bool exr, bool tmp) {
     snprintf(buf, size, "%s/results/%s.%s%s", store_dir, id, exr ? "exr" : "png",
              tmp ? ".tmp" : "");
 }
 
-static int store_fsync_dir(const char *path)
-{
+static int store_fsync_dir(const char *path) {
     int fd = open(path, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-    if (fd < 0)
-        return -1;
+    if (fd < 0) return -1;
     int rc = fsync(fd);
     close(fd);
     return rc;
@@ -116,31 +113,26 @@ static int store_fsync_dir(const char *path)
  * RAYD_TEST_STORE_STALL=1 the store thread stops for good between writing
  * an image's temporary file and renaming it, so a test can kill rayd
  * there. */
-static void store_test_stall(void)
-{
+static void store_test_stall(void) {
     const char *v = getenv("RAYD_TEST_STORE_STALL");
     if (config.test_gate_tiles >= -1 && v && !strcmp(v, "1")) {
         log_warn("RAYD_TEST_STORE_STALL: the store stops before a rename, for good");
-        for (;;)
-            pause();
+        for (;;) pause();
     }
 }
 
 /* b's bytes to path, whole or not at all: NAME.tmp, fsync, rename. */
-static int store_write_file(const char *id, bool exr, const struct blob *b)
-{
+static int store_write_file(const char *id, bool exr, const struct blob *b) {
     char tmp[4200], path[4200];
     store_path(tmp, sizeof tmp, id, exr, true);
     store_path(path, sizeof path, id, exr, false);
     int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
-    if (fd < 0)
-        return -1;
+    if (fd < 0) return -1;
     const unsigned char *p = b->data;
     size_t left = b->len;
     while (left > 0) {
         ssize_t n = write(fd, p, left);
-        if (n < 0 && errno == EINTR)
-            continue;
+        if (n < 0 && errno == EINTR) continue;
         if (n <= 0) {
             close(fd);
             unlink(tmp);
@@ -157,23 +149,19 @@ static int store_write_file(const char *id, bool exr, const struct blob *b)
     return rename(tmp, path);
 }
 
-struct blob *store_read(const char *id, bool exr)
-{
+struct blob *store_read(const char *id, bool exr) {
     char path[4200];
     store_path(path, sizeof path, id, exr, false);
     int fd = open(path, O_RDONLY | O_CLOEXEC);
     struct stat st;
-    if (fd < 0)
-        return NULL;
+    if (fd < 0) return NULL;
     unsigned char *data = NULL;
     size_t got = 0;
     if (fstat(fd, &st) == 0 && st.st_size > 0 && (data = malloc((size_t)st.st_size))) {
         while (got < (size_t)st.st_size) {
             ssize_t n = read(fd, data + got, (size_t)st.st_size - got);
-            if (n < 0 && errno == EINTR)
-                continue;
-            if (n <= 0)
-                break;
+            if (n < 0 && errno == EINTR) continue;
+            if (n <= 0) break;
             got += (size_t)n;
         }
     }
@@ -183,24 +171,20 @@ struct blob *store_read(const char *id, bool exr)
         return NULL;
     }
     struct blob *b = blob_new(data, got);
-    if (!b)
-        rayd_free(data);
+    if (!b) rayd_free(data);
     return b;
 }
 
 /* ---- SQLite ------------------------------------------------------------------------ */
 
-static const char *store_text(sqlite3_stmt *st, int col)
-{
+static const char *store_text(sqlite3_stmt *st, int col) {
     const unsigned char *t = sqlite3_column_text(st, col);
     return t ? (const char *)t : "";
 }
 
-static bool store_exec(const char *sql)
-{
+static bool store_exec(const char *sql) {
     char *msg = NULL;
-    if (sqlite3_exec(store_db, sql, NULL, NULL, &msg) == SQLITE_OK)
-        return true;
+    if (sqlite3_exec(store_db, sql, NULL, NULL, &msg) == SQLITE_OK) return true;
     log_error("--data-dir %s: %s: %s", store_dir, sql, msg ? msg : "?");
     sqlite3_free(msg);
     return false;
@@ -210,8 +194,7 @@ static bool store_exec(const char *sql)
  * and length, 'i' 64-bit integer, 'd' double), stepped to its first row:
  * SQLITE_ROW (the statement is the caller's: finalize it) or the error
  * (finalized). */
-static int store_run(sqlite3_stmt **out, const char *sql, const char *fmt, ...)
-{
+static int store_run(sqlite3_stmt **out, const char *sql, const char *fmt, ...) {
     sqlite3_stmt *st = NULL;
     int rc = sqlite3_prepare_v2(store_db, sql, -1, &st, NULL);
     va_list ap;
@@ -229,16 +212,12 @@ static int store_run(sqlite3_stmt **out, const char *sql, const char *fmt, ...)
             rc = sqlite3_bind_blob64(st, i, b, n, SQLITE_TRANSIENT);
             break;
         }
-        case 'i':
-            rc = sqlite3_bind_int64(st, i, va_arg(ap, long long));
-            break;
-        default:
-            rc = sqlite3_bind_double(st, i, va_arg(ap, double));
+        case 'i': rc = sqlite3_bind_int64(st, i, va_arg(ap, long long)); break;
+        default: rc = sqlite3_bind_double(st, i, va_arg(ap, double));
         }
     }
     va_end(ap);
-    if (rc == SQLITE_OK)
-        rc = sqlite3_step(st);
+    if (rc == SQLITE_OK) rc = sqlite3_step(st);
     if (rc == SQLITE_ROW && out) {
         *out = st;
         return rc;
@@ -251,21 +230,18 @@ static int store_run(sqlite3_stmt **out, const char *sql, const char *fmt, ...)
 
 /* A job's state as the store writes it (jobs.c's names; an unfinished
  * job is "queued" whatever it was doing). */
-static const char *const store_states[] = {"queued",   "queued",   "succeeded",
-                                           "failed",   "canceled", "evicted"};
+static const char *const store_states[] = {"queued", "queued",   "succeeded",
+                                           "failed", "canceled", "evicted"};
 
 static const char *store_state_name(enum jobs_state s) { return store_states[s]; }
 
-static enum jobs_state store_state_of(const char *s)
-{
+static enum jobs_state store_state_of(const char *s) {
     for (int i = JS_SUCCEEDED; i <= JS_EVICTED; i++)
-        if (s && !strcmp(s, store_states[i]))
-            return (enum jobs_state)i;
+        if (s && !strcmp(s, store_states[i])) return (enum jobs_state)i;
     return JS_QUEUED;
 }
 
-static bool store_insert_row(const struct store_job *j)
-{
+static bool store_insert_row(const struct store_job *j) {
     bool ok = store_exec("BEGIN") &&
               store_run(NULL,
                         "INSERT OR REPLACE INTO jobs(id, seq, client, priority, created, state,"
@@ -274,47 +250,43 @@ static bool store_insert_row(const struct store_job *j)
                         " VALUES(?, ?, ?, ?, ?, 'queued', ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                         "tiiidbtiiiiiiiddid", j->id, j->seq, (long long)j->client,
                         (long long)j->priority, j->created_wall, j->scene, j->scene_len,
-                        j->scene_id, (long long)j->reg.x, (long long)j->reg.y,
-                        (long long)j->reg.w, (long long)j->reg.h, (long long)j->keep_exr,
-                        (long long)j->progressive, (long long)j->plan.step, j->plan.time_budget,
-                        j->plan.noise_target, (long long)j->tiles, j->est_rays) == SQLITE_DONE &&
+                        j->scene_id, (long long)j->reg.x, (long long)j->reg.y, (long long)j->reg.w,
+                        (long long)j->reg.h, (long long)j->keep_exr, (long long)j->progressive,
+                        (long long)j->plan.step, j->plan.time_budget, j->plan.noise_target,
+                        (long long)j->tiles, j->est_rays) == SQLITE_DONE &&
               store_run(NULL, "INSERT OR REPLACE INTO frames(job, k, state) VALUES(?, 0, 'queued')",
                         "t", j->id) == SQLITE_DONE &&
               store_exec("COMMIT");
-    if (!ok)
-        store_exec("ROLLBACK");
+    if (!ok) store_exec("ROLLBACK");
     return ok;
 }
 
 /* The job's end, and its frame's files once they are in place. */
-static bool store_end_row(const struct store_job *j, size_t bytes, bool png, bool exr)
-{
+static bool store_end_row(const struct store_job *j, size_t bytes, bool png, bool exr) {
     const char *fstate = j->state == JS_SUCCEEDED ? "done" : store_state_name(j->state);
     char p[80], e[80];
     snprintf(p, sizeof p, "results/%s.png", j->id);
     snprintf(e, sizeof e, "results/%s.exr", j->id);
-    bool ok = store_exec("BEGIN") &&
-              store_run(NULL,
-                        "UPDATE jobs SET state = ?, ended = ?, tiles = ?, rays = ?, queue_ms = ?,"
-                        " render_ms = ?, encode_ms = ?, err_code = ?, err_message = ?,"
-                        " err_path = ? WHERE id = ?",
-                        "tdiidddittt", store_state_name(j->state), j->ended_wall,
-                        (long long)j->tiles, (long long)j->rays, j->queue_ms, j->render_ms,
-                        j->encode_ms, (long long)j->err.code, j->err.message, j->err.path,
-                        j->id) == SQLITE_DONE &&
-              store_run(NULL,
-                        "UPDATE frames SET state = ?, path = ?, exr_path = ?, bytes = ?,"
-                        " ended = ? WHERE job = ? AND k = 0",
-                        "tttidt", fstate, png ? p : NULL, exr ? e : NULL, (long long)bytes,
-                        j->ended_wall, j->id) == SQLITE_DONE &&
-              store_exec("COMMIT");
-    if (!ok)
-        store_exec("ROLLBACK");
+    bool ok =
+        store_exec("BEGIN") &&
+        store_run(NULL,
+                  "UPDATE jobs SET state = ?, ended = ?, tiles = ?, rays = ?, queue_ms = ?,"
+                  " render_ms = ?, encode_ms = ?, err_code = ?, err_message = ?,"
+                  " err_path = ? WHERE id = ?",
+                  "tdiidddittt", store_state_name(j->state), j->ended_wall, (long long)j->tiles,
+                  (long long)j->rays, j->queue_ms, j->render_ms, j->encode_ms,
+                  (long long)j->err.code, j->err.message, j->err.path, j->id) == SQLITE_DONE &&
+        store_run(NULL,
+                  "UPDATE frames SET state = ?, path = ?, exr_path = ?, bytes = ?,"
+                  " ended = ? WHERE job = ? AND k = 0",
+                  "tttidt", fstate, png ? p : NULL, exr ? e : NULL, (long long)bytes, j->ended_wall,
+                  j->id) == SQLITE_DONE &&
+        store_exec("COMMIT");
+    if (!ok) store_exec("ROLLBACK");
     return ok;
 }
 
-static void store_unlink(const char *id)
-{
+static void store_unlink(const char *id) {
     char path[4200];
     store_path(path, sizeof path, id, false, false);
     unlink(path);
@@ -324,8 +296,7 @@ static void store_unlink(const char *id)
 
 /* --max-disk: evicts the frames that ended first, never keep's, while the
  * images are over the budget. */
-static void store_evict(const char *keep)
-{
+static void store_evict(const char *keep) {
     static const char why[] = "over --max-disk: the oldest finished results are evicted first";
     while (config.max_disk_bytes > 0 && store_bytes > config.max_disk_bytes) {
         sqlite3_stmt *st = NULL;
@@ -354,15 +325,13 @@ static void store_evict(const char *keep)
         store_unlink(id);
         store_bytes -= bytes < store_bytes ? bytes : store_bytes;
         log_info("job %s: its result was evicted (%s)", id, why);
-        if (store_evicted)
-            store_evicted(id, why, now);
+        if (store_evicted) store_evicted(id, why, now);
     }
 }
 
 /* ---- the store thread ------------------------------------------------------------- */
 
-static void store_do_end(struct store_op *op)
-{
+static void store_do_end(struct store_op *op) {
     struct store_job *j = &op->row;
     bool ok = true;
     size_t bytes = 0;
@@ -376,25 +345,20 @@ static void store_do_end(struct store_op *op)
     }
     char dir[4200];
     snprintf(dir, sizeof dir, "%s/results", store_dir);
-    if (ok && (op->png || op->exr))
-        ok = store_fsync_dir(dir) == 0;
+    if (ok && (op->png || op->exr)) ok = store_fsync_dir(dir) == 0;
     if (!ok) {
         log_error("job %s: cannot write its image under --data-dir %s: %s (it stays on this "
                   "process's memory only)",
                   j->id, store_dir, strerror(errno));
         return;
     }
-    if (!store_end_row(j, bytes, op->png != NULL, op->exr != NULL))
-        return;
+    if (!store_end_row(j, bytes, op->png != NULL, op->exr != NULL)) return;
     store_bytes += bytes;
-    if (bytes && store_written)
-        store_written(j->id);
-    if (bytes)
-        store_evict(j->id);
+    if (bytes && store_written) store_written(j->id);
+    if (bytes) store_evict(j->id);
 }
 
-static void store_do(struct store_op *op)
-{
+static void store_do(struct store_op *op) {
     if (op->kind == SO_INSERT) {
         struct work_result res = {.status = RAYD_OK};
         if (!store_insert_row(&op->row)) {
@@ -403,8 +367,7 @@ static void store_do(struct store_op *op)
                      "the job could not be recorded under --data-dir: %s",
                      sqlite3_errmsg(store_db));
         }
-        if (op->w)
-            op->w->done(op->w, &res);
+        if (op->w) op->w->done(op->w, &res);
     } else if (op->kind == SO_END) {
         store_do_end(op);
     } else {
@@ -423,26 +386,22 @@ static void store_do(struct store_op *op)
     }
 }
 
-static void store_op_free(struct store_op *op)
-{
+static void store_op_free(struct store_op *op) {
     blob_unref(op->png);
     blob_unref(op->exr);
     free(op->row.scene);
     free(op);
 }
 
-static void *store_main(void *arg)
-{
+static void *store_main(void *arg) {
     (void)arg;
     work_lock_take();
     for (;;) {
-        while (!store_head && !store_stopping)
-            work_wait(&store_cond);
+        while (!store_head && !store_stopping) work_wait(&store_cond);
         struct store_op *ops = store_head;
         store_head = NULL;
         store_tail = &store_head;
-        if (!ops && store_stopping)
-            break;
+        if (!ops && store_stopping) break;
         work_lock_give();
         while (ops) {
             struct store_op *next = ops->next;
@@ -457,8 +416,7 @@ static void *store_main(void *arg)
 }
 
 /* Links op (lock held); without a store it is dropped. */
-static void store_queue(struct store_op *op)
-{
+static void store_queue(struct store_op *op) {
     if (store_stopping || !store_running) { /* rayd stops: the job stays as it was on disk */
         store_op_free(op);
         return;
@@ -469,23 +427,19 @@ static void store_queue(struct store_op *op)
     pthread_cond_signal(&store_cond);
 }
 
-bool store_insert(struct store_job *row, struct work_waiter *w)
-{
+bool store_insert(struct store_job *row, struct work_waiter *w) {
     struct store_op *op = store_stopping || !store_running ? NULL : calloc(1, sizeof *op);
-    if (!op)
-        return false;
+    if (!op) return false;
     op->kind = SO_INSERT;
     op->row = *row;
     row->scene = NULL; /* the op's now */
     op->w = w;
-    if (w)
-        w->suspend(w);
+    if (w) w->suspend(w);
     store_queue(op);
     return true;
 }
 
-void store_end(const struct store_job *row, struct blob *png, struct blob *exr)
-{
+void store_end(const struct store_job *row, struct blob *png, struct blob *exr) {
     struct store_op *op = calloc(1, sizeof *op);
     if (!op) {
         log_error("job %s: out of memory to record its end under --data-dir", row->id);
@@ -499,19 +453,16 @@ void store_end(const struct store_job *row, struct blob *png, struct blob *exr)
     store_queue(op);
 }
 
-void store_forget(const char *id)
-{
+void store_forget(const char *id) {
     struct store_op *op = calloc(1, sizeof *op);
-    if (!op)
-        return;
+    if (!op) return;
     op->kind = SO_FORGET;
     snprintf(op->row.id, sizeof op->row.id, "%s", id);
     store_queue(op);
 }
 
 void store_hooks(void (*written)(const char *id),
-                 void (*evicted)(const char *id, const char *why, double wall))
-{
+                 void (*evicted)(const char *id, const char *why, double wall)) {
     store_written = written;
     store_evicted = evicted;
 }
@@ -520,17 +471,14 @@ void store_hooks(void (*written)(const char *id),
 
 /* Deletes what a kill left under results/: .tmp files, and files no done
  * frame names. */
-static void store_sweep(void)
-{
+static void store_sweep(void) {
     char dir[4200];
     snprintf(dir, sizeof dir, "%s/results", store_dir);
     DIR *d = opendir(dir);
-    if (!d)
-        return;
+    if (!d) return;
     struct dirent *e;
     while ((e = readdir(d))) {
-        if (e->d_name[0] == '.')
-            continue;
+        if (e->d_name[0] == '.') continue;
         char id[33] = "";
         size_t n = strlen(e->d_name);
         bool tmp = n > 4 && !strcmp(e->d_name + n - 4, ".tmp");
@@ -540,8 +488,7 @@ static void store_sweep(void)
             sqlite3_stmt *st = NULL;
             known = store_run(&st, "SELECT 1 FROM frames WHERE job = ? AND state = 'done'", "t",
                               id) == SQLITE_ROW;
-            if (known)
-                sqlite3_finalize(st);
+            if (known) sqlite3_finalize(st);
         }
         if (!known) {
             unlinkat(dirfd(d), e->d_name, 0);
@@ -552,8 +499,7 @@ static void store_sweep(void)
     closedir(d);
 }
 
-int store_open(const char *dir)
-{
+int store_open(const char *dir) {
     char path[4200];
     store_dir = strdup(dir);
     snprintf(path, sizeof path, "%s/lock", dir);
@@ -580,8 +526,9 @@ int store_open(const char *dir)
         return -1;
     }
     if (!store_exec(store_schema)) {
-        fprintf(stderr, "rayd: error: --data-dir %s: jobs.db is not a rayd store (or is "
-                        "damaged)\n",
+        fprintf(stderr,
+                "rayd: error: --data-dir %s: jobs.db is not a rayd store (or is "
+                "damaged)\n",
                 dir);
         sqlite3_close(store_db);
         store_db = NULL;
@@ -607,12 +554,9 @@ int store_open(const char *dir)
     return 0;
 }
 
-int store_start(void)
-{
-    if (!store_db)
-        return 0;
-    if (pthread_create(&store_thread, NULL, store_main, NULL))
-        return -1;
+int store_start(void) {
+    if (!store_db) return 0;
+    if (pthread_create(&store_thread, NULL, store_main, NULL)) return -1;
     work_lock_take();
     store_running = true;
     work_lock_give();
@@ -620,27 +564,23 @@ int store_start(void)
 }
 
 /* A done row's files, there with the bytes it recorded? */
-static bool store_files_ok(const char *id, bool exr, long long bytes)
-{
+static bool store_files_ok(const char *id, bool exr, long long bytes) {
     char path[4200];
     struct stat st;
     long long have = 0;
     store_path(path, sizeof path, id, false, false);
-    if (stat(path, &st) != 0)
-        return false;
+    if (stat(path, &st) != 0) return false;
     have += st.st_size;
     if (exr) {
         store_path(path, sizeof path, id, true, false);
-        if (stat(path, &st) != 0)
-            return false;
+        if (stat(path, &st) != 0) return false;
         have += st.st_size;
     }
     return have == bytes;
 }
 
 /* One row of store_load's query into j. */
-static bool store_row(sqlite3_stmt *st, struct store_job *j)
-{
+static bool store_row(sqlite3_stmt *st, struct store_job *j) {
     memset(j, 0, sizeof *j);
     snprintf(j->id, sizeof j->id, "%s", store_text(st, 0));
     j->seq = sqlite3_column_int64(st, 1);
@@ -651,8 +591,7 @@ static bool store_row(sqlite3_stmt *st, struct store_job *j)
     j->ended_wall = sqlite3_column_double(st, 6);
     int n = sqlite3_column_bytes(st, 7);
     j->scene = malloc((size_t)n + 1);
-    if (!j->scene)
-        return false;
+    if (!j->scene) return false;
     memcpy(j->scene, sqlite3_column_blob(st, 7), (size_t)n);
     j->scene[n] = 0;
     j->scene_len = (size_t)n;
@@ -687,12 +626,10 @@ static bool store_row(sqlite3_stmt *st, struct store_job *j)
     return true;
 }
 
-int store_load(struct store_job **rows, int *n)
-{
+int store_load(struct store_job **rows, int *n) {
     *rows = NULL;
     *n = 0;
-    if (!store_db)
-        return 0;
+    if (!store_db) return 0;
     /* each unfinished frame is an attempt more from now on */
     store_run(NULL, "UPDATE frames SET attempts = attempts + 1 WHERE state = 'queued'", "");
     sqlite3_stmt *st = NULL;
@@ -710,27 +647,22 @@ int store_load(struct store_job **rows, int *n)
         if (*n == cap) {
             cap = cap ? 2 * cap : 64;
             struct store_job *more = realloc(*rows, (size_t)cap * sizeof **rows);
-            if (!more)
-                break;
+            if (!more) break;
             *rows = more;
         }
-        if (!store_row(st, &(*rows)[*n]))
-            break;
+        if (!store_row(st, &(*rows)[*n])) break;
         (*n)++;
     }
     sqlite3_finalize(st);
     return rc == SQLITE_OK ? 0 : -1;
 }
 
-void store_rows_free(struct store_job *rows, int n)
-{
-    for (int i = 0; i < n; i++)
-        free(rows[i].scene);
+void store_rows_free(struct store_job *rows, int n) {
+    for (int i = 0; i < n; i++) free(rows[i].scene);
     free(rows);
 }
 
-void store_stop(void)
-{
+void store_stop(void) {
     atomic_store(&store_up, false);
     if (store_running) {
         work_lock_take();
@@ -740,11 +672,9 @@ void store_stop(void)
         pthread_join(store_thread, NULL);
         store_running = false;
     }
-    if (store_db)
-        sqlite3_close(store_db);
+    if (store_db) sqlite3_close(store_db);
     store_db = NULL;
-    if (store_lock_fd >= 0)
-        close(store_lock_fd);
+    if (store_lock_fd >= 0) close(store_lock_fd);
     store_lock_fd = -1;
     free(store_dir);
     store_dir = NULL;

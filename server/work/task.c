@@ -64,8 +64,7 @@ static void (*task_finish_hook)(struct task *t); /* jobs.c's: a job's end to rec
 void task_on_finish(void (*fn)(struct task *t)) { task_finish_hook = fn; }
 
 /* Set under the lock, so no submission slips past it; read without. */
-void task_drain(void)
-{
+void task_drain(void) {
     work_lock_take();
     atomic_store(&task_drain_flag, true);
     work_lock_give();
@@ -77,29 +76,24 @@ bool task_draining(void) { return atomic_load(&task_drain_flag); }
 
 /* A plain PNG task's stream holds the bands deflated while it was drawn. */
 static enum rayd_status task_encode_png(struct task *t, void **buf, size_t *len,
-                                        struct rayd_error *err)
-{
+                                        struct rayd_error *err) {
     rayd_png_stream *s = task_stream_take(t);
-    if (s)
-        return rayd_png_stream_finish(s, 0, buf, len, NULL, err);
+    if (s) return rayd_png_stream_finish(s, 0, buf, len, NULL, err);
     return rayd_png_encode(t->img, (int)config.png_level, buf, len, err);
 }
 
 static enum rayd_status task_encode_png16(struct task *t, void **buf, size_t *len,
-                                          struct rayd_error *err)
-{
+                                          struct rayd_error *err) {
     return rayd_png16_encode(t->lin, t->reg.w, t->reg.h, (int)config.png_level, buf, len, err);
 }
 
 static enum rayd_status task_encode_exr(struct task *t, void **buf, size_t *len,
-                                        struct rayd_error *err)
-{
+                                        struct rayd_error *err) {
     return rayd_exr_encode(t->lin, t->reg.w, t->reg.h, buf, len, err);
 }
 
 static enum rayd_status task_encode_sums(struct task *t, void **buf, size_t *len,
-                                         struct rayd_error *err)
-{
+                                         struct rayd_error *err) {
     return rayd_sums_encode(t->reg.w, t->reg.h, t->k0, t->k1, t->sums, buf, len, err);
 }
 
@@ -115,8 +109,7 @@ static const struct task_format task_formats[] = {
                    task_encode_sums},
 };
 
-const struct task_format *task_format(enum work_format format)
-{
+const struct task_format *task_format(enum work_format format) {
     server_assert((size_t)format < sizeof task_formats / sizeof task_formats[0]);
     return &task_formats[format];
 }
@@ -127,8 +120,7 @@ const char *work_format_type(enum work_format format) { return task_format(forma
  * so an EXR never answers a PNG request from the caches, nor the reverse.
  * A job's PNG with its EXR (keep_exr) adds "+exr": a PNG-only task has no
  * floats for it to join. */
-void task_key(char *key, size_t size, const char *id, const struct work_target *what)
-{
+void task_key(char *key, size_t size, const char *id, const struct work_target *what) {
     const struct rayd_region *reg = &what->reg;
     int n = snprintf(key, size, "%s@%d,%d,%d,%d%s%s", id, reg->x, reg->y, reg->w, reg->h,
                      task_format(what->format)->key_suffix, what->keep_exr ? "+exr" : "");
@@ -139,20 +131,15 @@ void task_key(char *key, size_t size, const char *id, const struct work_target *
 /* The task's pixel store: bytes for the PNG (and linear floats beside
  * them for keep_exr), linear floats for the HDR formats, sums for
  * WORK_SUMS. */
-static bool task_pixels(struct task *t)
-{
+static bool task_pixels(struct task *t) {
     size_t values = (size_t)t->reg.w * (size_t)t->reg.h * 3;
     switch (task_format(t->format)->store) {
     case TASK_STORE_IMAGE:
-        if (t->keep_exr && !(t->lin = malloc(values * sizeof *t->lin)))
-            return false;
+        if (t->keep_exr && !(t->lin = malloc(values * sizeof *t->lin))) return false;
         return rayd_image_new(t->reg.w, t->reg.h, &t->img, NULL) == RAYD_OK;
-    case TASK_STORE_SUMS:
-        return (t->sums = malloc(values * sizeof *t->sums)) != NULL;
+    case TASK_STORE_SUMS: return (t->sums = malloc(values * sizeof *t->sums)) != NULL;
     case TASK_STORE_FLOATS:
-    default:
-        t->lin = malloc(values * sizeof *t->lin);
-        return t->lin != NULL;
+    default: t->lin = malloc(values * sizeof *t->lin); return t->lin != NULL;
     }
 }
 
@@ -162,19 +149,15 @@ static atomic_long task_test_work = -1;
 void task_gate_work(long rays) { atomic_store(&task_test_work, rays); }
 
 /* The rays a new task may cast: --max-work, or the test gate's; 0: no limit. */
-static long task_work_budget(void)
-{
+static long task_work_budget(void) {
     long w = atomic_load(&task_test_work);
-    if (w >= 0)
-        return w > 0 ? w : 1;
+    if (w >= 0) return w > 0 ? w : 1;
     return config.max_work > 0 ? config.max_work : 0;
 }
 
-struct task *task_new(struct cache_entry *scene, const struct work_target *what)
-{
+struct task *task_new(struct cache_entry *scene, const struct work_target *what) {
     struct task *t = calloc(1, sizeof *t);
-    if (!t)
-        return NULL;
+    if (!t) return NULL;
     const struct rayd_region *reg = &what->reg;
     t->reg = *reg;
     t->format = what->format;
@@ -212,8 +195,7 @@ struct task *task_new(struct cache_entry *scene, const struct work_target *what)
 
 /* The pixels and their encoder: freed when the task finishes, since
  * nobody reads them after (a job keeps only the PNG and its counts). */
-static void task_free_pixels(struct task *t)
-{
+static void task_free_pixels(struct task *t) {
     rayd_png_stream_free(t->stream); /* before its image */
     t->stream = NULL;
     rayd_rows_free(t->rows);
@@ -228,11 +210,9 @@ static void task_free_pixels(struct task *t)
     t->mem = 0;
 }
 
-void task_unref(struct task *t)
-{
+void task_unref(struct task *t) {
     server_assert(t->refs > 0);
-    if (--t->refs > 0)
-        return;
+    if (--t->refs > 0) return;
     blob_unref(t->png);
     blob_unref(t->exr);
     task_free_pixels(t);
@@ -242,15 +222,13 @@ void task_unref(struct task *t)
     free(t);
 }
 
-void task_times(const struct task *t, double now, double *queue_ms, double *render_ms)
-{
+void task_times(const struct task *t, double now, double *queue_ms, double *render_ms) {
     bool started = t->t_start > 0;
     *queue_ms = ((started ? t->t_start : now) - t->t_enq) * 1e3;
     *render_ms = started ? ((t->finished ? t->t_end : now) - t->t_start) * 1e3 : 0;
 }
 
-static void task_unqueue(struct task *t)
-{
+static void task_unqueue(struct task *t) {
     work_assert_locked();
     if (t->queued) {
         server_assert(task_queued > 0);
@@ -259,12 +237,10 @@ static void task_unqueue(struct task *t)
     }
 }
 
-struct task *task_find(const char *key)
-{
+struct task *task_find(const char *key) {
     work_assert_locked();
     for (struct task *t = task_active; t; t = t->next)
-        if (!t->finalizing && !atomic_load(&t->cancel) && !strcmp(t->key, key))
-            return t;
+        if (!t->finalizing && !atomic_load(&t->cancel) && !strcmp(t->key, key)) return t;
     return NULL;
 }
 
@@ -279,19 +255,15 @@ struct task *task_find(const char *key)
  * finished, which with big path-traced jobs meant hours.) */
 static int task_interactive_streak; /* interactive tiles taken while bulk waited */
 
-static bool task_waiting(const struct task *t)
-{
+static bool task_waiting(const struct task *t) {
     return t->next_tile < t->ntiles && !atomic_load(&t->cancel) && !t->finalizing;
 }
 
 /* Does t's turn come before u's (u may be NULL)? */
 static bool task_before(const struct task *t, uint64_t t_last, const struct task *u,
-                        uint64_t u_last)
-{
-    if (!u)
-        return true;
-    if (t_last != u_last)
-        return t_last < u_last;
+                        uint64_t u_last) {
+    if (!u) return true;
+    if (t_last != u_last) return t_last < u_last;
     return t->t_enq < u->t_enq;
 }
 
@@ -299,8 +271,7 @@ static bool task_before(const struct task *t, uint64_t t_last, const struct task
  * order: the highest priority (POST /v1/jobs?priority=), then the oldest.
  * The client and class were chosen by the fair rule before, so a priority
  * orders a client's own work and never moves it ahead of another client. */
-static struct task *task_own_first(struct task *t)
-{
+static struct task *task_own_first(struct task *t) {
     struct task *best = t;
     for (struct task *u = task_active; u; u = u->next)
         if (u->client == t->client && u->interactive == t->interactive && task_waiting(u) &&
@@ -310,14 +281,12 @@ static struct task *task_own_first(struct task *t)
     return best;
 }
 
-struct task *task_pick(void)
-{
+struct task *task_pick(void) {
     work_assert_locked();
     struct task *first[2] = {NULL, NULL}; /* [interactive] */
     uint64_t last[2] = {0, 0};
     for (struct task *t = task_active; t; t = t->next) {
-        if (!task_waiting(t))
-            continue;
+        if (!task_waiting(t)) continue;
         uint64_t l = fair_last(t->client);
         int c = t->interactive;
         if (task_before(t, l, first[c], last[c])) {
@@ -330,8 +299,7 @@ struct task *task_pick(void)
     return first[1] ? task_own_first(first[1]) : first[0] ? task_own_first(first[0]) : NULL;
 }
 
-static void task_taken(const struct task *t)
-{
+static void task_taken(const struct task *t) {
     work_assert_locked();
     fair_served(t->client);
     bool bulk_waits = false;
@@ -343,19 +311,16 @@ static void task_taken(const struct task *t)
         task_interactive_streak++;
 }
 
-enum work_submit task_submit(struct cache_entry *scene, struct task **fresh, struct task **out)
-{
+enum work_submit task_submit(struct cache_entry *scene, struct task **fresh, struct task **out) {
     work_assert_locked();
-    if (task_draining())
-        return WORK_DRAINING;
+    if (task_draining()) return WORK_DRAINING;
     struct task *t = task_find((*fresh)->key); /* scene, region and format */
     if (t) {
         metrics_coalesced();
         *out = t;
         return WORK_OK;
     }
-    if (task_queued >= task_queue_cap && !(*fresh)->restored)
-        return WORK_FULL;
+    if (task_queued >= task_queue_cap && !(*fresh)->restored) return WORK_FULL;
     t = *fresh;
     *fresh = NULL;
     t->scene = cache_ref(scene);
@@ -369,19 +334,15 @@ enum work_submit task_submit(struct cache_entry *scene, struct task **fresh, str
     return WORK_OK;
 }
 
-struct rayd_region task_tile(const struct task *t, int tile)
-{
+struct rayd_region task_tile(const struct task *t, int tile) {
     int tx = tile % t->ntx, ty = tile / t->ntx;
     struct rayd_region r = {t->reg.x + tx * t->tile, t->reg.y + ty * t->tile, t->tile, t->tile};
-    if (r.x + r.w > t->reg.x + t->reg.w)
-        r.w = t->reg.x + t->reg.w - r.x;
-    if (r.y + r.h > t->reg.y + t->reg.h)
-        r.h = t->reg.y + t->reg.h - r.y;
+    if (r.x + r.w > t->reg.x + t->reg.w) r.w = t->reg.x + t->reg.w - r.x;
+    if (r.y + r.h > t->reg.y + t->reg.h) r.h = t->reg.y + t->reg.h - r.y;
     return r;
 }
 
-double task_tile_rays(const struct task *t, const struct rayd_region *r, int pass)
-{
+double task_tile_rays(const struct task *t, const struct rayd_region *r, int pass) {
     double samples = t->format == WORK_SUMS ? t->k1 - t->k0 : 0;
     if (t->passes) {
         samples = passes_added(t->passes, pass);
@@ -394,16 +355,13 @@ double task_tile_rays(const struct task *t, const struct rayd_region *r, int pas
 
 /* What is left of t, as a fraction of its estimate: its tiles not done;
  * a progressive task's passes to come too. */
-static double task_left(const struct task *t)
-{
+static double task_left(const struct task *t) {
     double frac = t->ntiles ? (double)t->done / t->ntiles : 1;
-    if (t->passes)
-        frac = passes_progress(t->passes, t->passes->done, frac);
+    if (t->passes) frac = passes_progress(t->passes, t->passes->done, frac);
     return frac < 1 ? 1 - frac : 0;
 }
 
-double task_backlog_rays(void)
-{
+double task_backlog_rays(void) {
     work_assert_locked();
     double rays = 0;
     for (const struct task *t = task_active; t; t = t->next)
@@ -414,37 +372,32 @@ double task_backlog_rays(void)
 
 /* ---- a worker's tiles ------------------------------------------------------- */
 
-void task_wait_news(struct task *t, struct work_waiter *w)
-{
+void task_wait_news(struct task *t, struct work_waiter *w) {
     work_assert_locked();
     w->suspend(w); /* before the waiter is linked (work_private.h) */
     w->next = t->sse_waiters;
     t->sse_waiters = w;
 }
 
-void task_job_ref(struct task *t)
-{
+void task_job_ref(struct task *t) {
     work_assert_locked();
     t->refs++;
     t->njobs++;
 }
 
-void task_job_drop(struct task *t)
-{
+void task_job_drop(struct task *t) {
     work_assert_locked();
     server_assert(t->njobs > 0);
     t->njobs--;
 }
 
-void task_progressive(struct task *t, struct passes *p, const char *id)
-{
+void task_progressive(struct task *t, struct passes *p, const char *id) {
     t->passes = p;
     size_t n = strlen(t->key);
     snprintf(t->key + n, sizeof t->key - n, "~%s", id);
 }
 
-size_t task_let_go_images(struct task *t)
-{
+size_t task_let_go_images(struct task *t) {
     work_assert_locked();
     size_t bytes = (t->png ? t->png->len : 0) + (t->exr ? t->exr->len : 0);
     blob_unref(t->png);
@@ -453,22 +406,18 @@ size_t task_let_go_images(struct task *t)
     return bytes;
 }
 
-void task_evicted(struct task *t)
-{
+void task_evicted(struct task *t) {
     work_assert_locked();
-    if (t->passes)
-        passes_let_go(t->passes);
+    if (t->passes) passes_let_go(t->passes);
     t->evicted = true;
 }
 
-void task_hold(struct task *t, size_t bytes, enum mem_kind kind)
-{
+void task_hold(struct task *t, size_t bytes, enum mem_kind kind) {
     t->mem = bytes;
     t->mem_kind = kind;
 }
 
-void task_wait(struct task *t, struct work_waiter *w)
-{
+void task_wait(struct task *t, struct work_waiter *w) {
     work_assert_locked();
     w->suspend(w);
     w->next = t->waiters;
@@ -477,22 +426,19 @@ void task_wait(struct task *t, struct work_waiter *w)
 
 /* t's PNG stream and row tracker, when t is a plain PNG task, lock held;
  * without memory, t is encoded whole at the end. */
-static void task_stream_open(struct task *t)
-{
+static void task_stream_open(struct task *t) {
     work_assert_locked();
-    if (t->format != WORK_PNG || t->passes || t->stream_tried)
-        return;
+    if (t->format != WORK_PNG || t->passes || t->stream_tried) return;
     t->stream_tried = true;
     t->rows = rayd_rows_new(t->ntx, t->nty, t->tile, t->reg.h);
-    if (!t->rows || rayd_png_stream_new(t->img, (int)config.png_level, &t->stream, NULL) !=
-                        RAYD_OK) {
+    if (!t->rows ||
+        rayd_png_stream_new(t->img, (int)config.png_level, &t->stream, NULL) != RAYD_OK) {
         rayd_rows_free(t->rows);
         t->rows = NULL;
     }
 }
 
-int task_take(struct task *t, int *pass)
-{
+int task_take(struct task *t, int *pass) {
     work_assert_locked();
     server_assert(t->next_tile < t->ntiles);
     int tile = t->next_tile++;
@@ -503,22 +449,18 @@ int task_take(struct task *t, int *pass)
         metrics_queue_wait(t->interactive, t->t_start - t->t_enq);
         metrics_stage(MS_QUEUE, t->t_start - t->t_enq);
     }
-    if (t->next_tile == t->ntiles)
-        task_unqueue(t);
+    if (t->next_tile == t->ntiles) task_unqueue(t);
     task_taken(t);
     t->running++;
     return tile;
 }
 
-int task_rows_done(struct task *t, int tile)
-{
-    if (!t->stream || atomic_load(&t->cancel))
-        return 0;
+int task_rows_done(struct task *t, int tile) {
+    if (!t->stream || atomic_load(&t->cancel)) return 0;
     return rayd_rows_tile_done(t->rows, tile / t->ntx);
 }
 
-static rayd_png_stream *task_stream_take(struct task *t)
-{
+static rayd_png_stream *task_stream_take(struct task *t) {
     server_assert(t->running == 0);
     rayd_png_stream *s = t->stream;
     t->stream = NULL; /* finish frees it */
@@ -527,8 +469,7 @@ static rayd_png_stream *task_stream_take(struct task *t)
 
 enum task_next task_tile_done(struct task *t, int tile, enum rayd_status st,
                               const struct rayd_error *err, uint64_t rays, struct task_notify *n,
-                              struct task_notify *sse)
-{
+                              struct task_notify *sse) {
     work_assert_locked();
     server_assert(t->running > 0);
     t->running--;
@@ -550,34 +491,29 @@ enum task_next task_tile_done(struct task *t, int tile, enum rayd_status st,
         atomic_store(&t->cancel, 1);
         task_unqueue(t);
     }
-    if (t->running > 0 || t->finalizing)
-        return TASK_GOING;
+    if (t->running > 0 || t->finalizing) return TASK_GOING;
     if (t->done == t->ntiles && t->status == RAYD_OK) {
         t->finalizing = true; /* no other worker finishes it meanwhile */
         return t->passes ? TASK_PASS_END : TASK_ENCODE;
     }
-    if (atomic_load(&t->cancel) || t->status != RAYD_OK)
-        task_finish(t, n, sse);
+    if (atomic_load(&t->cancel) || t->status != RAYD_OK) task_finish(t, n, sse);
     return TASK_GOING;
 }
 
 void task_encoded(struct task *t, const struct task_out *o, struct task_notify *n,
-                  struct task_notify *sse)
-{
+                  struct task_notify *sse) {
     work_assert_locked();
     server_assert(t->finalizing);
     t->encode_s = o->encode_s;
     t->png = o->png;
     t->exr = o->exr;
-    if (o->st != RAYD_OK)
-        task_fail(t, o->st, &o->err);
+    if (o->st != RAYD_OK) task_fail(t, o->st, &o->err);
     task_finish(t, n, sse);
 }
 
 /* Opens t's next pass, lock held: its tiles queue again.  img is the
  * image the pass's tiles draw into. */
-static void task_pass_open(struct task *t, rayd_image *img)
-{
+static void task_pass_open(struct task *t, rayd_image *img) {
     t->img = img;
     t->passes->pass++;
     t->next_tile = 0;
@@ -591,8 +527,7 @@ static void task_pass_open(struct task *t, rayd_image *img)
 }
 
 /* The pass closed, recorded; true when the next one is open. */
-static bool task_pass_next(struct task *t, const struct task_out *o, struct task_notify *sse)
-{
+static bool task_pass_next(struct task *t, const struct task_out *o, struct task_notify *sse) {
     struct passes *p = t->passes;
     if (o->st != RAYD_OK) {
         task_fail(t, o->st, &o->err);
@@ -612,26 +547,22 @@ static bool task_pass_next(struct task *t, const struct task_out *o, struct task
     }
     rayd_image *next = passes_swap(p, t->img);
     task_pass_open(t, next ? next : o->spare);
-    if (next)
-        rayd_image_free(o->spare);
+    if (next) rayd_image_free(o->spare);
     return true;
 }
 
 bool task_pass_closed(struct task *t, const struct task_out *o, struct task_notify *n,
-                      struct task_notify *sse)
-{
+                      struct task_notify *sse) {
     work_assert_locked();
     server_assert(t->finalizing && t->passes);
-    if (task_pass_next(t, o, sse))
-        return true;
+    if (task_pass_next(t, o, sse)) return true;
     task_finish(t, n, sse);
     return false;
 }
 
 /* ---- answering ------------------------------------------------------------- */
 
-void task_notify_add(struct task_notify *n, struct work_waiter **from)
-{
+void task_notify_add(struct task_notify *n, struct work_waiter **from) {
     while (*from) {
         struct work_waiter *w = *from;
         *from = w->next;
@@ -640,8 +571,7 @@ void task_notify_add(struct task_notify *n, struct work_waiter **from)
     }
 }
 
-void task_notify_run(struct task_notify *n)
-{
+void task_notify_run(struct task_notify *n) {
     work_assert_unlocked();
     struct work_waiter *w = n->list;
     n->list = NULL;
@@ -657,15 +587,13 @@ void task_notify_run(struct task_notify *n)
     n->res.png = NULL;
 }
 
-static void task_result(const struct task *t, struct work_result *res)
-{
+static void task_result(const struct task *t, struct work_result *res) {
     memset(res, 0, sizeof *res);
     res->status = t->status;
     res->err = t->err;
     /* the reason travels with the answer: the layers above need not ask */
     res->draining = t->status == RAYD_E_CANCELED && task_draining();
-    if (t->status == RAYD_OK && t->png)
-        res->png = blob_ref(t->png);
+    if (t->status == RAYD_OK && t->png) res->png = blob_ref(t->png);
     res->queue_ms = t->t_start > 0 ? (t->t_start - t->t_enq) * 1e3 : 0;
     res->render_ms = t->t_start > 0 && t->t_end > 0 ? (t->t_end - t->t_start) * 1e3 : 0;
     res->encode_ms = t->encode_s * 1e3;
@@ -673,8 +601,7 @@ static void task_result(const struct task *t, struct work_result *res)
 
 /* A progressive task ends with its latest complete pass as its image: after
  * its last pass, or stopped early (a budget, the client) once it has one. */
-static void task_keep_pass(struct task *t)
-{
+static void task_keep_pass(struct task *t) {
     const struct passes *p = t->passes;
     if (!p || t->png || t->status != RAYD_OK || p->done == 0 ||
         (p->done < p->n && p->stop == PASSES_GOING))
@@ -684,8 +611,7 @@ static void task_keep_pass(struct task *t)
 }
 
 /* Takes t off the active list. */
-static void task_unlink(struct task *t)
-{
+static void task_unlink(struct task *t) {
     for (struct task **pp = &task_active; *pp; pp = &(*pp)->next)
         if (*pp == t) {
             *pp = t->next;
@@ -693,14 +619,11 @@ static void task_unlink(struct task *t)
         }
 }
 
-bool task_end_early(struct task *t, enum passes_stop why)
-{
+bool task_end_early(struct task *t, enum passes_stop why) {
     work_assert_locked();
     struct passes *p = t->passes;
-    if (!p || t->finished)
-        return false;
-    if (p->stop == PASSES_GOING)
-        p->stop = why;
+    if (!p || t->finished) return false;
+    if (p->stop == PASSES_GOING) p->stop = why;
     if (p->done == 0) /* the first pass ends it */
         return false;
     atomic_store(&t->cancel, 1); /* the pass in flight stops within a tile */
@@ -708,11 +631,9 @@ bool task_end_early(struct task *t, enum passes_stop why)
     return t->running == 0 && !t->finalizing;
 }
 
-static void task_over_work(struct task *t)
-{
+static void task_over_work(struct task *t) {
     work_assert_locked();
-    if (t->status != RAYD_OK)
-        return;
+    if (t->status != RAYD_OK) return;
     task_failf(t, RAYD_E_LIMIT,
                "the render cast more than the server's budget of %ld rays (--max-work) and was "
                "stopped (its estimate was %.3g rays); " TASK_ASK,
@@ -720,15 +641,13 @@ static void task_over_work(struct task *t)
 }
 
 bool task_past_deadline(struct task *t, double now, long limit, struct task_notify *n,
-                        struct task_notify *sse)
-{
+                        struct task_notify *sse) {
     work_assert_locked();
-    if (limit <= 0 || t->t_start <= 0 || t->finished || t->finalizing ||
-        atomic_load(&t->cancel) || now - t->t_start < (double)limit)
+    if (limit <= 0 || t->t_start <= 0 || t->finished || t->finalizing || atomic_load(&t->cancel) ||
+        now - t->t_start < (double)limit)
         return false;
     if (t->passes && t->passes->done > 0) { /* keep the latest pass, as a time budget */
-        if (task_end_early(t, PASSES_BY_TIME))
-            task_finish(t, n, sse);
+        if (task_end_early(t, PASSES_BY_TIME)) task_finish(t, n, sse);
         return true;
     }
     task_failf(t, RAYD_E_LIMIT,
@@ -739,16 +658,14 @@ bool task_past_deadline(struct task *t, double now, long limit, struct task_noti
     return true;
 }
 
-static void task_fail(struct task *t, enum rayd_status st, const struct rayd_error *err)
-{
+static void task_fail(struct task *t, enum rayd_status st, const struct rayd_error *err) {
     work_assert_locked();
     t->status = st;
     t->err = *err;
     t->err.code = st;
 }
 
-static void task_failf(struct task *t, enum rayd_status st, const char *fmt, ...)
-{
+static void task_failf(struct task *t, enum rayd_status st, const char *fmt, ...) {
     struct rayd_error err = {0};
     va_list ap;
     va_start(ap, fmt);
@@ -757,18 +674,15 @@ static void task_failf(struct task *t, enum rayd_status st, const char *fmt, ...
     task_fail(t, st, &err);
 }
 
-void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
-{
+void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse) {
     work_assert_locked();
     t->finished = true;
     t->t_end = clock_now();
     task_keep_pass(t);
-    if (t->status == RAYD_OK && !t->png)
-        t->status = RAYD_E_CANCELED;
+    if (t->status == RAYD_OK && !t->png) t->status = RAYD_E_CANCELED;
     if (t->status == RAYD_E_CANCELED && !t->err.message[0])
         task_failf(t, RAYD_E_CANCELED, "the render was cancelled");
-    if (t->status == RAYD_OK && t->t_start > 0)
-        metrics_render(t->t_end - t->t_start);
+    if (t->status == RAYD_OK && t->t_start > 0) metrics_render(t->t_end - t->t_start);
     double queue_ms, render_ms;
     task_times(t, t->t_end, &queue_ms, &render_ms);
     /* --log-level debug only: written under work_lock, so never on by default */
@@ -779,12 +693,10 @@ void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
     task_unqueue(t);
     task_free_pixels(t); /* NULL once finished: a job's reads see none */
     /* the sums too: a kept job holds its images only */
-    if (t->passes)
-        passes_release(t->passes);
+    if (t->passes) passes_release(t->passes);
     cache_release(t->scene);
     t->scene = NULL;
-    if (t->njobs > 0 && task_finish_hook)
-        task_finish_hook(t);
+    if (t->njobs > 0 && task_finish_hook) task_finish_hook(t);
     task_result(t, &n->res);
     task_notify_add(n, &t->waiters);
     task_notify_add(sse, &t->sse_waiters);
@@ -792,8 +704,7 @@ void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
     task_unref(t);
 }
 
-void task_abandon(struct task *t, struct task_notify *n, struct task_notify *sse)
-{
+void task_abandon(struct task *t, struct task_notify *n, struct task_notify *sse) {
     work_assert_locked();
     atomic_store(&t->cancel, 1);
     task_finish(t, n, sse);
@@ -803,17 +714,14 @@ void task_abandon(struct task *t, struct task_notify *n, struct task_notify *sse
  * stops within milliseconds, inside its tile; finishes it now if no worker
  * is inside it. */
 void task_cancel(struct task *t, enum metrics_cancel why, struct task_notify *n,
-                 struct task_notify *sse)
-{
+                 struct task_notify *sse) {
     work_assert_locked();
-    if (t->finished || atomic_load(&t->cancel))
-        return;
+    if (t->finished || atomic_load(&t->cancel)) return;
     atomic_store(&t->cancel, 1);
     metrics_cancel(why);
     static const char *const whys[MC__COUNT] = {"client gone", "job deleted", "drain",
                                                 "past --max-render-seconds"};
     log_info("render %s cancelled (%s)", t->key, whys[why]);
     task_unqueue(t);
-    if (t->running == 0 && !t->finalizing)
-        task_finish(t, n, sse);
+    if (t->running == 0 && !t->finalizing) task_finish(t, n, sse);
 }

@@ -35,19 +35,15 @@ struct watch_set {
     size_t n, cap;
 };
 
-static bool watch_add(struct watch_set *s, struct work_waiter *w)
-{
+static bool watch_add(struct watch_set *s, struct work_waiter *w) {
     work_assert_locked();
     if (s->n == s->cap) {
         size_t nc = s->cap ? s->cap * 2 : 64;
         struct pollfd *f2 = realloc(s->fds, nc * sizeof *s->fds);
-        if (f2)
-            s->fds = f2;
+        if (f2) s->fds = f2;
         struct work_waiter **w2 = realloc(s->ws, nc * sizeof *s->ws);
-        if (w2)
-            s->ws = w2;
-        if (!f2 || !w2)
-            return false;
+        if (w2) s->ws = w2;
+        if (!f2 || !w2) return false;
         s->cap = nc;
     }
     s->fds[s->n] = (struct pollfd){.fd = w->fd, .events = POLLIN};
@@ -57,23 +53,19 @@ static bool watch_add(struct watch_set *s, struct work_waiter *w)
 
 /* t's two lists of waiters: 0, the requests waiting on its render; 1, the
  * event streams waiting for news. */
-static struct work_waiter **watch_list(struct task *t, int which)
-{
+static struct work_waiter **watch_list(struct task *t, int which) {
     return which ? &t->sse_waiters : &t->waiters;
 }
 
-static void watch_collect(struct watch_set *s)
-{
+static void watch_collect(struct watch_set *s) {
     s->n = 0;
     for (struct task *t = task_active; t; t = t->next)
         for (int which = 0; which < 2; which++)
             for (struct work_waiter *w = *watch_list(t, which); w; w = w->next)
-                if (w->fd >= 0 && !watch_add(s, w))
-                    return;
+                if (w->fd >= 0 && !watch_add(s, w)) return;
 }
 
-static bool watch_hung_up(const struct pollfd *p)
-{
+static bool watch_hung_up(const struct pollfd *p) {
     char c;
     return (p->revents & (POLLHUP | POLLERR | POLLNVAL)) ||
            ((p->revents & POLLIN) && recv(p->fd, &c, 1, MSG_PEEK | MSG_DONTWAIT) == 0);
@@ -82,8 +74,7 @@ static bool watch_hung_up(const struct pollfd *p)
 /* Unlinks w from whichever list holds it onto gone; cancels its task when
  * nobody else wants it.  Lock held. */
 static void watch_drop(struct work_waiter *w, struct task_notify *gone, struct task_notify *n,
-                       struct task_notify *sse)
-{
+                       struct task_notify *sse) {
     work_assert_locked();
     for (struct task *t = task_active; t; t = t->next)
         for (int which = 0; which < 2; which++)
@@ -92,8 +83,7 @@ static void watch_drop(struct work_waiter *w, struct task_notify *gone, struct t
                     *pp = w->next;
                     w->next = gone->list;
                     gone->list = w;
-                    if (!t->waiters && t->njobs == 0)
-                        task_cancel(t, MC_CLIENT_GONE, n, sse);
+                    if (!t->waiters && t->njobs == 0) task_cancel(t, MC_CLIENT_GONE, n, sse);
                     return;
                 }
 }
@@ -101,28 +91,22 @@ static void watch_drop(struct work_waiter *w, struct task_notify *gone, struct t
 /* The waiters whose client hung up, onto gone (their tasks cancelled
  * when nobody else wants them: onto n and sse).  Lock held. */
 static void watch_poll(struct watch_set *s, struct task_notify *gone, struct task_notify *n,
-                       struct task_notify *sse)
-{
+                       struct task_notify *sse) {
     work_assert_locked();
-    if (s->n == 0 || poll(s->fds, s->n, 0) <= 0)
-        return;
+    if (s->n == 0 || poll(s->fds, s->n, 0) <= 0) return;
     for (size_t i = 0; i < s->n; i++)
-        if (watch_hung_up(&s->fds[i]))
-            watch_drop(s->ws[i], gone, n, sse);
+        if (watch_hung_up(&s->fds[i])) watch_drop(s->ws[i], gone, n, sse);
 }
 
 /* Every idle event stream, onto ping, to be woken.  Lock held. */
-static void watch_ping(struct task_notify *ping)
-{
+static void watch_ping(struct task_notify *ping) {
     work_assert_locked();
-    for (struct task *t = task_active; t; t = t->next)
-        task_notify_add(ping, &t->sse_waiters);
+    for (struct task *t = task_active; t; t = t->next) task_notify_add(ping, &t->sse_waiters);
 }
 
 /* Stops a render past --max-render-seconds, its waiters onto n and sse;
  * true when one was.  Lock held. */
-static bool watch_deadlines(struct task_notify *n, struct task_notify *sse)
-{
+static bool watch_deadlines(struct task_notify *n, struct task_notify *sse) {
     work_assert_locked();
     double now = clock_now();
     for (struct task *t = task_active; t; t = t->next)
@@ -142,8 +126,7 @@ struct watch_trim {
 
 static bool watch_round(struct watch_set *s, double *last_expire, double *last_ping,
                         struct task_notify *gone, struct task_notify *n, struct task_notify *sse,
-                        struct watch_trim *trim)
-{
+                        struct watch_trim *trim) {
     work_assert_locked();
     watch_collect(s);
     if (clock_now() - *last_expire >= 1.0) {
@@ -152,20 +135,17 @@ static bool watch_round(struct watch_set *s, double *last_expire, double *last_p
         trim->due = true;
         trim->idle = task_active == NULL;
     }
-    if (watch_deadlines(n, sse))
-        return true;
+    if (watch_deadlines(n, sse)) return true;
     if (clock_now() - *last_ping >= EVENTS_PING_SECONDS) {
         *last_ping = clock_now();
         watch_ping(n);
-        if (n->list)
-            return true;
+        if (n->list) return true;
     }
     watch_poll(s, gone, n, sse);
     return false;
 }
 
-static void watch_sleep(void)
-{
+static void watch_sleep(void) {
     struct timespec ts;
     clock_gettime(CLOCK_REALTIME, &ts);
     ts.tv_nsec += WATCH_MS * 1000000L;
@@ -176,8 +156,7 @@ static void watch_sleep(void)
     work_timedwait(&work_cond, &ts);
 }
 
-static void *watch_main(void *arg)
-{
+static void *watch_main(void *arg) {
     (void)arg;
     struct watch_set s = {0};
     double last_ping = clock_now(), last_expire = clock_now();
@@ -196,8 +175,7 @@ static void *watch_main(void *arg)
                 mem_trim(trim.idle);
             work_lock_take();
         }
-        if (!again)
-            watch_sleep();
+        if (!again) watch_sleep();
     }
     work_lock_give();
     free(s.fds);
@@ -205,21 +183,17 @@ static void *watch_main(void *arg)
     return NULL;
 }
 
-int watch_start(void)
-{
-    if (pthread_create(&watch_thread, NULL, watch_main, NULL))
-        return -1;
+int watch_start(void) {
+    if (pthread_create(&watch_thread, NULL, watch_main, NULL)) return -1;
     watch_started = true;
     return 0;
 }
 
-void watch_stop(void)
-{
+void watch_stop(void) {
     work_lock_take();
     watch_stopping = true;
     pthread_cond_broadcast(&work_cond);
     work_lock_give();
-    if (watch_started)
-        pthread_join(watch_thread, NULL);
+    if (watch_started) pthread_join(watch_thread, NULL);
     watch_started = false;
 }

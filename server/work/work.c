@@ -19,35 +19,30 @@ pthread_cond_t work_cond = PTHREAD_COND_INITIALIZER;
 static _Thread_local char work_me;
 static _Atomic(const char *) work_owner; /* &work_me of the holder, NULL free */
 
-void work_lock_take(void)
-{
+void work_lock_take(void) {
     work_assert_unlocked(); /* it is no recursive mutex: this thread would hang */
     pthread_mutex_lock(&work_lock);
     atomic_store_explicit(&work_owner, &work_me, memory_order_relaxed);
 }
 
-void work_lock_give(void)
-{
+void work_lock_give(void) {
     work_assert_locked();
     atomic_store_explicit(&work_owner, NULL, memory_order_relaxed);
     pthread_mutex_unlock(&work_lock);
 }
 
-bool work_locked(void)
-{
+bool work_locked(void) {
     return atomic_load_explicit(&work_owner, memory_order_relaxed) == &work_me;
 }
 
-void work_wait(pthread_cond_t *c)
-{
+void work_wait(pthread_cond_t *c) {
     work_assert_locked();
     atomic_store_explicit(&work_owner, NULL, memory_order_relaxed);
     pthread_cond_wait(c, &work_lock);
     atomic_store_explicit(&work_owner, &work_me, memory_order_relaxed);
 }
 
-int work_timedwait(pthread_cond_t *c, const struct timespec *until)
-{
+int work_timedwait(pthread_cond_t *c, const struct timespec *until) {
     work_assert_locked();
     atomic_store_explicit(&work_owner, NULL, memory_order_relaxed);
     int rc = pthread_cond_timedwait(c, &work_lock, until);

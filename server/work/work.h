@@ -24,9 +24,9 @@
 struct work_result {
     enum rayd_status status; /* RAYD_OK and png, or an error */
     struct rayd_error err;
-    struct blob *png;        /* a reference owned by the waiter: unref it */
-    bool gone;               /* the client disconnected */
-    bool draining;           /* cancelled because the server drains (503 "draining") */
+    struct blob *png; /* a reference owned by the waiter: unref it */
+    bool gone;        /* the client disconnected */
+    bool draining;    /* cancelled because the server drains (503 "draining") */
     double queue_ms, render_ms, encode_ms;
 };
 
@@ -48,8 +48,8 @@ enum work_submit {
     WORK_DRAINING,
     WORK_NOMEM,
     WORK_TOO_MANY_JOBS,
-    WORK_MEMORY, /* the memory budget (--max-memory) has no room now: 503 */
-    WORK_TOO_BIG, /* the render alone is over the memory budget: 413 */
+    WORK_MEMORY,    /* the memory budget (--max-memory) has no room now: 503 */
+    WORK_TOO_BIG,   /* the render alone is over the memory budget: 413 */
     WORK_PARSE_FULL /* --parse-queue scenes wait for a parse thread (compile.c) */
 };
 
@@ -67,7 +67,7 @@ const char *cache_version(const struct cache_entry *e);
 
 /* ---- scenes.c: the compiled-scene cache behind the lock ------------------- */
 
-void scenes_release(struct cache_entry *e);      /* NULL allowed */
+void scenes_release(struct cache_entry *e); /* NULL allowed */
 /* Replaces the scene limits derived from the options (before any request). */
 void scenes_set_limits(const struct rayd_limits *lim);
 
@@ -103,7 +103,6 @@ double cost_price_seconds(const char *scene_id, double rays);
 
 /* ---- sched.c: the pool, synchronous renders, lifecycle ------------------- */
 
-
 int sched_start(int workers, int queue_cap, int max_jobs);
 void sched_stop(void);
 /* Renders what of scene for w.
@@ -131,8 +130,8 @@ void sched_stats(struct sched_stats *st);
 /* JS_EVICTED: succeeded, but its images were let go to keep rayd within
  * --max-memory (the oldest finished first); its numbers stay. */
 enum jobs_state { JS_QUEUED, JS_RUNNING, JS_SUCCEEDED, JS_FAILED, JS_CANCELED, JS_EVICTED };
-#define JOBS_EVICTED_WHY                                                                          \
-    "the job's image was let go to keep rayd within its memory budget (--max-memory; the "        \
+#define JOBS_EVICTED_WHY                                                                           \
+    "the job's image was let go to keep rayd within its memory budget (--max-memory; the "         \
     "oldest finished results go first): render it again"
 
 const char *jobs_state_name(enum jobs_state s);
@@ -165,11 +164,11 @@ enum passes_stop {
 };
 const char *passes_stop_name(enum passes_stop s); /* NULL for PASSES_GOING */
 struct jobs_passes {
-    int done, total;        /* passes complete, planned */
-    int samples;            /* samples of the latest complete pass (0: none yet) */
-    int samples_target;     /* of the last planned pass */
-    double time_s;          /* when the latest pass completed, after the first tile */
-    double noise;           /* its noise estimate (passes.c); < 0: none */
+    int done, total;    /* passes complete, planned */
+    int samples;        /* samples of the latest complete pass (0: none yet) */
+    int samples_target; /* of the last planned pass */
+    double time_s;      /* when the latest pass completed, after the first tile */
+    double noise;       /* its noise estimate (passes.c); < 0: none */
     enum passes_stop stopped;
 };
 /* Why the server no longer has a job it once created, or its image:
@@ -211,10 +210,10 @@ struct jobs_info {
     bool result_evicted;       /* its images were evicted: gone says why */
     struct jobs_gone gone;     /* result_evicted only */
     char id[33];
-    int priority;              /* enum jobs_priority */
-    long long seq;             /* creation order (GET /v1/jobs's cursor) */
-    double created_wall;       /* seconds since the epoch */
-    bool on_disk;              /* its image is not in memory but on disk: store_read */
+    int priority;        /* enum jobs_priority */
+    long long seq;       /* creation order (GET /v1/jobs's cursor) */
+    double created_wall; /* seconds since the epoch */
+    bool on_disk;        /* its image is not in memory but on disk: store_read */
 };
 /* GET /v1/jobs: client's jobs made before the one numbered before (0: from
  * the newest), newest first, in state (< 0: any), up to n of them into out;
@@ -226,11 +225,11 @@ enum jobs_priority { JP_LOW, JP_NORMAL, JP_HIGH };
 const char *jobs_priority_name(int p);
 /* What jobs_submit needs besides the scene, the target and the plan. */
 struct jobs_new {
-    int priority;            /* enum jobs_priority */
-    const char *scene;       /* the scene as sent, recorded with --data-dir */
+    int priority;      /* enum jobs_priority */
+    const char *scene; /* the scene as sent, recorded with --data-dir */
     size_t scene_len;
-    struct work_waiter *w;   /* --data-dir: told once the job is on disk */
-    bool waiting;            /* out: w->suspend ran and w->done will be called once */
+    struct work_waiter *w; /* --data-dir: told once the job is on disk */
+    bool waiting;          /* out: w->suspend ran and w->done will be called once */
 };
 /* A job rendering what->reg of scene (as a PNG, and an EXR with
  * what->keep_exr) for what->client: plain with plan NULL, else progressive;
@@ -280,8 +279,8 @@ struct events_stream *events_open(const char *id); /* NULL: no such job */
 /* Up to n items: returns how many; 0 after registering w (its suspend ran),
  * -1 at the end of the stream.  A failed job's error is copied to *err with
  * its DONE item. */
-int events_read(struct events_stream *s, struct events_item *items, int n,
-                struct rayd_error *err, struct work_waiter *w);
+int events_read(struct events_stream *s, struct events_item *items, int n, struct rayd_error *err,
+                struct work_waiter *w);
 void events_close(struct events_stream *s); /* NULL allowed */
 
 /* ---- compile.c: scenes parsed off the HTTP threads ------------------------- */
@@ -293,7 +292,7 @@ struct compile_result {
     struct cache_entry *scene; /* a reference owned by the waiter: scenes_release it */
     bool hit;                  /* found compiled (and its files as read), not parsed */
     bool draining;             /* refused: the server drains (no parse was made for it) */
-    bool memory_full; /* refused: the memory budget has no room now (503 memory_full) */
+    bool memory_full;          /* refused: the memory budget has no room now (503 memory_full) */
 };
 
 /* A request waiting for its scene: done() is called exactly once, from a
@@ -346,7 +345,7 @@ struct gate_state {
     long tiles, started, held, queued;
 };
 void gate_enable(long tiles);
-bool gate_set(long tiles);                /* false when the gate is off */
-bool gate_get(struct gate_state *g);      /* false when the gate is off */
+bool gate_set(long tiles);           /* false when the gate is off */
+bool gate_get(struct gate_state *g); /* false when the gate is off */
 
 #endif

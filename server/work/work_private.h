@@ -37,8 +37,8 @@
 #include <pthread.h>
 
 #define TASK_INTERACTIVE (256L * 256L) /* pixels of a preview or a tile */
-#define TASK_BULK_EVERY 4             /* when both classes wait, bulk gets 1 tile in 4 */
-#define EVENTS_PING_SECONDS 15.0      /* seconds of silence before a keep-alive */
+#define TASK_BULK_EVERY 4              /* when both classes wait, bulk gets 1 tile in 4 */
+#define EVENTS_PING_SECONDS 15.0       /* seconds of silence before a keep-alive */
 
 extern pthread_cond_t work_cond;
 
@@ -141,7 +141,7 @@ int cost_samples(const struct work_target *what, int scene_samples);
 /* The side of a square tile whose estimated rays stay under the tile
  * budget, given a pixel's estimated rays. */
 int cost_tile(double rays_per_pixel);
-void cost_set_workers(int workers);          /* before the workers start */
+void cost_set_workers(int workers); /* before the workers start */
 /* A tile of scene_id for client: its estimated rays and the seconds it
  * took; complete false: it was stopped part way. */
 void cost_observe(const char *scene_id, uint64_t client, double rays, double seconds,
@@ -183,10 +183,10 @@ struct passes {
     int pass;                   /* the pass being rendered, 0-based (lock held) */
     int done;                   /* passes complete (lock held) */
     int ntiles;
-    rayd_accum **acc;              /* a tile's sums, one a task tile, made at its first pass */
-    struct rayd_region *tiles;     /* the task tiles (absolute) */
-    rayd_image *prev;              /* the latest complete pass's image */
-    struct blob *png[PASSES_KEEP]; /* pass k's PNG (1-based) at (k - 1) % PASSES_KEEP */
+    rayd_accum **acc;                  /* a tile's sums, one a task tile, made at its first pass */
+    struct rayd_region *tiles;         /* the task tiles (absolute) */
+    rayd_image *prev;                  /* the latest complete pass's image */
+    struct blob *png[PASSES_KEEP];     /* pass k's PNG (1-based) at (k - 1) % PASSES_KEEP */
     struct blob *exr[PASSES_KEEP_EXR]; /* a job's with format=exr: pass k's EXR, likewise */
     double time_s[PASSES_MAX], noise[PASSES_MAX];
     enum passes_stop stop; /* asked (client, time) or decided (noise) */
@@ -237,15 +237,15 @@ struct task {
     char scene_id[65];
     struct cache_entry *scene; /* held until the task finishes */
     struct rayd_region reg;    /* absolute */
-    int tile;          /* tiles are tile x tile pixels (cost.c sizes them) */
+    int tile;                  /* tiles are tile x tile pixels (cost.c sizes them) */
     int ntx, nty, ntiles;
     int next_tile, running, done;
-    uint64_t client;   /* who asked first (fair.c) */
-    double est_rays;   /* cost_rays of the whole task */
+    uint64_t client; /* who asked first (fair.c) */
+    double est_rays; /* cost_rays of the whole task */
     double rays_per_sample;
-    int *order; /* tiles in completion order, for event streams */
-    struct passes *passes;     /* a progressive job's task, else NULL */
-    rayd_image *img;           /* WORK_PNG: the tiles' bytes */
+    int *order;            /* tiles in completion order, for event streams */
+    struct passes *passes; /* a progressive job's task, else NULL */
+    rayd_image *img;       /* WORK_PNG: the tiles' bytes */
     /* a plain WORK_PNG task: the PNG encoded band by band as rows of tiles
      * are drawn (sched.c), made when the first tile is taken (NULL if out
      * of memory, stream_tried then set: encoded whole at the end), and
@@ -253,14 +253,14 @@ struct task {
     rayd_png_stream *stream;
     rayd_rows *rows;
     bool stream_tried;
-    float *lin;                /* WORK_PNG16, WORK_EXR, keep_exr: the tiles' linear RGB,
-                                  reg.w * reg.h * 3 */
-    double *sums;              /* WORK_SUMS: the tiles' sums of samples k0..k1-1 */
+    float *lin;   /* WORK_PNG16, WORK_EXR, keep_exr: the tiles' linear RGB,
+                     reg.w * reg.h * 3 */
+    double *sums; /* WORK_SUMS: the tiles' sums of samples k0..k1-1 */
     enum work_format format;
-    bool keep_exr;    /* a job's: its EXR too (work_target's keep_exr) */
+    bool keep_exr;          /* a job's: its EXR too (work_target's keep_exr) */
     size_t mem;             /* reserved in --max-memory (budget.c), released with the pixels */
     enum mem_kind mem_kind; /* as what */
-    struct blob *exr; /* keep_exr: the EXR, made with the PNG */
+    struct blob *exr;       /* keep_exr: the EXR, made with the PNG */
     int k0, k1;
     atomic_int cancel;
     /* --max-work: rays the task may still cast, shared by its tiles and
@@ -269,7 +269,7 @@ struct task {
     long work; /* that budget whole (--max-work, or the test gate's); 0: none */
     bool interactive, queued, finalizing, finished;
     bool restored; /* re-queued at start-up from --data-dir: admitted past --queue */
-    bool evicted; /* finished, its images let go for the memory budget (jobs.c) */
+    bool evicted;  /* finished, its images let go for the memory budget (jobs.c) */
     double t_enq, t_start, t_end;
     double encode_s; /* of t_end - t_start, the PNG's encoding */
     enum rayd_status status;
@@ -280,7 +280,7 @@ struct task {
     struct work_waiter *sse_waiters; /* event streams waiting for news */
     int njobs;                       /* jobs still interested */
     int priority; /* enum jobs_priority: orders its client's own tasks (task_pick) */
-    int refs;                        /* active list + jobs */
+    int refs;     /* active list + jobs */
 };
 
 /* An output format (enum work_format): one row of task.c's table each,
@@ -421,7 +421,7 @@ struct task *budget_task(struct cache_entry *scene, const struct work_target *wh
 
 /* ---- gate.c (lock held) -------------------------------------------------------- */
 
-bool gate_pass(void);     /* may a worker start a tile now? takes one */
+bool gate_pass(void);                     /* may a worker start a tile now? takes one */
 void gate_count(long started, long held); /* adds to the started / held counters */
 
 /* ---- store.c: jobs on disk (--data-dir) ------------------------------------------ */
@@ -430,12 +430,12 @@ void gate_count(long started, long held); /* adds to the started / held counters
  * and, once it ended, how. */
 struct store_job {
     char id[33];
-    long long seq;              /* creation order: GET /v1/jobs pages by it */
+    long long seq; /* creation order: GET /v1/jobs pages by it */
     uint64_t client;
-    int priority;               /* enum jobs_priority */
+    int priority;                    /* enum jobs_priority */
     double created_wall, ended_wall; /* seconds since the epoch; ended 0: unfinished */
-    enum jobs_state state;      /* JS_QUEUED (unfinished), or how it ended */
-    char *scene;                /* the scene as sent (malloc'd, NUL-terminated) */
+    enum jobs_state state;           /* JS_QUEUED (unfinished), or how it ended */
+    char *scene;                     /* the scene as sent (malloc'd, NUL-terminated) */
     size_t scene_len;
     char scene_id[65];
     struct rayd_region reg;
@@ -444,11 +444,11 @@ struct store_job {
     long tiles;
     uint64_t rays;
     double est_rays, queue_ms, render_ms, encode_ms;
-    struct rayd_error err;      /* JS_FAILED */
-    double evicted_wall;        /* > 0: its images were evicted (--max-disk) */
+    struct rayd_error err; /* JS_FAILED */
+    double evicted_wall;   /* > 0: its images were evicted (--max-disk) */
     char evicted_why[96];
-    int attempts;               /* starts of rayd that found it unfinished */
-    bool result_ok;             /* store_load: its files are there, whole */
+    int attempts;   /* starts of rayd that found it unfinished */
+    bool result_ok; /* store_load: its files are there, whole */
 };
 /* Opens DIR's store (before any thread but main's): -1 after saying why. */
 int store_open(const char *dir);
@@ -475,17 +475,17 @@ struct job {
     struct task *task;
     bool canceled;
     double created;
-    double canceled_at;   /* when DELETE cancelled it (clock_now) */
-    double evicted_at;    /* when its result was evicted (jobs_evict_result); 0: kept */
+    double canceled_at;    /* when DELETE cancelled it (clock_now) */
+    double evicted_at;     /* when its result was evicted (jobs_evict_result); 0: kept */
     char evicted_why[160]; /* why, as jobs_evict_result was told */
-    int refs; /* the table + open event streams */
-    uint64_t client;      /* who created it (GET /v1/jobs lists a client's own) */
-    int priority;         /* enum jobs_priority */
-    long long seq;        /* creation order, kept across restarts */
-    double created_wall;  /* seconds since the epoch */
-    bool stored;          /* --data-dir: its images are on disk (store.c) */
-    bool recorded;        /* --data-dir: its end is queued to the store */
-    bool restored;        /* ended before this process started: its times are these */
+    int refs;              /* the table + open event streams */
+    uint64_t client;       /* who created it (GET /v1/jobs lists a client's own) */
+    int priority;          /* enum jobs_priority */
+    long long seq;         /* creation order, kept across restarts */
+    double created_wall;   /* seconds since the epoch */
+    bool stored;           /* --data-dir: its images are on disk (store.c) */
+    bool recorded;         /* --data-dir: its end is queued to the store */
+    bool restored;         /* ended before this process started: its times are these */
     double queue_ms, render_ms, encode_ms;
 };
 /* Start-up (durable.c): a job of the store put back, finished as it
@@ -494,7 +494,7 @@ bool jobs_restore(const struct store_job *row, struct cache_entry *scene);
 int jobs_start(int max_jobs); /* any lock */
 /* The jobs not finished and the --max-jobs the table holds; lock held. */
 void jobs_count(long *unfinished, long *cap);
-void jobs_stop(void);         /* after the workers and the watcher have stopped */
+void jobs_stop(void); /* after the workers and the watcher have stopped */
 struct job *jobs_find(const char *id);
 enum jobs_state jobs_state(const struct job *j);
 double jobs_progress(const struct job *j); /* 0..1, as the job's JSON says it */

@@ -27,7 +27,8 @@ static size_t envmap_base64(const uint8_t *data, size_t n, char *out) {
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
-    static const char head[] = "{\"render\": {\"width\": 4, \"height\": 4, \"environment\": {\"base64\": \"";
+    static const char head[] =
+        "{\"render\": {\"width\": 4, \"height\": 4, \"environment\": {\"base64\": \"";
     static const char tail[] = "\"}}}";
     char *json = malloc(sizeof head + 4 * (size / 3 + 1) + sizeof tail);
     if (!json) return 0;

@@ -16,15 +16,12 @@
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
-static void fh_init(void)
-{
+static void fh_init(void) {
     static int done;
-    if (done)
-        return;
+    if (done) return;
     done = 1;
     char *argv[] = {"fuzz_http", NULL};
-    if (config_load(1, argv))
-        abort();
+    if (config_load(1, argv)) abort();
     config.threads = 1;
     config.queue = 8;
     config.max_jobs = 32;
@@ -49,35 +46,28 @@ static void fh_init(void)
     lim.max_bytes = 65536;
     scenes_set_limits(&lim);
     router_start();
-    if (sched_start(1, (int)config.queue, (int)config.max_jobs))
-        abort();
+    if (sched_start(1, (int)config.queue, (int)config.max_jobs)) abort();
 }
 
 /* One line of data[*pos..size) without its CR LF; NULL at the end. */
-static char *fh_line(const uint8_t *data, size_t size, size_t *pos)
-{
-    if (*pos >= size)
-        return NULL;
+static char *fh_line(const uint8_t *data, size_t size, size_t *pos) {
+    if (*pos >= size) return NULL;
     size_t s = *pos, e = s;
-    while (e < size && data[e] != '\n')
-        e++;
+    while (e < size && data[e] != '\n') e++;
     *pos = e < size ? e + 1 : e;
     size_t n = e - s;
-    if (n && data[s + n - 1] == '\r')
-        n--;
+    if (n && data[s + n - 1] == '\r') n--;
     char *l = malloc(n + 1);
     memcpy(l, data + s, n);
     l[n] = 0;
     return l;
 }
 
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
-{
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     fh_init();
     size_t pos = 0;
     char *first = fh_line(data, size, &pos);
-    if (!first)
-        return 0;
+    if (!first) return 0;
     /* the request line: method, target (NUL bytes end them, as in C) */
     char *sp = strchr(first, ' ');
     if (!sp || sp == first) {
@@ -86,8 +76,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     *sp = 0;
     char *target = sp + 1, *sp2 = strchr(target, ' ');
-    if (sp2)
-        *sp2 = 0;
+    if (sp2) *sp2 = 0;
     const char *version = sp2 ? sp2 + 1 : NULL;
     static struct fh_req q; /* static: the worker may touch it until resumed */
     memset(&q, 0, sizeof q);
@@ -95,16 +84,14 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     pthread_cond_init(&q.cv, NULL);
     char *qm = strchr(target, '?');
     char *path = fh_unescape(target, qm ? (size_t)(qm - target) : strlen(target));
-    if (qm)
-        fh_parse_query(&q, qm + 1, strlen(qm + 1));
+    if (qm) fh_parse_query(&q, qm + 1, strlen(qm + 1));
     char *line;
     while ((line = fh_line(data, size, &pos)) && *line) {
         char *colon = strchr(line, ':');
         if (colon && colon != line && q.nhdr < FH_MAX_ARGS) {
             *colon = 0;
             char *v = colon + 1;
-            while (*v == ' ' || *v == '\t')
-                v++;
+            while (*v == ' ' || *v == '\t') v++;
             q.hdr[q.nhdr].k = strdup(line);
             q.hdr[q.nhdr].v = strdup(v);
             q.nhdr++;
@@ -116,8 +103,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     size_t blen = size - pos;
 
     struct http_req *r = http_req_new(&fh_io, &q, first, path, strlen(target));
-    if (!r)
-        abort();
+    if (!r) abort();
     http_req_set_target(r, target); /* as libmicrohttpd's URI log callback does */
     r->conn.version = version;
     bool drop = false;
@@ -132,8 +118,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             http_flow_handle(r);
             if (r->conn.parked) {
                 pthread_mutex_lock(&q.mu);
-                while (!q.resumed)
-                    pthread_cond_wait(&q.cv, &q.mu);
+                while (!q.resumed) pthread_cond_wait(&q.cv, &q.mu);
                 pthread_mutex_unlock(&q.mu);
             }
         }

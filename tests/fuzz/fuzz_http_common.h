@@ -33,35 +33,28 @@ struct fh_req {
     int resumed;
 };
 
-static inline const char *fh_header(struct http_req *r, const char *name)
-{
+static inline const char *fh_header(struct http_req *r, const char *name) {
     struct fh_req *q = r->conn.io_ctx;
     for (int i = 0; i < q->nhdr; i++)
-        if (!strcasecmp(q->hdr[i].k, name))
-            return q->hdr[i].v;
+        if (!strcasecmp(q->hdr[i].k, name)) return q->hdr[i].v;
     return NULL;
 }
 
-static inline void fh_header_each(struct http_req *r, void (*fn)(void *u, const char *k, const char *v),
-                           void *u)
-{
+static inline void fh_header_each(struct http_req *r,
+                                  void (*fn)(void *u, const char *k, const char *v), void *u) {
     struct fh_req *q = r->conn.io_ctx;
-    for (int i = 0; i < q->nhdr; i++)
-        fn(u, q->hdr[i].k, q->hdr[i].v);
+    for (int i = 0; i < q->nhdr; i++) fn(u, q->hdr[i].k, q->hdr[i].v);
 }
 
-static inline void fh_query_each(struct http_req *r, void (*fn)(void *u, const char *k, const char *v),
-                          void *u)
-{
+static inline void fh_query_each(struct http_req *r,
+                                 void (*fn)(void *u, const char *k, const char *v), void *u) {
     struct fh_req *q = r->conn.io_ctx;
-    for (int i = 0; i < q->narg; i++)
-        fn(u, q->arg[i].k, q->arg[i].v);
+    for (int i = 0; i < q->narg; i++) fn(u, q->arg[i].k, q->arg[i].v);
 }
 
 static inline void fh_suspend(struct http_req *r) { (void)r; }
 
-static inline void fh_resume(struct http_req *r)
-{
+static inline void fh_resume(struct http_req *r) {
     struct fh_req *q = r->conn.io_ctx;
     pthread_mutex_lock(&q->mu);
     q->resumed = 1;
@@ -69,61 +62,49 @@ static inline void fh_resume(struct http_req *r)
     pthread_mutex_unlock(&q->mu);
 }
 
-static inline int fh_fd(struct http_req *r)
-{
+static inline int fh_fd(struct http_req *r) {
     (void)r;
     return -1;
 }
 
-static const struct http_io fh_io = {fh_header, fh_header_each, fh_query_each, fh_suspend,
-                                     fh_resume, fh_fd};
+static const struct http_io fh_io = {fh_header,  fh_header_each, fh_query_each,
+                                     fh_suspend, fh_resume,      fh_fd};
 
-static inline int fh_hex(int c)
-{
-    if (c >= '0' && c <= '9')
-        return c - '0';
-    if (c >= 'a' && c <= 'f')
-        return c - 'a' + 10;
-    if (c >= 'A' && c <= 'F')
-        return c - 'A' + 10;
+static inline int fh_hex(int c) {
+    if (c >= '0' && c <= '9') return c - '0';
+    if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+    if (c >= 'A' && c <= 'F') return c - 'A' + 10;
     return -1;
 }
 
 /* Percent-decodes s[0..n) into a new string; NUL inside -> "\0". */
-static inline char *fh_unescape(const char *s, size_t n)
-{
+static inline char *fh_unescape(const char *s, size_t n) {
     char *o = malloc(n + 3);
     size_t k = 0;
     int nul = 0;
     for (size_t i = 0; i < n; i++) {
-        if (s[i] == '%' && i + 2 < n && fh_hex(s[i + 1]) >= 0 &&
-            fh_hex(s[i + 2]) >= 0) {
+        if (s[i] == '%' && i + 2 < n && fh_hex(s[i + 1]) >= 0 && fh_hex(s[i + 2]) >= 0) {
             o[k] = (char)(fh_hex(s[i + 1]) * 16 + fh_hex(s[i + 2]));
             i += 2;
         } else {
             o[k] = s[i];
         }
-        if (o[k] == 0)
-            nul = 1;
+        if (o[k] == 0) nul = 1;
         k++;
     }
     o[k] = 0;
-    if (nul)
-        strcpy(o, "\\0");
+    if (nul) strcpy(o, "\\0");
     return o;
 }
 
-static inline void fh_parse_query(struct fh_req *q, const char *s, size_t n)
-{
+static inline void fh_parse_query(struct fh_req *q, const char *s, size_t n) {
     size_t i = 0;
     while (i <= n && q->narg < FH_MAX_ARGS) {
         size_t e = i;
-        while (e < n && s[e] != '&')
-            e++;
+        while (e < n && s[e] != '&') e++;
         if (e > i) {
             size_t eq = i;
-            while (eq < e && s[eq] != '=')
-                eq++;
+            while (eq < e && s[eq] != '=') eq++;
             q->arg[q->narg].k = fh_unescape(s + i, eq - i);
             q->arg[q->narg].v = eq < e ? fh_unescape(s + eq + 1, e - eq - 1) : strdup("");
             q->narg++;
@@ -132,8 +113,7 @@ static inline void fh_parse_query(struct fh_req *q, const char *s, size_t n)
     }
 }
 
-static inline void fh_free(struct fh_req *q)
-{
+static inline void fh_free(struct fh_req *q) {
     for (int i = 0; i < q->nhdr; i++) {
         free(q->hdr[i].k);
         free(q->hdr[i].v);
@@ -146,13 +126,11 @@ static inline void fh_free(struct fh_req *q)
 
 /* The statuses rayd may answer with; anything else (a 500 above all) is a
  * bug the fuzzer should report. */
-static inline int fh_status_ok(int st)
-{
-    static const int ok[] = {200, 201, 202, 204, 304, 400, 401, 404, 405,
-                             409, 410, 413, 414, 415, 417, 422, 499, 501, 503};
+static inline int fh_status_ok(int st) {
+    static const int ok[] = {200, 201, 202, 204, 304, 400, 401, 404, 405, 409,
+                             410, 413, 414, 415, 417, 422, 499, 501, 503};
     for (size_t i = 0; i < sizeof ok / sizeof ok[0]; i++)
-        if (ok[i] == st)
-            return 1;
+        if (ok[i] == st) return 1;
     return 0;
 }
 

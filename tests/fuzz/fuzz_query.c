@@ -16,15 +16,12 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
 static rayd_scene *fq_scenes[16];
 
-static void fq_init(void)
-{
+static void fq_init(void) {
     static int done;
-    if (done)
-        return;
+    if (done) return;
     done = 1;
     char *argv[] = {"fuzz_query", NULL};
-    if (config_load(1, argv))
-        abort();
+    if (config_load(1, argv)) abort();
     log_quiet = true;
     for (int i = 0; i < 16; i++) {
         char json[400];
@@ -33,16 +30,13 @@ static void fq_init(void)
                  " \"render\": {\"width\": %d, \"height\": %d, \"samples\": 7},"
                  " \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, 0], \"radius\": 1}]}",
                  1 + i * 4 + (i == 15 ? 3 : 0), 1 + i * 3 + (i == 15 ? 2 : 0));
-        if (rayd_scene_parse(json, strlen(json), NULL, &fq_scenes[i], NULL) != RAYD_OK)
-            abort();
+        if (rayd_scene_parse(json, strlen(json), NULL, &fq_scenes[i], NULL) != RAYD_OK) abort();
     }
 }
 
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
-{
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     fq_init();
-    if (size < 1)
-        return 0;
+    if (size < 1) return 0;
     const rayd_scene *scene = fq_scenes[data[0] % 16];
     struct rayd_scene_info info;
     rayd_scene_info(scene, &info);
@@ -50,8 +44,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     memset(&q, 0, sizeof q);
     fh_parse_query(&q, (const char *)data + 1, size - 1);
     struct http_req *r = http_req_new(&fh_io, &q, "GET", "/v1/scenes/x/image.png", size + 20);
-    if (!r)
-        abort();
+    if (!r) abort();
     struct rayd_region reg = {-7, -7, -7, -7};
     struct work_target what = {.k0 = -7};
     bool target = data[0] & 0x80;
@@ -71,7 +64,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             abort();
         }
     } else if (r->res.status != 400 || !r->res.err_code ||
-               (strcmp(r->res.err_code, "bad_region") && strcmp(r->res.err_code, "bad_parameter"))) {
+               (strcmp(r->res.err_code, "bad_region") &&
+                strcmp(r->res.err_code, "bad_parameter"))) {
         fprintf(stderr, "fuzz_query: refused with %d %s\n", r->res.status,
                 r->res.err_code ? r->res.err_code : "(none)");
         abort();

@@ -23,7 +23,6 @@
 #include "math/rng.h"
 #include "scene/scene.h"
 
-
 static rayd_scene *load(const char *path, const char *text, size_t len, int w, int h) {
     char dir[4096];
     const char *slash = strrchr(path, '/');
@@ -89,9 +88,11 @@ static bool packet_ok(const rayd_scene *s, const char *name, const char *what, c
         bool tr_ok = t1.x == tr[i].x && t1.y == tr[i].y && t1.z == tr[i].z && t1.x == trs[0][i] &&
                      t1.y == trs[1][i] && t1.z == trs[2][i];
         if (!hit_ok || !tr_ok) {
-            printf("FAIL packet-equals-ray %s: %s ray %d (o %.17g %.17g %.17g, d %.17g %.17g %.17g):"
-                   " %s differs\n", name, what, i, r[i].o.x, r[i].o.y, r[i].o.z, r[i].d.x, r[i].d.y,
-                   r[i].d.z, hit_ok ? "transmittance" : "nearest hit");
+            printf(
+                "FAIL packet-equals-ray %s: %s ray %d (o %.17g %.17g %.17g, d %.17g %.17g %.17g):"
+                " %s differs\n",
+                name, what, i, r[i].o.x, r[i].o.y, r[i].o.z, r[i].d.x, r[i].d.y, r[i].d.z,
+                hit_ok ? "transmittance" : "nearest hit");
             return false;
         }
     }
@@ -194,7 +195,8 @@ int main(int argc, char **argv) {
         size_t n = (size_t)w * h * 3, i = 0;
         while (i < n && pa[i] == pb[i]) i++;
         if (i < n) {
-            printf("FAIL bvh-equals-brute %s: pixel (%zu, %zu) differs\n", argv[1], i / 3 % w, i / 3 / w);
+            printf("FAIL bvh-equals-brute %s: pixel (%zu, %zu) differs\n", argv[1], i / 3 % w,
+                   i / 3 / w);
             rc = 1;
         } else {
             printf("PASS bvh-equals-brute %s (%u meshes, %ld objects)\n", argv[1], fast->nmeshes,
@@ -204,7 +206,8 @@ int main(int argc, char **argv) {
     rayd_image_free(a);
     rayd_image_free(b);
     long rays = check_packets(fast, argv[1], w, h);
-    if (rays < 0) rc = 1;
+    if (rays < 0)
+        rc = 1;
     else
         printf("PASS packet-equals-ray %s (%ld rays, %s)\n", argv[1], rays,
                cpu_avx512() ? "AVX-512" : "one ray at a time");

@@ -17,29 +17,29 @@
 
 static int check_failures_;
 
-#define CHECK(cond, ...)                                                                \
-    do {                                                                                \
-        if (!(cond)) {                                                                  \
-            printf("  %s:%d: check failed: %s: ", __FILE__, __LINE__, #cond);           \
-            printf(__VA_ARGS__);                                                        \
-            printf("\n");                                                               \
-            check_failures_++;                                                          \
-        }                                                                               \
+#define CHECK(cond, ...)                                                                           \
+    do {                                                                                           \
+        if (!(cond)) {                                                                             \
+            printf("  %s:%d: check failed: %s: ", __FILE__, __LINE__, #cond);                      \
+            printf(__VA_ARGS__);                                                                   \
+            printf("\n");                                                                          \
+            check_failures_++;                                                                     \
+        }                                                                                          \
     } while (0)
 
-#define CHECK_NEAR(a, b, eps)                                                           \
-    do {                                                                                \
-        double a_ = (a), b_ = (b);                                                      \
-        CHECK(fabs(a_ - b_) <= (eps), "%s = %.17g, %s = %.17g, tolerance %g", #a, a_, #b, \
-              b_, (double)(eps));                                                       \
+#define CHECK_NEAR(a, b, eps)                                                                      \
+    do {                                                                                           \
+        double a_ = (a), b_ = (b);                                                                 \
+        CHECK(fabs(a_ - b_) <= (eps), "%s = %.17g, %s = %.17g, tolerance %g", #a, a_, #b, b_,      \
+              (double)(eps));                                                                      \
     } while (0)
 
-#define RUN(fn)                                                                         \
-    do {                                                                                \
-        int before_ = check_failures_;                                                  \
-        fn();                                                                           \
-        printf("%s %s\n", check_failures_ == before_ ? "PASS" : "FAIL", #fn);         \
-        fflush(stdout);                                                                 \
+#define RUN(fn)                                                                                    \
+    do {                                                                                           \
+        int before_ = check_failures_;                                                             \
+        fn();                                                                                      \
+        printf("%s %s\n", check_failures_ == before_ ? "PASS" : "FAIL", #fn);                      \
+        fflush(stdout);                                                                            \
     } while (0)
 
 #define CHECK_EXIT() return check_failures_ ? 1 : 0

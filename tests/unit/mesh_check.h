@@ -26,8 +26,8 @@ static inline bool same_floats(const float *a, const float *b, size_t n) {
  * more with the fast path for plain lines off (mesh_obj_fast_path), which
  * must be invisible too: threads 0 below. */
 static inline void same_on_threads(bool is_obj, const void *data, size_t len,
-                            const struct mesh_limits *lim, enum rayd_status st,
-                            const struct mesh_data *m, const struct rayd_error *e) {
+                                   const struct mesh_limits *lim, enum rayd_status st,
+                                   const struct mesh_data *m, const struct rayd_error *e) {
     static const int threads[] = {2, 3, 8, 0};
     for (size_t k = 0; k < sizeof threads / sizeof threads[0] - !is_obj; k++) {
         struct mesh_data t = {0};
@@ -52,7 +52,7 @@ static inline void same_on_threads(bool is_obj, const void *data, size_t len,
 }
 
 static inline enum rayd_status obj_n(const char *text, size_t len, const struct mesh_limits *lim,
-                              struct mesh_data *m, struct rayd_error *e) {
+                                     struct mesh_data *m, struct rayd_error *e) {
     char *copy = malloc(len ? len : 1);
     memcpy(copy, text, len);
     enum rayd_status st = mesh_parse_obj(copy, len, lim, m, e);
@@ -66,7 +66,7 @@ static inline enum rayd_status obj(const char *text, struct mesh_data *m, struct
 }
 
 static inline enum rayd_status ply_n(const void *data, size_t len, const struct mesh_limits *lim,
-                              struct mesh_data *m, struct rayd_error *e) {
+                                     struct mesh_data *m, struct rayd_error *e) {
     void *copy = malloc(len ? len : 1);
     memcpy(copy, data, len);
     enum rayd_status st = mesh_parse_ply(copy, len, lim, m, e);
@@ -92,7 +92,8 @@ static inline enum rayd_status ply(const char *text, struct mesh_data *m, struct
         mesh_data_free(&m_);                                                                       \
     } while (0)
 
-static inline bool tri_is(const struct mesh_data *m, uint32_t t, uint32_t a, uint32_t b, uint32_t c) {
+static inline bool tri_is(const struct mesh_data *m, uint32_t t, uint32_t a, uint32_t b,
+                          uint32_t c) {
     return m->index && t < m->ntris && m->index[t * 3] == a && m->index[t * 3 + 1] == b &&
            m->index[t * 3 + 2] == c;
 }

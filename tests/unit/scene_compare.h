@@ -48,7 +48,8 @@ static const char *scene_compare(const char *text, size_t len, const struct rayd
                  ea.message, ea.line, ea.column, (int)sb, eb.path, eb.message, eb.line, eb.column);
         res = why;
     } else if (sa == RAYD_OK && (a->nmeshes != b->nmeshes || a->nobjs != b->nobjs)) {
-        snprintf(why, cap, "meshes %u/%u, objects %d/%d", a->nmeshes, b->nmeshes, (int)a->nobjs, (int)b->nobjs);
+        snprintf(why, cap, "meshes %u/%u, objects %d/%d", a->nmeshes, b->nmeshes, (int)a->nobjs,
+                 (int)b->nobjs);
         res = why;
     }
     for (uint32_t i = 0; !res && sa == RAYD_OK && i < a->nmeshes; i++)

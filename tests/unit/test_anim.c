@@ -58,7 +58,9 @@ static void test_smooth_continuity(void) {
     CHECK_NEAR((b[1] - a[1]) / 2e-6, (V3[7] - V3[1]) / (T[2] - T[0]), 1e-4);
 }
 
-static double qlen(const double *q) { return sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]); }
+static double qlen(const double *q) {
+    return sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+}
 
 static void test_slerp(void) {
     double a[4], b[4], q[4];
@@ -116,12 +118,15 @@ static const char *ANIM =
     "{\"animation\": {\"start\": 2, \"end\": 12, \"fps\": 25},"
     " \"render\": {\"width\": 40, \"height\": 30},"
     " \"camera\": {\"look_at\": [0, 0.5, 0], \"keyframes\": ["
-    "   {\"frame\": 2, \"position\": [0, 1, 5]}, {\"frame\": 12, \"position\": [10, 1, 5], \"fov_x\": 50}]},"
+    "   {\"frame\": 2, \"position\": [0, 1, 5]}, {\"frame\": 12, \"position\": [10, 1, 5], "
+    "\"fov_x\": 50}]},"
     " \"lights\": [{\"type\": \"point\", \"interpolation\": \"step\", \"keyframes\": ["
-    "   {\"frame\": 2, \"position\": [5, 5, 5]}, {\"frame\": 7, \"position\": [-5, 5, 5], \"intensity\": 0.5}]}],"
+    "   {\"frame\": 2, \"position\": [5, 5, 5]}, {\"frame\": 7, \"position\": [-5, 5, 5], "
+    "\"intensity\": 0.5}]}],"
     " \"objects\": [{\"type\": \"plane\"},"
     "   {\"type\": \"sphere\", \"radius\": 0.5, \"transform\": {\"scale\": 2},"
-    "    \"keyframes\": [{\"frame\": 2, \"translate\": [0, 0, 0]}, {\"frame\": 12, \"translate\": [0, 2, 0]}]}]}";
+    "    \"keyframes\": [{\"frame\": 2, \"translate\": [0, 0, 0]}, {\"frame\": 12, \"translate\": "
+    "[0, 2, 0]}]}]}";
 
 /* The same scene, still, as frame 7 should be. */
 static const char *STILL7 =
@@ -129,7 +134,8 @@ static const char *STILL7 =
     " \"camera\": {\"look_at\": [0, 0.5, 0], \"position\": [5, 1, 5], \"fov_x\": 50},"
     " \"lights\": [{\"type\": \"point\", \"position\": [-5, 5, 5], \"intensity\": 0.5}],"
     " \"objects\": [{\"type\": \"plane\"},"
-    "   {\"type\": \"sphere\", \"radius\": 0.5, \"transform\": [{\"scale\": 2}, {\"translate\": [0, 1, 0]}]}]}";
+    "   {\"type\": \"sphere\", \"radius\": 0.5, \"transform\": [{\"scale\": 2}, {\"translate\": "
+    "[0, 1, 0]}]}]}";
 
 static void test_scene_frames(void) {
     struct rayd_error err;
@@ -192,10 +198,10 @@ static void test_frame_determinism(void) {
 /* A value that only the curve between keys makes wrong is named by the
  * keyframes, with the frame. */
 static void test_interpolated_error(void) {
-    const char *j =
-        "{\"animation\": {\"end\": 20},"
-        " \"camera\": {\"interpolation\": \"smooth\", \"keyframes\": ["
-        "   {\"frame\": 0, \"fov_x\": 170}, {\"frame\": 10, \"fov_x\": 179}, {\"frame\": 20, \"fov_x\": 20}]}}";
+    const char *j = "{\"animation\": {\"end\": 20},"
+                    " \"camera\": {\"interpolation\": \"smooth\", \"keyframes\": ["
+                    "   {\"frame\": 0, \"fov_x\": 170}, {\"frame\": 10, \"fov_x\": 179}, "
+                    "{\"frame\": 20, \"fov_x\": 20}]}}";
     struct rayd_error err;
     rayd_scene *s = at_frame(j, 0, &err);
     CHECK(s != NULL, "frame 0 is fine");
@@ -209,17 +215,17 @@ static void test_interpolated_error(void) {
 /* Keyframed rotation turns the object: a quarter turn at the last key is
  * the still scene's rotate. */
 static void test_object_rotation(void) {
-    const char *j =
-        "{\"animation\": {\"end\": 4}, \"render\": {\"width\": 32, \"height\": 24},"
-        " \"camera\": {\"position\": [3, 3, 3], \"look_at\": [0, 0, 0]},"
-        " \"lights\": [{\"type\": \"point\", \"position\": [2, 5, 1]}],"
-        " \"objects\": [{\"type\": \"box\", \"max\": [1, 0.5, 0.2], \"keyframes\": ["
-        "   {\"frame\": 0, \"rotate\": [0, 0, 0]}, {\"frame\": 4, \"rotate\": {\"axis\": [0, 1, 0], \"angle\": 90}}]}]}";
-    const char *mid =
-        "{\"render\": {\"width\": 32, \"height\": 24},"
-        " \"camera\": {\"position\": [3, 3, 3], \"look_at\": [0, 0, 0]},"
-        " \"lights\": [{\"type\": \"point\", \"position\": [2, 5, 1]}],"
-        " \"objects\": [{\"type\": \"box\", \"max\": [1, 0.5, 0.2], \"transform\": {\"rotate\": [0, 45, 0]}}]}";
+    const char *j = "{\"animation\": {\"end\": 4}, \"render\": {\"width\": 32, \"height\": 24},"
+                    " \"camera\": {\"position\": [3, 3, 3], \"look_at\": [0, 0, 0]},"
+                    " \"lights\": [{\"type\": \"point\", \"position\": [2, 5, 1]}],"
+                    " \"objects\": [{\"type\": \"box\", \"max\": [1, 0.5, 0.2], \"keyframes\": ["
+                    "   {\"frame\": 0, \"rotate\": [0, 0, 0]}, {\"frame\": 4, \"rotate\": "
+                    "{\"axis\": [0, 1, 0], \"angle\": 90}}]}]}";
+    const char *mid = "{\"render\": {\"width\": 32, \"height\": 24},"
+                      " \"camera\": {\"position\": [3, 3, 3], \"look_at\": [0, 0, 0]},"
+                      " \"lights\": [{\"type\": \"point\", \"position\": [2, 5, 1]}],"
+                      " \"objects\": [{\"type\": \"box\", \"max\": [1, 0.5, 0.2], \"transform\": "
+                      "{\"rotate\": [0, 45, 0]}}]}";
     struct rayd_error err;
     rayd_scene *s = at_frame(j, 2, &err), *m = scene_from(mid);
     CHECK(s && m, "parse: %s %s", err.path, err.message);

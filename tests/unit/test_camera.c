@@ -19,7 +19,8 @@ static void test_basis_orthonormal(void) {
     vec3 looks[] = {{0, 0, -1}, {-1, 4, 0.5}, {0, 0, 0}};
     vec3 ups[] = {{0, 1, 0}, {0.2, 1, 0.1}, {0, 0, 1}};
     for (int i = 0; i < 3; i++) {
-        CHECK(cam_init(&c, eyes[i], looks[i], ups[i], 60, 0, 64, 48, NULL) == RAYD_OK, "case %d", i);
+        CHECK(cam_init(&c, eyes[i], looks[i], ups[i], 60, 0, 64, 48, NULL) == RAYD_OK, "case %d",
+              i);
         check_basis(&c);
         /* w points at look_at; u is w x up (to the right); v = u x w */
         vec3 w = v3_norm(v3_sub(looks[i], eyes[i]));

@@ -20,15 +20,9 @@ static void fill(unsigned char *p, size_t n, unsigned k) {
     for (size_t i = 0; i < n; i++) {
         s = s * 1664525u + 1013904223u;
         switch ((i / 4096 + k) % 3) {
-        case 0:
-            p[i] = (unsigned char)(i / 100);
-            break;
-        case 1:
-            p[i] = (unsigned char)(s >> 24);
-            break;
-        default:
-            p[i] = (unsigned char)("rayd band "[i % 10] + (i / 3000) % 3);
-            break;
+        case 0: p[i] = (unsigned char)(i / 100); break;
+        case 1: p[i] = (unsigned char)(s >> 24); break;
+        default: p[i] = (unsigned char)("rayd band "[i % 10] + (i / 3000) % 3); break;
         }
     }
 }

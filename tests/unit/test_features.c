@@ -18,12 +18,14 @@ static void test_csg_sphere_minus_box_along_an_axis(void) {
     /* Orthographic view down -z of a unit sphere minus the box z > 0.3:
      * inside radius sqrt(1 - 0.09) the cut face (the box's green) shows,
      * in the ring out to 1 the sphere (red), outside the background. */
-    const char *json =
-        "{\"camera\": {\"position\": [0,0,5], \"look_at\": [0,0,0], \"projection\": \"orthographic\", \"view_width\": 2.4},"
-        " \"render\": {\"width\": 97, \"height\": 97},"
-        " \"objects\": [{\"type\": \"csg\", \"op\": \"difference\", \"operands\": ["
-        "   {\"type\": \"sphere\", \"radius\": 1, \"material\": {\"color\": [0,0,0], \"emission\": [1,0,0]}},"
-        "   {\"type\": \"box\", \"min\": [-2,-2,0.3], \"max\": [2,2,2], \"material\": {\"color\": [0,0,0], \"emission\": [0,1,0]}}]}]}";
+    const char *json = "{\"camera\": {\"position\": [0,0,5], \"look_at\": [0,0,0], \"projection\": "
+                       "\"orthographic\", \"view_width\": 2.4},"
+                       " \"render\": {\"width\": 97, \"height\": 97},"
+                       " \"objects\": [{\"type\": \"csg\", \"op\": \"difference\", \"operands\": ["
+                       "   {\"type\": \"sphere\", \"radius\": 1, \"material\": {\"color\": "
+                       "[0,0,0], \"emission\": [1,0,0]}},"
+                       "   {\"type\": \"box\", \"min\": [-2,-2,0.3], \"max\": [2,2,2], "
+                       "\"material\": {\"color\": [0,0,0], \"emission\": [0,1,0]}}]}]}";
     rayd_scene *s = scene_from(json);
     CHECK(s != NULL, "parse");
     if (!s) return;
@@ -38,7 +40,10 @@ static void test_csg_sphere_minus_box_along_an_axis(void) {
             int want = r2 < 0.91 ? 1 : r2 < 1 ? 0 : 2; /* green, red, black */
             green += want == 1;
             red += want == 0;
-            int got = p[1] == 255 && p[0] == 0 ? 1 : p[0] == 255 && p[1] == 0 ? 0 : p[0] == 0 && p[1] == 0 ? 2 : 3;
+            int got = p[1] == 255 && p[0] == 0   ? 1
+                      : p[0] == 255 && p[1] == 0 ? 0
+                      : p[0] == 0 && p[1] == 0   ? 2
+                                                 : 3;
             bad += got != want;
         }
     CHECK(green > 1000 && red > 20, "regions %d %d", green, red);
@@ -67,7 +72,8 @@ static void test_csg_operations_on_the_line(void) {
               "%s from the left at x = %g", fmt_ops[k], from_left[k]);
         scene_surface(s, &a, &h, &sf);
         CHECK(v3_dot(sf.ng, a.d) < 0, "%s: the outward normal faces the incoming ray", fmt_ops[k]);
-        CHECK(scene_intersect(s, &b, INFINITY, &h) && fabs(ray_at(&b, h.t).x - from_right[k]) < 1e-9,
+        CHECK(scene_intersect(s, &b, INFINITY, &h) &&
+                  fabs(ray_at(&b, h.t).x - from_right[k]) < 1e-9,
               "%s from the right at x = %g (got %g)", fmt_ops[k], from_right[k], ray_at(&b, h.t).x);
         scene_surface(s, &b, &h, &sf);
         CHECK(v3_dot(sf.ng, b.d) < 0, "%s from the right: normal out of the result", fmt_ops[k]);
@@ -79,10 +85,10 @@ static void test_csg_touching_operands_have_no_inner_face(void) {
     /* Two boxes that share the face x = 0.  Seen from inside, a union has
      * no surface there (the ray leaves at x = 1); an intersection of a box
      * with one sharing its face x = -1 starts there. */
-    rayd_scene *s = scene_from(
-        "{\"objects\": [{\"type\": \"csg\", \"op\": \"union\", \"operands\": ["
-        "{\"type\": \"box\", \"min\": [-1,-1,-1], \"max\": [0,1,1]},"
-        " {\"type\": \"box\", \"min\": [0,-1,-1], \"max\": [1,1,1]}]}]}");
+    rayd_scene *s =
+        scene_from("{\"objects\": [{\"type\": \"csg\", \"op\": \"union\", \"operands\": ["
+                   "{\"type\": \"box\", \"min\": [-1,-1,-1], \"max\": [0,1,1]},"
+                   " {\"type\": \"box\", \"min\": [0,-1,-1], \"max\": [1,1,1]}]}]}");
     CHECK(s != NULL, "parse");
     if (!s) return;
     struct hit h;
@@ -113,12 +119,16 @@ static void test_csg_keeps_every_crossing(void) {
      * the others' crossings come first. */
     size_t cap = 32768, n = 0;
     char *b = malloc(cap);
-    n += (size_t)snprintf(b + n, cap - n, "{\"objects\": [{\"type\": \"csg\", \"op\": \"union\", \"operands\": [");
+    n += (size_t)snprintf(b + n, cap - n,
+                          "{\"objects\": [{\"type\": \"csg\", \"op\": \"union\", \"operands\": [");
     for (int g = 0; g < 3; g++) {
-        n += (size_t)snprintf(b + n, cap - n, "%s{\"type\": \"csg\", \"op\": \"union\", \"operands\": [", g ? ", " : "");
+        n += (size_t)snprintf(b + n, cap - n,
+                              "%s{\"type\": \"csg\", \"op\": \"union\", \"operands\": [",
+                              g ? ", " : "");
         for (int k = 0; k < 32; k++)
-            n += (size_t)snprintf(b + n, cap - n, "%s{\"type\": \"torus\", \"axis\": [1,0,0], \"center\": [0,0,%d]}",
-                                  k ? ", " : "", -3 * (95 - (g * 32 + k)));
+            n += (size_t)snprintf(
+                b + n, cap - n, "%s{\"type\": \"torus\", \"axis\": [1,0,0], \"center\": [0,0,%d]}",
+                k ? ", " : "", -3 * (95 - (g * 32 + k)));
         n += (size_t)snprintf(b + n, cap - n, "]}");
     }
     snprintf(b + n, cap - n, "]}]}");
@@ -143,20 +153,28 @@ static char *big_instances_scene(int tris_side, int instances) {
     size_t cap = (size_t)tris_side * tris_side * 64 + (size_t)instances * 128 + 4096, n = 0;
     char *b = malloc(cap);
     int v = tris_side + 1;
-    n += (size_t)snprintf(b + n, cap - n, "{\"render\": {\"width\": 32, \"height\": 24}, \"camera\": {\"position\": [0, 50, 120], \"look_at\": [0,0,0]},"
-                          " \"lights\": [{\"type\": \"directional\", \"direction\": [0,-1,-1]}],"
-                          " \"groups\": {\"tile\": [{\"type\": \"mesh\", \"smooth\": false, \"vertices\": [");
+    n += (size_t)snprintf(
+        b + n, cap - n,
+        "{\"render\": {\"width\": 32, \"height\": 24}, \"camera\": {\"position\": [0, 50, 120], "
+        "\"look_at\": [0,0,0]},"
+        " \"lights\": [{\"type\": \"directional\", \"direction\": [0,-1,-1]}],"
+        " \"groups\": {\"tile\": [{\"type\": \"mesh\", \"smooth\": false, \"vertices\": [");
     for (int j = 0; j < v; j++)
-        for (int i = 0; i < v; i++) n += (size_t)snprintf(b + n, cap - n, "%s%d,%g,%d", i || j ? "," : "", i, 0.1 * ((i * 7 + j * 3) % 5), j);
+        for (int i = 0; i < v; i++)
+            n += (size_t)snprintf(b + n, cap - n, "%s%d,%g,%d", i || j ? "," : "", i,
+                                  0.1 * ((i * 7 + j * 3) % 5), j);
     n += (size_t)snprintf(b + n, cap - n, "], \"indices\": [");
     for (int j = 0; j < tris_side; j++)
         for (int i = 0; i < tris_side; i++) {
             int a = j * v + i;
-            n += (size_t)snprintf(b + n, cap - n, "%s%d,%d,%d,%d,%d,%d", i || j ? "," : "", a, a + v, a + 1, a + 1, a + v, a + v + 1);
+            n += (size_t)snprintf(b + n, cap - n, "%s%d,%d,%d,%d,%d,%d", i || j ? "," : "", a,
+                                  a + v, a + 1, a + 1, a + v, a + v + 1);
         }
     n += (size_t)snprintf(b + n, cap - n, "]}]}, \"objects\": [");
     for (int k = 0; k < instances; k++)
-        n += (size_t)snprintf(b + n, cap - n, "%s{\"type\": \"instance\", \"group\": \"tile\", \"transform\": {\"scale\": 0.01, \"translate\": [%d, 0, %d]}}",
+        n += (size_t)snprintf(b + n, cap - n,
+                              "%s{\"type\": \"instance\", \"group\": \"tile\", \"transform\": "
+                              "{\"scale\": 0.01, \"translate\": [%d, 0, %d]}}",
                               k ? "," : "", (k % 100) * 2 - 100, (k / 100) * 2 - 100);
     snprintf(b + n, cap - n, "]}");
     return b;
@@ -198,15 +216,18 @@ static bool surface_below(const rayd_scene *s, double x, double z, struct surfac
 
 static void test_checker_texture_in_world_space(void) {
     /* looking straight down at a checkered plane: cells of 1/scale = 0.5 */
-    const char *json =
-        "{\"camera\": {\"position\": [0,5,0], \"look_at\": [0,0,0], \"up\": [0,0,-1], \"projection\": \"orthographic\", \"view_width\": 4},"
-        " \"render\": {\"width\": 64, \"height\": 64},"
-        " \"objects\": [{\"type\": \"plane\", \"material\": {\"color\": [0,0,0], \"emission\": [1,1,1], \"diffuse\": 0,"
-        "   \"texture\": {\"type\": \"checker\", \"colors\": [[1,0,0],[0,0,1]], \"scale\": 2, \"space\": \"world\"}}}]}";
+    const char *json = "{\"camera\": {\"position\": [0,5,0], \"look_at\": [0,0,0], \"up\": "
+                       "[0,0,-1], \"projection\": \"orthographic\", \"view_width\": 4},"
+                       " \"render\": {\"width\": 64, \"height\": 64},"
+                       " \"objects\": [{\"type\": \"plane\", \"material\": {\"color\": [0,0,0], "
+                       "\"emission\": [1,1,1], \"diffuse\": 0,"
+                       "   \"texture\": {\"type\": \"checker\", \"colors\": [[1,0,0],[0,0,1]], "
+                       "\"scale\": 2, \"space\": \"world\"}}}]}";
     rayd_scene *s = scene_from(json);
     CHECK(s != NULL, "parse");
     if (!s) return;
-    /* Emission is not textured, so render with the texture as colour via ambient: check surface colour directly. */
+    /* Emission is not textured, so render with the texture as colour via ambient: check surface
+     * colour directly. */
     int bad = 0;
     for (int j = 0; j < 64; j += 3)
         for (int i = 0; i < 64; i += 3) {
@@ -229,9 +250,10 @@ static void test_object_space_texture_follows_a_plane_transform(void) {
      * 90 degrees about y (its x goes to world -z) and moved: in the world
      * the stripes run across z, 2 units wide: object x = -z / 2.  (A
      * plane's placement is baked in for the hit; its texture must not.) */
-    rayd_scene *s = scene_from(
-        "{\"objects\": [{\"type\": \"plane\", \"transform\": {\"scale\": [2,1,1], \"rotate\": [0,90,0], \"translate\": [0.25,0,0]},"
-        " \"material\": {\"texture\": {\"type\": \"stripes\", \"axis\": [1,0,0], \"colors\": [[1,0,0],[0,0,1]]}}}]}");
+    rayd_scene *s = scene_from("{\"objects\": [{\"type\": \"plane\", \"transform\": {\"scale\": "
+                               "[2,1,1], \"rotate\": [0,90,0], \"translate\": [0.25,0,0]},"
+                               " \"material\": {\"texture\": {\"type\": \"stripes\", \"axis\": "
+                               "[1,0,0], \"colors\": [[1,0,0],[0,0,1]]}}}]}");
     CHECK(s != NULL, "parse");
     if (!s) return;
     int bad = 0, n = 0;
@@ -257,12 +279,16 @@ static void test_csg_texture_is_in_the_space_of_its_node(void) {
      * each sphere's centre.  A third operand with its own material keeps
      * its own space (moved by 3.05 + 0.1: stripe = floor(2 (x - 3.15))). */
     rayd_scene *s = scene_from(
-        "{\"objects\": [{\"type\": \"csg\", \"op\": \"union\", \"transform\": {\"translate\": [0.1,0,0]},"
-        " \"material\": {\"texture\": {\"type\": \"stripes\", \"scale\": 2, \"colors\": [[1,0,0],[0,0,1]]}},"
+        "{\"objects\": [{\"type\": \"csg\", \"op\": \"union\", \"transform\": {\"translate\": "
+        "[0.1,0,0]},"
+        " \"material\": {\"texture\": {\"type\": \"stripes\", \"scale\": 2, \"colors\": "
+        "[[1,0,0],[0,0,1]]}},"
         " \"operands\": [{\"type\": \"sphere\", \"transform\": {\"translate\": [-0.8,0,0]}},"
         "              {\"type\": \"sphere\", \"center\": [0.65,0,0]},"
-        "              {\"type\": \"sphere\", \"radius\": 0.5, \"transform\": {\"translate\": [3.05,0,0]},"
-        "               \"material\": {\"texture\": {\"type\": \"stripes\", \"scale\": 2, \"colors\": [[0,1,0],[1,1,1]]}}}]}]}");
+        "              {\"type\": \"sphere\", \"radius\": 0.5, \"transform\": {\"translate\": "
+        "[3.05,0,0]},"
+        "               \"material\": {\"texture\": {\"type\": \"stripes\", \"scale\": 2, "
+        "\"colors\": [[0,1,0],[1,1,1]]}}}]}]}");
     CHECK(s != NULL, "parse");
     if (!s) return;
     int bad = 0, n = 0;
@@ -275,7 +301,8 @@ static void test_csg_texture_is_in_the_space_of_its_node(void) {
             scene_surface(s, &r, &h, &sf);
             bool own = x > 2.5;
             long k = (long)floor(2 * (x - (own ? 3.15 : 0.1)));
-            vec3 want = own ? ((k & 1) ? v3(1, 1, 1) : v3(0, 1, 0)) : ((k & 1) ? v3(0, 0, 1) : v3(1, 0, 0));
+            vec3 want =
+                own ? ((k & 1) ? v3(1, 1, 1) : v3(0, 1, 0)) : ((k & 1) ? v3(0, 0, 1) : v3(1, 0, 0));
             bad += v3_len(v3_sub(sf.color, want)) != 0;
             n++;
         }
@@ -287,7 +314,8 @@ static char *b64(const unsigned char *in, size_t n) {
     static const char al[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     char *out = malloc(4 * ((n + 2) / 3) + 1), *o = out;
     for (size_t i = 0; i < n; i += 3) {
-        unsigned v = (unsigned)in[i] << 16 | (i + 1 < n ? (unsigned)in[i + 1] << 8 : 0) | (i + 2 < n ? in[i + 2] : 0);
+        unsigned v = (unsigned)in[i] << 16 | (i + 1 < n ? (unsigned)in[i + 1] << 8 : 0) |
+                     (i + 2 < n ? in[i + 2] : 0);
         *o++ = al[v >> 18 & 63];
         *o++ = al[v >> 12 & 63];
         *o++ = i + 1 < n ? al[v >> 6 & 63] : '=';
@@ -312,8 +340,10 @@ static void test_image_texture_uv_bilinear(void) {
     size_t cap = strlen(enc) + 1024;
     char *json = malloc(cap);
     snprintf(json, cap,
-             "{\"objects\": [{\"type\": \"quad\", \"corner\": [0,0,-5], \"edge1\": [1,0,0], \"edge2\": [0,1,0],"
-             " \"material\": {\"texture\": {\"type\": \"image\", \"png_base64\": \"%s\"}}}]}", enc);
+             "{\"objects\": [{\"type\": \"quad\", \"corner\": [0,0,-5], \"edge1\": [1,0,0], "
+             "\"edge2\": [0,1,0],"
+             " \"material\": {\"texture\": {\"type\": \"image\", \"png_base64\": \"%s\"}}}]}",
+             enc);
     free(enc);
     rayd_scene *s = scene_from(json);
     free(json);
@@ -331,7 +361,8 @@ static void test_image_texture_uv_bilinear(void) {
     rayd_scene_free(s);
     /* a corrupt PNG is refused with the path of the data */
     struct rayd_error err;
-    const char *badpng = "{\"materials\": {\"m\": {\"texture\": {\"type\": \"image\", \"png_base64\": \"aGVsbG8=\"}}}}";
+    const char *badpng = "{\"materials\": {\"m\": {\"texture\": {\"type\": \"image\", "
+                         "\"png_base64\": \"aGVsbG8=\"}}}}";
     rayd_scene *none = NULL;
     CHECK(rayd_scene_parse(badpng, strlen(badpng), NULL, &none, &err) == RAYD_E_INVALID &&
               strcmp(err.path, "/materials/m/texture/png_base64") == 0,
@@ -339,10 +370,11 @@ static void test_image_texture_uv_bilinear(void) {
 }
 
 static void test_orthographic_exact_projection(void) {
-    const char *json =
-        "{\"camera\": {\"position\": [0,0,10], \"look_at\": [0,0,0], \"projection\": \"orthographic\", \"view_width\": 4},"
-        " \"render\": {\"width\": 80, \"height\": 40},"
-        " \"objects\": [{\"type\": \"sphere\", \"center\": [0.5,0.2,-3], \"radius\": 0.8, \"material\": {\"emission\": [1,1,1]}}]}";
+    const char *json = "{\"camera\": {\"position\": [0,0,10], \"look_at\": [0,0,0], "
+                       "\"projection\": \"orthographic\", \"view_width\": 4},"
+                       " \"render\": {\"width\": 80, \"height\": 40},"
+                       " \"objects\": [{\"type\": \"sphere\", \"center\": [0.5,0.2,-3], "
+                       "\"radius\": 0.8, \"material\": {\"emission\": [1,1,1]}}]}";
     rayd_scene *s = scene_from(json);
     CHECK(s != NULL, "parse");
     if (!s) return;
@@ -363,11 +395,14 @@ static void test_orthographic_exact_projection(void) {
 static void test_depth_of_field(void) {
     /* Two emissive spheres: one at the focus distance stays as sharp as
      * with a pinhole, one far behind it blurs (more partial pixels). */
-#define DOF_FMT                                                                                   \
-    "{\"camera\": {\"position\": [0,0,0], \"look_at\": [0,0,-1], \"fov_x\": 30, \"aperture\": %g, \"focus_distance\": 5}," \
-    " \"render\": {\"width\": 64, \"height\": 32, \"samples\": 64},"                                  \
-    " \"objects\": [{\"type\": \"sphere\", \"center\": [-0.7,0,-5], \"radius\": 0.5, \"material\": {\"emission\": [1,1,1]}}," \
-    "   {\"type\": \"sphere\", \"center\": [4,0,-25], \"radius\": 2.5, \"material\": {\"emission\": [1,1,1]}}]}"
+#define DOF_FMT                                                                                    \
+    "{\"camera\": {\"position\": [0,0,0], \"look_at\": [0,0,-1], \"fov_x\": 30, \"aperture\": "    \
+    "%g, \"focus_distance\": 5},"                                                                  \
+    " \"render\": {\"width\": 64, \"height\": 32, \"samples\": 64},"                               \
+    " \"objects\": [{\"type\": \"sphere\", \"center\": [-0.7,0,-5], \"radius\": 0.5, "             \
+    "\"material\": {\"emission\": [1,1,1]}},"                                                      \
+    "   {\"type\": \"sphere\", \"center\": [4,0,-25], \"radius\": 2.5, \"material\": "             \
+    "{\"emission\": [1,1,1]}}]}"
     int partial_near[2] = {0}, partial_far[2] = {0};
     for (int k = 0; k < 2; k++) {
         char json[1024];
@@ -384,16 +419,20 @@ static void test_depth_of_field(void) {
         rayd_image_free(img);
         rayd_scene_free(s);
     }
-    CHECK(partial_near[1] <= partial_near[0] + 6, "in focus stays sharp: %d vs %d", partial_near[1], partial_near[0]);
-    CHECK(partial_far[1] > 2 * partial_far[0] + 10, "out of focus blurs: %d vs %d", partial_far[1], partial_far[0]);
+    CHECK(partial_near[1] <= partial_near[0] + 6, "in focus stays sharp: %d vs %d", partial_near[1],
+          partial_near[0]);
+    CHECK(partial_far[1] > 2 * partial_far[0] + 10, "out of focus blurs: %d vs %d", partial_far[1],
+          partial_far[0]);
 }
 
 static void test_spot_and_area_lights(void) {
-    const char *spot =
-        "{\"camera\": {\"position\": [0,10,0], \"look_at\": [0,0,0], \"up\": [0,0,-1], \"projection\": \"orthographic\", \"view_width\": 10},"
-        " \"render\": {\"width\": 50, \"height\": 50},"
-        " \"lights\": [{\"type\": \"spot\", \"position\": [0,4,0], \"direction\": [0,-1,0], \"angle\": 30, \"falloff\": 0.001}],"
-        " \"objects\": [{\"type\": \"plane\", \"material\": {\"color\": [1,1,1], \"ambient\": 0, \"diffuse\": 1}}]}";
+    const char *spot = "{\"camera\": {\"position\": [0,10,0], \"look_at\": [0,0,0], \"up\": "
+                       "[0,0,-1], \"projection\": \"orthographic\", \"view_width\": 10},"
+                       " \"render\": {\"width\": 50, \"height\": 50},"
+                       " \"lights\": [{\"type\": \"spot\", \"position\": [0,4,0], \"direction\": "
+                       "[0,-1,0], \"angle\": 30, \"falloff\": 0.001}],"
+                       " \"objects\": [{\"type\": \"plane\", \"material\": {\"color\": [1,1,1], "
+                       "\"ambient\": 0, \"diffuse\": 1}}]}";
     rayd_scene *s = scene_from(spot);
     CHECK(s != NULL, "parse spot");
     if (!s) return;
@@ -402,7 +441,8 @@ static void test_spot_and_area_lights(void) {
     int bad = 0;
     for (int j = 0; j < 50; j++)
         for (int i = 0; i < 50; i++) {
-            double x = 5.0 * ((i + 0.5) - 25) / 25, z = -5.0 * (25 - (j + 0.5)) / 25, r = sqrt(x * x + z * z);
+            double x = 5.0 * ((i + 0.5) - 25) / 25, z = -5.0 * (25 - (j + 0.5)) / 25,
+                   r = sqrt(x * x + z * z);
             if (fabs(r - 4 * tan(M_PI / 6)) < 0.05) continue;
             bad += (px_at(img, i, j)[0] > 0) != (r < 4 * tan(M_PI / 6));
         }
@@ -412,18 +452,23 @@ static void test_spot_and_area_lights(void) {
 
     /* an area light over a blocker: umbra dark, penumbra between, far lit */
     const char *area =
-        "{\"camera\": {\"position\": [0,10,0], \"look_at\": [0,0,0], \"up\": [0,0,-1], \"projection\": \"orthographic\", \"view_width\": 8},"
+        "{\"camera\": {\"position\": [0,10,0], \"look_at\": [0,0,0], \"up\": [0,0,-1], "
+        "\"projection\": \"orthographic\", \"view_width\": 8},"
         " \"render\": {\"width\": 81, \"height\": 9},"
-        " \"lights\": [{\"type\": \"area\", \"shape\": \"rectangle\", \"position\": [-1,6,-1], \"edge1\": [2,0,0], \"edge2\": [0,0,2], \"samples\": 64}],"
-        " \"objects\": [{\"type\": \"plane\", \"material\": {\"color\": [1,1,1], \"ambient\": 0, \"diffuse\": 1}},"
-        "   {\"type\": \"disc\", \"center\": [0,3,0], \"radius\": 0.5, \"normal\": [0,1,0], \"material\": {\"color\": [0,0,0], \"ambient\": 0, \"diffuse\": 0}}]}";
+        " \"lights\": [{\"type\": \"area\", \"shape\": \"rectangle\", \"position\": [-1,6,-1], "
+        "\"edge1\": [2,0,0], \"edge2\": [0,0,2], \"samples\": 64}],"
+        " \"objects\": [{\"type\": \"plane\", \"material\": {\"color\": [1,1,1], \"ambient\": 0, "
+        "\"diffuse\": 1}},"
+        "   {\"type\": \"disc\", \"center\": [0,3,0], \"radius\": 0.5, \"normal\": [0,1,0], "
+        "\"material\": {\"color\": [0,0,0], \"ambient\": 0, \"diffuse\": 0}}]}";
     s = scene_from(area);
     CHECK(s != NULL, "parse area");
     if (!s) return;
     img = render_all(s, 2);
     /* row 4 is z = 0; the disc hides the floor under it, so look beside it:
      * x = 0.75 lies in the penumbra, x = 3.5 in full light */
-    int pen = px_at(img, (int)(40.5 + 0.75 * 10), 4)[0], lit = px_at(img, (int)(40.5 + 3.5 * 10), 4)[0];
+    int pen = px_at(img, (int)(40.5 + 0.75 * 10), 4)[0],
+        lit = px_at(img, (int)(40.5 + 3.5 * 10), 4)[0];
     CHECK(pen > 10 && pen < lit - 10, "penumbra %d between 0 and lit %d", pen, lit);
     rayd_image_free(img);
     rayd_scene_free(s);
@@ -431,19 +476,28 @@ static void test_spot_and_area_lights(void) {
 
 /* ---- path tracing converges ---------------------------------------------------------- */
 
-#define CB_FMT                                                                                            \
-    "{\"camera\": {\"position\": [0,1,3.4], \"look_at\": [0,1,0], \"fov_x\": 40},"                        \
-    " \"render\": {\"width\": 12, \"height\": 12, \"samples\": %d, \"seed\": %d, \"max_depth\": 6, \"integrator\": \"path\"}," \
-    " \"materials\": {\"w\": {\"color\": [0.73,0.73,0.73], \"diffuse\": 1}, \"r\": {\"color\": [0.65,0.05,0.05], \"diffuse\": 1},"  \
-    "   \"g\": {\"color\": [0.12,0.45,0.15], \"diffuse\": 1}, \"m\": {\"color\": [0.9,0.8,0.5], \"metallic\": 1, \"roughness\": 0.4},"  \
-    "   \"l\": {\"color\": [0,0,0], \"emission\": [12,12,12]}},"                                             \
-    " \"objects\": [{\"type\": \"quad\", \"corner\": [-1,0,-1], \"edge1\": [2,0,0], \"edge2\": [0,0,2], \"material\": \"w\"}," \
-    "  {\"type\": \"quad\", \"corner\": [-1,2,-1], \"edge1\": [2,0,0], \"edge2\": [0,0,2], \"material\": \"w\"},"       \
-    "  {\"type\": \"quad\", \"corner\": [-1,0,-1], \"edge1\": [2,0,0], \"edge2\": [0,2,0], \"material\": \"w\"},"       \
-    "  {\"type\": \"quad\", \"corner\": [-1,0,-1], \"edge1\": [0,0,2], \"edge2\": [0,2,0], \"material\": \"r\"},"       \
-    "  {\"type\": \"quad\", \"corner\": [1,0,-1], \"edge1\": [0,0,2], \"edge2\": [0,2,0], \"material\": \"g\"},"        \
-    "  {\"type\": \"quad\", \"corner\": [-0.3,1.99,-0.3], \"edge1\": [0.6,0,0], \"edge2\": [0,0,0.6], \"material\": \"l\"}," \
-    "  {\"type\": \"sphere\", \"center\": [0.3,0.4,0], \"radius\": 0.4, \"material\": \"m\"},"                          \
+#define CB_FMT                                                                                     \
+    "{\"camera\": {\"position\": [0,1,3.4], \"look_at\": [0,1,0], \"fov_x\": 40},"                 \
+    " \"render\": {\"width\": 12, \"height\": 12, \"samples\": %d, \"seed\": %d, \"max_depth\": "  \
+    "6, \"integrator\": \"path\"},"                                                                \
+    " \"materials\": {\"w\": {\"color\": [0.73,0.73,0.73], \"diffuse\": 1}, \"r\": {\"color\": "   \
+    "[0.65,0.05,0.05], \"diffuse\": 1},"                                                           \
+    "   \"g\": {\"color\": [0.12,0.45,0.15], \"diffuse\": 1}, \"m\": {\"color\": [0.9,0.8,0.5], "  \
+    "\"metallic\": 1, \"roughness\": 0.4},"                                                        \
+    "   \"l\": {\"color\": [0,0,0], \"emission\": [12,12,12]}},"                                   \
+    " \"objects\": [{\"type\": \"quad\", \"corner\": [-1,0,-1], \"edge1\": [2,0,0], \"edge2\": "   \
+    "[0,0,2], \"material\": \"w\"},"                                                               \
+    "  {\"type\": \"quad\", \"corner\": [-1,2,-1], \"edge1\": [2,0,0], \"edge2\": [0,0,2], "       \
+    "\"material\": \"w\"},"                                                                        \
+    "  {\"type\": \"quad\", \"corner\": [-1,0,-1], \"edge1\": [2,0,0], \"edge2\": [0,2,0], "       \
+    "\"material\": \"w\"},"                                                                        \
+    "  {\"type\": \"quad\", \"corner\": [-1,0,-1], \"edge1\": [0,0,2], \"edge2\": [0,2,0], "       \
+    "\"material\": \"r\"},"                                                                        \
+    "  {\"type\": \"quad\", \"corner\": [1,0,-1], \"edge1\": [0,0,2], \"edge2\": [0,2,0], "        \
+    "\"material\": \"g\"},"                                                                        \
+    "  {\"type\": \"quad\", \"corner\": [-0.3,1.99,-0.3], \"edge1\": [0.6,0,0], \"edge2\": "       \
+    "[0,0,0.6], \"material\": \"l\"},"                                                             \
+    "  {\"type\": \"sphere\", \"center\": [0.3,0.4,0], \"radius\": 0.4, \"material\": \"m\"},"     \
     "  {\"type\": \"box\", \"min\": [-0.7,0,-0.5], \"max\": [-0.2,0.9,0]}]}"
 
 static double *cornell(int spp, int seed) {
@@ -513,7 +567,8 @@ static void test_path_tiles_are_exact(void) {
     rayd_image *crop = NULL;
     CHECK(rayd_render(s, &o, &crop, NULL) == RAYD_OK, "region");
     int bad = 0;
-    for (int j = 0; crop && j < 6; j++) bad += memcmp(px_at(full, 3, 4 + j), px_at(crop, 0, j), 15) != 0;
+    for (int j = 0; crop && j < 6; j++)
+        bad += memcmp(px_at(full, 3, 4 + j), px_at(crop, 0, j), 15) != 0;
     CHECK(bad == 0, "path-traced region equals the crop of the full render");
     rayd_image_free(full);
     rayd_image_free(crop);

@@ -52,10 +52,14 @@ static const char *doc_text =
     "                   {\"buffer\": 0, \"byteOffset\": 48, \"byteLength\": 52}],"
     " \"accessors\": ["
     "   {\"bufferView\": 0, \"componentType\": 5126, \"count\": 4, \"type\": \"VEC3\"},"
-    "   {\"bufferView\": 1, \"byteOffset\": 0, \"componentType\": 5121, \"count\": 6, \"type\": \"SCALAR\"},"
-    "   {\"bufferView\": 1, \"byteOffset\": 8, \"componentType\": 5123, \"count\": 6, \"type\": \"SCALAR\"},"
-    "   {\"bufferView\": 1, \"byteOffset\": 20, \"componentType\": 5125, \"count\": 6, \"type\": \"SCALAR\"},"
-    "   {\"bufferView\": 1, \"byteOffset\": 44, \"componentType\": 5123, \"count\": 4, \"type\": \"SCALAR\"}],"
+    "   {\"bufferView\": 1, \"byteOffset\": 0, \"componentType\": 5121, \"count\": 6, \"type\": "
+    "\"SCALAR\"},"
+    "   {\"bufferView\": 1, \"byteOffset\": 8, \"componentType\": 5123, \"count\": 6, \"type\": "
+    "\"SCALAR\"},"
+    "   {\"bufferView\": 1, \"byteOffset\": 20, \"componentType\": 5125, \"count\": 6, \"type\": "
+    "\"SCALAR\"},"
+    "   {\"bufferView\": 1, \"byteOffset\": 44, \"componentType\": 5123, \"count\": 4, \"type\": "
+    "\"SCALAR\"}],"
     " \"meshes\": ["
     "   {\"primitives\": [{\"attributes\": {\"POSITION\": 0}, \"indices\": 1}]},"
     "   {\"primitives\": [{\"attributes\": {\"POSITION\": 0}, \"indices\": 2},"
@@ -94,7 +98,8 @@ static char *b64(const unsigned char *p, size_t n) {
     static const char *a = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     char *o = malloc(4 * (n / 3 + 1) + 1), *w = o;
     for (size_t i = 0; i < n; i += 3) {
-        uint32_t v = (uint32_t)p[i] << 16 | (i + 1 < n ? (uint32_t)p[i + 1] << 8 : 0) | (i + 2 < n ? p[i + 2] : 0);
+        uint32_t v = (uint32_t)p[i] << 16 | (i + 1 < n ? (uint32_t)p[i + 1] << 8 : 0) |
+                     (i + 2 < n ? p[i + 2] : 0);
         *w++ = a[v >> 18 & 63];
         *w++ = a[v >> 12 & 63];
         *w++ = i + 1 < n ? a[v >> 6 & 63] : '=';
@@ -149,7 +154,8 @@ struct tri {
 static const double Q[4][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
 
 /* The quad's triangles (a, b, c) of Q moved by f. */
-static void add_tri(struct tri *t, int *n, int a, int b, int c, void (*f)(const double *, double *)) {
+static void add_tri(struct tri *t, int *n, int a, int b, int c,
+                    void (*f)(const double *, double *)) {
     int k[3] = {a, b, c};
     for (int i = 0; i < 3; i++) f(Q[k[i]], t[*n].v[i]);
     (*n)++;
@@ -160,7 +166,9 @@ static void plus_x10(const double *p, double *o) { o[0] = p[0] + 10, o[1] = p[1]
 static void plus_z5(const double *p, double *o) { o[0] = p[0], o[1] = p[1], o[2] = p[2] + 5; }
 static void minus_z5(const double *p, double *o) { o[0] = p[0], o[1] = p[1], o[2] = p[2] - 5; }
 /* scale 2, turn 90 degrees about z, then up 10 */
-static void trs(const double *p, double *o) { o[0] = -2 * p[1], o[1] = 2 * p[0] + 10, o[2] = 2 * p[2]; }
+static void trs(const double *p, double *o) {
+    o[0] = -2 * p[1], o[1] = 2 * p[0] + 10, o[2] = 2 * p[2];
+}
 
 static int expected(struct tri *t) {
     int n = 0;
@@ -191,9 +199,10 @@ static void check_quads(const struct mesh_data *m, const char *what) {
     int n = expected(want);
     CHECK(m->ntris == (uint32_t)n, "%s: %u triangles, want %d", what, m->ntris, n);
     for (int t = 0; t < n && (uint32_t)t < m->ntris; t++)
-        CHECK(tri_matches(m, (uint32_t)t, &want[t]), "%s: triangle %d is not (%g %g %g) (%g %g %g) (%g %g %g)",
-              what, t, want[t].v[0][0], want[t].v[0][1], want[t].v[0][2], want[t].v[1][0],
-              want[t].v[1][1], want[t].v[1][2], want[t].v[2][0], want[t].v[2][1], want[t].v[2][2]);
+        CHECK(tri_matches(m, (uint32_t)t, &want[t]),
+              "%s: triangle %d is not (%g %g %g) (%g %g %g) (%g %g %g)", what, t, want[t].v[0][0],
+              want[t].v[0][1], want[t].v[0][2], want[t].v[1][0], want[t].v[1][1], want[t].v[1][2],
+              want[t].v[2][0], want[t].v[2][1], want[t].v[2][2]);
     for (uint32_t i = 0; i < m->ntris * 3; i++)
         if (m->index[i] >= m->nverts) {
             CHECK(0, "%s: index %u out of range", what, i);
@@ -231,7 +240,8 @@ static void test_gltf_data_uri_and_file(void) {
         struct mesh_data m = {0};
         struct rayd_error e;
         enum rayd_status st = decode(s, strlen(s), NULL, &m, &e);
-        CHECK(st == RAYD_OK, "%s: status %d: %s: %s", k ? "file" : "data uri", (int)st, e.path, e.message);
+        CHECK(st == RAYD_OK, "%s: status %d: %s: %s", k ? "file" : "data uri", (int)st, e.path,
+              e.message);
         if (st == RAYD_OK) check_quads(&m, k ? "file" : "data uri");
         mesh_data_free(&m);
         free(s);
@@ -242,9 +252,13 @@ static void test_gltf_data_uri_and_file(void) {
 static void test_normals_transformed(void) {
     /* The strip's node alone, with its positions as normals too. */
     cJSON *d = cJSON_Parse(doc_text);
-    cJSON *prim = cJSON_GetArrayItem(cJSON_GetObjectItem(cJSON_GetArrayItem(cJSON_GetObjectItem(d, "meshes"), 2), "primitives"), 0);
-    cJSON_AddNumberToObject(cJSON_GetObjectItem(prim, "attributes"), "NORMAL", 0); /* positions as normals */
-    cJSON *nodes = cJSON_GetObjectItem(cJSON_GetArrayItem(cJSON_GetObjectItem(d, "scenes"), 0), "nodes");
+    cJSON *prim = cJSON_GetArrayItem(
+        cJSON_GetObjectItem(cJSON_GetArrayItem(cJSON_GetObjectItem(d, "meshes"), 2), "primitives"),
+        0);
+    cJSON_AddNumberToObject(cJSON_GetObjectItem(prim, "attributes"), "NORMAL",
+                            0); /* positions as normals */
+    cJSON *nodes =
+        cJSON_GetObjectItem(cJSON_GetArrayItem(cJSON_GetObjectItem(d, "scenes"), 0), "nodes");
     while (cJSON_GetArraySize(nodes) > 0) cJSON_DeleteItemFromArray(nodes, 0);
     cJSON_AddItemToArray(nodes, cJSON_CreateNumber(2));
     char *s = cJSON_PrintUnformatted(d);
@@ -275,22 +289,50 @@ static void set_num(cJSON *o, const char *key, double v) {
 }
 
 static void v_count(cJSON *d) { set_num(item(d, "accessors", 0), "count", 100); }
-static void v_offset_huge(cJSON *d) { set_num(item(d, "accessors", 0), "byteOffset", 9007199254740988.0); }
+static void v_offset_huge(cJSON *d) {
+    set_num(item(d, "accessors", 0), "byteOffset", 9007199254740988.0);
+}
 static void v_index_range(cJSON *d) { set_num(item(d, "accessors", 1), "count", 60); }
-static void v_cycle(cJSON *d) { cJSON_AddItemToObject(item(d, "nodes", 4), "children", cJSON_CreateIntArray((int[]){3}, 1)); }
-static void v_two_parents(cJSON *d) { cJSON_AddItemToObject(item(d, "nodes", 5), "children", cJSON_CreateIntArray((int[]){4}, 1)); }
-static void v_draco(cJSON *d) { cJSON_AddItemToObject(d, "extensionsRequired", cJSON_CreateStringArray((const char *[]){"KHR_draco_mesh_compression"}, 1)); }
-static void v_unknown_ext(cJSON *d) { cJSON_AddItemToObject(d, "extensionsRequired", cJSON_CreateStringArray((const char *[]){"KHR_materials_unlit", "EXT_future"}, 2)); }
-static void v_sparse(cJSON *d) { cJSON_AddItemToObject(item(d, "accessors", 0), "sparse", cJSON_CreateObject()); }
+static void v_cycle(cJSON *d) {
+    cJSON_AddItemToObject(item(d, "nodes", 4), "children", cJSON_CreateIntArray((int[]){3}, 1));
+}
+static void v_two_parents(cJSON *d) {
+    cJSON_AddItemToObject(item(d, "nodes", 5), "children", cJSON_CreateIntArray((int[]){4}, 1));
+}
+static void v_draco(cJSON *d) {
+    cJSON_AddItemToObject(
+        d, "extensionsRequired",
+        cJSON_CreateStringArray((const char *[]){"KHR_draco_mesh_compression"}, 1));
+}
+static void v_unknown_ext(cJSON *d) {
+    cJSON_AddItemToObject(
+        d, "extensionsRequired",
+        cJSON_CreateStringArray((const char *[]){"KHR_materials_unlit", "EXT_future"}, 2));
+}
+static void v_sparse(cJSON *d) {
+    cJSON_AddItemToObject(item(d, "accessors", 0), "sparse", cJSON_CreateObject());
+}
 static void v_view_past(cJSON *d) { set_num(item(d, "bufferViews", 1), "byteLength", 60); }
 static void v_mesh_ref(cJSON *d) { set_num(item(d, "nodes", 0), "mesh", 99); }
-static void v_version(cJSON *d) { cJSON_ReplaceItemInObject(cJSON_GetObjectItem(d, "asset"), "version", cJSON_CreateString("1.0")); }
-static void v_no_uri(cJSON *d) { cJSON_AddStringToObject(item(d, "buffers", 0), "uri", "../elsewhere.bin"); }
-static void v_http_uri(cJSON *d) { cJSON_AddStringToObject(item(d, "buffers", 0), "uri", "https://example.com/x.bin"); }
-static void v_bad_type(cJSON *d) { cJSON_ReplaceItemInObject(item(d, "accessors", 0), "type", cJSON_CreateString("VEC2")); }
+static void v_version(cJSON *d) {
+    cJSON_ReplaceItemInObject(cJSON_GetObjectItem(d, "asset"), "version",
+                              cJSON_CreateString("1.0"));
+}
+static void v_no_uri(cJSON *d) {
+    cJSON_AddStringToObject(item(d, "buffers", 0), "uri", "../elsewhere.bin");
+}
+static void v_http_uri(cJSON *d) {
+    cJSON_AddStringToObject(item(d, "buffers", 0), "uri", "https://example.com/x.bin");
+}
+static void v_bad_type(cJSON *d) {
+    cJSON_ReplaceItemInObject(item(d, "accessors", 0), "type", cJSON_CreateString("VEC2"));
+}
 static void v_float_index(cJSON *d) { set_num(item(d, "accessors", 1), "componentType", 5126); }
 static void v_stride(cJSON *d) { set_num(item(d, "bufferViews", 0), "byteStride", 8); }
-static void v_mode(cJSON *d) { set_num(cJSON_GetArrayItem(cJSON_GetObjectItem(item(d, "meshes", 0), "primitives"), 0), "mode", 7); }
+static void v_mode(cJSON *d) {
+    set_num(cJSON_GetArrayItem(cJSON_GetObjectItem(item(d, "meshes", 0), "primitives"), 0), "mode",
+            7);
+}
 static void v_points_only(cJSON *d) {
     cJSON *nodes = cJSON_GetObjectItem(item(d, "scenes", 0), "nodes");
     while (cJSON_GetArraySize(nodes) > 0) cJSON_DeleteItemFromArray(nodes, 0);
@@ -305,7 +347,8 @@ static void v_deep(cJSON *d) {
     cJSON *nodes = cJSON_GetObjectItem(d, "nodes");
     for (int i = 6; i < 6 + 300; i++) {
         cJSON *n = cJSON_CreateObject();
-        if (i + 1 < 6 + 300) cJSON_AddItemToObject(n, "children", cJSON_CreateIntArray((int[]){i + 1}, 1));
+        if (i + 1 < 6 + 300)
+            cJSON_AddItemToObject(n, "children", cJSON_CreateIntArray((int[]){i + 1}, 1));
         cJSON_AddItemToArray(nodes, n);
     }
     cJSON_AddItemToArray(cJSON_GetObjectItem(item(d, "scenes", 0), "nodes"), cJSON_CreateNumber(6));
@@ -316,22 +359,34 @@ static void v_nan_matrix(cJSON *d) {
 /* Required values missing and arrays cut short: each refused where it is,
  * never read (clang's analyzer followed these paths on into values never
  * written; ASan and the messages here say they stop). */
-static void v_no_buffer_len(cJSON *d) { cJSON_DeleteItemFromObject(item(d, "buffers", 0), "byteLength"); }
-static void v_no_view_buffer(cJSON *d) { cJSON_DeleteItemFromObject(item(d, "bufferViews", 0), "buffer"); }
-static void v_no_view_len(cJSON *d) { cJSON_DeleteItemFromObject(item(d, "bufferViews", 0), "byteLength"); }
+static void v_no_buffer_len(cJSON *d) {
+    cJSON_DeleteItemFromObject(item(d, "buffers", 0), "byteLength");
+}
+static void v_no_view_buffer(cJSON *d) {
+    cJSON_DeleteItemFromObject(item(d, "bufferViews", 0), "buffer");
+}
+static void v_no_view_len(cJSON *d) {
+    cJSON_DeleteItemFromObject(item(d, "bufferViews", 0), "byteLength");
+}
 static void v_no_count(cJSON *d) { cJSON_DeleteItemFromObject(item(d, "accessors", 0), "count"); }
-static void v_no_ctype(cJSON *d) { cJSON_DeleteItemFromObject(item(d, "accessors", 0), "componentType"); }
+static void v_no_ctype(cJSON *d) {
+    cJSON_DeleteItemFromObject(item(d, "accessors", 0), "componentType");
+}
 static void v_no_position(cJSON *d) {
     cJSON *p = cJSON_GetArrayItem(cJSON_GetObjectItem(item(d, "meshes", 0), "primitives"), 0);
     cJSON_DeleteItemFromObject(cJSON_GetObjectItem(p, "attributes"), "POSITION");
 }
-static void v_short_rotation(cJSON *d) { cJSON_ReplaceItemInObject(item(d, "nodes", 2), "rotation", cJSON_CreateIntArray((int[]){0, 0, 1}, 3)); }
+static void v_short_rotation(cJSON *d) {
+    cJSON_ReplaceItemInObject(item(d, "nodes", 2), "rotation",
+                              cJSON_CreateIntArray((int[]){0, 0, 1}, 3));
+}
 static void v_short_matrix(cJSON *d) {
     cJSON *m = cJSON_GetObjectItem(item(d, "nodes", 1), "matrix");
     cJSON_DeleteItemFromArray(m, 15);
 }
 static void v_translation_str(cJSON *d) {
-    cJSON_ReplaceItemInArray(cJSON_GetObjectItem(item(d, "nodes", 2), "translation"), 1, cJSON_CreateString("x"));
+    cJSON_ReplaceItemInArray(cJSON_GetObjectItem(item(d, "nodes", 2), "translation"), 1,
+                             cJSON_CreateString("x"));
 }
 
 struct hostile {
@@ -344,34 +399,45 @@ struct hostile {
 static void test_hostile(void) {
     static const struct hostile h[] = {
         {"count", v_count, RAYD_E_INVALID, "/accessors/0/count", "exceeds the buffer view"},
-        {"offset_huge", v_offset_huge, RAYD_E_INVALID, "/accessors/0/count", "exceeds the buffer view"},
+        {"offset_huge", v_offset_huge, RAYD_E_INVALID, "/accessors/0/count",
+         "exceeds the buffer view"},
         {"index_range", v_index_range, RAYD_E_INVALID, "/accessors/1/count", "exceeds"},
         {"cycle", v_cycle, RAYD_E_INVALID, "/nodes/4/children/0", "its own ancestor"},
         {"two_parents", v_two_parents, RAYD_E_INVALID, "/nodes/5/children/0", "reached twice"},
-        {"draco", v_draco, RAYD_E_INVALID, "/extensionsRequired/0", "compressed meshes are not supported"},
-        {"unknown_ext", v_unknown_ext, RAYD_E_INVALID, "/extensionsRequired/1", "\"EXT_future\" is not supported"},
+        {"draco", v_draco, RAYD_E_INVALID, "/extensionsRequired/0",
+         "compressed meshes are not supported"},
+        {"unknown_ext", v_unknown_ext, RAYD_E_INVALID, "/extensionsRequired/1",
+         "\"EXT_future\" is not supported"},
         {"sparse", v_sparse, RAYD_E_INVALID, "/accessors/0/sparse", "not supported"},
-        {"view_past", v_view_past, RAYD_E_INVALID, "/bufferViews/1/byteLength", "runs past the end of buffer 0"},
-        {"mesh_ref", v_mesh_ref, RAYD_E_INVALID, "/nodes/0/mesh", "99 is not an index into /meshes"},
+        {"view_past", v_view_past, RAYD_E_INVALID, "/bufferViews/1/byteLength",
+         "runs past the end of buffer 0"},
+        {"mesh_ref", v_mesh_ref, RAYD_E_INVALID, "/nodes/0/mesh",
+         "99 is not an index into /meshes"},
         {"version", v_version, RAYD_E_INVALID, "/asset/version", "not supported"},
-        {"file_missing", v_no_uri, RAYD_E_INVALID, "/buffers/0/uri", "cannot open \"../elsewhere.bin\""},
+        {"file_missing", v_no_uri, RAYD_E_INVALID, "/buffers/0/uri",
+         "cannot open \"../elsewhere.bin\""},
         {"http_uri", v_http_uri, RAYD_E_INVALID, "/buffers/0/uri", "only data: URIs"},
         {"bad_type", v_bad_type, RAYD_E_INVALID, "/accessors/0/type", "must be \"VEC3\""},
-        {"float_index", v_float_index, RAYD_E_INVALID, "/accessors/1/componentType", "indices must be"},
+        {"float_index", v_float_index, RAYD_E_INVALID, "/accessors/1/componentType",
+         "indices must be"},
         {"stride", v_stride, RAYD_E_INVALID, "/bufferViews/0/byteStride", "less than"},
         {"mode", v_mode, RAYD_E_INVALID, "/meshes/0/primitives/0/mode", "must be in 0..6"},
         {"points_only", v_points_only, RAYD_E_INVALID, "", "no triangles"},
         {"deep", v_deep, RAYD_E_LIMIT, "/nodes/", "nest more than"},
         {"matrix_type", v_nan_matrix, RAYD_E_INVALID, "/nodes/1/matrix", "array of 16 numbers"},
         {"no_buffer_len", v_no_buffer_len, RAYD_E_INVALID, "/buffers/0/byteLength", "is required"},
-        {"no_view_buffer", v_no_view_buffer, RAYD_E_INVALID, "/bufferViews/0/buffer", "is required"},
+        {"no_view_buffer", v_no_view_buffer, RAYD_E_INVALID, "/bufferViews/0/buffer",
+         "is required"},
         {"no_view_len", v_no_view_len, RAYD_E_INVALID, "/bufferViews/0/byteLength", "is required"},
         {"no_count", v_no_count, RAYD_E_INVALID, "/accessors/0/count", "is required"},
         {"no_ctype", v_no_ctype, RAYD_E_INVALID, "/accessors/0/componentType", "is required"},
-        {"no_position", v_no_position, RAYD_E_INVALID, "/meshes/0/primitives/0/attributes/POSITION", "is required"},
-        {"short_rotation", v_short_rotation, RAYD_E_INVALID, "/nodes/2/rotation", "array of 4 numbers"},
+        {"no_position", v_no_position, RAYD_E_INVALID, "/meshes/0/primitives/0/attributes/POSITION",
+         "is required"},
+        {"short_rotation", v_short_rotation, RAYD_E_INVALID, "/nodes/2/rotation",
+         "array of 4 numbers"},
         {"short_matrix", v_short_matrix, RAYD_E_INVALID, "/nodes/1/matrix", "array of 16 numbers"},
-        {"translation_str", v_translation_str, RAYD_E_INVALID, "/nodes/2/translation/1", "must be a finite number"},
+        {"translation_str", v_translation_str, RAYD_E_INVALID, "/nodes/2/translation/1",
+         "must be a finite number"},
     };
     for (size_t i = 0; i < sizeof h / sizeof h[0]; i++) {
         cJSON *d = cJSON_Parse(doc_text);
@@ -380,10 +446,12 @@ static void test_hostile(void) {
         struct mesh_data m = {0};
         struct rayd_error e;
         enum rayd_status st = decode_glb(s, NULL, &m, &e);
-        CHECK(st == h[i].code, "%s: status %d, want %d (%s: %s)", h[i].name, (int)st, (int)h[i].code, e.path, e.message);
+        CHECK(st == h[i].code, "%s: status %d, want %d (%s: %s)", h[i].name, (int)st,
+              (int)h[i].code, e.path, e.message);
         CHECK(!strncmp(e.path, h[i].path, strlen(h[i].path)) && (h[i].path[0] || !e.path[0]),
               "%s: path '%s', want '%s'", h[i].name, e.path, h[i].path);
-        CHECK(strstr(e.message, h[i].msg) != NULL, "%s: message '%s' lacks '%s'", h[i].name, e.message, h[i].msg);
+        CHECK(strstr(e.message, h[i].msg) != NULL, "%s: message '%s' lacks '%s'", h[i].name,
+              e.message, h[i].msg);
         CHECK(m.pos == NULL && m.index == NULL, "%s: out written on error", h[i].name);
         mesh_data_free(&m);
         free(s);
@@ -398,13 +466,15 @@ static void test_index_value(void) {
     bin[53] = 9;
     enum rayd_status st = decode_glb(doc_text, NULL, &m, &e);
     make_bin();
-    CHECK(st == RAYD_E_INVALID && !strcmp(e.path, "/accessors/1"), "status %d at '%s'", (int)st, e.path);
+    CHECK(st == RAYD_E_INVALID && !strcmp(e.path, "/accessors/1"), "status %d at '%s'", (int)st,
+          e.path);
     CHECK(strstr(e.message, "element 5 is 9, out of range") != NULL, "message '%s'", e.message);
     float inf = INFINITY;
     memcpy(bin + 16, &inf, 4); /* y of vertex 1 */
     st = decode_glb(doc_text, NULL, &m, &e);
     make_bin();
-    CHECK(st == RAYD_E_INVALID && !strcmp(e.path, "/accessors/0") && strstr(e.message, "POSITION 1 is not finite"),
+    CHECK(st == RAYD_E_INVALID && !strcmp(e.path, "/accessors/0") &&
+              strstr(e.message, "POSITION 1 is not finite"),
           "status %d at '%s': %s", (int)st, e.path, e.message);
 }
 
@@ -413,20 +483,24 @@ static void test_limits_and_container(void) {
     struct rayd_error e;
     struct mesh_limits lim = {1000, 7};
     enum rayd_status st = decode_glb(doc_text, &lim, &m, &e);
-    CHECK(st == RAYD_E_LIMIT && !strcmp(e.path, "/meshes/2/primitives/0") && strstr(e.message, "8 triangles; the limit is 7"),
+    CHECK(st == RAYD_E_LIMIT && !strcmp(e.path, "/meshes/2/primitives/0") &&
+              strstr(e.message, "8 triangles; the limit is 7"),
           "triangles: status %d at '%s': %s", (int)st, e.path, e.message);
     struct mesh_limits dlim = {1000, 5}; /* the 6th primitive drawn: node 5's mesh 0 */
     st = decode_glb(doc_text, &dlim, &m, &e);
-    CHECK(st == RAYD_E_LIMIT && !strcmp(e.path, "/meshes/0/primitives/0") && strstr(e.message, "more than 5 triangle primitives"),
+    CHECK(st == RAYD_E_LIMIT && !strcmp(e.path, "/meshes/0/primitives/0") &&
+              strstr(e.message, "more than 5 triangle primitives"),
           "draws: status %d at '%s': %s", (int)st, e.path, e.message);
     struct mesh_limits vlim = {15, 1000};
     st = decode_glb(doc_text, &vlim, &m, &e);
-    CHECK(st == RAYD_E_LIMIT && strstr(e.message, "16 vertices; the limit is 15"), "vertices: %d %s", (int)st, e.message);
+    CHECK(st == RAYD_E_LIMIT && strstr(e.message, "16 vertices; the limit is 15"),
+          "vertices: %d %s", (int)st, e.message);
     size_t n;
     unsigned char *g = glb_of(doc_text, &n);
     put32(g + 12, 1u << 30); /* the JSON chunk's length */
     st = decode(g, n, NULL, &m, &e);
-    CHECK(st == RAYD_E_INVALID && strstr(e.message, "GLB chunk 0 runs past the end"), "chunk: %d %s", (int)st, e.message);
+    CHECK(st == RAYD_E_INVALID && strstr(e.message, "GLB chunk 0 runs past the end"),
+          "chunk: %d %s", (int)st, e.message);
     for (size_t cut = 0; cut < n; cut += 7) { /* every truncation is refused, none crashes */
         st = decode(g, cut, NULL, &m, &e);
         CHECK(st != RAYD_OK, "a .glb cut to %zu bytes was read", cut);
@@ -434,15 +508,18 @@ static void test_limits_and_container(void) {
     free(g);
     const char *bad = "{\"asset\": {\"version\": \"2.0\"},\n \"nodes\": [}";
     st = decode(bad, strlen(bad), NULL, &m, &e);
-    CHECK(st == RAYD_E_INVALID && !strcmp(e.path, "") && strstr(e.message, "glTF JSON line 2, column"),
+    CHECK(st == RAYD_E_INVALID && !strcmp(e.path, "") &&
+              strstr(e.message, "glTF JSON line 2, column"),
           "syntax: %d '%s'", (int)st, e.message);
     struct mesh_gltf_opts o = {.max_bytes = 99, .max_nesting = 64, .open = gltf_open_bin};
     char *s = with_uri("quad%20data.bin");
     st = mesh_parse_gltf(s, strlen(s), NULL, &o, &m, &e);
-    CHECK(st == RAYD_E_LIMIT && !strcmp(e.path, "/buffers/0/byteLength"), "bytes: %d '%s' %s", (int)st, e.path, e.message);
+    CHECK(st == RAYD_E_LIMIT && !strcmp(e.path, "/buffers/0/byteLength"), "bytes: %d '%s' %s",
+          (int)st, e.path, e.message);
     o.open = NULL;
     st = mesh_parse_gltf(s, strlen(s), NULL, &o, &m, &e);
-    CHECK(st == RAYD_E_INVALID && strstr(e.message, "no files are read here"), "no opener: %d %s", (int)st, e.message);
+    CHECK(st == RAYD_E_INVALID && strstr(e.message, "no files are read here"), "no opener: %d %s",
+          (int)st, e.message);
     free(s);
 }
 
@@ -451,21 +528,23 @@ static void test_limits_and_container(void) {
  * 300-byte file cannot build millions of triangles under a small limit; under
  * a large one the same file still decodes (zeros, as the spec says). */
 static void test_accessor_without_view(void) {
-    const char *doc = "{\"asset\": {\"version\": \"2.0\"}, \"scene\": 0, \"scenes\": [{\"nodes\": [0]}],"
-                      " \"nodes\": [{\"mesh\": 0}], \"meshes\": [{\"primitives\": [{\"attributes\":"
-                      " {\"POSITION\": 0}}]}], \"accessors\": [{\"componentType\": 5126, \"count\": 3000,"
-                      " \"type\": \"VEC3\", \"min\": [0, 0, 0], \"max\": [0, 0, 0]}]}";
+    const char *doc =
+        "{\"asset\": {\"version\": \"2.0\"}, \"scene\": 0, \"scenes\": [{\"nodes\": [0]}],"
+        " \"nodes\": [{\"mesh\": 0}], \"meshes\": [{\"primitives\": [{\"attributes\":"
+        " {\"POSITION\": 0}}]}], \"accessors\": [{\"componentType\": 5126, \"count\": 3000,"
+        " \"type\": \"VEC3\", \"min\": [0, 0, 0], \"max\": [0, 0, 0]}]}";
     struct mesh_data m = {0};
     struct rayd_error e = {0};
     struct mesh_gltf_opts o = {.max_bytes = 35999, .max_nesting = 64};
     enum rayd_status st = mesh_parse_gltf(doc, strlen(doc), NULL, &o, &m, &e);
-    CHECK(st == RAYD_E_LIMIT && !strcmp(e.path, "/accessors/0/count") && strstr(e.message, "no bufferView") &&
-              strstr(e.message, "36000 bytes"),
+    CHECK(st == RAYD_E_LIMIT && !strcmp(e.path, "/accessors/0/count") &&
+              strstr(e.message, "no bufferView") && strstr(e.message, "36000 bytes"),
           "zeros over max_bytes: %d '%s' %s", (int)st, e.path, e.message);
     o.max_bytes = 36000;
     memset(&e, 0, sizeof e);
     st = mesh_parse_gltf(doc, strlen(doc), NULL, &o, &m, &e);
-    CHECK(st == RAYD_OK && m.ntris == 1000, "zeros at max_bytes: %d %s, %u triangles", (int)st, e.message, m.ntris);
+    CHECK(st == RAYD_OK && m.ntris == 1000, "zeros at max_bytes: %d %s, %u triangles", (int)st,
+          e.message, m.ntris);
     mesh_data_free(&m);
 }
 

@@ -30,14 +30,13 @@ static void b64(const unsigned char *in, size_t n, char *out) {
 /* A triangle at node 0, animated: translation LINEAR, rotation STEP, scale
  * CUBICSPLINE, keys at 0, 1 and 2 seconds. */
 static char *anim_gltf(void) {
-    float f[60] = {
-        0, 0, 0, 1, 0, 0, 0, 1, 0,                               /* positions, 0 */
-        0, 1, 2,                                                 /* times, 36 */
-        0, 0, 0, 2, 0, 0, 2, 4, 0,                               /* translation, 48 */
-        0, 0, 0, 1, 0, 0, 0.70710678f, 0.70710678f, 0, 0, 1, 0, /* rotation, 84 */
-        0, 0, 0, 1, 1, 1, 1, 0, 0,                               /* scale: key 0, 132 */
-        0, 0, 0, 2, 2, 2, 0, 0, 0,                               /* key 1 */
-        0, 0, 0, 3, 3, 3, 0, 0, 0};                              /* key 2 */
+    float f[60] = {0, 0, 0, 1, 0, 0, 0,           1,           0,          /* positions, 0 */
+                   0, 1, 2,                                                /* times, 36 */
+                   0, 0, 0, 2, 0, 0, 2,           4,           0,          /* translation, 48 */
+                   0, 0, 0, 1, 0, 0, 0.70710678f, 0.70710678f, 0, 0, 1, 0, /* rotation, 84 */
+                   0, 0, 0, 1, 1, 1, 1,           0,           0,          /* scale: key 0, 132 */
+                   0, 0, 0, 2, 2, 2, 0,           0,           0,          /* key 1 */
+                   0, 0, 0, 3, 3, 3, 0,           0,           0};         /* key 2 */
     char enc[400];
     b64((const unsigned char *)f, 240, enc);
     char *j = malloc(4096);
@@ -45,14 +44,19 @@ static char *anim_gltf(void) {
              "{\"asset\": {\"version\": \"2.0\"}, \"scenes\": [{\"nodes\": [0]}],"
              " \"nodes\": [{\"mesh\": 0}],"
              " \"meshes\": [{\"primitives\": [{\"attributes\": {\"POSITION\": 0}}]}],"
-             " \"buffers\": [{\"byteLength\": 240, \"uri\": \"data:application/octet-stream;base64,%s\"}],"
+             " \"buffers\": [{\"byteLength\": 240, \"uri\": "
+             "\"data:application/octet-stream;base64,%s\"}],"
              " \"bufferViews\": [{\"buffer\": 0, \"byteLength\": 240}],"
              " \"accessors\": ["
              "  {\"bufferView\": 0, \"componentType\": 5126, \"count\": 3, \"type\": \"VEC3\"},"
-             "  {\"bufferView\": 0, \"byteOffset\": 36, \"componentType\": 5126, \"count\": 3, \"type\": \"SCALAR\"},"
-             "  {\"bufferView\": 0, \"byteOffset\": 48, \"componentType\": 5126, \"count\": 3, \"type\": \"VEC3\"},"
-             "  {\"bufferView\": 0, \"byteOffset\": 84, \"componentType\": 5126, \"count\": 3, \"type\": \"VEC4\"},"
-             "  {\"bufferView\": 0, \"byteOffset\": 132, \"componentType\": 5126, \"count\": 9, \"type\": \"VEC3\"}],"
+             "  {\"bufferView\": 0, \"byteOffset\": 36, \"componentType\": 5126, \"count\": 3, "
+             "\"type\": \"SCALAR\"},"
+             "  {\"bufferView\": 0, \"byteOffset\": 48, \"componentType\": 5126, \"count\": 3, "
+             "\"type\": \"VEC3\"},"
+             "  {\"bufferView\": 0, \"byteOffset\": 84, \"componentType\": 5126, \"count\": 3, "
+             "\"type\": \"VEC4\"},"
+             "  {\"bufferView\": 0, \"byteOffset\": 132, \"componentType\": 5126, \"count\": 9, "
+             "\"type\": \"VEC3\"}],"
              " \"animations\": [{\"name\": \"move\", \"channels\": ["
              "   {\"sampler\": 0, \"target\": {\"node\": 0, \"path\": \"translation\"}},"
              "   {\"sampler\": 1, \"target\": {\"node\": 0, \"path\": \"rotation\"}},"
@@ -163,11 +167,12 @@ static void test_simple_skin(void) {
     free(text);
 }
 
-#define SCENE_FMT                                                                        \
-    "{%s \"render\": {\"width\": 24, \"height\": 24},"                                  \
-    " \"camera\": {\"position\": [1, 2, 12], \"look_at\": [1, 2, 0]},"                  \
-    " \"lights\": [{\"type\": \"directional\", \"direction\": [0, 0, -1]}],"          \
-    " \"objects\": [{\"type\": \"gltf\", %s \"source\": {\"base64\": \"%s\", \"format\": \"gltf\"}}]}"
+#define SCENE_FMT                                                                                  \
+    "{%s \"render\": {\"width\": 24, \"height\": 24},"                                             \
+    " \"camera\": {\"position\": [1, 2, 12], \"look_at\": [1, 2, 0]},"                             \
+    " \"lights\": [{\"type\": \"directional\", \"direction\": [0, 0, -1]}],"                       \
+    " \"objects\": [{\"type\": \"gltf\", %s \"source\": {\"base64\": \"%s\", \"format\": "         \
+    "\"gltf\"}}]}"
 
 /* The scene: a gltf object plays its animation at the scene's frames. */
 static void test_scene(void) {
@@ -189,7 +194,8 @@ static void test_scene(void) {
     rayd_image_free(b);
     for (int f = 0; f < 5; f++) rayd_scene_free(s[f]);
     /* by name; a still scene plays nothing and refuses the key */
-    snprintf(scene, 16384, SCENE_FMT, "\"animation\": {\"end\": 4},", "\"animation\": \"move\",", enc);
+    snprintf(scene, 16384, SCENE_FMT, "\"animation\": {\"end\": 4},", "\"animation\": \"move\",",
+             enc);
     rayd_scene *x = scene_from(scene);
     CHECK(x != NULL, "by name");
     rayd_scene_free(x);

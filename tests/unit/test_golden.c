@@ -29,8 +29,7 @@ static int compare(const char *name) {
     if (!text || !png) {
         printf("  %s: missing scene or golden image (make golden)\n", name);
     } else if (rayd_scene_parse(text, len, NULL, &s, &err) != RAYD_OK ||
-               rayd_png_decode(png, plen, 0, &want, &err) != RAYD_OK ||
-               !(got = render_all(s, 2))) {
+               rayd_png_decode(png, plen, 0, &want, &err) != RAYD_OK || !(got = render_all(s, 2))) {
         printf("  %s: %s\n", name, err.message);
     } else if (rayd_image_width(got) != rayd_image_width(want) ||
                rayd_image_height(got) != rayd_image_height(want)) {

@@ -109,7 +109,8 @@ static void test_bad_sizes_refused(void) {
     size_t len = 0;
     struct rayd_error err = {0};
     CHECK(rayd_exr_encode(f, 0, 1, &buf, &len, &err) == RAYD_E_ARG, "EXR 0 wide refused");
-    CHECK(rayd_png16_encode(f, 1, -1, -1, &buf, &len, &err) == RAYD_E_ARG, "PNG 16 -1 high refused");
+    CHECK(rayd_png16_encode(f, 1, -1, -1, &buf, &len, &err) == RAYD_E_ARG,
+          "PNG 16 -1 high refused");
     CHECK(buf == NULL, "nothing written");
 }
 

@@ -420,17 +420,10 @@ static char *big_obj(uint32_t n, const char *inject, uint32_t inject_at, size_t 
         line += 4;
         if (i < 2) continue;
         switch (i % 4) {
-        case 0:
-            at += (size_t)sprintf(s + at, "f %u %u %u\n", i + 1, i, i - 1);
-            break;
-        case 1:
-            at += (size_t)sprintf(s + at, "f -1/-1 -2/-2 -3/-3 %u/1\n", i / 2 + 1);
-            break;
-        case 2:
-            at += (size_t)sprintf(s + at, "f %u//%u -2//-1 1//1\n", i % 50 + 1, i);
-            break;
-        default:
-            at += (size_t)sprintf(s + at, "g x\r\nf %u/%u/%u -2/-2/-2 -3/1/-1\n", i, i, i);
+        case 0: at += (size_t)sprintf(s + at, "f %u %u %u\n", i + 1, i, i - 1); break;
+        case 1: at += (size_t)sprintf(s + at, "f -1/-1 -2/-2 -3/-3 %u/1\n", i / 2 + 1); break;
+        case 2: at += (size_t)sprintf(s + at, "f %u//%u -2//-1 1//1\n", i % 50 + 1, i); break;
+        default: at += (size_t)sprintf(s + at, "g x\r\nf %u/%u/%u -2/-2/-2 -3/1/-1\n", i, i, i);
         }
     }
     *len = at;

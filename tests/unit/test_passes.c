@@ -61,8 +61,8 @@ static void check_passes(const char *path, int w, int h, const int *ends, int co
     int from = 0;
     for (int p = 0; acc && p < count; p++) {
         struct rayd_error err = {0};
-        CHECK(rayd_render_pass(s, &o, acc, from, ends[p], &err) == RAYD_OK, "pass %d..%d: %s",
-              from, ends[p], err.message);
+        CHECK(rayd_render_pass(s, &o, acc, from, ends[p], &err) == RAYD_OK, "pass %d..%d: %s", from,
+              ends[p], err.message);
         from = ends[p];
         rayd_image *got = NULL, *want = NULL;
         rayd_scene *plain = scene_sized(path, w, h, from);
@@ -108,7 +108,8 @@ static void test_region_pass_is_a_crop(void) {
     CHECK(rayd_render_pass(s, &o, part, 0, 2, NULL) == RAYD_OK, "part pass 1");
     CHECK(rayd_render_pass(s, &o, part, 2, 3, NULL) == RAYD_OK, "part pass 2");
     rayd_image *a = NULL, *b = NULL;
-    CHECK(rayd_accum_image(whole, &a, NULL) == RAYD_OK && rayd_accum_image(part, &b, NULL) == RAYD_OK,
+    CHECK(rayd_accum_image(whole, &a, NULL) == RAYD_OK &&
+              rayd_accum_image(part, &b, NULL) == RAYD_OK,
           "resolve");
     int ok = a && b;
     for (int row = 0; ok && row < r.h; row++)

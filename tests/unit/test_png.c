@@ -38,8 +38,8 @@ static void *roundtrip(const rayd_image *img, int level, int threads, size_t *le
     if (st != RAYD_OK) return NULL;
     rayd_image *back = NULL;
     st = rayd_png_decode(buf, *len, 0, &back, &err);
-    CHECK(st == RAYD_OK, "%dx%d level %d threads %d: libpng: %s", img->w, img->h, level,
-          threads, err.message);
+    CHECK(st == RAYD_OK, "%dx%d level %d threads %d: libpng: %s", img->w, img->h, level, threads,
+          err.message);
     if (st == RAYD_OK) {
         CHECK(back->w == img->w && back->h == img->h, "size %dx%d", back->w, back->h);
         CHECK(!memcmp(back->px, img->px, (size_t)img->w * (size_t)img->h * 3),
@@ -50,8 +50,8 @@ static void *roundtrip(const rayd_image *img, int level, int threads, size_t *le
 }
 
 static void test_odd_sizes_every_thread_count(void) {
-    static const int sizes[][2] = {{1, 1}, {1, 10000}, {4097, 3}, {10000, 1}, {3, 4097},
-                                   {1000, 1000}, {641, 479}};
+    static const int sizes[][2] = {{1, 1},    {1, 10000},   {4097, 3}, {10000, 1},
+                                   {3, 4097}, {1000, 1000}, {641, 479}};
     static const int threads[] = {1, 2, 3, 7, 64, 0};
     for (size_t s = 0; s < sizeof sizes / sizeof sizes[0]; s++) {
         rayd_image *img = pattern(sizes[s][0], sizes[s][1], (unsigned)s);

@@ -62,7 +62,8 @@ static void *mt_worker(void *arg) {
         if (!rows) continue;
         atomic_fetch_add(&m->calls, 1);
         int old = atomic_load(&m->max);
-        while (rows > old && !atomic_compare_exchange_weak(&m->max, &old, rows)) {}
+        while (rows > old && !atomic_compare_exchange_weak(&m->max, &old, rows)) {
+        }
         if (rows <= 0 || rows > MT_H) atomic_fetch_add(&m->bad, 1);
     }
 }

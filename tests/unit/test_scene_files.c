@@ -95,7 +95,8 @@ static void test_files_once(void) {
     time_t past = time(NULL) - 3600;
     CHECK(put(a, tri, past) && put(b, tri2, past), "write %s and %s", a, b);
     char json[1024];
-    int n = snprintf(json, sizeof json, "{\"render\": {\"width\": 8, \"height\": 6}, \"objects\": [");
+    int n =
+        snprintf(json, sizeof json, "{\"render\": {\"width\": 8, \"height\": 6}, \"objects\": [");
     const char *names[] = {"a", "b", "a", "a", "b"};
     for (int i = 0; i < 5; i++)
         n += snprintf(json + n, sizeof json - (size_t)n,

@@ -35,11 +35,32 @@ static void put(struct buf *b, const char *s) {
 }
 
 static const char *const specials[] = {
-    "-0", "0.0", "-0.0e5", "1e30", "1e31", "-1e30", "1.0000000000000001e30", "1e400", "-1e400",
-    "1e-400", "4.9e-324", "2.2250738585072011e-308", "9007199254740993", "9007199254740992.5",
-    "123456789012345678901234567890", "0.1", "0.30000000000000004", "1E+2", "1e-0", "3.4028235e38",
-    "3.4028236e38", "1.17549435e-38", "1.4e-45", "0.000000000000000000000000001", "100e-2",
-    "1.0000000000000000000000000000000000000000000000000000000000001", /* 63 characters */
+    "-0",
+    "0.0",
+    "-0.0e5",
+    "1e30",
+    "1e31",
+    "-1e30",
+    "1.0000000000000001e30",
+    "1e400",
+    "-1e400",
+    "1e-400",
+    "4.9e-324",
+    "2.2250738585072011e-308",
+    "9007199254740993",
+    "9007199254740992.5",
+    "123456789012345678901234567890",
+    "0.1",
+    "0.30000000000000004",
+    "1E+2",
+    "1e-0",
+    "3.4028235e38",
+    "3.4028236e38",
+    "1.17549435e-38",
+    "1.4e-45",
+    "0.000000000000000000000000001",
+    "100e-2",
+    "1.0000000000000000000000000000000000000000000000000000000000001",  /* 63 characters */
     "1.00000000000000000000000000000000000000000000000000000000000001", /* 64 */
 };
 
@@ -49,9 +70,13 @@ static void num(char *out, size_t cap) {
     case 0: snprintf(out, cap, "%d", (int)rnd(41) - 20); break;
     case 1: snprintf(out, cap, "%.*f", (int)rnd(10), x); break;
     case 2: snprintf(out, cap, "%.17g", x * pow(10, (int)rnd(40) - 20)); break;
-    case 3: snprintf(out, cap, "%s%u%s%s%u", rnd(2) ? "-" : "", rnd(100000), rnd(2) ? "e" : "E",
-                     (const char *const[]){"", "+", "-"}[rnd(3)], odd_values ? rnd(331) : rnd(20)); break;
-    case 4: snprintf(out, cap, "%u%u%u.%u", rnd(100000) + 1, rnd(1000000), rnd(1000000), rnd(1000000)); break;
+    case 3:
+        snprintf(out, cap, "%s%u%s%s%u", rnd(2) ? "-" : "", rnd(100000), rnd(2) ? "e" : "E",
+                 (const char *const[]){"", "+", "-"}[rnd(3)], odd_values ? rnd(331) : rnd(20));
+        break;
+    case 4:
+        snprintf(out, cap, "%u%u%u.%u", rnd(100000) + 1, rnd(1000000), rnd(1000000), rnd(1000000));
+        break;
     case 5:
         if (odd_values) {
             snprintf(out, cap, "%s", specials[rnd(sizeof specials / sizeof *specials)]);
@@ -63,10 +88,14 @@ static void num(char *out, size_t cap) {
 }
 
 static void index_text(char *out, size_t cap, int nv) {
-    static const char *const odd[] = {"-1", "1.5", "2e0", "0.0", "-0", "1e1", "4294967296", "1e300", "0.5e1"};
-    if (odd_values && rnd(40) == 0) snprintf(out, cap, "%s", odd[rnd(9)]);
-    else if (odd_values && rnd(60) == 0) snprintf(out, cap, "%d", nv);
-    else snprintf(out, cap, "%u", rnd((unsigned)nv));
+    static const char *const odd[] = {"-1",  "1.5",        "2e0",   "0.0",  "-0",
+                                      "1e1", "4294967296", "1e300", "0.5e1"};
+    if (odd_values && rnd(40) == 0)
+        snprintf(out, cap, "%s", odd[rnd(9)]);
+    else if (odd_values && rnd(60) == 0)
+        snprintf(out, cap, "%d", nv);
+    else
+        snprintf(out, cap, "%u", rnd((unsigned)nv));
 }
 
 static void ws(struct buf *b) {
@@ -81,9 +110,12 @@ static void array(struct buf *b, int n, int kind, int nv) {
     put(b, "[");
     for (int i = 0; i < n; i++) {
         ws(b);
-        if (odd_values && rnd(200) == 0) snprintf(t, sizeof t, "%s", other[rnd(5)]);
-        else if (kind) index_text(t, sizeof t, nv);
-        else num(t, sizeof t);
+        if (odd_values && rnd(200) == 0)
+            snprintf(t, sizeof t, "%s", other[rnd(5)]);
+        else if (kind)
+            index_text(t, sizeof t, nv);
+        else
+            num(t, sizeof t);
         put(b, t);
         ws(b);
         if (i + 1 < n) put(b, ",");
@@ -92,17 +124,35 @@ static void array(struct buf *b, int n, int kind, int nv) {
 }
 
 static void member(struct buf *b, int key, int nv, int ntris) {
-    static const char *const types[] = {"\"mesh\"", "\"mesh\"", "\"mesh\"", "\"mesh\"", "\"triangle\"",
-                                        "\"m\\u0065sh\"", "\"sphere\"", "3"};
+    static const char *const types[] = {"\"mesh\"",     "\"mesh\"",       "\"mesh\"",   "\"mesh\"",
+                                        "\"triangle\"", "\"m\\u0065sh\"", "\"sphere\"", "3"};
     int off = odd_values && rnd(12) == 0 ? (int)rnd(3) - 1 : 0; /* counts off by one now and then */
     switch (key) {
-    case 0: put(b, "\"type\": "); put(b, types[odd_values ? rnd(8) : rnd(4)]); break;
-    case 1: put(b, "\"vertices\":"); array(b, 3 * nv + off, 0, nv); break;
-    case 2: put(b, "\"indices\": "); array(b, 3 * ntris + off, 1, nv); break;
-    case 3: put(b, "\"normals\" :"); array(b, 3 * nv + off, 0, nv); break;
-    case 4: put(b, "\"uvs\":"); array(b, 2 * nv + off, 0, nv); break;
+    case 0:
+        put(b, "\"type\": ");
+        put(b, types[odd_values ? rnd(8) : rnd(4)]);
+        break;
+    case 1:
+        put(b, "\"vertices\":");
+        array(b, 3 * nv + off, 0, nv);
+        break;
+    case 2:
+        put(b, "\"indices\": ");
+        array(b, 3 * ntris + off, 1, nv);
+        break;
+    case 3:
+        put(b, "\"normals\" :");
+        array(b, 3 * nv + off, 0, nv);
+        break;
+    case 4:
+        put(b, "\"uvs\":");
+        array(b, 2 * nv + off, 0, nv);
+        break;
     case 5: put(b, rnd(2) ? "\"smooth\": false" : "\"smooth\": true"); break;
-    default: put(b, "\"source\": {\"format\": \"obj\", \"text\": \"v 0 0 0\\nv 1 0 0\\nv 0 1 0\\nf 1 2 3\\n\"}"); break;
+    default:
+        put(b, "\"source\": {\"format\": \"obj\", \"text\": \"v 0 0 0\\nv 1 0 0\\nv 0 1 0\\nf 1 2 "
+               "3\\n\"}");
+        break;
     }
 }
 
@@ -172,7 +222,10 @@ static void mutate(struct buf *b) {
     for (int k = 1 + (int)rnd(3); k > 0 && b->n > 1; k--) {
         size_t at = rnd((unsigned)b->n);
         switch (rnd(3)) {
-        case 0: memmove(b->s + at, b->s + at + 1, b->n - at); b->n--; break;
+        case 0:
+            memmove(b->s + at, b->s + at + 1, b->n - at);
+            b->n--;
+            break;
         case 1: b->s[at] = alphabet[rnd(sizeof alphabet - 1)]; break;
         default: {
             char c[2] = {alphabet[rnd(sizeof alphabet - 1)], 0};
@@ -212,7 +265,8 @@ static void test_generated_and_mutated(void) {
         }
     }
     printf("  %d scenes, %d loaded\n", total, loaded);
-    CHECK(loaded > total / 20 && loaded < total, "both outcomes exercised: %d of %d loaded", loaded, total);
+    CHECK(loaded > total / 20 && loaded < total, "both outcomes exercised: %d of %d loaded", loaded,
+          total);
     free(b.s);
 }
 
@@ -223,11 +277,14 @@ static void test_mesh_keys_elsewhere(void) {
         "{\"objects\": [{\"type\": \"triangle\", \"vertices\": [1, 2, 3]}]}",
         "{\"objects\": [{\"vertices\": [1, 2, 3], \"type\": \"triangle\"}]}",
         "{\"materials\": {\"vertices\": [1, 2, 3]}}",
-        "{\"objects\": [{\"type\": \"mesh\", \"vertices\": [0,0,0, 1,0,0, 0,1,0], \"indices\": [0,1,2],"
+        "{\"objects\": [{\"type\": \"mesh\", \"vertices\": [0,0,0, 1,0,0, 0,1,0], \"indices\": "
+        "[0,1,2],"
         " \"material\": {\"type\": \"mesh\", \"vertices\": [1]}}]}",
-        "{\"objects\": [{\"type\": \"mesh\", \"vertices\": [0,0,0, 1,0,0, 0,1,0], \"indices\": [0,1,2]},"
+        "{\"objects\": [{\"type\": \"mesh\", \"vertices\": [0,0,0, 1,0,0, 0,1,0], \"indices\": "
+        "[0,1,2]},"
         " {\"type\": \"mesh\", \"vertices\": [0,0,0, 1,0,0, 0,1,0e1], \"indices\": [0,1,3]}]}",
-        "{\"objects\": [{\"type\": \"mesh\", \"vertices\": [0,0,0, 1,0,0, 0,1,0], \"indices\": [0,1,2],"
+        "{\"objects\": [{\"type\": \"mesh\", \"vertices\": [0,0,0, 1,0,0, 0,1,0], \"indices\": "
+        "[0,1,2],"
         " \"type\": \"mesh\"}]}",
     };
     struct rayd_limits lim;
@@ -250,14 +307,16 @@ static void test_large_arrays(void) {
     odd_values = false;
     for (int round = 0; round < 6; round++) {
         struct buf b = {0};
-        int nv = 60000, ntris = 50000, bad1 = (int)rnd(3 * (unsigned)nv), bad2 = (int)rnd(3 * (unsigned)nv);
+        int nv = 60000, ntris = 50000, bad1 = (int)rnd(3 * (unsigned)nv),
+            bad2 = (int)rnd(3 * (unsigned)nv);
         char t[96];
         put(&b, "{\"objects\": [{\"type\": \"mesh\", \"vertices\": [");
         for (int i = 0; i < 3 * nv; i++) {
             num(t, sizeof t);
             if (round >= 1 && (i == bad1 || (round >= 2 && i == bad2)))
                 snprintf(t, sizeof t, "%s", round & 1 ? "1e31" : "1e999");
-            else if (!(fabs(strtod(t, NULL)) <= 1e30) || strlen(t) > 63) snprintf(t, sizeof t, "%u", rnd(1000));
+            else if (!(fabs(strtod(t, NULL)) <= 1e30) || strlen(t) > 63)
+                snprintf(t, sizeof t, "%u", rnd(1000));
             put(&b, t);
             put(&b, i + 1 < 3 * nv ? (rnd(5) ? "," : ",\n ") : "]");
         }

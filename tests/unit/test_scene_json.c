@@ -36,8 +36,8 @@ static void test_defaults(void) {
     if (!s) return;
     const struct material *m = &s->mats[s->objs[0].material];
     CHECK(m->color.x == 0.8 && m->ambient == 0.1 && m->diffuse == 0.9 && m->specular == 0 &&
-              m->shininess == 32 && m->reflectivity == 0 && m->transparency == 0 &&
-              m->ior == 1.5 && m->emission.x == 0,
+              m->shininess == 32 && m->reflectivity == 0 && m->transparency == 0 && m->ior == 1.5 &&
+              m->emission.x == 0,
           "material defaults");
     CHECK(s->objs[0].u.sphere.radius == 1, "radius default 1");
     rayd_scene_free(s);
@@ -45,15 +45,19 @@ static void test_defaults(void) {
 
 static void test_design_example_parses(void) {
     const char *json =
-        "{\"camera\":  {\"position\": [0, 1, 6], \"look_at\": [0, 1, 0], \"up\": [0, 1, 0], \"fov_x\": 60},"
+        "{\"camera\":  {\"position\": [0, 1, 6], \"look_at\": [0, 1, 0], \"up\": [0, 1, 0], "
+        "\"fov_x\": 60},"
         " \"render\":  {\"width\": 640, \"height\": 480, \"samples\": 1, \"max_depth\": 5,"
         "   \"background\": [0.05, 0.05, 0.08], \"seed\": 0},"
         " \"materials\": {"
-        "   \"red\":    {\"color\": [0.9, 0.1, 0.1], \"diffuse\": 0.9, \"specular\": 0.5, \"shininess\": 64},"
+        "   \"red\":    {\"color\": [0.9, 0.1, 0.1], \"diffuse\": 0.9, \"specular\": 0.5, "
+        "\"shininess\": 64},"
         "   \"mirror\": {\"color\": [1, 1, 1], \"diffuse\": 0.1, \"reflectivity\": 0.9}},"
-        " \"lights\":  [{\"type\": \"point\", \"position\": [5, 8, 5], \"color\": [1, 1, 1], \"intensity\": 1.0}],"
+        " \"lights\":  [{\"type\": \"point\", \"position\": [5, 8, 5], \"color\": [1, 1, 1], "
+        "\"intensity\": 1.0}],"
         " \"objects\": ["
-        "   {\"type\": \"plane\",  \"point\": [0, 0, 0], \"normal\": [0, 1, 0], \"material\": \"mirror\"},"
+        "   {\"type\": \"plane\",  \"point\": [0, 0, 0], \"normal\": [0, 1, 0], \"material\": "
+        "\"mirror\"},"
         "   {\"type\": \"sphere\", \"center\": [0, 1, 0], \"radius\": 1, \"material\": \"red\"},"
         "   {\"type\": \"sphere\", \"center\": [2, 1, 0], \"radius\": 0.5,"
         "    \"material\": {\"color\": [0.2, 0.4, 1], \"emission\": [0, 0, 0]}}]}";
@@ -141,7 +145,8 @@ static void test_malformed_json_has_line_and_column(void) {
     char buf[300];
     parse("{\n\n   x}", &err);
     CHECK(strcmp(rayd_error_format(&err, buf, sizeof buf),
-                 "line 3, column 4: malformed JSON: expected a string key in quotes, found 'x'") == 0,
+                 "line 3, column 4: malformed JSON: expected a string key in quotes, found 'x'") ==
+              0,
           "formatted: %s", buf);
 }
 
@@ -150,7 +155,8 @@ static void test_limits_are_configurable(void) {
     rayd_limits_default(&lim);
     lim.max_objects = 2;
     lim.max_bytes = 1000;
-    const char *three = "{\"objects\": [{\"type\": \"sphere\"}, {\"type\": \"sphere\"}, {\"type\": \"sphere\"}]}";
+    const char *three =
+        "{\"objects\": [{\"type\": \"sphere\"}, {\"type\": \"sphere\"}, {\"type\": \"sphere\"}]}";
     rayd_scene *s = NULL;
     struct rayd_error err;
     CHECK(rayd_scene_parse(three, strlen(three), &lim, &s, &err) == RAYD_E_LIMIT &&

@@ -60,13 +60,14 @@ static void test_emissive_sphere_exact_projection(void) {
  * acne.  A tilted plane puts rounding error in every hit point. */
 static void check_flat_floor(double height) {
     char json[1024];
-    snprintf(json, sizeof json,
-             "{\"camera\": {\"position\": [0,%.17g,0], \"look_at\": [0,%.17g,-4], \"fov_x\": 70},"
-             " \"render\": {\"width\": 80, \"height\": 60, \"background\": [0,0,1]},"
-             " \"lights\": [{\"type\": \"directional\", \"direction\": [0.3,-1,-0.2]}],"
-             " \"objects\": [{\"type\": \"plane\", \"point\": [0,%.17g,0], \"normal\": [0.31,1,0.17],"
-             "   \"material\": {\"color\": [0.6,0.6,0.6], \"ambient\": 0.1, \"diffuse\": 0.8}}]}",
-             height + 2, height, height);
+    snprintf(
+        json, sizeof json,
+        "{\"camera\": {\"position\": [0,%.17g,0], \"look_at\": [0,%.17g,-4], \"fov_x\": 70},"
+        " \"render\": {\"width\": 80, \"height\": 60, \"background\": [0,0,1]},"
+        " \"lights\": [{\"type\": \"directional\", \"direction\": [0.3,-1,-0.2]}],"
+        " \"objects\": [{\"type\": \"plane\", \"point\": [0,%.17g,0], \"normal\": [0.31,1,0.17],"
+        "   \"material\": {\"color\": [0.6,0.6,0.6], \"ambient\": 0.1, \"diffuse\": 0.8}}]}",
+        height + 2, height, height);
     rayd_scene *s = scene_from(json);
     CHECK(s != NULL, "parse");
     if (!s) return;
@@ -97,12 +98,14 @@ static void test_no_shadow_acne(void) {
 static void test_hard_shadow_under_sphere(void) {
     /* Looking straight down at a floor with a sphere between it and a light
      * straight above: the shadow is a disc of the sphere's radius. */
-    const char *json =
-        "{\"camera\": {\"position\": [0,10,0], \"look_at\": [0,0,0], \"up\": [0,0,-1], \"fov_x\": 60},"
-        " \"render\": {\"width\": 64, \"height\": 64, \"background\": [0,0,0]},"
-        " \"lights\": [{\"type\": \"directional\", \"direction\": [0,-1,0]}],"
-        " \"objects\": [{\"type\": \"plane\", \"material\": {\"color\": [1,1,1], \"ambient\": 0.1, \"diffuse\": 0.9}},"
-        "   {\"type\": \"sphere\", \"center\": [2,5,0], \"radius\": 1, \"material\": {\"color\": [0,0,0], \"ambient\": 0, \"diffuse\": 0}}]}";
+    const char *json = "{\"camera\": {\"position\": [0,10,0], \"look_at\": [0,0,0], \"up\": "
+                       "[0,0,-1], \"fov_x\": 60},"
+                       " \"render\": {\"width\": 64, \"height\": 64, \"background\": [0,0,0]},"
+                       " \"lights\": [{\"type\": \"directional\", \"direction\": [0,-1,0]}],"
+                       " \"objects\": [{\"type\": \"plane\", \"material\": {\"color\": [1,1,1], "
+                       "\"ambient\": 0.1, \"diffuse\": 0.9}},"
+                       "   {\"type\": \"sphere\", \"center\": [2,5,0], \"radius\": 1, "
+                       "\"material\": {\"color\": [0,0,0], \"ambient\": 0, \"diffuse\": 0}}]}";
     rayd_scene *s = scene_from(json);
     CHECK(s != NULL, "parse");
     if (!s) return;
@@ -113,7 +116,8 @@ static void test_hard_shadow_under_sphere(void) {
     double tx = tan(M_PI / 6);
     int shadow_col = (int)(32 + 2.0 / (10 * tx) * 32);
     int lit_col = 10;
-    CHECK(px[(32 * 64 + lit_col) * 3] == srgb_ref(1.0), "lit floor %d", px[(32 * 64 + lit_col) * 3]);
+    CHECK(px[(32 * 64 + lit_col) * 3] == srgb_ref(1.0), "lit floor %d",
+          px[(32 * 64 + lit_col) * 3]);
     /* The sphere itself blocks the view of the floor below it from the
      * camera too, so check a shadow pixel just outside the sphere's image
      * but inside the shadow: none exists for a light along the view axis.
@@ -125,12 +129,14 @@ static void test_hard_shadow_under_sphere(void) {
     rayd_scene_free(s);
 
     /* Slanted light: the shadow moves out from under the sphere. */
-    const char *slant =
-        "{\"camera\": {\"position\": [0,10,0], \"look_at\": [0,0,0], \"up\": [0,0,-1], \"fov_x\": 60},"
-        " \"render\": {\"width\": 64, \"height\": 64, \"background\": [0,0,0]},"
-        " \"lights\": [{\"type\": \"directional\", \"direction\": [-1,-1,0]}],"
-        " \"objects\": [{\"type\": \"plane\", \"material\": {\"color\": [1,1,1], \"ambient\": 0.1, \"diffuse\": 0.9}},"
-        "   {\"type\": \"sphere\", \"center\": [2,2,0], \"radius\": 0.5, \"material\": {\"color\": [0,0,0], \"ambient\": 0, \"diffuse\": 0}}]}";
+    const char *slant = "{\"camera\": {\"position\": [0,10,0], \"look_at\": [0,0,0], \"up\": "
+                        "[0,0,-1], \"fov_x\": 60},"
+                        " \"render\": {\"width\": 64, \"height\": 64, \"background\": [0,0,0]},"
+                        " \"lights\": [{\"type\": \"directional\", \"direction\": [-1,-1,0]}],"
+                        " \"objects\": [{\"type\": \"plane\", \"material\": {\"color\": [1,1,1], "
+                        "\"ambient\": 0.1, \"diffuse\": 0.9}},"
+                        "   {\"type\": \"sphere\", \"center\": [2,2,0], \"radius\": 0.5, "
+                        "\"material\": {\"color\": [0,0,0], \"ambient\": 0, \"diffuse\": 0}}]}";
     s = scene_from(slant);
     CHECK(s != NULL, "parse slant");
     if (!s) return;
@@ -148,11 +154,13 @@ static void test_hard_shadow_under_sphere(void) {
 static void test_mirror_reflection_depth(void) {
     /* An emissive sphere seen only in a perfect mirror floor: invisible with
      * max_depth 0, exactly emission x reflectivity with max_depth 1. */
-#define MIRROR_FMT \
-        "{\"camera\": {\"position\": [0,3,0], \"look_at\": [0,0,0], \"up\": [0,0,-1], \"fov_x\": 40}," \
-        " \"render\": {\"width\": 9, \"height\": 9, \"max_depth\": %d},"      \
-        " \"objects\": [{\"type\": \"plane\", \"material\": {\"color\": [1,1,1], \"diffuse\": 0, \"reflectivity\": 0.5}}," \
-        "   {\"type\": \"sphere\", \"center\": [0,5,0], \"radius\": 1.5, \"material\": {\"emission\": [0.8,0.8,0.8]}}]}"
+#define MIRROR_FMT                                                                                 \
+    "{\"camera\": {\"position\": [0,3,0], \"look_at\": [0,0,0], \"up\": [0,0,-1], \"fov_x\": 40}," \
+    " \"render\": {\"width\": 9, \"height\": 9, \"max_depth\": %d},"                               \
+    " \"objects\": [{\"type\": \"plane\", \"material\": {\"color\": [1,1,1], \"diffuse\": 0, "     \
+    "\"reflectivity\": 0.5}},"                                                                     \
+    "   {\"type\": \"sphere\", \"center\": [0,5,0], \"radius\": 1.5, \"material\": "               \
+    "{\"emission\": [0.8,0.8,0.8]}}]}"
     char json[1024];
     for (int depth = 0; depth <= 1; depth++) {
         snprintf(json, sizeof json, MIRROR_FMT, depth);
@@ -174,7 +182,8 @@ static void test_clear_glass_shows_background(void) {
      * rays leave and re-enter the surface correctly. */
     const char *json =
         "{\"camera\": {\"position\": [0,0,5], \"look_at\": [0,0,0]},"
-        " \"render\": {\"width\": 32, \"height\": 24, \"max_depth\": 4, \"background\": [0.3,0.6,0.9]},"
+        " \"render\": {\"width\": 32, \"height\": 24, \"max_depth\": 4, \"background\": "
+        "[0.3,0.6,0.9]},"
         " \"lights\": [{\"type\": \"point\", \"position\": [0, 10, 10]}],"
         " \"objects\": [{\"type\": \"sphere\", \"radius\": 1.5, \"material\": {\"color\": [1,1,1],"
         "   \"transparency\": 1, \"ior\": 1, \"ambient\": 0.5, \"diffuse\": 0.5}}]}";
@@ -217,27 +226,27 @@ static void test_fresnel_and_snell(void) {
  * highlight, emission, mirrors, lights brighter than 1) beside hits it
  * leaves to the one-ray code (glass, a texture, a transformed sphere).
  * LIGHTS is spliced in. */
-#define WIDE_SCENE(LIGHTS)                                                                        \
-    "{\"camera\": {\"position\": [0,2,6], \"look_at\": [0,0.5,0]},"                               \
-    " \"render\": {\"width\": 32, \"height\": 32, \"max_depth\": 4,"                          \
-    "  \"background\": [0.1,0.2,0.3]},"                                                        \
-    " \"lights\": [" LIGHTS "],"                                                                  \
-    " \"materials\": {\"m\": {\"color\": [0.9,0.9,0.9], \"specular\": 0.8, \"shininess\": 200,"  \
-    "   \"reflectivity\": 0.8, \"ambient\": 0.05, \"diffuse\": 0.1}},"                            \
-    " \"objects\": ["                                                                             \
-    "  {\"type\": \"plane\", \"point\": [0,0,0], \"normal\": [0,1,0],"                          \
-    "   \"material\": {\"color\": [0.7,0.7,0.6], \"reflectivity\": 0.3}},"                        \
-    "  {\"type\": \"sphere\", \"center\": [-1.5,0.5,0], \"radius\": 0.5, \"material\": \"m\"},"  \
-    "  {\"type\": \"sphere\", \"center\": [0,0.5,0], \"radius\": 0.5, \"material\": \"m\"},"     \
-    "  {\"type\": \"sphere\", \"center\": [1.5,0.5,0], \"radius\": 0.5,"                         \
-    "   \"material\": {\"color\": [0.8,0.2,0.1], \"specular\": 0.5, \"shininess\": 33.5}},"      \
-    "  {\"type\": \"sphere\", \"center\": [0,0.5,-1.5], \"radius\": 0.5,"                        \
-    "   \"material\": {\"color\": [0.2,0.8,0.1], \"emission\": [0.2,0,0.1]}},"                   \
-    "  {\"type\": \"sphere\", \"center\": [-1.5,0.5,-1.5], \"radius\": 0.5,"                     \
-    "   \"material\": {\"color\": [0.9,0.9,1], \"transparency\": 0.9, \"ior\": 1.5}},"           \
-    "  {\"type\": \"sphere\", \"center\": [1.5,0.5,-1.5], \"radius\": 0.5, \"material\": "       \
-    "   {\"texture\": {\"type\": \"checker\", \"colors\": [[0.9,0.9,0.9],[0.1,0.1,0.1]]}}},"     \
-    "  {\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 0.5, \"material\": \"m\","        \
+#define WIDE_SCENE(LIGHTS)                                                                         \
+    "{\"camera\": {\"position\": [0,2,6], \"look_at\": [0,0.5,0]},"                                \
+    " \"render\": {\"width\": 32, \"height\": 32, \"max_depth\": 4,"                               \
+    "  \"background\": [0.1,0.2,0.3]},"                                                            \
+    " \"lights\": [" LIGHTS "],"                                                                   \
+    " \"materials\": {\"m\": {\"color\": [0.9,0.9,0.9], \"specular\": 0.8, \"shininess\": 200,"    \
+    "   \"reflectivity\": 0.8, \"ambient\": 0.05, \"diffuse\": 0.1}},"                             \
+    " \"objects\": ["                                                                              \
+    "  {\"type\": \"plane\", \"point\": [0,0,0], \"normal\": [0,1,0],"                             \
+    "   \"material\": {\"color\": [0.7,0.7,0.6], \"reflectivity\": 0.3}},"                         \
+    "  {\"type\": \"sphere\", \"center\": [-1.5,0.5,0], \"radius\": 0.5, \"material\": \"m\"},"    \
+    "  {\"type\": \"sphere\", \"center\": [0,0.5,0], \"radius\": 0.5, \"material\": \"m\"},"       \
+    "  {\"type\": \"sphere\", \"center\": [1.5,0.5,0], \"radius\": 0.5,"                           \
+    "   \"material\": {\"color\": [0.8,0.2,0.1], \"specular\": 0.5, \"shininess\": 33.5}},"        \
+    "  {\"type\": \"sphere\", \"center\": [0,0.5,-1.5], \"radius\": 0.5,"                          \
+    "   \"material\": {\"color\": [0.2,0.8,0.1], \"emission\": [0.2,0,0.1]}},"                     \
+    "  {\"type\": \"sphere\", \"center\": [-1.5,0.5,-1.5], \"radius\": 0.5,"                       \
+    "   \"material\": {\"color\": [0.9,0.9,1], \"transparency\": 0.9, \"ior\": 1.5}},"             \
+    "  {\"type\": \"sphere\", \"center\": [1.5,0.5,-1.5], \"radius\": 0.5, \"material\": "         \
+    "   {\"texture\": {\"type\": \"checker\", \"colors\": [[0.9,0.9,0.9],[0.1,0.1,0.1]]}}},"       \
+    "  {\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 0.5, \"material\": \"m\","          \
     "   \"transform\": {\"scale\": [1,0.6,1], \"translate\": [0,0.3,1.5]}}]}"
 
 /* Splits the unit interval's [0, 1) bits for the test's random numbers. */

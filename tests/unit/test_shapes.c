@@ -27,8 +27,8 @@ static void test_plane_hit_formula(void) {
     double t = 0;
     CHECK(plane_hit(&p, &r, 0, INFINITY, &t), "hit");
     /* t = n.(Q - O) / (n.d) */
-    double expect = v3_dot(p.u.plane.normal, v3_sub(p.u.plane.point, r.o)) /
-                    v3_dot(p.u.plane.normal, r.d);
+    double expect =
+        v3_dot(p.u.plane.normal, v3_sub(p.u.plane.point, r.o)) / v3_dot(p.u.plane.normal, r.d);
     CHECK_NEAR(t, expect, 1e-12);
     CHECK_NEAR(ray_at(&r, t).y, -2, 1e-12);
 }
