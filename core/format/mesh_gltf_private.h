@@ -102,6 +102,21 @@ struct jp gl_item(const char *top, long i);
 /* An integer o[key] in [lo, hi], def when absent (-1 def: required). */
 enum rayd_status gl_int(struct gl *G, const cJSON *o, const struct jp *at, const char *key,
                         double def, double lo, double hi, double *out);
+/* o[key] as the index of an item of the top-level array top: *item. */
+enum rayd_status gl_ref(struct gl *G, const cJSON *o, const struct jp *at, const char *key,
+                        const char *top, int *id, const cJSON **item);
+/* n numbers at o[key] into out; def when absent. */
+enum rayd_status gl_nums(struct gl *G, const cJSON *o, const struct jp *at, const char *key, int n,
+                         const double *def, double *out);
+/* Buffer i, loaded on first use: the BIN chunk, a data: URI or a file. */
+enum rayd_status gl_buffer(struct gl *G, int i, const struct gl_buf **out);
+/* A "data:...;base64," URI's bytes; a relative file's, through the opener. */
+enum rayd_status gl_data_uri(struct gl *G, const char *uri, const struct jp *p, struct gl_buf *b);
+enum rayd_status gl_file_uri(struct gl *G, const char *uri, const struct jp *p, struct gl_buf *b);
+/* A little-endian 32-bit word (the .glb's header and chunk heads). */
+static inline uint32_t le32(const unsigned char *b) {
+    return (uint32_t)b[0] | (uint32_t)b[1] << 8 | (uint32_t)b[2] << 16 | (uint32_t)b[3] << 24;
+}
 /* Accessor o[key] (index into /accessors), of ncomp components, checked
  * against its bufferView and buffer (loaded on first use). */
 enum rayd_status gl_accessor(struct gl *G, const cJSON *o, const struct jp *at, const char *key,
