@@ -1,0 +1,283 @@
+/* frames.c -- rayd-render's frame ranges and videos.
+ *
+ * --frame K, --frames A-B and --video load the scene once per frame
+ * (rayd_scene_parse_frame: frame k is a pure function of the scene's bytes
+ * and k) and render each as a still, to -o's pattern with the frame's
+ * number.  After each frame a line on stderr gives the frame's time and
+ * the range's progress and estimate of the time left; at the end, one for
+ * the range.
+ *
+ * The video: each frame's 8-bit pixels (the tone options applied, as the
+ * PNG's) are piped raw to the `ffmpeg` program, which encodes H.264
+ * (libx264, yuv420p, so any player plays it) in MP4 at the scene's fps.
+ * The program rather than libavformat/libavcodec: the encoder then runs
+ * in its own process, beside the render and away from rayd-render's memory
+ * (a crash or a hang there is an exit status here), rayd-render links no
+ * library whose API and ABI change with every FFmpeg release, and the
+ * options are the ones every ffmpeg user knows.  The pixels go through a
+ * pipe: no temporary files.  H.264's 4:2:0 needs an even width and height:
+ * an odd one is padded with one black column or row.
+ *
+ * The invariants: one scene is alive at a time (a frame's is freed before
+ * the next is parsed), so a long range takes the memory of one frame; a
+ * frame is rendered by render_one.c exactly as a still of that frame would
+ * be, so frame k of a range and `--frame k` give the same bytes; the range
+ * is checked against the scene's frames and the -o pattern before the
+ * first frame is rendered (a usage error, exit 2, with nothing written);
+ * and ffmpeg is always waited for, killed first when a frame failed, so no
+ * child outlives rayd-render.  Data flows one way: rayd-render.c calls
+ * frames_run(), this file calls render_one.c, and neither calls back.
+ */
+#include <errno.h>
+#include <signal.h>
+#include <spawn.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "render.h"
+
+/* pattern with its one %d, %Nd or %0Nd (N < 10) set to k, "%%" as "%".
+ * -1 when the pattern has another % or more than one number; 0 when it
+ * has none (out is the pattern), 1 when it has one. */
+static int frame_path(const char *pattern, long k, char *out, size_t size) {
+    size_t o = 0;
+    int numbers = 0;
+    for (const char *p = pattern; *p; p++) {
+        char piece[32] = {*p, 0};
+        if (*p == '%' && p[1] == '%') {
+            p++;
+        } else if (*p == '%') {
+            const char *q = p + 1;
+            bool zero = *q == '0';
+            int width = 0;
+            if (zero) q++;
+            if (*q >= '1' && *q <= '9') width = *q++ - '0';
+            if (*q != 'd' || numbers++) return -1;
+            snprintf(piece, sizeof piece, zero ? "%0*ld" : "%*ld", width, k);
+            p = q;
+        }
+        size_t n = strlen(piece);
+        if (o + n >= size) return -1;
+        memcpy(out + o, piece, n + 1);
+        o += n;
+    }
+    if (!numbers) snprintf(out, size, "%s", pattern);
+    return numbers;
+}
+
+extern char **environ;
+
+struct video {
+    pid_t pid;
+    FILE *in; /* ffmpeg's standard input */
+    int w, h;
+    long frames;
+};
+
+/* Starts ffmpeg encoding w x h RGB frames at fps into path. */
+static int video_start(struct video *v, const char *path, int w, int h, double fps) {
+    char size[64], rate[64], out[4200];
+    snprintf(size, sizeof size, "%dx%d", w, h);
+    snprintf(rate, sizeof rate, "%.17g", fps);
+    snprintf(out, sizeof out, "%s%s", path[0] == '-' ? "./" : "", path);
+    char *argv[] = {"ffmpeg",      "-hide_banner",
+                    "-loglevel",   "error",
+                    "-nostats",    "-y",
+                    "-f",          "rawvideo",
+                    "-pix_fmt",    "rgb24",
+                    "-video_size", size,
+                    "-framerate",  rate,
+                    "-i",          "pipe:0",
+                    "-vf",         "pad=ceil(iw/2)*2:ceil(ih/2)*2",
+                    "-c:v",        "libx264",
+                    "-pix_fmt",    "yuv420p",
+                    "-preset",     "veryfast",
+                    "-crf",        "18",
+                    "-movflags",   "+faststart",
+                    out,           NULL};
+    int fds[2];
+    if (pipe(fds) != 0) return render_one_cannot_write(path, errno);
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_adddup2(&fa, fds[0], STDIN_FILENO);
+    posix_spawn_file_actions_addclose(&fa, fds[1]);
+    posix_spawn_file_actions_addclose(&fa, fds[0]);
+    int e = posix_spawnp(&v->pid, "ffmpeg", &fa, NULL, argv, environ);
+    posix_spawn_file_actions_destroy(&fa);
+    close(fds[0]);
+    if (e != 0) {
+        close(fds[1]);
+        fprintf(stderr,
+                "rayd-render: error: --video needs the ffmpeg program (Debian's ffmpeg "
+                "package; make deps installs it): %s\n",
+                strerror(e));
+        return 1;
+    }
+    signal(SIGPIPE, SIG_IGN); /* a dead ffmpeg is a write error, said below */
+    v->in = fdopen(fds[1], "wb");
+    v->w = w;
+    v->h = h;
+    return v->in ? 0 : render_one_cannot_write(path, errno);
+}
+
+/* Waits for ffmpeg; 0 when it wrote the video.  abort: kill it first. */
+static int video_end(struct video *v, const char *path, bool abort) {
+    if (!v->pid) return 0;
+    if (abort) kill(v->pid, SIGTERM);
+    int ok = v->in && fclose(v->in) == 0;
+    int status = 0;
+    while (waitpid(v->pid, &status, 0) < 0 && errno == EINTR) continue;
+    v->pid = 0;
+    if (abort) return 1;
+    if (ok && WIFEXITED(status) && WEXITSTATUS(status) == 0) return 0;
+    fprintf(stderr, "rayd-render: error: ffmpeg could not write %s (%s %d)\n", path,
+            WIFEXITED(status) ? "exit status" : "signal",
+            WIFEXITED(status) ? WEXITSTATUS(status) : WTERMSIG(status));
+    return 1;
+}
+
+/* One frame for the video: the passes into an accumulator, the frame's
+ * file when there is one, then its 8-bit pixels into ffmpeg. */
+static int video_frame(const struct args *a, const rayd_scene *scene, const char *path,
+                       struct video *v) {
+    rayd_image *img = NULL;
+    int rc = render_one_image(a, scene, path, &img);
+    if (rc == 0 && (rayd_image_width(img) != v->w || rayd_image_height(img) != v->h)) {
+        fprintf(stderr, "rayd-render: error: --video: every frame must be %d x %d\n", v->w, v->h);
+        rc = 1;
+    }
+    size_t n = (size_t)v->w * (size_t)v->h * 3;
+    if (rc == 0 && fwrite(rayd_image_pixels_const(img), 1, n, v->in) != n) {
+        fprintf(stderr, "rayd-render: error: ffmpeg stopped taking frames: %s\n", strerror(errno));
+        rc = 1;
+    }
+    rayd_image_free(img);
+    return rc;
+}
+
+/* Frame k's file name from -o ("" for none). */
+static int frame_file(const struct args *a, long k, char *path, size_t size) {
+    if (frame_path(a->output, k, path, size) < 0)
+        return bad_usage("-o %s: a frame's file takes one %%d (or %%0Nd, N < 10) and no other %%",
+                         a->output);
+    return 0;
+}
+
+/* The command line's frames checked against the scene's: 0, or 2 said. */
+static int check_range(const struct args *a, const struct rayd_animation *an, long *from,
+                       long *to) {
+    *from = a->frames_set ? a->frame_a : an->start;
+    *to = a->frames_set ? a->frame_b : an->end;
+    if (*to > an->end || *from < an->start) {
+        if (an->animated)
+            say_usage("frame %ld is outside the scene's frames %ld-%ld",
+                      *to > an->end ? *to : *from, an->start, an->end);
+        else
+            say_usage("frame %ld: the scene has no /animation, so its one frame is 0",
+                      *to > an->end ? *to : *from);
+        return 2;
+    }
+    if (!strcmp(a->output, "-") && *to > *from) {
+        say_usage("-o - cannot take a range of frames (one file a frame)");
+        return 2;
+    }
+    char path[4096];
+    int numbered = frame_path(a->output, *from, path, sizeof path);
+    if (numbered < 0 || (numbered == 0 && a->output[0] && *to > *from)) {
+        say_usage(
+            numbered < 0
+                ? "-o %s: a frame's file takes one %%d (or %%0Nd, N < 10) and no other %%"
+                : "-o %s: a range of frames needs a file name with %%d, e.g. -o 'shot-%%04d.png'",
+            a->output);
+        return 2;
+    }
+    return 0;
+}
+
+/* The line after each frame: its time, and the range's progress. */
+static void frame_line(const struct args *a, long k, long done, long total, double secs,
+                       double t_range, const char *path) {
+    if (a->quiet) return;
+    double eta = done < total ? t_range / (double)done * (double)(total - done) : 0;
+    fprintf(stderr, "frame %ld: %.3f s%s%s  [%ld/%ld frames, %3.0f%%, %.1f s, eta %.1f s]\n", k,
+            secs, path[0] ? " -> " : "", path, done, total, 100.0 * (double)done / (double)total,
+            t_range, eta);
+}
+
+/* Renders frames from..to of the scene text; scene is frame `from`,
+ * already parsed, and is freed here. */
+static int frames_loop(const struct args *a, const char *text, size_t len,
+                       const struct rayd_limits *lim, rayd_scene *scene, long from, long to,
+                       double t0) {
+    struct video v = {0};
+    const struct args *ap = a;
+    int rc = 0;
+    double t_range = render_one_now();
+    if (a->video) {
+        struct rayd_scene_info info;
+        struct rayd_animation an;
+        struct rayd_error err = {0};
+        rayd_scene_info(scene, &info);
+        rayd_scene_animation(scene, &an);
+        struct rayd_region r = a->region;
+        if (r.w == 0 && r.h == 0) r = (struct rayd_region){0, 0, info.width, info.height};
+        if (rayd_region_check(scene, &a->region, &err) != RAYD_OK)
+            rc = render_one_fail_region(&err);
+        if (rc == 0) rc = video_start(&v, a->video, r.w, r.h, an.fps > 0 ? an.fps : 24);
+    }
+    for (long k = from; k <= to && rc == 0; k++) {
+        double tf = render_one_now();
+        struct rayd_error err = {0};
+        if (!scene && rayd_scene_parse_frame(text, len, lim, k, &scene, &err) != RAYD_OK) {
+            rc = render_one_fail("", &err);
+            break;
+        }
+        char path[4096];
+        rc = frame_file(a, k, path, sizeof path) ? 2 : 0;
+        struct args b = *ap;
+        b.output = path;
+        double stage[ST__COUNT] = {0};
+        if (rc == 0 && a->video)
+            rc = video_frame(&b, scene, path, &v);
+        else if (rc == 0)
+            rc = render_one(&b, scene, stage, t0);
+        rayd_scene_free(scene);
+        scene = NULL;
+        if (rc == 0)
+            frame_line(a, k, k - from + 1, to - from + 1, render_one_now() - tf,
+                       render_one_now() - t_range, path);
+    }
+    rayd_scene_free(scene);
+    if (a->video && video_end(&v, a->video, rc != 0) != 0 && rc == 0) rc = 1;
+    if (rc == 0 && !a->quiet)
+        fprintf(stderr, "frames %ld-%ld: %ld frame%s in %.3f s%s%s\n", from, to, to - from + 1,
+                to > from ? "s" : "", render_one_now() - t_range, a->video ? " -> " : "",
+                a->video ? a->video : "");
+    return rc;
+}
+
+/* --frame, --frames or --video, from the scene's text: parses the first
+ * frame, checks the range against the scene's, renders it. */
+int frames_run(const struct args *a, const char *text, size_t len, const struct rayd_limits *lim,
+               double t0) {
+    struct rayd_error err = {0};
+    rayd_scene *scene = NULL;
+    enum rayd_status st = a->frames_set
+                              ? rayd_scene_parse_frame(text, len, lim, a->frame_a, &scene, &err)
+                              : rayd_scene_parse(text, len, lim, &scene, &err);
+    if (st != RAYD_OK) return render_one_fail("", &err);
+    struct rayd_animation an;
+    rayd_scene_animation(scene, &an);
+    long from, to;
+    int rc = check_range(a, &an, &from, &to);
+    if (rc != 0) {
+        fprintf(stderr, "Try 'rayd-render --help'.\n");
+        rayd_scene_free(scene);
+        return rc;
+    }
+    return frames_loop(a, text, len, lim, scene, from, to, t0);
+}
