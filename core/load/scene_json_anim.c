@@ -126,8 +126,8 @@ static enum rayd_status read_keys(struct loader *ld, const struct sj_anim *a,
     if (!cJSON_IsArray(ts->keys) || cJSON_GetArraySize(ts->keys) == 0)
         return sj_fail(ld, RAYD_E_INVALID, &ts->kat, "must be a non-empty array of keyframes");
     ts->n = cJSON_GetArraySize(ts->keys);
-    ts->t = malloc(sizeof *ts->t * (size_t)ts->n);
-    ts->k = malloc(sizeof *ts->k * (size_t)ts->n);
+    ts->t = calloc((size_t)ts->n, sizeof *ts->t);
+    ts->k = calloc((size_t)ts->n, sizeof *ts->k);
     if (!ts->t || !ts->k) return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
     int i = 0;
     for (const cJSON *k = ts->keys->child; k; k = k->next, i++) {
@@ -294,7 +294,7 @@ static enum rayd_status put_value(struct loader *ld, cJSON *o, const struct chan
 
 static enum rayd_status anim_values(struct loader *ld, cJSON *o, const struct jp *at,
                                     const struct channel *ch, bool light) {
-    struct track_set ts;
+    struct track_set ts = {0};
     TRY(find_keys(ld, ld->anim, o, at, &ts));
     if (!ts.keys) return RAYD_OK;
     enum rayd_status st = read_keys(ld, ld->anim, ch, light ? o : NULL, &ts);
@@ -333,7 +333,7 @@ static enum rayd_status anim_lights(struct loader *ld, cJSON *root) {
 
 static enum rayd_status anim_object(struct loader *ld, cJSON *o, const struct jp *at) {
     struct sj_anim *a = ld->anim;
-    struct track_set ts;
+    struct track_set ts = {0};
     TRY(find_keys(ld, a, o, at, &ts));
     if (!ts.keys) return RAYD_OK;
     double tr[4] = {0, 0, 0, 0}, q[4] = {0, 0, 0, 1}, s[4] = {1, 1, 1, 0};

@@ -111,7 +111,7 @@ static enum rayd_status load_transform(struct loader *ld, const cJSON *obj, cons
     bool keyed = sj_anim_xform(ld->anim, obj, &kx); /* keyframes move it after its transform */
     if (!t && !keyed) return RAYD_OK;
     struct jp p = jp_key(at, t ? "transform" : "keyframes");
-    if (cJSON_IsArray(t)) {
+    if (t && cJSON_IsArray(t)) {
         int i = 0;
         for (const cJSON *e = t->child; e; e = e->next, i++) {
             struct jp pe = jp_index(&p, i);

@@ -148,7 +148,7 @@ void kf_eval_quat(const double *t, const double *q, int n, enum kf_interp how, d
     }
     /* the four keys around the segment, each on the hemisphere of the one
      * before it, as a little curve of its own */
-    double tt[4], qq[16];
+    double tt[4] = {0}, qq[16] = {0}; /* zeroed: an analyser cannot see lo <= hi */
     int lo = i > 0 ? i - 1 : i, hi = i + 2 < n ? i + 2 : i + 1, m = 0;
     for (int j = lo; j <= hi; j++, m++) {
         tt[m] = t[j];

@@ -63,6 +63,7 @@ static bool http_reply_add(struct http_reply *p, const char *name, const char *v
     memcpy(n, name, nl + 1);
     memcpy(n + nl + 1, value, vl + 1);
     p->headers[p->nheaders++] = (struct http_header){n, n + nl + 1};
+    // cppcheck-suppress memleak ; n is p's now, freed with the reply
     return true;
 }
 
