@@ -370,7 +370,7 @@ test: all $(UNIT_BIN) $(TEST_TOOLS) $(FUZZ_REPLAY) $(BUILD)/bench/genmesh $(BROW
       | $(BUILD)/.test-deps-ok
 	@bash tests/run.sh $(BUILD)
 
-# The integration tests with every core busy, pinned to one core, and idle
+# The integration tests with every core busy and pinned to one core
 # (tests/stress.sh): none may depend on how long a render takes.
 test-stress: all $(TEST_TOOLS) $(FUZZ_REPLAY) $(BUILD)/bench/genmesh $(BROWSER_NODE) \
              $(BUILD)/$(SO_FILE) \
@@ -458,7 +458,7 @@ $(FUZZ_SERVER_TARGETS:%=$(BUILD)/tests/fuzz/replay_%): $(BUILD)/tests/fuzz/repla
     $(SERVER_LIB_OBJ) $(BUILD)/librayd.a
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -D_DEFAULT_SOURCE -Iserver -Iinclude -I$(BUILD)/server $(filter %.c,$^) -o $@ \
-	  $(LDFLAGS_ALL) $(SERVER_LIB_OBJ) $(BUILD)/librayd.a -lmicrohttpd -lcrypto $(LIBS_CORE)
+	  $(LDFLAGS_ALL) $(SERVER_LIB_OBJ) $(BUILD)/librayd.a -lmicrohttpd -lcrypto $(SQLITE_LIBS) $(LIBS_CORE)
 
 # --- TSan and valgrind ------------------------------------------------------
 # `make test-tsan`: the server built with ThreadSanitizer into build/tsan/,
