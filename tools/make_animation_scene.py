@@ -97,10 +97,20 @@ def scene():
     }
 
 
+def plain_zeros(v):
+    """v with every -0.0 written 0.0: the same scene, and text that survives
+    the preview's formatter (JavaScript keeps -0 apart from 0)."""
+    if isinstance(v, dict):
+        return {k: plain_zeros(x) for k, x in v.items()}
+    if isinstance(v, list):
+        return [plain_zeros(x) for x in v]
+    return 0.0 if isinstance(v, float) and v == 0 else v
+
+
 def main():
     out = sys.argv[1] if len(sys.argv) > 1 else "scenes/animation.json"
     with open(out, "w") as f:
-        f.write(json.dumps(scene(), separators=(", ", ": ")) + "\n")
+        f.write(json.dumps(plain_zeros(scene()), separators=(", ", ": ")) + "\n")
 
 
 if __name__ == "__main__":
