@@ -166,7 +166,10 @@ static void *watch_main(void *arg) {
         struct task_notify n = {0}, sse = {0};
         struct watch_trim trim = {0};
         bool again = watch_round(&s, &last_expire, &last_ping, &gone, &n, &sse, &trim);
-        if (gone.list || n.list || sse.list || trim.due) { /* without the lock */
+        /* n may hold a finished task's image with no waiter to take it (a
+         * job stopped by its deadline): task_notify_run drops it */
+        bool due = gone.list || n.list || n.res.png || sse.list || sse.res.png;
+        if (due || trim.due) { /* without the lock */
             work_lock_give();
             task_notify_run(&gone);
             task_notify_run(&n);
