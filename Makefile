@@ -25,7 +25,7 @@
 #                    part of make test)
 
 # Debian packages, in lists by what needs them (README.md, "Dependencies",
-# says what each package is for).  BUILD_PKGS: compiler and tools, the three
+# says what each package is for).  BUILD_PKGS: compilers (g++ for core/codec/exr_imf.cc) and tools, the three
 # given libraries (libpng, cJSON, libmicrohttpd), libcurl for the client,
 # libssl (libcrypto's SHA-256 of scene ids), libdeflate, libisal and zlib (the PNG
 # encoder's deflates), libopenexr-dev (EXR out and environment maps in, core/codec/exr*.c), libstb-dev
@@ -40,7 +40,7 @@
 # man-db (the man pages rendered), python3-prometheus-client (its parser
 # reads /metrics in tests/integration/observability.sh).  LINT_PKGS: make lint and make format.
 # BENCH_PKGS (below): make bench-peers only.
-BUILD_PKGS := gcc make pkg-config libc6-dev libpng-dev zlib1g-dev libisal-dev libdeflate-dev libcjson-dev \
+BUILD_PKGS := gcc g++ make pkg-config libc6-dev libpng-dev zlib1g-dev libisal-dev libdeflate-dev libcjson-dev \
               libmicrohttpd-dev libcurl4-openssl-dev libssl-dev libopenexr-dev libstb-dev ffmpeg \
               libsqlite3-dev
 TEST_PKGS := curl python3 nginx wrk chromium fonts-dejavu-core pngcheck openexr g++ \
@@ -104,7 +104,9 @@ EXR_LIBS = $(shell pkg-config --libs OpenEXR)
 # SQLite (server/store.c only, rayd --data-dir) through pkg-config, as OpenEXR.
 SQLITE_CFLAGS = $(patsubst -I%,-isystem %,$(shell pkg-config --cflags sqlite3))
 SQLITE_LIBS = $(shell pkg-config --libs sqlite3)
-LIBS_DYN = -lz -lisal -lcjson $(EXR_LIBS) -lpthread -lm
+# libstdc++ for core/codec/exr_imf.cc, the core's one C++ file (OpenEXR's C++
+# library reads what its C library of Debian 12's release cannot: DWA, tiles).
+LIBS_DYN = -lz -lisal -lcjson $(EXR_LIBS) -lstdc++ -lpthread -lm
 LIBS_CORE = -Wl,-Bstatic -lpng16 -ldeflate -lstb -Wl,-Bdynamic $(LIBS_DYN)
 LIBS_SHARED = -lpng16 -ldeflate -lstb $(LIBS_DYN)
 
@@ -118,7 +120,8 @@ VERSION_MAJOR := $(firstword $(subst ., ,$(VERSION)))
 CFLAGS_ALL += -DRAYD_VERSION='"$(VERSION)"'
 
 CORE_SRC := $(wildcard core/*/*.c)
-CORE_OBJ := $(CORE_SRC:%.c=$(BUILD)/%.o)
+CORE_CXX_SRC := $(wildcard core/*/*.cc)
+CORE_OBJ := $(CORE_SRC:%.c=$(BUILD)/%.o) $(CORE_CXX_SRC:%.cc=$(BUILD)/%.o)
 # server/: main.c and one folder per layer (docs/architecture.md).
 SERVER_SRC := $(wildcard server/*.c server/*/*.c)
 SERVER_OBJ := $(SERVER_SRC:%.c=$(BUILD)/%.o)
@@ -193,6 +196,16 @@ $(BUILD)/core/%.o: core/%.c | $(BUILD)/.deps-ok
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) $(CFLAGS_VEC) -Iinclude -Icore -c $< -o $@
 
+# The core's C++ (exr_imf.cc): the same optimisation and sanitizers.
+CXXFLAGS_ALL = -std=c++17 $(OPT) -Wall -Wextra -Werror -Wshadow -MMD -MP $(EXR_CFLAGS) $(CXXFLAGS)
+$(BUILD)/core/%.o: core/%.cc | $(BUILD)/.deps-ok
+	@mkdir -p $(dir $@)
+	$(CXX) $(CXXFLAGS_ALL) -Iinclude -Icore -c $< -o $@
+
+$(BUILD)/pic/core/%.o: core/%.cc | $(BUILD)/.deps-ok
+	@mkdir -p $(dir $@)
+	$(CXX) $(CXXFLAGS_ALL) -fPIC -Iinclude -Icore -c $< -o $@
+
 # Loops over a packet's lanes (integrate_wide.c, camera.c) and the PNG row
 # filters (png_encode.c) are written for the vectoriser, which -O2 runs only
 # on the cheapest loops (-O3 on all, with this cost model): so they stay
@@ -249,7 +262,7 @@ $(BUILD)/rayd-client: $(CLIENT_SRC:%.c=$(BUILD)/%.o) $(COMMON_OBJ) $(BUILD)/libr
 # name the whole one; `make shared` builds it, `make install` needs it.
 SO_NAME := librayd.so.$(VERSION_MAJOR)
 SO_FILE := librayd.so.$(VERSION)
-CORE_PIC_OBJ := $(CORE_SRC:%.c=$(BUILD)/pic/%.o)
+CORE_PIC_OBJ := $(CORE_SRC:%.c=$(BUILD)/pic/%.o) $(CORE_CXX_SRC:%.cc=$(BUILD)/pic/%.o)
 
 $(BUILD)/pic/core/%.o: core/%.c | $(BUILD)/.deps-ok
 	@mkdir -p $(dir $@)
@@ -402,7 +415,7 @@ FUZZ_SECONDS ?= 30
 FUZZ_CFLAGS := -std=c11 -D_POSIX_C_SOURCE=200809L -ffp-contract=off -O1 -g -fsanitize=fuzzer-no-link,address,undefined \
                -fno-sanitize-recover=undefined -Iinclude -Icore
 FUZZ_CFLAGS += -DRAYD_VERSION='"$(VERSION)"'
-FUZZ_CORE_OBJ := $(CORE_SRC:core/%.c=build/fuzz/core/%.o)
+FUZZ_CORE_OBJ := $(CORE_SRC:core/%.c=build/fuzz/core/%.o) $(CORE_CXX_SRC:core/%.cc=build/fuzz/core/%.o)
 .SECONDARY: $(FUZZ_CORE_OBJ)
 
 build/fuzz/core/%.o: core/%.c | $(BUILD)/.test-deps-ok
@@ -410,6 +423,11 @@ build/fuzz/core/%.o: core/%.c | $(BUILD)/.test-deps-ok
 	clang $(FUZZ_CFLAGS) -MMD -MP -c $< -o $@
 
 build/fuzz/core/codec/exr.o build/fuzz/core/codec/exr_read.o: FUZZ_CFLAGS += $(EXR_CFLAGS)
+
+build/fuzz/core/%.o: core/%.cc | $(BUILD)/.test-deps-ok
+	@mkdir -p $(dir $@)
+	clang++ -std=c++17 -O1 -g -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize=vptr \
+	  -Iinclude -Icore $(EXR_CFLAGS) -MMD -MP -c $< -o $@
 
 build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c $(FUZZ_CORE_OBJ)
 	clang $(FUZZ_CFLAGS) -fsanitize=fuzzer $^ -o $@ $(LIBS_CORE)

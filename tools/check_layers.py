@@ -81,7 +81,7 @@ CORE_LAYERS = [
                      "(progressive passes and sample ranges), srgb.c, integrate*.c (Whitted, "
                      "path, 16-wide), image"),
     ("core/codec/", "image codecs on render/image.h: png.c (decode, 16-bit encode) + png_encode.c "
-                    "(parallel bands), exr.c + exr_read.c (EXR out and in), sums.c (a sample "
+                    "(parallel bands), exr.c + exr_read.c (EXR out and in; exr_imf.cc: DWA and tiled maps through the C++ library), sums.c (a sample "
                     "range's exact sums as bytes)"),
     ("core/load/", "the scene loader: scene_json*.c (scene_json.c the entry point), "
                    "gltf_material.c (glTF materials and images as rayd's)"),

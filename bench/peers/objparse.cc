@@ -49,7 +49,7 @@ bool parse(const char *path, Mesh *m) {
     return true;
 }
 
-}  // namespace
+} // namespace
 
 int main(int argc, char **argv) {
     if (argc < 2) {

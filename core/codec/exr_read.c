@@ -4,17 +4,23 @@
  * OpenEXRCore, the format's own C library, already linked for the output,
  * knows the compressors and their corners.  The file is read from memory
  * (the scene loader has the bytes) through the library's read callback.
- * Only what an environment needs is taken: the first part, scanlines
- * (tiled files are refused), channels R, G and B at full resolution, half
- * or float, converted to float by the library; the data window is the
- * image.  The size is checked against the limit from the header, before
- * any pixel memory is taken.
+ * Only what an environment needs is taken: the first part, channels R, G
+ * and B at full resolution, half or float, converted to float by the
+ * library; the data window is the image.  The size is checked against the
+ * limit from the header, before any pixel memory is taken.
+ *
+ * Scanline files in every compression but DWA are decoded here.  DWAA and
+ * DWAB files (Blender's and Nuke's default for maps) and tiled ones go to
+ * exr_imf.cc, the C++ library of the same release, which OpenEXR 3.1's C
+ * library cannot stand in for there; the checks above run first all the
+ * same.  Deep files are refused, naming what they are.
  */
 #include <openexr.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "codec/exr_imf.h"
 #include "codec/exr_read.h"
 
 struct exr_src {
@@ -59,8 +65,10 @@ static int rgb_index(const char *name) {
 /* Why the part cannot be read as RGB scanlines, or NULL when it can. */
 static const char *unsupported(exr_context_t ctx) {
     exr_storage_t st;
-    if (exr_get_storage(ctx, 0, &st) != EXR_ERR_SUCCESS || st != EXR_STORAGE_SCANLINE)
-        return "is a tiled or deep OpenEXR file; only scanline files are read";
+    if (exr_get_storage(ctx, 0, &st) != EXR_ERR_SUCCESS ||
+        (st != EXR_STORAGE_SCANLINE && st != EXR_STORAGE_TILED))
+        return "is a deep OpenEXR file (samples per pixel, for compositing); an environment map "
+               "must be a flat image: scanlines or tiles";
     const exr_attr_chlist_t *ch = NULL;
     if (exr_get_channels(ctx, 0, &ch) != EXR_ERR_SUCCESS || !ch) return "has no channel list";
     int seen = 0;
@@ -72,6 +80,25 @@ static const char *unsupported(exr_context_t ctx) {
         seen |= 1 << k;
     }
     return seen == 7 ? NULL : "needs the channels R, G and B";
+}
+
+/* Whether the pixels go through exr_imf.cc: tiled storage, or a DWA
+ * compression, which OpenEXR 3.1's C library cannot decompress. */
+static int through_imf(exr_context_t ctx) {
+    exr_storage_t st = EXR_STORAGE_SCANLINE;
+    exr_compression_t comp = EXR_COMPRESSION_NONE;
+    exr_get_storage(ctx, 0, &st);
+    exr_get_compression(ctx, 0, &comp);
+    return st == EXR_STORAGE_TILED || comp == EXR_COMPRESSION_DWAA || comp == EXR_COMPRESSION_DWAB;
+}
+
+/* The pixels through the C++ library; EXR_ERR_CORRUPT_CHUNK (message in
+ * src) when it fails. */
+static exr_result_t read_imf(struct exr_src *src, float *rgb, int w, int h) {
+    char why[sizeof src->message - 40];
+    if (exr_imf_read_rgb(src->p, src->len, rgb, w, h, why, sizeof why) == 0) return EXR_ERR_SUCCESS;
+    snprintf(src->message, sizeof src->message, "OpenEXR's C++ library: %s", why);
+    return EXR_ERR_CORRUPT_CHUNK;
 }
 
 /* Decodes every chunk of rows into rgb (w wide, from data window row y0). */
@@ -138,7 +165,8 @@ enum rayd_status exr_read_rgb(const void *buf, size_t len, long max_pixels, floa
     if (st == RAYD_OK && !px)
         st = err_set(err, RAYD_E_NOMEM, NULL, "out of memory for an OpenEXR image");
     if (st == RAYD_OK) {
-        rv = read_rows(ctx, px, (int)ww, dw.min.y, dw.max.y);
+        rv = through_imf(ctx) ? read_imf(&src, px, (int)ww, (int)hh)
+                              : read_rows(ctx, px, (int)ww, dw.min.y, dw.max.y);
         if (rv != EXR_ERR_SUCCESS)
             st = err_set(err, RAYD_E_INVALID, NULL, "cannot decode the OpenEXR image: %s",
                          src.message[0] ? src.message : exr_get_default_error_message(rv));

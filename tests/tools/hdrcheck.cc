@@ -74,7 +74,8 @@ static bool read_exr(const char *path, std::vector<unsigned> &out, int &w, int &
         Imf::FrameBuffer fb;
         const char *names[3] = {"R", "G", "B"};
         for (int c = 0; c < 3; c++)
-            fb.insert(names[c], Imf::Slice(Imf::FLOAT, (char *)(rgb.data() + c), 12, (size_t)w * 12));
+            fb.insert(names[c],
+                      Imf::Slice(Imf::FLOAT, (char *)(rgb.data() + c), 12, (size_t)w * 12));
         file.setFrameBuffer(fb);
         file.readPixels(dw.min.y, dw.max.y);
         for (float v : rgb) out.push_back((unsigned)srgb8(v));
@@ -86,12 +87,14 @@ static bool read_exr(const char *path, std::vector<unsigned> &out, int &w, int &
 }
 
 int main(int argc, char **argv) {
-    if (argc != 3) return std::fprintf(stderr, "usage: hdrcheck IMAGE8.png OTHER.exr|OTHER.png\n"), 2;
+    if (argc != 3)
+        return std::fprintf(stderr, "usage: hdrcheck IMAGE8.png OTHER.exr|OTHER.png\n"), 2;
     std::vector<unsigned> a, b;
     int aw, ah, bw, bh;
     std::string other = argv[2];
     bool exr = other.size() > 4 && other.substr(other.size() - 4) == ".exr";
-    if (!read_png(argv[1], false, a, aw, ah)) return std::fprintf(stderr, "hdrcheck: cannot read %s\n", argv[1]), 2;
+    if (!read_png(argv[1], false, a, aw, ah))
+        return std::fprintf(stderr, "hdrcheck: cannot read %s\n", argv[1]), 2;
     if (!(exr ? read_exr(argv[2], b, bw, bh) : read_png(argv[2], true, b, bw, bh)))
         return std::fprintf(stderr, "hdrcheck: cannot read %s\n", argv[2]), 2;
     if (aw != bw || ah != bh || a.size() != b.size())
@@ -103,6 +106,7 @@ int main(int argc, char **argv) {
         int d = std::abs(v - (int)a[i]);
         if (d > worst) worst = d, off = i;
     }
-    std::printf("%dx%d, %zu values, largest difference %d (value %zu)\n", aw, ah, a.size(), worst, off);
+    std::printf("%dx%d, %zu values, largest difference %d (value %zu)\n", aw, ah, a.size(), worst,
+                off);
     return worst <= 1 ? 0 : 1;
 }
