@@ -293,6 +293,9 @@ BINDIR ?= $(PREFIX)/bin
 LIBDIR ?= $(PREFIX)/lib
 INCLUDEDIR ?= $(PREFIX)/include
 MANDIR ?= $(PREFIX)/share/man
+# The example scenes (and the maps they name), for rayd-render and the man pages' examples.
+SCENEDIR ?= $(PREFIX)/share/rayd/scenes
+SCENE_SHIPPED := $(sort $(wildcard scenes/*.json scenes/*.hdr))
 UNITDIR ?= $(PREFIX)/lib/systemd/system
 SYSCONFDIR ?= $(if $(filter /usr,$(PREFIX)),/etc,$(PREFIX)/etc)
 MAN_PAGES := $(wildcard docs/man/*.1)
@@ -301,12 +304,15 @@ ENV_FILE := $(SYSCONFDIR)/default/rayd
 INSTALLED := $(PROGS:$(BUILD)/%=$(BINDIR)/%) \
              $(LIBDIR)/librayd.a $(LIBDIR)/$(SO_FILE) $(LIBDIR)/$(SO_NAME) $(LIBDIR)/librayd.so \
              $(PUBLIC_HEADERS:include/%=$(INCLUDEDIR)/%) $(LIBDIR)/pkgconfig/rayd.pc \
-             $(MAN_PAGES:docs/man/%=$(MANDIR)/man1/%) $(UNITDIR)/rayd.service
+             $(MAN_PAGES:docs/man/%=$(MANDIR)/man1/%) $(UNITDIR)/rayd.service \
+             $(SCENE_SHIPPED:scenes/%=$(SCENEDIR)/%)
 
 install: all $(BUILD)/$(SO_FILE)
 	install -d $(DESTDIR)$(BINDIR) $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(INCLUDEDIR)/rayd \
-	  $(DESTDIR)$(MANDIR)/man1 $(DESTDIR)$(UNITDIR) $(DESTDIR)$(SYSCONFDIR)/default
+	  $(DESTDIR)$(MANDIR)/man1 $(DESTDIR)$(UNITDIR) $(DESTDIR)$(SYSCONFDIR)/default \
+	  $(DESTDIR)$(SCENEDIR)
 	install -m 755 $(PROGS) $(DESTDIR)$(BINDIR)/
+	install -m 644 $(SCENE_SHIPPED) $(DESTDIR)$(SCENEDIR)/
 	install -m 644 $(BUILD)/librayd.a $(DESTDIR)$(LIBDIR)/
 	install -m 755 $(BUILD)/$(SO_FILE) $(DESTDIR)$(LIBDIR)/
 	ln -sf $(SO_FILE) $(DESTDIR)$(LIBDIR)/$(SO_NAME)
@@ -332,6 +338,7 @@ uninstall:
 	elif [ -e $(DESTDIR)$(ENV_FILE) ]; then \
 	  echo "make uninstall: $(DESTDIR)$(ENV_FILE) was edited: kept"; fi
 	@rmdir $(DESTDIR)$(INCLUDEDIR)/rayd 2>/dev/null || true
+	@rmdir $(DESTDIR)$(SCENEDIR) $(dir $(DESTDIR)$(SCENEDIR)) 2>/dev/null || true
 
 # --- tests ------------------------------------------------------------------
 # Unit tests may include the core's private headers.
@@ -507,8 +514,16 @@ test-valgrind: all | $(BUILD)/.test-deps-ok
 readme-images: $(BUILD)/rayd-render | $(BUILD)/.test-deps-ok
 	bash tools/readme_images.sh $(BUILD)
 
+# make run PORT=9090 BIND=0.0.0.0 THREADS=4 DATA=DIR: where it listens, how
+# many workers (default: one per core), where its jobs are kept; rayd names
+# a bad value itself.
+PORT ?= 8080
+BIND ?= 127.0.0.1
+THREADS ?=
+DATA ?= $(BUILD)/data
 run: all
-	$(BUILD)/rayd --bind 127.0.0.1 --port 8080 --data-dir $(BUILD)/data
+	$(BUILD)/rayd --bind $(BIND) --port $(PORT) $(if $(THREADS),--threads $(THREADS)) \
+	  --data-dir $(DATA)
 
 # Benchmark programs: raybench links the core's internals, like unit tests.
 # Bench-only Debian packages (Embree and POV-Ray for `make bench-peers`,

@@ -60,6 +60,8 @@ usr/share/man/man1/rayd-client.1
 usr/share/man/man1/rayd-render.1
 usr/share/man/man1/rayd.1
 EOF
+for f in scenes/*.json scenes/*.hdr; do echo "usr/share/rayd/$f"; done >>"$T/want"
+sort -o "$T/want" "$T/want"
 files_under "$D" >"$T/got"
 check install-tree "the tree differs from the list: $(diff "$T/want" "$T/got" | grep '^[<>]' | tr '\n' ' ')" \
     cmp -s "$T/want" "$T/got"
@@ -77,6 +79,10 @@ check install-header-version "the installed rayd.h does not define RAYD_VERSION 
     grep -qx "#define RAYD_VERSION \"$VERSION\"" "$D/usr/include/rayd/rayd.h"
 
 # --- the installed programs --------------------------------------------------
+# The installed examples render from where they are, the map they name beside them.
+check install-scenes-render "$D/usr/share/rayd/scenes/studio.json did not render" \
+    "$D/usr/bin/rayd-render" "$D/usr/share/rayd/scenes/studio.json" -o "$T/studio.png" \
+    --region 0,0,32,24
 check install-render-help "rayd-render --help did not exit 0" \
     "$D/usr/bin/rayd-render" --help >/dev/null
 if "$D/usr/bin/rayd-render" "$SCENE" -o "$T/cli.png" 2>"$T/err" && is_png "$T/cli.png" &&
