@@ -238,7 +238,20 @@ enum rayd_status scene_freeze(rayd_scene *s, struct rayd_error *err) {
     return st == RAYD_OK ? find_emitters(s, err) : st;
 }
 
+/* Whether nothing gives light: no light, no emission, a black background
+ * and environment (the Whitted ambient term needs a light too). */
+static bool scene_unlit(const rayd_scene *s) {
+    if (s->nlights > 0 || v3_dot(s->rs.background, s->rs.background) > 0) return false;
+    const struct environment *e = &s->rs.env;
+    if (e->kind == ENV_CONSTANT && v3_dot(e->color, e->color) > 0) return false;
+    if (e->kind == ENV_IMAGE && v3_dot(e->mean, e->mean) > 0) return false;
+    for (int i = 0; i < s->nmats; i++)
+        if (v3_dot(s->mats[i].emission, s->mats[i].emission) > 0) return false;
+    return true;
+}
+
 void rayd_scene_info(const rayd_scene *s, struct rayd_scene_info *info) {
+    info->unlit = scene_unlit(s);
     info->width = s->rs.width;
     info->height = s->rs.height;
     info->samples = s->rs.samples;

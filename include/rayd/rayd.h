@@ -131,6 +131,10 @@ struct rayd_scene_info {
      * base64), and the BVHs (meshes, groups, the scene's) and light buffers
      * built. */
     double decode_seconds, build_seconds;
+    /* 1 when nothing in the scene gives light: no light, no emissive
+     * material, a black background and no (or a black) environment.  Every
+     * pixel of its render is black; programs warn about it. */
+    int unlit;
 };
 
 void rayd_scene_info(const rayd_scene *scene, struct rayd_scene_info *info);

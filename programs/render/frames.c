@@ -270,6 +270,7 @@ int frames_run(const struct args *a, const char *text, size_t len, const struct 
                               ? rayd_scene_parse_frame(text, len, lim, a->frame_a, &scene, &err)
                               : rayd_scene_parse(text, len, lim, &scene, &err);
     if (st != RAYD_OK) return render_one_fail("", &err);
+    render_one_warn(scene);
     struct rayd_animation an;
     rayd_scene_animation(scene, &an);
     long from, to;

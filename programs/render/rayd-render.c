@@ -382,6 +382,7 @@ int main(int argc, char **argv) {
     enum rayd_status st = rayd_scene_parse(text, len, &lim, &scene, &err);
     free(text);
     if (st != RAYD_OK) return render_one_fail("", &err);
+    render_one_warn(scene);
 
     struct rayd_scene_info info;
     rayd_scene_info(scene, &info);

@@ -65,6 +65,9 @@ int render_one_image(const struct args *a, const rayd_scene *scene, const char *
 /* "rayd-render: error: WHAT MESSAGE" for a core error; returns 2 for a bad
  * argument (with the "Try" line), else 1. */
 int render_one_fail(const char *what, const struct rayd_error *err);
+/* "rayd-render: warning: ..." on stderr (whatever --quiet says) when the
+ * scene's render will be black for want of light, so the user sees why. */
+void render_one_warn(const rayd_scene *scene);
 /* The same, with a region field named as --region's. */
 int render_one_fail_region(struct rayd_error *err);
 /* "cannot write PATH: strerror(e)"; returns 1. */

@@ -40,6 +40,15 @@ int render_one_fail(const char *what, const struct rayd_error *err) {
     return 2;
 }
 
+void render_one_warn(const rayd_scene *scene) {
+    struct rayd_scene_info info;
+    rayd_scene_info(scene, &info);
+    if (info.unlit)
+        fprintf(stderr, "rayd-render: warning: nothing in the scene gives light (no light, no "
+                        "emissive material, a black background and environment): the image "
+                        "will be black\n");
+}
+
 double render_one_now(void) {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);

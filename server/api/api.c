@@ -183,6 +183,12 @@ static bool api_region_q(struct http_req *r, const rayd_scene *scene, struct ray
     return true;
 }
 
+bool api_unlit(const rayd_scene *scene) {
+    struct rayd_scene_info info;
+    rayd_scene_info(scene, &info);
+    return info.unlit != 0;
+}
+
 bool api_region(struct http_req *r, const rayd_scene *scene, struct rayd_region *out) {
     struct api_q q = {0};
     return api_region_q(r, scene, out, &q);

@@ -21,6 +21,13 @@
 /* Parses ?x=&y=&w=&h= strictly against scene; on error replies 400 and
  * returns false.  No parameters: the whole image. */
 bool api_region(struct http_req *r, const rayd_scene *scene, struct rayd_region *out);
+/* Whether nothing in the scene gives light (rayd_scene_info's unlit): its
+ * image is black, and the answer warns with API_UNLIT_WARNING (the
+ * X-Rayd-Warning header of an image, a job's "warnings"). */
+bool api_unlit(const rayd_scene *scene);
+#define API_UNLIT_WARNING                                                                          \
+    "unlit: nothing in the scene gives light (no light, no emissive material, a black "            \
+    "background and environment); the image is black"
 /* api_region, letting the names in also (NULL-ended) through for the
  * route's own parser. */
 bool api_region_also(struct http_req *r, const rayd_scene *scene, struct rayd_region *out,

@@ -34,13 +34,16 @@ struct api_render_wait {
     struct http_req *r;
     enum work_format format;
     struct api_price price;
+    bool unlit; /* the scene gives no light: the reply says so */
 };
 
-/* The image reply: its type, the cache headers, the price, and Vary:
- * Accept where the Accept header can choose the format. */
+/* The image reply: its type, the cache headers, the price, Vary: Accept
+ * where the Accept header can choose the format, and a warning when the
+ * image is black for want of light (the user sees why). */
 static void api_render_reply(struct http_req *r, struct blob *img, enum work_format format,
-                             const struct api_price *price) {
+                             const struct api_price *price, bool unlit) {
     http_reply_image(r, 200, img, api_format_type(format));
+    if (unlit) http_reply_header(r, "X-Rayd-Warning", API_UNLIT_WARNING);
     http_reply_cache_headers(r);
     api_cost_price_headers(r, price);
     if (r->route.negotiates) http_reply_vary(r, "Accept");
@@ -58,7 +61,7 @@ static void api_render_done(struct work_waiter *w, struct work_result *res) {
         r->gone = true;
         r->res.note = "client_gone";
     } else if (res->status == RAYD_OK && res->png) {
-        api_render_reply(r, res->png, a.format, &a.price);
+        api_render_reply(r, res->png, a.format, &a.price, a.unlit);
     } else {
         struct rayd_error e = res->err;
         e.code = res->status;
@@ -85,7 +88,7 @@ static bool api_render_submit(struct http_req *r, struct cache_entry *scene,
     if (!api_cost_price(r, scene, what, false, &price, limit, sizeof limit)) {
         /* over a budget, unless it costs nothing: already in the result cache */
         if ((png = sched_result_find(scene, what))) {
-            api_render_reply(r, png, format, &price);
+            api_render_reply(r, png, format, &price, api_unlit(cache_scene(scene)));
             blob_unref(png);
             r->res.note = "result_cache";
         } else {
@@ -101,6 +104,7 @@ static bool api_render_submit(struct http_req *r, struct cache_entry *scene,
     a->r = r;
     a->format = format;
     a->price = price;
+    a->unlit = api_unlit(cache_scene(scene));
     a->w.done = api_render_done;
     a->w.suspend = api_render_suspend;
     a->w.fd = http_req_fd(r);
@@ -108,7 +112,7 @@ static bool api_render_submit(struct http_req *r, struct cache_entry *scene,
     if (s == WORK_OK) return true; /* a belongs to the work layer until done() */
     free(a);
     if (s == WORK_CACHED) {
-        api_render_reply(r, png, format, &price);
+        api_render_reply(r, png, format, &price, api_unlit(cache_scene(scene)));
         blob_unref(png);
         r->res.note = "result_cache";
     } else {

@@ -276,6 +276,19 @@ static bool http_flow_reserve(struct http_req *r, size_t need) {
     return false;
 }
 
+/* 413 for a body over --max-body: the limit is the operator's, so the
+ * message also names the ways a client gets big geometry in without it. */
+static void http_flow_too_large(struct http_req *r) {
+    metrics_reject(MR_BODY_TOO_LARGE);
+    char msg[360];
+    snprintf(msg, sizeof msg,
+             "the body is over the server's limit of %ld bytes (--max-body, set by its "
+             "operator); send big meshes another way: as a file under the server's --asset-dir "
+             "(\"file\" in the scene), or as binary PLY or .glb instead of OBJ text",
+             config.max_body);
+    http_reply_error(r, 413, "body_too_large", msg, NULL, 0, 0, NULL);
+}
+
 bool http_flow_begin(struct http_req *r) {
     http_req_take_id(r);
     struct http_flow_framing f = {.length = -1};
@@ -323,11 +336,7 @@ bool http_flow_begin(struct http_req *r) {
     if (body && (http_flow_unauthorized(r) || (strcmp(r->method, "OPTIONS") && router_refuse(r))))
         return false;
     if (f.nlength && f.length > config.max_body) {
-        metrics_reject(MR_BODY_TOO_LARGE);
-        char msg[128];
-        snprintf(msg, sizeof msg, "the body is over the limit of %ld bytes (--max-body)",
-                 config.max_body);
-        http_reply_error(r, 413, "body_too_large", msg, NULL, 0, 0, NULL);
+        http_flow_too_large(r);
         return false;
     }
     return !(f.nlength && f.length > 0) || http_flow_reserve(r, (size_t)f.length + 1);
@@ -420,9 +429,7 @@ bool http_flow_body(struct http_req *r, const char *data, size_t n) {
 void http_flow_handle(struct http_req *r) {
     if (r->body_len > 0) metrics_stage(MS_UPLOAD, clock_now() - r->log.t0);
     if (r->conn.too_large) {
-        metrics_reject(MR_BODY_TOO_LARGE);
-        http_reply_error(r, 413, "body_too_large", "the body is over the limit (--max-body)", NULL,
-                         0, 0, NULL);
+        http_flow_too_large(r);
         return;
     }
     if (r->conn.no_memory) {

@@ -43,6 +43,9 @@ check unknown_key_422 "status $code $(cat "$T/body")" err_is "$T/body" 422 inval
 head -c 200000 /dev/zero | tr '\0' ' ' >"$T/big.json"
 code=$(post_json /v1/render "$T/big.json")
 check body_too_large_413 "status $code $(cat "$T/body")" err_is "$T/body" 413 body_too_large
+# the limit is the operator's: the message names it and the client's ways around it
+check body_too_large_ways_around "$(cat "$T/body")" bash -c \
+    "grep -q 'limit of 100000 bytes (--max-body' '$T/body' && grep -q -- '--asset-dir' '$T/body' && grep -q 'binary PLY or .glb' '$T/body'"
 # a client that announces a huge body but never sends it still gets 413 at once
 start=$(date +%s%N)
 # (the body never comes: a server that waited for it would answer nothing
@@ -55,6 +58,7 @@ check body_too_large_before_read "status $code after ${ms} ms" [ "$code" = 413 ]
 code=$(head -c 300000 /dev/zero | tr '\0' ' ' | curl -s -m 60 -o "$T/body" -w '%{http_code}' -X POST \
     -H 'Content-Type: application/json' -H 'Transfer-Encoding: chunked' --data-binary @- "$URL/v1/render")
 check chunked_too_large_413 "status $code" err_is "$T/body" 413 body_too_large
+check chunked_too_large_ways_around "$(cat "$T/body")" grep -q -- '--asset-dir' "$T/body"
 scene "$T/huge.json" 2000 1000 1 spheres
 code=$(post_json /v1/render "$T/huge.json")
 check image_too_large_413 "status $code $(cat "$T/body")" bash -c "[ $code = 413 ] && python3 -c 'import json,sys; e=json.load(open(sys.argv[1]))[\"error\"]; sys.exit(0 if e[\"status\"]==413 and e[\"path\"].startswith(\"/render\") else 1)' '$T/body'"
