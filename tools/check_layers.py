@@ -70,7 +70,7 @@ CORE_LAYERS = [
     ("core/format/", "byte-level formats on base and math alone: json_check, json_parse (the "
                      "locked cJSON parse), json_numbers, json_pointer, base64, mesh_io + "
                      "mesh_obj, mesh_ply, mesh_gltf (with its animation channels), hdr_scan, "
-                     "deflate_chain, file"),
+                     "deflate_chain, file, text_encoding (naming UTF-16 and UTF-32 text)"),
     ("core/accel/", "bvh.c (the SAH builder and walk, over boxes), bvh16.h (16-ray packet walk), "
                     "light_buffer.c (which objects can shadow which directions of a point light)"),
     ("core/geom/", "shape.c + shape_*.c (one file per primitive), mesh.c + mesh_packet.c, camera"),

@@ -28,6 +28,7 @@
  * 63 characters are left to cJSON too, which reads at most 63 (1.7.15).
  */
 #include "format/json_check.h"
+#include "format/text_encoding.h"
 
 #include <limits.h>
 #include <stdio.h>
@@ -378,6 +379,9 @@ enum rayd_status json_check_spans(const char *text, size_t len, int max_depth,
     unsigned char at = c.i < len ? c.p[c.i] : 0;
     if (strcmp(c.msg, "nesting deeper than the limit") == 0)
         snprintf(msg, sizeof msg, "malformed JSON: nesting deeper than %d levels", max_depth);
+    else if (text_foreign_encoding(text, len))
+        snprintf(msg, sizeof msg, "malformed JSON: the text is %s; save it as UTF-8",
+                 text_foreign_encoding(text, len));
     else if (c.i == 0 && len >= 3 && memcmp(c.p, "\xEF\xBB\xBF", 3) == 0)
         snprintf(msg, sizeof msg,
                  "malformed JSON: a byte order mark (BOM) is not allowed; save the file as UTF-8 "

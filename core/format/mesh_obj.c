@@ -43,6 +43,7 @@
  */
 #include "base/hugemem.h"
 #include "format/mesh_io.h"
+#include "format/text_encoding.h"
 
 #include <float.h>
 #include <math.h>
@@ -961,6 +962,10 @@ static bool obj_parallel(const char *text, size_t len, const struct mesh_limits 
 enum rayd_status mesh_parse_obj_threads(const char *text, size_t len, const struct mesh_limits *lim,
                                         int threads, struct mesh_data *out,
                                         struct rayd_error *err) {
+    const char *enc = text_foreign_encoding(text, len);
+    if (enc)
+        return err_set(err, RAYD_E_INVALID, NULL,
+                       "the OBJ file is %s text; save it as UTF-8 (or ASCII)", enc);
     if (threads <= 0) threads = len >= OBJ_PARALLEL_BYTES ? parallel_cores() : 1;
     if (threads > 1 && obj_parallel(text, len, lim, threads, out)) return RAYD_OK;
     return obj_serial(text, len, lim, out, err);
@@ -968,5 +973,5 @@ enum rayd_status mesh_parse_obj_threads(const char *text, size_t len, const stru
 
 enum rayd_status mesh_parse_obj(const char *text, size_t len, const struct mesh_limits *lim,
                                 struct mesh_data *out, struct rayd_error *err) {
-    return obj_serial(text, len, lim, out, err);
+    return mesh_parse_obj_threads(text, len, lim, 1, out, err);
 }

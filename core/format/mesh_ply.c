@@ -48,6 +48,7 @@
  */
 #include "base/hugemem.h"
 #include "format/mesh_io.h"
+#include "format/text_encoding.h"
 
 #include <float.h>
 #include <math.h>
@@ -827,6 +828,10 @@ enum rayd_status mesh_parse_ply_threads(const void *data, size_t len, const stru
                     .threads = threads,
                     .min_chunk = threads > 0 ? 1 : MESH_IO_CHUNK,
                     .err = err};
+    const char *enc = text_foreign_encoding(data, len);
+    if (enc) /* a PLY header is ASCII even in a binary file */
+        return err_set(err, RAYD_E_INVALID, NULL,
+                       "the PLY file is %s text; save it as ASCII or binary PLY", enc);
     enum rayd_status st = ply_header(&P);
     if (st == RAYD_OK) st = ply_check_header(&P);
     if (st == RAYD_OK) st = ply_alloc(&P);

@@ -162,7 +162,8 @@ struct progress {
     int total;
     double t0, last_draw, last_line;
     int last_pct, last_done;
-    int width; /* drawn width, to clear */
+    int width;        /* drawn width, to clear */
+    const char *unit; /* what the pieces are called: "tiles" unless set after init */
 };
 
 void progress_init(struct progress *p, int total, int quiet);

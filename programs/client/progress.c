@@ -21,6 +21,7 @@ void progress_init(struct progress *p, int total, int quiet) {
     p->tty = isatty(2);
     p->t0 = net_now();
     p->last_pct = -1;
+    p->unit = "tiles";
 }
 
 static void progress_eta(double secs, char *buf, size_t size) {
@@ -77,13 +78,13 @@ void progress_update(struct progress *p, int done, int failed, int nservers, con
         int fill = p->total ? 30 * done / p->total : 0;
         for (int i = 0; i < 30; i++) bar[i] = i < fill ? '#' : '.';
         bar[30] = '\0';
-        int w = fprintf(stderr, "\r[%s] %d/%d tiles%s  %s%s  ETA %s", bar, done, p->total, fail,
-                        servers, rays, eta);
+        int w = fprintf(stderr, "\r[%s] %d/%d %s%s  %s%s  ETA %s", bar, done, p->total, p->unit,
+                        fail, servers, rays, eta);
         for (int i = w; i < p->width; i++) fputc(' ', stderr);
         if (w > p->width) p->width = w;
     } else {
-        fprintf(stderr, "rayd-client: %d/%d tiles (%d%%)%s, %.1fs, servers: %s%s, ETA %s\n", done,
-                p->total, pct, fail, el, servers, rays, eta);
+        fprintf(stderr, "rayd-client: %d/%d %s (%d%%)%s, %.1fs, servers: %s%s, ETA %s\n", done,
+                p->total, p->unit, pct, fail, el, servers, rays, eta);
     }
     fflush(stderr);
 }

@@ -173,12 +173,14 @@ static int thumb_one(const struct client_opts *o, const char *dir, const char *n
     if (thumb_read(path, format, &m) != 0) return 1;
     int rc = 0;
     if (!look->turntable) {
-        snprintf(out, sizeof out, "%s/%.*s.png", outdir, n, name);
-        rc = thumb_frame(o, path, &m, look, NAN, out);
+        /* fits: shorter than the -000.png name checked above */
+        if (snprintf(out, sizeof out, "%s/%.*s.png", outdir, n, name) < (int)sizeof out)
+            rc = thumb_frame(o, path, &m, look, NAN, out);
     }
     for (int k = 0; k < look->turntable && rc == 0; k++) {
-        snprintf(out, sizeof out, "%s/%.*s-%03d.png", outdir, n, name, k);
-        rc = thumb_frame(o, path, &m, look, thumb_azimuth(look->view, k, look->turntable), out);
+        rc = snprintf(out, sizeof out, "%s/%.*s-%03d.png", outdir, n, name, k) >= (int)sizeof out;
+        if (rc == 0)
+            rc = thumb_frame(o, path, &m, look, thumb_azimuth(look->view, k, look->turntable), out);
     }
     free(m.data);
     return rc;
@@ -275,9 +277,29 @@ static int thumb_list(const char *dir, const char *outdir, struct dirent ***list
     return 0;
 }
 
-int thumbnails_run(const struct client_opts *o, const char *dir, const char *outdir, int size,
-                   const char *view, int turntable) {
+/* path without its trailing slashes ("models/" -> "models", "/" stays),
+ * into buf; NULL when it does not fit. */
+static const char *thumb_dir(const char *path, char *buf, size_t size) {
+    size_t n = strlen(path);
+    while (n > 1 && path[n - 1] == '/') n--;
+    if (n >= size) return NULL;
+    memcpy(buf, path, n);
+    buf[n] = '\0';
+    return buf;
+}
+
+int thumbnails_run(const struct client_opts *o, const char *dir_arg, const char *outdir_arg,
+                   int size, const char *view, int turntable) {
     struct thumb_look look = {size, view, turntable};
+    /* "models/" as typed: the names printed and written get no second slash */
+    char dbuf[4096], obuf[4096];
+    const char *dir = thumb_dir(dir_arg, dbuf, sizeof dbuf);
+    const char *outdir = thumb_dir(outdir_arg, obuf, sizeof obuf);
+    if (!dir || !outdir) {
+        fprintf(stderr, "rayd-client: error: %s: the path is too long\n",
+                dir ? outdir_arg : dir_arg);
+        return 1;
+    }
     struct dirent **list = NULL;
     int n = 0;
     if (thumb_list(dir, outdir, &list, &n) != 0) return 1;

@@ -637,8 +637,8 @@ static void tiles_report_missing(struct tiles *T) {
     for (int i = 0; i < T->n && !*why; i++)
         if (T->t[i].err[0]) why = T->t[i].err;
     tiles_error(T);
-    fprintf(stderr, "incomplete image, nothing written to %s: %d of %d tiles missing",
-            output_name(T->o->out), missing, T->n);
+    fprintf(stderr, "incomplete image, nothing written to %s: %d of %d %s missing",
+            output_name(T->o->out), missing, T->n, T->prog.unit);
     if (*why) fprintf(stderr, "; last error: %s", why);
     fputs("; missing:", stderr);
     int shown = 0;
@@ -809,12 +809,12 @@ static int tiles_conclude(struct tiles *T, double secs) {
         long uploads = 0;
         for (int i = 0; i < T->ns; i++) uploads += T->s[i].uploads;
         fprintf(stderr,
-                "rayd-client: wrote %s (%dx%d) from %d tiles in %.2f s (%.1f tiles/s), "
+                "rayd-client: wrote %s (%dx%d) from %d %s in %.2f s (%.1f/s), "
                 "scene sent %ld time%s",
-                output_name(T->o->out), T->sf->width, T->sf->height, T->n, secs,
+                output_name(T->o->out), T->sf->width, T->sf->height, T->n, T->prog.unit, secs,
                 secs > 0 ? T->n / secs : 0.0, uploads, uploads == 1 ? "" : "s");
         if (!T->o->no_hedge)
-            fprintf(stderr, ", tiles hedged: %d, won: %d", T->hedged, T->hedge_won);
+            fprintf(stderr, ", %s hedged: %d, won: %d", T->prog.unit, T->hedged, T->hedge_won);
         fputc('\n', stderr);
     }
     return 0;
@@ -840,6 +840,7 @@ int tiles_render(const struct client_opts *o, const struct scenefile *sf) {
     int rc = 1;
     if (tiles_setup(&T, o, sf) == 0) {
         progress_init(&T.prog, T.n, o->quiet);
+        if (o->ranges > 0) T.prog.unit = "sample ranges";
         tiles_banner(&T);
         double t0 = net_now();
         tiles_loop(&T);

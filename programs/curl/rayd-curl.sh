@@ -19,8 +19,12 @@ token=${RAYD_TOKEN:-}
 tmp="$2.part"
 status=$(printf '%s\n' ${token:+"Authorization: Bearer $token"} |
     curl -sS -o "$tmp" -w '%{http_code}' --data-binary @"$1" \
-        -H 'Content-Type: application/json' -H @- "$server/v1/render") || status=000
-if [ "$status" = 200 ]; then mv "$tmp" "$2"; exit 0; fi
-echo "rayd-curl: HTTP $status: $(cat "$tmp" 2>/dev/null)" >&2
-rm -f "$tmp"
+        -H 'Content-Type: application/json' -H @- "$server/v1/render" 2>"$tmp.err") || status=000
+if [ "$status" = 200 ]; then rm -f "$tmp.err"; mv "$tmp" "$2"; exit 0; fi
+if [ "$status" = 000 ]; then # no answer at all: say which server and curl's reason
+    echo "rayd-curl: error: no answer from $server: $(cat "$tmp.err" 2>/dev/null)" >&2
+else
+    echo "rayd-curl: HTTP $status: $(cat "$tmp" 2>/dev/null)" >&2
+fi
+rm -f "$tmp" "$tmp.err"
 exit 1

@@ -173,6 +173,10 @@ check client_render_exr_needs_split_samples "exit $RC, stderr '$(first_err c_exr
 run c_exr_job "$CLIENT" job "$T/s.json" -o "$T/c_job.exr" --server "$URL" -q
 check client_job_writes_exr "exit $RC: $(first_err c_exr_job)" bash -c \
     "[ $RC = 0 ] && cmp -s '$T/c_job.exr' '$T/ref.exr'"
+# --split-samples's progress counts sample ranges, not tiles (1 here: the scene has 1 sample)
+run c_split_words "$CLIENT" render "$T/s.json" -o "$T/c_split_words.png" --server "$URL" --split-samples 2
+check client_split_progress_says_ranges "exit $RC: $(tail -n 2 "$T/c_split_words.err")" bash -c \
+    "[ $RC = 0 ] && grep -q '/1 sample ranges (100%)' '$T/c_split_words.err' && ! grep -q 'tiles' '$T/c_split_words.err'"
 run c_exr_split "$CLIENT" render "$T/s.json" -o "$T/c_split.exr" --server "$URL" --split-samples 1 -q
 check client_split_samples_writes_exr "exit $RC: $(first_err c_exr_split)" bash -c \
     "[ $RC = 0 ] && [ \"\$(head -c 4 '$T/c_split.exr' | od -An -tx1 | tr -d ' ')\" = 762f3101 ]"
@@ -277,6 +281,10 @@ check client_server_not_http_exit_2 "exit $RC, stderr '$(first_err c_ftp)'" bash
 run curl_nofile sh "$RAYD_ROOT/programs/curl/rayd-curl.sh" "$T/no-such.json" "$T/curl.png" "http://127.0.0.1:$PORT"
 check rayd_curl_unreadable_scene "exit $RC, stderr '$(first_err curl_nofile)'" bash -c \
     "[ $RC = 1 ] && [ '$(first_err curl_nofile)' = 'rayd-curl: error: cannot read $T/no-such.json' ] && [ ! -e '$T/curl.png' ] && [ ! -e '$T/curl.png.part' ]"
+# ... and a server that does not answer, with curl's reason (not "HTTP 000:")
+run curl_noserver sh "$RAYD_ROOT/programs/curl/rayd-curl.sh" scenes/paper.json "$T/curl.png" "http://127.0.0.1:1"
+check rayd_curl_no_answer "exit $RC, stderr '$(first_err curl_noserver)'" bash -c \
+    "[ $RC = 1 ] && grep -q '^rayd-curl: error: no answer from http://127.0.0.1:1: curl: (7)' '$T/curl_noserver.err' && [ ! -e '$T/curl.png' ] && [ ! -e '$T/curl.png.part' ] && [ ! -e '$T/curl.png.part.err' ]"
 
 # --- rayd-render's progress line ---------------------------------------------------
 # on_tty NAME ARGS...: runs rayd-render with stdin, stdout and stderr on a

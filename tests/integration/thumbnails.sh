@@ -49,11 +49,14 @@ check thumbnails_one_line_a_model "$nlines lines: $(cat "$T/client.err")" [ "$nl
 
 # a view and no failures: exit 0
 rm "$T/models/broken.ply" "$T/models/Wuson.ply" "$T/models/2CylinderEngine.glb"
-"$CLIENT" thumbnails "$T/models" -o "$T/top" --size 32 --view top -s "$URL" 2>"$T/top.err"
+"$CLIENT" thumbnails "$T/models/" -o "$T/top/" --size 32 --view top -s "$URL" 2>"$T/top.err"
 rc=$?
 size=$( [ -f "$T/top/cube.png" ] && png_size "$T/top/cube.png")
 check thumbnails_all_good_exit_0 "exit $rc, cube.png $size: $(cat "$T/top.err")" \
     bash -c "[ $rc = 0 ] && [ '$size' = 32x32 ] && [ -f '$T/top/BoxTextured.png' ]"
+# the folders were typed with a trailing slash: the names printed have no "//"
+check thumbnails_no_double_slash "$(cat "$T/top.err")" \
+    bash -c "grep -q 'models/cube' '$T/top.err' && ! grep -q '//' '$T/top.err'"
 "$CLIENT" thumbnails "$T/models" --view back -s "$URL" 2>"$T/bad.err"
 rc=$?
 check thumbnails_bad_view_usage "exit $rc: $(cat "$T/bad.err")" \
