@@ -676,23 +676,14 @@ enum rayd_status gltf_doc_view(struct gltf_doc *d, const cJSON *o, const char *a
     struct gl *G = &d->G;
     struct jp pa = {.s = ""};
     snprintf(pa.s, sizeof pa.s, "%s", at);
-    const cJSON *vj, *bj;
-    int vid, bid;
-    double boff, blen;
+    const cJSON *vj;
+    int vid;
     TRY_GL(gl_ref(G, o, &pa, key, "bufferViews", &vid, &vj));
     struct jp pv = gl_item("bufferViews", vid);
-    TRY_GL(gl_ref(G, vj, &pv, "buffer", "buffers", &bid, &bj));
-    TRY_GL(gl_int(G, vj, &pv, "byteOffset", 0, 0, 9007199254740991.0, &boff));
-    TRY_GL(gl_int(G, vj, &pv, "byteLength", -1, 1, 9007199254740991.0, &blen));
-    const struct gl_buf *b;
-    TRY_GL(gl_buffer(G, bid, &b));
-    struct jp pvl = jp_key(&pv, "byteLength");
-    if (boff + blen > (double)b->len)
-        return gl_fail(G, RAYD_E_INVALID, &pvl,
-                       "runs past the end of buffer %d (offset %.0f + %.0f > %zu bytes)", bid, boff,
-                       blen, b->len);
-    *p = b->data + (size_t)boff;
-    *len = (size_t)blen;
+    struct gl_span v;
+    TRY_GL(gl_view_span(G, vj, &pv, &v));
+    TRY_GL(gl_view_bytes(G, &pv, &v, p));
+    *len = (size_t)v.len;
     return RAYD_OK;
 }
 

@@ -152,7 +152,7 @@ enum rayd_status gl_file_uri(struct gl *G, const char *uri, const struct jp *p, 
 }
 
 /* Buffer i, loaded on first use: the BIN chunk, a data: URI or a file. */
-enum rayd_status gl_buffer(struct gl *G, int i, const struct gl_buf **out) {
+static enum rayd_status gl_buffer(struct gl *G, int i, const struct gl_buf **out) {
     struct gl_buf *b = &G->bufs[i];
     struct jp p = gl_item("buffers", i);
     const cJSON *bj = cJSON_GetArrayItem(gl_get(G->root, "buffers"), i);
@@ -205,27 +205,40 @@ static int gl_ncomp(const char *type) {
     return 0;
 }
 
+enum rayd_status gl_view_span(struct gl *G, const cJSON *vj, const struct jp *pv,
+                              struct gl_span *s) {
+    const cJSON *bj;
+    TRY_GL(gl_ref(G, vj, pv, "buffer", "buffers", &s->buffer, &bj));
+    TRY_GL(gl_int(G, vj, pv, "byteOffset", 0, 0, 9007199254740991.0, &s->offset));
+    return gl_int(G, vj, pv, "byteLength", -1, 1, 9007199254740991.0, &s->len);
+}
+
+enum rayd_status gl_view_bytes(struct gl *G, const struct jp *pv, const struct gl_span *s,
+                               const unsigned char **p) {
+    const struct gl_buf *b;
+    TRY_GL(gl_buffer(G, s->buffer, &b));
+    struct jp pvl = jp_key(pv, "byteLength");
+    if (s->offset + s->len > (double)b->len)
+        return gl_fail(G, RAYD_E_INVALID, &pvl,
+                       "runs past the end of buffer %d (offset %.0f + %.0f > %zu bytes)", s->buffer,
+                       s->offset, s->len, b->len);
+    *p = b->data + (size_t)s->offset;
+    return RAYD_OK;
+}
+
 /* The accessor's bufferView, checked to hold count elements of esize bytes. */
 static enum rayd_status gl_view(struct gl *G, const cJSON *aj, const struct jp *pa, double offset,
                                 size_t esize, struct gl_acc *a) {
     const cJSON *vj;
     int vid;
-    double boff, blen, stride;
+    double stride;
     TRY_GL(gl_ref(G, aj, pa, "bufferView", "bufferViews", &vid, &vj));
     struct jp pv = gl_item("bufferViews", vid);
-    const cJSON *bj;
-    int bid;
-    TRY_GL(gl_ref(G, vj, &pv, "buffer", "buffers", &bid, &bj));
-    TRY_GL(gl_int(G, vj, &pv, "byteOffset", 0, 0, 9007199254740991.0, &boff));
-    TRY_GL(gl_int(G, vj, &pv, "byteLength", -1, 1, 9007199254740991.0, &blen));
+    struct gl_span v;
+    const unsigned char *base;
+    TRY_GL(gl_view_span(G, vj, &pv, &v));
     TRY_GL(gl_int(G, vj, &pv, "byteStride", 0, 4, 252, &stride));
-    const struct gl_buf *b;
-    TRY_GL(gl_buffer(G, bid, &b));
-    struct jp pvl = jp_key(&pv, "byteLength");
-    if (boff + blen > (double)b->len)
-        return gl_fail(G, RAYD_E_INVALID, &pvl,
-                       "runs past the end of buffer %d (offset %.0f + %.0f > %zu bytes)", bid, boff,
-                       blen, b->len);
+    TRY_GL(gl_view_bytes(G, &pv, &v, &base));
     struct jp pst = jp_key(&pv, "byteStride");
     if (stride && stride < (double)esize)
         return gl_fail(G, RAYD_E_INVALID, &pst,
@@ -234,12 +247,12 @@ static enum rayd_status gl_view(struct gl *G, const cJSON *aj, const struct jp *
     /* every term is below 2^53 and exact in a double */
     double need = offset + (double)(a->count - 1) * (double)a->stride + (double)esize;
     struct jp pc = jp_key(pa, "count");
-    if (need > blen)
+    if (need > v.len)
         return gl_fail(G, RAYD_E_INVALID, &pc,
                        "exceeds the buffer view (offset %.0f + %u elements of stride %zu need %.0f "
                        "bytes; bufferView %d has %.0f)",
-                       offset, a->count, a->stride, need, vid, blen);
-    a->p = b->data + (size_t)boff + (size_t)offset;
+                       offset, a->count, a->stride, need, vid, v.len);
+    a->p = base + (size_t)offset;
     return RAYD_OK;
 }
 

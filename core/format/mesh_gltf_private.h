@@ -108,8 +108,19 @@ enum rayd_status gl_ref(struct gl *G, const cJSON *o, const struct jp *at, const
 /* n numbers at o[key] into out; def when absent. */
 enum rayd_status gl_nums(struct gl *G, const cJSON *o, const struct jp *at, const char *key, int n,
                          const double *def, double *out);
-/* Buffer i, loaded on first use: the BIN chunk, a data: URI or a file. */
-enum rayd_status gl_buffer(struct gl *G, int i, const struct gl_buf **out);
+/* A bufferView's place in its buffer, read in two steps so that a caller
+ * may check keys of its own in between (the error a document with several
+ * faults gets names the first in the same order): gl_view_span reads
+ * buffer, byteOffset and byteLength of view vj (at pv); gl_view_bytes loads
+ * the buffer and checks that the view lies inside it, *p its first byte. */
+struct gl_span {
+    int buffer;
+    double offset, len;
+};
+enum rayd_status gl_view_span(struct gl *G, const cJSON *vj, const struct jp *pv,
+                              struct gl_span *s);
+enum rayd_status gl_view_bytes(struct gl *G, const struct jp *pv, const struct gl_span *s,
+                               const unsigned char **p);
 /* A "data:...;base64," URI's bytes; a relative file's, through the opener. */
 enum rayd_status gl_data_uri(struct gl *G, const char *uri, const struct jp *p, struct gl_buf *b);
 enum rayd_status gl_file_uri(struct gl *G, const char *uri, const struct jp *p, struct gl_buf *b);

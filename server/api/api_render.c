@@ -54,9 +54,7 @@ static void api_render_done(struct work_waiter *w, struct work_result *res) {
     struct api_render_wait a = *(struct api_render_wait *)w;
     struct http_req *r = a.r;
     free(w);
-    r->res.queue_ms = res->queue_ms;
-    r->res.render_ms = res->render_ms;
-    r->res.encode_ms = res->encode_ms;
+    r->res.times = res->times;
     if (res->gone) {
         r->gone = true;
         r->res.note = "client_gone";

@@ -93,6 +93,15 @@ void config_free(void);
 
 enum log_level { LOG_DEBUG, LOG_INFO, LOG_WARN, LOG_ERROR };
 
+/* How long a request's render waited in the queue, rendered and encoded,
+ * in milliseconds.  The work layer measures them; they travel up whole, in
+ * the work result (work.h), the request's result (request.h) and the
+ * access log line, never copied field by field.  All zero: nothing was
+ * rendered for the request (a cached answer, a refusal). */
+struct log_times {
+    double queue_ms, render_ms, encode_ms;
+};
+
 /* One finished request.  Strings may be NULL (written "-" or left out);
  * path is the request-target as the client sent it, query included. */
 struct log_access {
@@ -104,8 +113,7 @@ struct log_access {
     const char *cut;
     size_t size;
     double total_ms;
-    bool rendered; /* queue_ms, render_ms and encode_ms are meaningful */
-    double queue_ms, render_ms, encode_ms;
+    struct log_times times; /* all zero: left out of the line */
     const char *scene;      /* the scene's id, or NULL */
     const char *request_id; /* X-Request-Id sent back, or NULL */
     const char *note;       /* "client_gone", ... or NULL */

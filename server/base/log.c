@@ -103,6 +103,11 @@ static void log_json_line(cJSON *o) {
     cJSON_Delete(o);
 }
 
+/* Whether the request rendered something: its times go in the line. */
+static bool log_rendered(const struct log_times *t) {
+    return t->queue_ms > 0 || t->render_ms > 0 || t->encode_ms > 0;
+}
+
 static void log_access_json(const char *ts, const struct log_access *a, const char *method,
                             const char *path, const char *error_at) {
     cJSON *o = cJSON_CreateObject();
@@ -113,10 +118,10 @@ static void log_access_json(const char *ts, const struct log_access *a, const ch
     cJSON_AddStringToObject(o, "path", path);
     cJSON_AddNumberToObject(o, "status", a->status);
     json_add_u64(o, "bytes", a->bytes);
-    if (a->rendered) {
-        json_add_fixed(o, "queue_ms", a->queue_ms, 3);
-        json_add_fixed(o, "render_ms", a->render_ms, 3);
-        json_add_fixed(o, "encode_ms", a->encode_ms, 3);
+    if (log_rendered(&a->times)) {
+        json_add_fixed(o, "queue_ms", a->times.queue_ms, 3);
+        json_add_fixed(o, "render_ms", a->times.render_ms, 3);
+        json_add_fixed(o, "encode_ms", a->times.encode_ms, 3);
     }
     json_add_fixed(o, "total_ms", a->total_ms, 3);
     if (a->scene && *a->scene) cJSON_AddStringToObject(o, "scene", a->scene);
@@ -148,9 +153,9 @@ void log_access(const struct log_access *a) {
                  a->error_at && *a->error_at ? " error_at=" : "",
                  a->error_at && *a->error_at ? error_at : "");
     char rendered[128] = "";
-    if (a->rendered)
+    if (log_rendered(&a->times))
         snprintf(rendered, sizeof rendered, "queue_ms=%.3f render_ms=%.3f encode_ms=%.3f ",
-                 a->queue_ms, a->render_ms, a->encode_ms);
+                 a->times.queue_ms, a->times.render_ms, a->times.encode_ms);
     bool scene = a->scene && *a->scene;
     char cut[96] = "";
     if (a->cut) snprintf(cut, sizeof cut, " cut_short=%s size=%zu", a->cut, a->size);

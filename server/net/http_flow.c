@@ -504,10 +504,7 @@ void http_flow_end(struct http_req *r, const char *note) {
         .cut = cut ? cut_why : NULL,
         .size = cut ? r->res.bytes : 0,
         .total_ms = total * 1e3,
-        .rendered = r->res.queue_ms > 0 || r->res.render_ms > 0 || r->res.encode_ms > 0,
-        .queue_ms = r->res.queue_ms,
-        .render_ms = r->res.render_ms,
-        .encode_ms = r->res.encode_ms,
+        .times = r->res.times,
         .scene = r->res.scene,
         .request_id = r->request_id,
         .note = cut ? r->res.note : note, /* the transport's note is cut_short */

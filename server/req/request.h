@@ -129,19 +129,19 @@ struct http_route {
 
 /* What travels back up: set by the reply functions (status, bytes,
  * err_code, err_at, is_image) and by the handler from what the work layer
- * answered (timings, scene, the ETag, retry_after, note). */
+ * answered (the times, whole; scene, the ETag, retry_after, note). */
 struct http_result {
-    int status;           /* the status sent */
-    size_t bytes;         /* response body size */
-    const char *err_code; /* code of the error reply sent, NULL for none */
-    char err_at[128];     /* its JSON Pointer or query parameter, "" for none */
-    double queue_ms, render_ms, encode_ms;
-    bool is_image;        /* the response is an image (its send is a stage) */
-    const char *note;     /* why, for the access log ("client_gone") */
-    int retry_after;      /* seconds in a 503's Retry-After; 0: 1 */
-    char etag[72];        /* set for immutable GETs */
-    bool etag_revalidate; /* the ETag's bytes may change: no-cache, not immutable */
-    char scene[65];       /* the scene's id when the request named or sent one */
+    int status;             /* the status sent */
+    size_t bytes;           /* response body size */
+    const char *err_code;   /* code of the error reply sent, NULL for none */
+    char err_at[128];       /* its JSON Pointer or query parameter, "" for none */
+    struct log_times times; /* the render's, as the work layer answered them */
+    bool is_image;          /* the response is an image (its send is a stage) */
+    const char *note;       /* why, for the access log ("client_gone") */
+    int retry_after;        /* seconds in a 503's Retry-After; 0: 1 */
+    char etag[72];          /* set for immutable GETs */
+    bool etag_revalidate;   /* the ETag's bytes may change: no-cache, not immutable */
+    char scene[65];         /* the scene's id when the request named or sent one */
 };
 
 struct http_req {

@@ -27,7 +27,14 @@ struct work_result {
     struct blob *png; /* a reference owned by the waiter: unref it */
     bool gone;        /* the client disconnected */
     bool draining;    /* cancelled because the server drains (503 "draining") */
-    double queue_ms, render_ms, encode_ms;
+    /* The render's times, handed up whole (times); task.c fills them by
+     * name, the same three doubles. */
+    union {
+        struct log_times times;
+        struct {
+            double queue_ms, render_ms, encode_ms;
+        };
+    };
 };
 
 /* Something waiting on a task or a job's events.  done() is called exactly

@@ -25,16 +25,6 @@ kinds_shown() {
 }
 check metrics_kinds "rayd_memory_bytes{kind=...} or rayd_memory_limit_bytes missing" kinds_shown
 
-total() {
-    local k sum=0 v
-    for k in bodies scenes results sums caches parses; do
-        v=$(metric "rayd_memory_bytes{kind=\"$k\"}")
-        sum=$((sum + ${v:-0}))
-    done
-    echo "$sum"
-}
-rss() { awk '/^VmRSS:/ {print $2 * 1024}' "/proc/$RAYD_PID/status"; }
-
 # --- a glTF whose accessor has no bufferView counts its zeros -------------------------------
 # (first, while the budget holds nothing: the parse's cap is
 # raised up to the whole budget, less its own body, before the core can say
@@ -48,7 +38,7 @@ else
 fi
 
 # --- slow bodies: 40 uploads of 1 MiB that never finish -----------------------------
-rss0=$(rss)
+rss0=$(rayd_rss)
 mkdir -p "$T/slow"
 $HELP slow_bodies "$PORT" 40 1048576 "$T/slow" &
 SLOW_PID=$!
@@ -57,7 +47,7 @@ wait_until 60 test -s "$T/slow/sent"
 held=$(awk '{print $1}' "$T/slow/sent")
 refused=$(grep -c '^HTTP/1.1 503 .* retry=[0-9]' "$T/slow/answers")
 bodies=$(metric 'rayd_memory_bytes{kind="bodies"}')
-rss1=$(rss)
+rss1=$(rayd_rss)
 if [ "$held" -ge 1 ] && [ "$refused" -ge 20 ] && [ $((held + refused)) -eq 40 ] &&
     [ "${bodies:-0}" -le "$LIMIT" ] && [ "${bodies:-0}" -ge $((held * 1048576)) ]; then
     pass slow_bodies_refused
@@ -94,10 +84,10 @@ done
 parses_queued() { curl -s -m 5 "$URL/v1/test/gate" | grep -q '"parses_queued":3,'; }
 wait_until 30 parses_queued
 parses=$(metric 'rayd_memory_bytes{kind="parses"}')
-if [ "${parses:-0}" -ge $((3 * 4194304)) ] && [ "$(total)" -le "$LIMIT" ]; then
+if [ "${parses:-0}" -ge $((3 * 4194304)) ] && [ "$(memory_total)" -le "$LIMIT" ]; then
     pass parses_reserved
 else
-    fail parses_reserved "3 parses held: parses counted ${parses:-none}, total $(total)"
+    fail parses_reserved "3 parses held: parses counted ${parses:-none}, total $(memory_total)"
 fi
 small "$T/s4.json" 0.4
 code=$(post_json /v1/scenes "$T/s4.json")
@@ -130,10 +120,10 @@ for i in $(seq 1 8); do
 done
 scenes=$(metric 'rayd_memory_bytes{kind="scenes"}')
 if [ "$ok" -ge 2 ] && [ "$full" -ge 1 ] && [ -n "$retry" ] && [ "${scenes:-0}" -ge $((ok * 3000000)) ] &&
-    [ "$(total)" -le "$LIMIT" ]; then
+    [ "$(memory_total)" -le "$LIMIT" ]; then
     pass queued_scenes_count
 else
-    fail queued_scenes_count "$ok accepted, $full refused (Retry-After '$retry'), scenes $scenes, total $(total)"
+    fail queued_scenes_count "$ok accepted, $full refused (Retry-After '$retry'), scenes $scenes, total $(memory_total)"
 fi
 # the held jobs go; their scenes with them
 for id in "${held_ids[@]}"; do
@@ -184,10 +174,10 @@ for i in $(seq 1 12); do
         break
     fi
 done
-if [ -n "$evicted" ] && job_state_is "${ids[-1]}" succeeded && [ "$(total)" -le "$LIMIT" ]; then
+if [ -n "$evicted" ] && job_state_is "${ids[-1]}" succeeded && [ "$(memory_total)" -le "$LIMIT" ]; then
     pass results_evicted
 else
-    fail results_evicted "after ${#ids[@]} jobs (last POST $code) the first is $(jfield "$T/body" state 2>/dev/null), total $(total)"
+    fail results_evicted "after ${#ids[@]} jobs (last POST $code) the first is $(jfield "$T/body" state 2>/dev/null), total $(memory_total)"
 fi
 # oldest first: the second job outlives the first
 if [ -n "$evicted" ] && [ "$evicted" -ge 3 ] && ! job_state_is "${ids[1]}" evicted; then

@@ -9,20 +9,11 @@
 . "$(dirname "$0")/lib/common.sh"
 
 start_rayd --max-memory 1G --threads 2 --max-render-seconds 0
-rss() { awk '/^VmRSS:/ {print $2 * 1024}' "/proc/$RAYD_PID/status"; }
-total() {
-    local k sum=0 v
-    for k in bodies scenes results sums caches parses; do
-        v=$(metric "rayd_memory_bytes{kind=\"$k\"}")
-        sum=$((sum + ${v:-0}))
-    done
-    echo "$sum"
-}
 # counted outside the scene cache (kind scenes, as rayd_cache_bytes less its
 # entries' own few hundred bytes): 0 at rest
-uncached() { echo $(($(total) - $(metric 'rayd_memory_bytes{kind="scenes"}'))); }
+uncached() { echo $(($(memory_total) - $(metric 'rayd_memory_bytes{kind="scenes"}'))); }
 sleep 1
-rss0=$(rss)
+rss0=$(rayd_rss)
 idle=$(uncached)
 
 # 1024 samples: passes of 1, 2, 4, ... 1024; the jobs run one after another,
@@ -52,13 +43,13 @@ check scenes_are_cached "scenes $(metric 'rayd_memory_bytes{kind="scenes"}'), ca
     [ "$(metric 'rayd_memory_bytes{kind="scenes"}')" -le "$(metric rayd_cache_bytes)" ]
 # the watcher trims once a second: a generous bound, 24 MB over the idle size
 # (the four cached scenes and the allocator's own)
-rss_back() { [ "$(rss)" -le $((rss0 + 25165824)) ]; }
+rss_back() { [ "$(rayd_rss)" -le $((rss0 + 25165824)) ]; }
 wait_until 30 rss_back
-echo "# VmRSS idle $rss0, after DELETE $(rss)"
+echo "# VmRSS idle $rss0, after DELETE $(rayd_rss)"
 if sanitized; then
     pass rss_back_to_idle # a sanitizer's shadow and quarantine make VmRSS meaningless
 else
-    check rss_back_to_idle "VmRSS $(rss) after DELETE, idle $rss0" wait_until 30 rss_back
+    check rss_back_to_idle "VmRSS $(rayd_rss) after DELETE, idle $rss0" wait_until 30 rss_back
 fi
 
 stop_rayd

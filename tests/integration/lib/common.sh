@@ -265,6 +265,16 @@ png_size() { # png_size FILE: "WxH" from the IHDR
 metric() { # metric NAME_WITH_LABELS: current value from /metrics
     curl -s -m 60 "$URL/metrics" "${AUTH[@]}" | awk -v k="$1" '$1 == k {print $2}'
 }
+# The bytes --max-memory counts now: rayd_memory_bytes summed over its kinds.
+memory_total() {
+    local k sum=0 v
+    for k in bodies scenes results sums caches parses; do
+        v=$(metric "rayd_memory_bytes{kind=\"$k\"}")
+        sum=$((sum + ${v:-0}))
+    done
+    echo "$sum"
+}
+rayd_rss() { awk '/^VmRSS:/ {print $2 * 1024}' "/proc/$RAYD_PID/status"; } # resident bytes
 AUTH=()
 # PYTHONPATH for the scripts' Python that reads event streams (sse.py)
 SSE_LIB=$RAYD_ROOT/tests/integration/lib
