@@ -149,6 +149,8 @@ export class JobsView {
     this.next = null;
     this.gen = 0;
     this.ticks = 0;
+    this.pollFails = 0;
+    this.pollWait = 0;
     this.$ = (id) => document.getElementById(id);
     this.list = this.$("jobs-list");
     this.observer = new IntersectionObserver((es) => this.seen(es), { root: this.list, rootMargin: "100px" });
@@ -369,6 +371,7 @@ export class JobsView {
     if (document.hidden) return;
     const open = !this.$("jobs-panel").hidden;
     if (!open && this.ticks % 3) return; // behind the editor: a third as often
+    if (Date.now() < this.pollWait) return; // polls failed: waiting longer each time
     const due = [...this.rows.values()]
       .filter((r) => !FINISHED.has(r.job.state) && !r.polling)
       .sort((a, b) => a.polledAt - b.polledAt)
@@ -383,11 +386,17 @@ export class JobsView {
       const res = await this.limiter.run(() => this.api.call("GET", `v1/jobs/${id}`));
       const job = await res.json();
       if (this.rows.get(id) === row) this.show(row, job);
+      this.pollFails = 0;
       this.clearError("poll");
     } catch (e) {
       if (e instanceof ApiError && (e.status === 404 || e.status === 410) && this.rows.get(id) === row)
         this.show(row, { ...row.job, state: "gone", gone: errorText(e) });
-      else this.error(`Cannot follow job ${short(id)}`, e, "poll");
+      else {
+        // a server gone or failing is asked again after 2, 4, ... 30 s
+        this.pollFails = (this.pollFails || 0) + 1;
+        this.pollWait = Date.now() + Math.min(30000, 1000 * 2 ** this.pollFails);
+        this.error(`Cannot follow job ${short(id)}`, e, "poll");
+      }
     } finally {
       row.polling = false;
       row.polledAt = Date.now();

@@ -6,8 +6,9 @@
 // frame-range jobs of the job contract (a job's "frames", "eta_s",
 // "video_url") are not served by rayd yet, so stub_frames_job answers the
 // list, the job and its frame PNGs from Playwright routes (the PNG bytes
-// are a real job's image), and stub_busy_backoff answers one list request
-// with a 503 and Retry-After, which a real server gives only under load.
+// are a real job's image), stub_busy_backoff answers one list request
+// with a 503 and Retry-After, which a real server gives only under load,
+// and stub_poll_error_shown refuses the connection of a job's polls.
 import { chromium } from "playwright-core";
 import { mkdtempSync, rmSync, readFileSync } from "node:fs";
 import { tmpdir } from "node:os";
@@ -111,7 +112,7 @@ try {
   const consoleErrors = [];
   page.on("console", (m) => {
     // the answers the cases ask for (a bad scene, the stand-in's 503) are logged by Chromium too
-    if (m.type() === "error" && !/^Failed to load resource: .* status of (422|503) /.test(m.text()))
+    if (m.type() === "error" && !/^Failed to load resource: (.* status of (422|503) |net::ERR_CONNECTION_REFUSED)/.test(m.text()))
       consoleErrors.push(`${m.type()}: ${m.text()}`);
   });
   page.on("pageerror", (e) => consoleErrors.push("pageerror: " + e.message));
@@ -339,6 +340,29 @@ try {
       await page.unrouteAll();
       await page.click("#jobs-refresh");
     }
+  });
+
+  // --- stand-in: a poll that cannot reach the server is said, and asked again later ---------------
+  await check("stub_poll_error_shown", async () => {
+    await gate(0);
+    await page.click("#tab-editor");
+    await setText(page, sceneText());
+    const id = await submit(page);
+    const asked = [];
+    await page.route(new RegExp(`/v1/jobs/${id}$`), (r) => {
+      asked.push(Date.now());
+      return r.abort("connectionrefused");
+    });
+    await page.waitForSelector("#jobs-error:not([hidden])", { timeout: 30000 });
+    const title = await page.textContent("#jobs-error-title");
+    const msg = await page.textContent("#jobs-error-msg");
+    await page.unroute(new RegExp(`/v1/jobs/${id}$`));
+    await gate("open");
+    await waitRowState(page, id, "succeeded"); // followed again once the server answers
+    await page.waitForFunction(() => document.getElementById("jobs-error").hidden);
+    if (title !== `Cannot follow job ${id.slice(0, 8)}`) return `title "${title}"`;
+    if (!/^cannot reach the server/.test(msg)) return `message "${msg}"`;
+    return asked.length >= 1 || "no poll was refused";
   });
 
   await check("no_console_errors", () => (consoleErrors.length ? consoleErrors.join(" | ") : true));
