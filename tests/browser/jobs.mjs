@@ -273,6 +273,26 @@ try {
     return msg === want || `shown "${msg}", server "${want}"`;
   });
 
+  // --- a job the server failed: its row says why, in the server's words ----------------------------
+  await check("failed_job_error_in_row", async () => {
+    await fetch(URL + "/v1/test/gate?work=1000", { method: "POST" }); // a ray budget the render passes
+    await page.click("#tab-editor");
+    await setText(page, sceneText());
+    let id;
+    try {
+      id = await submit(page);
+      await waitRowState(page, id, "failed");
+    } finally {
+      await fetch(URL + "/v1/test/gate?work=open", { method: "POST" });
+    }
+    const e = (await api(`/v1/jobs/${id}`)).json.error;
+    const shown = await page.textContent(`li[data-id="${id}"] .job-msg`);
+    if (!e) return "the server did not fail the job";
+    const links = await page.locator(`li[data-id="${id}"] a.job-dl, li[data-id="${id}"] button.job-cancel`).count();
+    if (links) return "a failed job offers a download or Cancel";
+    return shown === `${e.code}: ${e.message}` || `row says "${shown}", server "${e.code}: ${e.message}"`;
+  });
+
   // --- stand-in: a 503 with Retry-After pauses the view's requests ---------------------------------
   await check("stub_busy_backoff", async () => {
     const seen = [];
