@@ -7,11 +7,14 @@
 // while it is queued or running, and its downloads.  "Render as job" POSTs
 // the editor's scene to v1/jobs and puts the job at the top.
 //
-// Live updates are polled, GET v1/jobs/{id}, a few unfinished jobs a tick,
-// each job at most about once a second; a finished job is never asked
-// again.  Not the event streams: each open stream holds one of the
-// browser's six connections to the server (a page following ten jobs would
-// starve its own tile requests), and EventSource cannot send the token.
+// Live updates: the two newest unfinished jobs are followed on their event
+// streams (read with fetch, since EventSource cannot send the token), so
+// their tiles, passes and frames show as they finish; the others are
+// polled, GET v1/jobs/{id}, a few a tick, each at most about once a second.
+// Two streams only: each holds one of the browser's six connections to
+// the server, and a page following ten jobs would starve its own tile
+// requests.  A stream that breaks leaves its job to the polls.  A finished
+// job is asked once more for its final JSON (its image's URL), then never.
 // Every request the view makes by itself (polls, pages, thumbnails) goes
 // through one Limiter: at most two in flight, and none at all until the
 // Retry-After of a 429 or 503 has passed, so a busy server is not hammered.
@@ -24,11 +27,12 @@
 // with the server's message: the view's own in its error box, a row's
 // (a failed job, a thumbnail that could not be had) in the row.
 
-import { ApiError, isProgressive } from "./render.js";
+import { ApiError, isProgressive, isAbort, sseEvents } from "./render.js";
 
 const FINISHED = new Set(["succeeded", "failed", "canceled", "evicted", "gone"]);
 const POLL_MS = 1000;
 const POLLS_PER_TICK = 4;
+const STREAMS = 2;
 const rel = (url) => url.replace(/^\//, "");
 const short = (id) => id.slice(0, 8);
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
@@ -95,7 +99,7 @@ export function progressOf(job) {
   }
   const p = job.passes;
   if (p && typeof p === "object") {
-    const text = `pass ${p.done}/${p.total} · ${p.samples}/${p.samples_target} spp`;
+    const text = `pass ${p.done}/${p.total} · ${p.samples}${p.samples_target ? "/" + p.samples_target : ""} spp`;
     return { text, frac: typeof job.progress === "number" ? job.progress : p.total ? p.done / p.total : 0 };
   }
   if (typeof job.tiles_total === "number")
@@ -151,6 +155,7 @@ export class JobsView {
     this.ticks = 0;
     this.pollFails = 0;
     this.pollWait = 0;
+    this.streams = new Map(); // id -> AbortController of its event stream
     this.$ = (id) => document.getElementById(id);
     this.list = this.$("jobs-list");
     this.observer = new IntersectionObserver((es) => this.seen(es), { root: this.list, rootMargin: "100px" });
@@ -219,6 +224,7 @@ export class JobsView {
     document.body.dataset.jobs = String(n);
   }
   clear() {
+    for (const ctrl of this.streams.values()) ctrl.abort();
     for (const row of this.rows.values()) this.drop(row);
     this.rows.clear();
     this.list.replaceChildren();
@@ -369,11 +375,15 @@ export class JobsView {
     this.ticks++;
     for (const row of this.rows.values()) this.ageOf(row);
     if (document.hidden) return;
-    const open = !this.$("jobs-panel").hidden;
-    if (!open && this.ticks % 3) return; // behind the editor: a third as often
+    const shown = !this.$("jobs-panel").hidden;
+    if (!shown && this.ticks % 3) return; // behind the editor: a third as often
     if (Date.now() < this.pollWait) return; // polls failed: waiting longer each time
-    const due = [...this.rows.values()]
-      .filter((r) => !FINISHED.has(r.job.state) && !r.polling)
+    const open = [...this.rows.values()].filter((r) => !FINISHED.has(r.job.state));
+    for (const row of open)
+      if (this.streams.size < STREAMS && !row.streaming && !row.noStream && Date.now() >= this.limiter.pausedUntil)
+        this.follow(row);
+    const due = open
+      .filter((r) => !r.polling && !r.streaming)
       .sort((a, b) => a.polledAt - b.polledAt)
       .slice(0, POLLS_PER_TICK);
     for (const row of due) this.poll(row);
@@ -401,6 +411,44 @@ export class JobsView {
       row.polling = false;
       row.polledAt = Date.now();
     }
+  }
+
+  // The job's event stream, until its done event (then one poll for the
+  // final JSON) or until it breaks (then the polls take over).
+  async follow(row) {
+    const id = row.job.id;
+    const ctrl = new AbortController();
+    this.streams.set(id, ctrl);
+    row.streaming = true;
+    let ended = false;
+    try {
+      const res = await this.api.call("GET", `v1/jobs/${id}/events`, { signal: ctrl.signal });
+      const reader = res.body.getReader();
+      const dec = new TextDecoder();
+      let buf = "";
+      while (!ended) {
+        const { value, done } = await reader.read();
+        if (done) break;
+        const got = sseEvents(buf + dec.decode(value, { stream: true }));
+        buf = got.rest;
+        if (this.rows.get(id) !== row) break;
+        let job = row.job;
+        for (const ev of got.events) {
+          job = applyEvent(job, ev);
+          ended = ended || ev.event === "done";
+        }
+        this.show(row, job);
+      }
+    } catch (e) {
+      if (e instanceof ApiError && (e.status === 429 || e.status === 503)) this.limiter.pause(e.retryAfter);
+      else if (!isAbort(e) && !(e instanceof ApiError && (e.status === 404 || e.status === 410)))
+        this.error(`Cannot follow job ${short(id)}`, e, "poll");
+    } finally {
+      this.streams.delete(id);
+      row.streaming = false;
+      if (!ended) row.noStream = true; // broken or refused: polled from now on
+    }
+    if (ended && this.rows.get(id) === row) this.poll(row);
   }
 
   // ---- the user's actions ----
@@ -470,6 +518,34 @@ export class JobsView {
       button.disabled = false;
     }
   }
+}
+
+// The job as one event of its stream leaves it (a copy; the polls and the
+// final GET fill in what events do not carry).
+export function applyEvent(job, { event, data }) {
+  const j = { ...job };
+  if (event === "state" && data.state) j.state = data.state;
+  else if (event === "progress") {
+    j.tiles_done = data.done;
+    j.tiles_total = data.total;
+    j.progress = data.progress;
+  } else if (event === "pass") {
+    j.passes = { ...(j.passes || {}), done: data.pass, total: data.passes, samples: data.samples, image_url: data.image_url };
+    j.progress = data.progress;
+  } else if (event === "frame") {
+    const f = { ...(j.frames || {}) };
+    f.done = data.frames_done;
+    f.total = data.frames_total;
+    if (data.state === "done") {
+      f.latest = data.k;
+      if (data.url) f.url = data.url.replace(/\/frames\/\d+\./, "/frames/{k}.");
+    } else if (data.state === "failed") f.failed = (f.failed || 0) + 1;
+    j.frames = f;
+  } else if (event === "done") {
+    j.state = data.state;
+    if (data.error) j.error = { code: "job_" + data.state, message: data.error };
+  }
+  return j;
 }
 
 // A failed job's error object {code, message, path} as one line.

@@ -5,7 +5,8 @@
 // Every case talks to the real server, except those named stub_*: the
 // frame-range jobs of the job contract (a job's "frames", "eta_s",
 // "video_url") are not served by rayd yet, so stub_frames_job answers the
-// list, the job and its frame PNGs from Playwright routes (the PNG bytes
+// list, the job, its event stream and its frame PNGs from Playwright
+// routes (the PNG bytes
 // are a real job's image), stub_busy_backoff answers one list request
 // with a 503 and Retry-After, which a real server gives only under load,
 // and stub_poll_error_shown refuses the connection of a job's polls.
@@ -116,6 +117,11 @@ try {
       consoleErrors.push(`${m.type()}: ${m.text()}`);
   });
   page.on("pageerror", (e) => consoleErrors.push("pageerror: " + e.message));
+  const streamed = new Set(); // the jobs whose event stream the page opened
+  page.on("request", (r) => {
+    const m = /\/v1\/jobs\/([0-9a-f]{32})\/events$/.exec(r.url());
+    if (m) streamed.add(m[1]);
+  });
   await page.goto(URL + "/", { waitUntil: "load" });
   let opened = false;
   await check("page_opens", async () => {
@@ -166,8 +172,12 @@ try {
     await gate("open");
     await waitRowState(page, doneId, "succeeded");
     const job = (await api(`/v1/jobs/${doneId}`)).json;
-    const ptext = await page.textContent(`li[data-id="${doneId}"] .job-ptext`);
-    if (ptext !== `${job.tiles_total}/${job.tiles_total} tiles`) return `progress "${ptext}", ${job.tiles_total} tiles`;
+    const want = `${job.tiles_total}/${job.tiles_total} tiles`;
+    const ok = await page
+      .waitForFunction(([i, w]) => document.querySelector(`li[data-id="${i}"] .job-ptext`).textContent === w, [doneId, want])
+      .then(() => true, () => false);
+    if (!ok) return `progress "${await page.textContent(`li[data-id="${doneId}"] .job-ptext`)}", not "${want}"`;
+    if (!streamed.has(doneId)) return "the running job was not followed on its event stream";
     await page.waitForFunction((i) => document.querySelector(`li[data-id="${i}"]`).dataset.thumb === "loaded", doneId);
     const w = await page.$eval(`li[data-id="${doneId}"] .job-thumb img`, (img) => img.naturalWidth);
     if (w !== 128) return `thumbnail naturalWidth ${w}, not 128`;
@@ -286,8 +296,11 @@ try {
       await fetch(URL + "/v1/test/gate?work=open", { method: "POST" });
     }
     const e = (await api(`/v1/jobs/${id}`)).json.error;
-    const shown = await page.textContent(`li[data-id="${id}"] .job-msg`);
     if (!e) return "the server did not fail the job";
+    await page
+      .waitForFunction(([i, w]) => document.querySelector(`li[data-id="${i}"] .job-msg`).textContent === w, [id, `${e.code}: ${e.message}`])
+      .catch(() => {});
+    const shown = await page.textContent(`li[data-id="${id}"] .job-msg`);
     const links = await page.locator(`li[data-id="${id}"] a.job-dl, li[data-id="${id}"] button.job-cancel`).count();
     if (links) return "a failed job offers a download or Cancel";
     return shown === `${e.code}: ${e.message}` || `row says "${shown}", server "${e.code}: ${e.message}"`;
@@ -333,9 +346,21 @@ try {
     await page.route(/\/v1\/jobs\?/, (r) =>
       r.fulfill({ status: 200, contentType: "application/json", body: JSON.stringify({ jobs: [running], next_after: null, next_url: null }) })
     );
-    await page.route(new RegExp(`/v1/jobs/${id}$`), (r) => {
+    // the event stream: one frame event (frame 3), sent once the list's
+    // values were checked, then it ends (the polls take over, and answer
+    // the job done once the frame event was seen)
+    let letEvents, letPolls;
+    const eventsMay = new Promise((r) => (letEvents = r));
+    const pollsMay = new Promise((r) => (letPolls = r));
+    const frameEvent = { k: 3, state: "done", frames_done: 4, frames_total: 10, url: `/v1/jobs/${id}/frames/3.png` };
+    await page.route(new RegExp(`/v1/jobs/${id}/events$`), async (r) => {
+      await eventsMay;
+      return r.fulfill({ status: 200, contentType: "text/event-stream", body: `event: frame\ndata: ${JSON.stringify(frameEvent)}\n\n` });
+    });
+    await page.route(new RegExp(`/v1/jobs/${id}$`), async (r) => {
+      await pollsMay;
       polls++;
-      return r.fulfill({ status: 200, contentType: "application/json", body: JSON.stringify(polls < 2 ? running : done) });
+      return r.fulfill({ status: 200, contentType: "application/json", body: JSON.stringify(done) });
     });
     await page.route(new RegExp(`/v1/jobs/${id}/frames/(\\d+)\\.png$`), (r) => {
       frameAsked.push(Number(/frames\/(\d+)\.png/.exec(r.request().url())[1]));
@@ -346,6 +371,12 @@ try {
       await row(page, id).waitFor();
       const first = await page.textContent(`li[data-id="${id}"] .job-ptext`);
       if (first !== "frames 3/10 · eta 12 s") return `progress "${first}"`;
+      letEvents();
+      await page.waitForFunction(
+        (i) => document.querySelector(`li[data-id="${i}"] .job-ptext`).textContent === "frames 4/10 · eta 12 s",
+        id
+      );
+      letPolls();
       await waitRowState(page, id, "succeeded");
       await page.waitForFunction((i) => document.querySelector(`li[data-id="${i}"]`).dataset.thumb === "loaded", id);
       const last = await page.textContent(`li[data-id="${id}"] .job-ptext`);
@@ -355,7 +386,8 @@ try {
       if (!video || video[1] !== `${URL}/v1/jobs/${id}/video.mp4`) return `links ${JSON.stringify(links)}`;
       const w = await page.$eval(`li[data-id="${id}"] .job-thumb img`, (img) => img.naturalWidth);
       if (!(w > 0)) return "the frame's thumbnail did not load";
-      return frameAsked.includes(9) || `frames asked ${frameAsked}, not the latest (9)`;
+      if (!streamed.has(id) || polls < 1) return `stream ${streamed.has(id)}, ${polls} polls`;
+      return (frameAsked.includes(3) && frameAsked.includes(9)) || `frames asked ${frameAsked}, not 3 (the event's) and 9 (the last)`;
     } finally {
       await page.unrouteAll();
       await page.click("#jobs-refresh");
@@ -367,16 +399,18 @@ try {
     await gate(0);
     await page.click("#tab-editor");
     await setText(page, sceneText());
-    const id = await submit(page);
+    // every job's status and event stream refused (the others are finished)
+    const refused = /\/v1\/jobs\/[0-9a-f]{32}(\/events)?$/;
     const asked = [];
-    await page.route(new RegExp(`/v1/jobs/${id}$`), (r) => {
+    await page.route(refused, (r) => {
       asked.push(Date.now());
       return r.abort("connectionrefused");
     });
+    const id = await submit(page);
     await page.waitForSelector("#jobs-error:not([hidden])", { timeout: 30000 });
     const title = await page.textContent("#jobs-error-title");
     const msg = await page.textContent("#jobs-error-msg");
-    await page.unroute(new RegExp(`/v1/jobs/${id}$`));
+    await page.unroute(refused);
     await gate("open");
     await waitRowState(page, id, "succeeded"); // followed again once the server answers
     await page.waitForFunction(() => document.getElementById("jobs-error").hidden);
