@@ -7,8 +7,9 @@
 // while it is queued or running, and its downloads.  "Render as job" POSTs
 // the editor's scene to v1/jobs and puts the job at the top.
 //
-// Live updates: the two newest unfinished jobs are followed on their event
-// streams (read with fetch, since EventSource cannot send the token), so
+// Live updates: while the tab is shown, the two newest unfinished jobs are
+// followed on their event streams (read with fetch, since EventSource
+// cannot send the token), so
 // their tiles, passes and frames show as they finish; the others are
 // polled, GET v1/jobs/{id}, a few a tick, each at most about once a second.
 // Two streams only: each holds one of the browser's six connections to
@@ -376,11 +377,12 @@ export class JobsView {
     for (const row of this.rows.values()) this.ageOf(row);
     if (document.hidden) return;
     const shown = !this.$("jobs-panel").hidden;
-    if (!shown && this.ticks % 3) return; // behind the editor: a third as often
+    if (!shown) this.park(); // the editor's renders get every connection back
+    if (!shown && this.ticks % 3) return; // behind the editor: polled a third as often
     if (Date.now() < this.pollWait) return; // polls failed: waiting longer each time
     const open = [...this.rows.values()].filter((r) => !FINISHED.has(r.job.state));
     for (const row of open)
-      if (this.streams.size < STREAMS && !row.streaming && !row.noStream && Date.now() >= this.limiter.pausedUntil)
+      if (shown && this.streams.size < STREAMS && !row.streaming && !row.noStream && Date.now() >= this.limiter.pausedUntil)
         this.follow(row);
     const due = open
       .filter((r) => !r.polling && !r.streaming)
@@ -410,6 +412,14 @@ export class JobsView {
     } finally {
       row.polling = false;
       row.polledAt = Date.now();
+    }
+  }
+
+  // Closes the streams while the editor is shown (the jobs are polled then).
+  park() {
+    for (const ctrl of this.streams.values()) {
+      ctrl.parked = true;
+      ctrl.abort();
     }
   }
 
@@ -446,7 +456,7 @@ export class JobsView {
     } finally {
       this.streams.delete(id);
       row.streaming = false;
-      if (!ended) row.noStream = true; // broken or refused: polled from now on
+      if (!ended && !ctrl.parked) row.noStream = true; // broken or refused: polled from now on
     }
     if (ended && this.rows.get(id) === row) this.poll(row);
   }

@@ -214,6 +214,20 @@ try {
     return (await page.locator(`li[data-id="${id}"] button.job-cancel`).count()) === 0 || "Cancel still shown";
   });
 
+  // --- behind the editor, the streams close and the polls follow the job ----------------------------
+  await check("streams_closed_behind_editor", async () => {
+    await gate(0);
+    await setText(page, sceneText());
+    const id = await submit(page);
+    await page.waitForFunction(() => window.rayd.jobs.streams.size === 1);
+    if (!streamed.has(id)) return "the job was not followed on its event stream";
+    await page.click("#tab-editor");
+    await page.waitForFunction(() => window.rayd.jobs.streams.size === 0);
+    await gate("open");
+    await waitRowState(page, id, "succeeded"); // polled while the editor is shown
+    return (await page.isHidden("#jobs-panel")) || "the Jobs panel was shown";
+  });
+
   // --- an EXR job has both downloads ---------------------------------------------------------
   await check("exr_job_downloads", async () => {
     await page.check("#job-exr");
