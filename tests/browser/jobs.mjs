@@ -322,6 +322,7 @@ try {
 
   // --- stand-in: a 503 with Retry-After pauses the view's requests ---------------------------------
   await check("stub_busy_backoff", async () => {
+    await page.click("#tab-jobs");
     const seen = [];
     let first = true;
     await page.route(/\/v1\/jobs\?/, (route) => {
