@@ -1,6 +1,6 @@
-// jobs.mjs URL -- drives the preview's Jobs tab of the rayd at URL (started
+// jobs_view.mjs URL -- drives the preview's Jobs tab of the rayd at URL (started
 // with --test-gate open) in Debian's Chromium and prints one "PASS name" or
-// "FAIL name: why" line per case.  Run by jobs.sh, which starts the rayds.
+// "FAIL name: why" line per case.  Run by jobs_view.sh, which starts the rayds.
 //
 // Every case talks to the real server, except those named stub_*: the
 // frame-range jobs of the job contract (a job's "frames", "eta_s",
