@@ -50,10 +50,12 @@ static const char *api_web_type(const char *name) {
 
 /* The page's policy: its own files, requests to this origin only.  The
  * canvas draws tiles from fetched bytes (createImageBitmap), not from <img>
- * URLs, and the downloads are navigations, so images need no blob: or
- * data:. */
+ * URLs.  The Jobs tab's thumbnails are <img>s of blob: URLs: the page
+ * fetches them itself, since an <img src> could not send the token, and a
+ * blob: URL is made only by the page's own script from bytes it fetched
+ * from this origin.  No data:. */
 #define API_WEB_CSP                                                                                \
-    "default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self'; "                    \
+    "default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' blob:; "              \
     "connect-src 'self'; object-src 'none'; frame-src 'none'; worker-src 'none'; "                 \
     "frame-ancestors 'none'; base-uri 'none'; form-action 'none'"
 

@@ -24,6 +24,7 @@ import { Editor, undoKey } from "./editor.js";
 import { linkFor, fromHash } from "./share.js";
 import { View } from "./view.js";
 import { loadSaved, save } from "./autosave.js";
+import { JobsView, paneTabs } from "./jobs.js";
 
 const $ = (id) => document.getElementById(id);
 const DEFAULT_EXAMPLE = "whitted";
@@ -54,6 +55,24 @@ const stats = {
   firstPassMs: 0, // to the first whole (noisy) frame of a path-traced render
 };
 window.rayd = { stats, editor, view, render: () => render({ user: true }) };
+
+// The Jobs tab (jobs.js): listed when first shown; "Render as job" sends
+// the editor's text, as the user asked (a link's scene too: the click is
+// the user's).
+let jobsLoaded = null;
+const tabs = paneTabs((name) => {
+  if (name === "jobs" && !jobsLoaded) jobsLoaded = jobs.load();
+  return jobsLoaded;
+});
+const jobs = new JobsView(api, {
+  text: () => editor.value,
+  scene: () => {
+    const d = parsed();
+    return d.root ? d.root.value : null;
+  },
+  show: () => tabs.select("jobs"),
+});
+window.rayd.jobs = jobs;
 
 // ---- parsed state of the text ---------------------------------------------------
 let doc = { text: null, root: null, error: null };

@@ -32,7 +32,7 @@ check_headers() {
     code=$(req "$method" "$path" "$@")
     [ "$code" = 200 ] || why="status $code"
     csp=$(header Content-Security-Policy)
-    for d in "default-src 'self'" "script-src 'self'" "style-src 'self'" "img-src 'self'" \
+    for d in "default-src 'self'" "script-src 'self'" "style-src 'self'" "img-src 'self' blob:" \
         "connect-src 'self'" "object-src 'none'" "frame-ancestors 'none'" "base-uri 'none'" \
         "form-action 'none'"; do
         has_directive "$csp" "$d" || why="$why; no \"$d\" in CSP \"$csp\""
