@@ -571,6 +571,22 @@ void task_notify_add(struct task_notify *n, struct work_waiter **from) {
     }
 }
 
+bool task_unwait(struct task *t, struct work_waiter *w, struct task_notify *gone,
+                 struct task_notify *n, struct task_notify *sse) {
+    work_assert_locked();
+    struct work_waiter **lists[2] = {&t->waiters, &t->sse_waiters};
+    for (int i = 0; i < 2; i++)
+        for (struct work_waiter **pp = lists[i]; *pp; pp = &(*pp)->next)
+            if (*pp == w) {
+                *pp = w->next;
+                w->next = gone->list;
+                gone->list = w;
+                if (!t->waiters && t->njobs == 0) task_cancel(t, MC_CLIENT_GONE, n, sse);
+                return true;
+            }
+    return false;
+}
+
 void task_notify_run(struct task_notify *n) {
     work_assert_unlocked();
     struct work_waiter *w = n->list;

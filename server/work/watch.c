@@ -71,21 +71,13 @@ static bool watch_hung_up(const struct pollfd *p) {
            ((p->revents & POLLIN) && recv(p->fd, &c, 1, MSG_PEEK | MSG_DONTWAIT) == 0);
 }
 
-/* Unlinks w from whichever list holds it onto gone; cancels its task when
- * nobody else wants it.  Lock held. */
+/* w off whichever task holds it, onto gone (task.c owns the lists); its
+ * task cancelled when nobody else wants it.  Lock held. */
 static void watch_drop(struct work_waiter *w, struct task_notify *gone, struct task_notify *n,
                        struct task_notify *sse) {
     work_assert_locked();
     for (struct task *t = task_active; t; t = t->next)
-        for (int which = 0; which < 2; which++)
-            for (struct work_waiter **pp = watch_list(t, which); *pp; pp = &(*pp)->next)
-                if (*pp == w) {
-                    *pp = w->next;
-                    w->next = gone->list;
-                    gone->list = w;
-                    if (!t->waiters && t->njobs == 0) task_cancel(t, MC_CLIENT_GONE, n, sse);
-                    return;
-                }
+        if (task_unwait(t, w, gone, n, sse)) return;
 }
 
 /* The waiters whose client hung up, onto gone (their tasks cancelled

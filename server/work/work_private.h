@@ -407,6 +407,11 @@ void task_evicted(struct task *t);
 /* The memory budget.c reserved for t, released with its pixels. */
 void task_hold(struct task *t, size_t bytes, enum mem_kind kind);
 void task_notify_add(struct task_notify *n, struct work_waiter **from);
+/* Takes w off t's waiters or event streams onto gone, and cancels t when
+ * nobody else wants it (onto n and sse); false when w is not t's.  Lock
+ * held.  The watcher's, for a client that hung up. */
+bool task_unwait(struct task *t, struct work_waiter *w, struct task_notify *gone,
+                 struct task_notify *n, struct task_notify *sse);
 /* Called by task_finish, lock held, for a task jobs follow (jobs.c's). */
 void task_on_finish(void (*fn)(struct task *t));
 void task_notify_run(struct task_notify *n); /* lock NOT held */
