@@ -61,7 +61,8 @@ struct rayd_scene {
     uint32_t nmeshes;
     struct xform *xforms; /* placements that objects refer to */
     int32_t nxforms;
-    struct bvh4 tlas;                   /* over objs */
+    int32_t *inst_ids; /* per placement: the id of the instance it places, else -1 */
+    struct bvh4 tlas;  /* over objs */
     struct light_buffer *light_buffers; /* per light, objs by direction (light_buffer.c) */
     int32_t *emitters; /* path tracer: emissive spheres, discs, quads of objs to sample */
     int nemitters;
