@@ -262,6 +262,7 @@ void rayd_scene_info(const rayd_scene *s, struct rayd_scene_info *info) {
     info->lights = s->nlights;
     info->decode_seconds = s->decode_s;
     info->build_seconds = s->build_s;
+    info->aov = s->rs.aov;
     info->rays_per_sample = scene_rays_per_sample(s);
     size_t bytes =
         sizeof *s + sizeof *s->mats * (size_t)s->nmats + sizeof *s->lights * (size_t)s->nlights +

@@ -23,6 +23,7 @@ struct render_settings {
     vec3 background;
     struct environment env; /* render.environment; kind ENV_NONE without one */
     uint64_t seed;
+    unsigned aov; /* render.aov: the RAYD_AOV_ bits the scene asks for */
 };
 
 /* Objects drawn together and placed as a whole by instances. */

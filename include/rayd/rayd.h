@@ -131,6 +131,9 @@ struct rayd_scene_info {
      * base64), and the BVHs (meshes, groups, the scene's) and light buffers
      * built. */
     double decode_seconds, build_seconds;
+    /* render.aov: the AOVs (enum rayd_aov bits) the scene asks for, 0 for
+     * none. */
+    unsigned aov;
 };
 
 void rayd_scene_info(const rayd_scene *scene, struct rayd_scene_info *info);

@@ -333,7 +333,44 @@ static void test_names(void) {
     rayd_scene_free(s);
 }
 
+/* "render": {"aov": [...]}: kept in the scene's info; bad values named by
+ * their JSON Pointer. */
+static void test_scene_key(void) {
+    const char *good = "{\"render\": {\"aov\": [\"albedo\", \"id\"]}}";
+    rayd_scene *s = scene_from(good);
+    struct rayd_scene_info info = {0};
+    if (s) rayd_scene_info(s, &info);
+    CHECK(info.aov == (RAYD_AOV_ALBEDO | RAYD_AOV_OBJECT | RAYD_AOV_MATERIAL), "aov %u", info.aov);
+    rayd_scene_free(s);
+    s = scene_from("{}");
+    if (s) rayd_scene_info(s, &info);
+    CHECK(s && info.aov == 0, "no render.aov: %u", info.aov);
+    rayd_scene_free(s);
+    static const struct {
+        const char *aov, *path;
+    } bad[] = {{"3", "/render/aov"},
+               {"\"albedo\"", "/render/aov"},
+               {"{}", "/render/aov"},
+               {"[\"albedo\", 7]", "/render/aov/1"},
+               {"[\"zdepth\"]", "/render/aov/0"},
+               {"[\"depth\", \"albedo,normal\"]", "/render/aov/1"},
+               {"[\"\"]", "/render/aov/0"},
+               {"[null]", "/render/aov/0"}};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        char t[200];
+        snprintf(t, sizeof t, "{\"render\": {\"aov\": %s}}", bad[i].aov);
+        rayd_scene *b = NULL;
+        struct rayd_error err = {0};
+        CHECK(rayd_scene_parse(t, strlen(t), NULL, &b, &err) == RAYD_E_INVALID, "%s accepted",
+              bad[i].aov);
+        CHECK(!strcmp(err.path, bad[i].path), "%s: path %s, not %s (%s)", bad[i].aov, err.path,
+              bad[i].path, err.message);
+        rayd_scene_free(b);
+    }
+}
+
 int main(void) {
+    RUN(test_scene_key);
     RUN(test_sphere_values);
     RUN(test_integrators_agree);
     RUN(test_partial_alpha);
