@@ -107,8 +107,7 @@ static bool api_int(const char *s, long *out) { return api_int_n(s, strlen(s), o
  * listing those it does. */
 static void api_q_unknown(struct http_req *r, const struct api_q *q) {
     api_reply_unknown(r, q->unknown,
-                      q->allow_format ? "x, y, w, h, format, samples, aov" : "x, y, w, h",
-                      q->also);
+                      q->allow_format ? "x, y, w, h, format, samples, aov" : "x, y, w, h", q->also);
 }
 
 /* 400 bad_region naming the parameter name and what is wrong with it;

@@ -163,8 +163,8 @@ struct resolve_dst {
     rayd_image *img; /* NULL: no 8-bit image (an EXR task) */
     float *lin;
     int lin_w, x, y;
-    float *aov;   /* NULL, or the AOVs' floats (RAYD_AOV_FLOATS a pixel, rows lin_w) */
-    unsigned aov_mask; /* AOVs asked; with img, the one AOV img shows */
+    float *aov;              /* NULL, or the AOVs' floats (RAYD_AOV_FLOATS a pixel, rows lin_w) */
+    unsigned aov_mask;       /* AOVs asked; with img, the one AOV img shows */
     const rayd_scene *scene; /* with aov_mask: the scene (its camera's focus) */
 };
 /* acc's pixels (as a plain render of its samples gives them) into d. */
