@@ -54,4 +54,17 @@ done
 code=$(post_json "/v1/render?aov=zdepth" "$T/whitted.json")
 check bad_aov_message "$(cat "$T/body")" grep -q "'zdepth' is no AOV" "$T/body"
 
+long=$(python3 -c 'print(",".join(["albedo"] * 400))')
+code=$(post_json "/v1/render?format=exr&aov=$long" "$T/whitted.json")
+check long_list_ok "status $code: a long list of good names is one AOV set" [ "$code" = 200 ]
+long=$(python3 -c 'print("x" * 3000)')
+code=$(post_json "/v1/render?aov=$long" "$T/whitted.json")
+check long_name_refused "status $code $(head -c 300 "$T/body")" aov_err
+# the kept scene's image route takes no aov
+code=$(post_json /v1/scenes "$T/whitted.json")
+id=$(jfield "$T/body" id)
+code=$(req GET "/v1/scenes/$id/image.png?aov=depth")
+check scenes_image_refuses_aov "status $code $(cat "$T/body")" \
+    bash -c "[ $code = 400 ] && grep -q \"unknown query parameter 'aov'\" '$T/body'"
+
 stop_rayd TERM
