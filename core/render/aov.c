@@ -96,9 +96,9 @@ static vec3 aov_albedo(const rayd_scene *s, ray r, struct surface sf) {
     return sf.color;
 }
 
-void aov_sample(const rayd_scene *s, const ray *r, bool first, double sum[AOV_SUMS]) {
-    struct hit h;
-    if (!scene_intersect(s, r, INFINITY, &h)) return; /* background: every term 0 */
+void aov_sample_hit(const rayd_scene *s, const ray *r, const struct hit *hp, bool first,
+                    double sum[AOV_SUMS]) {
+    struct hit h = *hp;
     struct surface sf;
     scene_surface(s, r, &h, &sf);
     vec3 n = v3_dot(sf.n, r->d) > 0 ? v3_neg(sf.n) : sf.n;

@@ -25,10 +25,13 @@ enum aov_sum {
     AOV_SUMS
 };
 
-/* Adds camera ray r's terms to sum (AOV_SUMS doubles): each a multiple
- * of 2^-22, so that sums of any grouping are exact (render.c); first says
- * the ray is the pixel's first sample, the one whose ids count. */
-void aov_sample(const rayd_scene *s, const ray *r, bool first, double sum[AOV_SUMS]);
+/* Adds the terms of camera ray r, whose nearest hit is h (a packet's), to
+ * sum (AOV_SUMS doubles): each a multiple of 2^-22, so that sums of any
+ * grouping are exact (render.c); first says the ray is the pixel's first
+ * sample, the one whose ids count.  A ray that hits nothing adds nothing
+ * (every term 0), so its caller skips it. */
+void aov_sample_hit(const rayd_scene *s, const ray *r, const struct hit *h, bool first,
+                    double sum[AOV_SUMS]);
 
 #endif
 

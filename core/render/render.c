@@ -213,14 +213,24 @@ static void aov_move(const struct rect_out *o, int bx, int by, uint32_t active,
 }
 
 /* Sample k of n of the block's active lanes: their AOV terms added to
- * acc, the rays made as block_sample makes them. */
+ * acc, the rays made as block_sample makes them and met as a packet
+ * (which gives each ray its one-ray hit). */
 static void aov_block(const rayd_scene *s, int x, int y, uint32_t active,
                       const struct ray16 *centre, int k, int n, double acc[16][AOV_SUMS]) {
-    for (uint32_t m = active; m; m &= m - 1) {
+    struct ray16 rs;
+    // cppcheck-suppress uninitvar
+    const struct ray16 *r = centre ? centre : &rs;
+    for (uint32_t m = centre ? 0 : active; m; m &= m - 1) {
         int q = __builtin_ctz(m);
         struct rng_key key;
-        ray r = centre ? ray16_get(centre, q) : sample_ray(s, x + q % 4, y + q / 4, k, n, &key);
-        aov_sample(s, &r, k == 0, acc[q]);
+        ray16_set(&rs, q, sample_ray(s, x + q % 4, y + q / 4, k, n, &key));
+    }
+    struct hit first[16];
+    uint32_t hit = scene_intersect16_soa(s, r, scene_unbounded16, active, first, NULL);
+    for (uint32_t m = hit & active; m; m &= m - 1) {
+        int q = __builtin_ctz(m);
+        ray rq = ray16_get(r, q);
+        aov_sample_hit(s, &rq, &first[q], k == 0, acc[q]);
     }
 }
 
