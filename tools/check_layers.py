@@ -78,8 +78,8 @@ CORE_LAYERS = [
     ("core/scene/", "scene.c (the frozen scene), scene_query.c (one ray: hits, CSG, shadows, "
                     "surfaces), scene_packet.c (16 rays at once)"),
     ("core/render/", "render.c (regions, tiles, threads; exact per-pixel sums), accum.c "
-                     "(progressive passes and sample ranges), srgb.c, integrate*.c (Whitted, "
-                     "path, 16-wide), image"),
+                     "(progressive passes and sample ranges), aov.c (AOVs: what each camera ray "
+                     "hits), srgb.c, integrate*.c (Whitted, path, 16-wide), image"),
     ("core/codec/", "image codecs on render/image.h: png.c (decode, 16-bit encode) + png_encode.c "
                     "(parallel bands), exr.c + exr_read.c (EXR out and in; exr_imf.cc: DWA and tiled maps through the C++ library), sums.c (a sample "
                     "range's exact sums as bytes)"),

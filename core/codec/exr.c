@@ -8,6 +8,10 @@
  * enough corners (offset tables, compressor framing) that a library its
  * readers are tested against is the safer author.
  *
+ * AOVs (render/aov.c) go in the same part as more float channels, under
+ * the names compositors look for: albedo.R/G/B, N.X/Y/Z, Z, A, objectId,
+ * materialId (a file without them is byte for byte as before).
+ *
  * Choices: one scanline part of three 32-bit float channels R, G, B (half
  * floats would round the radiance to 11 bits; float keeps what the render
  * computed, to the float rounding of the average); PIZ compression
@@ -19,6 +23,7 @@
  * earlier offset, so the buffer takes writes at any offset.
  */
 #include <openexr.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -71,35 +76,76 @@ static enum rayd_status exr_fail(struct exr_mem *m, exr_result_t rv, struct rayd
                    m->message[0] ? m->message : exr_get_default_error_message(rv));
 }
 
-/* The header: one scanline part, w x h, channels R, G, B as float. */
-static exr_result_t exr_header(exr_context_t ctx, int w, int h) {
+/* A channel of the file: its name, and where its floats are (the pixel
+ * of the RGB or of the AOVs, at offset `at`). */
+struct exr_chan {
+    const char *name;
+    unsigned aov; /* 0: the RGB; else its RAYD_AOV_ bit */
+    int at;
+};
+
+/* Every channel the file may have, named as compositors expect (Nuke's
+ * and Blender's layer.channel, Z and A bare). */
+static const struct exr_chan exr_chans[] = {
+    {"R", 0, 0},
+    {"G", 0, 1},
+    {"B", 0, 2},
+    {"albedo.R", RAYD_AOV_ALBEDO, 0},
+    {"albedo.G", RAYD_AOV_ALBEDO, 1},
+    {"albedo.B", RAYD_AOV_ALBEDO, 2},
+    {"N.X", RAYD_AOV_NORMAL, 3},
+    {"N.Y", RAYD_AOV_NORMAL, 4},
+    {"N.Z", RAYD_AOV_NORMAL, 5},
+    {"Z", RAYD_AOV_DEPTH, 6},
+    {"A", RAYD_AOV_ALPHA, 7},
+    {"objectId", RAYD_AOV_OBJECT, 8},
+    {"materialId", RAYD_AOV_MATERIAL, 9},
+};
+#define EXR_CHANS (sizeof exr_chans / sizeof exr_chans[0])
+
+/* The header: one scanline part, w x h, channels R, G, B and the AOVs of
+ * mask as float. */
+static exr_result_t exr_header(exr_context_t ctx, int w, int h, unsigned mask) {
     int part = 0;
     exr_result_t rv = exr_add_part(ctx, "rgb", EXR_STORAGE_SCANLINE, &part);
     if (rv == EXR_ERR_SUCCESS)
         rv = exr_initialize_required_attr_simple(ctx, part, w, h, EXR_COMPRESSION_PIZ);
-    static const char *const names[3] = {"R", "G", "B"};
-    for (int c = 0; c < 3 && rv == EXR_ERR_SUCCESS; c++)
-        rv = exr_add_channel(ctx, part, names[c], EXR_PIXEL_FLOAT, EXR_PERCEPTUALLY_LOGARITHMIC, 1,
-                             1);
+    for (size_t c = 0; c < EXR_CHANS && rv == EXR_ERR_SUCCESS; c++) {
+        if (exr_chans[c].aov && !(exr_chans[c].aov & mask)) continue;
+        bool colour = exr_chans[c].aov <= RAYD_AOV_ALBEDO;
+        rv = exr_add_channel(ctx, part, exr_chans[c].name, EXR_PIXEL_FLOAT,
+                             colour ? EXR_PERCEPTUALLY_LOGARITHMIC : EXR_PERCEPTUALLY_LINEAR, 1, 1);
+    }
     if (rv == EXR_ERR_SUCCESS) rv = exr_write_header(ctx);
     return rv;
 }
 
-/* Points the pipeline's channels at the rows of rgb from row y0. */
-static void exr_point(exr_encode_pipeline_t *enc, const float *rgb, int w, int y0) {
+/* The pixels a file's channels come from. */
+struct exr_src {
+    const float *rgb, *aov; /* aov: RAYD_AOV_FLOATS a pixel, or NULL */
+    int w;
+};
+
+/* Points the pipeline's channels at the rows of src from row y0. */
+static void exr_point(exr_encode_pipeline_t *enc, const struct exr_src *src, int y0) {
     for (int c = 0; c < enc->channel_count; c++) {
         exr_coding_channel_info_t *ch = &enc->channels[c];
-        int k = ch->channel_name[0] == 'R' ? 0 : ch->channel_name[0] == 'G' ? 1 : 2;
-        ch->encode_from_ptr = (const uint8_t *)(rgb + (size_t)y0 * (size_t)w * 3 + k);
-        ch->user_pixel_stride = 3 * (int32_t)sizeof(float);
-        ch->user_line_stride = w * 3 * (int32_t)sizeof(float);
+        const struct exr_chan *k = &exr_chans[0];
+        for (size_t i = 0; i < EXR_CHANS; i++)
+            if (!strcmp(exr_chans[i].name, ch->channel_name)) k = &exr_chans[i];
+        int stride = k->aov ? RAYD_AOV_FLOATS : 3;
+        const float *base = k->aov ? src->aov : src->rgb;
+        ch->encode_from_ptr =
+            (const uint8_t *)(base + (size_t)y0 * (size_t)src->w * (size_t)stride + k->at);
+        ch->user_pixel_stride = stride * (int32_t)sizeof(float);
+        ch->user_line_stride = src->w * stride * (int32_t)sizeof(float);
         ch->user_data_type = EXR_PIXEL_FLOAT;
         ch->user_bytes_per_element = (int16_t)sizeof(float);
     }
 }
 
 /* Encodes and writes every chunk of rows, in order. */
-static exr_result_t exr_rows(exr_context_t ctx, const float *rgb, int w, int h) {
+static exr_result_t exr_rows(exr_context_t ctx, const struct exr_src *src, int h) {
     int32_t lines = 0;
     exr_result_t rv = exr_get_scanlines_per_chunk(ctx, 0, &lines);
     exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
@@ -111,7 +157,7 @@ static exr_result_t exr_rows(exr_context_t ctx, const float *rgb, int w, int h) 
         rv = started ? exr_encoding_update(ctx, 0, &cinfo, &enc)
                      : exr_encoding_initialize(ctx, 0, &cinfo, &enc);
         if (rv != EXR_ERR_SUCCESS) break;
-        exr_point(&enc, rgb, w, y);
+        exr_point(&enc, src, y);
         if (!started++) rv = exr_encoding_choose_default_routines(ctx, 0, &enc);
         if (rv == EXR_ERR_SUCCESS) rv = exr_encoding_run(ctx, 0, &enc);
     }
@@ -121,7 +167,14 @@ static exr_result_t exr_rows(exr_context_t ctx, const float *rgb, int w, int h) 
 
 enum rayd_status rayd_exr_encode(const float *rgb, int w, int h, void **buf, size_t *len,
                                  struct rayd_error *err) {
+    return rayd_exr_encode_aov(rgb, NULL, 0, w, h, buf, len, err);
+}
+
+enum rayd_status rayd_exr_encode_aov(const float *rgb, const float *aov, unsigned mask, int w,
+                                     int h, void **buf, size_t *len, struct rayd_error *err) {
     if (w <= 0 || h <= 0) return err_set(err, RAYD_E_ARG, NULL, "an EXR needs w, h > 0");
+    if (mask && !aov) return err_set(err, RAYD_E_ARG, NULL, "AOV channels without AOVs");
+    struct exr_src src = {rgb, aov, w};
     struct exr_mem m = {0};
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.user_data = &m;
@@ -129,8 +182,8 @@ enum rayd_status rayd_exr_encode(const float *rgb, int w, int h, void **buf, siz
     init.error_handler_fn = on_error;
     exr_context_t ctx = NULL;
     exr_result_t rv = exr_start_write(&ctx, "memory", EXR_WRITE_FILE_DIRECTLY, &init);
-    if (rv == EXR_ERR_SUCCESS) rv = exr_header(ctx, w, h);
-    if (rv == EXR_ERR_SUCCESS) rv = exr_rows(ctx, rgb, w, h);
+    if (rv == EXR_ERR_SUCCESS) rv = exr_header(ctx, w, h, mask & RAYD_AOV_ALL);
+    if (rv == EXR_ERR_SUCCESS) rv = exr_rows(ctx, &src, h);
     exr_result_t fin = ctx ? exr_finish(&ctx) : EXR_ERR_SUCCESS;
     if (rv == EXR_ERR_SUCCESS) rv = fin;
     if (rv != EXR_ERR_SUCCESS || m.failed) {

@@ -5,7 +5,8 @@
  * zlib stream); this file writes its buffer to a file.  Decoding uses
  * libpng's simplified png_image API, which converts any PNG to 8-bit RGB
  * for us, and refuses images over a pixel limit before allocating them.
- * The 16-bit encoder for linear images is at the bottom.
+ * The 16-bit encoder for linear images is at the bottom, and the 8-bit
+ * RGBA one (a beauty with its alpha AOV as coverage), one band, libpng.
  */
 #include <math.h>
 #include <png.h>
@@ -165,6 +166,40 @@ enum rayd_status rayd_png16_encode(const float *rgb, int w, int h, int level, vo
         free(m.buf);
         return err_set(err, m.failed || !made ? RAYD_E_NOMEM : RAYD_E_INTERNAL, NULL,
                        "16-bit PNG encoding failed");
+    }
+    *buf = m.buf;
+    *len = m.len;
+    return RAYD_OK;
+}
+
+/* The RGBA image's libpng part, as png16_write's. */
+static int rgba_write(png_structp png, png_infop info, const uint8_t *rgba, int w, int h,
+                      struct png_mem *m) {
+    if (setjmp(png_jmpbuf(png))) return -1;
+    png_set_write_fn(png, m, mem_write, mem_flush);
+    png_set_compression_level(png, 6);
+    png_set_IHDR(png, info, (png_uint_32)w, (png_uint_32)h, 8, PNG_COLOR_TYPE_RGB_ALPHA,
+                 PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_set_sRGB_gAMA_and_cHRM(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
+    png_write_info(png, info);
+    for (int y = 0; y < h; y++) png_write_row(png, rgba + (size_t)y * (size_t)w * 4);
+    png_write_end(png, NULL);
+    return 0;
+}
+
+enum rayd_status rayd_png_encode_rgba(const uint8_t *rgba, int w, int h, void **buf, size_t *len,
+                                      struct rayd_error *err) {
+    if (w <= 0 || h <= 0) return err_set(err, RAYD_E_ARG, NULL, "a PNG needs w, h > 0");
+    struct png_mem m = {0};
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, NULL, NULL);
+    png_infop info = png ? png_create_info_struct(png) : NULL;
+    int made = info != NULL;
+    int rc = made ? rgba_write(png, info, rgba, w, h, &m) : -1;
+    png_destroy_write_struct(png ? &png : NULL, info ? &info : NULL);
+    if (rc != 0 || m.failed || !made) {
+        free(m.buf);
+        return err_set(err, m.failed || !made ? RAYD_E_NOMEM : RAYD_E_INTERNAL, NULL,
+                       "RGBA PNG encoding failed");
     }
     *buf = m.buf;
     *len = m.len;

@@ -40,7 +40,11 @@ enum shape_kind {
 enum csg_op { CSG_UNION, CSG_INTERSECTION, CSG_DIFFERENCE };
 
 struct object {
-    enum shape_kind kind;
+    enum shape_kind kind : 8;
+    /* Its index in /objects (a CSG operand's: its CSG object's; a group
+     * member's: in its group), the AOVs' object id (render/aov.c); 24
+     * bits beside kind keep the struct at two cache lines. */
+    int32_t id : 24;
     int material;  /* index into the scene's materials */
     int32_t xform; /* index into the scene's transforms, -1 for none */
     /* A CSG leaf that takes its material from a csg node above it: 1 + the

@@ -71,10 +71,38 @@ static const cJSON *section(const cJSON *root, const char *key, cJSON *empty) {
     return empty;
 }
 
+/* "aov": the AOVs the scene asks for, an array of names (render/aov.c):
+ * what an EXR of it carries and rayd-render writes beside its image
+ * unless told otherwise. */
+static enum rayd_status load_aov(struct loader *ld, const cJSON *r, const struct jp *at,
+                                 unsigned *mask) {
+    const cJSON *list = cJSON_GetObjectItemCaseSensitive(r, "aov");
+    struct jp p = jp_key(at, "aov");
+    *mask = 0;
+    if (!list) return RAYD_OK;
+    if (!cJSON_IsArray(list))
+        return sj_fail(ld, RAYD_E_INVALID, &p, "must be an array of AOV names, not %s",
+                       sj_type_name(list));
+    int i = 0;
+    for (const cJSON *e = list->child; e; e = e->next, i++) {
+        struct jp pe = jp_index(&p, i);
+        if (!cJSON_IsString(e))
+            return sj_fail(ld, RAYD_E_INVALID, &pe, "must be an AOV name, not %s", sj_type_name(e));
+        unsigned one = 0;
+        struct rayd_error e2 = {0};
+        if (strchr(e->valuestring, ',') || rayd_aov_parse(e->valuestring, &one, &e2) != RAYD_OK)
+            return sj_fail(ld, RAYD_E_INVALID, &pe,
+                           "is no AOV; the AOVs are albedo, normal, depth, alpha, object, "
+                           "material, id and all");
+        *mask |= one;
+    }
+    return RAYD_OK;
+}
+
 static enum rayd_status load_render(struct loader *ld, const cJSON *root) {
-    static const char *const keys[] = {"width",      "height",      "samples",
-                                       "max_depth",  "background",  "seed",
-                                       "integrator", "environment", NULL};
+    static const char *const keys[] = {"width",      "height", "samples",    "max_depth",
+                                       "background", "seed",   "integrator", "environment",
+                                       "aov",        NULL};
     static const char *const integrators[] = {"whitted", "path", NULL};
     struct jp at = {.s = "/render"};
     cJSON empty;
@@ -102,6 +130,7 @@ static enum rayd_status load_render(struct loader *ld, const cJSON *root) {
     rs->samples = (int)spp;
     rs->max_depth = (int)depth;
     rs->seed = (uint64_t)seed;
+    TRY(load_aov(ld, r, &at, &rs->aov));
     return sj_environment(ld, r, &at);
 }
 

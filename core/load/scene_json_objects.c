@@ -27,6 +27,7 @@ struct ctx {
     bool in_csg;             /* must be a closed solid */
     bool in_group;           /* may not be an instance */
     int32_t tex_xform;       /* CSG: 1 + the transform of the node the material is from */
+    int32_t id;              /* the object id (index in its list) its objects take */
 };
 
 static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const struct jp *at,
@@ -292,7 +293,7 @@ static enum rayd_status load_csg(struct loader *ld, const cJSON *oj, const struc
     if (cJSON_GetArraySize(list) > 32)
         return sj_fail(ld, RAYD_E_LIMIT, &pl, "has %d operands; the limit is 32",
                        cJSON_GetArraySize(list));
-    struct ctx sub = {o->material, cx->acc, true, cx->in_group, cx->tex_xform};
+    struct ctx sub = {o->material, cx->acc, true, cx->in_group, cx->tex_xform, cx->id};
     /* left-deep tree: ((a op b) op c) ...; difference: a minus all the rest */
     int32_t left = -1;
     int i = 0;
@@ -450,6 +451,7 @@ static enum rayd_status load_object(struct loader *ld, const cJSON *oj, const st
                        "group of their own)");
     memset(o, 0, sizeof *o);
     o->xform = -1;
+    o->id = cx->id;
     TRY(sj_object_material(ld, oj, at, cx->material, &o->material));
     struct xform x;
     bool has_x;
@@ -501,10 +503,11 @@ static enum rayd_status load_list(struct loader *ld, const cJSON *list, const st
                        ld->lim->max_objects);
     *out = calloc((size_t)n + 1, sizeof **out);
     if (!*out) return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
-    struct ctx cx = {0, NULL, false, in_group, 0};
+    struct ctx cx = {0, NULL, false, in_group, 0, 0};
     int i = 0;
     for (const cJSON *o = list->child; o; o = o->next, i++) {
         struct jp p = jp_index(at, i);
+        cx.id = i;
         TRY(load_object(ld, o, &p, &cx, &(*out)[i]));
         *count = i + 1;
     }

@@ -24,6 +24,7 @@
 #include <string.h>
 
 #include "base/error.h"
+#include "render/aov.h"
 #include "render/image.h"
 #include "render/render.h"
 #include "render/srgb.h"
@@ -34,6 +35,7 @@ struct rayd_accum {
     int n;       /* samples summed; -1 after a canceled pass */
     bool centre; /* the sums are the one-sample (pixel centre) image */
     double *sum; /* r.w * r.h * 3, rows packed */
+    double *aov; /* NULL, or r.w * r.h * AOV_SUMS (render/aov.h) */
 };
 
 enum rayd_status rayd_accum_new(const rayd_scene *s, const struct rayd_region *region,
@@ -75,6 +77,7 @@ enum rayd_status rayd_accum_new_sized(int width, int height, rayd_accum **out,
 
 void rayd_accum_free(rayd_accum *a) {
     if (!a) return;
+    free(a->aov);
     free(a->sum);
     free(a);
 }
@@ -119,9 +122,10 @@ enum rayd_status rayd_render_pass(const rayd_scene *s, const struct rayd_render_
     bool centre = to == 1; /* the paper's one ray through the pixel centre */
     if (a->centre) {       /* the centre sample is no prefix of longer renders */
         memset(a->sum, 0, (size_t)a->r.w * (size_t)a->r.h * 3 * sizeof *a->sum);
+        if (a->aov) memset(a->aov, 0, (size_t)a->r.w * (size_t)a->r.h * AOV_SUMS * sizeof *a->aov);
         from = 0;
     }
-    st = render_sums(s, opts, &a->r, a->sum, from, to, centre ? 1 : 0, err);
+    st = render_sums(s, opts, &a->r, a->sum, a->aov, from, to, centre ? 1 : 0, err);
     if (st != RAYD_OK) {
         a->n = -1;
         return st;
@@ -146,7 +150,7 @@ enum rayd_status rayd_render_sample_range(const rayd_scene *s, const struct rayd
                        RENDER_SUM_SAMPLES);
     /* The one-sample render's centre ray is its whole image, never a range. */
     bool centre = k0 == 0 && k1 == 1 && s->rs.samples == 1;
-    enum rayd_status st = render_sums(s, opts, &a->r, a->sum, k0, k1, centre ? 1 : 0, err);
+    enum rayd_status st = render_sums(s, opts, &a->r, a->sum, a->aov, k0, k1, centre ? 1 : 0, err);
     if (st != RAYD_OK) {
         a->n = -1;
         return st;
@@ -168,6 +172,98 @@ enum rayd_status rayd_accum_add_sums(rayd_accum *a, const double *sums, int samp
     size_t count = (size_t)a->r.w * (size_t)a->r.h * 3;
     for (size_t i = 0; i < count; i++) a->sum[i] += sums[i]; /* exact: see render.c */
     a->n += samples;
+    return RAYD_OK;
+}
+
+/* ---- AOVs --------------------------------------------------------------------- */
+
+enum rayd_status rayd_accum_aov_enable(rayd_accum *a, struct rayd_error *err) {
+    if (a->n != 0 || a->centre)
+        return err_set(err, RAYD_E_ARG, NULL, "AOVs are enabled before the first samples");
+    if (a->aov) return RAYD_OK;
+    a->aov = calloc((size_t)a->r.w * (size_t)a->r.h * AOV_SUMS, sizeof *a->aov);
+    if (!a->aov)
+        return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for %dx%d AOVs", a->r.w, a->r.h);
+    return RAYD_OK;
+}
+
+int rayd_accum_has_aov(const rayd_accum *a) { return a->aov != NULL; }
+
+enum rayd_status rayd_accum_merge(rayd_accum *dst, const rayd_accum *src, struct rayd_error *err) {
+    enum rayd_status st = accum_usable(dst, err);
+    if (st == RAYD_OK) st = accum_resolvable(src, err);
+    if (st != RAYD_OK) return st;
+    if (dst->r.w != src->r.w || dst->r.h != src->r.h)
+        return err_set(err, RAYD_E_ARG, NULL, "sums of %dx%d pixels into an accumulator of %dx%d",
+                       src->r.w, src->r.h, dst->r.w, dst->r.h);
+    if (!dst->aov != !src->aov)
+        return err_set(err, RAYD_E_ARG, NULL, "AOVs in one accumulator and not the other");
+    if (dst->centre || src->centre)
+        return err_set(err, RAYD_E_ARG, NULL, "a one-sample centre image is no sample range");
+    size_t px = (size_t)dst->r.w * (size_t)dst->r.h;
+    if (dst->aov) /* before add_sums counts the samples in */
+        for (size_t i = 0; i < px * AOV_SUMS; i++) dst->aov[i] += src->aov[i]; /* exact */
+    return rayd_accum_add_sums(dst, src->sum, src->n, err);
+}
+
+/* The AOVs resolved: RAYD_AOV_FLOATS floats a pixel. */
+static enum rayd_status accum_aov_floats(const rayd_accum *a, float **out, struct rayd_error *err) {
+    enum rayd_status st = accum_resolvable(a, err);
+    if (st != RAYD_OK) return st;
+    if (!a->aov) return err_set(err, RAYD_E_ARG, NULL, "the accumulator keeps no AOVs");
+    size_t px = (size_t)a->r.w * (size_t)a->r.h;
+    float *f = malloc(px * RAYD_AOV_FLOATS * sizeof *f);
+    if (!f) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for the AOVs");
+    for (size_t i = 0; i < px; i++)
+        aov_resolve(a->aov + i * AOV_SUMS, a->n, f + i * RAYD_AOV_FLOATS);
+    *out = f;
+    return RAYD_OK;
+}
+
+enum rayd_status rayd_accum_aov_linear(const rayd_accum *a, float **out, struct rayd_error *err) {
+    return accum_aov_floats(a, out, err);
+}
+
+enum rayd_status rayd_accum_aov_image(const rayd_accum *a, const rayd_scene *s, unsigned aov,
+                                      rayd_image **out, struct rayd_error *err) {
+    if (aov == 0 || (aov & (aov - 1)) || aov > RAYD_AOV_ALL)
+        return err_set(err, RAYD_E_ARG, "aov", "must be one AOV, not the set %u", aov);
+    float *f = NULL;
+    enum rayd_status st = accum_aov_floats(a, &f, err);
+    rayd_image *img = NULL;
+    if (st == RAYD_OK) st = rayd_image_new(a->r.w, a->r.h, &img, err);
+    if (st != RAYD_OK) {
+        free(f);
+        return st;
+    }
+    double focus = s->cam.focus > 0 ? s->cam.focus : 1;
+    size_t px = (size_t)a->r.w * (size_t)a->r.h;
+    for (size_t i = 0; i < px; i++)
+        aov_pixel8(f + i * RAYD_AOV_FLOATS, aov, focus, img->px + i * 3);
+    free(f);
+    *out = img;
+    return RAYD_OK;
+}
+
+enum rayd_status rayd_accum_rgba(const rayd_accum *a, uint8_t **out, struct rayd_error *err) {
+    float *f = NULL;
+    enum rayd_status st = accum_aov_floats(a, &f, err);
+    if (st != RAYD_OK) return st;
+    size_t px = (size_t)a->r.w * (size_t)a->r.h;
+    uint8_t *p = malloc(px * 4);
+    if (!p) {
+        free(f);
+        return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for an RGBA image");
+    }
+    double scale = 1.0 / a->n; /* the RGB as rayd_accum_image's */
+    for (size_t i = 0; i < px; i++) {
+        for (int c = 0; c < 3; c++)
+            p[i * 4 + (size_t)c] = render_srgb8(a->sum[i * 3 + (size_t)c] * scale);
+        double al = f[i * RAYD_AOV_FLOATS + AOV_ALPHA];
+        p[i * 4 + 3] = (uint8_t)(al >= 1 ? 255 : (int)nearbyint(al * 255));
+    }
+    free(f);
+    *out = p;
     return RAYD_OK;
 }
 

@@ -58,6 +58,7 @@
 #include "accel/bvh16.h"
 #include "base/error.h"
 #include "base/meter.h"
+#include "render/aov.h"
 #include "render/image.h"
 #include "render/integrate.h"
 #include "render/render.h"
@@ -173,6 +174,7 @@ static void block_sample(const rayd_scene *s, int x, int y, uint32_t active,
 struct rect_out {
     rayd_image *img;
     double *sum;
+    double *aov; /* NULL, or AOV_SUMS doubles a pixel beside sum (render/aov.h) */
     size_t sum_w;
     int dx, dy, k0, k1, n;
 };
@@ -197,6 +199,41 @@ static void sums_store(const struct rect_out *o, int bx, int by, uint32_t active
     }
 }
 
+/* The AOV sums of the block's lanes from o->aov (load) or back (!load). */
+static void aov_move(const struct rect_out *o, int bx, int by, uint32_t active,
+                     double acc[16][AOV_SUMS], bool load) {
+    for (uint32_t m = active; m; m &= m - 1) {
+        int q = __builtin_ctz(m);
+        double *p = o->aov + ((size_t)(by + q / 4) * o->sum_w + (size_t)(bx + q % 4)) * AOV_SUMS;
+        if (load)
+            memcpy(acc[q], p, sizeof acc[q]);
+        else
+            memcpy(p, acc[q], sizeof acc[q]);
+    }
+}
+
+/* Sample k of n of the block's active lanes: their AOV terms added to
+ * acc, the rays made as block_sample makes them and met as a packet
+ * (which gives each ray its one-ray hit). */
+static void aov_block(const rayd_scene *s, int x, int y, uint32_t active,
+                      const struct ray16 *centre, int k, int n, double acc[16][AOV_SUMS]) {
+    struct ray16 rs;
+    // cppcheck-suppress uninitvar
+    const struct ray16 *r = centre ? centre : &rs;
+    for (uint32_t m = centre ? 0 : active; m; m &= m - 1) {
+        int q = __builtin_ctz(m);
+        struct rng_key key;
+        ray16_set(&rs, q, sample_ray(s, x + q % 4, y + q / 4, k, n, &key));
+    }
+    struct hit first[16];
+    uint32_t hit = scene_intersect16_soa(s, r, scene_unbounded16, active, first, NULL);
+    for (uint32_t m = hit & active; m; m &= m - 1) {
+        int q = __builtin_ctz(m);
+        ray rq = ray16_get(r, q);
+        aov_sample_hit(s, &rq, &first[q], k == 0, acc[q]);
+    }
+}
+
 /* The w x h (at most 4 x 4) block at (x, y), going to o at (bx, by) past
  * o's (dx, dy): each sample's 16 camera rays traced as packets, the same
  * radiance per pixel as render_pixel, summed in the same order (sample
@@ -208,6 +245,7 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h,
     int n = o->n;
     bool sum = o->sum || n > 1;
     vec3 acc[16];
+    double aov[16][AOV_SUMS];
     union block_colours c; /* the lanes outside the block stay 0 */
     uint32_t active = ((1u << w) - 1) * (0x1111u & ((1u << 4 * h) - 1)); /* w lanes of h rows */
     if (active != 0xffff) memset(&c, 0, sizeof c);
@@ -215,9 +253,11 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h,
         sums_load(o, o->dx + bx, o->dy + by, active, acc);
     else if (n > 1)
         memset(acc, 0, sizeof acc);
+    if (o->aov) aov_move(o, o->dx + bx, o->dy + by, active, aov, true);
     for (int k = o->k0; k < o->k1; k++) {
         if (!meter_poll(mt)) return;
         block_sample(s, x, y, active, centre, k, n, &c, mt);
+        if (o->aov) aov_block(s, x, y, active, centre, k, n, aov);
         for (uint32_t m = sum ? active : 0; m; m &= m - 1) {
             int q = __builtin_ctz(m);
             acc[q] = v3_add(acc[q], n == 1 ? c.v[q] : render_sum_term(c.v[q])); /* centre: as is */
@@ -226,6 +266,7 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h,
     if (!meter_going(mt)) return; /* stopped inside the last sample */
     if (o->sum) {
         sums_store(o, o->dx + bx, o->dy + by, active, acc);
+        if (o->aov) aov_move(o, o->dx + bx, o->dy + by, active, aov, false);
         return;
     }
     for (uint32_t m = n > 1 ? active : 0; m; m &= m - 1) { /* one sample: c, as (0 + c) / 1 */
@@ -479,8 +520,8 @@ enum rayd_status rayd_render(const rayd_scene *s, const struct rayd_render_opts 
 }
 
 enum rayd_status render_sums(const rayd_scene *s, const struct rayd_render_opts *opts,
-                             const struct rayd_region *r, double *sum, int k0, int k1, int n,
-                             struct rayd_error *err) {
-    struct rect_out o = {.sum = sum, .sum_w = (size_t)r->w, .k0 = k0, .k1 = k1, .n = n};
+                             const struct rayd_region *r, double *sum, double *aov, int k0, int k1,
+                             int n, struct rayd_error *err) {
+    struct rect_out o = {.sum = sum, .aov = aov, .sum_w = (size_t)r->w, .k0 = k0, .k1 = k1, .n = n};
     return render_tiles(s, opts, r, &o, err);
 }

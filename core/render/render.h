@@ -19,11 +19,13 @@ vec3 render_pixel(const rayd_scene *s, int i, int j, uint64_t *rays);
 
 /* Adds the radiance of samples k0..k1-1 of every pixel of region r
  * (checked by the caller) to sum, 3 doubles a pixel, rows r->w pixels,
+ * and, when aov is not NULL, their AOV terms to aov (AOV_SUMS doubles a
+ * pixel, render/aov.h),
  * each pixel's samples in index order, in tiles on opts->threads threads.
  * n is 1 for the pixel-centre sample of a one-sample render, else 0.
  * On a cancel the sums are partly added. */
 enum rayd_status render_sums(const rayd_scene *s, const struct rayd_render_opts *opts,
-                             const struct rayd_region *r, double *sum, int k0, int k1, int n,
-                             struct rayd_error *err);
+                             const struct rayd_region *r, double *sum, double *aov, int k0, int k1,
+                             int n, struct rayd_error *err);
 
 #endif

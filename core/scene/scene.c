@@ -46,6 +46,7 @@ void rayd_scene_free(rayd_scene *s) {
     free(s->planes);
     free(s->planes_src);
     free(s->emitters);
+    free(s->inst_ids);
     bvh_free(&s->tlas);
     light_buffers_free(s->light_buffers, s->nlights);
     free(s);
@@ -219,6 +220,19 @@ static enum rayd_status build_light_buffers(rayd_scene *s, struct rayd_error *er
     return st;
 }
 
+/* The object id of each instance's placement (render/aov.c): a hit inside
+ * a group knows its instance only by that. */
+static enum rayd_status map_instances(rayd_scene *s, struct rayd_error *err) {
+    if (s->nxforms <= 0) return RAYD_OK;
+    s->inst_ids = malloc(sizeof *s->inst_ids * (size_t)s->nxforms);
+    if (!s->inst_ids) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory");
+    for (int32_t i = 0; i < s->nxforms; i++) s->inst_ids[i] = -1;
+    for (int32_t i = 0; i < s->nobjs; i++)
+        if (s->objs[i].kind == SHAPE_INSTANCE && s->objs[i].xform >= 0)
+            s->inst_ids[s->objs[i].xform] = s->objs[i].id;
+    return RAYD_OK;
+}
+
 enum rayd_status scene_freeze(rayd_scene *s, struct rayd_error *err) {
     if (!scene_files_dedupe(s)) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory");
     s->opaque = true;
@@ -229,6 +243,7 @@ enum rayd_status scene_freeze(rayd_scene *s, struct rayd_error *err) {
         s->simple_lights &= k == LIGHT_POINT || k == LIGHT_DIRECTIONAL;
     }
     enum rayd_status st = split_unbounded(s, err);
+    if (st == RAYD_OK) st = map_instances(s, err);
     if (st != RAYD_OK || s->nobjs <= 0) return st;
     double t0 = clock_now();
     st = scene_build_bvh(s, &s->objs, s->nobjs, &s->tlas, NULL, err);
@@ -260,6 +275,7 @@ void rayd_scene_info(const rayd_scene *s, struct rayd_scene_info *info) {
     info->lights = s->nlights;
     info->decode_seconds = s->decode_s;
     info->build_seconds = s->build_s;
+    info->aov = s->rs.aov;
     info->rays_per_sample = scene_rays_per_sample(s);
     size_t bytes =
         sizeof *s + sizeof *s->mats * (size_t)s->nmats + sizeof *s->lights * (size_t)s->nlights +

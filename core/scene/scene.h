@@ -23,6 +23,7 @@ struct render_settings {
     vec3 background;
     struct environment env; /* render.environment; kind ENV_NONE without one */
     uint64_t seed;
+    unsigned aov; /* render.aov: the RAYD_AOV_ bits the scene asks for */
 };
 
 /* Objects drawn together and placed as a whole by instances. */
@@ -61,7 +62,8 @@ struct rayd_scene {
     uint32_t nmeshes;
     struct xform *xforms; /* placements that objects refer to */
     int32_t nxforms;
-    struct bvh4 tlas;                   /* over objs */
+    int32_t *inst_ids; /* per placement: the id of the instance it places, else -1 */
+    struct bvh4 tlas;  /* over objs */
     struct light_buffer *light_buffers; /* per light, objs by direction (light_buffer.c) */
     int32_t *emitters; /* path tracer: emissive spheres, discs, quads of objs to sample */
     int nemitters;

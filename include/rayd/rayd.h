@@ -135,6 +135,9 @@ struct rayd_scene_info {
      * material, a black background and no (or a black) environment.  Every
      * pixel of its render is black; programs warn about it. */
     int unlit;
+    /* render.aov: the AOVs (enum rayd_aov bits) the scene asks for, 0 for
+     * none. */
+    unsigned aov;
 };
 
 void rayd_scene_info(const rayd_scene *scene, struct rayd_scene_info *info);
@@ -362,6 +365,61 @@ struct rayd_sums_header {
  * buffer *sums (free with rayd_free).  RAYD_E_PARSE names what is wrong. */
 enum rayd_status rayd_sums_decode(const void *buf, size_t len, struct rayd_sums_header *hdr,
                                   double **sums, struct rayd_error *err);
+
+/* ---- AOVs: what each pixel sees, beside its light -------------------------
+ * An accumulator may also keep, per pixel, the exact sums of its samples'
+ * arbitrary output variables (docs/scene-format.md, "AOVs"): the albedo
+ * (reflectance of the first hit that is not a perfect mirror or glass),
+ * the shading normal facing the camera, the depth (distance from the
+ * camera), alpha (coverage), and the object and material ids of the first
+ * hit of the pixel's first sample (-1: none).  They are the same whatever
+ * the integrator, and exact like the beauty sums: passes, sample ranges
+ * merged, any tiling and thread count give the same bits. */
+enum rayd_aov {
+    RAYD_AOV_ALBEDO = 1,
+    RAYD_AOV_NORMAL = 2,
+    RAYD_AOV_DEPTH = 4,
+    RAYD_AOV_ALPHA = 8,
+    RAYD_AOV_OBJECT = 16,
+    RAYD_AOV_MATERIAL = 32
+};
+#define RAYD_AOV_ALL 63
+/* Floats a pixel of rayd_accum_aov_linear: albedo R, G, B; normal X, Y, Z;
+ * depth (+infinity where no sample hit); alpha; object id; material id. */
+#define RAYD_AOV_FLOATS 10
+/* Reads a comma-separated list of AOV names ("albedo,normal,depth,alpha,
+ * id", "id" being "object,material"; "all" every one) into *mask; an
+ * unknown or empty name is RAYD_E_ARG naming it.  The names of one bit:
+ * rayd_aov_name. */
+enum rayd_status rayd_aov_parse(const char *list, unsigned *mask, struct rayd_error *err);
+const char *rayd_aov_name(unsigned aov);
+/* Makes acc keep the AOV sums too; only before its first samples. */
+enum rayd_status rayd_accum_aov_enable(rayd_accum *acc, struct rayd_error *err);
+/* Whether acc keeps them. */
+int rayd_accum_has_aov(const rayd_accum *acc);
+/* Adds src's samples (beauty and AOV sums) to dst: the same region size,
+ * AOVs in both or neither, sample ranges that do not overlap. */
+enum rayd_status rayd_accum_merge(rayd_accum *dst, const rayd_accum *src, struct rayd_error *err);
+/* The resolved AOVs: w * h * RAYD_AOV_FLOATS floats, rows packed, into a
+ * new buffer *out (free with rayd_free). */
+enum rayd_status rayd_accum_aov_linear(const rayd_accum *acc, float **out, struct rayd_error *err);
+/* An 8-bit picture of one AOV (one bit of enum rayd_aov): albedo as sRGB,
+ * normal as (n + 1) / 2, depth as grey focus / (focus + depth) (the
+ * camera's focus distance mid-grey, no hit black), alpha as grey, ids as a
+ * colour each (no hit black). */
+enum rayd_status rayd_accum_aov_image(const rayd_accum *acc, const rayd_scene *scene, unsigned aov,
+                                      rayd_image **out, struct rayd_error *err);
+/* The 8-bit image of the sums with alpha, RGBA (4 bytes a pixel, rows
+ * packed, the RGB rayd_accum_image's), into a new buffer *out (free with
+ * rayd_free), for rayd_png_encode_rgba. */
+enum rayd_status rayd_accum_rgba(const rayd_accum *acc, uint8_t **out, struct rayd_error *err);
+/* An 8-bit RGBA PNG of w * h pixels. */
+enum rayd_status rayd_png_encode_rgba(const uint8_t *rgba, int w, int h, void **buf, size_t *len,
+                                      struct rayd_error *err);
+/* rayd_exr_encode with the AOVs of mask as more channels: albedo.R/G/B,
+ * N.X/Y/Z, Z, A, objectId, materialId (aov: rayd_accum_aov_linear's). */
+enum rayd_status rayd_exr_encode_aov(const float *rgb, const float *aov, unsigned mask, int w,
+                                     int h, void **buf, size_t *len, struct rayd_error *err);
 
 /* rayd_render_into for linear float RGB: region's linear radiance (as
  * rayd_accum_linear gives it after a pass of all render.samples) into dst,

@@ -59,6 +59,7 @@ static void usage(FILE *f) {
             "                   [--passes] [--pass-step K] [--pass-output PATTERN]\n"
             "                   [--exposure EV] [--tonemap clamp|reinhard] [--stats] [--quiet]\n"
             "                   [--frame K | --frames A-B] [--video OUT.mp4]\n"
+            "                   [--aov LIST] [--alpha]\n"
             "\n"
             "  SCENE.json        scene file (format v1, docs/scene-format.md); '-' reads stdin\n"
             "  -o, --output F    file to write (required); '-' writes standard output;\n"
@@ -75,6 +76,11 @@ static void usage(FILE *f) {
             "  --pass-step K     passes of K, 2K, 3K, ... samples instead (implies --passes)\n"
             "  --pass-output P   also write each pass's image to P, where %%d in P becomes\n"
             "                    the pass's samples (implies --passes)\n"
+            "  --aov LIST        also write AOVs: albedo, normal, depth, alpha, object,\n"
+            "                    material, id (object and material), all, or none (default:\n"
+            "                    the scene's render.aov); an EXR carries them as channels,\n"
+            "                    a PNG output OUT.png gets OUT.NAME.png beside it, one each\n"
+            "  --alpha           write the 8-bit PNG as RGBA, alpha the pixel's coverage\n"
             "  --frame K         render frame K of an animated scene (default: its first)\n"
             "  --frames A-B      render frames A to B; -o then names each frame's file with a\n"
             "                    %%d, e.g. -o 'shot-%%04d.png' (%%0Nd pads to N digits)\n"
@@ -142,7 +148,9 @@ enum {
     OPT_VERSION,
     OPT_FRAME,
     OPT_FRAMES,
-    OPT_VIDEO
+    OPT_VIDEO,
+    OPT_AOV,
+    OPT_ALPHA
 };
 static const struct option long_options[] = {
     {"output", required_argument, NULL, 'o'},
@@ -162,6 +170,8 @@ static const struct option long_options[] = {
     {"frame", required_argument, NULL, OPT_FRAME},
     {"frames", required_argument, NULL, OPT_FRAMES},
     {"video", required_argument, NULL, OPT_VIDEO},
+    {"aov", required_argument, NULL, OPT_AOV},
+    {"alpha", no_argument, NULL, OPT_ALPHA},
     {NULL, 0, NULL, 0},
 };
 
@@ -246,6 +256,17 @@ static int set_pass_option(int opt, const char *val, struct args *a) {
     case OPT_FRAME:
     case OPT_FRAMES:
     case OPT_VIDEO: return set_frame_option(opt, val, a);
+    case OPT_AOV: {
+        struct rayd_error err = {0};
+        a->aov_set = true;
+        a->aov = 0;
+        if (val && !strcmp(val, "none")) return 0;
+        if (!val || rayd_aov_parse(val, &a->aov, &err) != RAYD_OK)
+            return bad_usage("--aov: %s (or none)",
+                             val ? err.message : "takes a list of AOVs, e.g. albedo,normal");
+        return 0;
+    }
+    case OPT_ALPHA: a->alpha = true; return 0;
     }
     return bad_usage("unknown option");
 }
@@ -334,6 +355,9 @@ static int parse_args(int argc, char **argv, struct args *a) {
     if (a->region_set && a->region.w == 0 && a->region.h == 0) /* else the whole image */
         return bad_usage("--region needs W and H > 0");
     if (a->format < 0 && !a->output[0]) a->format = FMT_PNG;
+    if (a->aov && !strcmp(a->output, "-") && a->format != FMT_EXR)
+        return bad_usage("--aov writes files named after -o (OUT.albedo.png), and -o is standard "
+                         "output: name a file, or write an EXR");
     if (a->format < 0) {
         const char *kind = output_kind(a->output);
         if (!kind)
@@ -342,6 +366,9 @@ static int parse_args(int argc, char **argv, struct args *a) {
                              a->output);
         a->format = !strcmp(kind, "exr") ? FMT_EXR : FMT_PNG;
     }
+    if (a->alpha && a->format != FMT_PNG)
+        return bad_usage("--alpha is for the 8-bit PNG; an EXR carries alpha as its A channel "
+                         "(--aov alpha)");
     return output_matches_format(a);
 }
 

@@ -45,6 +45,9 @@ struct args {
     bool frames_set;       /* --frame or --frames given */
     long frame_a, frame_b; /* their frames, inclusive */
     const char *video;     /* --video: the video file, or NULL */
+    unsigned aov;          /* --aov: enum rayd_aov bits */
+    bool aov_set;          /* --aov given (else the scene's render.aov) */
+    bool alpha;            /* --alpha: the 8-bit PNG as RGBA, alpha the coverage */
 };
 
 /* The stages of one run, in seconds: what a user waits for, end to end.

@@ -296,10 +296,39 @@ static int render_and_write(const struct args *a, const rayd_scene *scene, doubl
     return 0;
 }
 
-/* The accumulator's image so far in a's format, into *buf. */
-static enum rayd_status encode_accum(const struct args *a, const rayd_accum *acc, void **buf,
-                                     size_t *len, struct rayd_error *err) {
+/* The AOVs a asks of scene: --aov's, else the scene's render.aov. */
+static unsigned aov_mask(const struct args *a, const rayd_scene *scene) {
+    struct rayd_scene_info info;
+    rayd_scene_info(scene, &info);
+    return a->aov_set ? a->aov : info.aov;
+}
+
+/* A new accumulator for a's region, keeping AOVs when a asks for any (or
+ * for --alpha). */
+static enum rayd_status accum_for(const struct args *a, const rayd_scene *scene, rayd_accum **acc,
+                                  struct rayd_error *err) {
+    enum rayd_status st = rayd_accum_new(scene, &a->region, acc, err);
+    if (st == RAYD_OK && (aov_mask(a, scene) || a->alpha)) st = rayd_accum_aov_enable(*acc, err);
+    return st;
+}
+
+/* The 8-bit PNG with its alpha (--alpha): RGBA, alpha the coverage. */
+static enum rayd_status encode_rgba(const rayd_accum *acc, void **buf, size_t *len,
+                                    struct rayd_error *err) {
+    struct rayd_region r = rayd_accum_region(acc);
+    uint8_t *rgba = NULL;
+    enum rayd_status st = rayd_accum_rgba(acc, &rgba, err);
+    if (st == RAYD_OK) st = rayd_png_encode_rgba(rgba, r.w, r.h, buf, len, err);
+    rayd_free(rgba);
+    return st;
+}
+
+/* The accumulator's image so far in a's format, into *buf; an EXR with
+ * the AOVs of mask as channels. */
+static enum rayd_status encode_accum(const struct args *a, const rayd_accum *acc, unsigned mask,
+                                     void **buf, size_t *len, struct rayd_error *err) {
     enum rayd_status st;
+    if (a->format == FMT_PNG && a->alpha) return encode_rgba(acc, buf, len, err);
     if (a->format == FMT_PNG) {
         rayd_image *img = NULL;
         st = rayd_accum_image_tone(acc, &a->tone, &img, err);
@@ -312,20 +341,65 @@ static enum rayd_status encode_accum(const struct args *a, const rayd_accum *acc
     float *lin = NULL;
     st = rayd_accum_linear(acc, &lin, err);
     if (st != RAYD_OK) return st;
-    st = a->format == FMT_EXR ? rayd_exr_encode(lin, r.w, r.h, buf, len, err)
-                              : rayd_png16_encode(lin, r.w, r.h, a->png_level, buf, len, err);
+    float *aov = NULL;
+    if (a->format == FMT_EXR && mask) st = rayd_accum_aov_linear(acc, &aov, err);
+    if (st == RAYD_OK)
+        st = a->format == FMT_EXR ? rayd_exr_encode_aov(lin, aov, mask, r.w, r.h, buf, len, err)
+                                  : rayd_png16_encode(lin, r.w, r.h, a->png_level, buf, len, err);
+    rayd_free(aov);
     rayd_free(lin);
     return st;
 }
 
-/* Encodes the accumulator and writes it to path; 0 on success. */
-static int write_accum(const struct args *a, const rayd_accum *acc, const char *path) {
+/* Where AOV name of the PNG path goes: path's extension moved past it,
+ * out.png -> out.albedo.png (a path without one: out -> out.albedo.png). */
+static void aov_path(const char *path, const char *name, char *out, size_t size) {
+    const char *slash = strrchr(path, '/'), *dot = strrchr(path, '.');
+    if (!dot || (slash && dot < slash)) dot = path + strlen(path);
+    const char *ext = *dot ? dot : ".png";
+    snprintf(out, size, "%.*s.%s%s", (int)(dot - path), path, name, ext);
+}
+
+/* Each AOV of mask as an 8-bit PNG beside path; 0 on success. */
+static int write_aov_pngs(const struct args *a, const rayd_scene *scene, const rayd_accum *acc,
+                          unsigned mask, const char *path) {
+    if (mask && !strcmp(path, "-")) {
+        prog_error("render.aov asks for AOV files beside -o, which is standard output: give "
+                   "--aov none, or -o a file");
+        return 1;
+    }
+    for (unsigned bit = 1; bit <= RAYD_AOV_ALL; bit <<= 1) {
+        if (!(mask & bit)) continue;
+        struct rayd_error err = {0};
+        rayd_image *img = NULL;
+        void *buf = NULL;
+        size_t len = 0;
+        enum rayd_status st = rayd_accum_aov_image(acc, scene, bit, &img, &err);
+        if (st == RAYD_OK)
+            st = rayd_png_encode_threads(img, a->png_level, a->threads, &buf, &len, &err);
+        rayd_image_free(img);
+        if (st != RAYD_OK) return render_one_fail("", &err);
+        char out[4096];
+        aov_path(path, rayd_aov_name(bit), out, sizeof out);
+        int rc = write_or_say(out, buf, len);
+        rayd_free(buf);
+        if (rc != 0) return rc;
+    }
+    return 0;
+}
+
+/* Encodes the accumulator and writes it to path (and, for a PNG, its AOVs
+ * beside it); 0 on success. */
+static int write_accum(const struct args *a, const rayd_scene *scene, const rayd_accum *acc,
+                       const char *path) {
     struct rayd_error err = {0};
     void *buf = NULL;
     size_t len = 0;
-    if (encode_accum(a, acc, &buf, &len, &err) != RAYD_OK) return render_one_fail("", &err);
+    unsigned mask = aov_mask(a, scene);
+    if (encode_accum(a, acc, mask, &buf, &len, &err) != RAYD_OK) return render_one_fail("", &err);
     int rc = write_or_say(path, buf, len);
     rayd_free(buf);
+    if (rc == 0 && a->format != FMT_EXR) rc = write_aov_pngs(a, scene, acc, mask, path);
     return rc;
 }
 
@@ -376,7 +450,7 @@ static int run_passes(const struct args *a, const rayd_scene *scene, rayd_accum 
         if (a->pass_output) {
             char path[4096];
             pass_path(a->pass_output, to, path, sizeof path);
-            if (write_accum(a, acc, path) != 0) return 1;
+            if (write_accum(a, scene, acc, path) != 0) return 1;
         }
     }
     return 0;
@@ -387,14 +461,13 @@ static int run_passes(const struct args *a, const rayd_scene *scene, rayd_accum 
 static int render_passes(const struct args *a, const rayd_scene *scene, double *stage, double t0) {
     struct rayd_error err = {0};
     rayd_accum *acc = NULL;
-    if (rayd_accum_new(scene, &a->region, &acc, &err) != RAYD_OK)
-        return render_one_fail_region(&err);
+    if (accum_for(a, scene, &acc, &err) != RAYD_OK) return render_one_fail_region(&err);
     struct rayd_render_stats stats = {0};
     double t = render_one_now();
     int rc = run_passes(a, scene, acc, &stats);
     stage[ST_RENDER] = render_one_now() - t;
     t = render_one_now();
-    if (rc == 0) rc = write_accum(a, acc, a->output);
+    if (rc == 0) rc = write_accum(a, scene, acc, a->output);
     stage[ST_ENCODE] = render_one_now() - t; /* with the write: one call */
     rayd_accum_free(acc);
     if (rc == 0 && a->stats) print_stats(a, scene, &stats, NULL, stage, render_one_now() - t0);
@@ -406,8 +479,10 @@ static int render_passes(const struct args *a, const rayd_scene *scene, double *
  * curve or exposure). */
 int render_one(const struct args *a, const rayd_scene *scene, double *stage, double t0) {
     bool toned = a->tone.exposure != 0 || a->tone.curve != RAYD_TONE_CLAMP;
-    return a->passes || a->format != FMT_PNG || toned ? render_passes(a, scene, stage, t0)
-                                                      : render_and_write(a, scene, stage, t0);
+    bool aov = aov_mask(a, scene) || a->alpha;
+    return a->passes || a->format != FMT_PNG || toned || aov
+               ? render_passes(a, scene, stage, t0)
+               : render_and_write(a, scene, stage, t0);
 }
 
 /* A video's frame: the passes into an accumulator, path's file when path
@@ -416,11 +491,10 @@ int render_one_image(const struct args *a, const rayd_scene *scene, const char *
                      rayd_image **img) {
     struct rayd_error err = {0};
     rayd_accum *acc = NULL;
-    if (rayd_accum_new(scene, &a->region, &acc, &err) != RAYD_OK)
-        return render_one_fail_region(&err);
+    if (accum_for(a, scene, &acc, &err) != RAYD_OK) return render_one_fail_region(&err);
     struct rayd_render_stats stats = {0};
     int rc = run_passes(a, scene, acc, &stats);
-    if (rc == 0 && path[0]) rc = write_accum(a, acc, path);
+    if (rc == 0 && path[0]) rc = write_accum(a, scene, acc, path);
     if (rc == 0 && rayd_accum_image_tone(acc, &a->tone, img, &err) != RAYD_OK)
         rc = render_one_fail("", &err);
     rayd_accum_free(acc);

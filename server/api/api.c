@@ -22,8 +22,8 @@ struct api_q {
     char unknown[64];
     bool allow_format;       /* POST /v1/render: ?format= and ?samples= too */
     const char *const *also; /* names another parser of the route reads, NULL-ended */
-    const char *format, *samples;
-    int format_count, samples_count;
+    const char *format, *samples, *aov;
+    int format_count, samples_count, aov_count;
 };
 
 static const char *const api_q_names[4] = {"x", "y", "w", "h"};
@@ -76,6 +76,11 @@ static void api_q_each(void *u, const char *k, const char *v) {
         q->samples_count++;
         return;
     }
+    if (q->allow_format && !strcmp(k, "aov")) {
+        q->aov = v;
+        q->aov_count++;
+        return;
+    }
     api_note_unknown(q->unknown, sizeof q->unknown, q->also, k);
 }
 
@@ -101,8 +106,8 @@ static bool api_int(const char *s, long *out) { return api_int_n(s, strlen(s), o
 /* 400 bad_parameter for a query parameter the route does not take,
  * listing those it does. */
 static void api_q_unknown(struct http_req *r, const struct api_q *q) {
-    api_reply_unknown(r, q->unknown, q->allow_format ? "x, y, w, h, format, samples" : "x, y, w, h",
-                      q->also);
+    api_reply_unknown(r, q->unknown,
+                      q->allow_format ? "x, y, w, h, format, samples, aov" : "x, y, w, h", q->also);
 }
 
 /* 400 bad_region naming the parameter name and what is wrong with it;
@@ -286,11 +291,38 @@ static bool api_samples_of(struct http_req *r, const rayd_scene *scene, const st
     return true;
 }
 
+/* ?aov=: with format=exr a list of AOVs for channels (default: the
+ * scene's render.aov), with format=png the one AOV answered as the image
+ * (render/aov.c); no other format takes it. */
+static bool api_aov_of(struct http_req *r, const rayd_scene *scene, const struct api_q *q,
+                       struct work_target *what) {
+    struct rayd_error err = {0};
+    char why[150];
+    if (q->aov_count > 1) return api_bad_param(r, "aov", "given more than once");
+    if (!q->aov) {
+        struct rayd_scene_info info;
+        rayd_scene_info(scene, &info);
+        what->aov = what->format == WORK_EXR ? info.aov : 0;
+        return true;
+    }
+    if (what->format != WORK_PNG && what->format != WORK_EXR)
+        return api_bad_param(r, "aov", "only with format=png (one AOV as the image) or exr");
+    if (rayd_aov_parse(q->aov, &what->aov, &err) != RAYD_OK) {
+        snprintf(why, sizeof why, "%.149s", err.message);
+        return api_bad_param(r, "aov", why);
+    }
+    if (what->format == WORK_PNG && (what->aov & (what->aov - 1)))
+        return api_bad_param(r, "aov",
+                             "a PNG is one AOV: albedo, normal, depth, alpha, object or material "
+                             "(format=exr takes a list)");
+    return true;
+}
+
 bool api_target(struct http_req *r, const rayd_scene *scene, struct work_target *what) {
     struct api_q q = {.allow_format = true};
     memset(what, 0, sizeof *what);
     return api_region_q(r, scene, &what->reg, &q) && api_format_of(r, &q, &what->format) &&
-           api_samples_of(r, scene, &q, what);
+           api_samples_of(r, scene, &q, what) && api_aov_of(r, scene, &q, what);
 }
 
 const char *api_format_type(enum work_format format) { return work_format_type(format); }

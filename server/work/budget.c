@@ -26,7 +26,9 @@ static size_t budget_bytes(const struct work_target *what, bool progressive, enu
     size_t n = px * f->px_bytes + f->extra;
     if (f->store == TASK_STORE_IMAGE && what->keep_exr)
         n += px * 24; /* linear floats, then the EXR */
-    if (progressive)  /* the passes' sums, the last pass's image, the passes kept */
+    if (what->aov)    /* AOV floats and channels (an EXR), a tile's AOV sums */
+        n += px * 2 * RAYD_AOV_FLOATS * sizeof(float);
+    if (progressive) /* the passes' sums, the last pass's image, the passes kept */
         n += px * (24 + 3 + 3 * PASSES_KEEP) + (what->keep_exr ? px * 12 * PASSES_KEEP_EXR : 0);
     *kind = progressive ? MEM_SUMS : f->mem_kind;
     return n + 4096;

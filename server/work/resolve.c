@@ -12,6 +12,10 @@
  * the job's EXR holds exactly what POST /v1/render?format=exr holds for
  * the same scene and sample count, whatever the tiling or threads.
  *
+ * AOVs (POST /v1/render?aov=) come from the same sums: an EXR task keeps
+ * their floats beside the linear RGB, a PNG task's 8-bit image shows the
+ * one AOV asked instead of the light.
+ *
  * The tiles of one task are disjoint, so workers resolve into the shared
  * image and float buffer without a lock; nothing here touches the lock.
  */
@@ -34,13 +38,32 @@ static enum rayd_status resolve_linear(const rayd_accum *acc, const struct resol
     return RAYD_OK;
 }
 
+/* acc's AOV floats into rows of d->aov at (d->x, d->y). */
+static enum rayd_status resolve_aov(const rayd_accum *acc, const struct resolve_dst *d,
+                                    struct rayd_error *err) {
+    float *f = NULL;
+    enum rayd_status st = rayd_accum_aov_linear(acc, &f, err);
+    if (st != RAYD_OK) return st;
+    struct rayd_region r = rayd_accum_region(acc);
+    size_t row = (size_t)r.w * RAYD_AOV_FLOATS;
+    for (int y = 0; y < r.h; y++)
+        memcpy(d->aov + ((size_t)(d->y + y) * (size_t)d->lin_w + (size_t)d->x) * RAYD_AOV_FLOATS,
+               f + (size_t)y * row, row * sizeof *f);
+    rayd_free(f);
+    return RAYD_OK;
+}
+
 enum rayd_status resolve_into(const rayd_accum *acc, const struct resolve_dst *d,
                               struct rayd_error *err) {
     rayd_image *img = NULL;
-    enum rayd_status st = rayd_accum_image(acc, &img, err);
-    if (st == RAYD_OK) st = rayd_image_blit(d->img, img, d->x, d->y, err);
+    enum rayd_status st = RAYD_OK;
+    if (d->img)
+        st = d->aov_mask && !d->aov ? rayd_accum_aov_image(acc, d->scene, d->aov_mask, &img, err)
+                                    : rayd_accum_image(acc, &img, err);
+    if (st == RAYD_OK && img) st = rayd_image_blit(d->img, img, d->x, d->y, err);
     rayd_image_free(img);
     if (st == RAYD_OK && d->lin) st = resolve_linear(acc, d, err);
+    if (st == RAYD_OK && d->aov) st = resolve_aov(acc, d, err);
     return st;
 }
 
@@ -50,7 +73,11 @@ enum rayd_status resolve_render(const rayd_scene *scene, const struct rayd_regio
                                 struct rayd_error *err) {
     rayd_accum *acc = NULL;
     enum rayd_status st = rayd_accum_new(scene, tile, &acc, err);
-    if (st != RAYD_OK) return st;
+    if (st == RAYD_OK && d->aov_mask) st = rayd_accum_aov_enable(acc, err);
+    if (st != RAYD_OK) {
+        rayd_accum_free(acc);
+        return st;
+    }
     struct rayd_scene_info info;
     rayd_scene_info(scene, &info);
     struct rayd_render_stats stats = {0};

@@ -89,7 +89,7 @@ static enum rayd_status task_encode_png16(struct task *t, void **buf, size_t *le
 
 static enum rayd_status task_encode_exr(struct task *t, void **buf, size_t *len,
                                         struct rayd_error *err) {
-    return rayd_exr_encode(t->lin, t->reg.w, t->reg.h, buf, len, err);
+    return rayd_exr_encode_aov(t->lin, t->aov, t->aov_mask, t->reg.w, t->reg.h, buf, len, err);
 }
 
 static enum rayd_status task_encode_sums(struct task *t, void **buf, size_t *len,
@@ -126,6 +126,8 @@ void task_key(char *key, size_t size, const char *id, const struct work_target *
                      task_format(what->format)->key_suffix, what->keep_exr ? "+exr" : "");
     if (what->format == WORK_SUMS && n > 0 && (size_t)n < size)
         snprintf(key + n, size - (size_t)n, "%d-%d", what->k0, what->k1);
+    else if (what->aov && n > 0 && (size_t)n < size) /* render/aov.c: other pixels */
+        snprintf(key + n, size - (size_t)n, "+aov%u", what->aov);
 }
 
 /* The task's pixel store: bytes for the PNG (and linear floats beside
@@ -133,6 +135,9 @@ void task_key(char *key, size_t size, const char *id, const struct work_target *
  * WORK_SUMS. */
 static bool task_pixels(struct task *t) {
     size_t values = (size_t)t->reg.w * (size_t)t->reg.h * 3;
+    if (t->format == WORK_EXR && t->aov_mask &&
+        !(t->aov = malloc(values / 3 * RAYD_AOV_FLOATS * sizeof *t->aov)))
+        return false;
     switch (task_format(t->format)->store) {
     case TASK_STORE_IMAGE:
         if (t->keep_exr && !(t->lin = malloc(values * sizeof *t->lin))) return false;
@@ -162,6 +167,7 @@ struct task *task_new(struct cache_entry *scene, const struct work_target *what)
     t->reg = *reg;
     t->format = what->format;
     t->keep_exr = what->format == WORK_PNG && what->keep_exr;
+    t->aov_mask = what->aov;
     t->k0 = what->k0;
     t->k1 = what->k1;
     const rayd_scene *rs = cache_scene(scene);
@@ -179,6 +185,7 @@ struct task *task_new(struct cache_entry *scene, const struct work_target *what)
     if (!t->order || !task_pixels(t)) {
         free(t->order);
         free(t->lin);
+        free(t->aov);
         free(t);
         return NULL;
     }
@@ -204,6 +211,8 @@ static void task_free_pixels(struct task *t) {
     t->img = NULL;
     free(t->lin);
     t->lin = NULL;
+    free(t->aov);
+    t->aov = NULL;
     free(t->sums);
     t->sums = NULL;
     mem_release(t->mem_kind, t->mem); /* budget.c's reservation */

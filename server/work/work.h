@@ -95,6 +95,8 @@ struct work_target {
     int k0, k1;      /* WORK_SUMS only */
     bool keep_exr;   /* a job's (POST /v1/jobs?format=exr): with the WORK_PNG, the EXR of
                         the same sums; part of the key */
+    unsigned aov;    /* enum rayd_aov bits: WORK_EXR's channels, or the one AOV a WORK_PNG
+                        shows instead of the light (POST /v1/render?aov=); part of the key */
     uint64_t client; /* who asks (fair.c's turns); not part of the key */
 };
 

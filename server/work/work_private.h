@@ -160,9 +160,12 @@ void fair_served(uint64_t client);
 /* Where a tile's pixels go: its 8-bit image at (x, y) of img and, when lin
  * is not NULL, its linear floats at (x, y) of lin (lin_w pixels a row). */
 struct resolve_dst {
-    rayd_image *img;
+    rayd_image *img; /* NULL: no 8-bit image (an EXR task) */
     float *lin;
     int lin_w, x, y;
+    float *aov;              /* NULL, or the AOVs' floats (RAYD_AOV_FLOATS a pixel, rows lin_w) */
+    unsigned aov_mask;       /* AOVs asked; with img, the one AOV img shows */
+    const rayd_scene *scene; /* with aov_mask: the scene (its camera's focus) */
 };
 /* acc's pixels (as a plain render of its samples gives them) into d. */
 enum rayd_status resolve_into(const rayd_accum *acc, const struct resolve_dst *d,
@@ -258,6 +261,8 @@ struct task {
     double *sums; /* WORK_SUMS: the tiles' sums of samples k0..k1-1 */
     enum work_format format;
     bool keep_exr;          /* a job's: its EXR too (work_target's keep_exr) */
+    unsigned aov_mask;      /* work_target's aov */
+    float *aov;             /* WORK_EXR with AOVs: their floats, RAYD_AOV_FLOATS a pixel */
     size_t mem;             /* reserved in --max-memory (budget.c), released with the pixels */
     enum mem_kind mem_kind; /* as what */
     struct blob *exr;       /* keep_exr: the EXR, made with the PNG */

@@ -175,11 +175,19 @@ case("version-string.json", '{"version": "1"}\n', E + "/version: must be an inte
 case("version-fraction.json", '{"version": 1.5}\n', E + "/version: must be an integer")
 
 # ---- render -------------------------------------------------------------------
-RENDER_KEYS = "width, height, samples, max_depth, background, seed, integrator, environment"
+RENDER_KEYS = "width, height, samples, max_depth, background, seed, integrator, environment, aov"
 case("render-array.json", '{"render": [640, 480]}\n', E + "/render: must be an object, not an array")
 case("render-null.json", '{"render": null}\n', E + "/render: must be an object, not null")
 case("render-unknown-key.json", '{"render": {"size": [640, 480]}}\n',
      E + "/render/size: unknown key (allowed here: %s)" % RENDER_KEYS)
+case("aov-string.json", '{"render": {"aov": "albedo"}}\n',
+     E + "/render/aov: must be an array of AOV names, not a string")
+case("aov-number-item.json", '{"render": {"aov": ["albedo", 7]}}\n',
+     E + "/render/aov/1: must be an AOV name, not a number")
+case("aov-unknown.json", '{"render": {"aov": ["depth", "zdepth"]}}\n',
+     E + "/render/aov/1: is no AOV; the AOVs are albedo, normal, depth, alpha, object, material, id and all")
+case("aov-list-in-string.json", '{"render": {"aov": ["albedo,normal"]}}\n',
+     E + "/render/aov/0: is no AOV; the AOVs are albedo, normal, depth, alpha, object, material, id and all")
 case("render-duplicate-key.json", '{"render": {"width": 64, "width": 32}}\n', E + "/render/width: duplicate key")
 case("width-zero.json", '{"render": {"width": 0}}\n', E + "/render/width: must be >= 1")
 case("width-negative.json", '{"render": {"width": -640}}\n', E + "/render/width: must be >= 1")
