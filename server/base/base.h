@@ -49,6 +49,7 @@ struct config {
     long timeout;             /* connection idle timeout, seconds */
     long max_jobs;            /* jobs kept for GET /v1/jobs/{id} */
     long job_ttl;             /* seconds a finished job is kept */
+    long max_frames;          /* frames of one frame-range job */
     long max_render_seconds;  /* a render running longer is stopped; 0: no limit */
     long png_level;           /* zlib level of the PNGs, -1 default */
     long max_work;            /* largest render in estimated rays, 0 = no limit */

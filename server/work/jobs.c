@@ -326,6 +326,11 @@ static double jobs_mono(double wall) {
     return clock_now() - ((double)ts.tv_sec + (double)ts.tv_nsec / 1e9 - wall);
 }
 
+long long jobs_next_seq(void) {
+    work_assert_locked();
+    return ++jobs_seq;
+}
+
 const char *jobs_priority_name(int p) {
     static const char *const names[] = {"low", "normal", "high"};
     return p >= JP_LOW && p <= JP_HIGH ? names[p] : "normal";
@@ -410,7 +415,7 @@ static struct job *jobs_add(struct job *j, const char *id, struct task *t, uint6
     j->refs = 1;
     j->client = client;
     j->priority = priority;
-    j->seq = ++jobs_seq;
+    j->seq = jobs_next_seq();
     j->task = t;
     task_job_ref(t);
     if (t->client == client && priority > t->priority)

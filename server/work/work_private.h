@@ -101,11 +101,12 @@ bool scenes_current(struct cache_entry *e, bool have_text); /* scenefiles_usable
 /* The bytes a parse of a len-byte body reserves (kind parses) before it
  * starts: its first cap, raised by scenes_build while the scene needs more. */
 size_t scenes_parse_cap(size_t len);
-/* Parses and builds body (of that id) and caches it; *out referenced.  held:
+/* Parses and builds body (of that id) at frame `frame` (-1: as
+ * rayd_scene_parse, the first) and caches it; *out referenced.  held:
  * the bytes of kind parses reserved for it (scenes_parse_cap), which this
  * releases or turns into the scene's own on every path.  *full: refused
  * because the memory budget has no room now (503 memory_full). */
-enum rayd_status scenes_build(const char *id, const char *body, size_t len, size_t held,
+enum rayd_status scenes_build(const char *id, const char *body, size_t len, long frame, size_t held,
                               struct cache_entry **out, struct rayd_error *err, bool *full);
 
 /* ---- scenefiles.c: the files a cached scene read (any thread, no lock) ---- */
@@ -396,6 +397,10 @@ void task_wait_news(struct task *t, struct work_waiter *w);
  * of its interest (cancelled; its reference stays until the job goes).
  * Lock held. */
 void task_job_ref(struct task *t);
+/* t, not yet submitted, renders for a job already admitted (a frame of a
+ * frame-range job, a job put back at start-up): past --queue, at that
+ * priority.  Any lock: t is the caller's own still. */
+void task_admitted(struct task *t, int priority);
 void task_job_drop(struct task *t);
 /* t, not yet submitted, renders in progressive passes p for job id alone
  * (its key gets the id).  Any lock: t is the caller's own still. */
@@ -502,6 +507,9 @@ void jobs_unref(struct job *j);
 /* Forgets the jobs that ended (finished, failed or were cancelled) more
  * than --job-ttl seconds ago, each leaving a tombstone (jobs_gone). */
 void jobs_expire(double now);
+/* The next creation number (GET /v1/jobs's order), shared by the
+ * frame-range jobs (shots.c); lock held. */
+long long jobs_next_seq(void);
 
 /* ---- watch.c ------------------------------------------------------------------- */
 
