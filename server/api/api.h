@@ -124,8 +124,9 @@ void api_jobs_exr(struct http_req *r, const char *id);
 
 /* api_shots.c: frame-range jobs.  api_shots_wanted: 1 for an animated
  * scene (a frame-range job), 0 a still one, -1 after a 400 (?frames= of a
- * still scene).  api_shots_submit: the job made and its 202 sent, or
- * false after an error reply.  api_shots_json: the job's JSON with its
+ * still scene).  api_shots_submit: the job made and its 202 sent (or
+ * an error): true when the request waits for the store (--data-dir), which
+ * resumes it.  api_shots_json: the job's JSON with its
  * "frames", "eta_s" and "video_url". */
 int api_shots_wanted(struct http_req *r, const rayd_scene *scene);
 bool api_shots_submit(struct http_req *r, struct cache_entry *e, struct work_target *what,

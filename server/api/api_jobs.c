@@ -185,10 +185,8 @@ static bool api_jobs_compiled(struct http_req *r, struct cache_entry *e, bool hi
         !api_jobs_format(r, &what) || !api_jobs_priority(r, &how.priority) ||
         !api_cost_admit(r, e, &what, progressive, &price))
         return false; /* replied */
-    if (shot) {       /* an animated scene: a frame-range job (api_shots.c) */
-        api_shots_submit(r, e, &what, how.priority, &price);
-        return false;
-    }
+    if (shot)         /* an animated scene: a frame-range job (api_shots.c) */
+        return api_shots_submit(r, e, &what, how.priority, &price);
     struct api_jobs_wait *a = calloc(1, sizeof *a);
     if (!a) {
         api_refused(r, WORK_NOMEM);

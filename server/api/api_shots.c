@@ -114,6 +114,54 @@ cJSON *api_shots_json(const char *id, const struct shots_info *in) {
     return o;
 }
 
+/* What the 202 of a new frame-range job needs, kept until it is sent (at
+ * once, or once the job is on disk: --data-dir). */
+struct api_shots_wait {
+    struct work_waiter w;
+    struct http_req *r;
+    char id[33];
+    struct api_price price;
+};
+
+/* 202: the job's JSON and where to follow it. */
+static void api_shots_accepted(struct api_shots_wait *a) {
+    struct http_req *r = a->r;
+    struct shots_info info;
+    if (!shots_get(a->id, &info)) {
+        api_refused(r, WORK_NOMEM);
+        return;
+    }
+    cJSON *o = api_shots_json(a->id, &info);
+    char url[80];
+    api_jobs_url(url, sizeof url, a->id, "");
+    cJSON_AddStringToObject(o, "status_url", url);
+    api_jobs_url(url, sizeof url, a->id, "/events");
+    cJSON_AddStringToObject(o, "events_url", url);
+    http_reply_json(r, 202, o);
+    api_jobs_url(url, sizeof url, a->id, "");
+    http_reply_header(r, "Location", url);
+    api_cost_price_headers(r, &a->price);
+}
+
+/* The store thread's word (--data-dir): the job is on disk, or could not
+ * be recorded (then it is cancelled: a job rayd cannot keep is not taken). */
+static void api_shots_recorded(struct work_waiter *w, struct work_result *res) {
+    struct api_shots_wait *a = (struct api_shots_wait *)w;
+    if (res->status == RAYD_OK) {
+        api_shots_accepted(a);
+    } else {
+        shots_cancel(a->id);
+        a->r->res.retry_after = 5;
+        http_reply_error(a->r, 503, "store_failed", res->err.message, NULL, 0, 0, NULL);
+    }
+    http_req_resume(a->r);
+    free(a);
+}
+
+static void api_shots_recorded_suspend(struct work_waiter *w) {
+    api_suspend(((struct api_shots_wait *)w)->r);
+}
+
 bool api_shots_submit(struct http_req *r, struct cache_entry *e, struct work_target *what,
                       int priority, const struct api_price *one) {
     struct rayd_animation an;
@@ -123,35 +171,33 @@ bool api_shots_submit(struct http_req *r, struct cache_entry *e, struct work_tar
                           .what = *what,
                           .priority = priority,
                           .fps = an.fps};
-    if (http_req_query(r, "progressive"))
-        return api_bad_param(r, "progressive", "a frame-range job is not progressive");
-    if (!api_shots_range(r, &an, &n.first, &n.last)) return false;
-    long count = n.last - n.first + 1;
-    struct api_price price = {one->rays * (double)count, one->seconds * (double)count};
-    n.est_rays = price.rays;
-    snprintf(n.scene_id, sizeof n.scene_id, "%s", cache_id(e));
-    char id[33];
-    enum work_submit s = shots_submit(&n, id);
-    if (s != WORK_OK) {
-        api_refused(r, s);
+    if (http_req_query(r, "progressive")) {
+        api_bad_param(r, "progressive", "a frame-range job is not progressive");
         return false;
     }
-    struct shots_info info;
-    if (!shots_get(id, &info)) {
+    if (!api_shots_range(r, &an, &n.first, &n.last)) return false;
+    long count = n.last - n.first + 1;
+    struct api_shots_wait *a = calloc(1, sizeof *a);
+    if (!a) {
         api_refused(r, WORK_NOMEM);
         return false;
     }
-    cJSON *o = api_shots_json(id, &info);
-    char url[80];
-    api_jobs_url(url, sizeof url, id, "");
-    cJSON_AddStringToObject(o, "status_url", url);
-    api_jobs_url(url, sizeof url, id, "/events");
-    cJSON_AddStringToObject(o, "events_url", url);
-    http_reply_json(r, 202, o);
-    api_jobs_url(url, sizeof url, id, "");
-    http_reply_header(r, "Location", url);
-    api_cost_price_headers(r, &price);
-    return true;
+    a->r = r;
+    a->w.done = api_shots_recorded;
+    a->w.suspend = api_shots_recorded_suspend;
+    a->w.fd = -1;
+    a->price = (struct api_price){one->rays * (double)count, one->seconds * (double)count};
+    n.est_rays = a->price.rays;
+    n.w = &a->w;
+    snprintf(n.scene_id, sizeof n.scene_id, "%s", cache_id(e));
+    enum work_submit s = shots_submit(&n, a->id);
+    if (n.waiting) return true; /* a is the store's until done() */
+    if (s != WORK_OK)
+        api_refused(r, s);
+    else
+        api_shots_accepted(a);
+    free(a);
+    return false;
 }
 
 /* ---- GET /v1/jobs/{id}/frames/{k}.png and .exr ------------------------------------ */

@@ -331,6 +331,10 @@ long long jobs_next_seq(void) {
     return ++jobs_seq;
 }
 
+void jobs_seen_seq(long long seq) {
+    if (seq > jobs_seq) jobs_seq = seq;
+}
+
 const char *jobs_priority_name(int p) {
     static const char *const names[] = {"low", "normal", "high"};
     return p >= JP_LOW && p <= JP_HIGH ? names[p] : "normal";

@@ -40,6 +40,7 @@ enum shots_fstate { SF_QUEUED, SF_PARSING, SF_RUNNING, SF_DONE, SF_FAILED };
 struct shot_frame {
     unsigned char state; /* enum shots_fstate */
     unsigned char tries; /* attempts that failed */
+    bool on_disk;        /* done before this process started: its images are files */
     struct blob *png, *exr;
 };
 
@@ -65,7 +66,7 @@ struct shot {
     size_t len;
     char scene_id[65];
     struct rayd_region reg;
-    bool keep_exr, started, canceled;
+    bool keep_exr, canceled, recorded; /* recorded: its end is queued to the store */
     long first, last;
     int n, ndone, nfailed, flying, latest;
     double fps, est_rays;
@@ -116,7 +117,10 @@ static enum jobs_state shots_state(const struct shot *s) {
     if (s->canceled) return JS_CANCELED;
     if (s->ndone == s->n) return JS_SUCCEEDED;
     if (s->nfailed > 0 && s->flying == 0) return JS_FAILED;
-    return s->started ? JS_RUNNING : JS_QUEUED;
+    if (s->ndone > 0) return JS_RUNNING;
+    for (const struct shots_fly *fl = s->flies; fl; fl = fl->next)
+        if (fl->t && fl->t->t_start > 0) return JS_RUNNING; /* a tile of it started */
+    return JS_QUEUED;
 }
 
 /* When a final shot ended (clock_now's clock). */
@@ -152,6 +156,42 @@ static long shots_unfinished(void) {
     return n;
 }
 
+/* ---- the store (--data-dir) ------------------------------------------------------ */
+
+static void shots_error(const struct shot *s, struct rayd_error *err);
+
+/* s's record for the store (lock held). */
+static void shots_record(const struct shot *s, struct store_job *row) {
+    memset(row, 0, sizeof *row);
+    snprintf(row->id, sizeof row->id, "%s", s->id);
+    row->seq = s->seq;
+    row->client = s->client;
+    row->priority = s->priority;
+    row->created_wall = s->created_wall;
+    row->state = shots_state(s);
+    snprintf(row->scene_id, sizeof row->scene_id, "%s", s->scene_id);
+    row->reg = s->reg;
+    row->keep_exr = s->keep_exr;
+    row->tiles = s->ndone;
+    row->rays = s->rays;
+    row->est_rays = s->est_rays;
+    row->frames = true;
+    row->first = s->first;
+    row->last = s->last;
+    row->fps = s->fps;
+    if (row->state == JS_FAILED) shots_error(s, &row->err);
+    if (shots_final(s)) row->ended_wall = s->created_wall + (shots_ended(s) - s->created);
+}
+
+/* s ended: its end recorded once (lock held). */
+static void shots_record_end(struct shot *s) {
+    if (!store_on() || s->recorded) return;
+    struct store_job row;
+    shots_record(s, &row);
+    store_end(&row, NULL, NULL);
+    s->recorded = true;
+}
+
 /* ---- one frame's attempt ------------------------------------------------------ */
 
 static void shots_pump(struct shot *s);
@@ -181,6 +221,7 @@ static void shots_frame_end(struct shots_fly *fl, enum rayd_status st, const str
         s->ndone++;
         s->latest = fl->i;
         s->order[s->norder++] = fl->i;
+        if (store_on()) store_frame(s->id, s->first + fl->i, f->png, f->exr);
     } else if (drained || s->canceled || (st == RAYD_E_CANCELED && task_draining())) {
         f->state = SF_QUEUED;
     } else if (++f->tries < SHOTS_TRIES) {
@@ -196,6 +237,8 @@ static void shots_frame_end(struct shots_fly *fl, enum rayd_status st, const str
     }
     bool ended = shots_final(s) && s->t_end == 0;
     if (ended) s->t_end = clock_now();
+    /* a drain's cancel is no end: the job stays queued on disk */
+    if (shots_final(s) && s->flying == 0 && !(drained && !s->canceled)) shots_record_end(s);
     task_notify_add(&sse, &s->sse);
     work_lock_give();
     blob_unref(png);
@@ -249,7 +292,6 @@ static void shots_render(struct shots_fly *fl, struct cache_entry *scene) {
         fl->t = t;
         task_job_ref(t);
         s->f[fl->i].state = SF_RUNNING;
-        s->started = true;
         fl->ww.done = shots_rendered;
         fl->ww.suspend = shots_noop;
         fl->ww.fd = -1;
@@ -367,7 +409,8 @@ static struct shot *shots_new(const struct shots_new *n) {
     return s;
 }
 
-enum work_submit shots_submit(const struct shots_new *n, char id[33]) {
+enum work_submit shots_submit(struct shots_new *n, char id[33]) {
+    n->waiting = false;
     uint8_t rnd[16];
     if (getrandom(rnd, sizeof rnd, 0) != (ssize_t)sizeof rnd) return WORK_NOMEM;
     for (int i = 0; i < 16; i++) snprintf(id + 2 * i, 3, "%02x", rnd[i]);
@@ -388,6 +431,16 @@ enum work_submit shots_submit(const struct shots_new *n, char id[33]) {
         s->seq = jobs_next_seq();
         shots_table[shots_n++] = s;
         s->refs++; /* the pump's, below */
+        struct store_job row;
+        shots_record(s, &row);
+        row.scene = store_on() ? malloc(n->len + 1) : NULL;
+        if (row.scene) {
+            memcpy(row.scene, n->text, n->len);
+            row.scene[n->len] = 0;
+            row.scene_len = n->len;
+            n->waiting = store_insert(&row, n->w);
+            free(row.scene);
+        }
     }
     work_lock_give();
     if (!s) return r;
@@ -396,6 +449,65 @@ enum work_submit shots_submit(const struct shots_new *n, char id[33]) {
     shots_unref(s);
     work_lock_give();
     return WORK_OK;
+}
+
+/* ---- start-up: a frame-range job of the store put back --------------------------- */
+
+bool shots_restore(const struct store_job *row, const unsigned char *states) {
+    struct shots_new n = {
+        .text = row->scene,
+        .len = row->scene_len,
+        .what = {.reg = row->reg, .keep_exr = row->keep_exr, .client = row->client},
+        .priority = row->priority,
+        .first = row->first,
+        .last = row->last,
+        .fps = row->fps,
+        .est_rays = row->est_rays};
+    snprintf(n.scene_id, sizeof n.scene_id, "%s", row->scene_id);
+    work_lock_take();
+    struct shot *s = shots_n < config.max_jobs ? shots_new(&n) : NULL;
+    if (s) {
+        snprintf(s->id, sizeof s->id, "%s", row->id);
+        s->seq = row->seq;
+        jobs_seen_seq(row->seq);
+        s->created_wall = row->created_wall;
+        s->created = clock_now() - (shots_wall_now() - row->created_wall);
+        s->rays = row->rays;
+        for (int i = 0; i < s->n; i++)
+            if (states[i] == STORE_FRAME_DONE) {
+                s->f[i].state = SF_DONE;
+                s->f[i].on_disk = true;
+                s->order[s->norder++] = i;
+                s->ndone++;
+                s->latest = i;
+            }
+        bool ended = row->state != JS_QUEUED;
+        if (ended) {
+            s->recorded = true;
+            s->canceled = row->state == JS_CANCELED;
+            s->t_end = s->canceled_at = clock_now() - (shots_wall_now() - row->ended_wall);
+            if (row->state == JS_FAILED) { /* its failed frames are not known: the first left */
+                s->err = row->err;
+                for (int i = 0; i < s->n && !s->nfailed; i++)
+                    if (s->f[i].state != SF_DONE) {
+                        s->f[i].state = SF_FAILED;
+                        s->nfailed = 1;
+                    }
+            }
+        }
+        if (!ended && s->ndone == s->n)
+            s->t_end = clock_now(); /* all done, its end not yet written */
+        shots_table[shots_n++] = s;
+        s->refs++;
+    }
+    work_lock_give();
+    if (!s) return false;
+    if (row->state == JS_QUEUED) shots_pump(s);
+    work_lock_take();
+    if (row->state == JS_QUEUED && shots_final(s)) shots_record_end(s);
+    shots_unref(s);
+    work_lock_give();
+    return true;
 }
 
 /* ---- what the handlers read ------------------------------------------------------- */
@@ -508,6 +620,7 @@ enum shots_frame_state shots_frame(const char *id, long k, bool exr, struct blob
     work_lock_take();
     struct shot *s = shots_find(id);
     enum shots_frame_state r = SHOTS_NO_JOB;
+    bool disk = false;
     if (s) {
         shots_info_of(s, info);
         long i = k - s->first;
@@ -517,6 +630,7 @@ enum shots_frame_state shots_frame(const char *id, long k, bool exr, struct blob
             static const enum shots_frame_state as[] = {SHOTS_QUEUED, SHOTS_QUEUED, SHOTS_RUNNING,
                                                         SHOTS_DONE, SHOTS_FAILED};
             r = as[s->f[i].state];
+            disk = !*img && r == SHOTS_DONE && s->f[i].on_disk;
             for (const struct shots_fly *fl = s->flies; fl && r == SHOTS_RUNNING; fl = fl->next)
                 if (fl->i == i && !(fl->t && fl->t->t_start > 0))
                     r = SHOTS_QUEUED; /* no tile of it started yet */
@@ -524,6 +638,7 @@ enum shots_frame_state shots_frame(const char *id, long k, bool exr, struct blob
         }
     }
     work_lock_give();
+    if (disk) *img = store_read_frame(id, k, exr); /* a plain read: no lock */
     return r;
 }
 
@@ -543,6 +658,7 @@ bool shots_cancel(const char *id) {
             for (struct work_waiter *w = t->waiters; w; w = w->next) others |= w != &fl->ww;
             if (t->njobs == 0 && !others) task_cancel(t, MC_DELETE, &n, &sse);
         }
+        shots_record_end(s);
         task_notify_add(&sse, &s->sse);
     }
     work_lock_give();

@@ -298,9 +298,13 @@ struct shots_new {
     int priority;
     long first, last; /* within the animation's frames */
     double fps;
-    double est_rays; /* of every frame */
+    double est_rays;       /* of every frame */
+    struct work_waiter *w; /* --data-dir: told once the job is on disk */
+    bool waiting;          /* out: w->suspend ran and w->done will be called once */
 };
-enum work_submit shots_submit(const struct shots_new *n, char id[33]);
+/* A new shot; with --data-dir recorded on disk before anyone is told of it
+ * (n->waiting, as jobs_submit's). */
+enum work_submit shots_submit(struct shots_new *n, char id[33]);
 enum shots_video { SV_NONE, SV_MAKING, SV_READY, SV_FAILED, SV_NO_FFMPEG };
 struct shots_info {
     struct jobs_info job; /* as a job's: state, progress (of frames), error, ... */

@@ -454,6 +454,9 @@ struct store_job {
     char evicted_why[96];
     int attempts;   /* starts of rayd that found it unfinished */
     bool result_ok; /* store_load: its files are there, whole */
+    bool frames;    /* a frame-range job (shots.c) of frames first..last at fps */
+    long first, last;
+    double fps;
 };
 /* Opens DIR's store (before any thread but main's): -1 after saying why. */
 int store_open(const char *dir);
@@ -472,6 +475,16 @@ void store_hooks(void (*written)(const char *id),
 bool store_insert(struct store_job *row, struct work_waiter *w);
 void store_end(const struct store_job *row, struct blob *png, struct blob *exr);
 void store_forget(const char *id);
+/* Frame k of frame-range job id is done: its images written whole (a
+ * temporary name, fsync, rename), then its row says so.  Lock held. */
+void store_frame(const char *id, long k, struct blob *png, struct blob *exr);
+/* Frame k's image from its file, or NULL; any thread (a plain read). */
+struct blob *store_read_frame(const char *id, long k, bool exr);
+/* A frame-range job's frames at start-up (main thread): states[k - first]
+ * STORE_FRAME_DONE for each frame done with its files whole, else
+ * STORE_FRAME_QUEUED; how many are done, -1 on an error. */
+enum { STORE_FRAME_QUEUED, STORE_FRAME_DONE };
+int store_load_frames(const struct store_job *j, unsigned char *states);
 
 /* ---- jobs.c (lock held) -------------------------------------------------------- */
 
@@ -510,6 +523,11 @@ void jobs_expire(double now);
 /* The next creation number (GET /v1/jobs's order), shared by the
  * frame-range jobs (shots.c); lock held. */
 long long jobs_next_seq(void);
+void jobs_seen_seq(long long seq); /* a restored job's number: the next ones come after */
+/* Start-up (durable.c): a frame-range job of the store put back, its done
+ * frames (states, store_load_frames) served from their files, the others
+ * queued again unless it ended; false: no room or memory. */
+bool shots_restore(const struct store_job *row, const unsigned char *states);
 
 /* ---- watch.c ------------------------------------------------------------------- */
 
