@@ -296,4 +296,12 @@ char *json_print(cJSON *o, bool nl, size_t *len);
  * not fit.  Does not delete o. */
 bool json_print_into(cJSON *o, char *buf, size_t size);
 
+/* ---- video.c: frames as an H.264 MP4, by the ffmpeg program ------------ */
+
+enum video_status { VIDEO_OK, VIDEO_FAILED, VIDEO_NO_FFMPEG };
+/* n PNG frames at fps as an MP4 (*out, one reference), ffmpeg killed past
+ * limit seconds; else err says why.  Blocks: never on an HTTP thread. */
+enum video_status video_encode(struct blob *const *frames, int n, double fps, double limit,
+                               struct blob **out, char *err, size_t size);
+
 #endif

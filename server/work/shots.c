@@ -85,6 +85,17 @@ struct shot {
 static struct shot **shots_table;
 static int shots_n;
 
+/* The videos to make, one at a time, on the video thread (lock held). */
+struct shots_videoq {
+    struct shot *s;
+    struct shots_videoq *next;
+};
+static struct shots_videoq *shots_vq;
+static pthread_cond_t shots_vcond = PTHREAD_COND_INITIALIZER;
+static pthread_once_t shots_vonce = PTHREAD_ONCE_INIT;
+static bool shots_vthread;
+static void shots_video_queue(struct shot *s);
+
 static double shots_wall_now(void) {
     struct timespec ts;
     clock_gettime(CLOCK_REALTIME, &ts);
@@ -222,6 +233,7 @@ static void shots_frame_end(struct shots_fly *fl, enum rayd_status st, const str
         s->latest = fl->i;
         s->order[s->norder++] = fl->i;
         if (store_on()) store_frame(s->id, s->first + fl->i, f->png, f->exr);
+        if (s->ndone == s->n) shots_video_queue(s);
     } else if (drained || s->canceled || (st == RAYD_E_CANCELED && task_draining())) {
         f->state = SF_QUEUED;
     } else if (++f->tries < SHOTS_TRIES) {
@@ -496,7 +508,8 @@ bool shots_restore(const struct store_job *row, const unsigned char *states) {
             }
         }
         if (!ended && s->ndone == s->n)
-            s->t_end = clock_now(); /* all done, its end not yet written */
+            s->t_end = clock_now();                 /* all done, its end not yet written */
+        if (s->ndone == s->n) shots_video_queue(s); /* made again: videos are not kept */
         shots_table[shots_n++] = s;
         s->refs++;
     }
@@ -722,6 +735,74 @@ int shots_events_read(struct shot *s, struct shots_cursor *c, struct events_item
 }
 
 /* ---- the video ------------------------------------------------------------------ */
+
+/* Seconds ffmpeg may take for a video of n frames before it is stopped. */
+#define SHOTS_VIDEO_SECONDS(n) (60.0 + 2.0 * (n))
+
+/* s's frames (referenced, read from disk if need be), then the video made
+ * without the lock and kept. */
+static void shots_video_make(struct shot *s) {
+    struct blob **frames = calloc((size_t)s->n, sizeof *frames);
+    work_lock_take();
+    for (int i = 0; frames && i < s->n; i++) frames[i] = blob_ref(s->f[i].png);
+    work_lock_give();
+    for (int i = 0; frames && i < s->n; i++)
+        if (!frames[i]) frames[i] = store_read_frame(s->id, s->first + i, false);
+    struct blob *mp4 = NULL;
+    char err[200] = "out of memory";
+    enum video_status st = frames ? video_encode(frames, s->n, s->fps > 0 ? s->fps : 24,
+                                                 SHOTS_VIDEO_SECONDS(s->n), &mp4, err, sizeof err)
+                                  : VIDEO_FAILED;
+    for (int i = 0; frames && i < s->n; i++) blob_unref(frames[i]);
+    free(frames);
+    work_lock_take();
+    s->video = mp4;
+    s->video_state = st == VIDEO_OK ? SV_READY : st == VIDEO_NO_FFMPEG ? SV_NO_FFMPEG : SV_FAILED;
+    snprintf(s->video_error, sizeof s->video_error, "%s", st == VIDEO_OK ? "" : err);
+    if (st != VIDEO_OK) log_warn("job %s: no video: %s", s->id, err);
+    shots_unref(s);
+    work_lock_give();
+}
+
+/* The video thread: one video at a time, in the order the jobs ended. */
+static void *shots_video_thread(void *arg) {
+    (void)arg;
+    work_lock_take();
+    for (;;) {
+        while (!shots_vq) work_wait(&shots_vcond);
+        struct shots_videoq *q = shots_vq;
+        shots_vq = q->next;
+        work_lock_give();
+        shots_video_make(q->s);
+        free(q);
+        work_lock_take();
+    }
+    return NULL;
+}
+
+static void shots_video_start(void) {
+    pthread_t t;
+    shots_vthread = pthread_create(&t, NULL, shots_video_thread, NULL) == 0;
+    if (shots_vthread) pthread_detach(t); /* it lives as long as the process */
+}
+
+/* s has every frame: its video queued for the video thread (lock held). */
+static void shots_video_queue(struct shot *s) {
+    pthread_once(&shots_vonce, shots_video_start);
+    struct shots_videoq *q = shots_vthread ? calloc(1, sizeof *q) : NULL;
+    if (!q) {
+        s->video_state = SV_FAILED;
+        snprintf(s->video_error, sizeof s->video_error, "no thread or memory to make the video");
+        return;
+    }
+    s->video_state = SV_MAKING;
+    s->refs++;
+    q->s = s;
+    struct shots_videoq **p = &shots_vq;
+    while (*p) p = &(*p)->next;
+    *p = q;
+    pthread_cond_signal(&shots_vcond);
+}
 
 struct blob *shots_video(const char *id, struct shots_info *info) {
     work_lock_take();

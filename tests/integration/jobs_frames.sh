@@ -129,6 +129,16 @@ timeout 120 "$RENDER" "$T/anim.json" --frame 5 -o "$T/cli-5.exr" -q
 check frame_exr_as_cli "$code $(header Content-Type)" eval '[ "$code" = 200 ] && cmp -s "$T/server-5.exr" "$T/cli-5.exr"'
 check frames_differ "frames 3 and 6 are the same image" eval '! cmp -s "$T/server-3.png" "$T/server-6.png"'
 
+# ---- the video: H.264 MP4 of the four frames at the scene's fps ----------------------
+video_ready() { [ "$(req GET "/v1/jobs/$id/video.mp4")" != 202 ]; }
+wait_until 120 video_ready
+code=$(req GET "/v1/jobs/$id/video.mp4")
+cp "$T/body" "$T/shot.mp4"
+check video_200 "$code $(header Content-Type)" eval '[ "$code" = 200 ] && [ "$(header Content-Type)" = video/mp4 ]'
+probe=$(ffprobe -v error -select_streams v:0 -count_frames -show_entries \
+    stream=codec_name,width,height,r_frame_rate,nb_read_frames,pix_fmt -of csv=p=0 "$T/shot.mp4" 2>&1)
+check video_probe "$probe" eval '[ "$probe" = "h264,48,32,yuv420p,12/1,4" ]'
+
 # ---- no range: the whole animation; ?frame=K one frame ------------------------------
 post_json "/v1/jobs?frame=9" "$T/anim.json" >/dev/null
 one=$(jfield "$T/body" id)
@@ -159,5 +169,35 @@ check delete_frames "$code $(cat "$T/body")" eval '[ "$code" = 200 ] && [ "$(jfi
 gate open
 code=$(req GET "/v1/jobs/$cancel/frames/2.png")
 check frame_of_cancelled "$code $(cat "$T/body")" eval 'err_is "$T/body" 409 frame_not_ready && grep -q canceled "$T/body"'
+# ---- a frame that keeps failing: tried 3 times, then the job fails naming it --------
+curl -s -X POST "$URL/v1/test/gate?work=10" >/dev/null # every render made now runs out of rays
+post_json "/v1/jobs?frame=8" "$T/anim.json" -H 'X-Tag: fail' >/dev/null
+failing=$(jfield "$T/body" id)
+wait_until 120 job_state_is "$failing" failed
+req GET "/v1/jobs/$failing" >/dev/null
+check failed_names_frame "$(cat "$T/body")" eval '[ "$(json "$T/body" "j[\"frames\"][\"failed\"]")" = 1 ] &&
+    grep -q "frame 8 failed after 3 attempts" "$T/body"'
+check failed_retried "$(grep -c "frame 8 failed" "$T/rayd.err") retries logged" eval \
+    '[ "$(grep "job $failing: frame 8 failed" "$T/rayd.err" | grep -c "trying again")" = 2 ]'
+curl -s -N -m 60 "$URL/v1/jobs/$failing/events" >"$T/fail.events"
+check failed_event "$(tr '\n' '|' <"$T/fail.events")" eval \
+    'grep -q "\"k\":8,\"state\":\"failed\"" "$T/fail.events" && grep -q "frame 8 failed after 3" "$T/fail.events"'
+code=$(req GET "/v1/jobs/$failing/frames/8.png")
+check failed_frame_409 "$code $(cat "$T/body")" eval 'err_is "$T/body" 409 frame_not_ready && grep -q failed "$T/body"'
+curl -s -X POST "$URL/v1/test/gate?work=open" >/dev/null
+check rayd_alive_before_restart "rayd died: $(tail -3 "$T/rayd.err")" kill -0 "$RAYD_PID"
+
+# ---- no ffmpeg: the video answers 503 no_ffmpeg, the frames as ever ------------------
+stop_rayd
+mkdir -p "$T/nopath"
+RAYD_WRAP="env PATH=$T/nopath" start_rayd --threads 1
+post_json "/v1/jobs?frame=4" "$T/anim.json" >/dev/null
+nof=$(jfield "$T/body" id)
+wait_until 120 job_state_is "$nof" succeeded
+video_settled() { [ "$(req GET "/v1/jobs/$nof/video.mp4")" != 202 ]; }
+wait_until 120 video_settled
+code=$(req GET "/v1/jobs/$nof/video.mp4")
+check video_no_ffmpeg "$code $(cat "$T/body")" eval 'err_is "$T/body" 503 no_ffmpeg && grep -q "ffmpeg program" "$T/body"'
+check frame_without_ffmpeg "frame 4 differs" eval '[ "$(req GET "/v1/jobs/$nof/frames/4.png")" = 200 ] && cmp -s "$T/body" "$T/cli-4.png"'
 check rayd_alive "rayd died: $(tail -3 "$T/rayd.err")" kill -0 "$RAYD_PID"
 exit $NFAIL

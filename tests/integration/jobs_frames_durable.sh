@@ -83,10 +83,18 @@ kill9
 
 start_rayd --threads 1 --test-gate open --data-dir "$D"
 wait_until 120 job_state_is "$mid" succeeded
-check during_rendered_again "$(tr -d "\0" <"$T/body" | head -c 200)" job_state_is "$mid" succeeded
+check during_rendered_again "state" job_state_is "$mid" succeeded
 check during_frame_as_cli "frame 0 differs" frame_is "$mid" 0 "$T/cli-0.png"
-check ended_kept "$(cat "$T/body")" job_state_is "$between" succeeded
+check ended_kept "state" job_state_is "$between" succeeded
 check ended_frame_served "frame 3 differs" frame_is "$between" 3 "$T/cli-3.png"
+# the video (made or not when rayd was killed) is made again from the frames on disk
+video_ready() { [ "$(req GET "/v1/jobs/$between/video.mp4")" != 202 ]; }
+wait_until 120 video_ready
+code=$(req GET "/v1/jobs/$between/video.mp4")
+cp "$T/body" "$T/shot.mp4"
+probe=$(ffprobe -v error -select_streams v:0 -count_frames -show_entries \
+    stream=codec_name,nb_read_frames,r_frame_rate -of csv=p=0 "$T/shot.mp4" 2>&1)
+check video_after_restart "$code $probe" eval '[ "$code" = 200 ] && [ "$probe" = "h264,10/1,4" ]'
 req GET /v1/jobs >/dev/null
 check list_after_restart "$(head -c 300 "$T/body")" eval "[ \"\$(json \"\$T/body\" 'sorted(x[\"id\"] for x in j[\"jobs\"] if \"frames\" in x)')\" = \"\$(python3 -c 'import sys; print(sorted(sys.argv[1:]))' $between $during $mid)\" ]"
 check no_tmp_left "$(ls "$D/results")" no_tmp
