@@ -88,7 +88,7 @@ CORE_LAYERS = [
 ]
 SERVER_LAYERS = [
     ("server/base/", "base.h: config.c, log.c, clock.c, mem.c (the memory budget), metrics.c "
-                     "(+ procstat.c), blob.c (a shared PNG), json.c"),
+                     "(+ procstat.c), blob.c (a shared PNG), json.c, video.c (ffmpeg)"),
     ("server/work/", "work.h for the layers above, work_private.h for the work files alone; "
                      "work.c (the one lock), the caches, scenes, costs, tasks, the job store "
                      "(SQLite, store.c), jobs, events, the watcher, the scheduler, the scene "
