@@ -401,6 +401,10 @@ void task_job_ref(struct task *t);
  * frame-range job, a job put back at start-up): past --queue, at that
  * priority.  Any lock: t is the caller's own still. */
 void task_admitted(struct task *t, int priority);
+/* t's priority (enum jobs_priority) at least priority: a job of t's own
+ * client joined it, or a new task is made for a job.  Lock held once t is
+ * submitted. */
+void task_raise_priority(struct task *t, int priority);
 void task_job_drop(struct task *t);
 /* t, not yet submitted, renders in progressive passes p for job id alone
  * (its key gets the id).  Any lock: t is the caller's own still. */
