@@ -434,6 +434,8 @@ enum work_submit shots_submit(struct shots_new *n, char id[33]) {
     struct shot *s = NULL;
     if (task_draining())
         r = WORK_DRAINING;
+    else if (!shots_table) /* shots_start not run (a harness of the handlers) */
+        r = WORK_NOMEM;
     else if (unfinished + shots_unfinished() >= cap || shots_n >= config.max_jobs)
         r = WORK_TOO_MANY_JOBS;
     else if (!(s = shots_new(n)))
@@ -477,7 +479,7 @@ bool shots_restore(const struct store_job *row, const unsigned char *states) {
         .est_rays = row->est_rays};
     snprintf(n.scene_id, sizeof n.scene_id, "%s", row->scene_id);
     work_lock_take();
-    struct shot *s = shots_n < config.max_jobs ? shots_new(&n) : NULL;
+    struct shot *s = shots_table && shots_n < config.max_jobs ? shots_new(&n) : NULL;
     if (s) {
         snprintf(s->id, sizeof s->id, "%s", row->id);
         s->seq = row->seq;
