@@ -274,6 +274,7 @@ static void shots_rendered(struct work_waiter *w, struct work_result *res) {
     fl->s->rays += t->rays;
     if (!fl->dropped) task_job_drop(t);
     task_unref(t);
+    fl->t = NULL; /* the readers of s->flies must not see it again */
     work_lock_give();
     shots_frame_end(fl, res->status, &res->err, res->png, exr, res->draining, true);
 }
