@@ -7,7 +7,7 @@
 set -eu
 cd "$(dirname "$0")/.."
 BUILD=${1:-build}
-for b in bench/meshes.sh bench/scenes.sh bench/whole.sh bench/progressive.sh bench/durable.sh bench/latency.sh bench/http.sh bench/scaleout.sh; do
+for b in bench/meshes.sh bench/scenes.sh bench/whole.sh bench/progressive.sh bench/durable.sh bench/frames.sh bench/latency.sh bench/http.sh bench/scaleout.sh; do
     [ -f "$b" ] || continue
     echo "== $b"
     if [ "$b" = bench/scenes.sh ]; then

@@ -145,7 +145,8 @@ static int main_start(sigset_t *set) {
     sigaddset(set, SIGUSR1);
     sigaddset(set, SIGUSR2);
     pthread_sigmask(SIG_BLOCK, set, NULL);
-    if (sched_start((int)config.threads, (int)config.queue, (int)config.max_jobs)) {
+    if (sched_start((int)config.threads, (int)config.queue, (int)config.max_jobs) ||
+        !shots_start((int)config.max_jobs)) {
         fprintf(stderr, "rayd: error: cannot start the worker pool\n");
         return 1;
     }
@@ -225,6 +226,7 @@ static void main_drain(int sig, sigset_t *set) {
     compile_stop();
     durable_stop(); /* what is queued is written; unfinished jobs stay queued on disk */
     sched_stop();
+    shots_stop();
 }
 
 int main(int argc, char **argv) {

@@ -88,15 +88,17 @@ CORE_LAYERS = [
 ]
 SERVER_LAYERS = [
     ("server/base/", "base.h: config.c, log.c, clock.c, mem.c (the memory budget), metrics.c "
-                     "(+ procstat.c), blob.c (a shared PNG), json.c"),
+                     "(+ procstat.c), blob.c (a shared PNG), json.c, video.c (ffmpeg)"),
     ("server/work/", "work.h for the layers above, work_private.h for the work files alone; "
                      "work.c (the one lock), the caches, scenes, costs, tasks, the job store "
                      "(SQLite, store.c), jobs, events, the watcher, the scheduler, the scene "
-                     "compiles, the restart of stored jobs (durable.c)"),
+                     "compiles, frame-range jobs (shots.c), the restart of stored jobs "
+                     "(durable.c)"),
     ("server/req/", "request.h: http_req.c (headers, query, suspend/resume, counts), "
                     "http_reply.c (replies, the error body)"),
     ("server/api/", "api.h: the handlers, a file per resource (api_render.c, api_jobs.c + "
-                    "api_jobs_image.c, api_events.c, api_health.c, api_web.c, api_test.c); api.c "
+                    "api_jobs_image.c + api_jobs_json.c, api_shots.c (frame-range jobs), "
+                    "api_events.c, api_health.c, api_web.c, api_test.c); api.c "
                     "(region, JSON check, the one status -> HTTP mapping, body -> scene) and "
                     "api_cost.c (who asks; a render's price and budgets) shared by them"),
     ("server/route/", "router.h: router.c (the route table; which paths are open without a "
@@ -113,7 +115,7 @@ FOLDER_ORDER = {
     "server/work/": [
         ["work", "work_private"], ["lru"], ["cache", "rcache"], ["scenefiles"], ["scenes"],
         ["cost"], ["fair"], ["resolve"], ["passes"], ["task"], ["budget"], ["gate"], ["store"],
-        ["jobs"], ["events"], ["watch"], ["sched"], ["compile"], ["durable"],
+        ["jobs"], ["events"], ["watch"], ["sched"], ["compile"], ["shots"], ["durable"],
     ],
 }
 # Programs above the core, side by side: each folder, and the rooms besides

@@ -106,7 +106,7 @@ void api_jobs_list(struct http_req *r, const char *id); /* GET /v1/jobs: the cli
 void api_jobs_get(struct http_req *r, const char *id);
 void api_jobs_delete(struct http_req *r, const char *id);
 void api_jobs_stop(struct http_req *r, const char *id);
-/* api_jobs.c's pieces the event stream and the images share: 404
+/* api_jobs_json.c: the pieces every job route shares: 404
  * job_unknown, a pass's noise and image URL in a JSON object, the job's
  * status document (docs/api.md: key order and decimals), and the job's
  * scene for the access log. */
@@ -121,11 +121,26 @@ bool api_jobs_evicted(struct http_req *r, const char *id, const struct jobs_info
 void api_jobs_add_noise(cJSON *o, double noise);
 void api_jobs_add_pass_url(cJSON *o, const char *id, int k);
 cJSON *api_jobs_json(const char *id, const struct jobs_info *in);
+void api_jobs_url(char *buf, size_t size, const char *id, const char *tail); /* /v1/jobs/ID+tail */
+void api_jobs_add_estimate(cJSON *o, const struct api_price *p);             /* "estimate" */
 void api_jobs_scene(struct http_req *r, const struct jobs_info *info);
 
 /* api_jobs_image.c: GET /v1/jobs/{id}/image.png and image.exr */
 void api_jobs_image(struct http_req *r, const char *id);
 void api_jobs_exr(struct http_req *r, const char *id);
+
+/* api_shots.c: frame-range jobs.  api_shots_wanted: 1 for an animated
+ * scene (a frame-range job), 0 a still one, -1 after a 400 (?frames= of a
+ * still scene).  api_shots_submit: the job made and its 202 sent (or
+ * an error): true when the request waits for the store (--data-dir), which
+ * resumes it.  api_shots_json: the job's JSON with its
+ * "frames", "eta_s" and "video_url". */
+int api_shots_wanted(struct http_req *r, const rayd_scene *scene);
+bool api_shots_submit(struct http_req *r, struct cache_entry *e, struct work_target *what,
+                      int priority, const struct api_price *one);
+cJSON *api_shots_json(const char *id, const struct shots_info *in);
+void api_shots_frame(struct http_req *r, const char *path);
+void api_shots_video(struct http_req *r, const char *id);
 
 /* api_events.c */
 void api_events_get(struct http_req *r, const char *id);

@@ -25,6 +25,8 @@ struct api_events {
     struct work_waiter w; /* first: the callbacks get it back */
     struct http_req *r;
     struct events_stream *s;
+    struct shot *shot; /* a frame-range job's stream instead (shots.c) */
+    struct shots_cursor cursor;
     char id[33];
     char *carry; /* text formatted but not yet sent */
     size_t carry_len, carry_off;
@@ -92,6 +94,16 @@ static size_t api_events_format(struct api_events *a, const struct events_item *
         cJSON_AddNumberToObject(o, "total", it->total);
         return n + api_events_event(out + n, size - n, "progress", o);
     case EVENTS_PASS: return api_events_pass(a, it, o, out, size);
+    case EVENTS_FRAME: {
+        char url[120];
+        cJSON_AddNumberToObject(o, "k", (double)it->frame);
+        cJSON_AddStringToObject(o, "state", it->frame_failed ? "failed" : "done");
+        cJSON_AddNumberToObject(o, "frames_done", it->done);
+        cJSON_AddNumberToObject(o, "frames_total", it->total);
+        snprintf(url, sizeof url, "/v1/jobs/%s/frames/%ld.png", a->id, it->frame);
+        if (!it->frame_failed) cJSON_AddStringToObject(o, "url", url);
+        return api_events_event(out, size, "frame", o);
+    }
     case EVENTS_DONE:
         cJSON_AddStringToObject(o, "state", jobs_state_name(it->state));
         json_add_fixed(o, "progress", it->progress, 4);
@@ -141,7 +153,9 @@ static ssize_t api_events_reader(void *cls, char *buf, size_t max) {
     if (a->carry && !api_events_flush(a, buf, max, &used)) goto out;
     struct events_item items[API_EVENTS_ITEMS];
     struct rayd_error err = {0};
-    int n = used ? 0 : events_read(a->s, items, API_EVENTS_ITEMS, &err, &a->w);
+    int n = used      ? 0
+            : a->shot ? shots_events_read(a->shot, &a->cursor, items, API_EVENTS_ITEMS, &err, &a->w)
+                      : events_read(a->s, items, API_EVENTS_ITEMS, &err, &a->w);
     if (n < 0) return HTTP_STREAM_END;
     for (int i = 0; i < n; i++) {
         char text[2560];
@@ -156,6 +170,7 @@ out:
 static void api_events_free(void *cls) {
     struct api_events *a = cls;
     events_close(a->s);
+    shots_close(a->shot);
     free(a->carry);
     free(a);
 }
@@ -167,7 +182,7 @@ void api_events_get(struct http_req *r, const char *id) {
         api_refused(r, WORK_NOMEM);
         return;
     }
-    if (!api_is_hex(id, 32) || !(a->s = events_open(id))) {
+    if (!api_is_hex(id, 32) || (!(a->shot = shots_open(id)) && !(a->s = events_open(id)))) {
         free(a);
         api_jobs_missing(r, id);
         return;

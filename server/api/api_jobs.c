@@ -23,88 +23,14 @@
 #include <string.h>
 #include <time.h>
 
-void api_jobs_unknown(struct http_req *r) {
-    http_reply_error(r, 404, "job_unknown", "no such job on this server (or it was forgotten)",
-                     NULL, 0, 0, NULL);
-}
-
-/* t, seconds since the epoch, as RFC 3339 UTC: 2026-12-02T00:38:53Z. */
-static void api_jobs_time(char *buf, size_t size, double t) {
-    time_t s = (time_t)t;
-    struct tm tm;
-    if (!gmtime_r(&s, &tm) || !strftime(buf, size, "%Y-%m-%dT%H:%M:%SZ", &tm))
-        snprintf(buf, size, "unknown");
-}
-
-/* The sentence of a 410: how the job ended, when, and why it is gone. */
-static void api_jobs_gone_message(char *msg, size_t size, const struct jobs_gone *g,
-                                  const char *ended, const char *gone) {
-    const char *how = g->state == JS_SUCCEEDED || g->state == JS_EVICTED ? "succeeded"
-                      : g->state == JS_FAILED                            ? "failed"
-                                                                         : "was cancelled";
-    if (g->why == JG_EXPIRED)
-        snprintf(msg, size,
-                 "the job %s at %s and was forgotten at %s: an ended job is kept for --job-ttl "
-                 "%ld s",
-                 how, ended, gone, config.job_ttl);
-    else if (g->why == JG_EVICTED)
-        snprintf(msg, size,
-                 "the job %s at %s and was forgotten at %s to make room for newer jobs "
-                 "(--max-jobs %ld)",
-                 how, ended, gone, config.max_jobs);
-    else
-        snprintf(msg, size, "the job %s at %s; its image was evicted at %s (%s)", how, ended, gone,
-                 g->detail[0] ? g->detail : "no reason given");
-}
-
-/* 410 Gone for a job or its result: the error with the job's end and, when
- * the job is still known, its JSON (job, owned). */
-static void api_jobs_gone(struct http_req *r, const struct jobs_gone *g, cJSON *job) {
-    static const char *const codes[] = {"job_expired", "job_evicted", "result_evicted"};
-    char msg[400], ended[40], gone[40];
-    api_jobs_time(ended, sizeof ended, g->ended_wall);
-    api_jobs_time(gone, sizeof gone, g->gone_wall);
-    api_jobs_gone_message(msg, sizeof msg, g, ended, gone);
-    cJSON *o = cJSON_CreateObject();
-    cJSON *e = cJSON_AddObjectToObject(o, "error");
-    cJSON_AddNumberToObject(e, "status", 410);
-    cJSON_AddStringToObject(e, "code", codes[g->why]);
-    cJSON_AddStringToObject(e, "message", msg);
-    cJSON_AddStringToObject(e, "state", jobs_state_name(g->state));
-    cJSON_AddStringToObject(e, "ended_at", ended);
-    cJSON_AddStringToObject(e, g->why == JG_RESULT_EVICTED ? "evicted_at" : "forgotten_at", gone);
-    if (job) cJSON_AddItemToObject(o, "job", job);
-    http_reply_json(r, 410, o);
-    http_reply_header(r, "Cache-Control", "no-store");
-    r->res.err_code = codes[g->why];
-}
-
-void api_jobs_missing(struct http_req *r, const char *id) {
-    struct jobs_gone g;
-    if (api_is_hex(id, 32) && jobs_gone(id, &g))
-        api_jobs_gone(r, &g, NULL);
-    else
-        api_jobs_unknown(r);
-}
-
-bool api_jobs_evicted(struct http_req *r, const char *id, const struct jobs_info *info) {
-    if (!info->result_evicted) return false;
-    api_jobs_scene(r, info);
-    api_jobs_gone(r, &info->gone, api_jobs_json(id, info));
-    return true;
-}
-
-static void api_job_url(char *buf, size_t size, const char *id, const char *tail) {
-    snprintf(buf, size, "/v1/jobs/%s%s", id, tail);
-}
-
 /* ---- a progressive job's query ----------------------------------------------- */
 
 static const char *const api_plan_names[] = {"progressive", "pass_step", "time_budget",
                                              "noise_target", NULL};
 /* What POST /v1/jobs takes besides the region. */
-static const char *const api_jobs_names[] = {
-    "progressive", "pass_step", "time_budget", "noise_target", "format", "priority", NULL};
+static const char *const api_jobs_names[] = {"progressive",  "pass_step", "time_budget",
+                                             "noise_target", "format",    "priority",
+                                             "frames",       "frame",     NULL};
 
 /* A decimal number in (0, max] from ?name=, if given: digits and a point
  * only (api_is_decimal), so 0x10, 1e3, inf and " 5" are refused. */
@@ -172,13 +98,6 @@ static bool api_jobs_format(struct http_req *r, struct work_target *what) {
     return true;
 }
 
-/* "estimate": {"rays", "seconds"}: the job's price (api_cost.c). */
-static void api_add_estimate(cJSON *o, const struct api_price *p) {
-    cJSON *e = cJSON_AddObjectToObject(o, "estimate");
-    json_add_fixed(e, "rays", p->rays, 0);
-    json_add_fixed(e, "seconds", p->seconds, 3);
-}
-
 /* ?priority=low|normal|high into *p (normal without it); 400 and false on
  * a bad one. */
 static bool api_jobs_priority(struct http_req *r, int *p) {
@@ -215,19 +134,19 @@ static void api_jobs_accepted(struct api_jobs_wait *a) {
     cJSON_AddStringToObject(o, "id", a->id);
     cJSON_AddStringToObject(o, "state", "queued");
     cJSON_AddStringToObject(o, "scene_id", a->scene_id);
-    api_job_url(url, sizeof url, a->id, "");
+    api_jobs_url(url, sizeof url, a->id, "");
     cJSON_AddStringToObject(o, "status_url", url);
-    api_job_url(url, sizeof url, a->id, "/image.png");
+    api_jobs_url(url, sizeof url, a->id, "/image.png");
     cJSON_AddStringToObject(o, "image_url", url);
     if (a->keep_exr) {
-        api_job_url(url, sizeof url, a->id, "/image.exr");
+        api_jobs_url(url, sizeof url, a->id, "/image.exr");
         cJSON_AddStringToObject(o, "exr_url", url);
     }
-    api_job_url(url, sizeof url, a->id, "/events");
+    api_jobs_url(url, sizeof url, a->id, "/events");
     cJSON_AddStringToObject(o, "events_url", url);
-    api_add_estimate(o, &a->price);
+    api_jobs_add_estimate(o, &a->price);
     http_reply_json(r, 202, o);
-    api_job_url(url, sizeof url, a->id, "");
+    api_jobs_url(url, sizeof url, a->id, "");
     http_reply_header(r, "Location", url);
     api_cost_price_headers(r, &a->price);
 }
@@ -260,10 +179,14 @@ static bool api_jobs_compiled(struct http_req *r, struct cache_entry *e, bool hi
     struct jobs_plan plan;
     struct api_price price;
     struct jobs_new how = {.scene = r->body ? r->body : "", .scene_len = r->body_len};
-    if (!api_region_also(r, cache_scene(e), &what.reg, api_jobs_names) ||
-        !api_plan(r, cache_scene(e), &plan, &progressive) || !api_jobs_format(r, &what) ||
-        !api_jobs_priority(r, &how.priority) || !api_cost_admit(r, e, &what, progressive, &price))
+    int shot = api_shots_wanted(r, cache_scene(e));
+    if (shot < 0 || !api_region_also(r, cache_scene(e), &what.reg, api_jobs_names) ||
+        (!shot && !api_plan(r, cache_scene(e), &plan, &progressive)) ||
+        !api_jobs_format(r, &what) || !api_jobs_priority(r, &how.priority) ||
+        !api_cost_admit(r, e, &what, progressive, &price))
         return false; /* replied */
+    if (shot)         /* an animated scene: a frame-range job (api_shots.c) */
+        return api_shots_submit(r, e, &what, how.priority, &price);
     struct api_jobs_wait *a = calloc(1, sizeof *a);
     if (!a) {
         api_refused(r, WORK_NOMEM);
@@ -292,109 +215,18 @@ void api_jobs_post(struct http_req *r, const char *unused) {
     api_scene(r, api_jobs_compiled);
 }
 
-/* "noise": the estimate with 6 decimals, or null before there is one. */
-void api_jobs_add_noise(cJSON *o, double noise) {
-    if (noise >= 0)
-        json_add_fixed(o, "noise", noise, 6);
-    else
-        cJSON_AddNullToObject(o, "noise");
-}
-
-/* "image_url" of pass k of job id. */
-void api_jobs_add_pass_url(cJSON *o, const char *id, int k) {
-    char url[100], tail[40];
-    snprintf(tail, sizeof tail, "/image.png?pass=%d", k);
-    api_job_url(url, sizeof url, id, tail);
-    cJSON_AddStringToObject(o, "image_url", url);
-}
-
-/* "exr_url" of pass k of job id (a job with format=exr). */
-static void api_jobs_add_pass_exr_url(cJSON *o, const char *id, int k) {
-    char url[100], tail[40];
-    snprintf(tail, sizeof tail, "/image.exr?pass=%d", k);
-    api_job_url(url, sizeof url, id, tail);
-    cJSON_AddStringToObject(o, "exr_url", url);
-}
-
-/* A progressive job's "passes" object. */
-static void api_job_passes(cJSON *o, const char *id, const struct jobs_passes *p, bool exr) {
-    cJSON *x = cJSON_AddObjectToObject(o, "passes");
-    cJSON_AddNumberToObject(x, "done", p->done);
-    cJSON_AddNumberToObject(x, "total", p->total);
-    cJSON_AddNumberToObject(x, "samples", p->samples);
-    cJSON_AddNumberToObject(x, "samples_target", p->samples_target);
-    json_add_fixed(x, "time_s", p->time_s, 3);
-    api_jobs_add_noise(x, p->noise);
-    const char *why = passes_stop_name(p->stopped);
-    if (why)
-        cJSON_AddStringToObject(x, "stopped_by", why);
-    else
-        cJSON_AddNullToObject(x, "stopped_by");
-    if (p->done) api_jobs_add_pass_url(x, id, p->done);
-    if (p->done && exr) api_jobs_add_pass_exr_url(x, id, p->done);
-}
-
-cJSON *api_jobs_json(const char *id, const struct jobs_info *in) {
-    cJSON *o = cJSON_CreateObject();
-    cJSON_AddStringToObject(o, "id", id);
-    cJSON_AddStringToObject(o, "state", jobs_state_name(in->state));
-    json_add_fixed(o, "progress", in->progress, 4);
-    cJSON_AddNumberToObject(o, "tiles_done", (double)in->tiles_done);
-    cJSON_AddNumberToObject(o, "tiles_total", (double)in->tiles_total);
-    cJSON_AddStringToObject(o, "scene_id", in->scene_id);
-    cJSON *reg = cJSON_AddObjectToObject(o, "region");
-    cJSON_AddNumberToObject(reg, "x", in->region.x);
-    cJSON_AddNumberToObject(reg, "y", in->region.y);
-    cJSON_AddNumberToObject(reg, "w", in->region.w);
-    cJSON_AddNumberToObject(reg, "h", in->region.h);
-    cJSON_AddStringToObject(o, "priority", jobs_priority_name(in->priority));
-    if (in->created_wall > 0) {
-        char at[40];
-        api_jobs_time(at, sizeof at, in->created_wall);
-        cJSON_AddStringToObject(o, "created_at", at);
-    }
-    json_add_fixed(o, "age_s", in->created_age, 3);
-    json_add_fixed(o, "queue_ms", in->queue_ms, 3);
-    json_add_fixed(o, "render_ms", in->render_ms, 3);
-    json_add_fixed(o, "encode_ms", in->encode_ms, 3);
-    json_add_u64(o, "rays", in->rays);
-    if (in->ended_age >= 0) { /* forgotten --job-ttl after it ended */
-        double left = (double)config.job_ttl - in->ended_age;
-        json_add_fixed(o, "expires_in_s", left > 0 ? left : 0, 3);
-    }
-    struct api_price price = {in->est_rays, cost_price_seconds(in->scene_id, in->est_rays)};
-    api_add_estimate(o, &price);
-    if (in->progressive) api_job_passes(o, id, &in->passes, in->keep_exr);
-    if (in->state == JS_SUCCEEDED) {
-        char url[80];
-        api_job_url(url, sizeof url, id, "/image.png");
-        cJSON_AddStringToObject(o, "image_url", url);
-        if (in->keep_exr) {
-            api_job_url(url, sizeof url, id, "/image.exr");
-            cJSON_AddStringToObject(o, "exr_url", url);
-        }
-    }
-    if (in->state == JS_EVICTED)
-        cJSON_AddStringToObject(o, "evicted_reason",
-                                in->result_evicted && in->gone.detail[0] ? in->gone.detail
-                                                                         : JOBS_EVICTED_WHY);
-    if (in->state == JS_FAILED) {
-        cJSON *err = cJSON_AddObjectToObject(o, "error");
-        cJSON_AddStringToObject(err, "code", rayd_status_name(in->err.code));
-        cJSON_AddStringToObject(err, "message", in->err.message);
-        if (in->err.path[0]) /* as every error: a path only when about one value */
-            cJSON_AddStringToObject(err, "path", in->err.path);
-    }
-    return o;
-}
-
-void api_jobs_scene(struct http_req *r, const struct jobs_info *info) {
-    snprintf(r->res.scene, sizeof r->res.scene, "%s", info->scene_id);
+/* A frame-range job's JSON (200), if id is one; true when it replied. */
+static bool api_jobs_shot(struct http_req *r, const char *id) {
+    struct shots_info s;
+    if (!api_is_hex(id, 32) || !shots_get(id, &s)) return false;
+    api_jobs_scene(r, &s.job);
+    http_reply_json(r, 200, api_shots_json(id, &s));
+    return true;
 }
 
 void api_jobs_get(struct http_req *r, const char *id) {
     struct jobs_info info;
-    if (!api_only_params(r, NULL)) return;
+    if (!api_only_params(r, NULL) || api_jobs_shot(r, id)) return;
     if (!api_is_hex(id, 32) || !jobs_get(id, &info, JOBS_NUMBERS)) {
         api_jobs_missing(r, id);
         return;
@@ -407,6 +239,7 @@ void api_jobs_get(struct http_req *r, const char *id) {
 void api_jobs_delete(struct http_req *r, const char *id) {
     struct jobs_info info;
     if (!api_only_params(r, NULL)) return;
+    if (api_is_hex(id, 32) && shots_cancel(id) && api_jobs_shot(r, id)) return;
     if (!api_is_hex(id, 32) || !jobs_cancel(id) || !jobs_get(id, &info, JOBS_NUMBERS)) {
         api_jobs_missing(r, id);
         return;
@@ -419,7 +252,14 @@ void api_jobs_delete(struct http_req *r, const char *id) {
 void api_jobs_stop(struct http_req *r, const char *id) {
     struct jobs_info info;
     bool progressive = false;
+    struct shots_info s;
     if (!api_only_params(r, NULL)) return;
+    if (api_is_hex(id, 32) && shots_get(id, &s)) {
+        http_reply_error(r, 409, "not_progressive",
+                         "a frame-range job cannot be stopped and kept; DELETE cancels it", NULL, 0,
+                         0, NULL);
+        return;
+    }
     if (!api_is_hex(id, 32) || !jobs_end_early(id, &progressive) ||
         !jobs_get(id, &info, JOBS_NUMBERS)) {
         api_jobs_missing(r, id);
@@ -481,20 +321,32 @@ void api_jobs_list(struct http_req *r, const char *unused) {
         !api_jobs_count(r, "after", (long long)1e18, &after) || !api_jobs_state_param(r, &state))
         return;
     struct jobs_info *rows = calloc((size_t)limit, sizeof *rows);
-    if (!rows) {
+    struct shots_info *shots = calloc((size_t)limit, sizeof *shots);
+    if (!rows || !shots) {
+        free(rows);
+        free(shots);
         api_refused(r, WORK_NOMEM);
         return;
     }
-    bool more = false;
-    int n = jobs_list(api_cost_client(r), state, after, rows, (int)limit, &more);
+    bool more = false, more_shots = false;
+    uint64_t client = api_cost_client(r);
+    int nj = jobs_list(client, state, after, rows, (int)limit, &more);
+    int ns = shots_list(client, state, after, shots, (int)limit, &more_shots);
     cJSON *o = cJSON_CreateObject();
     cJSON *list = cJSON_AddArrayToObject(o, "jobs");
-    for (int i = 0; i < n; i++) {
-        cJSON_AddItemToArray(list, api_jobs_json(rows[i].id, &rows[i]));
+    int n = 0, a = 0, b = 0; /* both newest first: merged by creation number */
+    long long last = 0;
+    while (n < limit && (a < nj || b < ns)) {
+        bool job = b >= ns || (a < nj && rows[a].seq > shots[b].job.seq);
+        cJSON_AddItemToArray(list, job ? api_jobs_json(rows[a].id, &rows[a])
+                                       : api_shots_json(shots[b].job.id, &shots[b]));
+        last = job ? rows[a++].seq : shots[b++].job.seq;
+        n++;
     }
+    more = more || more_shots || a < nj || b < ns;
     if (more && n > 0) {
         char cursor[24], url[200];
-        snprintf(cursor, sizeof cursor, "%lld", rows[n - 1].seq);
+        snprintf(cursor, sizeof cursor, "%lld", last);
         cJSON_AddStringToObject(o, "next_after", cursor);
         int k = snprintf(url, sizeof url, "/v1/jobs?limit=%lld&after=%s", limit, cursor);
         if (state >= 0 && k > 0 && (size_t)k < sizeof url)
@@ -506,6 +358,7 @@ void api_jobs_list(struct http_req *r, const char *unused) {
         cJSON_AddNullToObject(o, "next_url");
     }
     free(rows);
+    free(shots);
     http_reply_json(r, 200, o);
     http_reply_header(r, "Cache-Control", "no-store");
 }

@@ -147,8 +147,13 @@ static void api_jobs_image_as(struct http_req *r, const char *id, bool exr) {
     static const char *const takes[] = {"pass", NULL};
     const char *pass = http_req_query(r, "pass");
     if (!api_only_params(r, takes)) return;
+    struct shots_info shot;
     if (!api_is_hex(id, 32))
         api_jobs_unknown(r);
+    else if (shots_get(id, &shot))
+        http_reply_error(r, 409, "frame_range_job",
+                         "this job renders frames: GET /v1/jobs/{id}/frames/{k}.png (or .exr)",
+                         NULL, 0, 0, NULL);
     else if (pass)
         api_jobs_pass_image(r, id, pass, exr);
     else

@@ -49,6 +49,7 @@ struct config {
     long timeout;             /* connection idle timeout, seconds */
     long max_jobs;            /* jobs kept for GET /v1/jobs/{id} */
     long job_ttl;             /* seconds a finished job is kept */
+    long max_frames;          /* frames of one frame-range job */
     long max_render_seconds;  /* a render running longer is stopped; 0: no limit */
     long png_level;           /* zlib level of the PNGs, -1 default */
     long max_work;            /* largest render in estimated rays, 0 = no limit */
@@ -302,5 +303,13 @@ char *json_print(cJSON *o, bool nl, size_t *len);
 /* o unformatted into buf (a line for a log or an event); false when it does
  * not fit.  Does not delete o. */
 bool json_print_into(cJSON *o, char *buf, size_t size);
+
+/* ---- video.c: frames as an H.264 MP4, by the ffmpeg program ------------ */
+
+enum video_status { VIDEO_OK, VIDEO_FAILED, VIDEO_NO_FFMPEG };
+/* n PNG frames at fps as an MP4 (*out, one reference), ffmpeg killed past
+ * limit seconds; else err says why.  Blocks: never on an HTTP thread. */
+enum video_status video_encode(struct blob *const *frames, int n, double fps, double limit,
+                               struct blob **out, char *err, size_t size);
 
 #endif

@@ -83,6 +83,8 @@ static const struct config_option config_table[] = {
      "seconds an idle or stalled connection is kept (slow uploads are dropped)"},
     {"max-jobs", "RAYD_MAX_JOBS", CT_LONG, &config.max_jobs, "1024", 1, 1000000,
      "asynchronous jobs remembered; the oldest finished ones are forgotten first"},
+    {"max-frames", "RAYD_MAX_FRAMES", CT_LONG, &config.max_frames, "1000", 1, 100000,
+     "frames one frame-range job may render (POST /v1/jobs of an animated scene; 400 over it)"},
     {"max-render-seconds", "RAYD_MAX_RENDER_SECONDS", CT_LONG, &config.max_render_seconds, "3600",
      0, 31536000,
      "a render running longer (from its first tile) is stopped and fails; 0 = no limit"},

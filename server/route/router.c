@@ -48,6 +48,8 @@ static const struct route router_table[] = {
     {"GET", "/v1/jobs/{id}/image.png", api_jobs_image, "/v1/jobs/{id}/image.png", NULL},
     {"GET", "/v1/jobs/{id}/image.exr", api_jobs_exr, "/v1/jobs/{id}/image.exr", NULL},
     {"GET", "/v1/jobs/{id}/events", api_events_get, "/v1/jobs/{id}/events", NULL},
+    {"GET", "/v1/jobs/{id}/frames/{id}", api_shots_frame, "/v1/jobs/{id}/frames/{k}", NULL},
+    {"GET", "/v1/jobs/{id}/video.mp4", api_shots_video, "/v1/jobs/{id}/video.mp4", NULL},
     {"GET", "/healthz", api_health_live, "/healthz", NULL},
     {"GET", "/readyz", api_health_ready, "/readyz", NULL},
     {"GET", "/metrics", api_health_metrics, "/metrics", NULL},
@@ -80,16 +82,21 @@ bool router_public(const char *method, const char *url) {
     return !strcmp(url, "/") || (url[0] == '/' && !strchr(url + 1, '/') && api_web_exists(url + 1));
 }
 
-/* Matches path against pattern; the {id} segment is copied to id. */
+/* Matches path against pattern; the {id} segment is copied to id.  A
+ * second {id} (a job's frame: /v1/jobs/{id}/frames/{id}) is appended to the
+ * first after a '/', so the handler gets "JOB/7.png". */
 static bool router_match(const char *pattern, const char *path, char *id, size_t idsize) {
+    size_t used = 0;
     while (*pattern) {
         if (!strncmp(pattern, "{id}", 4)) {
             const char *e = path;
             while (*e && *e != '/') e++;
             size_t n = (size_t)(e - path);
-            if (n == 0 || n >= idsize) return false;
-            memcpy(id, path, n);
-            id[n] = 0;
+            if (used) id[used++] = '/';
+            if (n == 0 || used + n >= idsize) return false;
+            memcpy(id + used, path, n);
+            used += n;
+            id[used] = 0;
             path = e;
             pattern += 4;
             continue;

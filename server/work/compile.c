@@ -53,6 +53,7 @@ struct compile_job {
     const char *body; /* the first waiter's request body: suspended until done;
                          NULL for a GET by id, which only checks the cached scene */
     size_t len;
+    long frame; /* the frame to parse the body at (compile_scene_frame), -1: the first */
     struct cache_entry *cached; /* found compiled; its files are checked here */
     size_t mem;                 /* bytes of kind parses reserved for it, until parsed */
     struct compile_waiter *waiters;
@@ -134,7 +135,7 @@ static enum work_submit compile_join_same(const char *id, bool by_id, struct cac
  * bytes of kind parses reserved for it, the job's once queued), lock held;
  * WORK_OK after w->suspend, or the refusal.  *joined: w waits for the same
  * body queued meanwhile, and mem is still the caller's. */
-static enum work_submit compile_enqueue(const char *id, const char *body, size_t len,
+static enum work_submit compile_enqueue(const char *id, const char *body, size_t len, long frame,
                                         struct cache_entry *e, size_t mem, struct compile_waiter *w,
                                         bool *joined) {
     enum work_submit s = compile_join_same(id, body == NULL, e, w);
@@ -147,6 +148,7 @@ static enum work_submit compile_enqueue(const char *id, const char *body, size_t
     snprintf(j->id, sizeof j->id, "%s", id);
     j->body = body;
     j->len = len;
+    j->frame = frame;
     j->cached = e;
     j->mem = mem;
     j->waiters = w;
@@ -165,7 +167,7 @@ static enum work_submit compile_enqueue(const char *id, const char *body, size_t
 
 /* Reserves a new parse's first cap (no lock held: the reservation may
  * reclaim), then queues it; e is released unless the job took it. */
-static enum work_submit compile_queue_new(const char *id, const char *body, size_t len,
+static enum work_submit compile_queue_new(const char *id, const char *body, size_t len, long frame,
                                           struct cache_entry *e, struct compile_waiter *w) {
     size_t mem = scenes_parse_cap(len);
     if (!mem_reserve(MEM_PARSES, mem)) {
@@ -175,18 +177,35 @@ static enum work_submit compile_queue_new(const char *id, const char *body, size
     }
     bool joined = false;
     work_lock_take();
-    enum work_submit s = compile_enqueue(id, body, len, e, mem, w, &joined);
+    enum work_submit s = compile_enqueue(id, body, len, frame, e, mem, w, &joined);
     work_lock_give();
     if (s != WORK_OK || joined) mem_release(MEM_PARSES, mem);
     if (s != WORK_OK) scenes_release(e);
     return s;
 }
 
+/* The id of body at frame (-1: the body's own id): the SHA-256 of the
+ * body's id and the frame number, so every frame is a scene of its own in
+ * the cache. */
+static bool compile_id(const char *body, size_t len, long frame, char id[65],
+                       struct rayd_error *err) {
+    if (!scenes_id(body, len, id, err)) return false;
+    if (frame < 0) return true;
+    char text[96];
+    int n = snprintf(text, sizeof text, "%s#frame=%ld", id, frame);
+    return scenes_id(text, (size_t)n, id, err);
+}
+
 enum work_submit compile_scene(const char *body, size_t len, struct compile_waiter *w,
                                struct compile_result *res) {
+    return compile_scene_frame(body, len, -1, w, res);
+}
+
+enum work_submit compile_scene_frame(const char *body, size_t len, long frame,
+                                     struct compile_waiter *w, struct compile_result *res) {
     memset(res, 0, sizeof *res);
     char id[65];
-    if (!scenes_id(body, len, id, &res->err)) {
+    if (!compile_id(body, len, frame, id, &res->err)) {
         res->status = RAYD_E_NOMEM;
         return WORK_CACHED;
     }
@@ -206,7 +225,7 @@ enum work_submit compile_scene(const char *body, size_t len, struct compile_wait
     enum work_submit s = compile_join_same(id, false, e, w);
     work_lock_give();
     if (s == WORK_CACHED) /* a new parse: its first cap reserved before it is queued */
-        s = compile_queue_new(id, body, len, e, w);
+        s = compile_queue_new(id, body, len, frame, e, w);
     else if (s != WORK_OK)
         scenes_release(e);
     return s;
@@ -228,7 +247,7 @@ enum work_submit compile_find_scene(const char *id, struct compile_waiter *w,
     pthread_once(&compile_once, compile_start);
     bool joined;
     work_lock_take();
-    enum work_submit s = compile_enqueue(id, NULL, 0, e, 0, w, &joined);
+    enum work_submit s = compile_enqueue(id, NULL, 0, -1, e, 0, w, &joined);
     work_lock_give();
     if (s != WORK_OK) scenes_release(e);
     return s;
@@ -251,7 +270,7 @@ static enum rayd_status compile_run(struct compile_job *j, struct cache_entry **
     }
     if (!j->body) return RAYD_OK; /* unknown here now: the client sends the text again */
     double t0 = clock_now();
-    enum rayd_status st = scenes_build(j->id, j->body, j->len, j->mem, out, err, full);
+    enum rayd_status st = scenes_build(j->id, j->body, j->len, j->frame, j->mem, out, err, full);
     j->mem = 0; /* scenes_build's now: the scene's own, or released */
     double took = clock_now() - t0;
     work_lock_take();

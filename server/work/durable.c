@@ -123,7 +123,17 @@ int durable_start(void) {
     if (store_open(config.data_dir) || store_load(&rows, &n) || store_start()) return -1;
     long finished = 0, queued = 0;
     for (int i = 0; i < n; i++) {
-        if (rows[i].state == JS_QUEUED) {
+        if (rows[i].frames) { /* a frame-range job: its frames parse as they are rendered */
+            unsigned char *states = malloc((size_t)(rows[i].last - rows[i].first + 1));
+            bool ok = states && store_load_frames(&rows[i], states) >= 0 &&
+                      shots_restore(&rows[i], states);
+            if (!ok) log_error("job %s: cannot be put back (out of memory or room)", rows[i].id);
+            free(states);
+            if (rows[i].state == JS_QUEUED)
+                queued += ok;
+            else
+                finished += ok;
+        } else if (rows[i].state == JS_QUEUED) {
             durable_requeue(&rows[i]);
             queued++;
         } else {

@@ -103,9 +103,7 @@ static bool jobs_evict_oldest(void) {
     if (!victim) return false;
     struct task *t = victim->task;
     if (jobs_all_stored(t)) { /* on disk: only the memory goes */
-        blob_unref(t->png);
-        blob_unref(t->exr);
-        t->png = t->exr = NULL;
+        task_let_go_images(t);
         if (t->passes) passes_let_go(t->passes);
         return true;
     }
@@ -326,6 +324,15 @@ static double jobs_mono(double wall) {
     return clock_now() - ((double)ts.tv_sec + (double)ts.tv_nsec / 1e9 - wall);
 }
 
+long long jobs_next_seq(void) {
+    work_assert_locked();
+    return ++jobs_seq;
+}
+
+void jobs_seen_seq(long long seq) {
+    if (seq > jobs_seq) jobs_seq = seq;
+}
+
 const char *jobs_priority_name(int p) {
     static const char *const names[] = {"low", "normal", "high"};
     return p >= JP_LOW && p <= JP_HIGH ? names[p] : "normal";
@@ -390,11 +397,7 @@ static void jobs_disk_evicted(const char *id, const char *why, double wall) {
         bool shared = false;
         for (int i = 0; i < jobs_n; i++)
             shared |= jobs_table[i] != j && jobs_table[i]->task == j->task;
-        if (!shared) { /* nobody else reads the task's images */
-            blob_unref(j->task->png);
-            blob_unref(j->task->exr);
-            j->task->png = j->task->exr = NULL;
-        }
+        if (!shared) task_let_go_images(j->task); /* nobody else reads them */
     }
     work_lock_give();
 }
@@ -410,11 +413,10 @@ static struct job *jobs_add(struct job *j, const char *id, struct task *t, uint6
     j->refs = 1;
     j->client = client;
     j->priority = priority;
-    j->seq = ++jobs_seq;
+    j->seq = jobs_next_seq();
     j->task = t;
     task_job_ref(t);
-    if (t->client == client && priority > t->priority)
-        t->priority = priority; /* a joined task: its client's order only */
+    if (t->client == client) task_raise_priority(t, priority); /* its client's order only */
     jobs_table[jobs_n++] = j;
     return j;
 }
@@ -431,7 +433,7 @@ static struct task *jobs_task(struct cache_entry *scene, const struct work_targe
         *why = WORK_NOMEM;
         return NULL;
     }
-    fresh->priority = priority;
+    task_raise_priority(fresh, priority);
     return fresh;
 }
 
@@ -500,7 +502,7 @@ static struct task *jobs_ended_task(const struct store_job *row) {
                                            : RAYD_E_CANCELED;
     t->err = row->err;
     t->err.code = t->status;
-    t->priority = row->priority;
+    task_raise_priority(t, row->priority);
     t->refs = 1;
     atomic_init(&t->cancel, 0);
     return t;

@@ -106,8 +106,8 @@ static void scenes_room(struct rayd_limits *lim, size_t cap) {
 }
 
 /* Parses and builds body outside the lock, timing each stage. */
-static enum rayd_status scenes_compile(const char *body, size_t len, size_t cap, rayd_scene **scene,
-                                       struct rayd_error *err) {
+static enum rayd_status scenes_compile(const char *body, size_t len, long frame, size_t cap,
+                                       rayd_scene **scene, struct rayd_error *err) {
     struct rayd_limits lim;
     if (scenes_limits_set) {
         lim = scenes_limits;
@@ -120,7 +120,8 @@ static enum rayd_status scenes_compile(const char *body, size_t len, size_t cap,
     scenes_room(&lim, cap);
     metrics_scene_parse();
     double t0 = clock_now();
-    enum rayd_status st = rayd_scene_parse(body, len, &lim, scene, err);
+    enum rayd_status st = frame < 0 ? rayd_scene_parse(body, len, &lim, scene, err)
+                                    : rayd_scene_parse_frame(body, len, &lim, frame, scene, err);
     double parsed = clock_now() - t0;
     if (st != RAYD_OK) {
         metrics_stage(MS_PARSE, parsed);
@@ -186,7 +187,7 @@ static enum rayd_status scenes_reserve(rayd_scene *scene, size_t held, struct ra
 
 /* Parses body under the cap held, raising the cap (reserved first) while
  * the core refuses a value over it and the cap is under the budget. */
-static enum rayd_status scenes_parse_within(const char *body, size_t len, size_t *held,
+static enum rayd_status scenes_parse_within(const char *body, size_t len, long frame, size_t *held,
                                             rayd_scene **scene, struct rayd_error *err,
                                             bool *full) {
     /* the last cap: the budget less the body's buffer, counted too (twice
@@ -194,7 +195,7 @@ static enum rayd_status scenes_parse_within(const char *body, size_t len, size_t
     size_t text = 2 * len + 4096;
     size_t limit = mem_limit() > text ? mem_limit() - text : 0;
     for (;;) {
-        enum rayd_status st = scenes_compile(body, len, *held, scene, err);
+        enum rayd_status st = scenes_compile(body, len, frame, *held, scene, err);
         if (st != RAYD_E_LIMIT || *held >= limit) return st;
         size_t next = *held > limit / SCENES_PARSE_STEP ? limit : *held * SCENES_PARSE_STEP;
         if (!mem_reserve(MEM_PARSES, next - *held)) {
@@ -211,11 +212,11 @@ bool scenes_id(const char *body, size_t len, char id[65], struct rayd_error *err
     return false;
 }
 
-enum rayd_status scenes_build(const char *id, const char *body, size_t len, size_t held,
+enum rayd_status scenes_build(const char *id, const char *body, size_t len, long frame, size_t held,
                               struct cache_entry **out, struct rayd_error *err, bool *full) {
     rayd_scene *scene = NULL;
     *full = false;
-    enum rayd_status st = scenes_parse_within(body, len, &held, &scene, err, full);
+    enum rayd_status st = scenes_parse_within(body, len, frame, &held, &scene, err, full);
     if (st != RAYD_OK) {
         mem_release(MEM_PARSES, held);
         return st;

@@ -50,7 +50,7 @@
 #include <time.h>
 #include <unistd.h>
 
-enum store_kind { SO_INSERT, SO_END, SO_FORGET };
+enum store_kind { SO_INSERT, SO_END, SO_FORGET, SO_FRAME };
 
 struct store_op {
     enum store_kind kind;
@@ -95,9 +95,12 @@ bool store_on(void) { return atomic_load(&store_up); }
 
 /* ---- files ----------------------------------------------------------------------- */
 
-/* DIR/results/ID.png (or .exr, or with .tmp): a frame-0 image's path. */
-static void store_path(char *buf, size_t size, const char *id, bool exr, bool tmp) {
-    snprintf(buf, size, "%s/results/%s.%s%s", store_dir, id, exr ? "exr" : "png",
+/* DIR/results/ID.png (or .exr, or with .tmp): a plain job's image's path;
+ * DIR/results/ID-K.png frame K's of a frame-range job (k >= 0). */
+static void store_path(char *buf, size_t size, const char *id, long k, bool exr, bool tmp) {
+    char frame[24] = "";
+    if (k >= 0) snprintf(frame, sizeof frame, "-%ld", k);
+    snprintf(buf, size, "%s/results/%s%s.%s%s", store_dir, id, frame, exr ? "exr" : "png",
              tmp ? ".tmp" : "");
 }
 
@@ -122,10 +125,10 @@ static void store_test_stall(void) {
 }
 
 /* b's bytes to path, whole or not at all: NAME.tmp, fsync, rename. */
-static int store_write_file(const char *id, bool exr, const struct blob *b) {
+static int store_write_file(const char *id, long k, bool exr, const struct blob *b) {
     char tmp[4200], path[4200];
-    store_path(tmp, sizeof tmp, id, exr, true);
-    store_path(path, sizeof path, id, exr, false);
+    store_path(tmp, sizeof tmp, id, k, exr, true);
+    store_path(path, sizeof path, id, k, exr, false);
     int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
     if (fd < 0) return -1;
     const unsigned char *p = b->data;
@@ -150,8 +153,12 @@ static int store_write_file(const char *id, bool exr, const struct blob *b) {
 }
 
 struct blob *store_read(const char *id, bool exr) {
+    return store_read_frame(id, -1, exr);
+}
+
+struct blob *store_read_frame(const char *id, long k, bool exr) {
     char path[4200];
-    store_path(path, sizeof path, id, exr, false);
+    store_path(path, sizeof path, id, k, exr, false);
     int fd = open(path, O_RDONLY | O_CLOEXEC);
     struct stat st;
     if (fd < 0) return NULL;
@@ -241,6 +248,18 @@ static enum jobs_state store_state_of(const char *s) {
     return JS_QUEUED;
 }
 
+/* A frame-range job's range and a queued row for each of its frames. */
+static bool store_insert_frames(const struct store_job *j) {
+    if (store_run(NULL, "UPDATE jobs SET frame_first = ?, frame_last = ?, fps = ? WHERE id = ?",
+                  "iidt", (long long)j->first, (long long)j->last, j->fps, j->id) != SQLITE_DONE)
+        return false;
+    for (long k = j->first; k <= j->last; k++)
+        if (store_run(NULL, "INSERT OR REPLACE INTO frames(job, k, state) VALUES(?, ?, 'queued')",
+                      "ti", j->id, (long long)k) != SQLITE_DONE)
+            return false;
+    return true;
+}
+
 static bool store_insert_row(const struct store_job *j) {
     bool ok = store_exec("BEGIN") &&
               store_run(NULL,
@@ -254,8 +273,11 @@ static bool store_insert_row(const struct store_job *j) {
                         (long long)j->reg.h, (long long)j->keep_exr, (long long)j->progressive,
                         (long long)j->plan.step, j->plan.time_budget, j->plan.noise_target,
                         (long long)j->tiles, j->est_rays) == SQLITE_DONE &&
-              store_run(NULL, "INSERT OR REPLACE INTO frames(job, k, state) VALUES(?, 0, 'queued')",
-                        "t", j->id) == SQLITE_DONE &&
+              (j->frames ? store_insert_frames(j)
+                         : store_run(NULL,
+                                     "INSERT OR REPLACE INTO frames(job, k, state)"
+                                     " VALUES(?, 0, 'queued')",
+                                     "t", j->id) == SQLITE_DONE) &&
               store_exec("COMMIT");
     if (!ok) store_exec("ROLLBACK");
     return ok;
@@ -276,11 +298,11 @@ static bool store_end_row(const struct store_job *j, size_t bytes, bool png, boo
                   "tdiidddittt", store_state_name(j->state), j->ended_wall, (long long)j->tiles,
                   (long long)j->rays, j->queue_ms, j->render_ms, j->encode_ms,
                   (long long)j->err.code, j->err.message, j->err.path, j->id) == SQLITE_DONE &&
-        store_run(NULL,
-                  "UPDATE frames SET state = ?, path = ?, exr_path = ?, bytes = ?,"
-                  " ended = ? WHERE job = ? AND k = 0",
-                  "tttidt", fstate, png ? p : NULL, exr ? e : NULL, (long long)bytes, j->ended_wall,
-                  j->id) == SQLITE_DONE &&
+        (j->frames || store_run(NULL,
+                                "UPDATE frames SET state = ?, path = ?, exr_path = ?, bytes = ?,"
+                                " ended = ? WHERE job = ? AND k = 0",
+                                "tttidt", fstate, png ? p : NULL, exr ? e : NULL, (long long)bytes,
+                                j->ended_wall, j->id) == SQLITE_DONE) &&
         store_exec("COMMIT");
     if (!ok) store_exec("ROLLBACK");
     return ok;
@@ -288,10 +310,27 @@ static bool store_end_row(const struct store_job *j, size_t bytes, bool png, boo
 
 static void store_unlink(const char *id) {
     char path[4200];
-    store_path(path, sizeof path, id, false, false);
+    store_path(path, sizeof path, id, -1, false, false);
     unlink(path);
-    store_path(path, sizeof path, id, true, false);
+    store_path(path, sizeof path, id, -1, true, false);
     unlink(path);
+}
+
+/* Every file a job's frames name (a frame-range job's), unlinked. */
+static void store_unlink_frames(const char *id) {
+    sqlite3_stmt *st = NULL;
+    if (sqlite3_prepare_v2(store_db, "SELECT path, exr_path FROM frames WHERE job = ?", -1, &st,
+                           NULL) != SQLITE_OK)
+        return;
+    sqlite3_bind_text(st, 1, id, -1, SQLITE_TRANSIENT);
+    while (sqlite3_step(st) == SQLITE_ROW)
+        for (int c = 0; c < 2; c++) {
+            const char *rel = store_text(st, c);
+            char path[4200];
+            snprintf(path, sizeof path, "%s/%s", store_dir, rel);
+            if (rel[0] && !strstr(rel, "..")) unlink(path);
+        }
+    sqlite3_finalize(st);
 }
 
 /* --max-disk: evicts the frames that ended first, never keep's, while the
@@ -301,7 +340,8 @@ static void store_evict(const char *keep) {
     while (config.max_disk_bytes > 0 && store_bytes > config.max_disk_bytes) {
         sqlite3_stmt *st = NULL;
         if (store_run(&st,
-                      "SELECT job, bytes FROM frames WHERE state = 'done' AND job != ?"
+                      "SELECT job, bytes FROM frames WHERE state = 'done' AND job != ? AND k = 0"
+                      " AND job IN (SELECT id FROM jobs WHERE frame_first IS NULL)"
                       " ORDER BY ended LIMIT 1",
                       "t", keep) != SQLITE_ROW)
             return;
@@ -336,11 +376,11 @@ static void store_do_end(struct store_op *op) {
     bool ok = true;
     size_t bytes = 0;
     if (op->png) {
-        ok = store_write_file(j->id, false, op->png) == 0;
+        ok = store_write_file(j->id, -1, false, op->png) == 0;
         bytes += op->png->len;
     }
     if (ok && op->exr) {
-        ok = store_write_file(j->id, true, op->exr) == 0;
+        ok = store_write_file(j->id, -1, true, op->exr) == 0;
         bytes += op->exr->len;
     }
     char dir[4200];
@@ -358,8 +398,36 @@ static void store_do_end(struct store_op *op) {
     if (bytes) store_evict(j->id);
 }
 
+/* Frame k of a frame-range job (op->row.first): its files written whole,
+ * then its row says done. */
+static void store_do_frame(struct store_op *op) {
+    const char *id = op->row.id;
+    long k = op->row.first;
+    size_t bytes = op->png->len + (op->exr ? op->exr->len : 0);
+    char dir[4200], p[96], e[96];
+    snprintf(dir, sizeof dir, "%s/results", store_dir);
+    snprintf(p, sizeof p, "results/%s-%ld.png", id, k);
+    snprintf(e, sizeof e, "results/%s-%ld.exr", id, k);
+    bool ok = store_write_file(id, k, false, op->png) == 0 &&
+              (!op->exr || store_write_file(id, k, true, op->exr) == 0) &&
+              store_fsync_dir(dir) == 0;
+    if (!ok) {
+        log_error("job %s: cannot write frame %ld under --data-dir %s: %s", id, k, store_dir,
+                  strerror(errno));
+        return;
+    }
+    if (store_run(NULL,
+                  "UPDATE frames SET state = 'done', path = ?, exr_path = ?, bytes = ?, ended = ?"
+                  " WHERE job = ? AND k = ?",
+                  "ttidti", p, op->exr ? e : NULL, (long long)bytes, (double)time(NULL), id,
+                  (long long)k) == SQLITE_DONE)
+        store_bytes += bytes;
+}
+
 static void store_do(struct store_op *op) {
-    if (op->kind == SO_INSERT) {
+    if (op->kind == SO_FRAME) {
+        store_do_frame(op);
+    } else if (op->kind == SO_INSERT) {
         struct work_result res = {.status = RAYD_OK};
         if (!store_insert_row(&op->row)) {
             res.status = RAYD_E_IO;
@@ -378,6 +446,7 @@ static void store_do(struct store_op *op) {
             bytes = (size_t)sqlite3_column_int64(st, 0);
             sqlite3_finalize(st);
         }
+        store_unlink_frames(op->row.id);
         if (store_run(NULL, "DELETE FROM frames WHERE job = ?", "t", op->row.id) == SQLITE_DONE &&
             store_run(NULL, "DELETE FROM jobs WHERE id = ?", "t", op->row.id) == SQLITE_DONE) {
             store_unlink(op->row.id);
@@ -453,6 +522,20 @@ void store_end(const struct store_job *row, struct blob *png, struct blob *exr) 
     store_queue(op);
 }
 
+void store_frame(const char *id, long k, struct blob *png, struct blob *exr) {
+    struct store_op *op = calloc(1, sizeof *op);
+    if (!op) {
+        log_error("job %s: out of memory to record frame %ld under --data-dir", id, k);
+        return;
+    }
+    op->kind = SO_FRAME;
+    snprintf(op->row.id, sizeof op->row.id, "%s", id);
+    op->row.first = k;
+    op->png = blob_ref(png);
+    op->exr = blob_ref(exr);
+    store_queue(op);
+}
+
 void store_forget(const char *id) {
     struct store_op *op = calloc(1, sizeof *op);
     if (!op) return;
@@ -485,9 +568,13 @@ static void store_sweep(void) {
         bool known = false;
         if (!tmp && n > 32) {
             memcpy(id, e->d_name, 32);
+            char rel[300];
+            snprintf(rel, sizeof rel, "results/%s", e->d_name);
             sqlite3_stmt *st = NULL;
-            known = store_run(&st, "SELECT 1 FROM frames WHERE job = ? AND state = 'done'", "t",
-                              id) == SQLITE_ROW;
+            known = store_run(&st,
+                              "SELECT 1 FROM frames WHERE job = ? AND state = 'done' AND"
+                              " (path = ? OR exr_path = ?)",
+                              "ttt", id, rel, rel) == SQLITE_ROW;
             if (known) sqlite3_finalize(st);
         }
         if (!known) {
@@ -534,6 +621,10 @@ int store_open(const char *dir) {
         store_db = NULL;
         return -1;
     }
+    /* a frame-range job's range (NULL: a plain job); added to a store of before */
+    sqlite3_exec(store_db, "ALTER TABLE jobs ADD COLUMN frame_first INTEGER", NULL, NULL, NULL);
+    sqlite3_exec(store_db, "ALTER TABLE jobs ADD COLUMN frame_last INTEGER", NULL, NULL, NULL);
+    sqlite3_exec(store_db, "ALTER TABLE jobs ADD COLUMN fps REAL", NULL, NULL, NULL);
     store_sweep();
     atomic_store(&store_up, true);
     sqlite3_stmt *st = NULL;
@@ -564,15 +655,15 @@ int store_start(void) {
 }
 
 /* A done row's files, there with the bytes it recorded? */
-static bool store_files_ok(const char *id, bool exr, long long bytes) {
+static bool store_files_ok(const char *id, long k, bool exr, long long bytes) {
     char path[4200];
     struct stat st;
     long long have = 0;
-    store_path(path, sizeof path, id, false, false);
+    store_path(path, sizeof path, id, k, false, false);
     if (stat(path, &st) != 0) return false;
     have += st.st_size;
     if (exr) {
-        store_path(path, sizeof path, id, true, false);
+        store_path(path, sizeof path, id, k, true, false);
         if (stat(path, &st) != 0) return false;
         have += st.st_size;
     }
@@ -618,7 +709,14 @@ static bool store_row(sqlite3_stmt *st, struct store_job *j) {
     j->attempts = sqlite3_column_int(st, 30);
     bool has_exr = sqlite3_column_type(st, 31) != SQLITE_NULL;
     long long bytes = sqlite3_column_int64(st, 32);
-    j->result_ok = !strcmp(fstate, "done") && store_files_ok(j->id, has_exr, bytes);
+    j->frames = sqlite3_column_type(st, 33) != SQLITE_NULL;
+    if (j->frames) { /* a frame-range job: its frames are store_load_frames' */
+        j->first = sqlite3_column_int64(st, 33);
+        j->last = sqlite3_column_int64(st, 34);
+        j->fps = sqlite3_column_double(st, 35);
+        return true;
+    }
+    j->result_ok = !strcmp(fstate, "done") && store_files_ok(j->id, -1, has_exr, bytes);
     if (j->state == JS_SUCCEEDED && !strcmp(fstate, "done") && !j->result_ok) {
         log_warn("job %s: its image files are missing or not whole: it renders again", j->id);
         j->state = JS_QUEUED;
@@ -639,7 +737,8 @@ int store_load(struct store_job **rows, int *n) {
         " j.scene_id, j.x, j.y, j.w, j.h, j.keep_exr, j.progressive, j.pass_step, j.time_budget,"
         " j.noise_target, j.tiles, j.rays, j.est_rays, j.queue_ms, j.render_ms, j.encode_ms,"
         " j.err_code, j.err_message, j.err_path, j.evicted, j.evicted_why, f.state, f.attempts,"
-        " f.exr_path, f.bytes FROM jobs j LEFT JOIN frames f ON f.job = j.id AND f.k = 0"
+        " f.exr_path, f.bytes, j.frame_first, j.frame_last, j.fps"
+        " FROM jobs j LEFT JOIN frames f ON f.job = j.id AND f.k = 0"
         " ORDER BY j.seq",
         -1, &st, NULL);
     int cap = 0;
@@ -655,6 +754,31 @@ int store_load(struct store_job **rows, int *n) {
     }
     sqlite3_finalize(st);
     return rc == SQLITE_OK ? 0 : -1;
+}
+
+int store_load_frames(const struct store_job *j, unsigned char *states) {
+    memset(states, STORE_FRAME_QUEUED, (size_t)(j->last - j->first + 1));
+    sqlite3_stmt *st = NULL;
+    if (sqlite3_prepare_v2(store_db, "SELECT k, state, exr_path, bytes FROM frames WHERE job = ?",
+                           -1, &st, NULL) != SQLITE_OK)
+        return -1;
+    sqlite3_bind_text(st, 1, j->id, -1, SQLITE_TRANSIENT);
+    int done = 0;
+    while (sqlite3_step(st) == SQLITE_ROW) {
+        long k = sqlite3_column_int64(st, 0);
+        const char *state = store_text(st, 1);
+        if (k < j->first || k > j->last) continue;
+        bool exr = sqlite3_column_type(st, 2) != SQLITE_NULL;
+        if (!strcmp(state, "done") && store_files_ok(j->id, k, exr, sqlite3_column_int64(st, 3))) {
+            states[k - j->first] = STORE_FRAME_DONE;
+            done++;
+        } else if (!strcmp(state, "done")) {
+            log_warn("job %s: frame %ld's files are missing or not whole: it renders again", j->id,
+                     k);
+        }
+    }
+    sqlite3_finalize(st);
+    return done;
 }
 
 void store_rows_free(struct store_job *rows, int n) {

@@ -394,6 +394,15 @@ void task_job_ref(struct task *t) {
     t->njobs++;
 }
 
+void task_raise_priority(struct task *t, int priority) {
+    if (priority > t->priority) t->priority = priority;
+}
+
+void task_admitted(struct task *t, int priority) {
+    t->restored = true;
+    t->priority = priority;
+}
+
 void task_job_drop(struct task *t) {
     work_assert_locked();
     server_assert(t->njobs > 0);

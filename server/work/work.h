@@ -273,7 +273,7 @@ void durable_stop(void); /* after sched_stop: what is queued is written */
 
 /* ---- events.c: a job's progress as a stream ------------------------------- */
 
-enum events_kind { EVENTS_STATE, EVENTS_TILE, EVENTS_PASS, EVENTS_DONE, EVENTS_PING };
+enum events_kind { EVENTS_STATE, EVENTS_TILE, EVENTS_PASS, EVENTS_FRAME, EVENTS_DONE, EVENTS_PING };
 struct events_item {
     enum events_kind kind;
     enum jobs_state state;   /* STATE, DONE */
@@ -282,6 +282,8 @@ struct events_item {
     double progress;         /* TILE, PASS, DONE */
     int samples;             /* PASS: samples of the pass; DONE: of the image (progressive) */
     double time_s, noise;    /* PASS: as struct jobs_passes */
+    long frame;              /* FRAME: the frame that ended (shots.c), done or failed */
+    bool frame_failed;       /* FRAME: out of attempts; done, total: frames done, of all */
 };
 struct events_stream;
 struct events_stream *events_open(const char *id); /* NULL: no such job */
@@ -291,6 +293,68 @@ struct events_stream *events_open(const char *id); /* NULL: no such job */
 int events_read(struct events_stream *s, struct events_item *items, int n, struct rayd_error *err,
                 struct work_waiter *w);
 void events_close(struct events_stream *s); /* NULL allowed */
+
+/* ---- shots.c: frame-range jobs --------------------------------------------- */
+
+/* POST /v1/jobs of an animated scene: frames first..last, each rendered as
+ * a render of its own (the scene parsed at that frame), fair-shared with
+ * everything else.  Its id is a job id: the job routes look here first. */
+struct shots_new {
+    const char *text; /* the scene as sent (copied) */
+    size_t len;
+    char scene_id[65];
+    struct work_target what; /* the region, keep_exr, the client */
+    int priority;
+    long first, last; /* within the animation's frames */
+    double fps;
+    double est_rays;       /* of every frame */
+    struct work_waiter *w; /* --data-dir: told once the job is on disk */
+    bool waiting;          /* out: w->suspend ran and w->done will be called once */
+};
+/* A new shot; with --data-dir recorded on disk before anyone is told of it
+ * (n->waiting, as jobs_submit's). */
+enum work_submit shots_submit(struct shots_new *n, char id[33]);
+enum shots_video { SV_NONE, SV_MAKING, SV_READY, SV_FAILED, SV_NO_FFMPEG };
+struct shots_info {
+    struct jobs_info job; /* as a job's: state, progress (of frames), error, ... */
+    long first, last, total, done, running, queued, failed;
+    long latest;  /* the frame that ended last, -1: none yet */
+    double eta_s; /* < 0: none */
+    double fps;
+    int video; /* enum shots_video */
+    char video_error[200];
+};
+bool shots_get(const char *id, struct shots_info *info);
+/* As jobs_list, for the frame-range jobs (their seq from the same count). */
+int shots_list(uint64_t client, int state, long long before, struct shots_info *out, int n,
+               bool *more);
+enum shots_frame_state {
+    SHOTS_NO_JOB,
+    SHOTS_OUTSIDE, /* k outside first..last */
+    SHOTS_QUEUED,
+    SHOTS_RUNNING,
+    SHOTS_DONE,
+    SHOTS_FAILED
+};
+/* Frame k of shot id: its image (referenced; NULL unless done) and info. */
+enum shots_frame_state shots_frame(const char *id, long k, bool exr, struct blob **img,
+                                   struct shots_info *info);
+bool shots_cancel(const char *id); /* false: no such shot */
+/* The shot's video once made (referenced), else NULL with info->video. */
+struct blob *shots_video(const char *id, struct shots_info *info);
+bool shots_start(int max_jobs);
+void shots_stop(void);
+/* An event stream of a shot: its state, one FRAME item per frame that
+ * ended, then DONE; read as events_read. */
+struct shot;
+struct shots_cursor {
+    int cursor, done;
+    bool started, sent_done;
+};
+struct shot *shots_open(const char *id); /* NULL: no such shot */
+int shots_events_read(struct shot *s, struct shots_cursor *c, struct events_item *items, int n,
+                      struct rayd_error *err, struct work_waiter *w);
+void shots_close(struct shot *s); /* NULL allowed */
 
 /* ---- compile.c: scenes parsed off the HTTP threads ------------------------- */
 
@@ -322,6 +386,12 @@ struct compile_waiter {
  * not used. */
 enum work_submit compile_scene(const char *body, size_t len, struct compile_waiter *w,
                                struct compile_result *res);
+/* compile_scene of body at frame `frame` of its animation (a frame-range
+ * job's, shots.c): cached under an id of its own (the body's id and the
+ * frame), so each frame is parsed once and frame k is the bytes
+ * rayd_scene_parse_frame gives. */
+enum work_submit compile_scene_frame(const char *body, size_t len, long frame,
+                                     struct compile_waiter *w, struct compile_result *res);
 /* The cached scene of id for a request that names only its id (GET
  * /v1/scenes/{id}/image.png), its files checked (scenefiles.c): on this
  * thread when it has few, else on the pool (WORK_OK, as above).  res->scene

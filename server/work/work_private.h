@@ -101,11 +101,12 @@ bool scenes_current(struct cache_entry *e, bool have_text); /* scenefiles_usable
 /* The bytes a parse of a len-byte body reserves (kind parses) before it
  * starts: its first cap, raised by scenes_build while the scene needs more. */
 size_t scenes_parse_cap(size_t len);
-/* Parses and builds body (of that id) and caches it; *out referenced.  held:
+/* Parses and builds body (of that id) at frame `frame` (-1: as
+ * rayd_scene_parse, the first) and caches it; *out referenced.  held:
  * the bytes of kind parses reserved for it (scenes_parse_cap), which this
  * releases or turns into the scene's own on every path.  *full: refused
  * because the memory budget has no room now (503 memory_full). */
-enum rayd_status scenes_build(const char *id, const char *body, size_t len, size_t held,
+enum rayd_status scenes_build(const char *id, const char *body, size_t len, long frame, size_t held,
                               struct cache_entry **out, struct rayd_error *err, bool *full);
 
 /* ---- scenefiles.c: the files a cached scene read (any thread, no lock) ---- */
@@ -401,6 +402,14 @@ void task_wait_news(struct task *t, struct work_waiter *w);
  * of its interest (cancelled; its reference stays until the job goes).
  * Lock held. */
 void task_job_ref(struct task *t);
+/* t, not yet submitted, renders for a job already admitted (a frame of a
+ * frame-range job, a job put back at start-up): past --queue, at that
+ * priority.  Any lock: t is the caller's own still. */
+void task_admitted(struct task *t, int priority);
+/* t's priority (enum jobs_priority) at least priority: a job of t's own
+ * client joined it, or a new task is made for a job.  Lock held once t is
+ * submitted. */
+void task_raise_priority(struct task *t, int priority);
 void task_job_drop(struct task *t);
 /* t, not yet submitted, renders in progressive passes p for job id alone
  * (its key gets the id).  Any lock: t is the caller's own still. */
@@ -459,6 +468,9 @@ struct store_job {
     char evicted_why[96];
     int attempts;   /* starts of rayd that found it unfinished */
     bool result_ok; /* store_load: its files are there, whole */
+    bool frames;    /* a frame-range job (shots.c) of frames first..last at fps */
+    long first, last;
+    double fps;
 };
 /* Opens DIR's store (before any thread but main's): -1 after saying why. */
 int store_open(const char *dir);
@@ -477,6 +489,16 @@ void store_hooks(void (*written)(const char *id),
 bool store_insert(struct store_job *row, struct work_waiter *w);
 void store_end(const struct store_job *row, struct blob *png, struct blob *exr);
 void store_forget(const char *id);
+/* Frame k of frame-range job id is done: its images written whole (a
+ * temporary name, fsync, rename), then its row says so.  Lock held. */
+void store_frame(const char *id, long k, struct blob *png, struct blob *exr);
+/* Frame k's image from its file, or NULL; any thread (a plain read). */
+struct blob *store_read_frame(const char *id, long k, bool exr);
+/* A frame-range job's frames at start-up (main thread): states[k - first]
+ * STORE_FRAME_DONE for each frame done with its files whole, else
+ * STORE_FRAME_QUEUED; how many are done, -1 on an error. */
+enum { STORE_FRAME_QUEUED, STORE_FRAME_DONE };
+int store_load_frames(const struct store_job *j, unsigned char *states);
 
 /* ---- jobs.c (lock held) -------------------------------------------------------- */
 
@@ -512,6 +534,14 @@ void jobs_unref(struct job *j);
 /* Forgets the jobs that ended (finished, failed or were cancelled) more
  * than --job-ttl seconds ago, each leaving a tombstone (jobs_gone). */
 void jobs_expire(double now);
+/* The next creation number (GET /v1/jobs's order), shared by the
+ * frame-range jobs (shots.c); lock held. */
+long long jobs_next_seq(void);
+void jobs_seen_seq(long long seq); /* a restored job's number: the next ones come after */
+/* Start-up (durable.c): a frame-range job of the store put back, its done
+ * frames (states, store_load_frames) served from their files, the others
+ * queued again unless it ended; false: no room or memory. */
+bool shots_restore(const struct store_job *row, const unsigned char *states);
 
 /* ---- watch.c ------------------------------------------------------------------- */
 

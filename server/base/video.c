@@ -1,0 +1,191 @@
+/* video.c -- a frame-range job's frames as an H.264 MP4, made by the
+ * `ffmpeg` program, as rayd-render --video makes it.
+ *
+ * The frames are PNGs already (the job's); they go to a folder of their
+ * own under $TMPDIR (frame-000000.png, ...), ffmpeg reads them with its
+ * image2 reader and writes out.mp4 there with the options rayd-render
+ * uses (libx264, yuv420p, preset veryfast, crf 18, +faststart, an odd
+ * width or height padded to even), and the folder is removed.  ffmpeg is a
+ * program, not a library, for the reason rayd-render gives: Debian's
+ * package is everywhere, and a crash of the encoder cannot take rayd with
+ * it.  Its time is bounded: past the limit it is killed and the video
+ * fails saying so.  This runs on the caller's thread and blocks for the
+ * encode's time: never call it on an HTTP thread (shots.c has a thread
+ * of its own).  Its standard error goes to a file whose last line is the
+ * message of a failure.
+ */
+#include "base/base.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+extern char **environ;
+
+/* bytes to path whole; 0, or -1 with errno. */
+static int video_write(const char *path, const void *data, size_t len) {
+    int fd = open(path, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+    if (fd < 0) return -1;
+    const unsigned char *p = data;
+    while (len > 0) {
+        ssize_t n = write(fd, p, len);
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) {
+            close(fd);
+            return -1;
+        }
+        p += n;
+        len -= (size_t)n;
+    }
+    return close(fd);
+}
+
+/* path's bytes as a blob, or NULL. */
+static struct blob *video_read(const char *path) {
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    struct stat st;
+    unsigned char *data = NULL;
+    size_t got = 0;
+    if (fstat(fileno(f), &st) == 0 && st.st_size > 0 && (data = malloc((size_t)st.st_size)))
+        got = fread(data, 1, (size_t)st.st_size, f);
+    fclose(f);
+    struct blob *b = data && got == (size_t)st.st_size ? blob_new(data, got) : NULL;
+    if (!b) free(data);
+    return b;
+}
+
+/* Runs ffmpeg over dir's frames into dir/out.mp4, waiting up to limit
+ * seconds: its exit status, -2 when it was killed for time, -1 (errno)
+ * when it could not start. */
+static int video_ffmpeg(const char *dir, double fps, double limit) {
+    char in[4200], out[4200], log[4200], rate[64];
+    snprintf(in, sizeof in, "%s/frame-%%06d.png", dir);
+    snprintf(out, sizeof out, "%s/out.mp4", dir);
+    snprintf(log, sizeof log, "%s/ffmpeg.log", dir);
+    snprintf(rate, sizeof rate, "%.17g", fps);
+    char *argv[] = {"ffmpeg",     "-hide_banner",
+                    "-loglevel",  "error",
+                    "-nostats",   "-y",
+                    "-framerate", rate,
+                    "-i",         in,
+                    "-vf",        "pad=ceil(iw/2)*2:ceil(ih/2)*2",
+                    "-c:v",       "libx264",
+                    "-pix_fmt",   "yuv420p",
+                    "-preset",    "veryfast",
+                    "-crf",       "18",
+                    "-movflags",  "+faststart",
+                    out,          NULL};
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
+    posix_spawn_file_actions_addopen(&fa, STDOUT_FILENO, "/dev/null", O_WRONLY, 0);
+    posix_spawn_file_actions_addopen(&fa, STDERR_FILENO, log, O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    pid_t pid;
+    int e = posix_spawnp(&pid, "ffmpeg", &fa, NULL, argv, environ);
+    posix_spawn_file_actions_destroy(&fa);
+    if (e != 0) {
+        errno = e;
+        return -1;
+    }
+    double end = clock_now() + limit;
+    int status = 0;
+    for (;;) {
+        pid_t w = waitpid(pid, &status, WNOHANG);
+        if (w == pid) break;
+        if (w < 0 && errno != EINTR) return 1;
+        if (clock_now() > end) {
+            kill(pid, SIGKILL);
+            waitpid(pid, &status, 0);
+            return -2;
+        }
+        struct timespec ts = {0, 20 * 1000000L};
+        nanosleep(&ts, NULL);
+    }
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+/* The last line ffmpeg wrote to its log, for the error. */
+static void video_log_tail(const char *dir, char *buf, size_t size) {
+    char path[4200], line[400] = "";
+    snprintf(path, sizeof path, "%s/ffmpeg.log", dir);
+    FILE *f = fopen(path, "r");
+    if (f) {
+        char l[400];
+        while (fgets(l, sizeof l, f))
+            if (l[0] != '\n') snprintf(line, sizeof line, "%s", l);
+        fclose(f);
+    }
+    line[strcspn(line, "\n")] = 0;
+    snprintf(buf, size, "%s", line[0] ? line : "no message");
+}
+
+/* Removes dir's files and dir. */
+static void video_clean(const char *dir, int n) {
+    char path[4200];
+    for (int i = 0; i < n; i++) {
+        snprintf(path, sizeof path, "%s/frame-%06d.png", dir, i);
+        unlink(path);
+    }
+    snprintf(path, sizeof path, "%s/out.mp4", dir);
+    unlink(path);
+    snprintf(path, sizeof path, "%s/ffmpeg.log", dir);
+    unlink(path);
+    rmdir(dir);
+}
+
+enum video_status video_encode(struct blob *const *frames, int n, double fps, double limit,
+                               struct blob **out, char *err, size_t size) {
+    *out = NULL;
+    const char *base = getenv("TMPDIR");
+    char dir[4096], path[4200];
+    snprintf(dir, sizeof dir, "%s/rayd-video-XXXXXX", base && *base ? base : "/tmp");
+    if (!mkdtemp(dir)) {
+        snprintf(err, size, "cannot make a folder for the video's frames: %s", strerror(errno));
+        return VIDEO_FAILED;
+    }
+    int written = 0;
+    for (; written < n; written++) {
+        snprintf(path, sizeof path, "%s/frame-%06d.png", dir, written);
+        if (!frames[written] ||
+            video_write(path, frames[written]->data, frames[written]->len) != 0) {
+            snprintf(err, size, "cannot write frame %d for the video: %s", written,
+                     frames[written] ? strerror(errno) : "its image is gone");
+            video_clean(dir, written + 1);
+            return VIDEO_FAILED;
+        }
+    }
+    int rc = video_ffmpeg(dir, fps, limit);
+    enum video_status st = VIDEO_OK;
+    if (rc == -1) {
+        snprintf(err, size,
+                 "the video needs the ffmpeg program (Debian's ffmpeg package), which could not "
+                 "be run: %s",
+                 strerror(errno));
+        st = VIDEO_NO_FFMPEG;
+    } else if (rc == -2) {
+        snprintf(err, size, "ffmpeg took more than %.0f s and was stopped", limit);
+        st = VIDEO_FAILED;
+    } else if (rc != 0) {
+        char tail[300];
+        video_log_tail(dir, tail, sizeof tail);
+        snprintf(err, size, "ffmpeg failed (status %d): %s", rc, tail);
+        st = rc == 127 ? VIDEO_NO_FFMPEG : VIDEO_FAILED;
+    } else {
+        snprintf(path, sizeof path, "%s/out.mp4", dir);
+        if (!(*out = video_read(path))) {
+            snprintf(err, size, "cannot read the video ffmpeg wrote");
+            st = VIDEO_FAILED;
+        }
+    }
+    video_clean(dir, n);
+    return st;
+}

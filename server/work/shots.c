@@ -1,0 +1,821 @@
+/* shots.c -- frame-range jobs: POST /v1/jobs of an animated scene renders
+ * frames A..B, each frame a render of its own.
+ *
+ * A shot keeps the scene as sent and, per frame, its state and images.
+ * Frames go through the ordinary machinery one at a time: the scene is
+ * parsed at that frame (compile_scene_frame, on the parse threads: frame k
+ * is a scene of its own in the cache), then rendered as a plain task of the
+ * job's client and priority, so every frame is fair-shared tile by tile
+ * with everything else exactly as a single job is (fair.c chooses the
+ * client, task_pick the client's task).  At most as many frames as there
+ * are workers are in flight at once (parsing or rendering): enough to keep
+ * the pool busy on small frames, few enough that the frames' scenes and
+ * pixels stay bounded whatever the range.
+ *
+ * Frame k's image is the task's PNG (and EXR, ?format=exr), the same bytes
+ * POST /v1/render of the scene at frame k gives, and rayd-render --frame K.
+ * A frame that fails is tried again, SHOTS_TRIES attempts in all; a frame
+ * out of attempts stops the shot (no new frame starts) and the job fails
+ * naming it once the frames in flight are done.  A render cancelled by the
+ * drain is not a failure: the frame is queued again (and, with --data-dir,
+ * rendered after the restart).
+ *
+ * Nothing here blocks: the parse threads call shots_parsed, the workers
+ * shots_rendered (both with no lock held), and each starts the next
+ * frames.  The table and every shot's numbers are under work_lock; a shot
+ * is held by the table, each frame in flight and each open event stream.
+ */
+#include "work/work_private.h"
+
+#include <stdlib.h>
+#include <string.h>
+#include <sys/random.h>
+#include <time.h>
+
+/* How many times a frame is tried before the job fails naming it. */
+#define SHOTS_TRIES 3
+
+enum shots_fstate { SF_QUEUED, SF_PARSING, SF_RUNNING, SF_DONE, SF_FAILED };
+
+struct shot_frame {
+    unsigned char state; /* enum shots_fstate */
+    unsigned char tries; /* attempts that failed */
+    bool on_disk;        /* done before this process started: its images are files */
+    struct blob *png, *exr;
+};
+
+/* One attempt at one frame: the parse, then the render. */
+struct shots_fly {
+    struct compile_waiter cw; /* first: the parse's callbacks get it back */
+    struct work_waiter ww;
+    struct shot *s;
+    int i;                  /* the frame's index in the shot (frame first + i) */
+    struct task *t;         /* the render, once submitted (a job's reference) */
+    bool dropped;           /* the cancel let go of t's interest already */
+    struct shots_fly *next; /* the shot's attempts in flight */
+};
+
+struct shot {
+    char id[33];
+    int refs; /* the table, each attempt in flight, each open stream */
+    uint64_t client;
+    int priority;
+    long long seq;
+    double created, created_wall, t_end, canceled_at;
+    char *text; /* the scene as sent */
+    size_t len;
+    char scene_id[65];
+    struct rayd_region reg;
+    bool keep_exr, canceled, recorded; /* recorded: its end is queued to the store */
+    long first, last;
+    int n, ndone, nfailed, flying, latest;
+    double fps, est_rays;
+    uint64_t rays;
+    struct shot_frame *f;
+    int *order; /* frames in the order they ended (done or failed), for streams */
+    int norder;
+    struct rayd_error err;   /* the first frame that failed for good */
+    struct shots_fly *flies; /* in flight */
+    struct work_waiter *sse; /* event streams waiting for news */
+    int video_state;         /* enum shots_video */
+    struct blob *video;
+    char video_error[200];
+};
+
+static struct shot **shots_table;
+static int shots_n;
+
+/* The videos to make, one at a time, on the video thread (lock held). */
+struct shots_videoq {
+    struct shot *s;
+    struct shots_videoq *next;
+};
+static struct shots_videoq *shots_vq;
+static pthread_cond_t shots_vcond = PTHREAD_COND_INITIALIZER;
+static pthread_once_t shots_vonce = PTHREAD_ONCE_INIT;
+static bool shots_vthread;
+static void shots_video_queue(struct shot *s);
+
+static double shots_wall_now(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    return (double)ts.tv_sec + (double)ts.tv_nsec / 1e9;
+}
+
+static void shots_free(struct shot *s) {
+    for (int i = 0; i < s->n; i++) {
+        blob_unref(s->f[i].png);
+        blob_unref(s->f[i].exr);
+    }
+    blob_unref(s->video);
+    free(s->f);
+    free(s->order);
+    free(s->text);
+    free(s);
+}
+
+/* Lock held. */
+static void shots_unref(struct shot *s) {
+    work_assert_locked();
+    if (--s->refs == 0) shots_free(s);
+}
+
+static bool shots_final(const struct shot *s) {
+    return s->canceled || s->ndone == s->n || (s->nfailed > 0 && s->flying == 0);
+}
+
+static enum jobs_state shots_state(const struct shot *s) {
+    if (s->canceled) return JS_CANCELED;
+    if (s->ndone == s->n) return JS_SUCCEEDED;
+    if (s->nfailed > 0 && s->flying == 0) return JS_FAILED;
+    if (s->ndone > 0) return JS_RUNNING;
+    for (const struct shots_fly *fl = s->flies; fl; fl = fl->next)
+        if (fl->t && fl->t->t_start > 0) return JS_RUNNING; /* a tile of it started */
+    return JS_QUEUED;
+}
+
+/* When a final shot ended (clock_now's clock). */
+static double shots_ended(const struct shot *s) { return s->canceled ? s->canceled_at : s->t_end; }
+
+/* Forgets the shots that ended more than --job-ttl seconds ago; lock held. */
+static void shots_expire(double now) {
+    for (int i = 0; i < shots_n;) {
+        struct shot *s = shots_table[i];
+        if (shots_final(s) && s->flying == 0 && now - shots_ended(s) > (double)config.job_ttl) {
+            if (store_on()) store_forget(s->id);
+            shots_table[i] = shots_table[--shots_n];
+            shots_unref(s);
+        } else {
+            i++;
+        }
+    }
+}
+
+static struct shot *shots_find(const char *id) {
+    work_assert_locked();
+    shots_expire(clock_now());
+    for (int i = 0; i < shots_n; i++)
+        if (!strcmp(shots_table[i]->id, id)) return shots_table[i];
+    return NULL;
+}
+
+/* The shots not finished (they count against --max-jobs with the jobs). */
+static long shots_unfinished(void) {
+    work_assert_locked();
+    long n = 0;
+    for (int i = 0; i < shots_n; i++) n += !shots_final(shots_table[i]);
+    return n;
+}
+
+/* ---- the store (--data-dir) ------------------------------------------------------ */
+
+static void shots_error(const struct shot *s, struct rayd_error *err);
+
+/* s's record for the store (lock held). */
+static void shots_record(const struct shot *s, struct store_job *row) {
+    memset(row, 0, sizeof *row);
+    snprintf(row->id, sizeof row->id, "%s", s->id);
+    row->seq = s->seq;
+    row->client = s->client;
+    row->priority = s->priority;
+    row->created_wall = s->created_wall;
+    row->state = shots_state(s);
+    snprintf(row->scene_id, sizeof row->scene_id, "%s", s->scene_id);
+    row->reg = s->reg;
+    row->keep_exr = s->keep_exr;
+    row->tiles = s->ndone;
+    row->rays = s->rays;
+    row->est_rays = s->est_rays;
+    row->frames = true;
+    row->first = s->first;
+    row->last = s->last;
+    row->fps = s->fps;
+    if (row->state == JS_FAILED) shots_error(s, &row->err);
+    if (shots_final(s)) row->ended_wall = s->created_wall + (shots_ended(s) - s->created);
+}
+
+/* s ended: its end recorded once (lock held). */
+static void shots_record_end(struct shot *s) {
+    if (!store_on() || s->recorded) return;
+    struct store_job row;
+    shots_record(s, &row);
+    store_end(&row, NULL, NULL);
+    s->recorded = true;
+}
+
+/* ---- one frame's attempt ------------------------------------------------------ */
+
+static void shots_pump(struct shot *s);
+static void shots_suspend_none(struct compile_waiter *w) { (void)w; }
+
+/* The attempt fl of a frame is over (no lock held): its images kept, or
+ * the frame queued again (a drain, or a failure with attempts left), or
+ * failed for good.  The streams are told, and, pump, the next frames
+ * started. */
+static void shots_frame_end(struct shots_fly *fl, enum rayd_status st, const struct rayd_error *err,
+                            struct blob *png, struct blob *exr, bool drained, bool pump) {
+    struct shot *s = fl->s;
+    struct task_notify sse = {0};
+    work_lock_take();
+    struct shot_frame *f = &s->f[fl->i];
+    s->flying--;
+    for (struct shots_fly **p = &s->flies; *p; p = &(*p)->next)
+        if (*p == fl) {
+            *p = fl->next;
+            break;
+        }
+    if (st == RAYD_OK && png) {
+        f->state = SF_DONE;
+        f->png = png;
+        f->exr = exr;
+        png = exr = NULL;
+        s->ndone++;
+        s->latest = fl->i;
+        s->order[s->norder++] = fl->i;
+        if (store_on()) store_frame(s->id, s->first + fl->i, f->png, f->exr);
+        if (s->ndone == s->n) shots_video_queue(s);
+    } else if (drained || s->canceled || (st == RAYD_E_CANCELED && task_draining())) {
+        f->state = SF_QUEUED;
+    } else if (++f->tries < SHOTS_TRIES) {
+        f->state = SF_QUEUED;
+        log_warn("job %s: frame %ld failed (%s), trying again", s->id, s->first + fl->i,
+                 err ? err->message : "?");
+    } else {
+        f->state = SF_FAILED;
+        s->nfailed++;
+        s->order[s->norder++] = fl->i;
+        if (!s->err.code && err) s->err = *err;
+        if (!s->err.code) s->err.code = st != RAYD_OK ? st : RAYD_E_INTERNAL;
+    }
+    bool ended = shots_final(s) && s->t_end == 0;
+    if (ended) s->t_end = clock_now();
+    /* a drain's cancel is no end: the job stays queued on disk */
+    if (shots_final(s) && s->flying == 0 && !(drained && !s->canceled)) shots_record_end(s);
+    task_notify_add(&sse, &s->sse);
+    work_lock_give();
+    blob_unref(png);
+    blob_unref(exr);
+    task_notify_run(&sse);
+    if (pump) shots_pump(s);
+    work_lock_take();
+    shots_unref(s);
+    work_lock_give();
+    free(fl);
+}
+
+static void shots_noop(struct work_waiter *w) { (void)w; }
+
+/* A worker finished the frame's render (no lock held). */
+static void shots_rendered(struct work_waiter *w, struct work_result *res) {
+    struct shots_fly *fl = (struct shots_fly *)((char *)w - offsetof(struct shots_fly, ww));
+    work_lock_take();
+    struct task *t = fl->t;
+    struct blob *exr = res->status == RAYD_OK ? blob_ref(t->exr) : NULL;
+    fl->s->rays += t->rays;
+    if (!fl->dropped) task_job_drop(t);
+    task_unref(t);
+    fl->t = NULL; /* the readers of s->flies must not see it again */
+    work_lock_give();
+    shots_frame_end(fl, res->status, &res->err, res->png, exr, res->draining, true);
+}
+
+/* The frame's refusal as an error naming why. */
+static void shots_refusal(enum work_submit why, struct rayd_error *err) {
+    memset(err, 0, sizeof *err);
+    err->code = why == WORK_TOO_BIG ? RAYD_E_LIMIT : RAYD_E_NOMEM;
+    snprintf(err->message, sizeof err->message, "the frame's render was refused: %s",
+             why == WORK_TOO_BIG  ? "it alone is over the memory budget (--max-memory)"
+             : why == WORK_MEMORY ? "no room in the memory budget now (--max-memory)"
+             : why == WORK_FULL   ? "the render queue is full (--queue)"
+                                  : "out of memory");
+}
+
+/* The frame's scene is compiled: its render submitted (no lock held). */
+static void shots_render(struct shots_fly *fl, struct cache_entry *scene) {
+    struct shot *s = fl->s;
+    struct work_target what = {
+        .reg = s->reg, .format = WORK_PNG, .keep_exr = s->keep_exr, .client = s->client};
+    enum work_submit r = WORK_OK;
+    struct task *fresh = budget_task(scene, &what, false, &r);
+    if (fresh) task_admitted(fresh, s->priority);
+    work_lock_take();
+    struct task *t = NULL;
+    if (fresh) r = s->canceled ? WORK_DRAINING : task_submit(scene, &fresh, &t);
+    if (r == WORK_OK) {
+        fl->t = t;
+        task_job_ref(t);
+        s->f[fl->i].state = SF_RUNNING;
+        fl->ww.done = shots_rendered;
+        fl->ww.suspend = shots_noop;
+        fl->ww.fd = -1;
+        task_wait(t, &fl->ww);
+    }
+    work_lock_give();
+    if (fresh) task_unref(fresh);
+    if (r == WORK_OK) return;
+    struct rayd_error err;
+    shots_refusal(r, &err);
+    shots_frame_end(fl, RAYD_E_NOMEM, &err, NULL, NULL, r == WORK_DRAINING, false);
+}
+
+/* The parse threads' answer (no lock held). */
+static void shots_parsed(struct compile_waiter *w, struct compile_result *res) {
+    struct shots_fly *fl = (struct shots_fly *)w;
+    if (res->status != RAYD_OK || !res->scene) {
+        shots_frame_end(fl, res->status ? res->status : RAYD_E_INTERNAL, &res->err, NULL, NULL,
+                        res->draining, false);
+        return;
+    }
+    shots_render(fl, res->scene);
+    scenes_release(res->scene);
+}
+
+/* How many frames of a shot may be in flight: the workers'. */
+static int shots_width(void) {
+    struct sched_stats st;
+    sched_stats(&st);
+    return st.workers > 1 ? (int)st.workers : 1;
+}
+
+/* Starts s's next frames while fewer than shots_width are in flight (no
+ * lock held); stops at a failed frame, a cancel or a drain. */
+static void shots_pump(struct shot *s) {
+    int width = shots_width();
+    for (;;) {
+        int i = -1;
+        work_lock_take();
+        if (!s->canceled && !s->nfailed && !task_draining() && s->flying < width)
+            for (int k = 0; k < s->n && i < 0; k++)
+                if (s->f[k].state == SF_QUEUED) i = k;
+        struct shots_fly *fl = i >= 0 ? calloc(1, sizeof *fl) : NULL;
+        if (fl) {
+            s->f[i].state = SF_PARSING;
+            s->flying++;
+            s->refs++;
+            fl->next = s->flies;
+            s->flies = fl;
+        }
+        work_lock_give();
+        if (!fl) return;
+        fl->s = s;
+        fl->i = i;
+        fl->cw.done = shots_parsed;
+        fl->cw.suspend = shots_suspend_none;
+        struct compile_result res;
+        enum work_submit r = compile_scene_frame(s->text, s->len, s->first + i, &fl->cw, &res);
+        if (r == WORK_CACHED) {
+            shots_parsed(&fl->cw, &res);
+        } else if (r != WORK_OK) {
+            struct rayd_error err;
+            shots_refusal(r == WORK_PARSE_FULL ? WORK_FULL : r, &err);
+            shots_frame_end(fl, RAYD_E_NOMEM, &err, NULL, NULL, r == WORK_DRAINING, false);
+            return;
+        }
+    }
+}
+
+/* ---- the table ------------------------------------------------------------------ */
+
+bool shots_start(int max_jobs) {
+    shots_table = calloc((size_t)max_jobs, sizeof *shots_table);
+    return shots_table != NULL;
+}
+
+void shots_stop(void) {
+    work_lock_take();
+    for (int i = 0; i < shots_n; i++) shots_unref(shots_table[i]);
+    shots_n = 0;
+    work_lock_give();
+    free(shots_table);
+    shots_table = NULL;
+}
+
+/* A new shot of n->first..n->last (lock held; the table has room). */
+static struct shot *shots_new(const struct shots_new *n) {
+    struct shot *s = calloc(1, sizeof *s);
+    long count = n->last - n->first + 1;
+    if (!s) return NULL;
+    s->f = calloc((size_t)count, sizeof *s->f);
+    s->order = calloc((size_t)count, sizeof *s->order);
+    s->text = malloc(n->len + 1);
+    if (!s->f || !s->order || !s->text) {
+        shots_free(s);
+        return NULL;
+    }
+    memcpy(s->text, n->text, n->len);
+    s->text[n->len] = 0;
+    s->len = n->len;
+    s->n = (int)count;
+    s->first = n->first;
+    s->last = n->last;
+    s->fps = n->fps;
+    s->reg = n->what.reg;
+    s->keep_exr = n->what.keep_exr;
+    s->client = n->what.client;
+    s->priority = n->priority;
+    s->est_rays = n->est_rays;
+    s->latest = -1;
+    snprintf(s->scene_id, sizeof s->scene_id, "%s", n->scene_id);
+    s->created = clock_now();
+    s->created_wall = shots_wall_now();
+    s->refs = 1;
+    return s;
+}
+
+enum work_submit shots_submit(struct shots_new *n, char id[33]) {
+    n->waiting = false;
+    uint8_t rnd[16];
+    if (getrandom(rnd, sizeof rnd, 0) != (ssize_t)sizeof rnd) return WORK_NOMEM;
+    for (int i = 0; i < 16; i++) snprintf(id + 2 * i, 3, "%02x", rnd[i]);
+    work_lock_take();
+    enum work_submit r = WORK_OK;
+    long unfinished, cap;
+    jobs_count(&unfinished, &cap);
+    shots_expire(clock_now());
+    struct shot *s = NULL;
+    if (task_draining())
+        r = WORK_DRAINING;
+    else if (!shots_table) /* shots_start not run (a harness of the handlers) */
+        r = WORK_NOMEM;
+    else if (unfinished + shots_unfinished() >= cap || shots_n >= config.max_jobs)
+        r = WORK_TOO_MANY_JOBS;
+    else if (!(s = shots_new(n)))
+        r = WORK_NOMEM;
+    if (s) {
+        snprintf(s->id, sizeof s->id, "%s", id);
+        s->seq = jobs_next_seq();
+        shots_table[shots_n++] = s;
+        s->refs++; /* the pump's, below */
+        struct store_job row;
+        shots_record(s, &row);
+        row.scene = store_on() ? malloc(n->len + 1) : NULL;
+        if (row.scene) {
+            memcpy(row.scene, n->text, n->len);
+            row.scene[n->len] = 0;
+            row.scene_len = n->len;
+            n->waiting = store_insert(&row, n->w);
+            free(row.scene);
+        }
+    }
+    work_lock_give();
+    if (!s) return r;
+    shots_pump(s);
+    work_lock_take();
+    shots_unref(s);
+    work_lock_give();
+    return WORK_OK;
+}
+
+/* ---- start-up: a frame-range job of the store put back --------------------------- */
+
+bool shots_restore(const struct store_job *row, const unsigned char *states) {
+    struct shots_new n = {
+        .text = row->scene,
+        .len = row->scene_len,
+        .what = {.reg = row->reg, .keep_exr = row->keep_exr, .client = row->client},
+        .priority = row->priority,
+        .first = row->first,
+        .last = row->last,
+        .fps = row->fps,
+        .est_rays = row->est_rays};
+    snprintf(n.scene_id, sizeof n.scene_id, "%s", row->scene_id);
+    work_lock_take();
+    struct shot *s = shots_table && shots_n < config.max_jobs ? shots_new(&n) : NULL;
+    if (s) {
+        snprintf(s->id, sizeof s->id, "%s", row->id);
+        s->seq = row->seq;
+        jobs_seen_seq(row->seq);
+        s->created_wall = row->created_wall;
+        s->created = clock_now() - (shots_wall_now() - row->created_wall);
+        s->rays = row->rays;
+        for (int i = 0; i < s->n; i++)
+            if (states[i] == STORE_FRAME_DONE) {
+                s->f[i].state = SF_DONE;
+                s->f[i].on_disk = true;
+                s->order[s->norder++] = i;
+                s->ndone++;
+                s->latest = i;
+            }
+        bool ended = row->state != JS_QUEUED;
+        if (ended) {
+            s->recorded = true;
+            s->canceled = row->state == JS_CANCELED;
+            s->t_end = s->canceled_at = clock_now() - (shots_wall_now() - row->ended_wall);
+            if (row->state == JS_FAILED) { /* its failed frames are not known: the first left */
+                s->err = row->err;
+                for (int i = 0; i < s->n && !s->nfailed; i++)
+                    if (s->f[i].state != SF_DONE) {
+                        s->f[i].state = SF_FAILED;
+                        s->nfailed = 1;
+                    }
+            }
+        }
+        if (!ended && s->ndone == s->n)
+            s->t_end = clock_now();                 /* all done, its end not yet written */
+        if (s->ndone == s->n) shots_video_queue(s); /* made again: videos are not kept */
+        shots_table[shots_n++] = s;
+        s->refs++;
+    }
+    work_lock_give();
+    if (!s) return false;
+    if (row->state == JS_QUEUED) shots_pump(s);
+    work_lock_take();
+    if (row->state == JS_QUEUED && shots_final(s)) shots_record_end(s);
+    shots_unref(s);
+    work_lock_give();
+    return true;
+}
+
+/* ---- what the handlers read ------------------------------------------------------- */
+
+/* The failed frames named in err's message: "frames 3, 4 failed after 3
+ * attempts: ..." (lock held). */
+static void shots_error(const struct shot *s, struct rayd_error *err) {
+    *err = s->err;
+    char list[200];
+    size_t used = 0;
+    int named = 0;
+    list[0] = 0;
+    for (int i = 0; i < s->n && named < 10; i++)
+        if (s->f[i].state == SF_FAILED) {
+            int k =
+                snprintf(list + used, sizeof list - used, "%s%ld", named ? ", " : "", s->first + i);
+            if (k > 0 && (size_t)k < sizeof list - used) used += (size_t)k;
+            named++;
+        }
+    char head[256];
+    snprintf(head, sizeof head, "frame%s %s failed after %d attempts: ", s->nfailed > 1 ? "s" : "",
+             list, SHOTS_TRIES);
+    size_t h = strlen(head);
+    memcpy(err->message, head, h < sizeof err->message ? h : sizeof err->message - 1);
+    snprintf(err->message + h, sizeof err->message - h, "%s", s->err.message);
+}
+
+/* s's numbers (lock held). */
+static void shots_info_of(struct shot *s, struct shots_info *o) {
+    memset(o, 0, sizeof *o);
+    struct jobs_info *j = &o->job;
+    double now = clock_now();
+    j->state = shots_state(s);
+    j->progress = (double)s->ndone / s->n;
+    j->tiles_done = s->ndone;
+    j->tiles_total = s->n;
+    j->region = s->reg;
+    snprintf(j->scene_id, sizeof j->scene_id, "%s", s->scene_id);
+    j->created_age = now - s->created;
+    j->rays = s->rays;
+    j->est_rays = s->est_rays;
+    j->keep_exr = s->keep_exr;
+    j->ended_age = shots_final(s) && s->flying == 0 ? now - shots_ended(s) : -1;
+    if (j->state == JS_FAILED) shots_error(s, &j->err);
+    snprintf(j->id, sizeof j->id, "%s", s->id);
+    j->priority = s->priority;
+    j->seq = s->seq;
+    j->created_wall = s->created_wall;
+    o->first = s->first;
+    o->last = s->last;
+    o->total = s->n;
+    o->done = s->ndone;
+    o->failed = s->nfailed;
+    for (const struct shots_fly *fl = s->flies; fl; fl = fl->next)
+        o->running += fl->t && fl->t->t_start > 0; /* a tile of it started */
+    o->queued = s->n - s->ndone - s->nfailed - o->running;
+    o->latest = s->latest >= 0 ? s->first + s->latest : -1;
+    o->fps = s->fps;
+    o->eta_s = -1;
+    if (j->state == JS_SUCCEEDED) {
+        o->eta_s = 0;
+    } else if (!shots_final(s) && s->ndone > 0) {
+        double per = (now - s->created) / s->ndone; /* from the frames done so far */
+        o->eta_s = per * (s->n - s->ndone);
+    }
+    o->video = s->video_state;
+    snprintf(o->video_error, sizeof o->video_error, "%s", s->video_error);
+}
+
+bool shots_get(const char *id, struct shots_info *info) {
+    work_lock_take();
+    struct shot *s = shots_find(id);
+    if (s) shots_info_of(s, info);
+    work_lock_give();
+    return s != NULL;
+}
+
+int shots_list(uint64_t client, int state, long long before, struct shots_info *out, int n,
+               bool *more) {
+    *more = false;
+    int got = 0;
+    work_lock_take();
+    shots_expire(clock_now());
+    /* newest first: by creation number, descending (a few hundred at most) */
+    long long below = before > 0 ? before : (long long)1 << 62;
+    for (;;) {
+        struct shot *best = NULL;
+        for (int i = 0; i < shots_n; i++) {
+            struct shot *s = shots_table[i];
+            if (s->client == client && s->seq < below &&
+                (state < 0 || shots_state(s) == (enum jobs_state)state) &&
+                (!best || s->seq > best->seq))
+                best = s;
+        }
+        if (!best) break;
+        if (got == n) {
+            *more = true;
+            break;
+        }
+        shots_info_of(best, &out[got++]);
+        below = best->seq;
+    }
+    work_lock_give();
+    return got;
+}
+
+enum shots_frame_state shots_frame(const char *id, long k, bool exr, struct blob **img,
+                                   struct shots_info *info) {
+    *img = NULL;
+    work_lock_take();
+    struct shot *s = shots_find(id);
+    enum shots_frame_state r = SHOTS_NO_JOB;
+    bool disk = false;
+    if (s) {
+        shots_info_of(s, info);
+        long i = k - s->first;
+        if (k < s->first || k > s->last) {
+            r = SHOTS_OUTSIDE;
+        } else {
+            static const enum shots_frame_state as[] = {SHOTS_QUEUED, SHOTS_QUEUED, SHOTS_RUNNING,
+                                                        SHOTS_DONE, SHOTS_FAILED};
+            r = as[s->f[i].state];
+            disk = !*img && r == SHOTS_DONE && s->f[i].on_disk;
+            for (const struct shots_fly *fl = s->flies; fl && r == SHOTS_RUNNING; fl = fl->next)
+                if (fl->i == i && !(fl->t && fl->t->t_start > 0))
+                    r = SHOTS_QUEUED; /* no tile of it started yet */
+            *img = blob_ref(exr ? s->f[i].exr : s->f[i].png);
+        }
+    }
+    work_lock_give();
+    if (disk) *img = store_read_frame(id, k, exr); /* a plain read: no lock */
+    return r;
+}
+
+bool shots_cancel(const char *id) {
+    struct task_notify n = {0}, sse = {0};
+    work_lock_take();
+    struct shot *s = shots_find(id);
+    if (s && !shots_final(s)) {
+        s->canceled = true;
+        s->canceled_at = clock_now();
+        for (struct shots_fly *fl = s->flies; fl; fl = fl->next) {
+            struct task *t = fl->t;
+            if (!t || fl->dropped || t->finished) continue;
+            task_job_drop(t);
+            fl->dropped = true;
+            bool others = false; /* a synchronous request waiting for the same render */
+            for (struct work_waiter *w = t->waiters; w; w = w->next) others |= w != &fl->ww;
+            if (t->njobs == 0 && !others) task_cancel(t, MC_DELETE, &n, &sse);
+        }
+        shots_record_end(s);
+        task_notify_add(&sse, &s->sse);
+    }
+    work_lock_give();
+    task_notify_run(&n);
+    task_notify_run(&sse);
+    return s != NULL;
+}
+
+/* ---- the event stream ------------------------------------------------------------- */
+
+struct shot *shots_open(const char *id) {
+    work_lock_take();
+    struct shot *s = shots_find(id);
+    if (s) s->refs++;
+    work_lock_give();
+    return s;
+}
+
+void shots_close(struct shot *s) {
+    if (!s) return;
+    work_lock_take();
+    shots_unref(s);
+    work_lock_give();
+}
+
+int shots_events_read(struct shot *s, struct shots_cursor *c, struct events_item *it, int n,
+                      struct rayd_error *err, struct work_waiter *w) {
+    work_lock_take();
+    int k = 0;
+    if (!c->started && k < n) {
+        it[k++] = (struct events_item){.kind = EVENTS_STATE, .state = shots_state(s)};
+        c->started = true;
+    }
+    while (c->cursor < s->norder && k < n) {
+        int i = s->order[c->cursor++];
+        bool failed = s->f[i].state == SF_FAILED;
+        c->done += !failed;
+        it[k++] = (struct events_item){.kind = EVENTS_FRAME,
+                                       .frame = s->first + i,
+                                       .frame_failed = failed,
+                                       .done = c->done,
+                                       .total = s->n};
+    }
+    bool final = shots_final(s) && s->flying == 0;
+    if (k == 0 && final && !c->sent_done) {
+        enum jobs_state st = shots_state(s);
+        it[k++] = (struct events_item){
+            .kind = EVENTS_DONE, .state = st, .progress = (double)s->ndone / s->n};
+        if (st == JS_FAILED && err) shots_error(s, err);
+        c->sent_done = true;
+    }
+    if (k == 0 && c->sent_done) {
+        k = -1;
+    } else if (k == 0) {
+        w->suspend(w);
+        w->next = s->sse;
+        s->sse = w;
+    }
+    work_lock_give();
+    return k;
+}
+
+/* ---- the video ------------------------------------------------------------------ */
+
+/* Seconds ffmpeg may take for a video of n frames before it is stopped. */
+#define SHOTS_VIDEO_SECONDS(n) (60.0 + 2.0 * (n))
+
+/* s's frames (referenced, read from disk if need be), then the video made
+ * without the lock and kept. */
+static void shots_video_make(struct shot *s) {
+    struct blob **frames = calloc((size_t)s->n, sizeof *frames);
+    work_lock_take();
+    for (int i = 0; frames && i < s->n; i++) frames[i] = blob_ref(s->f[i].png);
+    work_lock_give();
+    for (int i = 0; frames && i < s->n; i++)
+        if (!frames[i]) frames[i] = store_read_frame(s->id, s->first + i, false);
+    struct blob *mp4 = NULL;
+    char err[200] = "out of memory";
+    enum video_status st = frames ? video_encode(frames, s->n, s->fps > 0 ? s->fps : 24,
+                                                 SHOTS_VIDEO_SECONDS(s->n), &mp4, err, sizeof err)
+                                  : VIDEO_FAILED;
+    for (int i = 0; frames && i < s->n; i++) blob_unref(frames[i]);
+    free(frames);
+    work_lock_take();
+    s->video = mp4;
+    s->video_state = st == VIDEO_OK ? SV_READY : st == VIDEO_NO_FFMPEG ? SV_NO_FFMPEG : SV_FAILED;
+    snprintf(s->video_error, sizeof s->video_error, "%s", st == VIDEO_OK ? "" : err);
+    if (st != VIDEO_OK) log_warn("job %s: no video: %s", s->id, err);
+    shots_unref(s);
+    work_lock_give();
+}
+
+/* The video thread: one video at a time, in the order the jobs ended. */
+static void *shots_video_thread(void *arg) {
+    (void)arg;
+    work_lock_take();
+    for (;;) {
+        while (!shots_vq) work_wait(&shots_vcond);
+        struct shots_videoq *q = shots_vq;
+        shots_vq = q->next;
+        work_lock_give();
+        shots_video_make(q->s);
+        free(q);
+        work_lock_take();
+    }
+    return NULL;
+}
+
+static void shots_video_start(void) {
+    pthread_t t;
+    shots_vthread = pthread_create(&t, NULL, shots_video_thread, NULL) == 0;
+    if (shots_vthread) pthread_detach(t); /* it lives as long as the process */
+}
+
+/* s has every frame: its video queued for the video thread (lock held). */
+static void shots_video_queue(struct shot *s) {
+    pthread_once(&shots_vonce, shots_video_start);
+    struct shots_videoq *q = shots_vthread ? calloc(1, sizeof *q) : NULL;
+    if (!q) {
+        s->video_state = SV_FAILED;
+        snprintf(s->video_error, sizeof s->video_error, "no thread or memory to make the video");
+        return;
+    }
+    s->video_state = SV_MAKING;
+    s->refs++;
+    q->s = s;
+    struct shots_videoq **p = &shots_vq;
+    while (*p) p = &(*p)->next;
+    *p = q;
+    pthread_cond_signal(&shots_vcond);
+}
+
+struct blob *shots_video(const char *id, struct shots_info *info) {
+    work_lock_take();
+    struct shot *s = shots_find(id);
+    struct blob *b = NULL;
+    if (s) {
+        shots_info_of(s, info);
+        b = blob_ref(s->video);
+    }
+    work_lock_give();
+    if (!s) info->job.id[0] = 0;
+    return b;
+}

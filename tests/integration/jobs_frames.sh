@@ -1,0 +1,203 @@
+#!/usr/bin/env bash
+# jobs_frames.sh -- frame-range jobs: POST /v1/jobs of an animated scene
+# renders frames A..B, each its own render.  The job's JSON ("frames",
+# "eta_s", "video_url"), its event stream (one "frame" event a frame), its
+# frames (GET .../frames/{k}.png and .exr: 200, 409 frame_not_ready, 404
+# frame_unknown, 400), frame k byte for byte rayd-render --frame K, the
+# query's mistakes (400 naming frames or frame, --max-frames), a still
+# scene's job unchanged, the list, DELETE.  The test gate holds the frames
+# so the states in between are seen on any machine.
+source "$(dirname "$0")/lib/common.sh"
+
+cat >"$T/anim.json" <<'EOF'
+{"animation": {"start": 2, "end": 9, "fps": 12},
+ "render": {"width": 48, "height": 32, "samples": 2},
+ "camera": {"look_at": [0, 0.5, 0], "interpolation": "smooth",
+            "keyframes": [{"frame": 2, "position": [0, 1.5, 5]}, {"frame": 6, "position": [4, 2, 2]},
+                          {"frame": 9, "position": [3, 1, -4], "fov_x": 50}]},
+ "lights": [{"type": "point", "keyframes": [{"frame": 2, "position": [4, 5, 4]},
+                                            {"frame": 9, "position": [-4, 5, 2], "intensity": 0.5}]}],
+ "objects": [{"type": "plane", "material": {"color": [0.6, 0.6, 0.6]}},
+             {"type": "box", "min": [-0.5, 0, -0.5], "max": [0.5, 1, 0.5],
+              "material": {"color": [0.9, 0.3, 0.2]},
+              "keyframes": [{"frame": 2, "rotate": [0, 0, 0]}, {"frame": 9, "rotate": [0, 150, 0]}]}]}
+EOF
+scene "$T/still.json" 32 32 1 spheres 3
+
+start_rayd --threads 2 --test-gate 0 --max-frames 6
+
+# ---- the query's mistakes: 400 naming the parameter ---------------------------------
+bad_query() { # bad_query NAME QUERY PARAM TEXT: 400 bad_parameter naming PARAM, saying TEXT
+    local code
+    code=$(post_json "/v1/jobs?$2" "$T/anim.json")
+    [ "$code" = 400 ] && err_is "$T/body" 400 bad_parameter &&
+        grep -q "\"$3\"\|$3:\|'$3'\|$3 " "$T/body" && grep -q -- "$4" "$T/body"
+}
+check range_reversed "$(cat "$T/body" 2>/dev/null)" bad_query reversed "frames=6-3" frames "after the last"
+check range_malformed "$(cat "$T/body")" bad_query malformed "frames=3to6" frames "must be A-B"
+check range_outside "$(cat "$T/body")" bad_query outside "frames=1-4" frames "frames 2-9"
+check range_frame_outside "$(cat "$T/body")" bad_query frame_out "frame=10" frame "frames 2-9"
+check range_frame_malformed "$(cat "$T/body")" bad_query frame_bad "frame=0x3" frame "frame number"
+check range_both "$(cat "$T/body")" bad_query both "frames=2-3&frame=4" frame "not both"
+check range_twice "$(cat "$T/body")" bad_query twice "frames=2-3&frames=4-5" frames "more than once"
+check range_over_cap "$(cat "$T/body")" bad_query cap "frames=2-9" frames "max-frames"
+check range_whole_over_cap "$(cat "$T/body")" bad_query whole "" frame "max-frames"
+check range_progressive "$(cat "$T/body")" bad_query prog "frames=2-3&progressive=1" progressive \
+    "not progressive"
+code=$(post_json "/v1/jobs?frames=0-1" "$T/still.json")
+check still_with_frames "$code $(cat "$T/body")" eval '[ "$code" = 400 ] && grep -q "no animation block" "$T/body"'
+
+# ---- a still scene's job is as before ----------------------------------------------
+code=$(post_json /v1/jobs "$T/still.json")
+still=$(jfield "$T/body" id)
+check still_job_unchanged "$code $(cat "$T/body")" eval \
+    '[ "$code" = 202 ] && grep -q "\"image_url\"" "$T/body" && ! grep -q "\"frames\"" "$T/body"'
+
+# ---- held at the gate: queued frames ------------------------------------------------
+code=$(post_json "/v1/jobs?frames=3-6&format=exr&priority=high" "$T/anim.json")
+id=$(jfield "$T/body" id)
+check post_202 "$code $(cat "$T/body")" eval '[ "$code" = 202 ] && [ -n "$id" ] &&
+    [ "$(header Location)" = "/v1/jobs/$id" ] && [ -n "$(header X-Rayd-Estimated-Rays)" ]'
+check post_frames_object "$(cat "$T/body")" eval "[ \"\$(json \"\$T/body\" 'j[\"frames\"]')\" = \
+\"{'first': 3, 'last': 6, 'total': 4, 'done': 0, 'running': 0, 'queued': 4, 'failed': 0, 'latest': None, 'url': '/v1/jobs/$id/frames/{k}.png', 'exr_url': '/v1/jobs/$id/frames/{k}.exr'}\" ]"
+check post_no_image_url "$(cat "$T/body")" eval '! grep -q "\"image_url\"" "$T/body" &&
+    [ "$(json "$T/body" "j[\"eta_s\"]")" = None ] && ! grep -q video_url "$T/body"'
+req GET "/v1/jobs/$id/frames/4.png" >/dev/null
+check frame_not_ready "$(cat "$T/body")" eval 'err_is "$T/body" 409 frame_not_ready &&
+    [ "$(json "$T/body" "j[\"error\"][\"state\"]")" = queued ]'
+code=$(req GET "/v1/jobs/$id/frames/7.png")
+check frame_unknown "$code $(cat "$T/body")" eval 'err_is "$T/body" 404 frame_unknown && grep -q "3-6" "$T/body"'
+for bad in x.png 4.gif 4 -.png 1e3.png 99999999999.png; do
+    code=$(req GET "/v1/jobs/$id/frames/$bad")
+    check "frame_malformed_$bad" "$code $(cat "$T/body")" err_is "$T/body" 400 bad_frame
+done
+code=$(req GET "/v1/jobs/0123456789abcdef0123456789abcdef/frames/4.png")
+check frame_job_unknown "$code" err_is "$T/body" 404 job_unknown
+code=$(req GET "/v1/jobs/$still/frames/0.png")
+check frame_of_still_job "$code $(cat "$T/body")" err_is "$T/body" 404 frame_unknown
+code=$(req GET "/v1/jobs/$id/video.mp4")
+check video_before_done "$code $(cat "$T/body")" err_is "$T/body" 409 frames_not_done
+code=$(req GET "/v1/jobs/$id/image.png")
+check image_png_of_frames "$code $(cat "$T/body")" err_is "$T/body" 409 frame_range_job
+code=$(req POST "/v1/jobs/$id/stop")
+check stop_of_frames "$code" err_is "$T/body" 409 not_progressive
+
+# ---- the list holds it, with its frames ----------------------------------------------
+req GET /v1/jobs >/dev/null
+check list_has_frames "$(head -c 300 "$T/body")" eval "[ \"\$(json \"\$T/body\" '[x[\"frames\"][\"total\"] for x in j[\"jobs\"] if x[\"id\"] == \"$id\"]')\" = '[4]' ]"
+check list_newest_first "$(head -c 300 "$T/body")" eval "[ \"\$(json \"\$T/body\" '[x[\"id\"] for x in j[\"jobs\"]][:2]')\" = \"['$id', '$still']\" ]"
+req GET "/v1/jobs?limit=1" >/dev/null
+after=$(json "$T/body" 'j["next_after"]')
+req GET "/v1/jobs?limit=1&after=$after" >/dev/null
+check list_pages_across "$(cat "$T/body" | head -c 200)" eval "[ \"\$(json \"\$T/body\" 'j[\"jobs\"][0][\"id\"]')\" = '$still' ]"
+
+# ---- the events: a frame event a frame, then done ------------------------------------
+curl -s -N -m 120 "$URL/v1/jobs/$id/events" >"$T/events" &
+ev=$!
+PIDS+=("$ev")
+gate open
+wait_until 120 job_state_is "$id" succeeded
+wait "$ev"
+check events_frames "$(tr '\n' '|' <"$T/events")" eval \
+    '[ "$(grep -c "^event: frame" "$T/events")" = 4 ] && [ "$(grep -c "^event: done" "$T/events")" = 1 ] &&
+     grep -q "\"frames_done\":4,\"frames_total\":4" "$T/events" && grep -q "\"state\":\"succeeded\"" "$T/events"'
+python3 - "$T/events" "$id" >"$T/events.check" <<'PY'
+import json, sys
+ks = []
+for line in open(sys.argv[1]):
+    if line.startswith("data:") and '"k"' in line:
+        d = json.loads(line[5:])
+        assert d["state"] == "done" and d["url"] == "/v1/jobs/%s/frames/%d.png" % (sys.argv[2], d["k"])
+        ks.append(d["k"])
+print(sorted(ks))
+PY
+check events_each_frame "$(cat "$T/events.check")" eval '[ "$(cat "$T/events.check")" = "[3, 4, 5, 6]" ]'
+
+# ---- done: the JSON, each frame the bytes of rayd-render --frame K -------------------
+req GET "/v1/jobs/$id" >/dev/null
+check done_json "$(cat "$T/body")" eval "[ \"\$(json \"\$T/body\" '(j[\"frames\"][\"done\"], j[\"frames\"][\"queued\"], j[\"frames\"][\"running\"], j[\"eta_s\"], j[\"video_url\"], j[\"progress\"])')\" = \
+\"(4, 0, 0, 0.0, '/v1/jobs/$id/video.mp4', 1.0)\" ]"
+for k in 3 4 5 6; do
+    code=$(req GET "/v1/jobs/$id/frames/$k.png")
+    cp "$T/body" "$T/server-$k.png"
+    timeout 120 "$RENDER" "$T/anim.json" --frame "$k" -o "$T/cli-$k.png" -q --threads 1
+    check "frame_${k}_as_cli" "$code" eval '[ "$code" = 200 ] && cmp -s "$T/server-$k.png" "$T/cli-$k.png"'
+done
+code=$(req GET "/v1/jobs/$id/frames/5.exr")
+cp "$T/body" "$T/server-5.exr"
+timeout 120 "$RENDER" "$T/anim.json" --frame 5 -o "$T/cli-5.exr" -q
+check frame_exr_as_cli "$code $(header Content-Type)" eval '[ "$code" = 200 ] && cmp -s "$T/server-5.exr" "$T/cli-5.exr"'
+check frames_differ "frames 3 and 6 are the same image" eval '! cmp -s "$T/server-3.png" "$T/server-6.png"'
+
+# ---- the video: H.264 MP4 of the four frames at the scene's fps ----------------------
+video_ready() { [ "$(req GET "/v1/jobs/$id/video.mp4")" != 202 ]; }
+wait_until 120 video_ready
+code=$(req GET "/v1/jobs/$id/video.mp4")
+cp "$T/body" "$T/shot.mp4"
+check video_200 "$code $(header Content-Type)" eval '[ "$code" = 200 ] && [ "$(header Content-Type)" = video/mp4 ]'
+probe=$(ffprobe -v error -select_streams v:0 -count_frames -show_entries \
+    stream=codec_name,width,height,r_frame_rate,nb_read_frames,pix_fmt -of csv=p=0 "$T/shot.mp4" 2>&1)
+check video_probe "$probe" eval '[ "$probe" = "h264,48,32,yuv420p,12/1,4" ]'
+
+# ---- no range: the whole animation; ?frame=K one frame ------------------------------
+post_json "/v1/jobs?frame=9" "$T/anim.json" >/dev/null
+one=$(jfield "$T/body" id)
+check frame_one "$(cat "$T/body")" eval "[ \"\$(json \"\$T/body\" '(j[\"frames\"][\"first\"], j[\"frames\"][\"total\"])')\" = '(9, 1)' ]"
+wait_until 120 job_state_is "$one" succeeded
+req GET "/v1/jobs/$one/frames/9.png" >/dev/null
+timeout 120 "$RENDER" "$T/anim.json" --frame 9 -o "$T/cli-9.png" -q
+check frame_one_as_cli "frame 9 differs" cmp -s "$T/body" "$T/cli-9.png"
+code=$(req GET "/v1/jobs/$one/frames/9.exr")
+check frame_exr_not_kept "$code $(cat "$T/body")" err_is "$T/body" 409 not_exr
+cat >"$T/short.json" <<'EOF'
+{"animation": {"start": 2, "end": 5},
+ "render": {"width": 16, "height": 16, "samples": 1},
+ "camera": {"look_at": [0, 0.5, 0], "keyframes": [{"frame": 2, "position": [0, 1.5, 5]},
+                                                   {"frame": 5, "position": [4, 2, 2]}]},
+ "lights": [{"type": "point", "position": [4, 5, 4]}],
+ "objects": [{"type": "plane", "material": {"color": [0.6, 0.6, 0.6]}}]}
+EOF
+post_json /v1/jobs "$T/short.json" >/dev/null
+check whole_range "$(cat "$T/body")" eval "[ \"\$(json \"\$T/body\" '(j[\"frames\"][\"first\"], j[\"frames\"][\"last\"])')\" = '(2, 5)' ]"
+
+# ---- DELETE cancels the frames still to come ------------------------------------------
+gate 0
+post_json "/v1/jobs?frames=2-7" "$T/anim.json" -H 'X-Tag: cancel' >/dev/null
+cancel=$(jfield "$T/body" id)
+code=$(req DELETE "/v1/jobs/$cancel")
+check delete_frames "$code $(cat "$T/body")" eval '[ "$code" = 200 ] && [ "$(jfield "$T/body" state)" = canceled ]'
+gate open
+code=$(req GET "/v1/jobs/$cancel/frames/2.png")
+check frame_of_cancelled "$code $(cat "$T/body")" eval 'err_is "$T/body" 409 frame_not_ready && grep -q canceled "$T/body"'
+# ---- a frame that keeps failing: tried 3 times, then the job fails naming it --------
+curl -s -X POST "$URL/v1/test/gate?work=10" >/dev/null # every render made now runs out of rays
+post_json "/v1/jobs?frame=8" "$T/anim.json" -H 'X-Tag: fail' >/dev/null
+failing=$(jfield "$T/body" id)
+wait_until 120 job_state_is "$failing" failed
+req GET "/v1/jobs/$failing" >/dev/null
+check failed_names_frame "$(cat "$T/body")" eval '[ "$(json "$T/body" "j[\"frames\"][\"failed\"]")" = 1 ] &&
+    grep -q "frame 8 failed after 3 attempts" "$T/body"'
+check failed_retried "$(grep -c "frame 8 failed" "$T/rayd.err") retries logged" eval \
+    '[ "$(grep "job $failing: frame 8 failed" "$T/rayd.err" | grep -c "trying again")" = 2 ]'
+curl -s -N -m 60 "$URL/v1/jobs/$failing/events" >"$T/fail.events"
+check failed_event "$(tr '\n' '|' <"$T/fail.events")" eval \
+    'grep -q "\"k\":8,\"state\":\"failed\"" "$T/fail.events" && grep -q "frame 8 failed after 3" "$T/fail.events"'
+code=$(req GET "/v1/jobs/$failing/frames/8.png")
+check failed_frame_409 "$code $(cat "$T/body")" eval 'err_is "$T/body" 409 frame_not_ready && grep -q failed "$T/body"'
+curl -s -X POST "$URL/v1/test/gate?work=open" >/dev/null
+check rayd_alive_before_restart "rayd died: $(tail -3 "$T/rayd.err")" kill -0 "$RAYD_PID"
+
+# ---- no ffmpeg: the video answers 503 no_ffmpeg, the frames as ever ------------------
+stop_rayd
+mkdir -p "$T/nopath"
+RAYD_WRAP="env PATH=$T/nopath" start_rayd --threads 1
+post_json "/v1/jobs?frame=4" "$T/anim.json" >/dev/null
+nof=$(jfield "$T/body" id)
+wait_until 120 job_state_is "$nof" succeeded
+video_settled() { [ "$(req GET "/v1/jobs/$nof/video.mp4")" != 202 ]; }
+wait_until 120 video_settled
+code=$(req GET "/v1/jobs/$nof/video.mp4")
+check video_no_ffmpeg "$code $(cat "$T/body")" eval 'err_is "$T/body" 503 no_ffmpeg && grep -q "ffmpeg program" "$T/body"'
+check frame_without_ffmpeg "frame 4 differs" eval '[ "$(req GET "/v1/jobs/$nof/frames/4.png")" = 200 ] && cmp -s "$T/body" "$T/cli-4.png"'
+check rayd_alive "rayd died: $(tail -3 "$T/rayd.err")" kill -0 "$RAYD_PID"
+exit $NFAIL

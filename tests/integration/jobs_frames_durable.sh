@@ -1,0 +1,119 @@
+#!/usr/bin/env bash
+# jobs_frames_durable.sh -- a frame-range job with --data-dir survives kill
+# -9: the restart matrix per frame.  rayd is killed between frames (two
+# frames done, the rest held at the test gate), during a frame (one tile of
+# a two-tile frame started, the other held), during a frame's write
+# (RAYD_TEST_STORE_STALL=1 stops the store between the temporary file and
+# its rename) and after the job ended.  After each restart the job is
+# there under its id, the frames done before are served byte for byte as
+# before (from their files), the others are queued again and render to
+# the bytes rayd-render --frame K gives, and no temporary file is left.
+source "$(dirname "$0")/lib/common.sh"
+
+D=$T/data
+cat >"$T/anim.json" <<'EOF'
+{"animation": {"start": 0, "end": 5, "fps": 10},
+ "render": {"width": 96, "height": 32, "samples": 1},
+ "camera": {"look_at": [0, 0.5, 0], "keyframes": [{"frame": 0, "position": [0, 1.5, 5]},
+                                                   {"frame": 5, "position": [4, 2, 2]}]},
+ "lights": [{"type": "point", "position": [4, 5, 4]}],
+ "objects": [{"type": "plane", "material": {"color": [0.6, 0.6, 0.6]}},
+             {"type": "sphere", "center": [0, 0.5, 0], "radius": 0.5,
+              "material": {"color": [0.9, 0.3, 0.2]}}]}
+EOF
+for k in 0 1 2 3 4 5; do
+    timeout 120 "$RENDER" "$T/anim.json" --frame "$k" -o "$T/cli-$k.png" -q --threads 1
+done
+kill9() { kill -KILL "$RAYD_PID" 2>/dev/null; wait "$RAYD_PID" 2>/dev/null; RAYD_PID=; }
+# frames_done_on_disk ID N: the store's rows say N frames of ID are done
+frames_done_on_disk() {
+    [ "$(python3 - "$D/jobs.db" "$1" <<'PY'
+import sqlite3, sys
+db = sqlite3.connect("file:%s?mode=ro" % sys.argv[1], uri=True, timeout=5)
+print(db.execute("SELECT COUNT(*) FROM frames WHERE job = ? AND state = 'done'", (sys.argv[2],)).fetchone()[0])
+PY
+)" = "$2" ]
+}
+frames_done_is() { job_is "$1" state "$3" 2>/dev/null; req GET "/v1/jobs/$1" >/dev/null &&
+    [ "$(json "$T/body" 'j["frames"]["done"]')" = "$2" ]; }
+# frame_is ID K FILE: frame K of ID is FILE's bytes
+frame_is() { [ "$(req GET "/v1/jobs/$1/frames/$2.png")" = 200 ] && cmp -s "$T/body" "$3"; }
+no_tmp() { ! ls "$D/results" | grep -q '\.tmp$'; }
+
+# ---- between frames: two done, the rest held ---------------------------------------
+start_rayd --threads 1 --test-gate 0 --data-dir "$D"
+post_json "/v1/jobs?frames=1-4" "$T/anim.json" >/dev/null
+between=$(jfield "$T/body" id)
+check between_posted "$(cat "$T/body")" test -n "$between"
+gate 4 # two frames of two tiles each
+wait_until 60 frames_done_on_disk "$between" 2
+req GET "/v1/jobs/$between" >/dev/null
+check between_two_done "$(cat "$T/body")" eval '[ "$(json "$T/body" "j[\"frames\"][\"done\"]")" = 2 ]'
+for k in 1 2 3 4; do req GET "/v1/jobs/$between/frames/$k.png" >/dev/null && cp "$T/body" "$T/before-$k.png"; done
+kill9
+
+start_rayd --threads 1 --test-gate 0 --data-dir "$D"
+req GET "/v1/jobs/$between" >/dev/null
+check between_kept "$(cat "$T/body")" eval '[ "$(json "$T/body" "(j[\"state\"], j[\"frames\"][\"done\"], j[\"frames\"][\"total\"])")" = "(\"queued\", 2, 4)" -o \
+    "$(json "$T/body" "(j[\"state\"], j[\"frames\"][\"done\"], j[\"frames\"][\"total\"])")" = "('"'"'running'"'"', 2, 4)" ]'
+n=0
+for k in 1 2 3 4; do frame_is "$between" "$k" "$T/before-$k.png" && n=$((n + 1)); done
+check between_frames_served_as_before "$n of 2" eval '[ "$n" = 2 ]'
+code=$(req GET "/v1/jobs/$between/frames/4.png")
+check between_rest_queued "$code $(cat "$T/body")" err_is "$T/body" 409 frame_not_ready
+
+# ---- during a frame: one tile of frame 5 started, kill ------------------------------
+post_json "/v1/jobs?frame=5" "$T/anim.json" -H 'X-Tag: during' >/dev/null
+during=$(jfield "$T/body" id)
+gate open
+wait_until 120 job_state_is "$between" succeeded
+gate 0
+check between_finished_after_restart "$(cat "$T/body")" job_state_is "$between" succeeded
+n=0
+for k in 1 2 3 4; do frame_is "$between" "$k" "$T/cli-$k.png" && n=$((n + 1)); done
+check between_frames_as_cli "$n of 4" eval '[ "$n" = 4 ]'
+wait_until 120 job_state_is "$during" succeeded
+post_json "/v1/jobs?frame=0" "$T/anim.json" >/dev/null
+mid=$(jfield "$T/body" id)
+started=$(gate_read && jfield "$T/gate.json" started)
+gate 1
+wait_until 60 gate_is started $((started + 1))
+check during_running "$(cat "$T/gate.json")" gate_is held 1
+kill9
+
+start_rayd --threads 1 --test-gate open --data-dir "$D"
+wait_until 120 job_state_is "$mid" succeeded
+check during_rendered_again "state" job_state_is "$mid" succeeded
+check during_frame_as_cli "frame 0 differs" frame_is "$mid" 0 "$T/cli-0.png"
+check ended_kept "state" job_state_is "$between" succeeded
+check ended_frame_served "frame 3 differs" frame_is "$between" 3 "$T/cli-3.png"
+# the video (made or not when rayd was killed) is made again from the frames on disk
+video_ready() { [ "$(req GET "/v1/jobs/$between/video.mp4")" != 202 ]; }
+wait_until 120 video_ready
+code=$(req GET "/v1/jobs/$between/video.mp4")
+cp "$T/body" "$T/shot.mp4"
+probe=$(ffprobe -v error -select_streams v:0 -count_frames -show_entries \
+    stream=codec_name,nb_read_frames,r_frame_rate -of csv=p=0 "$T/shot.mp4" 2>&1)
+check video_after_restart "$code $probe" eval '[ "$code" = 200 ] && [ "$probe" = "h264,10/1,4" ]'
+req GET /v1/jobs >/dev/null
+check list_after_restart "$(head -c 300 "$T/body")" eval "[ \"\$(json \"\$T/body\" 'sorted(x[\"id\"] for x in j[\"jobs\"] if \"frames\" in x)')\" = \"\$(python3 -c 'import sys; print(sorted(sys.argv[1:]))' $between $during $mid)\" ]"
+check no_tmp_left "$(ls "$D/results")" no_tmp
+stop_rayd
+
+# ---- during a frame's write: the store stops before the rename ----------------------
+RAYD_TEST_STORE_STALL=1 start_rayd --threads 1 --test-gate 0 --data-dir "$D"
+post_json "/v1/jobs?frames=2-3" "$T/anim.json" -H 'X-Tag: write' >/dev/null
+write=$(jfield "$T/body" id)
+gate 2
+wait_until 60 eval 'ls "$D/results" | grep -q "^$write-2.png.tmp$"'
+check write_tmp_there "$(ls "$D/results")" eval 'ls "$D/results" | grep -q "^$write-2.png.tmp$"'
+kill9
+start_rayd --threads 1 --test-gate open --data-dir "$D"
+check write_tmp_swept "$(ls "$D/results")" no_tmp
+wait_until 120 job_state_is "$write" succeeded
+check write_rendered_again "$(cat "$T/body")" job_state_is "$write" succeeded
+check write_frame_as_cli "frame 2 differs" frame_is "$write" 2 "$T/cli-2.png"
+req DELETE "/v1/jobs/$write" >/dev/null
+check delete_after_restart "$(cat "$T/body")" job_state_is "$write" succeeded
+check rayd_alive "rayd died: $(tail -3 "$T/rayd.err")" kill -0 "$RAYD_PID"
+exit $NFAIL
