@@ -19,8 +19,10 @@ static const char *text_bare_utf16(const unsigned char *p, size_t len) {
     if (n < 4) return NULL;
     int even = 0, odd = 0;
     for (size_t i = 0; i < n; i++)
-        if (p[i] == 0 && i % 2) odd++;
-        else if (p[i] == 0) even++;
+        if (p[i] == 0 && i % 2)
+            odd++;
+        else if (p[i] == 0)
+            even++;
     if (odd == (int)n / 2 && even == 0) return "UTF-16 (little-endian, no byte order mark)";
     if (even == (int)n / 2 && odd == 0) return "UTF-16 (big-endian, no byte order mark)";
     return NULL;

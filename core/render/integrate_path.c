@@ -156,7 +156,7 @@ static vec3 env_event(const rayd_scene *s, const struct lobes *lb, const struct 
     if (v3_dot(x->n, wi) <= 0 || v3_dot(x->ng, wi) <= 0) return v3(0, 0, 0);
     vec3 f = eval_nondelta(lb, x->n, wo, wi, &pdf_b);
     if (v3_maxabs(f) == 0) return v3(0, 0, 0);
-    vec3 tr = integrate_visible(s, x->above, wi, INFINITY, mt);
+    vec3 tr = integrate_visible(s, x->above, wi, INFINITY, true, mt);
     if (v3_maxabs(tr) == 0) return v3(0, 0, 0);
     vec3 le = env_radiance(e, wi);
     return v3_scale(v3_mul(v3_mul(le, tr), f), mis(pdf_l, pdf_b) / pdf_l);
@@ -165,7 +165,7 @@ static vec3 env_event(const rayd_scene *s, const struct lobes *lb, const struct 
 /* What a path that escapes along d after bounce b adds (beta aside). */
 static vec3 escaped(const rayd_scene *s, vec3 d, uint32_t b, bool prev_delta, double prev_pdf) {
     vec3 le = integrate_escape(s, d, (int)b);
-    if (b == 0 || prev_delta || !env_can_sample(&s->rs.env)) return le;
+    if (b == 0 || prev_delta || !env_can_sample(&s->rs.env) || s->rs.no_nee) return le;
     return v3_scale(le, mis(prev_pdf, env_pdf(&s->rs.env, d)));
 }
 
@@ -178,7 +178,8 @@ static vec3 next_event(const rayd_scene *s, const struct lobes *lb, const struct
         double pdf;
         double su = rng_uniform(key, b, D_LIGHT0 + 2 * (uint32_t)i);
         double sv = rng_uniform(key, b, D_LIGHT0 + 2 * (uint32_t)i + 1);
-        if (!integrate_light_sample(s, &s->lights[i], x->p, x->n, x->above, su, sv, &wi, &rad, mt))
+        if (!integrate_light_sample(s, &s->lights[i], x->p, x->n, x->above, su, sv, true, &wi, &rad,
+                                    mt))
             continue;
         sum = v3_add(sum, v3_mul(rad, eval_nondelta(lb, x->n, wo, wi, &pdf)));
     }
@@ -198,7 +199,7 @@ static vec3 next_event(const rayd_scene *s, const struct lobes *lb, const struct
     double pdf_b;
     vec3 f = eval_nondelta(lb, x->n, wo, wi, &pdf_b);
     if (v3_maxabs(f) == 0) return sum;
-    vec3 tr = integrate_visible(s, x->above, wi, dist * (1 - 1e-7), mt);
+    vec3 tr = integrate_visible(s, x->above, wi, dist * (1 - 1e-7), true, mt);
     if (v3_maxabs(tr) == 0) return sum;
     double pdf_l = dist * dist / (cl * emitter_area(e)) / ne;
     vec3 le = s->mats[e->material].emission;
@@ -275,7 +276,7 @@ static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *fir
         const struct material *m = sf.m;
         if (v3_maxabs(m->emission) > 0) {
             double w = 1;
-            if (!prev_delta && is_emitter(s, &h)) {
+            if (!prev_delta && !s->rs.no_nee && is_emitter(s, &h)) {
                 vec3 d = v3_sub(sf.p, prev_p);
                 double dist2 = v3_dot(d, d), cl = fabs(v3_dot(sf.ng, r.d));
                 double pdf_l = dist2 / (cl * emitter_area(h.leaf)) / s->nemitters;
@@ -296,7 +297,7 @@ static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *fir
         x.below = v3_madd(sf.p, x.ng, -off);
         vec3 wo = v3_neg(r.d);
         struct lobes lb = lobes_of(m, sf.color);
-        if (lb.w_diff > 0 || (lb.w_metal > 0 && lb.alpha > 0))
+        if (!s->rs.no_nee && (lb.w_diff > 0 || (lb.w_metal > 0 && lb.alpha > 0)))
             L = v3_add(L, v3_mul(beta, next_event(s, &lb, &x, wo, key, b, mt)));
         vec3 wi;
         bool delta, through;

@@ -24,6 +24,10 @@ struct render_settings {
     struct environment env; /* render.environment; kind ENV_NONE without one */
     uint64_t seed;
     unsigned aov; /* render.aov: the RAYD_AOV_ bits the scene asks for */
+    /* Tests only (no scene key): the path tracer without next-event
+     * estimation, every light by the sampled paths alone -- the plain
+     * estimator the NEE one must agree with (tests/unit/test_path_bias.c). */
+    bool no_nee;
 };
 
 /* Objects drawn together and placed as a whole by instances. */
@@ -117,6 +121,10 @@ bool scene_intersect(const rayd_scene *s, const ray *r, double tmax, struct hit 
 /* Fraction of light that passes from the ray's origin to distance tmax:
  * 0 behind an opaque object, (transparency * color) per transparent one. */
 vec3 scene_transmittance(const rayd_scene *s, const ray *r, double tmax);
+/* Whether any surface closer than tmax blocks r, transparent or not: the
+ * path tracer's shadow test (light through glass comes by the sampled
+ * path alone, or it would be counted twice). */
+bool scene_occluded(const rayd_scene *s, const ray *r, double tmax);
 
 /* The same two queries for the rays r[i] whose bit i is set in active, as
  * a packet (scene_packet.c): ray i gets exactly what it would get alone.

@@ -304,10 +304,11 @@ bool scene_intersect(const rayd_scene *s, const ray *r, double tmax, struct hit 
 }
 
 /* Multiplies *trans by what material m lets through; false (stop) when
- * nothing passes any more. */
+ * nothing passes any more.  A negative material: every surface blocks
+ * (scene_occluded's test). */
 static bool filter_light(const rayd_scene *s, int material, vec3 *trans) {
-    const struct material *m = &s->mats[material];
-    if (m->transparency <= 0) {
+    const struct material *m = material >= 0 ? &s->mats[material] : NULL;
+    if (!m || m->transparency <= 0) {
         *trans = v3(0, 0, 0);
         return false;
     }
@@ -334,19 +335,44 @@ struct filter {
     const rayd_scene *s;
     const ray *r;
     vec3 trans;
+    bool opaque; /* every surface blocks, whatever its material */
 };
+
+/* Any hit of o closer than tmax blocks: false (stop), else true. */
+static bool object_blocks_not(const rayd_scene *s, const struct object *o, const ray *r,
+                              double tmax, vec3 *trans) {
+    struct hit h;
+    double t = tmax, scale;
+    bool hit;
+    if (o->kind == SHAPE_MESH && !s->brute) {
+        ray lr = object_ray(s, o, r, &scale);
+        hit = mesh_occluded(&s->meshes[o->u.mesh.id], &lr, tmax * scale);
+    } else {
+        hit = object_hit(s, o, NULL, r, &t, &h);
+    }
+    return hit ? filter_light(s, -1, trans) : true;
+}
 
 static bool visit_filter(void *ctx, const struct object *o, double *tmax) {
     struct filter *c = ctx;
-    return object_filter(c->s, o, c->r, *tmax, &c->trans);
+    return c->opaque ? object_blocks_not(c->s, o, c->r, *tmax, &c->trans)
+                     : object_filter(c->s, o, c->r, *tmax, &c->trans);
+}
+
+static vec3 scene_filter(const rayd_scene *s, const ray *r, double tmax, bool opaque) {
+    struct filter c = {s, r, v3(1, 1, 1), opaque};
+    for (int32_t i = 0; i < s->nplanes; i++)
+        if (!visit_filter(&c, &s->planes[i], &tmax)) return c.trans;
+    objects_walk(s->objs, s->nobjs, &s->tlas, s->brute, r, &tmax, visit_filter, &c);
+    return c.trans;
 }
 
 vec3 scene_transmittance(const rayd_scene *s, const ray *r, double tmax) {
-    struct filter c = {s, r, v3(1, 1, 1)};
-    for (int32_t i = 0; i < s->nplanes; i++)
-        if (!object_filter(s, &s->planes[i], r, tmax, &c.trans)) return c.trans;
-    objects_walk(s->objs, s->nobjs, &s->tlas, s->brute, r, &tmax, visit_filter, &c);
-    return c.trans;
+    return scene_filter(s, r, tmax, false);
+}
+
+bool scene_occluded(const rayd_scene *s, const ray *r, double tmax) {
+    return v3_maxabs(scene_filter(s, r, tmax, true)) == 0;
 }
 
 /* ---- surfaces ------------------------------------------------------------------ */

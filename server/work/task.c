@@ -628,9 +628,9 @@ static void task_result(const struct task *t, struct work_result *res) {
     /* the reason travels with the answer: the layers above need not ask */
     res->draining = t->status == RAYD_E_CANCELED && task_draining();
     if (t->status == RAYD_OK && t->png) res->png = blob_ref(t->png);
-    res->queue_ms = t->t_start > 0 ? (t->t_start - t->t_enq) * 1e3 : 0;
-    res->render_ms = t->t_start > 0 && t->t_end > 0 ? (t->t_end - t->t_start) * 1e3 : 0;
-    res->encode_ms = t->encode_s * 1e3;
+    res->times.queue_ms = t->t_start > 0 ? (t->t_start - t->t_enq) * 1e3 : 0;
+    res->times.render_ms = t->t_start > 0 && t->t_end > 0 ? (t->t_end - t->t_start) * 1e3 : 0;
+    res->times.encode_ms = t->encode_s * 1e3;
 }
 
 /* A progressive task ends with its latest complete pass as its image: after

@@ -24,17 +24,10 @@
 struct work_result {
     enum rayd_status status; /* RAYD_OK and png, or an error */
     struct rayd_error err;
-    struct blob *png; /* a reference owned by the waiter: unref it */
-    bool gone;        /* the client disconnected */
-    bool draining;    /* cancelled because the server drains (503 "draining") */
-    /* The render's times, handed up whole (times); task.c fills them by
-     * name, the same three doubles. */
-    union {
-        struct log_times times;
-        struct {
-            double queue_ms, render_ms, encode_ms;
-        };
-    };
+    struct blob *png;       /* a reference owned by the waiter: unref it */
+    bool gone;              /* the client disconnected */
+    bool draining;          /* cancelled because the server drains (503 "draining") */
+    struct log_times times; /* the render's times, handed up whole */
 };
 
 /* Something waiting on a task or a job's events.  done() is called exactly
