@@ -194,6 +194,15 @@ bool api_unlit(const rayd_scene *scene) {
     return info.unlit != 0;
 }
 
+void api_warn_unlit_json(cJSON *o) {
+    cJSON *w = cJSON_AddArrayToObject(o, "warnings");
+    if (w) cJSON_AddItemToArray(w, cJSON_CreateString(API_UNLIT_WARNING));
+}
+
+void api_warn_unlit_header(struct http_req *r) {
+    http_reply_header(r, "X-Rayd-Warning", API_UNLIT_WARNING);
+}
+
 bool api_region(struct http_req *r, const rayd_scene *scene, struct rayd_region *out) {
     struct api_q q = {0};
     return api_region_q(r, scene, out, &q);

@@ -25,6 +25,10 @@ bool api_region(struct http_req *r, const rayd_scene *scene, struct rayd_region 
  * image is black, and the answer warns with API_UNLIT_WARNING (the
  * X-Rayd-Warning header of an image, a job's "warnings"). */
 bool api_unlit(const rayd_scene *scene);
+/* A new job's 202 when its scene is unlit: "warnings" in its JSON o
+ * (before the reply) and the header (after it). */
+void api_warn_unlit_json(cJSON *o);
+void api_warn_unlit_header(struct http_req *r);
 #define API_UNLIT_WARNING                                                                          \
     "unlit: nothing in the scene gives light (no light, no emissive material, a black "            \
     "background and environment); the image is black"

@@ -123,6 +123,7 @@ struct api_jobs_wait {
     struct http_req *r;
     char id[33], scene_id[65];
     bool keep_exr;
+    bool unlit; /* its scene gives no light: the 202 warns */
     struct api_price price;
 };
 
@@ -145,7 +146,9 @@ static void api_jobs_accepted(struct api_jobs_wait *a) {
     api_jobs_url(url, sizeof url, a->id, "/events");
     cJSON_AddStringToObject(o, "events_url", url);
     api_jobs_add_estimate(o, &a->price);
+    if (a->unlit) api_warn_unlit_json(o);
     http_reply_json(r, 202, o);
+    if (a->unlit) api_warn_unlit_header(r);
     api_jobs_url(url, sizeof url, a->id, "");
     http_reply_header(r, "Location", url);
     api_cost_price_headers(r, &a->price);
@@ -198,6 +201,7 @@ static bool api_jobs_compiled(struct http_req *r, struct cache_entry *e, bool hi
     a->w.fd = -1;
     snprintf(a->scene_id, sizeof a->scene_id, "%s", cache_id(e));
     a->keep_exr = what.keep_exr;
+    a->unlit = api_unlit(cache_scene(e));
     a->price = price;
     how.w = &a->w;
     enum work_submit s = jobs_submit(e, &what, progressive ? &plan : NULL, &how, a->id);

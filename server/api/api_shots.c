@@ -120,6 +120,7 @@ struct api_shots_wait {
     struct work_waiter w;
     struct http_req *r;
     char id[33];
+    bool unlit; /* its scene gives no light: the 202 warns */
     struct api_price price;
 };
 
@@ -137,7 +138,9 @@ static void api_shots_accepted(struct api_shots_wait *a) {
     cJSON_AddStringToObject(o, "status_url", url);
     api_jobs_url(url, sizeof url, a->id, "/events");
     cJSON_AddStringToObject(o, "events_url", url);
+    if (a->unlit) api_warn_unlit_json(o);
     http_reply_json(r, 202, o);
+    if (a->unlit) api_warn_unlit_header(r);
     api_jobs_url(url, sizeof url, a->id, "");
     http_reply_header(r, "Location", url);
     api_cost_price_headers(r, &a->price);
@@ -187,6 +190,7 @@ bool api_shots_submit(struct http_req *r, struct cache_entry *e, struct work_tar
     a->w.suspend = api_shots_recorded_suspend;
     a->w.fd = -1;
     a->price = (struct api_price){one->rays * (double)count, one->seconds * (double)count};
+    a->unlit = api_unlit(cache_scene(e));
     n.est_rays = a->price.rays;
     n.w = &a->w;
     snprintf(n.scene_id, sizeof n.scene_id, "%s", cache_id(e));

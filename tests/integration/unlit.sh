@@ -2,7 +2,7 @@
 # A scene nothing lights renders black; rayd says so instead of leaving the
 # user to wonder: rayd-render warns on stderr (with --quiet too) and exits
 # 0, the server's image carries X-Rayd-Warning (fresh and from the result
-# cache).  A lit scene, an emissive one, one with a background colour or
+# cache), and a job's 202 has it as a header and in "warnings".  A lit scene, an emissive one, one with a background colour or
 # an environment draws no warning.
 source "$(dirname "$0")/lib/common.sh"
 R="$RAYD_BUILD/rayd-render"
@@ -42,5 +42,15 @@ code=$(curl -s -m 60 -w '%{http_code}' -D "$T/h" -o "$T/img" -H 'Content-Type: a
     --data-binary @"$T/light.json" "$URL/v1/render")
 check api_lit_no_header "status $code: $(cat "$T/h")" \
     bash -c "[ $code = 200 ] && ! grep -qi '^X-Rayd-Warning' '$T/h'"
+# a job of it: the 202 says so in its JSON and its header; a lit one does not
+code=$(post_json /v1/jobs "$T/unlit.json")
+in_json=$(json "$T/body" 'j["warnings"][0]' 2>/dev/null)
+in_header=$(header X-Rayd-Warning)
+check job_unlit_warns "status $code: '$in_json' / '$in_header'" bash -c \
+    "[ $code = 202 ] && [ -n \"\$1\" ] && [ \"\$1\" = \"\$2\" ] && [[ \"\$1\" == unlit:* ]]" _ "$in_json" "$in_header"
+code=$(post_json /v1/jobs "$T/light.json")
+in_header=$(header X-Rayd-Warning)
+check job_lit_no_warning "status $code: $(head -c 400 "$T/body") / '$in_header'" \
+    bash -c "[ $code = 202 ] && ! grep -q warnings '$T/body' && [ -z '$in_header' ]"
 stop_rayd
 check rayd_exit_0 "exit $RAYD_RC" [ "$RAYD_RC" = 0 ]
