@@ -281,9 +281,13 @@ void api_shots_frame(struct http_req *r, const char *path) {
 
 void api_shots_video(struct http_req *r, const char *id) {
     if (!api_only_params(r, NULL)) return;
+    if (!api_is_hex(id, 32)) {
+        api_jobs_missing(r, id);
+        return;
+    }
     struct shots_info info;
-    struct blob *mp4 = api_is_hex(id, 32) ? shots_video(id, &info) : NULL;
-    if (!api_is_hex(id, 32) || !info.job.id[0]) {
+    struct blob *mp4 = shots_video(id, &info);
+    if (!info.job.id[0]) {
         api_jobs_missing(r, id);
         return;
     }
