@@ -125,7 +125,8 @@ static void video_log_tail(const char *dir, char *buf, size_t size) {
         fclose(f);
     }
     line[strcspn(line, "\n")] = 0;
-    snprintf(buf, size, "%s", line[0] ? line : "no message");
+    /* cut to buf's size on purpose: the line's end is ffmpeg's detail */
+    snprintf(buf, size, "%.*s", size > 0 ? (int)size - 1 : 0, line[0] ? line : "no message");
 }
 
 /* Removes dir's files and dir. */
