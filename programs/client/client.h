@@ -204,7 +204,8 @@ int thumbnails_run(const struct client_opts *o, const char *dir, const char *out
 /* ---- job.c ---------------------------------------------------------------- */
 
 /* The asynchronous API on o->servers[0]: POST /v1/jobs, follow the events,
- * fetch the PNG into o->out.  Returns 0, 1 when refused, failed or on a
+ * fetch the PNG into o->out (a still scene: rayd-client.c sends an animated
+ * one, or --frames, to job_frames_run).  Returns 0, 1 when refused, failed or on a
  * transport error, 130 when interrupted (the job is cancelled). */
 int job_run(const struct client_opts *o, const struct scenefile *sf);
 /* What job_frames.c shares of job.c.  job_stopped: Ctrl-C or SIGTERM came.
@@ -214,6 +215,8 @@ int job_run(const struct client_opts *o, const struct scenefile *sf);
  * PNG (an OpenEXR for .exr) of w x h; 0, or -1 said.  job_cancel: DELETE
  * the job, say so; returns 130. */
 int job_stopped(void);
+/* catch 1: Ctrl-C and SIGTERM set job_stopped from now on; 0: as before. */
+void job_signals(int catch);
 long job_request(const struct client_opts *o, const char *method, const char *url,
                  const struct scenefile *sf, struct net_buf *body, char *why, size_t size);
 int job_post(const struct client_opts *o, const struct scenefile *sf, const char *query, char *id,

@@ -15,9 +15,9 @@
  * is created with ?format=exr and GET /v1/jobs/{id}/image.exr gives the
  * linear OpenEXR (rayd-render -o OUT.exr's bytes).
  *
- * An animated scene (or --frames) is a frame-range job: job_frames.c
- * follows it, with the requests, the image checks and the cancel of this
- * file.
+ * An animated scene (or --frames) is a frame-range job, which
+ * job_frames.c follows with the requests, the image checks, the signals
+ * and the cancel of this file.
  *
  * Ctrl-C cancels the job on the server (DELETE /v1/jobs/{id}) before
  * exiting, so an abandoned render does not keep the workers busy.
@@ -394,26 +394,30 @@ static int job_fetch(const struct client_opts *o, const char *id, const struct s
     return rc;
 }
 
-int job_run(const struct client_opts *o, const struct scenefile *sf) {
-    struct sigaction sa, old_int, old_term;
+static struct sigaction job_old_int, job_old_term;
+
+void job_signals(int catch) {
+    if (!catch) {
+        sigaction(SIGINT, &job_old_int, NULL);
+        sigaction(SIGTERM, &job_old_term, NULL);
+        return;
+    }
+    struct sigaction sa;
     memset(&sa, 0, sizeof sa);
     sa.sa_handler = job_on_signal;
-    sigaction(SIGINT, &sa, &old_int);
-    sigaction(SIGTERM, &sa, &old_term);
+    sigaction(SIGINT, &sa, &job_old_int);
+    sigaction(SIGTERM, &sa, &job_old_term);
+}
+
+int job_run(const struct client_opts *o, const struct scenefile *sf) {
+    job_signals(1);
     char id[64] = "";
-    int rc = 0;
-    if (o->frames_set || sf->animated) {
-        rc = job_frames_run(o, sf);
-        goto out;
-    }
-    rc = job_post(o, sf, output_kind_exr(o->out) ? "?format=exr" : "", id, sizeof id);
+    int rc = job_post(o, sf, output_kind_exr(o->out) ? "?format=exr" : "", id, sizeof id);
     if (rc == 0 && !o->quiet)
         fprintf(stderr, "rayd-client: job %s on %s (%dx%d)\n", id, o->servers[0], sf->width,
                 sf->height);
     if (rc == 0) rc = job_wait(o, id, sf);
     if (rc == 0) rc = job_fetch(o, id, sf);
-out:
-    sigaction(SIGINT, &old_int, NULL);
-    sigaction(SIGTERM, &old_term, NULL);
+    job_signals(0);
     return rc;
 }

@@ -239,7 +239,9 @@ int job_frames_run(const struct client_opts *o, const struct scenefile *sf) {
         prog_error("out of memory");
         return 1;
     }
+    job_signals(1);
     if (job_post(o, sf, query, j.id, sizeof j.id) != 0) {
+        job_signals(0);
         free(j.got);
         return 1;
     }
@@ -255,6 +257,7 @@ int job_frames_run(const struct client_opts *o, const struct scenefile *sf) {
         fprintf(stderr, "rayd-client: wrote %ld frame%s to %s\n", total, total > 1 ? "s" : "",
                 o->out);
     if (rc == 0 && o->video) rc = job_frames_video(&j);
+    job_signals(0);
     free(j.got);
     return rc;
 }

@@ -468,7 +468,10 @@ static int client_run(const struct client_args *a) {
                               a->view ? a->view : "three-quarter", a->turntable);
     struct scenefile sf;
     if (scenefile_load(a->scene, &sf) != 0) return 1;
-    int rc = !strcmp(a->cmd, "job") ? job_run(&a->o, &sf) : tiles_render(&a->o, &sf);
+    bool frames = a->o.frames_set || sf.animated; /* a frame-range job */
+    int rc = strcmp(a->cmd, "job") ? tiles_render(&a->o, &sf)
+             : frames              ? job_frames_run(&a->o, &sf)
+                                   : job_run(&a->o, &sf);
     scenefile_free(&sf);
     return rc;
 }
