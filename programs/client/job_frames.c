@@ -150,6 +150,16 @@ static int job_frames_ended(struct job_frames *j, const cJSON *job, const char *
     return 1;
 }
 
+/* A job that says it succeeded but serves not every frame: said; 1. */
+static int job_frames_missing(struct job_frames *j) {
+    progress_end(&j->prog);
+    fprintf(stderr,
+            "rayd-client: error: job %s succeeded but serves %ld of its %ld frames (frame %ld is "
+            "not done)\n",
+            j->id, j->ngot, j->last - j->first + 1, j->next);
+    return 1;
+}
+
 /* Polls the job, writing frames as they are done, until it ended: 0 when
  * it succeeded and every frame is written, 1 said, 130 interrupted. */
 static int job_frames_follow(struct job_frames *j) {
@@ -171,12 +181,17 @@ static int job_frames_follow(struct job_frames *j) {
         }
         cJSON *job = cJSON_ParseWithLength(b.data, b.len);
         const char *state = net_json_str(job, "state");
+        long total = j->last - j->first + 1;
         double done = job_frames_num(job, "frames", "done", 0);
+        done = done < 0               ? 0
+               : done > (double)total ? (double)total
+                                      : done; /* checked, not trusted */
         j->eta = job_frames_num(job, "eta_s", NULL, -1);
-        if (job_frames_collect(j, (long)done) < 0)
+        bool succeeded = state && !strcmp(state, "succeeded");
+        if (job_frames_collect(j, succeeded ? total : (long)done) < 0)
             rc = 1;
-        else if (state && !strcmp(state, "succeeded"))
-            rc = j->ngot == j->last - j->first + 1 ? 0 : -1; /* else: one more round */
+        else if (succeeded)
+            rc = j->ngot == total ? 0 : job_frames_missing(j);
         else if (state && (!strcmp(state, "failed") || !strcmp(state, "canceled") ||
                            !strcmp(state, "evicted")))
             rc = job_frames_ended(j, job, state);

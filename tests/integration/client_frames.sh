@@ -7,7 +7,8 @@
 # lines when stderr is no terminal, the bar when it is one; the usage errors (exit 2, nothing
 # sent): an -o without %d, a bad pattern, frames outside the animation, a
 # still scene, a bad --video; a failed job exits 1 with the server's error
-# naming the frame; Ctrl-C cancels the job and exits 130.
+# naming the frame; Ctrl-C cancels the job and exits 130; a hostile server
+# (a job that lies, frames of another size, escapes) is checked, not trusted.
 source "$(dirname "$0")/lib/common.sh"
 CLIENT=$RAYD_BUILD/rayd-client
 
@@ -131,6 +132,68 @@ check interrupt_130 "exit $crc: $(cat "$T/c.err")" eval '[ "$crc" = 130 ] &&
     grep -q "^rayd-client: interrupted; job $idc cancelled" "$T/c.err" && ! ls "$T" | grep -q "^c-"'
 check interrupt_cancels "job $idc" job_state_is "$idc" canceled
 gate open
+
+# ---- an untrusted server: absurd figures, a lie, a wrong size, escapes -------------------
+cat >"$T/fake.py" <<'PY'
+import http.server, json, socketserver, struct, sys, zlib
+MODE, ID = sys.argv[1], "0123456789abcdef0123456789abcdef"
+def png(w, h):
+    def chunk(t, d):
+        return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xffffffff)
+    data = zlib.compress(b"".join(b"\x00" + b"\x00" * (w * 3) for _ in range(h)))
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
+            + chunk(b"IDAT", data) + chunk(b"IEND", b""))
+class H(http.server.BaseHTTPRequestHandler):
+    protocol_version = "HTTP/1.0"
+    def log_message(self, *a):
+        pass
+    def send(self, status, body, ctype="application/json"):
+        self.send_response(status)
+        self.send_header("Content-Type", ctype)
+        self.send_header("Content-Length", str(len(body)))
+        self.end_headers()
+        self.wfile.write(body)
+    def do_POST(self):
+        self.rfile.read(int(self.headers["Content-Length"]))
+        self.send(202, json.dumps({"id": ID, "state": "queued"}).encode())
+    def do_GET(self):
+        if self.path.endswith(".png") and MODE == "wrong_size":
+            return self.send(200, png(8, 8), "image/png")
+        if self.path.endswith(".png"):
+            return self.send(409, b'{"error":{"status":409,"code":"frame_not_ready","message":"no"}}')
+        state = "failed" if MODE == "evil_error" else "succeeded"
+        j = {"id": ID, "state": state, "frames": {"done": 1e300 if MODE == "lie" else 4}, "eta_s": -5,
+             "error": {"code": "frame_failed", "message": "frame 3 \x1b]0;pwned\x07\x1b[2J failed"}}
+        self.send(200, json.dumps(j).encode())
+socketserver.TCPServer.allow_reuse_address = True
+s = socketserver.TCPServer(("127.0.0.1", 0), H)
+print(s.server_address[1], flush=True)
+s.serve_forever()
+PY
+fake() { # fake MODE: a fake server answering in MODE; its URL in FAKE
+    python3 "$T/fake.py" "$1" >"$T/fake.port" &
+    PIDS+=("$!")
+    FAKE_PID=$!
+    wait_until 30 test -s "$T/fake.port"
+    FAKE="http://127.0.0.1:$(head -1 "$T/fake.port")"
+}
+for mode in lie wrong_size evil_error; do
+    fake "$mode"
+    mkdir "$T/u-$mode"
+    timeout 60 "$CLIENT" job "$T/anim.json" -o "$T/u-$mode/h-%d.png" --frames 3-6 --server "$FAKE" \
+        2>"$T/u-$mode.err" </dev/null
+    echo $? >"$T/u-$mode.rc"
+    kill "$FAKE_PID" && wait "$FAKE_PID" 2>/dev/null
+    : >"$T/fake.port"
+done
+check untrusted_lie "exit $(cat "$T/u-lie.rc"): $(cat "$T/u-lie.err")" eval '[ "$(cat "$T/u-lie.rc")" = 1 ] &&
+    grep -q "succeeded but serves 0 of its 4 frames (frame 3 is not done)" "$T/u-lie.err" && [ -z "$(ls "$T/u-lie")" ]'
+check untrusted_wrong_size "exit $(cat "$T/u-wrong_size.rc"): $(cat "$T/u-wrong_size.err")" eval \
+    '[ "$(cat "$T/u-wrong_size.rc")" = 1 ] && grep -q "is 8x8, not the 48x32 asked for" "$T/u-wrong_size.err" &&
+     [ -z "$(ls "$T/u-wrong_size")" ]'
+check untrusted_escapes "exit $(cat "$T/u-evil_error.rc"): $(cat -v "$T/u-evil_error.err")" eval \
+    '[ "$(cat "$T/u-evil_error.rc")" = 1 ] && grep -qF "failed: frame 3 \x1b]0;pwned\x07" "$T/u-evil_error.err" &&
+     ! grep -q $'"'"'\x1b'"'"' "$T/u-evil_error.err"'
 
 # ---- --video from a rayd without ffmpeg: the frames, then exit 1 naming no_ffmpeg ---------
 stop_rayd
