@@ -460,7 +460,7 @@ static int client_urls(struct client_opts *o, char **urls) {
     return 0;
 }
 
-/* Runs the command: 0, 1 on a failure (said). */
+/* Runs the command: 0, 1 on a failure, 2 on a usage error (said). */
 static int client_run(const struct client_args *a) {
     if (!strcmp(a->cmd, "health")) return client_health(&a->o);
     if (!strcmp(a->cmd, "thumbnails"))
@@ -469,6 +469,14 @@ static int client_run(const struct client_args *a) {
     struct scenefile sf;
     if (scenefile_load(a->scene, &sf) != 0) return 1;
     bool frames = a->o.frames_set || sf.animated; /* a frame-range job */
+    if (a->o.video && !frames) {
+        prog_error("--video %s: the scene has no /animation, so it has no frames to make a video "
+                   "of",
+                   a->o.video);
+        fprintf(stderr, "Try 'rayd-client --help'.\n");
+        scenefile_free(&sf);
+        return CLIENT_USAGE_EXIT;
+    }
     int rc = strcmp(a->cmd, "job") ? tiles_render(&a->o, &sf)
              : frames              ? job_frames_run(&a->o, &sf)
                                    : job_run(&a->o, &sf);

@@ -104,6 +104,7 @@ usage bad_o_other_pct "and no other %" job "$T/anim.json" -o "$T/x-%s.png" --fra
 usage bad_o_stdout "give -o a %d" job "$T/anim.json" -o - --frames 3-4
 usage frames_outside "frame 12 is outside the scene's frames 2-9" job "$T/anim.json" -o "$T/x-%d.png" --frames 3-12
 usage frames_still_scene "the scene has no /animation" job "$T/still.json" -o "$T/x-%d.png" --frames 0-1
+usage video_still_scene "the scene has no /animation, so it has no frames to make a video" job "$T/still.json" -o "$T/x.png" --video "$T/x.mp4"
 usage frames_malformed "--frames takes A-B" job "$T/anim.json" -o "$T/x-%d.png" --frames 6-3
 usage frames_not_render "--frames is not an option of render (only of job)" render "$T/anim.json" -o "$T/x.png" --frames 3-4
 usage video_not_mp4 "--video writes the job's H.264 MP4" job "$T/anim.json" -o "$T/x-%d.png" --video "$T/x.mkv"
