@@ -29,8 +29,8 @@ static const char *SCENE =
     " \"objects\": ["
     "  {\"type\": \"quad\", \"corner\": [-3, 0, -3], \"edge1\": [0, 0, 6], \"edge2\": [6, 0, 0],"
     "   \"material\": \"white\"},"
-    "  {\"type\": \"quad\", \"corner\": [-1.5, 4, -1.5], \"edge1\": [3, 0, 0], \"edge2\": [0, 0, 3],"
-    "   \"material\": \"lamp\"},"
+    "  {\"type\": \"quad\", \"corner\": [-1.5, 4, -1.5], \"edge1\": [3, 0, 0],"
+    "   \"edge2\": [0, 0, 3], \"material\": \"lamp\"},"
     "  {\"type\": \"sphere\", \"center\": [0, 1, 0], \"radius\": 0.6, \"material\": \"glass\"}]}";
 
 /* The mean linear radiance (R+G+B)/3 of the region of scene s rendered
