@@ -16,6 +16,7 @@
  *                  retries, stitching (or adding the ranges' sums)
  *   progress.c     the progress bar (terminal) or plain progress lines
  *   job.c          the asynchronous job API with its Server-Sent Events
+ *   job_frames.c   a frame-range job: each frame to -o's pattern, the video
  *   thumbnails.c   the thumbnails command: each model of a folder in a
  *                  studio scene, framed, rendered by tiles.c
  *
@@ -59,6 +60,9 @@ struct client_opts {
     int threads;      /* PNG encoding threads of the stitched frame; 0 = every core */
     const char *what; /* named first in tiles.c's error lines (thumbnails: the model), or NULL */
     int no_hedge;     /* --no-hedge: never send a straggler's copy to a second server */
+    int frames_set;   /* job --frames A-B given */
+    long frame_a, frame_b; /* its frames, inclusive */
+    const char *video;     /* job --video: the MP4 to write, or NULL */
 };
 
 /* ---- scenefile.c ---------------------------------------------------------- */
@@ -69,7 +73,9 @@ struct scenefile {
     char id[65]; /* lowercase hex SHA-256 of bytes: the server's scene id */
     int width, height;
     int samples;
-    int bundled; /* files inlined */
+    int bundled;  /* files inlined */
+    int animated; /* an "animation" block: frames anim_start..anim_end */
+    long anim_start, anim_end;
     /* JSON Pointers of the keys the inlined bytes went to ("/render/
      * environment/base64"), each where the scene said "file": an error the
      * core finds in those bytes is reported at the "file" the user wrote,
@@ -198,8 +204,32 @@ int thumbnails_run(const struct client_opts *o, const char *dir, const char *out
 /* ---- job.c ---------------------------------------------------------------- */
 
 /* The asynchronous API on o->servers[0]: POST /v1/jobs, follow the events,
- * fetch the PNG into o->out.  Returns 0, 1 when refused, failed or on a
+ * fetch the PNG into o->out (a still scene: rayd-client.c sends an animated
+ * one, or --frames, to job_frames_run).  Returns 0, 1 when refused, failed or on a
  * transport error, 130 when interrupted (the job is cancelled). */
 int job_run(const struct client_opts *o, const struct scenefile *sf);
+/* What job_frames.c shares of job.c.  job_stopped: Ctrl-C or SIGTERM came.
+ * job_request: one blocking request (body: the scene, or NULL); the
+ * status, or 0 with why set.  job_post: POST /v1/jobs + query (""), the id
+ * into id; 0, or 1 said.  job_write: the image into path when it is a
+ * PNG (an OpenEXR for .exr) of w x h; 0, or -1 said.  job_cancel: DELETE
+ * the job, say so; returns 130. */
+int job_stopped(void);
+/* catch 1: Ctrl-C and SIGTERM set job_stopped from now on; 0: as before. */
+void job_signals(int catch);
+long job_request(const struct client_opts *o, const char *method, const char *url,
+                 const struct scenefile *sf, struct net_buf *body, char *why, size_t size);
+int job_post(const struct client_opts *o, const struct scenefile *sf, const char *query, char *id,
+             size_t size);
+int job_write(const char *path, const struct net_buf *b, int w, int h);
+int job_cancel(const struct client_opts *o, const char *id);
+
+/* ---- job_frames.c --------------------------------------------------------- */
+
+/* `job` of an animated scene (or with --frames): POST /v1/jobs?frames=A-B,
+ * each finished frame into o->out's pattern, o->video once all are done.
+ * Returns 0, 1 when refused, failed or on a transport or write error, 2 on
+ * a usage error (said, nothing sent), 130 when interrupted (cancelled). */
+int job_frames_run(const struct client_opts *o, const struct scenefile *sf);
 
 #endif

@@ -15,6 +15,10 @@
  * is created with ?format=exr and GET /v1/jobs/{id}/image.exr gives the
  * linear OpenEXR (rayd-render -o OUT.exr's bytes).
  *
+ * An animated scene (or --frames) is a frame-range job, which
+ * job_frames.c follows with the requests, the image checks, the signals
+ * and the cancel of this file.
+ *
  * Ctrl-C cancels the job on the server (DELETE /v1/jobs/{id}) before
  * exiting, so an abandoned render does not keep the workers busy.
  *
@@ -39,6 +43,8 @@
 #include <rayd/rayd.h>
 
 static volatile sig_atomic_t job_interrupted;
+
+int job_stopped(void) { return job_interrupted; }
 
 static void job_on_signal(int sig) {
     (void)sig;
@@ -151,8 +157,8 @@ static int job_xferinfo(void *u, curl_off_t a, curl_off_t b, curl_off_t c, curl_
 
 /* One blocking request; returns the status (0 on a transport error, with
  * why set). */
-static long job_request(const struct client_opts *o, const char *method, const char *url,
-                        const struct scenefile *sf, struct net_buf *body, char *why, size_t size) {
+long job_request(const struct client_opts *o, const char *method, const char *url,
+                 const struct scenefile *sf, struct net_buf *body, char *why, size_t size) {
     void *hdrs = NULL;
     CURL *h = net_easy(o, url, body, sf ? sf->bytes : NULL, sf ? sf->len : 0, &hdrs);
     if (!h) {
@@ -276,7 +282,7 @@ static int job_exr_size(const struct net_buf *b, long *w, long *h) {
  * size asked for (w x h: the scene's): 0, or -1 after saying why (nothing
  * written).  The size is read from the header before anything is decoded,
  * so a huge image costs nothing. */
-static int job_write(const char *path, const struct net_buf *b, int w, int h) {
+int job_write(const char *path, const struct net_buf *b, int w, int h) {
     bool exr = output_kind_exr(path);
     long iw = 0, ih = 0;
     if ((exr ? job_exr_size(b, &iw, &ih) : job_png_size(b, &iw, &ih)) != 0) {
@@ -306,12 +312,12 @@ static int job_write(const char *path, const struct net_buf *b, int w, int h) {
 }
 
 /* POSTs the scene; its job's id into id: 0, or 1 after saying why. */
-static int job_post(const struct client_opts *o, const struct scenefile *sf, char *id,
-                    size_t size) {
+int job_post(const struct client_opts *o, const struct scenefile *sf, const char *query, char *id,
+             size_t size) {
     const char *base = o->servers[0];
     char url[1024], why[600] = "";
     struct net_buf b = {0};
-    snprintf(url, sizeof url, "%s/v1/jobs%s", base, output_kind_exr(o->out) ? "?format=exr" : "");
+    snprintf(url, sizeof url, "%s/v1/jobs%s", base, query);
     long st = job_request(o, "POST", url, sf, &b, why, sizeof why);
     int rc = 1;
     if (st != 202) {
@@ -334,7 +340,7 @@ static int job_post(const struct client_opts *o, const struct scenefile *sf, cha
 
 /* Ctrl-C or SIGTERM came: the job is cancelled on the server (DELETE).
  * Returns 130, the exit status of an interrupted command. */
-static int job_cancel(const struct client_opts *o, const char *id) {
+int job_cancel(const struct client_opts *o, const char *id) {
     char url[1024], why[600] = "";
     struct net_buf b = {0};
     job_interrupted = 0; /* let the DELETE through */
@@ -388,20 +394,30 @@ static int job_fetch(const struct client_opts *o, const char *id, const struct s
     return rc;
 }
 
-int job_run(const struct client_opts *o, const struct scenefile *sf) {
-    struct sigaction sa, old_int, old_term;
+static struct sigaction job_old_int, job_old_term;
+
+void job_signals(int catch) {
+    if (!catch) {
+        sigaction(SIGINT, &job_old_int, NULL);
+        sigaction(SIGTERM, &job_old_term, NULL);
+        return;
+    }
+    struct sigaction sa;
     memset(&sa, 0, sizeof sa);
     sa.sa_handler = job_on_signal;
-    sigaction(SIGINT, &sa, &old_int);
-    sigaction(SIGTERM, &sa, &old_term);
+    sigaction(SIGINT, &sa, &job_old_int);
+    sigaction(SIGTERM, &sa, &job_old_term);
+}
+
+int job_run(const struct client_opts *o, const struct scenefile *sf) {
+    job_signals(1);
     char id[64] = "";
-    int rc = job_post(o, sf, id, sizeof id);
+    int rc = job_post(o, sf, output_kind_exr(o->out) ? "?format=exr" : "", id, sizeof id);
     if (rc == 0 && !o->quiet)
         fprintf(stderr, "rayd-client: job %s on %s (%dx%d)\n", id, o->servers[0], sf->width,
                 sf->height);
     if (rc == 0) rc = job_wait(o, id, sf);
     if (rc == 0) rc = job_fetch(o, id, sf);
-    sigaction(SIGINT, &old_int, NULL);
-    sigaction(SIGTERM, &old_term, NULL);
+    job_signals(0);
     return rc;
 }

@@ -5,6 +5,7 @@
  *               [--timeout S] [--threads N] [--no-hedge]
  *               [--token-file F] [--quiet]
  *   rayd-client job SCENE.json -o OUT.png|OUT.exr --server URL [--token-file F]
+ *               [--frames A-B] [--video OUT.mp4]   (an animated scene: -o 'shot-%04d.png')
  *   rayd-client health --server URL [--server URL ...]
  *   rayd-client thumbnails DIR [-o OUTDIR] [--size N] [--view V] [--turntable N]
  *                          --server URL ...
@@ -39,6 +40,7 @@
 #include <stdbool.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <unistd.h>
 
 #include <rayd/rayd.h>
@@ -52,7 +54,7 @@ static void client_usage(FILE *f) {
            "                          [--timeout S] [--threads N] [--no-hedge]\n"
            "                          [--token-file F] [--quiet]\n"
            "       rayd-client job SCENE.json -o OUT.png|OUT.exr --server URL [--token-file F]\n"
-           "                       [--quiet]\n"
+           "                       [--frames A-B] [--video OUT.mp4] [--quiet]\n"
            "       rayd-client health --server URL [--server URL ...] [--token-file F]\n"
            "       rayd-client thumbnails DIR [-o OUTDIR] [--size N] [--view V] [--turntable N]\n"
            "                              --server URL ...\n"
@@ -75,6 +77,9 @@ static void client_usage(FILE *f) {
            "                    over 2x the median tile time and 1 s is copied once)\n"
            "  --token-file F    bearer token file (default $RAYD_TOKEN_FILE)\n"
            "  --threads N       threads encoding the stitched PNG (default 0: every core)\n"
+           "  --frames A-B      job: frames A to B of an animated scene (default: all of\n"
+           "                    them), one file a frame: -o 'shot-%%04d.png' (%%d, %%0Nd)\n"
+           "  --video F.mp4     job: also the frames as an H.264 MP4, once all are done\n"
            "  --size N          thumbnails: the PNGs' width and height (default 256)\n"
            "  --view V          thumbnails: three-quarter (default), front, side or top;\n"
            "                    -o is the output folder (default .)\n"
@@ -238,7 +243,9 @@ enum {
     OPT_SIZE,
     OPT_VIEW,
     OPT_TURNTABLE,
-    OPT_NO_HEDGE
+    OPT_NO_HEDGE,
+    OPT_FRAMES,
+    OPT_VIDEO
 };
 static const struct option client_options[] = {
     {"server", required_argument, NULL, 's'},
@@ -254,6 +261,8 @@ static const struct option client_options[] = {
     {"view", required_argument, NULL, OPT_VIEW},
     {"turntable", required_argument, NULL, OPT_TURNTABLE},
     {"no-hedge", no_argument, NULL, OPT_NO_HEDGE},
+    {"frames", required_argument, NULL, OPT_FRAMES},
+    {"video", required_argument, NULL, OPT_VIDEO},
     {"quiet", no_argument, NULL, 'q'},
     {"help", no_argument, NULL, 'h'},
     {"version", no_argument, NULL, OPT_VERSION},
@@ -285,6 +294,8 @@ static const struct {
     {OPT_SIZE, "--size", "thumbnails"},
     {OPT_VIEW, "--view", "thumbnails"},
     {OPT_TURNTABLE, "--turntable", "thumbnails"},
+    {OPT_FRAMES, "--frames", "job"},
+    {OPT_VIDEO, "--video", "job"},
 };
 
 /* 0, or -1 after saying which given option cmd does not take. */
@@ -347,6 +358,20 @@ static int client_option(int opt, const char *v, struct client_args *a) {
     case OPT_SIZE: return client_int(opt, v, 8, 4096, &a->size);
     case OPT_TURNTABLE: return client_int(opt, v, 1, 360, &a->turntable);
     case OPT_NO_HEDGE: o->no_hedge = 1; return 0;
+    case OPT_FRAMES:
+        if (!v || frame_name_range(v, &o->frame_a, &o->frame_b) != 0)
+            return args_bad("--frames takes A-B: frame numbers in 0..1000000, A <= B, not '%s'",
+                            v ? v : "");
+        o->frames_set = 1;
+        return 0;
+    case OPT_VIDEO: {
+        const char *dot = v ? strrchr(v, '.') : NULL;
+        if (!dot || strcasecmp(dot, ".mp4"))
+            return args_bad("--video writes the job's H.264 MP4: a .mp4 file, not '%s'",
+                            v ? v : "");
+        o->video = v;
+        return 0;
+    }
     case OPT_VIEW:
         if (!v || (strcmp(v, "three-quarter") && strcmp(v, "front") && strcmp(v, "side") &&
                    strcmp(v, "top")))
@@ -435,7 +460,7 @@ static int client_urls(struct client_opts *o, char **urls) {
     return 0;
 }
 
-/* Runs the command: 0, 1 on a failure (said). */
+/* Runs the command: 0, 1 on a failure, 2 on a usage error (said). */
 static int client_run(const struct client_args *a) {
     if (!strcmp(a->cmd, "health")) return client_health(&a->o);
     if (!strcmp(a->cmd, "thumbnails"))
@@ -443,7 +468,18 @@ static int client_run(const struct client_args *a) {
                               a->view ? a->view : "three-quarter", a->turntable);
     struct scenefile sf;
     if (scenefile_load(a->scene, &sf) != 0) return 1;
-    int rc = !strcmp(a->cmd, "job") ? job_run(&a->o, &sf) : tiles_render(&a->o, &sf);
+    bool frames = a->o.frames_set || sf.animated; /* a frame-range job */
+    if (a->o.video && !frames) {
+        prog_error("--video %s: the scene has no /animation, so it has no frames to make a video "
+                   "of",
+                   a->o.video);
+        fprintf(stderr, "Try 'rayd-client --help'.\n");
+        scenefile_free(&sf);
+        return CLIENT_USAGE_EXIT;
+    }
+    int rc = strcmp(a->cmd, "job") ? tiles_render(&a->o, &sf)
+             : frames              ? job_frames_run(&a->o, &sf)
+                                   : job_run(&a->o, &sf);
     scenefile_free(&sf);
     return rc;
 }

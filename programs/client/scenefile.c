@@ -302,6 +302,10 @@ int scenefile_finish(const char *name, struct scenefile *sf) {
     }
     struct rayd_scene_info info;
     rayd_scene_info(scene, &info);
+    struct rayd_animation an;
+    rayd_scene_animation(scene, &an);
+    sf->animated = an.animated;
+    sf->anim_start = an.start, sf->anim_end = an.end;
     rayd_scene_free(scene);
     sf->width = info.width;
     sf->height = info.height;

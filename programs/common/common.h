@@ -17,6 +17,7 @@
  *   output.c       -o: a temporary file in the same folder, fsync, rename
  *   output_kind.c  the format an output's name asks for (.exr, .png, ...)
  *   base64enc.c    base64 for the files the client embeds in a scene
+ *   frame_name.c   --frames A-B, and frame k's file name from -o's %d
  *
  * Every name starts with its file's name.
  */
@@ -96,6 +97,17 @@ const char *output_name(const char *path);
 const char *output_kind(const char *path);
 /* Whether path names an OpenEXR file (output_kind "exr"). */
 bool output_kind_exr(const char *path);
+
+/* ---- frame_name.c --------------------------------------------------------- */
+
+/* pattern with its one %d, %Nd or %0Nd (N < 10) set to k, "%%" as "%",
+ * into out.  -1 when the pattern has another % or more than one number (or
+ * the name does not fit); 0 when it has none (out is the pattern), 1 when
+ * it has one. */
+int frame_name_path(const char *pattern, long k, char *out, size_t size);
+/* "A-B" (or "K"): frames, each in 0..1000000, A <= B.  0, or -1 (nothing
+ * said). */
+int frame_name_range(const char *s, long *a, long *b);
 
 /* ---- base64enc.c ---------------------------------------------------------- */
 

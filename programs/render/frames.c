@@ -40,35 +40,6 @@
 
 #include "render.h"
 
-/* pattern with its one %d, %Nd or %0Nd (N < 10) set to k, "%%" as "%".
- * -1 when the pattern has another % or more than one number; 0 when it
- * has none (out is the pattern), 1 when it has one. */
-static int frame_path(const char *pattern, long k, char *out, size_t size) {
-    size_t o = 0;
-    int numbers = 0;
-    for (const char *p = pattern; *p; p++) {
-        char piece[32] = {*p, 0};
-        if (*p == '%' && p[1] == '%') {
-            p++;
-        } else if (*p == '%') {
-            const char *q = p + 1;
-            bool zero = *q == '0';
-            int width = 0;
-            if (zero) q++;
-            if (*q >= '1' && *q <= '9') width = *q++ - '0';
-            if (*q != 'd' || numbers++) return -1;
-            snprintf(piece, sizeof piece, zero ? "%0*ld" : "%*ld", width, k);
-            p = q;
-        }
-        size_t n = strlen(piece);
-        if (o + n >= size) return -1;
-        memcpy(out + o, piece, n + 1);
-        o += n;
-    }
-    if (!numbers) snprintf(out, size, "%s", pattern);
-    return numbers;
-}
-
 extern char **environ;
 
 struct video {
@@ -161,7 +132,7 @@ static int video_frame(const struct args *a, const rayd_scene *scene, const char
 
 /* Frame k's file name from -o ("" for none). */
 static int frame_file(const struct args *a, long k, char *path, size_t size) {
-    if (frame_path(a->output, k, path, size) < 0)
+    if (frame_name_path(a->output, k, path, size) < 0)
         return bad_usage("-o %s: a frame's file takes one %%d (or %%0Nd, N < 10) and no other %%",
                          a->output);
     return 0;
@@ -186,7 +157,7 @@ static int check_range(const struct args *a, const struct rayd_animation *an, lo
         return 2;
     }
     char path[4096];
-    int numbered = frame_path(a->output, *from, path, sizeof path);
+    int numbered = frame_name_path(a->output, *from, path, sizeof path);
     if (numbered < 0 || (numbered == 0 && a->output[0] && *to > *from)) {
         say_usage(
             numbered < 0

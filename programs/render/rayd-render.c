@@ -175,22 +175,6 @@ static const struct option long_options[] = {
     {NULL, 0, NULL, 0},
 };
 
-/* "A-B" (or "K"): frames, each in 0..1000000, A <= B. */
-static int parse_frames(const char *s, long *a, long *b) {
-    char *end;
-    errno = 0;
-    *a = strtol(s, &end, 10);
-    if (errno || end == s || !(*end == '-' || !*end) || *a < 0 || *a > 1000000) return -1;
-    if (!*end) {
-        *b = *a;
-        return 0;
-    }
-    const char *s2 = end + 1;
-    *b = strtol(s2, &end, 10);
-    if (errno || end == s2 || *end || *b < *a || *b > 1000000) return -1;
-    return 0;
-}
-
 /* The frame options; 0, or -1 after saying why. */
 static int set_frame_option(int opt, const char *val, struct args *a) {
     long x = 0, y = 0;
@@ -206,7 +190,7 @@ static int set_frame_option(int opt, const char *val, struct args *a) {
     if (opt == OPT_FRAME && (!val || parse_int(val, 0, 1000000, &x) != 0))
         return bad_usage("--frame takes a frame number in 0..1000000");
     if (opt == OPT_FRAME) y = x;
-    if (opt == OPT_FRAMES && (!val || parse_frames(val, &x, &y) != 0))
+    if (opt == OPT_FRAMES && (!val || frame_name_range(val, &x, &y) != 0))
         return bad_usage("--frames takes A-B: frame numbers in 0..1000000, A <= B");
     a->frames_set = true;
     a->frame_a = x;
