@@ -88,8 +88,9 @@ static size_t jobs_evict_result(struct job *j, const char *why);
 
 /* Lets go of the images of the finished job that finished first (of the
  * task it shares with any other job): its jobs become "evicted" and answer
- * 410 result_evicted (jobs_evict_result).  false when no finished job
- * keeps an image. */
+ * 410 result_evicted (jobs_evict_result) -- or, when a finished frame-range
+ * job ended before it, of that job's oldest frame kept (shots.c).  false
+ * when no finished job keeps an image. */
 static bool jobs_evict_oldest(void) {
     struct job *victim = NULL;
     for (int i = 0; i < jobs_n; i++) {
@@ -100,6 +101,8 @@ static bool jobs_evict_oldest(void) {
             (!victim || t->t_end < victim->task->t_end))
             victim = j;
     }
+    double shot_end = shots_oldest_end();
+    if (shot_end >= 0 && (!victim || shot_end < victim->task->t_end)) return shots_evict_oldest();
     if (!victim) return false;
     struct task *t = victim->task;
     if (jobs_all_stored(t)) { /* on disk: only the memory goes */
@@ -280,7 +283,7 @@ static size_t jobs_evict_result(struct job *j, const char *why) {
 }
 
 void jobs_count(long *unfinished, long *cap) {
-    long n = 0;
+    long n = shots_unfinished();
     for (int i = 0; i < jobs_n; i++) n += !jobs_final(jobs_table[i]);
     *unfinished = n;
     *cap = jobs_max;
@@ -458,9 +461,11 @@ enum work_submit jobs_submit(struct cache_entry *scene, const struct work_target
     }
     work_lock_take();
     struct task *t = NULL;
+    long busy, cap; /* the unfinished jobs, frame-range ones too: --max-jobs */
+    jobs_count(&busy, &cap);
     if (task_draining())
         r = WORK_DRAINING;
-    else if (jobs_n == jobs_max && !jobs_evict())
+    else if (busy >= cap || (jobs_n == jobs_max && !jobs_evict()))
         r = WORK_TOO_MANY_JOBS;
     else
         r = task_submit(scene, &fresh, &t);

@@ -57,12 +57,18 @@ static struct work_waiter **watch_list(struct task *t, int which) {
     return which ? &t->sse_waiters : &t->waiters;
 }
 
+/* Every waiter with a socket: the tasks' and the frame-range jobs'
+ * event streams (shots.c), which wait on no task between frames. */
 static void watch_collect(struct watch_set *s) {
     s->n = 0;
     for (struct task *t = task_active; t; t = t->next)
         for (int which = 0; which < 2; which++)
             for (struct work_waiter *w = *watch_list(t, which); w; w = w->next)
                 if (w->fd >= 0 && !watch_add(s, w)) return;
+    struct work_waiter **l;
+    for (int i = 0; (l = shots_streams(i)); i++)
+        for (struct work_waiter *w = *l; w; w = w->next)
+            if (w->fd >= 0 && !watch_add(s, w)) return;
 }
 
 static bool watch_hung_up(const struct pollfd *p) {
@@ -78,6 +84,7 @@ static void watch_drop(struct work_waiter *w, struct task_notify *gone, struct t
     work_assert_locked();
     for (struct task *t = task_active; t; t = t->next)
         if (task_unwait(t, w, gone, n, sse)) return;
+    shots_unwait(w, gone);
 }
 
 /* The waiters whose client hung up, onto gone (their tasks cancelled
@@ -94,6 +101,8 @@ static void watch_poll(struct watch_set *s, struct task_notify *gone, struct tas
 static void watch_ping(struct task_notify *ping) {
     work_assert_locked();
     for (struct task *t = task_active; t; t = t->next) task_notify_add(ping, &t->sse_waiters);
+    struct work_waiter **l;
+    for (int i = 0; (l = shots_streams(i)); i++) task_notify_add(ping, l);
 }
 
 /* Stops a render past --max-render-seconds, its waiters onto n and sse;

@@ -483,6 +483,10 @@ void store_rows_free(struct store_job *rows, int n);
  * is on disk; an image was evicted by --max-disk. */
 void store_hooks(void (*written)(const char *id),
                  void (*evicted)(const char *id, const char *why, double wall));
+/* shots.c's, likewise: frame k of a frame-range job is on disk; it was
+ * evicted by --max-disk. */
+void store_frame_hooks(void (*written)(const char *id, long k),
+                       void (*evicted)(const char *id, long k, const char *why));
 /* Lock held: queue a new job's record (row->scene becomes the store's),
  * w->suspend runs now and w->done once it is committed (status RAYD_OK or
  * RAYD_E_IO); a job's end, with its images (referenced); a job forgotten. */
@@ -496,8 +500,9 @@ void store_frame(const char *id, long k, struct blob *png, struct blob *exr);
 struct blob *store_read_frame(const char *id, long k, bool exr);
 /* A frame-range job's frames at start-up (main thread): states[k - first]
  * STORE_FRAME_DONE for each frame done with its files whole, else
- * STORE_FRAME_QUEUED; how many are done, -1 on an error. */
-enum { STORE_FRAME_QUEUED, STORE_FRAME_DONE };
+ * STORE_FRAME_QUEUED (STORE_FRAME_EVICTED: done, then evicted by --max-disk);
+ * how many are done, -1 on an error. */
+enum { STORE_FRAME_QUEUED, STORE_FRAME_DONE, STORE_FRAME_EVICTED };
 int store_load_frames(const struct store_job *j, unsigned char *states);
 
 /* ---- jobs.c (lock held) -------------------------------------------------------- */
@@ -542,6 +547,17 @@ void jobs_seen_seq(long long seq); /* a restored job's number: the next ones com
  * frames (states, store_load_frames) served from their files, the others
  * queued again unless it ended; false: no room or memory. */
 bool shots_restore(const struct store_job *row, const unsigned char *states);
+/* The memory budget's reclaimer (jobs.c), lock held: when the finished
+ * frame-range job that ended first and keeps a frame in memory ended
+ * (clock_now's clock; -1: none), and its oldest frame let go (its GET
+ * answers 410 result_evicted; false: none kept). */
+double shots_oldest_end(void);
+bool shots_evict_oldest(void);
+long shots_unfinished(void); /* lock held: they count against --max-jobs */
+/* The watcher's, lock held: the event streams waiting on the i-th shot
+ * (NULL past the last); w taken off whichever shot holds it, onto gone. */
+struct work_waiter **shots_streams(int i);
+bool shots_unwait(struct work_waiter *w, struct task_notify *gone);
 
 /* ---- watch.c ------------------------------------------------------------------- */
 
