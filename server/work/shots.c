@@ -401,9 +401,12 @@ static void shots_let_go(struct shot *s, int i, enum shots_gone gone) {
     if (gone) s->f[i].gone = (unsigned char)gone;
 }
 
-/* The finished shot that ended first and keeps a frame in memory. */
+/* The finished shot that ended first and keeps a frame in memory.  None
+ * with --data-dir: a frame there is in memory only until the store wrote
+ * it (the write holds it too: letting go would free nothing). */
 static struct shot *shots_oldest_kept(void) {
     struct shot *best = NULL;
+    if (store_on()) return NULL;
     for (int i = 0; i < shots_n; i++) {
         struct shot *s = shots_table[i];
         if (shots_final(s) && s->flying == 0 && (!best || shots_ended(s) < shots_ended(best)) &&
@@ -442,7 +445,8 @@ static void shots_on_disk(const char *id, long k, const char *why) {
         if (!strcmp(shots_table[i]->id, id)) s = shots_table[i];
     if (s && k >= s->first && k <= s->last && s->f[k - s->first].state == SF_DONE) {
         s->f[k - s->first].on_disk = !why;
-        shots_let_go(s, (int)(k - s->first), why ? SG_DISK : SG_KEPT);
+        s->f[k - s->first].gone = why ? SG_DISK : SG_KEPT;
+        shots_let_go(s, (int)(k - s->first), SG_KEPT);
     }
     work_lock_give();
 }
