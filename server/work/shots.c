@@ -871,8 +871,8 @@ static void shots_video_make(struct shot *s) {
     struct blob *mp4 = NULL;
     char err[200] = "out of memory, or a frame was evicted (--max-memory, --max-disk)";
     enum video_status st = whole ? video_encode(frames, s->n, s->fps > 0 ? s->fps : 24,
-                                                 SHOTS_VIDEO_SECONDS(s->n), &mp4, err, sizeof err)
-                                  : VIDEO_FAILED;
+                                                SHOTS_VIDEO_SECONDS(s->n), &mp4, err, sizeof err)
+                                 : VIDEO_FAILED;
     for (int i = 0; frames && i < s->n; i++) blob_unref(frames[i]);
     free(frames);
     work_lock_take();
