@@ -61,6 +61,10 @@ static struct jobs_tomb {
 } jobs_tombs[JOBS_TOMBSTONES];
 static int jobs_tomb_next, jobs_tomb_n;
 
+static struct jobs_shots jobs_shots; /* shots.c's (jobs_shots_hooks); NULLs before */
+
+void jobs_shots_hooks(const struct jobs_shots *h) { jobs_shots = *h; }
+
 static long jobs_gauge(void) {
     work_lock_take();
     long n = jobs_n;
@@ -101,8 +105,9 @@ static bool jobs_evict_oldest(void) {
             (!victim || t->t_end < victim->task->t_end))
             victim = j;
     }
-    double shot_end = shots_oldest_end();
-    if (shot_end >= 0 && (!victim || shot_end < victim->task->t_end)) return shots_evict_oldest();
+    double shot_end = jobs_shots.oldest_end ? jobs_shots.oldest_end() : -1;
+    if (shot_end >= 0 && (!victim || shot_end < victim->task->t_end))
+        return jobs_shots.evict_oldest();
     if (!victim) return false;
     struct task *t = victim->task;
     if (jobs_all_stored(t)) { /* on disk: only the memory goes */
@@ -283,7 +288,7 @@ static size_t jobs_evict_result(struct job *j, const char *why) {
 }
 
 void jobs_count(long *unfinished, long *cap) {
-    long n = shots_unfinished();
+    long n = jobs_shots.unfinished ? jobs_shots.unfinished() : 0;
     for (int i = 0; i < jobs_n; i++) n += !jobs_final(jobs_table[i]);
     *unfinished = n;
     *cap = jobs_max;

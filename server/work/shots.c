@@ -168,7 +168,7 @@ static struct shot *shots_find(const char *id) {
 }
 
 /* The shots not finished (they count against --max-jobs with the jobs). */
-long shots_unfinished(void) {
+static long shots_unfinished(void) {
     work_assert_locked();
     long n = 0;
     for (int i = 0; i < shots_n; i++) n += !shots_final(shots_table[i]);
@@ -416,13 +416,13 @@ static struct shot *shots_oldest_kept(void) {
     return best;
 }
 
-double shots_oldest_end(void) {
+static double shots_oldest_end(void) {
     work_assert_locked();
     struct shot *s = shots_oldest_kept();
     return s ? shots_ended(s) : -1;
 }
 
-bool shots_evict_oldest(void) {
+static bool shots_evict_oldest(void) {
     work_assert_locked();
     struct shot *s = shots_oldest_kept();
     for (int c = 0; s && c < s->norder; c++) { /* its frames in the order they ended */
@@ -459,8 +459,14 @@ static void shots_disk_evicted(const char *id, long k, const char *why) {
 
 /* ---- the table ------------------------------------------------------------------ */
 
+static struct work_waiter **shots_streams(int i);
+static bool shots_unwait(struct work_waiter *w, struct task_notify *gone);
+
 bool shots_start(int max_jobs) {
+    static const struct jobs_shots hooks = {shots_oldest_end, shots_evict_oldest, shots_unfinished};
     store_frame_hooks(shots_written, shots_disk_evicted);
+    jobs_shots_hooks(&hooks);
+    watch_streams_hooks(shots_streams, shots_unwait);
     shots_table = calloc((size_t)max_jobs, sizeof *shots_table);
     return shots_table != NULL;
 }
@@ -833,12 +839,12 @@ int shots_events_read(struct shot *s, struct shots_cursor *c, struct events_item
 /* The watcher's (watch.c), lock held: the streams waiting on the i-th
  * shot (NULL past the last), to poll for a hang-up and wake for a
  * keep-alive; and w off whichever shot holds it, onto gone. */
-struct work_waiter **shots_streams(int i) {
+static struct work_waiter **shots_streams(int i) {
     work_assert_locked();
     return i < shots_n ? &shots_table[i]->sse : NULL;
 }
 
-bool shots_unwait(struct work_waiter *w, struct task_notify *gone) {
+static bool shots_unwait(struct work_waiter *w, struct task_notify *gone) {
     work_assert_locked();
     for (int i = 0; i < shots_n; i++)
         for (struct work_waiter **pp = &shots_table[i]->sse; *pp; pp = &(*pp)->next)

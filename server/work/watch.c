@@ -27,6 +27,15 @@
 static pthread_t watch_thread;
 static bool watch_started;
 static bool watch_stopping; /* lock held */
+/* shots.c's streams (watch_streams_hooks): it sits above this file */
+static struct work_waiter **(*watch_shots)(int i);
+static bool (*watch_shots_unwait)(struct work_waiter *w, struct task_notify *gone);
+
+void watch_streams_hooks(struct work_waiter **(*streams)(int i),
+                         bool (*unwait)(struct work_waiter *w, struct task_notify *gone)) {
+    watch_shots = streams;
+    watch_shots_unwait = unwait;
+}
 
 /* The sockets to poll, lock held. */
 struct watch_set {
@@ -66,7 +75,7 @@ static void watch_collect(struct watch_set *s) {
             for (struct work_waiter *w = *watch_list(t, which); w; w = w->next)
                 if (w->fd >= 0 && !watch_add(s, w)) return;
     struct work_waiter **l;
-    for (int i = 0; (l = shots_streams(i)); i++)
+    for (int i = 0; watch_shots && (l = watch_shots(i)); i++)
         for (struct work_waiter *w = *l; w; w = w->next)
             if (w->fd >= 0 && !watch_add(s, w)) return;
 }
@@ -84,7 +93,7 @@ static void watch_drop(struct work_waiter *w, struct task_notify *gone, struct t
     work_assert_locked();
     for (struct task *t = task_active; t; t = t->next)
         if (task_unwait(t, w, gone, n, sse)) return;
-    shots_unwait(w, gone);
+    if (watch_shots_unwait) watch_shots_unwait(w, gone);
 }
 
 /* The waiters whose client hung up, onto gone (their tasks cancelled
@@ -102,7 +111,7 @@ static void watch_ping(struct task_notify *ping) {
     work_assert_locked();
     for (struct task *t = task_active; t; t = t->next) task_notify_add(ping, &t->sse_waiters);
     struct work_waiter **l;
-    for (int i = 0; (l = shots_streams(i)); i++) task_notify_add(ping, l);
+    for (int i = 0; watch_shots && (l = watch_shots(i)); i++) task_notify_add(ping, l);
 }
 
 /* Stops a render past --max-render-seconds, its waiters onto n and sse;

@@ -539,6 +539,17 @@ void jobs_unref(struct job *j);
 /* Forgets the jobs that ended (finished, failed or were cancelled) more
  * than --job-ttl seconds ago, each leaving a tombstone (jobs_gone). */
 void jobs_expire(double now);
+/* shots.c's part in the jobs' limits, handed down by shots_start (jobs.c
+ * is below it), all lock held: when the finished frame-range job that
+ * ended first and keeps a frame in memory ended (clock_now's clock; -1:
+ * none), and its oldest frame let go (410 result_evicted; false: none) for
+ * the memory budget; how many are unfinished (--max-jobs). */
+struct jobs_shots {
+    double (*oldest_end)(void);
+    bool (*evict_oldest)(void);
+    long (*unfinished)(void);
+};
+void jobs_shots_hooks(const struct jobs_shots *h);
 /* The next creation number (GET /v1/jobs's order), shared by the
  * frame-range jobs (shots.c); lock held. */
 long long jobs_next_seq(void);
@@ -547,20 +558,14 @@ void jobs_seen_seq(long long seq); /* a restored job's number: the next ones com
  * frames (states, store_load_frames) served from their files, the others
  * queued again unless it ended; false: no room or memory. */
 bool shots_restore(const struct store_job *row, const unsigned char *states);
-/* The memory budget's reclaimer (jobs.c), lock held: when the finished
- * frame-range job that ended first and keeps a frame in memory ended
- * (clock_now's clock; -1: none), and its oldest frame let go (its GET
- * answers 410 result_evicted; false: none kept). */
-double shots_oldest_end(void);
-bool shots_evict_oldest(void);
-long shots_unfinished(void); /* lock held: they count against --max-jobs */
-/* The watcher's, lock held: the event streams waiting on the i-th shot
- * (NULL past the last); w taken off whichever shot holds it, onto gone. */
-struct work_waiter **shots_streams(int i);
-bool shots_unwait(struct work_waiter *w, struct task_notify *gone);
 
 /* ---- watch.c ------------------------------------------------------------------- */
 
+/* shots.c's, handed down by shots_start, lock held: the event streams
+ * waiting on the i-th frame-range job (NULL past the last), polled for a
+ * hang-up and woken for keep-alives; w taken off whichever holds it. */
+void watch_streams_hooks(struct work_waiter **(*streams)(int i),
+                         bool (*unwait)(struct work_waiter *w, struct task_notify *gone));
 int watch_start(void);
 void watch_stop(void); /* stops and joins the thread */
 
