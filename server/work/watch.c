@@ -6,7 +6,9 @@
  * Every WATCH_MS this thread polls the sockets of every waiter (a request
  * waiting on a render, an event stream waiting for news) for a hang-up --
  * POLLHUP, or EOF on a peek -- and answers such a waiter with "gone"; a
- * task nobody wants any more (no waiter, no job) is cancelled.  The same
+ * task nobody wants any more (no waiter, no job) is cancelled.  A frame-range
+ * job's streams wait on the job, not on a task (shots.c hands them down as
+ * hooks), and are polled and pinged the same way.  The same
  * thread, on the same tick, forgets finished jobs past --job-ttl (jobs.c)
  * every EVENTS_PING_SECONDS seconds wakes idle event streams so they send a
  * keep-alive comment, and stops renders that ran past --max-render-seconds
