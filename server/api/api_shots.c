@@ -239,7 +239,7 @@ void api_shots_frame(struct http_req *r, const char *path) {
     struct shots_info info;
     struct blob *img = NULL;
     enum shots_frame_state st = shots_frame(id, k, exr, &img, &info);
-    char msg[200];
+    char msg[320];
     if (st == SHOTS_NO_JOB) {
         struct jobs_info j;
         if (jobs_get(id, &j, JOBS_NUMBERS))
@@ -256,6 +256,9 @@ void api_shots_frame(struct http_req *r, const char *path) {
         http_reply_error(r, 409, "not_exr",
                          "this job keeps no EXR: create it with POST /v1/jobs?format=exr", NULL, 0,
                          0, NULL);
+    } else if (st == SHOTS_EVICTED) {
+        snprintf(msg, sizeof msg, "frame %ld: %s", k, info.evicted_why);
+        http_reply_error(r, 410, "result_evicted", msg, NULL, 0, 0, NULL);
     } else if (st == SHOTS_DONE && img) {
         http_reply_image(r, 200, img, api_format_type(exr ? WORK_EXR : WORK_PNG));
         http_reply_header(r, "Cache-Control", "private, max-age=3600");

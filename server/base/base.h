@@ -157,6 +157,7 @@ enum mem_kind {
     MEM_SUMS,    /* renders' per-pixel sums: sums answers, progressive jobs */
     MEM_CACHES,  /* finished images kept by the result cache */
     MEM_PARSES,  /* scenes being parsed: each parse's cap, reserved before it starts */
+    MEM_FRAMES,  /* finished frames of frame-range jobs kept in memory (no --data-dir) */
     MEM__COUNT
 };
 const char *mem_kind_name(enum mem_kind k);

@@ -48,7 +48,8 @@ static atomic_size_t mem_released; /* since the last trim */
 static bool (*mem_reclaimer)(enum mem_kind k, size_t need);
 
 const char *mem_kind_name(enum mem_kind k) {
-    static const char *const names[] = {"bodies", "scenes", "results", "sums", "caches", "parses"};
+    static const char *const names[] = {"bodies", "scenes", "results", "sums",
+                                        "caches", "parses", "frames"};
     return names[k];
 }
 

@@ -61,6 +61,10 @@ static struct jobs_tomb {
 } jobs_tombs[JOBS_TOMBSTONES];
 static int jobs_tomb_next, jobs_tomb_n;
 
+static struct jobs_shots jobs_shots; /* shots.c's (jobs_shots_hooks); NULLs before */
+
+void jobs_shots_hooks(const struct jobs_shots *h) { jobs_shots = *h; }
+
 static long jobs_gauge(void) {
     work_lock_take();
     long n = jobs_n;
@@ -88,8 +92,9 @@ static size_t jobs_evict_result(struct job *j, const char *why);
 
 /* Lets go of the images of the finished job that finished first (of the
  * task it shares with any other job): its jobs become "evicted" and answer
- * 410 result_evicted (jobs_evict_result).  false when no finished job
- * keeps an image. */
+ * 410 result_evicted (jobs_evict_result) -- or, when a finished frame-range
+ * job ended before it, of that job's oldest frame kept (shots.c).  false
+ * when no finished job keeps an image. */
 static bool jobs_evict_oldest(void) {
     struct job *victim = NULL;
     for (int i = 0; i < jobs_n; i++) {
@@ -100,6 +105,9 @@ static bool jobs_evict_oldest(void) {
             (!victim || t->t_end < victim->task->t_end))
             victim = j;
     }
+    double shot_end = jobs_shots.oldest_end ? jobs_shots.oldest_end() : -1;
+    if (shot_end >= 0 && (!victim || shot_end < victim->task->t_end))
+        return jobs_shots.evict_oldest();
     if (!victim) return false;
     struct task *t = victim->task;
     if (jobs_all_stored(t)) { /* on disk: only the memory goes */
@@ -280,7 +288,7 @@ static size_t jobs_evict_result(struct job *j, const char *why) {
 }
 
 void jobs_count(long *unfinished, long *cap) {
-    long n = 0;
+    long n = jobs_shots.unfinished ? jobs_shots.unfinished() : 0;
     for (int i = 0; i < jobs_n; i++) n += !jobs_final(jobs_table[i]);
     *unfinished = n;
     *cap = jobs_max;
@@ -458,9 +466,11 @@ enum work_submit jobs_submit(struct cache_entry *scene, const struct work_target
     }
     work_lock_take();
     struct task *t = NULL;
+    long busy, cap; /* the unfinished jobs, frame-range ones too: --max-jobs */
+    jobs_count(&busy, &cap);
     if (task_draining())
         r = WORK_DRAINING;
-    else if (jobs_n == jobs_max && !jobs_evict())
+    else if (busy >= cap || (jobs_n == jobs_max && !jobs_evict()))
         r = WORK_TOO_MANY_JOBS;
     else
         r = task_submit(scene, &fresh, &t);

@@ -36,11 +36,19 @@
 #define SHOTS_TRIES 3
 
 enum shots_fstate { SF_QUEUED, SF_PARSING, SF_RUNNING, SF_DONE, SF_FAILED };
+enum shots_gone { SG_KEPT, SG_MEMORY, SG_DISK };
+static const char *const shots_gone_why[] = {
+    "",
+    "the frame's image was let go to keep rayd within its memory budget (--max-memory; the "
+    "oldest finished frames go first): render it again",
+    "the frame's image was evicted from disk (--max-disk; the oldest finished results go "
+    "first): render it again"};
 
 struct shot_frame {
     unsigned char state; /* enum shots_fstate */
     unsigned char tries; /* attempts that failed */
-    bool on_disk;        /* done before this process started: its images are files */
+    bool on_disk;        /* its images are files (--data-dir): no copy in memory */
+    unsigned char gone;  /* enum shots_gone: done, but its images were let go */
     struct blob *png, *exr;
 };
 
@@ -229,6 +237,8 @@ static void shots_frame_end(struct shots_fly *fl, enum rayd_status st, const str
         f->png = png;
         f->exr = exr;
         png = exr = NULL;
+        blob_kind(f->png, MEM_FRAMES);
+        if (f->exr) blob_kind(f->exr, MEM_FRAMES);
         s->ndone++;
         s->latest = fl->i;
         s->order[s->norder++] = fl->i;
@@ -374,9 +384,89 @@ static void shots_pump(struct shot *s) {
     }
 }
 
+/* ---- letting go of frames: the memory budget, --data-dir, --max-disk ------------ */
+
+/* Whether s keeps a frame's image in memory (lock held). */
+static bool shots_keeps(const struct shot *s) {
+    for (int i = 0; i < s->n; i++)
+        if (s->f[i].png || s->f[i].exr) return true;
+    return false;
+}
+
+/* Frame i's images let go (lock held); gone: why they answer 410 now. */
+static void shots_let_go(struct shot *s, int i, enum shots_gone gone) {
+    blob_unref(s->f[i].png);
+    blob_unref(s->f[i].exr);
+    s->f[i].png = s->f[i].exr = NULL;
+    if (gone) s->f[i].gone = (unsigned char)gone;
+}
+
+/* The finished shot that ended first and keeps a frame in memory.  None
+ * with --data-dir: a frame there is in memory only until the store wrote
+ * it (the write holds it too: letting go would free nothing). */
+static struct shot *shots_oldest_kept(void) {
+    struct shot *best = NULL;
+    if (store_on()) return NULL;
+    for (int i = 0; i < shots_n; i++) {
+        struct shot *s = shots_table[i];
+        if (shots_final(s) && s->flying == 0 && (!best || shots_ended(s) < shots_ended(best)) &&
+            shots_keeps(s))
+            best = s;
+    }
+    return best;
+}
+
+static double shots_oldest_end(void) {
+    work_assert_locked();
+    struct shot *s = shots_oldest_kept();
+    return s ? shots_ended(s) : -1;
+}
+
+static bool shots_evict_oldest(void) {
+    work_assert_locked();
+    struct shot *s = shots_oldest_kept();
+    for (int c = 0; s && c < s->norder; c++) { /* its frames in the order they ended */
+        int i = s->order[c];
+        if (s->f[i].png || s->f[i].exr) {
+            shots_let_go(s, i, SG_MEMORY);
+            log_info("job %s: frame %ld evicted (over --max-memory)", s->id, s->first + i);
+            return true;
+        }
+    }
+    return false;
+}
+
+/* The store's hooks (store thread, no lock held): frame k of id is on
+ * disk, its copy in memory goes; or --max-disk evicted it. */
+static void shots_on_disk(const char *id, long k, const char *why) {
+    work_lock_take();
+    struct shot *s = NULL;
+    for (int i = 0; i < shots_n && !s; i++)
+        if (!strcmp(shots_table[i]->id, id)) s = shots_table[i];
+    if (s && k >= s->first && k <= s->last && s->f[k - s->first].state == SF_DONE) {
+        s->f[k - s->first].on_disk = !why;
+        s->f[k - s->first].gone = why ? SG_DISK : SG_KEPT;
+        shots_let_go(s, (int)(k - s->first), SG_KEPT);
+    }
+    work_lock_give();
+}
+
+static void shots_written(const char *id, long k) { shots_on_disk(id, k, NULL); }
+
+static void shots_disk_evicted(const char *id, long k, const char *why) {
+    shots_on_disk(id, k, why);
+}
+
 /* ---- the table ------------------------------------------------------------------ */
 
+static struct work_waiter **shots_streams(int i);
+static bool shots_unwait(struct work_waiter *w, struct task_notify *gone);
+
 bool shots_start(int max_jobs) {
+    static const struct jobs_shots hooks = {shots_oldest_end, shots_evict_oldest, shots_unfinished};
+    store_frame_hooks(shots_written, shots_disk_evicted);
+    jobs_shots_hooks(&hooks);
+    watch_streams_hooks(shots_streams, shots_unwait);
     shots_table = calloc((size_t)max_jobs, sizeof *shots_table);
     return shots_table != NULL;
 }
@@ -430,14 +520,14 @@ enum work_submit shots_submit(struct shots_new *n, char id[33]) {
     work_lock_take();
     enum work_submit r = WORK_OK;
     long unfinished, cap;
-    jobs_count(&unfinished, &cap);
     shots_expire(clock_now());
+    jobs_count(&unfinished, &cap); /* the shots' too */
     struct shot *s = NULL;
     if (task_draining())
         r = WORK_DRAINING;
     else if (!shots_table) /* shots_start not run (a harness of the handlers) */
         r = WORK_NOMEM;
-    else if (unfinished + shots_unfinished() >= cap || shots_n >= config.max_jobs)
+    else if (unfinished >= cap || shots_n >= config.max_jobs)
         r = WORK_TOO_MANY_JOBS;
     else if (!(s = shots_new(n)))
         r = WORK_NOMEM;
@@ -489,9 +579,10 @@ bool shots_restore(const struct store_job *row, const unsigned char *states) {
         s->created = clock_now() - (shots_wall_now() - row->created_wall);
         s->rays = row->rays;
         for (int i = 0; i < s->n; i++)
-            if (states[i] == STORE_FRAME_DONE) {
+            if (states[i] == STORE_FRAME_DONE || states[i] == STORE_FRAME_EVICTED) {
                 s->f[i].state = SF_DONE;
-                s->f[i].on_disk = true;
+                s->f[i].on_disk = states[i] == STORE_FRAME_DONE;
+                s->f[i].gone = states[i] == STORE_FRAME_EVICTED ? SG_DISK : SG_KEPT;
                 s->order[s->norder++] = i;
                 s->ndone++;
                 s->latest = i;
@@ -646,7 +737,11 @@ enum shots_frame_state shots_frame(const char *id, long k, bool exr, struct blob
             static const enum shots_frame_state as[] = {SHOTS_QUEUED, SHOTS_QUEUED, SHOTS_RUNNING,
                                                         SHOTS_DONE, SHOTS_FAILED};
             r = as[s->f[i].state];
-            disk = !*img && r == SHOTS_DONE && s->f[i].on_disk;
+            if (r == SHOTS_DONE && s->f[i].gone) {
+                r = SHOTS_EVICTED;
+                info->evicted_why = shots_gone_why[s->f[i].gone];
+            }
+            disk = r == SHOTS_DONE && s->f[i].on_disk;
             for (const struct shots_fly *fl = s->flies; fl && r == SHOTS_RUNNING; fl = fl->next)
                 if (fl->i == i && !(fl->t && fl->t->t_start > 0))
                     r = SHOTS_QUEUED; /* no tile of it started yet */
@@ -719,6 +814,9 @@ int shots_events_read(struct shot *s, struct shots_cursor *c, struct events_item
                                        .total = s->n};
     }
     bool final = shots_final(s) && s->flying == 0;
+    double now = clock_now();
+    if (k == 0 && !final && c->last_write > 0 && now - c->last_write >= EVENTS_PING_SECONDS)
+        it[k++] = (struct events_item){.kind = EVENTS_PING}; /* as events.c's streams */
     if (k == 0 && final && !c->sent_done) {
         enum jobs_state st = shots_state(s);
         it[k++] = (struct events_item){
@@ -726,6 +824,7 @@ int shots_events_read(struct shot *s, struct shots_cursor *c, struct events_item
         if (st == JS_FAILED && err) shots_error(s, err);
         c->sent_done = true;
     }
+    if (k > 0) c->last_write = now;
     if (k == 0 && c->sent_done) {
         k = -1;
     } else if (k == 0) {
@@ -735,6 +834,27 @@ int shots_events_read(struct shot *s, struct shots_cursor *c, struct events_item
     }
     work_lock_give();
     return k;
+}
+
+/* The watcher's (watch.c), lock held: the streams waiting on the i-th
+ * shot (NULL past the last), to poll for a hang-up and wake for a
+ * keep-alive; and w off whichever shot holds it, onto gone. */
+static struct work_waiter **shots_streams(int i) {
+    work_assert_locked();
+    return i < shots_n ? &shots_table[i]->sse : NULL;
+}
+
+static bool shots_unwait(struct work_waiter *w, struct task_notify *gone) {
+    work_assert_locked();
+    for (int i = 0; i < shots_n; i++)
+        for (struct work_waiter **pp = &shots_table[i]->sse; *pp; pp = &(*pp)->next)
+            if (*pp == w) {
+                *pp = w->next;
+                w->next = gone->list;
+                gone->list = w;
+                return true;
+            }
+    return false;
 }
 
 /* ---- the video ------------------------------------------------------------------ */
@@ -749,13 +869,16 @@ static void shots_video_make(struct shot *s) {
     work_lock_take();
     for (int i = 0; frames && i < s->n; i++) frames[i] = blob_ref(s->f[i].png);
     work_lock_give();
-    for (int i = 0; frames && i < s->n; i++)
-        if (!frames[i]) frames[i] = store_read_frame(s->id, s->first + i, false);
+    bool whole = frames != NULL;
+    for (int i = 0; frames && i < s->n; i++) {
+        if (!frames[i] && store_on()) frames[i] = store_read_frame(s->id, s->first + i, false);
+        whole &= frames[i] != NULL;
+    }
     struct blob *mp4 = NULL;
-    char err[200] = "out of memory";
-    enum video_status st = frames ? video_encode(frames, s->n, s->fps > 0 ? s->fps : 24,
-                                                 SHOTS_VIDEO_SECONDS(s->n), &mp4, err, sizeof err)
-                                  : VIDEO_FAILED;
+    char err[200] = "out of memory, or a frame was evicted (--max-memory, --max-disk)";
+    enum video_status st = whole ? video_encode(frames, s->n, s->fps > 0 ? s->fps : 24,
+                                                SHOTS_VIDEO_SECONDS(s->n), &mp4, err, sizeof err)
+                                 : VIDEO_FAILED;
     for (int i = 0; frames && i < s->n; i++) blob_unref(frames[i]);
     free(frames);
     work_lock_take();

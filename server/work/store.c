@@ -71,6 +71,8 @@ static struct store_op *store_head, **store_tail = &store_head; /* lock held */
 static size_t store_bytes; /* the store thread's (and start-up's): images on disk */
 static void (*store_written)(const char *id);
 static void (*store_evicted)(const char *id, const char *why, double wall);
+static void (*store_frame_written)(const char *id, long k);
+static void (*store_frame_evicted)(const char *id, long k, const char *why);
 
 static const char *const store_schema =
     "PRAGMA journal_mode=WAL;"
@@ -333,39 +335,71 @@ static void store_unlink_frames(const char *id) {
     sqlite3_finalize(st);
 }
 
-/* --max-disk: evicts the frames that ended first, never keep's, while the
- * images are over the budget. */
-static void store_evict(const char *keep) {
+/* Frame k of frame-range job id evicted by --max-disk: its row first,
+ * its files after (a crash between leaves orphans the next start deletes). */
+static bool store_evict_frame(const char *id, long k, const char *why) {
+    sqlite3_stmt *st = NULL;
+    char p[4200] = "", e[4200] = "";
+    if (store_run(&st, "SELECT path, exr_path FROM frames WHERE job = ? AND k = ?", "ti", id,
+                  (long long)k) == SQLITE_ROW) {
+        if (store_text(st, 0)[0]) snprintf(p, sizeof p, "%s/%s", store_dir, store_text(st, 0));
+        if (store_text(st, 1)[0]) snprintf(e, sizeof e, "%s/%s", store_dir, store_text(st, 1));
+        sqlite3_finalize(st);
+    }
+    if (store_run(NULL,
+                  "UPDATE frames SET state = 'evicted', path = NULL, exr_path = NULL, bytes = 0"
+                  " WHERE job = ? AND k = ?",
+                  "ti", id, (long long)k) != SQLITE_DONE)
+        return false;
+    if (p[0] && !strstr(p + strlen(store_dir), "..")) unlink(p);
+    if (e[0] && !strstr(e + strlen(store_dir), "..")) unlink(e);
+    log_info("job %s: frame %ld was evicted (%s)", id, k, why);
+    if (store_frame_evicted) store_frame_evicted(id, k, why);
+    return true;
+}
+
+/* A plain job's image evicted by --max-disk: its row, then its files. */
+static bool store_evict_job(const char *id, const char *why) {
+    double now = (double)time(NULL);
+    bool ok = store_exec("BEGIN") &&
+              store_run(NULL,
+                        "UPDATE frames SET state = 'evicted', path = NULL, exr_path = NULL,"
+                        " bytes = 0 WHERE job = ? AND k = 0",
+                        "t", id) == SQLITE_DONE &&
+              store_run(NULL, "UPDATE jobs SET evicted = ?, evicted_why = ? WHERE id = ?", "dtt",
+                        now, why, id) == SQLITE_DONE &&
+              store_exec("COMMIT");
+    if (!ok) {
+        store_exec("ROLLBACK");
+        return false;
+    }
+    store_unlink(id);
+    log_info("job %s: its result was evicted (%s)", id, why);
+    if (store_evicted) store_evicted(id, why, now);
+    return true;
+}
+
+/* --max-disk: evicts the images that ended first -- a plain job's, or one
+ * frame of a frame-range job's -- never keep's (the write just made: job
+ * keep, frame keep_k; 0 for a plain job), while over the budget. */
+static void store_evict(const char *keep, long keep_k) {
     static const char why[] = "over --max-disk: the oldest finished results are evicted first";
     while (config.max_disk_bytes > 0 && store_bytes > config.max_disk_bytes) {
         sqlite3_stmt *st = NULL;
         if (store_run(&st,
-                      "SELECT job, bytes FROM frames WHERE state = 'done' AND job != ? AND k = 0"
-                      " AND job IN (SELECT id FROM jobs WHERE frame_first IS NULL)"
-                      " ORDER BY ended LIMIT 1",
-                      "t", keep) != SQLITE_ROW)
+                      "SELECT f.job, f.k, f.bytes, j.frame_first IS NOT NULL FROM frames f"
+                      " JOIN jobs j ON j.id = f.job WHERE f.state = 'done'"
+                      " AND NOT (f.job = ? AND f.k = ?) ORDER BY f.ended, f.rowid LIMIT 1",
+                      "ti", keep, (long long)keep_k) != SQLITE_ROW)
             return;
         char id[33];
-        snprintf(id, sizeof id, "%s", (const char *)sqlite3_column_text(st, 0));
-        size_t bytes = (size_t)sqlite3_column_int64(st, 1);
+        snprintf(id, sizeof id, "%s", store_text(st, 0));
+        long k = (long)sqlite3_column_int64(st, 1);
+        size_t bytes = (size_t)sqlite3_column_int64(st, 2);
+        bool frame = sqlite3_column_int(st, 3) != 0;
         sqlite3_finalize(st);
-        double now = (double)time(NULL);
-        bool ok = store_exec("BEGIN") &&
-                  store_run(NULL,
-                            "UPDATE frames SET state = 'evicted', path = NULL, exr_path = NULL,"
-                            " bytes = 0 WHERE job = ? AND k = 0",
-                            "t", id) == SQLITE_DONE &&
-                  store_run(NULL, "UPDATE jobs SET evicted = ?, evicted_why = ? WHERE id = ?",
-                            "dtt", now, why, id) == SQLITE_DONE &&
-                  store_exec("COMMIT");
-        if (!ok) {
-            store_exec("ROLLBACK");
-            return;
-        }
-        store_unlink(id);
+        if (!(frame ? store_evict_frame(id, k, why) : store_evict_job(id, why))) return;
         store_bytes -= bytes < store_bytes ? bytes : store_bytes;
-        log_info("job %s: its result was evicted (%s)", id, why);
-        if (store_evicted) store_evicted(id, why, now);
     }
 }
 
@@ -395,7 +429,15 @@ static void store_do_end(struct store_op *op) {
     if (!store_end_row(j, bytes, op->png != NULL, op->exr != NULL)) return;
     store_bytes += bytes;
     if (bytes && store_written) store_written(j->id);
-    if (bytes) store_evict(j->id);
+    if (bytes) store_evict(j->id, 0);
+}
+
+/* Now, seconds since the epoch to the microsecond: frames that end in the
+ * same second are evicted in the order they ended. */
+static double store_wall(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    return (double)ts.tv_sec + (double)ts.tv_nsec / 1e9;
 }
 
 /* Frame k of a frame-range job (op->row.first): its files written whole,
@@ -419,9 +461,12 @@ static void store_do_frame(struct store_op *op) {
     if (store_run(NULL,
                   "UPDATE frames SET state = 'done', path = ?, exr_path = ?, bytes = ?, ended = ?"
                   " WHERE job = ? AND k = ?",
-                  "ttidti", p, op->exr ? e : NULL, (long long)bytes, (double)time(NULL), id,
-                  (long long)k) == SQLITE_DONE)
-        store_bytes += bytes;
+                  "ttidti", p, op->exr ? e : NULL, (long long)bytes, store_wall(), id,
+                  (long long)k) != SQLITE_DONE)
+        return;
+    store_bytes += bytes;
+    if (store_frame_written) store_frame_written(id, k);
+    store_evict(id, k);
 }
 
 static void store_do(struct store_op *op) {
@@ -550,6 +595,12 @@ void store_hooks(void (*written)(const char *id),
     store_evicted = evicted;
 }
 
+void store_frame_hooks(void (*written)(const char *id, long k),
+                       void (*evicted)(const char *id, long k, const char *why)) {
+    store_frame_written = written;
+    store_frame_evicted = evicted;
+}
+
 /* ---- start-up ---------------------------------------------------------------------- */
 
 /* Deletes what a kill left under results/: .tmp files, and files no done
@@ -635,12 +686,15 @@ int store_open(const char *dir) {
     }
     /* a --max-disk lowered since the last run: kept from the start (the newest image stays) */
     if (config.max_disk_bytes > 0 && store_bytes > config.max_disk_bytes &&
-        store_run(&st, "SELECT job FROM frames WHERE state = 'done' ORDER BY ended DESC LIMIT 1",
+        store_run(&st,
+                  "SELECT job, k FROM frames WHERE state = 'done' ORDER BY ended DESC, rowid DESC"
+                  " LIMIT 1",
                   "") == SQLITE_ROW) {
         char keep[33];
         snprintf(keep, sizeof keep, "%s", store_text(st, 0));
+        long keep_k = (long)sqlite3_column_int64(st, 1);
         sqlite3_finalize(st);
-        store_evict(keep);
+        store_evict(keep, keep_k);
     }
     return 0;
 }
@@ -772,6 +826,8 @@ int store_load_frames(const struct store_job *j, unsigned char *states) {
         if (!strcmp(state, "done") && store_files_ok(j->id, k, exr, sqlite3_column_int64(st, 3))) {
             states[k - j->first] = STORE_FRAME_DONE;
             done++;
+        } else if (!strcmp(state, "evicted")) {
+            states[k - j->first] = STORE_FRAME_EVICTED;
         } else if (!strcmp(state, "done")) {
             log_warn("job %s: frame %ld's files are missing or not whole: it renders again", j->id,
                      k);

@@ -6,7 +6,9 @@
  * Every WATCH_MS this thread polls the sockets of every waiter (a request
  * waiting on a render, an event stream waiting for news) for a hang-up --
  * POLLHUP, or EOF on a peek -- and answers such a waiter with "gone"; a
- * task nobody wants any more (no waiter, no job) is cancelled.  The same
+ * task nobody wants any more (no waiter, no job) is cancelled.  A frame-range
+ * job's streams wait on the job, not on a task (shots.c hands them down as
+ * hooks), and are polled and pinged the same way.  The same
  * thread, on the same tick, forgets finished jobs past --job-ttl (jobs.c)
  * every EVENTS_PING_SECONDS seconds wakes idle event streams so they send a
  * keep-alive comment, and stops renders that ran past --max-render-seconds
@@ -27,6 +29,15 @@
 static pthread_t watch_thread;
 static bool watch_started;
 static bool watch_stopping; /* lock held */
+/* shots.c's streams (watch_streams_hooks): it sits above this file */
+static struct work_waiter **(*watch_shots)(int i);
+static bool (*watch_shots_unwait)(struct work_waiter *w, struct task_notify *gone);
+
+void watch_streams_hooks(struct work_waiter **(*streams)(int i),
+                         bool (*unwait)(struct work_waiter *w, struct task_notify *gone)) {
+    watch_shots = streams;
+    watch_shots_unwait = unwait;
+}
 
 /* The sockets to poll, lock held. */
 struct watch_set {
@@ -57,12 +68,18 @@ static struct work_waiter **watch_list(struct task *t, int which) {
     return which ? &t->sse_waiters : &t->waiters;
 }
 
+/* Every waiter with a socket: the tasks' and the frame-range jobs'
+ * event streams (shots.c), which wait on no task between frames. */
 static void watch_collect(struct watch_set *s) {
     s->n = 0;
     for (struct task *t = task_active; t; t = t->next)
         for (int which = 0; which < 2; which++)
             for (struct work_waiter *w = *watch_list(t, which); w; w = w->next)
                 if (w->fd >= 0 && !watch_add(s, w)) return;
+    struct work_waiter **l;
+    for (int i = 0; watch_shots && (l = watch_shots(i)); i++)
+        for (struct work_waiter *w = *l; w; w = w->next)
+            if (w->fd >= 0 && !watch_add(s, w)) return;
 }
 
 static bool watch_hung_up(const struct pollfd *p) {
@@ -78,6 +95,7 @@ static void watch_drop(struct work_waiter *w, struct task_notify *gone, struct t
     work_assert_locked();
     for (struct task *t = task_active; t; t = t->next)
         if (task_unwait(t, w, gone, n, sse)) return;
+    if (watch_shots_unwait) watch_shots_unwait(w, gone);
 }
 
 /* The waiters whose client hung up, onto gone (their tasks cancelled
@@ -94,6 +112,8 @@ static void watch_poll(struct watch_set *s, struct task_notify *gone, struct tas
 static void watch_ping(struct task_notify *ping) {
     work_assert_locked();
     for (struct task *t = task_active; t; t = t->next) task_notify_add(ping, &t->sse_waiters);
+    struct work_waiter **l;
+    for (int i = 0; watch_shots && (l = watch_shots(i)); i++) task_notify_add(ping, l);
 }
 
 /* Stops a render past --max-render-seconds, its waiters onto n and sse;

@@ -316,6 +316,7 @@ struct shots_info {
     double fps;
     int video; /* enum shots_video */
     char video_error[200];
+    const char *evicted_why; /* shots_frame of an evicted frame: why it went */
 };
 bool shots_get(const char *id, struct shots_info *info);
 /* As jobs_list, for the frame-range jobs (their seq from the same count). */
@@ -327,7 +328,8 @@ enum shots_frame_state {
     SHOTS_QUEUED,
     SHOTS_RUNNING,
     SHOTS_DONE,
-    SHOTS_FAILED
+    SHOTS_FAILED,
+    SHOTS_EVICTED /* done, its images let go: info->evicted_why says why */
 };
 /* Frame k of shot id: its image (referenced; NULL unless done) and info. */
 enum shots_frame_state shots_frame(const char *id, long k, bool exr, struct blob **img,
@@ -343,6 +345,7 @@ struct shot;
 struct shots_cursor {
     int cursor, done;
     bool started, sent_done;
+    double last_write; /* for the keep-alive (EVENTS_PING_SECONDS) */
 };
 struct shot *shots_open(const char *id); /* NULL: no such shot */
 int shots_events_read(struct shot *s, struct shots_cursor *c, struct events_item *items, int n,

@@ -483,6 +483,10 @@ void store_rows_free(struct store_job *rows, int n);
  * is on disk; an image was evicted by --max-disk. */
 void store_hooks(void (*written)(const char *id),
                  void (*evicted)(const char *id, const char *why, double wall));
+/* shots.c's, likewise: frame k of a frame-range job is on disk; it was
+ * evicted by --max-disk. */
+void store_frame_hooks(void (*written)(const char *id, long k),
+                       void (*evicted)(const char *id, long k, const char *why));
 /* Lock held: queue a new job's record (row->scene becomes the store's),
  * w->suspend runs now and w->done once it is committed (status RAYD_OK or
  * RAYD_E_IO); a job's end, with its images (referenced); a job forgotten. */
@@ -496,8 +500,9 @@ void store_frame(const char *id, long k, struct blob *png, struct blob *exr);
 struct blob *store_read_frame(const char *id, long k, bool exr);
 /* A frame-range job's frames at start-up (main thread): states[k - first]
  * STORE_FRAME_DONE for each frame done with its files whole, else
- * STORE_FRAME_QUEUED; how many are done, -1 on an error. */
-enum { STORE_FRAME_QUEUED, STORE_FRAME_DONE };
+ * STORE_FRAME_QUEUED (STORE_FRAME_EVICTED: done, then evicted by --max-disk);
+ * how many are done, -1 on an error. */
+enum { STORE_FRAME_QUEUED, STORE_FRAME_DONE, STORE_FRAME_EVICTED };
 int store_load_frames(const struct store_job *j, unsigned char *states);
 
 /* ---- jobs.c (lock held) -------------------------------------------------------- */
@@ -534,6 +539,17 @@ void jobs_unref(struct job *j);
 /* Forgets the jobs that ended (finished, failed or were cancelled) more
  * than --job-ttl seconds ago, each leaving a tombstone (jobs_gone). */
 void jobs_expire(double now);
+/* shots.c's part in the jobs' limits, handed down by shots_start (jobs.c
+ * is below it), all lock held: when the finished frame-range job that
+ * ended first and keeps a frame in memory ended (clock_now's clock; -1:
+ * none), and its oldest frame let go (410 result_evicted; false: none) for
+ * the memory budget; how many are unfinished (--max-jobs). */
+struct jobs_shots {
+    double (*oldest_end)(void);
+    bool (*evict_oldest)(void);
+    long (*unfinished)(void);
+};
+void jobs_shots_hooks(const struct jobs_shots *h);
 /* The next creation number (GET /v1/jobs's order), shared by the
  * frame-range jobs (shots.c); lock held. */
 long long jobs_next_seq(void);
@@ -545,6 +561,11 @@ bool shots_restore(const struct store_job *row, const unsigned char *states);
 
 /* ---- watch.c ------------------------------------------------------------------- */
 
+/* shots.c's, handed down by shots_start, lock held: the event streams
+ * waiting on the i-th frame-range job (NULL past the last), polled for a
+ * hang-up and woken for keep-alives; w taken off whichever holds it. */
+void watch_streams_hooks(struct work_waiter **(*streams)(int i),
+                         bool (*unwait)(struct work_waiter *w, struct task_notify *gone));
 int watch_start(void);
 void watch_stop(void); /* stops and joins the thread */
 

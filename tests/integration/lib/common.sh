@@ -268,7 +268,7 @@ metric() { # metric NAME_WITH_LABELS: current value from /metrics
 # The bytes --max-memory counts now: rayd_memory_bytes summed over its kinds.
 memory_total() {
     local k sum=0 v
-    for k in bodies scenes results sums caches parses; do
+    for k in bodies scenes results sums caches parses frames; do
         v=$(metric "rayd_memory_bytes{kind=\"$k\"}")
         sum=$((sum + ${v:-0}))
     done

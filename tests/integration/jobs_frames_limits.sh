@@ -1,0 +1,130 @@
+#!/usr/bin/env bash
+# jobs_frames_limits.sh -- frame-range jobs keep every limit while they
+# run.  Memory: without --data-dir a finished frame counts in --max-memory
+# as kind "frames", and the budget lets go of the oldest frames of the
+# finished jobs first (their GET answers 410 result_evicted, naming
+# --max-memory); with --data-dir a frame on disk leaves memory and is
+# served from its file.  --max-disk counts frames' files and evicts the
+# oldest first (410 naming --max-disk), at start-up too.  A frame job's
+# event stream is watched like a plain job's: a client that hangs up is
+# noticed while every frame is held, and an idle stream gets keep-alives.
+# --max-jobs and /readyz count unfinished frame-range jobs.  The test gate
+# holds the frames, so nothing depends on timing.
+source "$(dirname "$0")/lib/common.sh"
+
+anim() { # anim FILE SIZE: a 4-frame animated scene, SIZE x SIZE
+    cat >"$1" <<JSON
+{"animation": {"start": 1, "end": 4, "fps": 10},
+ "render": {"width": $2, "height": $2, "samples": 1},
+ "camera": {"look_at": [0, 0.5, 0], "keyframes": [{"frame": 1, "position": [0, 1.5, 5]},
+                                                   {"frame": 4, "position": [4, 2, 2]}]},
+ "lights": [{"type": "point", "position": [4, 5, 4]}],
+ "objects": [{"type": "plane", "material": {"color": [0.6, 0.6, 0.6]}},
+             {"type": "sphere", "center": [0, 0.5, 0], "radius": 0.5,
+              "material": {"color": [0.9, 0.3, 0.2]}}]}
+JSON
+}
+anim "$T/big.json" 512
+anim "$T/small.json" 48
+
+# ---- memory, no --data-dir: frames count, the oldest finished go first --------------
+LIMIT=16777216
+start_rayd --max-memory 16M --threads 1
+post_json '/v1/jobs?format=exr' "$T/big.json" >/dev/null
+shot=$(jfield "$T/body" id)
+wait_until 120 job_state_is "$shot" succeeded
+frames=$(metric 'rayd_memory_bytes{kind="frames"}')
+check frames_counted "frames kind: '$frames'" eval '[ -n "$frames" ] && [ "$frames" -gt 1000000 ]'
+evicted=
+for i in $(seq 1 12); do
+    scene "$T/e$i.json" 512 512 1 spheres "$i"
+    code=$(post_json '/v1/jobs?format=exr' "$T/e$i.json")
+    [ "$code" = 202 ] || break
+    wait_until 60 job_state_is "$(jfield "$T/body" id)" succeeded
+    if [ "$(req GET "/v1/jobs/$shot/frames/1.png")" = 410 ]; then
+        evicted=$i
+        break
+    fi
+done
+req GET "/v1/jobs/$shot/frames/1.exr" >/dev/null
+check frame_evicted_410 "after ${i} jobs (last POST $code): $(head -c 300 "$T/body" | tr -cd '[:print:]')" eval \
+    '[ -n "$evicted" ] && err_is "$T/body" 410 result_evicted && grep -q "max-memory" "$T/body"'
+check frame_evicted_oldest_first "frame 4 of the shot: $(req GET "/v1/jobs/$shot/frames/4.png")" \
+    eval '[ "$(req GET "/v1/jobs/$shot/frames/4.png")" = 200 ]'
+check frames_within_budget "total $(memory_total)" eval '[ "$(memory_total)" -le "$LIMIT" ]'
+check frames_job_still_there "$(req GET "/v1/jobs/$shot"; cat "$T/body")" job_state_is "$shot" succeeded
+stop_rayd
+
+# ---- memory, --data-dir: a frame on disk leaves memory, served from its file --------
+start_rayd --threads 1 --data-dir "$T/d1"
+post_json '/v1/jobs?format=exr' "$T/small.json" >/dev/null
+durable=$(jfield "$T/body" id)
+wait_until 120 job_state_is "$durable" succeeded
+wait_until 60 metric_is 'rayd_memory_bytes{kind="frames"}' 0
+check frames_leave_memory "frames kind: $(metric 'rayd_memory_bytes{kind="frames"}')" \
+    metric_is 'rayd_memory_bytes{kind="frames"}' 0
+for k in 1 2 3 4; do
+    timeout 120 "$RENDER" "$T/small.json" --frame "$k" -o "$T/cli-$k.png" -q --threads 1
+    code=$(req GET "/v1/jobs/$durable/frames/$k.png")
+    check "frame_${k}_from_file" "$code" eval '[ "$code" = 200 ] && cmp -s "$T/body" "$T/cli-$k.png"'
+done
+code=$(req GET "/v1/jobs/$durable/frames/2.exr")
+check frame_exr_from_file "$code" eval '[ "$code" = 200 ] && cmp -s "$T/body" "$T/d1/results/$durable-2.exr"'
+stop_rayd
+
+# ---- --max-disk: frames' files count, the oldest go first ---------------------------
+size() { stat -c %s "$1"; }
+keep=$(($(size "$T/d1/results/$durable-3.png") + $(size "$T/d1/results/$durable-3.exr") +
+    $(size "$T/d1/results/$durable-4.png") + $(size "$T/d1/results/$durable-4.exr")))
+start_rayd --threads 1 --data-dir "$T/d2" --max-disk "$keep"
+post_json '/v1/jobs?format=exr' "$T/small.json" >/dev/null
+disk=$(jfield "$T/body" id)
+wait_until 120 job_state_is "$disk" succeeded
+frame_code() { req GET "/v1/jobs/$disk/frames/$1.png"; }
+wait_until 30 eval '[ "$(frame_code 2)" = 410 ]'
+codes="$(frame_code 1) $(frame_code 2) $(frame_code 3) $(frame_code 4)"
+check disk_evicts_oldest_frames "$codes" eval '[ "$codes" = "410 410 200 200" ]'
+req GET "/v1/jobs/$disk/frames/1.png" >/dev/null
+check disk_evicted_410_names_why "$(cat "$T/body")" eval \
+    'err_is "$T/body" 410 result_evicted && grep -q "max-disk" "$T/body"'
+used=$(cat "$T"/d2/results/* | wc -c)
+check disk_within_budget "$used of $keep" eval '[ "$used" -le "$keep" ] && [ ! -e "$T/d2/results/$disk-1.png" ]'
+stop_rayd
+start_rayd --threads 1 --data-dir "$T/d2" --max-disk "$keep"
+codes="$(frame_code 1) $(frame_code 2) $(frame_code 3) $(frame_code 4)"
+check disk_evicted_after_restart "$codes $(req GET "/v1/jobs/$disk"; cat "$T/body")" eval \
+    '[ "$codes" = "410 410 200 200" ] && job_state_is "$disk" succeeded'
+stop_rayd
+
+# ---- the event stream: hang-ups noticed, keep-alives, with every frame held ---------
+start_rayd --threads 1 --test-gate 0 --max-jobs 2
+post_json /v1/jobs "$T/small.json" >/dev/null
+held=$(jfield "$T/body" id)
+curl -s -N -m 60 "$URL/v1/jobs/$held/events" >"$T/hang.events" &
+hang=$!
+PIDS+=("$hang")
+curl -s -N -m 40 "$URL/v1/jobs/$held/events" >"$T/idle.events" &
+idle=$!
+PIDS+=("$idle")
+wait_until 30 grep -q "^event: state" "$T/hang.events"
+kill "$hang"
+wait_until 30 grep -q "GET /v1/jobs/$held/events .*client_gone" "$T/rayd.err"
+check stream_hangup_noticed "$(grep "/events" "$T/rayd.err" | tail -2)" \
+    grep -q "GET /v1/jobs/$held/events .*client_gone" "$T/rayd.err"
+wait_until 35 grep -q "^: keep-alive" "$T/idle.events"
+check stream_keepalive "$(tr '\n' '|' <"$T/idle.events")" grep -q "^: keep-alive" "$T/idle.events"
+
+# ---- --max-jobs and /readyz count unfinished frame-range jobs -----------------------
+post_json /v1/jobs "$T/small.json" >/dev/null
+req GET /readyz >/dev/null
+check readyz_counts_frame_jobs "$(cat "$T/body")" eval \
+    '[ "$(jfield "$T/body" jobs)" = 2 ] && grep -q "jobs_refused" "$T/body"'
+scene "$T/still.json" 16 16 1 spheres 1
+code=$(post_json /v1/jobs "$T/still.json")
+check max_jobs_counts_frame_jobs "$code $(cat "$T/body")" eval '[ "$code" = 503 ]'
+gate open
+wait_until 120 job_state_is "$held" succeeded
+code=$(post_json /v1/jobs "$T/still.json")
+check max_jobs_room_after_end "$code $(cat "$T/body")" eval '[ "$code" = 202 ]'
+check rayd_alive "rayd died: $(tail -3 "$T/rayd.err")" kill -0 "$RAYD_PID"
+exit $NFAIL
