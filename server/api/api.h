@@ -124,6 +124,12 @@ void api_jobs_missing(struct http_req *r, const char *id);
 bool api_jobs_evicted(struct http_req *r, const char *id, const struct jobs_info *info);
 void api_jobs_add_noise(cJSON *o, double noise);
 void api_jobs_add_pass_url(cJSON *o, const char *id, int k);
+/* A new job's 202 (a still's or a frame range's): o (taken) with the
+ * unlit warning when asked, then Location and the price headers. */
+void api_jobs_reply_accepted(struct http_req *r, cJSON *o, const char *id, bool unlit,
+                             const struct api_price *price);
+/* The store could not record a new job (--data-dir): 503 store_failed. */
+void api_jobs_reply_store_failed(struct http_req *r, const char *message);
 cJSON *api_jobs_json(const char *id, const struct jobs_info *in);
 void api_jobs_url(char *buf, size_t size, const char *id, const char *tail); /* /v1/jobs/ID+tail */
 void api_jobs_add_estimate(cJSON *o, const struct api_price *p);             /* "estimate" */

@@ -138,12 +138,7 @@ static void api_shots_accepted(struct api_shots_wait *a) {
     cJSON_AddStringToObject(o, "status_url", url);
     api_jobs_url(url, sizeof url, a->id, "/events");
     cJSON_AddStringToObject(o, "events_url", url);
-    if (a->unlit) api_warn_unlit_json(o);
-    http_reply_json(r, 202, o);
-    if (a->unlit) api_warn_unlit_header(r);
-    api_jobs_url(url, sizeof url, a->id, "");
-    http_reply_header(r, "Location", url);
-    api_cost_price_headers(r, &a->price);
+    api_jobs_reply_accepted(r, o, a->id, a->unlit, &a->price);
 }
 
 /* The store thread's word (--data-dir): the job is on disk, or could not
@@ -154,8 +149,7 @@ static void api_shots_recorded(struct work_waiter *w, struct work_result *res) {
         api_shots_accepted(a);
     } else {
         shots_cancel(a->id);
-        a->r->res.retry_after = 5;
-        http_reply_error(a->r, 503, "store_failed", res->err.message, NULL, 0, 0, NULL);
+        api_jobs_reply_store_failed(a->r, res->err.message);
     }
     http_req_resume(a->r);
     free(a);
