@@ -14,19 +14,7 @@ bad() { echo "FAIL $1: $2"; }
 check() { local name=$1; shift; if "$@"; then ok "$name"; else bad "$name" "${WHY:-check failed}"; fi; }
 run() { timeout 120 "$R" "$@"; }
 
-cat >"$T/anim.json" <<'EOF'
-{"animation": {"start": 2, "end": 9, "fps": 12},
- "render": {"width": 48, "height": 32, "samples": 2},
- "camera": {"look_at": [0, 0.5, 0], "interpolation": "smooth",
-            "keyframes": [{"frame": 2, "position": [0, 1.5, 5]}, {"frame": 6, "position": [4, 2, 2]},
-                          {"frame": 9, "position": [3, 1, -4], "fov_x": 50}]},
- "lights": [{"type": "point", "keyframes": [{"frame": 2, "position": [4, 5, 4]},
-                                            {"frame": 9, "position": [-4, 5, 2], "intensity": 0.5}]}],
- "objects": [{"type": "plane", "material": {"color": [0.6, 0.6, 0.6]}},
-             {"type": "box", "min": [-0.5, 0, -0.5], "max": [0.5, 1, 0.5],
-              "material": {"color": [0.9, 0.3, 0.2]},
-              "keyframes": [{"frame": 2, "rotate": [0, 0, 0]}, {"frame": 9, "rotate": [0, 150, 0]}]}]}
-EOF
+cp "$RAYD_ROOT/tests/integration/lib/anim.json" "$T/anim.json" # frames 2-9, 48x32
 
 # --frames A-B: one file a frame, named by the pattern; a line a frame and one for the range
 if run "$T/anim.json" --frames 3-6 -o "$T/f-%03d.png" --threads 2 2>"$T/log"; then

@@ -12,19 +12,7 @@
 source "$(dirname "$0")/lib/common.sh"
 CLIENT=$RAYD_BUILD/rayd-client
 
-cat >"$T/anim.json" <<'EOF'
-{"animation": {"start": 2, "end": 9, "fps": 12},
- "render": {"width": 48, "height": 32, "samples": 2},
- "camera": {"look_at": [0, 0.5, 0], "interpolation": "smooth",
-            "keyframes": [{"frame": 2, "position": [0, 1.5, 5]}, {"frame": 6, "position": [4, 2, 2]},
-                          {"frame": 9, "position": [3, 1, -4], "fov_x": 50}]},
- "lights": [{"type": "point", "keyframes": [{"frame": 2, "position": [4, 5, 4]},
-                                            {"frame": 9, "position": [-4, 5, 2], "intensity": 0.5}]}],
- "objects": [{"type": "plane", "material": {"color": [0.6, 0.6, 0.6]}},
-             {"type": "box", "min": [-0.5, 0, -0.5], "max": [0.5, 1, 0.5],
-              "material": {"color": [0.9, 0.3, 0.2]},
-              "keyframes": [{"frame": 2, "rotate": [0, 0, 0]}, {"frame": 9, "rotate": [0, 150, 0]}]}]}
-EOF
+cp "$RAYD_ROOT/tests/integration/lib/anim.json" "$T/anim.json" # frames 2-9, 48x32
 cat >"$T/short.json" <<'EOF'
 {"animation": {"start": 2, "end": 5},
  "render": {"width": 16, "height": 16, "samples": 1},
