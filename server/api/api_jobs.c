@@ -149,22 +149,6 @@ static void api_jobs_accepted(struct api_jobs_wait *a) {
     api_jobs_reply_accepted(r, o, a->id, a->unlit, &a->price);
 }
 
-void api_jobs_reply_accepted(struct http_req *r, cJSON *o, const char *id, bool unlit,
-                             const struct api_price *price) {
-    char url[80];
-    if (unlit) api_warn_unlit_json(o);
-    http_reply_json(r, 202, o);
-    if (unlit) api_warn_unlit_header(r);
-    api_jobs_url(url, sizeof url, id, "");
-    http_reply_header(r, "Location", url);
-    api_cost_price_headers(r, price);
-}
-
-void api_jobs_reply_store_failed(struct http_req *r, const char *message) {
-    r->res.retry_after = 5;
-    http_reply_error(r, 503, "store_failed", message, NULL, 0, 0, NULL);
-}
-
 /* The store thread's word (--data-dir): the job is on disk, or could not
  * be recorded (then it is cancelled: a job rayd cannot keep is not taken). */
 static void api_jobs_recorded(struct work_waiter *w, struct work_result *res) {

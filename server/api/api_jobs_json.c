@@ -1,6 +1,7 @@
 /* api_jobs_json.c -- what every job route writes: the job's JSON (a
  * plain, progressive or frame-range job's common part), the 404 of an
- * unknown id and the 410 of a forgotten one, the job's URLs.
+ * unknown id and the 410 of a forgotten one, the job's URLs, and a new
+ * job's 202 (and its 503 when the store cannot keep it).
  *
  * api_jobs.c (the job routes), api_jobs_image.c (its images),
  * api_events.c (its stream) and api_shots.c (a frame-range job's "frames")
@@ -193,4 +194,20 @@ cJSON *api_jobs_json(const char *id, const struct jobs_info *in) {
 
 void api_jobs_scene(struct http_req *r, const struct jobs_info *info) {
     snprintf(r->res.scene, sizeof r->res.scene, "%s", info->scene_id);
+}
+
+void api_jobs_reply_accepted(struct http_req *r, cJSON *o, const char *id, bool unlit,
+                             const struct api_price *price) {
+    char url[80];
+    if (unlit) api_warn_unlit_json(o);
+    http_reply_json(r, 202, o);
+    if (unlit) api_warn_unlit_header(r);
+    api_jobs_url(url, sizeof url, id, "");
+    http_reply_header(r, "Location", url);
+    api_cost_price_headers(r, price);
+}
+
+void api_jobs_reply_store_failed(struct http_req *r, const char *message) {
+    r->res.retry_after = 5;
+    http_reply_error(r, 503, "store_failed", message, NULL, 0, 0, NULL);
 }
