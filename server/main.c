@@ -145,8 +145,10 @@ static int main_start(sigset_t *set) {
     sigaddset(set, SIGUSR1);
     sigaddset(set, SIGUSR2);
     pthread_sigmask(SIG_BLOCK, set, NULL);
-    if (sched_start((int)config.threads, (int)config.queue, (int)config.max_jobs) ||
-        !shots_start((int)config.max_jobs)) {
+    /* shots first: it hands the watcher, jobs.c and the store its hooks,
+     * which their threads read from the moment sched_start starts them */
+    if (!shots_start((int)config.max_jobs) ||
+        sched_start((int)config.threads, (int)config.queue, (int)config.max_jobs)) {
         fprintf(stderr, "rayd: error: cannot start the worker pool\n");
         return 1;
     }
