@@ -10,9 +10,9 @@
 /* Exact sums (render.c): a sample's radiance is a multiple of
  * 1 / RENDER_SUM_SCALE (2^-22) at most RENDER_SUM_CAP, and a sum holds at
  * most RENDER_SUM_SAMPLES of them: 2^22 * 2^15 * 2^16 = 2^53. */
-#define RENDER_SUM_SCALE 4194304.0 /* 2^22 */
-#define RENDER_SUM_CAP 32768.0     /* 2^15 */
-#define RENDER_SUM_SAMPLES 65536   /* 2^16 */
+#define RENDER_SUM_SCALE 4194304.0          /* 2^22 */
+#define RENDER_SUM_CAP 32768.0              /* 2^15 */
+#define RENDER_SUM_SAMPLES RAYD_SAMPLES_MAX /* 2^16 */
 
 /* The pixel's linear radiance, averaged over its samples. */
 vec3 render_pixel(const rayd_scene *s, int i, int j, uint64_t *rays);

@@ -70,13 +70,17 @@ char *rayd_error_format(const struct rayd_error *err, char *buf, size_t size);
 
 /* ---- limits ------------------------------------------------------------ */
 
+/* The most samples a pixel can take: its exact sums hold at most this many
+ * (core/render/render.h), so max_samples may be raised up to it. */
+#define RAYD_SAMPLES_MAX 65536
+
 /* Upper bounds on everything a scene author controls.  A scene over any of
  * them is refused with RAYD_E_LIMIT and the path of the offending value. */
 struct rayd_limits {
     int max_width;      /* pixels per row */
     int max_height;     /* rows */
     long max_pixels;    /* width * height */
-    int max_samples;    /* render.samples */
+    int max_samples;    /* render.samples: 1024, at most RAYD_SAMPLES_MAX */
     int max_depth;      /* render.max_depth */
     long max_objects;   /* entries of /objects */
     int max_lights;     /* entries of /lights */

@@ -59,7 +59,7 @@ static void usage(FILE *f) {
             "                   [--passes] [--pass-step K] [--pass-output PATTERN]\n"
             "                   [--exposure EV] [--tonemap clamp|reinhard] [--stats] [--quiet]\n"
             "                   [--frame K | --frames A-B] [--video OUT.mp4]\n"
-            "                   [--aov LIST] [--alpha]\n"
+            "                   [--aov LIST] [--alpha] [--max-samples N]\n"
             "\n"
             "  SCENE.json        scene file (format v1, docs/scene-format.md); '-' reads stdin\n"
             "  -o, --output F    file to write (required); '-' writes standard output;\n"
@@ -81,6 +81,8 @@ static void usage(FILE *f) {
             "                    the scene's render.aov); an EXR carries them as channels,\n"
             "                    a PNG output OUT.png gets OUT.NAME.png beside it, one each\n"
             "  --alpha           write the 8-bit PNG as RGBA, alpha the pixel's coverage\n"
+            "  --max-samples N   allow render.samples up to N, at most 65536 (default\n"
+            "                    1024), e.g. for reference images\n"
             "  --frame K         render frame K of an animated scene (default: its first)\n"
             "  --frames A-B      render frames A to B; -o then names each frame's file with a\n"
             "                    %%d, e.g. -o 'shot-%%04d.png' (%%0Nd pads to N digits)\n"
@@ -150,7 +152,8 @@ enum {
     OPT_FRAMES,
     OPT_VIDEO,
     OPT_AOV,
-    OPT_ALPHA
+    OPT_ALPHA,
+    OPT_MAX_SAMPLES
 };
 static const struct option long_options[] = {
     {"output", required_argument, NULL, 'o'},
@@ -172,6 +175,7 @@ static const struct option long_options[] = {
     {"video", required_argument, NULL, OPT_VIDEO},
     {"aov", required_argument, NULL, OPT_AOV},
     {"alpha", no_argument, NULL, OPT_ALPHA},
+    {"max-samples", required_argument, NULL, OPT_MAX_SAMPLES},
     {NULL, 0, NULL, 0},
 };
 
@@ -287,6 +291,11 @@ static int set_option(int opt, const char *val, struct args *a) {
             return bad_usage("--png-level takes an integer in 0..9");
         a->png_level = (int)n;
         return 0;
+    case OPT_MAX_SAMPLES:
+        if (!val || parse_int(val, 1, RAYD_SAMPLES_MAX, &n) != 0)
+            return bad_usage("--max-samples takes an integer in 1..%d", RAYD_SAMPLES_MAX);
+        a->max_samples = (int)n;
+        return 0;
     }
     return set_pass_option(opt, val, a);
 }
@@ -384,6 +393,7 @@ int main(int argc, char **argv) {
         snprintf(dir, sizeof dir, "%.*s", (int)(slash - a.scene), a.scene);
     lim.asset_dir = dir[0] ? dir : "/";
     lim.asset_confine = 0;
+    if (a.max_samples) lim.max_samples = a.max_samples;
     if (a.frames_set || a.video) {
         rc = frames_run(&a, text, len, &lim, t0);
         free(text);

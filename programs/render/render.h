@@ -48,6 +48,7 @@ struct args {
     unsigned aov;          /* --aov: enum rayd_aov bits */
     bool aov_set;          /* --aov given (else the scene's render.aov) */
     bool alpha;            /* --alpha: the 8-bit PNG as RGBA, alpha the coverage */
+    int max_samples;       /* --max-samples: render.samples' limit, 0 the default */
 };
 
 /* The stages of one run, in seconds: what a user waits for, end to end.

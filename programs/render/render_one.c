@@ -35,6 +35,11 @@
 int render_one_fail(const char *what, const struct rayd_error *err) {
     char msg[600];
     fprintf(stderr, "rayd-render: error: %s%s\n", what, rayd_error_format(err, msg, sizeof msg));
+    if (err->code == RAYD_E_LIMIT && !strcmp(err->path, "/render/samples"))
+        fprintf(stderr,
+                "rayd-render: --max-samples raises the limit (up to %d), e.g. for a "
+                "reference image\n",
+                RAYD_SAMPLES_MAX);
     if (err->code != RAYD_E_ARG) return 1;
     fprintf(stderr, "Try 'rayd-render --help'.\n"); /* as every usage error */
     return 2;

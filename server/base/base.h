@@ -38,6 +38,7 @@ struct config {
     long parse_queue;         /* scenes waiting for a parse thread before 503 */
     long max_body;            /* bytes of a request body */
     long max_pixels;          /* width * height of a scene */
+    long max_samples;         /* render.samples of a scene */
     char *token_file;         /* bearer token file, NULL = no auth */
     long cache_mb;            /* compiled scene cache budget */
     long result_cache_mb;     /* finished PNG cache budget */

@@ -61,6 +61,8 @@ static const struct config_option config_table[] = {
      "largest request body in bytes (413 before reading it)"},
     {"max-pixels", "RAYD_MAX_PIXELS", CT_LONG, &config.max_pixels, "16777216", 1, LONG_MAX,
      "largest image (width * height) a scene may ask for (413)"},
+    {"max-samples", "RAYD_MAX_SAMPLES", CT_LONG, &config.max_samples, "1024", 1, RAYD_SAMPLES_MAX,
+     "most samples a pixel a scene may ask for (render.samples; 413)"},
     {"token-file", "RAYD_TOKEN_FILE", CT_STRING, &config.token_file, NULL, 0, 0,
      "file holding a bearer token; then all but /healthz, /readyz, the preview page and OPTIONS "
      "need it"},

@@ -114,6 +114,7 @@ static enum rayd_status scenes_compile(const char *body, size_t len, long frame,
     } else {
         rayd_limits_default(&lim);
         lim.max_pixels = config.max_pixels;
+        lim.max_samples = (int)config.max_samples;
         if (lim.max_bytes < (size_t)config.max_body) lim.max_bytes = (size_t)config.max_body;
         lim.asset_dir = config.asset_dir; /* confined (asset_confine) */
     }
