@@ -76,6 +76,7 @@ struct material gltf_pbr_material(const struct gltf_pbr *p) {
     m.metallic = p->metallic;
     m.roughness = r;
     m.emission = v3(p->emissive[0], p->emissive[1], p->emissive[2]);
+    m.emit_front_only = !p->double_sided;
     /* Whitted: a Blinn-Phong lobe as wide as the GGX one, fading as the
      * surface gets rough; smooth metals a mirror, off the diffuse weight */
     m.shininess = fmin(10000, fmax(1, 2 / fmax(a2, 1e-6) - 2));
@@ -230,6 +231,16 @@ static enum rayd_status gm_alpha_mode(struct rayd_error *err, const cJSON *mj, c
     return err_set(err, RAYD_E_INVALID, pa.s, "must be \"OPAQUE\", \"MASK\" or \"BLEND\"");
 }
 
+/* doubleSided: false when absent, as glTF says. */
+static enum rayd_status gm_double_sided(struct rayd_error *err, const cJSON *mj, const struct jp *p,
+                                        bool *out) {
+    const cJSON *v = gl_get(mj, "doubleSided");
+    *out = cJSON_IsTrue(v);
+    if (!v || cJSON_IsBool(v)) return RAYD_OK;
+    struct jp pd = jp_key(p, "doubleSided");
+    return err_set(err, RAYD_E_INVALID, pd.s, "must be true or false");
+}
+
 /* Material mj at p (NULL: glTF's default material). */
 static enum rayd_status gm_material(struct gltf_doc *d, struct rayd_error *err, const cJSON *mj,
                                     const struct jp *p, struct gltf_mats *g, int i, long *texels) {
@@ -245,6 +256,7 @@ static enum rayd_status gm_material(struct gltf_doc *d, struct rayd_error *err, 
     TRY_GL(gm_nums(err, mj, p, "emissiveFactor", 3, black, 0, 1, pbr.emissive));
     TRY_GL(gm_alpha_mode(err, mj, p, &pbr.alpha_mode));
     TRY_GL(gm_num(err, mj, p, "alphaCutoff", 0.5, 0, 1e6, &pbr.cutoff));
+    TRY_GL(gm_double_sided(err, mj, p, &pbr.double_sided));
     const cJSON *es = gl_get(ext, "KHR_materials_emissive_strength");
     const cJSON *ij = gl_get(ext, "KHR_materials_ior");
     struct jp pes = jp_key(&pe, "KHR_materials_emissive_strength");

@@ -38,6 +38,7 @@ struct gltf_pbr {
     double emissive[3]; /* emissiveFactor times KHR_materials_emissive_strength */
     int alpha_mode;     /* 0 OPAQUE, 1 MASK, 2 BLEND */
     double cutoff, ior;
+    bool double_sided; /* doubleSided: else emission from the front only */
 };
 struct material gltf_pbr_material(const struct gltf_pbr *p);
 

@@ -14,15 +14,18 @@
 
 static enum rayd_status material(struct loader *ld, const cJSON *m, const struct jp *at,
                                  struct material *out) {
-    static const char *const keys[] = {"color",     "ambient",      "diffuse",      "specular",
-                                       "shininess", "reflectivity", "transparency", "ior",
-                                       "emission",  "roughness",    "metallic",     "texture",
-                                       NULL};
+    static const char *const keys[] = {
+        "color", "ambient",  "diffuse",   "specular", "shininess", "reflectivity",   "transparency",
+        "ior",   "emission", "roughness", "metallic", "texture",   "emission_sides", NULL};
+    static const char *const sides[] = {"both", "front", NULL};
     TRY(sj_check_keys(ld, m, at, keys));
     struct material d = material_default();
     *out = d;
     TRY(sj_vec(ld, m, at, "color", d.color, VEC_COLOR, &out->color));
     TRY(sj_vec(ld, m, at, "emission", d.emission, VEC_COLOR, &out->emission));
+    int side;
+    TRY(sj_enum(ld, m, at, "emission_sides", sides, &side));
+    out->emit_front_only = side == 1;
     TRY(sj_num(ld, m, at, "ambient", d.ambient, 0, false, 1, &out->ambient));
     TRY(sj_num(ld, m, at, "diffuse", d.diffuse, 0, false, 1, &out->diffuse));
     TRY(sj_num(ld, m, at, "specular", d.specular, 0, false, 1, &out->specular));

@@ -143,7 +143,7 @@ vec3 integrate_escape(const rayd_scene *s, vec3 d, int depth) {
 
 /* Emission, plus ambient when the scene has lights, plus the environment's. */
 static vec3 shade_base(const rayd_scene *s, const struct frame *f) {
-    vec3 c = f->sf.m->emission;
+    vec3 c = f->inside && f->sf.m->emit_front_only ? v3(0, 0, 0) : f->sf.m->emission;
     if (s->nlights > 0) c = v3_add(c, v3_scale(f->sf.color, f->sf.m->ambient));
     if (s->rs.env.kind != ENV_NONE)
         c = v3_add(c, v3_mul(s->rs.env.mean, v3_scale(f->sf.color, f->sf.m->diffuse)));

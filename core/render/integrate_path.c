@@ -194,7 +194,8 @@ static vec3 next_event(const rayd_scene *s, const struct lobes *lb, const struct
     if (!(dist > 0)) return sum;
     vec3 wi = v3_scale(d, 1 / dist);
     double cl = -v3_dot(ln, wi);
-    if (e->kind != SHAPE_SPHERE) cl = fabs(cl); /* flat emitters shine both ways */
+    const struct material *em = &s->mats[e->material];
+    if (e->kind != SHAPE_SPHERE && !em->emit_front_only) cl = fabs(cl); /* both ways */
     if (cl <= 0 || v3_dot(x->n, wi) <= 0) return sum;
     double pdf_b;
     vec3 f = eval_nondelta(lb, x->n, wo, wi, &pdf_b);
@@ -202,7 +203,7 @@ static vec3 next_event(const rayd_scene *s, const struct lobes *lb, const struct
     vec3 tr = integrate_visible(s, x->above, wi, dist * (1 - 1e-7), true, mt);
     if (v3_maxabs(tr) == 0) return sum;
     double pdf_l = dist * dist / (cl * emitter_area(e)) / ne;
-    vec3 le = s->mats[e->material].emission;
+    vec3 le = em->emission;
     return v3_add(sum, v3_scale(v3_mul(v3_mul(le, tr), f), mis(pdf_l, pdf_b) / pdf_l));
 }
 
@@ -274,7 +275,7 @@ static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *fir
         struct surface sf;
         scene_surface(s, &r, &h, &sf);
         const struct material *m = sf.m;
-        if (v3_maxabs(m->emission) > 0) {
+        if (v3_maxabs(m->emission) > 0 && material_emits_toward(m, sf.ng, r.d)) {
             double w = 1;
             if (!prev_delta && !s->rs.no_nee && is_emitter(s, &h)) {
                 vec3 d = v3_sub(sf.p, prev_p);

@@ -32,6 +32,7 @@ struct wide {
     double gx[16], gy[16], gz[16];                        /* a sphere's centre, a plane's normal */
     double sphere[16];
     double colx[16], coly[16], colz[16], emx[16], emy[16], emz[16]; /* the materials */
+    double emf[16]; /* 1: emission from the front only (emit_front_only) */
     double amb[16], dif[16], spec[16], cut[16], kr[16], shin[16];
     int64_t shine[16]; /* the material's shine_whole */
     int64_t top;       /* the bits of all whole exponents */

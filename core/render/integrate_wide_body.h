@@ -30,6 +30,7 @@ WIDE_FN void WIDE(put_object)(struct wide *w, int j, const struct object *o,
     w->sphere[j] = sphere;
     w->colx[j] = m->color.x, w->coly[j] = m->color.y, w->colz[j] = m->color.z;
     w->emx[j] = m->emission.x, w->emy[j] = m->emission.y, w->emz[j] = m->emission.z;
+    w->emf[j] = m->emit_front_only;
     w->amb[j] = m->ambient, w->dif[j] = m->diffuse, w->spec[j] = m->specular;
     w->cut[j] = m->spec_cut, w->kr[j] = m->reflectivity, w->shin[j] = m->shininess;
     w->shine[j] = m->shine_whole;
@@ -98,9 +99,10 @@ WIDE_FN void WIDE(frame)(struct wide *w, double lit) {
         double off = 1e-9 * (1.0 + WIDE(fmax_nn)(fabs(px), WIDE(fmax_nn)(fabs(py), fabs(pz))));
         w->nx[j] = nx, w->ny[j] = ny, w->nz[j] = nz;
         w->up[0][j] = px + nx * off, w->up[1][j] = py + ny * off, w->up[2][j] = pz + nz * off;
-        w->cx[j] = lit != 0 ? w->emx[j] + w->colx[j] * w->amb[j] : w->emx[j];
-        w->cy[j] = lit != 0 ? w->emy[j] + w->coly[j] * w->amb[j] : w->emy[j];
-        w->cz[j] = lit != 0 ? w->emz[j] + w->colz[j] * w->amb[j] : w->emz[j];
+        double e = w->emf[j] != 0 && in > 0 ? 0 : 1; /* a back face of a one-sided emitter */
+        w->cx[j] = lit != 0 ? e * w->emx[j] + w->colx[j] * w->amb[j] : e * w->emx[j];
+        w->cy[j] = lit != 0 ? e * w->emy[j] + w->coly[j] * w->amb[j] : e * w->emy[j];
+        w->cz[j] = lit != 0 ? e * w->emz[j] + w->colz[j] * w->amb[j] : e * w->emz[j];
     }
 }
 

@@ -25,7 +25,17 @@ struct material {
     int shine_whole; /* shininess as a whole number up to 1024, which the shaders
                       * raise to by squaring; -1 when it is not one (they call pow) */
     bool plain;      /* untextured and opaque: integrate_wide.c shades it */
+    /* Emission from the front only (the side the geometric normal points
+     * to): "emission_sides": "front", and glTF's single-sided materials.
+     * The default shines both ways, as scene format v1 says. */
+    bool emit_front_only;
 };
+
+/* Whether m's emission reaches a ray of direction d that meets the surface
+ * whose geometric normal is ng. */
+static inline bool material_emits_toward(const struct material *m, vec3 ng, vec3 d) {
+    return !m->emit_front_only || v3_dot(ng, d) < 0;
+}
 
 /* Fills the derived fields from the others. */
 void material_finish(struct material *m);

@@ -338,15 +338,17 @@ static void test_texcoord_sets(void) {
 }
 
 static void test_pbr_mapping(void) {
-    struct gltf_pbr mask = {{1, 1, 1, 0.3}, 0, 1, {0, 0, 0}, 1, 0.5, 1};
+    struct gltf_pbr mask = {{1, 1, 1, 0.3}, 0, 1, {0, 0, 0}, 1, 0.5, 1, false};
     struct material m = gltf_pbr_material(&mask);
     CHECK_NEAR(m.transparency, 1, 0); /* MASK below the cutoff: cut away */
     CHECK_NEAR(m.ior, 1, 0);
     mask.base[3] = 0.6;
     m = gltf_pbr_material(&mask);
     CHECK_NEAR(m.transparency, 0, 0);
-    struct gltf_pbr opaque = {{0.2, 0.3, 0.4, 0.1}, 0.5, 1, {0, 0, 0}, 0, 0.5, 1.5};
+    CHECK(m.emit_front_only, "a single-sided glTF material emits from its front only");
+    struct gltf_pbr opaque = {{0.2, 0.3, 0.4, 0.1}, 0.5, 1, {0, 0, 0}, 0, 0.5, 1.5, true};
     m = gltf_pbr_material(&opaque);
+    CHECK(!m.emit_front_only, "a doubleSided glTF material emits both ways");
     CHECK_NEAR(m.transparency, 0, 0); /* OPAQUE ignores alpha */
     CHECK_NEAR(m.specular, 0, 1e-12);
     CHECK_NEAR(m.shininess, 1, 0);
@@ -503,6 +505,10 @@ static void test_errors(void) {
         cJSON_CreateNumber(20));
     expect(parse(d, "", "", &err), &err,
            "/objects/0/source/gltf/materials/1/extensions/KHR_materials_ior/ior", "[0, 10]");
+    d = doc_tree();
+    cJSON_AddItemToObject(at(d, "materials", 1, NULL), "doubleSided", cJSON_CreateString("yes"));
+    expect(parse(d, "", "", &err), &err, "/objects/0/source/gltf/materials/1/doubleSided",
+           "true or false");
     d = doc_tree();
     cJSON_ReplaceItemInObject(at(d, "images", 0, NULL), "bufferView", cJSON_CreateNumber(9));
     expect(parse(d, "", "", &err), &err, "/objects/0/source/gltf/images/0/bufferView",
