@@ -443,7 +443,11 @@ def check_step(page, script, want_exit, compare):
     rc, out, fails, cwd = page.shell.run(script)
     out, codes = http_codes(out)
     tail = out.strip()[-300:]
-    if rc is None:
+    if rc is None or rc == -1:
+        if rc == -1:
+            page.shell.close()
+            page.shell = paste.Shell(cwd, page.tmp)
+            return "the shell ended: %s" % tail
         page.shell.close()
         page.shell = paste.Shell(cwd, page.tmp)
         return "still running after %d s (put it in the background, or stop it): %s" % (
@@ -506,6 +510,8 @@ def check_page(env, clone, tmp, f, rel, results):
                     continue
             except subprocess.TimeoutExpired:
                 why = "no answer within %d s" % TIMEOUT
+            except RuntimeError as e:  # the page's rayd did not start
+                why = str(e)
             results.append(("FAIL" if why else "PASS", ex.name(), why))
             took = "%.1f s" % (time.monotonic() - t0)
             if why:

@@ -193,7 +193,8 @@ class Shell:
         self.buf = b""
 
     def run(self, script, timeout=BLOCK_SECONDS):
-        """(exit status or None when it ran out of time, output, failed commands, cwd)."""
+        """(exit status, None when it ran out of time or -1 when the shell
+        ended (an `exit`), output, failed commands, cwd)."""
         self.n += 1
         base = os.path.join(self.tmp, "step%d" % self.n)
         with open(base + ".sh", "w") as f:
@@ -210,6 +211,8 @@ class Shell:
         except BrokenPipeError:
             return -1, "(the shell had ended)", [], self.cwd
         line = self.read_line(timeout)
+        if line == "":
+            return -1, "(the shell ended: an exit in the block?)", [], self.cwd
         out = open(base + ".out", encoding="utf-8", errors="replace").read()
         fails = [l for l in open(base + ".err", encoding="utf-8", errors="replace").read().split("\n")
                  if l and ": source " not in l]
@@ -226,7 +229,7 @@ class Shell:
                 return None
             chunk = os.read(self.rfd, 4096)
             if not chunk:
-                return None
+                return ""
             self.buf += chunk
         line, self.buf = self.buf.split(b"\n", 1)
         return line.decode()
@@ -311,6 +314,20 @@ def named_files(script):
     return ins, outs
 
 
+def foreground_streams(script):
+    """The lines that follow an event stream in the foreground with more
+    lines after them: those run only once the job has ended (a stream of a
+    long job blocks for minutes), so what they do to the job is not what
+    the page says."""
+    lines = [words(l) for l in strip_heredocs(script.replace("\\\n", " ")).split("\n")]
+    lines = [w for w in lines if w]
+    out = []
+    for k, w in enumerate(lines[:-1]):
+        if "curl" in w and any(x.rstrip("'\"").endswith("/events") for x in w) and w[-1] != "&":
+            out.append(" ".join(w))
+    return out
+
+
 def with_pattern(folder, name):
     """The files a %d / %04d output name stands for."""
     return glob.glob(os.path.join(folder, re.sub(r"%0?\d*d", "*", name)))
@@ -319,7 +336,8 @@ def with_pattern(folder, name):
 def file_problems(script, cwd):
     """Why the files a block names are wrong: a missing input, an image that is not one."""
     ins, outs = named_files(script)
-    why = []
+    why = ["%r waits for the job's end before the lines after it run (put it in the background: "
+           "`... &`)" % l[:80] for l in foreground_streams(script)]
     for f in ins:
         if "%" in f:
             continue
