@@ -4,6 +4,7 @@ pastes them, and compares their answers with what the docs say, so the docs
 cannot drift from rayd.
 
     python3 tools/docs_check.py BUILD FILE.md...
+    python3 tools/docs_check.py BUILD --self-test   (each rule fails a block that breaks it)
 
 Every command block runs: a fenced block tagged sh, bash, shell or console,
 or a block of "$ " lines.  Each page's blocks are pasted in order into one
@@ -412,8 +413,10 @@ def is_commands(ex):
 class Page:
     """A page's clone folder, server, shell and ports."""
 
-    def __init__(self, clone, tmp):
+    def __init__(self, root, build, clone, tmp):
         self.clone, self.tmp = clone, tmp
+        if not os.path.exists(clone):
+            paste.make_clone(root, build, clone)
         self.server = paste.Server(clone, tmp)
         self.ports = paste.Ports(self.server.port)
         self.shell = paste.Shell(clone, tmp)
@@ -489,14 +492,14 @@ def check_scene(env, ex):
     return None if rc == 0 else "rayd-render: exit %d: %s" % (rc, err)
 
 
-def check_page(env, clone, tmp, f, rel, results):
+def check_page(env, clone, tmp, f, rel, results, say=print):
     """Every block of one page, in order; one line each."""
     page, checks = None, {"scene": check_scene, "errors": check_errors, "http": check_http}
     try:
         for ex in examples(f, rel):
             if ex.mode == "skip":
                 results.append(("SKIP", ex.name(), ex.opts["why"] or "no reason given"))
-                print("SKIP %s: %s" % (ex.name(), results[-1][2]), flush=True)
+                say("SKIP %s: %s" % (ex.name(), results[-1][2]))
                 continue
             t0 = time.monotonic()
             try:
@@ -504,7 +507,7 @@ def check_page(env, clone, tmp, f, rel, results):
                     env.start(ex.opts)
                     why = checks[ex.mode](env, ex)
                 elif is_commands(ex):
-                    page = page or Page(clone, tmp)
+                    page = page or Page(env.root, env.build, clone, tmp)
                     why = check_commands(page, ex)
                 else:
                     continue
@@ -515,12 +518,65 @@ def check_page(env, clone, tmp, f, rel, results):
             results.append(("FAIL" if why else "PASS", ex.name(), why))
             took = "%.1f s" % (time.monotonic() - t0)
             if why:
-                print("FAIL %s: %s (%s)" % (ex.name(), why.replace("\n", "\\n"), took), flush=True)
+                say("FAIL %s: %s (%s)" % (ex.name(), why.replace("\n", "\\n"), took))
             else:
-                print("PASS %s (%s)" % (ex.name(), took), flush=True)
+                say("PASS %s (%s)" % (ex.name(), took))
     finally:
         if page:
             page.close()
+
+
+# (what the block must give, and for a FAIL a part of the reason; its marker
+# or None; the block): each rule of docs_paste.py broken once, alone, in one
+# page, in order.
+SELF_TEST = [
+    ("PASS", None, 'x=42\ncurl --fail -s -H "Content-Type: application/json" --data-binary '
+     '@scenes/spheres.json "http://127.0.0.1:8080/v1/render?x=0&y=0&w=8&h=8" -o ok.png'),
+    ("PASS", None, '[ "$x" = 42 ] && [ -s ok.png ]  # the shell and the files of the page'),
+    ("FAIL:HTTP status [404]", None, "curl -s http://127.0.0.1:8080/v1/no-such-route"),
+    ("FAIL:'Traceback", None, "python3 -c 'import json; json.loads(\"{}\")[\"id\"]' || true"),
+    ("FAIL:command not found", None, "no-such-command-here || true"),
+    ("FAIL:no-such-scene.json does not exist", None, "echo scenes/no-such-scene.json"),
+    ("FAIL:exit 1: false", None, "false\ntrue"),
+    ("FAIL:job.exr is not EXR", None, "printf '{\"id\": 1}' >job.exr"),
+    ("FAIL:waits for the job", None, "echo curl -N http://127.0.0.1:8080/v1/jobs/x/events\ntrue"),
+    ("PASS", "exit=3", "(exit 3)"),
+    ("SKIP", "skip: never run", "false"),
+    ("PASS", "", "$ echo hi\nhi"),
+    ("FAIL:expected 'ho'", "", "$ echo hi\nho"),
+    ("FAIL:still running after 3 s", None, "sleep 30"),
+]
+
+
+def self_test(root, build):
+    """Each rule seen to fail its block (and only it)."""
+    tmp = tempfile.mkdtemp(prefix="rayd-docs-self.")
+    page = os.path.join(tmp, "page.md")
+    with open(page, "w") as f:
+        for _, marker, block in SELF_TEST:
+            if marker is not None:
+                f.write("<!-- docs-check %s -->\n" % marker)
+            f.write("```sh\n%s\n```\n\n" % block)
+    env, results = Env(root, build), []
+    paste.BLOCK_SECONDS = 3
+    try:
+        clone = os.path.join(tmp, "rayd")
+        check_page(env, clone, tmp, page, "page.md", results, say=lambda line: None)
+    finally:
+        env.close()
+        shutil.rmtree(tmp, ignore_errors=True)
+    bad = 0
+    for (want, marker, block), got in zip(SELF_TEST, results):
+        want, _, why = want.partition(":")
+        ok = got[0] == want and why in (got[2] or "")
+        bad += not ok
+        print("%s docs_check self-test: %s gives %s%s" % (
+            "PASS" if ok else "FAIL", json.dumps(block.split("\n")[0][:50]), want,
+            "" if ok else ", got %s: %s" % (got[0], got[2])))
+    if len(results) != len(SELF_TEST):
+        print("FAIL docs_check self-test: %d results for %d blocks" % (len(results), len(SELF_TEST)))
+        bad += 1
+    return 1 if bad else 0
 
 
 def main():
@@ -529,6 +585,8 @@ def main():
         return 2
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     build = os.path.abspath(sys.argv[1])
+    if sys.argv[2] == "--self-test":
+        return self_test(root, build)
     env = Env(root, build)
     results = []
     tmp = tempfile.mkdtemp(prefix="rayd-docs-paste.")
@@ -538,7 +596,6 @@ def main():
             rel = os.path.relpath(os.path.abspath(f), root)
             page_tmp = tempfile.mkdtemp(prefix="page.", dir=tmp)
             clone = os.path.join(page_tmp, "rayd")
-            paste.make_clone(root, build, clone)
             check_page(env, clone, page_tmp, f, rel, results)
     finally:
         env.close()

@@ -192,7 +192,7 @@ class Shell:
         os.close(wfd)
         self.buf = b""
 
-    def run(self, script, timeout=BLOCK_SECONDS):
+    def run(self, script):
         """(exit status, None when it ran out of time or -1 when the shell
         ended (an `exit`), output, failed commands, cwd)."""
         self.n += 1
@@ -210,7 +210,7 @@ class Shell:
             self.proc.stdin.flush()
         except BrokenPipeError:
             return -1, "(the shell had ended)", [], self.cwd
-        line = self.read_line(timeout)
+        line = self.read_line(BLOCK_SECONDS)
         if line == "":
             return -1, "(the shell ended: an exit in the block?)", [], self.cwd
         out = open(base + ".out", encoding="utf-8", errors="replace").read()
