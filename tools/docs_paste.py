@@ -13,8 +13,8 @@ to the copy: the path-traced scenes of scenes/ are cut to 64 x 64 pixels
 (same samples, same passes), so that the whole run takes seconds, not
 minutes.
 
-The page's server is started as `make run` starts it (build/rayd --bind
-127.0.0.1 --data-dir ...), on a free port instead of 8080; every
+The page's server is started as `make run THREADS=2` starts it (build/rayd
+--bind 127.0.0.1 --threads 2 --data-dir ...), on a free port instead of 8080; every
 127.0.0.1:PORT or localhost:PORT of a block, and `--port PORT`, with PORT
 from 8000 to 8999, is rewritten to a free port (8080 to that server's), so
 a block that starts a rayd of its own (`build/rayd --port 8081 ... &`) works
@@ -147,13 +147,15 @@ class Ports:
 
 
 class Server:
-    """The page's rayd, started as `make run` starts it."""
+    """The page's rayd, started as `make run THREADS=2` starts it (two
+    workers: the same answers, `workers 0 busy of 2`, on any machine)."""
 
     def __init__(self, clone, tmp):
         self.err = open(os.path.join(tmp, "rayd.err"), "w")
         data = tempfile.mkdtemp(prefix="data.", dir=tmp)
         self.proc = subprocess.Popen([os.path.join(clone, "build/rayd"), "--bind", "127.0.0.1",
-                                      "--port", "0", "--data-dir", data], cwd=clone,
+                                      "--port", "0", "--threads", "2", "--data-dir", data],
+                                     cwd=clone,
                                      stdout=subprocess.PIPE, stderr=self.err, text=True)
         first = self.proc.stdout.readline().strip()
         m = re.match(r"^rayd listening on http://127\.0\.0\.1:(\d+)$", first)
@@ -293,7 +295,8 @@ def words(text):
 
 
 def named_files(script):
-    """([input files], [output files]) a script names, as written."""
+    """([input files], [output files]) a script names, as written; an input
+    that is a file only if its first folder exists ends with a NUL."""
     text = strip_heredocs(script.replace("\\\n", " "))
     ins, outs = [], []
     for cmd in [text] + substitutions(text):
@@ -309,8 +312,11 @@ def named_files(script):
                 continue
             if prev in OUT_OPTS:
                 outs.append(w)
-            elif prev in IN_OPTS or "/" in w or w.rsplit(".", 1)[-1] in FILE_EXT and "." in w:
+            elif prev in IN_OPTS or "." in w and w.rsplit(".", 1)[-1] in FILE_EXT or \
+                    w.endswith("/") or w.startswith("/"):
                 ins.append(w)
+            elif "/" in w:
+                ins.append(w + "\0")  # a file only if its first folder is there (not image/png)
     return ins, outs
 
 
@@ -339,6 +345,10 @@ def file_problems(script, cwd):
     why = ["%r waits for the job's end before the lines after it run (put it in the background: "
            "`... &`)" % l[:80] for l in foreground_streams(script)]
     for f in ins:
+        if f.endswith("\0"):
+            f = f[:-1]
+            if not os.path.isdir(os.path.join(cwd, f.split("/")[0])):
+                continue
         if "%" in f:
             continue
         if not os.path.lexists(os.path.join(cwd, os.path.expanduser(f))) and \
