@@ -1,24 +1,36 @@
 #!/usr/bin/env python3
-"""docs_check.py -- runs the examples of README.md and docs/*.md and compares
-their answers with what the docs say, so the docs cannot drift from rayd.
+"""docs_check.py -- runs the examples of README.md and docs/*.md as a reader
+pastes them, and compares their answers with what the docs say, so the docs
+cannot drift from rayd.
 
     python3 tools/docs_check.py BUILD FILE.md...
+    python3 tools/docs_check.py BUILD --self-test   (each rule fails a block that breaks it)
 
-Only examples marked for it are run: an HTML comment that starts with
-"<!-- docs-check" just before a fenced block (blank lines between are
-allowed).  The comment is invisible on GitHub; its first line names a mode
-and options, its other lines (up to "-->") are the mode's inputs:
+Every command block runs: a fenced block tagged sh, bash, shell or console,
+or a block of "$ " lines.  Each page's blocks are pasted in order into one
+bash of its own, at the root of a fresh copy of the repository (the files
+git tracks, BUILD linked in as build/), with a rayd started as `make run`
+starts it (tools/docs_paste.py says how, and what fails a block: a command's
+nonzero exit, a traceback, "command not found", an HTTP status of 400 or
+more, a JSON body saved under an image's name, a file named that does not
+exist, a block still running after a minute).  Other blocks (output, JSON,
+text) are not run unless marked.
 
-  <!-- docs-check -->            (mode "shell", the default) the block's shell
-      commands run with bash in a scratch folder that sees the repository's
-      build/, scenes/, programs/, tests/ and docs/ (build/ is BUILD; in
-      scenes/ the path-traced scenes are cut to 64 x 64 pixels, same
-      samples, so that they take seconds; scene.json is scenes/spheres.json).  A block
-      of lines starting with "$ " is a session: each command (with "\"
-      continuations) runs in turn and must exit 0, and the lines after it,
-      up to the next "$ ", are its expected output (stdout and stderr).  A
-      block without "$ " is one script that must exit 0 with every HTTP
-      answer curl gets below 400.
+A marker is an HTML comment that starts with "<!-- docs-check" just before
+a fenced block (blank lines between are allowed).  It is invisible on
+GitHub; its first line names a mode and options, its other lines (up to
+"-->") are the mode's inputs:
+
+  <!-- docs-check skip: WHY -->  the block is not run, and WHY is printed
+      with the list of blocks not run: keep it for what the test cannot have
+      (a cluster, docker, root, the whole test suite).
+  <!-- docs-check -->            (mode "shell") the block's output is checked
+      too: in a block of "$ " lines each command (with "\" continuations)
+      runs in turn, and the lines after it, up to the next "$ ", are its
+      expected output (stdout and stderr); the HTTP statuses are then not
+      checked, the output shows them.  Option "exit=N": each command (a
+      block without "$ ": its last) must exit N instead of 0, and a failing
+      command in it is no failure (a documented failure).
   <!-- docs-check scene -->      the block is a whole scene: rayd-render must
       render it (exit 0).
   <!-- docs-check errors         each further comment line is a scene (or
@@ -40,15 +52,15 @@ job id).  Expected output that starts with "HTTP/" is an answer of
 `curl -i`: its status code must match, each header shown must be there with
 that value (others are ignored), then the body.  A JSON body or JSON line
 matches when every key shown is there with a matching value (keys not shown
-are ignored); arrays must have the same length.
+are ignored); arrays must have the same length.  "127.0.0.1:8080" and
+"localhost:8080" (and other ports from 8000 to 8999) become the address of
+the server the page runs against, in the block and in its expected output.
 
-Each example talks to a rayd of its own, started for it on 127.0.0.1
---port 0 with --threads 2 (the same answers on any machine) and
---asset-dir the scratch folder's assets/ (with the option "token", also
---token-file the scratch folder's token); "127.0.0.1:8080" and
-"localhost:8080" in an example and in its expected output become its
-address.  Each example prints one line, "PASS docs:FILE:LINE" or
-"FAIL docs:FILE:LINE: why".
+The scene, errors and http examples each talk to a rayd of their own,
+started on 127.0.0.1 --port 0 with --threads 2 (the same answers on any
+machine) and --asset-dir a scratch folder.  Each block prints one line,
+"PASS docs:FILE:LINE (S s)", "FAIL docs:FILE:LINE: why (S s)" or
+"SKIP docs:FILE:LINE: why"; the blocks not run are listed at the end.
 """
 import json
 import os
@@ -57,6 +69,9 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import time
+
+import docs_paste as paste
 
 WILD = re.compile(r"\.\.\.|…")
 NUM = re.compile(r"-?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?")
@@ -84,6 +99,8 @@ def parse_marker(lines):
         inputs[-1] = inputs[-1].rstrip()[:-3]
     words = head.split()
     mode = "shell"
+    if words and words[0].rstrip(":") == "skip":
+        return "skip", {"why": " ".join(words[1:] + [l.strip() for l in inputs]).strip()}, []
     if words and words[0] in ("shell", "scene", "errors", "http"):
         mode = words.pop(0)
     opts = {"any": []}
@@ -99,7 +116,8 @@ def parse_marker(lines):
 
 
 def examples(path, rel):
-    """Every marked example of one Markdown file."""
+    """Every fenced block of one Markdown file, with its marker's mode (None
+    when it has no marker)."""
     lines = open(path, encoding="utf-8").read().split("\n")
     out, i, pending = [], 0, None
     while i < len(lines):
@@ -119,9 +137,8 @@ def examples(path, rel):
                 j += 1
             indent = len(m.group(1))
             body = [b[indent:] if b[:indent].strip() == "" else b for b in lines[i + 1:j]]
-            if pending:
-                mode, opts, inputs = pending
-                out.append(Example(rel, start + 1, mode, opts, inputs, info, body))
+            mode, opts, inputs = pending or (None, {"any": []}, [])
+            out.append(Example(rel, start + 1, mode, opts, inputs, info, body))
             pending = None
             i = j + 1
             continue
@@ -243,17 +260,13 @@ def http_match(exp, act, opts):
 # ---- running ---------------------------------------------------------------------
 
 class Env:
-    """The scratch folder, the server and the programs."""
+    """A rayd of its own for each example of the scene, errors and http
+    modes, and rayd-render, both run from the repository."""
 
     def __init__(self, root, build):
         self.root, self.build = root, build
         self.work = tempfile.mkdtemp(prefix="rayd-docs.")
-        for d in ("programs", "tests", "docs"):
-            os.symlink(os.path.join(root, d), os.path.join(self.work, d))
-        self.scenes(os.path.join(root, "scenes"), os.path.join(self.work, "scenes"))
-        os.symlink(build, os.path.join(self.work, "build"))
         os.mkdir(os.path.join(self.work, "assets"))
-        shutil.copy(os.path.join(root, "scenes/spheres.json"), os.path.join(self.work, "scene.json"))
         with open(os.path.join(self.work, "token"), "w") as f:
             f.write("docs-check-token\n")
         self.rayd = None
@@ -273,24 +286,6 @@ class Env:
             raise SystemExit("FAIL docs_check_server: first line was %r" % first)
         self.port = m.group(1)
 
-    @staticmethod
-    def scenes(src, dst):
-        """scenes/ as the repository's, but path-traced ones at 64 x 64 at
-        most (same samples, so the same passes): they render in seconds.
-        Other files (sky.hdr) are linked as they are."""
-        os.mkdir(dst)
-        for f in sorted(os.listdir(src)):
-            if not f.endswith(".json"):
-                os.symlink(os.path.join(src, f), os.path.join(dst, f))
-                continue
-            s = json.load(open(os.path.join(src, f), encoding="utf-8"))
-            r = s.get("render", {})
-            if r.get("integrator") != "path":
-                os.symlink(os.path.join(src, f), os.path.join(dst, f))
-                continue
-            r["width"], r["height"] = min(r.get("width", 640), 64), min(r.get("height", 480), 64)
-            json.dump(s, open(os.path.join(dst, f), "w"))
-
     def stop(self):
         if not self.rayd:
             return
@@ -308,29 +303,9 @@ class Env:
         self.stop()
         shutil.rmtree(self.work, ignore_errors=True)
 
-    def local(self, text):
-        return text.replace("127.0.0.1:8080", "127.0.0.1:" + self.port) \
-                   .replace("localhost:8080", "127.0.0.1:" + self.port)
-
-    def bash(self, script):
-        """(exit status, output without the HTTP status lines, HTTP statuses)."""
-        prelude = ("curl() { command curl -w '%{stderr}docs-check-http %{http_code}\\n' \"$@\"; }\n"
-                   "export -f curl\n")
-        p = subprocess.run(["bash", "-c", prelude + self.local(script)], cwd=self.work,
-                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                           timeout=TIMEOUT)
-        codes, out = [], []
-        for l in p.stdout.split("\n"):
-            m = re.fullmatch(r"docs-check-http (\d+)", l)
-            if m:
-                codes.append(int(m.group(1)))
-            else:
-                out.append(l)
-        return p.returncode, "\n".join(out), codes
-
     def render_cli(self, scene):
         p = subprocess.run([os.path.join(self.build, "rayd-render"), "-", "-o",
-                            os.path.join(self.work, "docs-check.png")], input=scene, cwd=self.work,
+                            os.path.join(self.work, "docs-check.png")], input=scene, cwd=self.root,
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, timeout=TIMEOUT)
         return p.returncode, p.stderr.decode("utf-8", "replace").strip()
 
@@ -427,24 +402,88 @@ def session(body):
     return out
 
 
-def check_shell(env, ex):
+def is_commands(ex):
+    """A block a reader pastes into a shell: fenced as sh, bash, shell or
+    console, or a session of "$ " lines, or marked for the shell."""
+    tag = ex.info.split()[0] if ex.info.split() else ""
+    return tag in paste.SHELL_TAGS or ex.mode == "shell" or \
+        (tag == "" and any(l.startswith("$ ") for l in ex.body))
+
+
+class Page:
+    """A page's clone folder, server, shell and ports."""
+
+    def __init__(self, root, build, clone, tmp):
+        self.clone, self.tmp = clone, tmp
+        if not os.path.exists(clone):
+            paste.make_clone(root, build, clone)
+        self.server = paste.Server(clone, tmp)
+        self.ports = paste.Ports(self.server.port)
+        self.shell = paste.Shell(clone, tmp)
+
+    def close(self):
+        self.shell.close()
+        self.server.stop()
+
+
+def http_codes(out):
+    """(the output without curl's status lines, the statuses)."""
+    codes, keep = [], []
+    for l in out.split("\n"):
+        m = re.search(r"docs-check-http (\d+)$", l)
+        if m:
+            codes.append(int(m.group(1)))
+            l = l[:m.start()]
+            if not l:
+                continue
+        keep.append(l)
+    return "\n".join(keep), codes
+
+
+def check_step(page, script, want_exit, compare):
+    """Why one step (a block, or one command of a session) failed, or None."""
+    script = page.ports.local(script)
+    rc, out, fails, cwd = page.shell.run(script)
+    out, codes = http_codes(out)
+    tail = out.strip()[-300:]
+    if rc is None or rc == -1:
+        if rc == -1:
+            page.shell.close()
+            page.shell = paste.Shell(cwd, page.tmp)
+            return "the shell ended: %s" % tail
+        page.shell.close()
+        page.shell = paste.Shell(cwd, page.tmp)
+        return "still running after %d s (put it in the background, or stop it): %s" % (
+            paste.BLOCK_SECONDS, tail)
+    if want_exit is not None:
+        if rc != want_exit:
+            return "exit status %d (expected %d): %s" % (rc, want_exit, tail)
+    elif rc != 0 or fails:
+        return "%s: %s" % ("; ".join(fails[:3]) or "exit status %d" % rc, tail)
+    for bad in ("Traceback (most recent call last)", "command not found"):
+        if bad in out:
+            return "%r in its output: %s" % (bad, tail)
+    bad = [c for c in codes if c >= 400]
+    if bad and compare is None and want_exit is None:
+        return "HTTP status %s: %s" % (bad, tail)
+    why = paste.file_problems(script, cwd)
+    if why:
+        return "; ".join(why)
+    if compare and any(l.strip() for l in compare[0]):
+        return lines_match([page.ports.local(l) for l in compare[0]], out, compare[1])
+    return None
+
+
+def check_commands(page, ex):
+    """A command block pasted: a session command by command, else whole."""
+    want = int(ex.opts["exit"]) if "exit" in ex.opts else None
     if not any(l.startswith("$ ") for l in ex.body):
-        rc, out, codes = env.bash("set -e\n" + "\n".join(ex.body))
-        bad = [c for c in codes if c >= 400 or c == 0]
-        if rc != 0:
-            return "exit status %d: %s" % (rc, out.strip()[-300:])
-        if bad:
-            return "HTTP status %s: %s" % (bad, out.strip()[-300:])
-        return None
+        return check_step(page, "\n".join(ex.body), want, None)
     for cmd, expected in session(ex.body):
-        rc, out, _ = env.bash(cmd)
-        want_rc = int(ex.opts.get("exit", 0))
-        if rc != want_rc:
-            return "%r: exit status %d (expected %d): %s" % (cmd[:60], rc, want_rc, out.strip()[-300:])
-        if any(l.strip() for l in expected):
-            why = lines_match([env.local(l) for l in expected], out, ex.opts)
-            if why:
-                return "%r: %s" % (cmd[:60], why)
+        compare = (expected, ex.opts) if ex.mode == "shell" else None
+        why = check_step(page, cmd, want, compare)
+        if why:
+            return "%r: %s" % (cmd[:60], why)
     return None
 
 
@@ -453,37 +492,122 @@ def check_scene(env, ex):
     return None if rc == 0 else "rayd-render: exit %d: %s" % (rc, err)
 
 
+def check_page(env, clone, tmp, f, rel, results, say=print):
+    """Every block of one page, in order; one line each."""
+    page, checks = None, {"scene": check_scene, "errors": check_errors, "http": check_http}
+    try:
+        for ex in examples(f, rel):
+            if ex.mode == "skip":
+                results.append(("SKIP", ex.name(), ex.opts["why"] or "no reason given"))
+                say("SKIP %s: %s" % (ex.name(), results[-1][2]))
+                continue
+            t0 = time.monotonic()
+            try:
+                if ex.mode in checks:
+                    env.start(ex.opts)
+                    why = checks[ex.mode](env, ex)
+                elif is_commands(ex):
+                    page = page or Page(env.root, env.build, clone, tmp)
+                    why = check_commands(page, ex)
+                else:
+                    continue
+            except subprocess.TimeoutExpired:
+                why = "no answer within %d s" % TIMEOUT
+            except RuntimeError as e:  # the page's rayd did not start
+                why = str(e)
+            results.append(("FAIL" if why else "PASS", ex.name(), why))
+            took = "%.1f s" % (time.monotonic() - t0)
+            if why:
+                say("FAIL %s: %s (%s)" % (ex.name(), why.replace("\n", "\\n"), took))
+            else:
+                say("PASS %s (%s)" % (ex.name(), took))
+    finally:
+        if page:
+            page.close()
+
+
+# (what the block must give, and for a FAIL a part of the reason; its marker
+# or None; the block): each rule of docs_paste.py broken once, alone, in one
+# page, in order.
+SELF_TEST = [
+    ("PASS", None, 'x=42\ncurl --fail -s -H "Content-Type: application/json" --data-binary '
+     '@scenes/spheres.json "http://127.0.0.1:8080/v1/render?x=0&y=0&w=8&h=8" -o ok.png'),
+    ("PASS", None, '[ "$x" = 42 ] && [ -s ok.png ]  # the shell and the files of the page'),
+    ("FAIL:HTTP status [404]", None, "curl -s http://127.0.0.1:8080/v1/no-such-route"),
+    ("FAIL:'Traceback", None, "python3 -c 'import json; json.loads(\"{}\")[\"id\"]' || true"),
+    ("FAIL:command not found", None, "no-such-command-here || true"),
+    ("FAIL:no-such-scene.json does not exist", None, "echo scenes/no-such-scene.json"),
+    ("FAIL:exit 1: false", None, "false\ntrue"),
+    ("FAIL:job.exr is not EXR", None, "printf '{\"id\": 1}' >job.exr"),
+    ("FAIL:waits for the job", None, "echo curl -N http://127.0.0.1:8080/v1/jobs/x/events\ntrue"),
+    ("PASS", "exit=3", "(exit 3)"),
+    ("SKIP", "skip: never run", "false"),
+    ("PASS", "", "$ echo hi\nhi"),
+    ("FAIL:expected 'ho'", "", "$ echo hi\nho"),
+    ("FAIL:still running after 3 s", None, "sleep 30"),
+]
+
+
+def self_test(root, build):
+    """Each rule seen to fail its block (and only it)."""
+    tmp = tempfile.mkdtemp(prefix="rayd-docs-self.")
+    page = os.path.join(tmp, "page.md")
+    with open(page, "w") as f:
+        for _, marker, block in SELF_TEST:
+            if marker is not None:
+                f.write("<!-- docs-check %s -->\n" % marker)
+            f.write("```sh\n%s\n```\n\n" % block)
+    env, results = Env(root, build), []
+    paste.BLOCK_SECONDS = 3
+    try:
+        clone = os.path.join(tmp, "rayd")
+        check_page(env, clone, tmp, page, "page.md", results, say=lambda line: None)
+    finally:
+        env.close()
+        shutil.rmtree(tmp, ignore_errors=True)
+    bad = 0
+    for (want, marker, block), got in zip(SELF_TEST, results):
+        want, _, why = want.partition(":")
+        ok = got[0] == want and why in (got[2] or "")
+        bad += not ok
+        print("%s docs_check self-test: %s gives %s%s" % (
+            "PASS" if ok else "FAIL", json.dumps(block.split("\n")[0][:50]), want,
+            "" if ok else ", got %s: %s" % (got[0], got[2])))
+    if len(results) != len(SELF_TEST):
+        print("FAIL docs_check self-test: %d results for %d blocks" % (len(results), len(SELF_TEST)))
+        bad += 1
+    return 1 if bad else 0
+
+
 def main():
     if len(sys.argv) < 3:
         print(__doc__)
         return 2
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     build = os.path.abspath(sys.argv[1])
+    if sys.argv[2] == "--self-test":
+        return self_test(root, build)
     env = Env(root, build)
-    checks = {"shell": check_shell, "scene": check_scene, "errors": check_errors,
-              "http": check_http}
-    fails = n = 0
+    results = []
+    tmp = tempfile.mkdtemp(prefix="rayd-docs-paste.")
     try:
         for f in sys.argv[2:]:
+            # Each page starts from a fresh clone, as a reader who opens it first.
             rel = os.path.relpath(os.path.abspath(f), root)
-            for ex in examples(f, rel):
-                n += 1
-                try:
-                    env.start(ex.opts)
-                    why = checks[ex.mode](env, ex)
-                except subprocess.TimeoutExpired:
-                    why = "no answer within %d s" % TIMEOUT
-                if why:
-                    fails += 1
-                    print("FAIL %s: %s" % (ex.name(), why.replace("\n", "\\n")), flush=True)
-                else:
-                    print("PASS %s" % ex.name(), flush=True)
+            page_tmp = tempfile.mkdtemp(prefix="page.", dir=tmp)
+            clone = os.path.join(page_tmp, "rayd")
+            check_page(env, clone, page_tmp, f, rel, results)
     finally:
         env.close()
-    if n == 0:
-        print("FAIL docs_check: no example marked <!-- docs-check --> in %s" % " ".join(sys.argv[2:]))
+        shutil.rmtree(tmp, ignore_errors=True)
+    skips = [r for r in results if r[0] == "SKIP"]
+    if skips:
+        print("docs_check: %d block(s) not run, each for the reason its marker gives: %s" % (
+            len(skips), ", ".join(r[1] for r in skips)))
+    if not any(r[0] != "SKIP" for r in results):
+        print("FAIL docs_check: no example found in %s" % " ".join(sys.argv[2:]))
         return 1
-    return 1 if fails else 0
+    return 1 if any(r[0] == "FAIL" for r in results) else 0
 
 
 if __name__ == "__main__":
