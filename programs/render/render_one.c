@@ -34,12 +34,10 @@
  * command line's fault: 2; anything else (a bad scene, I/O) is 1. */
 int render_one_fail(const char *what, const struct rayd_error *err) {
     char msg[600];
-    fprintf(stderr, "rayd-render: error: %s%s\n", what, rayd_error_format(err, msg, sizeof msg));
-    if (err->code == RAYD_E_LIMIT && !strcmp(err->path, "/render/samples"))
-        fprintf(stderr,
-                "rayd-render: --max-samples raises the limit (up to %d), e.g. for a "
-                "reference image\n",
-                RAYD_SAMPLES_MAX);
+    /* the one limit the command line's own option raises says so */
+    bool samples = err->code == RAYD_E_LIMIT && !strcmp(err->path, "/render/samples");
+    fprintf(stderr, "rayd-render: error: %s%s%s\n", what, rayd_error_format(err, msg, sizeof msg),
+            samples ? "; --max-samples raises it (up to 65536)" : "");
     if (err->code != RAYD_E_ARG) return 1;
     fprintf(stderr, "Try 'rayd-render --help'.\n"); /* as every usage error */
     return 2;

@@ -84,8 +84,7 @@ static void test_turned_away_no_light(void) {
     rayd_image *one = render_of(lamp_scene("path", "front", false));
     rayd_image *two = render_of(lamp_scene("path", "both", false));
     if (!one || !two) goto out;
-    CHECK(FLOOR(one) == 0, "the floor under a lamp turned away: %ld, expected 0",
-          FLOOR(one));
+    CHECK(FLOOR(one) == 0, "the floor under a lamp turned away: %ld, expected 0", FLOOR(one));
     CHECK(FLOOR(two) > 0, "a two-sided lamp lights the floor either way");
 out:
     rayd_image_free(one);
@@ -99,10 +98,9 @@ static void test_back_is_black(void) {
         rayd_image *back = render_of(lamp_scene(integ[i], "front", true));
         rayd_image *front = render_of(lamp_scene(integ[i], "front", false));
         if (back && front) {
-            CHECK(LAMP(back) == 0, "%s: the back of a one-sided lamp: %ld", integ[i],
-                  LAMP(back));
-            CHECK(LAMP(front) == 2 * 2 * 2 * 255, "%s: its front shows its emission: %ld",
-                  integ[i], LAMP(front));
+            CHECK(LAMP(back) == 0, "%s: the back of a one-sided lamp: %ld", integ[i], LAMP(back));
+            CHECK(LAMP(front) == 2 * 2 * 2 * 255, "%s: its front shows its emission: %ld", integ[i],
+                  LAMP(front));
         }
         rayd_image_free(back);
         rayd_image_free(front);
