@@ -341,14 +341,20 @@ int job_post(const struct client_opts *o, const struct scenefile *sf, const char
 /* Ctrl-C or SIGTERM came: the job is cancelled on the server (DELETE).
  * Returns 130, the exit status of an interrupted command. */
 int job_cancel(const struct client_opts *o, const char *id) {
-    char url[1024], why[600] = "";
-    struct net_buf b = {0};
     job_interrupted = 0; /* let the DELETE through */
-    snprintf(url, sizeof url, "%s/v1/jobs/%s", o->servers[0], id);
-    job_request(o, "DELETE", url, NULL, &b, why, sizeof why);
-    net_buf_free(&b);
+    job_delete(o, id);
     fprintf(stderr, "rayd-client: interrupted; job %s cancelled\n", id);
     return 130;
+}
+
+/* DELETE /v1/jobs/{id}: the server's status (0 on a transport error). */
+long job_delete(const struct client_opts *o, const char *id) {
+    char url[1024], why[600] = "";
+    struct net_buf b = {0};
+    snprintf(url, sizeof url, "%s/v1/jobs/%s", o->servers[0], id);
+    long st = job_request(o, "DELETE", url, NULL, &b, why, sizeof why);
+    net_buf_free(&b);
+    return st;
 }
 
 /* Follows job id to its end, showing progress: 0, 1 (said) or 130
