@@ -226,6 +226,7 @@ static int watch_status(struct watch *w, bool first) {
                 !watch_num(j, "region", "h", 1, 65536, true, &rh) ||
                 rw * rh > (double)WATCH_MAX_PIXELS ||
                 (w->w && (rw != (double)w->w || rh != (double)w->h)))) {
+        w->refused = 1;
         fprintf(stderr, "rayd-client: error: job %s: its region is not the %ldx%ld image asked "
                         "for\n",
                 w->id, w->w, w->h);
