@@ -4,8 +4,11 @@
  *               [--tile 128 | --split-samples N] [--parallel N] [--retries N]
  *               [--timeout S] [--threads N] [--no-hedge]
  *               [--token-file F] [--quiet]
+ *   rayd-client render --progressive SCENE.json -o OUT.png|OUT.exr --server URL
+ *               [--pass-step K] [--time-budget S] [--noise-target E] [--detach]
  *   rayd-client job SCENE.json -o OUT.png|OUT.exr --server URL [--token-file F]
  *               [--frames A-B] [--video OUT.mp4]   (an animated scene: -o 'shot-%04d.png')
+ *   rayd-client watch ID [-o OUT.png|OUT.exr] --server URL
  *   rayd-client health --server URL [--server URL ...]
  *   rayd-client thumbnails DIR [-o OUTDIR] [--size N] [--view V] [--turntable N]
  *                          --server URL ...
@@ -13,7 +16,9 @@
  * `render` splits one frame into tiles (or, --split-samples, its samples
  * into ranges) and spreads them over every server given (rayd nodes, or
  * one balancer in front of many: tiles.c); `job` uses
- * the asynchronous job API of one server (job.c); `health` asks each
+ * the asynchronous job API of one server (job.c); `render --progressive`
+ * makes a progressive job of it, each pass written to -o as it arrives,
+ * and `watch` follows an existing job by its id (watch.c); `health` asks each
  * server's /healthz and /readyz; `thumbnails` renders every model of a
  * folder in a studio scene, each as a render (thumbnails.c).  The scene is read, its files inlined
  * and validated locally before anything is sent (scenefile.c).  RAYD_SERVER gives a default server,
@@ -53,8 +58,12 @@ static void client_usage(FILE *f) {
            "                          [--tile N | --split-samples N] [--parallel N] [--retries N]\n"
            "                          [--timeout S] [--threads N] [--no-hedge]\n"
            "                          [--token-file F] [--quiet]\n"
+           "       rayd-client render --progressive SCENE.json -o OUT.png|OUT.exr --server URL\n"
+           "                          [--pass-step K] [--time-budget S] [--noise-target E]\n"
+           "                          [--detach] [--token-file F] [--quiet]\n"
            "       rayd-client job SCENE.json -o OUT.png|OUT.exr --server URL [--token-file F]\n"
            "                       [--frames A-B] [--video OUT.mp4] [--quiet]\n"
+           "       rayd-client watch ID [-o OUT.png|OUT.exr] --server URL [--token-file F]\n"
            "       rayd-client health --server URL [--server URL ...] [--token-file F]\n"
            "       rayd-client thumbnails DIR [-o OUTDIR] [--size N] [--view V] [--turntable N]\n"
            "                              --server URL ...\n"
@@ -80,6 +89,15 @@ static void client_usage(FILE *f) {
            "  --frames A-B      job: frames A to B of an animated scene (default: all of\n"
            "                    them), one file a frame: -o 'shot-%%04d.png' (%%d, %%0Nd)\n"
            "  --video F.mp4     job: also the frames as an H.264 MP4, once all are done\n"
+           "  --progressive     render: one progressive job on one server, each pass\n"
+           "                    written to -o as it arrives; Ctrl-C cancels the job\n"
+           "  --pass-step K     render --progressive: a pass every K samples (default:\n"
+           "                    1, 2, 4, 8, ... up to the scene's samples)\n"
+           "  --time-budget S   render --progressive: end with the latest pass after S s\n"
+           "  --noise-target E  render --progressive: end once a pass's noise is <= E\n"
+           "  --detach          render --progressive: print the job's id and leave it\n"
+           "                    running (watch ID follows it; Ctrl-C in watch leaves\n"
+           "                    the job running too)\n"
            "  --size N          thumbnails: the PNGs' width and height (default 256)\n"
            "  --view V          thumbnails: three-quarter (default), front, side or top;\n"
            "                    -o is the output folder (default .)\n"
