@@ -27,8 +27,8 @@
  *
  * The progress: on a terminal the bar of progress.c, in frames; else one
  * line per frame written, "frame K -> FILE (frames D/N, ETA ...)", with the
- * server's eta_s when polled, else the pace of the frames so far.  A failed job's frames done are still written; then its
- * error, which names the failed frames, is printed and we exit 1.
+ * server's eta_s when polled, else the pace of the frames so far.  A failed job's frames done are
+ * still written; then its error, which names the failed frames, is printed and we exit 1.
  *
  * --video: once every frame is written, GET /v1/jobs/{id}/video.mp4,
  * which answers 202 while ffmpeg makes it; we ask again each second, for
@@ -48,13 +48,13 @@ struct job_frames {
     const struct client_opts *o;
     const struct scenefile *sf;
     char id[64];
-    long first, last;   /* its frames, inclusive */
-    unsigned char *got; /* got[k - first]: frame k written */
+    long first, last;     /* its frames, inclusive */
+    unsigned char *got;   /* got[k - first]: frame k written */
     unsigned char *ready; /* ready[k - first]: the stream said frame k is done */
     int refused;          /* a frame was no image of the scene's size */
     int news;             /* frames announced and the end, as the stream said them */
-    long ngot, next;    /* frames written; the lowest not written */
-    double eta;         /* the server's eta_s, -1 when unknown */
+    long ngot, next;      /* frames written; the lowest not written */
+    double eta;           /* the server's eta_s, -1 when unknown */
     struct progress prog;
     char label[1][40];
 };
@@ -119,9 +119,9 @@ static int job_frames_get(struct job_frames *j, long k) {
         j->got[k - j->first] = 1;
         j->ngot++;
         long total = j->last - j->first + 1, per = j->ngot;
-        double eta = j->eta >= 0 ? j->eta /* the server's, when polled; else the pace so far */
-                                 : (net_now() - j->prog.t0) / (double)j->ngot *
-                                       (double)(total - j->ngot);
+        double eta = j->eta >= 0
+                         ? j->eta /* the server's, when polled; else the pace so far */
+                         : (net_now() - j->prog.t0) / (double)j->ngot * (double)(total - j->ngot);
         if (j->prog.tty)
             progress_update(&j->prog, (int)j->ngot, 0, 1, &per, j->label, -1, 1);
         else if (!o->quiet)

@@ -579,8 +579,8 @@ static int client_run(const struct client_args *a) {
     }
     int rc = a->o.progressive        ? watch_render(&a->o, &sf)
              : strcmp(a->cmd, "job") ? tiles_render(&a->o, &sf)
-             : frames              ? job_frames_run(&a->o, &sf)
-                                   : job_run(&a->o, &sf);
+             : frames                ? job_frames_run(&a->o, &sf)
+                                     : job_run(&a->o, &sf);
     scenefile_free(&sf);
     return rc;
 }

@@ -106,12 +106,10 @@ static int sse_line(struct sse_conn *c, char *l) {
     if (!strcmp(l, "event")) {
         snprintf(c->event, sizeof c->event, "%s", v);
     } else if (!strcmp(l, "data")) {
-        c->data_len +=
-            (size_t)snprintf(c->data + c->data_len, SSE_LINE_MAX - c->data_len, "%s%s",
-                             c->data_len ? "\n" : "", v);
+        c->data_len += (size_t)snprintf(c->data + c->data_len, SSE_LINE_MAX - c->data_len, "%s%s",
+                                        c->data_len ? "\n" : "", v);
         if (c->data_len >= SSE_LINE_MAX) c->data_len = SSE_LINE_MAX - 1;
-    } else if (!strcmp(l, "retry") && strspn(v, "0123456789") == strlen(v) && *v &&
-               strlen(v) < 9) {
+    } else if (!strcmp(l, "retry") && strspn(v, "0123456789") == strlen(v) && *v && strlen(v) < 9) {
         long ms = atol(v);
         s->retry_ms = ms < 100 ? 100 : ms > 10000 ? 10000 : ms;
     }

@@ -53,22 +53,22 @@
 struct watch {
     const struct client_opts *o;
     const char *id;
-    int cancels;      /* render --progressive: Ctrl-C and a refused image cancel the job */
-    long w, h;        /* the image's size */
-    int progressive;  /* the job renders in passes */
-    long passes;      /* its pass count */
-    long target;      /* its sample target (0: unknown, passes are then not shown) */
-    long seen;        /* the latest pass the server announced (figures checked) */
+    int cancels;     /* render --progressive: Ctrl-C and a refused image cancel the job */
+    long w, h;       /* the image's size */
+    int progressive; /* the job renders in passes */
+    long passes;     /* its pass count */
+    long target;     /* its sample target (0: unknown, passes are then not shown) */
+    long seen;       /* the latest pass the server announced (figures checked) */
     long seen_samples;
     double seen_time; /* its time_s */
     long tried;       /* the latest pass fetched, or tried */
     long written;     /* the pass -o holds (0: none) */
     long written_samples;
-    char final[16];   /* how the job ended ("" while it runs) */
-    char error[600];  /* a failed job's message, escaped */
-    int news;         /* counts what was learned: passes, progress, the end */
-    int refused;      /* an image was refused: stop */
-    int warned;       /* bad figures were said once */
+    char final[16];  /* how the job ended ("" while it runs) */
+    char error[600]; /* a failed job's message, escaped */
+    int news;        /* counts what was learned: passes, progress, the end */
+    int refused;     /* an image was refused: stop */
+    int warned;      /* bad figures were said once */
     struct progress prog;
     char label[1][40];
 };
@@ -227,16 +227,16 @@ static int watch_status(struct watch *w, bool first) {
                 rw * rh > (double)WATCH_MAX_PIXELS ||
                 (w->w && (rw != (double)w->w || rh != (double)w->h)))) {
         w->refused = 1;
-        fprintf(stderr, "rayd-client: error: job %s: its region is not the %ldx%ld image asked "
-                        "for\n",
+        fprintf(stderr,
+                "rayd-client: error: job %s: its region is not the %ldx%ld image asked "
+                "for\n",
                 w->id, w->w, w->h);
     } else if (st == 200) {
         rc = 0;
         if (first) {
             w->w = (long)rw, w->h = (long)rh;
             w->progressive = cJSON_IsObject(cJSON_GetObjectItemCaseSensitive(j, "passes"));
-            if (w->progressive &&
-                watch_num(j, "passes", "total", 1, 64, true, &n) &&
+            if (w->progressive && watch_num(j, "passes", "total", 1, 64, true, &n) &&
                 watch_num(j, "passes", "samples_target", 1, WATCH_MAX_SAMPLES, true, &target))
                 w->passes = (long)n, w->target = (long)target;
             else if (w->progressive)
@@ -244,7 +244,8 @@ static int watch_status(struct watch *w, bool first) {
         }
         if (w->progressive)
             watch_pass(w, cJSON_GetObjectItemCaseSensitive(j, "passes"), "done", "total");
-        else watch_tiles(w, j, "tiles_done", "tiles_total");
+        else
+            watch_tiles(w, j, "tiles_done", "tiles_total");
         const char *state = net_json_str(j, "state");
         if (state && strcmp(state, "queued") && strcmp(state, "running")) {
             const cJSON *e = cJSON_GetObjectItemCaseSensitive(j, "error");
@@ -292,8 +293,10 @@ static int watch_stream(struct watch *w) {
             return rc == SSE_FAILED ? -1 : 0;
         }
         char why[600];
-        if (rc == SSE_REFUSED) net_describe(s.status, &s.error_body, why, sizeof why);
-        else snprintf(why, sizeof why, "%s", s.why);
+        if (rc == SSE_REFUSED)
+            net_describe(s.status, &s.error_body, why, sizeof why);
+        else
+            snprintf(why, sizeof why, "%s", s.why);
         net_buf_free(&s.error_body);
         strikes = w->news > news ? 0 : strikes + 1;
         if (rc == SSE_REFUSED || strikes >= WATCH_STRIKES) {
@@ -337,8 +340,9 @@ static int watch_final(struct watch *w) {
     int rc = 1;
     if (st == 200 && job_write(o->out, &b, (int)w->w, (int)w->h) == 0) {
         rc = 0;
-        if (!o->quiet) fprintf(stderr, "rayd-client: job %s succeeded; wrote %s\n", w->id,
-                               output_name(o->out));
+        if (!o->quiet)
+            fprintf(stderr, "rayd-client: job %s succeeded; wrote %s\n", w->id,
+                    output_name(o->out));
     } else if (st == 200) {
         w->refused = 1;
     } else if (!job_stopped()) {
@@ -408,8 +412,7 @@ static int watch_follow(struct watch *w) {
 static void watch_query(const struct client_opts *o, char *q, size_t size) {
     size_t n = (size_t)snprintf(q, size, "?progressive=1");
     if (o->pass_step) n += (size_t)snprintf(q + n, size - n, "&pass_step=%s", o->pass_step);
-    if (o->time_budget)
-        n += (size_t)snprintf(q + n, size - n, "&time_budget=%s", o->time_budget);
+    if (o->time_budget) n += (size_t)snprintf(q + n, size - n, "&time_budget=%s", o->time_budget);
     if (o->noise_target)
         n += (size_t)snprintf(q + n, size - n, "&noise_target=%s", o->noise_target);
     if (output_kind_exr(o->out)) snprintf(q + n, size - n, "&format=exr");
@@ -430,8 +433,8 @@ int watch_render(const struct client_opts *o, const struct scenefile *sf) {
     } else if (rc == 0) {
         if (!o->quiet)
             fprintf(stderr,
-                    "rayd-client: job %s on %s (%dx%d, up to %d samples); Ctrl-C cancels it\n",
-                    id, o->servers[0], sf->width, sf->height, sf->samples);
+                    "rayd-client: job %s on %s (%dx%d, up to %d samples); Ctrl-C cancels it\n", id,
+                    o->servers[0], sf->width, sf->height, sf->samples);
         struct watch w = {.o = o, .id = id, .cancels = 1, .w = sf->width, .h = sf->height};
         rc = watch_follow(&w);
     }
