@@ -263,6 +263,9 @@ long job_request(const struct client_opts *o, const char *method, const char *ur
 int job_post(const struct client_opts *o, const struct scenefile *sf, const char *query, char *id,
              size_t size);
 int job_write(const char *path, const struct net_buf *b, int w, int h);
+/* The size an image's header says (a PNG, an OpenEXR for an .exr path):
+ * 0, or -1 when it has none. */
+int job_image_size(const char *path, const struct net_buf *b, long *w, long *h);
 int job_cancel(const struct client_opts *o, const char *id);
 /* DELETE /v1/jobs/{id}, unsaid: the status, 0 on a transport error. */
 long job_delete(const struct client_opts *o, const char *id);

@@ -278,6 +278,12 @@ static int job_exr_size(const struct net_buf *b, long *w, long *h) {
     return -1;
 }
 
+/* The size of b, a PNG or (for an .exr path) an OpenEXR, from its header:
+ * 0, or -1 when it is none. */
+int job_image_size(const char *path, const struct net_buf *b, long *w, long *h) {
+    return output_kind_exr(path) ? job_exr_size(b, w, h) : job_png_size(b, w, h);
+}
+
 /* The job's PNG, or EXR for an .exr path, into path once it is one of the
  * size asked for (w x h: the scene's): 0, or -1 after saying why (nothing
  * written).  The size is read from the header before anything is decoded,
@@ -285,7 +291,7 @@ static int job_exr_size(const struct net_buf *b, long *w, long *h) {
 int job_write(const char *path, const struct net_buf *b, int w, int h) {
     bool exr = output_kind_exr(path);
     long iw = 0, ih = 0;
-    if ((exr ? job_exr_size(b, &iw, &ih) : job_png_size(b, &iw, &ih)) != 0) {
+    if (job_image_size(path, b, &iw, &ih) != 0) {
         fprintf(stderr, "rayd-client: error: the job's image is not %s; nothing written to %s\n",
                 exr ? "an OpenEXR" : "a PNG", output_name(path));
         return -1;

@@ -181,8 +181,10 @@ static int watch_fetch_pass(struct watch *w) {
     long st = job_request(o, "GET", url, NULL, &b, why, sizeof why);
     w->tried = k; /* 202, 410 pass_gone, a broken connection: the next pass will do */
     int rc = 0;
+    long iw = 0, ih = 0;
     if (st == 200) {
-        progress_end(&w->prog);
+        if (job_image_size(o->out, &b, &iw, &ih) != 0 || iw != w->w || ih != w->h)
+            progress_end(&w->prog); /* the bar's line ended before job_write says why */
         if (job_write(o->out, &b, (int)w->w, (int)w->h) != 0) {
             w->refused = 1;
             rc = -1;
@@ -202,8 +204,8 @@ static int watch_idle(void *user) {
 }
 
 /* The job's size, kind and passes from its JSON (first: the first time):
- * 0; -1 after saying why (an error answer, a job we cannot follow); 1 on
- * a transport error. */
+ * 0; -1 after saying why (an error answer, a job we cannot follow, or
+ * the first time a transport error); 1 on a later transport error. */
 static int watch_status(struct watch *w, bool first) {
     const struct client_opts *o = w->o;
     char url[1024], why[600] = "";
@@ -211,6 +213,10 @@ static int watch_status(struct watch *w, bool first) {
     struct net_buf b = {0};
     long st = job_request(o, "GET", url, NULL, &b, why, sizeof why);
     int rc = st ? -1 : 1;
+    if (!st && first) { /* the server is not there: said, as any command says it */
+        fprintf(stderr, "rayd-client: error: job %s: %s\n", w->id, why);
+        rc = -1;
+    }
     cJSON *j = st == 200 ? cJSON_ParseWithLength(b.data, b.len) : NULL;
     double rw, rh, n, target;
     if (st && st != 200) {
@@ -393,14 +399,10 @@ static int watch_finish(struct watch *w, int failed) {
 static int watch_follow(struct watch *w) {
     net_label(w->o->servers[0], w->label[0], sizeof w->label[0]);
     progress_init(&w->prog, 1, w->o->quiet);
-    int rc = watch_status(w, true);
-    while (rc > 0 && !job_stopped()) { /* not answered yet: poll as long as --timeout */
-        rc = watch_poll(w) ? -1 : 0;
-    }
-    if (rc < 0) return watch_finish(w, 1);
+    if (watch_status(w, true) != 0) return watch_finish(w, 1);
     int failed = 0;
     if (!w->final[0] && !job_stopped()) {
-        rc = watch_stream(w);
+        int rc = watch_stream(w);
         if (rc > 0 && !job_stopped()) failed = watch_poll(w);
         failed |= rc < 0;
     }
