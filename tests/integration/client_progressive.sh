@@ -113,6 +113,14 @@ rc=$?
 check watch_unknown_job "exit $rc: $(cat "$T/w3.log")" bash -c \
     "[ $rc = 1 ] && [ ! -e '$T/w3.png' ] && grep -q 'HTTP 404 job_unknown' '$T/w3.log'"
 
+# a plain (not progressive) job: its final image
+code=$(post_json /v1/jobs "$T/p2.json")
+pid=$(jfield "$T/body" id)
+"$CLIENT" watch "$pid" -o "$T/plain.png" --server "$URL" 2>"$T/plain.log"
+rc=$?
+check watch_plain_job "exit $rc: $(cat "$T/plain.log")" bash -c \
+    "[ $rc = 0 ] && cmp -s '$T/plain.png' '$T/ref2.png' && grep -q 'job $pid succeeded; wrote' '$T/plain.log'"
+
 # --- usage errors: nothing sent -------------------------------------------------------------------
 for c in "bad_id:watch nothex -o $T/u.png:is no job id" \
     "stdout:render --progressive $T/p8.json -o -:give a file" \
