@@ -17,6 +17,9 @@
  *   progress.c     the progress bar (terminal) or plain progress lines
  *   job.c          the asynchronous job API with its Server-Sent Events
  *   job_frames.c   a frame-range job: each frame to -o's pattern, the video
+ *   sse.c          one connection to an event stream, read between requests
+ *   watch.c        render --progressive and watch ID: a job followed pass
+ *                  by pass, each pass written to -o as it arrives
  *   thumbnails.c   the thumbnails command: each model of a folder in a
  *                  studio scene, framed, rendered by tiles.c
  *
@@ -63,6 +66,9 @@ struct client_opts {
     int frames_set;   /* job --frames A-B given */
     long frame_a, frame_b; /* its frames, inclusive */
     const char *video;     /* job --video: the MP4 to write, or NULL */
+    int progressive;       /* render --progressive: a progressive job (watch.c) */
+    int detach;            /* render --progressive --detach: start it, print its id */
+    const char *pass_step, *time_budget, *noise_target; /* its query's values, or NULL */
 };
 
 /* ---- scenefile.c ---------------------------------------------------------- */
@@ -179,6 +185,11 @@ void progress_update(struct progress *p, int done, int failed, int nservers, con
                      char labels[][40], double rays_per_s, int force);
 /* Ends the bar's line. */
 void progress_end(struct progress *p);
+/* A progressive job's pass k of n, of samples out of target, written to
+ * path (NULL: none), secs after its render began, eta_s left (< 0 when
+ * unknown): the bar redrawn, or one line. */
+void progress_pass(struct progress *p, long k, long n, long samples, long target, double secs,
+                   double eta_s, const char *path);
 
 /* ---- tiles.c -------------------------------------------------------------- */
 
@@ -201,6 +212,36 @@ int tiles_render(const struct client_opts *o, const struct scenefile *sf);
 int thumbnails_run(const struct client_opts *o, const char *dir, const char *outdir, int size,
                    const char *view, int turntable);
 
+/* ---- sse.c ---------------------------------------------------------------- */
+
+/* How one connection to an event stream ended (sse_run). */
+enum { SSE_DONE, SSE_FAILED, SSE_STOPPED, SSE_DROPPED, SSE_REFUSED };
+
+/* One event stream being followed.  The caller sets o, on_event, idle and
+ * user; sse_run sets the rest. */
+struct sse {
+    const struct client_opts *o;
+    /* Each event, never inside a libcurl callback: 0 go on, 1 the stream
+     * ended well (SSE_DONE), -1 stop (SSE_FAILED).  data is "" when none. */
+    int (*on_event)(void *user, const char *event, const char *data);
+    /* Between reads, at least five times a second: 0 go on, 1 stop
+     * (SSE_STOPPED), -1 stop (SSE_FAILED).  It may make requests. */
+    int (*idle)(void *user);
+    void *user;
+    long status;               /* the answer's HTTP status (0: none came) */
+    struct net_buf error_body; /* a status other than 200: the body's first bytes */
+    long retry_ms;             /* the stream's "retry:", 100..10000 (0: none said) */
+    int events;                /* events read on this connection */
+    char why[300];             /* how a dropped stream ended */
+};
+
+/* Opens url (GET) and follows it until on_event or idle ends it, or the
+ * stream ends: SSE_DONE or SSE_FAILED (on_event), SSE_STOPPED or
+ * SSE_FAILED (idle), SSE_DROPPED (the stream ended or broke: why says
+ * how), SSE_REFUSED (a status other than 200: status, error_body).  Free
+ * s->error_body with net_buf_free. */
+int sse_run(struct sse *s, const char *url);
+
 /* ---- job.c ---------------------------------------------------------------- */
 
 /* The asynchronous API on o->servers[0]: POST /v1/jobs, follow the events,
@@ -222,7 +263,12 @@ long job_request(const struct client_opts *o, const char *method, const char *ur
 int job_post(const struct client_opts *o, const struct scenefile *sf, const char *query, char *id,
              size_t size);
 int job_write(const char *path, const struct net_buf *b, int w, int h);
+/* The size an image's header says (a PNG, an OpenEXR for an .exr path):
+ * 0, or -1 when it has none. */
+int job_image_size(const char *path, const struct net_buf *b, long *w, long *h);
 int job_cancel(const struct client_opts *o, const char *id);
+/* DELETE /v1/jobs/{id}, unsaid: the status, 0 on a transport error. */
+long job_delete(const struct client_opts *o, const char *id);
 
 /* ---- job_frames.c --------------------------------------------------------- */
 
@@ -231,5 +277,20 @@ int job_cancel(const struct client_opts *o, const char *id);
  * Returns 0, 1 when refused, failed or on a transport or write error, 2 on
  * a usage error (said, nothing sent), 130 when interrupted (cancelled). */
 int job_frames_run(const struct client_opts *o, const struct scenefile *sf);
+
+/* ---- watch.c -------------------------------------------------------------- */
+
+/* render --progressive: POST /v1/jobs?progressive=1 (o's pass_step,
+ * time_budget, noise_target; format=exr for -o *.exr), then each pass into
+ * o->out as it arrives and the final image at the end; o->detach: print
+ * the job's id on stdout and leave it running.  Returns 0 when the job
+ * succeeded (its image written), 1 when refused, failed or on a transport
+ * or write error, 130 when interrupted (the job cancelled, -o keeping the
+ * last whole pass). */
+int watch_render(const struct client_opts *o, const struct scenefile *sf);
+/* watch ID: follows job id (progressive or not) on o->servers[0] as
+ * watch_render does, writing to o->out when given; interrupted, it leaves
+ * the job running (130). */
+int watch_job(const struct client_opts *o, const char *id);
 
 #endif

@@ -6,8 +6,7 @@
  * already happened and then sends, as the render goes, a "tile" event per
  * finished tile (a progressive job: a "pass" event per finished pass),
  * "progress" events and a final "done".  The stream is parsed as it
- * arrives (lines, "event:" and "data:" fields, a blank line ends an event)
- * and drives the same progress display as the tile client.  If the stream
+ * arrives (sse.c) and drives the same progress display as the tile client.  If the stream
  * breaks before "done" (a proxy timeout, a restart), we fall back to polling
  * GET /v1/jobs/{id} once a second.  Then GET /v1/jobs/{id}/image.png gives
  * the PNG, written unchanged (it equals rayd-render's bytes), or 409 with
@@ -51,16 +50,6 @@ static void job_on_signal(int sig) {
     job_interrupted = 1;
 }
 
-struct job_sse {
-    char line[4096];
-    size_t len;
-    char event[32];
-    char data[4096];
-    int done;
-    char final_state[32];
-    struct job_show *show;
-};
-
 /* Where the job's progress is shown, and what the figures may be. */
 struct job_show {
     struct progress prog;
@@ -96,58 +85,20 @@ static void job_progress(struct job_show *s, const cJSON *done, const cJSON *tot
     progress_update(&s->prog, (int)per, 0, 1, &per, s->label, -1, 0);
 }
 
-static void job_sse_dispatch(struct job_sse *j) {
-    cJSON *d = cJSON_Parse(j->data);
-    if (!strcmp(j->event, "progress")) {
-        job_progress(j->show, cJSON_GetObjectItemCaseSensitive(d, "done"),
+/* An event of the job's stream: progress shown; 1 at "done". */
+static int job_on_event(void *user, const char *event, const char *data) {
+    struct job_show *show = user;
+    cJSON *d = cJSON_Parse(data);
+    if (!strcmp(event, "progress"))
+        job_progress(show, cJSON_GetObjectItemCaseSensitive(d, "done"),
                      cJSON_GetObjectItemCaseSensitive(d, "total"));
-    } else if (!strcmp(j->event, "done")) {
-        const cJSON *st = cJSON_GetObjectItemCaseSensitive(d, "state");
-        snprintf(j->final_state, sizeof j->final_state, "%s",
-                 cJSON_IsString(st) ? st->valuestring : "unknown");
-        j->done = 1;
-    }
     cJSON_Delete(d);
-    j->event[0] = j->data[0] = '\0';
+    return !strcmp(event, "done");
 }
 
-static void job_sse_line(struct job_sse *j) {
-    char *l = j->line;
-    if (!*l) {
-        if (j->event[0] || j->data[0]) job_sse_dispatch(j);
-        return;
-    }
-    if (*l == ':') return; /* a comment: keep-alive */
-    char *v = strchr(l, ':');
-    if (v) {
-        *v++ = '\0';
-        if (*v == ' ') v++;
-    } else {
-        v = l + strlen(l);
-    }
-    if (!strcmp(l, "event")) {
-        snprintf(j->event, sizeof j->event, "%s", v);
-    } else if (!strcmp(l, "data")) {
-        size_t n = strlen(j->data);
-        snprintf(j->data + n, sizeof j->data - n, "%s%s", n ? "\n" : "", v);
-    }
-}
-
-static size_t job_sse_write(char *ptr, size_t size, size_t n, void *user) {
-    struct job_sse *j = user;
-    size_t all = size * n;
-    for (size_t i = 0; i < all; i++) {
-        char c = ptr[i];
-        if (c == '\n') {
-            if (j->len && j->line[j->len - 1] == '\r') j->len--;
-            j->line[j->len] = '\0';
-            job_sse_line(j);
-            j->len = 0;
-        } else if (j->len + 1 < sizeof j->line) {
-            j->line[j->len++] = c;
-        }
-    }
-    return all;
+static int job_idle(void *user) {
+    (void)user;
+    return job_interrupted ? 1 : 0;
 }
 
 static int job_xferinfo(void *u, curl_off_t a, curl_off_t b, curl_off_t c, curl_off_t d) {
@@ -175,30 +126,15 @@ long job_request(const struct client_opts *o, const char *method, const char *ur
     return status;
 }
 
-/* Follows the event stream; returns 1 when "done" arrived. */
+/* Follows the event stream (sse.c); returns 1 when "done" arrived. */
 static int job_follow(const struct client_opts *o, const char *base, const char *id,
                       struct job_show *show) {
     char url[1024];
     snprintf(url, sizeof url, "%s/v1/jobs/%s/events", base, id);
-    struct job_sse j;
-    memset(&j, 0, sizeof j);
-    j.show = show;
-    struct net_buf unused = {0};
-    void *hdrs = NULL;
-    CURL *h = net_easy(o, url, &unused, NULL, 0, &hdrs);
-    if (!h) return 0;
-    curl_easy_setopt(h, CURLOPT_WRITEFUNCTION, job_sse_write);
-    curl_easy_setopt(h, CURLOPT_WRITEDATA, &j);
-    curl_easy_setopt(h, CURLOPT_TIMEOUT_MS, 0L); /* a render may take long */
-    curl_easy_setopt(h, CURLOPT_LOW_SPEED_LIMIT, 1L);
-    curl_easy_setopt(h, CURLOPT_LOW_SPEED_TIME, 60L); /* keep-alives come sooner */
-    curl_easy_setopt(h, CURLOPT_NOPROGRESS, 0L);
-    curl_easy_setopt(h, CURLOPT_XFERINFOFUNCTION, job_xferinfo);
-    curl_easy_perform(h);
-    curl_easy_cleanup(h);
-    curl_slist_free_all(hdrs);
-    net_buf_free(&unused);
-    return j.done;
+    struct sse s = {.o = o, .on_event = job_on_event, .idle = job_idle, .user = show};
+    int rc = sse_run(&s, url);
+    net_buf_free(&s.error_body);
+    return rc == SSE_DONE;
 }
 
 /* Polls GET /v1/jobs/{id} until the job is finished; 0, or -1. */
@@ -278,6 +214,12 @@ static int job_exr_size(const struct net_buf *b, long *w, long *h) {
     return -1;
 }
 
+/* The size of b, a PNG or (for an .exr path) an OpenEXR, from its header:
+ * 0, or -1 when it is none. */
+int job_image_size(const char *path, const struct net_buf *b, long *w, long *h) {
+    return output_kind_exr(path) ? job_exr_size(b, w, h) : job_png_size(b, w, h);
+}
+
 /* The job's PNG, or EXR for an .exr path, into path once it is one of the
  * size asked for (w x h: the scene's): 0, or -1 after saying why (nothing
  * written).  The size is read from the header before anything is decoded,
@@ -285,7 +227,7 @@ static int job_exr_size(const struct net_buf *b, long *w, long *h) {
 int job_write(const char *path, const struct net_buf *b, int w, int h) {
     bool exr = output_kind_exr(path);
     long iw = 0, ih = 0;
-    if ((exr ? job_exr_size(b, &iw, &ih) : job_png_size(b, &iw, &ih)) != 0) {
+    if (job_image_size(path, b, &iw, &ih) != 0) {
         fprintf(stderr, "rayd-client: error: the job's image is not %s; nothing written to %s\n",
                 exr ? "an OpenEXR" : "a PNG", output_name(path));
         return -1;
@@ -341,14 +283,20 @@ int job_post(const struct client_opts *o, const struct scenefile *sf, const char
 /* Ctrl-C or SIGTERM came: the job is cancelled on the server (DELETE).
  * Returns 130, the exit status of an interrupted command. */
 int job_cancel(const struct client_opts *o, const char *id) {
-    char url[1024], why[600] = "";
-    struct net_buf b = {0};
     job_interrupted = 0; /* let the DELETE through */
-    snprintf(url, sizeof url, "%s/v1/jobs/%s", o->servers[0], id);
-    job_request(o, "DELETE", url, NULL, &b, why, sizeof why);
-    net_buf_free(&b);
+    job_delete(o, id);
     fprintf(stderr, "rayd-client: interrupted; job %s cancelled\n", id);
     return 130;
+}
+
+/* DELETE /v1/jobs/{id}: the server's status (0 on a transport error). */
+long job_delete(const struct client_opts *o, const char *id) {
+    char url[1024], why[600] = "";
+    struct net_buf b = {0};
+    snprintf(url, sizeof url, "%s/v1/jobs/%s", o->servers[0], id);
+    long st = job_request(o, "DELETE", url, NULL, &b, why, sizeof why);
+    net_buf_free(&b);
+    return st;
 }
 
 /* Follows job id to its end, showing progress: 0, 1 (said) or 130

@@ -9,20 +9,26 @@
  * them, and frame k's file is named by the same code (programs/common/
  * frame_name.c), so shot-%04d.png is shot-0007.png from either program.
  *
- * Then we poll GET /v1/jobs/{id} twice a second rather than follow the
- * event stream: the job's JSON says how many frames are done and when the
- * job ended, and nothing is lost when a connection breaks.  Each time more
- * frames are done than we hold, we ask for the lowest frames we lack,
- * GET /v1/jobs/{id}/frames/{k}.png (.exr for -o *.exr), until we hold as
- * many as are done: frames start in order, so the "409 frame_not_ready"
- * answers met on the way are at most the frames in flight.  A frame is
- * checked as job.c checks an image (a PNG or OpenEXR of the scene's size)
- * and written through a temporary file renamed when whole (output.c).
+ * Then we follow the job's event stream (sse.c): each "frame" event of a
+ * frame done makes us GET /v1/jobs/{id}/frames/{k}.png (.exr for -o
+ * *.exr) between events.  A stream that breaks is opened again (it
+ * replays the job; frames we hold are skipped); one that ends three times
+ * without news gives way to polling.  Once the stream said "done" (or
+ * failed), we poll GET /v1/jobs/{id} twice a second, which then ends at
+ * once: the job's JSON says how many frames are done and how the job
+ * ended, and nothing is lost when a connection breaks.  Each time more
+ * frames are done than we hold, we ask for the lowest frames we lack
+ * until we hold as many as are done: frames start in order, so the "409
+ * frame_not_ready" answers met on the way are at most the frames in
+ * flight.  A frame is checked as job.c checks an image (a PNG or OpenEXR
+ * of the scene's size) and written through a temporary file renamed when
+ * whole (output.c); a frame refused so stops the following and cancels
+ * the job (DELETE), whose other frames would be of no use.
  *
  * The progress: on a terminal the bar of progress.c, in frames; else one
  * line per frame written, "frame K -> FILE (frames D/N, ETA ...)", with the
- * server's eta_s.  A failed job's frames done are still written; then its
- * error, which names the failed frames, is printed and we exit 1.
+ * server's eta_s when polled, else the pace of the frames so far.  A failed job's frames done are
+ * still written; then its error, which names the failed frames, is printed and we exit 1.
  *
  * --video: once every frame is written, GET /v1/jobs/{id}/video.mp4,
  * which answers 202 while ffmpeg makes it; we ask again each second, for
@@ -42,10 +48,13 @@ struct job_frames {
     const struct client_opts *o;
     const struct scenefile *sf;
     char id[64];
-    long first, last;   /* its frames, inclusive */
-    unsigned char *got; /* got[k - first]: frame k written */
-    long ngot, next;    /* frames written; the lowest not written */
-    double eta;         /* the server's eta_s, -1 when unknown */
+    long first, last;     /* its frames, inclusive */
+    unsigned char *got;   /* got[k - first]: frame k written */
+    unsigned char *ready; /* ready[k - first]: the stream said frame k is done */
+    int refused;          /* a frame was no image of the scene's size */
+    int news;             /* frames announced and the end, as the stream said them */
+    long ngot, next;      /* frames written; the lowest not written */
+    double eta;           /* the server's eta_s, -1 when unknown */
     struct progress prog;
     char label[1][40];
 };
@@ -97,7 +106,9 @@ static int job_frames_get(struct job_frames *j, long k) {
     int rc =
         st == 409 && !strcmp(net_error_code(&b, code, sizeof code), "frame_not_ready") ? 0 : -1;
     if (st == 200) {
+        progress_end(&j->prog);
         rc = job_write(path, &b, j->sf->width, j->sf->height) == 0 ? 1 : -1;
+        j->refused |= rc < 0;
     } else if (rc < 0 && !job_stopped()) {
         if (st) net_describe(st, &b, why, sizeof why);
         progress_end(&j->prog);
@@ -108,14 +119,14 @@ static int job_frames_get(struct job_frames *j, long k) {
         j->got[k - j->first] = 1;
         j->ngot++;
         long total = j->last - j->first + 1, per = j->ngot;
+        double eta = j->eta >= 0
+                         ? j->eta /* the server's, when polled; else the pace so far */
+                         : (net_now() - j->prog.t0) / (double)j->ngot * (double)(total - j->ngot);
         if (j->prog.tty)
             progress_update(&j->prog, (int)j->ngot, 0, 1, &per, j->label, -1, 1);
-        else if (!o->quiet && j->eta >= 0)
-            fprintf(stderr, "rayd-client: frame %ld -> %s (frames %ld/%ld, ETA %.1fs)\n", k, path,
-                    j->ngot, total, j->ngot == total ? 0 : j->eta);
         else if (!o->quiet)
-            fprintf(stderr, "rayd-client: frame %ld -> %s (frames %ld/%ld, ETA --)\n", k, path,
-                    j->ngot, total);
+            fprintf(stderr, "rayd-client: frame %ld -> %s (frames %ld/%ld, ETA %.1fs)\n", k, path,
+                    j->ngot, total, j->ngot == total ? 0 : eta);
     }
     return rc;
 }
@@ -160,14 +171,65 @@ static int job_frames_missing(struct job_frames *j) {
     return 1;
 }
 
-/* Polls the job, writing frames as they are done, until it ended: 0 when
+/* A frame event: frame k done is marked ready; "done" ends the stream. */
+static int job_frames_event(void *user, const char *event, const char *data) {
+    struct job_frames *j = user;
+    if (!strcmp(event, "done")) {
+        j->news++;
+        return 1;
+    }
+    if (strcmp(event, "frame")) return 0;
+    cJSON *d = cJSON_Parse(data);
+    double k = job_frames_num(d, "k", NULL, -1);
+    const char *state = net_json_str(d, "state");
+    if (k >= (double)j->first && k <= (double)j->last && k == (double)(long)k && state &&
+        !strcmp(state, "done") && !j->got[(long)k - j->first]) {
+        j->ready[(long)k - j->first] = 1; /* checked, not trusted: a frame of ours */
+        j->news++;
+    }
+    cJSON_Delete(d);
+    return 0;
+}
+
+/* Between events: the frames announced, fetched. */
+static int job_frames_idle(void *user) {
+    struct job_frames *j = user;
+    if (job_stopped()) return 1;
+    for (long k = j->next; k <= j->last && !job_stopped(); k++) {
+        if (!j->ready[k - j->first] || j->got[k - j->first]) continue;
+        j->ready[k - j->first] = 0;
+        if (job_frames_get(j, k) < 0) return -1;
+    }
+    while (j->next <= j->last && j->got[j->next - j->first]) j->next++;
+    return 0;
+}
+
+/* Follows the event stream until the job ended: 0 (then the poll below
+ * ends it), -1 when a frame failed (said). */
+static int job_frames_stream(struct job_frames *j) {
+    char url[1024];
+    snprintf(url, sizeof url, "%s/v1/jobs/%s/events", j->o->servers[0], j->id);
+    struct sse s = {.o = j->o, .on_event = job_frames_event, .idle = job_frames_idle, .user = j};
+    for (int strikes = 0; strikes < 3 && !job_stopped();) {
+        int news = j->news, rc = sse_run(&s, url);
+        net_buf_free(&s.error_body);
+        if (rc == SSE_DONE) job_frames_idle(j);
+        if (rc == SSE_DONE || rc == SSE_STOPPED || rc == SSE_REFUSED) break;
+        if (rc == SSE_FAILED) return -1;
+        strikes = j->news > news ? 0 : strikes + 1;
+        if (strikes < 3) job_frames_sleep(s.retry_ms ? s.retry_ms : 1000);
+    }
+    return j->refused ? -1 : 0;
+}
+
+/* Follows the job, writing frames as they are done, until it ended: 0 when
  * it succeeded and every frame is written, 1 said, 130 interrupted. */
 static int job_frames_follow(struct job_frames *j) {
     const struct client_opts *o = j->o;
     char url[1024], why[600] = "";
     snprintf(url, sizeof url, "%s/v1/jobs/%s", o->servers[0], j->id);
     struct net_buf b = {0};
-    int rc = -1;
+    int rc = job_frames_stream(j) < 0 ? 1 : -1;
     while (rc < 0 && !job_stopped()) {
         net_buf_reset(&b);
         long st = job_request(o, "GET", url, NULL, &b, why, sizeof why);
@@ -200,6 +262,8 @@ static int job_frames_follow(struct job_frames *j) {
     }
     net_buf_free(&b);
     progress_end(&j->prog);
+    if (j->refused && !job_stopped() && job_delete(o, j->id) == 200)
+        fprintf(stderr, "rayd-client: job %s cancelled: a frame was refused\n", j->id);
     return job_stopped() ? job_cancel(o, j->id) : rc;
 }
 
@@ -250,7 +314,10 @@ int job_frames_run(const struct client_opts *o, const struct scenefile *sf) {
     snprintf(query, sizeof query, "?frames=%ld-%ld%s", j.first, j.last,
              output_kind_exr(o->out) ? "&format=exr" : "");
     long total = j.last - j.first + 1;
-    if (!(j.got = calloc((size_t)total, 1))) {
+    j.ready = calloc((size_t)total, 1);
+    if (!(j.got = calloc((size_t)total, 1)) || !j.ready) {
+        free(j.got);
+        free(j.ready);
         prog_error("out of memory");
         return 1;
     }
@@ -258,6 +325,7 @@ int job_frames_run(const struct client_opts *o, const struct scenefile *sf) {
     if (job_post(o, sf, query, j.id, sizeof j.id) != 0) {
         job_signals(0);
         free(j.got);
+        free(j.ready);
         return 1;
     }
     if (!o->quiet)
@@ -274,5 +342,6 @@ int job_frames_run(const struct client_opts *o, const struct scenefile *sf) {
     if (rc == 0 && o->video) rc = job_frames_video(&j);
     job_signals(0);
     free(j.got);
+    free(j.ready);
     return rc;
 }

@@ -6,6 +6,8 @@
  * from the rate so far.  When stderr is a file or a pipe (CI logs, tests)
  * the same facts go out as plain lines, one per 10% of the frame or every
  * five seconds, whichever comes first, so a log stays short and greppable.
+ * A progressive job's passes (watch.c) are shown by progress_pass: the bar
+ * in samples, or one line a pass written.
  * Nothing here touches stdout.
  */
 #include "client.h"
@@ -94,4 +96,25 @@ void progress_end(struct progress *p) {
         fputc('\n', stderr);
         p->width = 0;
     }
+}
+
+void progress_pass(struct progress *p, long k, long n, long samples, long target, double secs,
+                   double eta_s, const char *path) {
+    if (p->quiet || target <= 0) return;
+    char eta[32];
+    progress_eta(eta_s, eta, sizeof eta);
+    if (!p->tty) {
+        fprintf(stderr, "rayd-client: pass %ld/%ld: %ld/%ld samples, %.1fs, ETA %s%s%s\n", k, n,
+                samples, target, secs, eta, path ? " -> " : "", path ? path : "");
+        return;
+    }
+    char bar[31];
+    int fill = (int)(30 * samples / target);
+    for (int i = 0; i < 30; i++) bar[i] = i < fill ? '#' : '.';
+    bar[30] = '\0';
+    int w = fprintf(stderr, "\r[%s] pass %ld/%ld  %ld/%ld samples  %.1fs  ETA %s", bar, k, n,
+                    samples, target, secs, eta);
+    for (int i = w; i < p->width; i++) fputc(' ', stderr);
+    if (w > p->width) p->width = w;
+    fflush(stderr);
 }

@@ -4,8 +4,11 @@
  *               [--tile 128 | --split-samples N] [--parallel N] [--retries N]
  *               [--timeout S] [--threads N] [--no-hedge]
  *               [--token-file F] [--quiet]
+ *   rayd-client render --progressive SCENE.json -o OUT.png|OUT.exr --server URL
+ *               [--pass-step K] [--time-budget S] [--noise-target E] [--detach]
  *   rayd-client job SCENE.json -o OUT.png|OUT.exr --server URL [--token-file F]
  *               [--frames A-B] [--video OUT.mp4]   (an animated scene: -o 'shot-%04d.png')
+ *   rayd-client watch ID [-o OUT.png|OUT.exr] --server URL
  *   rayd-client health --server URL [--server URL ...]
  *   rayd-client thumbnails DIR [-o OUTDIR] [--size N] [--view V] [--turntable N]
  *                          --server URL ...
@@ -13,7 +16,9 @@
  * `render` splits one frame into tiles (or, --split-samples, its samples
  * into ranges) and spreads them over every server given (rayd nodes, or
  * one balancer in front of many: tiles.c); `job` uses
- * the asynchronous job API of one server (job.c); `health` asks each
+ * the asynchronous job API of one server (job.c); `render --progressive`
+ * makes a progressive job of it, each pass written to -o as it arrives,
+ * and `watch` follows an existing job by its id (watch.c); `health` asks each
  * server's /healthz and /readyz; `thumbnails` renders every model of a
  * folder in a studio scene, each as a render (thumbnails.c).  The scene is read, its files inlined
  * and validated locally before anything is sent (scenefile.c).  RAYD_SERVER gives a default server,
@@ -53,8 +58,12 @@ static void client_usage(FILE *f) {
            "                          [--tile N | --split-samples N] [--parallel N] [--retries N]\n"
            "                          [--timeout S] [--threads N] [--no-hedge]\n"
            "                          [--token-file F] [--quiet]\n"
+           "       rayd-client render --progressive SCENE.json -o OUT.png|OUT.exr --server URL\n"
+           "                          [--pass-step K] [--time-budget S] [--noise-target E]\n"
+           "                          [--detach] [--token-file F] [--quiet]\n"
            "       rayd-client job SCENE.json -o OUT.png|OUT.exr --server URL [--token-file F]\n"
            "                       [--frames A-B] [--video OUT.mp4] [--quiet]\n"
+           "       rayd-client watch ID [-o OUT.png|OUT.exr] --server URL [--token-file F]\n"
            "       rayd-client health --server URL [--server URL ...] [--token-file F]\n"
            "       rayd-client thumbnails DIR [-o OUTDIR] [--size N] [--view V] [--turntable N]\n"
            "                              --server URL ...\n"
@@ -80,6 +89,15 @@ static void client_usage(FILE *f) {
            "  --frames A-B      job: frames A to B of an animated scene (default: all of\n"
            "                    them), one file a frame: -o 'shot-%%04d.png' (%%d, %%0Nd)\n"
            "  --video F.mp4     job: also the frames as an H.264 MP4, once all are done\n"
+           "  --progressive     render: one progressive job on one server, each pass\n"
+           "                    written to -o as it arrives; Ctrl-C cancels the job\n"
+           "  --pass-step K     render --progressive: a pass every K samples (default:\n"
+           "                    1, 2, 4, 8, ... up to the scene's samples)\n"
+           "  --time-budget S   render --progressive: end with the latest pass after S s\n"
+           "  --noise-target E  render --progressive: end once a pass's noise is <= E\n"
+           "  --detach          render --progressive: print the job's id and leave it\n"
+           "                    running (watch ID follows it; Ctrl-C in watch leaves\n"
+           "                    the job running too)\n"
            "  --size N          thumbnails: the PNGs' width and height (default 256)\n"
            "  --view V          thumbnails: three-quarter (default), front, side or top;\n"
            "                    -o is the output folder (default .)\n"
@@ -245,7 +263,12 @@ enum {
     OPT_TURNTABLE,
     OPT_NO_HEDGE,
     OPT_FRAMES,
-    OPT_VIDEO
+    OPT_VIDEO,
+    OPT_PROGRESSIVE,
+    OPT_DETACH,
+    OPT_PASS_STEP,
+    OPT_TIME_BUDGET,
+    OPT_NOISE_TARGET
 };
 static const struct option client_options[] = {
     {"server", required_argument, NULL, 's'},
@@ -263,6 +286,11 @@ static const struct option client_options[] = {
     {"no-hedge", no_argument, NULL, OPT_NO_HEDGE},
     {"frames", required_argument, NULL, OPT_FRAMES},
     {"video", required_argument, NULL, OPT_VIDEO},
+    {"progressive", no_argument, NULL, OPT_PROGRESSIVE},
+    {"detach", no_argument, NULL, OPT_DETACH},
+    {"pass-step", required_argument, NULL, OPT_PASS_STEP},
+    {"time-budget", required_argument, NULL, OPT_TIME_BUDGET},
+    {"noise-target", required_argument, NULL, OPT_NOISE_TARGET},
     {"quiet", no_argument, NULL, 'q'},
     {"help", no_argument, NULL, 'h'},
     {"version", no_argument, NULL, OPT_VERSION},
@@ -296,6 +324,11 @@ static const struct {
     {OPT_TURNTABLE, "--turntable", "thumbnails"},
     {OPT_FRAMES, "--frames", "job"},
     {OPT_VIDEO, "--video", "job"},
+    {OPT_PROGRESSIVE, "--progressive", "render"},
+    {OPT_DETACH, "--detach", "render --progressive"},
+    {OPT_PASS_STEP, "--pass-step", "render --progressive"},
+    {OPT_TIME_BUDGET, "--time-budget", "render --progressive"},
+    {OPT_NOISE_TARGET, "--noise-target", "render --progressive"},
 };
 
 /* 0, or -1 after saying which given option cmd does not take. */
@@ -308,6 +341,24 @@ static int client_for_cmd(const struct client_args *a) {
             return args_bad("%s is not an option of %s (only of %s)", client_only[i].name, a->cmd,
                             client_only[i].cmds);
     }
+    return 0;
+}
+
+/* A value of render --progressive's query: a plain decimal (digits, at
+ * most one point, as the server takes them), whole when asked, in lo..hi,
+ * kept as written into *out; -1 after saying why. */
+static int client_decimal(const char *name, const char *v, double lo, double hi, bool whole,
+                          const char **out) {
+    double d;
+    size_t digits = v ? strspn(v, "0123456789") : 0;
+    bool plain = v && digits > 0 &&
+                 (!v[digits] || (!whole && v[digits] == '.' &&
+                                 strspn(v + digits + 1, "0123456789") == strlen(v + digits + 1)));
+    if (!plain || args_double(v, lo, hi, &d) != 0)
+        return args_bad("%s needs a %s in %g..%g (digits%s), not '%s'", name,
+                        whole ? "whole number" : "number", lo, hi, whole ? "" : ", one point",
+                        v ? v : "");
+    *out = v;
     return 0;
 }
 
@@ -372,6 +423,13 @@ static int client_option(int opt, const char *v, struct client_args *a) {
         o->video = v;
         return 0;
     }
+    case OPT_PROGRESSIVE: o->progressive = 1; return 0;
+    case OPT_DETACH: o->detach = 1; return 0;
+    case OPT_PASS_STEP: return client_decimal("--pass-step", v, 1, 1048576, true, &o->pass_step);
+    case OPT_TIME_BUDGET:
+        return client_decimal("--time-budget", v, 0.001, 86400 * 365, false, &o->time_budget);
+    case OPT_NOISE_TARGET:
+        return client_decimal("--noise-target", v, 1e-9, 1, false, &o->noise_target);
     case OPT_VIEW:
         if (!v || (strcmp(v, "three-quarter") && strcmp(v, "front") && strcmp(v, "side") &&
                    strcmp(v, "top")))
@@ -384,13 +442,40 @@ static int client_option(int opt, const char *v, struct client_args *a) {
 
 /* The words that are not options: the command, then the scene. */
 static int client_words(int argc, char **argv, struct client_args *a) {
-    if (optind >= argc) return args_bad("no command given (render, job, health or thumbnails)");
+    if (optind >= argc)
+        return args_bad("no command given (render, job, watch, health or thumbnails)");
     a->cmd = argv[optind++];
     if (strcmp(a->cmd, "render") && strcmp(a->cmd, "job") && strcmp(a->cmd, "health") &&
-        strcmp(a->cmd, "thumbnails"))
-        return args_bad("unknown command '%s' (render, job, health or thumbnails)", a->cmd);
+        strcmp(a->cmd, "thumbnails") && strcmp(a->cmd, "watch"))
+        return args_bad("unknown command '%s' (render, job, watch, health or thumbnails)", a->cmd);
     if (optind < argc && strcmp(a->cmd, "health")) a->scene = argv[optind++];
     if (optind < argc) return args_bad("unexpected argument '%s'", argv[optind]);
+    return 0;
+}
+
+/* render --progressive's own options and exclusions: 0, or -1 said. */
+static int client_progressive(const struct client_args *a) {
+    const struct client_opts *o = &a->o;
+    unsigned tiles = 0; /* the options of tiles, which a job on one server has none of */
+    for (int opt = OPT_TILE; opt <= OPT_NO_HEDGE; opt++)
+        if (opt != OPT_TIMEOUT && opt != OPT_TOKEN_FILE && opt != OPT_VERSION && opt != OPT_SIZE &&
+            opt != OPT_VIEW && opt != OPT_TURNTABLE)
+            tiles |= 1u << (opt - OPT_TILE);
+    if (!o->progressive && (o->detach || o->pass_step || o->time_budget || o->noise_target))
+        return args_bad("--detach, --pass-step, --time-budget and --noise-target go with "
+                        "render --progressive");
+    if (o->progressive && (a->given & tiles))
+        return args_bad("render --progressive renders as one job on one server: --tile, "
+                        "--split-samples, --parallel, --retries, --threads and --no-hedge are "
+                        "for tiles");
+    bool job = o->progressive || !strcmp(a->cmd, "watch");
+    if (job && o->out && !strcmp(o->out, "-"))
+        return args_bad("%s writes each pass into -o as it comes: give a file, not '-'",
+                        o->progressive ? "render --progressive" : "watch");
+    if (!strcmp(a->cmd, "watch") && a->scene &&
+        (strlen(a->scene) != 32 || strspn(a->scene, "0123456789abcdef") != 32))
+        return args_bad("watch: '%s' is no job id (32 hex digits, as POST /v1/jobs answers)",
+                        a->scene);
     return 0;
 }
 
@@ -411,15 +496,21 @@ static int client_parse(int argc, char **argv, struct client_args *a) {
                         "whole-image sample ranges, not tiles)");
     if (!strcmp(a->cmd, "thumbnails"))
         return a->scene ? 0 : args_bad("thumbnails needs DIR, the folder of models");
-    if (strcmp(a->cmd, "health") && (!a->scene || !a->o.out))
+    if (client_progressive(a) != 0) return -1;
+    if (!strcmp(a->cmd, "watch") && !a->scene)
+        return args_bad("watch needs ID, the job's 32 hex digits (-o OUT.png to write its image)");
+    if (strcmp(a->cmd, "health") && strcmp(a->cmd, "watch") && (!a->scene || !a->o.out))
         return args_bad("%s needs SCENE.json and -o OUT.png", a->cmd);
-    if (!strcmp(a->cmd, "job") && a->o.nservers > 1)
-        return args_bad("job: give exactly one --server (jobs live on one node)");
+    if ((!strcmp(a->cmd, "job") || !strcmp(a->cmd, "watch") || a->o.progressive) &&
+        a->o.nservers > 1)
+        return args_bad("%s: give exactly one --server (jobs live on one node)",
+                        a->o.progressive ? "render --progressive" : a->cmd);
     if (a->o.out && !output_kind(a->o.out))
         return args_bad("-o %s: rayd-client writes PNG (.png) and OpenEXR (.exr), not this format",
                         a->o.out);
     bool exr = a->o.out && output_kind_exr(a->o.out);
-    if (exr && strcmp(a->cmd, "job") && a->o.ranges <= 0) /* else a PNG named .exr */
+    if (exr && strcmp(a->cmd, "job") && strcmp(a->cmd, "watch") && !a->o.progressive &&
+        a->o.ranges <= 0) /* else a PNG named .exr */
         return args_bad("-o %s: OpenEXR comes only from render --split-samples N or from job "
                         "(tiles arrive as 8-bit PNGs)",
                         a->o.out);
@@ -466,8 +557,17 @@ static int client_run(const struct client_args *a) {
     if (!strcmp(a->cmd, "thumbnails"))
         return thumbnails_run(&a->o, a->scene, a->o.out ? a->o.out : ".", a->size ? a->size : 256,
                               a->view ? a->view : "three-quarter", a->turntable);
+    if (!strcmp(a->cmd, "watch")) return watch_job(&a->o, a->scene);
     struct scenefile sf;
     if (scenefile_load(a->scene, &sf) != 0) return 1;
+    if (a->o.progressive && sf.animated) {
+        prog_error("render --progressive renders one image: %s has an /animation (its frames "
+                   "are a job: rayd-client job)",
+                   a->scene);
+        fprintf(stderr, "Try 'rayd-client --help'.\n");
+        scenefile_free(&sf);
+        return CLIENT_USAGE_EXIT;
+    }
     bool frames = a->o.frames_set || sf.animated; /* a frame-range job */
     if (a->o.video && !frames) {
         prog_error("--video %s: the scene has no /animation, so it has no frames to make a video "
@@ -477,9 +577,10 @@ static int client_run(const struct client_args *a) {
         scenefile_free(&sf);
         return CLIENT_USAGE_EXIT;
     }
-    int rc = strcmp(a->cmd, "job") ? tiles_render(&a->o, &sf)
-             : frames              ? job_frames_run(&a->o, &sf)
-                                   : job_run(&a->o, &sf);
+    int rc = a->o.progressive        ? watch_render(&a->o, &sf)
+             : strcmp(a->cmd, "job") ? tiles_render(&a->o, &sf)
+             : frames                ? job_frames_run(&a->o, &sf)
+                                     : job_run(&a->o, &sf);
     scenefile_free(&sf);
     return rc;
 }

@@ -52,7 +52,7 @@ for prog in rayd rayd-render rayd-client; do
     case $prog in
         rayd) amb=--max-c want_names="--max-conns, --max-conns-per-ip" ;;
         rayd-render) amb=--t want_names="--threads, --tonemap" ;;
-        *) amb=--ti want_names="--tile, --timeout" ;;
+        *) amb=--ti want_names="--tile, --timeout, --time-budget" ;;
     esac
     run ambiguous "$bin" "$amb" 1
     want="$prog: error: ambiguous option '$amb' ($want_names)"
@@ -272,7 +272,7 @@ check client_refused_one_line_at_once "exit $RC, stderr: $(cat "$T/c_413_at_once
      grep -q '^rayd-client: error: .* refused the scene: HTTP 413 over_budget: over the budget\$' '$T/c_413_at_once.err'"
 run c_nocmd "$CLIENT"
 check client_no_command_exit_2 "exit $RC, stderr '$(first_err c_nocmd)'" bash -c \
-    "[ $RC = 2 ] && [ '$(first_err c_nocmd)' = 'rayd-client: error: no command given (render, job, health or thumbnails)' ]"
+    "[ $RC = 2 ] && [ '$(first_err c_nocmd)' = 'rayd-client: error: no command given (render, job, watch, health or thumbnails)' ]"
 run c_ftp "$CLIENT" render "$T/s.json" -o "$T/c_ftp.png" --server ftp://127.0.0.1
 check client_server_not_http_exit_2 "exit $RC, stderr '$(first_err c_ftp)'" bash -c \
     "[ $RC = 2 ] && grep -q '^rayd-client: error: --server wants an http:// or https:// URL' '$T/c_ftp.err' && tail -n 1 '$T/c_ftp.err' | grep -q '^Try '"

@@ -125,7 +125,8 @@ gate open
 # ---- an untrusted server: absurd figures, a lie, a wrong size, escapes -------------------
 cat >"$T/fake.py" <<'PY'
 import http.server, json, socketserver, struct, sys, zlib
-MODE, ID = sys.argv[1], "0123456789abcdef0123456789abcdef"
+MODE, LOG, ID = sys.argv[1], sys.argv[2], "0123456789abcdef0123456789abcdef"
+streamed = []
 def png(w, h):
     def chunk(t, d):
         return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xffffffff)
@@ -145,12 +146,26 @@ class H(http.server.BaseHTTPRequestHandler):
     def do_POST(self):
         self.rfile.read(int(self.headers["Content-Length"]))
         self.send(202, json.dumps({"id": ID, "state": "queued"}).encode())
+    def do_DELETE(self):
+        open(LOG, "a").write("DELETE %s\n" % self.path)
+        self.send(200, json.dumps({"id": ID, "state": "canceled"}).encode())
     def do_GET(self):
+        open(LOG, "a").write("GET %s\n" % self.path)
+        if self.path.endswith("/events") and MODE in ("stream", "wrong_size"):
+            ev = "".join('event: frame\ndata: {"k": %d, "state": "done"}\n\n' % k for k in (3, 4, 5, 6, 99, -1))
+            self.send(200, (ev + 'event: done\ndata: {"state": "succeeded"}\n\n').encode(), "text/event-stream")
+            return streamed.append(1)
+        if self.path.endswith("/events"):
+            return self.send(404, b'{"error":{"status":404,"code":"not_found","message":"no"}}')
+        if self.path.endswith(".png") and MODE == "stream":
+            return self.send(200, png(48, 32), "image/png")
         if self.path.endswith(".png") and MODE == "wrong_size":
             return self.send(200, png(8, 8), "image/png")
         if self.path.endswith(".png"):
             return self.send(409, b'{"error":{"status":409,"code":"frame_not_ready","message":"no"}}')
         state = "failed" if MODE == "evil_error" else "succeeded"
+        if MODE == "stream" and not streamed:  # only the event stream says the frames are done
+            state = "running"
         j = {"id": ID, "state": state, "frames": {"done": 1e300 if MODE == "lie" else 4}, "eta_s": -5,
              "error": {"code": "frame_failed", "message": "frame 3 \x1b]0;pwned\x07\x1b[2J failed"}}
         self.send(200, json.dumps(j).encode())
@@ -160,13 +175,14 @@ print(s.server_address[1], flush=True)
 s.serve_forever()
 PY
 fake() { # fake MODE: a fake server answering in MODE; its URL in FAKE
-    python3 "$T/fake.py" "$1" >"$T/fake.port" &
+    : >"$T/fake-$1.log"
+    python3 "$T/fake.py" "$1" "$T/fake-$1.log" >"$T/fake.port" &
     PIDS+=("$!")
     FAKE_PID=$!
     wait_until 30 test -s "$T/fake.port"
     FAKE="http://127.0.0.1:$(head -1 "$T/fake.port")"
 }
-for mode in lie wrong_size evil_error; do
+for mode in lie wrong_size evil_error stream; do
     fake "$mode"
     mkdir "$T/u-$mode"
     timeout 60 "$CLIENT" job "$T/anim.json" -o "$T/u-$mode/h-%d.png" --frames 3-6 --server "$FAKE" \
@@ -180,6 +196,12 @@ check untrusted_lie "exit $(cat "$T/u-lie.rc"): $(cat "$T/u-lie.err")" eval '[ "
 check untrusted_wrong_size "exit $(cat "$T/u-wrong_size.rc"): $(cat "$T/u-wrong_size.err")" eval \
     '[ "$(cat "$T/u-wrong_size.rc")" = 1 ] && grep -q "is 8x8, not the 48x32 asked for" "$T/u-wrong_size.err" &&
      [ -z "$(ls "$T/u-wrong_size")" ]'
+check untrusted_wrong_size_cancels "$(cat "$T/fake-wrong_size.log")" eval \
+    'grep -q "^DELETE /v1/jobs/0123456789abcdef0123456789abcdef$" "$T/fake-wrong_size.log" &&
+     grep -q "job 0123456789abcdef0123456789abcdef cancelled: a frame was refused" "$T/u-wrong_size.err"'
+check frames_follow_events "exit $(cat "$T/u-stream.rc"): $(cat "$T/u-stream.err")" eval \
+    '[ "$(cat "$T/u-stream.rc")" = 0 ] && [ "$(ls "$T/u-stream" | tr "\n" " ")" = "h-3.png h-4.png h-5.png h-6.png " ] &&
+     ! grep -q "/frames/99\|/frames/-1" "$T/fake-stream.log"'
 check untrusted_escapes "exit $(cat "$T/u-evil_error.rc"): $(cat -v "$T/u-evil_error.err")" eval \
     '[ "$(cat "$T/u-evil_error.rc")" = 1 ] && grep -qF "failed: frame 3 \x1b]0;pwned\x07" "$T/u-evil_error.err" &&
      ! grep -q $'"'"'\x1b'"'"' "$T/u-evil_error.err"'
