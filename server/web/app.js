@@ -25,6 +25,8 @@ import { linkFor, fromHash } from "./share.js";
 import { View } from "./view.js";
 import { loadSaved, save } from "./autosave.js";
 import { JobsView, paneTabs } from "./jobs.js";
+import { readFiles, ACCEPT } from "./model.js";
+import { withModels, utf8Length, tooLargeMessage, wireDrop } from "./drop.js";
 
 const $ = (id) => document.getElementById(id);
 const DEFAULT_EXAMPLE = "whitted";
@@ -462,7 +464,7 @@ canvas.addEventListener("keydown", (e) => {
 // 0.7 s later when auto is on; undone or redone, a camera move, an example
 // or a link renders at once (the image follows the text), typing as typed.
 let autoTimer = 0;
-const rendersWhenUndone = new Set(["camera", "example", "link"]);
+const rendersWhenUndone = new Set(["camera", "example", "link", "model"]);
 editor.onChange(({ source, kind }) => {
   describe();
   hideNotice();
@@ -583,6 +585,58 @@ $("reset").addEventListener("click", () => {
   forgetLink();
   render({ user: true });
 });
+
+// ---- your own model: the Open button and a drop on the page ------------------------------
+// The files are read and embedded in the scene (model.js, drop.js), checked
+// against the server's --max-body (its /healthz says it) before anything is
+// sent, and rendered; what the server finds wrong in a file comes back as
+// any scene error, with its JSON Pointer and line.
+let maxBody = null;
+async function bodyLimit() {
+  if (maxBody === null)
+    try {
+      const j = await (await fetch("healthz", { cache: "no-store" })).json();
+      if (Number.isFinite(j.max_body) && j.max_body > 0) maxBody = j.max_body;
+    } catch (_) {
+      /* an older server: its 413 says the same after the attempt */
+    }
+  return maxBody;
+}
+async function openFiles(files) {
+  const title = `Cannot open ${files.map((f) => f.name).join(", ")}`;
+  let got;
+  try {
+    got = await readFiles(files);
+  } catch (e) {
+    showError(title, String(e.message || e));
+    return;
+  }
+  const d = parsed();
+  if (!d.root || !d.root.value || typeof d.root.value !== "object" || Array.isArray(d.root.value)) {
+    showError(title, "the editor's scene is not a valid JSON object, so the model has nowhere to go: fix it (or Reset), then open the file again");
+    return;
+  }
+  const size = sizeOf(d.root.value) || [640, 480];
+  const { scene, framed, lit } = withModels(d.root.value, got, { example: isExample(d.text), size });
+  const text = format(scene);
+  const names = [...got.models.map((m) => m.name), ...(got.env ? [got.env.name] : [])];
+  const bytes = utf8Length(text);
+  const limit = await bodyLimit();
+  window.rayd.lastOpen = { names, bytes, limit, framed, lit, ignored: got.ignored };
+  if (limit && bytes > limit) {
+    showError(`Too large for this server: ${names.join(", ")}`, tooLargeMessage(names, bytes, limit));
+    return;
+  }
+  editor.set(text, { kind: "model" });
+  const said = [`Opened ${names.join(", ")}`];
+  if (framed) said.push("camera framed on it");
+  if (lit) said.push("a default light added (the scene had none)");
+  if (got.ignored.length) said.push(`ignored ${got.ignored.join(", ")}`);
+  showNotice(said.join(" · ") + " — Ctrl+Z to get your scene back");
+  render({ user: true });
+}
+$("open-file").accept = ACCEPT;
+wireDrop($("open"), $("open-file"), (files) => openFiles(files));
 
 // ---- downloads -----------------------------------------------------------------------
 function download(blob, name) {
