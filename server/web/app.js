@@ -12,6 +12,10 @@
 // example renders again); the text is saved in local storage at each change
 // and comes back after a reload.
 //
+// Strings of the scene too long for the textarea (an opened model's data)
+// are folded into tokens in the editor (fold.js); sent() is the scene as it
+// leaves the page, unfolded.
+//
 // The page acts only for its user: it sends the token for a scene the user
 // started, never for one a link brought (a link is anyone's; see openHash).
 
@@ -26,7 +30,8 @@ import { View } from "./view.js";
 import { loadSaved, save } from "./autosave.js";
 import { JobsView, paneTabs } from "./jobs.js";
 import { readFiles, ACCEPT } from "./model.js";
-import { withModels, utf8Length, tooLargeMessage, wireDrop } from "./drop.js";
+import { withModels, foldFiles, utf8Length, tooLargeMessage, wireDrop } from "./drop.js";
+import { fold, unfold } from "./fold.js";
 
 const $ = (id) => document.getElementById(id);
 const DEFAULT_EXAMPLE = "whitted";
@@ -56,7 +61,7 @@ const stats = {
   passes: [], // a path-traced render's passes drawn: {samples, ms}
   firstPassMs: 0, // to the first whole (noisy) frame of a path-traced render
 };
-window.rayd = { stats, editor, view, render: () => render({ user: true }) };
+window.rayd = { stats, editor, view, render: () => render({ user: true }), sceneText: () => unfold(editor.value) };
 
 // The Jobs tab (jobs.js): listed when first shown; "Render as job" sends
 // the editor's text, as the user asked (a link's scene too: the click is
@@ -67,11 +72,8 @@ const tabs = paneTabs((name) => {
   return jobsLoaded;
 });
 const jobs = new JobsView(api, {
-  text: () => editor.value,
-  scene: () => {
-    const d = parsed();
-    return d.root ? d.root.value : null;
-  },
+  text: () => unfold(editor.value),
+  scene: () => sceneOf(parsed()),
   show: () => tabs.select("jobs"),
 });
 window.rayd.jobs = jobs;
@@ -88,6 +90,22 @@ function parsed() {
     }
   }
   return doc;
+}
+
+// The scene as sent: the parsed tree's value, or, when the text holds folded
+// strings, the unfolded text's (parsed once per text).
+function sceneOf(d) {
+  if (!d.root) return null;
+  const full = unfold(d.text);
+  if (full === d.text) return d.root.value;
+  if (d.full === undefined) {
+    try {
+      d.full = JSON.parse(full);
+    } catch (_) {
+      d.full = d.root.value;
+    }
+  }
+  return d.full;
 }
 
 function describe() {
@@ -270,7 +288,7 @@ async function render({ fromStart = false, user = false } = {}) {
   stats.passes = [];
   const started = fromStart ? pageStart : performance.now();
   try {
-    const info = await renderer.full(text, d.root ? d.root.value : null, (p) => {
+    const info = await renderer.full(unfold(text), sceneOf(d), (p) => {
       if (gen !== my) return;
       if (p.phase === "preview") {
         stats.lastPreviewMs = performance.now() - started;
@@ -300,7 +318,7 @@ async function render({ fromStart = false, user = false } = {}) {
     $("dl-png").disabled = false;
     $("link").hidden = false;
     $("link").textContent = `#${info.id.slice(0, 10)}`;
-    $("link").href = await linkFor(info.id, text);
+    $("link").href = await linkFor(info.id, unfold(text));
     if (gen !== my) return;
     document.body.dataset.renders = String(stats.renders);
     setState("done");
@@ -378,7 +396,7 @@ async function previewLoop() {
       const size = sizeOf(d.root.value);
       if (!size) break;
       const t = performance.now();
-      await renderer.preview(d.root.value, size);
+      await renderer.preview(sceneOf(d), size);
       const ms = performance.now() - t;
       stats.previewFrames++;
       stats.previewMs.push(ms);
@@ -606,7 +624,7 @@ async function openFiles(files) {
   const title = `Cannot open ${files.map((f) => f.name).join(", ")}`;
   let got;
   try {
-    got = await readFiles(files);
+    got = foldFiles(await readFiles(files));
   } catch (e) {
     showError(title, String(e.message || e));
     return;
@@ -620,7 +638,7 @@ async function openFiles(files) {
   const { scene, framed, lit } = withModels(d.root.value, got, { example: isExample(d.text), size });
   const text = format(scene);
   const names = [...got.models.map((m) => m.name), ...(got.env ? [got.env.name] : [])];
-  const bytes = utf8Length(text);
+  const bytes = utf8Length(unfold(text));
   const limit = await bodyLimit();
   window.rayd.lastOpen = { names, bytes, limit, framed, lit, ignored: got.ignored };
   if (limit && bytes > limit) {
@@ -653,7 +671,7 @@ $("dl-png").addEventListener("click", () =>
   canvas.toBlob((b) => b && download(b, baseName() + (partial ? "-partial" : "") + ".png"), "image/png")
 );
 $("dl-json").addEventListener("click", () =>
-  download(new Blob([editor.value], { type: "application/json" }), baseName() + ".json")
+  download(new Blob([unfold(editor.value)], { type: "application/json" }), baseName() + ".json")
 );
 
 // ---- a link's scene: loaded, shown, not rendered ----------------------------------------------
@@ -670,8 +688,14 @@ $("dl-json").addEventListener("click", () =>
 // back to it does not ask again.
 let linkWaiting = false;
 const accepted = new Set();
+// A text with folded strings is saved unfolded (megabytes), so once the
+// changes stop for a moment rather than at each step of a camera drag.
+let saveTimer = 0;
 function autosave() {
-  save(editor.value, editor.label, !isExample(editor.value), linkWaiting);
+  clearTimeout(saveTimer);
+  const now = () => save(unfold(editor.value), editor.label, !isExample(editor.value), linkWaiting);
+  if (unfold(editor.value) === editor.value) now();
+  else saveTimer = setTimeout(now, 400);
 }
 function showLinkWait() {
   clearError();
@@ -724,7 +748,7 @@ async function openHash(atStart = false) {
     return "bad";
   }
   if (!got) return "none";
-  if (got.text === editor.value) {
+  if (got.text === unfold(editor.value)) {
     if (!atStart) return "same";
     linkWait();
     return "opened";
@@ -732,7 +756,7 @@ async function openHash(atStart = false) {
   const edited = !isExample(editor.value);
   linkWaiting = true; // before the change, so that the autosave says so
   select.value = editor.label = "";
-  editor.set(got.text, { kind: "link" });
+  editor.set(fold(got.text), { kind: "link" });
   if (edited) showNotice("Link opened — Ctrl+Z to get your scene back");
   linkWait();
   return "opened";
@@ -747,7 +771,7 @@ window.addEventListener("hashchange", () => openHash());
   const known = (name) => examples.some((x) => x.name === name);
   if (saved && (saved.edited || !known(saved.example))) {
     editor.label = known(saved.example) ? saved.example : "";
-    editor.reset(saved.text);
+    editor.reset(fold(saved.text));
   } else if (saved) {
     editor.label = saved.example;
     editor.reset(exampleText(examples.find((x) => x.name === saved.example)));

@@ -28,6 +28,7 @@
 // The scene is then printed again (json.js format) as one undoable step.
 
 import { cameraOf } from "./camera.js";
+import { folded } from "./fold.js";
 
 const sub = (a, b) => [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
 const add = (a, b) => [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
@@ -127,7 +128,11 @@ export function withModels(scene, got, { example, size }) {
       objects.push(o);
     }
     s.objects = objects;
-    if (box) {
+    // a box no camera can frame (garbage read as floats, or coordinates past
+    // the scene format's 1e9) leaves the camera alone: the server's error on
+    // the file is the one to show
+    const sane = box && [...box.min, ...box.max].every((x) => Math.abs(x) < 1e8);
+    if (sane) {
       const placed = { min: add(box.min, [0, lift, 0]), max: add(box.max, [0, lift, 0]) };
       s.camera = frameCamera(s.camera, placed, size);
       framed = true;
@@ -141,6 +146,18 @@ export function withModels(scene, got, { example, size }) {
   }
   if (Object.keys(render).length || s.render !== undefined) s.render = render;
   return { scene: s, framed, lit };
+}
+
+// got (model.js readFiles) with its long strings folded (fold.js): the
+// editor shows tokens in their place.
+export function foldFiles(got) {
+  for (const m of got.models) {
+    const src = { ...m.object.source };
+    for (const k of ["text", "base64"]) if (typeof src[k] === "string") src[k] = folded(src[k], m.name);
+    m.object = { ...m.object, source: src };
+  }
+  if (got.env) got.env.value = { ...got.env.value, base64: folded(got.env.value.base64, got.env.name) };
+  return got;
 }
 
 // Bytes of text as UTF-8: what the server counts against --max-body.

@@ -63,7 +63,8 @@ const USER_SCENE = JSON.stringify(
   2
 );
 
-const scene = (page) => page.evaluate(() => JSON.parse(window.rayd.editor.value));
+// The scene as the page sends it (the editor shows long strings folded).
+const scene = (page) => page.evaluate(() => JSON.parse(window.rayd.sceneText()));
 const embeddedOf = (s) => (s.objects || []).filter((o) => o.source && (o.source.text !== undefined || o.source.base64 !== undefined));
 
 // Runs act (which opens or drops files) and waits for its outcome: a new
@@ -226,6 +227,9 @@ try {
     const m = embeddedOf(s);
     assert(m.length === 1 && m[0].type === "mesh" && m[0].source.format === "obj", "no obj mesh: " + JSON.stringify(m.map((x) => x.type)));
     assert(m[0].source.text === text, "the OBJ text is not the file's");
+    // 105 kB: folded in the editor, whose text stays small
+    const shown = await page.evaluate(() => window.rayd.editor.value);
+    assert(shown.length < 10000 && /characters of spider\.obj #\d+/.test(shown), `the editor holds ${shown.length} characters`);
     assert(s.objects.length === 2 && s.objects[0].type === "plane", "the example's objects are not [plane, model]: " + s.objects.map((x) => x.type));
     const lift = m[0].transform && m[0].transform.translate;
     assert(lift && Math.abs(lift[1] - 42.233826) < 1e-3, "not set on the ground: " + JSON.stringify(m[0].transform));
