@@ -27,7 +27,7 @@ const fail = (name, why) => {
   console.log(`FAIL ${name}: ${String(why).replace(/\s+/g, " ").slice(0, 500)}`);
 };
 async function check(name, fn) {
-  if (CASES && !CASES.test(name)) return;
+  if (CASES && name !== "page_opens" && !CASES.test(name)) return;
   try {
     const r = await fn();
     if (r === true || r === undefined) pass(name);
@@ -49,6 +49,7 @@ const GLTF_DIR = join(MODELS, "glTF2/BoxTextured-glTF");
 const GLTF = [join(GLTF_DIR, "BoxTextured.gltf"), join(GLTF_DIR, "BoxTextured0.bin"), join(GLTF_DIR, "CesiumLogoFlat.png")];
 const STL = join(MODELS, "STL/Spider_binary.stl");
 const HDR = join(SCENES, "sky.hdr");
+const EXR = join(process.env.RAYD_ROOT || ".", "tests/fuzz/corpus/envmap/tiny-8x4.exr");
 const b64 = (path) => readFileSync(path).toString("base64");
 
 // A scene of the user's own: no lights, a dark background, and one object
@@ -327,6 +328,21 @@ try {
     assert(embeddedOf(s).length === 1, "the model was not kept");
     const now = await corner();
     assert(now.some((x, k) => Math.abs(x - was[k]) > 8), `the background did not change: ${was} -> ${now}`);
+  });
+
+  // Several files dropped at once: a .gltf with its .bin and texture, and
+  // an EXR environment (a README.txt beside them is ignored, and said so).
+  await check("drop_gltf_set_and_exr", async () => {
+    const o = await outcome(page, () => dropFiles(page, [...GLTF, EXR, join(SCENES, "../README.md")]));
+    renderedOk(o);
+    const s = await scene(page);
+    const m = embeddedOf(s);
+    assert(m.length === 1 && m[0].type === "gltf" && m[0].source.format === "gltf", "no gltf object");
+    assert(JSON.parse(m[0].source.text).buffers[0].uri.startsWith("data:application/octet-stream;base64,"), "the .bin is not embedded");
+    const env = s.render.environment;
+    assert(env && env.format === "exr" && env.base64 === b64(EXR), "render.environment is not the EXR's base64");
+    const note = await page.locator("#notice-text").textContent();
+    assert(/ignored README\.md/.test(note), "the ignored file is not named: " + note);
   });
 
   await check("over_limit_says_what_to_do", async () => {

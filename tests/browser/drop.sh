@@ -4,7 +4,8 @@
 # the page, in Debian's Chromium, headless, against a real rayd started here
 # on 127.0.0.1 (--port 0, --max-body 2500000, stopped by its PID).  The
 # models are Debian's assimp-testmodels (an OBJ, a binary PLY, a textured
-# .glb, a .gltf with its .bin and texture), the environment scenes/sky.hdr.
+# .glb, a .gltf with its .bin and texture), the environments scenes/sky.hdr
+# and an EXR of tests/fuzz/corpus/envmap/.
 # drop.mjs drives the page and prints PASS/FAIL lines.  Without chromium,
 # node, playwright-core or the models this FAILs, never passes.
 #
@@ -34,7 +35,7 @@ max=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1])).get("max_b
 if [ "$code" = 200 ] && [ "$max" = 2500000 ]; then pass healthz_max_body; else
     fail healthz_max_body "status $code, max_body $max: $(head -c 200 "$T/body")"; fi
 
-CHROMIUM=$CHROMIUM MODELS=$MODELS SCENES=$RAYD_ROOT/scenes timeout 600 node "$HERE/drop.mjs" "$URL"
+CHROMIUM=$CHROMIUM MODELS=$MODELS SCENES=$RAYD_ROOT/scenes RAYD_ROOT=$RAYD_ROOT timeout 600 node "$HERE/drop.mjs" "$URL"
 rc=$?
 [ "$rc" -eq 0 ] || fail drop_driver "node exited with status $rc"
 stop_rayd
