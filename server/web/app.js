@@ -631,7 +631,11 @@ async function openFiles(files) {
   }
   const d = parsed();
   if (!d.root || !d.root.value || typeof d.root.value !== "object" || Array.isArray(d.root.value)) {
-    showError(title, "the editor's scene is not a valid JSON object, so the model has nowhere to go: fix it (or Reset), then open the file again");
+    showError(
+      title,
+      "the editor's scene is not a valid JSON object, so the model has nowhere to go: " +
+        "fix it (or Reset), then open the file again"
+    );
     return;
   }
   const size = sizeOf(d.root.value) || [640, 480];

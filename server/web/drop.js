@@ -180,11 +180,12 @@ const mb = (n) => (n >= 1e6 ? `${(n / 1e6).toFixed(1)} MB` : `${Math.ceil(n / 1e
 // The message for a scene of bytes over the server's limit.
 export function tooLargeMessage(names, bytes, limit) {
   const env = /\.(hdr|exr)$/i.test(names[0]);
+  const suggest = Math.ceil((bytes * 1.1) / 1048576) * 1048576;
   const ref = env ? `"environment": {"file": "${names[0]}"}` : `"source": {"file": "${names[0]}"}`;
   return (
     `With ${names.join(", ")} embedded, the scene is ${mb(bytes)} (${bytes} bytes), over this server's ` +
     `limit of ${mb(limit)} (--max-body ${limit}). To render it:\n` +
-    `- start rayd with a larger --max-body (its operator's setting), e.g. rayd --max-body ${Math.ceil((bytes * 1.1) / 1048576) * 1048576};\n` +
+    `- start rayd with a larger --max-body (its operator's setting), e.g. rayd --max-body ${suggest};\n` +
     `- or put the file under the server's --asset-dir and name it in the scene: ${ref};\n` +
     "- or send it smaller: binary PLY or .glb instead of OBJ text (base64 adds a third; text OBJ is the largest)."
   );

@@ -334,7 +334,10 @@ async function readModelFile(file, byName, used) {
   if (format === "obj") {
     const text = utf8(bytes);
     // not UTF-8 (a UTF-16 export): as bytes, for the server to name the encoding
-    r = text === null ? { source: { format, base64: b64(bytes) }, bounds: null } : { source: { format, text }, bounds: objBounds(text) };
+    r =
+      text === null
+        ? { source: { format, base64: b64(bytes) }, bounds: null }
+        : { source: { format, text }, bounds: objBounds(text) };
   } else if (format === "ply") {
     const h = plyHeader(bytes);
     const text = h && h.format === "ascii" ? utf8(bytes) : null;

@@ -365,6 +365,15 @@ try {
     assert((await page.evaluate(() => window.rayd.editor.value)) === before, "the editor changed");
   });
 
+  await check("malformed_editor_scene_kept", async () => {
+    const broken = '{"objects": [';
+    await page.evaluate((t) => window.rayd.editor.set(t), broken);
+    const o = await outcome(page, () => openFiles(page, [PLY]));
+    assert(o.state === "error" && /not a valid JSON object/.test(o.error.msg), "no message: " + o.error.msg);
+    assert((await page.evaluate(() => window.rayd.editor.value)) === broken, "the editor's text was replaced");
+    await page.evaluate(() => window.rayd.editor.undo());
+  });
+
   // A file the server cannot read: its error, with the JSON Pointer and the
   // line in the editor, as for any scene error.
   await check("bad_file_gets_the_server_error", async () => {
