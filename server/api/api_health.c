@@ -1,7 +1,9 @@
 /* api_health.c -- /healthz, /readyz and /metrics.
  *
  * /healthz answers 200 while the process can answer at all (liveness), with
- * rayd's version.
+ * rayd's version and its --max-body: a client that embeds a model in a
+ * scene (the preview's Open and drop) checks the body's size before it
+ * sends megabytes to be refused.
  * /readyz answers 503 while draining, while the render queue is full, or
  * while the estimated backlog is over --max-backlog seconds (cost.c), so a
  * load balancer stops sending work before requests are refused or wait for
@@ -25,6 +27,7 @@ void api_health_live(struct http_req *r, const char *id) {
     cJSON_AddStringToObject(o, "status", "ok");
     /* a frame is stitched from one version only: rayd-client health says so */
     cJSON_AddStringToObject(o, "version", RAYD_VERSION);
+    cJSON_AddNumberToObject(o, "max_body", (double)config.max_body);
     http_reply_json(r, 200, o);
 }
 

@@ -12,6 +12,10 @@
 // example renders again); the text is saved in local storage at each change
 // and comes back after a reload.
 //
+// Strings of the scene too long for the textarea (an opened model's data)
+// are folded into tokens in the editor (fold.js); sent() is the scene as it
+// leaves the page, unfolded.
+//
 // The page acts only for its user: it sends the token for a scene the user
 // started, never for one a link brought (a link is anyone's; see openHash).
 
@@ -25,6 +29,9 @@ import { linkFor, fromHash } from "./share.js";
 import { View } from "./view.js";
 import { loadSaved, save } from "./autosave.js";
 import { JobsView, paneTabs } from "./jobs.js";
+import { readFiles, ACCEPT } from "./model.js";
+import { withModels, foldFiles, utf8Length, tooLargeMessage, wireDrop } from "./drop.js";
+import { fold, unfold } from "./fold.js";
 
 const $ = (id) => document.getElementById(id);
 const DEFAULT_EXAMPLE = "whitted";
@@ -54,7 +61,7 @@ const stats = {
   passes: [], // a path-traced render's passes drawn: {samples, ms}
   firstPassMs: 0, // to the first whole (noisy) frame of a path-traced render
 };
-window.rayd = { stats, editor, view, render: () => render({ user: true }) };
+window.rayd = { stats, editor, view, render: () => render({ user: true }), sceneText: () => unfold(editor.value) };
 
 // The Jobs tab (jobs.js): listed when first shown; "Render as job" sends
 // the editor's text, as the user asked (a link's scene too: the click is
@@ -65,11 +72,8 @@ const tabs = paneTabs((name) => {
   return jobsLoaded;
 });
 const jobs = new JobsView(api, {
-  text: () => editor.value,
-  scene: () => {
-    const d = parsed();
-    return d.root ? d.root.value : null;
-  },
+  text: () => unfold(editor.value),
+  scene: () => sceneOf(parsed()),
   show: () => tabs.select("jobs"),
 });
 window.rayd.jobs = jobs;
@@ -86,6 +90,22 @@ function parsed() {
     }
   }
   return doc;
+}
+
+// The scene as sent: the parsed tree's value, or, when the text holds folded
+// strings, the unfolded text's (parsed once per text).
+function sceneOf(d) {
+  if (!d.root) return null;
+  const full = unfold(d.text);
+  if (full === d.text) return d.root.value;
+  if (d.full === undefined) {
+    try {
+      d.full = JSON.parse(full);
+    } catch (_) {
+      d.full = d.root.value;
+    }
+  }
+  return d.full;
 }
 
 function describe() {
@@ -268,7 +288,7 @@ async function render({ fromStart = false, user = false } = {}) {
   stats.passes = [];
   const started = fromStart ? pageStart : performance.now();
   try {
-    const info = await renderer.full(text, d.root ? d.root.value : null, (p) => {
+    const info = await renderer.full(unfold(text), sceneOf(d), (p) => {
       if (gen !== my) return;
       if (p.phase === "preview") {
         stats.lastPreviewMs = performance.now() - started;
@@ -298,7 +318,7 @@ async function render({ fromStart = false, user = false } = {}) {
     $("dl-png").disabled = false;
     $("link").hidden = false;
     $("link").textContent = `#${info.id.slice(0, 10)}`;
-    $("link").href = await linkFor(info.id, text);
+    $("link").href = await linkFor(info.id, unfold(text));
     if (gen !== my) return;
     document.body.dataset.renders = String(stats.renders);
     setState("done");
@@ -376,7 +396,7 @@ async function previewLoop() {
       const size = sizeOf(d.root.value);
       if (!size) break;
       const t = performance.now();
-      await renderer.preview(d.root.value, size);
+      await renderer.preview(sceneOf(d), size);
       const ms = performance.now() - t;
       stats.previewFrames++;
       stats.previewMs.push(ms);
@@ -462,7 +482,7 @@ canvas.addEventListener("keydown", (e) => {
 // 0.7 s later when auto is on; undone or redone, a camera move, an example
 // or a link renders at once (the image follows the text), typing as typed.
 let autoTimer = 0;
-const rendersWhenUndone = new Set(["camera", "example", "link"]);
+const rendersWhenUndone = new Set(["camera", "example", "link", "model"]);
 editor.onChange(({ source, kind }) => {
   describe();
   hideNotice();
@@ -584,6 +604,62 @@ $("reset").addEventListener("click", () => {
   render({ user: true });
 });
 
+// ---- your own model: the Open button and a drop on the page ------------------------------
+// The files are read and embedded in the scene (model.js, drop.js), checked
+// against the server's --max-body (its /healthz says it) before anything is
+// sent, and rendered; what the server finds wrong in a file comes back as
+// any scene error, with its JSON Pointer and line.
+let maxBody = null;
+async function bodyLimit() {
+  if (maxBody === null)
+    try {
+      const j = await (await fetch("healthz", { cache: "no-store" })).json();
+      if (Number.isFinite(j.max_body) && j.max_body > 0) maxBody = j.max_body;
+    } catch (_) {
+      /* an older server: its 413 says the same after the attempt */
+    }
+  return maxBody;
+}
+async function openFiles(files) {
+  const title = `Cannot open ${files.map((f) => f.name).join(", ")}`;
+  let got;
+  try {
+    got = foldFiles(await readFiles(files));
+  } catch (e) {
+    showError(title, String(e.message || e));
+    return;
+  }
+  const d = parsed();
+  if (!d.root || !d.root.value || typeof d.root.value !== "object" || Array.isArray(d.root.value)) {
+    showError(
+      title,
+      "the editor's scene is not a valid JSON object, so the model has nowhere to go: " +
+        "fix it (or Reset), then open the file again"
+    );
+    return;
+  }
+  const size = sizeOf(d.root.value) || [640, 480];
+  const { scene, framed, lit } = withModels(d.root.value, got, { example: isExample(d.text), size });
+  const text = format(scene);
+  const names = [...got.models.map((m) => m.name), ...(got.env ? [got.env.name] : [])];
+  const bytes = utf8Length(unfold(text));
+  const limit = await bodyLimit();
+  window.rayd.lastOpen = { names, bytes, limit, framed, lit, ignored: got.ignored };
+  if (limit && bytes > limit) {
+    showError(`Too large for this server: ${names.join(", ")}`, tooLargeMessage(names, bytes, limit));
+    return;
+  }
+  editor.set(text, { kind: "model" });
+  const said = [`Opened ${names.join(", ")}`];
+  if (framed) said.push("camera framed on it");
+  if (lit) said.push("a default light added (the scene had none)");
+  if (got.ignored.length) said.push(`ignored ${got.ignored.join(", ")}`);
+  showNotice(said.join(" · ") + " — Ctrl+Z to get your scene back");
+  render({ user: true });
+}
+$("open-file").accept = ACCEPT;
+wireDrop($("open"), $("open-file"), (files) => openFiles(files));
+
 // ---- downloads -----------------------------------------------------------------------
 function download(blob, name) {
   const a = document.createElement("a");
@@ -599,7 +675,7 @@ $("dl-png").addEventListener("click", () =>
   canvas.toBlob((b) => b && download(b, baseName() + (partial ? "-partial" : "") + ".png"), "image/png")
 );
 $("dl-json").addEventListener("click", () =>
-  download(new Blob([editor.value], { type: "application/json" }), baseName() + ".json")
+  download(new Blob([unfold(editor.value)], { type: "application/json" }), baseName() + ".json")
 );
 
 // ---- a link's scene: loaded, shown, not rendered ----------------------------------------------
@@ -616,8 +692,14 @@ $("dl-json").addEventListener("click", () =>
 // back to it does not ask again.
 let linkWaiting = false;
 const accepted = new Set();
+// A text with folded strings is saved unfolded (megabytes), so once the
+// changes stop for a moment rather than at each step of a camera drag.
+let saveTimer = 0;
 function autosave() {
-  save(editor.value, editor.label, !isExample(editor.value), linkWaiting);
+  clearTimeout(saveTimer);
+  const now = () => save(unfold(editor.value), editor.label, !isExample(editor.value), linkWaiting);
+  if (unfold(editor.value) === editor.value) now();
+  else saveTimer = setTimeout(now, 400);
 }
 function showLinkWait() {
   clearError();
@@ -670,7 +752,7 @@ async function openHash(atStart = false) {
     return "bad";
   }
   if (!got) return "none";
-  if (got.text === editor.value) {
+  if (got.text === unfold(editor.value)) {
     if (!atStart) return "same";
     linkWait();
     return "opened";
@@ -678,7 +760,7 @@ async function openHash(atStart = false) {
   const edited = !isExample(editor.value);
   linkWaiting = true; // before the change, so that the autosave says so
   select.value = editor.label = "";
-  editor.set(got.text, { kind: "link" });
+  editor.set(fold(got.text), { kind: "link" });
   if (edited) showNotice("Link opened — Ctrl+Z to get your scene back");
   linkWait();
   return "opened";
@@ -693,7 +775,7 @@ window.addEventListener("hashchange", () => openHash());
   const known = (name) => examples.some((x) => x.name === name);
   if (saved && (saved.edited || !known(saved.example))) {
     editor.label = known(saved.example) ? saved.example : "";
-    editor.reset(saved.text);
+    editor.reset(fold(saved.text));
   } else if (saved) {
     editor.label = saved.example;
     editor.reset(exampleText(examples.find((x) => x.name === saved.example)));

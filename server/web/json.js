@@ -51,8 +51,16 @@ export function parse(text) {
       } else if (c < " ") {
         fail("control character in string");
       } else {
-        out += c;
-        i++;
+        // a run of plain characters at once: an embedded model's base64 is
+        // megabytes long, and one concatenation per character is slow
+        let j = i + 1;
+        while (j < n) {
+          const d = text.charCodeAt(j);
+          if (d === 0x22 || d === 0x5c || d < 0x20) break;
+          j++;
+        }
+        out += text.slice(i, j);
+        i = j;
       }
     }
     i++;

@@ -1,11 +1,16 @@
 // json_unit.mjs EXAMPLES.js -- the preview's JSON helpers (server/web/json.js,
-// camera.js, ground.js, history.js) in Node, without a browser: pointer ->
-// line, in-place edits, the formatter of the examples, orbit and dolly and
-// their stop at the ground, the undo history.  Prints PASS/FAIL lines.
+// camera.js, ground.js, history.js, fold.js, model.js, drop.js) in Node,
+// without a browser: pointer -> line, in-place edits, the formatter of the
+// examples, orbit and dolly and their stop at the ground, the undo history,
+// long strings folded out of the editor and back, a model's bounding box,
+// and a model put in a scene.  Prints PASS/FAIL lines.
 import { parse, pointerOffset, lineOf, offsetOfLine, replaceAt, format, fmtVector, JsonSyntaxError } from "../../server/web/json.js";
 import { cameraOf, orbit, dolly } from "../../server/web/camera.js";
 import { groundHeight, eyeFloor } from "../../server/web/ground.js";
 import { TextHistory, changedRange } from "../../server/web/history.js";
+import { fold, unfold, folded, FOLD_MIN } from "../../server/web/fold.js";
+import { objBounds, plyBounds, gltfBounds } from "../../server/web/model.js";
+import { withModels, utf8Length } from "../../server/web/drop.js";
 import { isDeepStrictEqual } from "node:util";
 
 const { examples } = await import(process.argv[2]);
@@ -185,4 +190,68 @@ check("changed_range", () => {
   return (r.start === 8 && r.end === 10) || JSON.stringify(r);
 });
 check("vector_format", () => fmtVector([1 / 3, -0.00001, 2]) === "[0.3333, 0, 2]" || fmtVector([1 / 3, -0.00001, 2]));
+// fold.js: long strings out of the editor's text and back, escapes kept
+check("fold_roundtrip", () => {
+  const long = "a\"b\\c\n".repeat(FOLD_MIN / 4);
+  const scene = { objects: [{ type: "mesh", source: { format: "obj", text: long } }], s: "short \" one" };
+  const text = JSON.stringify(scene, null, 2);
+  const f = fold(text);
+  if (f.length > 1000) return `folded text still ${f.length} characters`;
+  if (!isDeepStrictEqual(Object.keys(parse(f).value), ["objects", "s"])) return "the folded text is not the same tree";
+  if (unfold(f) !== text) return "unfold(fold(text)) is not text";
+  const v = folded(long, 'x"y.obj');
+  if (v.includes('"') || JSON.parse(unfold(JSON.stringify({ v }))).v !== long) return "folded() does not unfold to the string";
+  if (unfold('{"a": "<5 characters of z #999, kept by the page and sent in their place>"}').indexOf("#999") < 0)
+    return "an unknown token must be left as it is";
+  return fold('{"a": "short"}') === '{"a": "short"}' || "a short text changed";
+});
+// model.js: the boxes the camera frames
+check("model_bounds", () => {
+  const obj = objBounds("# c\nv 1 2 3\nvt 9 9\n  v -1 -2 -3 1\nvn 5 5 5\nf 1 2 2\n");
+  if (!isDeepStrictEqual(obj, { min: [-1, -2, -3], max: [1, 2, 3] })) return "obj: " + JSON.stringify(obj);
+  const head = "ply\nformat binary_little_endian 1.0\nelement face 1\nproperty list uchar int vertex_indices\n" +
+    "element vertex 2\nproperty uchar r\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
+  const body = new DataView(new ArrayBuffer(1 + 12 + 2 * 13));
+  body.setUint8(0, 3);
+  [[5, -1, 2, 0.5], [6, 4, -2, 1]].forEach(([r, x, y, z], i) => {
+    const o = 13 + 13 * i;
+    body.setUint8(o, r);
+    body.setFloat32(o + 1, x, true);
+    body.setFloat32(o + 5, y, true);
+    body.setFloat32(o + 9, z, true);
+  });
+  const bytes = new Uint8Array([...new TextEncoder().encode(head), ...new Uint8Array(body.buffer)]);
+  const ply = plyBounds(bytes);
+  if (!isDeepStrictEqual(ply, { min: [-1, -2, 0.5], max: [4, 2, 1] })) return "ply (a face element first): " + JSON.stringify(ply);
+  const g = {
+    scene: 0, scenes: [{ nodes: [0] }],
+    nodes: [{ translation: [10, 0, 0], scale: [2, 2, 2], children: [1] }, { mesh: 0 }],
+    meshes: [{ primitives: [{ attributes: { POSITION: 0 } }] }],
+    accessors: [{ min: [-1, -1, -1], max: [1, 1, 1] }],
+  };
+  const gb = gltfBounds(g, () => null);
+  return isDeepStrictEqual(gb, { min: [8, -2, -2], max: [12, 2, 2] }) || "gltf: " + JSON.stringify(gb);
+});
+// drop.js: the model framed, set on the ground, lit
+check("with_models", () => {
+  const got = {
+    models: [{ name: "m.obj", object: { type: "mesh", name: "m.obj", source: { format: "obj", text: "x" } }, bounds: { min: [-1, -1, -1], max: [1, 1, 1] }, lights: false }],
+    env: null,
+  };
+  const scene = {
+    camera: { position: [0, 0, 10], look_at: [0, 0, 0], fov_y: 40 },
+    objects: [{ type: "plane", point: [0, 0.5, 0] }, { type: "sphere", name: "mine" }, { type: "mesh", source: { base64: "old" } }],
+  };
+  const { scene: s, framed, lit } = withModels(scene, got, { example: false, size: [100, 100] });
+  if (!framed || !lit) return "not framed or not lit";
+  if (s.objects.length !== 3 || s.objects[1].name !== "mine" || s.objects[2].name !== "m.obj") return "objects: " + JSON.stringify(s.objects);
+  if (!isDeepStrictEqual(s.objects[2].transform, { translate: [0, 1.5, 0] })) return "not set on the ground: " + JSON.stringify(s.objects[2].transform);
+  const d = (Math.sqrt(3) / Math.sin((20 * Math.PI) / 180)) * 1.1;
+  if (!isDeepStrictEqual(s.camera.look_at, [0, 1.5, 0]) || Math.abs(s.camera.position[2] - d) > 1e-4) return "camera: " + JSON.stringify(s.camera);
+  const ex = withModels(scene, got, { example: true, size: [100, 100] }).scene;
+  if (ex.objects.length !== 2 || ex.objects[0].type !== "plane") return "an example keeps only its ground: " + JSON.stringify(ex.objects);
+  const framed2 = withModels({ camera: { frame: "all", view: "top" } }, got, { example: false, size: [100, 100] }).scene.camera;
+  if (framed2.frame !== undefined || framed2.view !== undefined || !framed2.position) return "a frame camera: " + JSON.stringify(framed2);
+  return utf8Length("aé€😀") === 1 + 2 + 3 + 4 || "utf8Length";
+});
 process.exit(0); // the FAIL lines count
