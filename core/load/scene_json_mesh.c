@@ -145,8 +145,8 @@ static enum rayd_status get_indices(struct loader *ld, const cJSON *obj, const s
 #define SJ_BUILD_BYTES_PER_TRIANGLE 96
 
 size_t sj_mesh_bytes(const struct mesh_data *md) {
-    size_t per_vertex = 3 * sizeof(float) + (md->normal ? 3 * sizeof(float) : 0) +
-                        (md->uv ? 2 * sizeof(float) : 0);
+    size_t per_vertex =
+        3 * sizeof(float) + (md->normal ? 3 * sizeof(float) : 0) + (md->uv ? 2 * sizeof(float) : 0);
     return (size_t)md->nverts * per_vertex +
            (size_t)md->ntris * (3 * sizeof(uint32_t) + SJ_BUILD_BYTES_PER_TRIANGLE);
 }

@@ -44,7 +44,7 @@
 static size_t mem_limit_bytes = SIZE_MAX;
 static atomic_size_t mem_total_bytes;
 static atomic_size_t mem_kind_bytes[MEM__COUNT];
-static atomic_size_t mem_released; /* since the last trim */
+static atomic_size_t mem_released;   /* since the last trim */
 static atomic_size_t mem_peak_bytes; /* the highest mem_total_bytes has been */
 static bool (*mem_reclaimer)(enum mem_kind k, size_t need);
 
