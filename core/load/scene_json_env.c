@@ -106,6 +106,7 @@ static enum rayd_status env_decode_hdr(struct loader *ld, const char *data, size
     float *own = malloc(m * sizeof *own); /* stb's allocator is its own: copy into ours */
     if (own) memcpy(own, px, m * sizeof *own);
     stbi_image_free(px);
+    sj_give_back(ld, m * sizeof(float)); /* stb's floats */
     if (!own) return err_set(ld->err, RAYD_E_NOMEM, p->s, "out of memory for the environment");
     return env_take(own, w, h, k, e);
 }

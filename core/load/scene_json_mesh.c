@@ -295,6 +295,7 @@ static enum rayd_status load_source(struct loader *ld, const cJSON *src, const s
                           : format == 1 ? mesh_parse_ply_threads(bytes, nbytes, &ml, 0, md, ld->err)
                                         : load_gltf(ld, at, file, bytes, nbytes, &ml, md);
     ld->s->decode_s += clock_now() - t0;
+    if (file && data) sj_give_back(ld, nbytes + 1); /* the file read, charged by sj_read_asset */
     free(data);
     if (st != RAYD_OK && ld->err && format < 2)
         snprintf(ld->err->path, sizeof ld->err->path, "%s", pv.s);
@@ -382,7 +383,8 @@ enum rayd_status sj_mesh(struct loader *ld, const cJSON *oj, const struct jp *at
     struct mesh_data md = {0};
     TRY(src ? mesh_from_source(ld, oj, src, at, &md) : mesh_from_inline(ld, oj, at, &md));
     struct jp pm = jp_key(at, src ? "source" : "indices");
-    enum rayd_status st = sj_charge(ld, &pm, sj_mesh_bytes(&md));
+    size_t charged = sj_mesh_bytes(&md);
+    enum rayd_status st = sj_charge(ld, &pm, charged);
     if (st == RAYD_OK) st = sj_add_mesh(ld, id);
     if (st != RAYD_OK) {
         mesh_data_free(&md);
@@ -394,5 +396,7 @@ enum rayd_status sj_mesh(struct loader *ld, const cJSON *oj, const struct jp *at
     st = mesh_build(&ld->s->meshes[*id], md.pos, md.nverts, md.index, md.ntris, md.normal, md.uv,
                     smooth, md.ntris >= 50000 ? parallel_cores() : 1, ld->err);
     ld->s->build_s += clock_now() - t0;
+    size_t built = mesh_bytes(&ld->s->meshes[*id]); /* the estimate's excess given back */
+    if (st == RAYD_OK && built < charged) sj_give_back(ld, charged - built);
     return st; /* the mesh owns the arrays now, even on failure */
 }

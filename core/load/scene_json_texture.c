@@ -83,12 +83,15 @@ static enum rayd_status load_image(struct loader *ld, const cJSON *tj, const str
     }
     st = rayd_png_decode(data, len, max, &img, &e);
     free(data);
+    if (file) sj_give_back(ld, len + 1); /* the file read, charged by sj_read_asset */
     if (st != RAYD_OK) return sj_fail(ld, st, &p, "%s", e.message);
     ld->texels += (long)img->w * img->h;
     t->w = img->w;
     t->h = img->h;
     t->rgb = texture_linear_from_srgb8(img->px, img->w, img->h);
     rayd_image_free(img);
+    if (texels > 0 && texels <= (uint64_t)max) /* the 8-bit pixels are gone */
+        sj_give_back(ld, (size_t)texels * (SJ_TEXEL_CHARGE - 3 * sizeof(float)));
     if (!t->rgb) return err_set(ld->err, RAYD_E_NOMEM, p.s, "out of memory for a texture");
     return RAYD_OK;
 }

@@ -5,6 +5,7 @@
  */
 #define _GNU_SOURCE /* realpath, syscall (openat2) */
 #include <errno.h>
+#include <limits.h>
 #include <fcntl.h>
 #include <linux/openat2.h>
 #include <stdint.h>
@@ -29,9 +30,17 @@ long sj_max_texels(const struct loader *ld) {
 enum rayd_status sj_charge(struct loader *ld, const struct jp *at, size_t bytes) {
     if (!ld->lim->charge || bytes == 0) return RAYD_OK;
     char why[200] = "";
-    enum rayd_status st = ld->lim->charge(ld->lim->charge_arg, bytes, why, sizeof why);
+    long long n = bytes > (size_t)LLONG_MAX ? LLONG_MAX : (long long)bytes;
+    enum rayd_status st = ld->lim->charge(ld->lim->charge_arg, n, why, sizeof why);
     if (st == RAYD_OK) return RAYD_OK;
     return sj_fail(ld, st, at, "%s", why[0] ? why : "no memory for this value");
+}
+
+void sj_give_back(struct loader *ld, size_t bytes) {
+    if (!ld->lim->charge || bytes == 0) return;
+    char why[8];
+    long long n = bytes > (size_t)LLONG_MAX ? LLONG_MAX : (long long)bytes;
+    (void)ld->lim->charge(ld->lim->charge_arg, -n, why, sizeof why);
 }
 
 const char *sj_type_name(const cJSON *v) {

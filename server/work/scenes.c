@@ -119,9 +119,16 @@ struct scenes_meter {
 };
 
 /* The core's charge: reserves what passes the reservation, or refuses
- * (413 past the whole budget, 503 with no room now). */
-static enum rayd_status scenes_charge(void *arg, size_t bytes, char *why, size_t why_len) {
+ * (413 past the whole budget, 503 with no room now); a negative delta is
+ * given back (the working copy of a step freed). */
+static enum rayd_status scenes_charge(void *arg, long long delta, char *why, size_t why_len) {
     struct scenes_meter *m = arg;
+    if (delta < 0) { /* given back: the reservation stays the parse's, for what comes next */
+        size_t back = (size_t) - (delta + 1) + 1;
+        m->charged -= back < m->charged ? back : m->charged;
+        return RAYD_OK;
+    }
+    size_t bytes = (size_t)delta;
     m->charged = bytes > SIZE_MAX - m->charged ? SIZE_MAX : m->charged + bytes;
     if (m->charged <= m->held) return RAYD_OK;
     if (m->charged > m->last) {
