@@ -58,6 +58,8 @@ void rayd_limits_default(struct rayd_limits *lim) {
     lim->asset_dir = NULL;
     lim->asset_confine = 1;
     lim->max_texels = TEXTURE_MAX_SCENE_PIXELS;
+    lim->charge = NULL;
+    lim->charge_arg = NULL;
 }
 /* ---- camera and render --------------------------------------------------- */
 

@@ -62,6 +62,11 @@ static enum rayd_status env_decode_exr(struct loader *ld, const char *data, size
     struct rayd_error x = {0};
     enum rayd_status st = exr_read_rgb(data, len, TEXTURE_MAX_PIXELS, &px, &w, &h, &x);
     if (st != RAYD_OK) return sj_fail(ld, st, p, "%s", x.message);
+    st = sj_charge(ld, p, (size_t)w * (size_t)h * 3 * sizeof(float) * 2); /* once decoded */
+    if (st != RAYD_OK) {
+        free(px);
+        return st;
+    }
     return env_take(px, w, h, k, e);
 }
 
@@ -87,6 +92,8 @@ static enum rayd_status env_decode_hdr(struct loader *ld, const char *data, size
     char why[128];
     if (!hdr_scan(b, len, w, h, why, sizeof why)) /* stb would read zeros past the end, or spin */
         return sj_fail(ld, RAYD_E_INVALID, p, "%s", why);
+    /* stb's floats and our copy, then the sampling tables (about as much) */
+    TRY(sj_charge(ld, p, (size_t)w * (size_t)h * 3 * sizeof(float) * 3));
     float *px = stbi_loadf_from_memory(b, (int)len, &w, &h, &n, 3);
     if (px && (w <= 0 || h <= 0 || (long)w * h > TEXTURE_MAX_PIXELS)) { /* as stbi_info said */
         stbi_image_free(px);
@@ -99,6 +106,7 @@ static enum rayd_status env_decode_hdr(struct loader *ld, const char *data, size
     float *own = malloc(m * sizeof *own); /* stb's allocator is its own: copy into ours */
     if (own) memcpy(own, px, m * sizeof *own);
     stbi_image_free(px);
+    sj_give_back(ld, m * sizeof(float)); /* stb's floats */
     if (!own) return err_set(ld->err, RAYD_E_NOMEM, p->s, "out of memory for the environment");
     return env_take(own, w, h, k, e);
 }

@@ -254,6 +254,15 @@ static enum rayd_status load_meshes(struct imp *im, int override, struct object 
         gltf_mats_free(&g);
         return imp_fail(im, st);
     }
+    /* the glTF's decoded textures (charged once decoded), then its meshes
+     * before they are built */
+    st = sj_charge(ld, &im->src, (size_t)g.texels * 3 * sizeof(float) + sj_mesh_bytes(&md));
+    if (st != RAYD_OK) {
+        mesh_data_free(&md);
+        free(tm);
+        gltf_mats_free(&g);
+        return st;
+    }
     if (override >= 0)
         for (uint32_t t = 0; t < md.ntris; t++) tm[t] = -1;
     ld->vertices += md.nverts;

@@ -138,6 +138,19 @@ static enum rayd_status get_indices(struct loader *ld, const cJSON *obj, const s
     return RAYD_OK;
 }
 
+/* A mesh's arrays, then about what its build holds at once: the 4-wide
+ * leaf blocks (40 bytes a triangle when full), the BVH nodes and the
+ * builder's own arrays.  An estimate charged before the build; the built
+ * scene's measured bytes (rayd_scene_info) replace it. */
+#define SJ_BUILD_BYTES_PER_TRIANGLE 96
+
+size_t sj_mesh_bytes(const struct mesh_data *md) {
+    size_t per_vertex =
+        3 * sizeof(float) + (md->normal ? 3 * sizeof(float) : 0) + (md->uv ? 2 * sizeof(float) : 0);
+    return (size_t)md->nverts * per_vertex +
+           (size_t)md->ntris * (3 * sizeof(uint32_t) + SJ_BUILD_BYTES_PER_TRIANGLE);
+}
+
 enum rayd_status sj_add_mesh(struct loader *ld, uint32_t *id) {
     rayd_scene *s = ld->s;
     if (!array_grow((void **)&s->meshes, &ld->mesh_cap, (size_t)s->nmeshes + 1, sizeof *s->meshes))
@@ -282,6 +295,7 @@ static enum rayd_status load_source(struct loader *ld, const cJSON *src, const s
                           : format == 1 ? mesh_parse_ply_threads(bytes, nbytes, &ml, 0, md, ld->err)
                                         : load_gltf(ld, at, file, bytes, nbytes, &ml, md);
     ld->s->decode_s += clock_now() - t0;
+    if (file && data) sj_give_back(ld, nbytes + 1); /* the file read, charged by sj_read_asset */
     free(data);
     if (st != RAYD_OK && ld->err && format < 2)
         snprintf(ld->err->path, sizeof ld->err->path, "%s", pv.s);
@@ -368,7 +382,10 @@ enum rayd_status sj_mesh(struct loader *ld, const cJSON *oj, const struct jp *at
     const cJSON *src = cJSON_GetObjectItemCaseSensitive(oj, "source");
     struct mesh_data md = {0};
     TRY(src ? mesh_from_source(ld, oj, src, at, &md) : mesh_from_inline(ld, oj, at, &md));
-    enum rayd_status st = sj_add_mesh(ld, id);
+    struct jp pm = jp_key(at, src ? "source" : "indices");
+    size_t charged = sj_mesh_bytes(&md);
+    enum rayd_status st = sj_charge(ld, &pm, charged);
+    if (st == RAYD_OK) st = sj_add_mesh(ld, id);
     if (st != RAYD_OK) {
         mesh_data_free(&md);
         return st;
@@ -379,5 +396,7 @@ enum rayd_status sj_mesh(struct loader *ld, const cJSON *oj, const struct jp *at
     st = mesh_build(&ld->s->meshes[*id], md.pos, md.nverts, md.index, md.ntris, md.normal, md.uv,
                     smooth, md.ntris >= 50000 ? parallel_cores() : 1, ld->err);
     ld->s->build_s += clock_now() - t0;
+    size_t built = mesh_bytes(&ld->s->meshes[*id]); /* the estimate's excess given back */
+    if (st == RAYD_OK && built < charged) sj_give_back(ld, charged - built);
     return st; /* the mesh owns the arrays now, even on failure */
 }

@@ -10,6 +10,8 @@
 enum rayd_status sj_mesh(struct loader *ld, const cJSON *oj, const struct jp *at, uint32_t *id);
 /* Appends an empty mesh to the scene's: *id. */
 enum rayd_status sj_add_mesh(struct loader *ld, uint32_t *id);
+/* About the bytes md and the mesh built from it hold (sj_charge's). */
+size_t sj_mesh_bytes(const struct mesh_data *md);
 
 /* What is left of the scene's vertex and triangle limits, for the next
  * mesh a source decodes. */

@@ -7,6 +7,7 @@
  *
  * Images are decoded once, with a pixel limit, and kept as linear floats.
  */
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -26,6 +27,20 @@ enum rayd_status sj_add_texture(struct loader *ld, const struct texture *t, int 
     *index = s->ntextures++;
     return RAYD_OK;
 }
+
+/* The texels a PNG's header announces (0 if it has none to read): what
+ * its decode will take is charged from it before a pixel is decoded. */
+static uint64_t png_texels(const char *d, size_t len) {
+    const unsigned char *b = (const unsigned char *)d;
+    if (len < 24 || memcmp(b, "\x89PNG\r\n\x1a\n", 8) || memcmp(b + 12, "IHDR", 4)) return 0;
+    uint64_t w = (uint64_t)b[16] << 24 | (uint64_t)b[17] << 16 | (uint64_t)b[18] << 8 | b[19];
+    uint64_t h = (uint64_t)b[20] << 24 | (uint64_t)b[21] << 16 | (uint64_t)b[22] << 8 | b[23];
+    return w * h;
+}
+
+/* A decoded texel: its linear floats, and the 8-bit pixels they are made
+ * from, held together for a moment. */
+#define SJ_TEXEL_CHARGE (3 * sizeof(float) + 4)
 
 static enum rayd_status load_image(struct loader *ld, const cJSON *tj, const struct jp *at,
                                    struct texture *t) {
@@ -57,15 +72,26 @@ static enum rayd_status load_image(struct loader *ld, const cJSON *tj, const str
                        "the scene's image textures together are over the limit of %ld pixels",
                        sj_max_texels(ld));
     }
-    enum rayd_status st =
-        rayd_png_decode(data, len, room < TEXTURE_MAX_PIXELS ? room : TEXTURE_MAX_PIXELS, &img, &e);
+    long max = room < TEXTURE_MAX_PIXELS ? room : TEXTURE_MAX_PIXELS;
+    uint64_t texels = png_texels(data, len);
+    enum rayd_status st = texels > 0 && texels <= (uint64_t)max
+                              ? sj_charge(ld, &p, (size_t)texels * SJ_TEXEL_CHARGE)
+                              : RAYD_OK; /* else the decoder refuses it */
+    if (st != RAYD_OK) {
+        free(data);
+        return st;
+    }
+    st = rayd_png_decode(data, len, max, &img, &e);
     free(data);
+    if (file) sj_give_back(ld, len + 1); /* the file read, charged by sj_read_asset */
     if (st != RAYD_OK) return sj_fail(ld, st, &p, "%s", e.message);
     ld->texels += (long)img->w * img->h;
     t->w = img->w;
     t->h = img->h;
     t->rgb = texture_linear_from_srgb8(img->px, img->w, img->h);
     rayd_image_free(img);
+    if (texels > 0 && texels <= (uint64_t)max) /* the 8-bit pixels are gone */
+        sj_give_back(ld, (size_t)texels * (SJ_TEXEL_CHARGE - 3 * sizeof(float)));
     if (!t->rgb) return err_set(ld->err, RAYD_E_NOMEM, p.s, "out of memory for a texture");
     return RAYD_OK;
 }

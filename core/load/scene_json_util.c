@@ -5,6 +5,7 @@
  */
 #define _GNU_SOURCE /* realpath, syscall (openat2) */
 #include <errno.h>
+#include <limits.h>
 #include <fcntl.h>
 #include <linux/openat2.h>
 #include <stdint.h>
@@ -24,6 +25,22 @@
 long sj_max_texels(const struct loader *ld) {
     long m = ld->lim->max_texels;
     return m > 0 && m < TEXTURE_MAX_SCENE_PIXELS ? m : TEXTURE_MAX_SCENE_PIXELS;
+}
+
+enum rayd_status sj_charge(struct loader *ld, const struct jp *at, size_t bytes) {
+    if (!ld->lim->charge || bytes == 0) return RAYD_OK;
+    char why[200] = "";
+    long long n = bytes > (size_t)LLONG_MAX ? LLONG_MAX : (long long)bytes;
+    enum rayd_status st = ld->lim->charge(ld->lim->charge_arg, n, why, sizeof why);
+    if (st == RAYD_OK) return RAYD_OK;
+    return sj_fail(ld, st, at, "%s", why[0] ? why : "no memory for this value");
+}
+
+void sj_give_back(struct loader *ld, size_t bytes) {
+    if (!ld->lim->charge || bytes == 0) return;
+    char why[8];
+    long long n = bytes > (size_t)LLONG_MAX ? LLONG_MAX : (long long)bytes;
+    (void)ld->lim->charge(ld->lim->charge_arg, -n, why, sizeof why);
 }
 
 const char *sj_type_name(const cJSON *v) {
@@ -316,6 +333,12 @@ static enum rayd_status asset_open(struct loader *ld, const char *name, const st
                    strerror(errno));
 }
 
+/* st, after closing fd when it is an error. */
+static enum rayd_status close_on_fail(int fd, enum rayd_status st) {
+    if (st != RAYD_OK) close(fd);
+    return st;
+}
+
 /* Reads a file named by a scene, under the limits' asset rules. */
 enum rayd_status sj_read_asset(struct loader *ld, const cJSON *f, const struct jp *at, char **out,
                                size_t *len) {
@@ -342,6 +365,7 @@ enum rayd_status sj_read_asset(struct loader *ld, const cJSON *f, const struct j
         close(fd);
         return sj_fail(ld, RAYD_E_LIMIT, at, "file is over the limit of %zu bytes", max);
     }
+    TRY(close_on_fail(fd, sj_charge(ld, at, (size_t)st.st_size + 1)));
     /* the file may grow while it is read: stop past max + 1 bytes.  A big
      * file goes to huge pages (hugemem.c): read() into 4 KiB pages faulted
      * once a page, 85% of a 1.3M-triangle PLY load's page faults */

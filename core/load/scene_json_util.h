@@ -109,6 +109,12 @@ enum rayd_status sj_type(struct loader *ld, const cJSON *obj, const struct jp *a
 enum rayd_status sj_bool(struct loader *ld, const cJSON *obj, const struct jp *at, const char *key,
                          bool def, bool *out);
 
+/* Tells the limits' charge (if any) that the value at *at is about to
+ * take bytes; its refusal is the error at *at. */
+enum rayd_status sj_charge(struct loader *ld, const struct jp *at, size_t bytes);
+/* Gives back bytes charged that are freed before the parse ends. */
+void sj_give_back(struct loader *ld, size_t bytes);
+
 /* Reads a file a scene names, under the limits' asset rules. */
 enum rayd_status sj_read_asset(struct loader *ld, const cJSON *f, const struct jp *at, char **out,
                                size_t *len);

@@ -102,6 +102,21 @@ struct rayd_limits {
      * 4096) means the default.  rayd lowers it to what its memory budget
      * has room for. */
     long max_texels;
+    /* An account of the memory the parse is about to take, or NULL (the
+     * default): before it decodes an image (texture or environment), reads
+     * a file or builds a mesh and its BVH, the loader calls charge with
+     * about the bytes that will hold (charge_arg passed back); once a
+     * step's working copy is freed, or a mesh built smaller than charged,
+     * it calls it with the negative difference (given back: always
+     * RAYD_OK).  RAYD_OK goes on; any other status (RAYD_E_LIMIT: the
+     * scene alone is too big, RAYD_E_NOMEM: no room now) ends the parse
+     * with that status, the message written to why (why_len bytes) and the
+     * JSON Pointer of the value being loaded.  Called on the parsing
+     * thread only.  rayd charges its memory budget (--max-memory) with it,
+     * so that a scene is counted while it is built, not only once it
+     * exists. */
+    enum rayd_status (*charge)(void *charge_arg, long long bytes, char *why, size_t why_len);
+    void *charge_arg;
 };
 
 /* Fills lim with the documented defaults (docs/scene-format.md). */

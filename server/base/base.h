@@ -177,6 +177,7 @@ void mem_release(enum mem_kind k, size_t n);
 void mem_move(enum mem_kind from, enum mem_kind to, size_t n);
 void mem_freed(size_t n); /* bytes freed that were never counted: for mem_trim */
 size_t mem_used(enum mem_kind k);
+size_t mem_peak(void); /* the highest total counted since the start */
 /* Gives freed heap back to the kernel once enough was released since the
  * last time (malloc_trim), and, once idle (no render left), the frames the
  * core keeps for reuse.  Called by the watcher only, one thread (it takes

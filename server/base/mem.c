@@ -44,7 +44,8 @@
 static size_t mem_limit_bytes = SIZE_MAX;
 static atomic_size_t mem_total_bytes;
 static atomic_size_t mem_kind_bytes[MEM__COUNT];
-static atomic_size_t mem_released; /* since the last trim */
+static atomic_size_t mem_released;   /* since the last trim */
+static atomic_size_t mem_peak_bytes; /* the highest mem_total_bytes has been */
 static bool (*mem_reclaimer)(enum mem_kind k, size_t need);
 
 const char *mem_kind_name(enum mem_kind k) {
@@ -74,6 +75,13 @@ size_t mem_limit(void) { return mem_limit_bytes; }
 
 void mem_set_reclaim(bool (*reclaim)(enum mem_kind k, size_t need)) { mem_reclaimer = reclaim; }
 
+/* Raises the peak to total if it is higher. */
+static void mem_note_peak(size_t total) {
+    size_t peak = atomic_load(&mem_peak_bytes);
+    while (total > peak && !atomic_compare_exchange_weak(&mem_peak_bytes, &peak, total))
+        ;
+}
+
 /* mem_reserve without reclaiming: callable with any lock held. */
 static bool mem_try(enum mem_kind k, size_t n) {
     size_t cur = atomic_load(&mem_total_bytes);
@@ -81,6 +89,7 @@ static bool mem_try(enum mem_kind k, size_t n) {
         if (n > mem_limit_bytes || cur > mem_limit_bytes - n) return false;
     } while (!atomic_compare_exchange_weak(&mem_total_bytes, &cur, cur + n));
     atomic_fetch_add(&mem_kind_bytes[k], n);
+    mem_note_peak(cur + n);
     return true;
 }
 
@@ -92,8 +101,9 @@ bool mem_reserve(enum mem_kind k, size_t n) {
 }
 
 void mem_force(enum mem_kind k, size_t n) {
-    atomic_fetch_add(&mem_total_bytes, n);
+    size_t total = atomic_fetch_add(&mem_total_bytes, n) + n;
     atomic_fetch_add(&mem_kind_bytes[k], n);
+    mem_note_peak(total);
 }
 
 void mem_release(enum mem_kind k, size_t n) {
@@ -111,6 +121,8 @@ void mem_move(enum mem_kind from, enum mem_kind to, size_t n) {
 }
 
 size_t mem_used(enum mem_kind k) { return atomic_load(&mem_kind_bytes[k]); }
+
+size_t mem_peak(void) { return atomic_load(&mem_peak_bytes); }
 
 void mem_trim(bool idle) {
     static bool kept; /* the core may keep freed frames: give them back once idle */

@@ -354,6 +354,10 @@ static void metrics_memory_text(struct metrics_buf *b) {
                    "# HELP rayd_memory_limit_bytes The memory budget (--max-memory).\n"
                    "# TYPE rayd_memory_limit_bytes gauge\nrayd_memory_limit_bytes %zu\n",
                    mem_limit());
+    metrics_printf(b,
+                   "# HELP rayd_memory_peak_bytes The highest the budget's count has been.\n"
+                   "# TYPE rayd_memory_peak_bytes gauge\nrayd_memory_peak_bytes %zu\n",
+                   mem_peak());
 }
 
 char *metrics_text(size_t *len) {

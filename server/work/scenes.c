@@ -23,16 +23,22 @@
  * Retry-After, or 413 when it alone is over the whole budget) before
  * anything holds it.
  *
- * A parse is counted too, before it starts: what it may build is held to a
- * cap (its triangles, texels and bytes read, scenes_room), and that cap is
- * reserved in the budget as kind "parses" (compile.c, when the body is
- * queued).  The first cap is small, from the body's size
- * (scenes_parse_cap); a scene that needs more is refused by the core at
- * the first value over it, and parsed again under a cap SCENES_PARSE_STEP
- * times larger, reserved first, up to the whole budget -- so the parses of
- * big scenes cost about a third more, and no parse holds memory the budget
- * did not grant.  When the scene is built its reservation becomes the
- * scene's own bytes (kind scenes) and the rest is released.
+ * A parse is counted too, before it starts and while it builds.  When its
+ * body is queued (compile.c) a first cap, from the body's size
+ * (scenes_parse_cap: its JSON tree, inline meshes and data URIs), is
+ * reserved as kind "parses".  Then the core tells, before each image it
+ * decodes, each file it reads and each mesh it builds, about the bytes that
+ * will hold (rayd_limits.charge, scenes_charge here): what passes the
+ * reservation is reserved first, so the count grows with the parse rather
+ * than after it.  A charge with no room now ends the parse 503 memory_full
+ * (Retry-After); one that takes the scene over the whole budget (less its
+ * own body) ends it 413, at the JSON Pointer of the value that did.  So a
+ * parse that ends refused never held more than the count said, give or
+ * take the value being decoded.  When the scene is built its measured bytes
+ * (rayd_scene_info) replace the reservation: they become kind scenes and
+ * the rest is released.  The core's own limits (triangles, texels, bytes
+ * read) are set to the whole budget as well (scenes_room), so a scene whose
+ * single value is over the budget is refused before it is decoded.
  */
 #include "work/work_private.h"
 
@@ -74,11 +80,11 @@ bool scenes_current(struct cache_entry *e, bool have_text) {
 #define SCENES_TEXEL_BYTES 12
 
 /* A parse's first cap: SCENES_PARSE_FLOOR, and SCENES_PARSE_PER_BYTE bytes
- * a byte of text (its JSON tree, inline meshes and data URIs decoded); each
- * raise multiplies it by SCENES_PARSE_STEP, up to the whole budget. */
+ * a byte of text (its JSON tree, inline meshes and data URIs decoded);
+ * each charge past the reservation grows it by at least SCENES_PARSE_GROW. */
 #define SCENES_PARSE_FLOOR ((size_t)4 << 20)
 #define SCENES_PARSE_PER_BYTE 32
-#define SCENES_PARSE_STEP 4
+#define SCENES_PARSE_GROW ((size_t)1 << 20)
 
 size_t scenes_parse_cap(size_t len) {
     size_t limit = mem_limit();
@@ -87,14 +93,13 @@ size_t scenes_parse_cap(size_t len) {
     return SCENES_PARSE_FLOOR + len * SCENES_PARSE_PER_BYTE;
 }
 
-/* A scene may not build more than its parse's cap (at most the whole memory
- * budget): its triangles, its decoded textures and the files and buffers it
- * reads are held to it (the text itself, already read, keeps --max-body),
- * so a few bytes of glTF or PNG are refused 413 with the JSON Pointer of
- * what is too big, rather than building hundreds of MB first.  The last cap
- * is the budget, not the room left now, so the 413 does not depend on other
- * requests: what the room allows is decided as the cap is raised and once
- * the scene is built (scenes_reserve, 503). */
+/* A scene may not build more than the whole memory budget (less its own
+ * text): its triangles, its decoded textures and the files and buffers it
+ * reads are each held to it (the text itself, already read, keeps
+ * --max-body), so a few bytes of glTF or PNG are refused 413 with the JSON
+ * Pointer of what is too big, rather than building hundreds of MB first.
+ * The cap is the budget, not the room left now, so the 413 does not depend
+ * on other requests: the room now is scenes_charge's (503). */
 static void scenes_room(struct rayd_limits *lim, size_t cap) {
     size_t room = cap;
     if ((size_t)lim->max_triangles > room / SCENES_TRIANGLE_BYTES)
@@ -105,9 +110,55 @@ static void scenes_room(struct rayd_limits *lim, size_t cap) {
     if (lim->max_bytes > room) lim->max_bytes = room > floor ? room : floor;
 }
 
+/* A parse's account in the budget (rayd_limits.charge's argument): held,
+ * the bytes of kind parses reserved for it; charged, what the core said it
+ * takes, beyond the first cap's share; last, the most the scene may take. */
+struct scenes_meter {
+    size_t held, charged, last;
+    bool full; /* refused because the budget had no room now */
+};
+
+/* The core's charge: reserves what passes the reservation, or refuses
+ * (413 past the whole budget, 503 with no room now); a negative delta is
+ * given back (the working copy of a step freed). */
+static enum rayd_status scenes_charge(void *arg, long long delta, char *why, size_t why_len) {
+    struct scenes_meter *m = arg;
+    if (delta < 0) { /* given back: the reservation stays the parse's, for what comes next */
+        size_t back = (size_t) - (delta + 1) + 1;
+        m->charged -= back < m->charged ? back : m->charged;
+        return RAYD_OK;
+    }
+    size_t bytes = (size_t)delta;
+    m->charged = bytes > SIZE_MAX - m->charged ? SIZE_MAX : m->charged + bytes;
+    if (m->charged <= m->held) return RAYD_OK;
+    if (m->charged > m->last) {
+        metrics_reject(MR_MEMORY);
+        snprintf(why, why_len,
+                 "brings the scene to more than %zu bytes, over the memory budget of %zu bytes "
+                 "(--max-memory)",
+                 m->last, mem_limit());
+        return RAYD_E_LIMIT;
+    }
+    size_t grow = m->charged - m->held;
+    if (grow < SCENES_PARSE_GROW) grow = SCENES_PARSE_GROW;
+    if (grow > m->last - m->held) grow = m->last - m->held;
+    if (!mem_reserve(MEM_PARSES, grow)) {
+        metrics_reject(MR_MEMORY);
+        m->full = true;
+        snprintf(why, why_len,
+                 "brings the scene to %zu bytes and the memory budget of %zu bytes "
+                 "(--max-memory) has no room for it now; retry later",
+                 m->charged, mem_limit());
+        return RAYD_E_NOMEM;
+    }
+    m->held += grow;
+    return RAYD_OK;
+}
+
 /* Parses and builds body outside the lock, timing each stage. */
-static enum rayd_status scenes_compile(const char *body, size_t len, long frame, size_t cap,
-                                       rayd_scene **scene, struct rayd_error *err) {
+static enum rayd_status scenes_compile(const char *body, size_t len, long frame,
+                                       struct scenes_meter *m, rayd_scene **scene,
+                                       struct rayd_error *err) {
     struct rayd_limits lim;
     if (scenes_limits_set) {
         lim = scenes_limits;
@@ -118,7 +169,9 @@ static enum rayd_status scenes_compile(const char *body, size_t len, long frame,
         if (lim.max_bytes < (size_t)config.max_body) lim.max_bytes = (size_t)config.max_body;
         lim.asset_dir = config.asset_dir; /* confined (asset_confine) */
     }
-    scenes_room(&lim, cap);
+    scenes_room(&lim, m->last);
+    lim.charge = scenes_charge;
+    lim.charge_arg = m;
     metrics_scene_parse();
     double t0 = clock_now();
     enum rayd_status st = frame < 0 ? rayd_scene_parse(body, len, &lim, scene, err)
@@ -186,25 +239,12 @@ static enum rayd_status scenes_reserve(rayd_scene *scene, size_t held, struct ra
     return err->code;
 }
 
-/* Parses body under the cap held, raising the cap (reserved first) while
- * the core refuses a value over it and the cap is under the budget. */
-static enum rayd_status scenes_parse_within(const char *body, size_t len, long frame, size_t *held,
-                                            rayd_scene **scene, struct rayd_error *err,
-                                            bool *full) {
-    /* the last cap: the budget less the body's buffer, counted too (twice
-     * the text at most: a chunked body's buffer grows by doubling) */
+/* The most a scene of len bytes of text may take: the budget less the
+ * body's buffer, counted too (twice the text at most: a chunked body's
+ * buffer grows by doubling). */
+static size_t scenes_last_cap(size_t len) {
     size_t text = 2 * len + 4096;
-    size_t limit = mem_limit() > text ? mem_limit() - text : 0;
-    for (;;) {
-        enum rayd_status st = scenes_compile(body, len, frame, *held, scene, err);
-        if (st != RAYD_E_LIMIT || *held >= limit) return st;
-        size_t next = *held > limit / SCENES_PARSE_STEP ? limit : *held * SCENES_PARSE_STEP;
-        if (!mem_reserve(MEM_PARSES, next - *held)) {
-            scenes_full(err, "parsing this scene needs more than", *held, full);
-            return RAYD_E_NOMEM;
-        }
-        *held = next;
-    }
+    return mem_limit() > text ? mem_limit() - text : 0;
 }
 
 bool scenes_id(const char *body, size_t len, char id[65], struct rayd_error *err) {
@@ -216,13 +256,17 @@ bool scenes_id(const char *body, size_t len, char id[65], struct rayd_error *err
 enum rayd_status scenes_build(const char *id, const char *body, size_t len, long frame, size_t held,
                               struct cache_entry **out, struct rayd_error *err, bool *full) {
     rayd_scene *scene = NULL;
-    *full = false;
-    enum rayd_status st = scenes_parse_within(body, len, frame, &held, &scene, err, full);
+    /* the first cap's share of the text (its JSON tree) is taken; the
+     * core's charges start on the rest */
+    size_t tree = len > held / SCENES_PARSE_PER_BYTE ? held : len * SCENES_PARSE_PER_BYTE;
+    struct scenes_meter m = {.held = held, .charged = tree, .last = scenes_last_cap(len)};
+    enum rayd_status st = scenes_compile(body, len, frame, &m, &scene, err);
+    *full = st == RAYD_E_NOMEM && m.full;
     if (st != RAYD_OK) {
-        mem_release(MEM_PARSES, held);
+        mem_release(MEM_PARSES, m.held);
         return st;
     }
-    st = scenes_reserve(scene, held, err, full);
+    st = scenes_reserve(scene, m.held, err, full);
     if (st != RAYD_OK) return st;
     char version[65];
     struct cache_entry *e = NULL;

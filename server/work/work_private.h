@@ -99,7 +99,8 @@ bool scenes_id(const char *body, size_t len, char id[65], struct rayd_error *err
 struct cache_entry *scenes_peek(const char *id);            /* referenced, files not checked */
 bool scenes_current(struct cache_entry *e, bool have_text); /* scenefiles_usable */
 /* The bytes a parse of a len-byte body reserves (kind parses) before it
- * starts: its first cap, raised by scenes_build while the scene needs more. */
+ * starts: its first cap, grown by scenes_build as the core charges what it
+ * decodes and builds. */
 size_t scenes_parse_cap(size_t len);
 /* Parses and builds body (of that id) at frame `frame` (-1: as
  * rayd_scene_parse, the first) and caches it; *out referenced.  held:

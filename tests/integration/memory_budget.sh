@@ -5,7 +5,10 @@
 # counted together; past the budget a request is refused 503 with
 # Retry-After (413 when it alone is over the whole budget) instead of rayd
 # growing; a scene's parse holds its cap (kind "parses") from when it is
-# queued, so parses held at the gate fill the budget and the next is 503; finished results are let go oldest first and the job says so
+# queued, so parses held at the gate fill the budget and the next is 503;
+# while it builds each value is charged before it is decoded, so a scene
+# over the budget is refused before it is built and the resident size stays
+# within the budget plus a stated slack; finished results are let go oldest first and the job says so
 # (state "evicted", its image 410 result_evicted); /metrics shows each kind.
 # The budget here is 16 MiB, so the whole test stays in tens of MB.  Work is
 # held by the test gate, never by a sleep.
@@ -26,9 +29,8 @@ kinds_shown() {
 check metrics_kinds "rayd_memory_bytes{kind=...} or rayd_memory_limit_bytes missing" kinds_shown
 
 # --- a glTF whose accessor has no bufferView counts its zeros -------------------------------
-# (first, while the budget holds nothing: the parse's cap is
-# raised up to the whole budget, less its own body, before the core can say
-# the scene alone is over it, 413; with no room for that: 503 memory_full)
+# (its accessor alone is over the core's limit, the whole budget less its
+# own body: 413 before a byte of it is made, whatever else the budget holds)
 $HELP gltf_zeros "$T/zeros.json" 15000000
 code=$(post_json /v1/render "$T/zeros.json" -m 30)
 if [ "$code" = 413 ] && [ "$(json "$T/body" 'j["error"]["path"]')" = /objects/0/source/gltf/accessors/0/count ]; then
@@ -135,6 +137,37 @@ code=$(post_json /v1/jobs "$T/tex9.json")
 check cached_scenes_make_room "a new scene after the jobs were deleted: $code $(head -c 200 "$T/body")" \
     [ "$code" = 202 ]
 req DELETE "/v1/jobs/$(jfield "$T/body" id)" >/dev/null
+
+# --- a parse is counted while it builds, not once built ------------------------------
+# one scene of a 1000 x 1000 texture (12 MB decoded) and a glTF mesh of
+# 130,000 zero-area triangles: each under the limits the 16 MiB budget sets
+# alone, both together over it.  The core charges each value before it is
+# decoded or built, so the parse is refused 413 when the mesh would pass the
+# budget, instead of building both (about 30 MB) and refusing the scene
+# after.  Resident memory, from the peak reset here, stays within what the
+# count left free plus PARSE_SLACK: the value being decoded when the parse
+# is refused (the mesh's arrays, decoded before their charge) and the
+# allocator's own.  The count itself never passes the budget.
+PARSE_SLACK=$((16 * 1048576))
+echo 5 >"/proc/$RAYD_PID/clear_refs" # VmHWM from here
+rss0=$(rayd_rss) count0=$(memory_total)
+$HELP texture_mesh "$T/tm.json" 1000 390000
+code=$(post_json /v1/render "$T/tm.json" -m 60)
+hwm=$(awk '/^VmHWM:/ {print $2 * 1024}' "/proc/$RAYD_PID/status")
+if [ "$code" = 413 ] && err_is "$T/body" 413 too_large &&
+    grep -q '"path":"/objects/1/source"' "$T/body"; then
+    pass parse_charged_413
+else
+    fail parse_charged_413 "texture and mesh over the budget together: $code $(head -c 300 "$T/body")"
+fi
+if sanitized || [ "$hwm" -le $((rss0 + LIMIT - count0 + PARSE_SLACK)) ]; then
+    pass parse_rss_bounded
+else
+    fail parse_rss_bounded "VmHWM $hwm over $rss0 resident + $((LIMIT - count0)) free in the budget + $PARSE_SLACK"
+fi
+peak=$(metric rayd_memory_peak_bytes)
+check count_never_past_budget "the count peaked at ${peak:-none} of $LIMIT" \
+    [ "${peak:-$((LIMIT + 1))}" -le "$LIMIT" ]
 
 # --- a sums answer bigger than the budget -----------------------------------------------
 scene "$T/big.json" 1024 1024 1

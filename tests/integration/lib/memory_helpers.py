@@ -7,6 +7,10 @@ tests/tools/memory_table.sh).
                                         (decoded: SIDE^2 texels each)
   gltf_zeros OUT COUNT                  a mesh whose glTF POSITION accessor has
                                         COUNT elements and no bufferView
+  texture_mesh OUT SIDE COUNT           one SIDE x SIDE texture and a gltf_zeros
+                                        mesh of COUNT vertices in one scene: each
+                                        under the budget's own limits, both
+                                        together over it
   slow_bodies PORT N LEN DIR            N connections, each declaring a body of
                                         LEN bytes with Expect: 100-continue;
                                         those told to continue send all but
@@ -55,17 +59,28 @@ def texture_scene(out, side, n, tag):
     open(out, "w").write(json.dumps(scene))
 
 
-def gltf_zeros(out, count):
+def zeros_mesh(count):
     doc = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],
            "nodes": [{"mesh": 0}],
            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
            "accessors": [{"componentType": 5126, "count": count, "type": "VEC3",
                           "min": [0, 0, 0], "max": [0, 0, 0]}]}
+    return {"type": "mesh", "material": "m", "source": {"format": "gltf", "text": json.dumps(doc)}}
+
+
+def gltf_zeros(out, count):
     scene = {"camera": {"position": [0, 0, 3], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov_x": 60},
              "render": {"width": 8, "height": 8, "samples": 1},
              "materials": {"m": {"color": [1, 1, 1]}},
-             "objects": [{"type": "mesh", "material": "m",
-                          "source": {"format": "gltf", "text": json.dumps(doc)}}]}
+             "objects": [zeros_mesh(count)]}
+    open(out, "w").write(json.dumps(scene))
+
+
+def texture_mesh(out, side, count):
+    texture_scene(out, side, 1, 1)
+    scene = json.load(open(out))
+    scene["materials"]["m"] = {"color": [1, 1, 1]}
+    scene["objects"].append(zeros_mesh(count))
     open(out, "w").write(json.dumps(scene))
 
 
@@ -105,6 +120,8 @@ if __name__ == "__main__":
         texture_scene(sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), sys.argv[5])
     elif cmd == "gltf_zeros":
         gltf_zeros(sys.argv[2], int(sys.argv[3]))
+    elif cmd == "texture_mesh":
+        texture_mesh(sys.argv[2], int(sys.argv[3]), int(sys.argv[4]))
     elif cmd == "slow_bodies":
         slow_bodies(int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]), sys.argv[5])
     else:
