@@ -33,8 +33,9 @@ struct denoise_params {
 
 /* The pixels around a region the filter reads to give the region's pixels
  * the values they have in the whole frame: the firefly test's 1, and at
- * each level i the variance blur's 1 and the kernel's 2 * 2^i. */
-#define DENOISE_APRON (1 + DENOISE_LEVELS_MAX + 2 * ((1 << DENOISE_LEVELS_MAX) - 1))
+ * each level i the kernel's 2 * 2^i (the variance blur's 1 lies inside
+ * it): 63.  tests/unit/test_denoise.c checks that one less is not enough. */
+#define DENOISE_APRON (1 + 2 * ((1 << DENOISE_LEVELS_MAX) - 1))
 
 void denoise_defaults(struct denoise_params *p);
 
