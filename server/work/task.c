@@ -127,7 +127,8 @@ void task_key(char *key, size_t size, const char *id, const struct work_target *
     if (what->format == WORK_SUMS && n > 0 && (size_t)n < size)
         snprintf(key + n, size - (size_t)n, "%d-%d", what->k0, what->k1);
     else if (what->aov && n > 0 && (size_t)n < size) /* render/aov.c: other pixels */
-        snprintf(key + n, size - (size_t)n, "+aov%u", what->aov);
+        n += snprintf(key + n, size - (size_t)n, "+aov%u", what->aov);
+    if (what->denoise && n > 0 && (size_t)n < size) snprintf(key + n, size - (size_t)n, "+dn");
 }
 
 /* The task's pixel store: bytes for the PNG (and linear floats beside
@@ -168,6 +169,7 @@ struct task *task_new(struct cache_entry *scene, const struct work_target *what)
     t->format = what->format;
     t->keep_exr = what->format == WORK_PNG && what->keep_exr;
     t->aov_mask = what->aov;
+    t->denoise = what->denoise;
     t->k0 = what->k0;
     t->k1 = what->k1;
     const rayd_scene *rs = cache_scene(scene);
