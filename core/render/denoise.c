@@ -152,6 +152,10 @@ static float dn_var_blur(const struct dn_job *j, int x, int y) {
     return s / ws;
 }
 
+/* Past this exponent a tap's weight (e^-20, 2e-9) is taken as 0: it
+ * changes no output, and skips the exp and its denormals. */
+#define DN_E_MAX 20.0f
+
 /* The edge-stopping exponent between p and q, dist pixels apart; < 0
  * when q must not count at all (a surface against the background, or
  * normals facing apart). */
@@ -160,16 +164,16 @@ static float dn_edge(const struct dn_job *j, size_t p, size_t q, float lp, float
     const struct denoise_px *a = &j->in[p], *b = &j->in[q];
     const struct denoise_params *pr = j->p;
     float e = fabsf(lp - lq) / lscale;
-    if (dn_hit(a) != dn_hit(b)) return -1;
+    if (dn_hit(a) != dn_hit(b) || e > DN_E_MAX) return -1;
     if (!dn_hit(a)) return e;
     const float *na = j->un + p * 3, *nb = j->un + q * 3;
     float dot = na[0] * nb[0] + na[1] * nb[1] + na[2] * nb[2];
     if (dot <= 1e-4f) return -1;
-    e -= pr->sigma_n * logf(dot > 1 ? 1 : dot);
+    if (dot < 0.99999f) e -= pr->sigma_n * logf(dot);
     e += fabsf(a->z - b->z) / (pr->sigma_z * a->z * dist + 1e-6f);
     e += (fabsf(a->a[0] - b->a[0]) + fabsf(a->a[1] - b->a[1]) + fabsf(a->a[2] - b->a[2])) /
          pr->sigma_a;
-    return e;
+    return e > DN_E_MAX ? -1 : e;
 }
 
 /* One a-trous level over rows lo..hi-1: src to dst. */
