@@ -142,7 +142,8 @@ static struct score score(const float *img, const float *ref, int w, int h) {
                     va += da * da, vb += db * db, cov += da * db;
                 }
             va /= 63, vb /= 63, cov /= 63;
-            ssim += (2 * ma * mb + c1) * (2 * cov + c2) / ((ma * ma + mb * mb + c1) * (va + vb + c2));
+            ssim +=
+                (2 * ma * mb + c1) * (2 * cov + c2) / ((ma * ma + mb * mb + c1) * (va + vb + c2));
             windows++;
         }
     free(la), free(lb);
@@ -241,14 +242,16 @@ int main(int argc, char **argv) {
         printf("| %d | %.4f / %.3f | %.4f / %.3f | %.4f / %.3f | %.4f / %.3f |\n", ns[i], r.rmse,
                r.ssim, d.rmse, d.ssim, t.rmse, t.ssim, b.rmse, b.ssim);
         fflush(stdout);
-        if (ns[i] == 16) in16 = in;
+        if (ns[i] == 16)
+            in16 = in;
         else
             free(in);
         rayd_free(raw);
         rayd_accum_free(a);
     }
     printf("\nsample-count equivalence (raw samples of the same RMSE):");
-    for (int i = 0; i < 3; i++) printf(" denoised %d ~ raw %.0f;", ns[i], equivalent(ns, raw2, den2[i]));
+    for (int i = 0; i < 3; i++)
+        printf(" denoised %d ~ raw %.0f;", ns[i], equivalent(ns, raw2, den2[i]));
     printf("\n");
     if (getenv("DENOISE_SWEEP")) sweep(in16, w, h, rf, out);
     for (int th = 1; th <= 2; th++) {

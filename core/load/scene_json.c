@@ -100,10 +100,9 @@ static enum rayd_status load_aov(struct loader *ld, const cJSON *r, const struct
 }
 
 static enum rayd_status load_render(struct loader *ld, const cJSON *root) {
-    static const char *const keys[] = {"width",      "height", "samples",    "max_depth",
-                                       "background", "seed",   "integrator", "environment",
-                                       "aov",        "denoise", "clamp_indirect",
-                                       "filter_glossy", NULL};
+    static const char *const keys[] = {
+        "width",       "height", "samples", "max_depth",      "background",    "seed", "integrator",
+        "environment", "aov",    "denoise", "clamp_indirect", "filter_glossy", NULL};
     static const char *const integrators[] = {"whitted", "path", NULL};
     struct jp at = {.s = "/render"};
     cJSON empty;

@@ -32,7 +32,6 @@
 #include "render/srgb.h"
 #include "scene/scene.h"
 
-
 enum rayd_status rayd_accum_new(const rayd_scene *s, const struct rayd_region *region,
                                 rayd_accum **out, struct rayd_error *err) {
     struct rayd_region r = {0, 0, s->rs.width, s->rs.height};
@@ -251,8 +250,9 @@ enum rayd_status rayd_accum_merge(rayd_accum *dst, const rayd_accum *src, struct
     if (dst->centre || src->centre)
         return err_set(err, RAYD_E_ARG, NULL, "a one-sample centre image is no sample range");
     if (dst->denoise || src->denoise)
-        return err_set(err, RAYD_E_ARG, NULL, "denoised accumulators are not merged: merge "
-                                              "plain ones and denoise the image made of them");
+        return err_set(err, RAYD_E_ARG, NULL,
+                       "denoised accumulators are not merged: merge "
+                       "plain ones and denoise the image made of them");
     size_t px = (size_t)dst->r.w * (size_t)dst->r.h;
     if (dst->aov) /* before add_sums counts the samples in */
         for (size_t i = 0; i < px * AOV_SUMS; i++) dst->aov[i] += src->aov[i]; /* exact */

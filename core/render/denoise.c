@@ -71,9 +71,9 @@ struct dn_job {
     const struct denoise_px *in;
     int w, h, step;
     const struct denoise_params *p;
-    float *un;                  /* unit normals, 3 a pixel */
-    float *lum;                 /* demodulated luminance (stage 1) */
-    struct dn_work *src, *dst;  /* the level's input and output */
+    float *un;                 /* unit normals, 3 a pixel */
+    float *lum;                /* demodulated luminance (stage 1) */
+    struct dn_work *src, *dst; /* the level's input and output */
     float *out;
 };
 
@@ -254,8 +254,9 @@ bool denoise_run(const struct denoise_px *in, int w, int h, const struct denoise
         parallel_for(rows, threads, chunk, dn_prepare, &j);
         parallel_for(rows, threads, chunk, dn_firefly, &j);
         dn_swap(&j);
-        int levels = p->levels < 0 ? 0 : p->levels > DENOISE_LEVELS_MAX ? DENOISE_LEVELS_MAX
-                                                                        : p->levels;
+        int levels = p->levels < 0                    ? 0
+                     : p->levels > DENOISE_LEVELS_MAX ? DENOISE_LEVELS_MAX
+                                                      : p->levels;
         for (int i = 0; i < levels; i++) {
             j.step = 1 << i;
             parallel_for(rows, threads, chunk, dn_level, &j);

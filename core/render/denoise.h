@@ -9,24 +9,24 @@
  * mean luminance estimated from its samples (negative: unknown, as for a
  * one-sample render; then the filter estimates it from the neighbours). */
 struct denoise_px {
-    float c[3];     /* radiance, the samples' mean */
-    float a[3];     /* albedo */
-    float n[3];     /* shading normal, averaged (zero where nothing was hit) */
-    float z;        /* depth; +infinity where nothing was hit */
-    float alpha;    /* coverage, 0..1 */
-    float var;      /* variance of the mean's luminance, or < 0: unknown */
+    float c[3];  /* radiance, the samples' mean */
+    float a[3];  /* albedo */
+    float n[3];  /* shading normal, averaged (zero where nothing was hit) */
+    float z;     /* depth; +infinity where nothing was hit */
+    float alpha; /* coverage, 0..1 */
+    float var;   /* variance of the mean's luminance, or < 0: unknown */
 };
 
 /* The filter's settings; denoise_defaults gives the measured ones
  * (bench/denoise.c). */
 struct denoise_params {
-    int levels;       /* a-trous levels, 1..DENOISE_LEVELS_MAX; step 2^i at level i */
-    float sigma_l;    /* luminance edge-stopping, in standard deviations */
-    float sigma_n;    /* normal edge-stopping exponent */
-    float sigma_z;    /* relative depth change tolerated per pixel of distance */
-    float sigma_a;    /* albedo difference tolerated */
-    float firefly_k;  /* a pixel brighter than its neighbours' mean + k sigma is clamped there */
-    bool variance;    /* guide by variance (SVGF); false: a fixed luminance scale (a baseline) */
+    int levels;      /* a-trous levels, 1..DENOISE_LEVELS_MAX; step 2^i at level i */
+    float sigma_l;   /* luminance edge-stopping, in standard deviations */
+    float sigma_n;   /* normal edge-stopping exponent */
+    float sigma_z;   /* relative depth change tolerated per pixel of distance */
+    float sigma_a;   /* albedo difference tolerated */
+    float firefly_k; /* a pixel brighter than its neighbours' mean + k sigma is clamped there */
+    bool variance;   /* guide by variance (SVGF); false: a fixed luminance scale (a baseline) */
 };
 
 #define DENOISE_LEVELS_MAX 5

@@ -63,8 +63,13 @@ struct lobes {
 static struct lobes lobes_of(const struct material *m, vec3 color, double rough) {
     double t = m->transparency, mt = m->metallic, r = m->reflectivity;
     double ro = m->roughness > rough ? m->roughness : rough;
-    struct lobes l = {(1 - t) * (1 - mt) * (1 - r), (1 - t) * mt, (1 - t) * (1 - mt) * r, t,
-                      v3_scale(color, m->diffuse),  color,        ro * ro};
+    struct lobes l = {(1 - t) * (1 - mt) * (1 - r),
+                      (1 - t) * mt,
+                      (1 - t) * (1 - mt) * r,
+                      t,
+                      v3_scale(color, m->diffuse),
+                      color,
+                      ro * ro};
     if (l.alpha < 1e-3) { /* a smooth metal is a tinted mirror: treated as delta below */
         l.alpha = 0;
     }

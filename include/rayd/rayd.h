@@ -154,8 +154,8 @@ void rayd_scene_info(const rayd_scene *scene, struct rayd_scene_info *info);
  * glossy bounce (0: none); each < 0 leaves the scene's.  RAYD_E_ARG for
  * a value out of range (clamp_indirect above 32768, filter_glossy above
  * 1, or not a number). */
-enum rayd_status rayd_scene_set_bias(rayd_scene *scene, double clamp_indirect,
-                                     double filter_glossy, struct rayd_error *err);
+enum rayd_status rayd_scene_set_bias(rayd_scene *scene, double clamp_indirect, double filter_glossy,
+                                     struct rayd_error *err);
 
 /* ---- frames: animated scenes ----------------------------------------------
  * A scene with an "animation" block (docs/scene-format.md, "Animation") has

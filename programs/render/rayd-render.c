@@ -222,7 +222,8 @@ static int set_bias_option(int opt, const char *val, struct args *a) {
             return bad_usage("--clamp-indirect takes a luminance in 0..32768 (0: off)");
         a->clamp_indirect = x;
     } else {
-        if (!ok || !(x <= 1)) return bad_usage("--filter-glossy takes a roughness in 0..1 (0: off)");
+        if (!ok || !(x <= 1))
+            return bad_usage("--filter-glossy takes a roughness in 0..1 (0: off)");
         a->filter_glossy = x;
     }
     return 0;

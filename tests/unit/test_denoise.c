@@ -193,8 +193,8 @@ static void test_window(void) {
     struct denoise_px *in = busy(w, h);
     float *whole = run(in, w, h, 1);
     if (!whole) return;
-    window_case(in, whole, w, h, 100, 90, 32, 32); /* inside: the apron all round */
-    window_case(in, whole, w, h, 0, 5, 40, 20);    /* at the left edge */
+    window_case(in, whole, w, h, 100, 90, 32, 32);  /* inside: the apron all round */
+    window_case(in, whole, w, h, 0, 5, 40, 20);     /* at the left edge */
     window_case(in, whole, w, h, 230, 200, 30, 30); /* the bottom right corner */
     window_case(in, whole, w, h, 55, 60, 1, 1);
     free(in), free(whole);
@@ -252,8 +252,8 @@ static void test_accum_region(void) {
     rayd_image *whole = denoised(s, (struct rayd_region){0, 0, 0, 0}, 1);
     rayd_image *whole2 = denoised(s, (struct rayd_region){0, 0, 0, 0}, 2);
     rayd_image *part = denoised(s, (struct rayd_region){37, 21, 30, 25}, 2);
-    CHECK(whole && whole2 && !memcmp(rayd_image_pixels_const(whole),
-                                     rayd_image_pixels_const(whole2), 96 * 80 * 3),
+    CHECK(whole && whole2 &&
+              !memcmp(rayd_image_pixels_const(whole), rayd_image_pixels_const(whole2), 96 * 80 * 3),
           "threads differ");
     int bad = 0;
     for (int y = 0; whole && part && y < 25; y++)
