@@ -147,7 +147,7 @@ ifneq ($(CLIENT_SRC),)
 PROGS += $(BUILD)/rayd-client
 endif
 
-.PHONY: all deps test-deps lint-deps shared install uninstall check-layers test test-unit test-stress test-tsan test-valgrind golden readme-images run bench bench-deps bench-peers format format-check lint fuzz check-exports clean
+.PHONY: all deps test-deps lint-deps shared install uninstall check-layers test test-unit test-stress test-tsan test-valgrind golden readme-images run bench bench-denoise bench-deps bench-peers format format-check lint fuzz check-exports clean
 .DEFAULT_GOAL := all
 
 all: $(BUILD)/librayd.a $(PROGS)
@@ -575,6 +575,14 @@ $(BUILD)/bench/hdrbench: bench/hdrbench.c $(BUILD)/librayd.a
 $(BUILD)/bench/envbench: bench/envbench.c $(BUILD)/librayd.a
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -Iinclude -Icore $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
+
+# The denoiser against a reference and two baselines (bench/denoise.sh).
+$(BUILD)/bench/denoise: bench/denoise.c $(BUILD)/librayd.a
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS_ALL) -Iinclude -Icore $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
+
+bench-denoise: all $(BUILD)/bench/denoise | $(BUILD)/.test-deps-ok
+	@bash bench/denoise.sh $(BUILD)
 
 .PRECIOUS: $(BENCH_DIR)/mesh-%.ply $(BENCH_DIR)/mesh-%.json $(BENCH_DIR)/mesh-%.obj $(BENCH_DIR)/mesh-%-obj.json
 

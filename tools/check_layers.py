@@ -79,7 +79,8 @@ CORE_LAYERS = [
                     "surfaces), scene_packet.c (16 rays at once)"),
     ("core/render/", "render.c (regions, tiles, threads; exact per-pixel sums), accum.c "
                      "(progressive passes and sample ranges), aov.c (AOVs: what each camera ray "
-                     "hits), srgb.c, integrate*.c (Whitted, path, 16-wide), image"),
+                     "hits), denoise.c + accum_denoise.c (the a-trous denoiser and its "
+                     "apron'd accumulator), srgb.c, integrate*.c (Whitted, path, 16-wide), image"),
     ("core/codec/", "image codecs on render/image.h: png.c (decode, 16-bit encode) + png_encode.c "
                     "(parallel bands), exr.c + exr_read.c (EXR out and in; exr_imf.cc: DWA and tiled maps through the C++ library), sums.c (a sample "
                     "range's exact sums as bytes)"),

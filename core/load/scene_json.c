@@ -102,9 +102,9 @@ static enum rayd_status load_aov(struct loader *ld, const cJSON *r, const struct
 }
 
 static enum rayd_status load_render(struct loader *ld, const cJSON *root) {
-    static const char *const keys[] = {"width",      "height", "samples",    "max_depth",
-                                       "background", "seed",   "integrator", "environment",
-                                       "aov",        NULL};
+    static const char *const keys[] = {
+        "width",       "height", "samples", "max_depth",      "background",    "seed", "integrator",
+        "environment", "aov",    "denoise", "clamp_indirect", "filter_glossy", NULL};
     static const char *const integrators[] = {"whitted", "path", NULL};
     struct jp at = {.s = "/render"};
     cJSON empty;
@@ -133,6 +133,9 @@ static enum rayd_status load_render(struct loader *ld, const cJSON *root) {
     rs->max_depth = (int)depth;
     rs->seed = (uint64_t)seed;
     TRY(load_aov(ld, r, &at, &rs->aov));
+    TRY(sj_bool(ld, r, &at, "denoise", false, &rs->denoise));
+    TRY(sj_num(ld, r, &at, "clamp_indirect", 0, 0, false, RENDER_SUM_CAP, &rs->clamp_indirect));
+    TRY(sj_num(ld, r, &at, "filter_glossy", 0, 0, false, 1, &rs->filter_glossy));
     return sj_environment(ld, r, &at);
 }
 

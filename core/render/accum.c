@@ -24,19 +24,13 @@
 #include <string.h>
 
 #include "base/error.h"
+#include "render/accum.h"
 #include "render/aov.h"
+#include "render/denoise.h"
 #include "render/image.h"
 #include "render/render.h"
 #include "render/srgb.h"
 #include "scene/scene.h"
-
-struct rayd_accum {
-    struct rayd_region r;
-    int n;       /* samples summed; -1 after a canceled pass */
-    bool centre; /* the sums are the one-sample (pixel centre) image */
-    double *sum; /* r.w * r.h * 3, rows packed */
-    double *aov; /* NULL, or r.w * r.h * AOV_SUMS (render/aov.h) */
-};
 
 enum rayd_status rayd_accum_new(const rayd_scene *s, const struct rayd_region *region,
                                 rayd_accum **out, struct rayd_error *err) {
@@ -82,10 +76,60 @@ void rayd_accum_free(rayd_accum *a) {
     free(a);
 }
 
+static enum rayd_status accum_resolvable(const rayd_accum *a, struct rayd_error *err);
+
+enum rayd_status rayd_accum_new_denoised(const rayd_scene *s, const struct rayd_region *region,
+                                         rayd_accum **out, struct rayd_error *err) {
+    struct rayd_region v = {0, 0, s->rs.width, s->rs.height};
+    if (region && (region->w || region->h)) v = *region;
+    enum rayd_status st = rayd_region_check(s, &v, err);
+    if (st != RAYD_OK) return st;
+    int x0 = v.x - DENOISE_APRON, y0 = v.y - DENOISE_APRON; /* the apron, inside the image */
+    int x1 = v.x + v.w + DENOISE_APRON, y1 = v.y + v.h + DENOISE_APRON;
+    x0 = x0 < 0 ? 0 : x0;
+    y0 = y0 < 0 ? 0 : y0;
+    x1 = x1 > s->rs.width ? s->rs.width : x1;
+    y1 = y1 > s->rs.height ? s->rs.height : y1;
+    struct rayd_region r = {x0, y0, x1 - x0, y1 - y0};
+    rayd_accum *a = NULL;
+    st = rayd_accum_new(s, &r, &a, err);
+    if (st == RAYD_OK) st = rayd_accum_aov_enable(a, err);
+    if (st != RAYD_OK) {
+        rayd_accum_free(a);
+        return st;
+    }
+    a->denoise = true;
+    a->view = v;
+    *out = a;
+    return RAYD_OK;
+}
+
+int rayd_accum_denoised(const rayd_accum *a) { return a->denoise; }
+
+/* For a denoised accumulator, *tmp: a new plain one of its view, filtered
+ * or not (accum_denoise.c), which the caller resolves and frees; else
+ * *tmp is NULL and a is resolved as it is. */
+static enum rayd_status accum_plain(const rayd_accum *a, bool filter, rayd_accum **tmp,
+                                    struct rayd_error *err) {
+    *tmp = NULL;
+    if (!a->denoise) return RAYD_OK;
+    enum rayd_status st = accum_resolvable(a, err);
+    rayd_accum *v = NULL;
+    if (st == RAYD_OK) st = rayd_accum_new_sized(a->view.w, a->view.h, &v, err);
+    if (st == RAYD_OK && a->aov) st = rayd_accum_aov_enable(v, err);
+    if (st == RAYD_OK) st = accum_denoise_view(a, filter, v, err);
+    if (st != RAYD_OK) {
+        rayd_accum_free(v);
+        return st;
+    }
+    *tmp = v;
+    return RAYD_OK;
+}
+
 int rayd_accum_samples(const rayd_accum *a) { return a->n < 0 ? 0 : a->n; }
 
 struct rayd_region rayd_accum_region(const rayd_accum *a) {
-    return a->r;
+    return a->denoise ? a->view : a->r;
 }
 
 static enum rayd_status accum_usable(const rayd_accum *a, struct rayd_error *err) {
@@ -130,6 +174,7 @@ enum rayd_status rayd_render_pass(const rayd_scene *s, const struct rayd_render_
         a->n = -1;
         return st;
     }
+    a->threads = opts->threads;
     a->n = to;
     a->centre = centre;
     return RAYD_OK;
@@ -155,6 +200,7 @@ enum rayd_status rayd_render_sample_range(const rayd_scene *s, const struct rayd
         a->n = -1;
         return st;
     }
+    a->threads = opts->threads;
     a->n = k1 - k0;
     a->centre = centre;
     return RAYD_OK;
@@ -166,6 +212,9 @@ enum rayd_status rayd_accum_add_sums(rayd_accum *a, const double *sums, int samp
                                      struct rayd_error *err) {
     enum rayd_status st = accum_usable(a, err);
     if (st != RAYD_OK) return st;
+    if (a->denoise)
+        return err_set(err, RAYD_E_ARG, NULL,
+                       "sums are added to a plain accumulator, not a denoised one");
     if (samples < 1 || samples > RENDER_SUM_SAMPLES - a->n)
         return err_set(err, RAYD_E_ARG, "samples", "must be 1..%d, not %d",
                        RENDER_SUM_SAMPLES - a->n, samples);
@@ -200,6 +249,10 @@ enum rayd_status rayd_accum_merge(rayd_accum *dst, const rayd_accum *src, struct
         return err_set(err, RAYD_E_ARG, NULL, "AOVs in one accumulator and not the other");
     if (dst->centre || src->centre)
         return err_set(err, RAYD_E_ARG, NULL, "a one-sample centre image is no sample range");
+    if (dst->denoise || src->denoise)
+        return err_set(err, RAYD_E_ARG, NULL,
+                       "denoised accumulators are not merged: merge "
+                       "plain ones and denoise the image made of them");
     size_t px = (size_t)dst->r.w * (size_t)dst->r.h;
     if (dst->aov) /* before add_sums counts the samples in */
         for (size_t i = 0; i < px * AOV_SUMS; i++) dst->aov[i] += src->aov[i]; /* exact */
@@ -221,11 +274,27 @@ static enum rayd_status accum_aov_floats(const rayd_accum *a, float **out, struc
 }
 
 enum rayd_status rayd_accum_aov_linear(const rayd_accum *a, float **out, struct rayd_error *err) {
+    rayd_accum *tmp = NULL;
+    enum rayd_status pst = accum_plain(a, false, &tmp, err);
+    if (pst != RAYD_OK) return pst;
+    if (tmp) {
+        enum rayd_status vst = rayd_accum_aov_linear(tmp, out, err);
+        rayd_accum_free(tmp);
+        return vst;
+    }
     return accum_aov_floats(a, out, err);
 }
 
 enum rayd_status rayd_accum_aov_image(const rayd_accum *a, const rayd_scene *s, unsigned aov,
                                       rayd_image **out, struct rayd_error *err) {
+    rayd_accum *tmp = NULL;
+    enum rayd_status pst = accum_plain(a, false, &tmp, err);
+    if (pst != RAYD_OK) return pst;
+    if (tmp) {
+        enum rayd_status vst = rayd_accum_aov_image(tmp, s, aov, out, err);
+        rayd_accum_free(tmp);
+        return vst;
+    }
     if (aov == 0 || (aov & (aov - 1)) || aov > RAYD_AOV_ALL)
         return err_set(err, RAYD_E_ARG, "aov", "must be one AOV, not the set %u", aov);
     float *f = NULL;
@@ -246,6 +315,14 @@ enum rayd_status rayd_accum_aov_image(const rayd_accum *a, const rayd_scene *s, 
 }
 
 enum rayd_status rayd_accum_rgba(const rayd_accum *a, uint8_t **out, struct rayd_error *err) {
+    rayd_accum *tmp = NULL;
+    enum rayd_status pst = accum_plain(a, true, &tmp, err);
+    if (pst != RAYD_OK) return pst;
+    if (tmp) {
+        enum rayd_status vst = rayd_accum_rgba(tmp, out, err);
+        rayd_accum_free(tmp);
+        return vst;
+    }
     float *f = NULL;
     enum rayd_status st = accum_aov_floats(a, &f, err);
     if (st != RAYD_OK) return st;
@@ -268,6 +345,14 @@ enum rayd_status rayd_accum_rgba(const rayd_accum *a, uint8_t **out, struct rayd
 }
 
 enum rayd_status rayd_accum_image(const rayd_accum *a, rayd_image **out, struct rayd_error *err) {
+    rayd_accum *tmp = NULL;
+    enum rayd_status pst = accum_plain(a, true, &tmp, err);
+    if (pst != RAYD_OK) return pst;
+    if (tmp) {
+        enum rayd_status vst = rayd_accum_image(tmp, out, err);
+        rayd_accum_free(tmp);
+        return vst;
+    }
     enum rayd_status st = accum_resolvable(a, err);
     if (st != RAYD_OK) return st;
     rayd_image *img = NULL;
@@ -281,6 +366,14 @@ enum rayd_status rayd_accum_image(const rayd_accum *a, rayd_image **out, struct 
 }
 
 enum rayd_status rayd_accum_linear(const rayd_accum *a, float **out, struct rayd_error *err) {
+    rayd_accum *tmp = NULL;
+    enum rayd_status pst = accum_plain(a, true, &tmp, err);
+    if (pst != RAYD_OK) return pst;
+    if (tmp) {
+        enum rayd_status vst = rayd_accum_linear(tmp, out, err);
+        rayd_accum_free(tmp);
+        return vst;
+    }
     enum rayd_status st = accum_resolvable(a, err);
     if (st != RAYD_OK) return st;
     size_t count = (size_t)a->r.w * (size_t)a->r.h * 3;
@@ -342,6 +435,14 @@ static double tone_curve(double v, enum rayd_tone_curve curve) {
 
 enum rayd_status rayd_accum_image_tone(const rayd_accum *a, const struct rayd_tone *tone,
                                        rayd_image **out, struct rayd_error *err) {
+    rayd_accum *tmp = NULL;
+    enum rayd_status pst = accum_plain(a, true, &tmp, err);
+    if (pst != RAYD_OK) return pst;
+    if (tmp) {
+        enum rayd_status vst = rayd_accum_image_tone(tmp, tone, out, err);
+        rayd_accum_free(tmp);
+        return vst;
+    }
     if (!tone || (tone->exposure == 0 && tone->curve == RAYD_TONE_CLAMP))
         return rayd_accum_image(a, out, err); /* the default: today's bytes */
     if (!(tone->exposure >= -64 && tone->exposure <= 64))

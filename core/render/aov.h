@@ -22,6 +22,8 @@ enum aov_sum {
     AOV_ALPHA,    /* samples that hit */
     AOV_OBJECT,   /* 1 + the object id, from the pixel's first sample only */
     AOV_MATERIAL, /* 1 + the material index, likewise */
+    AOV_LUM2,     /* the samples' squared luminance (render.c), for the
+                   * denoiser's variance; no AOV of its own */
     AOV_SUMS
 };
 

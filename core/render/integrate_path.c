@@ -26,6 +26,18 @@
  * roulette from the fourth bounce keeps long paths cheap and the estimate
  * unbiased.  Every random number comes from the counter-based RNG, keyed by
  * pixel, sample, bounce and the dimension below, so tiles stay exact.
+ *
+ * Fireflies.  What NEE cannot reach is found by BSDF sampling alone: light
+ * that reaches a diffuse surface through glass or a mirror (a caustic:
+ * diffuse -> specular -> the light), whose rare paths each bring the
+ * light's whole radiance, 15 in scenes/cornell.json.  Those are its
+ * sparkles on the walls, unbiased but slow to converge.  Two biased
+ * controls, off by default, trade them for a little darkening
+ * (docs/scene-format.md, "Fireflies"): render.clamp_indirect caps the
+ * luminance any indirect contribution adds (from the second vertex's
+ * light sample, or an emitter hit past the first bounce), and
+ * render.filter_glossy gives glossy lobes at least that roughness once
+ * the path has made a diffuse or glossy bounce (Cycles' "filter glossy").
  */
 #include <stdint.h>
 
@@ -46,10 +58,18 @@ struct lobes {
     double alpha;
 };
 
-static struct lobes lobes_of(const struct material *m, vec3 color) {
+/* The lobes of material m; rough (> 0) is the least roughness its metal
+ * may have (render.filter_glossy after a blurry bounce). */
+static struct lobes lobes_of(const struct material *m, vec3 color, double rough) {
     double t = m->transparency, mt = m->metallic, r = m->reflectivity;
-    struct lobes l = {(1 - t) * (1 - mt) * (1 - r), (1 - t) * mt, (1 - t) * (1 - mt) * r,     t,
-                      v3_scale(color, m->diffuse),  color,        m->roughness * m->roughness};
+    double ro = m->roughness > rough ? m->roughness : rough;
+    struct lobes l = {(1 - t) * (1 - mt) * (1 - r),
+                      (1 - t) * mt,
+                      (1 - t) * (1 - mt) * r,
+                      t,
+                      v3_scale(color, m->diffuse),
+                      color,
+                      ro * ro};
     if (l.alpha < 1e-3) { /* a smooth metal is a tinted mirror: treated as delta below */
         l.alpha = 0;
     }
@@ -257,6 +277,17 @@ static bool sample_bsdf(const struct lobes *lb, const struct vertex *x, vec3 col
     return true;
 }
 
+/* c added to L; an indirect contribution first scaled down to the
+ * luminance render.clamp_indirect when it is brighter. */
+static vec3 path_add(const rayd_scene *s, vec3 L, vec3 c, bool indirect) {
+    double cap = s->rs.clamp_indirect;
+    if (indirect && cap > 0) {
+        double l = 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
+        if (l > cap) c = v3_scale(c, cap / l);
+    }
+    return v3_add(L, c);
+}
+
 /* The path from r0; first, when not NULL, is r0's nearest hit already
  * found (first_hit says whether *first is a hit or r0 escapes). */
 static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *first, bool first_hit,
@@ -266,12 +297,14 @@ static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *fir
     bool prev_delta = true;
     double prev_pdf = 0;
     vec3 prev_p = r.o;
+    bool blurry = false; /* a diffuse or glossy bounce was made */
     for (uint32_t b = 0;; b++) {
         struct hit h;
         if (!meter_ray(mt)) break; /* stopped: the colour is thrown away */
         bool found = b == 0 && first ? first_hit : scene_intersect(s, &r, INFINITY, &h);
         if (b == 0 && first && first_hit) h = *first;
-        if (!found) return v3_add(L, v3_mul(beta, escaped(s, r.d, b, prev_delta, prev_pdf)));
+        if (!found)
+            return path_add(s, L, v3_mul(beta, escaped(s, r.d, b, prev_delta, prev_pdf)), b >= 2);
         struct surface sf;
         scene_surface(s, &r, &h, &sf);
         const struct material *m = sf.m;
@@ -283,7 +316,7 @@ static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *fir
                 double pdf_l = dist2 / (cl * emitter_area(h.leaf)) / s->nemitters;
                 w = mis(prev_pdf, pdf_l);
             }
-            L = v3_add(L, v3_scale(v3_mul(beta, m->emission), w));
+            L = path_add(s, L, v3_scale(v3_mul(beta, m->emission), w), b >= 2);
         }
         if ((int)b >= s->rs.max_depth) break;
         struct vertex x;
@@ -297,9 +330,9 @@ static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *fir
         x.above = v3_madd(sf.p, x.ng, off);
         x.below = v3_madd(sf.p, x.ng, -off);
         vec3 wo = v3_neg(r.d);
-        struct lobes lb = lobes_of(m, sf.color);
+        struct lobes lb = lobes_of(m, sf.color, blurry ? s->rs.filter_glossy : 0);
         if (!s->rs.no_nee && (lb.w_diff > 0 || (lb.w_metal > 0 && lb.alpha > 0)))
-            L = v3_add(L, v3_mul(beta, next_event(s, &lb, &x, wo, key, b, mt)));
+            L = path_add(s, L, v3_mul(beta, next_event(s, &lb, &x, wo, key, b, mt)), b >= 1);
         vec3 wi;
         bool delta, through;
         double pdf = 0;
@@ -311,6 +344,7 @@ static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *fir
             beta = v3_scale(beta, 1 / q);
         }
         prev_delta = delta;
+        blurry = blurry || !delta;
         prev_pdf = pdf;
         prev_p = sf.p;
         r.o = through ? x.below : x.above;

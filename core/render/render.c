@@ -124,6 +124,15 @@ static inline vec3 render_sum_term(vec3 c) {
     return v3(render_sum_channel(c.x), render_sum_channel(c.y), render_sum_channel(c.z));
 }
 
+/* The squared luminance of a sample's term, as a term of an exact sum:
+ * the denoiser's second moment (denoise.c).  Capped like the radiance, so
+ * a pixel brighter than sqrt(RENDER_SUM_CAP) (181 times white) counts as
+ * that bright in the variance alone. */
+static inline double render_lum2_term(vec3 t) {
+    double l = 0.2126 * t.x + 0.7152 * t.y + 0.0722 * t.z;
+    return render_sum_channel(l * l);
+}
+
 vec3 render_pixel(const rayd_scene *s, int i, int j, uint64_t *rays) {
     int n = s->rs.samples;
     vec3 acc = v3(0, 0, 0);
@@ -260,7 +269,9 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h,
         if (o->aov) aov_block(s, x, y, active, centre, k, n, aov);
         for (uint32_t m = sum ? active : 0; m; m &= m - 1) {
             int q = __builtin_ctz(m);
-            acc[q] = v3_add(acc[q], n == 1 ? c.v[q] : render_sum_term(c.v[q])); /* centre: as is */
+            vec3 t = n == 1 ? c.v[q] : render_sum_term(c.v[q]); /* centre: as is */
+            acc[q] = v3_add(acc[q], t);
+            if (o->aov) aov[q][AOV_LUM2] += render_lum2_term(t);
         }
     }
     if (!meter_going(mt)) return; /* stopped inside the last sample */

@@ -265,6 +265,17 @@ static bool scene_unlit(const rayd_scene *s) {
     return true;
 }
 
+enum rayd_status rayd_scene_set_bias(rayd_scene *s, double clamp_indirect, double filter_glossy,
+                                     struct rayd_error *err) {
+    if (clamp_indirect != clamp_indirect || clamp_indirect > 32768)
+        return err_set(err, RAYD_E_ARG, "clamp_indirect", "must be in 0..32768");
+    if (filter_glossy != filter_glossy || filter_glossy > 1)
+        return err_set(err, RAYD_E_ARG, "filter_glossy", "must be in 0..1");
+    if (clamp_indirect >= 0) s->rs.clamp_indirect = clamp_indirect;
+    if (filter_glossy >= 0) s->rs.filter_glossy = filter_glossy;
+    return RAYD_OK;
+}
+
 void rayd_scene_info(const rayd_scene *s, struct rayd_scene_info *info) {
     info->unlit = scene_unlit(s);
     info->width = s->rs.width;
@@ -276,6 +287,9 @@ void rayd_scene_info(const rayd_scene *s, struct rayd_scene_info *info) {
     info->decode_seconds = s->decode_s;
     info->build_seconds = s->build_s;
     info->aov = s->rs.aov;
+    info->denoise = s->rs.denoise;
+    info->clamp_indirect = s->rs.clamp_indirect;
+    info->filter_glossy = s->rs.filter_glossy;
     info->rays_per_sample = scene_rays_per_sample(s);
     size_t bytes =
         sizeof *s + sizeof *s->mats * (size_t)s->nmats + sizeof *s->lights * (size_t)s->nlights +

@@ -24,6 +24,12 @@ struct render_settings {
     struct environment env; /* render.environment; kind ENV_NONE without one */
     uint64_t seed;
     unsigned aov; /* render.aov: the RAYD_AOV_ bits the scene asks for */
+    bool denoise; /* render.denoise */
+    /* render.clamp_indirect (the largest luminance of an indirect
+     * contribution) and render.filter_glossy (the least roughness of a
+     * glossy lobe after a non-delta bounce): biased, 0 = off
+     * (integrate_path.c). */
+    double clamp_indirect, filter_glossy;
     /* Tests only (no scene key): the path tracer without next-event
      * estimation, every light by the sampled paths alone -- the plain
      * estimator the NEE one must agree with (tests/unit/test_path_bias.c). */

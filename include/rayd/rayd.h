@@ -157,9 +157,24 @@ struct rayd_scene_info {
     /* render.aov: the AOVs (enum rayd_aov bits) the scene asks for, 0 for
      * none. */
     unsigned aov;
+    /* render.denoise: 1 when the scene asks for its image denoised
+     * (rayd_accum_new_denoised), else 0. */
+    int denoise;
+    /* render.clamp_indirect and render.filter_glossy (0: off). */
+    double clamp_indirect, filter_glossy;
 };
 
 void rayd_scene_info(const rayd_scene *scene, struct rayd_scene_info *info);
+
+/* Sets the path tracer's biased controls of a scene no render uses yet
+ * (docs/scene-format.md, "Fireflies"): clamp_indirect, the largest
+ * luminance an indirect contribution may add (0: no clamp), and
+ * filter_glossy, the least roughness of glossy lobes after a diffuse or
+ * glossy bounce (0: none); each < 0 leaves the scene's.  RAYD_E_ARG for
+ * a value out of range (clamp_indirect above 32768, filter_glossy above
+ * 1, or not a number). */
+enum rayd_status rayd_scene_set_bias(rayd_scene *scene, double clamp_indirect, double filter_glossy,
+                                     struct rayd_error *err);
 
 /* ---- frames: animated scenes ----------------------------------------------
  * A scene with an "animation" block (docs/scene-format.md, "Animation") has
@@ -428,6 +443,22 @@ enum rayd_status rayd_accum_aov_linear(const rayd_accum *acc, float **out, struc
  * colour each (no hit black). */
 enum rayd_status rayd_accum_aov_image(const rayd_accum *acc, const rayd_scene *scene, unsigned aov,
                                       rayd_image **out, struct rayd_error *err);
+/* ---- denoising ------------------------------------------------------------
+ * A denoised accumulator renders its region plus the filter's apron (63
+ * pixels around it, inside the image) with the AOVs and each pixel's
+ * squared luminance, and its resolves (rayd_accum_image, _image_tone,
+ * _linear, _rgba) give the region's pixels through rayd's denoiser: an
+ * edge-avoiding a-trous wavelet filter guided by albedo, normal, depth
+ * and each pixel's variance, fireflies clamped first
+ * (docs/scene-format.md, "Denoising").  Its AOV resolves give the
+ * region's raw AOVs.  The same bytes for any thread count and tiling: a
+ * region is the crop of the denoised whole frame.  It takes passes and
+ * sample ranges; it is neither merged nor added to (RAYD_E_ARG). */
+enum rayd_status rayd_accum_new_denoised(const rayd_scene *scene, const struct rayd_region *region,
+                                         rayd_accum **out, struct rayd_error *err);
+/* Whether acc was made by rayd_accum_new_denoised. */
+int rayd_accum_denoised(const rayd_accum *acc);
+
 /* The 8-bit image of the sums with alpha, RGBA (4 bytes a pixel, rows
  * packed, the RGB rayd_accum_image's), into a new buffer *out (free with
  * rayd_free), for rayd_png_encode_rgba. */

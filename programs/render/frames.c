@@ -207,6 +207,7 @@ static int frames_loop(const struct args *a, const char *text, size_t len,
             rc = render_one_fail("", &err);
             break;
         }
+        if ((rc = render_one_bias(ap, scene)) != 0) break;
         char path[4096];
         rc = frame_file(a, k, path, sizeof path) ? 2 : 0;
         struct args b = *ap;

@@ -59,7 +59,8 @@ static void usage(FILE *f) {
             "                   [--passes] [--pass-step K] [--pass-output PATTERN]\n"
             "                   [--exposure EV] [--tonemap clamp|reinhard] [--stats] [--quiet]\n"
             "                   [--frame K | --frames A-B] [--video OUT.mp4]\n"
-            "                   [--aov LIST] [--alpha] [--max-samples N]\n"
+            "                   [--aov LIST] [--alpha] [--max-samples N] [--denoise]\n"
+            "                   [--clamp-indirect X] [--filter-glossy X]\n"
             "\n"
             "  SCENE.json        scene file (format v1, docs/scene-format.md); '-' reads stdin\n"
             "  -o, --output F    file to write (required); '-' writes standard output;\n"
@@ -83,6 +84,12 @@ static void usage(FILE *f) {
             "  --alpha           write the 8-bit PNG as RGBA, alpha the pixel's coverage\n"
             "  --max-samples N   allow render.samples up to N, at most 65536 (default\n"
             "                    1024), e.g. for reference images\n"
+            "  --denoise         denoise the image (as the scene's render.denoise): an\n"
+            "                    a-trous filter guided by albedo, normal, depth, variance\n"
+            "  --clamp-indirect X  cap each indirect contribution's luminance at X (biased;\n"
+            "                    0: off; the scene's render.clamp_indirect)\n"
+            "  --filter-glossy X   least roughness of glossy lobes after a diffuse or glossy\n"
+            "                    bounce (biased; 0: off; the scene's render.filter_glossy)\n"
             "  --frame K         render frame K of an animated scene (default: its first)\n"
             "  --frames A-B      render frames A to B; -o then names each frame's file with a\n"
             "                    %%d, e.g. -o 'shot-%%04d.png' (%%0Nd pads to N digits)\n"
@@ -153,7 +160,10 @@ enum {
     OPT_VIDEO,
     OPT_AOV,
     OPT_ALPHA,
-    OPT_MAX_SAMPLES
+    OPT_MAX_SAMPLES,
+    OPT_DENOISE,
+    OPT_CLAMP_INDIRECT,
+    OPT_FILTER_GLOSSY
 };
 static const struct option long_options[] = {
     {"output", required_argument, NULL, 'o'},
@@ -176,6 +186,9 @@ static const struct option long_options[] = {
     {"aov", required_argument, NULL, OPT_AOV},
     {"alpha", no_argument, NULL, OPT_ALPHA},
     {"max-samples", required_argument, NULL, OPT_MAX_SAMPLES},
+    {"denoise", no_argument, NULL, OPT_DENOISE},
+    {"clamp-indirect", required_argument, NULL, OPT_CLAMP_INDIRECT},
+    {"filter-glossy", required_argument, NULL, OPT_FILTER_GLOSSY},
     {NULL, 0, NULL, 0},
 };
 
@@ -199,6 +212,24 @@ static int set_frame_option(int opt, const char *val, struct args *a) {
     a->frames_set = true;
     a->frame_a = x;
     a->frame_b = y;
+    return 0;
+}
+
+/* --clamp-indirect X (0..32768) and --filter-glossy X (0..1); 0, or -1
+ * after saying why. */
+static int set_bias_option(int opt, const char *val, struct args *a) {
+    char *end = NULL;
+    double x = val ? strtod(val, &end) : -1;
+    bool ok = val && end != val && !*end && x >= 0;
+    if (opt == OPT_CLAMP_INDIRECT) {
+        if (!ok || !(x <= 32768))
+            return bad_usage("--clamp-indirect takes a luminance in 0..32768 (0: off)");
+        a->clamp_indirect = x;
+    } else {
+        if (!ok || !(x <= 1))
+            return bad_usage("--filter-glossy takes a roughness in 0..1 (0: off)");
+        a->filter_glossy = x;
+    }
     return 0;
 }
 
@@ -255,6 +286,9 @@ static int set_pass_option(int opt, const char *val, struct args *a) {
         return 0;
     }
     case OPT_ALPHA: a->alpha = true; return 0;
+    case OPT_DENOISE: a->denoise = true; return 0;
+    case OPT_CLAMP_INDIRECT:
+    case OPT_FILTER_GLOSSY: return set_bias_option(opt, val, a);
     }
     return bad_usage("unknown option");
 }
@@ -323,6 +357,7 @@ static int output_matches_format(const struct args *a) {
 static int parse_args(int argc, char **argv, struct args *a) {
     a->png_level = -1;
     a->format = -1;
+    a->clamp_indirect = a->filter_glossy = -1;
     opterr = 0;
     int opt, rc;
     while ((opt = getopt_long(argc, argv, ":o:qh", long_options, NULL)) != -1) {
@@ -404,6 +439,10 @@ int main(int argc, char **argv) {
     free(text);
     if (st != RAYD_OK) return render_one_fail("", &err);
     render_one_warn(scene);
+    if ((rc = render_one_bias(&a, scene)) != 0) {
+        rayd_scene_free(scene);
+        return rc;
+    }
 
     struct rayd_scene_info info;
     rayd_scene_info(scene, &info);

@@ -49,6 +49,9 @@ struct args {
     bool aov_set;          /* --aov given (else the scene's render.aov) */
     bool alpha;            /* --alpha: the 8-bit PNG as RGBA, alpha the coverage */
     int max_samples;       /* --max-samples: render.samples' limit, 0 the default */
+    bool denoise;          /* --denoise (or the scene's render.denoise) */
+    double clamp_indirect; /* --clamp-indirect, -1 when not given */
+    double filter_glossy;  /* --filter-glossy, -1 when not given */
 };
 
 /* The stages of one run, in seconds: what a user waits for, end to end.
@@ -57,6 +60,10 @@ struct args {
 enum stage { ST_READ, ST_PARSE, ST_DECODE, ST_BUILD, ST_RENDER, ST_ENCODE, ST_WRITE, ST__COUNT };
 
 /* ---- render_one.c: one image --------------------------------------------- */
+
+/* --clamp-indirect and --filter-glossy set on a freshly parsed scene; 0,
+ * or the exit code after saying why. */
+int render_one_bias(const struct args *a, rayd_scene *scene);
 
 /* Renders the parsed scene and writes a->output (--stats printed when
  * asked), timing each stage into stage[] from t0, the start of the run.

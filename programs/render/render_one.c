@@ -306,10 +306,25 @@ static unsigned aov_mask(const struct args *a, const rayd_scene *scene) {
     return a->aov_set ? a->aov : info.aov;
 }
 
+int render_one_bias(const struct args *a, rayd_scene *scene) {
+    struct rayd_error err = {0};
+    if (rayd_scene_set_bias(scene, a->clamp_indirect, a->filter_glossy, &err) != RAYD_OK)
+        return render_one_fail("--", &err);
+    return 0;
+}
+
+/* Whether the image is denoised: --denoise, or the scene's render.denoise. */
+static bool denoised(const struct args *a, const rayd_scene *scene) {
+    struct rayd_scene_info info;
+    rayd_scene_info(scene, &info);
+    return a->denoise || info.denoise;
+}
+
 /* A new accumulator for a's region, keeping AOVs when a asks for any (or
  * for --alpha). */
 static enum rayd_status accum_for(const struct args *a, const rayd_scene *scene, rayd_accum **acc,
                                   struct rayd_error *err) {
+    if (denoised(a, scene)) return rayd_accum_new_denoised(scene, &a->region, acc, err);
     enum rayd_status st = rayd_accum_new(scene, &a->region, acc, err);
     if (st == RAYD_OK && (aov_mask(a, scene) || a->alpha)) st = rayd_accum_aov_enable(*acc, err);
     return st;
@@ -479,11 +494,11 @@ static int render_passes(const struct args *a, const rayd_scene *scene, double *
 
 /* The image of a's options: the streamed 8-bit PNG when nothing asks for
  * more, else passes into an accumulator (--passes, png16, OpenEXR, a tone
- * curve or exposure). */
+ * curve or exposure, AOVs, denoising). */
 int render_one(const struct args *a, const rayd_scene *scene, double *stage, double t0) {
     bool toned = a->tone.exposure != 0 || a->tone.curve != RAYD_TONE_CLAMP;
     bool aov = aov_mask(a, scene) || a->alpha;
-    return a->passes || a->format != FMT_PNG || toned || aov
+    return a->passes || a->format != FMT_PNG || toned || aov || denoised(a, scene)
                ? render_passes(a, scene, stage, t0)
                : render_and_write(a, scene, stage, t0);
 }

@@ -22,8 +22,8 @@ struct api_q {
     char unknown[64];
     bool allow_format;       /* POST /v1/render: ?format= and ?samples= too */
     const char *const *also; /* names another parser of the route reads, NULL-ended */
-    const char *format, *samples, *aov;
-    int format_count, samples_count, aov_count;
+    const char *format, *samples, *aov, *denoise;
+    int format_count, samples_count, aov_count, denoise_count;
 };
 
 static const char *const api_q_names[4] = {"x", "y", "w", "h"};
@@ -81,6 +81,11 @@ static void api_q_each(void *u, const char *k, const char *v) {
         q->aov_count++;
         return;
     }
+    if (q->allow_format && !strcmp(k, "denoise")) {
+        q->denoise = v;
+        q->denoise_count++;
+        return;
+    }
     api_note_unknown(q->unknown, sizeof q->unknown, q->also, k);
 }
 
@@ -107,7 +112,8 @@ static bool api_int(const char *s, long *out) { return api_int_n(s, strlen(s), o
  * listing those it does. */
 static void api_q_unknown(struct http_req *r, const struct api_q *q) {
     api_reply_unknown(r, q->unknown,
-                      q->allow_format ? "x, y, w, h, format, samples, aov" : "x, y, w, h", q->also);
+                      q->allow_format ? "x, y, w, h, format, samples, aov, denoise" : "x, y, w, h",
+                      q->also);
 }
 
 /* 400 bad_region naming the parameter name and what is wrong with it;
@@ -327,11 +333,28 @@ static bool api_aov_of(struct http_req *r, const rayd_scene *scene, const struct
     return true;
 }
 
+/* ?denoise=1 or 0 (default: the scene's render.denoise); sums are raw. */
+static bool api_denoise_of(struct http_req *r, const rayd_scene *scene, const struct api_q *q,
+                           struct work_target *what) {
+    struct rayd_scene_info info;
+    rayd_scene_info(scene, &info);
+    if (q->denoise_count > 1) return api_bad_param(r, "denoise", "given more than once");
+    if (q->denoise && strcmp(q->denoise, "0") && strcmp(q->denoise, "1"))
+        return api_bad_param(r, "denoise", "must be 0 or 1");
+    what->denoise = q->denoise ? q->denoise[0] == '1' : info.denoise != 0;
+    if (what->denoise && what->format == WORK_SUMS) {
+        if (q->denoise) return api_bad_param(r, "denoise", "sums are raw: not with format=sums");
+        what->denoise = false; /* the scene's wish is for images */
+    }
+    return true;
+}
+
 bool api_target(struct http_req *r, const rayd_scene *scene, struct work_target *what) {
     struct api_q q = {.allow_format = true};
     memset(what, 0, sizeof *what);
     return api_region_q(r, scene, &what->reg, &q) && api_format_of(r, &q, &what->format) &&
-           api_samples_of(r, scene, &q, what) && api_aov_of(r, scene, &q, what);
+           api_samples_of(r, scene, &q, what) && api_aov_of(r, scene, &q, what) &&
+           api_denoise_of(r, scene, &q, what);
 }
 
 const char *api_format_type(enum work_format format) { return work_format_type(format); }

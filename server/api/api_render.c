@@ -198,7 +198,9 @@ static bool api_scenes_image_of(struct http_req *r, struct cache_entry *e) {
         http_reply_head(r, 200, "image/png");
         http_reply_cache_headers(r);
     } else {
-        struct work_target what = {.reg = reg, .format = WORK_PNG};
+        struct rayd_scene_info info; /* the scene's own render.denoise */
+        rayd_scene_info(cache_scene(e), &info);
+        struct work_target what = {.reg = reg, .format = WORK_PNG, .denoise = info.denoise != 0};
         return api_render_submit(r, e, &what);
     }
     return false;

@@ -16,6 +16,11 @@
  * their floats beside the linear RGB, a PNG task's 8-bit image shows the
  * one AOV asked instead of the light.
  *
+ * A denoised task (?denoise=1) renders each tile into a denoised
+ * accumulator: the tile plus the filter's apron, filtered, cut back to
+ * the tile; so its tiles join into the denoised whole frame, whatever the
+ * tiling (core/render/accum_denoise.c).
+ *
  * The tiles of one task are disjoint, so workers resolve into the shared
  * image and float buffer without a lock; nothing here touches the lock.
  */
@@ -72,7 +77,8 @@ enum rayd_status resolve_render(const rayd_scene *scene, const struct rayd_regio
                                 atomic_int_least64_t *rays_left, uint64_t *rays,
                                 struct rayd_error *err) {
     rayd_accum *acc = NULL;
-    enum rayd_status st = rayd_accum_new(scene, tile, &acc, err);
+    enum rayd_status st = d->denoise ? rayd_accum_new_denoised(scene, tile, &acc, err)
+                                     : rayd_accum_new(scene, tile, &acc, err);
     if (st == RAYD_OK && d->aov_mask) st = rayd_accum_aov_enable(acc, err);
     if (st != RAYD_OK) {
         rayd_accum_free(acc);

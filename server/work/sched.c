@@ -179,14 +179,13 @@ static enum rayd_status sched_tile(struct task *t, int tile, int pass, uint64_t 
     struct rayd_region tr = task_tile(t, tile);
     const rayd_scene *scene = cache_scene(t->scene);
     int dx = tr.x - t->reg.x, dy = tr.y - t->reg.y;
-    struct resolve_dst dst = {
-        t->img, t->keep_exr || t->aov ? t->lin : NULL, t->reg.w, dx, dy, t->aov, t->aov_mask,
-        scene};
+    struct resolve_dst dst = {t->img, t->lin,      t->reg.w, dx,        dy,
+                              t->aov, t->aov_mask, scene,    t->denoise};
     atomic_int_least64_t *left = sched_budget(t);
     if (t->passes)
         return passes_tile(t->passes, scene, tile, pass, &dst, &t->cancel, left, rays, err);
     if (t->sums) return sched_sums_tile(t, &tr, rays, err);
-    if (t->keep_exr || t->aov_mask)
+    if (t->keep_exr || t->aov_mask || t->denoise)
         return resolve_render(scene, &tr, &dst, &t->cancel, left, rays, err);
     struct rayd_render_stats stats = {0};
     struct rayd_render_opts o = {

@@ -90,6 +90,8 @@ struct work_target {
                         the same sums; part of the key */
     unsigned aov;    /* enum rayd_aov bits: WORK_EXR's channels, or the one AOV a WORK_PNG
                         shows instead of the light (POST /v1/render?aov=); part of the key */
+    bool denoise;    /* POST /v1/render?denoise=1: each tile rendered with the filter's
+                        apron and denoised (rayd_accum_new_denoised); part of the key */
     uint64_t client; /* who asks (fair.c's turns); not part of the key */
 };
 

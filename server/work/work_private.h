@@ -168,6 +168,7 @@ struct resolve_dst {
     float *aov;              /* NULL, or the AOVs' floats (RAYD_AOV_FLOATS a pixel, rows lin_w) */
     unsigned aov_mask;       /* AOVs asked; with img, the one AOV img shows */
     const rayd_scene *scene; /* with aov_mask: the scene (its camera's focus) */
+    bool denoise;            /* render the tile denoised, with its apron */
 };
 /* acc's pixels (as a plain render of its samples gives them) into d. */
 enum rayd_status resolve_into(const rayd_accum *acc, const struct resolve_dst *d,
@@ -264,6 +265,7 @@ struct task {
     enum work_format format;
     bool keep_exr;          /* a job's: its EXR too (work_target's keep_exr) */
     unsigned aov_mask;      /* work_target's aov */
+    bool denoise;           /* work_target's denoise */
     float *aov;             /* WORK_EXR with AOVs: their floats, RAYD_AOV_FLOATS a pixel */
     size_t mem;             /* reserved in --max-memory (budget.c), released with the pixels */
     enum mem_kind mem_kind; /* as what */

@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# denoise.sh [BUILD] -- make bench-denoise: the denoiser's quality against a
+# high-sample reference, beside the raw renders and two baselines
+# (bench/denoise.c), on scenes/cornell.json and on a mesh (Wuson.ply from
+# assimp-testmodels, as the README's picture) under scenes/studio.hdr.
+# DENOISE_SIZE (default 128) is the Cornell box's edge in pixels,
+# DENOISE_REF (default 1024) the reference's samples: 4096 at 256 pixels
+# takes over an hour on two loaded cores.  Figures: bench/README.md.
+set -eu
+cd "$(dirname "$0")/.."
+BUILD=${1:-build}
+SIZE=${DENOISE_SIZE:-128}
+REF=${DENOISE_REF:-1024}
+T=$(mktemp -d "${TMPDIR:-/tmp}/rayd-denoise.XXXXXX")
+trap 'rm -rf "$T"' EXIT
+python3 -c 'import json,sys; s=json.load(open("scenes/cornell.json")); s["render"].update(width=int(sys.argv[1]), height=int(sys.argv[1])); print(json.dumps(s))' "$SIZE" >"$T/cornell.json"
+"$BUILD/bench/denoise" "$T/cornell.json" "$REF" "scenes/cornell.json"
+MODEL=/usr/share/assimp/models/PLY/Wuson.ply
+if [ -f "$MODEL" ]; then
+    cp scenes/studio.hdr "$MODEL" "$T/"
+    cat >"$T/model.json" <<JSON
+{
+ "camera": {"frame": "all", "azimuth": -125, "elevation": 15, "fov_y": 30},
+ "render": {"width": $((SIZE * 3 / 2)), "height": $SIZE, "samples": 1, "max_depth": 4,
+            "integrator": "path", "environment": {"file": "studio.hdr"}},
+ "materials": {
+  "terracotta": {"color": [0.6, 0.29, 0.15], "metallic": 0.3, "roughness": 0.35},
+  "floor": {"color": [0.5, 0.5, 0.52]}
+ },
+ "objects": [
+  {"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "material": "floor"},
+  {"type": "mesh", "source": {"file": "Wuson.ply"}, "smooth": true, "material": "terracotta"}
+ ]
+}
+JSON
+    "$BUILD/bench/denoise" "$T/model.json" "$REF" "Wuson.ply under scenes/studio.hdr"
+else
+    echo "denoise.sh: no $MODEL (make test-deps installs assimp-testmodels): the mesh is skipped" >&2
+fi
