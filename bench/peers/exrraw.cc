@@ -32,7 +32,8 @@ int main(int argc, char **argv) {
         Imf::FrameBuffer fb;
         const char *names[3] = {"R", "G", "B"};
         for (int c = 0; c < 3; c++)
-            fb.insert(names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), xs, ys, 1, 1, 0.0));
+            fb.insert(names[c],
+                      Imf::Slice(Imf::FLOAT, base + c * sizeof(float), xs, ys, 1, 1, 0.0));
         in.setFrameBuffer(fb);
         in.readPixels(dw.min.y, dw.max.y);
         FILE *out = std::fopen(argv[2], "wb");
