@@ -199,7 +199,9 @@ def run_cycles(s, name, samples, seed):
 
 # --- references and errors ----------------------------------------------
 def reference(s, name):
-    key = hashlib.sha256(json.dumps(s, sort_keys=True).encode()).hexdigest()[:12]
+    with open(CYCLES_PY, "rb") as f:  # a changed translation makes new references
+        text = json.dumps(s, sort_keys=True).encode() + f.read()
+    key = hashlib.sha256(text).hexdigest()[:12]
     path = os.path.join(D, "ref", "%s-%s-%d" % (name, key, REF_SPP))
     os.makedirs(os.path.dirname(path), exist_ok=True)
     imgs = {}

@@ -21,7 +21,7 @@
 #             = roughness^2, F0 = colour); emission -> an Emission shader
 #             of strength 1 and colour = rayd's radiance (Cycles' mesh
 #             lights, like rayd's quads, shine from both faces)
-#   render    max_depth -> max bounces (every kind), no clamping, glossy
+#   render    max_depth - 1 -> max bounces (every kind), no clamping, glossy
 #             filter off, caustics on, box pixel filter one pixel wide (as
 #             rayd's samples spread over the pixel), no adaptive sampling,
 #             no denoising, 'Standard' view transform, linear float EXR
@@ -199,7 +199,10 @@ def settings(rs, samples, seed, threads, out):
     cy.seed = seed
     cy.use_adaptive_sampling = False
     cy.use_denoising = False
-    n = rs.get("max_depth", 5)
+    # Cycles samples the lights at the vertex whose bounce count equals
+    # the limit too (its "Direct Light" preset is diffuse_bounces 0): a
+    # limit of n allows n + 1 reflections, rayd's max_depth n allows n.
+    n = max(0, rs.get("max_depth", 5) - 1)
     cy.max_bounces = n
     cy.diffuse_bounces = cy.glossy_bounces = cy.transmission_bounces = n
     cy.transparent_max_bounces = n
