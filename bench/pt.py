@@ -15,8 +15,9 @@ from that file, number for number):
             quad light outside it: the hard case for light sampling
 
 For each: a shared reference, the mean of rayd's and Cycles' images at
-REF_SPP samples each (rayd's as the mean of REF_SPP/1024 renders of 1024
-samples with different seeds: rayd-render caps a render at 1024), after
+REF_SPP samples each (rayd's in one render with --max-samples where
+rayd-render has it, else the mean of REF_SPP/1024 renders of 1024 samples
+with different seeds), after
 checking the two agree (mean per channel); then, RUNS times, interleaved
 (for each run, sample count and scene: rayd, then Cycles), a render at
 each of SPP samples, timed as a whole process (walltime: fork to exit)
@@ -173,10 +174,10 @@ def read_raw(exr):
     return a
 
 
-def run_rayd(s, name, samples, seed):
+def run_rayd(s, name, samples, seed, extra=()):
     js = write_scene(s, samples, seed, os.path.join(D, name + ".rayd.json"))
     out = os.path.join(D, name + ".rayd.exr")
-    t = timed([RAYD, js, "-o", out, "--threads", str(THREADS), "--quiet"],
+    t = timed([RAYD, js, "-o", out, "--threads", str(THREADS), "--quiet"] + list(extra),
               os.path.join(D, name + ".rayd.log"))
     return read_raw(out), t, t
 
@@ -216,6 +217,8 @@ def reference(s, name):
         print("  %s: %s reference, %d samples ..." % (name, who, REF_SPP), flush=True)
         if who == "cycles":
             a = run_cycles(s, name + "-ref", REF_SPP, 1000)[0]
+        elif REF_SPP > 1024 and rayd_max_samples():
+            a = run_rayd(s, name + "-ref", REF_SPP, 1000, ["--max-samples", str(REF_SPP)])[0]
         else:
             k = max(1, math.ceil(REF_SPP / 1024))
             acc = None
@@ -227,6 +230,12 @@ def reference(s, name):
             fh.write(a.tobytes())
         imgs[who] = a
     return imgs["rayd"], imgs["cycles"]
+
+
+def rayd_max_samples():
+    """Whether this rayd-render takes --max-samples (more than 1024 samples)."""
+    r = subprocess.run([RAYD, "--help"], capture_output=True, text=True)
+    return "--max-samples" in r.stdout + r.stderr
 
 
 def mask_of(ref, limit):
