@@ -13,7 +13,9 @@
 #   make install     PREFIX=/usr/local DESTDIR=: programs, librayd.a/.so, header,
 #                    rayd.pc, man pages, systemd unit;  make uninstall undoes it
 #   make bench       benchmarks (never part of make test)
-#   make bench-peers the same meshes and sphere scene with Embree and POV-Ray (make bench-deps)
+#   make bench-peers the same meshes and sphere scene with Embree and POV-Ray (make bench-deps),
+#                    then make bench-pt
+#   make bench-pt    the path tracer against Blender's Cycles at equal quality (bench/pt.py)
 #   make check-layers  includes and calls one way down the layers, no circles
 #                    (tools/check_layers.py), docs/architecture.md true to the
 #                    tree, no source file over 1000 lines (tools/check_tree.py;
@@ -147,7 +149,7 @@ ifneq ($(CLIENT_SRC),)
 PROGS += $(BUILD)/rayd-client
 endif
 
-.PHONY: all deps test-deps lint-deps shared install uninstall check-layers test test-unit test-stress test-tsan test-valgrind golden readme-images run bench bench-denoise bench-deps bench-peers format format-check lint fuzz check-exports clean
+.PHONY: all deps test-deps lint-deps shared install uninstall check-layers test test-unit test-stress test-tsan test-valgrind golden readme-images run bench bench-denoise bench-deps bench-peers bench-pt format format-check lint fuzz check-exports clean
 .DEFAULT_GOAL := all
 
 all: $(BUILD)/librayd.a $(PROGS)
@@ -530,9 +532,10 @@ run: all
 
 # Benchmark programs: raybench links the core's internals, like unit tests.
 # Bench-only Debian packages (Embree and POV-Ray for `make bench-peers`,
-# tinyobjloader and g++ for the Embree side's OBJ parse, bench/peers/objparse.cc):
+# tinyobjloader and g++ for the Embree side's OBJ parse, bench/peers/objparse.cc,
+# Blender for its Cycles path tracer in `make bench-pt`):
 # never runtime dependencies, never installed by `make deps`.
-BENCH_PKGS := libembree-dev povray libtinyobjloader-dev g++
+BENCH_PKGS := libembree-dev povray libtinyobjloader-dev g++ blender
 BENCH_DIR := $(BUILD)/bench
 # genmesh levels: 20 * 4^L triangles, 5,120 (L=4) .. 1,310,720 (L=8).
 BENCH_LEVELS := 4 5 6 7 8
@@ -599,6 +602,13 @@ $(BUILD)/bench/imgdiff: bench/peers/imgdiff.c $(BUILD)/librayd.a
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -Iinclude $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
 
+# bench-pt's reader of both renderers' EXRs (OpenEXR's C++ library, as
+# libopenexr-dev in BUILD_PKGS has it).
+$(BUILD)/bench/exrraw: bench/peers/exrraw.cc | $(BUILD)/.deps-ok
+	@mkdir -p $(dir $@)
+	$(CXX) -std=c++17 -O2 -Wall -Wextra -Werror $$(pkg-config --cflags OpenEXR) $< -o $@ \
+	    $$(pkg-config --libs OpenEXR)
+
 # After `make deps` (never two apt-gets at once under -j).
 bench-deps: | $(BUILD)/.deps-ok
 	@sh tools/deps.sh "make bench-deps" $(BENCH_PKGS)
@@ -608,8 +618,15 @@ bench: all $(BUILD)/bench/raybench $(BUILD)/bench/genmesh $(BUILD)/bench/pngbenc
 	@bash bench/run.sh $(BUILD)
 
 bench-peers: all bench-deps $(BUILD)/bench/raybench $(BUILD)/bench/embree_bench $(BUILD)/bench/imgdiff \
-             $(BENCH_SCENES) $(BENCH_DIR)/mesh-8-obj.json $(BUILD)/bench/walltime $(BUILD)/bench/objparse
+             $(BENCH_SCENES) $(BENCH_DIR)/mesh-8-obj.json $(BUILD)/bench/walltime $(BUILD)/bench/objparse \
+             $(BUILD)/bench/exrraw
 	@bash bench/peers.sh $(BUILD)
+	@bash bench/bunny.sh $(BUILD) && python3 bench/pt.py $(BUILD)
+
+# The path tracer against Cycles at equal quality (bench/pt.py).  No
+# bench-deps prerequisite: without blender it stops, saying to run it.
+bench-pt: all $(BUILD)/bench/walltime $(BUILD)/bench/exrraw
+	@bash bench/bunny.sh $(BUILD) && python3 bench/pt.py $(BUILD)
 
 lint-deps:
 	@sh tools/deps.sh "make lint" $(LINT_PKGS)

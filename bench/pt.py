@@ -1,0 +1,357 @@
+#!/usr/bin/env python3
+"""bench/pt.py BUILD -- rayd's path tracer against Cycles at equal quality.
+
+`make bench-pt` runs it (part of `make bench-peers`); Blender comes from
+`make bench-deps`.  Four scenes, each written once as rayd JSON (the one
+description: bench/peers/cycles_pt.py builds the same scene in Blender
+from that file, number for number):
+
+  cornell   scenes/cornell.json without its glass sphere (diffuse walls,
+            the gold sphere, the quad light)
+  glass     scenes/cornell.json as shipped (the glass sphere: caustics)
+  bunny     the Stanford bunny (bench/bunny.sh) on a floor under
+            scenes/studio.hdr, no other light
+  gap       a closed room lit only through a narrow slit in one wall by a
+            quad light outside it: the hard case for light sampling
+
+For each: a shared reference, the mean of rayd's and Cycles' images at
+REF_SPP samples each (rayd's in one render with --max-samples where
+rayd-render has it, else the mean of REF_SPP/1024 renders of 1024 samples
+with different seeds), after
+checking the two agree (mean per channel); then, RUNS times, interleaved
+(for each run, sample count and scene: rayd, then Cycles), a render at
+each of SPP samples, timed as a whole process (walltime: fork to exit)
+and, for Cycles, also the render alone (its log's PT_RENDER_S: scene
+sync, BVH build, sampling, EXR written).  Errors against the reference
+over the pixels that are not the emitter (reference above MASK): MSE and
+RMSE of linear RGB, and the relative MSE, mean of (x - ref)^2 / (ref^2 +
+0.01).  Efficiency = 1 / (time x MSE), from the medians of the RUNS runs;
+the ratio is rayd's over Cycles' (> 1: rayd reaches an error sooner).
+
+Environment: RUNS (3), SPP ("4 16 64 256"), REF_SPP (4096), SIZE (128),
+SCENES ("cornell glass bunny gap"), THREADS (2).  References are kept in
+BUILD/bench/pt/ref/, named by the scene's text and REF_SPP, and reused.
+"""
+import array
+import copy
+import hashlib
+import json
+import math
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+BUILD = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else "build")
+D = os.path.join(BUILD, "bench", "pt")
+RUNS = int(os.environ.get("RUNS", "3"))
+SPP = [int(x) for x in os.environ.get("SPP", "4 16 64 256").split()]
+REF_SPP = int(os.environ.get("REF_SPP", "4096"))
+SIZE = int(os.environ.get("SIZE", "128"))
+SCENES = os.environ.get("SCENES", "cornell glass bunny gap").split()
+THREADS = int(os.environ.get("THREADS", "2"))
+RAYD = os.path.join(BUILD, "rayd-render")
+WALLTIME = os.path.join(BUILD, "bench", "walltime")
+EXRRAW = os.path.join(BUILD, "bench", "exrraw")
+CYCLES_PY = os.path.join(ROOT, "bench", "peers", "cycles_pt.py")
+
+
+def die(msg):
+    print("bench-pt: " + msg, file=sys.stderr)
+    sys.exit(1)
+
+
+# --- the scenes ----------------------------------------------------------
+def render_block(max_depth):
+    return {"width": SIZE, "height": SIZE, "samples": 1, "max_depth": max_depth,
+            "integrator": "path", "background": [0, 0, 0]}
+
+
+def cornell(glass):
+    with open(os.path.join(ROOT, "scenes", "cornell.json")) as f:
+        s = json.load(f)
+    s["render"] = render_block(s["render"]["max_depth"])
+    if not glass:
+        s["objects"] = [o for o in s["objects"]
+                        if not (o["type"] == "sphere" and o["material"].get("transparency"))]
+    return s, 2.0
+
+
+def quad(corner, e1, e2, mat):
+    return {"type": "quad", "corner": corner, "edge1": e1, "edge2": e2, "material": mat}
+
+
+def bunny():
+    # The npm bunny spans x -5..5, y 0..9.7, z -3.7..3.8 (bench/bunny.sh).
+    s = {"camera": {"position": [0, 7, 24], "look_at": [0, 4, 0], "fov_x": 45},
+         "render": render_block(8),
+         "materials": {"clay": {"color": [0.8, 0.7, 0.6], "diffuse": 1},
+                       "floor": {"color": [0.5, 0.5, 0.5], "diffuse": 1}},
+         "objects": [quad([-20, 0, -20], [40, 0, 0], [0, 0, 40], "floor"),
+                     {"type": "mesh", "source": {"file": "bunny.ply"}, "smooth": False,
+                      "material": "clay"}]}
+    s["render"]["environment"] = {"file": "studio.hdr"}
+    return s, None
+
+
+def gap():
+    # A room x -2..2, y 0..2.5, z -2..2; the wall at x = 2 has a vertical
+    # slit 0.1 wide (z -0.05..0.05) and a 1 x 1.5 quad light of radiance
+    # 40 stands 1 outside it.  Thin walls: quads.
+    w = "white"
+    objs = [quad([-2, 0, -2], [4, 0, 0], [0, 0, 4], "floor"),
+            quad([-2, 2.5, -2], [4, 0, 0], [0, 0, 4], w),
+            quad([-2, 0, -2], [4, 0, 0], [0, 2.5, 0], w),
+            quad([-2, 0, 2], [4, 0, 0], [0, 2.5, 0], w),
+            quad([-2, 0, -2], [0, 0, 4], [0, 2.5, 0], "red"),
+            quad([2, 0, -2], [0, 0, 1.95], [0, 2.5, 0], w),
+            quad([2, 0, 0.05], [0, 0, 1.95], [0, 2.5, 0], w),
+            quad([3, 0.5, -0.5], [0, 0, 1], [0, 1.5, 0], "light"),
+            {"type": "box", "center": [0, 0.4, -0.8], "size": [0.8, 0.8, 0.8],
+             "transform": {"rotate": [0, 30, 0], "translate": [0.3, 0, 0]}, "material": w}]
+    s = {"camera": {"position": [-1.2, 1.3, 1.9], "look_at": [0.6, 0.8, -1.2], "fov_x": 70},
+         "render": render_block(8),
+         "materials": {"white": {"color": [0.75, 0.75, 0.75], "diffuse": 1},
+                       "floor": {"color": [0.6, 0.55, 0.45], "diffuse": 1},
+                       "red": {"color": [0.6, 0.1, 0.1], "diffuse": 1},
+                       "light": {"color": [0, 0, 0], "emission": [40, 40, 40]}},
+         "objects": objs}
+    return s, 2.0
+
+
+def make_scene(name):
+    if name == "cornell":
+        return cornell(False)
+    if name == "glass":
+        return cornell(True)
+    if name == "bunny":
+        return bunny()
+    if name == "gap":
+        return gap()
+    die("unknown scene %s (SCENES: cornell glass bunny gap)" % name)
+
+
+def write_scene(s, samples, seed, path):
+    s = copy.deepcopy(s)
+    s["render"]["samples"] = samples
+    s["render"]["seed"] = seed
+    with open(path, "w") as f:
+        json.dump(s, f, indent=1)
+    return path
+
+
+# --- running both renderers ---------------------------------------------
+def timed(cmd, log):
+    """Run cmd under walltime; its seconds (fork to exit)."""
+    tfile = os.path.join(D, "walltime")
+    with open(log, "w") as lf:
+        rc = subprocess.call([WALLTIME, tfile] + cmd, stdout=lf, stderr=subprocess.STDOUT)
+    if rc != 0:
+        with open(log) as lf:
+            tail = lf.read().strip().splitlines()[-5:]
+        die("%s failed (exit %d):\n  %s" % (" ".join(cmd), rc, "\n  ".join(tail)))
+    with open(tfile) as f:
+        return int(f.read().split()[0]) / 1e6
+
+
+def read_raw(exr):
+    raw = exr + ".raw"
+    if subprocess.call([EXRRAW, exr, raw]) != 0:
+        die("could not read %s" % exr)
+    with open(raw, "rb") as f:
+        data = f.read()
+    nl = data.index(b"\n")
+    w, h = (int(x) for x in data[:nl].split())
+    a = array.array("f")
+    a.frombytes(data[nl + 1:])
+    if sys.byteorder != "little":
+        a.byteswap()
+    os.remove(raw)
+    if len(a) != w * h * 3:
+        die("%s: %d floats for %d x %d" % (exr, len(a), w, h))
+    return a
+
+
+def run_rayd(s, name, samples, seed, extra=()):
+    js = write_scene(s, samples, seed, os.path.join(D, name + ".rayd.json"))
+    out = os.path.join(D, name + ".rayd.exr")
+    t = timed([RAYD, js, "-o", out, "--threads", str(THREADS), "--quiet"] + list(extra),
+              os.path.join(D, name + ".rayd.log"))
+    return read_raw(out), t, t
+
+
+def run_cycles(s, name, samples, seed):
+    js = write_scene(s, 1, 0, os.path.join(D, name + ".cycles.json"))
+    out = os.path.join(D, name + ".cycles.exr")
+    log = os.path.join(D, name + ".cycles.log")
+    t = timed(["blender", "-b", "-noaudio", "--factory-startup", "-P", CYCLES_PY, "--",
+               js, out, str(samples), str(seed), str(THREADS)], log)
+    alone = None
+    with open(log) as f:
+        for line in f:
+            if line.startswith("PT_RENDER_S "):
+                alone = float(line.split()[1])
+    if alone is None:
+        die("no PT_RENDER_S in %s" % log)
+    return read_raw(out), t, alone
+
+
+# --- references and errors ----------------------------------------------
+def reference(s, name):
+    with open(CYCLES_PY, "rb") as f:  # a changed translation makes new references
+        text = json.dumps(s, sort_keys=True).encode() + f.read()
+    key = hashlib.sha256(text).hexdigest()[:12]
+    path = os.path.join(D, "ref", "%s-%s-%d" % (name, key, REF_SPP))
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    imgs = {}
+    for who in ("rayd", "cycles"):
+        f = path + "." + who
+        if os.path.exists(f):
+            a = array.array("f")
+            with open(f, "rb") as fh:
+                a.frombytes(fh.read())
+            imgs[who] = a
+            continue
+        print("  %s: %s reference, %d samples ..." % (name, who, REF_SPP), flush=True)
+        if who == "cycles":
+            a = run_cycles(s, name + "-ref", REF_SPP, 1000)[0]
+        elif REF_SPP > 1024 and rayd_max_samples():
+            a = run_rayd(s, name + "-ref", REF_SPP, 1000, ["--max-samples", str(REF_SPP)])[0]
+        else:
+            k = max(1, math.ceil(REF_SPP / 1024))
+            acc = None
+            for i in range(k):
+                img = run_rayd(s, name + "-ref", min(REF_SPP, 1024), 1000 + i)[0]
+                acc = list(img) if acc is None else [x + y for x, y in zip(acc, img)]
+            a = array.array("f", [x / k for x in acc])
+        with open(f, "wb") as fh:
+            fh.write(a.tobytes())
+        imgs[who] = a
+    return imgs["rayd"], imgs["cycles"]
+
+
+def rayd_max_samples():
+    """Whether this rayd-render takes --max-samples (more than 1024 samples)."""
+    r = subprocess.run([RAYD, "--help"], capture_output=True, text=True)
+    return "--max-samples" in r.stdout + r.stderr
+
+
+def mask_of(ref, limit):
+    n = len(ref) // 3
+    if limit is None:
+        return [True] * n
+    return [max(ref[3 * i], ref[3 * i + 1], ref[3 * i + 2]) <= limit for i in range(n)]
+
+
+def channel_means(img, mask):
+    s = [0.0, 0.0, 0.0]
+    for i, keep in enumerate(mask):
+        if keep:
+            for c in range(3):
+                s[c] += img[3 * i + c]
+    n = sum(mask)
+    return [x / n for x in s]
+
+
+def errors(img, ref, mask):
+    se = rel = 0.0
+    n = 0
+    for i, keep in enumerate(mask):
+        if not keep:
+            continue
+        for c in range(3):
+            r = ref[3 * i + c]
+            d = img[3 * i + c] - r
+            se += d * d
+            rel += d * d / (r * r + 0.01)
+            n += 1
+    return se / n, rel / n
+
+
+# --- the bench -----------------------------------------------------------
+def main():
+    if shutil.which("blender") is None:
+        die("blender is missing: run make bench-deps (Debian's blender package)")
+    for p in (RAYD, WALLTIME, EXRRAW):
+        if not os.access(p, os.X_OK):
+            die("%s is missing (run make bench-pt)" % p)
+    os.makedirs(D, exist_ok=True)
+    scenes = {}
+    for name in SCENES:
+        if name == "bunny":
+            ply = os.path.join(BUILD, "bench", "bunny.ply")
+            if not os.path.exists(ply):
+                print("bench-pt: no %s (bench/bunny.sh needs npm): skipping the bunny" % ply)
+                continue
+            shutil.copyfile(ply, os.path.join(D, "bunny.ply"))
+            shutil.copyfile(os.path.join(ROOT, "scenes", "studio.hdr"),
+                            os.path.join(D, "studio.hdr"))
+        scenes[name] = make_scene(name)
+    print("rayd path tracer vs Cycles (%s), %dx%d, %d threads, max depth as each scene's"
+          % (blender_version(), SIZE, SIZE, THREADS))
+    refs, agree = {}, {}
+    for name, (s, limit) in scenes.items():
+        a, b = reference(s, name)
+        ref = array.array("f", [(x + y) / 2 for x, y in zip(a, b)])
+        mask = mask_of(ref, limit)
+        ma, mb = channel_means(a, mask), channel_means(b, mask)
+        refnoise = errors(a, b, mask)[0] / 4  # variance of the mean of the two
+        refs[name] = (ref, mask)
+        agree[name] = (ma, mb, refnoise)
+    results = {}  # (scene, who, spp) -> list of (wall, alone, mse, rel)
+    for run in range(1, RUNS + 1):
+        for spp in SPP:
+            for name, (s, _) in scenes.items():
+                ref, mask = refs[name]
+                for who, fn in (("rayd", run_rayd), ("cycles", run_cycles)):
+                    img, wall, alone = fn(s, name, spp, run)
+                    mse, rel = errors(img, ref, mask)
+                    results.setdefault((name, who, spp), []).append((wall, alone, mse, rel))
+        print("  run %d of %d done" % (run, RUNS), flush=True)
+    report(scenes, agree, results)
+
+
+def blender_version():
+    try:
+        out = subprocess.run(["blender", "--version"], capture_output=True, text=True).stdout
+        return out.splitlines()[0].strip()
+    except (OSError, IndexError):
+        return "Blender"
+
+
+def med(rows, k):
+    return statistics.median(r[k] for r in rows)
+
+
+def report(scenes, agree, results):
+    print()
+    print("Agreement at %d samples each (mean per channel, emitter masked):" % REF_SPP)
+    for name in scenes:
+        ma, mb, refnoise = agree[name]
+        diff = " ".join("%+.2f%%" % (100 * (x / y - 1) if y else 0) for x, y in zip(ma, mb))
+        print("  %-8s rayd %s  Cycles %s  rayd/Cycles - 1: %s  (reference noise %.2e)" % (
+            name, " ".join("%.4f" % x for x in ma), " ".join("%.4f" % x for x in mb), diff,
+            refnoise))
+    print()
+    print("Medians of %d interleaved runs; wall: whole process; render: Cycles' render alone;" % RUNS)
+    print("MSE: linear RGB against the shared reference; eff = 1 / (wall x MSE)")
+    hdr = "%-8s %5s | %7s %9s %9s %9s | %7s %7s %9s %9s %9s | %6s %6s"
+    print(hdr % ("scene", "spp", "rayd s", "RMSE", "relMSE", "eff", "Cyc s", "render",
+                 "RMSE", "relMSE", "eff", "ratio", "r/rnd"))
+    for name in scenes:
+        for spp in SPP:
+            a, b = results[(name, "rayd", spp)], results[(name, "cycles", spp)]
+            ta, ma, ra = med(a, 0), med(a, 2), med(a, 3)
+            tb, tbr, mb, rb = med(b, 0), med(b, 1), med(b, 2), med(b, 3)
+            ea, eb, ebr = 1 / (ta * ma), 1 / (tb * mb), 1 / (tbr * mb)
+            print("%-8s %5d | %7.2f %9.5f %9.5f %9.3g | %7.2f %7.2f %9.5f %9.5f %9.3g | %6.2f %6.2f"
+                  % (name, spp, ta, math.sqrt(ma), ra, ea, tb, tbr, math.sqrt(mb), rb, eb,
+                     ea / eb, ea / ebr))
+    print("(ratio: rayd's efficiency over Cycles' whole process; r/rnd: over Cycles' render")
+    print(" alone, Blender's start-up left out; > 1: rayd reaches that error sooner)")
+
+
+if __name__ == "__main__":
+    main()
