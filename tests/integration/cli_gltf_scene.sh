@@ -15,6 +15,7 @@
 #     refused in one line naming the JSON Pointer;
 #   - every other .gltf and .glb there renders or is refused in one line
 #     with exit 1: never a crash or a hang.
+# rayd-test: long
 source "$(dirname "$0")/lib/common.sh"
 DIR=/usr/share/assimp/models/glTF2
 FRAME="$RAYD_ROOT/tests/integration/lib/gltf_frame.py"
