@@ -17,9 +17,11 @@
 # RAYD_JOBS=N runs up to N tests at once (default 2, 1 on one core): each
 # integration test starts its own rayd on its own port and folder, so they
 # do not meet; their reports are printed whole, in the order they end.  A
-# test whose file has the line "# rayd-test: alone" runs with none beside it
-# (it measures its rayd's resident memory against an idle figure, or loads
-# every core itself): those run first, one by one.  "# rayd-test: long"
+# test whose file has the line "# rayd-test: alone" (a reason may follow)
+# runs with none beside it (it measures its rayd's resident memory against
+# an idle figure, loads every core itself, or runs make in the tree, which
+# relinks the binaries the other tests run when a source changed since the
+# build): those run first, one by one.  "# rayd-test: long"
 # marks the longest, started before the others so that none is left
 # running by itself at the end.
 set -u
@@ -116,7 +118,7 @@ finish_tests() {
 }
 
 # mark FILE: the word of its "# rayd-test: WORD" line (alone, long), if any
-mark() { sed -n 's/^# rayd-test: \([a-z]*\)$/\1/p' "$1" | head -n 1; }
+mark() { sed -n 's/^# rayd-test: \([a-z]*\).*/\1/p' "$1" | head -n 1; }
 # run_scripts FILE...: the alone ones first, one by one, then the long ones
 # and the rest, RAYD_JOBS at a time
 run_scripts() {
