@@ -50,7 +50,7 @@ TEST_PKGS := curl python3 nginx wrk chromium fonts-dejavu-core pngcheck openexr 
              python3-prometheus-client
 LINT_PKGS := cppcheck clang-tidy clang-format
 
-# Build on every core unless told otherwise (tests themselves run one by one).
+# Build on every core unless told otherwise (tests/run.sh runs two tests at a time).
 ifeq ($(MAKELEVEL)$(filter -j%,$(MAKEFLAGS)),0)
 MAKEFLAGS += -j$(shell nproc 2>/dev/null || echo 2)
 endif

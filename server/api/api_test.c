@@ -12,12 +12,16 @@
  *                                  --max-work again
  *   POST /v1/test/gate?parses=N    N more scene parses, then the parse
  *                                  threads wait (compile.c); parses=open
+ *   POST /v1/test/gate?clock=S     the server's clock jumps S seconds ahead
+ *                                  (clock.c): a job's --job-ttl passes
+ *                                  without the test waiting it out
  *   GET  /v1/test/gate             the gate as it is
  *
  * Both answer {"tiles": N or "open", "started": tiles let through so far,
  * "held": workers waiting at the gate with a tile to start, "queued": tasks
  * waiting for a worker, "parses": N or "open", "parses_started",
- * "parses_queued": scenes waiting for a parse thread, "parses_running"}.  Without --test-gate the
+ * "parses_queued": scenes waiting for a parse thread, "parses_running",
+ * "clock_skipped_s": the clock's jumps in all}.  Without --test-gate the
  * route is a 404 like any unknown path.  The gate itself is in gate.c, asked by the workers
  * (sched.c).
  */
@@ -46,6 +50,7 @@ static void api_test_gate_reply(struct http_req *r, const struct gate_state *g) 
     cJSON_AddNumberToObject(o, "parses_started", (double)c.started);
     cJSON_AddNumberToObject(o, "parses_queued", (double)c.queued);
     cJSON_AddNumberToObject(o, "parses_running", (double)c.running);
+    cJSON_AddNumberToObject(o, "clock_skipped_s", clock_skip(0));
     http_reply_json(r, 200, o);
 }
 
@@ -83,8 +88,13 @@ void api_test_gate_post(struct http_req *r, const char *id) {
         return;
     }
     const char *v = http_req_query(r, "tiles"), *pv = http_req_query(r, "parses");
-    const char *wv = http_req_query(r, "work");
-    long n = 0, parses = 0, work = 0;
+    const char *wv = http_req_query(r, "work"), *cv = http_req_query(r, "clock");
+    long n = 0, parses = 0, work = 0, skip = 0;
+    if (cv && (!api_test_count(cv, &skip) || skip < 0 || skip > 86400)) {
+        http_reply_error(r, 400, "bad_parameter", "clock must be an integer from 0 to 86400", NULL,
+                         0, 0, "clock");
+        return;
+    }
     if (wv && !api_test_count(wv, &work)) {
         http_reply_error(r, 400, "bad_parameter", "work must be 'open' or an integer >= 0", NULL, 0,
                          0, "work");
@@ -95,11 +105,12 @@ void api_test_gate_post(struct http_req *r, const char *id) {
                          0, 0, "parses");
         return;
     }
-    if ((v || (!pv && !wv)) && (!v || !api_test_count(v, &n))) {
+    if ((v || (!pv && !wv && !cv)) && (!v || !api_test_count(v, &n))) {
         http_reply_error(r, 400, "bad_parameter", "tiles must be 'open' or an integer >= 0", NULL,
                          0, 0, "tiles");
         return;
     }
+    if (cv) clock_skip(skip);
     if (wv) task_gate_work(work);
     if (pv) compile_gate_set(parses);
     if (v) gate_set(n);

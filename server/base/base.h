@@ -147,6 +147,9 @@ _Noreturn void log_assert_fail(const char *expr, const char *file, int line, con
 /* ---- clock.c ------------------------------------------------------------- */
 
 double clock_now(void); /* monotonic seconds: every duration the server measures */
+/* The test gate's jump (?clock=S): clock_now() is SECONDS later from now on;
+ * returns the seconds skipped in all. */
+double clock_skip(long seconds);
 
 /* ---- mem.c: the one memory budget (--max-memory) ------------------------ */
 

@@ -5,13 +5,29 @@
  * difference of two clock_now() readings, so no step of the wall clock
  * (NTP, a changed date) can make one negative.  Log lines carry the wall
  * clock's time of day separately (log.c).
+ *
+ * Tests move it forward (clock_skip, POST /v1/test/gate?clock=S, only with
+ * --test-gate): what waits on a duration -- a job's --job-ttl above all --
+ * then sees it pass at once, so a test checks the TTL without waiting it
+ * out.  Only forward, as the monotonic clock itself: no difference of two
+ * readings turns negative.
  */
 #include "base/base.h"
 
+#include <stdatomic.h>
 #include <time.h>
+
+static atomic_llong clock_skipped_ms; /* the tests' jumps, in all */
 
 double clock_now(void) {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + (double)ts.tv_nsec / 1e9;
+    return (double)ts.tv_sec + (double)ts.tv_nsec / 1e9 +
+           (double)atomic_load_explicit(&clock_skipped_ms, memory_order_relaxed) / 1e3;
+}
+
+double clock_skip(long seconds) {
+    long long ms =
+        atomic_fetch_add(&clock_skipped_ms, (long long)seconds * 1000) + (long long)seconds * 1000;
+    return (double)ms / 1e3;
 }

@@ -8,6 +8,7 @@
 #   bash tests/browser/preview.sh            (tests/run.sh sets RAYD_BUILD)
 #   MEASURE=1 bash tests/browser/preview.sh  also prints the timing figures
 #   CASES=link bash tests/browser/preview.sh  only the cases whose names match
+# rayd-test: long
 source "$(dirname "$0")/../integration/lib/common.sh"
 HERE=$RAYD_ROOT/tests/browser
 CHROMIUM=${CHROMIUM:-/usr/bin/chromium}

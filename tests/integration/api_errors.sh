@@ -4,6 +4,7 @@
 # body and image limits, 415, 404 (not_found, scene_unknown, job_unknown), 405
 # with Allow, 400 bad_region naming the parameter; and garbage never gives a
 # 500 or kills the server.
+# rayd-test: long
 source "$(dirname "$0")/lib/common.sh"
 
 start_rayd --threads 2 --max-body 100000 --max-pixels 1000000

@@ -18,6 +18,7 @@
 #   cached tile), and no file of the cache holds the token;
 # - every node down: nginx answers a JSON 502 with Retry-After, not HTML.
 # Every process is stopped by its PID; everything stays on loopback.
+# rayd-test: long
 source "$(dirname "$0")/lib/common.sh"
 source "$RAYD_ROOT/tests/integration/lib/nginx.sh"
 

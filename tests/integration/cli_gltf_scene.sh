@@ -15,6 +15,7 @@
 #     refused in one line naming the JSON Pointer;
 #   - every other .gltf and .glb there renders or is refused in one line
 #     with exit 1: never a crash or a hang.
+# rayd-test: long
 source "$(dirname "$0")/lib/common.sh"
 DIR=/usr/share/assimp/models/glTF2
 FRAME="$RAYD_ROOT/tests/integration/lib/gltf_frame.py"
@@ -25,13 +26,19 @@ if [ ! -d "$DIR" ]; then
 fi
 
 # gscene FILE OUT [KEY=JSON...]: the framed scene of FILE with a gltf object
-# (extra object keys, and /camera replaced when a key is camera_top=JSON)
+# (extra object keys, and /camera replaced when a key is camera_top=JSON);
+# one python3 for both steps, as it runs once per file of the folder
 gscene() {
     local f=$1 out=$2
     shift 2
-    python3 "$FRAME" scene "$f" | python3 -c '
-import json, sys
-s = json.load(sys.stdin)
+    python3 -c '
+import contextlib, io, json, sys
+sys.path.insert(0, sys.argv.pop(1))
+import gltf_frame
+out = io.StringIO()
+with contextlib.redirect_stdout(out):
+    gltf_frame.scene(sys.argv.pop(1))
+s = json.loads(out.getvalue())
 o = s["objects"][0]
 o["type"] = "gltf"
 for kv in sys.argv[1:]:
@@ -42,7 +49,7 @@ for kv in sys.argv[1:]:
         s["render"]["width"] = s["render"]["height"] = int(v)
     else:
         o[k] = json.loads(v)
-print(json.dumps(s))' "$@" >"$out"
+print(json.dumps(s))' "$LIB" "$f" "$@" >"$out"
 }
 
 # colourful PNG: pixels whose channels differ by more than 60 (not grey)

@@ -13,6 +13,7 @@
 #     starts with the environment of the installed environment file;
 #   - make uninstall leaves no file, and keeps an edited environment file.
 set -u
+# rayd-test: alone (runs make in the tree: a stale tree relinks the binaries other tests run)
 source "$(dirname "$0")/lib/common.sh"
 cd "$RAYD_ROOT"
 

@@ -7,13 +7,24 @@
 # about the TTL after that; then every route of it answers 410 job_expired
 # naming how and when it ended; an id this server never gave stays 404
 # job_unknown.  (On 3f5321f the job was forgotten within one watcher tick
-# of its end, and a poller saw 202 then 404.)
+# of its end, and a poller saw 202 then 404.)  The TTL's seconds pass by
+# the test gate's clock (?clock=S: rayd's clock jumps S seconds ahead), not
+# by waiting them out.
 source "$(dirname "$0")/lib/common.sh"
 
 # TTL 20 s: what is checked right after the end has those seconds, even on a
 # machine so busy that two requests are seconds apart
 TTL=20
 start_rayd --threads 1 --job-ttl $TTL --test-gate 0
+# skip S: rayd's clock S seconds ahead, as if they had passed
+skip() { curl -s -m 30 -X POST -o "$T/gate.json" "$URL/v1/test/gate?clock=$1" >/dev/null; }
+# a jump back, a word or more than a day is refused, and moves nothing
+for bad in -1 x 86401 1.5; do
+    code=$(req POST "/v1/test/gate?clock=$bad")
+    check "ttl_clock_bad_$bad" "status $code: $(head -c 200 "$T/body")" err_is "$T/body" 400 bad_parameter
+done
+gate_read
+check ttl_clock_bad_moves_nothing "gate: $(head -c 300 "$T/gate.json")" [ "$(jfield "$T/gate.json" clock_skipped_s)" = 0 ]
 scene "$T/s.json" 32 32 1 spheres 3
 
 code=$(post_json /v1/jobs "$T/s.json")
@@ -33,7 +44,12 @@ post_json /v1/jobs "$T/c.json" >/dev/null
 idc=$(jfield "$T/body" id)
 code=$(req DELETE "/v1/jobs/$idc")
 check ttl_cancel_200 "status $code" [ "$code" = 200 ]
+code=$(req GET "/v1/jobs/$idc")
+check ttl_cancelled_kept "status $code right after the DELETE: $(head -c 300 "$T/body")" \
+    bash -c "[ $code = 200 ] && [ '$(jfield "$T/body" state)' = canceled ]"
 status_of_is() { [ "$(req GET "/v1/jobs/$1")" = "$2" ]; }
+skip $((TTL + 2))
+check ttl_clock_skipped "gate: $(head -c 300 "$T/gate.json")" [ "$(jfield "$T/gate.json" clock_skipped_s)" = $((TTL + 2)) ]
 wait_until 60 status_of_is "$idc" 410
 check ttl_cancelled_expired "status $(req GET "/v1/jobs/$idc"): $(head -c 300 "$T/body")" bash -c \
     "[ '$(json "$T/body" 'j["error"]["code"]')' = job_expired ] && [ '$(json "$T/body" 'j["error"]["state"]')' = canceled ]"
@@ -58,6 +74,7 @@ check ttl_long_job_image "status $code: $(head -c 200 "$T/body" | tr -c '[:print
     bash -c "[ $code = 200 ] && [ '$(png_size "$T/body" 2>/dev/null)' = 32x32 ]"
 
 # then it goes: 410 job_expired with how and when it ended, on every route
+skip $((TTL + 1))
 wait_until 60 status_of_is "$id" 410
 code=$(req GET "/v1/jobs/$id")
 check ttl_expired_410 "status $code: $(head -c 300 "$T/body")" err_is "$T/body" 410 job_expired

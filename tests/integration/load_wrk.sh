@@ -4,6 +4,7 @@
 # answer must be a PNG or a 503 with Retry-After, no socket error, some
 # PNGs served, and the server's peak RSS bounded.  (`make bench` runs the
 # same for 60 s and reports latency: bench/http.sh.)
+# rayd-test: alone
 source "$(dirname "$0")/lib/common.sh"
 if ! command -v wrk >/dev/null; then
     check wrk_installed "wrk is missing (make test-deps installs it)" false

@@ -5,6 +5,7 @@
 # jobs under DATA, and a bad PORT is refused by rayd naming the option.
 # make runs in a process group of its own (setsid) so that it and the rayd
 # it started are stopped together, by that group's id.
+# rayd-test: alone (runs make in the tree: a stale tree relinks the binaries other tests run)
 source "$(dirname "$0")/lib/common.sh"
 cd "$RAYD_ROOT"
 BUILD_REL=$(realpath --relative-to="$RAYD_ROOT" "$RAYD_BUILD")

@@ -12,6 +12,7 @@
 # (state "evicted", its image 410 result_evicted); /metrics shows each kind.
 # The budget here is 16 MiB, so the whole test stays in tens of MB.  Work is
 # held by the test gate, never by a sleep.
+# rayd-test: alone
 . "$(dirname "$0")/lib/common.sh"
 
 HELP="python3 $RAYD_ROOT/tests/integration/lib/memory_helpers.py"

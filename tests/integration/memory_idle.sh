@@ -6,6 +6,7 @@
 # heap is trimmed (malloc_trim) and the frames the core kept for the next
 # render of their size (up to 32 MB) are unmapped once no render is left.
 # Before, about 30 MB of those frames stayed resident for good.
+# rayd-test: alone
 . "$(dirname "$0")/lib/common.sh"
 
 start_rayd --max-memory 1G --threads 2 --max-render-seconds 0

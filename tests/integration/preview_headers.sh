@@ -53,8 +53,8 @@ for p in $FILES; do
     n=${p#/}
     check_headers "get_${n:-root}" GET "$p"
 done
-check_headers head_root HEAD /
-check_headers head_app_js HEAD /app.js
+check_headers head_root HEAD / -I # -I: no body to wait for
+check_headers head_app_js HEAD /app.js -I
 
 # the page has nothing the policy refuses: every script a file, no <style>,
 # no style="..." or on...="..." attribute, no javascript: URL
