@@ -11,6 +11,7 @@
 #
 #   bash tests/browser/drop.sh               (tests/run.sh sets RAYD_BUILD)
 #   CASES=glb bash tests/browser/drop.sh     only the cases whose names match
+# rayd-test: long
 source "$(dirname "$0")/../integration/lib/common.sh"
 HERE=$RAYD_ROOT/tests/browser
 CHROMIUM=${CHROMIUM:-/usr/bin/chromium}
