@@ -175,7 +175,8 @@ case("version-string.json", '{"version": "1"}\n', E + "/version: must be an inte
 case("version-fraction.json", '{"version": 1.5}\n', E + "/version: must be an integer")
 
 # ---- render -------------------------------------------------------------------
-RENDER_KEYS = "width, height, samples, max_depth, background, seed, integrator, environment, aov"
+RENDER_KEYS = ("width, height, samples, max_depth, background, seed, integrator, environment, aov, "
+               "denoise, clamp_indirect, filter_glossy")
 case("render-array.json", '{"render": [640, 480]}\n', E + "/render: must be an object, not an array")
 case("render-null.json", '{"render": null}\n', E + "/render: must be an object, not null")
 case("render-unknown-key.json", '{"render": {"size": [640, 480]}}\n',
@@ -208,7 +209,7 @@ case("too-many-pixels-just.json", '{"render": {"width": 8000, "height": 5001}}\n
      E + "/render: width x height = 40008000 pixels is over the limit of 40000000 pixels")
 case("samples-zero.json", '{"render": {"samples": 0}}\n', E + "/render/samples: must be >= 1")
 case("samples-over-limit.json", '{"render": {"samples": 1025}}\n',
-     E + "/render/samples: must be <= 1024 (the limit)")
+     E + "/render/samples: must be <= 1024 (the limit); --max-samples raises it (up to 65536)")
 case("samples-fraction.json", '{"render": {"samples": 2.5}}\n', E + "/render/samples: must be an integer")
 case("max-depth-negative.json", '{"render": {"max_depth": -1}}\n', E + "/render/max_depth: must be >= 0")
 case("max-depth-over-limit.json", '{"render": {"max_depth": 33}}\n',
@@ -266,7 +267,7 @@ case("fov-y-non-finite.json", '{"camera": {"fov_y": 1e999}}\n', E + "/camera/fov
 
 # ---- materials ----------------------------------------------------------------
 MAT_KEYS = ("color, ambient, diffuse, specular, shininess, reflectivity, transparency, ior, emission, "
-            "roughness, metallic, texture")
+            "roughness, metallic, texture, emission_sides")
 case("materials-array.json", '{"materials": [{"color": [1, 0, 0]}]}\n',
      E + "/materials: must be an object, not an array")
 case("material-not-object.json", '{"materials": {"red": [0.9, 0.1, 0.1]}}\n',
