@@ -14,6 +14,7 @@
 # writing an image.  Also: job through nginx, health, a refused scene's JSON
 # error, mesh and environment files inlined, programs/curl/rayd-curl.sh.  Every process is stopped
 # by its PID; everything stays on loopback.
+# rayd-test: long (three nodes and nginx, several kills)
 source "$(dirname "$0")/lib/common.sh"
 
 CLIENT=$RAYD_BUILD/rayd-client
