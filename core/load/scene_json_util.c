@@ -376,8 +376,12 @@ enum rayd_status sj_read_asset(struct loader *ld, const cJSON *f, const struct j
     while (buf && n <= max) {
         if (n == cap) {
             size_t nc = cap > max / 2 ? max + 1 : cap * 2;
-            char *nb = realloc(buf, nc);
-            if (!nb) free(buf);
+            char *nb = nc > cap ? realloc(buf, nc) : NULL; /* max + 1 may wrap to 0 */
+            if (!nb) {
+                free(buf);
+                buf = NULL;
+                break;
+            }
             buf = nb;
             cap = nc;
             continue;

@@ -59,7 +59,11 @@ static size_t sse_write(char *ptr, size_t size, size_t n, void *user) {
         size_t room = b->cap > b->len + 1 ? b->cap - b->len - 1 : 0;
         if (!b->data && (b->data = malloc(8192))) room = (b->cap = 8192) - 1;
         size_t k = all < room ? all : room;
-        if (k) memcpy(b->data + b->len, ptr, k), b->len += k, b->data[b->len] = '\0';
+        if (k && b->data) {
+            memcpy(b->data + b->len, ptr, k);
+            b->len += k;
+            b->data[b->len] = '\0';
+        }
         return all;
     }
     if (c->len - c->off + all > SSE_PENDING_MAX) {
