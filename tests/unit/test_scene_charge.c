@@ -115,8 +115,66 @@ static void test_refusal_stops_parse(void) {
     free(json);
 }
 
+/* A scene of one PLY mesh source (base64) of nv vertices in a row, nf
+ * triangles over them; the header sizes its arrays. */
+static char *ply_scene(int nv, int nf) {
+    size_t cap = (size_t)(nv + nf) * 32 + 512;
+    char *ply = malloc(cap), *json = malloc(2 * cap);
+    int n = snprintf(ply, cap,
+                     "ply\nformat ascii 1.0\nelement vertex %d\nproperty float x\n"
+                     "property float y\nproperty float z\nelement face %d\n"
+                     "property list uchar int vertex_indices\nend_header\n",
+                     nv, nf);
+    for (int i = 0; i < nv; i++) n += snprintf(ply + n, cap - (size_t)n, "%d %d -4\n", i, i % 2);
+    for (int i = 0; i < nf; i++)
+        n += snprintf(ply + n, cap - (size_t)n, "3 %d %d %d\n", i, i + 1, i + 2);
+    char *enc = b64((const unsigned char *)ply, (size_t)n);
+    snprintf(json, 2 * cap,
+             "{\"objects\": [{\"type\": \"mesh\", \"source\": {\"format\": \"ply\","
+             " \"base64\": \"%s\"}}]}",
+             enc);
+    free(enc);
+    free(ply);
+    return json;
+}
+
+/* A PLY's arrays are charged as its header sizes them, before they are
+ * allocated: a refusal there names the mesh source, and what was charged
+ * is given back.  A parse that succeeds charges the arrays once (the
+ * loader adds the build's share, not the arrays again). */
+static void test_ply_charged_before_decode(void) {
+    enum { NV = 20000, NF = NV - 2 };
+    char *json = ply_scene(NV, NF);
+    struct account a = {.refuse_past = NV * 12 - 1}; /* not even the positions */
+    struct rayd_error err = {0};
+    enum rayd_status st;
+    rayd_scene *s = parse(json, &a, &err, &st);
+    CHECK(st == RAYD_E_NOMEM && !s, "status %d", st);
+    CHECK(strcmp(err.path, "/objects/0/source/base64") == 0, "path %s", err.path);
+    CHECK(strstr(err.message, "no room for 240000 bytes") != NULL, "message %s", err.message);
+    CHECK(a.net == 0, "net %lld after the refusal: all given back", a.net);
+    /* room for the positions, not the triangles' first guess */
+    struct account b = {.refuse_past = NV * 12 + 1000};
+    s = parse(json, &b, &err, &st);
+    CHECK(st == RAYD_E_NOMEM && !s, "status %d", st);
+    CHECK(strcmp(err.path, "/objects/0/source/base64") == 0, "path %s", err.path);
+    CHECK(strstr(err.message, "triangles") != NULL, "message %s", err.message);
+    CHECK(b.net == 0 && b.gross == NV * 12, "net %lld gross %lld", b.net, b.gross);
+    struct account c = {0};
+    s = parse(json, &c, &err, &st);
+    CHECK(st == RAYD_OK && s, "parse: %s", err.message);
+    /* arrays 12 a vertex, 12 a triangle; the build's estimate 96 a
+     * triangle, less its excess over the built size */
+    CHECK(c.gross >= NV * 12LL + NF * 108LL && c.gross < NV * 24LL + NF * 108LL,
+          "gross %lld: the arrays charged once, the build's share besides", c.gross);
+    CHECK(c.net > 0 && c.net <= NV * 12LL + NF * 108LL, "net %lld", c.net);
+    rayd_scene_free(s);
+    free(json);
+}
+
 int main(void) {
     RUN(test_charged_and_given_back);
     RUN(test_refusal_stops_parse);
+    RUN(test_ply_charged_before_decode);
     CHECK_EXIT();
 }
