@@ -255,9 +255,11 @@ static enum rayd_status load_meshes(struct imp *im, int override, struct object 
         return imp_fail(im, st);
     }
     /* the glTF's decoded textures (charged once decoded), then its meshes
-     * before they are built */
-    st = sj_charge(ld, &im->src, (size_t)g.texels * 3 * sizeof(float) + sj_mesh_bytes(&md));
+     * before they are built, less the arrays the bake charged already */
+    st = sj_charge(ld, &im->src,
+                   (size_t)g.texels * 3 * sizeof(float) + sj_mesh_bytes(&md) - md.charged);
     if (st != RAYD_OK) {
+        sj_give_back(ld, md.charged);
         mesh_data_free(&md);
         free(tm);
         gltf_mats_free(&g);

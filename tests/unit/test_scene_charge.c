@@ -5,6 +5,7 @@
  * a parse in its memory budget this way, server/work/scenes.c). */
 #include "check.h"
 
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -172,9 +173,57 @@ static void test_ply_charged_before_decode(void) {
     free(json);
 }
 
+/* A scene of a glTF of nv zero vertices (no buffer: an accessor without
+ * a bufferView reads as zeros), nv / 3 triangles: a mesh source, or a
+ * "gltf" object. */
+static char *gltf_scene(int nv, bool object) {
+    char doc[512], json[1024];
+    snprintf(doc, sizeof doc,
+             "{\"asset\": {\"version\": \"2.0\"}, \"scene\": 0, \"scenes\": [{\"nodes\": [0]}],"
+             " \"nodes\": [{\"mesh\": 0}], \"meshes\": [{\"primitives\": [{\"attributes\":"
+             " {\"POSITION\": 0}}]}], \"accessors\": [{\"componentType\": 5126, \"count\": %d,"
+             " \"type\": \"VEC3\", \"min\": [0, 0, 0], \"max\": [0, 0, 0]}]}",
+             nv);
+    char *enc = b64((const unsigned char *)doc, strlen(doc));
+    snprintf(json, sizeof json,
+             "{\"objects\": [{\"type\": \"%s\", \"source\": {\"format\": \"gltf\","
+             " \"base64\": \"%s\"}}]}",
+             object ? "gltf" : "mesh", enc);
+    free(enc);
+    return strdup(json);
+}
+
+/* A glTF's baked arrays are charged from the walk's counts before they
+ * are allocated, as a mesh source and as a "gltf" object: the refusal
+ * names the source, all is given back, and a parse that succeeds charges
+ * the arrays once. */
+static void test_gltf_charged_before_bake(void) {
+    enum { NV = 30000, ARRAYS = NV * 12 + NV / 3 * 12 };
+    for (int object = 0; object < 2; object++) {
+        char *json = gltf_scene(NV, object);
+        struct account a = {.refuse_past = ARRAYS - 1};
+        struct rayd_error err = {0};
+        enum rayd_status st;
+        rayd_scene *s = parse(json, &a, &err, &st);
+        CHECK(st == RAYD_E_NOMEM && !s, "status %d", st);
+        CHECK(strcmp(err.path, "/objects/0/source/gltf") == 0, "path %s", err.path);
+        CHECK(strstr(err.message, "no room for 480000 bytes") != NULL, "message %s", err.message);
+        CHECK(a.net == 0, "net %lld after the refusal: all given back", a.net);
+        struct account c = {0};
+        s = parse(json, &c, &err, &st);
+        CHECK(st == RAYD_OK && s, "parse: %s", err.message);
+        /* the arrays once, the build's estimate (96 a triangle) besides */
+        CHECK(c.gross >= ARRAYS + NV / 3 * 96LL && c.gross < 2LL * ARRAYS + NV / 3 * 96LL,
+              "gross %lld", c.gross);
+        rayd_scene_free(s);
+        free(json);
+    }
+}
+
 int main(void) {
     RUN(test_charged_and_given_back);
     RUN(test_refusal_stops_parse);
     RUN(test_ply_charged_before_decode);
+    RUN(test_gltf_charged_before_bake);
     CHECK_EXIT();
 }
