@@ -220,10 +220,60 @@ static void test_gltf_charged_before_bake(void) {
     }
 }
 
+/* A scene of one OBJ mesh source (base64) of nv vertices in a row, nv - 2
+ * triangles over them. */
+static char *obj_scene(int nv) {
+    size_t cap = (size_t)nv * 48 + 64;
+    char *obj = malloc(cap), *json = malloc(2 * cap);
+    size_t n = 0;
+    for (int i = 0; i < nv; i++) n += (size_t)snprintf(obj + n, cap - n, "v %d %d -4\n", i, i % 2);
+    for (int i = 1; i + 2 <= nv; i++)
+        n += (size_t)snprintf(obj + n, cap - n, "f %d %d %d\n", i, i + 1, i + 2);
+    char *enc = b64((const unsigned char *)obj, n);
+    snprintf(json, 2 * cap,
+             "{\"objects\": [{\"type\": \"mesh\", \"source\": {\"format\": \"obj\","
+             " \"base64\": \"%s\"}}]}",
+             enc);
+    free(enc);
+    free(obj);
+    return json;
+}
+
+/* An OBJ's mesh arrays are charged before its per-vertex arrays are
+ * allocated, read in order (a small file) or on threads (past 1 MiB): the
+ * refusal names the source, all is given back, and a parse that succeeds
+ * charges the arrays once. */
+static void test_obj_charged_before_arrays(void) {
+    static const int sizes[] = {2000, 80000};
+    for (int k = 0; k < 2; k++) {
+        int nv = sizes[k];
+        long long arrays = nv * 12LL + (nv - 2) * 12LL;
+        char *json = obj_scene(nv);
+        struct account a = {.refuse_past = arrays - 1};
+        struct rayd_error err = {0};
+        enum rayd_status st;
+        rayd_scene *s = parse(json, &a, &err, &st);
+        CHECK(st == RAYD_E_NOMEM && !s, "%d vertices: status %d", nv, st);
+        CHECK(strcmp(err.path, "/objects/0/source/base64") == 0, "path %s", err.path);
+        char want[64];
+        snprintf(want, sizeof want, "no room for %lld bytes", arrays);
+        CHECK(strstr(err.message, want) != NULL, "message %s", err.message);
+        CHECK(a.net == 0 && a.calls == 1, "net %lld, %d calls", a.net, a.calls);
+        struct account c = {0};
+        s = parse(json, &c, &err, &st);
+        CHECK(st == RAYD_OK && s, "parse: %s", err.message);
+        CHECK(c.gross >= arrays + (nv - 2) * 96LL && c.gross < 2 * arrays + (nv - 2) * 96LL,
+              "gross %lld", c.gross);
+        rayd_scene_free(s);
+        free(json);
+    }
+}
+
 int main(void) {
     RUN(test_charged_and_given_back);
     RUN(test_refusal_stops_parse);
     RUN(test_ply_charged_before_decode);
     RUN(test_gltf_charged_before_bake);
+    RUN(test_obj_charged_before_arrays);
     CHECK_EXIT();
 }
