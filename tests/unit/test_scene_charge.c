@@ -269,11 +269,69 @@ static void test_obj_charged_before_arrays(void) {
     }
 }
 
+/* A "gltf" object of a few zero triangles whose one material has a side
+ * x side PNG base colour texture (a data: URI). */
+static char *gltf_textured_scene(int side) {
+    rayd_image *tex;
+    rayd_image_new(side, side, &tex, NULL);
+    void *png;
+    size_t len;
+    rayd_png_encode(tex, -1, &png, &len, NULL);
+    rayd_image_free(tex);
+    char *img = b64(png, len);
+    rayd_free(png);
+    size_t cap = strlen(img) * 2 + 2048;
+    char *doc = malloc(cap), *json = malloc(2 * cap);
+    snprintf(doc, cap,
+             "{\"asset\": {\"version\": \"2.0\"}, \"scene\": 0, \"scenes\": [{\"nodes\": [0]}],"
+             " \"nodes\": [{\"mesh\": 0}], \"meshes\": [{\"primitives\": [{\"attributes\":"
+             " {\"POSITION\": 0}, \"material\": 0}]}], \"accessors\": [{\"componentType\": 5126,"
+             " \"count\": 30, \"type\": \"VEC3\", \"min\": [0, 0, 0], \"max\": [0, 0, 0]}],"
+             " \"materials\": [{\"pbrMetallicRoughness\": {\"baseColorTexture\": {\"index\": 0}}}],"
+             " \"textures\": [{\"source\": 0}],"
+             " \"images\": [{\"uri\": \"data:image/png;base64,%s\"}]}",
+             img);
+    char *enc = b64((const unsigned char *)doc, strlen(doc));
+    snprintf(json, 2 * cap,
+             "{\"objects\": [{\"type\": \"gltf\", \"source\": {\"format\": \"gltf\","
+             " \"base64\": \"%s\"}}]}",
+             enc);
+    free(enc);
+    free(doc);
+    free(img);
+    return json;
+}
+
+/* A glTF's image is charged from its PNG header's size before it is
+ * decoded (15 bytes a pixel: 8-bit, then floats), the 8-bit pixels given
+ * back once linear; a refusal names the image, and all is given back. */
+static void test_gltf_image_charged_before_decode(void) {
+    char *json = gltf_textured_scene(512);
+    struct account a = {.refuse_past = 1000};
+    struct rayd_error err = {0};
+    enum rayd_status st;
+    rayd_scene *s = parse(json, &a, &err, &st);
+    CHECK(st == RAYD_E_NOMEM && !s, "status %d", st);
+    CHECK(strcmp(err.path, "/objects/0/source/gltf/images/0/uri") == 0, "path %s", err.path);
+    CHECK(strstr(err.message, "512 x 512 pixels: no room for 3932160 bytes") != NULL, "message %s",
+          err.message);
+    CHECK(a.net == 0, "net %lld after the refusal: all given back", a.net);
+    struct account c = {0};
+    s = parse(json, &c, &err, &st);
+    CHECK(st == RAYD_OK && s, "parse: %s", err.message);
+    /* the texture's floats stay charged, its 8-bit pixels given back */
+    CHECK(c.gross >= 512 * 512 * 15 && c.gross < 2 * 512 * 512 * 15, "gross %lld", c.gross);
+    CHECK(c.net >= 512 * 512 * 12 && c.net < 512 * 512 * 15, "net %lld", c.net);
+    rayd_scene_free(s);
+    free(json);
+}
+
 int main(void) {
     RUN(test_charged_and_given_back);
     RUN(test_refusal_stops_parse);
     RUN(test_ply_charged_before_decode);
     RUN(test_gltf_charged_before_bake);
     RUN(test_obj_charged_before_arrays);
+    RUN(test_gltf_image_charged_before_decode);
     CHECK_EXIT();
 }
