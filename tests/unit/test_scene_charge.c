@@ -326,6 +326,53 @@ static void test_gltf_image_charged_before_decode(void) {
     free(json);
 }
 
+/* An OpenEXR environment map is charged from its header's data window
+ * (its floats and sampling tables, 24 bytes a pixel) before a pixel is
+ * decoded; a refusal names its "base64". */
+static void test_exr_environment_charged_before_decode(void) {
+    enum { W = 256, H = 128 };
+    float *rgb = calloc((size_t)W * H * 3, sizeof *rgb);
+    void *exr;
+    size_t len;
+    CHECK(rayd_exr_encode(rgb, W, H, &exr, &len, NULL) == RAYD_OK, "encode");
+    free(rgb);
+    char *enc = b64(exr, len), *cut = b64(exr, len / 2); /* its header whole, half its pixels */
+    rayd_free(exr);
+    size_t cap = strlen(enc) + 256;
+    char *json = malloc(cap);
+    snprintf(json, cap,
+             "{\"render\": {\"environment\": {\"format\": \"exr\", \"base64\": \"%s\"}},"
+             " \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, -5]}]}",
+             enc);
+    free(enc);
+    struct account a = {.refuse_past = W * H * 24 - 1};
+    struct rayd_error err = {0};
+    enum rayd_status st;
+    rayd_scene *s = parse(json, &a, &err, &st);
+    CHECK(st == RAYD_E_NOMEM && !s, "status %d", st);
+    CHECK(strcmp(err.path, "/render/environment/base64") == 0, "path %s", err.path);
+    CHECK(strstr(err.message, "no room for 786432 bytes") != NULL, "message %s", err.message);
+    struct account c = {0};
+    s = parse(json, &c, &err, &st);
+    CHECK(st == RAYD_OK && s, "parse: %s", err.message);
+    CHECK(c.gross >= W * H * 24, "gross %lld", c.gross);
+    rayd_scene_free(s);
+    /* cut short: refused before the decode would find it so; with room,
+     * the decode's error, and the charge given back */
+    snprintf(json, cap,
+             "{\"render\": {\"environment\": {\"format\": \"exr\", \"base64\": \"%s\"}},"
+             " \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, -5]}]}",
+             cut);
+    struct account d = {.refuse_past = W * H * 24 - 1}, f = {0};
+    s = parse(json, &d, &err, &st);
+    CHECK(st == RAYD_E_NOMEM && !s, "cut short, no room: status %d (%s)", st, err.message);
+    s = parse(json, &f, &err, &st);
+    CHECK(st == RAYD_E_INVALID && !s, "cut short: status %d (%s)", st, err.message);
+    CHECK(f.net == 0, "net %lld after the decode failed", f.net);
+    free(cut);
+    free(json);
+}
+
 int main(void) {
     RUN(test_charged_and_given_back);
     RUN(test_refusal_stops_parse);
@@ -333,5 +380,6 @@ int main(void) {
     RUN(test_gltf_charged_before_bake);
     RUN(test_obj_charged_before_arrays);
     RUN(test_gltf_image_charged_before_decode);
+    RUN(test_exr_environment_charged_before_decode);
     CHECK_EXIT();
 }
