@@ -131,6 +131,30 @@ static exr_result_t read_rows(exr_context_t ctx, float *rgb, int w, int y0, int 
     return rv;
 }
 
+enum rayd_status exr_read_size(const void *buf, size_t len, long *w, long *h,
+                               struct rayd_error *err) {
+    struct exr_src src = {buf, len, ""};
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.user_data = &src;
+    init.read_fn = src_read;
+    init.size_fn = src_size;
+    init.error_handler_fn = src_error;
+    exr_context_t ctx = NULL;
+    if (len < 4 || memcmp(buf, "\x76\x2f\x31\x01", 4) != 0)
+        return err_set(err, RAYD_E_INVALID, NULL,
+                       "is not an OpenEXR image (no OpenEXR magic number)");
+    exr_result_t rv = exr_start_read(&ctx, "memory", &init);
+    exr_attr_box2i_t dw;
+    if (rv == EXR_ERR_SUCCESS) rv = exr_get_data_window(ctx, 0, &dw);
+    if (ctx) exr_finish(&ctx);
+    if (rv != EXR_ERR_SUCCESS)
+        return err_set(err, RAYD_E_INVALID, NULL, "is not a readable OpenEXR image: %s",
+                       src.message[0] ? src.message : exr_get_default_error_message(rv));
+    *w = (long)dw.max.x - dw.min.x + 1;
+    *h = (long)dw.max.y - dw.min.y + 1;
+    return RAYD_OK;
+}
+
 enum rayd_status exr_read_rgb(const void *buf, size_t len, long max_pixels, float **rgb, int *w,
                               int *h, struct rayd_error *err) {
     struct exr_src src = {buf, len, ""};

@@ -13,4 +13,11 @@
 enum rayd_status exr_read_rgb(const void *buf, size_t len, long max_pixels, float **rgb, int *w,
                               int *h, struct rayd_error *err);
 
+/* The size exr_read_rgb would decode (the first part's data window),
+ * read from the header alone, so a caller can count the memory before
+ * the pixels are decoded; RAYD_E_INVALID (err saying why) when the
+ * header is not readable. */
+enum rayd_status exr_read_size(const void *buf, size_t len, long *w, long *h,
+                               struct rayd_error *err);
+
 #endif

@@ -516,8 +516,26 @@ static enum rayd_status gl_triangles(struct gl *G, const struct gl_draw *d,
     return RAYD_OK;
 }
 
+/* The bake's mesh arrays (positions, normals, texture coordinates,
+ * indices) charged to the caller's hook before they are allocated, from
+ * the counts the walk found; a refusal's path is the document's ("").
+ * The per-triangle materials (4 bytes a triangle) are not mesh_data's,
+ * and are left to the caller. */
+static enum rayd_status gl_charge(struct gl *G, const struct jp *top) {
+    size_t per_vertex =
+        (3 + (G->normals ? 3 : 0) + (G->want_parts && G->nuv_set > 0 ? 2 : 0)) * sizeof(float);
+    size_t bytes = (size_t)G->nverts * per_vertex + (size_t)G->ntris * 3 * sizeof(uint32_t);
+    char why[200];
+    enum rayd_status st = mesh_charge(G->lim, &G->charged, bytes, why, sizeof why);
+    if (st != RAYD_OK)
+        return gl_fail(G, st, top, "%llu vertices and %llu triangles: %s",
+                       (unsigned long long)G->nverts, (unsigned long long)G->ntris, why);
+    return RAYD_OK;
+}
+
 static enum rayd_status gl_bake(struct gl *G) {
     struct jp top = {.s = ""};
+    TRY_GL(gl_charge(G, &top));
     /* huge pages, as the PLY reader's: a million triangles fault far fewer pages */
     G->pos = huge_alloc((size_t)G->nverts * 3 * sizeof *G->pos);
     G->nrm = G->normals ? huge_alloc((size_t)G->nverts * 3 * sizeof *G->nrm) : NULL;
@@ -557,6 +575,7 @@ static void gl_release(struct gl *G, cJSON *root) {
     free(G->tmat);
     free(G->uv);
     free(G->pose);
+    mesh_give_back(G->lim, &G->charged, G->charged); /* what the bake did not hand over */
     cJSON_Delete(root);
 }
 
@@ -595,6 +614,7 @@ enum rayd_status mesh_parse_gltf(const void *data, size_t len, const struct mesh
                    .err = err,
                    .max_verts = mesh_max_vertices(lim),
                    .max_tris = mesh_max_triangles(lim),
+                   .lim = lim,
                    .anim_id = -1};
     cJSON *root = NULL;
     enum rayd_status st = gl_read(&G, data, len, &root);
@@ -603,9 +623,11 @@ enum rayd_status mesh_parse_gltf(const void *data, size_t len, const struct mesh
                                   .normal = G.nrm,
                                   .index = G.idx,
                                   .nverts = (uint32_t)G.nverts,
-                                  .ntris = (uint32_t)G.ntris};
+                                  .ntris = (uint32_t)G.ntris,
+                                  .charged = G.charged};
         G.pos = G.nrm = NULL;
         G.idx = NULL;
+        G.charged = 0; /* the mesh's now */
     }
     gl_release(&G, root);
     return st;
@@ -638,6 +660,8 @@ enum rayd_status gltf_doc_walk(struct gltf_doc *d, int scene, const struct mesh_
     d->walked = true;
     d->G.max_verts = mesh_max_vertices(lim);
     d->G.max_tris = mesh_max_triangles(lim);
+    d->lim = lim ? *lim : (struct mesh_limits){0}; /* the bake charges through its hook */
+    d->G.lim = &d->lim;
     return gl_walk(&d->G, scene);
 }
 
@@ -663,7 +687,9 @@ enum rayd_status gltf_doc_bake(struct gltf_doc *d, const int *uv_set, int nuv_se
                               .uv = G->uv,
                               .index = G->idx,
                               .nverts = (uint32_t)G->nverts,
-                              .ntris = (uint32_t)G->ntris};
+                              .ntris = (uint32_t)G->ntris,
+                              .charged = G->charged};
+    G->charged = 0; /* the mesh's now */
     *tri_mat = G->tmat;
     G->pos = G->nrm = G->uv = NULL;
     G->idx = NULL;

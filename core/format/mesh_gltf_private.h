@@ -58,6 +58,8 @@ struct gl {
     size_t loaded;
     bool counted; /* gl_count is done: the bake reads the same accessors again */
     uint32_t max_verts, max_tris;
+    const struct mesh_limits *lim; /* its charge hook: the bake's arrays charged first */
+    size_t charged;                /* bytes charged through it for pos, nrm, uv and idx */
     struct gl_draw *draws;
     size_t ndraws, cap_draws;
     unsigned char *seen; /* per node: 1 on the walk's path, 2 done */
@@ -89,6 +91,7 @@ struct gl {
 struct gltf_doc {
     struct gl G;
     struct mesh_gltf_opts o;
+    struct mesh_limits lim; /* the walk's, kept for the bake's charge */
     cJSON *root;
     bool walked, baked;
 };

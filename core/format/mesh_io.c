@@ -3,9 +3,12 @@
  * mesh_obj.c and mesh_ply.c each turn a file's bytes into a struct
  * mesh_data in one pass over a buffer that is not NUL-terminated (growing
  * their arrays by doubling, array.c, so a million-triangle file costs
- * O(log n) reallocations).  Three things they both need live here:
+ * O(log n) reallocations).  The things they both need live here:
  *   - mesh_data_free, so a half-built mesh and a finished one are released
  *     the same way on every path;
+ *   - mesh_charge and mesh_grow, so each big array is charged to the
+ *     caller's memory budget (mesh_limits.charge) before it is allocated,
+ *     and a refusal comes before the memory is used;
  *   - mesh_quote, so a token quoted in a message is printable ASCII;
  *   - mesh_parse_number, a decimal parser over a bounded token.  strtod
  *     needs a NUL after the number and is slow; the common case (at most 19
@@ -19,6 +22,9 @@
  */
 #include "format/mesh_io.h"
 
+#include <limits.h>
+#include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -38,6 +44,57 @@ uint32_t mesh_max_vertices(const struct mesh_limits *lim) {
 
 uint32_t mesh_max_triangles(const struct mesh_limits *lim) {
     return lim && lim->max_triangles < UINT32_MAX ? lim->max_triangles : UINT32_MAX - 1;
+}
+
+enum rayd_status mesh_charge(const struct mesh_limits *lim, size_t *charged, size_t bytes,
+                             char *why, size_t why_len) {
+    if (!lim || !lim->charge || bytes == 0) return RAYD_OK;
+    if (why_len) why[0] = '\0';
+    long long n = bytes > (size_t)LLONG_MAX ? LLONG_MAX : (long long)bytes;
+    enum rayd_status st = lim->charge(lim->charge_arg, n, why, why_len);
+    if (st != RAYD_OK) {
+        if (why_len && !why[0]) snprintf(why, why_len, "no memory for %zu bytes", bytes);
+        return st;
+    }
+    *charged += bytes;
+    return RAYD_OK;
+}
+
+void mesh_give_back(const struct mesh_limits *lim, size_t *charged, size_t bytes) {
+    if (bytes > *charged) bytes = *charged;
+    if (!lim || !lim->charge || bytes == 0) return;
+    char why[8];
+    (void)lim->charge(lim->charge_arg, -(long long)bytes, why, sizeof why);
+    *charged -= bytes;
+}
+
+/* The capacity array_grow picks: doubling from *cap (16 at first). */
+static size_t mesh_grown_cap(size_t cap, size_t need) {
+    size_t n = cap ? cap : 16;
+    while (n < need) {
+        if (n > SIZE_MAX / 2) return need;
+        n *= 2;
+    }
+    return n;
+}
+
+enum rayd_status mesh_grow(const struct mesh_limits *lim, size_t *charged, void **arr, size_t *cap,
+                           size_t need, size_t elem, char *why, size_t why_len) {
+    if (need <= *cap) return RAYD_OK;
+    size_t n = mesh_grown_cap(*cap, need);
+    if (elem == 0 || n > SIZE_MAX / elem) {
+        snprintf(why, why_len, "out of memory");
+        return RAYD_E_NOMEM;
+    }
+    size_t more = (n - *cap) * elem;
+    enum rayd_status st = mesh_charge(lim, charged, more, why, why_len);
+    if (st != RAYD_OK) return st;
+    if (!array_grow(arr, cap, n, elem)) {
+        mesh_give_back(lim, charged, more);
+        snprintf(why, why_len, "out of memory");
+        return RAYD_E_NOMEM;
+    }
+    return RAYD_OK;
 }
 
 const char *mesh_quote(char *buf, const char *s, size_t n) {

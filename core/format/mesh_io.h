@@ -17,6 +17,7 @@ struct mesh_data {
     float *uv;       /* 2 per vertex, or NULL */
     uint32_t *index; /* 3 per triangle, each < nverts */
     uint32_t nverts, ntris;
+    size_t charged; /* bytes charged through mesh_limits.charge for these arrays */
 };
 
 /* Upper bounds on a decoded mesh, taken literally (0 allows nothing).  A
@@ -24,6 +25,14 @@ struct mesh_data {
 struct mesh_limits {
     uint32_t max_vertices;
     uint32_t max_triangles;
+    /* Optional: the caller's memory budget (rayd_limits.charge's contract).
+     * A decoder calls it with the bytes of a big array before allocating
+     * it (its arrays as sized from a header or grown), stops with the
+     * status it returns (its reason in the message), and calls it with
+     * minus the bytes it frees.  On success mesh_data.charged says what is
+     * still charged for the arrays; on failure all is given back. */
+    enum rayd_status (*charge)(void *arg, long long bytes, char *why, size_t why_len);
+    void *charge_arg;
 };
 
 /* Frees the arrays and zeroes the struct; m may be NULL. */
@@ -84,5 +93,18 @@ const char *mesh_quote(char *buf, const char *s, size_t n);
 /* lim's bounds, capped at (and for a NULL lim equal to) UINT32_MAX - 1. */
 uint32_t mesh_max_vertices(const struct mesh_limits *lim);
 uint32_t mesh_max_triangles(const struct mesh_limits *lim);
+
+/* Charges bytes to lim's hook (none: always RAYD_OK), adding them to
+ * *charged; on a refusal why holds the hook's reason. */
+enum rayd_status mesh_charge(const struct mesh_limits *lim, size_t *charged, size_t bytes,
+                             char *why, size_t why_len);
+
+/* Gives back bytes (at most *charged) to lim's hook. */
+void mesh_give_back(const struct mesh_limits *lim, size_t *charged, size_t bytes);
+
+/* array_grow with the growth charged before it is allocated: RAYD_OK,
+ * the hook's refusal (why says it), or RAYD_E_NOMEM (charge given back). */
+enum rayd_status mesh_grow(const struct mesh_limits *lim, size_t *charged, void **arr, size_t *cap,
+                           size_t need, size_t elem, char *why, size_t why_len);
 
 #endif

@@ -85,6 +85,8 @@ struct obj {
     bool some_tn;            /* some corner has a vt or a vn */
     struct obj_chunk *defer; /* a chunk read on its own thread: faces kept as triples */
     _Atomic uint32_t *first; /* with defer: v -> the first chunk using it (obj_number_positions) */
+    const struct mesh_limits *lim; /* its charge hook: the mesh's arrays charged first */
+    enum rayd_status refused;      /* the hook's refusal of them (obj_finish) */
     struct rayd_error *err;
 };
 
@@ -680,11 +682,21 @@ static enum rayd_status obj_finish(struct obj *o, struct mesh_data *out) {
     size_t nv = o->nkeys;
     if (nv == 0) /* never with faces (a corner is a vertex); no allocation of 0 bytes below */
         return err_set(o->err, RAYD_E_INVALID, NULL, "OBJ has no faces ('f' lines)");
+    /* the mesh's arrays charged before the per-vertex ones are allocated
+     * (the triangles' exists: it is charged here with them) */
+    size_t per_vertex = (3 + (o->all_n ? 3 : 0) + (o->all_t ? 2 : 0)) * sizeof(float);
     struct mesh_data m = {0};
+    char why[200];
+    st = mesh_charge(o->lim, &m.charged, nv * per_vertex + o->ntri * 3 * sizeof *o->tri, why,
+                     sizeof why);
+    if ((o->refused = st) != RAYD_OK)
+        return err_set(o->err, st, NULL, "OBJ of %zu vertices and %zu triangles: %s", nv, o->ntri,
+                       why);
     m.pos = huge_alloc(nv * 3 * sizeof *m.pos);
     if (o->all_n) m.normal = huge_alloc(nv * 3 * sizeof *m.normal);
     if (o->all_t) m.uv = malloc(nv * 2 * sizeof *m.uv);
     if (!m.pos || (o->all_n && !m.normal) || (o->all_t && !m.uv)) {
+        mesh_give_back(o->lim, &m.charged, m.charged);
         mesh_data_free(&m);
         return obj_nomem(o);
     }
@@ -700,7 +712,7 @@ static enum rayd_status obj_finish(struct obj *o, struct mesh_data *out) {
     o->tri = NULL;
     m.nverts = (uint32_t)nv;
     m.ntris = (uint32_t)o->ntri;
-    *out = m;
+    *out = m; /* charged for exactly its arrays */
     return RAYD_OK;
 }
 
@@ -712,6 +724,7 @@ static enum rayd_status obj_serial(const char *text, size_t len, const struct me
                     .max_tris = mesh_max_triangles(lim),
                     .all_t = true,
                     .all_n = true,
+                    .lim = lim,
                     .err = err};
     enum rayd_status st = RAYD_OK;
     if (!obj_table_fit(&o, 0)) st = obj_nomem(&o);
@@ -930,14 +943,17 @@ static bool obj_positions_only(const struct obj_par *j) {
 }
 
 /* The threaded decoder; false when it gives up (the caller then reads in
- * order, which finds the error, or decodes what this could not). */
+ * order, which finds the error, or decodes what this could not), except
+ * that the caller's refusal of the mesh's charge is final (*refused, its
+ * message in err: the file need not be read again to be refused). */
 static bool obj_parallel(const char *text, size_t len, const struct mesh_limits *lim, int threads,
-                         struct mesh_data *out) {
+                         struct mesh_data *out, struct rayd_error *err, enum rayd_status *refused) {
     struct obj_par j = {.nchunks = 4 * (size_t)threads};
     j.shared = (struct obj){.max_verts = mesh_max_vertices(lim),
                             .max_tris = mesh_max_triangles(lim),
                             .all_t = true,
-                            .all_n = true};
+                            .all_n = true,
+                            .lim = lim};
     j.chunks = calloc(j.nchunks, sizeof *j.chunks);
     bool ok = j.chunks != NULL;
     if (ok) {
@@ -948,7 +964,9 @@ static bool obj_parallel(const char *text, size_t len, const struct mesh_limits 
     if (ok) parallel_for(j.nchunks, threads, 1, obj_read_body, &j);
     for (size_t c = 0; ok && c < j.nchunks; c++) ok = !j.chunks[c].failed;
     ok = ok && (obj_positions_only(&j) ? obj_number_positions(&j, threads) : obj_number(&j));
+    j.shared.err = err; /* obj_finish's message; the serial reader's replaces any but a refusal */
     ok = ok && obj_finish(&j.shared, out) == RAYD_OK;
+    *refused = j.shared.refused;
     for (size_t c = 0; j.chunks && c < j.nchunks; c++) {
         free(j.chunks[c].corners);
         if (j.chunks[c].own_v) free(j.chunks[c].vcorners);
@@ -967,7 +985,9 @@ enum rayd_status mesh_parse_obj_threads(const char *text, size_t len, const stru
         return err_set(err, RAYD_E_INVALID, NULL,
                        "the OBJ file is %s text; save it as UTF-8 (or ASCII)", enc);
     if (threads <= 0) threads = len >= OBJ_PARALLEL_BYTES ? parallel_cores() : 1;
-    if (threads > 1 && obj_parallel(text, len, lim, threads, out)) return RAYD_OK;
+    enum rayd_status refused = RAYD_OK;
+    if (threads > 1 && obj_parallel(text, len, lim, threads, out, err, &refused)) return RAYD_OK;
+    if (refused != RAYD_OK) return refused;
     return obj_serial(text, len, lim, out, err);
 }
 

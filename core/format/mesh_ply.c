@@ -102,8 +102,10 @@ struct ply {
     float *pos, *normal, *uv;
     uint32_t *tri;
     size_t ntri, cap_tri;
-    int threads;      /* for the binary records (ply_records); 1: one pass, in order */
-    size_t min_chunk; /* records a thread at least */
+    int threads;                   /* for the binary records (ply_records); 1: one pass, in order */
+    size_t min_chunk;              /* records a thread at least */
+    const struct mesh_limits *lim; /* its charge hook: each array charged first */
+    size_t charged;                /* bytes charged through it, given back on failure */
     struct rayd_error *err;
 };
 
@@ -161,6 +163,7 @@ static void ply_release(struct ply *P) {
     free(P->normal);
     free(P->uv);
     free(P->tri);
+    mesh_give_back(P->lim, &P->charged, P->charged);
 }
 
 /* ---- header ------------------------------------------------------------- */
@@ -543,8 +546,10 @@ static enum rayd_status ply_triangle(struct ply *P, uint32_t a, uint32_t b, uint
     if (P->ntri >= P->max_tris)
         return ply_bfail(P, RAYD_E_LIMIT, "%zu triangles exceed the limit of %u", P->ntri + 1,
                          P->max_tris);
-    if (!array_grow((void **)&P->tri, &P->cap_tri, (P->ntri + 1) * 3, sizeof *P->tri))
-        return ply_bfail(P, RAYD_E_NOMEM, "out of memory");
+    char why[200];
+    enum rayd_status st = mesh_grow(P->lim, &P->charged, (void **)&P->tri, &P->cap_tri,
+                                    (P->ntri + 1) * 3, sizeof *P->tri, why, sizeof why);
+    if (st != RAYD_OK) return ply_bfail(P, st, "%s", why);
     uint32_t *t = P->tri + P->ntri * 3;
     t[0] = a;
     t[1] = b;
@@ -744,6 +749,7 @@ static void ply_records_body(void *ctx, size_t lo, size_t hi) {
     }
     struct ply c = *j->P;
     c.err = NULL;
+    c.lim = NULL; /* the hook is the loader thread's; the triangles' room is charged already */
     c.cur = j->e;
     for (size_t r = lo; r < hi && !atomic_load_explicit(&j->failed, memory_order_relaxed); r++) {
         c.at = j->at + r * j->rec;
@@ -762,8 +768,10 @@ static bool ply_records(struct ply *P, const struct ply_elem *e) {
         return false;
     j.rec = ply_fixed_record(e, &j.list_at);
     if (!j.rec || (P->len - P->at) / j.rec < e->count) return false;
+    char why[200]; /* a refusal: the serial reader meets it again and says where */
     if (e->kind == PLY_ELEM_FACE &&
-        !array_grow((void **)&P->tri, &P->cap_tri, (size_t)e->count * 3, sizeof *P->tri))
+        mesh_grow(P->lim, &P->charged, (void **)&P->tri, &P->cap_tri, (size_t)e->count * 3,
+                  sizeof *P->tri, why, sizeof why) != RAYD_OK)
         return false;
     j.fast = ply_fast_layout(P, e);
     atomic_init(&j.failed, false);
@@ -793,24 +801,31 @@ static enum rayd_status ply_body(struct ply *P) {
 
 /* ---- entry ----------------------------------------------------------------- */
 
-/* Allocates the vertex arrays and a first guess of the triangle array. */
+/* Allocates the vertex arrays and a first guess of the triangle array,
+ * each charged (sized from the header's counts) before it is allocated. */
 static enum rayd_status ply_alloc(struct ply *P) {
     const struct ply_elem *v = &P->elems[P->vertex - 1];
     /* strips: about two triangles a vertex, the usual ratio of a surface */
     uint64_t faces = P->face ? P->elems[P->face - 1].count : 2 * v->count;
     size_t n = (size_t)v->count ? (size_t)v->count : 1;
     P->nverts = (uint32_t)v->count;
-    P->pos = huge_alloc(n * 3 * sizeof *P->pos);
     bool normals = v->role_seen[PLY_NX] && v->role_seen[PLY_NY] && v->role_seen[PLY_NZ];
     bool uvs = v->role_seen[PLY_U] && v->role_seen[PLY_V];
+    size_t per_vertex = (3 + (normals ? 3 : 0) + (uvs ? 2 : 0)) * sizeof(float);
+    char why[200];
+    enum rayd_status st = mesh_charge(P->lim, &P->charged, n * per_vertex, why, sizeof why);
+    if (st != RAYD_OK) return ply_hfail(P, st, "%u vertices: %s", P->nverts, why);
+    P->pos = huge_alloc(n * 3 * sizeof *P->pos);
     if (normals) P->normal = huge_alloc(n * 3 * sizeof *P->normal);
     if (uvs) P->uv = malloc(n * 2 * sizeof *P->uv);
+    if (!P->pos || (normals && !P->normal) || (uvs && !P->uv))
+        return ply_hfail(P, RAYD_E_NOMEM, "out of memory for %u vertices", P->nverts);
     /* Room for one triangle per face, up to a million: a face record can
      * be as short as two bytes, so the count alone is a weak bound. */
     size_t guess = faces < (1u << 20) ? (size_t)faces + 1 : (size_t)1 << 20;
-    bool ok = P->pos && (!normals || P->normal) && (!uvs || P->uv) &&
-              array_grow((void **)&P->tri, &P->cap_tri, guess * 3, sizeof *P->tri);
-    return ok ? RAYD_OK : ply_hfail(P, RAYD_E_NOMEM, "out of memory for %u vertices", P->nverts);
+    st = mesh_grow(P->lim, &P->charged, (void **)&P->tri, &P->cap_tri, guess * 3, sizeof *P->tri,
+                   why, sizeof why);
+    return st == RAYD_OK ? RAYD_OK : ply_hfail(P, st, "%zu triangles: %s", guess, why);
 }
 
 enum rayd_status mesh_parse_ply(const void *data, size_t len, const struct mesh_limits *lim,
@@ -827,6 +842,7 @@ enum rayd_status mesh_parse_ply_threads(const void *data, size_t len, const stru
                     .max_tris = mesh_max_triangles(lim),
                     .threads = threads,
                     .min_chunk = threads > 0 ? 1 : MESH_IO_CHUNK,
+                    .lim = lim,
                     .err = err};
     const char *enc = text_foreign_encoding(data, len);
     if (enc) /* a PLY header is ASCII even in a binary file */
@@ -840,15 +856,20 @@ enum rayd_status mesh_parse_ply_threads(const void *data, size_t len, const stru
         st = err_set(err, RAYD_E_INVALID, NULL, "PLY file has no faces");
     if (st == RAYD_OK) {
         uint32_t *tri = realloc(P.tri, P.ntri * 3 * sizeof *tri); /* shrink; may fail */
-        if (tri) P.tri = tri;
+        if (tri) {
+            P.tri = tri;
+            mesh_give_back(lim, &P.charged, (P.cap_tri - P.ntri * 3) * sizeof *tri);
+        }
         *out = (struct mesh_data){.pos = P.pos,
                                   .normal = P.normal,
                                   .uv = P.uv,
                                   .index = P.tri,
                                   .nverts = P.nverts,
-                                  .ntris = (uint32_t)P.ntri};
+                                  .ntris = (uint32_t)P.ntri,
+                                  .charged = P.charged};
         P.pos = P.normal = P.uv = NULL;
         P.tri = NULL;
+        P.charged = 0; /* the mesh's now */
     }
     ply_release(&P);
     return st;

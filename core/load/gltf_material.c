@@ -94,9 +94,43 @@ struct material gltf_pbr_material(const struct gltf_pbr *p) {
 
 /* ---- images ----------------------------------------------------------------- */
 
-/* Decoded 8-bit sRGB pixels of a PNG or a JPEG, into *img. */
+/* The bytes an image of w x h pixels takes here: its 8-bit pixels, then
+ * its linear floats (the 8-bit ones given back once converted). */
+#define GM_PIXEL_CHARGE (3 + 3 * sizeof(float))
+
+/* Charges, or gives back, what makes *charged (the image's) equal w x h
+ * pixels' worth. */
+static enum rayd_status gm_charge(struct gltf_mats *g, size_t *charged, long w, long h,
+                                  const struct jp *p, struct rayd_error *err) {
+    size_t want = (size_t)w * (size_t)h * GM_PIXEL_CHARGE;
+    if (want <= *charged) {
+        mesh_give_back(g->lim, &g->charged, *charged - want);
+        *charged = want;
+        return RAYD_OK;
+    }
+    char why[200];
+    enum rayd_status st = mesh_charge(g->lim, &g->charged, want - *charged, why, sizeof why);
+    if (st != RAYD_OK)
+        return err_set(err, st, p->s, "the image is %ld x %ld pixels: %s", w, h, why);
+    *charged = want;
+    return RAYD_OK;
+}
+
+/* A PNG's size from its IHDR (the first chunk), before it is decoded; 0
+ * x 0 when unreadable (the decoder then says why). */
+static void gm_png_size(const unsigned char *b, size_t len, long *w, long *h) {
+    *w = *h = 0;
+    if (len < 24 || memcmp(b + 12, "IHDR", 4)) return;
+    *w = (long)((uint32_t)b[16] << 24 | (uint32_t)b[17] << 16 | (uint32_t)b[18] << 8 | b[19]);
+    *h = (long)((uint32_t)b[20] << 24 | (uint32_t)b[21] << 16 | (uint32_t)b[22] << 8 | b[23]);
+    if (*w <= 0 || *h <= 0 || *w > 65535 || *h > 65535) *w = *h = 0;
+}
+
+/* Decoded 8-bit sRGB pixels of a PNG or a JPEG, into *img, charged (into
+ * *charged) from the header's size before they are decoded. */
 static enum rayd_status gm_decode(struct rayd_error *err, const unsigned char *b, size_t len,
-                                  const struct jp *p, long budget, rayd_image **img) {
+                                  const struct jp *p, long budget, struct gltf_mats *g,
+                                  size_t *charged, rayd_image **img) {
     struct rayd_error e = {0};
     if (budget <= 0) /* and never 0 to the PNG decoder: there 0 means its own default */
         return err_set(err, RAYD_E_LIMIT, p->s,
@@ -105,9 +139,13 @@ static enum rayd_status gm_decode(struct rayd_error *err, const unsigned char *b
                        (long)GLTF_MAX_TEXELS, (long)TEXTURE_MAX_SCENE_PIXELS);
     long max = budget < TEXTURE_MAX_PIXELS ? budget : TEXTURE_MAX_PIXELS;
     if (len >= 8 && !memcmp(b, "\x89PNG", 4)) {
+        long w, h;
+        gm_png_size(b, len, &w, &h);
+        if (w * h <= max)
+            TRY_GL(gm_charge(g, charged, w, h, p, err)); /* else the decoder refuses */
         enum rayd_status st = rayd_png_decode(b, len, max, img, &e);
         if (st != RAYD_OK) return err_set(err, st, p->s, "%s", e.message);
-        return RAYD_OK;
+        return gm_charge(g, charged, (*img)->w, (*img)->h, p, err); /* the same, as decoded */
     }
     if (len < 3 || b[0] != 0xFF || b[1] != 0xD8 || b[2] != 0xFF)
         return err_set(err, RAYD_E_INVALID, p->s, "is neither a PNG nor a JPEG image");
@@ -120,6 +158,7 @@ static enum rayd_status gm_decode(struct rayd_error *err, const unsigned char *b
                        "the image is %d x %d pixels; the limit is %ld pixels (%ld left of the "
                        "file's textures)",
                        w, h, TEXTURE_MAX_PIXELS, budget);
+    TRY_GL(gm_charge(g, charged, w, h, p, err));
     int w2, h2;
     stbi_uc *px = stbi_load_from_memory(b, (int)len, &w2, &h2, &n, 3);
     if (!px) return err_set(err, RAYD_E_INVALID, p->s, "cannot decode the JPEG image");
@@ -143,7 +182,7 @@ static enum rayd_status gm_decode(struct rayd_error *err, const unsigned char *b
 
 /* The image /images/i: its bytes from a bufferView or a URI, decoded. */
 static enum rayd_status gm_image(struct gltf_doc *d, struct rayd_error *err, int i, long budget,
-                                 rayd_image **img) {
+                                 struct gltf_mats *g, size_t *charged, rayd_image **img) {
     const cJSON *ij = cJSON_GetArrayItem(gl_get(gltf_doc_root(d), "images"), i);
     struct jp p = {.s = ""};
     snprintf(p.s, sizeof p.s, "/images/%d", i);
@@ -156,13 +195,13 @@ static enum rayd_status gm_image(struct gltf_doc *d, struct rayd_error *err, int
         const unsigned char *b;
         size_t len;
         TRY_GL(gltf_doc_view(d, ij, p.s, "bufferView", &b, &len));
-        return gm_decode(err, b, len, &pu, budget, img);
+        return gm_decode(err, b, len, &pu, budget, g, charged, img);
     }
     if (!cJSON_IsString(uri)) return err_set(err, RAYD_E_INVALID, pu.s, "must be a string");
     unsigned char *b;
     size_t len;
     TRY_GL(gltf_doc_uri(d, uri->valuestring, pu.s, &b, &len));
-    enum rayd_status st = gm_decode(err, b, len, &pu, budget, img);
+    enum rayd_status st = gm_decode(err, b, len, &pu, budget, g, charged, img);
     free(b);
     return st;
 }
@@ -205,10 +244,17 @@ static enum rayd_status gm_texture(struct gltf_doc *d, struct rayd_error *err, c
                        "must be an image index in 0..%d (other image extensions are not read)",
                        nimg - 1);
     rayd_image *img = NULL;
-    TRY_GL(gm_image(d, err, (int)source, g->budget - *texels, &img));
+    size_t charged = 0; /* this image's, in g->charged */
+    enum rayd_status st = gm_image(d, err, (int)source, g->budget - *texels, g, &charged, &img);
+    if (st != RAYD_OK) {
+        rayd_image_free(img);
+        mesh_give_back(g->lim, &g->charged, charged);
+        return st;
+    }
     struct texture t = {.kind = TEX_IMAGE, .space = TEX_UV, .scale = 1, .w = img->w, .h = img->h};
     t.rgb = texture_linear_from_srgb8(img->px, img->w, img->h);
-    rayd_image_free(img);
+    rayd_image_free(img); /* its 8-bit pixels given back; the floats stay charged */
+    mesh_give_back(g->lim, &g->charged, (t.rgb ? 3 : GM_PIXEL_CHARGE) * (size_t)t.w * (size_t)t.h);
     if (!t.rgb) return err_set(err, RAYD_E_NOMEM, p->s, "out of memory for a texture");
     for (size_t k = 0; k < (size_t)t.w * (size_t)t.h * 3; k++) t.rgb[k] *= (float)factor[k % 3];
     *texels += (long)t.w * t.h;
@@ -275,11 +321,13 @@ static enum rayd_status gm_material(struct gltf_doc *d, struct rayd_error *err, 
     return gm_texture(d, err, ti, &pt, pbr.base, g, texels, &g->uv_set[i]);
 }
 
-enum rayd_status gltf_mats_read(struct gltf_doc *d, int max, long texels, struct gltf_mats *out,
+enum rayd_status gltf_mats_read(struct gltf_doc *d, int max, long texels,
+                                const struct mesh_limits *lim, struct gltf_mats *out,
                                 struct rayd_error *err) {
     const cJSON *ms = gl_get(gltf_doc_root(d), "materials");
     struct jp at = {.s = "/materials"};
     memset(out, 0, sizeof *out);
+    out->lim = lim;
     if (ms && !cJSON_IsArray(ms)) return err_set(err, RAYD_E_INVALID, at.s, "must be an array");
     int n = ms ? cJSON_GetArraySize(ms) : 0;
     if (max > GLTF_MAX_MATERIALS) max = GLTF_MAX_MATERIALS;
@@ -306,5 +354,6 @@ void gltf_mats_free(struct gltf_mats *g) {
     free(g->tex);
     free(g->m);
     free(g->uv_set);
+    mesh_give_back(g->lim, &g->charged, g->charged);
     memset(g, 0, sizeof *g);
 }

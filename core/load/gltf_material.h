@@ -20,15 +20,21 @@ struct gltf_mats {
     int n;
     struct texture *tex;
     int ntex;
-    long texels; /* pixels of all the decoded textures */
-    long budget; /* the most pixels they may have (gltf_mats_read's texels) */
+    long texels;                   /* pixels of all the decoded textures */
+    long budget;                   /* the most pixels they may have (gltf_mats_read's texels) */
+    const struct mesh_limits *lim; /* its charge hook: each image charged before it is decoded */
+    size_t charged;                /* bytes charged through it, given back by gltf_mats_free */
 };
 
 /* Reads /materials of the doc's file (at most max, and GLTF_MAX_MATERIALS)
  * and decodes their base colour images (PNG or JPEG) with the factor
  * baked in, at most texels pixels of them in all (and GLTF_MAX_TEXELS).
+ * Each image is charged to lim's hook (lim may be NULL) from its header's
+ * size before it is decoded, 15 bytes a pixel, and the 8-bit pixels given
+ * back once they are linear: out->charged is then 12 bytes a texel.
  * Errors name the JSON Pointer inside the glTF document. */
-enum rayd_status gltf_mats_read(struct gltf_doc *d, int max, long texels, struct gltf_mats *out,
+enum rayd_status gltf_mats_read(struct gltf_doc *d, int max, long texels,
+                                const struct mesh_limits *lim, struct gltf_mats *out,
                                 struct rayd_error *err);
 
 /* The mapping of one PBR material, without its texture: exposed for tests. */
@@ -42,7 +48,8 @@ struct gltf_pbr {
 };
 struct material gltf_pbr_material(const struct gltf_pbr *p);
 
-/* Frees the arrays and the textures' texels (those not handed on). */
+/* Frees the arrays and the textures' texels (those not handed on), and
+ * gives back what is still charged (0 it once the caller owns it). */
 void gltf_mats_free(struct gltf_mats *g);
 
 #endif

@@ -59,13 +59,20 @@ static enum rayd_status env_decode_exr(struct loader *ld, const char *data, size
                                        const struct jp *p, double k, struct environment *e) {
     float *px;
     int w, h;
+    long hw, hh;
     struct rayd_error x = {0};
-    enum rayd_status st = exr_read_rgb(data, len, TEXTURE_MAX_PIXELS, &px, &w, &h, &x);
+    /* the floats and the sampling tables (about as much), charged from the
+     * header's data window before a pixel is decoded */
+    enum rayd_status st = exr_read_size(data, len, &hw, &hh, &x);
     if (st != RAYD_OK) return sj_fail(ld, st, p, "%s", x.message);
-    st = sj_charge(ld, p, (size_t)w * (size_t)h * 3 * sizeof(float) * 2); /* once decoded */
+    size_t charged = hw > 0 && hh > 0 && hw <= TEXTURE_MAX_PIXELS / hh
+                         ? (size_t)hw * (size_t)hh * 3 * sizeof(float) * 2
+                         : 0; /* else exr_read_rgb refuses it */
+    TRY(sj_charge(ld, p, charged));
+    st = exr_read_rgb(data, len, TEXTURE_MAX_PIXELS, &px, &w, &h, &x);
     if (st != RAYD_OK) {
-        free(px);
-        return st;
+        sj_give_back(ld, charged);
+        return sj_fail(ld, st, p, "%s", x.message);
     }
     return env_take(px, w, h, k, e);
 }

@@ -238,10 +238,11 @@ static enum rayd_status load_meshes(struct imp *im, int override, struct object 
     int32_t *tm = NULL, n = 0;
     struct object *objs = NULL;
     long room = ld->lim->max_materials - ld->s->nmats;
+    struct mesh_limits ml = sj_mesh_budget(ld); /* its charge hook, for the image decodes */
     enum rayd_status st = override >= 0
                               ? RAYD_OK
                               : gltf_mats_read(im->doc, (int)(room > 0 ? room : 0),
-                                               sj_max_texels(ld) - ld->texels, &g, ld->err);
+                                               sj_max_texels(ld) - ld->texels, &ml, &g, ld->err);
     ld->texels += g.texels; /* the scene's image textures together */
     if (override >= 0 && !mats_none(&g))
         st = err_set(ld->err, RAYD_E_NOMEM, im->src.s, "out of memory");
@@ -254,15 +255,20 @@ static enum rayd_status load_meshes(struct imp *im, int override, struct object 
         gltf_mats_free(&g);
         return imp_fail(im, st);
     }
-    /* the glTF's decoded textures (charged once decoded), then its meshes
-     * before they are built */
-    st = sj_charge(ld, &im->src, (size_t)g.texels * 3 * sizeof(float) + sj_mesh_bytes(&md));
+    /* the glTF's textures and its meshes before they are built, less what
+     * the image decodes and the bake charged already */
+    size_t all = (size_t)g.texels * 3 * sizeof(float) + sj_mesh_bytes(&md),
+           pre = md.charged + g.charged;
+    st = all > pre ? sj_charge(ld, &im->src, all - pre) : RAYD_OK;
+    if (all < pre) sj_give_back(ld, pre - all);
     if (st != RAYD_OK) {
+        sj_give_back(ld, md.charged);
         mesh_data_free(&md);
         free(tm);
         gltf_mats_free(&g);
         return st;
     }
+    g.charged = 0; /* the textures' floats stay charged: the scene holds them */
     if (override >= 0)
         for (uint32_t t = 0; t < md.ntris; t++) tm[t] = -1;
     ld->vertices += md.nverts;

@@ -267,15 +267,25 @@ enum rayd_status sj_source_read(struct loader *ld, const cJSON *src, const struc
     return RAYD_OK;
 }
 
-/* "source": {"format": "obj"|"ply"|"gltf"|"glb", and one of "text", "base64", "file"}. */
+/* "source": {"format": "obj"|"ply"|"gltf"|"glb", and one of "text", "base64", "file"}.
+ * The decoders charge their arrays through the caller's hook as they
+ * allocate them, so a refusal comes before the memory is used. */
 struct mesh_limits sj_mesh_budget(const struct loader *ld) {
     long v = ld->lim->max_vertices - ld->vertices, t = ld->lim->max_triangles - ld->triangles;
-    return (struct mesh_limits){(uint32_t)(v > (long)UINT32_MAX ? UINT32_MAX
-                                           : v < 0              ? 0
-                                                                : v),
-                                (uint32_t)(t > (long)UINT32_MAX ? UINT32_MAX
-                                           : t < 0              ? 0
-                                                                : t)};
+    return (struct mesh_limits){.max_vertices = (uint32_t)(v > (long)UINT32_MAX ? UINT32_MAX
+                                                           : v < 0              ? 0
+                                                                                : v),
+                                .max_triangles = (uint32_t)(t > (long)UINT32_MAX ? UINT32_MAX
+                                                            : t < 0              ? 0
+                                                                                 : t),
+                                .charge = ld->lim->charge,
+                                .charge_arg = ld->lim->charge_arg};
+}
+
+/* Frees a decoded mesh's arrays, giving back what its decoder charged. */
+static void mesh_drop(struct loader *ld, struct mesh_data *md) {
+    sj_give_back(ld, md->charged);
+    mesh_data_free(md);
 }
 
 static enum rayd_status load_source(struct loader *ld, const cJSON *src, const struct jp *at,
@@ -300,7 +310,7 @@ static enum rayd_status load_source(struct loader *ld, const cJSON *src, const s
     if (st != RAYD_OK && ld->err && format < 2)
         snprintf(ld->err->path, sizeof ld->err->path, "%s", pv.s);
     if (st == RAYD_OK && md->ntris == 0) {
-        mesh_data_free(md);
+        mesh_drop(ld, md);
         return sj_fail(ld, RAYD_E_INVALID, &pv, "holds no triangles");
     }
     return st;
@@ -368,7 +378,7 @@ static enum rayd_status mesh_from_inline(struct loader *ld, const cJSON *oj, con
         free(ix);
         return st;
     }
-    *md = (struct mesh_data){pos, nrm, uv, ix, (uint32_t)nv, (uint32_t)nt};
+    *md = (struct mesh_data){pos, nrm, uv, ix, (uint32_t)nv, (uint32_t)nt, 0};
     return RAYD_OK;
 }
 
@@ -383,11 +393,19 @@ enum rayd_status sj_mesh(struct loader *ld, const cJSON *oj, const struct jp *at
     struct mesh_data md = {0};
     TRY(src ? mesh_from_source(ld, oj, src, at, &md) : mesh_from_inline(ld, oj, at, &md));
     struct jp pm = jp_key(at, src ? "source" : "indices");
+    /* the arrays and the build's estimate, less what the decoder charged
+     * for the arrays already (it charged them as it allocated them) */
     size_t charged = sj_mesh_bytes(&md);
-    enum rayd_status st = sj_charge(ld, &pm, charged);
+    enum rayd_status st = RAYD_OK;
+    if (charged > md.charged) {
+        st = sj_charge(ld, &pm, charged - md.charged);
+    } else {
+        sj_give_back(ld, md.charged - charged);
+        md.charged = charged;
+    }
     if (st == RAYD_OK) st = sj_add_mesh(ld, id);
     if (st != RAYD_OK) {
-        mesh_data_free(&md);
+        mesh_drop(ld, &md);
         return st;
     }
     ld->vertices += md.nverts;

@@ -36,7 +36,7 @@ static enum rayd_status open_any(void *ctx, const char *name, char **data, size_
 
 /* The doc steps: every triangle's material in range, every uv finite. */
 static void doc_path(const uint8_t *data, size_t size, const struct mesh_gltf_opts *o) {
-    struct mesh_limits lim = {100000, 100000};
+    struct mesh_limits lim = {.max_vertices = 100000, .max_triangles = 100000};
     struct rayd_error err;
     struct gltf_doc *d = NULL;
     if (gltf_doc_open(data, size, o, &err, &d) != RAYD_OK) return;
@@ -44,7 +44,7 @@ static void doc_path(const uint8_t *data, size_t size, const struct mesh_gltf_op
     struct mesh_data m = {0};
     int32_t *tm = NULL;
     if (gltf_doc_walk(d, -1, &lim) == RAYD_OK &&
-        gltf_mats_read(d, 64, TEXTURE_MAX_SCENE_PIXELS, &g, &err) == RAYD_OK &&
+        gltf_mats_read(d, 64, TEXTURE_MAX_SCENE_PIXELS, NULL, &g, &err) == RAYD_OK &&
         gltf_doc_bake(d, g.uv_set, g.n + 1, &m, &tm) == RAYD_OK) {
         for (uint32_t t = 0; t < m.ntris; t++)
             if (tm[t] < -1 || tm[t] >= g.n) abort();
@@ -92,7 +92,7 @@ static void scene_path(const uint8_t *data, size_t size) {
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
-    struct mesh_limits lim = {100000, 100000};
+    struct mesh_limits lim = {.max_vertices = 100000, .max_triangles = 100000};
     struct mesh_gltf_opts o = {.max_bytes = 1 << 20, .max_nesting = 64, .open = open_any};
     struct mesh_data m = {0};
     struct rayd_error err;

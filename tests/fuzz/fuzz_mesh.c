@@ -26,7 +26,7 @@ static bool same_mesh(const struct mesh_data *a, const struct mesh_data *b) {
 /* Decodes with 1 and 3 threads and compares; an OBJ also with its fast
  * path for plain lines off (mesh_obj_fast_path), on one thread. */
 static void both(bool obj, const char *p, size_t n) {
-    struct mesh_limits lim = {100000, 100000};
+    struct mesh_limits lim = {.max_vertices = 100000, .max_triangles = 100000};
     struct mesh_data m[3] = {{0}, {0}, {0}};
     struct rayd_error err[3];
     enum rayd_status st[3];

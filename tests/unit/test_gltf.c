@@ -481,17 +481,18 @@ static void test_index_value(void) {
 static void test_limits_and_container(void) {
     struct mesh_data m = {0};
     struct rayd_error e;
-    struct mesh_limits lim = {1000, 7};
+    struct mesh_limits lim = {.max_vertices = 1000, .max_triangles = 7};
     enum rayd_status st = decode_glb(doc_text, &lim, &m, &e);
     CHECK(st == RAYD_E_LIMIT && !strcmp(e.path, "/meshes/2/primitives/0") &&
               strstr(e.message, "8 triangles; the limit is 7"),
           "triangles: status %d at '%s': %s", (int)st, e.path, e.message);
-    struct mesh_limits dlim = {1000, 5}; /* the 6th primitive drawn: node 5's mesh 0 */
+    struct mesh_limits dlim = {.max_vertices = 1000,
+                               .max_triangles = 5}; /* the 6th primitive drawn: node 5's mesh 0 */
     st = decode_glb(doc_text, &dlim, &m, &e);
     CHECK(st == RAYD_E_LIMIT && !strcmp(e.path, "/meshes/0/primitives/0") &&
               strstr(e.message, "more than 5 triangle primitives"),
           "draws: status %d at '%s': %s", (int)st, e.path, e.message);
-    struct mesh_limits vlim = {15, 1000};
+    struct mesh_limits vlim = {.max_vertices = 15, .max_triangles = 1000};
     st = decode_glb(doc_text, &vlim, &m, &e);
     CHECK(st == RAYD_E_LIMIT && strstr(e.message, "16 vertices; the limit is 15"),
           "vertices: %d %s", (int)st, e.message);

@@ -373,7 +373,7 @@ static void test_obj_errors(void) {
 
 static enum rayd_status obj_lim(const char *text, uint32_t mv, uint32_t mt, struct mesh_data *m,
                                 struct rayd_error *e) {
-    struct mesh_limits lim = {mv, mt};
+    struct mesh_limits lim = {.max_vertices = mv, .max_triangles = mt};
     return obj_n(text, strlen(text), &lim, m, e);
 }
 
@@ -447,7 +447,7 @@ static void test_obj_large_on_threads(void) {
     CHECK(obj_n(s, len, NULL, &m, &e) == RAYD_E_INVALID && strstr(e.message, "number 'nan' in 'v'"),
           "%s", e.message);
     free(s);
-    struct mesh_limits lim = {100000, 5000};
+    struct mesh_limits lim = {.max_vertices = 100000, .max_triangles = 5000};
     s = big_obj(6000, NULL, 0, &len);
     CHECK(obj_n(s, len, &lim, &m, &e) == RAYD_E_LIMIT, "%s", e.message);
     free(s);
@@ -491,7 +491,7 @@ static void test_obj_positions_only_on_threads(void) {
               !m.normal && !m.uv,
           "%s (%u vertices, %u triangles)", e.message, m.nverts, m.ntris);
     mesh_data_free(&m);
-    struct mesh_limits lim = {100000, 20000};
+    struct mesh_limits lim = {.max_vertices = 100000, .max_triangles = 20000};
     CHECK(obj_n(s, len, &lim, &m, &e) == RAYD_E_LIMIT, "%s", e.message);
     /* one face with a vt at the end: numbered in order on one thread (its
      * chunk alone has one), the uv dropped since the other corners lack it */

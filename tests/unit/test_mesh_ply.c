@@ -397,7 +397,7 @@ static void test_ply_errors(void) {
 
 static enum rayd_status ply_lim(const char *text, uint32_t mv, uint32_t mt, struct mesh_data *m,
                                 struct rayd_error *e) {
-    struct mesh_limits lim = {mv, mt};
+    struct mesh_limits lim = {.max_vertices = mv, .max_triangles = mt};
     return ply_n(text, strlen(text), &lim, m, e);
 }
 
@@ -416,7 +416,7 @@ static enum rayd_status ply_over_tris(struct mesh_data *m, struct rayd_error *e)
     return ply_lim(ply_quads, 100, 3, m, e);
 }
 static enum rayd_status ply_absurd_limited(struct mesh_data *m, struct rayd_error *e) {
-    struct mesh_limits lim = {1000000, 2000000};
+    struct mesh_limits lim = {.max_vertices = 1000000, .max_triangles = 2000000};
     const char *t =
         "ply\nformat binary_little_endian 1.0\nelement vertex 4294967295\n" PLY_XYZ PLY_FACE
         "end_header\n0123456789";
@@ -517,8 +517,9 @@ static void test_ply_binary_fast_layout(void) {
             size_t len;
             struct mesh_data m = {0};
             struct rayd_error e = {0};
-            struct mesh_limits lim = {UINT32_MAX,
-                                      cases[i].max_tris ? cases[i].max_tris : UINT32_MAX};
+            struct mesh_limits lim = {.max_vertices = UINT32_MAX,
+                                      .max_triangles =
+                                          cases[i].max_tris ? cases[i].max_tris : UINT32_MAX};
             unsigned char *b = big_ply_odd(be, false, nv, nf, cases[i].o, &len);
             enum rayd_status st = ply_n(b, len, &lim, &m, &e);
             if (!cases[i].msg)
@@ -562,7 +563,7 @@ static void test_ply_binary_large_on_threads(void) {
 static int fuzz_ply(const unsigned char *buf, size_t n) {
     struct mesh_data m = {0};
     struct rayd_error e = {0};
-    struct mesh_limits lim = {1000, 1000};
+    struct mesh_limits lim = {.max_vertices = 1000, .max_triangles = 1000};
     return mesh_answer_ok(ply_n(buf, n, &lim, &m, &e), &m, &e);
 }
 

@@ -5,6 +5,7 @@
  * a parse in its memory budget this way, server/work/scenes.c). */
 #include "check.h"
 
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -115,8 +116,270 @@ static void test_refusal_stops_parse(void) {
     free(json);
 }
 
+/* A scene of one PLY mesh source (base64) of nv vertices in a row, nf
+ * triangles over them; the header sizes its arrays. */
+static char *ply_scene(int nv, int nf) {
+    size_t cap = (size_t)(nv + nf) * 32 + 512;
+    char *ply = malloc(cap), *json = malloc(2 * cap);
+    int n = snprintf(ply, cap,
+                     "ply\nformat ascii 1.0\nelement vertex %d\nproperty float x\n"
+                     "property float y\nproperty float z\nelement face %d\n"
+                     "property list uchar int vertex_indices\nend_header\n",
+                     nv, nf);
+    for (int i = 0; i < nv; i++) n += snprintf(ply + n, cap - (size_t)n, "%d %d -4\n", i, i % 2);
+    for (int i = 0; i < nf; i++)
+        n += snprintf(ply + n, cap - (size_t)n, "3 %d %d %d\n", i, i + 1, i + 2);
+    char *enc = b64((const unsigned char *)ply, (size_t)n);
+    snprintf(json, 2 * cap,
+             "{\"objects\": [{\"type\": \"mesh\", \"source\": {\"format\": \"ply\","
+             " \"base64\": \"%s\"}}]}",
+             enc);
+    free(enc);
+    free(ply);
+    return json;
+}
+
+/* A PLY's arrays are charged as its header sizes them, before they are
+ * allocated: a refusal there names the mesh source, and what was charged
+ * is given back.  A parse that succeeds charges the arrays once (the
+ * loader adds the build's share, not the arrays again). */
+static void test_ply_charged_before_decode(void) {
+    enum { NV = 20000, NF = NV - 2 };
+    char *json = ply_scene(NV, NF);
+    struct account a = {.refuse_past = NV * 12 - 1}; /* not even the positions */
+    struct rayd_error err = {0};
+    enum rayd_status st;
+    rayd_scene *s = parse(json, &a, &err, &st);
+    CHECK(st == RAYD_E_NOMEM && !s, "status %d", st);
+    CHECK(strcmp(err.path, "/objects/0/source/base64") == 0, "path %s", err.path);
+    CHECK(strstr(err.message, "no room for 240000 bytes") != NULL, "message %s", err.message);
+    CHECK(a.net == 0, "net %lld after the refusal: all given back", a.net);
+    /* room for the positions, not the triangles' first guess */
+    struct account b = {.refuse_past = NV * 12 + 1000};
+    s = parse(json, &b, &err, &st);
+    CHECK(st == RAYD_E_NOMEM && !s, "status %d", st);
+    CHECK(strcmp(err.path, "/objects/0/source/base64") == 0, "path %s", err.path);
+    CHECK(strstr(err.message, "triangles") != NULL, "message %s", err.message);
+    CHECK(b.net == 0 && b.gross == NV * 12, "net %lld gross %lld", b.net, b.gross);
+    struct account c = {0};
+    s = parse(json, &c, &err, &st);
+    CHECK(st == RAYD_OK && s, "parse: %s", err.message);
+    /* arrays 12 a vertex, 12 a triangle; the build's estimate 96 a
+     * triangle, less its excess over the built size */
+    CHECK(c.gross >= NV * 12LL + NF * 108LL && c.gross < NV * 24LL + NF * 108LL,
+          "gross %lld: the arrays charged once, the build's share besides", c.gross);
+    CHECK(c.net > 0 && c.net <= NV * 12LL + NF * 108LL, "net %lld", c.net);
+    rayd_scene_free(s);
+    free(json);
+}
+
+/* A scene of a glTF of nv zero vertices (no buffer: an accessor without
+ * a bufferView reads as zeros), nv / 3 triangles: a mesh source, or a
+ * "gltf" object. */
+static char *gltf_scene(int nv, bool object) {
+    char doc[512], json[1024];
+    snprintf(doc, sizeof doc,
+             "{\"asset\": {\"version\": \"2.0\"}, \"scene\": 0, \"scenes\": [{\"nodes\": [0]}],"
+             " \"nodes\": [{\"mesh\": 0}], \"meshes\": [{\"primitives\": [{\"attributes\":"
+             " {\"POSITION\": 0}}]}], \"accessors\": [{\"componentType\": 5126, \"count\": %d,"
+             " \"type\": \"VEC3\", \"min\": [0, 0, 0], \"max\": [0, 0, 0]}]}",
+             nv);
+    char *enc = b64((const unsigned char *)doc, strlen(doc));
+    snprintf(json, sizeof json,
+             "{\"objects\": [{\"type\": \"%s\", \"source\": {\"format\": \"gltf\","
+             " \"base64\": \"%s\"}}]}",
+             object ? "gltf" : "mesh", enc);
+    free(enc);
+    return strdup(json);
+}
+
+/* A glTF's baked arrays are charged from the walk's counts before they
+ * are allocated, as a mesh source and as a "gltf" object: the refusal
+ * names the source, all is given back, and a parse that succeeds charges
+ * the arrays once. */
+static void test_gltf_charged_before_bake(void) {
+    enum { NV = 30000, ARRAYS = NV * 12 + NV / 3 * 12 };
+    for (int object = 0; object < 2; object++) {
+        char *json = gltf_scene(NV, object);
+        struct account a = {.refuse_past = ARRAYS - 1};
+        struct rayd_error err = {0};
+        enum rayd_status st;
+        rayd_scene *s = parse(json, &a, &err, &st);
+        CHECK(st == RAYD_E_NOMEM && !s, "status %d", st);
+        CHECK(strcmp(err.path, "/objects/0/source/gltf") == 0, "path %s", err.path);
+        CHECK(strstr(err.message, "no room for 480000 bytes") != NULL, "message %s", err.message);
+        CHECK(a.net == 0, "net %lld after the refusal: all given back", a.net);
+        struct account c = {0};
+        s = parse(json, &c, &err, &st);
+        CHECK(st == RAYD_OK && s, "parse: %s", err.message);
+        /* the arrays once, the build's estimate (96 a triangle) besides */
+        CHECK(c.gross >= ARRAYS + NV / 3 * 96LL && c.gross < 2LL * ARRAYS + NV / 3 * 96LL,
+              "gross %lld", c.gross);
+        rayd_scene_free(s);
+        free(json);
+    }
+}
+
+/* A scene of one OBJ mesh source (base64) of nv vertices in a row, nv - 2
+ * triangles over them. */
+static char *obj_scene(int nv) {
+    size_t cap = (size_t)nv * 48 + 64;
+    char *obj = malloc(cap), *json = malloc(2 * cap);
+    size_t n = 0;
+    for (int i = 0; i < nv; i++) n += (size_t)snprintf(obj + n, cap - n, "v %d %d -4\n", i, i % 2);
+    for (int i = 1; i + 2 <= nv; i++)
+        n += (size_t)snprintf(obj + n, cap - n, "f %d %d %d\n", i, i + 1, i + 2);
+    char *enc = b64((const unsigned char *)obj, n);
+    snprintf(json, 2 * cap,
+             "{\"objects\": [{\"type\": \"mesh\", \"source\": {\"format\": \"obj\","
+             " \"base64\": \"%s\"}}]}",
+             enc);
+    free(enc);
+    free(obj);
+    return json;
+}
+
+/* An OBJ's mesh arrays are charged before its per-vertex arrays are
+ * allocated, read in order (a small file) or on threads (past 1 MiB): the
+ * refusal names the source, all is given back, and a parse that succeeds
+ * charges the arrays once. */
+static void test_obj_charged_before_arrays(void) {
+    static const int sizes[] = {2000, 80000};
+    for (int k = 0; k < 2; k++) {
+        int nv = sizes[k];
+        long long arrays = nv * 12LL + (nv - 2) * 12LL;
+        char *json = obj_scene(nv);
+        struct account a = {.refuse_past = arrays - 1};
+        struct rayd_error err = {0};
+        enum rayd_status st;
+        rayd_scene *s = parse(json, &a, &err, &st);
+        CHECK(st == RAYD_E_NOMEM && !s, "%d vertices: status %d", nv, st);
+        CHECK(strcmp(err.path, "/objects/0/source/base64") == 0, "path %s", err.path);
+        char want[64];
+        snprintf(want, sizeof want, "no room for %lld bytes", arrays);
+        CHECK(strstr(err.message, want) != NULL, "message %s", err.message);
+        CHECK(a.net == 0 && a.calls == 1, "net %lld, %d calls", a.net, a.calls);
+        struct account c = {0};
+        s = parse(json, &c, &err, &st);
+        CHECK(st == RAYD_OK && s, "parse: %s", err.message);
+        CHECK(c.gross >= arrays + (nv - 2) * 96LL && c.gross < 2 * arrays + (nv - 2) * 96LL,
+              "gross %lld", c.gross);
+        rayd_scene_free(s);
+        free(json);
+    }
+}
+
+/* A "gltf" object of a few zero triangles whose one material has a side
+ * x side PNG base colour texture (a data: URI). */
+static char *gltf_textured_scene(int side) {
+    rayd_image *tex;
+    rayd_image_new(side, side, &tex, NULL);
+    void *png;
+    size_t len;
+    rayd_png_encode(tex, -1, &png, &len, NULL);
+    rayd_image_free(tex);
+    char *img = b64(png, len);
+    rayd_free(png);
+    size_t cap = strlen(img) * 2 + 2048;
+    char *doc = malloc(cap), *json = malloc(2 * cap);
+    snprintf(doc, cap,
+             "{\"asset\": {\"version\": \"2.0\"}, \"scene\": 0, \"scenes\": [{\"nodes\": [0]}],"
+             " \"nodes\": [{\"mesh\": 0}], \"meshes\": [{\"primitives\": [{\"attributes\":"
+             " {\"POSITION\": 0}, \"material\": 0}]}], \"accessors\": [{\"componentType\": 5126,"
+             " \"count\": 30, \"type\": \"VEC3\", \"min\": [0, 0, 0], \"max\": [0, 0, 0]}],"
+             " \"materials\": [{\"pbrMetallicRoughness\": {\"baseColorTexture\": {\"index\": 0}}}],"
+             " \"textures\": [{\"source\": 0}],"
+             " \"images\": [{\"uri\": \"data:image/png;base64,%s\"}]}",
+             img);
+    char *enc = b64((const unsigned char *)doc, strlen(doc));
+    snprintf(json, 2 * cap,
+             "{\"objects\": [{\"type\": \"gltf\", \"source\": {\"format\": \"gltf\","
+             " \"base64\": \"%s\"}}]}",
+             enc);
+    free(enc);
+    free(doc);
+    free(img);
+    return json;
+}
+
+/* A glTF's image is charged from its PNG header's size before it is
+ * decoded (15 bytes a pixel: 8-bit, then floats), the 8-bit pixels given
+ * back once linear; a refusal names the image, and all is given back. */
+static void test_gltf_image_charged_before_decode(void) {
+    char *json = gltf_textured_scene(512);
+    struct account a = {.refuse_past = 1000};
+    struct rayd_error err = {0};
+    enum rayd_status st;
+    rayd_scene *s = parse(json, &a, &err, &st);
+    CHECK(st == RAYD_E_NOMEM && !s, "status %d", st);
+    CHECK(strcmp(err.path, "/objects/0/source/gltf/images/0/uri") == 0, "path %s", err.path);
+    CHECK(strstr(err.message, "512 x 512 pixels: no room for 3932160 bytes") != NULL, "message %s",
+          err.message);
+    CHECK(a.net == 0, "net %lld after the refusal: all given back", a.net);
+    struct account c = {0};
+    s = parse(json, &c, &err, &st);
+    CHECK(st == RAYD_OK && s, "parse: %s", err.message);
+    /* the texture's floats stay charged, its 8-bit pixels given back */
+    CHECK(c.gross >= 512 * 512 * 15 && c.gross < 2 * 512 * 512 * 15, "gross %lld", c.gross);
+    CHECK(c.net >= 512 * 512 * 12 && c.net < 512 * 512 * 15, "net %lld", c.net);
+    rayd_scene_free(s);
+    free(json);
+}
+
+/* An OpenEXR environment map is charged from its header's data window
+ * (its floats and sampling tables, 24 bytes a pixel) before a pixel is
+ * decoded; a refusal names its "base64". */
+static void test_exr_environment_charged_before_decode(void) {
+    enum { W = 256, H = 128 };
+    float *rgb = calloc((size_t)W * H * 3, sizeof *rgb);
+    void *exr;
+    size_t len;
+    CHECK(rayd_exr_encode(rgb, W, H, &exr, &len, NULL) == RAYD_OK, "encode");
+    free(rgb);
+    char *enc = b64(exr, len), *cut = b64(exr, len / 2); /* its header whole, half its pixels */
+    rayd_free(exr);
+    size_t cap = strlen(enc) + 256;
+    char *json = malloc(cap);
+    snprintf(json, cap,
+             "{\"render\": {\"environment\": {\"format\": \"exr\", \"base64\": \"%s\"}},"
+             " \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, -5]}]}",
+             enc);
+    free(enc);
+    struct account a = {.refuse_past = W * H * 24 - 1};
+    struct rayd_error err = {0};
+    enum rayd_status st;
+    rayd_scene *s = parse(json, &a, &err, &st);
+    CHECK(st == RAYD_E_NOMEM && !s, "status %d", st);
+    CHECK(strcmp(err.path, "/render/environment/base64") == 0, "path %s", err.path);
+    CHECK(strstr(err.message, "no room for 786432 bytes") != NULL, "message %s", err.message);
+    struct account c = {0};
+    s = parse(json, &c, &err, &st);
+    CHECK(st == RAYD_OK && s, "parse: %s", err.message);
+    CHECK(c.gross >= W * H * 24, "gross %lld", c.gross);
+    rayd_scene_free(s);
+    /* cut short: refused before the decode would find it so; with room,
+     * the decode's error, and the charge given back */
+    snprintf(json, cap,
+             "{\"render\": {\"environment\": {\"format\": \"exr\", \"base64\": \"%s\"}},"
+             " \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, -5]}]}",
+             cut);
+    struct account d = {.refuse_past = W * H * 24 - 1}, f = {0};
+    s = parse(json, &d, &err, &st);
+    CHECK(st == RAYD_E_NOMEM && !s, "cut short, no room: status %d (%s)", st, err.message);
+    s = parse(json, &f, &err, &st);
+    CHECK(st == RAYD_E_INVALID && !s, "cut short: status %d (%s)", st, err.message);
+    CHECK(f.net == 0, "net %lld after the decode failed", f.net);
+    free(cut);
+    free(json);
+}
+
 int main(void) {
     RUN(test_charged_and_given_back);
     RUN(test_refusal_stops_parse);
+    RUN(test_ply_charged_before_decode);
+    RUN(test_gltf_charged_before_bake);
+    RUN(test_obj_charged_before_arrays);
+    RUN(test_gltf_image_charged_before_decode);
+    RUN(test_exr_environment_charged_before_decode);
     CHECK_EXIT();
 }
