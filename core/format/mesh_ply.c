@@ -549,7 +549,10 @@ static enum rayd_status ply_triangle(struct ply *P, uint32_t a, uint32_t b, uint
     char why[200];
     enum rayd_status st = mesh_grow(P->lim, &P->charged, (void **)&P->tri, &P->cap_tri,
                                     (P->ntri + 1) * 3, sizeof *P->tri, why, sizeof why);
-    if (st != RAYD_OK) return ply_bfail(P, st, "%s", why);
+    if (st != RAYD_OK) { /* ply_say, not ply_bfail: cppcheck misreads a variable code */
+        ply_say(P, st, true, "%s", why);
+        return st;
+    }
     uint32_t *t = P->tri + P->ntri * 3;
     t[0] = a;
     t[1] = b;
@@ -814,7 +817,10 @@ static enum rayd_status ply_alloc(struct ply *P) {
     size_t per_vertex = (3 + (normals ? 3 : 0) + (uvs ? 2 : 0)) * sizeof(float);
     char why[200];
     enum rayd_status st = mesh_charge(P->lim, &P->charged, n * per_vertex, why, sizeof why);
-    if (st != RAYD_OK) return ply_hfail(P, st, "%u vertices: %s", P->nverts, why);
+    if (st != RAYD_OK) {
+        ply_say(P, st, false, "%u vertices: %s", P->nverts, why);
+        return st;
+    }
     P->pos = huge_alloc(n * 3 * sizeof *P->pos);
     if (normals) P->normal = huge_alloc(n * 3 * sizeof *P->normal);
     if (uvs) P->uv = malloc(n * 2 * sizeof *P->uv);
@@ -825,7 +831,8 @@ static enum rayd_status ply_alloc(struct ply *P) {
     size_t guess = faces < (1u << 20) ? (size_t)faces + 1 : (size_t)1 << 20;
     st = mesh_grow(P->lim, &P->charged, (void **)&P->tri, &P->cap_tri, guess * 3, sizeof *P->tri,
                    why, sizeof why);
-    return st == RAYD_OK ? RAYD_OK : ply_hfail(P, st, "%zu triangles: %s", guess, why);
+    if (st != RAYD_OK) ply_say(P, st, false, "%zu triangles: %s", guess, why);
+    return st;
 }
 
 enum rayd_status mesh_parse_ply(const void *data, size_t len, const struct mesh_limits *lim,
