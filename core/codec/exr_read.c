@@ -131,25 +131,35 @@ static exr_result_t read_rows(exr_context_t ctx, float *rgb, int w, int y0, int 
     return rv;
 }
 
-enum rayd_status exr_read_size(const void *buf, size_t len, long *w, long *h,
-                               struct rayd_error *err) {
-    struct exr_src src = {buf, len, ""};
+/* Opens the EXR in src (which must outlive *ctx) and reads its data window
+ * into *dw; on success *ctx is open for the caller to finish. */
+static enum rayd_status exr_open(struct exr_src *src, exr_context_t *ctx, exr_attr_box2i_t *dw,
+                                 struct rayd_error *err) {
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
-    init.user_data = &src;
+    init.user_data = src;
     init.read_fn = src_read;
     init.size_fn = src_size;
     init.error_handler_fn = src_error;
-    exr_context_t ctx = NULL;
-    if (len < 4 || memcmp(buf, "\x76\x2f\x31\x01", 4) != 0)
+    *ctx = NULL;
+    if (src->len < 4 || memcmp(src->p, "\x76\x2f\x31\x01", 4) != 0)
         return err_set(err, RAYD_E_INVALID, NULL,
                        "is not an OpenEXR image (no OpenEXR magic number)");
-    exr_result_t rv = exr_start_read(&ctx, "memory", &init);
+    exr_result_t rv = exr_start_read(ctx, "memory", &init);
+    if (rv == EXR_ERR_SUCCESS) rv = exr_get_data_window(*ctx, 0, dw);
+    if (rv == EXR_ERR_SUCCESS) return RAYD_OK;
+    if (*ctx) exr_finish(ctx);
+    return err_set(err, RAYD_E_INVALID, NULL, "is not a readable OpenEXR image: %s",
+                   src->message[0] ? src->message : exr_get_default_error_message(rv));
+}
+
+enum rayd_status exr_read_size(const void *buf, size_t len, long *w, long *h,
+                               struct rayd_error *err) {
+    struct exr_src src = {buf, len, ""};
+    exr_context_t ctx;
     exr_attr_box2i_t dw;
-    if (rv == EXR_ERR_SUCCESS) rv = exr_get_data_window(ctx, 0, &dw);
-    if (ctx) exr_finish(&ctx);
-    if (rv != EXR_ERR_SUCCESS)
-        return err_set(err, RAYD_E_INVALID, NULL, "is not a readable OpenEXR image: %s",
-                       src.message[0] ? src.message : exr_get_default_error_message(rv));
+    enum rayd_status st = exr_open(&src, &ctx, &dw, err);
+    if (st != RAYD_OK) return st;
+    exr_finish(&ctx);
     *w = (long)dw.max.x - dw.min.x + 1;
     *h = (long)dw.max.y - dw.min.y + 1;
     return RAYD_OK;
@@ -158,26 +168,12 @@ enum rayd_status exr_read_size(const void *buf, size_t len, long *w, long *h,
 enum rayd_status exr_read_rgb(const void *buf, size_t len, long max_pixels, float **rgb, int *w,
                               int *h, struct rayd_error *err) {
     struct exr_src src = {buf, len, ""};
-    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
-    init.user_data = &src;
-    init.read_fn = src_read;
-    init.size_fn = src_size;
-    init.error_handler_fn = src_error;
-    exr_context_t ctx = NULL;
-    if (len < 4 || memcmp(buf, "\x76\x2f\x31\x01", 4) != 0)
-        return err_set(err, RAYD_E_INVALID, NULL,
-                       "is not an OpenEXR image (no OpenEXR magic number)");
-    exr_result_t rv = exr_start_read(&ctx, "memory", &init);
+    exr_context_t ctx;
     exr_attr_box2i_t dw;
-    if (rv == EXR_ERR_SUCCESS) rv = exr_get_data_window(ctx, 0, &dw);
-    if (rv != EXR_ERR_SUCCESS) {
-        if (ctx) exr_finish(&ctx);
-        return err_set(err, RAYD_E_INVALID, NULL, "is not a readable OpenEXR image: %s",
-                       src.message[0] ? src.message : exr_get_default_error_message(rv));
-    }
+    enum rayd_status st = exr_open(&src, &ctx, &dw, err);
+    if (st != RAYD_OK) return st;
     const char *why = unsupported(ctx);
     long ww = (long)dw.max.x - dw.min.x + 1, hh = (long)dw.max.y - dw.min.y + 1;
-    enum rayd_status st = RAYD_OK;
     if (why)
         st = err_set(err, RAYD_E_INVALID, NULL, "%s", why);
     else if (ww <= 0 || hh <= 0)
@@ -189,8 +185,8 @@ enum rayd_status exr_read_rgb(const void *buf, size_t len, long max_pixels, floa
     if (st == RAYD_OK && !px)
         st = err_set(err, RAYD_E_NOMEM, NULL, "out of memory for an OpenEXR image");
     if (st == RAYD_OK) {
-        rv = through_imf(ctx) ? read_imf(&src, px, (int)ww, (int)hh)
-                              : read_rows(ctx, px, (int)ww, dw.min.y, dw.max.y);
+        exr_result_t rv = through_imf(ctx) ? read_imf(&src, px, (int)ww, (int)hh)
+                                           : read_rows(ctx, px, (int)ww, dw.min.y, dw.max.y);
         if (rv != EXR_ERR_SUCCESS)
             st = err_set(err, RAYD_E_INVALID, NULL, "cannot decode the OpenEXR image: %s",
                          src.message[0] ? src.message : exr_get_default_error_message(rv));
