@@ -64,7 +64,8 @@ void mesh_give_back(const struct mesh_limits *lim, size_t *charged, size_t bytes
     if (bytes > *charged) bytes = *charged;
     if (!lim || !lim->charge || bytes == 0) return;
     char why[8];
-    (void)lim->charge(lim->charge_arg, -(long long)bytes, why, sizeof why);
+    long long n = bytes > (size_t)LLONG_MAX ? LLONG_MAX : (long long)bytes; /* as charged */
+    (void)lim->charge(lim->charge_arg, -n, why, sizeof why);
     *charged -= bytes;
 }
 

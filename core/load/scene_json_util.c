@@ -5,7 +5,6 @@
  */
 #define _GNU_SOURCE /* realpath, syscall (openat2) */
 #include <errno.h>
-#include <limits.h>
 #include <fcntl.h>
 #include <linux/openat2.h>
 #include <stdint.h>
@@ -19,6 +18,7 @@
 
 #include "load/scene_json_util.h"
 #include "base/hugemem.h"
+#include "format/mesh_io.h"
 #include "scene/scene_files.h"
 #include "shade/texture.h"
 
@@ -27,20 +27,24 @@ long sj_max_texels(const struct loader *ld) {
     return m > 0 && m < TEXTURE_MAX_SCENE_PIXELS ? m : TEXTURE_MAX_SCENE_PIXELS;
 }
 
+/* The loader's charge hook as format/mesh_io's, whose mesh_charge and
+ * mesh_give_back make the calls. */
+static struct mesh_limits sj_hook(const struct loader *ld) {
+    return (struct mesh_limits){.charge = ld->lim->charge, .charge_arg = ld->lim->charge_arg};
+}
+
 enum rayd_status sj_charge(struct loader *ld, const struct jp *at, size_t bytes) {
-    if (!ld->lim->charge || bytes == 0) return RAYD_OK;
-    char why[200] = "";
-    long long n = bytes > (size_t)LLONG_MAX ? LLONG_MAX : (long long)bytes;
-    enum rayd_status st = ld->lim->charge(ld->lim->charge_arg, n, why, sizeof why);
-    if (st == RAYD_OK) return RAYD_OK;
-    return sj_fail(ld, st, at, "%s", why[0] ? why : "no memory for this value");
+    struct mesh_limits hook = sj_hook(ld);
+    size_t charged = 0;
+    char why[200];
+    enum rayd_status st = mesh_charge(&hook, &charged, bytes, why, sizeof why);
+    return st == RAYD_OK ? RAYD_OK : sj_fail(ld, st, at, "%s", why);
 }
 
 void sj_give_back(struct loader *ld, size_t bytes) {
-    if (!ld->lim->charge || bytes == 0) return;
-    char why[8];
-    long long n = bytes > (size_t)LLONG_MAX ? LLONG_MAX : (long long)bytes;
-    (void)ld->lim->charge(ld->lim->charge_arg, -n, why, sizeof why);
+    struct mesh_limits hook = sj_hook(ld);
+    size_t charged = bytes;
+    mesh_give_back(&hook, &charged, bytes);
 }
 
 const char *sj_type_name(const cJSON *v) {
