@@ -18,21 +18,7 @@ python3 -c 'import json,sys; s=json.load(open("scenes/cornell.json")); s["render
 MODEL=/usr/share/assimp/models/PLY/Wuson.ply
 if [ -f "$MODEL" ]; then
     cp scenes/studio.hdr "$MODEL" "$T/"
-    cat >"$T/model.json" <<JSON
-{
- "camera": {"frame": "all", "azimuth": -125, "elevation": 15, "fov_y": 30},
- "render": {"width": $((SIZE * 3 / 2)), "height": $SIZE, "samples": 1, "max_depth": 4,
-            "integrator": "path", "environment": {"file": "studio.hdr"}},
- "materials": {
-  "terracotta": {"color": [0.6, 0.29, 0.15], "metallic": 0.3, "roughness": 0.35},
-  "floor": {"color": [0.5, 0.5, 0.52]}
- },
- "objects": [
-  {"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "material": "floor"},
-  {"type": "mesh", "source": {"file": "Wuson.ply"}, "smooth": true, "material": "terracotta"}
- ]
-}
-JSON
+    sh tools/model_scene.sh -125 $((SIZE * 3 / 2)) "$SIZE" 1 >"$T/model.json"
     "$BUILD/bench/denoise" "$T/model.json" "$REF" "Wuson.ply under scenes/studio.hdr"
 else
     echo "denoise.sh: no $MODEL (make test-deps installs assimp-testmodels): the mesh is skipped" >&2

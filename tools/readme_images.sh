@@ -36,23 +36,7 @@ trap 'rm -rf "$T"' EXIT
 cp scenes/studio.hdr "$MODEL" "$T/"
 
 # scene AZIMUTH WIDTH HEIGHT SAMPLES: the scene on stdout
-scene() {
-    cat <<EOF
-{
- "camera": {"frame": "all", "azimuth": $1, "elevation": 15, "fov_y": 30},
- "render": {"width": $2, "height": $3, "samples": $4, "max_depth": 4, "integrator": "path",
-            "environment": {"file": "studio.hdr"}},
- "materials": {
-  "terracotta": {"color": [0.6, 0.29, 0.15], "metallic": 0.3, "roughness": 0.35},
-  "floor": {"color": [0.5, 0.5, 0.52]}
- },
- "objects": [
-  {"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "material": "floor"},
-  {"type": "mesh", "source": {"file": "Wuson.ply"}, "smooth": true, "material": "terracotta"}
- ]
-}
-EOF
-}
+scene() { sh tools/model_scene.sh "$@"; }
 
 scene -125 400 260 32 >"$T/model.json"
 "$RENDER" "$T/model.json" -o "$OUT/model.png" --denoise -q
