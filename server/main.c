@@ -152,6 +152,12 @@ static int main_start(sigset_t *set) {
         fprintf(stderr, "rayd: error: cannot start the worker pool\n");
         return 1;
     }
+    if (!compile_start()) {
+        fprintf(stderr, "rayd: error: cannot start the parse threads\n");
+        compile_stop();
+        sched_stop();
+        return 1;
+    }
     if (config.test_gate_tiles >= -1) {
         gate_enable(config.test_gate_tiles);
         log_warn("--test-gate: workers start tiles only as POST /v1/test/gate allows");

@@ -35,7 +35,9 @@
  * COMPILE_JOIN_SECONDS.
  *
  * The pool's state is under work_lock (the server's one mutex) with a
- * condition variable of its own; the threads start with the first scene.
+ * condition variable of its own.  The threads start with the server
+ * (compile_start): started on the first scene instead, a first scene that
+ * came when no thread could be made left every later scene refused.
  */
 #include "work/work_private.h"
 
@@ -69,14 +71,13 @@ static bool compile_stopping;
 static double compile_avg = 0.1; /* seconds of a parse, a moving average */
 
 static pthread_cond_t compile_cond = PTHREAD_COND_INITIALIZER;
-static pthread_once_t compile_once = PTHREAD_ONCE_INIT;
 static pthread_t *compile_threads;
 static int compile_nthreads;
 static int compile_alive; /* threads not yet ended, lock held */
 
 static void *compile_thread(void *arg);
 
-static void compile_start(void) {
+bool compile_start(void) {
     long n = config.parse_threads > 0 ? config.parse_threads : 2;
     compile_threads = calloc((size_t)n, sizeof *compile_threads);
     work_lock_take();
@@ -86,6 +87,7 @@ static void compile_start(void) {
         compile_alive++;
     }
     work_lock_give();
+    return compile_nthreads == n;
 }
 
 /* The job of id (with a body to parse, or by id only) queued or being
@@ -220,7 +222,6 @@ enum work_submit compile_scene_frame(const char *body, size_t len, long frame,
         scenes_release(e); /* a file changed: parse it again */
         e = NULL;
     }
-    pthread_once(&compile_once, compile_start);
     work_lock_take();
     enum work_submit s = compile_join_same(id, false, e, w);
     work_lock_give();
@@ -244,7 +245,6 @@ enum work_submit compile_find_scene(const char *id, struct compile_waiter *w,
         res->hit = e != NULL;
         return WORK_CACHED;
     }
-    pthread_once(&compile_once, compile_start);
     bool joined;
     work_lock_take();
     enum work_submit s = compile_enqueue(id, NULL, 0, -1, e, 0, w, &joined);

@@ -100,7 +100,6 @@ struct shots_videoq {
 };
 static struct shots_videoq *shots_vq;
 static pthread_cond_t shots_vcond = PTHREAD_COND_INITIALIZER;
-static pthread_once_t shots_vonce = PTHREAD_ONCE_INIT;
 static bool shots_vthread;
 static void shots_video_queue(struct shot *s);
 
@@ -914,7 +913,8 @@ static void shots_video_start(void) {
 
 /* s has every frame: its video queued for the video thread (lock held). */
 static void shots_video_queue(struct shot *s) {
-    pthread_once(&shots_vonce, shots_video_start);
+    if (!shots_vthread) /* made on the first video, and again if that failed */
+        shots_video_start();
     struct shots_videoq *q = shots_vthread ? calloc(1, sizeof *q) : NULL;
     if (!q) {
         s->video_state = SV_FAILED;

@@ -398,6 +398,9 @@ enum work_submit compile_find_scene(const char *id, struct compile_waiter *w,
                                     struct compile_result *res);
 /* About how long a refused request should wait for a place (Retry-After). */
 double compile_retry_seconds(void);
+/* Starts the parse threads (--parse-threads); false if any could not be
+ * made (compile_stop then ends those that were). */
+bool compile_start(void);
 /* Ends the pool: the scenes still queued are answered draining, the threads
  * joined (each parse running finishes first, waited for up to a bound). */
 void compile_stop(void);
