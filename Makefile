@@ -44,10 +44,10 @@
 # BENCH_PKGS (below): make bench-peers only.
 BUILD_PKGS := gcc g++ make pkg-config libc6-dev libpng-dev zlib1g-dev libisal-dev libdeflate-dev libcjson-dev \
               libmicrohttpd-dev libcurl4-openssl-dev libssl-dev libopenexr-dev libstb-dev ffmpeg \
-              libsqlite3-dev
+              libsqlite3-dev libhiredis-dev
 TEST_PKGS := curl python3 nginx wrk chromium fonts-dejavu-core pngcheck openexr g++ \
              assimp-testmodels clang libclang-rt-14-dev valgrind openssl man-db \
-             python3-prometheus-client
+             python3-prometheus-client redis-server
 LINT_PKGS := cppcheck clang-tidy clang-format
 
 # Build on every core unless told otherwise (tests/run.sh runs two tests at a time).
@@ -103,9 +103,10 @@ EXR_LIBS = $(shell pkg-config --libs OpenEXR)
 # and libdeflate, the PNG deflate at the default level, 5% faster as an archive
 # (the 1080p sphere frame's bands 36.9 -> 35.2 ms of work, median of 9).
 # librayd.so links them all as shared libraries (LIBS_SHARED).
-# SQLite (server/store.c only, rayd --data-dir) through pkg-config, as OpenEXR.
-SQLITE_CFLAGS = $(patsubst -I%,-isystem %,$(shell pkg-config --cflags sqlite3))
-SQLITE_LIBS = $(shell pkg-config --libs sqlite3)
+# SQLite (server/store.c only, rayd --data-dir) and hiredis (server/cluster/,
+# rayd --redis) through pkg-config, as OpenEXR.
+STORE_CFLAGS = $(patsubst -I%,-isystem %,$(shell pkg-config --cflags sqlite3 hiredis))
+STORE_LIBS = $(shell pkg-config --libs sqlite3 hiredis)
 # libstdc++ for core/codec/exr_imf.cc, the core's one C++ file (OpenEXR's C++
 # library reads what its C library of Debian 12's release cannot: DWA, tiles).
 LIBS_DYN = -lz -lisal -lcjson $(EXR_LIBS) -lstdc++ -lpthread -lm
@@ -188,7 +189,7 @@ $(BUILD)/%.o: %.c | $(BUILD)/.deps-ok
 # programs include their shared room as "common/common.h".
 $(BUILD)/server/%.o: server/%.c | $(BUILD)/.deps-ok
 	@mkdir -p $(dir $@)
-	$(CC) $(CFLAGS_ALL) -D_DEFAULT_SOURCE $(SQLITE_CFLAGS) -Iserver -Iinclude -I$(BUILD)/server -c $< -o $@
+	$(CC) $(CFLAGS_ALL) -D_DEFAULT_SOURCE $(STORE_CFLAGS) -Iserver -Iinclude -I$(BUILD)/server -c $< -o $@
 
 $(BUILD)/programs/%.o: programs/%.c | $(BUILD)/.deps-ok
 	@mkdir -p $(dir $@)
@@ -250,7 +251,7 @@ $(BUILD)/server/web_assets.h: $(WEB_FILES) $(WEB_EXAMPLES) tools/embed.sh | $(BU
 $(SERVER_OBJ): $(BUILD)/server/web_assets.h
 
 $(BUILD)/rayd: $(SERVER_OBJ) $(BUILD)/librayd.a
-	$(CC) $(LDFLAGS_ALL) -o $@ $^ -lmicrohttpd -lcrypto $(SQLITE_LIBS) $(LIBS_CORE)
+	$(CC) $(LDFLAGS_ALL) -o $@ $^ -lmicrohttpd -lcrypto $(STORE_LIBS) $(LIBS_CORE)
 
 # --- clients ----------------------------------------------------------------
 $(BUILD)/rayd-client: $(CLIENT_SRC:%.c=$(BUILD)/%.o) $(COMMON_OBJ) $(BUILD)/librayd.a
@@ -452,12 +453,12 @@ FUZZ_SERVER_OBJ := $(patsubst server/%.c,build/fuzz/server/%.o,$(filter-out serv
 
 build/fuzz/server/%.o: server/%.c $(SERVER_HDR) build/server/web_assets.h | $(BUILD)/.test-deps-ok
 	@mkdir -p $(dir $@)
-	clang -Iserver $(FUZZ_CFLAGS) -MMD -MP -D_DEFAULT_SOURCE $(SQLITE_CFLAGS) -Ibuild/server -c $< -o $@
+	clang -Iserver $(FUZZ_CFLAGS) -MMD -MP -D_DEFAULT_SOURCE $(STORE_CFLAGS) -Ibuild/server -c $< -o $@
 
 $(FUZZ_SERVER_TARGETS:%=build/fuzz/fuzz_%): build/fuzz/fuzz_%: tests/fuzz/fuzz_%.c \
     tests/fuzz/fuzz_http_common.h $(SERVER_HDR) $(FUZZ_SERVER_OBJ) $(FUZZ_CORE_OBJ)
 	clang -Iserver $(FUZZ_CFLAGS) -D_DEFAULT_SOURCE -fsanitize=fuzzer $(filter %.c %.o,$^) -o $@ \
-	  -lmicrohttpd -lcrypto $(SQLITE_LIBS) $(LIBS_CORE)
+	  -lmicrohttpd -lcrypto $(STORE_LIBS) $(LIBS_CORE)
 
 # A crash, leak, timeout or out-of-memory fails the run (the artifact stays
 # in build/fuzz/crash-TARGET-*).  Object files track their headers (-MMD).
@@ -487,7 +488,7 @@ $(FUZZ_SERVER_TARGETS:%=$(BUILD)/tests/fuzz/replay_%): $(BUILD)/tests/fuzz/repla
     $(SERVER_LIB_OBJ) $(BUILD)/librayd.a
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -D_DEFAULT_SOURCE -Iserver -Iinclude -I$(BUILD)/server $(filter %.c,$^) -o $@ \
-	  $(LDFLAGS_ALL) $(SERVER_LIB_OBJ) $(BUILD)/librayd.a -lmicrohttpd -lcrypto $(SQLITE_LIBS) $(LIBS_CORE)
+	  $(LDFLAGS_ALL) $(SERVER_LIB_OBJ) $(BUILD)/librayd.a -lmicrohttpd -lcrypto $(STORE_LIBS) $(LIBS_CORE)
 
 # --- TSan and valgrind ------------------------------------------------------
 # `make test-tsan`: the server built with ThreadSanitizer into build/tsan/,

@@ -7,8 +7,8 @@
 # `apt-get install` of the missing ones alone, with sudo when not root.  WHAT
 # names the make target in the message.
 #
-# Installing a package must not start a service on the host.  nginx is here
-# for the tests, which run their own nginx on loopback; its Debian package
+# Installing a package must not start a service on the host.  nginx and
+# redis-server are here for the tests, which run their own on loopback; nginx's Debian package
 # starts the system's nginx on port 80 when it is configured on a systemd
 # host.  So while apt-get runs, /usr/sbin/policy-rc.d answers 101 ("action
 # not allowed"), which invoke-rc.d and deb-systemd-invoke obey, and a freshly
@@ -49,11 +49,13 @@ $sudo apt-get $wait_lock update -qq
 # shellcheck disable=SC2086 # one word a package
 $sudo env DEBIAN_FRONTEND=noninteractive apt-get $wait_lock install -y -qq --no-install-recommends $missing
 
-case " $missing " in
-*" nginx "*)
-    if command -v systemctl >/dev/null 2>&1; then
-        $sudo systemctl disable --quiet nginx.service 2>/dev/null || true
-    fi
-    echo "$what: nginx installed for the tests only; its service is not started nor enabled"
-    ;;
-esac
+for svc in nginx redis-server; do
+    case " $missing " in
+    *" $svc "*)
+        if command -v systemctl >/dev/null 2>&1; then
+            $sudo systemctl disable --quiet "$svc.service" 2>/dev/null || true
+        fi
+        echo "$what: $svc installed for the tests only; its service is not started nor enabled"
+        ;;
+    esac
+done
