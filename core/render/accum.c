@@ -126,6 +126,35 @@ static enum rayd_status accum_plain(const rayd_accum *a, bool filter, rayd_accum
     return RAYD_OK;
 }
 
+enum rayd_status rayd_accum_raw(const rayd_accum *a, rayd_accum **out, struct rayd_error *err) {
+    *out = NULL;
+    if (!a->denoise) return err_set(err, RAYD_E_ARG, NULL, "the accumulator is not a denoised one");
+    return accum_plain(a, false, out, err);
+}
+
+/* Bytes a pixel of a denoised accumulator's sums (beauty and AOVs), and
+ * of its resolve's peak: the filter's input (denoise_px) and output, the
+ * filter's own buffers (denoise.c: unit normals, luminance, two working
+ * images). */
+#define ACCUM_DN_SUMS ((3 + AOV_SUMS) * sizeof(double))
+#define ACCUM_DN_FILTER (sizeof(struct denoise_px) + 3 * sizeof(float) + 12 * sizeof(float))
+
+void rayd_accum_denoised_bytes(const rayd_scene *s, const struct rayd_region *region,
+                               size_t *held, size_t *peak) {
+    int x0 = region->x - DENOISE_APRON, y0 = region->y - DENOISE_APRON;
+    int x1 = region->x + region->w + DENOISE_APRON, y1 = region->y + region->h + DENOISE_APRON;
+    x0 = x0 < 0 ? 0 : x0;
+    y0 = y0 < 0 ? 0 : y0;
+    x1 = x1 > s->rs.width ? s->rs.width : x1;
+    y1 = y1 > s->rs.height ? s->rs.height : y1;
+    size_t px = x1 > x0 && y1 > y0 ? (size_t)(x1 - x0) * (size_t)(y1 - y0) : 0;
+    size_t view = (size_t)region->w * (size_t)region->h;
+    *held = px * ACCUM_DN_SUMS;
+    /* the filter over the apron'd buffer, then the plain view it resolves
+     * through (sums, AOV sums) and that view's floats */
+    *peak = px * ACCUM_DN_FILTER + view * (ACCUM_DN_SUMS + RAYD_AOV_FLOATS * sizeof(float));
+}
+
 int rayd_accum_samples(const rayd_accum *a) { return a->n < 0 ? 0 : a->n; }
 
 struct rayd_region rayd_accum_region(const rayd_accum *a) {

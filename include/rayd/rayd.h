@@ -458,6 +458,18 @@ enum rayd_status rayd_accum_new_denoised(const rayd_scene *scene, const struct r
                                          rayd_accum **out, struct rayd_error *err);
 /* Whether acc was made by rayd_accum_new_denoised. */
 int rayd_accum_denoised(const rayd_accum *acc);
+/* A new plain accumulator (*out; free with rayd_accum_free) holding the
+ * raw sums of a denoised acc's region, unfiltered, with its AOV sums: its
+ * resolves give the image a plain render of the same samples gives (a
+ * progressive pass shown raw beside the denoised one).  RAYD_E_ARG for an
+ * accumulator not made by rayd_accum_new_denoised. */
+enum rayd_status rayd_accum_raw(const rayd_accum *acc, rayd_accum **out, struct rayd_error *err);
+/* The memory a denoised accumulator of region (inside scene's image) holds
+ * for its sums, the filter's apron included (*held), and what a resolve of
+ * it allocates on top at its peak (*peak: the filter's buffers over the
+ * apron'd pixels, the region's raw view): for a server's memory budget. */
+void rayd_accum_denoised_bytes(const rayd_scene *scene, const struct rayd_region *region,
+                               size_t *held, size_t *peak);
 
 /* The 8-bit image of the sums with alpha, RGBA (4 bytes a pixel, rows
  * packed, the RGB rayd_accum_image's), into a new buffer *out (free with

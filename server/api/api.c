@@ -306,42 +306,52 @@ static bool api_samples_of(struct http_req *r, const rayd_scene *scene, const st
     return true;
 }
 
-/* ?aov=: with format=exr a list of AOVs for channels (default: the
- * scene's render.aov), with format=png the one AOV answered as the image
- * (render/aov.c); no other format takes it. */
-static bool api_aov_of(struct http_req *r, const rayd_scene *scene, const struct api_q *q,
-                       struct work_target *what) {
+bool api_aov_param(struct http_req *r, const rayd_scene *scene, const char *v, int count,
+                   bool exr, unsigned *mask) {
     struct rayd_error err = {0};
     char why[150];
-    if (q->aov_count > 1) return api_bad_param(r, "aov", "given more than once");
-    if (!q->aov) {
+    if (count > 1) return api_bad_param(r, "aov", "given more than once");
+    if (!v) {
         struct rayd_scene_info info;
         rayd_scene_info(scene, &info);
-        what->aov = what->format == WORK_EXR ? info.aov : 0;
+        *mask = exr ? info.aov : 0;
         return true;
     }
-    if (what->format != WORK_PNG && what->format != WORK_EXR)
-        return api_bad_param(r, "aov", "only with format=png (one AOV as the image) or exr");
-    if (rayd_aov_parse(q->aov, &what->aov, &err) != RAYD_OK) {
+    if (rayd_aov_parse(v, mask, &err) != RAYD_OK) {
         snprintf(why, sizeof why, "%.149s", err.message);
         return api_bad_param(r, "aov", why);
     }
-    if (what->format == WORK_PNG && (what->aov & (what->aov - 1)))
+    if (!exr && (*mask & (*mask - 1)))
         return api_bad_param(r, "aov",
                              "a PNG is one AOV: albedo, normal, depth, alpha, object or material "
                              "(format=exr takes a list)");
     return true;
 }
 
+/* ?aov=: with format=exr a list of AOVs for channels (default: the
+ * scene's render.aov), with format=png the one AOV answered as the image
+ * (render/aov.c); no other format takes it. */
+static bool api_aov_of(struct http_req *r, const rayd_scene *scene, const struct api_q *q,
+                       struct work_target *what) {
+    if (q->aov && q->aov_count < 2 && what->format != WORK_PNG && what->format != WORK_EXR)
+        return api_bad_param(r, "aov", "only with format=png (one AOV as the image) or exr");
+    return api_aov_param(r, scene, q->aov, q->aov_count, what->format == WORK_EXR, &what->aov);
+}
+
+bool api_denoise_param(struct http_req *r, const rayd_scene *scene, const char *v, int count,
+                       bool *denoise) {
+    struct rayd_scene_info info;
+    rayd_scene_info(scene, &info);
+    if (count > 1) return api_bad_param(r, "denoise", "given more than once");
+    if (v && strcmp(v, "0") && strcmp(v, "1")) return api_bad_param(r, "denoise", "must be 0 or 1");
+    *denoise = v ? v[0] == '1' : info.denoise != 0;
+    return true;
+}
+
 /* ?denoise=1 or 0 (default: the scene's render.denoise); sums are raw. */
 static bool api_denoise_of(struct http_req *r, const rayd_scene *scene, const struct api_q *q,
                            struct work_target *what) {
-    struct rayd_scene_info info;
-    rayd_scene_info(scene, &info);
-    if (q->denoise_count > 1) return api_bad_param(r, "denoise", "given more than once");
-    if (q->denoise && strcmp(q->denoise, "0") && strcmp(q->denoise, "1"))
-        return api_bad_param(r, "denoise", "must be 0 or 1");
-    what->denoise = q->denoise ? q->denoise[0] == '1' : info.denoise != 0;
+    if (!api_denoise_param(r, scene, q->denoise, q->denoise_count, &what->denoise)) return false;
     if (what->denoise && what->format == WORK_SUMS) {
         if (q->denoise) return api_bad_param(r, "denoise", "sums are raw: not with format=sums");
         what->denoise = false; /* the scene's wish is for images */

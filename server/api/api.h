@@ -40,6 +40,15 @@ bool api_region_also(struct http_req *r, const rayd_scene *scene, struct rayd_re
  * image/x-exr) and, for sums, ?samples=K0-K1, into *what; a bad one is
  * answered 400 naming it. */
 bool api_target(struct http_req *r, const rayd_scene *scene, struct work_target *what);
+/* ?aov= of value v (NULL: not given), given count times: with exr a list
+ * of the EXR's AOV channels (default: the scene's render.aov), else the
+ * one AOV a PNG shows (default: none), into *mask; 400 naming aov and
+ * false on a bad one.  POST /v1/render's and POST /v1/jobs'. */
+bool api_aov_param(struct http_req *r, const rayd_scene *scene, const char *v, int count,
+                   bool exr, unsigned *mask);
+/* ?denoise=0|1 of value v likewise (default: the scene's render.denoise). */
+bool api_denoise_param(struct http_req *r, const rayd_scene *scene, const char *v, int count,
+                       bool *denoise);
 /* The Content-Type of a format's bytes. */
 const char *api_format_type(enum work_format format);
 /* For a route that takes no query parameters but names (NULL-ended; NULL

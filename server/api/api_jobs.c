@@ -30,7 +30,8 @@ static const char *const api_plan_names[] = {"progressive", "pass_step", "time_b
 /* What POST /v1/jobs takes besides the region. */
 static const char *const api_jobs_names[] = {"progressive",  "pass_step", "time_budget",
                                              "noise_target", "format",    "priority",
-                                             "frames",       "frame",     NULL};
+                                             "frames",       "frame",     "denoise",
+                                             "aov",          NULL};
 
 /* A decimal number in (0, max] from ?name=, if given: digits and a point
  * only (api_is_decimal), so 0x10, 1e3, inf and " 5" are refused. */
@@ -98,6 +99,18 @@ static bool api_jobs_format(struct http_req *r, struct work_target *what) {
     return true;
 }
 
+/* ?denoise=0|1 (default: the scene's render.denoise) and ?aov= into what
+ * (format already read): with format=exr the EXR's AOV channels (the
+ * scene's render.aov without it) beside the PNG of the light, else the
+ * one AOV the PNG shows, as POST /v1/render takes them. */
+static bool api_jobs_denoise_aov(struct http_req *r, const rayd_scene *scene,
+                                 struct work_target *what) {
+    return api_denoise_param(r, scene, http_req_query(r, "denoise"),
+                             http_req_query_count(r, "denoise"), &what->denoise) &&
+           api_aov_param(r, scene, http_req_query(r, "aov"), http_req_query_count(r, "aov"),
+                         what->keep_exr, &what->aov);
+}
+
 /* ?priority=low|normal|high into *p (normal without it); 400 and false on
  * a bad one. */
 static bool api_jobs_priority(struct http_req *r, int *p) {
@@ -123,7 +136,8 @@ struct api_jobs_wait {
     struct http_req *r;
     char id[33], scene_id[65];
     bool keep_exr;
-    bool unlit; /* its scene gives no light: the 202 warns */
+    bool denoise; /* ?denoise=1 or the scene's: the 202 says so */
+    bool unlit;   /* its scene gives no light: the 202 warns */
     struct api_price price;
 };
 
@@ -145,6 +159,7 @@ static void api_jobs_accepted(struct api_jobs_wait *a) {
     }
     api_jobs_url(url, sizeof url, a->id, "/events");
     cJSON_AddStringToObject(o, "events_url", url);
+    if (a->denoise) cJSON_AddTrueToObject(o, "denoise");
     api_jobs_add_estimate(o, &a->price);
     api_jobs_reply_accepted(r, o, a->id, a->unlit, &a->price);
 }
@@ -179,7 +194,8 @@ static bool api_jobs_compiled(struct http_req *r, struct cache_entry *e, bool hi
     int shot = api_shots_wanted(r, cache_scene(e));
     if (shot < 0 || !api_region_also(r, cache_scene(e), &what.reg, api_jobs_names) ||
         (!shot && !api_plan(r, cache_scene(e), &plan, &progressive)) ||
-        !api_jobs_format(r, &what) || !api_jobs_priority(r, &how.priority) ||
+        !api_jobs_format(r, &what) || !api_jobs_denoise_aov(r, cache_scene(e), &what) ||
+        !api_jobs_priority(r, &how.priority) ||
         !api_cost_admit(r, e, &what, progressive, &price))
         return false; /* replied */
     if (shot)         /* an animated scene: a frame-range job (api_shots.c) */
@@ -195,6 +211,7 @@ static bool api_jobs_compiled(struct http_req *r, struct cache_entry *e, bool hi
     a->w.fd = -1;
     snprintf(a->scene_id, sizeof a->scene_id, "%s", cache_id(e));
     a->keep_exr = what.keep_exr;
+    a->denoise = what.denoise;
     a->unlit = api_unlit(cache_scene(e));
     a->price = price;
     how.w = &a->w;

@@ -66,8 +66,35 @@ static const char *api_jobs_pass_why(struct http_req *r, const char *q,
     return NULL;
 }
 
-/* ?pass=K: that pass's image, while kept. */
-static void api_jobs_pass_image(struct http_req *r, const char *id, const char *q, bool exr) {
+/* Whether ?denoise=want can be answered for the job info: want 1 needs a
+ * denoised job (409 not_denoised), want 0 of a denoised job its raw passes
+ * (409 raw_not_kept for a plain one: it kept the denoised image alone);
+ * *raw: the raw pass images are the answer.  false after replying. */
+static bool api_jobs_denoise_ok(struct http_req *r, const struct jobs_info *info, int want,
+                                bool *raw) {
+    *raw = false;
+    if (want < 0 || want == info->denoise) return true;
+    if (want == 1) {
+        http_reply_error(r, 409, "not_denoised",
+                         "this job's image is not denoised: create it with POST "
+                         "/v1/jobs?denoise=1",
+                         NULL, 0, 0, "denoise");
+        return false;
+    }
+    if (!info->progressive || (info->aov && !info->keep_exr)) {
+        http_reply_error(r, 409, "raw_not_kept",
+                         "this job keeps its denoised image alone: a progressive job keeps each "
+                         "pass raw too; else render with denoise=0",
+                         NULL, 0, 0, "denoise");
+        return false;
+    }
+    *raw = true;
+    return true;
+}
+
+/* ?pass=K: that pass's image, while kept; want: ?denoise= (-1: none). */
+static void api_jobs_pass_image(struct http_req *r, const char *id, const char *q, bool exr,
+                                int want) {
     struct jobs_info info;
     if (!jobs_get(id, &info, JOBS_NUMBERS)) {
         api_jobs_missing(r, id);
@@ -81,10 +108,11 @@ static void api_jobs_pass_image(struct http_req *r, const char *id, const char *
         api_bad_param(r, "pass", why);
         return;
     }
-    if (api_jobs_no_exr(r, &info, exr)) return;
+    bool raw;
+    if (api_jobs_no_exr(r, &info, exr) || !api_jobs_denoise_ok(r, &info, want, &raw)) return;
     int k = (int)strtol(q, NULL, 10), samples = 0;
     struct blob *img = NULL;
-    jobs_pass_image(id, k, exr, &img, &samples);
+    jobs_pass_image(id, k, exr ? JI_EXR : raw ? JI_RAW : JI_PNG, &img, &samples);
     if (img) {
         api_jobs_image_reply(r, img, exr, "private, max-age=3600");
         api_pass_headers(r, k, info.passes.total, samples);
@@ -114,39 +142,75 @@ static void api_jobs_no_image(struct http_req *r, const char *id, const struct j
     }
 }
 
-/* The final image (a progressive job's latest pass while it runs). */
-static void api_jobs_final_image(struct http_req *r, const char *id, bool exr) {
-    struct jobs_info info;
-    if (!jobs_get(id, &info, exr ? JOBS_EXR : JOBS_PNG)) {
-        api_jobs_missing(r, id);
+/* The final image of the job info (its PNG or EXR referenced in info, or
+ * read from disk); raw: a denoised progressive job's latest raw pass. */
+static void api_jobs_final_reply(struct http_req *r, const char *id, const struct jobs_info *info,
+                                 bool exr, bool raw) {
+    if (raw) {
+        char k[16];
+        snprintf(k, sizeof k, "%d", info->passes.done);
+        if (info->passes.done > 0)
+            api_jobs_pass_image(r, id, k, false, 0);
+        else
+            api_jobs_no_image(r, id, info);
         return;
     }
-    if (api_jobs_evicted(r, id, &info)) return;
-    api_jobs_scene(r, &info);
-    struct blob *img = exr ? info.exr : info.png;
-    if (!img && info.on_disk && (!exr || info.keep_exr) && !(img = store_read(id, exr))) {
+    struct blob *img = exr ? info->exr : info->png, *read = NULL;
+    if (!img && info->on_disk && (!exr || info->keep_exr) && !(img = read = store_read(id, exr))) {
         http_reply_error(r, 410, "result_evicted",
                          "the job's image is no longer on disk (--max-disk evicted it)", NULL, 0, 0,
                          NULL);
         return;
     }
-    if (api_jobs_no_exr(r, &info, exr)) {
+    if (api_jobs_no_exr(r, info, exr)) {
         /* replied */
-    } else if (img && (info.state == JS_SUCCEEDED || info.state == JS_RUNNING)) {
+    } else if (img && (info->state == JS_SUCCEEDED || info->state == JS_RUNNING)) {
         api_jobs_image_reply(r, img, exr,
-                             info.state == JS_SUCCEEDED ? "private, max-age=3600" : "no-store");
-        if (info.progressive)
-            api_pass_headers(r, info.passes.done, info.passes.total, info.passes.samples);
+                             info->state == JS_SUCCEEDED ? "private, max-age=3600" : "no-store");
+        if (info->progressive)
+            api_pass_headers(r, info->passes.done, info->passes.total, info->passes.samples);
     } else {
-        api_jobs_no_image(r, id, &info);
+        api_jobs_no_image(r, id, info);
     }
-    blob_unref(img);
+    blob_unref(read);
+}
+
+/* The final image (a progressive job's latest pass while it runs); want:
+ * ?denoise= (-1: none), 0 of a denoised progressive job its latest raw
+ * pass. */
+static void api_jobs_final_image(struct http_req *r, const char *id, bool exr, int want) {
+    struct jobs_info info;
+    if (!jobs_get(id, &info, exr ? JOBS_EXR : JOBS_PNG)) {
+        api_jobs_missing(r, id);
+        return;
+    }
+    bool raw = false;
+    if (!api_jobs_evicted(r, id, &info)) {
+        api_jobs_scene(r, &info);
+        if (api_jobs_denoise_ok(r, &info, want, &raw))
+            api_jobs_final_reply(r, id, &info, exr, raw);
+    }
+    blob_unref(exr ? info.exr : info.png);
+}
+
+/* ?denoise=0|1 of image.png into *want (-1 without it); 400 and false on
+ * a bad one. */
+static bool api_jobs_want_denoise(struct http_req *r, int *want) {
+    const char *v = http_req_query(r, "denoise");
+    *want = -1;
+    if (http_req_query_count(r, "denoise") > 1)
+        return api_bad_param(r, "denoise", "given more than once");
+    if (v && strcmp(v, "0") && strcmp(v, "1")) return api_bad_param(r, "denoise", "must be 0 or 1");
+    if (v) *want = v[0] == '1';
+    return true;
 }
 
 static void api_jobs_image_as(struct http_req *r, const char *id, bool exr) {
-    static const char *const takes[] = {"pass", NULL};
+    static const char *const takes[] = {"pass", NULL}, *const takes_png[] = {"pass", "denoise",
+                                                                             NULL};
     const char *pass = http_req_query(r, "pass");
-    if (!api_only_params(r, takes)) return;
+    int want = -1;
+    if (!api_only_params(r, exr ? takes : takes_png) || !api_jobs_want_denoise(r, &want)) return;
     struct shots_info shot;
     if (!api_is_hex(id, 32))
         api_jobs_unknown(r);
@@ -155,9 +219,9 @@ static void api_jobs_image_as(struct http_req *r, const char *id, bool exr) {
                          "this job renders frames: GET /v1/jobs/{id}/frames/{k}.png (or .exr)",
                          NULL, 0, 0, NULL);
     else if (pass)
-        api_jobs_pass_image(r, id, pass, exr);
+        api_jobs_pass_image(r, id, pass, exr, want);
     else
-        api_jobs_final_image(r, id, exr);
+        api_jobs_final_image(r, id, exr, want);
 }
 
 void api_jobs_image(struct http_req *r, const char *id) { api_jobs_image_as(r, id, false); }

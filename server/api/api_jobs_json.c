@@ -121,7 +121,8 @@ static void api_jobs_add_pass_exr_url(cJSON *o, const char *id, int k) {
 }
 
 /* A progressive job's "passes" object. */
-static void api_job_passes(cJSON *o, const char *id, const struct jobs_passes *p, bool exr) {
+static void api_job_passes(cJSON *o, const char *id, const struct jobs_passes *p, bool exr,
+                           bool raw) {
     cJSON *x = cJSON_AddObjectToObject(o, "passes");
     cJSON_AddNumberToObject(x, "done", p->done);
     cJSON_AddNumberToObject(x, "total", p->total);
@@ -136,6 +137,12 @@ static void api_job_passes(cJSON *o, const char *id, const struct jobs_passes *p
         cJSON_AddNullToObject(x, "stopped_by");
     if (p->done) api_jobs_add_pass_url(x, id, p->done);
     if (p->done && exr) api_jobs_add_pass_exr_url(x, id, p->done);
+    if (p->done && raw) { /* a denoised job's pass as rendered, unfiltered */
+        char url[100], tail[48];
+        snprintf(tail, sizeof tail, "/image.png?pass=%d&denoise=0", p->done);
+        api_jobs_url(url, sizeof url, id, tail);
+        cJSON_AddStringToObject(x, "raw_url", url);
+    }
 }
 
 cJSON *api_jobs_json(const char *id, const struct jobs_info *in) {
@@ -168,7 +175,10 @@ cJSON *api_jobs_json(const char *id, const struct jobs_info *in) {
     }
     struct api_price price = {in->est_rays, cost_price_seconds(in->scene_id, in->est_rays)};
     api_jobs_add_estimate(o, &price);
-    if (in->progressive) api_job_passes(o, id, &in->passes, in->keep_exr);
+    if (in->denoise) cJSON_AddTrueToObject(o, "denoise");
+    if (in->progressive)
+        api_job_passes(o, id, &in->passes, in->keep_exr,
+                       in->denoise && (!in->aov || in->keep_exr));
     if (in->state == JS_SUCCEEDED) {
         char url[80];
         api_jobs_url(url, sizeof url, id, "/image.png");

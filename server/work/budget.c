@@ -4,7 +4,7 @@
  * shows: its pixels (8-bit, or linear floats for the HDR formats), the
  * per-pixel sums of a sums answer or of a progressive job (24 bytes a
  * pixel), and then the encoded answer (a 4096 x 4096 sums answer is a 402 MB
- * blob).  So before a task is made, what it will hold is reserved whole in
+ * blob); a denoised render's tiles also hold the filter's apron and buffers.  So before a task is made, what it will hold is reserved whole in
  * the memory budget (--max-memory, mem.c): a render alone over the budget
  * is refused 413 (WORK_TOO_BIG), one with no room now 503 with Retry-After
  * (WORK_MEMORY), after the reclaimer evicted what it could.  The
@@ -16,9 +16,35 @@
  */
 #include "work/work_private.h"
 
-/* The bytes a task rendering what will hold (its pixels or sums, its
- * answer; a progressive job's sums and passes) and their kind. */
-static size_t budget_bytes(const struct work_target *what, bool progressive, enum mem_kind *kind) {
+/* What the denoiser adds to a task rendering what of scene: each tile in
+ * flight (one a worker at most) holds its sums with the filter's apron
+ * around it and, while it resolves, the filter's buffers (the core's
+ * rayd_accum_denoised_bytes, for a tile where the apron fits whole); a
+ * progressive job keeps every tile's apron'd sums from pass to pass, and
+ * each pass raw too (two images, the kept raw PNGs). */
+static size_t budget_denoise(const rayd_scene *scene, const struct work_target *what,
+                             bool progressive) {
+    struct rayd_scene_info info;
+    rayd_scene_info(scene, &info);
+    int side = cost_task_tile(scene, what), w = what->reg.w, h = what->reg.h;
+    struct rayd_region tile = {0, 0, side < w ? side : w, side < h ? side : h};
+    tile.x = (info.width - tile.w) / 2; /* the apron is clipped at the image's edges */
+    tile.y = (info.height - tile.h) / 2;
+    size_t held, peak;
+    rayd_accum_denoised_bytes(scene, &tile, &held, &peak);
+    size_t ntiles = (size_t)((w + side - 1) / side) * (size_t)((h + side - 1) / side);
+    size_t flying = (size_t)cost_worker_count();
+    if (flying > ntiles) flying = ntiles;
+    size_t n = flying * (held + peak);
+    if (progressive) n += (ntiles - flying) * held + (size_t)w * (size_t)h * 3 * (2 + PASSES_KEEP);
+    return n;
+}
+
+/* The bytes a task rendering what of scene will hold (its pixels or sums,
+ * its answer; a progressive job's sums and passes; the denoiser's) and
+ * their kind. */
+static size_t budget_bytes(const rayd_scene *scene, const struct work_target *what,
+                           bool progressive, enum mem_kind *kind) {
     size_t px = (size_t)what->reg.w * (size_t)what->reg.h;
     /* the store (8-bit pixels, linear floats or sums), then the answer
      * (a PNG at worst about as large as its pixels) */
@@ -30,6 +56,7 @@ static size_t budget_bytes(const struct work_target *what, bool progressive, enu
         n += px * 2 * RAYD_AOV_FLOATS * sizeof(float);
     if (progressive) /* the passes' sums, the last pass's image, the passes kept */
         n += px * (24 + 3 + 3 * PASSES_KEEP) + (what->keep_exr ? px * 12 * PASSES_KEEP_EXR : 0);
+    if (what->denoise) n += budget_denoise(scene, what, progressive);
     *kind = progressive ? MEM_SUMS : f->mem_kind;
     return n + 4096;
 }
@@ -38,7 +65,7 @@ struct task *budget_task(struct cache_entry *scene, const struct work_target *wh
                          bool progressive, enum work_submit *why) {
     work_assert_unlocked();
     enum mem_kind kind;
-    size_t n = budget_bytes(what, progressive, &kind);
+    size_t n = budget_bytes(cache_scene(scene), what, progressive, &kind);
     if (!mem_reserve(kind, n)) {
         metrics_reject(MR_MEMORY);
         *why = n > mem_limit() ? WORK_TOO_BIG : WORK_MEMORY;

@@ -51,8 +51,8 @@
  * measured rate, so the tiling (and the tile events a client sees) is the
  * same everywhere; the pixels are the same under any tiling anyway.
  *
- * Every function but cost_rays, cost_tile and cost_price_seconds runs with
- * work_lock held.
+ * Every function but cost_rays, cost_tile, cost_task_tile, cost_worker_count
+ * and cost_price_seconds runs with work_lock held.
  */
 #include "work/work_private.h"
 
@@ -97,7 +97,21 @@ int cost_tile(double rays_per_pixel) {
     return side;
 }
 
+/* A denoised task's least tile edge: a tile renders the filter's apron
+ * (63 pixels) around it, which costs 2.2x the tile's own pixels at 256,
+ * against 25x at 32. */
+#define COST_DENOISE_TILE 256
+
+int cost_task_tile(const rayd_scene *scene, const struct work_target *what) {
+    struct rayd_scene_info info;
+    rayd_scene_info(scene, &info);
+    int side = cost_tile(cost_samples(what, info.samples) * info.rays_per_sample);
+    return what->denoise && side < COST_DENOISE_TILE ? COST_DENOISE_TILE : side;
+}
+
 void cost_set_workers(int workers) { cost_workers = workers > 0 ? workers : 1; }
+
+int cost_worker_count(void) { return cost_workers; }
 
 static uint64_t cost_key(const char *id) {
     uint64_t h = 0xcbf29ce484222325ull;

@@ -320,7 +320,10 @@ static bool jobs_progressive(struct task *t, struct cache_entry *scene,
     struct rayd_region *tiles = calloc((size_t)t->ntiles, sizeof *tiles);
     if (!tiles) return false;
     for (int i = 0; i < t->ntiles; i++) tiles[i] = task_tile(t, i);
-    task_progressive(t, passes_new(cache_scene(scene), plan, tiles, t->ntiles),
+    bool raw = t->denoise && (!t->aov_mask || t->aov); /* its image shows light, denoised */
+    task_progressive(t,
+                     passes_new(cache_scene(scene), plan, tiles, t->ntiles, raw, t->reg.w,
+                                t->reg.h),
                      id); /* owns tiles */
     return t->passes != NULL;
 }
@@ -359,6 +362,8 @@ static void jobs_record(const struct job *j, struct store_job *row) {
     snprintf(row->scene_id, sizeof row->scene_id, "%s", t->scene_id);
     row->reg = t->reg;
     row->keep_exr = t->keep_exr;
+    row->denoise = t->denoise;
+    row->aov = t->aov_mask;
     row->progressive = t->passes != NULL;
     if (t->passes) row->plan = t->passes->plan;
     row->tiles = t->ntiles;
@@ -503,6 +508,8 @@ static struct task *jobs_ended_task(const struct store_job *row) {
     snprintf(t->scene_id, sizeof t->scene_id, "%s", row->scene_id);
     snprintf(t->key, sizeof t->key, "restored~%s", row->id);
     t->keep_exr = row->keep_exr;
+    t->denoise = row->denoise;
+    t->aov_mask = row->aov;
     t->rays = row->rays;
     t->est_rays = row->est_rays;
     t->finished = true;
@@ -522,8 +529,12 @@ bool jobs_restore(const struct store_job *row, struct cache_entry *scene) {
     enum work_submit r = WORK_OK;
     struct task *fresh = NULL;
     if (scene) {
-        struct work_target what = {
-            .reg = row->reg, .format = WORK_PNG, .keep_exr = row->keep_exr, .client = row->client};
+        struct work_target what = {.reg = row->reg,
+                                   .format = WORK_PNG,
+                                   .keep_exr = row->keep_exr,
+                                   .aov = row->aov,
+                                   .denoise = row->denoise,
+                                   .client = row->client};
         fresh = jobs_task(scene, &what, row->progressive ? &row->plan : NULL, row->id,
                           row->priority, &r);
         if (fresh) fresh->restored = true;
@@ -615,6 +626,8 @@ static void jobs_info_of(const struct job *j, struct jobs_info *info, enum jobs_
     info->est_rays = t->est_rays;
     if (info->state == JS_FAILED) info->err = t->err;
     info->keep_exr = t->keep_exr;
+    info->denoise = t->denoise;
+    info->aov = t->aov_mask;
     info->ended_age = jobs_final(j) ? now - jobs_ended(j) : -1;
     snprintf(info->id, sizeof info->id, "%s", j->id);
     info->priority = j->priority;
@@ -707,14 +720,17 @@ bool jobs_cancel(const char *id) {
     return j != NULL;
 }
 
-bool jobs_pass_image(const char *id, int pass, bool exr, struct blob **img, int *samples) {
+bool jobs_pass_image(const char *id, int pass, enum jobs_image kind, struct blob **img,
+                     int *samples) {
     *img = NULL;
     *samples = 0;
     work_lock_take();
     struct job *j = jobs_find(id);
     const struct passes *p = j ? j->task->passes : NULL;
     if (p && !j->canceled && j->evicted_at == 0 && pass >= 1 && pass <= p->done) {
-        *img = blob_ref(exr ? passes_exr(p, pass) : passes_png(p, pass));
+        *img = blob_ref(kind == JI_EXR   ? passes_exr(p, pass)
+                        : kind == JI_RAW ? passes_raw(p, pass)
+                                         : passes_png(p, pass));
         *samples = p->samples[pass - 1];
     }
     work_lock_give();

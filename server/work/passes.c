@@ -63,7 +63,7 @@ const char *passes_stop_name(enum passes_stop s) {
 }
 
 struct passes *passes_new(const rayd_scene *scene, const struct jobs_plan *plan,
-                          struct rayd_region *tiles, int ntiles) {
+                          struct rayd_region *tiles, int ntiles, bool raw, int w, int h) {
     struct passes *p = calloc(1, sizeof *p);
     if (!p) {
         free(tiles);
@@ -76,6 +76,11 @@ struct passes *passes_new(const rayd_scene *scene, const struct jobs_plan *plan,
     p->ntiles = ntiles;
     p->tiles = tiles;
     p->acc = calloc((size_t)ntiles, sizeof *p->acc);
+    if (raw && (rayd_image_new(w, h, &p->raw, NULL) != RAYD_OK ||
+                rayd_image_new(w, h, &p->raw_prev, NULL) != RAYD_OK)) {
+        passes_free(p);
+        return NULL;
+    }
     if (p->n < 1 || !p->acc) {
         passes_free(p);
         return NULL;
@@ -88,9 +93,14 @@ void passes_free(struct passes *p) {
     for (int i = 0; p->acc && i < p->ntiles; i++) rayd_accum_free(p->acc[i]);
     free(p->acc);
     free(p->tiles);
-    for (int i = 0; i < PASSES_KEEP; i++) blob_unref(p->png[i]);
+    for (int i = 0; i < PASSES_KEEP; i++) {
+        blob_unref(p->png[i]);
+        blob_unref(p->raw_png[i]);
+    }
     for (int i = 0; i < PASSES_KEEP_EXR; i++) blob_unref(p->exr[i]);
     rayd_image_free(p->prev);
+    rayd_image_free(p->raw);
+    rayd_image_free(p->raw_prev);
     free(p);
 }
 
@@ -103,13 +113,17 @@ void passes_release(struct passes *p) {
     }
     rayd_image_free(p->prev);
     p->prev = NULL;
+    rayd_image_free(p->raw);
+    rayd_image_free(p->raw_prev);
+    p->raw = p->raw_prev = NULL;
 }
 
 void passes_let_go(struct passes *p) {
     p->let_go = true; /* a pass being encoded now (sched_pass_close) is dropped too */
     for (int i = 0; i < PASSES_KEEP; i++) {
         blob_unref(p->png[i]);
-        p->png[i] = NULL;
+        blob_unref(p->raw_png[i]);
+        p->png[i] = p->raw_png[i] = NULL;
     }
     for (int i = 0; i < PASSES_KEEP_EXR; i++) {
         blob_unref(p->exr[i]);
@@ -117,12 +131,43 @@ void passes_let_go(struct passes *p) {
     }
 }
 
+/* A tile's accumulator, made at its first pass: denoised (the tile plus
+ * the filter's apron, with the AOVs) for a denoised job, keeping the AOVs
+ * when the job asks for them. */
+static enum rayd_status passes_accum(const rayd_scene *scene, const struct rayd_region *tile,
+                                     const struct resolve_dst *dst, rayd_accum **out,
+                                     struct rayd_error *err) {
+    enum rayd_status st = dst->denoise ? rayd_accum_new_denoised(scene, tile, out, err)
+                                       : rayd_accum_new(scene, tile, out, err);
+    if (st == RAYD_OK && dst->aov_mask && !rayd_accum_has_aov(*out))
+        st = rayd_accum_aov_enable(*out, err);
+    if (st != RAYD_OK) {
+        rayd_accum_free(*out);
+        *out = NULL;
+    }
+    return st;
+}
+
+/* A denoised tile's raw pixels (its sums unfiltered) into p->raw, at the
+ * tile's place in the task's image. */
+static enum rayd_status passes_raw_tile(struct passes *p, const rayd_accum *acc,
+                                        const struct resolve_dst *dst, struct rayd_error *err) {
+    rayd_accum *plain = NULL;
+    rayd_image *img = NULL;
+    enum rayd_status st = rayd_accum_raw(acc, &plain, err);
+    if (st == RAYD_OK) st = rayd_accum_image(plain, &img, err);
+    if (st == RAYD_OK) st = rayd_image_blit(p->raw, img, dst->x, dst->y, err);
+    rayd_image_free(img);
+    rayd_accum_free(plain);
+    return st;
+}
+
 enum rayd_status passes_tile(struct passes *p, const rayd_scene *scene, int tile, int pass,
                              const struct resolve_dst *dst, const atomic_int *cancel,
                              atomic_int_least64_t *rays_left, uint64_t *rays,
                              struct rayd_error *err) {
     if (!p->acc[tile]) { /* its first pass: only this worker holds the tile */
-        enum rayd_status st = rayd_accum_new(scene, &p->tiles[tile], &p->acc[tile], err);
+        enum rayd_status st = passes_accum(scene, &p->tiles[tile], dst, &p->acc[tile], err);
         if (st != RAYD_OK) return st;
     }
     rayd_accum *acc = p->acc[tile];
@@ -137,6 +182,7 @@ enum rayd_status passes_tile(struct passes *p, const rayd_scene *scene, int tile
         rayd_render_pass(scene, &o, acc, rayd_accum_samples(acc), p->samples[pass], err);
     *rays += stats.rays;
     if (st == RAYD_OK) st = resolve_into(acc, dst, err);
+    if (st == RAYD_OK && p->raw) st = passes_raw_tile(p, acc, dst, err);
     return st;
 }
 
@@ -153,24 +199,35 @@ static double passes_rms(const rayd_image *a, const rayd_image *b) {
 }
 
 double passes_noise(const struct passes *p, const rayd_image *img, int pass) {
-    if (pass == 0 || !p->prev) return -1;
+    const rayd_image *prev = p->raw ? p->raw_prev : p->prev;
+    if (p->raw) img = p->raw; /* the samples' noise, not what the filter left of it */
+    if (pass == 0 || !prev) return -1;
     double n = p->samples[pass], m = p->samples[pass - 1];
     bool restarted = m == 1; /* the centre image is not sample 0 of the next */
-    return passes_rms(img, p->prev) * sqrt(m / (restarted ? n + m : n - m));
+    return passes_rms(img, prev) * sqrt(m / (restarted ? n + m : n - m));
+}
+
+void passes_raw_done(struct passes *p) {
+    rayd_image *t = p->raw;
+    p->raw = p->raw_prev;
+    p->raw_prev = t;
 }
 
 /* Lock held. */
-void passes_complete(struct passes *p, struct blob *png, struct blob *exr, double time_s,
-                     double noise) {
+void passes_complete(struct passes *p, struct blob *png, struct blob *exr, struct blob *raw,
+                     double time_s, double noise) {
     work_assert_locked();
     int k = p->done++;
     if (p->let_go) { /* cancelled or evicted while this pass was encoded */
         blob_unref(png);
         blob_unref(exr);
-        png = exr = NULL;
+        blob_unref(raw);
+        png = exr = raw = NULL;
     }
     blob_unref(p->png[k % PASSES_KEEP]);
     p->png[k % PASSES_KEEP] = png;
+    blob_unref(p->raw_png[k % PASSES_KEEP]);
+    p->raw_png[k % PASSES_KEEP] = raw;
     blob_unref(p->exr[k % PASSES_KEEP_EXR]);
     p->exr[k % PASSES_KEEP_EXR] = exr;
     p->time_s[k] = time_s;
@@ -208,6 +265,13 @@ struct blob *passes_exr(const struct passes *p, int pass) {
     work_assert_locked();
     if (pass < 1 || pass > p->done || pass <= p->done - PASSES_KEEP_EXR) return NULL;
     return p->exr[(pass - 1) % PASSES_KEEP_EXR];
+}
+
+/* Lock held. */
+struct blob *passes_raw(const struct passes *p, int pass) {
+    work_assert_locked();
+    if (pass < 1 || pass > p->done || pass <= p->done - PASSES_KEEP) return NULL;
+    return p->raw_png[(pass - 1) % PASSES_KEEP];
 }
 
 int passes_added(const struct passes *p, int k) {

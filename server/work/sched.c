@@ -77,7 +77,8 @@ static struct blob *sched_exr(const struct task *t, enum rayd_status *st, struct
     if (!t->keep_exr || *st != RAYD_OK) return NULL;
     void *buf = NULL;
     size_t len = 0;
-    *st = rayd_exr_encode(t->lin, t->reg.w, t->reg.h, &buf, &len, err);
+    *st = rayd_exr_encode_aov(t->lin, t->aov, t->aov ? t->aov_mask : 0, t->reg.w, t->reg.h, &buf,
+                              &len, err);
     return sched_keep(st, buf, len, err, "the EXR");
 }
 
@@ -109,6 +110,12 @@ static void sched_pass(struct task *t, struct task_out *o) {
     o->st = rayd_png_encode(t->img, (int)config.png_level, &buf, &len, &o->err);
     o->png = sched_keep(&o->st, buf, len, &o->err, "the pass's PNG");
     o->exr = sched_exr(t, &o->st, &o->err);
+    if (p->raw && o->st == RAYD_OK) { /* a denoised pass: its raw image too */
+        buf = NULL;
+        o->st = rayd_png_encode(p->raw, (int)config.png_level, &buf, &len, &o->err);
+        o->raw = sched_keep(&o->st, buf, len, &o->err, "the pass's raw PNG");
+        passes_raw_done(p);
+    }
 }
 
 /* Tile `tile` of t is drawn: when that completes rows at the top, the

@@ -75,6 +75,8 @@ struct shot {
     char scene_id[65];
     struct rayd_region reg;
     bool keep_exr, canceled, recorded; /* recorded: its end is queued to the store */
+    bool denoise;                      /* each frame denoised (work_target's) */
+    unsigned aov;                      /* each frame's AOVs (work_target's) */
     long first, last;
     int n, ndone, nfailed, flying, latest;
     double fps, est_rays;
@@ -190,6 +192,8 @@ static void shots_record(const struct shot *s, struct store_job *row) {
     snprintf(row->scene_id, sizeof row->scene_id, "%s", s->scene_id);
     row->reg = s->reg;
     row->keep_exr = s->keep_exr;
+    row->denoise = s->denoise;
+    row->aov = s->aov;
     row->tiles = s->ndone;
     row->rays = s->rays;
     row->est_rays = s->est_rays;
@@ -302,8 +306,12 @@ static void shots_refusal(enum work_submit why, struct rayd_error *err) {
 /* The frame's scene is compiled: its render submitted (no lock held). */
 static void shots_render(struct shots_fly *fl, struct cache_entry *scene) {
     struct shot *s = fl->s;
-    struct work_target what = {
-        .reg = s->reg, .format = WORK_PNG, .keep_exr = s->keep_exr, .client = s->client};
+    struct work_target what = {.reg = s->reg,
+                               .format = WORK_PNG,
+                               .keep_exr = s->keep_exr,
+                               .aov = s->aov,
+                               .denoise = s->denoise,
+                               .client = s->client};
     enum work_submit r = WORK_OK;
     struct task *fresh = budget_task(scene, &what, false, &r);
     if (fresh) task_admitted(fresh, s->priority);
@@ -500,6 +508,8 @@ static struct shot *shots_new(const struct shots_new *n) {
     s->fps = n->fps;
     s->reg = n->what.reg;
     s->keep_exr = n->what.keep_exr;
+    s->denoise = n->what.denoise;
+    s->aov = n->what.aov;
     s->client = n->what.client;
     s->priority = n->priority;
     s->est_rays = n->est_rays;
@@ -561,7 +571,11 @@ bool shots_restore(const struct store_job *row, const unsigned char *states) {
     struct shots_new n = {
         .text = row->scene,
         .len = row->scene_len,
-        .what = {.reg = row->reg, .keep_exr = row->keep_exr, .client = row->client},
+        .what = {.reg = row->reg,
+                 .keep_exr = row->keep_exr,
+                 .aov = row->aov,
+                 .denoise = row->denoise,
+                 .client = row->client},
         .priority = row->priority,
         .first = row->first,
         .last = row->last,
@@ -656,6 +670,8 @@ static void shots_info_of(struct shot *s, struct shots_info *o) {
     j->rays = s->rays;
     j->est_rays = s->est_rays;
     j->keep_exr = s->keep_exr;
+    j->denoise = s->denoise;
+    j->aov = s->aov;
     j->ended_age = shots_final(s) && s->flying == 0 ? now - shots_ended(s) : -1;
     if (j->state == JS_FAILED) shots_error(s, &j->err);
     snprintf(j->id, sizeof j->id, "%s", s->id);

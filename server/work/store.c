@@ -267,14 +267,16 @@ static bool store_insert_row(const struct store_job *j) {
               store_run(NULL,
                         "INSERT OR REPLACE INTO jobs(id, seq, client, priority, created, state,"
                         " scene, scene_id, x, y, w, h, keep_exr, progressive, pass_step,"
-                        " time_budget, noise_target, tiles, est_rays)"
-                        " VALUES(?, ?, ?, ?, ?, 'queued', ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                        "tiiidbtiiiiiiiddid", j->id, j->seq, (long long)j->client,
+                        " time_budget, noise_target, tiles, est_rays, denoise, aov)"
+                        " VALUES(?, ?, ?, ?, ?, 'queued', ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?,"
+                        " ?, ?)",
+                        "tiiidbtiiiiiiiddidii", j->id, j->seq, (long long)j->client,
                         (long long)j->priority, j->created_wall, j->scene, j->scene_len,
                         j->scene_id, (long long)j->reg.x, (long long)j->reg.y, (long long)j->reg.w,
                         (long long)j->reg.h, (long long)j->keep_exr, (long long)j->progressive,
                         (long long)j->plan.step, j->plan.time_budget, j->plan.noise_target,
-                        (long long)j->tiles, j->est_rays) == SQLITE_DONE &&
+                        (long long)j->tiles, j->est_rays, (long long)j->denoise,
+                        (long long)j->aov) == SQLITE_DONE &&
               (j->frames ? store_insert_frames(j)
                          : store_run(NULL,
                                      "INSERT OR REPLACE INTO frames(job, k, state)"
@@ -676,6 +678,9 @@ int store_open(const char *dir) {
     sqlite3_exec(store_db, "ALTER TABLE jobs ADD COLUMN frame_first INTEGER", NULL, NULL, NULL);
     sqlite3_exec(store_db, "ALTER TABLE jobs ADD COLUMN frame_last INTEGER", NULL, NULL, NULL);
     sqlite3_exec(store_db, "ALTER TABLE jobs ADD COLUMN fps REAL", NULL, NULL, NULL);
+    /* a job's ?denoise= and ?aov= (NULL in a store of before them: neither) */
+    sqlite3_exec(store_db, "ALTER TABLE jobs ADD COLUMN denoise INTEGER", NULL, NULL, NULL);
+    sqlite3_exec(store_db, "ALTER TABLE jobs ADD COLUMN aov INTEGER", NULL, NULL, NULL);
     store_sweep();
     atomic_store(&store_up, true);
     sqlite3_stmt *st = NULL;
@@ -763,6 +768,8 @@ static bool store_row(sqlite3_stmt *st, struct store_job *j) {
     j->attempts = sqlite3_column_int(st, 30);
     bool has_exr = sqlite3_column_type(st, 31) != SQLITE_NULL;
     long long bytes = sqlite3_column_int64(st, 32);
+    j->denoise = sqlite3_column_int(st, 36); /* NULL (a store before them): 0 */
+    j->aov = (unsigned)sqlite3_column_int(st, 37);
     j->frames = sqlite3_column_type(st, 33) != SQLITE_NULL;
     if (j->frames) { /* a frame-range job: its frames are store_load_frames' */
         j->first = sqlite3_column_int64(st, 33);
@@ -791,7 +798,7 @@ int store_load(struct store_job **rows, int *n) {
         " j.scene_id, j.x, j.y, j.w, j.h, j.keep_exr, j.progressive, j.pass_step, j.time_budget,"
         " j.noise_target, j.tiles, j.rays, j.est_rays, j.queue_ms, j.render_ms, j.encode_ms,"
         " j.err_code, j.err_message, j.err_path, j.evicted, j.evicted_why, f.state, f.attempts,"
-        " f.exr_path, f.bytes, j.frame_first, j.frame_last, j.fps"
+        " f.exr_path, f.bytes, j.frame_first, j.frame_last, j.fps, j.denoise, j.aov"
         " FROM jobs j LEFT JOIN frames f ON f.job = j.id AND f.k = 0"
         " ORDER BY j.seq",
         -1, &st, NULL);

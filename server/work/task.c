@@ -136,7 +136,7 @@ void task_key(char *key, size_t size, const char *id, const struct work_target *
  * WORK_SUMS. */
 static bool task_pixels(struct task *t) {
     size_t values = (size_t)t->reg.w * (size_t)t->reg.h * 3;
-    if (t->format == WORK_EXR && t->aov_mask &&
+    if ((t->format == WORK_EXR || t->keep_exr) && t->aov_mask &&
         !(t->aov = malloc(values / 3 * RAYD_AOV_FLOATS * sizeof *t->aov)))
         return false;
     switch (task_format(t->format)->store) {
@@ -148,11 +148,6 @@ static bool task_pixels(struct task *t) {
     default: t->lin = malloc(values * sizeof *t->lin); return t->lin != NULL;
     }
 }
-
-/* A denoised task's least tile edge: a tile renders the filter's apron
- * (63 pixels) around it, which costs 2.2x the tile's own pixels at 256,
- * against 25x at 32. */
-#define TASK_DENOISE_TILE 256
 
 /* The test gate's ray budget for new tasks (task_gate_work), -1: none. */
 static atomic_long task_test_work = -1;
@@ -180,12 +175,9 @@ struct task *task_new(struct cache_entry *scene, const struct work_target *what)
     const rayd_scene *rs = cache_scene(scene);
     struct rayd_scene_info info;
     rayd_scene_info(rs, &info);
-    int samples = cost_samples(what, info.samples);
     t->rays_per_sample = info.rays_per_sample;
     t->est_rays = cost_rays(rs, what);
-    t->tile = cost_tile(samples * info.rays_per_sample);
-    if (what->denoise && t->tile < TASK_DENOISE_TILE) /* each tile renders its apron too */
-        t->tile = TASK_DENOISE_TILE;
+    t->tile = cost_task_tile(rs, what);
     t->client = what->client;
     t->ntx = (reg->w + t->tile - 1) / t->tile;
     t->nty = (reg->h + t->tile - 1) / t->tile;
@@ -559,10 +551,12 @@ static bool task_pass_next(struct task *t, const struct task_out *o, struct task
     if (o->st != RAYD_OK) {
         task_fail(t, o->st, &o->err);
         blob_unref(o->png);
+        blob_unref(o->exr);
+        blob_unref(o->raw);
         rayd_image_free(o->spare);
         return false;
     }
-    passes_complete(p, o->png, o->exr, clock_now() - t->t_start, o->noise);
+    passes_complete(p, o->png, o->exr, o->raw, clock_now() - t->t_start, o->noise);
     task_notify_add(sse, &t->sse_waiters);
     if (!passes_more(p, clock_now() - t->t_start) || atomic_load(&t->cancel)) {
         rayd_image_free(o->spare);

@@ -208,6 +208,8 @@ struct jobs_info {
                               job's latest pass (or NULL); unref it */
     struct blob *exr;      /* when asked for, likewise its EXR (keep_exr only); unref it */
     bool keep_exr;         /* created with format=exr */
+    bool denoise;          /* created denoised (?denoise=1, or the scene's render.denoise) */
+    unsigned aov;          /* ?aov=: the EXR's AOV channels, or the one AOV the PNG shows */
     bool progressive;
     struct jobs_passes passes; /* progressive only */
     double ended_age;          /* seconds since it ended; < 0 while it runs */
@@ -244,9 +246,12 @@ enum work_submit jobs_submit(struct cache_entry *scene, const struct work_target
 /* What jobs_get copies besides the numbers: the PNG, the EXR. */
 enum jobs_want { JOBS_NUMBERS = 0, JOBS_PNG = 1, JOBS_EXR = 2 };
 bool jobs_get(const char *id, struct jobs_info *info, enum jobs_want want);
-/* Pass `pass` (1-based) of a progressive job, its PNG or (exr) its EXR,
- * if still kept: *img referenced, *samples its count.  false: no such job. */
-bool jobs_pass_image(const char *id, int pass, bool exr, struct blob **img, int *samples);
+/* Which image of a pass: its PNG, its EXR, or a denoised job's raw PNG. */
+enum jobs_image { JI_PNG, JI_EXR, JI_RAW };
+/* Pass `pass` (1-based) of a progressive job, its image of that kind, if
+ * still kept: *img referenced, *samples its count.  false: no such job. */
+bool jobs_pass_image(const char *id, int pass, enum jobs_image kind, struct blob **img,
+                     int *samples);
 bool jobs_cancel(const char *id);
 /* Ends a progressive job after the latest complete pass (or after the
  * first, if none is complete yet), keeping it as the job's image.  false:

@@ -143,7 +143,12 @@ int cost_samples(const struct work_target *what, int scene_samples);
 /* The side of a square tile whose estimated rays stay under the tile
  * budget, given a pixel's estimated rays. */
 int cost_tile(double rays_per_pixel);
+/* The tile edge of a task rendering what of scene: cost_tile's, at least
+ * COST_DENOISE_TILE for a denoised one (each tile renders the filter's
+ * apron around it).  Any lock. */
+int cost_task_tile(const rayd_scene *scene, const struct work_target *what);
 void cost_set_workers(int workers); /* before the workers start */
+int cost_worker_count(void);        /* the workers; any lock */
 /* A tile of scene_id for client: its estimated rays and the seconds it
  * took; complete false: it was stopped part way. */
 void cost_observe(const char *scene_id, uint64_t client, double rays, double seconds,
@@ -192,7 +197,9 @@ struct passes {
     rayd_accum **acc;                  /* a tile's sums, one a task tile, made at its first pass */
     struct rayd_region *tiles;         /* the task tiles (absolute) */
     rayd_image *prev;                  /* the latest complete pass's image */
+    rayd_image *raw, *raw_prev;        /* a denoised job's: the pass's raw image, the last one's */
     struct blob *png[PASSES_KEEP];     /* pass k's PNG (1-based) at (k - 1) % PASSES_KEEP */
+    struct blob *raw_png[PASSES_KEEP]; /* a denoised job's: pass k's raw PNG, likewise */
     struct blob *exr[PASSES_KEEP_EXR]; /* a job's with format=exr: pass k's EXR, likewise */
     double time_s[PASSES_MAX], noise[PASSES_MAX];
     enum passes_stop stop; /* asked (client, time) or decided (noise) */
@@ -200,9 +207,10 @@ struct passes {
 };
 /* The passes of a task whose tiles are tiles[0..ntiles-1] (absolute; the
  * malloc'd array is the passes' from now on, freed with them even on
- * failure); NULL on no memory. */
+ * failure); raw: the task's passes are denoised and each is kept raw too
+ * (a w x h image); NULL on no memory. */
 struct passes *passes_new(const rayd_scene *scene, const struct jobs_plan *plan,
-                          struct rayd_region *tiles, int ntiles);
+                          struct rayd_region *tiles, int ntiles, bool raw, int w, int h);
 void passes_free(struct passes *p); /* NULL allowed */
 /* Renders pass `pass` of tile `tile` (its sums) and resolves the tile's
  * pixels into dst; no lock.  rays_left: the task's ray budget, or NULL. */
@@ -210,11 +218,16 @@ enum rayd_status passes_tile(struct passes *p, const rayd_scene *scene, int tile
                              const struct resolve_dst *dst, const atomic_int *cancel,
                              atomic_int_least64_t *rays_left, uint64_t *rays,
                              struct rayd_error *err);
-/* Pass `pass`'s noise estimate from its image (< 0: none); no lock. */
+/* Pass `pass`'s noise estimate from its image img (a denoised job's: from
+ * its raw image, p->raw, img unused) (< 0: none); no lock. */
 double passes_noise(const struct passes *p, const rayd_image *img, int pass);
-/* Lock held: the pass is complete, png its PNG and exr its EXR (NULL when
- * the job keeps none); both references become the passes'. */
-void passes_complete(struct passes *p, struct blob *png, struct blob *exr, double time_s,
+/* A denoised job's raw image of the pass just drawn becomes the previous
+ * one, for the next pass's noise estimate; no lock (the pass barrier). */
+void passes_raw_done(struct passes *p);
+/* Lock held: the pass is complete, png its PNG, exr its EXR and raw its raw
+ * PNG (NULL when the job keeps none); the references become the passes'. */
+void passes_complete(struct passes *p, struct blob *png, struct blob *exr, struct blob *raw,
+                     double time_s,
                      double noise);
 /* Lock held: a finished task lets go of its sums and last image (it renders
  * no more); its PNGs, EXRs and counts stay for the job. */
@@ -229,6 +242,7 @@ bool passes_more(struct passes *p, double elapsed);
 rayd_image *passes_swap(struct passes *p, rayd_image *img);
 struct blob *passes_png(const struct passes *p, int pass); /* not referenced; NULL: gone */
 struct blob *passes_exr(const struct passes *p, int pass); /* likewise; NULL: gone or none */
+struct blob *passes_raw(const struct passes *p, int pass); /* likewise, the raw PNG */
 double passes_progress(const struct passes *p, int done, double frac);
 /* The samples pass k (from 0) renders: what it adds to the pass before, or
  * all of its own after the one-sample image, which is not added to. */
@@ -316,6 +330,7 @@ struct task_out {
     enum rayd_status st;
     struct rayd_error err;
     struct blob *png, *exr; /* references handed over */
+    struct blob *raw;       /* a denoised pass's raw PNG, likewise */
     double encode_s;        /* the encoding's seconds */
     double noise;           /* a pass's noise estimate */
     rayd_image *spare;      /* a pass's: the image for the next one, or NULL */
@@ -462,6 +477,8 @@ struct store_job {
     char scene_id[65];
     struct rayd_region reg;
     bool keep_exr, progressive;
+    bool denoise;  /* POST /v1/jobs?denoise=1 (or the scene's) */
+    unsigned aov;  /* ?aov= (work_target's aov) */
     struct jobs_plan plan;
     long tiles;
     uint64_t rays;
