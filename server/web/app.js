@@ -282,6 +282,7 @@ async function render({ fromStart = false, user = false } = {}) {
   setState("rendering");
   partial = false;
   $("dl-png").disabled = true;
+  $("raw").disabled = true; // until a denoised pass is shown
   $("link").hidden = true;
   bar(0);
   startClock(my);
@@ -294,6 +295,7 @@ async function render({ fromStart = false, user = false } = {}) {
         stats.lastPreviewMs = performance.now() - started;
         if (!lastProgress.total) bar(0.04);
       } else if (p.phase === "pass") {
+        $("raw").disabled = !p.denoised;
         if (!stats.passes.length) stats.firstPassMs = performance.now() - started;
         stats.passes.push({ samples: p.samples, ms: performance.now() - started });
         lastProgress = { done: p.done, total: p.total, samples: p.samples };
@@ -519,10 +521,26 @@ $("notice-undo").addEventListener("click", () => editor.undo());
 $("auto").checked = localStorage.getItem("rayd.auto") === "1";
 $("auto").addEventListener("change", () => localStorage.setItem("rayd.auto", $("auto").checked ? "1" : "0"));
 $("render").addEventListener("click", () => render({ user: true }));
+// Denoise: path-traced renders refine denoised; a change renders again.
+// Raw: the denoised pass shown, or its raw image, redrawn without a render.
+$("denoise").checked = localStorage.getItem("rayd.denoise") === "1";
+renderer.denoise = $("denoise").checked;
+$("denoise").addEventListener("change", () => {
+  renderer.denoise = $("denoise").checked;
+  localStorage.setItem("rayd.denoise", renderer.denoise ? "1" : "0");
+  render({ user: true });
+});
+function toggleRaw() {
+  if ($("raw").disabled) return;
+  const on = $("raw").getAttribute("aria-pressed") !== "true";
+  $("raw").setAttribute("aria-pressed", String(on));
+  renderer.setRaw(on).then(() => (document.body.dataset.raw = on ? "1" : "0"));
+}
+$("raw").addEventListener("click", toggleRaw);
 $("linknote-render").addEventListener("click", () => render({ user: true }));
 // Keys of the whole page; outside the text fields, Ctrl+Z and Ctrl+Y undo
-// and redo the editor too (after a drag the focus is on the image), and 1
-// toggles the 1:1 view.
+// and redo the editor too (after a drag the focus is on the image), 1
+// toggles the 1:1 view and R a denoised pass's raw image.
 document.addEventListener("keydown", (e) => {
   if (e.key === "Enter" && (e.ctrlKey || e.metaKey)) {
     e.preventDefault();
@@ -543,6 +561,9 @@ document.addEventListener("keydown", (e) => {
   } else if (e.key === "1" && !e.ctrlKey && !e.metaKey && !e.altKey) {
     e.preventDefault();
     view.toggle();
+  } else if ((e.key === "r" || e.key === "R") && !e.ctrlKey && !e.metaKey && !e.altKey) {
+    e.preventDefault();
+    toggleRaw();
   }
 });
 

@@ -16,6 +16,9 @@
 // samples) are followed on its event stream and each drawn over the whole
 // canvas as it completes, so the frame is there, noisy, at once and refines
 // in place; each pass's pixels are exactly the plain render of its samples.
+// With denoise set, the job is asked for denoised passes (?denoise=1); each
+// pass then has its raw image too, and showRaw picks which one is drawn:
+// setRaw redraws the pass shown from its other image, without rendering.
 // Every request of a render shares one AbortController: a new render aborts
 // the old one's fetches, and rayd cancels the work of a client that left.
 // The tiles are drawn 1:1 at integer positions from bitmaps decoded with no
@@ -145,6 +148,10 @@ export class Renderer {
     this.api = api;
     this.ctrl = null;
     this.concurrency = 4;
+    this.denoise = false; // progressive jobs asked denoised
+    this.showRaw = false; // a denoised job's passes drawn raw
+    this.shown = null; // the pass on the canvas: {url, raw}; raw null unless denoised
+    this.drawSeq = 0;
   }
 
   cancel() {
@@ -154,6 +161,7 @@ export class Renderer {
 
   fresh() {
     this.cancel();
+    this.shown = null;
     this.ctrl = new AbortController();
     return this.ctrl;
   }
@@ -193,8 +201,10 @@ export class Renderer {
     await this.lowres(text, ctrl.signal);
   }
 
-  // Draws one pass's image over the whole canvas, 1:1.
+  // Draws one pass's image over the whole canvas, 1:1 (unless a later
+  // draw began meanwhile: that one is drawn instead).
   async drawPass(url, signal) {
+    const mine = ++this.drawSeq;
     let res;
     try {
       res = await this.api.call("GET", url, { signal });
@@ -204,9 +214,22 @@ export class Renderer {
     }
     const bmp = await this.bitmap(res);
     if (signal.aborted) return false;
-    this.ctx.drawImage(bmp, 0, 0);
+    if (mine === this.drawSeq) this.ctx.drawImage(bmp, 0, 0);
     bmp.close();
     return true;
+  }
+
+  passUrl(p) {
+    return this.showRaw && p.raw ? p.raw : p.url;
+  }
+
+  // Shows the pass on the canvas raw (or denoised) from now on; true when
+  // it was redrawn (a denoised job's pass is shown).
+  async setRaw(raw) {
+    this.showRaw = raw;
+    const p = this.shown;
+    if (!p || !p.raw) return false;
+    return this.drawPass(this.passUrl(p), new AbortController().signal);
   }
 
   // A progressive job: each pass drawn as it completes (only the newest of
@@ -221,7 +244,8 @@ export class Renderer {
   // POST that makes the job is not aborted: its answer names the job to
   // delete (rayd answers it as soon as the scene is read).
   async progressive(text, progress, lowDone, signal) {
-    const job = await (await this.api.call("POST", "v1/jobs?progressive=1", { body: text })).json();
+    const q = "v1/jobs?progressive=1" + (this.denoise ? "&denoise=1" : "");
+    const job = await (await this.api.call("POST", q, { body: text })).json();
     const drop = () => this.api.call("DELETE", `v1/jobs/${job.id}`).catch(() => {});
     if (signal.aborted) {
       drop();
@@ -244,7 +268,11 @@ export class Renderer {
         if (passes.length) {
           const p = passes[passes.length - 1].data;
           await lowDone; // passes go over the quick pass, never under it
-          if ((await this.drawPass(p.image_url.replace(/^\//, ""), signal)) || end)
+          const url = p.image_url.replace(/^\//, "");
+          const shown = { url, raw: job.denoise ? url + "&denoise=0" : null };
+          if (signal.aborted) throw Object.assign(new Error("aborted"), { name: "AbortError" });
+          this.shown = shown;
+          if ((await this.drawPass(this.passUrl(shown), signal)) || end)
             progress({
               phase: "pass",
               samples: p.samples,
@@ -252,6 +280,7 @@ export class Renderer {
               total: p.passes,
               progress: p.progress,
               id: job.scene_id,
+              denoised: !!job.denoise,
             });
         }
         ended = !!end;

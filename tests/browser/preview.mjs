@@ -800,6 +800,55 @@ try {
       await gate("open");
     }
   });
+  // --- Denoise: the passes refine denoised; the raw pass one click away, no render again ------
+  await check("denoise_toggle_and_raw_pass", async () => {
+    const sc = JSON.parse(exampleOf("cornell"));
+    sc.render = { ...sc.render, width: 96, height: 72, samples: 4 };
+    const text = JSON.stringify(sc, null, 2);
+    await setText(page, text);
+    let jobs = 0;
+    const count = (r) => {
+      if (r.method() === "POST" && /\/v1\/jobs\?/.test(r.url())) jobs++;
+    };
+    page.on("request", count);
+    try {
+      let n = await renders(page);
+      const posted = page.waitForResponse((r) => /\/v1\/jobs\?progressive=1&denoise=1$/.test(r.url()), { timeout: 60000 });
+      await page.click("#denoise"); // a change renders again
+      const job = await (await posted).json();
+      await waitDone(page, n);
+      if (job.denoise !== true) return "the job's 202 does not say denoise: " + JSON.stringify(job);
+      if (await page.$eval("#raw", (b) => b.disabled)) return "raw disabled after a denoised render";
+      const ref = async (q) => {
+        const r = await post("/v1/render" + q, text);
+        const f = join(WORK, `ref-${++seq}.png`);
+        writeFileSync(f, r.bytes);
+        return f;
+      };
+      const denoised = await ref("?denoise=1"),
+        raw = await ref("");
+      let r = samePixels(denoised, await canvasPng(page));
+      if (r !== true) return "the last pass is not the denoised render: " + r;
+      const before = jobs;
+      await page.click("#raw");
+      await page.waitForFunction(() => document.body.dataset.raw === "1", null, { timeout: 60000 });
+      if ((await page.$eval("#raw", (b) => b.getAttribute("aria-pressed"))) !== "true") return "raw not pressed";
+      r = samePixels(raw, await canvasPng(page));
+      if (r !== true) return "raw shown is not the plain render: " + r;
+      await page.keyboard.press("r"); // the key too, back to denoised
+      await page.waitForFunction(() => document.body.dataset.raw === "0", null, { timeout: 60000 });
+      r = samePixels(denoised, await canvasPng(page));
+      if (r !== true) return "back to denoised: " + r;
+      if (jobs !== before) return `the toggle made ${jobs - before} new jobs`;
+      n = await renders(page);
+      await page.click("#denoise"); // off again: raw passes, the raw toggle off
+      await waitDone(page, n);
+      if (!(await page.$eval("#raw", (b) => b.disabled))) return "raw enabled for a render not denoised";
+      return samePixels(raw, await canvasPng(page));
+    } finally {
+      page.off("request", count);
+    }
+  });
   // A progressive job that ends failed (here: its stream says so, as it
   // does when --max-render-seconds passes before the first pass) is named
   // as such; it used to be shown as "undefined job_failed".
