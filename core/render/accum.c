@@ -139,8 +139,8 @@ enum rayd_status rayd_accum_raw(const rayd_accum *a, rayd_accum **out, struct ra
 #define ACCUM_DN_SUMS ((3 + AOV_SUMS) * sizeof(double))
 #define ACCUM_DN_FILTER (sizeof(struct denoise_px) + 3 * sizeof(float) + 12 * sizeof(float))
 
-void rayd_accum_denoised_bytes(const rayd_scene *s, const struct rayd_region *region,
-                               size_t *held, size_t *peak) {
+void rayd_accum_denoised_bytes(const rayd_scene *s, const struct rayd_region *region, size_t *held,
+                               size_t *peak) {
     int x0 = region->x - DENOISE_APRON, y0 = region->y - DENOISE_APRON;
     int x1 = region->x + region->w + DENOISE_APRON, y1 = region->y + region->h + DENOISE_APRON;
     x0 = x0 < 0 ? 0 : x0;

@@ -306,8 +306,8 @@ static bool api_samples_of(struct http_req *r, const rayd_scene *scene, const st
     return true;
 }
 
-bool api_aov_param(struct http_req *r, const rayd_scene *scene, const char *v, int count,
-                   bool exr, unsigned *mask) {
+bool api_aov_param(struct http_req *r, const rayd_scene *scene, const char *v, int count, bool exr,
+                   unsigned *mask) {
     struct rayd_error err = {0};
     char why[150];
     if (count > 1) return api_bad_param(r, "aov", "given more than once");

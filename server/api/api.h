@@ -44,8 +44,8 @@ bool api_target(struct http_req *r, const rayd_scene *scene, struct work_target 
  * of the EXR's AOV channels (default: the scene's render.aov), else the
  * one AOV a PNG shows (default: none), into *mask; 400 naming aov and
  * false on a bad one.  POST /v1/render's and POST /v1/jobs'. */
-bool api_aov_param(struct http_req *r, const rayd_scene *scene, const char *v, int count,
-                   bool exr, unsigned *mask);
+bool api_aov_param(struct http_req *r, const rayd_scene *scene, const char *v, int count, bool exr,
+                   unsigned *mask);
 /* ?denoise=0|1 of value v likewise (default: the scene's render.denoise). */
 bool api_denoise_param(struct http_req *r, const rayd_scene *scene, const char *v, int count,
                        bool *denoise);

@@ -28,10 +28,9 @@
 static const char *const api_plan_names[] = {"progressive", "pass_step", "time_budget",
                                              "noise_target", NULL};
 /* What POST /v1/jobs takes besides the region. */
-static const char *const api_jobs_names[] = {"progressive",  "pass_step", "time_budget",
-                                             "noise_target", "format",    "priority",
-                                             "frames",       "frame",     "denoise",
-                                             "aov",          NULL};
+static const char *const api_jobs_names[] = {
+    "progressive", "pass_step", "time_budget", "noise_target", "format", "priority",
+    "frames",      "frame",     "denoise",     "aov",          NULL};
 
 /* A decimal number in (0, max] from ?name=, if given: digits and a point
  * only (api_is_decimal), so 0x10, 1e3, inf and " 5" are refused. */
@@ -195,8 +194,7 @@ static bool api_jobs_compiled(struct http_req *r, struct cache_entry *e, bool hi
     if (shot < 0 || !api_region_also(r, cache_scene(e), &what.reg, api_jobs_names) ||
         (!shot && !api_plan(r, cache_scene(e), &plan, &progressive)) ||
         !api_jobs_format(r, &what) || !api_jobs_denoise_aov(r, cache_scene(e), &what) ||
-        !api_jobs_priority(r, &how.priority) ||
-        !api_cost_admit(r, e, &what, progressive, &price))
+        !api_jobs_priority(r, &how.priority) || !api_cost_admit(r, e, &what, progressive, &price))
         return false; /* replied */
     if (shot)         /* an animated scene: a frame-range job (api_shots.c) */
         return api_shots_submit(r, e, &what, how.priority, &price);

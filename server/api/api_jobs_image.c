@@ -187,8 +187,7 @@ static void api_jobs_final_image(struct http_req *r, const char *id, bool exr, i
     bool raw = false;
     if (!api_jobs_evicted(r, id, &info)) {
         api_jobs_scene(r, &info);
-        if (api_jobs_denoise_ok(r, &info, want, &raw))
-            api_jobs_final_reply(r, id, &info, exr, raw);
+        if (api_jobs_denoise_ok(r, &info, want, &raw)) api_jobs_final_reply(r, id, &info, exr, raw);
     }
     blob_unref(exr ? info.exr : info.png);
 }

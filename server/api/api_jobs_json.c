@@ -177,8 +177,7 @@ cJSON *api_jobs_json(const char *id, const struct jobs_info *in) {
     api_jobs_add_estimate(o, &price);
     if (in->denoise) cJSON_AddTrueToObject(o, "denoise");
     if (in->progressive)
-        api_job_passes(o, id, &in->passes, in->keep_exr,
-                       in->denoise && (!in->aov || in->keep_exr));
+        api_job_passes(o, id, &in->passes, in->keep_exr, in->denoise && (!in->aov || in->keep_exr));
     if (in->state == JS_SUCCEEDED) {
         char url[80];
         api_jobs_url(url, sizeof url, id, "/image.png");

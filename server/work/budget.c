@@ -4,9 +4,9 @@
  * shows: its pixels (8-bit, or linear floats for the HDR formats), the
  * per-pixel sums of a sums answer or of a progressive job (24 bytes a
  * pixel), and then the encoded answer (a 4096 x 4096 sums answer is a 402 MB
- * blob); a denoised render's tiles also hold the filter's apron and buffers.  So before a task is made, what it will hold is reserved whole in
- * the memory budget (--max-memory, mem.c): a render alone over the budget
- * is refused 413 (WORK_TOO_BIG), one with no room now 503 with Retry-After
+ * blob); a denoised render's tiles also hold the filter's apron and buffers.  So before a task is
+ * made, what it will hold is reserved whole in the memory budget (--max-memory, mem.c): a render
+ * alone over the budget is refused 413 (WORK_TOO_BIG), one with no room now 503 with Retry-After
  * (WORK_MEMORY), after the reclaimer evicted what it could.  The
  * reservation is the task's (t->mem) and is released when its pixels are
  * freed (task.c, when it finishes); the encoded blobs are counted on their

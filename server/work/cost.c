@@ -80,7 +80,8 @@ static uint64_t cost_tick;
 static double cost_node_spr = 1.0 / COST_RATE_START; /* worker seconds per estimated ray */
 static int cost_workers = 1;
 
-int cost_samples(const struct work_target *what, int scene_samples) {
+/* The samples a pixel of what takes: a sample range's, else the scene's. */
+static int cost_samples(const struct work_target *what, int scene_samples) {
     return what->format == WORK_SUMS ? what->k1 - what->k0 : scene_samples;
 }
 
@@ -91,7 +92,9 @@ double cost_rays(const rayd_scene *scene, const struct work_target *what) {
     return (double)what->reg.w * what->reg.h * samples * info.rays_per_sample;
 }
 
-int cost_tile(double rays_per_pixel) {
+/* The side of a square tile whose estimated rays stay under the tile
+ * budget, given a pixel's estimated rays. */
+static int cost_tile(double rays_per_pixel) {
     int side = COST_TILE_MAX;
     while (side > COST_TILE_MIN && (double)side * side * rays_per_pixel > COST_TILE_RAYS) side /= 2;
     return side;

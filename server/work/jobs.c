@@ -321,10 +321,9 @@ static bool jobs_progressive(struct task *t, struct cache_entry *scene,
     if (!tiles) return false;
     for (int i = 0; i < t->ntiles; i++) tiles[i] = task_tile(t, i);
     bool raw = t->denoise && (!t->aov_mask || t->aov); /* its image shows light, denoised */
-    task_progressive(t,
-                     passes_new(cache_scene(scene), plan, tiles, t->ntiles, raw, t->reg.w,
-                                t->reg.h),
-                     id); /* owns tiles */
+    task_progressive(
+        t, passes_new(cache_scene(scene), plan, tiles, t->ntiles, raw, t->reg.w, t->reg.h),
+        id); /* owns tiles */
     return t->passes != NULL;
 }
 

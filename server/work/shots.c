@@ -568,19 +568,18 @@ enum work_submit shots_submit(struct shots_new *n, char id[33]) {
 /* ---- start-up: a frame-range job of the store put back --------------------------- */
 
 bool shots_restore(const struct store_job *row, const unsigned char *states) {
-    struct shots_new n = {
-        .text = row->scene,
-        .len = row->scene_len,
-        .what = {.reg = row->reg,
-                 .keep_exr = row->keep_exr,
-                 .aov = row->aov,
-                 .denoise = row->denoise,
-                 .client = row->client},
-        .priority = row->priority,
-        .first = row->first,
-        .last = row->last,
-        .fps = row->fps,
-        .est_rays = row->est_rays};
+    struct shots_new n = {.text = row->scene,
+                          .len = row->scene_len,
+                          .what = {.reg = row->reg,
+                                   .keep_exr = row->keep_exr,
+                                   .aov = row->aov,
+                                   .denoise = row->denoise,
+                                   .client = row->client},
+                          .priority = row->priority,
+                          .first = row->first,
+                          .last = row->last,
+                          .fps = row->fps,
+                          .est_rays = row->est_rays};
     snprintf(n.scene_id, sizeof n.scene_id, "%s", row->scene_id);
     work_lock_take();
     struct shot *s = shots_table && shots_n < config.max_jobs ? shots_new(&n) : NULL;

@@ -135,15 +135,10 @@ bool rcache_evict_one(void); /* the least recently used result; false: empty */
 
 void scenes_start(void); /* sizes both caches, registers their gauges */
 
-/* ---- cost.c (lock held but for cost_rays, cost_tile, cost_samples) --------- */
+/* ---- cost.c (lock held but for cost_rays, cost_task_tile) ----------------------- */
 
-/* The samples a pixel of what takes: a sample range's, else the scene's. */
-int cost_samples(const struct work_target *what, int scene_samples);
-
-/* The side of a square tile whose estimated rays stay under the tile
- * budget, given a pixel's estimated rays. */
-int cost_tile(double rays_per_pixel);
-/* The tile edge of a task rendering what of scene: cost_tile's, at least
+/* The tile edge of a task rendering what of scene: the side of a square
+ * tile whose estimated rays stay under the tile budget, at least
  * COST_DENOISE_TILE for a denoised one (each tile renders the filter's
  * apron around it).  Any lock. */
 int cost_task_tile(const rayd_scene *scene, const struct work_target *what);
@@ -227,8 +222,7 @@ void passes_raw_done(struct passes *p);
 /* Lock held: the pass is complete, png its PNG, exr its EXR and raw its raw
  * PNG (NULL when the job keeps none); the references become the passes'. */
 void passes_complete(struct passes *p, struct blob *png, struct blob *exr, struct blob *raw,
-                     double time_s,
-                     double noise);
+                     double time_s, double noise);
 /* Lock held: a finished task lets go of its sums and last image (it renders
  * no more); its PNGs, EXRs and counts stay for the job. */
 void passes_release(struct passes *p);
@@ -477,8 +471,8 @@ struct store_job {
     char scene_id[65];
     struct rayd_region reg;
     bool keep_exr, progressive;
-    bool denoise;  /* POST /v1/jobs?denoise=1 (or the scene's) */
-    unsigned aov;  /* ?aov= (work_target's aov) */
+    bool denoise; /* POST /v1/jobs?denoise=1 (or the scene's) */
+    unsigned aov; /* ?aov= (work_target's aov) */
     struct jobs_plan plan;
     long tiles;
     uint64_t rays;

@@ -273,6 +273,40 @@ static void test_accum_region(void) {
     rayd_scene_free(s);
 }
 
+/* rayd_accum_raw: a denoised region's raw sums resolve to the plain
+ * render of the region; a plain accumulator is refused.  The memory a
+ * denoised region holds counts its apron, clipped at the image's edges. */
+static void test_accum_raw(void) {
+    rayd_scene *s = scene_from(box_scene);
+    if (!s) return;
+    struct rayd_region r = {37, 21, 30, 25};
+    rayd_accum *a = NULL, *raw = NULL, *plain = NULL;
+    rayd_image *ri = NULL, *pi = NULL;
+    struct rayd_error err = {0};
+    rayd_accum_new_denoised(s, &r, &a, NULL);
+    rayd_accum_new(s, &r, &plain, NULL);
+    rayd_render_pass(s, NULL, a, 0, 6, NULL);
+    rayd_render_pass(s, NULL, plain, 0, 6, NULL);
+    CHECK(rayd_accum_raw(a, &raw, &err) == RAYD_OK && !rayd_accum_denoised(raw), "%s", err.message);
+    rayd_accum_image(raw, &ri, NULL);
+    rayd_accum_image(plain, &pi, NULL);
+    CHECK(ri && pi && rayd_image_width(ri) == 30 &&
+              !memcmp(rayd_image_pixels_const(ri), rayd_image_pixels_const(pi), 30 * 25 * 3),
+          "the raw region is not the plain render");
+    rayd_accum *none = a;
+    CHECK(rayd_accum_raw(plain, &none, &err) == RAYD_E_ARG && !none, "a plain one taken");
+    size_t held, peak, held_corner, peak_corner;
+    rayd_accum_denoised_bytes(s, &r, &held, &peak);
+    rayd_accum_denoised_bytes(s, &(struct rayd_region){0, 0, 30, 25}, &held_corner, &peak_corner);
+    /* 96 x 80, the whole image (the apron reaches every edge), against 93 x 80 */
+    CHECK(held == (size_t)96 * 80 * (3 + AOV_SUMS) * 8 &&
+              held_corner == (size_t)93 * 80 * (3 + AOV_SUMS) * 8 && peak > held / 2,
+          "held %zu, corner %zu, peak %zu", held, held_corner, peak);
+    rayd_image_free(ri), rayd_image_free(pi);
+    rayd_accum_free(a), rayd_accum_free(raw), rayd_accum_free(plain);
+    rayd_scene_free(s);
+}
+
 /* The squared-luminance sums are exact: two merged ranges hold the very
  * bits of one render. */
 static void test_moment_exact(void) {
@@ -354,6 +388,7 @@ int main(void) {
     RUN(test_window);
     RUN(test_apron_needed);
     RUN(test_accum_region);
+    RUN(test_accum_raw);
     RUN(test_moment_exact);
     RUN(test_scene_keys);
     RUN(test_clamp);
