@@ -6,7 +6,8 @@
 # the plain render); the scene's render.denoise is the default; ?aov= as
 # POST /v1/render takes it; bad values 400 naming the parameter, images a
 # job did not keep 409; a denoised render whose apron and filter buffers do
-# not fit --max-memory refused 413 while its raw render fits.
+# not fit --max-memory refused 413 while its raw render fits; with
+# --data-dir, a job queued at a kill -9 renders denoised after the restart.
 source "$(dirname "$0")/lib/common.sh"
 
 start_rayd --threads 2
@@ -145,6 +146,28 @@ code=$(req GET "/v1/jobs/$rid/image.png?denoise=0&denoise=0")
 check bad_image_denoise_twice "status $code $(cat "$T/body")" param_err denoise
 code=$(req GET "/v1/jobs/$rid/image.exr?denoise=0")
 check bad_exr_takes_no_denoise "status $code $(cat "$T/body")" param_err denoise
+
+# ---- --data-dir: a queued job renders denoised (and its AOV) after kill -9 ----------------
+stop_rayd
+D=$T/data
+start_rayd --threads 1 --test-gate 0 --data-dir "$D"
+dn=$(post_job "denoise=1" "$T/c.json")
+av=$(post_job "aov=depth" "$T/c.json")
+fr=$(post_job "frames=4-4&denoise=1" "$T/anim.json")
+wait_until 60 job_state_is "$av" queued
+kill -KILL "$RAYD_PID" 2>/dev/null
+wait "$RAYD_PID" 2>/dev/null
+RAYD_PID=
+start_rayd --threads 2 --test-gate open --data-dir "$D"
+wait_until 60 job_ended "$dn"
+code=$(req GET "/v1/jobs/$dn/image.png")
+check restart_denoised "status $code" bash -c "[ $code = 200 ] && cmp -s '$T/body' '$T/d.png'"
+wait_until 60 job_ended "$av"
+code=$(req GET "/v1/jobs/$av/image.png")
+check restart_aov "status $code" bash -c "[ $code = 200 ] && cmp -s '$T/body' '$T/depth.png'"
+wait_until 60 job_is "$fr" state succeeded
+code=$(req GET "/v1/jobs/$fr/frames/4.png")
+check restart_frame_denoised "status $code" bash -c "[ $code = 200 ] && cmp -s '$T/body' '$T/f4.png'"
 
 # ---- the memory budget counts the denoiser's apron and buffers -----------------------
 stop_rayd
