@@ -133,6 +133,11 @@ void api_jobs_missing(struct http_req *r, const char *id);
 bool api_jobs_evicted(struct http_req *r, const char *id, const struct jobs_info *info);
 void api_jobs_add_noise(cJSON *o, double noise);
 void api_jobs_add_pass_url(cJSON *o, const char *id, int k);
+/* "raw_url": pass k of job id as rendered, before the denoiser. */
+void api_jobs_add_raw_url(cJSON *o, const char *id, int k);
+/* Whether the job in keeps its passes raw: progressive, denoised, its PNG
+ * the light's (not one AOV). */
+bool api_jobs_keeps_raw(const struct jobs_info *in);
 /* A new job's 202 (a still's or a frame range's): o (taken) with the
  * unlit warning when asked, then Location and the price headers. */
 void api_jobs_reply_accepted(struct http_req *r, cJSON *o, const char *id, bool unlit,

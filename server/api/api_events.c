@@ -28,6 +28,7 @@ struct api_events {
     struct shot *shot; /* a frame-range job's stream instead (shots.c) */
     struct shots_cursor cursor;
     char id[33];
+    bool raw;    /* a denoised progressive job's: each pass has a raw_url too */
     char *carry; /* text formatted but not yet sent */
     size_t carry_len, carry_off;
 };
@@ -68,6 +69,7 @@ static size_t api_events_pass(struct api_events *a, const struct events_item *it
     api_jobs_add_noise(o, it->noise);
     json_add_fixed(o, "progress", it->progress, 4);
     api_jobs_add_pass_url(o, a->id, it->done);
+    if (a->raw) api_jobs_add_raw_url(o, a->id, it->done);
     return api_events_event(out, size, "pass", o);
 }
 
@@ -189,6 +191,8 @@ void api_events_get(struct http_req *r, const char *id) {
     }
     a->r = r;
     snprintf(a->id, sizeof a->id, "%s", id);
+    struct jobs_info info;
+    a->raw = a->s && jobs_get(id, &info, JOBS_NUMBERS) && api_jobs_keeps_raw(&info);
     a->w.done = api_events_wake;
     a->w.suspend = api_events_suspend;
     a->w.fd = http_req_fd(r);

@@ -81,7 +81,7 @@ static bool api_jobs_denoise_ok(struct http_req *r, const struct jobs_info *info
                          NULL, 0, 0, "denoise");
         return false;
     }
-    if (!info->progressive || (info->aov && !info->keep_exr)) {
+    if (!api_jobs_keeps_raw(info)) {
         http_reply_error(r, 409, "raw_not_kept",
                          "this job keeps its denoised image alone: a progressive job keeps each "
                          "pass raw too; else render with denoise=0",

@@ -112,6 +112,17 @@ void api_jobs_add_pass_url(cJSON *o, const char *id, int k) {
     cJSON_AddStringToObject(o, "image_url", url);
 }
 
+void api_jobs_add_raw_url(cJSON *o, const char *id, int k) {
+    char url[100], tail[48];
+    snprintf(tail, sizeof tail, "/image.png?pass=%d&denoise=0", k);
+    api_jobs_url(url, sizeof url, id, tail);
+    cJSON_AddStringToObject(o, "raw_url", url);
+}
+
+bool api_jobs_keeps_raw(const struct jobs_info *in) {
+    return in->progressive && in->denoise && (!in->aov || in->keep_exr);
+}
+
 /* "exr_url" of pass k of job id (a job with format=exr). */
 static void api_jobs_add_pass_exr_url(cJSON *o, const char *id, int k) {
     char url[100], tail[40];
@@ -137,12 +148,7 @@ static void api_job_passes(cJSON *o, const char *id, const struct jobs_passes *p
         cJSON_AddNullToObject(x, "stopped_by");
     if (p->done) api_jobs_add_pass_url(x, id, p->done);
     if (p->done && exr) api_jobs_add_pass_exr_url(x, id, p->done);
-    if (p->done && raw) { /* a denoised job's pass as rendered, unfiltered */
-        char url[100], tail[48];
-        snprintf(tail, sizeof tail, "/image.png?pass=%d&denoise=0", p->done);
-        api_jobs_url(url, sizeof url, id, tail);
-        cJSON_AddStringToObject(x, "raw_url", url);
-    }
+    if (p->done && raw) api_jobs_add_raw_url(x, id, p->done);
 }
 
 cJSON *api_jobs_json(const char *id, const struct jobs_info *in) {
@@ -176,8 +182,7 @@ cJSON *api_jobs_json(const char *id, const struct jobs_info *in) {
     struct api_price price = {in->est_rays, cost_price_seconds(in->scene_id, in->est_rays)};
     api_jobs_add_estimate(o, &price);
     if (in->denoise) cJSON_AddTrueToObject(o, "denoise");
-    if (in->progressive)
-        api_job_passes(o, id, &in->passes, in->keep_exr, in->denoise && (!in->aov || in->keep_exr));
+    if (in->progressive) api_job_passes(o, id, &in->passes, in->keep_exr, api_jobs_keeps_raw(in));
     if (in->state == JS_SUCCEEDED) {
         char url[80];
         api_jobs_url(url, sizeof url, id, "/image.png");

@@ -502,6 +502,7 @@ export class JobsView {
     const q = new URLSearchParams({ priority: this.$("job-priority").value });
     if (this.$("job-exr").checked) q.set("format", "exr");
     if (isProgressive(this.opts.scene())) q.set("progressive", "1");
+    if (this.$("denoise").checked) q.set("denoise", "1"); // the toolbar's denoise box
     button.disabled = true;
     try {
       await this.opts.show(); // the list first, so the new job is not cleared by it

@@ -269,7 +269,7 @@ export class Renderer {
           const p = passes[passes.length - 1].data;
           await lowDone; // passes go over the quick pass, never under it
           const url = p.image_url.replace(/^\//, "");
-          const shown = { url, raw: job.denoise ? url + "&denoise=0" : null };
+          const shown = { url, raw: p.raw_url ? p.raw_url.replace(/^\//, "") : null };
           if (signal.aborted) throw Object.assign(new Error("aborted"), { name: "AbortError" });
           this.shown = shown;
           if ((await this.drawPass(this.passUrl(shown), signal)) || end)
@@ -280,7 +280,7 @@ export class Renderer {
               total: p.passes,
               progress: p.progress,
               id: job.scene_id,
-              denoised: !!job.denoise,
+              denoised: !!shown.raw,
             });
         }
         ended = !!end;

@@ -86,6 +86,14 @@ for n in 1 2 4; do
     "$RENDER" "$T/p$n.json" -o "$T/pr$n.png" --threads 2 -q
 done
 id=$(post_job "progressive=1&denoise=1" "$T/c.json")
+curl -s -N -m 60 "$URL/v1/jobs/$id/events" >"$T/sse.txt"
+check prog_pass_events_raw_url "$(head -c 600 "$T/sse.txt")" env PYTHONPATH="$SSE_LIB" python3 -c '
+import json, sys
+import sse
+p = [json.loads(e["data"]) for e in sse.events(sys.argv[1]) if e.get("event") == "pass"]
+ok = [q["pass"] for q in p] == [1, 2, 3]
+ok = ok and all(q["raw_url"] == q["image_url"] + "&denoise=0" for q in p)
+sys.exit(0 if ok else 1)' "$T/sse.txt"
 wait_until 60 job_ended "$id"
 for k in 1 2 3; do
     n=$((1 << (k - 1)))
@@ -108,8 +116,19 @@ j = json.load(open(sys.argv[1])); p = j["passes"]
 ok = j["denoise"] is True and p["raw_url"].endswith("/image.png?pass=3&denoise=0")
 ok = ok and p["noise"] > 0
 sys.exit(0 if ok else 1)' "$T/body"
+# with format=exr and AOV channels: each pass's EXR denoised, its AOVs beside
+"$RENDER" "$T/p2.json" -o "$T/pd2.exr" --denoise --aov albedo,depth --threads 2 -q
+xid=$(post_job "progressive=1&denoise=1&format=exr&aov=albedo,depth" "$T/c.json")
+wait_until 60 job_ended "$xid"
+code=$(req GET "/v1/jobs/$xid/image.exr?pass=2")
+check prog_exr_aov_pass_equals_cli "status $code" bash -c "[ $code = 200 ] && cmp -s '$T/body' '$T/pd2.exr'"
+code=$(req GET "/v1/jobs/$xid/image.png?pass=2&denoise=0")
+check prog_exr_aov_raw_png "status $code" bash -c "[ $code = 200 ] && cmp -s '$T/body' '$T/pr2.png'"
 # the noise estimate is the raw passes': the same as a raw job's
 rid=$(post_job "progressive=1" "$T/c.json")
+curl -s -N -m 60 "$URL/v1/jobs/$rid/events" >"$T/sse-raw.txt"
+check prog_raw_job_events_no_raw_url "$(head -c 300 "$T/sse-raw.txt")" \
+    bash -c "grep -q 'event: pass' '$T/sse-raw.txt' && ! grep -q raw_url '$T/sse-raw.txt'"
 wait_until 60 job_ended "$rid"
 rn=$(json "$T/body" 'j["passes"]["noise"]')
 req GET "/v1/jobs/$id" >/dev/null
