@@ -130,10 +130,10 @@ curl -s -N -m 60 "$URL/v1/jobs/$rid/events" >"$T/sse-raw.txt"
 check prog_raw_job_events_no_raw_url "$(head -c 300 "$T/sse-raw.txt")" \
     bash -c "grep -q 'event: pass' '$T/sse-raw.txt' && ! grep -q raw_url '$T/sse-raw.txt'"
 wait_until 60 job_ended "$rid"
-rn=$(json "$T/body" 'j["passes"]["noise"]')
+rn=$(jfield "$T/body" noise)
 req GET "/v1/jobs/$id" >/dev/null
-check prog_noise_of_raw "denoised $(json "$T/body" 'j["passes"]["noise"]') raw $rn" \
-    [ "$(json "$T/body" 'j["passes"]["noise"]')" = "$rn" ]
+check prog_noise_of_raw "denoised $(jfield "$T/body" noise) raw $rn" \
+    bash -c "[ -n '$rn' ] && [ '$(jfield "$T/body" noise)' = '$rn' ]"
 code=$(req GET "/v1/jobs/$rid/image.png?pass=2&denoise=0")
 check prog_raw_job_pass_raw "status $code" bash -c "[ $code = 200 ] && cmp -s '$T/body' '$T/pr2.png'"
 
@@ -150,7 +150,10 @@ code=$(req GET "/v1/jobs/$id/frames/5.exr")
 check frame_5_exr_denoised_equals_cli "status $code" bash -c "[ $code = 200 ] && cmp -s '$T/body' '$T/f5.exr'"
 
 # ---- bad values: 400 naming the parameter ----------------------------------------------
-param_err() { err_is "$T/body" 400 bad_parameter && [ "$(json "$T/body" 'j["error"]["parameter"]')" = "$1" ]; }
+param_err() { # without python, whose start is slow on a loaded machine
+    grep -q '^{"error":{"status":400,"code":"bad_parameter","message":"[^"]*'"$1" "$T/body" &&
+        grep -q '"parameter":"'"$1"'"}}$' "$T/body"
+}
 for q in 'denoise=2' 'denoise=' 'denoise=yes' 'denoise=1&denoise=0' 'progressive=1&denoise=true'; do
     code=$(post_json "/v1/jobs?$q" "$T/c.json")
     check "bad_job_${q//[^a-z0-9]/_}" "status $code $(cat "$T/body")" param_err denoise
@@ -193,7 +196,7 @@ stop_rayd
 start_rayd --threads 2 --max-memory 32M
 scene "$T/big.json" 512 512 1 spheres
 code=$(post_json "/v1/render" "$T/big.json")
-check budget_raw_fits "status $code $(head -c 300 "$T/body")" [ "$code" = 200 ]
+check budget_raw_fits "status $code" [ "$code" = 200 ]
 code=$(post_json "/v1/render?denoise=1" "$T/big.json")
 check budget_denoised_refused "status $code $(head -c 300 "$T/body")" \
     bash -c "[ $code = 413 ] || [ $code = 503 ]"
