@@ -177,6 +177,10 @@ dn=$(post_job "denoise=1" "$T/c.json")
 av=$(post_job "aov=depth" "$T/c.json")
 fr=$(post_job "frames=4-4&denoise=1" "$T/anim.json")
 wait_until 60 job_state_is "$av" queued
+pq=$(post_job "progressive=1&denoise=1" "$T/p4.json")
+code=$(req GET "/v1/jobs/$pq/image.png?denoise=0")
+check raw_before_first_pass_202 "status $code $(head -c 200 "$T/body")" \
+    bash -c "[ $code = 202 ] && grep -q '\"state\":\"queued\"' '$T/body'"
 kill -KILL "$RAYD_PID" 2>/dev/null
 wait "$RAYD_PID" 2>/dev/null
 RAYD_PID=
@@ -203,6 +207,19 @@ check budget_denoised_refused "status $code $(head -c 300 "$T/body")" \
 code=$(post_json "/v1/jobs?denoise=1&progressive=1" "$T/big.json")
 check budget_denoised_job_refused "status $code $(head -c 300 "$T/body")" \
     bash -c "[ $code = 413 ] || [ $code = 503 ]"
+# room for one denoised 512x512 render (two workers' apron'd tiles, about 86 MB) but not two:
+# the second waits for room, 503 memory_full, while the first is held at the gate
+stop_rayd
+start_rayd --threads 2 --max-memory 128M --test-gate 0
+scene "$T/big2.json" 512 512 1 spheres 2
+code=$(post_json "/v1/jobs?denoise=1" "$T/big.json")
+check budget_one_denoised_job "status $code" [ "$code" = 202 ]
+bj=$(jfield "$T/body" id)
+code=$(post_json "/v1/render?denoise=1" "$T/big2.json")
+check budget_second_denoised_503 "status $code $(head -c 300 "$T/body")" \
+    bash -c "[ $code = 503 ] && grep -q memory_full '$T/body' && [ '$(header Retry-After)' = 1 ]"
+req DELETE "/v1/jobs/$bj" >/dev/null
+gate open
 scene "$T/small.json" 64 48 2 spheres
 "$RENDER" "$T/small.json" -o "$T/small.png" --denoise -q
 code=$(post_json "/v1/render?denoise=1" "$T/small.json")
