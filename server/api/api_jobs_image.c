@@ -16,6 +16,12 @@
  * agree byte for byte.  Fewer EXRs than PNGs are kept (PASSES_KEEP_EXR,
  * work.h): the memory a job's EXRs hold stays bounded however many passes
  * a client asks for.
+ *
+ * image.png?denoise=0 of a denoised progressive job is a pass as rendered,
+ * before the filter (passes.c keeps each pass raw beside the denoised
+ * one), so a viewer flips between the two without rendering again; a plain
+ * denoised job kept no raw image (409 raw_not_kept), and ?denoise=1 of a
+ * job that is not denoised names that (409 not_denoised).
  */
 #include "api/api.h"
 

@@ -32,6 +32,14 @@
  * value, averaged over the pixels and channels.  It depends on the images
  * only, so a noise budget stops at the same pass on every run.
  *
+ * A denoised job's tiles keep denoised accumulators (the tile plus the
+ * filter's apron, with the AOV sums), so pass k's image is the denoised
+ * render of samples[k], and each pass is kept raw too: the tile's sums
+ * unfiltered (rayd_accum_raw) go into a second image, encoded beside the
+ * denoised one.  Its noise estimate is the raw images': the formula above
+ * holds for independent samples, not for what the filter left of them,
+ * and a noise budget then stops at the same pass with or without it.
+ *
  * Everything here works on a struct passes alone; the task (task.c), the
  * scheduler (sched.c) and the jobs (jobs.c) decide when to call it.  The
  * functions marked "lock held" are called with work_lock held; the others
