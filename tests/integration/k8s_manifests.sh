@@ -8,11 +8,13 @@
 # tests' packages) and the rules the deployment relies on (pinned image,
 # token for Prometheus, no 404 retries, the Redis StatefulSet with its
 # volume, AOF and password Secret, --redis on every pod, ...).
-# tests/k8s/compose.mjs checks docker/compose.yml and docker/nginx.conf the
-# same way (Redis with AOF on a volume, three nodes with --redis, the
-# upstream, no http_404 retry).  A manifest with a wrong type, and copies of
-# the files with AOF off or the 404 retry back, must be refused, so both
-# checkers are shown able to fail.  When node or the packages cannot be had
+# tests/k8s/compose.mjs checks docker/compose.yml against the Compose
+# Specification's schema (tests/k8s/compose-spec.json, with ajv) and, with
+# docker/nginx.conf, by the same kind of rules (Redis with AOF on a volume,
+# three nodes with --redis, the upstream, no http_404 retry).  A manifest
+# with a wrong type, a compose file with a wrong depends_on condition, and
+# copies of the files with AOF off or the 404 retry back, must be refused,
+# so both checkers are shown able to fail.  When node or the packages cannot be had
 # (no npm, no registry), the test says SKIP and passes nothing.
 source "$(dirname "$0")/lib/common.sh"
 
@@ -70,4 +72,8 @@ sed 's/proxy_next_upstream error timeout http_503 non_idempotent;/proxy_next_ups
 node "$K8S/compose.mjs" "$T/compose-bad.yml" "$T/nginx-bad.conf" >"$T/compose-bad.out" 2>&1
 check compose_refuses_aof_off "no FAIL compose_redis_aof_on" grep -q '^FAIL compose_redis_aof_on:' "$T/compose-bad.out"
 check compose_refuses_404_retry "no FAIL nginx_no_404_retry" grep -q '^FAIL nginx_no_404_retry:' "$T/compose-bad.out"
+sed 's/condition: service_healthy/condition: healthy/' "$RAYD_ROOT/docker/compose.yml" >"$T/compose-typo.yml"
+node "$K8S/compose.mjs" "$T/compose-typo.yml" "$RAYD_ROOT/docker/nginx.conf" >"$T/compose-typo.out" 2>&1
+check compose_schema_refuses_typo "no FAIL compose_schema: $(head -c 300 "$T/compose-typo.out")" \
+    grep -q '^FAIL compose_schema:.*depends_on' "$T/compose-typo.out"
 exit $((NFAIL > 0))

@@ -2,15 +2,20 @@
 //
 //   node tests/k8s/compose.mjs [COMPOSE [NGINX_CONF]]   (tests/integration/k8s_manifests.sh)
 //
-// The tests cannot run Docker (nor `docker compose config`), so the rules the
-// compose file relies on are checked by name on the parsed YAML (the same
-// pinned "yaml" package as validate.mjs): a Redis with the append-only file
+// The tests cannot run Docker (nor `docker compose config`), so the file is
+// validated against the Compose Specification's JSON schema
+// (compose-spec.json: schema/compose-spec.json of
+// github.com/compose-spec/compose-spec at commit 170098b, June 2026;
+// Apache-2.0, Copyright 2020 The Compose Specification Authors) with ajv,
+// and the rules the compose file relies on are checked by name on the parsed
+// YAML (the same pinned "yaml" package as validate.mjs): a Redis with the append-only file
 // on a named volume and noeviction, not published; at least three rayd nodes
 // from one pinned image, every one started with --redis naming that Redis
 // service and waiting for it to be healthy, none with --data-dir; nginx's
 // upstream lists exactly those nodes; and nginx.conf retries 503 but never
 // 404 (every node answers for every job).  Prints "PASS name" / "FAIL name:
 // why" lines; exit status 1 on a FAIL.
+import Ajv from "ajv";
 import { readFileSync } from "node:fs";
 import { parse } from "yaml";
 
@@ -32,6 +37,13 @@ try {
   check("compose_yaml", false, `${composeFile}: ${e.message}`);
   process.exit(1);
 }
+// the schema says draft-07 by an https URL ajv does not know by that name
+const schema = JSON.parse(readFileSync(new URL("./compose-spec.json", import.meta.url), "utf8"));
+delete schema.$schema;
+const validate = new Ajv({ allErrors: true, strict: false }).compile(schema);
+check("compose_schema", validate(doc),
+  (validate.errors || []).slice(0, 3).map((e) => `${e.instancePath || "/"} ${e.message}`).join("; "));
+
 const services = doc?.services || {};
 // the word after name in a command list, or undefined
 const flag = (cmd, name) => {
