@@ -11,7 +11,8 @@
  * cost of one item can be set against a tile's render time:
  *
  *   enqueue  XADD of one item, one call each, and ITEMS of them in one
- *            MULTI/EXEC (the way POST /v1/jobs writes a job's items);
+ *            MULTI/EXEC (POST /v1/jobs writes a job's items in one Lua
+ *            script: one round trip too);
  *   claim    XREADGROUP ... COUNT 1 STREAMS key > by N consumers at once
  *            (N = 1, 2, 4, 8 threads, one connection each: N nodes'
  *            pullers) until the stream has nothing new;
