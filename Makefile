@@ -163,7 +163,8 @@ all: $(BUILD)/librayd.a $(PROGS)
 # every test target through $(BUILD)/.test-deps-ok; both are redone when the
 # Makefile changes.  When a test target is among the goals, the first check
 # takes the tests' packages too, so a fresh machine runs apt-get once.
-TEST_GOALS := test test-unit test-stress test-tsan test-valgrind test-deps check-layers check-exports fuzz bench
+TEST_GOALS := test test-unit test-stress test-tsan test-valgrind test-deps check-layers check-exports fuzz bench \
+              bench-cluster
 DEPS_PKGS := $(BUILD_PKGS) $(if $(filter $(TEST_GOALS),$(MAKECMDGOALS)),$(TEST_PKGS))
 
 deps:
