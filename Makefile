@@ -16,6 +16,7 @@
 #   make bench-peers the same meshes and sphere scene with Embree and POV-Ray (make bench-deps),
 #                    then make bench-pt
 #   make bench-pt    the path tracer against Blender's Cycles at equal quality (bench/pt.py)
+#   make bench-cluster the cluster's Redis calls per work item (bench/cluster_queue.sh)
 #   make check-layers  includes and calls one way down the layers, no circles
 #                    (tools/check_layers.py), docs/architecture.md true to the
 #                    tree, no source file over 1000 lines (tools/check_tree.py;
@@ -150,7 +151,7 @@ ifneq ($(CLIENT_SRC),)
 PROGS += $(BUILD)/rayd-client
 endif
 
-.PHONY: all deps test-deps lint-deps shared install uninstall check-layers test test-unit test-stress test-tsan test-valgrind golden readme-images run bench bench-denoise bench-deps bench-peers bench-pt format format-check lint fuzz check-exports clean
+.PHONY: all deps test-deps lint-deps shared install uninstall check-layers test test-unit test-stress test-tsan test-valgrind golden readme-images run bench bench-denoise bench-cluster bench-deps bench-peers bench-pt format format-check lint fuzz check-exports clean
 .DEFAULT_GOAL := all
 
 all: $(BUILD)/librayd.a $(PROGS)
@@ -162,7 +163,8 @@ all: $(BUILD)/librayd.a $(PROGS)
 # every test target through $(BUILD)/.test-deps-ok; both are redone when the
 # Makefile changes.  When a test target is among the goals, the first check
 # takes the tests' packages too, so a fresh machine runs apt-get once.
-TEST_GOALS := test test-unit test-stress test-tsan test-valgrind test-deps check-layers check-exports fuzz bench
+TEST_GOALS := test test-unit test-stress test-tsan test-valgrind test-deps check-layers check-exports fuzz bench \
+              bench-cluster
 DEPS_PKGS := $(BUILD_PKGS) $(if $(filter $(TEST_GOALS),$(MAKECMDGOALS)),$(TEST_PKGS))
 
 deps:
@@ -587,6 +589,16 @@ $(BUILD)/bench/denoise: bench/denoise.c $(BUILD)/librayd.a
 
 bench-denoise: all $(BUILD)/bench/denoise | $(BUILD)/.test-deps-ok
 	@bash bench/denoise.sh $(BUILD)
+
+# The cluster's Redis calls per work item, and results in Redis against files
+# on a volume (bench/cluster_queue.sh starts its own redis-server).
+$(BUILD)/bench/cluster_queue: bench/cluster_queue.c | $(BUILD)/.deps-ok
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS_ALL) $(patsubst -I%,-isystem %,$(shell pkg-config --cflags hiredis)) $< -o $@ \
+	    $(LDFLAGS_ALL) $(shell pkg-config --libs hiredis) -pthread
+
+bench-cluster: $(BUILD)/bench/cluster_queue | $(BUILD)/.test-deps-ok
+	@bash bench/cluster_queue.sh $(BUILD)
 
 .PRECIOUS: $(BENCH_DIR)/mesh-%.ply $(BENCH_DIR)/mesh-%.json $(BENCH_DIR)/mesh-%.obj $(BENCH_DIR)/mesh-%-obj.json
 

@@ -10,8 +10,11 @@
 // does not catch unknown fields (the schemas allow them), so the rules this
 // project relies on are checked by name below: pinned images, no scrape
 // annotations that would get 401, the token Secret shared by the pods and
-// the PodMonitor, selectors that select the pods, Ingresses that route jobs
-// by 404 retries over every pod, probes that keep busy pods in rotation.
+// the PodMonitor, selectors that select the pods, Ingresses that retry 503
+// but never 404 (every pod answers for every job), probes that keep busy
+// pods in rotation, and the Redis the pods share: a StatefulSet with a
+// volume claim, AOF on, noeviction, its password from the Secret the pods
+// read into RAYD_REDIS_PASSWORD, and a Service that --redis names.
 // Prints "PASS name" / "FAIL name: why" lines; exit status 1 on a FAIL.
 // --expect-invalid FILE: passes only when FILE is refused (the self-test).
 import { readFileSync, readdirSync, statSync } from "node:fs";
@@ -107,6 +110,7 @@ for (const dir of args) {
 
 const of = (kind) => all.filter((x) => x.doc.kind === kind).map((x) => x.doc);
 const deploy = of("Deployment")[0];
+const redis = of("StatefulSet").find((x) => x.metadata.name === "rayd-redis");
 const services = of("Service");
 const ingresses = of("Ingress");
 const hpa = of("HorizontalPodAutoscaler")[0];
@@ -149,9 +153,11 @@ const portNames = containers.flatMap((c) => (c.ports || []).map((p) => p.name));
 check("podmonitor_port", portNames.includes(podmon?.spec?.podMetricsEndpoints?.[0]?.port),
   "the PodMonitor's port is not a named port of the pods");
 
+const redisLabels = redis?.spec?.template?.metadata?.labels;
 for (const s of services)
-  check(`service_selects_pods ${s.metadata.name}`, matches(s.spec.selector, podLabels),
-    "the Service's selector does not match the pod labels");
+  check(`service_selects_pods ${s.metadata.name}`,
+    matches(s.spec.selector, podLabels) || matches(s.spec.selector, redisLabels),
+    "the Service's selector matches neither the rayd pods nor the Redis pod");
 check("deployment_selector", matches(deploy.spec.selector.matchLabels, podLabels),
   "the Deployment's selector does not match its template");
 check("pdb_selects_pods", matches(pdb?.spec?.selector?.matchLabels, podLabels), "the PDB selects no pod");
@@ -172,18 +178,65 @@ for (const ing of ingresses) {
         `backend ${JSON.stringify(p.backend)} is no Service port`);
       if (p.path === "/v1/jobs") {
         jobsRouted = true;
-        check("jobs_retry_404", (a[A + "proxy-next-upstream"] || "").split(/\s+/).includes("http_404"),
-          `${n}: proxy-next-upstream "${a[A + "proxy-next-upstream"]}" lacks http_404`);
         check("jobs_sse_unbuffered", a[A + "proxy-buffering"] === "off", `${n}: proxy-buffering not off`);
       }
     }
   const next = (a[A + "proxy-next-upstream"] || "").split(/\s+/);
   check(`ingress_retries_503 ${n}`, next.includes("http_503"), `${n}: no retry on 503`);
+  check(`ingress_no_404_retry ${n}`, !next.includes("http_404"),
+    `${n}: proxy-next-upstream retries http_404, but every pod answers for every job (Redis)`);
   check(`ingress_ewma ${n}`, a[A + "load-balance"] === "ewma",
     `${n}: load-balance ${a[A + "load-balance"]} (ewma skips the pods already tried)`);
   check(`ingress_tries_cover_pods ${n}`, Number(a[A + "proxy-next-upstream-tries"]) >= (hpa?.spec?.maxReplicas || 0),
     `${n}: proxy-next-upstream-tries ${a[A + "proxy-next-upstream-tries"]} < maxReplicas ${hpa?.spec?.maxReplicas}`);
 }
 check("jobs_ingress", jobsRouted, "no Ingress path /v1/jobs");
+
+// --- the Redis the pods share --------------------------------------------
+// flag(args, name): the word after name in a container's args, or undefined
+const flag = (args, name) => {
+  const i = (args || []).indexOf(name);
+  return i < 0 ? undefined : args[i + 1];
+};
+check("redis_statefulset", !!redis, "no StatefulSet rayd-redis");
+if (!redis) process.exit(1);
+const rc = redis.spec.template.spec.containers.find((c) => c.name === "redis");
+const rargs = [...(rc?.command || []), ...(rc?.args || [])];
+const rtag = /:([^:/@]+)$/.exec(rc?.image || "");
+check("redis_image_pinned", !!rtag && rtag[1] !== "latest", `image ${rc?.image}: a version tag`);
+check("redis_aof_on", flag(rargs, "--appendonly") === "yes",
+  `--appendonly is ${flag(rargs, "--appendonly")}: a restarted Redis would forget the jobs`);
+check("redis_noeviction", flag(rargs, "--maxmemory-policy") === "noeviction",
+  `--maxmemory-policy ${flag(rargs, "--maxmemory-policy")}: an eviction policy drops jobs' keys`);
+const claims = (redis.spec.volumeClaimTemplates || []).map((v) => v.metadata.name);
+const dataDir = flag(rargs, "--dir") || "/data";
+const dataMount = (rc?.volumeMounts || []).find((m) => m.mountPath === dataDir);
+check("redis_aof_on_claim", !!dataMount && claims.includes(dataMount.name),
+  `${dataDir} (the AOF's folder) is not a volumeClaimTemplate's volume: the pod's restart loses it`);
+const renv = Object.fromEntries((rc?.env || []).map((e) => [e.name, e]));
+const pwArg = flag(rargs, "--requirepass") || "";
+const pwVar = /^\$\(([A-Z_]+)\)$/.exec(pwArg)?.[1];
+const rSecret = renv[pwVar]?.valueFrom?.secretKeyRef;
+check("redis_password_from_secret", !!rSecret, `--requirepass "${pwArg}" is not an env from a Secret`);
+check("redis_ready_on_pong", JSON.stringify(rc?.readinessProbe?.exec?.command || []).includes("PONG"),
+  "readiness is not PING answered PONG (a Redis replaying its AOF says LOADING)");
+const redisSvc = services.find((s) => matches(s.spec.selector, redisLabels));
+check("redis_service", !!redisSvc && redisSvc.metadata.name === redis.spec.serviceName,
+  `no Service ${redis.spec.serviceName} (the StatefulSet's serviceName) selecting the Redis pod`);
+for (const c of containers) {
+  const url = flag(c.args || c.command, "--redis") || "";
+  const u = /^redis:\/\/([^:/@]+)(?::(\d+))?/.exec(url);
+  check(`rayd_uses_redis ${c.name}`,
+    !!u && u[1] === redisSvc?.metadata?.name &&
+      redisSvc.spec.ports.some((p) => p.port === Number(u[2] || 6379)),
+    `--redis "${url}": not redis://SERVICE:PORT of the Redis Service ${redisSvc?.metadata?.name}`);
+  check(`rayd_redis_password_secret ${c.name}`, !url.includes("@"), "the password is in the URL (ps shows it)");
+  const pw = (c.env || []).find((e) => e.name === "RAYD_REDIS_PASSWORD")?.valueFrom?.secretKeyRef;
+  check(`rayd_redis_password ${c.name}`, !!pw && pw.name === rSecret?.name && pw.key === rSecret?.key,
+    `RAYD_REDIS_PASSWORD ${JSON.stringify(pw)} is not the Redis's Secret ${JSON.stringify(rSecret)}`);
+  check(`rayd_no_data_dir ${c.name}`,
+    flag(c.args, "--data-dir") === undefined && !(c.env || []).some((e) => e.name === "RAYD_DATA_DIR"),
+    "--data-dir with --redis: rayd refuses to start (choose one: both keep jobs)");
+}
 
 process.exit(failed ? 1 : 0);
