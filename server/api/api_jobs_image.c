@@ -18,6 +18,7 @@
  * a client asks for.
  */
 #include "api/api.h"
+#include "cluster/cluster.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -144,6 +145,10 @@ static void api_jobs_final_image(struct http_req *r, const char *id, bool exr) {
 }
 
 static void api_jobs_image_as(struct http_req *r, const char *id, bool exr) {
+    if (cluster_on()) {
+        (exr ? api_cluster_exr : api_cluster_image)(r, id);
+        return;
+    }
     static const char *const takes[] = {"pass", NULL};
     const char *pass = http_req_query(r, "pass");
     if (!api_only_params(r, takes)) return;
