@@ -34,8 +34,9 @@
 #include <string.h>
 #include <time.h>
 
-#define NODE_BLOCK_MS 100 /* XREADGROUP's wait for an item */
-#define NODE_RETRY_S 0.5  /* a render the node refused (queue full) is tried again after */
+#define NODE_BLOCK_MS 100   /* XREADGROUP's wait for an item */
+#define NODE_RETRY_S 0.5    /* a render the node refused (queue full) is tried again after */
+#define NODE_FORGET_S 86400 /* a node not seen for this long leaves rayd:nodes */
 
 enum node_phase { NP_START, NP_BUSY, NP_DONE, NP_FAILED, NP_RETRY, NP_DROP };
 
@@ -434,7 +435,13 @@ static long node_heartbeat(struct redis *c) {
     for (size_t i = 1; rep && rep->type == REDIS_REPLY_ARRAY && i < rep->elements; i += 2) {
         const char *s = rep->element[i]->str ? strstr(rep->element[i]->str, "\"seen\":") : NULL;
         long seen = s ? strtol(s + 7, NULL, 10) : 0;
-        if ((double)(now - seen) * 1e3 <= 3.0 * (double)cluster_claim_ms() + 1e3) live++;
+        if ((double)(now - seen) * 1e3 <= 3.0 * (double)cluster_claim_ms() + 1e3)
+            live++;
+        else if (now - seen > NODE_FORGET_S && rep->element[i - 1]->str) { /* long gone */
+            const char *del[] = {"HDEL", "rayd:nodes", rep->element[i - 1]->str, NULL};
+            redisReply *d = redis_strs(c, del);
+            if (d) freeReplyObject(d);
+        }
     }
     if (rep) freeReplyObject(rep);
     return live;
@@ -516,6 +523,11 @@ static void *node_main(void *arg) {
     for (int i = 0; i < 200 && node_count > 0; i++) {
         node_finish(c);
         if (node_count) node_wait(0.02);
+    }
+    if (c && redis_is_up(c)) { /* a clean stop: no longer counted */
+        const char *del[] = {"HDEL", "rayd:nodes", cluster_node_id, NULL};
+        redisReply *d = redis_strs(c, del);
+        if (d) freeReplyObject(d);
     }
     redis_free(c);
     return NULL;
