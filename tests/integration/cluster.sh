@@ -41,6 +41,9 @@ wait_until 30 bash -c "curl -s '${NODE_URL[3]}/healthz' | grep -q '\"nodes\":3'"
 check healthz_cluster "node 3's /healthz: $(curl -s "${NODE_URL[3]}/healthz")" \
     bash -c "curl -s '${NODE_URL[3]}/healthz' | grep -q '\"cluster\":{\"redis\":\"up\",\"address\":\"127.0.0.1:$REDIS_PORT\"'"
 
+"$RAYD_BUILD/rayd-client" health --server "${NODE_URL[1]}" >"$T/health.out" 2>&1
+check client_health_cluster_line "$(cat "$T/health.out")" grep -q "cluster: redis up at 127.0.0.1:$REDIS_PORT, 3 nodes, 0 items queued, 0 in flight" "$T/health.out"
+
 # --- a still job: posted on 1, answered by 2 and 3 -------------------------------------
 code=$(curl -s -o "$T/post.json" -w '%{http_code}' "${JSON[@]}" --data-binary @"$SCENE" "${NODE_URL[1]}/v1/jobs")
 ID=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["id"])' "$T/post.json" 2>/dev/null)

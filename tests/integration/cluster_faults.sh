@@ -68,6 +68,9 @@ code=$(curl -s -o "$T/render.png" -w '%{http_code}' "${JSON[@]}" --data-binary @
 check redis_down_render_200 "POST /v1/render gave $code" bash -c "[ $code = 200 ] && cmp -s '$T/render.png' '$T/ref.png'"
 wait_until 10 bash -c "curl -s '${NODE_URL[2]}/healthz' | grep -q '\"redis\":\"down\"'"
 check redis_down_healthz "$(curl -s "${NODE_URL[2]}/healthz")" bash -c "curl -s '${NODE_URL[2]}/healthz' | grep -q '\"redis\":\"down\"'"
+"$RAYD_BUILD/rayd-client" health --server "${NODE_URL[2]}" >"$T/health.out" 2>&1
+rc=$?
+check redis_down_client_health "exit $rc: $(cat "$T/health.out")" bash -c "[ $rc = 1 ] && grep -q 'cluster: redis DOWN at 127.0.0.1:$REDIS_PORT' '$T/health.out'"
 check redis_down_metric "rayd_cluster_redis_up $(metric 2 rayd_cluster_redis_up)" [ "$(metric 2 rayd_cluster_redis_up)" = 0 ]
 restart_redis
 gate_node 2 open
