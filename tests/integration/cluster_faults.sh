@@ -115,7 +115,24 @@ check bad_tiles_job_finishes "state: $(job_state "${NODE_URL[5]}" "$BID")" succe
 check bad_tiles_byte_identical "the image differs from rayd-render's" same_image 6 "$BID" bad
 check bad_tiles_rerendered "no re-render in the logs" bash -c "cat '$T'/node*.err | grep -q 'missing or corrupt in Redis'"
 
-for i in 2 3 5 6; do
+# --- a tile that fails on the node that took it: the job fails, saying where -------------------
+for i in 2 3 5 6; do gate_node $i 0; done
+start_node 7 --threads 1 --cluster-tile 64 --redis-claim-ms 1500 --max-work 1000 --redis "$REDIS_URL"
+FID=$(post_job 2) # node 7 itself would refuse it at the door (413 over_budget)
+wait_until 30 bash -c "curl -s '${NODE_URL[2]}/v1/jobs/$FID' | grep -q '\"state\":\"failed\"'"
+curl -s "${NODE_URL[3]}/v1/jobs/$FID" >"$T/failed.json"
+check failed_job_error "$(head -c 400 "$T/failed.json")" python3 -c '
+import json, sys
+d = json.load(open(sys.argv[1]))
+e = d.get("error", {})
+sys.exit(0 if d["state"] == "failed" and e.get("code") == "too_large" and "tile" in e.get("message", "") else 1)' "$T/failed.json"
+code=$(curl -s -o "$T/failed_img.json" -w '%{http_code}' "${NODE_URL[2]}/v1/jobs/$FID/image.png")
+check failed_job_image_409 "image.png gave $code: $(head -c 200 "$T/failed_img.json")" bash -c "[ $code = 409 ] && grep -q job_failed '$T/failed_img.json'"
+for i in 2 3 5 6; do gate_node $i open; done
+wait_until 20 bash -c "[ \$(curl -s '${NODE_URL[2]}/metrics' | awk '\$1 == \"rayd_cluster_items_queued\" {print \$2}') = 0 ]"
+check failed_job_items_dropped "items queued: $(metric 2 rayd_cluster_items_queued)" [ "$(metric 2 rayd_cluster_items_queued)" = 0 ]
+
+for i in 2 3 5 6 7; do
     kill -0 "${NODE_PID[$i]}" 2>/dev/null || fail "node_${i}_alive" "node $i died: $(tail -n 3 "$T/node$i.err")"
 done
 pass nodes_alive
