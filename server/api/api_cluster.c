@@ -136,13 +136,20 @@ static void api_cluster_accepted(struct api_cluster *a) {
     if (op->animated) {
         o = api_cluster_json(op->id, &in, true);
     } else {
+        /* the single node's 202, key for key (api_jobs.c) */
         o = cJSON_CreateObject();
         cJSON_AddStringToObject(o, "id", op->id);
         cJSON_AddStringToObject(o, "state", "queued");
         cJSON_AddStringToObject(o, "scene_id", op->scene_id);
+        api_jobs_url(url, sizeof url, op->id, "");
+        cJSON_AddStringToObject(o, "status_url", url);
         api_jobs_url(url, sizeof url, op->id, "/image.png");
         cJSON_AddStringToObject(o, "image_url", url);
+        api_jobs_url(url, sizeof url, op->id, "/events");
+        cJSON_AddStringToObject(o, "events_url", url);
         api_jobs_add_estimate(o, &a->price);
+        api_jobs_reply_accepted(a->r, o, op->id, a->unlit, &a->price);
+        return;
     }
     api_jobs_url(url, sizeof url, op->id, "");
     cJSON_AddStringToObject(o, "status_url", url);

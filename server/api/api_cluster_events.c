@@ -17,8 +17,10 @@
 #include "cluster/cluster.h"
 
 #include <cjson/cJSON.h>
+#include <poll.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/socket.h>
 
 #define API_CLUSTER_POLL 0.25 /* seconds between reads of a stream with no news */
 
@@ -122,6 +124,16 @@ static bool api_cev_flush(struct api_cev *a, char *buf, size_t max, size_t *used
     return true;
 }
 
+/* Whether the client hung up (a stream with no news is never written to,
+ * so the transport would not see it): as the single node's watcher asks. */
+static bool api_cev_gone(struct http_req *r) {
+    struct pollfd p = {.fd = http_req_fd(r), .events = POLLIN};
+    char c;
+    if (p.fd < 0 || poll(&p, 1, 0) <= 0) return false;
+    return (p.revents & (POLLHUP | POLLERR)) ||
+           ((p.revents & POLLIN) && recv(p.fd, &c, 1, MSG_PEEK | MSG_DONTWAIT) == 0);
+}
+
 static ssize_t api_cev_reader(void *cls, char *buf, size_t max) {
     struct api_cev *a = cls;
     if (a->r->gone) return HTTP_STREAM_ERROR;
@@ -135,6 +147,10 @@ static ssize_t api_cev_reader(void *cls, char *buf, size_t max) {
     }
     if (used) goto out;
     if (a->ended || a->failed) return HTTP_STREAM_END;
+    if (api_cev_gone(a->r)) {
+        a->r->res.note = "client_gone";
+        return HTTP_STREAM_ERROR;
+    }
     bool news = a->op.nevents > 0;
     a->op.nevents = 0;
     snprintf(a->op.cursor, sizeof a->op.cursor, "%s", a->cursor);

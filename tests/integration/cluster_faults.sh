@@ -100,6 +100,12 @@ consumers=$(rcli xinfo consumers rayd:items:9.9.9-test render | awk 'NR % 6 == 2
 check other_version_not_taken "consumers of the 9.9.9-test items: $consumers" [ "$(echo $consumers | wc -w)" = 1 ]
 check other_version_own_stream "items of 9.9.9-test: $(rcli xlen rayd:items:9.9.9-test)" [ "$(rcli xlen rayd:items:9.9.9-test)" -gt 2 ]
 check other_version_job_waits "state: $(job_state "${NODE_URL[3]}" "$OID")" [ "$(job_state "${NODE_URL[3]}" "$OID")" = queued ]
+# an event stream of that waiting job, closed by its client: the node lets go of it
+curl -s -N -m 1 "${NODE_URL[2]}/v1/jobs/$OID/events" >"$T/oid_events.txt"
+check events_of_waiting_job "$(head -c 200 "$T/oid_events.txt")" grep -q '"state":"queued"' "$T/oid_events.txt"
+unsuspended() { [ "$(metric 2 rayd_http_suspended)" = 0 ]; }
+wait_until 10 unsuspended
+check events_client_gone "node 2 still holds $(metric 2 rayd_http_suspended) suspended connections" unsuspended
 kill -KILL "${NODE_PID[4]}"
 
 # --- tiles missing or corrupt in Redis ---------------------------------------------------------
