@@ -129,7 +129,7 @@ static void api_cluster_accepted(struct api_cluster *a) {
                                 .est_rays = op->est_rays,
                                 .ended_age = -1,
                                 .tiles_total = 0,
-                                .created_wall = 0};
+                                .created_wall = op->created_ms / 1e3};
     snprintf(in.job.scene_id, sizeof in.job.scene_id, "%s", op->scene_id);
     char url[80];
     cJSON *o;

@@ -86,6 +86,7 @@ struct cluster_op {
     struct shots_info info;  /* the job (info.job), and its frames when animated */
     bool is_animated;        /* the job is a frame range */
     bool canceled_now;       /* CO_CANCEL: this request ended it */
+    double created_ms;       /* CO_SUBMIT: when the job was made (ms since the epoch) */
     struct blob *png;        /* CO_IMAGE: the frame, when it is there */
     struct shots_info *rows; /* CO_LIST: limit rows (the caller's array) */
     bool *row_animated;

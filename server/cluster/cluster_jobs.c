@@ -141,6 +141,7 @@ static void cluster_submit_job(struct redis *c, struct cluster_op *op) {
     long cols = (op->reg.w + n - 1) / n, rows = (op->reg.h + n - 1) / n;
     char v[24][40], keys[3][80];
     double now = cluster_now_ms();
+    op->created_ms = now;
     snprintf(v[0], 40, "%.0f", now);
     snprintf(v[1], 40, "%ld", op->first);
     snprintf(v[2], 40, "%ld", op->last);

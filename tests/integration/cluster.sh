@@ -69,6 +69,19 @@ check redis_up_metric "rayd_cluster_redis_up on node 1 is $(metric 1 rayd_cluste
 check keys_expire "the job's hash has no TTL: $(rcli ttl "rayd:{$ID}:job")" [ "$(rcli ttl "rayd:{$ID}:job")" -gt 0 ]
 check tiles_deleted "tile keys left: $(rcli --scan --pattern "rayd:{$ID}:tile:*" | wc -l)" [ "$(rcli --scan --pattern "rayd:{$ID}:tile:*" | wc -l)" = 0 ]
 
+# the same keys, in the same order, as a single node's (one started without --redis)
+start_node 9 --threads 1
+keys() { python3 -c 'import json,sys; print(" ".join(json.load(sys.stdin)))'; }
+curl -s "${JSON[@]}" --data-binary @"$SCENE" "${NODE_URL[9]}/v1/jobs" | keys >"$T/single202.keys"
+SID=$(curl -s "${NODE_URL[9]}/v1/jobs" | python3 -c 'import json,sys; print(json.load(sys.stdin)["jobs"][0]["id"])')
+wait_until 60 bash -c "curl -s '${NODE_URL[9]}/v1/jobs/$SID' | grep -q '\"state\":\"succeeded\"'"
+curl -s "${NODE_URL[9]}/v1/jobs/$SID" | keys >"$T/single.keys"
+curl -s "${NODE_URL[2]}/v1/jobs/$ID" | keys >"$T/cluster.keys"
+keys <"$T/post.json" >"$T/cluster202.keys"
+check same_keys_as_single_node "single: $(cat "$T/single.keys") / cluster: $(cat "$T/cluster.keys")" cmp -s "$T/single.keys" "$T/cluster.keys"
+check same_202_keys_as_single_node "single: $(cat "$T/single202.keys") / cluster: $(cat "$T/cluster202.keys")" cmp -s "$T/single202.keys" "$T/cluster202.keys"
+kill -KILL "${NODE_PID[9]}"
+
 # --- events, replayed from another node ---------------------------------------------
 timeout 30 curl -s -N "${NODE_URL[3]}/v1/jobs/$ID/events" >"$T/events.txt"
 check events_replay "events from node 3: $(head -c 300 "$T/events.txt")" bash -c "
