@@ -33,6 +33,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 
 #define NODE_BLOCK_MS 100   /* XREADGROUP's wait for an item */
 #define NODE_RETRY_S 0.5    /* a render the node refused (queue full) is tried again after */
@@ -353,6 +354,17 @@ static void node_error_json(const struct node_item *it, char *buf, size_t n) {
              path[0] ? ",\"path\":\"" : "", path, path[0] ? "\"" : "");
 }
 
+/* The test knob of the kill -9 matrix: with --test-gate and
+ * RAYD_TEST_CLUSTER_STALL=1 the puller stops for good after it stored its
+ * first tile and before it acknowledged the item, so a test can kill the
+ * node there (its tile kept, its item still pending). */
+static void node_test_stall(void) {
+    const char *v = getenv("RAYD_TEST_CLUSTER_STALL");
+    if (config.test_gate_tiles < -1 || !v || strcmp(v, "1")) return;
+    log_warn("RAYD_TEST_CLUSTER_STALL: the puller stops after a tile's write, before its ack");
+    for (;;) pause();
+}
+
 /* Stores, fails or forgets each item that finished; true if any did. */
 static bool node_finish(struct redis *c) {
     bool any = false;
@@ -373,6 +385,7 @@ static bool node_finish(struct redis *c) {
         }
         if (ph == NP_DONE && cluster_tile_store(c, it->job, it->frame, it->tile, it->ntiles,
                                                 &it->what.reg, it->png, it->render_ms)) {
+            node_test_stall();
             node_ack(c, it->sid);
             atomic_fetch_add(&cluster_done_total, 1);
         } else if (ph == NP_FAILED) {

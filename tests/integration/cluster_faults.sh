@@ -49,6 +49,20 @@ rec=$(($(metric 2 rayd_cluster_items_reclaimed_total) + $(metric 3 rayd_cluster_
 check reclaimed_counted "rayd_cluster_items_reclaimed_total of nodes 2 and 3: $rec" [ "$rec" -ge 2 ]
 check reclaim_logged "no take-over in the logs" grep -q "took over item" "$T/node2.err" "$T/node3.err"
 
+# --- kill -9 a node between a tile's write and its ack: the duplicate changes nothing ------------
+for i in 2 3; do gate_node $i 0; done
+RAYD_TEST_CLUSTER_STALL=1 start_node 8 "${NODE_ARGS[@]}" --redis "$REDIS_URL"
+WID=$(post_job 8)
+gate_node 8 1
+wait_until 30 grep -q "RAYD_TEST_CLUSTER_STALL: the puller stops" "$T/node8.err"
+kill -KILL "${NODE_PID[8]}"
+wait "${NODE_PID[8]}" 2>/dev/null
+for i in 2 3; do gate_node $i open; done
+wait_until 50 succeeded 2 "$WID"
+check killed_in_write_job_finishes "state: $(job_state "${NODE_URL[2]}" "$WID")" succeeded 2 "$WID"
+check killed_in_write_byte_identical "the image differs from rayd-render's" same_image 3 "$WID" write
+check killed_in_write_counted_once "$(curl -s "${NODE_URL[3]}/v1/jobs/$WID" | head -c 200)" bash -c "curl -s '${NODE_URL[3]}/v1/jobs/$WID' | grep -q '\"tiles_done\":80,\"tiles_total\":80'"
+
 # --- Redis down, then back on its AOF -----------------------------------------------------------
 for i in 2 3; do gate_node $i 0; done
 ID2=$(post_job 2)
