@@ -104,13 +104,10 @@ static cJSON *api_cluster_json(const char *id, const struct shots_info *in, bool
 
 static void api_cluster_query_add(void *u, const char *k, const char *v) {
     char **q = u;
-    size_t n = (*q ? strlen(*q) : 0) + strlen(k) + (v ? strlen(v) : 0) + 3;
+    size_t used = *q ? strlen(*q) : 0, n = used + strlen(k) + (v ? strlen(v) : 0) + 3;
     char *s = realloc(*q, n);
     if (!s) return;
-    if (!*q) s[0] = 0;
-    if (s[0]) strcat(s, "&");
-    strcat(s, k);
-    if (v) strcat(strcat(s, "="), v);
+    snprintf(s + used, n - used, "%s%s%s%s", used ? "&" : "", k, v ? "=" : "", v ? v : "");
     *q = s;
 }
 

@@ -155,6 +155,7 @@ struct cluster_geom {
 
 static bool cluster_geom_read(struct redis *c, const char *id, struct cluster_geom *g) {
     char key[120];
+    memset(g, 0, sizeof *g);
     cluster_key(key, sizeof key, id, "job");
     const char *argv[] = {"HMGET", key,     "state", "x",         "y", "w",
                           "h",     "tiles", "cols",  "tile_size", NULL};
@@ -166,7 +167,6 @@ static bool cluster_geom_read(struct redis *c, const char *id, struct cluster_ge
         g->state[0] = 0;
         return true;
     }
-    memset(g, 0, sizeof *g);
     if (rep->element[0]->type == REDIS_REPLY_STRING)
         snprintf(g->state, sizeof g->state, "%s", rep->element[0]->str);
     long v[7];

@@ -289,7 +289,8 @@ static void node_pull(struct redis *c) {
     redisReply *rep = redis_strs(c, argv);
     if (rep && rep->type == REDIS_REPLY_ERROR && !strncmp(rep->str, "NOGROUP", 7)) {
         node_group(c);
-    } else if (!redis_failed(c, rep) && rep->type == REDIS_REPLY_ARRAY && rep->elements == 1) {
+    } else if (rep && !redis_failed(c, rep) && rep->type == REDIS_REPLY_ARRAY &&
+               rep->elements == 1) {
         const redisReply *s = rep->element[0];
         if (s->type == REDIS_REPLY_ARRAY && s->elements == 2)
             node_take_list(c, s->element[1], false);
@@ -306,7 +307,7 @@ static void node_reclaim(struct redis *c, long room) {
     const char *argv[] = {"XAUTOCLAIM", cluster_stream, "render", cluster_node_id, idle, cursor,
                           "COUNT",      count,          NULL};
     redisReply *rep = redis_strs(c, argv);
-    if (!redis_failed(c, rep) && rep->type == REDIS_REPLY_ARRAY && rep->elements >= 2) {
+    if (rep && !redis_failed(c, rep) && rep->type == REDIS_REPLY_ARRAY && rep->elements >= 2) {
         if (rep->element[0]->type == REDIS_REPLY_STRING)
             snprintf(cursor, sizeof cursor, "%s", rep->element[0]->str);
         node_take_list(c, rep->element[1], true);
