@@ -179,4 +179,12 @@ RAYD_REDIS_PASSWORD=s3cret start_node 5 --threads 1 --redis "$REDIS_URL"
 check password_from_env "node 5 (RAYD_REDIS_PASSWORD): $(job_state "${NODE_URL[5]}" "$ID")" [ "$(job_state "${NODE_URL[5]}" "$ID")" = succeeded ]
 check no_password_in_ps "the password shows in ps" bash -c "! ps -o args= -p ${NODE_PID[5]} | grep -q s3cret"
 
+# --- SIGTERM: a node drains and leaves the cluster's list of nodes -----------------------------
+kill -TERM "${NODE_PID[3]}"
+wait "${NODE_PID[3]}"
+rc=$?
+check sigterm_exit_0 "node 3 exited $rc: $(tail -n 3 "$T/node3.err")" [ "$rc" = 0 ]
+check sigterm_leaves_nodes "rayd:nodes still names it: $(rcli hkeys rayd:nodes | tr '\n' ' ')" \
+    bash -c "! rcli hkeys rayd:nodes | grep -q ':${NODE_URL[3]##*:}:${NODE_PID[3]}\$'"
+
 [ "$NFAIL" = 0 ]
