@@ -149,12 +149,13 @@ static void node_render(struct node_item *it) {
 
 /* ---- Redis, on this thread ----------------------------------------------------- */
 
+/* XACK and XDEL of an item, both or neither (an item acked but left in
+ * the stream would count as queued for ever). */
 static void node_ack(struct redis *c, const char *sid) {
-    const char *a1[] = {"XACK", cluster_stream, "render", sid, NULL};
-    const char *a2[] = {"XDEL", cluster_stream, sid, NULL};
-    redisReply *rep = redis_strs(c, a1);
-    if (rep) freeReplyObject(rep);
-    rep = redis_strs(c, a2);
+    static const char script[] = "redis.call('XACK', KEYS[1], 'render', ARGV[1])\n"
+                                 "return redis.call('XDEL', KEYS[1], ARGV[1])\n";
+    const char *argv[] = {"EVAL", script, "1", cluster_stream, sid, NULL};
+    redisReply *rep = redis_strs(c, argv);
     if (rep) freeReplyObject(rep);
 }
 

@@ -149,7 +149,7 @@ sys.exit(0 if d["state"] == "failed" and e.get("code") == "too_large" and "tile"
 code=$(curl -s -o "$T/failed_img.json" -w '%{http_code}' "${NODE_URL[2]}/v1/jobs/$FID/image.png")
 check failed_job_image_409 "image.png gave $code: $(head -c 200 "$T/failed_img.json")" bash -c "[ $code = 409 ] && grep -q job_failed '$T/failed_img.json'"
 for i in 2 3 5 6; do gate_node $i open; done
-wait_until 20 bash -c "[ \$(curl -s '${NODE_URL[2]}/metrics' | awk '\$1 == \"rayd_cluster_items_queued\" {print \$2}') = 0 ]"
+wait_until 50 bash -c "[ \$(curl -s '${NODE_URL[2]}/metrics' | awk '\$1 == \"rayd_cluster_items_queued\" {print \$2}') = 0 ]"
 check failed_job_items_dropped "items queued: $(metric 2 rayd_cluster_items_queued)" [ "$(metric 2 rayd_cluster_items_queued)" = 0 ]
 
 for i in 2 3 5 6 7; do
