@@ -23,15 +23,17 @@
 #include <sys/socket.h>
 
 #define API_CLUSTER_POLL 0.25 /* seconds between reads of a stream with no news */
+#define API_CLUSTER_PING 15.0 /* seconds of silence before a keep-alive, as the single node's */
 
 struct api_cev {
     struct cluster_op op; /* first: the callbacks get it back */
     struct http_req *r;
     char cursor[48];
-    int next;    /* op.events[next..op.nevents) not yet sent */
-    bool ended;  /* "done" was sent */
-    bool failed; /* the read failed: the stream ends */
-    char *carry; /* text formatted, not yet sent */
+    int next;          /* op.events[next..op.nevents) not yet sent */
+    bool ended;        /* "done" was sent */
+    bool failed;       /* the read failed: the stream ends */
+    char *carry;       /* text formatted, not yet sent */
+    double last_write; /* clock_now() of the last bytes handed out */
     size_t carry_len, carry_off;
 };
 
@@ -145,6 +147,10 @@ static ssize_t api_cev_reader(void *cls, char *buf, size_t max) {
         size_t len = api_cev_format(a, &a->op.events[a->next++], text, sizeof text);
         if (!api_cev_put(a, buf, max, &used, text, len)) return HTTP_STREAM_ERROR;
     }
+    if (!used && !a->ended && !a->failed && clock_now() - a->last_write > API_CLUSTER_PING) {
+        static const char ping[] = ": keep-alive\n\n"; /* a balancer keeps an idle stream */
+        if (!api_cev_put(a, buf, max, &used, ping, sizeof ping - 1)) return HTTP_STREAM_ERROR;
+    }
     if (used) goto out;
     if (a->ended || a->failed) return HTTP_STREAM_END;
     if (api_cev_gone(a->r)) {
@@ -157,6 +163,7 @@ static ssize_t api_cev_reader(void *cls, char *buf, size_t max) {
     a->op.at = news ? 0 : clock_now() + API_CLUSTER_POLL;
     if (!cluster_submit(&a->op)) return HTTP_STREAM_END;
 out:
+    if (used) a->last_write = clock_now();
     a->r->res.bytes += used;
     return (ssize_t)used;
 }
@@ -189,6 +196,7 @@ static void api_cev_first(struct cluster_op *op) {
                                               "X-Accel-Buffering",
                                               "no",
                                               NULL};
+        a->last_write = clock_now();
         http_reply_stream(r, 200, headers, 4096, api_cev_reader, api_cev_free, a);
         http_req_resume(r);
         return;

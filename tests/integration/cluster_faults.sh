@@ -117,6 +117,13 @@ check other_version_job_waits "state: $(job_state "${NODE_URL[3]}" "$OID")" [ "$
 # an event stream of that waiting job, closed by its client: the node lets go of it
 curl -s -N -m 1 "${NODE_URL[2]}/v1/jobs/$OID/events" >"$T/oid_events.txt"
 check events_of_waiting_job "$(head -c 200 "$T/oid_events.txt")" grep -q '"state":"queued"' "$T/oid_events.txt"
+# ... and a keep-alive once it has been silent for 15 s (the gate's clock jumps 20 s)
+curl -s -N -m 4 "${NODE_URL[3]}/v1/jobs/$OID/events" >"$T/oid_ping.txt" &
+ping_curl=$!
+wait_until 10 grep -q '"state":"queued"' "$T/oid_ping.txt"
+curl -s -m 10 -X POST -o /dev/null "${NODE_URL[3]}/v1/test/gate?clock=20"
+wait "$ping_curl"
+check events_keep_alive "$(tail -c 200 "$T/oid_ping.txt")" grep -q '^: keep-alive$' "$T/oid_ping.txt"
 unsuspended() { [ "$(metric 2 rayd_http_suspended)" = 0 ]; }
 wait_until 10 unsuspended
 check events_client_gone "node 2 still holds $(metric 2 rayd_http_suspended) suspended connections" unsuspended
