@@ -180,7 +180,19 @@ bool api_cluster_submit(struct http_req *r, struct cache_entry *e, const struct 
         }
         op->fps = an.fps;
     }
-    long count = op->last - op->first + 1;
+    long count = op->last - op->first + 1, n = config.cluster_tile;
+    long items = count * ((what->reg.w + n - 1) / n) * ((what->reg.h + n - 1) / n);
+    if (items > CLUSTER_MAX_ITEMS) {
+        char msg[300];
+        snprintf(msg, sizeof msg,
+                 "%ld work items (%ld frame(s) in tiles of %ld px, --cluster-tile) is more than "
+                 "the %ld a cluster job may make: ask fewer frames, a smaller region, or start "
+                 "the nodes with a larger --cluster-tile",
+                 items, count, n, CLUSTER_MAX_ITEMS);
+        http_reply_error(r, 413, "too_large", msg, NULL, 0, 0, NULL);
+        free(a);
+        return false;
+    }
     a->price = (struct api_price){one->rays * (double)count, one->seconds * (double)count};
     a->unlit = api_unlit(cache_scene(e));
     http_req_query_each(r, api_cluster_query_add, &a->query);

@@ -50,6 +50,9 @@ enum cluster_status {
     CS_NOMEM
 };
 #define CLUSTER_LIST_MAX 100
+/* Work items one job may make (frames x tiles): written in one script, so
+ * a job's POST holds Redis for at most some 100 ms. */
+#define CLUSTER_MAX_ITEMS 50000L
 #define CLUSTER_EVENTS_MAX 32
 /* One job event as kept in its stream. */
 struct cluster_event {

@@ -140,6 +140,11 @@ refused refuse_exr "format=exr" format
 code=$(curl -s -o "$T/bad.json" -w '%{http_code}' "${JSON[@]}" --data-binary '{"camera": 1}' "${NODE_URL[1]}/v1/jobs")
 check bad_scene_refused "a bad scene gave $code" [ "$code" = 422 ]
 check bad_scene_nothing_written "jobs in Redis: $(rcli zcard rayd:jobs)" [ "$(rcli zcard rayd:jobs)" = 3 ]
+python3 -c 'import json,sys; d=json.load(open(sys.argv[1])); d["render"].update(width=4096, height=4096, samples=1); print(json.dumps(d))' "$SCENE" >"$T/huge.json"
+start_node 8 --threads 1 --redis "$REDIS_URL" --cluster-tile 16
+code=$(curl -s -o "$T/huge.out" -w '%{http_code}' "${JSON[@]}" --data-binary @"$T/huge.json" "${NODE_URL[8]}/v1/jobs")
+check too_many_items_413 "gave $code: $(head -c 300 "$T/huge.out")" bash -c "[ $code = 413 ] && grep -q '65536 work items' '$T/huge.out'"
+kill -KILL "${NODE_PID[8]}"
 code=$(curl -s -o "$T/exr.json" -w '%{http_code}' "${NODE_URL[2]}/v1/jobs/$ID/image.exr")
 check image_exr_409 "image.exr gave $code" [ "$code" = 409 ]
 code=$(curl -s -o "$T/pass.json" -w '%{http_code}' "${NODE_URL[2]}/v1/jobs/$ID/image.png?pass=1")
