@@ -183,6 +183,8 @@ static void api_cev_first(struct cluster_op *op) {
     if (op->status == CS_DOWN) {
         r->res.retry_after = 5;
         http_reply_error(r, 503, "cluster_unavailable", op->why, NULL, 0, 0, NULL);
+    } else if (op->status == CS_NOMEM) {
+        api_refused(r, WORK_NOMEM);
     } else if (op->status != CS_OK) {
         http_reply_error(r, 404, "job_unknown", "no such job in the cluster (or it expired)", NULL,
                          0, 0, NULL);
