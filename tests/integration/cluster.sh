@@ -41,8 +41,12 @@ wait_until 30 bash -c "curl -s '${NODE_URL[3]}/healthz' | grep -q '\"nodes\":3'"
 check healthz_cluster "node 3's /healthz: $(curl -s "${NODE_URL[3]}/healthz")" \
     bash -c "curl -s '${NODE_URL[3]}/healthz' | grep -q '\"cluster\":{\"redis\":\"up\",\"address\":\"127.0.0.1:$REDIS_PORT\"'"
 
-"$RAYD_BUILD/rayd-client" health --server "${NODE_URL[1]}" >"$T/health.out" 2>&1
-check client_health_cluster_line "$(cat "$T/health.out")" grep -q "cluster: redis up at 127.0.0.1:$REDIS_PORT, 3 nodes, 0 items queued, 0 in flight" "$T/health.out"
+health_line() {
+    "$RAYD_BUILD/rayd-client" health --server "${NODE_URL[1]}" >"$T/health.out" 2>&1
+    grep -q "cluster: redis up at 127.0.0.1:$REDIS_PORT, 3 nodes, 0 items queued, 0 in flight" "$T/health.out"
+}
+wait_until 10 health_line
+check client_health_cluster_line "$(cat "$T/health.out"; curl -s "${NODE_URL[1]}/healthz")" health_line
 
 # --- a still job: posted on 1, answered by 2 and 3 -------------------------------------
 code=$(curl -s -o "$T/post.json" -w '%{http_code}' "${JSON[@]}" --data-binary @"$SCENE" "${NODE_URL[1]}/v1/jobs")
