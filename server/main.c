@@ -44,6 +44,7 @@
  */
 #include "route/router.h"
 #include "net/transport.h"
+#include "cluster/cluster.h"
 #include "work/work.h"
 
 #include <pthread.h>
@@ -173,6 +174,10 @@ static int main_start(sigset_t *set) {
         sched_stop();
         return 1;
     }
+    if (!cluster_start(http_port())) { /* --redis: the puller and the request thread */
+        fprintf(stderr, "rayd: error: cannot start the cluster's threads\n");
+        return 1;
+    }
     return 0;
 }
 
@@ -215,6 +220,7 @@ static void main_drain(int sig, sigset_t *set) {
     main_guard_set = *set;
     if (pthread_create(&guard, NULL, main_guard, &main_guard_set) == 0) pthread_detach(guard);
     sched_drain();
+    cluster_drain();
     if (!main_wait(sched_idle, (double)config.drain_seconds))
         log_info("drain: deadline, cancelling what is left");
     sched_cancel_all();
@@ -231,6 +237,7 @@ static void main_drain(int sig, sigset_t *set) {
         _exit(1);
     }
     http_stop();
+    cluster_stop(); /* before the pool: its renders answer into the puller's items */
     compile_stop();
     durable_stop(); /* what is queued is written; unfinished jobs stay queued on disk */
     sched_stop();
@@ -242,6 +249,7 @@ int main(int argc, char **argv) {
     /* a write to a closed pipe or socket is an error return, never a signal */
     signal(SIGPIPE, SIG_IGN);
     int rc = config_load(argc, argv);
+    if (rc == CONFIG_RUN && cluster_configure()) rc = CONFIG_USAGE;
     if (rc != CONFIG_RUN) {
         if (rc == CONFIG_USAGE) fprintf(stderr, "Try 'rayd --help'.\n");
         config_free();

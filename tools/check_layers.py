@@ -96,6 +96,11 @@ SERVER_LAYERS = [
                      "(SQLite, store.c), jobs, events, the watcher, the scheduler, the scene "
                      "compiles, frame-range jobs (shots.c), the restart of stored jobs "
                      "(durable.c)"),
+    ("server/cluster/", "cluster.h: rayd --redis, jobs shared by the nodes through Redis: redis.c "
+                        "(the connection), cluster_state.c (names, counters, the view), "
+                        "cluster_jobs.c (the records), cluster_assemble.c (tiles in, frames "
+                        "out), cluster_node.c (the puller), cluster.c (start, the request "
+                        "thread, /metrics)"),
     ("server/req/", "request.h: http_req.c (headers, query, suspend/resume, counts), "
                     "http_reply.c (replies, the error body)"),
     ("server/api/", "api.h: the handlers, a file per resource (api_render.c, api_jobs.c + "
@@ -148,8 +153,9 @@ MHD_ROOMS = ["server/net/"]
 SYSTEM_HEADERS = [
     ("microhttpd.h", "libmicrohttpd", MHD_ROOMS),
     ("sqlite3.h", "SQLite", ["server/work/store.c"]),
+    ("hiredis/hiredis.h", "hiredis", ["server/cluster/"]),
     ("cjson/cJSON.h", "cJSON", ["core/format/", "core/load/", "server/base/", "server/req/",
-                                "server/api/", "programs/client/"]),
+                                "server/cluster/", "server/api/", "programs/client/"]),
     ("png.h", "libpng", ["core/codec/"]),
     ("openexr.h", "OpenEXR", ["core/codec/"]),
     ("zlib.h", "zlib", ["core/codec/"]),

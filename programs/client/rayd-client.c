@@ -162,6 +162,44 @@ static void client_live_version(const struct net_buf *b, char *v, size_t size) {
     cJSON_Delete(j);
 }
 
+/* The cluster line of a rayd --redis node's /healthz ("SERVER: cluster: redis
+ * up at ADDR, N nodes, Q items queued, F in flight"), if it has one; 1 when
+ * its Redis is down (its job routes answer 503). */
+static int client_cluster(const char *server, const struct net_buf *b) {
+    cJSON *j = cJSON_ParseWithLength(b->data, b->len);
+    const cJSON *c = cJSON_GetObjectItemCaseSensitive(j, "cluster");
+    int bad = 0;
+    if (cJSON_IsObject(c)) {
+        char addr[200], why[300], other[300] = "";
+        const cJSON *redis = cJSON_GetObjectItemCaseSensitive(c, "redis");
+        const cJSON *a = cJSON_GetObjectItemCaseSensitive(c, "address");
+        const cJSON *reason = cJSON_GetObjectItemCaseSensitive(c, "reason");
+        const cJSON *n = cJSON_GetObjectItemCaseSensitive(c, "nodes");
+        const cJSON *q = cJSON_GetObjectItemCaseSensitive(c, "queued");
+        const cJSON *f = cJSON_GetObjectItemCaseSensitive(c, "in_flight");
+        const cJSON *ov = cJSON_GetObjectItemCaseSensitive(c, "other_versions");
+        bool up = cJSON_IsString(redis) && !strcmp(redis->valuestring, "up");
+        net_safe(cJSON_IsString(a) ? a->valuestring : "?", addr, sizeof addr);
+        net_safe(cJSON_IsString(reason) ? reason->valuestring : "no reason given", why, sizeof why);
+        const cJSON *v;
+        cJSON_ArrayForEach(v, ov) if (cJSON_IsString(v) && !other[0]) {
+            char s[200];
+            snprintf(other, sizeof other, "; %s", net_safe(v->valuestring, s, sizeof s));
+        }
+        if (up)
+            printf("%s: cluster: redis up at %s, %.0f nodes, %.0f items queued, %.0f in flight%s\n",
+                   server, addr, cJSON_IsNumber(n) ? n->valuedouble : -1,
+                   cJSON_IsNumber(q) ? q->valuedouble : -1, cJSON_IsNumber(f) ? f->valuedouble : -1,
+                   other);
+        else
+            printf("%s: cluster: redis DOWN at %s (%s): its job routes answer 503\n", server, addr,
+                   why);
+        bad = !up;
+    }
+    cJSON_Delete(j);
+    return bad;
+}
+
 /* The jobs part of a ready line: ", jobs 1/1024" (unfinished of --max-jobs),
  * and why new jobs are refused when /readyz says so ("" from a rayd that
  * counts no jobs). */
@@ -228,8 +266,9 @@ static int client_health(const struct client_opts *o) {
             continue;
         }
         client_live_version(&b, version, sizeof version);
-        net_buf_free(&b);
         bad |= client_ready(o, o->servers[i], version);
+        bad |= client_cluster(o->servers[i], &b);
+        net_buf_free(&b);
         if (first < 0) {
             first = i;
             snprintf(version0, sizeof version0, "%s", version);

@@ -166,6 +166,31 @@ cJSON *api_shots_json(const char *id, const struct shots_info *in);
 void api_shots_frame(struct http_req *r, const char *path);
 void api_shots_video(struct http_req *r, const char *id);
 
+/* api_shots.c: ?frames=A-B or ?frame=K of an animated scene into first..last
+ * (the whole animation without them); false after a 400 naming it. */
+bool api_shots_frames(struct http_req *r, const rayd_scene *scene, long *first, long *last);
+/* "JOB/K.png" (the frame route's two segments) into the job id, k and
+ * whether the EXR is asked; false after replying (404, 400). */
+bool api_shots_frame_path(struct http_req *r, const char *path, char id[33], long *k, bool *exr);
+
+/* api_cluster.c: the job routes with --redis (cluster_on()), answered from
+ * the cluster's request thread.  api_cluster_submit: POST /v1/jobs once its
+ * scene is checked (what, priority and the price of one frame); true when
+ * the request was handed on. */
+bool api_cluster_submit(struct http_req *r, struct cache_entry *e, const struct work_target *what,
+                        int priority, const struct api_price *one, bool animated);
+void api_cluster_get(struct http_req *r, const char *id);
+void api_cluster_delete(struct http_req *r, const char *id);
+void api_cluster_stop(struct http_req *r, const char *id);
+void api_cluster_image(struct http_req *r, const char *id);
+void api_cluster_exr(struct http_req *r, const char *id);
+/* The routes of a frame-range job's frames and video: the cluster's with
+ * --redis, else api_shots_frame and api_shots_video. */
+void api_cluster_frame(struct http_req *r, const char *path);
+void api_cluster_video(struct http_req *r, const char *id);
+void api_cluster_list(struct http_req *r, long long limit, long long after, int state);
+void api_cluster_events(struct http_req *r, const char *id); /* api_cluster_events.c */
+
 /* api_events.c */
 void api_events_get(struct http_req *r, const char *id);
 void api_health_live(struct http_req *r, const char *id);

@@ -13,6 +13,7 @@
  * call.
  */
 #include "api/api.h"
+#include "cluster/cluster.h"
 
 #include <cjson/cJSON.h>
 #include <stdlib.h>
@@ -179,6 +180,10 @@ static void api_events_free(void *cls) {
 
 void api_events_get(struct http_req *r, const char *id) {
     if (!api_only_params(r, NULL)) return;
+    if (cluster_on()) { /* rayd --redis: the job's events are in Redis */
+        api_cluster_events(r, id);
+        return;
+    }
     struct api_events *a = calloc(1, sizeof *a);
     if (!a) {
         api_refused(r, WORK_NOMEM);

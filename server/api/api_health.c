@@ -16,10 +16,30 @@
  * /metrics is the Prometheus text of metrics.c.
  */
 #include "api/api.h"
+#include "cluster/cluster.h"
 
 #include <cjson/cJSON.h>
 #include <stdio.h>
 #include <stdlib.h>
+
+/* "cluster" (rayd --redis): the puller's latest view, no Redis call here. */
+static void api_health_cluster(cJSON *o) {
+    if (!cluster_on()) return;
+    struct cluster_status_view v;
+    cluster_view(&v);
+    cJSON *c = cJSON_AddObjectToObject(o, "cluster");
+    cJSON_AddStringToObject(c, "redis", v.redis_up ? "up" : "down");
+    cJSON_AddStringToObject(c, "address", v.address);
+    if (!v.redis_up && v.reason[0]) cJSON_AddStringToObject(c, "reason", v.reason);
+    cJSON_AddStringToObject(c, "version", cluster_version());
+    cJSON_AddNumberToObject(c, "nodes", (double)v.nodes);
+    cJSON_AddNumberToObject(c, "queued", (double)v.queued);
+    cJSON_AddNumberToObject(c, "in_flight", (double)v.in_flight);
+    cJSON_AddNumberToObject(c, "node_in_flight", (double)v.node_in_flight);
+    cJSON *other = cJSON_AddArrayToObject(c, "other_versions");
+    for (int i = 0; i < v.nother; i++)
+        cJSON_AddItemToArray(other, cJSON_CreateString(v.other_versions[i]));
+}
 
 void api_health_live(struct http_req *r, const char *id) {
     (void)id;
@@ -28,6 +48,7 @@ void api_health_live(struct http_req *r, const char *id) {
     /* a frame is stitched from one version only: rayd-client health says so */
     cJSON_AddStringToObject(o, "version", RAYD_VERSION);
     cJSON_AddNumberToObject(o, "max_body", (double)config.max_body);
+    api_health_cluster(o);
     http_reply_json(r, 200, o);
 }
 
@@ -83,6 +104,7 @@ void api_health_metrics(struct http_req *r, const char *id) {
     (void)id;
     size_t len = 0;
     char *text = metrics_text(&len);
+    if (text) text = cluster_metrics(text, &len);
     if (!text) {
         http_reply_error(r, 503, "out_of_memory", "out of memory", NULL, 0, 0, NULL);
         return;

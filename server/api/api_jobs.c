@@ -17,6 +17,7 @@
  * its tombstones: jobs.c).
  */
 #include "api/api.h"
+#include "cluster/cluster.h"
 
 #include <cjson/cJSON.h>
 #include <stdlib.h>
@@ -196,7 +197,9 @@ static bool api_jobs_compiled(struct http_req *r, struct cache_entry *e, bool hi
         !api_jobs_format(r, &what) || !api_jobs_denoise_aov(r, cache_scene(e), &what) ||
         !api_jobs_priority(r, &how.priority) || !api_cost_admit(r, e, &what, progressive, &price))
         return false; /* replied */
-    if (shot)         /* an animated scene: a frame-range job (api_shots.c) */
+    if (cluster_on()) /* rayd --redis: the job is the cluster's (api_cluster.c) */
+        return api_cluster_submit(r, e, &what, how.priority, &price, shot == 1);
+    if (shot) /* an animated scene: a frame-range job (api_shots.c) */
         return api_shots_submit(r, e, &what, how.priority, &price);
     struct api_jobs_wait *a = calloc(1, sizeof *a);
     if (!a) {
@@ -239,6 +242,10 @@ static bool api_jobs_shot(struct http_req *r, const char *id) {
 
 void api_jobs_get(struct http_req *r, const char *id) {
     struct jobs_info info;
+    if (cluster_on()) {
+        api_cluster_get(r, id);
+        return;
+    }
     if (!api_only_params(r, NULL) || api_jobs_shot(r, id)) return;
     if (!api_is_hex(id, 32) || !jobs_get(id, &info, JOBS_NUMBERS)) {
         api_jobs_missing(r, id);
@@ -251,6 +258,10 @@ void api_jobs_get(struct http_req *r, const char *id) {
 
 void api_jobs_delete(struct http_req *r, const char *id) {
     struct jobs_info info;
+    if (cluster_on()) {
+        api_cluster_delete(r, id);
+        return;
+    }
     if (!api_only_params(r, NULL)) return;
     if (api_is_hex(id, 32) && shots_cancel(id) && api_jobs_shot(r, id)) return;
     if (!api_is_hex(id, 32) || !jobs_cancel(id) || !jobs_get(id, &info, JOBS_NUMBERS)) {
@@ -266,6 +277,10 @@ void api_jobs_stop(struct http_req *r, const char *id) {
     struct jobs_info info;
     bool progressive = false;
     struct shots_info s;
+    if (cluster_on()) {
+        api_cluster_stop(r, id);
+        return;
+    }
     if (!api_only_params(r, NULL)) return;
     if (api_is_hex(id, 32) && shots_get(id, &s)) {
         http_reply_error(r, 409, "not_progressive",
@@ -333,6 +348,10 @@ void api_jobs_list(struct http_req *r, const char *unused) {
     if (!api_only_params(r, takes) || !api_jobs_count(r, "limit", API_JOBS_PAGE_MAX, &limit) ||
         !api_jobs_count(r, "after", (long long)1e18, &after) || !api_jobs_state_param(r, &state))
         return;
+    if (cluster_on()) {
+        api_cluster_list(r, limit, after, state);
+        return;
+    }
     struct jobs_info *rows = calloc((size_t)limit, sizeof *rows);
     struct shots_info *shots = calloc((size_t)limit, sizeof *shots);
     if (!rows || !shots) {

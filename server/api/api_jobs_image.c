@@ -24,6 +24,7 @@
  * job that is not denoised names that (409 not_denoised).
  */
 #include "api/api.h"
+#include "cluster/cluster.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -211,6 +212,10 @@ static bool api_jobs_want_denoise(struct http_req *r, int *want) {
 }
 
 static void api_jobs_image_as(struct http_req *r, const char *id, bool exr) {
+    if (cluster_on()) {
+        (exr ? api_cluster_exr : api_cluster_image)(r, id);
+        return;
+    }
     static const char *const takes[] = {"pass", NULL}, *const takes_png[] = {"pass", "denoise",
                                                                              NULL};
     const char *pass = http_req_query(r, "pass");

@@ -65,6 +65,12 @@ static bool api_shots_range(struct http_req *r, const struct rayd_animation *an,
     return true;
 }
 
+bool api_shots_frames(struct http_req *r, const rayd_scene *scene, long *first, long *last) {
+    struct rayd_animation an;
+    rayd_scene_animation(scene, &an);
+    return api_shots_range(r, &an, first, last);
+}
+
 int api_shots_wanted(struct http_req *r, const rayd_scene *scene) {
     struct rayd_animation an;
     rayd_scene_animation(scene, &an);
@@ -203,8 +209,7 @@ bool api_shots_submit(struct http_req *r, struct cache_entry *e, struct work_tar
 /* "JOB/K.png" (the router's two segments) into the job id, k and whether
  * the EXR is asked; false after replying (404 for a malformed job id, 400
  * when K or the suffix is malformed). */
-static bool api_shots_frame_path(struct http_req *r, const char *path, char id[33], long *k,
-                                 bool *exr) {
+bool api_shots_frame_path(struct http_req *r, const char *path, char id[33], long *k, bool *exr) {
     const char *slash = strchr(path, '/');
     size_t n = slash ? (size_t)(slash - path) : 0;
     snprintf(id, 33, "%.*s", (int)(n < 32 ? n : 32), path);

@@ -66,6 +66,9 @@ struct config {
     char *test_gate;          /* tests only: "open" or tiles allowed; NULL = off */
     char *data_dir;           /* jobs kept on disk here (store.c), NULL = in memory only */
     char *max_disk;           /* --max-disk as given (bytes, K/M/G/T suffixes); NULL: no budget */
+    char *redis;         /* --redis URL: jobs shared by the nodes (server/cluster/), NULL off */
+    long redis_claim_ms; /* an item untouched this long is taken by another node */
+    long cluster_tile;   /* the edge of a cluster work item's tile, pixels */
     /* derived */
     char *token; /* contents of token_file, trimmed */
     size_t token_len;

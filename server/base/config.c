@@ -125,6 +125,15 @@ static const struct config_option config_table[] = {
     {"max-disk", "RAYD_MAX_DISK", CT_STRING, &config.max_disk, NULL, 0, 0,
      "disk budget of the finished images under --data-dir, in bytes or with K, M, G; the "
      "oldest are evicted first (410 result_evicted); default: no budget"},
+    {"redis", "RAYD_REDIS", CT_STRING, &config.redis, NULL, 0, 0,
+     "redis://[:PASSWORD@]HOST[:PORT][/DB] or unix:/path: every node with the same URL shares "
+     "jobs, frames and tiles (password also from RAYD_REDIS_PASSWORD; no TLS: use a tunnel)"},
+    {"redis-claim-ms", "RAYD_REDIS_CLAIM_MS", CT_LONG, &config.redis_claim_ms, "30000", 100,
+     86400000,
+     "with --redis: a work item a node took and has not refreshed for this long is "
+     "taken over by another node"},
+    {"cluster-tile", "RAYD_CLUSTER_TILE", CT_LONG, &config.cluster_tile, "256", 16, 16384,
+     "with --redis: the edge in pixels of the tiles a frame is split into, one work item each"},
     {"test-gate", "RAYD_TEST_GATE", CT_STRING, &config.test_gate, NULL, 0, 0,
      "tests only: workers start tiles only as POST /v1/test/gate allows (N tiles, or open)"},
 };
@@ -477,6 +486,10 @@ int config_load(int argc, char **argv) {
     if (config_asset_dir()) return CONFIG_FAILED;
     if (config_max_memory()) return CONFIG_USAGE;
     if ((rc = config_data_dir()) != 0) return rc;
+    if (config.redis && config.data_dir) {
+        fprintf(stderr, "rayd: error: --redis and --data-dir: choose one: both keep jobs\n");
+        return CONFIG_USAGE;
+    }
     if (!config.tls_cert != !config.tls_key) {
         fprintf(stderr, "rayd: error: --tls-cert and --tls-key go together\n");
         return CONFIG_USAGE;

@@ -1,0 +1,418 @@
+/* api_cluster.c -- the job routes with --redis: answered from the cluster.
+ *
+ * With --redis every job route of every node reads and writes the job in
+ * Redis (server/cluster/), so a job posted to one node is polled, fetched
+ * and cancelled on any other with the same answers.  The handlers here
+ * check the request as the single node's do, then hand a struct
+ * cluster_op to the cluster's request thread: the request is suspended
+ * (before the op is linked) and answered from that thread by the op's
+ * done callback, so no Redis call runs on an HTTP thread.  The JSON is
+ * made by the single node's own functions (api_jobs_json, api_shots_json)
+ * from the same structs, so it has the same shape.
+ *
+ * What a cluster job does not do yet is refused at the door, naming the
+ * parameter, never answered wrongly: progressive passes, format=exr (and
+ * so image.exr), the video of a frame range.  While Redis is unreachable
+ * every job route answers 503 cluster_unavailable with a Retry-After and
+ * a message naming the Redis address and the reason; renders, which need
+ * no Redis, are served as always.
+ */
+#include "api/api.h"
+#include "cluster/cluster.h"
+
+#include <cjson/cJSON.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define API_CLUSTER_RETRY 5 /* seconds a 503 cluster_unavailable asks to wait */
+
+/* One op and what its answer needs. */
+struct api_cluster {
+    struct cluster_op op; /* first: the callbacks get it back */
+    struct http_req *r;
+    bool unlit, exr, stop;
+    struct api_price price;
+    char *query;
+    void (*answer)(struct api_cluster *a);
+};
+
+static void api_cluster_suspend(struct cluster_op *op) {
+    api_suspend(((struct api_cluster *)op)->r);
+}
+
+/* The answer, on the cluster's request thread; r resumed, a freed. */
+static void api_cluster_done(struct cluster_op *op) {
+    struct api_cluster *a = (struct api_cluster *)op;
+    struct http_req *r = a->r;
+    if (op->status == CS_DOWN) {
+        r->res.retry_after = API_CLUSTER_RETRY;
+        http_reply_error(r, 503, "cluster_unavailable", op->why, NULL, 0, 0, NULL);
+    } else if (op->status == CS_NOMEM) {
+        api_refused(r, WORK_NOMEM);
+    } else if (op->status == CS_UNKNOWN) {
+        http_reply_error(r, 404, "job_unknown",
+                         "no such job in the cluster (or it expired: --job-ttl after it ended)",
+                         NULL, 0, 0, NULL);
+    } else {
+        a->answer(a);
+    }
+    blob_unref(op->png);
+    free(op->rows);
+    free(op->row_animated);
+    free(a->query);
+    free(a);
+    http_req_resume(r);
+}
+
+/* Hands a to the cluster; false after replying (stopping). */
+static bool api_cluster_go(struct api_cluster *a) {
+    a->op.suspend = api_cluster_suspend;
+    a->op.done = api_cluster_done;
+    if (cluster_submit(&a->op)) return true;
+    api_refused(a->r, WORK_DRAINING);
+    free(a->op.rows);
+    free(a->op.row_animated);
+    free(a->query);
+    free(a);
+    return false;
+}
+
+static struct api_cluster *api_cluster_new(struct http_req *r, enum cluster_op_kind kind,
+                                           const char *id, void (*answer)(struct api_cluster *)) {
+    struct api_cluster *a = calloc(1, sizeof *a);
+    if (!a) {
+        api_refused(r, WORK_NOMEM);
+        return NULL;
+    }
+    a->r = r;
+    a->op.kind = kind;
+    a->answer = answer;
+    if (id) snprintf(a->op.id, sizeof a->op.id, "%s", id);
+    return a;
+}
+
+/* A job's JSON: a frame range's with its "frames" (no video: the cluster
+ * makes none). */
+static cJSON *api_cluster_json(const char *id, const struct shots_info *in, bool animated) {
+    if (!animated) return api_jobs_json(id, &in->job);
+    cJSON *o = api_shots_json(id, in);
+    cJSON_DeleteItemFromObject(o, "video_url");
+    return o;
+}
+
+/* ---- POST /v1/jobs ------------------------------------------------------------------ */
+
+static void api_cluster_query_add(void *u, const char *k, const char *v) {
+    char **q = u;
+    size_t used = *q ? strlen(*q) : 0, n = used + strlen(k) + (v ? strlen(v) : 0) + 3;
+    char *s = realloc(*q, n);
+    if (!s) return;
+    snprintf(s + used, n - used, "%s%s%s%s", used ? "&" : "", k, v ? "=" : "", v ? v : "");
+    *q = s;
+}
+
+static void api_cluster_accepted(struct api_cluster *a) {
+    struct cluster_op *op = &a->op;
+    struct shots_info in = {.first = op->first,
+                            .last = op->last,
+                            .total = op->last - op->first + 1,
+                            .latest = -1,
+                            .eta_s = -1,
+                            .queued = op->last - op->first + 1,
+                            .fps = op->fps};
+    in.job = (struct jobs_info){.state = JS_QUEUED,
+                                .region = op->reg,
+                                .priority = op->priority,
+                                .est_rays = op->est_rays,
+                                .ended_age = -1,
+                                .tiles_total = 0,
+                                .created_wall = op->created_ms / 1e3};
+    snprintf(in.job.scene_id, sizeof in.job.scene_id, "%s", op->scene_id);
+    char url[80];
+    cJSON *o;
+    if (op->animated) {
+        o = api_cluster_json(op->id, &in, true);
+    } else {
+        /* the single node's 202, key for key (api_jobs.c) */
+        o = cJSON_CreateObject();
+        cJSON_AddStringToObject(o, "id", op->id);
+        cJSON_AddStringToObject(o, "state", "queued");
+        cJSON_AddStringToObject(o, "scene_id", op->scene_id);
+        api_jobs_url(url, sizeof url, op->id, "");
+        cJSON_AddStringToObject(o, "status_url", url);
+        api_jobs_url(url, sizeof url, op->id, "/image.png");
+        cJSON_AddStringToObject(o, "image_url", url);
+        api_jobs_url(url, sizeof url, op->id, "/events");
+        cJSON_AddStringToObject(o, "events_url", url);
+        api_jobs_add_estimate(o, &a->price);
+        api_jobs_reply_accepted(a->r, o, op->id, a->unlit, &a->price);
+        return;
+    }
+    api_jobs_url(url, sizeof url, op->id, "");
+    cJSON_AddStringToObject(o, "status_url", url);
+    api_jobs_url(url, sizeof url, op->id, "/events");
+    cJSON_AddStringToObject(o, "events_url", url);
+    api_jobs_reply_accepted(a->r, o, op->id, a->unlit, &a->price);
+}
+
+bool api_cluster_submit(struct http_req *r, struct cache_entry *e, const struct work_target *what,
+                        int priority, const struct api_price *one, bool animated) {
+    static const char *const progressive[] = {"progressive", "pass_step", "time_budget",
+                                              "noise_target", NULL};
+    for (int i = 0; progressive[i]; i++)
+        if (http_req_query(r, progressive[i]))
+            return api_bad_param(r, progressive[i],
+                                 "progressive jobs are not made by a cluster (rayd --redis) yet: "
+                                 "leave it out, or render progressively with POST /v1/render");
+    if (what->keep_exr)
+        return api_bad_param(r, "format",
+                             "a cluster (rayd --redis) keeps PNGs only: format=exr is not made "
+                             "yet; POST /v1/render?format=exr renders one");
+    struct api_cluster *a = api_cluster_new(r, CO_SUBMIT, NULL, api_cluster_accepted);
+    if (!a) return false;
+    struct cluster_op *op = &a->op;
+    if (animated) {
+        struct rayd_animation an;
+        rayd_scene_animation(cache_scene(e), &an);
+        if (!api_shots_frames(r, cache_scene(e), &op->first, &op->last)) {
+            free(a);
+            return false;
+        }
+        op->fps = an.fps;
+    }
+    long count = op->last - op->first + 1, n = config.cluster_tile;
+    long items = count * ((what->reg.w + n - 1) / n) * ((what->reg.h + n - 1) / n);
+    if (items > CLUSTER_MAX_ITEMS) {
+        char msg[300];
+        snprintf(msg, sizeof msg,
+                 "%ld work items (%ld frame(s) in tiles of %ld px, --cluster-tile) is more than "
+                 "the %ld a cluster job may make: ask fewer frames, a smaller region, or start "
+                 "the nodes with a larger --cluster-tile",
+                 items, count, n, CLUSTER_MAX_ITEMS);
+        http_reply_error(r, 413, "too_large", msg, NULL, 0, 0, NULL);
+        free(a);
+        return false;
+    }
+    a->price = (struct api_price){one->rays * (double)count, one->seconds * (double)count};
+    a->unlit = api_unlit(cache_scene(e));
+    http_req_query_each(r, api_cluster_query_add, &a->query);
+    op->scene = r->body ? r->body : "";
+    op->scene_len = r->body_len;
+    snprintf(op->scene_id, sizeof op->scene_id, "%s", cache_id(e));
+    op->query = a->query;
+    op->reg = what->reg;
+    op->priority = priority;
+    op->client = what->client;
+    op->animated = animated;
+    op->est_rays = a->price.rays;
+    return api_cluster_go(a);
+}
+
+/* ---- GET and DELETE /v1/jobs/{id}, POST stop ----------------------------------------- */
+
+static void api_cluster_status(struct api_cluster *a) {
+    struct cluster_op *op = &a->op;
+    snprintf(a->r->res.scene, sizeof a->r->res.scene, "%s", op->info.job.scene_id);
+    if (a->stop) {
+        http_reply_error(a->r, 409, "not_progressive",
+                         "a cluster job is never progressive: DELETE cancels it", NULL, 0, 0, NULL);
+        return;
+    }
+    http_reply_json(a->r, 200, api_cluster_json(op->id, &op->info, op->is_animated));
+}
+
+/* The job route of id as kind; false when id is not a job id (404). */
+static void api_cluster_job(struct http_req *r, const char *id, enum cluster_op_kind kind,
+                            bool stop, void (*answer)(struct api_cluster *)) {
+    if (!api_only_params(r, NULL)) return;
+    if (!api_is_hex(id, 32)) {
+        api_jobs_unknown(r);
+        return;
+    }
+    struct api_cluster *a = api_cluster_new(r, kind, id, answer);
+    if (!a) return;
+    a->stop = stop;
+    api_cluster_go(a);
+}
+
+void api_cluster_get(struct http_req *r, const char *id) {
+    api_cluster_job(r, id, CO_GET, false, api_cluster_status);
+}
+void api_cluster_delete(struct http_req *r, const char *id) {
+    api_cluster_job(r, id, CO_CANCEL, false, api_cluster_status);
+}
+void api_cluster_stop(struct http_req *r, const char *id) {
+    api_cluster_job(r, id, CO_GET, true, api_cluster_status);
+}
+
+/* ---- the images ---------------------------------------------------------------------- */
+
+static void api_cluster_png(struct http_req *r, struct blob *png) {
+    http_reply_image(r, 200, png, api_format_type(WORK_PNG));
+    http_reply_header(r, "Cache-Control", "private, max-age=3600");
+}
+
+/* image.png (or .exr) of a still job. */
+static void api_cluster_image_answer(struct api_cluster *a) {
+    struct cluster_op *op = &a->op;
+    struct http_req *r = a->r;
+    const struct jobs_info *j = &op->info.job;
+    snprintf(r->res.scene, sizeof r->res.scene, "%s", j->scene_id);
+    char msg[400];
+    if (op->is_animated) {
+        http_reply_error(r, 409, "frame_range_job",
+                         "this job renders frames: GET /v1/jobs/{id}/frames/{k}.png", NULL, 0, 0,
+                         NULL);
+    } else if (a->exr) {
+        http_reply_error(r, 409, "not_exr",
+                         "this job keeps no EXR: a cluster (rayd --redis) keeps PNGs only (its "
+                         "PNG is image.png)",
+                         NULL, 0, 0, NULL);
+    } else if (j->state == JS_SUCCEEDED && op->png) {
+        api_cluster_png(r, op->png);
+    } else if (j->state == JS_SUCCEEDED) {
+        http_reply_error(r, 410, "result_evicted",
+                         "the job succeeded but its image is no longer in Redis (evicted by "
+                         "Redis's maxmemory, or deleted): render it again",
+                         NULL, 0, 0, NULL);
+    } else if (j->state == JS_FAILED) {
+        snprintf(msg, sizeof msg, "the job failed: %s", j->err.message);
+        http_reply_error(r, 409, "job_failed", msg, j->err.path, 0, 0, NULL);
+    } else if (j->state == JS_CANCELED) {
+        http_reply_error(r, 409, "job_canceled", "the job was cancelled", NULL, 0, 0, NULL);
+    } else {
+        http_reply_json(r, 202, api_cluster_json(op->id, &op->info, false));
+        http_reply_header(r, "Retry-After", "1");
+    }
+}
+
+static void api_cluster_image_as(struct http_req *r, const char *id, bool exr) {
+    static const char *const takes[] = {"pass", NULL};
+    if (!api_only_params(r, takes)) return;
+    if (http_req_query(r, "pass")) {
+        api_bad_param(r, "pass", "only a progressive job has passes, and a cluster makes none");
+        return;
+    }
+    if (!api_is_hex(id, 32)) {
+        api_jobs_unknown(r);
+        return;
+    }
+    struct api_cluster *a = api_cluster_new(r, CO_IMAGE, id, api_cluster_image_answer);
+    if (!a) return;
+    a->exr = exr;
+    api_cluster_go(a);
+}
+
+void api_cluster_image(struct http_req *r, const char *id) { api_cluster_image_as(r, id, false); }
+void api_cluster_exr(struct http_req *r, const char *id) { api_cluster_image_as(r, id, true); }
+
+/* frames/{k}.png of a frame-range job. */
+static void api_cluster_frame_answer(struct api_cluster *a) {
+    struct cluster_op *op = &a->op;
+    struct http_req *r = a->r;
+    const struct shots_info *in = &op->info;
+    char msg[320];
+    snprintf(r->res.scene, sizeof r->res.scene, "%s", in->job.scene_id);
+    if (!op->is_animated) {
+        http_reply_error(r, 404, "frame_unknown",
+                         "this job renders one image (image.png), not a frame range", NULL, 0, 0,
+                         NULL);
+    } else if (op->frame < in->first || op->frame > in->last) {
+        snprintf(msg, sizeof msg, "frame %ld is not one of this job's frames %ld-%ld", op->frame,
+                 in->first, in->last);
+        http_reply_error(r, 404, "frame_unknown", msg, NULL, 0, 0, NULL);
+    } else if (a->exr) {
+        http_reply_error(r, 409, "not_exr",
+                         "this job keeps no EXR: a cluster (rayd --redis) keeps PNGs only", NULL, 0,
+                         0, NULL);
+    } else if (op->png) {
+        api_cluster_png(r, op->png);
+    } else {
+        const char *st = in->job.state == JS_CANCELED ? "canceled"
+                         : in->job.state == JS_FAILED ? "failed"
+                                                      : "queued";
+        snprintf(msg, sizeof msg, "frame %ld is %s, not done%s", op->frame, st,
+                 in->job.state == JS_FAILED || in->job.state == JS_CANCELED ? "" : ": retry later");
+        cJSON *o = cJSON_CreateObject();
+        cJSON *e = cJSON_AddObjectToObject(o, "error");
+        cJSON_AddNumberToObject(e, "status", 409);
+        cJSON_AddStringToObject(e, "code", "frame_not_ready");
+        cJSON_AddStringToObject(e, "message", msg);
+        cJSON_AddStringToObject(e, "state", st);
+        http_reply_json(r, 409, o);
+        if (!strcmp(st, "queued")) http_reply_header(r, "Retry-After", "1");
+        r->res.err_code = "frame_not_ready";
+    }
+}
+
+void api_cluster_frame(struct http_req *r, const char *path) {
+    char id[33];
+    long k = 0;
+    bool exr = false;
+    if (!cluster_on()) {
+        api_shots_frame(r, path);
+        return;
+    }
+    if (!api_only_params(r, NULL) || !api_shots_frame_path(r, path, id, &k, &exr)) return;
+    struct api_cluster *a = api_cluster_new(r, CO_IMAGE, id, api_cluster_frame_answer);
+    if (!a) return;
+    a->op.frame = k;
+    a->exr = exr;
+    api_cluster_go(a);
+}
+
+void api_cluster_video(struct http_req *r, const char *id) {
+    if (!cluster_on()) {
+        api_shots_video(r, id);
+        return;
+    }
+    http_reply_error(r, 400, "cluster_unsupported",
+                     "a cluster (rayd --redis) makes no video yet: fetch the frames "
+                     "(/v1/jobs/{id}/frames/{k}.png) and encode them",
+                     NULL, 0, 0, NULL);
+}
+
+/* ---- GET /v1/jobs ---------------------------------------------------------------------- */
+
+static void api_cluster_list_answer(struct api_cluster *a) {
+    struct cluster_op *op = &a->op;
+    cJSON *o = cJSON_CreateObject();
+    cJSON *list = cJSON_AddArrayToObject(o, "jobs");
+    for (int i = 0; i < op->nrows; i++)
+        cJSON_AddItemToArray(
+            list, api_cluster_json(op->rows[i].job.id, &op->rows[i], op->row_animated[i]));
+    if (op->more && op->nrows > 0) {
+        char cursor[24], url[200];
+        snprintf(cursor, sizeof cursor, "%lld", op->rows[op->nrows - 1].job.seq);
+        cJSON_AddStringToObject(o, "next_after", cursor);
+        int k = snprintf(url, sizeof url, "/v1/jobs?limit=%d&after=%s", op->limit, cursor);
+        if (op->state >= 0 && k > 0 && (size_t)k < sizeof url)
+            snprintf(url + k, sizeof url - (size_t)k, "&state=%s",
+                     jobs_state_name((enum jobs_state)op->state));
+        cJSON_AddStringToObject(o, "next_url", url);
+    } else {
+        cJSON_AddNullToObject(o, "next_after");
+        cJSON_AddNullToObject(o, "next_url");
+    }
+    http_reply_json(a->r, 200, o);
+    http_reply_header(a->r, "Cache-Control", "no-store");
+}
+
+void api_cluster_list(struct http_req *r, long long limit, long long after, int state) {
+    struct api_cluster *a = api_cluster_new(r, CO_LIST, NULL, api_cluster_list_answer);
+    if (!a) return;
+    a->op.rows = calloc((size_t)limit, sizeof *a->op.rows);
+    a->op.row_animated = calloc((size_t)limit, sizeof *a->op.row_animated);
+    if (!a->op.rows || !a->op.row_animated) {
+        free(a->op.rows);
+        free(a->op.row_animated);
+        free(a);
+        api_refused(r, WORK_NOMEM);
+        return;
+    }
+    a->op.limit = (int)limit;
+    a->op.after = after;
+    a->op.state = state;
+    a->op.client = api_cost_client(r);
+    api_cluster_go(a);
+}

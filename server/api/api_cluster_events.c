@@ -1,0 +1,233 @@
+/* api_cluster_events.c -- GET /v1/jobs/{id}/events with --redis: a cluster
+ * job's progress as Server-Sent Events, from any node.
+ *
+ * A cluster job's events live in its stream in Redis (rayd:{ID}:events,
+ * written by whichever node did the work), so any node replays them from
+ * the start and follows them.  The reply is a stream (http_reply_stream)
+ * whose reader formats what the last read brought; with nothing left it
+ * hands one CO_EVENTS op to the cluster's request thread (which suspends
+ * the request first, as every cluster op does) and returns nothing; the
+ * op's answer resumes the request with the next events.  A read that
+ * brought none waits API_CLUSTER_POLL before the next (op->at): the
+ * request thread holds it meanwhile, so an open stream costs no thread.
+ * The events and their data are those of the single node (state, tile +
+ * progress, frame, done); the stream ends after "done".
+ */
+#include "api/api.h"
+#include "cluster/cluster.h"
+
+#include <cjson/cJSON.h>
+#include <poll.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+
+#define API_CLUSTER_POLL 0.25 /* seconds between reads of a stream with no news */
+#define API_CLUSTER_PING 15.0 /* seconds of silence before a keep-alive, as the single node's */
+
+struct api_cev {
+    struct cluster_op op; /* first: the callbacks get it back */
+    struct http_req *r;
+    char cursor[48];
+    int next;          /* op.events[next..op.nevents) not yet sent */
+    bool ended;        /* "done" was sent */
+    bool failed;       /* the read failed: the stream ends */
+    char *carry;       /* text formatted, not yet sent */
+    double last_write; /* clock_now() of the last bytes handed out */
+    size_t carry_len, carry_off;
+};
+
+static void api_cev_suspend(struct cluster_op *op) { http_req_suspend(((struct api_cev *)op)->r); }
+
+static void api_cev_done(struct cluster_op *op) {
+    struct api_cev *a = (struct api_cev *)op;
+    a->next = 0;
+    if (op->status != CS_OK) {
+        a->failed = true;
+        op->nevents = 0;
+    }
+    if (op->nevents > 0)
+        snprintf(a->cursor, sizeof a->cursor, "%s", op->events[op->nevents - 1].cursor);
+    http_req_resume(a->r);
+}
+
+static size_t api_cev_event(char *out, size_t size, const char *name, cJSON *o) {
+    char data[2048];
+    bool ok = json_print_into(o, data, sizeof data);
+    cJSON_Delete(o);
+    int n = snprintf(out, size, "event: %s\ndata: %s\n\n", name, ok ? data : "{}");
+    return n < 0 || (size_t)n >= size ? 0 : (size_t)n;
+}
+
+/* One event as SSE text. */
+static size_t api_cev_format(struct api_cev *a, const struct cluster_event *e, char *out,
+                             size_t size) {
+    cJSON *o = cJSON_CreateObject();
+    const struct shots_info *in = &a->op.info;
+    if (!strcmp(e->kind, "state")) {
+        size_t n = (size_t)snprintf(out, size, "retry: 1000\n");
+        cJSON_AddStringToObject(o, "id", a->op.id);
+        cJSON_AddStringToObject(o, "state", e->state);
+        return n + api_cev_event(out + n, size - n, "state", o);
+    }
+    if (!strcmp(e->kind, "tile")) {
+        cJSON_AddNumberToObject(o, "x", e->reg.x);
+        cJSON_AddNumberToObject(o, "y", e->reg.y);
+        cJSON_AddNumberToObject(o, "w", e->reg.w);
+        cJSON_AddNumberToObject(o, "h", e->reg.h);
+        size_t n = api_cev_event(out, size, "tile", o);
+        o = cJSON_CreateObject();
+        json_add_fixed(o, "progress", e->total > 0 ? (double)e->done / (double)e->total : 0, 4);
+        cJSON_AddNumberToObject(o, "done", (double)e->done);
+        cJSON_AddNumberToObject(o, "total", (double)e->total);
+        return n + api_cev_event(out + n, size - n, "progress", o);
+    }
+    if (!strcmp(e->kind, "frame")) {
+        char url[120];
+        cJSON_AddNumberToObject(o, "k", (double)e->frame);
+        cJSON_AddStringToObject(o, "state", "done");
+        cJSON_AddNumberToObject(o, "frames_done", (double)e->done);
+        cJSON_AddNumberToObject(o, "frames_total", (double)e->total);
+        snprintf(url, sizeof url, "/v1/jobs/%s/frames/%ld.png", a->op.id, e->frame);
+        cJSON_AddStringToObject(o, "url", url);
+        return api_cev_event(out, size, "frame", o);
+    }
+    a->ended = true; /* "done" */
+    cJSON_AddStringToObject(o, "state", e->state);
+    json_add_fixed(o, "progress", in->job.progress, 4);
+    if (!strcmp(e->state, "failed")) cJSON_AddStringToObject(o, "error", in->job.err.message);
+    return api_cev_event(out, size, "done", o);
+}
+
+/* What fits of text into buf, the rest into the carry. */
+static bool api_cev_put(struct api_cev *a, char *buf, size_t max, size_t *used, const char *text,
+                        size_t len) {
+    size_t k = len < max - *used ? len : max - *used;
+    memcpy(buf + *used, text, k);
+    *used += k;
+    if (k == len) return true;
+    char *c = realloc(a->carry, a->carry_len + len - k);
+    if (!c) return false;
+    memcpy(c + a->carry_len, text + k, len - k);
+    a->carry = c;
+    a->carry_len += len - k;
+    return true;
+}
+
+static bool api_cev_flush(struct api_cev *a, char *buf, size_t max, size_t *used) {
+    size_t left = a->carry_len - a->carry_off, k = left < max - *used ? left : max - *used;
+    memcpy(buf + *used, a->carry + a->carry_off, k);
+    *used += k;
+    a->carry_off += k;
+    if (a->carry_off < a->carry_len) return false;
+    free(a->carry);
+    a->carry = NULL;
+    a->carry_len = a->carry_off = 0;
+    return true;
+}
+
+/* Whether the client hung up (a stream with no news is never written to,
+ * so the transport would not see it): as the single node's watcher asks. */
+static bool api_cev_gone(struct http_req *r) {
+    struct pollfd p = {.fd = http_req_fd(r), .events = POLLIN};
+    char c;
+    if (p.fd < 0 || poll(&p, 1, 0) <= 0) return false;
+    return (p.revents & (POLLHUP | POLLERR)) ||
+           ((p.revents & POLLIN) && recv(p.fd, &c, 1, MSG_PEEK | MSG_DONTWAIT) == 0);
+}
+
+static ssize_t api_cev_reader(void *cls, char *buf, size_t max) {
+    struct api_cev *a = cls;
+    if (a->r->gone) return HTTP_STREAM_ERROR;
+    if (sched_draining()) return HTTP_STREAM_END; /* a drain waits for no stream */
+    size_t used = 0;
+    if (a->carry && !api_cev_flush(a, buf, max, &used)) goto out;
+    while (a->next < a->op.nevents && !a->ended) {
+        char text[2560];
+        size_t len = api_cev_format(a, &a->op.events[a->next++], text, sizeof text);
+        if (!api_cev_put(a, buf, max, &used, text, len)) return HTTP_STREAM_ERROR;
+    }
+    if (!used && !a->ended && !a->failed && clock_now() - a->last_write > API_CLUSTER_PING) {
+        static const char ping[] = ": keep-alive\n\n"; /* a balancer keeps an idle stream */
+        if (!api_cev_put(a, buf, max, &used, ping, sizeof ping - 1)) return HTTP_STREAM_ERROR;
+    }
+    if (used) goto out;
+    if (a->ended || a->failed) return HTTP_STREAM_END;
+    if (api_cev_gone(a->r)) {
+        a->r->res.note = "client_gone";
+        return HTTP_STREAM_ERROR;
+    }
+    bool news = a->op.nevents > 0;
+    a->op.nevents = 0;
+    snprintf(a->op.cursor, sizeof a->op.cursor, "%s", a->cursor);
+    a->op.at = news ? 0 : clock_now() + API_CLUSTER_POLL;
+    if (!cluster_submit(&a->op)) return HTTP_STREAM_END;
+out:
+    if (used) a->last_write = clock_now();
+    a->r->res.bytes += used;
+    return (ssize_t)used;
+}
+
+static void api_cev_free(void *cls) {
+    struct api_cev *a = cls;
+    free(a->carry);
+    free(a);
+}
+
+/* The first read: 404 or 503 as any job route, else the stream. */
+static void api_cev_first(struct cluster_op *op) {
+    struct api_cev *a = (struct api_cev *)op;
+    struct http_req *r = a->r;
+    op->suspend = api_cev_suspend;
+    op->done = api_cev_done;
+    if (op->status == CS_DOWN) {
+        r->res.retry_after = 5;
+        http_reply_error(r, 503, "cluster_unavailable", op->why, NULL, 0, 0, NULL);
+    } else if (op->status == CS_NOMEM) {
+        api_refused(r, WORK_NOMEM);
+    } else if (op->status != CS_OK) {
+        http_reply_error(r, 404, "job_unknown", "no such job in the cluster (or it expired)", NULL,
+                         0, 0, NULL);
+    } else {
+        if (op->nevents > 0)
+            snprintf(a->cursor, sizeof a->cursor, "%s", op->events[op->nevents - 1].cursor);
+        static const char *const headers[] = {"Content-Type",
+                                              "text/event-stream",
+                                              "Cache-Control",
+                                              "no-store",
+                                              "X-Accel-Buffering",
+                                              "no",
+                                              NULL};
+        a->last_write = clock_now();
+        http_reply_stream(r, 200, headers, 4096, api_cev_reader, api_cev_free, a);
+        http_req_resume(r);
+        return;
+    }
+    free(a);
+    http_req_resume(r);
+}
+
+static void api_cev_first_suspend(struct cluster_op *op) { api_suspend(((struct api_cev *)op)->r); }
+
+void api_cluster_events(struct http_req *r, const char *id) {
+    if (!api_is_hex(id, 32)) {
+        api_jobs_unknown(r);
+        return;
+    }
+    struct api_cev *a = calloc(1, sizeof *a);
+    if (!a) {
+        api_refused(r, WORK_NOMEM);
+        return;
+    }
+    a->r = r;
+    a->op.kind = CO_EVENTS;
+    snprintf(a->op.id, sizeof a->op.id, "%s", id);
+    snprintf(a->op.cursor, sizeof a->op.cursor, "0");
+    snprintf(a->cursor, sizeof a->cursor, "0");
+    a->op.suspend = api_cev_first_suspend;
+    a->op.done = api_cev_first;
+    if (!cluster_submit(&a->op)) {
+        free(a);
+        api_refused(r, WORK_DRAINING);
+    }
+}

@@ -1,0 +1,320 @@
+/* cluster_assemble.c -- tiles into Redis, frames out of them (the puller's).
+ *
+ * A tile rendered is kept as its PNG (rayd:{ID}:tile:K:T, the bytes POST
+ * /v1/render?x=&y=&w=&h= gives) and its number added to the frame's done
+ * set, in one script with the job's counters and its event, so a tile is
+ * either counted and kept or neither.  The node whose tile completes the
+ * set queues the frame's assembly item (tile -1) in that same script: a
+ * node that dies right after leaves a complete set and its assembly
+ * queued, and a duplicate of a tile (an item reclaimed from a stalled node
+ * that finished after all) finds its number in the set and queues nothing.
+ *
+ * Assembling decodes every tile (rayd_png_decode), pastes it into the
+ * frame and encodes the frame with the node's --png-level: the PNG bytes of
+ * one node's render of the same region, since a pixel's value does not
+ * depend on the tile it was drawn in nor the PNG's on who encodes it.  A
+ * tile missing from Redis (evicted, deleted) or not a PNG of its size
+ * (corrupt) is taken out of the done set and queued again, so the frame
+ * re-renders what it lacks; past CLUSTER_RERENDERS a frame's tiles the job
+ * fails, naming the tile, rather than loop.
+ */
+#include "cluster/cluster_private.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define CLUSTER_RERENDERS 3 /* times a frame's tile count it may re-render */
+
+static const char cluster_lua_tile[] =
+    "local id, k, t, n = ARGV[1], ARGV[2], ARGV[3], tonumber(ARGV[5])\n"
+    "local p = 'rayd:{' .. id .. '}:'\n"
+    "local st = redis.call('HGET', p .. 'job', 'state')\n"
+    "if not st then return -2 end\n"
+    "if st ~= 'queued' and st ~= 'running' then return -1 end\n"
+    "if st == 'queued' then\n"
+    "  redis.call('HSET', p .. 'job', 'state', 'running', 'started', ARGV[6])\n"
+    "  redis.call('XADD', p .. 'events', 'MAXLEN', '~', 1000, '*', 'kind', 'state', 'state', "
+    "'running')\n"
+    "end\n"
+    "if ARGV[10] ~= 'skip' then redis.call('SET', p .. 'tile:' .. k .. ':' .. t, ARGV[4]) end\n"
+    "local added = redis.call('SADD', p .. 'done:' .. k, t)\n"
+    "if added == 1 then\n"
+    "  local d = redis.call('HINCRBY', p .. 'job', 'tiles_done', 1)\n"
+    "  redis.call('HINCRBY', p .. 'job', 'rays', ARGV[7])\n"
+    "  redis.call('HINCRBYFLOAT', p .. 'job', 'render_ms', ARGV[8])\n"
+    "  local f = redis.call('HMGET', p .. 'job', 'first', 'last')\n"
+    "  local total = (tonumber(f[2]) - tonumber(f[1]) + 1) * n\n"
+    "  redis.call('XADD', p .. 'events', 'MAXLEN', '~', 1000, '*', 'kind', 'tile', 'frame', k, "
+    "'tile', t, 'done', d, 'total', total, 'where', ARGV[11])\n"
+    "end\n"
+    "local c = redis.call('SCARD', p .. 'done:' .. k)\n"
+    "if added == 1 and c == n then\n"
+    "  redis.call('XADD', ARGV[9], '*', 'job', id, 'frame', k, 'tile', -1)\n"
+    "end\n"
+    "return c\n";
+
+/* The test knob of the hostile cases: with --test-gate and
+ * RAYD_TEST_CLUSTER_TILE=corrupt (or missing) the first tile this node
+ * stores is kept as bytes that are not a PNG (or not kept at all, though
+ * counted done), so a test sees the frame re-render it. */
+static const char *cluster_test_tile(void) {
+    static atomic_bool used;
+    const char *v = getenv("RAYD_TEST_CLUSTER_TILE");
+    if (config.test_gate_tiles < -1 || !v || atomic_exchange(&used, true)) return NULL;
+    log_warn("RAYD_TEST_CLUSTER_TILE=%s: this tile is stored %s", v,
+             strcmp(v, "missing") ? "corrupt" : "not at all");
+    return v;
+}
+
+bool cluster_tile_store(struct redis *c, const char *id, long k, long tile, long ntiles,
+                        const struct rayd_region *reg, const struct blob *png, double render_ms) {
+    char sk[24], st[24], sn[24], now[32], sr[32], sm[32], where[64];
+    snprintf(where, sizeof where, "%d %d %d %d", reg->x, reg->y, reg->w, reg->h);
+    snprintf(sk, sizeof sk, "%ld", k);
+    snprintf(st, sizeof st, "%ld", tile);
+    snprintf(sn, sizeof sn, "%ld", ntiles);
+    snprintf(now, sizeof now, "%.0f", cluster_now_ms());
+    snprintf(sr, sizeof sr, "0"); /* the work layer does not hand a render's rays up */
+    snprintf(sm, sizeof sm, "%.3f", render_ms);
+    const char *test = cluster_test_tile();
+    const char *data = png->data;
+    size_t len = png->len;
+    if (test && strcmp(test, "missing")) {
+        data = "this is not a PNG";
+        len = strlen(data);
+    }
+    const char *argv[] = {"EVAL",
+                          cluster_lua_tile,
+                          "0",
+                          id,
+                          sk,
+                          st,
+                          data,
+                          sn,
+                          now,
+                          sr,
+                          sm,
+                          cluster_stream,
+                          test && !strcmp(test, "missing") ? "skip" : "keep",
+                          where};
+    size_t lens[14];
+    for (int i = 0; i < 14; i++) lens[i] = i == 6 ? len : strlen(argv[i]);
+    redisReply *rep = redis_argv(c, 14, argv, lens);
+    bool ok = !redis_failed(c, rep);
+    if (rep) freeReplyObject(rep);
+    return ok;
+}
+
+/* ---- assembly --------------------------------------------------------------- */
+
+static const char cluster_lua_frame[] =
+    "local id, k = ARGV[1], ARGV[2]\n"
+    "local p = 'rayd:{' .. id .. '}:'\n"
+    "local st = redis.call('HGET', p .. 'job', 'state')\n"
+    "if not st then return -2 end\n"
+    "if st ~= 'queued' and st ~= 'running' then return -1 end\n"
+    "redis.call('SET', p .. 'frame:' .. k, ARGV[3])\n"
+    "local added = redis.call('SADD', p .. 'frames', k)\n"
+    "local n = redis.call('SCARD', p .. 'frames')\n"
+    "local f = redis.call('HMGET', p .. 'job', 'first', 'last', 'tiles')\n"
+    "local total = tonumber(f[2]) - tonumber(f[1]) + 1\n"
+    "redis.call('HSET', p .. 'job', 'frames_done', n)\n"
+    "if added == 1 then\n"
+    "  redis.call('HSET', p .. 'job', 'latest', k)\n"
+    "  redis.call('XADD', p .. 'events', 'MAXLEN', '~', 1000, '*', 'kind', 'frame', 'frame', k, "
+    "'done', n, 'total', total)\n"
+    "end\n"
+    "for t = 0, tonumber(f[3]) - 1 do redis.call('DEL', p .. 'tile:' .. k .. ':' .. t) end\n"
+    "if n == total then return rayd_end(id, 'succeeded', ARGV[4], ARGV[5], '') + 10 end\n"
+    "return 0\n";
+
+/* Tiles bad[0..nbad) of frame k out of the done set and queued again (a
+ * job that re-rendered too many fails instead). */
+static const char cluster_lua_redo[] =
+    "local id, k = ARGV[1], ARGV[2]\n"
+    "local p = 'rayd:{' .. id .. '}:'\n"
+    "local st = redis.call('HGET', p .. 'job', 'state')\n"
+    "if st ~= 'queued' and st ~= 'running' then return -1 end\n"
+    "local r = redis.call('HINCRBY', p .. 'job', 'rerenders', #ARGV - 3)\n"
+    "if r > tonumber(ARGV[3]) then return -3 end\n"
+    "for i = 4, #ARGV do\n"
+    "  if redis.call('SREM', p .. 'done:' .. k, ARGV[i]) == 1 then\n"
+    "    redis.call('HINCRBY', p .. 'job', 'tiles_done', -1)\n"
+    "  end\n"
+    "  redis.call('XADD', KEYS[1], '*', 'job', id, 'frame', k, 'tile', ARGV[i])\n"
+    "end\n"
+    "return 1\n";
+
+/* The job's geometry: the frame's region and its tile grid. */
+struct cluster_geom {
+    char state[16];
+    int x, y, w, h;
+    long tiles, cols, size;
+};
+
+static bool cluster_geom_read(struct redis *c, const char *id, struct cluster_geom *g) {
+    char key[120];
+    memset(g, 0, sizeof *g);
+    cluster_key(key, sizeof key, id, "job");
+    const char *argv[] = {"HMGET", key,     "state", "x",         "y", "w",
+                          "h",     "tiles", "cols",  "tile_size", NULL};
+    redisReply *rep = redis_strs(c, argv);
+    if (redis_failed(c, rep) || rep->type != REDIS_REPLY_ARRAY || rep->elements != 8) {
+        bool down = !rep || rep->type == REDIS_REPLY_ERROR;
+        if (rep) freeReplyObject(rep);
+        if (down) return false;
+        g->state[0] = 0;
+        return true;
+    }
+    if (rep->element[0]->type == REDIS_REPLY_STRING)
+        snprintf(g->state, sizeof g->state, "%s", rep->element[0]->str);
+    long v[7];
+    for (int i = 0; i < 7; i++) v[i] = (long)redis_ll(rep->element[i + 1], 0);
+    freeReplyObject(rep);
+    g->x = (int)v[0], g->y = (int)v[1], g->w = (int)v[2], g->h = (int)v[3];
+    g->tiles = v[4], g->cols = v[5], g->size = v[6];
+    if (g->w <= 0 || g->h <= 0 || g->tiles <= 0 || g->cols <= 0 || g->size <= 0)
+        g->state[0] = 0; /* not a job of ours: treated as gone */
+    return true;
+}
+
+/* Tile t of g as a region relative to the frame. */
+static struct rayd_region cluster_tile_reg(const struct cluster_geom *g, long t) {
+    int tx = (int)((t % g->cols) * g->size), ty = (int)((t / g->cols) * g->size);
+    int w = g->w - tx < g->size ? g->w - tx : (int)g->size;
+    int h = g->h - ty < g->size ? g->h - ty : (int)g->size;
+    return (struct rayd_region){tx, ty, w, h};
+}
+
+/* Pastes the tiles of rep (MGET's) into img; the bad ones' numbers into bad. */
+static long cluster_paste(const struct cluster_geom *g, const redisReply *rep, rayd_image *img,
+                          long *bad) {
+    long nbad = 0;
+    for (long t = 0; t < g->tiles; t++) {
+        const redisReply *e = rep->element[t];
+        struct rayd_region r = cluster_tile_reg(g, t);
+        rayd_image *tile = NULL;
+        struct rayd_error err;
+        bool ok = e->type == REDIS_REPLY_STRING &&
+                  rayd_png_decode(e->str, e->len, (long)r.w * r.h, &tile, &err) == RAYD_OK &&
+                  rayd_image_width(tile) == r.w && rayd_image_height(tile) == r.h &&
+                  rayd_image_blit(img, tile, r.x, r.y, &err) == RAYD_OK;
+        rayd_image_free(tile);
+        if (!ok) bad[nbad++] = t;
+    }
+    return nbad;
+}
+
+/* The bad tiles queued again; false when Redis failed. */
+static bool cluster_redo(struct redis *c, const char *id, long k, const struct cluster_geom *g,
+                         const long *bad, long nbad) {
+    char sk[24], lim[24], *nums = calloc((size_t)nbad, 24);
+    const char **argv = calloc((size_t)nbad + 8, sizeof *argv);
+    if (!nums || !argv) {
+        free(nums);
+        free(argv);
+        return false;
+    }
+    snprintf(sk, sizeof sk, "%ld", k);
+    snprintf(lim, sizeof lim, "%ld", CLUSTER_RERENDERS * g->tiles);
+    int n = 0;
+    argv[n++] = "EVAL";
+    argv[n++] = cluster_lua_redo;
+    argv[n++] = "1";
+    argv[n++] = cluster_stream;
+    argv[n++] = id;
+    argv[n++] = sk;
+    argv[n++] = lim;
+    for (long i = 0; i < nbad; i++) {
+        snprintf(nums + 24 * i, 24, "%ld", bad[i]);
+        argv[n++] = nums + 24 * i;
+    }
+    redisReply *rep = redis_argv(c, n, argv, NULL);
+    bool ok = !redis_failed(c, rep);
+    long long r = ok ? redis_ll(rep, 0) : 0;
+    if (rep) freeReplyObject(rep);
+    if (ok && r == -3) {
+        char why[300];
+        snprintf(why, sizeof why,
+                 "{\"code\":\"internal\",\"message\":\"frame %ld: tile %ld was missing or "
+                 "corrupt in Redis %d times over\"}",
+                 k, bad[0], CLUSTER_RERENDERS);
+        ok = cluster_jobs_end(c, id, "failed", why);
+    } else if (ok) {
+        log_warn("cluster: job %s frame %ld: %ld tile(s) missing or corrupt in Redis (first: "
+                 "%ld), rendered again",
+                 id, k, nbad, bad[0]);
+    }
+    free(nums);
+    free(argv);
+    return ok;
+}
+
+/* The frame's PNG stored (the job ends with its last frame). */
+static bool cluster_frame_store(struct redis *c, const char *id, long k, const void *png,
+                                size_t len) {
+    char sk[24], now[32], ttl[24];
+    size_t n = strlen(cluster_lua_end) + sizeof cluster_lua_frame;
+    char *script = malloc(n);
+    if (!script) return false;
+    snprintf(script, n, "%s%s", cluster_lua_end, cluster_lua_frame);
+    snprintf(sk, sizeof sk, "%ld", k);
+    snprintf(now, sizeof now, "%.0f", cluster_now_ms());
+    snprintf(ttl, sizeof ttl, "%ld", config.job_ttl);
+    const char *argv[] = {"EVAL", script, "0", id, sk, png, now, ttl};
+    size_t lens[8];
+    for (int i = 0; i < 8; i++) lens[i] = i == 5 ? len : strlen(argv[i]);
+    redisReply *rep = redis_argv(c, 8, argv, lens);
+    bool ok = !redis_failed(c, rep);
+    if (ok && redis_ll(rep, 0) >= 10) log_info("cluster: job %s succeeded", id);
+    if (rep) freeReplyObject(rep);
+    free(script);
+    return ok;
+}
+
+bool cluster_assemble(struct redis *c, const char *id, long k) {
+    struct cluster_geom g;
+    if (!cluster_geom_read(c, id, &g)) return false;
+    if (strcmp(g.state, "queued") && strcmp(g.state, "running")) return true; /* ended: drop */
+    const char **argv = calloc((size_t)g.tiles + 1, sizeof *argv);
+    char *keys = calloc((size_t)g.tiles, 120);
+    long *bad = calloc((size_t)g.tiles, sizeof *bad);
+    rayd_image *img = NULL;
+    struct rayd_error err;
+    bool ok = false;
+    if (!argv || !keys || !bad || rayd_image_new(g.w, g.h, &img, &err) != RAYD_OK) goto out;
+    argv[0] = "MGET";
+    for (long t = 0; t < g.tiles; t++) {
+        char what[60];
+        snprintf(what, sizeof what, "tile:%ld:%ld", k, t);
+        cluster_key(keys + 120 * t, 120, id, what);
+        argv[t + 1] = keys + 120 * t;
+    }
+    redisReply *rep = redis_argv(c, (int)g.tiles + 1, argv, NULL);
+    if (redis_failed(c, rep) || rep->type != REDIS_REPLY_ARRAY ||
+        rep->elements != (size_t)g.tiles) {
+        if (rep) freeReplyObject(rep);
+        goto out;
+    }
+    long nbad = cluster_paste(&g, rep, img, bad);
+    freeReplyObject(rep);
+    if (nbad > 0) {
+        ok = cluster_redo(c, id, k, &g, bad, nbad);
+        goto out;
+    }
+    void *png = NULL;
+    size_t len = 0;
+    if (rayd_png_encode(img, (int)config.png_level, &png, &len, &err) != RAYD_OK) {
+        log_error("cluster: job %s frame %ld: cannot encode: %s", id, k, err.message);
+        goto out; /* left for another node (or this one) to try again */
+    }
+    ok = cluster_frame_store(c, id, k, png, len);
+    rayd_free(png);
+out:
+    rayd_image_free(img);
+    free(argv);
+    free(keys);
+    free(bad);
+    return ok;
+}

@@ -1,0 +1,431 @@
+/* cluster_jobs.c -- the job records in Redis, read and written for the job
+ * routes (on the request thread, cluster.c).
+ *
+ * A job is the hash rayd:{ID}:job, a member of the ZSET rayd:jobs (scored
+ * by its creation time in ms: the list, newest first), its event stream
+ * rayd:{ID}:events, and, while it runs, one work item per tile of each of
+ * its frames in the stream rayd:items:VERSION.  The record and all its items
+ * are written by one Lua script, so a job is never seen without its items
+ * nor items without their job; a node that dies mid-POST wrote all or
+ * nothing, and the client, told nothing, posts again.
+ *
+ * Reads fill the very structs the single node's routes read (struct
+ * shots_info, its struct jobs_info), so the JSON a cluster answers is made
+ * by the same code and has the same shape.  A job ends by rayd_end (Lua):
+ * its state, its last event, its tiles deleted and every key of it set to
+ * expire after --job-ttl; the ZSET entry of an expired job is dropped when
+ * the list next meets it.
+ */
+#include "cluster/cluster_private.h"
+
+#include <cjson/cJSON.h>
+#include <fcntl.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+const char cluster_lua_end[] =
+    "local function rayd_end(id, state, now, ttl, err)\n"
+    "  local p = 'rayd:{' .. id .. '}:'\n"
+    "  local st = redis.call('HGET', p .. 'job', 'state')\n"
+    "  if not st then return -2 end\n"
+    "  if st ~= 'queued' and st ~= 'running' then return 0 end\n"
+    "  redis.call('HSET', p .. 'job', 'state', state, 'ended', now)\n"
+    "  if err ~= '' then redis.call('HSET', p .. 'job', 'error', err) end\n"
+    "  redis.call('XADD', p .. 'events', 'MAXLEN', '~', 1000, '*', 'kind', 'done', 'state', "
+    "state)\n"
+    "  local first = tonumber(redis.call('HGET', p .. 'job', 'first'))\n"
+    "  local last = tonumber(redis.call('HGET', p .. 'job', 'last'))\n"
+    "  local tiles = tonumber(redis.call('HGET', p .. 'job', 'tiles'))\n"
+    "  for k = first, last do\n"
+    "    for t = 0, tiles - 1 do redis.call('DEL', p .. 'tile:' .. k .. ':' .. t) end\n"
+    "    redis.call('EXPIRE', p .. 'frame:' .. k, ttl)\n"
+    "    redis.call('EXPIRE', p .. 'done:' .. k, ttl)\n"
+    "  end\n"
+    "  for _, k in ipairs({'job', 'events', 'frames'}) do redis.call('EXPIRE', p .. k, ttl) end\n"
+    "  return 1\n"
+    "end\n";
+
+static const char cluster_lua_submit[] =
+    "redis.call('HSET', KEYS[1], unpack(ARGV, 6))\n"
+    "redis.call('ZADD', KEYS[2], ARGV[2], ARGV[1])\n"
+    "redis.call('XADD', KEYS[4], 'MAXLEN', '~', 1000, '*', 'kind', 'state', 'state', 'queued')\n"
+    "for k = tonumber(ARGV[3]), tonumber(ARGV[4]) do\n"
+    "  for t = 0, tonumber(ARGV[5]) - 1 do\n"
+    "    redis.call('XADD', KEYS[3], '*', 'job', ARGV[1], 'frame', k, 'tile', t)\n"
+    "  end\n"
+    "end\n"
+    "return 1\n";
+
+/* The fields a status read takes (never the scene: it can be megabytes). */
+static const char *const cluster_fields[] = {
+    "state", "created", "started",  "ended",      "client",      "priority", "scene_id",
+    "x",     "y",       "w",        "h",          "first",       "last",     "animated",
+    "tiles", "fps",     "est_rays", "tiles_done", "frames_done", "rays",     "render_ms",
+    "error", "latest",  "version",  NULL};
+enum {
+    F_STATE,
+    F_CREATED,
+    F_STARTED,
+    F_ENDED,
+    F_CLIENT,
+    F_PRIORITY,
+    F_SCENE_ID,
+    F_X,
+    F_Y,
+    F_W,
+    F_H,
+    F_FIRST,
+    F_LAST,
+    F_ANIMATED,
+    F_TILES,
+    F_FPS,
+    F_EST_RAYS,
+    F_TILES_DONE,
+    F_FRAMES_DONE,
+    F_RAYS,
+    F_RENDER_MS,
+    F_ERROR,
+    F_LATEST,
+    F_VERSION,
+    F__COUNT
+};
+
+/* A status read: the fields, then the frames being assembled or rendered. */
+static const char cluster_lua_status[] =
+    "local p = 'rayd:{' .. ARGV[1] .. '}:'\n"
+    "local v = redis.call('HMGET', p .. 'job', unpack(ARGV, 2))\n"
+    "if not v[1] then return nil end\n"
+    "local running = 0\n"
+    "local first, last = tonumber(v[12]), tonumber(v[13])\n"
+    "if v[1] == 'running' and first and last and last - first < 100000 then\n"
+    "  for k = first, last do\n"
+    "    if redis.call('EXISTS', p .. 'done:' .. k) == 1 and\n"
+    "       redis.call('SISMEMBER', p .. 'frames', k) == 0 then running = running + 1 end\n"
+    "  end\n"
+    "end\n"
+    "table.insert(v, tostring(running))\n"
+    "return v\n";
+
+bool cluster_jobs_end(struct redis *c, const char *id, const char *state, const char *error) {
+    char script[sizeof cluster_lua_end + 200], now[32], ttl[24];
+    snprintf(script, sizeof script,
+             "%sreturn rayd_end(ARGV[1], ARGV[2], ARGV[3], ARGV[4], ARGV[5])", cluster_lua_end);
+    snprintf(now, sizeof now, "%.0f", cluster_now_ms());
+    snprintf(ttl, sizeof ttl, "%ld", config.job_ttl);
+    const char *argv[] = {"EVAL", script, "0", id, state, now, ttl, error ? error : "", NULL};
+    redisReply *rep = redis_strs(c, argv);
+    bool ok = !redis_failed(c, rep);
+    if (rep) freeReplyObject(rep);
+    return ok;
+}
+
+/* 32 random hex digits. */
+static bool cluster_new_id(char id[33]) {
+    unsigned char b[16];
+    int fd = open("/dev/urandom", O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return false;
+    bool ok = read(fd, b, sizeof b) == (ssize_t)sizeof b;
+    close(fd);
+    for (int i = 0; i < 16; i++) snprintf(id + 2 * i, 3, "%02x", b[i]);
+    return ok;
+}
+
+static void cluster_submit_job(struct redis *c, struct cluster_op *op) {
+    if (!cluster_new_id(op->id)) {
+        op->status = CS_NOMEM;
+        return;
+    }
+    long n = config.cluster_tile;
+    long cols = (op->reg.w + n - 1) / n, rows = (op->reg.h + n - 1) / n;
+    char v[24][40], keys[3][80];
+    double now = cluster_now_ms();
+    op->created_ms = now;
+    snprintf(v[0], 40, "%.0f", now);
+    snprintf(v[1], 40, "%ld", op->first);
+    snprintf(v[2], 40, "%ld", op->last);
+    snprintf(v[3], 40, "%ld", cols * rows);
+    snprintf(v[4], 40, "%llu", (unsigned long long)op->client);
+    snprintf(v[5], 40, "%d", op->priority);
+    snprintf(v[6], 40, "%d", op->reg.x);
+    snprintf(v[7], 40, "%d", op->reg.y);
+    snprintf(v[8], 40, "%d", op->reg.w);
+    snprintf(v[9], 40, "%d", op->reg.h);
+    snprintf(v[10], 40, "%ld", cols);
+    snprintf(v[11], 40, "%ld", n);
+    snprintf(v[12], 40, "%.17g", op->fps);
+    snprintf(v[13], 40, "%.0f", op->est_rays);
+    cluster_key(keys[0], sizeof keys[0], op->id, "job");
+    cluster_key(keys[2], sizeof keys[2], op->id, "events");
+    const char *argv[] = {"EVAL",        cluster_lua_submit,
+                          "4",           keys[0],
+                          "rayd:jobs",   cluster_stream,
+                          keys[2],       op->id,
+                          v[0],          v[1],
+                          v[2],          v[3],
+                          "id",          op->id,
+                          "version",     cluster_version(),
+                          "state",       "queued",
+                          "created",     v[0],
+                          "client",      v[4],
+                          "priority",    v[5],
+                          "scene_id",    op->scene_id,
+                          "query",       op->query ? op->query : "",
+                          "x",           v[6],
+                          "y",           v[7],
+                          "w",           v[8],
+                          "h",           v[9],
+                          "width",       v[8],
+                          "height",      v[9],
+                          "first",       v[1],
+                          "last",        v[2],
+                          "animated",    op->animated ? "1" : "0",
+                          "tiles",       v[3],
+                          "cols",        v[10],
+                          "tile_size",   v[11],
+                          "fps",         v[12],
+                          "est_rays",    v[13],
+                          "tiles_done",  "0",
+                          "frames_done", "0",
+                          "rays",        "0",
+                          "render_ms",   "0",
+                          "node",        cluster_node_id,
+                          "scene",       op->scene};
+    int argc = (int)(sizeof argv / sizeof argv[0]);
+    size_t lens[sizeof argv / sizeof argv[0]];
+    for (int i = 0; i < argc; i++) lens[i] = strlen(argv[i]);
+    lens[argc - 1] = op->scene_len;
+    redisReply *rep = redis_argv(c, argc, argv, lens);
+    op->status = redis_failed(c, rep) ? CS_DOWN : CS_OK;
+    if (rep) freeReplyObject(rep);
+    if (op->status == CS_OK)
+        log_info("cluster: job %s: %ld frame(s) of %ld tile(s) queued", op->id,
+                 op->last - op->first + 1, cols * rows);
+}
+
+static const char *cluster_str(const redisReply *r) {
+    return r && r->type == REDIS_REPLY_STRING ? r->str : "";
+}
+static double cluster_num(const redisReply *r) {
+    const char *s = cluster_str(r);
+    return *s ? strtod(s, NULL) : 0;
+}
+
+/* The error JSON of a failed job into err. */
+static void cluster_error_read(const char *json, struct rayd_error *err) {
+    memset(err, 0, sizeof *err);
+    err->code = RAYD_E_INTERNAL;
+    cJSON *o = cJSON_Parse(json);
+    const cJSON *code = cJSON_GetObjectItemCaseSensitive(o, "code");
+    const cJSON *msg = cJSON_GetObjectItemCaseSensitive(o, "message");
+    const cJSON *path = cJSON_GetObjectItemCaseSensitive(o, "path");
+    for (int s = RAYD_OK; cJSON_IsString(code) && s <= RAYD_E_INTERNAL; s++)
+        if (!strcmp(code->valuestring, rayd_status_name((enum rayd_status)s)))
+            err->code = (enum rayd_status)s;
+    snprintf(err->message, sizeof err->message, "%s",
+             cJSON_IsString(msg) ? msg->valuestring : "the job failed");
+    if (cJSON_IsString(path)) snprintf(err->path, sizeof err->path, "%s", path->valuestring);
+    cJSON_Delete(o);
+}
+
+static enum jobs_state cluster_state(const char *s) {
+    for (int i = JS_QUEUED; i <= JS_EVICTED; i++)
+        if (!strcmp(s, jobs_state_name((enum jobs_state)i))) return (enum jobs_state)i;
+    return JS_FAILED;
+}
+
+/* The status read's values v (F__COUNT + 1) into *out. */
+static void cluster_fill(const char *id, redisReply **v, struct shots_info *out, bool *animated) {
+    struct jobs_info *j = &out->job;
+    memset(out, 0, sizeof *out);
+    double now = cluster_now_ms();
+    snprintf(j->id, sizeof j->id, "%s", id);
+    j->state = cluster_state(cluster_str(v[F_STATE]));
+    snprintf(j->scene_id, sizeof j->scene_id, "%s", cluster_str(v[F_SCENE_ID]));
+    j->region = (struct rayd_region){(int)cluster_num(v[F_X]), (int)cluster_num(v[F_Y]),
+                                     (int)cluster_num(v[F_W]), (int)cluster_num(v[F_H])};
+    double created = cluster_num(v[F_CREATED]), started = cluster_num(v[F_STARTED]);
+    double ended = cluster_num(v[F_ENDED]);
+    j->created_wall = created / 1e3;
+    j->seq = (long long)created;
+    j->created_age = (now - created) / 1e3;
+    j->queue_ms = started > 0 ? started - created : (ended > 0 ? 0 : now - created);
+    j->render_ms = cluster_num(v[F_RENDER_MS]);
+    j->rays = (uint64_t)cluster_num(v[F_RAYS]);
+    j->est_rays = cluster_num(v[F_EST_RAYS]);
+    j->priority = (int)cluster_num(v[F_PRIORITY]);
+    j->ended_age = ended > 0 ? (now - ended) / 1e3 : -1;
+    if (j->state == JS_FAILED) cluster_error_read(cluster_str(v[F_ERROR]), &j->err);
+    long first = (long)cluster_num(v[F_FIRST]), last = (long)cluster_num(v[F_LAST]);
+    long tiles = (long)cluster_num(v[F_TILES]), frames = last - first + 1;
+    j->tiles_total = tiles * frames;
+    j->tiles_done = (long)cluster_num(v[F_TILES_DONE]);
+    *animated = !strcmp(cluster_str(v[F_ANIMATED]), "1");
+    out->first = first;
+    out->last = last;
+    out->total = frames;
+    out->done = (long)cluster_num(v[F_FRAMES_DONE]);
+    out->running = (long)cluster_num(v[F__COUNT]);
+    out->queued =
+        j->state == JS_QUEUED || j->state == JS_RUNNING ? frames - out->done - out->running : 0;
+    out->latest = *cluster_str(v[F_LATEST]) ? (long)cluster_num(v[F_LATEST]) : -1;
+    out->eta_s = -1;
+    out->fps = cluster_num(v[F_FPS]);
+    j->progress = *animated ? (double)out->done / (double)(frames > 0 ? frames : 1)
+                            : (double)j->tiles_done / (double)(tiles > 0 ? tiles : 1);
+    if (j->state == JS_SUCCEEDED) j->progress = 1;
+}
+
+/* Reads job id into op->info; CS_UNKNOWN when there is none. */
+static void cluster_read(struct redis *c, const char *id, struct cluster_op *op,
+                         struct shots_info *out, bool *animated) {
+    const char *argv[F__COUNT + 6] = {"EVAL", cluster_lua_status, "0", id};
+    for (int i = 0; i < F__COUNT; i++) argv[4 + i] = cluster_fields[i];
+    argv[4 + F__COUNT] = NULL;
+    redisReply *rep = redis_strs(c, argv);
+    if (redis_failed(c, rep)) {
+        op->status = CS_DOWN;
+    } else if (rep->type != REDIS_REPLY_ARRAY || rep->elements != F__COUNT + 1) {
+        op->status = CS_UNKNOWN;
+    } else {
+        cluster_fill(id, rep->element, out, animated);
+        op->status = CS_OK;
+    }
+    if (rep) freeReplyObject(rep);
+}
+
+/* The frame's PNG, when it is there. */
+static void cluster_image(struct redis *c, struct cluster_op *op) {
+    cluster_read(c, op->id, op, &op->info, &op->is_animated);
+    if (op->status != CS_OK || op->frame < op->info.first || op->frame > op->info.last) return;
+    char key[120], what[40];
+    snprintf(what, sizeof what, "frame:%ld", op->frame);
+    cluster_key(key, sizeof key, op->id, what);
+    const char *argv[] = {"GET", key, NULL};
+    redisReply *rep = redis_strs(c, argv);
+    if (redis_failed(c, rep)) {
+        op->status = CS_DOWN;
+    } else if (rep->type == REDIS_REPLY_STRING && rep->len > 0) {
+        void *data = malloc(rep->len);
+        if (data) memcpy(data, rep->str, rep->len);
+        op->png = data ? blob_new(data, rep->len) : NULL;
+        if (!op->png) {
+            free(data);
+            op->status = CS_NOMEM;
+        }
+    }
+    if (rep) freeReplyObject(rep);
+}
+
+static void cluster_cancel(struct redis *c, struct cluster_op *op) {
+    cluster_read(c, op->id, op, &op->info, &op->is_animated);
+    if (op->status != CS_OK) return;
+    if (op->info.job.state == JS_QUEUED || op->info.job.state == JS_RUNNING) {
+        if (!cluster_jobs_end(c, op->id, "canceled", NULL)) {
+            op->status = CS_DOWN;
+            return;
+        }
+        op->canceled_now = true;
+        cluster_read(c, op->id, op, &op->info, &op->is_animated);
+    }
+}
+
+/* One page of the client's jobs, newest first, before op->after. */
+static void cluster_list(struct redis *c, struct cluster_op *op) {
+    char max[40], client[24];
+    snprintf(max, sizeof max, op->after > 0 ? "(%lld" : "+inf", op->after);
+    snprintf(client, sizeof client, "%llu", (unsigned long long)op->client);
+    op->status = CS_OK;
+    for (int scanned = 0; op->nrows <= op->limit && scanned < 5000; scanned += 200) {
+        const char *argv[] = {
+            "ZREVRANGEBYSCORE", "rayd:jobs", max, "-inf", "WITHSCORES", "LIMIT", "0", "200", NULL};
+        redisReply *rep = redis_strs(c, argv);
+        if (redis_failed(c, rep) || rep->type != REDIS_REPLY_ARRAY) {
+            op->status = CS_DOWN;
+            if (rep) freeReplyObject(rep);
+            return;
+        }
+        size_t n = rep->elements / 2;
+        for (size_t i = 0; i < n && op->nrows <= op->limit; i++) {
+            const char *id = rep->element[2 * i]->str;
+            snprintf(max, sizeof max, "(%s", rep->element[2 * i + 1]->str);
+            struct shots_info row;
+            bool anim = false;
+            struct cluster_op tmp = {0};
+            cluster_read(c, id, &tmp, &row, &anim);
+            if (tmp.status == CS_UNKNOWN) { /* expired: the list forgets it too */
+                redisReply *z = redis_cmd(c, "ZREM rayd:jobs %s", id);
+                if (z) freeReplyObject(z);
+                continue;
+            }
+            if (tmp.status != CS_OK) {
+                op->status = tmp.status;
+                break;
+            }
+            char key[120];
+            cluster_key(key, sizeof key, id, "job");
+            redisReply *cl = redis_cmd(c, "HGET %s client", key);
+            bool mine = cl && cl->type == REDIS_REPLY_STRING && !strcmp(cl->str, client);
+            if (cl) freeReplyObject(cl);
+            if (!mine || (op->state >= 0 && (int)row.job.state != op->state)) continue;
+            if (op->nrows == op->limit) {
+                op->more = true;
+                op->nrows++;
+                break;
+            }
+            op->rows[op->nrows] = row;
+            op->row_animated[op->nrows++] = anim;
+        }
+        freeReplyObject(rep);
+        if (n < 200 || op->status != CS_OK) break;
+    }
+    if (op->nrows > op->limit) op->nrows = op->limit;
+}
+
+/* The job's events after op->cursor, up to CLUSTER_EVENTS_MAX. */
+static void cluster_events(struct redis *c, struct cluster_op *op) {
+    cluster_read(c, op->id, op, &op->info, &op->is_animated);
+    if (op->status != CS_OK) return;
+    char key[120], start[60], count[8];
+    cluster_key(key, sizeof key, op->id, "events");
+    snprintf(start, sizeof start, strcmp(op->cursor, "0") ? "(%s" : "-", op->cursor);
+    snprintf(count, sizeof count, "%d", CLUSTER_EVENTS_MAX);
+    const char *argv[] = {"XRANGE", key, start, "+", "COUNT", count, NULL};
+    redisReply *rep = redis_strs(c, argv);
+    if (redis_failed(c, rep) || rep->type != REDIS_REPLY_ARRAY) {
+        op->status = CS_DOWN;
+        if (rep) freeReplyObject(rep);
+        return;
+    }
+    for (size_t i = 0; i < rep->elements && op->nevents < CLUSTER_EVENTS_MAX; i++) {
+        const redisReply *e = rep->element[i];
+        if (e->type != REDIS_REPLY_ARRAY || e->elements < 2) continue;
+        struct cluster_event *ev = &op->events[op->nevents++];
+        memset(ev, 0, sizeof *ev);
+        snprintf(ev->cursor, sizeof ev->cursor, "%s", cluster_str(e->element[0]));
+        snprintf(ev->kind, sizeof ev->kind, "%s", cluster_str(redis_field(e->element[1], "kind")));
+        snprintf(ev->state, sizeof ev->state, "%s",
+                 cluster_str(redis_field(e->element[1], "state")));
+        ev->frame = (long)redis_ll(redis_field(e->element[1], "frame"), -1);
+        ev->tile = (long)redis_ll(redis_field(e->element[1], "tile"), -1);
+        ev->done = (long)redis_ll(redis_field(e->element[1], "done"), 0);
+        ev->total = (long)redis_ll(redis_field(e->element[1], "total"), 0);
+        const char *where = cluster_str(redis_field(e->element[1], "where"));
+        if (sscanf(where, "%d %d %d %d", &ev->reg.x, &ev->reg.y, &ev->reg.w, &ev->reg.h) != 4)
+            ev->reg = (struct rayd_region){0, 0, 0, 0};
+    }
+    freeReplyObject(rep);
+}
+
+void cluster_jobs_run(struct redis *c, struct cluster_op *op) {
+    op->status = CS_OK;
+    switch (op->kind) {
+    case CO_SUBMIT: cluster_submit_job(c, op); break;
+    case CO_GET: cluster_read(c, op->id, op, &op->info, &op->is_animated); break;
+    case CO_CANCEL: cluster_cancel(c, op); break;
+    case CO_IMAGE: cluster_image(c, op); break;
+    case CO_LIST: cluster_list(c, op); break;
+    case CO_EVENTS: cluster_events(c, op); break;
+    }
+}

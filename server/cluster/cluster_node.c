@@ -1,0 +1,564 @@
+/* cluster_node.c -- the puller: a node takes work items while it has room,
+ * renders them through its own work layer, and keeps what it holds alive.
+ *
+ * One thread with its own Redis connection.  Each turn it
+ *   - stores what finished: a tile's PNG (cluster_assemble.c), then XACK
+ *     and XDEL of its item; a render that failed fails its job (the error
+ *     JSON in the record), one cancelled by a drain is left to others;
+ *   - every --redis-claim-ms / 3: refreshes the items it holds (XCLAIM to
+ *     itself, JUSTID: their idle time restarts), writes its heartbeat in
+ *     rayd:nodes, takes over items idle for longer than claim-ms
+ *     (XAUTOCLAIM: a dead or stalled node's), and reads the cluster's
+ *     figures for /healthz and /metrics;
+ *   - while its items in flight are fewer than its workers, takes one
+ *     (XREADGROUP ... COUNT 1 BLOCK), so a busy node takes less.
+ * A tile item renders as any request does: compile_scene (or
+ * compile_scene_frame, a frame of an animated scene) on the parse threads,
+ * then sched_render of the tile's region as a PNG for the job's client, so
+ * the node's fair shares and budgets hold for cluster work too.  Those
+ * callbacks run on the work layer's threads and only mark the item and
+ * wake this thread: Redis is called from here alone.  An assembly item
+ * (tile -1) runs here, on this thread.
+ *
+ * Everything is idempotent (cluster_assemble.c), so an item is acked only
+ * after its result is stored, and an item whose result could not be
+ * stored (Redis went away) is simply forgotten here: its idle time grows
+ * and some node -- this one too -- takes it over later and renders the same
+ * bytes again.
+ */
+#include "cluster/cluster_private.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#define NODE_BLOCK_MS 100   /* XREADGROUP's wait for an item */
+#define NODE_RETRY_S 0.5    /* a render the node refused (queue full) is tried again after */
+#define NODE_FORGET_S 86400 /* a node not seen for this long leaves rayd:nodes */
+
+enum node_phase { NP_START, NP_BUSY, NP_DONE, NP_FAILED, NP_RETRY, NP_DROP };
+
+struct node_item {
+    char sid[48], job[33];
+    long frame, tile, ntiles;
+    bool animated;
+    enum node_phase phase; /* NP_BUSY items belong to the work layer's callbacks */
+    double retry_at;
+    char *body;
+    size_t len;
+    struct work_target what;
+    struct compile_waiter cw;
+    struct work_waiter ww;
+    struct blob *png;
+    struct rayd_error err;
+    double render_ms;
+    struct node_item *next;
+};
+
+static pthread_t node_thread;
+static bool node_running;
+static pthread_mutex_t node_mu = PTHREAD_MUTEX_INITIALIZER; /* the items' phases */
+static pthread_cond_t node_cond = PTHREAD_COND_INITIALIZER;
+static struct node_item *node_items; /* the puller's own list */
+static long node_count;
+
+/* ---- the work layer's callbacks (its threads) ---------------------------------- */
+
+static void node_mark(struct node_item *it, enum node_phase ph) {
+    pthread_mutex_lock(&node_mu);
+    it->phase = ph;
+    pthread_cond_signal(&node_cond);
+    pthread_mutex_unlock(&node_mu);
+}
+
+static void node_rendered(struct work_waiter *w, struct work_result *res) {
+    struct node_item *it = (struct node_item *)((char *)w - offsetof(struct node_item, ww));
+    it->render_ms = res->times.render_ms;
+    if (res->status == RAYD_OK && res->png) {
+        it->png = res->png;
+        node_mark(it, NP_DONE);
+    } else {
+        blob_unref(res->png);
+        it->err = res->err;
+        it->err.code = res->status;
+        bool lost =
+            res->gone || res->draining || res->status == RAYD_E_CANCELED || res->status == RAYD_OK;
+        node_mark(it, lost ? NP_DROP : NP_FAILED);
+    }
+}
+
+static void node_nothing(struct work_waiter *w) { (void)w; }
+static void node_nothing_c(struct compile_waiter *w) { (void)w; }
+
+/* The compiled scene: the tile's render queued (or its answer now). */
+static void node_compiled(struct node_item *it, struct compile_result *res) {
+    if (res->draining || res->memory_full) {
+        it->retry_at = clock_now() + NODE_RETRY_S;
+        node_mark(it, res->draining ? NP_DROP : NP_RETRY);
+        return;
+    }
+    if (res->status != RAYD_OK) {
+        it->err = res->err;
+        it->err.code = res->status;
+        node_mark(it, NP_FAILED);
+        return;
+    }
+    it->ww = (struct work_waiter){.done = node_rendered, .suspend = node_nothing, .fd = -1};
+    struct blob *png = NULL;
+    enum work_submit s = sched_render(res->scene, &it->what, &it->ww, &png);
+    scenes_release(res->scene);
+    if (s == WORK_OK) return; /* node_rendered will say */
+    if (s == WORK_CACHED) {
+        it->png = png;
+        node_mark(it, NP_DONE);
+    } else if (s == WORK_TOO_BIG) {
+        memset(&it->err, 0, sizeof it->err);
+        it->err.code = RAYD_E_LIMIT;
+        snprintf(it->err.message, sizeof it->err.message,
+                 "a tile of this job alone is over this node's --max-memory");
+        node_mark(it, NP_FAILED);
+    } else {
+        it->retry_at = clock_now() + NODE_RETRY_S;
+        node_mark(it, s == WORK_DRAINING ? NP_DROP : NP_RETRY);
+    }
+}
+
+static void node_compile_done(struct compile_waiter *w, struct compile_result *res) {
+    node_compiled((struct node_item *)((char *)w - offsetof(struct node_item, cw)), res);
+}
+
+/* Starts the item's render: it is NP_BUSY until a callback marks it. */
+static void node_render(struct node_item *it) {
+    struct compile_result res;
+    it->phase = NP_BUSY;
+    it->cw = (struct compile_waiter){.done = node_compile_done, .suspend = node_nothing_c};
+    enum work_submit s = it->animated
+                             ? compile_scene_frame(it->body, it->len, it->frame, &it->cw, &res)
+                             : compile_scene(it->body, it->len, &it->cw, &res);
+    if (s == WORK_OK) return;
+    if (s == WORK_CACHED) {
+        node_compiled(it, &res);
+        return;
+    }
+    it->retry_at = clock_now() + NODE_RETRY_S;
+    node_mark(it, s == WORK_DRAINING ? NP_DROP : NP_RETRY);
+}
+
+/* ---- Redis, on this thread ----------------------------------------------------- */
+
+/* XACK and XDEL of an item, both or neither (an item acked but left in
+ * the stream would count as queued for ever). */
+static void node_ack(struct redis *c, const char *sid) {
+    static const char script[] = "redis.call('XACK', KEYS[1], 'render', ARGV[1])\n"
+                                 "return redis.call('XDEL', KEYS[1], ARGV[1])\n";
+    const char *argv[] = {"EVAL", script, "1", cluster_stream, sid, NULL};
+    redisReply *rep = redis_strs(c, argv);
+    if (rep) freeReplyObject(rep);
+}
+
+static void node_free(struct node_item *it) {
+    blob_unref(it->png);
+    free(it->body);
+    free(it);
+}
+
+/* The job's record for a tile item: its geometry, client and scene.
+ * 1: render it; 0: the job ended or is gone (ack and drop); -1: Redis failed. */
+static int node_job(struct redis *c, struct node_item *it) {
+    char key[120];
+    cluster_key(key, sizeof key, it->job, "job");
+    const char *argv[] = {"HMGET", key, "state", "animated", "tiles",  "cols",  "tile_size",
+                          "x",     "y", "w",     "h",        "client", "scene", NULL};
+    redisReply *rep = redis_strs(c, argv);
+    if (redis_failed(c, rep) || rep->type != REDIS_REPLY_ARRAY || rep->elements != 11) {
+        if (rep) freeReplyObject(rep);
+        return -1;
+    }
+    redisReply **e = rep->element;
+    const char *st = e[0]->type == REDIS_REPLY_STRING ? e[0]->str : "";
+    /* animated tiles cols tile_size x y w h */
+    long v[8];
+    for (int i = 0; i < 8; i++) v[i] = (long)redis_ll(e[i + 1], -1);
+    long cols = v[2], size = v[3];
+    int rc = 0;
+    if ((!strcmp(st, "queued") || !strcmp(st, "running")) && e[10]->type == REDIS_REPLY_STRING &&
+        v[1] > 0 && cols > 0 && size > 0 && v[6] > 0 && v[7] > 0 && it->tile < v[1] &&
+        (it->body = malloc(e[10]->len + 1))) {
+        memcpy(it->body, e[10]->str, e[10]->len);
+        it->body[e[10]->len] = 0;
+        it->len = e[10]->len;
+        it->animated = v[0] == 1;
+        it->ntiles = v[1];
+        long tx = (it->tile % cols) * size, ty = (it->tile / cols) * size;
+        long w = v[6] - tx < size ? v[6] - tx : size, h = v[7] - ty < size ? v[7] - ty : size;
+        it->what = (struct work_target){
+            .reg = {(int)(v[4] + tx), (int)(v[5] + ty), (int)w, (int)h},
+            .format = WORK_PNG,
+            .client = strtoull(e[9]->type == REDIS_REPLY_STRING ? e[9]->str : "0", NULL, 10)};
+        rc = 1;
+    } else if (!strcmp(st, "queued") || !strcmp(st, "running")) {
+        log_warn("cluster: item %s of job %s: the job's record is malformed; dropped", it->sid,
+                 it->job);
+    }
+    freeReplyObject(rep);
+    return rc;
+}
+
+/* A new item from the stream entry e ([id, [field, value, ...]]), or NULL. */
+static struct node_item *node_item_new(const redisReply *e) {
+    if (!e || e->type != REDIS_REPLY_ARRAY || e->elements < 2) return NULL;
+    struct node_item *it = calloc(1, sizeof *it);
+    if (!it) return NULL;
+    const redisReply *job = redis_field(e->element[1], "job");
+    snprintf(it->sid, sizeof it->sid, "%s", e->element[0]->str ? e->element[0]->str : "");
+    snprintf(it->job, sizeof it->job, "%s", job && job->type == REDIS_REPLY_STRING ? job->str : "");
+    it->frame = (long)redis_ll(redis_field(e->element[1], "frame"), -1);
+    it->tile = (long)redis_ll(redis_field(e->element[1], "tile"), -2);
+    return it;
+}
+
+/* Whether the item with stream id sid is held here. */
+static bool node_holds(const char *sid) {
+    for (struct node_item *it = node_items; it; it = it->next)
+        if (!strcmp(it->sid, sid)) return true;
+    return false;
+}
+
+/* Starts what an item asks: an assembly here and now, a tile's render. */
+static void node_take(struct redis *c, struct node_item *it) {
+    if (!it->job[0] || it->frame < 0 || it->tile < -1) { /* not ours to read: dropped */
+        log_warn("cluster: item %s is malformed; dropped", it->sid);
+        node_ack(c, it->sid);
+        node_free(it);
+        return;
+    }
+    if (it->tile == -1) {
+        if (cluster_assemble(c, it->job, it->frame)) {
+            node_ack(c, it->sid);
+            atomic_fetch_add(&cluster_done_total, 1);
+        }
+        node_free(it);
+        return;
+    }
+    int rc = node_job(c, it);
+    if (rc <= 0) {
+        if (rc == 0) node_ack(c, it->sid); /* its job ended (cancelled, failed) or is gone */
+        node_free(it);
+        return;
+    }
+    it->next = node_items;
+    node_items = it;
+    node_count++;
+    node_render(it);
+}
+
+/* Items from an XREADGROUP or XAUTOCLAIM list of entries. */
+static void node_take_list(struct redis *c, const redisReply *list, bool reclaimed) {
+    if (!list || list->type != REDIS_REPLY_ARRAY) return;
+    for (size_t i = 0; i < list->elements; i++) {
+        const redisReply *e = list->element[i];
+        if (!e || e->type != REDIS_REPLY_ARRAY || e->elements < 2 ||
+            e->element[0]->type != REDIS_REPLY_STRING || node_holds(e->element[0]->str))
+            continue;
+        struct node_item *it = node_item_new(e);
+        if (!it) continue;
+        if (reclaimed) {
+            atomic_fetch_add(&cluster_reclaimed_total, 1);
+            log_info("cluster: took over item %s (job %s frame %ld tile %ld) from a node that "
+                     "stopped refreshing it",
+                     it->sid, it->job, it->frame, it->tile);
+        }
+        node_take(c, it);
+    }
+}
+
+static void node_group(struct redis *c) {
+    const char *argv[] = {"XGROUP", "CREATE", cluster_stream, "render", "0", "MKSTREAM", NULL};
+    redisReply *rep = redis_strs(c, argv);
+    if (rep) freeReplyObject(rep); /* BUSYGROUP: it exists */
+}
+
+/* One item from the stream, when there is room. */
+static void node_pull(struct redis *c) {
+    char block[16];
+    snprintf(block, sizeof block, "%d", NODE_BLOCK_MS);
+    const char *argv[] = {"XREADGROUP", "GROUP", "render",  cluster_node_id, "COUNT", "1",
+                          "BLOCK",      block,   "STREAMS", cluster_stream,  ">",     NULL};
+    redisReply *rep = redis_strs(c, argv);
+    if (rep && rep->type == REDIS_REPLY_ERROR && !strncmp(rep->str, "NOGROUP", 7)) {
+        node_group(c);
+    } else if (rep && !redis_failed(c, rep) && rep->type == REDIS_REPLY_ARRAY &&
+               rep->elements == 1) {
+        const redisReply *s = rep->element[0];
+        if (s->type == REDIS_REPLY_ARRAY && s->elements == 2)
+            node_take_list(c, s->element[1], false);
+    }
+    if (rep) freeReplyObject(rep);
+}
+
+/* Items idle past claim-ms (a dead or stalled node's), up to room. */
+static void node_reclaim(struct redis *c, long room) {
+    static char cursor[48] = "0-0";
+    char idle[24], count[24];
+    snprintf(idle, sizeof idle, "%ld", cluster_claim_ms());
+    snprintf(count, sizeof count, "%ld", room);
+    const char *argv[] = {"XAUTOCLAIM", cluster_stream, "render", cluster_node_id, idle, cursor,
+                          "COUNT",      count,          NULL};
+    redisReply *rep = redis_strs(c, argv);
+    if (rep && !redis_failed(c, rep) && rep->type == REDIS_REPLY_ARRAY && rep->elements >= 2) {
+        if (rep->element[0]->type == REDIS_REPLY_STRING)
+            snprintf(cursor, sizeof cursor, "%s", rep->element[0]->str);
+        node_take_list(c, rep->element[1], true);
+    }
+    if (rep) freeReplyObject(rep);
+}
+
+/* The items held here keep their claim (their idle time restarts). */
+static void node_refresh(struct redis *c) {
+    if (!node_count) return;
+    const char **argv = calloc((size_t)node_count + 8, sizeof *argv);
+    if (!argv) return;
+    int n = 0;
+    argv[n++] = "XCLAIM";
+    argv[n++] = cluster_stream;
+    argv[n++] = "render";
+    argv[n++] = cluster_node_id;
+    argv[n++] = "0";
+    for (struct node_item *it = node_items; it; it = it->next) argv[n++] = it->sid;
+    argv[n++] = "JUSTID";
+    redisReply *rep = redis_argv(c, n, argv, NULL);
+    if (rep) freeReplyObject(rep);
+    free(argv);
+}
+
+/* ---- what finished --------------------------------------------------------------- */
+
+/* The error JSON of a failed tile. */
+static void node_error_json(const struct node_item *it, char *buf, size_t n) {
+    char msg[300] = "", path[300] = "";
+    size_t j = 0;
+    for (const char *s = it->err.message; *s && j + 2 < sizeof msg; s++) {
+        if (*s == '"' || *s == '\\') msg[j++] = '\\';
+        msg[j++] = (char)((unsigned char)*s < 0x20 ? ' ' : *s);
+    }
+    msg[j] = 0;
+    j = 0;
+    for (const char *s = it->err.path; *s && j + 2 < sizeof path; s++) {
+        if (*s == '"' || *s == '\\') path[j++] = '\\';
+        path[j++] = (char)((unsigned char)*s < 0x20 ? ' ' : *s);
+    }
+    path[j] = 0;
+    snprintf(buf, n, "{\"code\":\"%s\",\"message\":\"frame %ld, tile %ld: %s\"%s%s%s}",
+             rayd_status_name(it->err.code), it->frame, it->tile, msg,
+             path[0] ? ",\"path\":\"" : "", path, path[0] ? "\"" : "");
+}
+
+/* The test knob of the kill -9 matrix: with --test-gate and
+ * RAYD_TEST_CLUSTER_STALL=1 the puller stops for good after it stored its
+ * first tile and before it acknowledged the item, so a test can kill the
+ * node there (its tile kept, its item still pending). */
+static void node_test_stall(void) {
+    const char *v = getenv("RAYD_TEST_CLUSTER_STALL");
+    if (config.test_gate_tiles < -1 || !v || strcmp(v, "1")) return;
+    log_warn("RAYD_TEST_CLUSTER_STALL: the puller stops after a tile's write, before its ack");
+    for (;;) pause();
+}
+
+/* Stores, fails or forgets each item that finished; true if any did. */
+static bool node_finish(struct redis *c) {
+    bool any = false;
+    double now = clock_now();
+    for (struct node_item **p = &node_items; *p;) {
+        struct node_item *it = *p;
+        pthread_mutex_lock(&node_mu);
+        enum node_phase ph = it->phase;
+        pthread_mutex_unlock(&node_mu);
+        if (ph == NP_RETRY && now >= it->retry_at && !atomic_load(&cluster_draining)) {
+            node_render(it);
+            p = &it->next;
+            continue;
+        }
+        if (ph != NP_DONE && ph != NP_FAILED && ph != NP_DROP) {
+            p = &it->next;
+            continue;
+        }
+        if (ph == NP_DONE && cluster_tile_store(c, it->job, it->frame, it->tile, it->ntiles,
+                                                &it->what.reg, it->png, it->render_ms)) {
+            node_test_stall();
+            node_ack(c, it->sid);
+            atomic_fetch_add(&cluster_done_total, 1);
+        } else if (ph == NP_FAILED) {
+            char err[800];
+            node_error_json(it, err, sizeof err);
+            log_warn("cluster: job %s failed: %s", it->job, err);
+            if (cluster_jobs_end(c, it->job, "failed", err)) node_ack(c, it->sid);
+        }
+        *p = it->next;
+        node_count--;
+        node_free(it);
+        any = true;
+    }
+    atomic_store(&cluster_node_in_flight, node_count);
+    return any;
+}
+
+/* ---- the figures ------------------------------------------------------------------ */
+
+/* Other versions' streams that still hold items, into v. */
+static void node_other_versions(struct redis *c, struct cluster_status_view *v) {
+    char cursor[32] = "0";
+    for (int round = 0; round < 20; round++) {
+        const char *argv[] = {"SCAN", cursor, "MATCH", "rayd:items:*", "COUNT", "1000", NULL};
+        redisReply *rep = redis_strs(c, argv);
+        if (redis_failed(c, rep) || rep->type != REDIS_REPLY_ARRAY || rep->elements != 2) {
+            if (rep) freeReplyObject(rep);
+            return;
+        }
+        snprintf(cursor, sizeof cursor, "%s", rep->element[0]->str ? rep->element[0]->str : "0");
+        const redisReply *keys = rep->element[1];
+        for (size_t i = 0; i < keys->elements && v->nother < 4; i++) {
+            const char *k = keys->element[i]->str;
+            if (!k || !strcmp(k, cluster_stream)) continue;
+            redisReply *n = redis_cmd(c, "XLEN %s", k);
+            long long len = redis_ll(n, 0);
+            if (n) freeReplyObject(n);
+            if (len > 0)
+                snprintf(v->other_versions[v->nother++], sizeof v->other_versions[0],
+                         "rayd %.30s: %lld items wait for nodes of that version",
+                         k + strlen("rayd:items:"), len);
+        }
+        freeReplyObject(rep);
+        if (!strcmp(cursor, "0")) return;
+    }
+}
+
+/* The live nodes of rayd:nodes (and this node's heartbeat written). */
+static long node_heartbeat(struct redis *c) {
+    char json[300];
+    long now = (long)(cluster_now_ms() / 1e3);
+    snprintf(json, sizeof json,
+             "{\"version\":\"%s\",\"seen\":%ld,\"workers\":%ld,\"in_flight\":%ld}",
+             cluster_version(), now, config.threads, node_count);
+    const char *argv[] = {"HSET", "rayd:nodes", cluster_node_id, json, NULL};
+    redisReply *rep = redis_strs(c, argv);
+    if (rep) freeReplyObject(rep);
+    rep = redis_cmd(c, "HGETALL rayd:nodes");
+    long live = 0;
+    for (size_t i = 1; rep && rep->type == REDIS_REPLY_ARRAY && i < rep->elements; i += 2) {
+        const char *s = rep->element[i]->str ? strstr(rep->element[i]->str, "\"seen\":") : NULL;
+        long seen = s ? strtol(s + 7, NULL, 10) : 0;
+        if ((double)(now - seen) * 1e3 <= 3.0 * (double)cluster_claim_ms() + 1e3)
+            live++;
+        else if (now - seen > NODE_FORGET_S && rep->element[i - 1]->str) { /* long gone */
+            const char *del[] = {"HDEL", "rayd:nodes", rep->element[i - 1]->str, NULL};
+            redisReply *d = redis_strs(c, del);
+            if (d) freeReplyObject(d);
+        }
+    }
+    if (rep) freeReplyObject(rep);
+    return live;
+}
+
+/* Refreshes the view /healthz and /metrics read. */
+static void node_figures(struct redis *c) {
+    struct cluster_status_view v;
+    memset(&v, 0, sizeof v);
+    snprintf(v.address, sizeof v.address, "%s", cluster_url.display);
+    v.nodes = node_heartbeat(c);
+    redisReply *len = redis_cmd(c, "XLEN %s", cluster_stream);
+    const char *argv[] = {"XPENDING", cluster_stream, "render", NULL};
+    redisReply *pend = redis_strs(c, argv);
+    long long n = redis_ll(len, 0), pending = 0;
+    if (pend && pend->type == REDIS_REPLY_ARRAY && pend->elements >= 1)
+        pending = redis_ll(pend->element[0], 0);
+    v.redis_up = len && len->type == REDIS_REPLY_INTEGER && redis_is_up(c);
+    if (len) freeReplyObject(len);
+    if (pend) freeReplyObject(pend);
+    v.in_flight = (long)pending;
+    v.queued = n > pending ? (long)(n - pending) : 0;
+    if (v.redis_up) node_other_versions(c, &v);
+    if (!v.redis_up)
+        snprintf(v.reason, sizeof v.reason, "%s", redis_why(c)[0] ? redis_why(c) : "no answer");
+    pthread_mutex_lock(&cluster_mu);
+    bool was_up = cluster_view_now.redis_up;
+    int had = cluster_view_now.nother;
+    cluster_view_now = v;
+    pthread_mutex_unlock(&cluster_mu);
+    if (was_up != v.redis_up)
+        log_info("cluster: Redis at %s is %s%s%s", v.address, v.redis_up ? "up" : "down",
+                 v.redis_up ? "" : ": ", v.reason);
+    for (int i = had; i < v.nother; i++)
+        log_warn("cluster: this node (rayd %s) takes no item of another version: %s",
+                 cluster_version(), v.other_versions[i]);
+}
+
+/* ---- the thread ------------------------------------------------------------------- */
+
+static void node_wait(double seconds) {
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    long ns = ts.tv_nsec + (long)(seconds * 1e9);
+    ts.tv_sec += ns / 1000000000L;
+    ts.tv_nsec = ns % 1000000000L;
+    pthread_mutex_lock(&node_mu);
+    pthread_cond_timedwait(&node_cond, &node_mu, &ts);
+    pthread_mutex_unlock(&node_mu);
+}
+
+static void *node_main(void *arg) {
+    (void)arg;
+    struct redis *c = redis_new(&cluster_url, 2.0);
+    double every = (double)cluster_claim_ms() / 3e3, last = -1e9;
+    if (every > 1.0) every = 1.0; /* the figures at least once a second */
+    bool group = false;
+    while (c && !atomic_load(&cluster_stopping)) {
+        if (!group && redis_is_up(c)) node_group(c), group = true;
+        if (!redis_is_up(c)) group = false;
+        bool any = node_finish(c);
+        double now = clock_now();
+        long room = config.threads - node_count;
+        if (now - last >= every) {
+            last = now;
+            node_refresh(c);
+            node_figures(c);
+            if (room > 0 && !atomic_load(&cluster_draining)) node_reclaim(c, room);
+            room = config.threads - node_count;
+        }
+        if (room > 0 && !atomic_load(&cluster_draining) && redis_is_up(c))
+            node_pull(c);
+        else if (!redis_is_up(c))
+            node_figures(c), node_wait(0.2);
+        else if (!any)
+            node_wait(0.05);
+    }
+    /* the renders still running answer into their items: wait for them */
+    for (int i = 0; i < 200 && node_count > 0; i++) {
+        node_finish(c);
+        if (node_count) node_wait(0.02);
+    }
+    if (c && redis_is_up(c)) { /* a clean stop: no longer counted */
+        const char *del[] = {"HDEL", "rayd:nodes", cluster_node_id, NULL};
+        redisReply *d = redis_strs(c, del);
+        if (d) freeReplyObject(d);
+    }
+    redis_free(c);
+    return NULL;
+}
+
+bool cluster_node_start(void) {
+    node_running = pthread_create(&node_thread, NULL, node_main, NULL) == 0;
+    return node_running;
+}
+
+void cluster_node_stop(void) {
+    if (!node_running) return;
+    atomic_store(&cluster_stopping, true);
+    pthread_mutex_lock(&node_mu);
+    pthread_cond_broadcast(&node_cond);
+    pthread_mutex_unlock(&node_mu);
+    pthread_join(node_thread, NULL);
+    node_running = false;
+}

@@ -1,0 +1,95 @@
+/* cluster_private.h -- what the cluster files share: the Redis connection
+ * (redis.c), the keys, the scripts and the counters.
+ *
+ * Layer: cluster, private.  Included only by the files of server/cluster/.
+ * May include: cluster.h, hiredis.
+ *
+ * Each thread owns its connection: the request thread one, the puller one;
+ * a connection is never shared, so redis.c has no lock.  The few values
+ * the threads share (the status view, the counters) are under cluster_mu
+ * or atomic.
+ */
+#ifndef RAYD_SERVER_CLUSTER_PRIVATE_H
+#define RAYD_SERVER_CLUSTER_PRIVATE_H
+
+#include "cluster/cluster.h"
+
+#include <hiredis/hiredis.h>
+#include <pthread.h>
+
+/* ---- redis.c: one connection, one command at a time, with a timeout ------- */
+
+struct redis_url {
+    char host[256];
+    int port;
+    char unix_path[256]; /* unix:/path: host is "" */
+    int db;
+    char password[256];
+    char display[300]; /* the address as logs and errors name it, no password */
+};
+/* url into *u (password from RAYD_REDIS_PASSWORD when the URL has none);
+ * false with why naming the wrong part. */
+bool redis_url_parse(const char *url, struct redis_url *u, char *why, size_t n);
+struct redis;
+struct redis *redis_new(const struct redis_url *u, double timeout_s);
+void redis_free(struct redis *c);
+/* Runs one command (connecting first when needed, with back-off after a
+ * failure).  NULL: no connection (redis_why says why); an error reply is
+ * returned as such (freeReplyObject it). */
+redisReply *redis_argv(struct redis *c, int argc, const char **argv, const size_t *lens);
+redisReply *redis_cmd(struct redis *c, const char *fmt, ...);
+/* redis_argv of strings (NULL-ended). */
+redisReply *redis_strs(struct redis *c, const char **argv);
+bool redis_is_up(const struct redis *c);
+const char *redis_why(const struct redis *c); /* the last failure, "" none */
+/* A reply of an error kind also counts as a failure: its text becomes
+ * redis_why and the connection is dropped when it may be broken. */
+bool redis_failed(struct redis *c, const redisReply *rep);
+/* A bulk string's value in a flat HGETALL-like array, or NULL. */
+const redisReply *redis_field(const redisReply *arr, const char *name);
+long long redis_ll(const redisReply *s, long long def); /* a string or integer reply */
+
+/* ---- cluster_state.c: the names, the clock, the counters, the view ---------- */
+
+extern struct redis_url cluster_url;
+extern char cluster_node_id[200];
+extern char cluster_stream[160]; /* rayd:items:VERSION */
+extern char cluster_ver[64];     /* the version items are made and taken for */
+extern atomic_bool cluster_stopping, cluster_draining;
+extern atomic_long cluster_done_total, cluster_reclaimed_total, cluster_node_in_flight;
+extern pthread_mutex_t cluster_mu; /* the view */
+extern struct cluster_status_view cluster_view_now;
+long cluster_claim_ms(void);
+double cluster_now_ms(void); /* wall clock, ms since the epoch */
+/* The key rayd:{ID}:what into buf. */
+void cluster_key(char *buf, size_t n, const char *id, const char *what);
+
+/* ---- cluster_jobs.c: the records (the request thread) ------------------------- */
+
+/* The Lua function rayd_end(id, state, now_ms, ttl_s, error_json): a job
+ * still queued or running ends (its event written, its tiles deleted, its
+ * keys set to expire); 1 when it ended now, 0 when it had ended, -2 no
+ * such job.  Scripts that may end a job start with it. */
+extern const char cluster_lua_end[];
+
+void cluster_jobs_run(struct redis *c, struct cluster_op *op);
+/* Sets the job's end state (with error JSON, or NULL) if it is still
+ * queued or running, its keys to expire after --job-ttl; the puller's too. */
+bool cluster_jobs_end(struct redis *c, const char *id, const char *state, const char *error);
+
+/* ---- cluster_assemble.c: tiles in, frames out (the puller) ------------------- */
+
+/* Tile `tile` of frame k of job id done (png): kept, and the frame's
+ * assembly queued by whoever completes it.  false: Redis failed. */
+bool cluster_tile_store(struct redis *c, const char *id, long k, long tile, long ntiles,
+                        const struct rayd_region *reg, const struct blob *png, double render_ms);
+/* The frame assembled from its tiles and stored (or, a tile missing or
+ * corrupt, that tile queued again).  false: Redis failed (the item stays). */
+bool cluster_assemble(struct redis *c, const char *id, long k);
+
+/* ---- cluster_node.c: the puller ------------------------------------------------ */
+
+bool cluster_node_start(void);
+void cluster_node_stop(void);
+
+#endif

@@ -1,0 +1,166 @@
+#!/usr/bin/env bash
+# cluster_faults.sh -- rayd --redis when things break: a node killed while
+# it holds items, Redis killed and started again on its AOF, a node of
+# another version, tiles missing or corrupt in Redis.
+#
+# A real redis-server on a free loopback port (lib/redis.sh, an AOF written
+# at every command) and rayd nodes with --redis-claim-ms 1500 and the test
+# gate (--test-gate 0: a node takes items up to its workers and holds them,
+# unrendered, until POST /v1/test/gate lets tiles start), so each fault
+# hits work in flight on any machine, with no sleep deciding it.  Each job's
+# image must still be byte for byte rayd-render's.  Every process is
+# stopped by its PID.
+# rayd-test: long (a kill -9 of a node, of Redis and a stalled Redis, each waited out)
+source "$(dirname "$0")/lib/common.sh"
+source "$(dirname "$0")/lib/redis.sh"
+
+SCENE=$RAYD_ROOT/scenes/spheres.json
+JSON=(-H 'Content-Type: application/json')
+"$RENDER" "$SCENE" -o "$T/ref.png" 2>/dev/null || { echo "FAIL setup: rayd-render"; exit 1; }
+VERSION=$("$RAYD" --version | awk '{print $2}')
+
+gate_node() { curl -s -m 30 -X POST -o /dev/null "${NODE_URL[$1]}/v1/test/gate?tiles=$2"; }
+post_job() { # NODE: the new job's id
+    curl -s -m 30 "${JSON[@]}" --data-binary @"$SCENE" "${NODE_URL[$1]}/v1/jobs" |
+        python3 -c 'import json,sys; print(json.load(sys.stdin).get("id", ""))'
+}
+succeeded() { [ "$(job_state "${NODE_URL[$1]}" "$2")" = succeeded ]; }
+same_image() { # NODE ID NAME
+    curl -s -m 30 -o "$T/$3.png" "${NODE_URL[$1]}/v1/jobs/$2/image.png"
+    cmp -s "$T/$3.png" "$T/ref.png"
+}
+holds() { [ "$(metric "$1" rayd_cluster_node_items_in_flight)" -ge "$2" ]; }
+NODE_ARGS=(--threads 2 --cluster-tile 64 --redis-claim-ms 1500 --test-gate 0)
+
+start_redis
+for i in 1 2 3; do start_node $i "${NODE_ARGS[@]}" --redis "$REDIS_URL"; done
+
+# --- kill -9 a node while it holds items ----------------------------------------------------
+ID=$(post_job 1)
+wait_until 30 holds 1 2
+check node_holds_items "node 1 holds $(metric 1 rayd_cluster_node_items_in_flight) items" holds 1 2
+kill -KILL "${NODE_PID[1]}"
+wait "${NODE_PID[1]}" 2>/dev/null
+for i in 2 3; do gate_node $i open; done
+wait_until 50 succeeded 2 "$ID"
+check killed_node_job_finishes "state: $(job_state "${NODE_URL[2]}" "$ID")" succeeded 2 "$ID"
+check killed_node_byte_identical "the image differs from rayd-render's" same_image 3 "$ID" kill
+rec=$(($(metric 2 rayd_cluster_items_reclaimed_total) + $(metric 3 rayd_cluster_items_reclaimed_total)))
+check reclaimed_counted "rayd_cluster_items_reclaimed_total of nodes 2 and 3: $rec" [ "$rec" -ge 2 ]
+check reclaim_logged "no take-over in the logs" grep -q "took over item" "$T/node2.err" "$T/node3.err"
+
+# --- kill -9 a node between a tile's write and its ack: the duplicate changes nothing ------------
+for i in 2 3; do gate_node $i 0; done
+RAYD_TEST_CLUSTER_STALL=1 start_node 8 "${NODE_ARGS[@]}" --redis "$REDIS_URL"
+WID=$(post_job 8)
+gate_node 8 1
+wait_until 30 grep -q "RAYD_TEST_CLUSTER_STALL: the puller stops" "$T/node8.err"
+kill -KILL "${NODE_PID[8]}"
+wait "${NODE_PID[8]}" 2>/dev/null
+for i in 2 3; do gate_node $i open; done
+wait_until 50 succeeded 2 "$WID"
+check killed_in_write_job_finishes "state: $(job_state "${NODE_URL[2]}" "$WID")" succeeded 2 "$WID"
+check killed_in_write_byte_identical "the image differs from rayd-render's" same_image 3 "$WID" write
+check killed_in_write_counted_once "$(curl -s "${NODE_URL[3]}/v1/jobs/$WID" | head -c 200)" bash -c "curl -s '${NODE_URL[3]}/v1/jobs/$WID' | grep -q '\"tiles_done\":80,\"tiles_total\":80'"
+
+# --- Redis down, then back on its AOF -----------------------------------------------------------
+for i in 2 3; do gate_node $i 0; done
+ID2=$(post_job 2)
+wait_until 30 bash -c "[ \$(curl -s '${NODE_URL[2]}/metrics' | awk '\$1 == \"rayd_cluster_node_items_in_flight\" {print \$2}') -ge 1 ]"
+stop_redis
+code=$(curl -s -D "$T/down.h" -o "$T/down.json" -w '%{http_code}' "${NODE_URL[3]}/v1/jobs/$ID2")
+check redis_down_503 "GET gave $code: $(head -c 300 "$T/down.json")" bash -c "[ $code = 503 ] &&
+    grep -q '\"code\":\"cluster_unavailable\"' '$T/down.json' && grep -q '127.0.0.1:$REDIS_PORT' '$T/down.json' &&
+    grep -qi '^Retry-After: [0-9]' '$T/down.h'"
+for route in "POST /v1/jobs" "GET /v1/jobs" "DELETE /v1/jobs/$ID2" "GET /v1/jobs/$ID2/image.png" "GET /v1/jobs/$ID2/events"; do
+    code=$(curl -s -o /dev/null -w '%{http_code}' -X "${route%% *}" "${JSON[@]}" --data-binary @"$SCENE" "${NODE_URL[2]}${route#* }")
+    [ "$code" = 503 ] || fail "redis_down_${route// /_}" "gave $code"
+done
+pass redis_down_every_job_route_503
+gate_node 3 open
+code=$(curl -s -o "$T/render.png" -w '%{http_code}' "${JSON[@]}" --data-binary @"$SCENE" "${NODE_URL[3]}/v1/render")
+check redis_down_render_200 "POST /v1/render gave $code" bash -c "[ $code = 200 ] && cmp -s '$T/render.png' '$T/ref.png'"
+wait_until 10 bash -c "curl -s '${NODE_URL[2]}/healthz' | grep -q '\"redis\":\"down\"'"
+check redis_down_healthz "$(curl -s "${NODE_URL[2]}/healthz")" bash -c "curl -s '${NODE_URL[2]}/healthz' | grep -q '\"redis\":\"down\"'"
+"$RAYD_BUILD/rayd-client" health --server "${NODE_URL[2]}" >"$T/health.out" 2>&1
+rc=$?
+check redis_down_client_health "exit $rc: $(cat "$T/health.out")" bash -c "[ $rc = 1 ] && grep -q 'cluster: redis DOWN at 127.0.0.1:$REDIS_PORT' '$T/health.out'"
+check redis_down_metric "rayd_cluster_redis_up $(metric 2 rayd_cluster_redis_up)" [ "$(metric 2 rayd_cluster_redis_up)" = 0 ]
+restart_redis
+gate_node 2 open
+wait_until 50 succeeded 3 "$ID2"
+check redis_back_job_finishes "state: $(job_state "${NODE_URL[3]}" "$ID2")" succeeded 3 "$ID2"
+check redis_back_byte_identical "the image differs from rayd-render's" same_image 2 "$ID2" back
+check redis_back_up_metric "rayd_cluster_redis_up $(metric 3 rayd_cluster_redis_up)" [ "$(metric 3 rayd_cluster_redis_up)" = 1 ]
+
+# --- Redis that stops answering (SIGSTOP): a timeout, never a hang -------------------------------
+kill -STOP "$REDIS_PID"
+code=$(curl -s -m 20 -o "$T/stall.json" -w '%{http_code}' "${NODE_URL[3]}/v1/jobs/$ID2")
+check redis_stalled_503 "GET gave $code: $(head -c 300 "$T/stall.json")" bash -c "[ $code = 503 ] && grep -q cluster_unavailable '$T/stall.json'"
+code=$(curl -s -m 20 -o /dev/null -w '%{http_code}' "${NODE_URL[3]}/healthz")
+check redis_stalled_healthz "/healthz gave $code" [ "$code" = 200 ]
+kill -CONT "$REDIS_PID"
+wait_until 20 succeeded 2 "$ID2"
+check redis_resumed "state after SIGCONT: $(job_state "${NODE_URL[2]}" "$ID2")" succeeded 2 "$ID2"
+
+# --- a node of another version ------------------------------------------------------------------
+RAYD_TEST_VERSION=9.9.9-test start_node 4 "${NODE_ARGS[@]}" --redis "$REDIS_URL"
+OID=$(post_job 4)
+wait_until 30 holds 4 2
+wait_until 10 bash -c "curl -s '${NODE_URL[2]}/healthz' | grep -q '9.9.9-test'"
+check other_version_healthz "$(curl -s "${NODE_URL[2]}/healthz")" bash -c "curl -s '${NODE_URL[2]}/healthz' | grep -q 'rayd 9.9.9-test: [0-9]* items wait for nodes of that version'"
+check other_version_logged "node 2's log does not say it" grep -q "takes no item of another version: rayd 9.9.9-test" "$T/node2.err"
+consumers=$(rcli xinfo consumers rayd:items:9.9.9-test render | awk 'NR % 6 == 2' | tr '\n' ' ')
+check other_version_not_taken "consumers of the 9.9.9-test items: $consumers" [ "$(echo $consumers | wc -w)" = 1 ]
+check other_version_own_stream "items of 9.9.9-test: $(rcli xlen rayd:items:9.9.9-test)" [ "$(rcli xlen rayd:items:9.9.9-test)" -gt 2 ]
+check other_version_job_waits "state: $(job_state "${NODE_URL[3]}" "$OID")" [ "$(job_state "${NODE_URL[3]}" "$OID")" = queued ]
+# an event stream of that waiting job, closed by its client: the node lets go of it
+curl -s -N -m 1 "${NODE_URL[2]}/v1/jobs/$OID/events" >"$T/oid_events.txt"
+check events_of_waiting_job "$(head -c 200 "$T/oid_events.txt")" grep -q '"state":"queued"' "$T/oid_events.txt"
+# ... and a keep-alive once it has been silent for 15 s (the gate's clock jumps 20 s)
+curl -s -N -m 4 "${NODE_URL[3]}/v1/jobs/$OID/events" >"$T/oid_ping.txt" &
+ping_curl=$!
+wait_until 10 grep -q '"state":"queued"' "$T/oid_ping.txt"
+curl -s -m 10 -X POST -o /dev/null "${NODE_URL[3]}/v1/test/gate?clock=20"
+wait "$ping_curl"
+check events_keep_alive "$(tail -c 200 "$T/oid_ping.txt")" grep -q '^: keep-alive$' "$T/oid_ping.txt"
+unsuspended() { [ "$(metric 2 rayd_http_suspended)" = 0 ]; }
+wait_until 10 unsuspended
+check events_client_gone "node 2 still holds $(metric 2 rayd_http_suspended) suspended connections" unsuspended
+kill -KILL "${NODE_PID[4]}"
+
+# --- tiles missing or corrupt in Redis ---------------------------------------------------------
+RAYD_TEST_CLUSTER_TILE=corrupt start_node 5 "${NODE_ARGS[@]}" --redis "$REDIS_URL"
+RAYD_TEST_CLUSTER_TILE=missing start_node 6 "${NODE_ARGS[@]}" --redis "$REDIS_URL"
+for i in 2 3; do gate_node $i 0; done
+BID=$(post_job 5)
+both_hold() { holds 5 1 && holds 6 1; }
+wait_until 30 both_hold
+for i in 2 3 5 6; do gate_node $i open; done
+wait_until 50 succeeded 5 "$BID"
+check bad_tiles_job_finishes "state: $(job_state "${NODE_URL[5]}" "$BID")" succeeded 5 "$BID"
+check bad_tiles_byte_identical "the image differs from rayd-render's" same_image 6 "$BID" bad
+check bad_tiles_rerendered "no re-render in the logs" bash -c "cat '$T'/node*.err | grep -q 'missing or corrupt in Redis'"
+
+# --- a tile that fails on the node that took it: the job fails, saying where -------------------
+for i in 2 3 5 6; do gate_node $i 0; done
+start_node 7 --threads 1 --cluster-tile 64 --redis-claim-ms 1500 --max-work 1000 --redis "$REDIS_URL"
+FID=$(post_job 2) # node 7 itself would refuse it at the door (413 over_budget)
+wait_until 30 bash -c "curl -s '${NODE_URL[2]}/v1/jobs/$FID' | grep -q '\"state\":\"failed\"'"
+curl -s "${NODE_URL[3]}/v1/jobs/$FID" >"$T/failed.json"
+check failed_job_error "$(head -c 400 "$T/failed.json")" python3 -c '
+import json, sys
+d = json.load(open(sys.argv[1]))
+e = d.get("error", {})
+sys.exit(0 if d["state"] == "failed" and e.get("code") == "too_large" and "tile" in e.get("message", "") else 1)' "$T/failed.json"
+code=$(curl -s -o "$T/failed_img.json" -w '%{http_code}' "${NODE_URL[2]}/v1/jobs/$FID/image.png")
+check failed_job_image_409 "image.png gave $code: $(head -c 200 "$T/failed_img.json")" bash -c "[ $code = 409 ] && grep -q job_failed '$T/failed_img.json'"
+for i in 2 3 5 6; do gate_node $i open; done
+wait_until 50 bash -c "[ \$(curl -s '${NODE_URL[2]}/metrics' | awk '\$1 == \"rayd_cluster_items_queued\" {print \$2}') = 0 ]"
+check failed_job_items_dropped "items queued: $(metric 2 rayd_cluster_items_queued)" [ "$(metric 2 rayd_cluster_items_queued)" = 0 ]
+
+for i in 2 3 5 6 7; do
+    kill -0 "${NODE_PID[$i]}" 2>/dev/null || fail "node_${i}_alive" "node $i died: $(tail -n 3 "$T/node$i.err")"
+done
+pass nodes_alive
+[ "$NFAIL" = 0 ]
