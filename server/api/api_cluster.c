@@ -124,6 +124,7 @@ static void api_cluster_accepted(struct api_cluster *a) {
                                 .region = op->reg,
                                 .priority = op->priority,
                                 .est_rays = op->est_rays,
+                                .denoise = op->denoise,
                                 .ended_age = -1,
                                 .tiles_total = 0,
                                 .created_wall = op->created_ms / 1e3};
@@ -144,6 +145,7 @@ static void api_cluster_accepted(struct api_cluster *a) {
         cJSON_AddStringToObject(o, "image_url", url);
         api_jobs_url(url, sizeof url, op->id, "/events");
         cJSON_AddStringToObject(o, "events_url", url);
+        if (op->denoise) cJSON_AddTrueToObject(o, "denoise");
         api_jobs_add_estimate(o, &a->price);
         api_jobs_reply_accepted(a->r, o, op->id, a->unlit, &a->price);
         return;
@@ -204,6 +206,8 @@ bool api_cluster_submit(struct http_req *r, struct cache_entry *e, const struct 
     op->priority = priority;
     op->client = what->client;
     op->animated = animated;
+    op->denoise = what->denoise;
+    op->aov = what->aov;
     op->est_rays = a->price.rays;
     return api_cluster_go(a);
 }

@@ -77,6 +77,8 @@ struct cluster_op {
     uint64_t client;
     long first, last; /* frames; a still: 0, 0 and animated false */
     bool animated;
+    bool denoise; /* each tile rendered denoised (with its apron): crops of the denoised frame */
+    unsigned aov; /* the one AOV the PNG shows instead of the light (enum rayd_aov bits), or 0 */
     double fps, est_rays;
     /* CO_LIST */
     long long after; /* the cursor (a creation time in ms), 0: from the newest */

@@ -63,7 +63,7 @@ static const char *const cluster_fields[] = {
     "state", "created", "started",  "ended",      "client",      "priority", "scene_id",
     "x",     "y",       "w",        "h",          "first",       "last",     "animated",
     "tiles", "fps",     "est_rays", "tiles_done", "frames_done", "rays",     "render_ms",
-    "error", "latest",  "version",  NULL};
+    "error", "latest",  "version",  "denoise",    NULL};
 enum {
     F_STATE,
     F_CREATED,
@@ -89,6 +89,7 @@ enum {
     F_ERROR,
     F_LATEST,
     F_VERSION,
+    F_DENOISE,
     F__COUNT
 };
 
@@ -156,6 +157,7 @@ static void cluster_submit_job(struct redis *c, struct cluster_op *op) {
     snprintf(v[11], 40, "%ld", n);
     snprintf(v[12], 40, "%.17g", op->fps);
     snprintf(v[13], 40, "%.0f", op->est_rays);
+    snprintf(v[14], 40, "%u", op->aov);
     cluster_key(keys[0], sizeof keys[0], op->id, "job");
     cluster_key(keys[2], sizeof keys[2], op->id, "events");
     const char *argv[] = {"EVAL",        cluster_lua_submit,
@@ -186,6 +188,8 @@ static void cluster_submit_job(struct redis *c, struct cluster_op *op) {
                           "tile_size",   v[11],
                           "fps",         v[12],
                           "est_rays",    v[13],
+                          "denoise",     op->denoise ? "1" : "0",
+                          "aov",         v[14],
                           "tiles_done",  "0",
                           "frames_done", "0",
                           "rays",        "0",
@@ -255,6 +259,7 @@ static void cluster_fill(const char *id, redisReply **v, struct shots_info *out,
     j->rays = (uint64_t)cluster_num(v[F_RAYS]);
     j->est_rays = cluster_num(v[F_EST_RAYS]);
     j->priority = (int)cluster_num(v[F_PRIORITY]);
+    j->denoise = !strcmp(cluster_str(v[F_DENOISE]), "1");
     j->ended_age = ended > 0 ? (now - ended) / 1e3 : -1;
     if (j->state == JS_FAILED) cluster_error_read(cluster_str(v[F_ERROR]), &j->err);
     long first = (long)cluster_num(v[F_FIRST]), last = (long)cluster_num(v[F_LAST]);

@@ -170,10 +170,10 @@ static void node_free(struct node_item *it) {
 static int node_job(struct redis *c, struct node_item *it) {
     char key[120];
     cluster_key(key, sizeof key, it->job, "job");
-    const char *argv[] = {"HMGET", key, "state", "animated", "tiles",  "cols",  "tile_size",
-                          "x",     "y", "w",     "h",        "client", "scene", NULL};
+    const char *argv[] = {"HMGET", key, "state", "animated", "tiles",   "cols",
+                          "tile_size", "x", "y", "w", "h", "client", "scene", "denoise", "aov", NULL};
     redisReply *rep = redis_strs(c, argv);
-    if (redis_failed(c, rep) || rep->type != REDIS_REPLY_ARRAY || rep->elements != 11) {
+    if (redis_failed(c, rep) || rep->type != REDIS_REPLY_ARRAY || rep->elements != 13) {
         if (rep) freeReplyObject(rep);
         return -1;
     }
@@ -197,6 +197,8 @@ static int node_job(struct redis *c, struct node_item *it) {
         it->what = (struct work_target){
             .reg = {(int)(v[4] + tx), (int)(v[5] + ty), (int)w, (int)h},
             .format = WORK_PNG,
+            .aov = (unsigned)redis_ll(e[12], 0),
+            .denoise = redis_ll(e[11], 0) == 1, /* a record made before: raw */
             .client = strtoull(e[9]->type == REDIS_REPLY_STRING ? e[9]->str : "0", NULL, 10)};
         rc = 1;
     } else if (!strcmp(st, "queued") || !strcmp(st, "running")) {

@@ -188,6 +188,19 @@ RAYD_REDIS_PASSWORD=s3cret start_node 5 --threads 1 --redis "$REDIS_URL"
 check password_from_env "node 5 (RAYD_REDIS_PASSWORD): $(job_state "${NODE_URL[5]}" "$ID")" [ "$(job_state "${NODE_URL[5]}" "$ID")" = succeeded ]
 check no_password_in_ps "the password shows in ps" bash -c "! ps -o args= -p ${NODE_PID[5]} | grep -q s3cret"
 
+# --- a denoised job and an AOV job: tiles rendered with the filter's apron ----------------
+# join into the bytes a single node's render of the region gives
+REG='x=32&y=16&w=128&h=96'
+for q in denoise=1 aov=normal; do
+    code=$(curl -s -o "$T/dn.json" -w '%{http_code}' "${JSON[@]}" --data-binary @"$SCENE" "${NODE_URL[1]}/v1/jobs?$REG&$q")
+    DID=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["id"])' "$T/dn.json" 2>/dev/null)
+    wait_until 120 bash -c "curl -s '${NODE_URL[2]}/v1/jobs/$DID' | grep -q '\"state\":\"succeeded\"'"
+    curl -s -o "$T/dn.png" "${NODE_URL[3]}/v1/jobs/$DID/image.png"
+    curl -s -o "$T/dn_ref.png" "${JSON[@]}" --data-binary @"$SCENE" "${NODE_URL[2]}/v1/render?$REG&$q"
+    check "job_${q%%=*}_byte_identical" "POST gave $code ($(head -c 200 "$T/dn.json")); the job's PNG differs from POST /v1/render?$REG&$q" \
+        bash -c "[ $code = 202 ] && head -c 4 '$T/dn.png' | grep -q PNG && cmp -s '$T/dn.png' '$T/dn_ref.png'"
+done
+
 # --- SIGTERM: a node drains and leaves the cluster's list of nodes -----------------------------
 kill -TERM "${NODE_PID[3]}"
 wait "${NODE_PID[3]}"
