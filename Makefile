@@ -220,6 +220,13 @@ VEC_OBJ := core/render/integrate_wide.o core/geom/camera.o core/codec/png_encode
 $(VEC_OBJ:%=$(BUILD)/%) $(VEC_OBJ:%=$(BUILD)/pic/%): CFLAGS_VEC := -ftree-vectorize \
     -fvect-cost-model=dynamic
 
+# The denoiser's tap loop (render/denoise.c) too, and with -fno-trapping-math:
+# GCC turns its selects into branches and may not make them selects again
+# while a comparison could trap.  It changes no value (no reassociation,
+# no contraction): the same bytes with or without it, vectorised or not.
+$(BUILD)/core/render/denoise.o $(BUILD)/pic/core/render/denoise.o: CFLAGS_VEC := -ftree-vectorize \
+    -fvect-cost-model=dynamic -fno-trapping-math
+
 $(BUILD)/core/codec/exr.o $(BUILD)/pic/core/codec/exr.o $(BUILD)/core/codec/exr_read.o $(BUILD)/pic/core/codec/exr_read.o: CFLAGS_VEC = $(EXR_CFLAGS)
 
 $(BUILD)/librayd.a: $(CORE_OBJ)

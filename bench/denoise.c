@@ -3,10 +3,12 @@
  *     build/bench/denoise SCENE.json REF_SAMPLES NAME
  *
  * Renders SCENE (at its own size) with REF_SAMPLES samples as the
- * reference, then with N = 4, 16, 64 and 256 samples, and prints a
- * markdown table of each image's distance to the reference: RMSE of the
- * displayed values (sRGB, 0..1, the 8-bit PNG's curve before rounding)
- * and SSIM (of their luminance, 8x8 windows every 4 pixels), for
+ * reference (the last samples a pixel may have, so its noise is
+ * independent of the others'), then samples 0..N-1 for N = 4, 16, 64 and
+ * 256, and prints a markdown table of each image's distance to the
+ * reference: RMSE of the displayed values (sRGB, 0..1, the 8-bit PNG's
+ * curve before rounding) and SSIM (of their luminance, 8x8 windows every
+ * 4 pixels), for
  *
  *   raw       the plain render of N samples;
  *   rayd      rayd's denoiser (core/render/denoise.c, its defaults);
@@ -16,13 +18,16 @@
  *   bilateral a joint bilateral filter (11x11, spatial sigma 3, guided by
  *             albedo, normal and colour), written here alone, as a baseline.
  *
- * and the sample-count equivalence: the raw errors are fitted by
- * rmse^2 = a / N + b (b: the reference's own noise), and a denoised image
- * of error e matches a raw render of a / (e^2 - b) samples.  Then the
- * filter's time per megapixel on 1 and 2 threads.  The reference is
- * rendered by the same renderer; its own noise is in b.
+ * and the sample-count equivalence: the raw sample count of the same RMSE,
+ * log-log between the raw points (past 256, the 1 / N law).  Then the
+ * filter's time per megapixel on 1 and 2 threads, the median of
+ * DENOISE_RUNS runs (default 5).  DENOISE_CACHE=DIR keeps the renders
+ * (keyed by the scene's text and the samples; clear it when the renderer
+ * changes); DENOISE_SWEEP=1 adds the parameter sweep at 16 samples.
  */
 #include <math.h>
+#include <stdbool.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -39,12 +44,12 @@ static double now(void) {
     return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
 }
 
-static rayd_accum *render(const rayd_scene *s, int n) {
+static rayd_accum *render(const rayd_scene *s, int k0, int n) {
     rayd_accum *a = NULL;
     struct rayd_error err = {0};
     struct rayd_render_opts o = {.threads = 2};
     if (rayd_accum_new(s, NULL, &a, &err) != RAYD_OK || rayd_accum_aov_enable(a, &err) != RAYD_OK ||
-        rayd_render_sample_range(s, &o, a, 0, n, &err) != RAYD_OK) {
+        rayd_render_sample_range(s, &o, a, k0, k0 + n, &err) != RAYD_OK) {
         fprintf(stderr, "denoise: %s\n", err.message);
         exit(1);
     }
@@ -72,6 +77,67 @@ static struct denoise_px *inputs(const rayd_accum *a) {
         in[i].var = (float)(n > 1 ? fmax(v, 0) : -1);
     }
     return in;
+}
+
+/* One render of n samples as the bench uses it: the raw image and the
+ * filter's input. */
+struct shot {
+    int w, h;
+    float *raw;
+    struct denoise_px *in;
+};
+
+/* DENOISE_CACHE=DIR keeps each render in DIR, keyed by the scene's text
+ * and n, so that a change of the filter is measured again in seconds
+ * (the renders are the same bytes: the same seed, the same sums). */
+static char *cache_path(const char *text, size_t len, int k0, int n) {
+    const char *dir = getenv("DENOISE_CACHE");
+    if (!dir || !*dir) return NULL;
+    uint64_t hsh = 1469598103934665603u;
+    for (size_t i = 0; i < len; i++) hsh = (hsh ^ (unsigned char)text[i]) * 1099511628211u;
+    char *p = malloc(strlen(dir) + 64);
+    sprintf(p, "%s/%016llx-%d-%d.bin", dir, (unsigned long long)hsh, k0, n);
+    return p;
+}
+
+static bool shot_load(const char *path, struct shot *sh) {
+    FILE *f = path ? fopen(path, "rb") : NULL;
+    bool ok = f && fread(&sh->w, sizeof sh->w, 1, f) == 1 && fread(&sh->h, sizeof sh->h, 1, f) == 1;
+    size_t px = ok ? (size_t)sh->w * (size_t)sh->h : 0;
+    if (ok) {
+        sh->raw = malloc(px * 3 * sizeof *sh->raw);
+        sh->in = malloc(px * sizeof *sh->in);
+        ok = fread(sh->raw, sizeof *sh->raw, px * 3, f) == px * 3 &&
+             fread(sh->in, sizeof *sh->in, px, f) == px;
+    }
+    if (f) fclose(f);
+    return ok;
+}
+
+static void shot_save(const char *path, const struct shot *sh) {
+    FILE *f = path ? fopen(path, "wb") : NULL;
+    if (!f) return;
+    size_t px = (size_t)sh->w * (size_t)sh->h;
+    fwrite(&sh->w, sizeof sh->w, 1, f);
+    fwrite(&sh->h, sizeof sh->h, 1, f);
+    fwrite(sh->raw, sizeof *sh->raw, px * 3, f);
+    fwrite(sh->in, sizeof *sh->in, px, f);
+    fclose(f);
+}
+
+static struct shot shoot(const rayd_scene *s, const char *text, size_t len, int k0, int n) {
+    struct shot sh = {0};
+    char *path = cache_path(text, len, k0, n);
+    if (!shot_load(path, &sh)) {
+        rayd_accum *a = render(s, k0, n);
+        sh.w = a->r.w, sh.h = a->r.h;
+        rayd_accum_linear(a, &sh.raw, NULL);
+        sh.in = inputs(a);
+        rayd_accum_free(a);
+        shot_save(path, &sh);
+    }
+    free(path);
+    return sh;
 }
 
 /* The joint bilateral baseline. */
@@ -150,12 +216,6 @@ static struct score score(const float *img, const float *ref, int w, int h) {
     return (struct score){sqrt(se / (double)(px * 3)), windows ? ssim / windows : 0};
 }
 
-static float *raw_of(const rayd_accum *a) {
-    float *f = NULL;
-    rayd_accum_linear(a, &f, NULL);
-    return f;
-}
-
 /* The raw sample count whose RMSE^2 is e2: log-log interpolation between
  * the raw points, past the last one the 1 / N law (the reference's own
  * noise ignored, so an upper bound). */
@@ -169,23 +229,79 @@ static double equivalent(const int *ns, const double *raw2, double e2) {
     return ns[3] * raw2[3] / e2;
 }
 
-/* DENOISE_SWEEP=1: the 16-sample RMSE over a grid of the parameters (how
- * denoise_defaults was chosen). */
-static void sweep(const struct denoise_px *in, int w, int h, const float *ref, float *out) {
-    static const float sl[] = {2, 4, 8, 16}, fk[] = {2, 3, 5, 1000}, sz[] = {0.02f, 0.05f, 0.2f};
-    for (int i = 0; i < 4; i++)
-        for (int j = 0; j < 4; j++)
-            for (int k = 0; k < 3; k++) {
-                struct denoise_params p;
-                denoise_defaults(&p);
-                p.sigma_l = sl[i], p.firefly_k = fk[j], p.sigma_z = sz[k];
-                denoise_run(in, w, h, &p, 2, out);
-                struct score s = score(out, ref, w, h);
-                printf("sweep sigma_l %g firefly_k %g sigma_z %g: %.4f / %.3f\n", sl[i], fk[j],
-                       sz[k], s.rmse, s.ssim);
-                fflush(stdout);
-            }
+/* The a-trous baseline: Dammertz et al.'s fixed luminance scale, on the
+ * pixels' own luminances, the same scale at every level. */
+static void baseline(struct denoise_params *p) {
+    denoise_defaults(p);
+    p->variance = false;
+    p->sigma_l = 4;
+    p->sigma_l_decay = 1;
+    p->lum_blur = false;
 }
+
+/* DENOISE_SWEEP=1: the 16-sample RMSE over a grid of the parameters (how
+ * denoise_defaults was chosen; with DENOISE_CACHE the renders are kept,
+ * and a sweep takes seconds). */
+static void sweep(const struct denoise_px *in, int w, int h, const float *ref, float *out) {
+    static const float sl[] = {4, 6, 8}, dc[] = {0.6f, 0.7f, 1}, sz[] = {0.005f, 0.02f, 0.05f};
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            for (int k = 0; k < 3; k++)
+                for (int b = 0; b < 2; b++) {
+                    struct denoise_params p;
+                    denoise_defaults(&p);
+                    p.sigma_l = sl[i], p.sigma_l_decay = dc[j], p.sigma_z = sz[k];
+                    p.lum_blur = b;
+                    denoise_run(in, w, h, &p, 2, out);
+                    struct score s = score(out, ref, w, h);
+                    printf("sweep sigma_l %g decay %g sigma_z %g lum_blur %d: %.4f / %.3f\n", sl[i],
+                           dc[j], sz[k], b, s.rmse, s.ssim);
+                    fflush(stdout);
+                }
+}
+
+static int cmp_double(const void *a, const void *b) {
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static double cpu_now(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+}
+
+/* The filter's time per megapixel on 1 and 2 threads: the median of
+ * DENOISE_RUNS runs (default 5; at least 1), wall clock and the CPU time
+ * of all its threads (on a loaded host the wall clock is mostly the
+ * others' work). */
+static void timing(const struct denoise_px *in, int w, int h, float *out) {
+    const char *e = getenv("DENOISE_RUNS");
+    int reps = e && atoi(e) > 0 ? atoi(e) : 5;
+    if (reps > 99) reps = 99;
+    double mp = (double)w * h / 1e6;
+    for (int th = 1; th <= 2; th++) {
+        struct denoise_params p;
+        denoise_defaults(&p);
+        double t[99], c[99];
+        for (int k = 0; k < reps; k++) {
+            double t1 = now(), c1 = cpu_now();
+            denoise_run(in, w, h, &p, th, out);
+            t[k] = (now() - t1) / mp;
+            c[k] = (cpu_now() - c1) / mp;
+        }
+        qsort(t, (size_t)reps, sizeof *t, cmp_double);
+        qsort(c, (size_t)reps, sizeof *c, cmp_double);
+        printf("filter time: %.3f s per megapixel on %d thread%s (median of %d; %.3f to %.3f), "
+               "CPU %.3f s\n",
+               t[reps / 2], th, th > 1 ? "s" : "", reps, t[0], t[reps - 1], c[reps / 2]);
+    }
+}
+
+/* The reference is the last samples of the range a pixel may have
+ * (rayd.h: at most 65536), so its noise is independent of the N-sample
+ * renders' (samples 0..N-1): it adds the same error to every figure. */
+#define RAYD_REF_END 65536
 
 int main(int argc, char **argv) {
     if (argc != 4) {
@@ -210,10 +326,14 @@ int main(int argc, char **argv) {
         return 1;
     }
     int refn = atoi(argv[2]), w = 0, h = 0;
+    if (refn < 256 || refn > RAYD_REF_END - 256) {
+        fprintf(stderr, "denoise: REF_SAMPLES must be 256..%d\n", RAYD_REF_END - 256);
+        return 2;
+    }
     double t0 = now();
-    rayd_accum *ref = render(s, refn);
-    w = ref->r.w, h = ref->r.h;
-    float *rf = raw_of(ref);
+    struct shot ref = shoot(s, text, len, RAYD_REF_END - refn, refn);
+    w = ref.w, h = ref.h;
+    float *rf = ref.raw;
     fprintf(stderr, "%s: reference of %d samples at %dx%d in %.1f s\n", argv[3], refn, w, h,
             now() - t0);
     static const int ns[] = {4, 16, 64, 256};
@@ -224,18 +344,16 @@ int main(int argc, char **argv) {
     printf("|---:|---|---|---|---|\n");
     struct denoise_px *in16 = NULL;
     for (int i = 0; i < 4; i++) {
-        rayd_accum *a = render(s, ns[i]);
-        float *raw = raw_of(a);
-        struct denoise_px *in = inputs(a);
-        struct score r = score(raw, rf, w, h), d = {0}, t = {0}, b = {0};
+        struct shot sh = shoot(s, text, len, 0, ns[i]);
+        struct score r = score(sh.raw, rf, w, h), d = {0}, t = {0}, b = {0};
         struct denoise_params p;
         denoise_defaults(&p);
-        denoise_run(in, w, h, &p, 2, out);
+        denoise_run(sh.in, w, h, &p, 2, out);
         d = score(out, rf, w, h);
-        p.variance = false;
-        denoise_run(in, w, h, &p, 2, out);
+        baseline(&p);
+        denoise_run(sh.in, w, h, &p, 2, out);
         t = score(out, rf, w, h);
-        bilateral(in, w, h, out);
+        bilateral(sh.in, w, h, out);
         b = score(out, rf, w, h);
         raw2[i] = r.rmse * r.rmse;
         den2[i] = d.rmse * d.rmse;
@@ -243,29 +361,20 @@ int main(int argc, char **argv) {
                r.ssim, d.rmse, d.ssim, t.rmse, t.ssim, b.rmse, b.ssim);
         fflush(stdout);
         if (ns[i] == 16)
-            in16 = in;
+            in16 = sh.in;
         else
-            free(in);
-        rayd_free(raw);
-        rayd_accum_free(a);
+            free(sh.in);
+        free(sh.raw);
     }
     printf("\nsample-count equivalence (raw samples of the same RMSE):");
     for (int i = 0; i < 3; i++)
         printf(" denoised %d ~ raw %.0f;", ns[i], equivalent(ns, raw2, den2[i]));
     printf("\n");
     if (getenv("DENOISE_SWEEP")) sweep(in16, w, h, rf, out);
-    for (int th = 1; th <= 2; th++) {
-        struct denoise_params p;
-        denoise_defaults(&p);
-        double t1 = now();
-        int reps = 3;
-        for (int k = 0; k < reps; k++) denoise_run(in16, w, h, &p, th, out);
-        double per = (now() - t1) / reps / ((double)w * h / 1e6);
-        printf("filter time: %.2f s per megapixel on %d thread%s\n", per, th, th > 1 ? "s" : "");
-    }
+    timing(in16, w, h, out);
     free(in16), free(out);
-    rayd_free(rf);
-    rayd_accum_free(ref);
+    free(rf);
+    free(ref.in);
     rayd_scene_free(s);
     rayd_free(text);
     return 0;

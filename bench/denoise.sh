@@ -4,13 +4,16 @@
 # (bench/denoise.c), on scenes/cornell.json and on a mesh (Wuson.ply from
 # assimp-testmodels, as the README's picture) under scenes/studio.hdr.
 # DENOISE_SIZE (default 128) is the Cornell box's edge in pixels,
-# DENOISE_REF (default 1024) the reference's samples: 4096 at 256 pixels
-# takes over an hour on two loaded cores.  Figures: bench/README.md.
+# DENOISE_REF (default 4096) the reference's samples (2 to 3 minutes a
+# scene at 128 pixels on two loaded cores; 256 pixels take four times
+# that).  DENOISE_CACHE=DIR keeps the renders between runs, so a change of
+# the filter is measured again in seconds; DENOISE_RUNS (default 5) the
+# timing's runs.  Figures: bench/README.md.
 set -eu
 cd "$(dirname "$0")/.."
 BUILD=${1:-build}
 SIZE=${DENOISE_SIZE:-128}
-REF=${DENOISE_REF:-1024}
+REF=${DENOISE_REF:-4096}
 T=$(mktemp -d "${TMPDIR:-/tmp}/rayd-denoise.XXXXXX")
 trap 'rm -rf "$T"' EXIT
 python3 -c 'import json,sys; s=json.load(open("scenes/cornell.json")); s["render"].update(width=int(sys.argv[1]), height=int(sys.argv[1])); print(json.dumps(s))' "$SIZE" >"$T/cornell.json"

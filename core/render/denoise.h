@@ -20,22 +20,26 @@ struct denoise_px {
 /* The filter's settings; denoise_defaults gives the measured ones
  * (bench/denoise.c). */
 struct denoise_params {
-    int levels;      /* a-trous levels, 1..DENOISE_LEVELS_MAX; step 2^i at level i */
-    float sigma_l;   /* luminance edge-stopping, in standard deviations */
-    float sigma_n;   /* normal edge-stopping exponent */
-    float sigma_z;   /* relative depth change tolerated per pixel of distance */
-    float sigma_a;   /* albedo difference tolerated */
-    float firefly_k; /* a pixel brighter than its neighbours' mean + k sigma is clamped there */
-    bool variance;   /* guide by variance (SVGF); false: a fixed luminance scale (a baseline) */
+    int levels;          /* a-trous levels, 1..DENOISE_LEVELS_MAX; step 2^i at level i */
+    float sigma_l;       /* luminance edge-stopping, in standard deviations */
+    float sigma_n;       /* normal edge-stopping exponent */
+    float sigma_z;       /* relative depth change tolerated per pixel of distance */
+    float sigma_a;       /* albedo difference tolerated */
+    float sigma_l_decay; /* sigma_l's factor per level: level i uses sigma_l * decay^i */
+    bool lum_blur;       /* compare 3x3-blurred luminances (less dark bias) */
+    float firefly_k;     /* a pixel brighter than its neighbours' mean + k sigma is clamped there */
+    bool variance;       /* guide by variance (SVGF); false: a fixed luminance scale (a baseline) */
 };
 
 #define DENOISE_LEVELS_MAX 5
 
 /* The pixels around a region the filter reads to give the region's pixels
  * the values they have in the whole frame: the firefly test's 1, and at
- * each level i the kernel's 2 * 2^i (the variance blur's 1 lies inside
- * it): 63.  tests/unit/test_denoise.c checks that one less is not enough. */
-#define DENOISE_APRON (1 + 2 * ((1 << DENOISE_LEVELS_MAX) - 1))
+ * each level i the kernel's 2 * 2^i plus the 1 of the blurred luminance
+ * it compares at its farthest taps (the variance blur's 1 lies inside the
+ * kernel): 68.  tests/unit/test_denoise.c checks that one less is not
+ * enough. */
+#define DENOISE_APRON (1 + 2 * ((1 << DENOISE_LEVELS_MAX) - 1) + DENOISE_LEVELS_MAX)
 
 void denoise_defaults(struct denoise_params *p);
 

@@ -444,7 +444,7 @@ enum rayd_status rayd_accum_aov_linear(const rayd_accum *acc, float **out, struc
 enum rayd_status rayd_accum_aov_image(const rayd_accum *acc, const rayd_scene *scene, unsigned aov,
                                       rayd_image **out, struct rayd_error *err);
 /* ---- denoising ------------------------------------------------------------
- * A denoised accumulator renders its region plus the filter's apron (63
+ * A denoised accumulator renders its region plus the filter's apron (68
  * pixels around it, inside the image) with the AOVs and each pixel's
  * squared luminance, and its resolves (rayd_accum_image, _image_tone,
  * _linear, _rgba) give the region's pixels through rayd's denoiser: an

@@ -130,6 +130,67 @@ static void test_firefly(void) {
     free(in), free(out);
 }
 
+/* A flat surface of albedo 0.5 lit by light l(x, y) as n samples see it
+ * when a quarter of their paths find 4 l and the rest nothing (or, with
+ * rare, a tenth find 10 l): skewed noise, as of light found by few paths;
+ * each pixel's variance from its own samples, as render.c keeps it. */
+static struct denoise_px *skewed(int w, int h, int n, bool rare, double (*l)(int, int, int)) {
+    struct denoise_px *in = flat(w, h, 0.5f, 1.0f, 0);
+    uint32_t st = 9;
+    for (int y = 0; in && y < h; y++)
+        for (int x = 0; x < w; x++) {
+            double s = 0, s2 = 0, lx = l(x, y, w);
+            for (int k = 0; k < n; k++) {
+                double u = (noise(&st) + 1) / 2, v = rare ? (u < 0.1 ? 10 : 0) : (u < 0.25 ? 4 : 0);
+                s += v * lx;
+                s2 += v * lx * v * lx;
+            }
+            double m = s / n, var = (s2 / n - m * m) / (n - 1);
+            struct denoise_px *p = &in[y * w + x];
+            for (int k = 0; k < 3; k++) p->c[k] = (float)(0.5 * m);
+            p->var = (float)(0.25 * var);
+        }
+    return in;
+}
+
+static double light_flat(int x, int y, int w) {
+    (void)x, (void)y, (void)w;
+    return 1;
+}
+
+/* A tent: light rising from 0.1 at the left edge to 1 in the middle and
+ * falling again, as towards a room's corners. */
+static double light_tent(int x, int y, int w) {
+    (void)y;
+    double t = x < w / 2 ? (double)x / (w / 2) : (double)(w - x) / (w / 2);
+    return 0.1 + 0.9 * t;
+}
+
+/* Skewed noise keeps its mean: weights that fall with a sample's own
+ * brightness would darken it (the first filter lost 5%). */
+static void test_skewed_mean(void) {
+    int w = 64, h = 64;
+    struct denoise_px *in = skewed(w, h, 16, true, light_flat);
+    float *out = in ? run(in, w, h, 1) : NULL;
+    double a = 0, b = 0;
+    for (int i = 0; out && i < w * h; i++) a += in[i].c[0], b += out[i * 3];
+    CHECK(out && fabs(b / a - 1) < 0.04, "the mean came out %.4f of the input's", out ? b / a : 0);
+    free(in), free(out);
+}
+
+/* A gradient of light under that noise keeps its peak: the wide levels
+ * must not average the middle with the darker sides (the first filter
+ * kept 94%). */
+static void test_light_gradient(void) {
+    int w = 128, h = 64;
+    struct denoise_px *in = skewed(w, h, 16, false, light_tent);
+    float *out = in ? run(in, w, h, 1) : NULL;
+    double peak = 0;
+    for (int y = 8; out && y < h - 8; y++) peak += out[(y * w + w / 2) * 3] / (h - 16);
+    CHECK(out && peak > 0.5 * 0.95, "the peak came out %.4f, the light's 0.5", peak);
+    free(in), free(out);
+}
+
 /* A noisy image with edges, depth steps, background and a one-sample
  * (unknown variance) stripe: what the determinism tests filter. */
 static struct denoise_px *busy(int w, int h) {
@@ -200,26 +261,32 @@ static void test_window(void) {
     free(in), free(whole);
 }
 
-/* The apron is what a window needs: with one pixel less the region's
- * pixels differ (so the test above can fail). */
+/* The apron is what a window needs: with one pixel less some region's
+ * pixels differ (so the test above can fail).  Several regions: the
+ * longest chain of dependence (a neighbour's firefly clamp, then each
+ * level's farthest tap and its blurred luminance) is realised only where
+ * the noise clamps a pixel at the chain's end. */
 static void test_apron_needed(void) {
     int w = 260, h = 230;
     struct denoise_px *in = flat(w, h, 0.5f, 1.0f, 0.01f);
     uint32_t st = 5;
     for (int i = 0; i < w * h; i++) in[i].c[i % 3] *= 1 + 0.3f * noise(&st);
     float *whole = run(in, w, h, 1);
-    int a = DENOISE_APRON - 1, rx = 100, ry = 90, rs = 32, ww = rs + 2 * a;
+    int a = DENOISE_APRON - 1, rs = 32, ww = rs + 2 * a, differ = 0;
     struct denoise_px *win = malloc((size_t)ww * (size_t)ww * sizeof *win);
-    for (int y = 0; y < ww; y++)
-        memcpy(win + y * ww, in + (ry - a + y) * w + rx - a, (size_t)ww * sizeof *win);
-    float *out = run(win, ww, ww, 1);
-    int differ = 0;
-    for (int y = 0; out && whole && y < rs; y++)
-        differ += memcmp(out + ((size_t)(a + y) * (size_t)ww + (size_t)a) * 3,
-                         whole + ((size_t)(ry + y) * (size_t)w + (size_t)rx) * 3,
-                         (size_t)rs * 3 * sizeof *out) != 0;
-    CHECK(differ > 0, "an apron of %d pixels was enough", a);
-    free(in), free(whole), free(win), free(out);
+    for (int ry = 70; win && whole && ry <= 110; ry += 20)
+        for (int rx = 70; rx <= 110; rx += 20) {
+            for (int y = 0; y < ww; y++)
+                memcpy(win + y * ww, in + (ry - a + y) * w + rx - a, (size_t)ww * sizeof *win);
+            float *out = run(win, ww, ww, 1);
+            for (int y = 0; out && y < rs; y++)
+                differ += memcmp(out + ((size_t)(a + y) * (size_t)ww + (size_t)a) * 3,
+                                 whole + ((size_t)(ry + y) * (size_t)w + (size_t)rx) * 3,
+                                 (size_t)rs * 3 * sizeof *out) != 0;
+            free(out);
+        }
+    CHECK(differ > 0, "an apron of %d pixels was enough for all nine regions", a);
+    free(in), free(whole), free(win);
 }
 
 static const char *box_scene =
@@ -384,6 +451,8 @@ int main(void) {
     RUN(test_flat_noise);
     RUN(test_edges);
     RUN(test_firefly);
+    RUN(test_skewed_mean);
+    RUN(test_light_gradient);
     RUN(test_threads);
     RUN(test_window);
     RUN(test_apron_needed);
