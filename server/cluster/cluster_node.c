@@ -170,8 +170,8 @@ static void node_free(struct node_item *it) {
 static int node_job(struct redis *c, struct node_item *it) {
     char key[120];
     cluster_key(key, sizeof key, it->job, "job");
-    const char *argv[] = {"HMGET", key, "state", "animated", "tiles",   "cols",
-                          "tile_size", "x", "y", "w", "h", "client", "scene", "denoise", "aov", NULL};
+    const char *argv[] = {"HMGET", key, "state", "animated", "tiles", "cols",    "tile_size", "x",
+                          "y",     "w", "h",     "client",   "scene", "denoise", "aov",       NULL};
     redisReply *rep = redis_strs(c, argv);
     if (redis_failed(c, rep) || rep->type != REDIS_REPLY_ARRAY || rep->elements != 13) {
         if (rep) freeReplyObject(rep);
