@@ -105,9 +105,10 @@ SERVER_LAYERS = [
                     "http_reply.c (replies, the error body)"),
     ("server/api/", "api.h: the handlers, a file per resource (api_render.c, api_jobs.c + "
                     "api_jobs_image.c + api_jobs_json.c, api_shots.c (frame-range jobs), "
-                    "api_events.c, api_health.c, api_web.c, api_test.c); api.c "
-                    "(region, JSON check, the one status -> HTTP mapping, body -> scene) and "
-                    "api_cost.c (who asks; a render's price and budgets) shared by them"),
+                    "api_events.c, api_cluster*.c (rayd --redis), api_health.c, api_web.c, "
+                    "api_test.c); api.c (region, JSON check, the one status -> HTTP mapping, "
+                    "body -> scene), api_cost.c (who asks; a render's price and budgets) and "
+                    "api_sse.c (an event stream's text) shared by them"),
     ("server/route/", "router.h: router.c (the route table; which paths are open without a "
                       "token)"),
     ("server/net/", "transport.h: http.c (libmicrohttpd: the daemon, TLS, options) and "

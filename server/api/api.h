@@ -1,7 +1,8 @@
 /* api.h -- the handlers: one function per route, and what they share.
  *
- * Layer: handlers (api.c and api_cost.c, shared; api_render.c, api_jobs.c,
- * api_events.c, api_health.c, api_test.c, api_web.c).  A handler validates
+ * Layer: handlers (api.c, api_cost.c and api_sse.c, shared; api_render.c,
+ * api_jobs.c, api_events.c, api_cluster.c, api_health.c, api_test.c,
+ * api_web.c).  A handler validates
  * the request, submits work and shapes the reply; it never renders and
  * never blocks.
  * May include: request.h (read the request, reply), work.h (scenes,
@@ -201,5 +202,22 @@ void api_test_gate_post(struct http_req *r, const char *id);
 void api_web_index(struct http_req *r, const char *id);
 void api_web_asset(struct http_req *r, const char *id);
 bool api_web_exists(const char *name);
+
+/* api_sse.c */
+/* "event: NAME\ndata: JSON\n\n" into out (o deleted); its length, 0 when
+ * it does not fit. */
+size_t api_sse_event(char *out, size_t size, const char *name, cJSON *o);
+/* An event stream's text formatted but not yet sent (the transport's
+ * buffer was full): both event streams, one node's and a cluster's. */
+struct api_sse_carry {
+    char *text;
+    size_t len, off;
+};
+/* Copies what fits of text to buf (max bytes, *used of them taken); the
+ * rest goes to the carry.  false when the carry cannot be had. */
+bool api_sse_put(struct api_sse_carry *c, char *buf, size_t max, size_t *used, const char *text,
+                 size_t len);
+/* Sends what is left of the carry into buf; true when it is empty. */
+bool api_sse_flush(struct api_sse_carry *c, char *buf, size_t max, size_t *used);
 
 #endif

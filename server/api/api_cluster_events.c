@@ -29,12 +29,11 @@ struct api_cev {
     struct cluster_op op; /* first: the callbacks get it back */
     struct http_req *r;
     char cursor[48];
-    int next;          /* op.events[next..op.nevents) not yet sent */
-    bool ended;        /* "done" was sent */
-    bool failed;       /* the read failed: the stream ends */
-    char *carry;       /* text formatted, not yet sent */
-    double last_write; /* clock_now() of the last bytes handed out */
-    size_t carry_len, carry_off;
+    int next;                   /* op.events[next..op.nevents) not yet sent */
+    bool ended;                 /* "done" was sent */
+    bool failed;                /* the read failed: the stream ends */
+    struct api_sse_carry carry; /* text formatted, not yet sent */
+    double last_write;          /* clock_now() of the last bytes handed out */
 };
 
 static void api_cev_suspend(struct cluster_op *op) { http_req_suspend(((struct api_cev *)op)->r); }
@@ -51,14 +50,6 @@ static void api_cev_done(struct cluster_op *op) {
     http_req_resume(a->r);
 }
 
-static size_t api_cev_event(char *out, size_t size, const char *name, cJSON *o) {
-    char data[2048];
-    bool ok = json_print_into(o, data, sizeof data);
-    cJSON_Delete(o);
-    int n = snprintf(out, size, "event: %s\ndata: %s\n\n", name, ok ? data : "{}");
-    return n < 0 || (size_t)n >= size ? 0 : (size_t)n;
-}
-
 /* One event as SSE text. */
 static size_t api_cev_format(struct api_cev *a, const struct cluster_event *e, char *out,
                              size_t size) {
@@ -68,19 +59,19 @@ static size_t api_cev_format(struct api_cev *a, const struct cluster_event *e, c
         size_t n = (size_t)snprintf(out, size, "retry: 1000\n");
         cJSON_AddStringToObject(o, "id", a->op.id);
         cJSON_AddStringToObject(o, "state", e->state);
-        return n + api_cev_event(out + n, size - n, "state", o);
+        return n + api_sse_event(out + n, size - n, "state", o);
     }
     if (!strcmp(e->kind, "tile")) {
         cJSON_AddNumberToObject(o, "x", e->reg.x);
         cJSON_AddNumberToObject(o, "y", e->reg.y);
         cJSON_AddNumberToObject(o, "w", e->reg.w);
         cJSON_AddNumberToObject(o, "h", e->reg.h);
-        size_t n = api_cev_event(out, size, "tile", o);
+        size_t n = api_sse_event(out, size, "tile", o);
         o = cJSON_CreateObject();
         json_add_fixed(o, "progress", e->total > 0 ? (double)e->done / (double)e->total : 0, 4);
         cJSON_AddNumberToObject(o, "done", (double)e->done);
         cJSON_AddNumberToObject(o, "total", (double)e->total);
-        return n + api_cev_event(out + n, size - n, "progress", o);
+        return n + api_sse_event(out + n, size - n, "progress", o);
     }
     if (!strcmp(e->kind, "frame")) {
         char url[120];
@@ -90,40 +81,13 @@ static size_t api_cev_format(struct api_cev *a, const struct cluster_event *e, c
         cJSON_AddNumberToObject(o, "frames_total", (double)e->total);
         snprintf(url, sizeof url, "/v1/jobs/%s/frames/%ld.png", a->op.id, e->frame);
         cJSON_AddStringToObject(o, "url", url);
-        return api_cev_event(out, size, "frame", o);
+        return api_sse_event(out, size, "frame", o);
     }
     a->ended = true; /* "done" */
     cJSON_AddStringToObject(o, "state", e->state);
     json_add_fixed(o, "progress", in->job.progress, 4);
     if (!strcmp(e->state, "failed")) cJSON_AddStringToObject(o, "error", in->job.err.message);
-    return api_cev_event(out, size, "done", o);
-}
-
-/* What fits of text into buf, the rest into the carry. */
-static bool api_cev_put(struct api_cev *a, char *buf, size_t max, size_t *used, const char *text,
-                        size_t len) {
-    size_t k = len < max - *used ? len : max - *used;
-    memcpy(buf + *used, text, k);
-    *used += k;
-    if (k == len) return true;
-    char *c = realloc(a->carry, a->carry_len + len - k);
-    if (!c) return false;
-    memcpy(c + a->carry_len, text + k, len - k);
-    a->carry = c;
-    a->carry_len += len - k;
-    return true;
-}
-
-static bool api_cev_flush(struct api_cev *a, char *buf, size_t max, size_t *used) {
-    size_t left = a->carry_len - a->carry_off, k = left < max - *used ? left : max - *used;
-    memcpy(buf + *used, a->carry + a->carry_off, k);
-    *used += k;
-    a->carry_off += k;
-    if (a->carry_off < a->carry_len) return false;
-    free(a->carry);
-    a->carry = NULL;
-    a->carry_len = a->carry_off = 0;
-    return true;
+    return api_sse_event(out, size, "done", o);
 }
 
 /* Whether the client hung up (a stream with no news is never written to,
@@ -141,15 +105,16 @@ static ssize_t api_cev_reader(void *cls, char *buf, size_t max) {
     if (a->r->gone) return HTTP_STREAM_ERROR;
     if (sched_draining()) return HTTP_STREAM_END; /* a drain waits for no stream */
     size_t used = 0;
-    if (a->carry && !api_cev_flush(a, buf, max, &used)) goto out;
+    if (a->carry.text && !api_sse_flush(&a->carry, buf, max, &used)) goto out;
     while (a->next < a->op.nevents && !a->ended) {
         char text[2560];
         size_t len = api_cev_format(a, &a->op.events[a->next++], text, sizeof text);
-        if (!api_cev_put(a, buf, max, &used, text, len)) return HTTP_STREAM_ERROR;
+        if (!api_sse_put(&a->carry, buf, max, &used, text, len)) return HTTP_STREAM_ERROR;
     }
     if (!used && !a->ended && !a->failed && clock_now() - a->last_write > API_CLUSTER_PING) {
         static const char ping[] = ": keep-alive\n\n"; /* a balancer keeps an idle stream */
-        if (!api_cev_put(a, buf, max, &used, ping, sizeof ping - 1)) return HTTP_STREAM_ERROR;
+        if (!api_sse_put(&a->carry, buf, max, &used, ping, sizeof ping - 1))
+            return HTTP_STREAM_ERROR;
     }
     if (used) goto out;
     if (a->ended || a->failed) return HTTP_STREAM_END;
@@ -170,7 +135,7 @@ out:
 
 static void api_cev_free(void *cls) {
     struct api_cev *a = cls;
-    free(a->carry);
+    free(a->carry.text);
     free(a);
 }
 

@@ -29,9 +29,8 @@ struct api_events {
     struct shot *shot; /* a frame-range job's stream instead (shots.c) */
     struct shots_cursor cursor;
     char id[33];
-    bool raw;    /* a denoised progressive job's: each pass has a raw_url too */
-    char *carry; /* text formatted but not yet sent */
-    size_t carry_len, carry_off;
+    bool raw; /* a denoised progressive job's: each pass has a raw_url too */
+    struct api_sse_carry carry;
 };
 
 static void api_events_suspend(struct work_waiter *w) {
@@ -51,15 +50,6 @@ static void api_events_wake(struct work_waiter *w, struct work_result *res) {
     http_req_resume(r);
 }
 
-/* "event: NAME\ndata: JSON\n\n" appended to out (o deleted). */
-static size_t api_events_event(char *out, size_t size, const char *name, cJSON *o) {
-    char data[2048];
-    bool ok = json_print_into(o, data, sizeof data);
-    cJSON_Delete(o);
-    int n = snprintf(out, size, "event: %s\ndata: %s\n\n", name, ok ? data : "{}");
-    return n < 0 || (size_t)n >= size ? 0 : (size_t)n;
-}
-
 /* "event: pass": a progressive job's pass is complete (o deleted). */
 static size_t api_events_pass(struct api_events *a, const struct events_item *it, cJSON *o,
                               char *out, size_t size) {
@@ -71,7 +61,7 @@ static size_t api_events_pass(struct api_events *a, const struct events_item *it
     json_add_fixed(o, "progress", it->progress, 4);
     api_jobs_add_pass_url(o, a->id, it->done);
     if (a->raw) api_jobs_add_raw_url(o, a->id, it->done);
-    return api_events_event(out, size, "pass", o);
+    return api_sse_event(out, size, "pass", o);
 }
 
 /* One item as SSE text into out (2.5 KiB is enough for any). */
@@ -84,18 +74,18 @@ static size_t api_events_format(struct api_events *a, const struct events_item *
         n = (size_t)snprintf(out, size, "retry: 1000\n");
         cJSON_AddStringToObject(o, "id", a->id);
         cJSON_AddStringToObject(o, "state", jobs_state_name(it->state));
-        return n + api_events_event(out + n, size - n, "state", o);
+        return n + api_sse_event(out + n, size - n, "state", o);
     case EVENTS_TILE:
         cJSON_AddNumberToObject(o, "x", it->tile.x);
         cJSON_AddNumberToObject(o, "y", it->tile.y);
         cJSON_AddNumberToObject(o, "w", it->tile.w);
         cJSON_AddNumberToObject(o, "h", it->tile.h);
-        n = api_events_event(out, size, "tile", o);
+        n = api_sse_event(out, size, "tile", o);
         o = cJSON_CreateObject();
         json_add_fixed(o, "progress", it->progress, 4);
         cJSON_AddNumberToObject(o, "done", it->done);
         cJSON_AddNumberToObject(o, "total", it->total);
-        return n + api_events_event(out + n, size - n, "progress", o);
+        return n + api_sse_event(out + n, size - n, "progress", o);
     case EVENTS_PASS: return api_events_pass(a, it, o, out, size);
     case EVENTS_FRAME: {
         char url[120];
@@ -105,47 +95,17 @@ static size_t api_events_format(struct api_events *a, const struct events_item *
         cJSON_AddNumberToObject(o, "frames_total", it->total);
         snprintf(url, sizeof url, "/v1/jobs/%s/frames/%ld.png", a->id, it->frame);
         if (!it->frame_failed) cJSON_AddStringToObject(o, "url", url);
-        return api_events_event(out, size, "frame", o);
+        return api_sse_event(out, size, "frame", o);
     }
     case EVENTS_DONE:
         cJSON_AddStringToObject(o, "state", jobs_state_name(it->state));
         json_add_fixed(o, "progress", it->progress, 4);
         if (it->samples > 0) cJSON_AddNumberToObject(o, "samples", it->samples);
         if (it->state == JS_FAILED) cJSON_AddStringToObject(o, "error", err->message);
-        return api_events_event(out, size, "done", o);
+        return api_sse_event(out, size, "done", o);
     case EVENTS_PING:
     default: cJSON_Delete(o); return (size_t)snprintf(out, size, ": keep-alive\n\n");
     }
-}
-
-/* Copies what fits of text to buf; the rest goes to the carry.  false when
- * the carry cannot be had (out of memory). */
-static bool api_events_put(struct api_events *a, char *buf, size_t max, size_t *used,
-                           const char *text, size_t len) {
-    size_t k = len < max - *used ? len : max - *used;
-    memcpy(buf + *used, text, k);
-    *used += k;
-    if (k == len) return true;
-    char *c = realloc(a->carry, a->carry_len + len - k);
-    if (!c) return false;
-    memcpy(c + a->carry_len, text + k, len - k);
-    a->carry = c;
-    a->carry_len += len - k;
-    return true;
-}
-
-/* Sends what is left of the carry; true when it is empty. */
-static bool api_events_flush(struct api_events *a, char *buf, size_t max, size_t *used) {
-    size_t left = a->carry_len - a->carry_off;
-    size_t k = left < max - *used ? left : max - *used;
-    memcpy(buf + *used, a->carry + a->carry_off, k);
-    *used += k;
-    a->carry_off += k;
-    if (a->carry_off < a->carry_len) return false;
-    free(a->carry);
-    a->carry = NULL;
-    a->carry_len = a->carry_off = 0;
-    return true;
 }
 
 static ssize_t api_events_reader(void *cls, char *buf, size_t max) {
@@ -153,7 +113,7 @@ static ssize_t api_events_reader(void *cls, char *buf, size_t max) {
     struct http_req *r = a->r;
     if (r->gone) return HTTP_STREAM_ERROR;
     size_t used = 0;
-    if (a->carry && !api_events_flush(a, buf, max, &used)) goto out;
+    if (a->carry.text && !api_sse_flush(&a->carry, buf, max, &used)) goto out;
     struct events_item items[API_EVENTS_ITEMS];
     struct rayd_error err = {0};
     int n = used      ? 0
@@ -163,7 +123,7 @@ static ssize_t api_events_reader(void *cls, char *buf, size_t max) {
     for (int i = 0; i < n; i++) {
         char text[2560];
         size_t len = api_events_format(a, &items[i], &err, text, sizeof text);
-        if (!api_events_put(a, buf, max, &used, text, len)) return HTTP_STREAM_ERROR;
+        if (!api_sse_put(&a->carry, buf, max, &used, text, len)) return HTTP_STREAM_ERROR;
     }
 out:
     r->res.bytes += used;
@@ -174,7 +134,7 @@ static void api_events_free(void *cls) {
     struct api_events *a = cls;
     events_close(a->s);
     shots_close(a->shot);
-    free(a->carry);
+    free(a->carry.text);
     free(a);
 }
 

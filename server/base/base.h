@@ -153,6 +153,8 @@ double clock_now(void); /* monotonic seconds: every duration the server measures
 /* The test gate's jump (?clock=S): clock_now() is SECONDS later from now on;
  * returns the seconds skipped in all. */
 double clock_skip(long seconds);
+/* The wall-clock moment SECONDS from now, as pthread_cond_timedwait takes it. */
+struct timespec clock_after(double seconds);
 
 /* ---- mem.c: the one memory budget (--max-memory) ------------------------ */
 

@@ -26,6 +26,15 @@ double clock_now(void) {
            (double)atomic_load_explicit(&clock_skipped_ms, memory_order_relaxed) / 1e3;
 }
 
+struct timespec clock_after(double seconds) {
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    long ns = ts.tv_nsec + (long)(seconds * 1e9);
+    ts.tv_sec += ns / 1000000000L;
+    ts.tv_nsec = ns % 1000000000L;
+    return ts;
+}
+
 double clock_skip(long seconds) {
     long long ms =
         atomic_fetch_add(&clock_skipped_ms, (long long)seconds * 1000) + (long long)seconds * 1000;

@@ -90,11 +90,7 @@ static struct cluster_op *cluster_due(double *wait) {
 }
 
 static void cluster_timedwait(double seconds) {
-    struct timespec ts;
-    clock_gettime(CLOCK_REALTIME, &ts);
-    long ns = ts.tv_nsec + (long)(seconds * 1e9);
-    ts.tv_sec += ns / 1000000000L;
-    ts.tv_nsec = ns % 1000000000L;
+    struct timespec ts = clock_after(seconds);
     pthread_cond_timedwait(&cluster_req_cond, &cluster_mu, &ts);
 }
 

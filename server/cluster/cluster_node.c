@@ -500,11 +500,7 @@ static void node_figures(struct redis *c) {
 /* ---- the thread ------------------------------------------------------------------- */
 
 static void node_wait(double seconds) {
-    struct timespec ts;
-    clock_gettime(CLOCK_REALTIME, &ts);
-    long ns = ts.tv_nsec + (long)(seconds * 1e9);
-    ts.tv_sec += ns / 1000000000L;
-    ts.tv_nsec = ns % 1000000000L;
+    struct timespec ts = clock_after(seconds);
     pthread_mutex_lock(&node_mu);
     pthread_cond_timedwait(&node_cond, &node_mu, &ts);
     pthread_mutex_unlock(&node_mu);
