@@ -25,8 +25,12 @@ NGINX=$(command -v nginx || echo /usr/sbin/nginx)
 [ -x "$NGINX" ] || { echo "FAIL setup: nginx missing (make test-deps installs it)"; exit 1; }
 
 # --- three nodes ---------------------------------------------------------------
-# --test-gate open: the kill cases below hold a node's tiles with it
-for i in 1 2 3; do start_node $i --threads 2 --test-gate open; done
+# --test-gate open: the kill cases below hold a node's tiles with it.  They
+# share a Redis (--redis), as docker/compose.yml's nodes do: docker/nginx.conf
+# sends a job's polls to any node
+source "$(dirname "$0")/lib/redis.sh"
+start_redis
+for i in 1 2 3; do start_node $i --threads 2 --test-gate open --redis "$REDIS_URL"; done
 
 # node_count I "METHOD ROUTE" CODE: rayd_http_requests_total of node I (0 if absent)
 node_count() {
@@ -151,7 +155,7 @@ check refused_json_error "stderr: $(head -c 300 "$T/refused.err")" \
     grep -q 'HTTP 413 too_large at /render: ' "$T/refused.err"
 check refused_no_file "an image was written" [ ! -e "$T/huge.png" ]
 
-# --- job through nginx (sticky upstream), health, mesh files, rayd-curl.sh ----------
+# --- job through nginx (any node answers: Redis), health, mesh files, rayd-curl.sh --
 scene "$T/j.json" 200 150 2 instances 3
 "$RENDER" "$T/j.json" -o "$T/j_ref.png" 2>/dev/null
 client job job "$T/j.json" -o "$T/j.png" --server "$LB"
