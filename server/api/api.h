@@ -204,6 +204,10 @@ void api_web_asset(struct http_req *r, const char *id);
 bool api_web_exists(const char *name);
 
 /* api_sse.c */
+/* Answers r 200 with an event stream that read fills (done(cls) once, as
+ * http_reply_stream). */
+void api_sse_reply(struct http_req *r, ssize_t (*read)(void *cls, char *buf, size_t max),
+                   void (*done)(void *cls), void *cls);
 /* "event: NAME\ndata: JSON\n\n" into out (o deleted); its length, 0 when
  * it does not fit. */
 size_t api_sse_event(char *out, size_t size, const char *name, cJSON *o);

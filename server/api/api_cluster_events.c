@@ -156,15 +156,8 @@ static void api_cev_first(struct cluster_op *op) {
     } else {
         if (op->nevents > 0)
             snprintf(a->cursor, sizeof a->cursor, "%s", op->events[op->nevents - 1].cursor);
-        static const char *const headers[] = {"Content-Type",
-                                              "text/event-stream",
-                                              "Cache-Control",
-                                              "no-store",
-                                              "X-Accel-Buffering",
-                                              "no",
-                                              NULL};
         a->last_write = clock_now();
-        http_reply_stream(r, 200, headers, 4096, api_cev_reader, api_cev_free, a);
+        api_sse_reply(r, api_cev_reader, api_cev_free, a);
         http_req_resume(r);
         return;
     }

@@ -161,12 +161,5 @@ void api_events_get(struct http_req *r, const char *id) {
     a->w.done = api_events_wake;
     a->w.suspend = api_events_suspend;
     a->w.fd = http_req_fd(r);
-    static const char *const headers[] = {"Content-Type",
-                                          "text/event-stream",
-                                          "Cache-Control",
-                                          "no-store",
-                                          "X-Accel-Buffering",
-                                          "no",
-                                          NULL};
-    http_reply_stream(r, 200, headers, 4096, api_events_reader, api_events_free, a);
+    api_sse_reply(r, api_events_reader, api_events_free, a);
 }

@@ -45,3 +45,16 @@ bool api_sse_flush(struct api_sse_carry *c, char *buf, size_t max, size_t *used)
     *c = (struct api_sse_carry){0};
     return true;
 }
+
+void api_sse_reply(struct http_req *r, ssize_t (*read)(void *cls, char *buf, size_t max),
+                   void (*done)(void *cls), void *cls) {
+    /* no-store: each event is news; X-Accel-Buffering: nginx passes it on at once */
+    static const char *const headers[] = {"Content-Type",
+                                          "text/event-stream",
+                                          "Cache-Control",
+                                          "no-store",
+                                          "X-Accel-Buffering",
+                                          "no",
+                                          NULL};
+    http_reply_stream(r, 200, headers, 4096, read, done, cls);
+}
