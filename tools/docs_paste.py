@@ -184,7 +184,12 @@ class Shell:
         with open(rc, "w") as f:
             f.write('write-out = "%{stderr}docs-check-http %{http_code}\\n"\n')
         env = dict(os.environ, CURL_HOME=tmp, TERM="dumb")
-        env.pop("RAYD_TOKEN", None)
+        # A page's `make` is a newcomer's plain make: nothing from a make
+        # running this check (make test SANITIZE=1 passes SANITIZE down in
+        # MAKEFLAGS, which would build build/asan/ afresh inside the copy).
+        for k in ("RAYD_TOKEN", "MAKEFLAGS", "MFLAGS", "MAKELEVEL", "MAKEOVERRIDES",
+                  "SANITIZE", "TSAN", "NATIVE", "BUILD", "CFLAGS", "LDFLAGS"):
+            env.pop(k, None)
         self.rfd, wfd = os.pipe()
         self.wfd = wfd
         self.proc = subprocess.Popen(["bash", "--norc", "--noprofile"], cwd=cwd, env=env,
