@@ -83,6 +83,8 @@ check unknown_404_once "$code via '$(header X-Upstream)'" \
     bash -c "[ '$code' = 404 ] && [[ '$(header X-Upstream)' != *', '* ]]"
 
 # --- Redis down: 503 from every node, renders go on ------------------------------------
+check redis_still_up "redis-server (PID $REDIS_PID) ended before the test stopped it: $(tail -n 20 "$T/redis/log" | tr '\n' '|')" \
+    kill -0 "$REDIS_PID"
 kill -KILL "$REDIS_PID"
 wait "$REDIS_PID" 2>/dev/null
 code=$(req GET "/v1/jobs/$id")

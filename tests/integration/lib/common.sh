@@ -18,10 +18,23 @@ URL=
 PIDS=()
 NFAIL=0
 
+# ours PID: the process is alive and is this script's child.  A PID is only
+# a number: once its process has ended and been reaped it is free, and
+# where pid_max is 32768 the suite's thousands of short processes wrap it
+# within minutes, so an old PID may by now name another test's Redis or
+# rayd.  Only our own children are ever signalled by a later cleanup.
+ours() {
+    local s
+    s=$(cat "/proc/$1/stat" 2>/dev/null) || return 1
+    s=${s##*) } # the fields after the command's name: state, ppid, ...
+    set -- $s
+    [ "${2:-}" = "$$" ]
+}
+
 cleanup() {
     local p
     for p in "${PIDS[@]}" $RAYD_PID; do
-        kill -KILL "$p" 2>/dev/null
+        ours "$p" && kill -KILL "$p" 2>/dev/null
     done
     wait 2>/dev/null
     rm -rf "$T"

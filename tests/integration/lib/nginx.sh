@@ -81,7 +81,7 @@ nginx_listening_or_gone() {
     ! kill -0 "$NGINX_PID" 2>/dev/null || [ "$(listen_port "$NGINX_PID")" = "$NGINX_PORT" ]
 }
 nginx_cleanup() {
-    kill -TERM "$NGINX_PID" 2>/dev/null && wait "$NGINX_PID" 2>/dev/null
+    ours "$NGINX_PID" && kill -TERM "$NGINX_PID" 2>/dev/null && wait "$NGINX_PID" 2>/dev/null
     cleanup
 }
 
