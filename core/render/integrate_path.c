@@ -24,8 +24,10 @@
  * sin(theta) (environment.c), and that light sample and the BSDF's escaped
  * ray are weighed by the power heuristic, as for emitters.  Russian
  * roulette from the fourth bounce keeps long paths cheap and the estimate
- * unbiased.  Every random number comes from the counter-based RNG, keyed by
- * pixel, sample, bounce and the dimension below, so tiles stay exact.
+ * unbiased.  Every random number is a stratified sample (Owen-scrambled
+ * Sobol, rng.h), a pure function of pixel, sample, bounce and the
+ * dimension below, so tiles stay exact.  A direction's two numbers, a
+ * light point's two and the environment's two are each one 2-D pair.
  *
  * Fireflies.  What NEE cannot reach is found by BSDF sampling alone: light
  * that reaches a diffuse surface through glass or a mirror (a caustic:
@@ -170,9 +172,9 @@ static vec3 env_event(const rayd_scene *s, const struct lobes *lb, const struct 
                       const struct rng_key *key, uint32_t b, struct meter *mt) {
     const struct environment *e = &s->rs.env;
     vec3 wi;
-    double pdf_l, pdf_b;
-    if (!env_sample(e, rng_uniform(key, b, D_ENV1), rng_uniform(key, b, D_ENV2), &wi, &pdf_l))
-        return v3(0, 0, 0);
+    double pdf_l, pdf_b, u, v;
+    rng_pair(key, b, D_ENV1, &u, &v);
+    if (!env_sample(e, u, v, &wi, &pdf_l)) return v3(0, 0, 0);
     if (v3_dot(x->n, wi) <= 0 || v3_dot(x->ng, wi) <= 0) return v3(0, 0, 0);
     vec3 f = eval_nondelta(lb, x->n, wo, wi, &pdf_b);
     if (v3_maxabs(f) == 0) return v3(0, 0, 0);
@@ -195,9 +197,8 @@ static vec3 next_event(const rayd_scene *s, const struct lobes *lb, const struct
     vec3 sum = v3(0, 0, 0);
     for (int i = 0; i < s->nlights; i++) {
         vec3 wi, rad;
-        double pdf;
-        double su = rng_uniform(key, b, D_LIGHT0 + 2 * (uint32_t)i);
-        double sv = rng_uniform(key, b, D_LIGHT0 + 2 * (uint32_t)i + 1);
+        double pdf, su, sv;
+        rng_pair(key, b, D_LIGHT0 + 2 * (uint32_t)i, &su, &sv);
         if (!integrate_light_sample(s, &s->lights[i], x->p, x->n, x->above, su, sv, true, &wi, &rad,
                                     mt))
             continue;
@@ -206,9 +207,11 @@ static vec3 next_event(const rayd_scene *s, const struct lobes *lb, const struct
     if (env_can_sample(&s->rs.env)) sum = v3_add(sum, env_event(s, lb, x, wo, key, b, mt));
     int ne = s->nemitters;
     if (ne == 0) return sum;
-    int k = (int)(rng_uniform(key, b, D_PICK) * ne);
+    int k = (int)(rng_stratified(key, b, D_PICK) * ne);
     const struct object *e = &s->objs[s->emitters[k < ne ? k : ne - 1]];
-    vec3 ln, q = emitter_point(e, rng_uniform(key, b, D_EPT1), rng_uniform(key, b, D_EPT2), &ln);
+    double eu, ev;
+    rng_pair(key, b, D_EPT1, &eu, &ev);
+    vec3 ln, q = emitter_point(e, eu, ev, &ln);
     vec3 d = v3_sub(q, x->above);
     double dist = v3_len(d);
     if (!(dist > 0)) return sum;
@@ -232,8 +235,8 @@ static vec3 next_event(const rayd_scene *s, const struct lobes *lb, const struct
 static bool sample_bsdf(const struct lobes *lb, const struct vertex *x, vec3 color,
                         const struct material *m, vec3 wo, const struct rng_key *key, uint32_t b,
                         vec3 *wi, vec3 *beta, bool *delta, double *pdf, bool *through) {
-    double u = rng_uniform(key, b, D_LOBE), u1 = rng_uniform(key, b, D_DIR1),
-           u2 = rng_uniform(key, b, D_DIR2);
+    double u = rng_stratified(key, b, D_LOBE), u1, u2;
+    rng_pair(key, b, D_DIR1, &u1, &u2);
     *through = false;
     *delta = true;
     if (u < lb->w_glass) {
@@ -241,7 +244,7 @@ static bool sample_bsdf(const struct lobes *lb, const struct vertex *x, vec3 col
         vec3 d = v3_neg(wo);
         double n1 = x->inside ? m->ior : 1.0, n2 = x->inside ? 1.0 : m->ior;
         if (!x->thin) fr = material_fresnel(n1, n2, cos_i, &cos_t);
-        if (rng_uniform(key, b, D_FRESNEL) < fr) {
+        if (rng_stratified(key, b, D_FRESNEL) < fr) {
             *wi = v3_reflect(d, x->n);
         } else {
             *wi = x->thin ? d : material_refract(d, x->n, n1 / n2, cos_i, cos_t);
@@ -340,7 +343,7 @@ static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *fir
             break;
         if (b >= 3) { /* Russian roulette */
             double q = fmin(0.95, fmax(0.05, v3_maxabs(beta)));
-            if (rng_uniform(key, b, D_RR) >= q) break;
+            if (rng_stratified(key, b, D_RR) >= q) break;
             beta = v3_scale(beta, 1 / q);
         }
         prev_delta = delta;

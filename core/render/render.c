@@ -94,7 +94,7 @@ static vec3 trace(const rayd_scene *s, const ray *r, const struct rng_key *key, 
 
 /* The random numbers of pixel (i, j)'s first sample. */
 static struct rng_key pixel_key(const rayd_scene *s, int i, int j) {
-    return (struct rng_key){s->rs.seed, (uint32_t)i, (uint32_t)j, 0};
+    return rng_key_at(s->rs.seed, (uint32_t)i, (uint32_t)j, 0);
 }
 
 /* Pixel (i, j)'s sample k of n: its ray, and *key set to name it. */

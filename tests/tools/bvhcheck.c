@@ -140,7 +140,7 @@ static long check_packets(const rayd_scene *s, const char *name, int w, int h) {
                 n += __builtin_popcount(lit);
             }
         }
-    struct rng_key key = {7, 1, 2, 3};
+    struct rng_key key = rng_key_at(7, 1, 2, 3);
     vec3 lo = v3(-10, -10, -10), hi = v3(10, 10, 10);
     if (s->nobjs > 0) {
         const struct bbox *b = &s->tlas.bounds;

@@ -294,8 +294,7 @@ static void test_packets_shade_as_one_ray(void) {
                 vec3 out[16];
                 wide_rays(&x, n % 3, r);
                 uint32_t active = n % 5 ? 0xffffu : (uint32_t)(unit_rand(&x) * 65535) + 1;
-                for (int i = 0; i < 16; i++)
-                    key[i] = (struct rng_key){1, (uint32_t)n, (uint32_t)i, 0};
+                for (int i = 0; i < 16; i++) key[i] = rng_key_at(1, (uint32_t)n, (uint32_t)i, 0);
                 struct meter rays16 = meter_make(NULL, NULL), rays1 = meter_make(NULL, NULL);
                 struct ray16 rs;
                 for (int i = 0; i < 16; i++) ray16_set(&rs, i, r[i]);
