@@ -57,6 +57,10 @@ check priority_all_succeeded "states: $(job_state "${NODE_URL[1]}" "$LOW") $(job
 h=$(ended "$HIGH") n=$(ended "$NORMAL") l=$(ended "$LOW")
 in_order() { [ -n "$h" ] && [ -n "$n" ] && [ -n "$l" ] && [ "$h" -lt "$n" ] && [ "$n" -lt "$l" ]; }
 check priority_high_first "ended (ms): high $h, normal $n, low $l" in_order
+# a still job's events are the single node's: no "frame" event (its frame is image.png)
+curl -s -N -m 10 "${NODE_URL[1]}/v1/jobs/$HIGH/events" >"$T/events.txt"
+check still_job_events "$(grep '^event:' "$T/events.txt" | sort | uniq -c | tr '\n' ' ')" \
+    bash -c "grep -q '^event: done' '$T/events.txt' && ! grep -q '^event: frame' '$T/events.txt'"
 code=$(curl -s -o "$T/bad.json" -w '%{http_code}' "${JSON[@]}" --data-binary @"$SCENE" "${NODE_URL[1]}/v1/jobs?priority=urgent")
 check priority_bad_400 "gave $code: $(head -c 200 "$T/bad.json")" bash -c "[ $code = 400 ] && grep -q priority '$T/bad.json'"
 
