@@ -214,10 +214,11 @@ static struct node_item *node_item_new(const redisReply *e, int level) {
     return it;
 }
 
-/* Whether the item with stream id sid is held here. */
-static bool node_holds(const char *sid) {
+/* Whether the item with id sid in stream `level` is held here (ids are
+ * per stream: two streams may use the same one). */
+static bool node_holds(const char *sid, int level) {
     for (struct node_item *it = node_items; it; it = it->next)
-        if (!strcmp(it->sid, sid)) return true;
+        if (it->level == level && !strcmp(it->sid, sid)) return true;
     return false;
 }
 
@@ -239,9 +240,8 @@ static void node_take(struct redis *c, struct node_item *it) {
     }
     int rc = node_job(c, it);
     if (rc <= 0) {
-        if (rc == 0)
-            cluster_items_ack(c, it->level,
-                              it->sid); /* its job ended (cancelled, failed) or is gone */
+        if (rc == 0) /* its job ended (cancelled, failed) or is gone */
+            cluster_items_ack(c, it->level, it->sid);
         node_free(it);
         return;
     }
@@ -253,7 +253,7 @@ static void node_take(struct redis *c, struct node_item *it) {
 
 /* One entry of stream `level`, taken (cluster_items_take_fn). */
 static long node_take_entry(struct redis *c, const redisReply *e, int level, bool reclaimed) {
-    if (node_holds(e->element[0]->str)) return 0;
+    if (node_holds(e->element[0]->str, level)) return 0;
     struct node_item *it = node_item_new(e, level);
     if (!it) return 0;
     if (reclaimed) {
