@@ -16,9 +16,10 @@
  * rayd:nodes for ever unless someone removes them.  Every node, at every
  * figures turn, runs one script that removes each consumer of the three
  * groups that has been idle for longer than the "gone" rule (3 x
- * --redis-claim-ms), holds nothing (XPENDING: its items were taken over by
- * XAUTOCLAIM first) and whose node has not written its heartbeat within the
- * rule either, and the heartbeat lines of such nodes.  DELCONSUMER drops a
+ * --redis-claim-ms), holds nothing (XINFO CONSUMERS: no item pending, its
+ * items were taken over by XAUTOCLAIM first) and whose node has not written
+ * its heartbeat within the rule either, and the heartbeat lines of such
+ * nodes.  DELCONSUMER drops a
  * consumer's pending entries, so the script checks and deletes in one
  * atomic step; two nodes reaping at once find the second run has nothing
  * left to do.  A live node is never removed: its blocking reads and
