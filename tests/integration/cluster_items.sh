@@ -10,7 +10,8 @@
 # Redis, not wall time).  Gone nodes: a node killed -9 while it holds items
 # loses them to the others (XAUTOCLAIM) and then, past the "gone" rule (3 x
 # claim-ms), its consumer leaves the groups and its heartbeat rayd:nodes,
-# removed by exactly one of the nodes left, while the live nodes stay.
+# removed by exactly one of the nodes left, while the live nodes stay; a
+# node stopped cleanly removes its own consumer at once.
 # Every process is stopped by its PID.
 source "$(dirname "$0")/lib/common.sh"
 source "$(dirname "$0")/lib/redis.sh"
@@ -93,4 +94,13 @@ for i in 1 3; do
     kill -0 "${NODE_PID[$i]}" 2>/dev/null || fail "node_${i}_alive" "node $i died: $(tail -n 3 "$T/node$i.err")"
 done
 pass nodes_alive
+
+# --- a clean stop removes its own consumer (it holds nothing) at once -------------------------
+LEFT="$(hostname):${NODE_URL[3]##*:}:${NODE_PID[3]}"
+kill -TERM "${NODE_PID[3]}"
+wait "${NODE_PID[3]}"
+rc=$?
+check clean_stop_exit "node 3 exited with $rc" [ "$rc" = 0 ]
+check clean_stop_consumer_removed "consumers: $(consumers | tr '\n' ' ')" bash -c "! grep -qxF '$LEFT' <<<'$(consumers)'"
+check clean_stop_heartbeat_removed "rayd:nodes: $(rcli hkeys rayd:nodes | tr '\n' ' ')" [ -z "$(rcli hget rayd:nodes "$LEFT")" ]
 [ "$NFAIL" = 0 ]
