@@ -15,7 +15,10 @@
  *            script: one round trip too);
  *   claim    XREADGROUP ... COUNT 1 STREAMS key > by N consumers at once
  *            (N = 1, 2, 4, 8 threads, one connection each: N nodes'
- *            pullers) until the stream has nothing new;
+ *            pullers) until the stream has nothing new; then rayd's take
+ *            (server/cluster/cluster_items.c: one script that tries the
+ *            priorities' streams from the highest down) with every item
+ *            in the lowest of three, its worst case;
  *   ack      XACK + XDEL of each claimed item (one round trip, pipelined),
  *            by the same N consumers;
  *   result   SET and GET of a tile-sized PNG (20 KB and 200 KB of random
@@ -34,6 +37,7 @@
  */
 #include <errno.h>
 #include <stdarg.h>
+#include <stdbool.h>
 #include <fcntl.h>
 #include <hiredis/hiredis.h>
 #include <pthread.h>
@@ -45,6 +49,8 @@
 #include <unistd.h>
 
 #define STREAM "rayd:items:bench"
+#define STREAM_HIGH STREAM ":high"
+#define STREAM_NORMAL STREAM ":normal"
 #define GROUP "render"
 #define MAX_RUNS 32
 #define MAX_CONSUMERS 8
@@ -92,8 +98,10 @@ static void cq_do(redisContext *c, const char *fmt, ...) {
 
 /* An empty stream with its consumer group, as a node makes it. */
 static void cq_reset(redisContext *c) {
-    cq_do(c, "DEL " STREAM);
+    cq_do(c, "DEL " STREAM " " STREAM_HIGH " " STREAM_NORMAL);
     cq_do(c, "XGROUP CREATE " STREAM " " GROUP " 0 MKSTREAM");
+    cq_do(c, "XGROUP CREATE " STREAM_HIGH " " GROUP " 0 MKSTREAM");
+    cq_do(c, "XGROUP CREATE " STREAM_NORMAL " " GROUP " 0 MKSTREAM");
 }
 
 static int cmp_double(const void *a, const void *b) {
@@ -152,10 +160,28 @@ struct cq_consumer {
     double claim_s, ack_s;
 };
 
-/* XREADGROUP COUNT 1 until nothing new: the entry id, or NULL. */
+/* rayd's take script (cluster_items.c), with every item in its last stream. */
+static bool cq_take;
+static const char cq_take_lua[] =
+    "for i = 1, #KEYS do\n"
+    "  local r = redis.call('XREADGROUP', 'GROUP', 'render', ARGV[1], 'COUNT', 1, 'STREAMS', "
+    "KEYS[i], '>')\n"
+    "  if r then return {tostring(i - 1), r[1][2]} end\n"
+    "end\n"
+    "return false\n";
+
+/* XREADGROUP COUNT 1 (or the take) until nothing new: the entry id, or NULL. */
 static char *cq_claim(redisContext *c, const char *name) {
-    redisReply *r = cq_cmd(c, "XREADGROUP GROUP " GROUP " %s COUNT 1 STREAMS " STREAM " >", name);
     char *id = NULL;
+    if (cq_take) {
+        redisReply *r = cq_cmd(c, "EVAL %s 3 " STREAM_HIGH " " STREAM_NORMAL " " STREAM " %s",
+                               cq_take_lua, name);
+        if (r->type == REDIS_REPLY_ARRAY && r->elements == 2 && r->element[1]->elements == 1)
+            id = strdup(r->element[1]->element[0]->element[0]->str);
+        freeReplyObject(r);
+        return id;
+    }
+    redisReply *r = cq_cmd(c, "XREADGROUP GROUP " GROUP " %s COUNT 1 STREAMS " STREAM " >", name);
     if (r->type == REDIS_REPLY_ARRAY && r->elements == 1) {
         redisReply *entries = r->element[0]->element[1];
         if (entries->elements == 1) id = strdup(entries->element[0]->element[0]->str);
@@ -361,7 +387,14 @@ int main(int argc, char **argv) {
         cq_row("claim: XREADGROUP COUNT 1", n, us, rate, runs);
         cq_row("ack: XACK + XDEL (one round trip)", n, us2, rate2, runs);
     }
-    cq_do(c, "DEL " STREAM);
+    cq_take = true;
+    for (int n = 1; n <= MAX_CONSUMERS; n *= 2) {
+        for (int r = 0; r < runs; r++)
+            cq_claim_ack(c, items, n, &us[r], &rate[r], &us2[r], &rate2[r]);
+        cq_row("claim: take script, 3rd of 3 streams", n, us, rate, runs);
+    }
+    cq_take = false;
+    cq_do(c, "DEL " STREAM " " STREAM_HIGH " " STREAM_NORMAL);
     int n20 = items / 5 > 0 ? items / 5 : 1, n200 = items / 50 > 0 ? items / 50 : 1;
     cq_results(c, dir, 20, n20, runs);
     cq_results(c, dir, 200, n200, runs);

@@ -98,6 +98,7 @@ SERVER_LAYERS = [
                      "(durable.c)"),
     ("server/cluster/", "cluster.h: rayd --redis, jobs shared by the nodes through Redis: redis.c "
                         "(the connection), cluster_state.c (names, counters, the view), "
+                        "cluster_items.c (the item streams, one per priority), "
                         "cluster_jobs.c (the records), cluster_assemble.c (tiles in, frames "
                         "out), cluster_node.c (the puller), cluster.c (start, the request "
                         "thread, /metrics)"),

@@ -11,7 +11,8 @@
  * brought none waits API_CLUSTER_POLL before the next (op->at): the
  * request thread holds it meanwhile, so an open stream costs no thread.
  * The events and their data are those of the single node (state, tile +
- * progress, frame, done); the stream ends after "done".
+ * progress, frame, done; "frame" for frame-range jobs only, as there: a
+ * still job's frame is its image.png); the stream ends after "done".
  */
 #include "api/api.h"
 #include "cluster/cluster.h"
@@ -75,6 +76,10 @@ static size_t api_cev_format(struct api_cev *a, const struct cluster_event *e, c
     }
     if (!strcmp(e->kind, "frame")) {
         char url[120];
+        if (!a->op.is_animated) { /* a still job's one frame is image.png, as on one node */
+            cJSON_Delete(o);
+            return 0;
+        }
         cJSON_AddNumberToObject(o, "k", (double)e->frame);
         cJSON_AddStringToObject(o, "state", "done");
         cJSON_AddNumberToObject(o, "frames_done", (double)e->done);

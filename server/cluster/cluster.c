@@ -51,6 +51,7 @@ int cluster_configure(void) {
     snprintf(cluster_ver, sizeof cluster_ver, "%s",
              config.test_gate_tiles >= -1 && v && *v ? v : RAYD_VERSION);
     snprintf(cluster_stream, sizeof cluster_stream, "rayd:items:%s", cluster_ver);
+    cluster_items_names();
     snprintf(cluster_view_now.address, sizeof cluster_view_now.address, "%s", cluster_url.display);
     return 0;
 }

@@ -1,7 +1,7 @@
 /* cluster.h -- rayd nodes sharing jobs, frames and tiles through Redis
  * (rayd --redis URL), as the handlers and main.c see it.
  *
- * Layer: cluster (redis.c, cluster.c, cluster_jobs.c, cluster_node.c,
+ * Layer: cluster (redis.c, cluster.c, cluster_items.c, cluster_jobs.c, cluster_node.c,
  * cluster_assemble.c), above the work layer and below the handlers.  May
  * include: work.h (and through it base.h), hiredis and cJSON -- never an
  * HTTP header.  Included by the handlers (api_cluster.c) and main.c.

@@ -50,7 +50,8 @@ static const char cluster_lua_tile[] =
     "end\n"
     "local c = redis.call('SCARD', p .. 'done:' .. k)\n"
     "if added == 1 and c == n then\n"
-    "  redis.call('XADD', ARGV[9], '*', 'job', id, 'frame', k, 'tile', -1)\n"
+    "  local items = redis.call('HGET', p .. 'job', 'items') or ARGV[9]\n"
+    "  redis.call('XADD', items, '*', 'job', id, 'frame', k, 'tile', -1)\n"
     "end\n"
     "return c\n";
 
@@ -142,7 +143,8 @@ static const char cluster_lua_redo[] =
     "  if redis.call('SREM', p .. 'done:' .. k, ARGV[i]) == 1 then\n"
     "    redis.call('HINCRBY', p .. 'job', 'tiles_done', -1)\n"
     "  end\n"
-    "  redis.call('XADD', KEYS[1], '*', 'job', id, 'frame', k, 'tile', ARGV[i])\n"
+    "  redis.call('XADD', redis.call('HGET', p .. 'job', 'items') or KEYS[1], '*', 'job', id, "
+    "'frame', k, 'tile', ARGV[i])\n"
     "end\n"
     "return 1\n";
 

@@ -4,7 +4,7 @@
  * A job is the hash rayd:{ID}:job, a member of the ZSET rayd:jobs (scored
  * by its creation time in ms: the list, newest first), its event stream
  * rayd:{ID}:events, and, while it runs, one work item per tile of each of
- * its frames in the stream rayd:items:VERSION.  The record and all its items
+ * its frames in the stream of its priority (cluster_items.c).  The record and all its items
  * are written by one Lua script, so a job is never seen without its items
  * nor items without their job; a node that dies mid-POST wrote all or
  * nothing, and the client, told nothing, posts again.
@@ -162,7 +162,7 @@ static void cluster_submit_job(struct redis *c, struct cluster_op *op) {
     cluster_key(keys[2], sizeof keys[2], op->id, "events");
     const char *argv[] = {"EVAL",        cluster_lua_submit,
                           "4",           keys[0],
-                          "rayd:jobs",   cluster_stream,
+                          "rayd:jobs",   cluster_items_stream(op->priority),
                           keys[2],       op->id,
                           v[0],          v[1],
                           v[2],          v[3],
@@ -195,6 +195,7 @@ static void cluster_submit_job(struct redis *c, struct cluster_op *op) {
                           "rays",        "0",
                           "render_ms",   "0",
                           "node",        cluster_node_id,
+                          "items",       cluster_items_stream(op->priority),
                           "scene",       op->scene};
     int argc = (int)(sizeof argv / sizeof argv[0]);
     size_t lens[sizeof argv / sizeof argv[0]];

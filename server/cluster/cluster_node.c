@@ -8,10 +8,12 @@
  *   - every --redis-claim-ms / 3: refreshes the items it holds (XCLAIM to
  *     itself, JUSTID: their idle time restarts), writes its heartbeat in
  *     rayd:nodes, takes over items idle for longer than claim-ms
- *     (XAUTOCLAIM: a dead or stalled node's), and reads the cluster's
- *     figures for /healthz and /metrics;
- *   - while its items in flight are fewer than its workers, takes one
- *     (XREADGROUP ... COUNT 1 BLOCK), so a busy node takes less.
+ *     (XAUTOCLAIM: a dead or stalled node's), removes gone nodes' consumers
+ *     and heartbeats, and reads the cluster's figures for /healthz and
+ *     /metrics;
+ *   - while its items in flight are fewer than its workers, takes one, from
+ *     the stream of the highest priority that has one (cluster_items.c), so
+ *     a busy node takes less.
  * A tile item renders as any request does: compile_scene (or
  * compile_scene_frame, a frame of an animated scene) on the parse threads,
  * then sched_render of the tile's region as a PNG for the job's client, so
@@ -35,15 +37,14 @@
 #include <time.h>
 #include <unistd.h>
 
-#define NODE_BLOCK_MS 100   /* XREADGROUP's wait for an item */
-#define NODE_RETRY_S 0.5    /* a render the node refused (queue full) is tried again after */
-#define NODE_FORGET_S 86400 /* a node not seen for this long leaves rayd:nodes */
+#define NODE_RETRY_S 0.5 /* a render the node refused (queue full) is tried again after */
 
 enum node_phase { NP_START, NP_BUSY, NP_DONE, NP_FAILED, NP_RETRY, NP_DROP };
 
 struct node_item {
     char sid[48], job[33];
     long frame, tile, ntiles;
+    int level; /* the stream it came from (its job's priority) */
     bool animated;
     enum node_phase phase; /* NP_BUSY items belong to the work layer's callbacks */
     double retry_at;
@@ -149,16 +150,6 @@ static void node_render(struct node_item *it) {
 
 /* ---- Redis, on this thread ----------------------------------------------------- */
 
-/* XACK and XDEL of an item, both or neither (an item acked but left in
- * the stream would count as queued for ever). */
-static void node_ack(struct redis *c, const char *sid) {
-    static const char script[] = "redis.call('XACK', KEYS[1], 'render', ARGV[1])\n"
-                                 "return redis.call('XDEL', KEYS[1], ARGV[1])\n";
-    const char *argv[] = {"EVAL", script, "1", cluster_stream, sid, NULL};
-    redisReply *rep = redis_strs(c, argv);
-    if (rep) freeReplyObject(rep);
-}
-
 static void node_free(struct node_item *it) {
     blob_unref(it->png);
     free(it->body);
@@ -210,7 +201,7 @@ static int node_job(struct redis *c, struct node_item *it) {
 }
 
 /* A new item from the stream entry e ([id, [field, value, ...]]), or NULL. */
-static struct node_item *node_item_new(const redisReply *e) {
+static struct node_item *node_item_new(const redisReply *e, int level) {
     if (!e || e->type != REDIS_REPLY_ARRAY || e->elements < 2) return NULL;
     struct node_item *it = calloc(1, sizeof *it);
     if (!it) return NULL;
@@ -219,13 +210,15 @@ static struct node_item *node_item_new(const redisReply *e) {
     snprintf(it->job, sizeof it->job, "%s", job && job->type == REDIS_REPLY_STRING ? job->str : "");
     it->frame = (long)redis_ll(redis_field(e->element[1], "frame"), -1);
     it->tile = (long)redis_ll(redis_field(e->element[1], "tile"), -2);
+    it->level = level;
     return it;
 }
 
-/* Whether the item with stream id sid is held here. */
-static bool node_holds(const char *sid) {
+/* Whether the item with id sid in stream `level` is held here (ids are
+ * per stream: two streams may use the same one). */
+static bool node_holds(const char *sid, int level) {
     for (struct node_item *it = node_items; it; it = it->next)
-        if (!strcmp(it->sid, sid)) return true;
+        if (it->level == level && !strcmp(it->sid, sid)) return true;
     return false;
 }
 
@@ -233,13 +226,13 @@ static bool node_holds(const char *sid) {
 static void node_take(struct redis *c, struct node_item *it) {
     if (!it->job[0] || it->frame < 0 || it->tile < -1) { /* not ours to read: dropped */
         log_warn("cluster: item %s is malformed; dropped", it->sid);
-        node_ack(c, it->sid);
+        cluster_items_ack(c, it->level, it->sid);
         node_free(it);
         return;
     }
     if (it->tile == -1) {
         if (cluster_assemble(c, it->job, it->frame)) {
-            node_ack(c, it->sid);
+            cluster_items_ack(c, it->level, it->sid);
             atomic_fetch_add(&cluster_done_total, 1);
         }
         node_free(it);
@@ -247,7 +240,8 @@ static void node_take(struct redis *c, struct node_item *it) {
     }
     int rc = node_job(c, it);
     if (rc <= 0) {
-        if (rc == 0) node_ack(c, it->sid); /* its job ended (cancelled, failed) or is gone */
+        if (rc == 0) /* its job ended (cancelled, failed) or is gone */
+            cluster_items_ack(c, it->level, it->sid);
         node_free(it);
         return;
     }
@@ -257,83 +251,33 @@ static void node_take(struct redis *c, struct node_item *it) {
     node_render(it);
 }
 
-/* Items from an XREADGROUP or XAUTOCLAIM list of entries. */
-static void node_take_list(struct redis *c, const redisReply *list, bool reclaimed) {
-    if (!list || list->type != REDIS_REPLY_ARRAY) return;
-    for (size_t i = 0; i < list->elements; i++) {
-        const redisReply *e = list->element[i];
-        if (!e || e->type != REDIS_REPLY_ARRAY || e->elements < 2 ||
-            e->element[0]->type != REDIS_REPLY_STRING || node_holds(e->element[0]->str))
-            continue;
-        struct node_item *it = node_item_new(e);
-        if (!it) continue;
-        if (reclaimed) {
-            atomic_fetch_add(&cluster_reclaimed_total, 1);
-            log_info("cluster: took over item %s (job %s frame %ld tile %ld) from a node that "
-                     "stopped refreshing it",
-                     it->sid, it->job, it->frame, it->tile);
-        }
-        node_take(c, it);
+/* One entry of stream `level`, taken (cluster_items_take_fn). */
+static long node_take_entry(struct redis *c, const redisReply *e, int level, bool reclaimed) {
+    if (node_holds(e->element[0]->str, level)) return 0;
+    struct node_item *it = node_item_new(e, level);
+    if (!it) return 0;
+    if (reclaimed) {
+        atomic_fetch_add(&cluster_reclaimed_total, 1);
+        log_info("cluster: took over item %s (job %s frame %ld tile %ld) from a node that "
+                 "stopped refreshing it",
+                 it->sid, it->job, it->frame, it->tile);
     }
-}
-
-static void node_group(struct redis *c) {
-    const char *argv[] = {"XGROUP", "CREATE", cluster_stream, "render", "0", "MKSTREAM", NULL};
-    redisReply *rep = redis_strs(c, argv);
-    if (rep) freeReplyObject(rep); /* BUSYGROUP: it exists */
-}
-
-/* One item from the stream, when there is room. */
-static void node_pull(struct redis *c) {
-    char block[16];
-    snprintf(block, sizeof block, "%d", NODE_BLOCK_MS);
-    const char *argv[] = {"XREADGROUP", "GROUP", "render",  cluster_node_id, "COUNT", "1",
-                          "BLOCK",      block,   "STREAMS", cluster_stream,  ">",     NULL};
-    redisReply *rep = redis_strs(c, argv);
-    if (rep && rep->type == REDIS_REPLY_ERROR && !strncmp(rep->str, "NOGROUP", 7)) {
-        node_group(c);
-    } else if (rep && !redis_failed(c, rep) && rep->type == REDIS_REPLY_ARRAY &&
-               rep->elements == 1) {
-        const redisReply *s = rep->element[0];
-        if (s->type == REDIS_REPLY_ARRAY && s->elements == 2)
-            node_take_list(c, s->element[1], false);
-    }
-    if (rep) freeReplyObject(rep);
-}
-
-/* Items idle past claim-ms (a dead or stalled node's), up to room. */
-static void node_reclaim(struct redis *c, long room) {
-    static char cursor[48] = "0-0";
-    char idle[24], count[24];
-    snprintf(idle, sizeof idle, "%ld", cluster_claim_ms());
-    snprintf(count, sizeof count, "%ld", room);
-    const char *argv[] = {"XAUTOCLAIM", cluster_stream, "render", cluster_node_id, idle, cursor,
-                          "COUNT",      count,          NULL};
-    redisReply *rep = redis_strs(c, argv);
-    if (rep && !redis_failed(c, rep) && rep->type == REDIS_REPLY_ARRAY && rep->elements >= 2) {
-        if (rep->element[0]->type == REDIS_REPLY_STRING)
-            snprintf(cursor, sizeof cursor, "%s", rep->element[0]->str);
-        node_take_list(c, rep->element[1], true);
-    }
-    if (rep) freeReplyObject(rep);
+    node_take(c, it);
+    return 1;
 }
 
 /* The items held here keep their claim (their idle time restarts). */
 static void node_refresh(struct redis *c) {
     if (!node_count) return;
-    const char **argv = calloc((size_t)node_count + 8, sizeof *argv);
-    if (!argv) return;
-    int n = 0;
-    argv[n++] = "XCLAIM";
-    argv[n++] = cluster_stream;
-    argv[n++] = "render";
-    argv[n++] = cluster_node_id;
-    argv[n++] = "0";
-    for (struct node_item *it = node_items; it; it = it->next) argv[n++] = it->sid;
-    argv[n++] = "JUSTID";
-    redisReply *rep = redis_argv(c, n, argv, NULL);
-    if (rep) freeReplyObject(rep);
-    free(argv);
+    const char **sids = calloc((size_t)node_count, sizeof *sids);
+    if (!sids) return;
+    for (int l = 0; l < CLUSTER_LEVELS; l++) {
+        int n = 0;
+        for (struct node_item *it = node_items; it; it = it->next)
+            if (it->level == l && n < node_count) sids[n++] = it->sid;
+        cluster_items_refresh(c, l, sids, n);
+    }
+    free(sids);
 }
 
 /* ---- what finished --------------------------------------------------------------- */
@@ -390,13 +334,14 @@ static bool node_finish(struct redis *c) {
         if (ph == NP_DONE && cluster_tile_store(c, it->job, it->frame, it->tile, it->ntiles,
                                                 &it->what.reg, it->png, it->render_ms)) {
             node_test_stall();
-            node_ack(c, it->sid);
+            cluster_items_ack(c, it->level, it->sid);
             atomic_fetch_add(&cluster_done_total, 1);
         } else if (ph == NP_FAILED) {
             char err[800];
             node_error_json(it, err, sizeof err);
             log_warn("cluster: job %s failed: %s", it->job, err);
-            if (cluster_jobs_end(c, it->job, "failed", err)) node_ack(c, it->sid);
+            if (cluster_jobs_end(c, it->job, "failed", err))
+                cluster_items_ack(c, it->level, it->sid);
         }
         *p = it->next;
         node_count--;
@@ -409,34 +354,6 @@ static bool node_finish(struct redis *c) {
 
 /* ---- the figures ------------------------------------------------------------------ */
 
-/* Other versions' streams that still hold items, into v. */
-static void node_other_versions(struct redis *c, struct cluster_status_view *v) {
-    char cursor[32] = "0";
-    for (int round = 0; round < 20; round++) {
-        const char *argv[] = {"SCAN", cursor, "MATCH", "rayd:items:*", "COUNT", "1000", NULL};
-        redisReply *rep = redis_strs(c, argv);
-        if (redis_failed(c, rep) || rep->type != REDIS_REPLY_ARRAY || rep->elements != 2) {
-            if (rep) freeReplyObject(rep);
-            return;
-        }
-        snprintf(cursor, sizeof cursor, "%s", rep->element[0]->str ? rep->element[0]->str : "0");
-        const redisReply *keys = rep->element[1];
-        for (size_t i = 0; i < keys->elements && v->nother < 4; i++) {
-            const char *k = keys->element[i]->str;
-            if (!k || !strcmp(k, cluster_stream)) continue;
-            redisReply *n = redis_cmd(c, "XLEN %s", k);
-            long long len = redis_ll(n, 0);
-            if (n) freeReplyObject(n);
-            if (len > 0)
-                snprintf(v->other_versions[v->nother++], sizeof v->other_versions[0],
-                         "rayd %.30s: %lld items wait for nodes of that version",
-                         k + strlen("rayd:items:"), len);
-        }
-        freeReplyObject(rep);
-        if (!strcmp(cursor, "0")) return;
-    }
-}
-
 /* The live nodes of rayd:nodes (and this node's heartbeat written). */
 static long node_heartbeat(struct redis *c) {
     char json[300];
@@ -447,18 +364,12 @@ static long node_heartbeat(struct redis *c) {
     const char *argv[] = {"HSET", "rayd:nodes", cluster_node_id, json, NULL};
     redisReply *rep = redis_strs(c, argv);
     if (rep) freeReplyObject(rep);
-    rep = redis_cmd(c, "HGETALL rayd:nodes");
+    rep = redis_cmd(c, "HGETALL rayd:nodes"); /* the gone ones are reaped (cluster_items.c) */
     long live = 0;
     for (size_t i = 1; rep && rep->type == REDIS_REPLY_ARRAY && i < rep->elements; i += 2) {
         const char *s = rep->element[i]->str ? strstr(rep->element[i]->str, "\"seen\":") : NULL;
         long seen = s ? strtol(s + 7, NULL, 10) : 0;
-        if ((double)(now - seen) * 1e3 <= 3.0 * (double)cluster_claim_ms() + 1e3)
-            live++;
-        else if (now - seen > NODE_FORGET_S && rep->element[i - 1]->str) { /* long gone */
-            const char *del[] = {"HDEL", "rayd:nodes", rep->element[i - 1]->str, NULL};
-            redisReply *d = redis_strs(c, del);
-            if (d) freeReplyObject(d);
-        }
+        if ((double)(now - seen) * 1e3 <= 3.0 * (double)cluster_claim_ms() + 1e3) live++;
     }
     if (rep) freeReplyObject(rep);
     return live;
@@ -470,18 +381,8 @@ static void node_figures(struct redis *c) {
     memset(&v, 0, sizeof v);
     snprintf(v.address, sizeof v.address, "%s", cluster_url.display);
     v.nodes = node_heartbeat(c);
-    redisReply *len = redis_cmd(c, "XLEN %s", cluster_stream);
-    const char *argv[] = {"XPENDING", cluster_stream, "render", NULL};
-    redisReply *pend = redis_strs(c, argv);
-    long long n = redis_ll(len, 0), pending = 0;
-    if (pend && pend->type == REDIS_REPLY_ARRAY && pend->elements >= 1)
-        pending = redis_ll(pend->element[0], 0);
-    v.redis_up = len && len->type == REDIS_REPLY_INTEGER && redis_is_up(c);
-    if (len) freeReplyObject(len);
-    if (pend) freeReplyObject(pend);
-    v.in_flight = (long)pending;
-    v.queued = n > pending ? (long)(n - pending) : 0;
-    if (v.redis_up) node_other_versions(c, &v);
+    v.redis_up = cluster_items_count(c, &v.queued, &v.in_flight) && redis_is_up(c);
+    if (v.redis_up) cluster_items_others(c, &v);
     if (!v.redis_up)
         snprintf(v.reason, sizeof v.reason, "%s", redis_why(c)[0] ? redis_why(c) : "no answer");
     pthread_mutex_lock(&cluster_mu);
@@ -513,7 +414,7 @@ static void *node_main(void *arg) {
     if (every > 1.0) every = 1.0; /* the figures at least once a second */
     bool group = false;
     while (c && !atomic_load(&cluster_stopping)) {
-        if (!group && redis_is_up(c)) node_group(c), group = true;
+        if (!group && redis_is_up(c)) cluster_items_groups(c), group = true;
         if (!redis_is_up(c)) group = false;
         bool any = node_finish(c);
         double now = clock_now();
@@ -522,11 +423,13 @@ static void *node_main(void *arg) {
             last = now;
             node_refresh(c);
             node_figures(c);
-            if (room > 0 && !atomic_load(&cluster_draining)) node_reclaim(c, room);
+            if (room > 0 && !atomic_load(&cluster_draining))
+                cluster_items_reclaim(c, room, node_take_entry);
+            if (redis_is_up(c)) cluster_items_reap(c);
             room = config.threads - node_count;
         }
         if (room > 0 && !atomic_load(&cluster_draining) && redis_is_up(c))
-            node_pull(c);
+            cluster_items_pull(c, node_take_entry);
         else if (!redis_is_up(c))
             node_figures(c), node_wait(0.2);
         else if (!any)
@@ -541,6 +444,7 @@ static void *node_main(void *arg) {
         const char *del[] = {"HDEL", "rayd:nodes", cluster_node_id, NULL};
         redisReply *d = redis_strs(c, del);
         if (d) freeReplyObject(d);
+        cluster_items_leave(c);
     }
     redis_free(c);
     return NULL;

@@ -87,6 +87,38 @@ bool cluster_tile_store(struct redis *c, const char *id, long k, long tile, long
  * corrupt, that tile queued again).  false: Redis failed (the item stays). */
 bool cluster_assemble(struct redis *c, const char *id, long k);
 
+/* ---- cluster_items.c: the streams of work items, one per priority ----------- */
+
+#define CLUSTER_LEVELS 3        /* enum jobs_priority: low, normal, high */
+void cluster_items_names(void); /* from cluster_stream, at start */
+/* The stream a job of that priority uses: cluster_stream for normal, it
+ * with :high or :low for the others. */
+const char *cluster_items_stream(int priority);
+void cluster_items_groups(struct redis *c); /* the group `render` of each stream */
+/* Takes stream entry e ([id, [field, value, ...]]) of stream `level`:
+ * 1 when the node now holds it (or handled it), 0 when it was skipped. */
+typedef long (*cluster_items_take_fn)(struct redis *c, const redisReply *e, int level,
+                                      bool reclaimed);
+/* The next new item, from the highest stream that has one (waits a little
+ * when none has). */
+void cluster_items_pull(struct redis *c, cluster_items_take_fn take);
+/* Items idle past claim-ms (a dead or stalled node's), highest first, up to room. */
+void cluster_items_reclaim(struct redis *c, long room, cluster_items_take_fn take);
+/* The items sids[0..n) of stream `level` held here keep their claim. */
+void cluster_items_refresh(struct redis *c, int level, const char **sids, int n);
+/* XACK and XDEL of an item, both or neither (an item acked but left in the
+ * stream would count as queued for ever). */
+void cluster_items_ack(struct redis *c, int level, const char *sid);
+/* The cluster-wide figures, summed over the streams; false: Redis failed. */
+bool cluster_items_count(struct redis *c, long *queued, long *in_flight);
+/* This node's consumer removed from each stream where it holds nothing
+ * (a clean stop; what it still holds is taken over, then reaped). */
+void cluster_items_leave(struct redis *c);
+/* Consumers and heartbeats of gone nodes removed (how many). */
+long cluster_items_reap(struct redis *c);
+/* Other versions' streams that still hold items, into v->other_versions. */
+void cluster_items_others(struct redis *c, struct cluster_status_view *v);
+
 /* ---- cluster_node.c: the puller ------------------------------------------------ */
 
 bool cluster_node_start(void);

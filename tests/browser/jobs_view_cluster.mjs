@@ -1,0 +1,160 @@
+// jobs_view_cluster.mjs URL_A URL_B -- the preview's Jobs tab against two
+// nodes of one cluster (rayd --redis, both with --test-gate), in Debian's
+// Chromium, printing one "PASS name" or "FAIL name: why" line per case.  Run
+// by jobs_view_cluster.sh, which starts Redis and the nodes.
+//
+// A job is submitted from the page served by node A and followed on the
+// page of node B: B lists it, follows it on its event stream (tile by tile,
+// while the gates let the tiles through), shows it succeeded with its
+// thumbnail, and its PNG link gives the bytes node A gives.  Nothing is
+// answered by a stand-in.
+import { chromium } from "playwright-core";
+import { mkdtempSync, rmSync, readFileSync } from "node:fs";
+import { tmpdir } from "node:os";
+import { join } from "node:path";
+
+const [A, B] = process.argv.slice(2);
+const SCENES = process.env.SCENES || "scenes";
+let failures = 0;
+
+const pass = (name) => console.log(`PASS ${name}`);
+const fail = (name, why) => {
+  failures++;
+  console.log(`FAIL ${name}: ${String(why).replace(/\s+/g, " ").slice(0, 400)}`);
+};
+async function check(name, fn) {
+  try {
+    const r = await fn();
+    if (r === true || r === undefined) pass(name);
+    else fail(name, r);
+  } catch (e) {
+    fail(name, e && e.message ? e.message : e);
+  }
+}
+const gate = async (url, tiles) => (await fetch(url + "/v1/test/gate?tiles=" + tiles, { method: "POST" })).json();
+const job = async (url, id) => (await fetch(`${url}/v1/jobs/${id}`)).json();
+
+// A small whitted scene (128 x 96: 2 x 2 tiles of 64), a job of its own.
+function sceneText() {
+  const s = JSON.parse(readFileSync(join(SCENES, "whitted.json"), "utf8"));
+  s.render.width = 128;
+  s.render.height = 96;
+  s.render.samples = 1;
+  s.render.seed = 4242;
+  return JSON.stringify(s, null, 2);
+}
+const rowSel = (id) => `#jobs-list li[data-id="${id}"]`;
+const waitRow = (page, id, state) =>
+  page.waitForFunction(([sel, s]) => document.querySelector(sel)?.dataset.state === s, [rowSel(id), state], {
+    timeout: 60000,
+  });
+
+async function open(context, url) {
+  const page = await context.newPage();
+  const errors = [];
+  page.on("console", (m) => m.type() === "error" && !/^Failed to load resource/.test(m.text()) && errors.push(m.text()));
+  page.on("response", (r) => r.status() >= 400 && errors.push(`${r.status()} ${r.request().method()} ${r.url()}`));
+  page.on("pageerror", (e) => errors.push("pageerror: " + e.message));
+  const streamed = new Set();
+  page.on("request", (r) => {
+    const m = /\/v1\/jobs\/([0-9a-f]{32})\/events$/.exec(r.url());
+    if (m) streamed.add(m[1]);
+  });
+  await page.goto(url + "/", { waitUntil: "load" });
+  await page.waitForFunction(() => document.body.dataset.state === "done", null, { timeout: 60000 });
+  return { page, errors, streamed };
+}
+
+const profile = mkdtempSync(join(tmpdir(), "rayd-chromium-"));
+let context;
+try {
+  context = await chromium.launchPersistentContext(profile, {
+    executablePath: process.env.CHROMIUM || "/usr/bin/chromium",
+    headless: true,
+    args: ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--no-first-run"],
+    viewport: { width: 1280, height: 800 },
+    acceptDownloads: true,
+  });
+} catch (e) {
+  fail("chromium_launch", e.message);
+  process.exit(0);
+}
+
+try {
+  let a, b, id;
+  await check("pages_open_on_both_nodes", async () => {
+    a = await open(context, A);
+    b = await open(context, B);
+  });
+  if (!a || !b) throw new Error("a node's page did not render its example; the other cases were not run");
+
+  await check("submitted_on_a", async () => {
+    await gate(A, 0);
+    await gate(B, 0);
+    await a.page.evaluate((t) => window.rayd.editor.set(t), sceneText());
+    await a.page.selectOption("#job-priority", "high");
+    await a.page.click("#render-job");
+    await a.page.waitForSelector("#jobs-list li[data-id]", { timeout: 30000 });
+    id = await a.page.$eval("#jobs-list li[data-id]", (li) => li.dataset.id);
+    return /^[0-9a-f]{32}$/.test(id) || `job id "${id}"`;
+  });
+  if (!id) throw new Error("no job was submitted; the other cases were not run");
+
+  await check("listed_on_b", async () => {
+    await b.page.click("#tab-jobs");
+    await b.page.click("#jobs-refresh");
+    await b.page.waitForSelector(rowSel(id), { timeout: 30000 });
+    const state = await b.page.getAttribute(rowSel(id), "data-state");
+    const text = await b.page.innerText(rowSel(id));
+    if (state !== "queued" && state !== "running") return `state ${state}`;
+    return /high/.test(text) || `row "${text}" does not say high`;
+  });
+
+  await check("progress_followed_on_b", async () => {
+    await b.page.waitForFunction(() => window.rayd.jobs.streams.size === 1, null, { timeout: 30000 });
+    if (!b.streamed.has(id)) return "node B's page did not follow the job on its event stream";
+    await gate(A, "open"); // A draws the tiles it holds, B still holds its own
+    await b.page.waitForFunction(
+      (sel) => /^[1-3]\/4 tiles$/.test(document.querySelector(`${sel} .job-ptext`)?.textContent || ""),
+      rowSel(id),
+      { timeout: 30000 }
+    );
+    return (await b.page.getAttribute(rowSel(id), "data-state")) === "running" || "not running after a tile";
+  });
+
+  let png = null;
+  await check("done_on_b_with_thumbnail", async () => {
+    await gate(B, "open");
+    await waitRow(b.page, id, "succeeded");
+    await b.page.waitForFunction((sel) => document.querySelector(`${sel} .job-ptext`).textContent === "4/4 tiles", rowSel(id));
+    await b.page.waitForFunction((sel) => document.querySelector(sel).dataset.thumb === "loaded", rowSel(id));
+    const w = await b.page.$eval(`${rowSel(id)} .job-thumb img`, (img) => img.naturalWidth);
+    if (w !== 128) return `thumbnail naturalWidth ${w}, not 128`;
+    png = Buffer.from(await (await fetch(`${A}/v1/jobs/${id}/image.png`)).arrayBuffer());
+    const j = await job(B, id);
+    return j.state === "succeeded" || `node B says ${j.state}`;
+  });
+
+  await check("download_on_b_is_a_image", async () => {
+    const href = await b.page.$eval(`${rowSel(id)} a.job-dl`, (a) => a.href);
+    if (href !== `${B}/v1/jobs/${id}/image.png`) return `href ${href}`;
+    const [dl] = await Promise.all([b.page.waitForEvent("download"), b.page.click(`${rowSel(id)} a.job-dl`)]);
+    const got = readFileSync(await dl.path());
+    return (png && png.length > 100 && got.equals(png)) || `downloaded ${got.length} bytes, node A's PNG ${png && png.length}`;
+  });
+
+  await check("a_shows_it_done_too", async () => {
+    await waitRow(a.page, id, "succeeded");
+  });
+
+  await check("no_page_errors", async () => {
+    const all = [...a.errors, ...b.errors];
+    return all.length === 0 || all.join(" | ");
+  });
+} catch (e) {
+  fail("driver", e.stack || e);
+} finally {
+  await context.close().catch(() => {});
+  rmSync(profile, { recursive: true, force: true });
+}
+process.exit(0);

@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# jobs_view_cluster.sh -- the preview's Jobs tab (server/web/jobs.js) against
+# a cluster: a real redis-server on a free loopback port
+# (tests/integration/lib/redis.sh) and two rayd nodes (--redis, --port 0,
+# --test-gate, which the driver closes so a job is held for as long as a
+# case needs), in Debian's Chromium, headless.  jobs_view_cluster.mjs submits a job from node A's page
+# and follows it on node B's: listed, its progress from the event stream, its
+# thumbnail and its PNG.  Every process is stopped by its PID.
+# Without chromium, node, playwright-core or redis-server this FAILs, never passes.
+#
+#   bash tests/browser/jobs_view_cluster.sh      (tests/run.sh sets RAYD_BUILD)
+source "$(dirname "$0")/../integration/lib/common.sh"
+source "$(dirname "$0")/../integration/lib/redis.sh"
+HERE=$RAYD_ROOT/tests/browser
+CHROMIUM=${CHROMIUM:-/usr/bin/chromium}
+
+missing=
+[ -x "$CHROMIUM" ] || missing="$missing chromium ($CHROMIUM; make test-deps installs Debian's chromium)"
+command -v node >/dev/null 2>&1 || missing="$missing node (Node.js)"
+[ -f "$HERE/node_modules/playwright-core/package.json" ] ||
+    missing="$missing playwright-core (make test runs npm ci in tests/browser)"
+if [ -n "$missing" ]; then
+    fail jobs_cluster_browser_setup "missing:$missing"
+    exit 1
+fi
+
+start_redis
+for i in 1 2; do
+    start_node $i --threads 2 --cluster-tile 64 --redis-claim-ms 3000 --test-gate open --redis "$REDIS_URL"
+done
+CHROMIUM=$CHROMIUM SCENES=$RAYD_ROOT/scenes timeout 300 node "$HERE/jobs_view_cluster.mjs" "${NODE_URL[1]}" "${NODE_URL[2]}"
+rc=$?
+[ "$rc" -eq 0 ] || fail jobs_cluster_driver "node exited with status $rc"
+for i in 1 2; do
+    kill -0 "${NODE_PID[$i]}" 2>/dev/null || fail "node_${i}_alive" "node $i died: $(tail -n 3 "$T/node$i.err")"
+done
+[ "$NFAIL" = 0 ]
