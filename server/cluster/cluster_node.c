@@ -55,6 +55,7 @@ struct node_item {
     struct blob *png;
     struct rayd_error err;
     double render_ms;
+    uint64_t rays; /* what the tile's render cast: the job counts them */
     struct node_item *next;
 };
 
@@ -77,6 +78,7 @@ static void node_mark(struct node_item *it, enum node_phase ph) {
 static void node_rendered(struct work_waiter *w, struct work_result *res) {
     struct node_item *it = (struct node_item *)((char *)w - offsetof(struct node_item, ww));
     it->render_ms = res->times.render_ms;
+    it->rays = res->rays;
     if (res->status == RAYD_OK && res->png) {
         it->png = res->png;
         node_mark(it, NP_DONE);
@@ -108,7 +110,7 @@ static void node_compiled(struct node_item *it, struct compile_result *res) {
     }
     it->ww = (struct work_waiter){.done = node_rendered, .suspend = node_nothing, .fd = -1};
     struct blob *png = NULL;
-    enum work_submit s = sched_render(res->scene, &it->what, &it->ww, &png);
+    enum work_submit s = sched_render(res->scene, &it->what, &it->ww, &png, &it->rays);
     scenes_release(res->scene);
     if (s == WORK_OK) return; /* node_rendered will say */
     if (s == WORK_CACHED) {
@@ -388,7 +390,7 @@ static bool node_finish(struct redis *c) {
             continue;
         }
         if (ph == NP_DONE && cluster_tile_store(c, it->job, it->frame, it->tile, it->ntiles,
-                                                &it->what.reg, it->png, it->render_ms)) {
+                                                &it->what.reg, it->png, it->render_ms, it->rays)) {
             node_test_stall();
             node_ack(c, it->sid);
             atomic_fetch_add(&cluster_done_total, 1);

@@ -66,6 +66,10 @@ void cluster_key(char *buf, size_t n, const char *id, const char *what);
 
 /* ---- cluster_jobs.c: the records (the request thread) ------------------------- */
 
+/* Seconds a job's tombstone (rayd:{ID}:gone) outlives its keys: its routes
+ * answer 410 job_expired that long, then 404. */
+#define CLUSTER_TOMB_S 86400
+
 /* The Lua function rayd_end(id, state, now_ms, ttl_s, error_json): a job
  * still queued or running ends (its event written, its tiles deleted, its
  * keys set to expire); 1 when it ended now, 0 when it had ended, -2 no
@@ -79,13 +83,18 @@ bool cluster_jobs_end(struct redis *c, const char *id, const char *state, const 
 
 /* ---- cluster_assemble.c: tiles in, frames out (the puller) ------------------- */
 
-/* Tile `tile` of frame k of job id done (png): kept, and the frame's
- * assembly queued by whoever completes it.  false: Redis failed. */
+/* Tile `tile` of frame k of job id done (png, what its render took and
+ * cast): kept, and the frame's assembly queued by whoever completes it.
+ * false: Redis failed. */
 bool cluster_tile_store(struct redis *c, const char *id, long k, long tile, long ntiles,
-                        const struct rayd_region *reg, const struct blob *png, double render_ms);
+                        const struct rayd_region *reg, const struct blob *png, double render_ms,
+                        uint64_t rays);
 /* The frame assembled from its tiles and stored (or, a tile missing or
- * corrupt, that tile queued again).  false: Redis failed (the item stays). */
+ * corrupt, that tile queued again).  false: Redis failed, or the memory
+ * budget has no room for it now (cluster_deferred_total counts those): the
+ * item stays pending, to be taken over. */
 bool cluster_assemble(struct redis *c, const char *id, long k);
+extern atomic_long cluster_deferred_total;
 
 /* ---- cluster_node.c: the puller ------------------------------------------------ */
 

@@ -43,4 +43,5 @@ void cluster_view(struct cluster_status_view *v) {
     v->node_in_flight = atomic_load(&cluster_node_in_flight);
     v->done_total = atomic_load(&cluster_done_total);
     v->reclaimed_total = atomic_load(&cluster_reclaimed_total);
+    v->deferred_total = atomic_load(&cluster_deferred_total);
 }
