@@ -38,9 +38,6 @@
 #include <string.h>
 #include <unistd.h>
 
-#define CLUSTER_STR_(x) #x
-#define CLUSTER_STR(x) CLUSTER_STR_(x)
-
 const char cluster_lua_end[] =
     "local function rayd_end(id, state, now, ttl, err)\n"
     "  local p = 'rayd:{' .. id .. '}:'\n"
@@ -61,10 +58,10 @@ const char cluster_lua_end[] =
     "  end\n"
     "  for _, k in ipairs({'job', 'events', 'frames'}) do redis.call('EXPIRE', p .. k, ttl) end\n"
     "  redis.call('SREM', 'rayd:unfinished', id)\n"
-    "  redis.call('SET', p .. 'gone', state .. ' ' .. now .. ' ' .. ttl, 'EX', "
-    "tonumber(ttl) + " CLUSTER_STR(CLUSTER_TOMB_S) ")\n"
-                                                   "  return 1\n"
-                                                   "end\n";
+    "  local tomb = tonumber(ttl) + " CLUSTER_TOMB_S "\n"
+    "  redis.call('SET', p .. 'gone', state .. ' ' .. now .. ' ' .. ttl, 'EX', tomb)\n"
+    "  return 1\n"
+    "end\n";
 
 /* KEYS: the job, rayd:jobs, the items' stream, the events, rayd:unfinished;
  * ARGV: id, created (ms), first, last, tiles, --max-jobs, then the hash's

@@ -67,8 +67,8 @@ void cluster_key(char *buf, size_t n, const char *id, const char *what);
 /* ---- cluster_jobs.c: the records (the request thread) ------------------------- */
 
 /* Seconds a job's tombstone (rayd:{ID}:gone) outlives its keys: its routes
- * answer 410 job_expired that long, then 404. */
-#define CLUSTER_TOMB_S 86400
+ * answer 410 job_expired that long, then 404.  A string: rayd_end's Lua. */
+#define CLUSTER_TOMB_S "86400"
 
 /* The Lua function rayd_end(id, state, now_ms, ttl_s, error_json): a job
  * still queued or running ends (its event written, its tiles deleted, its
