@@ -37,8 +37,6 @@
 
 #define CLUSTER_RERENDERS 3 /* times a frame's tile count it may re-render */
 
-atomic_long cluster_deferred_total; /* assemblies put off: no room in the memory budget */
-
 size_t cluster_assemble_bytes(long w, long h, long tile) {
     /* the frame's pixels and its PNG (at worst as large), as a render of
      * it reserves, and one tile decoded */

@@ -57,7 +57,8 @@ extern char cluster_stream[160]; /* rayd:items:VERSION */
 extern char cluster_ver[64];     /* the version items are made and taken for */
 extern atomic_bool cluster_stopping, cluster_draining;
 extern atomic_long cluster_done_total, cluster_reclaimed_total, cluster_node_in_flight;
-extern pthread_mutex_t cluster_mu; /* the view */
+extern atomic_long cluster_deferred_total; /* assemblies put off for want of memory */
+extern pthread_mutex_t cluster_mu;         /* the view */
 extern struct cluster_status_view cluster_view_now;
 long cluster_claim_ms(void);
 double cluster_now_ms(void); /* wall clock, ms since the epoch */
@@ -94,7 +95,6 @@ bool cluster_tile_store(struct redis *c, const char *id, long k, long tile, long
  * budget has no room for it now (cluster_deferred_total counts those): the
  * item stays pending, to be taken over. */
 bool cluster_assemble(struct redis *c, const char *id, long k);
-extern atomic_long cluster_deferred_total;
 
 /* ---- cluster_node.c: the puller ------------------------------------------------ */
 
