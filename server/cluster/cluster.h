@@ -123,6 +123,7 @@ struct cluster_status_view {
     char reason[200]; /* why it is down */
     long nodes, queued, in_flight;
     long node_in_flight, done_total, reclaimed_total, deferred_total;
+    long jobs_unfinished;        /* the cluster's (rayd:unfinished), against --max-jobs */
     char other_versions[4][120]; /* "rayd 0.9.0: 12 items wait ..." */
     int nother;
 };

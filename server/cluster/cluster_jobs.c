@@ -152,6 +152,14 @@ bool cluster_jobs_end(struct redis *c, const char *id, const char *state, const 
     return ok;
 }
 
+long cluster_jobs_unfinished(struct redis *c) {
+    const char *argv[] = {"SCARD", "rayd:unfinished", NULL};
+    redisReply *rep = redis_strs(c, argv);
+    long n = rep && rep->type == REDIS_REPLY_INTEGER ? (long)rep->integer : 0;
+    if (rep) freeReplyObject(rep);
+    return n;
+}
+
 /* 32 random hex digits. */
 static bool cluster_new_id(char id[33]) {
     unsigned char b[16];

@@ -482,6 +482,7 @@ static void node_figures(struct redis *c) {
     if (len) freeReplyObject(len);
     if (pend) freeReplyObject(pend);
     v.in_flight = (long)pending;
+    v.jobs_unfinished = v.redis_up ? cluster_jobs_unfinished(c) : 0;
     v.queued = n > pending ? (long)(n - pending) : 0;
     if (v.redis_up) node_other_versions(c, &v);
     if (!v.redis_up)

@@ -78,6 +78,9 @@ void cluster_key(char *buf, size_t n, const char *id, const char *what);
 extern const char cluster_lua_end[];
 
 void cluster_jobs_run(struct redis *c, struct cluster_op *op);
+/* The cluster's unfinished jobs (what --max-jobs counts), 0 when Redis
+ * does not answer. */
+long cluster_jobs_unfinished(struct redis *c);
 /* Sets the job's end state (with error JSON, or NULL) if it is still
  * queued or running, its keys to expire after --job-ttl; the puller's too. */
 bool cluster_jobs_end(struct redis *c, const char *id, const char *state, const char *error);

@@ -46,6 +46,13 @@ check max_jobs_retry_after "headers: $(tr -d '\r' <"$T/c1.h" | tr '\n' ' ')" ret
 c4=$(post 2 "$REG" c2)
 check max_jobs_cluster_wide "node 2 gave $c4 (node 1 holds one job, node 2 one)" [ "$c4" = 503 ]
 check max_jobs_nothing_written "jobs in Redis: $(rcli zcard rayd:jobs)" [ "$(rcli zcard rayd:jobs)" = 2 ]
+# /readyz says so on every node, as a single node with a full table does
+readyz_full() {
+    curl -s -o "$T/ready$1.json" "${NODE_URL[$1]}/readyz"
+    grep -q '"jobs":2,"max_jobs":2,"jobs_refused":"all 2 jobs kept (--max-jobs) are unfinished in the cluster' "$T/ready$1.json"
+}
+wait_until 30 readyz_full 1
+check max_jobs_readyz "node 1: $(cat "$T/ready1.json")" readyz_full 1
 # the same answer as a single node's full table
 start_node 9 --threads 1 --max-jobs 1 --test-gate 0
 curl -s -o /dev/null "${JSON[@]}" --data-binary @"$SCENE" "${NODE_URL[9]}/v1/jobs?$REG"
