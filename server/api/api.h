@@ -129,6 +129,10 @@ void api_jobs_unknown(struct http_req *r);
  * and when it ended, when it went) for one this server forgot, else 404
  * job_unknown. */
 void api_jobs_missing(struct http_req *r, const char *id);
+/* 410 Gone for a forgotten job (g: how and when it ended, why and when it
+ * went), with the job's JSON when it is still known (job, owned; or NULL):
+ * the single node's tombstones and a cluster's (rayd:{ID}:gone). */
+void api_jobs_gone(struct http_req *r, const struct jobs_gone *g, cJSON *job);
 /* 410 result_evicted with the job's JSON when info's images were evicted
  * (a memory budget); true when it replied. */
 bool api_jobs_evicted(struct http_req *r, const char *id, const struct jobs_info *info);

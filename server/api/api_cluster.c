@@ -49,9 +49,12 @@ static void api_cluster_done(struct cluster_op *op) {
         http_reply_error(r, 503, "cluster_unavailable", op->why, NULL, 0, 0, NULL);
     } else if (op->status == CS_NOMEM) {
         api_refused(r, WORK_NOMEM);
+    } else if (op->status == CS_FULL) { /* --max-jobs: as a single node's full table */
+        api_refused(r, WORK_TOO_MANY_JOBS);
+    } else if (op->status == CS_GONE) {
+        api_jobs_gone(r, &op->gone, NULL);
     } else if (op->status == CS_UNKNOWN) {
-        http_reply_error(r, 404, "job_unknown",
-                         "no such job in the cluster (or it expired: --job-ttl after it ended)",
+        http_reply_error(r, 404, "job_unknown", "no such job in the cluster (or it was forgotten)",
                          NULL, 0, 0, NULL);
     } else {
         a->answer(a);
@@ -192,6 +195,13 @@ bool api_cluster_submit(struct http_req *r, struct cache_entry *e, const struct 
                  "the nodes with a larger --cluster-tile",
                  items, count, n, CLUSTER_MAX_ITEMS);
         http_reply_error(r, 413, "too_large", msg, NULL, 0, 0, NULL);
+        free(a);
+        return false;
+    }
+    if (cluster_assemble_bytes(what->reg.w, what->reg.h, n) > mem_limit()) {
+        /* a frame this node could never assemble: as one node refuses a render over it */
+        metrics_reject(MR_MEMORY);
+        api_refused(r, WORK_TOO_BIG);
         free(a);
         return false;
     }

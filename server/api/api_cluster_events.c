@@ -155,9 +155,11 @@ static void api_cev_first(struct cluster_op *op) {
         http_reply_error(r, 503, "cluster_unavailable", op->why, NULL, 0, 0, NULL);
     } else if (op->status == CS_NOMEM) {
         api_refused(r, WORK_NOMEM);
+    } else if (op->status == CS_GONE) {
+        api_jobs_gone(r, &op->gone, NULL);
     } else if (op->status != CS_OK) {
-        http_reply_error(r, 404, "job_unknown", "no such job in the cluster (or it expired)", NULL,
-                         0, 0, NULL);
+        http_reply_error(r, 404, "job_unknown", "no such job in the cluster (or it was forgotten)",
+                         NULL, 0, 0, NULL);
     } else {
         if (op->nevents > 0)
             snprintf(a->cursor, sizeof a->cursor, "%s", op->events[op->nevents - 1].cursor);

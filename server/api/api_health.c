@@ -53,16 +53,23 @@ void api_health_live(struct http_req *r, const char *id) {
 }
 
 /* "jobs", "max_jobs", and "jobs_refused" while POST /v1/jobs is refused
- * because every job kept is unfinished (jobs.c evicts finished ones only). */
+ * because every job kept is unfinished (jobs.c evicts finished ones only);
+ * with --redis the cluster's unfinished jobs, as the puller last read them. */
 static void api_health_jobs(cJSON *o, const struct sched_stats *st) {
-    cJSON_AddNumberToObject(o, "jobs", (double)st->jobs_unfinished);
+    long jobs = st->jobs_unfinished;
+    if (cluster_on()) {
+        struct cluster_status_view v;
+        cluster_view(&v);
+        jobs = v.jobs_unfinished;
+    }
+    cJSON_AddNumberToObject(o, "jobs", (double)jobs);
     cJSON_AddNumberToObject(o, "max_jobs", (double)st->jobs_cap);
-    if (st->jobs_unfinished < st->jobs_cap) return;
+    if (jobs < st->jobs_cap) return;
     char msg[200];
     snprintf(msg, sizeof msg,
-             "all %ld jobs kept (--max-jobs) are unfinished: POST /v1/jobs answers 503 "
+             "all %ld jobs kept (--max-jobs) are unfinished%s: POST /v1/jobs answers 503 "
              "queue_full until one ends; renders are accepted",
-             st->jobs_cap);
+             st->jobs_cap, cluster_on() ? " in the cluster" : "");
     cJSON_AddStringToObject(o, "jobs_refused", msg);
 }
 

@@ -48,9 +48,7 @@ static void api_jobs_gone_message(char *msg, size_t size, const struct jobs_gone
                  g->detail[0] ? g->detail : "no reason given");
 }
 
-/* 410 Gone for a job or its result: the error with the job's end and, when
- * the job is still known, its JSON (job, owned). */
-static void api_jobs_gone(struct http_req *r, const struct jobs_gone *g, cJSON *job) {
+void api_jobs_gone(struct http_req *r, const struct jobs_gone *g, cJSON *job) {
     static const char *const codes[] = {"job_expired", "job_evicted", "result_evicted"};
     char msg[400], ended[40], gone[40];
     api_jobs_time(ended, sizeof ended, g->ended_wall);

@@ -106,7 +106,7 @@ static bool api_render_submit(struct http_req *r, struct cache_entry *scene,
     a->w.done = api_render_done;
     a->w.suspend = api_render_suspend;
     a->w.fd = http_req_fd(r);
-    enum work_submit s = sched_render(scene, what, &a->w, &png);
+    enum work_submit s = sched_render(scene, what, &a->w, &png, NULL);
     if (s == WORK_OK) return true; /* a belongs to the work layer until done() */
     free(a);
     if (s == WORK_CACHED) {

@@ -159,7 +159,7 @@ char *cluster_metrics(char *text, size_t *len) {
     if (!cluster_on()) return text;
     struct cluster_status_view v;
     cluster_view(&v);
-    char buf[2400];
+    char buf[2800];
     int n = snprintf(
         buf, sizeof buf,
         "# HELP rayd_cluster_redis_up 1 while this node reaches the cluster's Redis.\n"
@@ -178,9 +178,14 @@ char *cluster_metrics(char *text, size_t *len) {
         "# HELP rayd_cluster_items_reclaimed_total Work items this node took over from a node "
         "that did not refresh them within --redis-claim-ms.\n"
         "# TYPE rayd_cluster_items_reclaimed_total counter\n"
-        "rayd_cluster_items_reclaimed_total %ld\n",
+        "rayd_cluster_items_reclaimed_total %ld\n"
+        "# HELP rayd_cluster_assemblies_deferred_total Frame assemblies this node left for later "
+        "because its memory budget (--max-memory) had no room (the item is taken over after "
+        "--redis-claim-ms).\n"
+        "# TYPE rayd_cluster_assemblies_deferred_total counter\n"
+        "rayd_cluster_assemblies_deferred_total %ld\n",
         v.redis_up ? 1 : 0, v.nodes, v.queued, v.in_flight, v.node_in_flight, v.done_total,
-        v.reclaimed_total);
+        v.reclaimed_total, v.deferred_total);
     if (n < 0 || (size_t)n >= sizeof buf) return text;
     char *out = realloc(text, *len + (size_t)n + 1);
     if (!out) return text;

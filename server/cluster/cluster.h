@@ -45,7 +45,9 @@ enum cluster_op_kind {
 };
 enum cluster_status {
     CS_OK,
-    CS_UNKNOWN, /* no such job (or it expired) */
+    CS_UNKNOWN, /* no such job (or its tombstone expired too) */
+    CS_GONE,    /* the job expired (--job-ttl after it ended): gone says how, 410 */
+    CS_FULL,    /* CO_SUBMIT: --max-jobs jobs of the cluster are unfinished: 503 */
     CS_DOWN,    /* Redis unreachable or answering errors: 503 cluster_unavailable */
     CS_NOMEM
 };
@@ -88,6 +90,7 @@ struct cluster_op {
     /* out */
     enum cluster_status status;
     char why[400];           /* CS_DOWN: the address and the reason */
+    struct jobs_gone gone;   /* CS_GONE: how and when it ended, when it went */
     struct shots_info info;  /* the job (info.job), and its frames when animated */
     bool is_animated;        /* the job is a frame range */
     bool canceled_now;       /* CO_CANCEL: this request ended it */
@@ -104,6 +107,10 @@ struct cluster_op {
     void (*done)(struct cluster_op *op);    /* on the request thread, once */
     struct cluster_op *next;
 };
+/* The bytes assembling a frame of w x h pixels in tiles of tile pixels
+ * holds (the memory budget's charge): over --max-memory, a job of such
+ * frames is refused at POST, as one node refuses such a render. */
+size_t cluster_assemble_bytes(long w, long h, long tile);
 /* Queues op: true after op->suspend ran (op->done will be called once);
  * false when the cluster is stopping (op not used). */
 bool cluster_submit(struct cluster_op *op);
@@ -115,7 +122,8 @@ struct cluster_status_view {
     char address[300];
     char reason[200]; /* why it is down */
     long nodes, queued, in_flight;
-    long node_in_flight, done_total, reclaimed_total;
+    long node_in_flight, done_total, reclaimed_total, deferred_total;
+    long jobs_unfinished;        /* the cluster's (rayd:unfinished), against --max-jobs */
     char other_versions[4][120]; /* "rayd 0.9.0: 12 items wait ..." */
     int nother;
 };

@@ -17,6 +17,17 @@
  * (corrupt) is taken out of the done set and queued again, so the frame
  * re-renders what it lacks; past CLUSTER_RERENDERS a frame's tiles the job
  * fails, naming the tile, rather than loop.
+ *
+ * An assembly holds the decoded frame, one decoded tile and the frame's
+ * PNG (cluster_assemble_bytes), so it is charged to the node's one memory
+ * budget (--max-memory) as a render's pixels are: reserved before the
+ * tiles are read, released once the frame is stored.  When the budget has
+ * no room the job does not fail: the item is left unacknowledged and is
+ * taken over after --redis-claim-ms by a node with room (this one too,
+ * later), and rayd_cluster_assemblies_deferred_total counts it.  A frame
+ * whose assembly alone is over a node's whole budget is refused at POST
+ * (413 over_memory, as one node refuses such a render), so some node --
+ * one with that budget at least -- can always assemble it.
  */
 #include "cluster/cluster_private.h"
 
@@ -25,6 +36,12 @@
 #include <string.h>
 
 #define CLUSTER_RERENDERS 3 /* times a frame's tile count it may re-render */
+
+size_t cluster_assemble_bytes(long w, long h, long tile) {
+    /* the frame's pixels and its PNG (at worst as large), as a render of
+     * it reserves, and one tile decoded */
+    return (size_t)w * (size_t)h * 6 + (size_t)tile * (size_t)tile * 3 + 4096;
+}
 
 static const char cluster_lua_tile[] =
     "local id, k, t, n = ARGV[1], ARGV[2], ARGV[3], tonumber(ARGV[5])\n"
@@ -69,14 +86,15 @@ static const char *cluster_test_tile(void) {
 }
 
 bool cluster_tile_store(struct redis *c, const char *id, long k, long tile, long ntiles,
-                        const struct rayd_region *reg, const struct blob *png, double render_ms) {
+                        const struct rayd_region *reg, const struct blob *png, double render_ms,
+                        uint64_t rays) {
     char sk[24], st[24], sn[24], now[32], sr[32], sm[32], where[64];
     snprintf(where, sizeof where, "%d %d %d %d", reg->x, reg->y, reg->w, reg->h);
     snprintf(sk, sizeof sk, "%ld", k);
     snprintf(st, sizeof st, "%ld", tile);
     snprintf(sn, sizeof sn, "%ld", ntiles);
     snprintf(now, sizeof now, "%.0f", cluster_now_ms());
-    snprintf(sr, sizeof sr, "0"); /* the work layer does not hand a render's rays up */
+    snprintf(sr, sizeof sr, "%llu", (unsigned long long)rays);
     snprintf(sm, sizeof sm, "%.3f", render_ms);
     const char *test = cluster_test_tile();
     const char *data = png->data;
@@ -123,6 +141,7 @@ static const char cluster_lua_frame[] =
     "redis.call('HSET', p .. 'job', 'frames_done', n)\n"
     "if added == 1 then\n"
     "  redis.call('HSET', p .. 'job', 'latest', k)\n"
+    "  redis.call('HINCRBYFLOAT', p .. 'job', 'encode_ms', ARGV[6])\n"
     "  redis.call('XADD', p .. 'events', 'MAXLEN', '~', 1000, '*', 'kind', 'frame', 'frame', k, "
     "'done', n, 'total', total)\n"
     "end\n"
@@ -255,8 +274,8 @@ static bool cluster_redo(struct redis *c, const char *id, long k, const struct c
 
 /* The frame's PNG stored (the job ends with its last frame). */
 static bool cluster_frame_store(struct redis *c, const char *id, long k, const void *png,
-                                size_t len) {
-    char sk[24], now[32], ttl[24];
+                                size_t len, double encode_ms) {
+    char sk[24], now[32], ttl[24], enc[32];
     size_t n = strlen(cluster_lua_end) + sizeof cluster_lua_frame;
     char *script = malloc(n);
     if (!script) return false;
@@ -264,10 +283,11 @@ static bool cluster_frame_store(struct redis *c, const char *id, long k, const v
     snprintf(sk, sizeof sk, "%ld", k);
     snprintf(now, sizeof now, "%.0f", cluster_now_ms());
     snprintf(ttl, sizeof ttl, "%ld", config.job_ttl);
-    const char *argv[] = {"EVAL", script, "0", id, sk, png, now, ttl};
-    size_t lens[8];
-    for (int i = 0; i < 8; i++) lens[i] = i == 5 ? len : strlen(argv[i]);
-    redisReply *rep = redis_argv(c, 8, argv, lens);
+    snprintf(enc, sizeof enc, "%.3f", encode_ms);
+    const char *argv[] = {"EVAL", script, "0", id, sk, png, now, ttl, enc};
+    size_t lens[9];
+    for (int i = 0; i < 9; i++) lens[i] = i == 5 ? len : strlen(argv[i]);
+    redisReply *rep = redis_argv(c, 9, argv, lens);
     bool ok = !redis_failed(c, rep);
     if (ok && redis_ll(rep, 0) >= 10) log_info("cluster: job %s succeeded", id);
     if (rep) freeReplyObject(rep);
@@ -275,10 +295,24 @@ static bool cluster_frame_store(struct redis *c, const char *id, long k, const v
     return ok;
 }
 
+/* The assembly's bytes reserved in the memory budget; false (counted,
+ * said) when there is no room. */
+static bool cluster_assemble_reserve(const char *id, long k, size_t need) {
+    if (mem_reserve(MEM_RESULTS, need)) return true;
+    atomic_fetch_add(&cluster_deferred_total, 1);
+    log_warn("cluster: job %s frame %ld: its assembly needs %zu bytes and this node's memory "
+             "budget (--max-memory %zu bytes) has no room now; left for a node with room (taken "
+             "over after --redis-claim-ms)",
+             id, k, need, mem_limit());
+    return false;
+}
+
 bool cluster_assemble(struct redis *c, const char *id, long k) {
     struct cluster_geom g;
     if (!cluster_geom_read(c, id, &g)) return false;
     if (strcmp(g.state, "queued") && strcmp(g.state, "running")) return true; /* ended: drop */
+    size_t need = cluster_assemble_bytes(g.w, g.h, g.size);
+    if (!cluster_assemble_reserve(id, k, need)) return false; /* the item stays pending */
     const char **argv = calloc((size_t)g.tiles + 1, sizeof *argv);
     char *keys = calloc((size_t)g.tiles, 120);
     long *bad = calloc((size_t)g.tiles, sizeof *bad);
@@ -307,13 +341,15 @@ bool cluster_assemble(struct redis *c, const char *id, long k) {
     }
     void *png = NULL;
     size_t len = 0;
+    double t0 = clock_now();
     if (rayd_png_encode(img, (int)config.png_level, &png, &len, &err) != RAYD_OK) {
         log_error("cluster: job %s frame %ld: cannot encode: %s", id, k, err.message);
         goto out; /* left for another node (or this one) to try again */
     }
-    ok = cluster_frame_store(c, id, k, png, len);
+    ok = cluster_frame_store(c, id, k, png, len, (clock_now() - t0) * 1e3);
     rayd_free(png);
 out:
+    mem_release(MEM_RESULTS, need);
     rayd_image_free(img);
     free(argv);
     free(keys);

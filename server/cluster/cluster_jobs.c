@@ -14,7 +14,20 @@
  * by the same code and has the same shape.  A job ends by rayd_end (Lua):
  * its state, its last event, its tiles deleted and every key of it set to
  * expire after --job-ttl; the ZSET entry of an expired job is dropped when
- * the list next meets it.
+ * the list next meets it.  It also leaves a tombstone, rayd:{ID}:gone ("state
+ * ended_ms ttl", some 100 bytes), that outlives the job's keys by
+ * CLUSTER_TOMB_S, so any node answers an expired job's routes 410
+ * job_expired, how and when it ended, as a single node does from its ring
+ * of tombstones, and 404 only an id the cluster never had (or forgot a day
+ * ago).
+ *
+ * --max-jobs counts the cluster's unfinished jobs: the set rayd:unfinished
+ * holds their ids (added by the submit script, removed by rayd_end), and
+ * the submit script refuses (-3: 503 queue_full, as a single node's full
+ * table) when it holds the POSTing node's --max-jobs already.  Counted and
+ * added in one script, two nodes cannot both pass the last place.  An id
+ * whose job is no longer unfinished (its keys deleted by hand, evicted by
+ * Redis) is pruned when the set looks full, so a stale id never blocks.
  */
 #include "cluster/cluster_private.h"
 
@@ -44,11 +57,26 @@ const char cluster_lua_end[] =
     "    redis.call('EXPIRE', p .. 'done:' .. k, ttl)\n"
     "  end\n"
     "  for _, k in ipairs({'job', 'events', 'frames'}) do redis.call('EXPIRE', p .. k, ttl) end\n"
+    "  redis.call('SREM', 'rayd:unfinished', id)\n"
+    "  local tomb = tonumber(ttl) + " CLUSTER_TOMB_S "\n"
+    "  redis.call('SET', p .. 'gone', state .. ' ' .. now .. ' ' .. ttl, 'EX', tomb)\n"
     "  return 1\n"
     "end\n";
 
+/* KEYS: the job, rayd:jobs, the items' stream, the events, rayd:unfinished;
+ * ARGV: id, created (ms), first, last, tiles, --max-jobs, then the hash's
+ * fields and values.  -3: the cluster's unfinished jobs are --max-jobs. */
 static const char cluster_lua_submit[] =
-    "redis.call('HSET', KEYS[1], unpack(ARGV, 6))\n"
+    "local max = tonumber(ARGV[6])\n"
+    "if redis.call('SCARD', KEYS[5]) >= max then\n"
+    "  for _, j in ipairs(redis.call('SMEMBERS', KEYS[5])) do\n"
+    "    local st = redis.call('HGET', 'rayd:{' .. j .. '}:job', 'state')\n"
+    "    if st ~= 'queued' and st ~= 'running' then redis.call('SREM', KEYS[5], j) end\n"
+    "  end\n"
+    "  if redis.call('SCARD', KEYS[5]) >= max then return -3 end\n"
+    "end\n"
+    "redis.call('SADD', KEYS[5], ARGV[1])\n"
+    "redis.call('HSET', KEYS[1], unpack(ARGV, 7))\n"
     "redis.call('ZADD', KEYS[2], ARGV[2], ARGV[1])\n"
     "redis.call('XADD', KEYS[4], 'MAXLEN', '~', 1000, '*', 'kind', 'state', 'state', 'queued')\n"
     "for k = tonumber(ARGV[3]), tonumber(ARGV[4]) do\n"
@@ -63,7 +91,7 @@ static const char *const cluster_fields[] = {
     "state", "created", "started",  "ended",      "client",      "priority", "scene_id",
     "x",     "y",       "w",        "h",          "first",       "last",     "animated",
     "tiles", "fps",     "est_rays", "tiles_done", "frames_done", "rays",     "render_ms",
-    "error", "latest",  "version",  "denoise",    NULL};
+    "error", "latest",  "version",  "denoise",    "encode_ms",   NULL};
 enum {
     F_STATE,
     F_CREATED,
@@ -90,14 +118,16 @@ enum {
     F_LATEST,
     F_VERSION,
     F_DENOISE,
+    F_ENCODE_MS,
     F__COUNT
 };
 
-/* A status read: the fields, then the frames being assembled or rendered. */
+/* A status read: the fields, then the frames being assembled or rendered;
+ * for a job that expired, its tombstone (a string), or nil. */
 static const char cluster_lua_status[] =
     "local p = 'rayd:{' .. ARGV[1] .. '}:'\n"
     "local v = redis.call('HMGET', p .. 'job', unpack(ARGV, 2))\n"
-    "if not v[1] then return nil end\n"
+    "if not v[1] then return redis.call('GET', p .. 'gone') end\n"
     "local running = 0\n"
     "local first, last = tonumber(v[12]), tonumber(v[13])\n"
     "if v[1] == 'running' and first and last and last - first < 100000 then\n"
@@ -122,6 +152,14 @@ bool cluster_jobs_end(struct redis *c, const char *id, const char *state, const 
     return ok;
 }
 
+long cluster_jobs_unfinished(struct redis *c) {
+    const char *argv[] = {"SCARD", "rayd:unfinished", NULL};
+    redisReply *rep = redis_strs(c, argv);
+    long n = rep && rep->type == REDIS_REPLY_INTEGER ? (long)rep->integer : 0;
+    if (rep) freeReplyObject(rep);
+    return n;
+}
+
 /* 32 random hex digits. */
 static bool cluster_new_id(char id[33]) {
     unsigned char b[16];
@@ -140,7 +178,7 @@ static void cluster_submit_job(struct redis *c, struct cluster_op *op) {
     }
     long n = config.cluster_tile;
     long cols = (op->reg.w + n - 1) / n, rows = (op->reg.h + n - 1) / n;
-    char v[24][40], keys[3][80];
+    char v[24][40], keys[3][80], max[24];
     double now = cluster_now_ms();
     op->created_ms = now;
     snprintf(v[0], 40, "%.0f", now);
@@ -158,14 +196,16 @@ static void cluster_submit_job(struct redis *c, struct cluster_op *op) {
     snprintf(v[12], 40, "%.17g", op->fps);
     snprintf(v[13], 40, "%.0f", op->est_rays);
     snprintf(v[14], 40, "%u", op->aov);
+    snprintf(max, sizeof max, "%ld", config.max_jobs);
     cluster_key(keys[0], sizeof keys[0], op->id, "job");
     cluster_key(keys[2], sizeof keys[2], op->id, "events");
     const char *argv[] = {"EVAL",        cluster_lua_submit,
-                          "4",           keys[0],
+                          "5",           keys[0],
                           "rayd:jobs",   cluster_items_stream(op->priority),
-                          keys[2],       op->id,
-                          v[0],          v[1],
-                          v[2],          v[3],
+                          keys[2],       "rayd:unfinished",
+                          op->id,        v[0],
+                          v[1],          v[2],
+                          v[3],          max,
                           "id",          op->id,
                           "version",     cluster_version(),
                           "state",       "queued",
@@ -202,7 +242,7 @@ static void cluster_submit_job(struct redis *c, struct cluster_op *op) {
     for (int i = 0; i < argc; i++) lens[i] = strlen(argv[i]);
     lens[argc - 1] = op->scene_len;
     redisReply *rep = redis_argv(c, argc, argv, lens);
-    op->status = redis_failed(c, rep) ? CS_DOWN : CS_OK;
+    op->status = redis_failed(c, rep) ? CS_DOWN : redis_ll(rep, 1) == -3 ? CS_FULL : CS_OK;
     if (rep) freeReplyObject(rep);
     if (op->status == CS_OK)
         log_info("cluster: job %s: %ld frame(s) of %ld tile(s) queued", op->id,
@@ -257,6 +297,7 @@ static void cluster_fill(const char *id, redisReply **v, struct shots_info *out,
     j->created_age = (now - created) / 1e3;
     j->queue_ms = started > 0 ? started - created : (ended > 0 ? 0 : now - created);
     j->render_ms = cluster_num(v[F_RENDER_MS]);
+    j->encode_ms = cluster_num(v[F_ENCODE_MS]);
     j->rays = (uint64_t)cluster_num(v[F_RAYS]);
     j->est_rays = cluster_num(v[F_EST_RAYS]);
     j->priority = (int)cluster_num(v[F_PRIORITY]);
@@ -283,7 +324,21 @@ static void cluster_fill(const char *id, redisReply **v, struct shots_info *out,
     if (j->state == JS_SUCCEEDED) j->progress = 1;
 }
 
-/* Reads job id into op->info; CS_UNKNOWN when there is none. */
+/* A tombstone's "state ended_ms ttl" into g: the job expired ttl s after
+ * it ended. */
+static void cluster_tomb_read(const char *s, struct jobs_gone *g) {
+    char state[16] = "";
+    double ended = 0, ttl = 0;
+    memset(g, 0, sizeof *g);
+    if (sscanf(s, "%15s %lf %lf", state, &ended, &ttl) != 3) ended = ttl = 0;
+    g->why = JG_EXPIRED;
+    g->state = cluster_state(state);
+    g->ended_wall = ended / 1e3;
+    g->gone_wall = ended / 1e3 + ttl;
+}
+
+/* Reads job id into op->info; CS_UNKNOWN when there is none, CS_GONE
+ * (op->gone) when it expired. */
 static void cluster_read(struct redis *c, const char *id, struct cluster_op *op,
                          struct shots_info *out, bool *animated) {
     const char *argv[F__COUNT + 6] = {"EVAL", cluster_lua_status, "0", id};
@@ -292,6 +347,9 @@ static void cluster_read(struct redis *c, const char *id, struct cluster_op *op,
     redisReply *rep = redis_strs(c, argv);
     if (redis_failed(c, rep)) {
         op->status = CS_DOWN;
+    } else if (rep->type == REDIS_REPLY_STRING) {
+        cluster_tomb_read(rep->str, &op->gone);
+        op->status = CS_GONE;
     } else if (rep->type != REDIS_REPLY_ARRAY || rep->elements != F__COUNT + 1) {
         op->status = CS_UNKNOWN;
     } else {
@@ -360,7 +418,7 @@ static void cluster_list(struct redis *c, struct cluster_op *op) {
             bool anim = false;
             struct cluster_op tmp = {0};
             cluster_read(c, id, &tmp, &row, &anim);
-            if (tmp.status == CS_UNKNOWN) { /* expired: the list forgets it too */
+            if (tmp.status == CS_UNKNOWN || tmp.status == CS_GONE) { /* the list forgets it */
                 redisReply *z = redis_cmd(c, "ZREM rayd:jobs %s", id);
                 if (z) freeReplyObject(z);
                 continue;

@@ -56,6 +56,7 @@ struct node_item {
     struct blob *png;
     struct rayd_error err;
     double render_ms;
+    uint64_t rays; /* what the tile's render cast: the job counts them */
     struct node_item *next;
 };
 
@@ -78,6 +79,7 @@ static void node_mark(struct node_item *it, enum node_phase ph) {
 static void node_rendered(struct work_waiter *w, struct work_result *res) {
     struct node_item *it = (struct node_item *)((char *)w - offsetof(struct node_item, ww));
     it->render_ms = res->times.render_ms;
+    it->rays = res->rays;
     if (res->status == RAYD_OK && res->png) {
         it->png = res->png;
         node_mark(it, NP_DONE);
@@ -109,7 +111,7 @@ static void node_compiled(struct node_item *it, struct compile_result *res) {
     }
     it->ww = (struct work_waiter){.done = node_rendered, .suspend = node_nothing, .fd = -1};
     struct blob *png = NULL;
-    enum work_submit s = sched_render(res->scene, &it->what, &it->ww, &png);
+    enum work_submit s = sched_render(res->scene, &it->what, &it->ww, &png, &it->rays);
     scenes_release(res->scene);
     if (s == WORK_OK) return; /* node_rendered will say */
     if (s == WORK_CACHED) {
@@ -332,7 +334,7 @@ static bool node_finish(struct redis *c) {
             continue;
         }
         if (ph == NP_DONE && cluster_tile_store(c, it->job, it->frame, it->tile, it->ntiles,
-                                                &it->what.reg, it->png, it->render_ms)) {
+                                                &it->what.reg, it->png, it->render_ms, it->rays)) {
             node_test_stall();
             cluster_items_ack(c, it->level, it->sid);
             atomic_fetch_add(&cluster_done_total, 1);
@@ -382,6 +384,7 @@ static void node_figures(struct redis *c) {
     snprintf(v.address, sizeof v.address, "%s", cluster_url.display);
     v.nodes = node_heartbeat(c);
     v.redis_up = cluster_items_count(c, &v.queued, &v.in_flight) && redis_is_up(c);
+    v.jobs_unfinished = v.redis_up ? cluster_jobs_unfinished(c) : 0;
     if (v.redis_up) cluster_items_others(c, &v);
     if (!v.redis_up)
         snprintf(v.reason, sizeof v.reason, "%s", redis_why(c)[0] ? redis_why(c) : "no answer");

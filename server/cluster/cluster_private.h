@@ -57,7 +57,8 @@ extern char cluster_stream[160]; /* rayd:items:VERSION */
 extern char cluster_ver[64];     /* the version items are made and taken for */
 extern atomic_bool cluster_stopping, cluster_draining;
 extern atomic_long cluster_done_total, cluster_reclaimed_total, cluster_node_in_flight;
-extern pthread_mutex_t cluster_mu; /* the view */
+extern atomic_long cluster_deferred_total; /* assemblies put off for want of memory */
+extern pthread_mutex_t cluster_mu;         /* the view */
 extern struct cluster_status_view cluster_view_now;
 long cluster_claim_ms(void);
 double cluster_now_ms(void); /* wall clock, ms since the epoch */
@@ -66,6 +67,10 @@ void cluster_key(char *buf, size_t n, const char *id, const char *what);
 
 /* ---- cluster_jobs.c: the records (the request thread) ------------------------- */
 
+/* Seconds a job's tombstone (rayd:{ID}:gone) outlives its keys: its routes
+ * answer 410 job_expired that long, then 404.  A string: rayd_end's Lua. */
+#define CLUSTER_TOMB_S "86400"
+
 /* The Lua function rayd_end(id, state, now_ms, ttl_s, error_json): a job
  * still queued or running ends (its event written, its tiles deleted, its
  * keys set to expire); 1 when it ended now, 0 when it had ended, -2 no
@@ -73,18 +78,25 @@ void cluster_key(char *buf, size_t n, const char *id, const char *what);
 extern const char cluster_lua_end[];
 
 void cluster_jobs_run(struct redis *c, struct cluster_op *op);
+/* The cluster's unfinished jobs (what --max-jobs counts), 0 when Redis
+ * does not answer. */
+long cluster_jobs_unfinished(struct redis *c);
 /* Sets the job's end state (with error JSON, or NULL) if it is still
  * queued or running, its keys to expire after --job-ttl; the puller's too. */
 bool cluster_jobs_end(struct redis *c, const char *id, const char *state, const char *error);
 
 /* ---- cluster_assemble.c: tiles in, frames out (the puller) ------------------- */
 
-/* Tile `tile` of frame k of job id done (png): kept, and the frame's
- * assembly queued by whoever completes it.  false: Redis failed. */
+/* Tile `tile` of frame k of job id done (png, what its render took and
+ * cast): kept, and the frame's assembly queued by whoever completes it.
+ * false: Redis failed. */
 bool cluster_tile_store(struct redis *c, const char *id, long k, long tile, long ntiles,
-                        const struct rayd_region *reg, const struct blob *png, double render_ms);
+                        const struct rayd_region *reg, const struct blob *png, double render_ms,
+                        uint64_t rays);
 /* The frame assembled from its tiles and stored (or, a tile missing or
- * corrupt, that tile queued again).  false: Redis failed (the item stays). */
+ * corrupt, that tile queued again).  false: Redis failed, or the memory
+ * budget has no room for it now (cluster_deferred_total counts those): the
+ * item stays pending, to be taken over. */
 bool cluster_assemble(struct redis *c, const char *id, long k);
 
 /* ---- cluster_items.c: the streams of work items, one per priority ----------- */

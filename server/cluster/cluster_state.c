@@ -19,6 +19,7 @@ char cluster_stream[160];
 char cluster_ver[64];
 atomic_bool cluster_stopping, cluster_draining;
 atomic_long cluster_done_total, cluster_reclaimed_total, cluster_node_in_flight;
+atomic_long cluster_deferred_total; /* assemblies put off: no room in the memory budget */
 pthread_mutex_t cluster_mu = PTHREAD_MUTEX_INITIALIZER;
 struct cluster_status_view cluster_view_now;
 
@@ -43,4 +44,5 @@ void cluster_view(struct cluster_status_view *v) {
     v->node_in_flight = atomic_load(&cluster_node_in_flight);
     v->done_total = atomic_load(&cluster_done_total);
     v->reclaimed_total = atomic_load(&cluster_reclaimed_total);
+    v->deferred_total = atomic_load(&cluster_deferred_total);
 }

@@ -29,6 +29,7 @@ struct rcache_item {
     struct lru_node node; /* first: the index finds items through it */
     char key[160];
     struct blob *png;
+    uint64_t rays; /* what its render cast: a hit costs the same, for a job's count */
 };
 
 static struct lru_node *rcache_table[RCACHE_BUCKETS];
@@ -50,14 +51,15 @@ void rcache_init(size_t budget_bytes) {
 
 bool rcache_on(void) { return rcache_lru.budget > 0; }
 
-struct blob *rcache_get(const char *key) {
+struct blob *rcache_get(const char *key, uint64_t *rays) {
     work_assert_locked();
     struct rcache_item *it = (struct rcache_item *)lru_find(&rcache_lru, key);
     if (!it) return NULL;
+    if (rays) *rays = it->rays;
     return blob_ref(it->png);
 }
 
-void rcache_put(const char *key, struct blob *png) {
+void rcache_put(const char *key, struct blob *png, uint64_t rays) {
     work_assert_locked();
     size_t need = png->len + sizeof(struct rcache_item);
     if (need > rcache_lru.budget || lru_find(&rcache_lru, key)) return;
@@ -67,6 +69,7 @@ void rcache_put(const char *key, struct blob *png) {
     it->node.key = it->key;
     it->node.bytes = need;
     it->png = blob_ref(png);
+    it->rays = rays;
     if (lru_insert(&rcache_lru, &it->node)) blob_kind(png, MEM_CACHES);
 }
 

@@ -322,19 +322,25 @@ void sched_stop(void) {
 
 /* ---- synchronous renders ------------------------------------------------------ */
 
-/* The finished PNG of (scene, reg) from the result cache, referenced, or
- * NULL.  A hit or miss is counted only while the cache is on: with
- * --result-cache-mb 0 there is nothing to look in, and a miss counted for
- * every render would read as a cache that never helps. */
-struct blob *sched_result_find(const struct cache_entry *scene, const struct work_target *what) {
+/* The finished PNG of (scene, what) from the result cache, referenced,
+ * and the rays its render cast, or NULL.  A hit or miss is counted only
+ * while the cache is on: with --result-cache-mb 0 there is nothing to look
+ * in, and a miss counted for every render would read as a cache that
+ * never helps. */
+static struct blob *sched_result_rays(const struct cache_entry *scene,
+                                      const struct work_target *what, uint64_t *rays) {
     char key[160];
     task_key(key, sizeof key, cache_version(scene), what);
     work_lock_take();
-    struct blob *b = rcache_get(key);
+    struct blob *b = rcache_get(key, rays);
     bool on = rcache_on();
     work_lock_give();
     if (on) metrics_result_cache(b != NULL);
     return b;
+}
+
+struct blob *sched_result_find(const struct cache_entry *scene, const struct work_target *what) {
+    return sched_result_rays(scene, what, NULL);
 }
 
 /* Links w to an unfinished task of the same scene, region and format, if
@@ -356,8 +362,8 @@ static bool sched_join(struct cache_entry *scene, const struct work_target *what
 }
 
 enum work_submit sched_render(struct cache_entry *scene, const struct work_target *what,
-                              struct work_waiter *w, struct blob **png) {
-    if ((*png = sched_result_find(scene, what))) return WORK_CACHED;
+                              struct work_waiter *w, struct blob **png, uint64_t *rays) {
+    if ((*png = sched_result_rays(scene, what, rays))) return WORK_CACHED;
     if (sched_join(scene, what, w)) return WORK_OK;
     enum work_submit why;
     struct task *fresh = budget_task(scene, what, false, &why);

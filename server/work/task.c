@@ -634,6 +634,7 @@ static void task_result(const struct task *t, struct work_result *res) {
     res->times.queue_ms = t->t_start > 0 ? (t->t_start - t->t_enq) * 1e3 : 0;
     res->times.render_ms = t->t_start > 0 && t->t_end > 0 ? (t->t_end - t->t_start) * 1e3 : 0;
     res->times.encode_ms = t->encode_s * 1e3;
+    res->rays = t->rays;
 }
 
 /* A progressive task ends with its latest complete pass as its image: after
@@ -726,7 +727,7 @@ void task_finish(struct task *t, struct task_notify *n, struct task_notify *sse)
     log_debug("render %s finished: %s, queued %.3f ms, rendered %.3f ms", t->key,
               t->status == RAYD_OK ? "ok" : t->err.message, queue_ms, render_ms);
     if (t->status == RAYD_OK && t->png && !t->passes && !t->keep_exr) /* a job's: no one asks */
-        rcache_put(t->key, t->png);
+        rcache_put(t->key, t->png, t->rays);
     task_unqueue(t);
     task_free_pixels(t); /* NULL once finished: a job's reads see none */
     /* the sums too: a kept job holds its images only */

@@ -28,6 +28,7 @@ struct work_result {
     bool gone;              /* the client disconnected */
     bool draining;          /* cancelled because the server drains (503 "draining") */
     struct log_times times; /* the render's times, handed up whole */
+    uint64_t rays;          /* the rays its render cast (every tile of it) */
 };
 
 /* Something waiting on a task or a job's events.  done() is called exactly
@@ -110,11 +111,12 @@ double cost_price_seconds(const char *scene_id, double rays);
 int sched_start(int workers, int queue_cap, int max_jobs);
 void sched_stop(void);
 /* Renders what of scene for w.
- * WORK_CACHED: *png is the finished image (a reference), w is not used.
+ * WORK_CACHED: *png is the finished image (a reference) and *rays (if
+ * rays is not NULL) the rays its render cast; w is not used.
  * WORK_OK: w->suspend(w) ran and w->done will be called once.  Anything
  * else: refused, w not used. */
 enum work_submit sched_render(struct cache_entry *scene, const struct work_target *what,
-                              struct work_waiter *w, struct blob **png);
+                              struct work_waiter *w, struct blob **png, uint64_t *rays);
 /* The finished image of what of scene from the result cache (referenced),
  * or NULL; any thread. */
 struct blob *sched_result_find(const struct cache_entry *scene, const struct work_target *what);

@@ -124,9 +124,10 @@ bool scenefiles_version(const char *id, const rayd_scene *scene, char out[65]);
 /* ---- rcache.c (lock held) ------------------------------------------------------ */
 
 void rcache_init(size_t budget_bytes);
-bool rcache_on(void);                     /* --result-cache-mb above 0 */
-struct blob *rcache_get(const char *key); /* refs the PNG */
-void rcache_put(const char *key, struct blob *png);
+bool rcache_on(void); /* --result-cache-mb above 0 */
+/* The PNG (referenced) and, if rays is not NULL, the rays its render cast. */
+struct blob *rcache_get(const char *key, uint64_t *rays);
+void rcache_put(const char *key, struct blob *png, uint64_t rays);
 void rcache_stats(size_t *bytes, size_t *entries);
 void rcache_free_all(void);
 bool rcache_evict_one(void); /* the least recently used result; false: empty */
