@@ -298,16 +298,16 @@ static double cast16(const struct setup *s, bool shadow, long *hits) {
 /* The primary ray of pixel (i, j), ready for rtcIntersect1. */
 static void primary_ray(const struct setup *s, int i, int j, struct RTCRayHit *rh) {
     d3 d = pixel_dir(s, i, j);
-    *rh = (struct RTCRayHit){.ray = {.org_x = (float)s->pos.x,
-                                     .org_y = (float)s->pos.y,
-                                     .org_z = (float)s->pos.z,
-                                     .dir_x = (float)d.x,
-                                     .dir_y = (float)d.y,
-                                     .dir_z = (float)d.z,
-                                     .tfar = INFINITY,
-                                     .mask = 0xffffffffu},
-                             .hit = {.geomID = RTC_INVALID_GEOMETRY_ID,
-                                     .instID = {RTC_INVALID_GEOMETRY_ID}}};
+    *rh = (struct RTCRayHit){
+        .ray = {.org_x = (float)s->pos.x,
+                .org_y = (float)s->pos.y,
+                .org_z = (float)s->pos.z,
+                .dir_x = (float)d.x,
+                .dir_y = (float)d.y,
+                .dir_z = (float)d.z,
+                .tfar = INFINITY,
+                .mask = 0xffffffffu},
+        .hit = {.geomID = RTC_INVALID_GEOMETRY_ID, .instID = {RTC_INVALID_GEOMETRY_ID}}};
 }
 
 /* Every pixel's bounce ray (untimed), as raybench makes them. */
@@ -572,15 +572,14 @@ int main(int argc, char **argv) {
         const char *name;
         double (*fn)(const struct setup *, bool, long *);
         bool shadow;
-    } casts[] = {{"primary_mrays_1t_single", cast1, false},
-                 {"primary_mrays_1t_packet16", cast16, false},
-                 {"shadow_mrays_1t_single", cast1, true},
-                 {"shadow_mrays_1t_packet16", cast16, true},
-                 {"bounce_mrays_1t_single", bounce1, false},
-                 {"bounce_mrays_1t_packet16", bounce16, false}};
+    } casts[] = {
+        {"primary_mrays_1t_single", cast1, false},  {"primary_mrays_1t_packet16", cast16, false},
+        {"shadow_mrays_1t_single", cast1, true},    {"shadow_mrays_1t_packet16", cast16, true},
+        {"bounce_mrays_1t_single", bounce1, false}, {"bounce_mrays_1t_packet16", bounce16, false}};
     for (size_t c = 0; c < sizeof casts / sizeof casts[0]; c++) {
         double rate[99];
-        long hits = 0, count = casts[c].fn == bounce1 || casts[c].fn == bounce16 ? s.nbounce : pixels;
+        bool bounce = casts[c].fn == bounce1 || casts[c].fn == bounce16;
+        long hits = 0, count = bounce ? s.nbounce : pixels; /* bounce: rays, else pixels */
         for (int r = 0; r < runs; r++)
             rate[r] = count / casts[c].fn(&s, casts[c].shadow, &hits) / 1e6;
         printf("%s %.2f\n", casts[c].name, median(rate, runs));
