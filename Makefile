@@ -551,7 +551,7 @@ BENCH_DIR := $(BUILD)/bench
 BENCH_LEVELS := 4 5 6 7 8
 BENCH_SCENES := $(BENCH_LEVELS:%=$(BENCH_DIR)/mesh-%.json)
 
-$(BUILD)/bench/raybench: bench/raybench.c $(BUILD)/librayd.a
+$(BUILD)/bench/raybench: bench/raybench.c bench/bounce.h $(BUILD)/librayd.a
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -Iinclude -Icore $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
 
@@ -610,7 +610,7 @@ bench-cluster: $(BUILD)/bench/cluster_queue | $(BUILD)/.test-deps-ok
 .PRECIOUS: $(BENCH_DIR)/mesh-%.ply $(BENCH_DIR)/mesh-%.json $(BENCH_DIR)/mesh-%.obj $(BENCH_DIR)/mesh-%-obj.json
 
 # The Embree side of bench-peers: reuses the core's PLY reader (mesh_io.h).
-$(BUILD)/bench/embree_bench: bench/peers/embree_bench.c $(BUILD)/librayd.a | bench-deps
+$(BUILD)/bench/embree_bench: bench/peers/embree_bench.c bench/bounce.h $(BUILD)/librayd.a | bench-deps
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -Iinclude -Icore $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a -lembree3 $(LIBS_CORE)
 

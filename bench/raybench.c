@@ -12,6 +12,14 @@
  *   - both again as packets of 4x4 pixels (scene_intersect16 and
  *     scene_transmittance16; keys with _packet), their hit counts printed
  *     beside the one-ray ones, which they must equal;
+ *   - diffuse-bounce rays, the incoherent ones: from every primary hit one
+ *     cosine-weighted direction about the geometric normal, drawn from a
+ *     hash of the pixel (bench/bounce.h, shared with embree_bench), origin
+ *     lifted off the surface as core/render/integrate.h does, nearest hit.
+ *     They are made once, untimed, in pixel order; then cast one at a time
+ *     (scene_intersect) and as packets of 16 consecutive ones
+ *     (scene_intersect16), as rays per second of bounce rays alone
+ *     (bounce_rays of them; bounce_hits must match Embree's closely);
  * on 1 thread and on T threads (default 2); and one end-to-end image
  * (rayd_render, shading and PNG-ready pixels) on T threads.
  * Output is one "key value" line each, for bench/ scripts to read.
@@ -30,6 +38,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "bounce.h"
 #include "render/integrate.h"
 #include "scene/scene.h"
 
@@ -50,13 +59,26 @@ static double now_1t(void) {
     return (double)ts.tv_sec + ts.tv_nsec * 1e-9;
 }
 
+/* What a cast measures. */
+enum kind { PRIMARY, SHADOW, BOUNCE, NKINDS };
+
+/* The bounce rays, in pixel order of their primary hits. */
+struct bounces {
+    ray *r;
+    long n;
+};
+
+/* Bounce rays are handed out this many a work item. */
+#define BOUNCE_CHUNK 4096
+
 struct work {
     const rayd_scene *s;
     struct camera cam;
     int w, h;
-    bool shadow;
+    enum kind kind;
     bool packets; /* 4x4 pixels a packet (scene_intersect16) */
-    atomic_int next_row;
+    const struct bounces *b;
+    atomic_int next_row; /* a row (of pixels or packets), or a chunk of bounce rays */
     atomic_long hits;
 };
 
@@ -93,7 +115,7 @@ static long cast_rows(struct work *wk) {
             ray r = {wk->cam.pos, cam_dir(&wk->cam, i + 0.5, j + 0.5)};
             struct hit hit;
             if (!scene_intersect(wk->s, &r, INFINITY, &hit)) continue;
-            if (!wk->shadow) {
+            if (wk->kind == PRIMARY) {
                 hits++;
                 continue;
             }
@@ -126,7 +148,7 @@ static long cast_packets(struct work *wk) {
             }
             struct hit h[16];
             uint32_t hit = scene_intersect16(wk->s, r, tmax, active, h);
-            if (!wk->shadow) {
+            if (wk->kind == PRIMARY) {
                 hits += __builtin_popcount(hit);
                 continue;
             }
@@ -146,16 +168,76 @@ static long cast_packets(struct work *wk) {
     return hits;
 }
 
+/* The bounce ray of pixel `pixel` from primary hit h of ray r. */
+static void bounce_ray(const rayd_scene *s, const ray *r, const struct hit *h, uint32_t pixel,
+                       ray *br) {
+    struct surface sf;
+    scene_surface(s, r, h, &sf);
+    vec3 n = v3_dot(sf.ng, r->d) > 0 ? v3_neg(sf.ng) : sf.ng;
+    double nd[3] = {n.x, n.y, n.z}, d[3];
+    bounce_dir(pixel, nd, d);
+    br->o = v3_madd(sf.p, n, integrate_offset(sf.p, sf.float_geom));
+    br->d = v3(d[0], d[1], d[2]);
+}
+
+/* Every pixel's bounce ray (untimed): primary rays one at a time. */
+static void bounce_make(const rayd_scene *s, const struct camera *cam, int w, int h,
+                        struct bounces *b) {
+    b->r = malloc(sizeof *b->r * (size_t)w * h);
+    b->n = 0;
+    for (int j = 0; j < h; j++) {
+        for (int i = 0; i < w; i++) {
+            ray r = {cam->pos, cam_dir(cam, i + 0.5, j + 0.5)};
+            struct hit hit;
+            if (scene_intersect(s, &r, INFINITY, &hit))
+                bounce_ray(s, &r, &hit, (uint32_t)j * (uint32_t)w + (uint32_t)i, &b->r[b->n++]);
+        }
+    }
+}
+
+/* Bounce rays, a chunk a work item: one at a time, or 16 consecutive ones
+ * a packet. */
+static long cast_bounces(struct work *wk) {
+    long hits = 0, n = wk->b->n;
+    for (;;) {
+        long c0 = (long)BOUNCE_CHUNK * atomic_fetch_add(&wk->next_row, 1);
+        if (c0 >= n) break;
+        long c1 = c0 + BOUNCE_CHUNK < n ? c0 + BOUNCE_CHUNK : n;
+        const ray *r = wk->b->r;
+        if (!wk->packets) {
+            for (long k = c0; k < c1; k++) {
+                struct hit hit;
+                hits += scene_intersect(wk->s, &r[k], INFINITY, &hit);
+            }
+            continue;
+        }
+        for (long k = c0; k < c1; k += 16) {
+            double tmax[16];
+            struct hit h[16];
+            int m = c1 - k < 16 ? (int)(c1 - k) : 16;
+            for (int q = 0; q < 16; q++) tmax[q] = INFINITY;
+            uint32_t active = m == 16 ? 0xffffu : (1u << m) - 1;
+            hits += __builtin_popcount(scene_intersect16(wk->s, &r[k], tmax, active, h));
+        }
+    }
+    return hits;
+}
+
 static void *worker(void *arg) {
     struct work *wk = arg;
-    atomic_fetch_add(&wk->hits, wk->packets ? cast_packets(wk) : cast_rows(wk));
+    long hits = wk->kind == BOUNCE ? cast_bounces(wk)
+                : wk->packets      ? cast_packets(wk)
+                                   : cast_rows(wk);
+    atomic_fetch_add(&wk->hits, hits);
     return NULL;
 }
 
-/* Seconds to cast the rays on `threads` threads; *count gets the rays cast. */
-static double cast(const rayd_scene *s, const struct camera *cam, int w, int h, bool shadow,
-                   bool packets, int threads, long *count, long *hits) {
-    struct work wk = {.s = s, .cam = *cam, .w = w, .h = h, .shadow = shadow, .packets = packets};
+/* Seconds to cast the rays on `threads` threads; *count gets the rays cast
+ * (pixels for primary and shadow rays, bounce rays for bounce). */
+static double cast(const rayd_scene *s, const struct camera *cam, int w, int h, enum kind kind,
+                   const struct bounces *b, bool packets, int threads, long *count, long *hits) {
+    struct work wk = {
+        .s = s, .cam = *cam, .w = w, .h = h, .kind = kind, .packets = packets, .b = b};
     atomic_init(&wk.next_row, 0);
     atomic_init(&wk.hits, 0);
     pthread_t th[64];
@@ -165,7 +247,7 @@ static double cast(const rayd_scene *s, const struct camera *cam, int w, int h, 
     worker(&wk);
     for (int i = 1; i < threads; i++) pthread_join(th[i], NULL);
     double dt = tick() - t0;
-    *count = (long)w * h;
+    *count = kind == BOUNCE ? b->n : (long)w * h;
     *hits = atomic_load(&wk.hits);
     return dt;
 }
@@ -280,24 +362,29 @@ int main(int argc, char **argv) {
     printf("load_s %.4f\n", load);
     printf("bvh_build_s %.4f\n", build);
     if (tris) printf("bytes_per_triangle %.1f\n", (double)mesh_bytes_total / (double)tris);
+    struct bounces b;
+    bounce_make(s, &cam, w, h, &b);
+    printf("bounce_rays %ld\n", b.n);
     int thread_counts[2] = {1, tmax};
+    static const char *const kind_names[NKINDS] = {"primary", "shadow", "bounce"};
     for (int ti = 0; ti < (tmax > 1 ? 2 : 1); ti++) {
         for (int packets = packets_only; packets <= 1; packets++) {
-            for (int shadow = 0; shadow <= 1; shadow++) {
+            for (int k = PRIMARY; k < NKINDS; k++) {
                 double rate[99];
                 long count = 0, hits = 0;
                 for (int r = 0; r < runs; r++) {
-                    double dt =
-                        cast(s, &cam, w, h, shadow, packets, thread_counts[ti], &count, &hits);
+                    double dt = cast(s, &cam, w, h, (enum kind)k, &b, packets, thread_counts[ti],
+                                     &count, &hits);
                     rate[r] = count / dt / 1e6;
                 }
-                const char *kind = shadow ? "shadow" : "primary";
+                const char *kind = kind_names[k];
                 printf("%s%s_mrays_%dt %.2f\n", kind, packets ? "_packet" : "", thread_counts[ti],
                        median(rate, runs));
                 if (ti == 0) printf("%s%s_hits %ld\n", kind, packets ? "_packet" : "", hits);
             }
         }
     }
+    free(b.r);
     /* End to end: the whole image, shaded, on tmax threads. */
     double it[99];
     struct rayd_render_stats st = {0};

@@ -21,11 +21,18 @@
  *     and, from each hit lifted off the surface as core/render/integrate.h does,
  *     an any-hit ray toward the first light (rtcOccluded1 / rtcOccluded16),
  *     reported as pixels per second;
+ *   - diffuse-bounce rays, raybench's: from every primary hit one
+ *     cosine-weighted direction about the geometric normal turned toward
+ *     the viewer, from a hash of the pixel (../bounce.h, the one raybench
+ *     includes), origin lifted as for the shadow rays, nearest hit.  Made
+ *     once, untimed, in pixel order; cast with rtcIntersect1 one at a time
+ *     and rtcIntersect16 on 16 consecutive ones (context flag INCOHERENT,
+ *     Embree's hint for such rays), as rays per second of bounce rays;
  * all on the calling thread (timed in wall seconds, or with --cpu-time in
  * that thread's CPU seconds, as raybench --cpu-time times its 1-thread
  * casts), with denormals flushed to zero (FTZ/DAZ) as
  * Embree recommends.  Output: "key value" lines like raybench's,
- * with primary_hits and shadow_hits to show both cast the same rays.
+ * with the hit counts (keys ending _hits) to show both cast the same rays.
  */
 #include <cjson/cJSON.h>
 #include <embree3/rtcore.h>
@@ -37,6 +44,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "../bounce.h"
 #include "format/mesh_io.h"
 
 static double now(void) {
@@ -103,6 +111,8 @@ struct setup {
     int width, height;
     bool light_is_point; /* else directional (or none: straight up) */
     d3 light;            /* position, or direction toward the light */
+    float *bounce;       /* bounce rays: origin and direction, 6 floats each */
+    long nbounce;
 };
 
 /* core/geom/camera.h cam_dir: d = normalize(w + alpha u + beta v). */
@@ -118,10 +128,11 @@ static d3 pixel_dir(const struct setup *s, int i, int j) {
 /* The shadow ray from a hit: origin lifted along the geometric normal
  * turned toward the viewer by core/render/integrate.h's float offset; direction
  * toward the light; tfar = its distance. */
-static void shadow_ray(const struct setup *s, const float org[3], const float dir[3], float t,
-                       const float ng[3], float o[3], float d[3], float *tfar) {
-    double p[3], n[3],
-        nl = sqrt((double)ng[0] * ng[0] + (double)ng[1] * ng[1] + (double)ng[2] * ng[2]);
+/* The hit point lifted off the surface into p, and the unit geometric
+ * normal turned toward the viewer into n. */
+static void lift(const float org[3], const float dir[3], float t, const float ng[3], double p[3],
+                 double n[3]) {
+    double nl = sqrt((double)ng[0] * ng[0] + (double)ng[1] * ng[1] + (double)ng[2] * ng[2]);
     double dn = 0, maxabs = 0;
     for (int k = 0; k < 3; k++) {
         p[k] = org[k] + (double)t * dir[k];
@@ -129,9 +140,16 @@ static void shadow_ray(const struct setup *s, const float org[3], const float di
         dn += n[k] * dir[k];
         if (fabs(p[k]) > maxabs) maxabs = fabs(p[k]);
     }
+    if (dn > 0)
+        for (int k = 0; k < 3; k++) n[k] = -n[k];
     double off = 1.5e-5 * maxabs + 1e-6;
-    if (dn > 0) off = -off;
     for (int k = 0; k < 3; k++) p[k] += n[k] * off;
+}
+
+static void shadow_ray(const struct setup *s, const float org[3], const float dir[3], float t,
+                       const float ng[3], float o[3], float d[3], float *tfar) {
+    double p[3], n[3];
+    lift(org, dir, t, ng, p, n);
     double to[3], dist = INFINITY;
     if (s->light_is_point) {
         to[0] = s->light.x - p[0];
@@ -272,6 +290,115 @@ static double cast16(const struct setup *s, bool shadow, long *hits) {
             rtcOccluded16(svalid, s->scene, &ctx, &sr);
             for (int k = 0; k < 16; k++) n += svalid[k] && sr.tfar[k] == -INFINITY;
         }
+    }
+    *hits = n;
+    return now_1t() - t0;
+}
+
+/* The primary ray of pixel (i, j), ready for rtcIntersect1. */
+static void primary_ray(const struct setup *s, int i, int j, struct RTCRayHit *rh) {
+    d3 d = pixel_dir(s, i, j);
+    *rh = (struct RTCRayHit){
+        .ray = {.org_x = (float)s->pos.x,
+                .org_y = (float)s->pos.y,
+                .org_z = (float)s->pos.z,
+                .dir_x = (float)d.x,
+                .dir_y = (float)d.y,
+                .dir_z = (float)d.z,
+                .tfar = INFINITY,
+                .mask = 0xffffffffu},
+        .hit = {.geomID = RTC_INVALID_GEOMETRY_ID, .instID = {RTC_INVALID_GEOMETRY_ID}}};
+}
+
+/* Every pixel's bounce ray (untimed), as raybench makes them. */
+static void bounce_make(struct setup *s) {
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    s->bounce = malloc(sizeof(float) * 6 * (size_t)s->width * s->height);
+    if (!s->bounce) die("out of memory");
+    s->nbounce = 0;
+    for (int j = 0; j < s->height; j++) {
+        for (int i = 0; i < s->width; i++) {
+            struct RTCRayHit rh;
+            primary_ray(s, i, j, &rh);
+            rtcIntersect1(s->scene, &ctx, &rh);
+            if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
+            const float org[3] = {rh.ray.org_x, rh.ray.org_y, rh.ray.org_z};
+            const float dir[3] = {rh.ray.dir_x, rh.ray.dir_y, rh.ray.dir_z};
+            const float ng[3] = {rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z};
+            double p[3], n[3], d[3];
+            lift(org, dir, rh.ray.tfar, ng, p, n);
+            bounce_dir((uint32_t)j * (uint32_t)s->width + (uint32_t)i, n, d);
+            float *b = &s->bounce[6 * s->nbounce++];
+            for (int k = 0; k < 3; k++) {
+                b[k] = (float)p[k];
+                b[3 + k] = (float)d[k];
+            }
+        }
+    }
+}
+
+/* Bounce rays one at a time (rtcIntersect1).  Returns seconds; *hits the
+ * rays that hit. */
+static double bounce1(const struct setup *s, bool unused, long *hits) {
+    (void)unused;
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+    long n = 0;
+    double t0 = now_1t();
+    for (long q = 0; q < s->nbounce; q++) {
+        const float *b = &s->bounce[6 * q];
+        struct RTCRayHit rh = {
+            .ray = {.org_x = b[0],
+                    .org_y = b[1],
+                    .org_z = b[2],
+                    .dir_x = b[3],
+                    .dir_y = b[4],
+                    .dir_z = b[5],
+                    .tfar = INFINITY,
+                    .mask = 0xffffffffu},
+            .hit = {.geomID = RTC_INVALID_GEOMETRY_ID, .instID = {RTC_INVALID_GEOMETRY_ID}}};
+        rtcIntersect1(s->scene, &ctx, &rh);
+        n += rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
+    }
+    *hits = n;
+    return now_1t() - t0;
+}
+
+/* Bounce rays 16 consecutive ones a packet (rtcIntersect16, the last one
+ * masked). */
+static double bounce16(const struct setup *s, bool unused, long *hits) {
+    (void)unused;
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+    long n = 0;
+    struct RTCRayHit16 rh;
+    _Alignas(64) int valid[16];
+    double t0 = now_1t();
+    for (long q0 = 0; q0 < s->nbounce; q0 += 16) {
+        for (int k = 0; k < 16; k++) {
+            long q = q0 + k < s->nbounce ? q0 + k : q0;
+            const float *b = &s->bounce[6 * q];
+            valid[k] = q0 + k < s->nbounce ? -1 : 0;
+            rh.ray.org_x[k] = b[0];
+            rh.ray.org_y[k] = b[1];
+            rh.ray.org_z[k] = b[2];
+            rh.ray.dir_x[k] = b[3];
+            rh.ray.dir_y[k] = b[4];
+            rh.ray.dir_z[k] = b[5];
+            rh.ray.tnear[k] = 0;
+            rh.ray.tfar[k] = INFINITY;
+            rh.ray.time[k] = 0;
+            rh.ray.mask[k] = 0xffffffffu;
+            rh.ray.id[k] = (unsigned)k;
+            rh.ray.flags[k] = 0;
+            rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+            rh.hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
+        }
+        rtcIntersect16(valid, s->scene, &ctx, &rh);
+        for (int k = 0; k < 16; k++) n += valid[k] && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID;
     }
     *hits = n;
     return now_1t() - t0;
@@ -438,23 +565,27 @@ int main(int argc, char **argv) {
     printf("bvh_bytes_per_triangle %.1f\n", (double)bytes / m.ntris);
     printf("bytes_per_triangle %.1f\n", (double)total / m.ntris);
 
-    long count = (long)s.width * s.height;
+    bounce_make(&s);
+    printf("bounce_rays %ld\n", s.nbounce);
+    long pixels = (long)s.width * s.height;
     struct {
         const char *name;
         double (*fn)(const struct setup *, bool, long *);
         bool shadow;
-    } casts[] = {{"primary_mrays_1t_single", cast1, false},
-                 {"primary_mrays_1t_packet16", cast16, false},
-                 {"shadow_mrays_1t_single", cast1, true},
-                 {"shadow_mrays_1t_packet16", cast16, true}};
+    } casts[] = {
+        {"primary_mrays_1t_single", cast1, false},  {"primary_mrays_1t_packet16", cast16, false},
+        {"shadow_mrays_1t_single", cast1, true},    {"shadow_mrays_1t_packet16", cast16, true},
+        {"bounce_mrays_1t_single", bounce1, false}, {"bounce_mrays_1t_packet16", bounce16, false}};
     for (size_t c = 0; c < sizeof casts / sizeof casts[0]; c++) {
         double rate[99];
-        long hits = 0;
+        bool bounce = casts[c].fn == bounce1 || casts[c].fn == bounce16;
+        long hits = 0, count = bounce ? s.nbounce : pixels; /* bounce: rays, else pixels */
         for (int r = 0; r < runs; r++)
             rate[r] = count / casts[c].fn(&s, casts[c].shadow, &hits) / 1e6;
         printf("%s %.2f\n", casts[c].name, median(rate, runs));
         printf("%s_hits %ld\n", casts[c].name, hits);
     }
+    free(s.bounce);
     rtcReleaseScene(s.scene);
     rtcReleaseDevice(dev);
     mesh_data_free(&m);
