@@ -11,6 +11,7 @@
 // canvas differs from the same scene rendered without the model) and fits
 // it (the edges do not), and the refusals say what to do.
 import { chromium } from "playwright-core";
+import { cases } from "./cases.mjs";
 import { mkdtempSync, rmSync, readFileSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join, basename } from "node:path";
@@ -18,24 +19,7 @@ import { join, basename } from "node:path";
 const URL = process.argv[2];
 const MODELS = process.env.MODELS || "/usr/share/assimp/models";
 const SCENES = process.env.SCENES || "scenes";
-const CASES = process.env.CASES ? new RegExp(process.env.CASES) : null;
-let failures = 0;
-
-const pass = (name) => console.log(`PASS ${name}`);
-const fail = (name, why) => {
-  failures++;
-  console.log(`FAIL ${name}: ${String(why).replace(/\s+/g, " ").slice(0, 500)}`);
-};
-async function check(name, fn) {
-  if (CASES && name !== "page_opens" && !CASES.test(name)) return;
-  try {
-    const r = await fn();
-    if (r === true || r === undefined) pass(name);
-    else fail(name, r);
-  } catch (e) {
-    fail(name, e && e.message ? e.message : e);
-  }
-}
+const { pass, fail, check, failed } = cases("page_opens");
 const assert = (ok, why) => {
   if (!ok) throw new Error(why);
 };
@@ -393,4 +377,4 @@ try {
   await context.close();
   rmSync(profile, { recursive: true, force: true });
 }
-process.exit(failures ? 1 : 0);
+process.exit(failed() ? 1 : 0);

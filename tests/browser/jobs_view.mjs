@@ -11,6 +11,7 @@
 // with a 503 and Retry-After, which a real server gives only under load,
 // and stub_poll_error_shown refuses the connection of a job's polls.
 import { chromium } from "playwright-core";
+import { cases } from "./cases.mjs";
 import { mkdtempSync, rmSync, readFileSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
@@ -19,24 +20,7 @@ const URL = process.argv[2];
 const TOKEN_URL = process.env.TOKEN_URL;
 const TOKEN = process.env.TOKEN;
 const SCENES = process.env.SCENES || "scenes";
-const CASES = process.env.CASES ? new RegExp(process.env.CASES) : null;
-let failures = 0;
-
-const pass = (name) => console.log(`PASS ${name}`);
-const fail = (name, why) => {
-  failures++;
-  console.log(`FAIL ${name}: ${String(why).replace(/\s+/g, " ").slice(0, 400)}`);
-};
-async function check(name, fn) {
-  if (CASES && name !== "page_opens" && !CASES.test(name)) return;
-  try {
-    const r = await fn();
-    if (r === true || r === undefined) pass(name);
-    else fail(name, r);
-  } catch (e) {
-    fail(name, e && e.message ? e.message : e);
-  }
-}
+const { pass, fail, check, failed } = cases("page_opens");
 async function gate(tiles) {
   return (await fetch(URL + "/v1/test/gate?tiles=" + tiles, { method: "POST" })).json();
 }

@@ -9,28 +9,14 @@
 // thumbnail, and its PNG link gives the bytes node A gives.  Nothing is
 // answered by a stand-in.
 import { chromium } from "playwright-core";
+import { cases } from "./cases.mjs";
 import { mkdtempSync, rmSync, readFileSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
 
 const [A, B] = process.argv.slice(2);
 const SCENES = process.env.SCENES || "scenes";
-let failures = 0;
-
-const pass = (name) => console.log(`PASS ${name}`);
-const fail = (name, why) => {
-  failures++;
-  console.log(`FAIL ${name}: ${String(why).replace(/\s+/g, " ").slice(0, 400)}`);
-};
-async function check(name, fn) {
-  try {
-    const r = await fn();
-    if (r === true || r === undefined) pass(name);
-    else fail(name, r);
-  } catch (e) {
-    fail(name, e && e.message ? e.message : e);
-  }
-}
+const { pass, fail, check, failed } = cases();
 const gate = async (url, tiles) => (await fetch(url + "/v1/test/gate?tiles=" + tiles, { method: "POST" })).json();
 const job = async (url, id) => (await fetch(`${url}/v1/jobs/${id}`)).json();
 

@@ -6,6 +6,7 @@
 // the PNG of POST /v1/render for the editor's text are decoded by pngcmp
 // (libpng, through the core's rayd_png_decode) and must be equal.
 import { chromium } from "playwright-core";
+import { cases } from "./cases.mjs";
 import { execFileSync } from "node:child_process";
 import { createHash } from "node:crypto";
 import { mkdtempSync, rmSync, writeFileSync, mkdirSync, copyFileSync } from "node:fs";
@@ -17,26 +18,7 @@ const OUT_DIR = process.env.OUT_DIR || "build";
 const PNGCMP = process.env.PNGCMP;
 const WORK = process.env.WORK || mkdtempSync(join(tmpdir(), "rayd-browser-"));
 const MEASURE = process.env.MEASURE === "1";
-// CASES=regex runs only the cases it matches (and renders_on_open), to work
-// on a few; later cases may need the state earlier ones leave.
-const CASES = process.env.CASES ? new RegExp(process.env.CASES) : null;
-let failures = 0;
-
-const pass = (name) => console.log(`PASS ${name}`);
-const fail = (name, why) => {
-  failures++;
-  console.log(`FAIL ${name}: ${String(why).replace(/\s+/g, " ").slice(0, 400)}`);
-};
-async function check(name, fn) {
-  if (CASES && name !== "renders_on_open" && !CASES.test(name)) return;
-  try {
-    const r = await fn();
-    if (r === true || r === undefined) pass(name);
-    else fail(name, r);
-  } catch (e) {
-    fail(name, e && e.message ? e.message : e);
-  }
-}
+const { pass, fail, check, failed } = cases("renders_on_open");
 
 async function post(path, body) {
   const res = await fetch(URL + path, { method: "POST", headers: { "Content-Type": "application/json" }, body });
