@@ -65,11 +65,13 @@ const char cluster_lua_end[] =
 
 /* KEYS: the job, rayd:jobs, the items' stream, the events, rayd:unfinished;
  * ARGV: id, created (ms), first, last, tiles, --max-jobs, then the hash's
- * fields and values.  -3: the cluster's unfinished jobs are --max-jobs. */
+ * fields and values.  -3: the cluster's unfinished jobs are --max-jobs.
+ * A full set is pruned of ended ids 64 at a time (SRANDMEMBER), so a
+ * refused POST costs Redis a bounded moment however large --max-jobs is. */
 static const char cluster_lua_submit[] =
     "local max = tonumber(ARGV[6])\n"
     "if redis.call('SCARD', KEYS[5]) >= max then\n"
-    "  for _, j in ipairs(redis.call('SMEMBERS', KEYS[5])) do\n"
+    "  for _, j in ipairs(redis.call('SRANDMEMBER', KEYS[5], 64)) do\n"
     "    local st = redis.call('HGET', 'rayd:{' .. j .. '}:job', 'state')\n"
     "    if st ~= 'queued' and st ~= 'running' then redis.call('SREM', KEYS[5], j) end\n"
     "  end\n"

@@ -28,7 +28,7 @@
 // with the server's message: the view's own in its error box, a row's
 // (a failed job, a thumbnail that could not be had) in the row.
 
-import { ApiError, isProgressive, isAbort, sseEvents } from "./render.js";
+import { ApiError, isProgressive, isAbort, progressiveRefused, sseEvents } from "./render.js";
 
 const FINISHED = new Set(["succeeded", "failed", "canceled", "evicted", "gone"]);
 const POLL_MS = 1000;
@@ -497,17 +497,28 @@ export class JobsView {
       button.disabled = false;
     }
   }
+  // POST v1/jobs?q; a server that makes no progressive jobs (a cluster
+  // node) gets the job again as a plain one, and no more progressive asks.
+  async post(q) {
+    try {
+      return await (await this.api.call("POST", "v1/jobs?" + q, { body: this.opts.text() })).json();
+    } catch (e) {
+      if (!progressiveRefused(e) || !q.has("progressive")) throw e;
+      this.noProgressive = true;
+      q.delete("progressive");
+      return (await this.api.call("POST", "v1/jobs?" + q, { body: this.opts.text() })).json();
+    }
+  }
   async submit() {
     const button = this.$("render-job");
     const q = new URLSearchParams({ priority: this.$("job-priority").value });
     if (this.$("job-exr").checked) q.set("format", "exr");
-    if (isProgressive(this.opts.scene())) q.set("progressive", "1");
+    if (isProgressive(this.opts.scene()) && !this.noProgressive) q.set("progressive", "1");
     if (this.$("denoise").checked) q.set("denoise", "1"); // the toolbar's denoise box
     button.disabled = true;
     try {
       await this.opts.show(); // the list first, so the new job is not cleared by it
-      const res = await this.api.call("POST", "v1/jobs?" + q, { body: this.opts.text() });
-      const got = await res.json();
+      const got = await this.post(q);
       this.clearError("user");
       if (this.filter) {
         // the new job is queued: the filter would hide it

@@ -98,6 +98,14 @@ export function isProgressive(scene) {
   return r.integrator === "path" && Number.isInteger(r.samples) && r.samples > 1;
 }
 
+// Whether e is a server's refusal of progressive jobs: a cluster node
+// (rayd --redis) makes none yet and says so as 400 bad_parameter naming
+// `progressive`.  The page then renders such scenes as a single node
+// would without it: tile by tile, or as a plain job.
+export function progressiveRefused(e) {
+  return e instanceof ApiError && e.status === 400 && e.parameter === "progressive";
+}
+
 // The events of a Server-Sent Events text, and what is left of it.
 export function sseEvents(buf) {
   const events = [];
@@ -320,14 +328,17 @@ export class Renderer {
         },
         () => false // its error (if any) is the scene's, reported below
       );
-    if (size && isProgressive(scene)) {
+    if (size && isProgressive(scene) && !this.noProgressive) {
       try {
         const r = await this.progressive(text, progress, lowDone, signal);
         if (this.ctrl === ctrl) this.ctrl = null;
         return { id: r.id, width: size[0], height: size[1], samples: r.samples };
       } catch (e) {
-        ctrl.abort(); // the quick pass too
-        throw e;
+        if (!progressiveRefused(e)) {
+          ctrl.abort(); // the quick pass too
+          throw e;
+        }
+        this.noProgressive = true; // this server's tiles, from now on
       }
     }
     let info;

@@ -10,12 +10,15 @@
 // answered by a stand-in.
 import { chromium } from "playwright-core";
 import { cases } from "./cases.mjs";
-import { mkdtempSync, rmSync, readFileSync } from "node:fs";
+import { execFileSync } from "node:child_process";
+import { mkdtempSync, rmSync, readFileSync, writeFileSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
 
 const [A, B] = process.argv.slice(2);
 const SCENES = process.env.SCENES || "scenes";
+const PNGCMP = process.env.PNGCMP;
+const WORK = mkdtempSync(join(tmpdir(), "rayd-cluster-page-"));
 const { pass, fail, check, failed } = cases();
 const gate = async (url, tiles) => (await fetch(url + "/v1/test/gate?tiles=" + tiles, { method: "POST" })).json();
 const job = async (url, id) => (await fetch(`${url}/v1/jobs/${id}`)).json();
@@ -29,6 +32,35 @@ function sceneText() {
   s.render.seed = 4242;
   return JSON.stringify(s, null, 2);
 }
+// A small path-traced scene (64 x 48, 4 samples): the preview would make it
+// a progressive job, which a cluster node refuses.
+function pathText(seed) {
+  const s = JSON.parse(readFileSync(join(SCENES, "cornell.json"), "utf8"));
+  Object.assign(s.render, { width: 64, height: 48, samples: 4, seed });
+  return JSON.stringify(s, null, 2);
+}
+// The canvas of page p against node url's POST /v1/render of text (pngcmp).
+async function canvasIsServers(p, url, text) {
+  const data = await p.evaluate(() => document.getElementById("canvas").toDataURL("image/png"));
+  const res = await fetch(url + "/v1/render", { method: "POST", headers: { "Content-Type": "application/json" }, body: text });
+  if (res.status !== 200) return `POST /v1/render answered ${res.status}`;
+  const a = join(WORK, "canvas.png"), b = join(WORK, "server.png");
+  writeFileSync(a, Buffer.from(data.split(",")[1], "base64"));
+  writeFileSync(b, Buffer.from(await res.arrayBuffer()));
+  try {
+    execFileSync(PNGCMP, [b, a], { stdio: ["ignore", "ignore", "pipe"] });
+    return true;
+  } catch (e) {
+    return (e.stderr && e.stderr.toString().trim()) || `pngcmp exit ${e.status}`;
+  }
+}
+const renders = (p) => p.evaluate(() => Number(document.body.dataset.renders || 0));
+const waitDone = (p, n) =>
+  p.waitForFunction((k) => document.body.dataset.state === "done" && Number(document.body.dataset.renders || 0) > k, n, {
+    timeout: 120000,
+  });
+const isRefusal = (e) => /^400 POST .*\/v1\/jobs\?.*progressive=1/.test(e);
+
 const rowSel = (id) => `#jobs-list li[data-id="${id}"]`;
 const waitRow = (page, id, state) =>
   page.waitForFunction(([sel, s]) => document.querySelector(sel)?.dataset.state === s, [rowSel(id), state], {
@@ -133,6 +165,40 @@ try {
     await waitRow(a.page, id, "succeeded");
   });
 
+  // A path-traced scene on node B's page: one refused progressive ask,
+  // then tiles, the server's pixels; the next render asks no more.
+  await check("path_traced_by_tiles_on_b", async () => {
+    await b.page.click("#tab-editor");
+    for (const seed of [1, 2]) {
+      const n = await renders(b.page), text = pathText(seed);
+      await b.page.evaluate((t) => window.rayd.editor.set(t), text);
+      await b.page.focus("#scene");
+      await b.page.keyboard.press("Control+Enter");
+      try {
+        await waitDone(b.page, n);
+      } catch (e) {
+        const st = await b.page.evaluate(() => [document.body.dataset.state, document.getElementById("status").textContent]);
+        return `seed ${seed}: not done (state ${st[0]}, status "${st[1]}"); requests failed: ${b.errors.join(" | ")}`;
+      }
+      const same = await canvasIsServers(b.page, B, text);
+      if (same !== true) return `seed ${seed}: ${same}`;
+    }
+    const asks = b.errors.filter(isRefusal).length;
+    return asks === 1 || `${asks} refused progressive asks, not 1`;
+  });
+
+  await check("path_traced_job_plain_on_b", async () => {
+    await b.page.click("#tab-jobs");
+    await b.page.click("#render-job");
+    await b.page.waitForFunction((known) => {
+      const li = [...document.querySelectorAll("#jobs-list li[data-id]")].find((l) => l.dataset.id !== known);
+      return li && li.dataset.state === "succeeded";
+    }, id, { timeout: 60000 });
+    const asks = b.errors.filter(isRefusal).length;
+    return asks === 2 || `${asks} refused progressive asks, not 2 (one from the canvas, one from the Jobs view)`;
+  });
+  b.errors.splice(0, b.errors.length, ...b.errors.filter((e) => !isRefusal(e)));
+
   await check("no_page_errors", async () => {
     const all = [...a.errors, ...b.errors];
     return all.length === 0 || all.join(" | ");
@@ -142,5 +208,6 @@ try {
 } finally {
   await context.close().catch(() => {});
   rmSync(profile, { recursive: true, force: true });
+  rmSync(WORK, { recursive: true, force: true });
 }
 process.exit(0);

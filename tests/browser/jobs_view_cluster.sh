@@ -5,7 +5,9 @@
 # --test-gate, which the driver closes so a job is held for as long as a
 # case needs), in Debian's Chromium, headless.  jobs_view_cluster.mjs submits a job from node A's page
 # and follows it on node B's: listed, its progress from the event stream, its
-# thumbnail and its PNG.  Every process is stopped by its PID.
+# thumbnail and its PNG; then a path-traced scene on node B's page, which
+# the cluster makes no progressive job of: drawn by tiles, and submitted as
+# a plain job.  Every process is stopped by its PID.
 # Without chromium, node, playwright-core or redis-server this FAILs, never passes.
 #
 #   bash tests/browser/jobs_view_cluster.sh      (tests/run.sh sets RAYD_BUILD)
@@ -28,7 +30,7 @@ start_redis
 for i in 1 2; do
     start_node $i --threads 2 --cluster-tile 64 --redis-claim-ms 3000 --test-gate open --redis "$REDIS_URL"
 done
-CHROMIUM=$CHROMIUM SCENES=$RAYD_ROOT/scenes timeout 300 node "$HERE/jobs_view_cluster.mjs" "${NODE_URL[1]}" "${NODE_URL[2]}"
+PNGCMP=$RAYD_BUILD/tests/tools/pngcmp CHROMIUM=$CHROMIUM SCENES=$RAYD_ROOT/scenes timeout 300 node "$HERE/jobs_view_cluster.mjs" "${NODE_URL[1]}" "${NODE_URL[2]}"
 rc=$?
 [ "$rc" -eq 0 ] || fail jobs_cluster_driver "node exited with status $rc"
 for i in 1 2; do

@@ -25,7 +25,7 @@ NFAIL=0
 # rayd.  Only our own children are ever signalled by a later cleanup.
 ours() {
     local s
-    s=$(cat "/proc/$1/stat" 2>/dev/null) || return 1
+    read -r s 2>/dev/null <"/proc/$1/stat" || return 1
     s=${s##*) } # the fields after the command's name: state, ppid, ...
     set -- $s
     [ "${2:-}" = "$$" ]
