@@ -295,6 +295,31 @@ static bool cluster_frame_store(struct redis *c, const char *id, long k, const v
     return ok;
 }
 
+/* A node whose whole --max-memory is under an assembly's need can never
+ * do it; past CLUSTER_ASSEMBLY_MISSES such tries (on any nodes, counted in
+ * the job's record) the job fails, rather than waiting for ever for a
+ * node with a larger budget that may not exist (too_large, the code a
+ * render over a limit has).  True when it ended. */
+#define CLUSTER_ASSEMBLY_MISSES 20
+static bool cluster_assemble_never(struct redis *c, const char *id, long k, size_t need) {
+    if (need <= mem_limit()) return false;
+    char key[80];
+    cluster_key(key, sizeof key, id, "job");
+    const char *argv[] = {"HINCRBY", key, "assembly_misses", "1", NULL};
+    redisReply *rep = redis_strs(c, argv);
+    long long n = redis_failed(c, rep) ? 0 : redis_ll(rep, 0);
+    if (rep) freeReplyObject(rep);
+    if (n < CLUSTER_ASSEMBLY_MISSES) return false;
+    char why[400];
+    snprintf(why, sizeof why,
+             "{\"code\":\"%s\",\"message\":\"frame %ld: its assembly needs %zu bytes, more "
+             "than the --max-memory of the nodes that tried it %d times; raise --max-memory or "
+             "render a smaller region\"}",
+             rayd_status_name(RAYD_E_LIMIT), k, need, CLUSTER_ASSEMBLY_MISSES);
+    log_warn("cluster: job %s failed: %s", id, why);
+    return cluster_jobs_end(c, id, "failed", why);
+}
+
 /* The assembly's bytes reserved in the memory budget; false (counted,
  * said) when there is no room. */
 static bool cluster_assemble_reserve(const char *id, long k, size_t need) {
@@ -312,6 +337,7 @@ bool cluster_assemble(struct redis *c, const char *id, long k) {
     if (!cluster_geom_read(c, id, &g)) return false;
     if (strcmp(g.state, "queued") && strcmp(g.state, "running")) return true; /* ended: drop */
     size_t need = cluster_assemble_bytes(g.w, g.h, g.size);
+    if (cluster_assemble_never(c, id, k, need)) return true;  /* failed: the item is done */
     if (!cluster_assemble_reserve(id, k, need)) return false; /* the item stays pending */
     const char **argv = calloc((size_t)g.tiles + 1, sizeof *argv);
     char *keys = calloc((size_t)g.tiles, 120);

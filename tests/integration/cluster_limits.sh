@@ -156,6 +156,22 @@ curl -s -o "$T/asm.png" "${NODE_URL[4]}/v1/jobs/$M/image.png"
 check assembly_byte_identical "the frame differs from rayd-render --region's" cmp -s "$T/asm.png" "$T/asm_ref.png"
 check small_node_alive "node 4 died: $(tail -n 3 "$T/node4.err")" kill -0 "${NODE_PID[4]}"
 
+# a frame no live node can assemble: its POST passed on a node with room
+# (3, gone), and node 7's whole budget is under the frame's need, so after
+# 20 tries the job fails too_large, naming the need, instead of waiting for ever
+kill -KILL "${NODE_PID[4]}" "${NODE_PID[5]}" # nodes with room would assemble it
+start_node 7 --threads 1 --cluster-tile 128 --redis-claim-ms 400 --max-memory $((NEED - 8192)) --redis "$REDIS_URL"
+start_node 3 --threads 1 --cluster-tile 128 --redis-claim-ms 400 --test-gate 0 --redis "$REDIS_URL"
+code=$(post 3 "$AREG" never)
+NV=$(id_of "$T/never.json")
+kill -KILL "${NODE_PID[3]}"
+ended() { case "$(job_state "${NODE_URL[7]}" "$NV")" in failed | succeeded) return 0 ;; esac; return 1; }
+wait_until 120 ended
+curl -s "${NODE_URL[7]}/v1/jobs/$NV" >"$T/never_job.json"
+check assembly_never_fails "POST $code; $(grep -o "\"error\".*" "$T/never_job.json" | head -c 400)" bash -c \
+    "grep -q '\"state\":\"failed\"' '$T/never_job.json' && grep -q '\"code\":\"too_large\"' '$T/never_job.json' && grep -q 'its assembly needs $NEED bytes' '$T/never_job.json'"
+kill -KILL "${NODE_PID[7]}"
+
 # a frame no node of this budget could assemble: 413 at POST, as one node
 # refuses the render (a 1280 x 960 PNG holds 7.4 MB; the budget, 6M, takes
 # the scene's parse and little more)
