@@ -235,10 +235,19 @@ try {
       if (r.status !== 202) return `POST /v1/jobs answered ${r.status}`;
     }
     const all = (await api("/v1/jobs?limit=100")).json.jobs.map((j) => j.id);
+    await page.click("#tab-jobs");
     await page.evaluate(() => (window.rayd.jobs.pageSize = 4));
+    // the list may hold 4 rows before the refresh's page arrives: wait for
+    // the page itself (the row count and the More button set together)
     await page.click("#jobs-refresh");
-    await page.waitForFunction(() => document.querySelectorAll("#jobs-list li").length === 4);
-    if (!(await page.isVisible("#jobs-more"))) return "no More button after a full page";
+    const full = await page
+      .waitForFunction(
+        () => document.querySelectorAll("#jobs-list li").length === 4 && !document.getElementById("jobs-more").hidden,
+        null,
+        { timeout: 15000 }
+      )
+      .then(() => true, () => false);
+    if (!full) return "no More button after a full page";
     let clicks = 0;
     while (await page.isVisible("#jobs-more")) {
       const n = await page.locator("#jobs-list li").count();
