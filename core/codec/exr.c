@@ -29,6 +29,7 @@
 #include <string.h>
 
 #include "base/error.h"
+#include "codec/exr_chans.h"
 #include "rayd/rayd.h"
 
 struct exr_mem {
@@ -76,17 +77,10 @@ static enum rayd_status exr_fail(struct exr_mem *m, exr_result_t rv, struct rayd
                    m->message[0] ? m->message : exr_get_default_error_message(rv));
 }
 
-/* A channel of the file: its name, and where its floats are (the pixel
- * of the RGB or of the AOVs, at offset `at`). */
-struct exr_chan {
-    const char *name;
-    unsigned aov; /* 0: the RGB; else its RAYD_AOV_ bit */
-    int at;
-};
-
 /* Every channel the file may have, named as compositors expect (Nuke's
- * and Blender's layer.channel, Z and A bare). */
-static const struct exr_chan exr_chans[] = {
+ * and Blender's layer.channel, Z and A bare): the table exr_chans.h
+ * shares with the reader. */
+const struct exr_chan exr_chans[] = {
     {"R", 0, 0},
     {"G", 0, 1},
     {"B", 0, 2},
@@ -101,7 +95,8 @@ static const struct exr_chan exr_chans[] = {
     {"objectId", RAYD_AOV_OBJECT, 8},
     {"materialId", RAYD_AOV_MATERIAL, 9},
 };
-#define EXR_CHANS (sizeof exr_chans / sizeof exr_chans[0])
+const size_t exr_nchans = sizeof exr_chans / sizeof exr_chans[0];
+#define EXR_CHANS exr_nchans
 
 /* The header: one scanline part, w x h, channels R, G, B and the AOVs of
  * mask as float. */

@@ -20,8 +20,10 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "codec/exr_chans.h"
 #include "codec/exr_imf.h"
 #include "codec/exr_read.h"
+#include "rayd/rayd.h"
 
 struct exr_src {
     const unsigned char *p;
@@ -101,8 +103,35 @@ static exr_result_t read_imf(struct exr_src *src, float *rgb, int w, int h) {
     return EXR_ERR_CORRUPT_CHUNK;
 }
 
-/* Decodes every chunk of rows into rgb (w wide, from data window row y0). */
-static exr_result_t read_rows(exr_context_t ctx, float *rgb, int w, int y0, int y1) {
+/* Where decoded channels go: RGB (3 floats a pixel) and, when aov is not
+ * NULL, the AOVs (RAYD_AOV_FLOATS a pixel), both w wide. */
+struct exr_dst {
+    float *rgb, *aov;
+    int w;
+};
+
+/* The table entry of a channel name, or NULL. */
+static const struct exr_chan *chan_find(const char *name) {
+    for (size_t i = 0; i < exr_nchans; i++)
+        if (!strcmp(exr_chans[i].name, name)) return &exr_chans[i];
+    return NULL;
+}
+
+/* Points a decoder channel at row `row` of dst (NULL: skipped). */
+static void chan_point(exr_coding_channel_info_t *ch, const struct exr_dst *dst, size_t row) {
+    const struct exr_chan *k = chan_find(ch->channel_name);
+    int stride = k && k->aov ? RAYD_AOV_FLOATS : 3;
+    float *base = !k ? NULL : k->aov ? dst->aov : dst->rgb;
+    ch->decode_to_ptr =
+        base ? (uint8_t *)(base + row * (size_t)dst->w * (size_t)stride + k->at) : NULL;
+    ch->user_pixel_stride = stride * (int32_t)sizeof(float);
+    ch->user_line_stride = dst->w * stride * (int32_t)sizeof(float);
+    ch->user_data_type = EXR_PIXEL_FLOAT;
+    ch->user_bytes_per_element = (int16_t)sizeof(float);
+}
+
+/* Decodes every chunk of rows into dst (from data window row y0). */
+static exr_result_t read_rows(exr_context_t ctx, const struct exr_dst *dst, int y0, int y1) {
     int32_t lines = 0;
     exr_result_t rv = exr_get_scanlines_per_chunk(ctx, 0, &lines);
     exr_decode_pipeline_t dec = EXR_DECODE_PIPELINE_INITIALIZER;
@@ -114,16 +143,8 @@ static exr_result_t read_rows(exr_context_t ctx, float *rgb, int w, int y0, int 
         rv = started ? exr_decoding_update(ctx, 0, &ci, &dec)
                      : exr_decoding_initialize(ctx, 0, &ci, &dec);
         if (rv != EXR_ERR_SUCCESS) break;
-        for (int c = 0; c < dec.channel_count; c++) {
-            exr_coding_channel_info_t *ch = &dec.channels[c];
-            int k = rgb_index(ch->channel_name);
-            ch->decode_to_ptr =
-                k < 0 ? NULL : (uint8_t *)(rgb + (size_t)(ci.start_y - y0) * (size_t)w * 3 + k);
-            ch->user_pixel_stride = 3 * (int32_t)sizeof(float);
-            ch->user_line_stride = w * 3 * (int32_t)sizeof(float);
-            ch->user_data_type = EXR_PIXEL_FLOAT;
-            ch->user_bytes_per_element = (int16_t)sizeof(float);
-        }
+        for (int c = 0; c < dec.channel_count; c++)
+            chan_point(&dec.channels[c], dst, (size_t)(ci.start_y - y0));
         if (!started++) rv = exr_decoding_choose_default_routines(ctx, 0, &dec);
         if (rv == EXR_ERR_SUCCESS) rv = exr_decoding_run(ctx, 0, &dec);
     }
@@ -185,8 +206,9 @@ enum rayd_status exr_read_rgb(const void *buf, size_t len, long max_pixels, floa
     if (st == RAYD_OK && !px)
         st = err_set(err, RAYD_E_NOMEM, NULL, "out of memory for an OpenEXR image");
     if (st == RAYD_OK) {
+        struct exr_dst dst = {px, NULL, (int)ww};
         exr_result_t rv = through_imf(ctx) ? read_imf(&src, px, (int)ww, (int)hh)
-                                           : read_rows(ctx, px, (int)ww, dw.min.y, dw.max.y);
+                                           : read_rows(ctx, &dst, dw.min.y, dw.max.y);
         if (rv != EXR_ERR_SUCCESS)
             st = err_set(err, RAYD_E_INVALID, NULL, "cannot decode the OpenEXR image: %s",
                          src.message[0] ? src.message : exr_get_default_error_message(rv));
@@ -199,5 +221,49 @@ enum rayd_status exr_read_rgb(const void *buf, size_t len, long max_pixels, floa
     *rgb = px;
     *w = (int)ww;
     *h = (int)hh;
+    return RAYD_OK;
+}
+
+/* Why the open file is not one rayd_exr_encode_aov wrote of w x h pixels
+ * with mask's AOVs, or NULL when it is. */
+static const char *not_ours(exr_context_t ctx, const exr_attr_box2i_t *dw, unsigned mask, int w,
+                            int h) {
+    exr_storage_t st;
+    const exr_attr_chlist_t *ch = NULL;
+    if ((long)dw->max.x - dw->min.x + 1 != w || (long)dw->max.y - dw->min.y + 1 != h)
+        return "its size is not the one asked for";
+    if (exr_get_storage(ctx, 0, &st) != EXR_ERR_SUCCESS || st != EXR_STORAGE_SCANLINE ||
+        through_imf(ctx))
+        return "it is not a scanline file in a compression OpenEXRCore decodes";
+    if (exr_get_channels(ctx, 0, &ch) != EXR_ERR_SUCCESS || !ch) return "it has no channel list";
+    int want = 0;
+    for (size_t i = 0; i < exr_nchans; i++) want += !exr_chans[i].aov || (exr_chans[i].aov & mask);
+    if (ch->num_channels != want) return "its channels are not the ones asked for";
+    for (int i = 0; i < ch->num_channels; i++) {
+        const struct exr_chan *k = chan_find(ch->entries[i].name.str);
+        if (!k || (k->aov && !(k->aov & mask)) || ch->entries[i].x_sampling != 1 ||
+            ch->entries[i].y_sampling != 1)
+            return "its channels are not the ones asked for";
+    }
+    return NULL;
+}
+
+enum rayd_status rayd_exr_decode_aov(const void *buf, size_t len, unsigned mask, int w, int h,
+                                     float *rgb, float *aov, struct rayd_error *err) {
+    if (w <= 0 || h <= 0 || (mask && !aov))
+        return err_set(err, RAYD_E_ARG, NULL, "an EXR to decode needs w, h > 0 (and AOVs)");
+    struct exr_src src = {buf, len, ""};
+    exr_context_t ctx;
+    exr_attr_box2i_t dw;
+    enum rayd_status st = exr_open(&src, &ctx, &dw, err);
+    if (st != RAYD_OK) return st;
+    const char *why = not_ours(ctx, &dw, mask & RAYD_AOV_ALL, w, h);
+    struct exr_dst dst = {rgb, mask ? aov : NULL, w};
+    exr_result_t rv = why ? EXR_ERR_SUCCESS : read_rows(ctx, &dst, dw.min.y, dw.max.y);
+    exr_finish(&ctx);
+    if (why) return err_set(err, RAYD_E_INVALID, NULL, "is not the EXR expected: %s", why);
+    if (rv != EXR_ERR_SUCCESS)
+        return err_set(err, RAYD_E_INVALID, NULL, "cannot decode the OpenEXR image: %s",
+                       src.message[0] ? src.message : exr_get_default_error_message(rv));
     return RAYD_OK;
 }

@@ -482,6 +482,14 @@ enum rayd_status rayd_png_encode_rgba(const uint8_t *rgba, int w, int h, void **
  * N.X/Y/Z, Z, A, objectId, materialId (aov: rayd_accum_aov_linear's). */
 enum rayd_status rayd_exr_encode_aov(const float *rgb, const float *aov, unsigned mask, int w,
                                      int h, void **buf, size_t *len, struct rayd_error *err);
+/* The reverse, for a server that joins EXR tiles: decodes an EXR that
+ * rayd_exr_encode_aov wrote of w x h pixels with the AOVs of mask into rgb
+ * (w * h * 3 floats) and aov (w * h * RAYD_AOV_FLOATS, written only at the
+ * channels of mask; unused when mask is 0), bit for bit; RAYD_E_INVALID,
+ * the message saying why, for anything else (another size or channel set,
+ * a damaged file). */
+enum rayd_status rayd_exr_decode_aov(const void *buf, size_t len, unsigned mask, int w, int h,
+                                     float *rgb, float *aov, struct rayd_error *err);
 
 /* rayd_render_into for linear float RGB: region's linear radiance (as
  * rayd_accum_linear gives it after a pass of all render.samples) into dst,

@@ -11,8 +11,8 @@
  * from the same structs, so it has the same shape.
  *
  * What a cluster job does not do yet is refused at the door, naming the
- * parameter, never answered wrongly: progressive passes, format=exr (and
- * so image.exr), the video of a frame range.  While Redis is unreachable
+ * parameter, never answered wrongly: progressive passes, the video of a
+ * frame range.  While Redis is unreachable
  * every job route answers 503 cluster_unavailable with a Retry-After and
  * a message naming the Redis address and the reason; renders, which need
  * no Redis, are served as always.
@@ -128,6 +128,7 @@ static void api_cluster_accepted(struct api_cluster *a) {
                                 .priority = op->priority,
                                 .est_rays = op->est_rays,
                                 .denoise = op->denoise,
+                                .keep_exr = op->exr,
                                 .ended_age = -1,
                                 .tiles_total = 0,
                                 .created_wall = op->created_ms / 1e3};
@@ -146,6 +147,10 @@ static void api_cluster_accepted(struct api_cluster *a) {
         cJSON_AddStringToObject(o, "status_url", url);
         api_jobs_url(url, sizeof url, op->id, "/image.png");
         cJSON_AddStringToObject(o, "image_url", url);
+        if (op->exr) {
+            api_jobs_url(url, sizeof url, op->id, "/image.exr");
+            cJSON_AddStringToObject(o, "exr_url", url);
+        }
         api_jobs_url(url, sizeof url, op->id, "/events");
         cJSON_AddStringToObject(o, "events_url", url);
         if (op->denoise) cJSON_AddTrueToObject(o, "denoise");
@@ -169,10 +174,6 @@ bool api_cluster_submit(struct http_req *r, struct cache_entry *e, const struct 
             return api_bad_param(r, progressive[i],
                                  "progressive jobs are not made by a cluster (rayd --redis) yet: "
                                  "leave it out, or render progressively with POST /v1/render");
-    if (what->keep_exr)
-        return api_bad_param(r, "format",
-                             "a cluster (rayd --redis) keeps PNGs only: format=exr is not made "
-                             "yet; POST /v1/render?format=exr renders one");
     struct api_cluster *a = api_cluster_new(r, CO_SUBMIT, NULL, api_cluster_accepted);
     if (!a) return false;
     struct cluster_op *op = &a->op;
@@ -198,7 +199,8 @@ bool api_cluster_submit(struct http_req *r, struct cache_entry *e, const struct 
         free(a);
         return false;
     }
-    if (cluster_assemble_bytes(what->reg.w, what->reg.h, n) > mem_limit()) {
+    if (cluster_assemble_bytes(what->reg.w, what->reg.h, n, what->keep_exr, what->aov) >
+        mem_limit()) {
         /* a frame this node could never assemble: as one node refuses a render over it */
         metrics_reject(MR_MEMORY);
         api_refused(r, WORK_TOO_BIG);
@@ -217,6 +219,7 @@ bool api_cluster_submit(struct http_req *r, struct cache_entry *e, const struct 
     op->client = what->client;
     op->animated = animated;
     op->denoise = what->denoise;
+    op->exr = what->keep_exr;
     op->aov = what->aov;
     op->est_rays = a->price.rays;
     return api_cluster_go(a);
@@ -261,8 +264,9 @@ void api_cluster_stop(struct http_req *r, const char *id) {
 
 /* ---- the images ---------------------------------------------------------------------- */
 
-static void api_cluster_png(struct http_req *r, struct blob *png) {
-    http_reply_image(r, 200, png, api_format_type(WORK_PNG));
+/* A frame's PNG, or its EXR. */
+static void api_cluster_png(struct http_req *r, struct blob *png, bool exr) {
+    http_reply_image(r, 200, png, api_format_type(exr ? WORK_EXR : WORK_PNG));
     http_reply_header(r, "Cache-Control", "private, max-age=3600");
 }
 
@@ -277,13 +281,13 @@ static void api_cluster_image_answer(struct api_cluster *a) {
         http_reply_error(r, 409, "frame_range_job",
                          "this job renders frames: GET /v1/jobs/{id}/frames/{k}.png", NULL, 0, 0,
                          NULL);
-    } else if (a->exr) {
+    } else if (a->exr && !j->keep_exr) {
         http_reply_error(r, 409, "not_exr",
-                         "this job keeps no EXR: a cluster (rayd --redis) keeps PNGs only (its "
+                         "this job keeps no EXR: create it with POST /v1/jobs?format=exr (its "
                          "PNG is image.png)",
                          NULL, 0, 0, NULL);
     } else if (j->state == JS_SUCCEEDED && op->png) {
-        api_cluster_png(r, op->png);
+        api_cluster_png(r, op->png, a->exr);
     } else if (j->state == JS_SUCCEEDED) {
         http_reply_error(r, 410, "result_evicted",
                          "the job succeeded but its image is no longer in Redis (evicted by "
@@ -313,7 +317,7 @@ static void api_cluster_image_as(struct http_req *r, const char *id, bool exr) {
     }
     struct api_cluster *a = api_cluster_new(r, CO_IMAGE, id, api_cluster_image_answer);
     if (!a) return;
-    a->exr = exr;
+    a->exr = a->op.exr = exr;
     api_cluster_go(a);
 }
 
@@ -335,12 +339,12 @@ static void api_cluster_frame_answer(struct api_cluster *a) {
         snprintf(msg, sizeof msg, "frame %ld is not one of this job's frames %ld-%ld", op->frame,
                  in->first, in->last);
         http_reply_error(r, 404, "frame_unknown", msg, NULL, 0, 0, NULL);
-    } else if (a->exr) {
+    } else if (a->exr && !in->job.keep_exr) {
         http_reply_error(r, 409, "not_exr",
-                         "this job keeps no EXR: a cluster (rayd --redis) keeps PNGs only", NULL, 0,
+                         "this job keeps no EXR: create it with POST /v1/jobs?format=exr", NULL, 0,
                          0, NULL);
     } else if (op->png) {
-        api_cluster_png(r, op->png);
+        api_cluster_png(r, op->png, a->exr);
     } else {
         const char *st = in->job.state == JS_CANCELED ? "canceled"
                          : in->job.state == JS_FAILED ? "failed"
@@ -371,7 +375,7 @@ void api_cluster_frame(struct http_req *r, const char *path) {
     struct api_cluster *a = api_cluster_new(r, CO_IMAGE, id, api_cluster_frame_answer);
     if (!a) return;
     a->op.frame = k;
-    a->exr = exr;
+    a->exr = a->op.exr = exr;
     api_cluster_go(a);
 }
 

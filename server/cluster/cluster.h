@@ -80,6 +80,7 @@ struct cluster_op {
     long first, last; /* frames; a still: 0, 0 and animated false */
     bool animated;
     bool denoise; /* each tile rendered denoised (with its apron): crops of the denoised frame */
+    bool exr;     /* CO_SUBMIT: the job keeps an EXR too (format=exr); CO_IMAGE: the EXR asked */
     unsigned aov; /* the one AOV the PNG shows instead of the light (enum rayd_aov bits), or 0 */
     double fps, est_rays;
     /* CO_LIST */
@@ -95,7 +96,7 @@ struct cluster_op {
     bool is_animated;        /* the job is a frame range */
     bool canceled_now;       /* CO_CANCEL: this request ended it */
     double created_ms;       /* CO_SUBMIT: when the job was made (ms since the epoch) */
-    struct blob *png;        /* CO_IMAGE: the frame, when it is there */
+    struct blob *png;        /* CO_IMAGE: the frame's PNG (or EXR), when it is there */
     struct shots_info *rows; /* CO_LIST: limit rows (the caller's array) */
     bool *row_animated;
     int nrows;
@@ -108,9 +109,10 @@ struct cluster_op {
     struct cluster_op *next;
 };
 /* The bytes assembling a frame of w x h pixels in tiles of tile pixels
- * holds (the memory budget's charge): over --max-memory, a job of such
- * frames is refused at POST, as one node refuses such a render. */
-size_t cluster_assemble_bytes(long w, long h, long tile);
+ * (with its EXR of the AOVs aov: exr) holds (the memory budget's charge):
+ * over --max-memory, a job of such frames is refused at POST, as one node
+ * refuses such a render. */
+size_t cluster_assemble_bytes(long w, long h, long tile, bool exr, unsigned aov);
 /* Queues op: true after op->suspend ran (op->done will be called once);
  * false when the cluster is stopping (op not used). */
 bool cluster_submit(struct cluster_op *op);

@@ -52,8 +52,12 @@ const char cluster_lua_end[] =
     "  local last = tonumber(redis.call('HGET', p .. 'job', 'last'))\n"
     "  local tiles = tonumber(redis.call('HGET', p .. 'job', 'tiles'))\n"
     "  for k = first, last do\n"
-    "    for t = 0, tiles - 1 do redis.call('DEL', p .. 'tile:' .. k .. ':' .. t) end\n"
+    "    for t = 0, tiles - 1 do\n"
+    "      redis.call('DEL', p .. 'tile:' .. k .. ':' .. t, p .. 'tile:' .. k .. ':' .. t .. "
+    "':exr')\n"
+    "    end\n"
     "    redis.call('EXPIRE', p .. 'frame:' .. k, ttl)\n"
+    "    redis.call('EXPIRE', p .. 'frame:' .. k .. ':exr', ttl)\n"
     "    redis.call('EXPIRE', p .. 'done:' .. k, ttl)\n"
     "  end\n"
     "  for _, k in ipairs({'job', 'events', 'frames'}) do redis.call('EXPIRE', p .. k, ttl) end\n"
@@ -93,7 +97,7 @@ static const char *const cluster_fields[] = {
     "state", "created", "started",  "ended",      "client",      "priority", "scene_id",
     "x",     "y",       "w",        "h",          "first",       "last",     "animated",
     "tiles", "fps",     "est_rays", "tiles_done", "frames_done", "rays",     "render_ms",
-    "error", "latest",  "version",  "denoise",    "encode_ms",   NULL};
+    "error", "latest",  "version",  "denoise",    "encode_ms",   "exr",      NULL};
 enum {
     F_STATE,
     F_CREATED,
@@ -121,6 +125,7 @@ enum {
     F_VERSION,
     F_DENOISE,
     F_ENCODE_MS,
+    F_EXR,
     F__COUNT
 };
 
@@ -231,6 +236,7 @@ static void cluster_submit_job(struct redis *c, struct cluster_op *op) {
                           "fps",         v[12],
                           "est_rays",    v[13],
                           "denoise",     op->denoise ? "1" : "0",
+                          "exr",         op->exr ? "1" : "0",
                           "aov",         v[14],
                           "tiles_done",  "0",
                           "frames_done", "0",
@@ -304,6 +310,7 @@ static void cluster_fill(const char *id, redisReply **v, struct shots_info *out,
     j->est_rays = cluster_num(v[F_EST_RAYS]);
     j->priority = (int)cluster_num(v[F_PRIORITY]);
     j->denoise = !strcmp(cluster_str(v[F_DENOISE]), "1");
+    j->keep_exr = !strcmp(cluster_str(v[F_EXR]), "1");
     j->ended_age = ended > 0 ? (now - ended) / 1e3 : -1;
     if (j->state == JS_FAILED) cluster_error_read(cluster_str(v[F_ERROR]), &j->err);
     long first = (long)cluster_num(v[F_FIRST]), last = (long)cluster_num(v[F_LAST]);
@@ -361,12 +368,12 @@ static void cluster_read(struct redis *c, const char *id, struct cluster_op *op,
     if (rep) freeReplyObject(rep);
 }
 
-/* The frame's PNG, when it is there. */
+/* The frame's PNG (its EXR when op->exr), when it is there. */
 static void cluster_image(struct redis *c, struct cluster_op *op) {
     cluster_read(c, op->id, op, &op->info, &op->is_animated);
     if (op->status != CS_OK || op->frame < op->info.first || op->frame > op->info.last) return;
     char key[120], what[40];
-    snprintf(what, sizeof what, "frame:%ld", op->frame);
+    snprintf(what, sizeof what, "frame:%ld%s", op->frame, op->exr ? ":exr" : "");
     cluster_key(key, sizeof key, op->id, what);
     const char *argv[] = {"GET", key, NULL};
     redisReply *rep = redis_strs(c, argv);

@@ -53,7 +53,7 @@ struct node_item {
     struct work_target what;
     struct compile_waiter cw;
     struct work_waiter ww;
-    struct blob *png;
+    struct blob *png, *exr; /* exr: the tile's EXR too, for a job that keeps one */
     struct rayd_error err;
     double render_ms;
     uint64_t rays; /* what the tile's render cast: the job counts them */
@@ -80,8 +80,9 @@ static void node_rendered(struct work_waiter *w, struct work_result *res) {
     struct node_item *it = (struct node_item *)((char *)w - offsetof(struct node_item, ww));
     it->render_ms = res->times.render_ms;
     it->rays = res->rays;
-    if (res->status == RAYD_OK && res->png) {
+    if (res->status == RAYD_OK && res->png && (res->exr || !it->what.keep_exr)) {
         it->png = res->png;
+        it->exr = blob_ref(res->exr); /* lent for this call */
         node_mark(it, NP_DONE);
     } else {
         blob_unref(res->png);
@@ -113,8 +114,14 @@ static void node_compiled(struct node_item *it, struct compile_result *res) {
     struct blob *png = NULL;
     enum work_submit s = sched_render(res->scene, &it->what, &it->ww, &png, &it->rays);
     scenes_release(res->scene);
-    if (s == WORK_OK) return; /* node_rendered will say */
-    if (s == WORK_CACHED) {
+    if (s == WORK_OK) return;                    /* node_rendered will say */
+    if (s == WORK_CACHED && it->what.keep_exr) { /* never: an EXR's render is not cached */
+        blob_unref(png);
+        memset(&it->err, 0, sizeof it->err);
+        it->err.code = RAYD_E_INTERNAL;
+        snprintf(it->err.message, sizeof it->err.message, "a tile's EXR was not made");
+        node_mark(it, NP_FAILED);
+    } else if (s == WORK_CACHED) {
         it->png = png;
         node_mark(it, NP_DONE);
     } else if (s == WORK_TOO_BIG) {
@@ -154,6 +161,7 @@ static void node_render(struct node_item *it) {
 
 static void node_free(struct node_item *it) {
     blob_unref(it->png);
+    blob_unref(it->exr);
     free(it->body);
     free(it);
 }
@@ -163,10 +171,11 @@ static void node_free(struct node_item *it) {
 static int node_job(struct redis *c, struct node_item *it) {
     char key[120];
     cluster_key(key, sizeof key, it->job, "job");
-    const char *argv[] = {"HMGET", key, "state", "animated", "tiles", "cols",    "tile_size", "x",
-                          "y",     "w", "h",     "client",   "scene", "denoise", "aov",       NULL};
+    const char *argv[] = {"HMGET",     key,       "state", "animated", "tiles", "cols",
+                          "tile_size", "x",       "y",     "w",        "h",     "client",
+                          "scene",     "denoise", "aov",   "exr",      NULL};
     redisReply *rep = redis_strs(c, argv);
-    if (redis_failed(c, rep) || rep->type != REDIS_REPLY_ARRAY || rep->elements != 13) {
+    if (redis_failed(c, rep) || rep->type != REDIS_REPLY_ARRAY || rep->elements != 14) {
         if (rep) freeReplyObject(rep);
         return -1;
     }
@@ -192,6 +201,7 @@ static int node_job(struct redis *c, struct node_item *it) {
             .format = WORK_PNG,
             .aov = (unsigned)redis_ll(e[12], 0),
             .denoise = redis_ll(e[11], 0) == 1, /* a record made before: raw */
+            .keep_exr = redis_ll(e[13], 0) == 1,
             .client = strtoull(e[9]->type == REDIS_REPLY_STRING ? e[9]->str : "0", NULL, 10)};
         rc = 1;
     } else if (!strcmp(st, "queued") || !strcmp(st, "running")) {
@@ -333,8 +343,9 @@ static bool node_finish(struct redis *c) {
             p = &it->next;
             continue;
         }
-        if (ph == NP_DONE && cluster_tile_store(c, it->job, it->frame, it->tile, it->ntiles,
-                                                &it->what.reg, it->png, it->render_ms, it->rays)) {
+        struct cluster_tile done = {it->job, it->frame, it->tile,      it->ntiles, it->what.reg,
+                                    it->png, it->exr,   it->render_ms, it->rays};
+        if (ph == NP_DONE && cluster_tile_store(c, &done)) {
             node_test_stall();
             cluster_items_ack(c, it->level, it->sid);
             atomic_fetch_add(&cluster_done_total, 1);

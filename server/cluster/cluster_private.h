@@ -87,12 +87,20 @@ bool cluster_jobs_end(struct redis *c, const char *id, const char *state, const 
 
 /* ---- cluster_assemble.c: tiles in, frames out (the puller) ------------------- */
 
-/* Tile `tile` of frame k of job id done (png, what its render took and
- * cast): kept, and the frame's assembly queued by whoever completes it.
+/* A tile rendered: tile `tile` of frame k of job id (of ntiles), where it
+ * is, its PNG (and EXR, for a job that keeps one), what its render took
+ * and cast. */
+struct cluster_tile {
+    const char *id;
+    long k, tile, ntiles;
+    struct rayd_region reg;
+    const struct blob *png, *exr;
+    double render_ms;
+    uint64_t rays;
+};
+/* The tile kept, and its frame's assembly queued by whoever completes it.
  * false: Redis failed. */
-bool cluster_tile_store(struct redis *c, const char *id, long k, long tile, long ntiles,
-                        const struct rayd_region *reg, const struct blob *png, double render_ms,
-                        uint64_t rays);
+bool cluster_tile_store(struct redis *c, const struct cluster_tile *t);
 /* The frame assembled from its tiles and stored (or, a tile missing or
  * corrupt, that tile queued again).  false: Redis failed, or the memory
  * budget has no room for it now (cluster_deferred_total counts those): the

@@ -621,7 +621,8 @@ void task_notify_run(struct task_notify *n) {
         w = next;
     }
     blob_unref(n->res.png);
-    n->res.png = NULL;
+    blob_unref(n->res.exr); /* lent to each done() */
+    n->res.png = n->res.exr = NULL;
 }
 
 static void task_result(const struct task *t, struct work_result *res) {
@@ -631,6 +632,7 @@ static void task_result(const struct task *t, struct work_result *res) {
     /* the reason travels with the answer: the layers above need not ask */
     res->draining = t->status == RAYD_E_CANCELED && task_draining();
     if (t->status == RAYD_OK && t->png) res->png = blob_ref(t->png);
+    if (t->status == RAYD_OK && t->png && t->exr) res->exr = blob_ref(t->exr);
     res->times.queue_ms = t->t_start > 0 ? (t->t_start - t->t_enq) * 1e3 : 0;
     res->times.render_ms = t->t_start > 0 && t->t_end > 0 ? (t->t_end - t->t_start) * 1e3 : 0;
     res->times.encode_ms = t->encode_s * 1e3;

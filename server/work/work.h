@@ -25,6 +25,8 @@ struct work_result {
     enum rayd_status status; /* RAYD_OK and png, or an error */
     struct rayd_error err;
     struct blob *png;       /* a reference owned by the waiter: unref it */
+    struct blob *exr;       /* what.keep_exr: the EXR of the same samples, borrowed for done()'s
+                               length (blob_ref it to keep it); else NULL */
     bool gone;              /* the client disconnected */
     bool draining;          /* cancelled because the server drains (503 "draining") */
     struct log_times times; /* the render's times, handed up whole */

@@ -140,7 +140,6 @@ refused() { # NAME QUERY PARAM
     check "$1" "gave $code: $(head -c 300 "$T/$1.json")" bash -c "[ $code = 400 ] && grep -q '\"parameter\":\"$3\"' '$T/$1.json'"
 }
 refused refuse_progressive "progressive=1" progressive
-refused refuse_exr "format=exr" format
 code=$(curl -s -o "$T/bad.json" -w '%{http_code}' "${JSON[@]}" --data-binary '{"camera": 1}' "${NODE_URL[1]}/v1/jobs")
 check bad_scene_refused "a bad scene gave $code" [ "$code" = 422 ]
 check bad_scene_nothing_written "jobs in Redis: $(rcli zcard rayd:jobs)" [ "$(rcli zcard rayd:jobs)" = 3 ]
@@ -150,7 +149,7 @@ code=$(curl -s -o "$T/huge.out" -w '%{http_code}' "${JSON[@]}" --data-binary @"$
 check too_many_items_413 "gave $code: $(head -c 300 "$T/huge.out")" bash -c "[ $code = 413 ] && grep -q '65536 work items' '$T/huge.out'"
 kill -KILL "${NODE_PID[8]}"
 code=$(curl -s -o "$T/exr.json" -w '%{http_code}' "${NODE_URL[2]}/v1/jobs/$ID/image.exr")
-check image_exr_409 "image.exr gave $code" [ "$code" = 409 ]
+check image_exr_409 "image.exr gave $code: $(cat "$T/exr.json")" bash -c "[ $code = 409 ] && grep -q 'create it with POST /v1/jobs?format=exr' '$T/exr.json'"
 code=$(curl -s -o "$T/pass.json" -w '%{http_code}' "${NODE_URL[2]}/v1/jobs/$ID/image.png?pass=1")
 check image_pass_400 "?pass= gave $code" [ "$code" = 400 ]
 
@@ -200,6 +199,34 @@ for q in denoise=1 aov=normal; do
     check "job_${q%%=*}_byte_identical" "POST gave $code ($(head -c 200 "$T/dn.json")); the job's PNG differs from POST /v1/render?$REG&$q" \
         bash -c "[ $code = 202 ] && head -c 4 '$T/dn.png' | grep -q PNG && cmp -s '$T/dn.png' '$T/dn_ref.png'"
 done
+
+# --- jobs that keep an EXR: the tiles' EXRs join into one node's bytes --------------------------
+# (with AOV channels, denoised, and a frame range's frames/{k}.exr)
+for q in "format=exr&aov=normal,depth" "format=exr&denoise=1"; do
+    code=$(curl -s -o "$T/ex.json" -w '%{http_code}' "${JSON[@]}" --data-binary @"$SCENE" "${NODE_URL[1]}/v1/jobs?$REG&$q")
+    EID=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["id"])' "$T/ex.json" 2>/dev/null)
+    wait_until 120 bash -c "curl -s '${NODE_URL[2]}/v1/jobs/$EID' | grep -q '\"state\":\"succeeded\"'"
+    curl -s -o "$T/ex.exr" "${NODE_URL[3]}/v1/jobs/$EID/image.exr"
+    curl -s -o "$T/ex_ref.exr" "${JSON[@]}" --data-binary @"$SCENE" "${NODE_URL[2]}/v1/render?$REG&$q"
+    name=$(echo "$q" | tr -c 'a-z0-9\n' _)
+    check "job_${name}_byte_identical" "POST gave $code ($(head -c 300 "$T/ex.json")); the job's EXR differs from POST /v1/render?$REG&$q" \
+        bash -c "[ $code = 202 ] && grep -q '\"exr_url\":\"/v1/jobs/$EID/image.exr\"' '$T/ex.json' && cmp -s '$T/ex.exr' '$T/ex_ref.exr'"
+done
+check exr_tiles_deleted "tile keys left: $(rcli --scan --pattern "rayd:{$EID}:tile:*" | head -3)" [ "$(rcli --scan --pattern "rayd:{$EID}:tile:*" | wc -l)" = 0 ]
+check exr_frame_expires "the frame's EXR has no TTL: $(rcli ttl "rayd:{$EID}:frame:0:exr")" [ "$(rcli ttl "rayd:{$EID}:frame:0:exr")" -gt 0 ]
+code=$(curl -s -o "$T/xa.json" -w '%{http_code}' "${JSON[@]}" --data-binary @"$ANIM" "${NODE_URL[2]}/v1/jobs?frames=3-4&format=exr")
+XID=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["id"])' "$T/xa.json" 2>/dev/null)
+wait_until 60 bash -c "curl -s '${NODE_URL[1]}/v1/jobs/$XID' | grep -q '\"state\":\"succeeded\"'"
+ok=1
+for k in 3 4; do
+    curl -s -o "$T/xf$k.exr" "${NODE_URL[1]}/v1/jobs/$XID/frames/$k.exr"
+    "$RENDER" "$ANIM" --frame $k -o "$T/xr$k.exr" 2>/dev/null
+    cmp -s "$T/xf$k.exr" "$T/xr$k.exr" || ok=0
+done
+check frames_exr_byte_identical "POST gave $code; a frame's EXR differs from rayd-render --frame K -o K.exr" [ $ok = 1 ]
+check frames_exr_url "$(curl -s "${NODE_URL[3]}/v1/jobs/$XID" | head -c 600)" bash -c "curl -s '${NODE_URL[3]}/v1/jobs/$XID' | grep -q '\"exr_url\":\"/v1/jobs/$XID/frames/{k}.exr\"'"
+code=$(curl -s -o "$T/xnot.json" -w '%{http_code}' "${NODE_URL[1]}/v1/jobs/$AID/frames/3.exr")
+check frame_exr_409_without_format "frames/3.exr of a PNG-only job gave $code" bash -c "[ $code = 409 ] && grep -q not_exr '$T/xnot.json'"
 
 # --- SIGTERM: a node drains and leaves the cluster's list of nodes -----------------------------
 kill -TERM "${NODE_PID[3]}"

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # cluster_faults.sh -- rayd --redis when things break: a node killed while
 # it holds items, Redis killed and started again on its AOF, a node of
-# another version, tiles missing or corrupt in Redis.
+# another version, tiles (PNG and EXR) missing or corrupt in Redis.
 #
 # A real redis-server on a free loopback port (lib/redis.sh, an AOF written
 # at every command) and rayd nodes with --redis-claim-ms 1500 and the test
@@ -16,12 +16,13 @@ source "$(dirname "$0")/lib/redis.sh"
 
 SCENE=$RAYD_ROOT/scenes/spheres.json
 JSON=(-H 'Content-Type: application/json')
-"$RENDER" "$SCENE" -o "$T/ref.png" 2>/dev/null || { echo "FAIL setup: rayd-render"; exit 1; }
+"$RENDER" "$SCENE" -o "$T/ref.png" 2>/dev/null && "$RENDER" "$SCENE" -o "$T/ref.exr" 2>/dev/null ||
+    { echo "FAIL setup: rayd-render"; exit 1; }
 VERSION=$("$RAYD" --version | awk '{print $2}')
 
 gate_node() { curl -s -m 30 -X POST -o /dev/null "${NODE_URL[$1]}/v1/test/gate?tiles=$2"; }
-post_job() { # NODE: the new job's id
-    curl -s -m 30 "${JSON[@]}" --data-binary @"$SCENE" "${NODE_URL[$1]}/v1/jobs" |
+post_job() { # NODE [QUERY]: the new job's id
+    curl -s -m 30 "${JSON[@]}" --data-binary @"$SCENE" "${NODE_URL[$1]}/v1/jobs?${2:-}" |
         python3 -c 'import json,sys; print(json.load(sys.stdin).get("id", ""))'
 }
 succeeded() { [ "$(job_state "${NODE_URL[$1]}" "$2")" = succeeded ]; }
@@ -129,17 +130,19 @@ wait_until 10 unsuspended
 check events_client_gone "node 2 still holds $(metric 2 rayd_http_suspended) suspended connections" unsuspended
 kill -KILL "${NODE_PID[4]}"
 
-# --- tiles missing or corrupt in Redis ---------------------------------------------------------
+# --- tiles missing or corrupt in Redis (a job keeping an EXR: its tiles' EXRs too) -------------
 RAYD_TEST_CLUSTER_TILE=corrupt start_node 5 "${NODE_ARGS[@]}" --redis "$REDIS_URL"
 RAYD_TEST_CLUSTER_TILE=missing start_node 6 "${NODE_ARGS[@]}" --redis "$REDIS_URL"
 for i in 2 3; do gate_node $i 0; done
-BID=$(post_job 5)
+BID=$(post_job 5 format=exr)
 both_hold() { holds 5 1 && holds 6 1; }
 wait_until 30 both_hold
 for i in 2 3 5 6; do gate_node $i open; done
 wait_until 50 succeeded 5 "$BID"
 check bad_tiles_job_finishes "state: $(job_state "${NODE_URL[5]}" "$BID")" succeeded 5 "$BID"
 check bad_tiles_byte_identical "the image differs from rayd-render's" same_image 6 "$BID" bad
+curl -s -m 30 -o "$T/bad.exr" "${NODE_URL[2]}/v1/jobs/$BID/image.exr"
+check bad_tiles_exr_byte_identical "the EXR differs from rayd-render's" cmp -s "$T/bad.exr" "$T/ref.exr"
 check bad_tiles_rerendered "no re-render in the logs" bash -c "cat '$T'/node*.err | grep -q 'missing or corrupt in Redis'"
 
 # --- a tile that fails on the node that took it: the job fails, saying where -------------------

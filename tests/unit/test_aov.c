@@ -1,7 +1,9 @@
 /* test_aov.c -- AOVs (render/aov.c): their values on analytic scenes, for
  * both integrators; exact over merged sample ranges, tilings and threads;
- * the EXR's channels, read back by OpenEXR's reader; the names' checks. */
+ * the EXR's channels, read back by OpenEXR's reader and bit for bit by
+ * rayd_exr_decode_aov (and its refusals); the names' checks. */
 #include <openexr.h>
+#include <stdbool.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -264,6 +266,56 @@ static void test_exr_channels(void) {
     rayd_scene_free(s);
 }
 
+/* rayd_exr_decode_aov gives back the very floats, every channel (the
+ * cluster joins tiles with it), and refuses what it was not written as. */
+static void test_exr_decode(void) {
+    rayd_scene *s = sphere_scene("whitted", 1);
+    if (!s) return;
+    rayd_accum *a = aov_render(s, 0, 0, 1, 32);
+    float *rgb = NULL, *f = aov_floats(a);
+    struct rayd_error err = {0};
+    CHECK(rayd_accum_linear(a, &rgb, &err) == RAYD_OK, "%s", err.message);
+    unsigned mask = RAYD_AOV_NORMAL | RAYD_AOV_DEPTH;
+    void *buf = NULL;
+    size_t len = 0;
+    CHECK(rayd_exr_encode_aov(rgb, f, mask, 33, 33, &buf, &len, &err) == RAYD_OK, "%s",
+          err.message);
+    size_t n = 33 * 33;
+    float *r2 = calloc(n * 3, sizeof *r2), *f2 = calloc(n * RAYD_AOV_FLOATS, sizeof *f2);
+    CHECK(rayd_exr_decode_aov(buf, len, mask, 33, 33, r2, f2, &err) == RAYD_OK, "%s", err.message);
+    CHECK(!memcmp(rgb, r2, n * 3 * sizeof *r2), "the RGB floats differ");
+    bool same = true;
+    for (size_t i = 0; i < n; i++)
+        for (int c = 3; c < 7; c++) /* N.X/Y/Z and Z: bit for bit (Z is +inf off the sphere) */
+            same &= !memcmp(&f[i * RAYD_AOV_FLOATS + c], &f2[i * RAYD_AOV_FLOATS + c], 4);
+    CHECK(same, "the normal or depth floats differ");
+    CHECK(rayd_exr_decode_aov(buf, len, mask, 32, 33, r2, f2, &err) == RAYD_E_INVALID &&
+              strstr(err.message, "size"),
+          "another size: %s", err.message);
+    CHECK(rayd_exr_decode_aov(buf, len, RAYD_AOV_NORMAL, 33, 33, r2, f2, &err) == RAYD_E_INVALID &&
+              strstr(err.message, "channels"),
+          "other channels: %s", err.message);
+    CHECK(rayd_exr_decode_aov(buf, len, 0, 33, 33, r2, NULL, &err) == RAYD_E_INVALID,
+          "RGB alone asked of a file with AOVs");
+    CHECK(rayd_exr_decode_aov("not an EXR", 10, mask, 33, 33, r2, f2, &err) == RAYD_E_INVALID,
+          "garbage read as an EXR");
+    CHECK(rayd_exr_decode_aov(buf, len / 2, mask, 33, 33, r2, f2, &err) == RAYD_E_INVALID,
+          "a truncated EXR read");
+    unsigned char *bent = malloc(len);
+    memcpy(bent, buf, len);
+    for (size_t i = len / 2; i < len; i += 7) bent[i] ^= 0x5a; /* the pixel chunks damaged */
+    enum rayd_status st = rayd_exr_decode_aov(bent, len, mask, 33, 33, r2, f2, &err);
+    CHECK(st == RAYD_E_INVALID || (st == RAYD_OK && memcmp(rgb, r2, n * 3 * sizeof *r2)),
+          "a damaged EXR read back as the image");
+    CHECK(rayd_exr_decode_aov(buf, len, mask, 33, 33, r2, NULL, &err) == RAYD_E_ARG,
+          "AOVs asked without a buffer");
+    free(bent);
+    free(r2), free(f2);
+    rayd_free(buf), rayd_free(rgb), free(f);
+    rayd_accum_free(a);
+    rayd_scene_free(s);
+}
+
 /* The 8-bit pictures and the RGBA image: alpha 255 on the sphere, 0 off. */
 static void test_pictures(void) {
     rayd_scene *s = sphere_scene("whitted", 1);
@@ -378,6 +430,7 @@ int main(void) {
     RUN(test_passes_and_regions);
     RUN(test_mirror_and_ids);
     RUN(test_exr_channels);
+    RUN(test_exr_decode);
     RUN(test_pictures);
     RUN(test_names);
     CHECK_EXIT();
