@@ -83,7 +83,7 @@ CORE_LAYERS = [
                      "hits), denoise.c + accum_denoise.c (the a-trous denoiser and its "
                      "apron'd accumulator), srgb.c, integrate*.c (Whitted, path, 16-wide), image"),
     ("core/codec/", "image codecs on render/image.h: png.c (decode, 16-bit encode) + png_encode.c "
-                    "(parallel bands), exr.c + exr_read.c (EXR out and in; exr_imf.cc: DWA and tiled maps through the C++ library), sums.c (a sample "
+                    "(parallel bands), exr.c + exr_read.c (EXR out and in, one channel table in exr_chans.h; exr_imf.cc: DWA and tiled maps through the C++ library), sums.c (a sample "
                     "range's exact sums as bytes)"),
     ("core/load/", "the scene loader: scene_json*.c (scene_json.c the entry point), "
                    "gltf_material.c (glTF materials and images as rayd's)"),
@@ -100,7 +100,8 @@ SERVER_LAYERS = [
                         "(the connection), cluster_state.c (names, counters, the view), "
                         "cluster_items.c (the item streams, one per priority), "
                         "cluster_jobs.c (the records), cluster_assemble.c (tiles in, frames "
-                        "out), cluster_node.c (the puller), cluster.c (start, the request "
+                        "out), cluster_video.c (a frame range's video), cluster_node.c (the "
+                        "puller), cluster.c (start, the request "
                         "thread, /metrics)"),
     ("server/req/", "request.h: http_req.c (headers, query, suspend/resume, counts), "
                     "http_reply.c (replies, the error body)"),

@@ -11,8 +11,7 @@
  * from the same structs, so it has the same shape.
  *
  * What a cluster job does not do yet is refused at the door, naming the
- * parameter, never answered wrongly: progressive passes, the video of a
- * frame range.  While Redis is unreachable
+ * parameter, never answered wrongly: progressive passes.  While Redis is unreachable
  * every job route answers 503 cluster_unavailable with a Retry-After and
  * a message naming the Redis address and the reason; renders, which need
  * no Redis, are served as always.
@@ -94,13 +93,9 @@ static struct api_cluster *api_cluster_new(struct http_req *r, enum cluster_op_k
     return a;
 }
 
-/* A job's JSON: a frame range's with its "frames" (no video: the cluster
- * makes none). */
+/* A job's JSON: a frame range's with its "frames" (and its video_url). */
 static cJSON *api_cluster_json(const char *id, const struct shots_info *in, bool animated) {
-    if (!animated) return api_jobs_json(id, &in->job);
-    cJSON *o = api_shots_json(id, in);
-    cJSON_DeleteItemFromObject(o, "video_url");
-    return o;
+    return animated ? api_shots_json(id, in) : api_jobs_json(id, &in->job);
 }
 
 /* ---- POST /v1/jobs ------------------------------------------------------------------ */
@@ -379,15 +374,49 @@ void api_cluster_frame(struct http_req *r, const char *path) {
     api_cluster_go(a);
 }
 
+/* video.mp4 of a frame-range job: the single node's answers. */
+static void api_cluster_video_answer(struct api_cluster *a) {
+    struct cluster_op *op = &a->op;
+    struct http_req *r = a->r;
+    const struct shots_info *in = &op->info;
+    char msg[300];
+    snprintf(r->res.scene, sizeof r->res.scene, "%s", in->job.scene_id);
+    if (!op->is_animated) {
+        api_jobs_missing(r, op->id); /* as one node: no frame range of that id */
+    } else if (op->png) {
+        http_reply_image(r, 200, op->png, "video/mp4");
+        http_reply_header(r, "Cache-Control", "private, max-age=3600");
+    } else if (in->done < in->total) {
+        snprintf(msg, sizeof msg, "the video is made once every frame is done (%ld of %ld)",
+                 in->done, in->total);
+        http_reply_error(r, 409, "frames_not_done", msg, NULL, 0, 0, NULL);
+    } else if (in->video == SV_NO_FFMPEG) {
+        http_reply_error(r, 503, "no_ffmpeg", in->video_error, NULL, 0, 0, NULL);
+    } else if (in->video == SV_FAILED) {
+        http_reply_error(r, 500, "video_failed", in->video_error, NULL, 0, 0, NULL);
+    } else if (in->video == SV_READY) {
+        http_reply_error(r, 410, "result_evicted",
+                         "the video was made but is no longer in Redis (evicted by Redis's "
+                         "maxmemory, or deleted)",
+                         NULL, 0, 0, NULL);
+    } else {
+        http_reply_json(r, 202, api_cluster_json(op->id, in, true));
+        http_reply_header(r, "Retry-After", "1");
+    }
+}
+
 void api_cluster_video(struct http_req *r, const char *id) {
     if (!cluster_on()) {
         api_shots_video(r, id);
         return;
     }
-    http_reply_error(r, 400, "cluster_unsupported",
-                     "a cluster (rayd --redis) makes no video yet: fetch the frames "
-                     "(/v1/jobs/{id}/frames/{k}.png) and encode them",
-                     NULL, 0, 0, NULL);
+    if (!api_only_params(r, NULL)) return;
+    if (!api_is_hex(id, 32)) {
+        api_jobs_missing(r, id);
+        return;
+    }
+    struct api_cluster *a = api_cluster_new(r, CO_VIDEO, id, api_cluster_video_answer);
+    if (a) api_cluster_go(a);
 }
 
 /* ---- GET /v1/jobs ---------------------------------------------------------------------- */

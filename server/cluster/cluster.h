@@ -40,6 +40,7 @@ enum cluster_op_kind {
     CO_GET,    /* GET /v1/jobs/{id} */
     CO_CANCEL, /* DELETE /v1/jobs/{id} */
     CO_IMAGE,  /* a frame's PNG: image.png (frame 0 of a still) or frames/{k}.png */
+    CO_VIDEO,  /* a frame range's video.mp4 (in png), once made */
     CO_LIST,   /* GET /v1/jobs */
     CO_EVENTS  /* GET /v1/jobs/{id}/events: the events after a cursor */
 };

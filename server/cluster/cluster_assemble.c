@@ -6,7 +6,8 @@
  * for the tile), and its number added to the frame's done
  * set, in one script with the job's counters and its event, so a tile is
  * either counted and kept or neither.  The node whose tile completes the
- * set queues the frame's assembly item (tile -1) in that same script: a
+ * set queues the frame's assembly item (tile -1) in that same script (and
+ * the frame that completes a frame range its video's, cluster_video.c): a
  * node that dies right after leaves a complete set and its assembly
  * queued, and a duplicate of a tile (an item reclaimed from a stalled node
  * that finished after all) finds its number in the set and queues nothing.
@@ -163,6 +164,11 @@ static const char cluster_lua_frame[] =
     "end\n"
     "for t = 0, tonumber(f[3]) - 1 do\n"
     "  redis.call('DEL', p .. 'tile:' .. k .. ':' .. t, p .. 'tile:' .. k .. ':' .. t .. ':exr')\n"
+    "end\n"
+    "if n == total and redis.call('HGET', p .. 'job', 'animated') == '1' then\n"
+    "  redis.call('HSET', p .. 'job', 'video', 'making')\n"
+    "  redis.call('XADD', redis.call('HGET', p .. 'job', 'items') or ARGV[8], '*', 'job', id, "
+    "'frame', f[1], 'tile', -2)\n"
     "end\n"
     "if n == total then return rayd_end(id, 'succeeded', ARGV[4], ARGV[5], '') + 10 end\n"
     "return 0\n";
@@ -367,10 +373,11 @@ static bool cluster_frame_store(struct redis *c, const char *id, long k, const v
     snprintf(now, sizeof now, "%.0f", cluster_now_ms());
     snprintf(ttl, sizeof ttl, "%ld", config.job_ttl);
     snprintf(enc, sizeof enc, "%.3f", encode_ms);
-    const char *argv[] = {"EVAL", script, "0", id, sk, png, now, ttl, enc, exr_len ? exr : ""};
-    size_t lens[10];
-    for (int i = 0; i < 10; i++) lens[i] = i == 5 ? len : i == 9 ? exr_len : strlen(argv[i]);
-    redisReply *rep = redis_argv(c, 10, argv, lens);
+    const char *argv[] = {
+        "EVAL", script, "0", id, sk, png, now, ttl, enc, exr_len ? exr : "", cluster_stream};
+    size_t lens[11];
+    for (int i = 0; i < 11; i++) lens[i] = i == 5 ? len : i == 9 ? exr_len : strlen(argv[i]);
+    redisReply *rep = redis_argv(c, 11, argv, lens);
     bool ok = !redis_failed(c, rep);
     if (ok && redis_ll(rep, 0) >= 10) log_info("cluster: job %s succeeded", id);
     if (rep) freeReplyObject(rep);

@@ -94,10 +94,11 @@ static const char cluster_lua_submit[] =
 
 /* The fields a status read takes (never the scene: it can be megabytes). */
 static const char *const cluster_fields[] = {
-    "state", "created", "started",  "ended",      "client",      "priority", "scene_id",
-    "x",     "y",       "w",        "h",          "first",       "last",     "animated",
-    "tiles", "fps",     "est_rays", "tiles_done", "frames_done", "rays",     "render_ms",
-    "error", "latest",  "version",  "denoise",    "encode_ms",   "exr",      NULL};
+    "state",       "created",   "started",   "ended", "client",   "priority",
+    "scene_id",    "x",         "y",         "w",     "h",        "first",
+    "last",        "animated",  "tiles",     "fps",   "est_rays", "tiles_done",
+    "frames_done", "rays",      "render_ms", "error", "latest",   "version",
+    "denoise",     "encode_ms", "exr",       "video", NULL};
 enum {
     F_STATE,
     F_CREATED,
@@ -126,6 +127,7 @@ enum {
     F_DENOISE,
     F_ENCODE_MS,
     F_EXR,
+    F_VIDEO,
     F__COUNT
 };
 
@@ -288,6 +290,18 @@ static enum jobs_state cluster_state(const char *s) {
     return JS_FAILED;
 }
 
+/* The video's field ("making", "ready", "failed: why", "no_ffmpeg: why",
+ * cluster_video.c's) into out. */
+static void cluster_video_state(const char *s, struct shots_info *out) {
+    const char *why = strchr(s, ':');
+    out->video = !strcmp(s, "making")            ? SV_MAKING
+                 : !strcmp(s, "ready")           ? SV_READY
+                 : !strncmp(s, "no_ffmpeg:", 10) ? SV_NO_FFMPEG
+                 : !strncmp(s, "failed:", 7)     ? SV_FAILED
+                                                 : SV_NONE;
+    snprintf(out->video_error, sizeof out->video_error, "%s", why ? why + 1 + (why[1] == ' ') : "");
+}
+
 /* The status read's values v (F__COUNT + 1) into *out. */
 static void cluster_fill(const char *id, redisReply **v, struct shots_info *out, bool *animated) {
     struct jobs_info *j = &out->job;
@@ -328,6 +342,7 @@ static void cluster_fill(const char *id, redisReply **v, struct shots_info *out,
     out->latest = *cluster_str(v[F_LATEST]) ? (long)cluster_num(v[F_LATEST]) : -1;
     out->eta_s = -1;
     out->fps = cluster_num(v[F_FPS]);
+    cluster_video_state(cluster_str(v[F_VIDEO]), out);
     j->progress = *animated ? (double)out->done / (double)(frames > 0 ? frames : 1)
                             : (double)j->tiles_done / (double)(tiles > 0 ? tiles : 1);
     if (j->state == JS_SUCCEEDED) j->progress = 1;
@@ -368,12 +383,18 @@ static void cluster_read(struct redis *c, const char *id, struct cluster_op *op,
     if (rep) freeReplyObject(rep);
 }
 
-/* The frame's PNG (its EXR when op->exr), when it is there. */
+/* The frame's PNG (its EXR when op->exr; the job's video for CO_VIDEO),
+ * when it is there. */
 static void cluster_image(struct redis *c, struct cluster_op *op) {
     cluster_read(c, op->id, op, &op->info, &op->is_animated);
-    if (op->status != CS_OK || op->frame < op->info.first || op->frame > op->info.last) return;
+    if (op->status != CS_OK) return;
     char key[120], what[40];
-    snprintf(what, sizeof what, "frame:%ld%s", op->frame, op->exr ? ":exr" : "");
+    if (op->kind == CO_VIDEO && op->info.video != SV_READY) return;
+    if (op->kind != CO_VIDEO && (op->frame < op->info.first || op->frame > op->info.last)) return;
+    if (op->kind == CO_VIDEO)
+        snprintf(what, sizeof what, "video");
+    else
+        snprintf(what, sizeof what, "frame:%ld%s", op->frame, op->exr ? ":exr" : "");
     cluster_key(key, sizeof key, op->id, what);
     const char *argv[] = {"GET", key, NULL};
     redisReply *rep = redis_strs(c, argv);
@@ -497,7 +518,8 @@ void cluster_jobs_run(struct redis *c, struct cluster_op *op) {
     case CO_SUBMIT: cluster_submit_job(c, op); break;
     case CO_GET: cluster_read(c, op->id, op, &op->info, &op->is_animated); break;
     case CO_CANCEL: cluster_cancel(c, op); break;
-    case CO_IMAGE: cluster_image(c, op); break;
+    case CO_IMAGE:
+    case CO_VIDEO: cluster_image(c, op); break;
     case CO_LIST: cluster_list(c, op); break;
     case CO_EVENTS: cluster_events(c, op); break;
     }

@@ -20,7 +20,8 @@
  * the node's fair shares and budgets hold for cluster work too.  Those
  * callbacks run on the work layer's threads and only mark the item and
  * wake this thread: Redis is called from here alone.  An assembly item
- * (tile -1) runs here, on this thread.
+ * (tile -1) runs here, on this thread; a video item (tile -2) on a thread
+ * of its own (cluster_video.c), held here as a tile is until it ends.
  *
  * Everything is idempotent (cluster_assemble.c), so an item is acked only
  * after its result is stored, and an item whose result could not be
@@ -53,7 +54,8 @@ struct node_item {
     struct work_target what;
     struct compile_waiter cw;
     struct work_waiter ww;
-    struct blob *png, *exr; /* exr: the tile's EXR too, for a job that keeps one */
+    struct blob *png, *exr;      /* exr: the tile's EXR too, for a job that keeps one */
+    struct cluster_video *video; /* a video item's, while it is held */
     struct rayd_error err;
     double render_ms;
     uint64_t rays; /* what the tile's render cast: the job counts them */
@@ -162,6 +164,7 @@ static void node_render(struct node_item *it) {
 static void node_free(struct node_item *it) {
     blob_unref(it->png);
     blob_unref(it->exr);
+    cluster_video_drop(it->video);
     free(it->body);
     free(it);
 }
@@ -234,9 +237,27 @@ static bool node_holds(const char *sid, int level) {
     return false;
 }
 
-/* Starts what an item asks: an assembly here and now, a tile's render. */
+static void node_video_done(void *ctx) { node_mark(ctx, NP_DONE); }
+
+/* A video item: held while its thread encodes, else acked or left. */
+static void node_video(struct redis *c, struct node_item *it) {
+    bool ack = false;
+    it->phase = NP_BUSY; /* before the thread can mark it */
+    it->video = cluster_video_start(c, it->job, &ack, node_video_done, it);
+    if (!it->video) {
+        if (ack) cluster_items_ack(c, it->level, it->sid);
+        node_free(it);
+        return;
+    }
+    it->next = node_items;
+    node_items = it;
+    node_count++;
+}
+
+/* Starts what an item asks: an assembly here and now, a tile's render, a
+ * video on its thread. */
 static void node_take(struct redis *c, struct node_item *it) {
-    if (!it->job[0] || it->frame < 0 || it->tile < -1) { /* not ours to read: dropped */
+    if (!it->job[0] || it->frame < 0 || it->tile < -2) { /* not ours to read: dropped */
         log_warn("cluster: item %s is malformed; dropped", it->sid);
         cluster_items_ack(c, it->level, it->sid);
         node_free(it);
@@ -248,6 +269,10 @@ static void node_take(struct redis *c, struct node_item *it) {
             atomic_fetch_add(&cluster_done_total, 1);
         }
         node_free(it);
+        return;
+    }
+    if (it->tile == -2) {
+        node_video(c, it);
         return;
     }
     int rc = node_job(c, it);
@@ -345,7 +370,12 @@ static bool node_finish(struct redis *c) {
         }
         struct cluster_tile done = {it->job, it->frame, it->tile,      it->ntiles, it->what.reg,
                                     it->png, it->exr,   it->render_ms, it->rays};
-        if (ph == NP_DONE && cluster_tile_store(c, &done)) {
+        if (ph == NP_DONE && it->video) {
+            if (cluster_video_store(c, it->video)) {
+                cluster_items_ack(c, it->level, it->sid);
+                atomic_fetch_add(&cluster_done_total, 1);
+            }
+        } else if (ph == NP_DONE && cluster_tile_store(c, &done)) {
             node_test_stall();
             cluster_items_ack(c, it->level, it->sid);
             atomic_fetch_add(&cluster_done_total, 1);

@@ -107,6 +107,22 @@ bool cluster_tile_store(struct redis *c, const struct cluster_tile *t);
  * item stays pending, to be taken over. */
 bool cluster_assemble(struct redis *c, const char *id, long k);
 
+/* ---- cluster_video.c: a frame range's video (the puller) ---------------------- */
+
+struct cluster_video; /* one video being made, on a thread of its own */
+/* The video of job id started: its frames read and charged, ffmpeg run on
+ * a thread that calls done(ctx) when it ends.  NULL when there is nothing
+ * to run: *ack says whether the item is done (the video made or failed
+ * already, a failure recorded now, the job gone) or waits (no memory now,
+ * Redis failed). */
+struct cluster_video *cluster_video_start(struct redis *c, const char *id, bool *ack,
+                                          void (*done)(void *ctx), void *ctx);
+/* After done(): the MP4 (or why there is none) recorded in Redis; false
+ * when Redis failed (the item waits, to be made again). */
+bool cluster_video_store(struct redis *c, struct cluster_video *v);
+/* The item lets v go: freed now, or by its thread when the encode ends. */
+void cluster_video_drop(struct cluster_video *v);
+
 /* ---- cluster_items.c: the streams of work items, one per priority ----------- */
 
 #define CLUSTER_LEVELS 3        /* enum jobs_priority: low, normal, high */

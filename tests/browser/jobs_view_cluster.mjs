@@ -6,8 +6,8 @@
 // A job is submitted from the page served by node A and followed on the
 // page of node B: B lists it, follows it on its event stream (tile by tile,
 // while the gates let the tiles through), shows it succeeded with its
-// thumbnail, and its PNG link gives the bytes node A gives.  Nothing is
-// answered by a stand-in.
+// thumbnail, and its PNG link gives the bytes node A gives; a job with
+// the EXR box offers its EXR on B too.  Nothing is answered by a stand-in.
 import { chromium } from "playwright-core";
 import { cases } from "./cases.mjs";
 import { execFileSync } from "node:child_process";
@@ -198,6 +198,30 @@ try {
     return asks === 2 || `${asks} refused progressive asks, not 2 (one from the canvas, one from the Jobs view)`;
   });
   b.errors.splice(0, b.errors.length, ...b.errors.filter((e) => !isRefusal(e)));
+
+  // A job that keeps an EXR, posted from A's page with the EXR box: B's
+  // page offers the EXR, and its bytes are the ones A gives.
+  await check("exr_job_on_a_downloads_on_b", async () => {
+    await a.page.click("#tab-jobs");
+    const before = new Set(await a.page.$$eval("#jobs-list li[data-id]", (ls) => ls.map((l) => l.dataset.id)));
+    await a.page.check("#job-exr");
+    await a.page.evaluate((t) => window.rayd.editor.set(t), sceneText());
+    await a.page.click("#render-job");
+    await a.page.waitForFunction((known) => [...document.querySelectorAll("#jobs-list li[data-id]")].some((l) => !known.includes(l.dataset.id)), [...before], { timeout: 30000 });
+    const xid = (await a.page.$$eval("#jobs-list li[data-id]", (ls) => ls.map((l) => l.dataset.id))).find((i) => !before.has(i));
+    await a.page.uncheck("#job-exr");
+    await b.page.click("#tab-jobs");
+    await b.page.click("#jobs-refresh");
+    await waitRow(b.page, xid, "succeeded");
+    await b.page.waitForFunction((sel) => document.querySelectorAll(`${sel} a.job-dl`).length === 2, rowSel(xid));
+    const links = await b.page.$$eval(`${rowSel(xid)} a.job-dl`, (as) => as.map((x) => [x.textContent, x.href]));
+    const want = [["PNG", `${B}/v1/jobs/${xid}/image.png`], ["EXR", `${B}/v1/jobs/${xid}/image.exr`]];
+    if (JSON.stringify(links) !== JSON.stringify(want)) return `links ${JSON.stringify(links)}`;
+    const fromB = Buffer.from(await (await fetch(`${B}/v1/jobs/${xid}/image.exr`)).arrayBuffer());
+    const fromA = Buffer.from(await (await fetch(`${A}/v1/jobs/${xid}/image.exr`)).arrayBuffer());
+    const magic = fromB.subarray(0, 4).equals(Buffer.from([0x76, 0x2f, 0x31, 0x01]));
+    return (magic && fromB.equals(fromA)) || `EXR from B: ${fromB.length} bytes (magic ${magic}), from A: ${fromA.length}`;
+  });
 
   await check("no_page_errors", async () => {
     const all = [...a.errors, ...b.errors];

@@ -6,7 +6,8 @@
 # node 1 is answered by nodes 2 and 3 with the same JSON, that its image is
 # byte for byte rayd-render's, that its tiles were drawn by more than one
 # node (rayd_cluster_items_done_total), that a frame-range job's frames
-# are rayd-render's too, that its events replay from any node, that the
+# are rayd-render's too and its video a single node's, that jobs keeping
+# an EXR give one node's EXR bytes, that its events replay from any node, that the
 # list and DELETE work from any node, that what a cluster does not make yet
 # is refused with a 400 naming the parameter, and the hostile cases: a bad
 # --redis URL, --redis with --data-dir, a wrong password, a job id of
@@ -107,8 +108,21 @@ check frames_byte_identical "a frame differs from rayd-render --frame K" [ $ok =
 check frames_json "$(curl -s "${NODE_URL[1]}/v1/jobs/$AID" | head -c 600)" bash -c "curl -s '${NODE_URL[1]}/v1/jobs/$AID' | grep -q '\"frames\":{\"first\":3,\"last\":5,\"total\":3,\"done\":3'"
 code=$(curl -s -o "$T/f9.json" -w '%{http_code}' "${NODE_URL[1]}/v1/jobs/$AID/frames/9.png")
 check frame_outside_404 "frame 9 gave $code" [ "$code" = 404 ]
-code=$(curl -s -o "$T/v.json" -w '%{http_code}' "${NODE_URL[1]}/v1/jobs/$AID/video.mp4")
-check video_400 "video.mp4 gave $code: $(cat "$T/v.json")" bash -c "[ $code = 400 ] && grep -q cluster_unsupported '$T/v.json'"
+# its video, made by one node once every frame is done, from any node: a single node's bytes
+video_made() { [ "$(curl -s -o "$T/v.mp4" -w '%{http_code}' "${NODE_URL[$1]}/v1/jobs/$2/video.mp4")" = 200 ]; }
+wait_until 60 video_made 3 "$AID"
+start_node 10 --threads 1
+SAID=$(curl -s "${JSON[@]}" --data-binary @"$ANIM" "${NODE_URL[10]}/v1/jobs?frames=3-5" | python3 -c 'import json,sys; print(json.load(sys.stdin)["id"])')
+wait_until 60 video_made 10 "$SAID"
+cp "$T/v.mp4" "$T/single.mp4"
+video_made 3 "$AID"
+check video_as_single_node "video.mp4 from node 3 ($(stat -c %s "$T/v.mp4") bytes) differs from a single node's ($(stat -c %s "$T/single.mp4"))" cmp -s "$T/v.mp4" "$T/single.mp4"
+check video_url "$(curl -s "${NODE_URL[1]}/v1/jobs/$AID" | head -c 600)" bash -c "curl -s '${NODE_URL[1]}/v1/jobs/$AID' | grep -q '\"video_url\":\"/v1/jobs/$AID/video.mp4\"'"
+check video_made_once "videos made: $(cat "$T"/node[123].err | grep -c 'its video is made')" [ "$(cat "$T"/node[123].err | grep -c 'its video is made')" = 1 ]
+check video_expires "the video has no TTL: $(rcli ttl "rayd:{$AID}:video")" [ "$(rcli ttl "rayd:{$AID}:video")" -gt 0 ]
+kill -KILL "${NODE_PID[10]}"
+code=$(curl -s -o "$T/v.json" -w '%{http_code}' "${NODE_URL[1]}/v1/jobs/$ID/video.mp4")
+check video_of_a_still_404 "video.mp4 of a still job gave $code: $(cat "$T/v.json")" [ "$code" = 404 ]
 
 # --- the list and DELETE, from any node ----------------------------------------------------
 curl -s "${NODE_URL[3]}/v1/jobs" >"$T/list.json"

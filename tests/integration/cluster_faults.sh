@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # cluster_faults.sh -- rayd --redis when things break: a node killed while
 # it holds items, Redis killed and started again on its AOF, a node of
-# another version, tiles (PNG and EXR) missing or corrupt in Redis.
+# another version, tiles (PNG and EXR) missing or corrupt in Redis, a
+# node killed while it makes a frame range's video.
 #
 # A real redis-server on a free loopback port (lib/redis.sh, an AOF written
 # at every command) and rayd nodes with --redis-claim-ms 1500 and the test
@@ -161,6 +162,42 @@ check failed_job_image_409 "image.png gave $code: $(head -c 200 "$T/failed_img.j
 for i in 2 3 5 6; do gate_node $i open; done
 wait_until 50 bash -c "[ \$(curl -s '${NODE_URL[2]}/metrics' | awk '\$1 == \"rayd_cluster_items_queued\" {print \$2}') = 0 ]"
 check failed_job_items_dropped "items queued: $(metric 2 rayd_cluster_items_queued)" [ "$(metric 2 rayd_cluster_items_queued)" = 0 ]
+
+# --- kill -9 the node making a frame range's video: another node makes it --------------------
+# Nodes of a version of their own (so only they take these jobs), one thread each: node 12 holds
+# a tile of a still job behind its gate, so node 11 renders the frame range and takes its video,
+# whose ffmpeg (a stand-in that waits) it is killed in; node 12, its gate open, takes it over.
+mkdir -p "$T/slowbin"
+printf '#!/bin/sh\necho $$ >"%s/ffmpeg.pid"\nexec sleep 60\n' "$T" >"$T/slowbin/ffmpeg"
+chmod +x "$T/slowbin/ffmpeg"
+VARGS=(--threads 1 --cluster-tile 64 --redis-claim-ms 1500 --test-gate 0 --redis "$REDIS_URL")
+PATH="$T/slowbin:$PATH" RAYD_TEST_VERSION=9.9.8-video start_node 11 "${VARGS[@]}"
+RAYD_TEST_VERSION=9.9.8-video start_node 12 "${VARGS[@]}"
+gate_node 11 open
+post_job 12 >/dev/null
+wait_until 30 holds 12 1
+ANIM=$RAYD_ROOT/scenes/animation.json
+VID=$(curl -s -m 30 "${JSON[@]}" --data-binary @"$ANIM" "${NODE_URL[12]}/v1/jobs?frames=3-4&priority=high" |
+    python3 -c 'import json,sys; print(json.load(sys.stdin).get("id", ""))')
+wait_until 60 grep -q "job $VID: making its video" "$T/node11.err"
+check video_started_on_11 "node 11 did not start the video: $(tail -n 3 "$T/node11.err")" grep -q "job $VID: making its video" "$T/node11.err"
+kill -KILL "${NODE_PID[11]}"
+wait "${NODE_PID[11]}" 2>/dev/null
+wait_until 10 test -s "$T/ffmpeg.pid"
+FPID=$(cat "$T/ffmpeg.pid" 2>/dev/null)
+ffmpeg_gone() { local st; st=$(ps -o stat= -p "${FPID:-0}" 2>/dev/null); [ -z "$st" ] || [[ $st == Z* ]]; }
+[ -n "$FPID" ] && kill "$FPID" 2>/dev/null # orphaned by the kill -9; SIGTERM must stop it
+wait_until 10 ffmpeg_gone
+check ffmpeg_stops_on_sigterm "ffmpeg ($FPID) outlived SIGTERM: it kept the signals rayd blocks" ffmpeg_gone
+ffmpeg_gone || kill -KILL "$FPID"
+gate_node 12 open
+video_ok() { [ "$(curl -s -m 30 -o "$T/taken.mp4" -w '%{http_code}' "${NODE_URL[12]}/v1/jobs/$VID/video.mp4")" = 200 ]; }
+wait_until 60 video_ok
+probe=$(ffprobe -v error -select_streams v:0 -count_frames -show_entries \
+    stream=codec_name,width,height,r_frame_rate,nb_read_frames,pix_fmt -of csv=p=0 "$T/taken.mp4" 2>&1)
+check video_taken_over "video.mp4: $probe; node 12: $(grep -c "job $VID: its video is made" "$T/node12.err")" \
+    bash -c "[ '$probe' = 'h264,320,180,yuv420p,24/1,2' ] && grep -q 'took over item .* (job $VID frame 3 tile -2)' '$T/node12.err'"
+kill -KILL "${NODE_PID[12]}"
 
 for i in 2 3 5 6 7; do
     kill -0 "${NODE_PID[$i]}" 2>/dev/null || fail "node_${i}_alive" "node $i died: $(tail -n 3 "$T/node$i.err")"
