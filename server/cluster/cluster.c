@@ -21,7 +21,9 @@
  * The version: a node takes only items of its own version (the stream's
  * name holds it), since another version's bytes could differ.  Tests of
  * that run one binary as two versions: with --test-gate, and only then,
- * RAYD_TEST_VERSION replaces the version the node claims.
+ * RAYD_TEST_VERSION replaces the version the node claims, and
+ * RAYD_TEST_CLUSTER_SKEW_S sets its wall clock that many seconds off (a
+ * cluster must not care: liveness is judged by Redis's clock).
  */
 #include "cluster/cluster_private.h"
 
@@ -50,6 +52,8 @@ int cluster_configure(void) {
     const char *v = getenv("RAYD_TEST_VERSION");
     snprintf(cluster_ver, sizeof cluster_ver, "%s",
              config.test_gate_tiles >= -1 && v && *v ? v : RAYD_VERSION);
+    const char *skew = getenv("RAYD_TEST_CLUSTER_SKEW_S");
+    if (config.test_gate_tiles >= -1 && skew) cluster_skew_ms = strtod(skew, NULL) * 1e3;
     snprintf(cluster_stream, sizeof cluster_stream, "rayd:items:%s", cluster_ver);
     cluster_items_names();
     snprintf(cluster_view_now.address, sizeof cluster_view_now.address, "%s", cluster_url.display);

@@ -210,11 +210,11 @@ bool cluster_items_count(struct redis *c, long *queued, long *in_flight) {
 /* ---- gone nodes -------------------------------------------------------------------- */
 
 /* KEYS: the streams, then rayd:nodes; ARGV: this node, the idle time (ms)
- * and heartbeat age (s) past which a node counts as gone, the time (s).
- * Returns the consumers and lines removed. */
+ * and heartbeat age (s, by Redis's clock as the heartbeats) past which a
+ * node counts as gone.  Returns the consumers and lines removed. */
 static const char items_lua_reap[] =
-    "local me, idle_min, gone, now = ARGV[1], tonumber(ARGV[2]), tonumber(ARGV[3]), "
-    "tonumber(ARGV[4])\n"
+    "local me, idle_min, gone = ARGV[1], tonumber(ARGV[2]), tonumber(ARGV[3])\n"
+    "local now = tonumber(redis.call('TIME')[1])\n"
     "local n, nodes = #KEYS - 1, KEYS[#KEYS]\n"
     "local live, keep, cand, out = {}, {}, {}, {}\n"
     "local hs = redis.call('HGETALL', nodes)\n"
@@ -248,11 +248,10 @@ static const char items_lua_reap[] =
     "return out\n";
 
 long cluster_items_reap(struct redis *c) {
-    char idle[24], gone[24], now[24];
+    char idle[24], gone[24];
     long rule = 3 * cluster_claim_ms();
     snprintf(idle, sizeof idle, "%ld", rule);
     snprintf(gone, sizeof gone, "%ld", (rule + 999) / 1000 + 1); /* the heartbeat's is in s */
-    snprintf(now, sizeof now, "%.0f", cluster_now_ms() / 1e3);
     const char *argv[] = {"EVAL",
                           items_lua_reap,
                           "4",
@@ -263,7 +262,6 @@ long cluster_items_reap(struct redis *c) {
                           cluster_node_id,
                           idle,
                           gone,
-                          now,
                           NULL};
     redisReply *rep = redis_strs(c, argv);
     long n = 0;

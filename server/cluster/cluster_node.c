@@ -397,23 +397,30 @@ static bool node_finish(struct redis *c) {
 
 /* ---- the figures ------------------------------------------------------------------ */
 
-/* The live nodes of rayd:nodes (and this node's heartbeat written). */
+/* This node's heartbeat written (ARGV: its name, its JSON around the
+ * time, the age in ms past which a node is gone) and the live nodes
+ * counted.  "seen" is Redis's clock (TIME), not the nodes': a node whose
+ * clock is off is neither counted gone nor makes others look gone. */
+static const char node_lua_heartbeat[] =
+    "local now = tonumber(redis.call('TIME')[1])\n"
+    "redis.call('HSET', 'rayd:nodes', ARGV[1], ARGV[2] .. now .. ARGV[3])\n"
+    "local live, hs = 0, redis.call('HGETALL', 'rayd:nodes')\n"
+    "for j = 2, #hs, 2 do\n"
+    "  local seen = tonumber(string.match(hs[j], '\"seen\":(%d+)')) or 0\n"
+    "  if (now - seen) * 1000 <= tonumber(ARGV[4]) then live = live + 1 end\n"
+    "end\n"
+    "return live\n";
+
+/* The live nodes of rayd:nodes (and this node's heartbeat written); the
+ * gone ones are reaped (cluster_items.c). */
 static long node_heartbeat(struct redis *c) {
-    char json[300];
-    long now = (long)(cluster_now_ms() / 1e3);
-    snprintf(json, sizeof json,
-             "{\"version\":\"%s\",\"seen\":%ld,\"workers\":%ld,\"in_flight\":%ld}",
-             cluster_version(), now, config.threads, node_count);
-    const char *argv[] = {"HSET", "rayd:nodes", cluster_node_id, json, NULL};
+    char head[200], tail[120], gone[24];
+    snprintf(head, sizeof head, "{\"version\":\"%s\",\"seen\":", cluster_version());
+    snprintf(tail, sizeof tail, ",\"workers\":%ld,\"in_flight\":%ld}", config.threads, node_count);
+    snprintf(gone, sizeof gone, "%ld", 3 * cluster_claim_ms() + 1000);
+    const char *argv[] = {"EVAL", node_lua_heartbeat, "0", cluster_node_id, head, tail, gone, NULL};
     redisReply *rep = redis_strs(c, argv);
-    if (rep) freeReplyObject(rep);
-    rep = redis_cmd(c, "HGETALL rayd:nodes"); /* the gone ones are reaped (cluster_items.c) */
-    long live = 0;
-    for (size_t i = 1; rep && rep->type == REDIS_REPLY_ARRAY && i < rep->elements; i += 2) {
-        const char *s = rep->element[i]->str ? strstr(rep->element[i]->str, "\"seen\":") : NULL;
-        long seen = s ? strtol(s + 7, NULL, 10) : 0;
-        if ((double)(now - seen) * 1e3 <= 3.0 * (double)cluster_claim_ms() + 1e3) live++;
-    }
+    long live = rep && !redis_failed(c, rep) ? (long)redis_ll(rep, 0) : 0;
     if (rep) freeReplyObject(rep);
     return live;
 }

@@ -61,7 +61,8 @@ extern atomic_long cluster_deferred_total; /* assemblies put off for want of mem
 extern pthread_mutex_t cluster_mu;         /* the view */
 extern struct cluster_status_view cluster_view_now;
 long cluster_claim_ms(void);
-double cluster_now_ms(void); /* wall clock, ms since the epoch */
+double cluster_now_ms(void);   /* wall clock, ms since the epoch */
+extern double cluster_skew_ms; /* tests: how far that clock is off */
 /* The key rayd:{ID}:what into buf. */
 void cluster_key(char *buf, size_t n, const char *id, const char *what);
 

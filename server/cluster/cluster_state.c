@@ -27,10 +27,12 @@ const char *cluster_version(void) { return cluster_ver; }
 
 long cluster_claim_ms(void) { return config.redis_claim_ms; }
 
+double cluster_skew_ms;
+
 double cluster_now_ms(void) {
     struct timeval tv;
     gettimeofday(&tv, NULL);
-    return (double)tv.tv_sec * 1e3 + (double)tv.tv_usec / 1e3;
+    return (double)tv.tv_sec * 1e3 + (double)tv.tv_usec / 1e3 + cluster_skew_ms;
 }
 
 void cluster_key(char *buf, size_t n, const char *id, const char *what) {

@@ -11,7 +11,8 @@
 # loses them to the others (XAUTOCLAIM) and then, past the "gone" rule (3 x
 # claim-ms), its consumer leaves the groups and its heartbeat rayd:nodes,
 # removed by exactly one of the nodes left, while the live nodes stay; a
-# node stopped cleanly removes its own consumer at once.
+# node stopped cleanly removes its own consumer at once; nodes whose clocks
+# are an hour off are still counted live by every node.
 # Every process is stopped by its PID.
 source "$(dirname "$0")/lib/common.sh"
 source "$(dirname "$0")/lib/redis.sh"
@@ -103,4 +104,18 @@ rc=$?
 check clean_stop_exit "node 3 exited with $rc" [ "$rc" = 0 ]
 check clean_stop_consumer_removed "consumers: $(consumers | tr '\n' ' ')" bash -c "! grep -qxF '$LEFT' <<<'$(consumers)'"
 check clean_stop_heartbeat_removed "rayd:nodes: $(rcli hkeys rayd:nodes | tr '\n' ' ')" [ -z "$(rcli hget rayd:nodes "$LEFT")" ]
+
+# --- nodes whose clocks are an hour off, either way: neither is taken for gone -----------------
+# (liveness is judged by Redis's clock; with the nodes' own, node 1 would count node 4 gone and
+# reap its heartbeat, and node 5 would count every other node gone)
+for i in 4 5; do
+    RAYD_TEST_CLUSTER_SKEW_S=$([ $i = 4 ] && echo -3600 || echo 3600) \
+        start_node $i --threads 1 --redis-claim-ms 1000 --test-gate open --redis "$REDIS_URL"
+done
+three() { for i in 1 4 5; do [ "$(metric $i rayd_cluster_nodes)" = 3 ] || return 1; done; }
+wait_until 20 three
+check skewed_clocks_counted "rayd_cluster_nodes of nodes 1, 4, 5: $(metric 1 rayd_cluster_nodes) $(metric 4 rayd_cluster_nodes) $(metric 5 rayd_cluster_nodes)" three
+sleep 4 # past the gone rule (3 x claim-ms): nothing may be reaped meanwhile
+check skewed_clocks_still_counted "rayd_cluster_nodes of nodes 1, 4, 5: $(metric 1 rayd_cluster_nodes) $(metric 4 rayd_cluster_nodes) $(metric 5 rayd_cluster_nodes)" three
+check skewed_clocks_nothing_reaped "$(cat "$T"/node[145].err | grep 'gone node' | head -3)" bash -c "! cat '$T'/node[145].err | grep -q \"gone node's heartbeat\""
 [ "$NFAIL" = 0 ]
