@@ -229,6 +229,32 @@ static struct node_item *node_item_new(const redisReply *e, int level) {
     return it;
 }
 
+/* The items this node left pending itself (an assembly or a video with no
+ * room in its budget now, or Redis failing): when it takes one back after
+ * --redis-claim-ms, that is no take-over from a stalled node. */
+#define NODE_LEFT 32
+static struct {
+    int level;
+    char sid[48];
+} node_left[NODE_LEFT];
+static int node_left_next;
+
+static void node_leave(const struct node_item *it) {
+    node_left[node_left_next].level = it->level;
+    snprintf(node_left[node_left_next].sid, sizeof node_left[0].sid, "%s", it->sid);
+    node_left_next = (node_left_next + 1) % NODE_LEFT;
+}
+
+/* Whether sid of stream `level` was left here (forgotten once asked). */
+static bool node_left_mine(const char *sid, int level) {
+    for (int i = 0; i < NODE_LEFT; i++)
+        if (node_left[i].level == level && !strcmp(node_left[i].sid, sid)) {
+            node_left[i].sid[0] = 0;
+            return true;
+        }
+    return false;
+}
+
 /* Whether the item with id sid in stream `level` is held here (ids are
  * per stream: two streams may use the same one). */
 static bool node_holds(const char *sid, int level) {
@@ -245,7 +271,10 @@ static void node_video(struct redis *c, struct node_item *it) {
     it->phase = NP_BUSY; /* before the thread can mark it */
     it->video = cluster_video_start(c, it->job, &ack, node_video_done, it);
     if (!it->video) {
-        if (ack) cluster_items_ack(c, it->level, it->sid);
+        if (ack)
+            cluster_items_ack(c, it->level, it->sid);
+        else
+            node_leave(it);
         node_free(it);
         return;
     }
@@ -267,6 +296,8 @@ static void node_take(struct redis *c, struct node_item *it) {
         if (cluster_assemble(c, it->job, it->frame)) {
             cluster_items_ack(c, it->level, it->sid);
             atomic_fetch_add(&cluster_done_total, 1);
+        } else {
+            node_leave(it);
         }
         node_free(it);
         return;
@@ -293,7 +324,11 @@ static long node_take_entry(struct redis *c, const redisReply *e, int level, boo
     if (node_holds(e->element[0]->str, level)) return 0;
     struct node_item *it = node_item_new(e, level);
     if (!it) return 0;
-    if (reclaimed) {
+    if (reclaimed && node_left_mine(it->sid, level)) {
+        log_info("cluster: took back item %s (job %s frame %ld tile %ld), which it had left "
+                 "pending",
+                 it->sid, it->job, it->frame, it->tile);
+    } else if (reclaimed) {
         atomic_fetch_add(&cluster_reclaimed_total, 1);
         log_info("cluster: took over item %s (job %s frame %ld tile %ld) from a node that "
                  "stopped refreshing it",

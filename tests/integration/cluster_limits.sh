@@ -170,6 +170,10 @@ wait_until 120 ended
 curl -s "${NODE_URL[7]}/v1/jobs/$NV" >"$T/never_job.json"
 check assembly_never_fails "POST $code; $(grep -o "\"error\".*" "$T/never_job.json" | head -c 400)" bash -c \
     "grep -q '\"state\":\"failed\"' '$T/never_job.json' && grep -q '\"code\":\"too_large\"' '$T/never_job.json' && grep -q 'its assembly needs $NEED bytes' '$T/never_job.json'"
+# node 7 took its own deferred assembly back each time: not a take-over from a stalled node
+back=$(grep -c "took back item .*(job $NV frame 0 tile -1)" "$T/node7.err")
+over=$(grep -c "took over item .*(job $NV frame 0 tile -1)" "$T/node7.err")
+check assembly_taken_back_not_over "took back $back times, took over $over times" [ "$back" -ge 1 -a "$over" = 0 ]
 kill -KILL "${NODE_PID[7]}"
 
 # a frame no node of this budget could assemble: 413 at POST, as one node
