@@ -98,13 +98,16 @@ code=$(curl -s -o "$T/anim.json" -w '%{http_code}' "${JSON[@]}" --data-binary @"
 AID=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["id"])' "$T/anim.json" 2>/dev/null)
 check frames_post_202 "POST gave $code: $(head -c 300 "$T/anim.json")" [ "$code" = 202 -a -n "$AID" ]
 wait_until 60 bash -c "curl -s '${NODE_URL[1]}/v1/jobs/$AID' | grep -q '\"state\":\"succeeded\"'"
-ok=1
-for k in 3 4 5; do
-    curl -s -o "$T/f$k.png" "${NODE_URL[3]}/v1/jobs/$AID/frames/$k.png"
-    "$RENDER" "$ANIM" --frame $k -o "$T/r$k.png" 2>/dev/null
-    cmp -s "$T/f$k.png" "$T/r$k.png" || ok=0
-done
-check frames_byte_identical "a frame differs from rayd-render --frame K" [ $ok = 1 ]
+frames_as_render() { # NODE ID EXT K...: each frames/K.EXT is rayd-render --frame K's
+    local node=$1 id=$2 ext=$3 k
+    shift 3
+    for k in "$@"; do
+        curl -s -o "$T/f$k.$ext" "${NODE_URL[$node]}/v1/jobs/$id/frames/$k.$ext"
+        "$RENDER" "$ANIM" --frame "$k" -o "$T/r$k.$ext" 2>/dev/null
+        cmp -s "$T/f$k.$ext" "$T/r$k.$ext" || return 1
+    done
+}
+check frames_byte_identical "a frame differs from rayd-render --frame K" frames_as_render 3 "$AID" png 3 4 5
 check frames_json "$(curl -s "${NODE_URL[1]}/v1/jobs/$AID" | head -c 600)" bash -c "curl -s '${NODE_URL[1]}/v1/jobs/$AID' | grep -q '\"frames\":{\"first\":3,\"last\":5,\"total\":3,\"done\":3'"
 code=$(curl -s -o "$T/f9.json" -w '%{http_code}' "${NODE_URL[1]}/v1/jobs/$AID/frames/9.png")
 check frame_outside_404 "frame 9 gave $code" [ "$code" = 404 ]
@@ -231,13 +234,7 @@ check exr_frame_expires "the frame's EXR has no TTL: $(rcli ttl "rayd:{$EID}:fra
 code=$(curl -s -o "$T/xa.json" -w '%{http_code}' "${JSON[@]}" --data-binary @"$ANIM" "${NODE_URL[2]}/v1/jobs?frames=3-4&format=exr")
 XID=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["id"])' "$T/xa.json" 2>/dev/null)
 wait_until 60 bash -c "curl -s '${NODE_URL[1]}/v1/jobs/$XID' | grep -q '\"state\":\"succeeded\"'"
-ok=1
-for k in 3 4; do
-    curl -s -o "$T/xf$k.exr" "${NODE_URL[1]}/v1/jobs/$XID/frames/$k.exr"
-    "$RENDER" "$ANIM" --frame $k -o "$T/xr$k.exr" 2>/dev/null
-    cmp -s "$T/xf$k.exr" "$T/xr$k.exr" || ok=0
-done
-check frames_exr_byte_identical "POST gave $code; a frame's EXR differs from rayd-render --frame K -o K.exr" [ $ok = 1 ]
+check frames_exr_byte_identical "POST gave $code; a frame's EXR differs from rayd-render --frame K -o K.exr" frames_as_render 1 "$XID" exr 3 4
 check frames_exr_url "$(curl -s "${NODE_URL[3]}/v1/jobs/$XID" | head -c 600)" bash -c "curl -s '${NODE_URL[3]}/v1/jobs/$XID' | grep -q '\"exr_url\":\"/v1/jobs/$XID/frames/{k}.exr\"'"
 code=$(curl -s -o "$T/xnot.json" -w '%{http_code}' "${NODE_URL[1]}/v1/jobs/$AID/frames/3.exr")
 check frame_exr_409_without_format "frames/3.exr of a PNG-only job gave $code" bash -c "[ $code = 409 ] && grep -q not_exr '$T/xnot.json'"

@@ -224,14 +224,26 @@ static void test_mirror_and_ids(void) {
     rayd_scene_free(s);
 }
 
+/* A whitted sphere's 33 x 33 render: its light (*rgb) and AOVs (*f), for
+ * the EXR cases; NULL scene when it could not be made. */
+static rayd_scene *exr_render(rayd_accum **a, float **rgb, float **f) {
+    rayd_scene *s = sphere_scene("whitted", 1);
+    if (!s) return NULL;
+    *a = aov_render(s, 0, 0, 1, 32);
+    *f = aov_floats(*a);
+    struct rayd_error err = {0};
+    *rgb = NULL;
+    CHECK(rayd_accum_linear(*a, rgb, &err) == RAYD_OK, "%s", err.message);
+    return s;
+}
+
 /* The EXR has every channel under its compositing name, and the values. */
 static void test_exr_channels(void) {
-    rayd_scene *s = sphere_scene("whitted", 1);
+    rayd_accum *a;
+    float *rgb, *f;
+    rayd_scene *s = exr_render(&a, &rgb, &f);
     if (!s) return;
-    rayd_accum *a = aov_render(s, 0, 0, 1, 32);
-    float *rgb = NULL, *f = aov_floats(a);
     struct rayd_error err = {0};
-    CHECK(rayd_accum_linear(a, &rgb, &err) == RAYD_OK, "%s", err.message);
     void *buf = NULL;
     size_t len = 0;
     CHECK(rayd_exr_encode_aov(rgb, f, RAYD_AOV_ALL, 33, 33, &buf, &len, &err) == RAYD_OK, "%s",
@@ -269,12 +281,11 @@ static void test_exr_channels(void) {
 /* rayd_exr_decode_aov gives back the very floats, every channel (the
  * cluster joins tiles with it), and refuses what it was not written as. */
 static void test_exr_decode(void) {
-    rayd_scene *s = sphere_scene("whitted", 1);
+    rayd_accum *a;
+    float *rgb, *f;
+    rayd_scene *s = exr_render(&a, &rgb, &f);
     if (!s) return;
-    rayd_accum *a = aov_render(s, 0, 0, 1, 32);
-    float *rgb = NULL, *f = aov_floats(a);
     struct rayd_error err = {0};
-    CHECK(rayd_accum_linear(a, &rgb, &err) == RAYD_OK, "%s", err.message);
     unsigned mask = RAYD_AOV_NORMAL | RAYD_AOV_DEPTH;
     void *buf = NULL;
     size_t len = 0;
