@@ -8,17 +8,7 @@
 #include "geom/shape.h"
 
 static int para_cross(vec3 corner, vec3 e1, vec3 e2, bool tri, const ray *r, struct xing out[4]) {
-    vec3 pv = v3_cross(r->d, e2);
-    double det = v3_dot(e1, pv);
-    if (det == 0) return 0;
-    double inv = 1.0 / det;
-    vec3 tv = v3_sub(r->o, corner);
-    double s = v3_dot(tv, pv) * inv;
-    if (s < 0 || s > 1) return 0;
-    vec3 qv = v3_cross(tv, e1);
-    double u = v3_dot(r->d, qv) * inv;
-    if (u < 0 || (tri ? s + u > 1 : u > 1)) return 0;
-    out[0].t = v3_dot(e2, qv) * inv;
+    if (!para_solve(corner, e1, e2, tri, r, &out[0].t)) return 0;
     out[0].part = 0;
     return 1;
 }

@@ -84,12 +84,12 @@ static double ggx_d(double alpha, double cos_h) {
 }
 
 static double ggx_g1(double alpha, double cos_v) {
-    double c2 = cos_v * cos_v, t2 = (1 - c2) / fmax(c2, 1e-12);
+    double c2 = cos_v * cos_v, t2 = (1 - c2) / v3_fmax(c2, 1e-12);
     return 2 / (1 + sqrt(1 + alpha * alpha * t2));
 }
 
 static vec3 schlick(vec3 f0, double c) {
-    double k = pow(1 - fmax(0, fmin(1, c)), 5);
+    double k = pow(1 - v3_fmax(0, v3_fmin(1, c)), 5);
     return v3_add(f0, v3_scale(v3_sub(v3(1, 1, 1), f0), k));
 }
 
@@ -149,7 +149,7 @@ static double emitter_area(const struct object *o) {
 static vec3 emitter_point(const struct object *o, double a, double b, vec3 *n) {
     switch (o->kind) {
     case SHAPE_SPHERE: {
-        double z = 1 - 2 * a, r = sqrt(fmax(0, 1 - z * z)), phi = 2 * PI * b;
+        double z = 1 - 2 * a, r = sqrt(v3_fmax(0, 1 - z * z)), phi = 2 * PI * b;
         *n = v3(r * cos(phi), r * sin(phi), z);
         return v3_madd(o->u.sphere.center, *n, o->u.sphere.radius);
     }
@@ -267,12 +267,12 @@ static bool sample_bsdf(const struct lobes *lb, const struct vertex *x, vec3 col
     *delta = false;
     if (u < lb->w_metal) { /* GGX: sample the half vector by D(h) cos */
         double a2 = lb->alpha * lb->alpha;
-        double ct = sqrt((1 - u1) / (1 + (a2 - 1) * u1)), st = sqrt(fmax(0, 1 - ct * ct));
+        double ct = sqrt((1 - u1) / (1 + (a2 - 1) * u1)), st = sqrt(v3_fmax(0, 1 - ct * ct));
         vec3 h = frame_dir(x->n, st * cos(2 * PI * u2), st * sin(2 * PI * u2), ct);
         *wi = v3_reflect(v3_neg(wo), h);
     } else { /* cosine-weighted hemisphere */
         double r = sqrt(u1), phi = 2 * PI * u2;
-        *wi = frame_dir(x->n, r * cos(phi), r * sin(phi), sqrt(fmax(0, 1 - u1)));
+        *wi = frame_dir(x->n, r * cos(phi), r * sin(phi), sqrt(v3_fmax(0, 1 - u1)));
     }
     vec3 f = eval_nondelta(lb, x->n, wo, *wi, pdf);
     if (!(*pdf > 0) || v3_dot(*wi, x->ng) <= 0) return false;
@@ -342,7 +342,7 @@ static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *fir
         if (!sample_bsdf(&lb, &x, sf.color, m, wo, key, b, &wi, &beta, &delta, &pdf, &through))
             break;
         if (b >= 3) { /* Russian roulette */
-            double q = fmin(0.95, fmax(0.05, v3_maxabs(beta)));
+            double q = v3_fmin(0.95, v3_fmax(0.05, v3_maxabs(beta)));
             if (rng_stratified(key, b, D_RR) >= q) break;
             beta = v3_scale(beta, 1 / q);
         }

@@ -221,6 +221,13 @@ static bool object_hit(const rayd_scene *s, const struct object *o, const struct
         if (!plane_nearest(o, &lr, lmax, &t)) return false;
         h->part = 0;
         break;
+    case SHAPE_QUAD:
+        if (!quad_nearest(o, &lr, lmax, &t)) return false;
+        h->part = 0;
+        break;
+    case SHAPE_BOX:
+        if (!box_nearest(o, &lr, lmax, &t, &h->part)) return false;
+        break;
     default:
         if (!shape_hit(o, &lr, 0, lmax, &t, &h->part)) return false;
     }
@@ -238,7 +245,10 @@ static bool object_hit(const rayd_scene *s, const struct object *o, const struct
  * brute (tests) or a single object, every object is visited in order. */
 typedef bool (*visit_fn)(void *ctx, const struct object *o, double *tmax);
 
-static void objects_walk(const struct object *objs, int32_t n, const struct bvh4 *bvh, bool brute,
+/* Always inlined: each caller passes a constant visit, so the compiler
+ * makes one walk per visitor with the visitor's body in the leaf loop, not
+ * an indirect call per object (the walk is a hot path: every ray). */
+__attribute__((always_inline)) static inline void objects_walk(const struct object *objs, int32_t n, const struct bvh4 *bvh, bool brute,
                          const ray *r, double *tmax, visit_fn visit, void *ctx) {
     if (brute || n <= 1) {
         for (int32_t i = 0; i < n; i++)
