@@ -86,6 +86,11 @@ struct object {
         } tri;
         struct {
             vec3 corner, e1, e2; /* points corner + s e1 + t e2, s, t in [0, 1] */
+            /* from the edges by quad_derive: the unit normal e1 x e2 and
+             * the area, made once rather than at every hit and light
+             * sample */
+            vec3 n;
+            double area;
         } quad;
         struct {
             /* a x^2 + b y^2 + c z^2 + d xy + e xz + f yz + g x + h y + i z + j = 0 */
@@ -139,8 +144,16 @@ static inline bool shape_bounded(const struct object *o) {
     return o->kind >= SHAPE_MESH || shape_ops[o->kind]->bounds != NULL;
 }
 
-/* A solid (usable as a CSG operand): encloses a volume. */
-bool shape_is_solid(const struct object *o);
+/* A solid (usable as a CSG operand): encloses a volume.  Inline: asked at
+ * every hit. */
+static inline bool shape_is_solid(const struct object *o) {
+    if (o->kind >= SHAPE_MESH) return o->kind == SHAPE_CSG;
+    if (o->kind == SHAPE_CYLINDER) return o->u.cyl.capped;
+    return shape_ops[o->kind]->inside != NULL;
+}
+
+/* Fills quad o's normal and area from its edges (set them first). */
+void quad_derive(struct object *o);
 
 /* The sphere's two crossings with the ray's line, sorted (shape_sphere.c
  * explains the formula); false when the line misses.  Inline: the hot

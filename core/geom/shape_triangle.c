@@ -27,9 +27,15 @@ static vec3 tri_normal(const struct object *o, vec3 p, int part) {
     return v3_norm(v3_cross(v3_sub(o->u.tri.b, o->u.tri.a), v3_sub(o->u.tri.c, o->u.tri.a)));
 }
 
+void quad_derive(struct object *o) {
+    vec3 c = v3_cross(o->u.quad.e1, o->u.quad.e2);
+    o->u.quad.n = v3_norm(c);
+    o->u.quad.area = v3_len(c);
+}
+
 static vec3 quad_normal(const struct object *o, vec3 p, int part) {
     (void)p, (void)part;
-    return v3_norm(v3_cross(o->u.quad.e1, o->u.quad.e2));
+    return o->u.quad.n;
 }
 
 static struct aabb tri_bounds(const struct object *o) {

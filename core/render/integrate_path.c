@@ -142,7 +142,7 @@ static double emitter_area(const struct object *o) {
     case SHAPE_SPHERE: return 4 * PI * o->u.sphere.radius * o->u.sphere.radius;
     case SHAPE_DISC:
         return PI * (o->u.disc.radius * o->u.disc.radius - o->u.disc.inner * o->u.disc.inner);
-    default: return v3_len(v3_cross(o->u.quad.e1, o->u.quad.e2));
+    default: return o->u.quad.area;
     }
 }
 
@@ -162,7 +162,7 @@ static vec3 emitter_point(const struct object *o, double a, double b, vec3 *n) {
         return v3_madd(v3_madd(o->u.disc.center, u, r * cos(phi)), v, r * sin(phi));
     }
     default:
-        *n = v3_norm(v3_cross(o->u.quad.e1, o->u.quad.e2));
+        *n = o->u.quad.n;
         return v3_madd(v3_madd(o->u.quad.corner, o->u.quad.e1, a), o->u.quad.e2, b);
     }
 }
