@@ -277,6 +277,35 @@ __attribute__((always_inline)) static inline void objects_walk(const struct obje
     }
 }
 
+/* objects_walk over s->flat (a scene of few objects, scene.c): every box
+ * tested at once, then the objects whose box the ray enters visited
+ * nearest first, as long as they are within reach (the walk's pruning
+ * rule).  The order differs from the walk's, so only for visitors whose
+ * answer does not depend on it: the nearest hit, and a shadow that any
+ * surface blocks. */
+__attribute__((always_inline)) static inline void flat_walk(const rayd_scene *s, const ray *r,
+                                                           double *tmax, visit_fn visit,
+                                                           void *ctx) {
+    struct bvh_ray br;
+    bvh_ray_init(&br, r->o, r->d);
+    float tm = *tmax > 3e38 ? 3e38f : (float)*tmax * BVH_SLACK;
+    struct bvh_entry in[SCENE_FLAT_MAX];
+    int n = 0;
+    for (uint32_t k = 0; k < s->nflat; k++) {
+        float tn[4];
+        int mask = bvh4_test(&s->flat[k], &br, 0, tm, tn);
+        while (mask) { /* insertion, nearest first */
+            int c = __builtin_ctz((unsigned)mask), j = n++;
+            mask &= mask - 1;
+            for (; j > 0 && in[j - 1].tnear > tn[c]; j--) in[j] = in[j - 1];
+            in[j].node = 4 * k + (uint32_t)c;
+            in[j].tnear = tn[c];
+        }
+    }
+    for (int j = 0; j < n && !(in[j].tnear > *tmax * BVH_SLACK); j++)
+        if (!visit(ctx, &s->objs[in[j].node], tmax)) return;
+}
+
 void nearest_take(struct nearest *c, const struct object *o, double t, const struct hit *h,
                   double *tmax) {
     if (t > *tmax) return;
@@ -309,7 +338,10 @@ bool scene_intersect(const rayd_scene *s, const ray *r, double tmax, struct hit 
     for (int32_t i = 0; i < s->nplanes; i++) nearest_visit(&c, &s->planes[i], &tmax);
     c.base = s->objs;
     c.rank0 = s->nplanes;
-    objects_walk(s->objs, s->nobjs, &s->tlas, s->brute, r, &tmax, nearest_visit, &c);
+    if (s->flat && !s->brute)
+        flat_walk(s, r, &tmax, nearest_visit, &c);
+    else
+        objects_walk(s->objs, s->nobjs, &s->tlas, s->brute, r, &tmax, nearest_visit, &c);
     return c.best >= 0;
 }
 
@@ -373,7 +405,10 @@ static vec3 scene_filter(const rayd_scene *s, const ray *r, double tmax, bool op
     struct filter c = {s, r, v3(1, 1, 1), opaque};
     for (int32_t i = 0; i < s->nplanes; i++)
         if (!visit_filter(&c, &s->planes[i], &tmax)) return c.trans;
-    objects_walk(s->objs, s->nobjs, &s->tlas, s->brute, r, &tmax, visit_filter, &c);
+    if (s->flat && !s->brute && (opaque || s->opaque)) /* every hit blocks: any order */
+        flat_walk(s, r, &tmax, visit_filter, &c);
+    else
+        objects_walk(s->objs, s->nobjs, &s->tlas, s->brute, r, &tmax, visit_filter, &c);
     return c.trans;
 }
 
