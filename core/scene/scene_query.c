@@ -306,6 +306,22 @@ __attribute__((always_inline)) static inline void flat_walk(const rayd_scene *s,
         if (!visit(ctx, &s->objs[in[j].node], tmax)) return;
 }
 
+/* flat_walk for a shadow that any surface blocks: the objects in their
+ * order, no sorting (a blocker found first or last blocks the same). */
+static void flat_any(const rayd_scene *s, const ray *r, double tmax, visit_fn visit, void *ctx) {
+    struct bvh_ray br;
+    bvh_ray_init(&br, r->o, r->d);
+    float tm = tmax > 3e38 ? 3e38f : (float)tmax * BVH_SLACK;
+    for (uint32_t k = 0; k < s->nflat; k++) {
+        float tn[4];
+        for (int mask = bvh4_test(&s->flat[k], &br, 0, tm, tn); mask; mask &= mask - 1) {
+            int c = __builtin_ctz((unsigned)mask);
+            if (!(tn[c] > tmax * BVH_SLACK) && !visit(ctx, &s->objs[4 * k + (uint32_t)c], &tmax))
+                return;
+        }
+    }
+}
+
 void nearest_take(struct nearest *c, const struct object *o, double t, const struct hit *h,
                   double *tmax) {
     if (t > *tmax) return;
@@ -406,7 +422,7 @@ static vec3 scene_filter(const rayd_scene *s, const ray *r, double tmax, bool op
     for (int32_t i = 0; i < s->nplanes; i++)
         if (!visit_filter(&c, &s->planes[i], &tmax)) return c.trans;
     if (s->flat && !s->brute && (opaque || s->opaque)) /* every hit blocks: any order */
-        flat_walk(s, r, &tmax, visit_filter, &c);
+        flat_any(s, r, tmax, visit_filter, &c);
     else
         objects_walk(s->objs, s->nobjs, &s->tlas, s->brute, r, &tmax, visit_filter, &c);
     return c.trans;
