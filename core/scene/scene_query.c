@@ -330,12 +330,18 @@ void nearest_take(struct nearest *c, const struct object *o, double t, const str
     c->best = nearest_rank(c, o);
 }
 
-bool nearest_visit(void *ctx, const struct object *o, double *tmax) {
+/* nearest_visit, inlined into the top level's walks. */
+__attribute__((always_inline)) static inline bool visit_nearest(void *ctx, const struct object *o,
+                                                               double *tmax) {
     struct nearest *c = ctx;
     double t = nearest_bound(c, o, *tmax);
     struct hit h;
     if (object_hit(c->s, o, c->outer, c->r, &t, &h)) nearest_take(c, o, t, &h, tmax);
     return true;
+}
+
+bool nearest_visit(void *ctx, const struct object *o, double *tmax) {
+    return visit_nearest(ctx, o, tmax);
 }
 
 /* Nearest hit among objs (with their BVH) closer than *tmax. */
@@ -351,13 +357,13 @@ bool scene_intersect(const rayd_scene *s, const ray *r, double tmax, struct hit 
     /* h is written, never read, by the search: */
     // cppcheck-suppress ctuuninitvar
     struct nearest c = {s, NULL, r, h, s->planes, 0, -1};
-    for (int32_t i = 0; i < s->nplanes; i++) nearest_visit(&c, &s->planes[i], &tmax);
+    for (int32_t i = 0; i < s->nplanes; i++) visit_nearest(&c, &s->planes[i], &tmax);
     c.base = s->objs;
     c.rank0 = s->nplanes;
     if (s->flat && !s->brute)
-        flat_walk(s, r, &tmax, nearest_visit, &c);
+        flat_walk(s, r, &tmax, visit_nearest, &c);
     else
-        objects_walk(s->objs, s->nobjs, &s->tlas, s->brute, r, &tmax, nearest_visit, &c);
+        objects_walk(s->objs, s->nobjs, &s->tlas, s->brute, r, &tmax, visit_nearest, &c);
     return c.best >= 0;
 }
 
@@ -468,7 +474,8 @@ void scene_surface(const rayd_scene *s, const ray *r, const struct hit *h, struc
         n = mesh_shading_normal(m, &h->mh);
         if (textured) mesh_uv(m, &h->mh, &u, &v);
     } else {
-        n = ng = shape_ops[o->kind]->normal(o, p, h->part);
+        /* a quad's without the call through the table */
+        n = ng = o->kind == SHAPE_QUAD ? o->u.quad.n : shape_ops[o->kind]->normal(o, p, h->part);
         if (textured) shape_ops[o->kind]->uv(o, p, h->part, &u, &v);
     }
     vec3 po = p; /* object space, for object-space textures */
