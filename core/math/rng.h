@@ -34,7 +34,8 @@ static inline uint64_t rng_pixel_hash(uint64_t seed, uint32_t px, uint32_t py) {
 static inline uint32_t rng_reverse(uint32_t x);
 
 static inline struct rng_key rng_key_at(uint64_t seed, uint32_t px, uint32_t py, uint32_t sample) {
-    return (struct rng_key){seed, px, py, sample, rng_reverse(sample), rng_pixel_hash(seed, px, py)};
+    return (struct rng_key){
+        seed, px, py, sample, rng_reverse(sample), rng_pixel_hash(seed, px, py)};
 }
 
 /* Makes k name sample `sample` of its pixel. */

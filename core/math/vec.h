@@ -53,9 +53,7 @@ static inline vec3 v3_max(vec3 a, vec3 b) {
     return v3(v3_fmax(a.x, b.x), v3_fmax(a.y, b.y), v3_fmax(a.z, b.z));
 }
 static inline double v3_axis(vec3 a, int axis) { return axis == 0 ? a.x : axis == 1 ? a.y : a.z; }
-static inline double v3_maxabs(vec3 a) {
-    return v3_fmax(fabs(a.x), v3_fmax(fabs(a.y), fabs(a.z)));
-}
+static inline double v3_maxabs(vec3 a) { return v3_fmax(fabs(a.x), v3_fmax(fabs(a.y), fabs(a.z))); }
 /* Mirror d about the normal n. */
 static inline vec3 v3_reflect(vec3 d, vec3 n) { return v3_madd(d, n, -2.0 * v3_dot(d, n)); }
 

@@ -250,8 +250,9 @@ static enum rayd_status build_flat(rayd_scene *s, struct rayd_error *err) {
         struct aabb b = {v3(INFINITY, INFINITY, INFINITY), v3(-INFINITY, -INFINITY, -INFINITY)};
         if (i < (uint32_t)s->nobjs) scene_object_bounds(s, &s->objs[i], &b);
         /* an empty slot keeps its inverted box: no ray enters it */
-        struct bbox f = i < (uint32_t)s->nobjs ? bbox_from(b.lo, b.hi) : (struct bbox){
-            {INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+        struct bbox f = i < (uint32_t)s->nobjs ? bbox_from(b.lo, b.hi)
+                                               : (struct bbox){{INFINITY, INFINITY, INFINITY},
+                                                               {-INFINITY, -INFINITY, -INFINITY}};
         for (int k = 0; k < 3; k++) {
             nd->lo[k][i % 4] = f.lo[k];
             nd->hi[k][i % 4] = f.hi[k];

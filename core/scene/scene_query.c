@@ -7,7 +7,10 @@
  * transform; a ray meets it in object space (origin and direction by the
  * inverse transform, the direction renormalised and t rescaled), so a mesh
  * or a group drawn a thousand times is stored once.  Unbounded objects
- * (planes, quadrics) are tested one by one beside the BVH.
+ * (planes, quadrics) are tested one by one beside the BVH.  A scene of a
+ * few objects (a room, a box and a sphere) has no top-level walk: its
+ * objects' boxes are tested all at once (flat_walk), since nearly every
+ * ray would descend into most of a small tree's nodes anyway.
  *
  * CSG follows Roth (1982): every operand's crossings with the ray's line
  * are merged in order, and the tree's point-in-solid test, evaluated
@@ -248,8 +251,10 @@ typedef bool (*visit_fn)(void *ctx, const struct object *o, double *tmax);
 /* Always inlined: each caller passes a constant visit, so the compiler
  * makes one walk per visitor with the visitor's body in the leaf loop, not
  * an indirect call per object (the walk is a hot path: every ray). */
-__attribute__((always_inline)) static inline void objects_walk(const struct object *objs, int32_t n, const struct bvh4 *bvh, bool brute,
-                         const ray *r, double *tmax, visit_fn visit, void *ctx) {
+__attribute__((always_inline)) static inline void objects_walk(const struct object *objs, int32_t n,
+                                                               const struct bvh4 *bvh, bool brute,
+                                                               const ray *r, double *tmax,
+                                                               visit_fn visit, void *ctx) {
     if (brute || n <= 1) {
         for (int32_t i = 0; i < n; i++)
             if (!visit(ctx, &objs[i], tmax)) return;
@@ -283,9 +288,8 @@ __attribute__((always_inline)) static inline void objects_walk(const struct obje
  * rule).  The order differs from the walk's, so only for visitors whose
  * answer does not depend on it: the nearest hit, and a shadow that any
  * surface blocks. */
-__attribute__((always_inline)) static inline void flat_walk(const rayd_scene *s, const ray *r,
-                                                           double *tmax, visit_fn visit,
-                                                           void *ctx) {
+__attribute__((always_inline)) static inline void
+flat_walk(const rayd_scene *s, const ray *r, double *tmax, visit_fn visit, void *ctx) {
     struct bvh_ray br;
     bvh_ray_init(&br, r->o, r->d);
     float tm = *tmax > 3e38 ? 3e38f : (float)*tmax * BVH_SLACK;
@@ -332,7 +336,7 @@ void nearest_take(struct nearest *c, const struct object *o, double t, const str
 
 /* nearest_visit, inlined into the top level's walks. */
 __attribute__((always_inline)) static inline bool visit_nearest(void *ctx, const struct object *o,
-                                                               double *tmax) {
+                                                                double *tmax) {
     struct nearest *c = ctx;
     double t = nearest_bound(c, o, *tmax);
     struct hit h;
