@@ -95,7 +95,8 @@ static vec3 schlick(vec3 f0, double c) {
 
 /* The non-delta part of the BSDF (times cos_i) and its sampling pdf, for
  * wo (toward the viewer) and wi (toward the light) about normal n. */
-static vec3 eval_nondelta(const struct lobes *l, vec3 n, vec3 wo, vec3 wi, double *pdf) {
+__attribute__((always_inline)) static inline vec3 eval_nondelta(const struct lobes *l, vec3 n,
+                                                                vec3 wo, vec3 wi, double *pdf) {
     double ci = v3_dot(n, wi), co = v3_dot(n, wo);
     *pdf = 0;
     if (ci <= 0 || co <= 0) return v3(0, 0, 0);
@@ -115,7 +116,7 @@ static vec3 eval_nondelta(const struct lobes *l, vec3 n, vec3 wo, vec3 wi, doubl
     return f;
 }
 
-static vec3 frame_dir(vec3 n, double x, double y, double z) {
+__attribute__((always_inline)) static inline vec3 frame_dir(vec3 n, double x, double y, double z) {
     vec3 u, v;
     v3_frame(n, &u, &v);
     return v3_add(v3_add(v3_scale(u, x), v3_scale(v, y)), v3_scale(n, z));
