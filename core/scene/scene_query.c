@@ -187,11 +187,9 @@ static bool world_take(double t_obj, double scale, double *tmax) {
 }
 
 /* Nearest hit of one object closer than *tmax: updates *tmax and h. */
-__attribute__((always_inline)) static inline bool object_hit(const rayd_scene *s,
-                                                            const struct object *o,
-                                                            const struct xform *outer,
-                                                            const ray *r, double *tmax,
-                                                            struct hit *h) {
+__attribute__((always_inline)) static inline bool
+object_hit(const rayd_scene *s, const struct object *o, const struct xform *outer, const ray *r,
+           double *tmax, struct hit *h) {
     double scale, t;
     ray lr = object_ray(s, o, r, &scale);
     double lmax = object_space_bound(*tmax, scale);
