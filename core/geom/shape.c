@@ -26,9 +26,3 @@ bool shape_hit(const struct object *o, const ray *r, double tmin, double tmax, d
     }
     return false;
 }
-
-bool shape_is_solid(const struct object *o) {
-    if (o->kind >= SHAPE_MESH) return o->kind == SHAPE_CSG;
-    if (o->kind == SHAPE_CYLINDER) return o->u.cyl.capped;
-    return shape_ops[o->kind]->inside != NULL;
-}

@@ -86,6 +86,11 @@ struct object {
         } tri;
         struct {
             vec3 corner, e1, e2; /* points corner + s e1 + t e2, s, t in [0, 1] */
+            /* from the edges by quad_derive: the unit normal e1 x e2 and
+             * the area, made once rather than at every hit and light
+             * sample */
+            vec3 n;
+            double area;
         } quad;
         struct {
             /* a x^2 + b y^2 + c z^2 + d xy + e xz + f yz + g x + h y + i z + j = 0 */
@@ -139,8 +144,16 @@ static inline bool shape_bounded(const struct object *o) {
     return o->kind >= SHAPE_MESH || shape_ops[o->kind]->bounds != NULL;
 }
 
-/* A solid (usable as a CSG operand): encloses a volume. */
-bool shape_is_solid(const struct object *o);
+/* A solid (usable as a CSG operand): encloses a volume.  Inline: asked at
+ * every hit. */
+static inline bool shape_is_solid(const struct object *o) {
+    if (o->kind >= SHAPE_MESH) return o->kind == SHAPE_CSG;
+    if (o->kind == SHAPE_CYLINDER) return o->u.cyl.capped;
+    return shape_ops[o->kind]->inside != NULL;
+}
+
+/* Fills quad o's normal and area from its edges (set them first). */
+void quad_derive(struct object *o);
 
 /* The sphere's two crossings with the ray's line, sorted (shape_sphere.c
  * explains the formula); false when the line misses.  Inline: the hot
@@ -155,8 +168,8 @@ static inline bool sphere_roots(const struct object *o, const ray *r, double *t0
     if (disc < 0) return false;
     double q = -b - copysign(sqrt(disc), b);
     double a0 = q, a1 = (q != 0) ? c / q : q;
-    *t0 = fmin(a0, a1);
-    *t1 = fmax(a0, a1);
+    *t0 = v3_fmin(a0, a1);
+    *t1 = v3_fmax(a0, a1);
     return true;
 }
 
@@ -180,6 +193,78 @@ static inline bool plane_cross(const struct object *o, const ray *r, double *t) 
 
 static inline bool plane_nearest(const struct object *o, const ray *r, double tmax, double *t) {
     return plane_cross(o, r, t) && *t > 0 && *t < tmax;
+}
+
+/* The Moller-Trumbore solve of O + tD = corner + s e1 + u e2 for a quad
+ * (s, u in [0, 1]) or a triangle (s, u >= 0, s + u <= 1): the crossing's
+ * t, false when the line misses (shape_triangle.c).  Inline: the crossing
+ * list and the nearest-hit fast path share these very roundings. */
+static inline bool para_solve(vec3 corner, vec3 e1, vec3 e2, bool tri, const ray *r, double *t) {
+    vec3 pv = v3_cross(r->d, e2);
+    double det = v3_dot(e1, pv);
+    if (det == 0) return false;
+    double inv = 1.0 / det;
+    vec3 tv = v3_sub(r->o, corner);
+    double s = v3_dot(tv, pv) * inv;
+    if (s < 0 || s > 1) return false;
+    vec3 qv = v3_cross(tv, e1);
+    double u = v3_dot(r->d, qv) * inv;
+    if (u < 0 || (tri ? s + u > 1 : u > 1)) return false;
+    *t = v3_dot(e2, qv) * inv;
+    return true;
+}
+
+static inline bool quad_nearest(const struct object *o, const ray *r, double tmax, double *t) {
+    return para_solve(o->u.quad.corner, o->u.quad.e1, o->u.quad.e2, false, r, t) && *t > 0 &&
+           *t < tmax;
+}
+
+/* The box's slabs (shape_box.c): where the line enters (tn, on part pn)
+ * and leaves (tf, pf); false when it misses. */
+static inline bool box_slabs(const struct object *o, const ray *r, double *tn_, int *pn_,
+                             double *tf_, int *pf_) {
+    double o3[3] = {r->o.x, r->o.y, r->o.z}, d3[3] = {r->d.x, r->d.y, r->d.z};
+    double lo[3] = {o->u.box.lo.x, o->u.box.lo.y, o->u.box.lo.z};
+    double hi[3] = {o->u.box.hi.x, o->u.box.hi.y, o->u.box.hi.z};
+    double tn = -INFINITY, tf = INFINITY;
+    int pn = 0, pf = 0;
+    for (int k = 0; k < 3; k++) {
+        if (d3[k] == 0) {
+            if (o3[k] < lo[k] || o3[k] > hi[k]) return false;
+            continue;
+        }
+        double a = (lo[k] - o3[k]) / d3[k], b = (hi[k] - o3[k]) / d3[k];
+        int pa = 2 * k, pb = 2 * k + 1; /* part: axis * 2 + (1 for the high face) */
+        if (a > b) {
+            double x = a;
+            a = b;
+            b = x;
+            pa = 2 * k + 1;
+            pb = 2 * k;
+        }
+        if (a > tn) tn = a, pn = pa;
+        if (b < tf) tf = b, pf = pb;
+    }
+    if (!(tn <= tf) || !isfinite(tn) || !isfinite(tf)) return false;
+    *tn_ = tn, *pn_ = pn, *tf_ = tf, *pf_ = pf;
+    return true;
+}
+
+/* shape_hit's rule on the box's two crossings, tmin = 0. */
+static inline bool box_nearest(const struct object *o, const ray *r, double tmax, double *t,
+                               int *part) {
+    double tn, tf;
+    int pn, pf;
+    if (!box_slabs(o, r, &tn, &pn, &tf, &pf)) return false;
+    if (tn > 0 && tn < tmax) {
+        *t = tn, *part = pn;
+        return true;
+    }
+    if (tf > 0 && tf < tmax) {
+        *t = tf, *part = pf;
+        return true;
+    }
+    return false;
 }
 
 /* Shape-specific entry points the tests and the fast paths use. */

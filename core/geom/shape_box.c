@@ -7,33 +7,7 @@
 #include "geom/shape.h"
 
 static int box_crossings(const struct object *o, const ray *r, struct xing out[4]) {
-    double o3[3] = {r->o.x, r->o.y, r->o.z}, d3[3] = {r->d.x, r->d.y, r->d.z};
-    double lo[3] = {o->u.box.lo.x, o->u.box.lo.y, o->u.box.lo.z};
-    double hi[3] = {o->u.box.hi.x, o->u.box.hi.y, o->u.box.hi.z};
-    double tn = -INFINITY, tf = INFINITY;
-    int pn = 0, pf = 0;
-    for (int k = 0; k < 3; k++) {
-        if (d3[k] == 0) {
-            if (o3[k] < lo[k] || o3[k] > hi[k]) return 0;
-            continue;
-        }
-        double a = (lo[k] - o3[k]) / d3[k], b = (hi[k] - o3[k]) / d3[k];
-        int pa = 2 * k, pb = 2 * k + 1; /* part: axis * 2 + (1 for the high face) */
-        if (a > b) {
-            double t = a;
-            a = b;
-            b = t;
-            pa = 2 * k + 1;
-            pb = 2 * k;
-        }
-        if (a > tn) tn = a, pn = pa;
-        if (b < tf) tf = b, pf = pb;
-    }
-    if (!(tn <= tf) || !isfinite(tn) || !isfinite(tf)) return 0;
-    out[0].t = tn;
-    out[0].part = pn;
-    out[1].t = tf;
-    out[1].part = pf;
+    if (!box_slabs(o, r, &out[0].t, &out[0].part, &out[1].t, &out[1].part)) return 0;
     return 2;
 }
 

@@ -8,17 +8,7 @@
 #include "geom/shape.h"
 
 static int para_cross(vec3 corner, vec3 e1, vec3 e2, bool tri, const ray *r, struct xing out[4]) {
-    vec3 pv = v3_cross(r->d, e2);
-    double det = v3_dot(e1, pv);
-    if (det == 0) return 0;
-    double inv = 1.0 / det;
-    vec3 tv = v3_sub(r->o, corner);
-    double s = v3_dot(tv, pv) * inv;
-    if (s < 0 || s > 1) return 0;
-    vec3 qv = v3_cross(tv, e1);
-    double u = v3_dot(r->d, qv) * inv;
-    if (u < 0 || (tri ? s + u > 1 : u > 1)) return 0;
-    out[0].t = v3_dot(e2, qv) * inv;
+    if (!para_solve(corner, e1, e2, tri, r, &out[0].t)) return 0;
     out[0].part = 0;
     return 1;
 }
@@ -37,9 +27,15 @@ static vec3 tri_normal(const struct object *o, vec3 p, int part) {
     return v3_norm(v3_cross(v3_sub(o->u.tri.b, o->u.tri.a), v3_sub(o->u.tri.c, o->u.tri.a)));
 }
 
+void quad_derive(struct object *o) {
+    vec3 c = v3_cross(o->u.quad.e1, o->u.quad.e2);
+    o->u.quad.n = v3_norm(c);
+    o->u.quad.area = v3_len(c);
+}
+
 static vec3 quad_normal(const struct object *o, vec3 p, int part) {
     (void)p, (void)part;
-    return v3_norm(v3_cross(o->u.quad.e1, o->u.quad.e2));
+    return o->u.quad.n;
 }
 
 static struct aabb tri_bounds(const struct object *o) {

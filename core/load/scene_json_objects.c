@@ -246,6 +246,7 @@ static enum rayd_status load_quad(struct loader *ld, const cJSON *oj, const stru
     if (!(v3_len(v3_cross(o->u.quad.e1, o->u.quad.e2)) >
           1e-12 * v3_len(o->u.quad.e1) * v3_len(o->u.quad.e2)))
         return sj_fail(ld, RAYD_E_INVALID, &p, "must not be parallel to edge1");
+    quad_derive(o);
     return RAYD_OK;
 }
 

@@ -19,9 +19,10 @@ static inline uint64_t rng_mix(uint64_t z) {
 
 struct rng_key {
     uint64_t seed;
-    uint32_t px, py; /* the pixel, in whole-image coordinates */
-    uint32_t sample; /* sample index inside the pixel */
-    uint64_t pixel;  /* rng_pixel_hash(seed, px, py): the stratified samples' */
+    uint32_t px, py;     /* the pixel, in whole-image coordinates */
+    uint32_t sample;     /* sample index inside the pixel (set by rng_key_sample) */
+    uint32_t sample_rev; /* rng_reverse(sample): every stratified number's first step */
+    uint64_t pixel;      /* rng_pixel_hash(seed, px, py): the stratified samples' */
 };
 
 /* The part of the stratified samples' hash that is the same for all of a
@@ -30,8 +31,17 @@ static inline uint64_t rng_pixel_hash(uint64_t seed, uint32_t px, uint32_t py) {
     return rng_mix(rng_mix(seed ^ 0x5851f42d4c957f2dULL) ^ (((uint64_t)px << 32) | py));
 }
 
+static inline uint32_t rng_reverse(uint32_t x);
+
 static inline struct rng_key rng_key_at(uint64_t seed, uint32_t px, uint32_t py, uint32_t sample) {
-    return (struct rng_key){seed, px, py, sample, rng_pixel_hash(seed, px, py)};
+    return (struct rng_key){
+        seed, px, py, sample, rng_reverse(sample), rng_pixel_hash(seed, px, py)};
+}
+
+/* Makes k name sample `sample` of its pixel. */
+static inline void rng_key_sample(struct rng_key *k, uint32_t sample) {
+    k->sample = sample;
+    k->sample_rev = rng_reverse(sample);
 }
 
 /* A uniform double in [0, 1) for (key, bounce, dim).  Dimensions in use:
@@ -100,7 +110,7 @@ static inline double rng_unit32(uint32_t x) { return (double)x * (1.0 / 42949672
  * the bits above it), which keeps every aligned run of 2^m indices a run
  * of 2^m, so any power-of-two prefix is still a whole net. */
 static inline uint32_t rng_shuffled(const struct rng_key *k, uint32_t seed) {
-    return rng_reverse(rng_lk(rng_reverse(k->sample), seed));
+    return rng_reverse(rng_lk(k->sample_rev, seed));
 }
 
 /* Dimensions (dim, dim + 1) of sample k->sample as one stratified pair.

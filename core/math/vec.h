@@ -37,17 +37,23 @@ static inline vec3 v3_cross(vec3 a, vec3 b) {
 static inline double v3_len(vec3 a) { return sqrt(v3_dot(a, a)); }
 static inline vec3 v3_norm(vec3 a) { return v3_scale(a, 1.0 / v3_len(a)); }
 /* a + b * s */
+/* fmax and fmin as x86-64 glibc computes them (maxsd / minsd: the second
+ * argument on a tie of zeros; the other argument when one is NaN), inline:
+ * without -ffinite-math-only the compiler calls libm for fmax, and the
+ * tracer takes maxima several times a ray. */
+static inline double v3_fmax(double a, double b) { return a > b ? a : b != b ? a : b; }
+static inline double v3_fmin(double a, double b) { return a < b ? a : b != b ? a : b; }
 static inline vec3 v3_madd(vec3 a, vec3 b, double s) {
     return v3(a.x + b.x * s, a.y + b.y * s, a.z + b.z * s);
 }
 static inline vec3 v3_min(vec3 a, vec3 b) {
-    return v3(fmin(a.x, b.x), fmin(a.y, b.y), fmin(a.z, b.z));
+    return v3(v3_fmin(a.x, b.x), v3_fmin(a.y, b.y), v3_fmin(a.z, b.z));
 }
 static inline vec3 v3_max(vec3 a, vec3 b) {
-    return v3(fmax(a.x, b.x), fmax(a.y, b.y), fmax(a.z, b.z));
+    return v3(v3_fmax(a.x, b.x), v3_fmax(a.y, b.y), v3_fmax(a.z, b.z));
 }
 static inline double v3_axis(vec3 a, int axis) { return axis == 0 ? a.x : axis == 1 ? a.y : a.z; }
-static inline double v3_maxabs(vec3 a) { return fmax(fabs(a.x), fmax(fabs(a.y), fabs(a.z))); }
+static inline double v3_maxabs(vec3 a) { return v3_fmax(fabs(a.x), v3_fmax(fabs(a.y), fabs(a.z))); }
 /* Mirror d about the normal n. */
 static inline vec3 v3_reflect(vec3 d, vec3 n) { return v3_madd(d, n, -2.0 * v3_dot(d, n)); }
 

@@ -109,7 +109,7 @@ static ray sample_ray(const rayd_scene *s, int i, int j, int k, int n, struct rn
     sy -= floor(sy);
     lu -= floor(lu);
     lv -= floor(lv);
-    key->sample = (uint32_t)k;
+    rng_key_sample(key, (uint32_t)k);
     return cam_ray(&s->cam, i + sx, j + sy, lu, lv);
 }
 

@@ -48,6 +48,7 @@ void rayd_scene_free(rayd_scene *s) {
     free(s->emitters);
     free(s->inst_ids);
     bvh_free(&s->tlas);
+    free(s->flat);
     light_buffers_free(s->light_buffers, s->nlights);
     free(s);
 }
@@ -233,6 +234,35 @@ static enum rayd_status map_instances(rayd_scene *s, struct rayd_error *err) {
     return RAYD_OK;
 }
 
+/* s->flat for a scene of few objects: the root of a small tlas has few
+ * children, so nearly every ray descends into most of its inner nodes,
+ * one test of four boxes each; testing every object's box at once takes
+ * fewer tests and no stack.  The boxes are the tlas's own (bbox_from of
+ * the object's bounds). */
+static enum rayd_status build_flat(rayd_scene *s, struct rayd_error *err) {
+    if (s->nobjs > SCENE_FLAT_MAX) return RAYD_OK;
+    uint32_t n = ((uint32_t)s->nobjs + 3) / 4;
+    s->flat = malloc(sizeof *s->flat * n);
+    if (!s->flat) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory");
+    s->nflat = n;
+    for (uint32_t i = 0; i < 4 * n; i++) {
+        struct bvh4_node *nd = &s->flat[i / 4];
+        struct aabb b = {v3(INFINITY, INFINITY, INFINITY), v3(-INFINITY, -INFINITY, -INFINITY)};
+        if (i < (uint32_t)s->nobjs) scene_object_bounds(s, &s->objs[i], &b);
+        /* an empty slot keeps its inverted box: no ray enters it */
+        struct bbox f = i < (uint32_t)s->nobjs ? bbox_from(b.lo, b.hi)
+                                               : (struct bbox){{INFINITY, INFINITY, INFINITY},
+                                                               {-INFINITY, -INFINITY, -INFINITY}};
+        for (int k = 0; k < 3; k++) {
+            nd->lo[k][i % 4] = f.lo[k];
+            nd->hi[k][i % 4] = f.hi[k];
+        }
+        nd->child[i % 4] = i;
+        nd->count[i % 4] = 1;
+    }
+    return RAYD_OK;
+}
+
 enum rayd_status scene_freeze(rayd_scene *s, struct rayd_error *err) {
     if (!scene_files_dedupe(s)) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory");
     s->opaque = true;
@@ -247,6 +277,7 @@ enum rayd_status scene_freeze(rayd_scene *s, struct rayd_error *err) {
     if (st != RAYD_OK || s->nobjs <= 0) return st;
     double t0 = clock_now();
     st = scene_build_bvh(s, &s->objs, s->nobjs, &s->tlas, NULL, err);
+    if (st == RAYD_OK) st = build_flat(s, err);
     if (st == RAYD_OK) st = build_light_buffers(s, err);
     if (st == RAYD_OK) scene_cost_freeze(s);
     s->build_s += clock_now() - t0;

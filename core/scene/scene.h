@@ -74,6 +74,11 @@ struct rayd_scene {
     int32_t nxforms;
     int32_t *inst_ids; /* per placement: the id of the instance it places, else -1 */
     struct bvh4 tlas;  /* over objs */
+    /* A scene of at most SCENE_FLAT_MAX objs: their boxes, four to a node
+     * in objs' order (scene.c), which a one-ray query tests all at once
+     * instead of walking tlas (scene_query.c); NULL for more. */
+    struct bvh4_node *flat;
+    uint32_t nflat;
     struct light_buffer *light_buffers; /* per light, objs by direction (light_buffer.c) */
     int32_t *emitters; /* path tracer: emissive spheres, discs, quads of objs to sample */
     int nemitters;
@@ -85,6 +90,8 @@ struct rayd_scene {
     int nfiles;
     size_t files_cap;
 };
+
+#define SCENE_FLAT_MAX 16
 
 struct hit {
     double t;

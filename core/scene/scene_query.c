@@ -7,7 +7,10 @@
  * transform; a ray meets it in object space (origin and direction by the
  * inverse transform, the direction renormalised and t rescaled), so a mesh
  * or a group drawn a thousand times is stored once.  Unbounded objects
- * (planes, quadrics) are tested one by one beside the BVH.
+ * (planes, quadrics) are tested one by one beside the BVH.  A scene of a
+ * few objects (a room, a box and a sphere) has no top-level walk: its
+ * objects' boxes are tested all at once (flat_walk), since nearly every
+ * ray would descend into most of a small tree's nodes anyway.
  *
  * CSG follows Roth (1982): every operand's crossings with the ray's line
  * are merged in order, and the tree's point-in-solid test, evaluated
@@ -184,8 +187,9 @@ static bool world_take(double t_obj, double scale, double *tmax) {
 }
 
 /* Nearest hit of one object closer than *tmax: updates *tmax and h. */
-static bool object_hit(const rayd_scene *s, const struct object *o, const struct xform *outer,
-                       const ray *r, double *tmax, struct hit *h) {
+__attribute__((always_inline)) static inline bool
+object_hit(const rayd_scene *s, const struct object *o, const struct xform *outer, const ray *r,
+           double *tmax, struct hit *h) {
     double scale, t;
     ray lr = object_ray(s, o, r, &scale);
     double lmax = object_space_bound(*tmax, scale);
@@ -221,6 +225,13 @@ static bool object_hit(const rayd_scene *s, const struct object *o, const struct
         if (!plane_nearest(o, &lr, lmax, &t)) return false;
         h->part = 0;
         break;
+    case SHAPE_QUAD:
+        if (!quad_nearest(o, &lr, lmax, &t)) return false;
+        h->part = 0;
+        break;
+    case SHAPE_BOX:
+        if (!box_nearest(o, &lr, lmax, &t, &h->part)) return false;
+        break;
     default:
         if (!shape_hit(o, &lr, 0, lmax, &t, &h->part)) return false;
     }
@@ -238,8 +249,13 @@ static bool object_hit(const rayd_scene *s, const struct object *o, const struct
  * brute (tests) or a single object, every object is visited in order. */
 typedef bool (*visit_fn)(void *ctx, const struct object *o, double *tmax);
 
-static void objects_walk(const struct object *objs, int32_t n, const struct bvh4 *bvh, bool brute,
-                         const ray *r, double *tmax, visit_fn visit, void *ctx) {
+/* Always inlined: each caller passes a constant visit, so the compiler
+ * makes one walk per visitor with the visitor's body in the leaf loop, not
+ * an indirect call per object (the walk is a hot path: every ray). */
+__attribute__((always_inline)) static inline void objects_walk(const struct object *objs, int32_t n,
+                                                               const struct bvh4 *bvh, bool brute,
+                                                               const ray *r, double *tmax,
+                                                               visit_fn visit, void *ctx) {
     if (brute || n <= 1) {
         for (int32_t i = 0; i < n; i++)
             if (!visit(ctx, &objs[i], tmax)) return;
@@ -267,6 +283,50 @@ static void objects_walk(const struct object *objs, int32_t n, const struct bvh4
     }
 }
 
+/* objects_walk over s->flat (a scene of few objects, scene.c): every box
+ * tested at once, then the objects whose box the ray enters visited
+ * nearest first, as long as they are within reach (the walk's pruning
+ * rule).  The order differs from the walk's, so only for visitors whose
+ * answer does not depend on it: the nearest hit, and a shadow that any
+ * surface blocks. */
+__attribute__((always_inline)) static inline void
+flat_walk(const rayd_scene *s, const ray *r, double *tmax, visit_fn visit, void *ctx) {
+    struct bvh_ray br;
+    bvh_ray_init(&br, r->o, r->d);
+    float tm = *tmax > 3e38 ? 3e38f : (float)*tmax * BVH_SLACK;
+    struct bvh_entry in[SCENE_FLAT_MAX];
+    int n = 0;
+    for (uint32_t k = 0; k < s->nflat; k++) {
+        float tn[4];
+        int mask = bvh4_test(&s->flat[k], &br, 0, tm, tn);
+        while (mask) { /* insertion, nearest first */
+            int c = __builtin_ctz((unsigned)mask), j = n++;
+            mask &= mask - 1;
+            for (; j > 0 && in[j - 1].tnear > tn[c]; j--) in[j] = in[j - 1];
+            in[j].node = 4 * k + (uint32_t)c;
+            in[j].tnear = tn[c];
+        }
+    }
+    for (int j = 0; j < n && !(in[j].tnear > *tmax * BVH_SLACK); j++)
+        if (!visit(ctx, &s->objs[in[j].node], tmax)) return;
+}
+
+/* flat_walk for a shadow that any surface blocks: the objects in their
+ * order, no sorting (a blocker found first or last blocks the same). */
+static void flat_any(const rayd_scene *s, const ray *r, double tmax, visit_fn visit, void *ctx) {
+    struct bvh_ray br;
+    bvh_ray_init(&br, r->o, r->d);
+    float tm = tmax > 3e38 ? 3e38f : (float)tmax * BVH_SLACK;
+    for (uint32_t k = 0; k < s->nflat; k++) {
+        float tn[4];
+        for (int mask = bvh4_test(&s->flat[k], &br, 0, tm, tn); mask; mask &= mask - 1) {
+            int c = __builtin_ctz((unsigned)mask);
+            if (!(tn[c] > tmax * BVH_SLACK) && !visit(ctx, &s->objs[4 * k + (uint32_t)c], &tmax))
+                return;
+        }
+    }
+}
+
 void nearest_take(struct nearest *c, const struct object *o, double t, const struct hit *h,
                   double *tmax) {
     if (t > *tmax) return;
@@ -275,12 +335,18 @@ void nearest_take(struct nearest *c, const struct object *o, double t, const str
     c->best = nearest_rank(c, o);
 }
 
-bool nearest_visit(void *ctx, const struct object *o, double *tmax) {
+/* nearest_visit, inlined into the top level's walks. */
+__attribute__((always_inline)) static inline bool visit_nearest(void *ctx, const struct object *o,
+                                                                double *tmax) {
     struct nearest *c = ctx;
     double t = nearest_bound(c, o, *tmax);
     struct hit h;
     if (object_hit(c->s, o, c->outer, c->r, &t, &h)) nearest_take(c, o, t, &h, tmax);
     return true;
+}
+
+bool nearest_visit(void *ctx, const struct object *o, double *tmax) {
+    return visit_nearest(ctx, o, tmax);
 }
 
 /* Nearest hit among objs (with their BVH) closer than *tmax. */
@@ -296,10 +362,13 @@ bool scene_intersect(const rayd_scene *s, const ray *r, double tmax, struct hit 
     /* h is written, never read, by the search: */
     // cppcheck-suppress ctuuninitvar
     struct nearest c = {s, NULL, r, h, s->planes, 0, -1};
-    for (int32_t i = 0; i < s->nplanes; i++) nearest_visit(&c, &s->planes[i], &tmax);
+    for (int32_t i = 0; i < s->nplanes; i++) visit_nearest(&c, &s->planes[i], &tmax);
     c.base = s->objs;
     c.rank0 = s->nplanes;
-    objects_walk(s->objs, s->nobjs, &s->tlas, s->brute, r, &tmax, nearest_visit, &c);
+    if (s->flat && !s->brute)
+        flat_walk(s, r, &tmax, visit_nearest, &c);
+    else
+        objects_walk(s->objs, s->nobjs, &s->tlas, s->brute, r, &tmax, visit_nearest, &c);
     return c.best >= 0;
 }
 
@@ -363,7 +432,10 @@ static vec3 scene_filter(const rayd_scene *s, const ray *r, double tmax, bool op
     struct filter c = {s, r, v3(1, 1, 1), opaque};
     for (int32_t i = 0; i < s->nplanes; i++)
         if (!visit_filter(&c, &s->planes[i], &tmax)) return c.trans;
-    objects_walk(s->objs, s->nobjs, &s->tlas, s->brute, r, &tmax, visit_filter, &c);
+    if (s->flat && !s->brute && (opaque || s->opaque)) /* every hit blocks: any order */
+        flat_any(s, r, tmax, visit_filter, &c);
+    else
+        objects_walk(s->objs, s->nobjs, &s->tlas, s->brute, r, &tmax, visit_filter, &c);
     return c.trans;
 }
 
@@ -407,7 +479,8 @@ void scene_surface(const rayd_scene *s, const ray *r, const struct hit *h, struc
         n = mesh_shading_normal(m, &h->mh);
         if (textured) mesh_uv(m, &h->mh, &u, &v);
     } else {
-        n = ng = shape_ops[o->kind]->normal(o, p, h->part);
+        /* a quad's without the call through the table */
+        n = ng = o->kind == SHAPE_QUAD ? o->u.quad.n : shape_ops[o->kind]->normal(o, p, h->part);
         if (textured) shape_ops[o->kind]->uv(o, p, h->part, &u, &v);
     }
     vec3 po = p; /* object space, for object-space textures */

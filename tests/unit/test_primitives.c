@@ -186,6 +186,7 @@ static void test_triangle_and_quad(void) {
     q.u.quad.corner = v3(0, 0, 0);
     q.u.quad.e1 = v3(2, 0, 0);
     q.u.quad.e2 = v3(0, 0, 1);
+    quad_derive(&q);
     CHECK(hit(&q, mk(v3(1.9, 3, 0.9), v3(0, -1, 0)), &t, &n) && fabs(t - 3) < 1e-12,
           "quad corner region");
     CHECK(!hit(&q, mk(v3(2.1, 3, 0.5), v3(0, -1, 0)), &t, &n), "past the quad");
