@@ -99,16 +99,22 @@ static bool items_nogroup(const redisReply *rep) {
     return rep && rep->type == REDIS_REPLY_ERROR && strstr(rep->str, "NOGROUP");
 }
 
-void cluster_items_pull(struct redis *c, cluster_items_take_fn take) {
+/* script run over the three streams (KEYS, highest first) for this node
+ * (ARGV[1]). */
+static redisReply *items_eval(struct redis *c, const char *script) {
     const char *argv[] = {"EVAL",
-                          items_lua_take,
+                          script,
                           "3",
                           cluster_streams[JP_HIGH],
                           cluster_streams[JP_NORMAL],
                           cluster_streams[JP_LOW],
                           cluster_node_id,
                           NULL};
-    redisReply *rep = redis_strs(c, argv);
+    return redis_strs(c, argv);
+}
+
+void cluster_items_pull(struct redis *c, cluster_items_take_fn take) {
+    redisReply *rep = items_eval(c, items_lua_take);
     if (items_nogroup(rep)) {
         freeReplyObject(rep);
         cluster_items_groups(c);
@@ -284,15 +290,7 @@ void cluster_items_leave(struct redis *c) {
         "  end\n"
         "end\n"
         "return 0\n";
-    const char *argv[] = {"EVAL",
-                          script,
-                          "3",
-                          cluster_streams[JP_HIGH],
-                          cluster_streams[JP_NORMAL],
-                          cluster_streams[JP_LOW],
-                          cluster_node_id,
-                          NULL};
-    redisReply *rep = redis_strs(c, argv);
+    redisReply *rep = items_eval(c, script);
     if (rep) freeReplyObject(rep);
 }
 

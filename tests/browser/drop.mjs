@@ -10,10 +10,9 @@
 // answered 200 image/png), the model is in the picture (the middle of the
 // canvas differs from the same scene rendered without the model) and fits
 // it (the edges do not), and the refusals say what to do.
-import { chromium } from "playwright-core";
 import { cases } from "./cases.mjs";
-import { mkdtempSync, rmSync, readFileSync } from "node:fs";
-import { tmpdir } from "node:os";
+import { launch } from "./chromium.mjs";
+import { readFileSync } from "node:fs";
 import { join, basename } from "node:path";
 
 const URL = process.argv[2];
@@ -166,20 +165,7 @@ async function dropFiles(page, paths, target = "#stage") {
 const openFiles = (page, paths) => page.setInputFiles("#open-file", paths);
 const setUserScene = (page) => page.evaluate((t) => window.rayd.editor.set(t), USER_SCENE);
 
-const profile = mkdtempSync(join(tmpdir(), "rayd-chromium-"));
-let context;
-try {
-  context = await chromium.launchPersistentContext(profile, {
-    executablePath: process.env.CHROMIUM || "/usr/bin/chromium",
-    headless: true,
-    args: ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update", "--disable-sync", "--no-first-run"],
-    viewport: { width: 1440, height: 860 },
-    deviceScaleFactor: 1,
-  });
-} catch (e) {
-  fail("chromium_launch", e.message);
-  process.exit(0);
-}
+const { context, close } = await launch(fail, { viewport: { width: 1440, height: 860 } });
 const cspViolations = [];
 await context.exposeBinding("raydCspViolation", (src, v) => cspViolations.push(v));
 await context.addInitScript(() =>
@@ -374,7 +360,6 @@ try {
 } catch (e) {
   fail("drop_run", e.message);
 } finally {
-  await context.close();
-  rmSync(profile, { recursive: true, force: true });
+  await close();
 }
 process.exit(failed() ? 1 : 0);

@@ -13,20 +13,12 @@
 #   CASES=glb bash tests/browser/drop.sh     only the cases whose names match
 # rayd-test: long
 source "$(dirname "$0")/../integration/lib/common.sh"
-HERE=$RAYD_ROOT/tests/browser
-CHROMIUM=${CHROMIUM:-/usr/bin/chromium}
+source "$(dirname "$0")/../integration/lib/browser.sh"
 MODELS=${MODELS:-/usr/share/assimp/models}
 
 missing=
-[ -x "$CHROMIUM" ] || missing="$missing chromium ($CHROMIUM; make test-deps installs Debian's chromium)"
-command -v node >/dev/null 2>&1 || missing="$missing node (Node.js)"
-[ -f "$HERE/node_modules/playwright-core/package.json" ] ||
-    missing="$missing playwright-core (make test runs npm ci in tests/browser)"
 [ -f "$MODELS/PLY/cube_binary.ply" ] || missing="$missing $MODELS (make test-deps installs assimp-testmodels)"
-if [ -n "$missing" ]; then
-    fail drop_setup "missing:$missing"
-    exit 1
-fi
+browser_need drop_setup "$missing"
 
 start_rayd --threads 2 --max-body 2500000
 

@@ -10,10 +10,9 @@
 // are a real job's image), stub_busy_backoff answers one list request
 // with a 503 and Retry-After, which a real server gives only under load,
 // and stub_poll_error_shown refuses the connection of a job's polls.
-import { chromium } from "playwright-core";
 import { cases } from "./cases.mjs";
-import { mkdtempSync, rmSync, readFileSync } from "node:fs";
-import { tmpdir } from "node:os";
+import { launch } from "./chromium.mjs";
+import { readFileSync } from "node:fs";
 import { join } from "node:path";
 
 const URL = process.argv[2];
@@ -69,21 +68,7 @@ async function submit(page, priority = "normal") {
   return job.id;
 }
 
-const profile = mkdtempSync(join(tmpdir(), "rayd-chromium-"));
-let context;
-try {
-  context = await chromium.launchPersistentContext(profile, {
-    executablePath: process.env.CHROMIUM || "/usr/bin/chromium",
-    headless: true,
-    args: ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--no-first-run"],
-    viewport: { width: 1440, height: 860 },
-    deviceScaleFactor: 1,
-    acceptDownloads: true,
-  });
-} catch (e) {
-  fail("chromium_launch", e.message);
-  process.exit(0);
-}
+const { context, close } = await launch(fail, { viewport: { width: 1440, height: 860 } });
 const cspViolations = [];
 await context.exposeBinding("raydCspViolation", (src, v) => cspViolations.push(v));
 await context.addInitScript(() =>
@@ -449,7 +434,6 @@ try {
 } catch (e) {
   fail("driver", e.stack || e);
 } finally {
-  await context.close().catch(() => {});
-  rmSync(profile, { recursive: true, force: true });
+  await close();
 }
 process.exit(0);

@@ -11,18 +11,9 @@
 #   bash tests/browser/jobs_view.sh             (tests/run.sh sets RAYD_BUILD)
 #   CASES=cancel bash tests/browser/jobs_view.sh  only the cases whose names match
 source "$(dirname "$0")/../integration/lib/common.sh"
-HERE=$RAYD_ROOT/tests/browser
-CHROMIUM=${CHROMIUM:-/usr/bin/chromium}
+source "$(dirname "$0")/../integration/lib/browser.sh"
 
-missing=
-[ -x "$CHROMIUM" ] || missing="$missing chromium ($CHROMIUM; make test-deps installs Debian's chromium)"
-command -v node >/dev/null 2>&1 || missing="$missing node (Node.js)"
-[ -f "$HERE/node_modules/playwright-core/package.json" ] ||
-    missing="$missing playwright-core (make test runs npm ci in tests/browser)"
-if [ -n "$missing" ]; then
-    fail jobs_browser_setup "missing:$missing"
-    exit 1
-fi
+browser_need jobs_browser_setup
 
 printf 'jobs-test-token\n' >"$T/token"
 start_rayd --threads 1 --token-file "$T/token"

@@ -8,8 +8,8 @@
 // while the gates let the tiles through), shows it succeeded with its
 // thumbnail, and its PNG link gives the bytes node A gives; a job with
 // the EXR box offers its EXR on B too.  Nothing is answered by a stand-in.
-import { chromium } from "playwright-core";
 import { cases } from "./cases.mjs";
+import { launch } from "./chromium.mjs";
 import { execFileSync } from "node:child_process";
 import { mkdtempSync, rmSync, readFileSync, writeFileSync } from "node:fs";
 import { tmpdir } from "node:os";
@@ -83,20 +83,7 @@ async function open(context, url) {
   return { page, errors, streamed };
 }
 
-const profile = mkdtempSync(join(tmpdir(), "rayd-chromium-"));
-let context;
-try {
-  context = await chromium.launchPersistentContext(profile, {
-    executablePath: process.env.CHROMIUM || "/usr/bin/chromium",
-    headless: true,
-    args: ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--no-first-run"],
-    viewport: { width: 1280, height: 800 },
-    acceptDownloads: true,
-  });
-} catch (e) {
-  fail("chromium_launch", e.message);
-  process.exit(0);
-}
+const { context, close } = await launch(fail, { viewport: { width: 1280, height: 800 } });
 
 try {
   let a, b, id;
@@ -230,8 +217,7 @@ try {
 } catch (e) {
   fail("driver", e.stack || e);
 } finally {
-  await context.close().catch(() => {});
-  rmSync(profile, { recursive: true, force: true });
+  await close();
   rmSync(WORK, { recursive: true, force: true });
 }
 process.exit(0);

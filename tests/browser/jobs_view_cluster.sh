@@ -12,19 +12,10 @@
 #
 #   bash tests/browser/jobs_view_cluster.sh      (tests/run.sh sets RAYD_BUILD)
 source "$(dirname "$0")/../integration/lib/common.sh"
+source "$(dirname "$0")/../integration/lib/browser.sh"
 source "$(dirname "$0")/../integration/lib/redis.sh"
-HERE=$RAYD_ROOT/tests/browser
-CHROMIUM=${CHROMIUM:-/usr/bin/chromium}
 
-missing=
-[ -x "$CHROMIUM" ] || missing="$missing chromium ($CHROMIUM; make test-deps installs Debian's chromium)"
-command -v node >/dev/null 2>&1 || missing="$missing node (Node.js)"
-[ -f "$HERE/node_modules/playwright-core/package.json" ] ||
-    missing="$missing playwright-core (make test runs npm ci in tests/browser)"
-if [ -n "$missing" ]; then
-    fail jobs_cluster_browser_setup "missing:$missing"
-    exit 1
-fi
+browser_need jobs_cluster_browser_setup
 
 start_redis
 for i in 1 2; do

@@ -5,11 +5,11 @@
 // Pixels are compared exactly: the canvas (read back as a lossless PNG) and
 // the PNG of POST /v1/render for the editor's text are decoded by pngcmp
 // (libpng, through the core's rayd_png_decode) and must be equal.
-import { chromium } from "playwright-core";
 import { cases } from "./cases.mjs";
+import { launch } from "./chromium.mjs";
 import { execFileSync } from "node:child_process";
 import { createHash } from "node:crypto";
-import { mkdtempSync, rmSync, writeFileSync, mkdirSync, copyFileSync } from "node:fs";
+import { mkdtempSync, writeFileSync, mkdirSync } from "node:fs";
 import { tmpdir } from "node:os";
 import { join } from "node:path";
 
@@ -122,29 +122,7 @@ const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 // the first line of text containing needle (1-based)
 const lineWith = (text, needle) => text.split("\n").findIndex((l) => l.includes(needle)) + 1;
 
-const profile = mkdtempSync(join(tmpdir(), "rayd-chromium-"));
-let context;
-try {
-  context = await chromium.launchPersistentContext(profile, {
-    executablePath: process.env.CHROMIUM || "/usr/bin/chromium",
-    headless: true,
-    args: [
-      "--headless",
-      "--no-sandbox",
-      "--disable-gpu",
-      "--disable-background-networking",
-      "--disable-component-update",
-      "--disable-sync",
-      "--no-first-run",
-    ],
-    viewport: { width: 1440, height: 860 },
-    deviceScaleFactor: 1,
-    acceptDownloads: true,
-  });
-} catch (e) {
-  fail("chromium_launch", e.message);
-  process.exit(0);
-}
+const { context, close } = await launch(fail, { viewport: { width: 1440, height: 860 } });
 // Every Content-Security-Policy violation of every page (rayd serves the
 // page with a CSP: nothing of it may be refused), reported to Node.
 const cspViolations = [];
@@ -1135,7 +1113,6 @@ try {
 } catch (e) {
   fail("driver", e.stack || e);
 } finally {
-  await context.close().catch(() => {});
-  rmSync(profile, { recursive: true, force: true });
+  await close();
 }
 process.exit(0);

@@ -10,19 +10,11 @@
 #   CASES=link bash tests/browser/preview.sh  only the cases whose names match
 # rayd-test: long
 source "$(dirname "$0")/../integration/lib/common.sh"
-HERE=$RAYD_ROOT/tests/browser
-CHROMIUM=${CHROMIUM:-/usr/bin/chromium}
+source "$(dirname "$0")/../integration/lib/browser.sh"
 
 missing=
-[ -x "$CHROMIUM" ] || missing="$missing chromium ($CHROMIUM; make test-deps installs Debian's chromium)"
-command -v node >/dev/null 2>&1 || missing="$missing node (Node.js)"
-[ -f "$HERE/node_modules/playwright-core/package.json" ] ||
-    missing="$missing playwright-core (make test runs npm ci in tests/browser)"
 [ -x "$RAYD_BUILD/tests/tools/pngcmp" ] || missing="$missing $RAYD_BUILD/tests/tools/pngcmp (make test builds it)"
-if [ -n "$missing" ]; then
-    fail browser_setup "missing:$missing"
-    exit 1
-fi
+browser_need browser_setup "$missing"
 
 # the page's JSON and camera helpers in Node first (no browser needed)
 node "$HERE/json_unit.mjs" "$RAYD_BUILD/server/web/examples.js" || fail json_unit "node exited with $?"

@@ -25,6 +25,9 @@ post() { # NODE QUERY NAME: the status; the body in $T/NAME.json, headers in $T/
 }
 id_of() { python3 -c 'import json,sys; print(json.load(open(sys.argv[1])).get("id", ""))' "$1" 2>/dev/null; }
 succeeded() { [ "$(job_state "${NODE_URL[$1]}" "$2")" = succeeded ]; }
+# NODE ID FILE: the job's JSON into FILE, and whether it says succeeded (read in one
+# request: a job here is forgotten 5 s after it ends, --job-ttl 5)
+succeeded_into() { curl -s -o "$3" "${NODE_URL[$1]}/v1/jobs/$2" && grep -q '"state":"succeeded"' "$3"; }
 retry_after() { grep -i '^retry-after: *[1-9]' "$1" >/dev/null; }
 
 start_redis
@@ -32,7 +35,7 @@ VERSION=$("$RAYD" --version | awk '{print $2}')
 
 # --- --max-jobs counts the cluster's unfinished jobs -------------------------------------
 for i in 1 2; do
-    start_node $i --threads 1 --cluster-tile 64 --max-jobs 2 --job-ttl 2 --test-gate 0 --redis "$REDIS_URL"
+    start_node $i --threads 1 --cluster-tile 64 --max-jobs 2 --job-ttl 5 --test-gate 0 --redis "$REDIS_URL"
 done
 c1=$(post 1 "$REG" a)
 A=$(id_of "$T/a.json")
@@ -72,15 +75,14 @@ check max_jobs_unfinished_set "rayd:unfinished holds $(rcli scard rayd:unfinishe
 # every job ended: ids left in the set by hand (a job Redis lost) do not block
 for id in $(rcli smembers rayd:unfinished); do curl -s -o /dev/null -X DELETE "${NODE_URL[1]}/v1/jobs/$id"; done
 rcli sadd rayd:unfinished ffffffffffffffffffffffffffffffff eeeeeeeeeeeeeeeeeeeeeeeeeeeeeeee >/dev/null
-for i in 1 2; do gate_node $i open; done
-c5=$(post 1 "$REG" rays)
+c5=$(post 1 "$REG" rays) # held at the gates until the wait below reads it
 R=$(id_of "$T/rays.json")
 check max_jobs_stale_ids_pruned "gave $c5: $(head -c 200 "$T/rays.json"); set: $(rcli smembers rayd:unfinished | tr '\n' ' ')" \
     bash -c "[ $c5 = 202 ] && ! rcli smembers rayd:unfinished | grep -q -e ffff -e eeee"
 
 # --- a job's rays: its tiles' sum, a single node's figure ----------------------------------
-wait_until 120 succeeded 2 "$R"
-curl -s "${NODE_URL[2]}/v1/jobs/$R" >"$T/rays_job.json"
+for i in 1 2; do gate_node $i open; done
+wait_until 120 succeeded_into 2 "$R" "$T/rays_job.json"
 start_node 9 --threads 2
 curl -s -o "$T/single.json" "${JSON[@]}" --data-binary @"$SCENE" "${NODE_URL[9]}/v1/jobs?$REG"
 S=$(id_of "$T/single.json")
@@ -92,8 +94,8 @@ check job_rays_single_node "cluster job: $cr rays, single node's: $sr" [ -n "$cr
 # the same frame again: every tile from the nodes' result caches, the same rays
 post 2 "$REG" again >/dev/null
 R2=$(id_of "$T/again.json")
-wait_until 120 succeeded 1 "$R2"
-cr2=$(curl -s "${NODE_URL[1]}/v1/jobs/$R2" | python3 -c 'import json,sys; print(json.load(sys.stdin)["rays"])')
+wait_until 120 succeeded_into 1 "$R2" "$T/again_job.json"
+cr2=$(json "$T/again_job.json" 'j["rays"]')
 check job_rays_from_result_cache "cluster job again: $cr2 rays, single node's: $sr" [ "$cr2" = "$sr" ]
 check job_encode_ms "encode_ms: $(json "$T/rays_job.json" 'j["encode_ms"]')" \
     python3 -c 'import json,sys; sys.exit(0 if json.load(open(sys.argv[1]))["encode_ms"] > 0 else 1)' "$T/rays_job.json"
@@ -104,7 +106,7 @@ gone() { [ "$(curl -s -o /dev/null -w '%{http_code}' "${NODE_URL[$1]}/v1/jobs/$2
 wait_until 30 gone 1 "$R"
 code=$(curl -s -o "$T/gone.json" -D "$T/gone.h" -w '%{http_code}' "${NODE_URL[1]}/v1/jobs/$R")
 check expired_410 "gave $code: $(head -c 300 "$T/gone.json")" bash -c \
-    "[ $code = 410 ] && grep -q '\"code\":\"job_expired\"' '$T/gone.json' && grep -q '\"state\":\"succeeded\"' '$T/gone.json' && grep -q 'kept for --job-ttl 2 s' '$T/gone.json'"
+    "[ $code = 410 ] && grep -q '\"code\":\"job_expired\"' '$T/gone.json' && grep -q '\"state\":\"succeeded\"' '$T/gone.json' && grep -q 'kept for --job-ttl 5 s' '$T/gone.json'"
 check expired_no_store "headers: $(tr -d '\r' <"$T/gone.h" | tr '\n' ' ')" grep -qi '^cache-control: no-store' "$T/gone.h"
 for path in image.png events; do
     code=$(curl -s -m 30 -o "$T/gone_$path" -w '%{http_code}' "${NODE_URL[2]}/v1/jobs/$R/$path")
