@@ -445,8 +445,6 @@ static redisReply *cluster_tiles_get(struct redis *c, const char *id, long k,
                 rep->elements != (size_t)g->tiles)) {
         freeReplyObject(rep);
         rep = NULL;
-    } else if (!rep) {
-        redis_failed(c, rep);
     }
     return rep;
 }
