@@ -96,7 +96,6 @@ const struct exr_chan exr_chans[] = {
     {"materialId", RAYD_AOV_MATERIAL, 9},
 };
 const size_t exr_nchans = sizeof exr_chans / sizeof exr_chans[0];
-#define EXR_CHANS exr_nchans
 
 /* The header: one scanline part, w x h, channels R, G, B and the AOVs of
  * mask as float. */
@@ -105,7 +104,7 @@ static exr_result_t exr_header(exr_context_t ctx, int w, int h, unsigned mask) {
     exr_result_t rv = exr_add_part(ctx, "rgb", EXR_STORAGE_SCANLINE, &part);
     if (rv == EXR_ERR_SUCCESS)
         rv = exr_initialize_required_attr_simple(ctx, part, w, h, EXR_COMPRESSION_PIZ);
-    for (size_t c = 0; c < EXR_CHANS && rv == EXR_ERR_SUCCESS; c++) {
+    for (size_t c = 0; c < exr_nchans && rv == EXR_ERR_SUCCESS; c++) {
         if (exr_chans[c].aov && !(exr_chans[c].aov & mask)) continue;
         bool colour = exr_chans[c].aov <= RAYD_AOV_ALBEDO;
         rv = exr_add_channel(ctx, part, exr_chans[c].name, EXR_PIXEL_FLOAT,
@@ -126,7 +125,7 @@ static void exr_point(exr_encode_pipeline_t *enc, const struct exr_src *src, int
     for (int c = 0; c < enc->channel_count; c++) {
         exr_coding_channel_info_t *ch = &enc->channels[c];
         const struct exr_chan *k = &exr_chans[0];
-        for (size_t i = 0; i < EXR_CHANS; i++)
+        for (size_t i = 0; i < exr_nchans; i++)
             if (!strcmp(exr_chans[i].name, ch->channel_name)) k = &exr_chans[i];
         int stride = k->aov ? RAYD_AOV_FLOATS : 3;
         const float *base = k->aov ? src->aov : src->rgb;
