@@ -178,12 +178,17 @@ bool api_shots_frames(struct http_req *r, const rayd_scene *scene, long *first, 
  * whether the EXR is asked; false after replying (404, 400). */
 bool api_shots_frame_path(struct http_req *r, const char *path, char id[33], long *k, bool *exr);
 
+/* Which pass an image is: X-Rayd-Pass "k/total", X-Rayd-Samples n
+ * (api_jobs_image.c). */
+void api_jobs_pass_headers(struct http_req *r, int pass, int total, int samples);
+
 /* api_cluster.c: the job routes with --redis (cluster_on()), answered from
  * the cluster's request thread.  api_cluster_submit: POST /v1/jobs once its
  * scene is checked (what, priority and the price of one frame); true when
  * the request was handed on. */
 bool api_cluster_submit(struct http_req *r, struct cache_entry *e, const struct work_target *what,
-                        int priority, const struct api_price *one, bool animated);
+                        int priority, const struct api_price *one, bool animated,
+                        const struct jobs_plan *plan);
 void api_cluster_get(struct http_req *r, const char *id);
 void api_cluster_delete(struct http_req *r, const char *id);
 void api_cluster_stop(struct http_req *r, const char *id);

@@ -11,7 +11,8 @@
  * from the same structs, so it has the same shape.
  *
  * What a cluster job does not do yet is refused at the door, naming the
- * parameter, never answered wrongly: progressive passes.  While Redis is unreachable
+ * parameter, never answered wrongly: a progressive job's passes are PNGs
+ * of the light alone (no EXR, AOV or denoised passes).  While Redis is unreachable
  * every job route answers 503 cluster_unavailable with a Retry-After and
  * a message naming the Redis address and the reason; renders, which need
  * no Redis, are served as always.
@@ -29,7 +30,8 @@
 struct api_cluster {
     struct cluster_op op; /* first: the callbacks get it back */
     struct http_req *r;
-    bool unlit, exr, stop;
+    bool unlit, exr;
+    const char *pass; /* image.png?pass= as given, or NULL */
     struct api_price price;
     char *query;
     void (*answer)(struct api_cluster *a);
@@ -160,18 +162,52 @@ static void api_cluster_accepted(struct api_cluster *a) {
     api_jobs_reply_accepted(a->r, o, op->id, a->unlit, &a->price);
 }
 
+/* What a cluster's progressive job cannot keep (its passes are the
+ * light's PNGs); true after a 400 naming it. */
+static bool api_cluster_plan_refused(struct http_req *r, const struct work_target *what) {
+    const char *name = what->keep_exr  ? "format"
+                       : what->aov     ? "aov"
+                       : what->denoise ? "denoise"
+                                       : NULL;
+    if (!name) return false;
+    char why[300];
+    snprintf(why, sizeof why,
+             "a cluster (rayd --redis) keeps a progressive job's passes as PNGs of the light "
+             "alone, so not with %s: leave progressive=1 out, or %s out (denoise=0 when the "
+             "scene asks for it)",
+             name, name);
+    api_bad_param(r, "progressive", why); /* the page then posts it as a plain job */
+    return true;
+}
+
+/* A progressive job's plan into op; false after replying. */
+static bool api_cluster_plan(struct http_req *r, struct cache_entry *e,
+                             const struct work_target *what, const struct jobs_plan *plan,
+                             struct cluster_op *op) {
+    if (!plan) return true;
+    if (api_cluster_plan_refused(r, what)) return false;
+    struct rayd_scene_info info;
+    rayd_scene_info(cache_scene(e), &info);
+    op->progressive = true;
+    op->plan = *plan;
+    op->npasses = passes_plan(plan, info.samples, op->samples); /* checked: api_plan */
+    return op->npasses > 0;
+}
+
 bool api_cluster_submit(struct http_req *r, struct cache_entry *e, const struct work_target *what,
-                        int priority, const struct api_price *one, bool animated) {
-    static const char *const progressive[] = {"progressive", "pass_step", "time_budget",
-                                              "noise_target", NULL};
-    for (int i = 0; progressive[i]; i++)
-        if (http_req_query(r, progressive[i]))
-            return api_bad_param(r, progressive[i],
-                                 "progressive jobs are not made by a cluster (rayd --redis) yet: "
-                                 "leave it out, or render progressively with POST /v1/render");
+                        int priority, const struct api_price *one, bool animated,
+                        const struct jobs_plan *plan) {
     struct api_cluster *a = api_cluster_new(r, CO_SUBMIT, NULL, api_cluster_accepted);
     if (!a) return false;
     struct cluster_op *op = &a->op;
+    if (animated && http_req_query(r, "progressive")) { /* as one node refuses it */
+        free(a);
+        return api_bad_param(r, "progressive", "a frame-range job is not progressive");
+    }
+    if (!api_cluster_plan(r, e, what, plan, op)) {
+        free(a);
+        return false;
+    }
     if (animated) {
         struct rayd_animation an;
         rayd_scene_animation(cache_scene(e), &an);
@@ -194,8 +230,9 @@ bool api_cluster_submit(struct http_req *r, struct cache_entry *e, const struct 
         free(a);
         return false;
     }
-    if (cluster_assemble_bytes(what->reg.w, what->reg.h, n, what->keep_exr, what->aov) >
-        mem_limit()) {
+    size_t need = cluster_assemble_bytes(what->reg.w, what->reg.h, n, what->keep_exr, what->aov);
+    if (plan) need = cluster_passes_bytes(what->reg.w, what->reg.h, n);
+    if (need > mem_limit()) {
         /* a frame this node could never assemble: as one node refuses a render over it */
         metrics_reject(MR_MEMORY);
         api_refused(r, WORK_TOO_BIG);
@@ -225,9 +262,13 @@ bool api_cluster_submit(struct http_req *r, struct cache_entry *e, const struct 
 static void api_cluster_status(struct api_cluster *a) {
     struct cluster_op *op = &a->op;
     snprintf(a->r->res.scene, sizeof a->r->res.scene, "%s", op->info.job.scene_id);
-    if (a->stop) {
+    if (op->not_progressive) { /* the single node's answers */
         http_reply_error(a->r, 409, "not_progressive",
-                         "a cluster job is never progressive: DELETE cancels it", NULL, 0, 0, NULL);
+                         op->is_animated
+                             ? "a frame-range job cannot be stopped and kept; DELETE cancels it"
+                             : "only a progressive job can be stopped and kept; DELETE cancels "
+                               "a job",
+                         NULL, 0, 0, NULL);
         return;
     }
     http_reply_json(a->r, 200, api_cluster_json(op->id, &op->info, op->is_animated));
@@ -235,26 +276,24 @@ static void api_cluster_status(struct api_cluster *a) {
 
 /* The job route of id as kind; false when id is not a job id (404). */
 static void api_cluster_job(struct http_req *r, const char *id, enum cluster_op_kind kind,
-                            bool stop, void (*answer)(struct api_cluster *)) {
+                            void (*answer)(struct api_cluster *)) {
     if (!api_only_params(r, NULL)) return;
     if (!api_is_hex(id, 32)) {
         api_jobs_unknown(r);
         return;
     }
     struct api_cluster *a = api_cluster_new(r, kind, id, answer);
-    if (!a) return;
-    a->stop = stop;
-    api_cluster_go(a);
+    if (a) api_cluster_go(a);
 }
 
 void api_cluster_get(struct http_req *r, const char *id) {
-    api_cluster_job(r, id, CO_GET, false, api_cluster_status);
+    api_cluster_job(r, id, CO_GET, api_cluster_status);
 }
 void api_cluster_delete(struct http_req *r, const char *id) {
-    api_cluster_job(r, id, CO_CANCEL, false, api_cluster_status);
+    api_cluster_job(r, id, CO_CANCEL, api_cluster_status);
 }
 void api_cluster_stop(struct http_req *r, const char *id) {
-    api_cluster_job(r, id, CO_GET, true, api_cluster_status);
+    api_cluster_job(r, id, CO_STOP, api_cluster_status);
 }
 
 /* ---- the images ---------------------------------------------------------------------- */
@@ -263,6 +302,39 @@ void api_cluster_stop(struct http_req *r, const char *id) {
 static void api_cluster_png(struct http_req *r, struct blob *png, bool exr) {
     http_reply_image(r, 200, png, api_format_type(exr ? WORK_EXR : WORK_PNG));
     http_reply_header(r, "Cache-Control", "private, max-age=3600");
+}
+
+/* ?pass= refused for this job, as one node refuses it; true after a 400. */
+static bool api_cluster_pass_refused(struct api_cluster *a) {
+    const struct jobs_info *j = &a->op.info.job;
+    char range[80];
+    snprintf(range, sizeof range, "must be a pass number of this job, 1..%d", j->passes.total);
+    if (!j->progressive)
+        return api_bad_param(a->r, "pass", "only a progressive job has passes"), true;
+    if (a->op.pass < 1 || a->op.pass > j->passes.total)
+        return api_bad_param(a->r, "pass", range), true;
+    return false;
+}
+
+/* A progressive job's pass image: that pass's (?pass=K) or the latest,
+ * while the job runs too. */
+static void api_cluster_pass_answer(struct api_cluster *a) {
+    struct cluster_op *op = &a->op;
+    const struct jobs_info *j = &op->info.job;
+    long k = op->pass ? op->pass : j->passes.done;
+    if (op->png) {
+        bool final = !op->pass && j->state != JS_SUCCEEDED;
+        http_reply_image(a->r, 200, op->png, api_format_type(WORK_PNG));
+        http_reply_header(a->r, "Cache-Control", final ? "no-store" : "private, max-age=3600");
+        api_jobs_pass_headers(a->r, (int)k, j->passes.total, op->pass_samples);
+    } else if (op->pass && k <= j->passes.done) {
+        http_reply_error(a->r, 410, "pass_gone",
+                         "that pass's image is no longer kept (only the latest passes are)", NULL,
+                         0, 0, "pass");
+    } else {
+        http_reply_json(a->r, 202, api_cluster_json(op->id, &op->info, false));
+        http_reply_header(a->r, "Retry-After", "1");
+    }
 }
 
 /* image.png (or .exr) of a still job. */
@@ -276,11 +348,16 @@ static void api_cluster_image_answer(struct api_cluster *a) {
         http_reply_error(r, 409, "frame_range_job",
                          "this job renders frames: GET /v1/jobs/{id}/frames/{k}.png", NULL, 0, 0,
                          NULL);
+    } else if (a->pass && api_cluster_pass_refused(a)) {
+        /* replied */
     } else if (a->exr && !j->keep_exr) {
         http_reply_error(r, 409, "not_exr",
                          "this job keeps no EXR: create it with POST /v1/jobs?format=exr (its "
                          "PNG is image.png)",
                          NULL, 0, 0, NULL);
+    } else if (j->progressive &&
+               (a->pass || op->png || j->state == JS_RUNNING || j->state == JS_QUEUED)) {
+        api_cluster_pass_answer(a);
     } else if (j->state == JS_SUCCEEDED && op->png) {
         api_cluster_png(r, op->png, a->exr);
     } else if (j->state == JS_SUCCEEDED) {
@@ -301,9 +378,10 @@ static void api_cluster_image_answer(struct api_cluster *a) {
 
 static void api_cluster_image_as(struct http_req *r, const char *id, bool exr) {
     static const char *const takes[] = {"pass", NULL};
+    const char *pass = http_req_query(r, "pass");
     if (!api_only_params(r, takes)) return;
-    if (http_req_query(r, "pass")) {
-        api_bad_param(r, "pass", "only a progressive job has passes, and a cluster makes none");
+    if (http_req_query_count(r, "pass") > 1) {
+        api_bad_param(r, "pass", "given more than once");
         return;
     }
     if (!api_is_hex(id, 32)) {
@@ -313,6 +391,9 @@ static void api_cluster_image_as(struct http_req *r, const char *id, bool exr) {
     struct api_cluster *a = api_cluster_new(r, CO_IMAGE, id, api_cluster_image_answer);
     if (!a) return;
     a->exr = a->op.exr = exr;
+    a->pass = pass;
+    if (pass) /* checked against the job's passes in the answer: -1 is none of them */
+        a->op.pass = api_is_decimal(pass, false) && strlen(pass) < 6 ? strtol(pass, NULL, 10) : -1;
     api_cluster_go(a);
 }
 

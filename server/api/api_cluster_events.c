@@ -11,7 +11,7 @@
  * brought none waits API_CLUSTER_POLL before the next (op->at): the
  * request thread holds it meanwhile, so an open stream costs no thread.
  * The events and their data are those of the single node (state, tile +
- * progress, frame, done; "frame" for frame-range jobs only, as there: a
+ * progress, pass, frame, done; "frame" for frame-range jobs only, as there: a
  * still job's frame is its image.png); the stream ends after "done".
  */
 #include "api/api.h"
@@ -69,7 +69,8 @@ static size_t api_cev_format(struct api_cev *a, const struct cluster_event *e, c
         cJSON_AddNumberToObject(o, "h", e->reg.h);
         size_t n = api_sse_event(out, size, "tile", o);
         o = cJSON_CreateObject();
-        json_add_fixed(o, "progress", e->total > 0 ? (double)e->done / (double)e->total : 0, 4);
+        double frac = e->total > 0 ? (double)e->done / (double)e->total : 0;
+        json_add_fixed(o, "progress", e->progress >= 0 ? e->progress : frac, 4);
         cJSON_AddNumberToObject(o, "done", (double)e->done);
         cJSON_AddNumberToObject(o, "total", (double)e->total);
         return n + api_sse_event(out + n, size - n, "progress", o);
@@ -87,6 +88,16 @@ static size_t api_cev_format(struct api_cev *a, const struct cluster_event *e, c
         snprintf(url, sizeof url, "/v1/jobs/%s/frames/%ld.png", a->op.id, e->frame);
         cJSON_AddStringToObject(o, "url", url);
         return api_sse_event(out, size, "frame", o);
+    }
+    if (!strcmp(e->kind, "pass")) { /* the single node's, key for key (api_events.c) */
+        cJSON_AddNumberToObject(o, "pass", (double)e->done);
+        cJSON_AddNumberToObject(o, "passes", (double)e->total);
+        cJSON_AddNumberToObject(o, "samples", (double)e->samples);
+        json_add_fixed(o, "time_s", e->time_s, 3);
+        api_jobs_add_noise(o, e->noise);
+        json_add_fixed(o, "progress", e->progress, 4);
+        api_jobs_add_pass_url(o, a->op.id, (int)e->done);
+        return api_sse_event(out, size, "pass", o);
     }
     a->ended = true; /* "done" */
     cJSON_AddStringToObject(o, "state", e->state);

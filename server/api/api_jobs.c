@@ -198,7 +198,8 @@ static bool api_jobs_compiled(struct http_req *r, struct cache_entry *e, bool hi
         !api_jobs_priority(r, &how.priority) || !api_cost_admit(r, e, &what, progressive, &price))
         return false; /* replied */
     if (cluster_on()) /* rayd --redis: the job is the cluster's (api_cluster.c) */
-        return api_cluster_submit(r, e, &what, how.priority, &price, shot == 1);
+        return api_cluster_submit(r, e, &what, how.priority, &price, shot == 1,
+                                  progressive ? &plan : NULL);
     if (shot) /* an animated scene: a frame-range job (api_shots.c) */
         return api_shots_submit(r, e, &what, how.priority, &price);
     struct api_jobs_wait *a = calloc(1, sizeof *a);

@@ -29,8 +29,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Which pass an image is: X-Rayd-Pass "k/total", X-Rayd-Samples n. */
-static void api_pass_headers(struct http_req *r, int pass, int total, int samples) {
+void api_jobs_pass_headers(struct http_req *r, int pass, int total, int samples) {
     char v[32];
     snprintf(v, sizeof v, "%d/%d", pass, total);
     http_reply_header(r, "X-Rayd-Pass", v);
@@ -122,7 +121,7 @@ static void api_jobs_pass_image(struct http_req *r, const char *id, const char *
     jobs_pass_image(id, k, exr ? JI_EXR : raw ? JI_RAW : JI_PNG, &img, &samples);
     if (img) {
         api_jobs_image_reply(r, img, exr, "private, max-age=3600");
-        api_pass_headers(r, k, info.passes.total, samples);
+        api_jobs_pass_headers(r, k, info.passes.total, samples);
         blob_unref(img);
     } else if (k <= info.passes.done) {
         http_reply_error(r, 410, "pass_gone",
@@ -175,7 +174,7 @@ static void api_jobs_final_reply(struct http_req *r, const char *id, const struc
         api_jobs_image_reply(r, img, exr,
                              info->state == JS_SUCCEEDED ? "private, max-age=3600" : "no-store");
         if (info->progressive)
-            api_pass_headers(r, info->passes.done, info->passes.total, info->passes.samples);
+            api_jobs_pass_headers(r, info->passes.done, info->passes.total, info->passes.samples);
     } else {
         api_jobs_no_image(r, id, info);
     }

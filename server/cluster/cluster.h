@@ -42,7 +42,8 @@ enum cluster_op_kind {
     CO_IMAGE,  /* a frame's PNG: image.png (frame 0 of a still) or frames/{k}.png */
     CO_VIDEO,  /* a frame range's video.mp4 (in png), once made */
     CO_LIST,   /* GET /v1/jobs */
-    CO_EVENTS  /* GET /v1/jobs/{id}/events: the events after a cursor */
+    CO_EVENTS, /* GET /v1/jobs/{id}/events: the events after a cursor */
+    CO_STOP    /* POST /v1/jobs/{id}/stop: a progressive job ends with its latest pass */
 };
 enum cluster_status {
     CS_OK,
@@ -60,16 +61,20 @@ enum cluster_status {
 /* One job event as kept in its stream. */
 struct cluster_event {
     char cursor[48];        /* the stream entry's id */
-    char kind[16];          /* state, tile, frame, done */
+    char kind[16];          /* state, tile, frame, pass, done */
     char state[16];         /* state, done */
     long frame, tile;       /* tile, frame */
-    long done, total;       /* tile: tiles of the job done; frame: frames done */
+    long done, total;       /* tile: tiles of the job done; frame: frames done; pass: the pass */
     struct rayd_region reg; /* tile: where it is in the image */
+    double progress;        /* tile of a progressive job, pass: the job's; < 0: none */
+    long samples;           /* pass: its samples, what it took, its noise estimate */
+    double time_s, noise;
 };
 struct cluster_op {
     enum cluster_op_kind kind;
     char id[33];
     long frame; /* CO_IMAGE: the frame (a still job's is 0) */
+    long pass;  /* CO_IMAGE: a progressive job's pass asked (?pass=K), 0: the latest */
     /* CO_SUBMIT */
     const char *scene; /* the body as sent: valid until done() */
     size_t scene_len;
@@ -83,6 +88,9 @@ struct cluster_op {
     bool denoise; /* each tile rendered denoised (with its apron): crops of the denoised frame */
     bool exr;     /* CO_SUBMIT: the job keeps an EXR too (format=exr); CO_IMAGE: the EXR asked */
     unsigned aov; /* the one AOV the PNG shows instead of the light (enum rayd_aov bits), or 0 */
+    bool progressive; /* CO_SUBMIT: rendered in passes (plan, samples) */
+    struct jobs_plan plan;
+    int samples[PASSES_MAX], npasses;
     double fps, est_rays;
     /* CO_LIST */
     long long after; /* the cursor (a creation time in ms), 0: from the newest */
@@ -96,8 +104,10 @@ struct cluster_op {
     struct shots_info info;  /* the job (info.job), and its frames when animated */
     bool is_animated;        /* the job is a frame range */
     bool canceled_now;       /* CO_CANCEL: this request ended it */
+    bool not_progressive;    /* CO_STOP: the job has no passes to stop (409) */
     double created_ms;       /* CO_SUBMIT: when the job was made (ms since the epoch) */
     struct blob *png;        /* CO_IMAGE: the frame's PNG (or EXR), when it is there */
+    int pass_samples;        /* CO_IMAGE of a progressive job: the samples of that pass */
     struct shots_info *rows; /* CO_LIST: limit rows (the caller's array) */
     bool *row_animated;
     int nrows;
@@ -114,6 +124,9 @@ struct cluster_op {
  * over --max-memory, a job of such frames is refused at POST, as one node
  * refuses such a render. */
 size_t cluster_assemble_bytes(long w, long h, long tile, bool exr, unsigned aov);
+/* Likewise for a progressive job's pass (cluster_passes.c): the pass's
+ * image and PNG, the previous pass's, and a tile's sums. */
+size_t cluster_passes_bytes(long w, long h, long tile);
 /* Queues op: true after op->suspend ran (op->done will be called once);
  * false when the cluster is stopping (op not used). */
 bool cluster_submit(struct cluster_op *op);

@@ -92,7 +92,7 @@ static const char cluster_lua_tile[] =
  * RAYD_TEST_CLUSTER_TILE=corrupt (or missing) the first tile this node
  * stores is kept as bytes that are not a PNG (or not kept at all, though
  * counted done), so a test sees the frame re-render it. */
-static const char *cluster_test_tile(void) {
+const char *cluster_test_tile(void) {
     static atomic_bool used;
     const char *v = getenv("RAYD_TEST_CLUSTER_TILE");
     if (config.test_gate_tiles < -1 || !v || atomic_exchange(&used, true)) return NULL;
@@ -191,16 +191,7 @@ static const char cluster_lua_redo[] =
     "end\n"
     "return 1\n";
 
-/* The job's geometry: the frame's region and its tile grid. */
-struct cluster_geom {
-    char state[16];
-    int x, y, w, h;
-    long tiles, cols, size;
-    bool exr;     /* the job keeps an EXR too */
-    unsigned aov; /* its AOVs */
-};
-
-static bool cluster_geom_read(struct redis *c, const char *id, struct cluster_geom *g) {
+bool cluster_geom_read(struct redis *c, const char *id, struct cluster_geom *g) {
     char key[120];
     memset(g, 0, sizeof *g);
     cluster_key(key, sizeof key, id, "job");
@@ -228,8 +219,7 @@ static bool cluster_geom_read(struct redis *c, const char *id, struct cluster_ge
     return true;
 }
 
-/* Tile t of g as a region relative to the frame. */
-static struct rayd_region cluster_tile_reg(const struct cluster_geom *g, long t) {
+struct rayd_region cluster_tile_reg(const struct cluster_geom *g, long t) {
     int tx = (int)((t % g->cols) * g->size), ty = (int)((t / g->cols) * g->size);
     int w = g->w - tx < g->size ? g->w - tx : (int)g->size;
     int h = g->h - ty < g->size ? g->h - ty : (int)g->size;
@@ -391,7 +381,7 @@ static bool cluster_frame_store(struct redis *c, const char *id, long k, const v
  * node with a larger budget that may not exist (too_large, the code a
  * render over a limit has).  True when it ended. */
 #define CLUSTER_ASSEMBLY_MISSES 20
-static bool cluster_assemble_never(struct redis *c, const char *id, long k, size_t need) {
+bool cluster_assemble_never(struct redis *c, const char *id, long k, size_t need) {
     if (need <= mem_limit()) return false;
     char key[80];
     cluster_key(key, sizeof key, id, "job");
@@ -412,7 +402,7 @@ static bool cluster_assemble_never(struct redis *c, const char *id, long k, size
 
 /* The assembly's bytes reserved in the memory budget; false (counted,
  * said) when there is no room. */
-static bool cluster_assemble_reserve(const char *id, long k, size_t need) {
+bool cluster_assemble_reserve(const char *id, long k, size_t need) {
     if (mem_reserve(MEM_RESULTS, need)) return true;
     atomic_fetch_add(&cluster_deferred_total, 1);
     log_warn("cluster: job %s frame %ld: its assembly needs %zu bytes and this node's memory "

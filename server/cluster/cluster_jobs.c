@@ -60,6 +60,16 @@ const char cluster_lua_end[] =
     "    redis.call('EXPIRE', p .. 'frame:' .. k .. ':exr', ttl)\n"
     "    redis.call('EXPIRE', p .. 'done:' .. k, ttl)\n"
     "  end\n"
+    "  local pr = redis.call('HMGET', p .. 'job', 'pass', 'passes', 'progressive')\n"
+    "  if pr[3] == '1' then\n"
+    "    local K = tonumber(pr[1])\n"
+    "    for t = 0, tiles - 1 do\n"
+    "      redis.call('DEL', p .. 'sums:' .. K .. ':' .. t, p .. 'run:' .. K .. ':' .. t, p .. "
+    "'run:' .. (K - 1) .. ':' .. t)\n"
+    "    end\n"
+    "    redis.call('DEL', p .. 'pdone:' .. K)\n"
+    "    for q = 1, tonumber(pr[2]) do redis.call('EXPIRE', p .. 'pass:' .. q, ttl) end\n"
+    "  end\n"
     "  for _, k in ipairs({'job', 'events', 'frames'}) do redis.call('EXPIRE', p .. k, ttl) end\n"
     "  redis.call('SREM', 'rayd:unfinished', id)\n"
     "  local tomb = tonumber(ttl) + " CLUSTER_TOMB_S "\n"
@@ -68,8 +78,9 @@ const char cluster_lua_end[] =
     "end\n";
 
 /* KEYS: the job, rayd:jobs, the items' stream, the events, rayd:unfinished;
- * ARGV: id, created (ms), first, last, tiles, --max-jobs, then the hash's
- * fields and values.  -3: the cluster's unfinished jobs are --max-jobs.
+ * ARGV: id, created (ms), first, last, tiles, --max-jobs, the items' pass
+ * ("0": no passes; a progressive job's start at 1), then the hash's fields
+ * and values.  -3: the cluster's unfinished jobs are --max-jobs.
  * A full set is pruned of ended ids 64 at a time (SRANDMEMBER), so a
  * refused POST costs Redis a bounded moment however large --max-jobs is. */
 static const char cluster_lua_submit[] =
@@ -82,23 +93,31 @@ static const char cluster_lua_submit[] =
     "  if redis.call('SCARD', KEYS[5]) >= max then return -3 end\n"
     "end\n"
     "redis.call('SADD', KEYS[5], ARGV[1])\n"
-    "redis.call('HSET', KEYS[1], unpack(ARGV, 7))\n"
+    "redis.call('HSET', KEYS[1], unpack(ARGV, 8))\n"
     "redis.call('ZADD', KEYS[2], ARGV[2], ARGV[1])\n"
     "redis.call('XADD', KEYS[4], 'MAXLEN', '~', 1000, '*', 'kind', 'state', 'state', 'queued')\n"
     "for k = tonumber(ARGV[3]), tonumber(ARGV[4]) do\n"
     "  for t = 0, tonumber(ARGV[5]) - 1 do\n"
-    "    redis.call('XADD', KEYS[3], '*', 'job', ARGV[1], 'frame', k, 'tile', t)\n"
+    "    if ARGV[7] == '0' then\n"
+    "      redis.call('XADD', KEYS[3], '*', 'job', ARGV[1], 'frame', k, 'tile', t)\n"
+    "    else\n"
+    "      redis.call('XADD', KEYS[3], '*', 'job', ARGV[1], 'frame', k, 'tile', t, 'pass', "
+    "ARGV[7])\n"
+    "    end\n"
     "  end\n"
     "end\n"
     "return 1\n";
 
 /* The fields a status read takes (never the scene: it can be megabytes). */
 static const char *const cluster_fields[] = {
-    "state",       "created",   "started",   "ended", "client",   "priority",
-    "scene_id",    "x",         "y",         "w",     "h",        "first",
-    "last",        "animated",  "tiles",     "fps",   "est_rays", "tiles_done",
-    "frames_done", "rays",      "render_ms", "error", "latest",   "version",
-    "denoise",     "encode_ms", "exr",       "video", NULL};
+    "state",       "created",      "started",    "ended",       "client",
+    "priority",    "scene_id",     "x",          "y",           "w",
+    "h",           "first",        "last",       "animated",    "tiles",
+    "fps",         "est_rays",     "tiles_done", "frames_done", "rays",
+    "render_ms",   "error",        "latest",     "version",     "denoise",
+    "encode_ms",   "exr",          "video",      "progressive", "plan",
+    "passes_done", "pass_samples", "pass_time",  "noise",       "stopped",
+    NULL};
 enum {
     F_STATE,
     F_CREATED,
@@ -128,6 +147,13 @@ enum {
     F_ENCODE_MS,
     F_EXR,
     F_VIDEO,
+    F_PROGRESSIVE,
+    F_PLAN,
+    F_PASSES_DONE,
+    F_PASS_SAMPLES,
+    F_PASS_TIME,
+    F_NOISE,
+    F_STOPPED,
     F__COUNT
 };
 
@@ -187,7 +213,7 @@ static void cluster_submit_job(struct redis *c, struct cluster_op *op) {
     }
     long n = config.cluster_tile;
     long cols = (op->reg.w + n - 1) / n, rows = (op->reg.h + n - 1) / n;
-    char v[24][40], keys[3][80], max[24];
+    char v[24][40], keys[3][80], max[24], plan[PASSES_MAX * 8] = "";
     double now = cluster_now_ms();
     op->created_ms = now;
     snprintf(v[0], 40, "%.0f", now);
@@ -206,47 +232,108 @@ static void cluster_submit_job(struct redis *c, struct cluster_op *op) {
     snprintf(v[13], 40, "%.0f", op->est_rays);
     snprintf(v[14], 40, "%u", op->aov);
     snprintf(max, sizeof max, "%ld", config.max_jobs);
+    snprintf(v[15], 40, "%d", op->npasses);
+    snprintf(v[16], 40, "%.17g", op->plan.time_budget);
+    snprintf(v[17], 40, "%.17g", op->plan.noise_target);
+    for (int i = 0; i < op->npasses; i++) {
+        size_t used = strlen(plan);
+        snprintf(plan + used, sizeof plan - used, "%s%d", i ? "," : "", op->samples[i]);
+    }
     cluster_key(keys[0], sizeof keys[0], op->id, "job");
     cluster_key(keys[2], sizeof keys[2], op->id, "events");
-    const char *argv[] = {"EVAL",        cluster_lua_submit,
-                          "5",           keys[0],
-                          "rayd:jobs",   cluster_items_stream(op->priority),
-                          keys[2],       "rayd:unfinished",
-                          op->id,        v[0],
-                          v[1],          v[2],
-                          v[3],          max,
-                          "id",          op->id,
-                          "version",     cluster_version(),
-                          "state",       "queued",
-                          "created",     v[0],
-                          "client",      v[4],
-                          "priority",    v[5],
-                          "scene_id",    op->scene_id,
-                          "query",       op->query ? op->query : "",
-                          "x",           v[6],
-                          "y",           v[7],
-                          "w",           v[8],
-                          "h",           v[9],
-                          "width",       v[8],
-                          "height",      v[9],
-                          "first",       v[1],
-                          "last",        v[2],
-                          "animated",    op->animated ? "1" : "0",
-                          "tiles",       v[3],
-                          "cols",        v[10],
-                          "tile_size",   v[11],
-                          "fps",         v[12],
-                          "est_rays",    v[13],
-                          "denoise",     op->denoise ? "1" : "0",
-                          "exr",         op->exr ? "1" : "0",
-                          "aov",         v[14],
-                          "tiles_done",  "0",
-                          "frames_done", "0",
-                          "rays",        "0",
-                          "render_ms",   "0",
-                          "node",        cluster_node_id,
-                          "items",       cluster_items_stream(op->priority),
-                          "scene",       op->scene};
+    const char *argv[] = {"EVAL",
+                          cluster_lua_submit,
+                          "5",
+                          keys[0],
+                          "rayd:jobs",
+                          cluster_items_stream(op->priority),
+                          keys[2],
+                          "rayd:unfinished",
+                          op->id,
+                          v[0],
+                          v[1],
+                          v[2],
+                          v[3],
+                          max,
+                          op->progressive ? "1" : "0",
+                          "id",
+                          op->id,
+                          "version",
+                          cluster_version(),
+                          "state",
+                          "queued",
+                          "created",
+                          v[0],
+                          "client",
+                          v[4],
+                          "priority",
+                          v[5],
+                          "scene_id",
+                          op->scene_id,
+                          "query",
+                          op->query ? op->query : "",
+                          "x",
+                          v[6],
+                          "y",
+                          v[7],
+                          "w",
+                          v[8],
+                          "h",
+                          v[9],
+                          "width",
+                          v[8],
+                          "height",
+                          v[9],
+                          "first",
+                          v[1],
+                          "last",
+                          v[2],
+                          "animated",
+                          op->animated ? "1" : "0",
+                          "tiles",
+                          v[3],
+                          "cols",
+                          v[10],
+                          "tile_size",
+                          v[11],
+                          "fps",
+                          v[12],
+                          "est_rays",
+                          v[13],
+                          "denoise",
+                          op->denoise ? "1" : "0",
+                          "exr",
+                          op->exr ? "1" : "0",
+                          "aov",
+                          v[14],
+                          "tiles_done",
+                          "0",
+                          "frames_done",
+                          "0",
+                          "rays",
+                          "0",
+                          "render_ms",
+                          "0",
+                          "node",
+                          cluster_node_id,
+                          "items",
+                          cluster_items_stream(op->priority),
+                          "progressive",
+                          op->progressive ? "1" : "0",
+                          "plan",
+                          plan,
+                          "passes",
+                          v[15],
+                          "pass",
+                          "1",
+                          "passes_done",
+                          "0",
+                          "time_budget",
+                          v[16],
+                          "noise_target",
+                          v[17],
+                          "scene",
+                          op->scene};
     int argc = (int)(sizeof argv / sizeof argv[0]);
     size_t lens[sizeof argv / sizeof argv[0]];
     for (int i = 0; i < argc; i++) lens[i] = strlen(argv[i]);
@@ -254,7 +341,10 @@ static void cluster_submit_job(struct redis *c, struct cluster_op *op) {
     redisReply *rep = redis_argv(c, argc, argv, lens);
     op->status = redis_failed(c, rep) ? CS_DOWN : redis_ll(rep, 1) == -3 ? CS_FULL : CS_OK;
     if (rep) freeReplyObject(rep);
-    if (op->status == CS_OK)
+    if (op->status == CS_OK && op->progressive)
+        log_info("cluster: job %s: pass 1 of %d, %ld tile(s), queued", op->id, op->npasses,
+                 cols * rows);
+    else if (op->status == CS_OK)
         log_info("cluster: job %s: %ld frame(s) of %ld tile(s) queued", op->id,
                  op->last - op->first + 1, cols * rows);
 }
@@ -302,6 +392,28 @@ static void cluster_video_state(const char *s, struct shots_info *out) {
     snprintf(out->video_error, sizeof out->video_error, "%s", why ? why + 1 + (why[1] == ' ') : "");
 }
 
+/* A progressive job's passes (its tiles: those of the pass being rendered). */
+static void cluster_fill_passes(redisReply **v, struct jobs_info *j, long tiles) {
+    int samples[PASSES_MAX];
+    int n = cluster_passes_plan(cluster_str(v[F_PLAN]), samples);
+    struct jobs_passes *p = &j->passes;
+    const char *why = cluster_str(v[F_STOPPED]);
+    j->progressive = true;
+    j->tiles_total = tiles;
+    p->total = n > 0 ? n : 0;
+    p->done = (int)cluster_num(v[F_PASSES_DONE]);
+    if (p->done > p->total) p->done = p->total;
+    p->samples = p->done > 0 ? (int)cluster_num(v[F_PASS_SAMPLES]) : 0;
+    p->samples_target = n > 0 ? samples[n - 1] : 0;
+    p->time_s = p->done > 0 ? cluster_num(v[F_PASS_TIME]) : 0;
+    p->noise = p->done > 0 && *cluster_str(v[F_NOISE]) ? cluster_num(v[F_NOISE]) : -1;
+    p->stopped = PASSES_GOING;
+    for (int s = PASSES_BY_TIME; s <= PASSES_BY_WORK; s++)
+        if (!strcmp(why, passes_stop_name((enum passes_stop)s))) p->stopped = (enum passes_stop)s;
+    double frac = (double)j->tiles_done / (double)(tiles > 0 ? tiles : 1);
+    if (n > 0) j->progress = passes_share(samples, n, p->done, frac);
+}
+
 /* The status read's values v (F__COUNT + 1) into *out. */
 static void cluster_fill(const char *id, redisReply **v, struct shots_info *out, bool *animated) {
     struct jobs_info *j = &out->job;
@@ -345,6 +457,7 @@ static void cluster_fill(const char *id, redisReply **v, struct shots_info *out,
     cluster_video_state(cluster_str(v[F_VIDEO]), out);
     j->progress = *animated ? (double)out->done / (double)(frames > 0 ? frames : 1)
                             : (double)j->tiles_done / (double)(tiles > 0 ? tiles : 1);
+    if (!strcmp(cluster_str(v[F_PROGRESSIVE]), "1")) cluster_fill_passes(v, j, tiles);
     if (j->state == JS_SUCCEEDED) j->progress = 1;
 }
 
@@ -383,6 +496,25 @@ static void cluster_read(struct redis *c, const char *id, struct cluster_op *op,
     if (rep) freeReplyObject(rep);
 }
 
+/* The samples of pass k of op's job into op->pass_samples; false when
+ * Redis failed (op->status says). */
+static bool cluster_pass_samples(struct redis *c, struct cluster_op *op, long k) {
+    char key[120];
+    int samples[PASSES_MAX];
+    cluster_key(key, sizeof key, op->id, "job");
+    const char *argv[] = {"HGET", key, "plan", NULL};
+    redisReply *rep = redis_strs(c, argv);
+    if (redis_failed(c, rep)) {
+        op->status = CS_DOWN;
+        if (rep) freeReplyObject(rep);
+        return false;
+    }
+    int n = cluster_passes_plan(cluster_str(rep), samples);
+    op->pass_samples = k >= 1 && k <= n ? samples[k - 1] : 0;
+    freeReplyObject(rep);
+    return true;
+}
+
 /* The frame's PNG (its EXR when op->exr; the job's video for CO_VIDEO),
  * when it is there. */
 static void cluster_image(struct redis *c, struct cluster_op *op) {
@@ -391,8 +523,14 @@ static void cluster_image(struct redis *c, struct cluster_op *op) {
     char key[120], what[40];
     if (op->kind == CO_VIDEO && op->info.video != SV_READY) return;
     if (op->kind != CO_VIDEO && (op->frame < op->info.first || op->frame > op->info.last)) return;
+    long pass = op->pass ? op->pass : op->info.job.passes.done;
+    if (op->info.job.progressive && (op->exr || pass < 1 || pass > op->info.job.passes.done))
+        return; /* no such pass yet (or none kept: the answer says) */
+    if (op->info.job.progressive && !cluster_pass_samples(c, op, pass)) return;
     if (op->kind == CO_VIDEO)
         snprintf(what, sizeof what, "video");
+    else if (op->info.job.progressive)
+        snprintf(what, sizeof what, "pass:%ld", pass);
     else
         snprintf(what, sizeof what, "frame:%ld%s", op->frame, op->exr ? ":exr" : "");
     cluster_key(key, sizeof key, op->id, what);
@@ -423,6 +561,17 @@ static void cluster_cancel(struct redis *c, struct cluster_op *op) {
         op->canceled_now = true;
         cluster_read(c, op->id, op, &op->info, &op->is_animated);
     }
+}
+
+/* A progressive job ends with its latest pass (or after its first). */
+static void cluster_stop_job(struct redis *c, struct cluster_op *op) {
+    int rc = cluster_passes_stop(c, op->id);
+    if (rc == -1) {
+        op->status = CS_DOWN;
+        return;
+    }
+    op->not_progressive = rc == -4;
+    cluster_read(c, op->id, op, &op->info, &op->is_animated);
 }
 
 /* One page of the client's jobs, newest first, before op->after. */
@@ -505,6 +654,12 @@ static void cluster_events(struct redis *c, struct cluster_op *op) {
         ev->tile = (long)redis_ll(redis_field(e->element[1], "tile"), -1);
         ev->done = (long)redis_ll(redis_field(e->element[1], "done"), 0);
         ev->total = (long)redis_ll(redis_field(e->element[1], "total"), 0);
+        const char *pr = cluster_str(redis_field(e->element[1], "progress"));
+        ev->progress = *pr ? strtod(pr, NULL) : -1;
+        ev->samples = (long)redis_ll(redis_field(e->element[1], "samples"), 0);
+        ev->time_s = cluster_num(redis_field(e->element[1], "time_s"));
+        const char *noise = cluster_str(redis_field(e->element[1], "noise"));
+        ev->noise = *noise ? strtod(noise, NULL) : -1;
         const char *where = cluster_str(redis_field(e->element[1], "where"));
         if (sscanf(where, "%d %d %d %d", &ev->reg.x, &ev->reg.y, &ev->reg.w, &ev->reg.h) != 4)
             ev->reg = (struct rayd_region){0, 0, 0, 0};
@@ -522,5 +677,6 @@ void cluster_jobs_run(struct redis *c, struct cluster_op *op) {
     case CO_VIDEO: cluster_image(c, op); break;
     case CO_LIST: cluster_list(c, op); break;
     case CO_EVENTS: cluster_events(c, op); break;
+    case CO_STOP: cluster_stop_job(c, op); break;
     }
 }

@@ -45,7 +45,10 @@ enum node_phase { NP_START, NP_BUSY, NP_DONE, NP_FAILED, NP_RETRY, NP_DROP };
 struct node_item {
     char sid[48], job[33];
     long frame, tile, ntiles;
-    int level; /* the stream it came from (its job's priority) */
+    long pass;          /* a progressive job's pass (from 1), 0 for any other item */
+    bool whole;         /* a pass's tile whose running sums were lost: all its samples */
+    double base, share; /* a pass's tile: the job's progress before the pass, its part */
+    int level;          /* the stream it came from (its job's priority) */
     bool animated;
     enum node_phase phase; /* NP_BUSY items belong to the work layer's callbacks */
     double retry_at;
@@ -169,16 +172,34 @@ static void node_free(struct node_item *it) {
     free(it);
 }
 
+/* A pass's tile item (the record's plan, and the pass it is at): the
+ * samples it adds, as exact sums.  1: render it; 0: its pass is over (a
+ * late duplicate) or the plan is not one. */
+static int node_pass(struct node_item *it, const redisReply *plan, long long at) {
+    int samples[PASSES_MAX],
+        n = plan->type == REDIS_REPLY_STRING ? cluster_passes_plan(plan->str, samples) : -1;
+    if (n < 1 || it->pass > n || it->pass != at) return 0;
+    int k0, k1;
+    cluster_passes_range(samples, it->pass, it->whole, &k0, &k1);
+    it->what.format = WORK_SUMS;
+    it->what.k0 = k0;
+    it->what.k1 = k1;
+    it->what.centre = k1 == 1;
+    it->base = passes_share(samples, n, (int)it->pass - 1, 0);
+    it->share = passes_share(samples, n, (int)it->pass, 0) - it->base;
+    return 1;
+}
+
 /* The job's record for a tile item: its geometry, client and scene.
  * 1: render it; 0: the job ended or is gone (ack and drop); -1: Redis failed. */
 static int node_job(struct redis *c, struct node_item *it) {
     char key[120];
     cluster_key(key, sizeof key, it->job, "job");
-    const char *argv[] = {"HMGET",     key,       "state", "animated", "tiles", "cols",
-                          "tile_size", "x",       "y",     "w",        "h",     "client",
-                          "scene",     "denoise", "aov",   "exr",      NULL};
+    const char *argv[] = {"HMGET", key,   "state", "animated", "tiles",  "cols",  "tile_size",
+                          "x",     "y",   "w",     "h",        "client", "scene", "denoise",
+                          "aov",   "exr", "plan",  "pass",     NULL};
     redisReply *rep = redis_strs(c, argv);
-    if (redis_failed(c, rep) || rep->type != REDIS_REPLY_ARRAY || rep->elements != 14) {
+    if (redis_failed(c, rep) || rep->type != REDIS_REPLY_ARRAY || rep->elements != 16) {
         if (rep) freeReplyObject(rep);
         return -1;
     }
@@ -206,7 +227,7 @@ static int node_job(struct redis *c, struct node_item *it) {
             .denoise = redis_ll(e[11], 0) == 1, /* a record made before: raw */
             .keep_exr = redis_ll(e[13], 0) == 1,
             .client = strtoull(e[9]->type == REDIS_REPLY_STRING ? e[9]->str : "0", NULL, 10)};
-        rc = 1;
+        rc = it->pass > 0 ? node_pass(it, e[14], redis_ll(e[15], 0)) : 1;
     } else if (!strcmp(st, "queued") || !strcmp(st, "running")) {
         log_warn("cluster: item %s of job %s: the job's record is malformed; dropped", it->sid,
                  it->job);
@@ -225,6 +246,8 @@ static struct node_item *node_item_new(const redisReply *e, int level) {
     snprintf(it->job, sizeof it->job, "%s", job && job->type == REDIS_REPLY_STRING ? job->str : "");
     it->frame = (long)redis_ll(redis_field(e->element[1], "frame"), -1);
     it->tile = (long)redis_ll(redis_field(e->element[1], "tile"), -2);
+    it->pass = (long)redis_ll(redis_field(e->element[1], "pass"), 0);
+    it->whole = redis_ll(redis_field(e->element[1], "whole"), 0) == 1;
     it->level = level;
     return it;
 }
@@ -293,7 +316,8 @@ static void node_take(struct redis *c, struct node_item *it) {
         return;
     }
     if (it->tile == -1) {
-        if (cluster_assemble(c, it->job, it->frame)) {
+        if (it->pass > 0 ? cluster_passes_assemble(c, it->job, it->pass)
+                         : cluster_assemble(c, it->job, it->frame)) {
             cluster_items_ack(c, it->level, it->sid);
             atomic_fetch_add(&cluster_done_total, 1);
         } else {
@@ -410,7 +434,9 @@ static bool node_finish(struct redis *c) {
                 cluster_items_ack(c, it->level, it->sid);
                 atomic_fetch_add(&cluster_done_total, 1);
             }
-        } else if (ph == NP_DONE && cluster_tile_store(c, &done)) {
+        } else if (ph == NP_DONE && (it->pass > 0 ? cluster_passes_tile_store(c, &done, it->pass,
+                                                                              it->base, it->share)
+                                                  : cluster_tile_store(c, &done))) {
             node_test_stall();
             cluster_items_ack(c, it->level, it->sid);
             atomic_fetch_add(&cluster_done_total, 1);

@@ -99,6 +99,23 @@ struct cluster_tile {
     double render_ms;
     uint64_t rays;
 };
+/* A job's geometry, as an assembly reads it: the frame's region and its
+ * tile grid. */
+struct cluster_geom {
+    char state[16]; /* "" when the job is gone (or not one of ours) */
+    int x, y, w, h;
+    long tiles, cols, size;
+    bool exr;     /* the job keeps an EXR too */
+    unsigned aov; /* its AOVs */
+};
+/* Job id's geometry into *g; false: Redis failed. */
+bool cluster_geom_read(struct redis *c, const char *id, struct cluster_geom *g);
+/* Tile t of g as a region relative to the frame. */
+struct rayd_region cluster_tile_reg(const struct cluster_geom *g, long t);
+/* The test knob of the hostile cases (--test-gate and
+ * RAYD_TEST_CLUSTER_TILE=corrupt or missing): the first tile (or pass's
+ * sums) this node stores is kept corrupt or not at all; NULL otherwise. */
+const char *cluster_test_tile(void);
 /* The tile kept, and its frame's assembly queued by whoever completes it.
  * false: Redis failed. */
 bool cluster_tile_store(struct redis *c, const struct cluster_tile *t);
@@ -107,6 +124,33 @@ bool cluster_tile_store(struct redis *c, const struct cluster_tile *t);
  * budget has no room for it now (cluster_deferred_total counts those): the
  * item stays pending, to be taken over. */
 bool cluster_assemble(struct redis *c, const char *id, long k);
+
+/* The assembly of frame k of job id needs need bytes: true when no node's
+ * budget can ever hold it and the job failed (after some tries). */
+bool cluster_assemble_never(struct redis *c, const char *id, long k, size_t need);
+/* need reserved in the memory budget; false (counted, said) when there is
+ * no room now: the item is left for later. */
+bool cluster_assemble_reserve(const char *id, long k, size_t need);
+
+/* ---- cluster_passes.c: a progressive job's passes (the puller) --------------- */
+
+/* The record's plan ("1,2,4,...": the samples after each pass) into out:
+ * how many passes, -1 when it is not one. */
+int cluster_passes_plan(const char *s, int out[PASSES_MAX]);
+/* The samples k0..k1-1 pass k (from 1) of plan samples renders: those it
+ * adds, or (whole) all of them. */
+void cluster_passes_range(const int *samples, long k, bool whole, int *k0, int *k1);
+/* A tile's sums of pass `pass` kept (t->png: the sums' bytes), the pass's
+ * assembly queued by whoever completes it; base and share: the job's
+ * progress before the pass and the pass's part of it.  false: Redis failed. */
+bool cluster_passes_tile_store(struct redis *c, const struct cluster_tile *t, long pass,
+                               double base, double share);
+/* Pass k of job id assembled: its PNG, its numbers, the next pass or the
+ * job's end.  false: Redis failed or no room now (the item stays pending). */
+bool cluster_passes_assemble(struct redis *c, const char *id, long k);
+/* POST /v1/jobs/{id}/stop: 1 ended now, 2 to end after its first pass, 0
+ * ended already, -4 not progressive, -2 no such job, -1 Redis failed. */
+int cluster_passes_stop(struct redis *c, const char *id);
 
 /* ---- cluster_video.c: a frame range's video (the puller) ---------------------- */
 

@@ -98,10 +98,10 @@ export function isProgressive(scene) {
   return r.integrator === "path" && Number.isInteger(r.samples) && r.samples > 1;
 }
 
-// Whether e is a server's refusal of progressive jobs: a cluster node
-// (rayd --redis) makes none yet and says so as 400 bad_parameter naming
-// `progressive`.  The page then renders such scenes as a single node
-// would without it: tile by tile, or as a plain job.
+// Whether e is a server's refusal of a progressive job: a cluster node
+// (rayd --redis) makes none with an EXR, AOVs or denoised passes, and says
+// so as 400 bad_parameter naming `progressive`.  The page then renders such
+// scenes as a single node would without it: tile by tile, or as a plain job.
 export function progressiveRefused(e) {
   return e instanceof ApiError && e.status === 400 && e.parameter === "progressive";
 }

@@ -206,13 +206,16 @@ static double passes_rms(const rayd_image *a, const rayd_image *b) {
     return sqrt(sum / (double)n) / 255.0;
 }
 
+double passes_noise_of(const rayd_image *img, const rayd_image *prev, int n, int m) {
+    bool restarted = m == 1; /* the centre image is not sample 0 of the next */
+    return passes_rms(img, prev) * sqrt((double)m / (restarted ? n + m : n - m));
+}
+
 double passes_noise(const struct passes *p, const rayd_image *img, int pass) {
     const rayd_image *prev = p->raw ? p->raw_prev : p->prev;
     if (p->raw) img = p->raw; /* the samples' noise, not what the filter left of it */
     if (pass == 0 || !prev) return -1;
-    double n = p->samples[pass], m = p->samples[pass - 1];
-    bool restarted = m == 1; /* the centre image is not sample 0 of the next */
-    return passes_rms(img, prev) * sqrt(m / (restarted ? n + m : n - m));
+    return passes_noise_of(img, prev, p->samples[pass], p->samples[pass - 1]);
 }
 
 void passes_raw_done(struct passes *p) {
@@ -282,16 +285,17 @@ struct blob *passes_raw(const struct passes *p, int pass) {
     return p->raw_png[(pass - 1) % PASSES_KEEP];
 }
 
-int passes_added(const struct passes *p, int k) {
-    return p->samples[k] - (k == 0 || p->samples[k - 1] == 1 ? 0 : p->samples[k - 1]);
+/* The samples pass k (from 0) of a plan renders. */
+static int passes_added_of(const int *samples, int k) {
+    return samples[k] - (k == 0 || samples[k - 1] == 1 ? 0 : samples[k - 1]);
 }
 
-/* The share of the samples' work done after `done` passes and frac of the
- * next pass's tiles (a pass's work: the samples it adds or restarts). */
-double passes_progress(const struct passes *p, int done, double frac) {
+int passes_added(const struct passes *p, int k) { return passes_added_of(p->samples, k); }
+
+double passes_share(const int *samples, int n, int done, double frac) {
     double total = 0, work = 0;
-    for (int k = 0; k < p->n; k++) {
-        double cost = passes_added(p, k);
+    for (int k = 0; k < n; k++) {
+        double cost = passes_added_of(samples, k);
         total += cost;
         if (k < done)
             work += cost;
@@ -299,6 +303,12 @@ double passes_progress(const struct passes *p, int done, double frac) {
             work += cost * frac;
     }
     return total > 0 ? work / total : 0;
+}
+
+/* The share of the samples' work done after `done` passes and frac of the
+ * next pass's tiles (a pass's work: the samples it adds or restarts). */
+double passes_progress(const struct passes *p, int done, double frac) {
+    return passes_share(p->samples, p->n, done, frac);
 }
 
 /* Lock held. */

@@ -164,7 +164,9 @@ static enum rayd_status sched_sums_tile(struct task *t, const struct rayd_region
                                  .rays_left = sched_budget(t)};
     enum rayd_status st = rayd_accum_new(cache_scene(t->scene), tr, &acc, err);
     if (st == RAYD_OK)
-        st = rayd_render_sample_range(cache_scene(t->scene), &o, acc, t->k0, t->k1, err);
+        st = t->centre
+                 ? rayd_render_pass(cache_scene(t->scene), &o, acc, 0, 1, err)
+                 : rayd_render_sample_range(cache_scene(t->scene), &o, acc, t->k0, t->k1, err);
     *rays += stats.rays;
     const double *in = st == RAYD_OK ? rayd_accum_sums(acc) : NULL;
     for (int row = 0; in && row < tr->h; row++)

@@ -125,7 +125,7 @@ void task_key(char *key, size_t size, const char *id, const struct work_target *
     int n = snprintf(key, size, "%s@%d,%d,%d,%d%s%s", id, reg->x, reg->y, reg->w, reg->h,
                      task_format(what->format)->key_suffix, what->keep_exr ? "+exr" : "");
     if (what->format == WORK_SUMS && n > 0 && (size_t)n < size)
-        snprintf(key + n, size - (size_t)n, "%d-%d", what->k0, what->k1);
+        snprintf(key + n, size - (size_t)n, "%d-%d%s", what->k0, what->k1, what->centre ? "c" : "");
     else if (what->aov && n > 0 && (size_t)n < size) /* render/aov.c: other pixels */
         n += snprintf(key + n, size - (size_t)n, "+aov%u", what->aov);
     if (what->denoise && n > 0 && (size_t)n < size) snprintf(key + n, size - (size_t)n, "+dn");
@@ -172,6 +172,7 @@ struct task *task_new(struct cache_entry *scene, const struct work_target *what)
     t->denoise = what->denoise;
     t->k0 = what->k0;
     t->k1 = what->k1;
+    t->centre = what->centre && what->k0 == 0 && what->k1 == 1;
     const rayd_scene *rs = cache_scene(scene);
     struct rayd_scene_info info;
     rayd_scene_info(rs, &info);

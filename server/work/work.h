@@ -89,6 +89,8 @@ struct work_target {
     struct rayd_region reg; /* absolute, checked */
     enum work_format format;
     int k0, k1;      /* WORK_SUMS only */
+    bool centre;     /* WORK_SUMS of [0, 1) only: the one-sample centre image a progressive
+                        job's first pass shows (rayd_render_pass), not sample 0; part of the key */
     bool keep_exr;   /* a job's (POST /v1/jobs?format=exr): with the WORK_PNG, the EXR of
                         the same sums; part of the key */
     unsigned aov;    /* enum rayd_aov bits: WORK_EXR's channels, or the one AOV a WORK_PNG
@@ -171,6 +173,13 @@ enum passes_stop {
     PASSES_BY_WORK /* --max-work spent: the latest complete pass is kept */
 };
 const char *passes_stop_name(enum passes_stop s); /* NULL for PASSES_GOING */
+/* The noise estimate of a pass of n samples whose image is img, from the
+ * image prev of the pass before, of m samples (passes.c explains it); the
+ * two images of one size.  A cluster's pass assembly uses it too. */
+double passes_noise_of(const rayd_image *img, const rayd_image *prev, int n, int m);
+/* The share of a plan's work (samples[0..n)) done after `done` passes and
+ * frac of the next pass. */
+double passes_share(const int *samples, int n, int done, double frac);
 struct jobs_passes {
     int done, total;    /* passes complete, planned */
     int samples;        /* samples of the latest complete pass (0: none yet) */

@@ -280,6 +280,7 @@ struct task {
     enum mem_kind mem_kind; /* as what */
     struct blob *exr;       /* keep_exr: the EXR, made with the PNG */
     int k0, k1;
+    bool centre; /* WORK_SUMS of [0, 1): the centre image (struct work_target) */
     atomic_int cancel;
     /* --max-work: rays the task may still cast, shared by its tiles and
      * passes (the core's meters take from it; RAYD_E_LIMIT below zero) */

@@ -32,8 +32,9 @@ function sceneText() {
   s.render.seed = 4242;
   return JSON.stringify(s, null, 2);
 }
-// A small path-traced scene (64 x 48, 4 samples): the preview would make it
-// a progressive job, which a cluster node refuses.
+// A small path-traced scene (64 x 48, 4 samples): the preview makes it a
+// progressive job, which the cluster renders pass by pass (denoised, it
+// refuses it, and the page falls back to a plain job).
 function pathText(seed) {
   const s = JSON.parse(readFileSync(join(SCENES, "cornell.json"), "utf8"));
   Object.assign(s.render, { width: 64, height: 48, samples: 4, seed });
@@ -152,9 +153,9 @@ try {
     await waitRow(a.page, id, "succeeded");
   });
 
-  // A path-traced scene on node B's page: one refused progressive ask,
-  // then tiles, the server's pixels; the next render asks no more.
-  await check("path_traced_by_tiles_on_b", async () => {
+  // A path-traced scene on node B's page: a progressive job of the
+  // cluster, drawn pass by pass; its last pass is the server's pixels.
+  await check("path_traced_progressive_on_b", async () => {
     await b.page.click("#tab-editor");
     for (const seed of [1, 2]) {
       const n = await renders(b.page), text = pathText(seed);
@@ -171,18 +172,38 @@ try {
       if (same !== true) return `seed ${seed}: ${same}`;
     }
     const asks = b.errors.filter(isRefusal).length;
-    return asks === 1 || `${asks} refused progressive asks, not 1`;
+    return asks === 0 || `${asks} refused progressive asks, not 0`;
   });
 
-  await check("path_traced_job_plain_on_b", async () => {
+  // The Jobs view posts it as a progressive job, which succeeds with its
+  // passes; with the denoise box, the cluster refuses that (its passes
+  // are not denoised) once, and the page posts it as a plain job.
+  const newRow = (known) =>
+    b.page.waitForFunction((ids) => {
+      const li = [...document.querySelectorAll("#jobs-list li[data-id]")].find((l) => !ids.includes(l.dataset.id));
+      return li && li.dataset.state === "succeeded" ? li.dataset.id : false;
+    }, known, { timeout: 60000 });
+  const listed = () => b.page.$$eval("#jobs-list li[data-id]", (ls) => ls.map((l) => l.dataset.id));
+  await check("path_traced_job_progressive_on_b", async () => {
     await b.page.click("#tab-jobs");
+    const known = await listed();
     await b.page.click("#render-job");
-    await b.page.waitForFunction((known) => {
-      const li = [...document.querySelectorAll("#jobs-list li[data-id]")].find((l) => l.dataset.id !== known);
-      return li && li.dataset.state === "succeeded";
-    }, id, { timeout: 60000 });
+    const pid = await (await newRow(known)).jsonValue();
+    const j = await job(A, pid);
     const asks = b.errors.filter(isRefusal).length;
-    return asks === 2 || `${asks} refused progressive asks, not 2 (one from the canvas, one from the Jobs view)`;
+    if (asks !== 0) return `${asks} refused progressive asks, not 0`;
+    return (j.passes && j.passes.done === 3 && j.passes.samples === 4) || `passes on A: ${JSON.stringify(j.passes)}`;
+  });
+  await check("path_traced_denoised_job_plain_on_b", async () => {
+    await b.page.check("#denoise");
+    const known = await listed();
+    await b.page.click("#render-job");
+    const did = await (await newRow(known)).jsonValue();
+    await b.page.uncheck("#denoise");
+    const j = await job(A, did);
+    const asks = b.errors.filter(isRefusal).length; /* the canvas's too: the box renders again */
+    if (asks < 1) return "no refused progressive ask";
+    return (!j.passes && j.denoise === true) || `the job on A: ${JSON.stringify(j).slice(0, 300)}`;
   });
   b.errors.splice(0, b.errors.length, ...b.errors.filter((e) => !isRefusal(e)));
 

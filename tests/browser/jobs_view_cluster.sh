@@ -6,8 +6,8 @@
 # case needs), in Debian's Chromium, headless.  jobs_view_cluster.mjs submits a job from node A's page
 # and follows it on node B's: listed, its progress from the event stream, its
 # thumbnail and its PNG; then a path-traced scene on node B's page, which
-# the cluster makes no progressive job of: drawn by tiles, and submitted as
-# a plain job.  Every process is stopped by its PID.
+# the cluster renders as a progressive job, pass by pass (and, denoised,
+# refuses as one: the page posts it as a plain job).  Every process is stopped by its PID.
 # Without chromium, node, playwright-core or redis-server this FAILs, never passes.
 #
 #   bash tests/browser/jobs_view_cluster.sh      (tests/run.sh sets RAYD_BUILD)

@@ -9,7 +9,7 @@
 # are rayd-render's too and its video a single node's, that jobs keeping
 # an EXR give one node's EXR bytes, that its events replay from any node, that the
 # list and DELETE work from any node, that what a cluster does not make yet
-# is refused with a 400 naming the parameter, and the hostile cases: a bad
+# is refused with a 400 naming the parameter (a progressive job's EXR), and the hostile cases: a bad
 # --redis URL, --redis with --data-dir, a wrong password, a job id of
 # garbage, Redis answering errors.  Every process is stopped by its PID.
 source "$(dirname "$0")/lib/common.sh"
@@ -156,7 +156,7 @@ refused() { # NAME QUERY PARAM
     code=$(curl -s -o "$T/$1.json" -w '%{http_code}' "${JSON[@]}" --data-binary @"$SCENE" "${NODE_URL[1]}/v1/jobs?$2")
     check "$1" "gave $code: $(head -c 300 "$T/$1.json")" bash -c "[ $code = 400 ] && grep -q '\"parameter\":\"$3\"' '$T/$1.json'"
 }
-refused refuse_progressive "progressive=1" progressive
+refused refuse_progressive_exr "progressive=1&format=exr" progressive
 code=$(curl -s -o "$T/bad.json" -w '%{http_code}' "${JSON[@]}" --data-binary '{"camera": 1}' "${NODE_URL[1]}/v1/jobs")
 check bad_scene_refused "a bad scene gave $code" [ "$code" = 422 ]
 check bad_scene_nothing_written "jobs in Redis: $(rcli zcard rayd:jobs)" [ "$(rcli zcard rayd:jobs)" = 3 ]
