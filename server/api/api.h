@@ -179,7 +179,7 @@ bool api_shots_frames(struct http_req *r, const rayd_scene *scene, long *first, 
 bool api_shots_frame_path(struct http_req *r, const char *path, char id[33], long *k, bool *exr);
 
 /* Which pass an image is: X-Rayd-Pass "k/total", X-Rayd-Samples n
- * (api_jobs_image.c). */
+ * (api_jobs_json.c). */
 void api_jobs_pass_headers(struct http_req *r, int pass, int total, int samples);
 
 /* api_cluster.c: the job routes with --redis (cluster_on()), answered from

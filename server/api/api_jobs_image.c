@@ -29,14 +29,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-void api_jobs_pass_headers(struct http_req *r, int pass, int total, int samples) {
-    char v[32];
-    snprintf(v, sizeof v, "%d/%d", pass, total);
-    http_reply_header(r, "X-Rayd-Pass", v);
-    snprintf(v, sizeof v, "%d", samples);
-    http_reply_header(r, "X-Rayd-Samples", v);
-}
-
 /* 409 not_exr when the EXR is asked of a job that keeps none; true if so. */
 static bool api_jobs_no_exr(struct http_req *r, const struct jobs_info *info, bool exr) {
     if (!exr || info->keep_exr) return false;

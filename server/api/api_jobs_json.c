@@ -129,6 +129,14 @@ static void api_jobs_add_pass_exr_url(cJSON *o, const char *id, int k) {
     cJSON_AddStringToObject(o, "exr_url", url);
 }
 
+void api_jobs_pass_headers(struct http_req *r, int pass, int total, int samples) {
+    char v[32];
+    snprintf(v, sizeof v, "%d/%d", pass, total);
+    http_reply_header(r, "X-Rayd-Pass", v);
+    snprintf(v, sizeof v, "%d", samples);
+    http_reply_header(r, "X-Rayd-Samples", v);
+}
+
 /* A progressive job's "passes" object. */
 static void api_job_passes(cJSON *o, const char *id, const struct jobs_passes *p, bool exr,
                            bool raw) {

@@ -195,6 +195,19 @@ long cluster_jobs_unfinished(struct redis *c) {
     return n;
 }
 
+int cluster_jobs_plan(const char *s, int out[PASSES_MAX]) {
+    int n = 0;
+    for (const char *p = s; p && *p; n++) {
+        char *end;
+        long v = strtol(p, &end, 10);
+        if (n == PASSES_MAX || end == p || v < 1 || v > 65536 || (n && v <= out[n - 1])) return -1;
+        out[n] = (int)v;
+        p = *end == ',' ? end + 1 : end;
+        if (*end && *end != ',') return -1;
+    }
+    return n;
+}
+
 /* 32 random hex digits. */
 static bool cluster_new_id(char id[33]) {
     unsigned char b[16];
@@ -395,7 +408,7 @@ static void cluster_video_state(const char *s, struct shots_info *out) {
 /* A progressive job's passes (its tiles: those of the pass being rendered). */
 static void cluster_fill_passes(redisReply **v, struct jobs_info *j, long tiles) {
     int samples[PASSES_MAX];
-    int n = cluster_passes_plan(cluster_str(v[F_PLAN]), samples);
+    int n = cluster_jobs_plan(cluster_str(v[F_PLAN]), samples);
     struct jobs_passes *p = &j->passes;
     const char *why = cluster_str(v[F_STOPPED]);
     j->progressive = true;
@@ -509,7 +522,7 @@ static bool cluster_pass_samples(struct redis *c, struct cluster_op *op, long k)
         if (rep) freeReplyObject(rep);
         return false;
     }
-    int n = cluster_passes_plan(cluster_str(rep), samples);
+    int n = cluster_jobs_plan(cluster_str(rep), samples);
     op->pass_samples = k >= 1 && k <= n ? samples[k - 1] : 0;
     freeReplyObject(rep);
     return true;
@@ -563,9 +576,39 @@ static void cluster_cancel(struct redis *c, struct cluster_op *op) {
     }
 }
 
+/* -4: not a progressive job; 0: it had ended; 1: ended now (a pass is
+ * kept); 2: it stops after its first pass; -2: no such job. */
+static const char cluster_lua_stop[] =
+    "local id = ARGV[1]\n"
+    "local p = 'rayd:{' .. id .. '}:'\n"
+    "local j = redis.call('HMGET', p .. 'job', 'state', 'progressive', 'passes_done')\n"
+    "if not j[1] then return -2 end\n"
+    "if j[2] ~= '1' then return -4 end\n"
+    "if j[1] ~= 'queued' and j[1] ~= 'running' then return 0 end\n"
+    "redis.call('HSET', p .. 'job', 'stop_asked', 1)\n"
+    "if (tonumber(j[3]) or 0) == 0 then return 2 end\n"
+    "redis.call('HSET', p .. 'job', 'stopped', 'client')\n"
+    "return rayd_end(id, 'succeeded', ARGV[2], ARGV[3], '')\n";
+
+static int cluster_stop_script(struct redis *c, const char *id) {
+    char now[32], ttl[24];
+    snprintf(now, sizeof now, "%.0f", cluster_now_ms());
+    snprintf(ttl, sizeof ttl, "%ld", config.job_ttl);
+    size_t n = strlen(cluster_lua_end) + sizeof cluster_lua_stop;
+    char *script = malloc(n);
+    if (!script) return -1;
+    snprintf(script, n, "%s%s", cluster_lua_end, cluster_lua_stop);
+    const char *argv[] = {"EVAL", script, "0", id, now, ttl, NULL};
+    redisReply *rep = redis_strs(c, argv);
+    int rc = redis_failed(c, rep) ? -1 : (int)redis_ll(rep, -1);
+    if (rep) freeReplyObject(rep);
+    free(script);
+    return rc;
+}
+
 /* A progressive job ends with its latest pass (or after its first). */
 static void cluster_stop_job(struct redis *c, struct cluster_op *op) {
-    int rc = cluster_passes_stop(c, op->id);
+    int rc = cluster_stop_script(c, op->id);
     if (rc == -1) {
         op->status = CS_DOWN;
         return;

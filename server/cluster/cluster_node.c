@@ -177,7 +177,7 @@ static void node_free(struct node_item *it) {
  * late duplicate) or the plan is not one. */
 static int node_pass(struct node_item *it, const redisReply *plan, long long at) {
     int samples[PASSES_MAX],
-        n = plan->type == REDIS_REPLY_STRING ? cluster_passes_plan(plan->str, samples) : -1;
+        n = plan->type == REDIS_REPLY_STRING ? cluster_jobs_plan(plan->str, samples) : -1;
     if (n < 1 || it->pass > n || it->pass != at) return 0;
     int k0, k1;
     cluster_passes_range(samples, it->pass, it->whole, &k0, &k1);

@@ -24,7 +24,8 @@
  * pass, a time budget (from the first tile; checked after each tile too,
  * so a pass in flight is dropped and the latest complete one kept), a
  * noise target (passes_noise_of, against the previous pass's PNG), and
- * POST /v1/jobs/{id}/stop (the flag stop_asked: the first pass ends it).
+ * POST /v1/jobs/{id}/stop (cluster_jobs.c sets the flag stop_asked, or
+ * ends the job at once when a pass is complete; the first pass ends it).
  *
  * Everything is keyed by pass and idempotent.  Every script checks that
  * the job is still at pass K (the record's `pass`), so a late duplicate --
@@ -45,20 +46,6 @@
 #define CLUSTER_PASS_REDO 3        /* times a job's tile count it may render again */
 #define CLUSTER_PASSES_KEEP_S "4"  /* PASSES_KEEP, for the scripts */
 _Static_assert(PASSES_KEEP == 4, "CLUSTER_PASSES_KEEP_S is PASSES_KEEP");
-
-int cluster_passes_plan(const char *s, int out[PASSES_MAX]) {
-    int n = 0;
-    for (const char *p = s; p && *p; n++) {
-        char *end;
-        long v = strtol(p, &end, 10);
-        if (n == PASSES_MAX || end == p || v < 1 || v > 65536 || (n && v <= out[n - 1]))
-            return -1;
-        out[n] = (int)v;
-        p = *end == ',' ? end + 1 : end;
-        if (*end && *end != ',') return -1;
-    }
-    return n;
-}
 
 void cluster_passes_range(const int *samples, long k, bool whole, int *k0, int *k1) {
     int prev = k > 1 ? samples[k - 2] : 0;
@@ -133,8 +120,8 @@ bool cluster_passes_tile_store(struct redis *c, const struct cluster_tile *t, lo
     size_t len = t->png->len;
     if (test) /* "missing" keeps it as nothing at all, "corrupt" as bytes that are no sums */
         data = strcmp(test, "missing") ? "these are not sums" : "", len = strlen(data);
-    const char *argv[] = {"EVAL", script, "0", t->id, sk, st, data, sn, now, sr, sm,
-                          where,  sb,     ss,  ttl};
+    const char *argv[] = {"EVAL", script, "0", t->id, sk, st, data, sn,
+                          now,    sr,     sm,  where, sb, ss, ttl};
     size_t lens[15];
     for (int i = 0; i < 15; i++) lens[i] = i == 6 ? len : strlen(argv[i]);
     redisReply *rep = redis_argv(c, 15, argv, lens);
@@ -173,7 +160,7 @@ static bool pass_job_read(struct redis *c, const char *id, struct pass_job *j) {
         return false;
     }
     redisReply **e = rep->element;
-    j->n = e[0]->type == REDIS_REPLY_STRING ? cluster_passes_plan(e[0]->str, j->samples) : -1;
+    j->n = e[0]->type == REDIS_REPLY_STRING ? cluster_jobs_plan(e[0]->str, j->samples) : -1;
     j->pass = (long)redis_ll(e[1], 0);
     j->done = (long)redis_ll(e[2], 0);
     j->started = pass_num(e[3]);
@@ -235,12 +222,11 @@ static enum pass_tile pass_tile(struct redis *c, const char *id, const struct pa
     void *buf = NULL;
     size_t len = 0;
     struct rayd_error err;
-    if (out == PT_OK &&
-        (rayd_accum_new_sized(r.w, r.h, &acc, &err) != RAYD_OK ||
-         (run && rayd_accum_add_sums(acc, run, from, &err) != RAYD_OK) ||
-         rayd_accum_add_sums(acc, add, k1 - from, &err) != RAYD_OK ||
-         rayd_accum_image(acc, &tile, &err) != RAYD_OK ||
-         rayd_image_blit(img, tile, r.x, r.y, &err) != RAYD_OK))
+    if (out == PT_OK && (rayd_accum_new_sized(r.w, r.h, &acc, &err) != RAYD_OK ||
+                         (run && rayd_accum_add_sums(acc, run, from, &err) != RAYD_OK) ||
+                         rayd_accum_add_sums(acc, add, k1 - from, &err) != RAYD_OK ||
+                         rayd_accum_image(acc, &tile, &err) != RAYD_OK ||
+                         rayd_image_blit(img, tile, r.x, r.y, &err) != RAYD_OK))
         out = PT_BAD;
     if (out == PT_OK && keep &&
         rayd_sums_encode(r.w, r.h, 0, k1, rayd_accum_sums(acc), &buf, &len, &err) == RAYD_OK) {
@@ -408,8 +394,9 @@ static bool pass_end(struct redis *c, const char *id, const struct pass_job *j, 
     bool ok = false;
     if (script) {
         snprintf(script, n, "%s%s", cluster_lua_end, cluster_lua_pass_end);
-        const char *argv[] = {"EVAL", script, "0", id, sk, png, ss, st, sn, se, sp,
-                              pass_stop(j, time_s, noise), snow, ttl};
+        const char *argv[] = {"EVAL", script, "0", id, sk, png,
+                              ss,     st,     sn,  se, sp, pass_stop(j, time_s, noise),
+                              snow,   ttl};
         size_t lens[14];
         for (int i = 0; i < 14; i++) lens[i] = i == 5 ? len : strlen(argv[i]);
         redisReply *rep = redis_argv(c, 14, argv, lens);
@@ -440,7 +427,7 @@ bool cluster_passes_assemble(struct redis *c, const char *id, long k) {
     if ((strcmp(j.g.state, "queued") && strcmp(j.g.state, "running")) || j.pass != k)
         return true; /* ended, or a duplicate of a pass assembled already: dropped */
     size_t need = cluster_passes_bytes(j.g.w, j.g.h, j.g.size);
-    if (cluster_assemble_never(c, id, 0, need)) return true; /* failed: the item is done */
+    if (cluster_assemble_never(c, id, 0, need)) return true;  /* failed: the item is done */
     if (!cluster_assemble_reserve(id, 0, need)) return false; /* the item stays pending */
     rayd_image *img = NULL;
     long *bad = calloc((size_t)j.g.tiles, sizeof *bad), nbad = 0;
@@ -454,36 +441,4 @@ bool cluster_passes_assemble(struct redis *c, const char *id, long k) {
     free(bad);
     free(whole);
     return ok;
-}
-
-/* ---- POST /v1/jobs/{id}/stop ---------------------------------------------------- */
-
-/* -4: not a progressive job; 0: it had ended; 1: ended now (a pass is
- * kept); 2: it stops after its first pass; -2: no such job. */
-static const char cluster_lua_stop[] =
-    "local id = ARGV[1]\n"
-    "local p = 'rayd:{' .. id .. '}:'\n"
-    "local j = redis.call('HMGET', p .. 'job', 'state', 'progressive', 'passes_done')\n"
-    "if not j[1] then return -2 end\n"
-    "if j[2] ~= '1' then return -4 end\n"
-    "if j[1] ~= 'queued' and j[1] ~= 'running' then return 0 end\n"
-    "redis.call('HSET', p .. 'job', 'stop_asked', 1)\n"
-    "if (tonumber(j[3]) or 0) == 0 then return 2 end\n"
-    "redis.call('HSET', p .. 'job', 'stopped', 'client')\n"
-    "return rayd_end(id, 'succeeded', ARGV[2], ARGV[3], '')\n";
-
-int cluster_passes_stop(struct redis *c, const char *id) {
-    char now[32], ttl[24];
-    snprintf(now, sizeof now, "%.0f", cluster_now_ms());
-    snprintf(ttl, sizeof ttl, "%ld", config.job_ttl);
-    size_t n = strlen(cluster_lua_end) + sizeof cluster_lua_stop;
-    char *script = malloc(n);
-    if (!script) return -1;
-    snprintf(script, n, "%s%s", cluster_lua_end, cluster_lua_stop);
-    const char *argv[] = {"EVAL", script, "0", id, now, ttl, NULL};
-    redisReply *rep = redis_strs(c, argv);
-    int rc = redis_failed(c, rep) ? -1 : (int)redis_ll(rep, -1);
-    if (rep) freeReplyObject(rep);
-    free(script);
-    return rc;
 }

@@ -82,6 +82,9 @@ void cluster_jobs_run(struct redis *c, struct cluster_op *op);
 /* The cluster's unfinished jobs (what --max-jobs counts), 0 when Redis
  * does not answer. */
 long cluster_jobs_unfinished(struct redis *c);
+/* A progressive job's plan as its record keeps it ("1,2,4,...": the
+ * samples after each pass) into out: how many passes, -1 when it is not one. */
+int cluster_jobs_plan(const char *s, int out[PASSES_MAX]);
 /* Sets the job's end state (with error JSON, or NULL) if it is still
  * queued or running, its keys to expire after --job-ttl; the puller's too. */
 bool cluster_jobs_end(struct redis *c, const char *id, const char *state, const char *error);
@@ -134,9 +137,6 @@ bool cluster_assemble_reserve(const char *id, long k, size_t need);
 
 /* ---- cluster_passes.c: a progressive job's passes (the puller) --------------- */
 
-/* The record's plan ("1,2,4,...": the samples after each pass) into out:
- * how many passes, -1 when it is not one. */
-int cluster_passes_plan(const char *s, int out[PASSES_MAX]);
 /* The samples k0..k1-1 pass k (from 1) of plan samples renders: those it
  * adds, or (whole) all of them. */
 void cluster_passes_range(const int *samples, long k, bool whole, int *k0, int *k1);
@@ -148,9 +148,6 @@ bool cluster_passes_tile_store(struct redis *c, const struct cluster_tile *t, lo
 /* Pass k of job id assembled: its PNG, its numbers, the next pass or the
  * job's end.  false: Redis failed or no room now (the item stays pending). */
 bool cluster_passes_assemble(struct redis *c, const char *id, long k);
-/* POST /v1/jobs/{id}/stop: 1 ended now, 2 to end after its first pass, 0
- * ended already, -4 not progressive, -2 no such job, -1 Redis failed. */
-int cluster_passes_stop(struct redis *c, const char *id);
 
 /* ---- cluster_video.c: a frame range's video (the puller) ---------------------- */
 
