@@ -33,8 +33,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define ITEMS_BLOCK_MS 100 /* the blocking read's wait for an item */
-
 static char cluster_streams[CLUSTER_LEVELS][176]; /* by enum jobs_priority */
 
 void cluster_items_names(void) {
@@ -113,7 +111,7 @@ static redisReply *items_eval(struct redis *c, const char *script) {
     return redis_strs(c, argv);
 }
 
-void cluster_items_pull(struct redis *c, cluster_items_take_fn take) {
+void cluster_items_pull(struct redis *c, cluster_items_take_fn take, long block_ms) {
     redisReply *rep = items_eval(c, items_lua_take);
     if (items_nogroup(rep)) {
         freeReplyObject(rep);
@@ -127,7 +125,7 @@ void cluster_items_pull(struct redis *c, cluster_items_take_fn take) {
     if (got || !redis_is_up(c)) return;
     /* nothing anywhere: wait on all three for the next one */
     char block[16];
-    snprintf(block, sizeof block, "%d", ITEMS_BLOCK_MS);
+    snprintf(block, sizeof block, "%ld", block_ms);
     const char *bv[] = {"XREADGROUP",
                         "GROUP",
                         "render",

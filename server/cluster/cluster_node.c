@@ -39,6 +39,11 @@
 #include <unistd.h>
 
 #define NODE_RETRY_S 0.5 /* a render the node refused (queue full) is tried again after */
+/* How long the puller waits in Redis for a new item: while it holds items
+ * a finished render's result waits for that read to end (a progressive
+ * job's next pass waits for its last tile), so briefly then. */
+#define NODE_BLOCK_MS 100
+#define NODE_BLOCK_BUSY_MS 10
 
 enum node_phase { NP_START, NP_BUSY, NP_DONE, NP_FAILED, NP_RETRY, NP_DROP };
 
@@ -541,7 +546,7 @@ static void *node_main(void *arg) {
             room = config.threads - node_count;
         }
         if (room > 0 && !atomic_load(&cluster_draining) && redis_is_up(c))
-            cluster_items_pull(c, node_take_entry);
+            cluster_items_pull(c, node_take_entry, node_count ? NODE_BLOCK_BUSY_MS : NODE_BLOCK_MS);
         else if (!redis_is_up(c))
             node_figures(c), node_wait(0.2);
         else if (!any)

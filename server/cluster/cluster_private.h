@@ -177,9 +177,9 @@ void cluster_items_groups(struct redis *c); /* the group `render` of each stream
  * 1 when the node now holds it (or handled it), 0 when it was skipped. */
 typedef long (*cluster_items_take_fn)(struct redis *c, const redisReply *e, int level,
                                       bool reclaimed);
-/* The next new item, from the highest stream that has one (waits a little
- * when none has). */
-void cluster_items_pull(struct redis *c, cluster_items_take_fn take);
+/* The next new item, from the highest stream that has one (waits up to
+ * block_ms when none has). */
+void cluster_items_pull(struct redis *c, cluster_items_take_fn take, long block_ms);
 /* Items idle past claim-ms (a dead or stalled node's), highest first, up to room. */
 void cluster_items_reclaim(struct redis *c, long room, cluster_items_take_fn take);
 /* The items sids[0..n) of stream `level` held here keep their claim. */
