@@ -117,6 +117,7 @@ static void *cluster_req_main(void *arg) {
         if (!c) {
             op->status = CS_NOMEM;
         } else {
+            cluster_clock_sync(c);
             cluster_jobs_run(c, op);
             if (op->status == CS_DOWN && !op->why[0])
                 snprintf(op->why, sizeof op->why, "the cluster's Redis at %s: %s",

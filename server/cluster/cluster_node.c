@@ -495,6 +495,7 @@ static long node_heartbeat(struct redis *c) {
 static void node_figures(struct redis *c) {
     struct cluster_status_view v;
     memset(&v, 0, sizeof v);
+    cluster_clock_sync(c);
     snprintf(v.address, sizeof v.address, "%s", cluster_url.display);
     v.nodes = node_heartbeat(c);
     v.redis_up = cluster_items_count(c, &v.queued, &v.in_flight) && redis_is_up(c);

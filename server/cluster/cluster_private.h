@@ -61,7 +61,10 @@ extern atomic_long cluster_deferred_total; /* assemblies put off for want of mem
 extern pthread_mutex_t cluster_mu;         /* the view */
 extern struct cluster_status_view cluster_view_now;
 long cluster_claim_ms(void);
-double cluster_now_ms(void);   /* wall clock, ms since the epoch */
+double cluster_now_ms(void); /* Redis's wall clock as this node sees it, ms since the epoch */
+/* Measures the offset of Redis's clock (TIME) to this node's, at most once
+ * a second (each thread that talks to Redis calls it before its work). */
+void cluster_clock_sync(struct redis *c);
 extern double cluster_skew_ms; /* tests: how far that clock is off */
 /* The key rayd:{ID}:what into buf. */
 void cluster_key(char *buf, size_t n, const char *id, const char *what);

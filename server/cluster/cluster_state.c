@@ -2,15 +2,24 @@
  * the version, the items' stream, the keys), the wall clock of the
  * records, this node's counters and the view /healthz and /metrics read.
  *
- * The lowest file of server/cluster/: the others use it, it uses none of
- * them.  The names are set once at start (cluster.c) before any thread
- * reads them; the counters are atomic; the view is written by the puller
- * and read by the HTTP threads under cluster_mu, so a probe never waits
- * for Redis.
+ * The lowest file of server/cluster/ but redis.c: the others use it, it
+ * uses none of them.  The names are set once at start (cluster.c) before
+ * any thread reads them; the counters are atomic; the view is written by
+ * the puller and read by the HTTP threads under cluster_mu, so a probe
+ * never waits for Redis.
+ *
+ * The clock of the records is Redis's, not the node's: the times a job
+ * keeps (created, started, ended, a pass's) and the ages its JSON shows are
+ * read on this node's clock plus the offset to Redis's TIME, measured at
+ * most once a second by each thread that talks to Redis (the midpoint of
+ * the call, so off by half a round trip at most).  Nodes whose clocks
+ * disagree then write and show the same times, as liveness already used
+ * Redis's clock (cluster_node.c).
  */
 #include "cluster/cluster_private.h"
 
 #include <stdio.h>
+#include <stdlib.h>
 #include <sys/time.h>
 
 struct redis_url cluster_url;
@@ -29,10 +38,33 @@ long cluster_claim_ms(void) { return config.redis_claim_ms; }
 
 double cluster_skew_ms;
 
-double cluster_now_ms(void) {
+static atomic_llong clock_offset_ms; /* Redis's TIME minus this node's clock */
+static atomic_llong clock_synced_ms; /* this node's clock when it was measured, 0: never */
+
+/* This node's wall clock, ms since the epoch (off by cluster_skew_ms in tests). */
+static double clock_local_ms(void) {
     struct timeval tv;
     gettimeofday(&tv, NULL);
     return (double)tv.tv_sec * 1e3 + (double)tv.tv_usec / 1e3 + cluster_skew_ms;
+}
+
+double cluster_now_ms(void) { return clock_local_ms() + (double)atomic_load(&clock_offset_ms); }
+
+void cluster_clock_sync(struct redis *c) {
+    double l0 = clock_local_ms();
+    if (l0 - (double)atomic_load(&clock_synced_ms) < 1000) return;
+    const char *argv[] = {"TIME", NULL};
+    redisReply *rep = redis_strs(c, argv);
+    double l1 = clock_local_ms();
+    if (rep && rep->type == REDIS_REPLY_ARRAY && rep->elements == 2 &&
+        rep->element[0]->type == REDIS_REPLY_STRING &&
+        rep->element[1]->type == REDIS_REPLY_STRING) {
+        double r =
+            strtod(rep->element[0]->str, NULL) * 1e3 + strtod(rep->element[1]->str, NULL) / 1e3;
+        atomic_store(&clock_offset_ms, (long long)(r - (l0 + l1) / 2));
+        atomic_store(&clock_synced_ms, (long long)l1);
+    }
+    if (rep) freeReplyObject(rep);
 }
 
 void cluster_key(char *buf, size_t n, const char *id, const char *what) {

@@ -105,7 +105,7 @@ check clean_stop_exit "node 3 exited with $rc" [ "$rc" = 0 ]
 check clean_stop_consumer_removed "consumers: $(consumers | tr '\n' ' ')" bash -c "! grep -qxF '$LEFT' <<<'$(consumers)'"
 check clean_stop_heartbeat_removed "rayd:nodes: $(rcli hkeys rayd:nodes | tr '\n' ' ')" [ -z "$(rcli hget rayd:nodes "$LEFT")" ]
 
-# --- nodes whose clocks are an hour off, either way: neither is taken for gone -----------------
+# --- nodes whose clocks are an hour off, either way: neither is taken for gone, times agree ----
 # (liveness is judged by Redis's clock; with the nodes' own, node 1 would count node 4 gone and
 # reap its heartbeat, and node 5 would count every other node gone)
 for i in 4 5; do
@@ -121,4 +121,12 @@ name() { echo "$(hostname):${NODE_URL[$1]##*:}:${NODE_PID[$1]}"; }
 reaped() { cat "$T"/node*.err | grep -E "gone node's (consumer|heartbeat) ($(name 1)|$(name 4)|$(name 5)) removed"; }
 none_reaped() { [ -z "$(reaped)" ]; }
 check skewed_clocks_nothing_reaped "$(reaped | head -3)" none_reaped
+# a job's times are Redis's too: posted on the node an hour behind, the three nodes show one
+# created_at, and an age of seconds, not an hour (or a negative one)
+SK=$(curl -s "${JSON[@]}" --data-binary @"$SCENE" "${NODE_URL[4]}/v1/jobs?x=0&y=0&w=64&h=64" |
+    python3 -c 'import json,sys; print(json.load(sys.stdin)["id"])')
+times() { for i in 1 4 5; do curl -s "${NODE_URL[$i]}/v1/jobs/$SK" | python3 -c 'import json,sys; d=json.load(sys.stdin); print(d["created_at"], 0 <= d["age_s"] < 60)'; done | sort -u; }
+seen=$(times)
+check skewed_clocks_same_job_times "created_at, age under a minute, on nodes 1, 4, 5: $(tr '\n' ' ' <<<"$seen")" \
+    bash -c "[ \"\$(wc -l <<<'$seen')\" = 1 ] && grep -q ' True\$' <<<'$seen'"
 [ "$NFAIL" = 0 ]
