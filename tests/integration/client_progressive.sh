@@ -139,8 +139,11 @@ done
 # --- --pass-step goes to the server: passes of 3, 6, 8 samples ------------------------------------
 "$CLIENT" render --progressive "$T/p8.json" -o "$T/step.png" --pass-step 3 --server "$URL" 2>"$T/step.log"
 rc=$?
-check pass_step_passed "exit $rc: $(cat "$T/step.log")" bash -c \
-    "[ $rc = 0 ] && grep -q 'pass 1/3: 3/8 samples' '$T/step.log' && grep -q 'pass 3/3: 8/8 samples' '$T/step.log'"
+# (the job's record says the plan: on a busy machine the job can end before the client reads its
+# first event, and then only the final image is fetched, with no pass line)
+steps=$(curl -s "$URL/v1/jobs?limit=1" | python3 -c 'import json,sys; p=json.load(sys.stdin)["jobs"][0]["passes"]; print(p["done"], p["total"], p["samples"])')
+check pass_step_passed "exit $rc, the job's passes $steps: $(cat "$T/step.log")" bash -c \
+    "[ $rc = 0 ] && [ '$steps' = '3 3 8' ] && ! grep -q 'pass [0-9]/[^3]' '$T/step.log'"
 stop_rayd
 
 # --- a fake server: dropped and closed streams, hostile answers ---------------------------------
