@@ -134,6 +134,7 @@ code=$(curl -s -o "$T/stop.json" -w '%{http_code}' -X POST "${NODE_URL[1]}/v1/jo
 check stop_unknown_404 "stop of no job gave $code" [ "$code" = 404 ]
 
 # --- kill -9 a node mid-pass, sums corrupt or lost: the same bytes -------------------------
+wait_until 60 ended 3 "$PID_PLAIN" # no item of another job is left for the nodes below
 for i in 1 2 3; do kill -KILL "${NODE_PID[$i]}"; done
 # node 4 takes an item of pass 1 and holds it (its gate lets no tile start): killed -9, its
 # item is taken over by node 5, then the only node, which stores its first tile's sums corrupt
@@ -149,7 +150,7 @@ curl -s -o "$T/faults.png" "${NODE_URL[5]}/v1/jobs/$FID/image.png"
 check faults_byte_identical "state $(job_state "${NODE_URL[5]}" "$FID"); the image differs from rayd-render's" \
     bash -c "cmp -s '$T/faults.png' '$T/ref16.png'"
 check faults_took_over "node 5 took over nothing" grep -q 'took over item' "$T/node5.err"
-check faults_corrupt_rerendered "node 5 did not say a tile's sums were corrupt" \
+check faults_corrupt_rerendered "node 5 did not say a tile's sums were corrupt: $(grep -E 'warn|took' "$T/node5.err" | head -6)" \
     grep -q "sums missing or corrupt in Redis" "$T/node5.err"
 check faults_no_sums_left "left: $(sums_left "$FID" | tr '\n' ' ')" [ "$(sums_left "$FID" | tr -d '\n')" = "0+0" ]
 
