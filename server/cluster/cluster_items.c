@@ -111,20 +111,20 @@ static redisReply *items_eval(struct redis *c, const char *script) {
     return redis_strs(c, argv);
 }
 
-void cluster_items_pull(struct redis *c, cluster_items_take_fn take, long block_ms) {
+bool cluster_items_pull(struct redis *c, cluster_items_take_fn take, long block_ms) {
     redisReply *rep = items_eval(c, items_lua_take);
     if (items_nogroup(rep)) {
         freeReplyObject(rep);
         cluster_items_groups(c);
-        return;
+        return false;
     }
     bool got = rep && !redis_failed(c, rep) && rep->type == REDIS_REPLY_ARRAY &&
                rep->elements == 2 && rep->element[0]->type == REDIS_REPLY_STRING;
     if (got) items_each(c, rep->element[1], JP_HIGH - atoi(rep->element[0]->str), false, take);
     if (rep) freeReplyObject(rep);
-    if (got || !redis_is_up(c)) return;
+    if (got || !redis_is_up(c) || block_ms <= 0) return got;
     /* nothing anywhere: wait on all three for the next one */
-    char block[16];
+    char block[24];
     snprintf(block, sizeof block, "%ld", block_ms);
     const char *bv[] = {"XREADGROUP",
                         "GROUP",
@@ -150,10 +150,11 @@ void cluster_items_pull(struct redis *c, cluster_items_take_fn take, long block_
             const redisReply *s = rep->element[i];
             if (s->type != REDIS_REPLY_ARRAY || s->elements != 2) continue;
             int l = items_level(s->element[0]->str);
-            if (l >= 0) items_each(c, s->element[1], l, false, take);
+            if (l >= 0 && items_each(c, s->element[1], l, false, take) > 0) got = true;
         }
     }
     if (rep) freeReplyObject(rep);
+    return got;
 }
 
 void cluster_items_reclaim(struct redis *c, long room, cluster_items_take_fn take) {

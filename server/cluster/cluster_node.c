@@ -39,11 +39,14 @@
 #include <unistd.h>
 
 #define NODE_RETRY_S 0.5 /* a render the node refused (queue full) is tried again after */
-/* How long the puller waits in Redis for a new item: while it holds items
- * a finished render's result waits for that read to end (a progressive
- * job's next pass waits for its last tile), so briefly then. */
+/* How long an idle puller waits in Redis for a new item.  While it holds
+ * items it never blocks in Redis (a render that finishes meanwhile would
+ * wait for the read to end, and Redis ends a short BLOCK only at its next
+ * tick, some 100 ms: a progressive job's next pass waits for its last
+ * tile); it asks without waiting, then waits on its own condition, which a
+ * finished render signals, for at most NODE_BUSY_WAIT_S. */
 #define NODE_BLOCK_MS 100
-#define NODE_BLOCK_BUSY_MS 10
+#define NODE_BUSY_WAIT_S 0.01
 
 enum node_phase { NP_START, NP_BUSY, NP_DONE, NP_FAILED, NP_RETRY, NP_DROP };
 
@@ -546,9 +549,11 @@ static void *node_main(void *arg) {
             if (redis_is_up(c)) cluster_items_reap(c);
             room = config.threads - node_count;
         }
-        if (room > 0 && !atomic_load(&cluster_draining) && redis_is_up(c))
-            cluster_items_pull(c, node_take_entry, node_count ? NODE_BLOCK_BUSY_MS : NODE_BLOCK_MS);
-        else if (!redis_is_up(c))
+        if (room > 0 && !atomic_load(&cluster_draining) && redis_is_up(c)) {
+            bool busy = node_count > 0;
+            if (!cluster_items_pull(c, node_take_entry, busy ? 0 : NODE_BLOCK_MS) && busy && !any)
+                node_wait(NODE_BUSY_WAIT_S);
+        } else if (!redis_is_up(c))
             node_figures(c), node_wait(0.2);
         else if (!any)
             node_wait(0.05);

@@ -181,8 +181,8 @@ void cluster_items_groups(struct redis *c); /* the group `render` of each stream
 typedef long (*cluster_items_take_fn)(struct redis *c, const redisReply *e, int level,
                                       bool reclaimed);
 /* The next new item, from the highest stream that has one (waits up to
- * block_ms when none has). */
-void cluster_items_pull(struct redis *c, cluster_items_take_fn take, long block_ms);
+ * block_ms in Redis when none has; 0: not at all); whether it took one. */
+bool cluster_items_pull(struct redis *c, cluster_items_take_fn take, long block_ms);
 /* Items idle past claim-ms (a dead or stalled node's), highest first, up to room. */
 void cluster_items_reclaim(struct redis *c, long room, cluster_items_take_fn take);
 /* The items sids[0..n) of stream `level` held here keep their claim. */
