@@ -69,8 +69,7 @@ static size_t api_cev_format(struct api_cev *a, const struct cluster_event *e, c
         cJSON_AddNumberToObject(o, "h", e->reg.h);
         size_t n = api_sse_event(out, size, "tile", o);
         o = cJSON_CreateObject();
-        double frac = e->total > 0 ? (double)e->done / (double)e->total : 0;
-        json_add_fixed(o, "progress", e->progress >= 0 ? e->progress : frac, 4);
+        json_add_fixed(o, "progress", e->total > 0 ? (double)e->done / (double)e->total : 0, 4);
         cJSON_AddNumberToObject(o, "done", (double)e->done);
         cJSON_AddNumberToObject(o, "total", (double)e->total);
         return n + api_sse_event(out + n, size - n, "progress", o);
@@ -102,6 +101,8 @@ static size_t api_cev_format(struct api_cev *a, const struct cluster_event *e, c
     a->ended = true; /* "done" */
     cJSON_AddStringToObject(o, "state", e->state);
     json_add_fixed(o, "progress", in->job.progress, 4);
+    if (in->job.progressive && in->job.passes.samples > 0) /* as one node's */
+        cJSON_AddNumberToObject(o, "samples", in->job.passes.samples);
     if (!strcmp(e->state, "failed")) cJSON_AddStringToObject(o, "error", in->job.err.message);
     return api_sse_event(out, size, "done", o);
 }

@@ -66,7 +66,7 @@ struct cluster_event {
     long frame, tile;       /* tile, frame */
     long done, total;       /* tile: tiles of the job done; frame: frames done; pass: the pass */
     struct rayd_region reg; /* tile: where it is in the image */
-    double progress;        /* tile of a progressive job, pass: the job's; < 0: none */
+    double progress;        /* pass: the job's progress; < 0: none */
     long samples;           /* pass: its samples, what it took, its noise estimate */
     double time_s, noise;
 };

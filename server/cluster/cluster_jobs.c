@@ -48,9 +48,9 @@ const char cluster_lua_end[] =
     "  if err ~= '' then redis.call('HSET', p .. 'job', 'error', err) end\n"
     "  redis.call('XADD', p .. 'events', 'MAXLEN', '~', 1000, '*', 'kind', 'done', 'state', "
     "state)\n"
-    "  local first = tonumber(redis.call('HGET', p .. 'job', 'first'))\n"
-    "  local last = tonumber(redis.call('HGET', p .. 'job', 'last'))\n"
-    "  local tiles = tonumber(redis.call('HGET', p .. 'job', 'tiles'))\n"
+    "  local first = tonumber(redis.call('HGET', p .. 'job', 'first')) or 0\n"
+    "  local last = tonumber(redis.call('HGET', p .. 'job', 'last')) or -1\n"
+    "  local tiles = tonumber(redis.call('HGET', p .. 'job', 'tiles')) or 0\n"
     "  for k = first, last do\n"
     "    for t = 0, tiles - 1 do\n"
     "      redis.call('DEL', p .. 'tile:' .. k .. ':' .. t, p .. 'tile:' .. k .. ':' .. t .. "
@@ -62,13 +62,14 @@ const char cluster_lua_end[] =
     "  end\n"
     "  local pr = redis.call('HMGET', p .. 'job', 'pass', 'passes', 'progressive')\n"
     "  if pr[3] == '1' then\n"
-    "    local K = tonumber(pr[1])\n"
+    "    local K = tonumber(pr[1]) or 0\n"
     "    for t = 0, tiles - 1 do\n"
     "      redis.call('DEL', p .. 'sums:' .. K .. ':' .. t, p .. 'run:' .. K .. ':' .. t, p .. "
     "'run:' .. (K - 1) .. ':' .. t)\n"
     "    end\n"
     "    redis.call('DEL', p .. 'pdone:' .. K)\n"
-    "    for q = 1, tonumber(pr[2]) do redis.call('EXPIRE', p .. 'pass:' .. q, ttl) end\n"
+    "    for q = 1, math.min(tonumber(pr[2]) or 0, 64) do redis.call('EXPIRE', p .. 'pass:' .. q, "
+    "ttl) end\n"
     "  end\n"
     "  for _, k in ipairs({'job', 'events', 'frames'}) do redis.call('EXPIRE', p .. k, ttl) end\n"
     "  redis.call('SREM', 'rayd:unfinished', id)\n"
@@ -537,8 +538,10 @@ static void cluster_image(struct redis *c, struct cluster_op *op) {
     if (op->kind == CO_VIDEO && op->info.video != SV_READY) return;
     if (op->kind != CO_VIDEO && (op->frame < op->info.first || op->frame > op->info.last)) return;
     long pass = op->pass ? op->pass : op->info.job.passes.done;
-    if (op->info.job.progressive && (op->exr || pass < 1 || pass > op->info.job.passes.done))
-        return; /* no such pass yet (or none kept: the answer says) */
+    enum jobs_state st = op->info.job.state;
+    if (op->info.job.progressive && (op->exr || pass < 1 || pass > op->info.job.passes.done ||
+                                     st == JS_FAILED || st == JS_CANCELED))
+        return; /* no such pass yet (or none kept, or the job's end says: the answer does) */
     if (op->info.job.progressive && !cluster_pass_samples(c, op, pass)) return;
     if (op->kind == CO_VIDEO)
         snprintf(what, sizeof what, "video");
@@ -585,9 +588,8 @@ static const char cluster_lua_stop[] =
     "if not j[1] then return -2 end\n"
     "if j[2] ~= '1' then return -4 end\n"
     "if j[1] ~= 'queued' and j[1] ~= 'running' then return 0 end\n"
-    "redis.call('HSET', p .. 'job', 'stop_asked', 1)\n"
+    "redis.call('HSET', p .. 'job', 'stop_asked', 1, 'stopped', 'client')\n"
     "if (tonumber(j[3]) or 0) == 0 then return 2 end\n"
-    "redis.call('HSET', p .. 'job', 'stopped', 'client')\n"
     "return rayd_end(id, 'succeeded', ARGV[2], ARGV[3], '')\n";
 
 static int cluster_stop_script(struct redis *c, const char *id) {

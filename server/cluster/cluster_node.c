@@ -53,10 +53,9 @@ enum node_phase { NP_START, NP_BUSY, NP_DONE, NP_FAILED, NP_RETRY, NP_DROP };
 struct node_item {
     char sid[48], job[33];
     long frame, tile, ntiles;
-    long pass;          /* a progressive job's pass (from 1), 0 for any other item */
-    bool whole;         /* a pass's tile whose running sums were lost: all its samples */
-    double base, share; /* a pass's tile: the job's progress before the pass, its part */
-    int level;          /* the stream it came from (its job's priority) */
+    long pass;  /* a progressive job's pass (from 1), 0 for any other item */
+    bool whole; /* a pass's tile whose running sums were lost: all its samples */
+    int level;  /* the stream it came from (its job's priority) */
     bool animated;
     enum node_phase phase; /* NP_BUSY items belong to the work layer's callbacks */
     double retry_at;
@@ -193,8 +192,6 @@ static int node_pass(struct node_item *it, const redisReply *plan, long long at)
     it->what.k0 = k0;
     it->what.k1 = k1;
     it->what.centre = k1 == 1;
-    it->base = passes_share(samples, n, (int)it->pass - 1, 0);
-    it->share = passes_share(samples, n, (int)it->pass, 0) - it->base;
     return 1;
 }
 
@@ -442,8 +439,7 @@ static bool node_finish(struct redis *c) {
                 cluster_items_ack(c, it->level, it->sid);
                 atomic_fetch_add(&cluster_done_total, 1);
             }
-        } else if (ph == NP_DONE && (it->pass > 0 ? cluster_passes_tile_store(c, &done, it->pass,
-                                                                              it->base, it->share)
+        } else if (ph == NP_DONE && (it->pass > 0 ? cluster_passes_tile_store(c, &done, it->pass)
                                                   : cluster_tile_store(c, &done))) {
             node_test_stall();
             cluster_items_ack(c, it->level, it->sid);
@@ -451,8 +447,10 @@ static bool node_finish(struct redis *c) {
         } else if (ph == NP_FAILED) {
             char err[800];
             node_error_json(it, err, sizeof err);
-            log_warn("cluster: job %s failed: %s", it->job, err);
-            if (cluster_jobs_end(c, it->job, "failed", err))
+            log_warn("cluster: job %s: a tile failed: %s", it->job, err);
+            if (it->pass > 0
+                    ? cluster_passes_failed(c, it->job, it->pass, it->err.code == RAYD_E_LIMIT, err)
+                    : cluster_jobs_end(c, it->job, "failed", err))
                 cluster_items_ack(c, it->level, it->sid);
         }
         *p = it->next;

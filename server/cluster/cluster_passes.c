@@ -84,14 +84,12 @@ static const char cluster_lua_pass_tile[] =
     "  redis.call('HSET', p .. 'job', 'tiles_done', c)\n"
     "  redis.call('HINCRBY', p .. 'job', 'rays', ARGV[7])\n"
     "  redis.call('HINCRBYFLOAT', p .. 'job', 'render_ms', ARGV[8])\n"
-    "  local pr = tonumber(ARGV[10]) + tonumber(ARGV[11]) * c / n\n"
-    "  redis.call('XADD', p .. 'events', 'MAXLEN', '~', 1000, '*', 'kind', 'tile', 'frame', 0, "
-    "'tile', t, 'done', c, 'total', n, 'where', ARGV[9], 'progress', string.format('%.6f', pr))\n"
     "end\n"
     "local budget = tonumber(j[4]) or 0\n"
-    "if budget > 0 and (tonumber(j[5]) or 0) > 0 and now - tonumber(j[3]) >= budget * 1000 then\n"
+    "if c < n and budget > 0 and (tonumber(j[5]) or 0) > 0 and now - tonumber(j[3]) >= budget * "
+    "1000 then\n"
     "  redis.call('HSET', p .. 'job', 'stopped', 'time_budget')\n"
-    "  return rayd_end(id, 'succeeded', ARGV[6], ARGV[12], '') + 10\n"
+    "  return rayd_end(id, 'succeeded', ARGV[6], ARGV[9], '') + 10\n"
     "end\n"
     "if added == 1 and c == n then\n"
     "  redis.call('XADD', redis.call('HGET', p .. 'job', 'items'), '*', 'job', id, 'frame', 0, "
@@ -99,18 +97,14 @@ static const char cluster_lua_pass_tile[] =
     "end\n"
     "return c\n";
 
-bool cluster_passes_tile_store(struct redis *c, const struct cluster_tile *t, long pass,
-                               double base, double share) {
-    char sk[24], st[24], sn[24], now[32], sr[32], sm[32], where[64], sb[32], ss[32], ttl[24];
-    snprintf(where, sizeof where, "%d %d %d %d", t->reg.x, t->reg.y, t->reg.w, t->reg.h);
+bool cluster_passes_tile_store(struct redis *c, const struct cluster_tile *t, long pass) {
+    char sk[24], st[24], sn[24], now[32], sr[32], sm[32], ttl[24];
     snprintf(sk, sizeof sk, "%ld", pass);
     snprintf(st, sizeof st, "%ld", t->tile);
     snprintf(sn, sizeof sn, "%ld", t->ntiles);
     snprintf(now, sizeof now, "%.0f", cluster_now_ms());
     snprintf(sr, sizeof sr, "%llu", (unsigned long long)t->rays);
     snprintf(sm, sizeof sm, "%.3f", t->render_ms);
-    snprintf(sb, sizeof sb, "%.6f", base);
-    snprintf(ss, sizeof ss, "%.6f", share);
     snprintf(ttl, sizeof ttl, "%ld", config.job_ttl);
     size_t n = strlen(cluster_lua_end) + sizeof cluster_lua_pass_tile;
     char *script = malloc(n);
@@ -120,13 +114,46 @@ bool cluster_passes_tile_store(struct redis *c, const struct cluster_tile *t, lo
     size_t len = t->png->len;
     if (test) /* "missing" keeps it as nothing at all, "corrupt" as bytes that are no sums */
         data = strcmp(test, "missing") ? "these are not sums" : "", len = strlen(data);
-    const char *argv[] = {"EVAL", script, "0", t->id, sk, st, data, sn,
-                          now,    sr,     sm,  where, sb, ss, ttl};
-    size_t lens[15];
-    for (int i = 0; i < 15; i++) lens[i] = i == 6 ? len : strlen(argv[i]);
-    redisReply *rep = redis_argv(c, 15, argv, lens);
+    const char *argv[] = {"EVAL", script, "0", t->id, sk, st, data, sn, now, sr, sm, ttl};
+    size_t lens[12];
+    for (int i = 0; i < 12; i++) lens[i] = i == 6 ? len : strlen(argv[i]);
+    redisReply *rep = redis_argv(c, 12, argv, lens);
     bool ok = !redis_failed(c, rep);
     if (ok && redis_ll(rep, 0) >= 10) log_info("cluster: job %s stopped by its time budget", t->id);
+    if (rep) freeReplyObject(rep);
+    free(script);
+    return ok;
+}
+
+/* A tile of pass K failed (ARGV[3] '1': over a limit, --max-work): the job
+ * ends with its latest pass when it has one, as one node keeps it
+ * (stopped_by max_work), else fails (ARGV[4], the error); a tile of a pass
+ * that is over changes nothing. */
+static const char cluster_lua_pass_failed[] =
+    "local id = ARGV[1]\n"
+    "local p = 'rayd:{' .. id .. '}:'\n"
+    "local j = redis.call('HMGET', p .. 'job', 'state', 'pass', 'passes_done')\n"
+    "if not j[1] then return -2 end\n"
+    "if (j[1] ~= 'queued' and j[1] ~= 'running') or j[2] ~= ARGV[2] then return -1 end\n"
+    "if ARGV[3] == '1' and (tonumber(j[3]) or 0) > 0 then\n"
+    "  redis.call('HSET', p .. 'job', 'stopped', 'max_work')\n"
+    "  return rayd_end(id, 'succeeded', ARGV[5], ARGV[6], '')\n"
+    "end\n"
+    "return rayd_end(id, 'failed', ARGV[5], ARGV[6], ARGV[4])\n";
+
+bool cluster_passes_failed(struct redis *c, const char *id, long pass, bool limit,
+                           const char *error) {
+    char sk[24], now[32], ttl[24];
+    snprintf(sk, sizeof sk, "%ld", pass);
+    snprintf(now, sizeof now, "%.0f", cluster_now_ms());
+    snprintf(ttl, sizeof ttl, "%ld", config.job_ttl);
+    size_t n = strlen(cluster_lua_end) + sizeof cluster_lua_pass_failed;
+    char *script = malloc(n);
+    if (!script) return false;
+    snprintf(script, n, "%s%s", cluster_lua_end, cluster_lua_pass_failed);
+    const char *argv[] = {"EVAL", script, "0", id, sk, limit ? "1" : "0", error, now, ttl, NULL};
+    redisReply *rep = redis_strs(c, argv);
+    bool ok = !redis_failed(c, rep);
     if (rep) freeReplyObject(rep);
     free(script);
     return ok;
@@ -192,6 +219,32 @@ static double *pass_sums(const redisReply *v, const struct rayd_region *r, int k
 
 enum pass_tile { PT_OK, PT_BAD, PT_WHOLE, PT_DOWN };
 
+/* Tile t's running sums after pass K kept, while the job is at pass K: an
+ * assembly that outlived its pass (the job stopped, cancelled, or the pass
+ * assembled by a node that took it over) writes nothing rayd_end would not
+ * delete. */
+static const char cluster_lua_pass_run[] =
+    "local p = 'rayd:{' .. ARGV[1] .. '}:'\n"
+    "local j = redis.call('HMGET', p .. 'job', 'state', 'pass')\n"
+    "if (j[1] ~= 'queued' and j[1] ~= 'running') or j[2] ~= ARGV[2] then return 0 end\n"
+    "redis.call('SET', p .. 'run:' .. ARGV[2] .. ':' .. ARGV[3], ARGV[4], 'EX', " CLUSTER_SUMS_KEEP
+    ")\n"
+    "return 1\n";
+
+static bool pass_run_store(struct redis *c, const char *id, long k, long t, const void *buf,
+                           size_t len) {
+    char sk[24], st[24];
+    snprintf(sk, sizeof sk, "%ld", k);
+    snprintf(st, sizeof st, "%ld", t);
+    const char *argv[] = {"EVAL", cluster_lua_pass_run, "0", id, sk, st, buf};
+    size_t lens[7];
+    for (int i = 0; i < 7; i++) lens[i] = i == 6 ? len : strlen(argv[i]);
+    redisReply *rep = redis_argv(c, 7, argv, lens);
+    bool ok = !redis_failed(c, rep);
+    if (rep) freeReplyObject(rep);
+    return ok;
+}
+
 /* Tile t of pass k: its new sums added to its running sums, kept as the
  * next pass's running sums (keep), resolved into img. */
 static enum pass_tile pass_tile(struct redis *c, const char *id, const struct pass_job *j, long k,
@@ -230,13 +283,7 @@ static enum pass_tile pass_tile(struct redis *c, const char *id, const struct pa
         out = PT_BAD;
     if (out == PT_OK && keep &&
         rayd_sums_encode(r.w, r.h, 0, k1, rayd_accum_sums(acc), &buf, &len, &err) == RAYD_OK) {
-        snprintf(what, sizeof what, "run:%ld:%ld", k, t);
-        cluster_key(keys[1], sizeof keys[1], id, what);
-        const char *set[] = {"SET", keys[1], buf, "EX", CLUSTER_SUMS_KEEP};
-        size_t lens[] = {3, strlen(keys[1]), len, 2, strlen(CLUSTER_SUMS_KEEP)};
-        redisReply *s = redis_argv(c, 5, set, lens);
-        if (redis_failed(c, s)) out = PT_DOWN;
-        if (s) freeReplyObject(s);
+        if (!pass_run_store(c, id, k, t, buf, len)) out = PT_DOWN;
     } else if (out == PT_OK && keep) {
         out = PT_DOWN; /* out of memory: the item waits */
     }
@@ -326,9 +373,11 @@ static const char cluster_lua_pass_end[] =
     "end\n"
     "redis.call('DEL', p .. 'pdone:' .. K)\n"
     "local why = ARGV[9]\n"
-    "if why == '' and j[6] == '1' then why = 'client' end\n"
+    "if j[6] == '1' then why = 'client' end\n"
     "if why ~= '' or K >= n then\n"
-    "  if why ~= '' and K < n then redis.call('HSET', p .. 'job', 'stopped', why) end\n"
+    "  if why ~= '' and (K < n or why == 'client') then\n"
+    "    redis.call('HSET', p .. 'job', 'stopped', why)\n"
+    "  end\n"
     "  return rayd_end(id, 'succeeded', ARGV[10], ARGV[11], '') + 10\n"
     "end\n"
     "redis.call('HSET', p .. 'job', 'pass', K + 1, 'tiles_done', 0)\n"
@@ -414,7 +463,9 @@ static bool pass_end(struct redis *c, const char *id, const struct pass_job *j, 
 static bool pass_tiles(struct redis *c, const char *id, const struct pass_job *j, long k,
                        rayd_image *img, long *bad, bool *whole, long *nbad) {
     for (long t = 0; t < j->g.tiles; t++) {
-        enum pass_tile pt = pass_tile(c, id, j, k, t, k < j->n, img);
+        /* the next pass adds to these sums, unless it starts again after the centre image */
+        bool keep = k < j->n && j->samples[k - 1] > 1;
+        enum pass_tile pt = pass_tile(c, id, j, k, t, keep, img);
         if (pt == PT_DOWN) return false;
         if (pt != PT_OK) whole[*nbad] = pt == PT_WHOLE, bad[(*nbad)++] = t;
     }

@@ -144,10 +144,12 @@ bool cluster_assemble_reserve(const char *id, long k, size_t need);
  * adds, or (whole) all of them. */
 void cluster_passes_range(const int *samples, long k, bool whole, int *k0, int *k1);
 /* A tile's sums of pass `pass` kept (t->png: the sums' bytes), the pass's
- * assembly queued by whoever completes it; base and share: the job's
- * progress before the pass and the pass's part of it.  false: Redis failed. */
-bool cluster_passes_tile_store(struct redis *c, const struct cluster_tile *t, long pass,
-                               double base, double share);
+ * assembly queued by whoever completes it.  false: Redis failed. */
+bool cluster_passes_tile_store(struct redis *c, const struct cluster_tile *t, long pass);
+/* A tile of pass `pass` failed (limit: over --max-work): the job ends with
+ * its latest pass, or fails with error (JSON); false: Redis failed. */
+bool cluster_passes_failed(struct redis *c, const char *id, long pass, bool limit,
+                           const char *error);
 /* Pass k of job id assembled: its PNG, its numbers, the next pass or the
  * job's end.  false: Redis failed or no room now (the item stays pending). */
 bool cluster_passes_assemble(struct redis *c, const char *id, long k);
