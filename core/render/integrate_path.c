@@ -210,7 +210,8 @@ static vec3 next_event(const rayd_scene *s, const struct lobes *lb, const struct
     if (env_can_sample(&s->rs.env)) sum = v3_add(sum, env_event(s, lb, x, wo, key, b, mt));
     int ne = s->nemitters;
     if (ne == 0) return sum;
-    int k = (int)(rng_stratified(key, b, D_PICK) * ne);
+    /* one emitter: no pick to draw (the number would only give 0) */
+    int k = ne == 1 ? 0 : (int)(rng_stratified(key, b, D_PICK) * ne);
     const struct object *e = &s->objs[s->emitters[k < ne ? k : ne - 1]];
     double eu, ev;
     rng_pair(key, b, D_EPT1, &eu, &ev);
@@ -283,6 +284,25 @@ static bool sample_bsdf(const struct lobes *lb, const struct vertex *x, vec3 col
     return true;
 }
 
+/* Whether Russian roulette (number rr) surely ends the path at a Lambert
+ * vertex, whatever direction sample_bsdf would draw: then the direction
+ * (its sine and cosine, the costliest numbers of a bounce) is not drawn.
+ * There sample_bsdf multiplies beta by albedo x (f / pdf), whose ratio is
+ * 1 to within a few roundings, so the roulette's q is at most that of
+ * beta x albedo lifted by far more than those roundings (and an absolute
+ * bit for underflow); a number at or above that bound ends the path in
+ * either order, and anything closer is left to the exact test after the
+ * draw.  Pure functions of the same numbers: the same bits as drawing
+ * first. */
+static bool rr_ends_first(const struct lobes *lb, vec3 beta, double rr) {
+    if (lb->w_diff != 1 || lb->w_metal != 0 || lb->w_mirror != 0 || lb->w_glass != 0) return false;
+    vec3 p = v3_mul(beta, lb->albedo);
+    double sum = fabs(p.x) + fabs(p.y) + fabs(p.z); /* NaN or infinite: no shortcut */
+    if (!(sum < INFINITY)) return false;
+    double hi = v3_maxabs(p) * (1 + 1e-12) + 1e-300;
+    return rr >= v3_fmin(0.95, v3_fmax(0.05, hi));
+}
+
 /* c added to L; an indirect contribution first scaled down to the
  * luminance render.clamp_indirect when it is brighter. */
 static vec3 path_add(const rayd_scene *s, vec3 L, vec3 c, bool indirect) {
@@ -339,6 +359,8 @@ static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *fir
         struct lobes lb = lobes_of(m, sf.color, blurry ? s->rs.filter_glossy : 0);
         if (!s->rs.no_nee && (lb.w_diff > 0 || (lb.w_metal > 0 && lb.alpha > 0)))
             L = path_add(s, L, v3_mul(beta, next_event(s, &lb, &x, wo, key, b, mt)), b >= 1);
+        double rr = b >= 3 ? rng_stratified(key, b, D_RR) : 0;
+        if (b >= 3 && rr_ends_first(&lb, beta, rr)) break;
         vec3 wi;
         bool delta, through;
         double pdf = 0;
@@ -346,7 +368,7 @@ static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *fir
             break;
         if (b >= 3) { /* Russian roulette */
             double q = v3_fmin(0.95, v3_fmax(0.05, v3_maxabs(beta)));
-            if (rng_stratified(key, b, D_RR) >= q) break;
+            if (rr >= q) break;
             beta = v3_scale(beta, 1 / q);
         }
         prev_delta = delta;

@@ -97,20 +97,47 @@ static struct rng_key pixel_key(const rayd_scene *s, int i, int j) {
     return rng_key_at(s->rs.seed, (uint32_t)i, (uint32_t)j, 0);
 }
 
-/* Pixel (i, j)'s sample k of n: its ray, and *key set to name it. */
-static ray sample_ray(const rayd_scene *s, int i, int j, int k, int n, struct rng_key *key) {
-    *key = pixel_key(s, i, j);
+/* What all of pixel (i, j)'s samples share: the key of its random
+ * numbers and its offsets in the pixel and on the lens, made once a
+ * pixel, not once a sample, where a block draws many samples. */
+struct pixel_jitter {
+    struct rng_key key;
+    double ox, oy, lx, ly;
+};
+
+static void pixel_jitter_at(const rayd_scene *s, int i, int j, struct pixel_jitter *pj) {
+    pj->key = pixel_key(s, i, j);
+    pj->ox = rng_uniform(&pj->key, RNG_CAMERA, 0);
+    pj->oy = rng_uniform(&pj->key, RNG_CAMERA, 1);
+    pj->lx = rng_uniform(&pj->key, RNG_CAMERA, 2);
+    pj->ly = rng_uniform(&pj->key, RNG_CAMERA, 3);
+}
+
+/* Pixel (i, j)'s sample k of n from its jitter pj: its ray, and *key set
+ * to name it.  No lens position without a lens (cam_ray ignores it). */
+static ray jitter_ray(const rayd_scene *s, const struct pixel_jitter *pj, int i, int j, int k,
+                      int n, struct rng_key *key) {
+    *key = pj->key;
     if (n == 1 && s->cam.aperture <= 0) return cam_ray(&s->cam, i + 0.5, j + 0.5, 0, 0);
-    double ox = rng_uniform(key, RNG_CAMERA, 0), oy = rng_uniform(key, RNG_CAMERA, 1);
-    double lx = rng_uniform(key, RNG_CAMERA, 2), ly = rng_uniform(key, RNG_CAMERA, 3);
-    double sx = n == 1 ? 0.5 : ox + k * R2_A1, sy = n == 1 ? 0.5 : oy + k * R2_A2;
-    double lu = lx + k * R2_A1, lv = ly + k * R2_A2;
+    double sx = n == 1 ? 0.5 : pj->ox + k * R2_A1, sy = n == 1 ? 0.5 : pj->oy + k * R2_A2;
+    double lu = 0, lv = 0;
     sx -= floor(sx);
     sy -= floor(sy);
-    lu -= floor(lu);
-    lv -= floor(lv);
+    if (s->cam.aperture > 0) {
+        lu = pj->lx + k * R2_A1;
+        lv = pj->ly + k * R2_A2;
+        lu -= floor(lu);
+        lv -= floor(lv);
+    }
     rng_key_sample(key, (uint32_t)k);
     return cam_ray(&s->cam, i + sx, j + sy, lu, lv);
+}
+
+/* Pixel (i, j)'s sample k of n: its ray, and *key set to name it. */
+static ray sample_ray(const rayd_scene *s, int i, int j, int k, int n, struct rng_key *key) {
+    struct pixel_jitter pj;
+    pixel_jitter_at(s, i, j, &pj);
+    return jitter_ray(s, &pj, i, j, k, n, key);
 }
 
 /* One channel of a sample as a term of an exact sum (see the top). */
@@ -152,8 +179,8 @@ vec3 render_pixel(const rayd_scene *s, int i, int j, uint64_t *rays) {
  * block's rays through the pixel centres (the one sample of a pinhole
  * camera); else each lane's ray is sample_ray's. */
 static void block_sample(const rayd_scene *s, int x, int y, uint32_t active,
-                         const struct ray16 *centre, int k, int n, union block_colours *c,
-                         struct meter *mt) {
+                         const struct ray16 *centre, const struct pixel_jitter jit[16], int k,
+                         int n, union block_colours *c, struct meter *mt) {
     struct ray16 rs; /* the sample rays, when not through the centres: set below */
     // cppcheck-suppress uninitvar
     const struct ray16 *r = centre ? centre : &rs;
@@ -161,7 +188,7 @@ static void block_sample(const rayd_scene *s, int x, int y, uint32_t active,
     for (int q = 0; centre && q < 16; q++) key[q] = pixel_key(s, x + q % 4, y + q / 4);
     for (uint32_t m = centre ? 0 : active; m; m &= m - 1) {
         int q = __builtin_ctz(m);
-        ray16_set(&rs, q, sample_ray(s, x + q % 4, y + q / 4, k, n, &key[q]));
+        ray16_set(&rs, q, jitter_ray(s, &jit[q], x + q % 4, y + q / 4, k, n, &key[q]));
     }
     if (s->rs.integrator == INTEGRATOR_WHITTED) {
         whitted_radiance16(s, r, active, key, c->v, mt);
@@ -225,14 +252,15 @@ static void aov_move(const struct rect_out *o, int bx, int by, uint32_t active,
  * acc, the rays made as block_sample makes them and met as a packet
  * (which gives each ray its one-ray hit). */
 static void aov_block(const rayd_scene *s, int x, int y, uint32_t active,
-                      const struct ray16 *centre, int k, int n, double acc[16][AOV_SUMS]) {
+                      const struct ray16 *centre, const struct pixel_jitter jit[16], int k, int n,
+                      double acc[16][AOV_SUMS]) {
     struct ray16 rs;
     // cppcheck-suppress uninitvar
     const struct ray16 *r = centre ? centre : &rs;
     for (uint32_t m = centre ? 0 : active; m; m &= m - 1) {
         int q = __builtin_ctz(m);
         struct rng_key key;
-        ray16_set(&rs, q, sample_ray(s, x + q % 4, y + q / 4, k, n, &key));
+        ray16_set(&rs, q, jitter_ray(s, &jit[q], x + q % 4, y + q / 4, k, n, &key));
     }
     struct hit first[16];
     uint32_t hit = scene_intersect16_soa(s, r, scene_unbounded16, active, first, NULL);
@@ -263,10 +291,15 @@ static void render_block(const rayd_scene *s, int x, int y, int w, int h,
     else if (n > 1)
         memset(acc, 0, sizeof acc);
     if (o->aov) aov_move(o, o->dx + bx, o->dy + by, active, aov, true);
+    struct pixel_jitter jit[16]; /* the lanes' jitter, when not through the centres */
+    for (uint32_t m = centre ? 0 : active; m; m &= m - 1) {
+        int q = __builtin_ctz(m);
+        pixel_jitter_at(s, x + q % 4, y + q / 4, &jit[q]);
+    }
     for (int k = o->k0; k < o->k1; k++) {
         if (!meter_poll(mt)) return;
-        block_sample(s, x, y, active, centre, k, n, &c, mt);
-        if (o->aov) aov_block(s, x, y, active, centre, k, n, aov);
+        block_sample(s, x, y, active, centre, jit, k, n, &c, mt);
+        if (o->aov) aov_block(s, x, y, active, centre, jit, k, n, aov);
         for (uint32_t m = sum ? active : 0; m; m &= m - 1) {
             int q = __builtin_ctz(m);
             vec3 t = n == 1 ? c.v[q] : render_sum_term(c.v[q]); /* centre: as is */
