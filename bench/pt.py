@@ -21,8 +21,10 @@ with different seeds), after
 checking the two agree (mean per channel); then, RUNS times, interleaved
 (for each run, sample count and scene: rayd, then Cycles), a render at
 each of SPP samples, timed as a whole process (walltime: fork to exit)
-and, for Cycles, also the render alone (its log's PT_RENDER_S: scene
-sync, BVH build, sampling, EXR written).  Errors against the reference
+and as the render alone: Cycles' log's PT_RENDER_S (scene sync, BVH
+build, sampling, EXR written), rayd-render's --stats "time total" (read,
+parse, build, sampling, EXR written), each without its program's
+start-up.  Errors against the reference
 over the pixels that are not the emitter (reference above MASK): MSE and
 RMSE of linear RGB, and the relative MSE, mean of (x - ref)^2 / (ref^2 +
 0.01).  Efficiency = 1 / (time x MSE), from the medians of the RUNS runs;
@@ -177,9 +179,17 @@ def read_raw(exr):
 def run_rayd(s, name, samples, seed, extra=()):
     js = write_scene(s, samples, seed, os.path.join(D, name + ".rayd.json"))
     out = os.path.join(D, name + ".rayd.exr")
-    t = timed([RAYD, js, "-o", out, "--threads", str(THREADS), "--quiet"] + list(extra),
-              os.path.join(D, name + ".rayd.log"))
-    return read_raw(out), t, t
+    log = os.path.join(D, name + ".rayd.log")
+    t = timed([RAYD, js, "-o", out, "--threads", str(THREADS), "--quiet", "--stats"]
+              + list(extra), log)
+    alone = None
+    with open(log) as f:
+        for line in f:
+            if line.startswith("time total:"):
+                alone = float(line.split()[2])
+    if alone is None:
+        die("no 'time total:' in %s" % log)
+    return read_raw(out), t, alone
 
 
 def run_cycles(s, name, samples, seed):
@@ -335,22 +345,24 @@ def report(scenes, agree, results):
             name, " ".join("%.4f" % x for x in ma), " ".join("%.4f" % x for x in mb), diff,
             refnoise))
     print()
-    print("Medians of %d interleaved runs; wall: whole process; render: Cycles' render alone;" % RUNS)
+    print("Medians of %d interleaved runs; wall: whole process; render: the render alone;" % RUNS)
     print("MSE: linear RGB against the shared reference; eff = 1 / (wall x MSE)")
-    hdr = "%-8s %5s | %7s %9s %9s %9s | %7s %7s %9s %9s %9s | %6s %6s"
-    print(hdr % ("scene", "spp", "rayd s", "RMSE", "relMSE", "eff", "Cyc s", "render",
-                 "RMSE", "relMSE", "eff", "ratio", "r/rnd"))
+    hdr = "%-8s %5s | %7s %7s %9s %9s %9s | %7s %7s %9s %9s %9s | %6s %6s %6s"
+    print(hdr % ("scene", "spp", "rayd s", "render", "RMSE", "relMSE", "eff", "Cyc s", "render",
+                 "RMSE", "relMSE", "eff", "ratio", "r/rnd", "rnd"))
     for name in scenes:
         for spp in SPP:
             a, b = results[(name, "rayd", spp)], results[(name, "cycles", spp)]
-            ta, ma, ra = med(a, 0), med(a, 2), med(a, 3)
+            ta, tar, ma, ra = med(a, 0), med(a, 1), med(a, 2), med(a, 3)
             tb, tbr, mb, rb = med(b, 0), med(b, 1), med(b, 2), med(b, 3)
-            ea, eb, ebr = 1 / (ta * ma), 1 / (tb * mb), 1 / (tbr * mb)
-            print("%-8s %5d | %7.2f %9.5f %9.5f %9.3g | %7.2f %7.2f %9.5f %9.5f %9.3g | %6.2f %6.2f"
-                  % (name, spp, ta, math.sqrt(ma), ra, ea, tb, tbr, math.sqrt(mb), rb, eb,
-                     ea / eb, ea / ebr))
-    print("(ratio: rayd's efficiency over Cycles' whole process; r/rnd: over Cycles' render")
-    print(" alone, Blender's start-up left out; > 1: rayd reaches that error sooner)")
+            ea, ear, eb, ebr = 1 / (ta * ma), 1 / (tar * ma), 1 / (tb * mb), 1 / (tbr * mb)
+            print("%-8s %5d | %7.2f %7.2f %9.5f %9.5f %9.3g | %7.2f %7.2f %9.5f %9.5f %9.3g |"
+                  " %6.2f %6.2f %6.2f"
+                  % (name, spp, ta, tar, math.sqrt(ma), ra, ea, tb, tbr, math.sqrt(mb), rb, eb,
+                     ea / eb, ea / ebr, ear / ebr))
+    print("(ratio: rayd's whole process over Cycles' whole process; r/rnd: rayd's whole process")
+    print(" over Cycles' render alone; rnd: render alone over render alone, both programs'")
+    print(" start-up left out; each the efficiency's ratio, > 1: rayd reaches that error sooner)")
 
 
 if __name__ == "__main__":
