@@ -176,20 +176,25 @@ def read_raw(exr):
     return a
 
 
+def log_seconds(log, key):
+    """The number after the last line of log that starts with key."""
+    found = None
+    with open(log) as f:
+        for line in f:
+            if line.startswith(key):
+                found = float(line[len(key):].split()[0])
+    if found is None:
+        die("no '%s' in %s" % (key.strip(), log))
+    return found
+
+
 def run_rayd(s, name, samples, seed, extra=()):
     js = write_scene(s, samples, seed, os.path.join(D, name + ".rayd.json"))
     out = os.path.join(D, name + ".rayd.exr")
     log = os.path.join(D, name + ".rayd.log")
     t = timed([RAYD, js, "-o", out, "--threads", str(THREADS), "--quiet", "--stats"]
               + list(extra), log)
-    alone = None
-    with open(log) as f:
-        for line in f:
-            if line.startswith("time total:"):
-                alone = float(line.split()[2])
-    if alone is None:
-        die("no 'time total:' in %s" % log)
-    return read_raw(out), t, alone
+    return read_raw(out), t, log_seconds(log, "time total:")
 
 
 def run_cycles(s, name, samples, seed):
@@ -198,14 +203,7 @@ def run_cycles(s, name, samples, seed):
     log = os.path.join(D, name + ".cycles.log")
     t = timed(["blender", "-b", "-noaudio", "--factory-startup", "-P", CYCLES_PY, "--",
                js, out, str(samples), str(seed), str(THREADS)], log)
-    alone = None
-    with open(log) as f:
-        for line in f:
-            if line.startswith("PT_RENDER_S "):
-                alone = float(line.split()[1])
-    if alone is None:
-        die("no PT_RENDER_S in %s" % log)
-    return read_raw(out), t, alone
+    return read_raw(out), t, log_seconds(log, "PT_RENDER_S ")
 
 
 # --- references and errors ----------------------------------------------

@@ -355,23 +355,17 @@ static bool cluster_redo(struct redis *c, const char *id, long k, const struct c
 static bool cluster_frame_store(struct redis *c, const char *id, long k, const void *png,
                                 size_t len, const void *exr, size_t exr_len, double encode_ms) {
     char sk[24], now[32], ttl[24], enc[32];
-    size_t n = strlen(cluster_lua_end) + sizeof cluster_lua_frame;
-    char *script = malloc(n);
-    if (!script) return false;
-    snprintf(script, n, "%s%s", cluster_lua_end, cluster_lua_frame);
     snprintf(sk, sizeof sk, "%ld", k);
     snprintf(now, sizeof now, "%.0f", cluster_now_ms());
     snprintf(ttl, sizeof ttl, "%ld", config.job_ttl);
     snprintf(enc, sizeof enc, "%.3f", encode_ms);
-    const char *argv[] = {
-        "EVAL", script, "0", id, sk, png, now, ttl, enc, exr_len ? exr : "", cluster_stream};
-    size_t lens[11];
-    for (int i = 0; i < 11; i++) lens[i] = i == 5 ? len : i == 9 ? exr_len : strlen(argv[i]);
-    redisReply *rep = redis_argv(c, 11, argv, lens);
+    const char *args[] = {id, sk, png, now, ttl, enc, exr_len ? exr : "", cluster_stream};
+    size_t lens[8];
+    for (int i = 0; i < 8; i++) lens[i] = i == 2 ? len : i == 6 ? exr_len : strlen(args[i]);
+    redisReply *rep = cluster_jobs_eval(c, cluster_lua_frame, 8, args, lens);
     bool ok = !redis_failed(c, rep);
     if (ok && redis_ll(rep, 0) >= 10) log_info("cluster: job %s succeeded", id);
     if (rep) freeReplyObject(rep);
-    free(script);
     return ok;
 }
 

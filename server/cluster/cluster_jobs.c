@@ -38,7 +38,7 @@
 #include <string.h>
 #include <unistd.h>
 
-const char cluster_lua_end[] =
+static const char cluster_lua_end[] =
     "local function rayd_end(id, state, now, ttl, err)\n"
     "  local p = 'rayd:{' .. id .. '}:'\n"
     "  local st = redis.call('HGET', p .. 'job', 'state')\n"
@@ -175,14 +175,32 @@ static const char cluster_lua_status[] =
     "table.insert(v, tostring(running))\n"
     "return v\n";
 
+#define CLUSTER_EVAL_MAX 12 /* values a script after rayd_end takes */
+
+redisReply *cluster_jobs_eval(struct redis *c, const char *body, int n, const char **args,
+                              const size_t *lens) {
+    size_t size = strlen(cluster_lua_end) + strlen(body) + 1;
+    char *script = n <= CLUSTER_EVAL_MAX ? malloc(size) : NULL;
+    if (!script) return NULL;
+    snprintf(script, size, "%s%s", cluster_lua_end, body);
+    const char *argv[CLUSTER_EVAL_MAX + 3] = {"EVAL", script, "0"};
+    size_t alen[CLUSTER_EVAL_MAX + 3] = {4, size - 1, 1};
+    for (int i = 0; i < n; i++) {
+        argv[3 + i] = args[i];
+        alen[3 + i] = lens ? lens[i] : strlen(args[i]);
+    }
+    redisReply *rep = redis_argv(c, n + 3, argv, alen);
+    free(script);
+    return rep;
+}
+
 bool cluster_jobs_end(struct redis *c, const char *id, const char *state, const char *error) {
-    char script[sizeof cluster_lua_end + 200], now[32], ttl[24];
-    snprintf(script, sizeof script,
-             "%sreturn rayd_end(ARGV[1], ARGV[2], ARGV[3], ARGV[4], ARGV[5])", cluster_lua_end);
+    char now[32], ttl[24];
     snprintf(now, sizeof now, "%.0f", cluster_now_ms());
     snprintf(ttl, sizeof ttl, "%ld", config.job_ttl);
-    const char *argv[] = {"EVAL", script, "0", id, state, now, ttl, error ? error : "", NULL};
-    redisReply *rep = redis_strs(c, argv);
+    const char *args[] = {id, state, now, ttl, error ? error : ""};
+    redisReply *rep = cluster_jobs_eval(
+        c, "return rayd_end(ARGV[1], ARGV[2], ARGV[3], ARGV[4], ARGV[5])", 5, args, NULL);
     bool ok = !redis_failed(c, rep);
     if (rep) freeReplyObject(rep);
     return ok;
@@ -596,15 +614,10 @@ static int cluster_stop_script(struct redis *c, const char *id) {
     char now[32], ttl[24];
     snprintf(now, sizeof now, "%.0f", cluster_now_ms());
     snprintf(ttl, sizeof ttl, "%ld", config.job_ttl);
-    size_t n = strlen(cluster_lua_end) + sizeof cluster_lua_stop;
-    char *script = malloc(n);
-    if (!script) return -1;
-    snprintf(script, n, "%s%s", cluster_lua_end, cluster_lua_stop);
-    const char *argv[] = {"EVAL", script, "0", id, now, ttl, NULL};
-    redisReply *rep = redis_strs(c, argv);
+    const char *args[] = {id, now, ttl};
+    redisReply *rep = cluster_jobs_eval(c, cluster_lua_stop, 3, args, NULL);
     int rc = redis_failed(c, rep) ? -1 : (int)redis_ll(rep, -1);
     if (rep) freeReplyObject(rep);
-    free(script);
     return rc;
 }
 

@@ -86,8 +86,9 @@ static const char cluster_lua_pass_tile[] =
     "  redis.call('HINCRBYFLOAT', p .. 'job', 'render_ms', ARGV[8])\n"
     "end\n"
     "local budget = tonumber(j[4]) or 0\n"
-    "if c < n and budget > 0 and (tonumber(j[5]) or 0) > 0 and now - tonumber(j[3]) >= budget * "
-    "1000 then\n"
+    "local started = tonumber(j[3]) or now\n"
+    "if c < n and budget > 0 and (tonumber(j[5]) or 0) > 0 and now - started >= budget * 1000 "
+    "then\n"
     "  redis.call('HSET', p .. 'job', 'stopped', 'time_budget')\n"
     "  return rayd_end(id, 'succeeded', ARGV[6], ARGV[9], '') + 10\n"
     "end\n"
@@ -106,22 +107,17 @@ bool cluster_passes_tile_store(struct redis *c, const struct cluster_tile *t, lo
     snprintf(sr, sizeof sr, "%llu", (unsigned long long)t->rays);
     snprintf(sm, sizeof sm, "%.3f", t->render_ms);
     snprintf(ttl, sizeof ttl, "%ld", config.job_ttl);
-    size_t n = strlen(cluster_lua_end) + sizeof cluster_lua_pass_tile;
-    char *script = malloc(n);
-    if (!script) return false;
-    snprintf(script, n, "%s%s", cluster_lua_end, cluster_lua_pass_tile);
     const char *test = cluster_test_tile(), *data = t->png->data;
     size_t len = t->png->len;
     if (test) /* "missing" keeps it as nothing at all, "corrupt" as bytes that are no sums */
         data = strcmp(test, "missing") ? "these are not sums" : "", len = strlen(data);
-    const char *argv[] = {"EVAL", script, "0", t->id, sk, st, data, sn, now, sr, sm, ttl};
-    size_t lens[12];
-    for (int i = 0; i < 12; i++) lens[i] = i == 6 ? len : strlen(argv[i]);
-    redisReply *rep = redis_argv(c, 12, argv, lens);
+    const char *args[] = {t->id, sk, st, data, sn, now, sr, sm, ttl};
+    size_t lens[9];
+    for (int i = 0; i < 9; i++) lens[i] = i == 3 ? len : strlen(args[i]);
+    redisReply *rep = cluster_jobs_eval(c, cluster_lua_pass_tile, 9, args, lens);
     bool ok = !redis_failed(c, rep);
     if (ok && redis_ll(rep, 0) >= 10) log_info("cluster: job %s stopped by its time budget", t->id);
     if (rep) freeReplyObject(rep);
-    free(script);
     return ok;
 }
 
@@ -147,15 +143,10 @@ bool cluster_passes_failed(struct redis *c, const char *id, long pass, bool limi
     snprintf(sk, sizeof sk, "%ld", pass);
     snprintf(now, sizeof now, "%.0f", cluster_now_ms());
     snprintf(ttl, sizeof ttl, "%ld", config.job_ttl);
-    size_t n = strlen(cluster_lua_end) + sizeof cluster_lua_pass_failed;
-    char *script = malloc(n);
-    if (!script) return false;
-    snprintf(script, n, "%s%s", cluster_lua_end, cluster_lua_pass_failed);
-    const char *argv[] = {"EVAL", script, "0", id, sk, limit ? "1" : "0", error, now, ttl, NULL};
-    redisReply *rep = redis_strs(c, argv);
+    const char *args[] = {id, sk, limit ? "1" : "0", error, now, ttl};
+    redisReply *rep = cluster_jobs_eval(c, cluster_lua_pass_failed, 6, args, NULL);
     bool ok = !redis_failed(c, rep);
     if (rep) freeReplyObject(rep);
-    free(script);
     return ok;
 }
 
@@ -438,22 +429,13 @@ static bool pass_end(struct redis *c, const char *id, const struct pass_job *j, 
     snprintf(sp, sizeof sp, "%.6f", passes_share(j->samples, j->n, (int)k, 0));
     snprintf(snow, sizeof snow, "%.0f", now);
     snprintf(ttl, sizeof ttl, "%ld", config.job_ttl);
-    size_t n = strlen(cluster_lua_end) + sizeof cluster_lua_pass_end;
-    char *script = malloc(n);
-    bool ok = false;
-    if (script) {
-        snprintf(script, n, "%s%s", cluster_lua_end, cluster_lua_pass_end);
-        const char *argv[] = {"EVAL", script, "0", id, sk, png,
-                              ss,     st,     sn,  se, sp, pass_stop(j, time_s, noise),
-                              snow,   ttl};
-        size_t lens[14];
-        for (int i = 0; i < 14; i++) lens[i] = i == 5 ? len : strlen(argv[i]);
-        redisReply *rep = redis_argv(c, 14, argv, lens);
-        ok = !redis_failed(c, rep);
-        if (ok && redis_ll(rep, 0) >= 10) log_info("cluster: job %s succeeded (pass %ld)", id, k);
-        if (rep) freeReplyObject(rep);
-    }
-    free(script);
+    const char *args[] = {id, sk, png, ss, st, sn, se, sp, pass_stop(j, time_s, noise), snow, ttl};
+    size_t lens[11];
+    for (int i = 0; i < 11; i++) lens[i] = i == 2 ? len : strlen(args[i]);
+    redisReply *rep = cluster_jobs_eval(c, cluster_lua_pass_end, 11, args, lens);
+    bool ok = !redis_failed(c, rep);
+    if (ok && redis_ll(rep, 0) >= 10) log_info("cluster: job %s succeeded (pass %ld)", id, k);
+    if (rep) freeReplyObject(rep);
     rayd_free(png);
     return ok;
 }

@@ -78,8 +78,12 @@ void cluster_key(char *buf, size_t n, const char *id, const char *what);
 /* The Lua function rayd_end(id, state, now_ms, ttl_s, error_json): a job
  * still queued or running ends (its event written, its tiles deleted, its
  * keys set to expire); 1 when it ended now, 0 when it had ended, -2 no
- * such job.  Scripts that may end a job start with it. */
-extern const char cluster_lua_end[];
+ * such job.  Scripts that may end a job run through cluster_jobs_eval:
+ * EVAL of body after rayd_end's definition, with no keys and the n (at
+ * most 12) values args (lens[i] bytes each; lens NULL: strings); the
+ * reply, NULL when there is no memory or no connection. */
+redisReply *cluster_jobs_eval(struct redis *c, const char *body, int n, const char **args,
+                              const size_t *lens);
 
 void cluster_jobs_run(struct redis *c, struct cluster_op *op);
 /* The cluster's unfinished jobs (what --max-jobs counts), 0 when Redis
