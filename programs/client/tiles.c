@@ -21,7 +21,9 @@
  * connection cache keeps one keep-alive connection per concurrent request
  * and server.  At most --parallel tile requests are in flight; a pending
  * tile goes to the ready server with the fewest requests in flight (not the
- * server that just failed it, if another is ready).
+ * server that just failed it, if another is ready), and no server takes
+ * more than its share of the slots (--parallel over the servers not
+ * resting), so a server still learning the scene finds slots left.
  *
  * Failures.  A transport error, a timeout, a 5xx other than 503, or a
  * response that is not the expected PNG counts against the tile (--retries
@@ -523,13 +525,26 @@ static void tiles_finish(struct tiles *T, struct tiles_xfer *x, CURLcode cc, dou
 
 /* ---- the loop ------------------------------------------------------------------ */
 
-/* The ready server with the fewest requests in flight, not t's last
- * failing one if another is ready, never avoid (-1: none); -1 if none. */
+/* A server's share of the --parallel slots: the slots over the servers not
+ * resting, rounded up.  Without it the first server to learn the scene
+ * would take every slot while the others are still learning, and a node
+ * that holds its requests (stalled, or slow) would then keep the frame
+ * from the rest until --timeout. */
+static int tiles_share(const struct tiles *T, double now) {
+    int live = 0;
+    for (int i = 0; i < T->ns; i++) live += T->s[i].down_until <= now;
+    return live ? (T->o->parallel + live - 1) / live : T->o->parallel;
+}
+
+/* The ready server with the fewest requests in flight, below its share,
+ * not t's last failing one if another is ready, never avoid (-1: none);
+ * -1 if none. */
 static int tiles_pick(struct tiles *T, const struct tiles_tile *t, int avoid, double now) {
-    int best = -1, score = 0;
+    int best = -1, score = 0, share = tiles_share(T, now);
     for (int i = 0; i < T->ns; i++) {
         const struct tiles_server *s = &T->s[i];
         if ((s->scene != SS_KNOWN && !T->acc) || s->down_until > now || i == avoid) continue;
+        if (s->inflight >= share) continue;
         int sc = s->inflight + (i == t->last_server && T->ns > 1 ? 1000 : 0);
         if (best < 0 || sc < score) best = i, score = sc;
     }

@@ -10,7 +10,8 @@
 # frame can only be finished by hedging).  The frame is rayd-render's byte for byte, the end
 # line counts the hedged tiles and those that won, --quiet prints nothing,
 # --no-hedge leaves the count out, and healthy nodes hedge at most the
-# tiles in flight at the end.  The order of events is held by the gates, not
+# tiles in flight at the end.  A node that learns the scene late (stopped
+# until the other holds its share of the slots) still gets tiles.  The order of events is held by the gates, not
 # by timing, and no time is judged.  Every node is
 # resumed (SIGCONT) and stopped by its PID.
 source "$(dirname "$0")/lib/common.sh"
@@ -57,9 +58,9 @@ stalled() {
         --server "${NODE_URL[1]}" --server "${NODE_URL[2]}" "$@" 2>"$T/$name.err" &
     cpid=$!
     # B has the scene before anything is drawn.  Whichever node learnt it
-    # first holds every slot (--parallel); B draws one tile, so a slot is
-    # freed either way, and from then on B takes tiles as A frees slots and
-    # holds them at its gate until it is stopped
+    # first holds its share of the slots (--parallel over the two); B draws
+    # one tile, and from then on B takes tiles as slots free and holds them
+    # at its gate until it is stopped
     if wait_until 60 node_learnt 2 && node_gate 1 open && node_gate 2 1 &&
         wait_until 60 node_holds 2; then
         kill -STOP "${NODE_PID[2]}"
@@ -87,6 +88,41 @@ check hedge_before_timeout "exit $RC after $SECS s" bash -c "[ $RC = 0 ] && [ $S
 stalled hedge_quiet --quiet
 check hedge_quiet "exit $RC, stderr: $(head -c 300 "$T/hedge_quiet.err")" \
     bash -c "[ $RC = 0 ] && [ ! -s '$T/hedge_quiet.err' ] && cmp -s '$T/ref.png' '$T/hedge_quiet.png'"
+
+# A node that learns the scene late still finds slots: A holds every tile
+# it gets at its shut gate while B, stopped, cannot answer its POST
+# /v1/scenes.  A must take only its share of the 8 slots (4), so B, resumed,
+# draws the tiles left and then copies of A's 4 held ones: the frame is
+# done with A's gate still shut.  Were A given every slot, B would get none
+# until the per-request --timeout (600 s, past timeout(1)'s 120).
+# node_waiting I: node I's tiles held at its gate or queued behind it
+node_waiting() {
+    local g
+    g=$(curl -s -m 5 "${NODE_URL[$1]}/v1/test/gate")
+    echo $(($(jfield /dev/stdin held <<<"$g") + $(jfield /dev/stdin queued <<<"$g")))
+}
+node_waiting_4() { [ "$(node_waiting "$1")" -ge 4 ] 2>/dev/null; }
+start_node 1 --threads 1 --test-gate 0
+start_node 2 --threads 1 --test-gate open
+kill -STOP "${NODE_PID[2]}"
+timeout 120 "$CLIENT" render "$T/s.json" -o "$T/late.png" --tile 16 --timeout 600 \
+    --server "${NODE_URL[1]}" --server "${NODE_URL[2]}" 2>"$T/late.err" &
+cpid=$!
+wait_until 60 node_waiting_4 1
+sleep 0.5 # (more would come at once: the client sends a slot's tile as it frees)
+held=$(node_waiting 1)
+kill -CONT "${NODE_PID[2]}"
+wait "$cpid"
+RC=$?
+node_gate 1 open
+check late_learner_drawn "exit $RC: $(tail -n 3 "$T/late.err")" \
+    bash -c "[ $RC = 0 ] && cmp -s '$T/ref.png' '$T/late.png'"
+# (4 requests; the one at the gate counts twice while its request has
+# tiles nobody started: held and queued)
+check late_learner_share "A had '$held' tiles waiting, not its share of 4" \
+    bash -c "[ '$held' -ge 4 ] && [ '$held' -le 5 ]"
+
+stop_nodes
 
 # healthy nodes: the same frame; hedges only at the end, so never more than
 # the requests in flight then (--parallel)

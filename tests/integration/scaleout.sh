@@ -111,8 +111,8 @@ done
 # frame spreads over all three however fast each is: a held tile is a
 # request in flight there, and the client sends the next tile to the node
 # with the fewest.  Once every gate is spent the gates open for the rest.
-# (Held requests take at most the client's 12 slots: 35 tiles leave the
-# last node its 4 even then.)
+# (A node holds at most its share of the client's 12 slots, 4, so a node
+# that learns the scene last still finds slots free.)
 gate() { curl -s -m 30 -o /dev/null -X POST "${NODE_URL[$1]}/v1/test/gate?tiles=$2"; }
 gate_left() { curl -s -m 60 "${NODE_URL[$1]}/v1/test/gate" | sed -n 's/.*"tiles":\([0-9a-z"]*\).*/\1/p'; }
 gates_spent() { for i in 1 2 3; do [ "$(gate_left $i)" = 0 ] || return 1; done; }
