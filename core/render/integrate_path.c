@@ -214,8 +214,9 @@ static vec3 escaped(const rayd_scene *s, vec3 d, uint32_t b, bool prev_delta, do
 }
 
 /* Light arriving at vertex x through the lights and one emitter (NEE). */
-static vec3 next_event(const rayd_scene *s, const struct lobes *lb, const struct vertex *x, vec3 wo,
-                       const struct rng_key *key, uint32_t b, struct meter *mt) {
+__attribute__((always_inline)) static inline vec3
+next_event(const rayd_scene *s, const struct lobes *lb, const struct vertex *x, vec3 wo,
+           const struct rng_key *key, uint32_t b, struct meter *mt) {
     vec3 sum = v3(0, 0, 0);
     for (int i = 0; i < s->nlights; i++) {
         vec3 wi, rad;
@@ -255,9 +256,10 @@ static vec3 next_event(const rayd_scene *s, const struct lobes *lb, const struct
 
 /* Samples the next direction; returns false when the path ends.  Updates
  * *beta and says whether the lobe was a delta one and its pdf. */
-static bool sample_bsdf(const struct lobes *lb, const struct vertex *x, vec3 color,
-                        const struct material *m, vec3 wo, const struct rng_key *key, uint32_t b,
-                        vec3 *wi, vec3 *beta, bool *delta, double *pdf, bool *through) {
+__attribute__((always_inline)) static inline bool
+sample_bsdf(const struct lobes *lb, const struct vertex *x, vec3 color, const struct material *m,
+            vec3 wo, const struct rng_key *key, uint32_t b, vec3 *wi, vec3 *beta, bool *delta,
+            double *pdf, bool *through) {
     double u = rng_stratified(key, b, D_LOBE), u1, u2;
     rng_pair(key, b, D_DIR1, &u1, &u2);
     *through = false;
