@@ -77,7 +77,8 @@ CORE_LAYERS = [
     ("core/geom/", "shape.c + shape_*.c (one file per primitive), mesh.c + mesh_packet.c, camera"),
     ("core/shade/", "material, light, texture, environment: what surfaces and lights are"),
     ("core/scene/", "scene.c (the frozen scene), scene_query.c (one ray: hits, CSG, shadows, "
-                    "surfaces), scene_packet.c (16 rays at once)"),
+                    "surfaces), scene_packet.c (16 rays at once), scene_leave.c (which objects a "
+                    "ray leaving them cannot meet again)"),
     ("core/render/", "render.c (regions, tiles, threads; exact per-pixel sums), accum.c "
                      "(progressive passes and sample ranges), aov.c (AOVs: what each camera ray "
                      "hits), denoise.c + accum_denoise.c (the a-trous denoiser and its "

@@ -30,11 +30,11 @@
 #include "render/integrate_wide.h"
 
 vec3 integrate_visible(const rayd_scene *s, vec3 origin, vec3 to_light, double dist, bool opaque,
-                       struct meter *mt) {
+                       uint32_t leave, struct meter *mt) {
     ray sr = {origin, to_light};
     if (!meter_ray(mt)) return v3(0, 0, 0); /* stopped: nothing more is traced */
-    if (!opaque || s->opaque) return scene_transmittance(s, &sr, dist);
-    double lit = scene_occluded(s, &sr, dist) ? 0 : 1;
+    if (!opaque || s->opaque) return scene_transmittance_from(s, &sr, dist, leave);
+    double lit = scene_occluded_from(s, &sr, dist, leave) ? 0 : 1;
     return v3(lit, lit, lit);
 }
 
@@ -64,11 +64,11 @@ static inline bool light_pass(vec3 tr, vec3 *radiance) {
 }
 
 bool integrate_light_sample(const rayd_scene *s, const struct light *l, vec3 p, vec3 nf,
-                            vec3 origin, double su, double sv, bool opaque, vec3 *wi,
-                            vec3 *radiance, struct meter *mt) {
+                            vec3 origin, uint32_t leave, double su, double sv, bool opaque,
+                            vec3 *wi, vec3 *radiance, struct meter *mt) {
     double dist;
     if (!integrate_light_aim(l, p, nf, su, sv, origin, wi, radiance, &dist)) return false;
-    return light_pass(integrate_visible(s, origin, *wi, dist, opaque, mt), radiance);
+    return light_pass(integrate_visible(s, origin, *wi, dist, opaque, leave, mt), radiance);
 }
 
 /* x^e for m's Blinn-Phong exponent e: by squaring when e is a whole
@@ -163,8 +163,8 @@ static vec3 shade_local(const rayd_scene *s, const struct frame *f, vec3 d, int 
             double su, sv;
             light_uv(l, i, k, gx, gy, depth, key, &su, &sv);
             vec3 wi, rad;
-            if (integrate_light_sample(s, l, f->sf.p, f->nf, f->above, su, sv, false, &wi, &rad,
-                                       mt))
+            if (integrate_light_sample(s, l, f->sf.p, f->nf, f->above, SCENE_NO_LEAVE, su, sv,
+                                       false, &wi, &rad, mt))
                 sum = v3_add(sum, shade_one(f->sf.m, f->sf.color, f->nf, d, wi, rad));
         }
         c = v3_madd(c, sum, 1.0 / n);

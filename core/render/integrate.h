@@ -37,16 +37,19 @@ vec3 integrate_escape(const rayd_scene *s, vec3 d, int depth);
 
 /* The shadow ray test from origin toward a light: what gets through.
  * Whitted's shadows let light through transparent objects (tinted); with
- * opaque (the path tracer's) any surface blocks, 1 or 0. */
+ * opaque (the path tracer's) any surface blocks, 1 or 0.  leave: the
+ * top-level object the ray leaves and cannot meet again, not tested
+ * (scene_intersect_from), or SCENE_NO_LEAVE. */
 vec3 integrate_visible(const rayd_scene *s, vec3 origin, vec3 to_light, double dist, bool opaque,
-                       struct meter *mt);
+                       uint32_t leave, struct meter *mt);
 
 /* Radiance arriving at p (shading normal nf facing the viewer, shadow rays
- * from origin) from light l: one sample (su, sv) for area lights.  False
- * when none arrives; *wi the direction toward it. */
+ * from origin, leaving object leave as for integrate_visible) from light l:
+ * one sample (su, sv) for area lights.  False when none arrives; *wi the
+ * direction toward it. */
 bool integrate_light_sample(const rayd_scene *s, const struct light *l, vec3 p, vec3 nf,
-                            vec3 origin, double su, double sv, bool opaque, vec3 *wi,
-                            vec3 *radiance, struct meter *mt);
+                            vec3 origin, uint32_t leave, double su, double sv, bool opaque,
+                            vec3 *wi, vec3 *radiance, struct meter *mt);
 
 /* How far to lift a secondary ray's origin off the surface at p so that it
  * cannot hit the surface it leaves (no shadow acne): relative to the size of

@@ -127,7 +127,26 @@ __attribute__((always_inline)) static inline vec3 frame_dir(vec3 n, double x, do
 struct vertex {
     vec3 p, n, ng, above, below;
     bool inside, thin;
+    /* The top-level object hit (its index in objs) when rays from above
+     * cannot meet it again (leave_index), else SCENE_NO_LEAVE; flat: every
+     * ray leaving it, from either side, cannot. */
+    uint32_t leave;
+    bool flat;
 };
+
+/* The index in objs of the object of hit h at point p when rays leaving
+ * it there cannot meet it again (scene_leave.c: *flat from either side,
+ * else outward only), or SCENE_NO_LEAVE; their queries pass over it. */
+static uint32_t leave_index(const rayd_scene *s, const struct hit *h, vec3 p, bool *flat) {
+    uintptr_t at = (uintptr_t)h->leaf, lo = (uintptr_t)s->objs,
+              hi = (uintptr_t)(s->objs + s->nobjs);
+    *flat = false;
+    if (h->outer || h->orient || at < lo || at >= hi) return SCENE_NO_LEAVE;
+    uint32_t i = (uint32_t)(h->leaf - s->objs);
+    if (!(s->leave[i].scale <= 1e4 * (1 + v3_maxabs(p)))) return SCENE_NO_LEAVE;
+    *flat = s->leave[i].flat;
+    return i;
+}
 
 /* Power heuristic for two strategies. */
 static double mis(double a, double b) { return a * a / (a * a + b * b); }
@@ -181,7 +200,7 @@ static vec3 env_event(const rayd_scene *s, const struct lobes *lb, const struct 
     if (v3_dot(x->n, wi) <= 0 || v3_dot(x->ng, wi) <= 0) return v3(0, 0, 0);
     vec3 f = eval_nondelta(lb, x->n, wo, wi, &pdf_b);
     if (v3_maxabs(f) == 0) return v3(0, 0, 0);
-    vec3 tr = integrate_visible(s, x->above, wi, INFINITY, true, mt);
+    vec3 tr = integrate_visible(s, x->above, wi, INFINITY, true, x->leave, mt);
     if (v3_maxabs(tr) == 0) return v3(0, 0, 0);
     vec3 le = env_radiance(e, wi);
     return v3_scale(v3_mul(v3_mul(le, tr), f), mis(pdf_l, pdf_b) / pdf_l);
@@ -195,15 +214,16 @@ static vec3 escaped(const rayd_scene *s, vec3 d, uint32_t b, bool prev_delta, do
 }
 
 /* Light arriving at vertex x through the lights and one emitter (NEE). */
-static vec3 next_event(const rayd_scene *s, const struct lobes *lb, const struct vertex *x, vec3 wo,
-                       const struct rng_key *key, uint32_t b, struct meter *mt) {
+__attribute__((always_inline)) static inline vec3
+next_event(const rayd_scene *s, const struct lobes *lb, const struct vertex *x, vec3 wo,
+           const struct rng_key *key, uint32_t b, struct meter *mt) {
     vec3 sum = v3(0, 0, 0);
     for (int i = 0; i < s->nlights; i++) {
         vec3 wi, rad;
         double pdf, su, sv;
         rng_pair(key, b, D_LIGHT0 + 2 * (uint32_t)i, &su, &sv);
-        if (!integrate_light_sample(s, &s->lights[i], x->p, x->n, x->above, su, sv, true, &wi, &rad,
-                                    mt))
+        if (!integrate_light_sample(s, &s->lights[i], x->p, x->n, x->above, x->leave, su, sv, true,
+                                    &wi, &rad, mt))
             continue;
         sum = v3_add(sum, v3_mul(rad, eval_nondelta(lb, x->n, wo, wi, &pdf)));
     }
@@ -227,7 +247,7 @@ static vec3 next_event(const rayd_scene *s, const struct lobes *lb, const struct
     double pdf_b;
     vec3 f = eval_nondelta(lb, x->n, wo, wi, &pdf_b);
     if (v3_maxabs(f) == 0) return sum;
-    vec3 tr = integrate_visible(s, x->above, wi, dist * (1 - 1e-7), true, mt);
+    vec3 tr = integrate_visible(s, x->above, wi, dist * (1 - 1e-7), true, x->leave, mt);
     if (v3_maxabs(tr) == 0) return sum;
     double pdf_l = dist * dist / (cl * emitter_area(e)) / ne;
     vec3 le = em->emission;
@@ -236,9 +256,10 @@ static vec3 next_event(const rayd_scene *s, const struct lobes *lb, const struct
 
 /* Samples the next direction; returns false when the path ends.  Updates
  * *beta and says whether the lobe was a delta one and its pdf. */
-static bool sample_bsdf(const struct lobes *lb, const struct vertex *x, vec3 color,
-                        const struct material *m, vec3 wo, const struct rng_key *key, uint32_t b,
-                        vec3 *wi, vec3 *beta, bool *delta, double *pdf, bool *through) {
+__attribute__((always_inline)) static inline bool
+sample_bsdf(const struct lobes *lb, const struct vertex *x, vec3 color, const struct material *m,
+            vec3 wo, const struct rng_key *key, uint32_t b, vec3 *wi, vec3 *beta, bool *delta,
+            double *pdf, bool *through) {
     double u = rng_stratified(key, b, D_LOBE), u1, u2;
     rng_pair(key, b, D_DIR1, &u1, &u2);
     *through = false;
@@ -323,11 +344,12 @@ static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *fir
     bool prev_delta = true;
     double prev_pdf = 0;
     vec3 prev_p = r.o;
-    bool blurry = false; /* a diffuse or glossy bounce was made */
+    bool blurry = false;            /* a diffuse or glossy bounce was made */
+    uint32_t from = SCENE_NO_LEAVE; /* the object r leaves, not tested (leave_index) */
     for (uint32_t b = 0;; b++) {
         struct hit h;
         if (!meter_ray(mt)) break; /* stopped: the colour is thrown away */
-        bool found = b == 0 && first ? first_hit : scene_intersect(s, &r, INFINITY, &h);
+        bool found = b == 0 && first ? first_hit : scene_intersect_from(s, &r, INFINITY, from, &h);
         if (b == 0 && first && first_hit) h = *first;
         if (!found)
             return path_add(s, L, v3_mul(beta, escaped(s, r.d, b, prev_delta, prev_pdf)), b >= 2);
@@ -352,6 +374,9 @@ static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *fir
         if (v3_dot(x.n, x.ng) < 0) x.n = x.ng;
         x.p = sf.p;
         x.thin = sf.thin;
+        uint32_t leave = leave_index(s, &h, sf.p, &x.flat);
+        /* rays from above: outward unless the ray came from inside */
+        x.leave = x.flat || !x.inside ? leave : SCENE_NO_LEAVE;
         double off = integrate_offset(sf.p, sf.float_geom);
         x.above = v3_madd(sf.p, x.ng, off);
         x.below = v3_madd(sf.p, x.ng, -off);
@@ -377,6 +402,8 @@ static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *fir
         prev_p = sf.p;
         r.o = through ? x.below : x.above;
         r.d = wi;
+        /* below is outward when the ray was inside */
+        from = x.flat || x.inside == through ? leave : SCENE_NO_LEAVE;
     }
     return L;
 }

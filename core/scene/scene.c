@@ -46,6 +46,7 @@ void rayd_scene_free(rayd_scene *s) {
     free(s->planes);
     free(s->planes_src);
     free(s->emitters);
+    free(s->leave);
     free(s->inst_ids);
     bvh_free(&s->tlas);
     free(s->flat);
@@ -278,6 +279,7 @@ enum rayd_status scene_freeze(rayd_scene *s, struct rayd_error *err) {
     double t0 = clock_now();
     st = scene_build_bvh(s, &s->objs, s->nobjs, &s->tlas, NULL, err);
     if (st == RAYD_OK) st = build_flat(s, err);
+    if (st == RAYD_OK) st = scene_leave_freeze(s, err);
     if (st == RAYD_OK) st = build_light_buffers(s, err);
     if (st == RAYD_OK) scene_cost_freeze(s);
     s->build_s += clock_now() - t0;

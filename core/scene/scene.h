@@ -82,6 +82,8 @@ struct rayd_scene {
     struct light_buffer *light_buffers; /* per light, objs by direction (light_buffer.c) */
     int32_t *emitters; /* path tracer: emissive spheres, discs, quads of objs to sample */
     int nemitters;
+    /* Per objs: which a ray leaving it cannot meet again (scene_leave.c). */
+    struct scene_leave *leave;
     bool opaque;              /* no material lets light through: shadows are 0 or 1 */
     bool simple_lights;       /* only point and directional lights (integrate_wide.c) */
     bool brute;               /* tests only: every query tests every primitive */
@@ -92,6 +94,18 @@ struct rayd_scene {
 };
 
 #define SCENE_FLAT_MAX 16
+
+/* A ray leaving objs[i] from integrate_offset off a point p cannot meet
+ * it again (scene_leave.c) when scale <= 1e4 (1 + p's largest
+ * coordinate): from either side when flat, else (a convex solid) when it
+ * leaves outward.  scale is infinite for objects it may meet again. */
+struct scene_leave {
+    double scale;
+    bool flat;
+};
+
+/* Fills s->leave (scene_freeze, once objs has its order). */
+enum rayd_status scene_leave_freeze(rayd_scene *s, struct rayd_error *err);
 
 struct hit {
     double t;
@@ -134,10 +148,18 @@ bool scene_intersect(const rayd_scene *s, const ray *r, double tmax, struct hit 
 /* Fraction of light that passes from the ray's origin to distance tmax:
  * 0 behind an opaque object, (transparency * color) per transparent one. */
 vec3 scene_transmittance(const rayd_scene *s, const ray *r, double tmax);
-/* Whether any surface closer than tmax blocks r, transparent or not: the
- * path tracer's shadow test (light through glass comes by the sampled
- * path alone, or it would be counted twice). */
-bool scene_occluded(const rayd_scene *s, const ray *r, double tmax);
+/* scene_intersect and scene_transmittance passing over objs[leave] (none:
+ * SCENE_NO_LEAVE), for rays that leave that object and cannot meet it
+ * again (the path tracer's, scene_leave.c): the same answers, without its
+ * test.  And scene_occluded_from: whether any surface closer than tmax
+ * blocks r, transparent or not -- the path tracer's shadow test (light
+ * through glass comes by the sampled path alone, or it would be counted
+ * twice). */
+#define SCENE_NO_LEAVE UINT32_MAX
+bool scene_intersect_from(const rayd_scene *s, const ray *r, double tmax, uint32_t leave,
+                          struct hit *h);
+vec3 scene_transmittance_from(const rayd_scene *s, const ray *r, double tmax, uint32_t leave);
+bool scene_occluded_from(const rayd_scene *s, const ray *r, double tmax, uint32_t leave);
 
 /* The same two queries for the rays r[i] whose bit i is set in active, as
  * a packet (scene_packet.c): ray i gets exactly what it would get alone.

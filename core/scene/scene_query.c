@@ -289,8 +289,9 @@ __attribute__((always_inline)) static inline void objects_walk(const struct obje
  * rule).  The order differs from the walk's, so only for visitors whose
  * answer does not depend on it: the nearest hit, and a shadow that any
  * surface blocks. */
-__attribute__((always_inline)) static inline void
-flat_walk(const rayd_scene *s, const ray *r, double *tmax, visit_fn visit, void *ctx) {
+__attribute__((always_inline)) static inline void flat_walk(const rayd_scene *s, const ray *r,
+                                                            double *tmax, uint32_t skip,
+                                                            visit_fn visit, void *ctx) {
     struct bvh_ray br;
     bvh_ray_init(&br, r->o, r->d);
     float tm = *tmax > 3e38 ? 3e38f : (float)*tmax * BVH_SLACK;
@@ -299,6 +300,7 @@ flat_walk(const rayd_scene *s, const ray *r, double *tmax, visit_fn visit, void 
     for (uint32_t k = 0; k < s->nflat; k++) {
         float tn[4];
         int mask = bvh4_test(&s->flat[k], &br, 0, tm, tn);
+        if (skip >> 2 == k) mask &= ~(1 << (skip & 3));
         while (mask) { /* insertion, nearest first */
             int c = __builtin_ctz((unsigned)mask), j = n++;
             mask &= mask - 1;
@@ -313,13 +315,16 @@ flat_walk(const rayd_scene *s, const ray *r, double *tmax, visit_fn visit, void 
 
 /* flat_walk for a shadow that any surface blocks: the objects in their
  * order, no sorting (a blocker found first or last blocks the same). */
-static void flat_any(const rayd_scene *s, const ray *r, double tmax, visit_fn visit, void *ctx) {
+static void flat_any(const rayd_scene *s, const ray *r, double tmax, uint32_t skip, visit_fn visit,
+                     void *ctx) {
     struct bvh_ray br;
     bvh_ray_init(&br, r->o, r->d);
     float tm = tmax > 3e38 ? 3e38f : (float)tmax * BVH_SLACK;
     for (uint32_t k = 0; k < s->nflat; k++) {
         float tn[4];
-        for (int mask = bvh4_test(&s->flat[k], &br, 0, tm, tn); mask; mask &= mask - 1) {
+        int mask = bvh4_test(&s->flat[k], &br, 0, tm, tn);
+        if (skip >> 2 == k) mask &= ~(1 << (skip & 3));
+        for (; mask; mask &= mask - 1) {
             int c = __builtin_ctz((unsigned)mask);
             if (!(tn[c] > tmax * BVH_SLACK) && !visit(ctx, &s->objs[4 * k + (uint32_t)c], &tmax))
                 return;
@@ -358,23 +363,52 @@ static bool objects_hit(const rayd_scene *s, const struct object *objs, int32_t 
     return c.best >= 0;
 }
 
-bool scene_intersect(const rayd_scene *s, const ray *r, double tmax, struct hit *h) {
+/* The top level's search, passing over objs[skip] (none: skip out of
+ * range, UINT32_MAX). */
+struct nearest_top {
+    struct nearest c;
+    const struct object *skip;
+};
+
+__attribute__((always_inline)) static inline bool
+visit_nearest_top(void *ctx, const struct object *o, double *tmax) {
+    struct nearest_top *t = ctx;
+    return o == t->skip || visit_nearest(&t->c, o, tmax);
+}
+
+__attribute__((always_inline)) static inline bool
+intersect_top(const rayd_scene *s, const ray *r, double tmax, uint32_t skip, struct hit *h) {
     /* h is written, never read, by the search: */
     // cppcheck-suppress ctuuninitvar
     struct nearest c = {s, NULL, r, h, s->planes, 0, -1};
     for (int32_t i = 0; i < s->nplanes; i++) visit_nearest(&c, &s->planes[i], &tmax);
     c.base = s->objs;
     c.rank0 = s->nplanes;
-    if (s->flat && !s->brute)
-        flat_walk(s, r, &tmax, visit_nearest, &c);
-    else
+    if (s->flat && !s->brute) {
+        flat_walk(s, r, &tmax, skip, visit_nearest, &c);
+        return c.best >= 0;
+    }
+    if (skip >= (uint32_t)s->nobjs) {
         objects_walk(s->objs, s->nobjs, &s->tlas, s->brute, r, &tmax, visit_nearest, &c);
-    return c.best >= 0;
+        return c.best >= 0;
+    }
+    struct nearest_top t = {c, &s->objs[skip]};
+    objects_walk(s->objs, s->nobjs, &s->tlas, s->brute, r, &tmax, visit_nearest_top, &t);
+    return t.c.best >= 0;
+}
+
+bool scene_intersect(const rayd_scene *s, const ray *r, double tmax, struct hit *h) {
+    return intersect_top(s, r, tmax, UINT32_MAX, h);
+}
+
+bool scene_intersect_from(const rayd_scene *s, const ray *r, double tmax, uint32_t leave,
+                          struct hit *h) {
+    return intersect_top(s, r, tmax, leave, h);
 }
 
 /* Multiplies *trans by what material m lets through; false (stop) when
  * nothing passes any more.  A negative material: every surface blocks
- * (scene_occluded's test). */
+ * (scene_occluded_from's test). */
 static bool filter_light(const rayd_scene *s, int material, vec3 *trans) {
     const struct material *m = material >= 0 ? &s->mats[material] : NULL;
     if (!m || m->transparency <= 0) {
@@ -404,7 +438,8 @@ struct filter {
     const rayd_scene *s;
     const ray *r;
     vec3 trans;
-    bool opaque; /* every surface blocks, whatever its material */
+    bool opaque;               /* every surface blocks, whatever its material */
+    const struct object *skip; /* an object the ray cannot meet, or NULL */
 };
 
 /* Any hit of o closer than tmax blocks: false (stop), else true. */
@@ -424,27 +459,35 @@ static bool object_blocks_not(const rayd_scene *s, const struct object *o, const
 
 static bool visit_filter(void *ctx, const struct object *o, double *tmax) {
     struct filter *c = ctx;
+    if (o == c->skip) return true;
     return c->opaque ? object_blocks_not(c->s, o, c->r, *tmax, &c->trans)
                      : object_filter(c->s, o, c->r, *tmax, &c->trans);
 }
 
-static vec3 scene_filter(const rayd_scene *s, const ray *r, double tmax, bool opaque) {
-    struct filter c = {s, r, v3(1, 1, 1), opaque};
+static vec3 scene_filter(const rayd_scene *s, const ray *r, double tmax, bool opaque,
+                         uint32_t skip) {
+    struct filter c = {s, r, v3(1, 1, 1), opaque, NULL};
     for (int32_t i = 0; i < s->nplanes; i++)
         if (!visit_filter(&c, &s->planes[i], &tmax)) return c.trans;
-    if (s->flat && !s->brute && (opaque || s->opaque)) /* every hit blocks: any order */
-        flat_any(s, r, tmax, visit_filter, &c);
-    else
-        objects_walk(s->objs, s->nobjs, &s->tlas, s->brute, r, &tmax, visit_filter, &c);
+    if (s->flat && !s->brute && (opaque || s->opaque)) { /* every hit blocks: any order */
+        flat_any(s, r, tmax, skip, visit_filter, &c);
+        return c.trans;
+    }
+    if (skip < (uint32_t)s->nobjs) c.skip = &s->objs[skip];
+    objects_walk(s->objs, s->nobjs, &s->tlas, s->brute, r, &tmax, visit_filter, &c);
     return c.trans;
 }
 
 vec3 scene_transmittance(const rayd_scene *s, const ray *r, double tmax) {
-    return scene_filter(s, r, tmax, false);
+    return scene_filter(s, r, tmax, false, UINT32_MAX);
 }
 
-bool scene_occluded(const rayd_scene *s, const ray *r, double tmax) {
-    return v3_maxabs(scene_filter(s, r, tmax, true)) == 0;
+vec3 scene_transmittance_from(const rayd_scene *s, const ray *r, double tmax, uint32_t leave) {
+    return scene_filter(s, r, tmax, false, leave);
+}
+
+bool scene_occluded_from(const rayd_scene *s, const ray *r, double tmax, uint32_t leave) {
+    return v3_maxabs(scene_filter(s, r, tmax, true, leave)) == 0;
 }
 
 /* ---- surfaces ------------------------------------------------------------------ */
