@@ -24,6 +24,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "base/cpu.h"
 #include "base/error.h"
 #include "geom/mesh_ray.h"
 #include "base/parallel.h"
@@ -148,8 +149,14 @@ static inline bool tri4_take(const struct mesh *m, const struct tri4 *b, int mas
     return took;
 }
 
-static bool mesh_walk(const struct mesh *m, const ray *r, double tmax, struct mesh_hit *h,
-                      bool any) {
+/* The one-ray walk.  Always inlined into two copies: the build's target
+ * (SSE2 on plain x86-64) and, where the CPU has it (cpu_avx512), one
+ * compiled for AVX-512, whose three-operand instructions and 32 vector
+ * registers keep a ray's constants in registers.  The same float
+ * operations in the same order (no fused multiply-add: -ffp-contract=off),
+ * so both give the same bits; test_mesh checks that they agree. */
+__attribute__((always_inline)) static inline bool
+mesh_walk_body(const struct mesh *m, const ray *r, double tmax, struct mesh_hit *h, bool any) {
     if (m->bvh.nnodes == 0) return false;
     struct bvh_ray br;
     struct tri_ray tr;
@@ -176,6 +183,26 @@ static bool mesh_walk(const struct mesh *m, const ray *r, double tmax, struct me
             e = stack[--sp];
         } while (e.tnear > tm * BVH_SLACK);
     }
+}
+
+static bool mesh_walk_base(const struct mesh *m, const ray *r, double tmax, struct mesh_hit *h,
+                           bool any) {
+    return mesh_walk_body(m, r, tmax, h, any);
+}
+
+#ifdef CPU_AVX512
+CPU_AVX512_EXTERN static bool mesh_walk_avx512(const struct mesh *m, const ray *r, double tmax,
+                                               struct mesh_hit *h, bool any) {
+    return mesh_walk_body(m, r, tmax, h, any);
+}
+#endif
+
+static bool mesh_walk(const struct mesh *m, const ray *r, double tmax, struct mesh_hit *h,
+                      bool any) {
+#ifdef CPU_AVX512
+    if (cpu_avx512()) return mesh_walk_avx512(m, r, tmax, h, any);
+#endif
+    return mesh_walk_base(m, r, tmax, h, any);
 }
 
 bool mesh_intersect(const struct mesh *m, const ray *r, double tmax, struct mesh_hit *h) {

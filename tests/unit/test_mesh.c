@@ -329,6 +329,77 @@ static void test_mesh_errors(void) {
     CHECK(s == NULL, "no scene");
 }
 
+/* The one-ray walk has a copy compiled for AVX-512 (mesh.c, used where
+ * cpu_avx512 says so) beside the build's own: for random rays through a
+ * soup of triangles and the octahedron's edges and vertices, with odd
+ * bounds, both must give the very same hit (t, u, v, triangle, block,
+ * lane) and the same shadow answer, and the nearest hit brute force's. */
+static void soup(uint32_t n, float **pos, uint32_t **index);
+
+static bool same_hit(bool a, const struct mesh_hit *x, bool b, const struct mesh_hit *y) {
+    if (a != b) return false;
+    return !a || (!memcmp(&x->t, &y->t, sizeof x->t) && !memcmp(&x->u, &y->u, sizeof x->u) &&
+                  !memcmp(&x->v, &y->v, sizeof x->v) && x->tri == y->tri && x->blk == y->blk &&
+                  x->lane == y->lane);
+}
+
+static void test_single_ray_paths_agree(void) {
+    const uint32_t n = 20000;
+    float *pos;
+    uint32_t *index;
+    soup(n, &pos, &index);
+    struct mesh soupm;
+    CHECK(mesh_build(&soupm, pos, 3 * n, index, n, NULL, NULL, false, 2, NULL) == RAYD_OK, "build");
+    rayd_scene *oct = octahedron();
+    if (!oct) return;
+    const struct mesh *ms[2] = {&soupm, &oct->meshes[0]};
+    const double bounds[8] = {INFINITY, 0, -1, NAN, 1e-3, 4.0, 3.1e38, 5.0};
+    uint32_t s = 777, differ = 0, brute = 0, total = 0, hits = 0, blocked = 0;
+    for (int a = 0; a < 40000; a++) {
+        const struct mesh *m = ms[a & 1];
+        double u[6];
+        for (int k = 0; k < 6; k++) {
+            s = s * 1664525u + 1013904223u;
+            u[k] = (double)(s >> 8) / 16777216.0;
+        }
+        ray r;
+        if (m == &soupm) { /* from inside or outside the soup's cube, any direction */
+            r.o = v3(u[0] * 14 - 2, u[1] * 14 - 2, u[2] * 14 - 2);
+            r.d = v3_norm(v3(u[3] - 0.5, u[4] - 0.5, u[5] - 0.5 + (a % 7 == 0 ? 0 : 1e-9)));
+            if (a % 11 == 0) r.d = v3_norm(v3(u[3] - 0.5, 0, 0)); /* axis-aligned */
+        } else { /* at the octahedron's vertices and edge midpoints */
+            double th = 0.05 + 3.0 * u[0], ph = 6.3 * u[1];
+            vec3 from = v3(5 * sin(th) * cos(ph), 5 * cos(th), 5 * sin(th) * sin(ph));
+            vec3 target =
+                a % 3 ? v3(a % 2 ? 0.5 : 0, 0.5, a % 5 ? 0 : -0.5) : v3(0, 0, a % 4 ? 1 : -1);
+            r = (ray){from, v3_norm(v3_sub(target, from))};
+        }
+        double tmax = a % 4 == 3 ? bounds[(a / 4) % 8] : INFINITY;
+        struct mesh_hit h[2], hb;
+        bool got[2], occ[2];
+        for (int scalar = 0; scalar <= 1; scalar++) {
+            cpu_force_scalar(scalar);
+            got[scalar] = mesh_intersect(m, &r, tmax, &h[scalar]);
+            occ[scalar] = mesh_occluded(m, &r, tmax);
+        }
+        cpu_force_scalar(false);
+        bool gb = mesh_intersect_brute(m, &r, tmax, &hb);
+        total++;
+        hits += got[0];
+        blocked += occ[0];
+        differ += !same_hit(got[0], &h[0], got[1], &h[1]) || occ[0] != occ[1] || occ[0] != got[0];
+        brute += !same_hit(got[0], &h[0], gb, &hb);
+    }
+    printf("  %u rays (%u hits, %u blocked), one-ray walk %s\n", total, hits, blocked,
+           cpu_avx512() ? "with AVX-512 against the build's"
+                        : "the build's only (no AVX-512 here)");
+    CHECK(hits > total / 5 && hits < total, "%u hits of %u", hits, total);
+    CHECK(differ == 0, "%u of %u rays differ between the walks", differ, total);
+    CHECK(brute == 0, "%u of %u rays differ from brute force", brute, total);
+    mesh_free(&soupm);
+    rayd_scene_free(oct);
+}
+
 /* A soup of n small random triangles (a fixed generator), pos and index
  * malloc'd for mesh_build to own. */
 static void soup(uint32_t n, float **pos, uint32_t **index) {
@@ -492,6 +563,7 @@ int main(void) {
     RUN(test_examples_bvh_equals_brute_force);
     RUN(test_watertight_edges_and_vertices);
     RUN(test_packets_equal_single_rays);
+    RUN(test_single_ray_paths_agree);
     RUN(test_transformed_sphere_exact_projection);
     RUN(test_smooth_normals_follow_the_sphere);
     RUN(test_mesh_errors);
