@@ -19,8 +19,8 @@
  * binning, which also gives both children's boxes and centroid boxes (the unions of their bins),
  * and the partition.  The subtrees of the top levels are built by separate threads -- four per
  * thread asked for, so that a lopsided split leaves no core idle; binary nodes come from one
- * array, a subtree built on one thread reserving all it can need at once (take_children), so
- * threads never lock and rarely touch a shared counter.
+ * array, a subtree built on one thread taking its slots in chunks (take_children), so threads
+ * never lock and rarely touch a shared counter.
  *
  * The top splits themselves run on one thread (bench/README.md, "The
  * block-parallel top split").  The copy of the boxes in, the order array
