@@ -39,6 +39,7 @@
 #endif
 #endif
 
+#ifndef UNDER_SANITIZER
 /* A kB figure of /proc/self/status (VmRSS, VmHWM), -1 where there is none. */
 static long status_kb(const char *key) {
     FILE *f = fopen("/proc/self/status", "r");
@@ -121,6 +122,8 @@ static bool measure(uint32_t side, int threads, long long *growth, long long *ch
     *growth = out[0], *charge = out[1];
     return ok && WIFEXITED(status) && WEXITSTATUS(status) == 0 && out[0] >= 0;
 }
+
+#endif
 
 static void test_build_within_charge(void) {
 #ifdef UNDER_SANITIZER
