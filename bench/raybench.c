@@ -262,6 +262,32 @@ static double median(double *v, int n) {
     return v[n / 2];
 }
 
+/* The loader's charges (rayd_limits.charge): what it holds now and at
+ * most, to set beside the load's resident peak (VmHWM). */
+struct load_count {
+    long long net, peak;
+};
+
+static enum rayd_status load_charge(void *arg, long long bytes, char *why, size_t why_len) {
+    struct load_count *c = arg;
+    (void)why, (void)why_len;
+    c->net += bytes;
+    if (c->net > c->peak) c->peak = c->net;
+    return RAYD_OK;
+}
+
+/* A kB figure of /proc/self/status (VmRSS, VmHWM), -1 where there is none. */
+static long status_kb(const char *key) {
+    FILE *f = fopen("/proc/self/status", "r");
+    char line[256];
+    long v = -1;
+    size_t k = strlen(key);
+    while (f && fgets(line, sizeof line, f))
+        if (!strncmp(line, key, k) && line[k] == ':') v = atol(line + k + 1);
+    if (f) fclose(f);
+    return v;
+}
+
 int main(int argc, char **argv) {
     const char *path = NULL;
     int w = 1920, h = 1080, runs = 3, tmax = 2, packets_only = 0;
@@ -302,8 +328,15 @@ int main(int argc, char **argv) {
     lim.asset_dir = dir;
     lim.asset_confine = 0;
     lim.max_bytes = (size_t)1 << 31;
+    struct load_count charged = {0, 0};
+    lim.charge = load_charge;
+    lim.charge_arg = &charged;
     struct rayd_error err = {0};
     rayd_scene *s = NULL;
+    FILE *cr = fopen("/proc/self/clear_refs", "w"); /* VmHWM from here */
+    bool hwm_reset = cr && fputs("5", cr) >= 0;
+    if (cr) hwm_reset = fclose(cr) == 0 && hwm_reset;
+    long rss0 = status_kb("VmRSS");
     double t0 = now();
     if (rayd_scene_parse(text, len, &lim, &s, &err) != RAYD_OK) {
         char msg[600];
@@ -318,6 +351,11 @@ int main(int argc, char **argv) {
     for (uint32_t i = 0; i < s->nmeshes; i++) {
         tris += s->meshes[i].ntris;
         mesh_bytes_total += mesh_bytes(&s->meshes[i]);
+    }
+    if (tris && hwm_reset && rss0 >= 0) { /* the load's resident peak against its charge */
+        printf("load_peak_bytes_per_triangle %.1f\n",
+               (double)(status_kb("VmHWM") - rss0) * 1024.0 / (double)tris);
+        printf("load_charged_bytes_per_triangle %.1f\n", (double)charged.peak / (double)tris);
     }
     /* BVH build alone: rebuild the largest mesh's hierarchy. */
     double build = 0;

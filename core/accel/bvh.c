@@ -19,8 +19,8 @@
  * binning, which also gives both children's boxes and centroid boxes (the unions of their bins),
  * and the partition.  The subtrees of the top levels are built by separate threads -- four per
  * thread asked for, so that a lopsided split leaves no core idle; binary nodes come from one
- * array, a subtree built on one thread reserving all it can need at once (take_children), so
- * threads never lock and rarely touch a shared counter.
+ * array, a subtree built on one thread taking its slots in chunks (take_children), so threads
+ * never lock and rarely touch a shared counter.
  *
  * The top splits themselves run on one thread (bench/README.md, "The
  * block-parallel top split").  The copy of the boxes in, the order array
@@ -420,6 +420,15 @@ static uint32_t split(struct build *b, struct prim *p, uint32_t n, const struct 
     return mid;
 }
 
+/* Node slots a subtree built on one thread takes at once (take_children),
+ * and the most subtrees a build hands to threads (build_tasks). */
+#define CHUNK 1024u /* nodes: 40 KiB */
+#define SUBTREES_MAX 64
+
+struct chunk {
+    uint32_t next, end; /* the slots left in the subtree's chunk */
+};
+
 struct task {
     struct build *b;
     uint32_t node, first, n;
@@ -428,7 +437,7 @@ struct task {
 };
 
 static void build_node(struct build *b, uint32_t self, uint32_t first, uint32_t n,
-                       const struct span *sp, int depth, int threads, uint32_t *next);
+                       const struct span *sp, int depth, int threads, struct chunk *next);
 
 static void *build_task(void *arg) {
     struct task *t = arg;
@@ -436,30 +445,38 @@ static void *build_task(void *arg) {
     return NULL;
 }
 
-/* Two node slots for the children of a node of n primitives.  Where the
- * subtrees are still handed to threads (next is NULL) they come from the
- * shared counter; a subtree built on one thread takes, once, the most its
- * descendants can need (a node of k primitives has at most 2k - 2) and
- * then counts in *next alone.  An atomic add per node made the counter's
- * cache line (and the build's pointers beside it) bounce between the
- * cores: 8% of build_node's samples on the 1.3M mesh. */
-static uint32_t take_children(struct build *b, uint32_t n, bool serial, uint32_t **next,
-                              uint32_t *local) {
-    if (*next) {
-        uint32_t left = **next;
-        **next += 2;
-        return left;
+/* Two node slots for the children of a node.  Where the subtrees are
+ * still handed to threads (next is NULL) they come from the shared
+ * counter; a subtree built on one thread takes them from the counter
+ * CHUNK at a time and then counts in its own chunk alone.  An atomic add
+ * per node made the counter's cache line (and the build's pointers beside
+ * it) bounce between the cores: 8% of build_node's samples on the 1.3M
+ * mesh.  Taking at once the most a subtree could need (2k - 2 nodes for k
+ * primitives) instead left each subtree's unused tail between the ranges
+ * the others filled, and the 2 MiB pages the array is faulted in mapped
+ * most of them: the 328k-triangle build's peak went from 69 to 114 bytes a
+ * triangle on two threads (tests/unit/test_build_peak.c).  Chunks are
+ * handed out in order, so what is touched is the counter's prefix, less at
+ * most a chunk a subtree. */
+static uint32_t take_children(struct build *b, bool serial, struct chunk **next,
+                              struct chunk *local) {
+    if (!*next) {
+        if (!serial) return atomic_fetch_add(&b->used, 2);
+        *local = (struct chunk){0, 0};
+        *next = local;
     }
-    if (!serial) return atomic_fetch_add(&b->used, 2);
-    *local = atomic_fetch_add(&b->used, 2 * n - 2);
-    *next = local;
-    uint32_t left = *local;
-    *local += 2;
+    struct chunk *c = *next;
+    if (c->next == c->end) {
+        c->next = atomic_fetch_add(&b->used, CHUNK);
+        c->end = c->next + CHUNK;
+    }
+    uint32_t left = c->next;
+    c->next += 2;
     return left;
 }
 
 static void build_node(struct build *b, uint32_t self, uint32_t first, uint32_t n,
-                       const struct span *sp, int depth, int threads, uint32_t *next) {
+                       const struct span *sp, int depth, int threads, struct chunk *next) {
     struct bnode *nd = &b->nodes[self];
     nd->box = sp->box;
     struct span ls, rs;
@@ -472,8 +489,8 @@ static void build_node(struct build *b, uint32_t self, uint32_t first, uint32_t 
         return;
     }
     bool parallel = threads > 1 && n >= PARALLEL_MIN;
-    uint32_t local;
-    uint32_t left = take_children(b, n, !parallel, &next, &local);
+    struct chunk local;
+    uint32_t left = take_children(b, !parallel, &next, &local);
     nd->leaf = false;
     nd->a = left;
     nd->b = left + 1;
@@ -563,11 +580,17 @@ static bool fill_prims(struct build *b, bvh_boxes_fn fn, const void *ctx, uint32
     return true;
 }
 
+/* Subtrees the binary tree of n primitives is built in: four a thread,
+ * SUBTREES_MAX at most, one where a thread is not worth it. */
+static int build_tasks(uint32_t n, int threads) {
+    if (threads <= 1 || n < PARALLEL_MIN) return 1;
+    return threads > SUBTREES_MAX / 4 ? SUBTREES_MAX : 4 * threads;
+}
+
 /* The binary tree over b->prims, from the root's span. */
 static void build_tree(struct build *b, uint32_t n, const struct span *all, int threads) {
-    int tasks = threads > 1 ? 4 * threads : 1; /* at most 4 subtrees a thread, 64 threads */
     atomic_init(&b->used, 1);
-    build_node(b, 0, 0, n, all, 0, tasks > 64 ? 64 : tasks, NULL);
+    build_node(b, 0, 0, n, all, 0, build_tasks(n, threads), NULL);
 }
 
 /* The order out, then the records freed before the wide nodes are
@@ -595,7 +618,9 @@ enum rayd_status bvh_build_from(struct bvh4 *bvh, bvh_boxes_fn fn, const void *c
     struct build b = {0};
     b.max_leaf = max_leaf < 1 ? 1 : max_leaf > BVH_MAX_LEAF ? BVH_MAX_LEAF : max_leaf;
     b.prims = huge_alloc(sizeof *b.prims * n);
-    b.nodes = huge_alloc(sizeof *b.nodes * (2 * (size_t)n));
+    /* at most 2n - 1 nodes, and a chunk's unused tail in each subtree */
+    size_t room = 2 * (size_t)n + (size_t)build_tasks(n, threads) * CHUNK;
+    b.nodes = huge_alloc(sizeof *b.nodes * room);
     struct span all;
     struct bvh4_node *wide = NULL;
     uint32_t used = 0;
