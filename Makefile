@@ -551,7 +551,7 @@ BENCH_DIR := $(BUILD)/bench
 BENCH_LEVELS := 4 5 6 7 8
 BENCH_SCENES := $(BENCH_LEVELS:%=$(BENCH_DIR)/mesh-%.json)
 
-$(BUILD)/bench/raybench: bench/raybench.c bench/bounce.h $(BUILD)/librayd.a
+$(BUILD)/bench/raybench: bench/raybench.c bench/bounce.h tests/unit/peak_rss.h $(BUILD)/librayd.a
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) -Iinclude -Icore $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
 

@@ -39,6 +39,7 @@
 #include <time.h>
 
 #include "bounce.h"
+#include "../tests/unit/peak_rss.h"
 #include "render/integrate.h"
 #include "scene/scene.h"
 
@@ -276,18 +277,6 @@ static enum rayd_status load_charge(void *arg, long long bytes, char *why, size_
     return RAYD_OK;
 }
 
-/* A kB figure of /proc/self/status (VmRSS, VmHWM), -1 where there is none. */
-static long status_kb(const char *key) {
-    FILE *f = fopen("/proc/self/status", "r");
-    char line[256];
-    long v = -1;
-    size_t k = strlen(key);
-    while (f && fgets(line, sizeof line, f))
-        if (!strncmp(line, key, k) && line[k] == ':') v = atol(line + k + 1);
-    if (f) fclose(f);
-    return v;
-}
-
 int main(int argc, char **argv) {
     const char *path = NULL;
     int w = 1920, h = 1080, runs = 3, tmax = 2, packets_only = 0;
@@ -333,10 +322,8 @@ int main(int argc, char **argv) {
     lim.charge_arg = &charged;
     struct rayd_error err = {0};
     rayd_scene *s = NULL;
-    FILE *cr = fopen("/proc/self/clear_refs", "w"); /* VmHWM from here */
-    bool hwm_reset = cr && fputs("5", cr) >= 0;
-    if (cr) hwm_reset = fclose(cr) == 0 && hwm_reset;
-    long rss0 = status_kb("VmRSS");
+    bool hwm_reset = peak_rss_reset(); /* VmHWM from here */
+    long rss0 = peak_rss_kb("VmRSS");
     double t0 = now();
     if (rayd_scene_parse(text, len, &lim, &s, &err) != RAYD_OK) {
         char msg[600];
@@ -354,7 +341,7 @@ int main(int argc, char **argv) {
     }
     if (tris && hwm_reset && rss0 >= 0) { /* the load's resident peak against its charge */
         printf("load_peak_bytes_per_triangle %.1f\n",
-               (double)(status_kb("VmHWM") - rss0) * 1024.0 / (double)tris);
+               (double)(peak_rss_kb("VmHWM") - rss0) * 1024.0 / (double)tris);
         printf("load_charged_bytes_per_triangle %.1f\n", (double)charged.peak / (double)tris);
     }
     /* BVH build alone: rebuild the largest mesh's hierarchy. */

@@ -30,6 +30,7 @@
 
 #include "geom/mesh.h"
 #include "load/scene_json_mesh.h"
+#include "peak_rss.h"
 
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
 #define UNDER_SANITIZER 1
@@ -40,24 +41,6 @@
 #endif
 
 #ifndef UNDER_SANITIZER
-/* A kB figure of /proc/self/status (VmRSS, VmHWM), -1 where there is none. */
-static long status_kb(const char *key) {
-    FILE *f = fopen("/proc/self/status", "r");
-    char line[256];
-    long v = -1;
-    size_t k = strlen(key);
-    while (f && fgets(line, sizeof line, f))
-        if (!strncmp(line, key, k) && line[k] == ':') v = atol(line + k + 1);
-    if (f) fclose(f);
-    return v;
-}
-
-static bool hwm_reset(void) {
-    FILE *f = fopen("/proc/self/clear_refs", "w");
-    if (!f) return false;
-    bool ok = fputs("5", f) >= 0;
-    return fclose(f) == 0 && ok;
-}
 
 /* A wavy sheet of side x side quads, two triangles each: positions and
  * indices, as a decoder leaves them (no normals: smooth false). */
@@ -87,15 +70,15 @@ static struct mesh_data sheet(uint32_t side) {
 static void child_build(int fd, uint32_t side, int threads) {
     struct mesh_data md = sheet(side);
     long long out[2] = {-1, 0};
-    if (md.pos && md.index && hwm_reset()) {
+    if (md.pos && md.index && peak_rss_reset()) {
         size_t arrays = sizeof(float) * 3 * md.nverts + sizeof(uint32_t) * 3 * md.ntris;
         out[1] = (long long)(sj_mesh_bytes(&md) - arrays);
-        long rss0 = status_kb("VmRSS");
+        long rss0 = peak_rss_kb("VmRSS");
         struct mesh m;
         if (mesh_build(&m, md.pos, md.nverts, md.index, md.ntris, NULL, NULL, false, threads,
                        NULL) == RAYD_OK &&
             rss0 >= 0)
-            out[0] = (status_kb("VmHWM") - rss0) * 1024LL;
+            out[0] = (peak_rss_kb("VmHWM") - rss0) * 1024LL;
         mesh_free(&m);
     }
     ssize_t w = write(fd, out, sizeof out);
