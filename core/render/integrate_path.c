@@ -128,10 +128,8 @@ struct vertex {
     vec3 p, n, ng, above, below;
     bool inside, thin;
     /* The top-level object hit (its index in objs) when rays from above
-     * cannot meet it again (leave_index), else SCENE_NO_LEAVE; flat: every
-     * ray leaving it, from either side, cannot. */
+     * cannot meet it again (leave_index), else SCENE_NO_LEAVE. */
     uint32_t leave;
-    bool flat;
 };
 
 /* The index in objs of the object of hit h at point p when rays leaving
@@ -374,9 +372,10 @@ static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *fir
         if (v3_dot(x.n, x.ng) < 0) x.n = x.ng;
         x.p = sf.p;
         x.thin = sf.thin;
-        uint32_t leave = leave_index(s, &h, sf.p, &x.flat);
+        bool flat; /* every ray leaving it, from either side, cannot meet it */
+        uint32_t leave = leave_index(s, &h, sf.p, &flat);
         /* rays from above: outward unless the ray came from inside */
-        x.leave = x.flat || !x.inside ? leave : SCENE_NO_LEAVE;
+        x.leave = flat || !x.inside ? leave : SCENE_NO_LEAVE;
         double off = integrate_offset(sf.p, sf.float_geom);
         x.above = v3_madd(sf.p, x.ng, off);
         x.below = v3_madd(sf.p, x.ng, -off);
@@ -403,7 +402,7 @@ static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *fir
         r.o = through ? x.below : x.above;
         r.d = wi;
         /* below is outward when the ray was inside */
-        from = x.flat || x.inside == through ? leave : SCENE_NO_LEAVE;
+        from = flat || x.inside == through ? leave : SCENE_NO_LEAVE;
     }
     return L;
 }

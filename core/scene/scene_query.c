@@ -364,7 +364,7 @@ static bool objects_hit(const rayd_scene *s, const struct object *objs, int32_t 
 }
 
 /* The top level's search, passing over objs[skip] (none: skip out of
- * range, UINT32_MAX). */
+ * range, SCENE_NO_LEAVE). */
 struct nearest_top {
     struct nearest c;
     const struct object *skip;
@@ -398,7 +398,7 @@ intersect_top(const rayd_scene *s, const ray *r, double tmax, uint32_t skip, str
 }
 
 bool scene_intersect(const rayd_scene *s, const ray *r, double tmax, struct hit *h) {
-    return intersect_top(s, r, tmax, UINT32_MAX, h);
+    return intersect_top(s, r, tmax, SCENE_NO_LEAVE, h);
 }
 
 bool scene_intersect_from(const rayd_scene *s, const ray *r, double tmax, uint32_t leave,
@@ -479,7 +479,7 @@ static vec3 scene_filter(const rayd_scene *s, const ray *r, double tmax, bool op
 }
 
 vec3 scene_transmittance(const rayd_scene *s, const ray *r, double tmax) {
-    return scene_filter(s, r, tmax, false, UINT32_MAX);
+    return scene_filter(s, r, tmax, false, SCENE_NO_LEAVE);
 }
 
 vec3 scene_transmittance_from(const rayd_scene *s, const ray *r, double tmax, uint32_t leave) {
