@@ -74,7 +74,8 @@ CORE_LAYERS = [
                      "deflate_chain, file, text_encoding (naming UTF-16 and UTF-32 text)"),
     ("core/accel/", "bvh.c (the SAH builder and walk, over boxes), bvh16.h (16-ray packet walk), "
                     "light_buffer.c (which objects can shadow which directions of a point light)"),
-    ("core/geom/", "shape.c + shape_*.c (one file per primitive), mesh.c + mesh_packet.c, camera"),
+    ("core/geom/", "shape.c + shape_*.c (one file per primitive), mesh.c + mesh_packet.c "
+                   "(one ray, 16 rays; the one-ray walk both use in mesh_walk.h), camera"),
     ("core/shade/", "material, light, texture, environment: what surfaces and lights are"),
     ("core/scene/", "scene.c (the frozen scene), scene_query.c (one ray: hits, CSG, shadows, "
                     "surfaces), scene_packet.c (16 rays at once), scene_leave.c (which objects a "

@@ -193,16 +193,27 @@ CPU_AVX512_INLINE bool bvh16_descend(const struct bvh4_node *nodes, const char *
  * where the packet goes cost no rays, and nothing else would stop them. */
 #define BVH16_LOOK_VISITS 4096
 
+/* When at most this many rays of a packet still need an entry, the walk
+ * hands them to lone (when given) to go on one by one, as Embree's hybrid
+ * walk does: a node test costs the same for 1 lane as for 16, and the few
+ * rays left deep in a tree mostly part ways.  2 measured best for bounce
+ * packets, with no loss on coherent ones (bench/README.md). */
+#define BVH16_LONE_MAX 2
+
 /* Walks the tree with the rays in lanes; *tm holds their bounds (lowered
  * by a nearest-hit leaf), and ordered asks for the nearest child first (a
  * nearest-hit walk; an any-hit one can do without).  Returns the rays an
- * any-hit leaf blocked.  A stopped meter ends the walk with what it found
- * so far (the render is thrown away).
+ * any-hit leaf blocked.  lone, NULL or a function with the leaf's
+ * contract, takes an entry (inner node or leaf) that at most
+ * BVH16_LONE_MAX rays still need, and walks it ray by ray.  A stopped
+ * meter ends the walk with what it found so far (the render is thrown
+ * away).
  * leaves (records of leaf_size bytes, a leaf's first index into them) is
  * only prefetched from; NULL when the leaves are not such an array. */
 CPU_AVX512_INLINE __mmask16 bvh16_walk(const struct bvh4 *bvh, const char *leaves, size_t leaf_size,
                                        const struct bvh16_ray *r, __m512 *tm, __mmask16 lanes,
-                                       bvh16_leaf_fn leaf, void *ctx, bool ordered) {
+                                       bvh16_leaf_fn leaf, bvh16_leaf_fn lone, void *ctx,
+                                       bool ordered) {
     struct bvh16_entry stack[BVH_STACK], cur;
     int sp = 0;
     uint32_t visits = 0;
@@ -212,7 +223,11 @@ CPU_AVX512_INLINE __mmask16 bvh16_walk(const struct bvh4 *bvh, const char *leave
     cur.lanes = lanes;
     cur.tnear = _mm512_setzero_ps();
     for (;;) {
-        if (cur.count == 0) {
+        if (lone && __builtin_popcount(cur.lanes) <= BVH16_LONE_MAX) {
+            blocked |= lone(ctx, cur.node, cur.count, cur.lanes, tm);
+            lanes &= (__mmask16)~blocked;
+            if (!lanes) return blocked;
+        } else if (cur.count == 0) {
             if (bvh16_descend(bvh->nodes, leaves, leaf_size, r, *tm, &cur, stack, &sp, ordered))
                 continue;
         } else {

@@ -27,134 +27,16 @@
 #include "base/cpu.h"
 #include "base/error.h"
 #include "geom/mesh_ray.h"
+#include "geom/mesh_walk.h"
 #include "base/parallel.h"
 
 #define MESH_CHUNK 16384 /* triangles a thread at least: fewer stay on one thread */
 
-/* Tests the first n lanes of block b.  A lane hits when 0 < t <= tmax;
- * returns the mask of hits with t, u, v in out.  The SIMD and the scalar
- * code do the same float operations in the same order, so both give the
- * same bits. */
-static inline int tri4_test(const struct tri4 *b, int n, const struct tri_ray *tr, float tmax,
-                            float t_out[4], float u_out[4], float v_out[4]) {
-    int kx = tr->kx, ky = tr->ky, kz = tr->kz;
-    float U[4], V[4], W[4], AZ[4], BZ[4], CZ[4], AX[4], AY[4], BX[4], BY[4], CX[4], CY[4];
-#ifdef BVH_SSE
-    __m128 ox = _mm_set1_ps(tr->org[kx]), oy = _mm_set1_ps(tr->org[ky]),
-           oz = _mm_set1_ps(tr->org[kz]), sx = _mm_set1_ps(tr->sx), sy = _mm_set1_ps(tr->sy);
-    __m128 az = _mm_sub_ps(_mm_loadu_ps(b->v[0][kz]), oz);
-    __m128 bz = _mm_sub_ps(_mm_loadu_ps(b->v[1][kz]), oz);
-    __m128 cz = _mm_sub_ps(_mm_loadu_ps(b->v[2][kz]), oz);
-    __m128 ax = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[0][kx]), ox), _mm_mul_ps(sx, az));
-    __m128 ay = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[0][ky]), oy), _mm_mul_ps(sy, az));
-    __m128 bx = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[1][kx]), ox), _mm_mul_ps(sx, bz));
-    __m128 by = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[1][ky]), oy), _mm_mul_ps(sy, bz));
-    __m128 cx = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[2][kx]), ox), _mm_mul_ps(sx, cz));
-    __m128 cy = _mm_sub_ps(_mm_sub_ps(_mm_loadu_ps(b->v[2][ky]), oy), _mm_mul_ps(sy, cz));
-    __m128 u = _mm_sub_ps(_mm_mul_ps(cx, by), _mm_mul_ps(cy, bx));
-    __m128 v = _mm_sub_ps(_mm_mul_ps(ax, cy), _mm_mul_ps(ay, cx));
-    __m128 w = _mm_sub_ps(_mm_mul_ps(bx, ay), _mm_mul_ps(by, ax));
-    __m128 zero = _mm_setzero_ps();
-    int lanes = (1 << n) - 1;
-    int on_edge = _mm_movemask_ps(_mm_or_ps(_mm_or_ps(_mm_cmpeq_ps(u, zero), _mm_cmpeq_ps(v, zero)),
-                                            _mm_cmpeq_ps(w, zero))) &
-                  lanes;
-    if (on_edge) {
-        _mm_storeu_ps(U, u), _mm_storeu_ps(V, v), _mm_storeu_ps(W, w);
-        _mm_storeu_ps(AX, ax), _mm_storeu_ps(AY, ay), _mm_storeu_ps(BX, bx);
-        _mm_storeu_ps(BY, by), _mm_storeu_ps(CX, cx), _mm_storeu_ps(CY, cy);
-        for (int i = 0; i < 4; i++)
-            if (on_edge & (1 << i))
-                tri_edges_double(AX[i], AY[i], BX[i], BY[i], CX[i], CY[i], &U[i], &V[i], &W[i]);
-        u = _mm_loadu_ps(U), v = _mm_loadu_ps(V), w = _mm_loadu_ps(W);
-    }
-    __m128 neg =
-        _mm_or_ps(_mm_or_ps(_mm_cmplt_ps(u, zero), _mm_cmplt_ps(v, zero)), _mm_cmplt_ps(w, zero));
-    __m128 pos =
-        _mm_or_ps(_mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)), _mm_cmpgt_ps(w, zero));
-    __m128 det = _mm_add_ps(_mm_add_ps(u, v), w);
-    __m128 sz = _mm_set1_ps(tr->sz);
-    __m128 t =
-        _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_mul_ps(u, sz), az), _mm_mul_ps(_mm_mul_ps(v, sz), bz)),
-                   _mm_mul_ps(_mm_mul_ps(w, sz), cz));
-    /* t / det in (0, tmax]: compare with the signs folded into det's */
-    __m128 sign = _mm_and_ps(det, _mm_set1_ps(-0.0f));
-    __m128 ts = _mm_xor_ps(t, sign), ds = _mm_xor_ps(det, sign);
-    __m128 ok = _mm_andnot_ps(_mm_and_ps(neg, pos), _mm_cmpneq_ps(det, zero));
-    ok = _mm_and_ps(ok, _mm_cmpgt_ps(ts, zero));
-    ok = _mm_and_ps(ok, _mm_cmple_ps(ts, _mm_mul_ps(_mm_set1_ps(tmax * TRI_SLACK), ds)));
-    int mask = _mm_movemask_ps(ok) & lanes;
-    if (!mask) return 0;
-    __m128 rcp = _mm_div_ps(_mm_set1_ps(1.0f), det);
-    _mm_storeu_ps(t_out, _mm_mul_ps(t, rcp));
-    _mm_storeu_ps(u_out, _mm_mul_ps(v, rcp));
-    _mm_storeu_ps(v_out, _mm_mul_ps(w, rcp));
-    (void)AZ, (void)BZ, (void)CZ;
-    return mask;
-#else
-    int mask = 0;
-    for (int i = 0; i < n; i++) {
-        AZ[i] = b->v[0][kz][i] - tr->org[kz];
-        BZ[i] = b->v[1][kz][i] - tr->org[kz];
-        CZ[i] = b->v[2][kz][i] - tr->org[kz];
-        AX[i] = (b->v[0][kx][i] - tr->org[kx]) - tr->sx * AZ[i];
-        AY[i] = (b->v[0][ky][i] - tr->org[ky]) - tr->sy * AZ[i];
-        BX[i] = (b->v[1][kx][i] - tr->org[kx]) - tr->sx * BZ[i];
-        BY[i] = (b->v[1][ky][i] - tr->org[ky]) - tr->sy * BZ[i];
-        CX[i] = (b->v[2][kx][i] - tr->org[kx]) - tr->sx * CZ[i];
-        CY[i] = (b->v[2][ky][i] - tr->org[ky]) - tr->sy * CZ[i];
-        U[i] = CX[i] * BY[i] - CY[i] * BX[i];
-        V[i] = AX[i] * CY[i] - AY[i] * CX[i];
-        W[i] = BX[i] * AY[i] - BY[i] * AX[i];
-        if (U[i] == 0 || V[i] == 0 || W[i] == 0)
-            tri_edges_double(AX[i], AY[i], BX[i], BY[i], CX[i], CY[i], &U[i], &V[i], &W[i]);
-        if ((U[i] < 0 || V[i] < 0 || W[i] < 0) && (U[i] > 0 || V[i] > 0 || W[i] > 0)) continue;
-        float det = (U[i] + V[i]) + W[i];
-        if (det == 0) continue;
-        float t = ((U[i] * tr->sz) * AZ[i] + (V[i] * tr->sz) * BZ[i]) + (W[i] * tr->sz) * CZ[i];
-        float ts = det < 0 ? -t : t, ds = det < 0 ? -det : det;
-        if (!(ts > 0 && ts <= (tmax * TRI_SLACK) * ds)) continue;
-        float rcp = 1.0f / det;
-        t_out[i] = t * rcp;
-        u_out[i] = V[i] * rcp;
-        v_out[i] = W[i] * rcp;
-        mask |= 1 << i;
-    }
-    return mask;
-#endif
-}
-
-/* Keeps the nearest of the lanes in mask; on equal t the lower triangle
- * id wins, so the result does not depend on the order blocks are visited
- * (BVH or brute force, any tiling). */
-static inline bool tri4_take(const struct mesh *m, const struct tri4 *b, int mask, const float t[4],
-                             const float u[4], const float v[4], float *tmax, struct mesh_hit *h,
-                             bool *found) {
-    bool took = false;
-    while (mask) {
-        int i = __builtin_ctz((unsigned)mask);
-        mask &= mask - 1;
-        if (t[i] > *tmax || (*found && t[i] == *tmax && b->id[i] > h->tri)) continue;
-        if (*found && t[i] == *tmax && b->id[i] == h->tri) continue;
-        *tmax = t[i];
-        h->t = t[i];
-        h->u = u[i];
-        h->v = v[i];
-        h->tri = b->id[i];
-        h->blk = (uint32_t)(b - m->blocks);
-        h->lane = (uint32_t)i;
-        *found = true;
-        took = true;
-    }
-    return took;
-}
-
-/* The one-ray walk.  Always inlined into two copies: the build's target
- * (SSE2 on plain x86-64) and, where the CPU has it (cpu_avx512), one
- * compiled for AVX-512, whose three-operand instructions and 32 vector
- * registers keep a ray's constants in registers.  The same float
- * operations in the same order (no fused multiply-add: -ffp-contract=off),
- * so both give the same bits; test_mesh checks that they agree. */
+/* The one-ray walk from the root.  Always inlined into two copies: the
+ * build's target (SSE2 on plain x86-64) and, where the CPU has it
+ * (cpu_avx512), one compiled for AVX-512, whose three-operand instructions
+ * and 32 vector registers keep a ray's constants in registers; test_mesh
+ * checks that they agree. */
 __attribute__((always_inline)) static inline bool
 mesh_walk_body(const struct mesh *m, const ray *r, double tmax, struct mesh_hit *h, bool any) {
     if (m->bvh.nnodes == 0) return false;
@@ -164,25 +46,9 @@ mesh_walk_body(const struct mesh *m, const ray *r, double tmax, struct mesh_hit 
     tri_ray_init(&tr, r);
     float tm = any ? tri_tmax_any(tmax) : tri_tmax_nearest(tmax);
     bool found = false;
-    struct bvh_entry stack[BVH_STACK], e = {0, 0, 0};
-    int sp = 0;
-    for (;;) {
-        if (e.count == 0) {
-            if (bvh4_descend(m->bvh.nodes, &e, &br, tm * BVH_SLACK, stack, &sp)) continue;
-        } else {
-            float t[4], u[4], v[4];
-            const struct tri4 *b = &m->blocks[e.node];
-            int mask = tri4_test(b, e.count, &tr, tm, t, u, v);
-            if (mask) {
-                if (any) return true;
-                tri4_take(m, b, mask, t, u, v, &tm, h, &found);
-            }
-        }
-        do { /* pop the nearest entry still in reach */
-            if (sp == 0) return found && (double)h->t < tmax;
-            e = stack[--sp];
-        } while (e.tnear > tm * BVH_SLACK);
-    }
+    struct bvh_entry root = {0, 0, 0};
+    bool met = mesh_walk_from(m, &br, &tr, root, &tm, h, &found, any);
+    return any ? met : found && (double)h->t < tmax;
 }
 
 static bool mesh_walk_base(const struct mesh *m, const ray *r, double tmax, struct mesh_hit *h,

@@ -7,7 +7,10 @@
  * the same order-free rule (nearest t, then lower triangle id), so each ray
  * gets bit for bit what mesh_intersect or mesh_occluded gives it alone.
  * The rays of a packet need not share their dominant axis: the sheared
- * frame is picked per lane with mask blends.
+ * frame is picked per lane with mask blends.  Where at most BVH16_LONE_MAX
+ * of its rays still need a node, they go on alone through the one-ray walk
+ * (mesh_walk.h), each from its best hit so far: the same answer, and the
+ * rays of an incoherent packet (bounce rays) stop paying 16 lanes a node.
  *
  * Without AVX-512 (another CPU, a build without SIMD, valgrind's CPU, or
  * RAYD_NO_AVX512 in the environment) the same entry points loop over the
@@ -18,6 +21,7 @@
 #include "accel/bvh16.h"
 #include "geom/mesh.h"
 #include "geom/mesh_ray.h"
+#include "geom/mesh_walk.h"
 
 #ifdef CPU_AVX512
 
@@ -151,6 +155,98 @@ CPU_AVX512_FN __mmask16 leaf_any(void *ctx, uint32_t first, uint32_t count, __mm
     return hit;
 }
 
+/* Lane i of q as the one-ray walk's ray: the floats the packet holds for
+ * it are those bvh_ray_init and tri_ray_init give the ray. */
+struct lane_rays {
+    float org[3][16], inv[3][16], sx[16], sy[16], sz[16];
+};
+
+CPU_AVX512_FN void lane_rays_load(struct lane_rays *l, const struct mesh16 *q) {
+    for (int k = 0; k < 3; k++) {
+        _mm512_storeu_ps(l->org[k], q->br.org[k]);
+        _mm512_storeu_ps(l->inv[k], q->br.inv[k]);
+    }
+    _mm512_storeu_ps(l->sx, q->sx), _mm512_storeu_ps(l->sy, q->sy), _mm512_storeu_ps(l->sz, q->sz);
+}
+
+/* The axis of lane i in the masks m0 (axis 0) and m1 (axis 1), as pick. */
+static inline int lane_axis(__mmask16 m0, __mmask16 m1, int i) {
+    return m0 >> i & 1 ? 0 : m1 >> i & 1 ? 1 : 2;
+}
+
+CPU_AVX512_FN void lane_ray(const struct mesh16 *q, const struct lane_rays *l, int i,
+                            struct bvh_ray *br, struct tri_ray *tr) {
+    for (int k = 0; k < 3; k++) {
+        br->org[k] = tr->org[k] = l->org[k][i];
+        br->inv[k] = l->inv[k][i];
+        br->neg[k] = q->br.neg[k] >> i & 1;
+    }
+    tr->kx = lane_axis(q->kx0, q->kx1, i);
+    tr->ky = lane_axis(q->ky0, q->ky1, i);
+    tr->kz = lane_axis(q->kz0, q->kz1, i);
+    tr->sx = l->sx[i], tr->sy = l->sy[i], tr->sz = l->sz[i];
+}
+
+/* The lone walk of a nearest-hit packet: each ray in lanes goes on
+ * through node (count: as in bvh4_node) alone, from its best hit so far,
+ * and what it finds goes back into its lane. */
+CPU_AVX512_FN __mmask16 lone_nearest(void *ctx, uint32_t node, uint32_t count, __mmask16 lanes,
+                                     __m512 *tm) {
+    struct mesh16 *q = ctx;
+    struct lane_rays l;
+    lane_rays_load(&l, q);
+    float bound[16], t[16], u[16], v[16];
+    uint32_t id[16], blk[16], lane[16];
+    _mm512_storeu_ps(bound, *tm);
+    _mm512_storeu_ps(t, q->t), _mm512_storeu_ps(u, q->u), _mm512_storeu_ps(v, q->v);
+    _mm512_storeu_si512(id, q->id), _mm512_storeu_si512(blk, q->blk);
+    _mm512_storeu_si512(lane, q->lane);
+    struct bvh_entry e = {node, (uint8_t)count, 0};
+    for (unsigned m = lanes; m; m &= m - 1) {
+        int i = __builtin_ctz(m);
+        struct bvh_ray br;
+        struct tri_ray tr;
+        lane_ray(q, &l, i, &br, &tr);
+        struct mesh_hit h = {t[i], u[i], v[i], id[i], blk[i], lane[i]};
+        bool found = q->found >> i & 1;
+        if (!mesh_walk_from(q->m, &br, &tr, e, &bound[i], &h, &found, false)) continue;
+        __mmask16 bit = (__mmask16)(1u << i);
+        *tm = _mm512_mask_mov_ps(*tm, bit, _mm512_set1_ps(bound[i]));
+        q->t = _mm512_mask_mov_ps(q->t, bit, _mm512_set1_ps(h.t));
+        q->u = _mm512_mask_mov_ps(q->u, bit, _mm512_set1_ps(h.u));
+        q->v = _mm512_mask_mov_ps(q->v, bit, _mm512_set1_ps(h.v));
+        q->id = _mm512_mask_mov_epi32(q->id, bit, _mm512_set1_epi32((int)h.tri));
+        q->blk = _mm512_mask_mov_epi32(q->blk, bit, _mm512_set1_epi32((int)h.blk));
+        q->lane = _mm512_mask_mov_epi32(q->lane, bit, _mm512_set1_epi32((int)h.lane));
+        q->found |= bit;
+    }
+    return 0;
+}
+
+/* The lone walk of an any-hit packet: the rays in lanes that meet a
+ * triangle under node. */
+CPU_AVX512_FN __mmask16 lone_any(void *ctx, uint32_t node, uint32_t count, __mmask16 lanes,
+                                 __m512 *tm) {
+    const struct mesh16 *q = ctx;
+    struct lane_rays l;
+    lane_rays_load(&l, q);
+    float bound[16];
+    _mm512_storeu_ps(bound, *tm);
+    struct bvh_entry e = {node, (uint8_t)count, 0};
+    __mmask16 hit = 0;
+    for (unsigned m = lanes; m; m &= m - 1) {
+        int i = __builtin_ctz(m);
+        struct bvh_ray br;
+        struct tri_ray tr;
+        lane_ray(q, &l, i, &br, &tr);
+        struct mesh_hit h;
+        bool found = false;
+        if (mesh_walk_from(q->m, &br, &tr, e, &bound[i], &h, &found, true))
+            hit |= (__mmask16)(1u << i);
+    }
+    return hit;
+}
+
 /* tri_ray_init for 8 lanes of q from lane 8h on, in double as it does:
  * the dominant axis kz, kx and ky after it (swapped when d[kz] < 0), and
  * the shear s (x, y, z).  m[a][v]: the lanes whose axis a (x, y, z) is v
@@ -243,7 +339,7 @@ CPU_AVX512_EXTERN uint32_t mesh16_intersect(const struct mesh *m, const struct r
     __m512 tm;
     mesh16_init(&q, m, rd, tmax, active, false, &tm);
     bvh16_walk(&m->bvh, (const char *)m->blocks, sizeof *m->blocks, &q.br, &tm, (__mmask16)active,
-               leaf_nearest, &q, true);
+               leaf_nearest, lone_nearest, &q, true);
     float t[16], u[16], v[16];
     uint32_t id[16], blk[16], lane[16], hit = 0;
     _mm512_storeu_ps(t, q.t), _mm512_storeu_ps(u, q.u), _mm512_storeu_ps(v, q.v);
@@ -264,7 +360,7 @@ CPU_AVX512_EXTERN uint32_t mesh16_occluded(const struct mesh *m, const struct ra
     __m512 tm;
     mesh16_init(&q, m, rd, tmax, active, true, &tm);
     return bvh16_walk(&m->bvh, (const char *)m->blocks, sizeof *m->blocks, &q.br, &tm,
-                      (__mmask16)active, leaf_any, &q, false);
+                      (__mmask16)active, leaf_any, lone_any, &q, false);
 }
 
 #endif

@@ -421,7 +421,7 @@ CPU_AVX512_FN uint32_t intersect16(struct scene16 *q, const double tmax[16], uin
         struct bvh16_ray br;
         bvh16_ray_init(&br, &q->rd);
         __m512 tm = node_bounds16(q->tmax);
-        bvh16_walk(&s->tlas, NULL, 0, &br, &tm, (__mmask16)active, tlas_nearest, q, true);
+        bvh16_walk(&s->tlas, NULL, 0, &br, &tm, (__mmask16)active, tlas_nearest, NULL, q, true);
     }
     uint32_t kept = q->kept & active;
     if (simple) {
@@ -560,8 +560,8 @@ CPU_AVX512_FN uint32_t transmittance16(struct scene16 *q, const double tmax[16],
         struct bvh16_ray br;
         bvh16_ray_init(&br, &q->rd);
         __m512 tm = node_bounds16(q->tmax);
-        open &=
-            ~(uint32_t)bvh16_walk(&s->tlas, NULL, 0, &br, &tm, (__mmask16)open, tlas_any, q, false);
+        open &= ~(uint32_t)bvh16_walk(&s->tlas, NULL, 0, &br, &tm, (__mmask16)open, tlas_any, NULL,
+                                      q, false);
     }
     return open;
 }

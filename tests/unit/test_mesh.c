@@ -400,6 +400,64 @@ static void test_single_ray_paths_agree(void) {
     rayd_scene_free(oct);
 }
 
+/* Packets through a 20,000-triangle soup give every ray its one-ray
+ * answer, also where the packet's walk hands its last rays to the one-ray
+ * walk part way down (BVH16_LONE_MAX): coherent packets (16 rays from one
+ * point through a small square, as a 4x4 block of pixels), incoherent ones
+ * (each ray from its own point, any direction, as bounce rays), half and
+ * half, with odd bounds and partial masks. */
+static void test_packets_in_a_soup_equal_single_rays(void) {
+    const uint32_t n = 20000;
+    float *pos;
+    uint32_t *index;
+    soup(n, &pos, &index);
+    struct mesh m;
+    CHECK(mesh_build(&m, pos, 3 * n, index, n, NULL, NULL, false, 2, NULL) == RAYD_OK, "build");
+    const double bounds[8] = {INFINITY, 0, -1, NAN, 1e-3, 4.0, 3.1e38, 5.0};
+    uint32_t s = 4242, differ = 0, total = 0, hits = 0;
+    for (int p = 0; p < 3000; p++) {
+        ray r[16];
+        double tmax[16];
+        vec3 eye = v3(-3, 5, -4);
+        for (int i = 0; i < 16; i++) {
+            double u[6];
+            for (int k = 0; k < 6; k++) {
+                s = s * 1664525u + 1013904223u;
+                u[k] = (double)(s >> 8) / 16777216.0;
+            }
+            bool coherent = p % 3 == 0 || (p % 3 == 2 && i < 8);
+            if (coherent) { /* toward a small square inside the soup's cube */
+                vec3 at = v3(4 + (p % 40) * 0.1 + (i % 4) * 0.01,
+                             5 + (p / 40) * 0.05 + (i / 4) * 0.01, 5);
+                r[i] = (ray){eye, v3_norm(v3_sub(at, eye))};
+            } else {
+                r[i].o = v3(u[0] * 10, u[1] * 10, u[2] * 10);
+                r[i].d = v3_norm(v3(u[3] - 0.5, u[4] - 0.5, u[5] - 0.5));
+            }
+            tmax[i] = p % 4 == 3 ? bounds[(p + i) % 8] : INFINITY;
+        }
+        uint32_t active = p % 5 == 4 ? 0xb3c5u ^ (uint32_t)(p * 37) : 0xffffu;
+        active &= 0xffffu;
+        if (!active) active = 1;
+        struct mesh_hit h[16];
+        uint32_t hit = mesh_intersect16(&m, r, tmax, active, h);
+        uint32_t blocked = mesh_occluded16(&m, r, tmax, active);
+        for (int i = 0; i < 16; i++) {
+            struct mesh_hit one;
+            bool got = active >> i & 1 && mesh_intersect(&m, &r[i], tmax[i], &one);
+            bool occ = active >> i & 1 && mesh_occluded(&m, &r[i], tmax[i]);
+            total++;
+            hits += got;
+            differ += !same_hit(got, &one, hit >> i & 1, &h[i]) || occ != (bool)(blocked >> i & 1);
+        }
+    }
+    printf("  %u rays (%u hits), packets %s\n", total, hits,
+           cpu_avx512() ? "with AVX-512" : "one ray at a time (no AVX-512 here)");
+    CHECK(hits > total / 20 && hits < total, "%u hits of %u", hits, total);
+    CHECK(differ == 0, "%u of %u packet answers differ from the one-ray ones", differ, total);
+    mesh_free(&m);
+}
+
 /* A soup of n small random triangles (a fixed generator), pos and index
  * malloc'd for mesh_build to own. */
 static void soup(uint32_t n, float **pos, uint32_t **index) {
@@ -564,6 +622,7 @@ int main(void) {
     RUN(test_watertight_edges_and_vertices);
     RUN(test_packets_equal_single_rays);
     RUN(test_single_ray_paths_agree);
+    RUN(test_packets_in_a_soup_equal_single_rays);
     RUN(test_transformed_sphere_exact_projection);
     RUN(test_smooth_normals_follow_the_sphere);
     RUN(test_mesh_errors);
