@@ -343,13 +343,18 @@ static bool same_hit(bool a, const struct mesh_hit *x, bool b, const struct mesh
                   x->lane == y->lane);
 }
 
-static void test_single_ray_paths_agree(void) {
+/* The 20,000-triangle soup as a mesh, built on two threads. */
+static void soup_mesh(struct mesh *m) {
     const uint32_t n = 20000;
     float *pos;
     uint32_t *index;
     soup(n, &pos, &index);
+    CHECK(mesh_build(m, pos, 3 * n, index, n, NULL, NULL, false, 2, NULL) == RAYD_OK, "build");
+}
+
+static void test_single_ray_paths_agree(void) {
     struct mesh soupm;
-    CHECK(mesh_build(&soupm, pos, 3 * n, index, n, NULL, NULL, false, 2, NULL) == RAYD_OK, "build");
+    soup_mesh(&soupm);
     rayd_scene *oct = octahedron();
     if (!oct) return;
     const struct mesh *ms[2] = {&soupm, &oct->meshes[0]};
@@ -407,12 +412,8 @@ static void test_single_ray_paths_agree(void) {
  * (each ray from its own point, any direction, as bounce rays), half and
  * half, with odd bounds and partial masks. */
 static void test_packets_in_a_soup_equal_single_rays(void) {
-    const uint32_t n = 20000;
-    float *pos;
-    uint32_t *index;
-    soup(n, &pos, &index);
     struct mesh m;
-    CHECK(mesh_build(&m, pos, 3 * n, index, n, NULL, NULL, false, 2, NULL) == RAYD_OK, "build");
+    soup_mesh(&m);
     const double bounds[8] = {INFINITY, 0, -1, NAN, 1e-3, 4.0, 3.1e38, 5.0};
     uint32_t s = 4242, differ = 0, total = 0, hits = 0;
     for (int p = 0; p < 3000; p++) {
