@@ -197,7 +197,9 @@ CPU_AVX512_INLINE bool bvh16_descend(const struct bvh4_node *nodes, const char *
  * hands them to lone (when given) to go on one by one, as Embree's hybrid
  * walk does: a node test costs the same for 1 lane as for 16, and the few
  * rays left deep in a tree mostly part ways.  2 measured best for bounce
- * packets, with no loss on coherent ones (bench/README.md). */
+ * packets, with no loss on coherent ones (bench/README.md).  Their walks
+ * are not counted in the visits below: each costs what the ray would cast
+ * alone, which every one-ray walk of a mesh costs unmetered. */
 #define BVH16_LONE_MAX 2
 
 /* Walks the tree with the rays in lanes; *tm holds their bounds (lowered
