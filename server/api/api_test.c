@@ -21,7 +21,9 @@
  * "held": workers waiting at the gate with a tile to start, "queued": tasks
  * waiting for a worker, "parses": N or "open", "parses_started",
  * "parses_queued": scenes waiting for a parse thread, "parses_running",
- * "clock_skipped_s": the clock's jumps in all}.  Without --test-gate the
+ * "parses_waiting": requests waiting for those parses (a body posted again
+ * while its parse is queued joins it), "clock_skipped_s": the clock's jumps
+ * in all}.  Without --test-gate the
  * route is a 404 like any unknown path.  The gate itself is in gate.c, asked by the workers
  * (sched.c).
  */
@@ -50,6 +52,7 @@ static void api_test_gate_reply(struct http_req *r, const struct gate_state *g) 
     cJSON_AddNumberToObject(o, "parses_started", (double)c.started);
     cJSON_AddNumberToObject(o, "parses_queued", (double)c.queued);
     cJSON_AddNumberToObject(o, "parses_running", (double)c.running);
+    cJSON_AddNumberToObject(o, "parses_waiting", (double)c.waiting);
     cJSON_AddNumberToObject(o, "clock_skipped_s", clock_skip(0));
     http_reply_json(r, 200, o);
 }

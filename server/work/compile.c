@@ -417,7 +417,10 @@ void compile_gate_set(long parses) {
 
 void compile_gate_get(struct compile_gate_state *g) {
     work_lock_take();
+    long waiting = 0;
+    for (struct compile_job *j = compile_head; j; j = j->next) waiting += j->nwaiters;
+    for (struct compile_job *j = compile_running; j; j = j->next) waiting += j->nwaiters;
     *g = (struct compile_gate_state){compile_gate, compile_started, compile_queued,
-                                     compile_nrunning};
+                                     compile_nrunning, waiting};
     work_lock_give();
 }

@@ -426,6 +426,7 @@ void compile_stop(void);
  * how many more parses may start, -1 open; and what the pool is doing. */
 struct compile_gate_state {
     long parses, started, queued, running;
+    long waiting; /* requests waiting for a parse queued or running */
 };
 void compile_gate_set(long parses);
 /* The test gate's work knob (?work=N): the rays each render made from now

@@ -55,6 +55,8 @@ post_bg a2 "$T/a.json"
 post_bg a3 "$T/a.json"
 post_bg b "$T/b.json"
 queued_is() { curl -s -m 5 "$URL/v1/test/gate" | grep -q "\"parses_queued\":$1,"; }
+# waiting_is N: N requests wait for the parses queued or running
+waiting_is() { curl -s -m 5 "$URL/v1/test/gate" | grep -q "\"parses_waiting\":$1,"; }
 wait_until 30 queued_is 2
 check two_scenes_queued "gate $(curl -s -m 5 "$URL/v1/test/gate")" queued_is 2
 for p in /healthz /readyz /metrics; do
@@ -79,6 +81,7 @@ check cached_answers_while_held "status $code: $(head -c 200 "$T/body")" \
     bash -c "[ $code = 201 ] && grep -q '\"cached\":true' '$T/body'"
 
 # --- identical bodies: one parse -------------------------------------------------
+wait_until 30 waiting_is 4 # a1, a2, a3 and b, before the gate opens
 code=$(parse_gate open)
 for n in a1 a2 a3 b; do wait_until 120 done_code $n; done
 ida=$(sha256sum "$T/a.json" | cut -d' ' -f1)
@@ -94,7 +97,10 @@ check identical_posts_parsed_once "rayd_scene_parses_total $parses0 -> $parses1 
 parse_gate 0 >/dev/null
 post_bg e1 "$T/bad.json"
 post_bg e2 "$T/bad.json"
-wait_until 30 queued_is 1
+# both requests waiting on the one parse queued: on a busy host the second
+# curl may start after the first's parse would have ended
+wait_until 30 waiting_is 2
+check coalesced_error_joined "gate $(curl -s -m 5 "$URL/v1/test/gate")" queued_is 1
 parse_gate open >/dev/null
 wait_until 30 done_code e1
 wait_until 30 done_code e2
