@@ -89,6 +89,8 @@ check dead_node_removed_once "removals logged: $removed" [ "$removed" = 1 ]
 check live_nodes_kept "consumers: $(consumers | tr '\n' ' ')" [ "$(consumers | wc -l)" = 2 ]
 wait_until 10 bash -c "[ \$(curl -s '${NODE_URL[3]}/metrics' | awk '\$1 == \"rayd_cluster_nodes\" {print \$2}') = 2 ]"
 check live_nodes_metric "rayd_cluster_nodes $(metric 3 rayd_cluster_nodes)" [ "$(metric 3 rayd_cluster_nodes)" = 2 ]
+# each node counts the live nodes on its own heartbeat: node 1 may see the change a beat later
+wait_until 10 bash -c "curl -s '${NODE_URL[1]}/healthz' | grep -q '\"nodes\":2,'"
 check live_nodes_healthz "$(curl -s "${NODE_URL[1]}/healthz")" bash -c "curl -s '${NODE_URL[1]}/healthz' | grep -q '\"nodes\":2,'"
 
 for i in 1 3; do

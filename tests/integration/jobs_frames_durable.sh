@@ -108,8 +108,10 @@ gate 2
 wait_until 60 eval 'ls "$D/results" | grep -q "^$write-2.png.tmp$"'
 check write_tmp_there "$(ls "$D/results")" eval 'ls "$D/results" | grep -q "^$write-2.png.tmp$"'
 kill9
-start_rayd --threads 1 --test-gate open --data-dir "$D"
+# gate shut: the new rayd writes nothing of its own before the sweep is checked
+start_rayd --threads 1 --test-gate 0 --data-dir "$D"
 check write_tmp_swept "$(ls "$D/results")" no_tmp
+gate open
 wait_until 120 job_state_is "$write" succeeded
 check write_rendered_again "$(cat "$T/body")" job_state_is "$write" succeeded
 check write_frame_as_cli "frame 2 differs" frame_is "$write" 2 "$T/cli-2.png"
