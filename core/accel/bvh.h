@@ -137,6 +137,12 @@ struct bvh_entry {
     float tnear;
 };
 
+/* The entry for child c of nd, entered at tnear. */
+static inline struct bvh_entry bvh4_entry(const struct bvh4_node *nd, int c, float tnear) {
+    struct bvh_entry e = {nd->child[c], nd->count[c], tnear};
+    return e;
+}
+
 /* Pushes the children in mask onto stack, farthest first, so the nearest
  * is visited next.  Returns the new stack size.  Insertion into the stack
  * itself: most masks have one or two bits. */
@@ -161,11 +167,14 @@ static inline int bvh4_push_sorted(const struct bvh4_node *nd, int mask, const f
 
 /* One step down from inner node *e: tests its children, pushes all but the
  * nearest hit onto the stack (farthest deepest) and makes *e the nearest.
- * False when no child is hit (the caller pops the next entry).  A single
- * hit child -- the common case -- never touches the stack. */
+ * Unordered (an any-hit walk, whose answer no order changes), *e is the
+ * first child hit and the others go on the stack as they come: no sort,
+ * 3-7% faster one-ray shadow rays (bench/README.md).  False when no child is hit
+ * (the caller pops the next entry).  A single hit child -- the common
+ * case -- never touches the stack. */
 static inline bool bvh4_descend(const struct bvh4_node *nodes, struct bvh_entry *e,
                                 const struct bvh_ray *br, float tmax, struct bvh_entry *stack,
-                                int *sp) {
+                                int *sp, bool ordered) {
     const struct bvh4_node *nd = &nodes[e->node];
     float tn[4];
     int mask = bvh4_test(nd, br, 0, tmax, tn);
@@ -175,6 +184,14 @@ static inline bool bvh4_descend(const struct bvh4_node *nodes, struct bvh_entry 
         e->node = nd->child[i];
         e->count = nd->count[i];
         e->tnear = tn[i];
+        return true;
+    }
+    if (!ordered) {
+        *e = bvh4_entry(nd, i, tn[i]);
+        for (mask &= mask - 1; mask; mask &= mask - 1) {
+            int c = __builtin_ctz((unsigned)mask);
+            stack[(*sp)++] = bvh4_entry(nd, c, tn[c]);
+        }
         return true;
     }
     *sp = bvh4_push_sorted(nd, mask, tn, stack, *sp);

@@ -149,7 +149,7 @@ mesh_walk_from(const struct mesh *m, const struct bvh_ray *br, const struct tri_
     bool took = false;
     for (;;) {
         if (e.count == 0) {
-            if (bvh4_descend(m->bvh.nodes, &e, br, bound * BVH_SLACK, stack, &sp)) continue;
+            if (bvh4_descend(m->bvh.nodes, &e, br, bound * BVH_SLACK, stack, &sp, !any)) continue;
         } else {
             float t[4], u[4], v[4];
             const struct tri4 *b = &m->blocks[e.node];

@@ -269,7 +269,7 @@ __attribute__((always_inline)) static inline void objects_walk(const struct obje
     for (;;) {
         float tm = *tmax > 3e38 ? 3e38f : (float)*tmax * BVH_SLACK;
         if (e.count == 0) {
-            if (bvh4_descend(bvh->nodes, &e, &br, tm, stack, &sp)) continue;
+            if (bvh4_descend(bvh->nodes, &e, &br, tm, stack, &sp, true)) continue;
         } else {
             for (uint32_t i = e.node; i < e.node + e.count; i++) {
                 if (++visits % SCENE_LOOK_VISITS == 0 && !meter_live()) return; /* overlaps */
