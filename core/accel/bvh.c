@@ -1,4 +1,5 @@
-/* bvh.c -- building the 4-wide BVH.
+/* bvh.c -- building the wide BVHs (4-wide over objects, 8-wide over a
+ * mesh's triangles).
  *
  * Two steps.  First a binary tree, top-down with the binned surface-area
  * heuristic: 16 bins along the axis where the primitive centroids spread
@@ -14,7 +15,7 @@
  * The builder works on its own copy of the boxes, 32-byte records it
  * partitions in place, so every pass over a node reads memory in order
  * (not through an index).  The caller's function writes the boxes a run
- * at a time straight into those records (bvh_build_from): a mesh keeps no
+ * at a time straight into those records (bvh8_build_from): a mesh keeps no
  * array of boxes of its own, 24 bytes a triangle of fresh memory less.  A node costs two passes:
  * binning, which also gives both children's boxes and centroid boxes (the unions of their bins),
  * and the partition.  The subtrees of the top levels are built by separate threads -- four per
@@ -28,8 +29,8 @@
  * alone.  Invariant: the tree is the same bytes on any number of threads,
  * which the unit tests check.
  *
- * Then bvh_collapse.c turns the binary tree into the 4-wide nodes the
- * walk reads; each binary node counts, as it is built, the wide nodes its
+ * Then bvh_collapse.c turns the binary tree into the wide nodes the walks
+ * read; each binary node counts, as it is built, the wide nodes its
  * subtree becomes (bvh_wide_count), so the collapse can place subtrees
  * before writing them.  The binary tree is freed; only the wide one is
  * kept (bytes per primitive are what the benchmark reports).
@@ -77,6 +78,7 @@ struct build {
     struct bnode *nodes;
     atomic_uint used;
     uint32_t max_leaf; /* primitives a leaf may hold, 1..BVH_MAX_LEAF */
+    int width;         /* children a wide node: 4 or 8 */
 };
 
 struct bbox bbox_from(vec3 lo, vec3 hi) {
@@ -503,13 +505,13 @@ static void build_node(struct build *b, uint32_t self, uint32_t first, uint32_t 
             build_node(b, left + 1, first + mid, n - mid, &rs, depth + 1, threads - threads / 2,
                        NULL);
             pthread_join(th, NULL);
-            nd->wide = bvh_wide_count(b->nodes, self);
+            nd->wide = bvh_wide_count(b->nodes, self, b->width);
             return;
         }
     }
     build_node(b, left, first, mid, &ls, depth + 1, 1, next);
     build_node(b, left + 1, first + mid, n - mid, &rs, depth + 1, 1, next);
-    nd->wide = bvh_wide_count(b->nodes, self);
+    nd->wide = bvh_wide_count(b->nodes, self, b->width);
 }
 
 /* Primitives in block k of n (BLOCK each, the last fewer). */
@@ -596,49 +598,60 @@ static void build_tree(struct build *b, uint32_t n, const struct span *all, int 
 /* The order out, then the records freed before the wide nodes are
  * allocated (exactly as many as the tree counted): the wide array reuses
  * the pages the records leave rather than fresh ones. */
-static struct bvh4_node *finish(struct build *b, uint32_t n, uint32_t *order, int threads,
-                                uint32_t *used) {
+static void *finish(struct build *b, uint32_t n, uint32_t *order, int threads, uint32_t *used) {
     struct fill f = {.prims = b->prims, .order = order};
     parallel_for(n, threads, BLOCK, order_body, &f);
     free(b->prims);
     b->prims = NULL;
     *used = b->nodes[0].leaf ? 1 : b->nodes[0].wide;
-    struct bvh4_node *wide = huge_alloc(sizeof *wide * *used);
+    void *wide = huge_alloc((size_t)32 * (size_t)b->width * *used);
     int tasks = threads > 1 ? 4 * threads : 1;
-    if (wide) bvh_collapse(b->nodes, wide, n, tasks > 64 ? 64 : tasks);
+    if (wide) bvh_collapse(b->nodes, wide, b->width, tasks > 64 ? 64 : tasks);
     return wide;
 }
 
-enum rayd_status bvh_build_from(struct bvh4 *bvh, bvh_boxes_fn fn, const void *ctx, uint32_t n,
-                                uint32_t max_leaf, uint32_t *order, int threads,
-                                struct rayd_error *err) {
-    memset(bvh, 0, sizeof *bvh);
-    bvh->bounds = bb_empty();
+/* Builds the wide nodes (width 4 or 8) into *nodes, their number into
+ * *nnodes and the root's box into *bounds. */
+static enum rayd_status build_wide(int width, void **nodes, uint32_t *nnodes, struct bbox *bounds,
+                                   bvh_boxes_fn fn, const void *ctx, uint32_t n, uint32_t max_leaf,
+                                   uint32_t *order, int threads, struct rayd_error *err) {
+    *nodes = NULL;
+    *nnodes = 0;
+    *bounds = bb_empty();
     if (n == 0) return RAYD_OK;
     struct build b = {0};
     b.max_leaf = max_leaf < 1 ? 1 : max_leaf > BVH_MAX_LEAF ? BVH_MAX_LEAF : max_leaf;
+    b.width = width;
     b.prims = huge_alloc(sizeof *b.prims * n);
     /* at most 2n - 1 nodes, and a chunk's unused tail in each subtree */
     size_t room = 2 * (size_t)n + (size_t)build_tasks(n, threads) * CHUNK;
     b.nodes = huge_alloc(sizeof *b.nodes * room);
     struct span all;
-    struct bvh4_node *wide = NULL;
+    void *wide = NULL;
     uint32_t used = 0;
+    struct bbox box = bb_empty();
     if (b.prims && b.nodes && fill_prims(&b, fn, ctx, n, threads, &all)) {
         build_tree(&b, n, &all, threads);
-        bvh->bounds = b.nodes[0].box;
+        box = b.nodes[0].box;
         wide = finish(&b, n, order, threads, &used);
     }
     free(b.prims);
     free(b.nodes);
-    if (!wide) {
-        memset(bvh, 0, sizeof *bvh);
-        bvh->bounds = bb_empty();
-        return err_set(err, RAYD_E_NOMEM, NULL, "out of memory building the BVH");
-    }
-    bvh->nodes = wide;
-    bvh->nnodes = used;
+    if (!wide) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory building the BVH");
+    *nodes = wide;
+    *nnodes = used;
+    *bounds = box;
     return RAYD_OK;
+}
+
+enum rayd_status bvh8_build_from(struct bvh8 *bvh, bvh_boxes_fn fn, const void *ctx, uint32_t n,
+                                 uint32_t max_leaf, uint32_t *order, int threads,
+                                 struct rayd_error *err) {
+    void *nodes;
+    enum rayd_status st = build_wide(8, &nodes, &bvh->nnodes, &bvh->bounds, fn, ctx, n, max_leaf,
+                                     order, threads, err);
+    bvh->nodes = nodes;
+    return st;
 }
 
 static void copy_boxes(const void *ctx, uint32_t first, uint32_t n, struct bbox *out) {
@@ -648,10 +661,21 @@ static void copy_boxes(const void *ctx, uint32_t first, uint32_t n, struct bbox 
 enum rayd_status bvh_build(struct bvh4 *bvh, const struct bbox *boxes, uint32_t n,
                            uint32_t max_leaf, uint32_t *order, int threads,
                            struct rayd_error *err) {
-    return bvh_build_from(bvh, copy_boxes, boxes, n, max_leaf, order, threads, err);
+    void *nodes;
+    enum rayd_status st = build_wide(4, &nodes, &bvh->nnodes, &bvh->bounds, copy_boxes, boxes, n,
+                                     max_leaf, order, threads, err);
+    bvh->nodes = nodes;
+    return st;
 }
 
 void bvh_free(struct bvh4 *bvh) {
+    if (!bvh) return;
+    free(bvh->nodes);
+    bvh->nodes = NULL;
+    bvh->nnodes = 0;
+}
+
+void bvh8_free(struct bvh8 *bvh) {
     if (!bvh) return;
     free(bvh->nodes);
     bvh->nodes = NULL;

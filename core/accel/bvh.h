@@ -1,10 +1,13 @@
-/* bvh.h -- a 4-wide bounding volume hierarchy over boxes.
+/* bvh.h -- wide bounding volume hierarchies over boxes.
  *
  * One builder serves both levels of the scene: the top level over objects
- * and the bottom level over a mesh's triangles.  It sees only boxes; the
- * caller reorders its primitives by the returned order so that every leaf
- * is a contiguous range, and writes its own traversal loop around the
- * inline node test below (the leaf test is where the levels differ).
+ * (4-wide nodes, struct bvh4) and the bottom level over a mesh's triangles
+ * (8-wide nodes, struct bvh8: half the levels for the many rays a mesh
+ * takes, as Embree has it, with one 8-lane test a node where the CPU has
+ * AVX-512).  It sees only boxes; the caller reorders its primitives by the
+ * returned order so that every leaf is a contiguous range, and writes its
+ * own traversal loop around the inline node tests below (the leaf test is
+ * where the levels differ).
  */
 #ifndef BVH_H
 #define BVH_H
@@ -14,6 +17,7 @@
 #include <string.h>
 
 #include "rayd/rayd.h"
+#include "base/cpu.h"
 #include "math/vec.h"
 
 #if defined(__SSE2__) && !defined(RAYD_NO_SIMD)
@@ -45,14 +49,49 @@ struct bvh4 {
     struct bbox bounds;
 };
 
+/* The same layout eight children wide, for meshes: a node of W children
+ * is lo[3][W], hi[3][W], child[W], count[W], padded to 32 W bytes, so one
+ * writer (bvh_collapse.c) and one packet walk (bvh16.h) serve both. */
+struct bvh8_node {
+    float lo[3][8];
+    float hi[3][8];
+    uint32_t child[8];
+    uint8_t count[8];
+    uint8_t pad[24];
+};
+
+struct bvh8 {
+    struct bvh8_node *nodes; /* nodes[0] is the root */
+    uint32_t nnodes;
+    struct bbox bounds;
+};
+
 #define BVH_MAX_LEAF 4
+/* Traversal stack entries: a wide level pushes at most width - 1, and the
+ * binary tree is at most 48 + 32 levels deep (bvh.c): 3 x 80 for 4-wide
+ * nodes, 7 x 80 for 8-wide ones. */
 #define BVH_STACK 256
+#define BVH8_STACK 576
 
 /* Traversal visits a box while its entry distance is within this factor of
  * the best hit so far: the box and primitive tests round differently, and
  * a box holding a hit exactly as near as the best must still be visited so
  * that ties are settled by rule, not by visiting order. */
 #define BVH_SLACK 1.000004f
+
+/* Child i of node n in an array of width-wide nodes (4: struct bvh4_node,
+ * 8: struct bvh8_node), read through the layout both share: its box, its
+ * child index and its count (0: an inner node). */
+static inline void bvh_node_child(const void *nodes, int width, uint32_t n, int i, struct bbox *box,
+                                  uint32_t *child, uint8_t *count) {
+    const char *nd = (const char *)nodes + (size_t)32 * (size_t)width * n;
+    for (int k = 0; k < 3; k++) {
+        memcpy(&box->lo[k], nd + sizeof(float) * (size_t)(width * k + i), sizeof(float));
+        memcpy(&box->hi[k], nd + sizeof(float) * (size_t)(width * (3 + k) + i), sizeof(float));
+    }
+    memcpy(child, nd + (size_t)(24 * width) + sizeof(uint32_t) * (size_t)i, sizeof *child);
+    *count = (uint8_t)nd[28 * width + i];
+}
 
 /* Builds the hierarchy over n boxes, leaves of at most max_leaf (1 to
  * BVH_MAX_LEAF) of them.  order[0..n) receives the primitive order the
@@ -65,12 +104,15 @@ enum rayd_status bvh_build(struct bvh4 *bvh, const struct bbox *boxes, uint32_t 
  * a few hundred); called from several threads at once. */
 typedef void (*bvh_boxes_fn)(const void *ctx, uint32_t first, uint32_t n, struct bbox *out);
 
-/* bvh_build with the boxes made on the way in by fn, straight into the
- * builder's records: no array of boxes for the caller to fill first. */
-enum rayd_status bvh_build_from(struct bvh4 *bvh, bvh_boxes_fn fn, const void *ctx, uint32_t n,
-                                uint32_t max_leaf, uint32_t *order, int threads,
-                                struct rayd_error *err);
 void bvh_free(struct bvh4 *bvh);
+
+/* bvh_build with 8-wide nodes (a mesh's), and the boxes made on the way in
+ * by fn, straight into the builder's records: no array of boxes for the
+ * caller to fill first. */
+enum rayd_status bvh8_build_from(struct bvh8 *bvh, bvh_boxes_fn fn, const void *ctx, uint32_t n,
+                                 uint32_t max_leaf, uint32_t *order, int threads,
+                                 struct rayd_error *err);
+void bvh8_free(struct bvh8 *bvh);
 
 /* A box that surely contains the double-precision box [lo, hi]. */
 struct bbox bbox_from(vec3 lo, vec3 hi);
@@ -93,18 +135,21 @@ static inline void bvh_ray_init(struct bvh_ray *br, vec3 o, vec3 d) {
     }
 }
 
-/* Tests the ray against the four children of node for t in [tmin, tmax];
- * returns a bit mask of the children hit and their entry distances.  The
- * far distance is scaled by 1 + 2 gamma(3) so that float rounding can
- * never make a box that the ray touches look missed (Ize 2013). */
-static inline int bvh4_test(const struct bvh4_node *nd, const struct bvh_ray *r, float tmin,
-                            float tmax, float tnear[4]) {
+/* Tests the ray against four boxes for t in [tmin, tmax]: lo and hi point
+ * at the first box's x planes, axis k's planes w floats further each (the
+ * node layouts of both widths); returns a bit mask of the boxes hit and
+ * their entry distances.  The far distance is scaled by 1 + 2 gamma(3) so
+ * that float rounding can never make a box that the ray touches look
+ * missed (Ize 2013). */
+static inline int bvh_test_rows(const float *lo_row, const float *hi_row, int w,
+                                const struct bvh_ray *r, float tmin, float tmax, float tnear[4]) {
 #ifdef BVH_SSE
     __m128 tn = _mm_set1_ps(tmin), tf = _mm_set1_ps(tmax);
     for (int k = 0; k < 3; k++) {
         __m128 o = _mm_set1_ps(r->org[k]), inv = _mm_set1_ps(r->inv[k]);
-        __m128 lo = _mm_loadu_ps(r->neg[k] ? nd->hi[k] : nd->lo[k]);
-        __m128 hi = _mm_loadu_ps(r->neg[k] ? nd->lo[k] : nd->hi[k]);
+        const float *l = lo_row + k * w, *h = hi_row + k * w;
+        __m128 lo = _mm_loadu_ps(r->neg[k] ? h : l);
+        __m128 hi = _mm_loadu_ps(r->neg[k] ? l : h);
         tn = _mm_max_ps(tn, _mm_mul_ps(_mm_sub_ps(lo, o), inv));
         tf = _mm_min_ps(tf, _mm_mul_ps(_mm_sub_ps(hi, o), inv));
     }
@@ -116,8 +161,8 @@ static inline int bvh4_test(const struct bvh4_node *nd, const struct bvh_ray *r,
     for (int i = 0; i < 4; i++) {
         float tn = tmin, tf = tmax;
         for (int k = 0; k < 3; k++) {
-            float lo = r->neg[k] ? nd->hi[k][i] : nd->lo[k][i];
-            float hi = r->neg[k] ? nd->lo[k][i] : nd->hi[k][i];
+            float l = lo_row[k * w + i], h = hi_row[k * w + i];
+            float lo = r->neg[k] ? h : l, hi = r->neg[k] ? l : h;
             float a = (lo - r->org[k]) * r->inv[k], b = (hi - r->org[k]) * r->inv[k];
             tn = tn > a ? tn : a; /* exactly _mm_max_ps(tn, a) and _mm_min_ps(tf, b) */
             tf = tf < b ? tf : b;
@@ -129,6 +174,43 @@ static inline int bvh4_test(const struct bvh4_node *nd, const struct bvh_ray *r,
     return mask;
 #endif
 }
+
+/* The four children of nd. */
+static inline int bvh4_test(const struct bvh4_node *nd, const struct bvh_ray *r, float tmin,
+                            float tmax, float tnear[4]) {
+    return bvh_test_rows(nd->lo[0], nd->hi[0], 4, r, tmin, tmax, tnear);
+}
+
+/* A test of the eight children of a node (bvh8_test, or where the CPU
+ * has it bvh8_test_avx512), as the one-ray walks take it. */
+typedef int (*bvh8_test_fn)(const struct bvh8_node *nd, const struct bvh_ray *r, float tmin,
+                            float tmax, float tnear[8]);
+
+/* The eight children of nd, four at a time. */
+static inline int bvh8_test(const struct bvh8_node *nd, const struct bvh_ray *r, float tmin,
+                            float tmax, float tnear[8]) {
+    int lo = bvh_test_rows(nd->lo[0], nd->hi[0], 8, r, tmin, tmax, tnear);
+    int hi = bvh_test_rows(nd->lo[0] + 4, nd->hi[0] + 4, 8, r, tmin, tmax, tnear + 4);
+    return lo | hi << 4;
+}
+
+#ifdef CPU_AVX512
+/* bvh8_test in one 8-lane register: the same operations lane by lane. */
+CPU_AVX512_INLINE int bvh8_test_avx512(const struct bvh8_node *nd, const struct bvh_ray *r,
+                                       float tmin, float tmax, float tnear[8]) {
+    __m256 tn = _mm256_set1_ps(tmin), tf = _mm256_set1_ps(tmax);
+    for (int k = 0; k < 3; k++) {
+        __m256 o = _mm256_set1_ps(r->org[k]), inv = _mm256_set1_ps(r->inv[k]);
+        __m256 lo = _mm256_loadu_ps(r->neg[k] ? nd->hi[k] : nd->lo[k]);
+        __m256 hi = _mm256_loadu_ps(r->neg[k] ? nd->lo[k] : nd->hi[k]);
+        tn = _mm256_max_ps(tn, _mm256_mul_ps(_mm256_sub_ps(lo, o), inv));
+        tf = _mm256_min_ps(tf, _mm256_mul_ps(_mm256_sub_ps(hi, o), inv));
+    }
+    tf = _mm256_mul_ps(tf, _mm256_set1_ps(1.0000004f));
+    _mm256_storeu_ps(tnear, tn);
+    return _mm256_movemask_ps(_mm256_cmp_ps(tn, tf, _CMP_LE_OS));
+}
+#endif
 
 /* A traversal stack entry: a node to visit and where the ray enters it. */
 struct bvh_entry {
@@ -143,11 +225,12 @@ static inline struct bvh_entry bvh4_entry(const struct bvh4_node *nd, int c, flo
     return e;
 }
 
-/* Pushes the children in mask onto stack, farthest first, so the nearest
- * is visited next.  Returns the new stack size.  Insertion into the stack
- * itself: most masks have one or two bits. */
-static inline int bvh4_push_sorted(const struct bvh4_node *nd, int mask, const float tnear[4],
-                                   struct bvh_entry *stack, int sp) {
+/* Pushes the children in mask (child and count arrays of a node) onto
+ * stack, farthest first, so the nearest is visited next.  Returns the new
+ * stack size.  Insertion into the stack itself: most masks have one or
+ * two bits. */
+static inline int bvh_push_sorted(const uint32_t *child, const uint8_t *count, int mask,
+                                  const float *tnear, struct bvh_entry *stack, int sp) {
     int base = sp;
     while (mask) {
         int i = __builtin_ctz((unsigned)mask);
@@ -158,11 +241,36 @@ static inline int bvh4_push_sorted(const struct bvh4_node *nd, int mask, const f
             stack[j] = stack[j - 1];
             j--;
         }
-        stack[j].node = nd->child[i];
-        stack[j].count = nd->count[i];
+        stack[j].node = child[i];
+        stack[j].count = count[i];
         stack[j].tnear = t;
     }
     return sp;
+}
+
+/* The step down of both widths, given the node's test: see bvh4_descend. */
+static inline bool bvh_descend_mask(const uint32_t *child, const uint8_t *count, int mask,
+                                    const float *tn, struct bvh_entry *e, struct bvh_entry *stack,
+                                    int *sp, bool ordered) {
+    if (!mask) return false;
+    int i = __builtin_ctz((unsigned)mask);
+    if (!(mask & (mask - 1))) {
+        e->node = child[i];
+        e->count = count[i];
+        e->tnear = tn[i];
+        return true;
+    }
+    if (!ordered) {
+        *e = (struct bvh_entry){child[i], count[i], tn[i]};
+        for (mask &= mask - 1; mask; mask &= mask - 1) {
+            int c = __builtin_ctz((unsigned)mask);
+            stack[(*sp)++] = (struct bvh_entry){child[c], count[c], tn[c]};
+        }
+        return true;
+    }
+    *sp = bvh_push_sorted(child, count, mask, tn, stack, *sp);
+    *e = stack[--*sp];
+    return true;
 }
 
 /* One step down from inner node *e: tests its children, pushes all but the
@@ -178,25 +286,7 @@ static inline bool bvh4_descend(const struct bvh4_node *nodes, struct bvh_entry 
     const struct bvh4_node *nd = &nodes[e->node];
     float tn[4];
     int mask = bvh4_test(nd, br, 0, tmax, tn);
-    if (!mask) return false;
-    int i = __builtin_ctz((unsigned)mask);
-    if (!(mask & (mask - 1))) {
-        e->node = nd->child[i];
-        e->count = nd->count[i];
-        e->tnear = tn[i];
-        return true;
-    }
-    if (!ordered) {
-        *e = bvh4_entry(nd, i, tn[i]);
-        for (mask &= mask - 1; mask; mask &= mask - 1) {
-            int c = __builtin_ctz((unsigned)mask);
-            stack[(*sp)++] = bvh4_entry(nd, c, tn[c]);
-        }
-        return true;
-    }
-    *sp = bvh4_push_sorted(nd, mask, tn, stack, *sp);
-    *e = stack[--*sp];
-    return true;
+    return bvh_descend_mask(nd->child, nd->count, mask, tn, e, stack, sp, ordered);
 }
 
 #endif

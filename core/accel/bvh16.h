@@ -1,9 +1,12 @@
-/* bvh16.h -- walking a bvh4 with 16 rays at once (AVX-512).
+/* bvh16.h -- walking a wide BVH with 16 rays at once (AVX-512).
  *
- * The packet walk of Wald et al. (2001) on a 4-wide tree: every node is
- * tested against all 16 rays of the packet at once, one child at a time,
- * and the packet goes down into each child that at least one of its rays
- * enters, carrying the mask of those rays.  Children are taken nearest
+ * The packet walk of Wald et al. (2001) on a 4- or 8-wide tree (bvh.h's
+ * shared node layout, the width a constant each caller passes): every node
+ * is tested against all 16 rays of the packet at once, one child at a
+ * time, and the packet goes down into each child that at least one of its
+ * rays enters, carrying the mask of those rays.  On 8-wide nodes an
+ * interval test of the whole packet against all eight children first
+ * (bvh16_cull) spares the per-ray tests of the children no ray enters.  Children are taken nearest
  * first (by the entry distance of the first ray entering each); a stack
  * entry keeps each ray's entry distance, so a ray that found a nearer hit
  * meanwhile drops out of it when it is popped.  The nodes and leaves about
@@ -33,6 +36,14 @@
 #include "base/meter.h"
 
 #ifdef CPU_AVX512
+
+/* Where a node of width children (bvh.h: lo[3][W], hi[3][W], child[W],
+ * count[W], 32 W bytes) keeps axis k's lower and upper planes, its child
+ * indices and counts, in bytes from its start. */
+#define BVH16_LO(w, k) ((size_t)(4 * (w) * (k)))
+#define BVH16_HI(w, k) ((size_t)(4 * (w) * (3 + (k))))
+#define BVH16_CHILD(w) ((size_t)(24 * (w)))
+#define BVH16_COUNT(w) ((size_t)(28 * (w)))
 
 /* A packet's rays as struct ray16 (vec.h), 8 lanes to a register half,
  * from an array of rays; lanes not in the packet copy its first ray (they
@@ -73,9 +84,13 @@ struct bvh16_ray {
     __mmask16 neg[3];
     bool uniform;            /* each axis's sign one for the packet: its near side is one too */
     uint8_t near[3], far[3]; /* then the byte offsets in a node of those sides' floats */
+    /* The packet's origins and inverse directions as intervals, for the
+     * culling test of bvh16_cull (ia: uniform, and every lane finite). */
+    bool ia;
+    float omin[3], omax[3], imin[3], imax[3];
 };
 
-CPU_AVX512_FN void bvh16_ray_init(struct bvh16_ray *p, const struct ray16 *q) {
+CPU_AVX512_FN void bvh16_ray_init(struct bvh16_ray *p, const struct ray16 *q, int width) {
     p->uniform = true;
     for (int k = 0; k < 3; k++) {
         __m512 c = join16(_mm512_cvtpd_ps(_mm512_loadu_pd(q->d[k])),
@@ -90,11 +105,27 @@ CPU_AVX512_FN void bvh16_ray_init(struct bvh16_ray *p, const struct ray16 *q) {
                            _mm512_cvtpd_ps(_mm512_loadu_pd(q->o[k] + 8)));
         p->neg[k] = _mm512_cmp_ps_mask(c, _mm512_setzero_ps(), _CMP_LT_OQ);
         bool neg = p->neg[k] == 0xffff; /* every ray's direction negative on the axis */
-        size_t lo = offsetof(struct bvh4_node, lo[k]), hi = offsetof(struct bvh4_node, hi[k]);
+        size_t lo = BVH16_LO(width, k), hi = BVH16_HI(width, k);
         p->near[k] = (uint8_t)(neg ? hi : lo);
         p->far[k] = (uint8_t)(neg ? lo : hi);
         p->uniform &= neg || p->neg[k] == 0;
     }
+    __mmask16 finite = 0xffff;
+    __m512 huge = _mm512_set1_ps(INFINITY);
+    for (int k = 0; k < 3; k++) {
+        finite &= _mm512_cmp_ps_mask(_mm512_abs_ps(p->org[k]), huge, _CMP_LT_OQ);
+        finite &= _mm512_cmp_ps_mask(_mm512_abs_ps(p->inv[k]), huge, _CMP_LT_OQ);
+        p->omin[k] = _mm512_reduce_min_ps(p->org[k]), p->omax[k] = _mm512_reduce_max_ps(p->org[k]);
+        p->imin[k] = _mm512_reduce_min_ps(p->inv[k]), p->imax[k] = _mm512_reduce_max_ps(p->inv[k]);
+    }
+    p->ia = p->uniform && finite == 0xffff;
+}
+
+/* Plane (k, c) of a node at nd, lower or upper. */
+CPU_AVX512_INLINE float bvh16_plane(const char *nd, size_t row, int c) {
+    float f;
+    memcpy(&f, nd + row + sizeof(float) * (size_t)c, sizeof f);
+    return f;
 }
 
 struct bvh16_entry {
@@ -107,11 +138,10 @@ struct bvh16_entry {
 /* Child c of nd against the rays in lanes, for t in [0, tmax]: the mask of
  * rays that enter it and their entry distances.  The same float operations
  * as bvh4_test, lane by lane. */
-CPU_AVX512_INLINE __mmask16 bvh16_child(const struct bvh4_node *nd, int c,
-                                        const struct bvh16_ray *r, __m512 tmax, __mmask16 lanes,
-                                        __m512 *tnear) {
+CPU_AVX512_INLINE __mmask16 bvh16_child(const char *nd, int width, int c, const struct bvh16_ray *r,
+                                        __m512 tmax, __mmask16 lanes, __m512 *tnear) {
     __m512 tn = _mm512_setzero_ps(), tf = tmax;
-    const char *at = (const char *)nd + sizeof(float) * (size_t)c;
+    const char *at = nd + sizeof(float) * (size_t)c;
     for (int k = 0; k < 3; k++) {
         __m512 near, far;
         if (r->uniform) { /* the common case: each axis one sign for the whole packet */
@@ -120,7 +150,8 @@ CPU_AVX512_INLINE __mmask16 bvh16_child(const struct bvh4_node *nd, int c,
             memcpy(&fv, at + r->far[k], sizeof fv);
             near = _mm512_set1_ps(nv), far = _mm512_set1_ps(fv);
         } else {
-            __m512 lo = _mm512_set1_ps(nd->lo[k][c]), hi = _mm512_set1_ps(nd->hi[k][c]);
+            __m512 lo = _mm512_set1_ps(bvh16_plane(nd, BVH16_LO(width, k), c));
+            __m512 hi = _mm512_set1_ps(bvh16_plane(nd, BVH16_HI(width, k), c));
             near = _mm512_mask_blend_ps(r->neg[k], lo, hi);
             far = _mm512_mask_blend_ps(r->neg[k], hi, lo);
         }
@@ -130,6 +161,35 @@ CPU_AVX512_INLINE __mmask16 bvh16_child(const struct bvh4_node *nd, int c,
     tf = _mm512_mul_ps(tf, _mm512_set1_ps(1.0000004f));
     *tnear = tn;
     return _mm512_mask_cmp_ps_mask(lanes, tn, tf, _CMP_LE_OQ);
+}
+
+/* The children of an 8-wide node nd that some ray of the packet may enter
+ * (bounds tmax, lanes): interval arithmetic over the packet's origins and
+ * inverse directions (Boulos et al. 2006), all eight children at once.
+ * Conservative: each ray's own test (bvh16_child) does the same float
+ * operations on values inside these intervals, and rounding is monotone,
+ * so a child culled here is one every ray misses.  A NaN keeps the child. */
+CPU_AVX512_INLINE __mmask8 bvh16_cull(const char *nd, const struct bvh16_ray *r, __m512 tmax,
+                                      __mmask16 lanes) {
+    __mmask16 nan = _mm512_mask_cmp_ps_mask(lanes, tmax, tmax, _CMP_UNORD_Q);
+    float far_most = nan ? INFINITY : _mm512_mask_reduce_max_ps(lanes, tmax);
+    __m256 tn = _mm256_setzero_ps(), tf = _mm256_set1_ps(far_most);
+    for (int k = 0; k < 3; k++) {
+        __m256 n = _mm256_loadu_ps((const float *)(const void *)(nd + r->near[k]));
+        __m256 f = _mm256_loadu_ps((const float *)(const void *)(nd + r->far[k]));
+        __m256 olo = _mm256_set1_ps(r->omin[k]), ohi = _mm256_set1_ps(r->omax[k]);
+        __m256 ilo = _mm256_set1_ps(r->imin[k]), ihi = _mm256_set1_ps(r->imax[k]);
+        __m256 nl = _mm256_sub_ps(n, ohi), nh = _mm256_sub_ps(n, olo);
+        __m256 fl = _mm256_sub_ps(f, ohi), fh = _mm256_sub_ps(f, olo);
+        __m256 lower = _mm256_min_ps(_mm256_min_ps(_mm256_mul_ps(nl, ilo), _mm256_mul_ps(nl, ihi)),
+                                     _mm256_min_ps(_mm256_mul_ps(nh, ilo), _mm256_mul_ps(nh, ihi)));
+        __m256 upper = _mm256_max_ps(_mm256_max_ps(_mm256_mul_ps(fl, ilo), _mm256_mul_ps(fl, ihi)),
+                                     _mm256_max_ps(_mm256_mul_ps(fh, ilo), _mm256_mul_ps(fh, ihi)));
+        tn = _mm256_max_ps(tn, lower);
+        tf = _mm256_min_ps(tf, upper);
+    }
+    tf = _mm256_mul_ps(tf, _mm256_set1_ps(1.0000004f));
+    return (__mmask8)_mm256_movemask_ps(_mm256_cmp_ps(tn, tf, _CMP_NGT_UQ));
 }
 
 /* The leaf test: rays in lanes against leaf (first, count).  A nearest-hit
@@ -143,23 +203,31 @@ typedef __mmask16 (*bvh16_leaf_fn)(void *ctx, uint32_t first, uint32_t count, __
  * any-hit walk needs no order), and pops the nearest into *cur,
  * prefetching each (see bvh16_walk for leaves).  False when no ray enters
  * any child. */
-CPU_AVX512_INLINE bool bvh16_descend(const struct bvh4_node *nodes, const char *leaves,
+CPU_AVX512_INLINE bool bvh16_descend(const char *nodes, int width, const char *leaves,
                                      size_t leaf_size, const struct bvh16_ray *r, __m512 tm,
                                      struct bvh16_entry *cur, struct bvh16_entry *stack, int *sp,
                                      bool ordered) {
-    const struct bvh4_node *nd = &nodes[cur->node];
+    size_t node_size = (size_t)32 * (size_t)width;
+    const char *nd = nodes + node_size * cur->node;
+    uint32_t child[8];
+    uint8_t count[8];
+    memcpy(child, nd + BVH16_CHILD(width), sizeof *child * (size_t)width);
+    memcpy(count, nd + BVH16_COUNT(width), (size_t)width);
     __m512 tmax = _mm512_mul_ps(tm, _mm512_set1_ps(BVH_SLACK));
-    int hit[4], n = 0;
-    __m512 tn[4];
-    __mmask16 m[4];
-    for (int c = 0; c < 4; c++) {
-        if (nd->lo[0][c] > nd->hi[0][c]) continue; /* an empty slot */
-        m[c] = bvh16_child(nd, c, r, tmax, cur->lanes, &tn[c]);
+    int hit[8], n = 0;
+    __m512 tn[8];
+    __mmask16 m[8];
+    unsigned maybe = width == 8 && r->ia ? bvh16_cull(nd, r, tmax, cur->lanes) : 0xffu;
+    for (int c = 0; c < width; c++) {
+        if (!(maybe >> c & 1)) continue; /* no ray of the packet enters it */
+        if (bvh16_plane(nd, BVH16_LO(width, 0), c) > bvh16_plane(nd, BVH16_HI(width, 0), c))
+            continue; /* an empty slot */
+        m[c] = bvh16_child(nd, width, c, r, tmax, cur->lanes, &tn[c]);
         if (m[c]) hit[n++] = c;
     }
     if (n == 0) return false;
     if (ordered && n > 1) { /* nearest last, by the packet's nearest entry */
-        float key[4];
+        float key[8];
         for (int j = 0; j < n; j++) /* the first ray's entry: cheaper than the packet's nearest */
             key[j] = _mm512_cvtss_f32(_mm512_maskz_compress_ps(m[hit[j]], tn[hit[j]]));
         for (int j = 1; j < n; j++)
@@ -173,15 +241,15 @@ CPU_AVX512_INLINE bool bvh16_descend(const struct bvh4_node *nodes, const char *
     for (int j = 0; j < n; j++) {
         int c = hit[j];
         /* start loading what comes next: an inner node, or a leaf's data */
-        const char *next = !nd->count[c] ? (const char *)(nodes + nd->child[c])
-                           : leaves      ? leaves + leaf_size * nd->child[c]
-                                         : NULL;
-        for (size_t at = 0; next && at < (nd->count[c] ? leaf_size : sizeof *nodes); at += 64)
+        const char *next = !count[c] ? nodes + node_size * child[c]
+                           : leaves  ? leaves + leaf_size * child[c]
+                                     : NULL;
+        for (size_t at = 0; next && at < (count[c] ? leaf_size : node_size); at += 64)
             _mm_prefetch(next + at, _MM_HINT_T0);
         struct bvh16_entry *e = j == n - 1 ? cur : &stack[(*sp)++];
         e->tnear = tn[c];
-        e->node = nd->child[c];
-        e->count = nd->count[c];
+        e->node = child[c];
+        e->count = count[c];
         e->lanes = m[c];
     }
     return true;
@@ -212,11 +280,11 @@ CPU_AVX512_INLINE bool bvh16_descend(const struct bvh4_node *nodes, const char *
  * away).
  * leaves (records of leaf_size bytes, a leaf's first index into them) is
  * only prefetched from; NULL when the leaves are not such an array. */
-CPU_AVX512_INLINE __mmask16 bvh16_walk(const struct bvh4 *bvh, const char *leaves, size_t leaf_size,
-                                       const struct bvh16_ray *r, __m512 *tm, __mmask16 lanes,
-                                       bvh16_leaf_fn leaf, bvh16_leaf_fn lone, void *ctx,
-                                       bool ordered) {
-    struct bvh16_entry stack[BVH_STACK], cur;
+CPU_AVX512_INLINE __mmask16 bvh16_walk(const void *nodes, int width, const char *leaves,
+                                       size_t leaf_size, const struct bvh16_ray *r, __m512 *tm,
+                                       __mmask16 lanes, bvh16_leaf_fn leaf, bvh16_leaf_fn lone,
+                                       void *ctx, bool ordered) {
+    struct bvh16_entry stack[BVH8_STACK], cur;
     int sp = 0;
     uint32_t visits = 0;
     __mmask16 blocked = 0;
@@ -230,7 +298,7 @@ CPU_AVX512_INLINE __mmask16 bvh16_walk(const struct bvh4 *bvh, const char *leave
             lanes &= (__mmask16)~blocked;
             if (!lanes) return blocked;
         } else if (cur.count == 0) {
-            if (bvh16_descend(bvh->nodes, leaves, leaf_size, r, *tm, &cur, stack, &sp, ordered))
+            if (bvh16_descend(nodes, width, leaves, leaf_size, r, *tm, &cur, stack, &sp, ordered))
                 continue;
         } else {
             visits += cur.count;

@@ -1,9 +1,10 @@
-/* bvh_collapse.c -- the builder's binary tree (bvh.c) as 4-wide nodes.
+/* bvh_collapse.c -- the builder's binary tree (bvh.c) as wide nodes, 4
+ * (the scene's objects) or 8 (a mesh's triangles) children a node.
  *
  * Each wide node takes the binary node's two children and keeps opening
- * the inner child with the largest area until it has four.  Wide nodes are
- * laid out depth-first in one array, in float, four child boxes side by
- * side for the SIMD test in bvh.h.  Each binary node counts, as the
+ * the inner child with the largest area until it has its width.  Wide
+ * nodes are laid out depth-first in one array, in float, the child boxes
+ * side by side for the SIMD tests.  Each binary node counts, as the
  * builder makes it (bvh_wide_count), the wide nodes its subtree becomes,
  * so every wide subtree's place is known before it is written and large
  * ones are written by threads of their own: the same nodes in the same
@@ -12,18 +13,19 @@
 #include "accel/bvh_collapse.h"
 
 #include <pthread.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
 #define COLLAPSE_MIN 4096 /* 4-wide nodes below which a collapse thread is not worth it */
 
-/* The children of the 4-wide node made from inner binary node bi: its two
+/* The children of the wide node made from inner binary node bi: its two
  * children, then the inner child with the largest area opened until there
- * are four.  Returns how many. */
-static int collapse_kids(const struct bnode *bn, uint32_t bi, uint32_t kids[4]) {
+ * are width of them.  Returns how many. */
+static int collapse_kids(const struct bnode *bn, uint32_t bi, int width, uint32_t kids[8]) {
     kids[0] = bn[bi].a, kids[1] = bn[bi].b;
     int nk = 2;
-    while (nk < 4) {
+    while (nk < width) {
         int best = -1;
         float area = -1;
         for (int i = 0; i < nk; i++) {
@@ -41,17 +43,52 @@ static int collapse_kids(const struct bnode *bn, uint32_t bi, uint32_t kids[4]) 
     return nk;
 }
 
-uint32_t bvh_wide_count(const struct bnode *bn, uint32_t bi) {
-    uint32_t kids[4], w = 1;
-    int nk = collapse_kids(bn, bi, kids);
+uint32_t bvh_wide_count(const struct bnode *bn, uint32_t bi, int width) {
+    uint32_t kids[8], w = 1;
+    int nk = collapse_kids(bn, bi, width, kids);
     for (int i = 0; i < nk; i++) w += bn[kids[i]].wide;
     return w;
 }
 
 struct collapse {
     const struct bnode *bn;
-    struct bvh4_node *out;
+    char *out;
+    int width;
 };
+
+/* The node layout both widths share (bvh.h): lo[3][W], hi[3][W],
+ * child[W], count[W], padding to 32 W bytes. */
+_Static_assert(sizeof(struct bvh4_node) == 32 * 4 && offsetof(struct bvh4_node, hi) == 12 * 4 &&
+                   offsetof(struct bvh4_node, child) == 24 * 4 &&
+                   offsetof(struct bvh4_node, count) == 28 * 4,
+               "bvh4_node layout");
+_Static_assert(sizeof(struct bvh8_node) == 32 * 8 && offsetof(struct bvh8_node, hi) == 12 * 8 &&
+                   offsetof(struct bvh8_node, child) == 24 * 8 &&
+                   offsetof(struct bvh8_node, count) == 28 * 8,
+               "bvh8_node layout");
+
+/* Writes wide node self: child i the binary node kids[i] (i < nk; the
+ * other slots empty boxes), its child index or leaf range from slot[i]. */
+static void put_node(const struct collapse *c, uint32_t self, const uint32_t *kids, int nk,
+                     const uint32_t *slot) {
+    int w = c->width;
+    char *at = c->out + (size_t)32 * (size_t)w * self;
+    float box[6][8];
+    uint32_t child[8] = {0};
+    uint8_t count[8] = {0};
+    for (int i = 0; i < w; i++) {
+        struct bbox b = i < nk ? c->bn[kids[i]].box : bb_empty();
+        for (int k = 0; k < 3; k++) box[k][i] = b.lo[k], box[3 + k][i] = b.hi[k];
+        if (i >= nk) continue;
+        const struct bnode *k = &c->bn[kids[i]];
+        child[i] = k->leaf ? k->a : slot[i];
+        count[i] = k->leaf ? (uint8_t)k->b : 0;
+    }
+    memset(at, 0, (size_t)32 * (size_t)w);
+    for (int r = 0; r < 6; r++) memcpy(at + (size_t)(4 * w * r), box[r], sizeof(float) * (size_t)w);
+    memcpy(at + 24 * w, child, sizeof(uint32_t) * (size_t)w);
+    memcpy(at + 28 * w, count, (size_t)w);
+}
 
 struct collapse_task {
     const struct collapse *c;
@@ -72,53 +109,36 @@ static void *collapse_run(void *arg) {
  * before it).  tasks > 1: large subtrees are written by threads of their
  * own, each with a share of tasks. */
 static void collapse_node(const struct collapse *c, uint32_t bi, uint32_t self, int tasks) {
-    uint32_t kids[4], next = self + 1;
-    int nk = collapse_kids(c->bn, bi, kids);
-    struct bvh4_node nd;
-    memset(&nd, 0, sizeof nd);
-    for (int i = 0; i < 4; i++) {
-        struct bbox box = i < nk ? c->bn[kids[i]].box : bb_empty();
-        for (int k = 0; k < 3; k++) {
-            nd.lo[k][i] = box.lo[k];
-            nd.hi[k][i] = box.hi[k];
-        }
-    }
+    uint32_t kids[8], slot[8] = {0}, next = self + 1;
+    int nk = collapse_kids(c->bn, bi, c->width, kids);
     for (int i = 0; i < nk; i++) {
-        const struct bnode *k = &c->bn[kids[i]];
-        nd.child[i] = k->leaf ? k->a : next;
-        nd.count[i] = k->leaf ? (uint8_t)k->b : 0;
-        next += k->wide;
+        slot[i] = next;
+        next += c->bn[kids[i]].wide;
     }
-    c->out[self] = nd;
-    struct collapse_task t[4];
-    pthread_t th[4];
-    bool started[4] = {false};
+    put_node(c, self, kids, nk, slot);
+    struct collapse_task t[8];
+    pthread_t th[8];
+    bool started[8] = {false};
     for (int i = 0; i < nk; i++) {
         const struct bnode *k = &c->bn[kids[i]];
         if (k->leaf) continue;
-        t[i] = (struct collapse_task){c, kids[i], nd.child[i], tasks / nk};
+        t[i] = (struct collapse_task){c, kids[i], slot[i], tasks / nk};
         if (tasks > 1 && k->wide >= COLLAPSE_MIN)
             started[i] = pthread_create(&th[i], NULL, collapse_run, &t[i]) == 0;
-        if (!started[i]) collapse_node(c, kids[i], nd.child[i], 1);
+        if (!started[i]) collapse_node(c, kids[i], slot[i], 1);
     }
     for (int i = 0; i < nk; i++)
         if (started[i]) pthread_join(th[i], NULL);
 }
 
-uint32_t bvh_collapse(const struct bnode *nodes, struct bvh4_node *wide, uint32_t n, int tasks) {
+uint32_t bvh_collapse(const struct bnode *nodes, void *wide, int width, int tasks) {
+    struct collapse c = {nodes, wide, width};
     const struct bnode *root = &nodes[0];
     if (!root->leaf) {
-        struct collapse c = {nodes, wide};
         collapse_node(&c, 0, 0, tasks);
         return root->wide;
     }
-    memset(wide, 0, sizeof *wide); /* one leaf: a wide root with one child */
-    for (int i = 0; i < 4; i++)
-        for (int k = 0; k < 3; k++) {
-            wide->lo[k][i] = i ? INFINITY : root->box.lo[k];
-            wide->hi[k][i] = i ? -INFINITY : root->box.hi[k];
-        }
-    wide->child[0] = 0;
-    wide->count[0] = (uint8_t)n;
+    uint32_t kids[1] = {0}, slot[1] = {0}; /* one leaf: a wide root with one child */
+    put_node(&c, 0, kids, 1, slot);
     return 1;
 }

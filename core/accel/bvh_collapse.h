@@ -1,5 +1,5 @@
 /* bvh_collapse.h -- what the BVH builder (bvh.c) shares with its collapse
- * into 4-wide nodes (bvh_collapse.c): the binary nodes and two box helpers.
+ * into wide nodes (bvh_collapse.c): the binary nodes and two box helpers.
  * Private to those two files.
  */
 #ifndef BVH_COLLAPSE_H
@@ -14,7 +14,7 @@
 struct bnode {
     struct bbox box;
     uint32_t a, b; /* inner: left and right node; leaf: first, count */
-    uint32_t wide; /* 4-wide nodes its subtree collapses to (0 for a leaf) */
+    uint32_t wide; /* wide nodes its subtree collapses to (0 for a leaf) */
     bool leaf;
 };
 
@@ -29,14 +29,15 @@ static inline float bb_area(const struct bbox *b) {
     return 2 * (dx * dy + dy * dz + dz * dx);
 }
 
-/* The 4-wide nodes inner node bi collapses to, from its wide children's
+/* The width-wide nodes inner node bi collapses to, from its wide children's
  * counts (built already): what lets the collapse place every subtree
  * before it is written, and so write subtrees on several threads. */
-uint32_t bvh_wide_count(const struct bnode *bn, uint32_t bi);
+uint32_t bvh_wide_count(const struct bnode *bn, uint32_t bi, int width);
 
-/* The binary tree nodes (root at 0, n primitives) as 4-wide nodes into
- * wide (room for the root's wide count, 1 for a leaf root), large subtrees on up to tasks threads;
- * returns how many. */
-uint32_t bvh_collapse(const struct bnode *nodes, struct bvh4_node *wide, uint32_t n, int tasks);
+/* The binary tree nodes (root at 0) as width-wide nodes
+ * (4: struct bvh4_node, 8: struct bvh8_node) into wide (room for the
+ * root's wide count, 1 for a leaf root), large subtrees on up to tasks
+ * threads; returns how many. */
+uint32_t bvh_collapse(const struct bnode *nodes, void *wide, int width, int tasks);
 
 #endif

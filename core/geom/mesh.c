@@ -37,8 +37,9 @@
  * (cpu_avx512), one compiled for AVX-512, whose three-operand instructions
  * and 32 vector registers keep a ray's constants in registers; test_mesh
  * checks that they agree. */
-__attribute__((always_inline)) static inline bool
-mesh_walk_body(const struct mesh *m, const ray *r, double tmax, struct mesh_hit *h, bool any) {
+__attribute__((always_inline)) static inline bool mesh_walk_body(const struct mesh *m, const ray *r,
+                                                                 double tmax, struct mesh_hit *h,
+                                                                 bool any, bvh8_test_fn test) {
     if (m->bvh.nnodes == 0) return false;
     struct bvh_ray br;
     struct tri_ray tr;
@@ -47,19 +48,19 @@ mesh_walk_body(const struct mesh *m, const ray *r, double tmax, struct mesh_hit 
     float tm = any ? tri_tmax_any(tmax) : tri_tmax_nearest(tmax);
     bool found = false;
     struct bvh_entry root = {0, 0, 0};
-    bool met = mesh_walk_from(m, &br, &tr, root, &tm, h, &found, any);
+    bool met = mesh_walk_from(m, &br, &tr, root, &tm, h, &found, any, test);
     return any ? met : found && (double)h->t < tmax;
 }
 
 static bool mesh_walk_base(const struct mesh *m, const ray *r, double tmax, struct mesh_hit *h,
                            bool any) {
-    return mesh_walk_body(m, r, tmax, h, any);
+    return mesh_walk_body(m, r, tmax, h, any, bvh8_test);
 }
 
 #ifdef CPU_AVX512
 CPU_AVX512_EXTERN static bool mesh_walk_avx512(const struct mesh *m, const ray *r, double tmax,
                                                struct mesh_hit *h, bool any) {
-    return mesh_walk_body(m, r, tmax, h, any);
+    return mesh_walk_body(m, r, tmax, h, any, bvh8_test_avx512);
 }
 #endif
 
@@ -222,9 +223,9 @@ static void blocks_body(void *ctx, size_t lo, size_t hi) {
     struct mesh_job *j = ctx;
     struct mesh *m = j->m;
     for (size_t n = lo; n < hi; n++) {
-        struct bvh4_node *nd = &m->bvh.nodes[n];
+        struct bvh8_node *nd = &m->bvh.nodes[n];
         uint32_t next = j->first_block[n];
-        for (int i = 0; i < 4; i++) {
+        for (int i = 0; i < 8; i++) {
             if (!nd->count[i]) continue;
             struct tri4 *b = &m->blocks[next];
             for (int lane = 0; lane < 4; lane++)
@@ -244,7 +245,7 @@ static enum rayd_status make_blocks(struct mesh *m, const uint32_t *index, const
     if (!first) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for mesh leaves");
     for (uint32_t n = 0; n < nn; n++) {
         first[n] = leaves;
-        for (int i = 0; i < 4; i++) leaves += m->bvh.nodes[n].count[i] > 0;
+        for (int i = 0; i < 8; i++) leaves += m->bvh.nodes[n].count[i] > 0;
     }
     m->blocks = huge_alloc(sizeof *m->blocks * (leaves ? leaves : 1));
     if (!m->blocks) {
@@ -285,7 +286,7 @@ static enum rayd_status mesh_accel(struct mesh *m, int threads, struct rayd_erro
                        m->ntris);
     struct mesh_job j = {.pos = m->pos, .index = m->index};
     enum rayd_status st =
-        bvh_build_from(&m->bvh, tri_boxes, &j, m->ntris, BVH_MAX_LEAF, order, threads, err);
+        bvh8_build_from(&m->bvh, tri_boxes, &j, m->ntris, BVH_MAX_LEAF, order, threads, err);
     if (st == RAYD_OK) {
         const struct bbox *b = &m->bvh.bounds;
         m->lo = v3(b->lo[0], b->lo[1], b->lo[2]);
@@ -330,13 +331,13 @@ void mesh_free(struct mesh *m) {
     free(m->uv);
     free(m->index);
     free(m->blocks);
-    bvh_free(&m->bvh);
+    bvh8_free(&m->bvh);
     memset(m, 0, sizeof *m);
 }
 
 size_t mesh_bytes(const struct mesh *m) {
     size_t b =
-        (size_t)m->bvh.nnodes * sizeof(struct bvh4_node) + (size_t)m->nblocks * sizeof(struct tri4);
+        (size_t)m->bvh.nnodes * sizeof(struct bvh8_node) + (size_t)m->nblocks * sizeof(struct tri4);
     if (m->pos) b += (size_t)m->nverts * 3 * sizeof(float);
     if (m->index) b += (size_t)m->ntris * 3 * sizeof(uint32_t);
     if (m->normal) b += (size_t)m->nverts * 3 * sizeof(float);

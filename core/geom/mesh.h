@@ -26,7 +26,7 @@ struct mesh {
     float *uv;       /* 2 per vertex, or NULL */
     uint32_t *index; /* 3 per triangle, in BVH leaf order */
     uint32_t nverts, ntris;
-    struct bvh4 bvh;
+    struct bvh8 bvh;
     vec3 lo, hi; /* bounds */
 };
 

@@ -188,7 +188,7 @@ CPU_AVX512_FN void lane_ray(const struct mesh16 *q, const struct lane_rays *l, i
 }
 
 /* The lone walk of a nearest-hit packet: each ray in lanes goes on
- * through node (count: as in bvh4_node) alone, from its best hit so far,
+ * through node (count: as in bvh8_node) alone, from its best hit so far,
  * and what it finds goes back into its lane. */
 CPU_AVX512_FN __mmask16 lone_nearest(void *ctx, uint32_t node, uint32_t count, __mmask16 lanes,
                                      __m512 *tm) {
@@ -209,7 +209,8 @@ CPU_AVX512_FN __mmask16 lone_nearest(void *ctx, uint32_t node, uint32_t count, _
         lane_ray(q, &l, i, &br, &tr);
         struct mesh_hit h = {t[i], u[i], v[i], id[i], blk[i], lane[i]};
         bool found = q->found >> i & 1;
-        if (!mesh_walk_from(q->m, &br, &tr, e, &bound[i], &h, &found, false)) continue;
+        if (!mesh_walk_from(q->m, &br, &tr, e, &bound[i], &h, &found, false, bvh8_test_avx512))
+            continue;
         __mmask16 bit = (__mmask16)(1u << i);
         *tm = _mm512_mask_mov_ps(*tm, bit, _mm512_set1_ps(bound[i]));
         q->t = _mm512_mask_mov_ps(q->t, bit, _mm512_set1_ps(h.t));
@@ -241,7 +242,7 @@ CPU_AVX512_FN __mmask16 lone_any(void *ctx, uint32_t node, uint32_t count, __mma
         lane_ray(q, &l, i, &br, &tr);
         struct mesh_hit h;
         bool found = false;
-        if (mesh_walk_from(q->m, &br, &tr, e, &bound[i], &h, &found, true))
+        if (mesh_walk_from(q->m, &br, &tr, e, &bound[i], &h, &found, true, bvh8_test_avx512))
             hit |= (__mmask16)(1u << i);
     }
     return hit;
@@ -303,7 +304,7 @@ CPU_AVX512_FN __m512 bounds16(const double tmax[16], uint32_t active, bool any) 
 /* Loads the packet: each lane's ray set up as the one-ray code does. */
 CPU_AVX512_FN void mesh16_init(struct mesh16 *q, const struct mesh *m, const struct ray16 *rd,
                                const double tmax[16], uint32_t active, bool any, __m512 *tm) {
-    bvh16_ray_init(&q->br, rd);
+    bvh16_ray_init(&q->br, rd, 8);
     __m256 sh[2][3];
     unsigned kmask[3][2] = {{0, 0}, {0, 0}, {0, 0}};
     shear8(rd, 0, sh[0], kmask);
@@ -338,8 +339,8 @@ CPU_AVX512_EXTERN uint32_t mesh16_intersect(const struct mesh *m, const struct r
     struct mesh16 q;
     __m512 tm;
     mesh16_init(&q, m, rd, tmax, active, false, &tm);
-    bvh16_walk(&m->bvh, (const char *)m->blocks, sizeof *m->blocks, &q.br, &tm, (__mmask16)active,
-               leaf_nearest, lone_nearest, &q, true);
+    bvh16_walk(m->bvh.nodes, 8, (const char *)m->blocks, sizeof *m->blocks, &q.br, &tm,
+               (__mmask16)active, leaf_nearest, lone_nearest, &q, true);
     float t[16], u[16], v[16];
     uint32_t id[16], blk[16], lane[16], hit = 0;
     _mm512_storeu_ps(t, q.t), _mm512_storeu_ps(u, q.u), _mm512_storeu_ps(v, q.v);
@@ -359,7 +360,7 @@ CPU_AVX512_EXTERN uint32_t mesh16_occluded(const struct mesh *m, const struct ra
     struct mesh16 q;
     __m512 tm;
     mesh16_init(&q, m, rd, tmax, active, true, &tm);
-    return bvh16_walk(&m->bvh, (const char *)m->blocks, sizeof *m->blocks, &q.br, &tm,
+    return bvh16_walk(m->bvh.nodes, 8, (const char *)m->blocks, sizeof *m->blocks, &q.br, &tm,
                       (__mmask16)active, leaf_any, lone_any, &q, false);
 }
 

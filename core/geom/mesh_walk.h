@@ -139,17 +139,23 @@ static inline bool tri4_take(const struct mesh *m, const struct tri4 *b, int mas
  * lowered to each hit taken.  A nearest-hit walk (any false) keeps the
  * nearest in *h and *found, which may already hold a hit (a packet's lane
  * goes on from where it was), and returns whether it took one; an any-hit
- * walk returns whether it met a triangle. */
+ * walk returns whether it met a triangle.  test is the node test, a
+ * constant each caller passes (bvh.h: the AVX-512 one where compiled for
+ * it), so each copy of the walk has its own inlined. */
 __attribute__((always_inline)) static inline bool
 mesh_walk_from(const struct mesh *m, const struct bvh_ray *br, const struct tri_ray *tr,
-               struct bvh_entry e, float *tm, struct mesh_hit *h, bool *found, bool any) {
-    struct bvh_entry stack[BVH_STACK];
+               struct bvh_entry e, float *tm, struct mesh_hit *h, bool *found, bool any,
+               bvh8_test_fn test) {
+    struct bvh_entry stack[BVH8_STACK];
     int sp = 0;
     float bound = *tm;
     bool took = false;
     for (;;) {
         if (e.count == 0) {
-            if (bvh4_descend(m->bvh.nodes, &e, br, bound * BVH_SLACK, stack, &sp, !any)) continue;
+            const struct bvh8_node *nd = &m->bvh.nodes[e.node];
+            float tn[8];
+            int hit = test(nd, br, 0, bound * BVH_SLACK, tn);
+            if (bvh_descend_mask(nd->child, nd->count, hit, tn, &e, stack, &sp, !any)) continue;
         } else {
             float t[4], u[4], v[4];
             const struct tri4 *b = &m->blocks[e.node];

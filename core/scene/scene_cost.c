@@ -77,12 +77,13 @@ struct cost_walk {
     double *mesh_cost;  /* memo per mesh */
 };
 
-static double node_area(const struct bvh4_node *nd, int i) {
-    double dx = (double)nd->hi[0][i] - nd->lo[0][i], dy = (double)nd->hi[1][i] - nd->lo[1][i],
-           dz = (double)nd->hi[2][i] - nd->lo[2][i];
-    if (!(dx >= 0 && dy >= 0 && dz >= 0)) return -1; /* an empty slot (inverted box) */
-    return 2 * (dx * dy + dy * dz + dz * dx);
-}
+/* A tree of either width, as the cost walk reads it. */
+struct cost_tree {
+    const void *nodes;
+    uint32_t nnodes;
+    int width;
+    struct bbox bounds;
+};
 
 static double bbox_area(const struct bbox *b) {
     double dx = (double)b->hi[0] - b->lo[0], dy = (double)b->hi[1] - b->lo[1],
@@ -104,18 +105,22 @@ static double leaf_tests(struct cost_walk *w, const struct object *objs, uint32_
 
 /* Expected tests of a ray entering node n (of box area `area`); *worst
  * gets the largest over the subtree. */
-static double node_tests(struct cost_walk *w, const struct bvh4 *b, const struct object *objs,
+static double node_tests(struct cost_walk *w, const struct cost_tree *b, const struct object *objs,
                          uint32_t n, double area, int depth, int bdepth, double *worst) {
     if (n >= b->nnodes || bdepth > COST_DEPTH) return 1;
-    const struct bvh4_node *nd = &b->nodes[n];
     double sum = 0;
-    for (int i = 0; i < 4; i++) {
-        double ca = node_area(nd, i);
-        if (ca < 0) continue;
+    for (int i = 0; i < b->width; i++) {
+        struct bbox box;
+        uint32_t child;
+        uint8_t count;
+        bvh_node_child(b->nodes, b->width, n, i, &box, &child, &count);
+        if (!((double)box.hi[0] - box.lo[0] >= 0 && (double)box.hi[1] - box.lo[1] >= 0 &&
+              (double)box.hi[2] - box.lo[2] >= 0))
+            continue; /* an empty slot (inverted box) */
+        double ca = bbox_area(&box);
         double p = area > 0 ? fmin(1, ca / area) : 1;
-        double c = nd->count[i]
-                       ? leaf_tests(w, objs, nd->child[i], nd->count[i], depth)
-                       : node_tests(w, b, objs, nd->child[i], ca, depth, bdepth + 1, worst);
+        double c = count ? leaf_tests(w, objs, child, count, depth)
+                         : node_tests(w, b, objs, child, ca, depth, bdepth + 1, worst);
         sum = fmin(COST_MAX, sum + p * c);
     }
     if (sum > *worst) *worst = sum;
@@ -123,7 +128,7 @@ static double node_tests(struct cost_walk *w, const struct bvh4 *b, const struct
 }
 
 /* A BVH's cost: the expected tests of a ray in its worst node. */
-static double bvh_tests(struct cost_walk *w, const struct bvh4 *b, const struct object *objs,
+static double bvh_tests(struct cost_walk *w, const struct cost_tree *b, const struct object *objs,
                         int depth) {
     if (!b->nodes || b->nnodes == 0) return 0;
     double worst = 0;
@@ -138,14 +143,17 @@ static double object_tests(struct cost_walk *w, const struct object *o, int dept
         double *memo = w->group_cost ? &w->group_cost[o->u.inst.group] : NULL;
         if (memo && *memo >= 0) return *memo;
         const struct group *g = &s->groups[o->u.inst.group];
-        double c = fmax(1, bvh_tests(w, &g->bvh, g->objs, depth + 1));
+        struct cost_tree t = {g->bvh.nodes, g->bvh.nnodes, 4, g->bvh.bounds};
+        double c = fmax(1, bvh_tests(w, &t, g->objs, depth + 1));
         if (memo) *memo = c;
         return c;
     }
     if (o->kind == SHAPE_MESH && o->u.mesh.id < s->nmeshes) {
         double *memo = w->mesh_cost ? &w->mesh_cost[o->u.mesh.id] : NULL;
         if (memo && *memo >= 0) return *memo;
-        double c = fmax(1, bvh_tests(w, &s->meshes[o->u.mesh.id].bvh, NULL, depth + 1));
+        const struct bvh8 *mb = &s->meshes[o->u.mesh.id].bvh;
+        struct cost_tree t = {mb->nodes, mb->nnodes, 8, mb->bounds};
+        double c = fmax(1, bvh_tests(w, &t, NULL, depth + 1));
         if (memo) *memo = c;
         return c;
     }
@@ -170,7 +178,8 @@ void scene_cost_freeze(struct rayd_scene *s) {
     struct cost_walk w = {s, memo_new(s->ngroups), memo_new((long)s->nmeshes)};
     /* Without memory for the memos each instance walks its group again: the
      * same answer, only slower. */
-    s->ray_tests = bvh_tests(&w, &s->tlas, s->objs, 0);
+    struct cost_tree top = {s->tlas.nodes, s->tlas.nnodes, 4, s->tlas.bounds};
+    s->ray_tests = bvh_tests(&w, &top, s->objs, 0);
     free(w.group_cost);
     free(w.mesh_cost);
 }

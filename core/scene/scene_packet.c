@@ -419,9 +419,10 @@ CPU_AVX512_FN uint32_t intersect16(struct scene16 *q, const double tmax[16], uin
         visit_nearest16(q, &s->objs[0], active);
     } else if (s->nobjs > 1) {
         struct bvh16_ray br;
-        bvh16_ray_init(&br, &q->rd);
+        bvh16_ray_init(&br, &q->rd, 4);
         __m512 tm = node_bounds16(q->tmax);
-        bvh16_walk(&s->tlas, NULL, 0, &br, &tm, (__mmask16)active, tlas_nearest, NULL, q, true);
+        bvh16_walk(s->tlas.nodes, 4, NULL, 0, &br, &tm, (__mmask16)active, tlas_nearest, NULL, q,
+                   true);
     }
     uint32_t kept = q->kept & active;
     if (simple) {
@@ -558,10 +559,10 @@ CPU_AVX512_FN uint32_t transmittance16(struct scene16 *q, const double tmax[16],
         for (int k = 0; k < n && open; k++) open &= ~visit_any16(q, &s->objs[ids[k]], open);
     } else if (open && s->nobjs > 1) {
         struct bvh16_ray br;
-        bvh16_ray_init(&br, &q->rd);
+        bvh16_ray_init(&br, &q->rd, 4);
         __m512 tm = node_bounds16(q->tmax);
-        open &= ~(uint32_t)bvh16_walk(&s->tlas, NULL, 0, &br, &tm, (__mmask16)open, tlas_any, NULL,
-                                      q, false);
+        open &= ~(uint32_t)bvh16_walk(s->tlas.nodes, 4, NULL, 0, &br, &tm, (__mmask16)open,
+                                      tlas_any, NULL, q, false);
     }
     return open;
 }

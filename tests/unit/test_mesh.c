@@ -565,8 +565,12 @@ static void test_bvh_same_for_any_thread_count(void) {
     free(index);
 }
 
+static void boxes_of(const void *ctx, uint32_t first, uint32_t n, struct bbox *out) {
+    memcpy(out, (const struct bbox *)ctx + first, sizeof *out * n);
+}
+
 /* The mesh's triangles' boxes go straight into the builder
- * (bvh_build_from), its blocks and its index in leaf order are read
+ * (bvh8_build_from), its blocks and its index in leaf order are read
  * through the order: the same tree as bvh_build over the boxes, each
  * block lane the corners of the triangle the order names, unused lanes
  * zero, and the kept index (a smooth mesh) that order's. */
@@ -583,14 +587,15 @@ static void test_mesh_tree_is_bvh_of_boxes(void) {
             boxes[t].lo[k] = fminf(v[0], fminf(v[3], v[6]));
             boxes[t].hi[k] = fmaxf(v[0], fmaxf(v[3], v[6]));
         }
-    struct bvh4 bvh;
+    struct bvh8 bvh;
     struct mesh m;
-    CHECK(bvh_build(&bvh, boxes, n, BVH_MAX_LEAF, order, 2, NULL) == RAYD_OK, "bvh_build");
+    CHECK(bvh8_build_from(&bvh, boxes_of, boxes, n, BVH_MAX_LEAF, order, 2, NULL) == RAYD_OK,
+          "bvh8_build_from");
     CHECK(mesh_build(&m, pos, 3 * n, index, n, NULL, NULL, true, 2, NULL) == RAYD_OK, "mesh");
     CHECK(m.bvh.nnodes == bvh.nnodes, "%u nodes, bvh_build %u", m.bvh.nnodes, bvh.nnodes);
     uint32_t bad = 0, lanes = 0;
     for (uint32_t i = 0; i < bvh.nnodes && m.bvh.nnodes == bvh.nnodes; i++) {
-        const struct bvh4_node *a = &m.bvh.nodes[i], *b = &bvh.nodes[i];
+        const struct bvh8_node *a = &m.bvh.nodes[i], *b = &bvh.nodes[i];
         bad += memcmp(a->lo, b->lo, sizeof a->lo) || memcmp(a->hi, b->hi, sizeof a->hi) ||
                memcmp(a->count, b->count, sizeof a->count);
     }
@@ -607,11 +612,79 @@ static void test_mesh_tree_is_bvh_of_boxes(void) {
         }
     CHECK(bad == 0 && lanes == n, "%u differences, %u lanes of %u triangles", bad, lanes, n);
     mesh_free(&m);
-    bvh_free(&bvh);
+    bvh8_free(&bvh);
     free(boxes);
     free(order);
     free(pos0);
     free(index0);
+}
+
+#ifdef CPU_AVX512
+/* Random 8-wide nodes (boxes of any size, some flat, some slots empty)
+ * against random packets (one origin or many, each axis one sign, odd
+ * bounds); counts the children some ray enters that bvh16_cull dropped,
+ * and the children it dropped at all. */
+CPU_AVX512_FN void cull_trial(uint32_t *s, uint32_t *wrong, uint32_t *culled, uint32_t *tested) {
+    struct bvh8_node nd;
+    memset(&nd, 0, sizeof nd);
+    for (int c = 0; c < 8; c++)
+        for (int k = 0; k < 3; k++) {
+            *s = *s * 1664525u + 1013904223u;
+            float lo = (float)((*s >> 8) % 2000) / 100.0f - 10.0f;
+            *s = *s * 1664525u + 1013904223u;
+            float ext = (*s >> 8) % 5 == 0 ? 0.0f : (float)((*s >> 8) % 600) / 100.0f;
+            nd.lo[k][c] = c == 7 ? INFINITY : lo;
+            nd.hi[k][c] = c == 7 ? -INFINITY : lo + ext;
+        }
+    struct ray16 q;
+    float tm[16];
+    static const float bounds[6] = {INFINITY, 0.0f, 1e-3f, 4.0f, 3e38f, NAN};
+    double sign[3];
+    for (int k = 0; k < 3; k++) sign[k] = (*s >> (4 + k)) & 1 ? -1 : 1;
+    bool one_origin = (*s >> 9) & 1;
+    for (int i = 0; i < 16; i++) {
+        for (int k = 0; k < 3; k++) {
+            *s = *s * 1664525u + 1013904223u;
+            double u = (double)(*s >> 8) / 16777216.0;
+            q.o[k][i] = one_origin && i ? q.o[k][0] : u * 30 - 15;
+            *s = *s * 1664525u + 1013904223u;
+            double d = (double)(*s >> 8) / 16777216.0;
+            q.d[k][i] = sign[k] * (d < 0.01 ? 0 : d);
+        }
+        *s = *s * 1664525u + 1013904223u;
+        tm[i] = bounds[(*s >> 8) % 6 == 5 ? 5 : (*s >> 8) % 5];
+    }
+    struct bvh16_ray r;
+    bvh16_ray_init(&r, &q, 8);
+    if (!r.ia) return; /* the walk culls only such packets */
+    __m512 tmax = _mm512_loadu_ps(tm);
+    __mmask16 lanes = (__mmask16)(*s >> 3 | 1);
+    unsigned keep = bvh16_cull((const char *)&nd, &r, tmax, lanes);
+    for (int c = 0; c < 7; c++) {
+        __m512 tn;
+        __mmask16 in = bvh16_child((const char *)&nd, 8, c, &r, tmax, lanes, &tn);
+        *tested += 1;
+        *culled += !(keep >> c & 1);
+        *wrong += in && !(keep >> c & 1);
+    }
+}
+#endif
+
+/* bvh16_cull, the packet walk's interval test on 8-wide nodes, may drop
+ * only children that no ray of the packet enters: else a packet would
+ * miss a hit its rays find alone. */
+static void test_packet_cull_keeps_every_entered_child(void) {
+#ifdef CPU_AVX512
+    if (!cpu_avx512()) {
+        printf("  skipped: no AVX-512 here\n");
+        return;
+    }
+    uint32_t s = 4242, wrong = 0, culled = 0, tested = 0;
+    for (int n = 0; n < 20000; n++) cull_trial(&s, &wrong, &culled, &tested);
+    printf("  %u children tested, %u culled\n", tested, culled);
+    CHECK(wrong == 0, "%u of %u children culled that a ray enters", wrong, tested);
+    CHECK(culled > tested / 10, "only %u of %u children culled", culled, tested);
+#endif
 }
 
 int main(void) {
@@ -624,6 +697,7 @@ int main(void) {
     RUN(test_packets_equal_single_rays);
     RUN(test_single_ray_paths_agree);
     RUN(test_packets_in_a_soup_equal_single_rays);
+    RUN(test_packet_cull_keeps_every_entered_child);
     RUN(test_transformed_sphere_exact_projection);
     RUN(test_smooth_normals_follow_the_sphere);
     RUN(test_mesh_errors);
