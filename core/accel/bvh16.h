@@ -6,13 +6,13 @@
  * time, and the packet goes down into each child that at least one of its
  * rays enters, carrying the mask of those rays.  On 8-wide nodes an
  * interval test of the whole packet against all eight children first
- * (bvh16_cull) spares the per-ray tests of the children no ray enters.  Children are taken nearest
- * first (by the entry distance of the first ray entering each); a stack
- * entry keeps each ray's entry distance, so a ray that found a nearer hit
- * meanwhile drops out of it when it is popped.  The nodes and leaves about
- * to be visited are prefetched.  For coherent rays (a 4x4 block of
- * pixels, the shadow rays from it to a light) the node data is loaded once
- * for 16 rays.
+ * (bvh16_cull) spares the per-ray tests of the children no ray enters.
+ * Children are taken nearest first (by the entry distance of the first
+ * ray entering each); a stack entry keeps each ray's entry distance, so a
+ * ray that found a nearer hit meanwhile drops out of it when it is popped.
+ * The nodes and leaves about to be visited are prefetched.  For coherent
+ * rays (a 4x4 block of pixels, the shadow rays from it to a light) the
+ * node data is loaded once for 16 rays.
  *
  * The walk visits nodes in another order than the one-ray walk of bvh.h,
  * and culls with the same slack (BVH_SLACK), so with order-free leaf rules
