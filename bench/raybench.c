@@ -277,11 +277,6 @@ static enum rayd_status load_charge(void *arg, long long bytes, char *why, size_
     return RAYD_OK;
 }
 
-/* The mesh build's box function over an array of boxes. */
-static void copy_boxes(const void *ctx, uint32_t first, uint32_t n, struct bbox *out) {
-    memcpy(out, (const struct bbox *)ctx + first, sizeof *out * n);
-}
-
 int main(int argc, char **argv) {
     const char *path = NULL;
     int w = 1920, h = 1080, runs = 3, tmax = 2, packets_only = 0;
@@ -373,7 +368,7 @@ int main(int argc, char **argv) {
         for (int r = 0; r < runs; r++) {
             struct bvh8 bvh;
             double b0 = now();
-            bvh8_build_from(&bvh, copy_boxes, boxes, m->ntris, BVH_MAX_LEAF, order, tmax, NULL);
+            bvh8_build_from(&bvh, bvh_boxes_copy, boxes, m->ntris, BVH_MAX_LEAF, order, tmax, NULL);
             bt[r] = now() - b0;
             bvh8_free(&bvh);
         }

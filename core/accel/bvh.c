@@ -604,7 +604,7 @@ static void *finish(struct build *b, uint32_t n, uint32_t *order, int threads, u
     free(b->prims);
     b->prims = NULL;
     *used = b->nodes[0].leaf ? 1 : b->nodes[0].wide;
-    void *wide = huge_alloc((size_t)32 * (size_t)b->width * *used);
+    void *wide = huge_alloc(BVH_NODE_SIZE(b->width) * *used);
     int tasks = threads > 1 ? 4 * threads : 1;
     if (wide) bvh_collapse(b->nodes, wide, b->width, tasks > 64 ? 64 : tasks);
     return wide;
@@ -654,7 +654,7 @@ enum rayd_status bvh8_build_from(struct bvh8 *bvh, bvh_boxes_fn fn, const void *
     return st;
 }
 
-static void copy_boxes(const void *ctx, uint32_t first, uint32_t n, struct bbox *out) {
+void bvh_boxes_copy(const void *ctx, uint32_t first, uint32_t n, struct bbox *out) {
     memcpy(out, (const struct bbox *)ctx + first, sizeof *out * n);
 }
 
@@ -662,8 +662,8 @@ enum rayd_status bvh_build(struct bvh4 *bvh, const struct bbox *boxes, uint32_t 
                            uint32_t max_leaf, uint32_t *order, int threads,
                            struct rayd_error *err) {
     void *nodes;
-    enum rayd_status st = build_wide(4, &nodes, &bvh->nnodes, &bvh->bounds, copy_boxes, boxes, n,
-                                     max_leaf, order, threads, err);
+    enum rayd_status st = build_wide(4, &nodes, &bvh->nnodes, &bvh->bounds, bvh_boxes_copy, boxes,
+                                     n, max_leaf, order, threads, err);
     bvh->nodes = nodes;
     return st;
 }

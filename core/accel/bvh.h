@@ -51,7 +51,9 @@ struct bvh4 {
 
 /* The same layout eight children wide, for meshes: a node of W children
  * is lo[3][W], hi[3][W], child[W], count[W], padded to 32 W bytes, so one
- * writer (bvh_collapse.c) and one packet walk (bvh16.h) serve both. */
+ * writer (bvh_collapse.c) and one packet walk (bvh16.h) serve both.  Byte
+ * offsets in such a node: axis k's lower and upper planes, the child
+ * indices and the counts (bvh_collapse.c asserts them for both structs). */
 struct bvh8_node {
     float lo[3][8];
     float hi[3][8];
@@ -65,6 +67,12 @@ struct bvh8 {
     uint32_t nnodes;
     struct bbox bounds;
 };
+
+#define BVH_NODE_SIZE(w) ((size_t)(32 * (w)))
+#define BVH_NODE_LO(w, k) ((size_t)(4 * (w) * (k)))
+#define BVH_NODE_HI(w, k) ((size_t)(4 * (w) * (3 + (k))))
+#define BVH_NODE_CHILD(w) ((size_t)(24 * (w)))
+#define BVH_NODE_COUNT(w) ((size_t)(28 * (w)))
 
 #define BVH_MAX_LEAF 4
 /* Traversal stack entries: a wide level pushes at most width - 1, and the
@@ -84,13 +92,14 @@ struct bvh8 {
  * child index and its count (0: an inner node). */
 static inline void bvh_node_child(const void *nodes, int width, uint32_t n, int i, struct bbox *box,
                                   uint32_t *child, uint8_t *count) {
-    const char *nd = (const char *)nodes + (size_t)32 * (size_t)width * n;
+    const char *nd = (const char *)nodes + BVH_NODE_SIZE(width) * n;
+    size_t at = sizeof(float) * (size_t)i;
     for (int k = 0; k < 3; k++) {
-        memcpy(&box->lo[k], nd + sizeof(float) * (size_t)(width * k + i), sizeof(float));
-        memcpy(&box->hi[k], nd + sizeof(float) * (size_t)(width * (3 + k) + i), sizeof(float));
+        memcpy(&box->lo[k], nd + BVH_NODE_LO(width, k) + at, sizeof(float));
+        memcpy(&box->hi[k], nd + BVH_NODE_HI(width, k) + at, sizeof(float));
     }
-    memcpy(child, nd + (size_t)(24 * width) + sizeof(uint32_t) * (size_t)i, sizeof *child);
-    *count = (uint8_t)nd[28 * width + i];
+    memcpy(child, nd + BVH_NODE_CHILD(width) + sizeof(uint32_t) * (size_t)i, sizeof *child);
+    *count = (uint8_t)nd[BVH_NODE_COUNT(width) + (size_t)i];
 }
 
 /* Builds the hierarchy over n boxes, leaves of at most max_leaf (1 to
@@ -103,6 +112,9 @@ enum rayd_status bvh_build(struct bvh4 *bvh, const struct bbox *boxes, uint32_t 
 /* Writes the boxes of primitives [first, first + n) to out (n is at most
  * a few hundred); called from several threads at once. */
 typedef void (*bvh_boxes_fn)(const void *ctx, uint32_t first, uint32_t n, struct bbox *out);
+
+/* The bvh_boxes_fn of an array of boxes (ctx: const struct bbox *). */
+void bvh_boxes_copy(const void *ctx, uint32_t first, uint32_t n, struct bbox *out);
 
 void bvh_free(struct bvh4 *bvh);
 
@@ -219,12 +231,6 @@ struct bvh_entry {
     float tnear;
 };
 
-/* The entry for child c of nd, entered at tnear. */
-static inline struct bvh_entry bvh4_entry(const struct bvh4_node *nd, int c, float tnear) {
-    struct bvh_entry e = {nd->child[c], nd->count[c], tnear};
-    return e;
-}
-
 /* Pushes the children in mask (child and count arrays of a node) onto
  * stack, farthest first, so the nearest is visited next.  Returns the new
  * stack size.  Insertion into the stack itself: most masks have one or
@@ -277,9 +283,9 @@ static inline bool bvh_descend_mask(const uint32_t *child, const uint8_t *count,
  * nearest hit onto the stack (farthest deepest) and makes *e the nearest.
  * Unordered (an any-hit walk, whose answer no order changes), *e is the
  * first child hit and the others go on the stack as they come: no sort,
- * 3-7% faster one-ray shadow rays (bench/README.md).  False when no child is hit
- * (the caller pops the next entry).  A single hit child -- the common
- * case -- never touches the stack. */
+ * 3-6% faster one-ray shadow rays (bench/README.md).  False when no child
+ * is hit (the caller pops the next entry).  A single hit child -- the
+ * common case -- never touches the stack. */
 static inline bool bvh4_descend(const struct bvh4_node *nodes, struct bvh_entry *e,
                                 const struct bvh_ray *br, float tmax, struct bvh_entry *stack,
                                 int *sp, bool ordered) {

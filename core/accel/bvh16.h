@@ -37,14 +37,6 @@
 
 #ifdef CPU_AVX512
 
-/* Where a node of width children (bvh.h: lo[3][W], hi[3][W], child[W],
- * count[W], 32 W bytes) keeps axis k's lower and upper planes, its child
- * indices and counts, in bytes from its start. */
-#define BVH16_LO(w, k) ((size_t)(4 * (w) * (k)))
-#define BVH16_HI(w, k) ((size_t)(4 * (w) * (3 + (k))))
-#define BVH16_CHILD(w) ((size_t)(24 * (w)))
-#define BVH16_COUNT(w) ((size_t)(28 * (w)))
-
 /* A packet's rays as struct ray16 (vec.h), 8 lanes to a register half,
  * from an array of rays; lanes not in the packet copy its first ray (they
  * are masked off). */
@@ -105,7 +97,7 @@ CPU_AVX512_FN void bvh16_ray_init(struct bvh16_ray *p, const struct ray16 *q, in
                            _mm512_cvtpd_ps(_mm512_loadu_pd(q->o[k] + 8)));
         p->neg[k] = _mm512_cmp_ps_mask(c, _mm512_setzero_ps(), _CMP_LT_OQ);
         bool neg = p->neg[k] == 0xffff; /* every ray's direction negative on the axis */
-        size_t lo = BVH16_LO(width, k), hi = BVH16_HI(width, k);
+        size_t lo = BVH_NODE_LO(width, k), hi = BVH_NODE_HI(width, k);
         p->near[k] = (uint8_t)(neg ? hi : lo);
         p->far[k] = (uint8_t)(neg ? lo : hi);
         p->uniform &= neg || p->neg[k] == 0;
@@ -150,8 +142,8 @@ CPU_AVX512_INLINE __mmask16 bvh16_child(const char *nd, int width, int c, const 
             memcpy(&fv, at + r->far[k], sizeof fv);
             near = _mm512_set1_ps(nv), far = _mm512_set1_ps(fv);
         } else {
-            __m512 lo = _mm512_set1_ps(bvh16_plane(nd, BVH16_LO(width, k), c));
-            __m512 hi = _mm512_set1_ps(bvh16_plane(nd, BVH16_HI(width, k), c));
+            __m512 lo = _mm512_set1_ps(bvh16_plane(nd, BVH_NODE_LO(width, k), c));
+            __m512 hi = _mm512_set1_ps(bvh16_plane(nd, BVH_NODE_HI(width, k), c));
             near = _mm512_mask_blend_ps(r->neg[k], lo, hi);
             far = _mm512_mask_blend_ps(r->neg[k], hi, lo);
         }
@@ -207,12 +199,12 @@ CPU_AVX512_INLINE bool bvh16_descend(const char *nodes, int width, const char *l
                                      size_t leaf_size, const struct bvh16_ray *r, __m512 tm,
                                      struct bvh16_entry *cur, struct bvh16_entry *stack, int *sp,
                                      bool ordered) {
-    size_t node_size = (size_t)32 * (size_t)width;
+    size_t node_size = BVH_NODE_SIZE(width);
     const char *nd = nodes + node_size * cur->node;
     uint32_t child[8];
     uint8_t count[8];
-    memcpy(child, nd + BVH16_CHILD(width), sizeof *child * (size_t)width);
-    memcpy(count, nd + BVH16_COUNT(width), (size_t)width);
+    memcpy(child, nd + BVH_NODE_CHILD(width), sizeof *child * (size_t)width);
+    memcpy(count, nd + BVH_NODE_COUNT(width), (size_t)width);
     __m512 tmax = _mm512_mul_ps(tm, _mm512_set1_ps(BVH_SLACK));
     int hit[8], n = 0;
     __m512 tn[8];
@@ -220,7 +212,7 @@ CPU_AVX512_INLINE bool bvh16_descend(const char *nodes, int width, const char *l
     unsigned maybe = width == 8 && r->ia ? bvh16_cull(nd, r, tmax, cur->lanes) : 0xffu;
     for (int c = 0; c < width; c++) {
         if (!(maybe >> c & 1)) continue; /* no ray of the packet enters it */
-        if (bvh16_plane(nd, BVH16_LO(width, 0), c) > bvh16_plane(nd, BVH16_HI(width, 0), c))
+        if (bvh16_plane(nd, BVH_NODE_LO(width, 0), c) > bvh16_plane(nd, BVH_NODE_HI(width, 0), c))
             continue; /* an empty slot */
         m[c] = bvh16_child(nd, width, c, r, tmax, cur->lanes, &tn[c]);
         if (m[c]) hit[n++] = c;

@@ -56,15 +56,16 @@ struct collapse {
     int width;
 };
 
-/* The node layout both widths share (bvh.h): lo[3][W], hi[3][W],
- * child[W], count[W], padding to 32 W bytes. */
-_Static_assert(sizeof(struct bvh4_node) == 32 * 4 && offsetof(struct bvh4_node, hi) == 12 * 4 &&
-                   offsetof(struct bvh4_node, child) == 24 * 4 &&
-                   offsetof(struct bvh4_node, count) == 28 * 4,
+/* The node layout both widths share (bvh.h). */
+_Static_assert(sizeof(struct bvh4_node) == BVH_NODE_SIZE(4) &&
+                   offsetof(struct bvh4_node, hi) == BVH_NODE_HI(4, 0) &&
+                   offsetof(struct bvh4_node, child) == BVH_NODE_CHILD(4) &&
+                   offsetof(struct bvh4_node, count) == BVH_NODE_COUNT(4),
                "bvh4_node layout");
-_Static_assert(sizeof(struct bvh8_node) == 32 * 8 && offsetof(struct bvh8_node, hi) == 12 * 8 &&
-                   offsetof(struct bvh8_node, child) == 24 * 8 &&
-                   offsetof(struct bvh8_node, count) == 28 * 8,
+_Static_assert(sizeof(struct bvh8_node) == BVH_NODE_SIZE(8) &&
+                   offsetof(struct bvh8_node, hi) == BVH_NODE_HI(8, 0) &&
+                   offsetof(struct bvh8_node, child) == BVH_NODE_CHILD(8) &&
+                   offsetof(struct bvh8_node, count) == BVH_NODE_COUNT(8),
                "bvh8_node layout");
 
 /* Writes wide node self: child i the binary node kids[i] (i < nk; the
@@ -72,7 +73,7 @@ _Static_assert(sizeof(struct bvh8_node) == 32 * 8 && offsetof(struct bvh8_node, 
 static void put_node(const struct collapse *c, uint32_t self, const uint32_t *kids, int nk,
                      const uint32_t *slot) {
     int w = c->width;
-    char *at = c->out + (size_t)32 * (size_t)w * self;
+    char *at = c->out + BVH_NODE_SIZE(w) * self;
     float box[6][8];
     uint32_t child[8] = {0};
     uint8_t count[8] = {0};
@@ -84,10 +85,13 @@ static void put_node(const struct collapse *c, uint32_t self, const uint32_t *ki
         child[i] = k->leaf ? k->a : slot[i];
         count[i] = k->leaf ? (uint8_t)k->b : 0;
     }
-    memset(at, 0, (size_t)32 * (size_t)w);
-    for (int r = 0; r < 6; r++) memcpy(at + (size_t)(4 * w * r), box[r], sizeof(float) * (size_t)w);
-    memcpy(at + 24 * w, child, sizeof(uint32_t) * (size_t)w);
-    memcpy(at + 28 * w, count, (size_t)w);
+    memset(at, 0, BVH_NODE_SIZE(w));
+    for (int k = 0; k < 3; k++) {
+        memcpy(at + BVH_NODE_LO(w, k), box[k], sizeof(float) * (size_t)w);
+        memcpy(at + BVH_NODE_HI(w, k), box[3 + k], sizeof(float) * (size_t)w);
+    }
+    memcpy(at + BVH_NODE_CHILD(w), child, sizeof(uint32_t) * (size_t)w);
+    memcpy(at + BVH_NODE_COUNT(w), count, (size_t)w);
 }
 
 struct collapse_task {

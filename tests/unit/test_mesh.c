@@ -565,10 +565,6 @@ static void test_bvh_same_for_any_thread_count(void) {
     free(index);
 }
 
-static void boxes_of(const void *ctx, uint32_t first, uint32_t n, struct bbox *out) {
-    memcpy(out, (const struct bbox *)ctx + first, sizeof *out * n);
-}
-
 /* The mesh's triangles' boxes go straight into the builder
  * (bvh8_build_from), its blocks and its index in leaf order are read
  * through the order: the same tree as bvh_build over the boxes, each
@@ -589,7 +585,7 @@ static void test_mesh_tree_is_bvh_of_boxes(void) {
         }
     struct bvh8 bvh;
     struct mesh m;
-    CHECK(bvh8_build_from(&bvh, boxes_of, boxes, n, BVH_MAX_LEAF, order, 2, NULL) == RAYD_OK,
+    CHECK(bvh8_build_from(&bvh, bvh_boxes_copy, boxes, n, BVH_MAX_LEAF, order, 2, NULL) == RAYD_OK,
           "bvh8_build_from");
     CHECK(mesh_build(&m, pos, 3 * n, index, n, NULL, NULL, true, 2, NULL) == RAYD_OK, "mesh");
     CHECK(m.bvh.nnodes == bvh.nnodes, "%u nodes, bvh_build %u", m.bvh.nnodes, bvh.nnodes);
