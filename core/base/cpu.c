@@ -25,8 +25,8 @@ bool cpu_avx512(void) {
         ok = !getenv("RAYD_NO_AVX512") && __builtin_cpu_supports("avx512f") &&
              __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512bw") &&
              __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx2") &&
-             __builtin_cpu_supports("bmi") && __builtin_cpu_supports("bmi2") &&
-             __builtin_cpu_supports("popcnt");
+             __builtin_cpu_supports("fma") && __builtin_cpu_supports("bmi") &&
+             __builtin_cpu_supports("bmi2") && __builtin_cpu_supports("popcnt");
         atomic_store_explicit(&cpu_ok, ok, memory_order_relaxed);
     }
     return ok && !atomic_load_explicit(&force_scalar, memory_order_relaxed);

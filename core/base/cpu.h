@@ -27,8 +27,8 @@ void cpu_force_scalar(bool on);
 #include <immintrin.h>
 
 /* Skylake-server's set: AVX-512 F, DQ, BW, VL with the AVX2 generation
- * beside it (BMI, popcount), all checked at run time by cpu_avx512. */
-#define CPU_AVX512_TARGET "avx512f,avx512dq,avx512bw,avx512vl,avx2,bmi,bmi2,popcnt"
+ * beside it (BMI, FMA, popcount), all checked at run time by cpu_avx512. */
+#define CPU_AVX512_TARGET "avx512f,avx512dq,avx512bw,avx512vl,avx2,fma,bmi,bmi2,popcnt"
 #define CPU_AVX512_EXTERN __attribute__((target(CPU_AVX512_TARGET)))
 #define CPU_AVX512_FN __attribute__((target(CPU_AVX512_TARGET))) static inline
 #define CPU_AVX512_INLINE __attribute__((target(CPU_AVX512_TARGET), always_inline)) static inline

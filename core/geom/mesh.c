@@ -44,11 +44,11 @@ __attribute__((always_inline)) static inline bool mesh_walk_body(const struct me
     struct bvh_ray br;
     struct tri_ray tr;
     bvh_ray_init(&br, r->o, r->d);
-    tri_ray_init(&tr, r);
+    if (test != bvh8_test) bvh_ray_fused(&br); /* the AVX-512 test's fields */
     float tm = any ? tri_tmax_any(tmax) : tri_tmax_nearest(tmax);
     bool found = false;
     struct bvh_entry root = {0, 0, 0};
-    bool met = mesh_walk_from(m, &br, &tr, root, &tm, h, &found, any, test);
+    bool met = mesh_walk_from(m, &br, &tr, r, root, &tm, h, &found, any, test);
     return any ? met : found && (double)h->t < tmax;
 }
 

@@ -181,6 +181,7 @@ CPU_AVX512_FN void lane_ray(const struct mesh16 *q, const struct lane_rays *l, i
         br->inv[k] = l->inv[k][i];
         br->neg[k] = q->br.neg[k] >> i & 1;
     }
+    bvh_ray_fused(br);
     tr->kx = lane_axis(q->kx0, q->kx1, i);
     tr->ky = lane_axis(q->ky0, q->ky1, i);
     tr->kz = lane_axis(q->kz0, q->kz1, i);
@@ -209,7 +210,8 @@ CPU_AVX512_FN __mmask16 lone_nearest(void *ctx, uint32_t node, uint32_t count, _
         lane_ray(q, &l, i, &br, &tr);
         struct mesh_hit h = {t[i], u[i], v[i], id[i], blk[i], lane[i]};
         bool found = q->found >> i & 1;
-        if (!mesh_walk_from(q->m, &br, &tr, e, &bound[i], &h, &found, false, bvh8_test_avx512))
+        if (!mesh_walk_from(q->m, &br, &tr, NULL, e, &bound[i], &h, &found, false,
+                            bvh8_test_avx512))
             continue;
         __mmask16 bit = (__mmask16)(1u << i);
         *tm = _mm512_mask_mov_ps(*tm, bit, _mm512_set1_ps(bound[i]));
@@ -242,7 +244,7 @@ CPU_AVX512_FN __mmask16 lone_any(void *ctx, uint32_t node, uint32_t count, __mma
         lane_ray(q, &l, i, &br, &tr);
         struct mesh_hit h;
         bool found = false;
-        if (mesh_walk_from(q->m, &br, &tr, e, &bound[i], &h, &found, true, bvh8_test_avx512))
+        if (mesh_walk_from(q->m, &br, &tr, NULL, e, &bound[i], &h, &found, true, bvh8_test_avx512))
             hit |= (__mmask16)(1u << i);
     }
     return hit;

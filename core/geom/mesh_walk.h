@@ -135,7 +135,8 @@ static inline bool tri4_take(const struct mesh *m, const struct tri4 *b, int mas
     return took;
 }
 
-/* Walks the subtree at e for the ray (br, tr) within the bound *tm,
+/* Walks the subtree at e for the ray (br, tr) within the bound *tm
+ * (tr made from lazy at the first leaf when lazy is not NULL),
  * lowered to each hit taken.  A nearest-hit walk (any false) keeps the
  * nearest in *h and *found, which may already hold a hit (a packet's lane
  * goes on from where it was), and returns whether it took one; an any-hit
@@ -143,7 +144,7 @@ static inline bool tri4_take(const struct mesh *m, const struct tri4 *b, int mas
  * constant each caller passes (bvh.h: the AVX-512 one where compiled for
  * it), so each copy of the walk has its own inlined. */
 __attribute__((always_inline)) static inline bool
-mesh_walk_from(const struct mesh *m, const struct bvh_ray *br, const struct tri_ray *tr,
+mesh_walk_from(const struct mesh *m, const struct bvh_ray *br, struct tri_ray *tr, const ray *lazy,
                struct bvh_entry e, float *tm, struct mesh_hit *h, bool *found, bool any,
                bvh8_test_fn test) {
     struct bvh_entry stack[BVH8_STACK];
@@ -159,6 +160,10 @@ mesh_walk_from(const struct mesh *m, const struct bvh_ray *br, const struct tri_
         } else {
             float t[4], u[4], v[4];
             const struct tri4 *b = &m->blocks[e.node];
+            if (lazy) { /* at the first leaf: many rays reach none */
+                tri_ray_init(tr, lazy);
+                lazy = NULL;
+            }
             int mask = tri4_test(b, e.count, tr, bound, t, u, v);
             if (mask) {
                 if (any) return true;

@@ -123,6 +123,43 @@ static void test_examples_bvh_equals_brute_force(void) {
     }
 }
 
+/* A glassy mesh alone over a plane; with hidden, also a sphere under the
+ * plane that no ray reaches. */
+static rayd_scene *lone_mesh_scene(bool hidden) {
+    struct buf b = {0};
+    put(&b, "{\"camera\": {\"position\": [0, 1.5, 6], \"look_at\": [0, 0.8, 0]},"
+            " \"render\": {\"width\": 96, \"height\": 72, \"max_depth\": 4},"
+            " \"lights\": [{\"type\": \"point\", \"position\": [4, 6, 5]}],"
+            " \"objects\": [{\"type\": \"plane\", \"material\": {\"reflectivity\": 0.3}},");
+    uv_sphere(&b, 0, 1, 0, 1, 24, 12,
+              "\"material\": {\"transparency\": 0.6, \"ior\": 1.4, \"reflectivity\": 0.2},");
+    if (hidden) put(&b, ", {\"type\": \"sphere\", \"center\": [0, -1000, 0], \"radius\": 1}");
+    put(&b, "]}");
+    rayd_scene *s = scene_from(b.s);
+    free(b.s);
+    return s;
+}
+
+/* A scene of one mesh in world space skips the top level's box test
+ * (scene_query.c, lone_mesh): every ray, shadow ray and refraction finds
+ * what it finds with a second object beside it. */
+static void test_lone_mesh_equals_flat_walk(void) {
+    rayd_scene *lone = lone_mesh_scene(false), *two = lone_mesh_scene(true);
+    CHECK(lone && two && lone->nobjs == 1 && two->nobjs == 2, "scenes parse");
+    if (!lone || !two) return;
+    rayd_image *a = render_all(lone, 2), *b = render_all(two, 2);
+    CHECK(a && b &&
+              memcmp(rayd_image_pixels_const(a), rayd_image_pixels_const(b), 96 * 72 * 3) == 0,
+          "one mesh alone and beside a hidden sphere give the same image");
+    int lit = 0;
+    for (int k = 0; a && k < 96 * 72; k++) lit += rayd_image_pixels_const(a)[3 * k + 1] > 60;
+    CHECK(lit > 500, "%d bright pixels", lit);
+    rayd_image_free(a);
+    rayd_image_free(b);
+    rayd_scene_free(lone);
+    rayd_scene_free(two);
+}
+
 /* A closed octahedron |x| + |y| + |z| <= 1, flat, as a scene. */
 static rayd_scene *octahedron(void) {
     rayd_scene *s =
@@ -683,17 +720,118 @@ static void test_packet_cull_keeps_every_entered_child(void) {
 #endif
 }
 
+static double lcg_unit(uint32_t *s) {
+    *s = *s * 1664525u + 1013904223u;
+    return (double)(*s >> 8) / 16777216.0;
+}
+
+/* Ray r's entry into box c of nd, exactly (in double, from the floats
+ * the node tests start from), or NAN when it misses within [0, tmax]. */
+static double exact_entry(const struct bvh8_node *nd, int c, const struct bvh_ray *r, double tmax) {
+    double tn = 0, tf = tmax;
+    for (int k = 0; k < 3; k++) {
+        double d = 1.0 / (double)r->inv[k]; /* the direction the float test sees */
+        double a = ((double)nd->lo[k][c] - r->org[k]) / d,
+               b = ((double)nd->hi[k][c] - r->org[k]) / d;
+        tn = fmax(tn, fmin(a, b));
+        tf = fmin(tf, fmax(a, b));
+    }
+    return tn <= tf ? tn : NAN;
+}
+
+/* One random 8-wide node and ray for test_node_tests_are_conservative:
+ * boxes at three scales, origins near them or 1e4-1e6 away, directions
+ * with zero components, or aimed exactly at a corner (grazing rays). */
+static void node_trial(uint32_t *s, struct bvh8_node *nd, ray *r, double *tmax) {
+    static const double scales[3] = {1, 1e3, 1e-3}, far[4] = {1, 1, 1e4, 1e6};
+    double sc = scales[*s % 3];
+    memset(nd, 0, sizeof *nd);
+    for (int c = 0; c < 8; c++)
+        for (int k = 0; k < 3; k++) {
+            double lo = (lcg_unit(s) * 20 - 10) * sc,
+                   ext = lcg_unit(s) < 0.2 ? 0 : lcg_unit(s) * 6 * sc;
+            nd->lo[k][c] = (float)lo;
+            nd->hi[k][c] = (float)(lo + ext);
+        }
+    double o[3], d[3];
+    double away = far[(*s >> 4) % 4];
+    for (int k = 0; k < 3; k++) o[k] = (lcg_unit(s) * 30 - 15) * sc * away;
+    int aim = (int)(lcg_unit(s) * 4), c = (int)(lcg_unit(s) * 8), bits = (int)(lcg_unit(s) * 8);
+    for (int k = 0; k < 3; k++) { /* 0: at a corner of box c, 1-2: at its centre, 3: anywhere */
+        double corner = (bits >> k) & 1 ? nd->hi[k][c] : nd->lo[k][c];
+        double centre = 0.5 * ((double)nd->lo[k][c] + nd->hi[k][c]);
+        double at = aim == 0 ? corner : centre;
+        d[k] = aim < 3 ? at - (double)(float)o[k] : lcg_unit(s) - 0.5;
+        if (lcg_unit(s) < 0.1) d[k] = 0;
+    }
+    r->o = v3(o[0], o[1], o[2]);
+    r->d = v3(d[0], d[1], d[2]);
+    *tmax = lcg_unit(s) < 0.3 ? lcg_unit(s) * 40 * sc * away : 3e38;
+}
+
+#ifdef CPU_AVX512
+CPU_AVX512_FN int fused_test(const struct bvh8_node *nd, struct bvh_ray *br, float tmax,
+                             float tn[8]) {
+    bvh_ray_fused(br);
+    return bvh8_test_avx512(nd, br, 0, tmax, tn);
+}
+#endif
+
+/* A node test may say a ray enters a box it misses, never the reverse,
+ * and its entry distance is never past the true one (beyond BVH_SLACK):
+ * else a walk would skip a subtree that holds the nearest hit.  Both the
+ * build's test and, where it runs, the AVX-512 one with its fused
+ * multiply-adds (bvh_ray_fused), against the exact entry in double. */
+static void test_node_tests_are_conservative(void) {
+    uint32_t s = 9090, missed[2] = {0, 0}, late[2] = {0, 0}, entered = 0, tested = 0;
+    int tests = 1;
+#ifdef CPU_AVX512
+    tests = cpu_avx512() ? 2 : 1;
+#endif
+    for (int n = 0; n < 30000; n++) {
+        struct bvh8_node nd;
+        ray r;
+        double tmax;
+        node_trial(&s, &nd, &r, &tmax);
+        struct bvh_ray br;
+        bvh_ray_init(&br, r.o, r.d);
+        for (int which = 0; which < tests; which++) {
+            float tn[8];
+            int hit = bvh8_test(&nd, &br, 0, (float)tmax, tn);
+#ifdef CPU_AVX512
+            if (which) hit = fused_test(&nd, &br, (float)tmax, tn);
+#endif
+            for (int c = 0; c < 8; c++) {
+                double want = exact_entry(&nd, c, &br, (float)tmax);
+                entered += !which && want == want;
+                tested += !which;
+                if (want != want) continue;
+                missed[which] += !(hit >> c & 1);
+                late[which] += (hit >> c & 1) && tn[c] > want * BVH_SLACK;
+            }
+        }
+    }
+    printf("  %u boxes, %u entered; %d test(s)\n", tested, entered, tests);
+    CHECK(entered > tested / 25 && entered < tested, "%u of %u boxes entered", entered, tested);
+    for (int w = 0; w < tests; w++) {
+        CHECK(missed[w] == 0, "test %d: %u entered boxes missed", w, missed[w]);
+        CHECK(late[w] == 0, "test %d: %u entries past the true one", w, late[w]);
+    }
+}
+
 int main(void) {
     RUN(test_mesh_tree_is_bvh_of_boxes);
     RUN(test_mesh_build_same_for_any_thread_count);
     RUN(test_bvh_same_for_any_thread_count);
     RUN(test_bvh_equals_brute_force);
     RUN(test_examples_bvh_equals_brute_force);
+    RUN(test_lone_mesh_equals_flat_walk);
     RUN(test_watertight_edges_and_vertices);
     RUN(test_packets_equal_single_rays);
     RUN(test_single_ray_paths_agree);
     RUN(test_packets_in_a_soup_equal_single_rays);
     RUN(test_packet_cull_keeps_every_entered_child);
+    RUN(test_node_tests_are_conservative);
     RUN(test_transformed_sphere_exact_projection);
     RUN(test_smooth_normals_follow_the_sphere);
     RUN(test_mesh_errors);
