@@ -1,7 +1,7 @@
 /* raybench -- ray throughput of the core on one scene.
  *
  *   raybench SCENE.json [--width W] [--height H] [--runs N] [--threads-max T] [--cpu-time]
- *            [--packets-only]
+ *            [--packets-only] [--kind primary|shadow|bounce]
  *
  * Loads the scene (timing parse + BVH build), then casts, RUNS times each,
  * and reports the median:
@@ -62,6 +62,15 @@ static double now_1t(void) {
 
 /* What a cast measures. */
 enum kind { PRIMARY, SHADOW, BOUNCE, NKINDS };
+
+static const char *const kind_names[NKINDS] = {"primary", "shadow", "bounce"};
+
+/* The kind named s, or NKINDS for a name of none (a usage error). */
+static int kind_named(const char *s) {
+    int k = 0;
+    while (k < NKINDS && strcmp(s, kind_names[k])) k++;
+    return k;
+}
 
 /* The bounce rays, in pixel order of their primary hits. */
 struct bounces {
@@ -279,7 +288,7 @@ static enum rayd_status load_charge(void *arg, long long bytes, char *why, size_
 
 int main(int argc, char **argv) {
     const char *path = NULL;
-    int w = 1920, h = 1080, runs = 3, tmax = 2, packets_only = 0;
+    int w = 1920, h = 1080, runs = 3, tmax = 2, packets_only = 0, only = -1;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--width") && i + 1 < argc)
             w = atoi(argv[++i]);
@@ -293,13 +302,16 @@ int main(int argc, char **argv) {
             use_cpu_time = true;
         else if (!strcmp(argv[i], "--packets-only"))
             packets_only = 1;
+        else if (!strcmp(argv[i], "--kind") && i + 1 < argc)
+            only = kind_named(argv[++i]);
         else
             path = argv[i];
     }
-    if (!path || w <= 0 || h <= 0 || runs <= 0 || runs > 99 || tmax < 1 || tmax > 64) {
+    if (!path || w <= 0 || h <= 0 || runs <= 0 || runs > 99 || tmax < 1 || tmax > 64 ||
+        only == NKINDS) {
         fprintf(stderr,
                 "usage: raybench SCENE.json [--width W] [--height H] [--runs N] [--threads-max T]"
-                " [--cpu-time] [--packets-only]\n");
+                " [--cpu-time] [--packets-only] [--kind primary|shadow|bounce]\n");
         return 2;
     }
     size_t len;
@@ -391,10 +403,10 @@ int main(int argc, char **argv) {
     bounce_make(s, &cam, w, h, &b);
     printf("bounce_rays %ld\n", b.n);
     int thread_counts[2] = {1, tmax};
-    static const char *const kind_names[NKINDS] = {"primary", "shadow", "bounce"};
     for (int ti = 0; ti < (tmax > 1 ? 2 : 1); ti++) {
         for (int packets = packets_only; packets <= 1; packets++) {
             for (int k = PRIMARY; k < NKINDS; k++) {
+                if (only >= 0 && k != only) continue;
                 double rate[99];
                 long count = 0, hits = 0;
                 for (int r = 0; r < runs; r++) {

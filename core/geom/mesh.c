@@ -31,6 +31,9 @@
 #include "base/parallel.h"
 
 #define MESH_CHUNK 16384 /* triangles a thread at least: fewer stay on one thread */
+/* A mesh larger than this is walked with prefetches (mesh_walk.h): about
+ * a core's L2 cache and its share of L3. */
+#define MESH_CACHE_BYTES (4u << 20)
 
 /* The one-ray walk from the root.  Always inlined into two copies: the
  * build's target (SSE2 on plain x86-64) and, where the CPU has it
@@ -302,6 +305,7 @@ static enum rayd_status mesh_accel(struct mesh *m, int threads, struct rayd_erro
         st = sort_index(m, order, threads, err);
     }
     free(order);
+    m->prefetch = mesh_bytes(m) > MESH_CACHE_BYTES;
     return st;
 }
 

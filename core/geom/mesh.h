@@ -27,7 +27,8 @@ struct mesh {
     uint32_t *index; /* 3 per triangle, in BVH leaf order */
     uint32_t nverts, ntris;
     struct bvh8 bvh;
-    vec3 lo, hi; /* bounds */
+    vec3 lo, hi;   /* bounds */
+    bool prefetch; /* the tree and blocks outgrow a core's cache (mesh_walk.h) */
 };
 
 struct mesh_hit {

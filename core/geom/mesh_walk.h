@@ -135,6 +135,23 @@ static inline bool tri4_take(const struct mesh *m, const struct tri4 *b, int mas
     return took;
 }
 
+/* Starts loading the children in mask of node nd (inner nodes' boxes and
+ * child rows, leaves' blocks), when the ray enters more than one: the
+ * walk goes into the nearest and comes back to the others, whose loads
+ * then overlap its.  Only where the mesh outgrows a core's cache, whose
+ * walks wait on memory (6-13% faster bounce rays on the 1.3M mesh); a
+ * mesh in cache would pay the instructions for nothing. */
+static inline void mesh_prefetch(const struct mesh *m, const struct bvh8_node *nd, int mask) {
+    if (!m->prefetch || !(mask & (mask - 1))) return;
+    for (; mask; mask &= mask - 1) {
+        int i = __builtin_ctz((unsigned)mask);
+        const char *p = nd->count[i] ? (const char *)&m->blocks[nd->child[i]]
+                                     : (const char *)&m->bvh.nodes[nd->child[i]];
+        size_t size = nd->count[i] ? sizeof(struct tri4) : sizeof(struct bvh8_node);
+        for (size_t at = 0; at < size; at += 64) __builtin_prefetch(p + at);
+    }
+}
+
 /* Walks the subtree at e for the ray (br, tr) within the bound *tm
  * (tr made from lazy at the first leaf when lazy is not NULL),
  * lowered to each hit taken.  A nearest-hit walk (any false) keeps the
@@ -156,6 +173,7 @@ mesh_walk_from(const struct mesh *m, const struct bvh_ray *br, struct tri_ray *t
             const struct bvh8_node *nd = &m->bvh.nodes[e.node];
             float tn[8];
             int hit = test(nd, br, 0, bound * BVH_SLACK, tn);
+            mesh_prefetch(m, nd, hit);
             if (bvh_descend_mask(nd->child, nd->count, hit, tn, &e, stack, &sp, !any)) continue;
         } else {
             float t[4], u[4], v[4];
