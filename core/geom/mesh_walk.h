@@ -188,7 +188,7 @@ mesh_walk_from(const struct mesh *m, const struct bvh_ray *br, struct tri_ray *t
                 took |= tri4_take(m, b, mask, t, u, v, &bound, h, found);
             }
         }
-        do { /* pop the nearest entry still in reach */
+        do { /* pop the next entry still in reach */
             if (sp == 0) {
                 *tm = bound;
                 return took;

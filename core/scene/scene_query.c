@@ -244,7 +244,8 @@ object_hit(const rayd_scene *s, const struct object *o, const struct xform *oute
 }
 
 /* Calls visit for every object of objs whose BVH box the ray enters before
- * *tmax, nearest boxes first, until visit returns false.  visit may shrink
+ * *tmax, each node's nearest box first (bvh4_descend), until visit
+ * returns false.  visit may shrink
  * *tmax (a nearest-hit search) and so prune the rest of the walk.  With
  * brute (tests) or a single object, every object is visited in order. */
 typedef bool (*visit_fn)(void *ctx, const struct object *o, double *tmax);
@@ -276,7 +277,7 @@ __attribute__((always_inline)) static inline void objects_walk(const struct obje
                 if (!visit(ctx, &objs[i], tmax)) return;
             }
         }
-        do { /* pop the nearest entry still in reach */
+        do { /* pop the next entry still in reach */
             if (sp == 0) return;
             e = stack[--sp];
         } while (e.tnear > *tmax * BVH_SLACK);
