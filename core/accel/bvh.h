@@ -262,13 +262,51 @@ struct bvh_entry {
     float tnear;
 };
 
+/* The order a walk takes the children a ray enters. */
+enum bvh_order {
+    BVH_AS_COME, /* any-hit walks, whose answer no order changes: the first
+                  * child, the others pushed as they come */
+    BVH_NEAREST, /* the nearest, the others as they come: a mesh's walk,
+                  * whose leaves cost less than sorting would save */
+    BVH_SORTED   /* all by distance: the scene's walk over objects, each of
+                  * which costs more to test than sorting */
+};
+
+/* Pushes the children in mask (child and count arrays of a node) onto
+ * stack, farthest first, so the nearest is visited next.  Returns the new
+ * stack size.  Insertion into the stack itself: most masks have one or
+ * two bits. */
+static inline int bvh_push_sorted(const uint32_t *child, const uint8_t *count, int mask,
+                                  const float *tnear, struct bvh_entry *stack, int sp) {
+    int base = sp;
+    while (mask) {
+        int i = __builtin_ctz((unsigned)mask);
+        mask &= mask - 1;
+        float t = tnear[i];
+        int j = sp++;
+        while (j > base && stack[j - 1].tnear < t) { /* keep descending order */
+            stack[j] = stack[j - 1];
+            j--;
+        }
+        stack[j].node = child[i];
+        stack[j].count = count[i];
+        stack[j].tnear = t;
+    }
+    return sp;
+}
+
 /* The step down of both widths, given the node's test: see bvh4_descend. */
 static inline bool bvh_descend_mask(const uint32_t *child, const uint8_t *count, int mask,
                                     const float *tn, struct bvh_entry *e, struct bvh_entry *stack,
-                                    int *sp, bool ordered) {
+                                    int *sp, enum bvh_order order) {
     if (!mask) return false;
+    if (order == BVH_SORTED && (mask & (mask - 1))) {
+        *sp = bvh_push_sorted(child, count, mask, tn, stack, *sp);
+        *e = stack[--*sp];
+        return true;
+    }
     int go = __builtin_ctz((unsigned)mask);
-    for (int m = mask & (mask - 1); ordered && m; m &= m - 1) {
+    for (int m = mask & (mask - 1); order == BVH_NEAREST && m; m &= m - 1) {
         int c = __builtin_ctz((unsigned)m);
         go = tn[c] < tn[go] ? c : go;
     }
@@ -280,22 +318,21 @@ static inline bool bvh_descend_mask(const uint32_t *child, const uint8_t *count,
     return true;
 }
 
-/* One step down from inner node *e: tests its children, makes *e the
- * nearest hit (ordered: a nearest-hit walk) or the first (an any-hit
- * walk, whose answer no order changes) and pushes the others as they come.
- * Unsorted pushes cost less than they lose: a popped entry beyond the best
- * hit so far is dropped whatever the order, and the nearest child, taken
- * first, is where the hit mostly is (2-7% faster one-ray walks than an
- * insertion sort, bench/README.md).  False when no child is hit (the
- * caller pops the next entry).  A single hit child -- the common case --
- * never touches the stack. */
+/* One step down from inner node *e: tests its children, makes *e the one
+ * to go into first as order has it and pushes the others.  A popped entry
+ * beyond the best hit so far is dropped whatever the order, so every
+ * order gives the same answer; in a mesh the nearest child taken first and
+ * the rest unsorted make walks 2-7% faster than sorting them
+ * (bench/README.md).  False when no child is hit (the caller pops the
+ * next entry).  A single hit child -- the common case -- never touches
+ * the stack. */
 static inline bool bvh4_descend(const struct bvh4_node *nodes, struct bvh_entry *e,
                                 const struct bvh_ray *br, float tmax, struct bvh_entry *stack,
-                                int *sp, bool ordered) {
+                                int *sp, enum bvh_order order) {
     const struct bvh4_node *nd = &nodes[e->node];
     float tn[4];
     int mask = bvh4_test(nd, br, 0, tmax, tn);
-    return bvh_descend_mask(nd->child, nd->count, mask, tn, e, stack, sp, ordered);
+    return bvh_descend_mask(nd->child, nd->count, mask, tn, e, stack, sp, order);
 }
 
 #endif

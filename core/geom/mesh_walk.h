@@ -174,7 +174,9 @@ mesh_walk_from(const struct mesh *m, const struct bvh_ray *br, struct tri_ray *t
             float tn[8];
             int hit = test(nd, br, 0, bound * BVH_SLACK, tn);
             mesh_prefetch(m, nd, hit);
-            if (bvh_descend_mask(nd->child, nd->count, hit, tn, &e, stack, &sp, !any)) continue;
+            if (bvh_descend_mask(nd->child, nd->count, hit, tn, &e, stack, &sp,
+                                 any ? BVH_AS_COME : BVH_NEAREST))
+                continue;
         } else {
             float t[4], u[4], v[4];
             const struct tri4 *b = &m->blocks[e.node];

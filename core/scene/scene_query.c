@@ -244,8 +244,7 @@ object_hit(const rayd_scene *s, const struct object *o, const struct xform *oute
 }
 
 /* Calls visit for every object of objs whose BVH box the ray enters before
- * *tmax, each node's nearest box first (bvh4_descend), until visit
- * returns false.  visit may shrink
+ * *tmax, nearest boxes first, until visit returns false.  visit may shrink
  * *tmax (a nearest-hit search) and so prune the rest of the walk.  With
  * brute (tests) or a single object, every object is visited in order. */
 typedef bool (*visit_fn)(void *ctx, const struct object *o, double *tmax);
@@ -270,7 +269,7 @@ __attribute__((always_inline)) static inline void objects_walk(const struct obje
     for (;;) {
         float tm = *tmax > 3e38 ? 3e38f : (float)*tmax * BVH_SLACK;
         if (e.count == 0) {
-            if (bvh4_descend(bvh->nodes, &e, &br, tm, stack, &sp, true)) continue;
+            if (bvh4_descend(bvh->nodes, &e, &br, tm, stack, &sp, BVH_SORTED)) continue;
         } else {
             for (uint32_t i = e.node; i < e.node + e.count; i++) {
                 if (++visits % SCENE_LOOK_VISITS == 0 && !meter_live()) return; /* overlaps */
