@@ -54,12 +54,29 @@ static void uv_sphere(struct buf *b, double cx, double cy, double cz, double r, 
     put(b, "]}");
 }
 
+/* The test scenes' start: a 96x72 camera (render: the rest of the render
+ * object), one point light and a reflecting plane, the objects list left
+ * open for the caller's. */
+static void scene_open(struct buf *b, const char *render) {
+    put(b,
+        "{\"camera\": {\"position\": [0, 1.5, 6], \"look_at\": [0, 0.8, 0]},"
+        " \"render\": {\"width\": 96, \"height\": 72, %s},"
+        " \"lights\": [{\"type\": \"point\", \"position\": [4, 6, 5]}],"
+        " \"objects\": [{\"type\": \"plane\", \"material\": {\"reflectivity\": 0.3}},",
+        render);
+}
+
+/* Closes the objects list and loads the scene. */
+static rayd_scene *scene_close(struct buf *b) {
+    put(b, "]}");
+    rayd_scene *s = scene_from(b->s);
+    free(b->s);
+    return s;
+}
+
 static rayd_scene *mesh_scene(int brute) {
     struct buf b = {0};
-    put(&b, "{\"camera\": {\"position\": [0, 1.5, 6], \"look_at\": [0, 0.8, 0]},"
-            " \"render\": {\"width\": 96, \"height\": 72, \"samples\": 2, \"max_depth\": 3},"
-            " \"lights\": [{\"type\": \"point\", \"position\": [4, 6, 5]}],"
-            " \"objects\": [{\"type\": \"plane\", \"material\": {\"reflectivity\": 0.3}},");
+    scene_open(&b, "\"samples\": 2, \"max_depth\": 3");
     uv_sphere(&b, -1.2, 1, 0, 1, 24, 12,
               "\"material\": {\"color\": [0.9,0.3,0.2], \"specular\": 0.5},");
     put(&b, ",");
@@ -73,9 +90,7 @@ static rayd_scene *mesh_scene(int brute) {
     for (int i = 0; i < 40; i++)
         put(&b, ", {\"type\": \"sphere\", \"center\": [%g, 0.15, %g], \"radius\": 0.15}",
             -3 + 0.37 * (i % 16), -2 + 0.5 * (i / 16));
-    put(&b, "]}");
-    rayd_scene *s = scene_from(b.s);
-    free(b.s);
+    rayd_scene *s = scene_close(&b);
     if (s) s->brute = brute;
     return s;
 }
@@ -127,17 +142,11 @@ static void test_examples_bvh_equals_brute_force(void) {
  * plane that no ray reaches. */
 static rayd_scene *lone_mesh_scene(bool hidden) {
     struct buf b = {0};
-    put(&b, "{\"camera\": {\"position\": [0, 1.5, 6], \"look_at\": [0, 0.8, 0]},"
-            " \"render\": {\"width\": 96, \"height\": 72, \"max_depth\": 4},"
-            " \"lights\": [{\"type\": \"point\", \"position\": [4, 6, 5]}],"
-            " \"objects\": [{\"type\": \"plane\", \"material\": {\"reflectivity\": 0.3}},");
+    scene_open(&b, "\"max_depth\": 4");
     uv_sphere(&b, 0, 1, 0, 1, 24, 12,
               "\"material\": {\"transparency\": 0.6, \"ior\": 1.4, \"reflectivity\": 0.2},");
     if (hidden) put(&b, ", {\"type\": \"sphere\", \"center\": [0, -1000, 0], \"radius\": 1}");
-    put(&b, "]}");
-    rayd_scene *s = scene_from(b.s);
-    free(b.s);
-    return s;
+    return scene_close(&b);
 }
 
 /* A scene of one mesh in world space skips the top level's box test
