@@ -33,6 +33,13 @@ static void put(struct buf *b, const char *fmt, ...) {
     }
 }
 
+/* The tests' random numbers: the next of s's LCG as a double in [0, 1),
+ * from its top 24 bits (exact in float too). */
+static double lcg_unit(uint32_t *s) {
+    *s = *s * 1664525u + 1013904223u;
+    return (double)(*s >> 8) / 16777216.0;
+}
+
 /* A UV sphere mesh of radius r at c, as an objects entry. */
 static void uv_sphere(struct buf *b, double cx, double cy, double cz, double r, int nu, int nv,
                       const char *extra) {
@@ -95,20 +102,31 @@ static rayd_scene *mesh_scene(int brute) {
     return s;
 }
 
+/* Renders scenes a and b on 2 threads and checks they give the same bytes
+ * (what: the check's name).  Returns how many of a's pixels have channel
+ * ch above level: the caller's check that the image is not empty. */
+static int same_render(const rayd_scene *a, const rayd_scene *b, const char *what, int ch,
+                       int level) {
+    rayd_image *ia = render_all(a, 2), *ib = render_all(b, 2);
+    size_t n = ia ? (size_t)rayd_image_width(ia) * rayd_image_height(ia) : 0;
+    CHECK(ia && ib && rayd_image_width(ib) == rayd_image_width(ia) &&
+              rayd_image_height(ib) == rayd_image_height(ia) &&
+              memcmp(rayd_image_pixels_const(ia), rayd_image_pixels_const(ib), 3 * n) == 0,
+          "%s", what);
+    int lit = 0;
+    for (size_t k = 0; ia && ib && k < n; k++)
+        lit += rayd_image_pixels_const(ia)[3 * k + (size_t)ch] > level;
+    rayd_image_free(ia);
+    rayd_image_free(ib);
+    return lit;
+}
+
 static void test_bvh_equals_brute_force(void) {
     rayd_scene *fast = mesh_scene(0), *slow = mesh_scene(1);
     CHECK(fast && slow, "scenes parse");
     if (!fast || !slow) return;
-    rayd_image *a = render_all(fast, 2), *b = render_all(slow, 2);
-    CHECK(a && b &&
-              memcmp(rayd_image_pixels_const(a), rayd_image_pixels_const(b), 96 * 72 * 3) == 0,
-          "the BVH and brute force give the same image");
-    /* and the image is not empty: the meshes are there */
-    int lit = 0;
-    for (int k = 0; a && k < 96 * 72; k++) lit += rayd_image_pixels_const(a)[3 * k] > 100;
-    CHECK(lit > 500, "%d bright pixels", lit);
-    rayd_image_free(a);
-    rayd_image_free(b);
+    int lit = same_render(fast, slow, "the BVH and brute force give the same image", 0, 100);
+    CHECK(lit > 500, "%d bright pixels", lit); /* the image is not empty: the meshes are there */
     rayd_scene_free(fast);
     rayd_scene_free(slow);
 }
@@ -127,12 +145,9 @@ static void test_examples_bvh_equals_brute_force(void) {
         CHECK(f && g, "parse %s", names[i]);
         if (!f || !g) continue;
         g->brute = true;
-        rayd_image *a = render_all(f, 2), *b = render_all(g, 2);
-        size_t n = (size_t)rayd_image_width(a) * rayd_image_height(a) * 3;
-        CHECK(memcmp(rayd_image_pixels_const(a), rayd_image_pixels_const(b), n) == 0,
-              "%s: BVH image equals brute force", names[i]);
-        rayd_image_free(a);
-        rayd_image_free(b);
+        char what[128];
+        snprintf(what, sizeof what, "%s: BVH image equals brute force", names[i]);
+        same_render(f, g, what, 0, 0);
         rayd_scene_free(f);
         rayd_scene_free(g);
     }
@@ -156,15 +171,9 @@ static void test_lone_mesh_equals_flat_walk(void) {
     rayd_scene *lone = lone_mesh_scene(false), *two = lone_mesh_scene(true);
     CHECK(lone && two && lone->nobjs == 1 && two->nobjs == 2, "scenes parse");
     if (!lone || !two) return;
-    rayd_image *a = render_all(lone, 2), *b = render_all(two, 2);
-    CHECK(a && b &&
-              memcmp(rayd_image_pixels_const(a), rayd_image_pixels_const(b), 96 * 72 * 3) == 0,
-          "one mesh alone and beside a hidden sphere give the same image");
-    int lit = 0;
-    for (int k = 0; a && k < 96 * 72; k++) lit += rayd_image_pixels_const(a)[3 * k + 1] > 60;
+    int lit = same_render(lone, two,
+                          "one mesh alone and beside a hidden sphere give the same image", 1, 60);
     CHECK(lit > 500, "%d bright pixels", lit);
-    rayd_image_free(a);
-    rayd_image_free(b);
     rayd_scene_free(lone);
     rayd_scene_free(two);
 }
@@ -409,10 +418,7 @@ static void test_single_ray_paths_agree(void) {
     for (int a = 0; a < 40000; a++) {
         const struct mesh *m = ms[a & 1];
         double u[6];
-        for (int k = 0; k < 6; k++) {
-            s = s * 1664525u + 1013904223u;
-            u[k] = (double)(s >> 8) / 16777216.0;
-        }
+        for (int k = 0; k < 6; k++) u[k] = lcg_unit(&s);
         ray r;
         if (m == &soupm) { /* from inside or outside the soup's cube, any direction */
             r.o = v3(u[0] * 14 - 2, u[1] * 14 - 2, u[2] * 14 - 2);
@@ -468,10 +474,7 @@ static void test_packets_in_a_soup_equal_single_rays(void) {
         vec3 eye = v3(-3, 5, -4);
         for (int i = 0; i < 16; i++) {
             double u[6];
-            for (int k = 0; k < 6; k++) {
-                s = s * 1664525u + 1013904223u;
-                u[k] = (double)(s >> 8) / 16777216.0;
-            }
+            for (int k = 0; k < 6; k++) u[k] = lcg_unit(&s);
             bool coherent = p % 3 == 0 || (p % 3 == 2 && i < 8);
             if (coherent) { /* toward a small square inside the soup's cube */
                 vec3 at = v3(4 + (p % 40) * 0.1 + (i % 4) * 0.01,
@@ -513,15 +516,10 @@ static void soup(uint32_t n, float **pos, uint32_t **index) {
     uint32_t s = 12345;
     for (uint32_t t = 0; t < n; t++) {
         float c[3];
-        for (int k = 0; k < 3; k++) {
-            s = s * 1664525u + 1013904223u;
-            c[k] = (float)(s >> 8) / 16777216.0f * 10.0f;
-        }
+        for (int k = 0; k < 3; k++) c[k] = (float)lcg_unit(&s) * 10.0f;
         for (int v = 0; v < 3; v++) {
-            for (int k = 0; k < 3; k++) {
-                s = s * 1664525u + 1013904223u;
-                (*pos)[9 * t + 3 * v + k] = c[k] + (float)(s >> 8) / 16777216.0f * 0.1f;
-            }
+            for (int k = 0; k < 3; k++)
+                (*pos)[9 * t + 3 * v + k] = c[k] + (float)lcg_unit(&s) * 0.1f;
             (*index)[3 * t + v] = 3 * t + (uint32_t)v;
         }
     }
@@ -727,11 +725,6 @@ static void test_packet_cull_keeps_every_entered_child(void) {
     CHECK(wrong == 0, "%u of %u children culled that a ray enters", wrong, tested);
     CHECK(culled > tested / 10, "only %u of %u children culled", culled, tested);
 #endif
-}
-
-static double lcg_unit(uint32_t *s) {
-    *s = *s * 1664525u + 1013904223u;
-    return (double)(*s >> 8) / 16777216.0;
 }
 
 /* Ray r's entry into box c of nd, exactly (in double, from the floats
