@@ -127,8 +127,10 @@ tmp_there() { test -e "$D/results/$(jid torn).png.tmp"; }
 wait_until 60 tmp_there
 check write_stalled "no $D/results/$(jid torn).png.tmp" tmp_there
 kill9
-start_rayd --threads 1 --data-dir "$D" --result-cache-mb 0
+# the gate is shut so the job queued again cannot begin a new write before the check
+start_rayd --threads 1 --test-gate 0 --data-dir "$D" --result-cache-mb 0
 check write_tmp_swept "$(ls "$D/results")" bash -c "! ls '$D/results' | grep -q tmp"
+gate open
 wait_until 60 job_state_is "$(jid torn)" succeeded
 req GET "/v1/jobs/$(jid torn)/image.png" >/dev/null && cp "$T/body" "$T/torn.png"
 check write_rendered_whole "$(head -c 100 "$T/torn.png" | tr -c '[:print:]' .)" \
