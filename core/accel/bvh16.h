@@ -77,10 +77,29 @@ struct bvh16_ray {
     bool uniform;            /* each axis's sign one for the packet: its near side is one too */
     uint8_t near[3], far[3]; /* then the byte offsets in a node of those sides' floats */
     /* The packet's origins and inverse directions as intervals, for the
-     * culling test of bvh16_cull (ia: uniform, and every lane finite). */
+     * culling test of bvh16_cull (ia: uniform and fused, so every lane's
+     * org and inv finite; else they are not set). */
     bool ia;
     float omin[3], omax[3], imin[3], imax[3];
+    /* For the fused child test: org * inv moved out as bvh_ray_fused does
+     * it, lane by lane, and whether every lane's is finite. */
+    __m512 oi_hi[3], oi_lo[3];
+    bool fused;
 };
+
+/* bvh_ray_fused's bounds of org * inv for the 16 lanes of p. */
+CPU_AVX512_FN void bvh16_ray_fused(struct bvh16_ray *p) {
+    __mmask16 finite = 0xffff;
+    for (int k = 0; k < 3; k++) {
+        __m512 oi = _mm512_mul_ps(p->org[k], p->inv[k]), a = _mm512_abs_ps(oi);
+        __m512 slack =
+            _mm512_add_ps(_mm512_mul_ps(a, _mm512_set1_ps(0x1p-22f)), _mm512_set1_ps(0x1p-120f));
+        p->oi_hi[k] = _mm512_add_ps(oi, slack);
+        p->oi_lo[k] = _mm512_sub_ps(oi, slack);
+        finite &= _mm512_cmp_ps_mask(a, _mm512_set1_ps(1e37f), _CMP_LT_OQ);
+    }
+    p->fused = finite == 0xffff;
+}
 
 CPU_AVX512_FN void bvh16_ray_init(struct bvh16_ray *p, const struct ray16 *q, int width) {
     p->uniform = true;
@@ -102,15 +121,12 @@ CPU_AVX512_FN void bvh16_ray_init(struct bvh16_ray *p, const struct ray16 *q, in
         p->far[k] = (uint8_t)(neg ? lo : hi);
         p->uniform &= neg || p->neg[k] == 0;
     }
-    __mmask16 finite = 0xffff;
-    __m512 huge = _mm512_set1_ps(INFINITY);
-    for (int k = 0; k < 3; k++) {
-        finite &= _mm512_cmp_ps_mask(_mm512_abs_ps(p->org[k]), huge, _CMP_LT_OQ);
-        finite &= _mm512_cmp_ps_mask(_mm512_abs_ps(p->inv[k]), huge, _CMP_LT_OQ);
+    bvh16_ray_fused(p);
+    p->ia = p->uniform && p->fused; /* finite org * inv: finite org and inv */
+    for (int k = 0; p->ia && k < 3; k++) {
         p->omin[k] = _mm512_reduce_min_ps(p->org[k]), p->omax[k] = _mm512_reduce_max_ps(p->org[k]);
         p->imin[k] = _mm512_reduce_min_ps(p->inv[k]), p->imax[k] = _mm512_reduce_max_ps(p->inv[k]);
     }
-    p->ia = p->uniform && finite == 0xffff;
 }
 
 /* Plane (k, c) of a node at nd, lower or upper. */
@@ -128,8 +144,10 @@ struct bvh16_entry {
 };
 
 /* Child c of nd against the rays in lanes, for t in [0, tmax]: the mask of
- * rays that enter it and their entry distances.  The same float operations
- * as bvh4_test, lane by lane. */
+ * rays that enter it and their entry distances.  The float operations of
+ * bvh8_test_avx512 lane by lane (each plane one fused multiply-add) when
+ * the packet has them, else those of bvh4_test: either test is
+ * conservative, and neither decides a hit. */
 CPU_AVX512_INLINE __mmask16 bvh16_child(const char *nd, int width, int c, const struct bvh16_ray *r,
                                         __m512 tmax, __mmask16 lanes, __m512 *tnear) {
     __m512 tn = _mm512_setzero_ps(), tf = tmax;
@@ -147,8 +165,13 @@ CPU_AVX512_INLINE __mmask16 bvh16_child(const char *nd, int width, int c, const 
             near = _mm512_mask_blend_ps(r->neg[k], lo, hi);
             far = _mm512_mask_blend_ps(r->neg[k], hi, lo);
         }
-        tn = _mm512_max_ps(tn, _mm512_mul_ps(_mm512_sub_ps(near, r->org[k]), r->inv[k]));
-        tf = _mm512_min_ps(tf, _mm512_mul_ps(_mm512_sub_ps(far, r->org[k]), r->inv[k]));
+        if (r->fused) {
+            tn = _mm512_max_ps(tn, _mm512_fmsub_ps(near, r->inv[k], r->oi_hi[k]));
+            tf = _mm512_min_ps(tf, _mm512_fmsub_ps(far, r->inv[k], r->oi_lo[k]));
+        } else {
+            tn = _mm512_max_ps(tn, _mm512_mul_ps(_mm512_sub_ps(near, r->org[k]), r->inv[k]));
+            tf = _mm512_min_ps(tf, _mm512_mul_ps(_mm512_sub_ps(far, r->org[k]), r->inv[k]));
+        }
     }
     tf = _mm512_mul_ps(tf, _mm512_set1_ps(1.0000004f));
     *tnear = tn;
@@ -158,9 +181,10 @@ CPU_AVX512_INLINE __mmask16 bvh16_child(const char *nd, int width, int c, const 
 /* The children of an 8-wide node nd that some ray of the packet may enter
  * (bounds tmax, lanes): interval arithmetic over the packet's origins and
  * inverse directions (Boulos et al. 2006), all eight children at once.
- * Conservative: each ray's own test (bvh16_child) does the same float
- * operations on values inside these intervals, and rounding is monotone,
- * so a child culled here is one every ray misses.  A NaN keeps the child. */
+ * Conservative: each ray's unfused test (bvh4_test's operations) does the
+ * same float operations on values inside these intervals, and rounding is
+ * monotone, so a child culled here is one every ray's unfused test misses,
+ * and so one it truly misses.  A NaN keeps the child. */
 CPU_AVX512_INLINE __mmask8 bvh16_cull(const char *nd, const struct bvh16_ray *r, __m512 tmax,
                                       __mmask16 lanes) {
     __mmask16 nan = _mm512_mask_cmp_ps_mask(lanes, tmax, tmax, _CMP_UNORD_Q);

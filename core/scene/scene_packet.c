@@ -272,6 +272,28 @@ CPU_AVX512_FN void simple_take16(struct scene16 *q, const struct object *o, long
     }
 }
 
+/* An untransformed mesh o for the rays in lanes, nearest hit: what the
+ * general case below does (nearest_bound, object_mesh_hit, nearest_take),
+ * without a struct nearest for each ray, nor the rays one by one that it
+ * needs: the bounds are simple_bounds16's, and the rays stay in q->rd. */
+CPU_AVX512_FN void mesh_nearest16(struct scene16 *q, const struct object *o, uint32_t lanes) {
+    long rank = q->rank0 + (long)(o - q->base);
+    LANES_ALIGN double bound[16];
+    simple_bounds16(q, rank, bound);
+    struct mesh_hit mh[16];
+    uint32_t hit = mesh16_intersect(&q->s->meshes[o->u.mesh.id], &q->rd, bound, lanes, mh);
+    for (; hit; hit &= hit - 1) {
+        int i = __builtin_ctz(hit);
+        struct hit h;
+        if (!object_mesh_hit(o, NULL, &mh[i], 1, &bound[i], &h) || bound[i] > q->tmax[i]) continue;
+        q->tmax[i] = bound[i];
+        q->h[i] = h;
+        if (q->best[i] == rank) continue;
+        q->best[i] = rank;
+        q->kept &= ~(1u << i);
+    }
+}
+
 /* Object o for the rays in lanes, nearest hit: meshes as a packet. */
 CPU_AVX512_FN void visit_nearest16(struct scene16 *q, const struct object *o, uint32_t lanes) {
     if (simple16(o)) { /* object_hit and nearest_take, 16 wide */
@@ -289,6 +311,10 @@ CPU_AVX512_FN void visit_nearest16(struct scene16 *q, const struct object *o, ui
         simple_take16(q, o, rank, t, hit); /* t < bound already: object_hit's tail */
         return;
     }
+    if (o->kind == SHAPE_MESH && o->xform < 0) {
+        mesh_nearest16(q, o, lanes);
+        return;
+    }
     if (o->kind != SHAPE_MESH) {
         for (; lanes; lanes &= lanes - 1) {
             int i = __builtin_ctz(lanes);
@@ -298,22 +324,19 @@ CPU_AVX512_FN void visit_nearest16(struct scene16 *q, const struct object *o, ui
         }
         return;
     }
-    ray lr[16];
+    ray lr[16]; /* a moved mesh: the rays in its space */
     double bound[16], scale[16], lmax[16];
-    bool moved = o->xform >= 0; /* else the rays are already in object space */
     for (uint32_t m = lanes; m; m &= m - 1) {
         int i = __builtin_ctz(m);
         struct nearest c = lane_nearest(q, i);
         bound[i] = nearest_bound(&c, o, q->tmax[i]);
-        scale[i] = 1;
-        if (moved) lr[i] = object_ray_xform(q->s, o, &lane_rays(q)[i], &scale[i]);
+        lr[i] = object_ray_xform(q->s, o, &lane_rays(q)[i], &scale[i]);
         lmax[i] = object_space_bound(bound[i], scale[i]);
     }
     struct mesh_hit mh[16];
-    const struct mesh *msh = &q->s->meshes[o->u.mesh.id];
     struct ray16 lrd;
-    if (moved) ray16_from_rays(&lrd, lr, lanes);
-    uint32_t hit = mesh16_intersect(msh, moved ? &lrd : &q->rd, lmax, lanes, mh);
+    ray16_from_rays(&lrd, lr, lanes);
+    uint32_t hit = mesh16_intersect(&q->s->meshes[o->u.mesh.id], &lrd, lmax, lanes, mh);
     for (; hit; hit &= hit - 1) { /* the rest of object_hit, then nearest_take */
         int i = __builtin_ctz(hit);
         struct hit h;
@@ -339,19 +362,20 @@ CPU_AVX512_FN uint32_t visit_any16(struct scene16 *q, const struct object *o, ui
         }
         lanes = odd; /* left to the one-ray code below */
     }
-    if (o->kind == SHAPE_MESH) {
+    if (o->kind == SHAPE_MESH && o->xform < 0) /* the rays as they are */
+        return mesh16_occluded(&q->s->meshes[o->u.mesh.id], &q->rd, q->tmax, lanes);
+    if (o->kind == SHAPE_MESH) { /* moved: the rays in its space */
         ray lr[16];
         double lmax[16];
         for (uint32_t m = lanes; m; m &= m - 1) {
             int i = __builtin_ctz(m);
             double scale;
-            lr[i] = object_ray(q->s, o, &lane_rays(q)[i], &scale);
+            lr[i] = object_ray_xform(q->s, o, &lane_rays(q)[i], &scale);
             lmax[i] = q->tmax[i] * scale;
         }
         struct ray16 lrd;
-        if (o->xform >= 0) ray16_from_rays(&lrd, lr, lanes);
-        return mesh16_occluded(&q->s->meshes[o->u.mesh.id], o->xform >= 0 ? &lrd : &q->rd, lmax,
-                               lanes);
+        ray16_from_rays(&lrd, lr, lanes);
+        return mesh16_occluded(&q->s->meshes[o->u.mesh.id], &lrd, lmax, lanes);
     }
     for (; lanes; lanes &= lanes - 1) {
         int i = __builtin_ctz(lanes);
