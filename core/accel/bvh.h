@@ -147,14 +147,18 @@ struct bvh_ray {
  * out by |p| 2^-22 (and a tiny bit for underflow) is surely above or
  * below it.  A plane's t = plane * inv - oi_hi, one fused multiply-add, is
  * then at most its exact value and the far one's at least: the test stays
- * conservative (it never misses a box the ray touches). */
+ * conservative (it never misses a box the ray touches).  The packets'
+ * bvh16_ray_fused uses the same three constants. */
+#define BVH_FUSED_REL 0x1p-22f  /* the slack per unit of |p| */
+#define BVH_FUSED_ABS 0x1p-120f /* ... and for underflow */
+#define BVH_FUSED_MAX 1e37f     /* |p| from which the unfused test is taken */
 static inline void bvh_ray_fused(struct bvh_ray *br) {
     br->fused = true;
     for (int k = 0; k < 3; k++) {
-        float p = br->org[k] * br->inv[k], slack = fabsf(p) * 0x1p-22f + 0x1p-120f;
+        float p = br->org[k] * br->inv[k], slack = fabsf(p) * BVH_FUSED_REL + BVH_FUSED_ABS;
         br->oi_hi[k] = p + slack;
         br->oi_lo[k] = p - slack;
-        br->fused &= fabsf(p) < 1e37f;
+        br->fused &= fabsf(p) < BVH_FUSED_MAX;
         br->near8[k] = (uint32_t)(br->neg[k] ? BVH_NODE_HI(8, k) : BVH_NODE_LO(8, k));
         br->far8[k] = (uint32_t)(br->neg[k] ? BVH_NODE_LO(8, k) : BVH_NODE_HI(8, k));
     }

@@ -92,11 +92,11 @@ CPU_AVX512_FN void bvh16_ray_fused(struct bvh16_ray *p) {
     __mmask16 finite = 0xffff;
     for (int k = 0; k < 3; k++) {
         __m512 oi = _mm512_mul_ps(p->org[k], p->inv[k]), a = _mm512_abs_ps(oi);
-        __m512 slack =
-            _mm512_add_ps(_mm512_mul_ps(a, _mm512_set1_ps(0x1p-22f)), _mm512_set1_ps(0x1p-120f));
+        __m512 slack = _mm512_add_ps(_mm512_mul_ps(a, _mm512_set1_ps(BVH_FUSED_REL)),
+                                     _mm512_set1_ps(BVH_FUSED_ABS));
         p->oi_hi[k] = _mm512_add_ps(oi, slack);
         p->oi_lo[k] = _mm512_sub_ps(oi, slack);
-        finite &= _mm512_cmp_ps_mask(a, _mm512_set1_ps(1e37f), _CMP_LT_OQ);
+        finite &= _mm512_cmp_ps_mask(a, _mm512_set1_ps(BVH_FUSED_MAX), _CMP_LT_OQ);
     }
     p->fused = finite == 0xffff;
 }
