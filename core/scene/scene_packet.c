@@ -79,10 +79,11 @@ static struct nearest lane_nearest(struct scene16 *q, int i) {
     return (struct nearest){q->s, NULL, &lane_rays(q)[i], &q->h[i], q->base, q->rank0, q->best[i]};
 }
 
-/* After the one-ray code took a hit for ray i (c.best changed): it is in h. */
-static void lane_taken(struct scene16 *q, int i, const struct nearest *c) {
-    if (c->best == q->best[i]) return;
-    q->best[i] = c->best;
+/* After a hit of rank best was taken for ray i into h (a new best): its
+ * hit is no longer the one kept in leaf and tmax. */
+static void lane_taken(struct scene16 *q, int i, long best) {
+    if (best == q->best[i]) return;
+    q->best[i] = best;
     q->kept &= ~(1u << i);
 }
 
@@ -288,9 +289,7 @@ CPU_AVX512_FN void mesh_nearest16(struct scene16 *q, const struct object *o, uin
         if (!object_mesh_hit(o, NULL, &mh[i], 1, &bound[i], &h) || bound[i] > q->tmax[i]) continue;
         q->tmax[i] = bound[i];
         q->h[i] = h;
-        if (q->best[i] == rank) continue;
-        q->best[i] = rank;
-        q->kept &= ~(1u << i);
+        lane_taken(q, i, rank);
     }
 }
 
@@ -306,7 +305,7 @@ CPU_AVX512_FN void visit_nearest16(struct scene16 *q, const struct object *o, ui
             int i = __builtin_ctz(odd);
             struct nearest c = lane_nearest(q, i);
             nearest_visit(&c, o, &q->tmax[i]);
-            lane_taken(q, i, &c);
+            lane_taken(q, i, c.best);
         }
         simple_take16(q, o, rank, t, hit); /* t < bound already: object_hit's tail */
         return;
@@ -320,7 +319,7 @@ CPU_AVX512_FN void visit_nearest16(struct scene16 *q, const struct object *o, ui
             int i = __builtin_ctz(lanes);
             struct nearest c = lane_nearest(q, i);
             nearest_visit(&c, o, &q->tmax[i]);
-            lane_taken(q, i, &c);
+            lane_taken(q, i, c.best);
         }
         return;
     }
@@ -343,7 +342,7 @@ CPU_AVX512_FN void visit_nearest16(struct scene16 *q, const struct object *o, ui
         if (!object_mesh_hit(o, NULL, &mh[i], scale[i], &bound[i], &h)) continue;
         struct nearest c = lane_nearest(q, i);
         nearest_take(&c, o, bound[i], &h, &q->tmax[i]);
-        lane_taken(q, i, &c);
+        lane_taken(q, i, c.best);
     }
 }
 
