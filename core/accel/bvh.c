@@ -488,6 +488,7 @@ static void build_node(struct build *b, uint32_t self, uint32_t first, uint32_t 
         nd->a = first;
         nd->b = n;
         nd->wide = 0;
+        nd->size = (uint8_t)n;
         return;
     }
     bool parallel = threads > 1 && n >= PARALLEL_MIN;
@@ -496,6 +497,7 @@ static void build_node(struct build *b, uint32_t self, uint32_t first, uint32_t 
     nd->leaf = false;
     nd->a = left;
     nd->b = left + 1;
+    nd->size = n > 255 ? 255 : (uint8_t)n;
     if (parallel) {
         /* threads counts subtrees still to hand out: four per thread asked
          * for, so that an uneven split leaves no core idle for long */

@@ -49,7 +49,8 @@ struct bvh4 {
     struct bbox bounds;
 };
 
-/* The same layout eight children wide, for meshes: a node of W children
+/* The same layout eight children wide, for meshes (a leaf's count up to
+ * BVH8_LEAF_MAX): a node of W children
  * is lo[3][W], hi[3][W], child[W], count[W], padded to 32 W bytes, so one
  * writer (bvh_collapse.c) and one packet walk (bvh16.h) serve both.  Byte
  * offsets in such a node: axis k's lower and upper planes, the child
@@ -75,6 +76,10 @@ struct bvh8 {
 #define BVH_NODE_COUNT(w) ((size_t)(28 * (w)))
 
 #define BVH_MAX_LEAF 4
+/* A leaf of an 8-wide node holds up to this many primitives: the builder's
+ * leaves hold at most BVH_MAX_LEAF, but its small subtrees become one leaf
+ * (bvh_collapse.h), which a mesh stores as two blocks of four. */
+#define BVH8_LEAF_MAX 8
 /* Traversal stack entries: a wide level pushes at most width - 1, and the
  * binary tree is at most 48 + 32 levels deep (bvh.c): 3 x 80 for 4-wide
  * nodes, 7 x 80 for 8-wide ones. */
@@ -131,16 +136,26 @@ struct bbox bbox_from(vec3 lo, vec3 hi);
 
 /* The per-ray data the node test needs, in float. */
 struct bvh_ray {
-    float org[3];
-    float inv[3]; /* 1 / direction, with zero components nudged to tiny */
-    int neg[3];   /* direction component < 0: swap near and far planes */
+    /* x, y, z and a fourth lane that only the SSE set-up writes: its
+     * whole-register stores are ones the walk's loads can forward from */
+    float org[4];
+    float inv[4]; /* 1 / direction, with zero components nudged to tiny */
     /* For the fused test of 8-wide nodes (bvh8_test_avx512): org * inv
      * bounded above and below, the byte offsets in a node of each axis's
      * near and far planes, and whether every org * inv is finite. */
-    float oi_hi[3], oi_lo[3];
+    float oi_hi[4], oi_lo[4];
+    int neg[3]; /* direction component < 0: swap near and far planes */
     uint32_t near8[3], far8[3];
     bool fused;
 };
+
+/* The near and far plane offsets of bvh_ray_fused from neg. */
+static inline void bvh_ray_planes(struct bvh_ray *br) {
+    for (int k = 0; k < 3; k++) {
+        br->near8[k] = (uint32_t)(br->neg[k] ? BVH_NODE_HI(8, k) : BVH_NODE_LO(8, k));
+        br->far8[k] = (uint32_t)(br->neg[k] ? BVH_NODE_LO(8, k) : BVH_NODE_HI(8, k));
+    }
+}
 
 /* The fused test's fields from org, inv and neg.  The product org * inv
  * is rounded to nearest, so it is within |p| 2^-23 of the float p; p moved
@@ -159,13 +174,48 @@ static inline void bvh_ray_fused(struct bvh_ray *br) {
         br->oi_hi[k] = p + slack;
         br->oi_lo[k] = p - slack;
         br->fused &= fabsf(p) < BVH_FUSED_MAX;
-        br->near8[k] = (uint32_t)(br->neg[k] ? BVH_NODE_HI(8, k) : BVH_NODE_LO(8, k));
-        br->far8[k] = (uint32_t)(br->neg[k] ? BVH_NODE_LO(8, k) : BVH_NODE_HI(8, k));
     }
+    bvh_ray_planes(br);
 }
 
-static inline void bvh_ray_init(struct bvh_ray *br, vec3 o, vec3 d) {
-    double dd[3] = {d.x, d.y, d.z}, oo[3] = {o.x, o.y, o.z};
+#ifdef BVH_SSE
+/* The ray's three components in one register, in float (lane 3: pad).
+ * Each double is read on its own: a ray just written component by
+ * component cannot be forwarded to a 16-byte load, which would wait for
+ * the stores to reach the cache. */
+static inline __m128 bvh_float3(const vec3 *v, float pad) {
+    return _mm_set_ps(pad, (float)v->z, (float)v->y, (float)v->x);
+}
+#endif
+
+/* The ray (o, d) for the node tests: in float, 1 / d with components
+ * below 1e-30 nudged to +-1e-30, the signs of d; with fused, also
+ * bvh_ray_fused's fields.  The SSE code computes the same bits as the
+ * scalar loop (the same correctly rounded operations, lane by lane) in a
+ * few instructions and one division: every ray pays this set-up, and
+ * most of a miss's time is spent here. */
+static inline void bvh_ray_init_with(struct bvh_ray *br, const vec3 *o, const vec3 *d, bool fused) {
+#ifdef BVH_SSE
+    __m128 sign = _mm_set1_ps(-0.0f), tiny = _mm_set1_ps(1e-30f);
+    __m128 org = bvh_float3(o, 0), c = bvh_float3(d, 1);
+    __m128 small = _mm_cmplt_ps(_mm_andnot_ps(sign, c), tiny);
+    c = _mm_or_ps(_mm_andnot_ps(small, c), _mm_and_ps(small, _mm_or_ps(_mm_and_ps(c, sign), tiny)));
+    __m128 inv = _mm_div_ps(_mm_set1_ps(1.0f), c);
+    _mm_storeu_ps(br->org, org);
+    _mm_storeu_ps(br->inv, inv);
+    int neg = _mm_movemask_ps(_mm_cmplt_ps(c, _mm_setzero_ps()));
+    for (int k = 0; k < 3; k++) br->neg[k] = neg >> k & 1;
+    br->fused = false;
+    if (!fused) return;
+    __m128 p = _mm_mul_ps(org, inv), a = _mm_andnot_ps(sign, p);
+    __m128 slack =
+        _mm_add_ps(_mm_mul_ps(a, _mm_set1_ps(BVH_FUSED_REL)), _mm_set1_ps(BVH_FUSED_ABS));
+    _mm_storeu_ps(br->oi_hi, _mm_add_ps(p, slack));
+    _mm_storeu_ps(br->oi_lo, _mm_sub_ps(p, slack));
+    br->fused = (_mm_movemask_ps(_mm_cmplt_ps(a, _mm_set1_ps(BVH_FUSED_MAX))) & 7) == 7;
+    bvh_ray_planes(br);
+#else
+    double dd[3] = {d->x, d->y, d->z}, oo[3] = {o->x, o->y, o->z};
     for (int k = 0; k < 3; k++) {
         float c = (float)dd[k]; /* in float: 16 rays of a packet divide at once */
         c = fabsf(c) < 1e-30f ? copysignf(1e-30f, c) : c;
@@ -173,7 +223,15 @@ static inline void bvh_ray_init(struct bvh_ray *br, vec3 o, vec3 d) {
         br->inv[k] = 1.0f / c;
         br->neg[k] = c < 0;
     }
-    br->fused = false; /* bvh_ray_fused, where the fused test runs */
+    br->fused = false;
+    if (fused) bvh_ray_fused(br);
+#endif
+}
+
+/* The ray's fields for the tests of bvh_test_rows (bvh_ray_fused adds
+ * the fused test's). */
+static inline void bvh_ray_init(struct bvh_ray *br, vec3 o, vec3 d) {
+    bvh_ray_init_with(br, &o, &d, false);
 }
 
 /* Tests the ray against four boxes for t in [tmin, tmax]: lo and hi point

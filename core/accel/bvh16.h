@@ -260,8 +260,8 @@ CPU_AVX512_INLINE bool bvh16_descend(const char *nodes, int width, const char *l
         const char *next = !count[c] ? nodes + node_size * child[c]
                            : leaves  ? leaves + leaf_size * child[c]
                                      : NULL;
-        for (size_t at = 0; next && at < (count[c] ? leaf_size : node_size); at += 64)
-            _mm_prefetch(next + at, _MM_HINT_T0);
+        size_t size = count[c] ? leaf_size * (size_t)((count[c] + 3) / 4) : node_size;
+        for (size_t at = 0; next && at < size; at += 64) _mm_prefetch(next + at, _MM_HINT_T0);
         struct bvh16_entry *e = j == n - 1 ? cur : &stack[(*sp)++];
         e->tnear = tn[c];
         e->node = child[c];
@@ -294,8 +294,9 @@ CPU_AVX512_INLINE bool bvh16_descend(const char *nodes, int width, const char *l
  * BVH16_LONE_MAX rays still need, and walks it ray by ray.  A stopped
  * meter ends the walk with what it found so far (the render is thrown
  * away).
- * leaves (records of leaf_size bytes, a leaf's first index into them) is
- * only prefetched from; NULL when the leaves are not such an array. */
+ * leaves (records of leaf_size bytes of up to four primitives each, a
+ * leaf's first index into them) is only prefetched from; NULL when the
+ * leaves are not such an array. */
 CPU_AVX512_INLINE __mmask16 bvh16_walk(const void *nodes, int width, const char *leaves,
                                        size_t leaf_size, const struct bvh16_ray *r, __m512 *tm,
                                        __mmask16 lanes, bvh16_leaf_fn leaf, bvh16_leaf_fn lone,

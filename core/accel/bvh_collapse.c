@@ -30,7 +30,7 @@ static int collapse_kids(const struct bnode *bn, uint32_t bi, int width, uint32_
         float area = -1;
         for (int i = 0; i < nk; i++) {
             const struct bnode *k = &bn[kids[i]];
-            if (!k->leaf && bb_area(&k->box) > area) {
+            if (!k->leaf && bb_area(&k->box) > area) { /* small subtrees too, while room */
                 area = bb_area(&k->box);
                 best = i;
             }
@@ -46,7 +46,7 @@ static int collapse_kids(const struct bnode *bn, uint32_t bi, int width, uint32_
 uint32_t bvh_wide_count(const struct bnode *bn, uint32_t bi, int width) {
     uint32_t kids[8], w = 1;
     int nk = collapse_kids(bn, bi, width, kids);
-    for (int i = 0; i < nk; i++) w += bn[kids[i]].wide;
+    for (int i = 0; i < nk; i++) w += bnode_wide_leaf(&bn[kids[i]], width) ? 0 : bn[kids[i]].wide;
     return w;
 }
 
@@ -68,6 +68,12 @@ _Static_assert(sizeof(struct bvh8_node) == BVH_NODE_SIZE(8) &&
                    offsetof(struct bvh8_node, count) == BVH_NODE_COUNT(8),
                "bvh8_node layout");
 
+/* The first primitive of binary node bi's range: its leftmost leaf's. */
+static uint32_t bnode_first(const struct bnode *bn, uint32_t bi) {
+    while (!bn[bi].leaf) bi = bn[bi].a;
+    return bn[bi].a;
+}
+
 /* Writes wide node self: child i the binary node kids[i] (i < nk; the
  * other slots empty boxes), its child index or leaf range from slot[i]. */
 static void put_node(const struct collapse *c, uint32_t self, const uint32_t *kids, int nk,
@@ -82,8 +88,9 @@ static void put_node(const struct collapse *c, uint32_t self, const uint32_t *ki
         for (int k = 0; k < 3; k++) box[k][i] = b.lo[k], box[3 + k][i] = b.hi[k];
         if (i >= nk) continue;
         const struct bnode *k = &c->bn[kids[i]];
-        child[i] = k->leaf ? k->a : slot[i];
-        count[i] = k->leaf ? (uint8_t)k->b : 0;
+        bool leaf = bnode_wide_leaf(k, w);
+        child[i] = leaf ? bnode_first(c->bn, kids[i]) : slot[i];
+        count[i] = leaf ? k->size : 0;
     }
     memset(at, 0, BVH_NODE_SIZE(w));
     for (int k = 0; k < 3; k++) {
@@ -117,7 +124,7 @@ static void collapse_node(const struct collapse *c, uint32_t bi, uint32_t self, 
     int nk = collapse_kids(c->bn, bi, c->width, kids);
     for (int i = 0; i < nk; i++) {
         slot[i] = next;
-        next += c->bn[kids[i]].wide;
+        next += bnode_wide_leaf(&c->bn[kids[i]], c->width) ? 0 : c->bn[kids[i]].wide;
     }
     put_node(c, self, kids, nk, slot);
     struct collapse_task t[8];
@@ -125,7 +132,7 @@ static void collapse_node(const struct collapse *c, uint32_t bi, uint32_t self, 
     bool started[8] = {false};
     for (int i = 0; i < nk; i++) {
         const struct bnode *k = &c->bn[kids[i]];
-        if (k->leaf) continue;
+        if (bnode_wide_leaf(k, c->width)) continue;
         t[i] = (struct collapse_task){c, kids[i], slot[i], tasks / nk};
         if (tasks > 1 && k->wide >= COLLAPSE_MIN)
             started[i] = pthread_create(&th[i], NULL, collapse_run, &t[i]) == 0;

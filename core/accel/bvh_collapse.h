@@ -16,7 +16,18 @@ struct bnode {
     uint32_t a, b; /* inner: left and right node; leaf: first, count */
     uint32_t wide; /* wide nodes its subtree collapses to (0 for a leaf) */
     bool leaf;
+    uint8_t size; /* primitives in its subtree, at most 255 */
 };
+
+/* Whether binary node k becomes a leaf of a width-wide node: a leaf, or
+ * in 8-wide trees (a mesh's) a subtree of at most BVH8_LEAF_MAX
+ * triangles, whose range of primitives is contiguous (the builder splits
+ * ranges).  Two blocks of four tested at once cost a ray about what one
+ * does, where the inner node they would otherwise be costs a node test
+ * and its four cache lines. */
+static inline bool bnode_wide_leaf(const struct bnode *k, int width) {
+    return k->leaf || (width == 8 && k->size <= BVH8_LEAF_MAX);
+}
 
 static inline struct bbox bb_empty(void) {
     struct bbox b = {{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};

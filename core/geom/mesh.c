@@ -42,28 +42,28 @@
  * checks that they agree. */
 __attribute__((always_inline)) static inline bool mesh_walk_body(const struct mesh *m, const ray *r,
                                                                  double tmax, struct mesh_hit *h,
-                                                                 bool any, bvh8_test_fn test) {
+                                                                 bool any, bvh8_test_fn test,
+                                                                 tri_leaf_fn leaf) {
     if (m->bvh.nnodes == 0) return false;
     struct bvh_ray br;
     struct tri_ray tr;
-    bvh_ray_init(&br, r->o, r->d);
-    if (test != bvh8_test) bvh_ray_fused(&br); /* the AVX-512 test's fields */
+    bvh_ray_init_with(&br, &r->o, &r->d, test != bvh8_test); /* fused: the AVX-512 test's */
     float tm = any ? tri_tmax_any(tmax) : tri_tmax_nearest(tmax);
     bool found = false;
     struct bvh_entry root = {0, 0, 0};
-    bool met = mesh_walk_from(m, &br, &tr, r, root, &tm, h, &found, any, test);
+    bool met = mesh_walk_from(m, &br, &tr, r, root, &tm, h, &found, any, test, leaf);
     return any ? met : found && (double)h->t < tmax;
 }
 
 static bool mesh_walk_base(const struct mesh *m, const ray *r, double tmax, struct mesh_hit *h,
                            bool any) {
-    return mesh_walk_body(m, r, tmax, h, any, bvh8_test);
+    return mesh_walk_body(m, r, tmax, h, any, bvh8_test, tri_leaf);
 }
 
 #ifdef CPU_AVX512
 CPU_AVX512_EXTERN static bool mesh_walk_avx512(const struct mesh *m, const ray *r, double tmax,
                                                struct mesh_hit *h, bool any) {
-    return mesh_walk_body(m, r, tmax, h, any, bvh8_test_avx512);
+    return mesh_walk_body(m, r, tmax, h, any, bvh8_test_avx512, tri_leaf_avx512);
 }
 #endif
 
@@ -220,8 +220,9 @@ static void block_lane(const struct mesh_job *j, struct tri4 *b, int lane, uint3
         for (int jj = 0; jj < 3; jj++) b->v[k][jj][lane] = ix ? j->pos[3 * (size_t)ix[k] + jj] : 0;
 }
 
-/* Packs every leaf's triangles into one tri4 block and points the leaf at
- * it; unused lanes are masked off by the count. */
+/* Packs every leaf's triangles into its tri4 blocks, consecutive (one, or
+ * two for a leaf of five to eight), and points the leaf at the first;
+ * unused lanes are masked off by the count. */
 static void blocks_body(void *ctx, size_t lo, size_t hi) {
     struct mesh_job *j = ctx;
     struct mesh *m = j->m;
@@ -229,18 +230,23 @@ static void blocks_body(void *ctx, size_t lo, size_t hi) {
         struct bvh8_node *nd = &m->bvh.nodes[n];
         uint32_t next = j->first_block[n];
         for (int i = 0; i < 8; i++) {
-            if (!nd->count[i]) continue;
-            struct tri4 *b = &m->blocks[next];
-            for (int lane = 0; lane < 4; lane++)
-                block_lane(j, b, lane,
-                           lane < nd->count[i] ? nd->child[i] + (uint32_t)lane : UINT32_MAX);
-            nd->child[i] = next++;
+            int count = nd->count[i];
+            for (int at = 0; at < count; at += 4) {
+                struct tri4 *b = &m->blocks[next + (uint32_t)at / 4];
+                for (int lane = 0; lane < 4; lane++)
+                    block_lane(j, b, lane,
+                               at + lane < count ? nd->child[i] + (uint32_t)(at + lane)
+                                                 : UINT32_MAX);
+            }
+            if (!count) continue;
+            nd->child[i] = next;
+            next += (uint32_t)mesh_leaf_blocks(count);
         }
     }
 }
 
-/* Numbers the leaves in node order (a prefix sum over the nodes), then
- * fills the blocks on every thread. */
+/* Numbers the leaves' blocks in node order (a prefix sum over the
+ * nodes), then fills the blocks on every thread. */
 static enum rayd_status make_blocks(struct mesh *m, const uint32_t *index, const uint32_t *order,
                                     int threads, struct rayd_error *err) {
     uint32_t leaves = 0, nn = m->bvh.nnodes;
@@ -248,7 +254,7 @@ static enum rayd_status make_blocks(struct mesh *m, const uint32_t *index, const
     if (!first) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for mesh leaves");
     for (uint32_t n = 0; n < nn; n++) {
         first[n] = leaves;
-        for (int i = 0; i < 8; i++) leaves += m->bvh.nodes[n].count[i] > 0;
+        for (int i = 0; i < 8; i++) leaves += (uint32_t)mesh_leaf_blocks(m->bvh.nodes[n].count[i]);
     }
     m->blocks = huge_alloc(sizeof *m->blocks * (leaves ? leaves : 1));
     if (!m->blocks) {

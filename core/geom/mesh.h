@@ -15,8 +15,12 @@ struct tri4 {
     uint32_t id[4];
 };
 
+/* The blocks of a leaf of count triangles (0 for an inner node's count):
+ * one for up to four, two for up to BVH8_LEAF_MAX, consecutive. */
+static inline int mesh_leaf_blocks(int count) { return (count + 3) / 4; }
+
 struct mesh {
-    struct tri4 *blocks; /* the BVH's leaves point here, one block a leaf */
+    struct tri4 *blocks; /* the BVH's leaves point here, one or two blocks a leaf */
     uint32_t nblocks;
     /* Vertex data, kept only for smooth normals and texture coordinates:
      * a flat mesh without uvs needs nothing but its blocks (pos and index

@@ -120,13 +120,13 @@ CPU_AVX512_FN __mmask16 leaf_nearest(void *ctx, uint32_t first, uint32_t count, 
                                      __m512 *tm) {
     struct mesh16 *q = ctx;
     const struct tri4 *b = &q->m->blocks[first];
-    __m512 T[4], U[4], V[4];
-    __mmask16 ok[4];
+    __m512 T[BVH8_LEAF_MAX], U[BVH8_LEAF_MAX], V[BVH8_LEAF_MAX];
+    __mmask16 ok[BVH8_LEAF_MAX];
     for (uint32_t j = 0; j < count; j++)
-        ok[j] = tri16(q, b, (int)j, lanes, *tm, &T[j], &U[j], &V[j]);
+        ok[j] = tri16(q, &b[j / 4], (int)(j % 4), lanes, *tm, &T[j], &U[j], &V[j]);
     for (uint32_t j = 0; j < count; j++) {
         if (!ok[j]) continue;
-        __m512i id = _mm512_set1_epi32((int)b->id[j]);
+        __m512i id = _mm512_set1_epi32((int)b[j / 4].id[j % 4]);
         __mmask16 tie = _mm512_mask_cmp_ps_mask(q->found, T[j], *tm, _CMP_EQ_OQ) &
                         _mm512_cmp_epu32_mask(id, q->id, _MM_CMPINT_NLT);
         __mmask16 take = ok[j] & (__mmask16) ~(_mm512_cmp_ps_mask(T[j], *tm, _CMP_GT_OQ) | tie);
@@ -135,8 +135,8 @@ CPU_AVX512_FN __mmask16 leaf_nearest(void *ctx, uint32_t first, uint32_t count, 
         q->u = _mm512_mask_mov_ps(q->u, take, U[j]);
         q->v = _mm512_mask_mov_ps(q->v, take, V[j]);
         q->id = _mm512_mask_mov_epi32(q->id, take, id);
-        q->blk = _mm512_mask_mov_epi32(q->blk, take, _mm512_set1_epi32((int)first));
-        q->lane = _mm512_mask_mov_epi32(q->lane, take, _mm512_set1_epi32((int)j));
+        q->blk = _mm512_mask_mov_epi32(q->blk, take, _mm512_set1_epi32((int)(first + j / 4)));
+        q->lane = _mm512_mask_mov_epi32(q->lane, take, _mm512_set1_epi32((int)(j % 4)));
         q->found |= take;
     }
     return 0;
@@ -150,7 +150,7 @@ CPU_AVX512_FN __mmask16 leaf_any(void *ctx, uint32_t first, uint32_t count, __mm
     __mmask16 hit = 0;
     for (uint32_t j = 0; j < count && hit != lanes; j++) {
         __m512 t = _mm512_setzero_ps(), u = t, v = t; /* unused here */
-        hit |= tri16(q, b, (int)j, lanes & (__mmask16)~hit, *tm, &t, &u, &v);
+        hit |= tri16(q, &b[j / 4], (int)(j % 4), lanes & (__mmask16)~hit, *tm, &t, &u, &v);
     }
     return hit;
 }
@@ -210,8 +210,8 @@ CPU_AVX512_FN __mmask16 lone_nearest(void *ctx, uint32_t node, uint32_t count, _
         lane_ray(q, &l, i, &br, &tr);
         struct mesh_hit h = {t[i], u[i], v[i], id[i], blk[i], lane[i]};
         bool found = q->found >> i & 1;
-        if (!mesh_walk_from(q->m, &br, &tr, NULL, e, &bound[i], &h, &found, false,
-                            bvh8_test_avx512))
+        if (!mesh_walk_from(q->m, &br, &tr, NULL, e, &bound[i], &h, &found, false, bvh8_test_avx512,
+                            tri_leaf_avx512))
             continue;
         __mmask16 bit = (__mmask16)(1u << i);
         *tm = _mm512_mask_mov_ps(*tm, bit, _mm512_set1_ps(bound[i]));
@@ -244,7 +244,8 @@ CPU_AVX512_FN __mmask16 lone_any(void *ctx, uint32_t node, uint32_t count, __mma
         lane_ray(q, &l, i, &br, &tr);
         struct mesh_hit h;
         bool found = false;
-        if (mesh_walk_from(q->m, &br, &tr, NULL, e, &bound[i], &h, &found, true, bvh8_test_avx512))
+        if (mesh_walk_from(q->m, &br, &tr, NULL, e, &bound[i], &h, &found, true, bvh8_test_avx512,
+                           tri_leaf_avx512))
             hit |= (__mmask16)(1u << i);
     }
     return hit;

@@ -93,8 +93,8 @@ static double bbox_area(const struct bbox *b) {
 
 static double object_tests(struct cost_walk *w, const struct object *o, int depth);
 
-/* The leaf's primitives, for a BVH over objects (objs) or a mesh (NULL: one
- * 4-triangle block a leaf). */
+/* The leaf's primitives, for a BVH over objects (objs) or a mesh (NULL: a
+ * leaf's one or two 4-triangle blocks, tested at once). */
 static double leaf_tests(struct cost_walk *w, const struct object *objs, uint32_t first, int count,
                          int depth) {
     if (!objs) return 1;

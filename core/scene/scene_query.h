@@ -51,11 +51,14 @@ bool nearest_visit(void *ctx, const struct object *o, double *tmax);
 /* The ray in object o's space; *scale converts distances: t_obj = t * scale. */
 ray object_ray_xform(const rayd_scene *s, const struct object *o, const ray *r, double *scale);
 
-static inline ray object_ray(const rayd_scene *s, const struct object *o, const ray *r,
-                             double *scale) {
-    if (o->xform >= 0) return object_ray_xform(s, o, r, scale);
+static inline const ray *object_ray(const rayd_scene *s, const struct object *o, const ray *r,
+                                    ray *buf, double *scale) {
+    if (o->xform >= 0) {
+        *buf = object_ray_xform(s, o, r, scale);
+        return buf;
+    }
     *scale = 1;
-    return *r;
+    return r;
 }
 
 /* The bound to search a transformed object's own space up to, for the
