@@ -609,6 +609,55 @@ static void test_bvh_same_for_any_thread_count(void) {
     free(index);
 }
 
+/* Triangles under node n of m (a leaf's count, an inner node's sum). */
+static uint32_t subtree_tris(const struct mesh *m, uint32_t n) {
+    uint32_t t = 0;
+    const struct bvh8_node *nd = &m->bvh.nodes[n];
+    for (int i = 0; i < 8; i++) {
+        if (!(nd->lo[0][i] <= nd->hi[0][i])) continue; /* an empty slot */
+        t += nd->count[i] ? nd->count[i] : subtree_tris(m, nd->child[i]);
+    }
+    return t;
+}
+
+/* A subtree of at most BVH8_LEAF_MAX triangles is one leaf of two blocks
+ * (bvh_collapse.h), not an inner node: no node below the root holds so
+ * few, every leaf at most that many, its blocks consecutive with its
+ * triangles in their first lanes, and every triangle in one lane. */
+static void test_small_subtrees_are_leaves(void) {
+    const uint32_t n = 20000;
+    float *pos;
+    uint32_t *index;
+    soup(n, &pos, &index);
+    struct mesh m;
+    CHECK(mesh_build(&m, pos, 3 * n, index, n, NULL, NULL, false, 2, NULL) == RAYD_OK, "mesh");
+    uint32_t small = 0, big = 0, bad_lanes = 0, two = 0;
+    uint8_t *seen = calloc(n, 1);
+    for (uint32_t k = 0; k < m.bvh.nnodes; k++) {
+        small += k > 0 && subtree_tris(&m, k) <= BVH8_LEAF_MAX;
+        const struct bvh8_node *nd = &m.bvh.nodes[k];
+        for (int i = 0; i < 8; i++) {
+            int c = nd->count[i];
+            big += c > BVH8_LEAF_MAX;
+            two += c > 4;
+            for (int j = 0; j < 4 * mesh_leaf_blocks(c); j++) {
+                uint32_t id = m.blocks[nd->child[i] + (uint32_t)j / 4].id[j % 4];
+                if (j < c && id < n) seen[id]++;
+                bad_lanes += j < c ? id >= n : id != UINT32_MAX;
+            }
+        }
+    }
+    uint32_t once = 0;
+    for (uint32_t t = 0; t < n; t++) once += seen[t] == 1;
+    CHECK(small == 0 && big == 0, "%u inner nodes of at most %d triangles, %u leaves over", small,
+          BVH8_LEAF_MAX, big);
+    CHECK(two > 0, "no leaf of two blocks");
+    CHECK(bad_lanes == 0 && once == n, "%u bad lanes, %u of %u triangles in one lane", bad_lanes,
+          once, n);
+    free(seen);
+    mesh_free(&m);
+}
+
 /* The mesh's triangles' boxes go straight into the builder
  * (bvh8_build_from), its blocks and its index in leaf order are read
  * through the order: the same tree as bvh_build over the boxes, each
@@ -844,6 +893,7 @@ static void test_node_tests_are_conservative(void) {
 
 int main(void) {
     RUN(test_mesh_tree_is_bvh_of_boxes);
+    RUN(test_small_subtrees_are_leaves);
     RUN(test_mesh_build_same_for_any_thread_count);
     RUN(test_bvh_same_for_any_thread_count);
     RUN(test_bvh_equals_brute_force);
