@@ -30,9 +30,10 @@
  * which the unit tests check.
  *
  * Then bvh_collapse.c turns the binary tree into the wide nodes the walks
- * read; each binary node counts, as it is built, the wide nodes its
- * subtree becomes (bvh_wide_count), so the collapse can place subtrees
- * before writing them.  The binary tree is freed; only the wide one is
+ * read (in an 8-wide tree, a subtree of at most BVH8_LEAF_MAX triangles
+ * left whole becomes one leaf); each binary node counts, as it is built,
+ * the wide nodes its subtree becomes (bvh_wide_count), so the collapse
+ * can place subtrees before writing them.  The binary tree is freed; only the wide one is
  * kept (bytes per primitive are what the benchmark reports).
  *
  * Memory is part of the cost: the first touch of a page the kernel has not

@@ -229,9 +229,19 @@ static inline void bvh_ray_init_with(struct bvh_ray *br, const vec3 *o, const ve
 }
 
 /* The ray's fields for the tests of bvh_test_rows (bvh_ray_fused adds
- * the fused test's). */
+ * the fused test's), one axis at a time: the top level's walks, which
+ * set up a ray for every instance they enter, lose by the SSE set-up's
+ * shuffles what a mesh's walk gains. */
 static inline void bvh_ray_init(struct bvh_ray *br, vec3 o, vec3 d) {
-    bvh_ray_init_with(br, &o, &d, false);
+    double dd[3] = {d.x, d.y, d.z}, oo[3] = {o.x, o.y, o.z};
+    for (int k = 0; k < 3; k++) {
+        float c = (float)dd[k]; /* in float: 16 rays of a packet divide at once */
+        c = fabsf(c) < 1e-30f ? copysignf(1e-30f, c) : c;
+        br->org[k] = (float)oo[k];
+        br->inv[k] = 1.0f / c;
+        br->neg[k] = c < 0;
+    }
+    br->fused = false; /* bvh_ray_fused, where the fused test runs */
 }
 
 /* Tests the ray against four boxes for t in [tmin, tmax]: lo and hi point

@@ -2,7 +2,9 @@
  * (the scene's objects) or 8 (a mesh's triangles) children a node.
  *
  * Each wide node takes the binary node's two children and keeps opening
- * the inner child with the largest area until it has its width.  Wide
+ * the inner child with the largest area until it has its width; an inner
+ * child of an 8-wide node left with at most BVH8_LEAF_MAX triangles is
+ * then a leaf (bnode_wide_leaf), not a node of its own.  Wide
  * nodes are laid out depth-first in one array, in float, the child boxes
  * side by side for the SIMD tests.  Each binary node counts, as the
  * builder makes it (bvh_wide_count), the wide nodes its subtree becomes,

@@ -95,10 +95,9 @@ static int csg_collect(const rayd_scene *s, const struct object *o, const ray *r
         return csg_collect(s, &s->parts[o->u.csg.right], r, out, n, cap);
     }
     double scale;
-    ray buf;
-    const ray *lr = object_ray(s, o, r, &buf, &scale);
+    ray lr = object_ray(s, o, r, &scale);
     struct xing x[SHAPE_MAX_XINGS];
-    int k = shape_ops[o->kind]->crossings(o, lr, x);
+    int k = shape_ops[o->kind]->crossings(o, &lr, x);
     for (int i = 0; i < k; i++, n++)
         if (n < cap) out[n] = (struct cx){x[i].t / scale, o, x[i].part};
     return n;
@@ -188,23 +187,30 @@ static bool world_take(double t_obj, double scale, double *tmax) {
 }
 
 /* Nearest hit of one object closer than *tmax: updates *tmax and h. */
+/* object_hit of a mesh. */
+__attribute__((always_inline)) static inline bool
+mesh_object_hit(const rayd_scene *s, const struct object *o, const struct xform *outer,
+                const ray *r, double *tmax, struct hit *h) {
+    double scale;
+    ray buf;
+    const ray *lr = object_ray_at(s, o, r, &buf, &scale);
+    double lmax = object_space_bound(*tmax, scale);
+    struct mesh_hit mh;
+    const struct mesh *m = &s->meshes[o->u.mesh.id];
+    bool hit = s->brute ? mesh_intersect_brute(m, lr, lmax, &mh) : mesh_intersect(m, lr, lmax, &mh);
+    return hit && object_mesh_hit(o, outer, &mh, scale, tmax, h);
+}
+
 __attribute__((always_inline)) static inline bool
 object_hit(const rayd_scene *s, const struct object *o, const struct xform *outer, const ray *r,
            double *tmax, struct hit *h) {
+    if (o->kind == SHAPE_MESH) return mesh_object_hit(s, o, outer, r, tmax, h);
     double scale, t;
-    ray buf;
-    const ray *lr = object_ray(s, o, r, &buf, &scale);
+    ray lr = object_ray(s, o, r, &scale); /* by value: the shapes' tests keep it in registers */
     double lmax = object_space_bound(*tmax, scale);
     switch (o->kind) {
-    case SHAPE_MESH: {
-        struct mesh_hit mh;
-        const struct mesh *m = &s->meshes[o->u.mesh.id];
-        bool hit =
-            s->brute ? mesh_intersect_brute(m, lr, lmax, &mh) : mesh_intersect(m, lr, lmax, &mh);
-        return hit && object_mesh_hit(o, outer, &mh, scale, tmax, h);
-    }
     case SHAPE_CSG:
-        if (!csg_hit(s, o, lr, &lmax, h) || !world_take(lmax, scale, tmax)) return false;
+        if (!csg_hit(s, o, &lr, &lmax, h) || !world_take(lmax, scale, tmax)) return false;
         h->t = *tmax;
         h->outer = outer;
         return true;
@@ -213,29 +219,29 @@ object_hit(const rayd_scene *s, const struct object *o, const struct xform *oute
         /* the rays through many instances that overlap walk a BVH each:
          * unbounded but for this look (meter.h) */
         if (!meter_live()) return false;
-        if (!objects_hit(s, g->objs, g->nobjs, &g->bvh, &s->xforms[o->xform], lr, &lmax, h) ||
+        if (!objects_hit(s, g->objs, g->nobjs, &g->bvh, &s->xforms[o->xform], &lr, &lmax, h) ||
             !world_take(lmax, scale, tmax))
             return false;
         h->t = *tmax;
         return true;
     }
     case SHAPE_SPHERE: /* the commonest kinds without the crossing list */
-        if (!sphere_nearest(o, lr, lmax, &t)) return false;
+        if (!sphere_nearest(o, &lr, lmax, &t)) return false;
         h->part = 0;
         break;
     case SHAPE_PLANE:
-        if (!plane_nearest(o, lr, lmax, &t)) return false;
+        if (!plane_nearest(o, &lr, lmax, &t)) return false;
         h->part = 0;
         break;
     case SHAPE_QUAD:
-        if (!quad_nearest(o, lr, lmax, &t)) return false;
+        if (!quad_nearest(o, &lr, lmax, &t)) return false;
         h->part = 0;
         break;
     case SHAPE_BOX:
-        if (!box_nearest(o, lr, lmax, &t, &h->part)) return false;
+        if (!box_nearest(o, &lr, lmax, &t, &h->part)) return false;
         break;
     default:
-        if (!shape_hit(o, lr, 0, lmax, &t, &h->part)) return false;
+        if (!shape_hit(o, &lr, 0, lmax, &t, &h->part)) return false;
     }
     if (!world_take(t, scale, tmax)) return false;
     h->t = *tmax;
@@ -441,7 +447,7 @@ bool object_filter(const rayd_scene *s, const struct object *o, const ray *r, do
     if (o->kind == SHAPE_MESH && !s->brute) {
         double scale;
         ray buf;
-        const ray *lr = object_ray(s, o, r, &buf, &scale);
+        const ray *lr = object_ray_at(s, o, r, &buf, &scale);
         if (!mesh_occluded(&s->meshes[o->u.mesh.id], lr, tmax * scale)) return true;
         return filter_light(s, o->material, trans);
     }
@@ -465,7 +471,7 @@ static bool object_blocks_not(const rayd_scene *s, const struct object *o, const
     bool hit;
     if (o->kind == SHAPE_MESH && !s->brute) {
         ray buf;
-        const ray *lr = object_ray(s, o, r, &buf, &scale);
+        const ray *lr = object_ray_at(s, o, r, &buf, &scale);
         hit = mesh_occluded(&s->meshes[o->u.mesh.id], lr, tmax * scale);
     } else {
         hit = object_hit(s, o, NULL, r, &t, &h);

@@ -51,14 +51,25 @@ bool nearest_visit(void *ctx, const struct object *o, double *tmax);
 /* The ray in object o's space; *scale converts distances: t_obj = t * scale. */
 ray object_ray_xform(const rayd_scene *s, const struct object *o, const ray *r, double *scale);
 
-static inline const ray *object_ray(const rayd_scene *s, const struct object *o, const ray *r,
-                                    ray *buf, double *scale) {
-    if (o->xform >= 0) {
-        *buf = object_ray_xform(s, o, r, scale);
-        return buf;
-    }
+static inline ray object_ray(const rayd_scene *s, const struct object *o, const ray *r,
+                             double *scale) {
+    if (o->xform >= 0) return object_ray_xform(s, o, r, scale);
     *scale = 1;
-    return r;
+    return *r;
+}
+
+/* object_ray for a walk that takes the ray by pointer (a mesh's): r
+ * itself when o is untransformed, else buf filled.  A copy just made
+ * would be read by the walk's first loads while its stores are still in
+ * flight, wider loads than those stores, which cannot be forwarded. */
+static inline const ray *object_ray_at(const rayd_scene *s, const struct object *o, const ray *r,
+                                       ray *buf, double *scale) {
+    if (o->xform < 0) {
+        *scale = 1;
+        return r;
+    }
+    *buf = object_ray_xform(s, o, r, scale);
+    return buf;
 }
 
 /* The bound to search a transformed object's own space up to, for the
