@@ -178,6 +178,21 @@ static inline void bvh_ray_fused(struct bvh_ray *br) {
     bvh_ray_planes(br);
 }
 
+/* The ray's fields for the tests of bvh_test_rows (bvh_ray_fused adds
+ * the fused test's), one axis at a time: the top level's walks' set-up
+ * (bvh_ray_init_with is the mesh walk's, measured there). */
+static inline void bvh_ray_init(struct bvh_ray *br, vec3 o, vec3 d) {
+    double dd[3] = {d.x, d.y, d.z}, oo[3] = {o.x, o.y, o.z};
+    for (int k = 0; k < 3; k++) {
+        float c = (float)dd[k]; /* in float: 16 rays of a packet divide at once */
+        c = fabsf(c) < 1e-30f ? copysignf(1e-30f, c) : c;
+        br->org[k] = (float)oo[k];
+        br->inv[k] = 1.0f / c;
+        br->neg[k] = c < 0;
+    }
+    br->fused = false; /* bvh_ray_fused, where the fused test runs */
+}
+
 #ifdef BVH_SSE
 /* The ray's three components in one register, in float (lane 3: pad).
  * Each double is read on its own: a ray just written component by
@@ -188,12 +203,11 @@ static inline __m128 bvh_float3(const vec3 *v, float pad) {
 }
 #endif
 
-/* The ray (o, d) for the node tests: in float, 1 / d with components
- * below 1e-30 nudged to +-1e-30, the signs of d; with fused, also
- * bvh_ray_fused's fields.  The SSE code computes the same bits as the
- * scalar loop (the same correctly rounded operations, lane by lane) in a
- * few instructions and one division: every ray pays this set-up, and
- * most of a miss's time is spent here. */
+/* bvh_ray_init, then with fused bvh_ray_fused, for a mesh's one-ray walk.
+ * The SSE code gives the same bits (the same correctly rounded
+ * operations, lane by lane) in a few instructions and one division
+ * instead of three: every ray pays this set-up, and a ray that misses
+ * the mesh little else. */
 static inline void bvh_ray_init_with(struct bvh_ray *br, const vec3 *o, const vec3 *d, bool fused) {
 #ifdef BVH_SSE
     __m128 sign = _mm_set1_ps(-0.0f), tiny = _mm_set1_ps(1e-30f);
@@ -215,33 +229,9 @@ static inline void bvh_ray_init_with(struct bvh_ray *br, const vec3 *o, const ve
     br->fused = (_mm_movemask_ps(_mm_cmplt_ps(a, _mm_set1_ps(BVH_FUSED_MAX))) & 7) == 7;
     bvh_ray_planes(br);
 #else
-    double dd[3] = {d->x, d->y, d->z}, oo[3] = {o->x, o->y, o->z};
-    for (int k = 0; k < 3; k++) {
-        float c = (float)dd[k]; /* in float: 16 rays of a packet divide at once */
-        c = fabsf(c) < 1e-30f ? copysignf(1e-30f, c) : c;
-        br->org[k] = (float)oo[k];
-        br->inv[k] = 1.0f / c;
-        br->neg[k] = c < 0;
-    }
-    br->fused = false;
+    bvh_ray_init(br, *o, *d);
     if (fused) bvh_ray_fused(br);
 #endif
-}
-
-/* The ray's fields for the tests of bvh_test_rows (bvh_ray_fused adds
- * the fused test's), one axis at a time: the top level's walks, which
- * set up a ray for every instance they enter, lose by the SSE set-up's
- * shuffles what a mesh's walk gains. */
-static inline void bvh_ray_init(struct bvh_ray *br, vec3 o, vec3 d) {
-    double dd[3] = {d.x, d.y, d.z}, oo[3] = {o.x, o.y, o.z};
-    for (int k = 0; k < 3; k++) {
-        float c = (float)dd[k]; /* in float: 16 rays of a packet divide at once */
-        c = fabsf(c) < 1e-30f ? copysignf(1e-30f, c) : c;
-        br->org[k] = (float)oo[k];
-        br->inv[k] = 1.0f / c;
-        br->neg[k] = c < 0;
-    }
-    br->fused = false; /* bvh_ray_fused, where the fused test runs */
 }
 
 /* Tests the ray against four boxes for t in [tmin, tmax]: lo and hi point
