@@ -42,8 +42,7 @@
  * checks that they agree. */
 __attribute__((always_inline)) static inline bool mesh_walk_body(const struct mesh *m, const ray *r,
                                                                  double tmax, struct mesh_hit *h,
-                                                                 bool any, bvh8_test_fn test,
-                                                                 tri_leaf_fn leaf) {
+                                                                 bool any, bvh8_test_fn test) {
     if (m->bvh.nnodes == 0) return false;
     struct bvh_ray br;
     struct tri_ray tr;
@@ -51,19 +50,19 @@ __attribute__((always_inline)) static inline bool mesh_walk_body(const struct me
     float tm = any ? tri_tmax_any(tmax) : tri_tmax_nearest(tmax);
     bool found = false;
     struct bvh_entry root = {0, 0, 0};
-    bool met = mesh_walk_from(m, &br, &tr, r, root, &tm, h, &found, any, test, leaf);
+    bool met = mesh_walk_from(m, &br, &tr, r, root, &tm, h, &found, any, test);
     return any ? met : found && (double)h->t < tmax;
 }
 
 static bool mesh_walk_base(const struct mesh *m, const ray *r, double tmax, struct mesh_hit *h,
                            bool any) {
-    return mesh_walk_body(m, r, tmax, h, any, bvh8_test, tri_leaf);
+    return mesh_walk_body(m, r, tmax, h, any, bvh8_test);
 }
 
 #ifdef CPU_AVX512
 CPU_AVX512_EXTERN static bool mesh_walk_avx512(const struct mesh *m, const ray *r, double tmax,
                                                struct mesh_hit *h, bool any) {
-    return mesh_walk_body(m, r, tmax, h, any, bvh8_test_avx512, tri_leaf_avx512);
+    return mesh_walk_body(m, r, tmax, h, any, bvh8_test_avx512);
 }
 #endif
 

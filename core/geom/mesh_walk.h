@@ -110,95 +110,26 @@ static inline int tri4_test(const struct tri4 *b, int n, const struct tri_ray *t
 #endif
 }
 
-/* A leaf's test: the count triangles of the leaf at b (one block, or two
- * for five to eight), lane i of the mask and of t, u, v being block
- * i / 4's lane i % 4.  A constant each walk passes, as its node test. */
-typedef int (*tri_leaf_fn)(const struct tri4 *b, int count, const struct tri_ray *tr, float tmax,
-                           float t[8], float u[8], float v[8]);
-
-/* The leaf four lanes at a time. */
+/* A leaf's count triangles (one block, or two for five to eight), lane i
+ * of the mask and of t, u, v being block i / 4's lane i % 4.  Four lanes
+ * at a time: one 8-lane test for a two-block leaf was no faster on
+ * AVX-512 (bench/README.md). */
 static inline int tri_leaf(const struct tri4 *b, int count, const struct tri_ray *tr, float tmax,
-                           float t[8], float u[8], float v[8]) {
+                           float t[BVH8_LEAF_MAX], float u[BVH8_LEAF_MAX], float v[BVH8_LEAF_MAX]) {
     int mask = tri4_test(b, count < 4 ? count : 4, tr, tmax, t, u, v);
     if (count > 4) mask |= tri4_test(b + 1, count - 4, tr, tmax, t + 4, u + 4, v + 4) << 4;
     return mask;
 }
 
-#ifdef CPU_AVX512
-/* tri_leaf with a two-block leaf in one 8-lane register: the operations
- * of tri4_test (the same bits), lane by lane. */
-CPU_AVX512_INLINE int tri_leaf_avx512(const struct tri4 *b, int count, const struct tri_ray *tr,
-                                      float tmax, float t_out[8], float u_out[8], float v_out[8]) {
-    if (count <= 4) return tri4_test(b, count, tr, tmax, t_out, u_out, v_out);
-    int kx = tr->kx, ky = tr->ky, kz = tr->kz;
-#define ROW(k, j) _mm256_loadu2_m128(b[1].v[k][j], b[0].v[k][j])
-    __m256 ox = _mm256_set1_ps(tr->org[kx]), oy = _mm256_set1_ps(tr->org[ky]),
-           oz = _mm256_set1_ps(tr->org[kz]), sx = _mm256_set1_ps(tr->sx),
-           sy = _mm256_set1_ps(tr->sy);
-    __m256 az = _mm256_sub_ps(ROW(0, kz), oz);
-    __m256 bz = _mm256_sub_ps(ROW(1, kz), oz);
-    __m256 cz = _mm256_sub_ps(ROW(2, kz), oz);
-    __m256 ax = _mm256_sub_ps(_mm256_sub_ps(ROW(0, kx), ox), _mm256_mul_ps(sx, az));
-    __m256 ay = _mm256_sub_ps(_mm256_sub_ps(ROW(0, ky), oy), _mm256_mul_ps(sy, az));
-    __m256 bx = _mm256_sub_ps(_mm256_sub_ps(ROW(1, kx), ox), _mm256_mul_ps(sx, bz));
-    __m256 by = _mm256_sub_ps(_mm256_sub_ps(ROW(1, ky), oy), _mm256_mul_ps(sy, bz));
-    __m256 cx = _mm256_sub_ps(_mm256_sub_ps(ROW(2, kx), ox), _mm256_mul_ps(sx, cz));
-    __m256 cy = _mm256_sub_ps(_mm256_sub_ps(ROW(2, ky), oy), _mm256_mul_ps(sy, cz));
-#undef ROW
-    __m256 u = _mm256_sub_ps(_mm256_mul_ps(cx, by), _mm256_mul_ps(cy, bx));
-    __m256 v = _mm256_sub_ps(_mm256_mul_ps(ax, cy), _mm256_mul_ps(ay, cx));
-    __m256 w = _mm256_sub_ps(_mm256_mul_ps(bx, ay), _mm256_mul_ps(by, ax));
-    __m256 zero = _mm256_setzero_ps();
-    __mmask8 lanes = (__mmask8)((1u << count) - 1);
-    __mmask8 edge =
-        (_mm256_cmp_ps_mask(u, zero, _CMP_EQ_OQ) | _mm256_cmp_ps_mask(v, zero, _CMP_EQ_OQ) |
-         _mm256_cmp_ps_mask(w, zero, _CMP_EQ_OQ)) &
-        lanes;
-    if (edge) { /* through an edge or a vertex: those lanes in double */
-        float U[8], V[8], W[8], AX[8], AY[8], BX[8], BY[8], CX[8], CY[8];
-        _mm256_storeu_ps(U, u), _mm256_storeu_ps(V, v), _mm256_storeu_ps(W, w);
-        _mm256_storeu_ps(AX, ax), _mm256_storeu_ps(AY, ay), _mm256_storeu_ps(BX, bx);
-        _mm256_storeu_ps(BY, by), _mm256_storeu_ps(CX, cx), _mm256_storeu_ps(CY, cy);
-        for (int i = 0; i < 8; i++)
-            if (edge >> i & 1)
-                tri_edges_double(AX[i], AY[i], BX[i], BY[i], CX[i], CY[i], &U[i], &V[i], &W[i]);
-        u = _mm256_loadu_ps(U), v = _mm256_loadu_ps(V), w = _mm256_loadu_ps(W);
-    }
-    __mmask8 neg = _mm256_cmp_ps_mask(u, zero, _CMP_LT_OQ) |
-                   _mm256_cmp_ps_mask(v, zero, _CMP_LT_OQ) |
-                   _mm256_cmp_ps_mask(w, zero, _CMP_LT_OQ);
-    __mmask8 pos = _mm256_cmp_ps_mask(u, zero, _CMP_GT_OQ) |
-                   _mm256_cmp_ps_mask(v, zero, _CMP_GT_OQ) |
-                   _mm256_cmp_ps_mask(w, zero, _CMP_GT_OQ);
-    __m256 det = _mm256_add_ps(_mm256_add_ps(u, v), w);
-    __m256 sz = _mm256_set1_ps(tr->sz);
-    __m256 t = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(u, sz), az),
-                                           _mm256_mul_ps(_mm256_mul_ps(v, sz), bz)),
-                             _mm256_mul_ps(_mm256_mul_ps(w, sz), cz));
-    __m256 sign = _mm256_and_ps(det, _mm256_set1_ps(-0.0f)); /* t / det in (0, tmax] */
-    __m256 ts = _mm256_xor_ps(t, sign), ds = _mm256_xor_ps(det, sign);
-    __mmask8 ok =
-        lanes & (__mmask8) ~(neg & pos) & _mm256_cmp_ps_mask(det, zero, _CMP_NEQ_UQ) &
-        _mm256_cmp_ps_mask(ts, zero, _CMP_GT_OQ) &
-        _mm256_cmp_ps_mask(ts, _mm256_mul_ps(_mm256_set1_ps(tmax * TRI_SLACK), ds), _CMP_LE_OQ);
-    if (!ok) return 0;
-    __m256 rcp = _mm256_div_ps(_mm256_set1_ps(1.0f), det);
-    _mm256_storeu_ps(t_out, _mm256_mul_ps(t, rcp));
-    _mm256_storeu_ps(u_out, _mm256_mul_ps(v, rcp));
-    _mm256_storeu_ps(v_out, _mm256_mul_ps(w, rcp));
-    return ok;
-}
-#endif
-
 /* Keeps the nearest of the lanes in mask (of a block, or of a leaf's
- * blocks as tri_leaf_fn numbers them); on equal t the lower triangle
+ * blocks as tri_leaf numbers them); on equal t the lower triangle
  * id wins, so the result does not depend on the order blocks are visited
  * (BVH or brute force, any tiling). */
 static inline bool tri4_take(const struct mesh *m, const struct tri4 *b, int mask, const float t[],
                              const float u[], const float v[], float *tmax, struct mesh_hit *h,
                              bool *found) {
     bool took = false;
-    while (mask) { /* lane i: block i / 4's lane i % 4 (tri_leaf_fn) */
+    while (mask) { /* lane i: block i / 4's lane i % 4 (tri_leaf) */
         int i = __builtin_ctz((unsigned)mask);
         mask &= mask - 1;
         uint32_t id = b[i / 4].id[i % 4];
@@ -240,13 +171,13 @@ static inline void mesh_prefetch(const struct mesh *m, const struct bvh8_node *n
  * lowered to each hit taken.  A nearest-hit walk (any false) keeps the
  * nearest in *h and *found, which may already hold a hit (a packet's lane
  * goes on from where it was), and returns whether it took one; an any-hit
- * walk returns whether it met a triangle.  test and leaf are the node
- * and leaf tests, constants each caller passes (the AVX-512 ones where
- * compiled for it), so each copy of the walk has its own inlined. */
+ * walk returns whether it met a triangle.  test is the node test, a
+ * constant each caller passes (bvh.h: the AVX-512 one where compiled for
+ * it), so each copy of the walk has its own inlined. */
 __attribute__((always_inline)) static inline bool
 mesh_walk_from(const struct mesh *m, const struct bvh_ray *br, struct tri_ray *tr, const ray *lazy,
                struct bvh_entry e, float *tm, struct mesh_hit *h, bool *found, bool any,
-               bvh8_test_fn test, tri_leaf_fn leaf) {
+               bvh8_test_fn test) {
     struct bvh_entry stack[BVH8_STACK];
     int sp = 0;
     float bound = *tm;
@@ -261,13 +192,13 @@ mesh_walk_from(const struct mesh *m, const struct bvh_ray *br, struct tri_ray *t
                                  any ? BVH_AS_COME : BVH_NEAREST))
                 continue;
         } else {
-            float t[8], u[8], v[8];
+            float t[BVH8_LEAF_MAX], u[BVH8_LEAF_MAX], v[BVH8_LEAF_MAX];
             const struct tri4 *b = &m->blocks[e.node];
             if (lazy) { /* at the first leaf: many rays reach none */
                 tri_ray_init(tr, lazy);
                 lazy = NULL;
             }
-            int mask = leaf(b, e.count, tr, bound, t, u, v);
+            int mask = tri_leaf(b, e.count, tr, bound, t, u, v);
             if (mask) {
                 if (any) return true;
                 took |= tri4_take(m, b, mask, t, u, v, &bound, h, found);
