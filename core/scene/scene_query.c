@@ -186,7 +186,6 @@ static bool world_take(double t_obj, double scale, double *tmax) {
     return true;
 }
 
-/* Nearest hit of one object closer than *tmax: updates *tmax and h. */
 /* object_hit of a mesh. */
 __attribute__((always_inline)) static inline bool
 mesh_object_hit(const rayd_scene *s, const struct object *o, const struct xform *outer,
@@ -201,6 +200,7 @@ mesh_object_hit(const rayd_scene *s, const struct object *o, const struct xform 
     return hit && object_mesh_hit(o, outer, &mh, scale, tmax, h);
 }
 
+/* Nearest hit of one object closer than *tmax: updates *tmax and h. */
 __attribute__((always_inline)) static inline bool
 object_hit(const rayd_scene *s, const struct object *o, const struct xform *outer, const ray *r,
            double *tmax, struct hit *h) {

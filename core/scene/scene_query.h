@@ -59,9 +59,11 @@ static inline ray object_ray(const rayd_scene *s, const struct object *o, const 
 }
 
 /* object_ray for a walk that takes the ray by pointer (a mesh's): r
- * itself when o is untransformed, else buf filled.  A copy just made
- * would be read by the walk's first loads while its stores are still in
- * flight, wider loads than those stores, which cannot be forwarded. */
+ * itself when o is untransformed, else buf filled.  A copy of r would
+ * read it with 16-byte loads just after the caller wrote it 8 bytes at a
+ * time; such loads cannot be forwarded from those stores and wait for
+ * them to reach the cache, a good part of what a ray that misses a
+ * mesh's box costs. */
 static inline const ray *object_ray_at(const rayd_scene *s, const struct object *o, const ray *r,
                                        ray *buf, double *scale) {
     if (o->xform < 0) {
