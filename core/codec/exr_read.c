@@ -94,6 +94,36 @@ static int through_imf(exr_context_t ctx) {
     return st == EXR_STORAGE_TILED || comp == EXR_COMPRESSION_DWAA || comp == EXR_COMPRESSION_DWAB;
 }
 
+/* The memory one chunk of the part takes to decode, width pixels wide:
+ * both libraries unpack every channel of a chunk (the C++ one a whole
+ * row of tiles), so a header of a few hundred bytes can ask for
+ * gigabytes with tiles millions of pixels tall or thousands of channels.
+ * In double: the header's numbers may overflow any integer.  *what says
+ * what the chunk is. */
+static double chunk_bytes(exr_context_t ctx, long width, char *what, size_t what_len) {
+    const exr_attr_chlist_t *ch = NULL;
+    double px = 0; /* bytes a pixel, all channels */
+    if (exr_get_channels(ctx, 0, &ch) == EXR_ERR_SUCCESS && ch)
+        for (int i = 0; i < ch->num_channels; i++)
+            px += ch->entries[i].pixel_type == EXR_PIXEL_HALF ? 2 : 4;
+    exr_storage_t st = EXR_STORAGE_SCANLINE;
+    exr_get_storage(ctx, 0, &st);
+    uint32_t tx = 0, ty = 0;
+    int32_t lines = 0;
+    if (st == EXR_STORAGE_TILED) {
+        exr_tile_level_mode_t level;
+        exr_tile_round_mode_t round;
+        exr_get_tile_descriptor(ctx, 0, &tx, &ty, &level, &round);
+        snprintf(what, what_len, "tiles of %u x %u pixels", tx, ty);
+    } else {
+        exr_get_scanlines_per_chunk(ctx, 0, &lines);
+        snprintf(what, what_len, "%d lines a chunk", lines);
+    }
+    double rows = st == EXR_STORAGE_TILED ? (double)ty : lines > 0 ? (double)lines : 1;
+    double row = px * (double)width * rows, tile = px * tx * (double)ty;
+    return row > tile ? row : tile;
+}
+
 /* The pixels through the C++ library; EXR_ERR_CORRUPT_CHUNK (message in
  * src) when it fails. */
 static exr_result_t read_imf(struct exr_src *src, float *rgb, int w, int h) {
@@ -186,6 +216,21 @@ enum rayd_status exr_read_size(const void *buf, size_t len, long *w, long *h,
     return RAYD_OK;
 }
 
+/* RAYD_E_LIMIT when a chunk of the part takes more memory to decode than
+ * the largest image allowed does decoded (3 floats a pixel). */
+static enum rayd_status chunk_within(exr_context_t ctx, long width, long max_pixels,
+                                     struct rayd_error *err) {
+    char what[64];
+    double need = chunk_bytes(ctx, width, what, sizeof what), limit = 12.0 * (double)max_pixels;
+    if (need <= limit) return RAYD_OK;
+    const exr_attr_chlist_t *ch = NULL;
+    int nch = exr_get_channels(ctx, 0, &ch) == EXR_ERR_SUCCESS && ch ? ch->num_channels : 0;
+    return err_set(err, RAYD_E_LIMIT, NULL,
+                   "one chunk of its pixels (%s, %d channels) takes %.0f MB to decode; the limit "
+                   "is %.0f MB",
+                   what, nch, need / 1048576, limit / 1048576);
+}
+
 enum rayd_status exr_read_rgb(const void *buf, size_t len, long max_pixels, float **rgb, int *w,
                               int *h, struct rayd_error *err) {
     struct exr_src src = {buf, len, ""};
@@ -202,6 +247,8 @@ enum rayd_status exr_read_rgb(const void *buf, size_t len, long max_pixels, floa
     else if (ww > max_pixels / hh)
         st = err_set(err, RAYD_E_LIMIT, NULL,
                      "the image is %ld x %ld pixels; the limit is %ld pixels", ww, hh, max_pixels);
+    else
+        st = chunk_within(ctx, ww, max_pixels, err);
     float *px = st == RAYD_OK ? calloc((size_t)ww * (size_t)hh * 3, sizeof *px) : NULL;
     if (st == RAYD_OK && !px)
         st = err_set(err, RAYD_E_NOMEM, NULL, "out of memory for an OpenEXR image");

@@ -366,6 +366,14 @@ static void test_bad_environments_refused(void) {
     refused("{\"base64\": \"aGVsbG8=\", \"format\": \"exr\"}", "/render/environment/base64",
             "not an OpenEXR");
     refused("{\"file\": \"cut.exr\"}", "/render/environment/file", "OpenEXR");
+    /* a 64 x 64 tiled EXR whose tiles are 16 x 9,764,880 pixels: found by
+     * fuzz_envmap, it made OpenEXR's C++ library ask for 2.5 GB */
+    refused("{\"base64\": "
+            "\"di8xAQICAABjaGFubmVscwBjaGxpc3QANwAAAEIAAQAAAAAAAAABAAAAAQAAAEcAAQAAAAAAAAABAAAAAQAA"
+            "AFIAAQAAAAAAAAABAAAAAQAAAABjb21wcmVzc2lvbmJhbnRlcgB2MmYACAAAAAAAAAAAAAAAc2NyZWVuV2luZG"
+            "93V2lkdGgAZmxvYXQABAAAAAAAgD90aWxlcwB0aWxlZGVzYwAJAAAAEAAAABAAlQAAABBdAQAAAAAAAAAAAAAA"
+            "AAAAAAAAAAAAAAAMAAAAeF5jaBjaAADSzV+B\"}",
+            "/render/environment/base64", "tiles of 16 x 9764880 pixels");
     refused("{\"file\": \"ramp.hdr\", \"format\": \"exr\"}", "/render/environment/file",
             "not an OpenEXR");
     refused("{\"color\": [1,1,1], \"intensity\": -1}", "/render/environment/intensity", ">= 0");
