@@ -45,10 +45,16 @@ static int collapse_kids(const struct bnode *bn, uint32_t bi, int width, uint32_
     return nk;
 }
 
+/* The wide nodes binary node k's subtree takes under its parent: none
+ * when it is folded into the parent as a leaf. */
+static uint32_t kid_nodes(const struct bnode *k, int width) {
+    return bnode_wide_leaf(k, width) ? 0 : k->wide;
+}
+
 uint32_t bvh_wide_count(const struct bnode *bn, uint32_t bi, int width) {
     uint32_t kids[8], w = 1;
     int nk = collapse_kids(bn, bi, width, kids);
-    for (int i = 0; i < nk; i++) w += bnode_wide_leaf(&bn[kids[i]], width) ? 0 : bn[kids[i]].wide;
+    for (int i = 0; i < nk; i++) w += kid_nodes(&bn[kids[i]], width);
     return w;
 }
 
@@ -126,7 +132,7 @@ static void collapse_node(const struct collapse *c, uint32_t bi, uint32_t self, 
     int nk = collapse_kids(c->bn, bi, c->width, kids);
     for (int i = 0; i < nk; i++) {
         slot[i] = next;
-        next += bnode_wide_leaf(&c->bn[kids[i]], c->width) ? 0 : c->bn[kids[i]].wide;
+        next += kid_nodes(&c->bn[kids[i]], c->width);
     }
     put_node(c, self, kids, nk, slot);
     struct collapse_task t[8];

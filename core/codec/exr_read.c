@@ -103,9 +103,9 @@ static int through_imf(exr_context_t ctx) {
 static double chunk_bytes(exr_context_t ctx, long width, char *what, size_t what_len) {
     const exr_attr_chlist_t *ch = NULL;
     double px = 0; /* bytes a pixel, all channels */
-    if (exr_get_channels(ctx, 0, &ch) == EXR_ERR_SUCCESS && ch)
-        for (int i = 0; i < ch->num_channels; i++)
-            px += ch->entries[i].pixel_type == EXR_PIXEL_HALF ? 2 : 4;
+    int nch = 0;
+    if (exr_get_channels(ctx, 0, &ch) == EXR_ERR_SUCCESS && ch) nch = ch->num_channels;
+    for (int i = 0; i < nch; i++) px += ch->entries[i].pixel_type == EXR_PIXEL_HALF ? 2 : 4;
     exr_storage_t st = EXR_STORAGE_SCANLINE;
     exr_get_storage(ctx, 0, &st);
     uint32_t tx = 0, ty = 0;
@@ -114,10 +114,10 @@ static double chunk_bytes(exr_context_t ctx, long width, char *what, size_t what
         exr_tile_level_mode_t level;
         exr_tile_round_mode_t round;
         exr_get_tile_descriptor(ctx, 0, &tx, &ty, &level, &round);
-        snprintf(what, what_len, "tiles of %u x %u pixels", tx, ty);
+        snprintf(what, what_len, "tiles of %u x %u pixels, %d channels", tx, ty, nch);
     } else {
         exr_get_scanlines_per_chunk(ctx, 0, &lines);
-        snprintf(what, what_len, "%d lines a chunk", lines);
+        snprintf(what, what_len, "%d lines a chunk, %d channels", lines, nch);
     }
     double rows = st == EXR_STORAGE_TILED ? (double)ty : lines > 0 ? (double)lines : 1;
     double row = px * (double)width * rows, tile = px * tx * (double)ty;
@@ -220,15 +220,12 @@ enum rayd_status exr_read_size(const void *buf, size_t len, long *w, long *h,
  * the largest image allowed does decoded (3 floats a pixel). */
 static enum rayd_status chunk_within(exr_context_t ctx, long width, long max_pixels,
                                      struct rayd_error *err) {
-    char what[64];
+    char what[96];
     double need = chunk_bytes(ctx, width, what, sizeof what), limit = 12.0 * (double)max_pixels;
     if (need <= limit) return RAYD_OK;
-    const exr_attr_chlist_t *ch = NULL;
-    int nch = exr_get_channels(ctx, 0, &ch) == EXR_ERR_SUCCESS && ch ? ch->num_channels : 0;
     return err_set(err, RAYD_E_LIMIT, NULL,
-                   "one chunk of its pixels (%s, %d channels) takes %.0f MB to decode; the limit "
-                   "is %.0f MB",
-                   what, nch, need / 1048576, limit / 1048576);
+                   "one chunk of its pixels (%s) takes %.0f MB to decode; the limit is %.0f MB",
+                   what, need / 1048576, limit / 1048576);
 }
 
 enum rayd_status exr_read_rgb(const void *buf, size_t len, long max_pixels, float **rgb, int *w,
