@@ -545,7 +545,7 @@ void scene_surface(const rayd_scene *s, const ray *r, const struct hit *h, struc
         const struct mesh *m = &s->meshes[o->u.mesh.id];
         p = mesh_point(m, &h->mh);
         ng = mesh_geometric_normal(m, &h->mh);
-        n = mesh_shading_normal(m, &h->mh);
+        n = m->normal ? mesh_shading_normal(m, &h->mh) : ng; /* not its square root twice */
         if (textured) mesh_uv(m, &h->mh, &u, &v);
     } else {
         /* a quad's without the call through the table */
