@@ -80,7 +80,7 @@ struct bvh16_ray {
      * culling test of bvh16_cull (ia: uniform and fused, so every lane's
      * org and inv finite; else they are not set). */
     bool ia;
-    float omin[3], omax[3], imin[3], imax[3];
+    float onear[3], ofar[3], imin[3], imax[3];
     /* For the fused child test: org * inv moved out as bvh_ray_fused does
      * it, lane by lane, and whether every lane's is finite. */
     __m512 oi_hi[3], oi_lo[3];
@@ -99,6 +99,43 @@ CPU_AVX512_FN void bvh16_ray_fused(struct bvh16_ray *p) {
         finite &= _mm512_cmp_ps_mask(a, _mm512_set1_ps(BVH_FUSED_MAX), _CMP_LT_OQ);
     }
     p->fused = finite == 0xffff;
+}
+
+/* The least of each of a, b, c and d into out[0..3] (max: the greatest),
+ * four reductions sharing their shuffles: halves, then quarters of all
+ * four at once, then within each 128-bit lane.  No NaN comes here (the
+ * caller's values are finite), so the order of the mins is free. */
+CPU_AVX512_INLINE void bvh16_reduce4(__m512 a, __m512 b, __m512 c, __m512 d, bool max,
+                                     float out[4]) {
+#define BVH16_PICK(x, y) (max ? _mm512_max_ps(x, y) : _mm512_min_ps(x, y))
+    __m512 ab = BVH16_PICK(_mm512_shuffle_f32x4(a, b, 0x44), _mm512_shuffle_f32x4(a, b, 0xee));
+    __m512 cd = BVH16_PICK(_mm512_shuffle_f32x4(c, d, 0x44), _mm512_shuffle_f32x4(c, d, 0xee));
+    __m512 r = BVH16_PICK(_mm512_shuffle_f32x4(ab, cd, 0x88), _mm512_shuffle_f32x4(ab, cd, 0xdd));
+    r = BVH16_PICK(r, _mm512_permute_ps(r, 0x4e));
+    r = BVH16_PICK(r, _mm512_permute_ps(r, 0xb1));
+#undef BVH16_PICK
+    float t[16];
+    _mm512_storeu_ps(t, r);
+    for (int i = 0; i < 4; i++) out[i] = t[4 * i];
+}
+
+/* The culling test's intervals (bvh16_cull) of a uniform, fused packet:
+ * its every org and inv finite.  The greatest of x is minus the least of
+ * -x, exactly: the last four reductions share one pass that way. */
+CPU_AVX512_FN void bvh16_ray_intervals(struct bvh16_ray *p) {
+    float lo[4], hi[4], rest[4];
+    bvh16_reduce4(p->org[0], p->org[1], p->org[2], p->inv[0], false, lo);
+    bvh16_reduce4(p->org[0], p->org[1], p->org[2], p->inv[0], true, hi);
+    __m512 sign = _mm512_set1_ps(-0.0f);
+    bvh16_reduce4(p->inv[1], p->inv[2], _mm512_xor_ps(p->inv[1], sign),
+                  _mm512_xor_ps(p->inv[2], sign), false, rest);
+    for (int k = 0; k < 3; k++) {
+        bool neg = p->neg[k] != 0; /* uniform: every lane's sign */
+        p->onear[k] = neg ? lo[k] : hi[k], p->ofar[k] = neg ? hi[k] : lo[k];
+    }
+    p->imin[0] = lo[3], p->imax[0] = hi[3];
+    p->imin[1] = rest[0], p->imin[2] = rest[1];
+    p->imax[1] = -rest[2], p->imax[2] = -rest[3];
 }
 
 CPU_AVX512_FN void bvh16_ray_init(struct bvh16_ray *p, const struct ray16 *q, int width) {
@@ -123,10 +160,7 @@ CPU_AVX512_FN void bvh16_ray_init(struct bvh16_ray *p, const struct ray16 *q, in
     }
     bvh16_ray_fused(p);
     p->ia = p->uniform && p->fused; /* finite org * inv: finite org and inv */
-    for (int k = 0; p->ia && k < 3; k++) {
-        p->omin[k] = _mm512_reduce_min_ps(p->org[k]), p->omax[k] = _mm512_reduce_max_ps(p->org[k]);
-        p->imin[k] = _mm512_reduce_min_ps(p->inv[k]), p->imax[k] = _mm512_reduce_max_ps(p->inv[k]);
-    }
+    if (p->ia) bvh16_ray_intervals(p);
 }
 
 /* Plane (k, c) of a node at nd, lower or upper. */
@@ -184,7 +218,13 @@ CPU_AVX512_INLINE __mmask16 bvh16_child(const char *nd, int width, int c, const 
  * Conservative: each ray's unfused test (bvh4_test's operations) does the
  * same float operations on values inside these intervals, and rounding is
  * monotone, so a child culled here is one every ray's unfused test misses,
- * and so one it truly misses.  A NaN keeps the child. */
+ * and so one it truly misses.  A NaN keeps the child.
+ * The signs are uniform (ia), so (plane - org) * inv is monotone in org:
+ * its least value over the packet is at the origin bound onear (the
+ * greatest origin on an axis the rays go up, the least on one they go
+ * down), its greatest at ofar; and for that one difference x the product
+ * is least (greatest) at one end of [imin, imax], whichever x's sign says.
+ * Half the operations of the product of two intervals. */
 CPU_AVX512_INLINE __mmask8 bvh16_cull(const char *nd, const struct bvh16_ray *r, __m512 tmax,
                                       __mmask16 lanes) {
     __mmask16 nan = _mm512_mask_cmp_ps_mask(lanes, tmax, tmax, _CMP_UNORD_Q);
@@ -193,14 +233,11 @@ CPU_AVX512_INLINE __mmask8 bvh16_cull(const char *nd, const struct bvh16_ray *r,
     for (int k = 0; k < 3; k++) {
         __m256 n = _mm256_loadu_ps((const float *)(const void *)(nd + r->near[k]));
         __m256 f = _mm256_loadu_ps((const float *)(const void *)(nd + r->far[k]));
-        __m256 olo = _mm256_set1_ps(r->omin[k]), ohi = _mm256_set1_ps(r->omax[k]);
         __m256 ilo = _mm256_set1_ps(r->imin[k]), ihi = _mm256_set1_ps(r->imax[k]);
-        __m256 nl = _mm256_sub_ps(n, ohi), nh = _mm256_sub_ps(n, olo);
-        __m256 fl = _mm256_sub_ps(f, ohi), fh = _mm256_sub_ps(f, olo);
-        __m256 lower = _mm256_min_ps(_mm256_min_ps(_mm256_mul_ps(nl, ilo), _mm256_mul_ps(nl, ihi)),
-                                     _mm256_min_ps(_mm256_mul_ps(nh, ilo), _mm256_mul_ps(nh, ihi)));
-        __m256 upper = _mm256_max_ps(_mm256_max_ps(_mm256_mul_ps(fl, ilo), _mm256_mul_ps(fl, ihi)),
-                                     _mm256_max_ps(_mm256_mul_ps(fh, ilo), _mm256_mul_ps(fh, ihi)));
+        __m256 a = _mm256_sub_ps(n, _mm256_set1_ps(r->onear[k]));
+        __m256 b = _mm256_sub_ps(f, _mm256_set1_ps(r->ofar[k]));
+        __m256 lower = _mm256_min_ps(_mm256_mul_ps(a, ilo), _mm256_mul_ps(a, ihi));
+        __m256 upper = _mm256_max_ps(_mm256_mul_ps(b, ilo), _mm256_mul_ps(b, ihi));
         tn = _mm256_max_ps(tn, lower);
         tf = _mm256_min_ps(tf, upper);
     }

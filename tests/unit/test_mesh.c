@@ -460,9 +460,11 @@ static void test_single_ray_paths_agree(void) {
 /* Packets through a 20,000-triangle soup give every ray its one-ray
  * answer, also where the packet's walk hands its last rays to the one-ray
  * walk part way down (BVH16_LONE_MAX): coherent packets (16 rays from one
- * point through a small square, as a 4x4 block of pixels), incoherent ones
- * (each ray from its own point, any direction, as bounce rays), half and
- * half, with odd bounds and partial masks. */
+ * point through a small square, as a 4x4 block of pixels; or from a small
+ * patch toward one point in each of the eight octants, as shadow rays,
+ * which the culling test of bvh16_cull takes with a spread of origins),
+ * incoherent ones (each ray from its own point, any direction, as bounce
+ * rays), half and half, with odd bounds and partial masks. */
 static void test_packets_in_a_soup_equal_single_rays(void) {
     struct mesh m;
     soup_mesh(&m);
@@ -476,7 +478,12 @@ static void test_packets_in_a_soup_equal_single_rays(void) {
             double u[6];
             for (int k = 0; k < 6; k++) u[k] = lcg_unit(&s);
             bool coherent = p % 3 == 0 || (p % 3 == 2 && i < 8);
-            if (coherent) { /* toward a small square inside the soup's cube */
+            if (p % 6 == 3) { /* as shadow rays: from a small patch toward a point */
+                vec3 light = v3(p & 1 ? 12 : -2, p & 2 ? 12 : -2, p & 4 ? 12 : -2);
+                r[i].o = v3(3 + (p % 50) * 0.08 + (i % 4) * 0.02 + u[0] * 0.01,
+                            4 + (i / 4) * 0.02 + u[1] * 0.01, 5 + (p % 7) * 0.3 + u[2] * 0.01);
+                r[i].d = v3_norm(v3_sub(light, r[i].o));
+            } else if (coherent) { /* toward a small square inside the soup's cube */
                 vec3 at = v3(4 + (p % 40) * 0.1 + (i % 4) * 0.01,
                              5 + (p / 40) * 0.05 + (i / 4) * 0.01, 5);
                 r[i] = (ray){eye, v3_norm(v3_sub(at, eye))};
