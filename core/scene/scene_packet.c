@@ -283,12 +283,10 @@ CPU_AVX512_FN void mesh_nearest16(struct scene16 *q, const struct object *o, uin
     simple_bounds16(q, rank, bound);
     struct mesh_hit mh[16];
     uint32_t hit = mesh16_intersect(&q->s->meshes[o->u.mesh.id], &q->rd, bound, lanes, mh);
-    for (; hit; hit &= hit - 1) {
+    for (; hit; hit &= hit - 1) { /* straight into h: no copy of a struct hit to wait on */
         int i = __builtin_ctz(hit);
-        struct hit h;
-        if (!object_mesh_hit(o, NULL, &mh[i], 1, &bound[i], &h) || bound[i] > q->tmax[i]) continue;
-        q->tmax[i] = bound[i];
-        q->h[i] = h;
+        if (!object_mesh_nearer(&mh[i], 1, bound[i]) || (double)mh[i].t > q->tmax[i]) continue;
+        q->tmax[i] = object_mesh_fill(o, NULL, &mh[i], 1, &q->h[i]);
         lane_taken(q, i, rank);
     }
 }

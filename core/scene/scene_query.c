@@ -165,19 +165,6 @@ static bool objects_hit(const rayd_scene *s, const struct object *objs, int32_t 
                         const struct bvh4 *bvh, const struct xform *outer, const ray *r,
                         double *tmax, struct hit *h);
 
-bool object_mesh_hit(const struct object *o, const struct xform *outer, const struct mesh_hit *mh,
-                     double scale, double *tmax, struct hit *h) {
-    if (!((double)mh->t / scale < *tmax)) return false;
-    h->mh = *mh;
-    h->part = 0;
-    *tmax = mh->t / scale;
-    h->t = *tmax;
-    h->leaf = o;
-    h->outer = outer;
-    h->orient = 0;
-    return true;
-}
-
 /* Object space hit t_obj back in world units: kept if nearer than *tmax. */
 static bool world_take(double t_obj, double scale, double *tmax) {
     double t = t_obj / scale;

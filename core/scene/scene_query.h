@@ -84,10 +84,32 @@ static inline double object_space_bound(double tmax, double scale) {
     return scale == 1 ? tmax : tmax * scale * (1 + 0x1p-50);
 }
 
+/* Whether mesh object o's hit mh, back in world units, is nearer than
+ * tmax (a NaN is not). */
+static inline bool object_mesh_nearer(const struct mesh_hit *mh, double scale, double tmax) {
+    return (double)mh->t / scale < tmax;
+}
+
+/* Fills h from mesh object o's hit mh; returns its distance in world
+ * units.  Inline, and apart from the test above: a packet decides each
+ * lane's hit first and then writes it where it goes, with no struct hit
+ * copied in between. */
+static inline double object_mesh_fill(const struct object *o, const struct xform *outer,
+                                      const struct mesh_hit *mh, double scale, struct hit *h) {
+    double t = mh->t / scale;
+    *h = (struct hit){.t = t, .leaf = o, .outer = outer, .part = 0, .orient = 0, .mh = *mh};
+    return t;
+}
+
 /* Fills h (and *tmax, in world units) from mesh object o's hit mh, when
  * that is nearer than *tmax; false when not. */
-bool object_mesh_hit(const struct object *o, const struct xform *outer, const struct mesh_hit *mh,
-                     double scale, double *tmax, struct hit *h);
+static inline bool object_mesh_hit(const struct object *o, const struct xform *outer,
+                                   const struct mesh_hit *mh, double scale, double *tmax,
+                                   struct hit *h) {
+    if (!object_mesh_nearer(mh, scale, *tmax)) return false;
+    *tmax = object_mesh_fill(o, outer, mh, scale, h);
+    return true;
+}
 
 /* Any hit of object o closer than tmax, through its material's filter:
  * false when no light passes any more. */
