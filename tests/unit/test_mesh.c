@@ -718,8 +718,9 @@ static void test_mesh_tree_is_bvh_of_boxes(void) {
 #ifdef CPU_AVX512
 /* Random 8-wide nodes (boxes of any size, some flat, some slots empty)
  * against random packets (one origin or many, each axis one sign, odd
- * bounds); counts the children some ray enters that bvh16_cull dropped,
- * and the children it dropped at all. */
+ * bounds); counts the children some ray enters (by the walk's fused test
+ * or the unfused one) that bvh16_cull dropped, and the children it
+ * dropped at all. */
 CPU_AVX512_FN void cull_trial(uint32_t *s, uint32_t *wrong, uint32_t *culled, uint32_t *tested) {
     struct bvh8_node nd;
     memset(&nd, 0, sizeof nd);
@@ -753,13 +754,16 @@ CPU_AVX512_FN void cull_trial(uint32_t *s, uint32_t *wrong, uint32_t *culled, ui
     struct bvh16_ray r;
     bvh16_ray_init(&r, &q, 8);
     if (!r.ia) return; /* the walk culls only such packets */
-    r.fused = false;   /* the cull answers for the unfused test */
     __m512 tmax = _mm512_loadu_ps(tm);
     __mmask16 lanes = (__mmask16)(*s >> 3 | 1);
     unsigned keep = bvh16_cull((const char *)&nd, &r, tmax, lanes);
     for (int c = 0; c < 7; c++) {
         __m512 tn;
+        /* the walk's test (fused, as r has it) and the unfused one */
         __mmask16 in = bvh16_child((const char *)&nd, 8, c, &r, tmax, lanes, &tn);
+        r.fused = false;
+        in |= bvh16_child((const char *)&nd, 8, c, &r, tmax, lanes, &tn);
+        r.fused = true;
         *tested += 1;
         *culled += !(keep >> c & 1);
         *wrong += in && !(keep >> c & 1);
@@ -782,6 +786,64 @@ static void test_packet_cull_keeps_every_entered_child(void) {
     CHECK(wrong == 0, "%u of %u children culled that a ray enters", wrong, tested);
     CHECK(culled > tested / 10, "only %u of %u children culled", culled, tested);
 #endif
+}
+
+/* A flat n x n grid of unit squares, two triangles each, in the plane
+ * z = 0 (every triangle's box flat in z), its corner at the origin. */
+static void grid_mesh(struct mesh *m, uint32_t n) {
+    uint32_t nv = (n + 1) * (n + 1), nt = 2 * n * n;
+    float *pos = malloc(sizeof *pos * 3 * nv);
+    uint32_t *index = malloc(sizeof *index * 3 * nt), *ix = index;
+    for (uint32_t j = 0; j <= n; j++)
+        for (uint32_t i = 0; i <= n; i++) {
+            float *p = pos + 3 * (j * (n + 1) + i);
+            p[0] = (float)i, p[1] = (float)j, p[2] = 0;
+        }
+    for (uint32_t j = 0; j < n; j++)
+        for (uint32_t i = 0; i < n; i++) {
+            uint32_t a = j * (n + 1) + i, b = a + 1, c = a + n + 1, d = c + 1;
+            const uint32_t tri[6] = {a, b, d, a, d, c};
+            memcpy(ix, tri, sizeof tri);
+            ix += 6;
+        }
+    CHECK(mesh_build(m, pos, nv, index, nt, NULL, NULL, false, 1, NULL) == RAYD_OK, "build");
+}
+
+/* Coherent packets (the leaf's triangles culled by their boxes, as the
+ * nodes are) through a flat grid's vertices, edges and diagonals, from one
+ * eye or from a small patch, from above and below: each ray gets its
+ * one-ray answer, and none slips between two triangles. */
+static void test_packets_through_grid_edges(void) {
+    struct mesh m;
+    grid_mesh(&m, 14);
+    uint32_t differ = 0, total = 0, hits = 0;
+    for (int p = 0; p < 400; p++) {
+        ray r[16];
+        double tmax[16];
+        double side = p & 1 ? 1 : -1, spread = p & 2 ? 0.003 : 0;
+        vec3 eye = v3(1 + (p % 9) * 0.7, 2 + (p % 7) * 0.9, side * (3 + p % 5));
+        for (int i = 0; i < 16; i++) { /* at a vertex, an edge or a diagonal */
+            double x = 1 + (p / 4 % 9) + (i % 4) * (p & 4 ? 0.5 : 1);
+            double y = 1 + (p / 36 % 9) + (i / 4) * (p & 8 ? 0.5 : 1);
+            vec3 o = v3_add(eye, v3(spread * (i % 4), spread * (i / 4), 0));
+            r[i] = (ray){o, v3_norm(v3_sub(v3(x, y, 0), o))};
+            tmax[i] = INFINITY;
+        }
+        struct mesh_hit h[16];
+        uint32_t hit = mesh_intersect16(&m, r, tmax, 0xffffu, h);
+        uint32_t blocked = mesh_occluded16(&m, r, tmax, 0xffffu);
+        for (int i = 0; i < 16; i++) {
+            struct mesh_hit one;
+            bool got = mesh_intersect(&m, &r[i], tmax[i], &one);
+            total++;
+            hits += got;
+            differ += !same_hit(got, &one, hit >> i & 1, &h[i]) || got != (bool)(blocked >> i & 1);
+        }
+    }
+    printf("  %u rays through the grid's edges and vertices, %u hits\n", total, hits);
+    CHECK(hits == total, "%u of %u rays slipped through the grid", total - hits, total);
+    CHECK(differ == 0, "%u of %u packet answers differ from the one-ray ones", differ, total);
+    mesh_free(&m);
 }
 
 /* Ray r's entry into box c of nd, exactly (in double, from the floats
@@ -911,6 +973,7 @@ int main(void) {
     RUN(test_single_ray_paths_agree);
     RUN(test_packets_in_a_soup_equal_single_rays);
     RUN(test_packet_cull_keeps_every_entered_child);
+    RUN(test_packets_through_grid_edges);
     RUN(test_node_tests_are_conservative);
     RUN(test_transformed_sphere_exact_projection);
     RUN(test_smooth_normals_follow_the_sphere);
