@@ -1,8 +1,9 @@
 /* mesh_packet.c -- a mesh's nearest-hit and any-hit queries for 16 rays.
  *
  * The packet walk of bvh16.h with the triangle test of mesh.c done for 16
- * rays at once: each of a leaf's (up to) four triangles is broadcast and
- * tested against the packet.  Every float operation is the one the
+ * rays at once: each of a leaf's (up to eight) triangles is broadcast and
+ * tested against the packet, but for those whose bounding box no ray of a
+ * coherent packet enters (tri_cull, the nodes' culling test).  Every float operation is the one the
  * one-ray test does, in the same order, and the nearest hit is chosen by
  * the same order-free rule (nearest t, then lower triangle id), so each ray
  * gets bit for bit what mesh_intersect or mesh_occluded gives it alone.
@@ -114,6 +115,31 @@ CPU_AVX512_FN __mmask16 tri16(const struct mesh16 *q, const struct tri4 *b, int 
     return ok;
 }
 
+/* The triangles of the count in blocks b that some ray of the packet may
+ * meet: those whose bounding box bvh16_cull_boxes keeps, when the packet
+ * has its intervals (else all).  A box is a triangle's own (the tree's
+ * boxes are unions of them), so what holds for a node holds for it; and a
+ * coherent packet, a few pixels wide, meets few of a leaf's triangles. */
+CPU_AVX512_FN unsigned tri_cull(const struct mesh16 *q, const struct tri4 *b, uint32_t count,
+                                __mmask16 lanes, __m512 tm) {
+    if (!q->br.ia) return 0xffu;
+    __m256 near[3], far[3];
+    for (int k = 0; k < 3; k++) {
+        __m128 lo[2], hi[2];
+        for (int h = 0; h < 2; h++) {
+            const struct tri4 *bh = &b[count > 4 ? h : 0];
+            __m128 v0 = _mm_loadu_ps(bh->v[0][k]), v1 = _mm_loadu_ps(bh->v[1][k]);
+            __m128 v2 = _mm_loadu_ps(bh->v[2][k]);
+            lo[h] = _mm_min_ps(_mm_min_ps(v0, v1), v2);
+            hi[h] = _mm_max_ps(_mm_max_ps(v0, v1), v2);
+        }
+        __m256 l = _mm256_set_m128(lo[1], lo[0]), u = _mm256_set_m128(hi[1], hi[0]);
+        bool down = q->br.neg[k] != 0; /* uniform: every lane's sign */
+        near[k] = down ? u : l, far[k] = down ? l : u;
+    }
+    return bvh16_cull_boxes(&q->br, near, far, _mm512_mul_ps(tm, _mm512_set1_ps(BVH_SLACK)), lanes);
+}
+
 /* A leaf for the nearest-hit walk: all its triangles tested with the
  * bounds on entry, then taken in lane order, as tri4_take does. */
 CPU_AVX512_FN __mmask16 leaf_nearest(void *ctx, uint32_t first, uint32_t count, __mmask16 lanes,
@@ -122,8 +148,10 @@ CPU_AVX512_FN __mmask16 leaf_nearest(void *ctx, uint32_t first, uint32_t count, 
     const struct tri4 *b = &q->m->blocks[first];
     __m512 T[BVH8_LEAF_MAX], U[BVH8_LEAF_MAX], V[BVH8_LEAF_MAX];
     __mmask16 ok[BVH8_LEAF_MAX];
+    unsigned live = tri_cull(q, b, count, lanes, *tm);
     for (uint32_t j = 0; j < count; j++)
-        ok[j] = tri16(q, &b[j / 4], (int)(j % 4), lanes, *tm, &T[j], &U[j], &V[j]);
+        ok[j] =
+            live >> j & 1 ? tri16(q, &b[j / 4], (int)(j % 4), lanes, *tm, &T[j], &U[j], &V[j]) : 0;
     for (uint32_t j = 0; j < count; j++) {
         if (!ok[j]) continue;
         __m512i id = _mm512_set1_epi32((int)b[j / 4].id[j % 4]);
@@ -148,7 +176,9 @@ CPU_AVX512_FN __mmask16 leaf_any(void *ctx, uint32_t first, uint32_t count, __mm
     const struct mesh16 *q = ctx;
     const struct tri4 *b = &q->m->blocks[first];
     __mmask16 hit = 0;
+    unsigned live = tri_cull(q, b, count, lanes, *tm);
     for (uint32_t j = 0; j < count && hit != lanes; j++) {
+        if (!(live >> j & 1)) continue;
         __m512 t = _mm512_setzero_ps(), u = t, v = t; /* unused here */
         hit |= tri16(q, &b[j / 4], (int)(j % 4), lanes & (__mmask16)~hit, *tm, &t, &u, &v);
     }
