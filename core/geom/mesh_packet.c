@@ -3,8 +3,9 @@
  * The packet walk of bvh16.h with the triangle test of mesh.c done for 16
  * rays at once: each of a leaf's (up to eight) triangles is broadcast and
  * tested against the packet, but for those whose bounding box no ray of a
- * coherent packet enters (tri_cull, the nodes' culling test).  Every float operation is the one the
- * one-ray test does, in the same order, and the nearest hit is chosen by
+ * coherent packet enters (tri_cull, the nodes' culling test).  Every float
+ * operation is the one the one-ray test does, in the same order, and the
+ * nearest hit is chosen by
  * the same order-free rule (nearest t, then lower triangle id), so each ray
  * gets bit for bit what mesh_intersect or mesh_occluded gives it alone.
  * The rays of a packet need not share their dominant axis: the sheared
@@ -140,8 +141,9 @@ CPU_AVX512_FN unsigned tri_cull(const struct mesh16 *q, const struct tri4 *b, ui
     return bvh16_cull_boxes(&q->br, near, far, _mm512_mul_ps(tm, _mm512_set1_ps(BVH_SLACK)), lanes);
 }
 
-/* A leaf for the nearest-hit walk: all its triangles tested with the
- * bounds on entry, then taken in lane order, as tri4_take does. */
+/* A leaf for the nearest-hit walk: its triangles that tri_cull keeps
+ * tested with the bounds on entry, then taken in lane order, as tri4_take
+ * does. */
 CPU_AVX512_FN __mmask16 leaf_nearest(void *ctx, uint32_t first, uint32_t count, __mmask16 lanes,
                                      __m512 *tm) {
     struct mesh16 *q = ctx;
