@@ -5,9 +5,9 @@
  * tested against the packet, but for those whose bounding box no ray of a
  * coherent packet enters (tri_cull, the nodes' culling test).  Every float
  * operation is the one the one-ray test does, in the same order, and the
- * nearest hit is chosen by
- * the same order-free rule (nearest t, then lower triangle id), so each ray
- * gets bit for bit what mesh_intersect or mesh_occluded gives it alone.
+ * nearest hit is chosen by the same order-free rule (nearest t, then lower
+ * triangle id), so each ray gets bit for bit what mesh_intersect or
+ * mesh_occluded gives it alone.
  * The rays of a packet need not share their dominant axis: the sheared
  * frame is picked per lane with mask blends.  Where at most BVH16_LONE_MAX
  * of its rays still need a node, they go on alone through the one-ray walk
