@@ -12,7 +12,9 @@
  * frame is picked per lane with mask blends.  Where at most BVH16_LONE_MAX
  * of its rays still need a node, they go on alone through the one-ray walk
  * (mesh_walk.h), each from its best hit so far: the same answer, and the
- * rays of an incoherent packet (bounce rays) stop paying 16 lanes a node.
+ * rays of an incoherent packet (bounce rays) stop paying 16 lanes a node;
+ * through a mesh that outgrows the cache such a packet goes ray by ray
+ * from the root (packet_parts).
  *
  * Without AVX-512 (another CPU, a build without SIMD, valgrind's CPU, or
  * RAYD_NO_AVX512 in the environment) the same entry points loop over the
@@ -366,6 +368,15 @@ CPU_AVX512_FN void mesh16_init(struct mesh16 *q, const struct mesh *m, const str
     q->found = 0;
 }
 
+/* Whether the packet goes ray by ray from the root: its rays go every way
+ * (some axis's sign differs between them, as bounce rays') through a mesh
+ * that outgrows the cache.  There the walk waits on memory, and its rays
+ * part ways at once, so a node test for 16 lanes buys next to nothing:
+ * bounce packets on the 1.3M-triangle mesh ran slower than the same rays
+ * one by one, as Embree's hybrid walk takes incoherent packets one ray at
+ * a time too.  In cache the packet walk stays faster (bench/README.md). */
+CPU_AVX512_FN bool packet_parts(const struct mesh16 *q) { return !q->br.uniform && q->m->prefetch; }
+
 CPU_AVX512_EXTERN uint32_t mesh16_intersect(const struct mesh *m, const struct ray16 *rd,
                                             const double tmax[16], uint32_t active,
                                             struct mesh_hit h[16]) {
@@ -373,8 +384,11 @@ CPU_AVX512_EXTERN uint32_t mesh16_intersect(const struct mesh *m, const struct r
     struct mesh16 q;
     __m512 tm;
     mesh16_init(&q, m, rd, tmax, active, false, &tm);
-    bvh16_walk(m->bvh.nodes, 8, (const char *)m->blocks, sizeof *m->blocks, &q.br, &tm,
-               (__mmask16)active, leaf_nearest, lone_nearest, &q, true);
+    if (packet_parts(&q))
+        lone_nearest(&q, 0, 0, (__mmask16)active, &tm);
+    else
+        bvh16_walk(m->bvh.nodes, 8, (const char *)m->blocks, sizeof *m->blocks, &q.br, &tm,
+                   (__mmask16)active, leaf_nearest, lone_nearest, &q, true);
     float t[16], u[16], v[16];
     uint32_t id[16], blk[16], lane[16], hit = 0;
     _mm512_storeu_ps(t, q.t), _mm512_storeu_ps(u, q.u), _mm512_storeu_ps(v, q.v);
@@ -394,6 +408,7 @@ CPU_AVX512_EXTERN uint32_t mesh16_occluded(const struct mesh *m, const struct ra
     struct mesh16 q;
     __m512 tm;
     mesh16_init(&q, m, rd, tmax, active, true, &tm);
+    if (packet_parts(&q)) return lone_any(&q, 0, 0, (__mmask16)active, &tm);
     return bvh16_walk(m->bvh.nodes, 8, (const char *)m->blocks, sizeof *m->blocks, &q.br, &tm,
                       (__mmask16)active, leaf_any, lone_any, &q, false);
 }

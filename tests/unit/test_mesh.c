@@ -465,11 +465,9 @@ static void test_single_ray_paths_agree(void) {
  * which the culling test of bvh16_cull takes with a spread of origins),
  * incoherent ones (each ray from its own point, any direction, as bounce
  * rays), half and half, with odd bounds and partial masks. */
-static void test_packets_in_a_soup_equal_single_rays(void) {
-    struct mesh m;
-    soup_mesh(&m);
+static void soup_packets(const struct mesh *m, uint32_t *total, uint32_t *hits, uint32_t *differ) {
     const double bounds[8] = {INFINITY, 0, -1, NAN, 1e-3, 4.0, 3.1e38, 5.0};
-    uint32_t s = 4242, differ = 0, total = 0, hits = 0;
+    uint32_t s = 4242;
     for (int p = 0; p < 3000; p++) {
         ray r[16];
         double tmax[16];
@@ -497,21 +495,35 @@ static void test_packets_in_a_soup_equal_single_rays(void) {
         active &= 0xffffu;
         if (!active) active = 1;
         struct mesh_hit h[16];
-        uint32_t hit = mesh_intersect16(&m, r, tmax, active, h);
-        uint32_t blocked = mesh_occluded16(&m, r, tmax, active);
+        uint32_t hit = mesh_intersect16(m, r, tmax, active, h);
+        uint32_t blocked = mesh_occluded16(m, r, tmax, active);
         for (int i = 0; i < 16; i++) {
             struct mesh_hit one;
-            bool got = active >> i & 1 && mesh_intersect(&m, &r[i], tmax[i], &one);
-            bool occ = active >> i & 1 && mesh_occluded(&m, &r[i], tmax[i]);
-            total++;
-            hits += got;
-            differ += !same_hit(got, &one, hit >> i & 1, &h[i]) || occ != (bool)(blocked >> i & 1);
+            bool got = active >> i & 1 && mesh_intersect(m, &r[i], tmax[i], &one);
+            bool occ = active >> i & 1 && mesh_occluded(m, &r[i], tmax[i]);
+            ++*total;
+            *hits += got;
+            *differ += !same_hit(got, &one, hit >> i & 1, &h[i]) || occ != (bool)(blocked >> i & 1);
         }
     }
-    printf("  %u rays (%u hits), packets %s\n", total, hits,
-           cpu_avx512() ? "with AVX-512" : "one ray at a time (no AVX-512 here)");
-    CHECK(hits > total / 20 && hits < total, "%u hits of %u", hits, total);
-    CHECK(differ == 0, "%u of %u packet answers differ from the one-ray ones", differ, total);
+}
+
+/* The same packets again as through a mesh that outgrows the cache
+ * (prefetch set): there the incoherent ones go ray by ray from the root
+ * (mesh_packet.c, packet_parts). */
+static void test_packets_in_a_soup_equal_single_rays(void) {
+    struct mesh m;
+    soup_mesh(&m);
+    for (int big = 0; big <= 1; big++) {
+        uint32_t differ = 0, total = 0, hits = 0;
+        m.prefetch = big;
+        soup_packets(&m, &total, &hits, &differ);
+        printf("  %u rays (%u hits), packets %s%s\n", total, hits,
+               cpu_avx512() ? "with AVX-512" : "one ray at a time (no AVX-512 here)",
+               big ? ", as a mesh outgrowing the cache" : "");
+        CHECK(hits > total / 20 && hits < total, "%u hits of %u", hits, total);
+        CHECK(differ == 0, "%u of %u packet answers differ from the one-ray ones", differ, total);
+    }
     mesh_free(&m);
 }
 
