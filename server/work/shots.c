@@ -16,9 +16,15 @@
  * POST /v1/render of the scene at frame k gives, and rayd-render --frame K.
  * A frame that fails is tried again, SHOTS_TRIES attempts in all; a frame
  * out of attempts stops the shot (no new frame starts) and the job fails
- * naming it once the frames in flight are done.  A render cancelled by the
- * drain is not a failure: the frame is queued again (and, with --data-dir,
- * rendered after the restart).
+ * naming it once the frames in flight are done.  A failure that would be
+ * the same at every attempt -- the scene invalid at that frame (a keyframed
+ * value out of range), or the frame alone over the memory budget -- fails
+ * it at once.  A render cancelled by the drain is not a failure: the frame
+ * is queued again (and, with --data-dir, rendered after the restart).  Nor
+ * is a frame refused for room (the queue, the memory budget): it waits,
+ * queued as it was, and the watcher starts the shot again a second later
+ * (shots_kick), whether or not another of its frames is still in flight
+ * to do it.
  *
  * Nothing here blocks: the parse threads call shots_parsed, the workers
  * shots_rendered (both with no lock held), and each starts the next
@@ -60,6 +66,7 @@ struct shots_fly {
     int i;                  /* the frame's index in the shot (frame first + i) */
     struct task *t;         /* the render, once submitted (a job's reference) */
     bool dropped;           /* the cancel let go of t's interest already */
+    bool sync;              /* parsed within shots_pump, whose loop goes on by itself */
     struct shots_fly *next; /* the shot's attempts in flight */
 };
 
@@ -75,6 +82,7 @@ struct shot {
     char scene_id[65];
     struct rayd_region reg;
     bool keep_exr, canceled, recorded; /* recorded: its end is queued to the store */
+    bool waiting;                      /* a frame was refused for room: shots_kick goes on */
     bool denoise;                      /* each frame denoised (work_target's) */
     unsigned aov;                      /* each frame's AOVs (work_target's) */
     long first, last;
@@ -85,6 +93,7 @@ struct shot {
     int *order; /* frames in the order they ended (done or failed), for streams */
     int norder;
     struct rayd_error err;   /* the first frame that failed for good */
+    int err_tries;           /* its attempts */
     struct shots_fly *flies; /* in flight */
     struct work_waiter *sse; /* event streams waiting for news */
     int video_state;         /* enum shots_video */
@@ -146,18 +155,39 @@ static enum jobs_state shots_state(const struct shot *s) {
 /* When a final shot ended (clock_now's clock). */
 static double shots_ended(const struct shot *s) { return s->canceled ? s->canceled_at : s->t_end; }
 
+/* Forgets the shot at i of the table, which ended (lock held). */
+static void shots_forget(int i) {
+    struct shot *s = shots_table[i];
+    if (store_on()) store_forget(s->id);
+    shots_table[i] = shots_table[--shots_n];
+    shots_unref(s);
+}
+
 /* Forgets the shots that ended more than --job-ttl seconds ago; lock held. */
 static void shots_expire(double now) {
     for (int i = 0; i < shots_n;) {
         struct shot *s = shots_table[i];
-        if (shots_final(s) && s->flying == 0 && now - shots_ended(s) > (double)config.job_ttl) {
-            if (store_on()) store_forget(s->id);
-            shots_table[i] = shots_table[--shots_n];
-            shots_unref(s);
-        } else {
+        if (shots_final(s) && s->flying == 0 && now - shots_ended(s) > (double)config.job_ttl)
+            shots_forget(i);
+        else
             i++;
-        }
     }
+}
+
+/* Makes room in a full table (lock held): forgets the shot that ended
+ * first, as jobs.c does with plain jobs, so shots that ended hold no
+ * place a new one needs; false when none has ended. */
+static bool shots_evict_ended(void) {
+    int victim = -1;
+    for (int i = 0; i < shots_n; i++) {
+        const struct shot *s = shots_table[i];
+        if (shots_final(s) && s->flying == 0 &&
+            (victim < 0 || shots_ended(s) < shots_ended(shots_table[victim])))
+            victim = i;
+    }
+    if (victim < 0) return false;
+    shots_forget(victim);
+    return true;
 }
 
 static struct shot *shots_find(const char *id) {
@@ -219,12 +249,21 @@ static void shots_record_end(struct shot *s) {
 static void shots_pump(struct shot *s);
 static void shots_suspend_none(struct compile_waiter *w) { (void)w; }
 
+/* How an attempt that made no image counts. */
+enum shots_miss {
+    SM_TRY,   /* a failure: the frame is tried again while it has attempts left */
+    SM_ROOM,  /* refused for room: queued again as it was, for shots_kick */
+    SM_NEVER, /* the same at every attempt: the frame fails now */
+};
+
 /* The attempt fl of a frame is over (no lock held): its images kept, or
- * the frame queued again (a drain, or a failure with attempts left), or
- * failed for good.  The streams are told, and, pump, the next frames
- * started. */
+ * the frame queued again (a drain, a refusal for room, or a failure with
+ * attempts left), or failed for good.  The streams are told, and, pump,
+ * the next frames started: always but where shots_pump's own loop goes on
+ * (the attempt ended within it, fl->sync). */
 static void shots_frame_end(struct shots_fly *fl, enum rayd_status st, const struct rayd_error *err,
-                            struct blob *png, struct blob *exr, bool drained, bool pump) {
+                            struct blob *png, struct blob *exr, bool drained, enum shots_miss miss,
+                            bool pump) {
     struct shot *s = fl->s;
     struct task_notify sse = {0};
     work_lock_take();
@@ -249,16 +288,22 @@ static void shots_frame_end(struct shots_fly *fl, enum rayd_status st, const str
         if (s->ndone == s->n) shots_video_queue(s);
     } else if (drained || s->canceled || (st == RAYD_E_CANCELED && task_draining())) {
         f->state = SF_QUEUED;
-    } else if (++f->tries < SHOTS_TRIES) {
+    } else if (miss == SM_ROOM) {
+        f->state = SF_QUEUED;
+        s->waiting = true;
+        log_info("job %s: frame %ld waits (%s)", s->id, s->first + fl->i, err ? err->message : "?");
+    } else if (miss == SM_TRY && ++f->tries < SHOTS_TRIES) {
         f->state = SF_QUEUED;
         log_warn("job %s: frame %ld failed (%s), trying again", s->id, s->first + fl->i,
                  err ? err->message : "?");
     } else {
+        if (miss == SM_NEVER) f->tries++;
         f->state = SF_FAILED;
         s->nfailed++;
         s->order[s->norder++] = fl->i;
         if (!s->err.code && err) s->err = *err;
         if (!s->err.code) s->err.code = st != RAYD_OK ? st : RAYD_E_INTERNAL;
+        if (!s->err_tries) s->err_tries = f->tries;
     }
     bool ended = shots_final(s) && s->t_end == 0;
     if (ended) s->t_end = clock_now();
@@ -289,7 +334,7 @@ static void shots_rendered(struct work_waiter *w, struct work_result *res) {
     task_unref(t);
     fl->t = NULL; /* the readers of s->flies must not see it again */
     work_lock_give();
-    shots_frame_end(fl, res->status, &res->err, res->png, exr, res->draining, true);
+    shots_frame_end(fl, res->status, &res->err, res->png, exr, res->draining, SM_TRY, true);
 }
 
 /* The frame's refusal as an error naming why. */
@@ -332,15 +377,18 @@ static void shots_render(struct shots_fly *fl, struct cache_entry *scene) {
     if (r == WORK_OK) return;
     struct rayd_error err;
     shots_refusal(r, &err);
-    shots_frame_end(fl, RAYD_E_NOMEM, &err, NULL, NULL, r == WORK_DRAINING, false);
+    shots_frame_end(fl, err.code, &err, NULL, NULL, r == WORK_DRAINING,
+                    r == WORK_TOO_BIG ? SM_NEVER : SM_ROOM, !fl->sync);
 }
 
-/* The parse threads' answer (no lock held). */
+/* The parse threads' answer (no lock held).  A scene that does not parse
+ * at this frame will not at the next attempt either; only running out of
+ * memory may pass. */
 static void shots_parsed(struct compile_waiter *w, struct compile_result *res) {
     struct shots_fly *fl = (struct shots_fly *)w;
     if (res->status != RAYD_OK || !res->scene) {
         shots_frame_end(fl, res->status ? res->status : RAYD_E_INTERNAL, &res->err, NULL, NULL,
-                        res->draining, false);
+                        res->draining, res->status == RAYD_E_NOMEM ? SM_TRY : SM_NEVER, !fl->sync);
         return;
     }
     shots_render(fl, res->scene);
@@ -355,13 +403,14 @@ static int shots_width(void) {
 }
 
 /* Starts s's next frames while fewer than shots_width are in flight (no
- * lock held); stops at a failed frame, a cancel or a drain. */
+ * lock held); stops at a failed frame, a cancel, a drain or a refusal for
+ * room (shots_kick goes on from there). */
 static void shots_pump(struct shot *s) {
     int width = shots_width();
     for (;;) {
         int i = -1;
         work_lock_take();
-        if (!s->canceled && !s->nfailed && !task_draining() && s->flying < width)
+        if (!s->canceled && !s->nfailed && !s->waiting && !task_draining() && s->flying < width)
             for (int k = 0; k < s->n && i < 0; k++)
                 if (s->f[k].state == SF_QUEUED) i = k;
         struct shots_fly *fl = i >= 0 ? calloc(1, sizeof *fl) : NULL;
@@ -381,14 +430,39 @@ static void shots_pump(struct shot *s) {
         struct compile_result res;
         enum work_submit r = compile_scene_frame(s->text, s->len, s->first + i, &fl->cw, &res);
         if (r == WORK_CACHED) {
+            fl->sync = true; /* the parse threads never had it */
             shots_parsed(&fl->cw, &res);
         } else if (r != WORK_OK) {
             struct rayd_error err;
             shots_refusal(r == WORK_PARSE_FULL ? WORK_FULL : r, &err);
-            shots_frame_end(fl, RAYD_E_NOMEM, &err, NULL, NULL, r == WORK_DRAINING, false);
+            shots_frame_end(fl, err.code, &err, NULL, NULL, r == WORK_DRAINING, SM_ROOM, false);
             return;
         }
     }
+}
+
+/* SHOTS_KICK_MAX shots at most a kick; the others wait for the next. */
+#define SHOTS_KICK_MAX 64
+
+/* The watcher's, once a second (no lock held): the shots whose frames
+ * were refused for room start again. */
+static void shots_kick(void) {
+    struct shot *kick[SHOTS_KICK_MAX];
+    int n = 0;
+    work_lock_take();
+    for (int i = 0; i < shots_n && n < SHOTS_KICK_MAX; i++) {
+        struct shot *s = shots_table[i];
+        if (!s->waiting) continue;
+        s->waiting = false;
+        if (shots_final(s)) continue;
+        s->refs++;
+        kick[n++] = s;
+    }
+    work_lock_give();
+    for (int i = 0; i < n; i++) shots_pump(kick[i]);
+    work_lock_take();
+    for (int i = 0; i < n; i++) shots_unref(kick[i]);
+    work_lock_give();
 }
 
 /* ---- letting go of frames: the memory budget, --data-dir, --max-disk ------------ */
@@ -473,7 +547,7 @@ bool shots_start(int max_jobs) {
     static const struct jobs_shots hooks = {shots_oldest_end, shots_evict_oldest, shots_unfinished};
     store_frame_hooks(shots_written, shots_disk_evicted);
     jobs_shots_hooks(&hooks);
-    watch_streams_hooks(shots_streams, shots_unwait);
+    watch_streams_hooks(shots_streams, shots_unwait, shots_kick);
     shots_table = calloc((size_t)max_jobs, sizeof *shots_table);
     return shots_table != NULL;
 }
@@ -536,7 +610,7 @@ enum work_submit shots_submit(struct shots_new *n, char id[33]) {
         r = WORK_DRAINING;
     else if (!shots_table) /* shots_start not run (a harness of the handlers) */
         r = WORK_NOMEM;
-    else if (unfinished >= cap || shots_n >= config.max_jobs)
+    else if (unfinished >= cap || (shots_n >= config.max_jobs && !shots_evict_ended()))
         r = WORK_TOO_MANY_JOBS;
     else if (!(s = shots_new(n)))
         r = WORK_NOMEM;
@@ -647,8 +721,9 @@ static void shots_error(const struct shot *s, struct rayd_error *err) {
             named++;
         }
     char head[256];
-    snprintf(head, sizeof head, "frame%s %s failed after %d attempts: ", s->nfailed > 1 ? "s" : "",
-             list, SHOTS_TRIES);
+    int tries = s->err_tries ? s->err_tries : SHOTS_TRIES;
+    snprintf(head, sizeof head, "frame%s %s failed after %d attempt%s: ", s->nfailed > 1 ? "s" : "",
+             list, tries, tries > 1 ? "s" : "");
     size_t h = strlen(head);
     memcpy(err->message, head, h < sizeof err->message ? h : sizeof err->message - 1);
     snprintf(err->message + h, sizeof err->message - h, "%s", s->err.message);

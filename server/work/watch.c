@@ -15,7 +15,9 @@
  * (task_past_deadline).  One thread for the four because each is a small
  * periodic look at the same lists under the same lock.  Once a second it
  * also hands freed heap back to the kernel (mem_trim), outside the lock:
- * malloc_trim is too slow for a request's or a worker's path.
+ * malloc_trim is too slow for a request's or a worker's path; and starts
+ * again the frame-range jobs whose frames were refused for room (shots.c's
+ * kick), which nothing else may be left to do.
  */
 #include "work/work_private.h"
 
@@ -32,11 +34,14 @@ static bool watch_stopping; /* lock held */
 /* shots.c's streams (watch_streams_hooks): it sits above this file */
 static struct work_waiter **(*watch_shots)(int i);
 static bool (*watch_shots_unwait)(struct work_waiter *w, struct task_notify *gone);
+static void (*watch_shots_kick)(void);
 
 void watch_streams_hooks(struct work_waiter **(*streams)(int i),
-                         bool (*unwait)(struct work_waiter *w, struct task_notify *gone)) {
+                         bool (*unwait)(struct work_waiter *w, struct task_notify *gone),
+                         void (*kick)(void)) {
     watch_shots = streams;
     watch_shots_unwait = unwait;
+    watch_shots_kick = kick;
 }
 
 /* The sockets to poll, lock held. */
@@ -188,6 +193,7 @@ static void *watch_main(void *arg) {
             task_notify_run(&sse);
             if (trim.due) /* malloc_trim takes a while: here, off every request's path */
                 mem_trim(trim.idle);
+            if (trim.due && watch_shots_kick) watch_shots_kick();
             work_lock_take();
         }
         if (!again) watch_sleep();

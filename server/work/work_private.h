@@ -579,9 +579,12 @@ bool shots_restore(const struct store_job *row, const unsigned char *states);
 
 /* shots.c's, handed down by shots_start, lock held: the event streams
  * waiting on the i-th frame-range job (NULL past the last), polled for a
- * hang-up and woken for keep-alives; w taken off whichever holds it. */
+ * hang-up and woken for keep-alives; w taken off whichever holds it.  And,
+ * called once a second without the lock, kick: the frame-range jobs whose
+ * frames were refused for room start again. */
 void watch_streams_hooks(struct work_waiter **(*streams)(int i),
-                         bool (*unwait)(struct work_waiter *w, struct task_notify *gone));
+                         bool (*unwait)(struct work_waiter *w, struct task_notify *gone),
+                         void (*kick)(void));
 int watch_start(void);
 void watch_stop(void); /* stops and joins the thread */
 

@@ -5,7 +5,8 @@
 # frames (GET .../frames/{k}.png and .exr: 200, 409 frame_not_ready, 404
 # frame_unknown, 400), frame k byte for byte rayd-render --frame K, the
 # query's mistakes (400 naming frames or frame, --max-frames), a still
-# scene's job unchanged, the list, DELETE.  The test gate holds the frames
+# scene's job unchanged, the list, DELETE; a scene invalid at a later frame
+# fails its job at once, naming the frame.  The test gate holds the frames
 # so the states in between are seen on any machine.
 source "$(dirname "$0")/lib/common.sh"
 
@@ -188,4 +189,29 @@ code=$(req GET "/v1/jobs/$nof/video.mp4")
 check video_no_ffmpeg "$code $(cat "$T/body")" eval 'err_is "$T/body" 503 no_ffmpeg && grep -q "ffmpeg program" "$T/body"'
 check frame_without_ffmpeg "frame 4 differs" eval '[ "$(req GET "/v1/jobs/$nof/frames/4.png")" = 200 ] && cmp -s "$T/body" "$T/cli-4.png"'
 check rayd_alive "rayd died: $(tail -3 "$T/rayd.err")" kill -0 "$RAYD_PID"
+
+# ---- a scene invalid at a later frame: the job fails at once, naming it -------------
+# A smooth curve takes the light's intensity below 0 at frame 11 (POST checks frame 0).
+# Such a job ends, so it no longer counts against --max-jobs.
+stop_rayd
+start_rayd --threads 1 --max-jobs 2
+cat >"$T/dip.json" <<'JSON'
+{"animation": {"end": 30}, "render": {"width": 4, "height": 4},
+ "lights": [{"type": "point", "position": [0, 5, 5], "interpolation": "smooth",
+             "keyframes": [{"frame": 0, "intensity": 1}, {"frame": 10, "intensity": 0},
+                           {"frame": 20, "intensity": 0}, {"frame": 30, "intensity": 1}]}],
+ "objects": [{"type": "sphere"}]}
+JSON
+dips=
+for i in 1 2; do
+    post_json /v1/jobs "$T/dip.json" >/dev/null
+    dips="$dips $(jfield "$T/body" id)"
+done
+for id in $dips; do wait_until 60 job_state_is "$id" failed; done
+req GET "/v1/jobs/${dips##* }" >/dev/null
+check invalid_frame_fails_at_once "$(cat "$T/body")" eval \
+    'grep -q "frame 11 failed after 1 attempt: " "$T/body" && grep -q "intensity" "$T/body"'
+code=$(post_json "/v1/jobs?frame=4" "$T/anim.json")
+check invalid_frame_frees_max_jobs "$code $(cat "$T/body")" eval '[ "$code" = 202 ]'
+check rayd_alive_after_invalid_frames "rayd died: $(tail -3 "$T/rayd.err")" kill -0 "$RAYD_PID"
 exit $NFAIL
