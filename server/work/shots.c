@@ -342,10 +342,11 @@ static void shots_refusal(enum work_submit why, struct rayd_error *err) {
     memset(err, 0, sizeof *err);
     err->code = why == WORK_TOO_BIG ? RAYD_E_LIMIT : RAYD_E_NOMEM;
     snprintf(err->message, sizeof err->message, "the frame's render was refused: %s",
-             why == WORK_TOO_BIG  ? "it alone is over the memory budget (--max-memory)"
-             : why == WORK_MEMORY ? "no room in the memory budget now (--max-memory)"
-             : why == WORK_FULL   ? "the render queue is full (--queue)"
-                                  : "out of memory");
+             why == WORK_TOO_BIG      ? "it alone is over the memory budget (--max-memory)"
+             : why == WORK_MEMORY     ? "no room in the memory budget now (--max-memory)"
+             : why == WORK_FULL       ? "the render queue is full (--queue)"
+             : why == WORK_PARSE_FULL ? "the scene parse queue is full (--parse-queue)"
+                                      : "out of memory");
 }
 
 /* The frame's scene is compiled: its render submitted (no lock held). */
@@ -434,7 +435,7 @@ static void shots_pump(struct shot *s) {
             shots_parsed(&fl->cw, &res);
         } else if (r != WORK_OK) {
             struct rayd_error err;
-            shots_refusal(r == WORK_PARSE_FULL ? WORK_FULL : r, &err);
+            shots_refusal(r, &err);
             shots_frame_end(fl, err.code, &err, NULL, NULL, r == WORK_DRAINING, SM_ROOM, false);
             return;
         }

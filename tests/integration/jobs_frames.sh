@@ -6,7 +6,8 @@
 # frame_unknown, 400), frame k byte for byte rayd-render --frame K, the
 # query's mistakes (400 naming frames or frame, --max-frames), a still
 # scene's job unchanged, the list, DELETE; a scene invalid at a later frame
-# fails its job at once, naming the frame.  The test gate holds the frames
+# fails its job at once, naming the frame; a frame refused for room waits
+# and its job goes on.  The test gate holds the frames
 # so the states in between are seen on any machine.
 source "$(dirname "$0")/lib/common.sh"
 
@@ -214,4 +215,33 @@ check invalid_frame_fails_at_once "$(cat "$T/body")" eval \
 code=$(post_json "/v1/jobs?frame=4" "$T/anim.json")
 check invalid_frame_frees_max_jobs "$code $(cat "$T/body")" eval '[ "$code" = 202 ]'
 check rayd_alive_after_invalid_frames "rayd died: $(tail -3 "$T/rayd.err")" kill -0 "$RAYD_PID"
+
+# ---- a frame refused for room waits, uses no attempt, and its job goes on -----------
+# One parse thread and a parse queue of one: frame 2 waits at the shut tile gate, then
+# the parses are shut and a plain job's parse takes the queue's place.  Once the tiles
+# open, frame 3's parse is refused (parse queue full): it waits, and when the parses
+# open again the watcher starts the job again.
+stop_rayd
+start_rayd --threads 1 --parse-threads 1 --parse-queue 1 --test-gate 0
+post_json "/v1/jobs?frames=2-4" "$T/anim.json" >/dev/null
+roomy=$(jfield "$T/body" id)
+curl -s -m 30 -X POST -o /dev/null "$URL/v1/test/gate?parses=0"
+scene "$T/still2.json" 32 32 1 spheres 4
+(curl -s -m 120 -o "$T/held.body" -X POST -H 'Content-Type: application/json' \
+    --data-binary @"$T/still2.json" "$URL/v1/jobs") &
+PIDS+=($!)
+held=$!
+wait_until 60 gate_is parses_waiting 1
+gate open
+frame_waits() { grep -q "job $roomy: frame 3 waits (.*parse queue is full" "$T/rayd.err"; }
+wait_until 60 frame_waits
+check room_refusal_waits "log: $(grep "$roomy" "$T/rayd.err" | tail -2)" frame_waits
+curl -s -m 30 -X POST -o /dev/null "$URL/v1/test/gate?parses=open"
+wait "$held"
+wait_until 120 job_state_is "$roomy" succeeded
+check room_refused_job_succeeds "$(req GET "/v1/jobs/$roomy"; head -c 400 "$T/body")" \
+    job_state_is "$roomy" succeeded
+check room_refusal_no_attempt "$(grep "job $roomy: frame .* failed" "$T/rayd.err" | head -2)" \
+    eval '! grep -q "job $roomy: frame .* failed" "$T/rayd.err"'
+check room_held_job_accepted "$(head -c 200 "$T/held.body")" grep -q '"id"' "$T/held.body"
 exit $NFAIL
