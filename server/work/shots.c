@@ -104,14 +104,6 @@ struct shot {
 static struct shot **shots_table;
 static int shots_n;
 
-/* The videos to make, one at a time, on the video thread (lock held). */
-struct shots_videoq {
-    struct shot *s;
-    struct shots_videoq *next;
-};
-static struct shots_videoq *shots_vq;
-static pthread_cond_t shots_vcond = PTHREAD_COND_INITIALIZER;
-static bool shots_vthread;
 static void shots_video_queue(struct shot *s);
 
 static double shots_wall_now(void) {
@@ -953,8 +945,9 @@ static bool shots_unwait(struct work_waiter *w, struct task_notify *gone) {
 #define SHOTS_VIDEO_SECONDS(n) (60.0 + 2.0 * (n))
 
 /* s's frames (referenced, read from disk if need be), then the video made
- * without the lock and kept. */
-static void shots_video_make(struct shot *s) {
+ * without the lock and kept (on the video thread, videoq.c). */
+static void shots_video_make(void *arg) {
+    struct shot *s = arg;
     struct blob **frames = calloc((size_t)s->n, sizeof *frames);
     work_lock_take();
     for (int i = 0; frames && i < s->n; i++) frames[i] = blob_ref(s->f[i].png);
@@ -980,45 +973,16 @@ static void shots_video_make(struct shot *s) {
     work_lock_give();
 }
 
-/* The video thread: one video at a time, in the order the jobs ended. */
-static void *shots_video_thread(void *arg) {
-    (void)arg;
-    work_lock_take();
-    for (;;) {
-        while (!shots_vq) work_wait(&shots_vcond);
-        struct shots_videoq *q = shots_vq;
-        shots_vq = q->next;
-        work_lock_give();
-        shots_video_make(q->s);
-        free(q);
-        work_lock_take();
-    }
-    return NULL;
-}
-
-static void shots_video_start(void) {
-    pthread_t t;
-    shots_vthread = pthread_create(&t, NULL, shots_video_thread, NULL) == 0;
-    if (shots_vthread) pthread_detach(t); /* it lives as long as the process */
-}
-
 /* s has every frame: its video queued for the video thread (lock held). */
 static void shots_video_queue(struct shot *s) {
-    if (!shots_vthread) /* made on the first video, and again if that failed */
-        shots_video_start();
-    struct shots_videoq *q = shots_vthread ? calloc(1, sizeof *q) : NULL;
-    if (!q) {
+    s->refs++; /* the video's, let go by shots_video_make */
+    if (!videoq_add(shots_video_make, s)) {
+        s->refs--;
         s->video_state = SV_FAILED;
         snprintf(s->video_error, sizeof s->video_error, "no thread or memory to make the video");
         return;
     }
     s->video_state = SV_MAKING;
-    s->refs++;
-    q->s = s;
-    struct shots_videoq **p = &shots_vq;
-    while (*p) p = &(*p)->next;
-    *p = q;
-    pthread_cond_signal(&shots_vcond);
 }
 
 struct blob *shots_video(const char *id, struct shots_info *info) {

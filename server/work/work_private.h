@@ -575,6 +575,12 @@ void jobs_seen_seq(long long seq); /* a restored job's number: the next ones com
  * queued again unless it ended; false: no room or memory. */
 bool shots_restore(const struct store_job *row, const unsigned char *states);
 
+/* ---- videoq.c ------------------------------------------------------------------ */
+
+/* Queues make(arg) for the video thread, after the videos asked for before
+ * (lock held; make runs without it); false: no thread or memory. */
+bool videoq_add(void (*make)(void *arg), void *arg);
+
 /* ---- watch.c ------------------------------------------------------------------- */
 
 /* shots.c's, handed down by shots_start, lock held: the event streams
