@@ -18,11 +18,13 @@ static bool meter_halt(struct meter *m, enum rayd_status why) {
     return false;
 }
 
-/* Takes the rays cast since the last take from the budget. */
+/* Takes the rays cast (and the work done) since the last take from the
+ * budget. */
 static bool meter_take(struct meter *m) {
-    if (!m->left || m->rays == m->taken) return true;
-    int_least64_t n = (int_least64_t)(m->rays - m->taken);
-    m->taken = m->rays;
+    uint64_t spent = m->rays + m->work;
+    if (!m->left || spent == m->taken) return true;
+    int_least64_t n = (int_least64_t)(spent - m->taken);
+    m->taken = spent;
     int_least64_t was = atomic_fetch_sub_explicit(m->left, n, memory_order_relaxed);
     return was - n >= 0;
 }
@@ -32,7 +34,7 @@ bool meter_check(struct meter *m) {
     if (m->cancel && atomic_load_explicit(m->cancel, memory_order_relaxed))
         return meter_halt(m, RAYD_E_CANCELED);
     if (!meter_take(m)) return meter_halt(m, RAYD_E_LIMIT);
-    m->next = m->rays + METER_EVERY;
+    m->next = m->rays + m->work + METER_EVERY;
     return true;
 }
 

@@ -19,7 +19,11 @@
  * Those loops ask meter_live at each instance or every few crossings:
  * through the meter bound to the thread (meter_bind), since the scene's
  * queries sit below the integrators and take no meter of their own.  A
- * relaxed load of the flag is cheap next to the BVH walk it guards.
+ * relaxed load of the flag is cheap next to the BVH walk it guards.  The
+ * CSG loop also counts its work (meter_work, in rays' worth) against the
+ * budget, beside the rays: one ray through thousands of nested operands
+ * costs millions of point tests, which a budget of rays alone would never
+ * see.  The work is not counted as rays (the count a render reports).
  *
  * The stop is in the meter, not only in the flag: a meter stopped by its
  * budget stays stopped while the other threads' meters see it at their
@@ -41,8 +45,9 @@
 
 struct meter {
     uint64_t rays;              /* cast so far */
-    uint64_t next;              /* rays at the next look; 0 once stopped */
-    uint64_t taken;             /* of rays, already taken from *left */
+    uint64_t work;              /* other work so far, in rays' worth (meter_work) */
+    uint64_t next;              /* rays + work at the next look; 0 once stopped */
+    uint64_t taken;             /* of rays + work, already taken from *left */
     const atomic_int *cancel;   /* may be NULL */
     atomic_int_least64_t *left; /* the shared budget, may be NULL */
     enum rayd_status stop;      /* RAYD_OK while it goes */
@@ -50,7 +55,7 @@ struct meter {
 
 /* A meter for a render with that cancel flag and budget (either NULL). */
 static inline struct meter meter_make(const atomic_int *cancel, atomic_int_least64_t *left) {
-    struct meter m = {0, METER_EVERY, 0, cancel, left, RAYD_OK};
+    struct meter m = {0, 0, METER_EVERY, 0, cancel, left, RAYD_OK};
     return m;
 }
 
@@ -60,7 +65,7 @@ bool meter_check(struct meter *m);
 /* Counts n rays cast; false when the render must stop. */
 static inline bool meter_rays(struct meter *m, uint64_t n) {
     m->rays += n;
-    return m->rays < m->next || meter_check(m);
+    return m->rays + m->work < m->next || meter_check(m);
 }
 
 static inline bool meter_ray(struct meter *m) { return meter_rays(m, 1); }
@@ -101,6 +106,15 @@ static inline void meter_bind(struct meter *m) { meter_here = m; }
 static inline bool meter_live(void) {
     struct meter *m = meter_here;
     return !m || meter_poll(m);
+}
+
+/* Counts n rays' worth of a scene's own work on this thread's meter (none
+ * bound: nothing); false when the render must stop. */
+static inline bool meter_work(uint64_t n) {
+    struct meter *m = meter_here;
+    if (!m) return true;
+    m->work += n;
+    return m->rays + m->work < m->next || meter_check(m);
 }
 
 #endif

@@ -95,6 +95,12 @@ struct rayd_scene {
 
 #define SCENE_FLAT_MAX 16
 
+/* A CSG tree's point-in-solid tests (one an operand, at every run of
+ * crossings) that cost about what one ray does: the unit in which the
+ * query counts them on the render's meter (meter_work) and the estimate
+ * prices them (scene_cost.c). */
+#define SCENE_CSG_TESTS_A_RAY 16
+
 /* A ray leaving objs[i] from integrate_offset off a point p cannot meet
  * it again (scene_leave.c) when scale <= 1e4 (1 + p's largest
  * coordinate): from either side when flat, else (a convex solid) when it

@@ -45,8 +45,11 @@
  *     two tests; N boxes over one spot give N, wherever they are hidden,
  *     because the cost is the worst node's, not the root's average.  An
  *     instance's leaf costs its group's (recursively), a mesh its own BVH's,
- *     a CSG node its operands', and every unbounded object (a plane) one
- *     test for every ray.  Tests up to RAY_TESTS_FREE are what a plain ray
+ *     a CSG tree of L operands L tests and, at each of the up to 4L + 1 runs
+ *     of their crossings, a point test of every operand (scene_query.c:
+ *     L^2 in all, the tree's whole cost, SCENE_CSG_TESTS_A_RAY point tests
+ *     a ray's worth), and every unbounded object (a plane) one test for
+ *     every ray.  Tests up to RAY_TESTS_FREE are what a plain ray
  *     already costs; past it the factor grows linearly.  It is computed once
  *     when the scene is frozen (scene_cost_freeze), in one walk of the BVHs.
  *
@@ -136,6 +139,17 @@ static double bvh_tests(struct cost_walk *w, const struct cost_tree *b, const st
     return worst;
 }
 
+/* A CSG tree's operands: the shapes at its leaves, through its nested
+ * nodes however deep (the query's own recursion goes as deep). */
+static double csg_leaves(const struct rayd_scene *s, const struct object *o) {
+    if (o->kind != SHAPE_CSG) return 1;
+    double n = 0;
+    int32_t side[2] = {o->u.csg.left, o->u.csg.right};
+    for (int k = 0; k < 2; k++)
+        if (side[k] >= 0 && side[k] < s->nparts) n += csg_leaves(s, &s->parts[side[k]]);
+    return n;
+}
+
 static double object_tests(struct cost_walk *w, const struct object *o, int depth) {
     const struct rayd_scene *s = w->s;
     if (depth > COST_DEPTH) return 1;
@@ -157,12 +171,10 @@ static double object_tests(struct cost_walk *w, const struct object *o, int dept
         if (memo) *memo = c;
         return c;
     }
-    if (o->kind == SHAPE_CSG) {
-        double c = 0;
-        int32_t side[2] = {o->u.csg.left, o->u.csg.right};
-        for (int k = 0; k < 2; k++)
-            if (side[k] >= 0 && side[k] < s->nparts)
-                c += object_tests(w, &s->parts[side[k]], depth + 1);
+    if (o->kind == SHAPE_CSG) { /* its operands' tests, and at each run its point tests */
+        double l = csg_leaves(s, o);
+        double runs = SHAPE_MAX_XINGS * l + 1;
+        double c = l + runs * l * (RAY_TESTS_FREE / SCENE_CSG_TESTS_A_RAY);
         return fmin(COST_MAX, fmax(1, c));
     }
     return 1;

@@ -73,14 +73,16 @@ struct cx {
     int part;
 };
 
-static bool csg_inside(const rayd_scene *s, const struct object *o, vec3 p) {
+/* Whether p is inside the tree at o; *tests counts the operands tested. */
+static bool csg_inside(const rayd_scene *s, const struct object *o, vec3 p, uint64_t *tests) {
     if (o->kind == SHAPE_CSG) {
-        bool a = csg_inside(s, &s->parts[o->u.csg.left], p);
+        bool a = csg_inside(s, &s->parts[o->u.csg.left], p, tests);
         if (o->u.csg.op == CSG_UNION && a) return true;
         if (o->u.csg.op != CSG_UNION && !a) return false;
-        bool b = csg_inside(s, &s->parts[o->u.csg.right], p);
+        bool b = csg_inside(s, &s->parts[o->u.csg.right], p, tests);
         return o->u.csg.op == CSG_DIFFERENCE ? !b : b;
     }
+    ++*tests;
     vec3 q = o->xform >= 0 ? xform_inv_point(&s->xforms[o->xform], p) : p;
     return shape_ops[o->kind]->inside(o, q);
 }
@@ -118,28 +120,45 @@ static int csg_run_end(const struct cx *x, int n, int i) {
     return j;
 }
 
+/* Point tests between two counts on the meter: a few rays' worth. */
+#define CSG_COUNT_TESTS (64 * SCENE_CSG_TESTS_A_RAY)
+
+/* Counts a CSG hit's point tests on the render's meter, in whole rays'
+ * worth (the rest stays in *tests for the next count); false when the
+ * render stopped. */
+static bool csg_count(uint64_t *tests) {
+    uint64_t rays = *tests / SCENE_CSG_TESTS_A_RAY;
+    *tests %= SCENE_CSG_TESTS_A_RAY;
+    return meter_work(rays) && meter_live();
+}
+
 /* The surface of the result nearest along r within *tmax, from the
- * sorted crossings x[0..n). */
+ * sorted crossings x[0..n).  Each run of crossings evaluates the whole
+ * tree: n runs of an n-operand tree cost n^2 point tests, counted on the
+ * render's meter as they go, so a budget sees them (meter.h). */
 static bool csg_nearest(const rayd_scene *s, const struct object *o, const ray *r, struct cx *x,
                         int n, double *tmax, struct hit *h) {
     qsort(x, (size_t)n, sizeof *x, cmp_cx);
-    bool before = csg_inside(s, o, ray_at(r, x[0].t - (1 + fabs(x[0].t))));
+    uint64_t tests = 0;
+    bool before = csg_inside(s, o, ray_at(r, x[0].t - (1 + fabs(x[0].t))), &tests);
     for (int i = 0, j, runs = 0; i < n && x[i].t < *tmax; i = j) {
-        /* each run evaluates the whole tree: a big tree is looked at often */
-        if (++runs % SCENE_LOOK_RUNS == 0 && !meter_live()) return false;
+        if ((++runs % SCENE_LOOK_RUNS == 0 || tests >= CSG_COUNT_TESTS) && !csg_count(&tests))
+            return false;
         j = csg_run_end(x, n, i);
         double ta = j < n ? 0.5 * (x[i].t + x[j].t) : x[i].t + (1 + fabs(x[i].t));
-        bool after = csg_inside(s, o, ray_at(r, ta));
+        bool after = csg_inside(s, o, ray_at(r, ta), &tests);
         if (after != before && x[i].t > 0) {
             *tmax = x[i].t;
             h->t = x[i].t;
             h->leaf = x[i].leaf;
             h->part = x[i].part;
             h->orient = after ? 1 : -1;
+            csg_count(&tests); /* a stop is seen at the meter's next look */
             return true;
         }
         before = after;
     }
+    csg_count(&tests);
     return false;
 }
 

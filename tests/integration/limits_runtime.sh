@@ -5,6 +5,9 @@
 # time; SIGTERM ends the process within --drain-seconds plus a small bound
 # and answers the synchronous client; a second signal ends it at once.
 #
+# A CSG tree's point tests count against --max-work as they go, beside the
+# rays (an 8x8 render of 64 rays is stopped by the million tests they do).
+#
 # The hostile scenes are one pixel each, so a render is a single tile that
 # the old per-row cancel check never looked inside:
 #   - glass: a 4x4x4 grid of glass spheres at max_depth 32, 16 samples --
@@ -133,6 +136,46 @@ check max_work_progressive_keeps_pass "$(head -c 500 "$T/prog.job")" \
 code=$(req GET "/v1/jobs/$job/image.png")
 check max_work_progressive_image "GET image.png: $code" bash -c "[ $code = 200 ] && head -c 4 '$T/body' | grep -q PNG"
 curl -s -m 30 -X POST -o "$T/gate.json" "$URL/v1/test/gate?work=open" >/dev/null
+stop_rayd TERM
+
+# --- a CSG tree's point tests count, not only its rays ------------------------------
+# The union of 1,024 concentric spheres (32 unions of 32) cut by a sphere far away: a ray
+# through the middle crosses 2,048 surfaces and, at each, tests the tree's operands, some
+# half a million point tests for one ray (15 ms).  The estimate prices a tree by its
+# operands squared, so --max-work refuses it at the door; and the run-time budget (the
+# test gate's work knob alone) counts the tests as they go, so an 8x8 render -- 64 rays,
+# far under 20,000 -- is stopped by the work they do.
+python3 - "$T" <<'PY'
+import json, sys
+n = [0]
+def union(level):
+    if level == 0:
+        n[0] += 1
+        return {"type": "sphere", "radius": round(1 + n[0] * 1e-4, 5)}
+    return {"type": "csg", "op": "union", "operands": [union(level - 1) for _ in range(32)]}
+far = {"type": "sphere", "center": [1e6, 0, 0], "radius": 1}
+s = {"render": {"width": 8, "height": 8},
+     "camera": {"position": [0, 0, 10], "look_at": [0, 0, 0], "fov_x": 5},
+     "lights": [{"type": "point", "position": [0, 5, 5]}],
+     "objects": [{"type": "csg", "op": "intersection", "operands": [union(2), far]}]}
+json.dump(s, open(sys.argv[1] + "/csg.json", "w"), separators=(",", ":"))
+PY
+start_rayd --threads 1 --max-work 1000000 --test-gate open
+code=$(post_json /v1/render "$T/csg.json")
+check csg_priced_at_door "status $code: $(head -c 300 "$T/body")" \
+    bash -c "[ $code = 413 ] && grep -q over_budget '$T/body'"
+stop_rayd TERM
+start_rayd --threads 1 --max-render-seconds 0 --test-gate open
+curl -s -m 30 -X POST -o "$T/gate.json" "$URL/v1/test/gate?work=20000" >/dev/null
+t0=$(date +%s%N)
+code=$(post_json /v1/render "$T/csg.json")
+took=$(elapsed "$t0")
+check csg_work_stops_render "status $code after $took s: $(head -c 300 "$T/body")" \
+    bash -c "[ $code = 413 ] && [ $took -le 20 ]"
+check csg_work_message "$(head -c 400 "$T/body")" limit_answer "$T/body" "20000 rays (--max-work)"
+curl -s -m 30 -X POST -o "$T/gate.json" "$URL/v1/test/gate?work=open" >/dev/null
+code=$(post_json /v1/render "$T/small.json")
+check csg_then_small_renders "status $code" [ "$code" = 200 ]
 stop_rayd TERM
 
 # --- --max-render-seconds: one ray through 20,000 instances is stopped -----------------
