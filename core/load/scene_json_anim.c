@@ -36,6 +36,11 @@
 #include "math/keyframe.h"
 
 #define ANIM_MAX_FRAME 1000000L /* frame numbers: 0 .. this */
+/* The slowest rate: ffmpeg refuses a frame rate much below 1e-5 (its
+ * timestamps overflow: "Invalid argument"), so a video job would fail only
+ * once every frame is rendered.  0.001 is well clear of that and still a
+ * frame every 16 minutes. */
+#define ANIM_MIN_FPS 0.001
 
 enum ch_kind { CH_VEC, CH_NUM, CH_ROT, CH_SCALE };
 
@@ -106,7 +111,7 @@ static enum rayd_status anim_block(struct loader *ld, const cJSON *root, struct 
         return sj_fail(ld, RAYD_E_INVALID, &pe, "is required (the last frame)");
     TRY(sj_int(ld, b, &at, "start", 0, 0, ANIM_MAX_FRAME, false, &a->start));
     TRY(sj_int(ld, b, &at, "end", 0, 0, ANIM_MAX_FRAME, false, &a->end));
-    TRY(sj_num(ld, b, &at, "fps", 24, 0, true, 1000, &a->fps));
+    TRY(sj_num(ld, b, &at, "fps", 24, ANIM_MIN_FPS, false, 1000, &a->fps));
     if (a->end < a->start)
         return sj_fail(ld, RAYD_E_INVALID, &pe, "must be >= /animation/start (%ld)", a->start);
     a->on = true;

@@ -12,7 +12,9 @@
  * fails saying so.  This runs on the caller's thread and blocks for the
  * encode's time: never call it on an HTTP thread (shots.c has a thread
  * of its own).  Its standard error goes to a file whose last line is the
- * message of a failure.
+ * message of a failure.  That message goes to the client (the job's
+ * video_failed) without the folder's path, which is the server's business:
+ * the whole line, path and all, is in the server's log.
  */
 #include "base/base.h"
 
@@ -141,6 +143,16 @@ static void video_log_tail(const char *dir, char *buf, size_t size) {
     snprintf(buf, size, "%.*s", size > 0 ? (int)size - 1 : 0, line[0] ? line : "no message");
 }
 
+/* line with every "dir/" taken out, so a client reads "frame-%06d.png"
+ * where ffmpeg named the server's folder. */
+static void video_unpath(char *line, const char *dir) {
+    char prefix[4200];
+    int n = snprintf(prefix, sizeof prefix, "%s/", dir);
+    if (n <= 0 || (size_t)n >= sizeof prefix) return;
+    char *at;
+    while ((at = strstr(line, prefix))) memmove(at, at + n, strlen(at + n) + 1);
+}
+
 /* Removes dir's files and dir. */
 static void video_clean(const char *dir, int n) {
     char path[4200];
@@ -190,6 +202,8 @@ enum video_status video_encode(struct blob *const *frames, int n, double fps, do
     } else if (rc != 0) {
         char tail[300];
         video_log_tail(dir, tail, sizeof tail);
+        log_warn("ffmpeg failed (status %d) in %s: %s", rc, dir, tail);
+        video_unpath(tail, dir);
         snprintf(err, size, "ffmpeg failed (status %d): %s", rc, tail);
         st = rc == 127 ? VIDEO_NO_FFMPEG : VIDEO_FAILED;
     } else {

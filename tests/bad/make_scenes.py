@@ -885,7 +885,10 @@ case("anim-end-missing.json", '{"animation": {"start": 0}}\n',
 case("anim-end-before-start.json", '{"animation": {"start": 5, "end": 2}}\n',
      "error: /animation/end: must be >= /animation/start (5)")
 case("anim-fps-zero.json", '{"animation": {"end": 5, "fps": 0}}\n',
-     "error: /animation/fps: must be > 0")
+     "error: /animation/fps: must be >= 0.001")
+# a rate ffmpeg cannot take: the video would fail after every frame is made
+case("anim-fps-tiny.json", '{"animation": {"end": 5, "fps": 1e-6}}\n',
+     "error: /animation/fps: must be >= 0.001")
 case("anim-end-fraction.json", '{"animation": {"end": 2.5}}\n',
      "error: /animation/end: must be an integer")
 case("anim-end-over.json", '{"animation": {"end": 1000001}}\n',

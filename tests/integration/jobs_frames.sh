@@ -5,10 +5,12 @@
 # frames (GET .../frames/{k}.png and .exr: 200, 409 frame_not_ready, 404
 # frame_unknown, 400), frame k byte for byte rayd-render --frame K, the
 # query's mistakes (400 naming frames or frame, --max-frames), a still
-# scene's job unchanged, the list, DELETE; a scene invalid at a later frame
-# fails its job at once, naming the frame; a frame refused for room waits
-# and its job goes on.  The test gate holds the frames
-# so the states in between are seen on any machine.
+# scene's job unchanged, the list, DELETE, the video (an fps ffmpeg cannot
+# take refused at POST, the slowest it takes made; ffmpeg failing is 500
+# video_failed without the server's temp folder); a scene invalid at a later
+# frame fails its job at once, naming the frame; a frame refused for room
+# waits and its job goes on.  The test gate holds the frames so the states
+# in between are seen on any machine.
 source "$(dirname "$0")/lib/common.sh"
 
 cp "$RAYD_ROOT/tests/integration/lib/anim.json" "$T/anim.json" # frames 2-9, 48x32
@@ -129,6 +131,25 @@ probe=$(ffprobe -v error -select_streams v:0 -count_frames -show_entries \
     stream=codec_name,width,height,r_frame_rate,nb_read_frames,pix_fmt -of csv=p=0 "$T/shot.mp4" 2>&1)
 check video_probe "$probe" eval '[ "$probe" = "h264,48,32,yuv420p,12/1,4" ]'
 
+# ---- fps: a rate ffmpeg cannot take is refused at POST; the slowest it takes makes a video
+sed 's/"fps": 12/"fps": FPS/' "$T/anim.json" >"$T/fps.tmpl"
+for fps in 1e-300 1e-6 0.0009; do
+    sed "s/FPS/$fps/" "$T/fps.tmpl" >"$T/fps.json"
+    code=$(post_json "/v1/jobs?frames=2-3" "$T/fps.json")
+    check "fps_${fps}_refused" "$code $(cat "$T/body")" eval \
+        'err_is "$T/body" 422 invalid_scene /animation/fps && grep -q ">= 0.001" "$T/body"'
+done
+sed "s/FPS/0.001/" "$T/fps.tmpl" >"$T/fps.json"
+post_json "/v1/jobs?frames=2-3" "$T/fps.json" >/dev/null
+slow=$(jfield "$T/body" id)
+wait_until 120 job_state_is "$slow" succeeded
+slow_ready() { [ "$(req GET "/v1/jobs/$slow/video.mp4")" != 202 ]; }
+wait_until 120 slow_ready
+code=$(req GET "/v1/jobs/$slow/video.mp4")
+cp "$T/body" "$T/slow.mp4"
+probe=$(ffprobe -v error -select_streams v:0 -show_entries stream=r_frame_rate -of csv=p=0 "$T/slow.mp4" 2>&1)
+check video_min_fps "$code $probe" eval '[ "$code" = 200 ] && [ "$probe" = 1/1000 ]'
+
 # ---- no range: the whole animation; ?frame=K one frame ------------------------------
 post_json "/v1/jobs?frame=9" "$T/anim.json" >/dev/null
 one=$(jfield "$T/body" id)
@@ -244,4 +265,27 @@ check room_refused_job_succeeds "$(req GET "/v1/jobs/$roomy"; head -c 400 "$T/bo
 check room_refusal_no_attempt "$(grep "job $roomy: frame .* failed" "$T/rayd.err" | head -2)" \
     eval '! grep -q "job $roomy: frame .* failed" "$T/rayd.err"'
 check room_held_job_accepted "$(head -c 200 "$T/held.body")" grep -q '"id"' "$T/held.body"
+
+# ---- ffmpeg fails: 500 video_failed with its message, not the server's temp folder ----
+stop_rayd
+mkdir -p "$T/badff"
+cat >"$T/badff/ffmpeg" <<'EOF'
+#!/bin/sh
+for a; do case $a in */frame-*) echo "$a: Invalid argument" >&2 ;; esac; done
+exit 1
+EOF
+chmod +x "$T/badff/ffmpeg"
+RAYD_WRAP="env PATH=$T/badff" start_rayd --threads 1
+post_json "/v1/jobs?frame=4" "$T/anim.json" >/dev/null
+bad=$(jfield "$T/body" id)
+wait_until 120 job_state_is "$bad" succeeded
+video_failed() { [ "$(req GET "/v1/jobs/$bad/video.mp4")" != 202 ]; }
+wait_until 120 video_failed
+code=$(req GET "/v1/jobs/$bad/video.mp4")
+check video_failed_500 "$code $(cat "$T/body")" eval \
+    'err_is "$T/body" 500 video_failed && grep -q "frame-%06d.png: Invalid argument" "$T/body"'
+check video_failed_no_path "$(cat "$T/body")" eval '! grep -q "rayd-video-" "$T/body"'
+check video_failed_logged "$(grep -i ffmpeg "$T/rayd.err" | tail -2)" eval \
+    'grep -q "rayd-video-[^ ]*/frame-%06d.png: Invalid argument" "$T/rayd.err"'
+check rayd_alive_after_video_failed "rayd died: $(tail -3 "$T/rayd.err")" kill -0 "$RAYD_PID"
 exit $NFAIL
