@@ -8,7 +8,9 @@
  *
  * The region query is strict: all four parameters or none, decimal
  * integers only, inside the image, no unknown or repeated parameters.  Each
- * error names the offending parameter.
+ * error names the offending parameter.  A parameter with an empty name
+ * ("?=1") is an unknown one like any other: it is kept by a flag of its own,
+ * since its name, "", cannot say it was seen.
  */
 #include "api/api.h"
 
@@ -16,10 +18,16 @@
 #include <string.h>
 #include <strings.h>
 
+/* The first query parameter a route does not take. */
+struct api_unknown {
+    bool seen;
+    char name[64]; /* "" for a parameter with an empty name */
+};
+
 struct api_q {
     const char *val[4];
     int count[4];
-    char unknown[64];
+    struct api_unknown unknown;
     bool allow_format;       /* POST /v1/render: ?format= and ?samples= too */
     const char *const *also; /* names another parser of the route reads, NULL-ended */
     const char *format, *samples, *aov, *denoise;
@@ -28,13 +36,14 @@ struct api_q {
 
 static const char *const api_q_names[4] = {"x", "y", "w", "h"};
 
-/* Keeps k in unknown (size bytes) unless it is one of names (NULL-ended,
- * or NULL) or a name was kept already: the first parameter a route does
- * not take. */
-static void api_note_unknown(char *unknown, size_t size, const char *const *names, const char *k) {
+/* Keeps k in u unless it is one of names (NULL-ended, or NULL) or a
+ * parameter was kept already: the first parameter a route does not take. */
+static void api_note_unknown(struct api_unknown *u, const char *const *names, const char *k) {
     for (const char *const *n = names; n && *n; n++)
         if (!strcmp(k, *n)) return;
-    if (!unknown[0]) snprintf(unknown, size, "%s", k);
+    if (u->seen) return;
+    u->seen = true;
+    snprintf(u->name, sizeof u->name, "%s", k);
 }
 
 bool api_bad_param(struct http_req *r, const char *name, const char *why) {
@@ -44,18 +53,22 @@ bool api_bad_param(struct http_req *r, const char *name, const char *why) {
     return false;
 }
 
-/* 400 bad_parameter for the query parameter unknown, which the route does
- * not take, listing those it does: head (or NULL), then names (NULL-ended,
- * or NULL). */
-static void api_reply_unknown(struct http_req *r, const char *unknown, const char *head,
+/* 400 bad_parameter for the query parameter u, which the route does not
+ * take, listing those it does: head (or NULL), then names (NULL-ended, or
+ * NULL).  An empty name is said so: "unknown query parameter ''" would
+ * read as a bug of the message. */
+static void api_reply_unknown(struct http_req *r, const struct api_unknown *u, const char *head,
                               const char *const *names) {
-    char takes[160] = "", msg[320];
+    char takes[160] = "", what[100], msg[320];
     size_t used = head ? (size_t)snprintf(takes, sizeof takes, "%s", head) : 0;
     for (const char *const *n = names; n && *n && used < sizeof takes; n++)
         used += (size_t)snprintf(takes + used, sizeof takes - used, "%s%s", used ? ", " : "", *n);
-    snprintf(msg, sizeof msg, "unknown query parameter '%s' (%s%s)", unknown,
-             used ? "only " : "this route takes none", takes);
-    http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, unknown);
+    if (u->name[0])
+        snprintf(what, sizeof what, "unknown query parameter '%s'", u->name);
+    else
+        snprintf(what, sizeof what, "a query parameter has an empty name");
+    snprintf(msg, sizeof msg, "%s (%s%s)", what, used ? "only " : "this route takes none", takes);
+    http_reply_error(r, 400, "bad_parameter", msg, NULL, 0, 0, u->name);
 }
 
 static void api_q_each(void *u, const char *k, const char *v) {
@@ -86,7 +99,7 @@ static void api_q_each(void *u, const char *k, const char *v) {
         q->denoise_count++;
         return;
     }
-    api_note_unknown(q->unknown, sizeof q->unknown, q->also, k);
+    api_note_unknown(&q->unknown, q->also, k);
 }
 
 /* A decimal integer (an optional '-', then digits only) in the n bytes at
@@ -111,7 +124,7 @@ static bool api_int(const char *s, long *out) { return api_int_n(s, strlen(s), o
 /* 400 bad_parameter for a query parameter the route does not take,
  * listing those it does. */
 static void api_q_unknown(struct http_req *r, const struct api_q *q) {
-    api_reply_unknown(r, q->unknown,
+    api_reply_unknown(r, &q->unknown,
                       q->allow_format ? "x, y, w, h, format, samples, aov, denoise" : "x, y, w, h",
                       q->also);
 }
@@ -173,7 +186,7 @@ static bool api_region_q(struct http_req *r, const rayd_scene *scene, struct ray
     struct rayd_scene_info info;
     rayd_scene_info(scene, &info);
     http_req_query_each(r, api_q_each, qp);
-    if (qp->unknown[0]) {
+    if (qp->unknown.seen) {
         api_q_unknown(r, qp);
         return false;
     }
@@ -371,20 +384,20 @@ const char *api_format_type(enum work_format format) { return work_format_type(f
 
 struct api_only {
     const char *const *names;
-    char unknown[64];
+    struct api_unknown unknown;
 };
 
 static void api_only_each(void *u, const char *k, const char *v) {
     (void)v;
     struct api_only *o = u;
-    api_note_unknown(o->unknown, sizeof o->unknown, o->names, k);
+    api_note_unknown(&o->unknown, o->names, k);
 }
 
 bool api_only_params(struct http_req *r, const char *const *names) {
     struct api_only o = {.names = names};
     http_req_query_each(r, api_only_each, &o);
-    if (!o.unknown[0]) return true;
-    api_reply_unknown(r, o.unknown, NULL, names);
+    if (!o.unknown.seen) return true;
+    api_reply_unknown(r, &o.unknown, NULL, names);
     return false;
 }
 

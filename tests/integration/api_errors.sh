@@ -2,7 +2,8 @@
 # api_errors.sh -- every error code of the API with its JSON body: 400
 # invalid_json (line, column), 422 invalid_scene (JSON Pointer path), 413
 # body and image limits, 415, 404 (not_found, scene_unknown, job_unknown), 405
-# with Allow, 400 bad_region naming the parameter; and garbage never gives a
+# with Allow, 400 bad_region naming the parameter, 400 bad_parameter for an
+# unknown query parameter (an empty name too); and garbage never gives a
 # 500 or kills the server.
 # rayd-test: long
 source "$(dirname "$0")/lib/common.sh"
@@ -205,6 +206,17 @@ check param_scenes_post "status $code $(head -c 200 "$T/body")" err_is "$T/body"
 req GET "/v1/jobs/$job" >/dev/null
 state=$(jfield "$T/body" state)
 check param_job_not_deleted "state $state" [ "$state" != canceled ]
+# a parameter with an empty name is one the route does not take, said so
+empty_name() { err_is "$T/body" 400 bad_parameter && grep -q "query parameter has an empty name" "$T/body"; }
+for q in '=' '=x' '=1&=2' 'x=0&y=0&w=1&h=1&='; do
+    for p in /v1/render /v1/scenes /v1/jobs; do
+        [ "$p" = /v1/scenes ] && [ "${q:0:1}" = x ] && continue # x is unknown there first
+        code=$(post_json "$p?$q" "$T/small.json")
+        check "param_empty_name${p//\//_}_${q//[^a-z0-9]/_}" "status $code $(head -c 200 "$T/body")" empty_name
+    done
+done
+code=$(req GET "/v1/jobs/$job?=1")
+check param_empty_name_job_status "status $code $(head -c 200 "$T/body")" empty_name
 
 # --- garbage never crashes, hangs or 500s ------------------------------------------------
 ok=1
