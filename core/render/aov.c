@@ -186,6 +186,32 @@ static unsigned aov_lookup(const char *s, size_t len) {
     return 0;
 }
 
+/* The first name before p in list whose AOVs meet one (the caller saw
+ * one's AOVs in the list's mask already, so there is such a name); its
+ * length in *len. */
+static const char *aov_earlier(const char *list, const char *p, unsigned one, size_t *len) {
+    for (const char *q = list; q < p; q += *len + 1) {
+        *len = strcspn(q, ",");
+        if (aov_lookup(q, *len) & one) return q;
+    }
+    *len = 0;
+    return p;
+}
+
+/* RAYD_E_ARG for the name p (len bytes), whose AOVs the list named already
+ * before it: a repeat is a mistake of the caller's (a typo for another
+ * name, most likely), not something to merge in silence. */
+static enum rayd_status aov_repeated(const char *list, const char *p, size_t len, unsigned one,
+                                     struct rayd_error *err) {
+    size_t qlen;
+    const char *q = aov_earlier(list, p, one, &qlen);
+    int n = len > 64 ? 64 : (int)len, qn = qlen > 64 ? 64 : (int)qlen;
+    if (qlen == len && !strncmp(q, p, len))
+        return err_set(err, RAYD_E_ARG, "aov", "'%.*s' is named more than once", n, p);
+    return err_set(err, RAYD_E_ARG, "aov", "'%.*s' names an AOV that '%.*s' named already", n, p,
+                   qn, q);
+}
+
 enum rayd_status rayd_aov_parse(const char *list, unsigned *mask, struct rayd_error *err) {
     static const char known[] = "albedo, normal, depth, alpha, object, material, id or all";
     if (!list || !*list)
@@ -200,6 +226,7 @@ enum rayd_status rayd_aov_parse(const char *list, unsigned *mask, struct rayd_er
             return err_set(err, RAYD_E_ARG, "aov", "'%.*s' is no AOV; the AOVs are %s",
                            len > 64 ? 64 : (int)len, p, known);
         }
+        if (one & m) return aov_repeated(list, p, len, one, err);
         m |= one;
         if (!end) break;
         p = end;

@@ -423,8 +423,9 @@ enum rayd_aov {
 #define RAYD_AOV_FLOATS 10
 /* Reads a comma-separated list of AOV names ("albedo,normal,depth,alpha,
  * id", "id" being "object,material"; "all" every one) into *mask; an
- * unknown or empty name is RAYD_E_ARG naming it.  The names of one bit:
- * rayd_aov_name. */
+ * unknown or empty name, or one whose AOVs an earlier name gave already
+ * ("normal,normal", "id,object", "all,depth"), is RAYD_E_ARG naming it.
+ * The names of one bit: rayd_aov_name. */
 enum rayd_status rayd_aov_parse(const char *list, unsigned *mask, struct rayd_error *err);
 const char *rayd_aov_name(unsigned aov);
 /* Makes acc keep the AOV sums too; only before its first samples. */

@@ -2,7 +2,8 @@
 # api_aov.sh -- POST /v1/render?aov=: with format=exr the AOVs as channels,
 # with format=png one AOV as the image; both the bytes rayd-render writes
 # for the same scene and region; cached apart from the plain image; the
-# scene's render.aov as an EXR's default; bad values 400 naming aov.
+# scene's render.aov as an EXR's default; bad values (a name given twice
+# too) 400 naming aov.
 source "$(dirname "$0")/lib/common.sh"
 
 start_rayd --threads 2
@@ -47,16 +48,26 @@ check scene_aov_default_channels "$(grep -c floating "$T/hdr.txt") channels" \
 # Bad values: 400 bad_parameter naming aov.
 aov_err() { err_is "$T/body" 400 bad_parameter && [ "$(json "$T/body" 'j["error"]["parameter"]')" = aov ]; }
 for q in 'aov=zdepth' 'aov=' 'aov=albedo,,depth' 'aov=albedo,normal' 'aov=id' 'format=png16&aov=depth' \
-    'format=sums&samples=0-1&aov=depth' 'aov=depth&aov=albedo' 'format=exr&aov=Z'; do
+    'format=sums&samples=0-1&aov=depth' 'aov=depth&aov=albedo' 'format=exr&aov=Z' \
+    'aov=normal,normal' 'format=exr&aov=depth,normal,depth' 'format=exr&aov=id,object'; do
     code=$(post_json "/v1/render?$q" "$T/whitted.json")
     check "bad_${q//[^a-z0-9]/_}" "status $code $(cat "$T/body")" aov_err
 done
 code=$(post_json "/v1/render?aov=zdepth" "$T/whitted.json")
 check bad_aov_message "$(cat "$T/body")" grep -q "'zdepth' is no AOV" "$T/body"
+# a name given twice is refused naming it, on a job too
+code=$(post_json "/v1/render?aov=normal,normal" "$T/whitted.json")
+check repeated_aov_message "$(cat "$T/body")" grep -q "aov: 'normal' is named more than once" "$T/body"
+code=$(post_json "/v1/jobs?format=exr&aov=albedo,depth,albedo" "$T/whitted.json")
+repeated_albedo() { aov_err && grep -q "'albedo' is named more than once" "$T/body"; }
+check repeated_aov_job "status $code $(cat "$T/body")" repeated_albedo
 
+long=$(python3 -c 'print(",".join(["albedo", "normal", "depth", "alpha", "object", "material"]))')
+code=$(post_json "/v1/render?format=exr&aov=$long" "$T/whitted.json")
+check long_list_ok "status $code: every AOV named once" [ "$code" = 200 ]
 long=$(python3 -c 'print(",".join(["albedo"] * 400))')
 code=$(post_json "/v1/render?format=exr&aov=$long" "$T/whitted.json")
-check long_list_ok "status $code: a long list of good names is one AOV set" [ "$code" = 200 ]
+check long_repeats_refused "status $code $(head -c 300 "$T/body")" aov_err
 long=$(python3 -c 'print("x" * 3000)')
 code=$(post_json "/v1/render?aov=$long" "$T/whitted.json")
 check long_name_refused "status $code $(head -c 300 "$T/body")" aov_err

@@ -370,7 +370,17 @@ static void test_names(void) {
           "all five: %u", m);
     CHECK(rayd_aov_parse("depth", &m, &err) == RAYD_OK && m == RAYD_AOV_DEPTH, "depth");
     CHECK(rayd_aov_parse("all", &m, &err) == RAYD_OK && m == RAYD_AOV_ALL, "all");
-    const char *bad[] = {"", "albedo,", ",depth", "albedo,,depth", "Albedo", "zdepth", "depth "};
+    const char *bad[] = {"",
+                         "albedo,",
+                         ",depth",
+                         "albedo,,depth",
+                         "Albedo",
+                         "zdepth",
+                         "depth ",
+                         "normal,normal",
+                         "id,object",
+                         "all,depth",
+                         "depth,albedo,depth"};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         m = 12345;
         CHECK(rayd_aov_parse(bad[i], &m, &err) == RAYD_E_ARG && m == 12345, "'%s' accepted",
@@ -378,6 +388,13 @@ static void test_names(void) {
         CHECK(!strcmp(err.path, "aov") && err.message[0], "'%s': %s", bad[i], err.message);
     }
     CHECK(rayd_aov_parse(NULL, &m, &err) == RAYD_E_ARG, "NULL");
+    /* a repeat names itself, and the earlier name it repeats */
+    CHECK(rayd_aov_parse("depth,normal,normal", &m, &err) == RAYD_E_ARG &&
+              !strcmp(err.message, "'normal' is named more than once"),
+          "repeat: %s", err.message);
+    CHECK(rayd_aov_parse("albedo,id,object", &m, &err) == RAYD_E_ARG &&
+              !strcmp(err.message, "'object' names an AOV that 'id' named already"),
+          "overlap: %s", err.message);
     CHECK(!strcmp(rayd_aov_name(RAYD_AOV_NORMAL), "normal") && !rayd_aov_name(3), "names");
     /* an accumulator with samples cannot start keeping AOVs; merging needs both */
     rayd_scene *s = sphere_scene("whitted", 2);
