@@ -4,9 +4,10 @@
  *   begin   headers only.  The request gets its id (X-Request-Id) and its
  *           route label for the metrics.  Framing first (RFC 9112): a
  *           header block the transport found unsound (a folded line, a
- *           bare LF), a header name that is no token (whitespace before
- *           its colon), a control character in a value, HTTP/1.1 without
- *           Host, a target with a space, a NUL or an encoded '/' are 400,
+ *           bare LF), a method or a header name that is no token
+ *           (whitespace before its colon), a control character in a
+ *           value, HTTP/1.1 without Host, a target with a space, a NUL or
+ *           an encoded '/' are 400,
  *           an ambiguous body length 400, an Expect other than
  *           100-continue 417 -- each closing the connection, so what a
  *           proxy might have read as the body is never run as a request.
@@ -130,7 +131,8 @@ struct http_flow_framing {
 /* A header name is a token (RFC 9110 section 5.6.2): a space or tab in it
  * is whitespace before the colon, which RFC 9112 section 5.1 asks a 400
  * for -- libmicrohttpd keeps "Transfer-Encoding " as an unknown header and
- * would read the body as the next request. */
+ * would read the body as the next request.  A method is a token too
+ * (section 9.1); libmicrohttpd passes any bytes up to the first space. */
 static bool http_flow_token(const char *k) {
     if (!*k) return false;
     for (; *k; k++)
@@ -221,13 +223,18 @@ static void http_flow_refuse_framing(struct http_req *r, unsigned status, const 
 }
 
 /* Why the header block is refused (400), into msg; false when it is sound:
- * what the transport found, a header name that is no token (whitespace
- * before its colon), a control character in a value, a missing Host in
- * HTTP/1.1, a target with a space, control, NUL or encoded '/'. */
+ * what the transport found, a method that is no token (not echoed: its
+ * bytes are anything a client sent), a header name that is no token
+ * (whitespace before its colon), a control character in a value, a missing
+ * Host in HTTP/1.1, a target with a space, control, NUL or encoded '/'. */
 static bool http_flow_malformed(struct http_req *r, const struct http_flow_framing *f, char *msg,
                                 size_t size) {
     if (r->conn.framing)
         snprintf(msg, size, "%s", r->conn.framing);
+    else if (!http_flow_token(r->method))
+        snprintf(msg, size,
+                 "the method is not a token (letters, digits and !#$%%&'*+-.^_`|~ only, "
+                 "RFC 9110 section 9.1)");
     else if (f->bad_name)
         snprintf(msg, size, "the header name '%.40s' is not a token (whitespace before the colon?)",
                  f->bad_name);

@@ -167,9 +167,10 @@ static int router_row_of(struct http_req *r) {
 /* 404, or 405 with Allow when the path is known. */
 static void router_refuse_reply(struct http_req *r) {
     if (r->route.path_known) {
-        char allow[128], msg[200];
+        char allow[128], msg[240];
         router_allow(r->url, allow, sizeof allow);
-        snprintf(msg, sizeof msg, "method %s not allowed here; allowed: %s", r->method, allow);
+        /* the method is a token (http_flow.c), but of any length: cut */
+        snprintf(msg, sizeof msg, "method %.40s not allowed here; allowed: %s", r->method, allow);
         http_reply_error(r, 405, "method_not_allowed", msg, NULL, 0, 0, NULL);
         http_reply_header(r, "Allow", allow);
         return;

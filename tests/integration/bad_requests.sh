@@ -4,7 +4,8 @@
 # the answer must have the status of manifest.tsv and, when rayd's own code
 # answered, the API's JSON error body with that code (libmicrohttpd's own
 # refusals -- code `-` -- are checked by status only); GET /healthz must
-# answer 200 after each case; nothing may be answered 500.
+# answer 200 after each case; nothing may be answered 500.  Then a bad
+# method's message: a non-token's bytes not echoed, a long token's cut.
 source "$(dirname "$0")/lib/common.sh"
 
 CORPUS="$RAYD_ROOT/tests/bad/requests"
@@ -100,6 +101,28 @@ for line in open(os.path.join(corpus, "manifest.tsv")):
     else:
         print("PASS bad-request-%s (%s, %.0f ms)" % (name, want, ms))
 print("cases %d" % n, file=sys.stderr)
+PY
+
+# a method's refusal echoes none of a non-token's bytes (400), and at most
+# 40 bytes of a token (405): the message is the client's to show
+python3 - "$PORT" <<'PY'
+import json, socket, sys
+def message(method):
+    s = socket.create_connection(("127.0.0.1", int(sys.argv[1])), timeout=15)
+    s.sendall(method + b" /healthz HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")
+    got = b""
+    while True:
+        d = s.recv(65536)
+        if not d:
+            break
+        got += d
+    s.close()
+    return json.loads(got.partition(b"\r\n\r\n")[2])["error"]["message"]
+m = message(b"G<script>T")
+print("PASS method_not_echoed" if "script" not in m else "FAIL method_not_echoed: %r" % m)
+m = message(b"A" * 300)
+ok = "A" * 40 in m and "A" * 41 not in m
+print("PASS method_echo_cut" if ok else "FAIL method_echo_cut: %r" % m[:200])
 PY
 
 count=$(grep -vc '^#' "$CORPUS/manifest.tsv")

@@ -242,6 +242,15 @@ for name, method, target in [("method-get-render", "GET", "/v1/render"),
                               "/v1/scenes/" + "0" * 64 + "/image.png"),
                              ("method-put-job", "PUT", "/v1/jobs/" + "0" * 32)]:
     raw(name, request(method, target), 405, "method_not_allowed", "%s %s" % (method, target))
+# a method that is no RFC 9110 token is a malformed request, not an unknown method
+for name, method in [("method-not-token-brace", "G{T"), ("method-not-token-quote", 'G"T'),
+                     ("method-not-token-angle", "G<b>T"), ("method-not-token-comma", "G,T"),
+                     ("method-not-token-control", "G\x01T"), ("method-not-token-utf8", "G\xc9T")]:
+    raw(name, request(method, "/healthz"), 400, "bad_request", "%r /healthz" % method)
+raw("method-not-token-with-body", request("P{ST", "/v1/render", GOOD), 400, "bad_request",
+    "'P{ST' /v1/render with a body")
+raw("method-long-token", request("A" * 300, "/healthz"), 405, "method_not_allowed",
+    "a 300-byte method that is a token")
 
 # ---- wrong content types: 415 ----------------------------------------------------------------------------------
 for name, ctype, target in [("ctype-missing", None, "/v1/render"),
