@@ -139,13 +139,18 @@ for fps in 1e-300 1e-6 0.0009; do
     check "fps_${fps}_refused" "$code $(cat "$T/body")" eval \
         'err_is "$T/body" 422 invalid_scene /animation/fps && grep -q ">= 0.001" "$T/body"'
 done
+# video_of QUERY FILE: a job of FILE's frames (POST /v1/jobs?QUERY, its id in
+# $vid) and its video asked for until it settles: the status in $code, $T/body
+video_of() {
+    post_json "/v1/jobs?$1" "$2" >/dev/null
+    vid=$(jfield "$T/body" id)
+    wait_until 120 job_state_is "$vid" succeeded
+    video_settled() { [ "$(req GET "/v1/jobs/$vid/video.mp4")" != 202 ]; }
+    wait_until 120 video_settled
+    code=$(req GET "/v1/jobs/$vid/video.mp4")
+}
 sed "s/FPS/0.001/" "$T/fps.tmpl" >"$T/fps.json"
-post_json "/v1/jobs?frames=2-3" "$T/fps.json" >/dev/null
-slow=$(jfield "$T/body" id)
-wait_until 120 job_state_is "$slow" succeeded
-slow_ready() { [ "$(req GET "/v1/jobs/$slow/video.mp4")" != 202 ]; }
-wait_until 120 slow_ready
-code=$(req GET "/v1/jobs/$slow/video.mp4")
+video_of "frames=2-3" "$T/fps.json"
 cp "$T/body" "$T/slow.mp4"
 probe=$(ffprobe -v error -select_streams v:0 -show_entries stream=r_frame_rate -of csv=p=0 "$T/slow.mp4" 2>&1)
 check video_min_fps "$code $probe" eval '[ "$code" = 200 ] && [ "$probe" = 1/1000 ]'
@@ -198,16 +203,18 @@ check failed_frame_409 "$code $(cat "$T/body")" eval 'err_is "$T/body" 409 frame
 curl -s -X POST "$URL/v1/test/gate?work=open" >/dev/null
 check rayd_alive_before_restart "rayd died: $(tail -3 "$T/rayd.err")" kill -0 "$RAYD_PID"
 
+# video_with DIR: a new rayd whose PATH is DIR (no ffmpeg, or the test's), and
+# video_of of its frame 4
+video_with() {
+    stop_rayd
+    RAYD_WRAP="env PATH=$1" start_rayd --threads 1
+    video_of "frame=4" "$T/anim.json"
+}
+
 # ---- no ffmpeg: the video answers 503 no_ffmpeg, the frames as ever ------------------
-stop_rayd
 mkdir -p "$T/nopath"
-RAYD_WRAP="env PATH=$T/nopath" start_rayd --threads 1
-post_json "/v1/jobs?frame=4" "$T/anim.json" >/dev/null
-nof=$(jfield "$T/body" id)
-wait_until 120 job_state_is "$nof" succeeded
-video_settled() { [ "$(req GET "/v1/jobs/$nof/video.mp4")" != 202 ]; }
-wait_until 120 video_settled
-code=$(req GET "/v1/jobs/$nof/video.mp4")
+video_with "$T/nopath"
+nof=$vid
 check video_no_ffmpeg "$code $(cat "$T/body")" eval 'err_is "$T/body" 503 no_ffmpeg && grep -q "ffmpeg program" "$T/body"'
 check frame_without_ffmpeg "frame 4 differs" eval '[ "$(req GET "/v1/jobs/$nof/frames/4.png")" = 200 ] && cmp -s "$T/body" "$T/cli-4.png"'
 check rayd_alive "rayd died: $(tail -3 "$T/rayd.err")" kill -0 "$RAYD_PID"
@@ -267,7 +274,6 @@ check room_refusal_no_attempt "$(grep "job $roomy: frame .* failed" "$T/rayd.err
 check room_held_job_accepted "$(head -c 200 "$T/held.body")" grep -q '"id"' "$T/held.body"
 
 # ---- ffmpeg fails: 500 video_failed with its message, not the server's temp folder ----
-stop_rayd
 mkdir -p "$T/badff"
 cat >"$T/badff/ffmpeg" <<'EOF'
 #!/bin/sh
@@ -275,13 +281,7 @@ for a; do case $a in */frame-*) echo "$a: Invalid argument" >&2 ;; esac; done
 exit 1
 EOF
 chmod +x "$T/badff/ffmpeg"
-RAYD_WRAP="env PATH=$T/badff" start_rayd --threads 1
-post_json "/v1/jobs?frame=4" "$T/anim.json" >/dev/null
-bad=$(jfield "$T/body" id)
-wait_until 120 job_state_is "$bad" succeeded
-video_failed() { [ "$(req GET "/v1/jobs/$bad/video.mp4")" != 202 ]; }
-wait_until 120 video_failed
-code=$(req GET "/v1/jobs/$bad/video.mp4")
+video_with "$T/badff"
 check video_failed_500 "$code $(cat "$T/body")" eval \
     'err_is "$T/body" 500 video_failed && grep -q "frame-%06d.png: Invalid argument" "$T/body"'
 check video_failed_no_path "$(cat "$T/body")" eval '! grep -q "rayd-video-" "$T/body"'

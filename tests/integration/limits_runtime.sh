@@ -95,10 +95,15 @@ stop_rayd TERM
 check delete_exit_0 "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
 
 # --- --max-work: the rays actually cast stop the render ------------------------------
+# timed_render FILE: POST /v1/render of FILE; its status in $code, the seconds in $took
+timed_render() {
+    local t0
+    t0=$(date +%s%N)
+    code=$(post_json /v1/render "$1")
+    took=$(elapsed "$t0")
+}
 start_rayd --threads 1 --max-work 100000
-t0=$(date +%s%N)
-code=$(post_json /v1/render "$T/glass.json")
-took=$(elapsed "$t0")
+timed_render "$T/glass.json"
 check max_work_stops_render "status $code after $took s: $(head -c 300 "$T/body")" \
     bash -c "[ $code = 413 ] && [ $took -le 20 ]"
 check max_work_message "$(head -c 400 "$T/body")" limit_answer "$T/body" "100000 rays (--max-work)"
@@ -167,9 +172,7 @@ check csg_priced_at_door "status $code: $(head -c 300 "$T/body")" \
 stop_rayd TERM
 start_rayd --threads 1 --max-render-seconds 0 --test-gate open
 curl -s -m 30 -X POST -o "$T/gate.json" "$URL/v1/test/gate?work=20000" >/dev/null
-t0=$(date +%s%N)
-code=$(post_json /v1/render "$T/csg.json")
-took=$(elapsed "$t0")
+timed_render "$T/csg.json"
 check csg_work_stops_render "status $code after $took s: $(head -c 300 "$T/body")" \
     bash -c "[ $code = 413 ] && [ $took -le 20 ]"
 check csg_work_message "$(head -c 400 "$T/body")" limit_answer "$T/body" "20000 rays (--max-work)"
