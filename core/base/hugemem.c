@@ -173,6 +173,11 @@ static void *heap_pages(size_t bytes) {
 
 void *huge_alloc(size_t bytes) { return bytes < HUGEMEM_MIN ? malloc(bytes) : heap_pages(bytes); }
 
+size_t huge_alloc_room(size_t bytes) {
+    size_t whole = bytes < HUGEMEM_MIN ? bytes : huge_whole(bytes);
+    return whole ? whole : bytes;
+}
+
 void *huge_calloc(size_t n, size_t size) {
     if (size && n > SIZE_MAX / size) return NULL;
     size_t bytes = n * size;

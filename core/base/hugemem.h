@@ -12,6 +12,11 @@
 void *huge_alloc(size_t bytes);
 void *huge_calloc(size_t n, size_t size);
 
+/* The bytes huge_alloc(bytes) makes resident once they are touched: whole
+ * huge pages from HUGEMEM_MIN on (a fault maps 2 MiB), so a budget that
+ * charges this is not short by up to a page an array. */
+size_t huge_alloc_room(size_t bytes);
+
 /* Work buffers that live for one render (a frame, the PNG encoder's) on
  * huge pages whatever their size, rounded up to whole 2 MiB pages: one
  * fault each, where a fault is dear, rather than one per 4 KiB they touch.

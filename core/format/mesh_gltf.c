@@ -32,9 +32,10 @@
  * name), sparse accessors, a node that is its own ancestor or has two
  * parents, nodes nested deeper than GL_MAX_DEPTH, out-of-range indices,
  * counts that run past their buffer view or buffer (all sizes in 64-bit
- * arithmetic from values checked to be integers in range), buffers that
- * together exceed max_bytes (an accessor without a bufferView counting its
- * zeros as bytes read), non-finite positions, and more vertices or
+ * arithmetic from values checked to be integers in range), positions or
+ * indices without a bufferView (gl_stored), buffers that together exceed
+ * max_bytes (any other accessor without a bufferView counting its zeros as
+ * bytes read), non-finite positions, and more vertices or
  * triangles than the limits -- counted over every draw before the output
  * is allocated.  Each node is walked once, so the walk is as long as the
  * file; a mesh's primitives drawn by many nodes multiply, so the primitives
@@ -201,6 +202,21 @@ static enum rayd_status gl_prim_parts(struct gl *G, const struct gl_draw *d, con
     return RAYD_OK;
 }
 
+/* Positions and indices must be stored in the file.  The spec lets an
+ * accessor without a bufferView stand for count zeros, but as positions or
+ * indices those are triangles of no area that draw nothing, and a 300-byte
+ * file of them would buy seconds of decoding and building a frame (millions
+ * of triangles, within max_bytes as zeros count).  What is stored is as
+ * long as the file, so the work stays in proportion to the bytes sent. */
+static enum rayd_status gl_stored(struct gl *G, const struct gl_acc *a, const char *what) {
+    if (a->p) return RAYD_OK;
+    struct jp pa = gl_item("accessors", a->id), pv = jp_key(&pa, "bufferView");
+    return gl_fail(G, RAYD_E_INVALID, &pv,
+                   "is required for %s: without one its %u elements are all zeros, triangles "
+                   "of no area",
+                   what, a->count);
+}
+
 static enum rayd_status gl_prim(struct gl *G, const struct gl_draw *d, struct gl_prim *P) {
     struct jp pm = gl_item("meshes", d->mesh), pl = jp_key(&pm, "primitives"),
               pp = jp_index(&pl, d->index);
@@ -214,6 +230,7 @@ static enum rayd_status gl_prim(struct gl *G, const struct gl_draw *d, struct gl
     struct jp pat = jp_key(&pp, "attributes");
     if (!cJSON_IsObject(attr)) return gl_fail(G, RAYD_E_INVALID, &pat, "is required (an object)");
     TRY_GL(gl_accessor(G, attr, &pat, "POSITION", 3, false, &P->pos));
+    TRY_GL(gl_stored(G, &P->pos, "POSITION"));
     P->has_nrm = gl_get(attr, "NORMAL") != NULL;
     if (P->has_nrm) TRY_GL(gl_accessor(G, attr, &pat, "NORMAL", 3, false, &P->nrm));
     struct jp pn = gl_item("accessors", P->nrm.id);
@@ -222,6 +239,7 @@ static enum rayd_status gl_prim(struct gl *G, const struct gl_draw *d, struct gl
                        P->nrm.count, P->pos.count);
     P->has_ix = gl_get(d->prim, "indices") != NULL;
     if (P->has_ix) TRY_GL(gl_accessor(G, d->prim, &pp, "indices", 1, true, &P->ix));
+    if (P->has_ix) TRY_GL(gl_stored(G, &P->ix, "indices"));
     P->ntris = gl_tris(P->mode, P->has_ix ? P->ix.count : P->pos.count);
     return G->want_parts ? gl_prim_parts(G, d, &pp, attr, &pat, P) : RAYD_OK;
 }

@@ -369,11 +369,12 @@ enum rayd_status sj_read_asset(struct loader *ld, const cJSON *f, const struct j
         close(fd);
         return sj_fail(ld, RAYD_E_LIMIT, at, "file is over the limit of %zu bytes", max);
     }
-    TRY(close_on_fail(fd, sj_charge(ld, at, (size_t)st.st_size + 1)));
     /* the file may grow while it is read: stop past max + 1 bytes.  A big
      * file goes to huge pages (hugemem.c): read() into 4 KiB pages faulted
-     * once a page, 85% of a 1.3M-triangle PLY load's page faults */
+     * once a page, 85% of a 1.3M-triangle PLY load's page faults.  Charged
+     * as whole huge pages, which is what becomes resident */
     size_t cap = (size_t)st.st_size + 1, n = 0;
+    TRY(close_on_fail(fd, sj_charge(ld, at, huge_alloc_room(cap))));
     char *buf = huge_alloc(cap);
     ssize_t r = 0;
     int rerr = 0;

@@ -18,7 +18,8 @@
 HELP="python3 $RAYD_ROOT/tests/integration/lib/memory_helpers.py"
 LIMIT=16777216
 
-start_rayd --max-memory 16M --max-body 1048576 --threads 1 --test-gate 0
+mkdir -p "$T/assets"
+start_rayd --max-memory 16M --max-body 1048576 --threads 1 --test-gate 0 --asset-dir "$T/assets"
 
 kinds_shown() {
     local k
@@ -29,15 +30,16 @@ kinds_shown() {
 }
 check metrics_kinds "rayd_memory_bytes{kind=...} or rayd_memory_limit_bytes missing" kinds_shown
 
-# --- a glTF whose accessor has no bufferView counts its zeros -------------------------------
-# (its accessor alone is over the core's limit, the whole budget less its
-# own body: 413 before a byte of it is made, whatever else the budget holds)
-$HELP gltf_zeros "$T/zeros.json" 15000000
+# --- a glTF's positions without a bufferView are refused ------------------------------------
+# (the spec reads them as zeros: triangles of no area, and a few hundred
+# bytes that would buy seconds of building, frame after frame)
+$HELP gltf_zeros "$T/zeros.json" 300000
 code=$(post_json /v1/render "$T/zeros.json" -m 30)
-if [ "$code" = 413 ] && [ "$(json "$T/body" 'j["error"]["path"]')" = /objects/0/source/gltf/accessors/0/count ]; then
-    pass gltf_without_bufferview_counted
+if [ "$code" = 422 ] &&
+    [ "$(json "$T/body" 'j["error"]["path"]')" = /objects/0/source/gltf/accessors/0/bufferView ]; then
+    pass gltf_positions_need_bufferview
 else
-    fail gltf_without_bufferview_counted "$code $(head -c 300 "$T/body")"
+    fail gltf_positions_need_bufferview "$code $(head -c 300 "$T/body")"
 fi
 
 # --- slow bodies: 40 uploads of 1 MiB that never finish -----------------------------
@@ -140,8 +142,9 @@ check cached_scenes_make_room "a new scene after the jobs were deleted: $code $(
 req DELETE "/v1/jobs/$(jfield "$T/body" id)" >/dev/null
 
 # --- a parse is counted while it builds, not once built ------------------------------
-# one scene of a 1000 x 1000 texture (12 MB decoded) and a glTF mesh of
-# 130,000 zero-area triangles: each under the limits the 16 MiB budget sets
+# one scene of a 1000 x 1000 texture (12 MB decoded) and a GLB file of
+# 130,000 zero-area triangles (1.6 MB, its positions BYTE VEC3 that decode
+# to 4.7 MB of floats): each under the limits the 16 MiB budget sets
 # alone, both together over it.  The core charges each value before it is
 # decoded or built, so the parse is refused 413 when the mesh would pass the
 # budget, instead of building both (about 30 MB) and refusing the scene
@@ -150,12 +153,12 @@ req DELETE "/v1/jobs/$(jfield "$T/body" id)" >/dev/null
 # exist, from the decoder (path /objects/1/source/gltf).  Resident memory, from the peak
 # reset here, stays within what the count left free plus PARSE_SLACK, the
 # allocator's own (its arenas and page rounding, which no charge counts):
-# measured 1.0-1.3 MB under what was free (7 MB over it when the arrays
+# measured 0.4-0.7 MB under what was free (7 MB over it when the arrays
 # were decoded before their charge).  The count never passes the budget.
 PARSE_SLACK=$((2 * 1048576))
 echo 5 >"/proc/$RAYD_PID/clear_refs" # VmHWM from here
 rss0=$(rayd_rss) count0=$(memory_total)
-$HELP texture_mesh "$T/tm.json" 1000 390000
+$HELP texture_mesh "$T/tm.json" 1000 390000 "$T/assets"
 code=$(post_json /v1/render "$T/tm.json" -m 60)
 hwm=$(awk '/^VmHWM:/ {print $2 * 1024}' "/proc/$RAYD_PID/status")
 if [ "$code" = 413 ] && err_is "$T/body" 413 too_large &&

@@ -1,7 +1,9 @@
 /* test_hugemem.c -- huge-page buffers (hugemem.c): aligned to 2 MiB,
  * huge_free_pages keeps a few for the next call of their size, within its
- * bounds, from any thread, and huge_calloc_pages gives zeros either way. */
+ * bounds, huge_alloc_room says what a big array makes resident, from any thread, and
+ * huge_calloc_pages gives zeros either way. */
 #include <pthread.h>
+#include <stdbool.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -25,6 +27,25 @@ static void test_aligned_and_usable(void) {
     }
     CHECK(huge_alloc_pages(SIZE_MAX - 1) == NULL, "SIZE_MAX - 1 bytes allocated");
     huge_free_pages(NULL, 123); /* nothing to do */
+}
+
+/* huge_alloc's room: a small array's own bytes (malloc's); a big one's
+ * whole huge pages, aligned to them, what a fault makes resident. */
+static void test_alloc_room(void) {
+    static const size_t sizes[] = {1, 300000, 4 * MIB - 1, 4 * MIB, 4 * MIB + 1, 7 * MIB};
+    for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) {
+        size_t n = sizes[i], room = huge_alloc_room(n);
+        unsigned char *p = huge_alloc(n);
+        CHECK(p != NULL, "%zu bytes", n);
+        bool big = (uintptr_t)p % (2 * MIB) == 0;
+        if (n < 4 * MIB)
+            CHECK(room == n, "%zu bytes: room %zu", n, room);
+        else
+            CHECK(big && room % (2 * MIB) == 0 && room >= n && room < n + 2 * MIB,
+                  "%zu bytes: room %zu, block %p", n, room, (void *)p);
+        free(p);
+    }
+    CHECK(huge_alloc_room(SIZE_MAX - 1) == SIZE_MAX - 1, "SIZE_MAX - 1 wrapped");
 }
 
 /* A block given back comes again for the next call whose size rounds to
@@ -113,6 +134,7 @@ static void test_threads(void) {
 int main(void) {
     RUN(test_calloc_zeros); /* first: nothing kept yet, so its block is kept */
     RUN(test_aligned_and_usable);
+    RUN(test_alloc_room);
     RUN(test_kept_for_its_size);
     RUN(test_bounded);
     RUN(test_threads);

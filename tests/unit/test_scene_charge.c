@@ -173,24 +173,43 @@ static void test_ply_charged_before_decode(void) {
     free(json);
 }
 
-/* A scene of a glTF of nv zero vertices (no buffer: an accessor without
- * a bufferView reads as zeros), nv / 3 triangles: a mesh source, or a
- * "gltf" object. */
+/* A glTF's buffer, view and accessor of nv zero vertices, stored in a
+ * data: URI (positions must be: without a bufferView they are refused). */
+static char *zero_positions(int nv) {
+    size_t nb = (size_t)nv * 12, n64 = nb / 3 * 4, cap = n64 + 512;
+    char *a = malloc(n64 + 1), *out = malloc(cap);
+    memset(a, 'A', n64); /* base64 of zero bytes, nb a multiple of 3 */
+    a[n64] = '\0';
+    snprintf(out, cap,
+             "\"buffers\": [{\"byteLength\": %zu, \"uri\": \"data:application/octet-stream;base64,"
+             "%s\"}], \"bufferViews\": [{\"buffer\": 0, \"byteLength\": %zu}],"
+             " \"accessors\": [{\"bufferView\": 0, \"componentType\": 5126, \"count\": %d,"
+             " \"type\": \"VEC3\", \"min\": [0, 0, 0], \"max\": [0, 0, 0]}]",
+             nb, a, nb, nv);
+    free(a);
+    return out;
+}
+
+/* A scene of a glTF of nv zero vertices, nv / 3 triangles: a mesh source,
+ * or a "gltf" object. */
 static char *gltf_scene(int nv, bool object) {
-    char doc[512], json[1024];
-    snprintf(doc, sizeof doc,
+    char *pos = zero_positions(nv);
+    size_t cap = strlen(pos) + 512;
+    char *doc = malloc(cap), *json = malloc(2 * cap);
+    snprintf(doc, cap,
              "{\"asset\": {\"version\": \"2.0\"}, \"scene\": 0, \"scenes\": [{\"nodes\": [0]}],"
              " \"nodes\": [{\"mesh\": 0}], \"meshes\": [{\"primitives\": [{\"attributes\":"
-             " {\"POSITION\": 0}}]}], \"accessors\": [{\"componentType\": 5126, \"count\": %d,"
-             " \"type\": \"VEC3\", \"min\": [0, 0, 0], \"max\": [0, 0, 0]}]}",
-             nv);
+             " {\"POSITION\": 0}}]}], %s}",
+             pos);
     char *enc = b64((const unsigned char *)doc, strlen(doc));
-    snprintf(json, sizeof json,
+    snprintf(json, 2 * cap,
              "{\"objects\": [{\"type\": \"%s\", \"source\": {\"format\": \"gltf\","
              " \"base64\": \"%s\"}}]}",
              object ? "gltf" : "mesh", enc);
     free(enc);
-    return strdup(json);
+    free(doc);
+    free(pos);
+    return json;
 }
 
 /* A glTF's baked arrays are charged from the walk's counts before they
@@ -280,17 +299,18 @@ static char *gltf_textured_scene(int side) {
     rayd_image_free(tex);
     char *img = b64(png, len);
     rayd_free(png);
-    size_t cap = strlen(img) * 2 + 2048;
+    char *pos = zero_positions(30);
+    size_t cap = strlen(img) * 2 + strlen(pos) + 2048;
     char *doc = malloc(cap), *json = malloc(2 * cap);
     snprintf(doc, cap,
              "{\"asset\": {\"version\": \"2.0\"}, \"scene\": 0, \"scenes\": [{\"nodes\": [0]}],"
              " \"nodes\": [{\"mesh\": 0}], \"meshes\": [{\"primitives\": [{\"attributes\":"
-             " {\"POSITION\": 0}, \"material\": 0}]}], \"accessors\": [{\"componentType\": 5126,"
-             " \"count\": 30, \"type\": \"VEC3\", \"min\": [0, 0, 0], \"max\": [0, 0, 0]}],"
+             " {\"POSITION\": 0}, \"material\": 0}]}], %s,"
              " \"materials\": [{\"pbrMetallicRoughness\": {\"baseColorTexture\": {\"index\": 0}}}],"
              " \"textures\": [{\"source\": 0}],"
              " \"images\": [{\"uri\": \"data:image/png;base64,%s\"}]}",
-             img);
+             pos, img);
+    free(pos);
     char *enc = b64((const unsigned char *)doc, strlen(doc));
     snprintf(json, 2 * cap,
              "{\"objects\": [{\"type\": \"gltf\", \"source\": {\"format\": \"gltf\","

@@ -7,10 +7,11 @@ tests/tools/memory_table.sh).
                                         (decoded: SIDE^2 texels each)
   gltf_zeros OUT COUNT                  a mesh whose glTF POSITION accessor has
                                         COUNT elements and no bufferView
-  texture_mesh OUT SIDE COUNT           one SIDE x SIDE texture and a gltf_zeros
-                                        mesh of COUNT vertices in one scene: each
-                                        under the budget's own limits, both
-                                        together over it
+  texture_mesh OUT SIDE COUNT DIR       one SIDE x SIDE texture and a mesh of
+                                        COUNT vertices (DIR/bytes.glb, positions
+                                        of 4 bytes each) in one scene: each under
+                                        the budget's own limits, both together
+                                        over it
   slow_bodies PORT N LEN DIR            N connections, each declaring a body of
                                         LEN bytes with Expect: 100-continue;
                                         those told to continue send all but
@@ -76,11 +77,36 @@ def gltf_zeros(out, count):
     open(out, "w").write(json.dumps(scene))
 
 
-def texture_mesh(out, side, count):
+def glb(doc, data):
+    """A GLB of the glTF document doc and the BIN chunk data."""
+    text = json.dumps(doc).encode()
+    text += b" " * (-len(text) % 4)
+    data += b"\0" * (-len(data) % 4)
+    body = (struct.pack("<I", len(text)) + b"JSON" + text +
+            struct.pack("<I", len(data)) + b"BIN\0" + data)
+    return b"glTF" + struct.pack("<II", 2, 12 + len(body)) + body
+
+
+def byte_mesh(count):
+    """A GLB of count vertices stored as BYTE VEC3 at a 4-byte stride: a
+    file a third the size of the floats it decodes to."""
+    doc = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],
+           "nodes": [{"mesh": 0}],
+           "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+           "buffers": [{"byteLength": count * 4}],
+           "bufferViews": [{"buffer": 0, "byteLength": count * 4, "byteStride": 4}],
+           "accessors": [{"bufferView": 0, "componentType": 5120, "count": count,
+                          "type": "VEC3", "min": [0, 0, 0], "max": [0, 0, 0]}]}
+    return glb(doc, bytes(count * 4))
+
+
+def texture_mesh(out, side, count, folder):
     texture_scene(out, side, 1, 1)
     scene = json.load(open(out))
     scene["materials"]["m"] = {"color": [1, 1, 1]}
-    scene["objects"].append(zeros_mesh(count))
+    open(os.path.join(folder, "bytes.glb"), "wb").write(byte_mesh(count))
+    scene["objects"].append({"type": "mesh", "material": "m",
+                             "source": {"format": "glb", "file": "bytes.glb"}})
     open(out, "w").write(json.dumps(scene))
 
 
@@ -121,7 +147,7 @@ if __name__ == "__main__":
     elif cmd == "gltf_zeros":
         gltf_zeros(sys.argv[2], int(sys.argv[3]))
     elif cmd == "texture_mesh":
-        texture_mesh(sys.argv[2], int(sys.argv[3]), int(sys.argv[4]))
+        texture_mesh(sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), sys.argv[5])
     elif cmd == "slow_bodies":
         slow_bodies(int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]), sys.argv[5])
     else:
