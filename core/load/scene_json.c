@@ -73,6 +73,25 @@ static const cJSON *section(const cJSON *root, const char *key, cJSON *empty) {
     return empty;
 }
 
+/* The element of list before e whose AOVs overlap one's: a repeat, refused
+ * as rayd_aov_parse refuses one in ?aov= (a typo for another name, most
+ * likely), naming both. */
+static enum rayd_status aov_again(struct loader *ld, const cJSON *list, const cJSON *e,
+                                  const struct jp *pe, unsigned one) {
+    int k = 0;
+    const cJSON *q = list->child;
+    for (; q != e; q = q->next, k++) {
+        unsigned m = 0;
+        struct rayd_error e2 = {0};
+        if (rayd_aov_parse(q->valuestring, &m, &e2) == RAYD_OK && (m & one)) break;
+    }
+    if (q != e && !strcmp(q->valuestring, e->valuestring))
+        return sj_fail(ld, RAYD_E_INVALID, pe, "names \"%.32s\" again (element %d named it)",
+                       e->valuestring, k);
+    return sj_fail(ld, RAYD_E_INVALID, pe, "names an AOV that element %d (\"%.32s\") named already",
+                   k, q != e ? q->valuestring : "");
+}
+
 /* "aov": the AOVs the scene asks for, an array of names (render/aov.c):
  * what an EXR of it carries and rayd-render writes beside its image
  * unless told otherwise. */
@@ -96,6 +115,7 @@ static enum rayd_status load_aov(struct loader *ld, const cJSON *r, const struct
             return sj_fail(ld, RAYD_E_INVALID, &pe,
                            "is no AOV; the AOVs are albedo, normal, depth, alpha, object, "
                            "material, id and all");
+        if (one & *mask) return aov_again(ld, list, e, &pe, one);
         *mask |= one;
     }
     return RAYD_OK;

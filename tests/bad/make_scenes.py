@@ -187,6 +187,10 @@ case("aov-number-item.json", '{"render": {"aov": ["albedo", 7]}}\n',
      E + "/render/aov/1: must be an AOV name, not a number")
 case("aov-unknown.json", '{"render": {"aov": ["depth", "zdepth"]}}\n',
      E + "/render/aov/1: is no AOV; the AOVs are albedo, normal, depth, alpha, object, material, id and all")
+case("aov-repeated.json", '{"render": {"aov": ["albedo", "depth", "albedo"]}}\n',
+     E + "/render/aov/2: names \"albedo\" again (element 0 named it)")
+case("aov-within-all.json", '{"render": {"aov": ["depth", "all"]}}\n',
+     E + "/render/aov/1: names an AOV that element 0 (\"depth\") named already")
 case("aov-list-in-string.json", '{"render": {"aov": ["albedo,normal"]}}\n',
      E + "/render/aov/0: is no AOV; the AOVs are albedo, normal, depth, alpha, object, material, id and all")
 case("render-duplicate-key.json", '{"render": {"width": 64, "width": 32}}\n', E + "/render/width: duplicate key")
