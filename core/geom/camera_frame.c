@@ -17,7 +17,10 @@
  * asin(r / d), so it fits a field of view of half-angle a when
  * d = r / sin(a); the smaller of the two fields is used and the distance
  * is multiplied by FRAME_MARGIN so that the sphere's outline keeps a small
- * border.  Everything is a closed formula: deterministic.
+ * border.  Everything is a closed formula: deterministic.  Bounds so small
+ * against their distance from the origin that the eye would stand on
+ * their centre (a sphere of radius 1e-13 at x = 5) are refused at
+ * /camera/frame, the key the scene gave.
  */
 #include "geom/camera_frame.h"
 
@@ -69,5 +72,14 @@ enum rayd_status cam_frame_sphere(struct camera *cam, vec3 centre, double radius
     double half = atan(fmin(cam->tan_x, cam->tan_y));
     double r = radius > 0 ? radius : 1e-6 * (1.0 + v3_maxabs(centre));
     double d = r / sin(half) * FRAME_MARGIN;
-    return cam_init(cam, v3_madd(centre, dir, d), centre, up, fov_x_deg, fov_y_deg, n, m, err);
+    if (cam_init(cam, v3_madd(centre, dir, d), centre, up, fov_x_deg, fov_y_deg, n, m, NULL) ==
+        RAYD_OK)
+        return RAYD_OK;
+    /* the eye is all but on the centre: the bounds are below what doubles
+     * tell apart at their distance from the origin (the scene has no
+     * look_at for cam_init's message to name) */
+    return err_set(err, RAYD_E_INVALID, "/camera/frame",
+                   "the scene's bounds (a sphere of radius %g around [%g, %g, %g]) are too small "
+                   "to frame so far from the origin; scale the scene up",
+                   radius, centre.x, centre.y, centre.z);
 }

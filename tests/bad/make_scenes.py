@@ -644,6 +644,10 @@ case('focus-distance-zero.json', '{"camera": {"aperture": 0.1, "focus_distance":
      'error: /camera/focus_distance: must be > 0')
 case('frame-nothing-bounded.json', '{"camera": {"frame": "all"}, "objects": [{"type": "plane"}]}\n',
      'error: /camera/frame: the scene has no bounded object to frame (planes and quadrics have no bounds)')
+case('frame-too-small.json',
+     '{"camera": {"frame": "all"}, "objects": [{"type": "sphere", "center": [5, 0, 0], "radius": 1e-13}]}\n',
+     'error: /camera/frame: the scene\'s bounds (a sphere of radius 1e-13 around [5, 0, 0]) are too '
+     'small to frame so far from the origin; scale the scene up')
 case('frame-with-position.json',
      '{"camera": {"frame": "all", "position": [0, 0, 5]}, "objects": [{"type": "sphere"}]}\n',
      'error: /camera/position: must not be given with /camera/frame (the view sets it)')

@@ -216,6 +216,14 @@ static void test_errors_name_the_key(void) {
     expect_error("{\"camera\": {\"frame\": \"all\"}}", "/camera/frame");
     expect_error("{\"camera\": {\"frame\": \"all\"}, \"objects\": [{\"type\": \"plane\"}]}",
                  "/camera/frame");
+    /* bounds too small to stand the eye apart from: the key given, not look_at */
+    expect_error(
+        "{\"camera\": {\"frame\": \"all\"},"
+        " \"objects\": [{\"type\": \"sphere\", \"center\": [5, 0, 0], \"radius\": 1e-13}]}",
+        "/camera/frame");
+    expect_error("{\"camera\": {\"frame\": \"all\"}, \"objects\": [{\"type\": \"mesh\","
+                 " \"vertices\": [0, 0, 0, 1e-20, 0, 0, 0, 1e-20, 0], \"indices\": [0, 1, 2]}]}",
+                 "/camera/frame");
     expect_error("{\"camera\": {\"frame\": \"some\"}}", "/camera/frame");
     expect_error("{\"camera\": {\"frame\": \"all\", \"view\": \"back\"}}", "/camera/view");
     expect_error("{\"camera\": {\"view\": \"front\"}}", "/camera/view");
