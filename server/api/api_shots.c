@@ -206,9 +206,19 @@ bool api_shots_submit(struct http_req *r, struct cache_entry *e, struct work_tar
 
 /* ---- GET /v1/jobs/{id}/frames/{k}.png and .exr ------------------------------------ */
 
+/* Whether the n bytes at s are k as %ld writes it: one name a frame, so
+ * that 7.png, 007.png and -0.png are not three URLs of one image for the
+ * caches between rayd and its clients. */
+static bool api_shots_canonical(const char *s, size_t n, long k) {
+    char buf[24];
+    int len = snprintf(buf, sizeof buf, "%ld", k);
+    return len > 0 && (size_t)len == n && !memcmp(buf, s, n);
+}
+
 /* "JOB/K.png" (the router's two segments) into the job id, k and whether
  * the EXR is asked; false after replying (404 for a malformed job id, 400
- * when K or the suffix is malformed). */
+ * when K or the suffix is malformed, or K not written as the job's URLs
+ * write it). */
 bool api_shots_frame_path(struct http_req *r, const char *path, char id[33], long *k, bool *exr) {
     const char *slash = strchr(path, '/');
     size_t n = slash ? (size_t)(slash - path) : 0;
@@ -220,9 +230,11 @@ bool api_shots_frame_path(struct http_req *r, const char *path, char id[33], lon
     const char *name = slash + 1, *dot = strrchr(name, '.');
     *exr = dot && !strcmp(dot, ".exr");
     if (!dot || (strcmp(dot, ".png") && !*exr) ||
-        !api_shots_number(name, (size_t)(dot - name), k)) {
+        !api_shots_number(name, (size_t)(dot - name), k) ||
+        !api_shots_canonical(name, (size_t)(dot - name), *k)) {
         http_reply_error(r, 400, "bad_frame",
-                         "a frame is /v1/jobs/{id}/frames/{k}.png (or .exr), k a frame number",
+                         "a frame is /v1/jobs/{id}/frames/{k}.png (or .exr), k a frame number "
+                         "without leading zeros",
                          NULL, 0, 0, NULL);
         return false;
     }
