@@ -239,6 +239,11 @@ enum rayd_status sj_source_read(struct loader *ld, const cJSON *src, const struc
         if (n > 4 && !strcasecmp(file->valuestring + n - 4, ".glb")) format = 3;
     }
     struct jp pf = jp_key(at, "format");
+    if (format < 0 && file && cJSON_IsString(file)) /* the name's ending said nothing */
+        return sj_fail(ld, RAYD_E_INVALID, &pf,
+                       "is required (\"obj\", \"ply\", \"gltf\" or \"glb\"): \"%.120s\" "
+                       "does not end in .obj, .ply, .gltf or .glb",
+                       file->valuestring);
     if (format < 0)
         return sj_fail(ld, RAYD_E_INVALID, &pf,
                        "is required (\"obj\", \"ply\", \"gltf\" or \"glb\")");

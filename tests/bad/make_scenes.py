@@ -482,6 +482,9 @@ case("mesh-source-two-inputs.json", src({"format": "obj", "text": OBJ, "base64":
      E + SP + ': needs exactly one of "text", "base64" or "file"')
 case("mesh-source-no-input.json", src({"format": "obj"}), E + SP + ': needs exactly one of "text", "base64" or "file"')
 case("mesh-source-no-format.json", src({"text": OBJ}), E + SP + '/format: is required ("obj", "ply", "gltf" or "glb")')
+case("mesh-source-file-no-format.json", src({"file": "models/part.stl"}),
+     E + SP + '/format: is required ("obj", "ply", "gltf" or "glb"): "models/part.stl" does not end in '
+     ".obj, .ply, .gltf or .glb")
 case("mesh-source-unknown-format.json", src({"format": "stl", "text": "solid x"}),
      E + SP + '/format: unknown value "stl" (supported: obj, ply, gltf, glb)')
 case("mesh-source-format-uppercase.json", src({"format": "OBJ", "text": OBJ}),
