@@ -465,7 +465,14 @@ void api_reply_rayd_error(struct http_req *r, const struct rayd_error *err, bool
     unsigned st = api_status_of(err->code);
     const char *code =
         err->code == RAYD_E_CANCELED && draining ? "draining" : rayd_status_name(err->code);
-    http_reply_error(r, st, code, err->message[0] ? err->message : code, err->path,
+    const char *msg = err->message[0] ? err->message : code;
+    char hint[sizeof err->message + 64];
+    if (err->code == RAYD_E_LIMIT && !strcmp(err->path, "/render/samples")) {
+        /* the one scene limit a server option raises says so, as rayd-render's does */
+        snprintf(hint, sizeof hint, "%s; the server's --max-samples, set by its operator", msg);
+        msg = hint;
+    }
+    http_reply_error(r, st, code, msg, err->path,
                      err->code == RAYD_E_PARSE ? (err->line > 0 ? err->line : 1) : 0, err->column,
                      NULL);
 }

@@ -35,7 +35,7 @@ check cli_max_samples_bounded "exit $rc: $(cat "$T/err")" bash -c \
 start_rayd --threads 1
 code=$(post_json /v1/render "$T/ref.json")
 check api_over_1024_refused "status $code: $(head -c 300 "$T/body")" bash -c \
-    "[ $code = 413 ] && grep -q '/render/samples' '$T/body'"
+    "[ $code = 413 ] && grep -q '/render/samples' '$T/body' && grep -q -- '--max-samples' '$T/body'"
 stop_rayd
 start_rayd --threads 1 --max-samples 2048
 code=$(post_json /v1/render "$T/ref.json")
