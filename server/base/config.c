@@ -50,7 +50,8 @@ static const struct config_option config_table[] = {
     {"threads", "RAYD_THREADS", CT_LONG, &config.threads, "0", 0, 1024,
      "render worker threads; 0 = number of cores"},
     {"http-threads", "RAYD_HTTP_THREADS", CT_LONG, &config.http_threads, "2", 1, 256,
-     "libmicrohttpd threads (parse, validate, I/O; they never render)"},
+     "libmicrohttpd threads (requests, bodies, answers; scenes are parsed on --parse-threads, "
+     "rendered on --threads)"},
     {"queue", "RAYD_QUEUE", CT_LONG, &config.queue, "64", 1, 1000000,
      "renders not yet started (requests, jobs, next passes) before 503 queue_full"},
     {"parse-threads", "RAYD_PARSE_THREADS", CT_LONG, &config.parse_threads, "2", 1, 256,
