@@ -1,8 +1,9 @@
 /* cluster_jobs.c -- the job records in Redis, read and written for the job
  * routes (on the request thread, cluster.c).
  *
- * A job is the hash rayd:{ID}:job, a member of the ZSET rayd:jobs (scored
- * by its creation time in ms: the list, newest first), its event stream
+ * A job is the hash rayd:{ID}:job, a member of its client's ZSET
+ * rayd:jobs:CLIENT (scored by its creation time in ms: the client's list,
+ * newest first, so a list reads its own client's jobs only), its event stream
  * rayd:{ID}:events, and, while it runs, one work item per tile of each of
  * its frames in the stream of its priority (cluster_items.c).  The record and all its items
  * are written by one Lua script, so a job is never seen without its items
@@ -13,8 +14,8 @@
  * shots_info, its struct jobs_info), so the JSON a cluster answers is made
  * by the same code and has the same shape.  A job ends by rayd_end (Lua):
  * its state, its last event, its tiles deleted and every key of it set to
- * expire after --job-ttl; the ZSET entry of an expired job is dropped when
- * the list next meets it.  It also leaves a tombstone, rayd:{ID}:gone ("state
+ * expire after --job-ttl; the entry of an expired job in its client's list
+ * is dropped when the list next meets it.  It also leaves a tombstone, rayd:{ID}:gone ("state
  * ended_ms ttl", some 100 bytes), that outlives the job's keys by
  * CLUSTER_TOMB_S, so any node answers an expired job's routes 410
  * job_expired, how and when it ended, as a single node does from its ring
@@ -78,7 +79,7 @@ static const char cluster_lua_end[] =
     "  return 1\n"
     "end\n";
 
-/* KEYS: the job, rayd:jobs, the items' stream, the events, rayd:unfinished;
+/* KEYS: the job, rayd:jobs:CLIENT, the items' stream, the events, rayd:unfinished;
  * ARGV: id, created (ms), first, last, tiles, --max-jobs, the items' pass
  * ("0": no passes; a progressive job's start at 1), then the hash's fields
  * and values.  -3: the cluster's unfinished jobs are --max-jobs.
@@ -227,6 +228,11 @@ int cluster_jobs_plan(const char *s, int out[PASSES_MAX]) {
     return n;
 }
 
+/* The key of the client's list of jobs, rayd:jobs:CLIENT, into buf. */
+static void cluster_jobs_list_key(char *buf, size_t n, uint64_t client) {
+    snprintf(buf, n, "rayd:jobs:%llu", (unsigned long long)client);
+}
+
 /* 32 random hex digits. */
 static bool cluster_new_id(char id[33]) {
     unsigned char b[16];
@@ -245,7 +251,7 @@ static void cluster_submit_job(struct redis *c, struct cluster_op *op) {
     }
     long n = config.cluster_tile;
     long cols = (op->reg.w + n - 1) / n, rows = (op->reg.h + n - 1) / n;
-    char v[24][40], keys[3][80], max[24], plan[PASSES_MAX * 8] = "";
+    char v[24][40], keys[3][80], max[24], plan[PASSES_MAX * 8] = "", list[48];
     double now = cluster_now_ms();
     op->created_ms = now;
     snprintf(v[0], 40, "%.0f", now);
@@ -273,11 +279,12 @@ static void cluster_submit_job(struct redis *c, struct cluster_op *op) {
     }
     cluster_key(keys[0], sizeof keys[0], op->id, "job");
     cluster_key(keys[2], sizeof keys[2], op->id, "events");
+    cluster_jobs_list_key(list, sizeof list, op->client);
     const char *argv[] = {"EVAL",
                           cluster_lua_submit,
                           "5",
                           keys[0],
-                          "rayd:jobs",
+                          list,
                           cluster_items_stream(op->priority),
                           keys[2],
                           "rayd:unfinished",
@@ -634,13 +641,13 @@ static void cluster_stop_job(struct redis *c, struct cluster_op *op) {
 
 /* One page of the client's jobs, newest first, before op->after. */
 static void cluster_list(struct redis *c, struct cluster_op *op) {
-    char max[40], client[24];
+    char max[40], list[48];
     snprintf(max, sizeof max, op->after > 0 ? "(%lld" : "+inf", op->after);
-    snprintf(client, sizeof client, "%llu", (unsigned long long)op->client);
+    cluster_jobs_list_key(list, sizeof list, op->client);
     op->status = CS_OK;
     for (int scanned = 0; op->nrows <= op->limit && scanned < 5000; scanned += 200) {
         const char *argv[] = {
-            "ZREVRANGEBYSCORE", "rayd:jobs", max, "-inf", "WITHSCORES", "LIMIT", "0", "200", NULL};
+            "ZREVRANGEBYSCORE", list, max, "-inf", "WITHSCORES", "LIMIT", "0", "200", NULL};
         redisReply *rep = redis_strs(c, argv);
         if (redis_failed(c, rep) || rep->type != REDIS_REPLY_ARRAY) {
             op->status = CS_DOWN;
@@ -656,7 +663,7 @@ static void cluster_list(struct redis *c, struct cluster_op *op) {
             struct cluster_op tmp = {0};
             cluster_read(c, id, &tmp, &row, &anim);
             if (tmp.status == CS_UNKNOWN || tmp.status == CS_GONE) { /* the list forgets it */
-                redisReply *z = redis_cmd(c, "ZREM rayd:jobs %s", id);
+                redisReply *z = redis_cmd(c, "ZREM %s %s", list, id);
                 if (z) freeReplyObject(z);
                 continue;
             }
@@ -664,12 +671,7 @@ static void cluster_list(struct redis *c, struct cluster_op *op) {
                 op->status = tmp.status;
                 break;
             }
-            char key[120];
-            cluster_key(key, sizeof key, id, "job");
-            redisReply *cl = redis_cmd(c, "HGET %s client", key);
-            bool mine = cl && cl->type == REDIS_REPLY_STRING && !strcmp(cl->str, client);
-            if (cl) freeReplyObject(cl);
-            if (!mine || (op->state >= 0 && (int)row.job.state != op->state)) continue;
+            if (op->state >= 0 && (int)row.job.state != op->state) continue;
             if (op->nrows == op->limit) {
                 op->more = true;
                 op->nrows++;

@@ -159,7 +159,7 @@ refused() { # NAME QUERY PARAM
 refused refuse_progressive_exr "progressive=1&format=exr" progressive
 code=$(curl -s -o "$T/bad.json" -w '%{http_code}' "${JSON[@]}" --data-binary '{"camera": 1}' "${NODE_URL[1]}/v1/jobs")
 check bad_scene_refused "a bad scene gave $code" [ "$code" = 422 ]
-check bad_scene_nothing_written "jobs in Redis: $(rcli zcard rayd:jobs)" [ "$(rcli zcard rayd:jobs)" = 3 ]
+check bad_scene_nothing_written "jobs in Redis: $(listed_jobs)" [ "$(listed_jobs)" = 3 ]
 python3 -c 'import json,sys; d=json.load(open(sys.argv[1])); d["render"].update(width=4096, height=4096, samples=1); print(json.dumps(d))' "$SCENE" >"$T/huge.json"
 start_node 8 --threads 1 --redis "$REDIS_URL" --cluster-tile 16
 code=$(curl -s -o "$T/huge.out" -w '%{http_code}' "${JSON[@]}" --data-binary @"$T/huge.json" "${NODE_URL[8]}/v1/jobs")

@@ -48,7 +48,7 @@ check max_jobs_full_503 "gave $c3: $(head -c 300 "$T/c1.json")" bash -c \
 check max_jobs_retry_after "headers: $(tr -d '\r' <"$T/c1.h" | tr '\n' ' ')" retry_after "$T/c1.h"
 c4=$(post 2 "$REG" c2)
 check max_jobs_cluster_wide "node 2 gave $c4 (node 1 holds one job, node 2 one)" [ "$c4" = 503 ]
-check max_jobs_nothing_written "jobs in Redis: $(rcli zcard rayd:jobs)" [ "$(rcli zcard rayd:jobs)" = 2 ]
+check max_jobs_nothing_written "jobs in Redis: $(listed_jobs)" [ "$(listed_jobs)" = 2 ]
 # /readyz says so on every node, as a single node with a full table does
 readyz_full() {
     curl -s -o "$T/ready$1.json" "${NODE_URL[$1]}/readyz"

@@ -4,7 +4,8 @@
 # on a clash) with no RDB, an AOF written at every command (so a kill -9
 # loses nothing) and its files in $T/redis; it sets REDIS_PID, REDIS_PORT
 # and REDIS_URL.  restart_redis starts it again on the same port and folder
-# (the same AOF).  rcli runs redis-cli against it.  Stopped by PID.
+# (the same AOF).  rcli runs redis-cli against it; listed_jobs counts the
+# jobs in the clients' lists.  Stopped by PID.
 REDIS_SERVER=$(command -v redis-server || echo /usr/bin/redis-server)
 REDIS_CLI=$(command -v redis-cli || echo /usr/bin/redis-cli)
 REDIS_PID= REDIS_PORT= REDIS_URL=
@@ -46,6 +47,13 @@ restart_redis() { redis_on "$REDIS_PORT" "$@"; }
 stop_redis() { # kill -9, by PID
     kill -KILL "$REDIS_PID" 2>/dev/null
     wait "$REDIS_PID" 2>/dev/null
+}
+
+# listed_jobs: the jobs in every client's list (the ZSETs rayd:jobs:CLIENT)
+listed_jobs() {
+    local k n=0
+    for k in $(rcli --scan --pattern 'rayd:jobs:*'); do n=$((n + $(rcli zcard "$k"))); done
+    echo "$n"
 }
 
 # metric I NAME: node I's value of NAME on /metrics (0 if absent)

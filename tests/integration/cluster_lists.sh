@@ -1,0 +1,80 @@
+#!/usr/bin/env bash
+# cluster_lists.sh -- rayd --redis: GET /v1/jobs reads the asking client's
+# own jobs, however many other clients have.
+#
+# A real redis-server on a free loopback port (lib/redis.sh) and two nodes
+# that tell clients apart by X-Client.  bob posts one job, then alice posts
+# 5,100 tiny ones.  bob's list must name his job, and cost Redis a handful
+# of commands.  Until the lists were kept per client (rayd:jobs:CLIENT),
+# every job of the cluster was one ZSET: bob's list read up to 5,000 of
+# alice's jobs, two round trips each, on the node's one request thread
+# (0.4 s, some 10,000 Redis commands, every other job route of that node
+# waiting behind it), then stopped there and answered an empty list with
+# no next page: his job was lost to him.  Every process is stopped by its
+# PID.
+# rayd-test: long (5,100 jobs posted and rendered)
+source "$(dirname "$0")/lib/common.sh"
+source "$(dirname "$0")/lib/redis.sh"
+
+python3 - "$RAYD_ROOT/scenes/spheres.json" "$T/tiny.json" <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1]))
+d["render"].update(width=16, height=16, samples=1)
+json.dump(d, open(sys.argv[2], "w"))
+PY
+# post NODE CLIENT N: N jobs of CLIENT on one connection; prints how many got 202
+post() {
+    python3 - "${NODE_URL[$1]#http://}" "$2" "$3" "$T/tiny.json" <<'PY'
+import http.client, sys
+host, port = sys.argv[1].split(":")
+body = open(sys.argv[4], "rb").read()
+c = http.client.HTTPConnection(host, int(port), timeout=30)
+ok = 0
+for _ in range(int(sys.argv[3])):
+    c.request("POST", "/v1/jobs", body, {"Content-Type": "application/json", "X-Client": sys.argv[2]})
+    r = c.getresponse()
+    r.read()
+    ok += r.status == 202
+print(ok)
+PY
+}
+commands() { rcli info stats | tr -d '\r' | awk -F: '$1 == "total_commands_processed" {print $2}'; }
+unfinished() { [ "$(rcli scard rayd:unfinished)" = 0 ]; }
+
+start_redis
+for i in 1 2; do
+    start_node $i --threads 2 --client-header X-Client --max-jobs 100000 --job-ttl 600 --redis "$REDIS_URL"
+done
+
+# --- bob's one job, then 5,100 of alice's ----------------------------------------------------
+BOB=$(curl -s -m 30 -H 'Content-Type: application/json' -H 'X-Client: bob' \
+    --data-binary @"$T/tiny.json" "${NODE_URL[1]}/v1/jobs" |
+    python3 -c 'import json,sys; print(json.load(sys.stdin).get("id", ""))')
+n=$(post 2 alice 5100)
+check alice_posted "202s: $n of 5100" [ "$n" = 5100 ]
+wait_until 300 unfinished
+check all_ended "unfinished in Redis: $(rcli scard rayd:unfinished)" unfinished
+
+# --- bob's list: his job, for a few Redis commands -------------------------------------------
+before=$(commands)
+curl -s -m 60 -o "$T/bob.json" -H 'X-Client: bob' "${NODE_URL[1]}/v1/jobs"
+spent=$(($(commands) - before))
+names_bob() { python3 -c 'import json,sys; d=json.load(open(sys.argv[1])); sys.exit(0 if [j["id"] for j in d["jobs"]] == [sys.argv[2]] else 1)' "$T/bob.json" "$BOB"; }
+check list_finds_own_job "bob's list: $(head -c 300 "$T/bob.json")" names_bob
+# the puller's own commands (a blocked read every 100 ms, the figures) run meanwhile too
+check list_reads_own_jobs_only "one list cost Redis $spent commands" [ "$spent" -lt 200 ]
+
+# --- alice's list: hers, newest first, paged as ever -----------------------------------------
+curl -s -m 60 -o "$T/alice.json" -H 'X-Client: alice' "${NODE_URL[2]}/v1/jobs?limit=100"
+alice_page() {
+    python3 - "$T/alice.json" "$BOB" <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1]))
+ids = [j["id"] for j in d["jobs"]]
+made = [j["created_at"] for j in d["jobs"]]
+sys.exit(0 if len(ids) == 100 and sys.argv[2] not in ids and made == sorted(made, reverse=True)
+         and d["next_url"] else 1)
+PY
+}
+check list_pages_own_jobs "alice's first page: $(head -c 300 "$T/alice.json")" alice_page
+[ "$NFAIL" = 0 ]
