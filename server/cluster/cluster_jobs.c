@@ -14,8 +14,14 @@
  * shots_info, its struct jobs_info), so the JSON a cluster answers is made
  * by the same code and has the same shape.  A job ends by rayd_end (Lua):
  * its state, its last event, its tiles deleted and every key of it set to
- * expire after --job-ttl; the entry of an expired job in its client's list
- * is dropped when the list next meets it.  It also leaves a tombstone, rayd:{ID}:gone ("state
+ * expire after --job-ttl.  Redis cannot expire a ZSET's member, so rayd_end
+ * also files "ID CLIENT" in the ZSET rayd:ended, scored by when the job's
+ * keys expire, and every node sweeps it once a second (cluster_jobs_sweep):
+ * a due entry leaves its client's list, whose key goes once it is empty.
+ * So a list holds only jobs that are kept, listed or not (the list alone
+ * dropped an expired job when it met one, and a client that never paged to
+ * its end left every job it ever had in Redis for good).  It also leaves a
+ * tombstone, rayd:{ID}:gone ("state
  * ended_ms ttl", some 100 bytes), that outlives the job's keys by
  * CLUSTER_TOMB_S, so any node answers an expired job's routes 410
  * job_expired, how and when it ended, as a single node does from its ring
@@ -74,6 +80,8 @@ static const char cluster_lua_end[] =
     "  end\n"
     "  for _, k in ipairs({'job', 'events', 'frames'}) do redis.call('EXPIRE', p .. k, ttl) end\n"
     "  redis.call('SREM', 'rayd:unfinished', id)\n"
+    "  local cl = redis.call('HGET', p .. 'job', 'client') or ''\n"
+    "  redis.call('ZADD', 'rayd:ended', tonumber(now) + 1000 * tonumber(ttl), id .. ' ' .. cl)\n"
     "  local tomb = tonumber(ttl) + " CLUSTER_TOMB_S "\n"
     "  redis.call('SET', p .. 'gone', state .. ' ' .. now .. ' ' .. ttl, 'EX', tomb)\n"
     "  return 1\n"
@@ -637,6 +645,43 @@ static void cluster_stop_job(struct redis *c, struct cluster_op *op) {
     }
     op->not_progressive = rc == -4;
     cluster_read(c, op->id, op, &op->info, &op->is_animated);
+}
+
+/* Due entries of rayd:ended, at most SWEEP_BATCH a call (some 1 ms of
+ * Redis): each leaves its client's list once its job's keys are gone; one
+ * whose keys are still there (a clock a few ms apart) is filed again for
+ * when they expire.  Returns how many it read. */
+#define SWEEP_BATCH "256"
+/* Batches a call of cluster_jobs_sweep: 5,120 jobs, more than a node takes a second. */
+#define SWEEP_ROUNDS 20
+static const char cluster_lua_sweep[] =
+    "local due = redis.call('ZRANGEBYSCORE', 'rayd:ended', '-inf', ARGV[1], 'LIMIT', "
+    "0, " SWEEP_BATCH ")\n"
+    "for _, m in ipairs(due) do\n"
+    "  local id, cl = string.match(m, '^(%x+) (%d*)$')\n"
+    "  local left = id and redis.call('PTTL', 'rayd:{' .. id .. '}:job') or -2\n"
+    "  if left > 0 then\n"
+    "    redis.call('ZADD', 'rayd:ended', tonumber(ARGV[1]) + left, m)\n"
+    "  else\n"
+    "    if left == -2 and cl ~= '' then redis.call('ZREM', 'rayd:jobs:' .. cl, id) end\n"
+    "    redis.call('ZREM', 'rayd:ended', m)\n"
+    "  end\n"
+    "end\n"
+    "return #due\n";
+
+long cluster_jobs_sweep(struct redis *c) {
+    char now[32];
+    snprintf(now, sizeof now, "%.0f", cluster_now_ms());
+    const char *argv[] = {"EVAL", cluster_lua_sweep, "0", now, NULL};
+    long total = 0, n = atol(SWEEP_BATCH);
+    for (int round = 0; round < SWEEP_ROUNDS && n == atol(SWEEP_BATCH); round++) {
+        redisReply *rep = redis_strs(c, argv);
+        n = redis_failed(c, rep) ? -1 : (long)redis_ll(rep, -1);
+        if (rep) freeReplyObject(rep);
+        if (n < 0) return -1;
+        total += n;
+    }
+    return total;
 }
 
 /* One page of the client's jobs, newest first, before op->after. */

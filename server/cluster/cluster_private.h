@@ -95,6 +95,10 @@ int cluster_jobs_plan(const char *s, int out[PASSES_MAX]);
 /* Sets the job's end state (with error JSON, or NULL) if it is still
  * queued or running, its keys to expire after --job-ttl; the puller's too. */
 bool cluster_jobs_end(struct redis *c, const char *id, const char *state, const char *error);
+/* Takes the jobs whose keys expired out of their clients' lists (the due
+ * entries of rayd:ended, up to 5,120 a call); how many it read, -1 when
+ * Redis failed. */
+long cluster_jobs_sweep(struct redis *c);
 
 /* ---- cluster_assemble.c: tiles in, frames out (the puller) ------------------- */
 

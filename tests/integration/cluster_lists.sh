@@ -5,7 +5,9 @@
 # A real redis-server on a free loopback port (lib/redis.sh) and two nodes
 # that tell clients apart by X-Client.  bob posts one job, then alice posts
 # 5,100 tiny ones.  bob's list must name his job, and cost Redis a handful
-# of commands.  Until the lists were kept per client (rayd:jobs:CLIENT),
+# of commands.  Then a node that keeps ended jobs 1 s: carol's 600 jobs,
+# never listed, must leave her list (and Redis but for their tombstones)
+# once they expired.  Until the lists were kept per client (rayd:jobs:CLIENT),
 # every job of the cluster was one ZSET: bob's list read up to 5,000 of
 # alice's jobs, two round trips each, on the node's one request thread
 # (0.4 s, some 10,000 Redis commands, every other job route of that node
@@ -77,4 +79,19 @@ sys.exit(0 if len(ids) == 100 and sys.argv[2] not in ids and made == sorted(made
 PY
 }
 check list_pages_own_jobs "alice's first page: $(head -c 300 "$T/alice.json")" alice_page
+
+# --- jobs that expired leave their client's list, listed or not ------------------------------
+# a node keeping ended jobs 1 s; carol never lists.  Redis cannot expire a ZSET's member: until
+# rayd:ended was swept, each of her 600 jobs stayed in her list (and in Redis) for good.
+for i in 1 2; do kill -TERM "${NODE_PID[$i]}" && wait "${NODE_PID[$i]}" 2>/dev/null; done
+rcli flushall >/dev/null
+start_node 3 --threads 2 --client-header X-Client --max-jobs 100000 --job-ttl 1 --redis "$REDIS_URL"
+n=$(post 3 carol 600)
+check carol_posted "202s: $n of 600" [ "$n" = 600 ]
+wait_until 120 unfinished
+swept() { [ "$(listed_jobs)" = 0 ] && [ "$(rcli zcard rayd:ended)" = 0 ]; }
+wait_until 30 swept
+check expired_jobs_leave_lists "still listed: $(listed_jobs), rayd:ended: $(rcli zcard rayd:ended), keys: $(rcli --scan --pattern 'rayd:jobs*' | head -3 | tr '\n' ' ')" swept
+job_keys() { rcli --scan --pattern 'rayd:{*}:*' | grep -vc ':gone$'; }
+check expired_jobs_keep_only_tombstones "keys besides tombstones: $(job_keys)" [ "$(job_keys)" = 0 ]
 [ "$NFAIL" = 0 ]
