@@ -544,7 +544,10 @@ static void *node_main(void *arg) {
             node_figures(c);
             if (room > 0 && !atomic_load(&cluster_draining))
                 cluster_items_reclaim(c, room, node_take_entry);
-            if (redis_is_up(c)) cluster_items_reap(c), cluster_jobs_sweep(c);
+            if (redis_is_up(c)) {
+                cluster_items_reap(c);
+                cluster_jobs_sweep(c);
+            }
             room = config.threads - node_count;
         }
         if (room > 0 && !atomic_load(&cluster_draining) && redis_is_up(c)) {
