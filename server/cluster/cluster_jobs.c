@@ -92,8 +92,28 @@ static const char cluster_lua_end[] =
  * ("0": no passes; a progressive job's start at 1), then the hash's fields
  * and values.  -3: the cluster's unfinished jobs are --max-jobs.
  * A full set is pruned of ended ids 64 at a time (SRANDMEMBER), so a
- * refused POST costs Redis a bounded moment however large --max-jobs is. */
+ * refused POST costs Redis a bounded moment however large --max-jobs is.
+ * As on one node, --max-jobs counts ended jobs too: while unfinished and
+ * ended (rayd:ended) together reach it, the one that ended first is
+ * forgotten, up to 64 a POST (rayd_forget: its keys deleted, its list
+ * entry gone, its tombstone marked evicted so its routes answer 410
+ * job_evicted).  Without it the ended jobs a cluster keeps grew with the
+ * POST rate times --job-ttl, unbounded by any count. */
 static const char cluster_lua_submit[] =
+    "local function rayd_forget(m, now)\n"
+    "  local id, cl = string.match(m, '^(%x+) (%d*)$')\n"
+    "  if not id then return end\n"
+    "  local p = 'rayd:{' .. id .. '}:'\n"
+    "  local j = redis.call('HMGET', p .. 'job', 'state', 'first', 'last', 'passes')\n"
+    "  for k = tonumber(j[2]) or 0, tonumber(j[3]) or -1 do\n"
+    "    redis.call('DEL', p .. 'frame:' .. k, p .. 'frame:' .. k .. ':exr', p .. 'done:' .. k)\n"
+    "  end\n"
+    "  for q = 1, math.min(tonumber(j[4]) or 0, 64) do redis.call('DEL', p .. 'pass:' .. q) end\n"
+    "  redis.call('DEL', p .. 'job', p .. 'events', p .. 'frames', p .. 'video')\n"
+    "  if cl ~= '' then redis.call('ZREM', 'rayd:jobs:' .. cl, id) end\n"
+    "  local g = j[1] and redis.call('GET', p .. 'gone')\n"
+    "  if g then redis.call('SET', p .. 'gone', g .. ' ' .. now, 'KEEPTTL') end\n"
+    "end\n"
     "local max = tonumber(ARGV[6])\n"
     "if redis.call('SCARD', KEYS[5]) >= max then\n"
     "  for _, j in ipairs(redis.call('SRANDMEMBER', KEYS[5], 64)) do\n"
@@ -101,6 +121,14 @@ static const char cluster_lua_submit[] =
     "    if st ~= 'queued' and st ~= 'running' then redis.call('SREM', KEYS[5], j) end\n"
     "  end\n"
     "  if redis.call('SCARD', KEYS[5]) >= max then return -3 end\n"
+    "end\n"
+    "local kept = redis.call('ZCARD', 'rayd:ended') + redis.call('SCARD', KEYS[5])\n"
+    "for _ = 1, 64 do\n"
+    "  if kept < max then break end\n"
+    "  local m = redis.call('ZPOPMIN', 'rayd:ended')\n"
+    "  if not m[1] then break end\n"
+    "  rayd_forget(m[1], ARGV[2])\n"
+    "  kept = kept - 1\n"
     "end\n"
     "redis.call('SADD', KEYS[5], ARGV[1])\n"
     "redis.call('HSET', KEYS[1], unpack(ARGV, 8))\n"
@@ -509,16 +537,18 @@ static void cluster_fill(const char *id, redisReply **v, struct shots_info *out,
 }
 
 /* A tombstone's "state ended_ms ttl" into g: the job expired ttl s after
- * it ended. */
+ * it ended; or, with a fourth number, was forgotten then (ms) for
+ * --max-jobs (rayd_forget). */
 static void cluster_tomb_read(const char *s, struct jobs_gone *g) {
     char state[16] = "";
-    double ended = 0, ttl = 0;
+    double ended = 0, ttl = 0, evicted = 0;
     memset(g, 0, sizeof *g);
-    if (sscanf(s, "%15s %lf %lf", state, &ended, &ttl) != 3) ended = ttl = 0;
-    g->why = JG_EXPIRED;
+    int n = sscanf(s, "%15s %lf %lf %lf", state, &ended, &ttl, &evicted);
+    if (n < 3) ended = ttl = 0;
+    g->why = n == 4 ? JG_EVICTED : JG_EXPIRED;
     g->state = cluster_state(state);
     g->ended_wall = ended / 1e3;
-    g->gone_wall = ended / 1e3 + ttl;
+    g->gone_wall = n == 4 ? evicted / 1e3 : ended / 1e3 + ttl;
 }
 
 /* Reads job id into op->info; CS_UNKNOWN when there is none, CS_GONE

@@ -7,7 +7,8 @@
 # 5,100 tiny ones.  bob's list must name his job, and cost Redis a handful
 # of commands.  Then a node that keeps ended jobs 1 s: carol's 600 jobs,
 # never listed, must leave her list (and Redis but for their tombstones)
-# once they expired.  Until the lists were kept per client (rayd:jobs:CLIENT),
+# once they expired.  Then --max-jobs 16 must bound the ended jobs kept too.
+# Until the lists were kept per client (rayd:jobs:CLIENT),
 # every job of the cluster was one ZSET: bob's list read up to 5,000 of
 # alice's jobs, two round trips each, on the node's one request thread
 # (0.4 s, some 10,000 Redis commands, every other job route of that node
@@ -94,4 +95,24 @@ wait_until 30 swept
 check expired_jobs_leave_lists "still listed: $(listed_jobs), rayd:ended: $(rcli zcard rayd:ended), keys: $(rcli --scan --pattern 'rayd:jobs*' | head -3 | tr '\n' ' ')" swept
 job_keys() { rcli --scan --pattern 'rayd:{*}:*' | grep -vc ':gone$'; }
 check expired_jobs_keep_only_tombstones "keys besides tombstones: $(job_keys)" [ "$(job_keys)" = 0 ]
+
+# --- --max-jobs counts ended jobs too, as on one node -----------------------------------------
+# dave's first job ends, then 60 more are posted one after another under --max-jobs 16 and a
+# 600 s TTL: the ones that ended first are forgotten (410 job_evicted), so Redis keeps at most
+# 16 jobs, not every job of the last ten minutes (41 MB for 1,079 kept before, and growing with
+# the POST rate).
+kill -TERM "${NODE_PID[3]}" && wait "${NODE_PID[3]}" 2>/dev/null
+rcli flushall >/dev/null
+start_node 4 --threads 2 --client-header X-Client --max-jobs 16 --job-ttl 600 --redis "$REDIS_URL"
+FIRST=$(curl -s -m 30 -H 'Content-Type: application/json' -H 'X-Client: dave' \
+    --data-binary @"$T/tiny.json" "${NODE_URL[4]}/v1/jobs" |
+    python3 -c 'import json,sys; print(json.load(sys.stdin).get("id", ""))')
+wait_until 60 unfinished
+n=$(post 4 dave 60)
+wait_until 120 unfinished
+records() { rcli --scan --pattern 'rayd:{*}:job' | wc -l; }
+bounded() { [ "$n" -ge 17 ] && [ "$(records)" -le 16 ] && [ "$(listed_jobs)" -le 16 ]; }
+check ended_jobs_bounded "job records kept: $(records) of --max-jobs 16; listed $(listed_jobs); $n of 60 posted" bounded
+code=$(curl -s -m 30 -o "$T/first.json" -w '%{http_code}' -H 'X-Client: dave' "${NODE_URL[4]}/v1/jobs/$FIRST")
+check first_job_evicted "$code $(head -c 300 "$T/first.json")" err_is "$T/first.json" 410 job_evicted
 [ "$NFAIL" = 0 ]
