@@ -45,7 +45,21 @@
 #include <string.h>
 #include <unistd.h>
 
-static const char cluster_lua_end[] =
+/* Every key a job keeps after its end, handed to fn a few at a time: its
+ * frames' images and done sets, its passes' records (at most 64, as the
+ * passes cap), the record, its events, its frame set and its video.
+ * rayd_end sets them to expire and rayd_forget deletes them (one DEL a
+ * frame), so the two cannot disagree on what a job leaves behind. */
+#define CLUSTER_LUA_KEPT                                                                           \
+    "local function rayd_kept(p, first, last, passes, fn)\n"                                       \
+    "  for k = first, last do\n"                                                                   \
+    "    fn(p .. 'frame:' .. k, p .. 'frame:' .. k .. ':exr', p .. 'done:' .. k)\n"                \
+    "  end\n"                                                                                      \
+    "  for q = 1, math.min(passes, 64) do fn(p .. 'pass:' .. q) end\n"                             \
+    "  fn(p .. 'job', p .. 'events', p .. 'frames', p .. 'video')\n"                               \
+    "end\n"
+
+static const char cluster_lua_end[] = CLUSTER_LUA_KEPT
     "local function rayd_end(id, state, now, ttl, err)\n"
     "  local p = 'rayd:{' .. id .. '}:'\n"
     "  local st = redis.call('HGET', p .. 'job', 'state')\n"
@@ -63,9 +77,6 @@ static const char cluster_lua_end[] =
     "      redis.call('DEL', p .. 'tile:' .. k .. ':' .. t, p .. 'tile:' .. k .. ':' .. t .. "
     "':exr')\n"
     "    end\n"
-    "    redis.call('EXPIRE', p .. 'frame:' .. k, ttl)\n"
-    "    redis.call('EXPIRE', p .. 'frame:' .. k .. ':exr', ttl)\n"
-    "    redis.call('EXPIRE', p .. 'done:' .. k, ttl)\n"
     "  end\n"
     "  local pr = redis.call('HMGET', p .. 'job', 'pass', 'passes', 'progressive')\n"
     "  if pr[3] == '1' then\n"
@@ -75,10 +86,11 @@ static const char cluster_lua_end[] =
     "'run:' .. (K - 1) .. ':' .. t)\n"
     "    end\n"
     "    redis.call('DEL', p .. 'pdone:' .. K)\n"
-    "    for q = 1, math.min(tonumber(pr[2]) or 0, 64) do redis.call('EXPIRE', p .. 'pass:' .. q, "
-    "ttl) end\n"
     "  end\n"
-    "  for _, k in ipairs({'job', 'events', 'frames'}) do redis.call('EXPIRE', p .. k, ttl) end\n"
+    "  local passes = pr[3] == '1' and tonumber(pr[2]) or 0\n"
+    "  rayd_kept(p, first, last, passes, function(...)\n"
+    "    for _, k in ipairs({...}) do redis.call('EXPIRE', k, ttl) end\n"
+    "  end)\n"
     "  redis.call('SREM', 'rayd:unfinished', id)\n"
     "  local cl = redis.call('HGET', p .. 'job', 'client') or ''\n"
     "  redis.call('ZADD', 'rayd:ended', tonumber(now) + 1000 * tonumber(ttl), id .. ' ' .. cl)\n"
@@ -99,17 +111,14 @@ static const char cluster_lua_end[] =
  * entry gone, its tombstone marked evicted so its routes answer 410
  * job_evicted).  Without it the ended jobs a cluster keeps grew with the
  * POST rate times --job-ttl, unbounded by any count. */
-static const char cluster_lua_submit[] =
+static const char cluster_lua_submit[] = CLUSTER_LUA_KEPT
     "local function rayd_forget(m, now)\n"
     "  local id, cl = string.match(m, '^(%x+) (%d*)$')\n"
     "  if not id then return end\n"
     "  local p = 'rayd:{' .. id .. '}:'\n"
     "  local j = redis.call('HMGET', p .. 'job', 'state', 'first', 'last', 'passes')\n"
-    "  for k = tonumber(j[2]) or 0, tonumber(j[3]) or -1 do\n"
-    "    redis.call('DEL', p .. 'frame:' .. k, p .. 'frame:' .. k .. ':exr', p .. 'done:' .. k)\n"
-    "  end\n"
-    "  for q = 1, math.min(tonumber(j[4]) or 0, 64) do redis.call('DEL', p .. 'pass:' .. q) end\n"
-    "  redis.call('DEL', p .. 'job', p .. 'events', p .. 'frames', p .. 'video')\n"
+    "  rayd_kept(p, tonumber(j[2]) or 0, tonumber(j[3]) or -1, tonumber(j[4]) or 0,\n"
+    "            function(...) redis.call('DEL', ...) end)\n"
     "  if cl ~= '' then redis.call('ZREM', 'rayd:jobs:' .. cl, id) end\n"
     "  local g = j[1] and redis.call('GET', p .. 'gone')\n"
     "  if g then redis.call('SET', p .. 'gone', g .. ' ' .. now, 'KEEPTTL') end\n"
