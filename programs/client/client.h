@@ -185,6 +185,9 @@ void progress_update(struct progress *p, int done, int failed, int nservers, con
                      char labels[][40], double rays_per_s, int force);
 /* Ends the bar's line. */
 void progress_end(struct progress *p);
+/* secs left as every progress line says it ("45s", "3m05s", "2h10m";
+ * "--" when < 0). */
+void progress_eta(double secs, char *buf, size_t size);
 /* A progressive job's pass k of n, of samples out of target, written to
  * path (NULL: none), secs after its render began, eta_s left (< 0 when
  * unknown): the bar redrawn, or one line. */

@@ -26,7 +26,7 @@
  * the job (DELETE), whose other frames would be of no use.
  *
  * The progress: on a terminal the bar of progress.c, in frames; else one
- * line per frame written, "frame K -> FILE (frames D/N, ETA ...)", with the
+ * line per frame written, "frame K -> FILE (frames D/N, ETA 1m05s)", with the
  * server's eta_s when polled, else the pace of the frames so far.  A failed job's frames done are
  * still written; then its error, which names the failed frames, is printed and we exit 1.
  *
@@ -122,11 +122,13 @@ static int job_frames_get(struct job_frames *j, long k) {
         double eta = j->eta >= 0
                          ? j->eta /* the server's, when polled; else the pace so far */
                          : (net_now() - j->prog.t0) / (double)j->ngot * (double)(total - j->ngot);
+        char left[32];
+        progress_eta(j->ngot == total ? 0 : eta, left, sizeof left);
         if (j->prog.tty)
             progress_update(&j->prog, (int)j->ngot, 0, 1, &per, j->label, -1, 1);
         else if (!o->quiet)
-            fprintf(stderr, "rayd-client: frame %ld -> %s (frames %ld/%ld, ETA %.1fs)\n", k, path,
-                    j->ngot, total, j->ngot == total ? 0 : eta);
+            fprintf(stderr, "rayd-client: frame %ld -> %s (frames %ld/%ld, ETA %s)\n", k, path,
+                    j->ngot, total, left);
     }
     return rc;
 }

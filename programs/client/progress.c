@@ -26,7 +26,7 @@ void progress_init(struct progress *p, int total, int quiet) {
     p->unit = "tiles";
 }
 
-static void progress_eta(double secs, char *buf, size_t size) {
+void progress_eta(double secs, char *buf, size_t size) {
     if (secs < 0)
         snprintf(buf, size, "--");
     else if (secs < 60)

@@ -65,6 +65,7 @@ struct watch {
     long written;     /* the pass -o holds (0: none) */
     long written_samples;
     char final[16];  /* how the job ended ("" while it runs) */
+    int stopped;     /* why a progressive job ended early: watch_stops' index, 0 none */
     char error[600]; /* a failed job's message, escaped */
     int news;        /* counts what was learned: passes, progress, the end */
     int refused;     /* an image was refused: stop */
@@ -132,6 +133,22 @@ static void watch_tiles(struct watch *w, const cJSON *o, const char *kdone, cons
     w->prog.total = (int)total;
     progress_update(&w->prog, (int)done, 0, 1, &per, w->label, -1, 0);
     w->news++;
+}
+
+/* passes.stopped_by's values, and what the client says of each. */
+static const char *const watch_stops[][2] = {
+    {"", ""},
+    {"time_budget", "its time budget (--time-budget)"},
+    {"noise_target", "reaching its noise target (--noise-target)"},
+    {"client", "a stop request (POST /v1/jobs/ID/stop)"},
+    {"max_work", "the server's ray budget (--max-work)"},
+};
+
+/* Why the job's passes ended early, from its "passes" object. */
+static void watch_stopped(struct watch *w, const cJSON *passes) {
+    const char *by = net_json_str(passes, "stopped_by");
+    for (int i = 1; by && i < (int)(sizeof watch_stops / sizeof watch_stops[0]); i++)
+        if (!strcmp(by, watch_stops[i][0])) w->stopped = i;
 }
 
 /* The job's end, from a "done" event or its JSON's state. */
@@ -248,9 +265,10 @@ static int watch_status(struct watch *w, bool first) {
             else if (w->progressive)
                 watch_warn(w, "pass figures");
         }
-        if (w->progressive)
+        if (w->progressive) {
             watch_pass(w, cJSON_GetObjectItemCaseSensitive(j, "passes"), "done", "total");
-        else
+            watch_stopped(w, cJSON_GetObjectItemCaseSensitive(j, "passes"));
+        } else
             watch_tiles(w, j, "tiles_done", "tiles_total");
         const char *state = net_json_str(j, "state");
         if (state && strcmp(state, "queued") && strcmp(state, "running")) {
@@ -329,6 +347,18 @@ static void watch_holds(const struct watch *w, char *buf, size_t size) {
         snprintf(buf, size, "nothing written to %s", output_name(out));
 }
 
+/* Why a progressive job that succeeded ended before its last pass, as
+ * words for its last line ("" when it ran every pass): the job's JSON
+ * read once more, since the "done" event does not say. */
+static void watch_early(struct watch *w, char *buf, size_t size) {
+    buf[0] = '\0';
+    if (!w->progressive || w->seen >= w->passes) return;
+    if (!w->stopped) watch_status(w, false);
+    if (w->stopped)
+        snprintf(buf, size, ", stopped at pass %ld of %ld (%ld of %ld samples) by %s", w->seen,
+                 w->passes, w->seen_samples, w->target, watch_stops[w->stopped][1]);
+}
+
 /* The job's final image into -o (202 while it is encoded): 0, or 1 said. */
 static int watch_final(struct watch *w) {
     const struct client_opts *o = w->o;
@@ -346,9 +376,12 @@ static int watch_final(struct watch *w) {
     int rc = 1;
     if (st == 200 && job_write(o->out, &b, (int)w->w, (int)w->h) == 0) {
         rc = 0;
-        if (!o->quiet)
-            fprintf(stderr, "rayd-client: job %s succeeded; wrote %s\n", w->id,
+        char early[200];
+        if (!o->quiet) {
+            watch_early(w, early, sizeof early);
+            fprintf(stderr, "rayd-client: job %s succeeded%s; wrote %s\n", w->id, early,
                     output_name(o->out));
+        }
     } else if (st == 200) {
         w->refused = 1;
     } else if (!job_stopped()) {
@@ -366,7 +399,11 @@ static int watch_finish(struct watch *w, int failed) {
     progress_end(&w->prog);
     if (!failed && !w->refused && !strcmp(w->final, "succeeded") && !job_stopped()) {
         if (!o->out) {
-            if (!o->quiet) fprintf(stderr, "rayd-client: job %s succeeded\n", w->id);
+            char early[200];
+            if (!o->quiet) {
+                watch_early(w, early, sizeof early);
+                fprintf(stderr, "rayd-client: job %s succeeded%s\n", w->id, early);
+            }
             return 0;
         }
         if (watch_final(w) == 0) return 0;

@@ -46,7 +46,7 @@ check video_frames "$probe" eval '[ "$probe" = "h264,48,32,4" ]'
 # not a terminal: a line a frame, counted up, with an ETA; then the totals
 grep '^rayd-client: frame ' "$T/a.err" | sed 's/.*(frames \([0-9]*\)\/\([0-9]*\), ETA .*)$/\1\/\2/' >"$T/a.counts"
 check progress_lines "$(cat "$T/a.err")" eval '[ "$(tr "\n" " " <"$T/a.counts")" = "1/4 2/4 3/4 4/4 " ] &&
-    grep -q "^rayd-client: frame [3-6] -> $T/a/shot-000[3-6].png (frames 1/4, ETA [0-9.]*s)$" "$T/a.err" &&
+    grep -q "^rayd-client: frame [3-6] -> $T/a/shot-000[3-6].png (frames 1/4, ETA [0-9][0-9hms]*)$" "$T/a.err" &&
     grep -q "^rayd-client: wrote 4 frames to $T/a/shot-%04d.png$" "$T/a.err" &&
     grep -q "^rayd-client: wrote $T/a/shot.mp4$" "$T/a.err"'
 "$CLIENT" job "$T/anim.json" -o "$T/a/q-%d.png" --frames 4-5 --server "$URL" -q 2>"$T/q.err" </dev/null

@@ -64,6 +64,19 @@ check run_final_equals_job_image "status $code" bash -c "[ $code = 200 ] && cmp 
 check run_lines "$(cat "$T/run.log")" bash -c "grep -c '^rayd-client: pass [1-4]/4: ' '$T/run.log' | grep -qx 4 && \
     grep -q 'pass 4/4: 8/8 samples, [0-9.]*s, ETA 0s -> $T/run.png' '$T/run.log' && grep -q 'succeeded; wrote' '$T/run.log'"
 
+# --- stopped early (POST /stop): exit 0, and the last line says at which pass and why -------------
+gate 0
+start_client stop render --progressive "$T/p8.json" -o "$T/stop.png" --server "$URL"
+gate 2
+wait_until 60 logged stop 'pass 1/4'
+id=$(job_of stop)
+wait_until 30 gate_is held 2
+code=$(req POST "/v1/jobs/$id/stop")
+gate open
+client_rc
+check stop_says_why "status $code, exit $CRC: $(cat "$T/stop.log")" bash -c "[ $code = 200 ] && \
+    [ $CRC = 0 ] && grep -q 'job $id succeeded, stopped at pass [12] of 4 ([12] of 8 samples) by a stop request (POST /v1/jobs/ID/stop); wrote $T/stop.png' '$T/stop.log'"
+
 # --- SIGINT mid-job: cancelled, -o keeps the last whole pass, exit 130 ---------------------------
 gate 0
 start_client int render --progressive "$T/p8.json" -o "$T/int.png" --server "$URL"
