@@ -536,7 +536,12 @@ static void cluster_fill(const char *id, redisReply **v, struct shots_info *out,
     out->queued =
         j->state == JS_QUEUED || j->state == JS_RUNNING ? frames - out->done - out->running : 0;
     out->latest = *cluster_str(v[F_LATEST]) ? (long)cluster_num(v[F_LATEST]) : -1;
-    out->eta_s = -1;
+    out->eta_s = -1; /* as shots.c: 0 once done, else the pace of the frames done so far */
+    if (j->state == JS_SUCCEEDED)
+        out->eta_s = 0;
+    else if ((j->state == JS_QUEUED || j->state == JS_RUNNING) && out->done > 0 &&
+             out->done < frames)
+        out->eta_s = (now - created) / 1e3 / (double)out->done * (double)(frames - out->done);
     out->fps = cluster_num(v[F_FPS]);
     cluster_video_state(cluster_str(v[F_VIDEO]), out);
     j->progress = *animated ? (double)out->done / (double)(frames > 0 ? frames : 1)

@@ -109,6 +109,7 @@ frames_as_render() { # NODE ID EXT K...: each frames/K.EXT is rayd-render --fram
 }
 check frames_byte_identical "a frame differs from rayd-render --frame K" frames_as_render 3 "$AID" png 3 4 5
 check frames_json "$(curl -s "${NODE_URL[1]}/v1/jobs/$AID" | head -c 600)" bash -c "curl -s '${NODE_URL[1]}/v1/jobs/$AID' | grep -q '\"frames\":{\"first\":3,\"last\":5,\"total\":3,\"done\":3'"
+check frames_eta_done "$(curl -s "${NODE_URL[1]}/v1/jobs/$AID" | head -c 900)" bash -c "curl -s '${NODE_URL[1]}/v1/jobs/$AID' | grep -q '\"eta_s\":0.000,'"
 code=$(curl -s -o "$T/f9.json" -w '%{http_code}' "${NODE_URL[1]}/v1/jobs/$AID/frames/9.png")
 check frame_outside_404 "frame 9 gave $code" [ "$code" = 404 ]
 # its video, made by one node once every frame is done, from any node: a single node's bytes
@@ -147,6 +148,7 @@ check delete_any_node "DELETE gave $code: $(head -c 200 "$T/del.json")" bash -c 
 check delete_seen_elsewhere "state on node 3: $(job_state "${NODE_URL[3]}" "$BID")" [ "$(job_state "${NODE_URL[3]}" "$BID")" = canceled ]
 wait_until 60 bash -c "[ \"\$(rcli xlen rayd:items:\$('$RAYD' --version | awk '{print \$2}'))\" = 0 ]"
 check canceled_items_dropped "items left: $(rcli xlen "rayd:items:$("$RAYD" --version | awk '{print $2}')")" [ "$(rcli xlen "rayd:items:$("$RAYD" --version | awk '{print $2}')")" = 0 ]
+check frames_eta_canceled "$(curl -s "${NODE_URL[1]}/v1/jobs/$BID" | head -c 900)" bash -c "curl -s '${NODE_URL[1]}/v1/jobs/$BID' | grep -q '\"eta_s\":null'"
 code=$(curl -s -o "$T/fr.json" -w '%{http_code}' "${NODE_URL[1]}/v1/jobs/$BID/frames/23.png")
 check canceled_frame_409 "frame of a cancelled job gave $code" [ "$code" = 409 ]
 
