@@ -144,14 +144,27 @@ static int job_poll(const struct client_opts *o, const char *base, const char *i
     snprintf(url, sizeof url, "%s/v1/jobs/%s", base, id);
     struct net_buf b = {0};
     int rc = -1;
+    double down = 0; /* since when the server has not answered (a restart) */
     for (int tries = 0; !job_interrupted; tries++) {
         net_buf_reset(&b);
         long st = job_request(o, "GET", url, NULL, &b, why, sizeof why);
-        if (st != 200) {
+        if (st != 200 && !job_interrupted) {
             if (st) net_describe(st, &b, why, sizeof why);
-            fprintf(stderr, "rayd-client: error: job %s: %s\n", id, why);
+            bool transient = st == 0 || st == 502 || st == 503 || st == 504;
+            if (transient && (!down || net_now() - down < o->timeout)) {
+                if (!down && !o->quiet)
+                    fprintf(stderr, "rayd-client: warning: job %s: %s; asking again for %.0f s\n",
+                            id, why, o->timeout);
+                if (!down) down = net_now();
+                nanosleep(&(struct timespec){1, 0}, NULL);
+                continue;
+            }
+            fprintf(stderr, "rayd-client: error: job %s: %s%s\n", id, why,
+                    transient ? " (the job itself may still be running on the server)" : "");
             break;
         }
+        if (st != 200) break;
+        down = 0;
         cJSON *j = cJSON_ParseWithLength(b.data, b.len);
         const char *state = net_json_str(j, "state");
         job_progress(show, cJSON_GetObjectItemCaseSensitive(j, "tiles_done"),

@@ -232,17 +232,29 @@ static int job_frames_follow(struct job_frames *j) {
     snprintf(url, sizeof url, "%s/v1/jobs/%s", o->servers[0], j->id);
     struct net_buf b = {0};
     int rc = job_frames_stream(j) < 0 ? 1 : -1;
+    double down = 0; /* since when the server has not answered (a restart) */
     while (rc < 0 && !job_stopped()) {
         net_buf_reset(&b);
         long st = job_request(o, "GET", url, NULL, &b, why, sizeof why);
         if (job_stopped()) break;
         if (st != 200) {
             if (st) net_describe(st, &b, why, sizeof why);
+            bool transient = st == 0 || st == 502 || st == 503 || st == 504;
+            if (transient && (!down || net_now() - down < o->timeout)) {
+                if (!down && !o->quiet)
+                    fprintf(stderr, "rayd-client: warning: job %s: %s; asking again for %.0f s\n",
+                            j->id, why, o->timeout);
+                if (!down) down = net_now();
+                job_frames_sleep(1000);
+                continue;
+            }
             progress_end(&j->prog);
-            fprintf(stderr, "rayd-client: error: job %s: %s\n", j->id, why);
+            fprintf(stderr, "rayd-client: error: job %s: %s%s\n", j->id, why,
+                    transient ? " (the job itself may still be running on the server)" : "");
             rc = 1;
             break;
         }
+        down = 0;
         cJSON *job = cJSON_ParseWithLength(b.data, b.len);
         const char *state = net_json_str(job, "state");
         long total = j->last - j->first + 1;
