@@ -83,8 +83,7 @@ static const char cluster_lua_tile[] =
     "end\n"
     "local c = redis.call('SCARD', p .. 'done:' .. k)\n"
     "if added == 1 and c == n then\n"
-    "  local items = redis.call('HGET', p .. 'job', 'items') or ARGV[9]\n"
-    "  redis.call('XADD', items, '*', 'job', id, 'frame', k, 'tile', -1)\n"
+    "  redis.call('XADD', ARGV[9], '*', 'job', id, 'frame', k, 'tile', -1)\n"
     "end\n"
     "return c\n";
 
@@ -118,21 +117,10 @@ bool cluster_tile_store(struct redis *c, const struct cluster_tile *t) {
         len = strlen(data);
         if (t->exr) exr = "nor an EXR", exr_len = strlen(exr);
     }
-    const char *argv[] = {"EVAL",
-                          cluster_lua_tile,
-                          "0",
-                          t->id,
-                          sk,
-                          st,
-                          data,
-                          sn,
-                          now,
-                          sr,
-                          sm,
-                          cluster_stream,
-                          test && !strcmp(test, "missing") ? "skip" : "keep",
-                          where,
-                          exr};
+    const char *argv[] = {"EVAL", cluster_lua_tile, "0", t->id, sk, st, data, sn, now, sr, sm,
+                          /* the assembly: first in line, not behind every tile queued */
+                          cluster_items_stream(JP_HIGH),
+                          test && !strcmp(test, "missing") ? "skip" : "keep", where, exr};
     size_t lens[15];
     for (int i = 0; i < 15; i++) lens[i] = i == 6 ? len : i == 14 ? exr_len : strlen(argv[i]);
     redisReply *rep = redis_argv(c, 15, argv, lens);

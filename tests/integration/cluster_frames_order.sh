@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# cluster_frames_order.sh -- rayd --redis: a frame-range job's frames are
+# assembled as they complete, not after every tile of the whole job.  A
+# frame's assembly is queued on the high-priority stream, so the node takes
+# it before the tiles of the job's later frames: with the tiles of frame 0
+# (and one more) let through the test gate and the rest held, frame 0 is
+# done and served, and the job's progress and eta_s say so.  Stopped by PID.
+source "$(dirname "$0")/lib/common.sh"
+source "$(dirname "$0")/lib/redis.sh"
+
+cat >"$T/anim.json" <<'EOF2'
+{"animation": {"start": 0, "end": 3, "fps": 10},
+ "render": {"width": 64, "height": 32, "samples": 1},
+ "camera": {"look_at": [0, 0.5, 0], "keyframes": [{"frame": 0, "position": [0, 1.5, 5]},
+                                                   {"frame": 3, "position": [4, 2, 2]}]},
+ "lights": [{"type": "point", "position": [4, 5, 4]}],
+ "objects": [{"type": "plane", "material": {"color": [0.6, 0.6, 0.6]}},
+             {"type": "sphere", "center": [0, 0.5, 0], "radius": 0.5,
+              "material": {"color": [0.9, 0.3, 0.2]}}]}
+EOF2
+start_redis
+start_node 1 --threads 1 --cluster-tile 32 --test-gate 0 --redis "$REDIS_URL"
+URL=${NODE_URL[1]}
+code=$(curl -s -o "$T/post.json" -w '%{http_code}' -H 'Content-Type: application/json' \
+    --data-binary @"$T/anim.json" "$URL/v1/jobs?frames=0-3")
+ID=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["id"])' "$T/post.json" 2>/dev/null)
+check posted "POST gave $code: $(head -c 300 "$T/post.json")" [ "$code" = 202 -a -n "$ID" ]
+curl -s -X POST "$URL/v1/test/gate?tiles=3" >/dev/null # frame 0's two tiles, and one of frame 1
+frame0_done() { curl -s "$URL/v1/jobs/$ID" | grep -q '"done":1,'; }
+wait_until 60 frame0_done
+check frame0_done_first "$(curl -s "$URL/v1/jobs/$ID")" frame0_done
+check frame0_served "frames/0.png gave $(curl -s -o "$T/f0.png" -w '%{http_code}' "$URL/v1/jobs/$ID/frames/0.png")" \
+    bash -c "[ \$(curl -s -o '$T/f0.png' -w '%{http_code}' '$URL/v1/jobs/$ID/frames/0.png') = 200 ]"
+"$RENDER" "$T/anim.json" --frame 0 -o "$T/r0.png" -q --threads 1
+check frame0_as_cli "frame 0 differs from rayd-render --frame 0" cmp -s "$T/f0.png" "$T/r0.png"
+check progress_and_eta "$(curl -s "$URL/v1/jobs/$ID")" bash -c \
+    "curl -s '$URL/v1/jobs/$ID' | grep '\"progress\":0.2500,' | grep -q '\"eta_s\":[0-9]'"
+curl -s -X POST "$URL/v1/test/gate?tiles=open" >/dev/null
+wait_until 60 bash -c "curl -s '$URL/v1/jobs/$ID' | grep -q '\"state\":\"succeeded\"'"
+check job_succeeded "$(curl -s "$URL/v1/jobs/$ID")" bash -c "curl -s '$URL/v1/jobs/$ID' | grep -q '\"done\":4,'"
+exit $NFAIL
