@@ -187,10 +187,12 @@ static int client_cluster(const char *server, const struct net_buf *b) {
             snprintf(other, sizeof other, "; %s", net_safe(v->valuestring, s, sizeof s));
         }
         if (up)
-            printf("%s: cluster: redis up at %s, %.0f nodes, %.0f items queued, %.0f in flight%s\n",
-                   server, addr, cJSON_IsNumber(n) ? n->valuedouble : -1,
-                   cJSON_IsNumber(q) ? q->valuedouble : -1, cJSON_IsNumber(f) ? f->valuedouble : -1,
-                   other);
+            printf(
+                "%s: cluster: redis up at %s, %.0f node%s, %.0f items queued, %.0f in flight%s\n",
+                server, addr, cJSON_IsNumber(n) ? n->valuedouble : -1,
+                cJSON_IsNumber(n) && n->valuedouble == 1 ? "" : "s",
+                cJSON_IsNumber(q) ? q->valuedouble : -1, cJSON_IsNumber(f) ? f->valuedouble : -1,
+                other);
         else
             printf("%s: cluster: redis DOWN at %s (%s): its job routes answer 503\n", server, addr,
                    why);

@@ -48,6 +48,14 @@ health_line() {
 }
 wait_until 10 health_line
 check client_health_cluster_line "$(cat "$T/health.out"; curl -s "${NODE_URL[1]}/healthz")" health_line
+start_node 11 --threads 1 --redis "redis://127.0.0.1:$REDIS_PORT/5"   # a cluster of one (database 5)
+one_node_line() {
+    "$RAYD_BUILD/rayd-client" health --server "${NODE_URL[11]}" >"$T/health1.out" 2>&1
+    grep -q "cluster: redis up at 127.0.0.1:$REDIS_PORT, 1 node, 0 items" "$T/health1.out"
+}
+wait_until 10 one_node_line
+check client_health_one_node "$(cat "$T/health1.out")" grep -q "cluster: redis up at 127.0.0.1:$REDIS_PORT, 1 node, 0 items" "$T/health1.out"
+kill "${NODE_PID[11]}"
 
 # --- a still job: posted on 1, answered by 2 and 3 -------------------------------------
 code=$(curl -s -o "$T/post.json" -w '%{http_code}' "${JSON[@]}" --data-binary @"$SCENE" "${NODE_URL[1]}/v1/jobs")
