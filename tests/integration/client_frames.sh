@@ -96,6 +96,17 @@ usage video_still_scene "the scene has no /animation, so it has no frames to mak
 usage frames_malformed "--frames takes A-B" job "$T/anim.json" -o "$T/x-%d.png" --frames 6-3
 usage frames_not_render "--frames is not an option of render (only of job)" render "$T/anim.json" -o "$T/x.png" --frames 3-4
 usage video_not_mp4 "--video writes the job's H.264 MP4" job "$T/anim.json" -o "$T/x-%d.png" --video "$T/x.mkv"
+# ---- an -o or --video in a folder that is missing: exit 1 before any job is made ---------
+nodir() { # NAME ARGS...
+    local name=$1 rc
+    shift
+    "$CLIENT" job "$T/anim.json" --frames 3-4 "$@" --server "$URL" 2>"$T/nd.err" </dev/null
+    rc=$?
+    check "$name" "exit $rc: $(cat "$T/nd.err")" eval '[ "$rc" = 1 ] && grep -q "cannot write $T/nodir/" "$T/nd.err" &&
+        [ "$(jobs_now)" = "$before" ]'
+}
+nodir frames_missing_folder -o "$T/nodir/x-%d.png"
+nodir video_missing_folder -o "$T/x-%d.png" --video "$T/nodir/x.mp4"
 check usage_wrote_nothing "$(ls "$T" | grep '^x')" eval '! ls "$T" | grep -q "^x"'
 
 # ---- a failed job: exit 1, the server's error naming the frame ---------------------------
@@ -198,7 +209,7 @@ check untrusted_wrong_size "exit $(cat "$T/u-wrong_size.rc"): $(cat "$T/u-wrong_
      [ -z "$(ls "$T/u-wrong_size")" ]'
 check untrusted_wrong_size_cancels "$(cat "$T/fake-wrong_size.log")" eval \
     'grep -q "^DELETE /v1/jobs/0123456789abcdef0123456789abcdef$" "$T/fake-wrong_size.log" &&
-     grep -q "job 0123456789abcdef0123456789abcdef cancelled: a frame was refused" "$T/u-wrong_size.err"'
+     grep -q "job 0123456789abcdef0123456789abcdef cancelled: a frame could not be written" "$T/u-wrong_size.err"'
 check frames_follow_events "exit $(cat "$T/u-stream.rc"): $(cat "$T/u-stream.err")" eval \
     '[ "$(cat "$T/u-stream.rc")" = 0 ] && [ "$(ls "$T/u-stream" | tr "\n" " ")" = "h-3.png h-4.png h-5.png h-6.png " ] &&
      ! grep -q "/frames/99\|/frames/-1" "$T/fake-stream.log"'
