@@ -752,7 +752,8 @@ static void shots_info_of(struct shot *s, struct shots_info *o) {
     o->failed = s->nfailed;
     for (const struct shots_fly *fl = s->flies; fl; fl = fl->next)
         o->running += fl->t && fl->t->t_start > 0; /* a tile of it started */
-    o->queued = s->n - s->ndone - s->nfailed - o->running;
+    /* none once it ended (as in cluster mode): a cancelled or failed job starts no more */
+    o->queued = shots_final(s) ? 0 : s->n - s->ndone - s->nfailed - o->running;
     o->latest = s->latest >= 0 ? s->first + s->latest : -1;
     o->fps = s->fps;
     o->eta_s = -1;

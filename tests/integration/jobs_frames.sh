@@ -182,6 +182,7 @@ post_json "/v1/jobs?frames=2-7" "$T/anim.json" -H 'X-Tag: cancel' >/dev/null
 cancel=$(jfield "$T/body" id)
 code=$(req DELETE "/v1/jobs/$cancel")
 check delete_frames "$code $(cat "$T/body")" eval '[ "$code" = 200 ] && [ "$(jfield "$T/body" state)" = canceled ]'
+check delete_frames_none_queued "$(cat "$T/body")" eval '[ "$(json "$T/body" "j[\"frames\"][\"queued\"]")" = 0 ]'
 gate open
 code=$(req GET "/v1/jobs/$cancel/frames/2.png")
 check frame_of_cancelled "$code $(cat "$T/body")" eval 'err_is "$T/body" 409 frame_not_ready && grep -q canceled "$T/body"'
