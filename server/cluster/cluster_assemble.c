@@ -6,8 +6,11 @@
  * for the tile), and its number added to the frame's done
  * set, in one script with the job's counters and its event, so a tile is
  * either counted and kept or neither.  The node whose tile completes the
- * set queues the frame's assembly item (tile -1) in that same script (and
- * the frame that completes a frame range its video's, cluster_video.c): a
+ * set queues the frame's assembly item (tile -1) in that same script, on
+ * the high stream whatever the job's priority: a short item, taken before
+ * the tiles of the job's later frames, so a frame range's frames come one
+ * by one rather than all at its end (and the frame that completes a frame
+ * range queues its video's, cluster_video.c): a
  * node that dies right after leaves a complete set and its assembly
  * queued, and a duplicate of a tile (an item reclaimed from a stalled node
  * that finished after all) finds its number in the set and queues nothing.

@@ -5,8 +5,9 @@
  * rayd:items:VERSION for normal, rayd:items:VERSION:high and
  * rayd:items:VERSION:low for the others, each with the consumer group
  * `render`.  The job's record names its stream (field `items`), so the
- * scripts that queue more of its items later -- a frame's assembly, a tile
- * queued again -- put them beside the others.  A node takes its next item
+ * scripts that queue more of its items later -- a tile queued again, a
+ * pass -- put them beside the others; a frame's assembly goes to the high
+ * stream (cluster_assemble.c).  A node takes its next item
  * from the highest stream that has one (one script, so a node never holds
  * a low item it took while a high one waited); when all are empty it
  * blocks on all three at once.  Take-overs (XAUTOCLAIM), refreshes (XCLAIM)
