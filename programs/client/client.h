@@ -270,8 +270,11 @@ int job_write(const char *path, const struct net_buf *b, int w, int h);
  * 0, or -1 when it has none. */
 int job_image_size(const char *path, const struct net_buf *b, long *w, long *h);
 int job_cancel(const struct client_opts *o, const char *id);
-/* DELETE /v1/jobs/{id}, unsaid: the status, 0 on a transport error. */
-long job_delete(const struct client_opts *o, const char *id);
+/* DELETE /v1/jobs/{id}, unsaid: whether this cancelled the job.  state
+ * gets the job's state from the answer ("canceled"; "succeeded" or
+ * "failed" when it had ended already: a DELETE then changes nothing), ""
+ * when there was no such answer. */
+bool job_delete(const struct client_opts *o, const char *id, char *state, size_t size);
 
 /* ---- job_frames.c --------------------------------------------------------- */
 

@@ -297,19 +297,29 @@ int job_post(const struct client_opts *o, const struct scenefile *sf, const char
  * Returns 130, the exit status of an interrupted command. */
 int job_cancel(const struct client_opts *o, const char *id) {
     job_interrupted = 0; /* let the DELETE through */
-    job_delete(o, id);
-    fprintf(stderr, "rayd-client: interrupted; job %s cancelled\n", id);
+    char state[16];
+    if (job_delete(o, id, state, sizeof state))
+        fprintf(stderr, "rayd-client: interrupted; job %s cancelled\n", id);
+    else if (state[0]) /* it ended before the DELETE: nothing was cancelled */
+        fprintf(stderr, "rayd-client: interrupted; job %s had already %s\n", id, state);
+    else
+        fprintf(stderr, "rayd-client: interrupted; job %s may go on: its DELETE was not answered\n",
+                id);
     return 130;
 }
 
-/* DELETE /v1/jobs/{id}: the server's status (0 on a transport error). */
-long job_delete(const struct client_opts *o, const char *id) {
-    char url[1024], why[600] = "";
+bool job_delete(const struct client_opts *o, const char *id, char *state, size_t size) {
+    char url[1024], why[600] = "", safe[16] = "";
     struct net_buf b = {0};
     snprintf(url, sizeof url, "%s/v1/jobs/%s", o->servers[0], id);
     long st = job_request(o, "DELETE", url, NULL, &b, why, sizeof why);
+    cJSON *j = st == 200 ? cJSON_ParseWithLength(b.data, b.len) : NULL;
+    const char *s = net_json_str(j, "state");
+    if (s && strlen(s) < sizeof safe) net_safe(s, safe, sizeof safe);
+    snprintf(state, size, "%s", safe);
+    cJSON_Delete(j);
     net_buf_free(&b);
-    return st;
+    return !strcmp(safe, "canceled");
 }
 
 /* Follows job id to its end, showing progress: 0, 1 (said) or 130

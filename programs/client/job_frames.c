@@ -278,7 +278,8 @@ static int job_frames_follow(struct job_frames *j) {
     }
     net_buf_free(&b);
     progress_end(&j->prog);
-    if (j->refused && !job_stopped() && job_delete(o, j->id) == 200)
+    char state[16];
+    if (j->refused && !job_stopped() && job_delete(o, j->id, state, sizeof state))
         fprintf(stderr, "rayd-client: job %s cancelled: a frame could not be written\n", j->id);
     return job_stopped() ? job_cancel(o, j->id) : rc;
 }

@@ -422,7 +422,8 @@ static int watch_finish(struct watch *w, int failed) {
                 w->id, holds, w->id, o->out ? " -o " : "", o->out ? o->out : "", o->servers[0]);
         return 130;
     }
-    if (w->refused && w->cancels && job_delete(o, w->id) == 200)
+    char state[16];
+    if (w->refused && w->cancels && job_delete(o, w->id, state, sizeof state))
         fprintf(stderr, "rayd-client: job %s cancelled: its image was refused\n", w->id);
     if (!failed && !w->refused && w->final[0])
         fprintf(stderr, "rayd-client: error: job %s %s%s%s; %s\n", w->id, w->final,

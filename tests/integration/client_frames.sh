@@ -227,4 +227,26 @@ rc=$?
 check video_no_ffmpeg "exit $rc: $(cat "$T/n.err")" eval '[ "$rc" = 1 ] && grep -q "no_ffmpeg" "$T/n.err" &&
     cmp -s "$T/n/n-4.png" "$T/cli-4.png" && [ ! -e "$T/n/n.mp4" ]'
 check rayd_alive "rayd died: $(tail -3 "$T/rayd.err")" kill -0 "$RAYD_PID"
+
+# ---- Ctrl-C while the video is made: the job had succeeded, so nothing is cancelled ------
+# (an ffmpeg stand-in that waits, so the client is surely waiting for video.mp4's 202s)
+stop_rayd
+mkdir -p "$T/slowbin" "$T/v"
+printf '#!/bin/sh\necho $$ >"%s/ffmpeg.pid"\nexec sleep 60\n' "$T" >"$T/slowbin/ffmpeg"
+chmod +x "$T/slowbin/ffmpeg"
+RAYD_WRAP="env PATH=$T/slowbin:$PATH" start_rayd --threads 1
+"$CLIENT" job "$T/anim.json" -o "$T/v/v-%d.png" --frames 4-5 --video "$T/v/v.mp4" --server "$URL" \
+    2>"$T/v.err" </dev/null &
+cpid=$!
+PIDS+=("$cpid")
+wait_until 60 test -s "$T/ffmpeg.pid"
+wait_until 30 grep -q "^rayd-client: wrote 2 frames" "$T/v.err"
+idv=$(sed -n 's/^rayd-client: job \([0-9a-f]*\) on.*/\1/p' "$T/v.err")
+kill -INT "$cpid"
+wait "$cpid"
+crc=$?
+check interrupt_after_end_not_cancelled "exit $crc: $(cat "$T/v.err")" eval '[ "$crc" = 130 ] &&
+    grep -q "^rayd-client: interrupted; job $idv had already succeeded$" "$T/v.err" &&
+    ! grep -q "cancelled" "$T/v.err" && job_state_is "$idv" succeeded'
+kill "$(cat "$T/ffmpeg.pid")" 2>/dev/null
 exit $NFAIL
