@@ -83,6 +83,16 @@ static bool api_plan(struct http_req *r, const rayd_scene *scene, struct jobs_pl
     return true;
 }
 
+/* An animated scene's job is a frame-range job, never progressive: each
+ * of the progressive options is refused, naming it, rather than ignored
+ * (pass_step=2 on its own used to be taken and dropped). */
+static bool api_plan_none(struct http_req *r) {
+    for (int i = 0; api_plan_names[i]; i++)
+        if (http_req_query(r, api_plan_names[i]))
+            return api_bad_param(r, api_plan_names[i], "a frame-range job is not progressive");
+    return true;
+}
+
 /* ?format=png|exr into what (POST /v1/render's names; a job keeps its
  * 8-bit PNG always, and with exr the EXR of the same samples).  Replies
  * 400 naming format and returns false on a bad one. */
@@ -193,7 +203,7 @@ static bool api_jobs_compiled(struct http_req *r, struct cache_entry *e, bool hi
     struct jobs_new how = {.scene = r->body ? r->body : "", .scene_len = r->body_len};
     int shot = api_shots_wanted(r, cache_scene(e));
     if (shot < 0 || !api_region_also(r, cache_scene(e), &what.reg, api_jobs_names) ||
-        (!shot && !api_plan(r, cache_scene(e), &plan, &progressive)) ||
+        !(shot ? api_plan_none(r) : api_plan(r, cache_scene(e), &plan, &progressive)) ||
         !api_jobs_format(r, &what) || !api_jobs_denoise_aov(r, cache_scene(e), &what) ||
         !api_jobs_priority(r, &how.priority) || !api_cost_admit(r, e, &what, progressive, &price))
         return false; /* replied */

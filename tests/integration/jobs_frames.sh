@@ -36,6 +36,11 @@ check range_over_cap "$(cat "$T/body")" bad_query cap "frames=2-9" frames "max-f
 check range_whole_over_cap "$(cat "$T/body")" bad_query whole "" frame "max-frames"
 check range_progressive "$(cat "$T/body")" bad_query prog "frames=2-3&progressive=1" progressive \
     "not progressive"
+# the progressive job's options are refused too, never taken and dropped
+for p in pass_step=2 time_budget=5 noise_target=0.1; do
+    check "range_${p%%=*}" "$(cat "$T/body")" bad_query "${p%%=*}" "frames=2-3&$p" "${p%%=*}" \
+        "not progressive"
+done
 code=$(post_json "/v1/jobs?frames=0-1" "$T/still.json")
 check still_with_frames "$code $(cat "$T/body")" eval '[ "$code" = 400 ] && grep -q "no animation block" "$T/body"'
 
