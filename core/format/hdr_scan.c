@@ -13,6 +13,8 @@
  */
 #include <stdint.h>
 #include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
 
 #include "format/hdr_scan.h"
 
@@ -79,4 +81,58 @@ bool hdr_scan(const unsigned char *b, size_t len, int w, int h, char *why, size_
         if (r == HDR_ROW_STB_REFUSES) return true;
     }
     return true;
+}
+
+/* The next line from *at as stb_image reads it (up to '\n'): at most 40
+ * of its bytes into out, any but printable ASCII as '?'; its length. */
+static size_t hdr_line(const unsigned char *b, size_t len, size_t *at, char out[41]) {
+    size_t start = *at, k = 0;
+    while (*at < len && b[*at] != '\n') {
+        if (k < 40) out[k++] = b[*at] >= 0x20 && b[*at] < 0x7f ? (char)b[*at] : '?';
+        (*at)++;
+    }
+    out[k] = 0;
+    size_t n = *at - start;
+    if (*at < len) (*at)++; /* the '\n' */
+    return n;
+}
+
+bool hdr_header_why(const unsigned char *b, size_t len, char *why, size_t n) {
+    static const char magic[] = "it must start with \"#?RADIANCE\" or \"#?RGBE\"";
+    char l[41], other[41] = "";
+    size_t at = 0, k;
+    bool rgbe = false;
+    if (len == 0) return snprintf(why, n, "%s", magic), true;
+    k = hdr_line(b, len, &at, l);
+    bool cr = k > 0 && b[k - 1] == '\r'; /* the first line starts at b[0] */
+    if (cr && k <= 40) l[k - 1] = 0;
+    if (strcmp(l, "#?RADIANCE") && strcmp(l, "#?RGBE")) return snprintf(why, n, "%s", magic), true;
+    if (cr)
+        return snprintf(why, n, "its lines end in CR LF; a .hdr header's lines end in LF"), true;
+    for (;;) {
+        if (at >= len)
+            return snprintf(why, n, "its header has no empty line before the resolution line"),
+                   true;
+        if (hdr_line(b, len, &at, l) == 0) break;
+        if (!strcmp(l, "FORMAT=32-bit_rle_rgbe")) rgbe = true;
+        if (!strncmp(l, "FORMAT=", 7) && !other[0]) snprintf(other, sizeof other, "%s", l + 7);
+    }
+    if (!rgbe && other[0])
+        return snprintf(why, n, "its format is '%s'; only 32-bit_rle_rgbe is read", other), true;
+    if (!rgbe)
+        return snprintf(why, n,
+                        "its header has no FORMAT=32-bit_rle_rgbe line (stb_image reads only "
+                        "that format)"),
+               true;
+    hdr_line(b, len, &at, l);
+    char *end = l;
+    if (!strncmp(l, "-Y ", 3)) strtol(l + 3, &end, 10);
+    while (end != l && *end == ' ') end++;
+    if (end == l || strncmp(end, "+X ", 3))
+        return snprintf(why, n,
+                        "its resolution line is '%s'; only '-Y H +X W' (rows from the top, "
+                        "each from the left) is read",
+                        l),
+               true;
+    return false;
 }

@@ -83,20 +83,19 @@ static enum rayd_status env_decode_hdr(struct loader *ld, const char *data, size
     if (len > (size_t)0x7fffffff) return sj_fail(ld, RAYD_E_LIMIT, p, "the image is too large");
     const stbi_uc *b = (const stbi_uc *)data;
     int w, h, n;
+    char why[200];
     if (!stbi_is_hdr_from_memory(b, (int)len))
-        return sj_fail(
-            ld, RAYD_E_INVALID, p,
-            "is not a Radiance .hdr image (it must start with \"#?RADIANCE\" or \"#?RGBE\")");
+        return sj_fail(ld, RAYD_E_INVALID, p, "is not a Radiance .hdr image (%s)",
+                       hdr_header_why(b, len, why, sizeof why) ? why : "stb_image refuses it");
     if (!stbi_info_from_memory(b, (int)len, &w, &h, &n))
         return sj_fail(ld, RAYD_E_INVALID, p, "is not a readable .hdr image: %s",
-                       stbi_failure_reason());
+                       hdr_header_why(b, len, why, sizeof why) ? why : stbi_failure_reason());
     if (w <= 0 || h <= 0) /* stb reads a header's missing size as 0 */
         return sj_fail(ld, RAYD_E_INVALID, p, "the .hdr image is %d x %d pixels: it has none", w,
                        h);
     if ((long)w * h > TEXTURE_MAX_PIXELS)
         return sj_fail(ld, RAYD_E_LIMIT, p, "the image is %d x %d pixels; the limit is %ld pixels",
                        w, h, TEXTURE_MAX_PIXELS);
-    char why[128];
     if (!hdr_scan(b, len, w, h, why, sizeof why)) /* stb would read zeros past the end, or spin */
         return sj_fail(ld, RAYD_E_INVALID, p, "%s", why);
     /* stb's floats and our copy, then the sampling tables (about as much) */

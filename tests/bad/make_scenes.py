@@ -882,6 +882,24 @@ case("environment-hdr-truncated.json", env_b64(RLE[:HDR_HEAD + 3 * 12 + 6]),
 FLAT = b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 4 +X 4\n" + bytes([128, 128, 128, 129]) * 10
 case("environment-hdr-flat-truncated.json", env_b64(FLAT),
      E + "/render/environment/base64: the .hdr image's data ends early (it stops in row 2 of 4)")
+# Headers stb_image refuses were all "unknown image type" (or a start the
+# file has): each now says what in the header is wrong.
+PIX = bytes([128, 128, 128, 129]) * 16
+case("environment-hdr-no-format.json", env_b64(b"#?RADIANCE\n\n-Y 4 +X 4\n" + PIX),
+     E + "/render/environment/base64: is not a readable .hdr image: its header has no "
+     "FORMAT=32-bit_rle_rgbe line (stb_image reads only that format)")
+case("environment-hdr-xyze.json",
+     env_b64(b"#?RADIANCE\nFORMAT=32-bit_rle_xyze\n\n-Y 4 +X 4\n" + PIX),
+     E + "/render/environment/base64: is not a readable .hdr image: its format is "
+     "'32-bit_rle_xyze'; only 32-bit_rle_rgbe is read")
+case("environment-hdr-plus-y.json",
+     env_b64(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n+Y 4 +X 4\n" + PIX),
+     E + "/render/environment/base64: is not a readable .hdr image: its resolution line is "
+     "'+Y 4 +X 4'; only '-Y H +X W' (rows from the top, each from the left) is read")
+case("environment-hdr-crlf.json",
+     env_b64(b"#?RADIANCE\r\nFORMAT=32-bit_rle_rgbe\r\n\r\n-Y 4 +X 4\r\n" + PIX),
+     E + "/render/environment/base64: is not a Radiance .hdr image (its lines end in CR LF; "
+     "a .hdr header's lines end in LF)")
 
 
 # ---- animation: the /animation block and keyframes (scene_json_anim.c) ----
