@@ -301,8 +301,8 @@ static int set_option(int opt, const char *val, struct args *a) {
     switch (opt) {
     case 'h': usage(stdout); return 1;
     case OPT_VERSION: printf("rayd-render %s\n", RAYD_VERSION); return 1;
-    case 'o':
-        if (!val) return bad_usage("-o/--output needs a file name ('-': standard output)");
+    case 'o': /* "" would render, then fail to write */
+        if (!val || !*val) return bad_usage("-o/--output needs a file name ('-': standard output)");
         a->output = val;
         return 0;
     case 'q': a->quiet = 1; return 0;

@@ -108,6 +108,8 @@ if [ "$s9" -lt "$s0" ]; then ok cli-png-level-honoured; else bad cli-png-level-h
 
 check_usage cli-no-output "no output given" "$scene"
 check_usage cli-no-scene "no scene given" -o "$T/x.png"
+check_usage cli-empty-output "-o/--output needs a file name" "$scene" -o ''
+check_usage cli-empty-output-frames "-o/--output needs a file name" "$scene" -o '' --frames 0-0
 check_usage cli-bad-threads "--threads takes an integer" "$scene" -o "$T/x.png" --threads zero
 check_usage cli-bad-region-syntax "--region takes X,Y,W,H" "$scene" -o "$T/x.png" --region 1,2,3
 check_usage cli-region-outside "error: --region w: must be in 1..10" "$scene" -o "$T/x.png" --region 150,0,20,20
