@@ -79,10 +79,13 @@ static bool api_jobs_denoise_ok(struct http_req *r, const struct jobs_info *info
                          NULL, 0, 0, "denoise");
         return false;
     }
-    if (!api_jobs_keeps_raw(info)) {
+    if (!api_jobs_keeps_raw(info)) { /* a progressive one: its PNG shows an AOV */
         http_reply_error(r, 409, "raw_not_kept",
-                         "this job keeps its denoised image alone: a progressive job keeps each "
-                         "pass raw too; else render with denoise=0",
+                         info->progressive
+                             ? "this job's PNG shows an AOV (aov=), so its passes are not kept "
+                               "raw: create it without aov, or with format=exr, to keep them"
+                             : "this job keeps its denoised image alone: a progressive job keeps "
+                               "each pass raw too; else render with denoise=0",
                          NULL, 0, 0, "denoise");
         return false;
     }

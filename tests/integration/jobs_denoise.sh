@@ -40,6 +40,13 @@ check plain_denoise_1_is_image "status $code" bash -c "[ $code = 200 ] && cmp -s
 code=$(req GET "/v1/jobs/$id/image.png?denoise=0")
 check plain_raw_not_kept "status $code $(cat "$T/body")" \
     bash -c "[ $code = 409 ] && grep -q raw_not_kept '$T/body'"
+# a progressive job whose PNG is an AOV keeps no raw passes: the 409 says
+# so, not "a progressive job keeps each pass raw" of a job that is one
+id=$(post_job "progressive=1&denoise=1&aov=depth" "$T/c.json")
+wait_until 60 job_ended "$id"
+code=$(req GET "/v1/jobs/$id/image.png?denoise=0")
+check aov_progressive_raw_not_kept "status $code $(cat "$T/body")" \
+    bash -c "[ $code = 409 ] && grep -q raw_not_kept '$T/body' && grep -q 'shows an AOV' '$T/body'"
 
 id=$(post_job "" "$T/c.json")
 wait_until 60 job_ended "$id"
