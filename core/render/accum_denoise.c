@@ -24,6 +24,8 @@
 #include "render/aov.h"
 #include "render/denoise.h"
 
+_Static_assert(RAYD_DENOISE_APRON == DENOISE_APRON, "rayd.h's apron is the filter's");
+
 /* Pixel i of a's sums as the filter's input. */
 static void accum_denoise_px(const rayd_accum *a, size_t i, struct denoise_px *px) {
     const double *s = a->sum + i * 3, *ao = a->aov + i * AOV_SUMS;

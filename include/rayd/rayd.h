@@ -455,6 +455,7 @@ enum rayd_status rayd_accum_aov_image(const rayd_accum *acc, const rayd_scene *s
  * region's raw AOVs.  The same bytes for any thread count and tiling: a
  * region is the crop of the denoised whole frame.  It takes passes and
  * sample ranges; it is neither merged nor added to (RAYD_E_ARG). */
+#define RAYD_DENOISE_APRON 68 /* the apron's pixels on each side of the region */
 enum rayd_status rayd_accum_new_denoised(const rayd_scene *scene, const struct rayd_region *region,
                                          rayd_accum **out, struct rayd_error *err);
 /* Whether acc was made by rayd_accum_new_denoised. */

@@ -48,10 +48,11 @@ static bool api_plan_number(struct http_req *r, const char *name, double max, do
     return true;
 }
 
-/* ?progressive=1 and its options into *plan; *progressive false without
- * it.  Replies 400 and returns false on a bad one. */
+/* ?progressive=1 and its options into *plan, its pass count into
+ * *passes; *progressive false (and *passes 0) without it.  Replies 400 and
+ * returns false on a bad one. */
 static bool api_plan(struct http_req *r, const rayd_scene *scene, struct jobs_plan *plan,
-                     bool *progressive) {
+                     bool *progressive, int *passes) {
     memset(plan, 0, sizeof *plan);
     for (int i = 0; api_plan_names[i]; i++)
         if (http_req_query_count(r, api_plan_names[i]) > 1)
@@ -74,7 +75,8 @@ static bool api_plan(struct http_req *r, const rayd_scene *scene, struct jobs_pl
     struct rayd_scene_info info;
     rayd_scene_info(scene, &info);
     int samples[PASSES_MAX];
-    if (*progressive && passes_plan(plan, info.samples, samples) < 0) {
+    *passes = *progressive ? passes_plan(plan, info.samples, samples) : 0;
+    if (*passes < 0) {
         char why[120];
         snprintf(why, sizeof why, "%d samples in steps of %d is more than %d passes", info.samples,
                  plan->step, PASSES_MAX);
@@ -203,7 +205,8 @@ static bool api_jobs_compiled(struct http_req *r, struct cache_entry *e, bool hi
     struct jobs_new how = {.scene = r->body ? r->body : "", .scene_len = r->body_len};
     int shot = api_shots_wanted(r, cache_scene(e));
     if (shot < 0 || !api_region_also(r, cache_scene(e), &what.reg, api_jobs_names) ||
-        !(shot ? api_plan_none(r) : api_plan(r, cache_scene(e), &plan, &progressive)) ||
+        !(shot ? api_plan_none(r)
+               : api_plan(r, cache_scene(e), &plan, &progressive, &what.passes)) ||
         !api_jobs_format(r, &what) || !api_jobs_denoise_aov(r, cache_scene(e), &what) ||
         !api_jobs_priority(r, &how.priority) || !api_cost_admit(r, e, &what, progressive, &price))
         return false; /* replied */

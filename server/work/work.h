@@ -98,6 +98,8 @@ struct work_target {
     bool denoise;    /* POST /v1/render?denoise=1: each tile rendered with the filter's
                         apron and denoised (rayd_accum_new_denoised); part of the key */
     uint64_t client; /* who asks (fair.c's turns); not part of the key */
+    int passes;      /* a progressive job's pass count (each pass is filtered when denoised:
+                        cost.c), else 0; not part of the key */
 };
 
 /* ---- cost.c: what a render costs, before it starts -------------------------- */

@@ -12,7 +12,11 @@
 #     scene is refused 413;
 #   - a tree of glass is priced by its depth: 16 x 16 pixels of glass
 #     spheres at max_depth 20 (60 million rays) is refused at admission by
-#     --max-work, where it was priced at 1,536 rays and admitted.
+#     --max-work, where it was priced at 1,536 rays and admitted;
+#   - the denoiser is priced: its apron and its filter, once a pass.  An
+#     empty 1024 x 1024 scene denoised (0.5 KB of request, 2.2 s of CPU)
+#     was priced as the 1M rays of its pixels, and a progressive job
+#     denoised at every one of its passes as one filter.
 # No check depends on the machine's speed beyond generous factors: the rates
 # compared are each a median or a scene's own, and the refusals compare
 # prices that differ by hundreds of times.
@@ -130,5 +134,29 @@ check glass_depth20_message "$(head -c 300 "$T/body" | tr -d "\\0")" grep -q -- 
 code=$(post_json /v1/render "$T/shallow.json")
 check glass_depth8_runs "status $code, priced $(header X-Rayd-Estimated-Rays)" \
     bash -c "[ $code = 200 ] && [ \"\$(head -c 4 '$T/body' | tail -c 3)\" = PNG ]"
+stop_rayd
+check rayd_exit_0 "exit $RAYD_RC" [ "$RAYD_RC" = 0 ]
+
+# --- the denoiser is priced: its apron, and its filter once a pass ------------------------------
+echo '{"render": {"width": 1024, "height": 1024, "samples": 1}, "objects": []}' >"$T/big.json"
+echo '{"render": {"width": 256, "height": 256, "samples": 8}, "objects": []}' >"$T/small.json"
+start_rayd --threads 1 --max-work 5000000
+# job_ok NAME QUERY FILE: a job admitted (then deleted); job_413 NAME PATH FILE: refused
+job_ok() {
+    code=$(post_json "/v1/jobs?$2" "$3")
+    check "$1" "status $code, priced $(header X-Rayd-Estimated-Rays): $(head -c 200 "$T/body")" [ "$code" = 202 ]
+    [ "$code" = 202 ] && req DELETE "/v1/jobs/$(jfield "$T/body" id)" >/dev/null
+}
+job_413() {
+    code=$(post_json "$2" "$3")
+    check "$1" "status $code, priced $(header X-Rayd-Estimated-Rays): $(head -c 300 "$T/body")" \
+        err_is "$T/body" 413 over_budget
+    [ "$code" = 202 ] && req DELETE "/v1/jobs/$(jfield "$T/body" id)" >/dev/null
+}
+job_ok denoise_off_admitted "denoise=0" "$T/big.json"          # 1M rays
+job_413 denoise_on_refused "/v1/render?denoise=1" "$T/big.json" # its filter and apron: 43M
+job_ok denoise_small_admitted "denoise=1" "$T/small.json"      # 256 x 256 x (8 + 20): 1.8M
+job_ok progressive_admitted "progressive=1&pass_step=1" "$T/small.json"
+job_413 progressive_denoise_refused "/v1/jobs?progressive=1&pass_step=1&denoise=1" "$T/small.json" # 8 filters: 11M
 stop_rayd
 check rayd_exit_0 "exit $RAYD_RC" [ "$RAYD_RC" = 0 ]
