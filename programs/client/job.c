@@ -381,6 +381,7 @@ void job_signals(int catch) {
 }
 
 int job_run(const struct client_opts *o, const struct scenefile *sf) {
+    if (o->out && output_writable(o->out) != 0) return 1; /* said before the render, not after */
     job_signals(1);
     char id[64] = "";
     int rc = job_post(o, sf, output_kind_exr(o->out) ? "?format=exr" : "", id, sizeof id);

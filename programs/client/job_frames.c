@@ -38,12 +38,10 @@
 #include "client.h"
 
 #include <cjson/cJSON.h>
-#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
-#include <unistd.h>
 
 /* One frame-range job being followed. */
 struct job_frames {
@@ -323,29 +321,13 @@ static int job_frames_video(struct job_frames *j) {
     return rc;
 }
 
-/* Whether path's folder takes a new file: 0, or -1 said.  Asked before the
- * job is made, so a folder that is missing is not found after the render. */
-static int job_frames_writable(const char *path) {
-    char dir[4096];
-    snprintf(dir, sizeof dir, "%s", path);
-    char *slash = strrchr(dir, '/');
-    if (!slash)
-        snprintf(dir, sizeof dir, ".");
-    else
-        slash[slash == dir] = 0; /* "/x" is in "/" */
-    if (!strcmp(path, "-") || access(dir, W_OK | X_OK) == 0) return 0;
-    prog_error("cannot write %s: %s", path, strerror(errno));
-    return -1;
-}
-
 int job_frames_run(const struct client_opts *o, const struct scenefile *sf) {
     struct job_frames j = {.o = o, .sf = sf, .eta = -1};
     int rc = job_frames_check(o, sf, &j.first, &j.last);
     if (rc != 0) return rc;
     char first[4096];
     frame_name_path(o->out, j.first, first, sizeof first);
-    if (job_frames_writable(first) != 0 || (o->video && job_frames_writable(o->video) != 0))
-        return 1;
+    if (output_writable(first) != 0 || (o->video && output_writable(o->video) != 0)) return 1;
     char query[96];
     snprintf(query, sizeof query, "?frames=%ld-%ld%s", j.first, j.last,
              output_kind_exr(o->out) ? "&format=exr" : "");

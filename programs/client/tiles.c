@@ -851,6 +851,7 @@ static void tiles_cleanup(struct tiles *T) {
 }
 
 int tiles_render(const struct client_opts *o, const struct scenefile *sf) {
+    if (o->out && output_writable(o->out) != 0) return 1; /* said before the render, not after */
     struct tiles T;
     int rc = 1;
     if (tiles_setup(&T, o, sf) == 0) {

@@ -461,6 +461,7 @@ static void watch_query(const struct client_opts *o, char *q, size_t size) {
 int watch_render(const struct client_opts *o, const struct scenefile *sf) {
     char query[256], id[64] = "";
     watch_query(o, query, sizeof query);
+    if (o->out && output_writable(o->out) != 0) return 1; /* said before the job, not after */
     job_signals(1);
     int rc = job_post(o, sf, query, id, sizeof id);
     if (rc == 0 && o->detach) {

@@ -86,6 +86,10 @@ void output_abort(struct output *o);
 int output_write(const char *path, const void *buf, size_t len);
 /* path as a message names it: "standard output" for "-". */
 const char *output_name(const char *path);
+/* Whether path's folder takes a new file: 0, or -1 said ("cannot write P:
+ * why").  Asked before a render, so a folder that is missing is found
+ * before the work, not after it. */
+int output_writable(const char *path);
 
 /* ---- output_kind.c -------------------------------------------------------- */
 

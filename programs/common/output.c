@@ -150,3 +150,17 @@ int output_write(const char *path, const void *buf, size_t len) {
     prog_error("cannot write %s: %s", output_name(path), strerror(errno));
     return -1;
 }
+
+int output_writable(const char *path) {
+    if (!strcmp(path, "-")) return 0;
+    char dir[4096];
+    snprintf(dir, sizeof dir, "%s", path);
+    char *slash = strrchr(dir, '/');
+    if (!slash)
+        snprintf(dir, sizeof dir, ".");
+    else
+        slash[slash == dir] = 0; /* "/x" is in "/" */
+    if (access(dir, W_OK | X_OK) == 0) return 0;
+    prog_error("cannot write %s: %s", path, strerror(errno));
+    return -1;
+}

@@ -409,6 +409,11 @@ int main(int argc, char **argv) {
         if (rc < 0) fprintf(stderr, "Try 'rayd-render --help'.\n");
         return rc < 0 ? 2 : 0;
     }
+    /* a folder that is missing is said before the render, not after it (a
+     * frame range's file names are made per frame: frames.c writes them) */
+    if ((!a.frames_set && a.output[0] && output_writable(a.output) != 0) ||
+        (a.video && output_writable(a.video) != 0))
+        return 1;
     double stage[ST__COUNT] = {0}, t0 = render_one_now(), t = t0;
     struct rayd_limits lim;
     rayd_limits_default(&lim);

@@ -124,3 +124,9 @@ if [ $rc -eq 1 ] && grep -q "cannot open" "$T/err"; then ok cli-missing-file; el
 "$R" "$scene" -o /nonexistent-dir/x.png 2>"$T/err"
 rc=$?
 if [ $rc -eq 1 ] && grep -q "cannot write" "$T/err"; then ok cli-unwritable-output; else bad cli-unwritable-output "exit $rc: $(cat "$T/err")"; fi
+# said before anything is read or rendered: the scene named is not even there
+"$R" "$T/missing.json" -o /nonexistent-dir/x.png --video /nonexistent-dir/x.mp4 2>"$T/err"
+rc=$?
+if [ $rc -eq 1 ] && [ "$(cat "$T/err")" = "rayd-render: error: cannot write /nonexistent-dir/x.png: No such file or directory" ]; then
+    ok cli-unwritable-output-first
+else bad cli-unwritable-output-first "exit $rc: $(cat "$T/err")"; fi

@@ -107,6 +107,15 @@ nodir() { # NAME ARGS...
 }
 nodir frames_missing_folder -o "$T/nodir/x-%d.png"
 nodir video_missing_folder -o "$T/x-%d.png" --video "$T/nodir/x.mp4"
+# the same for a still image's job, render --progressive and render over servers
+for cmd in "job" "render --progressive" "render"; do
+    name=still_missing_folder_${cmd// /_}
+    "$CLIENT" $cmd "$RAYD_ROOT/scenes/spheres.json" -o "$T/nodir/s.png" --server "$URL" 2>"$T/nd.err" </dev/null
+    rc=$?
+    check "${name//-/}" "exit $rc: $(cat "$T/nd.err")" eval '[ "$rc" = 1 ] &&
+        grep -q "^rayd-client: error: cannot write $T/nodir/s.png: No such file or directory$" "$T/nd.err" &&
+        [ "$(wc -l <"$T/nd.err")" = 1 ] && [ "$(jobs_now)" = "$before" ]'
+done
 check usage_wrote_nothing "$(ls "$T" | grep '^x')" eval '! ls "$T" | grep -q "^x"'
 
 # ---- a failed job: exit 1, the server's error naming the frame ---------------------------
