@@ -17,12 +17,12 @@
 
 /* One frame number, digits only (a leading '-' for negatives), into *k. */
 static bool api_shots_number(const char *s, size_t n, long *k) {
-    if (n == 0 || n > 9) return false;
+    if (n == 0 || n > 18) return false; /* any long: a frame past the range is 404 */
     size_t i = s[0] == '-' ? 1 : 0;
     if (i == n) return false;
     for (size_t j = i; j < n; j++)
         if (s[j] < '0' || s[j] > '9') return false;
-    char buf[16];
+    char buf[24];
     memcpy(buf, s, n);
     buf[n] = 0;
     *k = strtol(buf, NULL, 10);
@@ -234,7 +234,7 @@ bool api_shots_frame_path(struct http_req *r, const char *path, char id[33], lon
         !api_shots_canonical(name, (size_t)(dot - name), *k)) {
         http_reply_error(r, 400, "bad_frame",
                          "a frame is /v1/jobs/{id}/frames/{k}.png (or .exr), k a frame number "
-                         "without leading zeros",
+                         "in at most 18 digits, without leading zeros",
                          NULL, 0, 0, NULL);
         return false;
     }

@@ -64,7 +64,9 @@ check frame_not_ready "$(cat "$T/body")" eval 'err_is "$T/body" 409 frame_not_re
     [ "$(json "$T/body" "j[\"error\"][\"state\"]")" = queued ]'
 code=$(req GET "/v1/jobs/$id/frames/7.png")
 check frame_unknown "$code $(cat "$T/body")" eval 'err_is "$T/body" 404 frame_unknown && grep -q "3-6" "$T/body"'
-for bad in x.png 4.gif 4 -.png 1e3.png 99999999999.png 04.png -0.png +4.png; do
+code=$(req GET "/v1/jobs/$id/frames/99999999999.png") # well formed, past any frame: not in the job
+check frame_unknown_past_any "$code $(cat "$T/body")" eval 'err_is "$T/body" 404 frame_unknown && grep -q "3-6" "$T/body"'
+for bad in x.png 4.gif 4 -.png 1e3.png 9999999999999999999.png 04.png -0.png +4.png; do
     code=$(req GET "/v1/jobs/$id/frames/$bad")
     check "frame_malformed_$bad" "$code $(cat "$T/body")" err_is "$T/body" 400 bad_frame
 done
