@@ -86,8 +86,9 @@ static void client_usage(FILE *f) {
            "                    over 2x the median tile time and 1 s is copied once)\n"
            "  --token-file F    bearer token file (default $RAYD_TOKEN_FILE)\n"
            "  --threads N       threads encoding the stitched PNG (default 0: every core)\n"
-           "  --frames A-B      job: frames A to B of an animated scene (default: all of\n"
-           "                    them), one file a frame: -o 'shot-%%04d.png' (%%d, %%0Nd)\n"
+           "  --frames A-B      job: frames A to B of an animated scene (K: frame K alone;\n"
+           "                    default: all of them), one file a frame: -o 'shot-%%04d.png'\n"
+           "                    (%%d, %%0Nd)\n"
            "  --video F.mp4     job: also the frames as an H.264 MP4, once all are done\n"
            "  --progressive     render: one progressive job on one server, each pass\n"
            "                    written to -o as it arrives; Ctrl-C cancels the job\n"
@@ -452,8 +453,9 @@ static int client_option(int opt, const char *v, struct client_args *a) {
     case OPT_NO_HEDGE: o->no_hedge = 1; return 0;
     case OPT_FRAMES:
         if (!v || frame_name_range(v, &o->frame_a, &o->frame_b) != 0)
-            return args_bad("--frames takes A-B: frame numbers in 0..1000000, A <= B, not '%s'",
-                            v ? v : "");
+            return args_bad(
+                "--frames takes A-B or K: frame numbers in 0..1000000, A <= B, not '%s'",
+                v ? v : "");
         o->frames_set = 1;
         return 0;
     case OPT_VIDEO: {
@@ -544,7 +546,8 @@ static int client_parse(int argc, char **argv, struct client_args *a) {
         return args_bad("%s needs SCENE.json and -o OUT.png", a->cmd);
     if ((!strcmp(a->cmd, "job") || !strcmp(a->cmd, "watch") || a->o.progressive) &&
         a->o.nservers > 1)
-        return args_bad("%s: give exactly one --server (jobs live on one node)",
+        return args_bad("%s: give exactly one --server (a job is followed on the server it is "
+                        "posted to)",
                         a->o.progressive ? "render --progressive" : a->cmd);
     if (a->o.out && !output_kind(a->o.out))
         return args_bad("-o %s: rayd-client writes PNG (.png) and OpenEXR (.exr), not this format",
