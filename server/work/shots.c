@@ -89,6 +89,8 @@ struct shot {
     int n, ndone, nfailed, flying, latest;
     double fps, est_rays;
     uint64_t rays;
+    double first_start;                    /* when a tile of its first frame to start began, 0 */
+    double queue_ms, render_ms, encode_ms; /* its frames' times, added as each ends */
     struct shot_frame *f;
     int *order; /* frames in the order they ended (done or failed), for streams */
     int norder;
@@ -219,6 +221,9 @@ static void shots_record(const struct shot *s, struct store_job *row) {
     row->tiles = s->ndone;
     row->rays = s->rays;
     row->est_rays = s->est_rays;
+    row->queue_ms = s->queue_ms;
+    row->render_ms = s->render_ms;
+    row->encode_ms = s->encode_ms;
     row->frames = true;
     row->first = s->first;
     row->last = s->last;
@@ -315,13 +320,28 @@ static void shots_frame_end(struct shots_fly *fl, enum rayd_status st, const str
 
 static void shots_noop(struct work_waiter *w) { (void)w; }
 
+/* Frame render t's rays and times added to s's, lock held: the job waited
+ * until its first frame began, and rendered and encoded for the sum of its
+ * frames' times (a single job's three figures, frame by frame). */
+static void shots_times(struct shot *s, const struct task *t) {
+    double queue_ms, render_ms;
+    task_times(t, clock_now(), &queue_ms, &render_ms);
+    s->rays += t->rays;
+    s->render_ms += render_ms;
+    s->encode_ms += t->encode_s * 1e3;
+    if (t->t_start > 0 && (s->first_start == 0 || t->t_start < s->first_start)) {
+        s->first_start = t->t_start;
+        s->queue_ms = (t->t_start - s->created) * 1e3;
+    }
+}
+
 /* A worker finished the frame's render (no lock held). */
 static void shots_rendered(struct work_waiter *w, struct work_result *res) {
     struct shots_fly *fl = (struct shots_fly *)((char *)w - offsetof(struct shots_fly, ww));
     work_lock_take();
     struct task *t = fl->t;
     struct blob *exr = res->status == RAYD_OK ? blob_ref(t->exr) : NULL;
-    fl->s->rays += t->rays;
+    shots_times(fl->s, t);
     if (!fl->dropped) task_job_drop(t);
     task_unref(t);
     fl->t = NULL; /* the readers of s->flies must not see it again */
@@ -657,6 +677,9 @@ bool shots_restore(const struct store_job *row, const unsigned char *states) {
         s->created_wall = row->created_wall;
         s->created = clock_now() - (shots_wall_now() - row->created_wall);
         s->rays = row->rays;
+        s->queue_ms = row->queue_ms;
+        s->render_ms = row->render_ms;
+        s->encode_ms = row->encode_ms;
         for (int i = 0; i < s->n; i++)
             if (states[i] == STORE_FRAME_DONE || states[i] == STORE_FRAME_EVICTED) {
                 s->f[i].state = SF_DONE;
@@ -736,6 +759,9 @@ static void shots_info_of(struct shot *s, struct shots_info *o) {
     j->created_age = now - s->created;
     j->rays = s->rays;
     j->est_rays = s->est_rays;
+    j->queue_ms = s->first_start > 0 || s->queue_ms > 0 ? s->queue_ms : (now - s->created) * 1e3;
+    j->render_ms = s->render_ms;
+    j->encode_ms = s->encode_ms;
     j->keep_exr = s->keep_exr;
     j->denoise = s->denoise;
     j->aov = s->aov;

@@ -97,6 +97,11 @@ PIDS+=("$ev")
 gate open
 wait_until 120 job_state_is "$id" succeeded
 wait "$ev"
+# its times, as a single job's: the wait for its first frame, its frames' renders and encodes
+req GET "/v1/jobs/$id" >/dev/null
+check job_times "$(cat "$T/body")" python3 -c 'import json, sys
+j = json.load(open(sys.argv[1]))
+sys.exit(0 if j["queue_ms"] > 0 and j["render_ms"] > 0 and j["encode_ms"] > 0 else 1)' "$T/body"
 check events_frames "$(tr '\n' '|' <"$T/events")" eval \
     '[ "$(grep -c "^event: frame" "$T/events")" = 4 ] && [ "$(grep -c "^event: done" "$T/events")" = 1 ] &&
      grep -q "\"frames_done\":4,\"frames_total\":4" "$T/events" && grep -q "\"state\":\"succeeded\"" "$T/events"'
