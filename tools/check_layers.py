@@ -127,7 +127,8 @@ FOLDER_ORDER = {
     "server/work/": [
         ["work", "work_private"], ["lru"], ["cache", "rcache"], ["scenefiles"], ["scenes"],
         ["cost"], ["fair"], ["resolve"], ["passes"], ["task"], ["budget"], ["gate"], ["store"],
-        ["jobs"], ["events"], ["videoq"], ["watch"], ["sched"], ["compile"], ["shots"], ["durable"],
+        ["jobs"], ["events"], ["videoq"], ["watch"], ["sched"], ["compile"],
+        ["shots", "shots_private", "shots_events"], ["durable"],
     ],
 }
 # Programs above the core, side by side: each folder, and the rooms besides

@@ -31,7 +31,7 @@
  * frames.  The table and every shot's numbers are under work_lock; a shot
  * is held by the table, each frame in flight and each open event stream.
  */
-#include "work/work_private.h"
+#include "work/shots_private.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -41,67 +41,12 @@
 /* How many times a frame is tried before the job fails naming it. */
 #define SHOTS_TRIES 3
 
-enum shots_fstate { SF_QUEUED, SF_PARSING, SF_RUNNING, SF_DONE, SF_FAILED };
-enum shots_gone { SG_KEPT, SG_MEMORY, SG_DISK };
 static const char *const shots_gone_why[] = {
     "",
     "the frame's image was let go to keep rayd within its memory budget (--max-memory; the "
     "oldest finished frames go first): render it again",
     "the frame's image was evicted from disk (--max-disk; the oldest finished results go "
     "first): render it again"};
-
-struct shot_frame {
-    unsigned char state; /* enum shots_fstate */
-    unsigned char tries; /* attempts that failed */
-    bool on_disk;        /* its images are files (--data-dir): no copy in memory */
-    unsigned char gone;  /* enum shots_gone: done, but its images were let go */
-    struct blob *png, *exr;
-};
-
-/* One attempt at one frame: the parse, then the render. */
-struct shots_fly {
-    struct compile_waiter cw; /* first: the parse's callbacks get it back */
-    struct work_waiter ww;
-    struct shot *s;
-    int i;                  /* the frame's index in the shot (frame first + i) */
-    struct task *t;         /* the render, once submitted (a job's reference) */
-    bool dropped;           /* the cancel let go of t's interest already */
-    bool sync;              /* parsed within shots_pump, whose loop goes on by itself */
-    struct shots_fly *next; /* the shot's attempts in flight */
-};
-
-struct shot {
-    char id[33];
-    int refs; /* the table, each attempt in flight, each open stream */
-    uint64_t client;
-    int priority;
-    long long seq;
-    double created, created_wall, t_end, canceled_at;
-    char *text; /* the scene as sent */
-    size_t len;
-    char scene_id[65];
-    struct rayd_region reg;
-    bool keep_exr, canceled, recorded; /* recorded: its end is queued to the store */
-    bool waiting;                      /* a frame was refused for room: shots_kick goes on */
-    bool denoise;                      /* each frame denoised (work_target's) */
-    unsigned aov;                      /* each frame's AOVs (work_target's) */
-    long first, last;
-    int n, ndone, nfailed, flying, latest;
-    double fps, est_rays;
-    uint64_t rays;
-    double first_start;                    /* when a tile of its first frame to start began, 0 */
-    double queue_ms, render_ms, encode_ms; /* its frames' times, added as each ends */
-    struct shot_frame *f;
-    int *order; /* frames in the order they ended (done or failed), for streams */
-    int norder;
-    struct rayd_error err;   /* the first frame that failed for good */
-    int err_tries;           /* its attempts */
-    struct shots_fly *flies; /* in flight */
-    struct work_waiter *sse; /* event streams waiting for news */
-    int video_state;         /* enum shots_video */
-    struct blob *video;
-    char video_error[200];
-};
 
 static struct shot **shots_table;
 static int shots_n;
@@ -127,16 +72,16 @@ static void shots_free(struct shot *s) {
 }
 
 /* Lock held. */
-static void shots_unref(struct shot *s) {
+void shots_unref(struct shot *s) {
     work_assert_locked();
     if (--s->refs == 0) shots_free(s);
 }
 
-static bool shots_final(const struct shot *s) {
+bool shots_final(const struct shot *s) {
     return s->canceled || s->ndone == s->n || (s->nfailed > 0 && s->flying == 0);
 }
 
-static enum jobs_state shots_state(const struct shot *s) {
+enum jobs_state shots_state(const struct shot *s) {
     if (s->canceled) return JS_CANCELED;
     if (s->ndone == s->n) return JS_SUCCEEDED;
     if (s->nfailed > 0 && s->flying == 0) return JS_FAILED;
@@ -184,7 +129,7 @@ static bool shots_evict_ended(void) {
     return true;
 }
 
-static struct shot *shots_find(const char *id) {
+struct shot *shots_find(const char *id) {
     work_assert_locked();
     shots_expire(clock_now());
     for (int i = 0; i < shots_n; i++)
@@ -201,8 +146,6 @@ static long shots_unfinished(void) {
 }
 
 /* ---- the store (--data-dir) ------------------------------------------------------ */
-
-static void shots_error(const struct shot *s, struct rayd_error *err);
 
 /* s's record for the store (lock held). */
 static void shots_record(const struct shot *s, struct store_job *row) {
@@ -723,7 +666,7 @@ bool shots_restore(const struct store_job *row, const unsigned char *states) {
 
 /* The failed frames named in err's message: "frames 3, 4 failed after 3
  * attempts: ..." (lock held). */
-static void shots_error(const struct shot *s, struct rayd_error *err) {
+void shots_error(const struct shot *s, struct rayd_error *err) {
     *err = s->err;
     char list[200];
     size_t used = 0;
@@ -885,64 +828,6 @@ bool shots_cancel(const char *id) {
     task_notify_run(&n);
     task_notify_run(&sse);
     return s != NULL;
-}
-
-/* ---- the event stream ------------------------------------------------------------- */
-
-struct shot *shots_open(const char *id) {
-    work_lock_take();
-    struct shot *s = shots_find(id);
-    if (s) s->refs++;
-    work_lock_give();
-    return s;
-}
-
-void shots_close(struct shot *s) {
-    if (!s) return;
-    work_lock_take();
-    shots_unref(s);
-    work_lock_give();
-}
-
-int shots_events_read(struct shot *s, struct shots_cursor *c, struct events_item *it, int n,
-                      struct rayd_error *err, struct work_waiter *w) {
-    work_lock_take();
-    int k = 0;
-    if (!c->started && k < n) {
-        it[k++] = (struct events_item){.kind = EVENTS_STATE, .state = shots_state(s)};
-        c->started = true;
-    }
-    while (c->cursor < s->norder && k < n) {
-        int i = s->order[c->cursor++];
-        bool failed = s->f[i].state == SF_FAILED;
-        c->done += !failed;
-        it[k++] = (struct events_item){.kind = EVENTS_FRAME,
-                                       .frame = s->first + i,
-                                       .frame_failed = failed,
-                                       .done = c->done,
-                                       .total = s->n};
-    }
-    bool final = shots_final(s) && s->flying == 0;
-    double now = clock_now();
-    if (k == 0 && !final && c->last_write > 0 && now - c->last_write >= EVENTS_PING_SECONDS)
-        it[k++] = (struct events_item){.kind = EVENTS_PING}; /* as events.c's streams */
-    if (k == 0 && final && !c->sent_done) {
-        enum jobs_state st = shots_state(s);
-        it[k++] = (struct events_item){
-            .kind = EVENTS_DONE, .state = st, .progress = (double)s->ndone / s->n};
-        if (st == JS_FAILED && err) shots_error(s, err);
-        c->sent_done = true;
-    }
-    if (k > 0) c->last_write = now;
-    if (k == 0 && c->sent_done) {
-        k = -1;
-    } else if (k == 0) {
-        w->suspend(w);
-        w->next = s->sse;
-        s->sse = w;
-    }
-    work_lock_give();
-    return k;
 }
 
 /* The watcher's (watch.c), lock held: the streams waiting on the i-th

@@ -1,0 +1,63 @@
+/* shots_events.c -- a frame-range job's event stream: its state, one
+ * "frame" event a frame as each ends (done or failed, in that order), then
+ * "done"; keep-alives between, as events.c's streams of single jobs.  A
+ * reader with nothing new waits on the shot (its sse list), woken when a
+ * frame ends (shots.c) or by the watcher for a keep-alive.
+ */
+#include "work/shots_private.h"
+
+struct shot *shots_open(const char *id) {
+    work_lock_take();
+    struct shot *s = shots_find(id);
+    if (s) s->refs++;
+    work_lock_give();
+    return s;
+}
+
+void shots_close(struct shot *s) {
+    if (!s) return;
+    work_lock_take();
+    shots_unref(s);
+    work_lock_give();
+}
+
+int shots_events_read(struct shot *s, struct shots_cursor *c, struct events_item *it, int n,
+                      struct rayd_error *err, struct work_waiter *w) {
+    work_lock_take();
+    int k = 0;
+    if (!c->started && k < n) {
+        it[k++] = (struct events_item){.kind = EVENTS_STATE, .state = shots_state(s)};
+        c->started = true;
+    }
+    while (c->cursor < s->norder && k < n) {
+        int i = s->order[c->cursor++];
+        bool failed = s->f[i].state == SF_FAILED;
+        c->done += !failed;
+        it[k++] = (struct events_item){.kind = EVENTS_FRAME,
+                                       .frame = s->first + i,
+                                       .frame_failed = failed,
+                                       .done = c->done,
+                                       .total = s->n};
+    }
+    bool final = shots_final(s) && s->flying == 0;
+    double now = clock_now();
+    if (k == 0 && !final && c->last_write > 0 && now - c->last_write >= EVENTS_PING_SECONDS)
+        it[k++] = (struct events_item){.kind = EVENTS_PING}; /* as events.c's streams */
+    if (k == 0 && final && !c->sent_done) {
+        enum jobs_state st = shots_state(s);
+        it[k++] = (struct events_item){
+            .kind = EVENTS_DONE, .state = st, .progress = (double)s->ndone / s->n};
+        if (st == JS_FAILED && err) shots_error(s, err);
+        c->sent_done = true;
+    }
+    if (k > 0) c->last_write = now;
+    if (k == 0 && c->sent_done) {
+        k = -1;
+    } else if (k == 0) {
+        w->suspend(w);
+        w->next = s->sse;
+        s->sse = w;
+    }
+    work_lock_give();
+    return k;
+}

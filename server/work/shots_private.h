@@ -1,0 +1,79 @@
+/* shots_private.h -- a frame-range job (shots.c) as the files of its
+ * topics see it: the shot, its frames and its attempts in flight, and the
+ * few functions they share.  Everything here is under work_lock.
+ *
+ *   shots.c         the table, each frame's parse and render, the store,
+ *                   the numbers a status reads, the video
+ *   shots_events.c  the job's event stream (GET /v1/jobs/{id}/events)
+ */
+#ifndef SHOTS_PRIVATE_H
+#define SHOTS_PRIVATE_H
+
+#include "work/work_private.h"
+
+enum shots_fstate { SF_QUEUED, SF_PARSING, SF_RUNNING, SF_DONE, SF_FAILED };
+enum shots_gone { SG_KEPT, SG_MEMORY, SG_DISK };
+struct shot_frame {
+    unsigned char state; /* enum shots_fstate */
+    unsigned char tries; /* attempts that failed */
+    bool on_disk;        /* its images are files (--data-dir): no copy in memory */
+    unsigned char gone;  /* enum shots_gone: done, but its images were let go */
+    struct blob *png, *exr;
+};
+
+/* One attempt at one frame: the parse, then the render. */
+struct shots_fly {
+    struct compile_waiter cw; /* first: the parse's callbacks get it back */
+    struct work_waiter ww;
+    struct shot *s;
+    int i;                  /* the frame's index in the shot (frame first + i) */
+    struct task *t;         /* the render, once submitted (a job's reference) */
+    bool dropped;           /* the cancel let go of t's interest already */
+    bool sync;              /* parsed within shots_pump, whose loop goes on by itself */
+    struct shots_fly *next; /* the shot's attempts in flight */
+};
+
+struct shot {
+    char id[33];
+    int refs; /* the table, each attempt in flight, each open stream */
+    uint64_t client;
+    int priority;
+    long long seq;
+    double created, created_wall, t_end, canceled_at;
+    char *text; /* the scene as sent */
+    size_t len;
+    char scene_id[65];
+    struct rayd_region reg;
+    bool keep_exr, canceled, recorded; /* recorded: its end is queued to the store */
+    bool waiting;                      /* a frame was refused for room: shots_kick goes on */
+    bool denoise;                      /* each frame denoised (work_target's) */
+    unsigned aov;                      /* each frame's AOVs (work_target's) */
+    long first, last;
+    int n, ndone, nfailed, flying, latest;
+    double fps, est_rays;
+    uint64_t rays;
+    double first_start;                    /* when a tile of its first frame to start began, 0 */
+    double queue_ms, render_ms, encode_ms; /* its frames' times, added as each ends */
+    struct shot_frame *f;
+    int *order; /* frames in the order they ended (done or failed), for streams */
+    int norder;
+    struct rayd_error err;   /* the first frame that failed for good */
+    int err_tries;           /* its attempts */
+    struct shots_fly *flies; /* in flight */
+    struct work_waiter *sse; /* event streams waiting for news */
+    int video_state;         /* enum shots_video */
+    struct blob *video;
+    char video_error[200];
+};
+
+/* The shot of id, or NULL (lock held). */
+struct shot *shots_find(const char *id);
+/* Lets go of one reference to s: the last frees it (lock held). */
+void shots_unref(struct shot *s);
+/* Whether s has ended (done, failed or cancelled), frames in flight aside. */
+bool shots_final(const struct shot *s);
+enum jobs_state shots_state(const struct shot *s);
+/* The error s failed with: its first frame that failed for good. */
+void shots_error(const struct shot *s, struct rayd_error *err);
+
+#endif
