@@ -7,16 +7,7 @@
 source "$(dirname "$0")/lib/common.sh"
 
 D=$T/data
-cat >"$T/anim.json" <<'EOF2'
-{"animation": {"start": 0, "end": 3, "fps": 10},
- "render": {"width": 64, "height": 32, "samples": 1},
- "camera": {"look_at": [0, 0.5, 0], "keyframes": [{"frame": 0, "position": [0, 1.5, 5]},
-                                                   {"frame": 3, "position": [4, 2, 2]}]},
- "lights": [{"type": "point", "position": [4, 5, 4]}],
- "objects": [{"type": "plane", "material": {"color": [0.6, 0.6, 0.6]}},
-             {"type": "sphere", "center": [0, 0.5, 0], "radius": 0.5,
-              "material": {"color": [0.9, 0.3, 0.2]}}]}
-EOF2
+cp "$RAYD_ROOT/tests/integration/lib/anim4.json" "$T/anim.json" # frames 0-3, 64x32
 start_rayd --threads 1 --test-gate 0 --data-dir "$D"
 "$RAYD_BUILD/rayd-client" job "$T/anim.json" -o "$T/out-%d.png" --server "$URL" --timeout 60 \
     >"$T/client.out" 2>"$T/client.err" &
