@@ -270,6 +270,13 @@ int job_write(const char *path, const struct net_buf *b, int w, int h);
  * 0, or -1 when it has none. */
 int job_image_size(const char *path, const struct net_buf *b, long *w, long *h);
 int job_cancel(const struct client_opts *o, const char *id);
+/* A poll of job id that got status st (0: no answer; b its body, why the
+ * transport's words): true when it is worth asking again -- no answer or a
+ * 502/503/504, a server restarting -- for up to --timeout seconds from the
+ * first (*down; the caller sets it to 0 on an answer), said once as a
+ * warning; else false, the error said. */
+bool job_poll_again(const struct client_opts *o, const char *id, long st, const struct net_buf *b,
+                    char *why, size_t size, double *down);
 /* DELETE /v1/jobs/{id}, unsaid: whether this cancelled the job.  state
  * gets the job's state from the answer ("canceled"; "succeeded" or
  * "failed" when it had ended already: a DELETE then changes nothing), ""

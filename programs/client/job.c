@@ -137,6 +137,22 @@ static int job_follow(const struct client_opts *o, const char *base, const char 
     return rc == SSE_DONE;
 }
 
+bool job_poll_again(const struct client_opts *o, const char *id, long st, const struct net_buf *b,
+                    char *why, size_t size, double *down) {
+    if (st) net_describe(st, b, why, size);
+    bool transient = st == 0 || st == 502 || st == 503 || st == 504;
+    if (transient && (!*down || net_now() - *down < o->timeout)) {
+        if (!*down && !o->quiet)
+            fprintf(stderr, "rayd-client: warning: job %s: %s; asking again for %.0f s\n", id, why,
+                    o->timeout);
+        if (!*down) *down = net_now();
+        return true;
+    }
+    fprintf(stderr, "rayd-client: error: job %s: %s%s\n", id, why,
+            transient ? " (the job itself may still be running on the server)" : "");
+    return false;
+}
+
 /* Polls GET /v1/jobs/{id} until the job is finished; 0, or -1. */
 static int job_poll(const struct client_opts *o, const char *base, const char *id,
                     struct job_show *show) {
@@ -149,19 +165,9 @@ static int job_poll(const struct client_opts *o, const char *base, const char *i
         net_buf_reset(&b);
         long st = job_request(o, "GET", url, NULL, &b, why, sizeof why);
         if (st != 200 && !job_interrupted) {
-            if (st) net_describe(st, &b, why, sizeof why);
-            bool transient = st == 0 || st == 502 || st == 503 || st == 504;
-            if (transient && (!down || net_now() - down < o->timeout)) {
-                if (!down && !o->quiet)
-                    fprintf(stderr, "rayd-client: warning: job %s: %s; asking again for %.0f s\n",
-                            id, why, o->timeout);
-                if (!down) down = net_now();
-                nanosleep(&(struct timespec){1, 0}, NULL);
-                continue;
-            }
-            fprintf(stderr, "rayd-client: error: job %s: %s%s\n", id, why,
-                    transient ? " (the job itself may still be running on the server)" : "");
-            break;
+            if (!job_poll_again(o, id, st, &b, why, sizeof why, &down)) break;
+            nanosleep(&(struct timespec){1, 0}, NULL);
+            continue;
         }
         if (st != 200) break;
         down = 0;

@@ -238,21 +238,13 @@ static int job_frames_follow(struct job_frames *j) {
         long st = job_request(o, "GET", url, NULL, &b, why, sizeof why);
         if (job_stopped()) break;
         if (st != 200) {
-            if (st) net_describe(st, &b, why, sizeof why);
-            bool transient = st == 0 || st == 502 || st == 503 || st == 504;
-            if (transient && (!down || net_now() - down < o->timeout)) {
-                if (!down && !o->quiet)
-                    fprintf(stderr, "rayd-client: warning: job %s: %s; asking again for %.0f s\n",
-                            j->id, why, o->timeout);
-                if (!down) down = net_now();
-                job_frames_sleep(1000);
-                continue;
+            progress_end(&j->prog); /* the bar's line ends before the warning or the error */
+            if (!job_poll_again(o, j->id, st, &b, why, sizeof why, &down)) {
+                rc = 1;
+                break;
             }
-            progress_end(&j->prog);
-            fprintf(stderr, "rayd-client: error: job %s: %s%s\n", j->id, why,
-                    transient ? " (the job itself may still be running on the server)" : "");
-            rc = 1;
-            break;
+            job_frames_sleep(1000);
+            continue;
         }
         down = 0;
         cJSON *job = cJSON_ParseWithLength(b.data, b.len);
