@@ -386,11 +386,17 @@ try {
 
   // --- a path-traced scene refines in place, each pass the plain render of its samples ------------
   // The gate lets through the quick pass and the first pass only, so the
-  // page is seen between passes however fast the machine.
+  // page is seen between passes however fast the machine.  The image is
+  // over 256x256 pixels, so the job is bulk work and the quick pass's two
+  // tiles (interactive) are taken long before pass 1's twenty are done.
+  // Were both the same class, the older task (the job, at times) would go
+  // first (task.c: a client's oldest task), pass 2's first tile could take
+  // the quick pass's place at the gate, and the page would wait for it.
   await check("path_refines_pass_by_pass", async () => {
     const { examples } = await import(join(OUT_DIR, "server/web/examples.js"));
     const sc = JSON.parse(examples.find((e) => e.name === "cornell").text);
-    sc.render = { ...sc.render, width: 96, height: 72, samples: 8 }; // 4 tiles a pass
+    // 20 tiles a pass (64 pixels square); the quick pass 80x60 is 2 tiles
+    sc.render = { ...sc.render, width: 320, height: 240, samples: 8 };
     const text = JSON.stringify(sc, null, 2);
     const n = await renders(page);
     await gate(0);
@@ -400,7 +406,7 @@ try {
       await page.click("#render");
       // the quick pass's task and the first pass's, both waiting at the gate
       if (!(await until(async () => (await gateState()).queued === 2, 60000))) return "the render never reached the server";
-      await gate(5);
+      await gate(2 + 20);
       await page.waitForFunction(() => window.rayd.stats.passes.length === 1, null, { timeout: 60000 });
       status = await page.$eval("#status", (e) => e.textContent);
       barAfterFirst = await page.$eval("#bar", (e) => parseFloat(e.style.width));
