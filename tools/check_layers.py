@@ -76,7 +76,8 @@ CORE_LAYERS = [
                     "light_buffer.c (which objects can shadow which directions of a point light)"),
     ("core/geom/", "shape.c + shape_*.c (one file per primitive), mesh.c + mesh_packet.c "
                    "(one ray, 16 rays; the one-ray walk both use in mesh_walk.h), camera"),
-    ("core/shade/", "material, light, texture, environment: what surfaces and lights are"),
+    ("core/shade/", "material, light, texture, environment: what surfaces and lights are; "
+                    "texels.c (decoded images the scenes of the same bytes share)"),
     ("core/scene/", "scene.c (the frozen scene), scene_query.c (one ray: hits, CSG, shadows, "
                     "surfaces), scene_packet.c (16 rays at once), scene_leave.c (which objects a "
                     "ray leaving them cannot meet again)"),

@@ -16,6 +16,7 @@
 
 #include "format/base64.h"
 #include "render/image.h"
+#include "shade/texels.h"
 #include "shade/texture.h"
 
 enum rayd_status sj_add_texture(struct loader *ld, const struct texture *t, int *index) {
@@ -41,6 +42,26 @@ static uint64_t png_texels(const char *d, size_t len) {
 /* A decoded texel: its linear floats, and the 8-bit pixels they are made
  * from, held together for a moment. */
 #define SJ_TEXEL_CHARGE (3 * sizeof(float) + 4)
+
+/* t takes the image another scene decoded from the same len bytes at
+ * data (lim->images), if one is live and fits the max pixels this scene
+ * has room for; false to decode it (a bigger one is refused there, with
+ * the decoder's words). */
+static bool image_shared(struct loader *ld, const char *data, size_t len, long max,
+                         struct texture *t) {
+    struct texels *x = texels_find(ld->lim->images, data, len);
+    if (x && (long)x->w * x->h > max) {
+        texels_unref(x);
+        x = NULL;
+    }
+    if (!x) return false;
+    ld->texels += (long)x->w * x->h;
+    t->w = x->w;
+    t->h = x->h;
+    t->rgb = x->rgb;
+    t->shared = x;
+    return true;
+}
 
 static enum rayd_status load_image(struct loader *ld, const cJSON *tj, const struct jp *at,
                                    struct texture *t) {
@@ -73,6 +94,11 @@ static enum rayd_status load_image(struct loader *ld, const cJSON *tj, const str
                        sj_max_texels(ld));
     }
     long max = room < TEXTURE_MAX_PIXELS ? room : TEXTURE_MAX_PIXELS;
+    if (image_shared(ld, data, len, max, t)) {
+        free(data);
+        if (file) sj_give_back(ld, len + 1);
+        return RAYD_OK;
+    }
     uint64_t texels = png_texels(data, len);
     enum rayd_status st = texels > 0 && texels <= (uint64_t)max
                               ? sj_charge(ld, &p, (size_t)texels * SJ_TEXEL_CHARGE)
@@ -82,14 +108,20 @@ static enum rayd_status load_image(struct loader *ld, const cJSON *tj, const str
         return st;
     }
     st = rayd_png_decode(data, len, max, &img, &e);
+    if (st == RAYD_OK) {
+        ld->texels += (long)img->w * img->h;
+        t->w = img->w;
+        t->h = img->h;
+        t->rgb = texture_linear_from_srgb8(img->px, img->w, img->h);
+        rayd_image_free(img);
+        if (t->rgb && ld->lim->images) { /* the next scene of these bytes takes it */
+            t->shared = texels_add(ld->lim->images, data, len, t->w, t->h, t->rgb);
+            if (!t->shared) t->rgb = NULL; /* freed */
+        }
+    }
     free(data);
     if (file) sj_give_back(ld, len + 1); /* the file read, charged by sj_read_asset */
     if (st != RAYD_OK) return sj_fail(ld, st, &p, "%s", e.message);
-    ld->texels += (long)img->w * img->h;
-    t->w = img->w;
-    t->h = img->h;
-    t->rgb = texture_linear_from_srgb8(img->px, img->w, img->h);
-    rayd_image_free(img);
     if (texels > 0 && texels <= (uint64_t)max) /* the 8-bit pixels are gone */
         sj_give_back(ld, (size_t)texels * (SJ_TEXEL_CHARGE - 3 * sizeof(float)));
     if (!t->rgb) return err_set(ld->err, RAYD_E_NOMEM, p.s, "out of memory for a texture");
@@ -133,6 +165,6 @@ enum rayd_status sj_texture(struct loader *ld, const cJSON *tj, const struct jp 
         return sj_fail(ld, RAYD_E_INVALID, at, "png_base64 and file belong to image textures");
     }
     enum rayd_status st = sj_add_texture(ld, &t, index);
-    if (st != RAYD_OK) free(t.rgb);
+    if (st != RAYD_OK) texture_free(&t);
     return st;
 }

@@ -13,6 +13,7 @@
 #include <stdlib.h>
 
 #include "math/srgb_curve.h"
+#include "shade/texels.h"
 
 static double srgb_to_linear_u8(int c) { return srgb_decode(c / 255.0); }
 
@@ -56,12 +57,19 @@ vec3 texture_color(const struct texture *t, vec3 po, vec3 pw, double u, double v
 
 void texture_free(struct texture *t) {
     if (!t) return;
-    free(t->rgb);
+    if (t->shared)
+        texels_unref(t->shared);
+    else
+        free(t->rgb);
     t->rgb = NULL;
+    t->shared = NULL;
 }
 
+/* A shared image counts whole in each scene that holds it (and its encoded
+ * bytes, which the cache keeps to match it): more than is used, never less. */
 size_t texture_bytes(const struct texture *t) {
-    return sizeof *t + (t->rgb ? (size_t)t->w * (size_t)t->h * 3 * sizeof(float) : 0);
+    return sizeof *t + (t->rgb ? (size_t)t->w * (size_t)t->h * 3 * sizeof(float) : 0) +
+           (t->shared ? t->shared->key_len : 0);
 }
 
 float *texture_linear_from_srgb8(const unsigned char *px, int w, int h) {

@@ -25,6 +25,9 @@ struct texture {
     vec3 axis;    /* stripes and gradient: unit direction */
     int w, h;     /* image size */
     float *rgb;   /* image pixels, linear RGB, rows from the top */
+    /* rgb's owner when it is shared with other scenes (texels.c), else
+     * NULL: rgb is the texture's own. */
+    struct texels *shared;
 };
 
 /* Colour at a point: object-space po, world-space pw, surface (u, v). */

@@ -74,6 +74,23 @@ char *rayd_error_format(const struct rayd_error *err, char *buf, size_t size);
  * (core/render/render.h), so max_samples may be raised up to it. */
 #define RAYD_SAMPLES_MAX 65536
 
+/* Decoded image textures shared by the scenes that name the same bytes
+ * (rayd_limits.images): a scene parsed once per frame decodes each image
+ * once while any scene still holds it, not once a frame.  The cache owns
+ * no image: each belongs to the scenes that use it, and the last to be
+ * freed frees it, so the cache keeps no memory alive that no scene needs.
+ * Safe to share between threads parsing at once. */
+typedef struct rayd_image_cache rayd_image_cache;
+
+/* A new, empty cache; NULL when out of memory. */
+rayd_image_cache *rayd_image_cache_new(void);
+/* Lets go of the cache: scenes holding its images keep them (it is freed
+ * with the last).  No parse may be using it. */
+void rayd_image_cache_free(rayd_image_cache *cache);
+/* Of the image textures parses looked up in the cache: how many were
+ * found decoded (hits) and how many were decoded (misses). */
+void rayd_image_cache_stats(const rayd_image_cache *cache, long *hits, long *misses);
+
 /* Upper bounds on everything a scene author controls.  A scene over any of
  * them is refused with RAYD_E_LIMIT and the path of the offending value. */
 struct rayd_limits {
@@ -117,6 +134,11 @@ struct rayd_limits {
      * exists. */
     enum rayd_status (*charge)(void *charge_arg, long long bytes, char *why, size_t why_len);
     void *charge_arg;
+    /* Image textures already decoded by other scenes (the frames of one
+     * animation, say), or NULL (the default): each image texture's bytes
+     * are looked up there first and what is decoded is added.  The same
+     * texels either way; the scene's limits hold the same. */
+    rayd_image_cache *images;
 };
 
 /* Fills lim with the documented defaults (docs/scene-format.md). */

@@ -180,7 +180,9 @@ static void frame_line(const struct args *a, long k, long done, long total, doub
 }
 
 /* Renders frames from..to of the scene text; scene is frame `from`,
- * already parsed, and is freed here. */
+ * already parsed, and is freed here.  Each frame is parsed before the one
+ * before it is freed, so its image textures are taken decoded from it
+ * (lim->images) rather than decoded again. */
 static int frames_loop(const struct args *a, const char *text, size_t len,
                        const struct rayd_limits *lim, rayd_scene *scene, long from, long to,
                        double t0) {
@@ -200,6 +202,7 @@ static int frames_loop(const struct args *a, const char *text, size_t len,
             rc = render_one_fail_region(&err);
         if (rc == 0) rc = video_start(&v, a->video, r.w, r.h, an.fps > 0 ? an.fps : 24);
     }
+    rayd_scene *prev = NULL;
     for (long k = from; k <= to && rc == 0; k++) {
         double tf = render_one_now();
         struct rayd_error err = {0};
@@ -207,6 +210,8 @@ static int frames_loop(const struct args *a, const char *text, size_t len,
             rc = render_one_fail("", &err);
             break;
         }
+        rayd_scene_free(prev);
+        prev = NULL;
         if ((rc = render_one_bias(ap, scene)) != 0) break;
         char path[4096];
         rc = frame_file(a, k, path, sizeof path) ? 2 : 0;
@@ -217,12 +222,13 @@ static int frames_loop(const struct args *a, const char *text, size_t len,
             rc = video_frame(&b, scene, path, &v);
         else if (rc == 0)
             rc = render_one(&b, scene, stage, t0);
-        rayd_scene_free(scene);
+        prev = scene;
         scene = NULL;
         if (rc == 0)
             frame_line(a, k, k - from + 1, to - from + 1, render_one_now() - tf,
                        render_one_now() - t_range, path);
     }
+    rayd_scene_free(prev);
     rayd_scene_free(scene);
     if (a->video && video_end(&v, a->video, rc != 0) != 0 && rc == 0) rc = 1;
     if (rc == 0 && !a->quiet)
@@ -232,16 +238,9 @@ static int frames_loop(const struct args *a, const char *text, size_t len,
     return rc;
 }
 
-/* --frame, --frames or --video, from the scene's text: parses the first
- * frame, checks the range against the scene's, renders it. */
-int frames_run(const struct args *a, const char *text, size_t len, const struct rayd_limits *lim,
-               double t0) {
-    struct rayd_error err = {0};
-    rayd_scene *scene = NULL;
-    enum rayd_status st = a->frames_set
-                              ? rayd_scene_parse_frame(text, len, lim, a->frame_a, &scene, &err)
-                              : rayd_scene_parse(text, len, lim, &scene, &err);
-    if (st != RAYD_OK) return render_one_fail("", &err);
+/* frames_run's, once the first frame is parsed (scene, freed here). */
+static int frames_checked(const struct args *a, const char *text, size_t len,
+                          const struct rayd_limits *lim, rayd_scene *scene, double t0) {
     render_one_warn(scene);
     struct rayd_animation an;
     rayd_scene_animation(scene, &an);
@@ -253,4 +252,22 @@ int frames_run(const struct args *a, const char *text, size_t len, const struct 
         return rc;
     }
     return frames_loop(a, text, len, lim, scene, from, to, t0);
+}
+
+/* --frame, --frames or --video, from the scene's text: parses the first
+ * frame, checks the range against the scene's, renders it. */
+int frames_run(const struct args *a, const char *text, size_t len, const struct rayd_limits *lim,
+               double t0) {
+    struct rayd_error err = {0};
+    rayd_scene *scene = NULL;
+    struct rayd_limits shared = *lim;
+    shared.images = rayd_image_cache_new(); /* NULL: each frame decodes its own */
+    lim = &shared;
+    enum rayd_status st = a->frames_set
+                              ? rayd_scene_parse_frame(text, len, lim, a->frame_a, &scene, &err)
+                              : rayd_scene_parse(text, len, lim, &scene, &err);
+    int rc =
+        st == RAYD_OK ? frames_checked(a, text, len, lim, scene, t0) : render_one_fail("", &err);
+    rayd_image_cache_free(shared.images);
+    return rc;
 }

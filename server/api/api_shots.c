@@ -192,6 +192,7 @@ bool api_shots_submit(struct http_req *r, struct cache_entry *e, struct work_tar
     a->price = (struct api_price){one->rays * (double)count, one->seconds * (double)count};
     a->unlit = api_unlit(cache_scene(e));
     n.est_rays = a->price.rays;
+    n.scene = e;
     n.w = &a->w;
     snprintf(n.scene_id, sizeof n.scene_id, "%s", cache_id(e));
     enum work_submit s = shots_submit(&n, a->id);

@@ -239,7 +239,9 @@ enum metrics_gauge {
     MG_CACHE_ENTRIES,
     MG_RESULT_CACHE_BYTES,
     MG_RESULT_CACHE_ENTRIES,
-    MG_BACKLOG_MS, /* estimated work waiting or running, in milliseconds of the pool */
+    MG_BACKLOG_MS,     /* estimated work waiting or running, in milliseconds of the pool */
+    MG_IMAGES_SHARED,  /* image textures a parse found decoded (a counter) */
+    MG_IMAGES_DECODED, /* image textures a parse decoded (a counter) */
     MG__COUNT
 };
 

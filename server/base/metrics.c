@@ -450,6 +450,15 @@ char *metrics_text(size_t *len) {
                    "# TYPE rayd_scene_file_checks_total counter\n"
                    "rayd_scene_file_checks_total %lu\n",
                    atomic_load(&metrics_parses_n), atomic_load(&metrics_file_checks_n));
+    metrics_printf(&b,
+                   "# HELP rayd_scene_images_shared_total Image textures a parse took already "
+                   "decoded, from a live scene of the same bytes (the frames of an animation).\n"
+                   "# TYPE rayd_scene_images_shared_total counter\n"
+                   "rayd_scene_images_shared_total %ld\n"
+                   "# HELP rayd_scene_images_decoded_total Image textures a parse decoded.\n"
+                   "# TYPE rayd_scene_images_decoded_total counter\n"
+                   "rayd_scene_images_decoded_total %ld\n",
+                   metrics_read(MG_IMAGES_SHARED), metrics_read(MG_IMAGES_DECODED));
     *len = b.len;
     return b.p;
 }

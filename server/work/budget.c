@@ -61,6 +61,12 @@ static size_t budget_bytes(const rayd_scene *scene, const struct work_target *wh
     return n + 4096;
 }
 
+size_t budget_need(const struct cache_entry *scene, const struct work_target *what,
+                   bool progressive) {
+    enum mem_kind kind;
+    return budget_bytes(cache_scene(scene), what, progressive, &kind);
+}
+
 struct task *budget_task(struct cache_entry *scene, const struct work_target *what,
                          bool progressive, enum work_submit *why) {
     work_assert_unlocked();

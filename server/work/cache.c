@@ -143,6 +143,7 @@ bool cache_evict_one(void) {
 
 const rayd_scene *cache_scene(const struct cache_entry *e) { return e->scene; }
 const char *cache_id(const struct cache_entry *e) { return e->id; }
+size_t cache_bytes(const struct cache_entry *e) { return e->mem; }
 const char *cache_version(const struct cache_entry *e) { return e->version; }
 
 void cache_stats(size_t *bytes, size_t *entries) {

@@ -49,6 +49,10 @@
  * explores errors rather than rendering big scenes). */
 static struct rayd_limits scenes_limits;
 static bool scenes_limits_set;
+/* Every parse's image textures, shared with the live scenes of the same
+ * bytes (the frames of a frame-range job, a scene edited in the preview):
+ * the cache holds none itself, so it adds nothing to the memory budget. */
+static rayd_image_cache *scenes_images;
 
 void scenes_set_limits(const struct rayd_limits *lim) {
     scenes_limits = *lim;
@@ -172,6 +176,7 @@ static enum rayd_status scenes_compile(const char *body, size_t len, long frame,
     scenes_room(&lim, m->last);
     lim.charge = scenes_charge;
     lim.charge_arg = m;
+    lim.images = scenes_images;
     metrics_scene_parse();
     double t0 = clock_now();
     enum rayd_status st = frame < 0 ? rayd_scene_parse(body, len, &lim, scene, err)
@@ -310,6 +315,14 @@ static long scenes_gauge_entries(void) { return scenes_size(cache_stats, false);
 static long scenes_gauge_rbytes(void) { return scenes_size(rcache_stats, true); }
 static long scenes_gauge_rentries(void) { return scenes_size(rcache_stats, false); }
 
+static long scenes_images_count(bool shared) {
+    long hits = 0, misses = 0;
+    if (scenes_images) rayd_image_cache_stats(scenes_images, &hits, &misses);
+    return shared ? hits : misses;
+}
+static long scenes_gauge_shared(void) { return scenes_images_count(true); }
+static long scenes_gauge_decoded(void) { return scenes_images_count(false); }
+
 /* Sizes the scene cache and the result cache and registers their gauges:
  * here, because this file is where the caches meet the lock. */
 void scenes_start(void) {
@@ -319,4 +332,14 @@ void scenes_start(void) {
     metrics_gauge(MG_CACHE_ENTRIES, scenes_gauge_entries);
     metrics_gauge(MG_RESULT_CACHE_BYTES, scenes_gauge_rbytes);
     metrics_gauge(MG_RESULT_CACHE_ENTRIES, scenes_gauge_rentries);
+    scenes_images = rayd_image_cache_new(); /* NULL: every parse decodes its own */
+    metrics_gauge(MG_IMAGES_SHARED, scenes_gauge_shared);
+    metrics_gauge(MG_IMAGES_DECODED, scenes_gauge_decoded);
+}
+
+void scenes_stop(void) {
+    cache_free_all();
+    rcache_free_all();
+    rayd_image_cache_free(scenes_images); /* freed with the last scene that holds an image */
+    scenes_images = NULL;
 }

@@ -318,8 +318,7 @@ void sched_stop(void) {
     }
     work_lock_give();
     jobs_stop();
-    cache_free_all();
-    rcache_free_all();
+    scenes_stop();
 }
 
 /* ---- synchronous renders ------------------------------------------------------ */

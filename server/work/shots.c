@@ -59,7 +59,15 @@ static double shots_wall_now(void) {
     return (double)ts.tv_sec + (double)ts.tv_nsec / 1e9;
 }
 
+/* Lets go of the scene s keeps for its next frame (lock held). */
+static void shots_drop_kept(struct shot *s) {
+    work_assert_locked();
+    cache_release(s->kept);
+    s->kept = NULL;
+}
+
 static void shots_free(struct shot *s) {
+    shots_drop_kept(s);
     for (int i = 0; i < s->n; i++) {
         blob_unref(s->f[i].png);
         blob_unref(s->f[i].exr);
@@ -231,6 +239,7 @@ static void shots_frame_end(struct shots_fly *fl, enum rayd_status st, const str
     } else if (miss == SM_ROOM) {
         f->state = SF_QUEUED;
         s->waiting = true;
+        shots_drop_kept(s); /* the room it holds may be the room the frame waits for */
         log_info("job %s: frame %ld waits (%s)", s->id, s->first + fl->i, err ? err->message : "?");
     } else if (miss == SM_TRY && ++f->tries < SHOTS_TRIES) {
         f->state = SF_QUEUED;
@@ -247,6 +256,7 @@ static void shots_frame_end(struct shots_fly *fl, enum rayd_status st, const str
     }
     bool ended = shots_final(s) && s->t_end == 0;
     if (ended) s->t_end = clock_now();
+    if (shots_final(s)) shots_drop_kept(s);
     /* a drain's cancel is no end: the job stays queued on disk */
     if (shots_final(s) && s->flying == 0 && !(drained && !s->canceled)) shots_record_end(s);
     task_notify_add(&sse, &s->sse);
@@ -304,6 +314,27 @@ static void shots_refusal(enum work_submit why, struct rayd_error *err) {
                                       : "out of memory");
 }
 
+/* Whether frame fl, refused for room, can never have it while its job's
+ * finished frames stay in memory (they are not evicted before the job
+ * ends): with them, its scene and its render's reservation it is over the
+ * budget.  Waiting would never end; err then says why.  No lock held. */
+static bool shots_never_room(const struct shots_fly *fl, const struct cache_entry *scene,
+                             const struct work_target *what, struct rayd_error *err) {
+    size_t need = budget_need(scene, what, false) + cache_bytes(scene), own = 0;
+    work_lock_take();
+    const struct shot *s = fl->s;
+    for (int i = 0; i < s->n; i++)
+        own += (s->f[i].png ? s->f[i].png->len : 0) + (s->f[i].exr ? s->f[i].exr->len : 0);
+    work_lock_give();
+    if (own + need <= mem_limit()) return false;
+    snprintf(err->message, sizeof err->message,
+             "the job's finished frames hold %zu bytes of the memory budget of %zu bytes "
+             "(--max-memory) and frame %ld needs %zu more: run rayd with --data-dir (frames "
+             "kept on disk) or render fewer frames a job",
+             own, mem_limit(), s->first + fl->i, need);
+    return true;
+}
+
 /* The frame's scene is compiled: its render submitted (no lock held). */
 static void shots_render(struct shots_fly *fl, struct cache_entry *scene) {
     struct shot *s = fl->s;
@@ -333,8 +364,24 @@ static void shots_render(struct shots_fly *fl, struct cache_entry *scene) {
     if (r == WORK_OK) return;
     struct rayd_error err;
     shots_refusal(r, &err);
-    shots_frame_end(fl, err.code, &err, NULL, NULL, r == WORK_DRAINING,
-                    r == WORK_TOO_BIG ? SM_NEVER : SM_ROOM, !fl->sync);
+    bool never =
+        r == WORK_TOO_BIG || (r == WORK_MEMORY && shots_never_room(fl, scene, &what, &err));
+    shots_frame_end(fl, err.code, &err, NULL, NULL, r == WORK_DRAINING, never ? SM_NEVER : SM_ROOM,
+                    !fl->sync);
+}
+
+/* Whether the room a frame's parse found missing (res) is held by its own
+ * shot and will come back: another of its frames in flight, or the scene
+ * it keeps for this parse (shots_drop_kept lets it go).  Then the frame
+ * waits for it, as a render refused for room does, without spending an
+ * attempt; held by anything else (its finished frames among them, which
+ * stay), the parse is tried again and the job fails once out of attempts
+ * (docs/operations.md), never waiting for room that may not come. */
+static bool shots_room_returns(struct shot *s, const struct compile_result *res) {
+    work_lock_take();
+    bool own = s->kept || s->flying > 1;
+    work_lock_give();
+    return res->memory_full && own;
 }
 
 /* The parse threads' answer (no lock held).  A scene that does not parse
@@ -343,10 +390,18 @@ static void shots_render(struct shots_fly *fl, struct cache_entry *scene) {
 static void shots_parsed(struct compile_waiter *w, struct compile_result *res) {
     struct shots_fly *fl = (struct shots_fly *)w;
     if (res->status != RAYD_OK || !res->scene) {
+        enum shots_miss miss = res->status != RAYD_E_NOMEM      ? SM_NEVER
+                               : shots_room_returns(fl->s, res) ? SM_ROOM
+                                                                : SM_TRY;
         shots_frame_end(fl, res->status ? res->status : RAYD_E_INTERNAL, &res->err, NULL, NULL,
-                        res->draining, res->status == RAYD_E_NOMEM ? SM_TRY : SM_NEVER, !fl->sync);
+                        res->draining, miss, !fl->sync);
         return;
     }
+    work_lock_take(); /* kept for the next frame's parse, in place of the one before */
+    struct shot *s = fl->s;
+    shots_drop_kept(s);
+    if (!shots_final(s)) s->kept = cache_ref(res->scene);
+    work_lock_give();
     shots_render(fl, res->scene);
     scenes_release(res->scene);
 }
@@ -575,6 +630,7 @@ enum work_submit shots_submit(struct shots_new *n, char id[33]) {
         s->seq = jobs_next_seq();
         shots_table[shots_n++] = s;
         s->refs++; /* the pump's, below */
+        if (n->scene) s->kept = cache_ref(n->scene);
         struct store_job row;
         shots_record(s, &row);
         row.scene = store_on() ? malloc(n->len + 1) : NULL;
@@ -812,6 +868,7 @@ bool shots_cancel(const char *id) {
     if (s && !shots_final(s)) {
         s->canceled = true;
         s->canceled_at = clock_now();
+        shots_drop_kept(s);
         for (struct shots_fly *fl = s->flies; fl; fl = fl->next) {
             struct task *t = fl->t;
             if (!t || fl->dropped || t->finished) continue;

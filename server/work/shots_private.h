@@ -60,6 +60,11 @@ struct shot {
     struct rayd_error err;   /* the first frame that failed for good */
     int err_tries;           /* its attempts */
     struct shots_fly *flies; /* in flight */
+    /* Its newest frame's scene, held until the next frame is parsed, so
+     * that parse takes the image textures decoded (rayd_image_cache,
+     * scenes.c) even when no frame is in flight between the two; let go
+     * when a frame waits for room and when the shot ends. */
+    struct cache_entry *kept;
     struct work_waiter *sse; /* event streams waiting for news */
     int video_state;         /* enum shots_video */
     struct blob *video;

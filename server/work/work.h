@@ -64,6 +64,7 @@ struct cache_entry; /* a compiled scene and its id, reference counted */
 bool cache_hash(const void *data, size_t len, char out[65]);
 const rayd_scene *cache_scene(const struct cache_entry *e); /* immutable */
 const char *cache_id(const struct cache_entry *e);          /* immutable */
+size_t cache_bytes(const struct cache_entry *e); /* counted in the memory budget (immutable) */
 /* The id, or for a scene that read files a hash of it and the files'
  * identities: the key of its results and ETags (scenefiles.c). */
 const char *cache_version(const struct cache_entry *e);
@@ -322,9 +323,11 @@ struct shots_new {
     int priority;
     long first, last; /* within the animation's frames */
     double fps;
-    double est_rays;       /* of every frame */
-    struct work_waiter *w; /* --data-dir: told once the job is on disk */
-    bool waiting;          /* out: w->suspend ran and w->done will be called once */
+    double est_rays;           /* of every frame */
+    struct cache_entry *scene; /* the scene as admitted, or NULL: its first frame's parse
+                                  takes its image textures decoded */
+    struct work_waiter *w;     /* --data-dir: told once the job is on disk */
+    bool waiting;              /* out: w->suspend ran and w->done will be called once */
 };
 /* A new shot; with --data-dir recorded on disk before anyone is told of it
  * (n->waiting, as jobs_submit's). */

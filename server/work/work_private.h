@@ -135,6 +135,7 @@ bool rcache_evict_one(void); /* the least recently used result; false: empty */
 /* ---- scenes.c ---------------------------------------------------------------- */
 
 void scenes_start(void); /* sizes both caches, registers their gauges */
+void scenes_stop(void);  /* empties both caches, lets go of the image cache */
 
 /* ---- cost.c (lock held but for cost_rays, cost_task_tile) ----------------------- */
 
@@ -451,6 +452,9 @@ void task_notify_run(struct task_notify *n); /* lock NOT held */
  * WORK_NOMEM. */
 struct task *budget_task(struct cache_entry *scene, const struct work_target *what,
                          bool progressive, enum work_submit *why);
+/* The bytes budget_task reserves for what of scene. */
+size_t budget_need(const struct cache_entry *scene, const struct work_target *what,
+                   bool progressive);
 
 /* ---- gate.c (lock held) -------------------------------------------------------- */
 

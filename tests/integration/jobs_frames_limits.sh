@@ -3,7 +3,7 @@
 # run.  Memory: without --data-dir a finished frame counts in --max-memory
 # as kind "frames", and the budget lets go of the oldest frames of the
 # finished jobs first (their GET answers 410 result_evicted, naming
-# --max-memory); with --data-dir a frame on disk leaves memory and is
+# --max-memory); a job whose own frames fill the budget fails; with --data-dir a frame on disk leaves memory and is
 # served from its file.  --max-disk counts frames' files and evicts the
 # oldest first (410 naming --max-disk), at start-up too.  A frame job's
 # event stream is watched like a plain job's: a client that hangs up is
@@ -53,6 +53,22 @@ check frame_evicted_oldest_first "frame 4 of the shot: $(req GET "/v1/jobs/$shot
     eval '[ "$(req GET "/v1/jobs/$shot/frames/4.png")" = 200 ]'
 check frames_within_budget "total $(memory_total)" eval '[ "$(memory_total)" -le "$LIMIT" ]'
 check frames_job_still_there "$(req GET "/v1/jobs/$shot"; cat "$T/body")" job_state_is "$shot" succeeded
+stop_rayd
+
+# ---- memory, no --data-dir: a job whose own frames fill the budget fails --------------
+# Its finished frames stay in memory until the job ends, so once they and the
+# next frame need more than the whole budget that frame can never start: the
+# job fails naming it and what holds the room.  Before, the frame waited for
+# room (the log said "waits" each second) and the job ran for ever.
+sed 's/"end": 4/"end": 12/' "$T/big.json" >"$T/twelve.json"
+start_rayd --max-memory 16M --threads 1
+post_json '/v1/jobs?format=exr' "$T/twelve.json" >/dev/null
+filler=$(jfield "$T/body" id)
+job_ended() { req GET "/v1/jobs/$filler" >/dev/null && [ "$(jfield "$T/body" state)" != running ] &&
+    [ "$(jfield "$T/body" state)" != queued ]; }
+wait_until 60 job_ended
+check own_frames_fail_job "$(head -c 600 "$T/body")" eval '[ "$(jfield "$T/body" state)" = failed ] &&
+    grep -q "finished frames hold [0-9]* bytes of the memory budget" "$T/body" && grep -q -- "--data-dir" "$T/body"'
 stop_rayd
 
 # ---- memory, --data-dir: a frame on disk leaves memory, served from its file --------

@@ -21,6 +21,22 @@ static inline rayd_scene *scene_from(const char *json) {
     return s;
 }
 
+/* base64 of n bytes (for png_base64), malloc'd, NUL-terminated. */
+static inline char *b64_encode(const unsigned char *in, size_t n) {
+    static const char al[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    char *out = malloc(4 * ((n + 2) / 3) + 1), *o = out;
+    for (size_t i = 0; i < n; i += 3) {
+        unsigned v = (unsigned)in[i] << 16 | (i + 1 < n ? (unsigned)in[i + 1] << 8 : 0) |
+                     (i + 2 < n ? in[i + 2] : 0);
+        *o++ = al[v >> 18 & 63];
+        *o++ = al[v >> 12 & 63];
+        *o++ = i + 1 < n ? al[v >> 6 & 63] : '=';
+        *o++ = i + 2 < n ? al[v & 63] : '=';
+    }
+    *o = 0;
+    return out;
+}
+
 /* The sRGB encoding of a linear value, written independently of render.c. */
 static inline int srgb_ref(double c) {
     if (c <= 0) return 0;

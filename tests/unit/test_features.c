@@ -310,21 +310,6 @@ static void test_csg_texture_is_in_the_space_of_its_node(void) {
     rayd_scene_free(s);
 }
 
-static char *b64(const unsigned char *in, size_t n) {
-    static const char al[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    char *out = malloc(4 * ((n + 2) / 3) + 1), *o = out;
-    for (size_t i = 0; i < n; i += 3) {
-        unsigned v = (unsigned)in[i] << 16 | (i + 1 < n ? (unsigned)in[i + 1] << 8 : 0) |
-                     (i + 2 < n ? in[i + 2] : 0);
-        *o++ = al[v >> 18 & 63];
-        *o++ = al[v >> 12 & 63];
-        *o++ = i + 1 < n ? al[v >> 6 & 63] : '=';
-        *o++ = i + 2 < n ? al[v & 63] : '=';
-    }
-    *o = 0;
-    return out;
-}
-
 static void test_image_texture_uv_bilinear(void) {
     /* a 2x1 PNG, black and white, on a quad: u = 0.5 is halfway between the texel centres */
     rayd_image *tex;
@@ -334,7 +319,7 @@ static void test_image_texture_uv_bilinear(void) {
     void *png;
     size_t len;
     rayd_png_encode(tex, -1, &png, &len, NULL);
-    char *enc = b64(png, len);
+    char *enc = b64_encode(png, len);
     rayd_free(png);
     rayd_image_free(tex);
     size_t cap = strlen(enc) + 1024;

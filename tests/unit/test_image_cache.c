@@ -1,0 +1,138 @@
+/* test_image_cache.c -- image textures shared between scenes through a
+ * rayd_image_cache (core/shade/texels.c): decoded once while a scene holds
+ * them, the same pixels as decoding, the same limits, and nothing kept once
+ * no scene holds them. */
+#include <stdint.h>
+#include <stdlib.h>
+
+#include "check.h"
+#include "scene/scene.h"
+#include "scene_util.h"
+#include "shade/texture.h"
+
+/* A scene of two quads whose materials name the same 32x16 PNG (a colour
+ * ramp), base64; malloc'd. */
+static char *two_quads(void) {
+    rayd_image *tex;
+    rayd_image_new(32, 16, &tex, NULL);
+    uint8_t *p = rayd_image_pixels(tex);
+    for (int i = 0; i < 32 * 16; i++) {
+        p[3 * i] = (uint8_t)(i * 7);
+        p[3 * i + 1] = (uint8_t)(i / 2);
+        p[3 * i + 2] = (uint8_t)(255 - i / 3);
+    }
+    void *png;
+    size_t len;
+    rayd_png_encode(tex, -1, &png, &len, NULL);
+    rayd_image_free(tex);
+    char *enc = b64_encode(png, len);
+    rayd_free(png);
+    size_t cap = 2 * strlen(enc) + 1024;
+    char *json = malloc(cap);
+    snprintf(json, cap,
+             "{\"render\": {\"width\": 48, \"height\": 32},"
+             " \"lights\": [{\"type\": \"point\", \"position\": [0, 0, 5]}],"
+             " \"objects\": [{\"type\": \"quad\", \"corner\": [-1,-1,-4], \"edge1\": [1,0,0],"
+             " \"edge2\": [0,2,0], \"material\": {\"texture\": {\"type\": \"image\","
+             " \"png_base64\": \"%s\"}}},"
+             " {\"type\": \"quad\", \"corner\": [0,-1,-4], \"edge1\": [1,0,0], \"edge2\": [0,2,0],"
+             " \"material\": {\"texture\": {\"type\": \"image\", \"png_base64\": \"%s\"}}}]}",
+             enc, enc);
+    free(enc);
+    return json;
+}
+
+static rayd_scene *parse_with(const char *json, rayd_image_cache *c, long max_texels,
+                              struct rayd_error *err) {
+    struct rayd_limits lim;
+    rayd_limits_default(&lim);
+    lim.images = c;
+    if (max_texels) lim.max_texels = max_texels;
+    rayd_scene *s = NULL;
+    memset(err, 0, sizeof *err);
+    return rayd_scene_parse(json, strlen(json), &lim, &s, err) == RAYD_OK ? s : NULL;
+}
+
+static bool same_pixels(const rayd_image *a, const rayd_image *b) {
+    return a && b && !memcmp(rayd_image_pixels((rayd_image *)(uintptr_t)a),
+                             rayd_image_pixels((rayd_image *)(uintptr_t)b), 48 * 32 * 3);
+}
+
+static int distinct_reds(rayd_image *img) {
+    bool seen[256] = {false};
+    int n = 0;
+    const uint8_t *p = rayd_image_pixels(img);
+    for (int i = 0; i < 48 * 32; i++) n += !seen[p[3 * i]], seen[p[3 * i]] = true;
+    return n;
+}
+
+static void test_decoded_once_same_pixels(void) {
+    char *json = two_quads();
+    struct rayd_error err;
+    rayd_scene *plain = parse_with(json, NULL, 0, &err);
+    rayd_image_cache *c = rayd_image_cache_new();
+    rayd_scene *s1 = parse_with(json, c, 0, &err), *s2 = parse_with(json, c, 0, &err);
+    CHECK(plain && s1 && s2, "parse: %s", err.message);
+    long hits, misses;
+    rayd_image_cache_stats(c, &hits, &misses);
+    /* the second quad's texture is the first's, and so are the next scene's */
+    CHECK(misses == 1 && hits == 3, "hits %ld, misses %ld; want 3 and 1", hits, misses);
+    if (s1 && s2) {
+        CHECK(s1->ntextures == 2 && s1->textures[1].rgb == s1->textures[0].rgb &&
+                  s2->textures[0].rgb == s1->textures[0].rgb,
+              "the texels are not shared");
+    }
+    rayd_image_cache_free(c); /* the scenes keep their images */
+    rayd_image *want = plain ? render_all(plain, 2) : NULL;
+    rayd_image *got1 = s1 ? render_all(s1, 2) : NULL;
+    rayd_scene_free(s1); /* s2's image outlives s1's reference */
+    rayd_image *got2 = s2 ? render_all(s2, 1) : NULL;
+    CHECK(same_pixels(want, got1) && same_pixels(want, got2), "shared texels render differently");
+    CHECK(want && distinct_reds(want) > 8, "the texture does not show: the check proves little");
+    rayd_image_free(want);
+    rayd_image_free(got1);
+    rayd_image_free(got2);
+    rayd_scene_free(s2);
+    rayd_scene_free(plain);
+    free(json);
+}
+
+static void test_limits_hold_the_same(void) {
+    /* room for one image of 32x16: the second is refused, found in the
+     * cache or not, with the same path and words */
+    char *json = two_quads();
+    struct rayd_error plain_err, err;
+    rayd_image_cache *c = rayd_image_cache_new();
+    rayd_scene *keep = parse_with(json, c, 0, &err); /* holds the image in the cache */
+    rayd_scene *a = parse_with(json, NULL, 32 * 16, &plain_err);
+    rayd_scene *b = parse_with(json, c, 32 * 16, &err);
+    CHECK(keep && !a && !b, "a scene over its texel limit was taken");
+    CHECK(!strcmp(plain_err.path, err.path) && !strcmp(plain_err.message, err.message) &&
+              *err.message,
+          "'%s: %s' against '%s: %s'", err.path, err.message, plain_err.path, plain_err.message);
+    rayd_scene_free(keep);
+    rayd_image_cache_free(c);
+    free(json);
+}
+
+static void test_nothing_kept_without_a_scene(void) {
+    char *json = two_quads();
+    struct rayd_error err;
+    rayd_image_cache *c = rayd_image_cache_new();
+    rayd_scene_free(parse_with(json, c, 0, &err));
+    rayd_scene_free(parse_with(json, c, 0, &err));
+    long hits, misses;
+    rayd_image_cache_stats(c, &hits, &misses);
+    /* each parse decoded once (its second quad shares): the first scene's
+     * image went with it */
+    CHECK(misses == 2 && hits == 2, "hits %ld, misses %ld; want 2 and 2", hits, misses);
+    rayd_image_cache_free(c);
+    free(json);
+}
+
+int main(void) {
+    RUN(test_decoded_once_same_pixels);
+    RUN(test_limits_hold_the_same);
+    RUN(test_nothing_kept_without_a_scene);
+    CHECK_EXIT();
+}
