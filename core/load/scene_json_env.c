@@ -23,6 +23,7 @@
 #include "format/base64.h"
 #include "codec/exr_read.h"
 #include "format/hdr_scan.h"
+#include "shade/texels.h"
 #include "shade/texture.h"
 
 #define DEG2RAD_ENV (3.14159265358979323846 / 180)
@@ -117,6 +118,46 @@ static enum rayd_status env_decode_hdr(struct loader *ld, const char *data, size
     return env_take(own, w, h, k, e);
 }
 
+/* What an environment image is shared under (lim->images): its encoded
+ * bytes, its format and the intensity folded into its floats.  malloc'd. */
+static unsigned char *env_key(const char *data, size_t len, bool exr, double k, size_t *n) {
+    *n = len + sizeof k + 1;
+    unsigned char *key = malloc(*n);
+    if (!key) return NULL;
+    memcpy(key, data, len);
+    memcpy(key + len, &k, sizeof k);
+    key[len + sizeof k] = exr;
+    return key;
+}
+
+/* The image of data (len bytes) times k into e: taken decoded from a live
+ * scene of the same key when lim->images has one (only its sampling tables
+ * are charged then), else decoded and offered there. */
+static enum rayd_status env_image(struct loader *ld, const char *data, size_t len, bool exr,
+                                  const struct jp *p, double k, struct environment *e) {
+    size_t n = 0;
+    unsigned char *key = ld->lim->images ? env_key(data, len, exr, k, &n) : NULL;
+    struct texels *x = key ? texels_find(ld->lim->images, key, n) : NULL;
+    enum rayd_status st;
+    if (x) {
+        e->rgb = x->rgb;
+        e->shared = x;
+        e->w = x->w;
+        e->h = x->h;
+        st = sj_charge(ld, p, (size_t)x->w * (size_t)x->h * 3 * sizeof(float)); /* the tables */
+    } else {
+        st = exr ? env_decode_exr(ld, data, len, p, k, e) : env_decode_hdr(ld, data, len, p, k, e);
+        if (st == RAYD_OK && key) {
+            e->shared = texels_add(ld->lim->images, key, n, e->w, e->h, e->rgb);
+            if (!e->shared) e->rgb = NULL; /* freed */
+            if (!e->rgb)
+                st = err_set(ld->err, RAYD_E_NOMEM, p->s, "out of memory for the environment");
+        }
+    }
+    free(key);
+    return st;
+}
+
 enum rayd_status sj_environment(struct loader *ld, const cJSON *r, const struct jp *render_at) {
     static const char *const keys[] = {"color",    "file",      "base64",  "format",
                                        "rotation", "intensity", "visible", NULL};
@@ -157,8 +198,7 @@ enum rayd_status sj_environment(struct loader *ld, const cJSON *r, const struct 
         TRY(env_encoded(ld, ej, &at, &p, &data, &len));
         bool exr = format == 1 ||
                    (format < 0 && data && len >= 4 && memcmp(data, "\x76\x2f\x31\x01", 4) == 0);
-        enum rayd_status st =
-            exr ? env_decode_exr(ld, data, len, &p, k, e) : env_decode_hdr(ld, data, len, &p, k, e);
+        enum rayd_status st = env_image(ld, data, len, exr, &p, k, e);
         free(data);
         TRY(st);
         e->kind = ENV_IMAGE;

@@ -27,6 +27,7 @@
 #include <stdlib.h>
 
 #include "shade/environment.h"
+#include "shade/texels.h"
 
 #define PI 3.14159265358979323846
 
@@ -147,7 +148,11 @@ double env_pdf(const struct environment *e, vec3 d) {
 }
 
 void env_free(struct environment *e) {
-    free(e->rgb);
+    if (e->shared)
+        texels_unref(e->shared);
+    else
+        free(e->rgb);
+    e->shared = NULL;
     free(e->row_cdf);
     free(e->col_cdf);
     e->rgb = NULL;
@@ -157,5 +162,6 @@ void env_free(struct environment *e) {
 size_t env_bytes(const struct environment *e) {
     if (e->kind != ENV_IMAGE) return 0;
     size_t w = (size_t)e->w, h = (size_t)e->h;
-    return w * h * 3 * sizeof *e->rgb + (h + 1 + h * (w + 1)) * sizeof(double);
+    return w * h * 3 * sizeof *e->rgb + (h + 1 + h * (w + 1)) * sizeof(double) +
+           (e->shared ? e->shared->key_len : 0); /* a shared image counts whole in each scene */
 }

@@ -12,12 +12,13 @@ enum env_kind { ENV_NONE, ENV_CONSTANT, ENV_IMAGE };
 
 struct environment {
     enum env_kind kind;
-    vec3 color;          /* constant: the radiance (times intensity already) */
-    int w, h;            /* image: equirectangular, rows from the top (+Y) */
-    float *rgb;          /* image: linear RGB, w * h * 3, times intensity already */
-    double cos_r, sin_r; /* rotation about +Y */
-    bool visible;        /* camera rays that miss see it (else render.background) */
-    vec3 mean;           /* solid-angle average radiance (the Whitted ambient) */
+    vec3 color;            /* constant: the radiance (times intensity already) */
+    int w, h;              /* image: equirectangular, rows from the top (+Y) */
+    float *rgb;            /* image: linear RGB, w * h * 3, times intensity already */
+    struct texels *shared; /* rgb's owner when scenes share it (texels.c), else NULL */
+    double cos_r, sin_r;   /* rotation about +Y */
+    bool visible;          /* camera rays that miss see it (else render.background) */
+    vec3 mean;             /* solid-angle average radiance (the Whitted ambient) */
     /* image sampling, by luminance x sin(theta): cdf over rows (h + 1),
      * cdf over columns per row (h x (w + 1)), and the mean of the weights */
     double *row_cdf, *col_cdf, integral;

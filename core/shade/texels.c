@@ -86,8 +86,10 @@ struct texels *texels_find(struct rayd_image_cache *c, const void *key, size_t l
     struct texels *t = c->list;
     while (t && !(t->hash == h && t->key_len == len && !memcmp(t->key, key, len))) t = t->next;
     if (t) t->refs++; /* every listed image has a reference: the last one unlists it */
-    if (t) c->hits++;
-    else c->misses++;
+    if (t)
+        c->hits++;
+    else
+        c->misses++;
     pthread_mutex_unlock(&c->lock);
     return t;
 }
@@ -103,8 +105,14 @@ struct texels *texels_add(struct rayd_image_cache *c, const void *key, size_t le
         return NULL;
     }
     memcpy(copy, key, len);
-    *t = (struct texels){.w = w, .h = h, .rgb = rgb, .cache = c, .refs = 1, .key = copy,
-                         .key_len = len, .hash = texels_hash(key, len)};
+    *t = (struct texels){.w = w,
+                         .h = h,
+                         .rgb = rgb,
+                         .cache = c,
+                         .refs = 1,
+                         .key = copy,
+                         .key_len = len,
+                         .hash = texels_hash(key, len)};
     pthread_mutex_lock(&c->lock);
     t->next = c->list;
     c->list = t;

@@ -1,7 +1,7 @@
 /* test_image_cache.c -- image textures shared between scenes through a
- * rayd_image_cache (core/shade/texels.c): decoded once while a scene holds
- * them, the same pixels as decoding, the same limits, and nothing kept once
- * no scene holds them. */
+ * rayd_image_cache (core/shade/texels.c), and environment images likewise:
+ * decoded once while a scene holds them, the same pixels as decoding, the same limits, and nothing
+ * kept once no scene holds them. */
 #include <stdint.h>
 #include <stdlib.h>
 
@@ -54,8 +54,9 @@ static rayd_scene *parse_with(const char *json, rayd_image_cache *c, long max_te
 }
 
 static bool same_pixels(const rayd_image *a, const rayd_image *b) {
-    return a && b && !memcmp(rayd_image_pixels((rayd_image *)(uintptr_t)a),
-                             rayd_image_pixels((rayd_image *)(uintptr_t)b), 48 * 32 * 3);
+    return a && b &&
+           !memcmp(rayd_image_pixels((rayd_image *)(uintptr_t)a),
+                   rayd_image_pixels((rayd_image *)(uintptr_t)b), 48 * 32 * 3);
 }
 
 static int distinct_reds(rayd_image *img) {
@@ -130,9 +131,66 @@ static void test_nothing_kept_without_a_scene(void) {
     free(json);
 }
 
+/* A scene seen against a 16x8 .hdr environment (flat RGBE: a ramp) at
+ * intensity k, base64; malloc'd. */
+static char *env_scene(double k) {
+    char head[64];
+    int hn = snprintf(head, sizeof head, "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 8 +X 16\n");
+    unsigned char hdr[64 + 16 * 8 * 4];
+    memcpy(hdr, head, (size_t)hn);
+    for (int i = 0; i < 16 * 8; i++) {
+        unsigned char *q = hdr + hn + 4 * i;
+        q[0] = (unsigned char)(i % 2 ? 40 : 240), q[1] = (unsigned char)(200 - i), q[2] = 150,
+        q[3] = 128;
+    }
+    char *enc = b64_encode(hdr, (size_t)hn + 16 * 8 * 4);
+    size_t cap = strlen(enc) + 512;
+    char *json = malloc(cap);
+    snprintf(json, cap,
+             "{\"render\": {\"width\": 48, \"height\": 32, \"environment\": "
+             "{\"base64\": \"%s\", \"intensity\": %g}},"
+             " \"objects\": [{\"type\": \"sphere\", \"center\": [0, 0, -5]}]}",
+             enc, k);
+    free(enc);
+    return json;
+}
+
+static void test_environment_shared(void) {
+    char *json = env_scene(1), *brighter = env_scene(2);
+    struct rayd_error err;
+    rayd_image_cache *c = rayd_image_cache_new();
+    rayd_scene *plain = parse_with(json, NULL, 0, &err);
+    rayd_scene *s1 = parse_with(json, c, 0, &err), *s2 = parse_with(json, c, 0, &err);
+    rayd_scene *s3 = parse_with(brighter, c, 0, &err);
+    CHECK(plain && s1 && s2 && s3, "parse: %s", err.message);
+    long hits, misses;
+    rayd_image_cache_stats(c, &hits, &misses);
+    /* the intensity is in the floats: another intensity is another image */
+    CHECK(hits == 1 && misses == 2, "hits %ld, misses %ld; want 1 and 2", hits, misses);
+    if (s1 && s2 && s3)
+        CHECK(s2->rs.env.rgb == s1->rs.env.rgb && s3->rs.env.rgb != s1->rs.env.rgb,
+              "the environment's floats are not shared as they should be");
+    rayd_image_cache_free(c);
+    rayd_image *want = plain ? render_all(plain, 2) : NULL;
+    rayd_scene_free(s1);
+    rayd_image *got = s2 ? render_all(s2, 2) : NULL;
+    CHECK(same_pixels(want, got), "a shared environment renders differently");
+    CHECK(want && distinct_reds(want) > 2,
+          "the environment does not show (%d reds): the check proves little",
+          want ? distinct_reds(want) : 0);
+    rayd_image_free(want);
+    rayd_image_free(got);
+    rayd_scene_free(s2);
+    rayd_scene_free(s3);
+    rayd_scene_free(plain);
+    free(json);
+    free(brighter);
+}
+
 int main(void) {
     RUN(test_decoded_once_same_pixels);
     RUN(test_limits_hold_the_same);
     RUN(test_nothing_kept_without_a_scene);
+    RUN(test_environment_shared);
     CHECK_EXIT();
 }
