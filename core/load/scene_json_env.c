@@ -124,27 +124,31 @@ static unsigned char *env_key(const char *data, size_t len, bool exr, double k, 
     *n = len + sizeof k + 1;
     unsigned char *key = malloc(*n);
     if (!key) return NULL;
-    memcpy(key, data, len);
+    if (len) memcpy(key, data, len);
     memcpy(key + len, &k, sizeof k);
     key[len + sizeof k] = exr;
     return key;
 }
 
 /* The image of data (len bytes) times k into e: taken decoded from a live
- * scene of the same key when lim->images has one (only its sampling tables
- * are charged then), else decoded and offered there. */
+ * scene of the same key when lim->images has one, else decoded and offered
+ * there.  A shared image is charged as its decode is (the decoder's
+ * floats, its copy, the sampling tables), so whether another scene holds
+ * it changes no answer of the limits. */
 static enum rayd_status env_image(struct loader *ld, const char *data, size_t len, bool exr,
                                   const struct jp *p, double k, struct environment *e) {
     size_t n = 0;
     unsigned char *key = ld->lim->images ? env_key(data, len, exr, k, &n) : NULL;
-    struct texels *x = key ? texels_find(ld->lim->images, key, n) : NULL;
+    struct texels *x = key ? texels_find(ld->lim->images, key, n, TEXTURE_MAX_PIXELS) : NULL;
     enum rayd_status st;
     if (x) {
         e->rgb = x->rgb;
         e->shared = x;
         e->w = x->w;
         e->h = x->h;
-        st = sj_charge(ld, p, (size_t)x->w * (size_t)x->h * 3 * sizeof(float)); /* the tables */
+        size_t floats = (size_t)x->w * (size_t)x->h * 3 * sizeof(float);
+        st = sj_charge(ld, p, floats * (exr ? 2 : 3));
+        if (st == RAYD_OK && !exr) sj_give_back(ld, floats); /* stb's floats */
     } else {
         st = exr ? env_decode_exr(ld, data, len, p, k, e) : env_decode_hdr(ld, data, len, p, k, e);
         if (st == RAYD_OK && key) {

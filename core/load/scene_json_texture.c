@@ -46,14 +46,10 @@ static uint64_t png_texels(const char *d, size_t len) {
 /* t takes the image another scene decoded from the same len bytes at
  * data (lim->images), if one is live and fits the max pixels this scene
  * has room for; false to decode it (a bigger one is refused there, with
- * the decoder's words). */
+ * the decoder's words).  The caller charges it as a decode. */
 static bool image_shared(struct loader *ld, const char *data, size_t len, long max,
                          struct texture *t) {
-    struct texels *x = texels_find(ld->lim->images, data, len);
-    if (x && (long)x->w * x->h > max) {
-        texels_unref(x);
-        x = NULL;
-    }
+    struct texels *x = texels_find(ld->lim->images, data, len, max);
     if (!x) return false;
     ld->texels += (long)x->w * x->h;
     t->w = x->w;
@@ -94,12 +90,19 @@ static enum rayd_status load_image(struct loader *ld, const cJSON *tj, const str
                        sj_max_texels(ld));
     }
     long max = room < TEXTURE_MAX_PIXELS ? room : TEXTURE_MAX_PIXELS;
+    uint64_t texels = png_texels(data, len);
     if (image_shared(ld, data, len, max, t)) {
+        /* charged as its decode is, so the limits answer as if decoded:
+         * whether another scene holds the image changes no answer */
+        enum rayd_status st = sj_charge(ld, &p, (size_t)texels * SJ_TEXEL_CHARGE);
+        if (st == RAYD_OK)
+            sj_give_back(ld, (size_t)texels * (SJ_TEXEL_CHARGE - 3 * sizeof(float)));
+        else
+            texture_free(t);
         free(data);
         if (file) sj_give_back(ld, len + 1);
-        return RAYD_OK;
+        return st;
     }
-    uint64_t texels = png_texels(data, len);
     enum rayd_status st = texels > 0 && texels <= (uint64_t)max
                               ? sj_charge(ld, &p, (size_t)texels * SJ_TEXEL_CHARGE)
                               : RAYD_OK; /* else the decoder refuses it */

@@ -14,7 +14,10 @@
  * program's memory accounting of its scenes stays whole (a shared image is
  * counted in each scene that holds it: more, never less, than is used).
  * A program that keeps recent scenes (rayd's compile cache) keeps their
- * images findable with them.
+ * images findable with them.  A program that has no scene alive between
+ * two parses (rayd-render, frame after frame, one scene in memory) makes
+ * a holding cache instead: it keeps a reference to every image until it
+ * is freed, which costs nothing more while each frame uses them all.
  *
  * Images are matched on their whole encoded bytes (a 64-bit FNV-1a first,
  * then memcmp), never on a hash alone: a crafted collision cannot give one
@@ -38,6 +41,7 @@ struct rayd_image_cache {
     pthread_mutex_t lock;
     struct texels *list;
     bool released; /* rayd_image_cache_free was called: the last image frees it */
+    bool hold;     /* each image keeps a reference of the cache's until it is freed */
     long hits, misses;
 };
 
@@ -48,12 +52,13 @@ static unsigned long long texels_hash(const void *key, size_t len) {
     return h;
 }
 
-rayd_image_cache *rayd_image_cache_new(void) {
+rayd_image_cache *rayd_image_cache_new(int hold) {
     rayd_image_cache *c = calloc(1, sizeof *c);
     if (c && pthread_mutex_init(&c->lock, NULL) != 0) {
         free(c);
         return NULL;
     }
+    if (c) c->hold = hold != 0;
     return c;
 }
 
@@ -66,9 +71,24 @@ void rayd_image_cache_free(rayd_image_cache *c) {
     if (!c) return;
     pthread_mutex_lock(&c->lock);
     c->released = true;
-    bool empty = c->list == NULL;
+    bool empty = c->list == NULL, hold = c->hold;
     pthread_mutex_unlock(&c->lock);
-    if (empty) texels_cache_destroy(c);
+    if (empty) {
+        texels_cache_destroy(c);
+        return;
+    }
+    if (!hold) return;
+    /* let go of the cache's own references: the last one (possibly this
+     * call's) unlists an image, and the last image frees the cache */
+    for (;;) {
+        pthread_mutex_lock(&c->lock);
+        struct texels *t = c->list;
+        while (t && t->dropped) t = t->next;
+        if (t) t->dropped = true;
+        pthread_mutex_unlock(&c->lock);
+        if (!t) return;
+        texels_unref(t);
+    }
 }
 
 void rayd_image_cache_stats(const rayd_image_cache *cache, long *hits, long *misses) {
@@ -79,17 +99,18 @@ void rayd_image_cache_stats(const rayd_image_cache *cache, long *hits, long *mis
     pthread_mutex_unlock(&c->lock);
 }
 
-struct texels *texels_find(struct rayd_image_cache *c, const void *key, size_t len) {
+struct texels *texels_find(struct rayd_image_cache *c, const void *key, size_t len,
+                           long max_pixels) {
     if (!c) return NULL;
     unsigned long long h = texels_hash(key, len);
     pthread_mutex_lock(&c->lock);
     struct texels *t = c->list;
     while (t && !(t->hash == h && t->key_len == len && !memcmp(t->key, key, len))) t = t->next;
-    if (t) t->refs++; /* every listed image has a reference: the last one unlists it */
-    if (t)
+    if (t && (long)t->w * t->h > max_pixels) t = NULL; /* the decoder refuses it, in its words */
+    if (t) {
+        t->refs++; /* every listed image has a reference: the last one unlists it */
         c->hits++;
-    else
-        c->misses++;
+    }
     pthread_mutex_unlock(&c->lock);
     return t;
 }
@@ -116,6 +137,8 @@ struct texels *texels_add(struct rayd_image_cache *c, const void *key, size_t le
     pthread_mutex_lock(&c->lock);
     t->next = c->list;
     c->list = t;
+    c->misses++;
+    if (c->hold) t->refs++; /* the cache's own, until it is freed */
     pthread_mutex_unlock(&c->lock);
     return t;
 }

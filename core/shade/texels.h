@@ -2,6 +2,7 @@
 #ifndef TEXELS_H
 #define TEXELS_H
 
+#include <stdbool.h>
 #include <stddef.h>
 
 struct rayd_image_cache; /* rayd.h's opaque handle, defined in texels.c */
@@ -18,11 +19,15 @@ struct texels {
     size_t key_len;
     unsigned char *key; /* the encoded bytes it was decoded from */
     struct texels *next;
+    bool dropped; /* a holding cache let go of its reference */
 };
 
 /* The image decoded from the len bytes at key, referenced, or NULL when
- * no live scene holds one.  c may be NULL (then NULL). */
-struct texels *texels_find(struct rayd_image_cache *c, const void *key, size_t len);
+ * no live scene holds one or it has more than max_pixels (then decoding
+ * refuses it, with the decoder's words).  c may be NULL (then NULL).  A
+ * find counts as shared, an add as decoded. */
+struct texels *texels_find(struct rayd_image_cache *c, const void *key, size_t len,
+                           long max_pixels);
 /* rgb (w x h x 3 floats, malloc'd; taken in every case) kept in c as the
  * image of key's len bytes, referenced; NULL when out of memory (rgb
  * freed).  Another thread may add the same bytes meanwhile: both live. */

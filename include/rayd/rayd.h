@@ -82,8 +82,11 @@ char *rayd_error_format(const struct rayd_error *err, char *buf, size_t size);
  * Safe to share between threads parsing at once. */
 typedef struct rayd_image_cache rayd_image_cache;
 
-/* A new, empty cache; NULL when out of memory. */
-rayd_image_cache *rayd_image_cache_new(void);
+/* A new, empty cache; NULL when out of memory.  hold 0: the images belong
+ * to the scenes alone (a server with scenes alive at once).  hold 1: the
+ * cache keeps each image until it is freed too, for a program that frees
+ * one scene before it parses the next (rayd-render, frame after frame). */
+rayd_image_cache *rayd_image_cache_new(int hold);
 /* Lets go of the cache: scenes holding its images keep them (it is freed
  * with the last).  No parse may be using it. */
 void rayd_image_cache_free(rayd_image_cache *cache);

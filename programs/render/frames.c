@@ -180,9 +180,9 @@ static void frame_line(const struct args *a, long k, long done, long total, doub
 }
 
 /* Renders frames from..to of the scene text; scene is frame `from`,
- * already parsed, and is freed here.  Each frame is parsed before the one
- * before it is freed, so its image textures are taken decoded from it
- * (lim->images) rather than decoded again. */
+ * already parsed, and is freed here.  One frame's scene is in memory at a
+ * time; lim->images holds the decoded images across them, so each frame
+ * takes them rather than decoding them again. */
 static int frames_loop(const struct args *a, const char *text, size_t len,
                        const struct rayd_limits *lim, rayd_scene *scene, long from, long to,
                        double t0) {
@@ -202,7 +202,6 @@ static int frames_loop(const struct args *a, const char *text, size_t len,
             rc = render_one_fail_region(&err);
         if (rc == 0) rc = video_start(&v, a->video, r.w, r.h, an.fps > 0 ? an.fps : 24);
     }
-    rayd_scene *prev = NULL;
     for (long k = from; k <= to && rc == 0; k++) {
         double tf = render_one_now();
         struct rayd_error err = {0};
@@ -210,8 +209,6 @@ static int frames_loop(const struct args *a, const char *text, size_t len,
             rc = render_one_fail("", &err);
             break;
         }
-        rayd_scene_free(prev);
-        prev = NULL;
         if ((rc = render_one_bias(ap, scene)) != 0) break;
         char path[4096];
         rc = frame_file(a, k, path, sizeof path) ? 2 : 0;
@@ -222,13 +219,12 @@ static int frames_loop(const struct args *a, const char *text, size_t len,
             rc = video_frame(&b, scene, path, &v);
         else if (rc == 0)
             rc = render_one(&b, scene, stage, t0);
-        prev = scene;
+        rayd_scene_free(scene);
         scene = NULL;
         if (rc == 0)
             frame_line(a, k, k - from + 1, to - from + 1, render_one_now() - tf,
                        render_one_now() - t_range, path);
     }
-    rayd_scene_free(prev);
     rayd_scene_free(scene);
     if (a->video && video_end(&v, a->video, rc != 0) != 0 && rc == 0) rc = 1;
     if (rc == 0 && !a->quiet)
@@ -261,7 +257,7 @@ int frames_run(const struct args *a, const char *text, size_t len, const struct 
     struct rayd_error err = {0};
     rayd_scene *scene = NULL;
     struct rayd_limits shared = *lim;
-    shared.images = rayd_image_cache_new(); /* NULL: each frame decodes its own */
+    shared.images = rayd_image_cache_new(1); /* kept for every frame; NULL: each decodes */
     lim = &shared;
     enum rayd_status st = a->frames_set
                               ? rayd_scene_parse_frame(text, len, lim, a->frame_a, &scene, &err)

@@ -332,7 +332,7 @@ void scenes_start(void) {
     metrics_gauge(MG_CACHE_ENTRIES, scenes_gauge_entries);
     metrics_gauge(MG_RESULT_CACHE_BYTES, scenes_gauge_rbytes);
     metrics_gauge(MG_RESULT_CACHE_ENTRIES, scenes_gauge_rentries);
-    scenes_images = rayd_image_cache_new(); /* NULL: every parse decodes its own */
+    scenes_images = rayd_image_cache_new(0); /* NULL: every parse decodes its own */
     metrics_gauge(MG_IMAGES_SHARED, scenes_gauge_shared);
     metrics_gauge(MG_IMAGES_DECODED, scenes_gauge_decoded);
 }

@@ -201,6 +201,7 @@ static void shots_suspend_none(struct compile_waiter *w) { (void)w; }
 enum shots_miss {
     SM_TRY,   /* a failure: the frame is tried again while it has attempts left */
     SM_ROOM,  /* refused for room: queued again as it was, for shots_kick */
+    SM_KEPT,  /* its parse found no room while the shot kept a scene: at once, without it */
     SM_NEVER, /* the same at every attempt: the frame fails now */
 };
 
@@ -236,10 +237,15 @@ static void shots_frame_end(struct shots_fly *fl, enum rayd_status st, const str
         if (s->ndone == s->n) shots_video_queue(s);
     } else if (drained || s->canceled || (st == RAYD_E_CANCELED && task_draining())) {
         f->state = SF_QUEUED;
+    } else if (miss == SM_KEPT) {
+        /* the scene kept for this parse held the room: let go, it is back,
+         * and the frame starts again at once (decoding its images) */
+        f->state = SF_QUEUED;
+        shots_drop_kept(s);
     } else if (miss == SM_ROOM) {
         f->state = SF_QUEUED;
         s->waiting = true;
-        shots_drop_kept(s); /* the room it holds may be the room the frame waits for */
+        shots_drop_kept(s); /* no scene pinned while the frame waits */
         log_info("job %s: frame %ld waits (%s)", s->id, s->first + fl->i, err ? err->message : "?");
     } else if (miss == SM_TRY && ++f->tries < SHOTS_TRIES) {
         f->state = SF_QUEUED;
@@ -316,11 +322,11 @@ static void shots_refusal(enum work_submit why, struct rayd_error *err) {
 
 /* Whether frame fl, refused for room, can never have it while its job's
  * finished frames stay in memory (they are not evicted before the job
- * ends): with them, its scene and its render's reservation it is over the
- * budget.  Waiting would never end; err then says why.  No lock held. */
-static bool shots_never_room(const struct shots_fly *fl, const struct cache_entry *scene,
-                             const struct work_target *what, struct rayd_error *err) {
-    size_t need = budget_need(scene, what, false) + cache_bytes(scene), own = 0;
+ * ends): with them and the need bytes it is over the budget.  Waiting
+ * would never end; err then says why.  No lock held. */
+static bool shots_never_room(const struct shots_fly *fl, size_t need, struct rayd_error *err) {
+    if (store_on()) return false; /* with --data-dir its frames leave memory once written */
+    size_t own = 0;
     work_lock_take();
     const struct shot *s = fl->s;
     for (int i = 0; i < s->n; i++)
@@ -365,23 +371,39 @@ static void shots_render(struct shots_fly *fl, struct cache_entry *scene) {
     struct rayd_error err;
     shots_refusal(r, &err);
     bool never =
-        r == WORK_TOO_BIG || (r == WORK_MEMORY && shots_never_room(fl, scene, &what, &err));
+        r == WORK_TOO_BIG ||
+        (r == WORK_MEMORY &&
+         shots_never_room(fl, budget_need(scene, &what, false) + cache_bytes(scene), &err));
     shots_frame_end(fl, err.code, &err, NULL, NULL, r == WORK_DRAINING, never ? SM_NEVER : SM_ROOM,
                     !fl->sync);
 }
 
-/* Whether the room a frame's parse found missing (res) is held by its own
- * shot and will come back: another of its frames in flight, or the scene
- * it keeps for this parse (shots_drop_kept lets it go).  Then the frame
- * waits for it, as a render refused for room does, without spending an
- * attempt; held by anything else (its finished frames among them, which
- * stay), the parse is tried again and the job fails once out of attempts
- * (docs/operations.md), never waiting for room that may not come. */
-static bool shots_room_returns(struct shot *s, const struct compile_result *res) {
+/* Whether the memory budget has room now for another scene as big as e:
+ * only then is e kept for the next frame's parse, which counts its shared
+ * images again.  Under a budget with room for one frame's scene at a time
+ * a kept scene would only make each frame wait for it.  No lock held. */
+static bool shots_room_for_another(const struct cache_entry *e) {
+    size_t used = 0;
+    for (int k = 0; k < MEM__COUNT; k++) used += mem_used((enum mem_kind)k);
+    return used + cache_bytes(e) <= mem_limit();
+}
+
+/* What a frame's parse that found no room in the budget (res) does: when
+ * its shot keeps a scene for it, the frame starts again at once without it
+ * (SM_KEPT); when the job's finished frames (which stay) and a scene as big
+ * as its last are over the budget, it fails, naming them (SM_NEVER: waiting
+ * would never end); else it waits for the room without spending an
+ * attempt, as a render refused for room does (SM_ROOM).  Another out of
+ * memory is an attempt (SM_TRY). */
+static enum shots_miss shots_room_returns(struct shots_fly *fl, struct compile_result *res) {
+    struct shot *s = fl->s;
     work_lock_take();
-    bool own = s->kept || s->flying > 1;
+    bool kept = s->kept != NULL;
+    size_t need = s->scene_bytes;
     work_lock_give();
-    return res->memory_full && own;
+    if (!res->memory_full) return SM_TRY;
+    if (kept) return SM_KEPT;
+    return shots_never_room(fl, need, &res->err) ? SM_NEVER : SM_ROOM;
 }
 
 /* The parse threads' answer (no lock held).  A scene that does not parse
@@ -390,17 +412,17 @@ static bool shots_room_returns(struct shot *s, const struct compile_result *res)
 static void shots_parsed(struct compile_waiter *w, struct compile_result *res) {
     struct shots_fly *fl = (struct shots_fly *)w;
     if (res->status != RAYD_OK || !res->scene) {
-        enum shots_miss miss = res->status != RAYD_E_NOMEM      ? SM_NEVER
-                               : shots_room_returns(fl->s, res) ? SM_ROOM
-                                                                : SM_TRY;
+        enum shots_miss miss = res->status != RAYD_E_NOMEM ? SM_NEVER : shots_room_returns(fl, res);
         shots_frame_end(fl, res->status ? res->status : RAYD_E_INTERNAL, &res->err, NULL, NULL,
                         res->draining, miss, !fl->sync);
         return;
     }
+    bool roomy = shots_room_for_another(res->scene);
     work_lock_take(); /* kept for the next frame's parse, in place of the one before */
     struct shot *s = fl->s;
+    s->scene_bytes = cache_bytes(res->scene);
     shots_drop_kept(s);
-    if (!shots_final(s)) s->kept = cache_ref(res->scene);
+    if (!shots_final(s) && roomy) s->kept = cache_ref(res->scene);
     work_lock_give();
     shots_render(fl, res->scene);
     scenes_release(res->scene);
@@ -611,6 +633,7 @@ enum work_submit shots_submit(struct shots_new *n, char id[33]) {
     uint8_t rnd[16];
     if (getrandom(rnd, sizeof rnd, 0) != (ssize_t)sizeof rnd) return WORK_NOMEM;
     for (int i = 0; i < 16; i++) snprintf(id + 2 * i, 3, "%02x", rnd[i]);
+    bool roomy = n->scene && shots_room_for_another(n->scene);
     work_lock_take();
     enum work_submit r = WORK_OK;
     long unfinished, cap;
@@ -630,7 +653,8 @@ enum work_submit shots_submit(struct shots_new *n, char id[33]) {
         s->seq = jobs_next_seq();
         shots_table[shots_n++] = s;
         s->refs++; /* the pump's, below */
-        if (n->scene) s->kept = cache_ref(n->scene);
+        if (roomy) s->kept = cache_ref(n->scene);
+        s->scene_bytes = n->scene ? cache_bytes(n->scene) : 0;
         struct store_job row;
         shots_record(s, &row);
         row.scene = store_on() ? malloc(n->len + 1) : NULL;

@@ -65,6 +65,7 @@ struct shot {
      * scenes.c) even when no frame is in flight between the two; let go
      * when a frame waits for room and when the shot ends. */
     struct cache_entry *kept;
+    size_t scene_bytes;      /* its newest frame's scene's (or the admitted one's), counted */
     struct work_waiter *sse; /* event streams waiting for news */
     int video_state;         /* enum shots_video */
     struct blob *video;

@@ -42,15 +42,38 @@ static char *two_quads(void) {
     return json;
 }
 
-static rayd_scene *parse_with(const char *json, rayd_image_cache *c, long max_texels,
-                              struct rayd_error *err) {
+/* A memory account that refuses past *arg bytes, as rayd's budget does. */
+static enum rayd_status cap_charge(void *arg, long long bytes, char *why, size_t why_len) {
+    long long *left = arg;
+    if (bytes > *left) {
+        snprintf(why, why_len, "over the cap by %lld bytes", bytes - *left);
+        return RAYD_E_LIMIT;
+    }
+    *left -= bytes;
+    return RAYD_OK;
+}
+
+/* json parsed with cache c, a texel limit (0: the default) and a memory
+ * cap (0: none); NULL with err on failure. */
+static rayd_scene *parse_capped(const char *json, rayd_image_cache *c, long max_texels,
+                                long long cap, struct rayd_error *err) {
     struct rayd_limits lim;
     rayd_limits_default(&lim);
     lim.images = c;
     if (max_texels) lim.max_texels = max_texels;
+    long long left = cap;
+    if (cap) {
+        lim.charge = cap_charge;
+        lim.charge_arg = &left;
+    }
     rayd_scene *s = NULL;
     memset(err, 0, sizeof *err);
     return rayd_scene_parse(json, strlen(json), &lim, &s, err) == RAYD_OK ? s : NULL;
+}
+
+static rayd_scene *parse_with(const char *json, rayd_image_cache *c, long max_texels,
+                              struct rayd_error *err) {
+    return parse_capped(json, c, max_texels, 0, err);
 }
 
 static bool same_pixels(const rayd_image *a, const rayd_image *b) {
@@ -71,7 +94,7 @@ static void test_decoded_once_same_pixels(void) {
     char *json = two_quads();
     struct rayd_error err;
     rayd_scene *plain = parse_with(json, NULL, 0, &err);
-    rayd_image_cache *c = rayd_image_cache_new();
+    rayd_image_cache *c = rayd_image_cache_new(0);
     rayd_scene *s1 = parse_with(json, c, 0, &err), *s2 = parse_with(json, c, 0, &err);
     CHECK(plain && s1 && s2, "parse: %s", err.message);
     long hits, misses;
@@ -99,27 +122,56 @@ static void test_decoded_once_same_pixels(void) {
 }
 
 static void test_limits_hold_the_same(void) {
-    /* room for one image of 32x16: the second is refused, found in the
-     * cache or not, with the same path and words */
+    /* room for one image of 32x16 and a texel: the second is refused,
+     * found in the cache or not, with the same path and words; and a
+     * memory account with room for one image's decode likewise */
     char *json = two_quads();
     struct rayd_error plain_err, err;
-    rayd_image_cache *c = rayd_image_cache_new();
+    rayd_image_cache *c = rayd_image_cache_new(0);
     rayd_scene *keep = parse_with(json, c, 0, &err); /* holds the image in the cache */
-    rayd_scene *a = parse_with(json, NULL, 32 * 16, &plain_err);
-    rayd_scene *b = parse_with(json, c, 32 * 16, &err);
+    rayd_scene *a = parse_with(json, NULL, 32 * 16 + 1, &plain_err);
+    rayd_scene *b = parse_with(json, c, 32 * 16 + 1, &err);
     CHECK(keep && !a && !b, "a scene over its texel limit was taken");
     CHECK(!strcmp(plain_err.path, err.path) && !strcmp(plain_err.message, err.message) &&
               *err.message,
           "'%s: %s' against '%s: %s'", err.path, err.message, plain_err.path, plain_err.message);
+    long long cap = 32 * 16 * 16 + 32 * 16 * 4; /* the first decode's peak, not the second's */
+    a = parse_capped(json, NULL, 0, cap, &plain_err);
+    b = parse_capped(json, c, 0, cap, &err);
+    CHECK(!a && !b, "a scene over its memory account was taken (%s, %s)", a ? "plain" : "-",
+          b ? "shared" : "-");
+    CHECK(!strcmp(plain_err.path, err.path) && !strcmp(plain_err.message, err.message) &&
+              *err.message,
+          "'%s: %s' against '%s: %s'", err.path, err.message, plain_err.path, plain_err.message);
+    rayd_scene_free(a);
+    rayd_scene_free(b);
     rayd_scene_free(keep);
     rayd_image_cache_free(c);
+    free(json);
+}
+
+static void test_holding_cache_keeps_images(void) {
+    /* a program with one scene at a time: the image outlives each */
+    char *json = two_quads();
+    struct rayd_error err;
+    rayd_image_cache *c = rayd_image_cache_new(1);
+    rayd_scene_free(parse_with(json, c, 0, &err));
+    rayd_scene *s = parse_with(json, c, 0, &err);
+    long hits, misses;
+    rayd_image_cache_stats(c, &hits, &misses);
+    CHECK(s && misses == 1 && hits == 3, "hits %ld, misses %ld; want 3 and 1", hits, misses);
+    rayd_image_cache_free(c); /* s keeps its image; freed with s (ASan: no leak) */
+    rayd_image *img = s ? render_all(s, 1) : NULL;
+    CHECK(img && distinct_reds(img) > 8, "the scene lost its texture");
+    rayd_image_free(img);
+    rayd_scene_free(s);
     free(json);
 }
 
 static void test_nothing_kept_without_a_scene(void) {
     char *json = two_quads();
     struct rayd_error err;
-    rayd_image_cache *c = rayd_image_cache_new();
+    rayd_image_cache *c = rayd_image_cache_new(0);
     rayd_scene_free(parse_with(json, c, 0, &err));
     rayd_scene_free(parse_with(json, c, 0, &err));
     long hits, misses;
@@ -158,7 +210,7 @@ static char *env_scene(double k) {
 static void test_environment_shared(void) {
     char *json = env_scene(1), *brighter = env_scene(2);
     struct rayd_error err;
-    rayd_image_cache *c = rayd_image_cache_new();
+    rayd_image_cache *c = rayd_image_cache_new(0);
     rayd_scene *plain = parse_with(json, NULL, 0, &err);
     rayd_scene *s1 = parse_with(json, c, 0, &err), *s2 = parse_with(json, c, 0, &err);
     rayd_scene *s3 = parse_with(brighter, c, 0, &err);
@@ -191,6 +243,7 @@ int main(void) {
     RUN(test_decoded_once_same_pixels);
     RUN(test_limits_hold_the_same);
     RUN(test_nothing_kept_without_a_scene);
+    RUN(test_holding_cache_keeps_images);
     RUN(test_environment_shared);
     CHECK_EXIT();
 }
