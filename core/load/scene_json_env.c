@@ -124,7 +124,7 @@ static unsigned char *env_key(const char *data, size_t len, bool exr, double k, 
     *n = len + sizeof k + 1;
     unsigned char *key = malloc(*n);
     if (!key) return NULL;
-    if (len) memcpy(key, data, len);
+    if (data && len) memcpy(key, data, len);
     memcpy(key + len, &k, sizeof k);
     key[len + sizeof k] = exr;
     return key;

@@ -80,14 +80,16 @@ void rayd_image_cache_free(rayd_image_cache *c) {
     if (!hold) return;
     /* let go of the cache's own references: the last one (possibly this
      * call's) unlists an image, and the last image frees the cache */
-    for (;;) {
+    for (bool more = true; more;) {
         pthread_mutex_lock(&c->lock);
         struct texels *t = c->list;
         while (t && t->dropped) t = t->next;
         if (t) t->dropped = true;
+        struct texels *u = t ? t->next : NULL;
+        while (u && u->dropped) u = u->next;
+        more = u != NULL; /* then u's reference keeps c alive past t's unref */
         pthread_mutex_unlock(&c->lock);
-        if (!t) return;
-        texels_unref(t);
+        if (t) texels_unref(t); /* may free c: not touched after the last */
     }
 }
 

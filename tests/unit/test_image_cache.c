@@ -150,6 +150,8 @@ static void test_limits_hold_the_same(void) {
     free(json);
 }
 
+static char *env_scene(double k);
+
 static void test_holding_cache_keeps_images(void) {
     /* a program with one scene at a time: the image outlives each */
     char *json = two_quads();
@@ -165,6 +167,16 @@ static void test_holding_cache_keeps_images(void) {
     CHECK(img && distinct_reds(img) > 8, "the scene lost its texture");
     rayd_image_free(img);
     rayd_scene_free(s);
+    /* freed with no scene left: the cache goes with its last image (ASan
+     * and valgrind see a use after free or a leak here) */
+    c = rayd_image_cache_new(1);
+    rayd_scene_free(parse_with(json, c, 0, &err));
+    char *env = env_scene(1);
+    rayd_scene_free(parse_with(env, c, 0, &err));
+    rayd_image_cache_stats(c, &hits, &misses);
+    CHECK(misses == 2, "%ld images decoded, want 2", misses);
+    rayd_image_cache_free(c);
+    free(env);
     free(json);
 }
 
