@@ -37,6 +37,17 @@ static inline char *b64_encode(const unsigned char *in, size_t n) {
     return out;
 }
 
+/* img as a PNG in base64 (for png_base64), malloc'd; img is freed. */
+static inline char *png_base64(rayd_image *img) {
+    void *png;
+    size_t len;
+    rayd_png_encode(img, -1, &png, &len, NULL);
+    rayd_image_free(img);
+    char *enc = b64_encode(png, len);
+    rayd_free(png);
+    return enc;
+}
+
 /* The sRGB encoding of a linear value, written independently of render.c. */
 static inline int srgb_ref(double c) {
     if (c <= 0) return 0;

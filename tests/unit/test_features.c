@@ -316,12 +316,7 @@ static void test_image_texture_uv_bilinear(void) {
     rayd_image_new(2, 1, &tex, NULL);
     uint8_t *p = rayd_image_pixels(tex);
     p[3] = p[4] = p[5] = 255;
-    void *png;
-    size_t len;
-    rayd_png_encode(tex, -1, &png, &len, NULL);
-    char *enc = b64_encode(png, len);
-    rayd_free(png);
-    rayd_image_free(tex);
+    char *enc = png_base64(tex);
     size_t cap = strlen(enc) + 1024;
     char *json = malloc(cap);
     snprintf(json, cap,

@@ -21,12 +21,7 @@ static char *two_quads(void) {
         p[3 * i + 1] = (uint8_t)(i / 2);
         p[3 * i + 2] = (uint8_t)(255 - i / 3);
     }
-    void *png;
-    size_t len;
-    rayd_png_encode(tex, -1, &png, &len, NULL);
-    rayd_image_free(tex);
-    char *enc = b64_encode(png, len);
-    rayd_free(png);
+    char *enc = png_base64(tex);
     size_t cap = 2 * strlen(enc) + 1024;
     char *json = malloc(cap);
     snprintf(json, cap,

@@ -11,6 +11,7 @@
 #include <string.h>
 
 #include "rayd/rayd.h"
+#include "scene_util.h"
 
 /* The account a test keeps: what was charged and given back, and the
  * gross charge past which it refuses (0: never). */
@@ -31,32 +32,12 @@ static enum rayd_status charge(void *arg, long long bytes, char *why, size_t why
     return RAYD_OK;
 }
 
-static char *b64(const unsigned char *in, size_t n) {
-    static const char al[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    char *out = malloc(4 * ((n + 2) / 3) + 1), *o = out;
-    for (size_t i = 0; i < n; i += 3) {
-        unsigned v = (unsigned)in[i] << 16 | (i + 1 < n ? (unsigned)in[i + 1] << 8 : 0) |
-                     (i + 2 < n ? in[i + 2] : 0);
-        *o++ = al[v >> 18 & 63];
-        *o++ = al[v >> 12 & 63];
-        *o++ = i + 1 < n ? al[v >> 6 & 63] : '=';
-        *o++ = i + 2 < n ? al[v & 63] : '=';
-    }
-    *o = 0;
-    return out;
-}
-
 /* A scene of a side x side PNG texture on a sphere and an inline mesh of
  * two triangles. */
 static char *textured_scene(int side) {
     rayd_image *tex;
     rayd_image_new(side, side, &tex, NULL);
-    void *png;
-    size_t len;
-    rayd_png_encode(tex, -1, &png, &len, NULL);
-    rayd_image_free(tex);
-    char *enc = b64(png, len);
-    rayd_free(png);
+    char *enc = png_base64(tex);
     size_t cap = strlen(enc) + 1024;
     char *json = malloc(cap);
     snprintf(
@@ -129,7 +110,7 @@ static char *ply_scene(int nv, int nf) {
     for (int i = 0; i < nv; i++) n += snprintf(ply + n, cap - (size_t)n, "%d %d -4\n", i, i % 2);
     for (int i = 0; i < nf; i++)
         n += snprintf(ply + n, cap - (size_t)n, "3 %d %d %d\n", i, i + 1, i + 2);
-    char *enc = b64((const unsigned char *)ply, (size_t)n);
+    char *enc = b64_encode((const unsigned char *)ply, (size_t)n);
     snprintf(json, 2 * cap,
              "{\"objects\": [{\"type\": \"mesh\", \"source\": {\"format\": \"ply\","
              " \"base64\": \"%s\"}}]}",
@@ -201,7 +182,7 @@ static char *gltf_scene(int nv, bool object) {
              " \"nodes\": [{\"mesh\": 0}], \"meshes\": [{\"primitives\": [{\"attributes\":"
              " {\"POSITION\": 0}}]}], %s}",
              pos);
-    char *enc = b64((const unsigned char *)doc, strlen(doc));
+    char *enc = b64_encode((const unsigned char *)doc, strlen(doc));
     snprintf(json, 2 * cap,
              "{\"objects\": [{\"type\": \"%s\", \"source\": {\"format\": \"gltf\","
              " \"base64\": \"%s\"}}]}",
@@ -248,7 +229,7 @@ static char *obj_scene(int nv) {
     for (int i = 0; i < nv; i++) n += (size_t)snprintf(obj + n, cap - n, "v %d %d -4\n", i, i % 2);
     for (int i = 1; i + 2 <= nv; i++)
         n += (size_t)snprintf(obj + n, cap - n, "f %d %d %d\n", i, i + 1, i + 2);
-    char *enc = b64((const unsigned char *)obj, n);
+    char *enc = b64_encode((const unsigned char *)obj, n);
     snprintf(json, 2 * cap,
              "{\"objects\": [{\"type\": \"mesh\", \"source\": {\"format\": \"obj\","
              " \"base64\": \"%s\"}}]}",
@@ -293,12 +274,7 @@ static void test_obj_charged_before_arrays(void) {
 static char *gltf_textured_scene(int side) {
     rayd_image *tex;
     rayd_image_new(side, side, &tex, NULL);
-    void *png;
-    size_t len;
-    rayd_png_encode(tex, -1, &png, &len, NULL);
-    rayd_image_free(tex);
-    char *img = b64(png, len);
-    rayd_free(png);
+    char *img = png_base64(tex);
     char *pos = zero_positions(30);
     size_t cap = strlen(img) * 2 + strlen(pos) + 2048;
     char *doc = malloc(cap), *json = malloc(2 * cap);
@@ -311,7 +287,7 @@ static char *gltf_textured_scene(int side) {
              " \"images\": [{\"uri\": \"data:image/png;base64,%s\"}]}",
              pos, img);
     free(pos);
-    char *enc = b64((const unsigned char *)doc, strlen(doc));
+    char *enc = b64_encode((const unsigned char *)doc, strlen(doc));
     snprintf(json, 2 * cap,
              "{\"objects\": [{\"type\": \"gltf\", \"source\": {\"format\": \"gltf\","
              " \"base64\": \"%s\"}}]}",
@@ -356,7 +332,8 @@ static void test_exr_environment_charged_before_decode(void) {
     size_t len;
     CHECK(rayd_exr_encode(rgb, W, H, &exr, &len, NULL) == RAYD_OK, "encode");
     free(rgb);
-    char *enc = b64(exr, len), *cut = b64(exr, len / 2); /* its header whole, half its pixels */
+    char *enc = b64_encode(exr, len),
+         *cut = b64_encode(exr, len / 2); /* its header whole, half its pixels */
     rayd_free(exr);
     size_t cap = strlen(enc) + 256;
     char *json = malloc(cap);
