@@ -395,7 +395,7 @@ static bool shots_room_for_another(const struct cache_entry *e) {
  * would never end); else it waits for the room without spending an
  * attempt, as a render refused for room does (SM_ROOM).  Another out of
  * memory is an attempt (SM_TRY). */
-static enum shots_miss shots_room_returns(struct shots_fly *fl, struct compile_result *res) {
+static enum shots_miss shots_parse_miss(struct shots_fly *fl, struct compile_result *res) {
     struct shot *s = fl->s;
     work_lock_take();
     bool kept = s->kept != NULL;
@@ -412,7 +412,7 @@ static enum shots_miss shots_room_returns(struct shots_fly *fl, struct compile_r
 static void shots_parsed(struct compile_waiter *w, struct compile_result *res) {
     struct shots_fly *fl = (struct shots_fly *)w;
     if (res->status != RAYD_OK || !res->scene) {
-        enum shots_miss miss = res->status != RAYD_E_NOMEM ? SM_NEVER : shots_room_returns(fl, res);
+        enum shots_miss miss = res->status != RAYD_E_NOMEM ? SM_NEVER : shots_parse_miss(fl, res);
         shots_frame_end(fl, res->status ? res->status : RAYD_E_INTERNAL, &res->err, NULL, NULL,
                         res->draining, miss, !fl->sync);
         return;
