@@ -252,7 +252,7 @@ static void sweep(const struct denoise_px *in, int w, int h, const float *ref, f
                     denoise_defaults(&p);
                     p.sigma_l = sl[i], p.sigma_l_decay = dc[j], p.sigma_z = sz[k];
                     p.lum_blur = b;
-                    denoise_run(in, w, h, &p, 2, out);
+                    denoise_run(in, w, h, &p, 2, NULL, out);
                     struct score s = score(out, ref, w, h);
                     printf("sweep sigma_l %g decay %g sigma_z %g lum_blur %d: %.4f / %.3f\n", sl[i],
                            dc[j], sz[k], b, s.rmse, s.ssim);
@@ -286,7 +286,7 @@ static void timing(const struct denoise_px *in, int w, int h, float *out) {
         double t[99], c[99];
         for (int k = 0; k < reps; k++) {
             double t1 = now(), c1 = cpu_now();
-            denoise_run(in, w, h, &p, th, out);
+            denoise_run(in, w, h, &p, th, NULL, out);
             t[k] = (now() - t1) / mp;
             c[k] = (cpu_now() - c1) / mp;
         }
@@ -348,10 +348,10 @@ int main(int argc, char **argv) {
         struct score r = score(sh.raw, rf, w, h), d = {0}, t = {0}, b = {0};
         struct denoise_params p;
         denoise_defaults(&p);
-        denoise_run(sh.in, w, h, &p, 2, out);
+        denoise_run(sh.in, w, h, &p, 2, NULL, out);
         d = score(out, rf, w, h);
         baseline(&p);
-        denoise_run(sh.in, w, h, &p, 2, out);
+        denoise_run(sh.in, w, h, &p, 2, NULL, out);
         t = score(out, rf, w, h);
         bilateral(sh.in, w, h, out);
         b = score(out, rf, w, h);

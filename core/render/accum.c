@@ -106,6 +106,11 @@ enum rayd_status rayd_accum_new_denoised(const rayd_scene *s, const struct rayd_
 
 int rayd_accum_denoised(const rayd_accum *a) { return a->denoise; }
 
+void rayd_accum_watch(rayd_accum *a, const atomic_int *cancel, atomic_int_least64_t *rays_left) {
+    a->cancel = cancel;
+    a->rays_left = rays_left;
+}
+
 /* For a denoised accumulator, *tmp: a new plain one of its view, filtered
  * or not (accum_denoise.c), which the caller resolves and frees; else
  * *tmp is NULL and a is resolved as it is. */

@@ -19,6 +19,9 @@ struct rayd_accum {
     bool denoise;
     struct rayd_region view;
     int threads;
+    /* rayd_accum_watch's, for the filter: may be NULL */
+    const atomic_int *cancel;
+    atomic_int_least64_t *rays_left;
 };
 
 /* A denoised accumulator's resolve (accum_denoise.c): into v, a plain

@@ -56,13 +56,18 @@ static enum rayd_status accum_denoise_filter(const rayd_accum *a, float **out,
     float *f = malloc(px * 3 * sizeof *f);
     struct denoise_params p;
     denoise_defaults(&p);
-    bool ok = in && f;
-    for (size_t i = 0; ok && i < px; i++) accum_denoise_px(a, i, &in[i]);
-    ok = ok && denoise_run(in, a->r.w, a->r.h, &p, a->threads > 1 ? a->threads : 1, f);
+    enum rayd_status st = in && f ? RAYD_OK : RAYD_E_NOMEM;
+    for (size_t i = 0; st == RAYD_OK && i < px; i++) accum_denoise_px(a, i, &in[i]);
+    struct meter m = meter_make(a->cancel, a->rays_left);
+    if (st == RAYD_OK)
+        st = denoise_run(in, a->r.w, a->r.h, &p, a->threads > 1 ? a->threads : 1, &m, f);
     free(in);
-    if (!ok) {
+    if (st != RAYD_OK) {
         free(f);
-        return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for the denoiser");
+        return err_set(err, st, NULL, "%s",
+                       st == RAYD_E_CANCELED ? "the denoiser was canceled"
+                       : st == RAYD_E_LIMIT  ? "the denoiser's work is over the ray budget"
+                                             : "out of memory for the denoiser");
     }
     *out = f;
     return RAYD_OK;

@@ -55,6 +55,14 @@
  * radius at most, and the apron is their sum.  The image's own edges are
  * edges of both buffers alike.
  *
+ * Limits.  The filter over a 4096-pixel-square region takes seconds, so
+ * a caller's meter stops it as it stops a render: every chunk of rows
+ * (about 4096 pixels, a millisecond at most) first looks at the cancel
+ * flag, read by any thread; and after each level the calling thread counts
+ * the level's share of RAYD_DENOISE_RAYS a pixel on the meter (its ray
+ * budget), so a budget the whole filter would pass stops it at a level's
+ * end.  The bytes of a filter that is not stopped do not change.
+ *
  * Parameters were chosen by measurement (bench/denoise.c, DENOISE_CACHE
  * and DENOISE_SWEEP: 4, 16 and 64 samples of the Cornell box and of the
  * bison under the studio light, against 4096 samples of their own):
@@ -112,7 +120,9 @@ struct dn_job {
     float *lum;          /* demodulated luminance (stage 1), then each level's guide luminance */
     float *src[DN_WORK], *dst[DN_WORK]; /* the level's input and output */
     float *out;
-    atomic_int oom; /* a level's row buffers could not be allocated */
+    atomic_int oom;           /* a level's row buffers could not be allocated */
+    const atomic_int *cancel; /* the meter's flag, or NULL: looked at before every chunk */
+    void (*stage)(void *ctx, size_t lo, size_t hi); /* dn_stage's, run chunk by chunk */
 };
 
 static inline float dn_lum(float r, float g, float b) {
@@ -435,36 +445,58 @@ static void dn_swap(struct dn_job *j) {
     }
 }
 
-bool denoise_run(const struct denoise_px *in, int w, int h, const struct denoise_params *p,
-                 int threads, float *out) {
+/* A chunk of rows of j's stage, unless the meter's flag is up. */
+static void dn_chunk(void *ctx, size_t lo, size_t hi) {
+    struct dn_job *j = ctx;
+    if (j->cancel && atomic_load_explicit(j->cancel, memory_order_relaxed)) return;
+    j->stage(ctx, lo, hi);
+}
+
+/* Runs stage over j's rows on threads, then counts work (rays' worth) on
+ * m: false when m says stop (a chunk skipped for the flag is seen here). */
+static bool dn_stage(struct dn_job *j, int threads, void (*stage)(void *, size_t, size_t),
+                     struct meter *m, uint64_t work) {
+    j->stage = stage;
+    parallel_for((size_t)j->h, threads, (size_t)(4096 / j->w + 1), dn_chunk, j);
+    if (!m) return true;
+    m->work += work;
+    return meter_check(m);
+}
+
+enum rayd_status denoise_run(const struct denoise_px *in, int w, int h,
+                             const struct denoise_params *p, int threads, struct meter *m,
+                             float *out) {
     size_t n = (size_t)w * (size_t)h;
-    struct dn_job j = {.in = in, .w = w, .h = h, .p = p, .out = out};
+    struct dn_job j = {
+        .in = in, .w = w, .h = h, .p = p, .out = out, .cancel = m ? m->cancel : NULL};
     atomic_init(&j.oom, 0);
     /* one block: the guides, the luminance, the two stages' planes */
     float *mem = malloc(n * (DN_GUIDES + 1 + 2 * DN_WORK) * sizeof *mem);
-    if (!mem) return false;
+    if (!mem) return RAYD_E_NOMEM;
     for (int k = 0; k < DN_GUIDES; k++) j.g[k] = mem + n * (size_t)k;
     j.lum = mem + n * DN_GUIDES;
     for (int k = 0; k < DN_WORK; k++) {
         j.src[k] = mem + n * (size_t)(DN_GUIDES + 1 + k);
         j.dst[k] = mem + n * (size_t)(DN_GUIDES + 1 + DN_WORK + k);
     }
-    size_t rows = (size_t)h, chunk = (size_t)(4096 / w + 1);
-    parallel_for(rows, threads, chunk, dn_prepare, &j);
-    parallel_for(rows, threads, chunk, dn_firefly, &j);
-    dn_swap(&j);
     int levels = p->levels < 0                    ? 0
                  : p->levels > DENOISE_LEVELS_MAX ? DENOISE_LEVELS_MAX
                                                   : p->levels;
-    for (int i = 0; i < levels; i++) {
+    /* the levels are the work (21 taps a pixel each): RAYD_DENOISE_RAYS a
+     * pixel over the whole filter, shared among them */
+    uint64_t level_work = (uint64_t)n * RAYD_DENOISE_RAYS / (uint64_t)(levels > 0 ? levels : 1);
+    bool go = dn_stage(&j, threads, dn_prepare, m, 0) && dn_stage(&j, threads, dn_firefly, m, 0);
+    dn_swap(&j);
+    for (int i = 0; go && i < levels; i++) {
         j.step = 1 << i;
         j.sigma_l = p->sigma_l * powf(p->sigma_l_decay, (float)i);
         j.blur_lum = p->lum_blur;
-        parallel_for(rows, threads, chunk, dn_guide_lum, &j);
-        parallel_for(rows, threads, chunk, dn_level, &j);
+        go = dn_stage(&j, threads, dn_guide_lum, m, 0) &&
+             dn_stage(&j, threads, dn_level, m, level_work);
         dn_swap(&j);
     }
-    parallel_for(rows, threads, chunk, dn_finish, &j);
+    go = go && dn_stage(&j, threads, dn_finish, m, 0);
     free(mem);
-    return !atomic_load(&j.oom);
+    if (!go) return m->stop;
+    return atomic_load(&j.oom) ? RAYD_E_NOMEM : RAYD_OK;
 }

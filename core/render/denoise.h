@@ -4,6 +4,8 @@
 
 #include <stdbool.h>
 
+#include "base/meter.h"
+
 /* What the filter knows of one pixel: its noisy linear radiance, its AOVs
  * (render/aov.c: albedo, normal, depth, coverage) and the variance of its
  * mean luminance estimated from its samples (negative: unknown, as for a
@@ -48,8 +50,13 @@ void denoise_defaults(struct denoise_params *p);
  * of the inputs within DENOISE_APRON of it alone (pixels outside the
  * buffer are not read), computed in one fixed order: the bytes do not
  * depend on the thread count, and a window's inner pixels equal those of
- * the larger buffer it was cut from.  false: out of memory. */
-bool denoise_run(const struct denoise_px *in, int w, int h, const struct denoise_params *p,
-                 int threads, float *out);
+ * the larger buffer it was cut from.  m (may be NULL) stops it: its
+ * cancel flag is looked at before every few thousand pixels, and each
+ * level counts its share of RAYD_DENOISE_RAYS a pixel on it as work.
+ * RAYD_OK; RAYD_E_NOMEM; or the meter's stop (RAYD_E_CANCELED,
+ * RAYD_E_LIMIT), out then unfinished. */
+enum rayd_status denoise_run(const struct denoise_px *in, int w, int h,
+                             const struct denoise_params *p, int threads, struct meter *m,
+                             float *out);
 
 #endif

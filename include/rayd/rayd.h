@@ -481,10 +481,22 @@ enum rayd_status rayd_accum_aov_image(const rayd_accum *acc, const rayd_scene *s
  * region is the crop of the denoised whole frame.  It takes passes and
  * sample ranges; it is neither merged nor added to (RAYD_E_ARG). */
 #define RAYD_DENOISE_APRON 68 /* the apron's pixels on each side of the region */
+/* The filter's work on a pixel of the apron'd region, in rays' worth: what
+ * a resolve takes from the ray budget rayd_accum_watch gives it (1.76 us a
+ * pixel on one core, about 18 rays at 10^7 a second, rounded up). */
+#define RAYD_DENOISE_RAYS 20
 enum rayd_status rayd_accum_new_denoised(const rayd_scene *scene, const struct rayd_region *region,
                                          rayd_accum **out, struct rayd_error *err);
 /* Whether acc was made by rayd_accum_new_denoised. */
 int rayd_accum_denoised(const rayd_accum *acc);
+/* Limits for the denoised acc's resolves, as rayd_render_opts gives a
+ * render: the filter looks at cancel (may be NULL) every few thousand
+ * pixels, and takes RAYD_DENOISE_RAYS a pixel of the apron'd region from
+ * rays_left (may be NULL) level by level; a resolve stopped by either
+ * ends RAYD_E_CANCELED or RAYD_E_LIMIT, within milliseconds, whatever the
+ * region's size.  Both must outlive acc's resolves.  Without it a resolve
+ * is never stopped. */
+void rayd_accum_watch(rayd_accum *acc, const atomic_int *cancel, atomic_int_least64_t *rays_left);
 /* A new plain accumulator (*out; free with rayd_accum_free) holding the
  * raw sums of a denoised acc's region, unfiltered, with its AOV sums: its
  * resolves give the image a plain render of the same samples gives (a

@@ -85,11 +85,11 @@ static int cost_samples(const struct work_target *what, int scene_samples) {
     return what->format == WORK_SUMS ? what->k1 - what->k0 : scene_samples;
 }
 
-/* The denoiser's work on a pixel, in estimated rays: its filter took 1.76
- * us a pixel on one worker (rayd-render --denoise of an empty 2048x2048
- * scene: 7.4 s of CPU, against 0.08 s without), 18 rays at the starting
- * rate of 10^7 a second; rounded up, as the estimate is an upper bound. */
-#define COST_DENOISE_RAYS 20.0
+/* The denoiser's work on a pixel is the core's RAYD_DENOISE_RAYS, what a
+ * filter takes from the task's ray budget as it runs (rayd_accum_watch):
+ * its filter took 1.76 us a pixel on one worker (rayd-render --denoise of
+ * an empty 2048x2048 scene: 7.4 s of CPU, against 0.08 s without), 18
+ * rays at the starting rate of 10^7 a second, rounded up. */
 
 /* The length the tiles of side `tile` over [at, at + len) cover with the
  * filter's apron on each side, clipped to [0, whole). */
@@ -110,11 +110,15 @@ double cost_rays(const rayd_scene *scene, const struct work_target *what) {
     double per_pixel = cost_samples(what, info.samples) * info.rays_per_sample;
     if (!what->denoise) return (double)what->reg.w * what->reg.h * per_pixel;
     /* A denoised render: every tile renders its apron too, and the filter
-     * runs over tile and apron once a pass (resolve.c, passes.c). */
+     * runs over tile and apron once a pass (resolve.c, passes.c), twice
+     * when the task keeps its floats beside its 8-bit image (a PNG job's
+     * EXR: each resolve filters). */
     int tile = cost_task_tile(scene, what);
     double pixels = cost_apron_span(what->reg.x, what->reg.w, tile, info.width) *
                     cost_apron_span(what->reg.y, what->reg.h, tile, info.height);
-    return pixels * (per_pixel + COST_DENOISE_RAYS * (what->passes > 1 ? what->passes : 1));
+    bool both = task_format(what->format)->store == TASK_STORE_IMAGE && what->keep_exr;
+    double runs = (what->passes > 1 ? what->passes : 1) * (both ? 2 : 1);
+    return pixels * (per_pixel + RAYD_DENOISE_RAYS * runs);
 }
 
 /* The side of a square tile whose estimated rays stay under the tile

@@ -177,6 +177,8 @@ enum rayd_status passes_tile(struct passes *p, const rayd_scene *scene, int tile
     if (!p->acc[tile]) { /* its first pass: only this worker holds the tile */
         enum rayd_status st = passes_accum(scene, &p->tiles[tile], dst, &p->acc[tile], err);
         if (st != RAYD_OK) return st;
+        /* the task's flag and budget: they live as long as its tiles */
+        rayd_accum_watch(p->acc[tile], cancel, rays_left);
     }
     rayd_accum *acc = p->acc[tile];
     struct rayd_region r = rayd_accum_region(acc);

@@ -84,6 +84,7 @@ enum rayd_status resolve_render(const rayd_scene *scene, const struct rayd_regio
         rayd_accum_free(acc);
         return st;
     }
+    rayd_accum_watch(acc, cancel, rays_left); /* the filter stops as the render does */
     struct rayd_scene_info info;
     rayd_scene_info(scene, &info);
     struct rayd_render_stats stats = {0};

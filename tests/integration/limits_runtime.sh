@@ -6,7 +6,8 @@
 # and answers the synchronous client; a second signal ends it at once.
 #
 # A CSG tree's point tests count against --max-work as they go, beside the
-# rays (an 8x8 render of 64 rays is stopped by the million tests they do).
+# rays (an 8x8 render of 64 rays is stopped by the million tests they do),
+# and so does the denoiser's filter (20 rays' worth a pixel).
 #
 # The hostile scenes are one pixel each, so a render is a single tile that
 # the old per-row cancel check never looked inside:
@@ -179,6 +180,33 @@ check csg_work_message "$(head -c 400 "$T/body")" limit_answer "$T/body" "20000 
 curl -s -m 30 -X POST -o "$T/gate.json" "$URL/v1/test/gate?work=open" >/dev/null
 code=$(post_json /v1/render "$T/small.json")
 check csg_then_small_renders "status $code" [ "$code" = 200 ]
+stop_rayd TERM
+
+# --- the denoiser's work counts, not only the rays -----------------------------------
+# A denoised 256x256 render of an empty scene is one tile (the denoiser's least) of 65,536
+# camera rays, and its filter is RAYD_DENOISE_RAYS (20) rays' worth a pixel: 1.3 million.
+# With the run-time budget at 200,000 (the test gate's work knob alone: the estimate, which
+# prices the filter, would refuse it at the door) the rays fit and the filter does not, so
+# the render is stopped at the filter's first level; with no budget it renders.
+python3 - "$T" <<'PY'
+import json, sys
+s = {"render": {"width": 256, "height": 256, "samples": 1},
+     "camera": {"position": [0, 0, 10], "look_at": [0, 0, 0]}, "objects": []}
+json.dump(s, open(sys.argv[1] + "/empty.json", "w"))
+PY
+start_rayd --threads 1 --max-render-seconds 0 --test-gate open
+curl -s -m 30 -X POST -o "$T/gate.json" "$URL/v1/test/gate?work=200000" >/dev/null
+code=$(post_json '/v1/render?denoise=1' "$T/empty.json")
+check denoise_work_stops_render "status $code" \
+    limit_answer "$T/body" "200000 rays (--max-work)"
+code=$(post_json '/v1/render?denoise=1&format=exr' "$T/empty.json")
+check denoise_work_stops_exr "status $code" \
+    limit_answer "$T/body" "200000 rays (--max-work)"
+code=$(post_json '/v1/render' "$T/empty.json")
+check undenoised_fits_budget "status $code" [ "$code" = 200 ]
+curl -s -m 30 -X POST -o "$T/gate.json" "$URL/v1/test/gate?work=open" >/dev/null
+code=$(post_json '/v1/render?denoise=1' "$T/empty.json")
+check denoise_renders_unbudgeted "status $code" [ "$code" = 200 ]
 stop_rayd TERM
 
 # --- --max-render-seconds: one ray through 20,000 instances is stopped -----------------

@@ -2,10 +2,13 @@
  * synthetic images with known answers, its determinism (threads, windows
  * cut with the apron), and the denoised accumulator (accum_denoise.c):
  * regions equal the crop of the frame, the squared-luminance sums stay
- * exact over merged ranges, the scene keys and their errors. */
+ * exact over merged ranges, the scene keys and their errors; a resolve's
+ * filter stopped by its cancel flag and ray budget (rayd_accum_watch). */
+#include <pthread.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "check.h"
 #include "render/accum.h"
@@ -40,7 +43,7 @@ static float *run(const struct denoise_px *in, int w, int h, int threads) {
     struct denoise_params p;
     denoise_defaults(&p);
     float *out = malloc((size_t)w * (size_t)h * 3 * sizeof *out);
-    if (out && !denoise_run(in, w, h, &p, threads, out)) {
+    if (out && denoise_run(in, w, h, &p, threads, NULL, out) != RAYD_OK) {
         free(out);
         return NULL;
     }
@@ -449,6 +452,79 @@ static void test_clamp(void) {
     rayd_scene_free(s), rayd_scene_free(c);
 }
 
+/* The box's denoised frame (6 samples) resolved with acc watched by cancel
+ * and a budget of left rays (-2: none); its image in *img when it resolves. */
+static enum rayd_status watched(const rayd_scene *s, atomic_int *cancel, long left,
+                                rayd_image **img) {
+    rayd_accum *a = NULL;
+    atomic_int_least64_t budget;
+    atomic_init(&budget, left);
+    struct rayd_error err = {0};
+    *img = NULL;
+    enum rayd_status st = rayd_accum_new_denoised(s, NULL, &a, &err);
+    if (st == RAYD_OK) st = rayd_render_pass(s, NULL, a, 0, 6, &err);
+    if (st == RAYD_OK) {
+        rayd_accum_watch(a, cancel, left == -2 ? NULL : &budget);
+        st = rayd_accum_image(a, img, &err);
+    }
+    rayd_accum_free(a);
+    return st;
+}
+
+static void *cancel_soon(void *flag) {
+    nanosleep(&(struct timespec){0, 20 * 1000 * 1000}, NULL);
+    atomic_store((atomic_int *)flag, 1);
+    return NULL;
+}
+
+/* A watched resolve: its filter takes exactly RAYD_DENOISE_RAYS a pixel
+ * from the budget (one ray fewer stops it, RAYD_E_LIMIT), stops at once
+ * for a raised flag and within a chunk of rows for one raised while it
+ * runs (RAYD_E_CANCELED), and gives the unwatched bytes when not stopped. */
+static void test_accum_watch(void) {
+    rayd_scene *s = scene_from(box_scene);
+    if (!s) return;
+    atomic_int flag;
+    atomic_init(&flag, 0);
+    long work = 96L * 80 * RAYD_DENOISE_RAYS;
+    rayd_image *plain = denoised(s, (struct rayd_region){0, 0, 0, 0}, 1), *img = NULL;
+    enum rayd_status st = watched(s, &flag, work, &img);
+    CHECK(st == RAYD_OK && plain && img &&
+              !memcmp(rayd_image_pixels_const(plain), rayd_image_pixels_const(img), 96 * 80 * 3),
+          "a budget of exactly the filter's work: status %d or other bytes", st);
+    rayd_image_free(img);
+    st = watched(s, &flag, work - 1, &img);
+    CHECK(st == RAYD_E_LIMIT && !img, "one ray short of the filter's work: status %d", st);
+    atomic_store(&flag, 1);
+    st = watched(s, &flag, -2, &img);
+    CHECK(st == RAYD_E_CANCELED && !img, "the flag raised before: status %d", st);
+    rayd_image_free(plain);
+    rayd_scene_free(s);
+    /* 768x768, one sample of nothing: about a second of filtering on one
+     * thread, canceled 20 ms in */
+    s = scene_from("{\"render\": {\"width\": 768, \"height\": 768, \"samples\": 1},"
+                   " \"objects\": []}");
+    if (!s) return;
+    rayd_accum *a = NULL;
+    atomic_store(&flag, 0);
+    pthread_t th;
+    st = rayd_accum_new_denoised(s, NULL, &a, NULL);
+    if (st == RAYD_OK) st = rayd_render_pass(s, NULL, a, 0, 1, NULL);
+    rayd_accum_watch(a, &flag, NULL);
+    bool started = st == RAYD_OK && pthread_create(&th, NULL, cancel_soon, &flag) == 0;
+    struct timespec t0, t1;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    if (started) st = rayd_accum_image(a, &img, NULL);
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    if (started) pthread_join(th, NULL);
+    CHECK(started && st == RAYD_E_CANCELED && !img,
+          "canceled while it filtered: status %d after %.3f s", st,
+          (double)(t1.tv_sec - t0.tv_sec) + (t1.tv_nsec - t0.tv_nsec) * 1e-9);
+    rayd_image_free(img);
+    rayd_accum_free(a);
+    rayd_scene_free(s);
+}
+
 int main(void) {
     RUN(test_constant);
     RUN(test_flat_noise);
@@ -464,5 +540,6 @@ int main(void) {
     RUN(test_moment_exact);
     RUN(test_scene_keys);
     RUN(test_clamp);
+    RUN(test_accum_watch);
     CHECK_EXIT();
 }
