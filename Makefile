@@ -530,12 +530,13 @@ readme-images: $(BUILD)/rayd-render | $(BUILD)/.test-deps-ok
 	bash tools/readme_images.sh $(BUILD)
 
 # make run PORT=9090 BIND=0.0.0.0 THREADS=4 DATA=DIR: where it listens, how
-# many workers (default: one per core), where its jobs are kept; rayd names
-# a bad value itself.
+# many workers (default: one per core), where its jobs are kept (one rayd a
+# folder: another port keeps its own, build/data-PORT, so a second make run
+# beside the first needs only PORT); rayd names a bad value itself.
 PORT ?= 8080
 BIND ?= 127.0.0.1
 THREADS ?=
-DATA ?= $(BUILD)/data
+DATA ?= $(BUILD)/data$(if $(filter-out 8080,$(PORT)),-$(PORT))
 run: all
 	$(BUILD)/rayd --bind $(BIND) --port $(PORT) $(if $(THREADS),--threads $(THREADS)) \
 	  --data-dir $(DATA)

@@ -639,16 +639,35 @@ static void store_sweep(void) {
     closedir(d);
 }
 
+/* The lock is held by another rayd: say which (the PID it wrote in the
+ * lock file) and what to do. */
+static void store_locked_out(const char *dir, int fd) {
+    char pid[24] = "";
+    ssize_t n = pread(fd, pid, sizeof pid - 1, 0);
+    pid[n > 0 ? n : 0] = 0;
+    pid[strspn(pid, "0123456789")] = 0;
+    fprintf(stderr,
+            "rayd: error: --data-dir %s: another rayd%s%s%s uses it; give this one a folder of "
+            "its own\n",
+            dir, *pid ? " (PID " : "", pid, *pid ? ")" : "");
+}
+
 int store_open(const char *dir) {
     char path[4200];
     store_dir = strdup(dir);
     snprintf(path, sizeof path, "%s/lock", dir);
     store_lock_fd = open(path, O_RDWR | O_CREAT | O_CLOEXEC, 0600);
     if (!store_dir || store_lock_fd < 0 || flock(store_lock_fd, LOCK_EX | LOCK_NB) != 0) {
-        fprintf(stderr, "rayd: error: --data-dir %s: %s\n", dir,
-                errno == EWOULDBLOCK ? "another rayd uses it" : strerror(errno));
+        if (store_lock_fd >= 0 && errno == EWOULDBLOCK)
+            store_locked_out(dir, store_lock_fd);
+        else
+            fprintf(stderr, "rayd: error: --data-dir %s: %s\n", dir, strerror(errno));
         return -1;
     }
+    char pid[24];
+    int len = snprintf(pid, sizeof pid, "%ld\n", (long)getpid());
+    if (ftruncate(store_lock_fd, 0) != 0 || pwrite(store_lock_fd, pid, (size_t)len, 0) != len)
+        log_info("--data-dir: could not write the PID into %s: %s", path, strerror(errno));
     snprintf(path, sizeof path, "%s/results", dir);
     if (mkdir(path, 0700) != 0 && errno != EEXIST) {
         fprintf(stderr, "rayd: error: --data-dir %s: cannot make results/: %s\n", dir,

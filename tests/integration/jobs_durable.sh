@@ -48,7 +48,7 @@ check max_disk_bad "$(cat "$T/bad.err")" bad_start 2 "--max-disk takes bytes" \
 # ---- the kill -9 matrix ------------------------------------------------------------
 start_rayd --threads 1 --test-gate 0 --data-dir "$D"
 check datadir_made "no $D/jobs.db after a start with it" test -f "$D/jobs.db"
-check datadir_second_rayd "$(cat "$T/bad.err")" bad_start 1 "another rayd uses it" --data-dir "$D"
+check datadir_second_rayd "$(cat "$T/bad.err")" bad_start 1 "another rayd (PID $RAYD_PID) uses it" --data-dir "$D"
 
 # distinct bytes for each scene (a tag of spaces per name), so no two share
 # a task; 32x32 is one tile, 96x96 (run) several
