@@ -956,6 +956,19 @@ try {
     return (!isOneToOne(back) && pressed === "false") || `key 1 left ${back.w} x ${back.h}, aria-pressed ${pressed}`;
   });
 
+  // --- the header is one row at the screenshot's 1440 px ------------------------------------------
+  // Every control of the top bar sits on one line (the Token field used to
+  // wrap onto a second row there, pushing the panes down).
+  await check("header_one_row_1440", async () => {
+    const rows = await page.evaluate(() => {
+      const tops = [...document.querySelectorAll(".top > :not(.spacer):not([hidden])")]
+        .filter((e) => e.getBoundingClientRect().height > 0)
+        .map((e) => { const r = e.getBoundingClientRect(); return Math.round(r.top + r.height / 2); });
+      return { spread: Math.max(...tops) - Math.min(...tops), n: tops.length };
+    });
+    return (rows.n >= 8 && rows.spread <= 4) || `the header's ${rows.n} controls span ${rows.spread} px vertically: more than one row`;
+  });
+
   // --- a narrow, short window: the panes stack and the page scrolls to the image ---------------
   // The image pane keeps its whole height (canvas, progress bar, status
   // line with its buttons) and main scrolls to it; it used to be squeezed
