@@ -137,6 +137,13 @@ enum rayd_status rayd_accum_raw(const rayd_accum *a, rayd_accum **out, struct ra
     return accum_plain(a, false, out, err);
 }
 
+enum rayd_status rayd_accum_filtered(const rayd_accum *a, rayd_accum **out,
+                                     struct rayd_error *err) {
+    *out = NULL;
+    if (!a->denoise) return err_set(err, RAYD_E_ARG, NULL, "the accumulator is not a denoised one");
+    return accum_plain(a, true, out, err);
+}
+
 /* Bytes a pixel of a denoised accumulator's sums (beauty and AOVs), and
  * of its resolve's peak: the filter's input (denoise_px) and output, the
  * filter's own buffers (denoise.c: unit normals, luminance, two working

@@ -503,6 +503,13 @@ void rayd_accum_watch(rayd_accum *acc, const atomic_int *cancel, atomic_int_leas
  * progressive pass shown raw beside the denoised one).  RAYD_E_ARG for an
  * accumulator not made by rayd_accum_new_denoised. */
 enum rayd_status rayd_accum_raw(const rayd_accum *acc, rayd_accum **out, struct rayd_error *err);
+/* Likewise, the region's sums filtered (the denoised radiance times the
+ * samples) with its raw AOV sums: every resolve of *out gives the bytes
+ * the same resolve of acc gives, for one run of the filter however many
+ * resolves follow (an 8-bit image and its floats).  Watched as acc's
+ * resolves are (rayd_accum_watch). */
+enum rayd_status rayd_accum_filtered(const rayd_accum *acc, rayd_accum **out,
+                                     struct rayd_error *err);
 /* The memory a denoised accumulator of region (inside scene's image) holds
  * for its sums, the filter's apron included (*held), and what a resolve of
  * it allocates on top at its peak (*peak: the filter's buffers over the

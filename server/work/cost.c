@@ -110,15 +110,12 @@ double cost_rays(const rayd_scene *scene, const struct work_target *what) {
     double per_pixel = cost_samples(what, info.samples) * info.rays_per_sample;
     if (!what->denoise) return (double)what->reg.w * what->reg.h * per_pixel;
     /* A denoised render: every tile renders its apron too, and the filter
-     * runs over tile and apron once a pass (resolve.c, passes.c), twice
-     * when the task keeps its floats beside its 8-bit image (a PNG job's
-     * EXR: each resolve filters). */
+     * runs over tile and apron once a pass (resolve.c, passes.c; a PNG
+     * job keeping its EXR resolves both from one run). */
     int tile = cost_task_tile(scene, what);
     double pixels = cost_apron_span(what->reg.x, what->reg.w, tile, info.width) *
                     cost_apron_span(what->reg.y, what->reg.h, tile, info.height);
-    bool both = task_format(what->format)->store == TASK_STORE_IMAGE && what->keep_exr;
-    double runs = (what->passes > 1 ? what->passes : 1) * (both ? 2 : 1);
-    return pixels * (per_pixel + RAYD_DENOISE_RAYS * runs);
+    return pixels * (per_pixel + RAYD_DENOISE_RAYS * (what->passes > 1 ? what->passes : 1));
 }
 
 /* The side of a square tile whose estimated rays stay under the tile

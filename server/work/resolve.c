@@ -60,6 +60,16 @@ static enum rayd_status resolve_aov(const rayd_accum *acc, const struct resolve_
 
 enum rayd_status resolve_into(const rayd_accum *acc, const struct resolve_dst *d,
                               struct rayd_error *err) {
+    bool shows_aov = d->aov_mask && !d->aov;
+    if (rayd_accum_denoised(acc) && d->img && !shows_aov && d->lin) {
+        /* the 8-bit image and the floats both resolve through the filter:
+         * filter once, resolve both from that (the same bytes) */
+        rayd_accum *filtered = NULL;
+        enum rayd_status st = rayd_accum_filtered(acc, &filtered, err);
+        if (st == RAYD_OK) st = resolve_into(filtered, d, err);
+        rayd_accum_free(filtered);
+        return st;
+    }
     rayd_image *img = NULL;
     enum rayd_status st = RAYD_OK;
     if (d->img)

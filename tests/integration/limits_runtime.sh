@@ -204,6 +204,15 @@ check denoise_work_stops_exr "status $code" \
     limit_answer "$T/body" "200000 rays (--max-work)"
 code=$(post_json '/v1/render' "$T/empty.json")
 check undenoised_fits_budget "status $code" [ "$code" = 200 ]
+# a job keeping its EXR beside its PNG filters once for both: 65,536 rays and 1.3 million
+# of filter fit 2,000,000; filtering for each (2.7 million) would not
+curl -s -m 30 -X POST -o "$T/gate.json" "$URL/v1/test/gate?work=2000000" >/dev/null
+code=$(post_json '/v1/jobs?denoise=1&format=exr' "$T/empty.json")
+job=$(jfield "$T/body" id)
+wait_until 60 bash -c "curl -s -m 5 '$URL/v1/jobs/$job' | grep -q '\"state\":\"\(succeeded\|failed\)\"'"
+req GET "/v1/jobs/$job" >/dev/null
+check denoise_png_and_exr_filter_once "POST $code, job $(head -c 300 "$T/body")" \
+    grep -q '"state":"succeeded"' "$T/body"
 curl -s -m 30 -X POST -o "$T/gate.json" "$URL/v1/test/gate?work=open" >/dev/null
 code=$(post_json '/v1/render?denoise=1' "$T/empty.json")
 check denoise_renders_unbudgeted "status $code" [ "$code" = 200 ]

@@ -452,6 +452,35 @@ static void test_clamp(void) {
     rayd_scene_free(s), rayd_scene_free(c);
 }
 
+/* rayd_accum_filtered: its resolves give the denoised acc's very bytes and
+ * floats; a plain accumulator is refused. */
+static void test_accum_filtered(void) {
+    rayd_scene *s = scene_from(box_scene);
+    if (!s) return;
+    struct rayd_region r = {37, 21, 30, 25};
+    rayd_accum *a = NULL, *f = NULL, *plain = NULL;
+    rayd_image *ai = NULL, *fi = NULL;
+    float *al = NULL, *fl = NULL;
+    struct rayd_error err = {0};
+    rayd_accum_new_denoised(s, &r, &a, NULL);
+    rayd_render_pass(s, NULL, a, 0, 6, NULL);
+    CHECK(rayd_accum_filtered(a, &f, &err) == RAYD_OK && !rayd_accum_denoised(f), "%s",
+          err.message);
+    rayd_accum_image(a, &ai, NULL), rayd_accum_image(f, &fi, NULL);
+    rayd_accum_linear(a, &al, NULL), rayd_accum_linear(f, &fl, NULL);
+    CHECK(ai && fi && rayd_image_width(fi) == 30 &&
+              !memcmp(rayd_image_pixels_const(ai), rayd_image_pixels_const(fi), 30 * 25 * 3),
+          "the filtered accumulator's image differs");
+    CHECK(al && fl && !memcmp(al, fl, 30 * 25 * 3 * sizeof *al), "its floats differ");
+    rayd_accum_new(s, &r, &plain, NULL);
+    rayd_accum *none = a;
+    CHECK(rayd_accum_filtered(plain, &none, &err) == RAYD_E_ARG && !none, "a plain one taken");
+    rayd_free(al), rayd_free(fl);
+    rayd_image_free(ai), rayd_image_free(fi);
+    rayd_accum_free(a), rayd_accum_free(f), rayd_accum_free(plain);
+    rayd_scene_free(s);
+}
+
 /* The box's denoised frame (6 samples) resolved with acc watched by cancel
  * and a budget of left rays (-2: none); its image in *img when it resolves. */
 static enum rayd_status watched(const rayd_scene *s, atomic_int *cancel, long left,
@@ -541,5 +570,6 @@ int main(void) {
     RUN(test_scene_keys);
     RUN(test_clamp);
     RUN(test_accum_watch);
+    RUN(test_accum_filtered);
     CHECK_EXIT();
 }
