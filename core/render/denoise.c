@@ -58,10 +58,12 @@
  * Limits.  The filter over a 4096-pixel-square region takes seconds, so
  * a caller's meter stops it as it stops a render: every chunk of rows
  * (about 4096 pixels, a millisecond at most) first looks at the cancel
- * flag, read by any thread; and after each level the calling thread counts
- * the level's share of RAYD_DENOISE_RAYS a pixel on the meter (its ray
- * budget), so a budget the whole filter would pass stops it at a level's
- * end.  The bytes of a filter that is not stopped do not change.
+ * flag and whether the ray budget is spent, read by any thread; and after
+ * each level the calling thread takes the level's share of
+ * RAYD_DENOISE_RAYS a pixel from the budget (the meter, which only it
+ * touches), so a budget the whole filter would pass stops it at a level's
+ * end, and one spent elsewhere within a chunk.  The bytes of a filter
+ * that is not stopped do not change.
  *
  * Parameters were chosen by measurement (bench/denoise.c, DENOISE_CACHE
  * and DENOISE_SWEEP: 4, 16 and 64 samples of the Cornell box and of the
@@ -120,8 +122,10 @@ struct dn_job {
     float *lum;          /* demodulated luminance (stage 1), then each level's guide luminance */
     float *src[DN_WORK], *dst[DN_WORK]; /* the level's input and output */
     float *out;
-    atomic_int oom;           /* a level's row buffers could not be allocated */
-    const atomic_int *cancel; /* the meter's flag, or NULL: looked at before every chunk */
+    atomic_int oom;                   /* a level's row buffers could not be allocated */
+    const atomic_int *cancel;         /* the meter's flag, or NULL: looked at before every chunk */
+    const atomic_int_least64_t *left; /* the meter's budget, or NULL: likewise */
+    atomic_int skipped;               /* a chunk was skipped for either */
     void (*stage)(void *ctx, size_t lo, size_t hi); /* dn_stage's, run chunk by chunk */
 };
 
@@ -445,31 +449,47 @@ static void dn_swap(struct dn_job *j) {
     }
 }
 
-/* A chunk of rows of j's stage, unless the meter's flag is up. */
+/* A chunk of rows of j's stage, unless the meter's flag is up or its
+ * budget spent (by this filter's levels or the render's other tiles). */
 static void dn_chunk(void *ctx, size_t lo, size_t hi) {
     struct dn_job *j = ctx;
-    if (j->cancel && atomic_load_explicit(j->cancel, memory_order_relaxed)) return;
+    if ((j->cancel && atomic_load_explicit(j->cancel, memory_order_relaxed)) ||
+        (j->left && atomic_load_explicit(j->left, memory_order_relaxed) < 0)) {
+        atomic_store_explicit(&j->skipped, 1, memory_order_relaxed);
+        return;
+    }
     j->stage(ctx, lo, hi);
 }
 
 /* Runs stage over j's rows on threads, then counts work (rays' worth) on
- * m: false when m says stop (a chunk skipped for the flag is seen here). */
+ * m: false when m says stop, or a chunk was skipped (then m stops too). */
 static bool dn_stage(struct dn_job *j, int threads, void (*stage)(void *, size_t, size_t),
                      struct meter *m, uint64_t work) {
     j->stage = stage;
     parallel_for((size_t)j->h, threads, (size_t)(4096 / j->w + 1), dn_chunk, j);
     if (!m) return true;
     m->work += work;
-    return meter_check(m);
+    if (!meter_check(m)) return false;
+    if (!atomic_load_explicit(&j->skipped, memory_order_relaxed)) return true;
+    bool canceled = j->cancel && atomic_load_explicit(j->cancel, memory_order_relaxed);
+    m->stop = canceled ? RAYD_E_CANCELED : RAYD_E_LIMIT; /* the budget, spent elsewhere */
+    m->next = 0;
+    return false;
 }
 
 enum rayd_status denoise_run(const struct denoise_px *in, int w, int h,
                              const struct denoise_params *p, int threads, struct meter *m,
                              float *out) {
     size_t n = (size_t)w * (size_t)h;
-    struct dn_job j = {
-        .in = in, .w = w, .h = h, .p = p, .out = out, .cancel = m ? m->cancel : NULL};
+    struct dn_job j = {.in = in,
+                       .w = w,
+                       .h = h,
+                       .p = p,
+                       .out = out,
+                       .cancel = m ? m->cancel : NULL,
+                       .left = m ? m->left : NULL};
     atomic_init(&j.oom, 0);
+    atomic_init(&j.skipped, 0);
     /* one block: the guides, the luminance, the two stages' planes */
     float *mem = malloc(n * (DN_GUIDES + 1 + 2 * DN_WORK) * sizeof *mem);
     if (!mem) return RAYD_E_NOMEM;

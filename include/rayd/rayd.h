@@ -490,12 +490,12 @@ enum rayd_status rayd_accum_new_denoised(const rayd_scene *scene, const struct r
 /* Whether acc was made by rayd_accum_new_denoised. */
 int rayd_accum_denoised(const rayd_accum *acc);
 /* Limits for the denoised acc's resolves, as rayd_render_opts gives a
- * render: the filter looks at cancel (may be NULL) every few thousand
- * pixels, and takes RAYD_DENOISE_RAYS a pixel of the apron'd region from
- * rays_left (may be NULL) level by level; a resolve stopped by either
- * ends RAYD_E_CANCELED or RAYD_E_LIMIT, within milliseconds, whatever the
- * region's size.  Both must outlive acc's resolves.  Without it a resolve
- * is never stopped. */
+ * render: the filter looks at cancel (may be NULL) and at whether
+ * rays_left (may be NULL) is spent every few thousand pixels, and takes
+ * RAYD_DENOISE_RAYS a pixel of the apron'd region from rays_left at the
+ * end of each of its levels (a fifth each); a resolve stopped ends
+ * RAYD_E_CANCELED or RAYD_E_LIMIT.  Both must outlive acc's resolves.
+ * Without it a resolve is never stopped. */
 void rayd_accum_watch(rayd_accum *acc, const atomic_int *cancel, atomic_int_least64_t *rays_left);
 /* A new plain accumulator (*out; free with rayd_accum_free) holding the
  * raw sums of a denoised acc's region, unfiltered, with its AOV sums: its

@@ -524,6 +524,8 @@ static void test_accum_watch(void) {
     rayd_image_free(img);
     st = watched(s, &flag, work - 1, &img);
     CHECK(st == RAYD_E_LIMIT && !img, "one ray short of the filter's work: status %d", st);
+    st = watched(s, &flag, -1, &img); /* spent by the render's other tiles */
+    CHECK(st == RAYD_E_LIMIT && !img, "a budget spent before: status %d", st);
     atomic_store(&flag, 1);
     st = watched(s, &flag, -2, &img);
     CHECK(st == RAYD_E_CANCELED && !img, "the flag raised before: status %d", st);
