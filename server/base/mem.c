@@ -25,21 +25,25 @@
  * to the kernel (malloc_trim), so the process's resident size follows the
  * count down rather than staying at its peak.  malloc_trim walks every
  * arena under its lock (milliseconds with a large heap, and every malloc of
- * that arena waits), so only the watcher calls it, once a second at most,
- * never a request's or a worker's path.  The core also keeps the blocks of
+ * that arena waits), so the watcher calls it, once a second at most, off
+ * every request's and worker's path (but for the one exception below).
+ * The core also keeps the blocks of
  * its last frames for the next render (up to 32 MB, hugemem.c): once no
  * render is left, those go back too (rayd_memory_trim), so an idle rayd's
  * resident size comes back to about its size at start.
  *
- * Big blocks go back at once, without waiting for the watcher: mem_start
- * fixes glibc's mmap threshold (MEM_MMAP_AT), so every block from there up
- * is a mapping of its own, unmapped by its free.  Left to itself glibc
- * raises the threshold to the largest block freed (up to 32 MB), and then
- * a texture freed by one thread stays resident in that thread's arena
- * while the next scene, parsed on another thread, takes fresh pages: the
- * count said the budget had room, and resident memory went past it by the
- * evicted scene (3.9 MB over in tests/integration/memory_budget.sh, one run
- * in six beside other tests; never with the threshold fixed).
+ * One exception to the watcher's pace: a reservation that had to evict
+ * (the budget full) trims at once, before the memory it made room for is
+ * allocated, when the eviction released MEM_TRIM_RECLAIM or more.  glibc
+ * raises its mmap threshold to the largest block freed (up to 32 MB), so
+ * an evicted scene's textures go back to the arena of the thread that
+ * made them, and stay resident there while the new scene, parsed on
+ * another thread, takes fresh pages: the count said the budget had room,
+ * and resident memory went past it by the evicted scene (3.9 MB over in
+ * tests/integration/memory_budget.sh, one run in six beside other tests).
+ * Fixing the threshold instead (every big block its own mapping) cost a
+ * denoised render 17% in fresh pages' faults, request after request; the
+ * trim costs milliseconds, and only when the budget is full.
  */
 #define _GNU_SOURCE
 #include "base/base.h"
@@ -49,8 +53,8 @@
 #include <string.h>
 #include <unistd.h>
 
-#define MEM_TRIM_AFTER ((size_t)16 << 20) /* released bytes that warrant a malloc_trim */
-#define MEM_MMAP_AT (128 * 1024)          /* glibc's default, kept from rising (above) */
+#define MEM_TRIM_AFTER ((size_t)16 << 20)  /* released bytes that warrant a malloc_trim */
+#define MEM_TRIM_RECLAIM ((size_t)1 << 20) /* evicted bytes a reservation trims after */
 
 static size_t mem_limit_bytes = SIZE_MAX;
 static atomic_size_t mem_total_bytes;
@@ -80,10 +84,7 @@ static size_t mem_machine(void) {
 
 size_t mem_default_limit(void) { return mem_machine() / 2; }
 
-void mem_start(size_t limit) {
-    mem_limit_bytes = limit ? limit : mem_default_limit();
-    mallopt(M_MMAP_THRESHOLD, MEM_MMAP_AT);
-}
+void mem_start(size_t limit) { mem_limit_bytes = limit ? limit : mem_default_limit(); }
 
 size_t mem_limit(void) { return mem_limit_bytes; }
 
@@ -109,8 +110,15 @@ static bool mem_try(enum mem_kind k, size_t n) {
 
 bool mem_reserve(enum mem_kind k, size_t n) {
     if (n > mem_limit_bytes) return false;
-    while (!mem_try(k, n))
+    size_t before = atomic_load(&mem_released);
+    bool evicted = false;
+    while (!mem_try(k, n)) {
         if (!mem_reclaimer || !mem_reclaimer(k, n)) return false;
+        evicted = true;
+    }
+    /* what was evicted goes back to the kernel before the room is used
+     * (the file's comment: another thread's arena would keep it) */
+    if (evicted && atomic_load(&mem_released) - before >= MEM_TRIM_RECLAIM) malloc_trim(0);
     return true;
 }
 
