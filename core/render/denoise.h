@@ -51,8 +51,9 @@ void denoise_defaults(struct denoise_params *p);
  * buffer are not read), computed in one fixed order: the bytes do not
  * depend on the thread count, and a window's inner pixels equal those of
  * the larger buffer it was cut from.  m (may be NULL) stops it: its
- * cancel flag is looked at before every few thousand pixels, and each
- * level counts its share of RAYD_DENOISE_RAYS a pixel on it as work.
+ * cancel flag and whether its budget is spent are looked at before every
+ * few thousand pixels, and each level counts its share of
+ * RAYD_DENOISE_RAYS a pixel on it as work.
  * RAYD_OK; RAYD_E_NOMEM; or the meter's stop (RAYD_E_CANCELED,
  * RAYD_E_LIMIT), out then unfinished. */
 enum rayd_status denoise_run(const struct denoise_px *in, int w, int h,

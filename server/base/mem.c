@@ -27,10 +27,10 @@
  * arena under its lock (milliseconds with a large heap, and every malloc of
  * that arena waits), so the watcher calls it, once a second at most, off
  * every request's and worker's path (but for the one exception below).
- * The core also keeps the blocks of
- * its last frames for the next render (up to 32 MB, hugemem.c): once no
- * render is left, those go back too (rayd_memory_trim), so an idle rayd's
- * resident size comes back to about its size at start.
+ * The core also keeps the blocks of its last frames for the next render
+ * (up to 32 MB, hugemem.c): once no render is left, those go back too
+ * (rayd_memory_trim), so an idle rayd's resident size comes back to about
+ * its size at start.
  *
  * One exception to the watcher's pace: a reservation that had to evict
  * (the budget full) trims at once, before the memory it made room for is
@@ -117,7 +117,9 @@ bool mem_reserve(enum mem_kind k, size_t n) {
         evicted = true;
     }
     /* what was evicted goes back to the kernel before the room is used
-     * (the file's comment: another thread's arena would keep it) */
+     * (the file's comment: another thread's arena would keep it); a trim
+     * by the watcher meanwhile zeroes mem_released, and the difference
+     * wraps to a huge one: one trim more, never one less */
     if (evicted && atomic_load(&mem_released) - before >= MEM_TRIM_RECLAIM) malloc_trim(0);
     return true;
 }

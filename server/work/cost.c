@@ -85,12 +85,6 @@ static int cost_samples(const struct work_target *what, int scene_samples) {
     return what->format == WORK_SUMS ? what->k1 - what->k0 : scene_samples;
 }
 
-/* The denoiser's work on a pixel is the core's RAYD_DENOISE_RAYS, what a
- * filter takes from the task's ray budget as it runs (rayd_accum_watch):
- * its filter took 1.76 us a pixel on one worker (rayd-render --denoise of
- * an empty 2048x2048 scene: 7.4 s of CPU, against 0.08 s without), 18
- * rays at the starting rate of 10^7 a second, rounded up. */
-
 /* The length the tiles of side `tile` over [at, at + len) cover with the
  * filter's apron on each side, clipped to [0, whole). */
 static double cost_apron_span(int at, int len, int tile, int whole) {
@@ -111,7 +105,12 @@ double cost_rays(const rayd_scene *scene, const struct work_target *what) {
     if (!what->denoise) return (double)what->reg.w * what->reg.h * per_pixel;
     /* A denoised render: every tile renders its apron too, and the filter
      * runs over tile and apron once a pass (resolve.c, passes.c; a PNG
-     * job keeping its EXR resolves both from one run). */
+     * job keeping its EXR resolves both from one run), RAYD_DENOISE_RAYS
+     * a pixel: what the filter takes from the task's budget as it runs
+     * (rayd_accum_watch).  It took 1.76 us a pixel on one worker
+     * (rayd-render --denoise of an empty 2048x2048 scene: 7.4 s of CPU,
+     * against 0.08 s without), 18 rays at the starting rate of 10^7 a
+     * second, rounded up. */
     int tile = cost_task_tile(scene, what);
     double pixels = cost_apron_span(what->reg.x, what->reg.w, tile, info.width) *
                     cost_apron_span(what->reg.y, what->reg.h, tile, info.height);
