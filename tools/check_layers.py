@@ -65,7 +65,7 @@ import textwrap
 CORE_LAYERS = [
     ("core/base/", "error (status, message, JSON Pointer, line/column), array, hugemem, parallel, "
                    "clock, cpu (whether the AVX-512 code runs), meter (a render thread's ray count, "
-                   "cancel flag and ray budget)"),
+                   "cancel flag and ray budget), share (what scenes of the same bytes share)"),
     ("core/math/", "vec.h, xform, poly (the quadratic and the quartic), rng.h, keyframe "
                    "(interpolation of animation keys, quaternion slerp)"),
     ("core/format/", "byte-level formats on base and math alone: json_check, json_parse (the "
@@ -75,7 +75,8 @@ CORE_LAYERS = [
     ("core/accel/", "bvh.c (the SAH builder and walk, over boxes), bvh16.h (16-ray packet walk), "
                     "light_buffer.c (which objects can shadow which directions of a point light)"),
     ("core/geom/", "shape.c + shape_*.c (one file per primitive), mesh.c + mesh_packet.c "
-                   "(one ray, 16 rays; the one-ray walk both use in mesh_walk.h), camera"),
+                   "(one ray, 16 rays; the one-ray walk both use in mesh_walk.h), mesh_share.c (built "
+                   "meshes the scenes of the same source share), camera"),
     ("core/shade/", "material, light, texture, environment: what surfaces and lights are; "
                     "texels.c (decoded images the scenes of the same bytes share)"),
     ("core/scene/", "scene.c (the frozen scene), scene_query.c (one ray: hits, CSG, shadows, "

@@ -29,6 +29,7 @@
 #include "geom/mesh_ray.h"
 #include "geom/mesh_walk.h"
 #include "base/parallel.h"
+#include "base/share.h"
 
 #define MESH_CHUNK 16384 /* triangles a thread at least: fewer stay on one thread */
 /* A mesh larger than this is walked with prefetches (mesh_walk.h): about
@@ -335,6 +336,11 @@ enum rayd_status mesh_build(struct mesh *m, float *pos, uint32_t nverts, uint32_
 
 void mesh_free(struct mesh *m) {
     if (!m) return;
+    if (m->shared) { /* the arrays are the share's (mesh_share.c) */
+        share_unref(m->shared);
+        memset(m, 0, sizeof *m);
+        return;
+    }
     free(m->pos);
     free(m->normal);
     free(m->uv);
@@ -351,5 +357,6 @@ size_t mesh_bytes(const struct mesh *m) {
     if (m->index) b += (size_t)m->ntris * 3 * sizeof(uint32_t);
     if (m->normal) b += (size_t)m->nverts * 3 * sizeof(float);
     if (m->uv) b += (size_t)m->nverts * 2 * sizeof(float);
+    if (m->shared) b += m->shared->key_len; /* counted whole in each scene, as a shared image */
     return b;
 }

@@ -33,6 +33,9 @@ struct mesh {
     struct bvh8 bvh;
     vec3 lo, hi;   /* bounds */
     bool prefetch; /* the tree and blocks outgrow a core's cache (mesh_walk.h) */
+    /* The arrays' owner when scenes share them (mesh_share.c), else NULL:
+     * then the arrays are this mesh's own. */
+    struct share *shared;
 };
 
 struct mesh_hit {
@@ -49,6 +52,7 @@ struct mesh_hit {
 enum rayd_status mesh_build(struct mesh *m, float *pos, uint32_t nverts, uint32_t *index,
                             uint32_t ntris, float *normal, float *uv, bool smooth, int threads,
                             struct rayd_error *err);
+/* Frees m's arrays, or lets go of its reference to shared ones. */
 void mesh_free(struct mesh *m);
 
 /* Nearest hit along r (object space, unit direction) with t in (0, tmax). */

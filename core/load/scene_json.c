@@ -60,7 +60,7 @@ void rayd_limits_default(struct rayd_limits *lim) {
     lim->max_texels = TEXTURE_MAX_SCENE_PIXELS;
     lim->charge = NULL;
     lim->charge_arg = NULL;
-    lim->images = NULL;
+    lim->assets = NULL;
 }
 /* ---- camera and render --------------------------------------------------- */
 

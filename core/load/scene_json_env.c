@@ -118,7 +118,7 @@ static enum rayd_status env_decode_hdr(struct loader *ld, const char *data, size
     return env_take(own, w, h, k, e);
 }
 
-/* What an environment image is shared under (lim->images): its encoded
+/* What an environment image is shared under (lim->assets): its encoded
  * bytes, its format and the intensity folded into its floats.  malloc'd. */
 static unsigned char *env_key(const char *data, size_t len, bool exr, double k, size_t *n) {
     *n = len + sizeof k + 1;
@@ -131,15 +131,15 @@ static unsigned char *env_key(const char *data, size_t len, bool exr, double k, 
 }
 
 /* The image of data (len bytes) times k into e: taken decoded from a live
- * scene of the same key when lim->images has one, else decoded and offered
+ * scene of the same key when lim->assets has one, else decoded and offered
  * there.  A shared image is charged as its decode is (the decoder's
  * floats, its copy, the sampling tables), so whether another scene holds
  * it changes no answer of the limits. */
 static enum rayd_status env_image(struct loader *ld, const char *data, size_t len, bool exr,
                                   const struct jp *p, double k, struct environment *e) {
     size_t n = 0;
-    unsigned char *key = ld->lim->images ? env_key(data, len, exr, k, &n) : NULL;
-    struct texels *x = key ? texels_find(ld->lim->images, key, n, TEXTURE_MAX_PIXELS) : NULL;
+    unsigned char *key = ld->lim->assets ? env_key(data, len, exr, k, &n) : NULL;
+    struct texels *x = key ? texels_find(ld->lim->assets, key, n, TEXTURE_MAX_PIXELS) : NULL;
     enum rayd_status st;
     if (x) {
         e->rgb = x->rgb;
@@ -152,7 +152,7 @@ static enum rayd_status env_image(struct loader *ld, const char *data, size_t le
     } else {
         st = exr ? env_decode_exr(ld, data, len, p, k, e) : env_decode_hdr(ld, data, len, p, k, e);
         if (st == RAYD_OK && key) {
-            e->shared = texels_add(ld->lim->images, key, n, e->w, e->h, e->rgb);
+            e->shared = texels_add(ld->lim->assets, key, n, e->w, e->h, e->rgb);
             if (!e->shared) e->rgb = NULL; /* freed */
             if (!e->rgb)
                 st = err_set(ld->err, RAYD_E_NOMEM, p->s, "out of memory for the environment");

@@ -25,6 +25,7 @@
 #include "format/mesh_gltf.h"
 #include "format/mesh_io.h"
 #include "base/parallel.h"
+#include "geom/mesh_share.h"
 
 /* ---- meshes ------------------------------------------------------------------- */
 
@@ -293,39 +294,65 @@ static void mesh_drop(struct loader *ld, struct mesh_data *md) {
     mesh_data_free(md);
 }
 
-static enum rayd_status load_source(struct loader *ld, const cJSON *src, const struct jp *at,
-                                    struct mesh_data *md) {
-    const cJSON *text = cJSON_GetObjectItemCaseSensitive(src, "text");
-    const cJSON *b64 = cJSON_GetObjectItemCaseSensitive(src, "base64");
+/* A mesh source's bytes as sj_source_read gives them, kept past the decode
+ * while the mesh may be shared under them (source_shares). */
+struct source {
+    int format;        /* as sj_source_read numbers them: obj, ply, gltf, glb */
+    char *owned;       /* malloc'd (a file's bytes or base64's), else NULL */
+    const char *bytes; /* owned, or the scene's own text */
+    size_t n;
+    bool file; /* read from a file: n + 1 bytes charged while owned */
+};
+
+/* Frees the source's bytes, giving back a file's charge. */
+static void source_done(struct loader *ld, struct source *sc) {
+    if (sc->file && sc->owned) sj_give_back(ld, sc->n + 1);
+    free(sc->owned);
+    sc->owned = NULL;
+}
+
+/* Whether the mesh built from sc is offered to the other scenes (and
+ * looked for among theirs): an OBJ or PLY source, whose bytes are all its
+ * build depends on, with an asset cache to share it in.  A glTF source
+ * may name other files, and bakes an animation at the scene's frame. */
+static bool source_shares(const struct loader *ld, const struct source *sc) {
+    return ld->lim->assets && sc->format < 2;
+}
+
+/* What a mesh of sc is shared under besides its bytes: its format and
+ * whether its normals are smoothed. */
+static unsigned source_variant(const struct source *sc, bool smooth) {
+    return (unsigned)sc->format | (smooth ? 4u : 0u);
+}
+
+/* The source's bytes decoded into md, within what is left of the scene's
+ * vertex and triangle budget.  On failure the bytes are freed. */
+static enum rayd_status source_decode(struct loader *ld, const cJSON *src, const struct jp *at,
+                                      struct source *sc, struct mesh_data *md) {
     const cJSON *file = cJSON_GetObjectItemCaseSensitive(src, "file");
-    struct jp pv = jp_key(at, text ? "text" : b64 ? "base64" : "file");
-    int format = -1; /* all four set by sj_source_read when it succeeds */
-    char *data = NULL;
-    const char *bytes = NULL;
-    size_t nbytes = 0;
+    struct jp pv = jp_key(at, sc->file                                        ? "file"
+                              : cJSON_GetObjectItemCaseSensitive(src, "text") ? "text"
+                                                                              : "base64");
     double t0 = clock_now(); /* decode: reading the file or base64 too */
-    TRY(sj_source_read(ld, src, at, &format, &data, &bytes, &nbytes));
     struct mesh_limits ml = sj_mesh_budget(ld);
-    enum rayd_status st = format == 0   ? mesh_parse_obj_threads(bytes, nbytes, &ml, 0, md, ld->err)
-                          : format == 1 ? mesh_parse_ply_threads(bytes, nbytes, &ml, 0, md, ld->err)
-                                        : load_gltf(ld, at, file, bytes, nbytes, &ml, md);
+    enum rayd_status st =
+        sc->format == 0   ? mesh_parse_obj_threads(sc->bytes, sc->n, &ml, 0, md, ld->err)
+        : sc->format == 1 ? mesh_parse_ply_threads(sc->bytes, sc->n, &ml, 0, md, ld->err)
+                          : load_gltf(ld, at, file, sc->bytes, sc->n, &ml, md);
     ld->s->decode_s += clock_now() - t0;
-    if (file && data) sj_give_back(ld, nbytes + 1); /* the file read, charged by sj_read_asset */
-    free(data);
-    if (st != RAYD_OK && ld->err && format < 2)
+    if (st != RAYD_OK && ld->err && sc->format < 2)
         snprintf(ld->err->path, sizeof ld->err->path, "%s", pv.s);
     if (st == RAYD_OK && md->ntris == 0) {
         mesh_drop(ld, md);
-        return sj_fail(ld, RAYD_E_INVALID, &pv, "holds no triangles");
+        st = sj_fail(ld, RAYD_E_INVALID, &pv, "holds no triangles");
     }
+    if (st != RAYD_OK || !source_shares(ld, sc)) source_done(ld, sc);
     return st;
 }
 
-/* A "source" mesh's arrays (a file, text or base64), decoded within what
- * is left of the scene's vertex and triangle budget; the inline keys may
- * not come beside it. */
-static enum rayd_status mesh_from_source(struct loader *ld, const cJSON *oj, const cJSON *src,
-                                         const struct jp *at, struct mesh_data *md) {
+/* "source": its bytes read; the inline keys may not come beside it. */
+static enum rayd_status source_read(struct loader *ld, const cJSON *oj, const cJSON *src,
+                                    const struct jp *at, struct source *sc) {
     static const char *const inline_keys[] = {"vertices", "indices", "normals", "uvs"};
     for (int k = 0; k < 4; k++) {
         if (!cJSON_GetObjectItemCaseSensitive(oj, inline_keys[k])) continue;
@@ -333,7 +360,9 @@ static enum rayd_status mesh_from_source(struct loader *ld, const cJSON *oj, con
         return sj_fail(ld, RAYD_E_INVALID, &p, "cannot be combined with \"source\"");
     }
     struct jp p = jp_key(at, "source");
-    return load_source(ld, src, &p, md);
+    TRY(sj_source_read(ld, src, &p, &sc->format, &sc->owned, &sc->bytes, &sc->n));
+    sc->file = cJSON_GetObjectItemCaseSensitive(src, "file") != NULL;
+    return RAYD_OK;
 }
 
 /* Each normal of n made a unit vector; a zero-length one is an error at
@@ -387,6 +416,118 @@ static enum rayd_status mesh_from_inline(struct loader *ld, const cJSON *oj, con
     return RAYD_OK;
 }
 
+/* Charges or gives back the difference between what is charged (from)
+ * and what should be (to). */
+static enum rayd_status settle(struct loader *ld, const struct jp *at, size_t from, size_t to) {
+    if (to > from) return sj_charge(ld, at, to - from);
+    sj_give_back(ld, from - to);
+    return RAYD_OK;
+}
+
+/* The mesh another scene built from sc's bytes (lim->assets), taken when
+ * it fits what is left of the scene's vertex and triangle budget (else the
+ * decoder refuses it, in its words): *took then says so.  Charged as its
+ * decode and build were at most, then down to what the scene holds, so
+ * the limits answer as if it were built here. */
+static enum rayd_status mesh_taken(struct loader *ld, const struct source *sc, unsigned variant,
+                                   const struct jp *at, uint32_t *id, bool *took) {
+    struct mesh_limits ml = sj_mesh_budget(ld);
+    struct mesh m;
+    size_t peak, held = sc->file ? sc->n + 1 : 0; /* the file's read is charged */
+    *took = mesh_share_find(ld->lim->assets, variant, sc->bytes, sc->n, ml.max_vertices,
+                            ml.max_triangles, &m, &peak);
+    if (!*took) return RAYD_OK;
+    size_t top = peak > held ? peak : held;
+    enum rayd_status st = settle(ld, at, held, top);
+    if (st == RAYD_OK) st = sj_add_mesh(ld, id);
+    if (st != RAYD_OK) {
+        mesh_free(&m);
+        return st;
+    }
+    ld->s->meshes[*id] = m;
+    ld->vertices += m.nverts;
+    ld->triangles += m.ntris;
+    return settle(ld, at, top, held + mesh_bytes(&m)); /* the file's charge goes with its bytes */
+}
+
+/* Mesh md (its arrays taken, charged md->charged) built as the scene's
+ * mesh *id, charged its arrays and the build's estimate, then what the
+ * build holds.  *peak: the most it charged. */
+static enum rayd_status mesh_make(struct loader *ld, struct mesh_data *md, const struct jp *at,
+                                  bool smooth, uint32_t *id, size_t *peak) {
+    /* the arrays and the build's estimate, less what the decoder charged
+     * for the arrays already (it charged them as it allocated them) */
+    size_t charged = sj_mesh_bytes(md);
+    *peak = charged > md->charged ? charged : md->charged;
+    enum rayd_status st = RAYD_OK;
+    if (charged > md->charged) {
+        st = sj_charge(ld, at, charged - md->charged);
+    } else {
+        sj_give_back(ld, md->charged - charged);
+        md->charged = charged;
+    }
+    if (st == RAYD_OK) st = sj_add_mesh(ld, id);
+    if (st != RAYD_OK) {
+        mesh_drop(ld, md);
+        return st;
+    }
+    ld->vertices += md->nverts;
+    ld->triangles += md->ntris;
+    double t0 = clock_now();
+    st = mesh_build(&ld->s->meshes[*id], md->pos, md->nverts, md->index, md->ntris, md->normal,
+                    md->uv, smooth, md->ntris >= 50000 ? parallel_cores() : 1, ld->err);
+    ld->s->build_s += clock_now() - t0;
+    size_t built = mesh_bytes(&ld->s->meshes[*id]); /* the estimate's excess given back */
+    if (st == RAYD_OK && built < charged) sj_give_back(ld, charged - built);
+    return st; /* the mesh owns the arrays now, even on failure */
+}
+
+/* The built mesh m offered to the scenes of the same source, its bytes
+ * the key: a file's keep their charge, others are charged now (and the
+ * mesh stays unshared when there is no room). */
+static void mesh_offer(struct loader *ld, struct source *sc, unsigned variant, struct mesh *m,
+                       size_t peak) {
+    size_t held = sc->file ? sc->n + 1 : 0;
+    unsigned char *key = (unsigned char *)sc->owned;
+    if (!key && (key = malloc(sc->n ? sc->n : 1))) memcpy(key, sc->bytes, sc->n);
+    struct mesh_limits hook = sj_mesh_budget(ld);
+    size_t charged = 0;
+    char why[200];
+    if (!key || (!sc->file && mesh_charge(&hook, &charged, sc->n, why, sizeof why) != RAYD_OK)) {
+        if (key != (unsigned char *)sc->owned) free(key);
+        source_done(ld, sc);
+        return;
+    }
+    sc->owned = NULL; /* the key now, its charge the mesh's */
+    if (held) sj_give_back(ld, 1);
+    mesh_share_add(ld->lim->assets, m, variant, key, sc->n, held + peak);
+}
+
+/* A "source" mesh: taken built from another scene of the same bytes, or
+ * decoded and built, then offered to the others. */
+static enum rayd_status mesh_source(struct loader *ld, const cJSON *oj, const cJSON *src,
+                                    const struct jp *at, bool smooth, uint32_t *id) {
+    struct source sc = {0};
+    TRY(source_read(ld, oj, src, at, &sc));
+    struct jp pm = jp_key(at, "source");
+    unsigned variant = source_variant(&sc, smooth);
+    bool took = false;
+    enum rayd_status st = RAYD_OK;
+    if (source_shares(ld, &sc)) st = mesh_taken(ld, &sc, variant, &pm, id, &took);
+    if (st != RAYD_OK || took) {
+        source_done(ld, &sc);
+        return st;
+    }
+    struct mesh_data md = {0};
+    TRY(source_decode(ld, src, &pm, &sc, &md));
+    size_t peak;
+    st = mesh_make(ld, &md, &pm, smooth, id, &peak);
+    if (st == RAYD_OK && source_shares(ld, &sc))
+        mesh_offer(ld, &sc, variant, &ld->s->meshes[*id], peak);
+    source_done(ld, &sc);
+    return st;
+}
+
 enum rayd_status sj_mesh(struct loader *ld, const cJSON *oj, const struct jp *at, uint32_t *id) {
     const cJSON *sm = cJSON_GetObjectItemCaseSensitive(oj, "smooth");
     if (sm && !cJSON_IsBool(sm)) {
@@ -395,31 +536,10 @@ enum rayd_status sj_mesh(struct loader *ld, const cJSON *oj, const struct jp *at
     }
     bool smooth = !sm || cJSON_IsTrue(sm);
     const cJSON *src = cJSON_GetObjectItemCaseSensitive(oj, "source");
+    if (src) return mesh_source(ld, oj, src, at, smooth, id);
     struct mesh_data md = {0};
-    TRY(src ? mesh_from_source(ld, oj, src, at, &md) : mesh_from_inline(ld, oj, at, &md));
-    struct jp pm = jp_key(at, src ? "source" : "indices");
-    /* the arrays and the build's estimate, less what the decoder charged
-     * for the arrays already (it charged them as it allocated them) */
-    size_t charged = sj_mesh_bytes(&md);
-    enum rayd_status st = RAYD_OK;
-    if (charged > md.charged) {
-        st = sj_charge(ld, &pm, charged - md.charged);
-    } else {
-        sj_give_back(ld, md.charged - charged);
-        md.charged = charged;
-    }
-    if (st == RAYD_OK) st = sj_add_mesh(ld, id);
-    if (st != RAYD_OK) {
-        mesh_drop(ld, &md);
-        return st;
-    }
-    ld->vertices += md.nverts;
-    ld->triangles += md.ntris;
-    double t0 = clock_now();
-    st = mesh_build(&ld->s->meshes[*id], md.pos, md.nverts, md.index, md.ntris, md.normal, md.uv,
-                    smooth, md.ntris >= 50000 ? parallel_cores() : 1, ld->err);
-    ld->s->build_s += clock_now() - t0;
-    size_t built = mesh_bytes(&ld->s->meshes[*id]); /* the estimate's excess given back */
-    if (st == RAYD_OK && built < charged) sj_give_back(ld, charged - built);
-    return st; /* the mesh owns the arrays now, even on failure */
+    TRY(mesh_from_inline(ld, oj, at, &md));
+    struct jp pm = jp_key(at, "indices");
+    size_t peak;
+    return mesh_make(ld, &md, &pm, smooth, id, &peak);
 }

@@ -44,12 +44,12 @@ static uint64_t png_texels(const char *d, size_t len) {
 #define SJ_TEXEL_CHARGE (3 * sizeof(float) + 4)
 
 /* t takes the image another scene decoded from the same len bytes at
- * data (lim->images), if one is live and fits the max pixels this scene
+ * data (lim->assets), if one is live and fits the max pixels this scene
  * has room for; false to decode it (a bigger one is refused there, with
  * the decoder's words).  The caller charges it as a decode. */
 static bool image_shared(struct loader *ld, const char *data, size_t len, long max,
                          struct texture *t) {
-    struct texels *x = texels_find(ld->lim->images, data, len, max);
+    struct texels *x = texels_find(ld->lim->assets, data, len, max);
     if (!x) return false;
     ld->texels += (long)x->w * x->h;
     t->w = x->w;
@@ -117,8 +117,8 @@ static enum rayd_status load_image(struct loader *ld, const cJSON *tj, const str
         t->h = img->h;
         t->rgb = texture_linear_from_srgb8(img->px, img->w, img->h);
         rayd_image_free(img);
-        if (t->rgb && ld->lim->images) { /* the next scene of these bytes takes it */
-            t->shared = texels_add(ld->lim->images, data, len, t->w, t->h, t->rgb);
+        if (t->rgb && ld->lim->assets) { /* the next scene of these bytes takes it */
+            t->shared = texels_add(ld->lim->assets, data, len, t->w, t->h, t->rgb);
             if (!t->shared) t->rgb = NULL; /* freed */
         }
     }

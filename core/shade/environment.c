@@ -163,5 +163,5 @@ size_t env_bytes(const struct environment *e) {
     if (e->kind != ENV_IMAGE) return 0;
     size_t w = (size_t)e->w, h = (size_t)e->h;
     return w * h * 3 * sizeof *e->rgb + (h + 1 + h * (w + 1)) * sizeof(double) +
-           (e->shared ? e->shared->key_len : 0); /* a shared image counts whole in each scene */
+           (e->shared ? e->shared->sh.key_len : 0); /* a shared image counts whole in each scene */
 }

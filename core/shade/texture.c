@@ -69,7 +69,7 @@ void texture_free(struct texture *t) {
  * bytes, which the cache keeps to match it): more than is used, never less. */
 size_t texture_bytes(const struct texture *t) {
     return sizeof *t + (t->rgb ? (size_t)t->w * (size_t)t->h * 3 * sizeof(float) : 0) +
-           (t->shared ? t->shared->key_len : 0);
+           (t->shared ? t->shared->sh.key_len : 0);
 }
 
 float *texture_linear_from_srgb8(const unsigned char *px, int w, int h) {

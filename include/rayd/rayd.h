@@ -74,25 +74,28 @@ char *rayd_error_format(const struct rayd_error *err, char *buf, size_t size);
  * (core/render/render.h), so max_samples may be raised up to it. */
 #define RAYD_SAMPLES_MAX 65536
 
-/* Decoded image textures shared by the scenes that name the same bytes
- * (rayd_limits.images): a scene parsed once per frame decodes each image
- * once while any scene still holds it, not once a frame.  The cache owns
- * no image: each belongs to the scenes that use it, and the last to be
- * freed frees it, so the cache keeps no memory alive that no scene needs.
- * Safe to share between threads parsing at once. */
-typedef struct rayd_image_cache rayd_image_cache;
+/* Decoded image textures and built meshes shared by the scenes that name
+ * the same bytes (rayd_limits.assets): a scene parsed once per frame
+ * decodes each image, and decodes and builds each mesh "source" (OBJ,
+ * PLY), once while any scene still holds it, not once a frame.  The cache
+ * owns nothing: each entry belongs to the scenes that use it, and the last
+ * to be freed frees it, so the cache keeps no memory alive that no scene
+ * needs.  Safe to share between threads parsing at once. */
+typedef struct rayd_asset_cache rayd_asset_cache;
 
-/* A new, empty cache; NULL when out of memory.  hold 0: the images belong
+/* A new, empty cache; NULL when out of memory.  hold 0: the entries belong
  * to the scenes alone (a server with scenes alive at once).  hold 1: the
- * cache keeps each image until it is freed too, for a program that frees
+ * cache keeps each entry until it is freed too, for a program that frees
  * one scene before it parses the next (rayd-render, frame after frame). */
-rayd_image_cache *rayd_image_cache_new(int hold);
-/* Lets go of the cache: scenes holding its images keep them (it is freed
+rayd_asset_cache *rayd_asset_cache_new(int hold);
+/* Lets go of the cache: scenes holding its entries keep them (it is freed
  * with the last).  No parse may be using it. */
-void rayd_image_cache_free(rayd_image_cache *cache);
-/* Of the image textures parses looked up in the cache: how many were
- * found decoded (hits) and how many were decoded (misses). */
-void rayd_image_cache_stats(const rayd_image_cache *cache, long *hits, long *misses);
+void rayd_asset_cache_free(rayd_asset_cache *cache);
+enum rayd_asset_kind { RAYD_ASSET_IMAGE, RAYD_ASSET_MESH };
+/* Of the entries of kind parses looked up in the cache: how many were
+ * found made (hits) and how many were made (misses). */
+void rayd_asset_cache_stats(const rayd_asset_cache *cache, enum rayd_asset_kind kind, long *hits,
+                            long *misses);
 
 /* Upper bounds on everything a scene author controls.  A scene over any of
  * them is refused with RAYD_E_LIMIT and the path of the offending value. */
@@ -137,11 +140,12 @@ struct rayd_limits {
      * exists. */
     enum rayd_status (*charge)(void *charge_arg, long long bytes, char *why, size_t why_len);
     void *charge_arg;
-    /* Image textures already decoded by other scenes (the frames of one
-     * animation, say), or NULL (the default): each image texture's bytes
-     * are looked up there first and what is decoded is added.  The same
-     * texels either way; the scene's limits hold the same. */
-    rayd_image_cache *images;
+    /* Image textures and meshes already made by other scenes (the frames
+     * of one animation, say), or NULL (the default): each image's and
+     * mesh source's bytes are looked up there first, and what is made is
+     * added.  The same texels and triangles either way; the scene's
+     * limits hold the same. */
+    rayd_asset_cache *assets;
 };
 
 /* Fills lim with the documented defaults (docs/scene-format.md). */

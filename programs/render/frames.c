@@ -181,8 +181,8 @@ static void frame_line(const struct args *a, long k, long done, long total, doub
 
 /* Renders frames from..to of the scene text; scene is frame `from`,
  * already parsed, and is freed here.  One frame's scene is in memory at a
- * time; lim->images holds the decoded images across them, so each frame
- * takes them rather than decoding them again. */
+ * time; lim->assets holds the decoded images and built meshes across
+ * them, so each frame takes them rather than making them again. */
 static int frames_loop(const struct args *a, const char *text, size_t len,
                        const struct rayd_limits *lim, rayd_scene *scene, long from, long to,
                        double t0) {
@@ -257,13 +257,13 @@ int frames_run(const struct args *a, const char *text, size_t len, const struct 
     struct rayd_error err = {0};
     rayd_scene *scene = NULL;
     struct rayd_limits shared = *lim;
-    shared.images = rayd_image_cache_new(1); /* kept for every frame; NULL: each decodes */
+    shared.assets = rayd_asset_cache_new(1); /* kept for every frame; NULL: each decodes */
     lim = &shared;
     enum rayd_status st = a->frames_set
                               ? rayd_scene_parse_frame(text, len, lim, a->frame_a, &scene, &err)
                               : rayd_scene_parse(text, len, lim, &scene, &err);
     int rc =
         st == RAYD_OK ? frames_checked(a, text, len, lim, scene, t0) : render_one_fail("", &err);
-    rayd_image_cache_free(shared.images);
+    rayd_asset_cache_free(shared.assets);
     return rc;
 }

@@ -49,10 +49,11 @@
  * explores errors rather than rendering big scenes). */
 static struct rayd_limits scenes_limits;
 static bool scenes_limits_set;
-/* Every parse's image textures, shared with the live scenes of the same
- * bytes (the frames of a frame-range job, a scene edited in the preview):
+/* Every parse's image textures and mesh sources, shared with the live
+ * scenes of the same bytes (the frames of a frame-range job, a scene
+ * edited in the preview):
  * the cache holds none itself, so it adds nothing to the memory budget. */
-static rayd_image_cache *scenes_images;
+static rayd_asset_cache *scenes_assets;
 
 void scenes_set_limits(const struct rayd_limits *lim) {
     scenes_limits = *lim;
@@ -176,7 +177,7 @@ static enum rayd_status scenes_compile(const char *body, size_t len, long frame,
     scenes_room(&lim, m->last);
     lim.charge = scenes_charge;
     lim.charge_arg = m;
-    lim.images = scenes_images;
+    lim.assets = scenes_assets;
     metrics_scene_parse();
     double t0 = clock_now();
     enum rayd_status st = frame < 0 ? rayd_scene_parse(body, len, &lim, scene, err)
@@ -315,13 +316,15 @@ static long scenes_gauge_entries(void) { return scenes_size(cache_stats, false);
 static long scenes_gauge_rbytes(void) { return scenes_size(rcache_stats, true); }
 static long scenes_gauge_rentries(void) { return scenes_size(rcache_stats, false); }
 
-static long scenes_images_count(bool shared) {
+static long scenes_assets_count(enum rayd_asset_kind kind, bool shared) {
     long hits = 0, misses = 0;
-    if (scenes_images) rayd_image_cache_stats(scenes_images, &hits, &misses);
+    if (scenes_assets) rayd_asset_cache_stats(scenes_assets, kind, &hits, &misses);
     return shared ? hits : misses;
 }
-static long scenes_gauge_shared(void) { return scenes_images_count(true); }
-static long scenes_gauge_decoded(void) { return scenes_images_count(false); }
+static long scenes_gauge_shared(void) { return scenes_assets_count(RAYD_ASSET_IMAGE, true); }
+static long scenes_gauge_decoded(void) { return scenes_assets_count(RAYD_ASSET_IMAGE, false); }
+static long scenes_gauge_meshes_shared(void) { return scenes_assets_count(RAYD_ASSET_MESH, true); }
+static long scenes_gauge_meshes_built(void) { return scenes_assets_count(RAYD_ASSET_MESH, false); }
 
 /* Sizes the scene cache and the result cache and registers their gauges:
  * here, because this file is where the caches meet the lock. */
@@ -332,14 +335,16 @@ void scenes_start(void) {
     metrics_gauge(MG_CACHE_ENTRIES, scenes_gauge_entries);
     metrics_gauge(MG_RESULT_CACHE_BYTES, scenes_gauge_rbytes);
     metrics_gauge(MG_RESULT_CACHE_ENTRIES, scenes_gauge_rentries);
-    scenes_images = rayd_image_cache_new(0); /* NULL: every parse decodes its own */
+    scenes_assets = rayd_asset_cache_new(0); /* NULL: every parse decodes its own */
     metrics_gauge(MG_IMAGES_SHARED, scenes_gauge_shared);
     metrics_gauge(MG_IMAGES_DECODED, scenes_gauge_decoded);
+    metrics_gauge(MG_MESHES_SHARED, scenes_gauge_meshes_shared);
+    metrics_gauge(MG_MESHES_BUILT, scenes_gauge_meshes_built);
 }
 
 void scenes_stop(void) {
     cache_free_all();
     rcache_free_all();
-    rayd_image_cache_free(scenes_images); /* freed with the last scene that holds an image */
-    scenes_images = NULL;
+    rayd_asset_cache_free(scenes_assets); /* freed with the last scene that holds an entry */
+    scenes_assets = NULL;
 }

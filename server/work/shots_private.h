@@ -61,9 +61,10 @@ struct shot {
     int err_tries;           /* its attempts */
     struct shots_fly *flies; /* in flight */
     /* Its newest frame's scene, held until the next frame is parsed, so
-     * that parse takes the image textures decoded (rayd_image_cache,
-     * scenes.c) even when no frame is in flight between the two; let go
-     * when a frame waits for room and when the shot ends. */
+     * that parse takes the image textures decoded and the mesh sources
+     * built (rayd_asset_cache, scenes.c) even when no frame is in flight
+     * between the two; let go when a frame waits for room and when the
+     * shot ends. */
     struct cache_entry *kept;
     size_t scene_bytes;      /* its newest frame's scene's (or the admitted one's), counted */
     struct work_waiter *sse; /* event streams waiting for news */

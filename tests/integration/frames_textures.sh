@@ -2,7 +2,7 @@
 # frames_textures.sh -- a frame-range job decodes its image textures once.
 # Each frame is parsed again (a frame is a pure function of the scene's
 # bytes and its number), but the textures are the same bytes every frame:
-# a frame's parse takes them decoded from a live scene (rayd_image_cache,
+# a frame's parse takes them decoded from a live scene (rayd_asset_cache,
 # core/shade/texels.c), as /metrics counts, and the frames are still byte
 # for byte rayd-render --frame K's, which decodes its own.  Before, a 2 KB
 # scene of four 4096x4096 PNGs cost 1.2 s of decoding a frame, for every

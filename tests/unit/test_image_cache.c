@@ -1,5 +1,5 @@
 /* test_image_cache.c -- image textures shared between scenes through a
- * rayd_image_cache (core/shade/texels.c), and environment images likewise:
+ * rayd_asset_cache (core/shade/texels.c), and environment images likewise:
  * decoded once while a scene holds them, the same pixels as decoding, the same limits, and nothing
  * kept once no scene holds them. */
 #include <stdint.h>
@@ -50,11 +50,11 @@ static enum rayd_status cap_charge(void *arg, long long bytes, char *why, size_t
 
 /* json parsed with cache c, a texel limit (0: the default) and a memory
  * cap (0: none); NULL with err on failure. */
-static rayd_scene *parse_capped(const char *json, rayd_image_cache *c, long max_texels,
+static rayd_scene *parse_capped(const char *json, rayd_asset_cache *c, long max_texels,
                                 long long cap, struct rayd_error *err) {
     struct rayd_limits lim;
     rayd_limits_default(&lim);
-    lim.images = c;
+    lim.assets = c;
     if (max_texels) lim.max_texels = max_texels;
     long long left = cap;
     if (cap) {
@@ -66,7 +66,7 @@ static rayd_scene *parse_capped(const char *json, rayd_image_cache *c, long max_
     return rayd_scene_parse(json, strlen(json), &lim, &s, err) == RAYD_OK ? s : NULL;
 }
 
-static rayd_scene *parse_with(const char *json, rayd_image_cache *c, long max_texels,
+static rayd_scene *parse_with(const char *json, rayd_asset_cache *c, long max_texels,
                               struct rayd_error *err) {
     return parse_capped(json, c, max_texels, 0, err);
 }
@@ -89,11 +89,11 @@ static void test_decoded_once_same_pixels(void) {
     char *json = two_quads();
     struct rayd_error err;
     rayd_scene *plain = parse_with(json, NULL, 0, &err);
-    rayd_image_cache *c = rayd_image_cache_new(0);
+    rayd_asset_cache *c = rayd_asset_cache_new(0);
     rayd_scene *s1 = parse_with(json, c, 0, &err), *s2 = parse_with(json, c, 0, &err);
     CHECK(plain && s1 && s2, "parse: %s", err.message);
     long hits, misses;
-    rayd_image_cache_stats(c, &hits, &misses);
+    rayd_asset_cache_stats(c, RAYD_ASSET_IMAGE, &hits, &misses);
     /* the second quad's texture is the first's, and so are the next scene's */
     CHECK(misses == 1 && hits == 3, "hits %ld, misses %ld; want 3 and 1", hits, misses);
     if (s1 && s2) {
@@ -101,7 +101,7 @@ static void test_decoded_once_same_pixels(void) {
                   s2->textures[0].rgb == s1->textures[0].rgb,
               "the texels are not shared");
     }
-    rayd_image_cache_free(c); /* the scenes keep their images */
+    rayd_asset_cache_free(c); /* the scenes keep their images */
     rayd_image *want = plain ? render_all(plain, 2) : NULL;
     rayd_image *got1 = s1 ? render_all(s1, 2) : NULL;
     rayd_scene_free(s1); /* s2's image outlives s1's reference */
@@ -122,7 +122,7 @@ static void test_limits_hold_the_same(void) {
      * memory account with room for one image's decode likewise */
     char *json = two_quads();
     struct rayd_error plain_err, err;
-    rayd_image_cache *c = rayd_image_cache_new(0);
+    rayd_asset_cache *c = rayd_asset_cache_new(0);
     rayd_scene *keep = parse_with(json, c, 0, &err); /* holds the image in the cache */
     rayd_scene *a = parse_with(json, NULL, 32 * 16 + 1, &plain_err);
     rayd_scene *b = parse_with(json, c, 32 * 16 + 1, &err);
@@ -141,7 +141,7 @@ static void test_limits_hold_the_same(void) {
     rayd_scene_free(a);
     rayd_scene_free(b);
     rayd_scene_free(keep);
-    rayd_image_cache_free(c);
+    rayd_asset_cache_free(c);
     free(json);
 }
 
@@ -151,26 +151,26 @@ static void test_holding_cache_keeps_images(void) {
     /* a program with one scene at a time: the image outlives each */
     char *json = two_quads();
     struct rayd_error err;
-    rayd_image_cache *c = rayd_image_cache_new(1);
+    rayd_asset_cache *c = rayd_asset_cache_new(1);
     rayd_scene_free(parse_with(json, c, 0, &err));
     rayd_scene *s = parse_with(json, c, 0, &err);
     long hits, misses;
-    rayd_image_cache_stats(c, &hits, &misses);
+    rayd_asset_cache_stats(c, RAYD_ASSET_IMAGE, &hits, &misses);
     CHECK(s && misses == 1 && hits == 3, "hits %ld, misses %ld; want 3 and 1", hits, misses);
-    rayd_image_cache_free(c); /* s keeps its image; freed with s (ASan: no leak) */
+    rayd_asset_cache_free(c); /* s keeps its image; freed with s (ASan: no leak) */
     rayd_image *img = s ? render_all(s, 1) : NULL;
     CHECK(img && distinct_reds(img) > 8, "the scene lost its texture");
     rayd_image_free(img);
     rayd_scene_free(s);
     /* freed with no scene left: the cache goes with its last image (ASan
      * and valgrind see a use after free or a leak here) */
-    c = rayd_image_cache_new(1);
+    c = rayd_asset_cache_new(1);
     rayd_scene_free(parse_with(json, c, 0, &err));
     char *env = env_scene(1);
     rayd_scene_free(parse_with(env, c, 0, &err));
-    rayd_image_cache_stats(c, &hits, &misses);
+    rayd_asset_cache_stats(c, RAYD_ASSET_IMAGE, &hits, &misses);
     CHECK(misses == 2, "%ld images decoded, want 2", misses);
-    rayd_image_cache_free(c);
+    rayd_asset_cache_free(c);
     free(env);
     free(json);
 }
@@ -178,15 +178,15 @@ static void test_holding_cache_keeps_images(void) {
 static void test_nothing_kept_without_a_scene(void) {
     char *json = two_quads();
     struct rayd_error err;
-    rayd_image_cache *c = rayd_image_cache_new(0);
+    rayd_asset_cache *c = rayd_asset_cache_new(0);
     rayd_scene_free(parse_with(json, c, 0, &err));
     rayd_scene_free(parse_with(json, c, 0, &err));
     long hits, misses;
-    rayd_image_cache_stats(c, &hits, &misses);
+    rayd_asset_cache_stats(c, RAYD_ASSET_IMAGE, &hits, &misses);
     /* each parse decoded once (its second quad shares): the first scene's
      * image went with it */
     CHECK(misses == 2 && hits == 2, "hits %ld, misses %ld; want 2 and 2", hits, misses);
-    rayd_image_cache_free(c);
+    rayd_asset_cache_free(c);
     free(json);
 }
 
@@ -217,19 +217,19 @@ static char *env_scene(double k) {
 static void test_environment_shared(void) {
     char *json = env_scene(1), *brighter = env_scene(2);
     struct rayd_error err;
-    rayd_image_cache *c = rayd_image_cache_new(0);
+    rayd_asset_cache *c = rayd_asset_cache_new(0);
     rayd_scene *plain = parse_with(json, NULL, 0, &err);
     rayd_scene *s1 = parse_with(json, c, 0, &err), *s2 = parse_with(json, c, 0, &err);
     rayd_scene *s3 = parse_with(brighter, c, 0, &err);
     CHECK(plain && s1 && s2 && s3, "parse: %s", err.message);
     long hits, misses;
-    rayd_image_cache_stats(c, &hits, &misses);
+    rayd_asset_cache_stats(c, RAYD_ASSET_IMAGE, &hits, &misses);
     /* the intensity is in the floats: another intensity is another image */
     CHECK(hits == 1 && misses == 2, "hits %ld, misses %ld; want 1 and 2", hits, misses);
     if (s1 && s2 && s3)
         CHECK(s2->rs.env.rgb == s1->rs.env.rgb && s3->rs.env.rgb != s1->rs.env.rgb,
               "the environment's floats are not shared as they should be");
-    rayd_image_cache_free(c);
+    rayd_asset_cache_free(c);
     rayd_image *want = plain ? render_all(plain, 2) : NULL;
     rayd_scene_free(s1);
     rayd_image *got = s2 ? render_all(s2, 2) : NULL;

@@ -1,0 +1,174 @@
+/* share.c -- what scenes decode from bytes, shared by the scenes that name
+ * the same bytes.
+ *
+ * A render farm parses one scene once per frame (a frame is a pure function
+ * of the scene's bytes and its number), and most of what a parse makes from
+ * bytes is the same every frame: four 4096x4096 PNG textures cost about
+ * 1.2 s of decoding, a 1.3M-triangle PLY mesh 0.25 s of decoding and BVH
+ * building, a thousand times over for a thousand frames, though no frame
+ * changes a texel or a triangle.  An asset cache (rayd_asset_cache, handed
+ * to the parses in rayd_limits) lets a parse take what another scene made
+ * from the same bytes instead of making it again.  This file is the cache;
+ * each kind's entry (shade/texels.c's images, geom/mesh_share.c's meshes)
+ * begins with its struct share and says how it is freed.
+ *
+ * The cache holds no entry of its own: the scenes hold them, each a
+ * reference, and the last scene to let go frees the entry and takes it out
+ * of the cache.  So it keeps nothing alive that no scene needs, and a
+ * program's memory accounting of its scenes stays whole (a shared entry is
+ * counted in each scene that holds it: more, never less, than is used).
+ * A program that keeps recent scenes (rayd's compile cache) keeps their
+ * entries findable with them.  A program that has no scene alive between
+ * two parses (rayd-render, frame after frame, one scene in memory) makes
+ * a holding cache instead: it keeps a reference to every entry until it
+ * is freed, which costs nothing more while each frame uses them all.
+ *
+ * Entries are matched on their kind and their whole bytes (a 64-bit FNV-1a
+ * of samples of them first, then memcmp), never on a hash alone: a crafted collision cannot
+ * give one scene another's pixels or triangles.  What is made from bytes is
+ * a pure function of them, so a hit gives what making it would; the limits
+ * that depend on the scene are checked by the loader either way.  One mutex
+ * guards the list and every entry's count; the list is as long as the
+ * distinct entries live scenes hold.
+ */
+#include "base/share.h"
+
+#include <pthread.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "rayd/rayd.h"
+
+struct rayd_asset_cache {
+    pthread_mutex_t lock;
+    struct share *list;
+    bool released; /* rayd_asset_cache_free was called: the last entry frees it */
+    bool hold;     /* each entry keeps a reference of the cache's until it is freed */
+    long hits[SHARE_KINDS], misses[SHARE_KINDS];
+};
+
+static unsigned long long share_fnv(unsigned long long h, const unsigned char *b, size_t len) {
+    for (size_t i = 0; i < len; i++) h = (h ^ b[i]) * 0x100000001b3ull;
+    return h;
+}
+
+/* FNV-1a of the length and of SHARE_SAMPLES spans of the bytes spread
+ * over them (all of them when short): only a first sieve, as every match
+ * is confirmed by memcmp, so it need not read a 25 MB mesh file whole. */
+#define SHARE_SAMPLES 64
+#define SHARE_SPAN 64
+static unsigned long long share_hash(const void *key, size_t len) {
+    const unsigned char *b = key;
+    unsigned long long h =
+        share_fnv(0xcbf29ce484222325ull, (const unsigned char *)&len, sizeof len);
+    if (len <= SHARE_SAMPLES * SHARE_SPAN) return share_fnv(h, b, len);
+    for (size_t i = 0; i < SHARE_SAMPLES; i++) /* the last span ends at the last byte */
+        h = share_fnv(h, b + (len - SHARE_SPAN) / (SHARE_SAMPLES - 1) * i, SHARE_SPAN);
+    return h;
+}
+
+rayd_asset_cache *rayd_asset_cache_new(int hold) {
+    rayd_asset_cache *c = calloc(1, sizeof *c);
+    if (c && pthread_mutex_init(&c->lock, NULL) != 0) {
+        free(c);
+        return NULL;
+    }
+    if (c) c->hold = hold != 0;
+    return c;
+}
+
+static void share_cache_destroy(struct rayd_asset_cache *c) {
+    pthread_mutex_destroy(&c->lock);
+    free(c);
+}
+
+void rayd_asset_cache_free(rayd_asset_cache *c) {
+    if (!c) return;
+    pthread_mutex_lock(&c->lock);
+    c->released = true;
+    bool empty = c->list == NULL, hold = c->hold;
+    pthread_mutex_unlock(&c->lock);
+    if (empty) {
+        share_cache_destroy(c);
+        return;
+    }
+    if (!hold) return;
+    /* let go of the cache's own references: the last one (possibly this
+     * call's) unlists an entry, and the last entry frees the cache */
+    for (bool more = true; more;) {
+        pthread_mutex_lock(&c->lock);
+        struct share *s = c->list;
+        while (s && s->dropped) s = s->next;
+        if (s) s->dropped = true;
+        struct share *u = s ? s->next : NULL;
+        while (u && u->dropped) u = u->next;
+        more = u != NULL; /* then u's reference keeps c alive past s's unref */
+        pthread_mutex_unlock(&c->lock);
+        if (s) share_unref(s); /* may free c: not touched after the last */
+    }
+}
+
+void rayd_asset_cache_stats(const rayd_asset_cache *cache, enum rayd_asset_kind kind, long *hits,
+                            long *misses) {
+    rayd_asset_cache *c = (rayd_asset_cache *)(uintptr_t)cache; /* its lock changes */
+    int k = kind == RAYD_ASSET_MESH ? SHARE_MESH : SHARE_IMAGE;
+    pthread_mutex_lock(&c->lock);
+    *hits = c->hits[k];
+    *misses = c->misses[k];
+    pthread_mutex_unlock(&c->lock);
+}
+
+struct share *share_find(struct rayd_asset_cache *c, int kind, unsigned variant, const void *key,
+                         size_t len, bool (*fits)(const struct share *s, const void *arg),
+                         const void *arg) {
+    if (!c) return NULL;
+    unsigned long long h = share_hash(key, len);
+    pthread_mutex_lock(&c->lock);
+    struct share *s = c->list;
+    while (s && !(s->kind == kind && s->variant == variant && s->hash == h && s->key_len == len &&
+                  !memcmp(s->key, key, len)))
+        s = s->next;
+    if (s && fits && !fits(s, arg)) s = NULL; /* the loader refuses it, in its words */
+    if (s) {
+        s->refs++; /* every listed entry has a reference: the last one unlists it */
+        c->hits[kind]++;
+    }
+    pthread_mutex_unlock(&c->lock);
+    return s;
+}
+
+void share_add(struct rayd_asset_cache *c, struct share *s, int kind, unsigned variant,
+               unsigned char *key, size_t len) {
+    s->cache = c;
+    s->refs = 1;
+    s->kind = kind;
+    s->variant = variant;
+    s->key = key;
+    s->key_len = len;
+    s->hash = share_hash(key, len);
+    pthread_mutex_lock(&c->lock);
+    s->next = c->list;
+    c->list = s;
+    c->misses[kind]++;
+    if (c->hold) s->refs++; /* the cache's own, until it is freed */
+    pthread_mutex_unlock(&c->lock);
+}
+
+void share_unref(struct share *s) {
+    if (!s) return;
+    struct rayd_asset_cache *c = s->cache;
+    pthread_mutex_lock(&c->lock);
+    bool last = --s->refs == 0;
+    if (last) {
+        struct share **pp = &c->list;
+        while (*pp != s) pp = &(*pp)->next;
+        *pp = s->next;
+    }
+    bool destroy = last && c->released && !c->list;
+    pthread_mutex_unlock(&c->lock);
+    if (!last) return;
+    free(s->key);
+    s->drop(s);
+    if (destroy) share_cache_destroy(c);
+}

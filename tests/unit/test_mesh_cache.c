@@ -1,0 +1,254 @@
+/* test_mesh_cache.c -- mesh sources (OBJ, PLY) shared between scenes
+ * through a rayd_asset_cache (core/geom/mesh_share.c): decoded and built
+ * once while a scene holds them, the same pixels as building them, the
+ * same limits and memory charged, told apart by every byte, and nothing
+ * kept once no scene holds them. */
+#include <stdint.h>
+#include <stdlib.h>
+#include <unistd.h>
+
+#include "check.h"
+#include "scene/scene.h"
+#include "scene_util.h"
+
+/* An OBJ of a wavy n x n grid of quads (2 n^2 triangles); malloc'd. */
+static char *grid_obj(int n) {
+    size_t cap = (size_t)(n + 1) * (n + 1) * 48 + (size_t)n * n * 48 + 64;
+    char *t = malloc(cap), *p = t;
+    for (int j = 0; j <= n; j++)
+        for (int i = 0; i <= n; i++)
+            p += sprintf(p, "v %.5f %.5f %.5f\n", 2.0 * i / n - 1, 2.0 * j / n - 1,
+                         0.2 * sin(7.0 * i / n) * cos(5.0 * j / n));
+    for (int j = 0; j < n; j++)
+        for (int i = 0; i < n; i++) {
+            int a = j * (n + 1) + i + 1, b = a + 1, c = a + n + 1, d = c + 1;
+            p += sprintf(p, "f %d %d %d\nf %d %d %d\n", a, b, d, a, d, c);
+        }
+    return t;
+}
+
+/* A scene of the mesh given as source (a JSON object's text); malloc'd. */
+static char *mesh_scene(const char *source, bool smooth) {
+    size_t cap = strlen(source) + 512;
+    char *json = malloc(cap);
+    snprintf(json, cap,
+             "{\"render\": {\"width\": 48, \"height\": 32},"
+             " \"camera\": {\"position\": [0, -1.5, 3], \"look_at\": [0, 0, 0]},"
+             " \"lights\": [{\"type\": \"point\", \"position\": [1, -2, 4]}],"
+             " \"objects\": [{\"type\": \"mesh\", \"smooth\": %s, \"source\": %s}]}",
+             smooth ? "true" : "false", source);
+    return json;
+}
+
+/* The grid as an OBJ "text" source's JSON. */
+static char *obj_source(const char *obj) {
+    size_t cap = strlen(obj) * 2 + 64;
+    char *s = malloc(cap), *p = s;
+    p += sprintf(p, "{\"format\": \"obj\", \"text\": \"");
+    for (const char *c = obj; *c; c++) p += *c == '\n' ? sprintf(p, "\\n") : sprintf(p, "%c", *c);
+    sprintf(p, "\"}");
+    return s;
+}
+
+/* A memory account that refuses past *left bytes, as rayd's budget does. */
+static enum rayd_status cap_charge(void *arg, long long bytes, char *why, size_t why_len) {
+    long long *left = arg;
+    if (bytes > *left) {
+        snprintf(why, why_len, "over the cap by %lld bytes", bytes - *left);
+        return RAYD_E_LIMIT;
+    }
+    *left -= bytes;
+    return RAYD_OK;
+}
+
+/* json parsed with cache c, a triangle limit (0: the default) and a memory
+ * account of *left bytes (NULL: none); NULL with err on failure. */
+static rayd_scene *parse(const char *json, rayd_asset_cache *c, long max_tris, long long *left,
+                         struct rayd_error *err) {
+    struct rayd_limits lim;
+    rayd_limits_default(&lim);
+    lim.assets = c;
+    if (max_tris) lim.max_triangles = max_tris;
+    if (left) {
+        lim.charge = cap_charge;
+        lim.charge_arg = left;
+    }
+    rayd_scene *s = NULL;
+    memset(err, 0, sizeof *err);
+    return rayd_scene_parse(json, strlen(json), &lim, &s, err) == RAYD_OK ? s : NULL;
+}
+
+static bool same_pixels(const rayd_image *a, const rayd_image *b) {
+    return a && b &&
+           !memcmp(rayd_image_pixels((rayd_image *)(uintptr_t)a),
+                   rayd_image_pixels((rayd_image *)(uintptr_t)b), 48 * 32 * 3);
+}
+
+static int lit_pixels(rayd_image *img) {
+    const uint8_t *p = rayd_image_pixels(img);
+    int n = 0;
+    for (int i = 0; i < 48 * 32; i++) n += p[3 * i] > 20;
+    return n;
+}
+
+static void hits_misses(rayd_asset_cache *c, long *hits, long *misses) {
+    rayd_asset_cache_stats(c, RAYD_ASSET_MESH, hits, misses);
+}
+
+static void test_built_once_same_pixels(void) {
+    char *obj = grid_obj(24), *src = obj_source(obj), *json = mesh_scene(src, true);
+    struct rayd_error err;
+    long long left_plain = 1LL << 40, left1 = 1LL << 40, left2 = 1LL << 40;
+    rayd_scene *plain = parse(json, NULL, 0, &left_plain, &err);
+    rayd_asset_cache *c = rayd_asset_cache_new(0);
+    rayd_scene *s1 = parse(json, c, 0, &left1, &err), *s2 = parse(json, c, 0, &left2, &err);
+    CHECK(plain && s1 && s2, "parse: %s", err.message);
+    long hits, misses;
+    hits_misses(c, &hits, &misses);
+    CHECK(misses == 1 && hits == 1, "hits %ld, misses %ld; want 1 and 1", hits, misses);
+    if (s1 && s2)
+        CHECK(s1->meshes[0].blocks == s2->meshes[0].blocks &&
+                  s1->meshes[0].normal == s2->meshes[0].normal && s1->meshes[0].normal,
+              "the mesh is not shared");
+    /* the same charge left whether built or taken: the limits see no difference */
+    CHECK(left1 == left2, "charged %lld building, %lld taking", (1LL << 40) - left1,
+          (1LL << 40) - left2);
+    /* what a scene holds counts the shared source bytes too, as a shared image does */
+    CHECK(left1 < left_plain, "the shared bytes are not counted (%lld, plain %lld)", left1,
+          left_plain);
+    rayd_asset_cache_free(c); /* the scenes keep their mesh */
+    rayd_image *want = plain ? render_all(plain, 2) : NULL;
+    rayd_image *got1 = s1 ? render_all(s1, 2) : NULL;
+    rayd_scene_free(s1); /* s2's mesh outlives s1's reference (ASan: no use after free) */
+    rayd_image *got2 = s2 ? render_all(s2, 1) : NULL;
+    CHECK(same_pixels(want, got1) && same_pixels(want, got2), "a shared mesh renders differently");
+    CHECK(want && lit_pixels(want) > 200, "the mesh does not show: the check proves little");
+    rayd_image_free(want);
+    rayd_image_free(got1);
+    rayd_image_free(got2);
+    rayd_scene_free(s2);
+    rayd_scene_free(plain);
+    free(json), free(src), free(obj);
+}
+
+/* The first offset of a digit in obj that no span share_hash samples
+ * covers (base/share.c: 64 spans of 64 bytes from 0 to the end). */
+static size_t unsampled_digit(const char *text, size_t len) {
+    for (size_t at = 0; at < len; at++) {
+        bool sampled = false;
+        for (size_t i = 0; i < 64 && !sampled; i++) {
+            size_t from = (len - 64) / 63 * i;
+            sampled = at >= from && at < from + 64;
+        }
+        if (!sampled && text[at] >= '1' && text[at] <= '8') return at;
+    }
+    return 0;
+}
+
+static void test_every_byte_tells(void) {
+    /* a source that differs from another in one byte the first sieve does
+     * not read, or in its smoothing, is another mesh */
+    char *obj = grid_obj(24), *src = obj_source(obj);
+    char *json = mesh_scene(src, true), *flat = mesh_scene(src, false);
+    size_t at = unsampled_digit(obj, strlen(obj));
+    CHECK(at > 0, "no unsampled digit: the check proves nothing");
+    obj[at]++;
+    char *src2 = obj_source(obj), *json2 = mesh_scene(src2, true);
+    struct rayd_error err;
+    rayd_asset_cache *c = rayd_asset_cache_new(0);
+    rayd_scene *a = parse(json, c, 0, NULL, &err), *b = parse(json2, c, 0, NULL, &err);
+    rayd_scene *f = parse(flat, c, 0, NULL, &err);
+    CHECK(a && b && f, "parse: %s", err.message);
+    long hits, misses;
+    hits_misses(c, &hits, &misses);
+    CHECK(hits == 0 && misses == 3, "hits %ld, misses %ld; want 0 and 3", hits, misses);
+    if (a && b && f)
+        CHECK(a->meshes[0].blocks != b->meshes[0].blocks && !f->meshes[0].normal,
+              "another source took this one's mesh");
+    rayd_scene_free(a), rayd_scene_free(b), rayd_scene_free(f);
+    rayd_asset_cache_free(c);
+    free(json), free(json2), free(flat), free(src), free(src2), free(obj);
+}
+
+static void test_limits_hold_the_same(void) {
+    /* room for fewer triangles than the mesh has: refused whether a live
+     * scene holds it or not, with the decoder's path and words; and a
+     * memory account with no room for its build likewise */
+    char *obj = grid_obj(24), *src = obj_source(obj), *json = mesh_scene(src, true);
+    struct rayd_error plain_err, err;
+    rayd_asset_cache *c = rayd_asset_cache_new(0);
+    rayd_scene *keep = parse(json, c, 0, NULL, &err);
+    rayd_scene *a = parse(json, NULL, 1000, NULL, &plain_err);
+    rayd_scene *b = parse(json, c, 1000, NULL, &err);
+    CHECK(keep && !a && !b, "a scene over its triangle limit was taken");
+    CHECK(!strcmp(plain_err.path, err.path) && !strcmp(plain_err.message, err.message) &&
+              *err.message,
+          "'%s: %s' against '%s: %s'", err.path, err.message, plain_err.path, plain_err.message);
+    long long need = 1LL << 40, room;
+    rayd_scene_free(parse(json, NULL, 0, &need, &err));
+    need = (1LL << 40) - need; /* what a plain parse keeps charged */
+    room = need;               /* its decode's peak is more than that */
+    a = parse(json, NULL, 0, &room, &plain_err);
+    room = need;
+    b = parse(json, c, 0, &room, &err);
+    CHECK(!a && !b, "a scene over its memory account was taken (%s, %s)", a ? "plain" : "-",
+          b ? "shared" : "-");
+    CHECK(!strcmp(plain_err.path, err.path) && !strcmp(plain_err.message, err.message),
+          "'%s: %s' against '%s: %s'", err.path, err.message, plain_err.path, plain_err.message);
+    rayd_scene_free(a), rayd_scene_free(b), rayd_scene_free(keep);
+    rayd_asset_cache_free(c);
+    free(json), free(src), free(obj);
+}
+
+static void test_holding_cache_and_files(void) {
+    /* rayd-render's cache: a file's mesh outlives each scene until the
+     * cache goes; with no scene left the cache goes with its last mesh */
+    char dir[] = "/tmp/rayd-mesh-cache-XXXXXX";
+    CHECK(mkdtemp(dir) != NULL, "mkdtemp");
+    char path[96];
+    snprintf(path, sizeof path, "%s/grid.obj", dir);
+    char *obj = grid_obj(16);
+    FILE *fp = fopen(path, "w");
+    fputs(obj, fp);
+    fclose(fp);
+    char *json = mesh_scene("{\"file\": \"grid.obj\"}", true);
+    struct rayd_limits lim;
+    rayd_limits_default(&lim);
+    lim.asset_dir = dir;
+    rayd_asset_cache *c = rayd_asset_cache_new(1);
+    lim.assets = c;
+    struct rayd_error err;
+    rayd_scene *s = NULL, *t = NULL;
+    CHECK(rayd_scene_parse(json, strlen(json), &lim, &s, &err) == RAYD_OK, "%s", err.message);
+    rayd_scene_free(s);
+    CHECK(rayd_scene_parse(json, strlen(json), &lim, &t, &err) == RAYD_OK, "%s", err.message);
+    long hits, misses;
+    hits_misses(c, &hits, &misses);
+    CHECK(hits == 1 && misses == 1, "hits %ld, misses %ld; want 1 and 1", hits, misses);
+    rayd_asset_cache_free(c); /* t keeps its mesh; freed with t (ASan: no leak) */
+    rayd_image *img = t ? render_all(t, 1) : NULL;
+    CHECK(img && lit_pixels(img) > 200, "the scene lost its mesh");
+    rayd_image_free(img);
+    rayd_scene_free(t);
+    c = rayd_asset_cache_new(0); /* a server's: nothing kept without a scene */
+    lim.assets = c;
+    for (int k = 0; k < 2; k++) {
+        s = NULL;
+        CHECK(rayd_scene_parse(json, strlen(json), &lim, &s, &err) == RAYD_OK, "%s", err.message);
+        rayd_scene_free(s);
+    }
+    hits_misses(c, &hits, &misses);
+    CHECK(hits == 0 && misses == 2, "hits %ld, misses %ld; want 0 and 2", hits, misses);
+    rayd_asset_cache_free(c);
+    unlink(path);
+    rmdir(dir);
+    free(json), free(obj);
+}
+
+int main(void) {
+    RUN(test_built_once_same_pixels);
+    RUN(test_every_byte_tells);
+    RUN(test_limits_hold_the_same);
+    RUN(test_holding_cache_and_files);
+    CHECK_EXIT();
+}
