@@ -3,9 +3,10 @@
  *
  * The frames of an animation parse the same mesh sources each frame: a
  * 1.3M-triangle PLY took 0.25 s a frame to decode and build, nearly all of
- * a 640x360 frame's time.  A scene's mesh from an OBJ or PLY source is
- * offered in the asset cache under the source's bytes, its format and its
- * smoothing (all the build depends on), and the next parse of the same
+ * a 640x360 frame's time.  A scene's mesh from an OBJ or PLY source, or
+ * from large inline arrays (read from the scene's text), is offered in the
+ * asset cache under the source's bytes (the arrays' text), its format and
+ * its smoothing (all the build depends on), and the next parse of the same
  * bytes takes it: the same triangles, tree and normals, so the same
  * pixels.  Each scene holds a copy of struct mesh that points at the
  * shared arrays, and counts them whole (mesh_bytes), as a shared image is.

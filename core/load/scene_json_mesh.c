@@ -297,12 +297,15 @@ static void mesh_drop(struct loader *ld, struct mesh_data *md) {
 /* A mesh source's bytes as sj_source_read gives them, kept past the decode
  * while the mesh may be shared under them (source_shares). */
 struct source {
-    int format;        /* as sj_source_read numbers them: obj, ply, gltf, glb */
+    int format;        /* as sj_source_read numbers them: obj, ply, gltf, glb; or SOURCE_INLINE */
     char *owned;       /* malloc'd (a file's bytes or base64's), else NULL */
     const char *bytes; /* owned, or the scene's own text */
     size_t n;
     bool file; /* read from a file: n + 1 bytes charged while owned */
 };
+
+/* The format of an inline mesh's arrays' text (inline_source). */
+#define SOURCE_INLINE 4
 
 /* Frees the source's bytes, giving back a file's charge. */
 static void source_done(struct loader *ld, struct source *sc) {
@@ -312,17 +315,17 @@ static void source_done(struct loader *ld, struct source *sc) {
 }
 
 /* Whether the mesh built from sc is offered to the other scenes (and
- * looked for among theirs): an OBJ or PLY source, whose bytes are all its
- * build depends on, with an asset cache to share it in.  A glTF source
+ * looked for among theirs): an OBJ or PLY source, or inline arrays' text,
+ * all its build depends on, with an asset cache to share it in.  A glTF source
  * may name other files, and bakes an animation at the scene's frame. */
 static bool source_shares(const struct loader *ld, const struct source *sc) {
-    return ld->lim->assets && sc->format < 2;
+    return ld->lim->assets && (sc->format < 2 || sc->format == SOURCE_INLINE);
 }
 
-/* What a mesh of sc is shared under besides its bytes: its format and
- * whether its normals are smoothed. */
+/* What a mesh of sc is shared under besides its bytes: its format (or
+ * SOURCE_INLINE) and whether its normals are smoothed. */
 static unsigned source_variant(const struct source *sc, bool smooth) {
-    return (unsigned)sc->format | (smooth ? 4u : 0u);
+    return (unsigned)sc->format | (smooth ? 8u : 0u);
 }
 
 /* The source's bytes decoded into md, within what is left of the scene's
@@ -528,6 +531,51 @@ static enum rayd_status mesh_source(struct loader *ld, const cJSON *oj, const cJ
     return st;
 }
 
+/* An inline mesh's arrays as a source to share under: their text, when
+ * each one given is a span of the scene text (scene_json_inline.c: large
+ * arrays; a small mesh costs little to read again).  Each span runs from
+ * its '[' to its ']' and holds numbers alone, so the texts joined in key
+ * order, each after its key's letter, tell every array apart.  False
+ * (sc untouched) when not, or no memory for the key. */
+static bool inline_source(const struct loader *ld, const cJSON *oj, struct source *sc) {
+    static const char *const keys[] = {"vertices", "indices", "normals", "uvs"};
+    const struct json_span *sp[4] = {NULL};
+    size_t n = 0;
+    for (int k = 0; ld->lim->assets && k < 4; k++) {
+        const cJSON *a = cJSON_GetObjectItemCaseSensitive(oj, keys[k]);
+        if (a && !(sp[k] = sj_inline_span(ld->inl, a))) return false;
+        if (sp[k]) n += 1 + sp[k]->close - sp[k]->open + 1;
+    }
+    char *key = sp[0] && sp[1] ? malloc(n) : NULL, *at = key;
+    for (int k = 0; key && k < 4; k++) {
+        if (!sp[k]) continue;
+        *at++ = keys[k][0];
+        memcpy(at, ld->inl->text + sp[k]->open, sp[k]->close - sp[k]->open + 1);
+        at += sp[k]->close - sp[k]->open + 1;
+    }
+    if (!key) return false;
+    *sc = (struct source){.format = SOURCE_INLINE, .owned = key, .bytes = key, .n = n};
+    return true;
+}
+
+/* An inline mesh: taken built from another scene of the same arrays'
+ * text, or read and built, then offered to the others. */
+static enum rayd_status mesh_inline(struct loader *ld, const cJSON *oj, const struct jp *at,
+                                    bool smooth, uint32_t *id) {
+    struct jp pm = jp_key(at, "indices");
+    struct source sc = {0};
+    bool shares = inline_source(ld, oj, &sc), took = false;
+    unsigned variant = source_variant(&sc, smooth);
+    enum rayd_status st = shares ? mesh_taken(ld, &sc, variant, &pm, id, &took) : RAYD_OK;
+    struct mesh_data md = {0};
+    if (st == RAYD_OK && !took) st = mesh_from_inline(ld, oj, at, &md);
+    size_t peak;
+    if (st == RAYD_OK && !took) st = mesh_make(ld, &md, &pm, smooth, id, &peak);
+    if (st == RAYD_OK && !took && shares) mesh_offer(ld, &sc, variant, &ld->s->meshes[*id], peak);
+    source_done(ld, &sc);
+    return st;
+}
+
 enum rayd_status sj_mesh(struct loader *ld, const cJSON *oj, const struct jp *at, uint32_t *id) {
     const cJSON *sm = cJSON_GetObjectItemCaseSensitive(oj, "smooth");
     if (sm && !cJSON_IsBool(sm)) {
@@ -536,10 +584,5 @@ enum rayd_status sj_mesh(struct loader *ld, const cJSON *oj, const struct jp *at
     }
     bool smooth = !sm || cJSON_IsTrue(sm);
     const cJSON *src = cJSON_GetObjectItemCaseSensitive(oj, "source");
-    if (src) return mesh_source(ld, oj, src, at, smooth, id);
-    struct mesh_data md = {0};
-    TRY(mesh_from_inline(ld, oj, at, &md));
-    struct jp pm = jp_key(at, "indices");
-    size_t peak;
-    return mesh_make(ld, &md, &pm, smooth, id, &peak);
+    return src ? mesh_source(ld, oj, src, at, smooth, id) : mesh_inline(ld, oj, at, smooth, id);
 }

@@ -242,8 +242,8 @@ enum metrics_gauge {
     MG_BACKLOG_MS,     /* estimated work waiting or running, in milliseconds of the pool */
     MG_IMAGES_SHARED,  /* image textures a parse found decoded (a counter) */
     MG_IMAGES_DECODED, /* image textures a parse decoded (a counter) */
-    MG_MESHES_SHARED,  /* mesh sources a parse found built (a counter) */
-    MG_MESHES_BUILT,   /* mesh sources a parse decoded and built (a counter) */
+    MG_MESHES_SHARED,  /* meshes a parse found built (a counter) */
+    MG_MESHES_BUILT,   /* meshes a parse built for others to take (a counter) */
     MG__COUNT
 };
 

@@ -460,12 +460,13 @@ char *metrics_text(size_t *len) {
                    "rayd_scene_images_decoded_total %ld\n",
                    metrics_read(MG_IMAGES_SHARED), metrics_read(MG_IMAGES_DECODED));
     metrics_printf(&b,
-                   "# HELP rayd_scene_meshes_shared_total Mesh sources a parse took already "
-                   "decoded and built, from a live scene of the same bytes.\n"
+                   "# HELP rayd_scene_meshes_shared_total Meshes (OBJ and PLY sources, large "
+                   "inline arrays) a parse took already decoded and built, from a live scene of "
+                   "the same bytes.\n"
                    "# TYPE rayd_scene_meshes_shared_total counter\n"
                    "rayd_scene_meshes_shared_total %ld\n"
-                   "# HELP rayd_scene_meshes_built_total Mesh sources a parse decoded and built "
-                   "where another scene could take them.\n"
+                   "# HELP rayd_scene_meshes_built_total Meshes a parse decoded and built where "
+                   "another scene could take them.\n"
                    "# TYPE rayd_scene_meshes_built_total counter\n"
                    "rayd_scene_meshes_built_total %ld\n",
                    metrics_read(MG_MESHES_SHARED), metrics_read(MG_MESHES_BUILT));

@@ -245,10 +245,77 @@ static void test_holding_cache_and_files(void) {
     free(json), free(obj);
 }
 
+/* The grid as inline arrays' JSON (the object's keys after "type"). */
+static char *grid_inline(int n, double lift) {
+    size_t cap = (size_t)(n + 1) * (n + 1) * 40 + (size_t)n * n * 48 + 64;
+    char *t = malloc(cap), *p = t;
+    p += sprintf(p, "\"vertices\": [");
+    for (int j = 0; j <= n; j++)
+        for (int i = 0; i <= n; i++)
+            p += sprintf(p, "%s%.5f, %.5f, %.5f", i + j ? ", " : "", 2.0 * i / n - 1,
+                         2.0 * j / n - 1, (i == n && j == n ? lift : 0) + 0.1 * sin(3.0 * i / n));
+    p += sprintf(p, "], \"indices\": [");
+    for (int j = 0; j < n; j++)
+        for (int i = 0; i < n; i++) {
+            int a = j * (n + 1) + i, b = a + 1, c = a + n + 1, d = c + 1;
+            p += sprintf(p, "%s%d, %d, %d, %d, %d, %d", i + j ? ", " : "", a, b, d, a, d, c);
+        }
+    sprintf(p, "]");
+    return t;
+}
+
+static char *inline_scene(const char *arrays) {
+    size_t cap = strlen(arrays) + 512;
+    char *json = malloc(cap);
+    snprintf(json, cap,
+             "{\"render\": {\"width\": 48, \"height\": 32},"
+             " \"camera\": {\"position\": [0, -1.5, 3], \"look_at\": [0, 0, 0]},"
+             " \"lights\": [{\"type\": \"point\", \"position\": [1, -2, 4]}],"
+             " \"objects\": [{\"type\": \"mesh\", %s}]}",
+             arrays);
+    return json;
+}
+
+static void test_inline_arrays_shared(void) {
+    /* large inline arrays are read from the text (scene_json_inline.c):
+     * their text is the key; one number changed is another mesh; a small
+     * mesh is read again, not offered */
+    char *a = grid_inline(24, 0), *b = grid_inline(24, 0.5), *small = grid_inline(3, 0);
+    char *ja = inline_scene(a), *jb = inline_scene(b), *js = inline_scene(small);
+    struct rayd_error err;
+    long long left_plain = 1LL << 40, left1 = 1LL << 40, left2 = 1LL << 40;
+    rayd_scene *plain = parse(ja, NULL, 0, &left_plain, &err);
+    rayd_asset_cache *c = rayd_asset_cache_new(0);
+    rayd_scene *s1 = parse(ja, c, 0, &left1, &err), *s2 = parse(ja, c, 0, &left2, &err);
+    rayd_scene *s3 = parse(jb, c, 0, NULL, &err), *s4 = parse(js, c, 0, NULL, &err);
+    CHECK(plain && s1 && s2 && s3 && s4, "parse: %s", err.message);
+    long hits, misses;
+    hits_misses(c, &hits, &misses);
+    CHECK(hits == 1 && misses == 2, "hits %ld, misses %ld; want 1 and 2", hits, misses);
+    if (s1 && s2 && s3)
+        CHECK(s1->meshes[0].blocks == s2->meshes[0].blocks &&
+                  s3->meshes[0].blocks != s1->meshes[0].blocks,
+              "the inline mesh is not shared as it should be");
+    CHECK(left1 == left2, "charged %lld building, %lld taking", (1LL << 40) - left1,
+          (1LL << 40) - left2);
+    rayd_asset_cache_free(c);
+    rayd_image *want = plain ? render_all(plain, 2) : NULL;
+    rayd_scene_free(s1);
+    rayd_image *got = s2 ? render_all(s2, 2) : NULL;
+    rayd_image *other = s3 ? render_all(s3, 2) : NULL;
+    CHECK(same_pixels(want, got), "a shared inline mesh renders differently");
+    CHECK(want && lit_pixels(want) > 200 && !same_pixels(want, other),
+          "the meshes do not show apart: the check proves little");
+    rayd_image_free(want), rayd_image_free(got), rayd_image_free(other);
+    rayd_scene_free(s2), rayd_scene_free(s3), rayd_scene_free(s4), rayd_scene_free(plain);
+    free(ja), free(jb), free(js), free(a), free(b), free(small);
+}
+
 int main(void) {
     RUN(test_built_once_same_pixels);
     RUN(test_every_byte_tells);
     RUN(test_limits_hold_the_same);
     RUN(test_holding_cache_and_files);
+    RUN(test_inline_arrays_shared);
     CHECK_EXIT();
 }
