@@ -21,8 +21,8 @@ struct share {
     struct rayd_asset_cache *cache;
     long refs;
     int kind;
-    unsigned variant; /* what else the entry was made with (a mesh's format, smoothing) */
-    unsigned long long hash;
+    unsigned variant;        /* what else the entry was made with (a mesh's format, smoothing) */
+    unsigned long long hash; /* share.c's share_hash of the key */
     size_t key_len;
     unsigned char *key; /* the bytes it was made from */
     struct share *next;

@@ -18,17 +18,12 @@
 struct mesh_share {
     struct share sh; /* first: its key is the source's bytes */
     struct mesh m;   /* the arrays' owner (its shared NULL) */
-    size_t peak;     /* what the decode and build charged at most */
-};
-
-struct mesh_fit {
-    uint32_t verts, tris;
+    struct mesh_terms t;
 };
 
 static bool mesh_share_fits(const struct share *s, const void *arg) {
-    const struct mesh_share *x = (const struct mesh_share *)s;
-    const struct mesh_fit *f = arg;
-    return x->m.nverts <= f->verts && x->m.ntris <= f->tris;
+    const struct mesh_terms *was = &((const struct mesh_share *)s)->t, *now = arg;
+    return now->max_verts >= was->max_verts && now->max_tris >= was->max_tris;
 }
 
 static void mesh_share_drop(struct share *s) {
@@ -38,25 +33,24 @@ static void mesh_share_drop(struct share *s) {
 }
 
 bool mesh_share_find(struct rayd_asset_cache *c, unsigned variant, const void *key, size_t len,
-                     uint32_t max_verts, uint32_t max_tris, struct mesh *m, size_t *peak) {
-    struct mesh_fit f = {max_verts, max_tris};
-    struct share *s = share_find(c, SHARE_MESH, variant, key, len, mesh_share_fits, &f);
+                     const struct mesh_terms *now, struct mesh *m, struct mesh_terms *was) {
+    struct share *s = share_find(c, SHARE_MESH, variant, key, len, mesh_share_fits, now);
     if (!s) return false;
     struct mesh_share *x = (struct mesh_share *)s;
     *m = x->m;
     m->shared = s;
-    *peak = x->peak;
+    *was = x->t;
     return true;
 }
 
 bool mesh_share_add(struct rayd_asset_cache *c, struct mesh *m, unsigned variant,
-                    unsigned char *key, size_t len, size_t peak) {
+                    unsigned char *key, size_t len, const struct mesh_terms *t) {
     struct mesh_share *x = malloc(sizeof *x);
     if (!x) {
         free(key);
         return false;
     }
-    *x = (struct mesh_share){.sh.drop = mesh_share_drop, .m = *m, .peak = peak};
+    *x = (struct mesh_share){.sh.drop = mesh_share_drop, .m = *m, .t = *t};
     share_add(c, &x->sh, SHARE_MESH, variant, key, len);
     m->shared = &x->sh;
     return true;

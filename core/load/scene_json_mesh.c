@@ -427,44 +427,51 @@ static enum rayd_status settle(struct loader *ld, const struct jp *at, size_t fr
     return RAYD_OK;
 }
 
-/* The mesh another scene built from sc's bytes (lim->assets), taken when
- * it fits what is left of the scene's vertex and triangle budget (else the
- * decoder refuses it, in its words): *took then says so.  Charged as its
- * decode and build were at most, then down to what the scene holds, so
- * the limits answer as if it were built here. */
-static enum rayd_status mesh_taken(struct loader *ld, const struct source *sc, unsigned variant,
-                                   const struct jp *at, uint32_t *id, bool *took) {
+/* The budget a mesh decoded now has: what is left of the scene's. */
+static struct mesh_terms mesh_terms_now(const struct loader *ld) {
     struct mesh_limits ml = sj_mesh_budget(ld);
+    return (struct mesh_terms){.max_verts = ml.max_vertices, .max_tris = ml.max_triangles};
+}
+
+/* The mesh another scene built from sc's bytes (lim->assets), taken when
+ * it was decoded within a budget no larger than this scene has left (else
+ * decoding it here answers, in the decoder's words): *took then says so.
+ * Charged as its decode and build were at their peak, then down to what
+ * the build kept and its key, so the limits answer as if it were built
+ * here; a file's read is settled with it. */
+static enum rayd_status mesh_taken(struct loader *ld, struct source *sc, unsigned variant,
+                                   const struct jp *at, uint32_t *id, bool *took) {
     struct mesh m;
-    size_t peak, held = sc->file ? sc->n + 1 : 0; /* the file's read is charged */
-    *took = mesh_share_find(ld->lim->assets, variant, sc->bytes, sc->n, ml.max_vertices,
-                            ml.max_triangles, &m, &peak);
+    struct mesh_terms now = mesh_terms_now(ld), was;
+    *took = mesh_share_find(ld->lim->assets, variant, sc->bytes, sc->n, &now, &m, &was);
     if (!*took) return RAYD_OK;
-    size_t top = peak > held ? peak : held;
-    enum rayd_status st = settle(ld, at, held, top);
-    if (st == RAYD_OK) st = sj_add_mesh(ld, id);
+    enum rayd_status st = sj_charge(ld, at, was.peak);
+    if (st == RAYD_OK && (st = sj_add_mesh(ld, id)) != RAYD_OK) sj_give_back(ld, was.peak);
     if (st != RAYD_OK) {
         mesh_free(&m);
         return st;
     }
+    size_t held = sc->file ? sc->n + 1 : 0;
+    sc->file = false; /* the read's charge is settled here, with the mesh's */
     ld->s->meshes[*id] = m;
     ld->vertices += m.nverts;
     ld->triangles += m.ntris;
-    return settle(ld, at, top, held + mesh_bytes(&m)); /* the file's charge goes with its bytes */
+    return settle(ld, at, held + was.peak, was.kept + sc->n);
 }
 
 /* Mesh md (its arrays taken, charged md->charged) built as the scene's
  * mesh *id, charged its arrays and the build's estimate, then what the
- * build holds.  *peak: the most it charged. */
+ * build holds; t->peak and t->kept say how much. */
 static enum rayd_status mesh_make(struct loader *ld, struct mesh_data *md, const struct jp *at,
-                                  bool smooth, uint32_t *id, size_t *peak) {
+                                  bool smooth, uint32_t *id, struct mesh_terms *t) {
     /* the arrays and the build's estimate, less what the decoder charged
      * for the arrays already (it charged them as it allocated them) */
     size_t charged = sj_mesh_bytes(md);
-    *peak = charged > md->charged ? charged : md->charged;
+    t->peak = charged > md->charged ? charged : md->charged;
     enum rayd_status st = RAYD_OK;
     if (charged > md->charged) {
         st = sj_charge(ld, at, charged - md->charged);
+        if (st == RAYD_OK) md->charged = charged;
     } else {
         sj_give_back(ld, md->charged - charged);
         md->charged = charged;
@@ -482,15 +489,15 @@ static enum rayd_status mesh_make(struct loader *ld, struct mesh_data *md, const
     ld->s->build_s += clock_now() - t0;
     size_t built = mesh_bytes(&ld->s->meshes[*id]); /* the estimate's excess given back */
     if (st == RAYD_OK && built < charged) sj_give_back(ld, charged - built);
+    t->kept = built < charged ? built : charged;
     return st; /* the mesh owns the arrays now, even on failure */
 }
 
-/* The built mesh m offered to the scenes of the same source, its bytes
- * the key: a file's keep their charge, others are charged now (and the
- * mesh stays unshared when there is no room). */
+/* The built mesh m offered to the scenes of the same source on terms t,
+ * its bytes the key: a file's keep their read's charge, others are
+ * charged now (and the mesh stays unshared when there is no room). */
 static void mesh_offer(struct loader *ld, struct source *sc, unsigned variant, struct mesh *m,
-                       size_t peak) {
-    size_t held = sc->file ? sc->n + 1 : 0;
+                       const struct mesh_terms *t) {
     unsigned char *key = (unsigned char *)sc->owned;
     if (!key && (key = malloc(sc->n ? sc->n : 1))) memcpy(key, sc->bytes, sc->n);
     struct mesh_limits hook = sj_mesh_budget(ld);
@@ -498,12 +505,12 @@ static void mesh_offer(struct loader *ld, struct source *sc, unsigned variant, s
     char why[200];
     if (!key || (!sc->file && mesh_charge(&hook, &charged, sc->n, why, sizeof why) != RAYD_OK)) {
         if (key != (unsigned char *)sc->owned) free(key);
-        source_done(ld, sc);
-        return;
+        return; /* source_done frees the bytes */
     }
-    sc->owned = NULL; /* the key now, its charge the mesh's */
-    if (held) sj_give_back(ld, 1);
-    mesh_share_add(ld->lim->assets, m, variant, key, sc->n, held + peak);
+    if (sc->file) sj_give_back(ld, 1); /* the read's n + 1: the key's n */
+    sc->owned = NULL;
+    sc->file = false;
+    if (!mesh_share_add(ld->lim->assets, m, variant, key, sc->n, t)) sj_give_back(ld, sc->n);
 }
 
 /* A "source" mesh: taken built from another scene of the same bytes, or
@@ -521,12 +528,12 @@ static enum rayd_status mesh_source(struct loader *ld, const cJSON *oj, const cJ
         source_done(ld, &sc);
         return st;
     }
+    struct mesh_terms t = mesh_terms_now(ld);
     struct mesh_data md = {0};
     TRY(source_decode(ld, src, &pm, &sc, &md));
-    size_t peak;
-    st = mesh_make(ld, &md, &pm, smooth, id, &peak);
+    st = mesh_make(ld, &md, &pm, smooth, id, &t);
     if (st == RAYD_OK && source_shares(ld, &sc))
-        mesh_offer(ld, &sc, variant, &ld->s->meshes[*id], peak);
+        mesh_offer(ld, &sc, variant, &ld->s->meshes[*id], &t);
     source_done(ld, &sc);
     return st;
 }
@@ -567,11 +574,11 @@ static enum rayd_status mesh_inline(struct loader *ld, const cJSON *oj, const st
     bool shares = inline_source(ld, oj, &sc), took = false;
     unsigned variant = source_variant(&sc, smooth);
     enum rayd_status st = shares ? mesh_taken(ld, &sc, variant, &pm, id, &took) : RAYD_OK;
+    struct mesh_terms t = mesh_terms_now(ld);
     struct mesh_data md = {0};
     if (st == RAYD_OK && !took) st = mesh_from_inline(ld, oj, at, &md);
-    size_t peak;
-    if (st == RAYD_OK && !took) st = mesh_make(ld, &md, &pm, smooth, id, &peak);
-    if (st == RAYD_OK && !took && shares) mesh_offer(ld, &sc, variant, &ld->s->meshes[*id], peak);
+    if (st == RAYD_OK && !took) st = mesh_make(ld, &md, &pm, smooth, id, &t);
+    if (st == RAYD_OK && !took && shares) mesh_offer(ld, &sc, variant, &ld->s->meshes[*id], &t);
     source_done(ld, &sc);
     return st;
 }

@@ -50,32 +50,50 @@ static char *obj_source(const char *obj) {
     return s;
 }
 
-/* A memory account that refuses past *left bytes, as rayd's budget does. */
+/* A memory account that refuses past left bytes, as rayd's budget does,
+ * and keeps its low-water mark: cap - low is the parse's peak charge. */
+struct account {
+    long long left, low;
+};
+
 static enum rayd_status cap_charge(void *arg, long long bytes, char *why, size_t why_len) {
-    long long *left = arg;
-    if (bytes > *left) {
-        snprintf(why, why_len, "over the cap by %lld bytes", bytes - *left);
+    struct account *a = arg;
+    if (bytes > a->left) {
+        snprintf(why, why_len, "over the cap by %lld bytes", bytes - a->left);
         return RAYD_E_LIMIT;
     }
-    *left -= bytes;
+    a->left -= bytes;
+    if (a->left < a->low) a->low = a->left;
     return RAYD_OK;
 }
 
-/* json parsed with cache c, a triangle limit (0: the default) and a memory
- * account of *left bytes (NULL: none); NULL with err on failure. */
-static rayd_scene *parse(const char *json, rayd_asset_cache *c, long max_tris, long long *left,
-                         struct rayd_error *err) {
+/* json parsed with cache c, a vertex and triangle limit (0: the default),
+ * asset folder dir (or NULL) and memory account acct (NULL: none); NULL
+ * with err on failure. */
+static rayd_scene *parse_in(const char *json, rayd_asset_cache *c, long max_verts, long max_tris,
+                            const char *dir, struct account *acct, struct rayd_error *err) {
     struct rayd_limits lim;
     rayd_limits_default(&lim);
     lim.assets = c;
+    lim.asset_dir = dir;
+    if (max_verts) lim.max_vertices = max_verts;
     if (max_tris) lim.max_triangles = max_tris;
-    if (left) {
+    if (acct) {
+        acct->low = acct->left;
         lim.charge = cap_charge;
-        lim.charge_arg = left;
+        lim.charge_arg = acct;
     }
     rayd_scene *s = NULL;
     memset(err, 0, sizeof *err);
     return rayd_scene_parse(json, strlen(json), &lim, &s, err) == RAYD_OK ? s : NULL;
+}
+
+static rayd_scene *parse(const char *json, rayd_asset_cache *c, long max_tris, long long *left,
+                         struct rayd_error *err) {
+    struct account a = {left ? *left : 0, 0};
+    rayd_scene *s = parse_in(json, c, 0, max_tris, NULL, left ? &a : NULL, err);
+    if (left) *left = a.left;
+    return s;
 }
 
 static bool same_pixels(const rayd_image *a, const rayd_image *b) {
@@ -131,27 +149,20 @@ static void test_built_once_same_pixels(void) {
     free(json), free(src), free(obj);
 }
 
-/* The first offset of a digit in obj that no span share_hash samples
- * covers (base/share.c: 64 spans of 64 bytes from 0 to the end). */
-static size_t unsampled_digit(const char *text, size_t len) {
-    for (size_t at = 0; at < len; at++) {
-        bool sampled = false;
-        for (size_t i = 0; i < 64 && !sampled; i++) {
-            size_t from = (len - 64) / 63 * i;
-            sampled = at >= from && at < from + 64;
-        }
-        if (!sampled && text[at] >= '1' && text[at] <= '8') return at;
-    }
+/* The first digit 1-8 of text from its middle on. */
+static size_t middle_digit(const char *text, size_t len) {
+    for (size_t at = len / 2; at < len; at++)
+        if (text[at] >= '1' && text[at] <= '8') return at;
     return 0;
 }
 
 static void test_every_byte_tells(void) {
-    /* a source that differs from another in one byte the first sieve does
-     * not read, or in its smoothing, is another mesh */
+    /* a source that differs from another in one byte, or in its
+     * smoothing, is another mesh */
     char *obj = grid_obj(24), *src = obj_source(obj);
     char *json = mesh_scene(src, true), *flat = mesh_scene(src, false);
-    size_t at = unsampled_digit(obj, strlen(obj));
-    CHECK(at > 0, "no unsampled digit: the check proves nothing");
+    size_t at = middle_digit(obj, strlen(obj));
+    CHECK(at > 0, "no digit: the check proves nothing");
     obj[at]++;
     char *src2 = obj_source(obj), *json2 = mesh_scene(src2, true);
     struct rayd_error err;
@@ -311,11 +322,113 @@ static void test_inline_arrays_shared(void) {
     free(ja), free(jb), free(js), free(a), free(b), free(small);
 }
 
+/* dir/name holds text; false when it cannot be written. */
+static bool write_file(const char *dir, const char *name, const char *text) {
+    char path[160];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    FILE *fp = fopen(path, "w");
+    if (!fp) return false;
+    fputs(text, fp);
+    return fclose(fp) == 0;
+}
+
+static void remove_file(const char *dir, const char *name) {
+    char path[160];
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    unlink(path);
+}
+
+/* The peak and the final charge of json parsed with cache c (a parse
+ * with all the room it wants); false when it failed. */
+static bool charges(const char *json, rayd_asset_cache *c, const char *dir, long long *peak,
+                    long long *kept, rayd_scene **keep) {
+    struct account a = {1LL << 40, 0};
+    struct rayd_error err;
+    rayd_scene *s = parse_in(json, c, 0, 0, dir, &a, &err);
+    *peak = (1LL << 40) - a.low;
+    *kept = (1LL << 40) - a.left;
+    if (keep)
+        *keep = s;
+    else
+        rayd_scene_free(s);
+    return s != NULL;
+}
+
+static void test_charged_as_built_from_any_source(void) {
+    /* a mesh taken from a file's, or a text's, is charged at its peak and
+     * in the end as the same source built here would be: no more (the
+     * file's read counted once, not again as the key) and no less */
+    char dir[] = "/tmp/rayd-mesh-charge-XXXXXX";
+    CHECK(mkdtemp(dir) != NULL, "mkdtemp");
+    char *obj = grid_obj(8);
+    size_t pad = 200000; /* a long comment: the source's bytes outweigh the mesh */
+    char *big = malloc(strlen(obj) + pad + 8);
+    memset(big, 'x', pad);
+    big[0] = '#', big[pad - 1] = '\n';
+    strcpy(big + pad, obj);
+    CHECK(write_file(dir, "big.obj", big), "write big.obj");
+    char *src = obj_source(big);
+    char *file_json = mesh_scene("{\"file\": \"big.obj\"}", true),
+         *text_json = mesh_scene(src, true);
+    const char *jsons[2] = {file_json, text_json}, *names[2] = {"file", "text"};
+    long long peak[2], kept[2];
+    for (int k = 0; k < 2; k++) { /* each built here, offered to a cache */
+        rayd_asset_cache *c = rayd_asset_cache_new(0);
+        CHECK(charges(jsons[k], c, dir, &peak[k], &kept[k], NULL), "%s parse", names[k]);
+        rayd_asset_cache_free(c);
+    }
+    for (int first = 0; first < 2; first++)
+        for (int k = 0; k < 2; k++) {
+            rayd_asset_cache *c = rayd_asset_cache_new(0);
+            rayd_scene *holder = NULL;
+            long long p0, k0, p, kk;
+            charges(jsons[first], c, dir, &p0, &k0, &holder);
+            bool ok = charges(jsons[k], c, dir, &p, &kk, NULL);
+            long hits, misses;
+            hits_misses(c, &hits, &misses);
+            CHECK(ok && hits == 1, "%s taken from %s: parse %d, hits %ld", names[k], names[first],
+                  ok, hits);
+            CHECK(p <= peak[k] && kk == kept[k] && k0 == kept[first],
+                  "%s taken from %s: peak %lld, kept %lld; built here: peak %lld, kept %lld",
+                  names[k], names[first], p, kk, peak[k], kept[k]);
+            rayd_scene_free(holder);
+            rayd_asset_cache_free(c);
+        }
+    remove_file(dir, "big.obj");
+    rmdir(dir);
+    free(file_json), free(text_json), free(src), free(big), free(obj);
+}
+
+static void test_decoder_limits_answer(void) {
+    /* an OBJ of 1000 'v' lines and one face builds a 3-vertex mesh; with
+     * room for 100 vertices its decoder refuses it, and so it must be
+     * when a live scene holds the mesh */
+    size_t cap = 1000 * 16 + 64;
+    char *obj = malloc(cap), *p = obj;
+    for (int i = 0; i < 1000; i++) p += sprintf(p, "v %d 0 -%d\n", i % 7, 3 + i % 5);
+    sprintf(p, "f 1 2 8\n");
+    char *src = obj_source(obj), *json = mesh_scene(src, false);
+    struct rayd_error plain_err, err;
+    rayd_asset_cache *c = rayd_asset_cache_new(0);
+    rayd_scene *keep = parse_in(json, c, 0, 0, NULL, NULL, &err);
+    rayd_scene *a = parse_in(json, NULL, 100, 0, NULL, NULL, &plain_err);
+    rayd_scene *b = parse_in(json, c, 100, 0, NULL, NULL, &err);
+    CHECK(keep && !a && !b, "a scene over its vertex limit was taken (%s)", b ? "shared" : "-");
+    CHECK(!strcmp(plain_err.path, err.path) && !strcmp(plain_err.message, err.message) &&
+              *err.message,
+          "'%s: %s' against '%s: %s'", err.path, err.message, plain_err.path, plain_err.message);
+    rayd_scene_free(a), rayd_scene_free(b), rayd_scene_free(keep);
+    rayd_asset_cache_free(c);
+    free(json), free(src), free(obj);
+}
+
 int main(void) {
     RUN(test_built_once_same_pixels);
     RUN(test_every_byte_tells);
     RUN(test_limits_hold_the_same);
     RUN(test_holding_cache_and_files);
     RUN(test_inline_arrays_shared);
+    RUN(test_charged_as_built_from_any_source);
+    RUN(test_decoder_limits_answer);
     CHECK_EXIT();
 }
