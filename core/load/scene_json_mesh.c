@@ -499,7 +499,7 @@ static enum rayd_status mesh_make(struct loader *ld, struct mesh_data *md, const
 static void mesh_offer(struct loader *ld, struct source *sc, unsigned variant, struct mesh *m,
                        const struct mesh_terms *t) {
     unsigned char *key = (unsigned char *)sc->owned;
-    if (!key && (key = malloc(sc->n ? sc->n : 1))) memcpy(key, sc->bytes, sc->n);
+    if (!key && sc->bytes && (key = malloc(sc->n ? sc->n : 1))) memcpy(key, sc->bytes, sc->n);
     struct mesh_limits hook = sj_mesh_budget(ld);
     size_t charged = 0;
     char why[200];
