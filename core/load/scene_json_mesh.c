@@ -336,7 +336,7 @@ static enum rayd_status source_decode(struct loader *ld, const cJSON *src, const
     struct jp pv = jp_key(at, sc->file                                        ? "file"
                               : cJSON_GetObjectItemCaseSensitive(src, "text") ? "text"
                                                                               : "base64");
-    double t0 = clock_now(); /* decode: reading the file or base64 too */
+    double t0 = clock_now();
     struct mesh_limits ml = sj_mesh_budget(ld);
     enum rayd_status st =
         sc->format == 0   ? mesh_parse_obj_threads(sc->bytes, sc->n, &ml, 0, md, ld->err)
@@ -518,7 +518,9 @@ static void mesh_offer(struct loader *ld, struct source *sc, unsigned variant, s
 static enum rayd_status mesh_source(struct loader *ld, const cJSON *oj, const cJSON *src,
                                     const struct jp *at, bool smooth, uint32_t *id) {
     struct source sc = {0};
+    double t0 = clock_now(); /* the decode's time counts reading the file or base64 */
     TRY(source_read(ld, oj, src, at, &sc));
+    ld->s->decode_s += clock_now() - t0;
     struct jp pm = jp_key(at, "source");
     unsigned variant = source_variant(&sc, smooth);
     bool took = false;
