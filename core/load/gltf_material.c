@@ -17,7 +17,9 @@
  * a bufferView or a URI (data: or a relative file, through the reader's
  * opener) and are PNG (png.c) or JPEG (stb_image, the library .hdr maps
  * use), each at most 4096 x 4096 and all of them together no more texels
- * than one such image.  The texture's alpha, its sampler's wrap modes
+ * than one such image.  A decoded texture (its factor baked in) is shared
+ * with the scenes of the same image bytes and factor (shade/texels.c), so
+ * the frames of an animation decode it once.  The texture's alpha, its sampler's wrap modes
  * (rayd repeats) and KHR_texture_transform are ignored; normal, occlusion,
  * emissive and metallic-roughness textures too.
  *
@@ -36,6 +38,7 @@
 #include "base/error.h"
 #include "format/gltf_json.h"
 #include "render/image.h"
+#include "shade/texels.h"
 
 /* n numbers at o[key], each in [lo, hi], into out; def when absent. */
 static enum rayd_status gm_nums(struct rayd_error *err, const cJSON *o, const struct jp *at,
@@ -180,9 +183,53 @@ static enum rayd_status gm_decode(struct rayd_error *err, const unsigned char *b
     return RAYD_OK;
 }
 
-/* The image /images/i: its bytes from a bufferView or a URI, decoded. */
+/* The image in b as linear texels with factor baked in, into t: taken
+ * from a live scene of the same bytes and factor (g->assets), or decoded
+ * and offered to the next (a frame of an animation takes them, rather
+ * than decoding them again); charged as decoded either way.  On failure
+ * t may hold texels to free. */
+static enum rayd_status gm_texels(struct rayd_error *err, const unsigned char *b, size_t len,
+                                  const struct jp *p, long budget, struct gltf_mats *g,
+                                  const double *factor, size_t *charged, struct texture *t) {
+    size_t klen = 3 * sizeof *factor + len;
+    unsigned char *key = g->assets ? malloc(klen) : NULL;
+    if (key) {
+        memcpy(key, factor, 3 * sizeof *factor);
+        memcpy(key + 3 * sizeof *factor, b, len);
+    }
+    long max = budget < TEXTURE_MAX_PIXELS ? budget : TEXTURE_MAX_PIXELS;
+    struct texels *x = key && max > 0 ? texels_find(g->assets, key, klen, max) : NULL;
+    enum rayd_status st = RAYD_OK;
+    if (x) { /* charged as its decode is: the limits answer as if decoded */
+        t->w = x->w, t->h = x->h, t->rgb = x->rgb, t->shared = x;
+        st = gm_charge(g, charged, x->w, x->h, p, err);
+    } else {
+        rayd_image *img = NULL;
+        st = gm_decode(err, b, len, p, budget, g, charged, &img);
+        if (st == RAYD_OK) {
+            t->w = img->w, t->h = img->h;
+            t->rgb = texture_linear_from_srgb8(img->px, img->w, img->h);
+        }
+        rayd_image_free(img);
+        if (st == RAYD_OK && !t->rgb)
+            st = err_set(err, RAYD_E_NOMEM, p->s, "out of memory for a texture");
+        for (size_t k = 0; st == RAYD_OK && k < (size_t)t->w * (size_t)t->h * 3; k++)
+            t->rgb[k] *= (float)factor[k % 3];
+        if (st == RAYD_OK && key &&
+            !(t->shared = texels_add(g->assets, key, klen, t->w, t->h, t->rgb))) {
+            t->rgb = NULL; /* freed */
+            st = err_set(err, RAYD_E_NOMEM, p->s, "out of memory for a texture");
+        }
+    }
+    free(key);
+    return st;
+}
+
+/* The image /images/i: its bytes from a bufferView or a URI, as texels
+ * (gm_texels). */
 static enum rayd_status gm_image(struct gltf_doc *d, struct rayd_error *err, int i, long budget,
-                                 struct gltf_mats *g, size_t *charged, rayd_image **img) {
+                                 struct gltf_mats *g, const double *factor, size_t *charged,
+                                 struct texture *t) {
     const cJSON *ij = cJSON_GetArrayItem(gl_get(gltf_doc_root(d), "images"), i);
     struct jp p = {.s = ""};
     snprintf(p.s, sizeof p.s, "/images/%d", i);
@@ -195,13 +242,13 @@ static enum rayd_status gm_image(struct gltf_doc *d, struct rayd_error *err, int
         const unsigned char *b;
         size_t len;
         TRY_GL(gltf_doc_view(d, ij, p.s, "bufferView", &b, &len));
-        return gm_decode(err, b, len, &pu, budget, g, charged, img);
+        return gm_texels(err, b, len, &pu, budget, g, factor, charged, t);
     }
     if (!cJSON_IsString(uri)) return err_set(err, RAYD_E_INVALID, pu.s, "must be a string");
     unsigned char *b;
     size_t len;
     TRY_GL(gltf_doc_uri(d, uri->valuestring, pu.s, &b, &len));
-    enum rayd_status st = gm_decode(err, b, len, &pu, budget, g, charged, img);
+    enum rayd_status st = gm_texels(err, b, len, &pu, budget, g, factor, charged, t);
     free(b);
     return st;
 }
@@ -243,20 +290,17 @@ static enum rayd_status gm_texture(struct gltf_doc *d, struct rayd_error *err, c
         return err_set(err, RAYD_E_INVALID, ps.s,
                        "must be an image index in 0..%d (other image extensions are not read)",
                        nimg - 1);
-    rayd_image *img = NULL;
+    struct texture t = {.kind = TEX_IMAGE, .space = TEX_UV, .scale = 1};
     size_t charged = 0; /* this image's, in g->charged */
-    enum rayd_status st = gm_image(d, err, (int)source, g->budget - *texels, g, &charged, &img);
+    enum rayd_status st =
+        gm_image(d, err, (int)source, g->budget - *texels, g, factor, &charged, &t);
     if (st != RAYD_OK) {
-        rayd_image_free(img);
+        texture_free(&t);
         mesh_give_back(g->lim, &g->charged, charged);
         return st;
     }
-    struct texture t = {.kind = TEX_IMAGE, .space = TEX_UV, .scale = 1, .w = img->w, .h = img->h};
-    t.rgb = texture_linear_from_srgb8(img->px, img->w, img->h);
-    rayd_image_free(img); /* its 8-bit pixels given back; the floats stay charged */
-    mesh_give_back(g->lim, &g->charged, (t.rgb ? 3 : GM_PIXEL_CHARGE) * (size_t)t.w * (size_t)t.h);
-    if (!t.rgb) return err_set(err, RAYD_E_NOMEM, p->s, "out of memory for a texture");
-    for (size_t k = 0; k < (size_t)t.w * (size_t)t.h * 3; k++) t.rgb[k] *= (float)factor[k % 3];
+    /* its 8-bit pixels given back; the floats stay charged */
+    mesh_give_back(g->lim, &g->charged, 3 * (size_t)t.w * (size_t)t.h);
     *texels += (long)t.w * t.h;
     g->tex[g->ntex++] = t;
     *uv_set = (int)set;
@@ -322,12 +366,13 @@ static enum rayd_status gm_material(struct gltf_doc *d, struct rayd_error *err, 
 }
 
 enum rayd_status gltf_mats_read(struct gltf_doc *d, int max, long texels,
-                                const struct mesh_limits *lim, struct gltf_mats *out,
-                                struct rayd_error *err) {
+                                const struct mesh_limits *lim, struct rayd_asset_cache *assets,
+                                struct gltf_mats *out, struct rayd_error *err) {
     const cJSON *ms = gl_get(gltf_doc_root(d), "materials");
     struct jp at = {.s = "/materials"};
     memset(out, 0, sizeof *out);
     out->lim = lim;
+    out->assets = assets;
     if (ms && !cJSON_IsArray(ms)) return err_set(err, RAYD_E_INVALID, at.s, "must be an array");
     int n = ms ? cJSON_GetArraySize(ms) : 0;
     if (max > GLTF_MAX_MATERIALS) max = GLTF_MAX_MATERIALS;

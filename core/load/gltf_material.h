@@ -20,10 +20,11 @@ struct gltf_mats {
     int n;
     struct texture *tex;
     int ntex;
-    long texels;                   /* pixels of all the decoded textures */
-    long budget;                   /* the most pixels they may have (gltf_mats_read's texels) */
-    const struct mesh_limits *lim; /* its charge hook: each image charged before it is decoded */
-    size_t charged;                /* bytes charged through it, given back by gltf_mats_free */
+    long texels;                     /* pixels of all the decoded textures */
+    long budget;                     /* the most pixels they may have (gltf_mats_read's texels) */
+    const struct mesh_limits *lim;   /* its charge hook: each image charged before it is decoded */
+    size_t charged;                  /* bytes charged through it, given back by gltf_mats_free */
+    struct rayd_asset_cache *assets; /* base colour textures shared with other scenes, or NULL */
 };
 
 /* Reads /materials of the doc's file (at most max, and GLTF_MAX_MATERIALS)
@@ -34,8 +35,8 @@ struct gltf_mats {
  * back once they are linear: out->charged is then 12 bytes a texel.
  * Errors name the JSON Pointer inside the glTF document. */
 enum rayd_status gltf_mats_read(struct gltf_doc *d, int max, long texels,
-                                const struct mesh_limits *lim, struct gltf_mats *out,
-                                struct rayd_error *err);
+                                const struct mesh_limits *lim, struct rayd_asset_cache *assets,
+                                struct gltf_mats *out, struct rayd_error *err);
 
 /* The mapping of one PBR material, without its texture: exposed for tests. */
 struct gltf_pbr {

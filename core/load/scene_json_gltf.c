@@ -143,6 +143,7 @@ static enum rayd_status use_material(struct imp *im, const struct gltf_mats *g, 
         int t;
         TRY(sj_add_texture(ld, &g->tex[mat.texture], &t));
         g->tex[mat.texture].rgb = NULL; /* the scene owns the texels now */
+        g->tex[mat.texture].shared = NULL;
         mat.texture = t;
     }
     struct jp pm = jp_key(&im->src, "gltf");
@@ -239,10 +240,10 @@ static enum rayd_status load_meshes(struct imp *im, int override, struct object 
     struct object *objs = NULL;
     long room = ld->lim->max_materials - ld->s->nmats;
     struct mesh_limits ml = sj_mesh_budget(ld); /* its charge hook, for the image decodes */
-    enum rayd_status st = override >= 0
-                              ? RAYD_OK
-                              : gltf_mats_read(im->doc, (int)(room > 0 ? room : 0),
-                                               sj_max_texels(ld) - ld->texels, &ml, &g, ld->err);
+    enum rayd_status st = override >= 0 ? RAYD_OK
+                                        : gltf_mats_read(im->doc, (int)(room > 0 ? room : 0),
+                                                         sj_max_texels(ld) - ld->texels, &ml,
+                                                         ld->lim->assets, &g, ld->err);
     ld->texels += g.texels; /* the scene's image textures together */
     if (override >= 0 && !mats_none(&g))
         st = err_set(ld->err, RAYD_E_NOMEM, im->src.s, "out of memory");

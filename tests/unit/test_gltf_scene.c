@@ -158,7 +158,8 @@ static cJSON *doc_tree(void) {
 /* A scene of one gltf object: the document d (consumed) and the object's
  * extra keys (JSON members, may be ""), with a top-level head ("" or
  * members ending in a comma). */
-static rayd_scene *parse(cJSON *d, const char *head, const char *extra, struct rayd_error *err) {
+static rayd_scene *parse_lim(cJSON *d, const char *head, const char *extra,
+                             const struct rayd_limits *lim, struct rayd_error *err) {
     char *text = cJSON_PrintUnformatted(d);
     cJSON_Delete(d);
     cJSON *src = cJSON_CreateObject();
@@ -174,9 +175,13 @@ static rayd_scene *parse(cJSON *d, const char *head, const char *extra, struct r
              head, stext, *extra ? ", " : "", extra);
     rayd_scene *s = NULL;
     memset(err, 0, sizeof *err);
-    if (rayd_scene_parse(json, strlen(json), NULL, &s, err) != RAYD_OK) s = NULL;
+    if (rayd_scene_parse(json, strlen(json), lim, &s, err) != RAYD_OK) s = NULL;
     free(text), free(stext), free(json);
     return s;
+}
+
+static rayd_scene *parse(cJSON *d, const char *head, const char *extra, struct rayd_error *err) {
+    return parse_lim(d, head, extra, NULL, err);
 }
 
 static const struct group *the_group(const rayd_scene *s) {
@@ -293,6 +298,51 @@ static void test_uvs_and_textures(void) {
         CHECK_NEAR(t->rgb[2], lin(50), 0.02);
     }
     rayd_scene_free(s);
+}
+
+/* The texels of the texture of the material with base colour r, g, b. */
+static const float *texels_of(const rayd_scene *s, double r, double g, double b) {
+    const struct object *o = by_color(s, r, g, b);
+    int t = o ? s->mats[o->material].texture : -1;
+    return t >= 0 ? s->textures[t].rgb : NULL;
+}
+
+static void test_textures_shared(void) {
+    /* a frame's parse takes the base colour textures a live scene of the
+     * same image bytes and factor decoded (rayd_asset_cache); another
+     * factor is another image */
+    struct rayd_limits lim;
+    rayd_limits_default(&lim);
+    lim.assets = rayd_asset_cache_new(0);
+    struct rayd_error err;
+    rayd_scene *a = parse_lim(doc_tree(), "", "", &lim, &err);
+    rayd_scene *b = parse_lim(doc_tree(), "", "", &lim, &err);
+    cJSON *d = doc_tree(); /* material 2's factor changed: its texture is another */
+    cJSON *f = cJSON_GetObjectItem(
+        cJSON_GetObjectItem(cJSON_GetArrayItem(cJSON_GetObjectItem(d, "materials"), 2),
+                            "pbrMetallicRoughness"),
+        "baseColorFactor");
+    cJSON_ReplaceItemInArray(f, 1, cJSON_CreateNumber(0.5));
+    rayd_scene *c = parse_lim(d, "", "", &lim, &err);
+    CHECK(a && b && c, "parse: %s", err.message);
+    long hits, misses;
+    rayd_asset_cache_stats(lim.assets, RAYD_ASSET_IMAGE, &hits, &misses);
+    CHECK(hits == 3 && misses == 3, "hits %ld, misses %ld; want 3 and 3", hits, misses);
+    if (a && b && c) {
+        const float *pa = texels_of(a, 0.5, 1, 1), *pb = texels_of(b, 0.5, 1, 1);
+        const float *pc = texels_of(c, 0.5, 0.5, 1);
+        CHECK(pa && pa == pb && pc && pc != pa, "the PNG's texels are not shared as they should");
+        CHECK(pc && pa && pc[0] == pa[0] && pc[4] == 0.5f * pa[4],
+              "the other factor is not in its texels");
+    }
+    rayd_asset_cache_free(lim.assets);
+    rayd_scene_free(a); /* b's textures outlive a's reference (ASan: no use after free) */
+    if (b) {
+        const float *pb = texels_of(b, 0.5, 1, 1);
+        CHECK(pb && fabsf(pb[0] - 0.5f) < 1e-6f, "b lost its texture");
+    }
+    rayd_scene_free(b);
+    rayd_scene_free(c);
 }
 
 /* Item i of d's array a, or that item's member b. */
@@ -547,6 +597,7 @@ int main(void) {
     make_bytes();
     RUN(test_materials_and_groups);
     RUN(test_uvs_and_textures);
+    RUN(test_textures_shared);
     RUN(test_pbr_mapping);
     RUN(test_texcoord_sets);
     RUN(test_override_and_scene);
