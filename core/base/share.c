@@ -143,10 +143,11 @@ struct share *share_find(struct rayd_asset_cache *c, int kind, unsigned variant,
     uint64_t h = share_hash(c->seed, key, len);
     pthread_mutex_lock(&c->lock);
     struct share *s = c->list;
+    /* one that does not fit (the loader then refuses it, in its words)
+     * may have a twin that does */
     while (s && !(s->kind == kind && s->variant == variant && s->hash == h && s->key_len == len &&
-                  !memcmp(s->key, key, len)))
+                  !memcmp(s->key, key, len) && (!fits || fits(s, arg))))
         s = s->next;
-    if (s && fits && !fits(s, arg)) s = NULL; /* the loader refuses it, in its words */
     if (s) {
         s->refs++; /* every listed entry has a reference: the last one unlists it */
         c->hits[kind]++;

@@ -328,21 +328,41 @@ static unsigned source_variant(const struct source *sc, bool smooth) {
     return (unsigned)sc->format | (smooth ? 8u : 0u);
 }
 
+/* A decoder's charges passed on to the loader's hook, their high point
+ * kept: a scene that takes the mesh is charged that much, as decoding it
+ * would be (a decoder charges a guess and gives the spare back). */
+struct charge_peak {
+    enum rayd_status (*charge)(void *arg, long long bytes, char *why, size_t why_len);
+    void *arg;
+    long long now, top;
+};
+
+static enum rayd_status peak_charge(void *arg, long long bytes, char *why, size_t why_len) {
+    struct charge_peak *p = arg;
+    enum rayd_status st = p->charge(p->arg, bytes, why, why_len);
+    if (st == RAYD_OK && (p->now += bytes) > p->top) p->top = p->now;
+    return st;
+}
+
 /* The source's bytes decoded into md, within what is left of the scene's
- * vertex and triangle budget.  On failure the bytes are freed. */
+ * vertex and triangle budget; *peak: the most the decoder had charged.
+ * On failure the bytes are freed. */
 static enum rayd_status source_decode(struct loader *ld, const cJSON *src, const struct jp *at,
-                                      struct source *sc, struct mesh_data *md) {
+                                      struct source *sc, struct mesh_data *md, size_t *peak) {
     const cJSON *file = cJSON_GetObjectItemCaseSensitive(src, "file");
     struct jp pv = jp_key(at, sc->file                                        ? "file"
                               : cJSON_GetObjectItemCaseSensitive(src, "text") ? "text"
                                                                               : "base64");
     double t0 = clock_now();
     struct mesh_limits ml = sj_mesh_budget(ld);
+    struct charge_peak cp = {ml.charge, ml.charge_arg, 0, 0};
+    if (ml.charge) ml.charge = peak_charge, ml.charge_arg = &cp;
     enum rayd_status st =
         sc->format == 0   ? mesh_parse_obj_threads(sc->bytes, sc->n, &ml, 0, md, ld->err)
         : sc->format == 1 ? mesh_parse_ply_threads(sc->bytes, sc->n, &ml, 0, md, ld->err)
                           : load_gltf(ld, at, file, sc->bytes, sc->n, &ml, md);
     ld->s->decode_s += clock_now() - t0;
+    *peak = (size_t)cp.top;
     if (st != RAYD_OK && ld->err && sc->format < 2)
         snprintf(ld->err->path, sizeof ld->err->path, "%s", pv.s);
     if (st == RAYD_OK && md->ntris == 0) {
@@ -419,18 +439,18 @@ static enum rayd_status mesh_from_inline(struct loader *ld, const cJSON *oj, con
     return RAYD_OK;
 }
 
-/* Charges or gives back the difference between what is charged (from)
- * and what should be (to). */
-static enum rayd_status settle(struct loader *ld, const struct jp *at, size_t from, size_t to) {
-    if (to > from) return sj_charge(ld, at, to - from);
-    sj_give_back(ld, from - to);
-    return RAYD_OK;
-}
-
 /* The budget a mesh decoded now has: what is left of the scene's. */
 static struct mesh_terms mesh_terms_now(const struct loader *ld) {
     struct mesh_limits ml = sj_mesh_budget(ld);
     return (struct mesh_terms){.max_verts = ml.max_vertices, .max_tris = ml.max_triangles};
+}
+
+/* Charges bytes if there is room, setting no error: false when not. */
+static bool charge_quiet(struct loader *ld, size_t bytes) {
+    struct mesh_limits hook = sj_mesh_budget(ld);
+    size_t charged = 0;
+    char why[200];
+    return mesh_charge(&hook, &charged, bytes, why, sizeof why) == RAYD_OK;
 }
 
 /* The mesh another scene built from sc's bytes (lim->assets), taken when
@@ -438,36 +458,46 @@ static struct mesh_terms mesh_terms_now(const struct loader *ld) {
  * decoding it here answers, in the decoder's words): *took then says so.
  * Charged as its decode and build were at their peak, then down to what
  * the build kept and its key, so the limits answer as if it were built
- * here; a file's read is settled with it. */
+ * here; a file's read is settled with it.  Without room for the key (a
+ * build here keeps its mesh unshared then) it is not taken. */
 static enum rayd_status mesh_taken(struct loader *ld, struct source *sc, unsigned variant,
                                    const struct jp *at, uint32_t *id, bool *took) {
     struct mesh m;
     struct mesh_terms now = mesh_terms_now(ld), was;
     *took = mesh_share_find(ld->lim->assets, variant, sc->bytes, sc->n, &now, &m, &was);
     if (!*took) return RAYD_OK;
+    size_t held = sc->file ? sc->n + 1 : 0, top = held + was.peak, want = was.kept + sc->n;
     enum rayd_status st = sj_charge(ld, at, was.peak);
-    if (st == RAYD_OK && (st = sj_add_mesh(ld, id)) != RAYD_OK) sj_give_back(ld, was.peak);
+    if (st == RAYD_OK && want > top && !charge_quiet(ld, want - top)) {
+        sj_give_back(ld, was.peak);
+        mesh_free(&m);
+        *took = false;
+        return RAYD_OK;
+    }
+    if (want > top) top = want;
+    if (st == RAYD_OK && (st = sj_add_mesh(ld, id)) != RAYD_OK) sj_give_back(ld, top - held);
     if (st != RAYD_OK) {
         mesh_free(&m);
         return st;
     }
-    size_t held = sc->file ? sc->n + 1 : 0;
     sc->file = false; /* the read's charge is settled here, with the mesh's */
     ld->s->meshes[*id] = m;
     ld->vertices += m.nverts;
     ld->triangles += m.ntris;
-    return settle(ld, at, held + was.peak, was.kept + sc->n);
+    sj_give_back(ld, top - want);
+    return RAYD_OK;
 }
 
 /* Mesh md (its arrays taken, charged md->charged) built as the scene's
  * mesh *id, charged its arrays and the build's estimate, then what the
- * build holds; t->peak and t->kept say how much. */
+ * build holds; t->kept says how much, t->peak (the decoder's high point
+ * on entry) the most. */
 static enum rayd_status mesh_make(struct loader *ld, struct mesh_data *md, const struct jp *at,
                                   bool smooth, uint32_t *id, struct mesh_terms *t) {
     /* the arrays and the build's estimate, less what the decoder charged
      * for the arrays already (it charged them as it allocated them) */
-    size_t charged = sj_mesh_bytes(md);
-    t->peak = charged > md->charged ? charged : md->charged;
+    size_t charged = sj_mesh_bytes(md), top = charged > md->charged ? charged : md->charged;
+    if (top > t->peak) t->peak = top; /* else the decoder's own high point */
     enum rayd_status st = RAYD_OK;
     if (charged > md->charged) {
         st = sj_charge(ld, at, charged - md->charged);
@@ -500,10 +530,7 @@ static void mesh_offer(struct loader *ld, struct source *sc, unsigned variant, s
                        const struct mesh_terms *t) {
     unsigned char *key = (unsigned char *)sc->owned;
     if (!key && sc->bytes && (key = malloc(sc->n ? sc->n : 1))) memcpy(key, sc->bytes, sc->n);
-    struct mesh_limits hook = sj_mesh_budget(ld);
-    size_t charged = 0;
-    char why[200];
-    if (!key || (!sc->file && mesh_charge(&hook, &charged, sc->n, why, sizeof why) != RAYD_OK)) {
+    if (!key || (!sc->file && !charge_quiet(ld, sc->n))) {
         if (key != (unsigned char *)sc->owned) free(key);
         return; /* source_done frees the bytes */
     }
@@ -532,7 +559,7 @@ static enum rayd_status mesh_source(struct loader *ld, const cJSON *oj, const cJ
     }
     struct mesh_terms t = mesh_terms_now(ld);
     struct mesh_data md = {0};
-    TRY(source_decode(ld, src, &pm, &sc, &md));
+    TRY(source_decode(ld, src, &pm, &sc, &md, &t.peak));
     st = mesh_make(ld, &md, &pm, smooth, id, &t);
     if (st == RAYD_OK && source_shares(ld, &sc))
         mesh_offer(ld, &sc, variant, &ld->s->meshes[*id], &t);

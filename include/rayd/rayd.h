@@ -77,7 +77,7 @@ char *rayd_error_format(const struct rayd_error *err, char *buf, size_t size);
 /* Decoded image textures and built meshes shared by the scenes that name
  * the same bytes (rayd_limits.assets): a scene parsed once per frame
  * decodes each image, and decodes and builds each mesh (an OBJ or PLY
- * "source", or inline arrays of 1000 numbers or more), once while any
+ * "source", or inline arrays each of 1000 numbers or more), once while any
  * scene still holds it, not once a frame.  The cache
  * owns nothing: each entry belongs to the scenes that use it, and the last
  * to be freed frees it, so the cache keeps no memory alive that no scene

@@ -422,6 +422,72 @@ static void test_decoder_limits_answer(void) {
     free(json), free(src), free(obj);
 }
 
+/* The peak and final charge of json parsed with cache c and a cap of
+ * room bytes (0: none); *ok whether it parsed. */
+static void capped(const char *json, rayd_asset_cache *c, long long room, bool *ok) {
+    struct account a = {room ? room : 1LL << 40, 0};
+    struct rayd_error err;
+    rayd_scene *s = parse_in(json, c, 0, 0, NULL, &a, &err);
+    *ok = s != NULL;
+    rayd_scene_free(s);
+}
+
+static void test_room_answers_alike(void) {
+    /* (a) with room for the mesh but not its key, a build keeps its mesh
+     * unshared and the scene is taken; so it is when a live scene holds
+     * the mesh.  (b) a PLY decoder charges a guess of the triangles
+     * (tristrips: up to two a vertex) and gives the spare back: with room
+     * for less than that guess, decoding refuses the scene, and so must
+     * taking the mesh */
+    char *obj = grid_obj(8);
+    size_t pad = 200000;
+    char *big = malloc(strlen(obj) + pad + 8);
+    memset(big, 'x', pad);
+    big[0] = '#', big[pad - 1] = '\n';
+    strcpy(big + pad, obj);
+    char *src = obj_source(big), *json = mesh_scene(src, true);
+    rayd_asset_cache *c = rayd_asset_cache_new(0);
+    long long peak, kept;
+    rayd_scene *holder = NULL;
+    charges(json, c, NULL, &peak, &kept, &holder);
+    bool built, taken;
+    rayd_asset_cache *fresh = rayd_asset_cache_new(0);
+    capped(json, fresh, kept - 1, &built);
+    capped(json, c, kept - 1, &taken);
+    CHECK(built && taken, "no room for the key: built %d, taken %d", built, taken);
+    rayd_scene_free(holder);
+    rayd_asset_cache_free(fresh);
+    rayd_asset_cache_free(c);
+    free(json), free(src), free(big), free(obj);
+
+    size_t cap = 20000 * 24 + 256;
+    char *ply = malloc(cap), *p = ply;
+    p += sprintf(p, "ply\nformat ascii 1.0\nelement vertex 20000\nproperty float x\n"
+                    "property float y\nproperty float z\nelement tristrips 1\n"
+                    "property list int int vertex_indices\nend_header\n");
+    for (int i = 0; i < 20000; i++) p += sprintf(p, "%d %d -%d\n", i % 3, i % 2, 3 + i % 5);
+    sprintf(p, "3 0 1 2\n");
+    size_t jn = 2 * strlen(ply) + 64;
+    char *psrc = malloc(jn);
+    char *q = psrc + sprintf(psrc, "{\"format\": \"ply\", \"text\": \"");
+    for (const char *ch = ply; *ch; ch++)
+        q += *ch == '\n' ? sprintf(q, "\\n") : sprintf(q, "%c", *ch);
+    sprintf(q, "\"}");
+    char *pjson = mesh_scene(psrc, false);
+    c = rayd_asset_cache_new(0);
+    fresh = rayd_asset_cache_new(0);
+    charges(pjson, c, NULL, &peak, &kept, &holder);
+    capped(pjson, fresh, peak - 1, &built);
+    capped(pjson, c, peak - 1, &taken);
+    CHECK(holder && !built && !taken, "under the decoder's peak: built %d, taken %d", built, taken);
+    capped(pjson, c, peak, &taken);
+    CHECK(taken, "with room for the decoder's peak the mesh is not taken");
+    rayd_scene_free(holder);
+    rayd_asset_cache_free(fresh);
+    rayd_asset_cache_free(c);
+    free(pjson), free(psrc), free(ply);
+}
+
 int main(void) {
     RUN(test_built_once_same_pixels);
     RUN(test_every_byte_tells);
@@ -430,5 +496,6 @@ int main(void) {
     RUN(test_inline_arrays_shared);
     RUN(test_charged_as_built_from_any_source);
     RUN(test_decoder_limits_answer);
+    RUN(test_room_answers_alike);
     CHECK_EXIT();
 }
