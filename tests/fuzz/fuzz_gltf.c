@@ -44,7 +44,7 @@ static void doc_path(const uint8_t *data, size_t size, const struct mesh_gltf_op
     struct mesh_data m = {0};
     int32_t *tm = NULL;
     if (gltf_doc_walk(d, -1, &lim) == RAYD_OK &&
-        gltf_mats_read(d, 64, TEXTURE_MAX_SCENE_PIXELS, NULL, &g, &err) == RAYD_OK &&
+        gltf_mats_read(d, 64, TEXTURE_MAX_SCENE_PIXELS, NULL, NULL, &g, &err) == RAYD_OK &&
         gltf_doc_bake(d, g.uv_set, g.n + 1, &m, &tm) == RAYD_OK) {
         for (uint32_t t = 0; t < m.ntris; t++)
             if (tm[t] < -1 || tm[t] >= g.n) abort();
