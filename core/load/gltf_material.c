@@ -175,6 +175,7 @@ static enum rayd_status gm_decode(struct rayd_error *err, const unsigned char *b
     if (!*img || !(*img)->px) {
         stbi_image_free(px);
         rayd_image_free(*img);
+        *img = NULL; /* the caller frees what it is handed */
         return err_set(err, RAYD_E_NOMEM, p->s, "out of memory for a texture");
     }
     memcpy((*img)->px, px, m);
@@ -198,7 +199,7 @@ static enum rayd_status gm_texels(struct rayd_error *err, const unsigned char *b
         memcpy(key + 3 * sizeof *factor, b, len);
     }
     long max = budget < TEXTURE_MAX_PIXELS ? budget : TEXTURE_MAX_PIXELS;
-    struct texels *x = key && max > 0 ? texels_find(g->assets, key, klen, max) : NULL;
+    struct texels *x = key && max > 0 ? texels_find(g->assets, TEXELS_GLTF, key, klen, max) : NULL;
     enum rayd_status st = RAYD_OK;
     if (x) { /* charged as its decode is: the limits answer as if decoded */
         t->w = x->w, t->h = x->h, t->rgb = x->rgb, t->shared = x;
@@ -216,7 +217,7 @@ static enum rayd_status gm_texels(struct rayd_error *err, const unsigned char *b
         for (size_t k = 0; st == RAYD_OK && k < (size_t)t->w * (size_t)t->h * 3; k++)
             t->rgb[k] *= (float)factor[k % 3];
         if (st == RAYD_OK && key &&
-            !(t->shared = texels_add(g->assets, key, klen, t->w, t->h, t->rgb))) {
+            !(t->shared = texels_add(g->assets, TEXELS_GLTF, key, klen, t->w, t->h, t->rgb))) {
             t->rgb = NULL; /* freed */
             st = err_set(err, RAYD_E_NOMEM, p->s, "out of memory for a texture");
         }

@@ -139,7 +139,8 @@ static enum rayd_status env_image(struct loader *ld, const char *data, size_t le
                                   const struct jp *p, double k, struct environment *e) {
     size_t n = 0;
     unsigned char *key = ld->lim->assets ? env_key(data, len, exr, k, &n) : NULL;
-    struct texels *x = key ? texels_find(ld->lim->assets, key, n, TEXTURE_MAX_PIXELS) : NULL;
+    struct texels *x =
+        key ? texels_find(ld->lim->assets, TEXELS_ENV, key, n, TEXTURE_MAX_PIXELS) : NULL;
     enum rayd_status st;
     if (x) {
         e->rgb = x->rgb;
@@ -152,7 +153,7 @@ static enum rayd_status env_image(struct loader *ld, const char *data, size_t le
     } else {
         st = exr ? env_decode_exr(ld, data, len, p, k, e) : env_decode_hdr(ld, data, len, p, k, e);
         if (st == RAYD_OK && key) {
-            e->shared = texels_add(ld->lim->assets, key, n, e->w, e->h, e->rgb);
+            e->shared = texels_add(ld->lim->assets, TEXELS_ENV, key, n, e->w, e->h, e->rgb);
             if (!e->shared) e->rgb = NULL; /* freed */
             if (!e->rgb)
                 st = err_set(ld->err, RAYD_E_NOMEM, p->s, "out of memory for the environment");

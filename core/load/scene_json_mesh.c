@@ -339,7 +339,7 @@ struct charge_peak {
 
 static enum rayd_status peak_charge(void *arg, long long bytes, char *why, size_t why_len) {
     struct charge_peak *p = arg;
-    enum rayd_status st = p->charge(p->arg, bytes, why, why_len);
+    enum rayd_status st = p->charge ? p->charge(p->arg, bytes, why, why_len) : RAYD_OK;
     if (st == RAYD_OK && (p->now += bytes) > p->top) p->top = p->now;
     return st;
 }
@@ -356,7 +356,7 @@ static enum rayd_status source_decode(struct loader *ld, const cJSON *src, const
     double t0 = clock_now();
     struct mesh_limits ml = sj_mesh_budget(ld);
     struct charge_peak cp = {ml.charge, ml.charge_arg, 0, 0};
-    if (ml.charge) ml.charge = peak_charge, ml.charge_arg = &cp;
+    ml.charge = peak_charge, ml.charge_arg = &cp; /* with no hook too: a share keeps the peak */
     enum rayd_status st =
         sc->format == 0   ? mesh_parse_obj_threads(sc->bytes, sc->n, &ml, 0, md, ld->err)
         : sc->format == 1 ? mesh_parse_ply_threads(sc->bytes, sc->n, &ml, 0, md, ld->err)

@@ -49,7 +49,7 @@ static uint64_t png_texels(const char *d, size_t len) {
  * the decoder's words).  The caller charges it as a decode. */
 static bool image_shared(struct loader *ld, const char *data, size_t len, long max,
                          struct texture *t) {
-    struct texels *x = texels_find(ld->lim->assets, data, len, max);
+    struct texels *x = texels_find(ld->lim->assets, TEXELS_IMAGE, data, len, max);
     if (!x) return false;
     ld->texels += (long)x->w * x->h;
     t->w = x->w;
@@ -118,7 +118,7 @@ static enum rayd_status load_image(struct loader *ld, const cJSON *tj, const str
         t->rgb = texture_linear_from_srgb8(img->px, img->w, img->h);
         rayd_image_free(img);
         if (t->rgb && ld->lim->assets) { /* the next scene of these bytes takes it */
-            t->shared = texels_add(ld->lim->assets, data, len, t->w, t->h, t->rgb);
+            t->shared = texels_add(ld->lim->assets, TEXELS_IMAGE, data, len, t->w, t->h, t->rgb);
             if (!t->shared) t->rgb = NULL; /* freed */
         }
     }

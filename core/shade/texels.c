@@ -22,13 +22,13 @@ static void texels_drop(struct share *s) {
     free(t);
 }
 
-struct texels *texels_find(struct rayd_asset_cache *c, const void *key, size_t len,
-                           long max_pixels) {
-    return (struct texels *)share_find(c, SHARE_IMAGE, 0, key, len, texels_fit, &max_pixels);
+struct texels *texels_find(struct rayd_asset_cache *c, enum texels_key kind, const void *key,
+                           size_t len, long max_pixels) {
+    return (struct texels *)share_find(c, SHARE_IMAGE, kind, key, len, texels_fit, &max_pixels);
 }
 
-struct texels *texels_add(struct rayd_asset_cache *c, const void *key, size_t len, int w, int h,
-                          float *rgb) {
+struct texels *texels_add(struct rayd_asset_cache *c, enum texels_key kind, const void *key,
+                          size_t len, int w, int h, float *rgb) {
     struct texels *t = calloc(1, sizeof *t);
     unsigned char *copy = malloc(len ? len : 1);
     if (!t || !copy) {
@@ -39,7 +39,7 @@ struct texels *texels_add(struct rayd_asset_cache *c, const void *key, size_t le
     }
     memcpy(copy, key, len);
     *t = (struct texels){.sh.drop = texels_drop, .w = w, .h = h, .rgb = rgb};
-    share_add(c, &t->sh, SHARE_IMAGE, 0, copy, len);
+    share_add(c, &t->sh, SHARE_IMAGE, kind, copy, len);
     return t;
 }
 

@@ -483,6 +483,12 @@ static void test_room_answers_alike(void) {
     capped(pjson, c, peak, &taken);
     CHECK(taken, "with room for the decoder's peak the mesh is not taken");
     rayd_scene_free(holder);
+    /* the same when the scene that built it was parsed with no account */
+    struct rayd_error err;
+    holder = parse_in(pjson, c, 0, 0, NULL, NULL, &err);
+    capped(pjson, c, peak - 1, &taken);
+    CHECK(holder && !taken, "under the decoder's peak, taken from a parse with no account");
+    rayd_scene_free(holder);
     rayd_asset_cache_free(fresh);
     rayd_asset_cache_free(c);
     free(pjson), free(psrc), free(ply);
