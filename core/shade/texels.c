@@ -1,10 +1,13 @@
 /* texels.c -- decoded images shared by the scenes that name the same bytes.
  *
- * A scene's image textures and environment image, decoded once while any
- * scene of the same encoded bytes holds them (base/share.c has the cache
- * and why).  A decoded image is a pure function of its bytes, so a hit
- * gives the same texels as decoding; the texel budget, which depends on
- * the scene, is checked by the loader either way.
+ * A scene's image textures, environment image and glTF base colour
+ * textures, decoded once while any scene of the same key holds them
+ * (base/share.c has the cache and why).  Each kind makes its key its own
+ * way (enum texels_key: the encoded bytes; with the format and intensity;
+ * with the glTF factor), and keys of two kinds never match.  A decoded
+ * image is a pure function of its key, so a hit gives the same texels as
+ * decoding; the texel budget, which depends on the scene, is checked by
+ * the loader either way.
  */
 #include "shade/texels.h"
 
