@@ -303,9 +303,19 @@ class Env:
         self.stop()
         shutil.rmtree(self.work, ignore_errors=True)
 
-    def render_cli(self, scene):
-        p = subprocess.run([os.path.join(self.build, "rayd-render"), "-", "-o",
-                            os.path.join(self.work, "docs-check.png")], input=scene, cwd=self.root,
+    def render_cli(self, scene, named=False):
+        """rayd-render of the scene on stdin, in the root's folder (its assets'
+        paths are the root's); named: as a file scene.json in a folder of its
+        own, so that its errors name it as the docs show them
+        ("rayd-render: error: scene.json: ...")."""
+        cwd, arg = self.root, "-"
+        if named:
+            cwd, arg = os.path.join(self.work, "cli"), "scene.json"
+            os.makedirs(cwd, exist_ok=True)
+            with open(os.path.join(cwd, arg), "wb") as f:
+                f.write(scene)
+        p = subprocess.run([os.path.join(self.build, "rayd-render"), arg, "-o",
+                            os.path.join(self.work, "docs-check.png")], input=scene, cwd=cwd,
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, timeout=TIMEOUT)
         return p.returncode, p.stderr.decode("utf-8", "replace").strip()
 
@@ -328,7 +338,7 @@ def scene_input(env, line):
 
 def cli_error_parts(line):
     """(path, line, column, message) of a 'rayd-render: error: ...' line."""
-    rest = re.sub(r"^(rayd-render: )?error: ", "", line)
+    rest = re.sub(r"^(rayd-render: )?error: (scene\.json: )?", "", line)
     m = re.match(r"^line (\d+), column (\d+): (.*)$", rest)
     if m:
         return None, int(m.group(1)), int(m.group(2)), m.group(3)
@@ -344,7 +354,7 @@ def check_errors(env, ex):
         return "%d scenes in the marker for %d lines" % (len(ex.inputs), len(block))
     for scene_line, expected in zip(ex.inputs, block):
         scene = scene_input(env, scene_line)
-        rc, err = env.render_cli(scene)
+        rc, err = env.render_cli(scene, named=True)
         if rc != 1 or not text_match(expected, err, ex.opts):
             return "rayd-render: expected exit 1 and %r, got exit %d and %r" % (expected, rc, err)
         if ex.opts.get("cli-only"):

@@ -206,7 +206,7 @@ static int frames_loop(const struct args *a, const char *text, size_t len,
         double tf = render_one_now();
         struct rayd_error err = {0};
         if (!scene && rayd_scene_parse_frame(text, len, lim, k, &scene, &err) != RAYD_OK) {
-            rc = render_one_fail("", &err);
+            rc = render_one_fail_scene(a, &err);
             break;
         }
         if ((rc = render_one_bias(ap, scene)) != 0) break;
@@ -263,7 +263,7 @@ int frames_run(const struct args *a, const char *text, size_t len, const struct 
                               ? rayd_scene_parse_frame(text, len, lim, a->frame_a, &scene, &err)
                               : rayd_scene_parse(text, len, lim, &scene, &err);
     int rc =
-        st == RAYD_OK ? frames_checked(a, text, len, lim, scene, t0) : render_one_fail("", &err);
+        st == RAYD_OK ? frames_checked(a, text, len, lim, scene, t0) : render_one_fail_scene(a, &err);
     rayd_asset_cache_free(shared.assets);
     return rc;
 }

@@ -443,7 +443,7 @@ int main(int argc, char **argv) {
     rayd_scene *scene = NULL;
     enum rayd_status st = rayd_scene_parse(text, len, &lim, &scene, &err);
     free(text);
-    if (st != RAYD_OK) return render_one_fail("", &err);
+    if (st != RAYD_OK) return render_one_fail_scene(&a, &err);
     render_one_warn(scene);
     if ((rc = render_one_bias(&a, scene)) != 0) {
         rayd_scene_free(scene);

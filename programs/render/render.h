@@ -76,6 +76,13 @@ int render_one_image(const struct args *a, const rayd_scene *scene, const char *
 /* "rayd-render: error: WHAT MESSAGE" for a core error; returns 2 for a bad
  * argument (with the "Try" line), else 1. */
 int render_one_fail(const char *what, const struct rayd_error *err);
+/* The same for the scene's own error (its parse, a frame's): the scene
+ * file named first, as a compiler names the file of an error
+ * ("rayd-render: error: room.json: /objects/0/radius: must be > 0";
+ * standard input is "<stdin>"), so a script rendering many files says
+ * which one is wrong.  A bad argument (a --frames range outside the
+ * scene's) is the command line's, and is said as render_one_fail says it. */
+int render_one_fail_scene(const struct args *a, const struct rayd_error *err);
 /* "rayd-render: warning: ..." on stderr (whatever --quiet says) when the
  * scene's render will be black for want of light, so the user sees why. */
 void render_one_warn(const rayd_scene *scene);

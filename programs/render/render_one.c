@@ -43,6 +43,13 @@ int render_one_fail(const char *what, const struct rayd_error *err) {
     return 2;
 }
 
+int render_one_fail_scene(const struct args *a, const struct rayd_error *err) {
+    char what[4200];
+    if (err->code == RAYD_E_ARG) return render_one_fail("", err);
+    snprintf(what, sizeof what, "%s: ", strcmp(a->scene, "-") ? a->scene : "<stdin>");
+    return render_one_fail(what, err);
+}
+
 void render_one_warn(const rayd_scene *scene) {
     struct rayd_scene_info info;
     rayd_scene_info(scene, &info);

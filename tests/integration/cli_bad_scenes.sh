@@ -8,7 +8,9 @@
 # For every line of tests/bad/scenes.tsv ("file<TAB>status<TAB>stderr line
 # [<TAB>bug]") it runs `rayd-render tests/bad/scenes/FILE -o TMP.png` and
 # checks the exit status, that the expected line is one whole line of stderr
-# and that no PNG was written.  Lines marked `bug` run too: they describe what
+# (with the scene's file named after "rayd-render: error: ", as rayd-render
+# names it: "rayd-render: error: tests/bad/scenes/FILE: ...") and that no
+# PNG was written.  Lines marked `bug` run too: they describe what
 # the loader should do and fail until it does.  On `bug` lines only, `*` in the
 # expected line matches any text (the rest is literal).
 #
@@ -75,6 +77,7 @@ while IFS=$'\t' read -r file want_rc want_line mark || [ -n "$file" ]; do
     n=$((n + 1))
     name="bad-scene $file"
     [ "${mark:-}" = bug ] && glob=1 || glob=0
+    want_line="rayd-render: error: $DIR/$file: ${want_line#rayd-render: error: }"
     if [ ! -f "$DIR/$file" ]; then
         echo "FAIL $name: $DIR/$file does not exist"
         continue
@@ -160,7 +163,7 @@ fi
 rm -f "$T/x.png"
 printf '{"objects": [{"type": "sphere", "radius": -1}]}' | "$R" - -o "$T/x.png" 2>"$T/stderr"
 rc=$?
-if [ $rc -eq 1 ] && grep -qxF "rayd-render: error: /objects/0/radius: must be > 0" "$T/stderr" && [ ! -e "$T/x.png" ]; then
+if [ $rc -eq 1 ] && grep -qxF "rayd-render: error: <stdin>: /objects/0/radius: must be > 0" "$T/stderr" && [ ! -e "$T/x.png" ]; then
     echo "PASS cli-bad-scene-from-stdin"
 else
     echo "FAIL cli-bad-scene-from-stdin: exit $rc; stderr: $(oneline "$T/stderr")"

@@ -82,11 +82,11 @@ check render_stdout_exr "exit $RC" bash -c "[ $RC = 0 ] && cmp -s '$T/r_exr.out'
 printf '{"objects": [{"type": "sphere", "radius": -1}]}' >"$T/bad.json"
 run r_bad "$RENDER" "$T/bad.json" -o "$T/bad.png"
 check render_bad_scene_exit_1 "exit $RC, stderr '$(first_err r_bad)'" bash -c \
-    "[ $RC = 1 ] && [ '$(first_err r_bad)' = 'rayd-render: error: /objects/0/radius: must be > 0' ]"
+    "[ $RC = 1 ] && [ '$(first_err r_bad)' = 'rayd-render: error: $T/bad.json: /objects/0/radius: must be > 0' ]"
 printf '{"render": {"width": 8,}}' >"$T/bad2.json"
 run r_bad2 "$RENDER" "$T/bad2.json" -o "$T/bad.png"
 check render_bad_json_line_column "exit $RC, stderr '$(first_err r_bad2)'" bash -c \
-    "[ $RC = 1 ] && grep -qx 'rayd-render: error: line 1, column 23: malformed JSON: trailing comma before .}. is not allowed' '$T/r_bad2.err'"
+    "[ $RC = 1 ] && grep -qx 'rayd-render: error: $T/bad2.json: line 1, column 23: malformed JSON: trailing comma before .}. is not allowed' '$T/r_bad2.err'"
 # a name of a format rayd does not write is refused, not given PNG bytes;
 # .EXR is OpenEXR whatever its case; --format png writes the name anyway
 run r_jpg "$RENDER" "$T/s.json" -o "$T/r.jpg"

@@ -43,7 +43,7 @@ bad() { # FILE MESSAGE: refused in one line with the pointer and message
     render "$DIR/$f" "$name"
     lines=$(wc -l <"$T/$name.err")
     check "gltf_refuses_$name" "exit $rc, $lines lines: $err (want: $want)" \
-        bash -c "[ $rc = 1 ] && [ $lines = 1 ] && grep -qF -- \"\$1\" '$T/$name.err'" _ "rayd-render: error: $want"
+        bash -c "[ $rc = 1 ] && [ $lines = 1 ] && grep -qF -- \"\$1\" '$T/$name.err'" _ "rayd-render: error: $T/$name.json: $want"
 }
 
 good 2CylinderEngine-glTF-Binary/2CylinderEngine.glb
@@ -107,7 +107,7 @@ while IFS= read -r f; do
         check "gltf_any_$name" "rendered but $lit lit pixels" [ "$lit" -gt 0 ]
     else
         check "gltf_any_$name" "exit $rc, $lines lines: $err" \
-            bash -c "[ $rc = 1 ] && [ $lines = 1 ] && grep -q '^rayd-render: error: /objects/0/source/' '$T/$name.err'"
+            bash -c "[ $rc = 1 ] && [ $lines = 1 ] && grep -qF 'rayd-render: error: $T/$name.json: /objects/0/source/' '$T/$name.err'"
     fi
 done < <(cd "$DIR" && find . -name '*.gltf' -o -name '*.glb' | sed 's|^\./||' | sort)
 

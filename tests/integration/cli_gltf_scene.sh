@@ -134,7 +134,7 @@ done
 gscene "$T/cameras/Cameras.gltf" "$T/clash.json" camera=0
 run clash
 check gltf_scene_camera_clash "exit $rc: $err" \
-    bash -c "[ $rc = 1 ] && grep -qF 'rayd-render: error: /objects/0/camera: the glTF camera sets the scene'\''s camera: /camera/position cannot be given too' '$T/clash.err'"
+    bash -c "[ $rc = 1 ] && grep -qF 'rayd-render: error: $T/clash.json: /objects/0/camera: the glTF camera sets the scene'\''s camera: /camera/position cannot be given too' '$T/clash.err'"
 
 # A missing image file: the pointer of its uri.
 mkdir -p "$T/noimg"
@@ -142,7 +142,7 @@ cp "$DIR/BoxTextured-glTF/BoxTextured.gltf" "$DIR/BoxTextured-glTF/BoxTextured0.
 gscene "$T/noimg/BoxTextured.gltf" "$T/noimg.json"
 run noimg
 check gltf_scene_missing_image "exit $rc: $err" \
-    bash -c "[ $rc = 1 ] && [ \$(wc -l <'$T/noimg.err') = 1 ] && grep -q '^rayd-render: error: /objects/0/source/gltf/images/0/uri: cannot open' '$T/noimg.err'"
+    bash -c "[ $rc = 1 ] && [ \$(wc -l <'$T/noimg.err') = 1 ] && grep -qF 'rayd-render: error: $T/noimg.json: /objects/0/source/gltf/images/0/uri: cannot open' '$T/noimg.err'"
 
 # The texels of a file's textures together: one 4096 x 4096 image uses
 # them all, so a small one after it is refused (the budget never reaches
@@ -173,7 +173,7 @@ json.dump(s, open(sys.argv[1], "w"))' "$d/scene.json"
 timeout 120 "$RENDER" "$d/scene.json" -o "$d/out.png" -q 2>"$d/err"
 rc=$?
 check gltf_scene_scene_texel_budget "exit $rc: $(head -c 300 "$d/err")" \
-    bash -c "[ $rc = 1 ] && grep -q '^rayd-render: error: /objects/4/source/gltf/images/0/uri: the textures together are over the limit' '$d/err'"
+    bash -c "[ $rc = 1 ] && grep -qF 'rayd-render: error: $d/scene.json: /objects/4/source/gltf/images/0/uri: the textures together are over the limit' '$d/err'"
 
 # A lens on the file's orthographic camera is refused, as on a hand-written one.
 mkdir -p "$T/orthoap"
@@ -184,7 +184,7 @@ cp "$T/orthoap.json" "$T/orthoap/scene.json"
 timeout 60 "$RENDER" "$T/orthoap/scene.json" -o "$T/orthoap.png" -q 2>"$T/orthoap.err"
 rc=$?
 check gltf_scene_ortho_aperture "exit $rc: $(head -c 300 "$T/orthoap.err")" \
-    bash -c "[ $rc = 1 ] && grep -q '^rayd-render: error: /camera/aperture: must be 0' '$T/orthoap.err'"
+    bash -c "[ $rc = 1 ] && grep -qF 'rayd-render: error: $T/orthoap/scene.json: /camera/aperture: must be 0' '$T/orthoap.err'"
 
 # Every file: a render or a one-line refusal with exit 1, nothing worse.
 while IFS= read -r f; do
@@ -196,7 +196,7 @@ while IFS= read -r f; do
         check "gltf_scene_$name" "rendered but $lit lit pixels" [ "$lit" -gt 0 ]
     else
         check "gltf_scene_$name" "exit $rc, $lines lines: $err" \
-            bash -c "[ $rc = 1 ] && [ $lines = 1 ] && grep -q '^rayd-render: error: /objects/0/' '$T/$name.err'"
+            bash -c "[ $rc = 1 ] && [ $lines = 1 ] && grep -qF 'rayd-render: error: $T/$name.json: /objects/0/' '$T/$name.err'"
     fi
 done < <(cd "$DIR" && find . -name '*.gltf' -o -name '*.glb' | sed 's|^\./||' | sort)
 exit 0

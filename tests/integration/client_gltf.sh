@@ -69,7 +69,7 @@ scene "$dir" 2CylinderEngine.gltf
 "$CLIENT" render "$dir/scene.json" -o "$dir/remote.png" -s http://127.0.0.1:9 --retries 0 -q \
     2>"$dir/remote.err"
 rc=$?
-want=$(sed 's/^rayd-render: error: //' "$dir/local.err")
+want=$(sed "s|^rayd-render: error: $dir/scene.json: ||" "$dir/local.err")
 got=$(sed "s|^rayd-client: error: $dir/scene.json: invalid_scene: ||" "$dir/remote.err")
 if [ $rc = 1 ] && [ -n "$want" ] && [ "$got" = "$want" ] && [[ $want == *KHR_draco* ]]; then
     pass client_gltf_draco_same_error
@@ -94,7 +94,7 @@ for s in ply env tex; do
     "$CLIENT" render "$dir/$s.json" -o "$dir/remote.png" -s http://127.0.0.1:9 --retries 0 -q \
         2>"$dir/remote.err"
     rc=$?
-    want=$(sed 's/^rayd-render: error: //' "$dir/local.err")
+    want=$(sed "s|^rayd-render: error: $dir/$s.json: ||" "$dir/local.err")
     got=$(sed "s|^rayd-client: error: $dir/$s.json: invalid_scene: ||" "$dir/remote.err")
     if [ $rc = 1 ] && [ -n "$want" ] && [ "$got" = "$want" ] && [[ $want == */file:* ]]; then
         pass "client_inlined_${s}_error_at_file"
