@@ -262,8 +262,8 @@ int frames_run(const struct args *a, const char *text, size_t len, const struct 
     enum rayd_status st = a->frames_set
                               ? rayd_scene_parse_frame(text, len, lim, a->frame_a, &scene, &err)
                               : rayd_scene_parse(text, len, lim, &scene, &err);
-    int rc =
-        st == RAYD_OK ? frames_checked(a, text, len, lim, scene, t0) : render_one_fail_scene(a, &err);
+    int rc = st == RAYD_OK ? frames_checked(a, text, len, lim, scene, t0)
+                           : render_one_fail_scene(a, &err);
     rayd_asset_cache_free(shared.assets);
     return rc;
 }
