@@ -121,16 +121,8 @@ static enum rayd_status split_one(struct imp *im, const struct mesh_data *md, co
     }
     for (size_t k = 0; k < (size_t)n * 3; k++)
         remap[md->index[(size_t)tris[k / 3] * 3 + k % 3]] = UINT32_MAX;
-    enum rayd_status st = sj_add_mesh(ld, id);
-    if (st != RAYD_OK) {
-        free(ix), free(pos), free(nrm), free(uv);
-        return st;
-    }
-    double t0 = clock_now();
-    st = mesh_build(&ld->s->meshes[*id], pos, nv, ix, n, nrm, uv, true,
-                    n >= 50000 ? parallel_cores() : 1, ld->err);
-    ld->s->build_s += clock_now() - t0;
-    return st;
+    struct mesh_data part = {pos, nrm, uv, ix, nv, n, 0};
+    return sj_mesh_baked(ld, &part, id);
 }
 
 /* The scene's material for glTF material m (n: the default one), added on

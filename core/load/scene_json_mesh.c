@@ -5,7 +5,10 @@
  * Totals of vertices and triangles are checked against the limits before
  * anything large is allocated.  Large inline arrays come not as cJSON items
  * but as spans of the text (scene_json_inline.c), read by json_numbers.c
- * with the same checks, values and messages.
+ * with the same checks, values and messages.  Built meshes are shared
+ * between live scenes (geom/mesh_share.c) under their source's bytes, their
+ * inline arrays' text, or, for a gltf object's meshes (sj_mesh_baked), the
+ * arrays its bake made.
  */
 #define _XOPEN_SOURCE 700 /* realpath */
 #include <errno.h>
@@ -609,6 +612,87 @@ static enum rayd_status mesh_inline(struct loader *ld, const cJSON *oj, const st
     if (st == RAYD_OK && !took) st = mesh_make(ld, &md, &pm, smooth, id, &t);
     if (st == RAYD_OK && !took && shares) mesh_offer(ld, &sc, variant, &ld->s->meshes[*id], &t);
     source_done(ld, &sc);
+    return st;
+}
+
+/* ---- baked meshes: a gltf object's, shared under their arrays ---------- */
+
+/* A gltf object's meshes are baked from its document at the scene's frame
+ * (its node transforms, their animation), so their source is not one file
+ * to key them on: the baked arrays are.  A frame range of a still glTF
+ * bakes the same arrays frame after frame, and the build they then skip is
+ * most of a frame (a 1.3M-triangle .glb: 0.48 s a frame, three quarters of
+ * it the BVH). */
+#define SOURCE_BAKED 5
+#define BAKED_SHARE_MIN 1000 /* triangles: a smaller mesh builds in no time */
+
+/* The key of baked arrays md: their counts, then every array's bytes (all
+ * the build depends on; which arrays are given is in the counts' word). */
+static unsigned char *baked_key(const struct mesh_data *md, size_t len) {
+    unsigned char *key = malloc(len), *at = key;
+    if (!key) return NULL;
+    uint32_t head[3] = {md->nverts, md->ntris, (md->normal ? 1u : 0u) | (md->uv ? 2u : 0u)};
+    const struct {
+        const void *p;
+        size_t n;
+    } part[5] = {{head, sizeof head},
+                 {md->pos, (size_t)md->nverts * 3 * sizeof(float)},
+                 {md->index, (size_t)md->ntris * 3 * sizeof(uint32_t)},
+                 {md->normal, md->normal ? (size_t)md->nverts * 3 * sizeof(float) : 0},
+                 {md->uv, md->uv ? (size_t)md->nverts * 2 * sizeof(float) : 0}};
+    for (int k = 0; k < 5; k++) {
+        if (part[k].n) memcpy(at, part[k].p, part[k].n);
+        at += part[k].n;
+    }
+    return key;
+}
+
+static size_t baked_len(const struct mesh_data *md) {
+    size_t v = md->nverts;
+    return 3 * sizeof(uint32_t) + v * 3 * sizeof(float) + (size_t)md->ntris * 3 * sizeof(uint32_t) +
+           (md->normal ? v * 3 * sizeof(float) : 0) + (md->uv ? v * 2 * sizeof(float) : 0);
+}
+
+/* A baked mesh's key, charged (a scene holding the shared mesh counts it,
+ * mesh_bytes): NULL when there is no cache, the mesh is small, or no room
+ * (then it is built unshared). */
+static unsigned char *baked_key_charged(struct loader *ld, const struct mesh_data *md,
+                                        size_t *len) {
+    *len = baked_len(md);
+    if (!ld->lim->assets || md->ntris < BAKED_SHARE_MIN || !charge_quiet(ld, *len)) return NULL;
+    unsigned char *key = baked_key(md, *len);
+    if (!key) sj_give_back(ld, *len);
+    return key;
+}
+
+enum rayd_status sj_mesh_baked(struct loader *ld, struct mesh_data *md, uint32_t *id) {
+    size_t len;
+    unsigned char *key = baked_key_charged(ld, md, &len);
+    const unsigned variant = SOURCE_BAKED | 8u; /* smoothed, as built below */
+    /* the bake kept within this scene's budget: any entry's terms serve */
+    struct mesh_terms any = {UINT32_MAX, UINT32_MAX, 0, 0}, none = {0, 0, 0, 0}, was;
+    struct mesh m;
+    bool took = key && mesh_share_find(ld->lim->assets, variant, key, len, &any, &m, &was);
+    enum rayd_status st = sj_add_mesh(ld, id);
+    if (st != RAYD_OK || took) {
+        if (st != RAYD_OK && took) mesh_free(&m);
+        if (st != RAYD_OK && key) sj_give_back(ld, len);
+        if (st == RAYD_OK) ld->s->meshes[*id] = m; /* its key's charge stays: the scene counts it */
+        free(key);
+        mesh_data_free(md);
+        return st;
+    }
+    double t0 = clock_now();
+    st = mesh_build(&ld->s->meshes[*id], md->pos, md->nverts, md->index, md->ntris, md->normal,
+                    md->uv, true, md->ntris >= 50000 ? parallel_cores() : 1, ld->err);
+    ld->s->build_s += clock_now() - t0;
+    *md = (struct mesh_data){0}; /* the mesh owns the arrays now, even on failure */
+    if (!key) return st;
+    if (st != RAYD_OK) free(key);
+    /* found by baked keys alone (the variant), on no terms */
+    if (st != RAYD_OK ||
+        !mesh_share_add(ld->lim->assets, &ld->s->meshes[*id], variant, key, len, &none))
+        sj_give_back(ld, len);
     return st;
 }
 

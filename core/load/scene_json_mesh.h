@@ -8,6 +8,12 @@
 /* A mesh object's data, inline or from a source: *id its index in the
  * scene's meshes. */
 enum rayd_status sj_mesh(struct loader *ld, const cJSON *oj, const struct jp *at, uint32_t *id);
+/* Baked arrays md (a gltf object's, scene_json_gltf.c; malloc'd, their
+ * bytes and the build charged by the caller) as the scene's mesh *id,
+ * smoothed: taken built from a live scene whose baked arrays were the same
+ * bytes (lim->assets), else built and offered to the others.  md's arrays
+ * are taken either way. */
+enum rayd_status sj_mesh_baked(struct loader *ld, struct mesh_data *md, uint32_t *id);
 /* Appends an empty mesh to the scene's: *id. */
 enum rayd_status sj_add_mesh(struct loader *ld, uint32_t *id);
 /* About the bytes md and the mesh built from it hold (sj_charge's). */

@@ -21,6 +21,7 @@
 #include <stb/stb_image_write.h>
 
 #include "check.h"
+#include "scene_util.h"
 #include "load/gltf_material.h"
 #include "render/image.h"
 #include "scene/scene.h"
@@ -345,6 +346,104 @@ static void test_textures_shared(void) {
     rayd_scene_free(c);
 }
 
+/* A glTF document of one wavy n x n grid (2 n^2 triangles, u32 indices)
+ * under a node lifted by lift along z, its buffer a data: URI. */
+static cJSON *grid_doc(int n, double lift) {
+    size_t nv = (size_t)(n + 1) * (n + 1), nt = 2 * (size_t)n * n;
+    size_t pbytes = nv * 12, len = pbytes + nt * 12;
+    unsigned char *b = malloc(len);
+    float *p = (float *)(void *)b;
+    uint32_t *ix = (uint32_t *)(void *)(b + pbytes);
+    for (int j = 0; j <= n; j++)
+        for (int i = 0; i <= n; i++, p += 3) {
+            p[0] = 2.0f * (float)i / (float)n - 1, p[1] = 2.0f * (float)j / (float)n - 1;
+            p[2] = (float)(0.2 * sin(7.0 * i / n) * cos(5.0 * j / n));
+        }
+    for (int j = 0; j < n; j++)
+        for (int i = 0; i < n; i++, ix += 6) {
+            uint32_t a = (uint32_t)(j * (n + 1) + i), c = a + (uint32_t)n + 1;
+            ix[0] = a, ix[1] = a + 1, ix[2] = c + 1, ix[3] = a, ix[4] = c + 1, ix[5] = c;
+        }
+    char *uri = base64(b, len, "data:application/octet-stream;base64,");
+    free(b);
+    size_t cap = strlen(uri) + 1024;
+    char *text = malloc(cap);
+    snprintf(
+        text, cap,
+        "{\"asset\": {\"version\": \"2.0\"}, \"scene\": 0, \"scenes\": [{\"nodes\": [0]}],"
+        " \"nodes\": [{\"mesh\": 0, \"translation\": [0, 0, %g]}],"
+        " \"meshes\": [{\"primitives\": [{\"attributes\": {\"POSITION\": 0}, \"indices\": 1}]}],"
+        " \"buffers\": [{\"byteLength\": %zu, \"uri\": \"%s\"}],"
+        " \"bufferViews\": [{\"buffer\": 0, \"byteLength\": %zu},"
+        "   {\"buffer\": 0, \"byteOffset\": %zu, \"byteLength\": %zu}],"
+        " \"accessors\": [{\"bufferView\": 0, \"componentType\": 5126, \"count\": %zu,"
+        "   \"type\": \"VEC3\", \"min\": [-1, -1, -1], \"max\": [1, 1, 1]},"
+        "   {\"bufferView\": 1, \"componentType\": 5125, \"count\": %zu, \"type\": \"SCALAR\"}]}",
+        lift, len, uri, pbytes, pbytes, nt * 12, nv, nt * 3);
+    cJSON *d = cJSON_Parse(text);
+    free(uri), free(text);
+    return d;
+}
+
+/* A charge hook that keeps the net bytes charged. */
+static enum rayd_status net_charge(void *arg, long long bytes, char *why, size_t why_len) {
+    (void)why, (void)why_len;
+    *(long long *)arg += bytes;
+    return RAYD_OK;
+}
+
+/* The one member mesh of s's gltf object (NULL: none). */
+static const struct mesh *grid_mesh(const rayd_scene *s) {
+    const struct group *gr = s ? the_group(s) : NULL;
+    return gr && gr->nobjs == 1 ? &s->meshes[gr->objs[0].u.mesh.id] : NULL;
+}
+
+static bool same_image(const rayd_image *a, const rayd_image *b) {
+    return a && b &&
+           !memcmp(rayd_image_pixels((rayd_image *)(uintptr_t)a),
+                   rayd_image_pixels((rayd_image *)(uintptr_t)b), 40 * 20 * 3);
+}
+
+static void test_baked_meshes_shared(void) {
+    /* a frame's parse takes the meshes a live scene baked to the same
+     * arrays (rayd_asset_cache), charged alike, the same pixels; a node
+     * moved bakes other arrays, and a small mesh is not looked up */
+    const char *head = "\"camera\": {\"position\": [0, -1.5, 3], \"look_at\": [0, 0, 0]},"
+                       " \"lights\": [{\"type\": \"point\", \"position\": [1, -2, 4]}],";
+    struct rayd_limits lim;
+    rayd_limits_default(&lim);
+    lim.assets = rayd_asset_cache_new(0);
+    lim.charge = net_charge;
+    long long net[3] = {0, 0, 0};
+    struct rayd_error err;
+    rayd_scene *plain = parse(grid_doc(24, 0), head, "", &err), *s[3];
+    for (int k = 0; k < 3; k++) {
+        lim.charge_arg = &net[k];
+        s[k] = parse_lim(grid_doc(24, k == 2 ? 0.25 : 0), head, "", &lim, &err);
+    }
+    rayd_scene *small = parse_lim(grid_doc(8, 0), head, "", &lim, &err);
+    CHECK(plain && s[0] && s[1] && s[2] && small, "parse: %s", err.message);
+    long hits, misses;
+    rayd_asset_cache_stats(lim.assets, RAYD_ASSET_MESH, &hits, &misses);
+    CHECK(hits == 1 && misses == 2, "hits %ld, misses %ld; want 1 and 2", hits, misses);
+    const struct mesh *m0 = grid_mesh(s[0]), *m1 = grid_mesh(s[1]), *m2 = grid_mesh(s[2]);
+    CHECK(m0 && m1 && m2 && m0->blocks == m1->blocks && m2->blocks != m0->blocks,
+          "the same baked arrays are not shared, or other arrays are");
+    CHECK(net[0] == net[1] && net[0] > 0, "charged %lld building, %lld taking", net[0], net[1]);
+    rayd_asset_cache_free(lim.assets); /* the scenes keep their meshes */
+    rayd_image *want = plain ? render_all(plain, 2) : NULL;
+    rayd_image *got0 = s[0] ? render_all(s[0], 2) : NULL;
+    rayd_scene_free(s[0]); /* s[1]'s mesh outlives s[0]'s reference (ASan: no use after free) */
+    rayd_image *got1 = s[1] ? render_all(s[1], 1) : NULL;
+    CHECK(same_image(want, got0) && same_image(want, got1),
+          "a shared baked mesh renders differently");
+    int lit = 0;
+    for (size_t i = 0; want && i < 40 * 20 * 3; i += 3) lit += rayd_image_pixels(want)[i] > 20;
+    CHECK(lit > 100, "the grid does not show (%d lit pixels): the check proves little", lit);
+    rayd_image_free(want), rayd_image_free(got0), rayd_image_free(got1);
+    rayd_scene_free(s[1]), rayd_scene_free(s[2]), rayd_scene_free(small), rayd_scene_free(plain);
+}
+
 /* Item i of d's array a, or that item's member b. */
 static cJSON *at(cJSON *d, const char *a, int i, const char *b) {
     cJSON *x = cJSON_GetArrayItem(cJSON_GetObjectItem(d, a), i);
@@ -598,6 +697,7 @@ int main(void) {
     RUN(test_materials_and_groups);
     RUN(test_uvs_and_textures);
     RUN(test_textures_shared);
+    RUN(test_baked_meshes_shared);
     RUN(test_pbr_mapping);
     RUN(test_texcoord_sets);
     RUN(test_override_and_scene);
