@@ -85,6 +85,22 @@ static const char *scenefile_outside(struct scenefile_walk *w, const char *name,
     return NULL;
 }
 
+/* A file the scene names could not be read: said at its "file" key, the
+ * name as the scene gives it (the read's message names the path opened),
+ * as rayd-render says it: "scene.json: /render/environment/file: cannot
+ * open "sky.hdr": No such file or directory". */
+static void scenefile_unread(const struct scenefile_walk *w, const char *where, const char *name,
+                             const char *path, const char *msg) {
+    char safe[300];
+    const char *at = strstr(msg, path);
+    if (!at) {
+        fprintf(stderr, "rayd-client: error: %s: %s/file: %s\n", w->scene, where, msg);
+        return;
+    }
+    fprintf(stderr, "rayd-client: error: %s: %s/file: %.*s\"%s\"%s\n", w->scene, where,
+            (int)(at - msg), msg, net_safe(name, safe, sizeof safe), at + strlen(path));
+}
+
 /* The bytes of a "file" a scene names, relative to its folder and confined
  * to it; NULL after saying why.  *path receives the name as opened
  * (malloc'd). */
@@ -106,7 +122,7 @@ static char *scenefile_asset(struct scenefile_walk *w, const char *name, const c
     }
     struct rayd_error err;
     char *data = scenefile_read(*path, len, &err);
-    if (!data) fprintf(stderr, "rayd-client: error: %s: %s\n", where, err.message);
+    if (!data) scenefile_unread(w, where, name, *path, err.message);
     return data;
 }
 
@@ -255,6 +271,12 @@ static void scenefile_walk(struct scenefile_walk *w, cJSON *node, const char *ke
     }
 }
 
+/* The scene as messages call it: its path, or <stdin> for "-" (as
+ * rayd-render calls it). */
+static const char *scenefile_label(const char *path) {
+    return strcmp(path, "-") ? path : "<stdin>";
+}
+
 /* Inlines the files of sf->bytes; on a change sf->bytes is re-serialised.
  * 0, or -1 after saying why in one line. */
 static int scenefile_bundle(const char *path, struct scenefile *sf) {
@@ -264,7 +286,7 @@ static int scenefile_bundle(const char *path, struct scenefile *sf) {
     const char *slash = strrchr(path, '/');
     if (slash && (size_t)(slash - path) + 2 < sizeof dir)
         snprintf(dir, sizeof dir, "%.*s/", (int)(slash - path), path);
-    struct scenefile_walk w = {path, dir, "", 0, 0, sf};
+    struct scenefile_walk w = {scenefile_label(path), dir, "", 0, 0, sf};
     char ptr[1024] = "";
     scenefile_walk(&w, root, NULL, ptr, sizeof ptr);
     int rc = 0;
@@ -273,7 +295,7 @@ static int scenefile_bundle(const char *path, struct scenefile *sf) {
     } else if (w.count) {
         char *s = cJSON_PrintUnformatted(root);
         if (!s) {
-            fprintf(stderr, "rayd-client: error: %s: out of memory\n", path);
+            fprintf(stderr, "rayd-client: error: %s: out of memory\n", w.scene);
             rc = -1;
         } else {
             free(sf->bytes);
@@ -333,7 +355,7 @@ int scenefile_load(const char *path, struct scenefile *sf) {
         scenefile_free(sf);
         return -1;
     }
-    return scenefile_finish(path, sf);
+    return scenefile_finish(scenefile_label(path), sf);
 }
 
 void scenefile_free(struct scenefile *sf) {

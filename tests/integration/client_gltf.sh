@@ -103,6 +103,22 @@ for s in ply env tex; do
     fi
 done
 
+# a file the scene names that is missing: the same line as rayd-render's,
+# the scene's file first, at the "file" key, the name as the scene gives it
+printf '{"render": {"environment": {"file": "gone.hdr"}}}\n' >"$dir/gone.json"
+"$RENDER" "$dir/gone.json" -o "$dir/local.png" -q 2>"$dir/local.err"
+"$CLIENT" render "$dir/gone.json" -o "$dir/remote.png" -s http://127.0.0.1:9 --retries 0 -q \
+    2>"$dir/remote.err"
+rc=$?
+want=$(sed 's/^rayd-render: //' "$dir/local.err")
+got=$(sed 's/^rayd-client: //' "$dir/remote.err")
+if [ $rc = 1 ] && [ "$got" = "$want" ] &&
+    [ "$want" = "error: $dir/gone.json: /render/environment/file: cannot open \"gone.hdr\": No such file or directory" ]; then
+    pass client_missing_file_as_rayd_render
+else
+    fail client_missing_file_as_rayd_render "exit $rc: '$got' against '$want'"
+fi
+
 # a buffer whose name has a space, written %20 in the URI
 dir="$T/space"
 mkdir "$dir"
