@@ -462,8 +462,11 @@ static void api_cluster_video_answer(struct api_cluster *a) {
     const struct shots_info *in = &op->info;
     char msg[300];
     snprintf(r->res.scene, sizeof r->res.scene, "%s", in->job.scene_id);
-    if (!op->is_animated) {
-        api_jobs_missing(r, op->id); /* as one node: no frame range of that id */
+    if (!op->is_animated) { /* as one node answers */
+        http_reply_error(r, 404, "frame_unknown",
+                         "this job renders one image (image.png), not a frame range: it has no "
+                         "video",
+                         NULL, 0, 0, NULL);
     } else if (op->png) {
         http_reply_image(r, 200, op->png, "video/mp4");
         http_reply_header(r, "Cache-Control", "private, max-age=3600");

@@ -303,7 +303,14 @@ void api_shots_video(struct http_req *r, const char *id) {
     struct shots_info info;
     struct blob *mp4 = shots_video(id, &info);
     if (!info.job.id[0]) {
-        api_jobs_missing(r, id);
+        struct jobs_info j; /* a job of one image has no frames to make a video of */
+        if (jobs_get(id, &j, JOBS_NUMBERS))
+            http_reply_error(r, 404, "frame_unknown",
+                             "this job renders one image (image.png), not a frame range: it has "
+                             "no video",
+                             NULL, 0, 0, NULL);
+        else
+            api_jobs_missing(r, id);
         return;
     }
     char msg[300];

@@ -74,6 +74,8 @@ code=$(req GET "/v1/jobs/0123456789abcdef0123456789abcdef/frames/4.png")
 check frame_job_unknown "$code" err_is "$T/body" 404 job_unknown
 code=$(req GET "/v1/jobs/$still/frames/0.png")
 check frame_of_still_job "$code $(cat "$T/body")" err_is "$T/body" 404 frame_unknown
+code=$(req GET "/v1/jobs/$still/video.mp4")
+check video_of_still_job "$code $(cat "$T/body")" eval 'err_is "$T/body" 404 frame_unknown && grep -q "no video" "$T/body"'
 code=$(req GET "/v1/jobs/$id/video.mp4")
 check video_before_done "$code $(cat "$T/body")" err_is "$T/body" 409 frames_not_done
 code=$(req GET "/v1/jobs/$id/image.png")
