@@ -397,7 +397,7 @@ static int client_decimal(const char *name, const char *v, double lo, double hi,
                  (!v[digits] || (!whole && v[digits] == '.' &&
                                  strspn(v + digits + 1, "0123456789") == strlen(v + digits + 1)));
     if (!plain || args_double(v, lo, hi, &d) != 0)
-        return args_bad("%s needs a %s in %g..%g (digits%s), not '%s'", name,
+        return args_bad("%s needs a %s in %.10g..%.10g (digits%s), not '%s'", name,
                         whole ? "whole number" : "number", lo, hi, whole ? "" : ", one point",
                         v ? v : "");
     *out = v;
@@ -470,7 +470,8 @@ static int client_option(int opt, const char *v, struct client_args *a) {
     case OPT_DETACH: o->detach = 1; return 0;
     case OPT_PASS_STEP: return client_decimal("--pass-step", v, 1, 1048576, true, &o->pass_step);
     case OPT_TIME_BUDGET:
-        return client_decimal("--time-budget", v, 0.001, 86400 * 365, false, &o->time_budget);
+        return client_decimal("--time-budget", v, 0.001, 86400, false,
+                              &o->time_budget); /* rayd's */
     case OPT_NOISE_TARGET:
         return client_decimal("--noise-target", v, 1e-9, 1, false, &o->noise_target);
     case OPT_VIEW:

@@ -41,7 +41,7 @@ static bool api_plan_number(struct http_req *r, const char *name, double max, do
     double x = strtod(v, NULL);
     if (!api_is_decimal(v, true) || !(x > 0 && x <= max)) {
         char why[100];
-        snprintf(why, sizeof why, "must be a decimal number above 0 and at most %g", max);
+        snprintf(why, sizeof why, "must be a decimal number above 0 and at most %.10g", max);
         return api_bad_param(r, name, why);
     }
     *out = x;
@@ -65,7 +65,7 @@ static bool api_plan(struct http_req *r, const rayd_scene *scene, struct jobs_pl
         if (!*progressive && http_req_query(r, api_plan_names[i]))
             return api_bad_param(r, api_plan_names[i], "needs progressive=1");
     double step = 0;
-    if (!api_plan_number(r, "pass_step", 1e6, &step) ||
+    if (!api_plan_number(r, "pass_step", 1048576, &step) || /* rayd-render's --pass-step too */
         !api_plan_number(r, "time_budget", 86400, &plan->time_budget) ||
         !api_plan_number(r, "noise_target", 1, &plan->noise_target))
         return false;

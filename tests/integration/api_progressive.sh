@@ -167,13 +167,18 @@ for q in "progressive=2:progressive" "pass_step=2:pass_step" "progressive=1&pass
     "progressive=1&time_budget=0x10:time_budget" "progressive=1&time_budget=inf:time_budget" \
     "progressive=1&time_budget=1e1:time_budget" "progressive=1&time_budget=%2B5:time_budget" \
     "progressive=1&time_budget=%205:time_budget" "progressive=1&noise_target=nan:noise_target" \
-    "progressive=1&pass_step=0x2:pass_step"; do
+    "progressive=1&pass_step=0x2:pass_step" "progressive=1&pass_step=1048577:pass_step" \
+    "progressive=1&time_budget=86401:time_budget"; do
     code=$(post_json "/v1/jobs?${q%%:*}" "$T/p8.json")
     check "bad_option_${q%%:*}" "status $code $(head -c 200 "$T/body")" bad_option "$code" "${q##*:}"
     case $q in *"${q##*:}="*"${q##*:}="*)
         check "bad_option_twice_${q##*:}" "$(head -c 200 "$T/body")" grep -q 'given more than once' "$T/body" ;;
     esac
 done
+# a most said as a plain number (not 1e+06); pass_step's most is rayd-render's --pass-step's
+check most_said_plainly "$(head -c 200 "$T/body")" grep -q 'at most 86400"' "$T/body"
+code=$(post_json "/v1/jobs?progressive=1&pass_step=1048576" "$T/p8.json")
+check pass_step_most_taken "status $code $(head -c 200 "$T/body")" [ "$code" = 202 ]
 scene "$T/p100.json" 64 64 100 cornell
 code=$(post_json "/v1/jobs?progressive=1&pass_step=1" "$T/p100.json")
 check too_many_passes "status $code $(head -c 200 "$T/body")" \
