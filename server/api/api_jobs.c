@@ -406,5 +406,4 @@ void api_jobs_list(struct http_req *r, const char *unused) {
     free(rows);
     free(shots);
     http_reply_json(r, 200, o);
-    http_reply_header(r, "Cache-Control", "no-store");
 }

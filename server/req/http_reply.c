@@ -101,8 +101,20 @@ static void http_reply_set(struct http_req *r, unsigned status, struct http_repl
     r->conn.replied = true;
 }
 
+/* Takes header at out of p. */
+static void http_reply_drop(struct http_reply *p, long at) {
+    free(p->headers[at].name);
+    memmove(p->headers + at, p->headers + at + 1,
+            (p->nheaders - (size_t)at - 1) * sizeof *p->headers);
+    p->nheaders--;
+}
+
 void http_reply_header(struct http_req *r, const char *name, const char *value) {
-    if (r->conn.pending) http_reply_add(r->conn.pending, name, value);
+    struct http_reply *p = r->conn.pending;
+    if (!p) return;
+    long at = http_reply_find(p, name); /* the last layer to set it wins */
+    if (at >= 0) http_reply_drop(p, at);
+    http_reply_add(p, name, value);
 }
 
 /* A reply whose body is data[0..len) (malloc'd; taken, freed on failure). */
@@ -236,10 +248,7 @@ void http_reply_vary(struct http_req *r, const char *field) {
     /* the old line goes, the joined one is added last */
     char both[256];
     snprintf(both, sizeof both, "%s, %s", p->headers[at].value, field);
-    free(p->headers[at].name);
-    memmove(p->headers + at, p->headers + at + 1,
-            (p->nheaders - (size_t)at - 1) * sizeof *p->headers);
-    p->nheaders--;
+    http_reply_drop(p, at);
     http_reply_add(p, "Vary", both);
 }
 

@@ -216,7 +216,10 @@ void http_reply_error(struct http_req *r, unsigned status, const char *code, con
 void http_reply_stream(struct http_req *r, unsigned status, const char *const *headers,
                        size_t block, ssize_t (*read)(void *cls, char *buf, size_t max),
                        void (*done)(void *cls), void *cls);
-/* Adds a header to the response queued last (call right after a reply). */
+/* Sets a header of the response queued last (call right after a reply):
+ * one of a name, the last value set replacing any before it, since the
+ * layers a reply passes (http_reply_json, http_reply_error, a route) may
+ * each set Cache-Control. */
 void http_reply_header(struct http_req *r, const char *name, const char *value);
 /* 304 Not Modified: no body, no Content-Length, the cache headers of the
  * 200 (http_reply_cache_headers).  The connection closes after it. */

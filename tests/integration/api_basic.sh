@@ -145,6 +145,18 @@ check no_result_cache_renders "status $code, renders $(metric rayd_render_second
 check no_result_cache_no_misses "misses $(metric rayd_result_cache_misses_total), hits $(metric rayd_result_cache_hits_total)" \
     bash -c "[ '$(metric rayd_result_cache_misses_total)' = 0 ] && [ '$(metric rayd_result_cache_hits_total)' = 0 ]"
 stop_rayd TERM
+# --- one header of a name: a reply's layers (the JSON, the error, the route) each
+# setting Cache-Control said it twice on the job list and an unknown job's 404
+start_rayd
+post_json /v1/jobs "$T/small.json" >/dev/null
+for route in "GET /v1/jobs" "HEAD /v1/jobs" "GET /v1/jobs?limit=1" \
+    "GET /v1/jobs/0123456789abcdef0123456789abcdef" "GET /v1/health" "GET /v1/no-such-route"; do
+    method=${route%% *} path=${route#* }
+    if [ "$method" = HEAD ]; then req HEAD "$path" -I >/dev/null; else req "$method" "$path" >/dev/null; fi
+    twice=$(tr -d '\r' <"$T/headers" | grep -o '^[A-Za-z-]*:' | tr 'A-Z' 'a-z' | sort | uniq -d | tr '\n' ' ')
+    check "one_header_each ${route}" "said twice: $twice" [ -z "$twice" ]
+done
+stop_rayd TERM
 # --- environment ------------------------------------------------------------------
 RAYD_QUEUE=7 start_rayd
 check env_option "RAYD_QUEUE ignored" [ "$(metric rayd_queue_capacity)" = 7 ]
