@@ -114,6 +114,7 @@ int api_cost_retry_after(double seconds);
 
 void api_render_post(struct http_req *r, const char *id);
 void api_scenes_post(struct http_req *r, const char *id);
+void api_scenes_get(struct http_req *r, const char *id); /* GET /v1/scenes/{id}: its JSON */
 void api_scenes_image(struct http_req *r, const char *id);
 void api_jobs_post(struct http_req *r, const char *id);
 void api_jobs_list(struct http_req *r, const char *id); /* GET /v1/jobs: the client's own */

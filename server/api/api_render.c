@@ -206,20 +206,27 @@ static bool api_scenes_image_of(struct http_req *r, struct cache_entry *e) {
     return false;
 }
 
+/* What a GET of a kept scene answers once the scene is found (e, or NULL:
+ * not held): true when a render took r. */
+typedef bool (*api_scene_answer)(struct http_req *r, struct cache_entry *e);
+
 /* A GET waiting on a parse thread for the check of its scene's files. */
 struct api_find_wait {
     struct compile_waiter w; /* first: the callbacks get it back */
     struct http_req *r;
+    api_scene_answer answer;
 };
 
 static void api_find_done(struct compile_waiter *w, struct compile_result *res) {
-    struct http_req *r = ((struct api_find_wait *)w)->r;
+    struct api_find_wait *a = (struct api_find_wait *)w;
+    struct http_req *r = a->r;
+    api_scene_answer answer = a->answer;
     free(w);
     bool handed = false;
     if (res->draining)
         api_refused(r, WORK_DRAINING);
     else
-        handed = api_scenes_image_of(r, res->scene);
+        handed = answer(r, res->scene);
     scenes_release(res->scene);
     if (!handed) http_req_resume(r);
 }
@@ -228,9 +235,11 @@ static void api_find_suspend(struct compile_waiter *w) {
     http_req_suspend(((struct api_find_wait *)w)->r);
 }
 
-void api_scenes_image(struct http_req *r, const char *id) {
+/* GET of the kept scene id: answer once it is found (its files checked on a
+ * parse thread when it read any). */
+static void api_scenes_find(struct http_req *r, const char *id, api_scene_answer answer) {
     if (!api_is_hex(id, 64)) {
-        api_scenes_image_of(r, NULL);
+        answer(r, NULL);
         return;
     }
     snprintf(r->res.scene, sizeof r->res.scene, "%s",
@@ -241,6 +250,7 @@ void api_scenes_image(struct http_req *r, const char *id) {
         return;
     }
     a->r = r;
+    a->answer = answer;
     a->w.done = api_find_done;
     a->w.suspend = api_find_suspend;
     struct compile_result res;
@@ -248,9 +258,34 @@ void api_scenes_image(struct http_req *r, const char *id) {
     if (s == WORK_OK) return; /* a belongs to the parse pool until done() */
     free(a);
     if (s == WORK_CACHED) {
-        api_scenes_image_of(r, res.scene);
+        answer(r, res.scene);
         scenes_release(res.scene);
     } else {
         api_refused(r, s);
     }
+}
+
+void api_scenes_image(struct http_req *r, const char *id) {
+    api_scenes_find(r, id, api_scenes_image_of);
+}
+
+/* GET /v1/scenes/{id}: what POST /v1/scenes answered, with the image's URL. */
+static bool api_scenes_about(struct http_req *r, struct cache_entry *e) {
+    if (!e) return api_scenes_image_of(r, NULL); /* its 404 */
+    struct rayd_scene_info info;
+    rayd_scene_info(cache_scene(e), &info);
+    char url[128];
+    snprintf(url, sizeof url, "/v1/scenes/%s/image.png", cache_id(e));
+    cJSON *o = cJSON_CreateObject();
+    cJSON_AddStringToObject(o, "id", cache_id(e));
+    cJSON_AddNumberToObject(o, "width", info.width);
+    cJSON_AddNumberToObject(o, "height", info.height);
+    cJSON_AddNumberToObject(o, "objects", (double)info.objects);
+    cJSON_AddStringToObject(o, "image_url", url);
+    http_reply_json(r, 200, o);
+    return false;
+}
+
+void api_scenes_get(struct http_req *r, const char *id) {
+    if (api_only_params(r, NULL)) api_scenes_find(r, id, api_scenes_about);
 }

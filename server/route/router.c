@@ -39,6 +39,7 @@ struct route {
 static const struct route router_table[] = {
     {"POST", "/v1/render", api_render_post, "/v1/render", NULL},
     {"POST", "/v1/scenes", api_scenes_post, "/v1/scenes", NULL},
+    {"GET", "/v1/scenes/{id}", api_scenes_get, "/v1/scenes/{id}", NULL},
     {"GET", "/v1/scenes/{id}/image.png", api_scenes_image, "/v1/scenes/{id}/image.png", NULL},
     {"POST", "/v1/jobs", api_jobs_post, "/v1/jobs", NULL},
     {"GET", "/v1/jobs", api_jobs_list, "/v1/jobs", NULL},

@@ -64,6 +64,13 @@ id=$(json "$T/body" 'j["id"]')
 check scenes_post_201 "status $code" [ "$code" = 201 ]
 check scenes_id_is_sha256 "id $id" [ "$id" = "$(sha256sum "$T/small.json" | cut -d' ' -f1)" ]
 check scenes_location "$(header Location)" [ "$(header Location)" = "/v1/scenes/$id" ]
+# the Location names something: the scene's JSON, with its image's URL
+code=$(req GET "/v1/scenes/$id")
+got="$(json "$T/body" 'j["image_url"]') $(json "$T/body" 'j["width"]')"
+check scenes_location_answers "status $code $(head -c 300 "$T/body")" \
+    [ "$code $got" = "200 /v1/scenes/$id/image.png 160" ]
+code=$(req GET "/v1/scenes/0123456789abcdef0123456789abcdef0123456789abcdef0123456789abcdef")
+check scenes_get_unknown "status $code" bash -c "[ $code = 404 ] && grep -q scene_unknown '$T/body'"
 code=$(req GET "/v1/scenes/$id/image.png")
 etag=$(header ETag)
 check scene_image_200 "status $code" [ "$code" = 200 ]
