@@ -157,7 +157,7 @@ struct share *share_find(struct rayd_asset_cache *c, int kind, unsigned variant,
 }
 
 void share_add(struct rayd_asset_cache *c, struct share *s, int kind, unsigned variant,
-               unsigned char *key, size_t len) {
+               unsigned char *key, size_t len, bool hold) {
     s->cache = c;
     s->refs = 1;
     s->kind = kind;
@@ -169,7 +169,8 @@ void share_add(struct rayd_asset_cache *c, struct share *s, int kind, unsigned v
     s->next = c->list;
     c->list = s;
     c->misses[kind]++;
-    if (c->hold) s->refs++; /* the cache's own, until it is freed */
+    s->dropped = !(c->hold && hold); /* no reference of the cache's to let go of */
+    if (!s->dropped) s->refs++;      /* the cache's own, until it is freed */
     pthread_mutex_unlock(&c->lock);
 }
 

@@ -38,9 +38,12 @@ struct share *share_find(struct rayd_asset_cache *c, int kind, unsigned variant,
 /* s (its drop set) listed in c as the entry of kind and variant made from
  * the len bytes at key (malloc'd, taken: freed with s), referenced.
  * Another thread may add the same bytes meanwhile: both live.  An add
- * counts as made. */
+ * counts as made.  hold: a holding cache keeps it too (bytes every frame
+ * names: a file's, the scene text's); else only the scenes do (a gltf
+ * object's baked meshes, which an animation makes anew each frame: held,
+ * a long job would keep every frame's). */
 void share_add(struct rayd_asset_cache *c, struct share *s, int kind, unsigned variant,
-               unsigned char *key, size_t len);
+               unsigned char *key, size_t len, bool hold);
 /* Lets go of one reference: the last one takes s out of its cache and
  * drops it. */
 void share_unref(struct share *s);

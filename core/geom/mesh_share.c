@@ -44,14 +44,14 @@ bool mesh_share_find(struct rayd_asset_cache *c, unsigned variant, const void *k
 }
 
 bool mesh_share_add(struct rayd_asset_cache *c, struct mesh *m, unsigned variant,
-                    unsigned char *key, size_t len, const struct mesh_terms *t) {
+                    unsigned char *key, size_t len, const struct mesh_terms *t, bool hold) {
     struct mesh_share *x = malloc(sizeof *x);
     if (!x) {
         free(key);
         return false;
     }
     *x = (struct mesh_share){.sh.drop = mesh_share_drop, .m = *m, .t = *t};
-    share_add(c, &x->sh, SHARE_MESH, variant, key, len);
+    share_add(c, &x->sh, SHARE_MESH, variant, key, len, hold);
     m->shared = &x->sh;
     return true;
 }

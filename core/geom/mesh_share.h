@@ -27,9 +27,9 @@ bool mesh_share_find(struct rayd_asset_cache *c, unsigned variant, const void *k
                      const struct mesh_terms *now, struct mesh *m, struct mesh_terms *was);
 /* The built mesh m offered in c as the one of key's len bytes (malloc'd,
  * taken) and variant, built on terms t: m keeps its arrays through a
- * reference.  False when out of memory: then key is freed and m stays its
- * own. */
+ * reference; hold as share_add's.  False when out of memory: then key is
+ * freed and m stays its own. */
 bool mesh_share_add(struct rayd_asset_cache *c, struct mesh *m, unsigned variant,
-                    unsigned char *key, size_t len, const struct mesh_terms *t);
+                    unsigned char *key, size_t len, const struct mesh_terms *t, bool hold);
 
 #endif

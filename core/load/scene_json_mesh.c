@@ -540,7 +540,7 @@ static void mesh_offer(struct loader *ld, struct source *sc, unsigned variant, s
     if (sc->file) sj_give_back(ld, 1); /* the read's n + 1: the key's n */
     sc->owned = NULL;
     sc->file = false;
-    if (!mesh_share_add(ld->lim->assets, m, variant, key, sc->n, t)) sj_give_back(ld, sc->n);
+    if (!mesh_share_add(ld->lim->assets, m, variant, key, sc->n, t, true)) sj_give_back(ld, sc->n);
 }
 
 /* A "source" mesh: taken built from another scene of the same bytes, or
@@ -691,7 +691,7 @@ enum rayd_status sj_mesh_baked(struct loader *ld, struct mesh_data *md, uint32_t
     if (st != RAYD_OK) free(key);
     /* found by baked keys alone (the variant), on no terms */
     if (st != RAYD_OK ||
-        !mesh_share_add(ld->lim->assets, &ld->s->meshes[*id], variant, key, len, &none))
+        !mesh_share_add(ld->lim->assets, &ld->s->meshes[*id], variant, key, len, &none, false))
         sj_give_back(ld, len);
     return st;
 }

@@ -42,7 +42,7 @@ struct texels *texels_add(struct rayd_asset_cache *c, enum texels_key kind, cons
     }
     memcpy(copy, key, len);
     *t = (struct texels){.sh.drop = texels_drop, .w = w, .h = h, .rgb = rgb};
-    share_add(c, &t->sh, SHARE_IMAGE, kind, copy, len);
+    share_add(c, &t->sh, SHARE_IMAGE, kind, copy, len, true);
     return t;
 }
 

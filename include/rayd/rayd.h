@@ -133,9 +133,11 @@ struct rayd_limits {
      * step's working copy is freed, or a mesh built smaller than charged,
      * it calls it with the negative difference (given back: always
      * RAYD_OK).  RAYD_OK goes on; any other status (RAYD_E_LIMIT: the
-     * scene alone is too big, RAYD_E_NOMEM: no room now) ends the parse
-     * with that status, the message written to why (why_len bytes) and the
-     * JSON Pointer of the value being loaded.  Called on the parsing
+     * scene alone is too big, RAYD_E_NOMEM: no room now) is a refusal:
+     * the bytes are not taken, and the parse ends with that status, the
+     * message written to why (why_len bytes) and the JSON Pointer of the
+     * value being loaded -- or, for bytes it can do without (the key of a
+     * copy it would share, lim->assets), goes on.  Called on the parsing
      * thread only.  rayd charges its memory budget (--max-memory) with it,
      * so that a scene is counted while it is built, not only once it
      * exists. */

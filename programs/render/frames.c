@@ -31,6 +31,7 @@
 #include <errno.h>
 #include <signal.h>
 #include <spawn.h>
+#include <malloc.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -180,9 +181,12 @@ static void frame_line(const struct args *a, long k, long done, long total, doub
 }
 
 /* Renders frames from..to of the scene text; scene is frame `from`,
- * already parsed, and is freed here.  One frame's scene is in memory at a
- * time; lim->assets holds the decoded images and built meshes across
- * them, so each frame takes them rather than making them again. */
+ * already parsed, and is freed here.  lim->assets holds the decoded
+ * images and the meshes built from files and the scene's text across the
+ * frames, so each frame takes them rather than making them again; a
+ * frame's scene stays in memory while the next is parsed, which then
+ * takes the gltf objects' meshes it baked the same (the cache does not
+ * hold those: an animated glTF bakes new ones every frame). */
 static int frames_loop(const struct args *a, const char *text, size_t len,
                        const struct rayd_limits *lim, rayd_scene *scene, long from, long to,
                        double t0) {
@@ -202,10 +206,19 @@ static int frames_loop(const struct args *a, const char *text, size_t len,
             rc = render_one_fail_region(&err);
         if (rc == 0) rc = video_start(&v, a->video, r.w, r.h, an.fps > 0 ? an.fps : 24);
     }
+    rayd_scene *last = NULL; /* the frame before's, alive while the next is parsed */
     for (long k = from; k <= to && rc == 0; k++) {
         double tf = render_one_now();
         struct rayd_error err = {0};
-        if (!scene && rayd_scene_parse_frame(text, len, lim, k, &scene, &err) != RAYD_OK) {
+        bool parsed = scene || rayd_scene_parse_frame(text, len, lim, k, &scene, &err) == RAYD_OK;
+        rayd_scene_free(last);
+        last = NULL;
+        /* the frame's big arrays were freed into the heap, where glibc's
+         * rising mmap threshold had put them: given back to the kernel, or
+         * the next frame's land beside them and the job grows frame by
+         * frame (a 1.3M-triangle glTF: 256 MiB at the 10th frame, not 356) */
+        malloc_trim(0);
+        if (!parsed) {
             rc = render_one_fail_scene(a, &err);
             break;
         }
@@ -219,13 +232,14 @@ static int frames_loop(const struct args *a, const char *text, size_t len,
             rc = video_frame(&b, scene, path, &v);
         else if (rc == 0)
             rc = render_one(&b, scene, stage, t0);
-        rayd_scene_free(scene);
+        last = scene;
         scene = NULL;
         if (rc == 0)
             frame_line(a, k, k - from + 1, to - from + 1, render_one_now() - tf,
                        render_one_now() - t_range, path);
     }
     rayd_scene_free(scene);
+    rayd_scene_free(last);
     if (a->video && video_end(&v, a->video, rc != 0) != 0 && rc == 0) rc = 1;
     if (rc == 0 && !a->quiet)
         fprintf(stderr, "frames %ld-%ld: %ld frame%s in %.3f s%s%s\n", from, to, to - from + 1,

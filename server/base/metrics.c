@@ -461,8 +461,8 @@ char *metrics_text(size_t *len) {
                    metrics_read(MG_IMAGES_SHARED), metrics_read(MG_IMAGES_DECODED));
     metrics_printf(&b,
                    "# HELP rayd_scene_meshes_shared_total Meshes (OBJ and PLY sources, large "
-                   "inline arrays) a parse took already decoded and built, from a live scene of "
-                   "the same bytes.\n"
+                   "inline arrays, gltf objects' baked meshes) a parse took already decoded and "
+                   "built, from a live scene of the same bytes.\n"
                    "# TYPE rayd_scene_meshes_shared_total counter\n"
                    "rayd_scene_meshes_shared_total %ld\n"
                    "# HELP rayd_scene_meshes_built_total Meshes a parse decoded and built where "

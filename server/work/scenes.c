@@ -120,7 +120,8 @@ static void scenes_room(struct rayd_limits *lim, size_t cap) {
  * takes, beyond the first cap's share; last, the most the scene may take. */
 struct scenes_meter {
     size_t held, charged, last;
-    bool full; /* refused because the budget had no room now */
+    bool full;                /* refused because the budget had no room now */
+    enum rayd_status refused; /* the last refusal's status (RAYD_OK: none) */
 };
 
 /* The core's charge: reserves what passes the reservation, or refuses
@@ -133,28 +134,32 @@ static enum rayd_status scenes_charge(void *arg, long long delta, char *why, siz
         m->charged -= back < m->charged ? back : m->charged;
         return RAYD_OK;
     }
-    size_t bytes = (size_t)delta;
+    size_t bytes = (size_t)delta, before = m->charged;
+    m->refused = RAYD_OK;
     m->charged = bytes > SIZE_MAX - m->charged ? SIZE_MAX : m->charged + bytes;
     if (m->charged <= m->held) return RAYD_OK;
+    /* a refused charge is not taken: the loader may go on without what it
+     * was for (a copy it would have shared, rayd.h), and the parse's later
+     * charges must not pay for it */
     if (m->charged > m->last) {
-        metrics_reject(MR_MEMORY);
         snprintf(why, why_len,
                  "brings the scene to more than %zu bytes, over the memory budget of %zu bytes "
                  "(--max-memory)",
                  m->last, mem_limit());
-        return RAYD_E_LIMIT;
+        m->charged = before;
+        return m->refused = RAYD_E_LIMIT;
     }
     size_t grow = m->charged - m->held;
     if (grow < SCENES_PARSE_GROW) grow = SCENES_PARSE_GROW;
     if (grow > m->last - m->held) grow = m->last - m->held;
     if (!mem_reserve(MEM_PARSES, grow)) {
-        metrics_reject(MR_MEMORY);
         m->full = true;
         snprintf(why, why_len,
                  "brings the scene to %zu bytes and the memory budget of %zu bytes "
                  "(--max-memory) has no room for it now; retry later",
                  m->charged, mem_limit());
-        return RAYD_E_NOMEM;
+        m->charged = before;
+        return m->refused = RAYD_E_NOMEM;
     }
     m->held += grow;
     return RAYD_OK;
@@ -268,6 +273,7 @@ enum rayd_status scenes_build(const char *id, const char *body, size_t len, long
     struct scenes_meter m = {.held = held, .charged = tree, .last = scenes_last_cap(len)};
     enum rayd_status st = scenes_compile(body, len, frame, &m, &scene, err);
     *full = st == RAYD_E_NOMEM && m.full;
+    if (st != RAYD_OK && st == m.refused) metrics_reject(MR_MEMORY); /* it ended the parse */
     if (st != RAYD_OK) {
         mem_release(MEM_PARSES, m.held);
         return st;

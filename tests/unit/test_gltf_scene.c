@@ -444,6 +444,31 @@ static void test_baked_meshes_shared(void) {
     rayd_scene_free(s[1]), rayd_scene_free(s[2]), rayd_scene_free(small), rayd_scene_free(plain);
 }
 
+static void test_holding_cache_lets_baked_go(void) {
+    /* a holding cache (rayd-render's frames) keeps no baked mesh: an
+     * animated glTF bakes new ones every frame, which it would keep all
+     * job long; a mesh baked the same is taken while the frame before's
+     * scene is alive */
+    const char *head = "\"camera\": {\"position\": [0, -1.5, 3], \"look_at\": [0, 0, 0]},";
+    struct rayd_limits lim;
+    rayd_limits_default(&lim);
+    lim.assets = rayd_asset_cache_new(1);
+    struct rayd_error err;
+    rayd_scene *a = parse_lim(grid_doc(24, 0), head, "", &lim, &err);
+    rayd_scene_free(a);
+    rayd_scene *b = parse_lim(grid_doc(24, 0), head, "", &lim, &err);
+    rayd_scene *c = parse_lim(grid_doc(24, 0), head, "", &lim, &err);
+    CHECK(a && b && c, "parse: %s", err.message);
+    long hits, misses;
+    rayd_asset_cache_stats(lim.assets, RAYD_ASSET_MESH, &hits, &misses);
+    CHECK(hits == 1 && misses == 2, "hits %ld, misses %ld; want 1 and 2", hits, misses);
+    rayd_scene_free(b);
+    rayd_asset_cache_free(lim.assets); /* c's mesh outlives the cache (ASan) */
+    const struct mesh *m = grid_mesh(c);
+    CHECK(m && m->ntris == 1152, "c lost its mesh");
+    rayd_scene_free(c);
+}
+
 /* Item i of d's array a, or that item's member b. */
 static cJSON *at(cJSON *d, const char *a, int i, const char *b) {
     cJSON *x = cJSON_GetArrayItem(cJSON_GetObjectItem(d, a), i);
@@ -698,6 +723,7 @@ int main(void) {
     RUN(test_uvs_and_textures);
     RUN(test_textures_shared);
     RUN(test_baked_meshes_shared);
+    RUN(test_holding_cache_lets_baked_go);
     RUN(test_pbr_mapping);
     RUN(test_texcoord_sets);
     RUN(test_override_and_scene);
