@@ -314,7 +314,15 @@ static int scenefile_bundle(const char *path, struct scenefile *sf) {
 int scenefile_finish(const char *name, struct scenefile *sf) {
     struct rayd_error err = {0};
     rayd_scene *scene = NULL;
-    if (rayd_scene_parse(sf->bytes, sf->len, NULL, &scene, &err) != RAYD_OK) {
+    /* the limits a server's operator may raise (--max-samples, --max-pixels,
+     * --max-body) are the server's to say, in its answer: here only their
+     * hard ends, so a scene that server takes is not refused before it is sent */
+    struct rayd_limits lim;
+    rayd_limits_default(&lim);
+    lim.max_samples = RAYD_SAMPLES_MAX;
+    lim.max_pixels = LONG_MAX;
+    lim.max_bytes = (size_t)1 << 30; /* scenefile_read's */
+    if (rayd_scene_parse(sf->bytes, sf->len, &lim, &scene, &err) != RAYD_OK) {
         char msg[600];
         scenefile_unmap(sf, err.path);
         fprintf(stderr, "rayd-client: error: %s: %s: %s\n", name, rayd_status_name(err.code),

@@ -160,6 +160,19 @@ check pass_step_passed "exit $rc, the job's passes $steps: $(cat "$T/step.log")"
     "[ $rc = 0 ] && [ '$steps' = '3 3 8' ] && ! grep -q 'pass [0-9]/[^3]' '$T/step.log'"
 stop_rayd
 
+# --- a limit the server's operator raised is the server's to say, not the client's --------------
+printf '{"render": {"samples": 2000, "width": 8, "height": 8}}' >"$T/s2k.json"
+start_rayd --threads 1 --max-samples 4096
+"$CLIENT" render "$T/s2k.json" -o "$T/s2k.png" --server "$URL" -q 2>"$T/s2k.log"
+check client_takes_raised_samples "exit $?: $(cat "$T/s2k.log")" [ -s "$T/s2k.png" ]
+stop_rayd
+start_rayd --threads 1
+"$CLIENT" render "$T/s2k.json" -o "$T/s2k2.png" --server "$URL" -q --retries 0 2>"$T/s2k.log"
+rc=$?
+check client_says_servers_limit "exit $rc: $(cat "$T/s2k.log")" bash -c \
+    "[ $rc = 1 ] && grep -q -- \"the server's --max-samples\" '$T/s2k.log' && [ ! -e '$T/s2k2.png' ]"
+stop_rayd
+
 # --- a fake server: dropped and closed streams, hostile answers ---------------------------------
 cat >"$T/fake.py" <<'PY'
 import http.server, json, os, socketserver, struct, sys, time, zlib
