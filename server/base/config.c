@@ -141,9 +141,27 @@ static const struct config_option config_table[] = {
 
 #define CONFIG_N (sizeof config_table / sizeof config_table[0])
 
+/* Where each option's value came from: its environment variable's name,
+ * or NULL (the default or the command line), so an error names what the
+ * user set. */
+static const char *config_from[CONFIG_N];
+
+/* The option name as the user gave it: "RAYD_LOG_LEVEL" when the value
+ * came from the environment, else "--log-level". */
+static const char *config_said(const char *name) {
+    static char flag[4][64];
+    static int next;
+    for (size_t i = 0; i < CONFIG_N; i++)
+        if (!strcmp(config_table[i].name, name) && config_from[i]) return config_from[i];
+    char *f = flag[next++ % 4]; /* a few in one message */
+    snprintf(f, sizeof flag[0], "--%s", name);
+    return f;
+}
+
 /* Sets o from val; a bad value is reported under from (an environment
  * variable's name) or, NULL, the option's own --name. */
 static int config_set(const struct config_option *o, const char *val, const char *from) {
+    config_from[o - config_table] = from;
     if (o->type == CT_STRING) {
         char **p = o->ptr;
         free(*p);
@@ -341,8 +359,8 @@ static int config_bind(void) {
     }
     if (inet_pton(AF_INET, config.bind, addr) == 1 || inet_pton(AF_INET6, config.bind, addr) == 1)
         return 0;
-    fprintf(stderr, "rayd: error: --bind must be an IPv4 or IPv6 address or localhost, not '%s'\n",
-            config.bind);
+    fprintf(stderr, "rayd: error: %s must be an IPv4 or IPv6 address or localhost, not '%s'\n",
+            config_said("bind"), config.bind);
     return -1;
 }
 
@@ -439,7 +457,8 @@ static int config_log_level(void) {
             config.log_min = i;
             return 0;
         }
-    fprintf(stderr, "rayd: error: --log-level must be debug, info, warn or error\n");
+    fprintf(stderr, "rayd: error: %s must be debug, info, warn or error, not '%s'\n",
+            config_said("log-level"), config.log_level);
     return -1;
 }
 
@@ -450,9 +469,9 @@ static int config_max_memory(void) {
     size_t v = 0;
     if (config.max_memory && (!mem_parse(config.max_memory, &v) || v < ((size_t)1 << 20))) {
         fprintf(stderr,
-                "rayd: error: --max-memory takes bytes of at least 1M (a number with an optional "
+                "rayd: error: %s takes bytes of at least 1M (a number with an optional "
                 "K, M, G or T suffix), not '%s'\n",
-                config.max_memory);
+                config_said("max-memory"), config.max_memory);
         return -1;
     }
     config.max_memory_bytes = config.max_memory ? v : mem_default_limit();
@@ -473,7 +492,8 @@ int config_load(int argc, char **argv) {
     int rc = config_args(argc, argv);
     if (rc != CONFIG_RUN) return rc;
     if (strcmp(config.log_format, "text") && strcmp(config.log_format, "json")) {
-        fprintf(stderr, "rayd: error: --log-format must be text or json\n");
+        fprintf(stderr, "rayd: error: %s must be text or json, not '%s'\n",
+                config_said("log-format"), config.log_format);
         return CONFIG_USAGE;
     }
     config.log_json = !strcmp(config.log_format, "json");

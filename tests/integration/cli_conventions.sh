@@ -139,6 +139,16 @@ check rayd_bad_port_names_flag "exit $RC, stderr '$(first_err badport)'" bash -c
 RAYD_PORT=x run badenv "$RAYD" --port 0
 check rayd_bad_env_names_variable "exit $RC, stderr '$(first_err badenv)'" bash -c \
     '[ "$1" = 2 ] && grep -q "^rayd: error: RAYD_PORT takes an integer in 0..65535, not .x.$" "$2"' _ "$RC" "$T/badenv.err"
+# a value checked after the others (a word, an address, bytes) names the variable too
+for bad in "RAYD_LOG_LEVEL=verbose:RAYD_LOG_LEVEL must be debug, info, warn or error, not 'verbose'" \
+    "RAYD_LOG_FORMAT=yaml:RAYD_LOG_FORMAT must be text or json, not 'yaml'" \
+    "RAYD_BIND=:RAYD_BIND must be an IPv4 or IPv6 address or localhost, not ''" \
+    "RAYD_MAX_MEMORY=5:RAYD_MAX_MEMORY takes bytes of at least 1M"; do
+    env "${bad%%:*}" "$RAYD" --port 0 >/dev/null 2>"$T/badenv2.err"
+    rc=$?
+    check "rayd_bad_env_names_${bad%%=*}" "exit $rc, stderr '$(head -n 1 "$T/badenv2.err")'" bash -c \
+        '[ "$1" = 2 ] && grep -qF -- "rayd: error: $2" "$3"' _ "$rc" "${bad#*:}" "$T/badenv2.err"
+done
 stop_rayd
 start_rayd --bind localhost --threads 1 # start_rayd wants 'listening on http://127.0.0.1:PORT'
 code=$(req GET /healthz)
