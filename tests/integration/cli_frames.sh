@@ -61,7 +61,7 @@ usage frames_outside "rayd-render: error: frame 12 is outside the scene's frames
     "$T/anim.json" --frames 5-12 -o "$T/x%d.png"
 usage frame_before_start "frame 1 is outside the animation's frames 2-9" "$T/anim.json" --frame 1 -o "$T/x.png"
 usage frames_need_pattern "a range of frames needs a file name with %d" "$T/anim.json" --frames 3-4 -o "$T/x.png"
-usage frames_bad_pattern "a frame's file takes one %d (or %0Nd, N < 10) and no other %" \
+usage frames_bad_pattern "a frame's file takes one %d (or %0Nd, N < 10) and no other % (%% for a %)" \
     "$T/anim.json" --frames 3-4 -o "$T/x-%s.png"
 usage frames_backwards "--frames takes A-B" "$T/anim.json" --frames 6-3 -o "$T/x%d.png"
 usage frames_stdout "-o - cannot take a range of frames" "$T/anim.json" --frames 3-4 -o -
