@@ -581,7 +581,7 @@ static enum rayd_status gl_bake(struct gl *G) {
 /* ---- entry -------------------------------------------------------------- */
 
 static void gl_release(struct gl *G, cJSON *root) {
-    for (int i = 0; i < G->nbufs; i++)
+    for (int i = 0; G->bufs && i < G->nbufs; i++) /* no table: its calloc failed */
         if (G->bufs[i].owned) free(G->bufs[i].data);
     free(G->bufs);
     free(G->draws);
