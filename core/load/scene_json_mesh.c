@@ -155,7 +155,8 @@ size_t sj_mesh_bytes(const struct mesh_data *md) {
            (size_t)md->ntris * (3 * sizeof(uint32_t) + SJ_BUILD_BYTES_PER_TRIANGLE);
 }
 
-enum rayd_status sj_add_mesh(struct loader *ld, uint32_t *id) {
+/* Appends an empty mesh to the scene's: *id. */
+static enum rayd_status add_mesh(struct loader *ld, uint32_t *id) {
     rayd_scene *s = ld->s;
     if (!array_grow((void **)&s->meshes, &ld->mesh_cap, (size_t)s->nmeshes + 1, sizeof *s->meshes))
         return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
@@ -478,7 +479,7 @@ static enum rayd_status mesh_taken(struct loader *ld, struct source *sc, unsigne
         return RAYD_OK;
     }
     if (want > top) top = want;
-    if (st == RAYD_OK && (st = sj_add_mesh(ld, id)) != RAYD_OK) sj_give_back(ld, top - held);
+    if (st == RAYD_OK && (st = add_mesh(ld, id)) != RAYD_OK) sj_give_back(ld, top - held);
     if (st != RAYD_OK) {
         mesh_free(&m);
         return st;
@@ -509,7 +510,7 @@ static enum rayd_status mesh_make(struct loader *ld, struct mesh_data *md, const
         sj_give_back(ld, md->charged - charged);
         md->charged = charged;
     }
-    if (st == RAYD_OK) st = sj_add_mesh(ld, id);
+    if (st == RAYD_OK) st = add_mesh(ld, id);
     if (st != RAYD_OK) {
         mesh_drop(ld, md);
         return st;
@@ -673,7 +674,7 @@ enum rayd_status sj_mesh_baked(struct loader *ld, struct mesh_data *md, uint32_t
     struct mesh_terms any = {UINT32_MAX, UINT32_MAX, 0, 0}, none = {0, 0, 0, 0}, was;
     struct mesh m;
     bool took = key && mesh_share_find(ld->lim->assets, variant, key, len, &any, &m, &was);
-    enum rayd_status st = sj_add_mesh(ld, id);
+    enum rayd_status st = add_mesh(ld, id);
     if (st != RAYD_OK || took) {
         if (st != RAYD_OK && took) mesh_free(&m);
         if (st != RAYD_OK && key) sj_give_back(ld, len);

@@ -14,8 +14,6 @@ enum rayd_status sj_mesh(struct loader *ld, const cJSON *oj, const struct jp *at
  * bytes (lim->assets), else built and offered to the others.  md's arrays
  * are taken either way. */
 enum rayd_status sj_mesh_baked(struct loader *ld, struct mesh_data *md, uint32_t *id);
-/* Appends an empty mesh to the scene's: *id. */
-enum rayd_status sj_add_mesh(struct loader *ld, uint32_t *id);
 /* About the bytes md and the mesh built from it hold (sj_charge's). */
 size_t sj_mesh_bytes(const struct mesh_data *md);
 
