@@ -132,8 +132,8 @@ void api_render_post(struct http_req *r, const char *id) {
     api_scene(r, api_render_scene);
 }
 
-/* POST /v1/scenes once its scene is compiled: 201 and what it is. */
-static bool api_scenes_created(struct http_req *r, struct cache_entry *e, bool hit) {
+/* What a kept scene is: its id, size and objects. */
+static cJSON *api_scene_json(struct cache_entry *e) {
     struct rayd_scene_info info;
     rayd_scene_info(cache_scene(e), &info);
     cJSON *o = cJSON_CreateObject();
@@ -141,6 +141,12 @@ static bool api_scenes_created(struct http_req *r, struct cache_entry *e, bool h
     cJSON_AddNumberToObject(o, "width", info.width);
     cJSON_AddNumberToObject(o, "height", info.height);
     cJSON_AddNumberToObject(o, "objects", (double)info.objects);
+    return o;
+}
+
+/* POST /v1/scenes once its scene is compiled: 201 and what it is. */
+static bool api_scenes_created(struct http_req *r, struct cache_entry *e, bool hit) {
+    cJSON *o = api_scene_json(e);
     cJSON_AddBoolToObject(o, "cached", hit);
     char loc[128];
     snprintf(loc, sizeof loc, "/v1/scenes/%s", cache_id(e));
@@ -272,15 +278,9 @@ void api_scenes_image(struct http_req *r, const char *id) {
 /* GET /v1/scenes/{id}: what POST /v1/scenes answered, with the image's URL. */
 static bool api_scenes_about(struct http_req *r, struct cache_entry *e) {
     if (!e) return api_scenes_image_of(r, NULL); /* its 404 */
-    struct rayd_scene_info info;
-    rayd_scene_info(cache_scene(e), &info);
     char url[128];
     snprintf(url, sizeof url, "/v1/scenes/%s/image.png", cache_id(e));
-    cJSON *o = cJSON_CreateObject();
-    cJSON_AddStringToObject(o, "id", cache_id(e));
-    cJSON_AddNumberToObject(o, "width", info.width);
-    cJSON_AddNumberToObject(o, "height", info.height);
-    cJSON_AddNumberToObject(o, "objects", (double)info.objects);
+    cJSON *o = api_scene_json(e);
     cJSON_AddStringToObject(o, "image_url", url);
     http_reply_json(r, 200, o);
     return false;
