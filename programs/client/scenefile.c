@@ -92,13 +92,14 @@ static const char *scenefile_outside(struct scenefile_walk *w, const char *name,
 static void scenefile_unread(const struct scenefile_walk *w, const char *where, const char *name,
                              const char *path, const char *msg) {
     char safe[300];
-    const char *at = strstr(msg, path);
-    if (!at) {
+    static const char open_[] = "cannot open ";
+    size_t o = sizeof open_ - 1, n = strlen(path);
+    if (strncmp(msg, open_, o) || strncmp(msg + o, path, n) || msg[o + n] != ':') {
         fprintf(stderr, "rayd-client: error: %s: %s/file: %s\n", w->scene, where, msg);
         return;
     }
-    fprintf(stderr, "rayd-client: error: %s: %s/file: %.*s\"%s\"%s\n", w->scene, where,
-            (int)(at - msg), msg, net_safe(name, safe, sizeof safe), at + strlen(path));
+    fprintf(stderr, "rayd-client: error: %s: %s/file: %s\"%s\"%s\n", w->scene, where, open_,
+            net_safe(name, safe, sizeof safe), msg + o + n);
 }
 
 /* The bytes of a "file" a scene names, relative to its folder and confined

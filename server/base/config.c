@@ -307,7 +307,8 @@ static const char *config_token_why(const char *t, size_t n, size_t *at) {
 static int config_read_token(void) {
     FILE *f = fopen(config.token_file, "rb");
     if (!f) {
-        fprintf(stderr, "rayd: error: --token-file %s: %s\n", config.token_file, strerror(errno));
+        fprintf(stderr, "rayd: error: %s %s: %s\n", config_said("token-file"), config.token_file,
+                strerror(errno));
         return -1;
     }
     /* a little more than the longest token, so that a longer one is seen */
@@ -324,15 +325,17 @@ static int config_read_token(void) {
     if (why) {
         memset(buf, 0, sizeof buf);
         if (at)
-            fprintf(stderr, "rayd: error: --token-file %s %s (byte %zu of the token)\n",
-                    config.token_file, why, at);
+            fprintf(stderr, "rayd: error: %s %s %s (byte %zu of the token)\n",
+                    config_said("token-file"), config.token_file, why, at);
         else
-            fprintf(stderr, "rayd: error: --token-file %s %s\n", config.token_file, why);
+            fprintf(stderr, "rayd: error: %s %s %s\n", config_said("token-file"), config.token_file,
+                    why);
         return -1;
     }
     config.token = malloc(n + 1);
     if (!config.token) {
-        fprintf(stderr, "rayd: error: --token-file %s: out of memory\n", config.token_file);
+        fprintf(stderr, "rayd: error: %s %s: out of memory\n", config_said("token-file"),
+                config.token_file);
         return -1;
     }
     memcpy(config.token, t, n);
@@ -372,7 +375,7 @@ static int config_asset_dir(void) {
     char *real = realpath(config.asset_dir, NULL);
     struct stat st;
     if (!real || stat(real, &st) != 0 || !S_ISDIR(st.st_mode)) {
-        fprintf(stderr, "rayd: error: --asset-dir %s: %s\n", config.asset_dir,
+        fprintf(stderr, "rayd: error: %s %s: %s\n", config_said("asset-dir"), config.asset_dir,
                 real ? "not a directory" : strerror(errno));
         free(real);
         return -1;
@@ -393,15 +396,13 @@ static int config_test_gate(void) {
     if (!strcmp(config.test_gate, "open")) {
         n = -1;
     } else if (errno || end == config.test_gate || *end || n < 0) {
-        fprintf(stderr,
-                "rayd: error: --test-gate must be 'open' or a number of tiles >= 0, not '%s'\n",
-                config.test_gate);
+        fprintf(stderr, "rayd: error: %s must be 'open' or a number of tiles >= 0, not '%s'\n",
+                config_said("test-gate"), config.test_gate);
         return -1;
     }
     if (!config_loopback(config.bind)) {
-        fprintf(stderr,
-                "rayd: error: --test-gate is for tests and needs a loopback --bind (not %s)\n",
-                config.bind);
+        fprintf(stderr, "rayd: error: %s is for tests and needs a loopback --bind (not %s)\n",
+                config_said("test-gate"), config.bind);
         return -1;
     }
     config.test_gate_tiles = n;
@@ -415,29 +416,30 @@ static int config_data_dir(void) {
     size_t v = 0;
     if (config.max_disk && (!mem_parse(config.max_disk, &v) || v == 0)) {
         fprintf(stderr,
-                "rayd: error: --max-disk takes bytes above 0 (a number with an optional K, M, G "
+                "rayd: error: %s takes bytes above 0 (a number with an optional K, M, G "
                 "or T suffix), not '%s'\n",
-                config.max_disk);
+                config_said("max-disk"), config.max_disk);
         return CONFIG_USAGE;
     }
     config.max_disk_bytes = v;
     if (!config.data_dir)
-        return config.max_disk
-                   ? (fprintf(stderr, "rayd: error: --max-disk needs --data-dir\n"), CONFIG_USAGE)
-                   : 0;
+        return config.max_disk ? (fprintf(stderr, "rayd: error: %s needs --data-dir\n",
+                                          config_said("max-disk")),
+                                  CONFIG_USAGE)
+                               : 0;
     struct stat st;
     if (!*config.data_dir) {
-        fprintf(stderr, "rayd: error: --data-dir is empty\n");
+        fprintf(stderr, "rayd: error: %s is empty\n", config_said("data-dir"));
         return CONFIG_USAGE;
     }
     if (stat(config.data_dir, &st) != 0 && (errno != ENOENT || mkdir(config.data_dir, 0700) != 0)) {
-        fprintf(stderr, "rayd: error: --data-dir %s: cannot use or create it: %s\n",
-                config.data_dir, strerror(errno));
+        fprintf(stderr, "rayd: error: %s %s: cannot use or create it: %s\n",
+                config_said("data-dir"), config.data_dir, strerror(errno));
         return CONFIG_FAILED;
     }
     char *real = realpath(config.data_dir, NULL);
     if (!real || stat(real, &st) != 0 || !S_ISDIR(st.st_mode) || access(real, W_OK | X_OK) != 0) {
-        fprintf(stderr, "rayd: error: --data-dir %s: %s\n", config.data_dir,
+        fprintf(stderr, "rayd: error: %s %s: %s\n", config_said("data-dir"), config.data_dir,
                 !real                  ? strerror(errno)
                 : !S_ISDIR(st.st_mode) ? "not a directory"
                                        : "not writable by rayd");
@@ -508,11 +510,12 @@ int config_load(int argc, char **argv) {
     if (config_max_memory()) return CONFIG_USAGE;
     if ((rc = config_data_dir()) != 0) return rc;
     if (config.redis && config.data_dir) {
-        fprintf(stderr, "rayd: error: --redis and --data-dir: choose one: both keep jobs\n");
+        fprintf(stderr, "rayd: error: %s and --data-dir: choose one: both keep jobs\n",
+                config_said("redis"));
         return CONFIG_USAGE;
     }
     if (!config.tls_cert != !config.tls_key) {
-        fprintf(stderr, "rayd: error: --tls-cert and --tls-key go together\n");
+        fprintf(stderr, "rayd: error: %s and --tls-key go together\n", config_said("tls-cert"));
         return CONFIG_USAGE;
     }
     return CONFIG_RUN;

@@ -113,8 +113,7 @@ void http_reply_header(struct http_req *r, const char *name, const char *value) 
     struct http_reply *p = r->conn.pending;
     if (!p) return;
     long at = http_reply_find(p, name); /* the last layer to set it wins */
-    if (at >= 0) http_reply_drop(p, at);
-    http_reply_add(p, name, value);
+    if (http_reply_add(p, name, value) && at >= 0) http_reply_drop(p, at); /* else the old stays */
 }
 
 /* A reply whose body is data[0..len) (malloc'd; taken, freed on failure). */

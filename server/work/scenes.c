@@ -120,8 +120,9 @@ static void scenes_room(struct rayd_limits *lim, size_t cap) {
  * takes, beyond the first cap's share; last, the most the scene may take. */
 struct scenes_meter {
     size_t held, charged, last;
-    bool full;                /* refused because the budget had no room now */
-    enum rayd_status refused; /* the last refusal's status (RAYD_OK: none) */
+    /* the last charge's refusal (RAYD_OK: none): RAYD_E_NOMEM, the budget
+     * had no room now; RAYD_E_LIMIT, past the whole budget */
+    enum rayd_status refused;
 };
 
 /* The core's charge: reserves what passes the reservation, or refuses
@@ -153,7 +154,6 @@ static enum rayd_status scenes_charge(void *arg, long long delta, char *why, siz
     if (grow < SCENES_PARSE_GROW) grow = SCENES_PARSE_GROW;
     if (grow > m->last - m->held) grow = m->last - m->held;
     if (!mem_reserve(MEM_PARSES, grow)) {
-        m->full = true;
         snprintf(why, why_len,
                  "brings the scene to %zu bytes and the memory budget of %zu bytes "
                  "(--max-memory) has no room for it now; retry later",
@@ -272,7 +272,7 @@ enum rayd_status scenes_build(const char *id, const char *body, size_t len, long
     size_t tree = len > held / SCENES_PARSE_PER_BYTE ? held : len * SCENES_PARSE_PER_BYTE;
     struct scenes_meter m = {.held = held, .charged = tree, .last = scenes_last_cap(len)};
     enum rayd_status st = scenes_compile(body, len, frame, &m, &scene, err);
-    *full = st == RAYD_E_NOMEM && m.full;
+    *full = st == RAYD_E_NOMEM && m.refused == RAYD_E_NOMEM; /* the budget's refusal ended it */
     if (st != RAYD_OK && st == m.refused) metrics_reject(MR_MEMORY); /* it ended the parse */
     if (st != RAYD_OK) {
         mem_release(MEM_PARSES, m.held);

@@ -118,6 +118,15 @@ if [ $rc = 1 ] && [ "$got" = "$want" ] &&
 else
     fail client_missing_file_as_rayd_render "exit $rc: '$got' against '$want'"
 fi
+# ... and a short name in the working folder, which "cannot open" itself holds
+printf '{"render": {"environment": {"file": "n"}}}\n' >"$dir/n.json"
+(cd "$dir" && "$CLIENT" render n.json -o n.png -s http://127.0.0.1:9 --retries 0 -q 2>n.err)
+check_line=$(cat "$dir/n.err")
+if [ "$check_line" = "rayd-client: error: n.json: /render/environment/file: cannot open \"n\": No such file or directory" ]; then
+    pass client_missing_short_name
+else
+    fail client_missing_short_name "'$check_line'"
+fi
 
 # a buffer whose name has a space, written %20 in the URI
 dir="$T/space"
