@@ -79,9 +79,7 @@ static int job_frames_check(const struct client_opts *o, const struct scenefile 
         prog_error("frame %ld is outside the scene's frames %ld-%ld",
                    *to > sf->anim_end ? *to : *from, sf->anim_start, sf->anim_end);
     else if (numbered < 0)
-        prog_error("-o %s: a frame's file takes one %%d (or %%0Nd, N < 10) and no other %% (%%%% "
-                   "for a %%)",
-                   o->out);
+        prog_error("-o %s: " FRAME_NAME_RULE, o->out);
     else if (numbered == 0 && *to > *from)
         prog_error("-o %s: a job of frames %ld-%ld writes a file a frame: give -o a %%d, e.g. "
                    "-o 'shot-%%04d.png'",

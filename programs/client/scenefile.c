@@ -272,12 +272,6 @@ static void scenefile_walk(struct scenefile_walk *w, cJSON *node, const char *ke
     }
 }
 
-/* The scene as messages call it: its path, or <stdin> for "-" (as
- * rayd-render calls it). */
-static const char *scenefile_label(const char *path) {
-    return strcmp(path, "-") ? path : "<stdin>";
-}
-
 /* Inlines the files of sf->bytes; on a change sf->bytes is re-serialised.
  * 0, or -1 after saying why in one line. */
 static int scenefile_bundle(const char *path, struct scenefile *sf) {
@@ -287,7 +281,7 @@ static int scenefile_bundle(const char *path, struct scenefile *sf) {
     const char *slash = strrchr(path, '/');
     if (slash && (size_t)(slash - path) + 2 < sizeof dir)
         snprintf(dir, sizeof dir, "%.*s/", (int)(slash - path), path);
-    struct scenefile_walk w = {scenefile_label(path), dir, "", 0, 0, sf};
+    struct scenefile_walk w = {prog_input_name(path), dir, "", 0, 0, sf};
     char ptr[1024] = "";
     scenefile_walk(&w, root, NULL, ptr, sizeof ptr);
     int rc = 0;
@@ -364,7 +358,7 @@ int scenefile_load(const char *path, struct scenefile *sf) {
         scenefile_free(sf);
         return -1;
     }
-    return scenefile_finish(scenefile_label(path), sf);
+    return scenefile_finish(prog_input_name(path), sf);
 }
 
 void scenefile_free(struct scenefile *sf) {

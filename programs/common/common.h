@@ -36,6 +36,9 @@
 void prog_init(const char *name);
 /* One line on stderr: "NAME: error: " and the message. */
 __attribute__((format(printf, 1, 2))) void prog_error(const char *fmt, ...);
+/* A scene's path as an error names it first, as a compiler names a file:
+ * "<stdin>" for "-" (output_name is the output's). */
+const char *prog_input_name(const char *path);
 
 /* ---- args.c --------------------------------------------------------------- */
 
@@ -109,6 +112,10 @@ bool output_kind_exr(const char *path);
  * the name does not fit); 0 when it has none (out is the pattern), 1 when
  * it has one. */
 int frame_name_path(const char *pattern, long k, char *out, size_t size);
+/* What -o PATTERN's refusal (frame_name_path's -1) says after "-o %s: ",
+ * as a printf format. */
+#define FRAME_NAME_RULE                                                                            \
+    "a frame's file takes one %%d (or %%0Nd, N < 10) and no other %% (%%%% for a %%)"
 /* "A-B" (or "K"): frames, each in 0..1000000, A <= B.  0, or -1 (nothing
  * said). */
 int frame_name_range(const char *s, long *a, long *b);

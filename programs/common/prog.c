@@ -9,10 +9,13 @@
 
 #include <stdarg.h>
 #include <stdio.h>
+#include <string.h>
 
 static const char *prog = "rayd";
 
 void prog_init(const char *name) { prog = name; }
+
+const char *prog_input_name(const char *path) { return strcmp(path, "-") ? path : "<stdin>"; }
 
 void prog_error(const char *fmt, ...) {
     va_list ap;

@@ -134,9 +134,7 @@ static int video_frame(const struct args *a, const rayd_scene *scene, const char
 /* Frame k's file name from -o ("" for none). */
 static int frame_file(const struct args *a, long k, char *path, size_t size) {
     if (frame_name_path(a->output, k, path, size) < 0)
-        return bad_usage("-o %s: a frame's file takes one %%d (or %%0Nd, N < 10) and no other %% "
-                         "(%%%% for a %%)",
-                         a->output);
+        return bad_usage("-o %s: " FRAME_NAME_RULE, a->output);
     return 0;
 }
 
@@ -163,8 +161,7 @@ static int check_range(const struct args *a, const struct rayd_animation *an, lo
     if (numbered < 0 || (numbered == 0 && a->output[0] && *to > *from)) {
         say_usage(
             numbered < 0
-                ? "-o %s: a frame's file takes one %%d (or %%0Nd, N < 10) and no other %% (%%%% "
-                  "for a %%)"
+                ? "-o %s: " FRAME_NAME_RULE
                 : "-o %s: a range of frames needs a file name with %%d, e.g. -o 'shot-%%04d.png'",
             a->output);
         return 2;

@@ -46,7 +46,7 @@ int render_one_fail(const char *what, const struct rayd_error *err) {
 int render_one_fail_scene(const struct args *a, const struct rayd_error *err) {
     char what[4200];
     if (err->code == RAYD_E_ARG) return render_one_fail("", err);
-    snprintf(what, sizeof what, "%s: ", strcmp(a->scene, "-") ? a->scene : "<stdin>");
+    snprintf(what, sizeof what, "%s: ", prog_input_name(a->scene));
     return render_one_fail(what, err);
 }
 
