@@ -492,6 +492,18 @@ static enum rayd_status mesh_taken(struct loader *ld, struct source *sc, unsigne
     return RAYD_OK;
 }
 
+/* md's arrays built as the scene's mesh id (which owns them after, even
+ * on failure), on every core for a large one, its time in build_s. */
+static enum rayd_status mesh_build_timed(struct loader *ld, uint32_t id, const struct mesh_data *md,
+                                         bool smooth) {
+    double t0 = clock_now();
+    enum rayd_status st =
+        mesh_build(&ld->s->meshes[id], md->pos, md->nverts, md->index, md->ntris, md->normal,
+                   md->uv, smooth, md->ntris >= 50000 ? parallel_cores() : 1, ld->err);
+    ld->s->build_s += clock_now() - t0;
+    return st;
+}
+
 /* Mesh md (its arrays taken, charged md->charged) built as the scene's
  * mesh *id, charged its arrays and the build's estimate, then what the
  * build holds; t->kept says how much, t->peak (the decoder's high point
@@ -517,10 +529,7 @@ static enum rayd_status mesh_make(struct loader *ld, struct mesh_data *md, const
     }
     ld->vertices += md->nverts;
     ld->triangles += md->ntris;
-    double t0 = clock_now();
-    st = mesh_build(&ld->s->meshes[*id], md->pos, md->nverts, md->index, md->ntris, md->normal,
-                    md->uv, smooth, md->ntris >= 50000 ? parallel_cores() : 1, ld->err);
-    ld->s->build_s += clock_now() - t0;
+    st = mesh_build_timed(ld, *id, md, smooth);
     size_t built = mesh_bytes(&ld->s->meshes[*id]); /* the estimate's excess given back */
     if (st == RAYD_OK && built < charged) sj_give_back(ld, charged - built);
     t->kept = built < charged ? built : charged;
@@ -627,31 +636,27 @@ static enum rayd_status mesh_inline(struct loader *ld, const cJSON *oj, const st
 #define SOURCE_BAKED 5
 #define BAKED_SHARE_MIN 1000 /* triangles: a smaller mesh builds in no time */
 
-/* The key of baked arrays md: their counts, then every array's bytes (all
- * the build depends on; which arrays are given is in the counts' word). */
-static unsigned char *baked_key(const struct mesh_data *md, size_t len) {
-    unsigned char *key = malloc(len), *at = key;
-    if (!key) return NULL;
-    uint32_t head[3] = {md->nverts, md->ntris, (md->normal ? 1u : 0u) | (md->uv ? 2u : 0u)};
-    const struct {
-        const void *p;
-        size_t n;
-    } part[5] = {{head, sizeof head},
-                 {md->pos, (size_t)md->nverts * 3 * sizeof(float)},
-                 {md->index, (size_t)md->ntris * 3 * sizeof(uint32_t)},
-                 {md->normal, md->normal ? (size_t)md->nverts * 3 * sizeof(float) : 0},
-                 {md->uv, md->uv ? (size_t)md->nverts * 2 * sizeof(float) : 0}};
-    for (int k = 0; k < 5; k++) {
-        if (part[k].n) memcpy(at, part[k].p, part[k].n);
-        at += part[k].n;
-    }
-    return key;
-}
+/* A run of bytes of a baked mesh's key. */
+struct baked_part {
+    const void *p;
+    size_t n;
+};
 
-static size_t baked_len(const struct mesh_data *md) {
+/* The key of baked arrays md in parts: their counts (head, with which
+ * arrays are given), then every array's bytes, all the build depends on.
+ * Returns the key's length. */
+static size_t baked_parts(const struct mesh_data *md, uint32_t head[3], struct baked_part part[5]) {
     size_t v = md->nverts;
-    return 3 * sizeof(uint32_t) + v * 3 * sizeof(float) + (size_t)md->ntris * 3 * sizeof(uint32_t) +
-           (md->normal ? v * 3 * sizeof(float) : 0) + (md->uv ? v * 2 * sizeof(float) : 0);
+    head[0] = md->nverts, head[1] = md->ntris;
+    head[2] = (md->normal ? 1u : 0u) | (md->uv ? 2u : 0u);
+    part[0] = (struct baked_part){head, 3 * sizeof *head};
+    part[1] = (struct baked_part){md->pos, v * 3 * sizeof(float)};
+    part[2] = (struct baked_part){md->index, (size_t)md->ntris * 3 * sizeof(uint32_t)};
+    part[3] = (struct baked_part){md->normal, md->normal ? v * 3 * sizeof(float) : 0};
+    part[4] = (struct baked_part){md->uv, md->uv ? v * 2 * sizeof(float) : 0};
+    size_t len = 0;
+    for (int k = 0; k < 5; k++) len += part[k].n;
+    return len;
 }
 
 /* A baked mesh's key, charged (a scene holding the shared mesh counts it,
@@ -659,10 +664,17 @@ static size_t baked_len(const struct mesh_data *md) {
  * (then it is built unshared). */
 static unsigned char *baked_key_charged(struct loader *ld, const struct mesh_data *md,
                                         size_t *len) {
-    *len = baked_len(md);
+    uint32_t head[3];
+    struct baked_part part[5];
+    *len = baked_parts(md, head, part);
     if (!ld->lim->assets || md->ntris < BAKED_SHARE_MIN || !charge_quiet(ld, *len)) return NULL;
-    unsigned char *key = baked_key(md, *len);
-    if (!key) sj_give_back(ld, *len);
+    unsigned char *key = malloc(*len), *at = key;
+    if (!key) {
+        sj_give_back(ld, *len);
+        return NULL;
+    }
+    for (int k = 0; k < 5; at += part[k++].n)
+        if (part[k].n) memcpy(at, part[k].p, part[k].n);
     return key;
 }
 
@@ -675,26 +687,29 @@ enum rayd_status sj_mesh_baked(struct loader *ld, struct mesh_data *md, uint32_t
     struct mesh m;
     bool took = key && mesh_share_find(ld->lim->assets, variant, key, len, &any, &m, &was);
     enum rayd_status st = add_mesh(ld, id);
+    if (st != RAYD_OK) { /* nothing kept: the key's charge given back */
+        if (took) mesh_free(&m);
+        if (key) sj_give_back(ld, len);
+    } else if (took) { /* the entry holds the same bytes: their charge stays, the scene counts it */
+        ld->s->meshes[*id] = m;
+    }
     if (st != RAYD_OK || took) {
-        if (st != RAYD_OK && took) mesh_free(&m);
-        if (st != RAYD_OK && key) sj_give_back(ld, len);
-        if (st == RAYD_OK) ld->s->meshes[*id] = m; /* its key's charge stays: the scene counts it */
         free(key);
         mesh_data_free(md);
         return st;
     }
-    double t0 = clock_now();
-    st = mesh_build(&ld->s->meshes[*id], md->pos, md->nverts, md->index, md->ntris, md->normal,
-                    md->uv, true, md->ntris >= 50000 ? parallel_cores() : 1, ld->err);
-    ld->s->build_s += clock_now() - t0;
-    *md = (struct mesh_data){0}; /* the mesh owns the arrays now, even on failure */
+    st = mesh_build_timed(ld, *id, md, true);
+    *md = (struct mesh_data){0}; /* the mesh owns the arrays now */
     if (!key) return st;
-    if (st != RAYD_OK) free(key);
-    /* found by baked keys alone (the variant), on no terms */
-    if (st != RAYD_OK ||
-        !mesh_share_add(ld->lim->assets, &ld->s->meshes[*id], variant, key, len, &none, false))
+    if (st != RAYD_OK) {
+        free(key);
         sj_give_back(ld, len);
-    return st;
+        return st;
+    }
+    /* found by baked keys alone (the variant), on no terms */
+    if (!mesh_share_add(ld->lim->assets, &ld->s->meshes[*id], variant, key, len, &none, false))
+        sj_give_back(ld, len);
+    return RAYD_OK;
 }
 
 enum rayd_status sj_mesh(struct loader *ld, const cJSON *oj, const struct jp *at, uint32_t *id) {
