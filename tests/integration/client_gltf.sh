@@ -60,15 +60,22 @@ check client_gltf_object_same_png "exit $rc: $(head -c 400 "$dir/object.err") $(
 check client_gltf_object_textured "the gltf object drew the same image as the baked mesh" \
     bash -c "! cmp -s '$dir/object-local.png' '$dir/local.png'"
 
+# errors_of SCENE: rayd-render's and rayd-client's errors for SCENE (no
+# server: the client's own check) into $dir/local.err and $dir/remote.err;
+# rc is the client's exit status
+errors_of() {
+    "$RENDER" "$1" -o "$dir/local.png" -q 2>"$dir/local.err"
+    "$CLIENT" render "$1" -o "$dir/remote.png" -s http://127.0.0.1:9 --retries 0 -q \
+        2>"$dir/remote.err"
+    rc=$?
+}
+
 # 2CylinderEngine as a .gltf is Draco-compressed: bundled, it is refused by
 # the client's local check with rayd-render's own message and pointer
 dir="$T/draco"
 cp -r "$A/draco" "$dir"
 scene "$dir" 2CylinderEngine.gltf
-"$RENDER" "$dir/scene.json" -o "$dir/local.png" -q 2>"$dir/local.err"
-"$CLIENT" render "$dir/scene.json" -o "$dir/remote.png" -s http://127.0.0.1:9 --retries 0 -q \
-    2>"$dir/remote.err"
-rc=$?
+errors_of "$dir/scene.json"
 want=$(sed "s|^rayd-render: error: $dir/scene.json: ||" "$dir/local.err")
 got=$(sed "s|^rayd-client: error: $dir/scene.json: invalid_scene: ||" "$dir/remote.err")
 if [ $rc = 1 ] && [ -n "$want" ] && [ "$got" = "$want" ] && [[ $want == *KHR_draco* ]]; then
@@ -90,10 +97,7 @@ printf 'not a png\n' >"$dir/tex.png"
 printf '{"materials": {"wall/2~b": {"texture": {"type": "image", "file": "tex.png"}}},
   "objects": [{"type": "sphere", "radius": 1, "material": "wall/2~b"}]}\n' >"$dir/tex.json"
 for s in ply env tex; do
-    "$RENDER" "$dir/$s.json" -o "$dir/local.png" -q 2>"$dir/local.err"
-    "$CLIENT" render "$dir/$s.json" -o "$dir/remote.png" -s http://127.0.0.1:9 --retries 0 -q \
-        2>"$dir/remote.err"
-    rc=$?
+    errors_of "$dir/$s.json"
     want=$(sed "s|^rayd-render: error: $dir/$s.json: ||" "$dir/local.err")
     got=$(sed "s|^rayd-client: error: $dir/$s.json: invalid_scene: ||" "$dir/remote.err")
     if [ $rc = 1 ] && [ -n "$want" ] && [ "$got" = "$want" ] && [[ $want == */file:* ]]; then
@@ -106,10 +110,7 @@ done
 # a file the scene names that is missing: the same line as rayd-render's,
 # the scene's file first, at the "file" key, the name as the scene gives it
 printf '{"render": {"environment": {"file": "gone.hdr"}}}\n' >"$dir/gone.json"
-"$RENDER" "$dir/gone.json" -o "$dir/local.png" -q 2>"$dir/local.err"
-"$CLIENT" render "$dir/gone.json" -o "$dir/remote.png" -s http://127.0.0.1:9 --retries 0 -q \
-    2>"$dir/remote.err"
-rc=$?
+errors_of "$dir/gone.json"
 want=$(sed 's/^rayd-render: //' "$dir/local.err")
 got=$(sed 's/^rayd-client: //' "$dir/remote.err")
 if [ $rc = 1 ] && [ "$got" = "$want" ] &&
