@@ -28,7 +28,9 @@
 #include "client.h"
 
 #include <cjson/cJSON.h>
+#include <errno.h>
 #include <limits.h>
+#include <stdbool.h>
 #include <openssl/evp.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -85,21 +87,23 @@ static const char *scenefile_outside(struct scenefile_walk *w, const char *name,
     return NULL;
 }
 
-/* A file the scene names could not be read: said at its "file" key, the
- * name as the scene gives it (the read's message names the path opened),
- * as rayd-render says it: "scene.json: /render/environment/file: cannot
- * open "sky.hdr": No such file or directory". */
-static void scenefile_unread(const struct scenefile_walk *w, const char *where, const char *name,
-                             const char *path, const char *msg) {
-    char safe[300];
-    static const char open_[] = "cannot open ";
-    size_t o = sizeof open_ - 1, n = strlen(path);
-    if (strncmp(msg, open_, o) || strncmp(msg + o, path, n) || msg[o + n] != ':') {
-        fprintf(stderr, "rayd-client: error: %s: %s/file: %s\n", w->scene, where, msg);
-        return;
+/* A file the scene names cannot be opened: said at its "file" key, the
+ * name as the scene gives it, as rayd-render says it: "scene.json:
+ * /render/environment/file: cannot open "sky.hdr": No such file or
+ * directory".  Opened here first, so the reason is errno's own, not
+ * rayd_read_file's message taken apart; what fails after the open (a
+ * directory, a file over the limit) is said in that message. */
+static bool scenefile_opens(const struct scenefile_walk *w, const char *where, const char *name,
+                            const char *path) {
+    FILE *f = fopen(path, "rb");
+    if (f) {
+        fclose(f);
+        return true;
     }
-    fprintf(stderr, "rayd-client: error: %s: %s/file: %s\"%s\"%s\n", w->scene, where, open_,
-            net_safe(name, safe, sizeof safe), msg + o + n);
+    char safe[300];
+    fprintf(stderr, "rayd-client: error: %s: %s/file: cannot open \"%s\": %s\n", w->scene, where,
+            net_safe(name, safe, sizeof safe), strerror(errno));
+    return false;
 }
 
 /* The bytes of a "file" a scene names, relative to its folder and confined
@@ -121,9 +125,10 @@ static char *scenefile_asset(struct scenefile_walk *w, const char *name, const c
                 net_safe(name, safe, sizeof safe), bad);
         return NULL;
     }
+    if (!scenefile_opens(w, where, name, *path)) return NULL;
     struct rayd_error err;
     char *data = scenefile_read(*path, len, &err);
-    if (!data) scenefile_unread(w, where, name, *path, err.message);
+    if (!data) fprintf(stderr, "rayd-client: error: %s: %s/file: %s\n", w->scene, where, err.message);
     return data;
 }
 
