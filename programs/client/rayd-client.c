@@ -387,8 +387,9 @@ static int client_for_cmd(const struct client_args *a) {
 }
 
 /* A value of render --progressive's query: a plain decimal (digits, at
- * most one point, as the server takes them), whole when asked, in lo..hi,
- * kept as written into *out; -1 after saying why. */
+ * most one point, as the server takes them), whole when asked, in lo..hi
+ * (above 0 when lo is 0, as rayd's rule for time_budget and noise_target
+ * says it), kept as written into *out; -1 after saying why. */
 static int client_decimal(const char *name, const char *v, double lo, double hi, bool whole,
                           const char **out) {
     double d;
@@ -396,10 +397,16 @@ static int client_decimal(const char *name, const char *v, double lo, double hi,
     bool plain = v && digits > 0 &&
                  (!v[digits] || (!whole && v[digits] == '.' &&
                                  strspn(v + digits + 1, "0123456789") == strlen(v + digits + 1)));
-    if (!plain || args_double(v, lo, hi, &d) != 0)
-        return args_bad("%s needs a %s in %.10g..%.10g (digits%s), not '%s'", name,
-                        whole ? "whole number" : "number", lo, hi, whole ? "" : ", one point",
+    if (!plain || args_double(v, lo, hi, &d) != 0 || (lo == 0 && d == 0)) {
+        char range[80];
+        if (lo == 0)
+            snprintf(range, sizeof range, "above 0 and at most %.10g", hi);
+        else
+            snprintf(range, sizeof range, "in %.10g..%.10g", lo, hi);
+        return args_bad("%s needs a %s %s (digits%s), not '%s'", name,
+                        whole ? "whole number" : "number", range, whole ? "" : ", one point",
                         v ? v : "");
+    }
     *out = v;
     return 0;
 }
@@ -470,10 +477,10 @@ static int client_option(int opt, const char *v, struct client_args *a) {
     case OPT_DETACH: o->detach = 1; return 0;
     case OPT_PASS_STEP: return client_decimal("--pass-step", v, 1, 1048576, true, &o->pass_step);
     case OPT_TIME_BUDGET:
-        return client_decimal("--time-budget", v, 0.001, 86400, false,
+        return client_decimal("--time-budget", v, 0, 86400, false,
                               &o->time_budget); /* rayd's */
     case OPT_NOISE_TARGET:
-        return client_decimal("--noise-target", v, 1e-9, 1, false, &o->noise_target);
+        return client_decimal("--noise-target", v, 0, 1, false, &o->noise_target);
     case OPT_VIEW:
         if (!v || (strcmp(v, "three-quarter") && strcmp(v, "front") && strcmp(v, "side") &&
                    strcmp(v, "top")))

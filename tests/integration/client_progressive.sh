@@ -141,7 +141,9 @@ for c in "bad_id:watch nothex -o $T/u.png:is no job id" \
     "step_alone:render $T/p8.json -o $T/u.png --pass-step 2:go with render --progressive" \
     "step_not_whole:render --progressive $T/p8.json -o $T/u.png --pass-step 1.5:--pass-step needs a whole number" \
     "budget_exponent:render --progressive $T/p8.json -o $T/u.png --time-budget 1e3:--time-budget needs a number" \
-    "budget_over_rayds:render --progressive $T/p8.json -o $T/u.png --time-budget 86401:--time-budget needs a number in 0.001..86400" \
+    "budget_over_rayds:render --progressive $T/p8.json -o $T/u.png --time-budget 86401:--time-budget needs a number above 0 and at most 86400" \
+    "budget_zero:render --progressive $T/p8.json -o $T/u.png --time-budget 0.0:--time-budget needs a number above 0" \
+    "noise_over:render --progressive $T/p8.json -o $T/u.png --noise-target 1.5:--noise-target needs a number above 0 and at most 1 (digits" \
     "detach_job:job $T/p8.json -o $T/u.png --detach:--detach is not an option of job"; do
     name=${c%%:*} c=${c#*:}
     # shellcheck disable=SC2086
