@@ -477,8 +477,7 @@ static int client_option(int opt, const char *v, struct client_args *a) {
     case OPT_DETACH: o->detach = 1; return 0;
     case OPT_PASS_STEP: return client_decimal("--pass-step", v, 1, 1048576, true, &o->pass_step);
     case OPT_TIME_BUDGET:
-        return client_decimal("--time-budget", v, 0, 86400, false,
-                              &o->time_budget); /* rayd's */
+        return client_decimal("--time-budget", v, 0, 86400, false, &o->time_budget); /* rayd's */
     case OPT_NOISE_TARGET:
         return client_decimal("--noise-target", v, 0, 1, false, &o->noise_target);
     case OPT_VIEW:

@@ -128,7 +128,8 @@ static char *scenefile_asset(struct scenefile_walk *w, const char *name, const c
     if (!scenefile_opens(w, where, name, *path)) return NULL;
     struct rayd_error err;
     char *data = scenefile_read(*path, len, &err);
-    if (!data) fprintf(stderr, "rayd-client: error: %s: %s/file: %s\n", w->scene, where, err.message);
+    if (!data)
+        fprintf(stderr, "rayd-client: error: %s: %s/file: %s\n", w->scene, where, err.message);
     return data;
 }
 
