@@ -109,6 +109,19 @@ static void durable_requeue(struct store_job *row) {
     }
 }
 
+/* A succeeded frame-range job whose frame files were lost (deleted, cut
+ * short: store_load_frames found them not whole) is queued again, as a
+ * one-image job's is (store_row): those frames render again and it ends
+ * anew.  Frames evicted by --max-disk stay evicted. */
+static void durable_frames_lost(struct store_job *row, const unsigned char *states) {
+    if (row->state != JS_SUCCEEDED) return;
+    for (long k = 0; k <= row->last - row->first; k++)
+        if (states[k] == STORE_FRAME_QUEUED) {
+            row->state = JS_QUEUED;
+            return;
+        }
+}
+
 static long durable_left(void) {
     work_lock_take();
     long n = durable_pending;
@@ -125,8 +138,9 @@ int durable_start(void) {
     for (int i = 0; i < n; i++) {
         if (rows[i].frames) { /* a frame-range job: its frames parse as they are rendered */
             unsigned char *states = malloc((size_t)(rows[i].last - rows[i].first + 1));
-            bool ok = states && store_load_frames(&rows[i], states) >= 0 &&
-                      shots_restore(&rows[i], states);
+            bool ok = states && store_load_frames(&rows[i], states) >= 0;
+            if (ok) durable_frames_lost(&rows[i], states);
+            ok = ok && shots_restore(&rows[i], states);
             if (!ok) log_error("job %s: cannot be put back (out of memory or room)", rows[i].id);
             free(states);
             if (rows[i].state == JS_QUEUED)

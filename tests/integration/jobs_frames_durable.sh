@@ -117,5 +117,15 @@ check write_rendered_again "$(cat "$T/body")" job_state_is "$write" succeeded
 check write_frame_as_cli "frame 2 differs" frame_is "$write" 2 "$T/cli-2.png"
 req DELETE "/v1/jobs/$write" >/dev/null
 check delete_after_restart "$(cat "$T/body")" job_state_is "$write" succeeded
+
+# ---- after the job ended, a frame's file lost: that frame renders again --------------
+kill9
+rm -f "$D/results/$between-2.png"
+start_rayd --threads 1 --data-dir "$D"
+wait_until 120 job_state_is "$between" succeeded
+check lost_frame_job_ends "$(cat "$T/body")" job_state_is "$between" succeeded
+n=0
+for k in 1 2 3 4; do frame_is "$between" "$k" "$T/cli-$k.png" && n=$((n + 1)); done
+check lost_frame_rendered_again "$n of 4 as rayd-render's" eval '[ "$n" = 4 ]'
 check rayd_alive "rayd died: $(tail -3 "$T/rayd.err")" kill -0 "$RAYD_PID"
 exit $NFAIL
