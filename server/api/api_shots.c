@@ -108,7 +108,7 @@ static void api_shots_add(cJSON *o, const char *id, const struct shots_info *in)
         json_add_fixed(o, "eta_s", in->eta_s, 3);
     else
         cJSON_AddNullToObject(o, "eta_s");
-    if (in->done == in->total) {
+    if (in->done == in->total && in->video != SV_EVICTED) {
         api_jobs_url(url, sizeof url, id, "/video.mp4");
         cJSON_AddStringToObject(o, "video_url", url);
     }
@@ -324,6 +324,8 @@ void api_shots_video(struct http_req *r, const char *id) {
         http_reply_error(r, 409, "frames_not_done", msg, NULL, 0, 0, NULL);
     } else if (info.video == SV_NO_FFMPEG) {
         http_reply_error(r, 503, "no_ffmpeg", info.video_error, NULL, 0, 0, NULL);
+    } else if (info.video == SV_EVICTED) {
+        http_reply_error(r, 410, "result_evicted", info.video_error, NULL, 0, 0, NULL);
     } else if (info.video == SV_FAILED) {
         http_reply_error(r, 500, "video_failed", info.video_error, NULL, 0, 0, NULL);
     } else {

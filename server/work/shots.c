@@ -946,20 +946,30 @@ static void shots_video_make(void *arg) {
     for (int i = 0; frames && i < s->n; i++) frames[i] = blob_ref(s->f[i].png);
     work_lock_give();
     bool whole = frames != NULL;
+    int missing = -1; /* the first frame not read */
     for (int i = 0; frames && i < s->n; i++) {
         if (!frames[i] && store_on()) frames[i] = store_read_frame(s->id, s->first + i, false);
+        if (!frames[i] && missing < 0) missing = i;
         whole &= frames[i] != NULL;
     }
     struct blob *mp4 = NULL;
-    char err[200] = "out of memory, or a frame was evicted (--max-memory, --max-disk)";
+    char err[200] = "out of memory for the frames";
     enum video_status st = whole ? video_encode(frames, s->n, s->fps > 0 ? s->fps : 24,
                                                 SHOTS_VIDEO_SECONDS(s->n), &mp4, err, sizeof err)
                                  : VIDEO_FAILED;
     for (int i = 0; frames && i < s->n; i++) blob_unref(frames[i]);
     free(frames);
     work_lock_take();
+    bool evicted = missing >= 0 && s->f[missing].gone != SG_KEPT;
+    if (evicted)
+        snprintf(err, sizeof err, "frame %ld was let go before the video was made (%s); a video "
+                 "needs every frame: render the range again",
+                 s->first + missing, s->f[missing].gone == SG_DISK ? "--max-disk" : "--max-memory");
     s->video = mp4;
-    s->video_state = st == VIDEO_OK ? SV_READY : st == VIDEO_NO_FFMPEG ? SV_NO_FFMPEG : SV_FAILED;
+    s->video_state = st == VIDEO_OK          ? SV_READY
+                     : st == VIDEO_NO_FFMPEG ? SV_NO_FFMPEG
+                     : evicted               ? SV_EVICTED
+                                             : SV_FAILED;
     snprintf(s->video_error, sizeof s->video_error, "%s", st == VIDEO_OK ? "" : err);
     if (st != VIDEO_OK) log_warn("job %s: no video: %s", s->id, err);
     shots_unref(s);

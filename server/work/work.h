@@ -332,7 +332,9 @@ struct shots_new {
 /* A new shot; with --data-dir recorded on disk before anyone is told of it
  * (n->waiting, as jobs_submit's). */
 enum work_submit shots_submit(struct shots_new *n, char id[33]);
-enum shots_video { SV_NONE, SV_MAKING, SV_READY, SV_FAILED, SV_NO_FFMPEG };
+/* SV_EVICTED: a frame was let go (--max-memory, --max-disk) before the
+ * video was made; video_error names it. */
+enum shots_video { SV_NONE, SV_MAKING, SV_READY, SV_FAILED, SV_NO_FFMPEG, SV_EVICTED };
 struct shots_info {
     struct jobs_info job; /* as a job's: state, progress (of frames), error, ... */
     long first, last, total, done, running, queued, failed;

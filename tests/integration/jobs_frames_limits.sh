@@ -110,6 +110,13 @@ start_rayd --threads 1 --data-dir "$T/d2" --max-disk "$keep"
 codes="$(frame_code 1) $(frame_code 2) $(frame_code 3) $(frame_code 4)"
 check disk_evicted_after_restart "$codes $(req GET "/v1/jobs/$disk"; cat "$T/body")" eval \
     '[ "$codes" = "410 410 200 200" ] && job_state_is "$disk" succeeded'
+# the video is made again at start-up, and cannot be: its first frame is gone
+wait_until 30 eval '[ "$(req GET "/v1/jobs/$disk/video.mp4")" != 202 ]'
+req GET "/v1/jobs/$disk/video.mp4" >/dev/null
+check disk_evicted_video_410 "$(cat "$T/body")" eval \
+    'err_is "$T/body" 410 result_evicted && grep -q "frame 1 was let go .*--max-disk" "$T/body"'
+req GET "/v1/jobs/$disk" >/dev/null
+check disk_evicted_no_video_url "$(cat "$T/body")" eval '! grep -q video_url "$T/body"'
 stop_rayd
 
 # ---- the event stream: hang-ups noticed, keep-alives, with every frame held ---------
