@@ -184,13 +184,62 @@ static enum rayd_status gm_decode(struct rayd_error *err, const unsigned char *b
     return RAYD_OK;
 }
 
+/* Image i's decoded pixels (gm_decode) into *img, charged for this
+ * material as gm_decode charges: decoded here once a file, then kept for
+ * the other materials of the same image (g->decoded), so a file naming
+ * one image from many materials costs one decode, not one each.  *img is
+ * g's, freed by gm_forget once the materials are read. */
+static enum rayd_status gm_decoded(struct rayd_error *err, const unsigned char *b, size_t len,
+                                   const struct jp *p, long budget, struct gltf_mats *g, int i,
+                                   size_t *charged, const rayd_image **img) {
+    for (int k = 0; k < g->ndecoded; k++)
+        if (g->decoded[k].image == i) {
+            *img = g->decoded[k].img;
+            if ((long)(*img)->w * (*img)->h > budget)
+                return err_set(err, RAYD_E_LIMIT, p->s,
+                               "the textures together are over the limit (%ld pixels a glTF "
+                               "file, %ld a scene)",
+                               (long)GLTF_MAX_TEXELS, (long)TEXTURE_MAX_SCENE_PIXELS);
+            return gm_charge(g, charged, (*img)->w, (*img)->h, p, err);
+        }
+    rayd_image *own = NULL;
+    enum rayd_status st = gm_decode(err, b, len, p, budget, g, charged, &own);
+    if (st != RAYD_OK || g->ndecoded == GLTF_MAX_TEXTURES) {
+        rayd_image_free(own);
+        return st == RAYD_OK ? err_set(err, RAYD_E_LIMIT, p->s, "too many images") : st;
+    }
+    /* the kept copy's 8-bit pixels: charged apart from this material's */
+    char why[200];
+    size_t keep = 3 * (size_t)own->w * (size_t)own->h;
+    st = mesh_charge(g->lim, &g->charged, keep, why, sizeof why);
+    if (st != RAYD_OK) {
+        rayd_image_free(own);
+        return err_set(err, st, p->s, "the image is %d x %d pixels: %s", own->w, own->h, why);
+    }
+    g->decoded[g->ndecoded++] = (struct gltf_decoded){i, own};
+    g->decodes++;
+    *img = own;
+    return RAYD_OK;
+}
+
+/* The images gm_decoded kept, freed and their charge given back: the
+ * materials are read. */
+static void gm_forget(struct gltf_mats *g) {
+    for (int i = 0; i < g->ndecoded; i++) {
+        const rayd_image *img = g->decoded[i].img;
+        mesh_give_back(g->lim, &g->charged, 3 * (size_t)img->w * (size_t)img->h);
+        rayd_image_free(g->decoded[i].img);
+    }
+    g->ndecoded = 0;
+}
+
 /* The image in b as linear texels with factor baked in, into t: taken
  * from a live scene of the same bytes and factor (g->assets), or decoded
  * and offered to the next (a frame of an animation takes them, rather
  * than decoding them again); charged as decoded either way.  On failure
  * t may hold texels to free. */
 static enum rayd_status gm_texels(struct rayd_error *err, const unsigned char *b, size_t len,
-                                  const struct jp *p, long budget, struct gltf_mats *g,
+                                  const struct jp *p, long budget, struct gltf_mats *g, int image,
                                   const double *factor, size_t *charged, struct texture *t) {
     size_t klen = 3 * sizeof *factor + len;
     unsigned char *key = g->assets ? malloc(klen) : NULL;
@@ -205,13 +254,12 @@ static enum rayd_status gm_texels(struct rayd_error *err, const unsigned char *b
         t->w = x->w, t->h = x->h, t->rgb = x->rgb, t->shared = x;
         st = gm_charge(g, charged, x->w, x->h, p, err);
     } else {
-        rayd_image *img = NULL;
-        st = gm_decode(err, b, len, p, budget, g, charged, &img);
+        const rayd_image *img = NULL;
+        st = gm_decoded(err, b, len, p, budget, g, image, charged, &img);
         if (st == RAYD_OK) {
             t->w = img->w, t->h = img->h;
             t->rgb = texture_linear_from_srgb8(img->px, img->w, img->h);
         }
-        rayd_image_free(img);
         if (st == RAYD_OK && !t->rgb)
             st = err_set(err, RAYD_E_NOMEM, p->s, "out of memory for a texture");
         for (size_t k = 0; st == RAYD_OK && k < (size_t)t->w * (size_t)t->h * 3; k++)
@@ -243,13 +291,13 @@ static enum rayd_status gm_image(struct gltf_doc *d, struct rayd_error *err, int
         const unsigned char *b;
         size_t len;
         TRY_GL(gltf_doc_view(d, ij, p.s, "bufferView", &b, &len));
-        return gm_texels(err, b, len, &pu, budget, g, factor, charged, t);
+        return gm_texels(err, b, len, &pu, budget, g, i, factor, charged, t);
     }
     if (!cJSON_IsString(uri)) return err_set(err, RAYD_E_INVALID, pu.s, "must be a string");
     unsigned char *b;
     size_t len;
     TRY_GL(gltf_doc_uri(d, uri->valuestring, pu.s, &b, &len));
-    enum rayd_status st = gm_texels(err, b, len, &pu, budget, g, factor, charged, t);
+    enum rayd_status st = gm_texels(err, b, len, &pu, budget, g, i, factor, charged, t);
     free(b);
     return st;
 }
@@ -387,12 +435,15 @@ enum rayd_status gltf_mats_read(struct gltf_doc *d, int max, long texels,
         return err_set(err, RAYD_E_NOMEM, at.s, "out of memory");
     out->budget = texels < GLTF_MAX_TEXELS ? texels : GLTF_MAX_TEXELS;
     int i = 0;
-    for (const cJSON *m = ms ? ms->child : NULL; m; m = m->next, i++) {
+    enum rayd_status st = RAYD_OK;
+    for (const cJSON *m = ms ? ms->child : NULL; m && st == RAYD_OK; m = m->next, i++) {
         struct jp p = {.s = ""};
         snprintf(p.s, sizeof p.s, "/materials/%d", i);
-        TRY_GL(gm_material(d, err, m, &p, out, i, &out->texels));
+        st = gm_material(d, err, m, &p, out, i, &out->texels);
     }
-    return gm_material(d, err, NULL, &at, out, n, &out->texels);
+    if (st == RAYD_OK) st = gm_material(d, err, NULL, &at, out, n, &out->texels);
+    gm_forget(out);
+    return st;
 }
 
 void gltf_mats_free(struct gltf_mats *g) {

@@ -25,6 +25,15 @@ struct gltf_mats {
     const struct mesh_limits *lim;   /* its charge hook: each image charged before it is decoded */
     size_t charged;                  /* bytes charged through it, given back by gltf_mats_free */
     struct rayd_asset_cache *assets; /* base colour textures shared with other scenes, or NULL */
+    /* Images decoded so far, by /images index: materials that share an
+     * image (with other factors) decode it once; freed, and their charge
+     * given back, when gltf_mats_read returns. */
+    struct gltf_decoded {
+        int image;
+        rayd_image *img;
+    } decoded[GLTF_MAX_TEXTURES];
+    int ndecoded;
+    long decodes; /* images decoded by gltf_mats_read */
 };
 
 /* Reads /materials of the doc's file (at most max, and GLTF_MAX_MATERIALS)

@@ -237,6 +237,7 @@ static enum rayd_status load_meshes(struct imp *im, int override, struct object 
                                                          sj_max_texels(ld) - ld->texels, &ml,
                                                          ld->lim->assets, &g, ld->err);
     ld->texels += g.texels; /* the scene's image textures together */
+    ld->s->images_decoded += g.decodes;
     if (override >= 0 && !mats_none(&g))
         st = err_set(ld->err, RAYD_E_NOMEM, im->src.s, "out of memory");
     bool any_uv = false;

@@ -962,7 +962,8 @@ static void shots_video_make(void *arg) {
     work_lock_take();
     bool evicted = missing >= 0 && s->f[missing].gone != SG_KEPT;
     if (evicted)
-        snprintf(err, sizeof err, "frame %ld was let go before the video was made (%s); a video "
+        snprintf(err, sizeof err,
+                 "frame %ld was let go before the video was made (%s); a video "
                  "needs every frame: render the range again",
                  s->first + missing, s->f[missing].gone == SG_DISK ? "--max-disk" : "--max-memory");
     s->video = mp4;

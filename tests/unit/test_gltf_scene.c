@@ -505,6 +505,42 @@ static void texcoord_case(int set, int has) {
     if (s) rayd_scene_free(s);
 }
 
+static void test_image_decoded_once(void) {
+    /* two more materials take the PNG of material 2 with other factors:
+     * the PNG is decoded once for the three (a file naming one image from
+     * many materials must not cost a decode each), the JPEG once, and each
+     * material's texels carry its own factor */
+    cJSON *d = doc_tree();
+    cJSON *mats = cJSON_GetObjectItem(d, "materials");
+    for (int k = 0; k < 2; k++) {
+        cJSON *m = cJSON_Duplicate(cJSON_GetArrayItem(mats, 2), 1);
+        cJSON *f =
+            cJSON_GetObjectItem(cJSON_GetObjectItem(m, "pbrMetallicRoughness"), "baseColorFactor");
+        cJSON_ReplaceItemInArray(f, 2, cJSON_CreateNumber(k ? 0.25 : 0.75));
+        cJSON_AddItemToArray(mats, m);
+        cJSON *prim = cJSON_Duplicate(
+            cJSON_GetArrayItem(cJSON_GetObjectItem(at(d, "meshes", 1, NULL), "primitives"), 0), 1);
+        cJSON_ReplaceItemInObject(prim, "material", cJSON_CreateNumber(5 + k));
+        cJSON_AddItemToArray(cJSON_GetObjectItem(at(d, "meshes", 1, NULL), "primitives"), prim);
+    }
+    struct rayd_limits lim;
+    rayd_limits_default(&lim);
+    struct rayd_error err;
+    rayd_scene *s = parse_lim(d, "", "", &lim, &err);
+    CHECK(s, "parse: %s", err.message);
+    if (!s) return;
+    CHECK(s->images_decoded == 2, "%ld images decoded; want 2 (the PNG once, the JPEG once)",
+          s->images_decoded);
+    const float *p = texels_of(s, 0.5, 1, 1), *q = texels_of(s, 0.5, 1, 0.75),
+                *r = texels_of(s, 0.5, 1, 0.25);
+    CHECK(p && q && r && q != p && r != p, "the three materials' textures are not there");
+    if (p && q && r)
+        CHECK(q[0] == p[0] && q[2] == 0.75f * p[2] && r[2] == 0.25f * p[2],
+              "a material's texels do not carry its factor: %g %g %g", (double)p[2], (double)q[2],
+              (double)r[2]);
+    rayd_scene_free(s);
+}
+
 static void test_texcoord_sets(void) {
     texcoord_case(1, 1);
     texcoord_case(1, 0);
@@ -722,6 +758,7 @@ int main(void) {
     RUN(test_materials_and_groups);
     RUN(test_uvs_and_textures);
     RUN(test_textures_shared);
+    RUN(test_image_decoded_once);
     RUN(test_baked_meshes_shared);
     RUN(test_holding_cache_lets_baked_go);
     RUN(test_pbr_mapping);
