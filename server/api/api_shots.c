@@ -57,6 +57,14 @@ static bool api_shots_range(struct http_req *r, const struct rayd_animation *an,
         snprintf(why, sizeof why, "outside the scene's frames %ld-%ld", an->start, an->end);
         return api_bad_param(r, name, why);
     }
+    if (*last - *first + 1 > config.max_frames && !range && !one) { /* the whole animation */
+        snprintf(why, sizeof why,
+                 "the animation has %ld frames, more than the %ld a job may render "
+                 "(--max-frames): ask for some of them with frames=A-B",
+                 *last - *first + 1, config.max_frames);
+        http_reply_error(r, 400, "bad_parameter", why, "/animation", 0, 0, NULL);
+        return false;
+    }
     if (*last - *first + 1 > config.max_frames) {
         snprintf(why, sizeof why, "%ld frames is more than the %ld a job may render (--max-frames)",
                  *last - *first + 1, config.max_frames);

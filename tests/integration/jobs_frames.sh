@@ -33,7 +33,13 @@ check range_frame_malformed "$(cat "$T/body")" bad_query frame_bad "frame=0x3" f
 check range_both "$(cat "$T/body")" bad_query both "frames=2-3&frame=4" frame "not both"
 check range_twice "$(cat "$T/body")" bad_query twice "frames=2-3&frames=4-5" frames "more than once"
 check range_over_cap "$(cat "$T/body")" bad_query cap "frames=2-9" frames "max-frames"
-check range_whole_over_cap "$(cat "$T/body")" bad_query whole "" frame "max-frames"
+# the whole animation, no parameter given: none named, the animation's frames said
+whole_over_cap() {
+    [ "$(post_json /v1/jobs "$T/anim.json")" = 400 ] && err_is "$T/body" 400 bad_parameter &&
+        grep -q '"path":"/animation"' "$T/body" && ! grep -q '"parameter"' "$T/body" &&
+        grep -q "animation has 8 frames, more than the 6 .*frames=A-B" "$T/body"
+}
+check range_whole_over_cap "$(cat "$T/body")" whole_over_cap
 check range_progressive "$(cat "$T/body")" bad_query prog "frames=2-3&progressive=1" progressive \
     "not progressive"
 # the progressive job's options are refused too, never taken and dropped
