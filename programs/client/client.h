@@ -74,7 +74,8 @@ struct client_opts {
 /* ---- scenefile.c ---------------------------------------------------------- */
 
 struct scenefile {
-    char *bytes; /* exactly what is sent (malloc'd) */
+    const char *name; /* the scene as messages name it: its path, or <stdin> */
+    char *bytes;      /* exactly what is sent (malloc'd) */
     size_t len;
     char id[65]; /* lowercase hex SHA-256 of bytes: the server's scene id */
     int width, height;

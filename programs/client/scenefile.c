@@ -331,6 +331,7 @@ int scenefile_finish(const char *name, struct scenefile *sf) {
         scenefile_free(sf);
         return -1;
     }
+    sf->name = name;
     struct rayd_scene_info info;
     rayd_scene_info(scene, &info);
     struct rayd_animation an;

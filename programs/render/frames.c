@@ -145,8 +145,9 @@ static int check_range(const struct args *a, const struct rayd_animation *an, lo
     *to = a->frames_set ? a->frame_b : an->end;
     if (*to > an->end || *from < an->start) {
         if (an->animated)
-            say_usage("frame %ld is outside the scene's frames %ld-%ld",
-                      *to > an->end ? *to : *from, an->start, an->end);
+            say_usage("%s: /animation: frame %ld is outside the animation's frames %ld-%ld",
+                      prog_input_name(a->scene), *to > an->end ? *to : *from, an->start,
+                      an->end);
         else
             say_usage("frame %ld: the scene has no /animation, so its one frame is 0",
                       *to > an->end ? *to : *from);

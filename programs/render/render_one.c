@@ -45,7 +45,9 @@ int render_one_fail(const char *what, const struct rayd_error *err) {
 
 int render_one_fail_scene(const struct args *a, const struct rayd_error *err) {
     char what[4200];
-    if (err->code == RAYD_E_ARG) return render_one_fail("", err);
+    /* a bad argument found in the scene (--frame past its /animation) is
+     * said at the scene's file, as the scene's own errors are */
+    if (err->code == RAYD_E_ARG && !err->path[0]) return render_one_fail("", err);
     snprintf(what, sizeof what, "%s: ", prog_input_name(a->scene));
     return render_one_fail(what, err);
 }

@@ -57,9 +57,10 @@ usage() { # NAME WANT ARGS...
     WHY="exit $rc, stderr: $(tr '\n' '|' <"$T/err")"
     check "$name" bash -c '[ "$0" = 2 ] && grep -qF -- "$1" "$2"' "$rc" "$want" "$T/err"
 }
-usage frames_outside "rayd-render: error: frame 12 is outside the scene's frames 2-9" \
+usage frames_outside "rayd-render: error: $T/anim.json: /animation: frame 12 is outside the animation's frames 2-9" \
     "$T/anim.json" --frames 5-12 -o "$T/x%d.png"
-usage frame_before_start "frame 1 is outside the animation's frames 2-9" "$T/anim.json" --frame 1 -o "$T/x.png"
+usage frame_before_start "rayd-render: error: $T/anim.json: /animation: frame 1 is outside the animation's frames 2-9" \
+    "$T/anim.json" --frame 1 -o "$T/x.png"
 usage frames_need_pattern "a range of frames needs a file name with %d" "$T/anim.json" --frames 3-4 -o "$T/x.png"
 usage frames_bad_pattern "a frame's file takes one %d (or %0Nd, N < 10) and no other % (%% for a %)" \
     "$T/anim.json" --frames 3-4 -o "$T/x-%s.png"

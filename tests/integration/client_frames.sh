@@ -90,7 +90,7 @@ usage bad_o_no_d_whole "a job of frames 2-9 writes a file a frame" job "$T/anim.
 usage bad_o_two_d "takes one %d (or %0Nd, N < 10) and no other %" job "$T/anim.json" -o "$T/x-%d-%d.png"
 usage bad_o_other_pct "and no other %" job "$T/anim.json" -o "$T/x-%s.png" --frames 3-4
 usage bad_o_stdout "give -o a %d" job "$T/anim.json" -o - --frames 3-4
-usage frames_outside "frame 12 is outside the scene's frames 2-9" job "$T/anim.json" -o "$T/x-%d.png" --frames 3-12
+usage frames_outside "$T/anim.json: /animation: frame 12 is outside the animation's frames 2-9" job "$T/anim.json" -o "$T/x-%d.png" --frames 3-12
 usage frames_still_scene "the scene has no /animation" job "$T/still.json" -o "$T/x-%d.png" --frames 0-1
 usage video_still_scene "the scene has no /animation, so it has no frames to make a video" job "$T/still.json" -o "$T/x.png" --video "$T/x.mp4"
 usage frames_malformed "--frames takes A-B" job "$T/anim.json" -o "$T/x-%d.png" --frames 6-3
