@@ -76,8 +76,8 @@ static int job_frames_check(const struct client_opts *o, const struct scenefile 
                    "over",
                    *from, *to);
     else if (*from < sf->anim_start || *to > sf->anim_end)
-        prog_error("%s: /animation: frame %ld is outside the animation's frames %ld-%ld",
-                   sf->name, *to > sf->anim_end ? *to : *from, sf->anim_start, sf->anim_end);
+        prog_error("%s: /animation: frame %ld is outside the animation's frames %ld-%ld", sf->name,
+                   *to > sf->anim_end ? *to : *from, sf->anim_start, sf->anim_end);
     else if (numbered < 0)
         prog_error("-o %s: " FRAME_NAME_RULE, o->out);
     else if (numbered == 0 && *to > *from)

@@ -146,8 +146,7 @@ static int check_range(const struct args *a, const struct rayd_animation *an, lo
     if (*to > an->end || *from < an->start) {
         if (an->animated)
             say_usage("%s: /animation: frame %ld is outside the animation's frames %ld-%ld",
-                      prog_input_name(a->scene), *to > an->end ? *to : *from, an->start,
-                      an->end);
+                      prog_input_name(a->scene), *to > an->end ? *to : *from, an->start, an->end);
         else
             say_usage("frame %ld: the scene has no /animation, so its one frame is 0",
                       *to > an->end ? *to : *from);

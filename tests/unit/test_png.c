@@ -2,7 +2,9 @@
  * back to the same pixels, for odd sizes and many bands; the bytes are the
  * same for every thread count; every zlib level gives a valid stream; the
  * chunks and their CRCs are well formed. */
+#include <stdbool.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <zlib.h>
@@ -190,11 +192,105 @@ static void test_default_blends_isal(void) {
     rayd_image_free(img);
 }
 
+/* ---- image data past the rows (png.c: png_data_past) -------------------------- */
+
+static void put32(unsigned char *p, uint32_t v) {
+    p[0] = (unsigned char)(v >> 24), p[1] = (unsigned char)(v >> 16);
+    p[2] = (unsigned char)(v >> 8), p[3] = (unsigned char)v;
+}
+
+/* Appends chunk type with n bytes of data at *end, its CRC made. */
+static void chunk(unsigned char *out, size_t *end, const char *type, const void *data, size_t n) {
+    unsigned char *c = out + *end;
+    put32(c, (uint32_t)n);
+    memcpy(c + 4, type, 4);
+    if (n) memcpy(c + 8, data, n);
+    put32(c + 8 + n, (uint32_t)crc32(0, c + 4, (uInt)(n + 4)));
+    *end += 12 + n;
+}
+
+/* The bytes the rows of a w x h image of bits a pixel inflate to, pixel by
+ * pixel over Adam7's passes (png.c counts them pass by pass). */
+static size_t rows_counted(int w, int h, int bits, bool interlaced) {
+    static const int x0[7] = {0, 4, 0, 2, 0, 1, 0}, dx[7] = {8, 8, 4, 4, 2, 2, 1};
+    static const int y0[7] = {0, 0, 4, 0, 2, 0, 1}, dy[7] = {8, 8, 8, 4, 4, 2, 2};
+    size_t all = 0;
+    for (int p = 0; p < (interlaced ? 7 : 1); p++) {
+        int pw = 0, ph = 0;
+        for (int x = interlaced ? x0[p] : 0; x < w; x += interlaced ? dx[p] : 1) pw++;
+        for (int y = interlaced ? y0[p] : 0; y < h; y += interlaced ? dy[p] : 1) ph++;
+        if (pw && ph) all += (size_t)ph * (1 + ((size_t)pw * (size_t)bits + 7) / 8);
+    }
+    return all;
+}
+
+/* A PNG whose IDAT inflates to its rows of zeros and extra zero bytes
+ * after them: the decode's message ("" when it decodes). */
+static void decode_with_extra(int w, int h, int depth, int type, bool interlaced, size_t extra,
+                              char msg[256]) {
+    static const int channels[7] = {1, 0, 3, 1, 2, 0, 4};
+    size_t raw = rows_counted(w, h, depth * channels[type], interlaced) + extra;
+    unsigned char *zeros = calloc(raw, 1);
+    uLong zcap = compressBound((uLong)raw);
+    unsigned char *out = malloc(zcap + 200), *z = malloc(zcap);
+    uLongf zn = zcap;
+    compress(z, &zn, zeros, (uLong)raw);
+    size_t end = 8;
+    memcpy(out, "\x89PNG\r\n\x1a\n", 8);
+    unsigned char ihdr[13] = {0};
+    put32(ihdr, (uint32_t)w), put32(ihdr + 4, (uint32_t)h);
+    ihdr[8] = (unsigned char)depth, ihdr[9] = (unsigned char)type, ihdr[12] = interlaced;
+    chunk(out, &end, "IHDR", ihdr, 13);
+    unsigned char plte[48] = {0};
+    if (type == 3) chunk(out, &end, "PLTE", plte, 48);
+    chunk(out, &end, "IDAT", z, zn);
+    chunk(out, &end, "IEND", NULL, 0);
+    rayd_image *img = NULL;
+    struct rayd_error err = {0};
+    msg[0] = 0;
+    if (rayd_png_decode(out, end, 0, &img, &err) != RAYD_OK) snprintf(msg, 256, "%s", err.message);
+    rayd_image_free(img);
+    free(zeros), free(out), free(z);
+}
+
+static void test_data_past_rows_refused(void) {
+    /* the rows' bytes counted exactly for every colour type, depth and
+     * Adam7 pass: data up to the margin (an eighth and 64 KB) decodes as
+     * libpng takes it, a byte more is refused before libpng inflates it */
+    static const int kinds[][2] = {{1, 0}, {16, 0}, {8, 2}, {4, 3}, {8, 4}, {16, 6}};
+    static const int sizes[][2] = {{1, 1}, {3, 5}, {17, 9}, {33, 64}, {300, 7}};
+    char msg[256];
+    for (int k = 0; k < 6; k++)
+        for (int z = 0; z < 5; z++)
+            for (int il = 0; il < 2; il++) {
+                int w = sizes[z][0], h = sizes[z][1], d = kinds[k][0], t = kinds[k][1];
+                static const int channels[7] = {1, 0, 3, 1, 2, 0, 4};
+                size_t rows = rows_counted(w, h, d * channels[t], il);
+                size_t margin = rows / 8 + 65536;
+                decode_with_extra(w, h, d, t, il, 0, msg);
+                CHECK(!msg[0], "%dx%d depth %d type %d interlace %d: %s", w, h, d, t, il, msg);
+                decode_with_extra(w, h, d, t, il, margin, msg);
+                CHECK(!strstr(msg, "past its rows"),
+                      "%dx%d depth %d type %d interlace %d refused at the margin: %s", w, h, d, t,
+                      il, msg);
+                decode_with_extra(w, h, d, t, il, margin + 1, msg);
+                CHECK(strstr(msg, "goes on past its rows"),
+                      "%dx%d depth %d type %d interlace %d: a byte past the margin taken: '%s'", w,
+                      h, d, t, il, msg);
+            }
+    /* the attack's size: 16 x 16 RGB with 200 MB of zeros after its rows */
+    decode_with_extra(16, 16, 8, 2, false, (size_t)200 << 20, msg);
+    CHECK(strstr(msg, "PNG of 16 x 16 pixels whose image data goes on past its rows (more than "
+                      "the 784 bytes they take)"),
+          "got '%s'", msg);
+}
+
 int main(void) {
     RUN(test_odd_sizes_every_thread_count);
     RUN(test_every_level);
     RUN(test_big_image_many_blocks);
     RUN(test_chunks_well_formed);
     RUN(test_default_blends_isal);
+    RUN(test_data_past_rows_refused);
     CHECK_EXIT();
 }
