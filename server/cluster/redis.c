@@ -21,6 +21,7 @@
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/socket.h>
 #include <sys/time.h>
 
 struct redis {
@@ -175,8 +176,23 @@ static bool redis_hello(struct redis *c) {
     return true;
 }
 
+/* Whether the peer closed connection fd (it sent its FIN: Redis was
+ * restarted or killed while the connection was idle).  Seen before a
+ * command is sent, such a connection is replaced at once, and the command
+ * goes to the Redis that is there now: the first request after a restart
+ * does not fail on the dead socket, and nothing is sent twice. */
+static bool redis_peer_closed(int fd) {
+    char b;
+    ssize_t n = recv(fd, &b, 1, MSG_PEEK | MSG_DONTWAIT);
+    return n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR);
+}
+
 /* A live connection, or false (why set) -- at most one try per back-off. */
 static bool redis_connect(struct redis *c) {
+    if (c->ctx && redis_peer_closed(c->ctx->fd)) {
+        redis_drop(c);
+        c->next_try = 0; /* connect again now, as after a broken command */
+    }
     if (c->ctx) return true;
     if (clock_now() < c->next_try) return false;
     struct timeval tv = redis_tv(c->timeout_s);

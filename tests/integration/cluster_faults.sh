@@ -95,6 +95,17 @@ check redis_back_job_finishes "state: $(job_state "${NODE_URL[3]}" "$ID2")" succ
 check redis_back_byte_identical "the image differs from rayd-render's" same_image 2 "$ID2" back
 check redis_back_up_metric "rayd_cluster_redis_up $(metric 3 rayd_cluster_redis_up)" [ "$(metric 3 rayd_cluster_redis_up)" = 1 ]
 
+# --- Redis restarted while the nodes are idle: the first request after it is answered -----------
+# (each node's connections still hold the old Redis's sockets; one is replaced before it is used)
+stop_redis
+restart_redis
+for n in 2 3; do
+    wait_until 20 bash -c "curl -s '${NODE_URL[$n]}/healthz' | grep -q '\"redis\":\"up\"'"
+done
+codes=""
+for n in 2 3; do codes="$codes $(curl -s -o "$T/first.json" -w '%{http_code}' "${NODE_URL[$n]}/v1/jobs/$ID2")"; done
+check redis_restarted_first_request "codes:$codes $(head -c 200 "$T/first.json")" [ "$codes" = " 200 200" ]
+
 # --- Redis that stops answering (SIGSTOP): a timeout, never a hang -------------------------------
 kill -STOP "$REDIS_PID"
 code=$(curl -s -m 20 -o "$T/stall.json" -w '%{http_code}' "${NODE_URL[3]}/v1/jobs/$ID2")
