@@ -347,11 +347,12 @@ static bool jc_value(struct jc *c, int depth, bool elem) {
     }
 }
 
-/* 1-based line and column (in characters) of byte offset off. */
+/* 1-based line and column (in characters) of byte offset off.  A line
+ * ends at LF, CR LF or a lone CR, as editors count them. */
 static void json_position(const char *text, size_t off, int *line, int *col) {
     int l = 1, k = 1;
     for (size_t i = 0; i < off; i++) {
-        if (text[i] == '\n') {
+        if (text[i] == '\n' || (text[i] == '\r' && (i + 1 == off || text[i + 1] != '\n'))) {
             l++;
             k = 1;
         } else if (((unsigned char)text[i] & 0xC0) != 0x80) {

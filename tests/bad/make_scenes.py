@@ -35,8 +35,9 @@ def case(name, text, expected, bug=False):
 def pos(data, off):
     """Line and column of byte offset off, as the loader counts them."""
     line, col = 1, 1
-    for b in data[:off]:
-        if b == 0x0A:
+    for i, b in enumerate(data[:off]):
+        # a line ends at LF, CR LF or a lone CR
+        if b == 0x0A or (b == 0x0D and (i + 1 == off or data[i + 1] != 0x0A)):
             line, col = line + 1, 1
         elif b & 0xC0 != 0x80:
             col += 1
@@ -76,6 +77,13 @@ case("missing-comma-array.json", t, E + at(t, "2") + ": malformed JSON: expected
 t = '{"render": {"width": 64 "height": 48}}'
 case("missing-comma-object.json", t,
      E + at(t, '"height"') + """: malformed JSON: expected ',' or '}', found '"'""")
+# lone CRs (classic Mac OS line endings) end lines as LF and CR LF do
+t = '{\r"render":\r {"width": 64 "height": 48}}'
+case("missing-comma-lone-cr.json", t,
+     E + "line 3, column 15: malformed JSON: expected ',' or '}', found '\"'")
+t = '{\r\n"render":\r\n {"width": 64 "height": 48}}'
+case("missing-comma-crlf.json", t,
+     E + "line 3, column 15: malformed JSON: expected ',' or '}', found '\"'")
 t = '{"render" {"width": 64}}'
 case("missing-colon.json", t, E + at(t, " {", delta=1) + ": malformed JSON: expected ':' after the key, found '{'")
 t = '{"render": {"width": 64,}}'
@@ -502,6 +510,9 @@ case("mesh-source-missing-file.json", src({"format": "obj", "file": "no-such-mes
 case("mesh-source-obj-empty.json", src({"format": "obj", "text": ""}), E + SP + "/text: OBJ has no faces ('f' lines)")
 case("mesh-source-obj-no-faces.json", src({"format": "obj", "text": "v 0 0 0\nv 1 0 0\n"}),
      E + SP + "/text: OBJ has no faces ('f' lines)")
+case("mesh-source-obj-lone-cr.json", src({"format": "obj", "text": OBJ.replace("\n", "\r")}),
+     E + SP + "/text: OBJ line 1: the lines end in a lone CR (classic Mac OS line endings); "
+     "save the file with LF or CR LF line endings")
 case("mesh-source-obj-short-vertex.json", src({"format": "obj", "text": "v 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"}),
      E + SP + "/text: OBJ line 1: 'v' needs 3 numbers, found 2")
 case("mesh-source-obj-index-zero.json", src({"format": "obj", "text": OBJ.replace("f 1 2 3", "f 1 2 0")}),
