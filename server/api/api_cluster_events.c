@@ -62,6 +62,10 @@ static size_t api_cev_format(struct api_cev *a, const struct cluster_event *e, c
         cJSON_AddStringToObject(o, "state", e->state);
         return n + api_sse_event(out + n, size - n, "state", o);
     }
+    if (!strcmp(e->kind, "tile") && a->op.is_animated) { /* a frame range's: frames, as one node */
+        cJSON_Delete(o);
+        return 0;
+    }
     if (!strcmp(e->kind, "tile")) {
         cJSON_AddNumberToObject(o, "x", e->reg.x);
         cJSON_AddNumberToObject(o, "y", e->reg.y);

@@ -543,6 +543,10 @@ static void cluster_fill(const char *id, redisReply **v, struct shots_info *out,
              out->done < frames)
         out->eta_s = (now - created) / 1e3 / (double)out->done * (double)(frames - out->done);
     out->fps = cluster_num(v[F_FPS]);
+    if (*animated) { /* a frame range counts frames, as one node's (api.md) */
+        j->tiles_total = frames;
+        j->tiles_done = out->done;
+    }
     cluster_video_state(cluster_str(v[F_VIDEO]), out);
     j->progress = *animated ? (double)out->done / (double)(frames > 0 ? frames : 1)
                             : (double)j->tiles_done / (double)(tiles > 0 ? tiles : 1);

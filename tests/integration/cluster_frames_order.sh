@@ -26,7 +26,14 @@ check frame0_served "frames/0.png gave $(curl -s -o "$T/f0.png" -w '%{http_code}
 check frame0_as_cli "frame 0 differs from rayd-render --frame 0" cmp -s "$T/f0.png" "$T/r0.png"
 check progress_and_eta "$(curl -s "$URL/v1/jobs/$ID")" bash -c \
     "curl -s '$URL/v1/jobs/$ID' | grep '\"progress\":0.2500,' | grep -q '\"eta_s\":[0-9]'"
+# tiles_done / tiles_total count frames, as a single node's frame-range job (api.md)
+check tiles_count_frames "$(curl -s "$URL/v1/jobs/$ID")" bash -c \
+    "curl -s '$URL/v1/jobs/$ID' | grep -q '\"tiles_done\":1,\"tiles_total\":4,'"
 curl -s -X POST "$URL/v1/test/gate?tiles=open" >/dev/null
 wait_until 60 bash -c "curl -s '$URL/v1/jobs/$ID' | grep -q '\"state\":\"succeeded\"'"
 check job_succeeded "$(curl -s "$URL/v1/jobs/$ID")" bash -c "curl -s '$URL/v1/jobs/$ID' | grep -q '\"done\":4,'"
+# its event stream: frames, no tile or progress events (as one node's)
+curl -s -m 10 "$URL/v1/jobs/$ID/events" >"$T/events.txt"
+check events_frames_only "$(grep '^event:' "$T/events.txt" | sort | uniq -c | tr '\n' ' ')" bash -c \
+    "[ \$(grep -c '^event: frame' '$T/events.txt') = 4 ] && ! grep -q '^event: tile\|^event: progress' '$T/events.txt'"
 exit $NFAIL
