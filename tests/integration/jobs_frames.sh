@@ -27,6 +27,12 @@ bad_query() { # bad_query NAME QUERY PARAM TEXT: 400 bad_parameter naming PARAM,
 }
 check range_reversed "$(cat "$T/body" 2>/dev/null)" bad_query reversed "frames=6-3" frames "after the last"
 check range_malformed "$(cat "$T/body")" bad_query malformed "frames=3to6" frames "must be A-B"
+check range_malformed_one "$(cat "$T/body")" bad_query malformed1 "frames=x" frames "or one (frames=5)"
+# frames=K: frame K alone, as rayd-render --frames K
+code=$(post_json "/v1/jobs?frames=4" "$T/anim.json")
+check range_one_frame "$code $(cat "$T/body")" eval \
+    '[ "$code" = 202 ] && [ "$(json "$T/body" "(j[\"frames\"][\"first\"], j[\"frames\"][\"last\"])")" = "(4, 4)" ]'
+req DELETE "/v1/jobs/$(jfield "$T/body" id)" >/dev/null
 check range_outside "$(cat "$T/body")" bad_query outside "frames=1-4" frames "frames 2-9"
 check range_frame_outside "$(cat "$T/body")" bad_query frame_out "frame=10" frame "frames 2-9"
 check range_frame_malformed "$(cat "$T/body")" bad_query frame_bad "frame=0x3" frame "frame number"
