@@ -984,13 +984,8 @@ enum rayd_status mesh_parse_obj_threads(const char *text, size_t len, const stru
     if (enc)
         return err_set(err, RAYD_E_INVALID, NULL,
                        "the OBJ file is %s text; save it as UTF-8 (or ASCII)", enc);
-    /* lines end at '\n': a file whose first line ends in a lone '\r' (the
-     * classic Mac OS way) would read as one line of nonsense */
-    const char *cr = memchr(text, '\r', len), *lf = memchr(text, '\n', len);
-    if (cr && (!lf || cr < lf) && (size_t)(cr - text) + 1 < len && cr[1] != '\n')
-        return err_set(err, RAYD_E_INVALID, NULL,
-                       "OBJ line 1: the lines end in a lone CR (classic Mac OS line endings); "
-                       "save the file with LF or CR LF line endings");
+    if (text_lone_cr(text, len)) /* lines end at '\n' here */
+        return err_set(err, RAYD_E_INVALID, NULL, "OBJ line 1: %s", TEXT_LONE_CR);
     if (threads <= 0) threads = len >= OBJ_PARALLEL_BYTES ? parallel_cores() : 1;
     enum rayd_status refused = RAYD_OK;
     if (threads > 1 && obj_parallel(text, len, lim, threads, out, err, &refused)) return RAYD_OK;

@@ -36,3 +36,8 @@ const char *text_foreign_encoding(const void *data, size_t len) {
     if (len >= 2 && memcmp(p, "\xFE\xFF", 2) == 0) return "UTF-16 (big-endian)";
     return text_bare_utf16(p, len);
 }
+
+bool text_lone_cr(const char *text, size_t len) {
+    const char *cr = memchr(text, '\r', len), *lf = memchr(text, '\n', len);
+    return cr && (!lf || cr < lf) && (size_t)(cr - text) + 1 < len && cr[1] != '\n';
+}

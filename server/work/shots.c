@@ -945,13 +945,12 @@ static void shots_video_make(void *arg) {
     work_lock_take();
     for (int i = 0; frames && i < s->n; i++) frames[i] = blob_ref(s->f[i].png);
     work_lock_give();
-    bool whole = frames != NULL;
     int missing = -1; /* the first frame not read */
     for (int i = 0; frames && i < s->n; i++) {
         if (!frames[i] && store_on()) frames[i] = store_read_frame(s->id, s->first + i, false);
         if (!frames[i] && missing < 0) missing = i;
-        whole &= frames[i] != NULL;
     }
+    bool whole = frames && missing < 0;
     struct blob *mp4 = NULL;
     char err[200] = "out of memory for the frames";
     enum video_status st = whole ? video_encode(frames, s->n, s->fps > 0 ? s->fps : 24,
@@ -963,14 +962,12 @@ static void shots_video_make(void *arg) {
     bool evicted = missing >= 0 && s->f[missing].gone != SG_KEPT;
     if (evicted)
         snprintf(err, sizeof err,
-                 "frame %ld was let go before the video was made (%s); a video "
-                 "needs every frame: render the range again",
+                 "frame %ld was let go before the video was made (%s); a video needs every frame: "
+                 "render the range again",
                  s->first + missing, s->f[missing].gone == SG_DISK ? "--max-disk" : "--max-memory");
     s->video = mp4;
-    s->video_state = st == VIDEO_OK          ? SV_READY
-                     : st == VIDEO_NO_FFMPEG ? SV_NO_FFMPEG
-                     : evicted               ? SV_EVICTED
-                                             : SV_FAILED;
+    s->video_state = st == VIDEO_OK ? SV_READY : st == VIDEO_NO_FFMPEG ? SV_NO_FFMPEG : SV_FAILED;
+    if (evicted) s->video_state = SV_EVICTED; /* never made: its frame is missing */
     snprintf(s->video_error, sizeof s->video_error, "%s", st == VIDEO_OK ? "" : err);
     if (st != VIDEO_OK) log_warn("job %s: no video: %s", s->id, err);
     shots_unref(s);
