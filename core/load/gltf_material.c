@@ -100,12 +100,13 @@ struct material gltf_pbr_material(const struct gltf_pbr *p) {
 /* The bytes an image of w x h pixels takes here: its 8-bit pixels, then
  * its linear floats (the 8-bit ones given back once converted). */
 #define GM_PIXEL_CHARGE (3 + 3 * sizeof(float))
+#define GM_TEXEL_CHARGE (3 * sizeof(float)) /* the floats alone: the 8-bit pixels are not its */
 
 /* Charges, or gives back, what makes *charged (the image's) equal w x h
  * pixels' worth. */
-static enum rayd_status gm_charge(struct gltf_mats *g, size_t *charged, long w, long h,
-                                  const struct jp *p, struct rayd_error *err) {
-    size_t want = (size_t)w * (size_t)h * GM_PIXEL_CHARGE;
+static enum rayd_status gm_charge_px(struct gltf_mats *g, size_t *charged, long w, long h,
+                                     size_t per_px, const struct jp *p, struct rayd_error *err) {
+    size_t want = (size_t)w * (size_t)h * per_px;
     if (want <= *charged) {
         mesh_give_back(g->lim, &g->charged, *charged - want);
         *charged = want;
@@ -117,6 +118,12 @@ static enum rayd_status gm_charge(struct gltf_mats *g, size_t *charged, long w, 
         return err_set(err, st, p->s, "the image is %ld x %ld pixels: %s", w, h, why);
     *charged = want;
     return RAYD_OK;
+}
+
+/* gm_charge_px of a decode: its 8-bit pixels and its floats. */
+static enum rayd_status gm_charge(struct gltf_mats *g, size_t *charged, long w, long h,
+                                  const struct jp *p, struct rayd_error *err) {
+    return gm_charge_px(g, charged, w, h, GM_PIXEL_CHARGE, p, err);
 }
 
 /* A PNG's size from its IHDR (the first chunk), before it is decoded; 0
@@ -184,38 +191,35 @@ static enum rayd_status gm_decode(struct rayd_error *err, const unsigned char *b
     return RAYD_OK;
 }
 
-/* Image i's decoded pixels (gm_decode) into *img, charged for this
- * material as gm_decode charges: decoded here once a file, then kept for
- * the other materials of the same image (g->decoded), so a file naming
- * one image from many materials costs one decode, not one each.  *img is
- * g's, freed by gm_forget once the materials are read. */
+/* Image i's decoded pixels (gm_decode) into *img, this material charged
+ * its texels' 12 bytes a pixel: decoded here once a file, then kept
+ * for the other materials of the same image (g->decoded), so a file
+ * naming one image from many materials costs one decode, not one each.
+ * The kept copy holds the 8-bit share of its first material's charge
+ * (gm_decode's 15 bytes a pixel) until gm_forget frees it once the
+ * materials are read; *img is g's. */
 static enum rayd_status gm_decoded(struct rayd_error *err, const unsigned char *b, size_t len,
                                    const struct jp *p, long budget, struct gltf_mats *g, int i,
                                    size_t *charged, const rayd_image **img) {
-    for (int k = 0; k < g->ndecoded; k++)
-        if (g->decoded[k].image == i) {
-            *img = g->decoded[k].img;
-            if ((long)(*img)->w * (*img)->h > budget)
-                return err_set(err, RAYD_E_LIMIT, p->s,
-                               "the textures together are over the limit (%ld pixels a glTF "
-                               "file, %ld a scene)",
-                               (long)GLTF_MAX_TEXELS, (long)TEXTURE_MAX_SCENE_PIXELS);
-            return gm_charge(g, charged, (*img)->w, (*img)->h, p, err);
-        }
+    for (int k = 0; k < g->ndecoded; k++) {
+        if (g->decoded[k].image != i) continue;
+        *img = g->decoded[k].img;
+        long w = (*img)->w, h = (*img)->h;
+        long max = budget < TEXTURE_MAX_PIXELS ? budget : TEXTURE_MAX_PIXELS;
+        if (w * h > max) /* as gm_decode says it of a JPEG */
+            return err_set(err, RAYD_E_LIMIT, p->s,
+                           "the image is %ld x %ld pixels; the limit is %ld pixels (%ld left of "
+                           "the file's textures)",
+                           w, h, TEXTURE_MAX_PIXELS, budget > 0 ? budget : 0);
+        return gm_charge_px(g, charged, w, h, GM_TEXEL_CHARGE, p, err); /* its floats */
+    }
     rayd_image *own = NULL;
     enum rayd_status st = gm_decode(err, b, len, p, budget, g, charged, &own);
     if (st != RAYD_OK || g->ndecoded == GLTF_MAX_TEXTURES) {
         rayd_image_free(own);
         return st == RAYD_OK ? err_set(err, RAYD_E_LIMIT, p->s, "too many images") : st;
     }
-    /* the kept copy's 8-bit pixels: charged apart from this material's */
-    char why[200];
-    size_t keep = 3 * (size_t)own->w * (size_t)own->h;
-    st = mesh_charge(g->lim, &g->charged, keep, why, sizeof why);
-    if (st != RAYD_OK) {
-        rayd_image_free(own);
-        return err_set(err, st, p->s, "the image is %d x %d pixels: %s", own->w, own->h, why);
-    }
+    *charged -= 3 * (size_t)own->w * (size_t)own->h; /* the kept copy's now, in g->charged */
     g->decoded[g->ndecoded++] = (struct gltf_decoded){i, own};
     g->decodes++;
     *img = own;
@@ -252,7 +256,7 @@ static enum rayd_status gm_texels(struct rayd_error *err, const unsigned char *b
     enum rayd_status st = RAYD_OK;
     if (x) { /* charged as its decode is: the limits answer as if decoded */
         t->w = x->w, t->h = x->h, t->rgb = x->rgb, t->shared = x;
-        st = gm_charge(g, charged, x->w, x->h, p, err);
+        st = gm_charge_px(g, charged, x->w, x->h, GM_TEXEL_CHARGE, p, err); /* its floats */
     } else {
         const rayd_image *img = NULL;
         st = gm_decoded(err, b, len, p, budget, g, image, charged, &img);
@@ -348,8 +352,6 @@ static enum rayd_status gm_texture(struct gltf_doc *d, struct rayd_error *err, c
         mesh_give_back(g->lim, &g->charged, charged);
         return st;
     }
-    /* its 8-bit pixels given back; the floats stay charged */
-    mesh_give_back(g->lim, &g->charged, 3 * (size_t)t.w * (size_t)t.h);
     *texels += (long)t.w * t.h;
     g->tex[g->ntex++] = t;
     *uv_set = (int)set;

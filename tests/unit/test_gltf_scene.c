@@ -541,6 +541,31 @@ static void test_image_decoded_once(void) {
     rayd_scene_free(s);
 }
 
+static void test_shared_image_over_budget(void) {
+    /* the texel budget runs out at the third material of the 2 x 1 PNG
+     * (after it twice and the 8 x 8 JPEG): said as a decode says it, with
+     * what is left of the budget */
+    cJSON *d = doc_tree();
+    cJSON *mats = cJSON_GetObjectItem(d, "materials");
+    for (int k = 0; k < 2; k++) {
+        cJSON *m = cJSON_Duplicate(cJSON_GetArrayItem(mats, 2), 1);
+        cJSON_AddItemToArray(mats, m);
+        cJSON *prims = cJSON_GetObjectItem(at(d, "meshes", 1, NULL), "primitives");
+        cJSON *prim = cJSON_Duplicate(cJSON_GetArrayItem(prims, 0), 1);
+        cJSON_ReplaceItemInObject(prim, "material", cJSON_CreateNumber(5 + k));
+        cJSON_AddItemToArray(prims, prim);
+    }
+    struct rayd_limits lim;
+    rayd_limits_default(&lim);
+    lim.max_texels = 2 + 64 + 2 + 1;
+    struct rayd_error err;
+    rayd_scene *s = parse_lim(d, "", "", &lim, &err);
+    CHECK(!s && strstr(err.message, "the image is 2 x 1 pixels; the limit is 16777216 pixels (1 "
+                                    "left of the file's textures)"),
+          "got '%s' at %s", s ? "a scene" : err.message, err.path);
+    rayd_scene_free(s);
+}
+
 static void test_texcoord_sets(void) {
     texcoord_case(1, 1);
     texcoord_case(1, 0);
@@ -759,6 +784,7 @@ int main(void) {
     RUN(test_uvs_and_textures);
     RUN(test_textures_shared);
     RUN(test_image_decoded_once);
+    RUN(test_shared_image_over_budget);
     RUN(test_baked_meshes_shared);
     RUN(test_holding_cache_lets_baked_go);
     RUN(test_pbr_mapping);

@@ -16,7 +16,7 @@
 /* The account a test keeps: what was charged and given back, and the
  * gross charge past which it refuses (0: never). */
 struct account {
-    long long net, gross, refuse_past;
+    long long net, gross, refuse_past, peak;
     int calls;
 };
 
@@ -28,6 +28,7 @@ static enum rayd_status charge(void *arg, long long bytes, char *why, size_t why
         return RAYD_E_NOMEM;
     }
     a->net += bytes;
+    if (a->net > a->peak) a->peak = a->net;
     if (bytes > 0) a->gross += bytes;
     return RAYD_OK;
 }
@@ -269,23 +270,29 @@ static void test_obj_charged_before_arrays(void) {
     }
 }
 
-/* A "gltf" object of a few zero triangles whose one material has a side
- * x side PNG base colour texture (a data: URI). */
-static char *gltf_textured_scene(int side) {
+/* A "gltf" object of a few zero triangles whose materials (one, or two
+ * of other factors) take a side x side PNG base colour texture (a data:
+ * URI). */
+static char *gltf_textured_scene_n(int side, int nmats) {
     rayd_image *tex;
     rayd_image_new(side, side, &tex, NULL);
     char *img = png_base64(tex);
     char *pos = zero_positions(30);
     size_t cap = strlen(img) * 2 + strlen(pos) + 2048;
     char *doc = malloc(cap), *json = malloc(2 * cap);
-    snprintf(doc, cap,
-             "{\"asset\": {\"version\": \"2.0\"}, \"scene\": 0, \"scenes\": [{\"nodes\": [0]}],"
-             " \"nodes\": [{\"mesh\": 0}], \"meshes\": [{\"primitives\": [{\"attributes\":"
-             " {\"POSITION\": 0}, \"material\": 0}]}], %s,"
-             " \"materials\": [{\"pbrMetallicRoughness\": {\"baseColorTexture\": {\"index\": 0}}}],"
-             " \"textures\": [{\"source\": 0}],"
-             " \"images\": [{\"uri\": \"data:image/png;base64,%s\"}]}",
-             pos, img);
+    snprintf(
+        doc, cap,
+        "{\"asset\": {\"version\": \"2.0\"}, \"scene\": 0, \"scenes\": [{\"nodes\": [0]}],"
+        " \"nodes\": [{\"mesh\": 0}], \"meshes\": [{\"primitives\": [{\"attributes\":"
+        " {\"POSITION\": 0}, \"material\": 0}]}], %s,"
+        " \"materials\": [{\"pbrMetallicRoughness\": {\"baseColorTexture\": {\"index\": 0}}}%s],"
+        " \"textures\": [{\"source\": 0}],"
+        " \"images\": [{\"uri\": \"data:image/png;base64,%s\"}]}",
+        pos,
+        nmats > 1 ? ", {\"pbrMetallicRoughness\": {\"baseColorFactor\": [0.5, 1, 1, 1],"
+                    " \"baseColorTexture\": {\"index\": 0}}}"
+                  : "",
+        img);
     free(pos);
     char *enc = b64_encode((const unsigned char *)doc, strlen(doc));
     snprintf(json, 2 * cap,
@@ -297,6 +304,8 @@ static char *gltf_textured_scene(int side) {
     free(img);
     return json;
 }
+
+static char *gltf_textured_scene(int side) { return gltf_textured_scene_n(side, 1); }
 
 /* A glTF's image is charged from its PNG header's size before it is
  * decoded (15 bytes a pixel: 8-bit, then floats), the 8-bit pixels given
@@ -318,7 +327,26 @@ static void test_gltf_image_charged_before_decode(void) {
     /* the texture's floats stay charged, its 8-bit pixels given back */
     CHECK(c.gross >= 512 * 512 * 15 && c.gross < 2 * 512 * 512 * 15, "gross %lld", c.gross);
     CHECK(c.net >= 512 * 512 * 12 && c.net < 512 * 512 * 15, "net %lld", c.net);
+    /* at its peak the 8-bit pixels and the floats, once: 15 bytes a pixel */
+    CHECK(c.peak < 512 * 512 * 16, "peak %lld: the 8-bit pixels charged twice?", c.peak);
     rayd_scene_free(s);
+    free(json);
+    /* two materials of one image: one decode, the 8-bit pixels charged
+     * once, each material's floats; a budget under that is refused in
+     * words that name the image, never a size read from freed memory */
+    json = gltf_textured_scene_n(512, 2);
+    struct account d = {0};
+    s = parse(json, &d, &err, &st);
+    CHECK(st == RAYD_OK && s, "parse: %s", err.message);
+    CHECK(d.peak < 512 * 512 * 28, "peak %lld: 15 + 12 bytes a pixel, and a little", d.peak);
+    CHECK(d.net >= 512 * 512 * 24 && d.net < 512 * 512 * 25, "net %lld: two materials' floats",
+          d.net);
+    rayd_scene_free(s);
+    struct account e = {.refuse_past = 512 * 512 * 20};
+    s = parse(json, &e, &err, &st);
+    CHECK(st == RAYD_E_NOMEM && !s, "status %d", st);
+    CHECK(strstr(err.message, "512 x 512 pixels: no room for") != NULL, "message %s", err.message);
+    CHECK(e.net == 0, "net %lld after the refusal: all given back", e.net);
     free(json);
 }
 
