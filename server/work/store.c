@@ -804,6 +804,24 @@ static bool store_row(sqlite3_stmt *st, struct store_job *j) {
     return true;
 }
 
+/* Whether a job's row is one rayd wrote: its id 32 hex digits (it names
+ * the job's files: a row of another id could name any file, and its
+ * expiry delete it) and a frame range within what a job may ask
+ * (--max-frames).  Else it is left out, said in the log. */
+static bool store_row_sane(const struct store_job *j) {
+    bool hex = strlen(j->id) == 32 && strspn(j->id, "0123456789abcdef") == 32;
+    bool frames = !j->frames || (j->first >= 0 && j->first <= j->last && j->last <= 1000000 &&
+                                 j->last - j->first + 1 <= config.max_frames);
+    if (hex && frames) return true;
+    char safe[40];
+    snprintf(safe, sizeof safe, "%.32s", j->id);
+    for (char *c = safe; *c; c++)
+        if (*c < 0x20 || *c > 0x7e) *c = '?';
+    log_warn("--data-dir: the job row '%s' is left out: %s", safe,
+             !hex ? "its id is not 32 hex digits" : "its frames are past --max-frames");
+    return false;
+}
+
 int store_load(struct store_job **rows, int *n) {
     *rows = NULL;
     *n = 0;
@@ -830,6 +848,10 @@ int store_load(struct store_job **rows, int *n) {
             *rows = more;
         }
         if (!store_row(st, &(*rows)[*n])) break;
+        if (!store_row_sane(&(*rows)[*n])) {
+            free((*rows)[*n].scene);
+            continue;
+        }
         (*n)++;
     }
     sqlite3_finalize(st);

@@ -181,6 +181,37 @@ wait_until 60 gone
 check ttl_across_restart "status $(req GET "/v1/jobs/$(jid d2)")" gone
 check ttl_file_deleted "$(ls "$D/results")" bash -c "! ls '$D/results' | grep -q png"
 
+# ---- a tampered store: rows rayd did not write are left out ---------------------------
+# a row whose id leads out of results/ (its expiry would delete that file), and a frame
+# range past --max-frames (it would take gigabytes before the port opens)
+kill9
+D2=$T/tampered
+start_rayd --threads 1 --data-dir "$D2"
+scene "$T/t1.json" 32 32 1 spheres 30
+post_job t1
+wait_until 60 job_state_is "$(jid t1)" succeeded
+kill9
+echo victim >"$T/victim.png"
+python3 - "$D2/jobs.db" "$(jid t1)" <<'PY'
+import sqlite3, sys
+db = sqlite3.connect(sys.argv[1])
+db.execute("CREATE TEMP TABLE t AS SELECT * FROM jobs WHERE id = ?", (sys.argv[2],))
+db.execute("UPDATE t SET id = '../../victim', seq = seq + 1000")
+db.execute("INSERT INTO jobs SELECT * FROM t")
+db.execute("UPDATE t SET id = ?, seq = seq + 1000, state = 'queued', frame_first = 0, frame_last = 50000000, fps = 24",
+           ("f" * 32,))
+db.execute("INSERT INTO jobs SELECT * FROM t")
+db.commit()
+PY
+start_rayd --threads 1 --data-dir "$D2" --job-ttl 1
+sleep 3
+check tampered_file_kept "$(ls "$T")" test -e "$T/victim.png"
+check tampered_rows_said "$(grep -c 'left out' "$T/rayd.err")" bash -c \
+    "grep -q \"job row '../../victim' is left out: its id is not 32 hex\" '$T/rayd.err' &&
+     grep -q \"job row 'ffff.*' is left out: its frames are past --max-frames\" '$T/rayd.err'"
+req GET /v1/jobs >/dev/null
+check tampered_rows_not_listed "$(head -c 300 "$T/body")" bash -c "! grep -q 'victim\|ffffffff' '$T/body'"
+
 # ---- without --data-dir: memory only, as before --------------------------------------
 kill9
 start_rayd --threads 1
