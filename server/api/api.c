@@ -483,7 +483,8 @@ void api_refused(struct http_req *r, enum work_submit why) {
     /* A queue slot frees when a task ahead starts: about the backlog over
      * the tasks in it; a drain, when this server is gone and another one
      * answers. */
-    if (why == WORK_FULL || why == WORK_TOO_MANY_JOBS || why == WORK_MEMORY)
+    if (why == WORK_FULL || why == WORK_FULL_SHARE || why == WORK_TOO_MANY_JOBS ||
+        why == WORK_MEMORY)
         r->res.retry_after =
             api_cost_retry_after(st.backlog_s / (double)(st.queued > 0 ? st.queued : 1));
     switch (why) {
@@ -497,6 +498,13 @@ void api_refused(struct http_req *r, enum work_submit why) {
         metrics_reject(MR_QUEUE_FULL);
         http_reply_error(r, 503, "queue_full", "the render queue is full, retry later", NULL, 0, 0,
                          NULL);
+        break;
+    case WORK_FULL_SHARE:
+        metrics_reject(MR_QUEUE_FULL);
+        http_reply_error(r, 503, "queue_full",
+                         "the render queue's last places are kept for clients with few renders "
+                         "queued, and this client has many (--queue): retry later",
+                         NULL, 0, 0, NULL);
         break;
     case WORK_DRAINING:
         metrics_reject(MR_DRAINING);

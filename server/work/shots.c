@@ -313,9 +313,9 @@ static void shots_refusal(enum work_submit why, struct rayd_error *err) {
     memset(err, 0, sizeof *err);
     err->code = why == WORK_TOO_BIG ? RAYD_E_LIMIT : RAYD_E_NOMEM;
     snprintf(err->message, sizeof err->message, "the frame's render was refused: %s",
-             why == WORK_TOO_BIG      ? "it alone is over the memory budget (--max-memory)"
-             : why == WORK_MEMORY     ? "no room in the memory budget now (--max-memory)"
-             : why == WORK_FULL       ? "the render queue is full (--queue)"
+             why == WORK_TOO_BIG  ? "it alone is over the memory budget (--max-memory)"
+             : why == WORK_MEMORY ? "no room in the memory budget now (--max-memory)"
+             : why == WORK_FULL || why == WORK_FULL_SHARE ? "the render queue is full (--queue)"
              : why == WORK_PARSE_FULL ? "the scene parse queue is full (--parse-queue)"
                                       : "out of memory");
 }

@@ -322,6 +322,20 @@ static void task_taken(const struct task *t) {
         task_interactive_streak++;
 }
 
+/* Whether client may not take a place in the queue now: the last quarter
+ * of it (TASK_QUEUE_KEPT) is kept for the clients with few renders queued
+ * (under an eighth of the queue), so that one client's flood of jobs
+ * cannot fill it and turn every other client away with 503.  One client
+ * alone may queue three quarters of --queue. */
+#define TASK_QUEUE_KEPT(cap) ((cap) / 4)
+static bool task_queue_kept(uint64_t client) {
+    long kept = TASK_QUEUE_KEPT(task_queue_cap), own = 0, few = kept / 2 > 1 ? kept / 2 : 1;
+    if (task_queued < task_queue_cap - kept) return false;
+    for (const struct task *t = task_active; t && own < few; t = t->next)
+        own += t->queued && t->client == client;
+    return own >= few;
+}
+
 enum work_submit task_submit(struct cache_entry *scene, struct task **fresh, struct task **out) {
     work_assert_locked();
     if (task_draining()) return WORK_DRAINING;
@@ -332,6 +346,7 @@ enum work_submit task_submit(struct cache_entry *scene, struct task **fresh, str
         return WORK_OK;
     }
     if (task_queued >= task_queue_cap && !(*fresh)->restored) return WORK_FULL;
+    if (!(*fresh)->restored && task_queue_kept((*fresh)->client)) return WORK_FULL_SHARE;
     t = *fresh;
     *fresh = NULL;
     t->scene = cache_ref(scene);

@@ -51,9 +51,10 @@ enum work_submit {
     WORK_DRAINING,
     WORK_NOMEM,
     WORK_TOO_MANY_JOBS,
-    WORK_MEMORY,    /* the memory budget (--max-memory) has no room now: 503 */
-    WORK_TOO_BIG,   /* the render alone is over the memory budget: 413 */
-    WORK_PARSE_FULL /* --parse-queue scenes wait for a parse thread (compile.c) */
+    WORK_MEMORY,     /* the memory budget (--max-memory) has no room now: 503 */
+    WORK_TOO_BIG,    /* the render alone is over the memory budget: 413 */
+    WORK_PARSE_FULL, /* --parse-queue scenes wait for a parse thread (compile.c) */
+    WORK_FULL_SHARE  /* the queue's last places are kept for clients with few renders queued */
 };
 
 /* ---- cache.c: the parts any thread may call ----------------------------- */

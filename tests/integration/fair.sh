@@ -128,6 +128,26 @@ gate open
 stop_rayd
 check rayd_exit_0 "exit $RAYD_RC" [ "$RAYD_RC" = 0 ]
 
+# --- one client's flood cannot fill the queue: its last quarter is kept for the others --------
+start_rayd --threads 1 --test-gate 0 --client-header X-Client --queue 8
+codes=""
+for k in $(seq 1 7); do
+    scene "$T/q$k.json" 8 8 1 spheres "$((k + 40))"
+    codes="$codes $(post_json /v1/jobs "$T/q$k.json" -H 'X-Client: alice')"
+done
+check queue_flood_capped "alice's codes:$codes" [ "$codes" = " 202 202 202 202 202 202 503" ]
+check queue_flood_says_why "$(head -c 300 "$T/body")" bash -c \
+    "grep -q '\"code\":\"queue_full\"' '$T/body' && grep -q 'kept for clients with few renders queued' '$T/body'"
+scene "$T/qb.json" 8 8 1 spheres 51
+scene "$T/qc.json" 8 8 1 spheres 52
+scene "$T/qd.json" 8 8 1 spheres 53
+codes="$(post_json /v1/jobs "$T/qb.json" -H 'X-Client: bob') $(post_json /v1/jobs "$T/qc.json" -H 'X-Client: carol')"
+codes="$codes $(post_json /v1/jobs "$T/qd.json" -H 'X-Client: dave')"
+check queue_kept_for_others "bob, carol, dave: $codes" [ "$codes" = "202 202 503" ]
+check queue_then_full "$(head -c 300 "$T/body")" bash -c "grep -q 'the render queue is full' '$T/body'"
+gate open
+stop_rayd
+
 # --- the backlog: /readyz, metrics, Retry-After -----------------------------------------------
 # No tile ever starts here, so the seconds are those of the starting rate.
 start_rayd --threads 1 --test-gate 0 --queue 16 --max-backlog 2
