@@ -313,6 +313,12 @@ static void *http_uri_log(void *cls, const char *uri, struct MHD_Connection *c) 
         http_req_set_target(r, uri);
         http_client_address(c, r->log.client, sizeof r->log.client);
     }
+    /* a refused target's query is cut before libmicrohttpd splits it (it
+     * does so after this call, in the same buffer): parameters by the
+     * hundred would fill the connection's pool and leave no room for the
+     * 400 that says why */
+    char *q = r && r->conn.target_why ? strchr(uri, '?') : NULL;
+    if (q) q[1] = '\0';
     return r;
 }
 

@@ -81,9 +81,13 @@ static int http_req_hex(char c) {
 
 /* Why the raw target t is refused, or NULL. */
 static const char *http_req_target_why(const char *t) {
-    for (const char *p = t; *p; p++)
+    size_t params = 0;
+    for (const char *p = t; *p; p++) {
         if ((unsigned char)*p <= 0x20 || *p == 0x7f)
             return "a space or control character in the request target";
+        params += *p == '&';
+    }
+    if (params >= HTTP_QUERY_PARAMS_MAX) return HTTP_QUERY_TOO_MANY;
     /* the path: after an absolute form's scheme and host, up to the query */
     const char *p = t;
     if (!strncasecmp(p, "http://", 7) || !strncasecmp(p, "https://", 8)) {

@@ -172,6 +172,11 @@ void http_req_reply_free(struct http_reply *p);
  * read as /app.js), a %2F (an encoded '/', which the router would see as a
  * separator once decoded) or another encoded control character. */
 void http_req_set_target(struct http_req *r, const char *target);
+/* At most this many query parameters (a request of rayd's takes a few):
+ * libmicrohttpd 0.9.75 keeps each in the connection's memory pool, and a
+ * 1.2 KB query of 600 left it no room even to answer (a 30 s hang). */
+#define HTTP_QUERY_PARAMS_MAX 256
+#define HTTP_QUERY_TOO_MANY "the query has more than 256 parameters"
 /* Sets r->request_id: the client's X-Request-Id when it is 1-64 characters
  * of [A-Za-z0-9._:+/=@-], else 32 hex digits unique to this request. */
 void http_req_take_id(struct http_req *r);
