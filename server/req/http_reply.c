@@ -138,16 +138,21 @@ void http_reply_data(struct http_req *r, unsigned status, const char *ctype, con
 void http_reply_stream(struct http_req *r, unsigned status, const char *const *headers,
                        size_t block, ssize_t (*read)(void *cls, char *buf, size_t max),
                        void (*done)(void *cls), void *cls) {
-    struct http_reply *resp = http_reply_new(HTTP_BODY_STREAM);
+    /* HEAD: the headers alone, no chunked body (not even its last chunk,
+     * which a pipelining client would take for the next answer) */
+    bool head = r->method && !strcmp(r->method, "HEAD");
+    struct http_reply *resp = http_reply_new(head ? HTTP_BODY_NONE : HTTP_BODY_STREAM);
+    if (!resp || head) done(cls);
     if (!resp) {
-        done(cls);
         r->gone = true;
         return;
     }
-    resp->read = read;
-    resp->done = done;
-    resp->cls = cls;
-    resp->block = block;
+    if (!head) {
+        resp->read = read;
+        resp->done = done;
+        resp->cls = cls;
+        resp->block = block;
+    }
     for (; headers && headers[0]; headers += 2) http_reply_add(resp, headers[0], headers[1]);
     http_reply_set(r, status, resp, NULL);
 }
