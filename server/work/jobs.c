@@ -294,13 +294,17 @@ void jobs_count(long *unfinished, long *cap) {
     *cap = jobs_max;
 }
 
-/* Makes room in the table by forgetting the job that ended first. */
-static bool jobs_evict(void) {
+/* Makes room in the table for a job of client by forgetting the job of
+ * its own that ended first, or when it has none, anyone's: one client's
+ * flood of jobs forgets its own finished ones, not the others' long
+ * before their --job-ttl. */
+static bool jobs_evict(uint64_t client) {
     int victim = -1;
-    for (int i = 0; i < jobs_n; i++)
-        if (jobs_final(jobs_table[i]) &&
-            (victim < 0 || jobs_ended(jobs_table[i]) < jobs_ended(jobs_table[victim])))
-            victim = i;
+    for (int pass = 0; pass < 2 && victim < 0; pass++)
+        for (int i = 0; i < jobs_n; i++)
+            if (jobs_final(jobs_table[i]) && (pass || jobs_table[i]->client == client) &&
+                (victim < 0 || jobs_ended(jobs_table[i]) < jobs_ended(jobs_table[victim])))
+                victim = i;
     if (victim < 0) return false;
     jobs_forget(victim, JG_EVICTED, clock_now());
     return true;
@@ -474,7 +478,7 @@ enum work_submit jobs_submit(struct cache_entry *scene, const struct work_target
     jobs_count(&busy, &cap);
     if (task_draining())
         r = WORK_DRAINING;
-    else if (busy >= cap || (jobs_n == jobs_max && !jobs_evict()))
+    else if (busy >= cap || (jobs_n == jobs_max && !jobs_evict(what->client)))
         r = WORK_TOO_MANY_JOBS;
     else
         r = task_submit(scene, &fresh, &t);
@@ -547,7 +551,7 @@ bool jobs_restore(const struct store_job *row, struct cache_entry *scene) {
     }
     work_lock_take();
     struct task *t = fresh;
-    if (jobs_n == jobs_max && !jobs_evict())
+    if (jobs_n == jobs_max && !jobs_evict(row->client))
         r = WORK_TOO_MANY_JOBS;
     else if (scene)
         r = task_submit(scene, &fresh, &t);

@@ -121,16 +121,15 @@ static void shots_expire(double now) {
     }
 }
 
-/* Makes room in a full table (lock held): forgets the shot that ended
- * first, as jobs.c does with plain jobs, so shots that ended hold no
- * place a new one needs; false when none has ended. */
-static bool shots_evict_ended(void) {
+/* Makes room in a full table (lock held): forgets client's shot that ended
+ * first (or anyone's), as jobs.c does with plain jobs; false when none has ended. */
+static bool shots_evict_ended(uint64_t client) {
     int victim = -1;
-    for (int i = 0; i < shots_n; i++) {
-        const struct shot *s = shots_table[i];
-        if (shots_final(s) && s->flying == 0 &&
+    for (int k = 0; k < 2 * shots_n && (k < shots_n || victim < 0); k++) {
+        const struct shot *s = shots_table[k % shots_n];
+        if (shots_final(s) && s->flying == 0 && (k >= shots_n || s->client == client) &&
             (victim < 0 || shots_ended(s) < shots_ended(shots_table[victim])))
-            victim = i;
+            victim = k % shots_n;
     }
     if (victim < 0) return false;
     shots_forget(victim);
@@ -644,7 +643,8 @@ enum work_submit shots_submit(struct shots_new *n, char id[33]) {
         r = WORK_DRAINING;
     else if (!shots_table) /* shots_start not run (a harness of the handlers) */
         r = WORK_NOMEM;
-    else if (unfinished >= cap || (shots_n >= config.max_jobs && !shots_evict_ended()))
+    else if (unfinished >= cap ||
+             (shots_n >= config.max_jobs && !shots_evict_ended(n->what.client)))
         r = WORK_TOO_MANY_JOBS;
     else if (!(s = shots_new(n)))
         r = WORK_NOMEM;

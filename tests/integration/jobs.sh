@@ -161,6 +161,26 @@ check newest_job_kept "last job unknown" [ "$(req GET "/v1/jobs/$last")" = 200 ]
 stop_rayd TERM
 check exit_0 "exit status $RAYD_RC" [ "$RAYD_RC" = 0 ]
 
+# --- one client's flood of jobs forgets its own finished ones, not another's ------------------
+start_rayd --threads 2 --max-jobs 4 --client-header X-Client
+scene "$T/bob.json" 32 32 1 spheres 21
+post_json /v1/jobs "$T/bob.json" -H 'X-Client: bob' >/dev/null
+bob=$(jfield "$T/body" id)
+wait_until 60 job_state_is "$bob" succeeded
+alice=()
+for k in 1 2 3 4 5 6; do
+    scene "$T/al$k.json" 32 32 1 spheres "$((k + 21))"
+    post_json /v1/jobs "$T/al$k.json" -H 'X-Client: alice' >/dev/null
+    alice+=("$(jfield "$T/body" id)")
+    wait_until 60 job_state_is "${alice[-1]}" succeeded
+done
+code=$(req GET "/v1/jobs/$bob")
+check flood_keeps_others_job "bob's: $code $(head -c 200 "$T/body")" [ "$code" = 200 ]
+code=$(req GET "/v1/jobs/${alice[0]}")
+check flood_forgets_own_oldest "alice's first: $code $(head -c 200 "$T/body")" \
+    err_is "$T/body" 410 job_evicted
+stop_rayd TERM
+
 # --- finished jobs are forgotten after --job-ttl ----------------------------------------------
 # --job-ttl counts from a job's end: job A is held at the gate (never
 # finished), job B, created after A, is cancelled (ended).  Once the watcher
