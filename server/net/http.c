@@ -317,7 +317,7 @@ static void *http_uri_log(void *cls, const char *uri, struct MHD_Connection *c) 
      * does so after this call, in the same buffer): parameters by the
      * hundred would fill the connection's pool and leave no room for the
      * 400 that says why */
-    char *q = r && r->conn.target_why ? strchr(uri, '?') : NULL;
+    char *q = r && uri && r->conn.target_why ? strchr(uri, '?') : NULL;
     if (q) q[1] = '\0';
     return r;
 }
