@@ -136,6 +136,18 @@ static void gm_png_size(const unsigned char *b, size_t len, long *w, long *h) {
     if (*w <= 0 || *h <= 0 || *w > 65535 || *h > 65535) *w = *h = 0;
 }
 
+/* A w x h image within a texture's limit and what is left of the file's
+ * texture budget, or RAYD_E_LIMIT saying both. */
+static enum rayd_status gm_fits(struct rayd_error *err, const struct jp *p, long w, long h,
+                                long budget) {
+    long max = budget < TEXTURE_MAX_PIXELS ? budget : TEXTURE_MAX_PIXELS;
+    if (w * h <= max) return RAYD_OK;
+    return err_set(err, RAYD_E_LIMIT, p->s,
+                   "the image is %ld x %ld pixels; the limit is %ld pixels (%ld left of the "
+                   "file's textures)",
+                   w, h, TEXTURE_MAX_PIXELS, budget > 0 ? budget : 0);
+}
+
 /* Decoded 8-bit sRGB pixels of a PNG or a JPEG, into *img, charged (into
  * *charged) from the header's size before they are decoded. */
 static enum rayd_status gm_decode(struct rayd_error *err, const unsigned char *b, size_t len,
@@ -163,11 +175,7 @@ static enum rayd_status gm_decode(struct rayd_error *err, const unsigned char *b
     int w, h, n;
     if (!stbi_info_from_memory(b, (int)len, &w, &h, &n) || w <= 0 || h <= 0)
         return err_set(err, RAYD_E_INVALID, p->s, "is not a readable JPEG image");
-    if ((long)w * h > max)
-        return err_set(err, RAYD_E_LIMIT, p->s,
-                       "the image is %d x %d pixels; the limit is %ld pixels (%ld left of the "
-                       "file's textures)",
-                       w, h, TEXTURE_MAX_PIXELS, budget);
+    TRY_GL(gm_fits(err, p, w, h, budget));
     TRY_GL(gm_charge(g, charged, w, h, p, err));
     int w2, h2;
     stbi_uc *px = stbi_load_from_memory(b, (int)len, &w2, &h2, &n, 3);
@@ -204,14 +212,8 @@ static enum rayd_status gm_decoded(struct rayd_error *err, const unsigned char *
     for (int k = 0; k < g->ndecoded; k++) {
         if (g->decoded[k].image != i) continue;
         *img = g->decoded[k].img;
-        long w = (*img)->w, h = (*img)->h;
-        long max = budget < TEXTURE_MAX_PIXELS ? budget : TEXTURE_MAX_PIXELS;
-        if (w * h > max) /* as gm_decode says it of a JPEG */
-            return err_set(err, RAYD_E_LIMIT, p->s,
-                           "the image is %ld x %ld pixels; the limit is %ld pixels (%ld left of "
-                           "the file's textures)",
-                           w, h, TEXTURE_MAX_PIXELS, budget > 0 ? budget : 0);
-        return gm_charge_px(g, charged, w, h, GM_TEXEL_CHARGE, p, err); /* its floats */
+        TRY_GL(gm_fits(err, p, (*img)->w, (*img)->h, budget));
+        return gm_charge_px(g, charged, (*img)->w, (*img)->h, GM_TEXEL_CHARGE, p, err);
     }
     rayd_image *own = NULL;
     enum rayd_status st = gm_decode(err, b, len, p, budget, g, charged, &own);

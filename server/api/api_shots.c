@@ -46,9 +46,10 @@ static bool api_shots_range(struct http_req *r, const struct rayd_animation *an,
         const char *dash = range[0] ? strchr(range + 1, '-') : NULL;
         size_t n = dash ? (size_t)(dash - range) : strlen(range);
         if (!api_shots_number(range, n, first) ||
-            !api_shots_number(dash ? dash + 1 : range, dash ? strlen(dash + 1) : n, last))
+            (dash && !api_shots_number(dash + 1, strlen(dash + 1), last)))
             return api_bad_param(r, "frames",
                                  "must be A-B, two frame numbers (frames=0-47), or one (frames=5)");
+        if (!dash) *last = *first;
         if (*first > *last) return api_bad_param(r, "frames", "the first frame is after the last");
     } else if (one) {
         if (!api_shots_number(one, strlen(one), first))

@@ -121,16 +121,16 @@ static void shots_expire(double now) {
     }
 }
 
-/* Makes room in a full table (lock held): forgets client's shot that ended
- * first (or anyone's), as jobs.c does with plain jobs; false when none has ended. */
+/* Room in a full table (lock held), as jobs_evict: client's oldest ended shot, else anyone's. */
 static bool shots_evict_ended(uint64_t client) {
     int victim = -1;
-    for (int k = 0; k < 2 * shots_n && (k < shots_n || victim < 0); k++) {
-        const struct shot *s = shots_table[k % shots_n];
-        if (shots_final(s) && s->flying == 0 && (k >= shots_n || s->client == client) &&
-            (victim < 0 || shots_ended(s) < shots_ended(shots_table[victim])))
-            victim = k % shots_n;
-    }
+    for (int pass = 0; pass < 2 && victim < 0; pass++)
+        for (int i = 0; i < shots_n; i++) {
+            const struct shot *s = shots_table[i];
+            if (shots_final(s) && s->flying == 0 && (pass || s->client == client) &&
+                (victim < 0 || shots_ended(s) < shots_ended(shots_table[victim])))
+                victim = i;
+        }
     if (victim < 0) return false;
     shots_forget(victim);
     return true;
