@@ -16,7 +16,8 @@
  * its state, its last event, its tiles deleted and every key of it set to
  * expire after --job-ttl.  Redis cannot expire a ZSET's member, so rayd_end
  * also files "ID CLIENT" in the ZSET rayd:ended, scored by when the job's
- * keys expire, and every node sweeps it once a second (cluster_jobs_sweep):
+ * keys expire (and ID in its client's rayd:ended:CLIENT, the same score),
+ * and every node sweeps it once a second (cluster_jobs_sweep):
  * a due entry leaves its client's list, whose key goes once it is empty.
  * So a list holds only jobs that are kept, listed or not (the list alone
  * dropped an expired job when it met one, and a client that never paged to
@@ -93,7 +94,9 @@ static const char cluster_lua_end[] = CLUSTER_LUA_KEPT
     "  end)\n"
     "  redis.call('SREM', 'rayd:unfinished', id)\n"
     "  local cl = redis.call('HGET', p .. 'job', 'client') or ''\n"
-    "  redis.call('ZADD', 'rayd:ended', tonumber(now) + 1000 * tonumber(ttl), id .. ' ' .. cl)\n"
+    "  local due = tonumber(now) + 1000 * tonumber(ttl)\n"
+    "  redis.call('ZADD', 'rayd:ended', due, id .. ' ' .. cl)\n"
+    "  if cl ~= '' then redis.call('ZADD', 'rayd:ended:' .. cl, due, id) end\n"
     "  local tomb = tonumber(ttl) + " CLUSTER_TOMB_S "\n"
     "  redis.call('SET', p .. 'gone', state .. ' ' .. now .. ' ' .. ttl, 'EX', tomb)\n"
     "  return 1\n"
@@ -106,8 +109,11 @@ static const char cluster_lua_end[] = CLUSTER_LUA_KEPT
  * A full set is pruned of ended ids 64 at a time (SRANDMEMBER), so a
  * refused POST costs Redis a bounded moment however large --max-jobs is.
  * As on one node, --max-jobs counts ended jobs too: while unfinished and
- * ended (rayd:ended) together reach it, the one that ended first is
- * forgotten, up to 64 a POST (rayd_forget: its keys deleted, its list
+ * ended (rayd:ended) together reach it, the POSTing client's own job that
+ * ended first is forgotten (rayd:ended:CLIENT, KEYS[6]), or when it has
+ * none ended, anyone's -- so one client's flood of jobs forgets its own
+ * results, not another's finished a moment ago -- up to 64 a POST
+ * (rayd_forget: its keys deleted, its list
  * entry gone, its tombstone marked evicted so its routes answer 410
  * job_evicted).  Without it the ended jobs a cluster keeps grew with the
  * POST rate times --job-ttl, unbounded by any count. */
@@ -119,7 +125,10 @@ static const char cluster_lua_submit[] = CLUSTER_LUA_KEPT
     "  local j = redis.call('HMGET', p .. 'job', 'state', 'first', 'last', 'passes')\n"
     "  rayd_kept(p, tonumber(j[2]) or 0, tonumber(j[3]) or -1, tonumber(j[4]) or 0,\n"
     "            function(...) redis.call('DEL', ...) end)\n"
-    "  if cl ~= '' then redis.call('ZREM', 'rayd:jobs:' .. cl, id) end\n"
+    "  if cl ~= '' then\n"
+    "    redis.call('ZREM', 'rayd:jobs:' .. cl, id)\n"
+    "    redis.call('ZREM', 'rayd:ended:' .. cl, id)\n"
+    "  end\n"
     "  local g = j[1] and redis.call('GET', p .. 'gone')\n"
     "  if g then redis.call('SET', p .. 'gone', g .. ' ' .. now, 'KEEPTTL') end\n"
     "end\n"
@@ -132,9 +141,16 @@ static const char cluster_lua_submit[] = CLUSTER_LUA_KEPT
     "  if redis.call('SCARD', KEYS[5]) >= max then return -3 end\n"
     "end\n"
     "local kept = redis.call('ZCARD', 'rayd:ended') + redis.call('SCARD', KEYS[5])\n"
+    "local cl = string.match(KEYS[6], '^rayd:ended:(%d+)$')\n"
     "for _ = 1, 64 do\n"
     "  if kept < max then break end\n"
-    "  local m = redis.call('ZPOPMIN', 'rayd:ended')\n"
+    "  local m = redis.call('ZPOPMIN', KEYS[6])\n"
+    "  if m[1] then\n"
+    "    m[1] = m[1] .. ' ' .. cl\n"
+    "    redis.call('ZREM', 'rayd:ended', m[1])\n"
+    "  else\n"
+    "    m = redis.call('ZPOPMIN', 'rayd:ended')\n"
+    "  end\n"
     "  if not m[1] then break end\n"
     "  rayd_forget(m[1], ARGV[2])\n"
     "  kept = kept - 1\n"
@@ -296,7 +312,7 @@ static void cluster_submit_job(struct redis *c, struct cluster_op *op) {
     }
     long n = config.cluster_tile;
     long cols = (op->reg.w + n - 1) / n, rows = (op->reg.h + n - 1) / n;
-    char v[24][40], keys[3][80], max[24], plan[PASSES_MAX * 8] = "", list[48];
+    char v[24][40], keys[3][80], max[24], plan[PASSES_MAX * 8] = "", list[48], ended[48];
     double now = cluster_now_ms();
     op->created_ms = now;
     snprintf(v[0], 40, "%.0f", now);
@@ -325,14 +341,16 @@ static void cluster_submit_job(struct redis *c, struct cluster_op *op) {
     cluster_key(keys[0], sizeof keys[0], op->id, "job");
     cluster_key(keys[2], sizeof keys[2], op->id, "events");
     cluster_jobs_list_key(list, sizeof list, op->client);
+    snprintf(ended, sizeof ended, "rayd:ended:%llu", (unsigned long long)op->client);
     const char *argv[] = {"EVAL",
                           cluster_lua_submit,
-                          "5",
+                          "6",
                           keys[0],
                           list,
                           cluster_items_stream(op->priority),
                           keys[2],
                           "rayd:unfinished",
+                          ended,
                           op->id,
                           v[0],
                           v[1],
@@ -710,10 +728,13 @@ static const char cluster_lua_sweep[] =
     "for _, m in ipairs(due) do\n"
     "  local id, cl = string.match(m, '^(%x+) (%d*)$')\n"
     "  local left = id and redis.call('PTTL', 'rayd:{' .. id .. '}:job') or -2\n"
+    "  local mine = cl and cl ~= '' and 'rayd:ended:' .. cl\n"
     "  if left >= 0 then\n"
     "    redis.call('ZADD', 'rayd:ended', tonumber(ARGV[1]) + left + 1, m)\n"
+    "    if mine then redis.call('ZADD', mine, tonumber(ARGV[1]) + left + 1, id) end\n"
     "  else\n"
-    "    if left == -2 and cl and cl ~= '' then redis.call('ZREM', 'rayd:jobs:' .. cl, id) end\n"
+    "    if left == -2 and mine then redis.call('ZREM', 'rayd:jobs:' .. cl, id) end\n"
+    "    if mine then redis.call('ZREM', mine, id) end\n"
     "    redis.call('ZREM', 'rayd:ended', m)\n"
     "  end\n"
     "end\n"

@@ -934,8 +934,7 @@ static bool shots_unwait(struct work_waiter *w, struct task_notify *gone) {
 
 /* ---- the video ------------------------------------------------------------------ */
 
-/* Seconds ffmpeg may take for a video of n frames before it is stopped. */
-#define SHOTS_VIDEO_SECONDS(n) (60.0 + 2.0 * (n))
+#define SHOTS_VIDEO_SECONDS(n) (60.0 + 2.0 * (n)) /* ffmpeg's time for n frames */
 
 /* s's frames (referenced, read from disk if need be), then the video made
  * without the lock and kept (on the video thread, videoq.c). */
@@ -950,12 +949,14 @@ static void shots_video_make(void *arg) {
         if (!frames[i] && store_on()) frames[i] = store_read_frame(s->id, s->first + i, false);
         if (!frames[i] && missing < 0) missing = i;
     }
-    bool whole = frames && missing < 0;
     struct blob *mp4 = NULL;
     char err[200] = "out of memory for the frames";
-    enum video_status st = whole ? video_encode(frames, s->n, s->fps > 0 ? s->fps : 24,
-                                                SHOTS_VIDEO_SECONDS(s->n), &mp4, err, sizeof err)
-                                 : VIDEO_FAILED;
+    if (frames && missing >= 0) /* its file gone from --data-dir, or no memory to read it */
+        snprintf(err, sizeof err, "frame %ld could not be read back", s->first + missing);
+    enum video_status st = frames && missing < 0
+                               ? video_encode(frames, s->n, s->fps > 0 ? s->fps : 24,
+                                              SHOTS_VIDEO_SECONDS(s->n), &mp4, err, sizeof err)
+                               : VIDEO_FAILED;
     for (int i = 0; frames && i < s->n; i++) blob_unref(frames[i]);
     free(frames);
     work_lock_take();

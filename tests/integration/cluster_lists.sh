@@ -90,17 +90,19 @@ start_node 3 --threads 2 --client-header X-Client --max-jobs 100000 --job-ttl 1 
 n=$(post 3 carol 600)
 check carol_posted "202s: $n of 600" [ "$n" = 600 ]
 wait_until 120 unfinished
-swept() { [ "$(listed_jobs)" = 0 ] && [ "$(rcli zcard rayd:ended)" = 0 ]; }
+swept() { [ "$(listed_jobs)" = 0 ] && [ "$(rcli zcard rayd:ended)" = 0 ] && [ -z "$(rcli --scan --pattern 'rayd:ended:*')" ]; }
 wait_until 30 swept
 check expired_jobs_leave_lists "still listed: $(listed_jobs), rayd:ended: $(rcli zcard rayd:ended), keys: $(rcli --scan --pattern 'rayd:jobs*' | head -3 | tr '\n' ' ')" swept
 job_keys() { rcli --scan --pattern 'rayd:{*}:*' | grep -vc ':gone$'; }
 check expired_jobs_keep_only_tombstones "keys besides tombstones: $(job_keys)" [ "$(job_keys)" = 0 ]
 
 # --- --max-jobs counts ended jobs too, as on one node -----------------------------------------
-# dave's first job ends, then 60 more are posted one after another under --max-jobs 16 and a
+# dave's first job ends, then 20 more are posted one after another under --max-jobs 16 and a
 # 600 s TTL: the ones that ended first are forgotten (410 job_evicted), so Redis keeps at most
 # 16 jobs, not every job of the last ten minutes (41 MB for 1,079 kept before, and growing with
-# the POST rate).
+# the POST rate).  Once dave's jobs end before his next POST, the ones forgotten are his own:
+# erin's job, ended before his flood, stays (it was forgotten when the cluster forgot anyone's
+# oldest; while all of his are unfinished, anyone's still goes, as on one node).
 kill -TERM "${NODE_PID[3]}" && wait "${NODE_PID[3]}" 2>/dev/null
 rcli flushall >/dev/null
 start_node 4 --threads 2 --client-header X-Client --max-jobs 16 --job-ttl 600 --redis "$REDIS_URL"
@@ -108,11 +110,27 @@ FIRST=$(curl -s -m 30 -H 'Content-Type: application/json' -H 'X-Client: dave' \
     --data-binary @"$T/tiny.json" "${NODE_URL[4]}/v1/jobs" |
     python3 -c 'import json,sys; print(json.load(sys.stdin).get("id", ""))')
 wait_until 60 unfinished
-n=$(post 4 dave 60)
-wait_until 120 unfinished
+# erin's one job ends before dave's flood: his POSTs forget his own ended jobs first, not hers
+ERIN=$(curl -s -m 30 -H 'Content-Type: application/json' -H 'X-Client: erin' \
+    --data-binary @"$T/tiny.json" "${NODE_URL[4]}/v1/jobs" |
+    python3 -c 'import json,sys; print(json.load(sys.stdin).get("id", ""))')
+wait_until 60 unfinished
+n=0 # one at a time, each ended before the next, as a client that waits for its results
+for _ in 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20; do
+    n=$((n + $(post 4 dave 1)))
+    wait_until 60 unfinished
+done
 records() { rcli --scan --pattern 'rayd:{*}:job' | wc -l; }
 bounded() { [ "$n" -ge 17 ] && [ "$(records)" -le 16 ] && [ "$(listed_jobs)" -le 16 ]; }
-check ended_jobs_bounded "job records kept: $(records) of --max-jobs 16; listed $(listed_jobs); $n of 60 posted" bounded
+check ended_jobs_bounded "job records kept: $(records) of --max-jobs 16; listed $(listed_jobs); $n of 20 posted" bounded
 code=$(curl -s -m 30 -o "$T/first.json" -w '%{http_code}' -H 'X-Client: dave' "${NODE_URL[4]}/v1/jobs/$FIRST")
 check first_job_evicted "$code $(head -c 300 "$T/first.json")" err_is "$T/first.json" 410 job_evicted
+code=$(curl -s -m 30 -o "$T/erin.json" -w '%{http_code}' -H 'X-Client: erin' "${NODE_URL[4]}/v1/jobs/$ERIN")
+check flood_keeps_others_job "erin's: $code $(head -c 300 "$T/erin.json")" \
+    bash -c "[ $code = 200 ] && grep -q '\"state\":\"succeeded\"' '$T/erin.json'"
+# each client's ended jobs in its own ZSET too, the same as rayd:ended
+erins_ended() { rcli zrange "rayd:ended:$(rcli hget "rayd:{$ERIN}:job" client)" 0 -1; }
+per_client() { for k in $(rcli --scan --pattern 'rayd:ended:*'); do rcli zcard "$k"; done | awk '{n += $1} END {print n + 0}'; }
+check ended_per_client "rayd:ended $(rcli zcard rayd:ended), per client $(per_client), erin's: $(erins_ended)" \
+    bash -c "[ $(rcli zcard rayd:ended) = $(per_client) ] && [ '$(erins_ended)' = '$ERIN' ]"
 [ "$NFAIL" = 0 ]
