@@ -936,8 +936,7 @@ static bool shots_unwait(struct work_waiter *w, struct task_notify *gone) {
 
 #define SHOTS_VIDEO_SECONDS(n) (60.0 + 2.0 * (n)) /* ffmpeg's time for n frames */
 
-/* s's frames (referenced, read from disk if need be), then the video made
- * without the lock and kept (on the video thread, videoq.c). */
+/* s's frames, read from disk if need be; the video made unlocked, kept (videoq.c). */
 static void shots_video_make(void *arg) {
     struct shot *s = arg;
     struct blob **frames = calloc((size_t)s->n, sizeof *frames);
@@ -949,14 +948,14 @@ static void shots_video_make(void *arg) {
         if (!frames[i] && store_on()) frames[i] = store_read_frame(s->id, s->first + i, false);
         if (!frames[i] && missing < 0) missing = i;
     }
+    bool whole = frames && missing < 0;
     struct blob *mp4 = NULL;
     char err[200] = "out of memory for the frames";
     if (frames && missing >= 0) /* its file gone from --data-dir, or no memory to read it */
         snprintf(err, sizeof err, "frame %ld could not be read back", s->first + missing);
-    enum video_status st = frames && missing < 0
-                               ? video_encode(frames, s->n, s->fps > 0 ? s->fps : 24,
-                                              SHOTS_VIDEO_SECONDS(s->n), &mp4, err, sizeof err)
-                               : VIDEO_FAILED;
+    enum video_status st = whole ? video_encode(frames, s->n, s->fps > 0 ? s->fps : 24,
+                                                SHOTS_VIDEO_SECONDS(s->n), &mp4, err, sizeof err)
+                                 : VIDEO_FAILED;
     for (int i = 0; frames && i < s->n; i++) blob_unref(frames[i]);
     free(frames);
     work_lock_take();

@@ -151,7 +151,7 @@ curl -s "${NODE_URL[4]}/v1/jobs/$M" >"$T/asm_job.json"
 check assembly_job_not_failed "$(head -c 300 "$T/asm_job.json")" bash -c \
     "grep -q '\"state\":\"running\"' '$T/asm_job.json' && grep -q '\"tiles_done\":12' '$T/asm_job.json'"
 start_node 5 --threads 1 --cluster-tile 128 --redis-claim-ms 1500 --redis "$REDIS_URL"
-wait_until 60 succeeded 5 "$M"
+wait_until 180 succeeded 5 "$M"
 check assembly_taken_over "state: $(job_state "${NODE_URL[5]}" "$M")" succeeded 4 "$M"
 curl -s -o "$T/asm.png" "${NODE_URL[4]}/v1/jobs/$M/image.png"
 "$RENDER" "$SCENE" --region 64,64,512,384 -o "$T/asm_ref.png" 2>/dev/null
