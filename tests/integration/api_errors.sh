@@ -61,6 +61,26 @@ code=$(head -c 300000 /dev/zero | tr '\0' ' ' | curl -s -m 60 -o "$T/body" -w '%
     -H 'Content-Type: application/json' -H 'Transfer-Encoding: chunked' --data-binary @- "$URL/v1/render")
 check chunked_too_large_413 "status $code" err_is "$T/body" 413 body_too_large
 check chunked_too_large_ways_around "$(cat "$T/body")" grep -q -- '--asset-dir' "$T/body"
+# a chunked body that never ends is not read for ever: cut off at four times --max-body
+python3 - "${URL#http://}" >"$T/endless.out" <<'PY'
+import socket, sys
+host, port = sys.argv[1].split(":")
+s = socket.create_connection((host, int(port)), timeout=30)
+s.sendall(b"POST /v1/render HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+          b"Transfer-Encoding: chunked\r\n\r\n")
+chunk = b"%x\r\n%s\r\n" % (8192, b" " * 8192)
+sent = 0
+try:
+    while sent < 10_000_000:
+        s.sendall(chunk)
+        sent += 8192
+except OSError:
+    pass
+print(sent)
+PY
+cut=$(cat "$T/endless.out")
+check chunked_endless_cut_off "the server read $cut bytes of body (--max-body 100000)" \
+    [ "${cut:-10000000}" -lt 10000000 ]
 scene "$T/huge.json" 2000 1000 1 spheres
 code=$(post_json /v1/render "$T/huge.json")
 check image_too_large_413 "status $code $(cat "$T/body")" bash -c "[ $code = 413 ] && python3 -c 'import json,sys; e=json.load(open(sys.argv[1]))[\"error\"]; sys.exit(0 if e[\"status\"]==413 and e[\"path\"].startswith(\"/render\") else 1)' '$T/body'"
