@@ -130,7 +130,7 @@ FOLDER_ORDER = {
         ["work", "work_private"], ["lru"], ["cache", "rcache"], ["scenefiles"], ["scenes"],
         ["cost"], ["fair"], ["resolve"], ["passes"], ["task"], ["budget"], ["gate"], ["store"],
         ["jobs"], ["events"], ["videoq"], ["watch"], ["sched"], ["compile"],
-        ["shots", "shots_private", "shots_events"], ["durable"],
+        ["shots", "shots_private", "shots_events", "shots_info"], ["durable"],
     ],
 }
 # Programs above the core, side by side: each folder, and the rooms besides

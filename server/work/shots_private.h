@@ -3,13 +3,16 @@
  * few functions they share.  Everything here is under work_lock.
  *
  *   shots.c         the table, each frame's parse and render, the store,
- *                   the numbers a status reads, the video
+ *                   letting go of frames and videos, the video
+ *   shots_info.c    the numbers a status reads, its error's message
  *   shots_events.c  the job's event stream (GET /v1/jobs/{id}/events)
  */
 #ifndef SHOTS_PRIVATE_H
 #define SHOTS_PRIVATE_H
 
 #include "work/work_private.h"
+
+#define SHOTS_TRIES 3 /* a frame's attempts in all */
 
 enum shots_fstate { SF_QUEUED, SF_PARSING, SF_RUNNING, SF_DONE, SF_FAILED };
 enum shots_gone { SG_KEPT, SG_MEMORY, SG_DISK };
@@ -78,9 +81,28 @@ struct shot *shots_find(const char *id);
 /* Lets go of one reference to s: the last frees it (lock held). */
 void shots_unref(struct shot *s);
 /* Whether s has ended (done, failed or cancelled), frames in flight aside. */
-bool shots_final(const struct shot *s);
-enum jobs_state shots_state(const struct shot *s);
-/* The error s failed with: its first frame that failed for good. */
+static inline bool shots_final(const struct shot *s) {
+    return s->canceled || s->ndone == s->n || (s->nfailed > 0 && s->flying == 0);
+}
+
+static inline enum jobs_state shots_state(const struct shot *s) {
+    if (s->canceled) return JS_CANCELED;
+    if (s->ndone == s->n) return JS_SUCCEEDED;
+    if (s->nfailed > 0 && s->flying == 0) return JS_FAILED;
+    if (s->ndone > 0) return JS_RUNNING;
+    for (const struct shots_fly *fl = s->flies; fl; fl = fl->next)
+        if (fl->t && fl->t->t_start > 0) return JS_RUNNING; /* a tile of it started */
+    return JS_QUEUED;
+}
+
+/* When a final shot ended (clock_now's clock). */
+static inline double shots_ended(const struct shot *s) {
+    return s->canceled ? s->canceled_at : s->t_end;
+}
+
+/* The error s failed with: its first frame that failed for good (shots_info.c). */
 void shots_error(const struct shot *s, struct rayd_error *err);
+/* s's numbers, for a status (shots_info.c). */
+void shots_info_of(const struct shot *s, struct shots_info *o);
 
 #endif
