@@ -479,11 +479,14 @@ static void shots_kick(void) {
 
 /* ---- letting go of frames: the memory budget, --data-dir, --max-disk ------------ */
 
-/* Whether s keeps a frame's image in memory (lock held). */
+/* Whether s keeps what the memory budget may let go (lock held): a frame's
+ * image, but none with --data-dir (a frame there is in memory only until
+ * the store wrote it, and the write holds it too: letting go would free
+ * nothing), or its video. */
 static bool shots_keeps(const struct shot *s) {
-    for (int i = 0; i < s->n; i++)
+    for (int i = 0; i < s->n && !store_on(); i++)
         if (s->f[i].png || s->f[i].exr) return true;
-    return false;
+    return s->video != NULL;
 }
 
 /* Frame i's images let go (lock held); gone: why they answer 410 now. */
@@ -494,12 +497,22 @@ static void shots_let_go(struct shot *s, int i, enum shots_gone gone) {
     if (gone) s->f[i].gone = (unsigned char)gone;
 }
 
-/* The finished shot that ended first and keeps a frame in memory.  None
- * with --data-dir: a frame there is in memory only until the store wrote
- * it (the write holds it too: letting go would free nothing). */
+/* s's video let go for the memory budget (lock held): made again from the
+ * frames' files when asked for (--data-dir), else gone for good (410). */
+static void shots_let_go_video(struct shot *s) {
+    blob_unref(s->video);
+    s->video = NULL;
+    s->video_state = store_on() ? SV_NONE : SV_EVICTED;
+    snprintf(s->video_error, sizeof s->video_error, "%s",
+             store_on() ? ""
+                        : "the video was let go to keep rayd within its memory budget "
+                          "(--max-memory); render the range again");
+    log_info("job %s: video evicted (over --max-memory)", s->id);
+}
+
+/* The finished shot that ended first and keeps a frame or its video. */
 static struct shot *shots_oldest_kept(void) {
     struct shot *best = NULL;
-    if (store_on()) return NULL;
     for (int i = 0; i < shots_n; i++) {
         struct shot *s = shots_table[i];
         if (shots_final(s) && s->flying == 0 && (!best || shots_ended(s) < shots_ended(best)) &&
@@ -526,7 +539,9 @@ static bool shots_evict_oldest(void) {
             return true;
         }
     }
-    return false;
+    if (!s || !s->video) return false;
+    shots_let_go_video(s);
+    return true;
 }
 
 /* The store's hooks (store thread, no lock held): frame k of id is on
@@ -898,6 +913,8 @@ struct blob *shots_video(const char *id, struct shots_info *info) {
     work_lock_take();
     struct shot *s = shots_find(id);
     struct blob *b = NULL;
+    if (s && s->video_state == SV_NONE && s->ndone == s->n && store_on())
+        shots_video_queue(s); /* let go for the memory budget: made again from the files */
     if (s) {
         shots_info_of(s, info);
         b = blob_ref(s->video);

@@ -53,6 +53,41 @@ check frame_evicted_oldest_first "frame 4 of the shot: $(req GET "/v1/jobs/$shot
     eval '[ "$(req GET "/v1/jobs/$shot/frames/4.png")" = 200 ]'
 check frames_within_budget "total $(memory_total)" eval '[ "$(memory_total)" -le "$LIMIT" ]'
 check frames_job_still_there "$(req GET "/v1/jobs/$shot"; cat "$T/body")" job_state_is "$shot" succeeded
+# then its video, once none of its frames is left: it held the budget for good before (a
+# forced charge nothing let go), and other clients' renders got 503 memory_full
+for i in $(seq 13 40); do
+    [ "$(req GET "/v1/jobs/$shot/video.mp4")" = 410 ] && break
+    scene "$T/e$i.json" 512 512 1 spheres "$i"
+    code=$(post_json '/v1/jobs?format=exr' "$T/e$i.json")
+    [ "$code" = 202 ] || break
+    wait_until 60 job_state_is "$(jfield "$T/body" id)" succeeded
+done
+req GET "/v1/jobs/$shot/video.mp4" >/dev/null
+check video_evicted_410 "after job $i (last POST $code): $(head -c 300 "$T/body")" eval \
+    'err_is "$T/body" 410 result_evicted && grep -q "video was let go.*max-memory" "$T/body"'
+req GET "/v1/jobs/$shot" >/dev/null
+check video_evicted_no_url "$(head -c 400 "$T/body")" eval '! grep -q video_url "$T/body"'
+check video_evicted_within_budget "total $(memory_total)" eval '[ "$(memory_total)" -le "$LIMIT" ]'
+stop_rayd
+
+# ---- memory, --data-dir: a video let go is made again from the frames' files --------
+start_rayd --max-memory 16M --threads 1 --data-dir "$T/d3"
+post_json /v1/jobs "$T/big.json" >/dev/null
+vshot=$(jfield "$T/body" id)
+wait_until 120 job_state_is "$vshot" succeeded
+wait_until 120 eval '[ "$(req GET "/v1/jobs/$vshot/video.mp4")" = 200 ]'
+cp "$T/body" "$T/video_first.mp4"
+video_let_go() { grep -q "job $vshot: video evicted" "$T/rayd.err"; }
+for i in $(seq 41 70); do
+    video_let_go && break
+    scene "$T/e$i.json" 512 512 1 spheres "$i"
+    post_json '/v1/jobs?format=exr' "$T/e$i.json" >/dev/null
+    wait_until 60 job_state_is "$(jfield "$T/body" id)" succeeded
+done
+check video_let_go_on_disk "after job $i: $(grep -c evicted "$T/rayd.err") evictions logged" video_let_go
+wait_until 120 eval '[ "$(req GET "/v1/jobs/$vshot/video.mp4")" = 200 ]'
+check video_made_again "$(wc -c <"$T/body") bytes, first $(wc -c <"$T/video_first.mp4")" \
+    cmp -s "$T/body" "$T/video_first.mp4"
 stop_rayd
 
 # ---- memory, no --data-dir: a job whose own frames fill the budget fails --------------
