@@ -532,6 +532,10 @@ static void *node_main(void *arg) {
     double every = (double)cluster_claim_ms() / 3e3, last = -1e9;
     if (every > 1.0) every = 1.0; /* the figures at least once a second */
     bool group = false;
+    /* a reclaim is due each tick, and runs once the node has room: a busy
+     * node, whose freed slot the next pull filled at once, took a dead
+     * node's items only when the farm's queue ran dry */
+    bool reclaim_due = false;
     while (c && !atomic_load(&cluster_stopping)) {
         if (!group && redis_is_up(c)) cluster_items_groups(c), group = true;
         if (!redis_is_up(c)) group = false;
@@ -542,12 +546,15 @@ static void *node_main(void *arg) {
             last = now;
             node_refresh(c);
             node_figures(c);
-            if (room > 0 && !atomic_load(&cluster_draining))
-                cluster_items_reclaim(c, room, node_take_entry);
+            reclaim_due = true;
             if (redis_is_up(c)) {
                 cluster_items_reap(c);
                 cluster_jobs_sweep(c);
             }
+        }
+        if (reclaim_due && room > 0 && !atomic_load(&cluster_draining)) {
+            cluster_items_reclaim(c, room, node_take_entry);
+            reclaim_due = false;
             room = config.threads - node_count;
         }
         if (room > 0 && !atomic_load(&cluster_draining) && redis_is_up(c)) {

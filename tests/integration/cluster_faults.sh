@@ -214,4 +214,30 @@ for i in 2 3 5 6 7; do
     kill -0 "${NODE_PID[$i]}" 2>/dev/null || fail "node_${i}_alive" "node $i died: $(tail -n 3 "$T/node$i.err")"
 done
 pass nodes_alive
+
+# --- a busy node takes a dead node's item over, not only once the queue runs dry ---------------
+# node 14 holds one item and dies; node 13 (one worker) is kept busy by the gate, one tile at a
+# time, each freed slot filled at once.  Its reclaim ran only on a tick that found a free slot,
+# so it took the dead node's item last, when nothing was left to pull.
+for i in 2 3 5 6 7; do kill -KILL "${NODE_PID[$i]}" 2>/dev/null; wait "${NODE_PID[$i]}" 2>/dev/null; done
+BUSY=(--threads 1 --cluster-tile 64 --redis-claim-ms 1500 --test-gate 0 --redis "$REDIS_URL")
+start_node 13 "${BUSY[@]}"
+BID=$(post_job 13 'x=0&y=0&w=256&h=192') # 12 tiles
+wait_until 30 holds 13 1
+start_node 14 "${BUSY[@]}"
+wait_until 30 holds 14 1
+kill -KILL "${NODE_PID[14]}"
+wait "${NODE_PID[14]}" 2>/dev/null
+taken_at=
+for step in $(seq 1 11); do
+    gate_node 13 1
+    wait_until 10 bash -c "curl -s '${NODE_URL[13]}/v1/jobs/$BID' | grep -q '\"tiles_done\":$step,'"
+    if grep -q "took over item .*job $BID" "$T/node13.err"; then taken_at=$step; break; fi
+    sleep 0.3
+done
+check reclaim_while_busy "taken over after $taken_at of 12 tiles done (claim 1.5 s, a tile each 0.3 s or more)" \
+    bash -c "[ -n '$taken_at' ] && [ '$taken_at' -le 9 ]"
+gate_node 13 open
+wait_until 60 succeeded 13 "$BID"
+check reclaim_while_busy_finishes "state: $(job_state "${NODE_URL[13]}" "$BID")" succeeded 13 "$BID"
 [ "$NFAIL" = 0 ]
