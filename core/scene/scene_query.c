@@ -48,10 +48,9 @@
 #define CSG_STACK_XINGS (64 * SHAPE_MAX_XINGS)
 
 /* How often a ray's own work looks at the render's meter (meter.h): every
- * so many objects met in one BVH walk (thousands of objects overlapping
- * where the ray goes), every so many runs of CSG crossings (each one
- * evaluates the whole tree).  Every instance and every CSG hit looks too. */
-#define SCENE_LOOK_VISITS 4096
+ * so many runs of CSG crossings (each one evaluates the whole tree).  Every
+ * object a BVH walk visits is counted (meter_visit, which looks every
+ * METER_VISITS_LOOK), and every instance and every CSG hit looks too. */
 #define SCENE_LOOK_RUNS 16
 
 /* ---- object space ---------------------------------------------------------- */
@@ -279,14 +278,13 @@ __attribute__((always_inline)) static inline void objects_walk(const struct obje
     bvh_ray_init(&br, r->o, r->d);
     struct bvh_entry stack[BVH_STACK], e = {0, 0, 0};
     int sp = 0;
-    uint32_t visits = 0;
     for (;;) {
         float tm = *tmax > 3e38 ? 3e38f : (float)*tmax * BVH_SLACK;
         if (e.count == 0) {
             if (bvh4_descend(bvh->nodes, &e, &br, tm, stack, &sp, BVH_SORTED)) continue;
         } else {
             for (uint32_t i = e.node; i < e.node + e.count; i++) {
-                if (++visits % SCENE_LOOK_VISITS == 0 && !meter_live()) return; /* overlaps */
+                if (!meter_visit()) return; /* counted: overlaps, rows threaded (meter.h) */
                 if (!visit(ctx, &objs[i], tmax)) return;
             }
         }

@@ -692,7 +692,8 @@ static void task_over_work(struct task *t) {
     if (t->status != RAYD_OK) return;
     task_failf(t, RAYD_E_LIMIT,
                "the render cast more than the server's budget of %ld rays (--max-work) and was "
-               "stopped (its estimate was %.3g rays); " TASK_ASK,
+               "stopped (its estimate was %.3g rays; objects tested past 64 a ray and CSG point "
+               "tests count as rays); " TASK_ASK,
                t->work, t->est_rays);
 }
 

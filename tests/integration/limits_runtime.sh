@@ -182,6 +182,34 @@ code=$(post_json /v1/render "$T/small.json")
 check csg_then_small_renders "status $code" [ "$code" = 200 ]
 stop_rayd TERM
 
+# --- the objects a ray visits count, not only the ray -----------------------------------
+# 300 instances of a row of 300 tori down the camera's axis, seen from the end, orthographic:
+# every ray threads all 90,000 holes and hits nothing (some 20 ms a ray), priced at about two
+# rays a pixel.  Past 64 objects a ray, each visit counts as a ray: with a budget of 200,000
+# (the test gate's work knob alone) the 16x16 render is stopped by its visits, at once.
+python3 - "$T" <<'PY'
+import json, sys
+row = [{"type": "torus", "center": [0, 0, -10 * k], "axis": [0, 0, 1], "major_radius": 1,
+        "minor_radius": 0.1} for k in range(300)]
+s = {"render": {"width": 16, "height": 16},
+     "camera": {"projection": "orthographic", "view_width": 1, "position": [0, 0, 10],
+                "look_at": [0, 0, 0]},
+     "lights": [{"type": "point", "position": [0, 5, 5]}], "groups": {"row": row},
+     "objects": [{"type": "instance", "group": "row", "transform": {"translate": [0, 0, -3000 * j]}}
+                 for j in range(300)]}
+json.dump(s, open(sys.argv[1] + "/tori.json", "w"), separators=(",", ":"))
+PY
+start_rayd --threads 1 --max-render-seconds 60 --test-gate open
+curl -s -m 30 -X POST -o "$T/gate.json" "$URL/v1/test/gate?work=200000" >/dev/null
+timed_render "$T/tori.json"
+check visits_stop_render "status $code after $took s: $(head -c 300 "$T/body")" \
+    bash -c "[ $code = 413 ] && [ $took -le 20 ]"
+check visits_message "$(head -c 400 "$T/body")" limit_answer "$T/body" "200000 rays (--max-work)"
+curl -s -m 30 -X POST -o "$T/gate.json" "$URL/v1/test/gate?work=open" >/dev/null
+code=$(post_json /v1/render "$T/small.json")
+check visits_then_small_renders "status $code" [ "$code" = 200 ]
+stop_rayd TERM
+
 # --- the denoiser's work counts, not only the rays -----------------------------------
 # A denoised 256x256 render of an empty scene is one tile (the denoiser's least) of 65,536
 # camera rays, and its filter is RAYD_DENOISE_RAYS (20) rays' worth a pixel: 1.3 million.
