@@ -13,7 +13,9 @@
  * job from its first pass).  A scene that no longer parses (a file gone
  * from --asset-dir) ends its job as failed with the parser's error, and a
  * job found unfinished DURABLE_ATTEMPTS times (rayd killed during it each
- * time) fails too, rather than take every restart down with it.
+ * time) fails too, rather than take every restart down with it -- a frame-
+ * range job as a one-image job, counted by its frames left.  A clean stop
+ * (a drain) counts no attempt (store_stop marks jobs.db).
  *
  * Only when every job is back does the server listen, so no client sees a
  * 404 for a job it was told of.  Layer: work, above compile.c.
@@ -34,7 +36,7 @@ struct durable_wait {
 static long durable_pending; /* lock held: compiles not yet answered */
 
 /* Records row as failed with err (the store thread writes it). */
-static void durable_fail(struct store_job *row, const struct rayd_error *err) {
+static void durable_record_failed(struct store_job *row, const struct rayd_error *err) {
     struct timespec ts;
     clock_gettime(CLOCK_REALTIME, &ts);
     row->state = JS_FAILED;
@@ -44,7 +46,23 @@ static void durable_fail(struct store_job *row, const struct rayd_error *err) {
     work_lock_take();
     store_end(row, NULL, NULL);
     work_lock_give();
+}
+
+static void durable_fail(struct store_job *row, const struct rayd_error *err) {
+    durable_record_failed(row, err);
     jobs_restore(row, NULL);
+}
+
+/* Whether row, unfinished, was found so DURABLE_ATTEMPTS times, each a
+ * rayd that did not stop cleanly: it is failed (recorded, not restored). */
+static bool durable_given_up(struct store_job *row) {
+    if (row->state != JS_QUEUED || row->attempts < DURABLE_ATTEMPTS) return false;
+    struct rayd_error err = {.code = RAYD_E_INTERNAL};
+    snprintf(err.message, sizeof err.message,
+             "rayd stopped %d times while the job was unfinished; it is not started again",
+             row->attempts);
+    durable_record_failed(row, &err);
+    return true;
 }
 
 /* A parse thread's answer for one unfinished job. */
@@ -74,12 +92,8 @@ static void durable_suspend(struct compile_waiter *w) { (void)w; }
 
 /* An unfinished job: its scene parsed again, then queued (durable_compiled). */
 static void durable_requeue(struct store_job *row) {
-    if (row->attempts >= DURABLE_ATTEMPTS) {
-        struct rayd_error err = {.code = RAYD_E_INTERNAL};
-        snprintf(err.message, sizeof err.message,
-                 "rayd stopped %d times while the job was unfinished; it is not started again",
-                 row->attempts);
-        durable_fail(row, &err);
+    if (durable_given_up(row)) {
+        jobs_restore(row, NULL);
         return;
     }
     struct durable_wait *d = calloc(1, sizeof *d);
@@ -140,6 +154,7 @@ int durable_start(void) {
             unsigned char *states = malloc((size_t)(rows[i].last - rows[i].first + 1));
             bool ok = states && store_load_frames(&rows[i], states) >= 0;
             if (ok) durable_frames_lost(&rows[i], states);
+            if (ok) durable_given_up(&rows[i]);
             ok = ok && shots_restore(&rows[i], states);
             if (!ok) log_error("job %s: cannot be put back (out of memory or room)", rows[i].id);
             free(states);

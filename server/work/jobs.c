@@ -506,7 +506,8 @@ static struct task *jobs_ended_task(const struct store_job *row) {
     struct task *t = calloc(1, sizeof *t);
     if (!t) return NULL;
     t->reg = row->reg;
-    t->ntiles = t->done = (int)row->tiles;
+    t->ntiles = (int)row->tiles;
+    t->done = row->state == JS_SUCCEEDED ? t->ntiles : 0; /* how far another ended is not kept */
     t->tile = 1;
     snprintf(t->scene_id, sizeof t->scene_id, "%s", row->scene_id);
     snprintf(t->key, sizeof t->key, "restored~%s", row->id);

@@ -74,6 +74,11 @@ static void (*store_evicted)(const char *id, const char *why, double wall);
 static void (*store_frame_written)(const char *id, long k);
 static void (*store_frame_evicted)(const char *id, long k, const char *why);
 
+/* jobs.db's user_version after a clean stop (store_stop): the next start
+ * counts no attempt for the jobs it finds unfinished. */
+#define STORE_CLEAN_TEXT "1"
+#define STORE_STOPPED_CLEANLY 1
+
 static const char *const store_schema =
     "PRAGMA journal_mode=WAL;"
     "PRAGMA synchronous=FULL;"
@@ -826,15 +831,25 @@ int store_load(struct store_job **rows, int *n) {
     *rows = NULL;
     *n = 0;
     if (!store_db) return 0;
-    /* each unfinished frame is an attempt more from now on */
-    store_run(NULL, "UPDATE frames SET attempts = attempts + 1 WHERE state = 'queued'", "");
+    /* each unfinished frame is an attempt more from now on -- unless the
+     * last rayd stopped cleanly (store_stop): a drain is no attempt, and a
+     * job queued through five deploys must not fail for them */
+    sqlite3_stmt *clean = NULL;
+    bool drained = store_run(&clean, "PRAGMA user_version", "") == SQLITE_ROW &&
+                   sqlite3_column_int(clean, 0) == STORE_STOPPED_CLEANLY;
+    sqlite3_finalize(clean);
+    if (!drained)
+        store_run(NULL, "UPDATE frames SET attempts = attempts + 1 WHERE state = 'queued'", "");
+    store_exec("PRAGMA user_version = 0"); /* a kill from now on is an attempt */
     sqlite3_stmt *st = NULL;
     int rc = sqlite3_prepare_v2(
         store_db,
         "SELECT j.id, j.seq, j.client, j.priority, j.created, j.state, j.ended, j.scene,"
         " j.scene_id, j.x, j.y, j.w, j.h, j.keep_exr, j.progressive, j.pass_step, j.time_budget,"
         " j.noise_target, j.tiles, j.rays, j.est_rays, j.queue_ms, j.render_ms, j.encode_ms,"
-        " j.err_code, j.err_message, j.err_path, j.evicted, j.evicted_why, f.state, f.attempts,"
+        " j.err_code, j.err_message, j.err_path, j.evicted, j.evicted_why, f.state,"
+        " COALESCE((SELECT MAX(attempts) FROM frames q WHERE q.job = j.id AND"
+        " q.state = 'queued'), f.attempts),"
         " f.exr_path, f.bytes, j.frame_first, j.frame_last, j.fps, j.denoise, j.aov"
         " FROM jobs j LEFT JOIN frames f ON f.job = j.id AND f.k = 0"
         " ORDER BY j.seq",
@@ -899,6 +914,7 @@ void store_stop(void) {
         work_lock_give();
         pthread_join(store_thread, NULL);
         store_running = false;
+        if (store_db) store_exec("PRAGMA user_version = " STORE_CLEAN_TEXT);
     }
     if (store_db) sqlite3_close(store_db);
     store_db = NULL;

@@ -148,6 +148,49 @@ start_rayd --threads 1 --data-dir "$D"
 wait_until 60 job_state_is "$(jid drain)" succeeded
 check drain_requeued "$(head -c 200 "$T/body")" job_state_is "$(jid drain)" succeeded
 
+# six drains in a row (deploys) count no attempt: a one-image job and a frame-range job queued
+# through all six then render (the one-image job failed at the fifth, "rayd stopped 5 times")
+cat >"$T/anim.json" <<'JSON'
+{"animation": {"start": 1, "end": 3, "fps": 10}, "render": {"width": 24, "height": 24},
+ "camera": {"look_at": [0, 0.5, 0], "keyframes": [{"frame": 1, "position": [0, 1.5, 5]},
+                                                   {"frame": 3, "position": [3, 2, 3]}]},
+ "lights": [{"type": "point", "position": [4, 5, 4]}],
+ "objects": [{"type": "sphere", "center": [0, 0.5, 0], "radius": 0.5}]}
+JSON
+scene "$T/deploy.json" 32 32 1 spheres 12
+stop_rayd TERM
+start_rayd --threads 1 --test-gate 0 --data-dir "$D" --drain-seconds 0
+post_job deploy
+post_job anim
+for _ in 1 2 3 4 5 6; do
+    stop_rayd TERM
+    start_rayd --threads 1 --test-gate 0 --data-dir "$D" --drain-seconds 0
+done
+gate open
+wait_until 60 job_state_is "$(jid deploy)" succeeded
+check drains_no_attempt "$(head -c 300 "$T/body")" job_state_is "$(jid deploy)" succeeded
+wait_until 60 job_state_is "$(jid anim)" succeeded
+check drains_no_attempt_frames "$(head -c 300 "$T/body")" job_state_is "$(jid anim)" succeeded
+
+# five kills while unfinished do count: both kinds of job fail, saying so, and a failed job
+# does not say it got to the end (it said progress 1, every tile done)
+scene "$T/poison.json" 32 32 1 spheres 13
+sed 's/\[4, 5, 4\]/[4, 6, 4]/' "$T/anim.json" >"$T/anim2.json" # another scene
+stop_rayd TERM
+start_rayd --threads 1 --test-gate 0 --data-dir "$D"
+post_job poison
+post_job anim2
+for _ in 1 2 3 4 5; do
+    kill9
+    start_rayd --threads 1 --test-gate 0 --data-dir "$D"
+done
+gave_up() { req GET "/v1/jobs/$(jid "$1")" >/dev/null && job_state_is "$(jid "$1")" failed &&
+    grep -q 'rayd stopped 5 times while the job was unfinished' "$T/body"; }
+check kills_fail_job "$(req GET "/v1/jobs/$(jid poison)"; head -c 400 "$T/body")" gave_up poison
+check kills_failed_no_progress "$(head -c 400 "$T/body")" \
+    eval '[ "$(json "$T/body" '"'"'j["progress"] == 0 and j["tiles_done"] == 0'"'"')" = True ]'
+check kills_fail_frames_job "$(req GET "/v1/jobs/$(jid anim2)"; head -c 400 "$T/body")" gave_up anim2
+
 # ---- --max-disk: the oldest finished image goes first, and says so -----------------
 kill9
 rm -rf "$D"
