@@ -42,11 +42,24 @@
 #include <rayd/rayd.h>
 
 static volatile sig_atomic_t job_interrupted;
+/* While the DELETE of job_cancel goes: only an interrupt a second or more
+ * after the first stops it.  `timeout` and a terminal both may deliver one
+ * Ctrl-C twice (to the process and to its group), and the second used to
+ * cut the DELETE off before it was sent: the job went on. */
+static volatile sig_atomic_t job_cancelling, job_insisted;
+static struct timespec job_first_signal;
 
 int job_stopped(void) { return job_interrupted; }
 
 static void job_on_signal(int sig) {
     (void)sig;
+    struct timespec now;
+    clock_gettime(CLOCK_MONOTONIC, &now); /* async-signal-safe */
+    if (!job_interrupted && !job_cancelling) job_first_signal = now;
+    if (job_cancelling && (now.tv_sec - job_first_signal.tv_sec) * 1000000000L + now.tv_nsec -
+                                  job_first_signal.tv_nsec >=
+                              1000000000L)
+        job_insisted = 1;
     job_interrupted = 1;
 }
 
@@ -103,7 +116,7 @@ static int job_idle(void *user) {
 
 static int job_xferinfo(void *u, curl_off_t a, curl_off_t b, curl_off_t c, curl_off_t d) {
     (void)u, (void)a, (void)b, (void)c, (void)d;
-    return job_interrupted ? 1 : 0;
+    return (job_cancelling ? job_insisted : job_interrupted) ? 1 : 0;
 }
 
 /* One blocking request; returns the status (0 on a transport error, with
@@ -302,9 +315,13 @@ int job_post(const struct client_opts *o, const struct scenefile *sf, const char
 /* Ctrl-C or SIGTERM came: the job is cancelled on the server (DELETE).
  * Returns 130, the exit status of an interrupted command. */
 int job_cancel(const struct client_opts *o, const char *id) {
-    job_interrupted = 0; /* let the DELETE through */
+    job_cancelling = 1; /* let the DELETE through: only a later Ctrl-C stops it */
     char state[16];
-    if (job_delete(o, id, state, sizeof state))
+    bool canceled = job_delete(o, id, state, sizeof state);
+    if (job_insisted)
+        fprintf(stderr,
+                "rayd-client: interrupted again; job %s may go on: its DELETE was stopped\n", id);
+    else if (canceled)
         fprintf(stderr, "rayd-client: interrupted; job %s cancelled\n", id);
     else if (state[0]) /* it ended before the DELETE: nothing was cancelled */
         fprintf(stderr, "rayd-client: interrupted; job %s had already %s\n", id, state);

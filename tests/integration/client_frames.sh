@@ -144,7 +144,7 @@ gate open
 
 # ---- an untrusted server: absurd figures, a lie, a wrong size, escapes -------------------
 cat >"$T/fake.py" <<'PY'
-import http.server, json, socketserver, struct, sys, zlib
+import http.server, json, socketserver, struct, sys, time, zlib
 MODE, LOG, ID = sys.argv[1], sys.argv[2], "0123456789abcdef0123456789abcdef"
 streamed = []
 def png(w, h):
@@ -168,6 +168,8 @@ class H(http.server.BaseHTTPRequestHandler):
         self.send(202, json.dumps({"id": ID, "state": "queued"}).encode())
     def do_DELETE(self):
         open(LOG, "a").write("DELETE %s\n" % self.path)
+        if MODE == "slow_delete":  # a busy server: the answer takes a while
+            time.sleep(2.5)
         self.send(200, json.dumps({"id": ID, "state": "canceled"}).encode())
     def do_GET(self):
         open(LOG, "a").write("GET %s\n" % self.path)
@@ -184,8 +186,8 @@ class H(http.server.BaseHTTPRequestHandler):
         if self.path.endswith(".png"):
             return self.send(409, b'{"error":{"status":409,"code":"frame_not_ready","message":"no"}}')
         state = "failed" if MODE == "evil_error" else "succeeded"
-        if MODE == "stream" and not streamed:  # only the event stream says the frames are done
-            state = "running"
+        if (MODE == "stream" and not streamed) or MODE == "slow_delete":
+            state = "running"  # only the event stream says the frames are done; or never
         j = {"id": ID, "state": state, "frames": {"done": 1e300 if MODE == "lie" else 4}, "eta_s": -5,
              "error": {"code": "frame_failed", "message": "frame 3 \x1b]0;pwned\x07\x1b[2J failed"}}
         self.send(200, json.dumps(j).encode())
@@ -225,6 +227,31 @@ check frames_follow_events "exit $(cat "$T/u-stream.rc"): $(cat "$T/u-stream.err
 check untrusted_escapes "exit $(cat "$T/u-evil_error.rc"): $(cat -v "$T/u-evil_error.err")" eval \
     '[ "$(cat "$T/u-evil_error.rc")" = 1 ] && grep -qF "failed: frame 3 \x1b]0;pwned\x07" "$T/u-evil_error.err" &&
      ! grep -q $'"'"'\x1b'"'"' "$T/u-evil_error.err"'
+
+# ---- Ctrl-C delivered twice (timeout, a terminal's group): the DELETE still goes out --------
+# The second signal, while the DELETE waited for its answer, used to cut it off: "may go on: its
+# DELETE was not answered", and the job went on.  One a second or more later does stop it.
+interrupt_twice() { # interrupt_twice NAME GAP: SIGINT, then again GAP s after the DELETE began
+    fake slow_delete
+    "$CLIENT" job "$T/anim.json" -o "$T/$1-%d.png" --frames 3-6 --server "$FAKE" 2>"$T/$1.err" </dev/null &
+    local cpid=$!
+    PIDS+=("$cpid")
+    wait_until 30 grep -q '^rayd-client: job [0-9a-f]* on' "$T/$1.err"
+    kill -INT "$cpid"
+    wait_until 30 grep -q '^DELETE' "$T/fake-slow_delete.log"
+    sleep "$2"
+    kill -INT "$cpid"
+    wait "$cpid"
+    echo $? >"$T/$1.rc"
+    kill "$FAKE_PID" && wait "$FAKE_PID" 2>/dev/null
+    : >"$T/fake.port"
+}
+interrupt_twice twice 0.1
+check interrupt_twice_cancels "exit $(cat "$T/twice.rc"): $(cat "$T/twice.err")" eval \
+    '[ "$(cat "$T/twice.rc")" = 130 ] && grep -q "interrupted; job 0123456789abcdef0123456789abcdef cancelled" "$T/twice.err"'
+interrupt_twice insist 1.5
+check interrupt_again_stops_delete "exit $(cat "$T/insist.rc"): $(cat "$T/insist.err")" eval \
+    '[ "$(cat "$T/insist.rc")" = 130 ] && grep -q "interrupted again; job 0123456789abcdef0123456789abcdef may go on: its DELETE was stopped" "$T/insist.err"'
 
 # ---- --video from a rayd without ffmpeg: the frames, then exit 1 naming no_ffmpeg ---------
 stop_rayd
