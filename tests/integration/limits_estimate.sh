@@ -160,3 +160,15 @@ job_ok progressive_admitted "progressive=1&pass_step=1" "$T/small.json"
 job_413 progressive_denoise_refused "/v1/jobs?progressive=1&pass_step=1&denoise=1" "$T/small.json" # 8 filters: 11M
 stop_rayd
 check rayd_exit_0 "exit $RAYD_RC" [ "$RAYD_RC" = 0 ]
+
+# --- the EXR's encode is priced: 0.5 rays a channel a pixel ----------------------------------
+# An empty 1024 x 1024 scene is 1M rays as a PNG; as an EXR with every AOV (13 channels) its
+# encode adds 6.8M, over a --max-work of 5M.  Before, an 84-byte scene at 4096 x 4096 with
+# ?aov=all was priced at its 16.7M rays and spent 8 s of its 13 s in the encode.
+start_rayd --threads 1 --max-work 5000000
+job_ok exr_rgb_admitted "format=exr" "$T/big.json" # 1M + 1.5M
+job_413 exr_aov_all_refused "/v1/render?format=exr&aov=all" "$T/big.json"
+job_413 job_exr_aov_refused "/v1/jobs?format=exr&aov=all" "$T/big.json"
+job_ok png_aov_admitted "aov=normal" "$T/big.json" # a PNG of one AOV: no EXR to write
+stop_rayd
+check rayd_exit_0 "exit $RAYD_RC" [ "$RAYD_RC" = 0 ]
