@@ -336,7 +336,7 @@ CPU_AVX512_INLINE bool bvh16_descend(const char *nodes, int width, const char *l
 }
 
 /* Leaf entries met in one walk between two looks at the render's meter
- * (meter_live), as the one-ray walks of the scene look (meter_visit in
+ * (meter_live), as the one-ray walks of the scene look (objects_walk in
  * scene/scene_query.c): thousands of triangles or instances overlapping
  * where the packet goes cost no rays, and nothing else would stop them. */
 #define BVH16_LOOK_VISITS 4096

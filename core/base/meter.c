@@ -54,15 +54,3 @@ bool meter_close(struct meter *m) {
     }
     return meter_take(m) || meter_halt(m, RAYD_E_LIMIT);
 }
-
-bool meter_visits_look(struct meter *m) {
-    m->visits_next = m->visits + METER_VISITS_LOOK;
-    uint64_t free = m->rays * METER_VISITS_FREE;
-    uint64_t over = m->visits > free ? m->visits - free : 0;
-    if (over > m->visits_work) {
-        m->work += over - m->visits_work;
-        m->visits_work = over;
-        if (m->rays + m->work >= m->next && !meter_check(m)) return false;
-    }
-    return meter_poll(m);
-}

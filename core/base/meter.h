@@ -23,7 +23,7 @@
  * CSG loop also counts its work (meter_work, in rays' worth) against the
  * budget, beside the rays: one ray through thousands of nested operands
  * costs millions of point tests, which a budget of rays alone would never
- * see.  So do the walks over objects (meter_visit): a ray threading a row
+ * see.  So do the walks over objects (meter_visits): a ray threading a row
  * of a million instanced tori visits every one and hits none.  The work is
  * not counted as rays (the count a render reports).
  *
@@ -53,22 +53,19 @@ struct meter {
     const atomic_int *cancel;   /* may be NULL */
     atomic_int_least64_t *left; /* the shared budget, may be NULL */
     enum rayd_status stop;      /* RAYD_OK while it goes */
-    uint64_t visits;            /* objects the scene's walks visited (meter_visit) */
-    uint64_t visits_next;       /* visits at the next look */
-    uint64_t visits_work;       /* of work, counted for visits past the free ones */
 };
 
-/* Visits between two looks of meter_visit. */
-#define METER_VISITS_LOOK 4096
-/* Objects a ray's price covers: the first METER_VISITS_FREE a ray (on
- * average over the meter's rays) are free; past them each visit is a ray's
- * worth of work -- the price of a ray through a row of a million tori
- * that it threads without a hit. */
+/* Objects one walk's price covers, a ray: a walk of the scene's BVH (a
+ * ray's, or an instance's inside it) visits the first METER_VISITS_FREE
+ * free, and each one past them is a ray's worth of work (meter_visits) --
+ * the price of a ray through a row of a million tori that it threads
+ * without a hit.  Counted walk by walk, so what a render is charged does
+ * not depend on the order its rays come in, its tiling or its threads. */
 #define METER_VISITS_FREE 64
 
 /* A meter for a render with that cancel flag and budget (either NULL). */
 static inline struct meter meter_make(const atomic_int *cancel, atomic_int_least64_t *left) {
-    struct meter m = {0, 0, METER_EVERY, 0, cancel, left, RAYD_OK, 0, METER_VISITS_LOOK, 0};
+    struct meter m = {0, 0, METER_EVERY, 0, cancel, left, RAYD_OK};
     return m;
 }
 
@@ -121,17 +118,6 @@ static inline bool meter_live(void) {
     return !m || meter_poll(m);
 }
 
-/* Counts the visits past the free ones as work; false when the render
- * must stop (meter.c). */
-bool meter_visits_look(struct meter *m);
-
-/* Counts one object visited by a scene's walk on this thread's meter (none
- * bound: nothing); false when the render must stop. */
-static inline bool meter_visit(void) {
-    struct meter *m = meter_here;
-    return !m || ++m->visits < m->visits_next || meter_visits_look(m);
-}
-
 /* Counts n rays' worth of a scene's own work on this thread's meter (none
  * bound: nothing); false when the render must stop. */
 static inline bool meter_work(uint64_t n) {
@@ -139,6 +125,14 @@ static inline bool meter_work(uint64_t n) {
     if (!m) return true;
     m->work += n;
     return m->rays + m->work < m->next || meter_check(m);
+}
+
+/* Counts a walk for rays rays (a packet's lanes) that visited n objects:
+ * those past METER_VISITS_FREE a ray, a ray's worth each; false when the
+ * render must stop. */
+static inline bool meter_visits(uint64_t n, uint64_t rays) {
+    uint64_t free = rays * METER_VISITS_FREE;
+    return n <= free || meter_work(n - free);
 }
 
 #endif

@@ -62,7 +62,8 @@ struct scene16 {
     struct hit *h;
     const struct object *base; /* ranks: rank0 + (o - base) */
     long rank0;
-    uint32_t kept; /* the rays whose hit is in leaf and tmax, not h */
+    uint32_t kept;   /* the rays whose hit is in leaf and tmax, not h */
+    uint64_t visits; /* objects the top level's walk visited, each once a lane (meter.h) */
     ray rbuf[16];
 };
 
@@ -403,6 +404,7 @@ CPU_AVX512_FN __m512 node_bounds16(const double tmax[16]) {
 CPU_AVX512_FN __mmask16 tlas_nearest(void *ctx, uint32_t first, uint32_t count, __mmask16 lanes,
                                      __m512 *tm) {
     struct scene16 *q = ctx;
+    q->visits += (uint64_t)count * (uint64_t)__builtin_popcount(lanes);
     for (uint32_t k = first; k < first + count; k++) visit_nearest16(q, &q->s->objs[k], lanes);
     *tm = node_bounds16(q->tmax);
     return 0;
@@ -413,8 +415,11 @@ CPU_AVX512_FN __mmask16 tlas_any(void *ctx, uint32_t first, uint32_t count, __mm
     struct scene16 *q = ctx;
     (void)tm;
     __mmask16 blocked = 0;
-    for (uint32_t k = first; k < first + count && blocked != lanes; k++)
-        blocked |= (__mmask16)visit_any16(q, &q->s->objs[k], lanes & (__mmask16)~blocked);
+    for (uint32_t k = first; k < first + count && blocked != lanes; k++) {
+        __mmask16 open = lanes & (__mmask16)~blocked;
+        q->visits += (uint64_t)__builtin_popcount(open);
+        blocked |= (__mmask16)visit_any16(q, &q->s->objs[k], open);
+    }
     return blocked;
 }
 
@@ -442,8 +447,11 @@ CPU_AVX512_FN uint32_t intersect16(struct scene16 *q, const double tmax[16], uin
         struct bvh16_ray br;
         bvh16_ray_init(&br, &q->rd, 4);
         __m512 tm = node_bounds16(q->tmax);
+        q->visits = 0;
         bvh16_walk(s->tlas.nodes, 4, NULL, 0, &br, &tm, (__mmask16)active, tlas_nearest, NULL, q,
                    true);
+        meter_visits(q->visits,
+                     (uint64_t)__builtin_popcount(active)); /* a stop: at the next look */
     }
     uint32_t kept = q->kept & active;
     if (simple) {
@@ -582,8 +590,11 @@ CPU_AVX512_FN uint32_t transmittance16(struct scene16 *q, const double tmax[16],
         struct bvh16_ray br;
         bvh16_ray_init(&br, &q->rd, 4);
         __m512 tm = node_bounds16(q->tmax);
+        uint64_t lanes = (uint64_t)__builtin_popcount(open);
+        q->visits = 0;
         open &= ~(uint32_t)bvh16_walk(s->tlas.nodes, 4, NULL, 0, &br, &tm, (__mmask16)open,
                                       tlas_any, NULL, q, false);
+        meter_visits(q->visits, lanes);
     }
     return open;
 }

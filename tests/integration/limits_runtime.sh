@@ -208,6 +208,42 @@ check visits_message "$(head -c 400 "$T/body")" limit_answer "$T/body" "200000 r
 curl -s -m 30 -X POST -o "$T/gate.json" "$URL/v1/test/gate?work=open" >/dev/null
 code=$(post_json /v1/render "$T/small.json")
 check visits_then_small_renders "status $code" [ "$code" = 200 ]
+# the same row as objects of the scene itself (no instances): the 4x4 packets' walk counts too
+python3 - "$T" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1] + "/tori.json"))
+s["objects"] = [dict(o, center=[0, 0, -10 * k]) for k, o in enumerate(s.pop("groups")["row"] * 7)]
+s["render"]["width"] = s["render"]["height"] = 32
+json.dump(s, open(sys.argv[1] + "/tori_flat.json", "w"), separators=(",", ":"))
+PY
+curl -s -m 30 -X POST -o "$T/gate.json" "$URL/v1/test/gate?work=20000" >/dev/null
+timed_render "$T/tori_flat.json"
+check visits_packets_stop_render "status $code after $took s: $(head -c 300 "$T/body")" \
+    bash -c "[ $code = 413 ] && grep -q -- '--max-work' '$T/body'"
+# counted walk by walk: a scene and its mirror image (150 spheres over the top half of the
+# view, or the bottom half) are stopped alike under any budget -- a running balance over the
+# thread's rays charged the dense half only when its rays came first
+stop_rayd TERM
+# the one-ray walks (the packets' are counted a packet at a time, also whatever the order)
+RAYD_WRAP="env RAYD_NO_AVX512=1" start_rayd --threads 1 --max-render-seconds 60 --test-gate open
+same=
+for w in 400 8000 40000; do
+    for half in top:1 bottom:-1; do
+        python3 - "$T/${half%%:*}.json" "${half#*:}" "$w" <<'PY'
+import json, sys
+json.dump({"render": {"width": 16, "height": 16, "seed": int(sys.argv[3])},
+           "camera": {"projection": "orthographic", "view_width": 1, "position": [0, 0, 10],
+                      "look_at": [0, 0, 0]},
+           "lights": [{"type": "point", "position": [0, 0, 10]}],
+           "objects": [{"type": "sphere", "center": [0, float(sys.argv[2]), 0], "radius": 0.75}
+                       for _ in range(150)]}, open(sys.argv[1], "w"))
+PY
+    done
+    curl -s -m 30 -X POST -o "$T/gate.json" "$URL/v1/test/gate?work=$w" >/dev/null
+    same="$same $w:$(post_json /v1/render "$T/top.json")/$(post_json /v1/render "$T/bottom.json")"
+done
+check visits_order_free "budget:top/bottom$same" bash -c "! echo '$same' | grep -q -E '200/413|413/200'"
+curl -s -m 30 -X POST -o "$T/gate.json" "$URL/v1/test/gate?work=open" >/dev/null
 stop_rayd TERM
 
 # --- the denoiser's work counts, not only the rays -----------------------------------
