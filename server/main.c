@@ -137,6 +137,17 @@ static void main_std_fds(void) {
 
 /* The worker pool, the router and the listener, with the signals the
  * main thread waits for blocked in every thread: 0, or 1 after saying why. */
+/* A start that failed once the jobs of --data-dir were back: stopped as a
+ * drain stops them, parses and the store first, so the pool's cancels are
+ * not written (the jobs stay queued on disk) and the store is marked
+ * clean (no attempt counted against them).  Before, a port already in use
+ * wrote every restored job as cancelled. */
+static void main_unwind(void) {
+    compile_stop();
+    durable_stop();
+    sched_stop();
+}
+
 static int main_start(sigset_t *set) {
     metrics_start(config.max_render_seconds);
     sigemptyset(set);
@@ -171,11 +182,13 @@ static int main_start(sigset_t *set) {
     }
     router_start();
     if (http_start()) {
-        sched_stop();
+        main_unwind();
         return 1;
     }
     if (!cluster_start(http_port())) { /* --redis: the puller and the request thread */
         fprintf(stderr, "rayd: error: cannot start the cluster's threads\n");
+        http_stop();
+        main_unwind();
         return 1;
     }
     return 0;

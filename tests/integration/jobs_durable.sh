@@ -172,6 +172,27 @@ check drains_no_attempt "$(head -c 300 "$T/body")" job_state_is "$(jid deploy)" 
 wait_until 60 job_state_is "$(jid anim)" succeeded
 check drains_no_attempt_frames "$(head -c 300 "$T/body")" job_state_is "$(jid anim)" succeeded
 
+# a start that fails once the jobs are back (the port in use) leaves them queued, no attempt
+# counted: it wrote every one of them as cancelled
+scene "$T/portjob.json" 32 32 1 spheres 14
+stop_rayd TERM
+start_rayd --threads 1 --test-gate 0 --data-dir "$D" --drain-seconds 0
+post_job portjob
+stop_rayd TERM
+python3 -c 'import socket, time
+s = socket.socket(); s.bind(("127.0.0.1", 0)); s.listen()
+print(s.getsockname()[1], flush=True); time.sleep(120)' >"$T/busy.port" &
+busy=$!
+wait_until 10 test -s "$T/busy.port"
+timeout 60 "$RAYD" --bind 127.0.0.1 --port "$(head -1 "$T/busy.port")" --threads 1 --data-dir "$D" \
+    >/dev/null 2>"$T/busy.err"
+check port_in_use_start_fails "exit $?: $(tail -2 "$T/busy.err")" grep -q "queued again" "$T/busy.err"
+kill "$busy"
+wait "$busy" 2>/dev/null
+start_rayd --threads 1 --data-dir "$D"
+wait_until 60 job_state_is "$(jid portjob)" succeeded
+check failed_start_keeps_jobs "$(head -c 300 "$T/body")" job_state_is "$(jid portjob)" succeeded
+
 # five kills while unfinished do count: both kinds of job fail, saying so, and a failed job
 # does not say it got to the end (it said progress 1, every tile done)
 scene "$T/poison.json" 32 32 1 spheres 13
