@@ -498,25 +498,35 @@ static void shots_let_go(struct shot *s, int i, enum shots_gone gone) {
 }
 
 /* s's video let go for the memory budget (lock held): made again from the
- * frames' files when asked for (--data-dir), else gone for good (410). */
+ * frames' files when asked for (--data-dir, every frame on disk), else gone
+ * for good (410). */
 static void shots_let_go_video(struct shot *s) {
+    bool files = store_on();
+    for (int i = 0; i < s->n && files; i++) files = s->f[i].on_disk;
     blob_unref(s->video);
     s->video = NULL;
-    s->video_state = store_on() ? SV_NONE : SV_EVICTED;
+    s->video_state = files ? SV_NONE : SV_EVICTED;
     snprintf(s->video_error, sizeof s->video_error, "%s",
-             store_on() ? ""
-                        : "the video was let go to keep rayd within its memory budget "
-                          "(--max-memory); render the range again");
+             files ? ""
+                   : "the video was let go to keep rayd within its memory budget "
+                     "(--max-memory); render the range again");
     log_info("job %s: video evicted (over --max-memory)", s->id);
 }
 
-/* The finished shot that ended first and keeps a frame or its video. */
+/* When the budget may let go of what s keeps: the oldest first, by its end,
+ * or by when its video was last made or asked for -- so a video made again
+ * is not the next to go, made again, and so on. */
+static double shots_kept_since(const struct shot *s) {
+    return s->video && s->video_used > shots_ended(s) ? s->video_used : shots_ended(s);
+}
+
+/* The finished shot that keeps a frame or its video, kept the longest. */
 static struct shot *shots_oldest_kept(void) {
     struct shot *best = NULL;
     for (int i = 0; i < shots_n; i++) {
         struct shot *s = shots_table[i];
-        if (shots_final(s) && s->flying == 0 && (!best || shots_ended(s) < shots_ended(best)) &&
-            shots_keeps(s))
+        if (shots_final(s) && s->flying == 0 &&
+            (!best || shots_kept_since(s) < shots_kept_since(best)) && shots_keeps(s))
             best = s;
     }
     return best;
@@ -525,13 +535,13 @@ static struct shot *shots_oldest_kept(void) {
 static double shots_oldest_end(void) {
     work_assert_locked();
     struct shot *s = shots_oldest_kept();
-    return s ? shots_ended(s) : -1;
+    return s ? shots_kept_since(s) : -1;
 }
 
 static bool shots_evict_oldest(void) {
     work_assert_locked();
     struct shot *s = shots_oldest_kept();
-    for (int c = 0; s && c < s->norder; c++) { /* its frames in the order they ended */
+    for (int c = 0; s && !store_on() && c < s->norder; c++) { /* its frames as they ended */
         int i = s->order[c];
         if (s->f[i].png || s->f[i].exr) {
             shots_let_go(s, i, SG_MEMORY);
@@ -889,6 +899,7 @@ static void shots_video_make(void *arg) {
                  "render the range again",
                  s->first + missing, s->f[missing].gone == SG_DISK ? "--max-disk" : "--max-memory");
     s->video = mp4;
+    s->video_used = clock_now();
     s->video_state = st == VIDEO_OK ? SV_READY : st == VIDEO_NO_FFMPEG ? SV_NO_FFMPEG : SV_FAILED;
     if (evicted) s->video_state = SV_EVICTED; /* never made: its frame is missing */
     snprintf(s->video_error, sizeof s->video_error, "%s", st == VIDEO_OK ? "" : err);
@@ -918,6 +929,7 @@ struct blob *shots_video(const char *id, struct shots_info *info) {
     if (s) {
         shots_info_of(s, info);
         b = blob_ref(s->video);
+        if (b) s->video_used = clock_now(); /* the budget lets go of the least used first */
     }
     work_lock_give();
     if (!s) info->job.id[0] = 0;

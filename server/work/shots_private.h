@@ -73,6 +73,7 @@ struct shot {
     struct work_waiter *sse; /* event streams waiting for news */
     int video_state;         /* enum shots_video */
     struct blob *video;
+    double video_used; /* clock_now() when made or last asked for: the budget's order */
     char video_error[200];
 };
 
