@@ -135,8 +135,6 @@ static void main_std_fds(void) {
         }
 }
 
-/* The worker pool, the router and the listener, with the signals the
- * main thread waits for blocked in every thread: 0, or 1 after saying why. */
 /* A start that failed once the jobs of --data-dir were back: stopped as a
  * drain stops them, parses and the store first, so the pool's cancels are
  * not written (the jobs stay queued on disk) and the store is marked
@@ -148,6 +146,8 @@ static void main_unwind(void) {
     sched_stop();
 }
 
+/* The worker pool, the router and the listener, with the signals the
+ * main thread waits for blocked in every thread: 0, or 1 after saying why. */
 static int main_start(sigset_t *set) {
     metrics_start(config.max_render_seconds);
     sigemptyset(set);
