@@ -265,58 +265,64 @@ object_hit(const rayd_scene *s, const struct object *o, const struct xform *oute
  * brute (tests) or a single object, every object is visited in order. */
 typedef bool (*visit_fn)(void *ctx, const struct object *o, double *tmax);
 
-/* Counts a walk's visits past those counted so far (*counted) on the
- * render's meter, then looks at it; false when the render stopped. */
-static bool walk_count(uint32_t visits, uint32_t *counted) {
-    bool going = meter_visits(visits - *counted, 1) && meter_live();
-    *counted = visits > METER_VISITS_FREE ? visits - METER_VISITS_FREE : 0;
+/* The objects one walk visited, and of those past METER_VISITS_FREE how
+ * many are on the render's meter already. */
+struct walk_tally {
+    uint32_t visits, charged;
+};
+
+/* Charges the walk's visits past METER_VISITS_FREE not charged yet, a ray
+ * each (meter.h), then looks at the meter; false when the render stopped. */
+static bool walk_charge(struct walk_tally *w) {
+    uint32_t over = w->visits > METER_VISITS_FREE ? w->visits - METER_VISITS_FREE : 0;
+    bool going = meter_work(over - w->charged) && meter_live();
+    w->charged = over;
     return going;
 }
 
 /* Always inlined: each caller passes a constant visit, so the compiler
  * makes one walk per visitor with the visitor's body in the leaf loop, not
- * an indirect call per object (the walk is a hot path: every ray).  Returns
- * the objects visited. */
-__attribute__((always_inline)) static inline uint32_t
-objects_walk_visits(const struct object *objs, int32_t n, const struct bvh4 *bvh, bool brute,
-                    const ray *r, double *tmax, visit_fn visit, void *ctx) {
-    uint32_t visits = 0;
+ * an indirect call per object (the walk is a hot path: every ray).  The
+ * visits are counted in *w, and charged every SCENE_LOOK_VISITS. */
+__attribute__((always_inline)) static inline void
+objects_walk_tally(const struct object *objs, int32_t n, const struct bvh4 *bvh, bool brute,
+                   const ray *r, double *tmax, visit_fn visit, void *ctx, struct walk_tally *w) {
     if (brute || n <= 1) {
-        while (visits < (uint32_t)n && visit(ctx, &objs[visits], tmax)) visits++;
-        return visits;
+        for (int32_t i = 0; i < n; i++, w->visits++)
+            if (!visit(ctx, &objs[i], tmax)) return;
+        return;
     }
     struct bvh_ray br;
     bvh_ray_init(&br, r->o, r->d);
     struct bvh_entry stack[BVH_STACK], e = {0, 0, 0};
     int sp = 0;
-    uint32_t counted = 0; /* of the visits, those past the free ones already on the meter */
     for (;;) {
         float tm = *tmax > 3e38 ? 3e38f : (float)*tmax * BVH_SLACK;
         if (e.count == 0) {
             if (bvh4_descend(bvh->nodes, &e, &br, tm, stack, &sp, BVH_SORTED)) continue;
         } else {
             for (uint32_t i = e.node; i < e.node + e.count; i++) {
-                if (++visits % SCENE_LOOK_VISITS == 0 && !walk_count(visits, &counted))
-                    return 0; /* stopped: nothing more is counted */
-                if (!visit(ctx, &objs[i], tmax)) return visits - counted;
+                if (++w->visits % SCENE_LOOK_VISITS == 0 && !walk_charge(w)) return;
+                if (!visit(ctx, &objs[i], tmax)) return;
             }
         }
         do { /* pop the next entry still in reach */
-            if (sp == 0) return visits - counted;
+            if (sp == 0) return;
             e = stack[--sp];
         } while (e.tnear > *tmax * BVH_SLACK);
     }
 }
 
-/* The walk, its visits past METER_VISITS_FREE counted on the meter as a
- * ray each (meter.h): the count of one walk, whatever the order of the
- * render's rays.  Only a walk past the free ones touches the meter. */
+/* The walk, its visits past METER_VISITS_FREE charged as a ray each: the
+ * count of one walk, whatever the order of the render's rays.  Only a walk
+ * past the free ones touches the meter. */
 __attribute__((always_inline)) static inline void objects_walk(const struct object *objs, int32_t n,
                                                                const struct bvh4 *bvh, bool brute,
                                                                const ray *r, double *tmax,
                                                                visit_fn visit, void *ctx) {
-    uint32_t left = objects_walk_visits(objs, n, bvh, brute, r, tmax, visit, ctx);
-    if (left > METER_VISITS_FREE) meter_visits(left, 1);
+    struct walk_tally w = {0, 0};
+    objects_walk_tally(objs, n, bvh, brute, r, tmax, visit, ctx, &w);
+    if (w.visits > METER_VISITS_FREE) walk_charge(&w);
 }
 
 /* objects_walk over s->flat (a scene of few objects, scene.c): every box
