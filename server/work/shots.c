@@ -867,9 +867,11 @@ static bool shots_unwait(struct work_waiter *w, struct task_notify *gone) {
 
 /* ---- the video ------------------------------------------------------------------ */
 
-#define SHOTS_VIDEO_SECONDS(n) (60.0 + 2.0 * (n)) /* ffmpeg's time for n frames */
+/* Seconds ffmpeg may take for a video of n frames before it is stopped. */
+#define SHOTS_VIDEO_SECONDS(n) (60.0 + 2.0 * (n))
 
-/* s's frames, read from disk if need be; the video made unlocked, kept (videoq.c). */
+/* s's frames (referenced, read from disk if need be), then the video made
+ * without the lock and kept (on the video thread, videoq.c). */
 static void shots_video_make(void *arg) {
     struct shot *s = arg;
     struct blob **frames = calloc((size_t)s->n, sizeof *frames);
