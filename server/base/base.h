@@ -326,5 +326,11 @@ enum video_status { VIDEO_OK, VIDEO_FAILED, VIDEO_NO_FFMPEG };
  * limit seconds; else err says why.  Blocks: never on an HTTP thread. */
 enum video_status video_encode(struct blob *const *frames, int n, double fps, double limit,
                                struct blob **out, char *err, size_t size);
+/* From now on video_encode begins nothing and kills the ffmpeg running
+ * (its folder removed): the server stops. */
+void video_stop(void);
+/* Removes the frame folders that rayd processes no longer running left in
+ * $TMPDIR (killed mid-video); how many. */
+int video_sweep(void);
 
 #endif

@@ -15,13 +15,23 @@
  * message of a failure.  That message goes to the client (the job's
  * video_failed) without the folder's path, which is the server's business:
  * the whole line, path and all, is in the server's log.
+ *
+ * A server that stops while a video is made (video_stop) kills its ffmpeg
+ * and removes the folder: left running, ffmpeg outlived rayd and wrote its
+ * out.mp4 into a folder nobody removed, a folder of frames in $TMPDIR for
+ * each restart mid-video.  A rayd killed outright cannot clean up, so the
+ * folder's name carries its PID (rayd-video-PID-XXXXXX) and the next
+ * server's start removes the folders of PIDs no longer running
+ * (video_sweep).
  */
 #include "base/base.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <signal.h>
 #include <spawn.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -31,6 +41,20 @@
 #include <unistd.h>
 
 extern char **environ;
+
+/* Raised by video_stop: no video is begun, and a running ffmpeg is killed. */
+static atomic_bool video_stopping;
+
+/* The folders' name before the PID: rayd-video-PID-XXXXXX. */
+#define VIDEO_DIR_PREFIX "rayd-video-"
+
+void video_stop(void) { atomic_store(&video_stopping, true); }
+
+/* $TMPDIR, or /tmp. */
+static const char *video_tmp(void) {
+    const char *base = getenv("TMPDIR");
+    return base && *base ? base : "/tmp";
+}
 
 /* bytes to path whole; 0, or -1 with errno. */
 static int video_write(const char *path, const void *data, size_t len) {
@@ -66,8 +90,8 @@ static struct blob *video_read(const char *path) {
 }
 
 /* Runs ffmpeg over dir's frames into dir/out.mp4, waiting up to limit
- * seconds: its exit status, -2 when it was killed for time, -1 (errno)
- * when it could not start. */
+ * seconds: its exit status, -2 when it was killed for time, -3 when
+ * killed because the server stops, -1 (errno) when it could not start. */
 static int video_ffmpeg(const char *dir, double fps, double limit) {
     char in[4200], out[4200], log[4200], rate[64];
     snprintf(in, sizeof in, "%s/frame-%%06d.png", dir);
@@ -116,10 +140,11 @@ static int video_ffmpeg(const char *dir, double fps, double limit) {
         pid_t w = waitpid(pid, &status, WNOHANG);
         if (w == pid) break;
         if (w < 0 && errno != EINTR) return 1;
-        if (clock_now() > end) {
+        bool stop = atomic_load(&video_stopping);
+        if (stop || clock_now() > end) {
             kill(pid, SIGKILL);
             waitpid(pid, &status, 0);
-            return -2;
+            return stop ? -3 : -2;
         }
         struct timespec ts = {0, 20 * 1000000L};
         nanosleep(&ts, NULL);
@@ -170,9 +195,12 @@ static void video_clean(const char *dir, int n) {
 enum video_status video_encode(struct blob *const *frames, int n, double fps, double limit,
                                struct blob **out, char *err, size_t size) {
     *out = NULL;
-    const char *base = getenv("TMPDIR");
+    if (atomic_load(&video_stopping)) {
+        snprintf(err, size, "the server stopped before the video was made");
+        return VIDEO_FAILED;
+    }
     char dir[4096], path[4200];
-    snprintf(dir, sizeof dir, "%s/rayd-video-XXXXXX", base && *base ? base : "/tmp");
+    snprintf(dir, sizeof dir, "%s/" VIDEO_DIR_PREFIX "%ld-XXXXXX", video_tmp(), (long)getpid());
     if (!mkdtemp(dir)) {
         snprintf(err, size, "cannot make a folder for the video's frames: %s", strerror(errno));
         return VIDEO_FAILED;
@@ -180,6 +208,11 @@ enum video_status video_encode(struct blob *const *frames, int n, double fps, do
     int written = 0;
     for (; written < n; written++) {
         snprintf(path, sizeof path, "%s/frame-%06d.png", dir, written);
+        if (atomic_load(&video_stopping)) {
+            snprintf(err, size, "the server stopped before the video was made");
+            video_clean(dir, written);
+            return VIDEO_FAILED;
+        }
         if (!frames[written] ||
             video_write(path, frames[written]->data, frames[written]->len) != 0) {
             snprintf(err, size, "cannot write frame %d for the video: %s", written,
@@ -199,6 +232,9 @@ enum video_status video_encode(struct blob *const *frames, int n, double fps, do
     } else if (rc == -2) {
         snprintf(err, size, "ffmpeg took more than %.0f s and was stopped", limit);
         st = VIDEO_FAILED;
+    } else if (rc == -3) {
+        snprintf(err, size, "the server stopped before the video was made");
+        st = VIDEO_FAILED;
     } else if (rc != 0) {
         char tail[300];
         video_log_tail(dir, tail, sizeof tail);
@@ -215,4 +251,46 @@ enum video_status video_encode(struct blob *const *frames, int n, double fps, do
     }
     video_clean(dir, n);
     return st;
+}
+
+/* The PID in a folder's name after the prefix ("PID-XXXXXX"), or 0. */
+static long video_dir_pid(const char *rest) {
+    char *end;
+    long pid = strtol(rest, &end, 10);
+    return pid > 0 && end != rest && *end == '-' && strlen(end + 1) == 6 ? pid : 0;
+}
+
+/* Removes dir's files (the folder holds no folders) and dir. */
+static void video_remove(const char *dir) {
+    DIR *d = opendir(dir);
+    if (!d) return;
+    char path[4200];
+    struct dirent *e;
+    while ((e = readdir(d)))
+        if (strcmp(e->d_name, ".") != 0 && strcmp(e->d_name, "..") != 0 &&
+            snprintf(path, sizeof path, "%s/%s", dir, e->d_name) < (int)sizeof path)
+            unlink(path);
+    closedir(d);
+    rmdir(dir);
+}
+
+int video_sweep(void) {
+    const char *base = video_tmp();
+    DIR *d = opendir(base);
+    if (!d) return 0;
+    int swept = 0;
+    size_t n = strlen(VIDEO_DIR_PREFIX);
+    char dir[4200];
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        long pid = strncmp(e->d_name, VIDEO_DIR_PREFIX, n) == 0 ? video_dir_pid(e->d_name + n) : 0;
+        /* ESRCH: no such process; EPERM means one runs, someone else's */
+        if (pid <= 0 || pid == (long)getpid() || kill((pid_t)pid, 0) == 0 || errno != ESRCH)
+            continue;
+        if (snprintf(dir, sizeof dir, "%s/%s", base, e->d_name) >= (int)sizeof dir) continue;
+        video_remove(dir);
+        swept++;
+    }
+    closedir(d);
+    return swept;
 }

@@ -577,6 +577,10 @@ static void shots_disk_evicted(const char *id, long k, const char *why) {
 
 /* ---- the table ------------------------------------------------------------------ */
 
+/* The stop's wait for the video thread to let go of its videos (ffmpeg
+ * killed: milliseconds). */
+#define SHOTS_VIDEO_STOP_SECONDS 2.0
+
 static struct work_waiter **shots_streams(int i);
 static bool shots_unwait(struct work_waiter *w, struct task_notify *gone);
 
@@ -585,11 +589,14 @@ bool shots_start(int max_jobs) {
     store_frame_hooks(shots_written, shots_disk_evicted);
     jobs_shots_hooks(&hooks);
     watch_streams_hooks(shots_streams, shots_unwait, shots_kick);
+    int swept = video_sweep();
+    if (swept > 0) log_info("removed %d video folders that stopped servers left", swept);
     shots_table = calloc((size_t)max_jobs, sizeof *shots_table);
     return shots_table != NULL;
 }
 
 void shots_stop(void) {
+    videoq_stop(SHOTS_VIDEO_STOP_SECONDS);
     work_lock_take();
     for (int i = 0; i < shots_n; i++) shots_unref(shots_table[i]);
     shots_n = 0;

@@ -8,10 +8,15 @@
  * for (a server that makes none has none), and is started again at the
  * next one if it could not be.  What a video is made of is the caller's
  * (shots.c hands in its make function): this file only queues and runs.
+ * At the server's stop (videoq_stop) the video being made is given up
+ * (video_stop kills its ffmpeg) and those queued run at once to their
+ * failure, so each lets go of what it holds; the stop waits for that.
  */
 #include "work/work_private.h"
 
+#include <errno.h>
 #include <stdlib.h>
+#include <time.h>
 
 struct videoq_item {
     void (*make)(void *arg);
@@ -21,19 +26,26 @@ struct videoq_item {
 
 static struct videoq_item *videoq_head; /* lock held */
 static pthread_cond_t videoq_cond = PTHREAD_COND_INITIALIZER;
+static pthread_cond_t videoq_idle = PTHREAD_COND_INITIALIZER; /* the queue ran dry */
 static bool videoq_started;
+static bool videoq_busy; /* an item's make runs (lock held) */
 
 static void *videoq_thread(void *arg) {
     (void)arg;
     work_lock_take();
     for (;;) {
-        while (!videoq_head) work_wait(&videoq_cond);
+        while (!videoq_head) {
+            pthread_cond_broadcast(&videoq_idle);
+            work_wait(&videoq_cond);
+        }
         struct videoq_item *q = videoq_head;
         videoq_head = q->next;
+        videoq_busy = true;
         work_lock_give();
         q->make(q->arg);
         free(q);
         work_lock_take();
+        videoq_busy = false;
     }
     return NULL;
 }
@@ -54,4 +66,16 @@ bool videoq_add(void (*make)(void *arg), void *arg) {
     *p = q;
     pthread_cond_signal(&videoq_cond);
     return true;
+}
+
+void videoq_stop(double seconds) {
+    video_stop();
+    struct timespec until;
+    clock_gettime(CLOCK_REALTIME, &until);
+    until.tv_sec += (time_t)seconds;
+    work_lock_take();
+    while (videoq_started && (videoq_head || videoq_busy) &&
+           work_timedwait(&videoq_idle, &until) != ETIMEDOUT)
+        ;
+    work_lock_give();
 }

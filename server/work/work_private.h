@@ -584,6 +584,9 @@ bool shots_restore(const struct store_job *row, const unsigned char *states);
 /* Queues make(arg) for the video thread, after the videos asked for before
  * (lock held; make runs without it); false: no thread or memory. */
 bool videoq_add(void (*make)(void *arg), void *arg);
+/* Gives up the video being made and those queued (video_stop), waiting up
+ * to seconds for the thread to let go of them (lock not held). */
+void videoq_stop(double seconds);
 
 /* ---- watch.c ------------------------------------------------------------------- */
 

@@ -315,4 +315,47 @@ check video_failed_no_path "$(cat "$T/body")" eval '! grep -q "rayd-video-" "$T/
 check video_failed_logged "$(grep -i ffmpeg "$T/rayd.err" | tail -2)" eval \
     'grep -q "rayd-video-[^ ]*/frame-%06d.png: Invalid argument" "$T/rayd.err"'
 check rayd_alive_after_video_failed "rayd died: $(tail -3 "$T/rayd.err")" kill -0 "$RAYD_PID"
+
+# ---- a stop mid-video: its ffmpeg killed, its folder removed ------------------------
+# The test's ffmpeg writes its PID and sleeps, so the video is being made when SIGTERM
+# comes.  Before, the video thread was left to the process's exit: ffmpeg outlived rayd
+# and wrote its out.mp4 into a folder of frames nobody removed, one a restart.  A server
+# killed outright cannot clean up: its folders carry its PID, and the next server's start
+# removes those whose PID no longer runs (a live one's, and one without a PID, stay).
+mkdir -p "$T/slowff" "$T/vtmp"
+cat >"$T/slowff/ffmpeg" <<EOF
+#!/bin/sh
+echo \$\$ >"$T/slowff.pid"
+exec /bin/sleep 120
+EOF
+chmod +x "$T/slowff/ffmpeg"
+stop_rayd
+RAYD_WRAP="env PATH=$T/slowff TMPDIR=$T/vtmp" start_rayd --threads 1
+post_json "/v1/jobs?frames=1-3" "$T/anim.json" >/dev/null
+slow=$(jfield "$T/body" id)
+wait_until 120 job_state_is "$slow" succeeded
+code=$(req GET "/v1/jobs/$slow/video.mp4")
+wait_until 60 test -s "$T/slowff.pid"
+ffpid=$(cat "$T/slowff.pid")
+vdirs() { find "$T/vtmp" -maxdepth 1 -name 'rayd-video-*' | wc -l; }
+check video_folder_named_by_pid "$(ls "$T/vtmp")" eval \
+    '[ -d "$(echo "$T"/vtmp/rayd-video-"$RAYD_PID"-??????)" ]'
+stop_rayd
+ff_gone() { ! kill -0 "$ffpid" 2>/dev/null; }
+wait_until 10 ff_gone
+check stop_kills_ffmpeg "ffmpeg $ffpid: $(ps -o pid=,stat=,args= -p "${ffpid:-1}")" ff_gone
+check stop_removes_video_folder "$(ls -R "$T/vtmp" | head -8)" eval '[ "$(vdirs)" = 0 ]'
+check stop_mid_video_rc "rc $RAYD_RC" eval '[ "$RAYD_RC" = 0 ]'
+kill "$ffpid" 2>/dev/null # only if the check above failed: the test's own process
+sh -c 'exit 0' &
+dead=$!
+wait "$dead"
+mkdir -p "$T/vtmp/rayd-video-$dead-abcdef" "$T/vtmp/rayd-video-$$-abcdef" "$T/vtmp/rayd-video-ABCDEF"
+for d in "$T"/vtmp/rayd-video-*; do echo x >"$d/frame-000000.png"; done
+RAYD_WRAP="env TMPDIR=$T/vtmp" start_rayd --threads 1
+check sweep_dead_server_folder "$(ls "$T/vtmp")" eval '[ ! -e "$T/vtmp/rayd-video-$dead-abcdef" ]'
+check sweep_keeps_live_and_unnamed "$(ls "$T/vtmp")" eval \
+    '[ -f "$T/vtmp/rayd-video-$$-abcdef/frame-000000.png" ] && [ -d "$T/vtmp/rayd-video-ABCDEF" ]'
+check sweep_logged "$(grep -i folder "$T/rayd.err" | tail -1)" \
+    grep -q "removed 1 video folders" "$T/rayd.err"
 exit $NFAIL
