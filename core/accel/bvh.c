@@ -52,6 +52,7 @@
 #include <stdlib.h>
 
 #include "base/error.h"
+#include "base/meter.h"
 #include "base/parallel.h"
 
 #define BINS 16
@@ -80,7 +81,25 @@ struct build {
     atomic_uint used;
     uint32_t max_leaf; /* primitives a leaf may hold, 1..BVH_MAX_LEAF */
     int width;         /* children a wide node: 4 or 8 */
+    /* the parse's cancel flag (meter_here's, taken on the building thread:
+     * the build's own threads have none), and whether the build saw it */
+    const atomic_int *cancel;
+    atomic_bool canceled;
 };
+
+/* Nodes of fewer primitives are built without a look at the cancel flag:
+ * a look per node of a few thousand is a few milliseconds apart at most. */
+#define CANCEL_MIN 4096
+
+/* True when the parse was canceled: the node is then made a leaf, and the
+ * whole build is thrown away. */
+static bool build_canceled(struct build *b, uint32_t n) {
+    if (!b->cancel || n < CANCEL_MIN) return false;
+    if (atomic_load_explicit(&b->canceled, memory_order_relaxed)) return true;
+    if (!atomic_load_explicit(b->cancel, memory_order_relaxed)) return false;
+    atomic_store(&b->canceled, true);
+    return true;
+}
 
 struct bbox bbox_from(vec3 lo, vec3 hi) {
     double l[3] = {lo.x, lo.y, lo.z}, h[3] = {hi.x, hi.y, hi.z};
@@ -483,7 +502,7 @@ static void build_node(struct build *b, uint32_t self, uint32_t first, uint32_t 
     struct bnode *nd = &b->nodes[self];
     nd->box = sp->box;
     struct span ls, rs;
-    uint32_t mid = split(b, b->prims + first, n, sp, depth, &ls, &rs);
+    uint32_t mid = build_canceled(b, n) ? 0 : split(b, b->prims + first, n, sp, depth, &ls, &rs);
     if (mid == 0 || mid >= n) {
         nd->leaf = true;
         nd->a = first;
@@ -625,6 +644,7 @@ static enum rayd_status build_wide(int width, void **nodes, uint32_t *nnodes, st
     struct build b = {0};
     b.max_leaf = max_leaf < 1 ? 1 : max_leaf > BVH_MAX_LEAF ? BVH_MAX_LEAF : max_leaf;
     b.width = width;
+    b.cancel = meter_here ? meter_here->cancel : NULL;
     b.prims = huge_alloc(sizeof *b.prims * n);
     /* at most 2n - 1 nodes, and a chunk's unused tail in each subtree */
     size_t room = 2 * (size_t)n + (size_t)build_tasks(n, threads) * CHUNK;
@@ -633,13 +653,16 @@ static enum rayd_status build_wide(int width, void **nodes, uint32_t *nnodes, st
     void *wide = NULL;
     uint32_t used = 0;
     struct bbox box = bb_empty();
+    bool canceled = false;
     if (b.prims && b.nodes && fill_prims(&b, fn, ctx, n, threads, &all)) {
         build_tree(&b, n, &all, threads);
         box = b.nodes[0].box;
-        wide = finish(&b, n, order, threads, &used);
+        canceled = atomic_load(&b.canceled);
+        if (!canceled) wide = finish(&b, n, order, threads, &used);
     }
     free(b.prims);
     free(b.nodes);
+    if (canceled) return err_set(err, RAYD_E_CANCELED, NULL, "the parse was canceled");
     if (!wide) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory building the BVH");
     *nodes = wide;
     *nnodes = used;

@@ -22,6 +22,8 @@
  */
 #include "format/mesh_io.h"
 
+#include "base/meter.h"
+
 #include <limits.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -48,6 +50,10 @@ uint32_t mesh_max_triangles(const struct mesh_limits *lim) {
 
 enum rayd_status mesh_charge(const struct mesh_limits *lim, size_t *charged, size_t bytes,
                              char *why, size_t why_len) {
+    if (!meter_live()) { /* the parse's cancel flag (rayd_limits.cancel) */
+        if (why_len) snprintf(why, why_len, "the parse was canceled");
+        return RAYD_E_CANCELED;
+    }
     if (!lim || !lim->charge || bytes == 0) return RAYD_OK;
     if (why_len) why[0] = '\0';
     long long n = bytes > (size_t)LLONG_MAX ? LLONG_MAX : (long long)bytes;

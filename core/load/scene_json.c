@@ -30,6 +30,7 @@
 #include <strings.h>
 #include <unistd.h>
 
+#include "base/meter.h"
 #include "format/json_check.h"
 #include "format/json_parse.h"
 #include "load/scene_json_anim.h"
@@ -61,6 +62,7 @@ void rayd_limits_default(struct rayd_limits *lim) {
     lim->charge = NULL;
     lim->charge_arg = NULL;
     lim->assets = NULL;
+    lim->cancel = NULL;
 }
 /* ---- camera and render --------------------------------------------------- */
 
@@ -354,6 +356,12 @@ static enum rayd_status scene_json_parse_frame(const char *json, size_t len,
     if (len > lim->max_bytes)
         return err_set(err, RAYD_E_LIMIT, NULL, "the scene is %zu bytes; the limit is %zu", len,
                        lim->max_bytes);
+    if (lim->cancel && atomic_load(lim->cancel))
+        return err_set(err, RAYD_E_CANCELED, NULL, "the parse was canceled");
+    /* the flag is looked at through this thread's meter (meter_live): by
+     * the decoders at each charge, and by the BVH builds */
+    struct meter m = meter_make(lim->cancel, NULL), *was = meter_here;
+    if (lim->cancel) meter_bind(&m);
     struct sj_inline in = {.spans.min_count = inline_min > 0 ? inline_min : 0};
     cJSON *root = NULL;
     rayd_scene *s = NULL;
@@ -368,10 +376,13 @@ static enum rayd_status scene_json_parse_frame(const char *json, size_t len,
         sj_anim_free(&anim);
         free(ld.mat_names);
         if (st == RAYD_OK) st = scene_freeze(s, err);
+        if (st == RAYD_OK && !meter_live()) /* raised after the last look */
+            st = err_set(err, RAYD_E_CANCELED, NULL, "the parse was canceled");
         if (st != RAYD_OK) rayd_scene_free(s);
     }
     cJSON_Delete(root);
     sj_inline_free(&in);
+    meter_bind(was);
     if (st == RAYD_OK) *out = s;
     return st;
 }

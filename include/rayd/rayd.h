@@ -149,6 +149,11 @@ struct rayd_limits {
      * added.  The same texels and triangles either way; the scene's
      * limits hold the same. */
     rayd_asset_cache *assets;
+    /* A flag that, once non-zero, ends the parse with RAYD_E_CANCELED within
+     * milliseconds: it is looked at between the parse's steps (an image, a
+     * file, a mesh's decode) and inside each BVH build.  NULL (the
+     * default): none. */
+    const atomic_int *cancel;
 };
 
 /* Fills lim with the documented defaults (docs/scene-format.md). */

@@ -267,6 +267,7 @@ void metrics_cancel(enum metrics_cancel why);
 void metrics_rays(uint64_t n);
 void metrics_coalesced(void);
 void metrics_scene_parse(void);            /* a scene body parsed and built (compile.c) */
+void metrics_scene_parse_canceled(void);   /* one stopped by its cancel flag (scenes.c) */
 void metrics_file_checks(unsigned long n); /* stats of a cached scene's files */
 /* Registration, once at start-up, before the first scrape. */
 void metrics_gauge(enum metrics_gauge g, long (*read)(void));

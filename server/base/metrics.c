@@ -74,6 +74,7 @@ static const char *const metrics_stage_names[MS__COUNT] = {"upload", "parse",  "
 static atomic_ulong metrics_hits, metrics_misses, metrics_rhits, metrics_rmisses, metrics_rays_n,
     metrics_coalesced_n;
 static atomic_ulong metrics_parses_n, metrics_file_checks_n; /* compile.c, scenefiles.c */
+static atomic_ulong metrics_parses_canceled_n;               /* scenes.c */
 static atomic_ulong metrics_rejects[MR__COUNT], metrics_cancels[MC__COUNT];
 
 static const char *const metrics_reject_names[MR__COUNT] = {
@@ -172,6 +173,7 @@ void metrics_cancel(enum metrics_cancel why) { atomic_fetch_add(&metrics_cancels
 void metrics_rays(uint64_t n) { atomic_fetch_add(&metrics_rays_n, (unsigned long)n); }
 void metrics_coalesced(void) { atomic_fetch_add(&metrics_coalesced_n, 1); }
 void metrics_scene_parse(void) { atomic_fetch_add(&metrics_parses_n, 1); }
+void metrics_scene_parse_canceled(void) { atomic_fetch_add(&metrics_parses_canceled_n, 1); }
 void metrics_file_checks(unsigned long n) { atomic_fetch_add(&metrics_file_checks_n, n); }
 
 /* A growable string for the exposition. */
@@ -445,11 +447,17 @@ char *metrics_text(size_t *len) {
                    "# HELP rayd_scene_parses_total Scene bodies parsed and built (identical "
                    "bodies posted at once are parsed once).\n"
                    "# TYPE rayd_scene_parses_total counter\nrayd_scene_parses_total %lu\n"
+                   "# HELP rayd_scene_parses_canceled_total Parses stopped because no one "
+                   "wanted their scene any more (a frame-range job deleted, the server "
+                   "stopping).\n"
+                   "# TYPE rayd_scene_parses_canceled_total counter\n"
+                   "rayd_scene_parses_canceled_total %lu\n"
                    "# HELP rayd_scene_file_checks_total Files of cached scenes checked with a "
                    "stat before use (one per distinct file per use).\n"
                    "# TYPE rayd_scene_file_checks_total counter\n"
                    "rayd_scene_file_checks_total %lu\n",
-                   atomic_load(&metrics_parses_n), atomic_load(&metrics_file_checks_n));
+                   atomic_load(&metrics_parses_n), atomic_load(&metrics_parses_canceled_n),
+                   atomic_load(&metrics_file_checks_n));
     metrics_printf(&b,
                    "# HELP rayd_scene_images_shared_total Image textures a parse took already "
                    "decoded, from a live scene of the same bytes (the frames of an animation).\n"

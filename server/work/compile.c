@@ -29,10 +29,13 @@
  * A client that hangs up while its scene is parsed is seen later (the
  * watcher, once its render is queued; or libmicrohttpd, once resumed): the
  * parse still finishes and its scene stays cached for the next request.  A
- * drain answers the scenes still queued with 503 draining without parsing
- * them; a parse running finishes (the core has no way to stop one), and
- * compile_stop, called after libmicrohttpd stops, waits for it only up to
- * COMPILE_JOIN_SECONDS.
+ * frame-range job's DELETE drops its frames' waiters (compile_drop), and a
+ * parse no waiter wants any more is stopped through its cancel flag
+ * (rayd_limits.cancel: the core looks at it between the parse's steps and
+ * inside each BVH build).  A drain answers the scenes still queued with 503
+ * draining without parsing them; a parse running finishes, and
+ * compile_stop, called after libmicrohttpd stops, raises every running
+ * parse's flag and waits for them up to COMPILE_JOIN_SECONDS.
  *
  * The pool's state is under work_lock (the server's one mutex) with a
  * condition variable of its own.  The threads start with the server
@@ -60,6 +63,7 @@ struct compile_job {
     size_t mem;                 /* bytes of kind parses reserved for it, until parsed */
     struct compile_waiter *waiters;
     int nwaiters;
+    atomic_int cancel;        /* raised when no waiter wants the parse (compile_drop) */
     struct compile_job *next; /* the queue, or the list being parsed */
 };
 
@@ -127,6 +131,7 @@ static enum work_submit compile_join_same(const char *id, bool by_id, struct cac
     struct compile_job *j = compile_find(id, by_id);
     if (!j) return WORK_CACHED;
     if (e) cache_release(e); /* that job has its own */
+    w->dropped = false;
     w->suspend(w);
     w->next = j->waiters;
     j->waiters = w;
@@ -156,6 +161,7 @@ static enum work_submit compile_enqueue(const char *id, const char *body, size_t
     j->mem = mem;
     j->waiters = w;
     j->nwaiters = 1;
+    w->dropped = false;
     w->suspend(w);
     w->next = NULL;
     if (compile_tail)
@@ -271,7 +277,8 @@ static enum rayd_status compile_run(struct compile_job *j, struct cache_entry **
     }
     if (!j->body) return RAYD_OK; /* unknown here now: the client sends the text again */
     double t0 = clock_now();
-    enum rayd_status st = scenes_build(j->id, j->body, j->len, j->frame, j->mem, out, err, full);
+    enum rayd_status st =
+        scenes_build(j->id, j->body, j->len, j->frame, j->mem, &j->cancel, out, err, full);
     j->mem = 0; /* scenes_build's now: the scene's own, or released */
     double took = clock_now() - t0;
     work_lock_take();
@@ -415,9 +422,32 @@ static bool compile_join(void) {
     return ended;
 }
 
+/* Raises j's cancel flag when none of its waiters wants it, lock held. */
+static void compile_unwanted(struct compile_job *j) {
+    for (struct compile_waiter *w = j->waiters; w; w = w->next)
+        if (!w->dropped) return;
+    atomic_store(&j->cancel, 1);
+}
+
+void compile_drop(struct compile_waiter *w) {
+    work_assert_locked();
+    w->dropped = true;
+    struct compile_job *lists[] = {compile_head, compile_running};
+    for (int i = 0; i < 2; i++)
+        for (struct compile_job *j = lists[i]; j; j = j->next)
+            for (struct compile_waiter *o = j->waiters; o; o = o->next)
+                if (o == w) {
+                    compile_unwanted(j);
+                    return;
+                }
+}
+
 void compile_stop(void) {
     work_lock_take();
     compile_stopping = true;
+    /* nothing parsed now is wanted: the parses running stop within
+     * milliseconds, and the threads are joined */
+    for (struct compile_job *j = compile_running; j; j = j->next) atomic_store(&j->cancel, 1);
     struct compile_job *queued = compile_head;
     compile_head = compile_tail = NULL;
     compile_queued = 0;

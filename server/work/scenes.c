@@ -167,8 +167,8 @@ static enum rayd_status scenes_charge(void *arg, long long delta, char *why, siz
 
 /* Parses and builds body outside the lock, timing each stage. */
 static enum rayd_status scenes_compile(const char *body, size_t len, long frame,
-                                       struct scenes_meter *m, rayd_scene **scene,
-                                       struct rayd_error *err) {
+                                       const atomic_int *cancel, struct scenes_meter *m,
+                                       rayd_scene **scene, struct rayd_error *err) {
     struct rayd_limits lim;
     if (scenes_limits_set) {
         lim = scenes_limits;
@@ -183,11 +183,13 @@ static enum rayd_status scenes_compile(const char *body, size_t len, long frame,
     lim.charge = scenes_charge;
     lim.charge_arg = m;
     lim.assets = scenes_assets;
+    lim.cancel = cancel;
     metrics_scene_parse();
     double t0 = clock_now();
     enum rayd_status st = frame < 0 ? rayd_scene_parse(body, len, &lim, scene, err)
                                     : rayd_scene_parse_frame(body, len, &lim, frame, scene, err);
     double parsed = clock_now() - t0;
+    if (st == RAYD_E_CANCELED) metrics_scene_parse_canceled();
     if (st != RAYD_OK) {
         metrics_stage(MS_PARSE, parsed);
         return st;
@@ -265,13 +267,14 @@ bool scenes_id(const char *body, size_t len, char id[65], struct rayd_error *err
 }
 
 enum rayd_status scenes_build(const char *id, const char *body, size_t len, long frame, size_t held,
-                              struct cache_entry **out, struct rayd_error *err, bool *full) {
+                              const atomic_int *cancel, struct cache_entry **out,
+                              struct rayd_error *err, bool *full) {
     rayd_scene *scene = NULL;
     /* the first cap's share of the text (its JSON tree) is taken; the
      * core's charges start on the rest */
     size_t tree = len > held / SCENES_PARSE_PER_BYTE ? held : len * SCENES_PARSE_PER_BYTE;
     struct scenes_meter m = {.held = held, .charged = tree, .last = scenes_last_cap(len)};
-    enum rayd_status st = scenes_compile(body, len, frame, &m, &scene, err);
+    enum rayd_status st = scenes_compile(body, len, frame, cancel, &m, &scene, err);
     *full = st == RAYD_E_NOMEM && m.refused == RAYD_E_NOMEM; /* the budget's refusal ended it */
     if (st != RAYD_OK && st == m.refused) metrics_reject(MR_MEMORY); /* it ended the parse */
     if (st != RAYD_OK) {

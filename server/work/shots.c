@@ -835,6 +835,7 @@ bool shots_cancel(const char *id) {
         shots_drop_kept(s);
         for (struct shots_fly *fl = s->flies; fl; fl = fl->next) {
             struct task *t = fl->t;
+            if (!t) compile_drop(&fl->cw); /* its frame still parsing, or queued to */
             if (!t || fl->dropped || t->finished) continue;
             task_job_drop(t);
             fl->dropped = true;

@@ -399,6 +399,7 @@ struct compile_waiter {
     void (*done)(struct compile_waiter *w, struct compile_result *res);
     void (*suspend)(struct compile_waiter *w);
     struct compile_waiter *next; /* the pool's list link */
+    bool dropped;                /* compile_drop'ed: the answer is not wanted */
 };
 
 /* The compiled scene of body (len bytes, which stay valid and unchanged
@@ -422,6 +423,11 @@ enum work_submit compile_scene_frame(const char *body, size_t len, long frame,
  * NULL: not held here, or a file changed. */
 enum work_submit compile_find_scene(const char *id, struct compile_waiter *w,
                                     struct compile_result *res);
+/* w's answer is not wanted (its frame-range job was canceled), lock held:
+ * w->done is still called; a parse that no waiter wants any more is
+ * stopped within milliseconds (rayd_limits.cancel), and answers
+ * RAYD_E_CANCELED. */
+void compile_drop(struct compile_waiter *w);
 /* About how long a refused request should wait for a place (Retry-After). */
 double compile_retry_seconds(void);
 /* Starts the parse threads (--parse-threads); false if any could not be

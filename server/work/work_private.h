@@ -106,9 +106,11 @@ size_t scenes_parse_cap(size_t len);
  * rayd_scene_parse, the first) and caches it; *out referenced.  held:
  * the bytes of kind parses reserved for it (scenes_parse_cap), which this
  * releases or turns into the scene's own on every path.  *full: refused
- * because the memory budget has no room now (503 memory_full). */
+ * because the memory budget has no room now (503 memory_full).  cancel:
+ * the parse's flag (rayd_limits.cancel), or NULL. */
 enum rayd_status scenes_build(const char *id, const char *body, size_t len, long frame, size_t held,
-                              struct cache_entry **out, struct rayd_error *err, bool *full);
+                              const atomic_int *cancel, struct cache_entry **out,
+                              struct rayd_error *err, bool *full);
 
 /* ---- scenefiles.c: the files a cached scene read (any thread, no lock) ---- */
 
