@@ -375,6 +375,7 @@ static enum rayd_status scene_json_parse_frame(const char *json, size_t len,
         note_frames(s, &anim);
         sj_anim_free(&anim);
         free(ld.mat_names);
+        free(ld.group_names);
         if (st == RAYD_OK) st = scene_freeze(s, err);
         if (st == RAYD_OK && !meter_live()) /* raised after the last look */
             st = err_set(err, RAYD_E_CANCELED, NULL, "the parse was canceled");

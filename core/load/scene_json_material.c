@@ -55,9 +55,6 @@ enum rayd_status sj_add_material(struct loader *ld, const struct material *m, in
 
 /* Named materials take indices 1..n in the order of /materials; index 0 is
  * the default material. */
-static int cmp_named(const void *a, const void *b) {
-    return strcmp(((const struct named *)a)->name, ((const struct named *)b)->name);
-}
 
 enum rayd_status sj_materials(struct loader *ld, const cJSON *root) {
     struct material def = material_default();
@@ -78,17 +75,7 @@ enum rayd_status sj_materials(struct loader *ld, const cJSON *root) {
         TRY(material(ld, m, &p, &mat));
         TRY(sj_add_material(ld, &mat, &idx));
     }
-    /* names sorted for lookup by binary search: a million objects naming
-     * ten thousand materials must not scan */
-    int n = cJSON_GetArraySize(ms), i = 1;
-    if (n == 0) return RAYD_OK;
-    ld->mat_names = malloc(sizeof *ld->mat_names * (size_t)n);
-    if (!ld->mat_names) return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
-    for (const cJSON *m = ms->child; m; m = m->next, i++)
-        ld->mat_names[i - 1] = (struct named){m->string, i};
-    ld->nmat_names = n;
-    qsort(ld->mat_names, (size_t)n, sizeof *ld->mat_names, cmp_named);
-    return RAYD_OK;
+    return sj_names_sorted(ld, ms, 1, &ld->mat_names, &ld->nmat_names);
 }
 
 /* The "material" key of an object: absent (default), a name, or inline. */
@@ -110,10 +97,7 @@ enum rayd_status sj_object_material(struct loader *ld, const cJSON *obj, const s
     if (!cJSON_IsString(v))
         return sj_fail(ld, RAYD_E_INVALID, &p,
                        "must be a material name or a material object, not %s", sj_type_name(v));
-    struct named key = {v->valuestring, 0};
-    const struct named *hit =
-        ld->nmat_names ? bsearch(&key, ld->mat_names, (size_t)ld->nmat_names, sizeof key, cmp_named)
-                       : NULL;
+    const struct named *hit = sj_name_find(ld->mat_names, ld->nmat_names, v->valuestring);
     if (hit) {
         *index = hit->index;
         return RAYD_OK;

@@ -16,6 +16,7 @@
 #include "load/scene_json_anim.h"
 
 #include "base/clock.h"
+#include "base/meter.h"
 #include "load/scene_json_gltf.h"
 #include "load/scene_json_material.h"
 #include "load/scene_json_mesh.h"
@@ -333,12 +334,10 @@ static enum rayd_status load_instance(struct loader *ld, const cJSON *oj, const 
     struct jp p = jp_key(at, "group");
     if (!g || !cJSON_IsString(g))
         return sj_fail(ld, RAYD_E_INVALID, &p, "is required: the name of a group in /groups");
-    int i = 0;
-    for (const cJSON *e = ld->groups ? ld->groups->child : NULL; e; e = e->next, i++) {
-        if (strcmp(e->string, g->valuestring) == 0) {
-            o->u.inst.group = i;
-            return RAYD_OK;
-        }
+    const struct named *hit = sj_name_find(ld->group_names, ld->ngroup_names, g->valuestring);
+    if (hit) {
+        o->u.inst.group = hit->index;
+        return RAYD_OK;
     }
     char q[96];
     return sj_fail(ld, RAYD_E_INVALID, &p, "unknown group \"%s\" (not a key of /groups)",
@@ -508,6 +507,8 @@ static enum rayd_status load_list(struct loader *ld, const cJSON *list, const st
     int i = 0;
     for (const cJSON *o = list->child; o; o = o->next, i++) {
         struct jp p = jp_index(at, i);
+        if ((i & 1023) == 1023 && !meter_live()) /* the parse's cancel flag */
+            return sj_fail(ld, RAYD_E_CANCELED, &p, "the parse was canceled");
         cx.id = i;
         TRY(load_object(ld, o, &p, &cx, &(*out)[i]));
         *count = i + 1;
@@ -526,7 +527,7 @@ enum rayd_status sj_groups(struct loader *ld, const cJSON *root) {
     rayd_scene *s = ld->s;
     s->groups = calloc((size_t)n + 1, sizeof *s->groups);
     if (!s->groups) return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
-    ld->groups = gs;
+    TRY(sj_names_sorted(ld, gs, 0, &ld->group_names, &ld->ngroup_names));
     for (const cJSON *g = gs->child; g; g = g->next) {
         struct jp p = jp_key(&at, g->string);
         struct group *gr = &s->groups[s->ngroups++];

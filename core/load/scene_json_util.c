@@ -412,3 +412,27 @@ enum rayd_status sj_read_asset(struct loader *ld, const cJSON *f, const struct j
     *len = n;
     return RAYD_OK;
 }
+
+static int cmp_named(const void *a, const void *b) {
+    return strcmp(((const struct named *)a)->name, ((const struct named *)b)->name);
+}
+
+enum rayd_status sj_names_sorted(struct loader *ld, const cJSON *obj, int first, struct named **out,
+                                 int *n) {
+    *out = NULL;
+    *n = cJSON_GetArraySize(obj);
+    if (*n == 0) return RAYD_OK;
+    struct named *names = malloc(sizeof *names * (size_t)*n);
+    if (!names) return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
+    int i = 0;
+    for (const cJSON *e = obj->child; e; e = e->next, i++)
+        names[i] = (struct named){e->string, first + i};
+    qsort(names, (size_t)*n, sizeof *names, cmp_named);
+    *out = names;
+    return RAYD_OK;
+}
+
+const struct named *sj_name_find(const struct named *names, int n, const char *name) {
+    struct named key = {name, 0};
+    return n > 0 ? bsearch(&key, names, (size_t)n, sizeof key, cmp_named) : NULL;
+}

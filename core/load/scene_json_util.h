@@ -45,11 +45,23 @@ struct named {
     int index;
 };
 
+struct loader;
+
+/* The keys of the object obj sorted, each with first + its place, into
+ * *out (malloc'd; NULL when none) and *n: looked up by binary search
+ * (sj_name_find), since a million objects naming ten thousand materials or
+ * groups must not scan them. */
+enum rayd_status sj_names_sorted(struct loader *ld, const cJSON *obj, int first, struct named **out,
+                                 int *n);
+/* The entry of name among the n sorted names, or NULL. */
+const struct named *sj_name_find(const struct named *names, int n, const char *name);
+
 struct loader {
     const struct rayd_limits *lim;
     rayd_scene *s;
     struct rayd_error *err;
-    const cJSON *groups;     /* the /groups object, for names */
+    struct named *group_names; /* /groups keys, sorted (sj_names_sorted) */
+    int ngroup_names;
     struct named *mat_names; /* /materials keys, sorted */
     int nmat_names;
     size_t mat_cap, tex_cap, mesh_cap, xform_cap, part_cap; /* array capacities */

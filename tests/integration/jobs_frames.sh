@@ -355,6 +355,7 @@ check deleted_job_canceled "$(req GET "/v1/jobs/$gj"; head -c 300 "$T/body")" \
 mkdir -p "$T/slowff" "$T/vtmp"
 cat >"$T/slowff/ffmpeg" <<EOF
 #!/bin/sh
+echo "\$@" >"$T/slowff.args"
 echo \$\$ >"$T/slowff.pid"
 exec /bin/sleep 120
 EOF
@@ -367,6 +368,8 @@ wait_until 120 job_state_is "$slow" succeeded
 code=$(req GET "/v1/jobs/$slow/video.mp4")
 wait_until 60 test -s "$T/slowff.pid"
 ffpid=$(cat "$T/slowff.pid")
+# one core beside the workers: left to choose, ffmpeg took every core
+check video_ffmpeg_one_thread "$(cat "$T/slowff.args")" grep -q -- "-threads 1 -c:v libx264" "$T/slowff.args"
 vdirs() { find "$T/vtmp" -maxdepth 1 -name 'rayd-video-*' | wc -l; }
 check video_folder_named_by_pid "$(ls "$T/vtmp")" eval \
     '[ -d "$(echo "$T"/vtmp/rayd-video-"$RAYD_PID"-??????)" ]'
