@@ -19,6 +19,10 @@ tests/tools/memory_table.sh).
                                         lines and Retry-After go to DIR/answers;
                                         DIR/sent is written when all are done;
                                         they hold until DIR/stop exists
+  stalled_bodies PORT N LEN DIR         N connections, each declaring a body of
+                                        LEN bytes and sending one byte of it;
+                                        DIR/sent is written once all are, and
+                                        they hold until DIR/stop exists
 """
 import base64
 import json
@@ -140,6 +144,21 @@ def slow_bodies(port, n, length, folder):
         s.close()
 
 
+def stalled_bodies(port, n, length, folder):
+    held = []
+    for i in range(n):
+        s = socket.create_connection(("127.0.0.1", port), timeout=60)
+        s.sendall(("POST /v1/render HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+                   "Content-Length: %d\r\n\r\n{" % length).encode())
+        held.append(s)
+    open(os.path.join(folder, "sent"), "w").write("%d held\n" % len(held))
+    end = time.time() + 120  # only ends a hung case
+    while not os.path.exists(os.path.join(folder, "stop")) and time.time() < end:
+        time.sleep(0.05)
+    for s in held:
+        s.close()
+
+
 if __name__ == "__main__":
     cmd = sys.argv[1]
     if cmd == "texture_scene":
@@ -150,5 +169,7 @@ if __name__ == "__main__":
         texture_mesh(sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), sys.argv[5])
     elif cmd == "slow_bodies":
         slow_bodies(int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]), sys.argv[5])
+    elif cmd == "stalled_bodies":
+        stalled_bodies(int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]), sys.argv[5])
     else:
         sys.exit("unknown command " + cmd)
