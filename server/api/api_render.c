@@ -144,8 +144,22 @@ static cJSON *api_scene_json(struct cache_entry *e) {
     return o;
 }
 
-/* POST /v1/scenes once its scene is compiled: 201 and what it is. */
+/* POST /v1/scenes once its scene is compiled: 201 and what it is; 413
+ * when it is too big for the cache to keep (a 201 whose id then answered
+ * 404 scene_unknown at once). */
 static bool api_scenes_created(struct http_req *r, struct cache_entry *e, bool hit) {
+    if (!cache_kept(e)) {
+        struct rayd_scene_info info;
+        rayd_scene_info(cache_scene(e), &info);
+        char msg[300];
+        snprintf(msg, sizeof msg,
+                 "the compiled scene is %zu bytes, more than the scene cache keeps (--cache-mb "
+                 "%ld), so it cannot be kept for GET /v1/scenes/{id}; POST it to /v1/render or "
+                 "/v1/jobs instead",
+                 info.bytes, config.cache_mb);
+        http_reply_error(r, 413, "too_large", msg, NULL, 0, 0, NULL);
+        return false;
+    }
     cJSON *o = api_scene_json(e);
     cJSON_AddBoolToObject(o, "cached", hit);
     char loc[128];

@@ -143,6 +143,13 @@ bool cache_evict_one(void) {
 
 const rayd_scene *cache_scene(const struct cache_entry *e) { return e->scene; }
 const char *cache_id(const struct cache_entry *e) { return e->id; }
+
+bool cache_kept(const struct cache_entry *e) {
+    work_lock_take();
+    bool kept = e->linked;
+    work_lock_give();
+    return kept;
+}
 size_t cache_bytes(const struct cache_entry *e) { return e->mem; }
 const char *cache_version(const struct cache_entry *e) { return e->version; }
 

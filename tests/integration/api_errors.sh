@@ -302,3 +302,18 @@ PIDS+=($sp)
 wait $sp
 check stalled_upload_dropped "$(cat "$T/stall.txt")" grep -q '^closed' "$T/stall.txt"
 stop_rayd TERM
+
+# --- a scene too big for the scene cache: POST /v1/scenes says so ---------------------
+# It was 201 with a Location whose GET answered 404 scene_unknown at once.  /v1/render
+# still renders it (used once).
+start_rayd --cache-mb 1
+python3 "$RAYD_ROOT/tests/integration/lib/memory_helpers.py" texture_scene "$T/bigtex.json" 512 1 7
+code=$(post_json /v1/scenes "$T/bigtex.json")
+check scene_over_cache_413 "$code $(head -c 300 "$T/body")" eval \
+    'err_is "$T/body" 413 too_large && grep -q -- "--cache-mb 1" "$T/body"'
+code=$(post_json /v1/render "$T/bigtex.json")
+check scene_over_cache_renders "$code" eval '[ "$code" = 200 ]'
+scene "$T/smallc.json" 8 8 1 spheres 5
+code=$(post_json /v1/scenes "$T/smallc.json")
+check scene_under_cache_201 "$code $(head -c 200 "$T/body")" eval '[ "$code" = 201 ]'
+stop_rayd TERM
