@@ -590,6 +590,7 @@ void api_scene(struct http_req *r, api_scene_then then) {
     a->then = then;
     a->w.done = api_scene_done;
     a->w.suspend = api_scene_suspend;
+    a->w.client = api_cost_client(r); /* the parse pool's turns */
     struct compile_result res;
     enum work_submit s = compile_scene(r->body ? r->body : "", r->body_len, &a->w, &res);
     if (s == WORK_OK) return; /* a belongs to the parse pool until done() */

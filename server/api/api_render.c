@@ -273,6 +273,7 @@ static void api_scenes_find(struct http_req *r, const char *id, api_scene_answer
     a->answer = answer;
     a->w.done = api_find_done;
     a->w.suspend = api_find_suspend;
+    a->w.client = api_cost_client(r);
     struct compile_result res;
     enum work_submit s = compile_find_scene(id, &a->w, &res);
     if (s == WORK_OK) return; /* a belongs to the parse pool until done() */

@@ -64,6 +64,7 @@ struct compile_job {
     struct compile_waiter *waiters;
     int nwaiters;
     atomic_int cancel;        /* raised when no waiter wants the parse (compile_drop) */
+    uint64_t client;          /* the first waiter's */
     struct compile_job *next; /* the queue, or the list being parsed */
 };
 
@@ -74,6 +75,11 @@ static long compile_frames;    /* parses of a frame-range job's frames running *
 static long compile_gate = -1; /* parses that may still start (test gate), -1 open */
 static bool compile_stopping;
 static double compile_avg = 0.1; /* seconds of a parse, a moving average */
+
+/* The clients of the last parses started, for compile_pick's turns. */
+#define COMPILE_RECENT 16
+static uint64_t compile_recent[COMPILE_RECENT];
+static int compile_recent_n, compile_recent_at;
 
 static pthread_cond_t compile_cond = PTHREAD_COND_INITIALIZER;
 static pthread_t *compile_threads;
@@ -118,6 +124,30 @@ static void compile_unlink(struct compile_job **head, struct compile_job *j) {
 
 static long compile_queue_cap(void) { return config.parse_queue > 0 ? config.parse_queue : 64; }
 
+/* Whether client may not take a place now, lock held: the queue's last
+ * quarter is kept for clients with fewer than a quarter of it queued, so
+ * one client's scenes cannot fill it (12 KB scenes of big textures, 3 s of
+ * parse each: another client's new scene got 503 queue_full). */
+static bool compile_over_share(uint64_t client) {
+    long cap = compile_queue_cap(), quarter = cap / 4, mine = 0;
+    if (quarter < 1 || compile_queued < cap - quarter) return false;
+    for (struct compile_job *j = compile_head; j; j = j->next) mine += j->client == client;
+    return mine >= quarter;
+}
+
+/* How many of the last parses started were client's, lock held. */
+static int compile_recent_count(uint64_t client) {
+    int n = 0;
+    for (int i = 0; i < compile_recent_n; i++) n += compile_recent[i] == client;
+    return n;
+}
+
+static void compile_recent_add(uint64_t client) {
+    compile_recent[compile_recent_at] = client;
+    compile_recent_at = (compile_recent_at + 1) % COMPILE_RECENT;
+    if (compile_recent_n < COMPILE_RECENT) compile_recent_n++;
+}
+
 /* Joins w to the job of the same body queued or being parsed, lock held:
  * WORK_OK after w->suspend; WORK_CACHED when there is none (w not used), or
  * the refusal. */
@@ -149,7 +179,8 @@ static enum work_submit compile_enqueue(const char *id, const char *body, size_t
     enum work_submit s = compile_join_same(id, body == NULL, e, w);
     *joined = s == WORK_OK;
     if (s != WORK_CACHED) return s;
-    if (compile_queued >= compile_queue_cap()) return WORK_PARSE_FULL;
+    if (compile_queued >= compile_queue_cap() || compile_over_share(w->client))
+        return WORK_PARSE_FULL;
     struct compile_job *j;
     j = calloc(1, sizeof *j);
     if (!j) return WORK_NOMEM;
@@ -161,6 +192,7 @@ static enum work_submit compile_enqueue(const char *id, const char *body, size_t
     j->mem = mem;
     j->waiters = w;
     j->nwaiters = 1;
+    j->client = w->client;
     w->dropped = false;
     w->suspend(w);
     w->next = NULL;
@@ -317,15 +349,28 @@ static void compile_answer(struct compile_job *j, enum rayd_status st, struct ca
  * frame-range jobs (and cluster items), queued in their hundreds and each
  * parsed in full, and those frames take at most all threads but one: a
  * 2 KB scene of textures that decode to 64 MB each made a new 8x8 scene
- * of another client wait 5 s for its parse, against 1.4 ms.  A drain takes
- * the queue in order, to refuse it. */
+ * of another client wait 5 s for its parse, against 1.4 ms.  Among the
+ * scenes, the client with the fewest of the last parses started goes
+ * first (the oldest of its scenes): 20 such scenes from one client made
+ * another's new scene wait 32 s.  A drain takes the queue in order, to
+ * refuse it. */
 static struct compile_job **compile_pick(bool draining) {
     work_assert_locked();
-    struct compile_job **frame = NULL;
+    struct compile_job **frame = NULL, **scene = NULL;
+    int least = COMPILE_RECENT + 1;
     for (struct compile_job **p = &compile_head; *p; p = &(*p)->next) {
-        if ((*p)->frame < 0 || draining) return p;
-        if (!frame) frame = p;
+        if (draining) return p;
+        if ((*p)->frame >= 0) {
+            if (!frame) frame = p;
+            continue;
+        }
+        int n = compile_recent_count((*p)->client);
+        if (n < least) {
+            least = n;
+            scene = p;
+        }
     }
+    if (scene) return scene;
     long room = compile_nthreads > 1 ? compile_nthreads - 1 : 1;
     return frame && compile_frames < room ? frame : NULL;
 }
@@ -358,6 +403,7 @@ static struct compile_job *compile_next(void) {
             compile_tail = compile_tail->next;
     compile_queued--;
     compile_frames += j->frame >= 0;
+    compile_recent_add(j->client);
     if (compile_gate > 0) compile_gate--;
     compile_started++;
     compile_nrunning++;

@@ -105,6 +105,7 @@ static void durable_requeue(struct store_job *row) {
     d->row = row;
     d->w.done = durable_compiled;
     d->w.suspend = durable_suspend;
+    d->w.client = row->client;
     work_lock_take();
     durable_pending++;
     work_lock_give();

@@ -439,6 +439,7 @@ static void shots_pump(struct shot *s) {
         fl->i = i;
         fl->cw.done = shots_parsed;
         fl->cw.suspend = shots_suspend_none;
+        fl->cw.client = s->client;
         struct compile_result res;
         enum work_submit r = compile_scene_frame(s->text, s->len, s->first + i, &fl->cw, &res);
         if (r == WORK_CACHED) {

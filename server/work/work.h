@@ -403,6 +403,7 @@ struct compile_waiter {
     void (*suspend)(struct compile_waiter *w);
     struct compile_waiter *next; /* the pool's list link */
     bool dropped;                /* compile_drop'ed: the answer is not wanted */
+    uint64_t client;             /* who asks (fair.c's key; 0: the server's own) */
 };
 
 /* The compiled scene of body (len bytes, which stay valid and unchanged

@@ -205,4 +205,34 @@ wait_until 30 done_code dr
 check drain_answers_held_parse "status $(code_of dr): $(head -c 200 "$T/dr.body")" \
     err_is "$T/dr.body" 503 draining
 
+# --- one client's scenes cannot hold the parse queue ------------------------------------
+# Client a queues 6 scenes of a queue of 8 (their parses held); its 7th is refused, the
+# last quarter being kept for clients with less queued, and client b's scene takes a
+# place.  Then the parses go on one at a time: b's is the second parsed, not the seventh
+# (the client with the fewest of the last parses started goes first).  Before, a's 20
+# scenes of big textures made b's new scene wait 32 s, and with a full queue 503.
+start_rayd --test-gate open --parse-threads 1 --parse-queue 8 --client-header X-Client
+parse_gate 0 >/dev/null
+for i in 1 2 3 4 5 6; do
+    scene "$T/fa$i.json" "3.$i"
+    post_bg fa$i "$T/fa$i.json" -H 'X-Client: a'
+    wait_until 30 queued_is $i
+done
+scene "$T/fa7.json" 3.7
+code=$(post_json /v1/scenes "$T/fa7.json" -H 'X-Client: a')
+check parse_share_refuses_flood "status $code: $(head -c 300 "$T/body")" err_is "$T/body" 503 queue_full
+scene "$T/fb.json" 4.1
+post_bg fb "$T/fb.json" -H 'X-Client: b'
+wait_until 30 queued_is 7
+check parse_share_takes_other "gate $(curl -s -m 5 "$URL/v1/test/gate")" queued_is 7
+parse_gate 2 >/dev/null
+wait_until 60 done_code fb
+answered_a=0
+for i in 1 2 3 4 5 6; do [ -s "$T/fa$i.code" ] && answered_a=$((answered_a + 1)); done
+check parse_turns_other_client "b: '$(code_of fb)', a answered $answered_a of 6" \
+    eval '[ "$(code_of fb)" = 201 ] && [ "$answered_a" -le 1 ]'
+parse_gate open >/dev/null
+for i in 1 2 3 4 5 6; do wait_until 60 done_code fa$i; done
+stop_rayd TERM
+
 exit $((NFAIL > 0))
