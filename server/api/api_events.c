@@ -103,6 +103,13 @@ static size_t api_events_format(struct api_events *a, const struct events_item *
         if (it->samples > 0) cJSON_AddNumberToObject(o, "samples", it->samples);
         if (it->state == JS_FAILED) cJSON_AddStringToObject(o, "error", err->message);
         return api_sse_event(out, size, "done", o);
+    case EVENTS_DRAIN:
+        cJSON_AddStringToObject(o, "state", "queued");
+        json_add_fixed(o, "progress", it->progress, 4);
+        cJSON_AddStringToObject(o, "message",
+                                "the server is stopping; the job is kept (--data-dir) and goes on "
+                                "when it starts again");
+        return api_sse_event(out, size, "draining", o);
     case EVENTS_PING:
     default: cJSON_Delete(o); return (size_t)snprintf(out, size, ": keep-alive\n\n");
     }

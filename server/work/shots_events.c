@@ -40,9 +40,20 @@ int shots_events_read(struct shot *s, struct shots_cursor *c, struct events_item
                                        .total = s->n};
     }
     bool final = shots_final(s) && s->flying == 0;
+    /* the drain starts no frame and waits for those in flight: then the
+     * stream ends (a reader left suspended held the stop up 8 s, and rayd
+     * exited 1 without its clean-up); with --data-dir the job goes on
+     * after the restart, without it the job ends with the server */
+    bool drained = !final && task_draining() && s->flying == 0;
     double now = clock_now();
     if (k == 0 && !final && c->last_write > 0 && now - c->last_write >= EVENTS_PING_SECONDS)
         it[k++] = (struct events_item){.kind = EVENTS_PING}; /* as events.c's streams */
+    if (k == 0 && drained && !c->sent_done) {
+        it[k++] = (struct events_item){.kind = store_on() ? EVENTS_DRAIN : EVENTS_DONE,
+                                       .state = store_on() ? JS_QUEUED : JS_CANCELED,
+                                       .progress = (double)s->ndone / s->n};
+        c->sent_done = true;
+    }
     if (k == 0 && final && !c->sent_done) {
         enum jobs_state st = shots_state(s);
         it[k++] = (struct events_item){

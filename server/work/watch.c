@@ -153,10 +153,13 @@ static bool watch_round(struct watch_set *s, double *last_expire, double *last_p
         trim->idle = task_active == NULL;
     }
     if (watch_deadlines(n, sse)) return true;
-    if (clock_now() - *last_ping >= EVENTS_PING_SECONDS) {
+    /* while the drain runs, the streams look every round whether their
+     * job's part in it is over (events.c, shots_events.c) */
+    bool draining = task_draining();
+    if (draining || clock_now() - *last_ping >= EVENTS_PING_SECONDS) {
         *last_ping = clock_now();
         watch_ping(n);
-        if (n->list) return true;
+        if (n->list && !draining) return true; /* draining: a look a round, no more */
     }
     watch_poll(s, gone, n, sse);
     return false;

@@ -293,7 +293,17 @@ void durable_stop(void); /* after sched_stop: what is queued is written */
 
 /* ---- events.c: a job's progress as a stream ------------------------------- */
 
-enum events_kind { EVENTS_STATE, EVENTS_TILE, EVENTS_PASS, EVENTS_FRAME, EVENTS_DONE, EVENTS_PING };
+/* EVENTS_DRAIN: the server stops and the job goes on after its restart
+ * (--data-dir): the stream's last event, in place of EVENTS_DONE. */
+enum events_kind {
+    EVENTS_STATE,
+    EVENTS_TILE,
+    EVENTS_PASS,
+    EVENTS_FRAME,
+    EVENTS_DONE,
+    EVENTS_DRAIN,
+    EVENTS_PING
+};
 struct events_item {
     enum events_kind kind;
     enum jobs_state state;   /* STATE, DONE */

@@ -127,5 +127,39 @@ check lost_frame_job_ends "$(cat "$T/body")" job_state_is "$between" succeeded
 n=0
 for k in 1 2 3 4; do frame_is "$between" "$k" "$T/cli-$k.png" && n=$((n + 1)); done
 check lost_frame_rendered_again "$n of 4 as rayd-render's" eval '[ "$n" = 4 ]'
+
+# ---- a drain ends the event streams: the jobs go on after the restart ----------------
+# A frame-range job's stream was left suspended through the drain: the stop waited 8 s
+# more for it, cut it without an end, and rayd exited 1 without its clean-up.  A plain
+# job's stream said "done" "canceled", though the job is queued again at the restart.
+# Now both end with "draining" (state queued) and rayd exits 0.
+stop_rayd
+start_rayd --threads 1 --test-gate 0 --data-dir "$D" --drain-seconds 1
+post_json "/v1/jobs?frames=0-1" "$T/anim.json" -H 'X-Tag: drainf' >/dev/null
+dframes=$(jfield "$T/body" id)
+post_json /v1/jobs "$T/anim.json" -H 'X-Tag: drainp' >/dev/null
+dplain=$(jfield "$T/body" id)
+curl -s -N -m 60 "$URL/v1/jobs/$dframes/events" >"$T/dframes.events" &
+PIDS+=($!)
+fpid=$!
+curl -s -N -m 60 "$URL/v1/jobs/$dplain/events" >"$T/dplain.events" &
+PIDS+=($!)
+ppid=$!
+wait_until 30 grep -q "event: state" "$T/dframes.events"
+wait_until 30 grep -q "event: state" "$T/dplain.events"
+stop_rayd
+wait "$fpid" "$ppid"
+check drain_exits_0_with_streams "rc $RAYD_RC: $(grep -i suspended "$T/rayd.err" | tail -1)" \
+    eval '[ "$RAYD_RC" = 0 ] && ! grep -q "still suspended" "$T/rayd.err"'
+for which in dframes dplain; do
+    check "drain_stream_${which}_draining" "$(tr '\n' '|' <"$T/$which.events")" eval \
+        'grep -q "^event: draining" "$T/$which.events" && grep -q "\"state\":\"queued\"" "$T/$which.events" &&
+         ! grep -q "^event: done" "$T/$which.events"'
+done
+start_rayd --threads 1 --data-dir "$D"
+wait_until 120 job_state_is "$dframes" succeeded
+check drained_frames_go_on "$(req GET "/v1/jobs/$dframes"; head -c 300 "$T/body")" job_state_is "$dframes" succeeded
+wait_until 120 job_state_is "$dplain" succeeded
+check drained_plain_goes_on "$(req GET "/v1/jobs/$dplain"; head -c 300 "$T/body")" job_state_is "$dplain" succeeded
 check rayd_alive "rayd died: $(tail -3 "$T/rayd.err")" kill -0 "$RAYD_PID"
 exit $NFAIL
