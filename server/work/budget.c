@@ -72,7 +72,10 @@ struct task *budget_task(struct cache_entry *scene, const struct work_target *wh
     work_assert_unlocked();
     enum mem_kind kind;
     size_t n = budget_bytes(cache_scene(scene), what, progressive, &kind);
-    if (!mem_reserve(kind, n)) {
+    jobs_reclaim_for(true, what->client); /* its own finished images go first */
+    bool room = mem_reserve(kind, n);
+    jobs_reclaim_for(false, 0);
+    if (!room) {
         metrics_reject(MR_MEMORY);
         *why = n > mem_limit() ? WORK_TOO_BIG : WORK_MEMORY;
         return NULL;

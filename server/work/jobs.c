@@ -90,24 +90,47 @@ static bool jobs_all_stored(const struct task *t) {
  * flight or the result cache, is counted but lives on until released). */
 static size_t jobs_evict_result(struct job *j, const char *why);
 
-/* Lets go of the images of the finished job that finished first (of the
- * task it shares with any other job): its jobs become "evicted" and answer
- * 410 result_evicted (jobs_evict_result) -- or, when a finished frame-range
- * job ended before it, of that job's oldest frame kept (shots.c).  false
- * when no finished job keeps an image. */
-static bool jobs_evict_oldest(void) {
+/* The client whose render's admission this thread reserves memory for
+ * (jobs_reclaim_for), 0 for none: the reclaimer lets go of its own
+ * finished images first. */
+static _Thread_local uint64_t jobs_reclaim_client;
+static _Thread_local bool jobs_reclaim_bound;
+
+void jobs_reclaim_for(bool bound, uint64_t client) {
+    jobs_reclaim_bound = bound;
+    jobs_reclaim_client = client;
+}
+
+/* The finished job that finished first and keeps an image, of client
+ * only when own, else anyone's; NULL when none. */
+static struct job *jobs_oldest_kept(bool own, uint64_t client) {
     struct job *victim = NULL;
     for (int i = 0; i < jobs_n; i++) {
         struct job *j = jobs_table[i];
         struct task *t = j->task;
         bool keeps = t->png || t->exr || (t->passes && t->passes->done);
         if (t->finished && t->status == RAYD_OK && !t->evicted && keeps &&
-            (!victim || t->t_end < victim->task->t_end))
+            (!own || j->client == client) && (!victim || t->t_end < victim->task->t_end))
             victim = j;
     }
-    double shot_end = jobs_shots.oldest_end ? jobs_shots.oldest_end() : -1;
-    if (shot_end >= 0 && (!victim || shot_end < victim->task->t_end))
-        return jobs_shots.evict_oldest();
+    return victim;
+}
+
+/* Lets go of the images of the finished job that finished first (of the
+ * task it shares with any other job): its jobs become "evicted" and answer
+ * 410 result_evicted (jobs_evict_result) -- or, when a finished frame-range
+ * job ended before it, of that job's oldest frame kept (shots.c).  A
+ * render's admission lets go of its own client's first: one client's
+ * flood of 1024x1024 EXR jobs made another's finished image 410 after six
+ * jobs.  false when no finished job keeps an image. */
+static bool jobs_evict_oldest(void) {
+    struct job *victim = jobs_reclaim_bound ? jobs_oldest_kept(true, jobs_reclaim_client) : NULL;
+    if (!victim) {
+        victim = jobs_oldest_kept(false, 0);
+        double shot_end = jobs_shots.oldest_end ? jobs_shots.oldest_end() : -1;
+        if (shot_end >= 0 && (!victim || shot_end < victim->task->t_end))
+            return jobs_shots.evict_oldest();
+    }
     if (!victim) return false;
     struct task *t = victim->task;
     if (jobs_all_stored(t)) { /* on disk: only the memory goes */

@@ -529,6 +529,11 @@ int store_load_frames(const struct store_job *j, unsigned char *states);
 
 /* ---- jobs.c (lock held) -------------------------------------------------------- */
 
+/* The memory budget's reclaimer, while this thread reserves a render's
+ * admission for client (bound) or nothing more (not bound, client 0): the
+ * finished images of that client go first (no lock needed: the thread's). */
+void jobs_reclaim_for(bool bound, uint64_t client);
+
 struct job {
     char id[33];
     struct task *task;

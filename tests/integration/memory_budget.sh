@@ -266,4 +266,28 @@ check evicted_job_says_why "no evicted_reason in the job" grep -q '"evicted_reas
 
 stop_rayd
 check exit_clean "rayd exited $RAYD_RC" [ "$RAYD_RC" = 0 ]
+
+# --- one client's new jobs let go of its own finished images first --------------------
+# Before, the oldest finished image went whoever's it was: another client's 1024x1024
+# EXR jobs made a finished image 410 after six jobs.
+start_rayd --max-memory 16M --threads 1 --client-header X-Client
+scene "$T/victim.json" 512 512 1 spheres 91
+post_json '/v1/jobs?format=exr' "$T/victim.json" -H 'X-Client: v' >/dev/null
+victim=$(jfield "$T/body" id)
+wait_until 60 job_state_is "$victim" succeeded
+flood=()
+for i in $(seq 1 12); do
+    scene "$T/fl$i.json" 512 512 1 spheres "$((100 + i))"
+    code=$(post_json '/v1/jobs?format=exr' "$T/fl$i.json" -H 'X-Client: a')
+    [ "$code" = 202 ] || break
+    flood+=("$(jfield "$T/body" id)")
+    wait_until 60 job_state_is "${flood[-1]}" succeeded
+    job_state_is "${flood[0]}" evicted && break
+done
+check flood_evicts_own_first "after ${#flood[@]} jobs (last POST $code): a's first $(jfield "$T/body" state)" \
+    job_state_is "${flood[0]}" evicted
+check flood_keeps_others_image "victim: $(req GET "/v1/jobs/$victim/image.exr")" \
+    eval '[ "$(req GET "/v1/jobs/$victim/image.exr")" = 200 ]'
+check flood_within_budget "total $(memory_total)" eval '[ "$(memory_total)" -le "$LIMIT" ]'
+stop_rayd
 exit $((NFAIL > 0))
