@@ -127,7 +127,7 @@ static void api_cluster_accepted(struct api_cluster *a) {
                                 .denoise = op->denoise,
                                 .keep_exr = op->exr,
                                 .ended_age = -1,
-                                .tiles_total = 0,
+                                .tiles_total = op->animated ? op->last - op->first + 1 : 0,
                                 .created_wall = op->created_ms / 1e3};
     snprintf(in.job.scene_id, sizeof in.job.scene_id, "%s", op->scene_id);
     char url[80];

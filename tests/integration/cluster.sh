@@ -105,6 +105,9 @@ check events_replay "events from node 3: $(head -c 300 "$T/events.txt")" bash -c
 code=$(curl -s -o "$T/anim.json" -w '%{http_code}' "${JSON[@]}" --data-binary @"$ANIM" "${NODE_URL[2]}/v1/jobs?frames=3-5")
 AID=$(python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["id"])' "$T/anim.json" 2>/dev/null)
 check frames_post_202 "POST gave $code: $(head -c 300 "$T/anim.json")" [ "$code" = 202 -a -n "$AID" ]
+# as one node's 202: a frame range counts frames (it said 0)
+check frames_post_tiles_total "$(head -c 300 "$T/anim.json")" eval \
+    '[ "$(json "$T/anim.json" "j[\"tiles_total\"]")" = 3 ]'
 wait_until 60 bash -c "curl -s '${NODE_URL[1]}/v1/jobs/$AID' | grep -q '\"state\":\"succeeded\"'"
 frames_as_render() { # NODE ID EXT K...: each frames/K.EXT is rayd-render --frame K's
     local node=$1 id=$2 ext=$3 k
