@@ -114,6 +114,16 @@ def texture_mesh(out, side, count, folder):
     open(out, "w").write(json.dumps(scene))
 
 
+def hold(held, folder):
+    """DIR/sent says how many are held; they are closed once DIR/stop exists."""
+    open(os.path.join(folder, "sent"), "w").write("%d held\n" % len(held))
+    end = time.time() + 120  # only ends a hung case
+    while not os.path.exists(os.path.join(folder, "stop")) and time.time() < end:
+        time.sleep(0.05)
+    for s in held:
+        s.close()
+
+
 def slow_bodies(port, n, length, folder):
     held, answers = [], []
     for i in range(n):
@@ -136,12 +146,7 @@ def slow_bodies(port, n, length, folder):
             answers.append("%s retry=%s" % (head.split("\r\n")[0], retry[0] if retry else "-"))
             s.close()
     open(os.path.join(folder, "answers"), "w").write("\n".join(answers) + "\n")
-    open(os.path.join(folder, "sent"), "w").write("%d held\n" % len(held))
-    end = time.time() + 120  # only ends a hung case
-    while not os.path.exists(os.path.join(folder, "stop")) and time.time() < end:
-        time.sleep(0.05)
-    for s in held:
-        s.close()
+    hold(held, folder)
 
 
 def stalled_bodies(port, n, length, folder):
@@ -151,12 +156,7 @@ def stalled_bodies(port, n, length, folder):
         s.sendall(("POST /v1/render HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
                    "Content-Length: %d\r\n\r\n{" % length).encode())
         held.append(s)
-    open(os.path.join(folder, "sent"), "w").write("%d held\n" % len(held))
-    end = time.time() + 120  # only ends a hung case
-    while not os.path.exists(os.path.join(folder, "stop")) and time.time() < end:
-        time.sleep(0.05)
-    for s in held:
-        s.close()
+    hold(held, folder)
 
 
 if __name__ == "__main__":
