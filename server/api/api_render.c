@@ -148,7 +148,7 @@ static cJSON *api_scene_json(struct cache_entry *e) {
  * when it is too big for the cache to keep (a 201 whose id then answered
  * 404 scene_unknown at once). */
 static bool api_scenes_created(struct http_req *r, struct cache_entry *e, bool hit) {
-    if (!cache_kept(e)) {
+    if (!cache_fits(e)) {
         struct rayd_scene_info info;
         rayd_scene_info(cache_scene(e), &info);
         char msg[300];

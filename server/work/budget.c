@@ -16,6 +16,17 @@
  */
 #include "work/work_private.h"
 
+/* The client whose render this thread admits, while it reserves the
+ * render's memory: the reclaimer (jobs.c) lets go of that client's own
+ * finished images first. */
+static _Thread_local uint64_t budget_client;
+static _Thread_local bool budget_bound;
+
+bool budget_admitting(uint64_t *client) {
+    *client = budget_client;
+    return budget_bound;
+}
+
 /* What the denoiser adds to a task rendering what of scene: each tile in
  * flight (one a worker at most) holds its sums with the filter's apron
  * around it and, while it resolves, the filter's buffers (the core's
@@ -72,9 +83,10 @@ struct task *budget_task(struct cache_entry *scene, const struct work_target *wh
     work_assert_unlocked();
     enum mem_kind kind;
     size_t n = budget_bytes(cache_scene(scene), what, progressive, &kind);
-    jobs_reclaim_for(true, what->client); /* its own finished images go first */
+    budget_bound = true; /* its own finished images go first */
+    budget_client = what->client;
     bool room = mem_reserve(kind, n);
-    jobs_reclaim_for(false, 0);
+    budget_bound = false;
     if (!room) {
         metrics_reject(MR_MEMORY);
         *why = n > mem_limit() ? WORK_TOO_BIG : WORK_MEMORY;

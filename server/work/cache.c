@@ -144,11 +144,11 @@ bool cache_evict_one(void) {
 const rayd_scene *cache_scene(const struct cache_entry *e) { return e->scene; }
 const char *cache_id(const struct cache_entry *e) { return e->id; }
 
-bool cache_kept(const struct cache_entry *e) {
+bool cache_fits(const struct cache_entry *e) {
     work_lock_take();
-    bool kept = e->linked;
+    bool fits = e->node.bytes <= cache_lru.budget;
     work_lock_give();
-    return kept;
+    return fits;
 }
 size_t cache_bytes(const struct cache_entry *e) { return e->mem; }
 const char *cache_version(const struct cache_entry *e) { return e->version; }

@@ -102,13 +102,20 @@ bool compile_start(void) {
 }
 
 /* The job of id (with a body to parse, or by id only) queued or being
- * parsed, lock held; NULL if none. */
+ * parsed, lock held; NULL if none.  A queued job that no one wanted any
+ * more (compile_drop) is wanted again: its flag is lowered.  A running one
+ * whose flag is up is stopping, and is not found: a new waiter joining it
+ * got its RAYD_E_CANCELED, and a frame-range job's frame failed for good
+ * because another job of the same frames had been deleted. */
 static struct compile_job *compile_find(const char *id, bool by_id) {
     work_assert_locked();
     for (struct compile_job *j = compile_head; j; j = j->next)
-        if (!strcmp(j->id, id) && (j->body == NULL) == by_id) return j;
+        if (!strcmp(j->id, id) && (j->body == NULL) == by_id) {
+            atomic_store(&j->cancel, 0);
+            return j;
+        }
     for (struct compile_job *j = compile_running; j; j = j->next)
-        if (!strcmp(j->id, id) && (j->body == NULL) == by_id) return j;
+        if (!strcmp(j->id, id) && (j->body == NULL) == by_id && !atomic_load(&j->cancel)) return j;
     return NULL;
 }
 

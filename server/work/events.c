@@ -77,7 +77,7 @@ static int events_news(struct events_stream *s, struct events_item *it, int n,
     enum jobs_state st = jobs_state(j);
     bool final = st == JS_SUCCEEDED || st == JS_FAILED || st == JS_CANCELED || st == JS_EVICTED;
     /* canceled by the drain with --data-dir: queued on disk, no end (jobs.c) */
-    bool drained = st == JS_CANCELED && task_draining() && store_on();
+    bool drained = st == JS_CANCELED && !j->canceled && task_draining() && store_on();
     if (k == 0 && final && !s->sent_done) {
         it[k++] = (struct events_item){.kind = drained ? EVENTS_DRAIN : EVENTS_DONE,
                                        .state = st,

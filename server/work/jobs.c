@@ -90,17 +90,6 @@ static bool jobs_all_stored(const struct task *t) {
  * flight or the result cache, is counted but lives on until released). */
 static size_t jobs_evict_result(struct job *j, const char *why);
 
-/* The client whose render's admission this thread reserves memory for
- * (jobs_reclaim_for), 0 for none: the reclaimer lets go of its own
- * finished images first. */
-static _Thread_local uint64_t jobs_reclaim_client;
-static _Thread_local bool jobs_reclaim_bound;
-
-void jobs_reclaim_for(bool bound, uint64_t client) {
-    jobs_reclaim_bound = bound;
-    jobs_reclaim_client = client;
-}
-
 /* The finished job that finished first and keeps an image, of client
  * only when own, else anyone's; NULL when none. */
 static struct job *jobs_oldest_kept(bool own, uint64_t client) {
@@ -124,7 +113,8 @@ static struct job *jobs_oldest_kept(bool own, uint64_t client) {
  * flood of 1024x1024 EXR jobs made another's finished image 410 after six
  * jobs.  false when no finished job keeps an image. */
 static bool jobs_evict_oldest(void) {
-    struct job *victim = jobs_reclaim_bound ? jobs_oldest_kept(true, jobs_reclaim_client) : NULL;
+    uint64_t client;
+    struct job *victim = budget_admitting(&client) ? jobs_oldest_kept(true, client) : NULL;
     if (!victim) {
         victim = jobs_oldest_kept(false, 0);
         double shot_end = jobs_shots.oldest_end ? jobs_shots.oldest_end() : -1;

@@ -153,13 +153,16 @@ static bool watch_round(struct watch_set *s, double *last_expire, double *last_p
         trim->idle = task_active == NULL;
     }
     if (watch_deadlines(n, sse)) return true;
-    /* while the drain runs, the streams look every round whether their
-     * job's part in it is over (events.c, shots_events.c) */
-    bool draining = task_draining();
-    if (draining || clock_now() - *last_ping >= EVENTS_PING_SECONDS) {
+    /* at the drain's start every stream looks whether its job's part in
+     * it is over (events.c, shots_events.c); after that a task's end or a
+     * frame's wakes them, as ever */
+    static bool drain_pinged;
+    bool drain_start = task_draining() && !drain_pinged;
+    if (drain_start || clock_now() - *last_ping >= EVENTS_PING_SECONDS) {
+        drain_pinged |= drain_start;
         *last_ping = clock_now();
         watch_ping(n);
-        if (n->list && !draining) return true; /* draining: a look a round, no more */
+        if (n->list) return true;
     }
     watch_poll(s, gone, n, sse);
     return false;

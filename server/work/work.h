@@ -65,9 +65,9 @@ struct cache_entry; /* a compiled scene and its id, reference counted */
 bool cache_hash(const void *data, size_t len, char out[65]);
 const rayd_scene *cache_scene(const struct cache_entry *e); /* immutable */
 const char *cache_id(const struct cache_entry *e);          /* immutable */
-/* Whether e is in the cache: not when it alone is over --cache-mb (it is
- * used once and freed), nor once evicted.  Takes the lock. */
-bool cache_kept(const struct cache_entry *e);
+/* Whether e fits the cache at all: not when it alone is over --cache-mb
+ * (it is used once and freed).  Takes the lock. */
+bool cache_fits(const struct cache_entry *e);
 size_t cache_bytes(const struct cache_entry *e); /* counted in the memory budget (immutable) */
 /* The id, or for a scene that read files a hash of it and the files'
  * identities: the key of its results and ETags (scenefiles.c). */

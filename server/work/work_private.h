@@ -454,6 +454,9 @@ void task_notify_run(struct task_notify *n); /* lock NOT held */
  * WORK_NOMEM. */
 struct task *budget_task(struct cache_entry *scene, const struct work_target *what,
                          bool progressive, enum work_submit *why);
+/* True while this thread reserves a render's memory in budget_task, with
+ * the render's client: the reclaimer lets go of its images first. */
+bool budget_admitting(uint64_t *client);
 /* The bytes budget_task reserves for what of scene. */
 size_t budget_need(const struct cache_entry *scene, const struct work_target *what,
                    bool progressive);
@@ -528,11 +531,6 @@ enum { STORE_FRAME_QUEUED, STORE_FRAME_DONE, STORE_FRAME_EVICTED };
 int store_load_frames(const struct store_job *j, unsigned char *states);
 
 /* ---- jobs.c (lock held) -------------------------------------------------------- */
-
-/* The memory budget's reclaimer, while this thread reserves a render's
- * admission for client (bound) or nothing more (not bound, client 0): the
- * finished images of that client go first (no lock needed: the thread's). */
-void jobs_reclaim_for(bool bound, uint64_t client);
 
 struct job {
     char id[33];

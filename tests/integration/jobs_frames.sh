@@ -345,6 +345,26 @@ check canceled_parse_not_cached "entries $entries -> $(metric rayd_cache_entries
     metric_is rayd_cache_entries "$entries"
 check deleted_job_canceled "$(req GET "/v1/jobs/$gj"; head -c 300 "$T/body")" \
     job_state_is "$gj" canceled
+# A second job of the same frames posted while the deleted one's parse is still queued
+# joins it: the parse is wanted again and goes on (it answered the new job's frame
+# "the parse was canceled", and that job failed).
+curl -s -m 30 -X POST -o /dev/null "$URL/v1/test/gate?parses=0"
+(curl -s -m 120 -o "$T/gated2.body" -X POST -H 'Content-Type: application/json' \
+    --data-binary @"$T/anim.json" "$URL/v1/jobs?frames=2-3") &
+PIDS+=($!)
+gated=$!
+wait_until 60 gate_is parses_waiting 1
+curl -s -m 30 -X POST -o /dev/null "$URL/v1/test/gate?parses=1"
+wait "$gated"
+gone=$(jfield "$T/gated2.body" id)
+wait_until 60 gate_is parses_queued 1
+req DELETE "/v1/jobs/$gone" >/dev/null
+post_json "/v1/jobs?frames=2-3" "$T/anim.json" >/dev/null
+again=$(jfield "$T/body" id)
+curl -s -m 30 -X POST -o /dev/null "$URL/v1/test/gate?parses=open"
+wait_until 120 eval 'job_state_is "$again" succeeded || job_state_is "$again" failed'
+check rejoined_parse_goes_on "$(req GET "/v1/jobs/$again"; head -c 400 "$T/body")" \
+    job_state_is "$again" succeeded
 
 # ---- a stop mid-video: its ffmpeg killed, its folder removed ------------------------
 # The test's ffmpeg writes its PID and sleeps, so the video is being made when SIGTERM

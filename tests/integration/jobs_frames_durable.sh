@@ -134,7 +134,7 @@ check lost_frame_rendered_again "$n of 4 as rayd-render's" eval '[ "$n" = 4 ]'
 # job's stream said "done" "canceled", though the job is queued again at the restart.
 # Now both end with "draining" (state queued) and rayd exits 0.
 stop_rayd
-start_rayd --threads 1 --test-gate 0 --data-dir "$D" --drain-seconds 1
+start_rayd --threads 1 --test-gate 0 --data-dir "$D" --drain-seconds 3
 post_json "/v1/jobs?frames=0-1" "$T/anim.json" -H 'X-Tag: drainf' >/dev/null
 dframes=$(jfield "$T/body" id)
 post_json /v1/jobs "$T/anim.json" -H 'X-Tag: drainp' >/dev/null
@@ -145,10 +145,23 @@ fpid=$!
 curl -s -N -m 60 "$URL/v1/jobs/$dplain/events" >"$T/dplain.events" &
 PIDS+=($!)
 ppid=$!
+post_json /v1/jobs "$T/anim.json" -H 'X-Tag: draind' >/dev/null
+ddel=$(jfield "$T/body" id)
+curl -s -N -m 60 "$URL/v1/jobs/$ddel/events" >"$T/ddel.events" &
+PIDS+=($!)
+dpid=$!
 wait_until 30 grep -q "event: state" "$T/dframes.events"
 wait_until 30 grep -q "event: state" "$T/dplain.events"
-stop_rayd
-wait "$fpid" "$ppid"
+wait_until 30 grep -q "event: state" "$T/ddel.events"
+kill -TERM "$RAYD_PID" # once: a second signal stops at once
+req DELETE "/v1/jobs/$ddel" >/dev/null # in the drain: an end, not a pause
+wait_until 60 rayd_gone
+wait "$RAYD_PID"
+RAYD_RC=$?
+RAYD_PID=
+check drain_sanitizer_clean "$(grep -Em 3 'Sanitizer|runtime error' "$T/rayd.err")" eval \
+    '! grep -Eq "ERROR: (Address|Leak)Sanitizer|runtime error:|WARNING: ThreadSanitizer" "$T/rayd.err"'
+wait "$fpid" "$ppid" "$dpid"
 check drain_exits_0_with_streams "rc $RAYD_RC: $(grep -i suspended "$T/rayd.err" | tail -1)" \
     eval '[ "$RAYD_RC" = 0 ] && ! grep -q "still suspended" "$T/rayd.err"'
 for which in dframes dplain; do
@@ -156,7 +169,11 @@ for which in dframes dplain; do
         'grep -q "^event: draining" "$T/$which.events" && grep -q "\"state\":\"queued\"" "$T/$which.events" &&
          ! grep -q "^event: done" "$T/$which.events"'
 done
+check drain_deleted_stream_done "$(tr '\n' '|' <"$T/ddel.events")" eval \
+    'grep -q "^event: done" "$T/ddel.events" && ! grep -q "^event: draining" "$T/ddel.events"'
 start_rayd --threads 1 --data-dir "$D"
+check drain_deleted_stays_canceled "$(req GET "/v1/jobs/$ddel"; head -c 300 "$T/body")" \
+    job_state_is "$ddel" canceled
 wait_until 120 job_state_is "$dframes" succeeded
 check drained_frames_go_on "$(req GET "/v1/jobs/$dframes"; head -c 300 "$T/body")" job_state_is "$dframes" succeeded
 wait_until 120 job_state_is "$dplain" succeeded
