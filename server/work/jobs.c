@@ -89,6 +89,7 @@ static bool jobs_all_stored(const struct task *t) {
  * freed (blob lengths; a blob still referenced elsewhere, by a response in
  * flight or the result cache, is counted but lives on until released). */
 static size_t jobs_evict_result(struct job *j, const char *why);
+static bool jobs_evict_job(struct job *victim);
 
 /* The finished job that finished first and keeps an image, of client
  * only when own, else anyone's; NULL when none. */
@@ -114,14 +115,20 @@ static struct job *jobs_oldest_kept(bool own, uint64_t client) {
  * jobs.  false when no finished job keeps an image. */
 static bool jobs_evict_oldest(void) {
     uint64_t client;
-    struct job *victim = budget_admitting(&client) ? jobs_oldest_kept(true, client) : NULL;
-    if (!victim) {
-        victim = jobs_oldest_kept(false, 0);
-        double shot_end = jobs_shots.oldest_end ? jobs_shots.oldest_end() : -1;
-        if (shot_end >= 0 && (!victim || shot_end < victim->task->t_end))
-            return jobs_shots.evict_oldest();
+    bool own = budget_admitting(&client);
+    for (int pass = own ? 0 : 1; pass < 2; pass++) { /* the client's own, then anyone's */
+        struct job *victim = jobs_oldest_kept(pass == 0, client);
+        double shot_end = jobs_shots.oldest_end ? jobs_shots.oldest_end(pass == 0, client) : -1;
+        if (shot_end >= 0 && (!victim || shot_end < victim->task->t_end) &&
+            jobs_shots.evict_oldest(pass == 0, client))
+            return true;
+        if (victim) return jobs_evict_job(victim);
     }
-    if (!victim) return false;
+    return false;
+}
+
+/* Lets go of victim's images (only from memory when they are on disk). */
+static bool jobs_evict_job(struct job *victim) {
     struct task *t = victim->task;
     if (jobs_all_stored(t)) { /* on disk: only the memory goes */
         task_let_go_images(t);

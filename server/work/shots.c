@@ -522,26 +522,26 @@ static double shots_kept_since(const struct shot *s) {
 }
 
 /* The finished shot that keeps a frame or its video, kept the longest. */
-static struct shot *shots_oldest_kept(void) {
+static struct shot *shots_oldest_kept(bool own, uint64_t client) {
     struct shot *best = NULL;
     for (int i = 0; i < shots_n; i++) {
         struct shot *s = shots_table[i];
-        if (shots_final(s) && s->flying == 0 &&
+        if (shots_final(s) && s->flying == 0 && (!own || s->client == client) &&
             (!best || shots_kept_since(s) < shots_kept_since(best)) && shots_keeps(s))
             best = s;
     }
     return best;
 }
 
-static double shots_oldest_end(void) {
+static double shots_oldest_end(bool own, uint64_t client) {
     work_assert_locked();
-    struct shot *s = shots_oldest_kept();
+    struct shot *s = shots_oldest_kept(own, client);
     return s ? shots_kept_since(s) : -1;
 }
 
-static bool shots_evict_oldest(void) {
+static bool shots_evict_oldest(bool own, uint64_t client) {
     work_assert_locked();
-    struct shot *s = shots_oldest_kept();
+    struct shot *s = shots_oldest_kept(own, client);
     for (int c = 0; s && !store_on() && c < s->norder; c++) { /* its frames as they ended */
         int i = s->order[c];
         if (s->f[i].png || s->f[i].exr) {

@@ -569,9 +569,10 @@ void jobs_expire(double now);
  * ended first and keeps a frame in memory ended (clock_now's clock; -1:
  * none), and its oldest frame let go (410 result_evicted; false: none) for
  * the memory budget; how many are unfinished (--max-jobs). */
+/* oldest_end and evict_oldest: of client's shots only when own */
 struct jobs_shots {
-    double (*oldest_end)(void);
-    bool (*evict_oldest)(void);
+    double (*oldest_end)(bool own, uint64_t client);
+    bool (*evict_oldest)(bool own, uint64_t client);
     long (*unfinished)(void);
 };
 void jobs_shots_hooks(const struct jobs_shots *h);
