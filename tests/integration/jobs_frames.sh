@@ -317,7 +317,7 @@ check video_failed_logged "$(grep -i ffmpeg "$T/rayd.err" | tail -2)" eval \
 check rayd_alive_after_video_failed "rayd died: $(tail -3 "$T/rayd.err")" kill -0 "$RAYD_PID"
 
 # ---- a DELETE stops its frames' parses ---------------------------------------------
-# The parse gate holds frame 1's parse in the queue while the job is deleted: the parse
+# The parse gate holds frame 2's parse in the queue while the job is deleted: the parse
 # then starts with no one wanting its scene and stops at once, canceled, and its scene
 # is not cached.  (The core's look at the flag in the middle of a parse, between its
 # steps and inside each BVH build, is test_scene_cancel's.)  Before, the parse ran in
@@ -326,14 +326,14 @@ stop_rayd
 start_rayd --threads 1 --test-gate open
 curl -s -m 30 -X POST -o /dev/null "$URL/v1/test/gate?parses=0"
 (curl -s -m 120 -o "$T/gated.body" -X POST -H 'Content-Type: application/json' \
-    --data-binary @"$T/anim.json" "$URL/v1/jobs?frames=1-3") &
+    --data-binary @"$T/anim.json" "$URL/v1/jobs?frames=2-4") &
 PIDS+=($!)
 gated=$!
 wait_until 60 gate_is parses_waiting 1
 curl -s -m 30 -X POST -o /dev/null "$URL/v1/test/gate?parses=1" # the POST's own parse
 wait "$gated"
 gj=$(jfield "$T/gated.body" id)
-wait_until 60 gate_is parses_queued 1 # frame 1's
+wait_until 60 gate_is parses_queued 1 # frame 2's
 entries=$(metric rayd_cache_entries)
 req DELETE "/v1/jobs/$gj" >/dev/null
 curl -s -m 30 -X POST -o /dev/null "$URL/v1/test/gate?parses=open"
@@ -382,7 +382,7 @@ EOF
 chmod +x "$T/slowff/ffmpeg"
 stop_rayd
 RAYD_WRAP="env PATH=$T/slowff TMPDIR=$T/vtmp" start_rayd --threads 1
-post_json "/v1/jobs?frames=1-3" "$T/anim.json" >/dev/null
+post_json "/v1/jobs?frames=2-4" "$T/anim.json" >/dev/null
 slow=$(jfield "$T/body" id)
 wait_until 120 job_state_is "$slow" succeeded
 code=$(req GET "/v1/jobs/$slow/video.mp4")
