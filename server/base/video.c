@@ -8,8 +8,8 @@
  * width or height padded to even), on one thread (the video thread is one
  * core beside the workers, not all of them: left to choose, ffmpeg took
  * both of the host's cores for 3.4 s of a 100-frame 2048 x 2048 video),
- * and the folder is removed.  ffmpeg is a
- * program, not a library, for the reason rayd-render gives: Debian's
+ * and the folder is removed.  ffmpeg is a program, not a library, for the
+ * reason rayd-render gives: Debian's
  * package is everywhere, and a crash of the encoder cannot take rayd with
  * it.  Its time is bounded: past the limit it is killed and the video
  * fails saying so.  This runs on the caller's thread and blocks for the

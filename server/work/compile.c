@@ -104,9 +104,9 @@ bool compile_start(void) {
 /* The job of id (with a body to parse, or by id only) queued or being
  * parsed, lock held; NULL if none.  A queued job that no one wanted any
  * more (compile_drop) is wanted again: its flag is lowered.  A running one
- * whose flag is up is stopping, and is not found: a new waiter joining it
- * got its RAYD_E_CANCELED, and a frame-range job's frame failed for good
- * because another job of the same frames had been deleted. */
+ * whose flag is up is stopping, and is not found, so a new one is queued:
+ * joined, it answered RAYD_E_CANCELED, and a frame-range job's frame
+ * failed for good because another job of the same frames was deleted. */
 static struct compile_job *compile_find(const char *id, bool by_id) {
     work_assert_locked();
     for (struct compile_job *j = compile_head; j; j = j->next)
