@@ -55,7 +55,6 @@ enum rayd_status sj_add_material(struct loader *ld, const struct material *m, in
 
 /* Named materials take indices 1..n in the order of /materials; index 0 is
  * the default material. */
-
 enum rayd_status sj_materials(struct loader *ld, const cJSON *root) {
     struct material def = material_default();
     int idx;

@@ -149,14 +149,12 @@ static cJSON *api_scene_json(struct cache_entry *e) {
  * 404 scene_unknown at once). */
 static bool api_scenes_created(struct http_req *r, struct cache_entry *e, bool hit) {
     if (!cache_fits(e)) {
-        struct rayd_scene_info info;
-        rayd_scene_info(cache_scene(e), &info);
         char msg[300];
         snprintf(msg, sizeof msg,
                  "the compiled scene is %zu bytes, more than the scene cache keeps (--cache-mb "
                  "%ld), so it cannot be kept for GET /v1/scenes/{id}; POST it to /v1/render or "
                  "/v1/jobs instead",
-                 info.bytes, config.cache_mb);
+                 cache_bytes(e), config.cache_mb);
         http_reply_error(r, 413, "too_large", msg, NULL, 0, 0, NULL);
         return false;
     }

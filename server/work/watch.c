@@ -30,7 +30,8 @@
 
 static pthread_t watch_thread;
 static bool watch_started;
-static bool watch_stopping; /* lock held */
+static bool watch_stopping;     /* lock held */
+static bool watch_drain_pinged; /* the streams were woken at the drain's start (lock held) */
 /* shots.c's streams (watch_streams_hooks): it sits above this file */
 static struct work_waiter **(*watch_shots)(int i);
 static bool (*watch_shots_unwait)(struct work_waiter *w, struct task_notify *gone);
@@ -156,10 +157,9 @@ static bool watch_round(struct watch_set *s, double *last_expire, double *last_p
     /* at the drain's start every stream looks whether its job's part in
      * it is over (events.c, shots_events.c); after that a task's end or a
      * frame's wakes them, as ever */
-    static bool drain_pinged;
-    bool drain_start = task_draining() && !drain_pinged;
+    bool drain_start = task_draining() && !watch_drain_pinged;
     if (drain_start || clock_now() - *last_ping >= EVENTS_PING_SECONDS) {
-        drain_pinged |= drain_start;
+        watch_drain_pinged |= drain_start;
         *last_ping = clock_now();
         watch_ping(n);
         if (n->list) return true;

@@ -322,18 +322,24 @@ check rayd_alive_after_video_failed "rayd died: $(tail -3 "$T/rayd.err")" kill -
 # is not cached.  (The core's look at the flag in the middle of a parse, between its
 # steps and inside each BVH build, is test_scene_cancel's.)  Before, the parse ran in
 # full: a 15 KB glTF of 5M triangles burned 1.3 s of CPU after its job's DELETE.
+# post_held RANGE: a job of RANGE, its id in $held_id, the parses shut after the POST's
+# own, so its first frame's parse waits in the queue
+post_held() {
+    curl -s -m 30 -X POST -o /dev/null "$URL/v1/test/gate?parses=0"
+    (curl -s -m 120 -o "$T/post_held.body" -X POST -H 'Content-Type: application/json' \
+        --data-binary @"$T/anim.json" "$URL/v1/jobs?frames=$1") &
+    PIDS+=($!)
+    local posting=$!
+    wait_until 60 gate_is parses_waiting 1
+    curl -s -m 30 -X POST -o /dev/null "$URL/v1/test/gate?parses=1" # the POST's own parse
+    wait "$posting"
+    held_id=$(jfield "$T/post_held.body" id)
+    wait_until 60 gate_is parses_queued 1 # its first frame's
+}
 stop_rayd
 start_rayd --threads 1 --test-gate open
-curl -s -m 30 -X POST -o /dev/null "$URL/v1/test/gate?parses=0"
-(curl -s -m 120 -o "$T/gated.body" -X POST -H 'Content-Type: application/json' \
-    --data-binary @"$T/anim.json" "$URL/v1/jobs?frames=2-4") &
-PIDS+=($!)
-gated=$!
-wait_until 60 gate_is parses_waiting 1
-curl -s -m 30 -X POST -o /dev/null "$URL/v1/test/gate?parses=1" # the POST's own parse
-wait "$gated"
-gj=$(jfield "$T/gated.body" id)
-wait_until 60 gate_is parses_queued 1 # frame 2's
+post_held 2-4
+gj=$held_id
 entries=$(metric rayd_cache_entries)
 req DELETE "/v1/jobs/$gj" >/dev/null
 curl -s -m 30 -X POST -o /dev/null "$URL/v1/test/gate?parses=open"
@@ -348,16 +354,8 @@ check deleted_job_canceled "$(req GET "/v1/jobs/$gj"; head -c 300 "$T/body")" \
 # A second job of the same frames posted while the deleted one's parse is still queued
 # joins it: the parse is wanted again and goes on (it answered the new job's frame
 # "the parse was canceled", and that job failed).
-curl -s -m 30 -X POST -o /dev/null "$URL/v1/test/gate?parses=0"
-(curl -s -m 120 -o "$T/gated2.body" -X POST -H 'Content-Type: application/json' \
-    --data-binary @"$T/anim.json" "$URL/v1/jobs?frames=2-3") &
-PIDS+=($!)
-gated=$!
-wait_until 60 gate_is parses_waiting 1
-curl -s -m 30 -X POST -o /dev/null "$URL/v1/test/gate?parses=1"
-wait "$gated"
-gone=$(jfield "$T/gated2.body" id)
-wait_until 60 gate_is parses_queued 1
+post_held 2-3
+gone=$held_id
 req DELETE "/v1/jobs/$gone" >/dev/null
 post_json "/v1/jobs?frames=2-3" "$T/anim.json" >/dev/null
 again=$(jfield "$T/body" id)
