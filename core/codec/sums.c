@@ -25,6 +25,16 @@ static void put_u32(unsigned char *p, uint32_t v) {
     for (int i = 0; i < 4; i++) p[i] = (unsigned char)(v >> (8 * i));
 }
 
+/* Hosts that keep doubles little-endian (every one rayd runs on) copy the
+ * values as they are: a 4096x4096 frame's 400 MB byte by byte took 1.1 s
+ * of a worker. */
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__ && \
+    defined(__FLOAT_WORD_ORDER__) && __FLOAT_WORD_ORDER__ == __ORDER_LITTLE_ENDIAN__
+#define SUMS_NATIVE 1
+#else
+#define SUMS_NATIVE 0
+#endif
+
 static uint32_t get_u32(const unsigned char *p) {
     return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
 }
@@ -39,7 +49,8 @@ enum rayd_status rayd_sums_encode(int w, int h, int k0, int k1, const double *su
     put_u32(p + 12, (uint32_t)h);
     put_u32(p + 16, (uint32_t)k0);
     put_u32(p + 20, (uint32_t)k1);
-    for (size_t i = 0; i < count; i++) {
+    if (SUMS_NATIVE) memcpy(p + SUMS_HEADER, sums, count * 8);
+    for (size_t i = 0; !SUMS_NATIVE && i < count; i++) {
         uint64_t v;
         memcpy(&v, &sums[i], 8);
         for (int b = 0; b < 8; b++)
@@ -76,10 +87,12 @@ enum rayd_status rayd_sums_decode(const void *buf, size_t len, struct rayd_sums_
     if (!out) return err_set(err, RAYD_E_NOMEM, NULL, "out of memory for sums");
     /* the largest sum a render gives: every sample at the cap */
     double max = RENDER_SUM_CAP * (hdr->k1 - hdr->k0);
+    if (SUMS_NATIVE) memcpy(out, p + SUMS_HEADER, count * 8);
     for (size_t i = 0; i < count; i++) {
         uint64_t v = 0;
-        for (int b = 0; b < 8; b++) v |= (uint64_t)p[SUMS_HEADER + 8 * i + (size_t)b] << (8 * b);
-        memcpy(&out[i], &v, 8);
+        for (int b = 0; !SUMS_NATIVE && b < 8; b++)
+            v |= (uint64_t)p[SUMS_HEADER + 8 * i + (size_t)b] << (8 * b);
+        if (!SUMS_NATIVE) memcpy(&out[i], &v, 8);
         if (!(out[i] >= 0 && out[i] <= max)) { /* NaN fails too */
             free(out);
             return err_set(err, RAYD_E_PARSE, NULL, "sum %zu is out of range", i);

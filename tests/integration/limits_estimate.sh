@@ -172,3 +172,18 @@ job_413 job_exr_aov_refused "/v1/jobs?format=exr&aov=all" "$T/big.json"
 job_ok png_aov_admitted "aov=normal" "$T/big.json" # a PNG of one AOV: no EXR to write
 stop_rayd
 check rayd_exit_0 "exit $RAYD_RC" [ "$RAYD_RC" = 0 ]
+
+# --- sums are priced: 2 rays a pixel more -------------------------------------------------------
+# Their 24 bytes a pixel cost more than the rays of an empty scene: the 1024 x 1024 one-sample
+# sums are 1M + 2M rays, over a --max-work of 2.5M.  Before, a 74-byte request of a 4096 x 4096
+# scene's sums was priced at its 16.7M rays, passed a --max-work of 16.7M and took 4 s of CPU
+# where its PNG took 0.45 s.
+start_rayd --threads 1 --max-work 2500000
+code=$(post_json "/v1/render" "$T/big.json")
+check sums_png_admitted "status $code, priced $(header X-Rayd-Estimated-Rays)" [ "$code" = 200 ]
+code=$(post_json "/v1/render?format=sums&samples=0-1" "$T/big.json")
+check sums_refused "status $code: $(head -c 200 "$T/body")" \
+    err_is "$T/body" 413 over_budget
+check sums_priced "$(head -c 200 "$T/body")" grep -q "estimated cost is 3.15e+06 rays" "$T/body"
+stop_rayd
+check rayd_exit_0 "exit $RAYD_RC" [ "$RAYD_RC" = 0 ]
