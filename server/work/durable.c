@@ -14,7 +14,9 @@
  * from --asset-dir) ends its job as failed with the parser's error, and a
  * job found unfinished DURABLE_ATTEMPTS times (rayd killed during it each
  * time) fails too, rather than take every restart down with it -- a frame-
- * range job as a one-image job, counted by its frames left.  A clean stop
+ * range job as a one-image job, counted by its frames left, and counted
+ * again from zero each time one of its frames is done: a job killed five
+ * times that went on each time is no job that kills rayd.  A clean stop
  * (a drain) counts no attempt (store_stop marks jobs.db).
  *
  * Only when every job is back does the server listen, so no client sees a

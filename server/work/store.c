@@ -471,6 +471,9 @@ static void store_do_frame(struct store_op *op) {
                   "ttidti", p, op->exr ? e : NULL, (long long)bytes, store_wall(), id,
                   (long long)k) != SQLITE_DONE)
         return;
+    /* the job went on: the kills so far are no sign that it kills rayd
+     * (durable.c), so its frames left start counting again */
+    store_run(NULL, "UPDATE frames SET attempts = 0 WHERE job = ? AND state = 'queued'", "t", id);
     store_bytes += bytes;
     if (store_frame_written) store_frame_written(id, k);
     store_evict(id, k);
