@@ -253,6 +253,33 @@ bool api_shots_frame_path(struct http_req *r, const char *path, char id[33], lon
     return true;
 }
 
+/* 409 frame_not_ready for frame k in state st.  A frame its job will never
+ * render (the job failed or was cancelled first) says so, with no
+ * Retry-After: a client polling for its 200 would poll for ever. */
+static void api_shots_not_ready(struct http_req *r, long k, enum shots_frame_state st,
+                                const struct shots_info *info) {
+    static const char *const names[] = {"", "", "queued", "running", "done", "failed"};
+    bool ended = info->job.state == JS_FAILED || info->job.state == JS_CANCELED;
+    bool never = st != SHOTS_FAILED && ended;
+    char msg[400];
+    if (never)
+        snprintf(msg, sizeof msg, "frame %ld was not rendered: its job %s%s%.300s", k,
+                 info->job.state == JS_CANCELED ? "was cancelled" : "failed",
+                 info->job.err.message[0] ? ": " : "", info->job.err.message);
+    else
+        snprintf(msg, sizeof msg, "frame %ld is %s, not done%s", k, names[st],
+                 st == SHOTS_FAILED ? "" : ": retry later");
+    cJSON *o = cJSON_CreateObject();
+    cJSON *e = cJSON_AddObjectToObject(o, "error");
+    cJSON_AddNumberToObject(e, "status", 409);
+    cJSON_AddStringToObject(e, "code", "frame_not_ready");
+    cJSON_AddStringToObject(e, "message", msg);
+    cJSON_AddStringToObject(e, "state", never ? "canceled" : names[st]);
+    http_reply_json(r, 409, o);
+    if (st != SHOTS_FAILED && !ended) http_reply_header(r, "Retry-After", "1");
+    r->res.err_code = "frame_not_ready";
+}
+
 void api_shots_frame(struct http_req *r, const char *path) {
     char id[33];
     long k = 0;
@@ -286,19 +313,7 @@ void api_shots_frame(struct http_req *r, const char *path) {
         http_reply_image(r, 200, img, api_format_type(exr ? WORK_EXR : WORK_PNG));
         http_reply_header(r, "Cache-Control", "private, max-age=3600");
     } else {
-        static const char *const names[] = {"", "", "queued", "running", "done", "failed"};
-        snprintf(msg, sizeof msg, "frame %ld is %s, not done%s", k,
-                 info.job.state == JS_CANCELED ? "cancelled" : names[st],
-                 st == SHOTS_FAILED ? "" : ": retry later");
-        cJSON *o = cJSON_CreateObject();
-        cJSON *e = cJSON_AddObjectToObject(o, "error");
-        cJSON_AddNumberToObject(e, "status", 409);
-        cJSON_AddStringToObject(e, "code", "frame_not_ready");
-        cJSON_AddStringToObject(e, "message", msg);
-        cJSON_AddStringToObject(e, "state", info.job.state == JS_CANCELED ? "canceled" : names[st]);
-        http_reply_json(r, 409, o);
-        if (st != SHOTS_FAILED) http_reply_header(r, "Retry-After", "1");
-        r->res.err_code = "frame_not_ready";
+        api_shots_not_ready(r, k, st, &info);
     }
     blob_unref(img);
 }
@@ -329,10 +344,17 @@ void api_shots_video(struct http_req *r, const char *id) {
         http_reply_image(r, 200, mp4, "video/mp4");
         http_reply_header(r, "Cache-Control", "private, max-age=3600");
         blob_unref(mp4);
+    } else if (info.done < info.total &&
+               (info.job.state == JS_FAILED || info.job.state == JS_CANCELED)) {
+        snprintf(msg, sizeof msg, "the job %s with %ld of %ld frames done: it has no video",
+                 info.job.state == JS_CANCELED ? "was cancelled" : "failed", info.done,
+                 info.total);
+        http_reply_error(r, 409, "frames_not_done", msg, NULL, 0, 0, NULL);
     } else if (info.done < info.total) {
         snprintf(msg, sizeof msg, "the video is made once every frame is done (%ld of %ld)",
                  info.done, info.total);
         http_reply_error(r, 409, "frames_not_done", msg, NULL, 0, 0, NULL);
+        http_reply_header(r, "Retry-After", "1");
     } else if (info.video == SV_NO_FFMPEG) {
         http_reply_error(r, 503, "no_ffmpeg", info.video_error, NULL, 0, 0, NULL);
     } else if (info.video == SV_EVICTED) {

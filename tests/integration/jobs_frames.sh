@@ -212,6 +212,14 @@ check delete_frames_none_queued "$(cat "$T/body")" eval '[ "$(json "$T/body" "j[
 gate open
 code=$(req GET "/v1/jobs/$cancel/frames/2.png")
 check frame_of_cancelled "$code $(cat "$T/body")" eval 'err_is "$T/body" 409 frame_not_ready && grep -q canceled "$T/body"'
+# a frame its job will never render says so, with no Retry-After: before, "frame 2 is
+# cancelled, not done: retry later" with Retry-After: 1, and a client polling for it as the
+# docs do polled for ever; the video likewise
+check frame_of_cancelled_final "$(cat "$T/headers" "$T/body" | tr '\r\n' '||')" eval \
+    '[ -z "$(header Retry-After)" ] && grep -q "frame 2 was not rendered: its job was cancelled" "$T/body"'
+code=$(req GET "/v1/jobs/$cancel/video.mp4")
+check video_of_cancelled "$code $(cat "$T/body")" eval 'err_is "$T/body" 409 frames_not_done &&
+    grep -q "the job was cancelled with 0 of 6 frames done: it has no video" "$T/body"'
 # ---- a frame that keeps failing: tried 3 times, then the job fails naming it --------
 curl -s -X POST "$URL/v1/test/gate?work=10" >/dev/null # every render made now runs out of rays
 post_json "/v1/jobs?frame=8" "$T/anim.json" -H 'X-Tag: fail' >/dev/null
