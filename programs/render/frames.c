@@ -16,7 +16,10 @@
  * library whose API and ABI change with every FFmpeg release, and the
  * options are the ones every ffmpeg user knows.  The pixels go through a
  * pipe: no temporary files.  H.264's 4:2:0 needs an even width and height:
- * an odd one is padded with one black column or row.
+ * an odd one is padded with one black column or row.  ffmpeg runs on one
+ * thread, as the server's does (server/base/video.c): left to itself it
+ * takes a count from the machine's cores and writes it into the video, so
+ * the same frames made other bytes on another machine.
  *
  * The invariants: one scene is alive at a time (a frame's is freed before
  * the next is parsed), so a long range takes the memory of one frame; a
@@ -65,6 +68,7 @@ static int video_start(struct video *v, const char *path, int w, int h, double f
                     "-framerate",  rate,
                     "-i",          "pipe:0",
                     "-vf",         "pad=ceil(iw/2)*2:ceil(ih/2)*2",
+                    "-threads",    "1",
                     "-c:v",        "libx264",
                     "-pix_fmt",    "yuv420p",
                     "-preset",     "veryfast",
