@@ -12,7 +12,7 @@
  * queue_full) but not renders, which a balancer should still send here:
  * /readyz stays 200 and says so in "jobs_refused", beside the jobs counted
  * ("jobs" unfinished of "max_jobs"), so an operator or a job client sees
- * why.
+ * why; likewise while a cluster node's Redis is down (its renders go on).
  * /metrics is the Prometheus text of metrics.c.
  */
 #include "api/api.h"
@@ -57,15 +57,23 @@ void api_health_live(struct http_req *r, const char *id) {
  * with --redis the cluster's unfinished jobs, as the puller last read them. */
 static void api_health_jobs(cJSON *o, const struct sched_stats *st) {
     long jobs = st->jobs_unfinished;
+    struct cluster_status_view v = {.redis_up = true};
     if (cluster_on()) {
-        struct cluster_status_view v;
         cluster_view(&v);
         jobs = v.jobs_unfinished;
     }
     cJSON_AddNumberToObject(o, "jobs", (double)jobs);
     cJSON_AddNumberToObject(o, "max_jobs", (double)st->jobs_cap);
+    char msg[600];
+    if (!v.redis_up) {
+        snprintf(msg, sizeof msg,
+                 "the cluster's Redis at %.100s is down (%.200s): POST /v1/jobs answers 503 "
+                 "cluster_unavailable until it is back; renders are accepted",
+                 v.address, v.reason);
+        cJSON_AddStringToObject(o, "jobs_refused", msg);
+        return;
+    }
     if (jobs < st->jobs_cap) return;
-    char msg[200];
     snprintf(msg, sizeof msg,
              "all %ld jobs kept (--max-jobs) are unfinished%s: POST /v1/jobs answers 503 "
              "queue_full until one ends; renders are accepted",

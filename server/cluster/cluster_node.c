@@ -504,14 +504,21 @@ static void node_figures(struct redis *c) {
     if (v.redis_up) cluster_items_others(c, &v);
     if (!v.redis_up)
         snprintf(v.reason, sizeof v.reason, "%s", redis_why(c)[0] ? redis_why(c) : "no answer");
+    static bool figured; /* this thread's alone: a first look has no "was" */
     pthread_mutex_lock(&cluster_mu);
     bool was_up = cluster_view_now.redis_up;
     int had = cluster_view_now.nother;
     cluster_view_now = v;
     pthread_mutex_unlock(&cluster_mu);
-    if (was_up != v.redis_up)
-        log_info("cluster: Redis at %s is %s%s%s", v.address, v.redis_up ? "up" : "down",
-                 v.redis_up ? "" : ": ", v.reason);
+    /* down is a warning, from the first look on: a mistyped --redis was
+     * said nowhere but in /healthz until the first job's 503 */
+    if (!v.redis_up && (was_up || !figured))
+        log_warn("cluster: Redis at %s is down: %s; POST /v1/jobs answers 503 "
+                 "cluster_unavailable until it is back",
+                 v.address, v.reason);
+    else if (v.redis_up && !was_up && figured)
+        log_info("cluster: Redis at %s is up", v.address);
+    figured = true;
     for (int i = had; i < v.nother; i++)
         log_warn("cluster: this node (rayd %s) takes no item of another version: %s",
                  cluster_version(), v.other_versions[i]);

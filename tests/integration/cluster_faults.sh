@@ -88,6 +88,14 @@ check redis_down_healthz "$(curl -s "${NODE_URL[2]}/healthz")" bash -c "curl -s 
 rc=$?
 check redis_down_client_health "exit $rc: $(cat "$T/health.out")" bash -c "[ $rc = 1 ] && grep -q 'cluster: redis DOWN at 127.0.0.1:$REDIS_PORT' '$T/health.out'"
 check redis_down_metric "rayd_cluster_redis_up $(metric 2 rayd_cluster_redis_up)" [ "$(metric 2 rayd_cluster_redis_up)" = 0 ]
+# said where an operator and a balancer look: a warning in the log (before, "info", and nothing
+# at all when Redis was down from the start), and /readyz, still 200 for renders, says why jobs
+# are refused
+check redis_down_warned "$(grep -i redis "$T/node2.err" | tail -2)" \
+    grep -q "warn cluster: Redis at 127.0.0.1:$REDIS_PORT is down" "$T/node2.err"
+code=$(curl -s -o "$T/ready.json" -w '%{http_code}' "${NODE_URL[2]}/readyz")
+check redis_down_readyz_says "$code $(cat "$T/ready.json")" bash -c "[ $code = 200 ] &&
+    grep -q '\"jobs_refused\":\"the cluster.s Redis at 127.0.0.1:$REDIS_PORT is down' '$T/ready.json'"
 restart_redis
 gate_node 2 open
 wait_until 50 succeeded 3 "$ID2"
@@ -240,4 +248,11 @@ check reclaim_while_busy "taken over after $taken_at of 12 tiles done (claim 1.5
 gate_node 13 open
 wait_until 60 succeeded 13 "$BID"
 check reclaim_while_busy_finishes "state: $(job_state "${NODE_URL[13]}" "$BID")" succeeded 13 "$BID"
+
+# --- a --redis nobody answers at, from the start: said at once --------------------------------
+# (a mistyped address was said nowhere until the first POST /v1/jobs got its 503)
+start_node 15 --threads 1 --redis "redis://127.0.0.1:1"
+wait_until 10 grep -q "Redis at 127.0.0.1:1 is down" "$T/node15.err"
+check redis_unreachable_at_start_warned "$(tail -n 2 "$T/node15.err")" \
+    grep -q "warn cluster: Redis at 127.0.0.1:1 is down: .*POST /v1/jobs answers 503" "$T/node15.err"
 [ "$NFAIL" = 0 ]
