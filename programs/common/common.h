@@ -107,7 +107,7 @@ bool output_kind_exr(const char *path);
 
 /* ---- frame_name.c --------------------------------------------------------- */
 
-/* pattern with its one %d, %Nd or %0Nd (N < 10) set to k, "%%" as "%",
+/* pattern with its one %d or %0Nd (N < 10) set to k, "%%" as "%",
  * into out.  -1 when the pattern has another % or more than one number (or
  * the name does not fit); 0 when it has none (out is the pattern), 1 when
  * it has one. */

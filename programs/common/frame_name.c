@@ -2,7 +2,7 @@
  *
  * rayd-render --frames A-B and rayd-client job --frames A-B read the same
  * range, and both name frame k's file from -o's pattern the same way: one
- * %d, %Nd or %0Nd (N < 10) becomes k, "%%" a "%".  One copy here, so the
+ * %d or %0Nd (N < 10) becomes k, "%%" a "%".  One copy here, so the
  * two programs write the same names for the same command line (shot-%04d.png
  * is shot-0007.png from either), and a pattern one refuses the other
  * refuses too.
@@ -23,13 +23,13 @@ int frame_name_path(const char *pattern, long k, char *out, size_t size) {
         if (*p == '%' && p[1] == '%') {
             p++;
         } else if (*p == '%') {
+            /* %0Nd, not %Nd: padded with spaces, names a shell splits
+             * (and ffmpeg reads %Nd as %0Nd: other names than ours) */
             const char *q = p + 1;
-            bool zero = *q == '0';
             int width = 0;
-            if (zero) q++;
-            if (*q >= '1' && *q <= '9') width = *q++ - '0';
+            if (*q == '0' && q[1] >= '1' && q[1] <= '9') width = q[1] - '0', q += 2;
             if (*q != 'd' || numbers++) return -1;
-            snprintf(piece, sizeof piece, zero ? "%0*ld" : "%*ld", width, k);
+            snprintf(piece, sizeof piece, "%0*ld", width, k);
             p = q;
         }
         size_t n = strlen(piece);

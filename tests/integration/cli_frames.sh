@@ -64,6 +64,11 @@ usage frame_before_start "rayd-render: error: $T/anim.json: /animation: frame 1 
 usage frames_need_pattern "a range of frames needs a file name with %d" "$T/anim.json" --frames 3-4 -o "$T/x.png"
 usage frames_bad_pattern "a frame's file takes one %d (or %0Nd, N < 10) and no other % (%% for a %)" \
     "$T/anim.json" --frames 3-4 -o "$T/x-%s.png"
+# %5d padded with spaces: "x-    3.png", names a shell splits (before, written as such)
+usage frames_space_pattern "a frame's file takes one %d (or %0Nd, N < 10)" \
+    "$T/anim.json" --frames 3-4 -o "$T/x-%5d.png"
+usage frames_bad_pattern_00 "a frame's file takes one %d (or %0Nd, N < 10)" \
+    "$T/anim.json" --frames 3-4 -o "$T/x-%00d.png"
 usage frames_backwards "--frames takes A-B" "$T/anim.json" --frames 6-3 -o "$T/x%d.png"
 usage frames_stdout "-o - cannot take a range of frames" "$T/anim.json" --frames 3-4 -o -
 usage still_frame "rayd-render: error: frame 1: the scene has no /animation, so its one frame is 0" \
