@@ -291,6 +291,11 @@ bool job_delete(const struct client_opts *o, const char *id, char *state, size_t
  * Returns 0, 1 when refused, failed or on a transport or write error, 2 on
  * a usage error (said, nothing sent), 130 when interrupted (cancelled). */
 int job_frames_run(const struct client_opts *o, const struct scenefile *sf);
+/* watch ID of a frame-range job (watch.c read its frames first..last and
+ * its w x h): every frame done into o->out's pattern as it comes, then
+ * o->video.  Ctrl-C leaves the job running.  The exit status as above. */
+int job_frames_watch(const struct client_opts *o, const char *id, long first, long last, int w,
+                     int h);
 
 /* ---- watch.c -------------------------------------------------------------- */
 

@@ -34,6 +34,10 @@
  * which answers 202 while ffmpeg makes it; we ask again each second, for
  * at most the server's own bound (60 s plus 2 s a frame) and a minute
  * more.  Ctrl-C at any point cancels the job (job_cancel) and exits 130.
+ * --detach prints the job's id and leaves it: `rayd-client watch ID -o
+ * PATTERN` (job_frames_watch) follows it then, or again after the client
+ * or the node it followed died, writing every frame done (and the video);
+ * its Ctrl-C and a frame refused leave the job running, as watch's do.
  */
 #include "client.h"
 
@@ -52,6 +56,7 @@ struct job_frames {
     unsigned char *got;   /* got[k - first]: frame k written */
     unsigned char *ready; /* ready[k - first]: the stream said frame k is done */
     int refused;          /* a frame was no image of the scene's size */
+    int leaves;           /* watch: Ctrl-C and a refused frame leave the job running */
     int news;             /* frames announced and the end, as the stream said them */
     long ngot, next;      /* frames written; the lowest not written */
     double eta;           /* the server's eta_s, -1 when unknown */
@@ -268,8 +273,15 @@ static int job_frames_follow(struct job_frames *j) {
     net_buf_free(&b);
     progress_end(&j->prog);
     char state[16];
-    if (j->refused && !job_stopped() && job_delete(o, j->id, state, sizeof state))
+    if (j->refused && !j->leaves && !job_stopped() && job_delete(o, j->id, state, sizeof state))
         fprintf(stderr, "rayd-client: job %s cancelled: a frame could not be written\n", j->id);
+    if (job_stopped() && j->leaves) {
+        fprintf(stderr,
+                "rayd-client: interrupted; job %s goes on (%ld of %ld frames written); to follow "
+                "it again: rayd-client watch %s -o '%s' --server %s\n",
+                j->id, j->ngot, j->last - j->first + 1, j->id, o->out, o->servers[0]);
+        return 130;
+    }
     return job_stopped() ? job_cancel(o, j->id) : rc;
 }
 
@@ -312,45 +324,97 @@ static int job_frames_video(struct job_frames *j) {
     return rc;
 }
 
+/* Whether -o and --video can be written, the first frame's name made
+ * from the pattern: 0, or 1 said. */
+static int job_frames_writable(const struct job_frames *j) {
+    char first[4096];
+    frame_name_path(j->o->out, j->first, first, sizeof first);
+    return output_writable(first) != 0 || (j->o->video && output_writable(j->o->video) != 0);
+}
+
+/* Follows job j->id (posted, or watched) to its end, each frame into its
+ * file, then the video: the exit status.  Signals are caught by the
+ * caller. */
+static int job_frames_go(struct job_frames *j) {
+    const struct client_opts *o = j->o;
+    long total = j->last - j->first + 1;
+    j->ready = calloc((size_t)total, 1);
+    if (!(j->got = calloc((size_t)total, 1)) || !j->ready) {
+        free(j->got);
+        free(j->ready);
+        prog_error("out of memory");
+        return 1;
+    }
+    j->next = j->first;
+    net_label(o->servers[0], j->label[0], sizeof j->label[0]);
+    progress_init(&j->prog, (int)total, o->quiet);
+    j->prog.unit = "frames";
+    int rc = job_frames_follow(j);
+    if (rc == 0 && !o->quiet)
+        fprintf(stderr, "rayd-client: wrote %ld frame%s to %s\n", total, total > 1 ? "s" : "",
+                o->out);
+    if (rc == 0 && o->video) rc = job_frames_video(j);
+    free(j->got);
+    free(j->ready);
+    return rc;
+}
+
 int job_frames_run(const struct client_opts *o, const struct scenefile *sf) {
     struct job_frames j = {.o = o, .sf = sf, .eta = -1};
     int rc = job_frames_check(o, sf, &j.first, &j.last);
     if (rc != 0) return rc;
-    char first[4096];
-    frame_name_path(o->out, j.first, first, sizeof first);
-    if (output_writable(first) != 0 || (o->video && output_writable(o->video) != 0)) return 1;
+    if (job_frames_writable(&j) != 0) return 1;
     char query[96];
     snprintf(query, sizeof query, "?frames=%ld-%ld%s", j.first, j.last,
              output_kind_exr(o->out) ? "&format=exr" : "");
-    long total = j.last - j.first + 1;
-    j.ready = calloc((size_t)total, 1);
-    if (!(j.got = calloc((size_t)total, 1)) || !j.ready) {
-        free(j.got);
-        free(j.ready);
-        prog_error("out of memory");
-        return 1;
-    }
     job_signals(1);
     if (job_post(o, sf, query, j.id, sizeof j.id) != 0) {
         job_signals(0);
-        free(j.got);
-        free(j.ready);
         return 1;
+    }
+    if (o->detach) {
+        printf("%s\n", j.id);
+        if (!o->quiet)
+            fprintf(stderr,
+                    "rayd-client: job %s on %s runs on: frames %ld-%ld; follow it with: "
+                    "rayd-client watch %s -o '%s'%s%s --server %s\n",
+                    j.id, o->servers[0], j.first, j.last, j.id, o->out, o->video ? " --video " : "",
+                    o->video ? o->video : "", o->servers[0]);
+        job_signals(0);
+        return 0;
     }
     if (!o->quiet)
         fprintf(stderr, "rayd-client: job %s on %s: frames %ld-%ld (%dx%d)\n", j.id, o->servers[0],
                 j.first, j.last, sf->width, sf->height);
-    j.next = j.first;
-    net_label(o->servers[0], j.label[0], sizeof j.label[0]);
-    progress_init(&j.prog, (int)total, o->quiet);
-    j.prog.unit = "frames";
-    rc = job_frames_follow(&j);
-    if (rc == 0 && !o->quiet)
-        fprintf(stderr, "rayd-client: wrote %ld frame%s to %s\n", total, total > 1 ? "s" : "",
-                o->out);
-    if (rc == 0 && o->video) rc = job_frames_video(&j);
+    rc = job_frames_go(&j);
     job_signals(0);
-    free(j.got);
-    free(j.ready);
     return rc;
+}
+
+int job_frames_watch(const struct client_opts *o, const char *id, long first, long last, int w,
+                     int h) {
+    struct scenefile sf = {.name = id, .width = w, .height = h};
+    struct job_frames j = {.o = o, .sf = &sf, .eta = -1, .leaves = 1, .first = first, .last = last};
+    snprintf(j.id, sizeof j.id, "%s", id);
+    char path[4096];
+    int numbered = o->out ? frame_name_path(o->out, first, path, sizeof path) : -2;
+    if (numbered == -2)
+        prog_error("watch: job %s renders frames %ld-%ld: give -o a pattern for their files, e.g. "
+                   "-o 'shot-%%04d.png'",
+                   id, first, last);
+    else if (numbered < 0)
+        prog_error("-o %s: " FRAME_NAME_RULE, o->out);
+    else if (numbered == 0 && last > first)
+        prog_error("-o %s: a job of frames %ld-%ld writes a file a frame: give -o a %%d, e.g. "
+                   "-o 'shot-%%04d.png'",
+                   o->out, first, last);
+    if (numbered < 0 || (numbered == 0 && last > first)) {
+        fprintf(stderr, "Try 'rayd-client --help'.\n");
+        return 2;
+    }
+    if (job_frames_writable(&j) != 0) return 1;
+    if (!o->quiet)
+        fprintf(stderr, "rayd-client: job %s on %s: frames %ld-%ld (%dx%d); Ctrl-C leaves it\n",
+                id, o->servers[0], first, last, w, h);
+    return job_frames_go(&j);
 }

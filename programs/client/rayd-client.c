@@ -7,8 +7,8 @@
  *   rayd-client render --progressive SCENE.json -o OUT.png|OUT.exr --server URL
  *               [--pass-step K] [--time-budget S] [--noise-target E] [--detach]
  *   rayd-client job SCENE.json -o OUT.png|OUT.exr --server URL [--token-file F]
- *               [--frames A-B] [--video OUT.mp4]   (an animated scene: -o 'shot-%04d.png')
- *   rayd-client watch ID [-o OUT.png|OUT.exr] --server URL
+ *               [--frames A-B] [--video OUT.mp4] [--detach]   (an animated scene: -o 'shot-%04d.png')
+ *   rayd-client watch ID [-o OUT.png|OUT.exr|PATTERN] [--video OUT.mp4] --server URL
  *   rayd-client health --server URL [--server URL ...]
  *   rayd-client thumbnails DIR [-o OUTDIR] [--size N] [--view V] [--turntable N]
  *                          --server URL ...
@@ -62,8 +62,9 @@ static void client_usage(FILE *f) {
            "                          [--pass-step K] [--time-budget S] [--noise-target E]\n"
            "                          [--detach] [--token-file F] [--quiet]\n"
            "       rayd-client job SCENE.json -o OUT.png|OUT.exr --server URL [--token-file F]\n"
-           "                       [--frames A-B] [--video OUT.mp4] [--quiet]\n"
-           "       rayd-client watch ID [-o OUT.png|OUT.exr] --server URL [--token-file F]\n"
+           "                       [--frames A-B] [--video OUT.mp4] [--detach] [--quiet]\n"
+           "       rayd-client watch ID [-o OUT.png|OUT.exr|PATTERN] [--video OUT.mp4]\n"
+           "                         --server URL [--token-file F]\n"
            "       rayd-client health --server URL [--server URL ...] [--token-file F]\n"
            "       rayd-client thumbnails DIR [-o OUTDIR] [--size N] [--view V] [--turntable N]\n"
            "                              --server URL ...\n"
@@ -89,16 +90,17 @@ static void client_usage(FILE *f) {
            "  --frames A-B      job: frames A to B of an animated scene (K: frame K alone;\n"
            "                    default: all of them), one file a frame: -o 'shot-%%04d.png'\n"
            "                    (%%d, %%0Nd)\n"
-           "  --video F.mp4     job: also the frames as an H.264 MP4, once all are done\n"
+           "  --video F.mp4     job, watch: also the frames as an H.264 MP4, once all are done\n"
            "  --progressive     render: one progressive job on one server, each pass\n"
            "                    written to -o as it arrives; Ctrl-C cancels the job\n"
            "  --pass-step K     render --progressive: a pass every K samples (default:\n"
            "                    1, 2, 4, 8, ... up to the scene's samples)\n"
            "  --time-budget S   render --progressive: end with the latest pass after S s\n"
            "  --noise-target E  render --progressive: end once a pass's noise is <= E\n"
-           "  --detach          render --progressive: print the job's id and leave it\n"
-           "                    running (watch ID follows it; Ctrl-C in watch leaves\n"
-           "                    the job running too)\n"
+           "  --detach          render --progressive, job of frames: print the job's id and\n"
+           "                    leave it running (watch ID follows it, a frame range's\n"
+           "                    frames to -o's pattern; Ctrl-C in watch leaves the job\n"
+           "                    running too)\n"
            "  --size N          thumbnails: the PNGs' width and height (default 256)\n"
            "  --view V          thumbnails: three-quarter (default), front, side or top;\n"
            "                    -o is the output folder (default .)\n"
@@ -365,9 +367,9 @@ static const struct {
     {OPT_VIEW, "--view", "thumbnails"},
     {OPT_TURNTABLE, "--turntable", "thumbnails"},
     {OPT_FRAMES, "--frames", "job"},
-    {OPT_VIDEO, "--video", "job"},
+    {OPT_VIDEO, "--video", "job and watch"},
     {OPT_PROGRESSIVE, "--progressive", "render"},
-    {OPT_DETACH, "--detach", "render --progressive"},
+    {OPT_DETACH, "--detach", "render --progressive and job"},
     {OPT_PASS_STEP, "--pass-step", "render --progressive"},
     {OPT_TIME_BUDGET, "--time-budget", "render --progressive"},
     {OPT_NOISE_TARGET, "--noise-target", "render --progressive"},
@@ -511,9 +513,11 @@ static int client_progressive(const struct client_args *a) {
         if (opt != OPT_TIMEOUT && opt != OPT_TOKEN_FILE && opt != OPT_VERSION && opt != OPT_SIZE &&
             opt != OPT_VIEW && opt != OPT_TURNTABLE)
             tiles |= 1u << (opt - OPT_TILE);
-    if (!o->progressive && (o->detach || o->pass_step || o->time_budget || o->noise_target))
-        return args_bad("--detach, --pass-step, --time-budget and --noise-target go with "
+    if (!o->progressive && (o->pass_step || o->time_budget || o->noise_target))
+        return args_bad("--pass-step, --time-budget and --noise-target go with "
                         "render --progressive");
+    if (!o->progressive && o->detach && strcmp(a->cmd, "job"))
+        return args_bad("--detach goes with render --progressive and with job of frames");
     if (o->progressive && (a->given & tiles))
         return args_bad("render --progressive renders as one job on one server: --tile, "
                         "--split-samples, --parallel, --retries, --threads and --no-hedge are "
@@ -620,6 +624,14 @@ static int client_run(const struct client_args *a) {
         return CLIENT_USAGE_EXIT;
     }
     bool frames = a->o.frames_set || sf.animated; /* a frame-range job */
+    if (a->o.detach && !strcmp(a->cmd, "job") && !frames) {
+        prog_error("--detach: %s has no /animation: job --detach leaves a frame range running "
+                   "(one image: render --progressive --detach)",
+                   a->scene);
+        fprintf(stderr, "Try 'rayd-client --help'.\n");
+        scenefile_free(&sf);
+        return CLIENT_USAGE_EXIT;
+    }
     if (a->o.video && !frames) {
         prog_error("--video %s: the scene has no /animation, so it has no frames to make a video "
                    "of",

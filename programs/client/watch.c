@@ -6,7 +6,8 @@
  * pass_step, time_budget, noise_target and format=exr as asked) and then
  * follows the job as `watch` does; --detach only prints the job's id and
  * leaves it running.  watch ID follows a job that already exists: its
- * size, pass count and sample target come from GET /v1/jobs/{id}.
+ * size, pass count and sample target come from GET /v1/jobs/{id}; a
+ * frame-range job's frames and size too, and job_frames.c follows it.
  *
  * Following: GET /v1/jobs/{id}/events (sse.c).  A "pass" event names a
  * complete pass; between events we GET that pass's image
@@ -70,6 +71,8 @@ struct watch {
     int news;        /* counts what was learned: passes, progress, the end */
     int refused;     /* an image was refused: stop */
     int warned;      /* bad figures were said once */
+    int frames;      /* a frame-range job: frames first..last (job_frames.c follows it) */
+    long first, last;
     struct progress prog;
     char label[1][40];
 };
@@ -223,6 +226,23 @@ static int watch_idle(void *user) {
 /* The job's size, kind and passes from its JSON (first: the first time):
  * 0; -1 after saying why (an error answer, a job we cannot follow, or
  * the first time a transport error); 1 on a later transport error. */
+/* A frame-range job's frames and size from its JSON into w (job_frames.c
+ * follows it): 0, or -1 said. */
+static int watch_frames(struct watch *w, const cJSON *j) {
+    double a, b, rw, rh;
+    if (watch_num(j, "frames", "first", 0, 1000000, true, &a) &&
+        watch_num(j, "frames", "last", a, 1000000, true, &b) &&
+        watch_num(j, "region", "w", 1, 65536, true, &rw) &&
+        watch_num(j, "region", "h", 1, 65536, true, &rh) && rw * rh <= (double)WATCH_MAX_PIXELS) {
+        w->frames = 1;
+        w->first = (long)a, w->last = (long)b, w->w = (long)rw, w->h = (long)rh;
+        return 0;
+    }
+    fprintf(stderr, "rayd-client: error: job %s: its frames or size are no frame-range job's\n",
+            w->id);
+    return -1;
+}
+
 static int watch_status(struct watch *w, bool first) {
     const struct client_opts *o = w->o;
     char url[1024], why[600] = "";
@@ -240,10 +260,7 @@ static int watch_status(struct watch *w, bool first) {
         net_describe(st, &b, why, sizeof why);
         fprintf(stderr, "rayd-client: error: job %s: %s\n", w->id, why);
     } else if (first && st == 200 && cJSON_GetObjectItemCaseSensitive(j, "frames")) {
-        fprintf(stderr,
-                "rayd-client: error: job %s is a frame-range job: its frames are "
-                "GET /v1/jobs/%s/frames/K.png\n",
-                w->id, w->id);
+        rc = watch_frames(w, j);
     } else if (first && st == 200 &&
                (!watch_num(j, "region", "w", 1, 65536, true, &rw) ||
                 !watch_num(j, "region", "h", 1, 65536, true, &rh) ||
@@ -438,6 +455,15 @@ static int watch_follow(struct watch *w) {
     net_label(w->o->servers[0], w->label[0], sizeof w->label[0]);
     progress_init(&w->prog, 1, w->o->quiet);
     if (watch_status(w, true) != 0) return watch_finish(w, 1);
+    if (w->frames) { /* watch_job hands it to job_frames.c */
+        progress_end(&w->prog);
+        return 0;
+    }
+    if (w->o->video) {
+        fprintf(stderr, "rayd-client: error: --video: job %s renders one image, not frames\n",
+                w->id);
+        return watch_finish(w, 1);
+    }
     int failed = 0;
     if (!w->final[0] && !job_stopped()) {
         int rc = watch_stream(w);
@@ -487,6 +513,8 @@ int watch_job(const struct client_opts *o, const char *id) {
     job_signals(1);
     struct watch w = {.o = o, .id = id};
     int rc = watch_follow(&w);
+    if (w.frames && !job_stopped())
+        rc = job_frames_watch(o, id, w.first, w.last, (int)w.w, (int)w.h);
     job_signals(0);
     return rc;
 }

@@ -96,6 +96,8 @@ usage video_still_scene "the scene has no /animation, so it has no frames to mak
 usage frames_malformed "--frames takes A-B" job "$T/anim.json" -o "$T/x-%d.png" --frames 6-3
 usage frames_not_render "--frames is not an option of render (only of job)" render "$T/anim.json" -o "$T/x.png" --frames 3-4
 usage video_not_mp4 "--video writes the job's H.264 MP4" job "$T/anim.json" -o "$T/x-%d.png" --video "$T/x.mkv"
+usage detach_still_scene "job --detach leaves a frame range running" job "$T/still.json" -o "$T/x.png" --detach
+usage detach_not_render "--detach goes with render --progressive and with job of frames" render "$T/anim.json" -o "$T/x.png" --detach
 # ---- an -o or --video in a folder that is missing: exit 1 before any job is made ---------
 nodir() { # NAME ARGS...
     local name=$1 rc
@@ -117,6 +119,34 @@ for cmd in "job" "render --progressive" "render"; do
         [ "$(wc -l <"$T/nd.err")" = 1 ] && [ "$(jobs_now)" = "$before" ]'
 done
 check usage_wrote_nothing "$(ls "$T" | grep '^x')" eval '! ls "$T" | grep -q "^x"'
+
+# ---- job --detach, then watch ID: the frames and the video as job writes them --------------
+# (before, job had no --detach and watch refused a frame-range job: a client that died with its
+# node, or was stopped, could not fetch a job's frames again)
+mkdir "$T/w"
+"$CLIENT" job "$T/anim.json" -o "$T/w/w-%d.png" --frames 3-6 --detach --server "$URL" \
+    >"$T/detach.out" 2>"$T/detach.err" </dev/null
+rc=$?
+wid=$(cat "$T/detach.out")
+check detach_frames_prints_id "exit $rc: $wid $(cat "$T/detach.err")" eval '[ "$rc" = 0 ] &&
+    [[ "$wid" =~ ^[0-9a-f]{32}$ ]] && grep -q "follow it with: rayd-client watch $wid -o" "$T/detach.err" &&
+    [ -z "$(ls "$T/w")" ]'
+"$CLIENT" watch "$wid" --server "$URL" 2>"$T/wn.err" </dev/null
+rc=$?
+check watch_frames_needs_pattern "exit $rc: $(cat "$T/wn.err")" eval '[ "$rc" = 2 ] &&
+    grep -q "renders frames 3-6: give -o a pattern" "$T/wn.err"'
+"$CLIENT" watch "$wid" -o "$T/w/w-%d.png" --video "$T/w/w.mp4" --server "$URL" 2>"$T/w.err" </dev/null
+rc=$?
+n=0
+for k in 3 4 5 6; do cmp -s "$T/w/w-$k.png" "$T/cli-$k.png" && n=$((n + 1)); done
+check watch_frames_written "exit $rc, $n of 4 as rayd-render's: $(tail -2 "$T/w.err")" eval \
+    '[ "$rc" = 0 ] && [ "$n" = 4 ] && cmp -s "$T/w/w.mp4" "$T/a/shot.mp4"'
+# watching again, after the end: the same files, exit 0
+rm -f "$T/w/w-4.png"
+"$CLIENT" watch "$wid" -o "$T/w/w-%d.png" --server "$URL" -q 2>"$T/w2.err" </dev/null
+check watch_frames_again "exit $?: $(cat "$T/w2.err")" cmp -s "$T/w/w-4.png" "$T/cli-4.png"
+"$CLIENT" watch "$wid" -o "$T/w/x.png" --server "$URL" 2>"$T/w3.err" </dev/null
+check watch_frames_plain_o_refused "exit $?: $(cat "$T/w3.err")" grep -q "give -o a %d" "$T/w3.err"
 
 # ---- a failed job: exit 1, the server's error naming the frame ---------------------------
 curl -s -X POST "$URL/v1/test/gate?work=10" >/dev/null # every render made now runs out of rays

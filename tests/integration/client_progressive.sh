@@ -144,7 +144,7 @@ for c in "bad_id:watch nothex -o $T/u.png:is no job id" \
     "budget_over_rayds:render --progressive $T/p8.json -o $T/u.png --time-budget 86401:--time-budget needs a number above 0 and at most 86400" \
     "budget_zero:render --progressive $T/p8.json -o $T/u.png --time-budget 0.0:--time-budget needs a number above 0" \
     "noise_over:render --progressive $T/p8.json -o $T/u.png --noise-target 1.5:--noise-target needs a number above 0 and at most 1 (digits" \
-    "detach_job:job $T/p8.json -o $T/u.png --detach:--detach is not an option of job"; do
+    "detach_job:job $T/p8.json -o $T/u.png --detach:job --detach leaves a frame range running"; do
     name=${c%%:*} c=${c#*:}
     # shellcheck disable=SC2086
     "$CLIENT" ${c%%:*} --server "$URL" >/dev/null 2>"$T/usage.log"
