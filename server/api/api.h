@@ -170,6 +170,16 @@ bool api_shots_submit(struct http_req *r, struct cache_entry *e, struct work_tar
                       int priority, const struct api_price *one);
 cJSON *api_shots_json(const char *id, const struct shots_info *in);
 void api_shots_frame(struct http_req *r, const char *path);
+/* 409 frame_not_ready for frame k in state st, of a single node's job or a
+ * cluster's.  A frame its job will never render (the job failed or was
+ * cancelled first) says so, with no Retry-After: a client polling for its
+ * 200 would poll for ever. */
+void api_shots_not_ready(struct http_req *r, long k, enum shots_frame_state st,
+                         const struct shots_info *info);
+/* 409 frames_not_done for the video of a job with frames still to come
+ * (Retry-After: 1), or that will have none (its job failed or was
+ * cancelled first: final). */
+void api_shots_no_video(struct http_req *r, const struct shots_info *info);
 void api_shots_video(struct http_req *r, const char *id);
 
 /* api_shots.c: ?frames=A-B or ?frame=K of an animated scene into first..last

@@ -421,21 +421,8 @@ static void api_cluster_frame_answer(struct api_cluster *a) {
                          0, NULL);
     } else if (op->png) {
         api_cluster_png(r, op->png, a->exr);
-    } else {
-        const char *st = in->job.state == JS_CANCELED ? "canceled"
-                         : in->job.state == JS_FAILED ? "failed"
-                                                      : "queued";
-        snprintf(msg, sizeof msg, "frame %ld is %s, not done%s", op->frame, st,
-                 in->job.state == JS_FAILED || in->job.state == JS_CANCELED ? "" : ": retry later");
-        cJSON *o = cJSON_CreateObject();
-        cJSON *e = cJSON_AddObjectToObject(o, "error");
-        cJSON_AddNumberToObject(e, "status", 409);
-        cJSON_AddStringToObject(e, "code", "frame_not_ready");
-        cJSON_AddStringToObject(e, "message", msg);
-        cJSON_AddStringToObject(e, "state", st);
-        http_reply_json(r, 409, o);
-        if (!strcmp(st, "queued")) http_reply_header(r, "Retry-After", "1");
-        r->res.err_code = "frame_not_ready";
+    } else { /* as a single node says it (the cluster keeps no frame's state) */
+        api_shots_not_ready(r, op->frame, SHOTS_QUEUED, in);
     }
 }
 
@@ -460,7 +447,6 @@ static void api_cluster_video_answer(struct api_cluster *a) {
     struct cluster_op *op = &a->op;
     struct http_req *r = a->r;
     const struct shots_info *in = &op->info;
-    char msg[300];
     snprintf(r->res.scene, sizeof r->res.scene, "%s", in->job.scene_id);
     if (!op->is_animated) { /* as one node answers */
         http_reply_error(r, 404, "frame_unknown",
@@ -471,9 +457,7 @@ static void api_cluster_video_answer(struct api_cluster *a) {
         http_reply_image(r, 200, op->png, "video/mp4");
         http_reply_header(r, "Cache-Control", "private, max-age=3600");
     } else if (in->done < in->total) {
-        snprintf(msg, sizeof msg, "the video is made once every frame is done (%ld of %ld)",
-                 in->done, in->total);
-        http_reply_error(r, 409, "frames_not_done", msg, NULL, 0, 0, NULL);
+        api_shots_no_video(r, in);
     } else if (in->video == SV_NO_FFMPEG) {
         http_reply_error(r, 503, "no_ffmpeg", in->video_error, NULL, 0, 0, NULL);
     } else if (in->video == SV_FAILED) {

@@ -253,10 +253,21 @@ bool api_shots_frame_path(struct http_req *r, const char *path, char id[33], lon
     return true;
 }
 
-/* 409 frame_not_ready for frame k in state st.  A frame its job will never
- * render (the job failed or was cancelled first) says so, with no
- * Retry-After: a client polling for its 200 would poll for ever. */
-static void api_shots_not_ready(struct http_req *r, long k, enum shots_frame_state st,
+void api_shots_no_video(struct http_req *r, const struct shots_info *info) {
+    char msg[300];
+    bool ended = info->job.state == JS_FAILED || info->job.state == JS_CANCELED;
+    if (ended)
+        snprintf(msg, sizeof msg, "the job %s with %ld of %ld frames done: it has no video",
+                 info->job.state == JS_CANCELED ? "was cancelled" : "failed", info->done,
+                 info->total);
+    else
+        snprintf(msg, sizeof msg, "the video is made once every frame is done (%ld of %ld)",
+                 info->done, info->total);
+    http_reply_error(r, 409, "frames_not_done", msg, NULL, 0, 0, NULL);
+    if (!ended) http_reply_header(r, "Retry-After", "1");
+}
+
+void api_shots_not_ready(struct http_req *r, long k, enum shots_frame_state st,
                                 const struct shots_info *info) {
     static const char *const names[] = {"", "", "queued", "running", "done", "failed"};
     bool ended = info->job.state == JS_FAILED || info->job.state == JS_CANCELED;
@@ -339,22 +350,12 @@ void api_shots_video(struct http_req *r, const char *id) {
             api_jobs_missing(r, id);
         return;
     }
-    char msg[300];
     if (mp4) {
         http_reply_image(r, 200, mp4, "video/mp4");
         http_reply_header(r, "Cache-Control", "private, max-age=3600");
         blob_unref(mp4);
-    } else if (info.done < info.total &&
-               (info.job.state == JS_FAILED || info.job.state == JS_CANCELED)) {
-        snprintf(msg, sizeof msg, "the job %s with %ld of %ld frames done: it has no video",
-                 info.job.state == JS_CANCELED ? "was cancelled" : "failed", info.done,
-                 info.total);
-        http_reply_error(r, 409, "frames_not_done", msg, NULL, 0, 0, NULL);
     } else if (info.done < info.total) {
-        snprintf(msg, sizeof msg, "the video is made once every frame is done (%ld of %ld)",
-                 info.done, info.total);
-        http_reply_error(r, 409, "frames_not_done", msg, NULL, 0, 0, NULL);
-        http_reply_header(r, "Retry-After", "1");
+        api_shots_no_video(r, &info);
     } else if (info.video == SV_NO_FFMPEG) {
         http_reply_error(r, 503, "no_ffmpeg", info.video_error, NULL, 0, 0, NULL);
     } else if (info.video == SV_EVICTED) {

@@ -162,6 +162,13 @@ check canceled_items_dropped "items left: $(rcli xlen "rayd:items:$("$RAYD" --ve
 check frames_eta_canceled "$(curl -s "${NODE_URL[1]}/v1/jobs/$BID" | head -c 900)" bash -c "curl -s '${NODE_URL[1]}/v1/jobs/$BID' | grep -q '\"eta_s\":null'"
 code=$(curl -s -o "$T/fr.json" -w '%{http_code}' "${NODE_URL[1]}/v1/jobs/$BID/frames/23.png")
 check canceled_frame_409 "frame of a cancelled job gave $code" [ "$code" = 409 ]
+# final, as a single node says it: no Retry-After (before, "frame 23 is canceled, not done")
+curl -s -D "$T/fr.h" -o "$T/fr.json" "${NODE_URL[1]}/v1/jobs/$BID/frames/23.png"
+check canceled_frame_final "$(cat "$T/fr.json")" bash -c "! grep -qi '^Retry-After' '$T/fr.h' &&
+    grep -q 'frame 23 was not rendered: its job was cancelled' '$T/fr.json' && grep -q '\"state\":\"canceled\"' '$T/fr.json'"
+curl -s -D "$T/vid.h" -o "$T/vid.json" "${NODE_URL[3]}/v1/jobs/$BID/video.mp4"
+check canceled_video_final "$(cat "$T/vid.json")" bash -c "! grep -qi '^Retry-After' '$T/vid.h' &&
+    grep -q 'the job was cancelled with [0-9]* of 24 frames done: it has no video' '$T/vid.json'"
 
 # --- what a cluster does not make yet: 400 naming it ------------------------------------------
 refused() { # NAME QUERY PARAM
