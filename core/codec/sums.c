@@ -28,7 +28,7 @@ static void put_u32(unsigned char *p, uint32_t v) {
 /* Hosts that keep doubles little-endian (every one rayd runs on) copy the
  * values as they are: a 4096x4096 frame's 400 MB byte by byte took 1.1 s
  * of a worker. */
-#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__ && \
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__ &&                        \
     defined(__FLOAT_WORD_ORDER__) && __FLOAT_WORD_ORDER__ == __ORDER_LITTLE_ENDIAN__
 #define SUMS_NATIVE 1
 #else

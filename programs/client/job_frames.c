@@ -414,7 +414,7 @@ int job_frames_watch(const struct client_opts *o, const char *id, long first, lo
     }
     if (job_frames_writable(&j) != 0) return 1;
     if (!o->quiet)
-        fprintf(stderr, "rayd-client: job %s on %s: frames %ld-%ld (%dx%d); Ctrl-C leaves it\n",
-                id, o->servers[0], first, last, w, h);
+        fprintf(stderr, "rayd-client: job %s on %s: frames %ld-%ld (%dx%d); Ctrl-C leaves it\n", id,
+                o->servers[0], first, last, w, h);
     return job_frames_go(&j);
 }

@@ -268,7 +268,7 @@ void api_shots_no_video(struct http_req *r, const struct shots_info *info) {
 }
 
 void api_shots_not_ready(struct http_req *r, long k, enum shots_frame_state st,
-                                const struct shots_info *info) {
+                         const struct shots_info *info) {
     static const char *const names[] = {"", "", "queued", "running", "done", "failed"};
     bool ended = info->job.state == JS_FAILED || info->job.state == JS_CANCELED;
     bool never = st != SHOTS_FAILED && ended;

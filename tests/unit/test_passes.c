@@ -321,12 +321,12 @@ static void test_bad_sums_are_refused(void) {
     /* the wire's layout, whatever the host: header, then each double's
      * IEEE 754 bits, least significant byte first (1.0 is 3ff0...0) */
     static const unsigned char want[48] = {
-        'R', 'A', 'Y', 'D', 'S', 'U', 'M', '1', 1, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 2, 0, 0, 0,
-        0,   0,   0,   0,   0,   0,   0xf0, 0x3f, 0, 0, 0, 0, 0, 0, 0xe0, 0x3f,
-        0,   0,   0,   0,   0,   0,   0xd0, 0x3f};
+        'R', 'A', 'Y', 'D', 'S', 'U', 'M',  '1',  1, 0, 0, 0, 1, 0, 0,    0,
+        0,   0,   0,   0,   2,   0,   0,    0,    0, 0, 0, 0, 0, 0, 0xf0, 0x3f,
+        0,   0,   0,   0,   0,   0,   0xe0, 0x3f, 0, 0, 0, 0, 0, 0, 0xd0, 0x3f};
     CHECK(len == 48 && !memcmp(b, want, 48), "the sums' bytes are little-endian doubles");
-    CHECK(rayd_sums_decode(b, len, &hdr, &out, &err) == RAYD_OK && out[0] == 1.0 &&
-              out[1] == 0.5 && out[2] == 0.25,
+    CHECK(rayd_sums_decode(b, len, &hdr, &out, &err) == RAYD_OK && out[0] == 1.0 && out[1] == 0.5 &&
+              out[2] == 0.25,
           "and read back: %s", err.message);
     rayd_free(out);
     out = NULL;
