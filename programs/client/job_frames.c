@@ -259,6 +259,7 @@ static int job_frames_follow(struct job_frames *j) {
                : done > (double)total ? (double)total
                                       : done; /* checked, not trusted */
         j->eta = job_frames_num(job, "eta_s", NULL, -1);
+        if (!(j->eta >= 0 && j->eta <= 1e7)) j->eta = -1; /* checked, not trusted: unknown */
         bool succeeded = state && !strcmp(state, "succeeded");
         if (job_frames_collect(j, succeeded ? total : (long)done) < 0)
             rc = 1;
@@ -304,7 +305,11 @@ static int job_frames_video(struct job_frames *j) {
         job_frames_sleep(1000); /* ffmpeg at work; Retry-After says 1 */
     }
     int rc = 1;
-    if (job_stopped()) {
+    if (job_stopped() && j->leaves) {
+        fprintf(stderr, "rayd-client: interrupted; job %s goes on; its video: GET %s\n", j->id,
+                url);
+        rc = 130;
+    } else if (job_stopped()) {
         rc = job_cancel(o, j->id);
     } else if (st == 200 && !job_frames_is_mp4(&b)) {
         fprintf(stderr,

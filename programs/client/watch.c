@@ -223,9 +223,6 @@ static int watch_idle(void *user) {
     return watch_fetch_pass(w) < 0 ? -1 : 0;
 }
 
-/* The job's size, kind and passes from its JSON (first: the first time):
- * 0; -1 after saying why (an error answer, a job we cannot follow, or
- * the first time a transport error); 1 on a later transport error. */
 /* A frame-range job's frames and size from its JSON into w (job_frames.c
  * follows it): 0, or -1 said. */
 static int watch_frames(struct watch *w, const cJSON *j) {
@@ -238,11 +235,21 @@ static int watch_frames(struct watch *w, const cJSON *j) {
         w->first = (long)a, w->last = (long)b, w->w = (long)rw, w->h = (long)rh;
         return 0;
     }
-    fprintf(stderr, "rayd-client: error: job %s: its frames or size are no frame-range job's\n",
-            w->id);
+    char f[160], safe[200];
+    const cJSON *fr = cJSON_GetObjectItemCaseSensitive(j, "frames");
+    char *text = cJSON_PrintUnformatted(fr);
+    snprintf(f, sizeof f, "%s", text ? text : "?");
+    cJSON_free(text);
+    fprintf(stderr,
+            "rayd-client: error: job %s: its frames %s and region are no frame-range job's "
+            "(frames first <= last in 0..1000000, a region of 1..65536 a side)\n",
+            w->id, net_safe(f, safe, sizeof safe));
     return -1;
 }
 
+/* The job's size, kind and passes from its JSON (first: the first time):
+ * 0; -1 after saying why (an error answer, a job we cannot follow, or
+ * the first time a transport error); 1 on a later transport error. */
 static int watch_status(struct watch *w, bool first) {
     const struct client_opts *o = w->o;
     char url[1024], why[600] = "";
@@ -515,6 +522,10 @@ int watch_job(const struct client_opts *o, const char *id) {
     int rc = watch_follow(&w);
     if (w.frames && !job_stopped())
         rc = job_frames_watch(o, id, w.first, w.last, (int)w.w, (int)w.h);
+    else if (w.frames) { /* Ctrl-C before the frames were followed */
+        fprintf(stderr, "rayd-client: interrupted; job %s goes on\n", id);
+        rc = 130;
+    }
     job_signals(0);
     return rc;
 }

@@ -57,7 +57,7 @@ void api_health_live(struct http_req *r, const char *id) {
  * with --redis the cluster's unfinished jobs, as the puller last read them. */
 static void api_health_jobs(cJSON *o, const struct sched_stats *st) {
     long jobs = st->jobs_unfinished;
-    struct cluster_status_view v = {.redis_up = true};
+    struct cluster_status_view v = {.checked = true, .redis_up = true};
     if (cluster_on()) {
         cluster_view(&v);
         jobs = v.jobs_unfinished;
@@ -65,7 +65,7 @@ static void api_health_jobs(cJSON *o, const struct sched_stats *st) {
     cJSON_AddNumberToObject(o, "jobs", (double)jobs);
     cJSON_AddNumberToObject(o, "max_jobs", (double)st->jobs_cap);
     char msg[600];
-    if (!v.redis_up) {
+    if (v.checked && !v.redis_up) {
         snprintf(msg, sizeof msg,
                  "the cluster's Redis at %.100s is down (%.200s): POST /v1/jobs answers 503 "
                  "cluster_unavailable until it is back; renders are accepted",

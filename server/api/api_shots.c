@@ -271,7 +271,9 @@ void api_shots_not_ready(struct http_req *r, long k, enum shots_frame_state st,
                          const struct shots_info *info) {
     static const char *const names[] = {"", "", "queued", "running", "done", "failed"};
     bool ended = info->job.state == JS_FAILED || info->job.state == JS_CANCELED;
-    bool never = st != SHOTS_FAILED && ended;
+    /* a frame still rendering may end done though its job was cancelled (a
+     * task another waiter shares goes on): it keeps its Retry-After */
+    bool never = st == SHOTS_QUEUED && ended;
     char msg[400];
     if (never)
         snprintf(msg, sizeof msg, "frame %ld was not rendered: its job %s%s%.300s", k,
@@ -287,7 +289,7 @@ void api_shots_not_ready(struct http_req *r, long k, enum shots_frame_state st,
     cJSON_AddStringToObject(e, "message", msg);
     cJSON_AddStringToObject(e, "state", never ? "canceled" : names[st]);
     http_reply_json(r, 409, o);
-    if (st != SHOTS_FAILED && !ended) http_reply_header(r, "Retry-After", "1");
+    if (st != SHOTS_FAILED && !never) http_reply_header(r, "Retry-After", "1");
     r->res.err_code = "frame_not_ready";
 }
 
@@ -323,6 +325,12 @@ void api_shots_frame(struct http_req *r, const char *path) {
     } else if (st == SHOTS_DONE && img) {
         http_reply_image(r, 200, img, api_format_type(exr ? WORK_EXR : WORK_PNG));
         http_reply_header(r, "Cache-Control", "private, max-age=3600");
+    } else if (st == SHOTS_DONE) { /* its file could not be read: no retry makes it */
+        snprintf(msg, sizeof msg,
+                 "frame %ld is done, but its file under --data-dir could not be read (the "
+                 "server's log says why)",
+                 k);
+        http_reply_error(r, 500, "internal", msg, NULL, 0, 0, NULL);
     } else {
         api_shots_not_ready(r, k, st, &info);
     }

@@ -134,6 +134,7 @@ bool cluster_submit(struct cluster_op *op);
 /* ---- what /healthz and /metrics show ---------------------------------------- */
 
 struct cluster_status_view {
+    bool checked; /* the puller has looked at Redis once: before, redis_up says nothing */
     bool redis_up;
     char address[300];
     char reason[200]; /* why it is down */

@@ -496,6 +496,7 @@ static long node_heartbeat(struct redis *c) {
 static void node_figures(struct redis *c) {
     struct cluster_status_view v;
     memset(&v, 0, sizeof v);
+    v.checked = true;
     cluster_clock_sync(c);
     snprintf(v.address, sizeof v.address, "%s", cluster_url.display);
     v.nodes = node_heartbeat(c);

@@ -168,9 +168,13 @@ struct blob *store_read_frame(const char *id, long k, bool exr) {
     store_path(path, sizeof path, id, k, exr, false);
     int fd = open(path, O_RDONLY | O_CLOEXEC);
     struct stat st;
-    if (fd < 0) return NULL;
+    if (fd < 0) {
+        log_error("job %s: frame %ld: cannot read %s: %s", id, k, path, strerror(errno));
+        return NULL;
+    }
     unsigned char *data = NULL;
     size_t got = 0;
+    errno = 0;
     if (fstat(fd, &st) == 0 && st.st_size > 0 && (data = malloc((size_t)st.st_size))) {
         while (got < (size_t)st.st_size) {
             ssize_t n = read(fd, data + got, (size_t)st.st_size - got);
@@ -179,8 +183,13 @@ struct blob *store_read_frame(const char *id, long k, bool exr) {
             got += (size_t)n;
         }
     }
+    int e = errno;
     close(fd);
     if (!data || got != (size_t)st.st_size) {
+        log_error("job %s: frame %ld: cannot read %s whole: %s", id, k, path,
+                  !data ? "out of memory, or an empty file"
+                  : e   ? strerror(e)
+                        : "it is shorter");
         rayd_free(data);
         return NULL;
     }

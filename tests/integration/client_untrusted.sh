@@ -20,6 +20,7 @@ import http.server, json, os, re, socketserver, struct, sys, zlib
 LOG = sys.argv[1]
 EVIL = "\x1b]0;pwned\x07\x1b[2J\x1b[31mred\r\x9b1mC1\x7f"
 ID = "0123456789abcdef0123456789abcdef"
+FID = "fedcba9876543210fedcba9876543210"  # a frame-range job's
 
 def png(w, h):
     def chunk(t, d):
@@ -61,6 +62,18 @@ class H(http.server.BaseHTTPRequestHandler):
         elif self.path == "/readyz":
             self.send(200, "application/json", json.dumps({"status": "ready", "queued": 0, "capacity": 4,
                       "workers": 1, "busy": 0, "jobs": 0, "max_jobs": 4, "jobs_refused": "full" + EVIL}).encode())
+        elif self.path == "/v1/jobs/" + FID:  # a frame-range job, its figures as mode says
+            bad = self.mode() == "frames-bad"
+            job = {"id": FID, "state": "failed", "error": {"message": "frame 1 failed"},
+                   "region": {"x": 0, "y": 0, "w": 16, "h": 16},
+                   "frames": {"first": 5 if bad else 0, "last": 3 if bad else 1, "total": 2,
+                              "done": 1, "queued": 0, "running": 0, "failed": 1},
+                   "eta_s": 1e300}
+            self.send(200, "application/json", json.dumps(job).encode())
+        elif self.path == "/v1/jobs/%s/events" % FID:
+            self.send(200, "text/event-stream", b'event: done\ndata: {"state": "failed"}\n\n')
+        elif self.path == "/v1/jobs/%s/frames/0.png" % FID:
+            self.send(200, "image/png", png(16, 16))
         elif self.path.endswith("/events"):
             ev = ('event: progress\ndata: {"done": 2147483647, "total": 1}\n\n'
                   'event: progress\ndata: {"done": -5, "total": -2147483648}\n\n'
@@ -119,6 +132,21 @@ PY
 }
 shows() { python3 -c 'import sys; print(repr(open(sys.argv[1], "rb").read()[:400]))' "$1"; }
 posts() { grep -c '^POST' "$T/fake.log"; }
+
+# --- watch of a frame-range job: its frames and eta_s checked, not trusted ------------------
+FID=fedcba9876543210fedcba9876543210
+echo frames-bad >"$T/fake.log.mode"
+"$CLIENT" watch "$FID" -o "$T/wf-%d.png" --server "$FAKE" >"$T/wf.out" 2>&1
+rc=$?
+check untrusted_watch_frames_refused "exit $rc: $(shows "$T/wf.out")" bash -c "[ $rc = 1 ] &&
+    grep -q 'its frames {\"first\":5,\"last\":3' '$T/wf.out' && ! ls '$T' | grep -q '^wf-'"
+echo frames-eta >"$T/fake.log.mode"
+"$CLIENT" watch "$FID" -o "$T/wf-%d.png" --server "$FAKE" >"$T/wf.out" 2>&1
+rc=$?
+# an eta_s of 1e300 made "ETA -596523h-14m" (a float to int out of range); now unknown
+check untrusted_watch_eta_ignored "exit $rc: $(shows "$T/wf.out")" bash -c "[ $rc = 1 ] &&
+    [ -e '$T/wf-0.png' ] && grep -q 'frame 0 -> .*ETA' '$T/wf.out' && ! grep -q 'ETA -' '$T/wf.out'"
+rm -f "$T/fake.log.mode"
 
 # --- health: the version and the reason are escaped -------------------------------------
 "$CLIENT" health --server "$FAKE" >"$T/health.out" 2>&1

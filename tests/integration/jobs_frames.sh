@@ -89,7 +89,8 @@ check frame_of_still_job "$code $(cat "$T/body")" err_is "$T/body" 404 frame_unk
 code=$(req GET "/v1/jobs/$still/video.mp4")
 check video_of_still_job "$code $(cat "$T/body")" eval 'err_is "$T/body" 404 frame_unknown && grep -q "no video" "$T/body"'
 code=$(req GET "/v1/jobs/$id/video.mp4")
-check video_before_done "$code $(cat "$T/body")" err_is "$T/body" 409 frames_not_done
+check video_before_done "$code $(cat "$T/body") Retry-After '$(header Retry-After)'" eval \
+    'err_is "$T/body" 409 frames_not_done && [ "$(header Retry-After)" = 1 ]'
 code=$(req GET "/v1/jobs/$id/image.png")
 check image_png_of_frames "$code $(cat "$T/body")" err_is "$T/body" 409 frame_range_job
 code=$(req POST "/v1/jobs/$id/stop")
@@ -228,7 +229,8 @@ check frame_of_cancelled "$code $(cat "$T/body")" eval 'err_is "$T/body" 409 fra
 check frame_of_cancelled_final "$(cat "$T/headers" "$T/body" | tr '\r\n' '||')" eval \
     '[ -z "$(header Retry-After)" ] && grep -q "frame 2 was not rendered: its job was cancelled" "$T/body"'
 code=$(req GET "/v1/jobs/$cancel/video.mp4")
-check video_of_cancelled "$code $(cat "$T/body")" eval 'err_is "$T/body" 409 frames_not_done &&
+check video_of_cancelled "$code $(cat "$T/body") Retry-After '$(header Retry-After)'" eval \
+    'err_is "$T/body" 409 frames_not_done && [ -z "$(header Retry-After)" ] &&
     grep -q "the job was cancelled with 0 of 6 frames done: it has no video" "$T/body"'
 # ---- a frame that keeps failing: tried 3 times, then the job fails naming it --------
 curl -s -X POST "$URL/v1/test/gate?work=10" >/dev/null # every render made now runs out of rays

@@ -201,5 +201,15 @@ check kills_with_progress_not_failed "$(head -c 300 "$T/body")" eval \
 gate open
 wait_until 60 job_state_is "$kills" succeeded
 check kills_with_progress_finish "$(head -c 300 "$T/body")" job_state_is "$kills" succeeded
+
+# ---- a done frame whose file cannot be read: a 500 naming it, no Retry-After ------------------
+# (before: "frame 2 is done, not done: retry later" with Retry-After: 1, for ever)
+rm -f "$D/results/$kills-2.png"
+code=$(req GET "/v1/jobs/$kills/frames/2.png")
+check unreadable_frame_500 "$code $(cat "$T/headers" "$T/body" | tr '\r\n' '||')" eval \
+    'err_is "$T/body" 500 internal && grep -q "frame 2 is done, but its file under --data-dir could not be read" "$T/body" &&
+    [ -z "$(header Retry-After)" ]'
+check unreadable_frame_logged "$(tail -n 2 "$T/rayd.err")" \
+    grep -q "job $kills: frame 2: cannot read .*$kills-2.png: No such file or directory" "$T/rayd.err"
 check rayd_alive "rayd died: $(tail -3 "$T/rayd.err")" kill -0 "$RAYD_PID"
 exit $NFAIL
