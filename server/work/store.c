@@ -474,15 +474,23 @@ static void store_do_frame(struct store_op *op) {
                   strerror(errno));
         return;
     }
-    if (store_run(NULL,
+    /* the frame done, and in the same commit its job's frames left counting
+     * kills from zero again: the job went on, so the kills so far are no
+     * sign that it kills rayd (durable.c) */
+    bool done =
+        store_exec("BEGIN") &&
+        store_run(NULL,
                   "UPDATE frames SET state = 'done', path = ?, exr_path = ?, bytes = ?, ended = ?"
                   " WHERE job = ? AND k = ?",
                   "ttidti", p, op->exr ? e : NULL, (long long)bytes, store_wall(), id,
-                  (long long)k) != SQLITE_DONE)
+                  (long long)k) == SQLITE_DONE &&
+        store_run(NULL, "UPDATE frames SET attempts = 0 WHERE job = ? AND state = 'queued'", "t",
+                  id) == SQLITE_DONE &&
+        store_exec("COMMIT");
+    if (!done) {
+        store_exec("ROLLBACK");
         return;
-    /* the job went on: the kills so far are no sign that it kills rayd
-     * (durable.c), so its frames left start counting again */
-    store_run(NULL, "UPDATE frames SET attempts = 0 WHERE job = ? AND state = 'queued'", "t", id);
+    }
     store_bytes += bytes;
     if (store_frame_written) store_frame_written(id, k);
     store_evict(id, k);
