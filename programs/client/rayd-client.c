@@ -7,8 +7,10 @@
  *   rayd-client render --progressive SCENE.json -o OUT.png|OUT.exr --server URL
  *               [--pass-step K] [--time-budget S] [--noise-target E] [--detach]
  *   rayd-client job SCENE.json -o OUT.png|OUT.exr --server URL [--token-file F]
- *               [--frames A-B] [--video OUT.mp4] [--detach]   (an animated scene: -o
- * 'shot-%04d.png') rayd-client watch ID [-o OUT.png|OUT.exr|PATTERN] [--video OUT.mp4] --server URL
+ *               [--frames A-B] [--video OUT.mp4] [--detach]
+ *               (an animated scene: -o 'shot-%04d.png')
+ *   rayd-client watch ID [-o OUT.png|OUT.exr|PATTERN] [--video OUT.mp4]
+ *               --server URL
  *   rayd-client health --server URL [--server URL ...]
  *   rayd-client thumbnails DIR [-o OUTDIR] [--size N] [--view V] [--turntable N]
  *                          --server URL ...

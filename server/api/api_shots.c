@@ -302,6 +302,8 @@ void api_shots_frame(struct http_req *r, const char *path) {
     struct shots_info info;
     struct blob *img = NULL;
     enum shots_frame_state st = shots_frame(id, k, exr, &img, &info);
+    if (st == SHOTS_DONE && !img) /* --max-disk may have let it go since: asked again */
+        st = shots_frame(id, k, exr, &img, &info);
     char msg[320];
     if (st == SHOTS_NO_JOB) {
         struct jobs_info j;
