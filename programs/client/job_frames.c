@@ -69,13 +69,25 @@ static void job_frames_sleep(long ms) {
     nanosleep(&ts, NULL);
 }
 
+/* Whether -o's pattern names frames from..to a file each: true, or false
+ * said (the usage line left to the caller). */
+static bool job_frames_pattern(const char *out, long from, long to) {
+    char path[4096];
+    int numbered = frame_name_path(out, from, path, sizeof path);
+    if (numbered < 0)
+        prog_error("-o %s: " FRAME_NAME_RULE, out);
+    else if (numbered == 0 && to > from)
+        prog_error("-o %s: a job of frames %ld-%ld writes a file a frame: give -o a %%d, e.g. "
+                   "-o 'shot-%%04d.png'",
+                   out, from, to);
+    return numbered > 0 || (numbered == 0 && to == from);
+}
+
 /* The range asked for, checked against the scene's and -o: 0, or 2 said. */
 static int job_frames_check(const struct client_opts *o, const struct scenefile *sf, long *from,
                             long *to) {
     *from = o->frames_set ? o->frame_a : sf->anim_start;
     *to = o->frames_set ? o->frame_b : sf->anim_end;
-    char path[4096];
-    int numbered = frame_name_path(o->out, *from, path, sizeof path);
     if (!sf->animated)
         prog_error("--frames %ld-%ld: the scene has no /animation, so it has no frames to range "
                    "over",
@@ -83,13 +95,7 @@ static int job_frames_check(const struct client_opts *o, const struct scenefile 
     else if (*from < sf->anim_start || *to > sf->anim_end)
         prog_error("%s: /animation: frame %ld is outside the animation's frames %ld-%ld", sf->name,
                    *to > sf->anim_end ? *to : *from, sf->anim_start, sf->anim_end);
-    else if (numbered < 0)
-        prog_error("-o %s: " FRAME_NAME_RULE, o->out);
-    else if (numbered == 0 && *to > *from)
-        prog_error("-o %s: a job of frames %ld-%ld writes a file a frame: give -o a %%d, e.g. "
-                   "-o 'shot-%%04d.png'",
-                   o->out, *from, *to);
-    else
+    else if (job_frames_pattern(o->out, *from, *to))
         return 0;
     fprintf(stderr, "Try 'rayd-client --help'.\n");
     return 2;
@@ -401,19 +407,11 @@ int job_frames_watch(const struct client_opts *o, const char *id, long first, lo
     struct scenefile sf = {.name = id, .width = w, .height = h};
     struct job_frames j = {.o = o, .sf = &sf, .eta = -1, .leaves = 1, .first = first, .last = last};
     snprintf(j.id, sizeof j.id, "%s", id);
-    char path[4096];
-    int numbered = o->out ? frame_name_path(o->out, first, path, sizeof path) : -2;
-    if (numbered == -2)
+    if (!o->out)
         prog_error("watch: job %s renders frames %ld-%ld: give -o a pattern for their files, e.g. "
                    "-o 'shot-%%04d.png'",
                    id, first, last);
-    else if (numbered < 0)
-        prog_error("-o %s: " FRAME_NAME_RULE, o->out);
-    else if (numbered == 0 && last > first)
-        prog_error("-o %s: a job of frames %ld-%ld writes a file a frame: give -o a %%d, e.g. "
-                   "-o 'shot-%%04d.png'",
-                   o->out, first, last);
-    if (numbered < 0 || (numbered == 0 && last > first)) {
+    if (!o->out || !job_frames_pattern(o->out, first, last)) {
         fprintf(stderr, "Try 'rayd-client --help'.\n");
         return 2;
     }
