@@ -159,7 +159,7 @@ static enum rayd_status load_render(struct loader *ld, const cJSON *root) {
     TRY(sj_bool(ld, r, &at, "denoise", false, &rs->denoise));
     TRY(sj_num(ld, r, &at, "clamp_indirect", 0, 0, false, RENDER_SUM_CAP, &rs->clamp_indirect));
     TRY(sj_num(ld, r, &at, "filter_glossy", 0, 0, false, 1, &rs->filter_glossy));
-    return sj_environment(ld, r, &at);
+    return ld->values_only ? RAYD_OK : sj_environment(ld, r, &at);
 }
 
 static enum rayd_status load_camera(struct loader *ld, const cJSON *root) {
@@ -372,6 +372,9 @@ static enum rayd_status scene_json_parse_frame(const char *json, size_t len,
         struct loader ld = {.lim = lim, .s = s, .err = err, .inl = &in, .anim = &anim};
         st = load_root(&ld, root, frame);
         if (st != RAYD_OK) sj_anim_error(&anim, err);
+        if (anim.on) /* what each frame's parse makes again (rayd_scene_info.frame_work) */
+            s->frame_work = ld.frame_work + (double)len / SJ_WORK_TEXT_BYTES +
+                            (double)ld.objects * SJ_WORK_OBJECT;
         note_frames(s, &anim);
         sj_anim_free(&anim);
         free(ld.mat_names);
@@ -404,6 +407,83 @@ enum rayd_status rayd_scene_parse_frame(const char *json, size_t len, const stru
         return err_set(err, RAYD_E_ARG, "/animation", "frame %ld: frames are numbered from 0",
                        frame);
     return scene_json_parse_frame(json, len, lim, SJ_INLINE_MIN, frame, out, err);
+}
+
+/* ---- every frame's values (rayd_scene_check_frames) ------------------------- */
+
+/* Frame k's camera, lights and keyframed transforms through the loader's
+ * own checks, on copies of the camera and the lights (the keyframes' pass
+ * writes their values into them), with no object built and no file read.
+ * cam and lights are the scene's, taken out of root. */
+static enum rayd_status check_frame(const struct rayd_limits *lim, const struct sj_inline *in,
+                                    cJSON *root, const cJSON *cam, const cJSON *lights, long k,
+                                    struct rayd_error *err) {
+    rayd_scene *s = NULL;
+    TRY(scene_alloc(&s, err));
+    cJSON *c = cam ? cJSON_Duplicate(cam, true) : NULL;
+    cJSON *l = lights ? cJSON_Duplicate(lights, true) : NULL;
+    enum rayd_status st = RAYD_OK;
+    if ((cam && !c) || (lights && !l)) st = err_set(err, RAYD_E_NOMEM, NULL, "out of memory");
+    if (c) cJSON_AddItemToObject(root, "camera", c);
+    if (l) cJSON_AddItemToObject(root, "lights", l);
+    struct sj_anim anim = {.keep = true};
+    struct loader ld = {
+        .lim = lim, .s = s, .err = err, .inl = in, .anim = &anim, .values_only = true};
+    if (st == RAYD_OK) st = sj_anim_load(&ld, root, k);
+    if (st == RAYD_OK) st = load_render(&ld, root);
+    if (st == RAYD_OK) st = load_camera(&ld, root);
+    if (st == RAYD_OK) st = load_lights(&ld, root);
+    if (st != RAYD_OK) sj_anim_error(&anim, err);
+    sj_anim_free(&anim);
+    cJSON_DeleteItemFromObjectCaseSensitive(root, "camera");
+    cJSON_DeleteItemFromObjectCaseSensitive(root, "lights");
+    rayd_scene_free(s);
+    return st;
+}
+
+/* Every frame of first..last within the scene's, in order, until one fails. */
+static enum rayd_status check_frames(const struct rayd_limits *lim, const struct sj_inline *in,
+                                     cJSON *root, long first, long last, struct rayd_error *err) {
+    bool on = false;
+    long start = 0, end = 0;
+    struct loader ld = {.lim = lim, .err = err, .values_only = true};
+    TRY(sj_anim_range(&ld, root, &on, &start, &end));
+    if (!on) return RAYD_OK;
+    cJSON *cam = cJSON_DetachItemFromObjectCaseSensitive(root, "camera");
+    cJSON *lights = cJSON_DetachItemFromObjectCaseSensitive(root, "lights");
+    enum rayd_status st = RAYD_OK;
+    for (long k = first > start ? first : start; k <= last && k <= end && st == RAYD_OK; k++) {
+        if (lim->cancel && atomic_load(lim->cancel))
+            st = err_set(err, RAYD_E_CANCELED, NULL, "the check of the frames was canceled");
+        else
+            st = check_frame(lim, in, root, cam, lights, k, err);
+    }
+    cJSON_Delete(cam);
+    cJSON_Delete(lights);
+    return st;
+}
+
+enum rayd_status rayd_scene_check_frames(const char *json, size_t len,
+                                         const struct rayd_limits *lim, long first, long last,
+                                         struct rayd_error *err) {
+    struct rayd_limits deflim;
+    if (!lim) {
+        rayd_limits_default(&deflim);
+        lim = &deflim;
+    }
+    if (len > lim->max_bytes)
+        return err_set(err, RAYD_E_LIMIT, NULL, "the scene is %zu bytes; the limit is %zu", len,
+                       lim->max_bytes);
+    struct sj_inline in = {.spans.min_count = SJ_INLINE_MIN};
+    cJSON *root = NULL;
+    enum rayd_status st = check_and_parse(json, len, lim, &in, &root, err);
+    if (st == RAYD_OK && !cJSON_IsObject(root))
+        st = err_set(err, RAYD_E_INVALID, "", "the scene must be a JSON object, not %s",
+                     sj_type_name(root));
+    if (st == RAYD_OK) st = check_frames(lim, &in, root, first, last, err);
+    cJSON_Delete(root);
+    sj_inline_free(&in);
+    return st;
 }
 
 void rayd_scene_animation(const rayd_scene *scene, struct rayd_animation *out) {

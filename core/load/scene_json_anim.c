@@ -359,6 +359,7 @@ static enum rayd_status anim_object(struct loader *ld, cJSON *o, const struct jp
             ld, RAYD_E_INVALID, &ts.kat,
             "at frame %ld the keyframed scale is zero (or within 1e-9 of it) in some axis",
             a->frame);
+    if (a->keep) return RAYD_OK; /* the next frame's check reads the keyframes again */
     if (!array_grow((void **)&a->xf, &a->xf_cap, a->nxf + 1, sizeof *a->xf))
         return err_set(ld->err, RAYD_E_NOMEM, NULL, "out of memory");
     a->xf[a->nxf++] = (struct sj_anim_xf){.obj = o, .x = x};
@@ -419,6 +420,16 @@ enum rayd_status sj_anim_load(struct loader *ld, cJSON *root, long frame) {
     return RAYD_OK;
 }
 
+enum rayd_status sj_anim_range(struct loader *ld, const cJSON *root, bool *on, long *start,
+                               long *end) {
+    struct sj_anim a = {0};
+    TRY(anim_block(ld, root, &a));
+    *on = a.on;
+    *start = a.start;
+    *end = a.end;
+    return RAYD_OK;
+}
+
 bool sj_anim_xform(const struct sj_anim *a, const cJSON *obj, struct xform *x) {
     if (!a || a->nxf == 0) return false;
     struct sj_anim_xf key = {.obj = obj};
@@ -427,19 +438,37 @@ bool sj_anim_xform(const struct sj_anim *a, const cJSON *obj, struct xform *x) {
     return f != NULL;
 }
 
+/* Whether path is at (or under) the pointer of n bytes at at. */
+static bool anim_under(const char *path, const char *at, size_t n) {
+    return strncmp(path, at, n) == 0 && (path[n] == 0 || path[n] == '/');
+}
+
+/* err renamed to sub's keyframes, with the frame and what of the owner
+ * (from byte `from` of its path) was wrong. */
+static void anim_rename(const struct sj_anim *a, const struct sj_anim_sub *sub,
+                        struct rayd_error *err, size_t from) {
+    char msg[sizeof err->message];
+    snprintf(msg, sizeof msg, "at frame %ld, %.100s: %.140s", a->frame, err->path + from,
+             err->message);
+    memcpy(err->message, msg, sizeof msg);
+    snprintf(err->path, sizeof err->path, "%s", sub->keys);
+}
+
 void sj_anim_error(const struct sj_anim *a, struct rayd_error *err) {
     if (!err || err->code == RAYD_OK) return;
-    for (size_t i = 0; i < a->nsub; i++) {
-        size_t n = strlen(a->sub[i].at);
-        if (strncmp(err->path, a->sub[i].at, n) != 0 || (err->path[n] && err->path[n] != '/'))
-            continue;
-        const char *key = strrchr(a->sub[i].at, '/') + 1;
-        char msg[sizeof err->message];
-        snprintf(msg, sizeof msg, "at frame %ld, %.40s%.60s: %.140s", a->frame, key, err->path + n,
-                 err->message);
-        memcpy(err->message, msg, sizeof msg);
-        snprintf(err->path, sizeof err->path, "%s", a->sub[i].keys);
-        return;
+    for (size_t i = 0; i < a->nsub; i++) /* a value the keyframes wrote */
+        if (anim_under(err->path, a->sub[i].at, strlen(a->sub[i].at))) {
+            anim_rename(a, &a->sub[i], err,
+                        (size_t)(strrchr(a->sub[i].at, '/') - a->sub[i].at + 1));
+            return;
+        }
+    for (size_t i = 0; i < a->nsub; i++) { /* a still value of an owner with keyframes: the
+                                               camera's look_at that its moving position met */
+        size_t n = (size_t)(strrchr(a->sub[i].at, '/') - a->sub[i].at);
+        if (n > 0 && anim_under(err->path, a->sub[i].at, n) && err->path[n] == '/') {
+            anim_rename(a, &a->sub[i], err, n + 1);
+            return;
+        }
     }
 }
 

@@ -22,6 +22,8 @@ struct sj_anim {
     long start, end; /* its frames, inclusive */
     double fps;
     long frame;            /* the frame being built */
+    bool keep;             /* values only (rayd_scene_check_frames): the objects'
+                              keyframes stay in the tree, no transform is kept */
     struct sj_anim_xf *xf; /* sorted by obj once the walk is done */
     size_t nxf, xf_cap;
     struct sj_anim_sub *sub;
@@ -34,6 +36,9 @@ struct sj_anim {
  * objects' transforms kept for sj_anim_xform.  A frame outside the range
  * is RAYD_E_ARG. */
 enum rayd_status sj_anim_load(struct loader *ld, cJSON *root, long frame);
+/* The scene's frames, from /animation (*on false: a still scene). */
+enum rayd_status sj_anim_range(struct loader *ld, const cJSON *root, bool *on, long *start,
+                               long *end);
 /* The keyframed transform of object obj at the frame: true and *x, or false. */
 bool sj_anim_xform(const struct sj_anim *a, const cJSON *obj, struct xform *x);
 /* An error the loader found in a value the keyframes wrote is named by the

@@ -478,6 +478,7 @@ static enum rayd_status animate(struct imp *im, const cJSON *oj, const struct jp
         return sj_fail(ld, RAYD_E_INVALID, &pa, "needs /animation (the scene's frame range)");
     if (!ld->anim->on || !cJSON_IsArray(anims) || cJSON_GetArraySize(anims) == 0) return RAYD_OK;
     gltf_doc_animate(im->doc, a < 0 ? 0 : a, sj_anim_seconds(ld->anim));
+    ld->gltf_animated = true; /* its meshes bake to other arrays each frame */
     return RAYD_OK;
 }
 
@@ -491,6 +492,7 @@ static enum rayd_status load(struct imp *im, const cJSON *oj, const struct jp *a
     TRY(item_ref(im, oj, at, "scene", gl_get(root, "scenes"), "scenes", &scene));
     TRY(sj_bool(ld, oj, at, "lights", true, &lights));
     TRY(sj_num(ld, oj, at, "light_scale", 1, 0, true, 1e6, &scale));
+    ld->gltf_animated = false;
     TRY(animate(im, oj, at));
     struct mesh_limits ml = sj_mesh_budget(ld);
     TRY(imp_fail(im, gltf_doc_walk(im->doc, scene, &ml)));

@@ -23,6 +23,7 @@
 
 #include "format/base64.h"
 #include "format/json_numbers.h"
+#include "load/scene_json_anim.h"
 #include "load/scene_json_inline.h"
 #include "base/clock.h"
 #include "format/mesh_gltf.h"
@@ -679,6 +680,9 @@ static unsigned char *baked_key_charged(struct loader *ld, const struct mesh_dat
 }
 
 enum rayd_status sj_mesh_baked(struct loader *ld, struct mesh_data *md, uint32_t *id) {
+    if (ld->anim && ld->anim->on) /* baked again each frame; built again when animated */
+        ld->frame_work +=
+            md->ntris * (double)(ld->gltf_animated ? SJ_WORK_BUILD_TRI : SJ_WORK_BAKE_TRI);
     size_t len;
     unsigned char *key = baked_key_charged(ld, md, &len);
     const unsigned variant = SOURCE_BAKED | 8u; /* smoothed, as built below */

@@ -76,8 +76,18 @@ struct loader {
     bool frame_focus;            /* focus_distance given: kept when framing */
     const cJSON *camera;         /* /camera, or NULL */
     bool gltf_camera;            /* a gltf object has set the camera */
+    bool values_only;            /* rayd_scene_check_frames: no file is read */
+    bool gltf_animated;          /* the gltf object being read plays an animation */
+    double frame_work;           /* rayd_scene_info.frame_work, of the gltf objects so far */
     struct sj_anim *anim;        /* the frame being loaded (scene_json_anim.h) */
 };
+
+/* A frame's parse in rays' worth (rayd_scene_info.frame_work), measured
+ * roughly on one core and rounded up: a ray takes about 0.1 us. */
+#define SJ_WORK_TEXT_BYTES 16 /* bytes of scene text parsed in a ray's time */
+#define SJ_WORK_OBJECT 10     /* an object loaded and placed in the scene's BVH */
+#define SJ_WORK_BAKE_TRI 1    /* a gltf triangle baked */
+#define SJ_WORK_BUILD_TRI 6   /* ... and built into a BVH (animated: never shared) */
 
 enum vec_rule { VEC_ANY, VEC_NONZERO, VEC_COLOR };
 

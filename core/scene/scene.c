@@ -319,6 +319,7 @@ void rayd_scene_info(const rayd_scene *s, struct rayd_scene_info *info) {
     info->lights = s->nlights;
     info->decode_seconds = s->decode_s;
     info->build_seconds = s->build_s;
+    info->frame_work = s->frame_work;
     info->aov = s->rs.aov;
     info->denoise = s->rs.denoise;
     info->clamp_indirect = s->rs.clamp_indirect;

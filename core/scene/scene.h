@@ -49,6 +49,7 @@ struct scene_file;
 
 struct rayd_scene {
     double decode_s, build_s;   /* loading: mesh files decoded, BVHs and light buffers built */
+    double frame_work;          /* rayd_scene_info's: what each frame's parse redoes */
     long images_decoded;        /* loading: glTF images decoded (one per image, however shared) */
     struct rayd_animation anim; /* the frames of the scene and the one this is */
     struct camera cam;

@@ -187,6 +187,13 @@ struct rayd_scene_info {
      * base64), and the BVHs (meshes, groups, the scene's) and light buffers
      * built. */
     double decode_seconds, build_seconds;
+    /* An animated scene's parse, which a frame-range job makes again for
+     * every frame, in rays' worth of work (the unit of rays_per_sample):
+     * its text, its objects' BVH, and what its gltf objects bake (and,
+     * animated, build) anew each frame.  Meshes from files and inline
+     * arrays are shared from frame to frame and cost nothing here.  0 for
+     * a still scene. */
+    double frame_work;
     /* 1 when nothing in the scene gives light: no light, no emissive
      * material, a black background and no (or a black) environment.  Every
      * pixel of its render is black; programs warn about it. */
@@ -233,6 +240,18 @@ struct rayd_animation {
  * frame 0.  rayd_scene_parse is the scene's first frame. */
 enum rayd_status rayd_scene_parse_frame(const char *json, size_t len, const struct rayd_limits *lim,
                                         long frame, rayd_scene **out, struct rayd_error *err);
+/* The values the keyframes give the camera, the lights and the objects'
+ * transforms, checked at every frame first..last (within the scene's
+ * frames) by the checks rayd_scene_parse_frame makes, but with no object
+ * built and no file read: RAYD_OK, or the error of the first frame that
+ * fails, as its parse would give it ("at frame 11, fov_x: ...", the
+ * keyframes' pointer).  A frame-range job runs it before its first frame,
+ * so a smooth keyframe overshooting a limit late fails it before anything
+ * renders.  Microseconds a frame; lim->cancel is looked at each frame.
+ * A still scene: RAYD_OK. */
+enum rayd_status rayd_scene_check_frames(const char *json, size_t len,
+                                         const struct rayd_limits *lim, long first, long last,
+                                         struct rayd_error *err);
 /* The scene's frames, and the one it was loaded at. */
 void rayd_scene_animation(const rayd_scene *scene, struct rayd_animation *out);
 

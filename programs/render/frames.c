@@ -39,6 +39,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -51,14 +52,35 @@ struct video {
     FILE *in; /* ffmpeg's standard input */
     int w, h;
     long frames;
+    char *tmp; /* what ffmpeg writes, renamed over the video once whole; NULL: in place */
 };
 
-/* Starts ffmpeg encoding w x h RGB frames at fps into path. */
+/* The file ffmpeg writes for path, as -o's rule has it (common/output.c):
+ * PATH.PID.part beside it, renamed over it only once the video is whole,
+ * so a run that fails or is stopped leaves the video there was.  path's
+ * extension comes again at the end: ffmpeg takes the format from it.  A
+ * name that is no regular file (/dev/null) is written in place: NULL. */
+static int video_temp(const char *path, char **tmp) {
+    struct stat st;
+    *tmp = NULL;
+    if (lstat(path, &st) == 0 && !S_ISREG(st.st_mode)) return 0;
+    const char *slash = strrchr(path, '/'), *dot = strrchr(path, '.');
+    const char *ext = dot && (!slash || dot > slash) ? dot : "";
+    size_t n = strlen(path) + strlen(ext) + 32;
+    if (!(*tmp = malloc(n))) return render_one_cannot_write(path, errno);
+    snprintf(*tmp, n, "%s.%ld.part%s", path, (long)getpid(), ext);
+    return 0;
+}
+
+/* Starts ffmpeg encoding w x h RGB frames at fps for path. */
 static int video_start(struct video *v, const char *path, int w, int h, double fps) {
     char size[64], rate[64], out[4200];
+    int rc = video_temp(path, &v->tmp);
+    if (rc != 0) return rc;
+    const char *to = v->tmp ? v->tmp : path;
     snprintf(size, sizeof size, "%dx%d", w, h);
     snprintf(rate, sizeof rate, "%.17g", fps);
-    snprintf(out, sizeof out, "%s%s", path[0] == '-' ? "./" : "", path);
+    snprintf(out, sizeof out, "%s%s", to[0] == '-' ? "./" : "", to);
     char *argv[] = {"ffmpeg",      "-hide_banner",
                     "-loglevel",   "error",
                     "-nostats",    "-y",
@@ -100,20 +122,27 @@ static int video_start(struct video *v, const char *path, int w, int h, double f
     return v->in ? 0 : render_one_cannot_write(path, errno);
 }
 
-/* Waits for ffmpeg; 0 when it wrote the video.  abort: kill it first. */
+/* Waits for ffmpeg (abort: kills it first), then puts the video in place;
+ * 0 when it did. */
 static int video_end(struct video *v, const char *path, bool abort) {
-    if (!v->pid) return 0;
-    if (abort) kill(v->pid, SIGTERM);
-    int ok = v->in && fclose(v->in) == 0;
-    int status = 0;
-    while (waitpid(v->pid, &status, 0) < 0 && errno == EINTR) continue;
-    v->pid = 0;
-    if (abort) return 1;
-    if (ok && WIFEXITED(status) && WEXITSTATUS(status) == 0) return 0;
-    fprintf(stderr, "rayd-render: error: ffmpeg could not write %s (%s %d)\n", path,
-            WIFEXITED(status) ? "exit status" : "signal",
-            WIFEXITED(status) ? WEXITSTATUS(status) : WTERMSIG(status));
-    return 1;
+    int rc = 1;
+    if (v->pid) {
+        if (abort) kill(v->pid, SIGTERM);
+        int ok = v->in && fclose(v->in) == 0;
+        int status = 0;
+        while (waitpid(v->pid, &status, 0) < 0 && errno == EINTR) continue;
+        v->pid = 0;
+        if (!abort && ok && WIFEXITED(status) && WEXITSTATUS(status) == 0)
+            rc = v->tmp && rename(v->tmp, path) != 0 ? render_one_cannot_write(path, errno) : 0;
+        else if (!abort)
+            fprintf(stderr, "rayd-render: error: ffmpeg could not write %s (%s %d)\n", path,
+                    WIFEXITED(status) ? "exit status" : "signal",
+                    WIFEXITED(status) ? WEXITSTATUS(status) : WTERMSIG(status));
+    }
+    if (rc != 0 && v->tmp) unlink(v->tmp);
+    free(v->tmp);
+    v->tmp = NULL;
+    return rc;
 }
 
 /* One frame for the video: the passes into an accumulator, the frame's
@@ -261,6 +290,19 @@ static int frames_checked(const struct args *a, const char *text, size_t len,
     int rc = check_range(a, &an, &from, &to);
     if (rc != 0) {
         fprintf(stderr, "Try 'rayd-render --help'.\n");
+        rayd_scene_free(scene);
+        return rc;
+    }
+    struct rayd_error err = {0}; /* a frame past the first that would fail: before any renders */
+    if (to > from && rayd_scene_check_frames(text, len, lim, from + 1, to, &err) != RAYD_OK) {
+        rayd_scene_free(scene);
+        return render_one_fail_scene(a, &err);
+    }
+    char first[4096]; /* the first frame's file: its folder missing said now, not after it */
+    if (a->output[0] && (rc = frame_file(a, from, first, sizeof first)) == 0 &&
+        output_writable(first) != 0)
+        rc = 1;
+    if (rc != 0) {
         rayd_scene_free(scene);
         return rc;
     }

@@ -484,7 +484,7 @@ void api_refused(struct http_req *r, enum work_submit why) {
      * the tasks in it; a drain, when this server is gone and another one
      * answers. */
     if (why == WORK_FULL || why == WORK_FULL_SHARE || why == WORK_TOO_MANY_JOBS ||
-        why == WORK_MEMORY)
+        why == WORK_JOBS_SHARE || why == WORK_MEMORY)
         r->res.retry_after =
             api_cost_retry_after(st.backlog_s / (double)(st.queued > 0 ? st.queued : 1));
     switch (why) {
@@ -504,6 +504,13 @@ void api_refused(struct http_req *r, enum work_submit why) {
         http_reply_error(r, 503, "queue_full",
                          "the render queue's last places are kept for clients with few renders "
                          "queued, and this client has many (--queue): retry later",
+                         NULL, 0, 0, NULL);
+        break;
+    case WORK_JOBS_SHARE:
+        metrics_reject(MR_QUEUE_FULL);
+        http_reply_error(r, 503, "queue_full",
+                         "the last quarter of the unfinished jobs' places (--max-jobs) is kept for "
+                         "clients with few jobs unfinished, and this client has many: retry later",
                          NULL, 0, 0, NULL);
         break;
     case WORK_DRAINING:
@@ -603,6 +610,32 @@ void api_scene(struct http_req *r, api_scene_then then) {
 
 void api_suspend(struct http_req *r) {
     if (!r->conn.suspended) http_req_suspend(r);
+}
+
+static void api_scene_check_suspend(struct compile_waiter *w) {
+    api_suspend(((struct api_scene_wait *)w)->r);
+}
+
+bool api_scene_check_frames(struct http_req *r, struct cache_entry *e, long first, long last,
+                            api_scene_then then) {
+    struct api_scene_wait *a = calloc(1, sizeof *a);
+    if (!a) {
+        api_refused(r, WORK_NOMEM);
+        return false;
+    }
+    a->r = r;
+    a->then = then;
+    a->w.done = api_scene_done;
+    a->w.suspend = api_scene_check_suspend;
+    a->w.client = api_cost_client(r);
+    struct compile_result res;
+    enum work_submit s =
+        compile_check_frames(e, r->body ? r->body : "", r->body_len, first, last, &a->w, &res);
+    if (s == WORK_OK) return true; /* a belongs to the parse pool until done() */
+    free(a);
+    if (s == WORK_CACHED) return api_scene_answer(r, &res, then);
+    api_refused(r, s);
+    return false;
 }
 
 bool api_is_decimal(const char *s, bool point) {

@@ -84,6 +84,12 @@ typedef bool (*api_scene_then)(struct http_req *r, struct cache_entry *e, bool h
  * when the scene is cached, else from a parse thread while r is suspended
  * (compile.c).  A bad scene is answered with its error, then not called. */
 void api_scene(struct http_req *r, api_scene_then then);
+/* From a continuation of api_scene: then(r, e) once the keyframed values
+ * of r's body pass at every frame first..last, on the parse pool
+ * (compile_check_frames); else the first failing frame's 400.  Returns as
+ * a continuation does: true when r was handed on. */
+bool api_scene_check_frames(struct http_req *r, struct cache_entry *e, long first, long last,
+                            api_scene_then then);
 /* A waiter's suspend(): suspends r unless it is already, waiting for its
  * scene (a continuation of api_scene's on a parse thread). */
 void api_suspend(struct http_req *r);

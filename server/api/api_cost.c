@@ -73,7 +73,15 @@ bool api_cost_price(struct http_req *r, const struct cache_entry *scene, struct 
     out->rays = cost_rays(cache_scene(scene), what);
     out->seconds = cost_price_seconds(cache_id(scene), out->rays);
     if (config.max_work > 0 && out->rays > (double)config.max_work) {
-        snprintf(limit, n, "the server's budget of %ld rays (--max-work)", config.max_work);
+        struct rayd_scene_info info;
+        rayd_scene_info(cache_scene(scene), &info);
+        if (what->frame) /* a frame-range job's frame parses its scene again */
+            snprintf(limit, n,
+                     "the server's budget of %ld rays (--max-work) a frame; of it the frame's "
+                     "parse of the scene is %.3g",
+                     config.max_work, info.frame_work);
+        else
+            snprintf(limit, n, "the server's budget of %ld rays (--max-work)", config.max_work);
         return false;
     }
     double deadline = (double)config.max_render_seconds;

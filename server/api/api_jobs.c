@@ -194,22 +194,29 @@ static void api_jobs_recorded_suspend(struct work_waiter *w) {
     api_suspend(((struct api_jobs_wait *)w)->r);
 }
 
-/* POST /v1/jobs once its scene is compiled (api_scene's continuation);
- * true when the request waits for the store (it resumes it). */
-static bool api_jobs_compiled(struct http_req *r, struct cache_entry *e, bool hit) {
-    (void)hit;
+static bool api_jobs_checked(struct http_req *r, struct cache_entry *e, bool hit);
+
+/* POST /v1/jobs once its scene is compiled (api_scene's continuation) and,
+ * for a frame-range job, its frames checked (checked); true when the
+ * request waits for the check or the store (which resume it). */
+static bool api_jobs_admit(struct http_req *r, struct cache_entry *e, bool checked) {
     bool progressive = false;
     struct work_target what = {.format = WORK_PNG};
     struct jobs_plan plan;
     struct api_price price;
     struct jobs_new how = {.scene = r->body ? r->body : "", .scene_len = r->body_len};
     int shot = api_shots_wanted(r, cache_scene(e));
+    what.frame = shot == 1;
     if (shot < 0 || !api_region_also(r, cache_scene(e), &what.reg, api_jobs_names) ||
         !(shot ? api_plan_none(r)
                : api_plan(r, cache_scene(e), &plan, &progressive, &what.passes)) ||
         !api_jobs_format(r, &what) || !api_jobs_denoise_aov(r, cache_scene(e), &what) ||
         !api_jobs_priority(r, &how.priority) || !api_cost_admit(r, e, &what, progressive, &price))
         return false; /* replied */
+    long first, last; /* a frame that would fail later fails the POST, before any renders */
+    if (shot && !checked)
+        return api_shots_frames(r, cache_scene(e), &first, &last) &&
+               api_scene_check_frames(r, e, first, last, api_jobs_checked);
     if (cluster_on()) /* rayd --redis: the job is the cluster's (api_cluster.c) */
         return api_cluster_submit(r, e, &what, how.priority, &price, shot == 1,
                                   progressive ? &plan : NULL);
@@ -238,6 +245,16 @@ static bool api_jobs_compiled(struct http_req *r, struct cache_entry *e, bool hi
         api_jobs_accepted(a);
     free(a);
     return false;
+}
+
+static bool api_jobs_compiled(struct http_req *r, struct cache_entry *e, bool hit) {
+    (void)hit;
+    return api_jobs_admit(r, e, false);
+}
+
+static bool api_jobs_checked(struct http_req *r, struct cache_entry *e, bool hit) {
+    (void)hit;
+    return api_jobs_admit(r, e, true);
 }
 
 void api_jobs_post(struct http_req *r, const char *unused) {

@@ -59,6 +59,8 @@ struct compile_job {
                          NULL for a GET by id, which only checks the cached scene */
     size_t len;
     long frame; /* the frame to parse the body at (compile_scene_frame), -1: the first */
+    long check_first, check_last; /* compile_check_frames's frames (cached: the scene) */
+    bool check;
     struct cache_entry *cached; /* found compiled; its files are checked here */
     size_t mem;                 /* bytes of kind parses reserved for it, until parsed */
     struct compile_waiter *waiters;
@@ -181,8 +183,8 @@ static enum work_submit compile_join_same(const char *id, bool by_id, struct cac
  * WORK_OK after w->suspend, or the refusal.  *joined: w waits for the same
  * body queued meanwhile, and mem is still the caller's. */
 static enum work_submit compile_enqueue(const char *id, const char *body, size_t len, long frame,
-                                        struct cache_entry *e, size_t mem, struct compile_waiter *w,
-                                        bool *joined) {
+                                        const long *check, struct cache_entry *e, size_t mem,
+                                        struct compile_waiter *w, bool *joined) {
     enum work_submit s = compile_join_same(id, body == NULL, e, w);
     *joined = s == WORK_OK;
     if (s != WORK_CACHED) return s;
@@ -195,6 +197,11 @@ static enum work_submit compile_enqueue(const char *id, const char *body, size_t
     j->body = body;
     j->len = len;
     j->frame = frame;
+    if (check) {
+        j->check = true;
+        j->check_first = check[0];
+        j->check_last = check[1];
+    }
     j->cached = e;
     j->mem = mem;
     j->waiters = w;
@@ -216,7 +223,8 @@ static enum work_submit compile_enqueue(const char *id, const char *body, size_t
 /* Reserves a new parse's first cap (no lock held: the reservation may
  * reclaim), then queues it; e is released unless the job took it. */
 static enum work_submit compile_queue_new(const char *id, const char *body, size_t len, long frame,
-                                          struct cache_entry *e, struct compile_waiter *w) {
+                                          const long *check, struct cache_entry *e,
+                                          struct compile_waiter *w) {
     size_t mem = scenes_parse_cap(len);
     if (!mem_reserve(MEM_PARSES, mem)) {
         metrics_reject(MR_MEMORY);
@@ -225,7 +233,7 @@ static enum work_submit compile_queue_new(const char *id, const char *body, size
     }
     bool joined = false;
     work_lock_take();
-    enum work_submit s = compile_enqueue(id, body, len, frame, e, mem, w, &joined);
+    enum work_submit s = compile_enqueue(id, body, len, frame, check, e, mem, w, &joined);
     work_lock_give();
     if (s != WORK_OK || joined) mem_release(MEM_PARSES, mem);
     if (s != WORK_OK) scenes_release(e);
@@ -272,7 +280,29 @@ enum work_submit compile_scene_frame(const char *body, size_t len, long frame,
     enum work_submit s = compile_join_same(id, false, e, w);
     work_lock_give();
     if (s == WORK_CACHED) /* a new parse: its first cap reserved before it is queued */
-        s = compile_queue_new(id, body, len, frame, e, w);
+        s = compile_queue_new(id, body, len, frame, NULL, e, w);
+    else if (s != WORK_OK)
+        scenes_release(e);
+    return s;
+}
+
+enum work_submit compile_check_frames(struct cache_entry *e, const char *body, size_t len,
+                                      long first, long last, struct compile_waiter *w,
+                                      struct compile_result *res) {
+    memset(res, 0, sizeof *res);
+    char id[65], text[128];
+    const long check[2] = {first, last};
+    int n = snprintf(text, sizeof text, "%s#check=%ld-%ld", cache_id(e), first, last);
+    if (!scenes_id(text, (size_t)n, id, &res->err)) {
+        res->status = RAYD_E_NOMEM;
+        return WORK_CACHED;
+    }
+    work_lock_take();
+    cache_ref(e); /* the job's own, handed to its first waiter */
+    enum work_submit s = compile_join_same(id, false, e, w);
+    work_lock_give();
+    if (s == WORK_CACHED)
+        s = compile_queue_new(id, body, len, -1, check, e, w);
     else if (s != WORK_OK)
         scenes_release(e);
     return s;
@@ -293,7 +323,7 @@ enum work_submit compile_find_scene(const char *id, struct compile_waiter *w,
     }
     bool joined;
     work_lock_take();
-    enum work_submit s = compile_enqueue(id, NULL, 0, -1, e, 0, w, &joined);
+    enum work_submit s = compile_enqueue(id, NULL, 0, -1, NULL, e, 0, w, &joined);
     work_lock_give();
     if (s != WORK_OK) scenes_release(e);
     return s;
@@ -306,6 +336,16 @@ static enum rayd_status compile_run(struct compile_job *j, struct cache_entry **
                                     struct rayd_error *err, bool *full) {
     *hit = false;
     *full = false;
+    if (j->check) { /* compile_check_frames: the scene as it came, once its frames pass */
+        enum rayd_status st =
+            scenes_check_frames(j->body, j->len, j->check_first, j->check_last, &j->cancel, err);
+        if (st == RAYD_OK)
+            *out = j->cached;
+        else
+            scenes_release(j->cached);
+        *hit = true;
+        return st;
+    }
     if (j->cached) {
         if (scenes_current(j->cached, j->body != NULL)) {
             *out = j->cached;
@@ -337,7 +377,7 @@ static void compile_answer(struct compile_job *j, enum rayd_status st, struct ca
         cache_ref(e); /* the first waiter takes the parse's own */
     work_lock_give();
     struct compile_waiter *w = j->waiters;
-    bool j_body = j->body != NULL;
+    bool j_body = j->body != NULL && !j->check; /* a check's scene was counted by its parse */
     free(j);
     while (w) {
         struct compile_waiter *next = w->next;

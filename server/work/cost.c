@@ -122,6 +122,7 @@ double cost_rays(const rayd_scene *scene, const struct work_target *what) {
     rayd_scene_info(scene, &info);
     double per_pixel = cost_samples(what, info.samples) * info.rays_per_sample;
     double encode = (double)what->reg.w * what->reg.h * cost_encode_rays(what);
+    if (what->frame) encode += info.frame_work; /* the frame's own parse, before it renders */
     if (!what->denoise) return (double)what->reg.w * what->reg.h * per_pixel + encode;
     /* A denoised render: every tile renders its apron too, and the filter
      * runs over tile and apron once a pass (resolve.c, passes.c; a PNG

@@ -314,6 +314,21 @@ void jobs_count(long *unfinished, long *cap) {
     *cap = jobs_max;
 }
 
+/* As the render queue keeps its last places (task_queue_kept): a
+ * frame-range job holds no place in the queue until its frames start, so
+ * twenty POSTs of one client's 1000-frame jobs filled a --max-jobs of 20,
+ * and every other client's POST /v1/jobs got 503 for as long as those
+ * frames took. */
+bool jobs_over_share(uint64_t client) {
+    long n, cap, mine = jobs_shots.unfinished_of ? jobs_shots.unfinished_of(client) : 0;
+    jobs_count(&n, &cap);
+    long quarter = cap / 4;
+    if (quarter < 1 || n < cap - quarter) return false;
+    for (int i = 0; i < jobs_n; i++)
+        mine += !jobs_final(jobs_table[i]) && jobs_table[i]->client == client;
+    return mine >= quarter;
+}
+
 /* Makes room in the table for a job of client by forgetting the job of
  * its own that ended first, or when it has none, anyone's: one client's
  * flood of jobs forgets its own finished ones, not the others' long
@@ -500,6 +515,8 @@ enum work_submit jobs_submit(struct cache_entry *scene, const struct work_target
         r = WORK_DRAINING;
     else if (busy >= cap || (jobs_n == jobs_max && !jobs_evict(what->client)))
         r = WORK_TOO_MANY_JOBS;
+    else if (jobs_over_share(what->client))
+        r = WORK_JOBS_SHARE;
     else
         r = task_submit(scene, &fresh, &t);
     struct job *j = r == WORK_OK ? jobs_add(spare, id, t, what->client, how->priority) : NULL;

@@ -165,20 +165,33 @@ static enum rayd_status scenes_charge(void *arg, long long delta, char *why, siz
     return RAYD_OK;
 }
 
+/* The core's limits of a scene's parse, from the options. */
+static void scenes_limits_now(struct rayd_limits *lim) {
+    if (scenes_limits_set) {
+        *lim = scenes_limits;
+        return;
+    }
+    rayd_limits_default(lim);
+    lim->max_pixels = config.max_pixels;
+    lim->max_samples = (int)config.max_samples;
+    if (lim->max_bytes < (size_t)config.max_body) lim->max_bytes = (size_t)config.max_body;
+    lim->asset_dir = config.asset_dir; /* confined (asset_confine) */
+}
+
+enum rayd_status scenes_check_frames(const char *body, size_t len, long first, long last,
+                                     const atomic_int *cancel, struct rayd_error *err) {
+    struct rayd_limits lim;
+    scenes_limits_now(&lim);
+    lim.cancel = cancel;
+    return rayd_scene_check_frames(body, len, &lim, first, last, err);
+}
+
 /* Parses and builds body outside the lock, timing each stage. */
 static enum rayd_status scenes_compile(const char *body, size_t len, long frame,
                                        const atomic_int *cancel, struct scenes_meter *m,
                                        rayd_scene **scene, struct rayd_error *err) {
     struct rayd_limits lim;
-    if (scenes_limits_set) {
-        lim = scenes_limits;
-    } else {
-        rayd_limits_default(&lim);
-        lim.max_pixels = config.max_pixels;
-        lim.max_samples = (int)config.max_samples;
-        if (lim.max_bytes < (size_t)config.max_body) lim.max_bytes = (size_t)config.max_body;
-        lim.asset_dir = config.asset_dir; /* confined (asset_confine) */
-    }
+    scenes_limits_now(&lim);
     scenes_room(&lim, m->last);
     lim.charge = scenes_charge;
     lim.charge_arg = m;

@@ -73,7 +73,20 @@ static void shots_free(struct shot *s) {
     free(s->f);
     free(s->order);
     free(s->text);
+    mem_release(MEM_FRAMES, s->held);
     free(s);
+}
+
+/* An ended shot's scene text, which no frame parses again, let go (lock
+ * held): only its frames and video stay.  Not while a frame's parse may
+ * still read it (flying). */
+static void shots_drop_text(struct shot *s) {
+    work_assert_locked();
+    if (!s->text || !shots_final(s) || s->flying) return;
+    free(s->text);
+    s->text = NULL;
+    mem_release(MEM_FRAMES, s->len + 1);
+    s->held -= s->len + 1;
 }
 
 /* Lock held. */
@@ -129,6 +142,15 @@ static long shots_unfinished(void) {
     work_assert_locked();
     long n = 0;
     for (int i = 0; i < shots_n; i++) n += !shots_final(shots_table[i]);
+    return n;
+}
+
+/* Those of client. */
+static long shots_unfinished_of(uint64_t client) {
+    work_assert_locked();
+    long n = 0;
+    for (int i = 0; i < shots_n; i++)
+        n += !shots_final(shots_table[i]) && shots_table[i]->client == client;
     return n;
 }
 
@@ -238,12 +260,19 @@ static void shots_frame_end(struct shots_fly *fl, enum rayd_status st, const str
         if (!s->err.code && err) s->err = *err;
         if (!s->err.code) s->err.code = st != RAYD_OK ? st : RAYD_E_INTERNAL;
         if (!s->err_tries) s->err_tries = f->tries;
+        log_warn("job %s: frame %ld failed after %d attempt%s, and the job with it (%s%s%s)", s->id,
+                 s->first + fl->i, f->tries, f->tries == 1 ? "" : "s",
+                 err && err->path[0] ? err->path : "", err && err->path[0] ? ": " : "",
+                 err ? err->message : "?");
     }
     bool ended = shots_final(s) && s->t_end == 0;
     if (ended) s->t_end = clock_now();
     if (shots_final(s)) shots_drop_kept(s);
     /* a drain's cancel is no end: the job stays queued on disk */
-    if (shots_final(s) && s->flying == 0 && !(drained && !s->canceled)) shots_record_end(s);
+    if (shots_final(s) && s->flying == 0 && !(drained && !s->canceled)) {
+        shots_record_end(s);
+        shots_drop_text(s);
+    }
     task_notify_add(&sse, &s->sse);
     work_lock_give();
     blob_unref(png);
@@ -586,7 +615,8 @@ static struct work_waiter **shots_streams(int i);
 static bool shots_unwait(struct work_waiter *w, struct task_notify *gone);
 
 bool shots_start(int max_jobs) {
-    static const struct jobs_shots hooks = {shots_oldest_end, shots_evict_oldest, shots_unfinished};
+    static const struct jobs_shots hooks = {shots_oldest_end, shots_evict_oldest, shots_unfinished,
+                                            shots_unfinished_of};
     store_frame_hooks(shots_written, shots_disk_evicted);
     jobs_shots_hooks(&hooks);
     watch_streams_hooks(shots_streams, shots_unwait, shots_kick);
@@ -606,11 +636,24 @@ void shots_stop(void) {
     shots_table = NULL;
 }
 
-/* A new shot of n->first..n->last (lock held; the table has room). */
-static struct shot *shots_new(const struct shots_new *n) {
+/* What a shot of n keeps until it ends, beside its frames' images: the
+ * scene's text, for its frames' parses (up to --max-body: a tiny animated
+ * scene padded to that size is a job).  Counted in --max-memory: 300 jobs
+ * of a 4 MB body held 1.2 GB under a budget of 512 MB, and every one of
+ * them had finished at once.  Its tables, a few dozen bytes a frame, are
+ * held to --max-frames instead. */
+static size_t shots_bytes(const struct shots_new *n) { return n->len + 1; }
+
+/* A new shot of n->first..n->last (lock held; the table has room), held
+ * bytes of kind frames its own (released with it, or here on failure). */
+static struct shot *shots_new(const struct shots_new *n, size_t held) {
     struct shot *s = calloc(1, sizeof *s);
     long count = n->last - n->first + 1;
-    if (!s) return NULL;
+    if (!s) {
+        mem_release(MEM_FRAMES, held);
+        return NULL;
+    }
+    s->held = held;
     s->f = calloc((size_t)count, sizeof *s->f);
     s->order = calloc((size_t)count, sizeof *s->order);
     s->text = malloc(n->len + 1);
@@ -646,6 +689,11 @@ enum work_submit shots_submit(struct shots_new *n, char id[33]) {
     if (getrandom(rnd, sizeof rnd, 0) != (ssize_t)sizeof rnd) return WORK_NOMEM;
     for (int i = 0; i < 16; i++) snprintf(id + 2 * i, 3, "%02x", rnd[i]);
     bool roomy = n->scene && shots_room_for_another(n->scene);
+    size_t held = shots_bytes(n);
+    if (!mem_reserve(MEM_FRAMES, held)) {
+        metrics_reject(MR_MEMORY);
+        return WORK_MEMORY;
+    }
     work_lock_take();
     enum work_submit r = WORK_OK;
     long unfinished, cap;
@@ -659,8 +707,11 @@ enum work_submit shots_submit(struct shots_new *n, char id[33]) {
     else if (unfinished >= cap ||
              (shots_n >= config.max_jobs && !shots_evict_ended(n->what.client)))
         r = WORK_TOO_MANY_JOBS;
-    else if (!(s = shots_new(n)))
+    else if (jobs_over_share(n->what.client))
+        r = WORK_JOBS_SHARE;
+    else if (!(s = shots_new(n, held)))
         r = WORK_NOMEM;
+    if (!s && r != WORK_NOMEM) mem_release(MEM_FRAMES, held);
     if (s) {
         snprintf(s->id, sizeof s->id, "%s", id);
         s->seq = jobs_next_seq();
@@ -705,7 +756,10 @@ bool shots_restore(const struct store_job *row, const unsigned char *states) {
                           .est_rays = row->est_rays};
     snprintf(n.scene_id, sizeof n.scene_id, "%s", row->scene_id);
     work_lock_take();
-    struct shot *s = shots_table && shots_n < config.max_jobs ? shots_new(&n) : NULL;
+    size_t held = shots_bytes(&n);
+    bool room = shots_table && shots_n < config.max_jobs;
+    if (room) mem_force(MEM_FRAMES, held); /* it was taken before the stop: it exists again */
+    struct shot *s = room ? shots_new(&n, held) : NULL;
     if (s) {
         snprintf(s->id, sizeof s->id, "%s", row->id);
         s->seq = row->seq;
@@ -732,6 +786,7 @@ bool shots_restore(const struct store_job *row, const unsigned char *states) {
             s->t_end = s->canceled_at = clock_now() - (shots_wall_now() - row->ended_wall);
             if (row->state == JS_FAILED) { /* its failed frames are not known: the first left */
                 s->err = row->err;
+                s->err_whole = true;
                 for (int i = 0; i < s->n && !s->nfailed; i++)
                     if (s->f[i].state != SF_DONE) {
                         s->f[i].state = SF_FAILED;
@@ -750,6 +805,7 @@ bool shots_restore(const struct store_job *row, const unsigned char *states) {
     if (row->state == JS_QUEUED) shots_pump(s);
     work_lock_take();
     if (row->state == JS_QUEUED && shots_final(s)) shots_record_end(s);
+    shots_drop_text(s);
     shots_unref(s);
     work_lock_give();
     return true;
@@ -814,7 +870,8 @@ enum shots_frame_state shots_frame(const char *id, long k, bool exr, struct blob
                 r = SHOTS_EVICTED;
                 info->evicted_why = shots_gone_why[s->f[i].gone];
             }
-            disk = r == SHOTS_DONE && s->f[i].on_disk;
+            /* an EXR the job does not keep is no file to read (the handler says 409) */
+            disk = r == SHOTS_DONE && s->f[i].on_disk && (!exr || s->keep_exr);
             for (const struct shots_fly *fl = s->flies; fl && r == SHOTS_RUNNING; fl = fl->next)
                 if (fl->i == i && !(fl->t && fl->t->t_start > 0))
                     r = SHOTS_QUEUED; /* no tile of it started yet */
@@ -845,6 +902,7 @@ bool shots_cancel(const char *id) {
             if (t->njobs == 0 && !others) task_cancel(t, MC_DELETE, &n, &sse);
         }
         shots_record_end(s);
+        shots_drop_text(s);
         task_notify_add(&sse, &s->sse);
     }
     work_lock_give();

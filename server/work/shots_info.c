@@ -12,6 +12,7 @@
  * attempts: ..." (lock held). */
 void shots_error(const struct shot *s, struct rayd_error *err) {
     *err = s->err;
+    if (s->err_whole) return; /* as it was recorded, frames and attempts named */
     char list[200];
     size_t used = 0;
     int named = 0;

@@ -45,6 +45,7 @@ struct shot {
     double created, created_wall, t_end, canceled_at;
     char *text; /* the scene as sent */
     size_t len;
+    size_t held; /* its text until it ends, counted as kind frames in --max-memory */
     char scene_id[65];
     struct rayd_region reg;
     bool keep_exr, canceled, recorded; /* recorded: its end is queued to the store */
@@ -62,6 +63,7 @@ struct shot {
     int norder;
     struct rayd_error err;   /* the first frame that failed for good */
     int err_tries;           /* its attempts */
+    bool err_whole;          /* err is shots_error's already: a failed job put back */
     struct shots_fly *flies; /* in flight */
     /* Its newest frame's scene, held until the next frame is parsed, so
      * that parse takes the image textures decoded and the mesh sources

@@ -54,7 +54,8 @@ enum work_submit {
     WORK_MEMORY,     /* the memory budget (--max-memory) has no room now: 503 */
     WORK_TOO_BIG,    /* the render alone is over the memory budget: 413 */
     WORK_PARSE_FULL, /* --parse-queue scenes wait for a parse thread (compile.c) */
-    WORK_FULL_SHARE  /* the queue's last places are kept for clients with few renders queued */
+    WORK_FULL_SHARE, /* the queue's last places are kept for clients with few renders queued */
+    WORK_JOBS_SHARE  /* --max-jobs's last places are kept for clients with few jobs unfinished */
 };
 
 /* ---- cache.c: the parts any thread may call ----------------------------- */
@@ -105,6 +106,8 @@ struct work_target {
     uint64_t client; /* who asks (fair.c's turns); not part of the key */
     int passes;      /* a progressive job's pass count (each pass is filtered when denoised:
                         cost.c), else 0; not part of the key */
+    bool frame;      /* a frame of a frame-range job, whose scene is parsed again for it
+                        (rayd_scene_info.frame_work, priced); not part of the key */
 };
 
 /* ---- cost.c: what a render costs, before it starts -------------------------- */
@@ -431,6 +434,14 @@ enum work_submit compile_scene(const char *body, size_t len, struct compile_wait
  * rayd_scene_parse_frame gives. */
 enum work_submit compile_scene_frame(const char *body, size_t len, long frame,
                                      struct compile_waiter *w, struct compile_result *res);
+/* Scene e (compiled from body) once its keyframed values are checked at
+ * every frame first..last (rayd_scene_check_frames), on the pool: a
+ * frame-range job's, before it is taken.  Answers as compile_scene does,
+ * with e (a reference of the waiter's) or the first failing frame's error;
+ * e is the caller's still. */
+enum work_submit compile_check_frames(struct cache_entry *e, const char *body, size_t len,
+                                      long first, long last, struct compile_waiter *w,
+                                      struct compile_result *res);
 /* The cached scene of id for a request that names only its id (GET
  * /v1/scenes/{id}/image.png), its files checked (scenefiles.c): on this
  * thread when it has few, else on the pool (WORK_OK, as above).  res->scene

@@ -111,6 +111,9 @@ size_t scenes_parse_cap(size_t len);
 enum rayd_status scenes_build(const char *id, const char *body, size_t len, long frame, size_t held,
                               const atomic_int *cancel, struct cache_entry **out,
                               struct rayd_error *err, bool *full);
+/* rayd_scene_check_frames of body under the options' limits. */
+enum rayd_status scenes_check_frames(const char *body, size_t len, long first, long last,
+                                     const atomic_int *cancel, struct rayd_error *err);
 
 /* ---- scenefiles.c: the files a cached scene read (any thread, no lock) ---- */
 
@@ -556,6 +559,10 @@ bool jobs_restore(const struct store_job *row, struct cache_entry *scene);
 int jobs_start(int max_jobs); /* any lock */
 /* The jobs not finished and the --max-jobs the table holds; lock held. */
 void jobs_count(long *unfinished, long *cap);
+/* Whether client may add no unfinished job now (lock held): the last
+ * quarter of --max-jobs is kept for clients with fewer than a quarter of
+ * the jobs unfinished. */
+bool jobs_over_share(uint64_t client);
 void jobs_stop(void); /* after the workers and the watcher have stopped */
 struct job *jobs_find(const char *id);
 enum jobs_state jobs_state(const struct job *j);
@@ -574,6 +581,7 @@ struct jobs_shots {
     double (*oldest_end)(bool own, uint64_t client);
     bool (*evict_oldest)(bool own, uint64_t client);
     long (*unfinished)(void);
+    long (*unfinished_of)(uint64_t client);
 };
 void jobs_shots_hooks(const struct jobs_shots *h);
 /* The next creation number (GET /v1/jobs's order), shared by the

@@ -77,6 +77,30 @@ usage video_extension "--video writes H.264 in .mp4, .mov or .mkv" "$T/anim.json
 WHY="$(ls "$T" | tr '\n' ' ')"
 check mistakes_write_nothing bash -c '! ls "$0"/x* >/dev/null 2>&1' "$T"
 
+# A frame past the first whose keyframed value fails (a smooth curve overshooting fov_x's
+# 179 from frame 4 on): said before any frame renders.  Before, frames 0-3 were written.
+cat >"$T/dip.json" <<'JSON'
+{"animation": {"end": 20}, "render": {"width": 8, "height": 8},
+ "camera": {"interpolation": "smooth", "keyframes": [{"frame": 0, "fov_x": 170},
+            {"frame": 10, "fov_x": 179}, {"frame": 20, "fov_x": 20}]},
+ "objects": [{"type": "sphere"}]}
+JSON
+run "$T/dip.json" --frames 0-20 -o "$T/dip-%d.png" -q 2>"$T/err"
+rc=$?
+WHY="exit $rc, stderr: $(tr '\n' '|' <"$T/err"), $(ls "$T" | grep -c dip-) frames written"
+check later_frame_fails_before_any bash -c '[ "$0" = 1 ] &&
+    grep -q "/camera/keyframes: at frame 4, fov_x: must be <= 179" "$1" && ! ls "$2"/dip-* >/dev/null 2>&1' \
+    "$rc" "$T/err" "$T"
+run "$T/dip.json" --frames 0-3 -o "$T/nodir/dip-%d.png" -q 2>"$T/err"
+rc=$?
+WHY="exit $rc, stderr: $(tr '\n' '|' <"$T/err")"
+check frames_folder_missing_said_first bash -c '[ "$0" = 1 ] &&
+    grep -q "cannot write .*nodir/dip-0.png: No such file" "$1" && ! grep -q "^frame 0" "$1"' \
+    "$rc" "$T/err"
+run "$T/dip.json" --frames 12-20 -o "$T/dip-%d.png" -q 2>"$T/err"
+WHY="exit $?, stderr: $(tr '\n' '|' <"$T/err")"
+check frames_after_dip_render bash -c '[ -s "$0"/dip-12.png ] && [ -s "$0"/dip-20.png ]' "$T"
+
 # --video: every frame of the scene by default, H.264 in MP4, the scene's rate and size
 probe() { ffprobe -v error -select_streams v:0 -count_frames \
     -show_entries stream=codec_name,width,height,r_frame_rate,nb_read_frames -of default=nw=1 "$1"; }
@@ -108,6 +132,20 @@ else
     else
         bad video_range_frames "exit $?: $(tr '\n' '|' <"$T/log")"
     fi
+    # a run that fails part way leaves the video there was, and no part of its own: ffmpeg
+    # writes FILE.PID.part.mp4, renamed over FILE once whole.  Before, the video was
+    # replaced by the frames made until the failure (here frame 3's file, a folder).
+    cp "$T/part.mp4" "$T/keep.mp4"
+    mkdir -p "$T/vd-3.png"
+    run "$T/anim.json" --frames 2-4 --video "$T/keep.mp4" -o "$T/vd-%d.png" -q 2>"$T/err"
+    rc=$?
+    WHY="exit $rc: $(tr '\n' '|' <"$T/err"); $(ls "$T" | grep keep)"
+    check video_failed_run_keeps_old bash -c '[ "$0" = 1 ] && cmp -s "$1/part.mp4" "$1/keep.mp4" &&
+        ! ls "$1"/keep.mp4.*part* >/dev/null 2>&1 && [ -s "$1/vd-2.png" ]' "$rc" "$T"
+    run "$T/anim.json" --frames 2-4 --video "$T/keep.mp4" -q 2>"$T/err"
+    WHY="exit $?: $(tr '\n' '|' <"$T/err")"
+    check video_replaced_when_whole bash -c '! cmp -s "$0/part.mp4" "$0/keep.mp4" &&
+        ! ls "$0"/keep.mp4.*part* >/dev/null 2>&1' "$T"
     # no ffmpeg on the PATH: exit 1, said
     PATH=/nonexistent "$R" "$T/anim.json" --video "$T/none.mp4" -q 2>"$T/err"
     rc=$?

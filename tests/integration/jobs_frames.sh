@@ -8,7 +8,8 @@
 # scene's job unchanged, the list, DELETE, the video (an fps ffmpeg cannot
 # take refused at POST, the slowest it takes made; ffmpeg failing is 500
 # video_failed without the server's temp folder); a scene invalid at a later
-# frame fails its job at once, naming the frame; a frame refused for room
+# frame refused at POST, naming the frame, and a frame whose parse fails at
+# every attempt failing its job at once; a frame refused for room
 # waits and its job goes on.  The test gate holds the frames so the states
 # in between are seen on any machine.
 source "$(dirname "$0")/lib/common.sh"
@@ -266,11 +267,16 @@ check video_no_ffmpeg "$code $(cat "$T/body")" eval 'err_is "$T/body" 503 no_ffm
 check frame_without_ffmpeg "frame 4 differs" eval '[ "$(req GET "/v1/jobs/$nof/frames/4.png")" = 200 ] && cmp -s "$T/body" "$T/cli-4.png"'
 check rayd_alive "rayd died: $(tail -3 "$T/rayd.err")" kill -0 "$RAYD_PID"
 
-# ---- a scene invalid at a later frame: the job fails at once, naming it -------------
-# A smooth curve takes the light's intensity below 0 at frame 11 (POST checks frame 0).
-# Such a job ends, so it no longer counts against --max-jobs.
+# ---- a scene invalid at a later frame: refused at POST, naming the frame ----------
+# A smooth curve takes the light's intensity below 0 at frames 11-19.  POST checks
+# every frame's keyframed values (rayd_scene_check_frames: no object built), so
+# nothing renders; before, the job failed after rendering frames 0-10.  A refusal
+# takes no place under --max-jobs; the frames around the dip are jobs of their own.
 stop_rayd
-start_rayd --threads 1 --max-jobs 2
+A=$T/assets
+mkdir -p "$A"
+printf 'v -1 0 -1\nv 1 0 -1\nv 0 1 0\nf 1 2 3\n' >"$A/tri.obj"
+start_rayd --threads 1 --max-jobs 2 --asset-dir "$A" --test-gate 0
 cat >"$T/dip.json" <<'JSON'
 {"animation": {"end": 30}, "render": {"width": 4, "height": 4},
  "lights": [{"type": "point", "position": [0, 5, 5], "interpolation": "smooth",
@@ -278,17 +284,40 @@ cat >"$T/dip.json" <<'JSON'
                            {"frame": 20, "intensity": 0}, {"frame": 30, "intensity": 1}]}],
  "objects": [{"type": "sphere"}]}
 JSON
-dips=
-for i in 1 2; do
-    post_json /v1/jobs "$T/dip.json" >/dev/null
-    dips="$dips $(jfield "$T/body" id)"
-done
-for id in $dips; do wait_until 60 job_state_is "$id" failed; done
-req GET "/v1/jobs/${dips##* }" >/dev/null
-check invalid_frame_fails_at_once "$(cat "$T/body")" eval \
-    'grep -q "frame 11 failed after 1 attempt: " "$T/body" && grep -q "intensity" "$T/body"'
+for i in 1 2 3; do code=$(post_json /v1/jobs "$T/dip.json"); done
+check invalid_frame_refused_at_post "$code $(cat "$T/body")" eval \
+    '[ "$code" = 422 ] && err_is "$T/body" 422 invalid_scene /lights/0/keyframes &&
+     grep -q "at frame 11, intensity: must be >= 0" "$T/body"'
+code=$(post_json "/v1/jobs?frames=15-30" "$T/dip.json")
+check invalid_frame_named_in_range "$code $(cat "$T/body")" eval \
+    '[ "$code" = 422 ] && grep -q "at frame 15, intensity" "$T/body"'
+code=$(post_json "/v1/jobs?frames=20-30" "$T/dip.json")
+check invalid_frames_around_are_jobs "$code $(cat "$T/body")" eval '[ "$code" = 202 ]'
+req DELETE "/v1/jobs/$(jfield "$T/body" id)" >/dev/null
+
+# A frame whose parse fails at every attempt still fails its job at once, naming it:
+# the mesh file is taken away while frame 0 is held at the gate.
+cat >"$T/gone.json" <<'JSON'
+{"animation": {"end": 3}, "render": {"width": 4, "height": 4},
+ "camera": {"position": [0, 0.5, 4], "look_at": [0, 0.5, 0]},
+ "lights": [{"type": "point", "position": [0, 5, 5]}],
+ "objects": [{"type": "mesh", "source": {"file": "tri.obj"},
+              "keyframes": [{"frame": 0, "rotate": [0, 0, 0]}, {"frame": 3, "rotate": [0, 90, 0]}]}]}
+JSON
+code=$(post_json /v1/jobs "$T/gone.json")
+gone=$(jfield "$T/body" id)
+wait_until 30 gate_is held 1
+rm "$A/tri.obj"
+gate open
+wait_until 60 job_state_is "$gone" failed
+req GET "/v1/jobs/$gone" >/dev/null
+check unreadable_frame_fails_at_once "$code $(cat "$T/body")" eval \
+    '[ "$code" = 202 ] && grep -q "frame 1 failed after 1 attempt: " "$T/body" &&
+     grep -q "tri.obj" "$T/body"'
+check failed_job_logged "$(grep "job $gone" "$T/rayd.err")" \
+    grep -q "job $gone: frame 1 failed after 1 attempt, and the job with it (.*tri.obj" "$T/rayd.err"
 code=$(post_json "/v1/jobs?frame=4" "$T/anim.json")
-check invalid_frame_frees_max_jobs "$code $(cat "$T/body")" eval '[ "$code" = 202 ]'
+check failed_job_frees_max_jobs "$code $(cat "$T/body")" eval '[ "$code" = 202 ]'
 check rayd_alive_after_invalid_frames "rayd died: $(tail -3 "$T/rayd.err")" kill -0 "$RAYD_PID"
 
 # ---- a frame refused for room waits, uses no attempt, and its job goes on -----------
@@ -343,7 +372,7 @@ check rayd_alive_after_video_failed "rayd died: $(tail -3 "$T/rayd.err")" kill -
 # steps and inside each BVH build, is test_scene_cancel's.)  Before, the parse ran in
 # full: a 15 KB glTF of 5M triangles burned 1.3 s of CPU after its job's DELETE.
 # post_held RANGE: a job of RANGE, its id in $held_id, the parses shut after the POST's
-# own, so its first frame's parse waits in the queue
+# own two, so its first frame's parse waits in the queue
 post_held() {
     curl -s -m 30 -X POST -o /dev/null "$URL/v1/test/gate?parses=0"
     (curl -s -m 120 -o "$T/post_held.body" -X POST -H 'Content-Type: application/json' \
@@ -351,7 +380,8 @@ post_held() {
     PIDS+=($!)
     local posting=$!
     wait_until 60 gate_is parses_waiting 1
-    curl -s -m 30 -X POST -o /dev/null "$URL/v1/test/gate?parses=1" # the POST's own parse
+    # the POST's own parse and its check of the frames' keyframed values
+    curl -s -m 30 -X POST -o /dev/null "$URL/v1/test/gate?parses=2"
     wait "$posting"
     held_id=$(jfield "$T/post_held.body" id)
     wait_until 60 gate_is parses_queued 1 # its first frame's
@@ -373,12 +403,19 @@ check deleted_job_canceled "$(req GET "/v1/jobs/$gj"; head -c 300 "$T/body")" \
     job_state_is "$gj" canceled
 # A second job of the same frames posted while the deleted one's parse is still queued
 # joins it: the parse is wanted again and goes on (it answered the new job's frame
-# "the parse was canceled", and that job failed).
+# "the parse was canceled", and that job failed).  One parse is let through for the
+# POST's check of its frames, which goes before the frames' parses.
 post_held 2-3
 gone=$held_id
 req DELETE "/v1/jobs/$gone" >/dev/null
-post_json "/v1/jobs?frames=2-3" "$T/anim.json" >/dev/null
-again=$(jfield "$T/body" id)
+(curl -s -m 60 -o "$T/again.body" -X POST -H 'Content-Type: application/json' \
+    --data-binary @"$T/anim.json" "$URL/v1/jobs?frames=2-3") &
+PIDS+=($!)
+posting=$!
+wait_until 60 gate_is parses_waiting 2 # the deleted job's frame 3, the POST's check
+curl -s -m 30 -X POST -o /dev/null "$URL/v1/test/gate?parses=1"
+wait "$posting"
+again=$(jfield "$T/again.body" id)
 curl -s -m 30 -X POST -o /dev/null "$URL/v1/test/gate?parses=open"
 wait_until 120 eval 'job_state_is "$again" succeeded || job_state_is "$again" failed'
 check rejoined_parse_goes_on "$(req GET "/v1/jobs/$again"; head -c 400 "$T/body")" \

@@ -87,6 +87,10 @@ check during_rendered_again "state" job_state_is "$mid" succeeded
 check during_frame_as_cli "frame 0 differs" frame_is "$mid" 0 "$T/cli-0.png"
 check ended_kept "state" job_state_is "$between" succeeded
 check ended_frame_served "frame 3 differs" frame_is "$between" 3 "$T/cli-3.png"
+# an EXR the PNG job never kept: 409, and no file looked for (the log named a missing file)
+code=$(req GET "/v1/jobs/$between/frames/3.exr")
+check ended_exr_not_kept "$code $(cat "$T/body"); $(grep -c "cannot read" "$T/rayd.err") log lines" \
+    eval 'err_is "$T/body" 409 not_exr && ! grep -q "cannot read .*$between-3.exr" "$T/rayd.err"'
 # the video (made or not when rayd was killed) is made again from the frames on disk
 video_ready() { [ "$(req GET "/v1/jobs/$between/video.mp4")" != 202 ]; }
 wait_until 120 video_ready
@@ -211,5 +215,33 @@ check unreadable_frame_500 "$code $(cat "$T/headers" "$T/body" | tr '\r\n' '||')
     [ -z "$(header Retry-After)" ]'
 check unreadable_frame_logged "$(tail -n 2 "$T/rayd.err")" \
     grep -q "job $kills: frame 2: cannot read .*$kills-2.png: No such file or directory" "$T/rayd.err"
+# ---- a failed job's error after a restart: as it was, its frame and attempts said once ----------
+# (before: "frame 1 failed after 3 attempts: frame 1 failed after 1 attempt: ...")
+stop_rayd
+A=$T/assets
+mkdir -p "$A"
+printf 'v -1 0 -1\nv 1 0 -1\nv 0 1 0\nf 1 2 3\n' >"$A/tri.obj"
+cat >"$T/gone.json" <<'JSON'
+{"animation": {"end": 3}, "render": {"width": 4, "height": 4},
+ "camera": {"position": [0, 0.5, 4], "look_at": [0, 0.5, 0]},
+ "lights": [{"type": "point", "position": [0, 5, 5]}],
+ "objects": [{"type": "mesh", "source": {"file": "tri.obj"},
+              "keyframes": [{"frame": 0, "rotate": [0, 0, 0]}, {"frame": 3, "rotate": [0, 90, 0]}]}]}
+JSON
+start_rayd --threads 1 --test-gate 0 --data-dir "$D" --asset-dir "$A"
+post_json /v1/jobs "$T/gone.json" >/dev/null
+gone=$(jfield "$T/body" id)
+wait_until 30 gate_is held 1
+rm "$A/tri.obj"
+gate open
+wait_until 60 job_state_is "$gone" failed
+before=$(json "$T/body" 'j["error"]["message"]')
+stop_rayd
+start_rayd --threads 1 --data-dir "$D" --asset-dir "$A"
+req GET "/v1/jobs/$gone" >/dev/null
+after=$(json "$T/body" 'j["error"]["message"]')
+check failed_error_after_restart "before: $before; after: $after" eval \
+    '[ "$after" = "$before" ] && [ "$(grep -o "failed after" <<<"$after" | wc -l)" = 1 ] &&
+     grep -q "^frame 1 failed after 1 attempt: " <<<"$after"'
 check rayd_alive "rayd died: $(tail -3 "$T/rayd.err")" kill -0 "$RAYD_PID"
 exit $NFAIL

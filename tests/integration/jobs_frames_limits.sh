@@ -196,5 +196,55 @@ gate open
 wait_until 120 job_state_is "$held" succeeded
 code=$(post_json /v1/jobs "$T/still.json")
 check max_jobs_room_after_end "$code $(cat "$T/body")" eval '[ "$code" = 202 ]'
+# ---- a job's scene text counts in --max-memory while it runs, and goes when it ends --------
+# A 1 MB body (a tiny animated scene and spaces) is a job that keeps its text for its
+# frames' parses: held at the gate, 64 MB of budget takes a few dozen such jobs, then says
+# 503 memory_full.  Once they end their texts are let go, and another is taken.  Before, 300
+# jobs of a 4 MB body held 1.2 GB under a budget of 512 MB, all of it uncounted, for the ten
+# minutes of --job-ttl after each had finished.
+stop_rayd
+start_rayd --threads 1 --max-memory 64M --test-gate 0
+python3 - "$T/small.json" "$T/padded.json" <<'PY'
+import sys
+text = open(sys.argv[1]).read().rstrip()
+open(sys.argv[2], "w").write(text[:-1] + " " * (1 << 20) + "}")
+PY
+codes=
+for i in $(seq 1 80); do
+    code=$(post_json "/v1/jobs?frames=1-1" "$T/padded.json")
+    codes="$codes $code"
+    [ "$code" = 202 ] || break
+done
+taken=$(grep -o 202 <<<"$codes" | wc -l)
+frames_bytes=$(metric 'rayd_memory_bytes{kind="frames"}')
+check text_in_budget "taken $taken: $codes; $(head -c 300 "$T/body")" eval \
+    '[ "$code" = 503 ] && err_is "$T/body" 503 memory_full && [ "$taken" -ge 8 ] &&
+     [ "$frames_bytes" -ge $((taken << 20)) ]'
+gate open
+all_ended() { [ "$(metric 'rayd_memory_bytes{kind="frames"}')" -lt $((taken * 200000)) ]; }
+wait_until 120 all_ended
+check text_let_go_at_end "frames $(metric 'rayd_memory_bytes{kind="frames"}') bytes for $taken jobs" all_ended
+code=$(post_json "/v1/jobs?frames=1-1" "$T/padded.json")
+check text_room_again "status $code: $(head -c 200 "$T/body")" [ "$code" = 202 ]
+# ---- one client cannot fill --max-jobs: its last quarter is kept for the others -----------
+# A frame-range job holds no place in the render queue until its frames start, so the
+# queue's kept places never applied: twenty 1000-frame jobs of one client filled a
+# --max-jobs of 20, and every other client's POST /v1/jobs got 503 for as long as their
+# frames took.  Held at the gate, client A takes 6 of 8, B the rest.
+stop_rayd
+start_rayd --threads 1 --max-jobs 8 --client-header X-Client --test-gate 0
+codes=
+for i in 1 2 3 4 5 6 7; do codes="$codes $(post_json /v1/jobs "$T/small.json" -H 'X-Client: A')"; done
+check jobs_share_kept "A: $codes; $(head -c 300 "$T/body")" eval \
+    '[ "$codes" = " 202 202 202 202 202 202 503" ] && err_is "$T/body" 503 queue_full &&
+     grep -q "kept for clients with few jobs unfinished" "$T/body" && [ -n "$(header Retry-After)" ]'
+code=$(post_json /v1/jobs "$T/still.json" -H 'X-Client: A')
+check jobs_share_plain_job_too "$code $(head -c 200 "$T/body")" [ "$code" = 503 ]
+codes="$(post_json /v1/jobs "$T/small.json" -H 'X-Client: B') $(post_json /v1/jobs "$T/still.json" -H 'X-Client: B')"
+check jobs_share_other_client "B: $codes" [ "$codes" = "202 202" ]
+code=$(post_json /v1/jobs "$T/still.json" -H 'X-Client: C')
+check jobs_share_cap_holds "$code $(head -c 200 "$T/body")" eval '[ "$code" = 503 ] &&
+    grep -q "too many unfinished jobs" "$T/body"'
+gate open
 check rayd_alive "rayd died: $(tail -3 "$T/rayd.err")" kill -0 "$RAYD_PID"
 exit $NFAIL

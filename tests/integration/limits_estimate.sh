@@ -187,3 +187,62 @@ check sums_refused "status $code: $(head -c 200 "$T/body")" \
 check sums_priced "$(head -c 200 "$T/body")" grep -q "estimated cost is 3.15e+06 rays" "$T/body"
 stop_rayd
 check rayd_exit_0 "exit $RAYD_RC" [ "$RAYD_RC" = 0 ]
+
+# --- a frame-range job's frames are priced with their parse -------------------------------------
+# Each frame parses the scene again: its text, its objects' BVH, and its gltf objects' bake,
+# and, when the glTF plays an animation, the BVHs of its meshes (never shared between
+# frames).  A few KB of glTF drawing one mesh of 1000 triangles 200 times (200k triangles)
+# under a moving root is 1.2M rays' worth of parse a frame, over a --max-work of 1M; the
+# same glTF standing still is 0.2M.  Before, a 15.8 KB scene of 5M such triangles was
+# priced at 1,806 rays a frame of 1 pixel and took 2.5-3 s of CPU a frame for 1000 frames.
+# gltf_anim FILE MOVING: a 16 x 16 scene of that glTF, 10 frames, its root moving or not
+gltf_anim() {
+    python3 - "$@" <<'PY'
+import base64, json, random, struct, sys
+out, moving = sys.argv[1], sys.argv[2] == "1"
+random.seed(1)
+pos = b"".join(struct.pack("<3f", random.random(), random.random(), random.random())
+               for _ in range(256))
+idx = bytes(random.randrange(256) for _ in range(3000))
+keys = struct.pack("<2f", 0.0, 1.0) + struct.pack("<6f", 0, 0, 0, 5, 0, 0)
+buf = pos + idx + keys
+views = [{"buffer": 0, "byteOffset": 0, "byteLength": len(pos)},
+         {"buffer": 0, "byteOffset": len(pos), "byteLength": len(idx)},
+         {"buffer": 0, "byteOffset": len(pos) + len(idx), "byteLength": 8},
+         {"buffer": 0, "byteOffset": len(pos) + len(idx) + 8, "byteLength": 24}]
+acc = [{"bufferView": 0, "componentType": 5126, "count": 256, "type": "VEC3",
+        "min": [0, 0, 0], "max": [1, 1, 1]},
+       {"bufferView": 1, "componentType": 5121, "count": 3000, "type": "SCALAR"},
+       {"bufferView": 2, "componentType": 5126, "count": 2, "type": "SCALAR", "min": [0], "max": [1]},
+       {"bufferView": 3, "componentType": 5126, "count": 2, "type": "VEC3"}]
+g = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],
+     "buffers": [{"byteLength": len(buf),
+                  "uri": "data:application/octet-stream;base64," + base64.b64encode(buf).decode()}],
+     "bufferViews": views, "accessors": acc,
+     "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}] * 10}],
+     "nodes": [{"children": list(range(1, 21))}] +
+              [{"mesh": 0, "translation": [2 * i, 0, 0]} for i in range(20)]}
+if moving:
+    g["animations"] = [{"channels": [{"sampler": 0, "target": {"node": 0, "path": "translation"}}],
+                        "samplers": [{"input": 2, "output": 3}]}]
+json.dump({"animation": {"end": 9}, "render": {"width": 16, "height": 16},
+           "camera": {"position": [20, 0, 60], "look_at": [20, 0, 0]},
+           "lights": [{"type": "point", "position": [20, 10, 30]}],
+           "objects": [{"type": "gltf", "source": {"text": json.dumps(g), "format": "gltf"}}]},
+          open(out, "w"))
+PY
+}
+gltf_anim "$T/moving.json" 1
+gltf_anim "$T/standing.json" 0
+start_rayd --threads 1 --max-work 1000000
+code=$(post_json "/v1/jobs?frames=0-9" "$T/moving.json")
+check frame_parse_refused "status $code: $(head -c 300 "$T/body")" eval \
+    'err_is "$T/body" 413 over_budget && grep -q "rays (--max-work) a frame; of it the frame.s parse of the scene is 1.2" "$T/body"'
+code=$(post_json "/v1/render" "$T/moving.json")
+check frame_parse_not_in_render "status $code: $(head -c 300 "$T/body")" [ "$code" = 200 ]
+code=$(post_json "/v1/jobs?frames=0-9" "$T/standing.json")
+rays=$(header X-Rayd-Estimated-Rays)
+check frame_parse_standing_priced "status $code, priced $rays: $(head -c 300 "$T/body")" \
+    eval '[ "$code" = 202 ] && [ "$rays" -gt 2000000 ] && [ "$rays" -lt 4000000 ]'
+stop_rayd
+check rayd_exit_0 "exit $RAYD_RC" [ "$RAYD_RC" = 0 ]

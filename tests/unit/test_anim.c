@@ -212,6 +212,73 @@ static void test_interpolated_error(void) {
     rayd_scene_free(s);
 }
 
+/* rayd_scene_check_frames finds the first frame whose values fail, with
+ * the error its parse gives, at every frame of a range and nowhere else:
+ * the camera's, a light's, an object's keyframed scale, and a look_at the
+ * keyframed position passes through (a check between two keys' values). */
+static void test_check_frames(void) {
+    const char *fov = "{\"animation\": {\"end\": 20},"
+                      " \"camera\": {\"interpolation\": \"smooth\", \"keyframes\": ["
+                      "   {\"frame\": 0, \"fov_x\": 170}, {\"frame\": 10, \"fov_x\": 179}, "
+                      "{\"frame\": 20, \"fov_x\": 20}]}}";
+    struct rayd_error err;
+    char first_bad[sizeof err.message] = "";
+    for (long k = 0; k <= 20; k++) { /* each frame alone: as its own parse says */
+        rayd_scene *s = at_frame(fov, k, &err);
+        char parse[sizeof err.message];
+        snprintf(parse, sizeof parse, "%s", s ? "" : err.message);
+        if (!s && !first_bad[0]) snprintf(first_bad, sizeof first_bad, "%s", parse);
+        rayd_scene_free(s);
+        memset(&err, 0, sizeof err);
+        enum rayd_status st = rayd_scene_check_frames(fov, strlen(fov), NULL, k, k, &err);
+        CHECK((st == RAYD_OK) == (parse[0] == 0) && !strcmp(st ? err.message : "", parse),
+              "frame %ld: check %s, parse %s", k, st ? err.message : "ok", parse);
+    }
+    enum rayd_status st = rayd_scene_check_frames(fov, strlen(fov), NULL, 0, 20, &err);
+    CHECK(st == RAYD_E_INVALID && !strcmp(err.path, "/camera/keyframes") && first_bad[0] &&
+              !strcmp(err.message, first_bad),
+          "%s: %s, the first frame's parse: %s", err.path, err.message, first_bad);
+    CHECK(rayd_scene_check_frames(fov, strlen(fov), NULL, 12, 40, &err) == RAYD_OK,
+          "frames 12-20 pass: %s", err.message);
+    const char *scale = "{\"animation\": {\"end\": 4}, \"objects\": [{\"type\": \"sphere\", "
+                        "\"keyframes\": [{\"frame\": 0, \"scale\": 1}, {\"frame\": 4, "
+                        "\"scale\": -1}]}]}";
+    st = rayd_scene_check_frames(scale, strlen(scale), NULL, 0, 4, &err);
+    CHECK(st == RAYD_E_INVALID && !strcmp(err.path, "/objects/0/keyframes") &&
+              strstr(err.message, "at frame 2"),
+          "%s: %s", err.path, err.message);
+    const char *light = "{\"animation\": {\"end\": 4}, \"lights\": [{\"type\": \"spot\", "
+                        "\"keyframes\": [{\"frame\": 0, \"direction\": [0, -1, 0]}, "
+                        "{\"frame\": 4, \"direction\": [0, 1, 0]}]}]}";
+    st = rayd_scene_check_frames(light, strlen(light), NULL, 0, 4, &err);
+    CHECK(st == RAYD_E_INVALID && !strcmp(err.path, "/lights/0/keyframes") &&
+              strstr(err.message, "at frame 2, direction"),
+          "%s: %s", err.path, err.message);
+    /* the keyframed position meets the still look_at: named by the keyframes too (before:
+     * "/camera/look_at: must differ from /camera/position", no frame) */
+    const char *meet = "{\"animation\": {\"end\": 4}, \"camera\": {\"look_at\": [0, 0, 0], "
+                       "\"keyframes\": [{\"frame\": 0, \"position\": [0, 0, -1]}, "
+                       "{\"frame\": 2, \"position\": [0, 0, 1]}]}}";
+    st = rayd_scene_check_frames(meet, strlen(meet), NULL, 0, 4, &err);
+    CHECK(st == RAYD_E_INVALID && !strcmp(err.path, "/camera/keyframes") &&
+              strstr(err.message, "at frame 1, look_at: must differ from /camera/position"),
+          "%s: %s", err.path, err.message);
+    rayd_scene *s = at_frame(meet, 1, &err);
+    CHECK(!s && !strcmp(err.path, "/camera/keyframes") &&
+              strstr(err.message, "at frame 1, look_at"),
+          "frame 1's parse: %s: %s", err.path, err.message);
+    rayd_scene_free(s);
+    const char *still = "{\"objects\": [{\"type\": \"sphere\"}]}";
+    CHECK(rayd_scene_check_frames(still, strlen(still), NULL, 0, 1000, &err) == RAYD_OK,
+          "a still scene: %s", err.message);
+    atomic_int stop = 1;
+    struct rayd_limits lim;
+    rayd_limits_default(&lim);
+    lim.cancel = &stop;
+    CHECK(rayd_scene_check_frames(fov, strlen(fov), &lim, 0, 20, &err) == RAYD_E_CANCELED,
+          "the flag stops it: %s", err.message);
+}
+
 /* Keyframed rotation turns the object: a quarter turn at the last key is
  * the still scene's rotate. */
 static void test_object_rotation(void) {
@@ -252,6 +319,7 @@ int main(void) {
     RUN(test_scene_frames);
     RUN(test_frame_determinism);
     RUN(test_interpolated_error);
+    RUN(test_check_frames);
     RUN(test_object_rotation);
     CHECK_EXIT();
 }
