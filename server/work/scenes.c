@@ -91,11 +91,18 @@ bool scenes_current(struct cache_entry *e, bool have_text) {
 #define SCENES_PARSE_PER_BYTE 32
 #define SCENES_PARSE_GROW ((size_t)1 << 20)
 
+static size_t scenes_last_cap(size_t len);
+
+/* At most half of what the scene may take in all: the body is counted
+ * too, and a first cap of the whole budget could never be reserved beside
+ * it (a 4 MB body under --max-memory 128M was 503 memory_full, "retry
+ * later", on an idle server for good).  A parse that needs more grows its
+ * reservation charge by charge (scenes_charge). */
 size_t scenes_parse_cap(size_t len) {
-    size_t limit = mem_limit();
-    if (limit <= SCENES_PARSE_FLOOR || len > (limit - SCENES_PARSE_FLOOR) / SCENES_PARSE_PER_BYTE)
-        return limit;
-    return SCENES_PARSE_FLOOR + len * SCENES_PARSE_PER_BYTE;
+    size_t most = scenes_last_cap(len) / 2;
+    if (len >= most / SCENES_PARSE_PER_BYTE) return most; /* and no overflow below */
+    size_t cap = SCENES_PARSE_FLOOR + len * SCENES_PARSE_PER_BYTE;
+    return cap < most ? cap : most;
 }
 
 /* A scene may not build more than the whole memory budget (less its own

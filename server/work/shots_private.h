@@ -83,6 +83,9 @@ struct shot {
 struct shot *shots_find(const char *id);
 /* Lets go of one reference to s: the last frees it (lock held). */
 void shots_unref(struct shot *s);
+/* s has every frame: its video queued for the video thread (lock held;
+ * shots_video.c). */
+void shots_video_queue(struct shot *s);
 /* Whether s has ended (done, failed or cancelled), frames in flight aside. */
 static inline bool shots_final(const struct shot *s) {
     return s->canceled || s->ndone == s->n || (s->nfailed > 0 && s->flying == 0);

@@ -290,4 +290,17 @@ check flood_keeps_others_image "victim: $(req GET "/v1/jobs/$victim/image.exr")"
     eval '[ "$(req GET "/v1/jobs/$victim/image.exr")" = 200 ]'
 check flood_within_budget "total $(memory_total)" eval '[ "$(memory_total)" -le "$LIMIT" ]'
 stop_rayd
+# ---- the largest body a budget takes is parsed, not refused for good ----------------------
+# The parse's first cap (32 bytes a byte of text) is at most half of what the scene may take:
+# a 4 MB body (a small scene and spaces) under 128 MB was 503 memory_full, "retry later", on
+# an idle server, for good (its first cap was the whole budget, beside the body counted).
+start_rayd --max-memory 128M --threads 1
+python3 - "$T/spaced.json" <<'PY'
+import json, sys
+text = json.dumps({"render": {"width": 8, "height": 8}, "objects": [{"type": "sphere"}]})
+open(sys.argv[1], "w").write(text[:-1] + " " * (4000000 - len(text)) + "}")
+PY
+code=$(post_json /v1/render "$T/spaced.json")
+check big_body_parsed "status $code: $(head -c 200 "$T/body" | tr -d "\\0")" [ "$code" = 200 ]
+stop_rayd
 exit $((NFAIL > 0))
