@@ -374,7 +374,8 @@ static enum rayd_status scene_json_parse_frame(const char *json, size_t len,
         if (st != RAYD_OK) sj_anim_error(&anim, err);
         if (anim.on) /* what each frame's parse makes again (rayd_scene_info.frame_work) */
             s->frame_work = ld.frame_work + (double)len / SJ_WORK_TEXT_BYTES +
-                            (double)ld.objects * SJ_WORK_OBJECT;
+                            (double)ld.objects * SJ_WORK_OBJECT +
+                            (double)anim.keyed * SJ_WORK_KEYED;
         note_frames(s, &anim);
         sj_anim_free(&anim);
         free(ld.mat_names);

@@ -302,6 +302,7 @@ static enum rayd_status anim_values(struct loader *ld, cJSON *o, const struct jp
     struct track_set ts = {0};
     TRY(find_keys(ld, ld->anim, o, at, &ts));
     if (!ts.keys) return RAYD_OK;
+    ld->anim->keyed++;
     enum rayd_status st = read_keys(ld, ld->anim, ch, light ? o : NULL, &ts);
     for (const struct channel *c = ch; c->key && st == RAYD_OK; c++) {
         double v[4];
@@ -341,6 +342,7 @@ static enum rayd_status anim_object(struct loader *ld, cJSON *o, const struct jp
     struct track_set ts = {0};
     TRY(find_keys(ld, a, o, at, &ts));
     if (!ts.keys) return RAYD_OK;
+    a->keyed++;
     double tr[4] = {0, 0, 0, 0}, q[4] = {0, 0, 0, 1}, s[4] = {1, 1, 1, 0};
     int n;
     enum rayd_status st = read_keys(ld, a, object_ch, NULL, &ts);

@@ -22,6 +22,7 @@ struct sj_anim {
     long start, end; /* its frames, inclusive */
     double fps;
     long frame;            /* the frame being built */
+    long keyed;            /* owners with keyframes: the camera, lights, objects */
     bool keep;             /* values only (rayd_scene_check_frames): the objects'
                               keyframes stay in the tree, no transform is kept */
     struct sj_anim_xf *xf; /* sorted by obj once the walk is done */

@@ -86,6 +86,7 @@ struct loader {
  * roughly on one core and rounded up: a ray takes about 0.1 us. */
 #define SJ_WORK_TEXT_BYTES 16 /* bytes of scene text parsed in a ray's time */
 #define SJ_WORK_OBJECT 10     /* an object loaded and placed in the scene's BVH */
+#define SJ_WORK_KEYED 100     /* an owner's keyframes read and evaluated (9 us measured) */
 #define SJ_WORK_BAKE_TRI 1    /* a gltf triangle baked */
 #define SJ_WORK_BUILD_TRI 6   /* ... and built into a BVH (animated: never shared) */
 

@@ -189,8 +189,8 @@ struct rayd_scene_info {
     double decode_seconds, build_seconds;
     /* An animated scene's parse, which a frame-range job makes again for
      * every frame, in rays' worth of work (the unit of rays_per_sample):
-     * its text, its objects' BVH, and what its gltf objects bake (and,
-     * animated, build) anew each frame.  Meshes from files and inline
+     * its text, its objects' BVH, its keyframes evaluated, and what its
+     * gltf objects bake (and, animated, build) anew each frame.  Meshes from files and inline
      * arrays are shared from frame to frame and cost nothing here.  0 for
      * a still scene. */
     double frame_work;
@@ -247,7 +247,8 @@ enum rayd_status rayd_scene_parse_frame(const char *json, size_t len, const stru
  * fails, as its parse would give it ("at frame 11, fov_x: ...", the
  * keyframes' pointer).  A frame-range job runs it before its first frame,
  * so a smooth keyframe overshooting a limit late fails it before anything
- * renders.  Microseconds a frame; lim->cancel is looked at each frame.
+ * renders.  About 10 us a frame for each thing with keyframes (what a
+ * frame's parse spends on them too); lim->cancel is looked at each frame.
  * A still scene: RAYD_OK. */
 enum rayd_status rayd_scene_check_frames(const char *json, size_t len,
                                          const struct rayd_limits *lim, long first, long last,

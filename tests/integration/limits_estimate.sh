@@ -245,10 +245,12 @@ rays=$(header X-Rayd-Estimated-Rays)
 check frame_parse_standing_priced "status $code, priced $rays: $(head -c 300 "$T/body")" \
     eval '[ "$code" = 202 ] && [ "$rays" -gt 2000000 ] && [ "$rays" -lt 4000000 ]'
 # A frame's price over the same render's: its parse (its text at 16 bytes a ray, its one
-# object at 10) and its part of the video (1 ray a pixel).  Before, the two were equal.
+# object at 10, its one owner of keyframes at 100) and its part of the video (1 ray a
+# pixel).  Before, the two were equal.
 cat >"$T/tiny_anim.json" <<'JSON'
 {"animation": {"end": 3}, "render": {"width": 64, "height": 64},
- "camera": {"position": [0, 0, 4], "look_at": [0, 0, 0]},
+ "camera": {"look_at": [0, 0, 0], "keyframes": [{"frame": 0, "position": [0, 0, 4]},
+                                                {"frame": 3, "position": [1, 0, 4]}]},
  "lights": [{"type": "point", "position": [0, 5, 5]}],
  "objects": [{"type": "sphere"}]}
 JSON
@@ -256,7 +258,7 @@ post_json /v1/render "$T/tiny_anim.json" >/dev/null
 render=$(header X-Rayd-Estimated-Rays)
 post_json "/v1/jobs?frames=0-0" "$T/tiny_anim.json" >/dev/null
 frame=$(header X-Rayd-Estimated-Rays)
-want=$(python3 -c "import sys; print(round($render + 64 * 64 + $(stat -c %s "$T/tiny_anim.json") / 16 + 10))")
+want=$(python3 -c "print(round($render + 64 * 64 + $(stat -c %s "$T/tiny_anim.json") / 16 + 10 + 100))")
 check frame_priced_parse_and_video "render $render, frame $frame, want $want" \
     eval '[ $((frame - want)) -ge -1 ] && [ $((frame - want)) -le 1 ]'
 stop_rayd
