@@ -1,8 +1,10 @@
-/* shots_events.c -- a frame-range job's event stream: its state, one
- * "frame" event a frame as each ends (done or failed, in that order), then
- * "done"; keep-alives between, as events.c's streams of single jobs.  A
- * reader with nothing new waits on the shot (its sse list), woken when a
- * frame ends (shots.c) or by the watcher for a keep-alive.
+/* shots_events.c -- what a client follows of a frame-range job: its event
+ * stream (its state, one "frame" event a frame as each ends, done or
+ * failed, in that order, then "done"; keep-alives between, as events.c's
+ * streams of single jobs), and its video, made again when asked for after
+ * the budget let it go or a restart (shots_video).  A reader with nothing
+ * new waits on the shot (its sse list), woken when a frame ends (shots.c)
+ * or by the watcher for a keep-alive.
  */
 #include "work/shots_private.h"
 
@@ -71,4 +73,20 @@ int shots_events_read(struct shot *s, struct shots_cursor *c, struct events_item
     }
     work_lock_give();
     return k;
+}
+
+struct blob *shots_video(const char *id, struct shots_info *info) {
+    work_lock_take();
+    struct shot *s = shots_find(id);
+    struct blob *b = NULL;
+    if (s && s->video_state == SV_NONE && s->ndone == s->n && store_on())
+        shots_video_queue(s); /* let go for the memory budget: made again from the files */
+    if (s) {
+        shots_info_of(s, info);
+        b = blob_ref(s->video);
+        if (b) s->video_used = clock_now(); /* the budget lets go of the least used first */
+    }
+    work_lock_give();
+    if (!s) info->job.id[0] = 0;
+    return b;
 }
