@@ -464,10 +464,12 @@ void sj_anim_error(const struct sj_anim *a, struct rayd_error *err) {
                         (size_t)(strrchr(a->sub[i].at, '/') - a->sub[i].at + 1));
             return;
         }
-    for (size_t i = 0; i < a->nsub; i++) { /* a still value of an owner with keyframes: the
-                                               camera's look_at that its moving position met */
+    for (size_t i = 0; i < a->nsub; i++) { /* a still value checked against a keyframed one
+                                               (the camera's look_at that its moving position
+                                               met): the message names the keyframed one */
         size_t n = (size_t)(strrchr(a->sub[i].at, '/') - a->sub[i].at);
-        if (n > 0 && anim_under(err->path, a->sub[i].at, n) && err->path[n] == '/') {
+        if (n > 0 && anim_under(err->path, a->sub[i].at, n) && err->path[n] == '/' &&
+            strstr(err->message, a->sub[i].at)) {
             anim_rename(a, &a->sub[i], err, n + 1);
             return;
         }

@@ -196,6 +196,31 @@ static void api_jobs_recorded_suspend(struct work_waiter *w) {
 
 static bool api_jobs_checked(struct http_req *r, struct cache_entry *e, bool hit);
 
+/* The check of every frame's keyframed values costs about what the
+ * frames' parses spend on them (rayd_scene_info.frame_work): a range
+ * whose frames' parse work is over this many rays' worth (about 2 s on a
+ * parse thread) is not checked first, but frame by frame as it renders,
+ * as before the check: 1000 frames of a 4 MB scene took 85 s. */
+#define API_JOBS_CHECK_WORK 2e7
+
+/* The frames' check (api_scene_check_frames), after the refusals that
+ * cost nothing (a full table, the client's share, a drain); true when r
+ * was handed on. */
+static bool api_jobs_check_frames(struct http_req *r, struct cache_entry *e, uint64_t client) {
+    long first, last;
+    if (!api_shots_frames(r, cache_scene(e), &first, &last)) return false;
+    enum work_submit room = jobs_room(client);
+    if (room != WORK_OK) {
+        api_refused(r, room);
+        return false;
+    }
+    struct rayd_scene_info info;
+    rayd_scene_info(cache_scene(e), &info);
+    if ((double)(last - first + 1) * info.frame_work > API_JOBS_CHECK_WORK)
+        return api_jobs_checked(r, e, false);
+    return api_scene_check_frames(r, e, first, last, api_jobs_checked);
+}
+
 /* POST /v1/jobs once its scene is compiled (api_scene's continuation) and,
  * for a frame-range job, its frames checked (checked); true when the
  * request waits for the check or the store (which resume it). */
@@ -212,11 +237,9 @@ static bool api_jobs_admit(struct http_req *r, struct cache_entry *e, bool check
                : api_plan(r, cache_scene(e), &plan, &progressive, &what.passes)) ||
         !api_jobs_format(r, &what) || !api_jobs_denoise_aov(r, cache_scene(e), &what) ||
         !api_jobs_priority(r, &how.priority) || !api_cost_admit(r, e, &what, progressive, &price))
-        return false; /* replied */
-    long first, last; /* a frame that would fail later fails the POST, before any renders */
-    if (shot && !checked)
-        return api_shots_frames(r, cache_scene(e), &first, &last) &&
-               api_scene_check_frames(r, e, first, last, api_jobs_checked);
+        return false;     /* replied */
+    if (shot && !checked) /* a frame that would fail later fails the POST, before any renders */
+        return api_jobs_check_frames(r, e, what.client);
     if (cluster_on()) /* rayd --redis: the job is the cluster's (api_cluster.c) */
         return api_cluster_submit(r, e, &what, how.priority, &price, shot == 1,
                                   progressive ? &plan : NULL);

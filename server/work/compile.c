@@ -52,6 +52,11 @@
 #define COMPILE_INLINE_FILES 16  /* files a connection's thread may stat */
 #define COMPILE_JOIN_SECONDS 2.0 /* compile_stop's wait for a parse running */
 
+/* A job of the frames' turns (compile_pick): a frame's parse, or the check
+ * of a frame-range job's frames, which may take seconds; never all the
+ * threads, so a scene a request waits for always has one. */
+#define COMPILE_FRAMES_KIND(j) ((j)->frame >= 0 || (j)->check)
+
 /* One scene to parse (or, cached, to check), and who waits for it. */
 struct compile_job {
     char id[65];
@@ -225,7 +230,7 @@ static enum work_submit compile_enqueue(const char *id, const char *body, size_t
 static enum work_submit compile_queue_new(const char *id, const char *body, size_t len, long frame,
                                           const long *check, struct cache_entry *e,
                                           struct compile_waiter *w) {
-    size_t mem = scenes_parse_cap(len);
+    size_t mem = check ? scenes_check_cap(len) : scenes_parse_cap(len);
     if (!mem_reserve(MEM_PARSES, mem)) {
         metrics_reject(MR_MEMORY);
         scenes_release(e);
@@ -399,16 +404,17 @@ static void compile_answer(struct compile_job *j, enum rayd_status st, struct ca
  * of another client wait 5 s for its parse, against 1.4 ms.  Among the
  * scenes, the client with the fewest of the last parses started goes
  * first (the oldest of its scenes): 20 such scenes from one client made
- * another's new scene wait 32 s.  A drain takes the queue in order, to
- * refuse it. */
+ * another's new scene wait 32 s.  In the frames' turns the check of a
+ * new job's frames (a POST waits for it) goes before the frames.  A drain
+ * takes the queue in order, to refuse it. */
 static struct compile_job **compile_pick(bool draining) {
     work_assert_locked();
     struct compile_job **frame = NULL, **scene = NULL;
     int least = COMPILE_RECENT + 1;
     for (struct compile_job **p = &compile_head; *p; p = &(*p)->next) {
         if (draining) return p;
-        if ((*p)->frame >= 0) {
-            if (!frame) frame = p;
+        if (COMPILE_FRAMES_KIND(*p)) {
+            if (!frame || ((*p)->check && !(*frame)->check)) frame = p;
             continue;
         }
         int n = compile_recent_count((*p)->client);
@@ -449,7 +455,7 @@ static struct compile_job *compile_next(void) {
         for (compile_tail = compile_head; compile_tail && compile_tail->next;)
             compile_tail = compile_tail->next;
     compile_queued--;
-    compile_frames += j->frame >= 0;
+    compile_frames += COMPILE_FRAMES_KIND(j);
     compile_recent_add(j->client);
     if (compile_gate > 0) compile_gate--;
     compile_started++;
@@ -473,7 +479,7 @@ static void *compile_thread(void *arg) {
         work_lock_take();
         compile_unlink(&compile_running, j); /* no one joins it from now on */
         compile_nrunning--;
-        if (j->frame >= 0) { /* a frame's room is free: a frame queued may start */
+        if (COMPILE_FRAMES_KIND(j)) { /* a frame's room is free: a frame queued may start */
             compile_frames--;
             pthread_cond_broadcast(&compile_cond);
         }

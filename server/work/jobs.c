@@ -329,6 +329,18 @@ bool jobs_over_share(uint64_t client) {
     return mine >= quarter;
 }
 
+enum work_submit jobs_room(uint64_t client) {
+    work_lock_take();
+    long n, cap;
+    jobs_count(&n, &cap);
+    enum work_submit r = task_draining()           ? WORK_DRAINING
+                         : n >= cap                ? WORK_TOO_MANY_JOBS
+                         : jobs_over_share(client) ? WORK_JOBS_SHARE
+                                                   : WORK_OK;
+    work_lock_give();
+    return r;
+}
+
 /* Makes room in the table for a job of client by forgetting the job of
  * its own that ended first, or when it has none, anyone's: one client's
  * flood of jobs forgets its own finished ones, not the others' long

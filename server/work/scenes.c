@@ -105,6 +105,11 @@ size_t scenes_parse_cap(size_t len) {
     return cap < most ? cap : most;
 }
 
+size_t scenes_check_cap(size_t len) {
+    size_t most = scenes_last_cap(len) / 2;
+    return len >= most / SCENES_PARSE_PER_BYTE ? most : len * SCENES_PARSE_PER_BYTE;
+}
+
 /* A scene may not build more than the whole memory budget (less its own
  * text): its triangles, its decoded textures and the files and buffers it
  * reads are each held to it (the text itself, already read, keeps

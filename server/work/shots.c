@@ -707,9 +707,9 @@ enum work_submit shots_submit(struct shots_new *n, char id[33]) {
         r = WORK_TOO_MANY_JOBS;
     else if (jobs_over_share(n->what.client))
         r = WORK_JOBS_SHARE;
-    else if (!(s = shots_new(n, held)))
-        r = WORK_NOMEM;
-    if (!s && r != WORK_NOMEM) mem_release(MEM_FRAMES, held);
+    else if (!(s = shots_new(n, held))) /* which let go of held */
+        r = WORK_NOMEM, held = 0;
+    if (!s) mem_release(MEM_FRAMES, held);
     if (s) {
         snprintf(s->id, sizeof s->id, "%s", id);
         s->seq = jobs_next_seq();

@@ -269,6 +269,10 @@ enum work_submit jobs_submit(struct cache_entry *scene, const struct work_target
 /* What jobs_get copies besides the numbers: the PNG, the EXR. */
 enum jobs_want { JOBS_NUMBERS = 0, JOBS_PNG = 1, JOBS_EXR = 2 };
 bool jobs_get(const char *id, struct jobs_info *info, enum jobs_want want);
+/* Whether client's new job would be taken now as far as the table goes
+ * (--max-jobs, a client's share of it, a drain): WORK_OK, or the refusal
+ * a submit would give.  For work to spare before a job is submitted. */
+enum work_submit jobs_room(uint64_t client);
 /* Which image of a pass: its PNG, its EXR, or a denoised job's raw PNG. */
 enum jobs_image { JI_PNG, JI_EXR, JI_RAW };
 /* Pass `pass` (1-based) of a progressive job, its image of that kind, if

@@ -102,6 +102,9 @@ bool scenes_current(struct cache_entry *e, bool have_text); /* scenefiles_usable
  * starts: its first cap, grown by scenes_build as the core charges what it
  * decodes and builds. */
 size_t scenes_parse_cap(size_t len);
+/* The same for the check of a frame range's values (compile_check_frames),
+ * which builds no object: the JSON tree alone. */
+size_t scenes_check_cap(size_t len);
 /* Parses and builds body (of that id) at frame `frame` (-1: as
  * rayd_scene_parse, the first) and caches it; *out referenced.  held:
  * the bytes of kind parses reserved for it (scenes_parse_cap), which this

@@ -134,10 +134,10 @@ else
     fi
     # a run that fails part way leaves the video there was, and no part of its own: ffmpeg
     # writes FILE.PID.part.mp4, renamed over FILE once whole.  Before, the video was
-    # replaced by the frames made until the failure (here frame 3's file, a folder).
+    # replaced by the frames made until the failure (here frame 9's file, a folder).
     cp "$T/part.mp4" "$T/keep.mp4"
-    mkdir -p "$T/vd-3.png"
-    run "$T/anim.json" --frames 2-4 --video "$T/keep.mp4" -o "$T/vd-%d.png" -q 2>"$T/err"
+    mkdir -p "$T/vd-9.png"
+    run "$T/anim.json" --frames 2-9 --video "$T/keep.mp4" -o "$T/vd-%d.png" -q 2>"$T/err"
     rc=$?
     WHY="exit $rc: $(tr '\n' '|' <"$T/err"); $(ls "$T" | grep keep)"
     check video_failed_run_keeps_old bash -c '[ "$0" = 1 ] && cmp -s "$1/part.mp4" "$1/keep.mp4" &&
@@ -146,6 +146,14 @@ else
     WHY="exit $?: $(tr '\n' '|' <"$T/err")"
     check video_replaced_when_whole bash -c '! cmp -s "$0/part.mp4" "$0/keep.mp4" &&
         ! ls "$0"/keep.mp4.*part* >/dev/null 2>&1' "$T"
+    # the part file is made new: a link planted at its name (in a shared folder, the PID
+    # guessed) is passed over, and the file it points to is not written through it
+    echo untouched >"$T/victim"
+    (cd "$T" && bash -c 'ln -s victim planted.mp4.$$-0.part.mp4; exec "$0" "$1" --frames 2-3 --video planted.mp4 -q' \
+        "$R" "$T/anim.json" 2>"$T/err")
+    WHY="exit $?: $(tr '\n' '|' <"$T/err"); victim: $(head -c 40 "$T/victim" | tr -d '\0')"
+    check video_part_not_through_link bash -c '[ "$(cat "$0/victim")" = untouched ] && [ -s "$0/planted.mp4" ] &&
+        [ ! -L "$0/planted.mp4" ]' "$T"
     # no ffmpeg on the PATH: exit 1, said
     PATH=/nonexistent "$R" "$T/anim.json" --video "$T/none.mp4" -q 2>"$T/err"
     rc=$?

@@ -316,6 +316,24 @@ check unreadable_frame_fails_at_once "$code $(cat "$T/body")" eval \
      grep -q "tri.obj" "$T/body"'
 check failed_job_logged "$(grep "job $gone" "$T/rayd.err")" \
     grep -q "job $gone: frame 1 failed after 1 attempt, and the job with it (.*tri.obj" "$T/rayd.err"
+# A range whose check would cost more than its bound (its frames' parse work over 2e7
+# rays' worth: here 301 frames of 2 MB of text) is not checked first, but frame by frame
+# as it renders: the job is taken and fails at the frame, naming it.
+python3 - "$T/dip.json" "$T/dip_long.json" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1]))
+s["animation"]["end"] = 300
+for k in s["lights"][0]["keyframes"]:
+    k["frame"] *= 10
+text = json.dumps(s)
+open(sys.argv[2], "w").write(text[:-1] + " " * (2 << 20) + "}")
+PY
+code=$(post_json "/v1/jobs?frames=100-300" "$T/dip_long.json")
+long=$(jfield "$T/body" id)
+wait_until 120 job_state_is "$long" failed
+check costly_check_left_to_frames "$code $(head -c 400 "$T/body")" eval \
+    '[ "$code" = 202 ] && grep -q "frame 1[01][0-9] failed after 1 attempt: at frame 1[01][0-9], intensity" "$T/body"'
+
 code=$(post_json "/v1/jobs?frame=4" "$T/anim.json")
 check failed_job_frees_max_jobs "$code $(cat "$T/body")" eval '[ "$code" = 202 ]'
 check rayd_alive_after_invalid_frames "rayd died: $(tail -3 "$T/rayd.err")" kill -0 "$RAYD_PID"

@@ -169,7 +169,8 @@ check many_files_changed_unknown "GET after a change: $code $(head -c 200 "$T/bo
     err_is "$T/body" 404 scene_unknown
 
 # --- a request's scene is parsed before the frames of a frame-range job -------------
-# The job's scene is let through; its first frames then wait in the queue (the
+# The job's scene and its check of the frames' values are let through (two parses);
+# its first frames then wait in the queue (the
 # gate), a new scene is posted behind them, and the one parse let start is the
 # new scene's.  Before, the queue went in order: the new scene waited for the
 # frames, each parsed in full (seconds for a scene of big textures).
@@ -180,10 +181,10 @@ cat >"$T/anim.json" <<'EOF2'
  "camera": {"keyframes": [{"frame": 0, "position": [0, 0, 4]}, {"frame": 5, "position": [1, 0, 4]}]},
  "objects": [{"type": "sphere", "center": [0, 0, -3]}]}
 EOF2
-parse_gate 1 >/dev/null
+parse_gate 2 >/dev/null
 code=$(post_json "/v1/jobs?frames=0-5" "$T/anim.json")
 check frames_job_made "status $code: $(head -c 200 "$T/body")" [ "$code" = 202 ]
-wait_until 30 queued_is 2 # two frames, the gate closed after the job's own parse
+wait_until 30 queued_is 2 # two frames, the gate closed after the job's own two parses
 scene "$T/late.json" 2.75
 post_bg late "$T/late.json"
 wait_until 30 queued_is 3

@@ -268,6 +268,14 @@ static void test_check_frames(void) {
               strstr(err.message, "at frame 1, look_at"),
           "frame 1's parse: %s: %s", err.path, err.message);
     rayd_scene_free(s);
+    /* a still value's own error in an owner with keyframes keeps its own pointer */
+    const char *own = "{\"animation\": {\"end\": 4}, \"lights\": [{\"type\": \"point\", "
+                      "\"intensity\": -1, \"keyframes\": [{\"frame\": 0, \"position\": [0, 1, 0]}, "
+                      "{\"frame\": 4, \"position\": [1, 1, 0]}]}]}";
+    s = at_frame(own, 0, &err);
+    CHECK(!s && !strcmp(err.path, "/lights/0/intensity") && !strstr(err.message, "at frame"),
+          "%s: %s", err.path, err.message);
+    rayd_scene_free(s);
     const char *still = "{\"objects\": [{\"type\": \"sphere\"}]}";
     CHECK(rayd_scene_check_frames(still, strlen(still), NULL, 0, 1000, &err) == RAYD_OK,
           "a still scene: %s", err.message);
