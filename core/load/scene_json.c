@@ -343,19 +343,27 @@ static void note_frames(rayd_scene *s, const struct sj_anim *a) {
                                       .frame = a->frame};
 }
 
+/* *lim, or the defaults into *def when it is NULL; a text over its bytes
+ * refused. */
+static enum rayd_status text_limits(const struct rayd_limits **lim, struct rayd_limits *def,
+                                    size_t len, struct rayd_error *err) {
+    if (!*lim) {
+        rayd_limits_default(def);
+        *lim = def;
+    }
+    if (len > (*lim)->max_bytes)
+        return err_set(err, RAYD_E_LIMIT, NULL, "the scene is %zu bytes; the limit is %zu", len,
+                       (*lim)->max_bytes);
+    return RAYD_OK;
+}
+
 /* scene_json_parse at frame `frame` (< 0: the first; rayd_scene_parse_frame). */
 static enum rayd_status scene_json_parse_frame(const char *json, size_t len,
                                                const struct rayd_limits *lim, long inline_min,
                                                long frame, rayd_scene **out,
                                                struct rayd_error *err) {
     struct rayd_limits deflim;
-    if (!lim) {
-        rayd_limits_default(&deflim);
-        lim = &deflim;
-    }
-    if (len > lim->max_bytes)
-        return err_set(err, RAYD_E_LIMIT, NULL, "the scene is %zu bytes; the limit is %zu", len,
-                       lim->max_bytes);
+    TRY(text_limits(&lim, &deflim, len, err));
     if (lim->cancel && atomic_load(lim->cancel))
         return err_set(err, RAYD_E_CANCELED, NULL, "the parse was canceled");
     /* the flag is looked at through this thread's meter (meter_live): by
@@ -468,13 +476,7 @@ enum rayd_status rayd_scene_check_frames(const char *json, size_t len,
                                          const struct rayd_limits *lim, long first, long last,
                                          struct rayd_error *err) {
     struct rayd_limits deflim;
-    if (!lim) {
-        rayd_limits_default(&deflim);
-        lim = &deflim;
-    }
-    if (len > lim->max_bytes)
-        return err_set(err, RAYD_E_LIMIT, NULL, "the scene is %zu bytes; the limit is %zu", len,
-                       lim->max_bytes);
+    TRY(text_limits(&lim, &deflim, len, err));
     struct sj_inline in = {.spans.min_count = SJ_INLINE_MIN};
     cJSON *root = NULL;
     enum rayd_status st = check_and_parse(json, len, lim, &in, &root, err);

@@ -578,46 +578,17 @@ static void api_scene_done(struct compile_waiter *w, struct compile_result *res)
     if (!api_scene_answer(a.r, res, a.then)) http_req_resume(a.r);
 }
 
+/* From the HTTP thread or, r suspended already, from a parse thread (a
+ * continuation asking for more: api_scene_check_frames). */
 static void api_scene_suspend(struct compile_waiter *w) {
-    http_req_suspend(((struct api_scene_wait *)w)->r);
-}
-
-void api_scene(struct http_req *r, api_scene_then then) {
-    if (sched_draining()) {
-        api_refused(r, WORK_DRAINING);
-        return;
-    }
-    if (!api_require_json(r)) return;
-    struct api_scene_wait *a = calloc(1, sizeof *a);
-    if (!a) {
-        api_refused(r, WORK_NOMEM);
-        return;
-    }
-    a->r = r;
-    a->then = then;
-    a->w.done = api_scene_done;
-    a->w.suspend = api_scene_suspend;
-    a->w.client = api_cost_client(r); /* the parse pool's turns */
-    struct compile_result res;
-    enum work_submit s = compile_scene(r->body ? r->body : "", r->body_len, &a->w, &res);
-    if (s == WORK_OK) return; /* a belongs to the parse pool until done() */
-    free(a);
-    if (s == WORK_CACHED)
-        api_scene_answer(r, &res, then);
-    else
-        api_refused(r, s);
-}
-
-void api_suspend(struct http_req *r) {
-    if (!r->conn.suspended) http_req_suspend(r);
-}
-
-static void api_scene_check_suspend(struct compile_waiter *w) {
     api_suspend(((struct api_scene_wait *)w)->r);
 }
 
-bool api_scene_check_frames(struct http_req *r, struct cache_entry *e, long first, long last,
-                            api_scene_then then) {
+/* r waits on the parse pool for its scene: compiled from its body, or
+ * (check) the scene check once its frames first..last pass; then, in
+ * every case, its continuation.  True when r was handed on. */
+static bool api_scene_wait(struct http_req *r, api_scene_then then, struct cache_entry *check,
+                           long first, long last) {
     struct api_scene_wait *a = calloc(1, sizeof *a);
     if (!a) {
         api_refused(r, WORK_NOMEM);
@@ -626,16 +597,35 @@ bool api_scene_check_frames(struct http_req *r, struct cache_entry *e, long firs
     a->r = r;
     a->then = then;
     a->w.done = api_scene_done;
-    a->w.suspend = api_scene_check_suspend;
-    a->w.client = api_cost_client(r);
+    a->w.suspend = api_scene_suspend;
+    a->w.client = api_cost_client(r); /* the parse pool's turns */
     struct compile_result res;
+    const char *body = r->body ? r->body : "";
     enum work_submit s =
-        compile_check_frames(e, r->body ? r->body : "", r->body_len, first, last, &a->w, &res);
+        check ? compile_check_frames(check, body, r->body_len, first, last, &a->w, &res)
+              : compile_scene(body, r->body_len, &a->w, &res);
     if (s == WORK_OK) return true; /* a belongs to the parse pool until done() */
     free(a);
     if (s == WORK_CACHED) return api_scene_answer(r, &res, then);
     api_refused(r, s);
     return false;
+}
+
+void api_scene(struct http_req *r, api_scene_then then) {
+    if (sched_draining()) {
+        api_refused(r, WORK_DRAINING);
+        return;
+    }
+    if (api_require_json(r)) api_scene_wait(r, then, NULL, 0, 0);
+}
+
+void api_suspend(struct http_req *r) {
+    if (!r->conn.suspended) http_req_suspend(r);
+}
+
+bool api_scene_check_frames(struct http_req *r, struct cache_entry *e, long first, long last,
+                            api_scene_then then) {
+    return api_scene_wait(r, then, e, first, last);
 }
 
 bool api_is_decimal(const char *s, bool point) {
