@@ -28,6 +28,7 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdio.h>
+#include <sys/stat.h>
 
 /* ---- prog.c --------------------------------------------------------------- */
 
@@ -76,6 +77,11 @@ struct output {
     int to_stdout; /* "-" */
 };
 
+/* A new temporary file beside target, *tmp its name (malloc'd, the
+ * caller's even on failure): TARGET.PID.partEXT, O_EXCL so never one
+ * another run is writing nor a link planted at the name; mode as the file
+ * it replaces (old), else 0666 less the umask.  The fd, or -1 with errno. */
+int output_part(const char *target, const char *ext, const struct stat *old, char **tmp);
 /* Opens path for writing ("-": standard output).  0, or -1 with errno. */
 int output_open(struct output *o, const char *path);
 /* Appends len bytes (the signature of the core's rayd_sink_fn).  0, or -1. */

@@ -31,22 +31,19 @@
 
 const char *output_name(const char *path) { return strcmp(path, "-") ? path : "standard output"; }
 
-/* A new temporary file beside target: O_EXCL, so it is never one another
- * run is writing; mode as the file it replaces, else 0666 less the umask.
- * The fd, or -1 with errno. */
-static int output_temp(struct output *o, const struct stat *old) {
-    size_t n = strlen(o->target) + 32;
-    if (!(o->tmp = malloc(n))) return -1;
+int output_part(const char *target, const char *ext, const struct stat *old, char **tmp) {
+    size_t n = strlen(target) + strlen(ext) + 32;
+    if (!(*tmp = malloc(n))) return -1;
     for (unsigned i = 0; i < 100; i++) {
         if (i == 0)
-            snprintf(o->tmp, n, "%s.%ld.part", o->target, (long)getpid());
+            snprintf(*tmp, n, "%s.%ld.part%s", target, (long)getpid(), ext);
         else
-            snprintf(o->tmp, n, "%s.%ld-%u.part", o->target, (long)getpid(), i);
-        int fd = open(o->tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+            snprintf(*tmp, n, "%s.%ld-%u.part%s", target, (long)getpid(), i, ext);
+        int fd = open(*tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
         if (fd >= 0 && old && fchmod(fd, old->st_mode & 07777) != 0) {
             int e = errno;
             close(fd);
-            unlink(o->tmp);
+            unlink(*tmp);
             errno = e;
             return -1;
         }
@@ -92,7 +89,14 @@ int output_open(struct output *o, const char *path) {
     struct stat old;
     int exists, where = output_where(o, path, &old, &exists);
     if (where < 0) goto fail;
-    int fd = where == 1 ? open(path, O_WRONLY | O_CLOEXEC) : output_temp(o, exists ? &old : NULL);
+    int fd;
+    if (where == 1) {
+        fd = open(path, O_WRONLY | O_CLOEXEC);
+    } else {
+        char *tmp = NULL;
+        fd = output_part(o->target, "", exists ? &old : NULL, &tmp);
+        o->tmp = tmp; /* output_abort's to remove and free, whatever came */
+    }
     if (fd < 0) goto fail;
     if (!(o->f = fdopen(fd, "wb"))) {
         close(fd);

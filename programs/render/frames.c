@@ -32,7 +32,6 @@
  * frames_run(), this file calls render_one.c, and neither calls back.
  */
 #include <errno.h>
-#include <fcntl.h>
 #include <signal.h>
 #include <spawn.h>
 #include <malloc.h>
@@ -57,8 +56,8 @@ struct video {
 };
 
 /* The file ffmpeg writes for path, as -o's rule has it (common/output.c):
- * PATH.PID.part beside it, created here new (O_EXCL: never a name someone
- * else made, such as a link planted in a shared folder) with the mode of
+ * PATH.PID.part beside it, created here new (output_part, O_EXCL: never a
+ * name someone else made, such as a link planted in a shared folder) with the mode of
  * the video it replaces, and renamed over it only once the video is
  * whole, so a run that fails or is stopped leaves the video there was.
  * path's extension comes again at the end: ffmpeg takes the format from
@@ -70,24 +69,15 @@ static int video_temp(const char *path, char **tmp) {
     bool old = lstat(path, &st) == 0;
     if (old && !S_ISREG(st.st_mode)) return 0;
     const char *slash = strrchr(path, '/'), *dot = strrchr(path, '.');
-    const char *ext = dot && (!slash || dot > slash) ? dot : "";
-    size_t n = strlen(path) + strlen(ext) + 40;
-    if (!(*tmp = malloc(n))) return render_one_cannot_write(path, errno);
-    for (unsigned i = 0; i < 100; i++) {
-        snprintf(*tmp, n, "%s.%ld-%u.part%s", path, (long)getpid(), i, ext);
-        int fd = open(*tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-        if (fd < 0 && errno == EEXIST) continue;
-        int e = fd < 0 || (old && fchmod(fd, st.st_mode & 07777) != 0) ? errno : 0;
-        if (fd >= 0) close(fd);
-        if (e == 0) return 0;
-        if (fd >= 0) unlink(*tmp);
-        free(*tmp);
-        *tmp = NULL;
-        return render_one_cannot_write(path, e);
+    int fd = output_part(path, dot && (!slash || dot > slash) ? dot : "", old ? &st : NULL, tmp);
+    if (fd >= 0) {
+        close(fd);
+        return 0;
     }
+    int e = errno;
     free(*tmp);
     *tmp = NULL;
-    return render_one_cannot_write(path, EEXIST);
+    return render_one_cannot_write(path, e);
 }
 
 /* Starts ffmpeg encoding w x h RGB frames at fps for path. */

@@ -149,7 +149,7 @@ else
     # the part file is made new: a link planted at its name (in a shared folder, the PID
     # guessed) is passed over, and the file it points to is not written through it
     echo untouched >"$T/victim"
-    (cd "$T" && bash -c 'ln -s victim planted.mp4.$$-0.part.mp4; exec "$0" "$1" --frames 2-3 --video planted.mp4 -q' \
+    (cd "$T" && bash -c 'ln -s victim planted.mp4.$$.part.mp4; exec "$0" "$1" --frames 2-3 --video planted.mp4 -q' \
         "$R" "$T/anim.json" 2>"$T/err")
     WHY="exit $?: $(tr '\n' '|' <"$T/err"); victim: $(head -c 40 "$T/victim" | tr -d '\0')"
     check video_part_not_through_link bash -c '[ "$(cat "$0/victim")" = untouched ] && [ -s "$0/planted.mp4" ] &&
