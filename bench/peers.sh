@@ -180,22 +180,24 @@ embree_e2e_obj=$(embree_e2e "$(kv "$R/e2e.objparse" obj_parse_s)")
 
 # --- absolute figures ------------------------------------------------------
 echo "Absolute figures (1920x1080, one thread unless noted, medians of $RUNS runs)"
-printf '%-7s %8s | %-56s | %-56s\n' "" "" "rayd (raybench)" "Embree $(awk '$1=="peer" {print $3}' "$R/mesh-8.embree.1") (embree_bench)"
-printf '%-7s %8s | %7s %6s %6s %6s %6s %6s %6s %6s | %7s %6s %6s %6s %6s %6s %6s %6s\n' mesh tris \
-    "build s" "B/tri" prim1 prim16 shad1 shad16 bnc1 bnc16 \
-    "build s" "B/tri" prim1 prim16 shad1 shad16 bnc1 bnc16
+printf '%-7s %8s | %-70s | %-70s\n' "" "" "rayd (raybench)" "Embree $(awk '$1=="peer" {print $3}' "$R/mesh-8.embree.1") (embree_bench)"
+printf '%-7s %8s | %7s %6s %6s %6s %6s %6s %6s %6s %6s %6s | %7s %6s %6s %6s %6s %6s %6s %6s %6s %6s\n' mesh tris \
+    "build s" "B/tri" prim1 prim16 shad1 shad16 occl1 occl16 bnc1 bnc16 \
+    "build s" "B/tri" prim1 prim16 shad1 shad16 occl1 occl16 bnc1 bnc16
 for m in "${meshes[@]}"; do
     a=$R/$m.raybench e=$R/$m.embree
-    printf '%-7s %8s | %7s %6s %6s %6s %6s %6s %6s %6s | %7s %6s %6s %6s %6s %6s %6s %6s\n' "$m" \
+    printf '%-7s %8s | %7s %6s %6s %6s %6s %6s %6s %6s %6s %6s | %7s %6s %6s %6s %6s %6s %6s %6s %6s %6s\n' "$m" \
         "$(kv "$a" triangles)" "$(kv "$a" bvh_build_s)" "$(kv "$a" bytes_per_triangle)" \
         "$(kv "$a" primary_mrays_1t)" "$(kv "$a" primary_packet_mrays_1t)" \
         "$(kv "$a" shadow_mrays_1t)" "$(kv "$a" shadow_packet_mrays_1t)" \
+        "$(kv "$a" occlusion_mrays_1t)" "$(kv "$a" occlusion_packet_mrays_1t)" \
         "$(kv "$a" bounce_mrays_1t)" "$(kv "$a" bounce_packet_mrays_1t)" \
         "$(kv "$e" bvh_build_s)" "$(kv "$e" bytes_per_triangle)" \
         "$(kv "$e" primary_mrays_1t_single)" "$(kv "$e" primary_mrays_1t_packet16)" \
         "$(kv "$e" shadow_mrays_1t_single)" "$(kv "$e" shadow_mrays_1t_packet16)" \
+        "$(kv "$e" occlusion_mrays_1t_single)" "$(kv "$e" occlusion_mrays_1t_packet16)" \
         "$(kv "$e" bounce_mrays_1t_single)" "$(kv "$e" bounce_mrays_1t_packet16)"
-    for kind in primary bounce; do
+    for kind in primary occlusion bounce; do
         ah=$(kv "$a" ${kind}_hits) eh=$(kv "$e" ${kind}_mrays_1t_single_hits)
         awk -v a="$ah" -v e="$eh" -v m="$m" -v k="$kind" 'BEGIN {d = a - e; if (d < 0) d = -d;
             if (d > 0.001 * e) printf "  warning: %s %s hits differ: rayd %d, Embree %d\n", m, k, a, e}'
@@ -205,8 +207,9 @@ for m in "${meshes[@]}"; do
 done
 echo "  (Mrays/s; 1: one ray at a time, 16: packets of 4x4 pixels, or for bounce rays 16"
 echo "   consecutive ones; build: 2 threads each, BVH only; B/tri: mesh data + BVH, each;"
-echo "   shadow: pixels/s (M) for a primary ray plus a shadow ray from each hit; bounce: rays/s"
-echo "   of the diffuse-bounce rays alone, one from each primary hit, bench/bounce.h)"
+echo "   shadow: pixels/s (M) for a primary ray plus a shadow ray from each hit; occl: the same"
+echo "   shadow rays alone, rays/s, made before the clock starts; bounce: rays/s of the"
+echo "   diffuse-bounce rays alone, one from each primary hit, bench/bounce.h)"
 printf 'spheres10 (100 spheres, max_depth 5): rayd-render --threads 1 wall %s s (runs, each the mean\n' \
     "$rayd_s"
 printf '  of %s renders: %s);\n' "$FRAMES" "${rayd_t[*]}"
@@ -232,7 +235,7 @@ row() { # label rayd peer rayd_cpu peer_cpu target(or -) [inverse: 1 when figure
         printf "%-40s %6s %6s %8s  %s\n", l, fmt(r), fmt(rc), t == "-" ? "" : ">= " t, v }'
 }
 name_of() { case $1 in mesh-8) echo "1.3M mesh";; mesh-4) echo "5k mesh";; bunny) echo "bunny";; esac; }
-for kind in primary shadow bounce; do
+for kind in primary shadow occlusion bounce; do
     for m in "${meshes[@]}"; do
         a=$R/$m.raybench e=$R/$m.embree ac=$R/$m.raybench-cpu ec=$R/$m.embree-cpu n=$(name_of "$m")
         t=-

@@ -1,7 +1,7 @@
 /* raybench -- ray throughput of the core on one scene.
  *
  *   raybench SCENE.json [--width W] [--height H] [--runs N] [--threads-max T] [--cpu-time]
- *            [--packets-only] [--kind primary|shadow|bounce]
+ *            [--packets-only] [--kind primary|shadow|occlusion|bounce]
  *
  * Loads the scene (timing parse + BVH build), then casts, RUNS times each,
  * and reports the median:
@@ -12,6 +12,11 @@
  *   - both again as packets of 4x4 pixels (scene_intersect16 and
  *     scene_transmittance16; keys with _packet), their hit counts printed
  *     beside the one-ray ones, which they must equal;
+ *   - the shadow rays alone (kind occlusion): the same shadow rays, made
+ *     once, untimed, a 4x4 pixel block at a time, then cast one at a time
+ *     (scene_transmittance) and as a packet a block (scene_transmittance16),
+ *     as rays per second of shadow rays alone (occlusion_rays of them): the
+ *     any-hit query itself, as bounce rays measure the nearest-hit one;
  *   - diffuse-bounce rays, the incoherent ones: from every primary hit one
  *     cosine-weighted direction about the geometric normal, drawn from a
  *     hash of the pixel (bench/bounce.h, shared with embree_bench), origin
@@ -61,9 +66,9 @@ static double now_1t(void) {
 }
 
 /* What a cast measures. */
-enum kind { PRIMARY, SHADOW, BOUNCE, NKINDS };
+enum kind { PRIMARY, SHADOW, OCCLUSION, BOUNCE, NKINDS };
 
-static const char *const kind_names[NKINDS] = {"primary", "shadow", "bounce"};
+static const char *const kind_names[NKINDS] = {"primary", "shadow", "occlusion", "bounce"};
 
 /* The kind named s, or NKINDS for a name of none (a usage error). */
 static int kind_named(const char *s) {
@@ -78,6 +83,16 @@ struct bounces {
     long n;
 };
 
+/* The shadow rays alone, a 4x4 pixel block each 16 places: block q's rays
+ * at r[16 q + k] for the lanes k in mask[q], whose primary rays hit. */
+struct shadows {
+    ray *r;
+    double *tmax;
+    uint16_t *mask;
+    int bw, bh; /* blocks across and down */
+    long n;     /* rays */
+};
+
 /* Bounce rays are handed out this many a work item. */
 #define BOUNCE_CHUNK 4096
 
@@ -88,6 +103,7 @@ struct work {
     enum kind kind;
     bool packets; /* 4x4 pixels a packet (scene_intersect16) */
     const struct bounces *b;
+    const struct shadows *sh;
     atomic_int next_row; /* a row (of pixels or packets), or a chunk of bounce rays */
     atomic_long hits;
 };
@@ -178,6 +194,71 @@ static long cast_packets(struct work *wk) {
     return hits;
 }
 
+/* Every block's shadow rays (untimed): primary rays as packets, as
+ * cast_packets makes them. */
+static void shadow_make(const rayd_scene *s, const struct camera *cam, int w, int h,
+                        struct shadows *sh) {
+    sh->bw = (w + 3) / 4, sh->bh = (h + 3) / 4;
+    size_t nb = (size_t)sh->bw * sh->bh;
+    sh->r = malloc(sizeof *sh->r * 16 * nb);
+    sh->tmax = malloc(sizeof *sh->tmax * 16 * nb);
+    sh->mask = malloc(sizeof *sh->mask * nb);
+    sh->n = 0;
+    for (size_t q = 0; q < nb; q++) {
+        int i0 = 4 * (int)(q % (size_t)sh->bw), j0 = 4 * (int)(q / (size_t)sh->bw);
+        ray r[16];
+        double tmax[16];
+        uint32_t active = 0;
+        for (int k = 0; k < 16; k++) {
+            int i = i0 + k % 4, j = j0 + k / 4;
+            tmax[k] = INFINITY;
+            if (i >= w || j >= h) continue;
+            r[k] = (ray){cam->pos, cam_dir(cam, i + 0.5, j + 0.5)};
+            active |= 1u << k;
+        }
+        struct hit hits[16];
+        uint32_t hit = scene_intersect16(s, r, tmax, active, hits);
+        for (uint32_t m = hit; m; m &= m - 1) {
+            int k = __builtin_ctz(m);
+            shadow_ray(s, &r[k], &hits[k], &sh->r[16 * q + k], &sh->tmax[16 * q + k]);
+        }
+        for (int k = 0; k < 16; k++)
+            if (!(hit >> k & 1)) sh->r[16 * q + k] = sh->r[16 * q], sh->tmax[16 * q + k] = 0;
+        sh->mask[q] = (uint16_t)hit;
+        sh->n += __builtin_popcount(hit);
+    }
+}
+
+/* The shadow rays alone, a row of blocks per work item: one at a time, or
+ * a block a packet. */
+static long cast_shadows(struct work *wk) {
+    const struct shadows *sh = wk->sh;
+    long hits = 0;
+    for (;;) {
+        int row = atomic_fetch_add(&wk->next_row, 1);
+        if (row >= sh->bh) break;
+        for (long q = (long)row * sh->bw; q < (long)(row + 1) * sh->bw; q++) {
+            const ray *r = &sh->r[16 * q];
+            const double *tmax = &sh->tmax[16 * q];
+            if (!wk->packets) {
+                for (uint32_t m = sh->mask[q]; m; m &= m - 1) {
+                    int k = __builtin_ctz(m);
+                    vec3 t = scene_transmittance(wk->s, &r[k], tmax[k]);
+                    hits += t.x == 0 && t.y == 0 && t.z == 0;
+                }
+                continue;
+            }
+            vec3 t[16];
+            scene_transmittance16(wk->s, r, tmax, sh->mask[q], t);
+            for (uint32_t m = sh->mask[q]; m; m &= m - 1) {
+                int k = __builtin_ctz(m);
+                hits += t[k].x == 0 && t[k].y == 0 && t[k].z == 0;
+            }
+        }
+    }
+    return hits;
+}
+
 /* The bounce ray of pixel `pixel` from primary hit h of ray r. */
 static void bounce_ray(const rayd_scene *s, const ray *r, const struct hit *h, uint32_t pixel,
                        ray *br) {
@@ -235,19 +316,21 @@ static long cast_bounces(struct work *wk) {
 
 static void *worker(void *arg) {
     struct work *wk = arg;
-    long hits = wk->kind == BOUNCE ? cast_bounces(wk)
-                : wk->packets      ? cast_packets(wk)
-                                   : cast_rows(wk);
+    long hits = wk->kind == BOUNCE      ? cast_bounces(wk)
+                : wk->kind == OCCLUSION ? cast_shadows(wk)
+                : wk->packets           ? cast_packets(wk)
+                                        : cast_rows(wk);
     atomic_fetch_add(&wk->hits, hits);
     return NULL;
 }
 
 /* Seconds to cast the rays on `threads` threads; *count gets the rays cast
- * (pixels for primary and shadow rays, bounce rays for bounce). */
+ * (pixels for primary and shadow rays, else the rays alone). */
 static double cast(const rayd_scene *s, const struct camera *cam, int w, int h, enum kind kind,
-                   const struct bounces *b, bool packets, int threads, long *count, long *hits) {
+                   const struct bounces *b, const struct shadows *sh, bool packets, int threads,
+                   long *count, long *hits) {
     struct work wk = {
-        .s = s, .cam = *cam, .w = w, .h = h, .kind = kind, .packets = packets, .b = b};
+        .s = s, .cam = *cam, .w = w, .h = h, .kind = kind, .packets = packets, .b = b, .sh = sh};
     atomic_init(&wk.next_row, 0);
     atomic_init(&wk.hits, 0);
     pthread_t th[64];
@@ -257,7 +340,7 @@ static double cast(const rayd_scene *s, const struct camera *cam, int w, int h, 
     worker(&wk);
     for (int i = 1; i < threads; i++) pthread_join(th[i], NULL);
     double dt = tick() - t0;
-    *count = kind == BOUNCE ? b->n : (long)w * h;
+    *count = kind == BOUNCE ? b->n : kind == OCCLUSION ? sh->n : (long)w * h;
     *hits = atomic_load(&wk.hits);
     return dt;
 }
@@ -311,7 +394,7 @@ int main(int argc, char **argv) {
         only == NKINDS) {
         fprintf(stderr,
                 "usage: raybench SCENE.json [--width W] [--height H] [--runs N] [--threads-max T]"
-                " [--cpu-time] [--packets-only] [--kind primary|shadow|bounce]\n");
+                " [--cpu-time] [--packets-only] [--kind primary|shadow|occlusion|bounce]\n");
         return 2;
     }
     size_t len;
@@ -402,6 +485,9 @@ int main(int argc, char **argv) {
     struct bounces b;
     bounce_make(s, &cam, w, h, &b);
     printf("bounce_rays %ld\n", b.n);
+    struct shadows sh;
+    shadow_make(s, &cam, w, h, &sh);
+    printf("occlusion_rays %ld\n", sh.n);
     int thread_counts[2] = {1, tmax};
     for (int ti = 0; ti < (tmax > 1 ? 2 : 1); ti++) {
         for (int packets = packets_only; packets <= 1; packets++) {
@@ -410,8 +496,8 @@ int main(int argc, char **argv) {
                 double rate[99];
                 long count = 0, hits = 0;
                 for (int r = 0; r < runs; r++) {
-                    double dt = cast(s, &cam, w, h, (enum kind)k, &b, packets, thread_counts[ti],
-                                     &count, &hits);
+                    double dt = cast(s, &cam, w, h, (enum kind)k, &b, &sh, packets,
+                                     thread_counts[ti], &count, &hits);
                     rate[r] = count / dt / 1e6;
                 }
                 const char *kind = kind_names[k];
@@ -422,6 +508,7 @@ int main(int argc, char **argv) {
         }
     }
     free(b.r);
+    free(sh.r), free(sh.tmax), free(sh.mask);
     /* End to end: the whole image, shaded, on tmax threads. */
     double it[99];
     struct rayd_render_stats st = {0};

@@ -21,6 +21,10 @@
  *     and, from each hit lifted off the surface as core/render/integrate.h does,
  *     an any-hit ray toward the first light (rtcOccluded1 / rtcOccluded16),
  *     reported as pixels per second;
+ *   - the shadow rays alone, raybench's kind occlusion: the same shadow
+ *     rays made once, untimed, from rtcIntersect16 on 4x4 pixel blocks,
+ *     then cast with rtcOccluded1 one at a time and rtcOccluded16 a block
+ *     a packet (context flag COHERENT), as rays per second of shadow rays;
  *   - diffuse-bounce rays, raybench's: from every primary hit one
  *     cosine-weighted direction about the geometric normal turned toward
  *     the viewer, from a hash of the pixel (../bounce.h, the one raybench
@@ -113,6 +117,9 @@ struct setup {
     d3 light;            /* position, or direction toward the light */
     float *bounce;       /* bounce rays: origin and direction, 6 floats each */
     long nbounce;
+    float *shadow; /* shadow rays, 16 places a 4x4 block: origin, direction, tfar */
+    int *svalid;   /* -1 where the block's primary ray hit, else 0 */
+    long nblocks, nshadow;
 };
 
 /* core/geom/camera.h cam_dir: d = normalize(w + alpha u + beta v). */
@@ -308,6 +315,104 @@ static void primary_ray(const struct setup *s, int i, int j, struct RTCRayHit *r
                 .tfar = INFINITY,
                 .mask = 0xffffffffu},
         .hit = {.geomID = RTC_INVALID_GEOMETRY_ID, .instID = {RTC_INVALID_GEOMETRY_ID}}};
+}
+
+/* Every block's shadow rays (untimed), as cast16 makes them. */
+static void shadow_make(struct setup *s) {
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    int bw = (s->width + 3) / 4, bh = (s->height + 3) / 4;
+    s->nblocks = (long)bw * bh;
+    s->shadow = calloc((size_t)s->nblocks * 16 * 7, sizeof(float));
+    s->svalid = calloc((size_t)s->nblocks * 16, sizeof(int));
+    if (!s->shadow || !s->svalid) die("out of memory");
+    s->nshadow = 0;
+    struct RTCRayHit16 rh;
+    _Alignas(64) int valid[16];
+    for (long q = 0; q < s->nblocks; q++) {
+        int bi = 4 * (int)(q % bw), bj = 4 * (int)(q / bw);
+        for (int k = 0; k < 16; k++) {
+            int i = bi + (k & 3), j = bj + (k >> 2);
+            valid[k] = i < s->width && j < s->height ? -1 : 0;
+            struct RTCRayHit one;
+            primary_ray(s, valid[k] ? i : bi, valid[k] ? j : bj, &one);
+            rh.ray.org_x[k] = one.ray.org_x, rh.ray.org_y[k] = one.ray.org_y;
+            rh.ray.org_z[k] = one.ray.org_z, rh.ray.dir_x[k] = one.ray.dir_x;
+            rh.ray.dir_y[k] = one.ray.dir_y, rh.ray.dir_z[k] = one.ray.dir_z;
+            rh.ray.tnear[k] = 0, rh.ray.tfar[k] = INFINITY, rh.ray.time[k] = 0;
+            rh.ray.mask[k] = 0xffffffffu, rh.ray.id[k] = (unsigned)k, rh.ray.flags[k] = 0;
+            rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+            rh.hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
+        }
+        rtcIntersect16(valid, s->scene, &ctx, &rh);
+        for (int k = 0; k < 16; k++) {
+            if (!valid[k] || rh.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) continue;
+            const float org[3] = {rh.ray.org_x[k], rh.ray.org_y[k], rh.ray.org_z[k]};
+            const float dir[3] = {rh.ray.dir_x[k], rh.ray.dir_y[k], rh.ray.dir_z[k]};
+            const float ng[3] = {rh.hit.Ng_x[k], rh.hit.Ng_y[k], rh.hit.Ng_z[k]};
+            float *r = &s->shadow[7 * (16 * q + k)];
+            shadow_ray(s, org, dir, rh.ray.tfar[k], ng, r, r + 3, r + 6);
+            s->svalid[16 * q + k] = -1;
+            s->nshadow++;
+        }
+    }
+}
+
+/* The shadow rays alone, one at a time (rtcOccluded1).  Returns seconds;
+ * *hits the rays occluded. */
+static double occluded1(const struct setup *s, bool unused, long *hits) {
+    (void)unused;
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    long n = 0;
+    double t0 = now_1t();
+    for (long q = 0; q < 16 * s->nblocks; q++) {
+        if (!s->svalid[q]) continue;
+        const float *b = &s->shadow[7 * q];
+        struct RTCRay r = {.org_x = b[0],
+                           .org_y = b[1],
+                           .org_z = b[2],
+                           .dir_x = b[3],
+                           .dir_y = b[4],
+                           .dir_z = b[5],
+                           .tfar = b[6],
+                           .mask = 0xffffffffu};
+        rtcOccluded1(s->scene, &ctx, &r);
+        n += r.tfar == -INFINITY;
+    }
+    *hits = n;
+    return now_1t() - t0;
+}
+
+/* The shadow rays alone, a block a packet (rtcOccluded16). */
+static double occluded16(const struct setup *s, bool unused, long *hits) {
+    (void)unused;
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    long n = 0;
+    struct RTCRay16 sr;
+    _Alignas(64) int valid[16];
+    double t0 = now_1t();
+    for (long q = 0; q < s->nblocks; q++) {
+        int any = 0;
+        for (int k = 0; k < 16; k++) {
+            const float *b = &s->shadow[7 * (16 * q + k)];
+            valid[k] = s->svalid[16 * q + k];
+            any |= valid[k];
+            sr.org_x[k] = b[0], sr.org_y[k] = b[1], sr.org_z[k] = b[2];
+            sr.dir_x[k] = b[3], sr.dir_y[k] = b[4], sr.dir_z[k] = b[5];
+            sr.tnear[k] = 0, sr.tfar[k] = b[6], sr.time[k] = 0;
+            sr.mask[k] = 0xffffffffu, sr.id[k] = (unsigned)k, sr.flags[k] = 0;
+        }
+        if (!any) continue;
+        rtcOccluded16(valid, s->scene, &ctx, &sr);
+        for (int k = 0; k < 16; k++) n += valid[k] && sr.tfar[k] == -INFINITY;
+    }
+    *hits = n;
+    return now_1t() - t0;
 }
 
 /* Every pixel's bounce ray (untimed), as raybench makes them. */
@@ -567,25 +672,33 @@ int main(int argc, char **argv) {
 
     bounce_make(&s);
     printf("bounce_rays %ld\n", s.nbounce);
+    shadow_make(&s);
+    printf("occlusion_rays %ld\n", s.nshadow);
     long pixels = (long)s.width * s.height;
     struct {
         const char *name;
         double (*fn)(const struct setup *, bool, long *);
         bool shadow;
-    } casts[] = {
-        {"primary_mrays_1t_single", cast1, false},  {"primary_mrays_1t_packet16", cast16, false},
-        {"shadow_mrays_1t_single", cast1, true},    {"shadow_mrays_1t_packet16", cast16, true},
-        {"bounce_mrays_1t_single", bounce1, false}, {"bounce_mrays_1t_packet16", bounce16, false}};
+    } casts[] = {{"primary_mrays_1t_single", cast1, false},
+                 {"primary_mrays_1t_packet16", cast16, false},
+                 {"shadow_mrays_1t_single", cast1, true},
+                 {"shadow_mrays_1t_packet16", cast16, true},
+                 {"occlusion_mrays_1t_single", occluded1, false},
+                 {"occlusion_mrays_1t_packet16", occluded16, false},
+                 {"bounce_mrays_1t_single", bounce1, false},
+                 {"bounce_mrays_1t_packet16", bounce16, false}};
     for (size_t c = 0; c < sizeof casts / sizeof casts[0]; c++) {
         double rate[99];
         bool bounce = casts[c].fn == bounce1 || casts[c].fn == bounce16;
-        long hits = 0, count = bounce ? s.nbounce : pixels; /* bounce: rays, else pixels */
+        bool occl = casts[c].fn == occluded1 || casts[c].fn == occluded16;
+        long hits = 0, count = bounce ? s.nbounce : occl ? s.nshadow : pixels; /* else pixels */
         for (int r = 0; r < runs; r++)
             rate[r] = count / casts[c].fn(&s, casts[c].shadow, &hits) / 1e6;
         printf("%s %.2f\n", casts[c].name, median(rate, runs));
         printf("%s_hits %ld\n", casts[c].name, hits);
     }
     free(s.bounce);
+    free(s.shadow), free(s.svalid);
     rtcReleaseScene(s.scene);
     rtcReleaseDevice(dev);
     mesh_data_free(&m);
