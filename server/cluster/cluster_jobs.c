@@ -271,6 +271,22 @@ bool cluster_jobs_end(struct redis *c, const char *id, const char *state, const 
     return ok;
 }
 
+long cluster_jobs_tried(struct redis *c, const char *id, long frame, long tile) {
+    static const char script[] =
+        "local p = 'rayd:{' .. ARGV[1] .. '}:'\n"
+        "local st = redis.call('HGET', p .. 'job', 'state')\n"
+        "if st ~= 'queued' and st ~= 'running' then return 0 end\n"
+        "return redis.call('HINCRBY', p .. 'job', 'tries:' .. ARGV[2] .. ':' .. ARGV[3], 1)\n";
+    char k[24], t[24];
+    snprintf(k, sizeof k, "%ld", frame);
+    snprintf(t, sizeof t, "%ld", tile);
+    const char *argv[] = {"EVAL", script, "0", id, k, t, NULL};
+    redisReply *rep = redis_strs(c, argv);
+    long n = redis_failed(c, rep) ? -1 : (long)redis_ll(rep, -1);
+    if (rep) freeReplyObject(rep);
+    return n;
+}
+
 long cluster_jobs_unfinished(struct redis *c) {
     const char *argv[] = {"SCARD", "rayd:unfinished", NULL};
     redisReply *rep = redis_strs(c, argv);

@@ -4,7 +4,9 @@
  * One thread with its own Redis connection.  Each turn it
  *   - stores what finished: a tile's PNG (cluster_assemble.c), then XACK
  *     and XDEL of its item; a render that failed fails its job (the error
- *     JSON in the record), one cancelled by a drain is left to others;
+ *     JSON in the record), one cancelled by a drain is left to others, and
+ *     one that failed on this node's own limits is left pending for
+ *     another node, CLUSTER_TRIES attempts in all (node_failed);
  *   - every --redis-claim-ms / 3: refreshes the items it holds (XCLAIM to
  *     itself, JUSTID: their idle time restarts), writes its heartbeat in
  *     rayd:nodes, takes over items idle for longer than claim-ms
@@ -283,6 +285,38 @@ static bool node_left_mine(const char *sid, int level) {
     return false;
 }
 
+/* The tiles that failed on this node's own limits and were left pending
+ * for another node: their idle time grows until some node's XAUTOCLAIM
+ * takes one.  This node may be the one (every node reclaims alike); it
+ * then leaves it again, NODE_SHUN_LEAVES times, before it tries the tile
+ * itself: no other node wanted it for that long (they are busy, or gone). */
+#define NODE_SHUN 64
+#define NODE_SHUN_LEAVES 2
+static struct {
+    int level, leaves;
+    char sid[48];
+} node_shun[NODE_SHUN];
+static int node_shun_next;
+
+static void node_shun_add(const struct node_item *it) {
+    node_shun[node_shun_next].level = it->level;
+    node_shun[node_shun_next].leaves = 0;
+    snprintf(node_shun[node_shun_next].sid, sizeof node_shun[0].sid, "%s", it->sid);
+    node_shun_next = (node_shun_next + 1) % NODE_SHUN;
+}
+
+/* Whether item sid of stream `level`, taken back, is left again (counted;
+ * forgotten once this node tries it). */
+static bool node_shun_again(const char *sid, int level) {
+    for (int i = 0; i < NODE_SHUN; i++) {
+        if (node_shun[i].level != level || strcmp(node_shun[i].sid, sid)) continue;
+        if (node_shun[i].leaves++ < NODE_SHUN_LEAVES) return true;
+        node_shun[i].sid[0] = 0;
+        return false;
+    }
+    return false;
+}
+
 /* Whether the item with id sid in stream `level` is held here (ids are
  * per stream: two streams may use the same one). */
 static bool node_holds(const char *sid, int level) {
@@ -351,6 +385,11 @@ static void node_take(struct redis *c, struct node_item *it) {
 /* One entry of stream `level`, taken (cluster_items_take_fn). */
 static long node_take_entry(struct redis *c, const redisReply *e, int level, bool reclaimed) {
     if (node_holds(e->element[0]->str, level)) return 0;
+    if (reclaimed && node_shun_again(e->element[0]->str, level)) {
+        log_info("cluster: item %s failed here before; left again for another node",
+                 e->element[0]->str);
+        return 0;
+    }
     struct node_item *it = node_item_new(e, level);
     if (!it) return 0;
     if (reclaimed && node_left_mine(it->sid, level)) {
@@ -383,8 +422,9 @@ static void node_refresh(struct redis *c) {
 
 /* ---- what finished --------------------------------------------------------------- */
 
-/* The error JSON of a failed tile. */
-static void node_error_json(const struct node_item *it, char *buf, size_t n) {
+/* The error JSON of a failed tile, after `tries` attempts (0: its first,
+ * which is not retried). */
+static void node_error_json(const struct node_item *it, long tries, char *buf, size_t n) {
     char msg[300] = "", path[300] = "";
     size_t j = 0;
     for (const char *s = it->err.message; *s && j + 2 < sizeof msg; s++) {
@@ -398,8 +438,10 @@ static void node_error_json(const struct node_item *it, char *buf, size_t n) {
         path[j++] = (char)((unsigned char)*s < 0x20 ? ' ' : *s);
     }
     path[j] = 0;
-    snprintf(buf, n, "{\"code\":\"%s\",\"message\":\"frame %ld, tile %ld: %s\"%s%s%s}",
-             rayd_status_name(it->err.code), it->frame, it->tile, msg,
+    char after[48] = "";
+    if (tries > 0) snprintf(after, sizeof after, " failed after %ld attempts", tries);
+    snprintf(buf, n, "{\"code\":\"%s\",\"message\":\"frame %ld, tile %ld%s: %s\"%s%s%s}",
+             rayd_status_name(it->err.code), it->frame, it->tile, after, msg,
              path[0] ? ",\"path\":\"" : "", path, path[0] ? "\"" : "");
 }
 
@@ -412,6 +454,43 @@ static void node_test_stall(void) {
     if (config.test_gate_tiles < -1 || !v || strcmp(v, "1")) return;
     log_warn("RAYD_TEST_CLUSTER_STALL: the puller stops after a tile's write, before its ack");
     for (;;) pause();
+}
+
+/* A tile that failed here.  On this node's own limits (RAYD_E_LIMIT: its
+ * --max-work, --max-memory, --max-render-seconds) another node's may let
+ * it through: the item is left pending, unacked and no longer refreshed,
+ * for some node's XAUTOCLAIM, until the job's record counts CLUSTER_TRIES
+ * attempts.  Then, or for any other failure (the same on every node), the
+ * job fails with the tile's error.  A pass's tile ends its pass instead
+ * (cluster_passes.c). */
+static void node_failed(struct redis *c, struct node_item *it) {
+    char err[800];
+    if (it->pass > 0) {
+        node_error_json(it, 0, err, sizeof err);
+        log_warn("cluster: job %s: a tile failed: %s", it->job, err);
+        if (cluster_passes_failed(c, it->job, it->pass, it->err.code == RAYD_E_LIMIT, err))
+            cluster_items_ack(c, it->level, it->sid);
+        return;
+    }
+    long tries = 0;
+    if (it->err.code == RAYD_E_LIMIT) {
+        tries = cluster_jobs_tried(c, it->job, it->frame, it->tile);
+        if (tries < 0) return; /* Redis failed: taken over later */
+        if (tries == 0) {      /* the job ended */
+            cluster_items_ack(c, it->level, it->sid);
+            return;
+        }
+        if (tries < CLUSTER_TRIES) {
+            log_warn("cluster: job %s frame %ld tile %ld failed here (attempt %ld of %d), left "
+                     "for another node: %s",
+                     it->job, it->frame, it->tile, tries, CLUSTER_TRIES, it->err.message);
+            node_shun_add(it);
+            return;
+        }
+    }
+    node_error_json(it, tries, err, sizeof err);
+    log_warn("cluster: job %s: a tile failed: %s", it->job, err);
+    if (cluster_jobs_end(c, it->job, "failed", err)) cluster_items_ack(c, it->level, it->sid);
 }
 
 /* Stores, fails or forgets each item that finished; true if any did. */
@@ -445,13 +524,7 @@ static bool node_finish(struct redis *c) {
             cluster_items_ack(c, it->level, it->sid);
             atomic_fetch_add(&cluster_done_total, 1);
         } else if (ph == NP_FAILED) {
-            char err[800];
-            node_error_json(it, err, sizeof err);
-            log_warn("cluster: job %s: a tile failed: %s", it->job, err);
-            if (it->pass > 0
-                    ? cluster_passes_failed(c, it->job, it->pass, it->err.code == RAYD_E_LIMIT, err)
-                    : cluster_jobs_end(c, it->job, "failed", err))
-                cluster_items_ack(c, it->level, it->sid);
+            node_failed(c, it);
         }
         *p = it->next;
         node_count--;

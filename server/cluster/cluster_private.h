@@ -95,6 +95,14 @@ int cluster_jobs_plan(const char *s, int out[PASSES_MAX]);
 /* Sets the job's end state (with error JSON, or NULL) if it is still
  * queued or running, its keys to expire after --job-ttl; the puller's too. */
 bool cluster_jobs_end(struct redis *c, const char *id, const char *state, const char *error);
+/* A tile (tile of frame) failed on a node's own limits once more: the
+ * attempts so far (the job's record counts them), 0 when the job has
+ * ended or is gone, -1 when Redis failed. */
+long cluster_jobs_tried(struct redis *c, const char *id, long frame, long tile);
+/* Attempts at a tile that fails on a node's own limits (--max-work,
+ * --max-memory, --max-render-seconds) before its job fails: each but the
+ * last leaves it to another node, whose limits may let it through. */
+#define CLUSTER_TRIES 3
 /* Takes the jobs whose keys expired out of their clients' lists (the due
  * entries of rayd:ended, up to 5,120 a call); how many it read, -1 when
  * Redis failed. */

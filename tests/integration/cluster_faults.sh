@@ -165,22 +165,71 @@ curl -s -m 30 -o "$T/bad.exr" "${NODE_URL[2]}/v1/jobs/$BID/image.exr"
 check bad_tiles_exr_byte_identical "the EXR differs from rayd-render's" cmp -s "$T/bad.exr" "$T/ref.exr"
 check bad_tiles_rerendered "no re-render in the logs" bash -c "cat '$T'/node*.err | grep -q 'missing or corrupt in Redis'"
 
-# --- a tile that fails on the node that took it: the job fails, saying where -------------------
-for i in 2 3 5 6; do gate_node $i 0; done
-start_node 7 --threads 1 --cluster-tile 64 --redis-claim-ms 1500 --max-work 1000 --redis "$REDIS_URL"
-FID=$(post_job 2) # node 7 itself would refuse it at the door (413 over_budget)
-wait_until 30 bash -c "curl -s '${NODE_URL[2]}/v1/jobs/$FID' | grep -q '\"state\":\"failed\"'"
-curl -s "${NODE_URL[3]}/v1/jobs/$FID" >"$T/failed.json"
+# --- a tile that fails on the node that took it, over that node's own limits -----------------
+# Nodes of a version of their own (only they take these jobs), one thread each, and jobs of one
+# 64x64 tile.  Node 16 holds a tile of a first job behind its gate, so node 17 (--max-work 1000:
+# every tile is over it) takes the second job's tile: it fails there and is left pending for
+# another node.  Node 17 killed, node 16, its gate open, takes it over and renders it.  Then, node
+# 16 full again, node 18 (--max-work 1000 too) is the only node with room: it takes the third
+# job's tile back twice without trying it, then tries it, three attempts in all, and the job
+# fails naming the tile.  Before, the first node's limit failed the job at once.
+small() { # N: a 64x64 scene of its own (seed N: no cache answers it from another job's tile)
+    python3 - "$SCENE" "$T/small$1.json" "$1" <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1]))
+d["render"]["width"] = d["render"]["height"] = 64
+d["render"]["seed"] = int(sys.argv[3])
+json.dump(d, open(sys.argv[2], "w"))
+PY
+}
+post_small() { # NODE N: the new job's id
+    small "$2"
+    curl -s -m 30 "${JSON[@]}" --data-binary @"$T/small$2.json" "${NODE_URL[$1]}/v1/jobs" |
+        python3 -c 'import json,sys; print(json.load(sys.stdin).get("id", ""))'
+}
+LIM=(--threads 1 --cluster-tile 64 --redis-claim-ms 1500 --redis "$REDIS_URL")
+RAYD_TEST_VERSION=9.9.7-limits start_node 16 "${LIM[@]}" --test-gate 0
+HELD=$(post_small 16 1)
+wait_until 30 holds 16 1
+RAYD_TEST_VERSION=9.9.7-limits start_node 17 "${LIM[@]}" --test-gate open --max-work 1000
+LID=$(post_small 16 2) # admitted by node 16, whose limits it is within
+wait_until 30 grep -q "job $LID frame 0 tile 0 failed here (attempt 1 of 3), left for another node" "$T/node17.err"
+check limited_tile_left "node 17: $(grep "job $LID" "$T/node17.err" | tail -n 2)" \
+    grep -q "job $LID frame 0 tile 0 failed here (attempt 1 of 3), left for another node" "$T/node17.err"
+kill -KILL "${NODE_PID[17]}"
+wait "${NODE_PID[17]}" 2>/dev/null
+gate_node 16 open
+wait_until 30 succeeded 16 "$LID"
+check limited_tile_rendered_elsewhere "state: $(job_state "${NODE_URL[16]}" "$LID")" succeeded 16 "$LID"
+curl -s -m 30 -o "$T/limited.png" "${NODE_URL[16]}/v1/jobs/$LID/image.png"
+"$RENDER" "$T/small2.json" -o "$T/ref_small.png" 2>/dev/null
+check limited_tile_byte_identical "the image differs from rayd-render's" cmp -s "$T/limited.png" "$T/ref_small.png"
+check limited_first_job_too "state: $(job_state "${NODE_URL[16]}" "$HELD")" succeeded 16 "$HELD"
+
+gate_node 16 0
+HELD=$(post_small 16 3)
+wait_until 30 holds 16 1
+RAYD_TEST_VERSION=9.9.7-limits start_node 18 "${LIM[@]}" --test-gate open --max-work 1000
+FID=$(post_small 16 4)
+failed_job() { curl -s "${NODE_URL[16]}/v1/jobs/$FID" | grep -q '"state":"failed"'; }
+wait_until 60 failed_job
+curl -s "${NODE_URL[16]}/v1/jobs/$FID" >"$T/failed.json"
 check failed_job_error "$(head -c 400 "$T/failed.json")" python3 -c '
 import json, sys
 d = json.load(open(sys.argv[1]))
 e = d.get("error", {})
-sys.exit(0 if d["state"] == "failed" and e.get("code") == "too_large" and "tile" in e.get("message", "") else 1)' "$T/failed.json"
-code=$(curl -s -o "$T/failed_img.json" -w '%{http_code}' "${NODE_URL[2]}/v1/jobs/$FID/image.png")
+sys.exit(0 if d["state"] == "failed" and e.get("code") == "too_large" and
+         e.get("message", "").startswith("frame 0, tile 0 failed after 3 attempts: ") else 1)' "$T/failed.json"
+check failed_job_tried_three_times "node 18: $(grep -c "job $FID frame 0 tile 0 failed here" "$T/node18.err") failures left, $(grep -c 'left again for another node' "$T/node18.err") take-backs left" \
+    bash -c "[ \$(grep -c 'job $FID frame 0 tile 0 failed here' '$T/node18.err') = 2 ] && [ \$(grep -c 'left again for another node' '$T/node18.err') = 4 ]"
+code=$(curl -s -o "$T/failed_img.json" -w '%{http_code}' "${NODE_URL[16]}/v1/jobs/$FID/image.png")
 check failed_job_image_409 "image.png gave $code: $(head -c 200 "$T/failed_img.json")" bash -c "[ $code = 409 ] && grep -q job_failed '$T/failed_img.json'"
-for i in 2 3 5 6; do gate_node $i open; done
-wait_until 50 bash -c "[ \$(curl -s '${NODE_URL[2]}/metrics' | awk '\$1 == \"rayd_cluster_items_queued\" {print \$2}') = 0 ]"
-check failed_job_items_dropped "items queued: $(metric 2 rayd_cluster_items_queued)" [ "$(metric 2 rayd_cluster_items_queued)" = 0 ]
+gate_node 16 open
+wait_until 30 succeeded 16 "$HELD"
+queued_none() { [ "$(metric 16 rayd_cluster_items_queued)" = 0 ]; }
+wait_until 30 queued_none
+check failed_job_items_dropped "items queued: $(metric 16 rayd_cluster_items_queued)" queued_none
+for i in 16 18; do kill -KILL "${NODE_PID[$i]}"; wait "${NODE_PID[$i]}" 2>/dev/null; done
 
 # --- kill -9 the node making a frame range's video: another node makes it --------------------
 # Nodes of a version of their own (so only they take these jobs), one thread each: node 12 holds
@@ -218,7 +267,7 @@ check video_taken_over "video.mp4: $probe; node 12: $(grep -c "job $VID: its vid
     bash -c "[ '$probe' = 'h264,320,180,yuv420p,24/1,2' ] && grep -q 'took over item .* (job $VID frame 3 tile -2)' '$T/node12.err'"
 kill -KILL "${NODE_PID[12]}"
 
-for i in 2 3 5 6 7; do
+for i in 2 3 5 6; do
     kill -0 "${NODE_PID[$i]}" 2>/dev/null || fail "node_${i}_alive" "node $i died: $(tail -n 3 "$T/node$i.err")"
 done
 pass nodes_alive
@@ -227,7 +276,7 @@ pass nodes_alive
 # node 14 holds one item and dies; node 13 (one worker) is kept busy by the gate, one tile at a
 # time, each freed slot filled at once.  Its reclaim ran only on a tick that found a free slot,
 # so it took the dead node's item last, when nothing was left to pull.
-for i in 2 3 5 6 7; do kill -KILL "${NODE_PID[$i]}" 2>/dev/null; wait "${NODE_PID[$i]}" 2>/dev/null; done
+for i in 2 3 5 6; do kill -KILL "${NODE_PID[$i]}" 2>/dev/null; wait "${NODE_PID[$i]}" 2>/dev/null; done
 BUSY=(--threads 1 --cluster-tile 64 --redis-claim-ms 1500 --test-gate 0 --redis "$REDIS_URL")
 start_node 13 "${BUSY[@]}"
 BID=$(post_job 13 'x=0&y=0&w=256&h=192') # 12 tiles
