@@ -28,7 +28,8 @@
  * The progress: on a terminal the bar of progress.c, in frames; else one
  * line per frame written, "frame K -> FILE (frames D/N, ETA 1m05s)", with the
  * server's eta_s when polled, else the pace of the frames so far.  A failed job's frames done are
- * still written; then its error, which names the failed frames, is printed and we exit 1.
+ * still written; then its error, which names the failed frames (and the value at fault by its
+ * JSON Pointer, when it has one), is printed and we exit 1.
  *
  * --video: once every frame is written, GET /v1/jobs/{id}/video.mp4,
  * which answers 202 while ffmpeg makes it; we ask again each second, for
@@ -161,14 +162,18 @@ static double job_frames_num(const cJSON *o, const char *k1, const char *k2, dou
     return cJSON_IsNumber(v) ? v->valuedouble : def;
 }
 
-/* The job's end when it is not "succeeded": said; 1. */
+/* The job's end when it is not "succeeded": said, with the error's JSON
+ * Pointer when it has one (" at /objects/0/source/file", as net_describe
+ * says an answer's); 1. */
 static int job_frames_ended(struct job_frames *j, const cJSON *job, const char *state) {
     const cJSON *e = cJSON_GetObjectItemCaseSensitive(job, "error");
     const char *msg = cJSON_IsString(e) ? e->valuestring : net_json_str(e, "message");
-    char safe[600], st[64];
+    const char *path = net_json_str(e, "path");
+    char safe[600], st[64], where[300] = "", sp[240];
+    if (path && *path) snprintf(where, sizeof where, " at %s", net_safe(path, sp, sizeof sp));
     progress_end(&j->prog);
-    fprintf(stderr, "rayd-client: error: job %s %s%s%s (%ld of %ld frames written)\n", j->id,
-            net_safe(state, st, sizeof st), msg ? ": " : "",
+    fprintf(stderr, "rayd-client: error: job %s %s%s%s%s (%ld of %ld frames written)\n", j->id,
+            net_safe(state, st, sizeof st), where, msg ? ": " : "",
             msg ? net_safe(msg, safe, sizeof safe) : "", j->ngot, j->last - j->first + 1);
     return 1;
 }

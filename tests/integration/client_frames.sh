@@ -7,7 +7,7 @@
 # lines when stderr is no terminal, the bar when it is one; the usage errors (exit 2, nothing
 # sent): an -o without %d, a bad pattern, frames outside the animation, a
 # still scene, a bad --video; a failed job exits 1 with the server's error
-# naming the frame; Ctrl-C cancels the job and exits 130; a hostile server
+# naming the frame (and the value at fault by its JSON Pointer); Ctrl-C cancels the job and exits 130; a hostile server
 # (a job that lies, frames of another size, escapes) is checked, not trusted.
 source "$(dirname "$0")/lib/common.sh"
 CLIENT=$RAYD_BUILD/rayd-client
@@ -215,11 +215,14 @@ class H(http.server.BaseHTTPRequestHandler):
             return self.send(200, png(8, 8), "image/png")
         if self.path.endswith(".png"):
             return self.send(409, b'{"error":{"status":409,"code":"frame_not_ready","message":"no"}}')
-        state = "failed" if MODE == "evil_error" else "succeeded"
+        state = "failed" if MODE in ("evil_error", "pointer") else "succeeded"
         if (MODE == "stream" and not streamed) or MODE == "slow_delete":
             state = "running"  # only the event stream says the frames are done; or never
         j = {"id": ID, "state": state, "frames": {"done": 1e300 if MODE == "lie" else 4}, "eta_s": -5,
              "error": {"code": "frame_failed", "message": "frame 3 \x1b]0;pwned\x07\x1b[2J failed"}}
+        if MODE == "pointer":  # a frame's own scene error, its value named by a JSON Pointer
+            j["error"] = {"code": "invalid_scene", "path": "/lights/0/keyframes",
+                          "message": "frame 3 failed after 1 attempt: at frame 3, intensity: must be >= 0"}
         self.send(200, json.dumps(j).encode())
 socketserver.TCPServer.allow_reuse_address = True
 s = socketserver.TCPServer(("127.0.0.1", 0), H)
@@ -234,7 +237,7 @@ fake() { # fake MODE: a fake server answering in MODE; its URL in FAKE
     wait_until 30 test -s "$T/fake.port"
     FAKE="http://127.0.0.1:$(head -1 "$T/fake.port")"
 }
-for mode in lie wrong_size evil_error stream; do
+for mode in lie wrong_size evil_error pointer stream; do
     fake "$mode"
     mkdir "$T/u-$mode"
     timeout 60 "$CLIENT" job "$T/anim.json" -o "$T/u-$mode/h-%d.png" --frames 3-6 --server "$FAKE" \
@@ -257,6 +260,10 @@ check frames_follow_events "exit $(cat "$T/u-stream.rc"): $(cat "$T/u-stream.err
 check untrusted_escapes "exit $(cat "$T/u-evil_error.rc"): $(cat -v "$T/u-evil_error.err")" eval \
     '[ "$(cat "$T/u-evil_error.rc")" = 1 ] && grep -qF "failed: frame 3 \x1b]0;pwned\x07" "$T/u-evil_error.err" &&
      ! grep -q $'"'"'\x1b'"'"' "$T/u-evil_error.err"'
+# the failed job's error names its value by the JSON Pointer, as an answer's error does
+# ("HTTP 422 invalid_scene at /lights/0/keyframes: ..."); before, the message alone
+check failed_job_pointer "exit $(cat "$T/u-pointer.rc"): $(cat "$T/u-pointer.err")" eval \
+    '[ "$(cat "$T/u-pointer.rc")" = 1 ] && grep -qx "rayd-client: error: job 0123456789abcdef0123456789abcdef failed at /lights/0/keyframes: frame 3 failed after 1 attempt: at frame 3, intensity: must be >= 0 (0 of 4 frames written)" "$T/u-pointer.err"'
 
 # ---- Ctrl-C delivered twice (timeout, a terminal's group): the DELETE still goes out --------
 # The second signal, while the DELETE waited for its answer, used to cut it off: "may go on: its
