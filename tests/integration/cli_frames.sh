@@ -2,7 +2,8 @@
 # cli_frames.sh -- rayd-render on animated scenes: --frame, --frames A-B
 # with an -o pattern, --video (read back with ffprobe: codec, frame count,
 # size, rate), frame k the same bytes on any thread count, tiling or range,
-# and the command line's mistakes (exit 2, one line naming them).
+# a video stopped by a signal leaving no part file, and the command line's
+# mistakes (exit 2, one line naming them).
 set -u
 cd "$RAYD_ROOT"
 R="$RAYD_BUILD/rayd-render"
@@ -154,6 +155,31 @@ else
     WHY="exit $?: $(tr '\n' '|' <"$T/err"); victim: $(head -c 40 "$T/victim" | tr -d '\0')"
     check video_part_not_through_link bash -c '[ "$(cat "$0/victim")" = untouched ] && [ -s "$0/planted.mp4" ] &&
         [ ! -L "$0/planted.mp4" ]' "$T"
+    # SIGTERM (a service manager, timeout(1)) or SIGHUP in the middle of a video: ffmpeg is
+    # killed and waited for, the part file removed, and the exit status the signal's.  Before,
+    # only a run that failed removed it: one stopped so left FILE.PID.part.mp4 behind.
+    python3 - "$T/anim.json" "$T/long.json" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1]))
+s["animation"]["end"] = 2000  # frames for minutes: the run is stopped long before
+s["render"].update(width=128, height=96, samples=64)
+json.dump(s, open(sys.argv[2], "w"))
+PY
+    for sig in TERM HUP; do
+        mkdir "$T/sig-$sig"
+        "$R" "$T/long.json" --video "$T/sig-$sig/v.mp4" --threads 1 2>"$T/sig-$sig.err" &
+        pid=$!
+        for _ in $(seq 1200); do grep -q '^frame 2: ' "$T/sig-$sig.err" && break; sleep 0.1; done
+        ffpid=$(tr -d ' ' <"/proc/$pid/task/$pid/children" 2>/dev/null) # its one child
+        before=$(ls "$T/sig-$sig")
+        kill "-$sig" "$pid"
+        wait "$pid" 2>/dev/null # the shell's "Hangup" is no failure
+        rc=$?
+        WHY="exit $rc, ffmpeg $ffpid, before: $before, after: $(ls "$T/sig-$sig"); $(tail -2 "$T/sig-$sig.err" | tr '\n' '|')"
+        check "video_sig${sig}_removes_part" bash -c '[ "$0" = $((128 + $(kill -l "$1"))) ] &&
+            [[ "$2" == v.mp4.*.part.mp4 ]] && [ -z "$(ls "$3")" ] && [ -n "$4" ] && [ ! -e "/proc/$4" ]' \
+            "$rc" "$sig" "$before" "$T/sig-$sig" "$ffpid"
+    done
     # no ffmpeg on the PATH: exit 1, said
     PATH=/nonexistent "$R" "$T/anim.json" --video "$T/none.mp4" -q 2>"$T/err"
     rc=$?
