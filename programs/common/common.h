@@ -78,9 +78,11 @@ struct output {
 };
 
 /* A new temporary file beside target, *tmp its name (malloc'd, the
- * caller's even on failure): TARGET.PID.partEXT, O_EXCL so never one
- * another run is writing nor a link planted at the name; mode as the file
- * it replaces (old), else 0666 less the umask.  The fd, or -1 with errno. */
+ * caller's): TARGET.PID.partEXT, O_EXCL so never one another run is
+ * writing nor a link planted at the name; mode as the file it replaces
+ * (old), else 0666 less the umask.  The fd, or -1 with errno and *tmp
+ * NULL (EEXIST: the hundred names tried are all taken), so a caller that
+ * removes *tmp removes only a file it made. */
 int output_part(const char *target, const char *ext, const struct stat *old, char **tmp);
 /* Opens path for writing ("-": standard output).  0, or -1 with errno. */
 int output_open(struct output *o, const char *path);

@@ -43,13 +43,18 @@ int output_part(const char *target, const char *ext, const struct stat *old, cha
         if (fd >= 0 && old && fchmod(fd, old->st_mode & 07777) != 0) {
             int e = errno;
             close(fd);
-            unlink(*tmp);
+            unlink(*tmp); /* ours: made just now */
             errno = e;
-            return -1;
+            break;
         }
-        if (fd >= 0 || errno != EEXIST) return fd;
-    }
-    return -1; /* EEXIST a hundred times: said as such */
+        if (fd >= 0) return fd;
+        if (errno != EEXIST) break;
+    } /* or EEXIST a hundred times: said as such */
+    int e = errno;
+    free(*tmp);
+    *tmp = NULL;
+    errno = e;
+    return -1;
 }
 
 /* path, or the regular file it names through symbolic links, into
@@ -95,7 +100,7 @@ int output_open(struct output *o, const char *path) {
     } else {
         char *tmp = NULL;
         fd = output_part(o->target, "", exists ? &old : NULL, &tmp);
-        o->tmp = tmp; /* output_abort's to remove and free, whatever came */
+        o->tmp = tmp; /* ours, for output_abort to remove; NULL when none was made */
     }
     if (fd < 0) goto fail;
     if (!(o->f = fdopen(fd, "wb"))) {

@@ -90,10 +90,7 @@ static int video_temp(const char *path, char **tmp) {
         close(fd);
         return 0;
     }
-    int e = errno;
-    free(*tmp);
-    *tmp = NULL;
-    return render_one_cannot_write(path, e);
+    return render_one_cannot_write(path, errno); /* *tmp is NULL */
 }
 
 /* The signals that would end rayd-render with the part file left, what

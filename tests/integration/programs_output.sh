@@ -10,7 +10,8 @@
 # SIGXFSZ ignored, the write past the limit fails with EFBIG, as on a full
 # disk; with SIGXFSZ left alone, the kernel kills the program at that write.
 # A replaced file keeps its permission bits, a symbolic link stays a link
-# (to the new image), and a FIFO is written in place, not replaced.
+# (to the new image), and a FIFO is written in place, not replaced.  When
+# every temporary name is taken the run fails and removes none of them.
 source "$(dirname "$0")/lib/common.sh"
 
 CLIENT=$RAYD_BUILD/rayd-client
@@ -110,6 +111,18 @@ failed_write render_png rayd-render "$T/r/out.png" "$RENDER" "$T/s.json" -o "$T/
 failed_write render_exr rayd-render "$T/r/out.exr" "$RENDER" "$T/s.json" -o "$T/r/out.exr" -q
 killed_write render_png "$T/r/out.png" "$RENDER" "$T/s.json" -o "$T/r/out.png" -q
 replaced render "$T/r/link.png" "$RENDER" "$T/s.json" -o "$T/r/link.png" -q
+
+# --- every temporary name taken: refused, and none of them removed -----------
+# The shell that execs rayd-render has its PID, so OUT.PID.part and OUT.PID-1..99.part
+# (the hundred names output_part tries) are made first, as another run's files.  The
+# run fails with EEXIST and the hundred stay; before, the last name tried was removed.
+mkdir -p "$T/taken"
+bash -c 'for i in "" $(seq -f -%g 1 99); do echo other >"$1/out.png.$$$i.part"; done
+    exec "$0" "$2" -o "$1/out.png" -q' "$RENDER" "$T/taken" "$T/s.json" >"$T/out" 2>"$T/err"
+RC=$?
+check render_part_names_taken "exit $RC, $(says), $(ls "$T/taken" | grep -c 'part$') of 100 left" \
+    bash -c "[ $RC = 1 ] && grep -q '^rayd-render: error: cannot write $T/taken/out.png: File exists' '$T/err' &&
+        [ \"\$(grep -lx other '$T/taken'/out.png.*.part | wc -l)\" = 100 ] && [ ! -e '$T/taken/out.png' ]"
 
 # --- rayd-client: render (tiles) and job -------------------------------------
 start_rayd --threads 2
