@@ -13,6 +13,7 @@
 # waits and its job goes on.  The test gate holds the frames so the states
 # in between are seen on any machine.
 source "$(dirname "$0")/lib/common.sh"
+source "$(dirname "$0")/lib/gone_scene.sh"
 
 cp "$RAYD_ROOT/tests/integration/lib/anim.json" "$T/anim.json" # frames 2-9, 48x32
 scene "$T/still.json" 32 32 1 spheres 3
@@ -274,8 +275,7 @@ check rayd_alive "rayd died: $(tail -3 "$T/rayd.err")" kill -0 "$RAYD_PID"
 # takes no place under --max-jobs; the frames around the dip are jobs of their own.
 stop_rayd
 A=$T/assets
-mkdir -p "$A"
-printf 'v -1 0 -1\nv 1 0 -1\nv 0 1 0\nf 1 2 3\n' >"$A/tri.obj"
+gone_scene "$A" "$T/gone.json" # and $A/tri.obj, the mesh it names
 start_rayd --threads 1 --max-jobs 2 --asset-dir "$A" --test-gate 0
 cat >"$T/dip.json" <<'JSON'
 {"animation": {"end": 30}, "render": {"width": 4, "height": 4},
@@ -296,14 +296,7 @@ check invalid_frames_around_are_jobs "$code $(cat "$T/body")" eval '[ "$code" = 
 req DELETE "/v1/jobs/$(jfield "$T/body" id)" >/dev/null
 
 # A frame whose parse fails at every attempt still fails its job at once, naming it:
-# the mesh file is taken away while frame 0 is held at the gate.
-cat >"$T/gone.json" <<'JSON'
-{"animation": {"end": 3}, "render": {"width": 4, "height": 4},
- "camera": {"position": [0, 0.5, 4], "look_at": [0, 0.5, 0]},
- "lights": [{"type": "point", "position": [0, 5, 5]}],
- "objects": [{"type": "mesh", "source": {"file": "tri.obj"},
-              "keyframes": [{"frame": 0, "rotate": [0, 0, 0]}, {"frame": 3, "rotate": [0, 90, 0]}]}]}
-JSON
+# the mesh file is taken away while frame 0 is held at the gate (lib/gone_scene.sh).
 code=$(post_json /v1/jobs "$T/gone.json")
 gone=$(jfield "$T/body" id)
 wait_until 30 gate_is held 1

@@ -9,6 +9,7 @@
 # before (from their files), the others are queued again and render to
 # the bytes rayd-render --frame K gives, and no temporary file is left.
 source "$(dirname "$0")/lib/common.sh"
+source "$(dirname "$0")/lib/gone_scene.sh"
 
 D=$T/data
 cat >"$T/anim.json" <<'EOF'
@@ -219,15 +220,7 @@ check unreadable_frame_logged "$(tail -n 2 "$T/rayd.err")" \
 # (before: "frame 1 failed after 3 attempts: frame 1 failed after 1 attempt: ...")
 stop_rayd
 A=$T/assets
-mkdir -p "$A"
-printf 'v -1 0 -1\nv 1 0 -1\nv 0 1 0\nf 1 2 3\n' >"$A/tri.obj"
-cat >"$T/gone.json" <<'JSON'
-{"animation": {"end": 3}, "render": {"width": 4, "height": 4},
- "camera": {"position": [0, 0.5, 4], "look_at": [0, 0.5, 0]},
- "lights": [{"type": "point", "position": [0, 5, 5]}],
- "objects": [{"type": "mesh", "source": {"file": "tri.obj"},
-              "keyframes": [{"frame": 0, "rotate": [0, 0, 0]}, {"frame": 3, "rotate": [0, 90, 0]}]}]}
-JSON
+gone_scene "$A" "$T/gone.json" # and $A/tri.obj, the mesh it names
 start_rayd --threads 1 --test-gate 0 --data-dir "$D" --asset-dir "$A"
 post_json /v1/jobs "$T/gone.json" >/dev/null
 gone=$(jfield "$T/body" id)
