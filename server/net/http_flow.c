@@ -121,6 +121,7 @@ static long long http_flow_length(const char *cl) {
 
 struct http_flow_framing {
     int nlength, nte, nhost;
+    int ntype, ncoding;               /* Content-Type, Content-Encoding: one each at most */
     long long length;                 /* the first Content-Length, -2 malformed */
     bool differ;                      /* two Content-Length headers that disagree */
     const char *te;                   /* the first Transfer-Encoding */
@@ -172,6 +173,10 @@ static void http_flow_framing_cb(void *u, const char *k, const char *v) {
         if (f->nte++ == 0) f->te = v;
     } else if (!strcasecmp(k, MHD_HTTP_HEADER_HOST)) {
         f->nhost++;
+    } else if (!strcasecmp(k, MHD_HTTP_HEADER_CONTENT_TYPE)) {
+        f->ntype++;
+    } else if (!strcasecmp(k, MHD_HTTP_HEADER_CONTENT_ENCODING)) {
+        f->ncoding++;
     }
 }
 
@@ -322,10 +327,15 @@ bool http_flow_begin(struct http_req *r) {
      * refuse it rather than guess (RFC 9112 section 6.3) */
     char te_why[160];
     unsigned te = f.nte == 1 ? http_flow_te_refusal(f.te, te_why, sizeof te_why) : 0;
-    if (f.differ || f.length == -2 || (f.nlength && f.nte) || f.nte > 1 || f.nhost > 1 || te) {
+    /* the handlers read the first Content-Type and Content-Encoding; a
+     * proxy that joins repeated ones would read "identity, gzip" */
+    if (f.differ || f.length == -2 || (f.nlength && f.nte) || f.nte > 1 || f.nhost > 1 || te ||
+        f.ntype > 1 || f.ncoding > 1) {
         const char *why = f.nte && f.nlength ? "both Transfer-Encoding and Content-Length"
                           : f.nte > 1        ? "more than one Transfer-Encoding header"
                           : f.nhost > 1      ? "more than one Host header"
+                          : f.ntype > 1      ? "more than one Content-Type header"
+                          : f.ncoding > 1    ? "more than one Content-Encoding header"
                           : te               ? te_why
                                              : "malformed or conflicting Content-Length";
         bool coding = why == te_why && te == 501;

@@ -156,6 +156,11 @@ smuggle("chunk-size-junk", POST + "Transfer-Encoding: chunked\r\n\r\n", 400,
         b"5x\r\nhello\r\n0\r\n\r\nHIDDEN")
 smuggle("chunk-size-overflow", POST + "Transfer-Encoding: chunked\r\n\r\n", 413,
         b"1ffffffffffffffff\r\nHIDDEN\r\n0\r\n\r\n")
+# repeated Content-Type or Content-Encoding: rayd read the first, a proxy
+# joining them reads "identity, gzip" (400, like a repeated Host)
+smuggle("ct-twice", POST + "Content-Type: text/plain\r\nContent-Length: LEN\r\n\r\n", 400)
+smuggle("ce-twice", POST + "Content-Encoding: identity\r\nContent-Encoding: gzip\r\n"
+        "Content-Length: LEN\r\n\r\n", 400)
 # Expect other than 100-continue: 417 before the body, which is never read
 smuggle("expect-unknown", POST + "Expect: foo\r\nContent-Length: LEN\r\n\r\n", 417)
 
