@@ -28,7 +28,9 @@
  * reservation does not fit, jobs_reclaim lets go of one thing at a time,
  * the cheapest first -- the result cache's least recently used PNG, a
  * compiled scene nobody renders, then the images of the finished job that
- * finished first.  Such a job keeps its numbers and says "evicted" (its
+ * finished first: the admitting client's own, else of a client that keeps
+ * more of them than it has jobs (struct jobs_whose).  Such a job keeps its
+ * numbers and says "evicted" (its
  * image answers 410 result_evicted), so a client knows to render again
  * rather than think its id wrong.
  *
@@ -91,40 +93,111 @@ static bool jobs_all_stored(const struct task *t) {
 static size_t jobs_evict_result(struct job *j, const char *why);
 static bool jobs_evict_job(struct job *victim);
 
-/* The finished job that finished first and keeps an image, of client
- * only when own, else anyone's; NULL when none. */
-static struct job *jobs_oldest_kept(bool own, uint64_t client) {
+/* Whose images a reservation may let go of.  First the admitting
+ * client's own (own).  Then, for a reservation of no client's, anyone's;
+ * for a client's, only a client's that keeps more finished images (jobs and
+ * frame-range jobs that keep one) than the admitting client has jobs in all
+ * (rule): a client whose own jobs hold the memory, queued or running with
+ * nothing finished to let go, is refused 503 memory_full rather than take
+ * the image of a client that keeps fewer -- one client's 4096x4096 EXR jobs
+ * made another's only image, 11 s old, 410 result_evicted.  A client that
+ * keeps many images still makes room for a newcomer's job. */
+struct jobs_whose {
+    bool own, rule;
+    uint64_t client;
+    int mine;          /* the admitting client's jobs, all */
+    uint64_t *keepers; /* sorted: an owner once for each job that keeps an image */
+    int nkeepers;
+};
+
+static bool jobs_keeps(const struct job *j) {
+    const struct task *t = j->task;
+    bool keeps = t->png || t->exr || (t->passes && t->passes->done);
+    return t->finished && t->status == RAYD_OK && !t->evicted && keeps;
+}
+
+static int jobs_cmp_owner(const void *a, const void *b) {
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* How many entries of the sorted keepers are owner's. */
+static int jobs_kept_by(const struct jobs_whose *w, uint64_t owner) {
+    int lo = 0, hi = w->nkeepers;
+    while (lo < hi) { /* the first entry >= owner */
+        int mid = lo + (hi - lo) / 2;
+        if (w->keepers[mid] < owner)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    int n = 0;
+    while (lo + n < w->nkeepers && w->keepers[lo + n] == owner) n++;
+    return n;
+}
+
+bool jobs_whose_may(const struct jobs_whose *w, uint64_t owner) {
+    if (w->own) return owner == w->client;
+    if (!w->rule) return true;
+    return owner != w->client && jobs_kept_by(w, owner) > w->mine;
+}
+
+static void jobs_whose_add(void *u, uint64_t owner, bool keeps) {
+    struct jobs_whose *w = u;
+    w->mine += owner == w->client;
+    if (keeps) w->keepers[w->nkeepers++] = owner;
+}
+
+/* w's counts for its rule; false when there is no memory for them. */
+static bool jobs_whose_load(struct jobs_whose *w) {
+    long shots = jobs_shots.each ? jobs_max : 0; /* the frame-range jobs: as many at most */
+    w->keepers = malloc(sizeof *w->keepers * (size_t)(jobs_n + shots + 1));
+    if (!w->keepers) return false;
+    for (int i = 0; i < jobs_n; i++)
+        jobs_whose_add(w, jobs_table[i]->client, jobs_keeps(jobs_table[i]));
+    if (jobs_shots.each) jobs_shots.each(jobs_whose_add, w);
+    qsort(w->keepers, (size_t)w->nkeepers, sizeof *w->keepers, jobs_cmp_owner);
+    return true;
+}
+
+/* The finished job of an owner w allows that finished first and keeps an
+ * image; NULL when none. */
+static struct job *jobs_oldest_kept(const struct jobs_whose *w) {
     struct job *victim = NULL;
     for (int i = 0; i < jobs_n; i++) {
         struct job *j = jobs_table[i];
-        struct task *t = j->task;
-        bool keeps = t->png || t->exr || (t->passes && t->passes->done);
-        if (t->finished && t->status == RAYD_OK && !t->evicted && keeps &&
-            (!own || j->client == client) && (!victim || t->t_end < victim->task->t_end))
+        if (jobs_keeps(j) && (!victim || j->task->t_end < victim->task->t_end) &&
+            jobs_whose_may(w, j->client))
             victim = j;
     }
     return victim;
 }
 
-/* Lets go of the images of the finished job that finished first (of the
- * task it shares with any other job): its jobs become "evicted" and answer
- * 410 result_evicted (jobs_evict_result) -- or, when a finished frame-range
- * job ended before it, of that job's oldest frame kept (shots.c).  A
- * render's admission lets go of its own client's first: one client's
- * flood of 1024x1024 EXR jobs made another's finished image 410 after six
- * jobs.  false when no finished job keeps an image. */
+/* Lets go of the oldest image of an owner w allows: a finished job's (of
+ * the task it shares with any other job: its jobs become "evicted" and
+ * answer 410 result_evicted, jobs_evict_result) or, when a finished
+ * frame-range job ended before it, that job's oldest frame kept (shots.c).
+ * false when none keeps one. */
+static bool jobs_evict_whose(const struct jobs_whose *w) {
+    struct job *victim = jobs_oldest_kept(w);
+    double shot_end = jobs_shots.oldest_end ? jobs_shots.oldest_end(w) : -1;
+    if (shot_end >= 0 && (!victim || shot_end < victim->task->t_end) && jobs_shots.evict_oldest(w))
+        return true;
+    return victim && jobs_evict_job(victim);
+}
+
+/* One image let go for the budget, whose as struct jobs_whose says. */
 static bool jobs_evict_oldest(void) {
-    uint64_t client;
-    bool own = budget_admitting(&client);
-    for (int pass = own ? 0 : 1; pass < 2; pass++) { /* the client's own, then anyone's */
-        struct job *victim = jobs_oldest_kept(pass == 0, client);
-        double shot_end = jobs_shots.oldest_end ? jobs_shots.oldest_end(pass == 0, client) : -1;
-        if (shot_end >= 0 && (!victim || shot_end < victim->task->t_end) &&
-            jobs_shots.evict_oldest(pass == 0, client))
-            return true;
-        if (victim) return jobs_evict_job(victim);
-    }
-    return false;
+    struct jobs_whose w = {0};
+    bool admitting = budget_admitting(&w.client);
+    w.own = admitting;
+    if (admitting && jobs_evict_whose(&w)) return true;
+    w.own = false;
+    w.rule = admitting;
+    if (w.rule && !jobs_whose_load(&w)) return false;
+    bool freed = jobs_evict_whose(&w);
+    free(w.keepers);
+    return freed;
 }
 
 /* Lets go of victim's images (only from memory when they are on disk). */

@@ -548,27 +548,40 @@ static double shots_kept_since(const struct shot *s) {
     return s->video && s->video_used > shots_ended(s) ? s->video_used : shots_ended(s);
 }
 
-/* The finished shot that keeps a frame or its video, kept the longest. */
-static struct shot *shots_oldest_kept(bool own, uint64_t client) {
+/* Whether s is finished and keeps a frame or its video the budget may
+ * let go of. */
+static bool shots_let_goable(const struct shot *s) {
+    return shots_final(s) && s->flying == 0 && shots_keeps(s);
+}
+
+/* The finished shot of an owner w allows that keeps a frame or its video,
+ * kept the longest. */
+static struct shot *shots_oldest_kept(const struct jobs_whose *w) {
     struct shot *best = NULL;
     for (int i = 0; i < shots_n; i++) {
         struct shot *s = shots_table[i];
-        if (shots_final(s) && s->flying == 0 && (!own || s->client == client) &&
-            (!best || shots_kept_since(s) < shots_kept_since(best)) && shots_keeps(s))
+        if ((!best || shots_kept_since(s) < shots_kept_since(best)) && shots_let_goable(s) &&
+            jobs_whose_may(w, s->client))
             best = s;
     }
     return best;
 }
 
-static double shots_oldest_end(bool own, uint64_t client) {
+static double shots_oldest_end(const struct jobs_whose *w) {
     work_assert_locked();
-    struct shot *s = shots_oldest_kept(own, client);
+    struct shot *s = shots_oldest_kept(w);
     return s ? shots_kept_since(s) : -1;
 }
 
-static bool shots_evict_oldest(bool own, uint64_t client) {
+static void shots_each(void (*fn)(void *u, uint64_t owner, bool keeps), void *u) {
     work_assert_locked();
-    struct shot *s = shots_oldest_kept(own, client);
+    for (int i = 0; i < shots_n; i++)
+        fn(u, shots_table[i]->client, shots_let_goable(shots_table[i]));
+}
+
+static bool shots_evict_oldest(const struct jobs_whose *w) {
+    work_assert_locked();
+    struct shot *s = shots_oldest_kept(w);
     for (int c = 0; s && !store_on() && c < s->norder; c++) { /* its frames as they ended */
         int i = s->order[c];
         if (s->f[i].png || s->f[i].exr) {
@@ -613,8 +626,8 @@ static struct work_waiter **shots_streams(int i);
 static bool shots_unwait(struct work_waiter *w, struct task_notify *gone);
 
 bool shots_start(int max_jobs) {
-    static const struct jobs_shots hooks = {shots_oldest_end, shots_evict_oldest, shots_unfinished,
-                                            shots_unfinished_of};
+    static const struct jobs_shots hooks = {shots_oldest_end, shots_evict_oldest, shots_each,
+                                            shots_unfinished, shots_unfinished_of};
     store_frame_hooks(shots_written, shots_disk_evicted);
     jobs_shots_hooks(&hooks);
     watch_streams_hooks(shots_streams, shots_unwait, shots_kick);

@@ -579,10 +579,15 @@ void jobs_expire(double now);
  * ended first and keeps a frame in memory ended (clock_now's clock; -1:
  * none), and its oldest frame let go (410 result_evicted; false: none) for
  * the memory budget; how many are unfinished (--max-jobs). */
-/* oldest_end and evict_oldest: of client's shots only when own */
+/* Whose kept images the budget may let go of (jobs.c decides, lock held). */
+struct jobs_whose;
+bool jobs_whose_may(const struct jobs_whose *w, uint64_t owner);
+/* oldest_end and evict_oldest: of the owners w allows; each: fn called
+ * with every frame-range job's owner and whether it keeps an image. */
 struct jobs_shots {
-    double (*oldest_end)(bool own, uint64_t client);
-    bool (*evict_oldest)(bool own, uint64_t client);
+    double (*oldest_end)(const struct jobs_whose *w);
+    bool (*evict_oldest)(const struct jobs_whose *w);
+    void (*each)(void (*fn)(void *u, uint64_t owner, bool keeps), void *u);
     long (*unfinished)(void);
     long (*unfinished_of)(uint64_t client);
 };

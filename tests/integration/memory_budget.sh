@@ -290,6 +290,30 @@ check flood_keeps_others_image "victim: $(req GET "/v1/jobs/$victim/image.exr")"
     eval '[ "$(req GET "/v1/jobs/$victim/image.exr")" = 200 ]'
 check flood_within_budget "total $(memory_total)" eval '[ "$(memory_total)" -le "$LIMIT" ]'
 stop_rayd
+
+# --- a client whose queued jobs hold the memory does not take another's image ------------------
+# With nothing finished of its own, a client's new jobs let go of the oldest finished image
+# whoever's it was: another client's only image, seconds old, answered 410.  Now they are
+# refused 503 memory_full while the other client keeps fewer images than they have jobs.
+start_rayd --max-memory 16M --threads 1 --client-header X-Client --test-gate open
+scene "$T/only.json" 512 512 1 spheres 201
+post_json '/v1/jobs?format=exr' "$T/only.json" -H 'X-Client: b' >/dev/null
+only=$(jfield "$T/body" id)
+wait_until 60 job_state_is "$only" succeeded
+gate 0 # a's jobs stay queued, each holding its frame's memory
+held=0 code=
+for i in $(seq 1 12); do
+    scene "$T/hold$i.json" 512 512 1 spheres "$((300 + i))"
+    code=$(post_json '/v1/jobs?format=exr' "$T/hold$i.json" -H 'X-Client: a')
+    [ "$code" = 202 ] || break
+    held=$((held + 1))
+done
+check queued_jobs_refused "after $held queued jobs, POST $code: $(head -c 200 "$T/body")" \
+    bash -c "[ '$code' = 503 ] && grep -q memory_full '$T/body'"
+check queued_jobs_keep_others_image "b's image: $(req GET "/v1/jobs/$only/image.exr") $(jfield "$T/body" state 2>/dev/null)" \
+    eval '[ "$(req GET "/v1/jobs/$only/image.exr")" = 200 ]'
+gate open
+stop_rayd
 # ---- the largest body a budget takes is parsed, not refused for good ----------------------
 # The parse's first cap (32 bytes a byte of text) is at most half of what the scene may take:
 # a 4 MB body (a small scene and spaces) under 128 MB was 503 memory_full, "retry later", on
