@@ -48,7 +48,7 @@ static const struct config_option config_table[] = {
     {"port", "RAYD_PORT", CT_LONG, &config.port, "8080", 0, 65535,
      "TCP port; 0 picks a free one (printed on the first line)"},
     {"threads", "RAYD_THREADS", CT_LONG, &config.threads, "0", 0, 1024,
-     "render worker threads; 0 = number of cores"},
+     "render worker threads (and one spare for quick previews); 0 = number of cores"},
     {"http-threads", "RAYD_HTTP_THREADS", CT_LONG, &config.http_threads, "2", 1, 256,
      "libmicrohttpd threads (requests, bodies, answers; scenes are parsed on --parse-threads, "
      "rendered on --threads)"},

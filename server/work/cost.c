@@ -245,6 +245,8 @@ static double cost_scene_spr(const char *scene_id) {
 
 double cost_seconds(double rays) { return rays * cost_node_spr / cost_workers; }
 
+bool cost_tile_quick(double rays) { return rays <= COST_TILE_RAYS; }
+
 double cost_scene_weight(const char *scene_id) { return cost_scene_spr(scene_id) / cost_node_spr; }
 
 double cost_guard_seconds(const char *scene_id, double rays) {

@@ -20,6 +20,17 @@
  * and a finished identical render is answered from the result cache
  * (rcache.c) without a task at all.
  *
+ * The spare worker: one thread beyond --threads, for quick interactive
+ * tiles only.  A tile is the unit of scheduling, and one tile can still run
+ * for as long as the limits let it: a pixel of a 28-deep stack of glass is
+ * 2^29 rays, more than any tile size can split, and with every worker on
+ * such a tile an 8x8 preview of another client waited for
+ * --max-render-seconds (an hour by default).  The spare takes a tile only
+ * of an interactive plain render whose tiles are priced within a tile's
+ * size (task_pick_quick), and only while every worker has been on its tile
+ * for over SCHED_SPARE_AFTER_S: renders of ordinary tiles (about 100 ms)
+ * never wake it, and it never holds a long tile itself.
+ *
  * Drain: task.c's flag refuses new work while what is queued finishes; the
  * deadline cancels the rest (sched_cancel_all).
  *
@@ -31,9 +42,13 @@
 #include <stdlib.h>
 #include <string.h>
 
-static pthread_t *sched_threads;
+static pthread_t *sched_threads, sched_spare_thread;
 static int sched_nworkers, sched_busy;
-static bool sched_stopping; /* lock held: the workers end */
+static bool sched_stopping, sched_spare_on; /* lock held: the workers end */
+static double *sched_since; /* when each worker's tile started, 0 when it has none */
+
+#define SCHED_SPARE_AFTER_S 0.5 /* five ordinary tiles */
+#define SCHED_SPARE_POLL_S 0.1
 
 /* ---- workers --------------------------------------------------------------- */
 
@@ -205,35 +220,71 @@ static enum rayd_status sched_tile(struct task *t, int tile, int pass, uint64_t 
     return st;
 }
 
+/* Renders the next tile of t and books it; called and returns with the
+ * lock held.  *since (the worker's clock) is set while the tile runs. */
+static void sched_run(struct task *t, double *since) {
+    int pass, tile = task_take(t, &pass);
+    sched_busy++;
+    double t0 = clock_now();
+    *since = t0;
+    work_lock_give();
+
+    uint64_t rays = 0;
+    struct rayd_error err = {0};
+    enum rayd_status st = sched_tile(t, tile, pass, &rays, &err);
+    double took = clock_now() - t0;
+    metrics_rays(rays);
+    if (st == RAYD_OK) sched_stream_tile(t, tile);
+
+    struct task_notify n = {0}, sse = {0};
+    work_lock_take();
+    *since = 0;
+    struct rayd_region tr = task_tile(t, tile);
+    cost_observe(t->scene_id, t->client, task_tile_rays(t, &tr, pass), took, st == RAYD_OK);
+    sched_busy--;
+    enum task_next next = task_tile_done(t, tile, st, &err, rays, &n, &sse);
+    work_lock_give();
+    if (next != TASK_GOING) sched_finalize(t, next, &n, &sse);
+    task_notify_run(&n);
+    task_notify_run(&sse);
+    work_lock_take();
+}
+
 static void *sched_worker(void *arg) {
-    (void)arg;
+    double *since = arg;
     work_lock_take();
     for (;;) {
         struct task *t = sched_next_task();
         if (!t) break;
-        int pass, tile = task_take(t, &pass);
-        sched_busy++;
-        work_lock_give();
+        sched_run(t, since);
+    }
+    work_lock_give();
+    return NULL;
+}
 
-        uint64_t rays = 0;
-        struct rayd_error err = {0};
-        double t0 = clock_now();
-        enum rayd_status st = sched_tile(t, tile, pass, &rays, &err);
-        double took = clock_now() - t0;
-        metrics_rays(rays);
-        if (st == RAYD_OK) sched_stream_tile(t, tile);
+/* Whether every worker has been on its tile for over SCHED_SPARE_AFTER_S;
+ * lock held. */
+static bool sched_spare_due(void) {
+    double before = clock_now() - SCHED_SPARE_AFTER_S;
+    for (int i = 0; i < sched_nworkers; i++)
+        if (!(sched_since[i] > 0 && sched_since[i] < before)) return false;
+    return sched_nworkers > 0;
+}
 
-        struct task_notify n = {0}, sse = {0};
-        work_lock_take();
-        struct rayd_region tr = task_tile(t, tile);
-        cost_observe(t->scene_id, t->client, task_tile_rays(t, &tr, pass), took, st == RAYD_OK);
-        sched_busy--;
-        enum task_next next = task_tile_done(t, tile, st, &err, rays, &n, &sse);
-        work_lock_give();
-        if (next != TASK_GOING) sched_finalize(t, next, &n, &sse);
-        task_notify_run(&n);
-        task_notify_run(&sse);
-        work_lock_take();
+/* The spare worker (see the top): it looks every SCHED_SPARE_POLL_S while
+ * it has nothing, for the workers' tiles grow old without a signal. */
+static void *sched_spare(void *arg) {
+    double *since = arg;
+    work_lock_take();
+    while (!sched_stopping) {
+        struct task *t = sched_spare_due() ? task_pick_quick() : NULL;
+        if (t && gate_pass()) {
+            gate_count(1, 0);
+            sched_run(t, since);
+            continue;
+        }
+        struct timespec until = clock_after(SCHED_SPARE_POLL_S);
+        work_timedwait(&work_cond, &until);
     }
     work_lock_give();
     return NULL;
@@ -287,13 +338,16 @@ int sched_start(int workers, int queue_cap, int max_jobs) {
     task_queue_cap = queue_cap;
     cost_set_workers(workers);
     sched_threads = calloc((size_t)workers, sizeof *sched_threads);
-    if (!sched_threads || jobs_start(max_jobs)) return -1;
+    sched_since = calloc((size_t)workers + 1, sizeof *sched_since); /* the spare's last */
+    if (!sched_threads || !sched_since || jobs_start(max_jobs)) return -1;
     scenes_start();
     sched_register_gauges();
     for (int i = 0; i < workers; i++) {
-        if (pthread_create(&sched_threads[i], NULL, sched_worker, NULL)) return -1;
+        if (pthread_create(&sched_threads[i], NULL, sched_worker, &sched_since[i])) return -1;
         sched_nworkers++;
     }
+    if (pthread_create(&sched_spare_thread, NULL, sched_spare, &sched_since[workers])) return -1;
+    sched_spare_on = true;
     return watch_start();
 }
 
@@ -303,9 +357,13 @@ void sched_stop(void) {
     pthread_cond_broadcast(&work_cond);
     work_lock_give();
     for (int i = 0; i < sched_nworkers; i++) pthread_join(sched_threads[i], NULL);
+    if (sched_spare_on) pthread_join(sched_spare_thread, NULL);
+    sched_spare_on = false;
     watch_stop();
     free(sched_threads);
     sched_threads = NULL;
+    free(sched_since);
+    sched_since = NULL;
     /* Anything left was cancelled by the drain; answer and free it. */
     struct task_notify n = {0}, sse = {0};
     work_lock_take();

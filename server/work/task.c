@@ -310,6 +310,20 @@ struct task *task_pick(void) {
     return first[1] ? task_own_first(first[1]) : first[0] ? task_own_first(first[0]) : NULL;
 }
 
+struct task *task_pick_quick(void) {
+    work_assert_locked();
+    struct task *first = NULL;
+    uint64_t last = 0;
+    for (struct task *t = task_active; t; t = t->next) {
+        if (!t->interactive || t->passes || !task_waiting(t) ||
+            !cost_tile_quick(t->est_rays / t->ntiles))
+            continue;
+        uint64_t l = fair_last(t->client);
+        if (task_before(t, l, first, last)) first = t, last = l;
+    }
+    return first;
+}
+
 static void task_taken(const struct task *t) {
     work_assert_locked();
     fair_served(t->client);

@@ -159,6 +159,9 @@ int cost_worker_count(void);        /* the workers; any lock */
 void cost_observe(const char *scene_id, uint64_t client, double rays, double seconds,
                   bool complete);
 double cost_seconds(double rays); /* of the whole pool, at the node's rate */
+/* Whether a tile of this many estimated rays is one a tile's size allows
+ * (cost_tile): no dearer than any tile of a scene that fits its tiles. */
+bool cost_tile_quick(double rays);
 /* scene_id's rate over the node's: times a task's rays, node-rate rays. */
 double cost_scene_weight(const char *scene_id);
 
@@ -367,6 +370,9 @@ struct task *task_new(struct cache_entry *scene, const struct work_target *what)
 void task_unref(struct task *t);
 struct task *task_find(const char *key); /* an unfinished, uncancelled task */
 struct task *task_pick(void);            /* the task whose next tile comes first */
+/* The same among the interactive plain renders whose tiles are quick
+ * (cost_tile_quick): what the spare worker may take (sched.c). */
+struct task *task_pick_quick(void);
 /* Joins the unfinished task with *fresh's key (scene, region, format) or
  * activates *fresh (then NULL); WORK_DRAINING or WORK_FULL when it cannot. */
 enum work_submit task_submit(struct cache_entry *scene, struct task **fresh, struct task **out);

@@ -176,3 +176,32 @@ check readyz_ready_again "status $code: $(head -c 200 "$T/body")" [ "$code" = 20
 gate open
 stop_rayd
 check rayd_exit_0 "exit $RAYD_RC" [ "$RAYD_RC" = 0 ]
+
+# --- the worker on a long tile: an 8x8 preview still gets one --------------------------------
+# A pixel of a 28-deep stack of glass is 2^29 rays, more than any tile size can split: with the
+# only worker on it, an 8x8 render of another client waited until --max-render-seconds.  The
+# spare worker takes a quick interactive tile once every worker has been on its tile a while.
+python3 - "$T/stack.json" <<'PY'
+import json, sys
+planes = [{"type": "plane", "point": [0, 0, z], "normal": [0, 0, 1], "material": "g"}
+          for z in range(-10, 11)]
+json.dump({"render": {"width": 1, "height": 1, "max_depth": 28},
+           "camera": {"position": [0, 0, 0.5], "look_at": [1, 1, 1.5]},
+           "materials": {"g": {"transparency": 0.5, "reflectivity": 0.5, "ior": 1.5}},
+           "objects": planes}, open(sys.argv[1], "w"))
+PY
+start_rayd --threads 1 --max-render-seconds 120
+curl -s -m 150 -o /dev/null -H 'Content-Type: application/json' --data-binary @"$T/stack.json" \
+    "$URL/v1/render" &
+stack_curl=$!
+worker_busy() { [ "$(metric rayd_workers_busy)" = 1 ]; }
+wait_until 30 worker_busy
+scene "$T/preview.json" 8 8 1 spheres
+code=$(post_json /v1/render "$T/preview.json" -m 60)
+long=$(kill -0 "$stack_curl" 2>/dev/null && echo running || echo ended)
+check preview_beside_long_tile "status $code, the long render $long" \
+    bash -c "[ $code = 200 ] && [ $long = running ]"
+kill "$stack_curl" 2>/dev/null # the client gone: its render is cancelled
+wait "$stack_curl" 2>/dev/null
+stop_rayd
+check rayd_exit_0_spare "exit $RAYD_RC" [ "$RAYD_RC" = 0 ]
