@@ -505,7 +505,7 @@ $(FUZZ_SERVER_TARGETS:%=$(BUILD)/tests/fuzz/replay_%): $(BUILD)/tests/fuzz/repla
 # rayd's stderr fails the script that started it).  `make test-valgrind`:
 # three integration scripts with rayd under valgrind memcheck (exit 99 on any
 # error or definite leak).  Both print "N passed, N failed".
-TSAN_TESTS := jobs lifecycle api_basic api_hdr load slow_clients faults api_progressive deadline fair observability offload limits_runtime memory_budget \
+TSAN_TESTS := jobs lifecycle api_basic api_hdr load slow_clients slow_headers faults api_progressive deadline fair observability offload limits_runtime memory_budget \
               jobs_frames jobs_frames_durable frames_textures frames_meshes cluster cluster_faults cluster_items cluster_limits cluster_passes
 # the render's threads and the PNG stream sharing a window image's rows
 TSAN_UNIT := test_png_stream

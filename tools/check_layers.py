@@ -118,7 +118,8 @@ SERVER_LAYERS = [
     ("server/route/", "router.h: router.c (the route table; which paths are open without a "
                       "token)"),
     ("server/net/", "transport.h: http.c (libmicrohttpd: the daemon, TLS, options) and "
-                    "http_flow.c (limits, framing, auth, CORS preflight, access log)"),
+                    "http_flow.c (limits, framing, auth, CORS preflight, access log), "
+                    "http_deadline.c (the deadline for the headers)"),
     ("server/main.c", "starts and stops the layers (sched_start, router_start, http_start; "
                       "drain)"),
 ]

@@ -61,6 +61,7 @@ struct config {
     long max_header_bytes;    /* per-connection memory for request line + headers */
     long max_url;             /* bytes of the request-target (path + query) */
     long upload_seconds;      /* longest time from the headers to the body's last byte, 0 = none */
+    long header_seconds;      /* longest time for the request line and headers, 0 = none */
     char *tls_cert, *tls_key; /* PEM files: serve HTTPS with libmicrohttpd's TLS */
     char *asset_dir;          /* folder of scene "file" references (real path), NULL = refused */
     char *test_gate;          /* tests only: "open" or tiles allowed; NULL = off */
@@ -205,6 +206,7 @@ enum metrics_reject {
     MR_HTTP_PARSER,      /* answered with an error by libmicrohttpd itself */
     MR_MEMORY,           /* --max-memory: no room (503) or too big alone (413) */
     MR_PARSE_QUEUE_FULL, /* --parse-queue scenes already wait for a parse thread */
+    MR_HEADER_TIMEOUT,   /* --header-seconds: a connection's headers came too slowly */
     MR__COUNT
 };
 enum metrics_cancel { MC_CLIENT_GONE, MC_DELETE, MC_DRAIN, MC_DEADLINE, MC__COUNT };

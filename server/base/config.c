@@ -114,6 +114,9 @@ static const struct config_option config_table[] = {
      "longest request target, path and query (414 uri_too_long)"},
     {"upload-seconds", "RAYD_UPLOAD_SECONDS", CT_LONG, &config.upload_seconds, "120", 0, 86400,
      "longest time a request body may take to arrive; slower uploads are dropped (0 = no limit)"},
+    {"header-seconds", "RAYD_HEADER_SECONDS", CT_LONG, &config.header_seconds, "10", 0, 86400,
+     "longest time the request line and headers may take, from the accept (keep-alive: from "
+     "the next request's first bytes); slower connections are closed (0 = no limit)"},
     {"tls-cert", "RAYD_TLS_CERT", CT_STRING, &config.tls_cert, NULL, 0, 0,
      "PEM certificate (chain): serve HTTPS with libmicrohttpd's TLS (needs --tls-key)"},
     {"tls-key", "RAYD_TLS_KEY", CT_STRING, &config.tls_key, NULL, 0, 0,

@@ -78,8 +78,8 @@ static atomic_ulong metrics_parses_canceled_n;               /* scenes.c */
 static atomic_ulong metrics_rejects[MR__COUNT], metrics_cancels[MC__COUNT];
 
 static const char *const metrics_reject_names[MR__COUNT] = {
-    "queue_full",  "draining",    "body_too_large", "unauthorized",
-    "over_budget", "http_parser", "memory",         "parse_queue_full"};
+    "queue_full",  "draining", "body_too_large",   "unauthorized",  "over_budget",
+    "http_parser", "memory",   "parse_queue_full", "header_timeout"};
 static const char *const metrics_cancel_names[MC__COUNT] = {"client_gone", "delete", "drain",
                                                             "deadline"};
 

@@ -12,7 +12,9 @@
  * This file is only the glue: the struct http_io that lets the layers below
  * read headers and suspend a connection without naming libmicrohttpd's
  * connection type, the access and completion callbacks that call the flow,
- * and the daemon's options (connection limits, timeouts, TLS) from config.
+ * the daemon's options (connection limits, timeouts, TLS) from config, and
+ * the connection notices that put each connection's headers under
+ * --header-seconds' watch (http_deadline.c) and take it off.
  *
  * Requests libmicrohttpd refuses by itself, with an error page of its own,
  * are seen three ways.  Each refusal is one message to the external logger
@@ -322,14 +324,35 @@ static void *http_uri_log(void *cls, const char *uri, struct MHD_Connection *c) 
     return r;
 }
 
-/* A connection closing with an error of libmicrohttpd's still untaken: its
- * request line was refused, so no request reached rayd; its access line. */
+/* c's --header-seconds watch (http_deadline.c), its socket context. */
+static struct http_deadline *http_conn_deadline(struct MHD_Connection *c) {
+    const union MHD_ConnectionInfo *ci =
+        MHD_get_connection_info(c, MHD_CONNECTION_INFO_SOCKET_CONTEXT);
+    return ci ? ci->socket_context : NULL;
+}
+
+/* A connection opening: its headers watched (--header-seconds).  One
+ * closing: the access line of a cut one no request told of (its request
+ * line never came); one with an error of libmicrohttpd's still untaken:
+ * its request line was refused, so no request reached rayd; its line. */
 static void http_connection(void *cls, struct MHD_Connection *c, void **socket_ctx,
                             enum MHD_ConnectionNotificationCode what) {
     (void)cls;
-    (void)socket_ctx;
-    if (what != MHD_CONNECTION_NOTIFY_CLOSED || !http_refused) return;
     char client[64];
+    if (what == MHD_CONNECTION_NOTIFY_STARTED) {
+        const union MHD_ConnectionInfo *ci =
+            MHD_get_connection_info(c, MHD_CONNECTION_INFO_CONNECTION_FD);
+        *socket_ctx = http_deadline_open(ci ? ci->connect_fd : -1);
+        return;
+    }
+    double waited = 0;
+    if (http_deadline_claim(*socket_ctx, &waited)) {
+        http_client_address(c, client, sizeof client);
+        http_flow_header_timeout(client, NULL, waited);
+    }
+    http_deadline_close(*socket_ctx);
+    *socket_ctx = NULL;
+    if (!http_refused) return;
     http_client_address(c, client, sizeof client);
     http_flow_refused(client, http_refused, http_refused_why);
     http_refused = 0;
@@ -433,7 +456,12 @@ static enum MHD_Result http_access(void *cls, struct MHD_Connection *c, const ch
     if (!r) /* out of memory in http_uri_log */
         return MHD_NO;
     if (!r->method) {
-        /* first call: headers only */
+        /* first call: headers only; a connection cut by --header-seconds
+         * just now cannot be answered */
+        if (http_deadline_done(http_conn_deadline(c))) {
+            r->log.header_late = true;
+            return http_drop();
+        }
         r->method = method;
         r->url = url;
         r->conn.version = version;
@@ -458,9 +486,11 @@ static enum MHD_Result http_access(void *cls, struct MHD_Connection *c, const ch
 static void http_completed(void *cls, struct MHD_Connection *c, void **con_cls,
                            enum MHD_RequestTerminationCode toe) {
     (void)cls;
-    (void)c;
     struct http_req *r = *con_cls;
     *con_cls = NULL;
+    struct http_deadline *d = http_conn_deadline(c);
+    if (r && !r->method && http_deadline_claim(d, NULL)) r->log.header_late = true;
+    if (toe == MHD_REQUEST_TERMINATED_COMPLETED_OK) http_deadline_next(d); /* keep-alive */
     if (!r) return;
     if (!r->method || !r->conn.replied)
         r->log.refused_status =
@@ -541,6 +571,20 @@ static bool http_mhd_before_refusal(const char *msg) {
     return false;
 }
 
+/* The messages libmicrohttpd (0.9.75) writes when a connection ends in the
+ * middle of a request's headers, its client gone or cut by --header-seconds:
+ * the request's access line (499, or 408 header_timeout) tells as much. */
+static bool http_mhd_closed(const char *msg) {
+    static const char *const lead[] = {
+        "Connection was closed by remote side with incomplete request",
+        "Connection socket is closed when reading request due to the error: detected connection "
+        "closure",
+    };
+    for (size_t i = 0; i < sizeof lead / sizeof lead[0]; i++)
+        if (!strncmp(msg, lead[i], strlen(lead[i]))) return true;
+    return false;
+}
+
 /* libmicrohttpd's own messages (malformed requests, ...) go through log.c so
  * --log-format json keeps every stderr line JSON.  Those about a refusal
  * go to debug: rayd's access line is the refusal's one line. */
@@ -560,7 +604,7 @@ static void http_mhd_log(void *cls, const char *fmt, va_list ap) {
     bool refusal = http_mhd_refusal(msg) || http_mhd_before_refusal(msg);
     bool dropped = http_dropped && !strncmp(msg, "Application reported internal error", 35);
     http_dropped = false;
-    if (dropped || refusal)
+    if (dropped || refusal || http_mhd_closed(msg))
         log_debug("http: %s", msg);
     else
         log_warn("http: %s", msg);
@@ -722,7 +766,7 @@ int http_start(void) {
     http_opt(&o, MHD_OPTION_STRICT_FOR_CLIENT, MHD_VERSION <= 0x00097500 ? 0 : 1, NULL);
     if (http_tls_options(&o, &flags) != 0) return -1;
     http_opt(&o, MHD_OPTION_END, 0, NULL);
-    if (http_launch(flags, &o) != 0) {
+    if (http_deadline_start() != 0 || http_launch(flags, &o) != 0) {
         http_stop();
         return -1;
     }
@@ -734,6 +778,7 @@ int http_start(void) {
 void http_stop(void) {
     if (http_daemon) MHD_stop_daemon(http_daemon);
     http_daemon = NULL;
+    http_deadline_stop(); /* after libmicrohttpd: no connection is watched any more */
     if (http_tls_key) memset(http_tls_key, 0, strlen(http_tls_key));
     free(http_tls_key);
     free(http_tls_cert);

@@ -44,6 +44,10 @@
  *           refused_by_http_parser; one refused before its target was read
  *           (a request line over the limit: 414) reaches http_flow_refused
  *           only, with no method, path or id to name.
+ *           A connection --header-seconds cut before its headers were all in
+ *           (http_deadline.c) is logged and counted as 408 with note
+ *           header_timeout, with its target if its request line came,
+ *           though nothing was sent (http_flow_header_timeout).
  *
  * libmicrohttpd (http.c) and the fuzz harness drive the same four calls, so
  * the fuzzer exercises exactly the code that serves.  Handlers are reached
@@ -478,6 +482,11 @@ void http_flow_handle(struct http_req *r) {
 void http_flow_end(struct http_req *r, const char *note) {
     double total = clock_now() - r->log.t0;
     int refused = (int)r->log.refused_status;
+    if (r->log.header_late) {
+        http_flow_header_timeout(r->log.client, r->log.target, total);
+        http_req_free(r);
+        return;
+    }
     if (!r->method) {
         /* refused by libmicrohttpd before the handler saw it (bad headers,
          * headers over --max-header-bytes): it answered by itself, with
@@ -542,4 +551,14 @@ void http_flow_refused(const char *client, unsigned status, const char *why) {
                            .note = "refused_by_http_parser"};
     log_access(&a);
     metrics_request(-1, NULL, (int)status, 0);
+}
+
+void http_flow_header_timeout(const char *client, const char *target, double waited) {
+    struct log_access a = {.client = client,
+                           .path = target,
+                           .status = 408,
+                           .total_ms = waited * 1e3,
+                           .note = "header_timeout"};
+    log_access(&a);
+    metrics_request(-1, NULL, 408, waited);
 }

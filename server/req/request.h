@@ -114,6 +114,7 @@ struct http_log {
     const char *end_why;     /* why the transport ended the answer early, NULL none */
     unsigned refused_status; /* the error libmicrohttpd answered by itself (431, ...), 0 none */
     char refused_why[HTTP_REFUSED_WHY]; /* its reason, a code ("request_too_big"), "" none */
+    bool header_late;                   /* cut by --header-seconds before its headers were all in */
 };
 
 /* The router's row for the method and path, looked up once (router.c):

@@ -63,9 +63,10 @@ print("held %d failed %d closed_by_server %d" % (len(conns), failed, closed))
 PY
 
 # --- 1,000 idle and slowly-uploading connections ------------------------------------------
-# (--timeout 600: the idle half must still be open when the test counts
-# rayd's descriptors, however long opening them took on this machine)
-start_rayd --threads 2 --timeout 600
+# (--timeout and --header-seconds 600: the idle half must still be open
+# when the test counts rayd's descriptors, however long opening them took
+# on this machine; slow header blocks are slow_headers.sh's)
+start_rayd --threads 2 --timeout 600 --header-seconds 600
 limit=$(awk '/Max open files/ {print $4}' "/proc/$RAYD_PID/limits")
 hard=$(awk '/Max open files/ {print $5}' "/proc/$RAYD_PID/limits")
 check fd_limit_raised "soft $limit, hard $hard" [ "$limit" = "$hard" ]
