@@ -548,15 +548,14 @@ static double shots_kept_since(const struct shot *s) {
     return s->video && s->video_used > shots_ended(s) ? s->video_used : shots_ended(s);
 }
 
-/* Whether s is finished and keeps a frame or its video the budget may
- * let go of. */
+/* Whether s is finished and keeps a frame or its video to let go of. */
 static bool shots_let_goable(const struct shot *s) {
     return shots_final(s) && s->flying == 0 && shots_keeps(s);
 }
 
-/* The finished shot of an owner w allows that keeps a frame or its video,
- * kept the longest. */
+/* The shot of an owner w allows that keeps what it may let go of longest. */
 static struct shot *shots_oldest_kept(const struct jobs_whose *w) {
+    work_assert_locked();
     struct shot *best = NULL;
     for (int i = 0; i < shots_n; i++) {
         struct shot *s = shots_table[i];
@@ -568,7 +567,6 @@ static struct shot *shots_oldest_kept(const struct jobs_whose *w) {
 }
 
 static double shots_oldest_end(const struct jobs_whose *w) {
-    work_assert_locked();
     struct shot *s = shots_oldest_kept(w);
     return s ? shots_kept_since(s) : -1;
 }
@@ -580,7 +578,6 @@ static void shots_each(void (*fn)(void *u, uint64_t owner, bool keeps), void *u)
 }
 
 static bool shots_evict_oldest(const struct jobs_whose *w) {
-    work_assert_locked();
     struct shot *s = shots_oldest_kept(w);
     for (int c = 0; s && !store_on() && c < s->norder; c++) { /* its frames as they ended */
         int i = s->order[c];
