@@ -85,10 +85,7 @@ bool api_cost_price(struct http_req *r, const struct cache_entry *scene, struct 
         return false;
     }
     double deadline = (double)config.max_render_seconds;
-    double guard =
-        progressive || !(deadline > 0) ? 0 : cost_guard_seconds(cache_id(scene), out->rays);
-    if (guard > API_DEADLINE_SLACK * deadline) {
-        out->seconds = guard; /* what was compared, in the message */
+    if (!progressive && deadline > 0 && out->seconds > API_DEADLINE_SLACK * deadline) {
         snprintf(limit, n, "%.0f times the server's limit of %ld s a render (--max-render-seconds)",
                  API_DEADLINE_SLACK, config.max_render_seconds);
         return false;

@@ -39,11 +39,7 @@
  * X-Rayd-Estimated-Seconds), the backlog (/readyz, /metrics, Retry-After,
  * each task at its scene's rate), and one refusal: a plain render
  * estimated far past --max-render-seconds (api_cost.c, with a fourfold
- * slack), which may then differ between nodes.  That refusal prices at the
- * scene's rate only when it is dearer than the node's (cost_guard_seconds):
- * a scene's rate is learned from whatever region of it ran, and a pixel of
- * sky taught a glass scene a rate 120 times too cheap, which let its
- * costly half through (a seed changed makes a new scene to teach).  An operator who wants the
+ * slack), which may then differ between nodes.  An operator who wants the
  * same answer on every node sets --max-work, in estimated rays.
  *
  * Tiles are sized by cost: the largest of 64, 32, 16 and 8 pixels square
@@ -248,14 +244,6 @@ double cost_seconds(double rays) { return rays * cost_node_spr / cost_workers; }
 bool cost_tile_quick(double rays) { return rays <= COST_TILE_RAYS; }
 
 double cost_scene_weight(const char *scene_id) { return cost_scene_spr(scene_id) / cost_node_spr; }
-
-double cost_guard_seconds(const char *scene_id, double rays) {
-    work_lock_take();
-    double spr = cost_scene_spr(scene_id);
-    double s = rays * (spr > cost_node_spr ? spr : cost_node_spr) / cost_workers;
-    work_lock_give();
-    return s;
-}
 
 double cost_price_seconds(const char *scene_id, double rays) {
     work_lock_take();

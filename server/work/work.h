@@ -119,9 +119,6 @@ double cost_rays(const rayd_scene *scene, const struct work_target *what);
  * whole pool at that scene's measured rate, or the node's for a scene not
  * yet measured; any thread (takes the lock). */
 double cost_price_seconds(const char *scene_id, double rays);
-/* The same at the dearer of the scene's rate and the node's: what a
- * refusal compares, which a cheap region of the scene must not lower. */
-double cost_guard_seconds(const char *scene_id, double rays);
 
 /* ---- sched.c: the pool, synchronous renders, lifecycle ------------------- */
 
