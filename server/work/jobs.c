@@ -96,16 +96,17 @@ static bool jobs_evict_job(struct job *victim);
 /* Whose images a reservation may let go of.  First the admitting
  * client's own (own).  Then, for a reservation of no client's, anyone's;
  * for a client's, only a client's that keeps more finished images (jobs and
- * frame-range jobs that keep one) than the admitting client has jobs in all
- * (rule): a client whose own jobs hold the memory, queued or running with
- * nothing finished to let go, is refused 503 memory_full rather than take
- * the image of a client that keeps fewer -- one client's 4096x4096 EXR jobs
- * made another's only image, 11 s old, 410 result_evicted.  A client that
- * keeps many images still makes room for a newcomer's job. */
+ * frame-range jobs that keep one) than the admitting client holds jobs --
+ * unfinished, or finished and keeping an image (rule): a client whose own
+ * jobs hold the memory, queued or running with nothing finished to let go,
+ * is refused 503 memory_full rather than take the image of a client that
+ * keeps fewer -- one client's 4096x4096 EXR jobs made another's only image,
+ * 11 s old, 410 result_evicted.  A client holding nothing (its jobs ended,
+ * their images let go) still makes room, as a newcomer does. */
 struct jobs_whose {
     bool own, rule;
     uint64_t client;
-    int mine;          /* the admitting client's jobs, all */
+    int mine;          /* the admitting client's jobs that hold memory */
     uint64_t *keepers; /* sorted: an owner once for each job that keeps an image */
     int nkeepers;
 };
@@ -142,9 +143,9 @@ bool jobs_whose_may(const struct jobs_whose *w, uint64_t owner) {
     return owner != w->client && jobs_kept_by(w, owner) > w->mine;
 }
 
-static void jobs_whose_add(void *u, uint64_t owner, bool keeps) {
+static void jobs_whose_add(void *u, uint64_t owner, bool keeps, bool live) {
     struct jobs_whose *w = u;
-    w->mine += owner == w->client;
+    w->mine += owner == w->client && (keeps || live);
     if (keeps) w->keepers[w->nkeepers++] = owner;
 }
 
@@ -154,7 +155,8 @@ static bool jobs_whose_load(struct jobs_whose *w) {
     w->keepers = malloc(sizeof *w->keepers * (size_t)(jobs_n + shots + 1));
     if (!w->keepers) return false;
     for (int i = 0; i < jobs_n; i++)
-        jobs_whose_add(w, jobs_table[i]->client, jobs_keeps(jobs_table[i]));
+        jobs_whose_add(w, jobs_table[i]->client, jobs_keeps(jobs_table[i]),
+                       !jobs_table[i]->task->finished);
     if (jobs_shots.each) jobs_shots.each(jobs_whose_add, w);
     qsort(w->keepers, (size_t)w->nkeepers, sizeof *w->keepers, jobs_cmp_owner);
     return true;

@@ -571,10 +571,10 @@ static double shots_oldest_end(const struct jobs_whose *w) {
     return s ? shots_kept_since(s) : -1;
 }
 
-static void shots_each(void (*fn)(void *u, uint64_t owner, bool keeps), void *u) {
-    work_assert_locked();
+static void shots_each(void (*fn)(void *u, uint64_t owner, bool keeps, bool live), void *u) {
     for (int i = 0; i < shots_n; i++)
-        fn(u, shots_table[i]->client, shots_let_goable(shots_table[i]));
+        fn(u, shots_table[i]->client, shots_let_goable(shots_table[i]),
+           !shots_final(shots_table[i]));
 }
 
 static bool shots_evict_oldest(const struct jobs_whose *w) {

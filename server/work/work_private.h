@@ -589,11 +589,12 @@ void jobs_expire(double now);
 struct jobs_whose;
 bool jobs_whose_may(const struct jobs_whose *w, uint64_t owner);
 /* oldest_end and evict_oldest: of the owners w allows; each: fn called
- * with every frame-range job's owner and whether it keeps an image. */
+ * with every frame-range job's owner, whether it keeps an image the budget
+ * may let go of, and whether it is unfinished (live). */
 struct jobs_shots {
     double (*oldest_end)(const struct jobs_whose *w);
     bool (*evict_oldest)(const struct jobs_whose *w);
-    void (*each)(void (*fn)(void *u, uint64_t owner, bool keeps), void *u);
+    void (*each)(void (*fn)(void *u, uint64_t owner, bool keeps, bool live), void *u);
     long (*unfinished)(void);
     long (*unfinished_of)(uint64_t client);
 };

@@ -160,7 +160,7 @@ done
 $HELP texture_scene "$T/tex9.json" 256 4 9
 code=$(post_json /v1/jobs "$T/tex9.json")
 check cached_scenes_make_room "a new scene after the jobs were deleted: $code $(head -c 200 "$T/body")" \
-    [ "$code" = 202 ]
+    [ "$code" = 202 ]; echo "# a held $(echo $held_ids | wc -w), b posted ${#bjobs[@]}, b first $(jfield "$T/body" state)"
 req DELETE "/v1/jobs/$(jfield "$T/body" id)" >/dev/null
 
 # --- a parse is counted while it builds, not once built ------------------------------
@@ -301,18 +301,37 @@ post_json '/v1/jobs?format=exr' "$T/only.json" -H 'X-Client: b' >/dev/null
 only=$(jfield "$T/body" id)
 wait_until 60 job_state_is "$only" succeeded
 gate 0 # a's jobs stay queued, each holding its frame's memory
-held=0 code=
+held=() code=
 for i in $(seq 1 12); do
     scene "$T/hold$i.json" 512 512 1 spheres "$((300 + i))"
     code=$(post_json '/v1/jobs?format=exr' "$T/hold$i.json" -H 'X-Client: a')
     [ "$code" = 202 ] || break
-    held=$((held + 1))
+    held+=("$(jfield "$T/body" id)")
 done
-check queued_jobs_refused "after $held queued jobs, POST $code: $(head -c 200 "$T/body")" \
+check queued_jobs_refused "after ${#held[@]} queued jobs, POST $code: $(head -c 200 "$T/body")" \
     bash -c "[ '$code' = 503 ] && grep -q memory_full '$T/body'"
 check queued_jobs_keep_others_image "b's image: $(req GET "/v1/jobs/$only/image.exr") $(jfield "$T/body" state 2>/dev/null)" \
     eval '[ "$(req GET "/v1/jobs/$only/image.exr")" = 200 ]'
+# ... and a client whose jobs ended (cancelled: they hold nothing) makes room again, however
+# many such records it has: only its jobs that hold memory count against it
+for i in $(seq 1 12); do
+    scene "$T/tiny$i.json" 8 8 1 spheres "$((500 + i))"
+    post_json /v1/jobs "$T/tiny$i.json" -H 'X-Client: a' >/dev/null && held+=("$(jfield "$T/body" id)")
+done
+for id in "${held[@]}"; do req DELETE "/v1/jobs/$id" -H 'X-Client: a' >/dev/null; done
 gate open
+bjobs=("$only") # b fills the budget with its images, up to letting go of its own first one
+for i in $(seq 1 12); do
+    scene "$T/bfill$i.json" 512 512 1 spheres "$((400 + i))"
+    [ "$(post_json '/v1/jobs?format=exr' "$T/bfill$i.json" -H 'X-Client: b')" = 202 ] || break
+    bjobs+=("$(jfield "$T/body" id)")
+    wait_until 60 job_state_is "${bjobs[-1]}" succeeded
+    job_state_is "${bjobs[0]}" evicted && break
+done
+scene "$T/again.json" 512 512 1 spheres 399
+code=$(post_json '/v1/jobs?format=exr' "$T/again.json" -H 'X-Client: a')
+check ended_jobs_make_room "after ${#held[@]} cancelled jobs of a and ${#bjobs[@]} of b, POST $code: $(head -c 200 "$T/body")" \
+    [ "$code" = 202 ]
 stop_rayd
 # ---- the largest body a budget takes is parsed, not refused for good ----------------------
 # The parse's first cap (32 bytes a byte of text) is at most half of what the scene may take:
