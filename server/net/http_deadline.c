@@ -132,7 +132,14 @@ static void *http_deadline_sweep(void *arg) {
 int http_deadline_start(void) {
     if (config.header_seconds <= 0) return 0;
     http_deadline_stopping = false;
-    if (pthread_create(&http_deadline_thread, NULL, http_deadline_sweep, NULL) != 0) {
+    /* a small stack: it only walks a list, and a default one is 8 MiB of
+     * address space, which a ulimit -v counts (faults.sh) */
+    pthread_attr_t at;
+    pthread_attr_init(&at);
+    pthread_attr_setstacksize(&at, (size_t)256 << 10);
+    int e = pthread_create(&http_deadline_thread, &at, http_deadline_sweep, NULL);
+    pthread_attr_destroy(&at);
+    if (e != 0) {
         log_error("cannot start the --header-seconds thread");
         return -1;
     }
