@@ -373,7 +373,7 @@ char *metrics_text(size_t *len) {
                    "# TYPE rayd_queue_capacity gauge\nrayd_queue_capacity %ld\n"
                    "# HELP rayd_tasks_running Render tasks with at least one tile started.\n"
                    "# TYPE rayd_tasks_running gauge\nrayd_tasks_running %ld\n"
-                   "# HELP rayd_workers_busy Workers rendering a tile right now.\n"
+                   "# HELP rayd_workers_busy Workers rendering a tile right now (the spare too).\n"
                    "# TYPE rayd_workers_busy gauge\nrayd_workers_busy %ld\n"
                    "# HELP rayd_workers Render worker threads.\n"
                    "# TYPE rayd_workers gauge\nrayd_workers %ld\n"

@@ -44,7 +44,7 @@ static size_t budget_denoise(const rayd_scene *scene, const struct work_target *
     size_t held, peak;
     rayd_accum_denoised_bytes(scene, &tile, &held, &peak);
     size_t ntiles = (size_t)((w + side - 1) / side) * (size_t)((h + side - 1) / side);
-    size_t flying = (size_t)cost_worker_count();
+    size_t flying = (size_t)cost_worker_count() + 1; /* the spare worker's too (sched.c) */
     if (flying > ntiles) flying = ntiles;
     size_t n = flying * (held + peak);
     if (progressive) n += (ntiles - flying) * held + (size_t)w * (size_t)h * 3 * (2 + PASSES_KEEP);

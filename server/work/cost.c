@@ -62,6 +62,7 @@
 #define COST_TILE_MAX 64
 #define COST_TILE_MIN 8
 #define COST_TILE_RAYS (1024.0 * 1024.0) /* estimated rays a tile may hold */
+#define COST_QUICK_S 0.25   /* a quick tile's seconds at its scene's rate (cost_tile_quick) */
 #define COST_RATE_START 1e7 /* estimated rays a worker casts a second, before any tile */
 #define COST_DECAY 0.9      /* of the sums, per tile added */
 #define COST_SCENES 256     /* scenes whose rates are kept */
@@ -241,7 +242,10 @@ static double cost_scene_spr(const char *scene_id) {
 
 double cost_seconds(double rays) { return rays * cost_node_spr / cost_workers; }
 
-bool cost_tile_quick(double rays) { return rays <= COST_TILE_RAYS; }
+bool cost_tile_quick(const char *scene_id, double rays) {
+    work_assert_locked();
+    return rays <= COST_TILE_RAYS && rays * cost_scene_spr(scene_id) <= COST_QUICK_S;
+}
 
 double cost_scene_weight(const char *scene_id) { return cost_scene_spr(scene_id) / cost_node_spr; }
 

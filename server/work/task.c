@@ -316,7 +316,7 @@ struct task *task_pick_quick(void) {
     uint64_t last = 0;
     for (struct task *t = task_active; t; t = t->next) {
         if (!t->interactive || t->passes || !task_waiting(t) ||
-            !cost_tile_quick(t->est_rays / t->ntiles))
+            !cost_tile_quick(t->scene_id, t->est_rays / t->ntiles))
             continue;
         uint64_t l = fair_last(t->client);
         if (task_before(t, l, first, last)) first = t, last = l;

@@ -159,9 +159,11 @@ int cost_worker_count(void);        /* the workers; any lock */
 void cost_observe(const char *scene_id, uint64_t client, double rays, double seconds,
                   bool complete);
 double cost_seconds(double rays); /* of the whole pool, at the node's rate */
-/* Whether a tile of this many estimated rays is one a tile's size allows
- * (cost_tile): no dearer than any tile of a scene that fits its tiles. */
-bool cost_tile_quick(double rays);
+/* Whether a tile of scene_id of this many estimated rays is quick: no
+ * dearer than a tile's size allows (cost_tile), and a quarter second at
+ * most at the scene's measured rate (a scene whose rays are dear, a
+ * thousand planes every ray tests, is priced by its rays alone). */
+bool cost_tile_quick(const char *scene_id, double rays);
 /* scene_id's rate over the node's: times a task's rays, node-rate rays. */
 double cost_scene_weight(const char *scene_id);
 
