@@ -60,6 +60,7 @@ struct node_item {
     int level;  /* the stream it came from (its job's priority) */
     bool animated;
     enum node_phase phase; /* NP_BUSY items belong to the work layer's callbacks */
+    bool own_limit;        /* failed on this node's own limits (node_failed) */
     double retry_at;
     char *body;
     size_t len;
@@ -102,6 +103,7 @@ static void node_rendered(struct work_waiter *w, struct work_result *res) {
         blob_unref(res->png);
         it->err = res->err;
         it->err.code = res->status;
+        it->own_limit = res->status == RAYD_E_LIMIT; /* --max-work, --max-render-seconds */
         bool lost =
             res->gone || res->draining || res->status == RAYD_E_CANCELED || res->status == RAYD_OK;
         node_mark(it, lost ? NP_DROP : NP_FAILED);
@@ -141,6 +143,7 @@ static void node_compiled(struct node_item *it, struct compile_result *res) {
     } else if (s == WORK_TOO_BIG) {
         memset(&it->err, 0, sizeof it->err);
         it->err.code = RAYD_E_LIMIT;
+        it->own_limit = true;
         snprintf(it->err.message, sizeof it->err.message,
                  "a tile of this job alone is over this node's --max-memory");
         node_mark(it, NP_FAILED);
@@ -305,16 +308,17 @@ static void node_shun_add(const struct node_item *it) {
     node_shun_next = (node_shun_next + 1) % NODE_SHUN;
 }
 
-/* Whether item sid of stream `level`, taken back, is left again (counted;
- * forgotten once this node tries it). */
-static bool node_shun_again(const char *sid, int level) {
+/* Item sid of stream `level`, taken back: 1 when it is left again
+ * (counted), 0 when this node now tries it (forgotten), -1 when it never
+ * failed here. */
+static int node_shun_again(const char *sid, int level) {
     for (int i = 0; i < NODE_SHUN; i++) {
         if (node_shun[i].level != level || strcmp(node_shun[i].sid, sid)) continue;
-        if (node_shun[i].leaves++ < NODE_SHUN_LEAVES) return true;
+        if (node_shun[i].leaves++ < NODE_SHUN_LEAVES) return 1;
         node_shun[i].sid[0] = 0;
-        return false;
+        return 0;
     }
-    return false;
+    return -1;
 }
 
 /* Whether the item with id sid in stream `level` is held here (ids are
@@ -385,14 +389,15 @@ static void node_take(struct redis *c, struct node_item *it) {
 /* One entry of stream `level`, taken (cluster_items_take_fn). */
 static long node_take_entry(struct redis *c, const redisReply *e, int level, bool reclaimed) {
     if (node_holds(e->element[0]->str, level)) return 0;
-    if (reclaimed && node_shun_again(e->element[0]->str, level)) {
+    int shun = reclaimed ? node_shun_again(e->element[0]->str, level) : -1;
+    if (shun == 1) {
         log_info("cluster: item %s failed here before; left again for another node",
                  e->element[0]->str);
         return 0;
     }
     struct node_item *it = node_item_new(e, level);
     if (!it) return 0;
-    if (reclaimed && node_left_mine(it->sid, level)) {
+    if (shun == 0 || (reclaimed && node_left_mine(it->sid, level))) { /* not a take-over */
         log_info("cluster: took back item %s (job %s frame %ld tile %ld), which it had left "
                  "pending",
                  it->sid, it->job, it->frame, it->tile);
@@ -456,13 +461,14 @@ static void node_test_stall(void) {
     for (;;) pause();
 }
 
-/* A tile that failed here.  On this node's own limits (RAYD_E_LIMIT: its
- * --max-work, --max-memory, --max-render-seconds) another node's may let
- * it through: the item is left pending, unacked and no longer refreshed,
- * for some node's XAUTOCLAIM, until the job's record counts CLUSTER_TRIES
- * attempts.  Then, or for any other failure (the same on every node), the
- * job fails with the tile's error.  A pass's tile ends its pass instead
- * (cluster_passes.c). */
+/* A tile that failed here.  On this node's own limits (own_limit: its
+ * render stopped by --max-work or --max-render-seconds, or over its
+ * --max-memory) another node's may let it through: the item is left
+ * pending, unacked and no longer refreshed, for some node's XAUTOCLAIM,
+ * until the job's record counts CLUSTER_TRIES attempts.  Then, or for any
+ * other failure (the scene's parse refused by the loader's fixed limits is
+ * the same on every node), the job fails with the tile's error.  A pass's
+ * tile ends its pass instead (cluster_passes.c). */
 static void node_failed(struct redis *c, struct node_item *it) {
     char err[800];
     if (it->pass > 0) {
@@ -473,7 +479,7 @@ static void node_failed(struct redis *c, struct node_item *it) {
         return;
     }
     long tries = 0;
-    if (it->err.code == RAYD_E_LIMIT) {
+    if (it->own_limit) {
         tries = cluster_jobs_tried(c, it->job, it->frame, it->tile);
         if (tries < 0) return; /* Redis failed: taken over later */
         if (tries == 0) {      /* the job ended */
