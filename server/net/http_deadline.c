@@ -100,7 +100,8 @@ static void http_deadline_link(struct http_deadline *d, enum http_deadline_phase
 /* The head d is due: idle, watched again; begun, one more period; else cut. */
 static void http_deadline_due(struct http_deadline *d) {
     if (d->phase == HD_IDLE) {
-        bool idle = http_deadline_bytes(d->fd) == d->seen;
+        unsigned long long now_seen = http_deadline_bytes(d->fd); /* ~0: cannot say, begun */
+        bool idle = now_seen != ~0ULL && d->seen != ~0ULL && now_seen == d->seen;
         http_deadline_link(d, idle ? HD_IDLE : HD_HEADERS);
         return;
     }
