@@ -108,9 +108,17 @@ static void video_on_signal(int sig) {
     if (pid > 0) {
         kill(pid, SIGKILL);
         while (waitpid(pid, NULL, 0) < 0 && errno == EINTR) continue;
+        video_child = 0; /* reaped: its pid may be another's now */
     }
     unlink(video_part);
-    raise(sig); /* held until this returns; SA_RESETHAND made its action the default */
+    /* every one of them back to its default, not only sig (SA_RESETHAND):
+     * another held meanwhile must end the process, not run this again */
+    struct sigaction dfl;
+    memset(&dfl, 0, sizeof dfl);
+    dfl.sa_handler = SIG_DFL;
+    for (size_t i = 0; i < VIDEO_NSIGS; i++)
+        if (video_old[i].sa_handler != SIG_IGN) sigaction(video_sigs[i], &dfl, NULL);
+    raise(sig); /* held until this returns */
 }
 
 /* Holds the signals of video_sigs (the mask before into *old). */
