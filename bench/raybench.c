@@ -155,6 +155,22 @@ static long cast_rows(struct work *wk) {
     return hits;
 }
 
+/* The primary rays of the 4x4 pixels from (i0, j0) of a w x h image, ray
+ * k for pixel (i0 + k % 4, j0 + k / 4), unbounded; returns the lanes inside
+ * the image. */
+static uint32_t block_rays(const struct camera *cam, int w, int h, int i0, int j0, ray r[16],
+                           double tmax[16]) {
+    uint32_t active = 0;
+    for (int k = 0; k < 16; k++) {
+        int i = i0 + k % 4, j = j0 + k / 4;
+        tmax[k] = INFINITY;
+        if (i >= w || j >= h) continue;
+        r[k] = (ray){cam->pos, cam_dir(cam, i + 0.5, j + 0.5)};
+        active |= 1u << k;
+    }
+    return active;
+}
+
 /* Packets of 4x4 pixels, a row of packets per work item. */
 static long cast_packets(struct work *wk) {
     long hits = 0;
@@ -164,14 +180,7 @@ static long cast_packets(struct work *wk) {
         for (int i0 = 0; i0 < wk->w; i0 += 4) {
             ray r[16];
             double tmax[16];
-            uint32_t active = 0;
-            for (int k = 0; k < 16; k++) {
-                int i = i0 + k % 4, j = j0 + k / 4;
-                tmax[k] = INFINITY;
-                if (i >= wk->w || j >= wk->h) continue;
-                r[k] = (ray){wk->cam.pos, cam_dir(&wk->cam, i + 0.5, j + 0.5)};
-                active |= 1u << k;
-            }
+            uint32_t active = block_rays(&wk->cam, wk->w, wk->h, i0, j0, r, tmax);
             struct hit h[16];
             uint32_t hit = scene_intersect16(wk->s, r, tmax, active, h);
             if (wk->kind == PRIMARY) {
@@ -208,14 +217,7 @@ static void shadow_make(const rayd_scene *s, const struct camera *cam, int w, in
         int i0 = 4 * (int)(q % (size_t)sh->bw), j0 = 4 * (int)(q / (size_t)sh->bw);
         ray r[16];
         double tmax[16];
-        uint32_t active = 0;
-        for (int k = 0; k < 16; k++) {
-            int i = i0 + k % 4, j = j0 + k / 4;
-            tmax[k] = INFINITY;
-            if (i >= w || j >= h) continue;
-            r[k] = (ray){cam->pos, cam_dir(cam, i + 0.5, j + 0.5)};
-            active |= 1u << k;
-        }
+        uint32_t active = block_rays(cam, w, h, i0, j0, r, tmax);
         struct hit hits[16];
         uint32_t hit = scene_intersect16(s, r, tmax, active, hits);
         for (uint32_t m = hit; m; m &= m - 1) {
