@@ -233,6 +233,22 @@ static double cast1(const struct setup *s, bool shadow, long *hits) {
     return now_1t() - t0;
 }
 
+/* Lane k of r: from org along dir, t in [0, tfar]. */
+static void lane_set(struct RTCRay16 *r, int k, const float org[3], const float dir[3],
+                     float tfar) {
+    r->org_x[k] = org[0], r->org_y[k] = org[1], r->org_z[k] = org[2];
+    r->dir_x[k] = dir[0], r->dir_y[k] = dir[1], r->dir_z[k] = dir[2];
+    r->tnear[k] = 0, r->tfar[k] = tfar, r->time[k] = 0;
+    r->mask[k] = 0xffffffffu, r->id[k] = (unsigned)k, r->flags[k] = 0;
+}
+
+/* Lane k of rh: lane_set's ray, unbounded, and no hit yet. */
+static void lane_hit_set(struct RTCRayHit16 *rh, int k, const float org[3], const float dir[3]) {
+    lane_set(&rh->ray, k, org, dir, INFINITY);
+    rh->hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+    rh->hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
+}
+
 /* 16-wide packets, one per 4x4 pixel block (edge blocks masked). */
 static double cast16(const struct setup *s, bool shadow, long *hits) {
     struct RTCIntersectContext ctx;
@@ -249,20 +265,9 @@ static double cast16(const struct setup *s, bool shadow, long *hits) {
                 int i = bi + (k & 3), j = bj + (k >> 2);
                 valid[k] = i < s->width && j < s->height ? -1 : 0;
                 d3 d = valid[k] ? pixel_dir(s, i, j) : s->w;
-                rh.ray.org_x[k] = (float)s->pos.x;
-                rh.ray.org_y[k] = (float)s->pos.y;
-                rh.ray.org_z[k] = (float)s->pos.z;
-                rh.ray.dir_x[k] = (float)d.x;
-                rh.ray.dir_y[k] = (float)d.y;
-                rh.ray.dir_z[k] = (float)d.z;
-                rh.ray.tnear[k] = 0;
-                rh.ray.tfar[k] = INFINITY;
-                rh.ray.time[k] = 0;
-                rh.ray.mask[k] = 0xffffffffu;
-                rh.ray.id[k] = (unsigned)k;
-                rh.ray.flags[k] = 0;
-                rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
-                rh.hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
+                const float org[3] = {(float)s->pos.x, (float)s->pos.y, (float)s->pos.z};
+                const float dir[3] = {(float)d.x, (float)d.y, (float)d.z};
+                lane_hit_set(&rh, k, org, dir);
             }
             rtcIntersect16(valid, s->scene, &ctx, &rh);
             if (!shadow) {
@@ -280,18 +285,7 @@ static double cast16(const struct setup *s, bool shadow, long *hits) {
                 const float ng[3] = {rh.hit.Ng_x[k], rh.hit.Ng_y[k], rh.hit.Ng_z[k]};
                 float o[3], sd[3], tfar;
                 shadow_ray(s, org, dir, rh.ray.tfar[k], ng, o, sd, &tfar);
-                sr.org_x[k] = o[0];
-                sr.org_y[k] = o[1];
-                sr.org_z[k] = o[2];
-                sr.dir_x[k] = sd[0];
-                sr.dir_y[k] = sd[1];
-                sr.dir_z[k] = sd[2];
-                sr.tnear[k] = 0;
-                sr.tfar[k] = tfar;
-                sr.time[k] = 0;
-                sr.mask[k] = 0xffffffffu;
-                sr.id[k] = (unsigned)k;
-                sr.flags[k] = 0;
+                lane_set(&sr, k, o, sd, tfar);
             }
             if (!any) continue;
             rtcOccluded16(svalid, s->scene, &ctx, &sr);
@@ -337,13 +331,9 @@ static void shadow_make(struct setup *s) {
             valid[k] = i < s->width && j < s->height ? -1 : 0;
             struct RTCRayHit one;
             primary_ray(s, valid[k] ? i : bi, valid[k] ? j : bj, &one);
-            rh.ray.org_x[k] = one.ray.org_x, rh.ray.org_y[k] = one.ray.org_y;
-            rh.ray.org_z[k] = one.ray.org_z, rh.ray.dir_x[k] = one.ray.dir_x;
-            rh.ray.dir_y[k] = one.ray.dir_y, rh.ray.dir_z[k] = one.ray.dir_z;
-            rh.ray.tnear[k] = 0, rh.ray.tfar[k] = INFINITY, rh.ray.time[k] = 0;
-            rh.ray.mask[k] = 0xffffffffu, rh.ray.id[k] = (unsigned)k, rh.ray.flags[k] = 0;
-            rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
-            rh.hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
+            const float org[3] = {one.ray.org_x, one.ray.org_y, one.ray.org_z};
+            const float dir[3] = {one.ray.dir_x, one.ray.dir_y, one.ray.dir_z};
+            lane_hit_set(&rh, k, org, dir);
         }
         rtcIntersect16(valid, s->scene, &ctx, &rh);
         for (int k = 0; k < 16; k++) {
@@ -402,10 +392,7 @@ static double occluded16(const struct setup *s, bool unused, long *hits) {
             const float *b = &s->shadow[7 * (16 * q + k)];
             valid[k] = s->svalid[16 * q + k];
             any |= valid[k];
-            sr.org_x[k] = b[0], sr.org_y[k] = b[1], sr.org_z[k] = b[2];
-            sr.dir_x[k] = b[3], sr.dir_y[k] = b[4], sr.dir_z[k] = b[5];
-            sr.tnear[k] = 0, sr.tfar[k] = b[6], sr.time[k] = 0;
-            sr.mask[k] = 0xffffffffu, sr.id[k] = (unsigned)k, sr.flags[k] = 0;
+            lane_set(&sr, k, b, b + 3, b[6]);
         }
         if (!any) continue;
         rtcOccluded16(valid, s->scene, &ctx, &sr);
@@ -487,20 +474,7 @@ static double bounce16(const struct setup *s, bool unused, long *hits) {
             long q = q0 + k < s->nbounce ? q0 + k : q0;
             const float *b = &s->bounce[6 * q];
             valid[k] = q0 + k < s->nbounce ? -1 : 0;
-            rh.ray.org_x[k] = b[0];
-            rh.ray.org_y[k] = b[1];
-            rh.ray.org_z[k] = b[2];
-            rh.ray.dir_x[k] = b[3];
-            rh.ray.dir_y[k] = b[4];
-            rh.ray.dir_z[k] = b[5];
-            rh.ray.tnear[k] = 0;
-            rh.ray.tfar[k] = INFINITY;
-            rh.ray.time[k] = 0;
-            rh.ray.mask[k] = 0xffffffffu;
-            rh.ray.id[k] = (unsigned)k;
-            rh.ray.flags[k] = 0;
-            rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
-            rh.hit.instID[0][k] = RTC_INVALID_GEOMETRY_ID;
+            lane_hit_set(&rh, k, b, b + 3);
         }
         rtcIntersect16(valid, s->scene, &ctx, &rh);
         for (int k = 0; k < 16; k++) n += valid[k] && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID;
