@@ -16,11 +16,27 @@
  */
 #include "work/work_private.h"
 
-/* The client whose render this thread admits, while it reserves the
- * render's memory: the reclaimer (jobs.c) lets go of that client's own
- * finished images first. */
+/* The client whose memory this thread reserves (a render's, a parse's):
+ * the reclaimer (jobs.c) lets go of that client's own finished images
+ * first, and of another's only as its rule allows.  Unbound, a
+ * reservation is no client's (a cluster's assembly) and may let go of
+ * any image. */
 static _Thread_local uint64_t budget_client;
 static _Thread_local bool budget_bound;
+
+void budget_bind(uint64_t client) {
+    budget_client = client;
+    budget_bound = true;
+}
+
+void budget_unbind(void) { budget_bound = false; }
+
+bool budget_reserve(uint64_t client, enum mem_kind kind, size_t n) {
+    budget_bind(client);
+    bool room = mem_reserve(kind, n);
+    budget_unbind();
+    return room;
+}
 
 bool budget_admitting(uint64_t *client) {
     *client = budget_client;
@@ -83,11 +99,7 @@ struct task *budget_task(struct cache_entry *scene, const struct work_target *wh
     work_assert_unlocked();
     enum mem_kind kind;
     size_t n = budget_bytes(cache_scene(scene), what, progressive, &kind);
-    budget_bound = true; /* its own finished images go first */
-    budget_client = what->client;
-    bool room = mem_reserve(kind, n);
-    budget_bound = false;
-    if (!room) {
+    if (!budget_reserve(what->client, kind, n)) {
         metrics_reject(MR_MEMORY);
         *why = n > mem_limit() ? WORK_TOO_BIG : WORK_MEMORY;
         return NULL;

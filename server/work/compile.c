@@ -231,7 +231,7 @@ static enum work_submit compile_queue_new(const char *id, const char *body, size
                                           const long *check, struct cache_entry *e,
                                           struct compile_waiter *w) {
     size_t mem = check ? scenes_check_cap(len) : scenes_parse_cap(len);
-    if (!mem_reserve(MEM_PARSES, mem)) {
+    if (!budget_reserve(w->client, MEM_PARSES, mem)) {
         metrics_reject(MR_MEMORY);
         scenes_release(e);
         return WORK_MEMORY;
@@ -474,7 +474,9 @@ static void *compile_thread(void *arg) {
         struct rayd_error err = {0};
         struct cache_entry *e = NULL;
         bool hit = false, full = false, draining = sched_draining();
+        budget_bind(j->client); /* the parse's charges are its first waiter's */
         enum rayd_status st = draining ? RAYD_E_CANCELED : compile_run(j, &e, &hit, &err, &full);
+        budget_unbind();
         if (draining) scenes_release(j->cached);
         work_lock_take();
         compile_unlink(&compile_running, j); /* no one joins it from now on */

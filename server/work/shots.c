@@ -698,7 +698,7 @@ enum work_submit shots_submit(struct shots_new *n, char id[33]) {
     for (int i = 0; i < 16; i++) snprintf(id + 2 * i, 3, "%02x", rnd[i]);
     bool roomy = n->scene && shots_room_for_another(n->scene);
     size_t held = shots_bytes(n);
-    if (!mem_reserve(MEM_FRAMES, held)) {
+    if (!budget_reserve(n->what.client, MEM_FRAMES, held)) {
         metrics_reject(MR_MEMORY);
         return WORK_MEMORY;
     }

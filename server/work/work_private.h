@@ -468,8 +468,15 @@ void task_notify_run(struct task_notify *n); /* lock NOT held */
  * WORK_NOMEM. */
 struct task *budget_task(struct cache_entry *scene, const struct work_target *what,
                          bool progressive, enum work_submit *why);
-/* True while this thread reserves a render's memory in budget_task, with
- * the render's client: the reclaimer lets go of its images first. */
+/* Binds this thread's reservations to client until budget_unbind: a
+ * render's admission (budget_task), a parse (compile.c) and a frame-range
+ * job's (shots.c) are a client's, and the reclaimer lets go of its images
+ * first, then only as struct jobs_whose's rule allows (jobs.c). */
+void budget_bind(uint64_t client);
+void budget_unbind(void);
+/* mem_reserve of n bytes of kind, bound to client. */
+bool budget_reserve(uint64_t client, enum mem_kind kind, size_t n);
+/* True while this thread is bound, with the client. */
 bool budget_admitting(uint64_t *client);
 /* The bytes budget_task reserves for what of scene. */
 size_t budget_need(const struct cache_entry *scene, const struct work_target *what,

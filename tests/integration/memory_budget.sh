@@ -312,6 +312,18 @@ check queued_jobs_refused "after ${#held[@]} queued jobs, POST $code: $(head -c 
     bash -c "[ '$code' = 503 ] && grep -q memory_full '$T/body'"
 check queued_jobs_keep_others_image "b's image: $(req GET "/v1/jobs/$only/image.exr") $(jfield "$T/body" state 2>/dev/null)" \
     eval '[ "$(req GET "/v1/jobs/$only/image.exr")" = 200 ]'
+# ... nor does its scene's parse: the parse's reservation let go of any client's oldest image
+python3 - "$T/padded.json" <<'PY'
+import json, sys
+text = json.dumps({"render": {"width": 8, "height": 8}, "objects": [{"type": "sphere"}]})
+open(sys.argv[1], "w").write(text[:-1] + " " * (400000 - len(text)) + "}")
+PY
+code=$(post_json /v1/jobs "$T/padded.json" -H 'X-Client: a')
+cp "$T/body" "$T/padded.out"
+check queued_jobs_parse_refused "a's parse: $code $(head -c 200 "$T/padded.out")" \
+    bash -c "[ '$code' = 503 ] && grep -q memory_full '$T/padded.out'"
+check queued_jobs_parse_keeps_image "b's image: $(req GET "/v1/jobs/$only/image.exr")" \
+    eval '[ "$(req GET "/v1/jobs/$only/image.exr")" = 200 ]'
 # ... and a client whose jobs ended (cancelled: they hold nothing) makes room again, however
 # many such records it has: only its jobs that hold memory count against it
 for i in $(seq 1 12); do
