@@ -203,16 +203,19 @@ static enum rayd_status exr_open(struct exr_src *src, exr_context_t *ctx, exr_at
                    src->message[0] ? src->message : exr_get_default_error_message(rv));
 }
 
-enum rayd_status exr_read_size(const void *buf, size_t len, long *w, long *h,
+enum rayd_status exr_read_size(const void *buf, size_t len, long *w, long *h, double *scratch,
                                struct rayd_error *err) {
     struct exr_src src = {buf, len, ""};
     exr_context_t ctx;
     exr_attr_box2i_t dw;
     enum rayd_status st = exr_open(&src, &ctx, &dw, err);
     if (st != RAYD_OK) return st;
-    exr_finish(&ctx);
     *w = (long)dw.max.x - dw.min.x + 1;
     *h = (long)dw.max.y - dw.min.y + 1;
+    char what[96];
+    /* the decoders hold a chunk unpacked and its decompressed bytes at once */
+    if (scratch) *scratch = 2 * chunk_bytes(ctx, *w, what, sizeof what);
+    exr_finish(&ctx);
     return RAYD_OK;
 }
 

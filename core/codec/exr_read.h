@@ -17,7 +17,7 @@ enum rayd_status exr_read_rgb(const void *buf, size_t len, long max_pixels, floa
  * read from the header alone, so a caller can count the memory before
  * the pixels are decoded; RAYD_E_INVALID (err saying why) when the
  * header is not readable. */
-enum rayd_status exr_read_size(const void *buf, size_t len, long *w, long *h,
+enum rayd_status exr_read_size(const void *buf, size_t len, long *w, long *h, double *scratch,
                                struct rayd_error *err);
 
 #endif

@@ -61,16 +61,21 @@ static enum rayd_status env_decode_exr(struct loader *ld, const char *data, size
     float *px;
     int w, h;
     long hw, hh;
+    double scratch = 0;
     struct rayd_error x = {0};
     /* the floats and the sampling tables (about as much), charged from the
-     * header's data window before a pixel is decoded */
-    enum rayd_status st = exr_read_size(data, len, &hw, &hh, &x);
+     * header's data window before a pixel is decoded, and while it decodes
+     * the decoder's chunk buffers (a single 4096x4096 ZIP tile: 384 MB of
+     * them from a 200 KB file) */
+    enum rayd_status st = exr_read_size(data, len, &hw, &hh, &scratch, &x);
     if (st != RAYD_OK) return sj_fail(ld, st, p, "%s", x.message);
-    size_t charged = hw > 0 && hh > 0 && hw <= TEXTURE_MAX_PIXELS / hh
-                         ? (size_t)hw * (size_t)hh * 3 * sizeof(float) * 2
-                         : 0; /* else exr_read_rgb refuses it */
-    TRY(sj_charge(ld, p, charged));
+    bool fits = hw > 0 && hh > 0 && hw <= TEXTURE_MAX_PIXELS / hh &&
+                scratch <= 24.0 * (double)TEXTURE_MAX_PIXELS; /* else exr_read_rgb refuses it */
+    size_t charged = fits ? (size_t)hw * (size_t)hh * 3 * sizeof(float) * 2 : 0;
+    size_t temp = fits ? (size_t)scratch : 0;
+    TRY(sj_charge(ld, p, charged + temp));
     st = exr_read_rgb(data, len, TEXTURE_MAX_PIXELS, &px, &w, &h, &x);
+    sj_give_back(ld, temp);
     if (st != RAYD_OK) {
         sj_give_back(ld, charged);
         return sj_fail(ld, st, p, "%s", x.message);
