@@ -68,6 +68,7 @@ struct watch {
     char final[16];  /* how the job ended ("" while it runs) */
     int stopped;     /* why a progressive job ended early: watch_stops' index, 0 none */
     char error[600]; /* a failed job's message, escaped */
+    char where[300]; /* " at " its JSON Pointer, escaped, when it has one */
     int news;        /* counts what was learned: passes, progress, the end */
     int refused;     /* an image was refused: stop */
     int warned;      /* bad figures were said once */
@@ -155,12 +156,15 @@ static void watch_stopped(struct watch *w, const cJSON *passes) {
 }
 
 /* The job's end, from a "done" event or its JSON's state. */
-static void watch_end(struct watch *w, const char *state, const char *error) {
+static void watch_end(struct watch *w, const char *state, const char *error, const char *path) {
     static const char *const known[] = {"succeeded", "failed", "canceled", "evicted"};
     snprintf(w->final, sizeof w->final, "unknown");
     for (size_t i = 0; i < sizeof known / sizeof known[0]; i++)
         if (state && !strcmp(state, known[i])) snprintf(w->final, sizeof w->final, "%s", state);
     if (error) net_safe(error, w->error, sizeof w->error);
+    char safe[240];
+    if (path && *path)
+        snprintf(w->where, sizeof w->where, " at %s", net_safe(path, safe, sizeof safe));
     w->news++;
 }
 
@@ -173,7 +177,8 @@ static int watch_on_event(void *user, const char *event, const char *data) {
         watch_tiles(w, d, "done", "total");
     } else if (!strcmp(event, "done")) {
         const cJSON *e = cJSON_GetObjectItemCaseSensitive(d, "error");
-        watch_end(w, net_json_str(d, "state"), cJSON_IsString(e) ? e->valuestring : NULL);
+        watch_end(w, net_json_str(d, "state"), cJSON_IsString(e) ? e->valuestring : NULL,
+                  net_json_str(d, "error_path"));
     }
     cJSON_Delete(d);
     return w->final[0] ? 1 : 0;
@@ -297,7 +302,8 @@ static int watch_status(struct watch *w, bool first) {
         const char *state = net_json_str(j, "state");
         if (state && strcmp(state, "queued") && strcmp(state, "running")) {
             const cJSON *e = cJSON_GetObjectItemCaseSensitive(j, "error");
-            watch_end(w, state, cJSON_IsString(e) ? e->valuestring : net_json_str(e, "message"));
+            watch_end(w, state, cJSON_IsString(e) ? e->valuestring : net_json_str(e, "message"),
+                      net_json_str(e, "path"));
         }
     }
     cJSON_Delete(j);
@@ -450,7 +456,7 @@ static int watch_finish(struct watch *w, int failed) {
     if (w->refused && w->cancels && job_delete(o, w->id, state, sizeof state))
         fprintf(stderr, "rayd-client: job %s cancelled: its image was refused\n", w->id);
     if (!failed && !w->refused && w->final[0])
-        fprintf(stderr, "rayd-client: error: job %s %s%s%s; %s\n", w->id, w->final,
+        fprintf(stderr, "rayd-client: error: job %s %s%s%s%s; %s\n", w->id, w->final, w->where,
                 w->error[0] ? ": " : "", w->error, holds);
     else if (w->written || w->refused)
         fprintf(stderr, "rayd-client: %s\n", holds);

@@ -102,6 +102,8 @@ static size_t api_events_format(struct api_events *a, const struct events_item *
         json_add_fixed(o, "progress", it->progress, 4);
         if (it->samples > 0) cJSON_AddNumberToObject(o, "samples", it->samples);
         if (it->state == JS_FAILED) cJSON_AddStringToObject(o, "error", err->message);
+        if (it->state == JS_FAILED && err->path[0]) /* the value it is about */
+            cJSON_AddStringToObject(o, "error_path", err->path);
         return api_sse_event(out, size, "done", o);
     case EVENTS_DRAIN:
         cJSON_AddStringToObject(o, "state", "queued");

@@ -207,6 +207,9 @@ class H(http.server.BaseHTTPRequestHandler):
             ev = "".join('event: frame\ndata: {"k": %d, "state": "done"}\n\n' % k for k in (3, 4, 5, 6, 99, -1))
             self.send(200, (ev + 'event: done\ndata: {"state": "succeeded"}\n\n').encode(), "text/event-stream")
             return streamed.append(1)
+        if self.path.endswith("/events") and MODE == "one_sse":  # a one-image job's end
+            ev = 'event: done\ndata: {"state": "failed", "error": "no such file", "error_path": "/objects/0/source/file"}\n\n'
+            return self.send(200, ev.encode(), "text/event-stream")
         if self.path.endswith("/events"):
             return self.send(404, b'{"error":{"status":404,"code":"not_found","message":"no"}}')
         if self.path.endswith(".png") and MODE == "stream":
@@ -215,6 +218,9 @@ class H(http.server.BaseHTTPRequestHandler):
             return self.send(200, png(8, 8), "image/png")
         if self.path.endswith(".png"):
             return self.send(409, b'{"error":{"status":409,"code":"frame_not_ready","message":"no"}}')
+        if MODE.startswith("one_"):  # a one-image job whose scene failed after its POST
+            return self.send(200, json.dumps({"id": ID, "state": "failed", "region": {"x": 0, "y": 0, "w": 8, "h": 8}, "error": {
+                "code": "invalid_scene", "path": "/objects/0/source/file", "message": "no such file"}}).encode())
         state = "failed" if MODE in ("evil_error", "pointer") else "succeeded"
         if (MODE == "stream" and not streamed) or MODE == "slow_delete":
             state = "running"  # only the event stream says the frames are done; or never
@@ -264,6 +270,20 @@ check untrusted_escapes "exit $(cat "$T/u-evil_error.rc"): $(cat -v "$T/u-evil_e
 # ("HTTP 422 invalid_scene at /lights/0/keyframes: ..."); before, the message alone
 check failed_job_pointer "exit $(cat "$T/u-pointer.rc"): $(cat "$T/u-pointer.err")" eval \
     '[ "$(cat "$T/u-pointer.rc")" = 1 ] && grep -qx "rayd-client: error: job 0123456789abcdef0123456789abcdef failed at /lights/0/keyframes: frame 3 failed after 1 attempt: at frame 3, intensity: must be >= 0 (0 of 4 frames written)" "$T/u-pointer.err"'
+# ... and a one-image job's (rayd-client watch), whether its end comes by polling or by its
+# event stream
+for mode in one_poll one_sse; do
+    fake "$mode"
+    timeout 60 "$CLIENT" watch 0123456789abcdef0123456789abcdef -o "$T/$mode.png" --server "$FAKE" \
+        2>"$T/$mode.err" </dev/null
+    echo $? >"$T/$mode.rc"
+    kill "$FAKE_PID" && wait "$FAKE_PID" 2>/dev/null
+    : >"$T/fake.port"
+done
+for mode in one_poll one_sse; do
+    check "${mode}_pointer" "exit $(cat "$T/$mode.rc"): $(cat "$T/$mode.err")" eval \
+        "[ \"\$(cat '$T/$mode.rc')\" = 1 ] && grep -q '^rayd-client: error: job 0123456789abcdef0123456789abcdef failed at /objects/0/source/file: no such file' '$T/$mode.err'"
+done
 
 # ---- Ctrl-C delivered twice (timeout, a terminal's group): the DELETE still goes out --------
 # The second signal, while the DELETE waited for its answer, used to cut it off: "may go on: its
