@@ -154,34 +154,6 @@ static long shots_unfinished_of(uint64_t client) {
 
 /* ---- the store (--data-dir) ------------------------------------------------------ */
 
-/* s's record for the store (lock held). */
-static void shots_record(const struct shot *s, struct store_job *row) {
-    memset(row, 0, sizeof *row);
-    snprintf(row->id, sizeof row->id, "%s", s->id);
-    row->seq = s->seq;
-    row->client = s->client;
-    row->priority = s->priority;
-    row->created_wall = s->created_wall;
-    row->state = shots_state(s);
-    snprintf(row->scene_id, sizeof row->scene_id, "%s", s->scene_id);
-    row->reg = s->reg;
-    row->keep_exr = s->keep_exr;
-    row->denoise = s->denoise;
-    row->aov = s->aov;
-    row->tiles = s->ndone;
-    row->rays = s->rays;
-    row->est_rays = s->est_rays;
-    row->queue_ms = s->queue_ms;
-    row->render_ms = s->render_ms;
-    row->encode_ms = s->encode_ms;
-    row->frames = true;
-    row->first = s->first;
-    row->last = s->last;
-    row->fps = s->fps;
-    if (row->state == JS_FAILED) shots_error(s, &row->err);
-    if (shots_final(s)) row->ended_wall = s->created_wall + (shots_ended(s) - s->created);
-}
-
 /* s ended: its end recorded once (lock held). */
 static void shots_record_end(struct shot *s) {
     if (!store_on() || s->recorded) return;
@@ -232,7 +204,11 @@ static void shots_frame_end(struct shots_fly *fl, enum rayd_status st, const str
         s->ndone++;
         s->latest = fl->i;
         s->order[s->norder++] = fl->i;
-        if (store_on()) store_frame(s->id, s->first + fl->i, f->png, f->exr);
+        if (store_on()) {
+            struct store_job row;
+            shots_record(s, &row);
+            store_frame(&row, s->first + fl->i, f->png, f->exr);
+        }
         if (s->ndone == s->n) shots_video_queue(s);
     } else if (drained || s->canceled || (st == RAYD_E_CANCELED && task_draining())) {
         f->state = SF_QUEUED;

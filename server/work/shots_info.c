@@ -1,7 +1,8 @@
 /* shots_info.c -- what a frame-range job's status says: its numbers as the
  * routes read them (struct shots_info, the same shape as a single job's
  * struct jobs_info), and the message of its error, naming the frames that
- * failed.  Readers only: the shot is shots.c's, and the lock is held.
+ * failed, and its record for the store (--data-dir).  Readers only: the
+ * shot is shots.c's, and the lock is held.
  */
 #include "work/shots_private.h"
 
@@ -79,4 +80,32 @@ void shots_info_of(const struct shot *s, struct shots_info *o) {
     }
     o->video = s->video_state;
     snprintf(o->video_error, sizeof o->video_error, "%s", s->video_error);
+}
+
+/* s's record for the store (lock held). */
+void shots_record(const struct shot *s, struct store_job *row) {
+    memset(row, 0, sizeof *row);
+    snprintf(row->id, sizeof row->id, "%s", s->id);
+    row->seq = s->seq;
+    row->client = s->client;
+    row->priority = s->priority;
+    row->created_wall = s->created_wall;
+    row->state = shots_state(s);
+    snprintf(row->scene_id, sizeof row->scene_id, "%s", s->scene_id);
+    row->reg = s->reg;
+    row->keep_exr = s->keep_exr;
+    row->denoise = s->denoise;
+    row->aov = s->aov;
+    row->tiles = s->ndone;
+    row->rays = s->rays;
+    row->est_rays = s->est_rays;
+    row->queue_ms = s->queue_ms;
+    row->render_ms = s->render_ms;
+    row->encode_ms = s->encode_ms;
+    row->frames = true;
+    row->first = s->first;
+    row->last = s->last;
+    row->fps = s->fps;
+    if (row->state == JS_FAILED) shots_error(s, &row->err);
+    if (shots_final(s)) row->ended_wall = s->created_wall + (shots_ended(s) - s->created);
 }

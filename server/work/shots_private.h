@@ -4,7 +4,7 @@
  *
  *   shots.c         the table, each frame's parse and render, the store,
  *                   letting go of frames and videos, the video
- *   shots_info.c    the numbers a status reads, its error's message
+ *   shots_info.c    the numbers a status reads, its error's message, its record
  *   shots_events.c  the job's event stream (GET /v1/jobs/{id}/events)
  */
 #ifndef SHOTS_PRIVATE_H
@@ -110,5 +110,7 @@ static inline double shots_ended(const struct shot *s) {
 void shots_error(const struct shot *s, struct rayd_error *err);
 /* s's numbers, for a status (shots_info.c). */
 void shots_info_of(const struct shot *s, struct shots_info *o);
+/* s's record for the store, its figures so far (shots_info.c). */
+void shots_record(const struct shot *s, struct store_job *row);
 
 #endif

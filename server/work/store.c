@@ -486,6 +486,11 @@ static void store_do_frame(struct store_op *op) {
                   (long long)k) == SQLITE_DONE &&
         store_run(NULL, "UPDATE frames SET attempts = 0 WHERE job = ? AND state = 'queued'", "t",
                   id) == SQLITE_DONE &&
+        store_run(NULL,
+                  "UPDATE jobs SET tiles = ?, rays = ?, queue_ms = ?, render_ms = ?, encode_ms = ?"
+                  " WHERE id = ?",
+                  "iidddt", (long long)op->row.tiles, (long long)op->row.rays, op->row.queue_ms,
+                  op->row.render_ms, op->row.encode_ms, id) == SQLITE_DONE &&
         store_exec("COMMIT");
     if (!done) {
         store_exec("ROLLBACK");
@@ -594,15 +599,20 @@ void store_end(const struct store_job *row, struct blob *png, struct blob *exr) 
     store_queue(op);
 }
 
-void store_frame(const char *id, long k, struct blob *png, struct blob *exr) {
+void store_frame(const struct store_job *row, long k, struct blob *png, struct blob *exr) {
     struct store_op *op = calloc(1, sizeof *op);
     if (!op) {
-        log_error("job %s: out of memory to record frame %ld under --data-dir", id, k);
+        log_error("job %s: out of memory to record frame %ld under --data-dir", row->id, k);
         return;
     }
     op->kind = SO_FRAME;
-    snprintf(op->row.id, sizeof op->row.id, "%s", id);
+    snprintf(op->row.id, sizeof op->row.id, "%s", row->id);
     op->row.first = k;
+    op->row.tiles = row->tiles;
+    op->row.rays = row->rays;
+    op->row.queue_ms = row->queue_ms;
+    op->row.render_ms = row->render_ms;
+    op->row.encode_ms = row->encode_ms;
     op->png = blob_ref(png);
     op->exr = blob_ref(exr);
     store_queue(op);

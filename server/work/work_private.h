@@ -539,9 +539,11 @@ void store_frame_hooks(void (*written)(const char *id, long k),
 bool store_insert(struct store_job *row, struct work_waiter *w);
 void store_end(const struct store_job *row, struct blob *png, struct blob *exr);
 void store_forget(const char *id);
-/* Frame k of frame-range job id is done: its images written whole (a
- * temporary name, fsync, rename), then its row says so.  Lock held. */
-void store_frame(const char *id, long k, struct blob *png, struct blob *exr);
+/* Frame k of frame-range job row->id is done: its images written whole (a
+ * temporary name, fsync, rename), then its row says so, and in the same
+ * commit the job's figures so far (row's frames done, rays and times), so
+ * a restart goes on counting from them.  Lock held. */
+void store_frame(const struct store_job *row, long k, struct blob *png, struct blob *exr);
 /* Frame k's image from its file, or NULL; any thread (a plain read). */
 struct blob *store_read_frame(const char *id, long k, bool exr);
 /* A frame-range job's frames at start-up (main thread): states[k - first]

@@ -50,6 +50,7 @@ gate 4 # two frames of two tiles each
 wait_until 60 frames_done_on_disk "$between" 2
 req GET "/v1/jobs/$between" >/dev/null
 check between_two_done "$(cat "$T/body")" eval '[ "$(json "$T/body" "j[\"frames\"][\"done\"]")" = 2 ]'
+rays_before=$(json "$T/body" 'j["rays"]')
 for k in 1 2 3 4; do req GET "/v1/jobs/$between/frames/$k.png" >/dev/null && cp "$T/body" "$T/before-$k.png"; done
 kill9
 
@@ -60,6 +61,10 @@ check between_kept "$(cat "$T/body")" eval '[ "$(json "$T/body" "(j[\"state\"], 
 n=0
 for k in 1 2 3 4; do frame_is "$between" "$k" "$T/before-$k.png" && n=$((n + 1)); done
 check between_frames_served_as_before "$n of 2" eval '[ "$n" = 2 ]'
+# the job's rays go on from its done frames' (they restarted from 0, counted at the end only)
+req GET "/v1/jobs/$between" >/dev/null
+check between_rays_kept "before the kill $rays_before, after $(json "$T/body" 'j["rays"]')" eval \
+    '[ "$rays_before" -gt 0 ] && [ "$(json "$T/body" "j[\"rays\"]")" = "$rays_before" ]'
 code=$(req GET "/v1/jobs/$between/frames/4.png")
 check between_rest_queued "$code $(cat "$T/body")" err_is "$T/body" 409 frame_not_ready
 
