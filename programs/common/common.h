@@ -16,6 +16,7 @@
  *   args.c         getopt_long's refusals said in full; strict numbers
  *   output.c       -o: a temporary file in the same folder, fsync, rename
  *   output_kind.c  the format an output's name asks for (.exr, .png, ...)
+ *   part_guard.c   part files removed when a signal ends the program
  *   base64enc.c    base64 for the files the client embeds in a scene
  *   frame_name.c   --frames A-B, and frame k's file name from -o's %d
  *
@@ -25,10 +26,12 @@
 #define RAYD_PROGRAMS_COMMON_H
 
 #include <getopt.h>
+#include <signal.h>
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdio.h>
 #include <sys/stat.h>
+#include <sys/types.h>
 
 /* ---- prog.c --------------------------------------------------------------- */
 
@@ -101,6 +104,21 @@ const char *output_name(const char *path);
  * why").  Asked before a render, so a folder that is missing is found
  * before the work, not after it. */
 int output_writable(const char *path);
+
+/* ---- part_guard.c --------------------------------------------------------- */
+
+/* Holds SIGTERM, SIGINT and SIGHUP in this thread (the mask before into
+ * *old), while a part file is made, guarded, renamed or removed;
+ * part_guard_release puts the mask back. */
+void part_guard_hold(sigset_t *old);
+void part_guard_release(const sigset_t *old);
+/* part is removed if one of those signals ends the program before
+ * part_guard_disarm(part); false when it cannot be guarded (too many,
+ * too long a name).  Signals held. */
+bool part_guard_arm(const char *part);
+/* The child writing the guarded files (0: none), killed first. */
+void part_guard_child(pid_t pid);
+void part_guard_disarm(const char *part);
 
 /* ---- output_kind.c -------------------------------------------------------- */
 

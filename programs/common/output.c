@@ -6,7 +6,8 @@
  * file system, so a reader, or a script that checks for the file, sees the
  * old image or the new one, never half of one, and a run that fails (the
  * disk is full, the render is refused) or is interrupted leaves FILE as it
- * was, or absent.  Every failure removes the temporary file; only a run
+ * was, or absent.  Every failure removes the temporary file, and so does
+ * a signal that ends the program meanwhile (part_guard.c); only a run
  * killed outright (SIGKILL) can leave a FILE.PID.part behind, never a torn
  * FILE.  The fsync keeps a crash just after the rename from leaving FILE
  * empty (the rename may reach the disk before the data).
@@ -99,8 +100,12 @@ int output_open(struct output *o, const char *path) {
         fd = open(path, O_WRONLY | O_CLOEXEC);
     } else {
         char *tmp = NULL;
+        sigset_t held;
+        part_guard_hold(&held);
         fd = output_part(o->target, "", exists ? &old : NULL, &tmp);
         o->tmp = tmp; /* ours, for output_abort to remove; NULL when none was made */
+        if (tmp) part_guard_arm(tmp);
+        part_guard_release(&held);
     }
     if (fd < 0) goto fail;
     if (!(o->f = fdopen(fd, "wb"))) {
@@ -129,7 +134,11 @@ int output_commit(struct output *o) {
     int e = errno;
     if (fclose(o->f) != 0 && rc == 0) rc = -1, e = errno;
     o->f = NULL;
+    sigset_t held;
+    part_guard_hold(&held);
     if (rc == 0 && o->tmp && rename(o->tmp, o->target) != 0) rc = -1, e = errno;
+    if (rc == 0 && o->tmp) part_guard_disarm(o->tmp);
+    part_guard_release(&held);
     if (rc == 0) {
         free(o->tmp), free(o->target);
         o->tmp = o->target = NULL;
@@ -144,7 +153,11 @@ void output_abort(struct output *o) {
     int e = errno;
     if (o->f && !o->to_stdout) fclose(o->f);
     o->f = NULL;
+    sigset_t held;
+    part_guard_hold(&held);
     if (o->tmp) unlink(o->tmp);
+    if (o->tmp) part_guard_disarm(o->tmp);
+    part_guard_release(&held);
     free(o->tmp), free(o->target);
     o->tmp = o->target = NULL;
     errno = e;

@@ -32,19 +32,10 @@
  * frames_run(), this file calls render_one.c, and neither calls back.
  *
  * A signal that ends rayd-render while ffmpeg writes the video's part
- * file (SIGTERM from a service manager, timeout(1) or kill; SIGINT, Ctrl-C;
- * SIGHUP, the terminal gone) would leave that file behind.  So from the
- * part file's making to its rename, each of them that was not ignored at
- * the start is caught (video_on_signal): ffmpeg is killed and waited for
- * (a live one could make the name again), the part file removed, and the
- * process ended by the same signal, its default action back, so the exit
- * status is 128 + N as before.  The handler makes only async-signal-safe
- * calls (kill, waitpid, unlink, raise) on what was set before it was
- * armed; the signals are held while it is armed and disarmed, and while
- * the part file is renamed or removed, so it never races those.  An
- * ignored signal stays so: a background job's SIGINT, where the group's
- * Ctrl-C stops ffmpeg and the broken pipe is a failed run, which removes
- * the part file as any failure does.
+ * file would leave that file behind: from its making to its rename it is
+ * guarded (common/part_guard.c), ffmpeg its writer, killed first.  The
+ * signals are held while ffmpeg is spawned (it starts with the mask from
+ * before) and while the part file is renamed or removed.
  */
 #include <errno.h>
 #include <signal.h>
@@ -93,73 +84,13 @@ static int video_temp(const char *path, char **tmp) {
     return render_one_cannot_write(path, errno); /* *tmp is NULL */
 }
 
-/* The signals that would end rayd-render with the part file left, what
- * they did before (put back by video_disarm), and what video_on_signal
- * reads: set before it is armed, while the signals are held. */
-static const int video_sigs[] = {SIGTERM, SIGINT, SIGHUP};
-#define VIDEO_NSIGS (sizeof video_sigs / sizeof video_sigs[0])
-static struct sigaction video_old[VIDEO_NSIGS];
-static bool video_armed;
-static volatile sig_atomic_t video_child; /* ffmpeg's pid, 0 before it runs */
-static char video_part[4200];             /* the part file's name */
-
-static void video_on_signal(int sig) {
-    pid_t pid = (pid_t)video_child;
-    if (pid > 0) {
-        kill(pid, SIGKILL);
-        while (waitpid(pid, NULL, 0) < 0 && errno == EINTR) continue;
-        video_child = 0; /* reaped: its pid may be another's now */
-    }
-    unlink(video_part);
-    /* every one of them back to its default, not only sig (SA_RESETHAND):
-     * another held meanwhile must end the process, not run this again */
-    struct sigaction dfl;
-    memset(&dfl, 0, sizeof dfl);
-    dfl.sa_handler = SIG_DFL;
-    for (size_t i = 0; i < VIDEO_NSIGS; i++)
-        if (video_old[i].sa_handler != SIG_IGN) sigaction(video_sigs[i], &dfl, NULL);
-    raise(sig); /* held until this returns */
-}
-
-/* Holds the signals of video_sigs (the mask before into *old). */
-static void video_hold(sigset_t *old) {
-    sigset_t set;
-    sigemptyset(&set);
-    for (size_t i = 0; i < VIDEO_NSIGS; i++) sigaddset(&set, video_sigs[i]);
-    pthread_sigmask(SIG_BLOCK, &set, old);
-}
-
-/* Catches the signals not ignored, to remove part; called with them held. */
-static void video_arm(const char *part) {
-    if (snprintf(video_part, sizeof video_part, "%s", part) >= (int)sizeof video_part) return;
-    struct sigaction sa;
-    memset(&sa, 0, sizeof sa);
-    sa.sa_handler = video_on_signal;
-    sa.sa_flags = SA_RESETHAND;
-    sigemptyset(&sa.sa_mask);
-    for (size_t i = 0; i < VIDEO_NSIGS; i++) sigaddset(&sa.sa_mask, video_sigs[i]);
-    for (size_t i = 0; i < VIDEO_NSIGS; i++)
-        if (sigaction(video_sigs[i], NULL, &video_old[i]) == 0 &&
-            video_old[i].sa_handler != SIG_IGN)
-            sigaction(video_sigs[i], &sa, NULL);
-    video_armed = true;
-}
-
-/* The signals' actions as they were; called with them held. */
-static void video_disarm(void) {
-    if (!video_armed) return;
-    for (size_t i = 0; i < VIDEO_NSIGS; i++) sigaction(video_sigs[i], &video_old[i], NULL);
-    video_child = 0;
-    video_armed = false;
-}
-
 /* video_start's, with the signals held (the mask before in held). */
 static int video_spawn(struct video *v, const char *path, int w, int h, double fps,
                        const sigset_t *held) {
     char size[64], rate[64], out[4200];
     int rc = video_temp(path, &v->tmp);
     if (rc != 0) return rc;
-    if (v->tmp) video_arm(v->tmp);
+    if (v->tmp) part_guard_arm(v->tmp);
     const char *to = v->tmp ? v->tmp : path;
     snprintf(size, sizeof size, "%dx%d", w, h);
     snprintf(rate, sizeof rate, "%.17g", fps);
@@ -195,7 +126,7 @@ static int video_spawn(struct video *v, const char *path, int w, int h, double f
     posix_spawnattr_destroy(&at);
     posix_spawn_file_actions_destroy(&fa);
     close(fds[0]);
-    if (e == 0) video_child = (sig_atomic_t)v->pid;
+    if (e == 0 && v->tmp) part_guard_child(v->pid);
     if (e != 0) {
         close(fds[1]);
         fprintf(stderr,
@@ -214,9 +145,9 @@ static int video_spawn(struct video *v, const char *path, int w, int h, double f
 /* Starts ffmpeg encoding w x h RGB frames at fps for path. */
 static int video_start(struct video *v, const char *path, int w, int h, double fps) {
     sigset_t held;
-    video_hold(&held);
+    part_guard_hold(&held);
     int rc = video_spawn(v, path, w, h, fps, &held);
-    pthread_sigmask(SIG_SETMASK, &held, NULL);
+    part_guard_release(&held);
     return rc;
 }
 
@@ -231,7 +162,7 @@ static int video_end(struct video *v, const char *path, bool abort) {
         while (waitid(P_PID, (id_t)v->pid, &si, WEXITED | WNOWAIT) < 0 && errno == EINTR) continue;
     }
     sigset_t held;
-    video_hold(&held);
+    part_guard_hold(&held);
     if (v->pid) {
         int status = 0;
         while (waitpid(v->pid, &status, 0) < 0 && errno == EINTR) continue;
@@ -244,10 +175,10 @@ static int video_end(struct video *v, const char *path, bool abort) {
                     WIFEXITED(status) ? WEXITSTATUS(status) : WTERMSIG(status));
     }
     if (rc != 0 && v->tmp) unlink(v->tmp);
+    if (v->tmp) part_guard_disarm(v->tmp);
     free(v->tmp);
     v->tmp = NULL;
-    video_disarm();
-    pthread_sigmask(SIG_SETMASK, &held, NULL);
+    part_guard_release(&held);
     return rc;
 }
 

@@ -124,6 +124,37 @@ check render_part_names_taken "exit $RC, $(says), $(ls "$T/taken" | grep -c 'par
     bash -c "[ $RC = 1 ] && grep -q '^rayd-render: error: cannot write $T/taken/out.png: File exists' '$T/err' &&
         [ \"\$(grep -lx other '$T/taken'/out.png.*.part | wc -l)\" = 100 ] && [ ! -e '$T/taken/out.png' ]"
 
+# SIGTERM (a service manager, timeout(1)) while the file is written: the part file goes too, and
+# the exit status is the signal's.  Before, it was left: out.exr.PID.part beside no out.exr.  The
+# write of a 4096x4096 EXR (29 MB) takes about 0.1 s; the signal is sent when the part file is
+# seen, the run tried again (up to 5 times) if it ended before it was.
+cat >"$T/big.json" <<'JSON'
+{"render": {"width": 4096, "height": 4096}, "camera": {"position": [0, 0, 5], "look_at": [0, 0, 0]},
+ "lights": [{"type": "point", "position": [3, 3, 5]}], "objects": [{"type": "sphere", "radius": 1.5}]}
+JSON
+mkdir -p "$T/sig"
+python3 - "$T/sig" "$RENDER" "$T/big.json" >"$T/sig.out" <<'PY'
+import os, subprocess, sys, time
+d, render, scene = sys.argv[1:4]
+for attempt in range(5):
+    p = subprocess.Popen([render, scene, "-o", os.path.join(d, "out.exr"), "-q"])
+    seen = []
+    while p.poll() is None and not seen:
+        seen = [f for f in os.listdir(d) if f.endswith(".part")]
+        time.sleep(0.002)
+    if seen:
+        p.terminate()
+        p.wait()
+        print("caught", p.returncode, " ".join(sorted(os.listdir(d))) or "-")
+        break
+    p.wait()
+    for f in os.listdir(d):
+        os.unlink(os.path.join(d, f))
+else:
+    print("never caught")
+PY
+check render_sigterm_removes_part "$(cat "$T/sig.out")" grep -qx 'caught -15 -' "$T/sig.out"
+
 # --- rayd-client: render (tiles) and job -------------------------------------
 start_rayd --threads 2
 mkdir -p "$T/c"
