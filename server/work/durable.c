@@ -150,12 +150,27 @@ int durable_start(void) {
     if (!config.data_dir) return 0;
     struct store_job *rows = NULL;
     int n = 0;
-    if (store_open(config.data_dir) || store_load(&rows, &n) || store_start()) return -1;
+    if (store_open(config.data_dir) || store_load(&rows, &n)) return -1;
+    /* the frames' states read before anything starts: a jobs.db that
+     * cannot be read stops the start before any job is put back */
+    unsigned char **frame_states = calloc((size_t)n + 1, sizeof *frame_states);
+    bool read = frame_states != NULL;
+    for (int i = 0; read && i < n; i++)
+        if (rows[i].frames &&
+            (frame_states[i] = malloc((size_t)(rows[i].last - rows[i].first + 1))) &&
+            store_load_frames(&rows[i], frame_states[i]) < 0)
+            read = false;
+    if (!read || store_start()) {
+        for (int i = 0; frame_states && i < n; i++) free(frame_states[i]);
+        free(frame_states);
+        store_rows_free(rows, n);
+        return -1;
+    }
     long finished = 0, queued = 0;
     for (int i = 0; i < n; i++) {
         if (rows[i].frames) { /* a frame-range job: its frames parse as they are rendered */
-            unsigned char *states = malloc((size_t)(rows[i].last - rows[i].first + 1));
-            bool ok = states && store_load_frames(&rows[i], states) >= 0;
+            unsigned char *states = frame_states[i];
+            bool ok = states != NULL;
             if (ok) durable_frames_lost(&rows[i], states);
             if (ok) durable_given_up(&rows[i]);
             ok = ok && shots_restore(&rows[i], states);
@@ -176,6 +191,7 @@ int durable_start(void) {
         struct timespec ts = {0, 10 * 1000000L};
         nanosleep(&ts, NULL);
     }
+    free(frame_states);
     store_rows_free(rows, n);
     if (n)
         log_info("--data-dir %s: %ld ended jobs kept, %ld queued again", config.data_dir, finished,

@@ -334,23 +334,6 @@ static void store_unlink(const char *id) {
     unlink(path);
 }
 
-/* Every file a job's frames name (a frame-range job's), unlinked. */
-static void store_unlink_frames(const char *id) {
-    sqlite3_stmt *st = NULL;
-    if (sqlite3_prepare_v2(store_db, "SELECT path, exr_path FROM frames WHERE job = ?", -1, &st,
-                           NULL) != SQLITE_OK)
-        return;
-    sqlite3_bind_text(st, 1, id, -1, SQLITE_TRANSIENT);
-    while (sqlite3_step(st) == SQLITE_ROW)
-        for (int c = 0; c < 2; c++) {
-            const char *rel = store_text(st, c);
-            char path[4200];
-            snprintf(path, sizeof path, "%s/%s", store_dir, rel);
-            if (rel[0] && !strstr(rel, "..")) unlink(path);
-        }
-    sqlite3_finalize(st);
-}
-
 /* Frame k of frame-range job id evicted by --max-disk: its row first,
  * its files after (a crash between leaves orphans the next start deletes). */
 static bool store_evict_frame(const char *id, long k, const char *why) {
@@ -501,6 +484,44 @@ static void store_do_frame(struct store_op *op) {
     store_evict(id, k);
 }
 
+/* A job forgotten (--job-ttl, --max-jobs): its rows deleted in one commit,
+ * and only then its files (every frame's), so a kill in between leaves
+ * orphans the next start sweeps, never a done row whose files are gone --
+ * which the next start would render again, the forgotten job back. */
+static void store_do_forget(const char *id) {
+    sqlite3_stmt *st = NULL;
+    size_t bytes = 0;
+    long first = 0, last = -1;
+    if (store_run(&st,
+                  "SELECT (SELECT COALESCE(SUM(bytes), 0) FROM frames WHERE job = ?1 AND"
+                  " state = 'done'), frame_first, frame_last FROM jobs WHERE id = ?1",
+                  "t", id) == SQLITE_ROW) {
+        bytes = (size_t)sqlite3_column_int64(st, 0);
+        if (sqlite3_column_type(st, 1) != SQLITE_NULL) {
+            first = (long)sqlite3_column_int64(st, 1);
+            last = (long)sqlite3_column_int64(st, 2);
+        }
+        sqlite3_finalize(st);
+    }
+    bool ok = store_exec("BEGIN") &&
+              store_run(NULL, "DELETE FROM frames WHERE job = ?", "t", id) == SQLITE_DONE &&
+              store_run(NULL, "DELETE FROM jobs WHERE id = ?", "t", id) == SQLITE_DONE &&
+              store_exec("COMMIT");
+    if (!ok) {
+        store_exec("ROLLBACK");
+        return;
+    }
+    store_unlink(id);
+    for (long k = first; k <= last; k++) {
+        char path[4200];
+        store_path(path, sizeof path, id, k, false, false);
+        unlink(path);
+        store_path(path, sizeof path, id, k, true, false);
+        unlink(path);
+    }
+    store_bytes -= bytes < store_bytes ? bytes : store_bytes;
+}
+
 static void store_do(struct store_op *op) {
     if (op->kind == SO_FRAME) {
         store_do_frame(op);
@@ -516,19 +537,7 @@ static void store_do(struct store_op *op) {
     } else if (op->kind == SO_END) {
         store_do_end(op);
     } else {
-        sqlite3_stmt *st = NULL;
-        size_t bytes = 0;
-        if (store_run(&st, "SELECT bytes FROM frames WHERE job = ? AND state = 'done'", "t",
-                      op->row.id) == SQLITE_ROW) {
-            bytes = (size_t)sqlite3_column_int64(st, 0);
-            sqlite3_finalize(st);
-        }
-        store_unlink_frames(op->row.id);
-        if (store_run(NULL, "DELETE FROM frames WHERE job = ?", "t", op->row.id) == SQLITE_DONE &&
-            store_run(NULL, "DELETE FROM jobs WHERE id = ?", "t", op->row.id) == SQLITE_DONE) {
-            store_unlink(op->row.id);
-            store_bytes -= bytes < store_bytes ? bytes : store_bytes;
-        }
+        store_do_forget(op->row.id);
     }
 }
 
@@ -640,13 +649,22 @@ void store_frame_hooks(void (*written)(const char *id, long k),
 
 /* ---- start-up ---------------------------------------------------------------------- */
 
+/* jobs.db could not be read (damaged): said on stderr; rayd does not start
+ * on it, and nothing of DIR is deleted on the word of a store it cannot read. */
+static void store_damaged(const char *what) {
+    fprintf(stderr,
+            "rayd: error: --data-dir %s: jobs.db cannot be read (%s: %s); rayd does not start "
+            "on it and deletes nothing: restore jobs.db from a backup, or move DIR away\n",
+            store_dir, what, sqlite3_errmsg(store_db));
+}
+
 /* Deletes what a kill left under results/: .tmp files, and files no done
- * frame names. */
-static void store_sweep(void) {
+ * frame names.  -1 (nothing more deleted) when jobs.db cannot be read. */
+static int store_sweep(void) {
     char dir[4200];
     snprintf(dir, sizeof dir, "%s/results", store_dir);
     DIR *d = opendir(dir);
-    if (!d) return;
+    if (!d) return 0;
     struct dirent *e;
     while ((e = readdir(d))) {
         if (e->d_name[0] == '.') continue;
@@ -659,11 +677,17 @@ static void store_sweep(void) {
             char rel[300];
             snprintf(rel, sizeof rel, "results/%s", e->d_name);
             sqlite3_stmt *st = NULL;
-            known = store_run(&st,
-                              "SELECT 1 FROM frames WHERE job = ? AND state = 'done' AND"
-                              " (path = ? OR exr_path = ?)",
-                              "ttt", id, rel, rel) == SQLITE_ROW;
+            int rc = store_run(&st,
+                               "SELECT 1 FROM frames WHERE job = ? AND state = 'done' AND"
+                               " (path = ? OR exr_path = ?)",
+                               "ttt", id, rel, rel);
+            known = rc == SQLITE_ROW;
             if (known) sqlite3_finalize(st);
+            if (rc != SQLITE_ROW && rc != SQLITE_DONE) {
+                closedir(d);
+                store_damaged("looking up the files under results/");
+                return -1;
+            }
         }
         if (!known) {
             unlinkat(dirfd(d), e->d_name, 0);
@@ -672,6 +696,7 @@ static void store_sweep(void) {
         }
     }
     closedir(d);
+    return 0;
 }
 
 /* The lock is held by another rayd: say which (the PID it wrote in the
@@ -704,7 +729,13 @@ int store_open(const char *dir) {
     if (ftruncate(store_lock_fd, 0) != 0 || pwrite(store_lock_fd, pid, (size_t)len, 0) != len)
         log_info("--data-dir: could not write the PID into %s: %s", path, strerror(errno));
     snprintf(path, sizeof path, "%s/results", dir);
-    if (mkdir(path, 0700) != 0 && errno != EEXIST) {
+    struct stat rst;
+    int made = mkdir(path, 0700) == 0 || errno == EEXIST ? 0 : -1;
+    if (!made && stat(path, &rst) == 0 && !S_ISDIR(rst.st_mode)) { /* a file named results */
+        made = -1;
+        errno = ENOTDIR;
+    }
+    if (made) {
         fprintf(stderr, "rayd: error: --data-dir %s: cannot make results/: %s\n", dir,
                 strerror(errno));
         return -1;
@@ -735,7 +766,11 @@ int store_open(const char *dir) {
     /* a job's ?denoise= and ?aov= (NULL in a store of before them: neither) */
     sqlite3_exec(store_db, "ALTER TABLE jobs ADD COLUMN denoise INTEGER", NULL, NULL, NULL);
     sqlite3_exec(store_db, "ALTER TABLE jobs ADD COLUMN aov INTEGER", NULL, NULL, NULL);
-    store_sweep();
+    if (store_sweep()) {
+        sqlite3_close(store_db);
+        store_db = NULL;
+        return -1;
+    }
     atomic_store(&store_up, true);
     sqlite3_stmt *st = NULL;
     if (store_run(&st, "SELECT COALESCE(SUM(bytes), 0) FROM frames WHERE state = 'done'", "") ==
@@ -884,8 +919,8 @@ int store_load(struct store_job **rows, int *n) {
         " FROM jobs j LEFT JOIN frames f ON f.job = j.id AND f.k = 0"
         " ORDER BY j.seq",
         -1, &st, NULL);
-    int cap = 0;
-    while (rc == SQLITE_OK && sqlite3_step(st) == SQLITE_ROW) {
+    int cap = 0, step = SQLITE_DONE;
+    while (rc == SQLITE_OK && (step = sqlite3_step(st)) == SQLITE_ROW) {
         if (*n == cap) {
             cap = cap ? 2 * cap : 64;
             struct store_job *more = realloc(*rows, (size_t)cap * sizeof **rows);
@@ -900,18 +935,24 @@ int store_load(struct store_job **rows, int *n) {
         (*n)++;
     }
     sqlite3_finalize(st);
-    return rc == SQLITE_OK ? 0 : -1;
+    if (rc != SQLITE_OK || (step != SQLITE_ROW && step != SQLITE_DONE)) {
+        store_damaged("reading the jobs");
+        return -1;
+    }
+    return 0;
 }
 
 int store_load_frames(const struct store_job *j, unsigned char *states) {
     memset(states, STORE_FRAME_QUEUED, (size_t)(j->last - j->first + 1));
     sqlite3_stmt *st = NULL;
     if (sqlite3_prepare_v2(store_db, "SELECT k, state, exr_path, bytes FROM frames WHERE job = ?",
-                           -1, &st, NULL) != SQLITE_OK)
+                           -1, &st, NULL) != SQLITE_OK) {
+        store_damaged("reading a frame-range job's frames");
         return -1;
+    }
     sqlite3_bind_text(st, 1, j->id, -1, SQLITE_TRANSIENT);
-    int done = 0;
-    while (sqlite3_step(st) == SQLITE_ROW) {
+    int done = 0, step;
+    while ((step = sqlite3_step(st)) == SQLITE_ROW) {
         long k = sqlite3_column_int64(st, 0);
         const char *state = store_text(st, 1);
         if (k < j->first || k > j->last) continue;
@@ -927,6 +968,10 @@ int store_load_frames(const struct store_job *j, unsigned char *states) {
         }
     }
     sqlite3_finalize(st);
+    if (step != SQLITE_DONE) {
+        store_damaged("reading a frame-range job's frames");
+        return -1;
+    }
     return done;
 }
 

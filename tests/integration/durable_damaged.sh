@@ -1,0 +1,68 @@
+#!/usr/bin/env bash
+# durable_damaged.sh -- a --data-dir whose jobs.db is damaged (a page of an
+# index zeroed: a disk's bad sector, a copy cut short) or whose results/ is
+# a file: rayd says what is wrong and does not start, deleting nothing.
+#
+# Before, the start-up sweep took every failed look-up in a damaged jobs.db
+# for "no job names this file" and deleted every finished image, the load
+# stopped at the first unreadable row without a word, and rayd listened with
+# none of its jobs (404 job_unknown for every id it had answered 202 to) and
+# refused every new one (503 store_failed "not an error").  A results/ that
+# is a file was taken as the folder: no image could ever be written, and
+# every finished job rendered again at each start.
+source "$(dirname "$0")/lib/common.sh"
+
+D=$T/data
+start_rayd --threads 1 --data-dir "$D"
+for i in 1 2 3; do
+    scene "$T/j$i.json" 32 32 1 spheres "$i"
+    post_json /v1/jobs "$T/j$i.json" >/dev/null
+    jfield "$T/body" id >>"$T/ids"
+done
+for id in $(cat "$T/ids"); do wait_until 60 job_state_is "$id" succeeded; done
+stop_rayd TERM
+cp -r "$D" "$T/orig"
+nimages=$(ls "$T/orig/results" | wc -l)
+check damaged_setup "$nimages images" [ "$nimages" = 3 ]
+
+# zero_page DIR INDEX: the root page of jobs.db's INDEX zeroed
+zero_page() {
+    python3 - "$1/jobs.db" "$2" <<'PY'
+import sqlite3, sys
+db = sqlite3.connect(sys.argv[1])
+size = db.execute("PRAGMA page_size").fetchone()[0]
+root = db.execute("SELECT rootpage FROM sqlite_master WHERE name = ?", (sys.argv[2],)).fetchone()[0]
+db.close()
+with open(sys.argv[1], "r+b") as f:
+    f.seek((root - 1) * size)
+    f.write(b"\0" * size)
+PY
+}
+# refused DIR TEXT: rayd exits 1 on DIR, saying TEXT, without listening
+refused() {
+    timeout 15 "$RAYD" --bind 127.0.0.1 --port 0 --data-dir "$1" >"$T/bad.out" 2>"$T/bad.err"
+    [ $? = 1 ] && grep -q -- "$2" "$T/bad.err" && ! [ -s "$T/bad.out" ]
+}
+
+# the index of the frames by state damaged: the sweep's look-ups fail
+rm -rf "$T/c" && cp -r "$T/orig" "$T/c" && zero_page "$T/c" frames_ended
+check damaged_frames_index_refused "$(tail -c 400 "$T/bad.err" 2>/dev/null)" \
+    refused "$T/c" "jobs.db cannot be read"
+check damaged_frames_index_images_kept "$(ls "$T/c/results" | wc -l) of 3 left" \
+    [ "$(ls "$T/c/results" | wc -l)" = 3 ]
+
+# the jobs' index damaged (results/ empty, so the load is the first to read it)
+rm -rf "$T/c" && cp -r "$T/orig" "$T/c" && rm -f "$T/c/results/"* && zero_page "$T/c" sqlite_autoindex_jobs_2
+check damaged_jobs_index_refused "$(tail -c 400 "$T/bad.err" 2>/dev/null)" \
+    refused "$T/c" "jobs.db cannot be read"
+
+# results/ a file
+rm -rf "$T/c" && cp -r "$T/orig" "$T/c" && rm -rf "$T/c/results" && echo x >"$T/c/results"
+check results_is_file_refused "$(tail -c 400 "$T/bad.err" 2>/dev/null)" refused "$T/c" "Not a directory"
+
+# the undamaged copy starts, every job there
+start_rayd --threads 1 --data-dir "$T/orig"
+n=0
+for id in $(cat "$T/ids"); do [ "$(req GET "/v1/jobs/$id/image.png")" = 200 ] && n=$((n + 1)); done
+check undamaged_starts "$n of 3 images served" [ "$n" = 3 ]
+exit $((NFAIL > 0))
