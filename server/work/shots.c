@@ -752,6 +752,8 @@ bool shots_restore(const struct store_job *row, const unsigned char *states) {
         s->created = clock_now() - (shots_wall_now() - row->created_wall);
         s->rays = row->rays;
         s->queue_ms = row->queue_ms;
+        if (row->queue_ms > 0) /* its first frame began before the restart: the wait stays */
+            s->first_start = s->created + row->queue_ms / 1e3;
         s->render_ms = row->render_ms;
         s->encode_ms = row->encode_ms;
         for (int i = 0; i < s->n; i++)

@@ -51,6 +51,7 @@ wait_until 60 frames_done_on_disk "$between" 2
 req GET "/v1/jobs/$between" >/dev/null
 check between_two_done "$(cat "$T/body")" eval '[ "$(json "$T/body" "j[\"frames\"][\"done\"]")" = 2 ]'
 rays_before=$(json "$T/body" 'j["rays"]')
+queue_before=$(json "$T/body" 'j["queue_ms"]')
 for k in 1 2 3 4; do req GET "/v1/jobs/$between/frames/$k.png" >/dev/null && cp "$T/body" "$T/before-$k.png"; done
 kill9
 
@@ -75,6 +76,11 @@ gate open
 wait_until 120 job_state_is "$between" succeeded
 gate 0
 check between_finished_after_restart "$(cat "$T/body")" job_state_is "$between" succeeded
+# its wait for the first frame is the one before the kill (the first frame after the restart
+# made it the time from the POST to then: 64 ms became 3,163)
+req GET "/v1/jobs/$between" >/dev/null
+check between_queue_kept "before the kill $queue_before ms, at the end $(json "$T/body" 'j["queue_ms"]')" \
+    eval '[ "$(json "$T/body" "j[\"queue_ms\"]")" = "$queue_before" ]'
 n=0
 for k in 1 2 3 4; do frame_is "$between" "$k" "$T/cli-$k.png" && n=$((n + 1)); done
 check between_frames_as_cli "$n of 4" eval '[ "$n" = 4 ]'
