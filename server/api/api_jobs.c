@@ -183,7 +183,7 @@ static void api_jobs_recorded(struct work_waiter *w, struct work_result *res) {
     if (res->status == RAYD_OK) {
         api_jobs_accepted(a);
     } else {
-        jobs_cancel(a->id);
+        jobs_cancel(a->id, NULL, NULL);
         api_jobs_reply_store_failed(a->r, res->err.message);
     }
     http_req_resume(a->r);
@@ -310,21 +310,59 @@ void api_jobs_get(struct http_req *r, const char *id) {
     http_reply_json(r, 200, api_jobs_json(id, &info));
 }
 
-void api_jobs_delete(struct http_req *r, const char *id) {
+/* DELETE's answer: the job as it is now (a frame-range job's, or one's). */
+static void api_jobs_delete_reply(struct http_req *r, const char *id) {
     struct jobs_info info;
-    if (cluster_on()) {
-        api_cluster_delete(r, id);
-        return;
-    }
-    if (!api_only_params(r, NULL)) return;
-    if (api_is_hex(id, 32) && shots_cancel(id) && api_jobs_shot(r, id)) return;
-    if (!api_is_hex(id, 32) || !jobs_cancel(id) || !jobs_get(id, &info, JOBS_NUMBERS)) {
+    if (api_jobs_shot(r, id)) return;
+    if (!api_is_hex(id, 32) || !jobs_get(id, &info, JOBS_NUMBERS)) {
         api_jobs_missing(r, id);
         return;
     }
     if (api_jobs_evicted(r, id, &info)) return;
     api_jobs_scene(r, &info);
     http_reply_json(r, 200, api_jobs_json(id, &info));
+}
+
+/* A DELETE waiting for its job's end to be on disk (--data-dir): a 200
+ * that a kill just after could undo -- the job back, queued, after the
+ * restart -- is not given. */
+struct api_jobs_del {
+    struct work_waiter w; /* first: the store's handle on it */
+    struct http_req *r;
+    char id[33];
+};
+
+static void api_jobs_deleted(struct work_waiter *w, struct work_result *res) {
+    struct api_jobs_del *g = (struct api_jobs_del *)w;
+    (void)res; /* a failed record is logged; the job is cancelled either way */
+    api_jobs_delete_reply(g->r, g->id);
+    http_req_resume(g->r);
+    free(g);
+}
+
+static void api_jobs_deleted_suspend(struct work_waiter *w) {
+    api_suspend(((struct api_jobs_del *)w)->r);
+}
+
+void api_jobs_delete(struct http_req *r, const char *id) {
+    if (cluster_on()) {
+        api_cluster_delete(r, id);
+        return;
+    }
+    if (!api_only_params(r, NULL)) return;
+    struct api_jobs_del *g = api_is_hex(id, 32) && store_on() ? calloc(1, sizeof *g) : NULL;
+    if (g) {
+        g->r = r;
+        g->w = (struct work_waiter){
+            .done = api_jobs_deleted, .suspend = api_jobs_deleted_suspend, .fd = -1};
+        snprintf(g->id, sizeof g->id, "%s", id);
+    }
+    bool waiting = false;
+    if (api_is_hex(id, 32) && !shots_cancel(id, g ? &g->w : NULL, &waiting))
+        jobs_cancel(id, g ? &g->w : NULL, &waiting);
+    if (waiting) return; /* g is the store's until done() */
+    free(g);
+    api_jobs_delete_reply(r, id);
 }
 
 void api_jobs_stop(struct http_req *r, const char *id) {

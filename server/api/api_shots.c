@@ -165,7 +165,7 @@ static void api_shots_recorded(struct work_waiter *w, struct work_result *res) {
     if (res->status == RAYD_OK) {
         api_shots_accepted(a);
     } else {
-        shots_cancel(a->id);
+        shots_cancel(a->id, NULL, NULL);
         api_jobs_reply_store_failed(a->r, res->err.message);
     }
     http_req_resume(a->r);

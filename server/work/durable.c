@@ -46,7 +46,7 @@ static void durable_record_failed(struct store_job *row, const struct rayd_error
     row->ended_wall = (double)ts.tv_sec + (double)ts.tv_nsec / 1e9;
     log_warn("job %s: not restarted: %s", row->id, err->message);
     work_lock_take();
-    store_end(row, NULL, NULL);
+    store_end(row, NULL, NULL, NULL);
     work_lock_give();
 }
 

@@ -511,7 +511,7 @@ static void jobs_finished(struct task *t) {
         struct store_job row;
         jobs_record(j, &row);
         bool ok = row.state == JS_SUCCEEDED;
-        store_end(&row, ok ? t->png : NULL, ok ? t->exr : NULL);
+        store_end(&row, ok ? t->png : NULL, ok ? t->exr : NULL, NULL);
         j->recorded = true;
     }
 }
@@ -820,7 +820,7 @@ bool jobs_get(const char *id, struct jobs_info *info, enum jobs_want want) {
     return j != NULL;
 }
 
-bool jobs_cancel(const char *id) {
+bool jobs_cancel(const char *id, struct work_waiter *w, bool *waiting) {
     struct task_notify n = {0}, sse = {0};
     work_lock_take();
     struct job *j = jobs_find(id);
@@ -838,7 +838,8 @@ bool jobs_cancel(const char *id) {
         if (store_on() && !j->recorded) {
             struct store_job row;
             jobs_record(j, &row);
-            store_end(&row, NULL, NULL);
+            bool told = store_end(&row, NULL, NULL, w);
+            if (waiting) *waiting = told;
             j->recorded = true;
         }
     }

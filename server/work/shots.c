@@ -154,13 +154,14 @@ static long shots_unfinished_of(uint64_t client) {
 
 /* ---- the store (--data-dir) ------------------------------------------------------ */
 
-/* s ended: its end recorded once (lock held). */
-static void shots_record_end(struct shot *s) {
-    if (!store_on() || s->recorded) return;
+/* s ended: its end recorded once (lock held), w (NULL: none) told once it
+ * is on disk; true when it will be. */
+static bool shots_record_end(struct shot *s, struct work_waiter *w) {
+    if (!store_on() || s->recorded) return false;
     struct store_job row;
     shots_record(s, &row);
-    store_end(&row, NULL, NULL);
     s->recorded = true;
+    return store_end(&row, NULL, NULL, w);
 }
 
 /* ---- one frame's attempt ------------------------------------------------------ */
@@ -244,7 +245,7 @@ static void shots_frame_end(struct shots_fly *fl, enum rayd_status st, const str
     if (shots_final(s)) shots_drop_kept(s);
     /* a drain's cancel is no end: the job stays queued on disk */
     if (shots_final(s) && s->flying == 0 && !(drained && !s->canceled)) {
-        shots_record_end(s);
+        shots_record_end(s, NULL);
         shots_drop_text(s);
     }
     task_notify_add(&sse, &s->sse);
@@ -792,7 +793,7 @@ bool shots_restore(const struct store_job *row, const unsigned char *states) {
     if (!s) return false;
     if (row->state == JS_QUEUED) shots_pump(s);
     work_lock_take();
-    if (row->state == JS_QUEUED && shots_final(s)) shots_record_end(s);
+    if (row->state == JS_QUEUED && shots_final(s)) shots_record_end(s, NULL);
     shots_drop_text(s);
     shots_unref(s);
     work_lock_give();
@@ -871,7 +872,7 @@ enum shots_frame_state shots_frame(const char *id, long k, bool exr, struct blob
     return r;
 }
 
-bool shots_cancel(const char *id) {
+bool shots_cancel(const char *id, struct work_waiter *w, bool *waiting) {
     struct task_notify n = {0}, sse = {0};
     work_lock_take();
     struct shot *s = shots_find(id);
@@ -886,10 +887,11 @@ bool shots_cancel(const char *id) {
             task_job_drop(t);
             fl->dropped = true;
             bool others = false; /* a synchronous request waiting for the same render */
-            for (struct work_waiter *w = t->waiters; w; w = w->next) others |= w != &fl->ww;
+            for (struct work_waiter *o = t->waiters; o; o = o->next) others |= o != &fl->ww;
             if (t->njobs == 0 && !others) task_cancel(t, MC_DELETE, &n, &sse);
         }
-        shots_record_end(s);
+        bool told = shots_record_end(s, w);
+        if (waiting) *waiting = told;
         shots_drop_text(s);
         task_notify_add(&sse, &s->sse);
     }

@@ -4,9 +4,8 @@
  * WAL mode, synchronous=FULL, so a commit is on disk when it returns) holds
  * each job's record -- who asked, its priority, the scene as it was sent and
  * the query that shaped it, and once it ended how and when -- and
- * DIR/results/ its images.  The schema has a frames table (job, frame k,
- * state, attempts, file paths): a job of today is its frame 0, and a job of
- * many frames will be its rows 0..n-1, each kept and served on its own.
+ * DIR/results/ its images; a frames table (job, frame k, state, attempts,
+ * file paths) holds a job's frame 0, a frame-range job's frames each.
  *
  * Nothing torn is ever served: an image is written to NAME.tmp, fsynced,
  * renamed to NAME and the folder fsynced, and only then does the frame's
@@ -15,8 +14,9 @@
  * at the next start) or the new one; at start-up a .tmp file, and a file no
  * row names as done, are deleted, and a done row is believed only when its
  * files are there with the sizes it recorded.  A job is inserted before its
- * 202 is sent (the POST waits for the commit: jobs.c hands the waiter down
- * here), so no job the client was told of is lost.
+ * 202 is sent, and a DELETE's end recorded before its 200 (each request
+ * waits for the commit: the work layer hands its waiter down here), so no
+ * job the client was told of is lost, and none it cancelled comes back.
  *
  * --max-disk bounds the images' bytes: after each write, while over it,
  * the frame that ended first is evicted (its row first, its files after,
@@ -56,7 +56,7 @@ struct store_op {
     enum store_kind kind;
     struct store_job row;
     struct blob *png, *exr; /* SO_END: the images, referenced */
-    struct work_waiter *w;  /* SO_INSERT: told once the row is committed */
+    struct work_waiter *w;  /* SO_INSERT, SO_END: told once the row is committed */
     struct store_op *next;
 };
 
@@ -326,11 +326,12 @@ static bool store_end_row(const struct store_job *j, size_t bytes, bool png, boo
     return ok;
 }
 
-static void store_unlink(const char *id) {
+/* The files of job id's frame k (-1: a one-image job's), unlinked. */
+static void store_unlink(const char *id, long k) {
     char path[4200];
-    store_path(path, sizeof path, id, -1, false, false);
+    store_path(path, sizeof path, id, k, false, false);
     unlink(path);
-    store_path(path, sizeof path, id, -1, true, false);
+    store_path(path, sizeof path, id, k, true, false);
     unlink(path);
 }
 
@@ -372,7 +373,7 @@ static bool store_evict_job(const char *id, const char *why) {
         store_exec("ROLLBACK");
         return false;
     }
-    store_unlink(id);
+    store_unlink(id, -1);
     log_info("job %s: its result was evicted (%s)", id, why);
     if (store_evicted) store_evicted(id, why, now);
     return true;
@@ -511,14 +512,8 @@ static void store_do_forget(const char *id) {
         store_exec("ROLLBACK");
         return;
     }
-    store_unlink(id);
-    for (long k = first; k <= last; k++) {
-        char path[4200];
-        store_path(path, sizeof path, id, k, false, false);
-        unlink(path);
-        store_path(path, sizeof path, id, k, true, false);
-        unlink(path);
-    }
+    store_unlink(id, -1);
+    for (long k = first; k <= last; k++) store_unlink(id, k);
     store_bytes -= bytes < store_bytes ? bytes : store_bytes;
 }
 
@@ -536,6 +531,7 @@ static void store_do(struct store_op *op) {
         if (op->w) op->w->done(op->w, &res);
     } else if (op->kind == SO_END) {
         store_do_end(op);
+        if (op->w) op->w->done(op->w, &(struct work_result){.status = RAYD_OK}); /* a DELETE */
     } else {
         store_do_forget(op->row.id);
     }
@@ -570,9 +566,10 @@ static void *store_main(void *arg) {
     return NULL;
 }
 
-/* Links op (lock held); without a store it is dropped. */
+/* Links op (lock held); without a store (rayd stops: the job stays as it
+ * was on disk) it is dropped. */
 static void store_queue(struct store_op *op) {
-    if (store_stopping || !store_running) { /* rayd stops: the job stays as it was on disk */
+    if (store_stopping || !store_running) {
         store_op_free(op);
         return;
     }
@@ -594,18 +591,18 @@ bool store_insert(struct store_job *row, struct work_waiter *w) {
     return true;
 }
 
-void store_end(const struct store_job *row, struct blob *png, struct blob *exr) {
-    struct store_op *op = calloc(1, sizeof *op);
-    if (!op) {
-        log_error("job %s: out of memory to record its end under --data-dir", row->id);
-        return;
-    }
+bool store_end(const struct store_job *row, struct blob *png, struct blob *exr,
+               struct work_waiter *w) {
+    struct store_op *op = store_stopping || !store_running ? NULL : calloc(1, sizeof *op);
+    if (!op) return false; /* rayd stops (the job stays as it is on disk), or no memory */
     op->kind = SO_END;
     op->row = *row;
     op->row.scene = NULL;
-    op->png = blob_ref(png);
-    op->exr = blob_ref(exr);
+    op->png = blob_ref(png), op->exr = blob_ref(exr);
+    op->w = w;
+    if (w) w->suspend(w);
     store_queue(op);
+    return w != NULL;
 }
 
 void store_frame(const struct store_job *row, long k, struct blob *png, struct blob *exr) {

@@ -279,7 +279,10 @@ enum jobs_image { JI_PNG, JI_EXR, JI_RAW };
  * still kept: *img referenced, *samples its count.  false: no such job. */
 bool jobs_pass_image(const char *id, int pass, enum jobs_image kind, struct blob **img,
                      int *samples);
-bool jobs_cancel(const char *id);
+/* Cancels job id; false: no such job.  With --data-dir its end is
+ * recorded, and w (NULL: none) suspended now and told once that is on
+ * disk: *waiting (NULL: not asked) says whether it will be. */
+bool jobs_cancel(const char *id, struct work_waiter *w, bool *waiting);
 /* Ends a progressive job after the latest complete pass (or after the
  * first, if none is complete yet), keeping it as the job's image.  false:
  * no such job; *progressive false: the job is not progressive. */
@@ -382,7 +385,8 @@ enum shots_frame_state {
 /* Frame k of shot id: its image (referenced; NULL unless done) and info. */
 enum shots_frame_state shots_frame(const char *id, long k, bool exr, struct blob **img,
                                    struct shots_info *info);
-bool shots_cancel(const char *id); /* false: no such shot */
+/* As jobs_cancel, for frame-range job id; false: no such shot. */
+bool shots_cancel(const char *id, struct work_waiter *w, bool *waiting);
 /* The shot's video once made (referenced), else NULL with info->video. */
 struct blob *shots_video(const char *id, struct shots_info *info);
 bool shots_start(int max_jobs);

@@ -537,7 +537,11 @@ void store_frame_hooks(void (*written)(const char *id, long k),
  * w->suspend runs now and w->done once it is committed (status RAYD_OK or
  * RAYD_E_IO); a job's end, with its images (referenced); a job forgotten. */
 bool store_insert(struct store_job *row, struct work_waiter *w);
-void store_end(const struct store_job *row, struct blob *png, struct blob *exr);
+/* store_end's w (NULL: none) is suspended now and told once the end is
+ * committed (a DELETE answers then, so a kill cannot undo it): true when
+ * it will be. */
+bool store_end(const struct store_job *row, struct blob *png, struct blob *exr,
+               struct work_waiter *w);
 void store_forget(const char *id);
 /* Frame k of frame-range job row->id is done: its images written whole (a
  * temporary name, fsync, rename), then its row says so, and in the same

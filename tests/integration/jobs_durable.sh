@@ -138,6 +138,32 @@ check write_rendered_whole "$(head -c 100 "$T/torn.png" | tr -c '[:print:]' .)" 
 check write_file_whole "file differs from the image served" \
     cmp -s "$D/results/$(jid torn).png" "$T/torn.png"
 
+# a DELETE answers once the job's end is on disk: its 200 came at once before, and a kill while
+# the store was behind (here stalled for good on another job's image) brought the cancelled job
+# back, queued, at the restart
+kill9
+RAYD_TEST_STORE_STALL=1 start_rayd --threads 1 --test-gate 0 --data-dir "$D"
+scene "$T/first.json" 32 32 1 spheres 21
+scene "$T/second.json" 96 96 1 spheres 22
+post_job first
+post_job second
+gate 1
+first_tmp() { test -e "$D/results/$(jid first).png.tmp"; }
+wait_until 60 first_tmp
+code=$(curl -s -m 3 -o "$T/del.out" -w '%{http_code}' -X DELETE "$URL/v1/jobs/$(jid second)")
+kill9
+start_rayd --threads 1 --test-gate 0 --data-dir "$D"
+req GET "/v1/jobs/$(jid second)" >/dev/null
+state=$(jfield "$T/body" state)
+check delete_answered_on_disk "DELETE $code before the kill, the job $state after it" \
+    bash -c '[ "$0" != 200 ] || [ "$1" = canceled ]' "$code" "$state"
+code=$(req DELETE "/v1/jobs/$(jid second)")
+kill9
+start_rayd --threads 1 --test-gate 0 --data-dir "$D"
+req GET "/v1/jobs/$(jid second)" >/dev/null
+check delete_stays_after_kill "DELETE $code, then $(head -c 200 "$T/body")" \
+    bash -c '[ "$0" = 200 ] && [ "$1" = canceled ]' "$code" "$(jfield "$T/body" state)"
+
 # a drain (SIGTERM) is no end: a job it cancels is queued again at the next start
 kill9
 start_rayd --threads 1 --test-gate 0 --data-dir "$D" --drain-seconds 0
