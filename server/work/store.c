@@ -276,7 +276,9 @@ static bool store_insert_frames(const struct store_job *j) {
     return true;
 }
 
-static bool store_insert_row(const struct store_job *j) {
+/* j's rows inserted; false with SQLite's word in why (read before the
+ * rollback, which would make it "not an error"). */
+static bool store_insert_row(const struct store_job *j, char *why, size_t n) {
     bool ok = store_exec("BEGIN") &&
               store_run(NULL,
                         "INSERT OR REPLACE INTO jobs(id, seq, client, priority, created, state,"
@@ -297,6 +299,7 @@ static bool store_insert_row(const struct store_job *j) {
                                      " VALUES(?, 0, 'queued')",
                                      "t", j->id) == SQLITE_DONE) &&
               store_exec("COMMIT");
+    if (!ok) snprintf(why, n, "%s", sqlite3_errmsg(store_db));
     if (!ok) store_exec("ROLLBACK");
     return ok;
 }
@@ -522,11 +525,11 @@ static void store_do(struct store_op *op) {
         store_do_frame(op);
     } else if (op->kind == SO_INSERT) {
         struct work_result res = {.status = RAYD_OK};
-        if (!store_insert_row(&op->row)) {
+        char why[200];
+        if (!store_insert_row(&op->row, why, sizeof why)) {
             res.status = RAYD_E_IO;
             snprintf(res.err.message, sizeof res.err.message,
-                     "the job could not be recorded under --data-dir: %s",
-                     sqlite3_errmsg(store_db));
+                     "the job could not be recorded under --data-dir: %s", why);
         }
         if (op->w) op->w->done(op->w, &res);
     } else if (op->kind == SO_END) {

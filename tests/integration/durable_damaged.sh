@@ -65,4 +65,22 @@ start_rayd --threads 1 --data-dir "$T/orig"
 n=0
 for id in $(cat "$T/ids"); do [ "$(req GET "/v1/jobs/$id/image.png")" = 200 ] && n=$((n + 1)); done
 check undamaged_starts "$n of 3 images served" [ "$n" = 3 ]
+# a job the store cannot record (another process holds jobs.db's write lock past the 5 s SQLite
+# waits) is refused, saying SQLite's reason: it said "not an error", read after the rollback
+python3 - "$T/orig/jobs.db" "$T/locked" <<'PY' &
+import sqlite3, sys, time
+db = sqlite3.connect(sys.argv[1], isolation_level=None)
+db.execute("BEGIN EXCLUSIVE")
+open(sys.argv[2], "w").close()
+time.sleep(9)
+db.execute("ROLLBACK")
+PY
+locker=$!
+PIDS+=("$locker")
+wait_until 10 test -e "$T/locked"
+scene "$T/j9.json" 32 32 1 spheres 9
+code=$(post_json /v1/jobs "$T/j9.json")
+check store_failed_says_why "$code $(head -c 300 "$T/body")" \
+    bash -c '[ "$0" = 503 ] && grep -q "store_failed" "$1" && grep -q "database is locked" "$1"' "$code" "$T/body"
+wait "$locker"
 exit $((NFAIL > 0))
