@@ -16,7 +16,11 @@
  * The handler makes only async-signal-safe calls (kill, waitpid, unlink,
  * sigaction, raise) on what was set before it was armed; the caller holds
  * the signals (part_guard_hold) while it makes, guards, renames, removes
- * or lets go of a part file, so the handler never races those.  A few
+ * or lets go of a part file, so the handler never races those.  The hold
+ * is the calling thread's: both programs make, rename and remove their
+ * part files while no other thread of theirs runs (the render's and the
+ * encoder's threads are joined inside each call), so a signal finds only
+ * that thread to run on.  A few
  * files at once (a frame's file beside the video's); the actions are taken
  * over with the first and put back with the last.
  */

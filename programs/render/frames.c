@@ -167,6 +167,7 @@ static int video_end(struct video *v, const char *path, bool abort) {
         int status = 0;
         while (waitpid(v->pid, &status, 0) < 0 && errno == EINTR) continue;
         v->pid = 0;
+        part_guard_child(0); /* reaped: its pid may be another's now */
         if (!abort && ok && WIFEXITED(status) && WEXITSTATUS(status) == 0)
             rc = v->tmp && rename(v->tmp, path) != 0 ? render_one_cannot_write(path, errno) : 0;
         else if (!abort)

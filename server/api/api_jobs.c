@@ -334,8 +334,10 @@ struct api_jobs_del {
 
 static void api_jobs_deleted(struct work_waiter *w, struct work_result *res) {
     struct api_jobs_del *g = (struct api_jobs_del *)w;
-    (void)res; /* a failed record is logged; the job is cancelled either way */
-    api_jobs_delete_reply(g->r, g->id);
+    if (res->status == RAYD_OK) /* else cancelled here, but a restart could bring it back */
+        api_jobs_delete_reply(g->r, g->id);
+    else
+        api_jobs_reply_store_failed(g->r, res->err.message);
     http_req_resume(g->r);
     free(g);
 }

@@ -19,8 +19,8 @@
 /* The client whose memory this thread reserves (a render's, a parse's):
  * the reclaimer (jobs.c) lets go of that client's own finished images
  * first, and of another's only as its rule allows.  Unbound, a
- * reservation is no client's (a cluster's assembly) and may let go of
- * any image. */
+ * reservation is no client's (an image's blob, a cluster's assembly) and
+ * may let go of any image. */
 static _Thread_local uint64_t budget_client;
 static _Thread_local bool budget_bound;
 

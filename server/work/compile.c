@@ -474,7 +474,7 @@ static void *compile_thread(void *arg) {
         struct rayd_error err = {0};
         struct cache_entry *e = NULL;
         bool hit = false, full = false, draining = sched_draining();
-        budget_bind(j->client); /* the parse's charges are its first waiter's */
+        budget_bind(j->client); /* the parse's charges: its first waiter's client */
         enum rayd_status st = draining ? RAYD_E_CANCELED : compile_run(j, &e, &hit, &err, &full);
         budget_unbind();
         if (draining) scenes_release(j->cached);

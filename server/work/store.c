@@ -408,7 +408,9 @@ static void store_evict(const char *keep, long keep_k) {
 
 /* ---- the store thread ------------------------------------------------------------- */
 
-static void store_do_end(struct store_op *op) {
+/* A job's end: its images written whole, then its row; false when it is
+ * not recorded (said in the log). */
+static bool store_do_end(struct store_op *op) {
     struct store_job *j = &op->row;
     bool ok = true;
     size_t bytes = 0;
@@ -427,12 +429,13 @@ static void store_do_end(struct store_op *op) {
         log_error("job %s: cannot write its image under --data-dir %s: %s (it stays on this "
                   "process's memory only)",
                   j->id, store_dir, strerror(errno));
-        return;
+        return false;
     }
-    if (!store_end_row(j, bytes, op->png != NULL, op->exr != NULL)) return;
+    if (!store_end_row(j, bytes, op->png != NULL, op->exr != NULL)) return false;
     store_bytes += bytes;
     if (bytes && store_written) store_written(j->id);
     if (bytes) store_evict(j->id, 0);
+    return true;
 }
 
 /* Now, seconds since the epoch to the microsecond: frames that end in the
@@ -501,10 +504,8 @@ static void store_do_forget(const char *id) {
                   " state = 'done'), frame_first, frame_last FROM jobs WHERE id = ?1",
                   "t", id) == SQLITE_ROW) {
         bytes = (size_t)sqlite3_column_int64(st, 0);
-        if (sqlite3_column_type(st, 1) != SQLITE_NULL) {
-            first = (long)sqlite3_column_int64(st, 1);
-            last = (long)sqlite3_column_int64(st, 2);
-        }
+        if (sqlite3_column_type(st, 1) != SQLITE_NULL) /* a frame-range job */
+            first = (long)sqlite3_column_int64(st, 1), last = (long)sqlite3_column_int64(st, 2);
         sqlite3_finalize(st);
     }
     bool ok = store_exec("BEGIN") &&
@@ -520,24 +521,19 @@ static void store_do_forget(const char *id) {
     store_bytes -= bytes < store_bytes ? bytes : store_bytes;
 }
 
+/* Runs op; its waiter (a POST's insert, a DELETE's end) is told after. */
 static void store_do(struct store_op *op) {
-    if (op->kind == SO_FRAME) {
-        store_do_frame(op);
-    } else if (op->kind == SO_INSERT) {
-        struct work_result res = {.status = RAYD_OK};
-        char why[200];
-        if (!store_insert_row(&op->row, why, sizeof why)) {
-            res.status = RAYD_E_IO;
-            snprintf(res.err.message, sizeof res.err.message,
-                     "the job could not be recorded under --data-dir: %s", why);
-        }
-        if (op->w) op->w->done(op->w, &res);
-    } else if (op->kind == SO_END) {
-        store_do_end(op);
-        if (op->w) op->w->done(op->w, &(struct work_result){.status = RAYD_OK}); /* a DELETE */
-    } else {
-        store_do_forget(op->row.id);
-    }
+    char why[200] = "its end: see the server's log";
+    bool ok = true;
+    if (op->kind == SO_FRAME) store_do_frame(op);
+    if (op->kind == SO_INSERT) ok = store_insert_row(&op->row, why, sizeof why);
+    if (op->kind == SO_END) ok = store_do_end(op);
+    if (op->kind == SO_FORGET) store_do_forget(op->row.id);
+    struct work_result res = {.status = ok ? RAYD_OK : RAYD_E_IO};
+    if (!ok)
+        snprintf(res.err.message, sizeof res.err.message,
+                 "the job could not be recorded under --data-dir: %s", why);
+    if (op->w) op->w->done(op->w, &res);
 }
 
 static void store_op_free(struct store_op *op) {
@@ -597,7 +593,10 @@ bool store_insert(struct store_job *row, struct work_waiter *w) {
 bool store_end(const struct store_job *row, struct blob *png, struct blob *exr,
                struct work_waiter *w) {
     struct store_op *op = store_stopping || !store_running ? NULL : calloc(1, sizeof *op);
-    if (!op) return false; /* rayd stops (the job stays as it is on disk), or no memory */
+    if (!op) { /* rayd stops (the job stays as it is on disk), or no memory */
+        if (!store_stopping && store_running) log_error("job %s: out of memory", row->id);
+        return false;
+    }
     op->kind = SO_END;
     op->row = *row;
     op->row.scene = NULL;

@@ -145,9 +145,11 @@ for attempt in range(5):
     if seen:
         p.terminate()
         p.wait()
-        print("caught", p.returncode, " ".join(sorted(os.listdir(d))) or "-")
-        break
-    p.wait()
+        left = sorted(os.listdir(d))
+        if p.returncode == -15 or any(f.endswith(".part") for f in left):
+            print("caught", p.returncode, " ".join(left) or "-")
+            break
+    p.wait()  # it renamed the file into place before the signal came: again
     for f in os.listdir(d):
         os.unlink(os.path.join(d, f))
 else:
