@@ -838,7 +838,7 @@ bool jobs_cancel(const char *id, struct work_waiter *w, bool *waiting) {
         if (store_on() && !j->recorded) {
             struct store_job row;
             jobs_record(j, &row);
-            bool told = store_end(&row, NULL, NULL, sched_draining() ? NULL : w);
+            bool told = store_end(&row, NULL, NULL, w);
             if (waiting) *waiting = told;
             j->recorded = true;
         }

@@ -890,7 +890,7 @@ bool shots_cancel(const char *id, struct work_waiter *w, bool *waiting) {
             for (struct work_waiter *o = t->waiters; o; o = o->next) others |= o != &fl->ww;
             if (t->njobs == 0 && !others) task_cancel(t, MC_DELETE, &n, &sse);
         }
-        bool told = shots_record_end(s, sched_draining() ? NULL : w);
+        bool told = shots_record_end(s, w);
         if (waiting) *waiting = told;
         shots_drop_text(s);
         task_notify_add(&sse, &s->sse);

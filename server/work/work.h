@@ -281,9 +281,7 @@ bool jobs_pass_image(const char *id, int pass, enum jobs_image kind, struct blob
                      int *samples);
 /* Cancels job id; false: no such job.  With --data-dir its end is
  * recorded, and w (NULL: none) suspended now and told once that is on
- * disk: *waiting (NULL: not asked) says whether it will be -- never while
- * rayd drains, whose listener stops with no request suspended (the drain
- * writes the end before it exits). */
+ * disk: *waiting (NULL: not asked) says whether it will be. */
 bool jobs_cancel(const char *id, struct work_waiter *w, bool *waiting);
 /* Ends a progressive job after the latest complete pass (or after the
  * first, if none is complete yet), keeping it as the job's image.  false:
