@@ -354,8 +354,8 @@ void api_jobs_delete(struct http_req *r, const char *id) {
     if (!api_only_params(r, NULL)) return;
     /* not while rayd drains: its listener stops with no request suspended
      * (the drain writes the end before it exits) */
-    bool wait = api_is_hex(id, 32) && store_on() && !sched_draining();
-    struct api_jobs_del *g = wait ? calloc(1, sizeof *g) : NULL;
+    bool waits = api_is_hex(id, 32) && store_on() && !sched_draining();
+    struct api_jobs_del *g = waits ? calloc(1, sizeof *g) : NULL;
     if (g) {
         g->r = r;
         g->w = (struct work_waiter){
