@@ -299,8 +299,10 @@ static bool store_insert_row(const struct store_job *j, char *why, size_t n) {
                                      " VALUES(?, 0, 'queued')",
                                      "t", j->id) == SQLITE_DONE) &&
               store_exec("COMMIT");
-    if (!ok) snprintf(why, n, "%s", sqlite3_errmsg(store_db));
-    if (!ok) store_exec("ROLLBACK");
+    if (!ok) {
+        snprintf(why, n, "%s", sqlite3_errmsg(store_db));
+        store_exec("ROLLBACK");
+    }
     return ok;
 }
 
@@ -592,9 +594,10 @@ bool store_insert(struct store_job *row, struct work_waiter *w) {
 
 bool store_end(const struct store_job *row, struct blob *png, struct blob *exr,
                struct work_waiter *w) {
-    struct store_op *op = store_stopping || !store_running ? NULL : calloc(1, sizeof *op);
-    if (!op) { /* rayd stops (the job stays as it is on disk), or no memory */
-        if (!store_stopping && store_running) log_error("job %s: out of memory", row->id);
+    if (store_stopping || !store_running) return false; /* the job stays as it is on disk */
+    struct store_op *op = calloc(1, sizeof *op);
+    if (!op) {
+        log_error("job %s: out of memory to record its end under --data-dir", row->id);
         return false;
     }
     op->kind = SO_END;
@@ -614,13 +617,9 @@ void store_frame(const struct store_job *row, long k, struct blob *png, struct b
         return;
     }
     op->kind = SO_FRAME;
-    snprintf(op->row.id, sizeof op->row.id, "%s", row->id);
+    op->row = *row; /* its id and figures */
+    op->row.scene = NULL;
     op->row.first = k;
-    op->row.tiles = row->tiles;
-    op->row.rays = row->rays;
-    op->row.queue_ms = row->queue_ms;
-    op->row.render_ms = row->render_ms;
-    op->row.encode_ms = row->encode_ms;
     op->png = blob_ref(png);
     op->exr = blob_ref(exr);
     store_queue(op);
