@@ -272,15 +272,51 @@ bool cluster_jobs_end(struct redis *c, const char *id, const char *state, const 
 }
 
 long cluster_jobs_tried(struct redis *c, const char *id, long frame, long tile) {
+    /* the nodes that tried, one after each space (node ids have none) */
     static const char script[] =
         "local p = 'rayd:{' .. ARGV[1] .. '}:'\n"
         "local st = redis.call('HGET', p .. 'job', 'state')\n"
         "if st ~= 'queued' and st ~= 'running' then return 0 end\n"
-        "return redis.call('HINCRBY', p .. 'job', 'tries:' .. ARGV[2] .. ':' .. ARGV[3], 1)\n";
+        "local f = ARGV[2] .. ':' .. ARGV[3]\n"
+        "local by = redis.call('HGET', p .. 'job', 'triedby:' .. f) or ''\n"
+        "if not string.find(by .. ' ', ' ' .. ARGV[4] .. ' ', 1, true) then\n"
+        "  redis.call('HSET', p .. 'job', 'triedby:' .. f, by .. ' ' .. ARGV[4])\n"
+        "end\n"
+        "return redis.call('HINCRBY', p .. 'job', 'tries:' .. f, 1)\n";
     char k[24], t[24];
     snprintf(k, sizeof k, "%ld", frame);
     snprintf(t, sizeof t, "%ld", tile);
-    const char *argv[] = {"EVAL", script, "0", id, k, t, NULL};
+    const char *argv[] = {"EVAL", script, "0", id, k, t, cluster_node_id, NULL};
+    redisReply *rep = redis_strs(c, argv);
+    long n = redis_failed(c, rep) ? -1 : (long)redis_ll(rep, -1);
+    if (rep) freeReplyObject(rep);
+    return n;
+}
+
+long cluster_jobs_untried(struct redis *c, const char *id, long frame, long tile, int level) {
+    /* KEYS: the item's stream; ARGV: the job, frame, tile, and the idle
+     * time (ms) past which a consumer counts as gone (cluster_items.c's
+     * rule).  A node that can take the item reads that stream (its
+     * version's), and its reads and refreshes keep its idle time short,
+     * busy or not. */
+    static const char script[] =
+        "local by = redis.call('HGET', 'rayd:{' .. ARGV[1] .. '}:job', 'triedby:' .. ARGV[2] .. "
+        "':' .. ARGV[3]) or ''\n"
+        "local cs = redis.pcall('XINFO', 'CONSUMERS', KEYS[1], 'render')\n"
+        "if type(cs) ~= 'table' or cs.err then return 0 end\n"
+        "local n = 0\n"
+        "for _, c in ipairs(cs) do\n"
+        "  local f = {}\n"
+        "  for j = 1, #c, 2 do f[c[j]] = c[j + 1] end\n"
+        "  if f.idle <= tonumber(ARGV[4]) and\n"
+        "     not string.find(by .. ' ', ' ' .. f.name .. ' ', 1, true) then n = n + 1 end\n"
+        "end\n"
+        "return n\n";
+    char k[24], t[24], idle[24];
+    snprintf(k, sizeof k, "%ld", frame);
+    snprintf(t, sizeof t, "%ld", tile);
+    snprintf(idle, sizeof idle, "%ld", 3 * cluster_claim_ms());
+    const char *argv[] = {"EVAL", script, "1", cluster_items_stream(level), id, k, t, idle, NULL};
     redisReply *rep = redis_strs(c, argv);
     long n = redis_failed(c, rep) ? -1 : (long)redis_ll(rep, -1);
     if (rep) freeReplyObject(rep);

@@ -291,8 +291,10 @@ static bool node_left_mine(const char *sid, int level) {
 /* The tiles that failed on this node's own limits and were left pending
  * for another node: their idle time grows until some node's XAUTOCLAIM
  * takes one.  This node may be the one (every node reclaims alike); it
- * then leaves it again, NODE_SHUN_LEAVES times, before it tries the tile
- * itself: no other node wanted it for that long (they are busy, or gone). */
+ * then leaves it again, at least NODE_SHUN_LEAVES times and for as long as
+ * a live node of its version has not tried the tile (it is busy: it takes
+ * the tile once it has room), before it tries the tile itself: the others
+ * tried and failed, or are gone, and its own budget may have room now. */
 #define NODE_SHUN 64
 #define NODE_SHUN_LEAVES 2
 static struct {
@@ -308,13 +310,14 @@ static void node_shun_add(const struct node_item *it) {
     node_shun_next = (node_shun_next + 1) % NODE_SHUN;
 }
 
-/* Item sid of stream `level`, taken back: 1 when it is left again
- * (counted), 0 when this node now tries it (forgotten), -1 when it never
- * failed here. */
-static int node_shun_again(const char *sid, int level) {
+/* Item it, taken back: 1 when it is left again (counted), 0 when this node
+ * now tries it (forgotten), -1 when it never failed here. */
+static int node_shun_again(struct redis *c, const struct node_item *it) {
     for (int i = 0; i < NODE_SHUN; i++) {
-        if (node_shun[i].level != level || strcmp(node_shun[i].sid, sid)) continue;
+        if (node_shun[i].level != it->level || strcmp(node_shun[i].sid, it->sid)) continue;
         if (node_shun[i].leaves++ < NODE_SHUN_LEAVES) return 1;
+        /* Redis failing (-1): left, taken back later */
+        if (cluster_jobs_untried(c, it->job, it->frame, it->tile, it->level) != 0) return 1;
         node_shun[i].sid[0] = 0;
         return 0;
     }
@@ -389,14 +392,14 @@ static void node_take(struct redis *c, struct node_item *it) {
 /* One entry of stream `level`, taken (cluster_items_take_fn). */
 static long node_take_entry(struct redis *c, const redisReply *e, int level, bool reclaimed) {
     if (node_holds(e->element[0]->str, level)) return 0;
-    int shun = reclaimed ? node_shun_again(e->element[0]->str, level) : -1;
-    if (shun == 1) {
-        log_info("cluster: item %s failed here before; left again for another node",
-                 e->element[0]->str);
-        return 0;
-    }
     struct node_item *it = node_item_new(e, level);
     if (!it) return 0;
+    int shun = reclaimed ? node_shun_again(c, it) : -1;
+    if (shun == 1) {
+        log_info("cluster: item %s failed here before; left again for another node", it->sid);
+        node_free(it);
+        return 0;
+    }
     if (shun == 0 || (reclaimed && node_left_mine(it->sid, level))) { /* not a take-over */
         log_info("cluster: took back item %s (job %s frame %ld tile %ld), which it had left "
                  "pending",

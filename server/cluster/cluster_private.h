@@ -96,9 +96,13 @@ int cluster_jobs_plan(const char *s, int out[PASSES_MAX]);
  * queued or running, its keys to expire after --job-ttl; the puller's too. */
 bool cluster_jobs_end(struct redis *c, const char *id, const char *state, const char *error);
 /* A tile (tile of frame) failed on a node's own limits once more: the
- * attempts so far (the job's record counts them), 0 when the job has
- * ended or is gone, -1 when Redis failed. */
+ * attempts so far (the job's record counts them, and names the nodes that
+ * made them), 0 when the job has ended or is gone, -1 when Redis failed. */
 long cluster_jobs_tried(struct redis *c, const char *id, long frame, long tile);
+/* The live nodes that read the stream of `level` (its items' version) and
+ * have not tried that tile: a node that failed it on its own limits leaves
+ * it while there is one.  -1 when Redis failed. */
+long cluster_jobs_untried(struct redis *c, const char *id, long frame, long tile, int level);
 /* Attempts at a tile that fails on a node's own limits (--max-work,
  * --max-memory, --max-render-seconds) before its job fails: each but the
  * last leaves it to another node, whose limits may let it through. */

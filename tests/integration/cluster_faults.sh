@@ -174,9 +174,9 @@ check bad_tiles_rerendered "no re-render in the logs" bash -c "cat '$T'/node*.er
 # 64x64 tile.  Node 16 holds a tile of a first job behind its gate, so node 17 (--max-work 1000:
 # every tile is over it) takes the second job's tile: it fails there and is left pending for
 # another node.  Node 17 killed, node 16, its gate open, takes it over and renders it.  Then, node
-# 16 full again, node 18 (--max-work 1000 too) is the only node with room: it takes the third
-# job's tile back twice without trying it, then tries it, three attempts in all, and the job
-# fails naming the tile.  Before, the first node's limit failed the job at once.
+# 16 full again, node 18 (--max-work 1000 too) is the only node with room: it fails the third
+# job's tile once and leaves it for as long as node 16, busy, has not tried it; node 16, its
+# gate open, renders it.  Before, node 18 tried it twice more and failed the job.
 small() { # N: a 64x64 scene of its own (seed N: no cache answers it from another job's tile)
     python3 - "$SCENE" "$T/small$1.json" "$1" <<'PY'
 import json, sys
@@ -214,26 +214,46 @@ gate_node 16 0
 HELD=$(post_small 16 3)
 wait_until 30 holds 16 1
 RAYD_TEST_VERSION=9.9.7-limits start_node 18 "${LIM[@]}" --test-gate open --max-work 1000
-FID=$(post_small 16 4)
-failed_job() { curl -s "${NODE_URL[16]}/v1/jobs/$FID" | grep -q '"state":"failed"'; }
-wait_until 60 failed_job
-curl -s "${NODE_URL[16]}/v1/jobs/$FID" >"$T/failed.json"
+WID=$(post_small 16 4)
+left_again() { [ "$(grep -c "left again for another node" "$T/node18.err")" -ge "$1" ]; }
+wait_until 60 left_again 4
+check limited_waits_for_busy_node "node 18: $(grep -c "job $WID frame 0 tile 0 failed here" "$T/node18.err") failures, $(grep -c 'left again for another node' "$T/node18.err") take-backs left; state $(job_state "${NODE_URL[16]}" "$WID")" \
+    bash -c "[ \$(grep -c 'job $WID frame 0 tile 0 failed here' '$T/node18.err') = 1 ] && [ \$(grep -c 'left again for another node' '$T/node18.err') -ge 4 ] && ! grep -q 'job $WID: a tile failed' '$T/node18.err'"
+gate_node 16 open
+wait_until 30 succeeded 16 "$WID"
+check limited_busy_node_renders_it "state: $(job_state "${NODE_URL[16]}" "$WID")" succeeded 16 "$WID"
+curl -s -m 30 -o "$T/waited.png" "${NODE_URL[16]}/v1/jobs/$WID/image.png"
+"$RENDER" "$T/small4.json" -o "$T/ref_small4.png" 2>/dev/null
+check limited_waited_byte_identical "the image differs from rayd-render's" cmp -s "$T/waited.png" "$T/ref_small4.png"
+wait_until 30 succeeded 16 "$HELD"
+
+# Once the only other node is gone, node 18 is the only live node left: after its
+# take-backs it tries the tile itself, three attempts in all, and the job fails naming the tile.
+gate_node 16 0
+HELD=$(post_small 16 5)
+wait_until 30 holds 16 1
+FID=$(post_small 16 6)
+wait_until 30 grep -q "job $FID frame 0 tile 0 failed here (attempt 1 of 3)" "$T/node18.err"
+kill -KILL "${NODE_PID[16]}"
+wait "${NODE_PID[16]}" 2>/dev/null
+failed_job() { curl -s "${NODE_URL[18]}/v1/jobs/$FID" | grep -q '"state":"failed"'; }
+wait_until 90 failed_job
+curl -s "${NODE_URL[18]}/v1/jobs/$FID" >"$T/failed.json"
 check failed_job_error "$(head -c 400 "$T/failed.json")" python3 -c '
 import json, sys
 d = json.load(open(sys.argv[1]))
 e = d.get("error", {})
 sys.exit(0 if d["state"] == "failed" and e.get("code") == "too_large" and
          e.get("message", "").startswith("frame 0, tile 0 failed after 3 attempts: ") else 1)' "$T/failed.json"
-check failed_job_tried_three_times "node 18: $(grep -c "job $FID frame 0 tile 0 failed here" "$T/node18.err") failures left, $(grep -c 'left again for another node' "$T/node18.err") take-backs left" \
-    bash -c "[ \$(grep -c 'job $FID frame 0 tile 0 failed here' '$T/node18.err') = 2 ] && [ \$(grep -c 'left again for another node' '$T/node18.err') = 4 ]"
-code=$(curl -s -o "$T/failed_img.json" -w '%{http_code}' "${NODE_URL[16]}/v1/jobs/$FID/image.png")
+check failed_job_tried_three_times "node 18: $(grep -c "job $FID frame 0 tile 0 failed here" "$T/node18.err") failures left" \
+    bash -c "[ \$(grep -c 'job $FID frame 0 tile 0 failed here' '$T/node18.err') = 2 ]"
+code=$(curl -s -o "$T/failed_img.json" -w '%{http_code}' "${NODE_URL[18]}/v1/jobs/$FID/image.png")
 check failed_job_image_409 "image.png gave $code: $(head -c 200 "$T/failed_img.json")" bash -c "[ $code = 409 ] && grep -q job_failed '$T/failed_img.json'"
-gate_node 16 open
-wait_until 30 succeeded 16 "$HELD"
-queued_none() { [ "$(metric 16 rayd_cluster_items_queued)" = 0 ]; }
-wait_until 30 queued_none
-check failed_job_items_dropped "items queued: $(metric 16 rayd_cluster_items_queued)" queued_none
-for i in 16 18; do kill -KILL "${NODE_PID[$i]}"; wait "${NODE_PID[$i]}" 2>/dev/null; done
+queued_none() { [ "$(metric 18 rayd_cluster_items_queued)" = 0 ]; }
+wait_until 90 queued_none
+check failed_job_items_dropped "items queued: $(metric 18 rayd_cluster_items_queued)" queued_none
+kill -KILL "${NODE_PID[18]}"
+wait "${NODE_PID[18]}" 2>/dev/null
 
 # --- kill -9 the node making a frame range's video: another node makes it --------------------
 # Nodes of a version of their own (so only they take these jobs), one thread each: node 12 holds
