@@ -32,8 +32,8 @@
  * jobs.c handed it.  The one thing an HTTP thread does is store_read, a
  * plain read of a finished image's file (never written again: renamed into
  * place whole).  Opening and loading (store_open, store_load) run on the
- * main thread before the server listens.  A second rayd on the same DIR is
- * refused (flock on DIR/lock).
+ * main thread before the server listens, after store_dir.c took DIR's lock
+ * and checked that a new jobs.db would not cost any image.
  */
 #include "work/work_private.h"
 
@@ -45,7 +45,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/file.h>
 #include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
@@ -697,47 +696,12 @@ static int store_sweep(void) {
     return 0;
 }
 
-/* The lock is held by another rayd: say which (the PID it wrote in the
- * lock file) and what to do. */
-static void store_locked_out(const char *dir, int fd) {
-    char pid[24] = "";
-    ssize_t n = pread(fd, pid, sizeof pid - 1, 0);
-    pid[n > 0 ? n : 0] = 0;
-    pid[strspn(pid, "0123456789")] = 0;
-    fprintf(stderr,
-            "rayd: error: --data-dir %s: another rayd%s%s%s uses it; give this one a folder of "
-            "its own\n",
-            dir, *pid ? " (PID " : "", pid, *pid ? ")" : "");
-}
-
 int store_open(const char *dir) {
     char path[4200];
     store_dir = strdup(dir);
-    snprintf(path, sizeof path, "%s/lock", dir);
-    store_lock_fd = open(path, O_RDWR | O_CREAT | O_CLOEXEC, 0600);
-    if (!store_dir || store_lock_fd < 0 || flock(store_lock_fd, LOCK_EX | LOCK_NB) != 0) {
-        if (store_lock_fd >= 0 && errno == EWOULDBLOCK)
-            store_locked_out(dir, store_lock_fd);
-        else
-            fprintf(stderr, "rayd: error: --data-dir %s: %s\n", dir, strerror(errno));
-        return -1;
-    }
-    char pid[24];
-    int len = snprintf(pid, sizeof pid, "%ld\n", (long)getpid());
-    if (ftruncate(store_lock_fd, 0) != 0 || pwrite(store_lock_fd, pid, (size_t)len, 0) != len)
-        log_info("--data-dir: could not write the PID into %s: %s", path, strerror(errno));
-    snprintf(path, sizeof path, "%s/results", dir);
-    struct stat rst;
-    int made = mkdir(path, 0700) == 0 || errno == EEXIST ? 0 : -1;
-    if (!made && stat(path, &rst) == 0 && !S_ISDIR(rst.st_mode)) { /* a file named results */
-        made = -1;
-        errno = ENOTDIR;
-    }
-    if (made) {
-        fprintf(stderr, "rayd: error: --data-dir %s: cannot make results/: %s\n", dir,
-                strerror(errno));
-        return -1;
-    }
+    if (!store_dir) return -1;
+    store_lock_fd = store_dir_lock(dir);
+    if (store_lock_fd < 0 || store_dir_check(dir)) return -1;
     snprintf(path, sizeof path, "%s/jobs.db", dir);
     if (sqlite3_open_v2(path, &store_db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, NULL) !=
             SQLITE_OK ||

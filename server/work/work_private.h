@@ -520,6 +520,12 @@ struct store_job {
 };
 /* Opens DIR's store (before any thread but main's): -1 after saying why. */
 int store_open(const char *dir);
+/* store_dir.c: DIR's lock taken (its fd, kept open while rayd runs), or -1
+ * after saying why (another rayd has it: its PID). */
+int store_dir_lock(const char *dir);
+/* DIR's results/ made a folder if missing; -1 after saying why, and when a
+ * missing or empty jobs.db sits beside images (store_dir.c). */
+int store_dir_check(const char *dir);
 int store_start(void); /* the store thread (none without a store) */
 void store_stop(void); /* runs what is queued, joins, closes */
 /* Every job's record, oldest first (main thread, at start-up). */

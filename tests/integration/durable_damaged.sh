@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # durable_damaged.sh -- a --data-dir whose jobs.db is damaged (a page of an
-# index zeroed: a disk's bad sector, a copy cut short) or whose results/ is
-# a file: rayd says what is wrong and does not start, deleting nothing.
+# index zeroed: a disk's bad sector, a copy cut short), missing or empty
+# beside finished images, or whose results/ is a file: rayd says what is
+# wrong and does not start, deleting nothing.
 #
 # Before, the start-up sweep took every failed look-up in a damaged jobs.db
 # for "no job names this file" and deleted every finished image, the load
@@ -59,6 +60,24 @@ check damaged_jobs_index_refused "$(tail -c 400 "$T/bad.err" 2>/dev/null)" \
 # results/ a file
 rm -rf "$T/c" && cp -r "$T/orig" "$T/c" && rm -rf "$T/c/results" && echo x >"$T/c/results"
 check results_is_file_refused "$(tail -c 400 "$T/bad.err" 2>/dev/null)" refused "$T/c" "Not a directory"
+
+# jobs.db deleted, or emptied, beside the images: SQLite would take it for a new store and the
+# sweep delete every image (before: rayd listened, 0 of 3 images left, each job 404)
+rm -rf "$T/c" && cp -r "$T/orig" "$T/c" && rm -f "$T/c/jobs.db" "$T/c/jobs.db-wal" "$T/c/jobs.db-shm"
+check missing_db_refused "$(tail -c 400 "$T/bad.err" 2>/dev/null)" \
+    refused "$T/c" "jobs.db is missing but results/ holds 3 images"
+check missing_db_images_kept "$(ls "$T/c/results" | wc -l) of 3 left" [ "$(ls "$T/c/results" | wc -l)" = 3 ]
+check missing_db_not_made "jobs.db made: $(ls "$T/c")" [ ! -e "$T/c/jobs.db" ]
+rm -rf "$T/c" && cp -r "$T/orig" "$T/c" && rm -f "$T/c/jobs.db-wal" "$T/c/jobs.db-shm" && : >"$T/c/jobs.db"
+check empty_db_refused "$(tail -c 400 "$T/bad.err" 2>/dev/null)" \
+    refused "$T/c" "jobs.db is empty but results/ holds 3 images"
+check empty_db_images_kept "$(ls "$T/c/results" | wc -l) of 3 left" [ "$(ls "$T/c/results" | wc -l)" = 3 ]
+# results/ moved away as the message says: a new store starts
+mv "$T/c/results" "$T/c/results.old"
+start_rayd --threads 1 --data-dir "$T/c"
+check new_store_after_move "$(req GET /v1/jobs/"$(head -n 1 "$T/ids")")" [ "$(req GET /v1/jobs/"$(head -n 1 "$T/ids")")" = 404 ]
+stop_rayd TERM
+check new_store_old_images_untouched "$(ls "$T/c/results.old" | wc -l) of 3" [ "$(ls "$T/c/results.old" | wc -l)" = 3 ]
 
 # the undamaged copy starts, every job there
 start_rayd --threads 1 --data-dir "$T/orig"
