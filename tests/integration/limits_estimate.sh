@@ -195,11 +195,17 @@ check rayd_exit_0 "exit $RAYD_RC" [ "$RAYD_RC" = 0 ]
 # under a moving root is 1.2M rays' worth of parse a frame, over a --max-work of 1M; the
 # same glTF standing still is 0.2M.  Before, a 15.8 KB scene of 5M such triangles was
 # priced at 1,806 rays a frame of 1 pixel and took 2.5-3 s of CPU a frame for 1000 frames.
-# gltf_anim FILE MOVING: a 16 x 16 scene of that glTF, 10 frames, its root moving or not
+# A mesh object's glTF source is decoded and built each frame too (only OBJ and PLY are
+# shared): 6 rays a triangle, the same 1.2M.  Before, it was priced as its text: a 228 KB
+# scene of 5M triangles, 1000 frames of 8 x 8 pixels, was 14.5M rays for the whole job
+# under --max-work 1e7 and took 2.3 s of CPU a frame (38 minutes).
+# gltf_anim FILE MOVING [KIND]: a 16 x 16 scene of that glTF, 10 frames, its root moving or
+# not, as a gltf object (KIND mesh: a mesh object's source)
 gltf_anim() {
     python3 - "$@" <<'PY'
 import base64, json, random, struct, sys
 out, moving = sys.argv[1], sys.argv[2] == "1"
+kind = sys.argv[3] if len(sys.argv) > 3 else "gltf"
 random.seed(1)
 pos = b"".join(struct.pack("<3f", random.random(), random.random(), random.random())
                for _ in range(256))
@@ -228,18 +234,22 @@ if moving:
 json.dump({"animation": {"end": 9}, "render": {"width": 16, "height": 16},
            "camera": {"position": [20, 0, 60], "look_at": [20, 0, 0]},
            "lights": [{"type": "point", "position": [20, 10, 30]}],
-           "objects": [{"type": "gltf", "source": {"text": json.dumps(g), "format": "gltf"}}]},
+           "objects": [{"type": kind, "source": {"text": json.dumps(g), "format": "gltf"}}]},
           open(out, "w"))
 PY
 }
 gltf_anim "$T/moving.json" 1
 gltf_anim "$T/standing.json" 0
+gltf_anim "$T/mesh_source.json" 0 mesh
 start_rayd --threads 1 --max-work 1000000
 code=$(post_json "/v1/jobs?frames=0-9" "$T/moving.json")
 check frame_parse_refused "status $code: $(head -c 300 "$T/body")" eval \
     'err_is "$T/body" 413 over_budget && grep -q "rays (--max-work) a frame; of it the frame.s parse of the scene is 1.2" "$T/body"'
 code=$(post_json "/v1/render" "$T/moving.json")
 check frame_parse_not_in_render "status $code: $(head -c 300 "$T/body" | tr -d "\\0")" [ "$code" = 200 ]
+code=$(post_json "/v1/jobs?frames=0-9" "$T/mesh_source.json")
+check frame_parse_mesh_source_refused "status $code: $(head -c 300 "$T/body")" eval \
+    'err_is "$T/body" 413 over_budget && grep -q "rays (--max-work) a frame; of it the frame.s parse of the scene is 1.2" "$T/body"'
 code=$(post_json "/v1/jobs?frames=0-9" "$T/standing.json")
 rays=$(header X-Rayd-Estimated-Rays)
 check frame_parse_standing_priced "status $code, priced $rays: $(head -c 300 "$T/body")" \
