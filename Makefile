@@ -39,7 +39,8 @@
 # wrk (the load test), chromium and a font (the preview's browser tests),
 # pngcheck, openexr and g++ (readers that check rayd's PNG and EXR files),
 # assimp-testmodels (real model files), clang and its runtime (make fuzz),
-# valgrind (make test-valgrind), openssl (a certificate for the TLS test),
+# valgrind (make test-valgrind), gdb (stops rayd at an unlink for a kill -9 in
+# tests/integration/durable_forget.sh), openssl (a certificate for the TLS test),
 # man-db (the man pages rendered), python3-prometheus-client (its parser
 # reads /metrics in tests/integration/observability.sh).  LINT_PKGS: make lint and make format.
 # BENCH_PKGS (below): make bench-peers only.
@@ -47,7 +48,7 @@ BUILD_PKGS := gcc g++ make pkg-config libc6-dev libpng-dev zlib1g-dev libisal-de
               libmicrohttpd-dev libcurl4-openssl-dev libssl-dev libopenexr-dev libstb-dev ffmpeg \
               libsqlite3-dev libhiredis-dev
 TEST_PKGS := curl python3 nginx wrk chromium fonts-dejavu-core pngcheck openexr g++ \
-             assimp-testmodels clang libclang-rt-14-dev valgrind openssl man-db \
+             assimp-testmodels clang libclang-rt-14-dev valgrind gdb openssl man-db \
              python3-prometheus-client redis-server
 LINT_PKGS := cppcheck clang-tidy clang-format
 
