@@ -293,30 +293,31 @@ long cluster_jobs_tried(struct redis *c, const char *id, long frame, long tile) 
     return n;
 }
 
-long cluster_jobs_untried(struct redis *c, const char *id, long frame, long tile, int level) {
-    /* KEYS: the item's stream; ARGV: the job, frame, tile, and the idle
-     * time (ms) past which a consumer counts as gone (cluster_items.c's
-     * rule).  A node that can take the item reads that stream (its
-     * version's), and its reads and refreshes keep its idle time short,
-     * busy or not. */
+long cluster_jobs_untried(struct redis *c, const char *id, long frame, long tile) {
+    /* ARGV: the job, frame, tile, this node's version, and the age (ms) past
+     * which a heartbeat is gone (node_heartbeat's rule).  A node of this
+     * version reads its streams and takes the item once it has room; its
+     * heartbeat (rayd:nodes, Redis's clock) says it is live, busy or idle.
+     * Not its consumer's idle time: a busy node refreshes only the streams
+     * it holds items of, and before Redis 7.2 a read that finds nothing
+     * refreshes none (an idle node looked gone after 3 x --redis-claim-ms). */
     static const char script[] =
         "local by = redis.call('HGET', 'rayd:{' .. ARGV[1] .. '}:job', 'triedby:' .. ARGV[2] .. "
         "':' .. ARGV[3]) or ''\n"
-        "local cs = redis.pcall('XINFO', 'CONSUMERS', KEYS[1], 'render')\n"
-        "if type(cs) ~= 'table' or cs.err then return 0 end\n"
-        "local n = 0\n"
-        "for _, c in ipairs(cs) do\n"
-        "  local f = {}\n"
-        "  for j = 1, #c, 2 do f[c[j]] = c[j + 1] end\n"
-        "  if f.idle <= tonumber(ARGV[4]) and\n"
-        "     not string.find(by .. ' ', ' ' .. f.name .. ' ', 1, true) then n = n + 1 end\n"
+        "local now = tonumber(redis.call('TIME')[1])\n"
+        "local hs, n = redis.call('HGETALL', 'rayd:nodes'), 0\n"
+        "for j = 1, #hs, 2 do\n"
+        "  local seen = tonumber(string.match(hs[j + 1], '\"seen\":(%d+)')) or 0\n"
+        "  if string.match(hs[j + 1], '\"version\":\"([^\"]*)\"') == ARGV[4] and\n"
+        "     (now - seen) * 1000 <= tonumber(ARGV[5]) and\n"
+        "     not string.find(by .. ' ', ' ' .. hs[j] .. ' ', 1, true) then n = n + 1 end\n"
         "end\n"
         "return n\n";
-    char k[24], t[24], idle[24];
+    char k[24], t[24], gone[24];
     snprintf(k, sizeof k, "%ld", frame);
     snprintf(t, sizeof t, "%ld", tile);
-    snprintf(idle, sizeof idle, "%ld", 3 * cluster_claim_ms());
-    const char *argv[] = {"EVAL", script, "1", cluster_items_stream(level), id, k, t, idle, NULL};
+    snprintf(gone, sizeof gone, "%ld", 3 * cluster_claim_ms() + 1000);
+    const char *argv[] = {"EVAL", script, "0", id, k, t, cluster_version(), gone, NULL};
     redisReply *rep = redis_strs(c, argv);
     long n = redis_failed(c, rep) ? -1 : (long)redis_ll(rep, -1);
     if (rep) freeReplyObject(rep);

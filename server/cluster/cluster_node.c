@@ -317,7 +317,7 @@ static int node_shun_again(struct redis *c, const struct node_item *it) {
         if (node_shun[i].level != it->level || strcmp(node_shun[i].sid, it->sid)) continue;
         if (node_shun[i].leaves++ < NODE_SHUN_LEAVES) return 1;
         /* Redis failing (-1): left, taken back later */
-        if (cluster_jobs_untried(c, it->job, it->frame, it->tile, it->level) != 0) return 1;
+        if (cluster_jobs_untried(c, it->job, it->frame, it->tile) != 0) return 1;
         node_shun[i].sid[0] = 0;
         return 0;
     }

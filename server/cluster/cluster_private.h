@@ -99,10 +99,10 @@ bool cluster_jobs_end(struct redis *c, const char *id, const char *state, const 
  * attempts so far (the job's record counts them, and names the nodes that
  * made them), 0 when the job has ended or is gone, -1 when Redis failed. */
 long cluster_jobs_tried(struct redis *c, const char *id, long frame, long tile);
-/* The live nodes that read the stream of `level` (its items' version) and
+/* The live nodes of this version (their heartbeats in rayd:nodes) that
  * have not tried that tile: a node that failed it on its own limits leaves
  * it while there is one.  -1 when Redis failed. */
-long cluster_jobs_untried(struct redis *c, const char *id, long frame, long tile, int level);
+long cluster_jobs_untried(struct redis *c, const char *id, long frame, long tile);
 /* Attempts at a tile that fails on a node's own limits (--max-work,
  * --max-memory, --max-render-seconds) before its job fails: each but the
  * last leaves it to another node, whose limits may let it through. */

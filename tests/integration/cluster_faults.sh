@@ -186,9 +186,9 @@ d["render"]["seed"] = int(sys.argv[3])
 json.dump(d, open(sys.argv[2], "w"))
 PY
 }
-post_small() { # NODE N: the new job's id
+post_small() { # NODE N [QUERY]: the new job's id
     small "$2"
-    curl -s -m 30 "${JSON[@]}" --data-binary @"$T/small$2.json" "${NODE_URL[$1]}/v1/jobs" |
+    curl -s -m 30 "${JSON[@]}" --data-binary @"$T/small$2.json" "${NODE_URL[$1]}/v1/jobs?${3:-}" |
         python3 -c 'import json,sys; print(json.load(sys.stdin).get("id", ""))'
 }
 LIM=(--threads 1 --cluster-tile 64 --redis-claim-ms 1500 --redis "$REDIS_URL")
@@ -225,6 +225,21 @@ check limited_busy_node_renders_it "state: $(job_state "${NODE_URL[16]}" "$WID")
 curl -s -m 30 -o "$T/waited.png" "${NODE_URL[16]}/v1/jobs/$WID/image.png"
 "$RENDER" "$T/small4.json" -o "$T/ref_small4.png" 2>/dev/null
 check limited_waited_byte_identical "the image differs from rayd-render's" cmp -s "$T/waited.png" "$T/ref_small4.png"
+wait_until 30 succeeded 16 "$HELD"
+# The same with node 16 busy on a job of another priority: it refreshes only the stream of the item
+# it holds, and is live all the same.  Before, node 18 took node 16's silence on the normal stream
+# for a gone node and tried the tile again (2 failures at the 3rd take-back).
+gate_node 16 0
+HELD=$(post_small 16 7 priority=high)
+wait_until 30 holds 16 1
+PID2=$(post_small 16 8)
+n0=$(grep -c "left again for another node" "$T/node18.err")
+wait_until 60 left_again $((n0 + 4))
+check limited_waits_for_node_busy_elsewhere "node 18: $(grep -c "job $PID2 frame 0 tile 0 failed here" "$T/node18.err") failures, $(($(grep -c 'left again for another node' "$T/node18.err") - n0)) take-backs left; state $(job_state "${NODE_URL[16]}" "$PID2")" \
+    bash -c "[ \$(grep -c 'job $PID2 frame 0 tile 0 failed here' '$T/node18.err') = 1 ] && ! grep -q 'job $PID2: a tile failed' '$T/node18.err'"
+gate_node 16 open
+wait_until 30 succeeded 16 "$PID2"
+check limited_busy_elsewhere_renders_it "state: $(job_state "${NODE_URL[16]}" "$PID2")" succeeded 16 "$PID2"
 wait_until 30 succeeded 16 "$HELD"
 
 # Once the only other node is gone, node 18 is the only live node left: after its
