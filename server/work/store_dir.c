@@ -56,7 +56,9 @@ int store_dir_lock(const char *dir) {
     return fd;
 }
 
-/* The finished files under results/ (a .tmp is a write cut short). */
+/* The finished files under results/, those the sweep would delete with no
+ * job naming them: not a .tmp (a write cut short), not a folder (the sweep
+ * deletes none: a volume's lost+found when results/ is a mount point). */
 static long store_dir_images(const char *results) {
     DIR *d = opendir(results);
     if (!d) return 0;
@@ -64,7 +66,13 @@ static long store_dir_images(const char *results) {
     struct dirent *e;
     while ((e = readdir(d))) {
         size_t len = strlen(e->d_name);
-        if (e->d_name[0] != '.' && !(len > 4 && !strcmp(e->d_name + len - 4, ".tmp"))) n++;
+        if (e->d_name[0] == '.' || (len > 4 && !strcmp(e->d_name + len - 4, ".tmp"))) continue;
+        struct stat st;
+        bool folder =
+            e->d_type == DT_DIR ||
+            (e->d_type == DT_UNKNOWN &&
+             fstatat(dirfd(d), e->d_name, &st, AT_SYMLINK_NOFOLLOW) == 0 && S_ISDIR(st.st_mode));
+        if (!folder) n++;
     }
     closedir(d);
     return n;

@@ -79,6 +79,15 @@ check new_store_after_move "$(req GET /v1/jobs/"$(head -n 1 "$T/ids")")" [ "$(re
 stop_rayd TERM
 check new_store_old_images_untouched "$(ls "$T/c/results.old" | wc -l) of 3" [ "$(ls "$T/c/results.old" | wc -l)" = 3 ]
 
+# a first start on a results/ that holds no image: a folder (a volume's lost+found, results/ a
+# mount point) and a write cut short.  Before, the folder counted as an image and the start was
+# refused ("jobs.db is missing but results/ holds 1 image")
+rm -rf "$T/f" && mkdir -p "$T/f/results/lost+found" && : >"$T/f/results/x.png.tmp"
+start_rayd --threads 1 --data-dir "$T/f"
+check first_start_folder_not_image "$(tail -c 300 "$T/rayd.err")" [ "$(req GET /healthz)" = 200 ]
+stop_rayd TERM
+check first_start_folder_kept "results/: $(ls "$T/f/results")" [ -d "$T/f/results/lost+found" ]
+
 # the undamaged copy starts, every job there
 start_rayd --threads 1 --data-dir "$T/orig"
 n=0
