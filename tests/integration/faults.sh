@@ -109,8 +109,9 @@ check sigterm_jobs_reported "$(tail -n 3 "$T"/sse*.txt | tr '\n' ' ' | head -c 4
 for k in 1 2 3; do grep -A1 '^event: done' '$T/sse'\$k.txt | grep -Eq '\"state\":\"(succeeded|canceled)\"' || exit 1; done"
 
 # --- allocation failure in the core -------------------------------------------------------------
-# a 1.3-million-triangle mesh (base64 PLY in the body, 33 MB) at three memory
-# ceilings, each failing at a different allocation (PLY arrays, mesh, BVH)
+# a 1.3-million-triangle mesh (base64 PLY in the body, 33 MB) at five memory
+# ceilings, each failing at a different allocation (the body, the parse, the
+# base64 decode, the PLY arrays, the BVH)
 "$RAYD_BUILD/bench/genmesh" 8 "$T/mesh8.ply" >/dev/null 2>&1 || "$RAYD_ROOT/build/bench/genmesh" 8 "$T/mesh8.ply" >/dev/null 2>&1
 python3 - "$T/mesh8.ply" "$T/big.json" <<'PY'
 import base64, json, sys
@@ -152,7 +153,7 @@ elif [ -z "$sanitized" ]; then
     # run. Each ceiling sits mid-way in the range where its stage fails
     # (rayd starts at about 92 MB: thread stacks and the preview's files).
     for case in "112000 reading the body" "142000 parsing the scene" "169000 base64:" \
-        "202000 PLY header:" "244000 building the BVH"; do
+        "196000 PLY header:" "244000 building the BVH"; do
         kb=${case%% *}
         MALLOC_ARENA_MAX=1 RAYD_ULIMIT_V=$kb start_rayd --threads 2 --max-body 67108864
         oom_case "ulimit_${kb}k" "${case#* }"
