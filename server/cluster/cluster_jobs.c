@@ -271,6 +271,20 @@ bool cluster_jobs_end(struct redis *c, const char *id, const char *state, const 
     return ok;
 }
 
+/* A script about one tile of job id, ARGV the job, frame, tile, then a and
+ * b (NULL: none): its integer answer, -1 when Redis failed. */
+static long jobs_tile_eval(struct redis *c, const char *script, const char *id, long frame,
+                           long tile, const char *a, const char *b) {
+    char k[24], t[24];
+    snprintf(k, sizeof k, "%ld", frame);
+    snprintf(t, sizeof t, "%ld", tile);
+    const char *argv[] = {"EVAL", script, "0", id, k, t, a, b, NULL};
+    redisReply *rep = redis_strs(c, argv);
+    long n = redis_failed(c, rep) ? -1 : (long)redis_ll(rep, -1);
+    if (rep) freeReplyObject(rep);
+    return n;
+}
+
 long cluster_jobs_tried(struct redis *c, const char *id, long frame, long tile) {
     /* the nodes that tried, one after each space (node ids have none) */
     static const char script[] =
@@ -283,14 +297,7 @@ long cluster_jobs_tried(struct redis *c, const char *id, long frame, long tile) 
         "  redis.call('HSET', p .. 'job', 'triedby:' .. f, by .. ' ' .. ARGV[4])\n"
         "end\n"
         "return redis.call('HINCRBY', p .. 'job', 'tries:' .. f, 1)\n";
-    char k[24], t[24];
-    snprintf(k, sizeof k, "%ld", frame);
-    snprintf(t, sizeof t, "%ld", tile);
-    const char *argv[] = {"EVAL", script, "0", id, k, t, cluster_node_id, NULL};
-    redisReply *rep = redis_strs(c, argv);
-    long n = redis_failed(c, rep) ? -1 : (long)redis_ll(rep, -1);
-    if (rep) freeReplyObject(rep);
-    return n;
+    return jobs_tile_eval(c, script, id, frame, tile, cluster_node_id, NULL);
 }
 
 long cluster_jobs_untried(struct redis *c, const char *id, long frame, long tile) {
@@ -313,15 +320,9 @@ long cluster_jobs_untried(struct redis *c, const char *id, long frame, long tile
         "     not string.find(by .. ' ', ' ' .. hs[j] .. ' ', 1, true) then n = n + 1 end\n"
         "end\n"
         "return n\n";
-    char k[24], t[24], gone[24];
-    snprintf(k, sizeof k, "%ld", frame);
-    snprintf(t, sizeof t, "%ld", tile);
+    char gone[24];
     snprintf(gone, sizeof gone, "%ld", 3 * cluster_claim_ms() + 1000);
-    const char *argv[] = {"EVAL", script, "0", id, k, t, cluster_version(), gone, NULL};
-    redisReply *rep = redis_strs(c, argv);
-    long n = redis_failed(c, rep) ? -1 : (long)redis_ll(rep, -1);
-    if (rep) freeReplyObject(rep);
-    return n;
+    return jobs_tile_eval(c, script, id, frame, tile, cluster_version(), gone);
 }
 
 long cluster_jobs_unfinished(struct redis *c) {
