@@ -285,43 +285,48 @@ static long jobs_tile_eval(struct redis *c, const char *script, const char *id, 
     return n;
 }
 
+/* The start of jobs_tile_eval's scripts: the job's record (key), the
+ * tile's fields' suffix (f), and the nodes that tried the tile (by: one
+ * after each space, as node ids have none) with tried(name). */
+#define JOBS_LUA_TILE                                                                              \
+    "local key, f = 'rayd:{' .. ARGV[1] .. '}:job', ARGV[2] .. ':' .. ARGV[3]\n"                   \
+    "local by = redis.call('HGET', key, 'triedby:' .. f) or ''\n"                                  \
+    "local function tried(name)\n"                                                                 \
+    "  return string.find(by .. ' ', ' ' .. name .. ' ', 1, true) ~= nil\n"                        \
+    "end\n"
+
 long cluster_jobs_tried(struct redis *c, const char *id, long frame, long tile) {
-    /* the nodes that tried, one after each space (node ids have none) */
     static const char script[] =
-        "local p = 'rayd:{' .. ARGV[1] .. '}:'\n"
-        "local st = redis.call('HGET', p .. 'job', 'state')\n"
-        "if st ~= 'queued' and st ~= 'running' then return 0 end\n"
-        "local f = ARGV[2] .. ':' .. ARGV[3]\n"
-        "local by = redis.call('HGET', p .. 'job', 'triedby:' .. f) or ''\n"
-        "if not string.find(by .. ' ', ' ' .. ARGV[4] .. ' ', 1, true) then\n"
-        "  redis.call('HSET', p .. 'job', 'triedby:' .. f, by .. ' ' .. ARGV[4])\n"
-        "end\n"
-        "return redis.call('HINCRBY', p .. 'job', 'tries:' .. f, 1)\n";
+        JOBS_LUA_TILE "local st = redis.call('HGET', key, 'state')\n"
+                      "if st ~= 'queued' and st ~= 'running' then return 0 end\n"
+                      "if not tried(ARGV[4]) then\n"
+                      "  redis.call('HSET', key, 'triedby:' .. f, by .. ' ' .. ARGV[4])\n"
+                      "end\n"
+                      "return redis.call('HINCRBY', key, 'tries:' .. f, 1)\n";
     return jobs_tile_eval(c, script, id, frame, tile, cluster_node_id, NULL);
 }
 
 long cluster_jobs_untried(struct redis *c, const char *id, long frame, long tile) {
-    /* ARGV: the job, frame, tile, this node's version, and the age (ms) past
-     * which a heartbeat is gone (node_heartbeat's rule).  A node of this
-     * version reads its streams and takes the item once it has room; its
-     * heartbeat (rayd:nodes, Redis's clock) says it is live, busy or idle.
-     * Not its consumer's idle time: a busy node refreshes only the streams
-     * it holds items of, and before Redis 7.2 a read that finds nothing
-     * refreshes none (an idle node looked gone after 3 x --redis-claim-ms). */
+    /* ARGV after the tile's: this node's version, and the age (ms) past
+     * which a heartbeat is gone (cluster_gone_ms).  A node of this version
+     * reads its streams and takes the item once it has room; its heartbeat
+     * (rayd:nodes, Redis's clock) says it is live, busy or idle.  Not its
+     * consumer's idle time: a busy node refreshes only the streams it holds
+     * items of, and before Redis 7.2 a read that finds nothing refreshes
+     * none (an idle node looked gone after 3 x --redis-claim-ms). */
     static const char script[] =
-        "local by = redis.call('HGET', 'rayd:{' .. ARGV[1] .. '}:job', 'triedby:' .. ARGV[2] .. "
-        "':' .. ARGV[3]) or ''\n"
-        "local now = tonumber(redis.call('TIME')[1])\n"
-        "local hs, n = redis.call('HGETALL', 'rayd:nodes'), 0\n"
-        "for j = 1, #hs, 2 do\n"
-        "  local seen = tonumber(string.match(hs[j + 1], '\"seen\":(%d+)')) or 0\n"
-        "  if string.match(hs[j + 1], '\"version\":\"([^\"]*)\"') == ARGV[4] and\n"
-        "     (now - seen) * 1000 <= tonumber(ARGV[5]) and\n"
-        "     not string.find(by .. ' ', ' ' .. hs[j] .. ' ', 1, true) then n = n + 1 end\n"
-        "end\n"
-        "return n\n";
+        JOBS_LUA_TILE "local now = tonumber(redis.call('TIME')[1])\n"
+                      "local hs, n = redis.call('HGETALL', 'rayd:nodes'), 0\n"
+                      "for j = 1, #hs, 2 do\n"
+                      "  local seen = tonumber(string.match(hs[j + 1], '\"seen\":(%d+)')) or 0\n"
+                      "  if string.match(hs[j + 1], '\"version\":\"([^\"]*)\"') == ARGV[4] and\n"
+                      "     (now - seen) * 1000 <= tonumber(ARGV[5]) and not tried(hs[j]) then\n"
+                      "    n = n + 1\n"
+                      "  end\n"
+                      "end\n"
+                      "return n\n";
     char gone[24];
-    snprintf(gone, sizeof gone, "%ld", 3 * cluster_claim_ms() + 1000);
+    snprintf(gone, sizeof gone, "%ld", cluster_gone_ms());
     return jobs_tile_eval(c, script, id, frame, tile, cluster_version(), gone);
 }
 

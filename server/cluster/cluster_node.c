@@ -566,7 +566,7 @@ static long node_heartbeat(struct redis *c) {
     char head[200], tail[120], gone[24];
     snprintf(head, sizeof head, "{\"version\":\"%s\",\"seen\":", cluster_version());
     snprintf(tail, sizeof tail, ",\"workers\":%ld,\"in_flight\":%ld}", config.threads, node_count);
-    snprintf(gone, sizeof gone, "%ld", 3 * cluster_claim_ms() + 1000);
+    snprintf(gone, sizeof gone, "%ld", cluster_gone_ms());
     const char *argv[] = {"EVAL", node_lua_heartbeat, "0", cluster_node_id, head, tail, gone, NULL};
     redisReply *rep = redis_strs(c, argv);
     long live = rep && !redis_failed(c, rep) ? (long)redis_ll(rep, 0) : 0;

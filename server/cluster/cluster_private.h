@@ -61,6 +61,9 @@ extern atomic_long cluster_deferred_total; /* assemblies put off for want of mem
 extern pthread_mutex_t cluster_mu;         /* the view */
 extern struct cluster_status_view cluster_view_now;
 long cluster_claim_ms(void);
+/* The age past which a node's heartbeat says it is gone: 3 x
+ * --redis-claim-ms, and a second for the heartbeat's clock (whole s). */
+long cluster_gone_ms(void);
 double cluster_now_ms(void); /* Redis's wall clock as this node sees it, ms since the epoch */
 /* Measures the offset of Redis's clock (TIME) to this node's, at most once
  * a second (each thread that talks to Redis calls it before its work). */

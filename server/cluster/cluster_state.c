@@ -36,6 +36,8 @@ const char *cluster_version(void) { return cluster_ver; }
 
 long cluster_claim_ms(void) { return config.redis_claim_ms; }
 
+long cluster_gone_ms(void) { return 3 * cluster_claim_ms() + 1000; }
+
 double cluster_skew_ms;
 
 static atomic_llong clock_offset_ms; /* Redis's TIME minus this node's clock */
