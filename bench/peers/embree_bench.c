@@ -258,6 +258,9 @@ static double cast16(const struct setup *s, bool shadow, long *hits) {
     struct RTCRayHit16 rh;
     struct RTCRay16 sr;
     _Alignas(64) int valid[16], svalid[16];
+    /* lanes a block leaves out keep finite values: Embree's AVX2 kernels
+     * (16 lanes as two 8-wide halves) assert on every lane's ray */
+    memset(&sr, 0, sizeof sr);
     double t0 = now_1t();
     for (int bj = 0; bj < s->height; bj += 4) {
         for (int bi = 0; bi < s->width; bi += 4) {
