@@ -140,7 +140,7 @@ struct bvh_ray {
      * whole-register stores are ones the walk's loads can forward from */
     float org[4];
     float inv[4]; /* 1 / direction, with zero components nudged to tiny */
-    /* For the fused test of 8-wide nodes (bvh8_test_avx512): org * inv
+    /* For the fused test of 8-wide nodes (bvh8_test_fused): org * inv
      * bounded above and below, the byte offsets in a node of each axis's
      * near and far planes, and whether every org * inv is finite. */
     float oi_hi[4], oi_lo[4];
@@ -281,7 +281,7 @@ static inline int bvh4_test(const struct bvh4_node *nd, const struct bvh_ray *r,
 }
 
 /* A test of the eight children of a node (bvh8_test, or where the CPU
- * has it bvh8_test_avx512), as the one-ray walks take it. */
+ * has it bvh8_test_fused), as the one-ray walks take it. */
 typedef int (*bvh8_test_fn)(const struct bvh8_node *nd, const struct bvh_ray *r, float tmin,
                             float tmax, float tnear[8]);
 
@@ -298,8 +298,9 @@ static inline int bvh8_test(const struct bvh8_node *nd, const struct bvh_ray *r,
  * multiply-add (bvh_ray_fused): fewer operations and a shorter chain from
  * a node's load to the next, as Embree does it, but other bits, so the
  * entry distances differ from bvh8_test's.  Neither test decides a hit
- * (the triangles do, by an order-free rule), so both walks find the same. */
-CPU_AVX512_INLINE int bvh8_test_avx512(const struct bvh8_node *nd, const struct bvh_ray *r,
+ * (the triangles do, by an order-free rule), so both walks find the same.
+ * AVX2 and FMA suffice; the AVX-512 walks inline it too. */
+CPU_AVX2_INLINE int bvh8_test_fused(const struct bvh8_node *nd, const struct bvh_ray *r,
                                        float tmin, float tmax, float tnear[8]) {
     if (!r->fused) return bvh8_test(nd, r, tmin, tmax, tnear);
     __m256 tn = _mm256_set1_ps(tmin), tf = _mm256_set1_ps(tmax);

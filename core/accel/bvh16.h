@@ -186,7 +186,7 @@ struct bvh16_entry {
 
 /* Child c of nd against the rays in lanes, for t in [0, tmax]: the mask of
  * rays that enter it and their entry distances.  The float operations of
- * bvh8_test_avx512 lane by lane (each plane one fused multiply-add) when
+ * bvh8_test_fused lane by lane (each plane one fused multiply-add) when
  * the packet has them, else those of bvh4_test: either test is
  * conservative, and neither decides a hit. */
 CPU_AVX512_INLINE __mmask16 bvh16_child(const char *nd, int width, int c, const struct bvh16_ray *r,

@@ -384,11 +384,12 @@ static void test_mesh_errors(void) {
     CHECK(s == NULL, "no scene");
 }
 
-/* The one-ray walk has a copy compiled for AVX-512 (mesh.c, used where
- * cpu_avx512 says so) beside the build's own: for random rays through a
- * soup of triangles and the octahedron's edges and vertices, with odd
- * bounds, both must give the very same hit (t, u, v, triangle, block,
- * lane) and the same shadow answer, and the nearest hit brute force's. */
+/* The one-ray walk has copies compiled for AVX-512 and AVX2 (mesh.c, used
+ * where cpu_avx512 and cpu_avx2 say so) beside the build's own: for
+ * random rays through a soup of triangles and the octahedron's edges and
+ * vertices, with odd bounds, all must give the very same hit (t, u, v,
+ * triangle, block, lane) and the same shadow answer, and the nearest hit
+ * brute force's. */
 static void soup(uint32_t n, float **pos, uint32_t **index);
 
 static bool same_hit(bool a, const struct mesh_hit *x, bool b, const struct mesh_hit *y) {
@@ -432,24 +433,28 @@ static void test_single_ray_paths_agree(void) {
             r = (ray){from, v3_norm(v3_sub(target, from))};
         }
         double tmax = a % 4 == 3 ? bounds[(a / 4) % 8] : INFINITY;
-        struct mesh_hit h[2], hb;
-        bool got[2], occ[2];
-        for (int scalar = 0; scalar <= 1; scalar++) {
-            cpu_force_scalar(scalar);
-            got[scalar] = mesh_intersect(m, &r, tmax, &h[scalar]);
-            occ[scalar] = mesh_occluded(m, &r, tmax);
+        struct mesh_hit h[3], hb;
+        bool got[3], occ[3];
+        for (int way = 0; way < 3; way++) { /* as the CPU has it, AVX2 at most, the build's */
+            cpu_force_avx2(way == 1);
+            cpu_force_scalar(way == 2);
+            got[way] = mesh_intersect(m, &r, tmax, &h[way]);
+            occ[way] = mesh_occluded(m, &r, tmax);
         }
         cpu_force_scalar(false);
         bool gb = mesh_intersect_brute(m, &r, tmax, &hb);
         total++;
         hits += got[0];
         blocked += occ[0];
-        differ += !same_hit(got[0], &h[0], got[1], &h[1]) || occ[0] != occ[1] || occ[0] != got[0];
+        for (int way = 1; way < 3; way++)
+            differ += !same_hit(got[0], &h[0], got[way], &h[way]) || occ[0] != occ[way];
+        differ += occ[0] != got[0];
         brute += !same_hit(got[0], &h[0], gb, &hb);
     }
     printf("  %u rays (%u hits, %u blocked), one-ray walk %s\n", total, hits, blocked,
-           cpu_avx512() ? "with AVX-512 against the build's"
-                        : "the build's only (no AVX-512 here)");
+           cpu_avx512() ? "with AVX-512 and AVX2 against the build's"
+           : cpu_avx2() ? "with AVX2 against the build's (no AVX-512 here)"
+                        : "the build's only (no AVX2 here)");
     CHECK(hits > total / 5 && hits < total, "%u hits of %u", hits, total);
     CHECK(differ == 0, "%u of %u rays differ between the walks", differ, total);
     CHECK(brute == 0, "%u of %u rays differ from brute force", brute, total);
@@ -903,10 +908,11 @@ static void node_trial(uint32_t *s, struct bvh8_node *nd, ray *r, double *tmax) 
 }
 
 #ifdef CPU_AVX512
-CPU_AVX512_FN int fused_test(const struct bvh8_node *nd, struct bvh_ray *br, float tmax,
-                             float tn[8]) {
+__attribute__((target(CPU_AVX2_TARGET))) static int fused_test(const struct bvh8_node *nd,
+                                                              struct bvh_ray *br, float tmax,
+                                                              float tn[8]) {
     bvh_ray_fused(br);
-    return bvh8_test_avx512(nd, br, 0, tmax, tn);
+    return bvh8_test_fused(nd, br, 0, tmax, tn);
 }
 
 /* The packet walk's child test (bvh16_child), fused where the packet is:
@@ -931,14 +937,14 @@ CPU_AVX512_FN int packet_test(const struct bvh8_node *nd, const ray *r, float tm
 /* A node test may say a ray enters a box it misses, never the reverse,
  * and its entry distance is never past the true one (beyond BVH_SLACK):
  * else a walk would skip a subtree that holds the nearest hit.  The
- * build's test and, where they run, the AVX-512 ones with fused
- * multiply-adds (bvh_ray_fused; the packet's bvh16_child), against the
+ * build's test and, where they run, the ones with fused multiply-adds
+ * (AVX2's bvh8_test_fused; AVX-512's packet bvh16_child), against the
  * exact entry in double. */
 static void test_node_tests_are_conservative(void) {
     uint32_t s = 9090, missed[3] = {0, 0, 0}, late[3] = {0, 0, 0}, entered = 0, tested = 0;
     int tests = 1;
 #ifdef CPU_AVX512
-    tests = cpu_avx512() ? 3 : 1;
+    tests = cpu_avx512() ? 3 : cpu_avx2() ? 2 : 1;
 #endif
     for (int n = 0; n < 30000; n++) {
         struct bvh8_node nd;
