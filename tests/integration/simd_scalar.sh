@@ -28,7 +28,7 @@ cat >"$T/mesh.json" <<JSON
 JSON
 for scene in scenes/*.json bench/scenes/spheres10.json tests/scenes/*.json "$T/mesh.json"; do
     [ -f "$scene" ] || continue
-    name=$(basename "$(dirname "$scene")")-$(basename "$scene" .json)
+    name=$(dirname "$scene" | tr / -)-$(basename "$scene" .json) # tests/scenes has the same names
     [ "$scene" = "$T/mesh.json" ] && name=genmesh
     # 96 x 54 of the frame: a region keeps the scene's own camera and size
     w=$(awk -F'[:,]' '/"width"/ {for (i = 1; i <= NF; i++) if ($i ~ /"width"/) {print $(i + 1) + 0; exit}}' "$scene")
