@@ -300,8 +300,8 @@ static inline int bvh8_test(const struct bvh8_node *nd, const struct bvh_ray *r,
  * entry distances differ from bvh8_test's.  Neither test decides a hit
  * (the triangles do, by an order-free rule), so both walks find the same.
  * AVX2 and FMA suffice; the AVX-512 walks inline it too. */
-CPU_AVX2_INLINE int bvh8_test_fused(const struct bvh8_node *nd, const struct bvh_ray *r,
-                                       float tmin, float tmax, float tnear[8]) {
+CPU_AVX2_INLINE int bvh8_test_fused(const struct bvh8_node *nd, const struct bvh_ray *r, float tmin,
+                                    float tmax, float tnear[8]) {
     if (!r->fused) return bvh8_test(nd, r, tmin, tmax, tnear);
     __m256 tn = _mm256_set1_ps(tmin), tf = _mm256_set1_ps(tmax);
     const char *at = (const char *)nd;

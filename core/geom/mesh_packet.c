@@ -244,8 +244,7 @@ CPU_AVX512_FN __mmask16 lone_nearest(void *ctx, uint32_t node, uint32_t count, _
         lane_ray(q, &l, i, &br, &tr);
         struct mesh_hit h = {t[i], u[i], v[i], id[i], blk[i], lane[i]};
         bool found = q->found >> i & 1;
-        if (!mesh_walk_from(q->m, &br, &tr, NULL, e, &bound[i], &h, &found, false,
-                            bvh8_test_fused))
+        if (!mesh_walk_from(q->m, &br, &tr, NULL, e, &bound[i], &h, &found, false, bvh8_test_fused))
             continue;
         __mmask16 bit = (__mmask16)(1u << i);
         *tm = _mm512_mask_mov_ps(*tm, bit, _mm512_set1_ps(bound[i]));

@@ -908,9 +908,8 @@ static void node_trial(uint32_t *s, struct bvh8_node *nd, ray *r, double *tmax) 
 }
 
 #ifdef CPU_AVX512
-__attribute__((target(CPU_AVX2_TARGET))) static int fused_test(const struct bvh8_node *nd,
-                                                              struct bvh_ray *br, float tmax,
-                                                              float tn[8]) {
+__attribute__((target(CPU_AVX2_TARGET))) static int
+fused_test(const struct bvh8_node *nd, struct bvh_ray *br, float tmax, float tn[8]) {
     bvh_ray_fused(br);
     return bvh8_test_fused(nd, br, 0, tmax, tn);
 }
