@@ -22,7 +22,8 @@
 
 /* True when the AVX-512 code runs: built in, the CPU and OS have it,
  * RAYD_NO_AVX512 is not set in the environment (to compare, or to rule
- * the SIMD code out), and cpu_force_scalar has not turned it off. */
+ * the SIMD code out), and neither cpu_force_scalar nor cpu_force_avx2 has
+ * turned it off. */
 bool cpu_avx512(void);
 /* True when the AVX2 code runs: the CPU and OS have AVX2, FMA, BMI and
  * popcount, RAYD_NO_AVX2 is not set (it rules out AVX-512 too), and
