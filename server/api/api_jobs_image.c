@@ -159,8 +159,9 @@ static void api_jobs_final_reply(struct http_req *r, const char *id, const struc
     struct blob *img = exr ? info->exr : info->png, *read = NULL;
     if (!img && info->on_disk && (!exr || info->keep_exr) && !(img = read = store_read(id, exr))) {
         http_reply_error(r, 410, "result_evicted",
-                         "the job's image is no longer on disk (--max-disk evicted it)", NULL, 0, 0,
-                         NULL);
+                         "the job's image could not be read from disk: --max-disk evicted it, or "
+                         "its bytes were found damaged (the server's log says which)",
+                         NULL, 0, 0, NULL);
         return;
     }
     if (api_jobs_no_exr(r, info, exr)) {

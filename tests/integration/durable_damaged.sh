@@ -2,7 +2,8 @@
 # durable_damaged.sh -- a --data-dir whose jobs.db is damaged (a page of an
 # index zeroed: a disk's bad sector, a copy cut short), missing or empty
 # beside finished images, or whose results/ is a file: rayd says what is
-# wrong and does not start, deleting nothing.
+# wrong and does not start, deleting nothing; an image whose bytes changed
+# on disk is not served.
 #
 # Before, the start-up sweep took every failed look-up in a damaged jobs.db
 # for "no job names this file" and deleted every finished image, the load
@@ -87,6 +88,29 @@ start_rayd --threads 1 --data-dir "$T/f"
 check first_start_folder_not_image "$(tail -c 300 "$T/rayd.err")" [ "$(req GET /healthz)" = 200 ]
 stop_rayd TERM
 check first_start_folder_kept "results/: $(ls "$T/f/results")" [ -d "$T/f/results/lost+found" ]
+
+# one byte of an image changed, its size kept (a bad sector): before, the start-up check (sizes)
+# passed it and GET served the changed bytes as the job's image (200)
+rm -rf "$T/d" && cp -r "$T/orig" "$T/d"
+first=$(head -n 1 "$T/ids")
+img=$(ls "$T/d/results/$first"*.png)
+python3 - "$img" <<'PY'
+import os, sys
+with open(sys.argv[1], "r+b") as f:
+    f.seek(os.path.getsize(sys.argv[1]) // 2)
+    b = f.read(1)
+    f.seek(-1, 1)
+    f.write(bytes([b[0] ^ 0x10]))
+PY
+start_rayd --threads 1 --data-dir "$T/d"
+code=$(req GET "/v1/jobs/$first/image.png")
+check damaged_image_not_served "$code $(head -c 300 "$T/body" | tr -cd '[:print:]')" \
+    bash -c '[ "$0" = 410 ] && grep -q "damaged" "$1"' "$code" "$T/body"
+check damaged_image_logged "$(tail -c 300 "$T/rayd.err")" grep -q "is damaged (a chunk's CRC" "$T/rayd.err"
+n=0
+for id in $(tail -n +2 "$T/ids"); do [ "$(req GET "/v1/jobs/$id/image.png")" = 200 ] && is_png "$T/body" && n=$((n + 1)); done
+check damaged_image_others_served "$n of 2" [ "$n" = 2 ]
+stop_rayd TERM
 
 # the undamaged copy starts, every job there
 start_rayd --threads 1 --data-dir "$T/orig"
