@@ -7,6 +7,7 @@
  * for us, and refuses images over a pixel limit before allocating them.
  * The 16-bit encoder for linear images is at the bottom, and the 8-bit
  * RGBA one (a beauty with its alpha AOV as coverage), one band, libpng.
+ * rayd_png_whole checks a PNG's chunks without decoding it.
  */
 #include <math.h>
 #include <png.h>
@@ -105,6 +106,29 @@ static bool png_data_past(const unsigned char *b, size_t len, double limit) {
     }
     free(z);
     return made > limit;
+}
+
+/* Every chunk carries a CRC-32 of its type and data (ISA-L's gzip CRC is
+ * PNG's), so bytes changed in place, a file's size kept, fail here. */
+int rayd_png_whole(const void *buf, size_t len, const char **why) {
+    static const unsigned char sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    const unsigned char *b = buf;
+    *why = "no PNG signature";
+    if (len < sizeof sig || memcmp(b, sig, sizeof sig)) return 0;
+    for (size_t at = sizeof sig; at < len;) {
+        *why = "a chunk runs past the end";
+        if (len - at < 12 || png_be32(b + at) > len - at - 12) return 0;
+        size_t n = png_be32(b + at);
+        *why = "a chunk's CRC does not match its bytes";
+        if (crc32_gzip_refl(0, b + at + 4, n + 4) != png_be32(b + at + 8 + n)) return 0;
+        if (!memcmp(b + at + 4, "IEND", 4)) {
+            *why = "bytes after IEND";
+            return at + 12 + n == len;
+        }
+        at += 12 + n;
+    }
+    *why = "no IEND chunk";
+    return 0;
 }
 
 enum rayd_status rayd_png_decode(const void *buf, size_t len, long max_pixels, rayd_image **out,

@@ -679,6 +679,10 @@ enum rayd_status rayd_png_stream_finish_to(rayd_png_stream *s, int threads, rayd
 void rayd_png_stream_free(rayd_png_stream *s);
 enum rayd_status rayd_png_write_file(const rayd_image *img, const char *path,
                                      struct rayd_error *err);
+/* Whether the len bytes at buf are a whole PNG: its signature, then chunks
+ * whose CRCs match their bytes, the last IEND (1); else 0, *why saying
+ * what is wrong.  No decode: a check of bytes read back from a disk. */
+int rayd_png_whole(const void *buf, size_t len, const char **why);
 /* Decodes any PNG libpng reads into 8-bit RGB; refuses images over max_pixels
  * (<= 0: the default limit). */
 enum rayd_status rayd_png_decode(const void *buf, size_t len, long max_pixels, rayd_image **out,

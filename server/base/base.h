@@ -306,10 +306,6 @@ struct blob *blob_ref(struct blob *b); /* returns b; NULL allowed */
 void blob_unref(struct blob *b);       /* NULL allowed */
 /* The blob's bytes are counted as kind from now on (the result cache). */
 void blob_kind(struct blob *b, enum mem_kind kind);
-/* Whether the n bytes at p are a whole PNG: its signature, then chunks
- * whose CRCs match, the last IEND; else false with *why saying what is
- * wrong (a file read back from disk, before it is served). */
-bool blob_png_whole(const unsigned char *p, size_t n, const char **why);
 
 /* ---- json.c -------------------------------------------------------------- */
 

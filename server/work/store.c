@@ -14,7 +14,7 @@
  * at the next start) or the new one; at start-up a .tmp file, and a file no
  * row names as done, are deleted, and a done row is believed only when its
  * files are there with the sizes it recorded; a PNG read back is served
- * only when its chunks' CRCs match (blob_png_whole).  A job is inserted before its
+ * only when its chunks' CRCs match (rayd_png_whole).  A job is inserted before its
  * 202 is sent, and a DELETE's end recorded before its 200 (each request
  * waits for the commit: the work layer hands its waiter down here), so no
  * job the client was told of is lost, and none it cancelled comes back.
@@ -194,7 +194,7 @@ struct blob *store_read_frame(const char *id, long k, bool exr) {
         return NULL;
     }
     const char *why;
-    if (!exr && !blob_png_whole(data, got, &why)) { /* the right size, other bytes */
+    if (!exr && !rayd_png_whole(data, got, &why)) { /* the right size, other bytes */
         log_error("job %s: frame %ld: %s is damaged (%s): not served", id, k, path, why);
         rayd_free(data);
         return NULL;

@@ -1,7 +1,8 @@
 /* test_png.c -- the band encoder (png_encode.c): what it writes, libpng reads
  * back to the same pixels, for odd sizes and many bands; the bytes are the
  * same for every thread count; every zlib level gives a valid stream; the
- * chunks and their CRCs are well formed. */
+ * chunks and their CRCs are well formed; rayd_png_whole takes both
+ * encoders' files and refuses one byte changed, cut or added. */
 #include <stdbool.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -285,6 +286,50 @@ static void test_data_past_rows_refused(void) {
           "got '%s'", msg);
 }
 
+/* rayd_png_whole on the band encoder's PNG and libpng's 16-bit one, each
+ * whole, and with each of its bytes in turn flipped (one sample of 997),
+ * cut short, or followed by one more byte. */
+static void check_whole(const unsigned char *png, size_t len, const char *what) {
+    const char *why = "";
+    CHECK(rayd_png_whole(png, len, &why), "%s: %s", what, why);
+    unsigned char *b = malloc(len + 1);
+    if (!b) return;
+    int passed = 0, tried = 0;
+    for (size_t i = 0; i < len; i += 997, tried++) {
+        memcpy(b, png, len);
+        b[i] ^= 0x04;
+        passed += rayd_png_whole(b, len, &why);
+    }
+    CHECK(passed == 0, "%s: %d of %d one-byte changes pass", what, passed, tried);
+    memcpy(b, png, len);
+    b[len] = 0;
+    CHECK(!rayd_png_whole(b, len - 1, &why) && strstr(why, "past the end"), "%s cut: %s", what,
+          why);
+    CHECK(!rayd_png_whole(b, len + 1, &why) && strstr(why, "after IEND"), "%s + 1: %s", what, why);
+    b[len / 2] ^= 0x80;
+    CHECK(!rayd_png_whole(b, len, &why) && strstr(why, "CRC"), "%s flipped: %s", what, why);
+    CHECK(!rayd_png_whole("GIF89a", 6, &why), "a GIF taken for a PNG");
+    free(b);
+}
+
+static void test_whole_and_damaged(void) {
+    rayd_image *img = pattern(300, 200, 5);
+    size_t len = 0;
+    void *buf = img ? roundtrip(img, -1, 2, &len) : NULL;
+    if (buf) check_whole(buf, len, "band encoder");
+    rayd_free(buf);
+    float *rgb = malloc(sizeof(float) * 3 * 64 * 48);
+    for (int i = 0; rgb && i < 3 * 64 * 48; i++) rgb[i] = (float)(i % 97) / 96.0f;
+    buf = NULL;
+    if (rgb && rayd_png16_encode(rgb, 64, 48, 6, &buf, &len, NULL) == RAYD_OK)
+        check_whole(buf, len, "libpng 16-bit");
+    else
+        CHECK(0, "rayd_png16_encode failed");
+    rayd_free(buf);
+    free(rgb);
+    rayd_image_free(img);
+}
+
 int main(void) {
     RUN(test_odd_sizes_every_thread_count);
     RUN(test_every_level);
@@ -292,5 +337,6 @@ int main(void) {
     RUN(test_chunks_well_formed);
     RUN(test_default_blends_isal);
     RUN(test_data_past_rows_refused);
+    RUN(test_whole_and_damaged);
     CHECK_EXIT();
 }
