@@ -302,6 +302,14 @@ static struct {
     char sid[48];
 } node_shun[NODE_SHUN];
 static int node_shun_next;
+/* After leaving an item again this node reclaims nothing for two claim
+ * periods (clock_now() time).  Both nodes reclaim at each tick, and the
+ * item's idle time restarts at this node's reclaim, so it came due again
+ * at this node's own tick, a hair before the other node's: this node took
+ * it back every time, and the busy node, free at last, never got it (a
+ * job queued for 30 s and more).  The hold leaves it the others' for a
+ * claim period, and it still comes back here if no other node takes it. */
+static double node_shun_hold;
 
 static void node_shun_add(const struct node_item *it) {
     node_shun[node_shun_next].level = it->level;
@@ -397,6 +405,7 @@ static long node_take_entry(struct redis *c, const redisReply *e, int level, boo
     int shun = reclaimed ? node_shun_again(c, it) : -1;
     if (shun == 1) {
         log_info("cluster: item %s failed here before; left again for another node", it->sid);
+        node_shun_hold = clock_now() + 2e-3 * (double)cluster_claim_ms();
         node_free(it);
         return 0;
     }
@@ -642,7 +651,7 @@ static void *node_main(void *arg) {
                 cluster_jobs_sweep(c);
             }
         }
-        if (reclaim_due && room > 0 && !atomic_load(&cluster_draining)) {
+        if (reclaim_due && room > 0 && !atomic_load(&cluster_draining) && now >= node_shun_hold) {
             cluster_items_reclaim(c, room, node_take_entry);
             reclaim_due = false;
             room = config.threads - node_count;
