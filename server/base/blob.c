@@ -9,7 +9,6 @@
  * why it sits at the bottom where every layer can reach it.  Its bytes are
  * counted in the one memory budget (mem.c) from its making to its freeing,
  * whoever holds it.
-
  */
 #include "base/base.h"
 

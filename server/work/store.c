@@ -14,10 +14,11 @@
  * at the next start) or the new one; at start-up a .tmp file, and a file no
  * row names as done, are deleted, and a done row is believed only when its
  * files are there with the sizes it recorded; a PNG read back is served
- * only when its chunks' CRCs match (rayd_png_whole).  A job is inserted before its
- * 202 is sent, and a DELETE's end recorded before its 200 (each request
- * waits for the commit: the work layer hands its waiter down here), so no
- * job the client was told of is lost, and none it cancelled comes back.
+ * only when its chunks' CRCs match (rayd_png_whole).  A job is inserted
+ * before its 202 is sent, and a DELETE's end recorded before its 200
+ * (each request waits for the commit: the work layer hands its waiter down
+ * here), so no job the client was told of is lost, and none it cancelled
+ * comes back.
  *
  * --max-disk bounds the images' bytes: after each write, while over it,
  * the frame that ended first is evicted (its row first, its files after,

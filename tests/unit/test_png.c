@@ -287,8 +287,8 @@ static void test_data_past_rows_refused(void) {
 }
 
 /* rayd_png_whole on the band encoder's PNG and libpng's 16-bit one, each
- * whole, and with each of its bytes in turn flipped (one sample of 997),
- * cut short, or followed by one more byte. */
+ * whole, then with every 997th byte flipped in turn, cut short, or
+ * followed by one more byte. */
 static void check_whole(const unsigned char *png, size_t len, const char *what) {
     const char *why = "";
     CHECK(rayd_png_whole(png, len, &why), "%s: %s", what, why);
