@@ -49,6 +49,7 @@ void cpu_force_avx2(bool on);
 /* Haswell's and Zen's set, checked at run time by cpu_avx2. */
 #define CPU_AVX2_TARGET "avx2,fma,bmi,bmi2,popcnt"
 #define CPU_AVX2_EXTERN __attribute__((target(CPU_AVX2_TARGET)))
+#define CPU_AVX2_FN __attribute__((target(CPU_AVX2_TARGET))) static inline
 #define CPU_AVX2_INLINE __attribute__((target(CPU_AVX2_TARGET), always_inline)) static inline
 #endif
 

@@ -72,6 +72,13 @@ uint32_t mesh16_intersect(const struct mesh *m, const struct ray16 *rd, const do
                           uint32_t active, struct mesh_hit h[16]);
 uint32_t mesh16_occluded(const struct mesh *m, const struct ray16 *rd, const double tmax[16],
                          uint32_t active);
+/* The same with AVX2 for rays 8h..8h+7 of rd (h 0 or 1), the masks and
+ * arrays still those of the 16: the caller checked cpu_avx2 (bvh_rays8.h;
+ * mesh_packet8.c). */
+uint32_t mesh8_intersect(const struct mesh *m, const struct ray16 *rd, int h, const double tmax[16],
+                         uint32_t active, struct mesh_hit hit[16]);
+uint32_t mesh8_occluded(const struct mesh *m, const struct ray16 *rd, int h, const double tmax[16],
+                        uint32_t active);
 /* The same queries testing every triangle: the reference for tests. */
 bool mesh_intersect_brute(const struct mesh *m, const ray *r, double tmax, struct mesh_hit *h);
 

@@ -16,9 +16,10 @@
  * through a mesh that outgrows the cache such a packet goes ray by ray
  * from the root (packet_parts).
  *
- * Without AVX-512 (another CPU, a build without SIMD, valgrind's CPU, or
- * RAYD_NO_AVX512 in the environment) the same entry points loop over the
- * rays one at a time.
+ * Where the CPU stops at AVX2 the entry points take mesh_packet8.c's
+ * packets of 8 instead.  Without either (another CPU, a build without
+ * SIMD, valgrind's CPU, or RAYD_NO_AVX2 in the environment) they loop
+ * over the rays one at a time.
  */
 #include <stdlib.h>
 
@@ -423,6 +424,12 @@ uint32_t mesh_intersect16(const struct mesh *m, const ray r[16], const double tm
         ray16_from_rays(&rd, r, active);
         return mesh16_intersect(m, &rd, tmax, active, h);
     }
+    if (cpu_avx2()) {
+        struct ray16 rd;
+        ray16_fill(&rd, r, active);
+        return mesh8_intersect(m, &rd, 0, tmax, active, h) |
+               mesh8_intersect(m, &rd, 1, tmax, active, h);
+    }
 #endif
     uint32_t hit = 0;
     for (int i = 0; i < 16; i++)
@@ -438,6 +445,11 @@ uint32_t mesh_occluded16(const struct mesh *m, const ray r[16], const double tma
         struct ray16 rd;
         ray16_from_rays(&rd, r, active);
         return mesh16_occluded(m, &rd, tmax, active);
+    }
+    if (cpu_avx2()) {
+        struct ray16 rd;
+        ray16_fill(&rd, r, active);
+        return mesh8_occluded(m, &rd, 0, tmax, active) | mesh8_occluded(m, &rd, 1, tmax, active);
     }
 #endif
     uint32_t hit = 0;

@@ -8,6 +8,7 @@
 #define VEC_H
 
 #include <math.h>
+#include <stdint.h>
 
 typedef struct {
     double x, y, z;
@@ -83,6 +84,11 @@ static inline ray ray16_get(const struct ray16 *p, int i) {
 static inline void ray16_set(struct ray16 *p, int i, ray r) {
     p->o[0][i] = r.o.x, p->o[1][i] = r.o.y, p->o[2][i] = r.o.z;
     p->d[0][i] = r.d.x, p->d[1][i] = r.d.y, p->d[2][i] = r.d.z;
+}
+
+/* The rays of r in active into p (the other lanes are left as they are). */
+static inline void ray16_fill(struct ray16 *p, const ray r[16], uint32_t active) {
+    for (uint32_t m = active; m; m &= m - 1) ray16_set(p, __builtin_ctz(m), r[__builtin_ctz(m)]);
 }
 
 /* An orthonormal frame (u, v, w) around unit w. */

@@ -15,7 +15,8 @@
  * one.  The shadow rays of a point light ask its light buffer
  * (light_buffer.c) first: when their origins share a few cells of it, the
  * objects listed there are all they can meet, and the walk is skipped.
- * Without AVX-512 everything goes one by one.
+ * Where the CPU stops at AVX2, scene_packet8.c's packets of 8 answer
+ * instead; without either, everything goes one by one.
  *
  * The rays come as an array of rays or, from the renderer, as structure of
  * arrays (struct ray16, the packet's own form: no transposition); then the
@@ -632,6 +633,11 @@ uint32_t scene_intersect16(const rayd_scene *s, const ray r[16], const double tm
     if (!active) return 0;
 #ifdef CPU_AVX512
     if (!s->brute && cpu_avx512()) return intersect16_aos(s, r, tmax, active, h);
+    if (!s->brute && cpu_avx2()) {
+        struct ray16 rd;
+        ray16_fill(&rd, r, active);
+        return scene8_intersect(s, &rd, r, tmax, active, h);
+    }
 #endif
     return intersect_each(s, r, tmax, active, h);
 }
@@ -642,6 +648,7 @@ uint32_t scene_intersect16_soa(const rayd_scene *s, const struct ray16 *r, const
     if (!active) return 0;
 #ifdef CPU_AVX512
     if (!s->brute && cpu_avx512()) return intersect16_soa(s, r, tmax, active, h, simple);
+    if (!s->brute && cpu_avx2()) return scene8_intersect(s, r, NULL, tmax, active, h);
 #endif
     ray each[16];
     for (int i = 0; i < 16; i++)
@@ -657,6 +664,14 @@ void scene_transmittance16(const rayd_scene *s, const ray r[16], const double tm
         transmittance16_aos(s, r, tmax, active, out);
         return;
     }
+    if (!s->brute && s->opaque && cpu_avx2()) {
+        struct ray16 rd;
+        ray16_fill(&rd, r, active);
+        uint32_t blocked = scene8_blocked(s, &rd, r, tmax, active);
+        for (int i = 0; i < 16; i++)
+            if (active >> i & 1) out[i] = blocked >> i & 1 ? v3(0, 0, 0) : v3(1, 1, 1);
+        return;
+    }
 #endif
     transmittance_each(s, r, tmax, active, out);
 }
@@ -669,6 +684,15 @@ void scene_transmittance16_soa(const rayd_scene *s, int light, const double o[3]
         const struct light_buffer *b =
             light >= 0 && s->light_buffers ? &s->light_buffers[light] : NULL;
         transmittance16_soa(s, b, o, d, tmax, active, out);
+        return;
+    }
+    if (active && !s->brute && s->opaque && cpu_avx2()) {
+        struct ray16 rd;
+        memcpy(rd.o, o, sizeof rd.o);
+        memcpy(rd.d, d, sizeof rd.d);
+        uint32_t open = active & ~scene8_blocked(s, &rd, NULL, tmax, active);
+        for (int k = 0; k < 3; k++)
+            for (int i = 0; i < 16; i++) out[k][i] = open >> i & 1 ? 1 : 0;
         return;
     }
 #endif

@@ -116,4 +116,13 @@ static inline bool object_mesh_hit(const struct object *o, const struct xform *o
 bool object_filter(const rayd_scene *s, const struct object *o, const ray *r, double tmax,
                    vec3 *trans);
 
+/* The packets of 16 rays where the CPU stops at AVX2 (scene_packet8.c),
+ * for scene_packet.c's entry points once cpu_avx2 holds: the nearest hits
+ * into h, and (an opaque scene) the rays blocked.  r, when not NULL, holds
+ * the rays of rd one by one. */
+uint32_t scene8_intersect(const rayd_scene *s, const struct ray16 *rd, const ray *r,
+                          const double tmax[16], uint32_t active, struct hit h[16]);
+uint32_t scene8_blocked(const rayd_scene *s, const struct ray16 *rd, const ray *r,
+                        const double tmax[16], uint32_t active);
+
 #endif

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "accel/bvh16.h"
+#include "accel/bvh_rays8.h"
 #include "check.h"
 #include "geom/mesh.h"
 #include "scene/scene.h"
@@ -15,6 +16,20 @@ struct buf {
     char *s;
     size_t len, cap;
 };
+
+/* The code the SIMD paths may run, way 0 to 2: whatever the CPU has,
+ * AVX2 at most (the AVX-512 host's AVX2 code), the build's own target. */
+static void cpu_way(int way) {
+    cpu_force_scalar(way == 2);
+    if (way == 1) cpu_force_avx2(true);
+}
+
+/* How this host runs a packet of mesh rays, for the tests' lines. */
+static const char *packets_here(void) {
+    return cpu_avx512() ? "with AVX-512, and with AVX2 and one by one"
+           : cpu_avx2() ? "with AVX2 (no AVX-512 here), and one by one"
+                        : "one ray at a time (no AVX2 here)";
+}
 
 static void put(struct buf *b, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 #include <stdarg.h>
@@ -249,8 +264,8 @@ static void test_packets_equal_single_rays(void) {
             tmax[i] = p % 4 == 3 ? bounds[(a / 7) % 8] : INFINITY;
         }
         uint32_t active = p % 5 == 4 ? 0x9f35u ^ (uint32_t)p : 0xffffu;
-        for (int scalar = 0; scalar <= 1; scalar++) {
-            cpu_force_scalar(scalar);
+        for (int way = 0; way < 3; way++) {
+            cpu_way(way);
             struct mesh_hit h[16];
             uint32_t hit = mesh_intersect16(m, r, tmax, active, h);
             uint32_t blocked = mesh_occluded16(m, r, tmax, active);
@@ -269,8 +284,7 @@ static void test_packets_equal_single_rays(void) {
         }
     }
     cpu_force_scalar(false);
-    printf("  %d rays (%d hits), packets %s\n", total, hits,
-           cpu_avx512() ? "with AVX-512" : "one ray at a time (no AVX-512 here)");
+    printf("  %d rays (%d hits), packets %s\n", total, hits, packets_here());
     CHECK(hits > total / 3, "%d hits of %d", hits, total);
     CHECK(differ == 0, "%d of %d packet answers differ from the one-ray ones", differ, total);
     rayd_scene_free(s);
@@ -436,8 +450,7 @@ static void test_single_ray_paths_agree(void) {
         struct mesh_hit h[3], hb;
         bool got[3], occ[3];
         for (int way = 0; way < 3; way++) { /* as the CPU has it, AVX2 at most, the build's */
-            cpu_force_avx2(way == 1);
-            cpu_force_scalar(way == 2);
+            cpu_way(way);
             got[way] = mesh_intersect(m, &r, tmax, &h[way]);
             occ[way] = mesh_occluded(m, &r, tmax);
         }
@@ -522,9 +535,12 @@ static void test_packets_in_a_soup_equal_single_rays(void) {
     for (int big = 0; big <= 1; big++) {
         uint32_t differ = 0, total = 0, hits = 0;
         m.prefetch = big;
-        soup_packets(&m, &total, &hits, &differ);
-        printf("  %u rays (%u hits), packets %s%s\n", total, hits,
-               cpu_avx512() ? "with AVX-512" : "one ray at a time (no AVX-512 here)",
+        for (int way = 0; way < 2; way++) { /* as the CPU has it, AVX2 at most */
+            cpu_way(way);
+            soup_packets(&m, &total, &hits, &differ);
+        }
+        cpu_way(0);
+        printf("  %u rays (%u hits), packets %s%s\n", total, hits, packets_here(),
                big ? ", as a mesh outgrowing the cache" : "");
         CHECK(hits > total / 20 && hits < total, "%u hits of %u", hits, total);
         CHECK(differ == 0, "%u of %u packet answers differ from the one-ray ones", differ, total);
@@ -733,25 +749,73 @@ static void test_mesh_tree_is_bvh_of_boxes(void) {
 }
 
 #ifdef CPU_AVX512
+/* A culling trial's tallies: children tested, culled, and culled though a
+ * ray enters them. */
+struct cull_count {
+    uint32_t tested, culled, wrong;
+};
+
+/* bvh16_cull against bvh16_child on node nd for the 16 rays q. */
+CPU_AVX512_FN void cull_check16(const struct bvh8_node *nd, const struct ray16 *q,
+                                const float tm[16], unsigned lanes, struct cull_count *n) {
+    struct bvh16_ray r;
+    bvh16_ray_init(&r, q, 8);
+    if (!r.ia) return; /* the walk culls only such packets */
+    __m512 tmax = _mm512_loadu_ps(tm);
+    unsigned keep = bvh16_cull((const char *)nd, &r, tmax, (__mmask16)lanes);
+    for (int c = 0; c < 7; c++) {
+        __m512 tn;
+        /* the walk's test (fused, as r has it) and the unfused one */
+        __mmask16 in = bvh16_child((const char *)nd, 8, c, &r, tmax, (__mmask16)lanes, &tn);
+        r.fused = false;
+        in |= bvh16_child((const char *)nd, 8, c, &r, tmax, (__mmask16)lanes, &tn);
+        r.fused = true;
+        n->tested += 1;
+        n->culled += !(keep >> c & 1);
+        n->wrong += in && !(keep >> c & 1);
+    }
+}
+
+/* rays8_cull against rays8_child on node nd for each half of q. */
+CPU_AVX2_FN void cull_check8(const struct bvh8_node *nd, const struct ray16 *q, const float tm[16],
+                             unsigned lanes, struct cull_count *n) {
+    for (int h = 0; h < 2; h++) {
+        unsigned half = lanes >> 8 * h & 0xffu;
+        if (!half) continue;
+        struct rays8_ray r;
+        rays8_init(&r, q, h, lanes, 8);
+        if (!r.ia) continue;
+        __m256 tmax = _mm256_loadu_ps(tm + 8 * h);
+        unsigned keep = rays8_cull((const char *)nd, &r, tmax, half);
+        for (int c = 0; c < 7; c++) {
+            __m256 tn;
+            unsigned in = rays8_child((const char *)nd, 8, c, &r, tmax, half, &tn);
+            r.fused = false;
+            in |= rays8_child((const char *)nd, 8, c, &r, tmax, half, &tn);
+            r.fused = true;
+            n->tested += 1;
+            n->culled += !(keep >> c & 1);
+            n->wrong += in && !(keep >> c & 1);
+        }
+    }
+}
+#endif
+
 /* Random 8-wide nodes (boxes of any size, some flat, some slots empty)
- * against random packets (one origin or many, each axis one sign, odd
- * bounds); counts the children some ray enters (by the walk's fused test
- * or the unfused one) that bvh16_cull dropped, and the children it
- * dropped at all. */
-CPU_AVX512_FN void cull_trial(uint32_t *s, uint32_t *wrong, uint32_t *culled, uint32_t *tested) {
-    struct bvh8_node nd;
-    memset(&nd, 0, sizeof nd);
+ * and random packets (one origin or many, each axis one sign, odd
+ * bounds) for the culling tests. */
+static void cull_trial(uint32_t *s, struct bvh8_node *nd, struct ray16 *q, float tm[16],
+                       unsigned *lanes) {
+    memset(nd, 0, sizeof *nd);
     for (int c = 0; c < 8; c++)
         for (int k = 0; k < 3; k++) {
             *s = *s * 1664525u + 1013904223u;
             float lo = (float)((*s >> 8) % 2000) / 100.0f - 10.0f;
             *s = *s * 1664525u + 1013904223u;
             float ext = (*s >> 8) % 5 == 0 ? 0.0f : (float)((*s >> 8) % 600) / 100.0f;
-            nd.lo[k][c] = c == 7 ? INFINITY : lo;
-            nd.hi[k][c] = c == 7 ? -INFINITY : lo + ext;
+            nd->lo[k][c] = c == 7 ? INFINITY : lo;
+            nd->hi[k][c] = c == 7 ? -INFINITY : lo + ext;
         }
-    struct ray16 q;
-    float tm[16];
     static const float bounds[6] = {INFINITY, 0.0f, 1e-3f, 4.0f, 3e38f, NAN};
     double sign[3];
     for (int k = 0; k < 3; k++) sign[k] = (*s >> (4 + k)) & 1 ? -1 : 1;
@@ -760,48 +824,46 @@ CPU_AVX512_FN void cull_trial(uint32_t *s, uint32_t *wrong, uint32_t *culled, ui
         for (int k = 0; k < 3; k++) {
             *s = *s * 1664525u + 1013904223u;
             double u = (double)(*s >> 8) / 16777216.0;
-            q.o[k][i] = one_origin && i ? q.o[k][0] : u * 30 - 15;
+            q->o[k][i] = one_origin && i ? q->o[k][0] : u * 30 - 15;
             *s = *s * 1664525u + 1013904223u;
             double d = (double)(*s >> 8) / 16777216.0;
-            q.d[k][i] = sign[k] * (d < 0.01 ? 0 : d);
+            q->d[k][i] = sign[k] * (d < 0.01 ? 0 : d);
         }
         *s = *s * 1664525u + 1013904223u;
         tm[i] = bounds[(*s >> 8) % 6 == 5 ? 5 : (*s >> 8) % 5];
     }
-    struct bvh16_ray r;
-    bvh16_ray_init(&r, &q, 8);
-    if (!r.ia) return; /* the walk culls only such packets */
-    __m512 tmax = _mm512_loadu_ps(tm);
-    __mmask16 lanes = (__mmask16)(*s >> 3 | 1);
-    unsigned keep = bvh16_cull((const char *)&nd, &r, tmax, lanes);
-    for (int c = 0; c < 7; c++) {
-        __m512 tn;
-        /* the walk's test (fused, as r has it) and the unfused one */
-        __mmask16 in = bvh16_child((const char *)&nd, 8, c, &r, tmax, lanes, &tn);
-        r.fused = false;
-        in |= bvh16_child((const char *)&nd, 8, c, &r, tmax, lanes, &tn);
-        r.fused = true;
-        *tested += 1;
-        *culled += !(keep >> c & 1);
-        *wrong += in && !(keep >> c & 1);
-    }
+    *lanes = (*s >> 3 | 1) & 0xffffu;
 }
-#endif
 
-/* bvh16_cull, the packet walk's interval test on 8-wide nodes, may drop
- * only children that no ray of the packet enters: else a packet would
- * miss a hit its rays find alone. */
+/* bvh16_cull and rays8_cull, the packet walks' interval tests on 8-wide
+ * nodes, may drop only children that no ray of the packet enters: else a
+ * packet would miss a hit its rays find alone.  Each runs where the CPU
+ * has its instructions. */
 static void test_packet_cull_keeps_every_entered_child(void) {
 #ifdef CPU_AVX512
-    if (!cpu_avx512()) {
-        printf("  skipped: no AVX-512 here\n");
+    if (!cpu_avx2()) {
+        printf("  skipped: no AVX2 here\n");
         return;
     }
-    uint32_t s = 4242, wrong = 0, culled = 0, tested = 0;
-    for (int n = 0; n < 20000; n++) cull_trial(&s, &wrong, &culled, &tested);
-    printf("  %u children tested, %u culled\n", tested, culled);
-    CHECK(wrong == 0, "%u of %u children culled that a ray enters", wrong, tested);
-    CHECK(culled > tested / 10, "only %u of %u children culled", culled, tested);
+    uint32_t s = 4242;
+    struct cull_count n16 = {0, 0, 0}, n8 = {0, 0, 0};
+    for (int n = 0; n < 20000; n++) {
+        struct bvh8_node nd;
+        struct ray16 q;
+        float tm[16];
+        unsigned lanes;
+        cull_trial(&s, &nd, &q, tm, &lanes);
+        if (cpu_avx512()) cull_check16(&nd, &q, tm, lanes, &n16);
+        cull_check8(&nd, &q, tm, lanes, &n8);
+    }
+    const struct cull_count *each[2] = {&n16, &n8};
+    for (int w = cpu_avx512() ? 0 : 1; w < 2; w++) {
+        const struct cull_count *n = each[w];
+        printf("  %s: %u children tested, %u culled\n", w ? "8 rays (AVX2)" : "16 rays (AVX-512)",
+               n->tested, n->culled);
+        CHECK(n->wrong == 0, "%u of %u children culled that a ray enters", n->wrong, n->tested);
+        CHECK(n->culled > n->tested / 10, "only %u of %u children culled", n->culled, n->tested);
+    }
 #endif
 }
 
@@ -834,7 +896,8 @@ static void test_packets_through_grid_edges(void) {
     struct mesh m;
     grid_mesh(&m, 14);
     uint32_t differ = 0, total = 0, hits = 0;
-    for (int p = 0; p < 400; p++) {
+    for (int p = 0; p < 800; p++) {
+        cpu_way(p / 400); /* as the CPU has it, then AVX2 at most */
         ray r[16];
         double tmax[16];
         double side = p & 1 ? 1 : -1, spread = p & 2 ? 0.003 : 0;
@@ -857,6 +920,7 @@ static void test_packets_through_grid_edges(void) {
             differ += !same_hit(got, &one, hit >> i & 1, &h[i]) || got != (bool)(blocked >> i & 1);
         }
     }
+    cpu_way(0);
     printf("  %u rays through the grid's edges and vertices, %u hits\n", total, hits);
     CHECK(hits == total, "%u of %u rays slipped through the grid", total - hits, total);
     CHECK(differ == 0, "%u of %u packet answers differ from the one-ray ones", differ, total);
