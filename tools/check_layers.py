@@ -72,15 +72,17 @@ CORE_LAYERS = [
                      "locked cJSON parse), json_numbers, json_pointer, base64, mesh_io + "
                      "mesh_obj, mesh_ply, mesh_gltf (with its animation channels), hdr_scan, "
                      "deflate_chain, file, text_encoding (naming UTF-16 and UTF-32 text)"),
-    ("core/accel/", "bvh.c (the SAH builder and walk, over boxes), bvh16.h (16-ray packet walk), "
-                    "light_buffer.c (which objects can shadow which directions of a point light)"),
+    ("core/accel/", "bvh.c (the SAH builder and walk, over boxes), bvh16.h (16-ray packet walk, "
+                    "AVX-512), bvh_rays8.h (8-ray packet walk, AVX2), light_buffer.c (which objects can shadow which directions of a point light)"),
     ("core/geom/", "shape.c + shape_*.c (one file per primitive), mesh.c + mesh_packet.c "
-                   "(one ray, 16 rays; the one-ray walk both use in mesh_walk.h), mesh_share.c (built "
+                   "+ mesh_packet8.c (one ray, 16 rays, 8 rays with AVX2; the one-ray walk all "
+                   "use in mesh_walk.h), mesh_share.c (built "
                    "meshes the scenes of the same source share), camera"),
     ("core/shade/", "material, light, texture, environment: what surfaces and lights are; "
                     "texels.c (decoded images the scenes of the same bytes share)"),
     ("core/scene/", "scene.c (the frozen scene), scene_query.c (one ray: hits, CSG, shadows, "
-                    "surfaces), scene_packet.c (16 rays at once), scene_leave.c (which objects a "
+                    "surfaces), scene_packet.c (16 rays at once), scene_packet8.c (the same as two "
+                    "packets of 8, AVX2), scene_leave.c (which objects a "
                     "ray leaving them cannot meet again)"),
     ("core/render/", "render.c (regions, tiles, threads; exact per-pixel sums), accum.c "
                      "(progressive passes and sample ranges), aov.c (AOVs: what each camera ray "

@@ -62,8 +62,10 @@ CPU_AVX2_INLINE unsigned rays8_bits(__m256 cmp) { return (unsigned)_mm256_movema
 CPU_AVX2_INLINE void rays8_range(__m256 v, float *lo, float *hi) {
     __m256 a = _mm256_min_ps(v, _mm256_permute2f128_ps(v, v, 1));
     __m256 b = _mm256_max_ps(v, _mm256_permute2f128_ps(v, v, 1));
-    a = _mm256_min_ps(a, _mm256_permute_ps(a, 0x4e)), b = _mm256_max_ps(b, _mm256_permute_ps(b, 0x4e));
-    a = _mm256_min_ps(a, _mm256_permute_ps(a, 0xb1)), b = _mm256_max_ps(b, _mm256_permute_ps(b, 0xb1));
+    a = _mm256_min_ps(a, _mm256_permute_ps(a, 0x4e)),
+    b = _mm256_max_ps(b, _mm256_permute_ps(b, 0x4e));
+    a = _mm256_min_ps(a, _mm256_permute_ps(a, 0xb1)),
+    b = _mm256_max_ps(b, _mm256_permute_ps(b, 0xb1));
     *lo = _mm256_cvtss_f32(a), *hi = _mm256_cvtss_f32(b);
 }
 
@@ -75,8 +77,8 @@ CPU_AVX2_FN void rays8_intervals(struct rays8_ray *p) {
         float olo, ohi, lo, most;
         rays8_range(p->org[k], &olo, &ohi);
         rays8_range(p->inv[k], &p->imin[k], &p->imax[k]);
-        __m256 oi = _mm256_max_ps(_mm256_andnot_ps(sign, p->oi_hi[k]),
-                                  _mm256_andnot_ps(sign, p->oi_lo[k]));
+        __m256 oi =
+            _mm256_max_ps(_mm256_andnot_ps(sign, p->oi_hi[k]), _mm256_andnot_ps(sign, p->oi_lo[k]));
         rays8_range(oi, &lo, &most);
         bool neg = p->neg[k] != 0;
         p->onear[k] = neg ? olo : ohi, p->ofar[k] = neg ? ohi : olo;
@@ -186,16 +188,13 @@ CPU_AVX2_INLINE unsigned rays8_child(const char *nd, int width, int c, const str
     return lanes & rays8_bits(_mm256_cmp_ps(tn, tf, _CMP_LE_OQ));
 }
 
-/* The greatest bound of the rays in lanes, or infinity when one is NaN. */
+/* The greatest bound of the rays in lanes, or infinity when one is NaN
+ * (bvh16_cull_boxes's far_most). */
 CPU_AVX2_INLINE float rays8_far_most(__m256 tmax, unsigned lanes) {
-    float t[8], most = 0;
-    _mm256_storeu_ps(t, tmax);
-    for (unsigned m = lanes; m; m &= m - 1) {
-        float x = t[__builtin_ctz(m)];
-        if (x != x) return INFINITY;
-        most = fmaxf(most, x);
-    }
-    return most;
+    if (rays8_bits(_mm256_cmp_ps(tmax, tmax, _CMP_UNORD_Q)) & lanes) return INFINITY;
+    float lo, hi;
+    rays8_range(_mm256_blendv_ps(_mm256_set1_ps(-INFINITY), tmax, rays8_lanes(lanes)), &lo, &hi);
+    return hi;
 }
 
 /* Which of eight boxes (near and far planes per axis, as bvh16_cull_boxes
@@ -345,7 +344,8 @@ CPU_AVX2_INLINE unsigned rays8_walk(const void *nodes, int width, const char *le
             cur = stack[--sp];
             __m256 reach = _mm256_mul_ps(*tm, _mm256_set1_ps(BVH_SLACK));
             /* !(tnear > reach), as the one-ray walk has it (NaN included) */
-            cur.lanes &= (uint8_t)(lanes & rays8_bits(_mm256_cmp_ps(cur.tnear, reach, _CMP_NGT_UQ)));
+            cur.lanes &=
+                (uint8_t)(lanes & rays8_bits(_mm256_cmp_ps(cur.tnear, reach, _CMP_NGT_UQ)));
             if (cur.lanes) break;
         }
     }

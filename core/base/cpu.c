@@ -10,13 +10,11 @@
 #include <stdatomic.h>
 #include <stdlib.h>
 
-/* The tests' cap on the code that runs: none, AVX2 at most, the build's. */
-enum { CAP_NONE, CAP_AVX2, CAP_SCALAR };
+/* The tests' cap on the code that runs (enum cpu_way: the best, AVX2 at
+ * most, the build's). */
 static atomic_int cap;
 
-void cpu_force_scalar(bool on) { atomic_store(&cap, on ? CAP_SCALAR : CAP_NONE); }
-
-void cpu_force_avx2(bool on) { atomic_store(&cap, on ? CAP_AVX2 : CAP_NONE); }
+void cpu_force(enum cpu_way way) { atomic_store(&cap, (int)way); }
 
 #ifdef CPU_AVX512
 
@@ -46,9 +44,9 @@ static bool cpu_asked(atomic_int *cache, bool (*here)(void), int capped) {
     return ok && atomic_load_explicit(&cap, memory_order_relaxed) < capped;
 }
 
-bool cpu_avx2(void) { return cpu_asked(&avx2_ok, avx2_here, CAP_SCALAR); }
+bool cpu_avx2(void) { return cpu_asked(&avx2_ok, avx2_here, CPU_WAY_BASE); }
 
-bool cpu_avx512(void) { return cpu_asked(&avx512_ok, avx512_here, CAP_AVX2); }
+bool cpu_avx512(void) { return cpu_asked(&avx512_ok, avx512_here, CPU_WAY_AVX2); }
 
 #else
 

@@ -10,10 +10,12 @@
  * one at a time, to the same bits.  Every layer of the core asks, so the
  * question lives here at the bottom.
  *
- * The one-ray mesh walk has a third copy, for AVX2 with FMA (cpu_avx2):
- * its 8-wide node test needs no more, and many CPUs (AMD's before Zen 4,
- * Intel's client parts) stop there.  A CPU with AVX-512 takes the
- * AVX-512 copy; the AVX2 test is inlined into it (a subset target).
+ * Many CPUs (AMD's before Zen 4, Intel's client parts) stop at AVX2 with
+ * FMA (cpu_avx2).  For them the scene's and meshes' packets go as two of
+ * 8 rays (accel/bvh_rays8.h, geom/mesh_packet8.c, scene/scene_packet8.c),
+ * and the one-ray mesh walk has a third copy, whose 8-wide node test needs
+ * no more.  A CPU with AVX-512 takes the AVX-512 code; the AVX2 node test
+ * is inlined into it (a subset target).
  */
 #ifndef CPU_H
 #define CPU_H
@@ -22,18 +24,17 @@
 
 /* True when the AVX-512 code runs: built in, the CPU and OS have it,
  * RAYD_NO_AVX512 is not set in the environment (to compare, or to rule
- * the SIMD code out), and neither cpu_force_scalar nor cpu_force_avx2 has
- * turned it off. */
+ * the SIMD code out), and cpu_force has not turned it off. */
 bool cpu_avx512(void);
 /* True when the AVX2 code runs: the CPU and OS have AVX2, FMA, BMI and
  * popcount, RAYD_NO_AVX2 is not set (it rules out AVX-512 too), and
- * cpu_force_scalar has not turned it off. */
+ * cpu_force has not turned it off. */
 bool cpu_avx2(void);
-/* Tests: run the one-ray paths in the build's own target (SSE2 on plain
- * x86-64) even where AVX-512 or AVX2 runs. */
-void cpu_force_scalar(bool on);
-/* Tests: run the AVX2 code, not the AVX-512 code, where both would run. */
-void cpu_force_avx2(bool on);
+/* Tests: the code that may run, to compare the ways on one CPU: whatever
+ * the CPU has; the AVX2 code where the AVX-512 code would run; the
+ * build's own target (SSE2 on plain x86-64), one ray at a time. */
+enum cpu_way { CPU_WAY_BEST, CPU_WAY_AVX2, CPU_WAY_BASE };
+void cpu_force(enum cpu_way way);
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(RAYD_NO_SIMD)
 #define CPU_AVX512 1

@@ -149,8 +149,8 @@ CPU_AVX2_FN unsigned leaf_nearest8(void *ctx, uint32_t first, uint32_t count, un
     unsigned ok[BVH8_LEAF_MAX];
     unsigned live = tri_cull8(q, b, count, lanes, *tm);
     for (uint32_t j = 0; j < count; j++)
-        ok[j] = live >> j & 1 ? tri8(q, &b[j / 4], (int)(j % 4), lanes, *tm, &T[j], &U[j], &V[j])
-                              : 0;
+        ok[j] =
+            live >> j & 1 ? tri8(q, &b[j / 4], (int)(j % 4), lanes, *tm, &T[j], &U[j], &V[j]) : 0;
     for (uint32_t j = 0; j < count; j++) {
         if (!ok[j]) continue;
         __m256i id = _mm256_set1_epi32((int)b[j / 4].id[j % 4]);
@@ -294,7 +294,8 @@ CPU_AVX2_FN void shear4(const struct ray16 *rd, int h, int c, __m256d in, int fi
     __m256d xz = _mm256_cmp_pd(ad[0], ad[2], _CMP_GT_OQ);
     __m256d yz = _mm256_cmp_pd(ad[1], ad[2], _CMP_GT_OQ);
     __m256d z0 = _mm256_and_pd(xy, xz), z1 = _mm256_andnot_pd(xy, yz);
-    __m256d z2 = _mm256_andnot_pd(_mm256_or_pd(z0, z1), _mm256_castsi256_pd(_mm256_set1_epi64x(-1)));
+    __m256d z2 =
+        _mm256_andnot_pd(_mm256_or_pd(z0, z1), _mm256_castsi256_pd(_mm256_set1_epi64x(-1)));
     __m256d dz = pick4d(z0, z1, d);
     __m256d sw = _mm256_cmp_pd(dz, _mm256_setzero_pd(), _CMP_LT_OQ); /* swap kx, ky */
     /* without the swap kz 0, 1, 2 has kx 1, 2, 0 and ky 2, 0, 1 */
@@ -397,10 +398,10 @@ CPU_AVX2_EXTERN uint32_t mesh8_occluded(const struct mesh *m, const struct ray16
     struct mesh8 q;
     __m256 tm;
     mesh8_init(&q, m, rd, h, tmax, active, true, &tm);
-    unsigned hit = parts8(&q) ? lone_any8(&q, 0, 0, lanes, &tm)
-                              : rays8_walk(m->bvh.nodes, 8, (const char *)m->blocks,
-                                           sizeof *m->blocks, &q.br, &tm, lanes, leaf_any8,
-                                           lone_any8, &q, false);
+    unsigned hit = parts8(&q)
+                       ? lone_any8(&q, 0, 0, lanes, &tm)
+                       : rays8_walk(m->bvh.nodes, 8, (const char *)m->blocks, sizeof *m->blocks,
+                                    &q.br, &tm, lanes, leaf_any8, lone_any8, &q, false);
     return (uint32_t)hit << 8 * h;
 }
 

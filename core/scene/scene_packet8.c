@@ -194,8 +194,8 @@ static void bounds_load8(double out[16], const double tmax[16], uint32_t active)
     for (int i = 0; i < 16; i++) out[i] = tmax[active >> i & 1 ? i : first];
 }
 
-CPU_AVX2_EXTERN uint32_t scene8_intersect(const rayd_scene *s, const struct ray16 *rd,
-                                          const ray *r, const double tmax[16], uint32_t active,
+CPU_AVX2_EXTERN uint32_t scene8_intersect(const rayd_scene *s, const struct ray16 *rd, const ray *r,
+                                          const double tmax[16], uint32_t active,
                                           struct hit h[16]) {
     struct scene8 q;
     q.s = s, q.rd = rd, q.r = r, q.h = h;

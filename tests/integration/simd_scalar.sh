@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
-# The packet code (AVX-512 where the CPU has it), the one-ray fallback with
-# the AVX2 walk (RAYD_NO_AVX512=1, as on a CPU with AVX2 only) and the
-# build's own one-ray walk (RAYD_NO_AVX2=1, as on a CPU without AVX2) give
-# the same PNG bytes: every example scene and the sphere benchmark scene,
+# The packet code (AVX-512 where the CPU has it), the AVX2 code, packets of
+# 8 rays and the AVX2 one-ray walk (RAYD_NO_AVX512=1, as on a CPU with AVX2
+# only) and the build's own one-ray walk (RAYD_NO_AVX2=1, as on a CPU
+# without AVX2) give the same PNG bytes: every example scene and the sphere benchmark scene,
 # rendered small, and regions of one of them.  Where the CPU lacks a set,
 # the runs that would use it take the next and match trivially; the test
 # says which sets this CPU has.

@@ -104,13 +104,13 @@ static void test_shadow_packets_match_one_ray(void) {
         if (!s) continue;
         uint64_t x = 7 + (uint64_t)l;
         int differ = 0, blocked = 0;
-        for (int scalar = 0; scalar < 2; scalar++) {
-            cpu_force_scalar(scalar);
+        for (int way = CPU_WAY_BEST; way <= CPU_WAY_BASE; way++) {
+            cpu_force((enum cpu_way)way);
             differ += packets_differ(s, 0, 400, 0.002, &x, &blocked);
             differ += packets_differ(s, 0, 200, 0.3, &x, &blocked);
             differ += packets_differ(s, 0, 100, 40, &x, &blocked);
         }
-        cpu_force_scalar(false);
+        cpu_force(CPU_WAY_BEST);
         CHECK(differ == 0, "light %d: %d shadow rays differ from the one-ray answer", l, differ);
         CHECK(blocked > 500, "light %d: only %d shadow rays blocked", l, blocked);
         rayd_scene_free(s);

@@ -17,13 +17,6 @@ struct buf {
     size_t len, cap;
 };
 
-/* The code the SIMD paths may run, way 0 to 2: whatever the CPU has,
- * AVX2 at most (the AVX-512 host's AVX2 code), the build's own target. */
-static void cpu_way(int way) {
-    cpu_force_scalar(way == 2);
-    if (way == 1) cpu_force_avx2(true);
-}
-
 /* How this host runs a packet of mesh rays, for the tests' lines. */
 static const char *packets_here(void) {
     return cpu_avx512() ? "with AVX-512, and with AVX2 and one by one"
@@ -264,8 +257,8 @@ static void test_packets_equal_single_rays(void) {
             tmax[i] = p % 4 == 3 ? bounds[(a / 7) % 8] : INFINITY;
         }
         uint32_t active = p % 5 == 4 ? 0x9f35u ^ (uint32_t)p : 0xffffu;
-        for (int way = 0; way < 3; way++) {
-            cpu_way(way);
+        for (int way = CPU_WAY_BEST; way <= CPU_WAY_BASE; way++) {
+            cpu_force((enum cpu_way)way);
             struct mesh_hit h[16];
             uint32_t hit = mesh_intersect16(m, r, tmax, active, h);
             uint32_t blocked = mesh_occluded16(m, r, tmax, active);
@@ -283,7 +276,7 @@ static void test_packets_equal_single_rays(void) {
             }
         }
     }
-    cpu_force_scalar(false);
+    cpu_force(CPU_WAY_BEST);
     printf("  %d rays (%d hits), packets %s\n", total, hits, packets_here());
     CHECK(hits > total / 3, "%d hits of %d", hits, total);
     CHECK(differ == 0, "%d of %d packet answers differ from the one-ray ones", differ, total);
@@ -449,12 +442,12 @@ static void test_single_ray_paths_agree(void) {
         double tmax = a % 4 == 3 ? bounds[(a / 4) % 8] : INFINITY;
         struct mesh_hit h[3], hb;
         bool got[3], occ[3];
-        for (int way = 0; way < 3; way++) { /* as the CPU has it, AVX2 at most, the build's */
-            cpu_way(way);
+        for (int way = CPU_WAY_BEST; way <= CPU_WAY_BASE; way++) {
+            cpu_force((enum cpu_way)way);
             got[way] = mesh_intersect(m, &r, tmax, &h[way]);
             occ[way] = mesh_occluded(m, &r, tmax);
         }
-        cpu_force_scalar(false);
+        cpu_force(CPU_WAY_BEST);
         bool gb = mesh_intersect_brute(m, &r, tmax, &hb);
         total++;
         hits += got[0];
@@ -535,11 +528,11 @@ static void test_packets_in_a_soup_equal_single_rays(void) {
     for (int big = 0; big <= 1; big++) {
         uint32_t differ = 0, total = 0, hits = 0;
         m.prefetch = big;
-        for (int way = 0; way < 2; way++) { /* as the CPU has it, AVX2 at most */
-            cpu_way(way);
+        for (int way = CPU_WAY_BEST; way <= CPU_WAY_AVX2; way++) {
+            cpu_force((enum cpu_way)way);
             soup_packets(&m, &total, &hits, &differ);
         }
-        cpu_way(0);
+        cpu_force(CPU_WAY_BEST);
         printf("  %u rays (%u hits), packets %s%s\n", total, hits, packets_here(),
                big ? ", as a mesh outgrowing the cache" : "");
         CHECK(hits > total / 20 && hits < total, "%u hits of %u", hits, total);
@@ -897,7 +890,7 @@ static void test_packets_through_grid_edges(void) {
     grid_mesh(&m, 14);
     uint32_t differ = 0, total = 0, hits = 0;
     for (int p = 0; p < 800; p++) {
-        cpu_way(p / 400); /* as the CPU has it, then AVX2 at most */
+        cpu_force(p < 400 ? CPU_WAY_BEST : CPU_WAY_AVX2); /* as the CPU has it, then AVX2 at most */
         ray r[16];
         double tmax[16];
         double side = p & 1 ? 1 : -1, spread = p & 2 ? 0.003 : 0;
@@ -920,7 +913,7 @@ static void test_packets_through_grid_edges(void) {
             differ += !same_hit(got, &one, hit >> i & 1, &h[i]) || got != (bool)(blocked >> i & 1);
         }
     }
-    cpu_way(0);
+    cpu_force(CPU_WAY_BEST);
     printf("  %u rays through the grid's edges and vertices, %u hits\n", total, hits);
     CHECK(hits == total, "%u of %u rays slipped through the grid", total - hits, total);
     CHECK(differ == 0, "%u of %u packet answers differ from the one-ray ones", differ, total);

@@ -286,8 +286,8 @@ static void test_packets_shade_as_one_ray(void) {
         if (!s) continue;
         int differ = 0, count_differ = 0;
         uint64_t x = 12345 + (uint64_t)l;
-        for (int scalar = 0; scalar < 2; scalar++) {
-            cpu_force_scalar(scalar);
+        for (int way = CPU_WAY_BEST; way <= CPU_WAY_BASE; way++) {
+            cpu_force((enum cpu_way)way);
             for (int n = 0; n < 300; n++) {
                 ray r[16];
                 struct rng_key key[16];
@@ -307,7 +307,7 @@ static void test_packets_shade_as_one_ray(void) {
                 count_differ += rays16.rays != rays1.rays;
             }
         }
-        cpu_force_scalar(false);
+        cpu_force(CPU_WAY_BEST);
         CHECK(differ == 0, "lights %d: %d packet colours differ from the one-ray colour", l,
               differ);
         CHECK(count_differ == 0, "lights %d: %d packets counted other rays", l, count_differ);
