@@ -201,7 +201,8 @@ CPU_AVX2_INLINE float rays8_far_most(__m256 tmax, unsigned lanes) {
  * takes them) some ray of the packet may enter: bvh16_cull_boxes's
  * interval test, whose comment tells why it is conservative. */
 CPU_AVX2_INLINE unsigned rays8_cull_boxes(const struct rays8_ray *r, const __m256 near[3],
-                                          const __m256 far[3], __m256 tmax, unsigned lanes) {
+                                          const __m256 far[3], __m256 tmax, unsigned lanes,
+                                          __m256 *tnear) {
     __m256 tn = _mm256_setzero_ps(), tf = _mm256_set1_ps(rays8_far_most(tmax, lanes));
     for (int k = 0; k < 3; k++) {
         __m256 ilo = _mm256_set1_ps(r->imin[k]), ihi = _mm256_set1_ps(r->imax[k]);
@@ -214,18 +215,19 @@ CPU_AVX2_INLINE unsigned rays8_cull_boxes(const struct rays8_ray *r, const __m25
         tf = _mm256_min_ps(tf, _mm256_add_ps(upper, slack));
     }
     tf = _mm256_mul_ps(tf, _mm256_set1_ps(1.000002f));
+    *tnear = tn;
     return rays8_bits(_mm256_cmp_ps(tn, tf, _CMP_NGT_UQ));
 }
 
 /* rays8_cull_boxes on the eight children of node nd. */
 CPU_AVX2_INLINE unsigned rays8_cull(const char *nd, const struct rays8_ray *r, __m256 tmax,
-                                    unsigned lanes) {
+                                    unsigned lanes, __m256 *tnear) {
     __m256 near[3], far[3];
     for (int k = 0; k < 3; k++) {
         near[k] = _mm256_loadu_ps((const float *)(const void *)(nd + r->near[k]));
         far[k] = _mm256_loadu_ps((const float *)(const void *)(nd + r->far[k]));
     }
-    return rays8_cull_boxes(r, near, far, tmax, lanes);
+    return rays8_cull_boxes(r, near, far, tmax, lanes, tnear);
 }
 
 /* The leaf test, as bvh16_leaf_fn: rays in lanes against leaf (first,
@@ -271,13 +273,27 @@ CPU_AVX2_INLINE bool rays8_descend(const char *nodes, int width, const char *lea
     int hit[8], n = 0;
     __m256 tn[8];
     unsigned m[8];
-    unsigned maybe = width == 8 && r->ia ? rays8_cull(nd, r, tmax, cur->lanes) : 0xffu;
-    for (int c = 0; c < width; c++) {
-        if (!(maybe >> c & 1)) continue;
-        if (rays8_plane(nd, BVH_NODE_LO(width, 0), c) > rays8_plane(nd, BVH_NODE_HI(width, 0), c))
-            continue; /* an empty slot */
-        m[c] = rays8_child(nd, width, c, r, tmax, cur->lanes, &tn[c]);
-        if (m[c]) hit[n++] = c;
+    if (width == 8 && r->ia) {
+        __m256 box_tn;
+        unsigned maybe = rays8_cull(nd, r, tmax, cur->lanes, &box_tn);
+        float key[8];
+        _mm256_storeu_ps(key, box_tn);
+        for (int c = 0; c < width; c++) {
+            if (!(maybe >> c & 1)) continue;
+            if (rays8_plane(nd, BVH_NODE_LO(width, 0), c) >
+                rays8_plane(nd, BVH_NODE_HI(width, 0), c))
+                continue; /* an empty slot */
+            m[c] = cur->lanes, tn[c] = _mm256_set1_ps(key[c]);
+            hit[n++] = c;
+        }
+    } else {
+        for (int c = 0; c < width; c++) {
+            if (rays8_plane(nd, BVH_NODE_LO(width, 0), c) >
+                rays8_plane(nd, BVH_NODE_HI(width, 0), c))
+                continue; /* an empty slot */
+            m[c] = rays8_child(nd, width, c, r, tmax, cur->lanes, &tn[c]);
+            if (m[c]) hit[n++] = c;
+        }
     }
     if (n == 0) return false;
     if (ordered && n > 1) rays8_order(hit, n, tn, m);

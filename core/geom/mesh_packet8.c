@@ -135,7 +135,9 @@ CPU_AVX2_FN unsigned tri_cull8(const struct mesh8 *q, const struct tri4 *b, uint
         bool down = q->br.neg[k] != 0; /* uniform: every lane's sign */
         near[k] = down ? u : l, far[k] = down ? l : u;
     }
-    return rays8_cull_boxes(&q->br, near, far, _mm256_mul_ps(tm, _mm256_set1_ps(BVH_SLACK)), lanes);
+    __m256 tn;
+    return rays8_cull_boxes(&q->br, near, far, _mm256_mul_ps(tm, _mm256_set1_ps(BVH_SLACK)), lanes,
+                            &tn);
 }
 
 /* A leaf for the nearest-hit walk: its triangles that tri_cull8 keeps

@@ -52,17 +52,18 @@ static void visit_lane(struct scene8 *q, const struct object *o, int i) {
     q->best[i] = c.best;
 }
 
-/* A mesh for the rays in lanes (of the 16, in q's half), nearest hit: as
- * scene_packet.c's visit_nearest16 takes a mesh, moved or not. */
+/* A mesh for the rays in lanes (of the 16, in q's half), nearest hit: the
+ * steps of nearest_visit (nearest_bound, object_hit, nearest_take) lane by
+ * lane around one packet query, each hit written straight into h. */
 CPU_AVX2_FN void mesh_nearest8(struct scene8 *q, const struct object *o, uint32_t lanes) {
     const struct mesh *m = &q->s->meshes[o->u.mesh.id];
+    long rank = q->rank0 + (long)(o - q->base);
     double bound[16], scale[16], lmax[16];
     struct ray16 lrd;
     const struct ray16 *rd = q->rd;
     for (uint32_t k = lanes; k; k &= k - 1) {
         int i = __builtin_ctz(k);
-        struct nearest c = lane_nearest8(q, i);
-        bound[i] = nearest_bound(&c, o, q->tmax[i]);
+        bound[i] = q->best[i] >= 0 && rank < q->best[i] ? next_up(q->tmax[i]) : q->tmax[i];
         scale[i] = 1, lmax[i] = bound[i];
         if (o->xform >= 0) { /* moved: the rays in its space */
             ray lr = object_ray_xform(q->s, o, &lane_rays8(q)[i], &scale[i]);
@@ -75,11 +76,10 @@ CPU_AVX2_FN void mesh_nearest8(struct scene8 *q, const struct object *o, uint32_
     uint32_t hit = mesh8_intersect(m, rd, q->half, lmax, lanes, mh);
     for (; hit; hit &= hit - 1) {
         int i = __builtin_ctz(hit);
-        struct hit h;
-        if (!object_mesh_hit(o, NULL, &mh[i], scale[i], &bound[i], &h)) continue;
-        struct nearest c = lane_nearest8(q, i);
-        nearest_take(&c, o, bound[i], &h, &q->tmax[i]);
-        q->best[i] = c.best;
+        if (!object_mesh_nearer(&mh[i], scale[i], bound[i])) continue;
+        if ((double)mh[i].t / scale[i] > q->tmax[i]) continue; /* nearest_take's test */
+        q->tmax[i] = object_mesh_fill(o, NULL, &mh[i], scale[i], &q->h[i]);
+        q->best[i] = rank;
     }
 }
 

@@ -779,7 +779,8 @@ CPU_AVX2_FN void cull_check8(const struct bvh8_node *nd, const struct ray16 *q, 
         rays8_init(&r, q, h, lanes, 8);
         if (!r.ia) continue;
         __m256 tmax = _mm256_loadu_ps(tm + 8 * h);
-        unsigned keep = rays8_cull((const char *)nd, &r, tmax, half);
+        __m256 box_tn;
+        unsigned keep = rays8_cull((const char *)nd, &r, tmax, half, &box_tn);
         for (int c = 0; c < 7; c++) {
             __m256 tn;
             unsigned in = rays8_child((const char *)nd, 8, c, &r, tmax, half, &tn);
