@@ -45,6 +45,7 @@ struct rays8_ray {
     /* uniform and fused: the packet's origins and inverse directions as
      * intervals, for rays8_cull (bvh16.h's bvh16_cull_boxes tells why) */
     bool ia;
+    bool one_origin; /* ia, and every lane's origin the same */
     float onear[3], ofar[3], imin[3], imax[3], cslack[3];
 };
 
@@ -125,7 +126,11 @@ CPU_AVX2_FN void rays8_init(struct rays8_ray *p, const struct ray16 *q, int h, u
     }
     p->fused = finite == 0xffu;
     p->ia = p->uniform && p->fused;
-    if (p->ia) rays8_intervals(p);
+    p->one_origin = false;
+    if (!p->ia) return;
+    rays8_intervals(p);
+    p->one_origin = true;
+    for (int k = 0; k < 3; k++) p->one_origin &= p->onear[k] == p->ofar[k];
 }
 
 /* Lane i of p as the one-ray walk's ray (bvh_ray_init_with's floats). */
@@ -150,7 +155,7 @@ static inline float rays8_plane(const char *nd, size_t row, int c) {
 }
 
 struct rays8_entry {
-    __m256 tnear; /* each ray's entry distance */
+    __m256 tnear; /* each ray's entry distance (kept for the stack's entries only) */
     uint32_t node;
     uint8_t count; /* as in bvh4_node: 0 inner node, else a leaf */
     uint8_t lanes;
@@ -243,15 +248,12 @@ CPU_AVX2_INLINE float rays8_first(__m256 tn, unsigned m) {
     return t[__builtin_ctz(m)];
 }
 
-/* Sorts the children hit[0..n) (entry distances tn, lanes m) farthest
- * first by the entry of each one's first ray, as bvh16_descend does. */
-CPU_AVX2_INLINE void rays8_order(int hit[8], int n, const __m256 tn[8], const unsigned m[8]) {
-    float key[8];
-    for (int j = 0; j < n; j++) key[j] = rays8_first(tn[hit[j]], m[hit[j]]);
+/* Sorts the children hit[0..n) farthest first by key[c], each child's
+ * entry (its first ray's, or the packet's bound), as bvh16_descend
+ * orders them. */
+CPU_AVX2_INLINE void rays8_order(int hit[8], int n, const float key[8]) {
     for (int j = 1; j < n; j++)
-        for (int i = j; i > 0 && key[i - 1] < key[i]; i--) {
-            float kt = key[i];
-            key[i] = key[i - 1], key[i - 1] = kt;
+        for (int i = j; i > 0 && key[hit[i - 1]] < key[hit[i]]; i--) {
             int ht = hit[i];
             hit[i] = hit[i - 1], hit[i - 1] = ht;
         }
@@ -273,10 +275,10 @@ CPU_AVX2_INLINE bool rays8_descend(const char *nodes, int width, const char *lea
     int hit[8], n = 0;
     __m256 tn[8];
     unsigned m[8];
-    if (width == 8 && r->ia) {
+    float key[8];
+    if (width == 8 && r->ia && r->one_origin) { /* coherent: the interval test alone */
         __m256 box_tn;
         unsigned maybe = rays8_cull(nd, r, tmax, cur->lanes, &box_tn);
-        float key[8];
         _mm256_storeu_ps(key, box_tn);
         for (int c = 0; c < width; c++) {
             if (!(maybe >> c & 1)) continue;
@@ -287,16 +289,29 @@ CPU_AVX2_INLINE bool rays8_descend(const char *nodes, int width, const char *lea
             hit[n++] = c;
         }
     } else {
+        unsigned maybe = 0xffu;
+        if (width == 8 && r->ia) {
+            __m256 box_tn;
+            maybe = rays8_cull(nd, r, tmax, cur->lanes, &box_tn);
+        }
         for (int c = 0; c < width; c++) {
+            if (!(maybe >> c & 1)) continue;
             if (rays8_plane(nd, BVH_NODE_LO(width, 0), c) >
                 rays8_plane(nd, BVH_NODE_HI(width, 0), c))
                 continue; /* an empty slot */
             m[c] = rays8_child(nd, width, c, r, tmax, cur->lanes, &tn[c]);
-            if (m[c]) hit[n++] = c;
+            if (!m[c]) continue;
+            key[c] = rays8_first(tn[c], m[c]);
+            hit[n++] = c;
         }
     }
     if (n == 0) return false;
-    if (ordered && n > 1) rays8_order(hit, n, tn, m);
+    if (ordered && n > 1) { /* the nearest last (into cur), the others as they come */
+        int go = 0;
+        for (int j = 1; j < n; j++) go = key[hit[j]] < key[hit[go]] ? j : go;
+        int c = hit[go];
+        hit[go] = hit[n - 1], hit[n - 1] = c;
+    }
     for (int j = 0; j < n; j++) {
         int c = hit[j];
         const char *next = !count[c] ? nodes + node_size * child[c]
@@ -305,7 +320,7 @@ CPU_AVX2_INLINE bool rays8_descend(const char *nodes, int width, const char *lea
         size_t size = count[c] ? leaf_size * (size_t)((count[c] + 3) / 4) : node_size;
         for (size_t at = 0; next && at < size; at += 64) _mm_prefetch(next + at, _MM_HINT_T0);
         struct rays8_entry *e = j == n - 1 ? cur : &stack[(*sp)++];
-        e->tnear = tn[c];
+        if (e != cur) e->tnear = tn[c]; /* the walk goes into cur now */
         e->node = child[c];
         e->count = count[c];
         e->lanes = (uint8_t)m[c];
@@ -336,7 +351,6 @@ CPU_AVX2_INLINE unsigned rays8_walk(const void *nodes, int width, const char *le
     cur.node = 0;
     cur.count = 0;
     cur.lanes = (uint8_t)lanes;
-    cur.tnear = _mm256_setzero_ps();
     for (;;) {
         if (lone && __builtin_popcount(cur.lanes) <= RAYS8_LONE_MAX) {
             blocked |= lone(ctx, cur.node, cur.count, cur.lanes, tm);
@@ -355,14 +369,16 @@ CPU_AVX2_INLINE unsigned rays8_walk(const void *nodes, int width, const char *le
             lanes &= ~blocked;
             if (!lanes) return blocked;
         }
-        for (;;) { /* pop an entry some ray still needs */
+        for (;;) { /* pop an entry some ray still needs (its fields, not a copy of it) */
             if (sp == 0) return blocked;
-            cur = stack[--sp];
+            const struct rays8_entry *e = &stack[--sp];
             __m256 reach = _mm256_mul_ps(*tm, _mm256_set1_ps(BVH_SLACK));
             /* !(tnear > reach), as the one-ray walk has it (NaN included) */
-            cur.lanes &=
-                (uint8_t)(lanes & rays8_bits(_mm256_cmp_ps(cur.tnear, reach, _CMP_NGT_UQ)));
-            if (cur.lanes) break;
+            unsigned in =
+                e->lanes & lanes & rays8_bits(_mm256_cmp_ps(e->tnear, reach, _CMP_NGT_UQ));
+            if (!in) continue;
+            cur.node = e->node, cur.count = e->count, cur.lanes = (uint8_t)in;
+            break;
         }
     }
 }
