@@ -12,12 +12,18 @@
  * its one-ray hit.
  *
  * Lane masks are plain bit masks (bit i for lane i): AVX2 has no mask
- * registers, and the walk mostly asks whether a mask is empty.  Each
- * lane's ray is also kept as the one-ray walk's struct bvh_ray, made by
- * its own set-up: the floats of the packet are those by construction, and
+ * registers, and the walk mostly asks whether a mask is empty.  The set-up
+ * does the one-ray walk's operations (bvh_ray_init_with) lane by lane, so
  * a ray left alone deep in the tree goes on through the one-ray walk from
- * them.  The leaf test is the caller's, an always-inlined function, as in
- * bvh16.h.
+ * the floats the packet holds for it (rays8_one).  A packet whose rays
+ * leave one point (camera rays) takes an 8-wide node's children by the
+ * interval test alone, each with the box's bound on its rays' entry: the
+ * per-ray tests it spares cost more than the few extra leaves they would
+ * keep it out of, whose triangle tests are per ray and exact anyway.
+ * Rays from spread points (shadow rays from a block of surface) keep the
+ * per-ray tests, which cut the leaves a third of the time on a fine mesh
+ * (bench/README.md).  The leaf test is the caller's, an always-inlined
+ * function, as in bvh16.h.
  */
 #ifndef BVH_RAYS8_H
 #define BVH_RAYS8_H
@@ -61,13 +67,14 @@ CPU_AVX2_INLINE unsigned rays8_bits(__m256 cmp) { return (unsigned)_mm256_movema
 
 /* The least and the greatest of v's lanes (finite: no order changes them). */
 CPU_AVX2_INLINE void rays8_range(__m256 v, float *lo, float *hi) {
-    __m256 a = _mm256_min_ps(v, _mm256_permute2f128_ps(v, v, 1));
+    __m256 a = _mm256_min_ps(v, _mm256_permute2f128_ps(v, v, 1)); /* halves */
     __m256 b = _mm256_max_ps(v, _mm256_permute2f128_ps(v, v, 1));
-    a = _mm256_min_ps(a, _mm256_permute_ps(a, 0x4e)),
+    a = _mm256_min_ps(a, _mm256_permute_ps(a, 0x4e)); /* pairs */
     b = _mm256_max_ps(b, _mm256_permute_ps(b, 0x4e));
-    a = _mm256_min_ps(a, _mm256_permute_ps(a, 0xb1)),
+    a = _mm256_min_ps(a, _mm256_permute_ps(a, 0xb1)); /* neighbours */
     b = _mm256_max_ps(b, _mm256_permute_ps(b, 0xb1));
-    *lo = _mm256_cvtss_f32(a), *hi = _mm256_cvtss_f32(b);
+    *lo = _mm256_cvtss_f32(a);
+    *hi = _mm256_cvtss_f32(b);
 }
 
 /* The packet's intervals for the culling test (uniform and fused), as

@@ -45,12 +45,11 @@ CPU_AVX2_INLINE __m256 pick8(__m256 m0, __m256 m1, const __m256 d[3]) {
     return _mm256_blendv_ps(_mm256_blendv_ps(d[2], d[1], m1), d[0], m0);
 }
 
-/* Whether any of u, v, w is zero (cmp: _CMP_EQ_OQ), below zero or above. */
-CPU_AVX2_INLINE unsigned any3(__m256 u, __m256 v, __m256 w, int cmp) {
-    __m256 z = _mm256_setzero_ps();
-    __m256 a = _mm256_or_ps(_mm256_cmp_ps(u, z, cmp), _mm256_cmp_ps(v, z, cmp));
-    return rays8_bits(_mm256_or_ps(a, _mm256_cmp_ps(w, z, cmp)));
-}
+/* The lanes where u, v or w compares with zero as cmp (a constant) says. */
+#define ANY3(u, v, w, cmp)                                                                         \
+    rays8_bits(_mm256_or_ps(_mm256_or_ps(_mm256_cmp_ps(u, _mm256_setzero_ps(), cmp),               \
+                                         _mm256_cmp_ps(v, _mm256_setzero_ps(), cmp)),              \
+                            _mm256_cmp_ps(w, _mm256_setzero_ps(), cmp)))
 
 /* Through an edge or a vertex: the lanes in edge redone in double. */
 CPU_AVX2_FN void edges8(unsigned edge, __m256 ax, __m256 ay, __m256 bx, __m256 by, __m256 cx,
@@ -94,9 +93,9 @@ CPU_AVX2_FN unsigned tri8(const struct mesh8 *q, const struct tri4 *b, int j, un
     __m256 u = _mm256_sub_ps(_mm256_mul_ps(cx, by), _mm256_mul_ps(cy, bx));
     __m256 v = _mm256_sub_ps(_mm256_mul_ps(ax, cy), _mm256_mul_ps(ay, cx));
     __m256 w = _mm256_sub_ps(_mm256_mul_ps(bx, ay), _mm256_mul_ps(by, ax));
-    unsigned edge = any3(u, v, w, _CMP_EQ_OQ) & lanes;
+    unsigned edge = ANY3(u, v, w, _CMP_EQ_OQ) & lanes;
     if (edge) edges8(edge, ax, ay, bx, by, cx, cy, &u, &v, &w);
-    unsigned neg = any3(u, v, w, _CMP_LT_OQ), pos = any3(u, v, w, _CMP_GT_OQ);
+    unsigned neg = ANY3(u, v, w, _CMP_LT_OQ), pos = ANY3(u, v, w, _CMP_GT_OQ);
     __m256 det = _mm256_add_ps(_mm256_add_ps(u, v), w);
     __m256 t = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(u, q->sz), az),
                                            _mm256_mul_ps(_mm256_mul_ps(v, q->sz), bz)),

@@ -86,9 +86,18 @@ static inline void ray16_set(struct ray16 *p, int i, ray r) {
     p->d[0][i] = r.d.x, p->d[1][i] = r.d.y, p->d[2][i] = r.d.z;
 }
 
-/* The rays of r in active into p (the other lanes are left as they are). */
+/* The lanes of p outside active (not empty) made copies of its first lane
+ * in active: every lane then holds a ray, for code that loads them all. */
+static inline void ray16_fill_rest(struct ray16 *p, uint32_t active) {
+    ray first = ray16_get(p, __builtin_ctz(active));
+    for (int i = 0; i < 16; i++)
+        if (!(active >> i & 1)) ray16_set(p, i, first);
+}
+
+/* The rays of r in active into p, the other lanes copying the first. */
 static inline void ray16_fill(struct ray16 *p, const ray r[16], uint32_t active) {
     for (uint32_t m = active; m; m &= m - 1) ray16_set(p, __builtin_ctz(m), r[__builtin_ctz(m)]);
+    ray16_fill_rest(p, active);
 }
 
 /* An orthonormal frame (u, v, w) around unit w. */

@@ -72,6 +72,7 @@ CPU_AVX2_FN void mesh_nearest8(struct scene8 *q, const struct object *o, uint32_
             rd = &lrd;
         }
     }
+    if (rd == &lrd) ray16_fill_rest(&lrd, lanes);
     struct mesh_hit mh[16];
     uint32_t hit = mesh8_intersect(m, rd, q->half, lmax, lanes, mh);
     for (; hit; hit &= hit - 1) {
@@ -105,6 +106,7 @@ CPU_AVX2_FN uint32_t visit_any8(struct scene8 *q, const struct object *o, uint32
             ray16_set(&lrd, i, object_ray_xform(q->s, o, &lane_rays8(q)[i], &scale));
             lmax[i] = q->tmax[i] * scale;
         }
+        ray16_fill_rest(&lrd, lanes);
         return mesh8_occluded(m, &lrd, q->half, lmax, lanes);
     }
     uint32_t blocked = 0;
