@@ -9,6 +9,7 @@
 #define CHECK_H
 
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 
 #ifndef M_PI
@@ -16,6 +17,13 @@
 #endif
 
 static int check_failures_;
+
+/* The tests' random numbers: the next of s's LCG as a double in [0, 1),
+ * from its top 24 bits (exact in float too). */
+static inline double lcg_unit(uint32_t *s) {
+    *s = *s * 1664525u + 1013904223u;
+    return (double)(*s >> 8) / 16777216.0;
+}
 
 #define CHECK(cond, ...)                                                                           \
     do {                                                                                           \

@@ -4,8 +4,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "accel/bvh16.h"
-#include "accel/bvh_rays8.h"
 #include "check.h"
 #include "geom/mesh.h"
 #include "scene/scene.h"
@@ -39,13 +37,6 @@ static void put(struct buf *b, const char *fmt, ...) {
         b->cap = b->cap * 2 + (size_t)n + 1024;
         b->s = realloc(b->s, b->cap);
     }
-}
-
-/* The tests' random numbers: the next of s's LCG as a double in [0, 1),
- * from its top 24 bits (exact in float too). */
-static double lcg_unit(uint32_t *s) {
-    *s = *s * 1664525u + 1013904223u;
-    return (double)(*s >> 8) / 16777216.0;
 }
 
 /* A UV sphere mesh of radius r at c, as an objects entry. */
@@ -741,126 +732,6 @@ static void test_mesh_tree_is_bvh_of_boxes(void) {
     free(index0);
 }
 
-#ifdef CPU_AVX512
-/* A culling trial's tallies: children tested, culled, and culled though a
- * ray enters them. */
-struct cull_count {
-    uint32_t tested, culled, wrong;
-};
-
-/* bvh16_cull against bvh16_child on node nd for the 16 rays q. */
-CPU_AVX512_FN void cull_check16(const struct bvh8_node *nd, const struct ray16 *q,
-                                const float tm[16], unsigned lanes, struct cull_count *n) {
-    struct bvh16_ray r;
-    bvh16_ray_init(&r, q, 8);
-    if (!r.ia) return; /* the walk culls only such packets */
-    __m512 tmax = _mm512_loadu_ps(tm);
-    unsigned keep = bvh16_cull((const char *)nd, &r, tmax, (__mmask16)lanes);
-    for (int c = 0; c < 7; c++) {
-        __m512 tn;
-        /* the walk's test (fused, as r has it) and the unfused one */
-        __mmask16 in = bvh16_child((const char *)nd, 8, c, &r, tmax, (__mmask16)lanes, &tn);
-        r.fused = false;
-        in |= bvh16_child((const char *)nd, 8, c, &r, tmax, (__mmask16)lanes, &tn);
-        r.fused = true;
-        n->tested += 1;
-        n->culled += !(keep >> c & 1);
-        n->wrong += in && !(keep >> c & 1);
-    }
-}
-
-/* rays8_cull against rays8_child on node nd for each half of q. */
-CPU_AVX2_FN void cull_check8(const struct bvh8_node *nd, const struct ray16 *q, const float tm[16],
-                             unsigned lanes, struct cull_count *n) {
-    for (int h = 0; h < 2; h++) {
-        unsigned half = lanes >> 8 * h & 0xffu;
-        if (!half) continue;
-        struct rays8_ray r;
-        rays8_init(&r, q, h, lanes, 8);
-        if (!r.ia) continue;
-        __m256 tmax = _mm256_loadu_ps(tm + 8 * h);
-        __m256 box_tn;
-        unsigned keep = rays8_cull((const char *)nd, &r, tmax, half, &box_tn);
-        for (int c = 0; c < 7; c++) {
-            __m256 tn;
-            unsigned in = rays8_child((const char *)nd, 8, c, &r, tmax, half, &tn);
-            r.fused = false;
-            in |= rays8_child((const char *)nd, 8, c, &r, tmax, half, &tn);
-            r.fused = true;
-            n->tested += 1;
-            n->culled += !(keep >> c & 1);
-            n->wrong += in && !(keep >> c & 1);
-        }
-    }
-}
-#endif
-
-/* Random 8-wide nodes (boxes of any size, some flat, some slots empty)
- * and random packets (one origin or many, each axis one sign, odd
- * bounds) for the culling tests. */
-static void cull_trial(uint32_t *s, struct bvh8_node *nd, struct ray16 *q, float tm[16],
-                       unsigned *lanes) {
-    memset(nd, 0, sizeof *nd);
-    for (int c = 0; c < 8; c++)
-        for (int k = 0; k < 3; k++) {
-            *s = *s * 1664525u + 1013904223u;
-            float lo = (float)((*s >> 8) % 2000) / 100.0f - 10.0f;
-            *s = *s * 1664525u + 1013904223u;
-            float ext = (*s >> 8) % 5 == 0 ? 0.0f : (float)((*s >> 8) % 600) / 100.0f;
-            nd->lo[k][c] = c == 7 ? INFINITY : lo;
-            nd->hi[k][c] = c == 7 ? -INFINITY : lo + ext;
-        }
-    static const float bounds[6] = {INFINITY, 0.0f, 1e-3f, 4.0f, 3e38f, NAN};
-    double sign[3];
-    for (int k = 0; k < 3; k++) sign[k] = (*s >> (4 + k)) & 1 ? -1 : 1;
-    bool one_origin = (*s >> 9) & 1;
-    for (int i = 0; i < 16; i++) {
-        for (int k = 0; k < 3; k++) {
-            *s = *s * 1664525u + 1013904223u;
-            double u = (double)(*s >> 8) / 16777216.0;
-            q->o[k][i] = one_origin && i ? q->o[k][0] : u * 30 - 15;
-            *s = *s * 1664525u + 1013904223u;
-            double d = (double)(*s >> 8) / 16777216.0;
-            q->d[k][i] = sign[k] * (d < 0.01 ? 0 : d);
-        }
-        *s = *s * 1664525u + 1013904223u;
-        tm[i] = bounds[(*s >> 8) % 6 == 5 ? 5 : (*s >> 8) % 5];
-    }
-    *lanes = (*s >> 3 | 1) & 0xffffu;
-}
-
-/* bvh16_cull and rays8_cull, the packet walks' interval tests on 8-wide
- * nodes, may drop only children that no ray of the packet enters: else a
- * packet would miss a hit its rays find alone.  Each runs where the CPU
- * has its instructions. */
-static void test_packet_cull_keeps_every_entered_child(void) {
-#ifdef CPU_AVX512
-    if (!cpu_avx2()) {
-        printf("  skipped: no AVX2 here\n");
-        return;
-    }
-    uint32_t s = 4242;
-    struct cull_count n16 = {0, 0, 0}, n8 = {0, 0, 0};
-    for (int n = 0; n < 20000; n++) {
-        struct bvh8_node nd;
-        struct ray16 q;
-        float tm[16];
-        unsigned lanes;
-        cull_trial(&s, &nd, &q, tm, &lanes);
-        if (cpu_avx512()) cull_check16(&nd, &q, tm, lanes, &n16);
-        cull_check8(&nd, &q, tm, lanes, &n8);
-    }
-    const struct cull_count *each[2] = {&n16, &n8};
-    for (int w = cpu_avx512() ? 0 : 1; w < 2; w++) {
-        const struct cull_count *n = each[w];
-        printf("  %s: %u children tested, %u culled\n", w ? "8 rays (AVX2)" : "16 rays (AVX-512)",
-               n->tested, n->culled);
-        CHECK(n->wrong == 0, "%u of %u children culled that a ray enters", n->wrong, n->tested);
-        CHECK(n->culled > n->tested / 10, "only %u of %u children culled", n->culled, n->tested);
-    }
-#endif
-}
-
 /* A flat n x n grid of unit squares, two triangles each, in the plane
  * z = 0 (every triangle's box flat in z), its corner at the origin. */
 static void grid_mesh(struct mesh *m, uint32_t n) {
@@ -921,120 +792,6 @@ static void test_packets_through_grid_edges(void) {
     mesh_free(&m);
 }
 
-/* Ray r's entry into box c of nd, exactly (in double, from the floats
- * the node tests start from), or NAN when it misses within [0, tmax]. */
-static double exact_entry(const struct bvh8_node *nd, int c, const struct bvh_ray *r, double tmax) {
-    double tn = 0, tf = tmax;
-    for (int k = 0; k < 3; k++) {
-        double d = 1.0 / (double)r->inv[k]; /* the direction the float test sees */
-        double a = ((double)nd->lo[k][c] - r->org[k]) / d,
-               b = ((double)nd->hi[k][c] - r->org[k]) / d;
-        tn = fmax(tn, fmin(a, b));
-        tf = fmin(tf, fmax(a, b));
-    }
-    return tn <= tf ? tn : NAN;
-}
-
-/* One random 8-wide node and ray for test_node_tests_are_conservative:
- * boxes at three scales, origins near them or 1e4-1e6 away, directions
- * with zero components, or aimed exactly at a corner (grazing rays). */
-static void node_trial(uint32_t *s, struct bvh8_node *nd, ray *r, double *tmax) {
-    static const double scales[3] = {1, 1e3, 1e-3}, far[4] = {1, 1, 1e4, 1e6};
-    double sc = scales[*s % 3];
-    memset(nd, 0, sizeof *nd);
-    for (int c = 0; c < 8; c++)
-        for (int k = 0; k < 3; k++) {
-            double lo = (lcg_unit(s) * 20 - 10) * sc,
-                   ext = lcg_unit(s) < 0.2 ? 0 : lcg_unit(s) * 6 * sc;
-            nd->lo[k][c] = (float)lo;
-            nd->hi[k][c] = (float)(lo + ext);
-        }
-    double o[3], d[3];
-    double away = far[(*s >> 4) % 4];
-    for (int k = 0; k < 3; k++) o[k] = (lcg_unit(s) * 30 - 15) * sc * away;
-    int aim = (int)(lcg_unit(s) * 4), c = (int)(lcg_unit(s) * 8), bits = (int)(lcg_unit(s) * 8);
-    for (int k = 0; k < 3; k++) { /* 0: at a corner of box c, 1-2: at its centre, 3: anywhere */
-        double corner = (bits >> k) & 1 ? nd->hi[k][c] : nd->lo[k][c];
-        double centre = 0.5 * ((double)nd->lo[k][c] + nd->hi[k][c]);
-        double at = aim == 0 ? corner : centre;
-        d[k] = aim < 3 ? at - (double)(float)o[k] : lcg_unit(s) - 0.5;
-        if (lcg_unit(s) < 0.1) d[k] = 0;
-    }
-    r->o = v3(o[0], o[1], o[2]);
-    r->d = v3(d[0], d[1], d[2]);
-    *tmax = lcg_unit(s) < 0.3 ? lcg_unit(s) * 40 * sc * away : 3e38;
-}
-
-#ifdef CPU_AVX512
-__attribute__((target(CPU_AVX2_TARGET))) static int
-fused_test(const struct bvh8_node *nd, struct bvh_ray *br, float tmax, float tn[8]) {
-    bvh_ray_fused(br);
-    return bvh8_test_fused(nd, br, 0, tmax, tn);
-}
-
-/* The packet walk's child test (bvh16_child), fused where the packet is:
- * ray r in every lane, lane 0's answer. */
-CPU_AVX512_FN int packet_test(const struct bvh8_node *nd, const ray *r, float tmax, float tn[8]) {
-    ray rs[16];
-    for (int i = 0; i < 16; i++) rs[i] = *r;
-    struct ray16 q;
-    ray16_from_rays(&q, rs, 0xffff);
-    struct bvh16_ray br;
-    bvh16_ray_init(&br, &q, 8);
-    int hit = 0;
-    for (int c = 0; c < 8; c++) {
-        __m512 t;
-        hit |= (bvh16_child((const char *)nd, 8, c, &br, _mm512_set1_ps(tmax), 1, &t) & 1) << c;
-        tn[c] = _mm512_cvtss_f32(t);
-    }
-    return hit;
-}
-#endif
-
-/* A node test may say a ray enters a box it misses, never the reverse,
- * and its entry distance is never past the true one (beyond BVH_SLACK):
- * else a walk would skip a subtree that holds the nearest hit.  The
- * build's test and, where they run, the ones with fused multiply-adds
- * (AVX2's bvh8_test_fused; AVX-512's packet bvh16_child), against the
- * exact entry in double. */
-static void test_node_tests_are_conservative(void) {
-    uint32_t s = 9090, missed[3] = {0, 0, 0}, late[3] = {0, 0, 0}, entered = 0, tested = 0;
-    int tests = 1;
-#ifdef CPU_AVX512
-    tests = cpu_avx512() ? 3 : cpu_avx2() ? 2 : 1;
-#endif
-    for (int n = 0; n < 30000; n++) {
-        struct bvh8_node nd;
-        ray r;
-        double tmax;
-        node_trial(&s, &nd, &r, &tmax);
-        struct bvh_ray br;
-        bvh_ray_init(&br, r.o, r.d);
-        for (int which = 0; which < tests; which++) {
-            float tn[8];
-            int hit = bvh8_test(&nd, &br, 0, (float)tmax, tn);
-#ifdef CPU_AVX512
-            if (which == 1) hit = fused_test(&nd, &br, (float)tmax, tn);
-            if (which == 2) hit = packet_test(&nd, &r, (float)tmax, tn);
-#endif
-            for (int c = 0; c < 8; c++) {
-                double want = exact_entry(&nd, c, &br, (float)tmax);
-                entered += !which && want == want;
-                tested += !which;
-                if (want != want) continue;
-                missed[which] += !(hit >> c & 1);
-                late[which] += (hit >> c & 1) && tn[c] > want * BVH_SLACK;
-            }
-        }
-    }
-    printf("  %u boxes, %u entered; %d test(s)\n", tested, entered, tests);
-    CHECK(entered > tested / 25 && entered < tested, "%u of %u boxes entered", entered, tested);
-    for (int w = 0; w < tests; w++) {
-        CHECK(missed[w] == 0, "test %d: %u entered boxes missed", w, missed[w]);
-        CHECK(late[w] == 0, "test %d: %u entries past the true one", w, late[w]);
-    }
-}
-
 int main(void) {
     RUN(test_mesh_tree_is_bvh_of_boxes);
     RUN(test_small_subtrees_are_leaves);
@@ -1047,9 +804,7 @@ int main(void) {
     RUN(test_packets_equal_single_rays);
     RUN(test_single_ray_paths_agree);
     RUN(test_packets_in_a_soup_equal_single_rays);
-    RUN(test_packet_cull_keeps_every_entered_child);
     RUN(test_packets_through_grid_edges);
-    RUN(test_node_tests_are_conservative);
     RUN(test_transformed_sphere_exact_projection);
     RUN(test_smooth_normals_follow_the_sphere);
     RUN(test_mesh_errors);
