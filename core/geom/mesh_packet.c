@@ -16,10 +16,10 @@
  * through a mesh that outgrows the cache such a packet goes ray by ray
  * from the root (packet_parts).
  *
- * Where the CPU stops at AVX2 the entry points take mesh_packet8.c's
- * packets of 8 instead.  Without either (another CPU, a build without
- * SIMD, valgrind's CPU, or RAYD_NO_AVX2 in the environment) they loop
- * over the rays one at a time.
+ * Where the CPU stops at AVX2 (valgrind's does too) the entry points take
+ * mesh_packet8.c's packets of 8 instead.  Without either (another CPU, a
+ * build without SIMD, or RAYD_NO_AVX2 in the environment) they loop over
+ * the rays one at a time.
  */
 #include <stdlib.h>
 
