@@ -173,7 +173,8 @@ static void node_trial(uint32_t *s, struct bvh8_node *nd, ray *r, double *tmax) 
 }
 
 #ifdef CPU_AVX512
-CPU_AVX2_FN int fused_test(const struct bvh8_node *nd, struct bvh_ray *br, float tmax, float tn[8]) {
+CPU_AVX2_FN int fused_test(const struct bvh8_node *nd, struct bvh_ray *br, float tmax,
+                           float tn[8]) {
     bvh_ray_fused(br);
     return bvh8_test_fused(nd, br, 0, tmax, tn);
 }
@@ -205,7 +206,8 @@ CPU_AVX2_FN int packet8_test(const struct bvh8_node *nd, const ray *r, float tma
     int hit = 0;
     for (int c = 0; c < 8; c++) {
         __m256 t;
-        hit |= (int)(rays8_child((const char *)nd, 8, c, &br, _mm256_set1_ps(tmax), 1, &t) & 1) << c;
+        hit |= (int)(rays8_child((const char *)nd, 8, c, &br, _mm256_set1_ps(tmax), 1, &t) & 1)
+               << c;
         tn[c] = _mm256_cvtss_f32(t);
     }
     return hit;
