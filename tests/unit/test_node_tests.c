@@ -60,7 +60,6 @@ CPU_AVX2_FN void cull_check8(const struct bvh8_node *nd, const struct ray16 *q, 
         }
     }
 }
-#endif
 
 /* Random 8-wide nodes (boxes of any size, some flat, some slots empty)
  * and random packets (one origin or many, each axis one sign, odd
@@ -95,6 +94,7 @@ static void cull_trial(uint32_t *s, struct bvh8_node *nd, struct ray16 *q, float
     }
     *lanes = (*s >> 3 | 1) & 0xffffu;
 }
+#endif
 
 /* bvh16_cull and rays8_cull, the packet walks' interval tests on 8-wide
  * nodes, may drop only children that no ray of the packet enters: else a
