@@ -316,6 +316,54 @@ CPU_AVX2_INLINE int bvh8_test_fused(const struct bvh8_node *nd, const struct bvh
     _mm256_storeu_ps(tnear, tn);
     return _mm256_movemask_ps(_mm256_cmp_ps(tn, tf, _CMP_LE_OS));
 }
+/* A packet's origins and inverse directions as intervals, for the packet
+ * walks' culling test (bvh16.h, bvh_rays8.h): set where each axis's sign
+ * is one for the packet and every org and inv is finite. */
+struct bvh_cull {
+    float onear[3], ofar[3], imin[3], imax[3];
+    float cslack[3]; /* the test's widening on each axis */
+};
+
+/* Which of eight boxes (an 8-wide node's children, or the bounding boxes
+ * of a leaf's triangles) some ray of a packet may enter before far_most,
+ * the greatest of its rays' bounds: interval arithmetic over the packet's origins and inverse
+ * directions (Boulos et al. 2006), all eight boxes at once.
+ * Conservative: each ray's unfused test (bvh4_test's operations) does the
+ * same float operations on values inside these intervals, and rounding is
+ * monotone, so a box culled here is one every ray's unfused test misses,
+ * and so one it truly misses.  A NaN keeps the box.
+ * The signs are uniform (a packet's ia), so (plane - org) * inv is monotone in org:
+ * its least value over the packet is at the origin bound onear (the
+ * greatest origin on an axis the rays go up, the least on one they go
+ * down), its greatest at ofar; and for that one difference x the product
+ * is least (greatest) at one end of [imin, imax], whichever x's sign says.
+ * Half the operations of the product of two intervals.  The boxes come as
+ * their near and far planes on each axis (near[k]: the lower planes where
+ * the rays go up the axis, the upper ones where they go down).
+ * But the walk's own test of each ray is the fused one (bvh_ray_fused),
+ * which moves org * inv out by up to |org inv| 2^-22 and rounds once: a
+ * box it enters can lie a hair outside what the unfused operations bound,
+ * as where a ray meets a box exactly at its corner (a vertex of flat
+ * triangles).  So each axis's bounds move out by cslack, 2^-20 of the
+ * packet's largest |org inv|, and the far one is scaled by 1.000002: more
+ * than the two tests can differ by, and still a tight cull. */
+CPU_AVX2_INLINE unsigned bvh_cull_boxes(const struct bvh_cull *c, const __m256 near[3],
+                                        const __m256 far[3], float far_most, __m256 *tnear) {
+    __m256 tn = _mm256_setzero_ps(), tf = _mm256_set1_ps(far_most);
+    for (int k = 0; k < 3; k++) {
+        __m256 ilo = _mm256_set1_ps(c->imin[k]), ihi = _mm256_set1_ps(c->imax[k]);
+        __m256 a = _mm256_sub_ps(near[k], _mm256_set1_ps(c->onear[k]));
+        __m256 b = _mm256_sub_ps(far[k], _mm256_set1_ps(c->ofar[k]));
+        __m256 lower = _mm256_min_ps(_mm256_mul_ps(a, ilo), _mm256_mul_ps(a, ihi));
+        __m256 upper = _mm256_max_ps(_mm256_mul_ps(b, ilo), _mm256_mul_ps(b, ihi));
+        __m256 slack = _mm256_set1_ps(c->cslack[k]);
+        tn = _mm256_max_ps(tn, _mm256_sub_ps(lower, slack));
+        tf = _mm256_min_ps(tf, _mm256_add_ps(upper, slack));
+    }
+    tf = _mm256_mul_ps(tf, _mm256_set1_ps(1.000002f));
+    *tnear = tn; /* each box's lower bound on its rays' entries */
+    return (unsigned)_mm256_movemask_ps(_mm256_cmp_ps(tn, tf, _CMP_NGT_UQ));
+}
 #endif
 
 /* A traversal stack entry: a node to visit and where the ray enters it. */

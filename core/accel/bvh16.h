@@ -80,8 +80,7 @@ struct bvh16_ray {
      * culling test of bvh16_cull (ia: uniform and fused, so every lane's
      * org and inv finite; else they are not set). */
     bool ia;
-    float onear[3], ofar[3], imin[3], imax[3];
-    float cslack[3]; /* the culling test's widening on each axis (bvh16_cull_boxes) */
+    struct bvh_cull cull;
     /* For the fused child test: org * inv moved out as bvh_ray_fused does
      * it, lane by lane, and whether every lane's is finite. */
     __m512 oi_hi[3], oi_lo[3];
@@ -132,17 +131,17 @@ CPU_AVX512_FN void bvh16_ray_intervals(struct bvh16_ray *p) {
                   _mm512_xor_ps(p->inv[2], sign), false, rest);
     for (int k = 0; k < 3; k++) {
         bool neg = p->neg[k] != 0; /* uniform: every lane's sign */
-        p->onear[k] = neg ? lo[k] : hi[k], p->ofar[k] = neg ? hi[k] : lo[k];
+        p->cull.onear[k] = neg ? lo[k] : hi[k], p->cull.ofar[k] = neg ? hi[k] : lo[k];
     }
-    p->imin[0] = lo[3], p->imax[0] = hi[3];
-    p->imin[1] = rest[0], p->imin[2] = rest[1];
-    p->imax[1] = -rest[2], p->imax[2] = -rest[3];
+    p->cull.imin[0] = lo[3], p->cull.imax[0] = hi[3];
+    p->cull.imin[1] = rest[0], p->cull.imin[2] = rest[1];
+    p->cull.imax[1] = -rest[2], p->cull.imax[2] = -rest[3];
     __m512 oi[3]; /* |org * inv|, at least, from the fused test's bounds of it */
     for (int k = 0; k < 3; k++)
         oi[k] = _mm512_max_ps(_mm512_abs_ps(p->oi_hi[k]), _mm512_abs_ps(p->oi_lo[k]));
     float most[4];
     bvh16_reduce4(oi[0], oi[1], oi[2], oi[2], true, most);
-    for (int k = 0; k < 3; k++) p->cslack[k] = most[k] * 0x1p-20f + 0x1p-100f;
+    for (int k = 0; k < 3; k++) p->cull.cslack[k] = most[k] * 0x1p-20f + 0x1p-100f;
 }
 
 CPU_AVX512_FN void bvh16_ray_init(struct bvh16_ray *p, const struct ray16 *q, int width) {
@@ -219,46 +218,14 @@ CPU_AVX512_INLINE __mmask16 bvh16_child(const char *nd, int width, int c, const 
     return _mm512_mask_cmp_ps_mask(lanes, tn, tf, _CMP_LE_OQ);
 }
 
-/* Which of eight boxes (an 8-wide node's children, or the bounding boxes
- * of a leaf's triangles) some ray of the packet may enter (bounds tmax,
- * lanes): interval arithmetic over the packet's origins and inverse
- * directions (Boulos et al. 2006), all eight boxes at once.
- * Conservative: each ray's unfused test (bvh4_test's operations) does the
- * same float operations on values inside these intervals, and rounding is
- * monotone, so a box culled here is one every ray's unfused test misses,
- * and so one it truly misses.  A NaN keeps the box.
- * The signs are uniform (ia), so (plane - org) * inv is monotone in org:
- * its least value over the packet is at the origin bound onear (the
- * greatest origin on an axis the rays go up, the least on one they go
- * down), its greatest at ofar; and for that one difference x the product
- * is least (greatest) at one end of [imin, imax], whichever x's sign says.
- * Half the operations of the product of two intervals.  The boxes come as
- * their near and far planes on each axis (near[k]: the lower planes where
- * the rays go up the axis, the upper ones where they go down).
- * But the walk's own test of each ray is the fused one (bvh_ray_fused),
- * which moves org * inv out by up to |org inv| 2^-22 and rounds once: a
- * box it enters can lie a hair outside what the unfused operations bound,
- * as where a ray meets a box exactly at its corner (a vertex of flat
- * triangles).  So each axis's bounds move out by cslack, 2^-20 of the
- * packet's largest |org inv|, and the far one is scaled by 1.000002: more
- * than the two tests can differ by, and still a tight cull. */
+/* bvh_cull_boxes (bvh.h) with the greatest bound of the rays in lanes,
+ * infinity when one is NaN. */
 CPU_AVX512_INLINE __mmask8 bvh16_cull_boxes(const struct bvh16_ray *r, const __m256 near[3],
                                             const __m256 far[3], __m512 tmax, __mmask16 lanes) {
     __mmask16 nan = _mm512_mask_cmp_ps_mask(lanes, tmax, tmax, _CMP_UNORD_Q);
     float far_most = nan ? INFINITY : _mm512_mask_reduce_max_ps(lanes, tmax);
-    __m256 tn = _mm256_setzero_ps(), tf = _mm256_set1_ps(far_most);
-    for (int k = 0; k < 3; k++) {
-        __m256 ilo = _mm256_set1_ps(r->imin[k]), ihi = _mm256_set1_ps(r->imax[k]);
-        __m256 a = _mm256_sub_ps(near[k], _mm256_set1_ps(r->onear[k]));
-        __m256 b = _mm256_sub_ps(far[k], _mm256_set1_ps(r->ofar[k]));
-        __m256 lower = _mm256_min_ps(_mm256_mul_ps(a, ilo), _mm256_mul_ps(a, ihi));
-        __m256 upper = _mm256_max_ps(_mm256_mul_ps(b, ilo), _mm256_mul_ps(b, ihi));
-        __m256 slack = _mm256_set1_ps(r->cslack[k]);
-        tn = _mm256_max_ps(tn, _mm256_sub_ps(lower, slack));
-        tf = _mm256_min_ps(tf, _mm256_add_ps(upper, slack));
-    }
-    tf = _mm256_mul_ps(tf, _mm256_set1_ps(1.000002f));
-    return (__mmask8)_mm256_movemask_ps(_mm256_cmp_ps(tn, tf, _CMP_NGT_UQ));
+    __m256 tn;
+    return (__mmask8)bvh_cull_boxes(&r->cull, near, far, far_most, &tn);
 }
 
 /* bvh16_cull_boxes on the eight children of node nd. */

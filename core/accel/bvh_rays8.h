@@ -49,10 +49,10 @@ struct rays8_ray {
     bool fused;                /* every lane's org * inv finite */
     uint8_t near[3], far[3];   /* uniform: byte offsets in a node of the near, far planes */
     /* uniform and fused: the packet's origins and inverse directions as
-     * intervals, for rays8_cull (bvh16.h's bvh16_cull_boxes tells why) */
+     * intervals, for rays8_cull (bvh.h's bvh_cull_boxes tells why) */
     bool ia;
     bool one_origin; /* ia, and every lane's origin the same */
-    float onear[3], ofar[3], imin[3], imax[3], cslack[3];
+    struct bvh_cull cull;
 };
 
 /* The vector mask of the lanes in bit mask m. */
@@ -84,13 +84,13 @@ CPU_AVX2_FN void rays8_intervals(struct rays8_ray *p) {
     for (int k = 0; k < 3; k++) {
         float olo, ohi, lo, most;
         rays8_range(p->org[k], &olo, &ohi);
-        rays8_range(p->inv[k], &p->imin[k], &p->imax[k]);
+        rays8_range(p->inv[k], &p->cull.imin[k], &p->cull.imax[k]);
         __m256 oi =
             _mm256_max_ps(_mm256_andnot_ps(sign, p->oi_hi[k]), _mm256_andnot_ps(sign, p->oi_lo[k]));
         rays8_range(oi, &lo, &most);
         bool neg = p->neg[k] != 0;
-        p->onear[k] = neg ? olo : ohi, p->ofar[k] = neg ? ohi : olo;
-        p->cslack[k] = most * 0x1p-20f + 0x1p-100f;
+        p->cull.onear[k] = neg ? olo : ohi, p->cull.ofar[k] = neg ? ohi : olo;
+        p->cull.cslack[k] = most * 0x1p-20f + 0x1p-100f;
     }
 }
 
@@ -137,7 +137,7 @@ CPU_AVX2_FN void rays8_init(struct rays8_ray *p, const struct ray16 *q, int h, u
     if (!p->ia) return;
     rays8_intervals(p);
     p->one_origin = true;
-    for (int k = 0; k < 3; k++) p->one_origin &= p->onear[k] == p->ofar[k];
+    for (int k = 0; k < 3; k++) p->one_origin &= p->cull.onear[k] == p->cull.ofar[k];
 }
 
 /* Lane i of p as the one-ray walk's ray (bvh_ray_init_with's floats). */
@@ -201,7 +201,7 @@ CPU_AVX2_INLINE unsigned rays8_child(const char *nd, int width, int c, const str
 }
 
 /* The greatest bound of the rays in lanes, or infinity when one is NaN
- * (bvh16_cull_boxes's far_most). */
+ * (bvh_cull_boxes's far_most). */
 CPU_AVX2_INLINE float rays8_far_most(__m256 tmax, unsigned lanes) {
     if (rays8_bits(_mm256_cmp_ps(tmax, tmax, _CMP_UNORD_Q)) & lanes) return INFINITY;
     float lo, hi;
@@ -209,29 +209,7 @@ CPU_AVX2_INLINE float rays8_far_most(__m256 tmax, unsigned lanes) {
     return hi;
 }
 
-/* Which of eight boxes (near and far planes per axis, as bvh16_cull_boxes
- * takes them) some ray of the packet may enter: bvh16_cull_boxes's
- * interval test, whose comment tells why it is conservative. */
-CPU_AVX2_INLINE unsigned rays8_cull_boxes(const struct rays8_ray *r, const __m256 near[3],
-                                          const __m256 far[3], __m256 tmax, unsigned lanes,
-                                          __m256 *tnear) {
-    __m256 tn = _mm256_setzero_ps(), tf = _mm256_set1_ps(rays8_far_most(tmax, lanes));
-    for (int k = 0; k < 3; k++) {
-        __m256 ilo = _mm256_set1_ps(r->imin[k]), ihi = _mm256_set1_ps(r->imax[k]);
-        __m256 a = _mm256_sub_ps(near[k], _mm256_set1_ps(r->onear[k]));
-        __m256 b = _mm256_sub_ps(far[k], _mm256_set1_ps(r->ofar[k]));
-        __m256 lower = _mm256_min_ps(_mm256_mul_ps(a, ilo), _mm256_mul_ps(a, ihi));
-        __m256 upper = _mm256_max_ps(_mm256_mul_ps(b, ilo), _mm256_mul_ps(b, ihi));
-        __m256 slack = _mm256_set1_ps(r->cslack[k]);
-        tn = _mm256_max_ps(tn, _mm256_sub_ps(lower, slack));
-        tf = _mm256_min_ps(tf, _mm256_add_ps(upper, slack));
-    }
-    tf = _mm256_mul_ps(tf, _mm256_set1_ps(1.000002f));
-    *tnear = tn;
-    return rays8_bits(_mm256_cmp_ps(tn, tf, _CMP_NGT_UQ));
-}
-
-/* rays8_cull_boxes on the eight children of node nd. */
+/* bvh_cull_boxes (bvh.h) on the eight children of node nd. */
 CPU_AVX2_INLINE unsigned rays8_cull(const char *nd, const struct rays8_ray *r, __m256 tmax,
                                     unsigned lanes, __m256 *tnear) {
     __m256 near[3], far[3];
@@ -239,7 +217,7 @@ CPU_AVX2_INLINE unsigned rays8_cull(const char *nd, const struct rays8_ray *r, _
         near[k] = _mm256_loadu_ps((const float *)(const void *)(nd + r->near[k]));
         far[k] = _mm256_loadu_ps((const float *)(const void *)(nd + r->far[k]));
     }
-    return rays8_cull_boxes(r, near, far, tmax, lanes, tnear);
+    return bvh_cull_boxes(&r->cull, near, far, rays8_far_most(tmax, lanes), tnear);
 }
 
 /* The leaf test, as bvh16_leaf_fn: rays in lanes against leaf (first,

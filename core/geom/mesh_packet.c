@@ -127,20 +127,9 @@ CPU_AVX512_FN __mmask16 tri16(const struct mesh16 *q, const struct tri4 *b, int 
 CPU_AVX512_FN unsigned tri_cull(const struct mesh16 *q, const struct tri4 *b, uint32_t count,
                                 __mmask16 lanes, __m512 tm) {
     if (!q->br.ia) return 0xffu;
-    __m256 near[3], far[3];
-    for (int k = 0; k < 3; k++) {
-        __m128 lo[2], hi[2];
-        for (int h = 0; h < 2; h++) {
-            const struct tri4 *bh = &b[count > 4 ? h : 0];
-            __m128 v0 = _mm_loadu_ps(bh->v[0][k]), v1 = _mm_loadu_ps(bh->v[1][k]);
-            __m128 v2 = _mm_loadu_ps(bh->v[2][k]);
-            lo[h] = _mm_min_ps(_mm_min_ps(v0, v1), v2);
-            hi[h] = _mm_max_ps(_mm_max_ps(v0, v1), v2);
-        }
-        __m256 l = _mm256_set_m128(lo[1], lo[0]), u = _mm256_set_m128(hi[1], hi[0]);
-        bool down = q->br.neg[k] != 0; /* uniform: every lane's sign */
-        near[k] = down ? u : l, far[k] = down ? l : u;
-    }
+    __m256 near[3], far[3]; /* uniform signs: every lane's the same */
+    unsigned down = (q->br.neg[0] != 0) | (q->br.neg[1] != 0) << 1 | (q->br.neg[2] != 0) << 2;
+    tri_leaf_boxes(b, count, down, near, far);
     return bvh16_cull_boxes(&q->br, near, far, _mm512_mul_ps(tm, _mm512_set1_ps(BVH_SLACK)), lanes);
 }
 

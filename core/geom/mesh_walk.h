@@ -121,6 +121,29 @@ static inline int tri_leaf(const struct tri4 *b, int count, const struct tri_ray
     return mask;
 }
 
+#ifdef CPU_AVX512
+/* The bounding boxes of a leaf's count triangles (blocks b, numbered as
+ * tri_leaf numbers them; a one-block leaf's box repeated) as the packets'
+ * interval cull takes them (bvh_cull_boxes): each axis's near and far
+ * planes, the upper ones near on an axis whose bit is set in down (the
+ * rays go down it). */
+CPU_AVX2_INLINE void tri_leaf_boxes(const struct tri4 *b, uint32_t count, unsigned down,
+                                    __m256 near[3], __m256 far[3]) {
+    for (int k = 0; k < 3; k++) {
+        __m128 lo[2], hi[2];
+        for (int h = 0; h < 2; h++) {
+            const struct tri4 *bh = &b[count > 4 ? h : 0];
+            __m128 v0 = _mm_loadu_ps(bh->v[0][k]), v1 = _mm_loadu_ps(bh->v[1][k]);
+            __m128 v2 = _mm_loadu_ps(bh->v[2][k]);
+            lo[h] = _mm_min_ps(_mm_min_ps(v0, v1), v2);
+            hi[h] = _mm_max_ps(_mm_max_ps(v0, v1), v2);
+        }
+        __m256 l = _mm256_set_m128(lo[1], lo[0]), u = _mm256_set_m128(hi[1], hi[0]);
+        near[k] = down >> k & 1 ? u : l, far[k] = down >> k & 1 ? l : u;
+    }
+}
+#endif
+
 /* Keeps the nearest of the lanes in mask (of a block, or of a leaf's
  * blocks as tri_leaf numbers them); on equal t the lower triangle
  * id wins, so the result does not depend on the order blocks are visited
