@@ -19,8 +19,9 @@
 #   make bench-cluster the cluster's Redis calls per work item (bench/cluster_queue.sh)
 #   make check-layers  includes and calls one way down the layers, no circles
 #                    (tools/check_layers.py), docs/architecture.md true to the
-#                    tree, no source file over 1000 lines (tools/check_tree.py;
-#                    both part of make test)
+#                    tree, no source file over 1000 lines (tools/check_tree.py),
+#                    every link between the pages followed (tools/check_links.py;
+#                    all part of make test)
 #   make format      clang-format every C file (tools/format.sh, the root .clang-format)
 #   make format-check  the files that are not clean, listed; fails if any
 #   make lint        cppcheck + clang-tidy, every file in parallel (part of .ci/run)
@@ -413,11 +414,13 @@ test-stress: all $(TEST_TOOLS) $(FUZZ_REPLAY) $(BUILD)/bench/genmesh $(BROWSER_N
 	@bash tests/stress.sh $(BUILD)
 
 # The layers of docs/architecture.md, read from the includes and from the
-# objects' symbols (nm): a use of a higher layer or a circle fails; and the
-# page itself checked against the tree (tools/check_tree.py).
+# objects' symbols (nm): a use of a higher layer or a circle fails; the
+# page itself checked against the tree (tools/check_tree.py); and every
+# link between the pages followed (tools/check_links.py).
 check-layers: all | $(BUILD)/.test-deps-ok
 	@python3 tools/check_layers.py $(BUILD) && python3 tools/check_layers.py --self-test && \
-	  python3 tools/check_tree.py && python3 tools/check_tree.py --self-test
+	  python3 tools/check_tree.py && python3 tools/check_tree.py --self-test && \
+	  python3 tools/check_links.py && python3 tools/check_links.py --self-test
 
 test-unit: all $(UNIT_BIN) | $(BUILD)/.test-deps-ok
 	@RAYD_ONLY=unit bash tests/run.sh $(BUILD)

@@ -163,6 +163,10 @@ if [ "$only" = all ] || [ "$only" = unit ]; then
     # folder; no source file over 1,000 lines (tools/check_tree.py).
     run_test "tree" python3 tools/check_tree.py
     run_test "tree self-test" python3 tools/check_tree.py --self-test
+    # Every link between the pages (README.md, docs/ ...) finds its file
+    # and anchor (tools/check_links.py).
+    run_test "links" python3 tools/check_links.py
+    run_test "links self-test" python3 tools/check_links.py --self-test
     # Every exported function has a caller in another file (or is static).
     run_test "exports" python3 tools/unused_exports.py "$BUILD"
     run_test "exports self-test" python3 tools/unused_exports.py --self-test
