@@ -58,6 +58,17 @@ def prose_lines(text):
             yield no, line
 
 
+def page_links(text):
+    """(line number, target) of every link in the page's prose; a link's
+    text may run over lines, as a wrapped paragraph has it."""
+    lines = [""] * len(text.split("\n"))
+    for no, line in prose_lines(text):
+        lines[no - 1] = re.sub(r"`[^`]*`", lambda m: " " * len(m.group(0)), line)
+    prose = "\n".join(lines)
+    for m in LINK.finditer(prose):
+        yield prose.count("\n", 0, m.start(1)) + 1, m.group(1)
+
+
 def slug(heading):
     text = re.sub(r"\[([^\]]*)\]\([^)]*\)", r"\1", heading)  # a link: its text
     text = text.replace("`", "").replace("*", "")
@@ -94,17 +105,16 @@ def broken_links(root):
     for page in pages(root):
         with open(os.path.join(root, page), encoding="utf-8") as f:
             text = f.read()
-        for no, line in prose_lines(text):
-            for target in LINK.findall(re.sub(r"`[^`]*`", "", line)):
-                if re.match(r"[a-z]+:", target):
-                    continue
-                path, _, anchor = target.partition("#")
-                full = os.path.normpath(os.path.join(root, os.path.dirname(page), path)) \
-                    if path else os.path.join(root, page)
-                if not os.path.exists(full):
-                    bad.append((page, no, "%s: no such file" % target))
-                elif anchor and full.endswith(".md") and anchor not in anchors_of(full):
-                    bad.append((page, no, "%s: no heading or <a id> with that anchor" % target))
+        for no, target in page_links(text):
+            if re.match(r"[a-z]+:", target):
+                continue
+            path, _, anchor = target.partition("#")
+            full = os.path.normpath(os.path.join(root, os.path.dirname(page), path)) \
+                if path else os.path.join(root, page)
+            if not os.path.exists(full):
+                bad.append((page, no, "%s: no such file" % target))
+            elif anchor and full.endswith(".md") and anchor not in anchors_of(full):
+                bad.append((page, no, "%s: no heading or <a id> with that anchor" % target))
     return bad
 
 
@@ -123,10 +133,10 @@ def self_test():
                      "[b](#the-make-run-target) [c](docs/a.md#gone) [d](missing.md)\n"
                      "`[e](nowhere.md)` [f](https://example.com/x#y)\n\n```sh\n[g](no.md)\n```\n",
         "docs/a.md": "# A\n\n<a id=\"files-here\"></a>\n**Files here.** [h](../README.md#top)\n"
-                     "## Same\n## Same\n[i](#same-1) [j](#same-2)\n",
+                     "## Same\n## Same\n[i](#same-1) [j](#same-2) [a wrapped\nlink](#nowhere)\n",
     }
     want = {("README.md", 5, "docs/a.md#gone"), ("README.md", 5, "missing.md"),
-            ("docs/a.md", 7, "#same-2")}
+            ("docs/a.md", 7, "#same-2"), ("docs/a.md", 8, "#nowhere")}
     with tempfile.TemporaryDirectory() as root:
         for name, text in files.items():
             os.makedirs(os.path.join(root, os.path.dirname(name)), exist_ok=True)
