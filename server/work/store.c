@@ -14,7 +14,9 @@
  * at the next start) or the new one; at start-up a .tmp file, and a file no
  * row names as done, are deleted, and a done row is believed only when its
  * files are there with the sizes it recorded; a PNG read back is served
- * only when its chunks' CRCs match (rayd_png_whole).  A job is inserted
+ * only when its chunks' CRCs match (rayd_png_whole), an EXR (which has no
+ * checksum of its own) only when the CRC-32 written after it matches
+ * (store_exr_tail).  A job is inserted
  * before its 202 is sent, and a DELETE's end recorded before its 200
  * (each request waits for the commit: the work layer hands its waiter down
  * here), so no job the client was told of is lost, and none it cancelled
@@ -50,6 +52,7 @@
 #include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
+#include <zlib.h>
 
 enum store_kind { SO_INSERT, SO_END, SO_FORGET, SO_FRAME };
 
@@ -132,25 +135,68 @@ static void store_test_stall(void) {
     }
 }
 
-/* b's bytes to path, whole or not at all: NAME.tmp, fsync, rename. */
+/* An EXR file under results/ ends with STORE_EXR_TAIL bytes past the
+ * image: a mark and the CRC-32 (little-endian) of the image's bytes, so
+ * that one read back can be checked as a PNG's chunks are.  EXR readers
+ * stop at the image's last chunk (the offset table says where each is),
+ * so the file stays an EXR; what is served is the image without them.  A
+ * file that does not end with the mark was written by an earlier rayd and
+ * is served unchecked, as it was then. */
+#define STORE_EXR_MARK "rayd-crc32:"
+#define STORE_EXR_TAIL (sizeof STORE_EXR_MARK - 1 + 4)
+
+static void store_exr_tail(const unsigned char *data, size_t len, unsigned char tail[]) {
+    uLong crc = crc32(0L, Z_NULL, 0);
+    for (size_t at = 0; at < len;) { /* crc32 takes a uInt length */
+        uInt n = len - at > 1u << 30 ? 1u << 30 : (uInt)(len - at);
+        crc = crc32(crc, data + at, n);
+        at += n;
+    }
+    memcpy(tail, STORE_EXR_MARK, sizeof STORE_EXR_MARK - 1);
+    for (int i = 0; i < 4; i++) tail[sizeof STORE_EXR_MARK - 1 + i] = (unsigned char)(crc >> 8 * i);
+}
+
+/* Whether the EXR file of *len bytes at data is whole: its tail's CRC
+ * matches (*len then loses the tail), or it has none (an earlier rayd's);
+ * false with *why when its bytes changed on disk. */
+static bool store_exr_whole(const unsigned char *data, size_t *len, const char **why) {
+    if (*len <= STORE_EXR_TAIL ||
+        memcmp(data + *len - STORE_EXR_TAIL, STORE_EXR_MARK, sizeof STORE_EXR_MARK - 1))
+        return true;
+    unsigned char tail[STORE_EXR_TAIL];
+    *len -= STORE_EXR_TAIL;
+    store_exr_tail(data, *len, tail);
+    if (!memcmp(tail, data + *len, STORE_EXR_TAIL)) return true;
+    *why = "its CRC-32 does not match its bytes";
+    return false;
+}
+
+/* n bytes from p to fd, every one. */
+static bool store_write_all(int fd, const unsigned char *p, size_t n) {
+    while (n > 0) {
+        ssize_t w = write(fd, p, n);
+        if (w < 0 && errno == EINTR) continue;
+        if (w <= 0) return false;
+        p += w;
+        n -= (size_t)w;
+    }
+    return true;
+}
+
+/* b's bytes (an EXR's with its tail) to path, whole or not at all:
+ * NAME.tmp, fsync, rename. */
 static int store_write_file(const char *id, long k, bool exr, const struct blob *b) {
     char tmp[4200], path[4200];
     store_path(tmp, sizeof tmp, id, k, exr, true);
     store_path(path, sizeof path, id, k, exr, false);
     int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
     if (fd < 0) return -1;
-    const unsigned char *p = b->data;
-    size_t left = b->len;
-    while (left > 0) {
-        ssize_t n = write(fd, p, left);
-        if (n < 0 && errno == EINTR) continue;
-        if (n <= 0) {
-            close(fd);
-            unlink(tmp);
-            return -1;
-        }
-        p += n;
-        left -= (size_t)n;
+    unsigned char tail[STORE_EXR_TAIL];
+    if (exr) store_exr_tail(b->data, b->len, tail);
+    if (!store_write_all(fd, b->data, b->len) || (exr && !store_write_all(fd, tail, sizeof tail))) {
+        close(fd);
+        unlink(tmp);
+        return -1;
     }
     if (fsync(fd) != 0 || close(fd) != 0) {
         unlink(tmp);
@@ -195,7 +241,8 @@ struct blob *store_read_frame(const char *id, long k, bool exr) {
         return NULL;
     }
     const char *why;
-    if (!exr && !rayd_png_whole(data, got, &why)) { /* the right size, other bytes */
+    /* the right size, other bytes? (a bad sector) */
+    if (exr ? !store_exr_whole(data, &got, &why) : !rayd_png_whole(data, got, &why)) {
         log_error("job %s: frame %ld: %s is damaged (%s): not served", id, k, path, why);
         rayd_free(data);
         return NULL;
@@ -429,7 +476,7 @@ static bool store_do_end(struct store_op *op) {
     }
     if (ok && op->exr) {
         ok = store_write_file(j->id, -1, true, op->exr) == 0;
-        bytes += op->exr->len;
+        bytes += op->exr->len + STORE_EXR_TAIL;
     }
     char dir[4200];
     snprintf(dir, sizeof dir, "%s/results", store_dir);
@@ -460,7 +507,7 @@ static double store_wall(void) {
 static void store_do_frame(struct store_op *op) {
     const char *id = op->row.id;
     long k = op->row.first;
-    size_t bytes = op->png->len + (op->exr ? op->exr->len : 0);
+    size_t bytes = op->png->len + (op->exr ? op->exr->len + STORE_EXR_TAIL : 0);
     char dir[4200], p[96], e[96];
     snprintf(dir, sizeof dir, "%s/results", store_dir);
     snprintf(p, sizeof p, "results/%s-%ld.png", id, k);

@@ -3,7 +3,7 @@
 # index zeroed: a disk's bad sector, a copy cut short), missing or empty
 # beside finished images, or whose results/ is a file: rayd says what is
 # wrong and does not start, deleting nothing; an image whose bytes changed
-# on disk is not served.
+# on disk (a PNG's chunk CRCs, an EXR's CRC-32 after it) is not served.
 #
 # Before, the start-up sweep took every failed look-up in a damaged jobs.db
 # for "no job names this file" and deleted every finished image, the load
@@ -110,6 +110,53 @@ check damaged_image_logged "$(tail -c 300 "$T/rayd.err")" grep -q "is damaged (a
 n=0
 for id in $(tail -n +2 "$T/ids"); do [ "$(req GET "/v1/jobs/$id/image.png")" = 200 ] && is_png "$T/body" && n=$((n + 1)); done
 check damaged_image_others_served "$n of 2" [ "$n" = 2 ]
+stop_rayd TERM
+
+# the same for an EXR, which has no checksum of its own: rayd writes its CRC-32 after it (15
+# bytes: "rayd-crc32:" and 4) and serves it only when that matches.  Before, a byte changed in
+# results/ID.exr was served as the job's image (200)
+rm -rf "$T/e" && start_rayd --threads 1 --data-dir "$T/e"
+scene "$T/x.json" 32 32 1 spheres 7
+post_json '/v1/jobs?format=exr' "$T/x.json" >/dev/null
+xid=$(jfield "$T/body" id)
+wait_until 60 job_state_is "$xid" succeeded
+req GET "/v1/jobs/$xid/image.exr" >/dev/null && cp "$T/body" "$T/good.exr"
+stop_rayd TERM
+f=$T/e/results/$xid.exr
+check exr_tail_written "$(stat -c %s "$f") bytes on disk, $(stat -c %s "$T/good.exr") served" \
+    bash -c '[ "$(stat -c %s "$0")" = $(($(stat -c %s "$1") + 15)) ] &&
+             cmp -s <(head -c "$(stat -c %s "$1")" "$0") "$1" &&
+             [ "$(tail -c 15 "$0" | head -c 11)" = rayd-crc32: ]' "$f" "$T/good.exr"
+rm -rf "$T/e2" && cp -r "$T/e" "$T/e2"
+python3 - "$f" <<'PY'
+import os, sys
+with open(sys.argv[1], "r+b") as f:
+    f.seek(os.path.getsize(sys.argv[1]) // 2)
+    b = f.read(1)
+    f.seek(-1, 1)
+    f.write(bytes([b[0] ^ 0x10]))
+PY
+start_rayd --threads 1 --data-dir "$T/e"
+code=$(req GET "/v1/jobs/$xid/image.exr")
+check damaged_exr_not_served "$code $(head -c 300 "$T/body" | tr -cd '[:print:]')" \
+    bash -c '[ "$0" = 410 ] && grep -q "damaged" "$1"' "$code" "$T/body"
+check damaged_exr_logged "$(tail -c 300 "$T/rayd.err")" grep -q "is damaged (its CRC-32" "$T/rayd.err"
+png_ok=no
+[ "$(req GET "/v1/jobs/$xid/image.png")" = 200 ] && is_png "$T/body" && png_ok=yes
+check damaged_exr_png_served "the job's PNG served: $png_ok" [ "$png_ok" = yes ]
+stop_rayd TERM
+# an EXR written before the tail (its row's bytes without it): served as it is, unchecked
+f=$T/e2/results/$xid.exr
+truncate -s -15 "$f"
+python3 - "$T/e2/jobs.db" "$xid" <<'PY'
+import sqlite3, sys
+db = sqlite3.connect(sys.argv[1])
+db.execute("UPDATE frames SET bytes = bytes - 15 WHERE job = ?", (sys.argv[2],))
+db.commit()
+PY
+start_rayd --threads 1 --data-dir "$T/e2"
+code=$(req GET "/v1/jobs/$xid/image.exr")
+check untailed_exr_served "$code" bash -c '[ "$0" = 200 ] && cmp -s "$1" "$2"' "$code" "$T/body" "$T/good.exr"
 stop_rayd TERM
 
 # the undamaged copy starts, every job there
