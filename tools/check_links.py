@@ -21,9 +21,10 @@ links that must pass, and checks that exactly the broken ones are reported.
 """
 import os
 import re
-import subprocess
 import sys
 import tempfile
+
+from check_tree import tree_files
 
 LINK = re.compile(r"\[(?:[^\]\[]|\[[^\]]*\])*\]\(([^)\s]+)(?:\s+\"[^\"]*\")?\)")
 HEADING = re.compile(r"^(#{1,6})\s+(.*?)\s*#*\s*$")
@@ -32,19 +33,7 @@ FENCE = re.compile(r"^\s*(```|~~~)")
 
 
 def pages(root):
-    try:
-        out = subprocess.run(["git", "-C", root, "ls-files", "-z", "*.md"], capture_output=True,
-                             check=True).stdout.decode()
-        found = [f for f in out.split("\0") if f and os.path.exists(os.path.join(root, f))]
-        if found:
-            return sorted(found)
-    except (OSError, subprocess.CalledProcessError):
-        pass
-    found = []
-    for dirpath, dirs, names in os.walk(root):
-        dirs[:] = [d for d in dirs if not d.startswith(".") and d not in ("build", "node_modules")]
-        found += [os.path.relpath(os.path.join(dirpath, n), root) for n in names if n.endswith(".md")]
-    return sorted(found)
+    return [f for f in tree_files(root) if f.endswith(".md")]
 
 
 def prose_lines(text):

@@ -89,12 +89,9 @@ check first_start_folder_not_image "$(tail -c 300 "$T/rayd.err")" [ "$(req GET /
 stop_rayd TERM
 check first_start_folder_kept "results/: $(ls "$T/f/results")" [ -d "$T/f/results/lost+found" ]
 
-# one byte of an image changed, its size kept (a bad sector): before, the start-up check (sizes)
-# passed it and GET served the changed bytes as the job's image (200)
-rm -rf "$T/d" && cp -r "$T/orig" "$T/d"
-first=$(head -n 1 "$T/ids")
-img=$(ls "$T/d/results/$first"*.png)
-python3 - "$img" <<'PY'
+# flip_middle FILE: one bit of the byte in FILE's middle changed, its size kept (a bad sector)
+flip_middle() {
+    python3 - "$1" <<'PY'
 import os, sys
 with open(sys.argv[1], "r+b") as f:
     f.seek(os.path.getsize(sys.argv[1]) // 2)
@@ -102,6 +99,14 @@ with open(sys.argv[1], "r+b") as f:
     f.seek(-1, 1)
     f.write(bytes([b[0] ^ 0x10]))
 PY
+}
+
+# one byte of an image changed, its size kept (a bad sector): before, the start-up check (sizes)
+# passed it and GET served the changed bytes as the job's image (200)
+rm -rf "$T/d" && cp -r "$T/orig" "$T/d"
+first=$(head -n 1 "$T/ids")
+img=$(ls "$T/d/results/$first"*.png)
+flip_middle "$img"
 start_rayd --threads 1 --data-dir "$T/d"
 code=$(req GET "/v1/jobs/$first/image.png")
 check damaged_image_not_served "$code $(head -c 300 "$T/body" | tr -cd '[:print:]')" \
@@ -128,14 +133,7 @@ check exr_tail_written "$(stat -c %s "$f") bytes on disk, $(stat -c %s "$T/good.
              cmp -s <(head -c "$(stat -c %s "$1")" "$0") "$1" &&
              [ "$(tail -c 15 "$0" | head -c 11)" = rayd-crc32: ]' "$f" "$T/good.exr"
 rm -rf "$T/e2" && cp -r "$T/e" "$T/e2"
-python3 - "$f" <<'PY'
-import os, sys
-with open(sys.argv[1], "r+b") as f:
-    f.seek(os.path.getsize(sys.argv[1]) // 2)
-    b = f.read(1)
-    f.seek(-1, 1)
-    f.write(bytes([b[0] ^ 0x10]))
-PY
+flip_middle "$f"
 start_rayd --threads 1 --data-dir "$T/e"
 code=$(req GET "/v1/jobs/$xid/image.exr")
 check damaged_exr_not_served "$code $(head -c 300 "$T/body" | tr -cd '[:print:]')" \
