@@ -131,7 +131,7 @@ SERVER_LAYERS = [
 FOLDER_ORDER = {
     "server/work/": [
         ["work", "work_private"], ["lru"], ["cache", "rcache"], ["scenefiles"], ["scenes"],
-        ["cost"], ["fair"], ["resolve"], ["passes"], ["task"], ["budget"], ["gate"], ["store", "store_dir"],
+        ["cost"], ["fair"], ["resolve"], ["passes"], ["task"], ["budget"], ["gate"], ["store_file"], ["store", "store_dir"],
         ["jobs"], ["events"], ["videoq"], ["watch"], ["sched"], ["compile"],
         ["shots", "shots_private", "shots_events", "shots_info"], ["durable"],
     ],

@@ -108,6 +108,8 @@ static bool png_data_past(const unsigned char *b, size_t len, double limit) {
     return made > limit;
 }
 
+uint32_t rayd_crc32(const void *buf, size_t len) { return crc32_gzip_refl(0, buf, len); }
+
 /* Every chunk carries a CRC-32 of its type and data (ISA-L's gzip CRC is
  * PNG's), so bytes changed in place, a file's size kept, fail here. */
 int rayd_png_whole(const void *buf, size_t len, const char **why) {

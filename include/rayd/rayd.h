@@ -683,6 +683,9 @@ enum rayd_status rayd_png_write_file(const rayd_image *img, const char *path,
  * whose CRCs match their bytes, the last IEND (1); else 0, *why saying
  * what is wrong.  No decode: a check of bytes read back from a disk. */
 int rayd_png_whole(const void *buf, size_t len, const char **why);
+/* The CRC-32 of gzip, zlib and PNG of the len bytes at buf: a check for
+ * files that carry none of their own (an EXR kept on disk). */
+uint32_t rayd_crc32(const void *buf, size_t len);
 /* Decodes any PNG libpng reads into 8-bit RGB; refuses images over max_pixels
  * (<= 0: the default limit). */
 enum rayd_status rayd_png_decode(const void *buf, size_t len, long max_pixels, rayd_image **out,

@@ -554,7 +554,22 @@ void store_forget(const char *id);
  * commit the job's figures so far (row's frames done, rays and times), so
  * a restart goes on counting from them.  Lock held. */
 void store_frame(const struct store_job *row, long k, struct blob *png, struct blob *exr);
-/* Frame k's image from its file, or NULL; any thread (a plain read). */
+
+/* store_file.c: the images' files under DIR/results/ (DIR: store_dir,
+ * set by store_open, read by any thread until store_stop). */
+extern char *store_dir;
+/* An EXR's file holds this many bytes after the image: a mark and its
+ * CRC-32 (store_file.c), counted in the bytes its row records. */
+#define STORE_EXR_TAIL 15
+/* DIR/results/ID.png (or .exr, or with .tmp): a plain job's image's path;
+ * DIR/results/ID-K.png frame K's of a frame-range job (k >= 0). */
+void store_path(char *buf, size_t size, const char *id, long k, bool exr, bool tmp);
+int store_fsync_dir(const char *path);
+/* b's bytes (an EXR's with its tail) to the image's path, whole or not at
+ * all (NAME.tmp, fsync, rename): 0, or -1 with errno. */
+int store_write_file(const char *id, long k, bool exr, const struct blob *b);
+/* Frame k's image from its file, or NULL (missing, or its bytes changed
+ * since they were written: logged); any thread (a plain read). */
 struct blob *store_read_frame(const char *id, long k, bool exr);
 /* A frame-range job's frames at start-up (main thread): states[k - first]
  * STORE_FRAME_DONE for each frame done with its files whole, else

@@ -312,6 +312,15 @@ static void check_whole(const unsigned char *png, size_t len, const char *what) 
     free(b);
 }
 
+/* rayd_crc32 is the CRC-32 of gzip and zlib: the standard check value
+ * of "123456789", 0 for nothing, and a changed byte changes it. */
+static void test_crc32(void) {
+    CHECK(rayd_crc32("123456789", 9) == 0xCBF43926u, "CRC-32 of 123456789: %08x",
+          (unsigned)rayd_crc32("123456789", 9));
+    CHECK(rayd_crc32("", 0) == 0, "CRC-32 of nothing: %08x", (unsigned)rayd_crc32("", 0));
+    CHECK(rayd_crc32("123456788", 9) != rayd_crc32("123456789", 9), "one byte changed, same CRC");
+}
+
 static void test_whole_and_damaged(void) {
     rayd_image *img = pattern(300, 200, 5);
     size_t len = 0;
@@ -338,5 +347,6 @@ int main(void) {
     RUN(test_default_blends_isal);
     RUN(test_data_past_rows_refused);
     RUN(test_whole_and_damaged);
+    RUN(test_crc32);
     CHECK_EXIT();
 }
