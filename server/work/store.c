@@ -43,7 +43,6 @@
 
 #include <dirent.h>
 #include <errno.h>
-#include <fcntl.h>
 #include <sqlite3.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -101,8 +100,6 @@ static const char *const store_schema =
     "PRAGMA foreign_keys=ON;";
 
 bool store_on(void) { return atomic_load(&store_up); }
-
-/* ---- files ----------------------------------------------------------------------- */
 
 /* ---- SQLite ------------------------------------------------------------------------ */
 
@@ -328,7 +325,7 @@ static bool store_do_end(struct store_op *op) {
     }
     if (ok && op->exr) {
         ok = store_write_file(j->id, -1, true, op->exr) == 0;
-        bytes += op->exr->len + STORE_EXR_TAIL;
+        bytes += store_file_bytes(op->exr, true);
     }
     char dir[4200];
     snprintf(dir, sizeof dir, "%s/results", store_dir);
@@ -359,7 +356,7 @@ static double store_wall(void) {
 static void store_do_frame(struct store_op *op) {
     const char *id = op->row.id;
     long k = op->row.first;
-    size_t bytes = op->png->len + (op->exr ? op->exr->len + STORE_EXR_TAIL : 0);
+    size_t bytes = op->png->len + (op->exr ? store_file_bytes(op->exr, true) : 0);
     char dir[4200], p[96], e[96];
     snprintf(dir, sizeof dir, "%s/results", store_dir);
     snprintf(p, sizeof p, "results/%s-%ld.png", id, k);

@@ -55,7 +55,11 @@ static void store_test_stall(void) {
  * file that does not end with the mark was written by an earlier rayd and
  * is served unchecked, as it was then. */
 #define STORE_EXR_MARK "rayd-crc32:"
-_Static_assert(STORE_EXR_TAIL == sizeof STORE_EXR_MARK - 1 + 4, "the tail: the mark, the CRC");
+#define STORE_EXR_TAIL (sizeof STORE_EXR_MARK - 1 + 4) /* the mark, the CRC: 15 */
+
+size_t store_file_bytes(const struct blob *b, bool exr) {
+    return b->len + (exr ? STORE_EXR_TAIL : 0);
+}
 
 static void store_exr_tail(const unsigned char *data, size_t len, unsigned char tail[]) {
     uint32_t crc = rayd_crc32(data, len);

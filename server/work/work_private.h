@@ -558,9 +558,9 @@ void store_frame(const struct store_job *row, long k, struct blob *png, struct b
 /* store_file.c: the images' files under DIR/results/ (DIR: store_dir,
  * set by store_open, read by any thread until store_stop). */
 extern char *store_dir;
-/* An EXR's file holds this many bytes after the image: a mark and its
- * CRC-32 (store_file.c), counted in the bytes its row records. */
-#define STORE_EXR_TAIL 15
+/* The bytes b's file takes (an EXR's: the image and the CRC after it),
+ * as a row records them. */
+size_t store_file_bytes(const struct blob *b, bool exr);
 /* DIR/results/ID.png (or .exr, or with .tmp): a plain job's image's path;
  * DIR/results/ID-K.png frame K's of a frame-range job (k >= 0). */
 void store_path(char *buf, size_t size, const char *id, long k, bool exr, bool tmp);
