@@ -6,10 +6,13 @@
  * time, and the packet goes down into each child that at least one of its
  * rays enters, carrying the mask of those rays.  On 8-wide nodes an
  * interval test of the whole packet against all eight children first
- * (bvh16_cull) spares the per-ray tests of the children no ray enters.
- * Children are taken nearest first (by the entry distance of the first
- * ray entering each); a stack entry keeps each ray's entry distance, so a
- * ray that found a nearer hit meanwhile drops out of it when it is popped.
+ * (bvh16_cull) spares the per-ray tests of the children no ray enters, and
+ * a packet whose rays leave one point (camera rays) takes the children by
+ * that test alone, each with the box's bound on its rays' entry, as
+ * bvh_rays8.h does.  The nearest child (by the entry distance of the
+ * first ray entering it) is taken first, the others as they come; a stack
+ * entry keeps each ray's entry distance, so a ray that found a nearer hit
+ * meanwhile drops out of it when it is popped.
  * The nodes and leaves about to be visited are prefetched.  For coherent
  * rays (a 4x4 block of pixels, the shadow rays from it to a light) the
  * node data is loaded once for 16 rays.
@@ -80,6 +83,7 @@ struct bvh16_ray {
      * culling test of bvh16_cull (ia: uniform and fused, so every lane's
      * org and inv finite; else they are not set). */
     bool ia;
+    bool one_origin; /* ia, and every lane's origin the same */
     struct bvh_cull cull;
     /* For the fused child test: org * inv moved out as bvh_ray_fused does
      * it, lane by lane, and whether every lane's is finite. */
@@ -142,6 +146,8 @@ CPU_AVX512_FN void bvh16_ray_intervals(struct bvh16_ray *p) {
     float most[4];
     bvh16_reduce4(oi[0], oi[1], oi[2], oi[2], true, most);
     for (int k = 0; k < 3; k++) p->cull.cslack[k] = most[k] * 0x1p-20f + 0x1p-100f;
+    p->one_origin = true;
+    for (int k = 0; k < 3; k++) p->one_origin &= p->cull.onear[k] == p->cull.ofar[k];
 }
 
 CPU_AVX512_FN void bvh16_ray_init(struct bvh16_ray *p, const struct ray16 *q, int width) {
@@ -166,6 +172,7 @@ CPU_AVX512_FN void bvh16_ray_init(struct bvh16_ray *p, const struct ray16 *q, in
     }
     bvh16_ray_fused(p);
     p->ia = p->uniform && p->fused; /* finite org * inv: finite org and inv */
+    p->one_origin = false;
     if (p->ia) bvh16_ray_intervals(p);
 }
 
@@ -219,24 +226,25 @@ CPU_AVX512_INLINE __mmask16 bvh16_child(const char *nd, int width, int c, const 
 }
 
 /* bvh_cull_boxes (bvh.h) with the greatest bound of the rays in lanes,
- * infinity when one is NaN. */
+ * infinity when one is NaN; *tnear gets each box's lower bound on its
+ * rays' entries. */
 CPU_AVX512_INLINE __mmask8 bvh16_cull_boxes(const struct bvh16_ray *r, const __m256 near[3],
-                                            const __m256 far[3], __m512 tmax, __mmask16 lanes) {
+                                            const __m256 far[3], __m512 tmax, __mmask16 lanes,
+                                            __m256 *tnear) {
     __mmask16 nan = _mm512_mask_cmp_ps_mask(lanes, tmax, tmax, _CMP_UNORD_Q);
     float far_most = nan ? INFINITY : _mm512_mask_reduce_max_ps(lanes, tmax);
-    __m256 tn;
-    return (__mmask8)bvh_cull_boxes(&r->cull, near, far, far_most, &tn);
+    return (__mmask8)bvh_cull_boxes(&r->cull, near, far, far_most, tnear);
 }
 
 /* bvh16_cull_boxes on the eight children of node nd. */
 CPU_AVX512_INLINE __mmask8 bvh16_cull(const char *nd, const struct bvh16_ray *r, __m512 tmax,
-                                      __mmask16 lanes) {
+                                      __mmask16 lanes, __m256 *tnear) {
     __m256 near[3], far[3];
     for (int k = 0; k < 3; k++) {
         near[k] = _mm256_loadu_ps((const float *)(const void *)(nd + r->near[k]));
         far[k] = _mm256_loadu_ps((const float *)(const void *)(nd + r->far[k]));
     }
-    return bvh16_cull_boxes(r, near, far, tmax, lanes);
+    return bvh16_cull_boxes(r, near, far, tmax, lanes, tnear);
 }
 
 /* The leaf test: rays in lanes against leaf (first, count).  A nearest-hit
@@ -264,26 +272,43 @@ CPU_AVX512_INLINE bool bvh16_descend(const char *nodes, int width, const char *l
     int hit[8], n = 0;
     __m512 tn[8];
     __mmask16 m[8];
-    unsigned maybe = width == 8 && r->ia ? bvh16_cull(nd, r, tmax, cur->lanes) : 0xffu;
-    for (int c = 0; c < width; c++) {
-        if (!(maybe >> c & 1)) continue; /* no ray of the packet enters it */
-        if (bvh16_plane(nd, BVH_NODE_LO(width, 0), c) > bvh16_plane(nd, BVH_NODE_HI(width, 0), c))
-            continue; /* an empty slot */
-        m[c] = bvh16_child(nd, width, c, r, tmax, cur->lanes, &tn[c]);
-        if (m[c]) hit[n++] = c;
+    float key[8];
+    if (width == 8 && r->one_origin) { /* coherent: the interval test alone */
+        __m256 box_tn;
+        unsigned maybe = bvh16_cull(nd, r, tmax, cur->lanes, &box_tn);
+        _mm256_storeu_ps(key, box_tn);
+        for (int c = 0; c < width; c++) {
+            if (!(maybe >> c & 1)) continue;
+            if (bvh16_plane(nd, BVH_NODE_LO(width, 0), c) >
+                bvh16_plane(nd, BVH_NODE_HI(width, 0), c))
+                continue; /* an empty slot */
+            m[c] = cur->lanes, tn[c] = _mm512_set1_ps(key[c]);
+            hit[n++] = c;
+        }
+    } else {
+        unsigned maybe = 0xffu;
+        if (width == 8 && r->ia) {
+            __m256 box_tn;
+            maybe = bvh16_cull(nd, r, tmax, cur->lanes, &box_tn);
+        }
+        for (int c = 0; c < width; c++) {
+            if (!(maybe >> c & 1)) continue; /* no ray of the packet enters it */
+            if (bvh16_plane(nd, BVH_NODE_LO(width, 0), c) >
+                bvh16_plane(nd, BVH_NODE_HI(width, 0), c))
+                continue; /* an empty slot */
+            m[c] = bvh16_child(nd, width, c, r, tmax, cur->lanes, &tn[c]);
+            if (!m[c]) continue;
+            /* the first ray's entry: cheaper than the packet's nearest */
+            key[c] = _mm512_cvtss_f32(_mm512_maskz_compress_ps(m[c], tn[c]));
+            hit[n++] = c;
+        }
     }
     if (n == 0) return false;
-    if (ordered && n > 1) { /* nearest last, by the packet's nearest entry */
-        float key[8];
-        for (int j = 0; j < n; j++) /* the first ray's entry: cheaper than the packet's nearest */
-            key[j] = _mm512_cvtss_f32(_mm512_maskz_compress_ps(m[hit[j]], tn[hit[j]]));
-        for (int j = 1; j < n; j++)
-            for (int i = j; i > 0 && key[i - 1] < key[i]; i--) {
-                float kt = key[i];
-                key[i] = key[i - 1], key[i - 1] = kt;
-                int ht = hit[i];
-                hit[i] = hit[i - 1], hit[i - 1] = ht;
-            }
+    if (ordered && n > 1) { /* the nearest last (into cur), the others as they come */
+        int go = 0;
+        for (int j = 1; j < n; j++) go = key[hit[j]] < key[hit[go]] ? j : go;
+        int c = hit[go];
+        hit[go] = hit[n - 1], hit[n - 1] = c;
     }
     for (int j = 0; j < n; j++) {
         int c = hit[j];
@@ -294,7 +319,7 @@ CPU_AVX512_INLINE bool bvh16_descend(const char *nodes, int width, const char *l
         size_t size = count[c] ? leaf_size * (size_t)((count[c] + 3) / 4) : node_size;
         for (size_t at = 0; next && at < size; at += 64) _mm_prefetch(next + at, _MM_HINT_T0);
         struct bvh16_entry *e = j == n - 1 ? cur : &stack[(*sp)++];
-        e->tnear = tn[c];
+        if (e != cur) e->tnear = tn[c]; /* the walk goes into cur now */
         e->node = child[c];
         e->count = count[c];
         e->lanes = m[c];
@@ -339,7 +364,6 @@ CPU_AVX512_INLINE __mmask16 bvh16_walk(const void *nodes, int width, const char 
     cur.node = 0;
     cur.count = 0;
     cur.lanes = lanes;
-    cur.tnear = _mm512_setzero_ps();
     for (;;) {
         if (lone && __builtin_popcount(cur.lanes) <= BVH16_LONE_MAX) {
             blocked |= lone(ctx, cur.node, cur.count, cur.lanes, tm);
@@ -358,13 +382,15 @@ CPU_AVX512_INLINE __mmask16 bvh16_walk(const void *nodes, int width, const char 
             lanes &= (__mmask16)~blocked;
             if (!lanes) return blocked;
         }
-        for (;;) { /* pop an entry some ray still needs */
+        for (;;) { /* pop an entry some ray still needs (its fields, not a copy of it) */
             if (sp == 0) return blocked;
-            cur = stack[--sp];
+            const struct bvh16_entry *e = &stack[--sp];
             __m512 reach = _mm512_mul_ps(*tm, _mm512_set1_ps(BVH_SLACK));
             /* !(tnear > reach), as the one-ray walk has it (NaN included) */
-            cur.lanes = _mm512_mask_cmp_ps_mask(cur.lanes & lanes, cur.tnear, reach, _CMP_NGT_UQ);
-            if (cur.lanes) break;
+            __mmask16 in = _mm512_mask_cmp_ps_mask(e->lanes & lanes, e->tnear, reach, _CMP_NGT_UQ);
+            if (!in) continue;
+            cur.node = e->node, cur.count = e->count, cur.lanes = in;
+            break;
         }
     }
 }

@@ -130,7 +130,9 @@ CPU_AVX512_FN unsigned tri_cull(const struct mesh16 *q, const struct tri4 *b, ui
     __m256 near[3], far[3]; /* uniform signs: every lane's the same */
     unsigned down = (q->br.neg[0] != 0) | (q->br.neg[1] != 0) << 1 | (q->br.neg[2] != 0) << 2;
     tri_leaf_boxes(b, count, down, near, far);
-    return bvh16_cull_boxes(&q->br, near, far, _mm512_mul_ps(tm, _mm512_set1_ps(BVH_SLACK)), lanes);
+    __m256 tn;
+    return bvh16_cull_boxes(&q->br, near, far, _mm512_mul_ps(tm, _mm512_set1_ps(BVH_SLACK)), lanes,
+                            &tn);
 }
 
 /* A leaf for the nearest-hit walk: its triangles that tri_cull keeps
