@@ -123,10 +123,40 @@ CPU_AVX512_INLINE void bvh16_reduce4(__m512 a, __m512 b, __m512 c, __m512 d, boo
     for (int i = 0; i < 4; i++) out[i] = t[4 * i];
 }
 
+/* bvh16_ray_intervals for a packet whose rays leave one point o: the
+ * origin's intervals are that point, and the largest |org inv| on an axis
+ * is |o| times the largest |inv| (rounding is monotone), so two
+ * reductions of the inverse directions do. */
+CPU_AVX512_FN void bvh16_one_origin(struct bvh16_ray *p, const float o[3]) {
+    __m512 sign = _mm512_set1_ps(-0.0f);
+    float lo[4], hi[4]; /* hi: minus the greatest */
+    bvh16_reduce4(p->inv[0], p->inv[1], p->inv[2], _mm512_xor_ps(p->inv[0], sign), false, lo);
+    bvh16_reduce4(_mm512_xor_ps(p->inv[1], sign), _mm512_xor_ps(p->inv[2], sign),
+                  _mm512_xor_ps(p->inv[1], sign), _mm512_xor_ps(p->inv[2], sign), false, hi);
+    float imax[3] = {-lo[3], -hi[0], -hi[1]};
+    for (int k = 0; k < 3; k++) {
+        p->cull.onear[k] = p->cull.ofar[k] = o[k];
+        p->cull.imin[k] = lo[k], p->cull.imax[k] = imax[k];
+        float most = fabsf(o[k]) * (fabsf(lo[k]) > fabsf(imax[k]) ? fabsf(lo[k]) : fabsf(imax[k]));
+        p->cull.cslack[k] = most * 0x1p-20f + 0x1p-100f;
+    }
+    p->one_origin = true;
+}
+
 /* The culling test's intervals (bvh16_cull) of a uniform, fused packet:
  * its every org and inv finite.  The greatest of x is minus the least of
  * -x, exactly: the last four reductions share one pass that way. */
 CPU_AVX512_FN void bvh16_ray_intervals(struct bvh16_ray *p) {
+    float o[3];
+    __mmask16 same = 0xffff;
+    for (int k = 0; k < 3; k++) {
+        o[k] = _mm512_cvtss_f32(p->org[k]);
+        same &= _mm512_cmp_ps_mask(p->org[k], _mm512_set1_ps(o[k]), _CMP_EQ_OQ);
+    }
+    if (same == 0xffff) {
+        bvh16_one_origin(p, o);
+        return;
+    }
     float lo[4], hi[4], rest[4];
     bvh16_reduce4(p->org[0], p->org[1], p->org[2], p->inv[0], false, lo);
     bvh16_reduce4(p->org[0], p->org[1], p->org[2], p->inv[0], true, hi);
@@ -146,8 +176,7 @@ CPU_AVX512_FN void bvh16_ray_intervals(struct bvh16_ray *p) {
     float most[4];
     bvh16_reduce4(oi[0], oi[1], oi[2], oi[2], true, most);
     for (int k = 0; k < 3; k++) p->cull.cslack[k] = most[k] * 0x1p-20f + 0x1p-100f;
-    p->one_origin = true;
-    for (int k = 0; k < 3; k++) p->one_origin &= p->cull.onear[k] == p->cull.ofar[k];
+    p->one_origin = false;
 }
 
 CPU_AVX512_FN void bvh16_ray_init(struct bvh16_ray *p, const struct ray16 *q, int width) {
@@ -225,26 +254,24 @@ CPU_AVX512_INLINE __mmask16 bvh16_child(const char *nd, int width, int c, const 
     return _mm512_mask_cmp_ps_mask(lanes, tn, tf, _CMP_LE_OQ);
 }
 
-/* bvh_cull_boxes (bvh.h) with the greatest bound of the rays in lanes,
- * infinity when one is NaN; *tnear gets each box's lower bound on its
- * rays' entries. */
-CPU_AVX512_INLINE __mmask8 bvh16_cull_boxes(const struct bvh16_ray *r, const __m256 near[3],
-                                            const __m256 far[3], __m512 tmax, __mmask16 lanes,
-                                            __m256 *tnear) {
+/* The greatest reach (bound tm times BVH_SLACK) of the rays in lanes,
+ * infinity when one is NaN: bvh_cull_boxes's far_most. */
+CPU_AVX512_INLINE float bvh16_reach_most(__m512 tm, __mmask16 lanes) {
+    __m512 tmax = _mm512_mul_ps(tm, _mm512_set1_ps(BVH_SLACK));
     __mmask16 nan = _mm512_mask_cmp_ps_mask(lanes, tmax, tmax, _CMP_UNORD_Q);
-    float far_most = nan ? INFINITY : _mm512_mask_reduce_max_ps(lanes, tmax);
-    return (__mmask8)bvh_cull_boxes(&r->cull, near, far, far_most, tnear);
+    return nan ? INFINITY : _mm512_mask_reduce_max_ps(lanes, tmax);
 }
 
-/* bvh16_cull_boxes on the eight children of node nd. */
-CPU_AVX512_INLINE __mmask8 bvh16_cull(const char *nd, const struct bvh16_ray *r, __m512 tmax,
-                                      __mmask16 lanes, __m256 *tnear) {
+/* bvh_cull_boxes (bvh.h) on the eight children of node nd, for rays whose
+ * reach is at most far_most. */
+CPU_AVX512_INLINE __mmask8 bvh16_cull(const char *nd, const struct bvh16_ray *r, float far_most,
+                                      __m256 *tnear) {
     __m256 near[3], far[3];
     for (int k = 0; k < 3; k++) {
         near[k] = _mm256_loadu_ps((const float *)(const void *)(nd + r->near[k]));
         far[k] = _mm256_loadu_ps((const float *)(const void *)(nd + r->far[k]));
     }
-    return bvh16_cull_boxes(r, near, far, tmax, lanes, tnear);
+    return (__mmask8)bvh_cull_boxes(&r->cull, near, far, far_most, tnear);
 }
 
 /* The leaf test: rays in lanes against leaf (first, count).  A nearest-hit
@@ -254,14 +281,14 @@ typedef __mmask16 (*bvh16_leaf_fn)(void *ctx, uint32_t first, uint32_t count, __
                                    __m512 *tm);
 
 /* Pushes the children of inner node cur that rays in lanes enter (bounds
- * tm) onto the stack, farthest first when ordered (else as they come: an
- * any-hit walk needs no order), and pops the nearest into *cur,
+ * tm, their reach at most far_most) onto the stack, and pops the nearest
+ * into *cur when ordered (else the last: an any-hit walk needs no order),
  * prefetching each (see bvh16_walk for leaves).  False when no ray enters
  * any child. */
 CPU_AVX512_INLINE bool bvh16_descend(const char *nodes, int width, const char *leaves,
                                      size_t leaf_size, const struct bvh16_ray *r, __m512 tm,
-                                     struct bvh16_entry *cur, struct bvh16_entry *stack, int *sp,
-                                     bool ordered) {
+                                     float far_most, struct bvh16_entry *cur,
+                                     struct bvh16_entry *stack, int *sp, bool ordered) {
     size_t node_size = BVH_NODE_SIZE(width);
     const char *nd = nodes + node_size * cur->node;
     uint32_t child[8];
@@ -275,7 +302,7 @@ CPU_AVX512_INLINE bool bvh16_descend(const char *nodes, int width, const char *l
     float key[8];
     if (width == 8 && r->one_origin) { /* coherent: the interval test alone */
         __m256 box_tn;
-        unsigned maybe = bvh16_cull(nd, r, tmax, cur->lanes, &box_tn);
+        unsigned maybe = bvh16_cull(nd, r, far_most, &box_tn);
         _mm256_storeu_ps(key, box_tn);
         for (int c = 0; c < width; c++) {
             if (!(maybe >> c & 1)) continue;
@@ -289,7 +316,7 @@ CPU_AVX512_INLINE bool bvh16_descend(const char *nodes, int width, const char *l
         unsigned maybe = 0xffu;
         if (width == 8 && r->ia) {
             __m256 box_tn;
-            maybe = bvh16_cull(nd, r, tmax, cur->lanes, &box_tn);
+            maybe = bvh16_cull(nd, r, far_most, &box_tn);
         }
         for (int c = 0; c < width; c++) {
             if (!(maybe >> c & 1)) continue; /* no ray of the packet enters it */
@@ -361,6 +388,10 @@ CPU_AVX512_INLINE __mmask16 bvh16_walk(const void *nodes, int width, const char 
     int sp = 0;
     uint32_t visits = 0;
     __mmask16 blocked = 0;
+    /* the culling test's bound: of every ray still in the walk, a bound
+     * on the bounds of the rays of any entry, kept as leaves lower them */
+    bool culled = width == 8 && r->ia;
+    float far_most = culled ? bvh16_reach_most(*tm, lanes) : INFINITY;
     cur.node = 0;
     cur.count = 0;
     cur.lanes = lanes;
@@ -369,8 +400,10 @@ CPU_AVX512_INLINE __mmask16 bvh16_walk(const void *nodes, int width, const char 
             blocked |= lone(ctx, cur.node, cur.count, cur.lanes, tm);
             lanes &= (__mmask16)~blocked;
             if (!lanes) return blocked;
+            if (culled) far_most = bvh16_reach_most(*tm, lanes);
         } else if (cur.count == 0) {
-            if (bvh16_descend(nodes, width, leaves, leaf_size, r, *tm, &cur, stack, &sp, ordered))
+            if (bvh16_descend(nodes, width, leaves, leaf_size, r, *tm, far_most, &cur, stack, &sp,
+                              ordered))
                 continue;
         } else {
             visits += cur.count;
@@ -381,6 +414,7 @@ CPU_AVX512_INLINE __mmask16 bvh16_walk(const void *nodes, int width, const char 
             blocked |= leaf(ctx, cur.node, cur.count, cur.lanes, tm);
             lanes &= (__mmask16)~blocked;
             if (!lanes) return blocked;
+            if (culled) far_most = bvh16_reach_most(*tm, lanes);
         }
         for (;;) { /* pop an entry some ray still needs (its fields, not a copy of it) */
             if (sp == 0) return blocked;

@@ -120,7 +120,7 @@ CPU_AVX512_FN __mmask16 tri16(const struct mesh16 *q, const struct tri4 *b, int 
 }
 
 /* The triangles of the count in blocks b that some ray of the packet may
- * meet: those whose bounding box bvh16_cull_boxes keeps, when the packet
+ * meet: those whose bounding box bvh_cull_boxes keeps, when the packet
  * has its intervals (else all).  A box is a triangle's own (the tree's
  * boxes are unions of them), so what holds for a node holds for it; and a
  * coherent packet, a few pixels wide, meets few of a leaf's triangles. */
@@ -131,8 +131,7 @@ CPU_AVX512_FN unsigned tri_cull(const struct mesh16 *q, const struct tri4 *b, ui
     unsigned down = (q->br.neg[0] != 0) | (q->br.neg[1] != 0) << 1 | (q->br.neg[2] != 0) << 2;
     tri_leaf_boxes(b, count, down, near, far);
     __m256 tn;
-    return bvh16_cull_boxes(&q->br, near, far, _mm512_mul_ps(tm, _mm512_set1_ps(BVH_SLACK)), lanes,
-                            &tn);
+    return bvh_cull_boxes(&q->br.cull, near, far, bvh16_reach_most(tm, lanes), &tn);
 }
 
 /* A leaf for the nearest-hit walk: its triangles that tri_cull keeps
@@ -308,10 +307,9 @@ CPU_AVX512_FN void shear8(const struct ray16 *q, int h, __m256 s[3], unsigned m[
 
 /* tri_tmax_nearest (any: tri_tmax_any) of each lane's tmax, 16 at once. */
 CPU_AVX512_FN __m512 bounds16(const double tmax[16], uint32_t active, bool any) {
-    double t[16];
-    int first = __builtin_ctz(active);
-    for (int i = 0; i < 16; i++) t[i] = tmax[active >> i & 1 ? i : first];
-    __m512d lo = _mm512_loadu_pd(t), hi = _mm512_loadu_pd(t + 8);
+    __m512d t0 = _mm512_set1_pd(tmax[__builtin_ctz(active)]); /* for the lanes not in it */
+    __m512d lo = _mm512_mask_loadu_pd(t0, (__mmask8)active, tmax);
+    __m512d hi = _mm512_mask_loadu_pd(t0, (__mmask8)(active >> 8), tmax + 8);
     __m512 f = join16(_mm512_cvtpd_ps(lo), _mm512_cvtpd_ps(hi));
     __m512d cap = _mm512_set1_pd(3e38);
     __mmask16 big = (__mmask16)(_mm512_cmp_pd_mask(lo, cap, _CMP_GT_OQ) |
