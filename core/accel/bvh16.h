@@ -274,11 +274,13 @@ CPU_AVX512_INLINE __mmask8 bvh16_cull(const char *nd, const struct bvh16_ray *r,
     return (__mmask8)bvh_cull_boxes(&r->cull, near, far, far_most, tnear);
 }
 
-/* The leaf test: rays in lanes against leaf (first, count).  A nearest-hit
- * leaf lowers the rays' bounds in *tm and returns 0; an any-hit leaf
- * returns the rays it found blocked, which then leave the walk. */
+/* The leaf test: rays in lanes against leaf (first, count), far_most at
+ * least the greatest of their reaches (bvh16_reach_most) for a culling
+ * test.  A nearest-hit leaf lowers the rays' bounds in *tm and returns 0;
+ * an any-hit leaf returns the rays it found blocked, which then leave the
+ * walk. */
 typedef __mmask16 (*bvh16_leaf_fn)(void *ctx, uint32_t first, uint32_t count, __mmask16 lanes,
-                                   __m512 *tm);
+                                   __m512 *tm, float far_most);
 
 /* Pushes the children of inner node cur that rays in lanes enter (bounds
  * tm, their reach at most far_most) onto the stack, and pops the nearest
@@ -397,10 +399,12 @@ CPU_AVX512_INLINE __mmask16 bvh16_walk(const void *nodes, int width, const char 
     cur.lanes = lanes;
     for (;;) {
         if (lone && __builtin_popcount(cur.lanes) <= BVH16_LONE_MAX) {
-            blocked |= lone(ctx, cur.node, cur.count, cur.lanes, tm);
-            lanes &= (__mmask16)~blocked;
+            __m512 before = *tm;
+            __mmask16 got = lone(ctx, cur.node, cur.count, cur.lanes, tm, far_most);
+            blocked |= got, lanes &= (__mmask16)~got;
             if (!lanes) return blocked;
-            if (culled) far_most = bvh16_reach_most(*tm, lanes);
+            if (culled && (got || _mm512_cmp_ps_mask(before, *tm, _CMP_NEQ_UQ)))
+                far_most = bvh16_reach_most(*tm, lanes);
         } else if (cur.count == 0) {
             if (bvh16_descend(nodes, width, leaves, leaf_size, r, *tm, far_most, &cur, stack, &sp,
                               ordered))
@@ -411,10 +415,12 @@ CPU_AVX512_INLINE __mmask16 bvh16_walk(const void *nodes, int width, const char 
                 visits = 0;
                 if (!meter_live()) return blocked;
             }
-            blocked |= leaf(ctx, cur.node, cur.count, cur.lanes, tm);
-            lanes &= (__mmask16)~blocked;
+            __m512 before = *tm;
+            __mmask16 got = leaf(ctx, cur.node, cur.count, cur.lanes, tm, far_most);
+            blocked |= got, lanes &= (__mmask16)~got;
             if (!lanes) return blocked;
-            if (culled) far_most = bvh16_reach_most(*tm, lanes);
+            if (culled && (got || _mm512_cmp_ps_mask(before, *tm, _CMP_NEQ_UQ)))
+                far_most = bvh16_reach_most(*tm, lanes);
         }
         for (;;) { /* pop an entry some ray still needs (its fields, not a copy of it) */
             if (sp == 0) return blocked;

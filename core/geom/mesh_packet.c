@@ -119,31 +119,31 @@ CPU_AVX512_FN __mmask16 tri16(const struct mesh16 *q, const struct tri4 *b, int 
     return ok;
 }
 
-/* The triangles of the count in blocks b that some ray of the packet may
- * meet: those whose bounding box bvh_cull_boxes keeps, when the packet
- * has its intervals (else all).  A box is a triangle's own (the tree's
- * boxes are unions of them), so what holds for a node holds for it; and a
- * coherent packet, a few pixels wide, meets few of a leaf's triangles. */
+/* The triangles of the count in blocks b that some ray of the packet,
+ * reaching at most far_most, may meet: those whose bounding box
+ * bvh_cull_boxes keeps, when the packet has its intervals (else all).  A box is a triangle's own
+ * (the tree's boxes are unions of them), so what holds for a node holds for it; and a coherent
+ * packet, a few pixels wide, meets few of a leaf's triangles. */
 CPU_AVX512_FN unsigned tri_cull(const struct mesh16 *q, const struct tri4 *b, uint32_t count,
-                                __mmask16 lanes, __m512 tm) {
+                                float far_most) {
     if (!q->br.ia) return 0xffu;
     __m256 near[3], far[3]; /* uniform signs: every lane's the same */
     unsigned down = (q->br.neg[0] != 0) | (q->br.neg[1] != 0) << 1 | (q->br.neg[2] != 0) << 2;
     tri_leaf_boxes(b, count, down, near, far);
     __m256 tn;
-    return bvh_cull_boxes(&q->br.cull, near, far, bvh16_reach_most(tm, lanes), &tn);
+    return bvh_cull_boxes(&q->br.cull, near, far, far_most, &tn);
 }
 
 /* A leaf for the nearest-hit walk: its triangles that tri_cull keeps
  * tested with the bounds on entry, then taken in lane order, as tri4_take
  * does. */
 CPU_AVX512_FN __mmask16 leaf_nearest(void *ctx, uint32_t first, uint32_t count, __mmask16 lanes,
-                                     __m512 *tm) {
+                                     __m512 *tm, float far_most) {
     struct mesh16 *q = ctx;
     const struct tri4 *b = &q->m->blocks[first];
     __m512 T[BVH8_LEAF_MAX], U[BVH8_LEAF_MAX], V[BVH8_LEAF_MAX];
     __mmask16 ok[BVH8_LEAF_MAX];
-    unsigned live = tri_cull(q, b, count, lanes, *tm);
+    unsigned live = tri_cull(q, b, count, far_most);
     for (uint32_t j = 0; j < count; j++)
         ok[j] =
             live >> j & 1 ? tri16(q, &b[j / 4], (int)(j % 4), lanes, *tm, &T[j], &U[j], &V[j]) : 0;
@@ -167,11 +167,11 @@ CPU_AVX512_FN __mmask16 leaf_nearest(void *ctx, uint32_t first, uint32_t count, 
 
 /* A leaf for the any-hit walk: the rays that hit any of its triangles. */
 CPU_AVX512_FN __mmask16 leaf_any(void *ctx, uint32_t first, uint32_t count, __mmask16 lanes,
-                                 __m512 *tm) {
+                                 __m512 *tm, float far_most) {
     const struct mesh16 *q = ctx;
     const struct tri4 *b = &q->m->blocks[first];
     __mmask16 hit = 0;
-    unsigned live = tri_cull(q, b, count, lanes, *tm);
+    unsigned live = tri_cull(q, b, count, far_most);
     for (uint32_t j = 0; j < count && hit != lanes; j++) {
         if (!(live >> j & 1)) continue;
         __m512 t = _mm512_setzero_ps(), u = t, v = t; /* unused here */
@@ -217,7 +217,8 @@ CPU_AVX512_FN void lane_ray(const struct mesh16 *q, const struct lane_rays *l, i
  * through node (count: as in bvh8_node) alone, from its best hit so far,
  * and what it finds goes back into its lane. */
 CPU_AVX512_FN __mmask16 lone_nearest(void *ctx, uint32_t node, uint32_t count, __mmask16 lanes,
-                                     __m512 *tm) {
+                                     __m512 *tm, float far_most) {
+    (void)far_most; /* each ray's own walk has its own bounds */
     struct mesh16 *q = ctx;
     struct lane_rays l;
     lane_rays_load(&l, q);
@@ -253,7 +254,8 @@ CPU_AVX512_FN __mmask16 lone_nearest(void *ctx, uint32_t node, uint32_t count, _
 /* The lone walk of an any-hit packet: the rays in lanes that meet a
  * triangle under node. */
 CPU_AVX512_FN __mmask16 lone_any(void *ctx, uint32_t node, uint32_t count, __mmask16 lanes,
-                                 __m512 *tm) {
+                                 __m512 *tm, float far_most) {
+    (void)far_most; /* each ray's own walk has its own bounds */
     const struct mesh16 *q = ctx;
     struct lane_rays l;
     lane_rays_load(&l, q);
@@ -374,7 +376,7 @@ CPU_AVX512_EXTERN uint32_t mesh16_intersect(const struct mesh *m, const struct r
     __m512 tm;
     mesh16_init(&q, m, rd, tmax, active, false, &tm);
     if (packet_parts(&q))
-        lone_nearest(&q, 0, 0, (__mmask16)active, &tm);
+        lone_nearest(&q, 0, 0, (__mmask16)active, &tm, INFINITY);
     else
         bvh16_walk(m->bvh.nodes, 8, (const char *)m->blocks, sizeof *m->blocks, &q.br, &tm,
                    (__mmask16)active, leaf_nearest, lone_nearest, &q, true);
@@ -397,7 +399,7 @@ CPU_AVX512_EXTERN uint32_t mesh16_occluded(const struct mesh *m, const struct ra
     struct mesh16 q;
     __m512 tm;
     mesh16_init(&q, m, rd, tmax, active, true, &tm);
-    if (packet_parts(&q)) return lone_any(&q, 0, 0, (__mmask16)active, &tm);
+    if (packet_parts(&q)) return lone_any(&q, 0, 0, (__mmask16)active, &tm, INFINITY);
     return bvh16_walk(m->bvh.nodes, 8, (const char *)m->blocks, sizeof *m->blocks, &q.br, &tm,
                       (__mmask16)active, leaf_any, lone_any, &q, false);
 }

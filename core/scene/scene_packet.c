@@ -403,7 +403,8 @@ CPU_AVX512_FN __m512 node_bounds16(const double tmax[16]) {
 }
 
 CPU_AVX512_FN __mmask16 tlas_nearest(void *ctx, uint32_t first, uint32_t count, __mmask16 lanes,
-                                     __m512 *tm) {
+                                     __m512 *tm, float far_most) {
+    (void)far_most; /* 4-wide nodes: no culling test */
     struct scene16 *q = ctx;
     q->visits += (uint64_t)count * (uint64_t)__builtin_popcount(lanes);
     for (uint32_t k = first; k < first + count; k++) visit_nearest16(q, &q->s->objs[k], lanes);
@@ -412,7 +413,8 @@ CPU_AVX512_FN __mmask16 tlas_nearest(void *ctx, uint32_t first, uint32_t count, 
 }
 
 CPU_AVX512_FN __mmask16 tlas_any(void *ctx, uint32_t first, uint32_t count, __mmask16 lanes,
-                                 __m512 *tm) {
+                                 __m512 *tm, float far_most) {
+    (void)far_most; /* 4-wide nodes: no culling test */
     struct scene16 *q = ctx;
     (void)tm;
     __mmask16 blocked = 0;
