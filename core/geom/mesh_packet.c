@@ -14,7 +14,7 @@
  * (mesh_walk.h), each from its best hit so far: the same answer, and the
  * rays of an incoherent packet (bounce rays) stop paying 16 lanes a node;
  * through a mesh that outgrows the cache such a packet goes ray by ray
- * from the root (packet_parts).
+ * from the root, through the one-ray queries (packet_parts).
  *
  * Where the CPU stops at AVX2 (valgrind's does too) the entry points take
  * mesh_packet8.c's packets of 8 instead.  Without either (another CPU, a
@@ -365,21 +365,59 @@ CPU_AVX512_FN void mesh16_init(struct mesh16 *q, const struct mesh *m, const str
  * part ways at once, so a node test for 16 lanes buys next to nothing:
  * bounce packets on the 1.3M-triangle mesh ran slower than the same rays
  * one by one, as Embree's hybrid walk takes incoherent packets one ray at
- * a time too.  In cache the packet walk stays faster (bench/README.md). */
-CPU_AVX512_FN bool packet_parts(const struct mesh16 *q) { return !q->br.uniform && q->m->prefetch; }
+ * a time too.  In cache the packet walk stays faster (bench/README.md).
+ * Asked before the packet's set-up, which such rays would not use: the
+ * signs are those of the directions' doubles, as the set-up's floats
+ * keep them (a NaN's may differ: it only picks the way, not the hits). */
+CPU_AVX512_FN bool packet_parts(const struct mesh *m, const struct ray16 *rd, uint32_t active) {
+    if (!m->prefetch) return false;
+    for (int k = 0; k < 3; k++) {
+        __m512i lo = _mm512_loadu_si512(rd->d[k]), hi = _mm512_loadu_si512(rd->d[k] + 8);
+        __m512i zero = _mm512_setzero_si512();
+        uint32_t down =
+            _mm512_cmplt_epi64_mask(lo, zero) | (uint32_t)_mm512_cmplt_epi64_mask(hi, zero) << 8;
+        if ((down & active) != 0 && (down & active) != active) return true;
+    }
+    return false;
+}
+
+/* The rays of rd in lanes one by one through the one-ray queries: the
+ * way of a packet that parts (packet_parts).  The lone walk from the root
+ * (lone_nearest) ran 5% slower here, on the 1.3M mesh's bounce packets,
+ * than these calls (bench/README.md); the AVX2 code keeps its lone walk,
+ * which ran 5% faster than these (mesh_packet8.c). */
+CPU_AVX512_FN uint32_t lanes_nearest(const struct mesh *m, const struct ray16 *rd,
+                                     const double tmax[16], uint32_t lanes, struct mesh_hit h[16]) {
+    uint32_t hit = 0;
+    for (; lanes; lanes &= lanes - 1) {
+        int i = __builtin_ctz(lanes);
+        ray r = ray16_get(rd, i);
+        if (mesh_intersect(m, &r, tmax[i], &h[i])) hit |= 1u << i;
+    }
+    return hit;
+}
+
+CPU_AVX512_FN uint32_t lanes_any(const struct mesh *m, const struct ray16 *rd,
+                                 const double tmax[16], uint32_t lanes) {
+    uint32_t hit = 0;
+    for (; lanes; lanes &= lanes - 1) {
+        int i = __builtin_ctz(lanes);
+        ray r = ray16_get(rd, i);
+        if (mesh_occluded(m, &r, tmax[i])) hit |= 1u << i;
+    }
+    return hit;
+}
 
 CPU_AVX512_EXTERN uint32_t mesh16_intersect(const struct mesh *m, const struct ray16 *rd,
                                             const double tmax[16], uint32_t active,
                                             struct mesh_hit h[16]) {
     if (!active || m->bvh.nnodes == 0) return 0;
+    if (packet_parts(m, rd, active)) return lanes_nearest(m, rd, tmax, active, h);
     struct mesh16 q;
     __m512 tm;
     mesh16_init(&q, m, rd, tmax, active, false, &tm);
-    if (packet_parts(&q))
-        lone_nearest(&q, 0, 0, (__mmask16)active, &tm, INFINITY);
-    else
-        bvh16_walk(m->bvh.nodes, 8, (const char *)m->blocks, sizeof *m->blocks, &q.br, &tm,
-                   (__mmask16)active, leaf_nearest, lone_nearest, &q, true);
+    bvh16_walk(m->bvh.nodes, 8, (const char *)m->blocks, sizeof *m->blocks, &q.br, &tm,
+               (__mmask16)active, leaf_nearest, lone_nearest, &q, true);
     float t[16], u[16], v[16];
     uint32_t id[16], blk[16], lane[16], hit = 0;
     _mm512_storeu_ps(t, q.t), _mm512_storeu_ps(u, q.u), _mm512_storeu_ps(v, q.v);
@@ -396,10 +434,10 @@ CPU_AVX512_EXTERN uint32_t mesh16_intersect(const struct mesh *m, const struct r
 CPU_AVX512_EXTERN uint32_t mesh16_occluded(const struct mesh *m, const struct ray16 *rd,
                                            const double tmax[16], uint32_t active) {
     if (!active || m->bvh.nnodes == 0) return 0;
+    if (packet_parts(m, rd, active)) return lanes_any(m, rd, tmax, active);
     struct mesh16 q;
     __m512 tm;
     mesh16_init(&q, m, rd, tmax, active, true, &tm);
-    if (packet_parts(&q)) return lone_any(&q, 0, 0, (__mmask16)active, &tm, INFINITY);
     return bvh16_walk(m->bvh.nodes, 8, (const char *)m->blocks, sizeof *m->blocks, &q.br, &tm,
                       (__mmask16)active, leaf_any, lone_any, &q, false);
 }
