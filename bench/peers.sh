@@ -9,6 +9,8 @@
 #            one thread, one ray at a time and as packets of 4x4 pixels --
 #            rayd's scene_intersect16 against Embree's rtcIntersect16; BVH
 #            build on 2 threads each), median of RUNS runs
+#            and, in CPU seconds, against Embree's robust mode too
+#            (embree_bench --robust: its closest to rayd's watertight walks)
 #   spheres  bench/scenes/spheres10.json by rayd-render --threads 1 (its
 #            --stats wall time: the render, not the parse; a run is the
 #            mean of FRAMES renders, about one POV-Ray trace long) vs
@@ -73,8 +75,9 @@ for m in "${meshes[@]}"; do
     for r in $(seq "$RUNS"); do
         run "$R/$m.raybench-cpu.$r" "$D/raybench" "$D/$m.json" --runs 1 --threads-max 1 --cpu-time
         run "$R/$m.embree-cpu.$r" "$D/embree_bench" "$D/$m.json" --runs 1 --cpu-time
+        run "$R/$m.robust-cpu.$r" "$D/embree_bench" "$D/$m.json" --runs 1 --cpu-time --robust
     done
-    for t in raybench embree raybench-cpu embree-cpu; do
+    for t in raybench embree raybench-cpu embree-cpu robust-cpu; do
         medianize "$R/$m.$t".[0-9]* >"$R/$m.$t"
     done
 done
@@ -246,6 +249,18 @@ for kind in primary shadow occlusion bounce; do
         row "$kind, $n: packets / packet16" "$(kv "$a" ${kind}_packet_mrays_1t)" \
             "$(kv "$e" ${kind}_mrays_1t_packet16)" "$(kv "$ac" ${kind}_packet_mrays_1t)" \
             "$(kv "$ec" ${kind}_mrays_1t_packet16)" "$t"
+    done
+done
+# Against Embree's robust mode (embree_bench --robust): the nearest it comes
+# to the guarantees rayd's walks always give (no ray through a shared edge);
+# CPU seconds, one thread.
+for kind in primary shadow occlusion bounce; do
+    for m in "${meshes[@]}"; do
+        ac=$R/$m.raybench-cpu rc=$R/$m.robust-cpu n=$(name_of "$m")
+        row "$kind, $n: 1 / robust 1" - - "$(kv "$ac" ${kind}_mrays_1t)" \
+            "$(kv "$rc" ${kind}_mrays_1t_single)" -
+        row "$kind, $n: 16 / robust 16" - - "$(kv "$ac" ${kind}_packet_mrays_1t)" \
+            "$(kv "$rc" ${kind}_mrays_1t_packet16)" -
     done
 done
 row "BVH build, 1.3M mesh / Embree medium" "$(kv "$R/mesh-8.raybench" bvh_build_s)" \

@@ -1,6 +1,6 @@
 /* embree_bench -- the rays raybench casts, cast by Embree instead.
  *
- *   embree_bench SCENE.json [--width W] [--height H] [--runs N] [--cpu-time]
+ *   embree_bench SCENE.json [--width W] [--height H] [--runs N] [--cpu-time] [--robust]
  *
  * The peer of bench/raybench.c for `make bench-peers`, built only there,
  * against Debian's libembree (3.13): never a dependency of rayd itself.
@@ -35,8 +35,13 @@
  * all on the calling thread (timed in wall seconds, or with --cpu-time in
  * that thread's CPU seconds, as raybench --cpu-time times its 1-thread
  * casts), with denormals flushed to zero (FTZ/DAZ) as
- * Embree recommends.  Output: "key value" lines like raybench's,
- * with the hit counts (keys ending _hits) to show both cast the same rays.
+ * Embree recommends.  --robust sets RTC_SCENE_FLAG_ROBUST, which "avoids
+ * optimizations that reduce arithmetic accuracy ... rays shooting through
+ * edges of neighboring primitives" (Embree's manual): the nearest Embree
+ * comes to what rayd's walks always do (a watertight triangle test, a box
+ * test that never misses a box the ray touches), and what its default
+ * trades for speed.  Output: "key value" lines like raybench's, with the
+ * hit counts (keys ending _hits) to show both cast the same rays.
  */
 #include <cjson/cJSON.h>
 #include <embree3/rtcore.h>
@@ -498,9 +503,10 @@ static bool mem_monitor(void *user, ssize_t bytes, bool post) {
     return true;
 }
 
-static RTCScene build_scene(RTCDevice dev, const struct mesh_data *m) {
+static RTCScene build_scene(RTCDevice dev, const struct mesh_data *m, bool robust) {
     RTCScene sc = rtcNewScene(dev);
     rtcSetSceneBuildQuality(sc, RTC_BUILD_QUALITY_MEDIUM);
+    if (robust) rtcSetSceneFlags(sc, RTC_SCENE_FLAG_ROBUST);
     RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
     rtcSetGeometryBuildQuality(g, RTC_BUILD_QUALITY_MEDIUM);
     float *vb = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
@@ -519,6 +525,7 @@ static RTCScene build_scene(RTCDevice dev, const struct mesh_data *m) {
 int main(int argc, char **argv) {
     const char *path = NULL;
     int w = 0, h = 0, runs = 3;
+    bool robust = false;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--width") && i + 1 < argc)
             w = atoi(argv[++i]);
@@ -528,13 +535,15 @@ int main(int argc, char **argv) {
             runs = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--cpu-time"))
             use_cpu_time = true;
+        else if (!strcmp(argv[i], "--robust"))
+            robust = true;
         else
             path = argv[i];
     }
     if (!path || w < 0 || h < 0 || runs <= 0 || runs > 99) {
-        fprintf(
-            stderr,
-            "usage: embree_bench SCENE.json [--width W] [--height H] [--runs N] [--cpu-time]\n");
+        fprintf(stderr,
+                "usage: embree_bench SCENE.json [--width W] [--height H] [--runs N] [--cpu-time]"
+                " [--robust]\n");
         return 2;
     }
     size_t len;
@@ -629,7 +638,7 @@ int main(int argc, char **argv) {
     for (int r = 0; r < runs; r++) {
         if (s.scene) rtcReleaseScene(s.scene);
         long long start = atomic_load(&mem_now);
-        RTCScene sc = build_scene(dev, &m); /* geometry upload: not timed */
+        RTCScene sc = build_scene(dev, &m, robust); /* geometry upload: not timed */
         long long before = atomic_load(&mem_now);
         double t0 = now();
         rtcCommitScene(sc);
