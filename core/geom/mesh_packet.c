@@ -121,9 +121,10 @@ CPU_AVX512_FN __mmask16 tri16(const struct mesh16 *q, const struct tri4 *b, int 
 
 /* The triangles of the count in blocks b that some ray of the packet,
  * reaching at most far_most, may meet: those whose bounding box
- * bvh_cull_boxes keeps, when the packet has its intervals (else all).  A box is a triangle's own
- * (the tree's boxes are unions of them), so what holds for a node holds for it; and a coherent
- * packet, a few pixels wide, meets few of a leaf's triangles. */
+ * bvh_cull_boxes keeps, when the packet has its intervals (else all).  A
+ * box is a triangle's own (the tree's boxes are unions of them), so what
+ * holds for a node holds for it; and a coherent packet, a few pixels
+ * wide, meets few of a leaf's triangles. */
 CPU_AVX512_FN unsigned tri_cull(const struct mesh16 *q, const struct tri4 *b, uint32_t count,
                                 float far_most) {
     if (!q->br.ia) return 0xffu;
