@@ -254,12 +254,29 @@ CPU_AVX512_INLINE __mmask16 bvh16_child(const char *nd, int width, int c, const 
     return _mm512_mask_cmp_ps_mask(lanes, tn, tf, _CMP_LE_OQ);
 }
 
-/* The greatest reach (bound tm times BVH_SLACK) of the rays in lanes,
- * infinity when one is NaN: bvh_cull_boxes's far_most. */
-CPU_AVX512_INLINE float bvh16_reach_most(__m512 tm, __mmask16 lanes) {
-    __m512 tmax = _mm512_mul_ps(tm, _mm512_set1_ps(BVH_SLACK));
+/* The greatest of the reaches tmax of the rays in lanes, infinity when one
+ * is NaN: bvh_cull_boxes's far_most. */
+CPU_AVX512_INLINE float bvh16_far_most(__m512 tmax, __mmask16 lanes) {
     __mmask16 nan = _mm512_mask_cmp_ps_mask(lanes, tmax, tmax, _CMP_UNORD_Q);
     return nan ? INFINITY : _mm512_mask_reduce_max_ps(lanes, tmax);
+}
+
+/* The same of the bounds tm, each reaching tm times BVH_SLACK. */
+CPU_AVX512_INLINE float bvh16_reach_most(__m512 tm, __mmask16 lanes) {
+    return bvh16_far_most(_mm512_mul_ps(tm, _mm512_set1_ps(BVH_SLACK)), lanes);
+}
+
+/* After a leaf or lone walk that blocked the rays got and may have
+ * lowered the bounds from before to tm: the rays still walking in *lanes
+ * and blocked in *blocked, and, where the walk culls, far_most renewed
+ * when something changed.  True when no ray is left. */
+CPU_AVX512_INLINE bool bvh16_after_leaf(__mmask16 got, __m512 before, __m512 tm, bool culled,
+                                        __mmask16 *lanes, __mmask16 *blocked, float *far_most) {
+    *blocked |= got, *lanes &= (__mmask16)~got;
+    if (!*lanes) return true;
+    if (culled && (got || _mm512_cmp_ps_mask(before, tm, _CMP_NEQ_UQ)))
+        *far_most = bvh16_reach_most(tm, *lanes);
+    return false;
 }
 
 /* bvh_cull_boxes (bvh.h) on the eight children of node nd, for rays whose
@@ -401,10 +418,8 @@ CPU_AVX512_INLINE __mmask16 bvh16_walk(const void *nodes, int width, const char 
         if (lone && __builtin_popcount(cur.lanes) <= BVH16_LONE_MAX) {
             __m512 before = *tm;
             __mmask16 got = lone(ctx, cur.node, cur.count, cur.lanes, tm, far_most);
-            blocked |= got, lanes &= (__mmask16)~got;
-            if (!lanes) return blocked;
-            if (culled && (got || _mm512_cmp_ps_mask(before, *tm, _CMP_NEQ_UQ)))
-                far_most = bvh16_reach_most(*tm, lanes);
+            if (bvh16_after_leaf(got, before, *tm, culled, &lanes, &blocked, &far_most))
+                return blocked;
         } else if (cur.count == 0) {
             if (bvh16_descend(nodes, width, leaves, leaf_size, r, *tm, far_most, &cur, stack, &sp,
                               ordered))
@@ -417,10 +432,8 @@ CPU_AVX512_INLINE __mmask16 bvh16_walk(const void *nodes, int width, const char 
             }
             __m512 before = *tm;
             __mmask16 got = leaf(ctx, cur.node, cur.count, cur.lanes, tm, far_most);
-            blocked |= got, lanes &= (__mmask16)~got;
-            if (!lanes) return blocked;
-            if (culled && (got || _mm512_cmp_ps_mask(before, *tm, _CMP_NEQ_UQ)))
-                far_most = bvh16_reach_most(*tm, lanes);
+            if (bvh16_after_leaf(got, before, *tm, culled, &lanes, &blocked, &far_most))
+                return blocked;
         }
         for (;;) { /* pop an entry some ray still needs (its fields, not a copy of it) */
             if (sp == 0) return blocked;

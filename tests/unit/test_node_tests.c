@@ -25,7 +25,7 @@ CPU_AVX512_FN void cull_check16(const struct bvh8_node *nd, const struct ray16 *
     __m512 tmax = _mm512_loadu_ps(tm);
     __m256 box_tn;
     unsigned keep =
-        bvh16_cull((const char *)nd, &r, bvh16_reach_most(tmax, (__mmask16)lanes), &box_tn);
+        bvh16_cull((const char *)nd, &r, bvh16_far_most(tmax, (__mmask16)lanes), &box_tn);
     for (int c = 0; c < 7; c++) {
         __m512 tn;
         /* the walk's test (fused, as r has it) and the unfused one */
