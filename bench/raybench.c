@@ -121,13 +121,34 @@ static vec3 light_dir(const rayd_scene *s, vec3 p, double *dist) {
     return to;
 }
 
+/* The point and unit geometric normal of hit h of ray r, and whether the
+ * geometry is in float: on an untransformed mesh those two alone, the
+ * same values as scene_surface's, which also looks up the material and
+ * the shading normal (embree_bench has the normal from its hit and takes
+ * the point along its ray); any other hit through scene_surface. */
+static void hit_geometry(const rayd_scene *s, const ray *r, const struct hit *h, vec3 *p, vec3 *ng,
+                         bool *float_geom) {
+    const struct object *o = h->leaf;
+    if (o->kind == SHAPE_MESH && o->xform < 0 && !h->outer && !h->orient) {
+        const struct mesh *m = &s->meshes[o->u.mesh.id];
+        *p = mesh_point(m, &h->mh);
+        *ng = mesh_geometric_normal(m, &h->mh);
+        *float_geom = true;
+        return;
+    }
+    struct surface sf;
+    scene_surface(s, r, h, &sf);
+    *p = sf.p, *ng = sf.ng, *float_geom = sf.float_geom;
+}
+
 /* The shadow ray from primary hit h of ray r: origin, direction, length. */
 static void shadow_ray(const rayd_scene *s, const ray *r, const struct hit *h, ray *sr,
                        double *dist) {
-    struct surface sf;
-    scene_surface(s, r, h, &sf);
-    vec3 n = v3_dot(sf.ng, r->d) > 0 ? v3_neg(sf.ng) : sf.ng;
-    sr->o = v3_madd(sf.p, n, integrate_offset(sf.p, sf.float_geom));
+    vec3 p, ng;
+    bool float_geom;
+    hit_geometry(s, r, h, &p, &ng, &float_geom);
+    vec3 n = v3_dot(ng, r->d) > 0 ? v3_neg(ng) : ng;
+    sr->o = v3_madd(p, n, integrate_offset(p, float_geom));
     sr->d = light_dir(s, sr->o, dist);
 }
 
