@@ -12,9 +12,11 @@
  * frame is picked per lane with mask blends.  Where at most BVH16_LONE_MAX
  * of its rays still need a node, they go on alone through the one-ray walk
  * (mesh_walk.h), each from its best hit so far: the same answer, and the
- * rays of an incoherent packet (bounce rays) stop paying 16 lanes a node;
- * through a mesh that outgrows the cache such a packet goes ray by ray
- * from the root, through the one-ray queries (packet_parts).
+ * rays of an incoherent packet (bounce rays) stop paying 16 lanes a node.
+ * Such a packet takes the walk too through a mesh that outgrows the
+ * cache, where its rays part ways near the root: 1.14x as fast as the
+ * same rays one by one on an AMD EPYC with AVX-512, 0.95x on the Intel
+ * Xeon measured before (bench/README.md, "Incoherent packets again").
  *
  * Where the CPU stops at AVX2 (valgrind's does too) the entry points take
  * mesh_packet8.c's packets of 8 instead.  Without either (another CPU, a
@@ -360,60 +362,10 @@ CPU_AVX512_FN void mesh16_init(struct mesh16 *q, const struct mesh *m, const str
     q->found = 0;
 }
 
-/* Whether the packet goes ray by ray from the root: its rays go every way
- * (some axis's sign differs between them, as bounce rays') through a mesh
- * that outgrows the cache.  There the walk waits on memory, and its rays
- * part ways at once, so a node test for 16 lanes buys next to nothing:
- * bounce packets on the 1.3M-triangle mesh ran slower than the same rays
- * one by one, as Embree's hybrid walk takes incoherent packets one ray at
- * a time too.  In cache the packet walk stays faster (bench/README.md).
- * Asked before the packet's set-up, which such rays would not use: the
- * signs are those of the directions' doubles, as the set-up's floats
- * keep them (a NaN's may differ: it only picks the way, not the hits). */
-CPU_AVX512_FN bool packet_parts(const struct mesh *m, const struct ray16 *rd, uint32_t active) {
-    if (!m->prefetch) return false;
-    for (int k = 0; k < 3; k++) {
-        __m512i lo = _mm512_loadu_si512(rd->d[k]), hi = _mm512_loadu_si512(rd->d[k] + 8);
-        __m512i zero = _mm512_setzero_si512();
-        uint32_t down =
-            _mm512_cmplt_epi64_mask(lo, zero) | (uint32_t)_mm512_cmplt_epi64_mask(hi, zero) << 8;
-        if ((down & active) != 0 && (down & active) != active) return true;
-    }
-    return false;
-}
-
-/* The rays of rd in lanes one by one through the one-ray queries: the
- * way of a packet that parts (packet_parts).  The lone walk from the root
- * (lone_nearest) ran 5% slower here, on the 1.3M mesh's bounce packets,
- * than these calls (bench/README.md); the AVX2 code keeps its lone walk,
- * which ran 5% faster than these (mesh_packet8.c). */
-CPU_AVX512_FN uint32_t lanes_nearest(const struct mesh *m, const struct ray16 *rd,
-                                     const double tmax[16], uint32_t lanes, struct mesh_hit h[16]) {
-    uint32_t hit = 0;
-    for (; lanes; lanes &= lanes - 1) {
-        int i = __builtin_ctz(lanes);
-        ray r = ray16_get(rd, i);
-        if (mesh_intersect(m, &r, tmax[i], &h[i])) hit |= 1u << i;
-    }
-    return hit;
-}
-
-CPU_AVX512_FN uint32_t lanes_any(const struct mesh *m, const struct ray16 *rd,
-                                 const double tmax[16], uint32_t lanes) {
-    uint32_t hit = 0;
-    for (; lanes; lanes &= lanes - 1) {
-        int i = __builtin_ctz(lanes);
-        ray r = ray16_get(rd, i);
-        if (mesh_occluded(m, &r, tmax[i])) hit |= 1u << i;
-    }
-    return hit;
-}
-
 CPU_AVX512_EXTERN uint32_t mesh16_intersect(const struct mesh *m, const struct ray16 *rd,
                                             const double tmax[16], uint32_t active,
                                             struct mesh_hit h[16]) {
     if (!active || m->bvh.nnodes == 0) return 0;
-    if (packet_parts(m, rd, active)) return lanes_nearest(m, rd, tmax, active, h);
     struct mesh16 q;
     __m512 tm;
     mesh16_init(&q, m, rd, tmax, active, false, &tm);
@@ -435,7 +387,6 @@ CPU_AVX512_EXTERN uint32_t mesh16_intersect(const struct mesh *m, const struct r
 CPU_AVX512_EXTERN uint32_t mesh16_occluded(const struct mesh *m, const struct ray16 *rd,
                                            const double tmax[16], uint32_t active) {
     if (!active || m->bvh.nnodes == 0) return 0;
-    if (packet_parts(m, rd, active)) return lanes_any(m, rd, tmax, active);
     struct mesh16 q;
     __m512 tm;
     mesh16_init(&q, m, rd, tmax, active, true, &tm);

@@ -511,8 +511,8 @@ static void soup_packets(const struct mesh *m, uint32_t *total, uint32_t *hits, 
 }
 
 /* The same packets again as through a mesh that outgrows the cache
- * (prefetch set): there the incoherent ones go ray by ray from the root
- * (mesh_packet.c, packet_parts). */
+ * (prefetch set): there the 8-ray packets' incoherent ones go ray by ray
+ * from the root (mesh_packet8.c, parts8) and every walk prefetches. */
 static void test_packets_in_a_soup_equal_single_rays(void) {
     struct mesh m;
     soup_mesh(&m);
