@@ -7,7 +7,10 @@
  * It reads the benchmark scene JSON (camera, render size, first light, the
  * mesh object's source.file, resolved beside the scene), decodes the PLY
  * with the core's own reader (mesh_parse_ply), and measures, median of
- * RUNS runs:
+ * RUNS runs (each cast once more before them, untimed: a process's first
+ * rtcOccluded16 calls ran 6x slower than the next ones, its first
+ * rtcOccluded1 calls 1.4x, so that one run measured Embree's start, not
+ * its walk; raybench does the same):
  *   - the BVH build: a new scene with RTC_BUILD_QUALITY_MEDIUM, committed
  *     (Embree's default device: its own task threads on every core, as
  *     raybench builds on --threads-max threads), and the bytes Embree
@@ -678,6 +681,7 @@ int main(int argc, char **argv) {
         bool bounce = casts[c].fn == bounce1 || casts[c].fn == bounce16;
         bool occl = casts[c].fn == occluded1 || casts[c].fn == occluded16;
         long hits = 0, count = bounce ? s.nbounce : occl ? s.nshadow : pixels; /* else pixels */
+        casts[c].fn(&s, casts[c].shadow, &hits); /* untimed: see the comment at the top */
         for (int r = 0; r < runs; r++)
             rate[r] = count / casts[c].fn(&s, casts[c].shadow, &hits) / 1e6;
         printf("%s %.2f\n", casts[c].name, median(rate, runs));
