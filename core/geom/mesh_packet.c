@@ -16,7 +16,8 @@
  * Such a packet takes the walk too through a mesh that outgrows the
  * cache, where its rays part ways near the root: 1.14x as fast as the
  * same rays one by one on an AMD EPYC with AVX-512, 0.95x on the Intel
- * Xeon measured before (bench/README.md, "Incoherent packets again").
+ * Xeon measured before (bench/README.md, "The kernels on an AMD EPYC
+ * with AVX-512").
  *
  * Where the CPU stops at AVX2 (valgrind's does too) the entry points take
  * mesh_packet8.c's packets of 8 instead.  Without either (another CPU, a

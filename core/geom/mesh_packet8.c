@@ -354,7 +354,8 @@ CPU_AVX2_FN void mesh8_init(struct mesh8 *q, const struct mesh *m, const struct 
  * going every way through a mesh that outgrows the cache, where they part
  * ways near the root.  On the AMD EPYC with AVX-512 that the 16-ray
  * packets now keep their walk on, these 8-ray ones still ran 1.03-1.16x
- * as fast this way (bench/README.md, "Incoherent packets again"). */
+ * as fast this way (bench/README.md, "The kernels on an AMD EPYC with
+ * AVX-512"). */
 CPU_AVX2_FN bool parts8(const struct mesh8 *q) { return !q->br.uniform && q->m->prefetch; }
 
 CPU_AVX2_EXTERN uint32_t mesh8_intersect(const struct mesh *m, const struct ray16 *rd, int h,
