@@ -141,14 +141,22 @@ static void hit_geometry(const rayd_scene *s, const ray *r, const struct hit *h,
     *p = sf.p, *ng = sf.ng, *float_geom = sf.float_geom;
 }
 
-/* The shadow ray from primary hit h of ray r: origin, direction, length. */
-static void shadow_ray(const rayd_scene *s, const ray *r, const struct hit *h, ray *sr,
-                       double *dist) {
+/* The origin of a secondary ray from hit h of ray r, lifted off the
+ * surface as core/render/integrate.h does, and in *n the geometric normal
+ * on the side r came from. */
+static vec3 hit_lifted(const rayd_scene *s, const ray *r, const struct hit *h, vec3 *n) {
     vec3 p, ng;
     bool float_geom;
     hit_geometry(s, r, h, &p, &ng, &float_geom);
-    vec3 n = v3_dot(ng, r->d) > 0 ? v3_neg(ng) : ng;
-    sr->o = v3_madd(p, n, integrate_offset(p, float_geom));
+    *n = v3_dot(ng, r->d) > 0 ? v3_neg(ng) : ng;
+    return v3_madd(p, *n, integrate_offset(p, float_geom));
+}
+
+/* The shadow ray from primary hit h of ray r: origin, direction, length. */
+static void shadow_ray(const rayd_scene *s, const ray *r, const struct hit *h, ray *sr,
+                       double *dist) {
+    vec3 n;
+    sr->o = hit_lifted(s, r, h, &n);
     sr->d = light_dir(s, sr->o, dist);
 }
 
@@ -285,12 +293,10 @@ static long cast_shadows(struct work *wk) {
 /* The bounce ray of pixel `pixel` from primary hit h of ray r. */
 static void bounce_ray(const rayd_scene *s, const ray *r, const struct hit *h, uint32_t pixel,
                        ray *br) {
-    struct surface sf;
-    scene_surface(s, r, h, &sf);
-    vec3 n = v3_dot(sf.ng, r->d) > 0 ? v3_neg(sf.ng) : sf.ng;
+    vec3 n;
+    br->o = hit_lifted(s, r, h, &n);
     double nd[3] = {n.x, n.y, n.z}, d[3];
     bounce_dir(pixel, nd, d);
-    br->o = v3_madd(sf.p, n, integrate_offset(sf.p, sf.float_geom));
     br->d = v3(d[0], d[1], d[2]);
 }
 
