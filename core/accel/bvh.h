@@ -144,7 +144,8 @@ struct bvh_ray {
      * bounded above and below, the byte offsets in a node of each axis's
      * near and far planes, and whether every org * inv is finite. */
     float oi_hi[4], oi_lo[4];
-    int neg[3]; /* direction component < 0: swap near and far planes */
+    float inv_far[4]; /* inv for the far planes (bvh_ray_fused) */
+    int neg[3];       /* direction component < 0: swap near and far planes */
     uint32_t near8[3], far8[3];
     bool fused;
 };
@@ -162,17 +163,31 @@ static inline void bvh_ray_planes(struct bvh_ray *br) {
  * out by |p| 2^-22 (and a tiny bit for underflow) is surely above or
  * below it.  A plane's t = plane * inv - oi_hi, one fused multiply-add, is
  * then at most its exact value and the far one's at least: the test stays
- * conservative (it never misses a box the ray touches).  The packets'
- * bvh16_ray_fused uses the same three constants. */
+ * conservative (it never misses a box the ray touches).
+ *
+ * The far distances must also come out scaled up by 1 + 2 gamma(3), as
+ * bvh_test_rows scales them (inv is rounded from the ray's direction, each
+ * axis its own way).  That scale is folded into the far planes' constants
+ * instead of multiplying every node's distances on the walk's chain (2-4%
+ * of a ray, bench/README.md): inv_far is inv (1 + 2^-20) and oi_lo is
+ * (p - 2 slack)(1 + 2^-20), each rounded once, so that far * inv_far -
+ * oi_lo is (1 + a)(far * inv - (p - 2 slack)) + (a - b)(p - 2 slack), with
+ * a and b within 2^-24 of 2^-20: the first term more than the unfused
+ * test's scale, the second less than the extra slack.  test_node_tests
+ * checks it against the ray's own direction (with the scale left out it
+ * finds boxes missed).  The packets' bvh16_ray_fused and rays8_init take
+ * the same constants. */
 #define BVH_FUSED_REL 0x1p-22f  /* the slack per unit of |p| */
 #define BVH_FUSED_ABS 0x1p-120f /* ... and for underflow */
 #define BVH_FUSED_MAX 1e37f     /* |p| from which the unfused test is taken */
+#define BVH_FAR_SCALE (1.0f + 0x1p-20f)
 static inline void bvh_ray_fused(struct bvh_ray *br) {
     br->fused = true;
     for (int k = 0; k < 3; k++) {
         float p = br->org[k] * br->inv[k], slack = fabsf(p) * BVH_FUSED_REL + BVH_FUSED_ABS;
         br->oi_hi[k] = p + slack;
-        br->oi_lo[k] = p - slack;
+        br->oi_lo[k] = (p - 2 * slack) * BVH_FAR_SCALE;
+        br->inv_far[k] = br->inv[k] * BVH_FAR_SCALE;
         br->fused &= fabsf(p) < BVH_FUSED_MAX;
     }
     bvh_ray_planes(br);
@@ -225,7 +240,9 @@ static inline void bvh_ray_init_with(struct bvh_ray *br, const vec3 *o, const ve
     __m128 slack =
         _mm_add_ps(_mm_mul_ps(a, _mm_set1_ps(BVH_FUSED_REL)), _mm_set1_ps(BVH_FUSED_ABS));
     _mm_storeu_ps(br->oi_hi, _mm_add_ps(p, slack));
-    _mm_storeu_ps(br->oi_lo, _mm_sub_ps(p, slack));
+    __m128 scale = _mm_set1_ps(BVH_FAR_SCALE);
+    _mm_storeu_ps(br->oi_lo, _mm_mul_ps(_mm_sub_ps(p, _mm_add_ps(slack, slack)), scale));
+    _mm_storeu_ps(br->inv_far, _mm_mul_ps(inv, scale));
     br->fused = (_mm_movemask_ps(_mm_cmplt_ps(a, _mm_set1_ps(BVH_FUSED_MAX))) & 7) == 7;
     bvh_ray_planes(br);
 #else
@@ -306,13 +323,12 @@ CPU_AVX2_INLINE int bvh8_test_fused(const struct bvh8_node *nd, const struct bvh
     __m256 tn = _mm256_set1_ps(tmin), tf = _mm256_set1_ps(tmax);
     const char *at = (const char *)nd;
     for (int k = 0; k < 3; k++) {
-        __m256 inv = _mm256_set1_ps(r->inv[k]);
+        __m256 inv = _mm256_set1_ps(r->inv[k]), inv_far = _mm256_set1_ps(r->inv_far[k]);
         __m256 near = _mm256_loadu_ps((const float *)(const void *)(at + r->near8[k]));
         __m256 far = _mm256_loadu_ps((const float *)(const void *)(at + r->far8[k]));
         tn = _mm256_max_ps(tn, _mm256_fmsub_ps(near, inv, _mm256_set1_ps(r->oi_hi[k])));
-        tf = _mm256_min_ps(tf, _mm256_fmsub_ps(far, inv, _mm256_set1_ps(r->oi_lo[k])));
+        tf = _mm256_min_ps(tf, _mm256_fmsub_ps(far, inv_far, _mm256_set1_ps(r->oi_lo[k])));
     }
-    tf = _mm256_mul_ps(tf, _mm256_set1_ps(1.0000004f));
     _mm256_storeu_ps(tnear, tn);
     return _mm256_movemask_ps(_mm256_cmp_ps(tn, tf, _CMP_LE_OS));
 }

@@ -88,6 +88,7 @@ struct bvh16_ray {
     /* For the fused child test: org * inv moved out as bvh_ray_fused does
      * it, lane by lane, and whether every lane's is finite. */
     __m512 oi_hi[3], oi_lo[3];
+    __m512 inv_far[3]; /* inv scaled for the far planes, as bvh_ray_fused has it */
     bool fused;
 };
 
@@ -99,7 +100,9 @@ CPU_AVX512_FN void bvh16_ray_fused(struct bvh16_ray *p) {
         __m512 slack = _mm512_add_ps(_mm512_mul_ps(a, _mm512_set1_ps(BVH_FUSED_REL)),
                                      _mm512_set1_ps(BVH_FUSED_ABS));
         p->oi_hi[k] = _mm512_add_ps(oi, slack);
-        p->oi_lo[k] = _mm512_sub_ps(oi, slack);
+        p->oi_lo[k] = _mm512_mul_ps(_mm512_sub_ps(oi, _mm512_add_ps(slack, slack)),
+                                    _mm512_set1_ps(BVH_FAR_SCALE));
+        p->inv_far[k] = _mm512_mul_ps(p->inv[k], _mm512_set1_ps(BVH_FAR_SCALE));
         finite &= _mm512_cmp_ps_mask(a, _mm512_set1_ps(BVH_FUSED_MAX), _CMP_LT_OQ);
     }
     p->fused = finite == 0xffff;
@@ -243,13 +246,13 @@ CPU_AVX512_INLINE __mmask16 bvh16_child(const char *nd, int width, int c, const 
         }
         if (r->fused) {
             tn = _mm512_max_ps(tn, _mm512_fmsub_ps(near, r->inv[k], r->oi_hi[k]));
-            tf = _mm512_min_ps(tf, _mm512_fmsub_ps(far, r->inv[k], r->oi_lo[k]));
+            tf = _mm512_min_ps(tf, _mm512_fmsub_ps(far, r->inv_far[k], r->oi_lo[k]));
         } else {
             tn = _mm512_max_ps(tn, _mm512_mul_ps(_mm512_sub_ps(near, r->org[k]), r->inv[k]));
             tf = _mm512_min_ps(tf, _mm512_mul_ps(_mm512_sub_ps(far, r->org[k]), r->inv[k]));
         }
     }
-    tf = _mm512_mul_ps(tf, _mm512_set1_ps(1.0000004f));
+    if (!r->fused) tf = _mm512_mul_ps(tf, _mm512_set1_ps(1.0000004f)); /* fused: in inv_far */
     *tnear = tn;
     return _mm512_mask_cmp_ps_mask(lanes, tn, tf, _CMP_LE_OQ);
 }

@@ -43,6 +43,7 @@
 struct rays8_ray {
     __m256 org[3], inv[3];
     __m256 oi_hi[3], oi_lo[3]; /* bvh_ray_fused's bounds of org * inv */
+    __m256 inv_far[3];         /* ... and its inv for the far planes */
     __m256 negv[3];            /* all ones in the lanes whose direction is negative */
     unsigned neg[3];           /* ... and as a bit mask */
     bool uniform;              /* each axis's sign one for the packet */
@@ -124,7 +125,10 @@ CPU_AVX2_FN void rays8_init(struct rays8_ray *p, const struct ray16 *q, int h, u
         __m256 oi = _mm256_mul_ps(p->org[k], p->inv[k]), a = _mm256_andnot_ps(sign, oi);
         __m256 slack = _mm256_add_ps(_mm256_mul_ps(a, _mm256_set1_ps(BVH_FUSED_REL)),
                                      _mm256_set1_ps(BVH_FUSED_ABS));
-        p->oi_hi[k] = _mm256_add_ps(oi, slack), p->oi_lo[k] = _mm256_sub_ps(oi, slack);
+        __m256 scale = _mm256_set1_ps(BVH_FAR_SCALE);
+        p->oi_hi[k] = _mm256_add_ps(oi, slack);
+        p->oi_lo[k] = _mm256_mul_ps(_mm256_sub_ps(oi, _mm256_add_ps(slack, slack)), scale);
+        p->inv_far[k] = _mm256_mul_ps(p->inv[k], scale);
         finite &= rays8_bits(_mm256_cmp_ps(a, _mm256_set1_ps(BVH_FUSED_MAX), _CMP_LT_OQ));
         bool down = p->neg[k] == 0xffu;
         size_t lo = BVH_NODE_LO(width, k), hi = BVH_NODE_HI(width, k);
@@ -189,13 +193,13 @@ CPU_AVX2_INLINE unsigned rays8_child(const char *nd, int width, int c, const str
         }
         if (r->fused) {
             tn = _mm256_max_ps(tn, _mm256_fmsub_ps(near, r->inv[k], r->oi_hi[k]));
-            tf = _mm256_min_ps(tf, _mm256_fmsub_ps(far, r->inv[k], r->oi_lo[k]));
+            tf = _mm256_min_ps(tf, _mm256_fmsub_ps(far, r->inv_far[k], r->oi_lo[k]));
         } else {
             tn = _mm256_max_ps(tn, _mm256_mul_ps(_mm256_sub_ps(near, r->org[k]), r->inv[k]));
             tf = _mm256_min_ps(tf, _mm256_mul_ps(_mm256_sub_ps(far, r->org[k]), r->inv[k]));
         }
     }
-    tf = _mm256_mul_ps(tf, _mm256_set1_ps(1.0000004f));
+    if (!r->fused) tf = _mm256_mul_ps(tf, _mm256_set1_ps(1.0000004f)); /* fused: in inv_far */
     *tnear = tn;
     return lanes & rays8_bits(_mm256_cmp_ps(tn, tf, _CMP_LE_OQ));
 }
