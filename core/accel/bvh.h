@@ -141,11 +141,12 @@ struct bvh_ray {
     float org[4];
     float inv[4]; /* 1 / direction, with zero components nudged to tiny */
     /* For the fused test of 8-wide nodes (bvh8_test_fused): org * inv
-     * bounded above and below, the byte offsets in a node of each axis's
-     * near and far planes, and whether every org * inv is finite. */
+     * bounded above for the near planes, the far planes' constants (both
+     * from bvh_ray_fused), the byte offsets in a node of each axis's near
+     * and far planes, and whether every org * inv is finite. */
     float oi_hi[4], oi_lo[4];
-    float inv_far[4]; /* inv for the far planes (bvh_ray_fused) */
-    int neg[3];       /* direction component < 0: swap near and far planes */
+    float inv_far[4];
+    int neg[3]; /* direction component < 0: swap near and far planes */
     uint32_t near8[3], far8[3];
     bool fused;
 };
@@ -160,27 +161,31 @@ static inline void bvh_ray_planes(struct bvh_ray *br) {
 
 /* The fused test's fields from org, inv and neg.  The product org * inv
  * is rounded to nearest, so it is within |p| 2^-23 of the float p; p moved
- * out by |p| 2^-22 (and a tiny bit for underflow) is surely above or
- * below it.  A plane's t = plane * inv - oi_hi, one fused multiply-add, is
- * then at most its exact value and the far one's at least: the test stays
- * conservative (it never misses a box the ray touches).
+ * up by |p| 2^-22 (and a tiny bit for underflow) is surely above it.  A
+ * near plane's t = plane * inv - oi_hi, one fused multiply-add, is then at
+ * most its exact value: no entry comes out late.
  *
- * The far distances must also come out scaled up by 1 + 2 gamma(3), as
- * bvh_test_rows scales them (inv is rounded from the ray's direction, each
- * axis its own way).  That scale is folded into the far planes' constants
- * instead of multiplying every node's distances on the walk's chain
- * (bench/README.md, "The far planes' scale in the ray's constants": rays
- * up to 5% faster): inv_far is inv (1 + 2^-20) and oi_lo is
- * (p - 2 slack)(1 + 2^-20), each rounded once, so that far * inv_far -
+ * The far distances must come out at least their exact values along the
+ * ray's own direction, which inv is rounded from (each axis its own way),
+ * scaled by BVH_FAR_SCALE as the unfused test scales its own.  That scale
+ * is folded into the far planes' constants instead of multiplying every
+ * node's distances on the walk's chain (bench/README.md, "The far planes'
+ * scale in the ray's constants": rays up to 5% faster): inv_far is
+ * inv (1 + 2^-20), rounded once, and oi_lo is p moved down by twice the
+ * slack and scaled by 1 + 2^-20, rounded twice, so that far * inv_far -
  * oi_lo is (1 + a)(far * inv - (p - 2 slack)) + (a - b)(p - 2 slack), with
- * a and b within 2^-24 of 2^-20: the first term more than the unfused
- * test's scale, the second less than the extra slack.  test_node_tests
- * checks it against the ray's own direction (with the scale left out it
- * finds boxes missed).  The packets' bvh16_ray_fused and rays8_init take
- * the same constants. */
+ * a and b within 2^-23 of 2^-20: the first term's factor more than the
+ * roundings from the ray's direction to the distance ask, the second less
+ * than the extra slack.  test_node_tests checks every test against the
+ * ray's own direction (with the scale left out it finds boxes missed).
+ * The packets' bvh16_ray_fused and rays8_init make the same constants. */
 #define BVH_FUSED_REL 0x1p-22f  /* the slack per unit of |p| */
 #define BVH_FUSED_ABS 0x1p-120f /* ... and for underflow */
 #define BVH_FUSED_MAX 1e37f     /* |p| from which the unfused test is taken */
+/* The far distances' scale, 1 + 16 u (u = 2^-24), in both tests: more
+ * than the roundings between the ray's double direction and a far
+ * distance (four in the unfused test: the direction to float, 1 / d, the
+ * difference, the product) and the scale's own. */
 #define BVH_FAR_SCALE (1.0f + 0x1p-20f)
 static inline void bvh_ray_fused(struct bvh_ray *br) {
     br->fused = true;
@@ -255,9 +260,9 @@ static inline void bvh_ray_init_with(struct bvh_ray *br, const vec3 *o, const ve
 /* Tests the ray against four boxes for t in [tmin, tmax]: lo and hi point
  * at the first box's x planes, axis k's planes w floats further each (the
  * node layouts of both widths); returns a bit mask of the boxes hit and
- * their entry distances.  The far distance is scaled by 1 + 2 gamma(3) so
+ * their entry distances.  The far distance is scaled by BVH_FAR_SCALE so
  * that float rounding can never make a box that the ray touches look
- * missed (Ize 2013). */
+ * missed (Ize 2013, with the direction's own rounding to float). */
 static inline int bvh_test_rows(const float *lo_row, const float *hi_row, int w,
                                 const struct bvh_ray *r, float tmin, float tmax, float tnear[4]) {
 #ifdef BVH_SSE
@@ -270,7 +275,7 @@ static inline int bvh_test_rows(const float *lo_row, const float *hi_row, int w,
         tn = _mm_max_ps(tn, _mm_mul_ps(_mm_sub_ps(lo, o), inv));
         tf = _mm_min_ps(tf, _mm_mul_ps(_mm_sub_ps(hi, o), inv));
     }
-    tf = _mm_mul_ps(tf, _mm_set1_ps(1.0000004f));
+    tf = _mm_mul_ps(tf, _mm_set1_ps(BVH_FAR_SCALE));
     _mm_storeu_ps(tnear, tn);
     return _mm_movemask_ps(_mm_cmple_ps(tn, tf));
 #else
@@ -284,7 +289,7 @@ static inline int bvh_test_rows(const float *lo_row, const float *hi_row, int w,
             tn = tn > a ? tn : a; /* exactly _mm_max_ps(tn, a) and _mm_min_ps(tf, b) */
             tf = tf < b ? tf : b;
         }
-        tf *= 1.0000004f;
+        tf *= BVH_FAR_SCALE;
         tnear[i] = tn;
         mask |= (tn <= tf) << i;
     }
@@ -317,6 +322,9 @@ static inline int bvh8_test(const struct bvh8_node *nd, const struct bvh_ray *r,
  * a node's load to the next, as Embree does it, but other bits, so the
  * entry distances differ from bvh8_test's.  Neither test decides a hit
  * (the triangles do, by an order-free rule), so both walks find the same.
+ * Unlike bvh8_test's, its tmax is not scaled: an entry may come out a few
+ * u (2^-24) past its exact value, so a box entered right at tmax can be
+ * missed; the walks pass their bound times BVH_SLACK, far more than that.
  * AVX2 and FMA suffice; the AVX-512 walks inline it too. */
 CPU_AVX2_INLINE int bvh8_test_fused(const struct bvh8_node *nd, const struct bvh_ray *r, float tmin,
                                     float tmax, float tnear[8]) {
@@ -358,7 +366,8 @@ struct bvh_cull {
  * their near and far planes on each axis (near[k]: the lower planes where
  * the rays go up the axis, the upper ones where they go down).
  * But the walk's own test of each ray is the fused one (bvh_ray_fused),
- * which moves org * inv out by up to |org inv| 2^-22 and rounds once: a
+ * which moves org * inv out by up to |org inv| 2^-21 (far planes) and
+ * scales the far distances by BVH_FAR_SCALE: a
  * box it enters can lie a hair outside what the unfused operations bound,
  * as where a ray meets a box exactly at its corner (a vertex of flat
  * triangles).  So each axis's bounds move out by cslack, 2^-20 of the

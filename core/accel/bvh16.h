@@ -85,10 +85,9 @@ struct bvh16_ray {
     bool ia;
     bool one_origin; /* ia, and every lane's origin the same */
     struct bvh_cull cull;
-    /* For the fused child test: org * inv moved out as bvh_ray_fused does
-     * it, lane by lane, and whether every lane's is finite. */
-    __m512 oi_hi[3], oi_lo[3];
-    __m512 inv_far[3]; /* inv scaled for the far planes, as bvh_ray_fused has it */
+    /* For the fused child test: bvh_ray_fused's constants lane by lane,
+     * and whether every lane's org * inv is finite. */
+    __m512 oi_hi[3], oi_lo[3], inv_far[3];
     bool fused;
 };
 
@@ -225,8 +224,8 @@ struct bvh16_entry {
 /* Child c of nd against the rays in lanes, for t in [0, tmax]: the mask of
  * rays that enter it and their entry distances.  The float operations of
  * bvh8_test_fused lane by lane (each plane one fused multiply-add) when
- * the packet has them, else those of bvh4_test: either test is
- * conservative, and neither decides a hit. */
+ * the packet has them (its tmax unscaled, as there), else those of
+ * bvh4_test: either test is conservative, and neither decides a hit. */
 CPU_AVX512_INLINE __mmask16 bvh16_child(const char *nd, int width, int c, const struct bvh16_ray *r,
                                         __m512 tmax, __mmask16 lanes, __m512 *tnear) {
     __m512 tn = _mm512_setzero_ps(), tf = tmax;
@@ -252,7 +251,7 @@ CPU_AVX512_INLINE __mmask16 bvh16_child(const char *nd, int width, int c, const 
             tf = _mm512_min_ps(tf, _mm512_mul_ps(_mm512_sub_ps(far, r->org[k]), r->inv[k]));
         }
     }
-    if (!r->fused) tf = _mm512_mul_ps(tf, _mm512_set1_ps(1.0000004f)); /* fused: in inv_far */
+    if (!r->fused) tf = _mm512_mul_ps(tf, _mm512_set1_ps(BVH_FAR_SCALE)); /* fused: in inv_far */
     *tnear = tn;
     return _mm512_mask_cmp_ps_mask(lanes, tn, tf, _CMP_LE_OQ);
 }

@@ -42,13 +42,12 @@
 /* A packet of 8 rays for the node tests. */
 struct rays8_ray {
     __m256 org[3], inv[3];
-    __m256 oi_hi[3], oi_lo[3]; /* bvh_ray_fused's bounds of org * inv */
-    __m256 inv_far[3];         /* ... and its inv for the far planes */
-    __m256 negv[3];            /* all ones in the lanes whose direction is negative */
-    unsigned neg[3];           /* ... and as a bit mask */
-    bool uniform;              /* each axis's sign one for the packet */
-    bool fused;                /* every lane's org * inv finite */
-    uint8_t near[3], far[3];   /* uniform: byte offsets in a node of the near, far planes */
+    __m256 oi_hi[3], oi_lo[3], inv_far[3]; /* bvh_ray_fused's constants */
+    __m256 negv[3];                        /* all ones in the lanes whose direction is negative */
+    unsigned neg[3];                       /* ... and as a bit mask */
+    bool uniform;                          /* each axis's sign one for the packet */
+    bool fused;                            /* every lane's org * inv finite */
+    uint8_t near[3], far[3]; /* uniform: byte offsets in a node of the near, far planes */
     /* uniform and fused: the packet's origins and inverse directions as
      * intervals, for rays8_cull (bvh.h's bvh_cull_boxes tells why) */
     bool ia;
@@ -199,7 +198,7 @@ CPU_AVX2_INLINE unsigned rays8_child(const char *nd, int width, int c, const str
             tf = _mm256_min_ps(tf, _mm256_mul_ps(_mm256_sub_ps(far, r->org[k]), r->inv[k]));
         }
     }
-    if (!r->fused) tf = _mm256_mul_ps(tf, _mm256_set1_ps(1.0000004f)); /* fused: in inv_far */
+    if (!r->fused) tf = _mm256_mul_ps(tf, _mm256_set1_ps(BVH_FAR_SCALE)); /* fused: in inv_far */
     *tnear = tn;
     return lanes & rays8_bits(_mm256_cmp_ps(tn, tf, _CMP_LE_OQ));
 }
