@@ -16,6 +16,7 @@
  * same.  Deep files are refused, naming what they are.
  */
 #include <openexr.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -124,9 +125,58 @@ static double chunk_bytes(exr_context_t ctx, long width, char *what, size_t what
     return row > tile ? row : tile;
 }
 
+/* A little-endian int32 of the file at p. */
+static int32_t le32(const unsigned char *p) {
+    return (int32_t)((uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
+                     (uint32_t)p[3] << 24);
+}
+
+static bool header_cut(struct exr_src *src) {
+    snprintf(src->message, sizeof src->message, "its header is cut short");
+    return false;
+}
+
+/* Whether every attribute of every header in src fits in the file, else
+ * why not in src->message.  The C++ library sizes an attribute's value
+ * from the size the file claims before reading it: 465 bytes of a file
+ * (found by fuzz_envmap) made it ask for 1.9 GB for one string.  The
+ * layout: magic and version (flags 0x1000: several parts), then per part
+ * attributes of a name, a type name (both ending in a 0 byte), an int32
+ * size and the value, the part's list ending in an empty name; several
+ * parts end in an empty header. */
+static bool headers_fit(struct exr_src *src) {
+    const unsigned char *p = src->p;
+    size_t len = src->len, at = 8;
+    bool multipart = len >= 8 && (le32(p + 4) & 0x1000) != 0;
+    for (int part = 0;; part++) {
+        if (part > 0 && at < len && p[at] == 0) return true; /* the empty header: the end */
+        for (;;) {
+            size_t name = at, n = at < len ? strnlen((const char *)p + at, len - at) : 0;
+            if (at >= len || n == len - at) return header_cut(src);
+            at += n + 1;
+            if (n == 0) break; /* the part's list ends */
+            size_t type = at < len ? strnlen((const char *)p + at, len - at) : 0;
+            if (at >= len || type == len - at || len - at - type - 1 < 4) return header_cut(src);
+            at += type + 1;
+            int32_t size = le32(p + at);
+            at += 4;
+            if (size < 0 || (size_t)size > len - at) {
+                snprintf(src->message, sizeof src->message,
+                         "its header's attribute \"%.40s\" claims %ld bytes; %zu are left in "
+                         "the file",
+                         (const char *)p + name, (long)size, len - at);
+                return false;
+            }
+            at += (size_t)size;
+        }
+        if (!multipart) return true;
+    }
+}
+
 /* The pixels through the C++ library; EXR_ERR_CORRUPT_CHUNK (message in
  * src) when it fails. */
 static exr_result_t read_imf(struct exr_src *src, float *rgb, int w, int h) {
+    if (!headers_fit(src)) return EXR_ERR_CORRUPT_CHUNK;
     char why[sizeof src->message - 40];
     if (exr_imf_read_rgb(src->p, src->len, rgb, w, h, why, sizeof why) == 0) return EXR_ERR_SUCCESS;
     snprintf(src->message, sizeof src->message, "OpenEXR's C++ library: %s", why);

@@ -341,7 +341,7 @@ static void test_same_bytes_any_threads_and_tiles(void) {
 /* ---- bad input -------------------------------------------------------------------- */
 
 static void refused(const char *env, const char *path, const char *words) {
-    char json[512];
+    char json[1024];
     snprintf(json, sizeof json, "{\"render\": {\"environment\": %s}}", env);
     struct rayd_error err;
     rayd_scene *s = parse(json, &err);
@@ -374,6 +374,19 @@ static void test_bad_environments_refused(void) {
             "93V2lkdGgAZmxvYXQABAAAAAAAgD90aWxlcwB0aWxlZGVzYwAJAAAAEAAAABAAlQAAABBdAQAAAAAAAAAAAAAA"
             "AAAAAAAAAAAAAAAMAAAAeF5jaBjaAADSzV+B\"}",
             "/render/environment/base64", "tiles of 16 x 9764880 pixels");
+    /* a DWAA file whose string attribute claims 1.9 GB, which the C++
+     * library asked for before reading: found by fuzz_envmap */
+    refused("{\"base64\": \""
+            "di8xAQIAAABjaGFubmVscwBjaGxpc3QANwAAAEIAAQAAAAAAAAABAAAAAQAAAEcAAQAAAAAAAAABAAAAAQAA"
+            "AFIAAQAAAAAAAAABAAAAAQAAAABjb21wcmVzc2lvbgBjb21wcmVzc2lvbgABAAAACGRhdGFXaW5kb3cAYm94"
+            "MmkAEAAAAAAAAAAAAAAABwAAAAMAAABkaXNwbGF5V2lnZW5hbWUAc3RyaW5nAAMAYXRpbwBmbG9hdAAEAAAA"
+            "AACAP3NjcmVlbldpbmRvd0NlbnRlcgB2MmYACAAAAAAAAAAAAAAAc2NyZWVuV2luZG93V2lkdGgAZmxvYXQA"
+            "BAAAAAAAgD9jaGFubmVscwBjaGxpc3QANwAAAEIAAgAAAAAAAAABAAAAAQAAAEcAAgAAAAAAAAABAAAAAQAA"
+            "AFIAAgAAAAAAAAABAAAAAQAAAAAAcQEAAAAAAAAAAAAAIIGAQCCBgEAggWZsb2F0AAQAAAAAAIA/AEEBAAAA"
+            "AAAAAAAAAAAAAAAAAAAAAwAAAAAAAAADAAAAAAAAAAAAAAAAAAAADgBSABQBRwAkAUIANAEA/wAAAf8AAAIA"
+            "AAADAAAAAAAAAAQQAHheY2gAAQAHhgKB"
+            "\"}",
+            "/render/environment/base64", "claims 1952514051 bytes");
     refused("{\"file\": \"ramp.hdr\", \"format\": \"exr\"}", "/render/environment/file",
             "not an OpenEXR");
     refused("{\"color\": [1,1,1], \"intensity\": -1}", "/render/environment/intensity", ">= 0");
