@@ -314,28 +314,8 @@ static enum rayd_status accum_aov_floats(const rayd_accum *a, float **out, struc
     return RAYD_OK;
 }
 
-enum rayd_status rayd_accum_aov_linear(const rayd_accum *a, float **out, struct rayd_error *err) {
-    rayd_accum *tmp = NULL;
-    enum rayd_status pst = accum_plain(a, false, &tmp, err);
-    if (pst != RAYD_OK) return pst;
-    if (tmp) {
-        enum rayd_status vst = rayd_accum_aov_linear(tmp, out, err);
-        rayd_accum_free(tmp);
-        return vst;
-    }
-    return accum_aov_floats(a, out, err);
-}
-
-enum rayd_status rayd_accum_aov_image(const rayd_accum *a, const rayd_scene *s, unsigned aov,
-                                      rayd_image **out, struct rayd_error *err) {
-    rayd_accum *tmp = NULL;
-    enum rayd_status pst = accum_plain(a, false, &tmp, err);
-    if (pst != RAYD_OK) return pst;
-    if (tmp) {
-        enum rayd_status vst = rayd_accum_aov_image(tmp, s, aov, out, err);
-        rayd_accum_free(tmp);
-        return vst;
-    }
+static enum rayd_status plain_aov_image(const rayd_accum *a, const rayd_scene *s, unsigned aov,
+                                        rayd_image **out, struct rayd_error *err) {
     if (aov == 0 || (aov & (aov - 1)) || aov > RAYD_AOV_ALL)
         return err_set(err, RAYD_E_ARG, "aov", "must be one AOV, not the set %u", aov);
     float *f = NULL;
@@ -355,15 +335,7 @@ enum rayd_status rayd_accum_aov_image(const rayd_accum *a, const rayd_scene *s, 
     return RAYD_OK;
 }
 
-enum rayd_status rayd_accum_rgba(const rayd_accum *a, uint8_t **out, struct rayd_error *err) {
-    rayd_accum *tmp = NULL;
-    enum rayd_status pst = accum_plain(a, true, &tmp, err);
-    if (pst != RAYD_OK) return pst;
-    if (tmp) {
-        enum rayd_status vst = rayd_accum_rgba(tmp, out, err);
-        rayd_accum_free(tmp);
-        return vst;
-    }
+static enum rayd_status plain_rgba(const rayd_accum *a, uint8_t **out, struct rayd_error *err) {
     float *f = NULL;
     enum rayd_status st = accum_aov_floats(a, &f, err);
     if (st != RAYD_OK) return st;
@@ -385,15 +357,7 @@ enum rayd_status rayd_accum_rgba(const rayd_accum *a, uint8_t **out, struct rayd
     return RAYD_OK;
 }
 
-enum rayd_status rayd_accum_image(const rayd_accum *a, rayd_image **out, struct rayd_error *err) {
-    rayd_accum *tmp = NULL;
-    enum rayd_status pst = accum_plain(a, true, &tmp, err);
-    if (pst != RAYD_OK) return pst;
-    if (tmp) {
-        enum rayd_status vst = rayd_accum_image(tmp, out, err);
-        rayd_accum_free(tmp);
-        return vst;
-    }
+static enum rayd_status plain_image(const rayd_accum *a, rayd_image **out, struct rayd_error *err) {
     enum rayd_status st = accum_resolvable(a, err);
     if (st != RAYD_OK) return st;
     rayd_image *img = NULL;
@@ -406,15 +370,7 @@ enum rayd_status rayd_accum_image(const rayd_accum *a, rayd_image **out, struct 
     return RAYD_OK;
 }
 
-enum rayd_status rayd_accum_linear(const rayd_accum *a, float **out, struct rayd_error *err) {
-    rayd_accum *tmp = NULL;
-    enum rayd_status pst = accum_plain(a, true, &tmp, err);
-    if (pst != RAYD_OK) return pst;
-    if (tmp) {
-        enum rayd_status vst = rayd_accum_linear(tmp, out, err);
-        rayd_accum_free(tmp);
-        return vst;
-    }
+static enum rayd_status plain_linear(const rayd_accum *a, float **out, struct rayd_error *err) {
     enum rayd_status st = accum_resolvable(a, err);
     if (st != RAYD_OK) return st;
     size_t count = (size_t)a->r.w * (size_t)a->r.h * 3;
@@ -474,18 +430,10 @@ static double tone_curve(double v, enum rayd_tone_curve curve) {
     return v;
 }
 
-enum rayd_status rayd_accum_image_tone(const rayd_accum *a, const struct rayd_tone *tone,
-                                       rayd_image **out, struct rayd_error *err) {
-    rayd_accum *tmp = NULL;
-    enum rayd_status pst = accum_plain(a, true, &tmp, err);
-    if (pst != RAYD_OK) return pst;
-    if (tmp) {
-        enum rayd_status vst = rayd_accum_image_tone(tmp, tone, out, err);
-        rayd_accum_free(tmp);
-        return vst;
-    }
+static enum rayd_status plain_image_tone(const rayd_accum *a, const struct rayd_tone *tone,
+                                         rayd_image **out, struct rayd_error *err) {
     if (!tone || (tone->exposure == 0 && tone->curve == RAYD_TONE_CLAMP))
-        return rayd_accum_image(a, out, err); /* the default: today's bytes */
+        return plain_image(a, out, err); /* the default: today's bytes */
     if (!(tone->exposure >= -64 && tone->exposure <= 64))
         return err_set(err, RAYD_E_ARG, "exposure", "must be in -64..64 stops");
     if (tone->curve != RAYD_TONE_CLAMP && tone->curve != RAYD_TONE_REINHARD)
@@ -501,4 +449,57 @@ enum rayd_status rayd_accum_image_tone(const rayd_accum *a, const struct rayd_to
         img->px[i] = render_srgb8(tone_curve(a->sum[i] * scale * gain, tone->curve));
     *out = img;
     return RAYD_OK;
+}
+
+/* The resolves of rayd.h.  A denoised accumulator is resolved through
+ * its plain view (accum_plain: filtered, or raw for the AOVs, which the
+ * filter does not touch); a plain one as it is. */
+enum rayd_status rayd_accum_aov_linear(const rayd_accum *a, float **out, struct rayd_error *err) {
+    rayd_accum *tmp = NULL;
+    enum rayd_status st = accum_plain(a, false, &tmp, err);
+    if (st == RAYD_OK) st = accum_aov_floats(tmp ? tmp : a, out, err);
+    rayd_accum_free(tmp);
+    return st;
+}
+
+enum rayd_status rayd_accum_aov_image(const rayd_accum *a, const rayd_scene *s, unsigned aov,
+                                      rayd_image **out, struct rayd_error *err) {
+    rayd_accum *tmp = NULL;
+    enum rayd_status st = accum_plain(a, false, &tmp, err);
+    if (st == RAYD_OK) st = plain_aov_image(tmp ? tmp : a, s, aov, out, err);
+    rayd_accum_free(tmp);
+    return st;
+}
+
+enum rayd_status rayd_accum_rgba(const rayd_accum *a, uint8_t **out, struct rayd_error *err) {
+    rayd_accum *tmp = NULL;
+    enum rayd_status st = accum_plain(a, true, &tmp, err);
+    if (st == RAYD_OK) st = plain_rgba(tmp ? tmp : a, out, err);
+    rayd_accum_free(tmp);
+    return st;
+}
+
+enum rayd_status rayd_accum_image(const rayd_accum *a, rayd_image **out, struct rayd_error *err) {
+    rayd_accum *tmp = NULL;
+    enum rayd_status st = accum_plain(a, true, &tmp, err);
+    if (st == RAYD_OK) st = plain_image(tmp ? tmp : a, out, err);
+    rayd_accum_free(tmp);
+    return st;
+}
+
+enum rayd_status rayd_accum_linear(const rayd_accum *a, float **out, struct rayd_error *err) {
+    rayd_accum *tmp = NULL;
+    enum rayd_status st = accum_plain(a, true, &tmp, err);
+    if (st == RAYD_OK) st = plain_linear(tmp ? tmp : a, out, err);
+    rayd_accum_free(tmp);
+    return st;
+}
+
+enum rayd_status rayd_accum_image_tone(const rayd_accum *a, const struct rayd_tone *tone,
+                                       rayd_image **out, struct rayd_error *err) {
+    rayd_accum *tmp = NULL;
+    enum rayd_status st = accum_plain(a, true, &tmp, err);
+    if (st == RAYD_OK) st = plain_image_tone(tmp ? tmp : a, tone, out, err);
+    rayd_accum_free(tmp);
+    return st;
 }
