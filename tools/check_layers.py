@@ -64,7 +64,7 @@ import textwrap
 # `run` fails when the page and the tables differ.
 CORE_LAYERS = [
     ("core/base/", "error (status, message, JSON Pointer, line/column), array, hugemem, parallel, "
-                   "clock, cpu (whether the AVX-512 and AVX2 code runs), meter (a render thread's ray count, "
+                   "clock, bytes (little-endian words), cpu (whether the AVX-512 and AVX2 code runs), meter (a render thread's ray count, "
                    "cancel flag and ray budget), share (what scenes of the same bytes share)"),
     ("core/math/", "vec.h, xform, poly (the quadratic and the quartic), rng.h, keyframe "
                    "(interpolation of animation keys, quaternion slerp)"),

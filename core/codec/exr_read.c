@@ -21,6 +21,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "base/bytes.h"
 #include "codec/exr_chans.h"
 #include "codec/exr_imf.h"
 #include "codec/exr_read.h"
@@ -125,12 +126,6 @@ static double chunk_bytes(exr_context_t ctx, long width, char *what, size_t what
     return row > tile ? row : tile;
 }
 
-/* A little-endian int32 of the file at p. */
-static int32_t le32(const unsigned char *p) {
-    return (int32_t)((uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 |
-                     (uint32_t)p[3] << 24);
-}
-
 static bool header_cut(struct exr_src *src) {
     snprintf(src->message, sizeof src->message, "its header is cut short");
     return false;
@@ -147,7 +142,7 @@ static bool header_cut(struct exr_src *src) {
 static bool headers_fit(struct exr_src *src) {
     const unsigned char *p = src->p;
     size_t len = src->len, at = 8;
-    bool multipart = len >= 8 && (le32(p + 4) & 0x1000) != 0;
+    bool multipart = len >= 8 && (bytes_le32(p + 4) & 0x1000) != 0;
     for (int part = 0;; part++) {
         if (part > 0 && at < len && p[at] == 0) return true; /* the empty header: the end */
         for (;;) {
@@ -158,7 +153,7 @@ static bool headers_fit(struct exr_src *src) {
             size_t type = at < len ? strnlen((const char *)p + at, len - at) : 0;
             if (at >= len || type == len - at || len - at - type - 1 < 4) return header_cut(src);
             at += type + 1;
-            int32_t size = le32(p + at);
+            int32_t size = (int32_t)bytes_le32(p + at);
             at += 4;
             if (size < 0 || (size_t)size > len - at) {
                 snprintf(src->message, sizeof src->message,

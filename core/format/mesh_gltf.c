@@ -78,16 +78,16 @@ static enum rayd_status gl_glb(struct gl *G, const unsigned char *b, size_t len,
                                size_t *jlen) {
     struct jp top = {.s = ""};
     if (len < 20) return gl_fail(G, RAYD_E_INVALID, &top, "GLB file ends early (%zu bytes)", len);
-    if (le32(b + 4) != 2)
+    if (bytes_le32(b + 4) != 2)
         return gl_fail(G, RAYD_E_INVALID, &top, "GLB version %u is not supported (2 is)",
-                       le32(b + 4));
-    if (le32(b + 8) > len)
+                       bytes_le32(b + 4));
+    if (bytes_le32(b + 8) > len)
         return gl_fail(G, RAYD_E_INVALID, &top, "GLB header says %u bytes but there are %zu",
-                       le32(b + 8), len);
-    len = le32(b + 8);
+                       bytes_le32(b + 8), len);
+    len = bytes_le32(b + 8);
     size_t at = 12;
     for (int k = 0; at + 8 <= len; k++) {
-        uint32_t clen = le32(b + at), type = le32(b + at + 4);
+        uint32_t clen = bytes_le32(b + at), type = bytes_le32(b + at + 4);
         if (clen > len - at - 8)
             return gl_fail(G, RAYD_E_INVALID, &top, "GLB chunk %d runs past the end of the file",
                            k);

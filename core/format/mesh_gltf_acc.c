@@ -315,7 +315,7 @@ double gl_value(const struct gl_acc *a, uint32_t i, int c) {
     const unsigned char *b = a->p + (size_t)i * a->stride + (size_t)c * (size_t)gl_csize(a->ctype);
     uint32_t u = a->ctype == 5120 || a->ctype == 5121   ? b[0]
                  : a->ctype == 5122 || a->ctype == 5123 ? (uint32_t)b[0] | (uint32_t)b[1] << 8
-                                                        : le32(b);
+                                                        : bytes_le32(b);
     float f;
     switch (a->ctype) {
     case 5120: return a->norm ? fmax((int8_t)u / 127.0, -1.0) : (int8_t)u;

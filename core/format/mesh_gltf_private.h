@@ -13,6 +13,7 @@
 
 #include <cjson/cJSON.h>
 
+#include "base/bytes.h"
 #include "base/error.h"
 #include "format/gltf_json.h"
 #include "format/json_pointer.h"
@@ -127,10 +128,6 @@ enum rayd_status gl_view_bytes(struct gl *G, const struct jp *pv, const struct g
 /* A "data:...;base64," URI's bytes; a relative file's, through the opener. */
 enum rayd_status gl_data_uri(struct gl *G, const char *uri, const struct jp *p, struct gl_buf *b);
 enum rayd_status gl_file_uri(struct gl *G, const char *uri, const struct jp *p, struct gl_buf *b);
-/* A little-endian 32-bit word (the .glb's header and chunk heads). */
-static inline uint32_t le32(const unsigned char *b) {
-    return (uint32_t)b[0] | (uint32_t)b[1] << 8 | (uint32_t)b[2] << 16 | (uint32_t)b[3] << 24;
-}
 /* Accessor o[key] (index into /accessors), of ncomp components, checked
  * against its bufferView and buffer (loaded on first use). */
 enum rayd_status gl_accessor(struct gl *G, const cJSON *o, const struct jp *at, const char *key,
