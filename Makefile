@@ -15,7 +15,7 @@
 #   make bench       benchmarks (never part of make test)
 #   make bench-peers the same meshes and sphere scene with Embree and POV-Ray (make bench-deps),
 #                    then make bench-pt
-#   make bench-pt    the path tracer against Blender's Cycles at equal quality (bench/pt.py)
+#   make bench-pt    the path tracer against Cycles (and Mitsuba 3 with MITSUBA=) at equal quality
 #   make bench-cluster the cluster's Redis calls per work item (bench/cluster_queue.sh)
 #   make check-layers  includes and calls one way down the layers, no circles
 #                    (tools/check_layers.py), docs/architecture.md true to the
@@ -648,7 +648,7 @@ bench-peers: all bench-deps $(BUILD)/bench/raybench $(BUILD)/bench/embree_bench 
 	@bash bench/peers.sh $(BUILD)
 	@bash bench/bunny.sh $(BUILD) && python3 bench/pt.py $(BUILD)
 
-# The path tracer against Cycles at equal quality (bench/pt.py).  No
+# The path tracer against Cycles (and Mitsuba 3: MITSUBA=) at equal quality (bench/pt.py).  No
 # bench-deps prerequisite: without blender it stops, saying to run it.
 bench-pt: all $(BUILD)/bench/walltime $(BUILD)/bench/exrraw
 	@bash bench/bunny.sh $(BUILD) && python3 bench/pt.py $(BUILD)

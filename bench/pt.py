@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""bench/pt.py BUILD -- rayd's path tracer against Cycles at equal quality.
+"""bench/pt.py BUILD -- rayd's path tracer against Cycles (and Mitsuba 3) at equal quality.
 
 `make bench-pt` runs it (part of `make bench-peers`); Blender comes from
 `make bench-deps`.  Four scenes, each written once as rayd JSON (the one
@@ -30,8 +30,16 @@ RMSE of linear RGB, and the relative MSE, mean of (x - ref)^2 / (ref^2 +
 0.01).  Efficiency = 1 / (time x MSE), from the medians of the RUNS runs;
 the ratio is rayd's over Cycles' (> 1: rayd reaches an error sooner).
 
+Mitsuba 3 joins them where a build of it is at hand (Debian has none, and
+its source needs GitHub): MITSUBA names its `mitsuba` program (else one on
+PATH; bench/peers/mitsuba_build.sh builds one from a checkout),
+MITSUBA_VARIANT its variant (scalar_rgb); bench/peers/mitsuba_pt.py writes
+each scene for it.  Its render alone is its log's "Rendering
+finished (took ...)": the sampling, without the scene's load and build.
+Its images are checked against the shared reference as Cycles' are.
+
 Environment: RUNS (3), SPP ("4 16 64 256"), REF_SPP (4096), SIZE (128),
-SCENES ("cornell glass bunny gap"), THREADS (2).  References are kept in
+SCENES ("cornell glass bunny gap"), THREADS (2), MITSUBA, MITSUBA_VARIANT.  References are kept in
 BUILD/bench/pt/ref/, named by the scene's text and REF_SPP, and reused.
 """
 import array
@@ -58,6 +66,9 @@ RAYD = os.path.join(BUILD, "rayd-render")
 WALLTIME = os.path.join(BUILD, "bench", "walltime")
 EXRRAW = os.path.join(BUILD, "bench", "exrraw")
 CYCLES_PY = os.path.join(ROOT, "bench", "peers", "cycles_pt.py")
+MITSUBA_PY = os.path.join(ROOT, "bench", "peers", "mitsuba_pt.py")
+MITSUBA = os.environ.get("MITSUBA") or shutil.which("mitsuba")
+MITSUBA_VARIANT = os.environ.get("MITSUBA_VARIANT", "scalar_rgb")
 
 
 def die(msg):
@@ -206,6 +217,35 @@ def run_cycles(s, name, samples, seed):
     return read_raw(out), t, log_seconds(log, "PT_RENDER_S ")
 
 
+def took_seconds(log):
+    """Mitsuba's "Rendering finished. (took 1m 2.5s)" (or 850ms) in seconds."""
+    found = None
+    with open(log) as f:
+        for line in f:
+            if "Rendering finished. (took " in line:
+                found = line.split("(took ", 1)[1].split(")")[0]
+    if found is None:
+        die("no 'Rendering finished' in %s" % log)
+    units = {"ms": 1e-3, "s": 1, "m": 60, "h": 3600, "d": 86400}
+    total = 0.0
+    for part in found.split():
+        num = part.rstrip("msdh")
+        total += float(num) * units[part[len(num):]]
+    return total
+
+
+def run_mitsuba(s, name, samples, seed):
+    js = write_scene(s, 1, 0, os.path.join(D, name + ".mitsuba.json"))
+    xml = os.path.join(D, name + ".mitsuba.xml")
+    if subprocess.call([sys.executable, MITSUBA_PY, js, xml]) != 0:
+        die("mitsuba_pt.py could not write %s" % xml)
+    out = os.path.join(D, name + ".mitsuba.exr")
+    log = os.path.join(D, name + ".mitsuba.log")
+    t = timed([MITSUBA, "-m", MITSUBA_VARIANT, "-t", str(THREADS), "-D", "spp=%d" % samples,
+               "-D", "seed=%d" % seed, "-o", out, xml], log)
+    return read_raw(out), t, took_seconds(log)
+
+
 # --- references and errors ----------------------------------------------
 def reference(s, name):
     with open(CYCLES_PY, "rb") as f:  # a changed translation makes new references
@@ -238,6 +278,24 @@ def reference(s, name):
             fh.write(a.tobytes())
         imgs[who] = a
     return imgs["rayd"], imgs["cycles"]
+
+
+def mitsuba_reference(s, name):
+    """Mitsuba's own REF_SPP image, for the agreement check alone."""
+    with open(MITSUBA_PY, "rb") as f:
+        text = json.dumps(s, sort_keys=True).encode() + f.read() + MITSUBA_VARIANT.encode()
+    key = hashlib.sha256(text).hexdigest()[:12]
+    f = os.path.join(D, "ref", "%s-%s-%d.mitsuba" % (name, key, REF_SPP))
+    a = array.array("f")
+    if os.path.exists(f):
+        with open(f, "rb") as fh:
+            a.frombytes(fh.read())
+        return a
+    print("  %s: mitsuba reference, %d samples ..." % (name, REF_SPP), flush=True)
+    a = run_mitsuba(s, name + "-ref", REF_SPP, 1000)[0]
+    with open(f, "wb") as fh:
+        fh.write(a.tobytes())
+    return a
 
 
 def rayd_max_samples():
@@ -297,8 +355,14 @@ def main():
             shutil.copyfile(os.path.join(ROOT, "scenes", "studio.hdr"),
                             os.path.join(D, "studio.hdr"))
         scenes[name] = make_scene(name)
-    print("rayd path tracer vs Cycles (%s), %dx%d, %d threads, max depth as each scene's"
-          % (blender_version(), SIZE, SIZE, THREADS))
+    peers = [("rayd", run_rayd), ("cycles", run_cycles)]
+    if MITSUBA:
+        peers.append(("mitsuba", run_mitsuba))
+    print("rayd path tracer vs Cycles (%s)%s, %dx%d, %d threads, max depth as each scene's"
+          % (blender_version(), ", Mitsuba 3 (%s)" % MITSUBA_VARIANT if MITSUBA else "",
+             SIZE, SIZE, THREADS))
+    if not MITSUBA:
+        print("(no Mitsuba 3: set MITSUBA to its mitsuba program to compare with it too)")
     refs, agree = {}, {}
     for name, (s, limit) in scenes.items():
         a, b = reference(s, name)
@@ -307,18 +371,21 @@ def main():
         ma, mb = channel_means(a, mask), channel_means(b, mask)
         refnoise = errors(a, b, mask)[0] / 4  # variance of the mean of the two
         refs[name] = (ref, mask)
-        agree[name] = (ma, mb, refnoise)
+        mm = channel_means(mitsuba_reference(s, name), mask) if MITSUBA else None
+        agree[name] = (ma, mb, refnoise, mm)
     results = {}  # (scene, who, spp) -> list of (wall, alone, mse, rel)
     for run in range(1, RUNS + 1):
         for spp in SPP:
             for name, (s, _) in scenes.items():
                 ref, mask = refs[name]
-                for who, fn in (("rayd", run_rayd), ("cycles", run_cycles)):
+                for who, fn in peers:
                     img, wall, alone = fn(s, name, spp, run)
                     mse, rel = errors(img, ref, mask)
                     results.setdefault((name, who, spp), []).append((wall, alone, mse, rel))
         print("  run %d of %d done" % (run, RUNS), flush=True)
     report(scenes, agree, results)
+    if MITSUBA:
+        report_mitsuba(scenes, agree, results)
 
 
 def blender_version():
@@ -337,7 +404,7 @@ def report(scenes, agree, results):
     print()
     print("Agreement at %d samples each (mean per channel, emitter masked):" % REF_SPP)
     for name in scenes:
-        ma, mb, refnoise = agree[name]
+        ma, mb, refnoise, _ = agree[name]
         diff = " ".join("%+.2f%%" % (100 * (x / y - 1) if y else 0) for x, y in zip(ma, mb))
         print("  %-8s rayd %s  Cycles %s  rayd/Cycles - 1: %s  (reference noise %.2e)" % (
             name, " ".join("%.4f" % x for x in ma), " ".join("%.4f" % x for x in mb), diff,
@@ -361,6 +428,34 @@ def report(scenes, agree, results):
     print("(ratio: rayd's whole process over Cycles' whole process; r/rnd: rayd's whole process")
     print(" over Cycles' render alone; rnd: render alone over render alone, both programs'")
     print(" start-up left out; each the efficiency's ratio, > 1: rayd reaches that error sooner)")
+
+
+
+def report_mitsuba(scenes, agree, results):
+    print()
+    print("Mitsuba 3 (%s) at %d samples, against the same reference (mean per channel):"
+          % (MITSUBA_VARIANT, REF_SPP))
+    for name in scenes:
+        ma, mb, _, mm = agree[name]
+        ref = [(x + y) / 2 for x, y in zip(ma, mb)]
+        diff = " ".join("%+.2f%%" % (100 * (x / y - 1) if y else 0) for x, y in zip(mm, ref))
+        print("  %-8s Mitsuba %s  Mitsuba/reference - 1: %s" % (
+            name, " ".join("%.4f" % x for x in mm), diff))
+    print()
+    hdr = "%-8s %5s | %7s %7s %9s %9s | %7s %7s %9s %9s | %6s %6s"
+    print(hdr % ("scene", "spp", "rayd s", "render", "RMSE", "eff", "Mit s", "render", "RMSE",
+                 "eff", "ratio", "rnd"))
+    for name in scenes:
+        for spp in SPP:
+            a, b = results[(name, "rayd", spp)], results[(name, "mitsuba", spp)]
+            ta, tar, ma = med(a, 0), med(a, 1), med(a, 2)
+            tb, tbr, mb = med(b, 0), med(b, 1), med(b, 2)
+            print("%-8s %5d | %7.2f %7.2f %9.5f %9.3g | %7.2f %7.2f %9.5f %9.3g | %6.2f %6.2f"
+                  % (name, spp, ta, tar, math.sqrt(ma), 1 / (ta * ma), tb, tbr, math.sqrt(mb),
+                     1 / (tb * mb), tb * mb / (ta * ma), tbr * mb / (tar * ma)))
+    print("(ratio: rayd's efficiency over Mitsuba's, whole processes; rnd: render alone over")
+    print(" render alone, Mitsuba's without its scene load and build; > 1: rayd reaches that")
+    print(" error sooner)")
 
 
 if __name__ == "__main__":
