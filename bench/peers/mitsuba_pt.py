@@ -32,10 +32,17 @@
 #             multijitter: Mitsuba's stratified sampler)
 #   world     black, or the environment file as Mitsuba's envmap at its
 #             intensity, turned 180 degrees about +y: Mitsuba puts the
-#             image's centre towards +z, rayd towards -z
+#             image's centre towards +z, rayd towards -z.  rayd (and Cycles
+#             here) read a map's nearest texel, Mitsuba interpolates: a
+#             Radiance .hdr is handed to it enlarged, each texel repeated
+#             to a block of at least 1024 / width texels a side (a PFM
+#             beside OUT.xml), so that its interpolation blends only the
+#             blocks' edges (the studio map is 32 x 16: interpolated as
+#             it is, the bunny scene came out 5.7% darker)
 import json
 import math
 import os
+import struct
 import sys
 from xml.sax.saxutils import quoteattr
 
@@ -158,14 +165,69 @@ def camera(cam, rs):
                vec(cam.get("up", [0, 1, 0])), SAMPLER, rs["width"], rs["height"]))
 
 
-def world(rs, scene_dir):
+def rgbe_scanline(data, at, w):
+    """One scanline of a Radiance file from data[at:]: its w RGBE quads
+    and where the next one starts (run-length coded or flat)."""
+    if w < 8 or w > 32767 or data[at:at + 2] != b"\x02\x02" or data[at + 2] & 0x80:
+        return [tuple(data[at + 4 * i:at + 4 * i + 4]) for i in range(w)], at + 4 * w
+    at += 4
+    chans = []
+    for _ in range(4):
+        out = []
+        while len(out) < w:
+            n = data[at]
+            if n > 128:
+                out += [data[at + 1]] * (n - 128)
+                at += 2
+            else:
+                out += list(data[at + 1:at + 1 + n])
+                at += 1 + n
+        chans.append(out)
+    return list(zip(*chans)), at
+
+
+def read_hdr(path):
+    """A Radiance .hdr (-Y h +X w) as rows of (r, g, b), top row first,
+    each texel as stb_image (rayd's reader) turns it into floats."""
+    with open(path, "rb") as f:
+        data = f.read()
+    at = data.index(b"\n\n") + 2
+    end = data.index(b"\n", at)
+    dims = data[at:end].split()
+    if dims[0] != b"-Y" or dims[2] != b"+X":
+        raise SystemExit("mitsuba_pt: %s: only -Y h +X w maps" % path)
+    h, w = int(dims[1]), int(dims[3])
+    at, rows = end + 1, []
+    for _ in range(h):
+        quads, at = rgbe_scanline(data, at, w)
+        rows.append([(0.0, 0.0, 0.0) if e == 0 else
+                     tuple(c * math.ldexp(1.0, e - 136) for c in (r, g, b))
+                     for r, g, b, e in quads])
+    return w, h, rows
+
+
+def enlarged_pfm(path, out):
+    """path's map with every texel repeated to a k x k block, as a PFM."""
+    w, h, rows = read_hdr(path)
+    k = max(1, -(-1024 // w))
+    with open(out, "wb") as f:
+        f.write(b"PF\n%d %d\n-1.0\n" % (w * k, h * k))
+        for row in reversed(rows):  # PFM: bottom row first
+            line = b"".join(struct.pack("<3f", *px) * k for px in row)
+            f.write(line * k)
+    return out
+
+
+def world(rs, scene_dir, out):
     env = rs.get("environment")
     if env:
+        path = os.path.join(scene_dir, env["file"])
+        if path.lower().endswith(".hdr"):
+            path = enlarged_pfm(path, os.path.splitext(out)[0] + ".env.pfm")
         return ('<emitter type="envmap"><string name="filename" value=%s/>'
                 '<float name="scale" value="%r"/>'
                 '<transform name="to_world"><rotate y="1" angle="180"/></transform></emitter>'
-                % (quoteattr(os.path.join(scene_dir, env["file"])),
-                   float(env.get("intensity", 1))))
+                % (quoteattr(path), float(env.get("intensity", 1))))
     bg = rs.get("background", [0, 0, 0])
     if max(bg) > 0:
         return '<emitter type="constant"><rgb name="radiance" value=%s/></emitter>' % vec(bg)
@@ -183,7 +245,7 @@ def main():
              '<default name="seed" value="0"/>',
              '<integrator type="path"><integer name="max_depth" value="%d"/></integrator>'
              % (rs.get("max_depth", 5) + 1),
-             camera(s["camera"], rs), world(rs, scene_dir)]
+             camera(s["camera"], rs), world(rs, scene_dir, out)]
     for o in s["objects"]:
         m = o["material"]
         m = mats[m] if isinstance(m, str) else m
