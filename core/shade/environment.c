@@ -12,13 +12,18 @@
  * proportional to what it samples, and a lookup is a few operations with no
  * filter to make the result depend on anything but the direction.
  *
- * The path tracer draws directions in proportion to luminance x sin(theta)
- * (the sin is the area of a row on the sphere): a row by the marginal CDF,
- * then a column by that row's conditional CDF, both by binary search, then a
- * uniform point in the cell.  The solid-angle pdf of a direction is the
- * cell's weight over the mean weight, divided by 2 pi^2 sin(theta).  A
- * constant environment needs no table: the BSDF's own sampling is already
- * the best one can do against a uniform light.
+ * The path tracer draws directions in proportion to the radiance's
+ * luminance over the sphere: a cell's weight is its luminance times its
+ * solid angle (2 pi / w times the difference of its rows' cos(theta)); a
+ * row by the marginal CDF, then a column by that row's conditional CDF,
+ * both by binary search, then a point uniform in solid angle within the
+ * cell (phi uniform, cos(theta) uniform).  The solid-angle pdf of a
+ * direction is then its cell's luminance over the map's integral of
+ * luminance: proportional to what it samples everywhere, even in the rows
+ * near the poles, where a point uniform in theta would crowd the pole (the
+ * studio map's bright top row: bench/README.md, "against Mitsuba 3 too").
+ * A constant environment needs no table: the BSDF's own sampling is
+ * already the best one can do against a uniform light.
  *
  * The mean (solid-angle average) radiance is the Whitted integrator's
  * ambient light: a uniform environment of that radiance lights a Lambert
@@ -62,7 +67,13 @@ static double luminance(const float *p) { return 0.2126 * p[0] + 0.7152 * p[1] +
 
 static double row_sin(const struct environment *e, int j) { return sin(PI * (j + 0.5) / e->h); }
 
-/* The weights' CDFs; integral = the mean weight over all cells. */
+/* cos(theta) at the top edge of row j (j = h: the bottom of the map). */
+static double row_cos(const struct environment *e, int j) {
+    return j <= 0 ? 1 : j >= e->h ? -1 : cos(PI * j / e->h);
+}
+
+/* The weights' CDFs (luminance x the cell's cos(theta) extent); integral =
+ * the luminance integrated over the sphere. */
 static bool build_tables(struct environment *e) {
     int w = e->w, h = e->h;
     e->row_cdf = malloc((size_t)(h + 1) * sizeof *e->row_cdf);
@@ -70,13 +81,14 @@ static bool build_tables(struct environment *e) {
     if (!e->row_cdf || !e->col_cdf) return false;
     e->row_cdf[0] = 0;
     for (int j = 0; j < h; j++) {
-        double *c = e->col_cdf + (size_t)j * (size_t)(w + 1), st = row_sin(e, j);
+        double *c = e->col_cdf + (size_t)j * (size_t)(w + 1);
+        double area = row_cos(e, j) - row_cos(e, j + 1);
         c[0] = 0;
         for (int i = 0; i < w; i++)
-            c[i + 1] = c[i] + luminance(e->rgb + 3 * ((size_t)j * w + i)) * st;
+            c[i + 1] = c[i] + luminance(e->rgb + 3 * ((size_t)j * w + i)) * area;
         e->row_cdf[j + 1] = e->row_cdf[j] + c[w];
     }
-    e->integral = e->row_cdf[h] / ((double)w * h);
+    e->integral = e->row_cdf[h] * 2 * PI / w;
     return true;
 }
 
@@ -128,14 +140,13 @@ bool env_sample(const struct environment *e, double u1, double u2, vec3 *d, doub
     int i = find(c, w, y);
     double cw = c[i + 1] - c[i];
     double fu = cw > 0 ? (y - c[i]) / cw : 0.5;
-    double theta = PI * (j + fmin(fv, 1)) / h, phi = 2 * PI * ((i + fmin(fu, 1)) / w - 0.5);
-    double st = sin(theta);
-    if (!(st > 0) || !(cw > 0)) return false;
-    vec3 l = v3(st * sin(phi), cos(theta), -st * cos(phi));
+    if (!(cw > 0)) return false;
+    double top = row_cos(e, j), ct = top - fmin(fv, 1) * (top - row_cos(e, j + 1));
+    double st = sqrt(fmax(0, 1 - ct * ct)), phi = 2 * PI * ((i + fmin(fu, 1)) / w - 0.5);
+    vec3 l = v3(st * sin(phi), ct, -st * cos(phi));
     *d = turn(e, l, 1);
-    /* the cell's share of all weight, spread evenly over its (u, v) area */
-    double f = luminance(e->rgb + 3 * ((size_t)j * w + i)) * row_sin(e, j);
-    *pdf = f / e->integral / (2 * PI * PI * st);
+    /* the cell's share of all weight, spread evenly over its solid angle */
+    *pdf = luminance(e->rgb + 3 * ((size_t)j * w + i)) / e->integral;
     return *pdf > 0;
 }
 
@@ -143,8 +154,8 @@ double env_pdf(const struct environment *e, vec3 d) {
     int i, j;
     double st;
     int k = cell_of(e, turn(e, d, -1), &i, &j, &st);
-    if (!(st > 0) || !(e->integral > 0)) return 0;
-    return luminance(e->rgb + 3 * (size_t)k) * row_sin(e, j) / e->integral / (2 * PI * PI * st);
+    if (!(e->integral > 0)) return 0;
+    return luminance(e->rgb + 3 * (size_t)k) / e->integral;
 }
 
 void env_free(struct environment *e) {

@@ -19,8 +19,9 @@ struct environment {
     double cos_r, sin_r;   /* rotation about +Y */
     bool visible;          /* camera rays that miss see it (else render.background) */
     vec3 mean;             /* solid-angle average radiance (the Whitted ambient) */
-    /* image sampling, by luminance x sin(theta): cdf over rows (h + 1),
-     * cdf over columns per row (h x (w + 1)), and the mean of the weights */
+    /* image sampling, by luminance x solid angle: cdf over rows (h + 1),
+     * cdf over columns per row (h x (w + 1)), and the luminance integrated
+     * over the sphere */
     double *row_cdf, *col_cdf, integral;
     bool sample; /* the path tracer samples it (tests turn it off) */
 };

@@ -9,7 +9,9 @@
  * degrees about +Y moves every texel's direction by the same turn.
  * Sampling: against a high-sample reference, sampling the sky by its
  * luminance gives a lower error at equal samples than BSDF sampling alone,
- * and both estimates agree with the reference on average (no bias).  Bad
+ * and both estimates agree with the reference on average (no bias), and
+ * every sample's pdf is the luminance in its direction over the map's
+ * integral (env_sample drawn from directly).  Bad
  * environments are refused with the JSON Pointer of what is wrong.
  *
  * The .hdr images are written here, flat RGBE scanlines, into a temporary
@@ -313,6 +315,45 @@ static void test_sampling_the_sky_pays(void) {
     free(off_many);
 }
 
+/* The map's sampling, drawn from directly: every direction env_sample
+ * gives comes with env_pdf's pdf, and that pdf is the luminance there over
+ * the luminance integrated over the sphere (a cell's luminance times its
+ * solid angle, summed here on its own), so luminance / pdf is that
+ * integral for every sample: no variance left for a map lighting alone.
+ * A point drawn uniform in theta within a row, not in cos(theta), fails
+ * this in every row (most near the poles, where the bright top row is). */
+static double lum(vec3 c) { return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z; }
+
+static void test_sampling_pdf_follows_the_radiance(void) {
+    struct environment e = {
+        .kind = ENV_IMAGE, .w = 8, .h = 4, .cos_r = cos(0.7), .sin_r = sin(0.7)};
+    e.rgb = malloc(sizeof *e.rgb * 8 * 4 * 3);
+    if (!e.rgb) return;
+    double want = 0, pi = 3.14159265358979323846;
+    for (int j = 0; j < 4; j++)
+        for (int i = 0; i < 8; i++) {
+            float *p = e.rgb + 3 * (j * 8 + i);
+            p[0] = j == 0 ? 5.0f : 0.1f * (float)(i + 1), p[1] = 0.05f * (float)(j + 1),
+            p[2] = 0.3f;
+            want +=
+                lum(v3(p[0], p[1], p[2])) * 2 * pi / 8 * (cos(pi * j / 4) - cos(pi * (j + 1) / 4));
+        }
+    CHECK(env_prepare(&e), "env_prepare");
+    CHECK_NEAR(e.integral, want, 1e-12 * want);
+    int bad_pdf = 0, bad_ratio = 0;
+    for (int a = 0; a < 64; a++)
+        for (int b = 0; b < 64; b++) {
+            vec3 d;
+            double pdf;
+            if (!env_sample(&e, (a + 0.5) / 64, (b + 0.5) / 64, &d, &pdf)) continue;
+            bad_pdf += fabs(env_pdf(&e, d) / pdf - 1) > 1e-9;
+            bad_ratio += fabs(lum(env_radiance(&e, d)) / pdf / want - 1) > 1e-9;
+        }
+    CHECK(bad_pdf == 0, "%d of 4096 samples' pdf is not env_pdf's", bad_pdf);
+    CHECK(bad_ratio == 0, "%d of 4096 samples' luminance / pdf is not the integral", bad_ratio);
+    env_free(&e);
+}
+
 static void test_same_bytes_any_threads_and_tiles(void) {
     char json[1024];
     snprintf(json, sizeof json, SUN_FMT, 4, 0);
@@ -408,6 +449,7 @@ int main(void) {
     RUN(test_rotation_turns_the_map);
     RUN(test_exr_equals_hdr);
     RUN(test_sampling_the_sky_pays);
+    RUN(test_sampling_pdf_follows_the_radiance);
     RUN(test_same_bytes_any_threads_and_tiles);
     RUN(test_bad_environments_refused);
     const char *files[] = {"ramp.hdr", "sun.hdr", "text.hdr", "huge.hdr", "ramp.exr", "cut.exr"};
