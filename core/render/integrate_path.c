@@ -20,14 +20,15 @@
  * sampling; the two strategies are combined by the power heuristic.
  * Escaped rays see the background as a uniform environment, or
  * render.environment (camera rays only when it is visible).  An image
- * environment is also sampled at every non-delta vertex, by luminance x
- * sin(theta) (environment.c), and that light sample and the BSDF's escaped
- * ray are weighed by the power heuristic, as for emitters.  Russian
- * roulette from the fourth bounce keeps long paths cheap and the estimate
- * unbiased.  Every random number is a stratified sample (Owen-scrambled
- * Sobol, rng.h), a pure function of pixel, sample, bounce and the
- * dimension below, so tiles stay exact.  A direction's two numbers, a
- * light point's two and the environment's two are each one 2-D pair.
+ * environment is also sampled at every non-delta vertex, in proportion to
+ * its luminance over the sphere (environment.c), and that light sample and
+ * the BSDF's escaped ray are weighed by the power heuristic, as for
+ * emitters.  Russian roulette from the fourth bounce keeps long paths
+ * cheap and the estimate unbiased.  Every random number is a stratified
+ * sample (Owen-scrambled Sobol, rng.h), a pure function of pixel, sample,
+ * bounce and the dimension below, so tiles stay exact.  A direction's two
+ * numbers, a light point's two and the environment's two are each one 2-D
+ * pair.
  *
  * Fireflies.  What NEE cannot reach is found by BSDF sampling alone: light
  * that reaches a diffuse surface through glass or a mirror (a caustic:

@@ -42,24 +42,21 @@ static vec3 turn(const struct environment *e, vec3 d, double sign) {
     return v3(c * d.x + s * d.z, d.y, -s * d.x + c * d.z);
 }
 
-/* The cell of a local direction, and sin(theta) there. */
-static int cell_of(const struct environment *e, vec3 l, int *col, int *row, double *sin_t) {
+/* The cell of a local direction. */
+static int cell_of(const struct environment *e, vec3 l) {
     double y = fmax(-1, fmin(1, l.y));
     double theta = acos(y), phi = atan2(l.x, -l.z);
     double u = phi / (2 * PI) + 0.5, v = theta / PI;
     int i = (int)(u * e->w), j = (int)(v * e->h);
-    *col = i < 0 ? 0 : i >= e->w ? e->w - 1 : i;
-    *row = j < 0 ? 0 : j >= e->h ? e->h - 1 : j;
-    *sin_t = sqrt(fmax(0, 1 - y * y));
-    return *row * e->w + *col;
+    int col = i < 0 ? 0 : i >= e->w ? e->w - 1 : i;
+    int row = j < 0 ? 0 : j >= e->h ? e->h - 1 : j;
+    return row * e->w + col;
 }
 
 vec3 env_radiance(const struct environment *e, vec3 d) {
     if (e->kind == ENV_CONSTANT) return e->color;
     if (e->kind != ENV_IMAGE) return v3(0, 0, 0);
-    int i, j;
-    double st;
-    const float *p = e->rgb + 3 * (size_t)cell_of(e, turn(e, d, -1), &i, &j, &st);
+    const float *p = e->rgb + 3 * (size_t)cell_of(e, turn(e, d, -1));
     return v3(p[0], p[1], p[2]);
 }
 
@@ -151,9 +148,7 @@ bool env_sample(const struct environment *e, double u1, double u2, vec3 *d, doub
 }
 
 double env_pdf(const struct environment *e, vec3 d) {
-    int i, j;
-    double st;
-    int k = cell_of(e, turn(e, d, -1), &i, &j, &st);
+    int k = cell_of(e, turn(e, d, -1));
     if (!(e->integral > 0)) return 0;
     return luminance(e->rgb + 3 * (size_t)k) / e->integral;
 }

@@ -36,8 +36,9 @@ bool env_prepare(struct environment *e);
 /* Whether env_sample can be used: an image with some light in it. */
 bool env_can_sample(const struct environment *e);
 
-/* A direction drawn by luminance x sin(theta) from (u1, u2) in [0, 1)^2,
- * with its solid-angle pdf; false when the draw hits a zero-pdf pole. */
+/* A direction drawn in proportion to luminance over the sphere from
+ * (u1, u2) in [0, 1)^2, with its solid-angle pdf; false when the draw
+ * lands on a texel of no light. */
 bool env_sample(const struct environment *e, double u1, double u2, vec3 *d, double *pdf);
 
 /* The solid-angle pdf env_sample draws the unit direction d with. */
