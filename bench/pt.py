@@ -33,9 +33,11 @@ the ratio is rayd's over Cycles' (> 1: rayd reaches an error sooner).
 Mitsuba 3 joins them where a build of it is at hand (Debian has none, and
 its source needs GitHub): MITSUBA names its `mitsuba` program (else one on
 PATH; bench/peers/mitsuba_build.sh builds one from a checkout),
-MITSUBA_VARIANT its variant (scalar_rgb); bench/peers/mitsuba_pt.py writes
-each scene for it.  Its render alone is its log's "Rendering
-finished (took ...)": the sampling, without the scene's load and build.
+MITSUBA_VARIANT its variant (scalar_rgb; llvm_ad_rgb, its JIT variant, where
+it was built with it); bench/peers/mitsuba_pt.py writes each scene for it.
+Its render alone is its log's "Rendering finished (took ...)": the
+sampling (for a JIT variant, its kernel's compilation too, unless cached
+from an earlier run), without the scene's load and build.
 Its images are checked against the shared reference as Cycles' are.
 
 Environment: RUNS (3), SPP ("4 16 64 256"), REF_SPP (4096), SIZE (128),
@@ -247,55 +249,52 @@ def run_mitsuba(s, name, samples, seed):
 
 
 # --- references and errors ----------------------------------------------
-def reference(s, name):
-    with open(CYCLES_PY, "rb") as f:  # a changed translation makes new references
-        text = json.dumps(s, sort_keys=True).encode() + f.read()
+def cached(path, what, render):
+    """The image kept at path, else render()'s, kept there for the next run."""
+    a = array.array("f")
+    if os.path.exists(path):
+        with open(path, "rb") as fh:
+            a.frombytes(fh.read())
+        return a
+    print("  %s reference, %d samples ..." % (what, REF_SPP), flush=True)
+    a = render()
+    with open(path, "wb") as fh:
+        fh.write(a.tobytes())
+    return a
+
+
+def ref_path(s, name, translator, extra, suffix):
+    """BUILD/bench/pt/ref/NAME-KEY-REF_SPP.SUFFIX, KEY from the scene and its translator."""
+    with open(translator, "rb") as f:  # a changed translation makes new references
+        text = json.dumps(s, sort_keys=True).encode() + f.read() + extra
     key = hashlib.sha256(text).hexdigest()[:12]
-    path = os.path.join(D, "ref", "%s-%s-%d" % (name, key, REF_SPP))
-    os.makedirs(os.path.dirname(path), exist_ok=True)
-    imgs = {}
-    for who in ("rayd", "cycles"):
-        f = path + "." + who
-        if os.path.exists(f):
-            a = array.array("f")
-            with open(f, "rb") as fh:
-                a.frombytes(fh.read())
-            imgs[who] = a
-            continue
-        print("  %s: %s reference, %d samples ..." % (name, who, REF_SPP), flush=True)
-        if who == "cycles":
-            a = run_cycles(s, name + "-ref", REF_SPP, 1000)[0]
-        elif REF_SPP > 1024 and rayd_max_samples():
-            a = run_rayd(s, name + "-ref", REF_SPP, 1000, ["--max-samples", str(REF_SPP)])[0]
-        else:
-            k = max(1, math.ceil(REF_SPP / 1024))
-            acc = None
-            for i in range(k):
-                img = run_rayd(s, name + "-ref", min(REF_SPP, 1024), 1000 + i)[0]
-                acc = list(img) if acc is None else [x + y for x, y in zip(acc, img)]
-            a = array.array("f", [x / k for x in acc])
-        with open(f, "wb") as fh:
-            fh.write(a.tobytes())
-        imgs[who] = a
-    return imgs["rayd"], imgs["cycles"]
+    os.makedirs(os.path.join(D, "ref"), exist_ok=True)
+    return os.path.join(D, "ref", "%s-%s-%d.%s" % (name, key, REF_SPP, suffix))
+
+
+def rayd_reference(s, name):
+    if REF_SPP > 1024 and rayd_max_samples():
+        return run_rayd(s, name + "-ref", REF_SPP, 1000, ["--max-samples", str(REF_SPP)])[0]
+    k = max(1, math.ceil(REF_SPP / 1024))
+    acc = None
+    for i in range(k):
+        img = run_rayd(s, name + "-ref", min(REF_SPP, 1024), 1000 + i)[0]
+        acc = list(img) if acc is None else [x + y for x, y in zip(acc, img)]
+    return array.array("f", [x / k for x in acc])
+
+
+def reference(s, name):
+    """rayd's and Cycles' own REF_SPP images of the scene."""
+    return (cached(ref_path(s, name, CYCLES_PY, b"", "rayd"), name + ": rayd",
+                   lambda: rayd_reference(s, name)),
+            cached(ref_path(s, name, CYCLES_PY, b"", "cycles"), name + ": cycles",
+                   lambda: run_cycles(s, name + "-ref", REF_SPP, 1000)[0]))
 
 
 def mitsuba_reference(s, name):
     """Mitsuba's own REF_SPP image, for the agreement check alone."""
-    with open(MITSUBA_PY, "rb") as f:
-        text = json.dumps(s, sort_keys=True).encode() + f.read() + MITSUBA_VARIANT.encode()
-    key = hashlib.sha256(text).hexdigest()[:12]
-    f = os.path.join(D, "ref", "%s-%s-%d.mitsuba" % (name, key, REF_SPP))
-    a = array.array("f")
-    if os.path.exists(f):
-        with open(f, "rb") as fh:
-            a.frombytes(fh.read())
-        return a
-    print("  %s: mitsuba reference, %d samples ..." % (name, REF_SPP), flush=True)
-    a = run_mitsuba(s, name + "-ref", REF_SPP, 1000)[0]
-    with open(f, "wb") as fh:
-        fh.write(a.tobytes())
-    return a
+    return cached(ref_path(s, name, MITSUBA_PY, MITSUBA_VARIANT.encode(), "mitsuba"),
+                  name + ": mitsuba", lambda: run_mitsuba(s, name + "-ref", REF_SPP, 1000)[0])
 
 
 def rayd_max_samples():
