@@ -54,9 +54,10 @@ patch("src/films/hdrfilm.cpp", "if (m_storage ==  nullptr)\n                jit_
 filt = "\ntemplate class MI_EXPORT_LIB mitsuba::ReconstructionFilter<float, mitsuba::Color<float, 3>>;\n"
 with open(src + "/src/core/rfilter.cpp") as f:
     s = f.read()
-s = s.replace(filt, "") + ("" if "scalar_rgb" in variants else filt)
-with open(src + "/src/core/rfilter.cpp", "w") as f:
-    f.write(s)
+t = s.replace(filt, "") + ("" if "scalar_rgb" in variants else filt)
+if t != s:
+    with open(src + "/src/core/rfilter.cpp", "w") as f:
+        f.write(t)
 EOF
 # Embree as Mitsuba's own build takes it (its kernels for four vector
 # widths, which doubles the build) where its submodule is there.
