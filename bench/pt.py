@@ -273,6 +273,8 @@ def ref_path(s, name, translator, extra, suffix):
 
 
 def rayd_reference(s, name):
+    """rayd's REF_SPP image: one render, or the mean of 1024-sample ones for a
+    rayd-render that takes no more (no --max-samples)."""
     if REF_SPP > 1024 and rayd_max_samples():
         return run_rayd(s, name + "-ref", REF_SPP, 1000, ["--max-samples", str(REF_SPP)])[0]
     k = max(1, math.ceil(REF_SPP / 1024))
