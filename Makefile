@@ -648,8 +648,8 @@ bench-peers: all bench-deps $(BUILD)/bench/raybench $(BUILD)/bench/embree_bench 
 	@bash bench/peers.sh $(BUILD)
 	@bash bench/bunny.sh $(BUILD) && python3 bench/pt.py $(BUILD)
 
-# The path tracer against Cycles (and Mitsuba 3: MITSUBA=) at equal quality (bench/pt.py).  No
-# bench-deps prerequisite: without blender it stops, saying to run it.
+# The path tracer against Cycles (and Mitsuba 3: MITSUBA=, MITSUBA_VARIANT=) at equal quality
+# (bench/pt.py).  No bench-deps prerequisite: without blender it stops, saying to run it.
 bench-pt: all $(BUILD)/bench/walltime $(BUILD)/bench/exrraw
 	@bash bench/bunny.sh $(BUILD) && python3 bench/pt.py $(BUILD)
 
