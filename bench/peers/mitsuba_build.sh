@@ -22,7 +22,8 @@
 #   - without scalar_rgb among the variants, its reconstruction filter,
 #     which the bitmap's resampler takes whatever the variants, is
 #     instantiated by hand (and the line taken out again with it).
-# About 40 minutes on 2 cores for each variant.
+# On 2 cores: about 40 minutes for scalar_rgb without Embree, 25 for
+# llvm_ad_rgb without it and 40 with it (Embree's kernels are the rest).
 set -eu
 SRC=$(cd "$1" && pwd)
 BUILD=$2
@@ -60,7 +61,7 @@ if t != s:
         f.write(t)
 EOF
 # Embree as Mitsuba's own build takes it (its kernels for four vector
-# widths, which doubles the build) where its submodule is there.
+# widths) where its submodule is there.
 embree=OFF
 [ -f "$SRC/ext/embree/CMakeLists.txt" ] && embree=ON
 mkdir -p "$SRC/resources/data/ior" "$SRC/resources/data/sunsky/output" "$BUILD"
