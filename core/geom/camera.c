@@ -11,6 +11,7 @@
 
 #include "base/cpu.h"
 #include "base/error.h"
+#include "math/turn.h"
 
 enum rayd_status cam_init(struct camera *cam, vec3 pos, vec3 look_at, vec3 up, double fov_x_deg,
                           double fov_y_deg, int n, int m, struct rayd_error *err) {
@@ -62,8 +63,9 @@ ray cam_ray(const struct camera *cam, double px, double py, double lu, double lv
     if (cam->aperture <= 0) return r;
     /* the focus plane is perpendicular to w at distance focus */
     vec3 f = v3_madd(cam->pos, r.d, cam->focus / v3_dot(r.d, cam->w));
-    double rad = cam->aperture * sqrt(lu), phi = 2 * 3.14159265358979323846 * lv;
-    r.o = v3_madd(v3_madd(cam->pos, cam->u, rad * cos(phi)), cam->v, rad * sin(phi));
+    double rad = cam->aperture * sqrt(lu), sp, cp;
+    turn_sincos(lv, &sp, &cp);
+    r.o = v3_madd(v3_madd(cam->pos, cam->u, rad * cp), cam->v, rad * sp);
     r.d = v3_norm(v3_sub(f, r.o));
     return r;
 }

@@ -44,6 +44,7 @@
  */
 #include <stdint.h>
 
+#include "math/turn.h"
 #include "render/integrate.h"
 
 #define PI 3.14159265358979323846
@@ -170,17 +171,19 @@ static double emitter_area(const struct object *o) {
 static vec3 emitter_point(const struct object *o, double a, double b, vec3 *n) {
     switch (o->kind) {
     case SHAPE_SPHERE: {
-        double z = 1 - 2 * a, r = sqrt(v3_fmax(0, 1 - z * z)), phi = 2 * PI * b;
-        *n = v3(r * cos(phi), r * sin(phi), z);
+        double z = 1 - 2 * a, r = sqrt(v3_fmax(0, 1 - z * z)), sp, cp;
+        turn_sincos(b, &sp, &cp);
+        *n = v3(r * cp, r * sp, z);
         return v3_madd(o->u.sphere.center, *n, o->u.sphere.radius);
     }
     case SHAPE_DISC: {
         double r2 = o->u.disc.inner * o->u.disc.inner, R2 = o->u.disc.radius * o->u.disc.radius;
-        double r = sqrt(r2 + a * (R2 - r2)), phi = 2 * PI * b;
+        double r = sqrt(r2 + a * (R2 - r2)), sp, cp;
         vec3 u, v;
+        turn_sincos(b, &sp, &cp);
         v3_frame(o->u.disc.normal, &u, &v);
         *n = o->u.disc.normal;
-        return v3_madd(v3_madd(o->u.disc.center, u, r * cos(phi)), v, r * sin(phi));
+        return v3_madd(v3_madd(o->u.disc.center, u, r * cp), v, r * sp);
     }
     default:
         *n = o->u.quad.n;
@@ -192,24 +195,26 @@ static vec3 emitter_point(const struct object *o, double a, double b, vec3 *n) {
 static vec3 env_event(const rayd_scene *s, const struct lobes *lb, const struct vertex *x, vec3 wo,
                       const struct rng_key *key, uint32_t b, struct meter *mt) {
     const struct environment *e = &s->rs.env;
-    vec3 wi;
+    vec3 wi, le;
     double pdf_l, pdf_b, u, v;
     rng_pair(key, b, D_ENV1, &u, &v);
-    if (!env_sample(e, u, v, &wi, &pdf_l)) return v3(0, 0, 0);
+    if (!env_sample(e, u, v, &wi, &pdf_l, &le)) return v3(0, 0, 0);
     if (v3_dot(x->n, wi) <= 0 || v3_dot(x->ng, wi) <= 0) return v3(0, 0, 0);
     vec3 f = eval_nondelta(lb, x->n, wo, wi, &pdf_b);
     if (v3_maxabs(f) == 0) return v3(0, 0, 0);
     vec3 tr = integrate_visible(s, x->above, wi, INFINITY, true, x->leave, mt);
     if (v3_maxabs(tr) == 0) return v3(0, 0, 0);
-    vec3 le = env_radiance(e, wi);
     return v3_scale(v3_mul(v3_mul(le, tr), f), mis(pdf_l, pdf_b) / pdf_l);
 }
 
 /* What a path that escapes along d after bounce b adds (beta aside). */
 static vec3 escaped(const rayd_scene *s, vec3 d, uint32_t b, bool prev_delta, double prev_pdf) {
-    vec3 le = integrate_escape(s, d, (int)b);
-    if (b == 0 || prev_delta || !env_can_sample(&s->rs.env) || s->rs.no_nee) return le;
-    return v3_scale(le, mis(prev_pdf, env_pdf(&s->rs.env, d)));
+    const struct environment *e = &s->rs.env;
+    if (b == 0 || prev_delta || !env_can_sample(e) || s->rs.no_nee)
+        return integrate_escape(s, d, (int)b);
+    double pdf;
+    vec3 le = env_radiance_pdf(e, d, &pdf);
+    return v3_scale(le, mis(prev_pdf, pdf));
 }
 
 /* Light arriving at vertex x through the lights and one emitter (NEE). */
@@ -292,11 +297,14 @@ sample_bsdf(const struct lobes *lb, const struct vertex *x, vec3 color, const st
     if (u < lb->w_metal) { /* GGX: sample the half vector by D(h) cos */
         double a2 = lb->alpha * lb->alpha;
         double ct = sqrt((1 - u1) / (1 + (a2 - 1) * u1)), st = sqrt(v3_fmax(0, 1 - ct * ct));
-        vec3 h = frame_dir(x->n, st * cos(2 * PI * u2), st * sin(2 * PI * u2), ct);
+        double sp, cp;
+        turn_sincos(u2, &sp, &cp);
+        vec3 h = frame_dir(x->n, st * cp, st * sp, ct);
         *wi = v3_reflect(v3_neg(wo), h);
     } else { /* cosine-weighted hemisphere */
-        double r = sqrt(u1), phi = 2 * PI * u2;
-        *wi = frame_dir(x->n, r * cos(phi), r * sin(phi), sqrt(v3_fmax(0, 1 - u1)));
+        double r = sqrt(u1), sp, cp;
+        turn_sincos(u2, &sp, &cp);
+        *wi = frame_dir(x->n, r * cp, r * sp, sqrt(v3_fmax(0, 1 - u1)));
     }
     vec3 f = eval_nondelta(lb, x->n, wo, *wi, pdf);
     if (!(*pdf > 0) || v3_dot(*wi, x->ng) <= 0) return false;

@@ -32,6 +32,8 @@
 #include <stdlib.h>
 
 #include "shade/environment.h"
+
+#include "math/turn.h"
 #include "shade/texels.h"
 
 #define PI 3.14159265358979323846
@@ -44,7 +46,7 @@ static vec3 turn(const struct environment *e, vec3 d, double sign) {
 
 /* The cell of a local direction. */
 static int cell_of(const struct environment *e, vec3 l) {
-    double y = fmax(-1, fmin(1, l.y));
+    double y = v3_fmax(-1, v3_fmin(1, l.y));
     double theta = acos(y), phi = atan2(l.x, -l.z);
     double u = phi / (2 * PI) + 0.5, v = theta / PI;
     int i = (int)(u * e->w), j = (int)(v * e->h);
@@ -53,20 +55,54 @@ static int cell_of(const struct environment *e, vec3 l) {
     return row * e->w + col;
 }
 
+static vec3 texel(const float *p) { return v3(p[0], p[1], p[2]); }
+
 vec3 env_radiance(const struct environment *e, vec3 d) {
     if (e->kind == ENV_CONSTANT) return e->color;
     if (e->kind != ENV_IMAGE) return v3(0, 0, 0);
-    const float *p = e->rgb + 3 * (size_t)cell_of(e, turn(e, d, -1));
-    return v3(p[0], p[1], p[2]);
+    return texel(e->rgb + 3 * (size_t)cell_of(e, turn(e, d, -1)));
 }
 
 static double luminance(const float *p) { return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]; }
 
 static double row_sin(const struct environment *e, int j) { return sin(PI * (j + 0.5) / e->h); }
 
-/* cos(theta) at the top edge of row j (j = h: the bottom of the map). */
+/* cos(theta) at the top edge of row j (j = h: the bottom of the map);
+ * env_sample reads it from the table made of it. */
 static double row_cos(const struct environment *e, int j) {
     return j <= 0 ? 1 : j >= e->h ? -1 : cos(PI * j / e->h);
+}
+
+/* The index k in [0, n) with cdf[k] <= x < cdf[k + 1], skipping empty ones
+ * (the only such k; n - 1 for x >= cdf[n]). */
+static int find(const double *cdf, int n, double x) {
+    int lo = 0, hi = n; /* cdf[lo] <= x < cdf[hi] */
+    while (hi - lo > 1) {
+        int mid = (lo + hi) / 2;
+        if (cdf[mid] <= x)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return lo;
+}
+
+/* find's k for x = u cdf[n], u in [0, 1), from guide[(int)(u m)], find's
+ * answer at the start of that m-th of the range (Chen and Asau's guide
+ * table): a step or two from there instead of a binary search's chain of
+ * dependent loads, which was most of a sample's cost on an environment
+ * lit scene.  Since that k is the only one, the steps (either way, so a
+ * rounding at a bucket's edge cannot mislead) end where find does. */
+static int find_guided(const double *cdf, int n, const int *guide, int m, double u, double x) {
+    int g = (int)(u * m), k = guide[g < 0 ? 0 : g >= m ? m - 1 : g];
+    while (k > 0 && cdf[k] > x) k--;
+    while (k + 1 < n && cdf[k + 1] <= x) k++;
+    return k;
+}
+
+/* guide[g] = find's k at the start of the g-th of m parts of the range. */
+static void make_guide(const double *cdf, int n, int *guide, int m) {
+    for (int g = 0; g < m; g++) guide[g] = find(cdf, n, cdf[n] * g / m);
 }
 
 /* The weights' CDFs (luminance x the cell's cos(theta) extent); integral =
@@ -74,17 +110,23 @@ static double row_cos(const struct environment *e, int j) {
 static bool build_tables(struct environment *e) {
     int w = e->w, h = e->h;
     e->row_cdf = malloc((size_t)(h + 1) * sizeof *e->row_cdf);
+    e->row_cos = malloc((size_t)(h + 1) * sizeof *e->row_cos);
     e->col_cdf = malloc((size_t)h * (size_t)(w + 1) * sizeof *e->col_cdf);
-    if (!e->row_cdf || !e->col_cdf) return false;
+    e->row_guide = malloc((size_t)h * sizeof *e->row_guide);
+    e->col_guide = malloc((size_t)h * (size_t)w * sizeof *e->col_guide);
+    if (!e->row_cdf || !e->row_cos || !e->col_cdf || !e->row_guide || !e->col_guide) return false;
+    for (int j = 0; j <= h; j++) e->row_cos[j] = row_cos(e, j);
     e->row_cdf[0] = 0;
     for (int j = 0; j < h; j++) {
         double *c = e->col_cdf + (size_t)j * (size_t)(w + 1);
-        double area = row_cos(e, j) - row_cos(e, j + 1);
+        double area = e->row_cos[j] - e->row_cos[j + 1];
         c[0] = 0;
         for (int i = 0; i < w; i++)
             c[i + 1] = c[i] + luminance(e->rgb + 3 * ((size_t)j * w + i)) * area;
         e->row_cdf[j + 1] = e->row_cdf[j] + c[w];
+        make_guide(c, w, e->col_guide + (size_t)j * (size_t)w, w);
     }
+    make_guide(e->row_cdf, h, e->row_guide, h);
     e->integral = e->row_cdf[h] * 2 * PI / w;
     return true;
 }
@@ -113,44 +155,40 @@ bool env_can_sample(const struct environment *e) {
     return e->kind == ENV_IMAGE && e->sample && e->integral > 0;
 }
 
-/* The index k in [0, n) with cdf[k] <= x < cdf[k + 1], skipping empty ones. */
-static int find(const double *cdf, int n, double x) {
-    int lo = 0, hi = n; /* cdf[lo] <= x < cdf[hi] */
-    while (hi - lo > 1) {
-        int mid = (lo + hi) / 2;
-        if (cdf[mid] <= x)
-            lo = mid;
-        else
-            hi = mid;
-    }
-    return lo;
-}
-
-bool env_sample(const struct environment *e, double u1, double u2, vec3 *d, double *pdf) {
+bool env_sample(const struct environment *e, double u1, double u2, vec3 *d, double *pdf, vec3 *le) {
     int w = e->w, h = e->h;
     double x = u1 * e->row_cdf[h];
-    int j = find(e->row_cdf, h, x);
+    int j = find_guided(e->row_cdf, h, e->row_guide, h, u1, x);
     double rw = e->row_cdf[j + 1] - e->row_cdf[j];
     double fv = rw > 0 ? (x - e->row_cdf[j]) / rw : 0.5;
     const double *c = e->col_cdf + (size_t)j * (size_t)(w + 1);
     double y = u2 * c[w];
-    int i = find(c, w, y);
+    int i = find_guided(c, w, e->col_guide + (size_t)j * (size_t)w, w, u2, y);
     double cw = c[i + 1] - c[i];
     double fu = cw > 0 ? (y - c[i]) / cw : 0.5;
     if (!(cw > 0)) return false;
-    double top = row_cos(e, j), ct = top - fmin(fv, 1) * (top - row_cos(e, j + 1));
-    double st = sqrt(fmax(0, 1 - ct * ct)), phi = 2 * PI * ((i + fmin(fu, 1)) / w - 0.5);
-    vec3 l = v3(st * sin(phi), ct, -st * cos(phi));
+    double top = e->row_cos[j], ct = top - v3_fmin(fv, 1) * (top - e->row_cos[j + 1]);
+    double st = sqrt(v3_fmax(0, 1 - ct * ct)), sp, cp;
+    turn_sincos((i + v3_fmin(fu, 1)) / w - 0.5, &sp, &cp); /* phi = 2 pi (that) */
+    vec3 l = v3(st * sp, ct, -st * cp);
     *d = turn(e, l, 1);
     /* the cell's share of all weight, spread evenly over its solid angle */
-    *pdf = luminance(e->rgb + 3 * ((size_t)j * w + i)) / e->integral;
+    const float *p = e->rgb + 3 * ((size_t)j * w + i);
+    *pdf = luminance(p) / e->integral;
+    *le = texel(p);
     return *pdf > 0;
 }
 
+vec3 env_radiance_pdf(const struct environment *e, vec3 d, double *pdf) {
+    const float *p = e->rgb + 3 * (size_t)cell_of(e, turn(e, d, -1));
+    *pdf = e->integral > 0 ? luminance(p) / e->integral : 0;
+    return texel(p);
+}
+
 double env_pdf(const struct environment *e, vec3 d) {
-    int k = cell_of(e, turn(e, d, -1));
-    if (!(e->integral > 0)) return 0;
-    return luminance(e->rgb + 3 * (size_t)k) / e->integral;
+    double pdf;
+    env_radiance_pdf(e, d, &pdf);
+    return pdf;
 }
 
 void env_free(struct environment *e) {
@@ -160,14 +198,19 @@ void env_free(struct environment *e) {
         free(e->rgb);
     e->shared = NULL;
     free(e->row_cdf);
+    free(e->row_cos);
     free(e->col_cdf);
+    free(e->row_guide);
+    free(e->col_guide);
     e->rgb = NULL;
-    e->row_cdf = e->col_cdf = NULL;
+    e->row_cdf = e->row_cos = e->col_cdf = NULL;
+    e->row_guide = e->col_guide = NULL;
 }
 
 size_t env_bytes(const struct environment *e) {
     if (e->kind != ENV_IMAGE) return 0;
     size_t w = (size_t)e->w, h = (size_t)e->h;
-    return w * h * 3 * sizeof *e->rgb + (h + 1 + h * (w + 1)) * sizeof(double) +
+    return w * h * 3 * sizeof *e->rgb + (2 * (h + 1) + h * (w + 1)) * sizeof(double) +
+           (h + h * w) * sizeof(int) +
            (e->shared ? e->shared->sh.key_len : 0); /* a shared image counts whole in each scene */
 }

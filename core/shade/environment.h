@@ -21,8 +21,10 @@ struct environment {
     vec3 mean;             /* solid-angle average radiance (the Whitted ambient) */
     /* image sampling, by luminance x solid angle: cdf over rows (h + 1),
      * cdf over columns per row (h x (w + 1)), and the luminance integrated
-     * over the sphere */
-    double *row_cdf, *col_cdf, integral;
+     * over the sphere; cos(theta) at each row's top edge (h + 1); guide
+     * tables into the cdfs (h, h x w: environment.c, find_guided) */
+    double *row_cdf, *col_cdf, integral, *row_cos;
+    int *row_guide, *col_guide;
     bool sample; /* the path tracer samples it (tests turn it off) */
 };
 
@@ -37,12 +39,17 @@ bool env_prepare(struct environment *e);
 bool env_can_sample(const struct environment *e);
 
 /* A direction drawn in proportion to luminance over the sphere from
- * (u1, u2) in [0, 1)^2, with its solid-angle pdf; false when the draw
- * lands on a texel of no light. */
-bool env_sample(const struct environment *e, double u1, double u2, vec3 *d, double *pdf);
+ * (u1, u2) in [0, 1)^2, with its solid-angle pdf and the radiance from it
+ * (the texel drawn: no second lookup); false when the draw lands on a
+ * texel of no light. */
+bool env_sample(const struct environment *e, double u1, double u2, vec3 *d, double *pdf, vec3 *le);
 
 /* The solid-angle pdf env_sample draws the unit direction d with. */
 double env_pdf(const struct environment *e, vec3 d);
+
+/* env_radiance and env_pdf of an image's direction d with one lookup (an
+ * escaped path's light and its MIS weight). */
+vec3 env_radiance_pdf(const struct environment *e, vec3 d, double *pdf);
 
 void env_free(struct environment *e);
 /* The memory its pixels and tables take (the server's scene cache counts it). */

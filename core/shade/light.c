@@ -7,6 +7,8 @@
  */
 #include "shade/light.h"
 
+#include "math/turn.h"
+
 bool light_at(const struct light *l, vec3 p, vec3 *to_light, double *dist, vec3 *radiance) {
     vec3 c = v3_scale(l->color, l->intensity);
     if (l->kind == LIGHT_AREA) { /* the centre; integrate.c samples the area */
@@ -40,20 +42,18 @@ bool light_at(const struct light *l, vec3 p, vec3 *to_light, double *dist, vec3 
     return true;
 }
 
-#define PI 3.14159265358979323846
-
 vec3 light_area_point(const struct light *l, vec3 p, double su, double sv) {
     switch (l->shape) {
     case AREA_RECT: return v3_madd(v3_madd(l->position, l->e1, su), l->e2, sv);
     case AREA_DISC: { /* concentric mapping keeps strata compact */
-        double a = 2 * su - 1, b = 2 * sv - 1, r, phi;
+        double a = 2 * su - 1, b = 2 * sv - 1, r, turns, sp, cp;
         if (a == 0 && b == 0) return l->position;
         if (fabs(a) > fabs(b))
-            r = a, phi = (PI / 4) * (b / a);
+            r = a, turns = (b / a) / 8; /* pi/4 (b / a) */
         else
-            r = b, phi = PI / 2 - (PI / 4) * (a / b);
-        return v3_madd(v3_madd(l->position, l->e1, r * cos(phi) * l->radius), l->e2,
-                       r * sin(phi) * l->radius);
+            r = b, turns = 0.25 - (a / b) / 8; /* pi/2 - pi/4 (a / b) */
+        turn_sincos(turns, &sp, &cp);
+        return v3_madd(v3_madd(l->position, l->e1, r * cp * l->radius), l->e2, r * sp * l->radius);
     }
     case AREA_SPHERE: {
         /* uniform on the hemisphere facing p */
@@ -62,9 +62,9 @@ vec3 light_area_point(const struct light *l, vec3 p, double su, double sv) {
         w = len > 0 ? v3_scale(w, 1 / len) : v3(0, 1, 0);
         vec3 a = fabs(w.x) > 0.9 ? v3(0, 1, 0) : v3(1, 0, 0);
         vec3 u = v3_norm(v3_cross(a, w)), v = v3_cross(w, u);
-        double z = su, r = sqrt(fmax(0, 1 - z * z)), phi = 2 * PI * sv;
-        vec3 d =
-            v3_add(v3_add(v3_scale(u, r * cos(phi)), v3_scale(v, r * sin(phi))), v3_scale(w, z));
+        double z = su, r = sqrt(fmax(0, 1 - z * z)), sp, cp;
+        turn_sincos(sv, &sp, &cp);
+        vec3 d = v3_add(v3_add(v3_scale(u, r * cp), v3_scale(v, r * sp)), v3_scale(w, z));
         return v3_madd(l->position, d, l->radius);
     }
     }
