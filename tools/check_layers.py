@@ -66,8 +66,9 @@ CORE_LAYERS = [
     ("core/base/", "error (status, message, JSON Pointer, line/column), array, hugemem, parallel, "
                    "clock, bytes (little-endian words), cpu (whether the AVX-512 and AVX2 code runs), meter (a render thread's ray count, "
                    "cancel flag and ray budget), share (what scenes of the same bytes share)"),
-    ("core/math/", "vec.h, xform, poly (the quadratic and the quartic), rng.h, keyframe "
-                   "(interpolation of animation keys, quaternion slerp)"),
+    ("core/math/", "vec.h, xform, poly (the quadratic and the quartic), rng.h, turn.h (the "
+                   "samplers' sin and cos of 2 pi u), keyframe (interpolation of animation keys, "
+                   "quaternion slerp)"),
     ("core/format/", "byte-level formats on base and math alone: json_check, json_parse (the "
                      "locked cJSON parse), json_numbers, json_pointer, base64, mesh_io + "
                      "mesh_obj, mesh_ply, mesh_gltf (with its animation channels), hdr_scan, "
