@@ -91,7 +91,7 @@ static double ggx_g1(double alpha, double cos_v) {
 }
 
 static vec3 schlick(vec3 f0, double c) {
-    double k = pow(1 - v3_fmax(0, v3_fmin(1, c)), 5);
+    double x = 1 - v3_fmax(0, v3_fmin(1, c)), x2 = x * x, k = x2 * x2 * x; /* pow(x, 5) */
     return v3_add(f0, v3_scale(v3_sub(v3(1, 1, 1), f0), k));
 }
 
@@ -253,9 +253,12 @@ next_event(const rayd_scene *s, const struct lobes *lb, const struct vertex *x, 
     if (v3_maxabs(f) == 0) return sum;
     vec3 tr = integrate_visible(s, x->above, wi, dist * (1 - 1e-7), true, x->leave, mt);
     if (v3_maxabs(tr) == 0) return sum;
-    double pdf_l = dist * dist / (cl * emitter_area(e)) / ne;
+    /* mis(pdf_l, pdf_b) / pdf_l with pdf_l = dist^2 / (cl area ne), in two
+     * divisions rather than four, none of them of squares that overflow */
+    double inv = cl * emitter_area(e) * ne / (dist * dist), r = pdf_b * inv; /* 1 / pdf_l */
+    double w = inv / (1 + r * r);
     vec3 le = em->emission;
-    return v3_add(sum, v3_scale(v3_mul(v3_mul(le, tr), f), mis(pdf_l, pdf_b) / pdf_l));
+    return v3_add(sum, v3_scale(v3_mul(v3_mul(le, tr), f), w));
 }
 
 /* Samples the next direction; returns false when the path ends.  Updates
@@ -368,8 +371,10 @@ static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *fir
             if (!prev_delta && !s->rs.no_nee && is_emitter(s, &h)) {
                 vec3 d = v3_sub(sf.p, prev_p);
                 double dist2 = v3_dot(d, d), cl = fabs(v3_dot(sf.ng, r.d));
-                double pdf_l = dist2 / (cl * emitter_area(h.leaf)) / s->nemitters;
-                w = mis(prev_pdf, pdf_l);
+                /* mis(prev_pdf, pdf_l), pdf_l = dist2 / (cl area ne), in two
+                 * divisions rather than three */
+                double t = dist2 / (cl * emitter_area(h.leaf) * s->nemitters * prev_pdf);
+                w = 1 / (1 + t * t);
             }
             L = path_add(s, L, v3_scale(v3_mul(beta, m->emission), w), b >= 2);
         }

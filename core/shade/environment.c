@@ -10,14 +10,17 @@
  * Lookups take the nearest texel: the radiance is then piecewise constant
  * over exactly the cells the sampler draws from, so the sampling pdf is
  * proportional to what it samples, and a lookup is a few operations with no
- * filter to make the result depend on anything but the direction.
+ * filter to make the result depend on anything but the direction.  The
+ * cell is found against the very edges the sampler draws between (tables
+ * of their cos(theta) and of sin and cos phi), so a drawn direction is
+ * always looked up in the cell it was drawn from.
  *
  * The path tracer draws directions in proportion to the radiance's
  * luminance over the sphere: a cell's weight is its luminance times its
  * solid angle (2 pi / w times the difference of its rows' cos(theta)); a
  * row by the marginal CDF, then a column by that row's conditional CDF,
- * both by binary search, then a point uniform in solid angle within the
- * cell (phi uniform, cos(theta) uniform).  The solid-angle pdf of a
+ * each search started from a guide table, then a point uniform in solid
+ * angle within the cell (phi uniform, cos(theta) uniform).  The solid-angle pdf of a
  * direction is then its cell's luminance over the map's integral of
  * luminance: proportional to what it samples everywhere, even in the rows
  * near the poles, where a point uniform in theta would crowd the pole (the
@@ -44,15 +47,55 @@ static vec3 turn(const struct environment *e, vec3 d, double sign) {
     return v3(c * d.x + s * d.z, d.y, -s * d.x + c * d.z);
 }
 
-/* The cell of a local direction. */
+/* floor(x) as an index in [0, n): NaN and what lies outside clamped. */
+static int index_in(double x, int n) { return x > 0 ? (x < n ? (int)x : n - 1) : 0; }
+
+/* acos(y) to 7e-5 (Abramowitz and Stegun 4.4.45), for a first guess. */
+static double acos_guess(double y) {
+    double a = fabs(y),
+           r = sqrt(1 - a) * (1.5707288 + a * (-0.2121144 + a * (0.0742610 - a * 0.0187293)));
+    return y < 0 ? PI - r : r;
+}
+
+/* atan2(x, z) to 1e-5 (A and S 4.4.49 on the smaller ratio), a first guess. */
+static double atan2_guess(double x, double z) {
+    double ax = fabs(x), az = fabs(z), lo = v3_fmin(ax, az), hi = v3_fmax(ax, az);
+    double a = hi > 0 ? lo / hi : 0, a2 = a * a;
+    double t =
+        a * (0.9998660 + a2 * (-0.3302995 + a2 * (0.1801410 + a2 * (-0.0851330 + a2 * 0.0208351))));
+    if (ax > az) t = PI / 2 - t;
+    if (z < 0) t = PI - t;
+    return signbit(x) ? -t : t;
+}
+
+/* The row of a local direction: from a guess, stepped to the one whose
+ * edges' cos(theta) (the table env_sample draws from) hold y. */
+static int row_of(const struct environment *e, double y) {
+    int h = e->h, j = index_in(acos_guess(v3_fmax(-1, v3_fmin(1, y))) * (h / PI), h);
+    while (j > 0 && y > e->row_cos[j]) j--;
+    while (j + 1 < h && y <= e->row_cos[j + 1]) j++;
+    return j;
+}
+
+/* The column of a local direction, likewise: (x, -z) lies at or past
+ * column k's left edge when it is on the edge's left, a sign that holds
+ * within half a turn of the edge: the guess is far nearer than that. */
+static int col_of(const struct environment *e, double x, double z) {
+    int w = e->w, i = index_in((atan2_guess(x, -z) / (2 * PI) + 0.5) * w, w);
+    const double *s = e->col_sin, *c = e->col_cos;
+    if (x == 0 && z == 0) return i; /* straight up or down: any column */
+    while (i > 0 && x * c[i] + z * s[i] < 0) i--;
+    while (i + 1 < w && x * c[i + 1] + z * s[i + 1] >= 0) i++;
+    return i;
+}
+
+/* The cell of a local direction: the one env_sample draws it from.  No
+ * acos or atan2 (a fifth of an environment-lit path's time): a guess
+ * good to a fraction of a cell, then a step or two against the cells'
+ * edges as env_sample makes them, which gives every direction that
+ * sampler draws in a cell that cell, to the last bit. */
 static int cell_of(const struct environment *e, vec3 l) {
-    double y = v3_fmax(-1, v3_fmin(1, l.y));
-    double theta = acos(y), phi = atan2(l.x, -l.z);
-    double u = phi / (2 * PI) + 0.5, v = theta / PI;
-    int i = (int)(u * e->w), j = (int)(v * e->h);
-    int col = i < 0 ? 0 : i >= e->w ? e->w - 1 : i;
-    int row = j < 0 ? 0 : j >= e->h ? e->h - 1 : j;
-    return row * e->w + col;
+    return row_of(e, l.y) * e->w + col_of(e, l.x, l.z);
 }
 
 static vec3 texel(const float *p) { return v3(p[0], p[1], p[2]); }
@@ -114,8 +157,13 @@ static bool build_tables(struct environment *e) {
     e->col_cdf = malloc((size_t)h * (size_t)(w + 1) * sizeof *e->col_cdf);
     e->row_guide = malloc((size_t)h * sizeof *e->row_guide);
     e->col_guide = malloc((size_t)h * (size_t)w * sizeof *e->col_guide);
-    if (!e->row_cdf || !e->row_cos || !e->col_cdf || !e->row_guide || !e->col_guide) return false;
+    e->col_sin = malloc((size_t)(w + 1) * sizeof *e->col_sin);
+    e->col_cos = malloc((size_t)(w + 1) * sizeof *e->col_cos);
+    if (!e->row_cdf || !e->row_cos || !e->col_cdf || !e->row_guide || !e->col_guide ||
+        !e->col_sin || !e->col_cos)
+        return false;
     for (int j = 0; j <= h; j++) e->row_cos[j] = row_cos(e, j);
+    for (int i = 0; i <= w; i++) turn_sincos((double)i / w - 0.5, &e->col_sin[i], &e->col_cos[i]);
     e->row_cdf[0] = 0;
     for (int j = 0; j < h; j++) {
         double *c = e->col_cdf + (size_t)j * (size_t)(w + 1);
@@ -202,15 +250,17 @@ void env_free(struct environment *e) {
     free(e->col_cdf);
     free(e->row_guide);
     free(e->col_guide);
+    free(e->col_sin);
+    free(e->col_cos);
     e->rgb = NULL;
-    e->row_cdf = e->row_cos = e->col_cdf = NULL;
+    e->row_cdf = e->row_cos = e->col_cdf = e->col_sin = e->col_cos = NULL;
     e->row_guide = e->col_guide = NULL;
 }
 
 size_t env_bytes(const struct environment *e) {
     if (e->kind != ENV_IMAGE) return 0;
     size_t w = (size_t)e->w, h = (size_t)e->h;
-    return w * h * 3 * sizeof *e->rgb + (2 * (h + 1) + h * (w + 1)) * sizeof(double) +
+    return w * h * 3 * sizeof *e->rgb + (2 * (h + 1) + 2 * (w + 1) + h * (w + 1)) * sizeof(double) +
            (h + h * w) * sizeof(int) +
            (e->shared ? e->shared->sh.key_len : 0); /* a shared image counts whole in each scene */
 }

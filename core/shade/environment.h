@@ -21,9 +21,10 @@ struct environment {
     vec3 mean;             /* solid-angle average radiance (the Whitted ambient) */
     /* image sampling, by luminance x solid angle: cdf over rows (h + 1),
      * cdf over columns per row (h x (w + 1)), and the luminance integrated
-     * over the sphere; cos(theta) at each row's top edge (h + 1); guide
-     * tables into the cdfs (h, h x w: environment.c, find_guided) */
-    double *row_cdf, *col_cdf, integral, *row_cos;
+     * over the sphere; cos(theta) at each row's top edge (h + 1), sin and
+     * cos(phi) at each column's left edge (w + 1); guide tables into the
+     * cdfs (h, h x w: environment.c, find_guided) */
+    double *row_cdf, *col_cdf, integral, *row_cos, *col_sin, *col_cos;
     int *row_guide, *col_guide;
     bool sample; /* the path tracer samples it (tests turn it off) */
 };
