@@ -13,8 +13,9 @@
  * left out are under 1e-16 there), then the quarter turn rotates (s, c).
  * Plain multiplies and adds in a fixed order (the build never contracts
  * them into FMAs): the same bits on any x86-64 or other IEEE machine.
- * Accuracy: within 4e-16 of sin and cos (test_turn checks it against
- * libm over a million points), far below what a sampled direction needs.
+ * Accuracy: within 2.7e-16 of libm's long double sinl and cosl over ten
+ * million points (test_turn holds it under 4e-16 over a million), far
+ * below what a sampled direction needs.
  */
 #ifndef TURN_H
 #define TURN_H

@@ -20,11 +20,12 @@
  * solid angle (2 pi / w times the difference of its rows' cos(theta)); a
  * row by the marginal CDF, then a column by that row's conditional CDF,
  * each search started from a guide table, then a point uniform in solid
- * angle within the cell (phi uniform, cos(theta) uniform).  The solid-angle pdf of a
- * direction is then its cell's luminance over the map's integral of
- * luminance: proportional to what it samples everywhere, even in the rows
- * near the poles, where a point uniform in theta would crowd the pole (the
- * studio map's bright top row: bench/README.md, "against Mitsuba 3 too").
+ * angle within the cell (phi uniform, cos(theta) uniform).  The
+ * solid-angle pdf of a direction is then its cell's luminance over the
+ * map's integral of luminance: proportional to what it samples
+ * everywhere, even in the rows near the poles, where a point uniform in
+ * theta would crowd the pole (the studio map's bright top row:
+ * bench/README.md, "against Mitsuba 3 too").
  * A constant environment needs no table: the BSDF's own sampling is
  * already the best one can do against a uniform light.
  *
