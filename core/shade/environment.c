@@ -234,12 +234,6 @@ vec3 env_radiance_pdf(const struct environment *e, vec3 d, double *pdf) {
     return texel(p);
 }
 
-double env_pdf(const struct environment *e, vec3 d) {
-    double pdf;
-    env_radiance_pdf(e, d, &pdf);
-    return pdf;
-}
-
 void env_free(struct environment *e) {
     if (e->shared)
         texels_unref(e->shared);

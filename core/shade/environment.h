@@ -45,11 +45,9 @@ bool env_can_sample(const struct environment *e);
  * texel of no light. */
 bool env_sample(const struct environment *e, double u1, double u2, vec3 *d, double *pdf, vec3 *le);
 
-/* The solid-angle pdf env_sample draws the unit direction d with. */
-double env_pdf(const struct environment *e, vec3 d);
-
-/* env_radiance and env_pdf of an image's direction d with one lookup (an
- * escaped path's light and its MIS weight). */
+/* env_radiance of an image's direction d, and the solid-angle pdf
+ * env_sample draws d with, from one lookup (an escaped path's light and
+ * its MIS weight). */
 vec3 env_radiance_pdf(const struct environment *e, vec3 d, double *pdf);
 
 void env_free(struct environment *e);

@@ -316,8 +316,8 @@ static void test_sampling_the_sky_pays(void) {
 }
 
 /* The map's sampling, drawn from directly: every direction env_sample
- * gives comes with env_pdf's pdf and env_radiance's radiance (env_radiance_pdf
- * gives both alike), and that pdf is the luminance there over
+ * gives comes with env_radiance_pdf's pdf and env_radiance's radiance, and
+ * that pdf is the luminance there over
  * the luminance integrated over the sphere (a cell's luminance times its
  * solid angle, summed here on its own), so luminance / pdf is that
  * integral for every sample: no variance left for a map lighting alone.
@@ -353,12 +353,12 @@ static void test_sampling_pdf_follows_the_radiance(void) {
             double pdf, pdf2;
             if (!env_sample(&e, (a + 0.5) / 64, (b + 0.5) / 64, &d, &pdf, &le)) continue;
             drawn++;
-            bad_pdf += fabs(env_pdf(&e, d) / pdf - 1) > 1e-9;
-            bad_ratio += fabs(lum(env_radiance(&e, d)) / pdf / want - 1) > 1e-9;
             vec3 look = env_radiance_pdf(&e, d, &pdf2), r = env_radiance(&e, d);
+            bad_pdf += fabs(pdf2 / pdf - 1) > 1e-9;
+            bad_ratio += fabs(lum(env_radiance(&e, d)) / pdf / want - 1) > 1e-9;
             bad_le += v3_maxabs(v3_sub(le, r)) > 0 || v3_maxabs(v3_sub(look, r)) > 0 || pdf2 != pdf;
         }
-    CHECK(bad_pdf == 0, "%d of 4096 samples' pdf is not env_pdf's", bad_pdf);
+    CHECK(bad_pdf == 0, "%d of 4096 samples' pdf is not env_radiance_pdf's", bad_pdf);
     CHECK(bad_ratio == 0, "%d of 4096 samples' luminance / pdf is not the integral", bad_ratio);
     CHECK(bad_le == 0, "%d of 4096 samples' radiance or pdf differ from the lookups'", bad_le);
     CHECK(drawn == 4096, "%d of 4096 draws gave a direction", drawn);
