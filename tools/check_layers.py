@@ -67,7 +67,8 @@ CORE_LAYERS = [
                    "clock, bytes (little-endian words), cpu (whether the AVX-512 and AVX2 code runs), meter (a render thread's ray count, "
                    "cancel flag and ray budget), share (what scenes of the same bytes share)"),
     ("core/math/", "vec.h, xform, poly (the quadratic and the quartic), rng.h, turn.h (the "
-                   "samplers' sin and cos of 2 pi u), keyframe (interpolation of animation keys, "
+                   "samplers' sin and cos of 2 pi u), roulette.h (the path tracer's Russian "
+                   "roulette), keyframe (interpolation of animation keys, "
                    "quaternion slerp)"),
     ("core/format/", "byte-level formats on base and math alone: json_check, json_parse (the "
                      "locked cJSON parse), json_numbers, json_pointer, base64, mesh_io + "

@@ -23,10 +23,9 @@
  * environment is also sampled at every non-delta vertex, in proportion to
  * its luminance over the sphere (environment.c), and that light sample and
  * the BSDF's escaped ray are weighed by the power heuristic, as for
- * emitters.  Russian roulette from the third bounce keeps long paths
- * cheap and the estimate unbiased: a path goes on with chance RR_GAIN
- * times its throughput (clamped to [0.05, 0.95]), its weight divided by
- * that chance.  Every random number is a stratified
+ * emitters.  Russian roulette (math/roulette.h: from the third vertex, a
+ * chance twice the throughput, clamped to [0.05, 0.95]) keeps long paths
+ * cheap and the estimate unbiased.  Every random number is a stratified
  * sample (Owen-scrambled Sobol, rng.h), a pure function of pixel, sample,
  * bounce and the dimension below, so tiles stay exact.  A direction's two
  * numbers, a light point's two and the environment's two are each one 2-D
@@ -46,23 +45,11 @@
  */
 #include <stdint.h>
 
+#include "math/roulette.h"
 #include "math/turn.h"
 #include "render/integrate.h"
 
 #define PI 3.14159265358979323846
-
-/* Russian roulette, from bounce RR_FROM on: the chance to go on is
- * RR_GAIN x the path's throughput.  At 1 from bounce 3 (as pbrt has it) a
- * path at a third of the camera's weight lived on one time in three,
- * three times as bright: the survivors that then met a caustic were the
- * glass box's brightest specks.  At 2 from bounce 2, on make bench-pt's
- * scenes at 16 and 256 samples (16 and 3 seeds, CPU time): the mean
- * squared error 28-30% lower on the glass box, 9-11% on the Cornell box
- * and the slit room, in 2-10% less time; efficiency 1.46-1.52x,
- * 1.22-1.23x, 1.13-1.14x, the bunny level.  scene_cost.c's bound follows
- * both numbers. */
-#define RR_FROM 2u
-#define RR_GAIN 2.0
 
 enum { D_LOBE, D_DIR1, D_DIR2, D_RR, D_FRESNEL, D_PICK, D_EPT1, D_EPT2, D_LIGHT0 };
 /* The environment's light sample: at the top of the 32-bit range, past
@@ -346,7 +333,7 @@ static bool rr_ends_first(const struct lobes *lb, vec3 beta, double rr) {
     double sum = fabs(p.x) + fabs(p.y) + fabs(p.z); /* NaN or infinite: no shortcut */
     if (!(sum < INFINITY)) return false;
     double hi = v3_maxabs(p) * (1 + 1e-12) + 1e-300;
-    return rr >= v3_fmin(0.95, v3_fmax(0.05, RR_GAIN * hi));
+    return rr >= roulette_chance(hi);
 }
 
 /* c added to L; an indirect contribution first scaled down to the
@@ -412,15 +399,15 @@ static vec3 path_trace(const rayd_scene *s, const ray *r0, const struct hit *fir
         struct lobes lb = lobes_of(m, sf.color, blurry ? s->rs.filter_glossy : 0);
         if (!s->rs.no_nee && (lb.w_diff > 0 || (lb.w_metal > 0 && lb.alpha > 0)))
             L = path_add(s, L, v3_mul(beta, next_event(s, &lb, &x, wo, key, b, mt)), b >= 1);
-        double rr = b >= RR_FROM ? rng_stratified(key, b, D_RR) : 0;
-        if (b >= RR_FROM && rr_ends_first(&lb, beta, rr)) break;
+        double rr = b >= ROULETTE_FROM ? rng_stratified(key, b, D_RR) : 0;
+        if (b >= ROULETTE_FROM && rr_ends_first(&lb, beta, rr)) break;
         vec3 wi;
         bool delta, through;
         double pdf = 0;
         if (!sample_bsdf(&lb, &x, sf.color, m, wo, key, b, &wi, &beta, &delta, &pdf, &through))
             break;
-        if (b >= RR_FROM) { /* Russian roulette */
-            double q = v3_fmin(0.95, v3_fmax(0.05, RR_GAIN * v3_maxabs(beta)));
+        if (b >= ROULETTE_FROM) { /* Russian roulette */
+            double q = roulette_chance(v3_maxabs(beta));
             if (rr >= q) break;
             beta = v3_scale(beta, 1 / q);
         }

@@ -32,14 +32,15 @@
  *   Path (integrate_path.c): each vertex casts a continuation ray and up to
  *     one shadow ray per light, one toward an emitter and one toward a
  *     sampled environment (next-event estimation).  Every path has up to 3
- *     vertices before Russian roulette (bounce 2), then survives each
- *     bounce with chance 2 x its throughput beta, clamped to [0.05, 0.95],
- *     and beta is divided by that chance.  A bounce multiplies beta by at
- *     most a, the largest albedo any material can carry (1 for metals and
- *     mirrors, whose weights may pass their albedo), and a larger beta
- *     never shortens what is left of a path, so the chain with a at every
- *     bounce (beta = a^3 at bounce 2) bounds the expected vertices: 3 +
- *     q2 + q2 q3 + ... up to max_depth, plus one (path_vertices).
+ *     vertices before Russian roulette (math/roulette.h: from bounce 2),
+ *     then survives each bounce with chance 2 x its throughput beta,
+ *     clamped to [0.05, 0.95], and beta is divided by that chance.  A
+ *     bounce multiplies beta by at most a, the largest albedo any material
+ *     can carry (1 for metals and mirrors, whose weights may pass their
+ *     albedo), and a larger beta never shortens what is left of a path, so
+ *     the chain with a at every bounce (beta = a^3 at bounce 2) bounds the
+ *     expected vertices: 3 + q2 + q2 q3 + ... up to max_depth, plus one
+ *     (path_vertices).
  *   The per-ray factor: a ray's work is the primitives it must test.  For
  *     a BVH node, a ray that enters it enters each child with the chance
  *     area(child) / area(node) (a random line through a convex box crosses
@@ -67,15 +68,13 @@
 #include <math.h>
 #include <stdlib.h>
 
+#include "math/roulette.h"
 #include "scene/scene.h"
 
-#define PATH_FREE_BOUNCES 3   /* vertices before Russian roulette (bounce 2) */
-#define PATH_SURVIVE_MAX 0.95 /* the roulette's clamp of its survival chance */
-#define PATH_SURVIVE_MIN 0.05
-#define PATH_SURVIVE_GAIN 2.0 /* its chance per unit of throughput (RR_GAIN) */
-#define RAY_TESTS_FREE 4.0    /* primitive tests a plain ray makes, in the measured rate */
-#define COST_DEPTH 64         /* nesting followed (groups, CSG), and BVH depth */
-#define COST_MAX 1e30         /* a cap that keeps the products finite and printable */
+#define PATH_FREE_BOUNCES ((int)ROULETTE_FROM + 1) /* vertices before Russian roulette */
+#define RAY_TESTS_FREE 4.0 /* primitive tests a plain ray makes, in the measured rate */
+#define COST_DEPTH 64      /* nesting followed (groups, CSG), and BVH depth */
+#define COST_MAX 1e30      /* a cap that keeps the products finite and printable */
 
 /* ---- the per-ray factor ------------------------------------------------------------- */
 
@@ -248,9 +247,10 @@ static double path_albedo(const struct rayd_scene *s) {
 static double path_vertices(const struct rayd_scene *s) {
     int d = s->rs.max_depth > 0 ? s->rs.max_depth : 0;
     double v = d + 1 < PATH_FREE_BOUNCES ? d + 1 : PATH_FREE_BOUNCES;
-    double a = path_albedo(s), beta = a * a * a, alive = 1;
+    double a = path_albedo(s), beta = 1, alive = 1;
+    for (int b = 0; b < PATH_FREE_BOUNCES; b++) beta *= a; /* a^3 at bounce 2 */
     for (int b = PATH_FREE_BOUNCES; b <= d && alive > 1e-6; b++) {
-        double q = fmin(PATH_SURVIVE_MAX, fmax(PATH_SURVIVE_MIN, PATH_SURVIVE_GAIN * beta));
+        double q = roulette_chance(beta);
         alive *= q;
         v += alive;
         beta = fmin(1e6, beta / q * a); /* bounded: past 0.5 the chance is 0.95 anyway */
