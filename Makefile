@@ -359,8 +359,8 @@ uninstall:
 $(BUILD)/tests/%: tests/unit/%.c $(wildcard tests/unit/*.h) $(BUILD)/librayd.a
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS_ALL) $(TEST_CFLAGS) -Iinclude -Icore -Itests/unit $< -o $@ $(LDFLAGS_ALL) $(BUILD)/librayd.a $(LIBS_CORE)
-# test_aov reads its EXR back through OpenEXR's own reader.
-$(BUILD)/tests/test_aov: TEST_CFLAGS = $(EXR_CFLAGS)
+# test_aov and test_hdr read their EXRs back through OpenEXR's own reader.
+$(BUILD)/tests/test_aov $(BUILD)/tests/test_hdr: TEST_CFLAGS = $(EXR_CFLAGS)
 
 # Small programs the shell tests use (not tests themselves).
 $(BUILD)/tests/tools/%: tests/tools/%.c $(BUILD)/librayd.a

@@ -3,8 +3,8 @@
  * Renders SCENE (its own size and samples) once into an accumulator, then
  * times, as medians of RUNS: the resolves (8-bit image, linear floats) and
  * the encodes -- the 8-bit PNG (rayd's band encoder, THREADS threads), the
- * 16-bit PNG (libpng, one thread) and OpenEXR (OpenEXRCore, ZIP, one
- * thread) -- and prints each file's size.
+ * 16-bit PNG (libpng, one thread) and OpenEXR (OpenEXRCore: PIZ where
+ * the floats repeat, else none; one thread) -- and prints each file's size.
  *
  *   build/bench/hdrbench SCENE.json [THREADS]
  */

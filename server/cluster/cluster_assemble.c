@@ -19,8 +19,8 @@
  * frame and encodes the frame with the node's --png-level: the PNG bytes of
  * one node's render of the same region, since a pixel's value does not
  * depend on the tile it was drawn in nor the PNG's on who encodes it.  The
- * EXR likewise: the tiles' floats decoded (PIZ is lossless, so bit for
- * bit), pasted, and the frame encoded as one node encodes it.  A tile
+ * EXR likewise: the tiles' floats decoded (lossless either way, so bit
+ * for bit), pasted, and the frame encoded as one node encodes it.  A tile
  * missing from Redis (evicted, deleted) or not a PNG (or EXR) of its size
  * (corrupt) is taken out of the done set and queued again, so the frame
  * re-renders what it lacks; past CLUSTER_RERENDERS a frame's tiles the job
