@@ -67,6 +67,11 @@ static size_t budget_denoise(const rayd_scene *scene, const struct work_target *
     return n;
 }
 
+/* An EXR of px pixels in h rows at its largest: uncompressed (noise,
+ * core/codec/exr.c), 12 bytes a pixel, an 8-byte offset a row, its
+ * header. */
+static size_t budget_exr(size_t px, size_t h) { return px * 12 + h * 8 + 1024; }
+
 /* The bytes a task rendering what of scene will hold (its pixels or sums,
  * its answer; a progressive job's sums and passes; the denoiser's) and
  * their kind. */
@@ -77,12 +82,14 @@ static size_t budget_bytes(const rayd_scene *scene, const struct work_target *wh
      * (a PNG at worst about as large as its pixels) */
     const struct task_format *f = task_format(what->format);
     size_t n = px * f->px_bytes + f->extra;
+    size_t rows = (size_t)what->reg.h;
     if (f->store == TASK_STORE_IMAGE && what->keep_exr)
-        n += px * 24; /* linear floats, then the EXR */
-    if (what->aov)    /* AOV floats and channels (an EXR), a tile's AOV sums */
+        n += px * 12 + budget_exr(px, rows); /* linear floats, then the EXR */
+    if (what->aov) /* AOV floats and channels (an EXR), a tile's AOV sums */
         n += px * 2 * RAYD_AOV_FLOATS * sizeof(float);
     if (progressive) /* the passes' sums, the last pass's image, the passes kept */
-        n += px * (24 + 3 + 3 * PASSES_KEEP) + (what->keep_exr ? px * 12 * PASSES_KEEP_EXR : 0);
+        n += px * (24 + 3 + 3 * PASSES_KEEP) +
+             (what->keep_exr ? budget_exr(px, rows) * PASSES_KEEP_EXR : 0);
     if (what->denoise) n += budget_denoise(scene, what, progressive);
     *kind = progressive ? MEM_SUMS : f->mem_kind;
     return n + 4096;
