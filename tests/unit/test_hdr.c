@@ -146,7 +146,8 @@ static void check_compression(int w, int h, int every, unsigned mask, exr_compre
     float *f = malloc(n * 3 * sizeof *f), *aov = malloc(n * RAYD_AOV_FLOATS * sizeof *aov);
     noise(f, 3, w, h, every);
     noise(aov, RAYD_AOV_FLOATS, w, h, every);
-    float *back = calloc(n * 3, sizeof *back), *aov_back = calloc(n * RAYD_AOV_FLOATS, sizeof *f);
+    float *back = calloc(n * 3, sizeof *back),
+          *aov_back = calloc(n * RAYD_AOV_FLOATS, sizeof *aov_back);
     void *buf = NULL;
     size_t len = 0;
     struct rayd_error err = {0};
